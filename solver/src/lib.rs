@@ -1,0 +1,9 @@
+//! `solver`: ARAP and BS-ARAP deformation of triangle meshes, with no UI dependency.
+//!
+//! See ARCHITECTURE.md at the repository root for the data flow and the role of each module.
+
+pub mod handles;
+pub mod mesh;
+
+pub use handles::{Handles, HandlesError};
+pub use mesh::{Mesh, MeshError};

@@ -1,0 +1,164 @@
+//! The triangle mesh type shared by every algorithm in this crate.
+//!
+//! A [`Mesh`] owns `#V×3 f64` positions and `#F×3 u32` triangles. Its constructor checks the
+//! invariants every solver relies on (indices in range, finite coordinates, at least one
+//! triangle), so code that receives a `Mesh` never re-checks them.
+
+use thiserror::Error;
+
+/// A problem with the raw arrays handed to [`Mesh::new`].
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum MeshError {
+    #[error("the mesh has no triangles")]
+    NoTriangles,
+    #[error(
+        "triangle {face} refers to vertex {index}, but the mesh has only {n_vertices} vertices"
+    )]
+    IndexOutOfRange { face: usize, index: u32, n_vertices: usize },
+    #[error("vertex {vertex} has a non-finite coordinate ({value})")]
+    NonFinite { vertex: usize, value: f64 },
+    #[error("triangle {face} repeats a vertex ({a}, {b}, {c})")]
+    RepeatedVertex { face: usize, a: u32, b: u32, c: u32 },
+}
+
+/// A triangle mesh: positions (`#V×3 f64`) and triangles (`#F×3 u32`, counter-clockwise).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Mesh {
+    positions: Vec<[f64; 3]>,
+    triangles: Vec<[u32; 3]>,
+}
+
+impl Mesh {
+    /// Builds a mesh, checking that every index is in range, no triangle repeats a vertex,
+    /// every coordinate is finite and there is at least one triangle.
+    pub fn new(positions: Vec<[f64; 3]>, triangles: Vec<[u32; 3]>) -> Result<Mesh, MeshError> {
+        if triangles.is_empty() {
+            return Err(MeshError::NoTriangles);
+        }
+        for (vertex, p) in positions.iter().enumerate() {
+            if let Some(&value) = p.iter().find(|c| !c.is_finite()) {
+                return Err(MeshError::NonFinite { vertex, value });
+            }
+        }
+        let n_vertices = positions.len();
+        for (face, t) in triangles.iter().enumerate() {
+            if let Some(&index) = t.iter().find(|&&i| i as usize >= n_vertices) {
+                return Err(MeshError::IndexOutOfRange { face, index, n_vertices });
+            }
+            if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
+                return Err(MeshError::RepeatedVertex { face, a: t[0], b: t[1], c: t[2] });
+            }
+        }
+        Ok(Mesh { positions, triangles })
+    }
+
+    /// Rest positions, `#V×3`.
+    pub fn positions(&self) -> &[[f64; 3]] {
+        &self.positions
+    }
+
+    /// Triangles, `#F×3`, indices into [`Mesh::positions`].
+    pub fn triangles(&self) -> &[[u32; 3]] {
+        &self.triangles
+    }
+
+    pub fn n_vertices(&self) -> usize {
+        self.positions.len()
+    }
+
+    pub fn n_faces(&self) -> usize {
+        self.triangles.len()
+    }
+
+    /// Axis-aligned bounding box `(min, max)`.
+    pub fn bounding_box(&self) -> ([f64; 3], [f64; 3]) {
+        bounding_box(&self.positions)
+    }
+
+    /// Length of the bounding-box diagonal: the length unit of tolerances and error figures.
+    pub fn bbox_diagonal(&self) -> f64 {
+        let (lo, hi) = self.bounding_box();
+        norm(sub(hi, lo))
+    }
+
+    /// The same connectivity with other positions (`#V×3`, finite), e.g. a deformed pose.
+    pub fn with_positions(&self, positions: Vec<[f64; 3]>) -> Result<Mesh, MeshError> {
+        if positions.len() != self.positions.len() {
+            return Err(MeshError::IndexOutOfRange {
+                face: 0,
+                index: positions.len() as u32,
+                n_vertices: self.positions.len(),
+            });
+        }
+        Mesh::new(positions, self.triangles.clone())
+    }
+}
+
+/// Axis-aligned bounding box of a point set; `([0;3],[0;3])` when empty.
+pub fn bounding_box(points: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {
+    let Some(first) = points.first() else {
+        return ([0.0; 3], [0.0; 3]);
+    };
+    let mut lo = *first;
+    let mut hi = *first;
+    for p in points {
+        for k in 0..3 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    (lo, hi)
+}
+
+// Small 3-vector helpers used across the crate.
+#[inline]
+pub(crate) fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+#[inline]
+pub(crate) fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+#[inline]
+pub(crate) fn scale(a: [f64; 3], s: f64) -> [f64; 3] {
+    [a[0] * s, a[1] * s, a[2] * s]
+}
+#[inline]
+pub(crate) fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+#[inline]
+pub(crate) fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+}
+#[inline]
+pub(crate) fn norm(a: [f64; 3]) -> f64 {
+    dot(a, a).sqrt()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rejects_bad_arrays() {
+        let p = vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+        assert_eq!(Mesh::new(p.clone(), vec![]), Err(MeshError::NoTriangles));
+        assert!(matches!(
+            Mesh::new(p.clone(), vec![[0, 1, 3]]),
+            Err(MeshError::IndexOutOfRange { face: 0, index: 3, .. })
+        ));
+        assert!(matches!(
+            Mesh::new(p.clone(), vec![[0, 1, 1]]),
+            Err(MeshError::RepeatedVertex { .. })
+        ));
+        let mut q = p.clone();
+        q[2][1] = f64::NAN;
+        assert!(matches!(
+            Mesh::new(q, vec![[0, 1, 2]]),
+            Err(MeshError::NonFinite { vertex: 2, .. })
+        ));
+        let m = Mesh::new(p, vec![[0, 1, 2]]).unwrap();
+        assert!((m.bbox_diagonal() - 2f64.sqrt()).abs() < 1e-15);
+    }
+}
