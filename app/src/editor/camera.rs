@@ -1,0 +1,151 @@
+//! An orbit camera with Blender/MeshLab conventions (Y up).
+//!
+//! Orbit: middle drag or Alt+left drag. Pan: Shift+middle drag. Zoom: wheel. `F` frames the
+//! mesh; number keys select view presets (1 front, 3 right, 7 top; with Ctrl the opposite).
+
+use glam::{Mat4, Vec3, Vec4};
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OrbitCamera {
+    pub target: Vec3,
+    /// Rotation about +Y, radians.
+    pub yaw: f32,
+    /// Elevation, radians, within ±89°.
+    pub pitch: f32,
+    pub distance: f32,
+    /// Vertical field of view, radians.
+    pub fov_y: f32,
+}
+
+/// Named views.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ViewPreset {
+    Front,
+    Back,
+    Right,
+    Left,
+    Top,
+    Bottom,
+}
+
+impl Default for OrbitCamera {
+    fn default() -> Self {
+        OrbitCamera { target: Vec3::ZERO, yaw: 0.5, pitch: 0.3, distance: 3.0, fov_y: 0.8 }
+    }
+}
+
+const MAX_PITCH: f32 = 89.0 * std::f32::consts::PI / 180.0;
+
+impl OrbitCamera {
+    /// Unit vector from the target to the eye.
+    pub fn back(&self) -> Vec3 {
+        Vec3::new(
+            self.pitch.cos() * self.yaw.sin(),
+            self.pitch.sin(),
+            self.pitch.cos() * self.yaw.cos(),
+        )
+    }
+
+    pub fn eye(&self) -> Vec3 {
+        self.target + self.back() * self.distance
+    }
+
+    /// Camera right and up axes in world space.
+    pub fn axes(&self) -> (Vec3, Vec3) {
+        let back = self.back();
+        let right = Vec3::Y.cross(back).normalize_or(Vec3::X);
+        let up = back.cross(right);
+        (right, up)
+    }
+
+    pub fn view(&self) -> Mat4 {
+        glam::camera::rh::view::look_at_mat4(self.eye(), self.target, Vec3::Y)
+    }
+
+    pub fn projection(&self, aspect: f32) -> Mat4 {
+        let near = (self.distance * 0.01).max(1e-5);
+        let far = self.distance * 100.0 + 10.0;
+        glam::camera::rh::proj::directx::perspective(self.fov_y, aspect.max(1e-3), near, far)
+    }
+
+    pub fn view_proj(&self, aspect: f32) -> Mat4 {
+        self.projection(aspect) * self.view()
+    }
+
+    /// Orbit by a drag of `(dx, dy)` points.
+    pub fn orbit(&mut self, dx: f32, dy: f32) {
+        self.yaw -= dx * 0.008;
+        self.pitch = (self.pitch + dy * 0.008).clamp(-MAX_PITCH, MAX_PITCH);
+    }
+
+    /// Pan so that the point under the cursor follows a drag of `(dx, dy)` points in a viewport
+    /// `height` points tall.
+    pub fn pan(&mut self, dx: f32, dy: f32, height: f32) {
+        let (right, up) = self.axes();
+        let s = self.world_per_point(self.distance, height);
+        self.target += (-dx * right + dy * up) * s;
+    }
+
+    /// Zoom by wheel `scroll` points (positive: closer).
+    pub fn zoom(&mut self, scroll: f32) {
+        self.distance = (self.distance * (-scroll * 0.002).exp()).clamp(1e-4, 1e6);
+    }
+
+    /// World units per screen point at `depth` along the view axis.
+    pub fn world_per_point(&self, depth: f32, height: f32) -> f32 {
+        2.0 * depth * (self.fov_y * 0.5).tan() / height.max(1.0)
+    }
+
+    /// Frames a bounding sphere.
+    pub fn frame(&mut self, center: Vec3, radius: f32) {
+        self.target = center;
+        self.distance = radius.max(1e-4) / (self.fov_y * 0.5).sin() * 1.05;
+    }
+
+    pub fn set_preset(&mut self, preset: ViewPreset) {
+        use std::f32::consts::{FRAC_PI_2, PI};
+        let (yaw, pitch) = match preset {
+            ViewPreset::Front => (0.0, 0.0),
+            ViewPreset::Back => (PI, 0.0),
+            ViewPreset::Right => (FRAC_PI_2, 0.0),
+            ViewPreset::Left => (-FRAC_PI_2, 0.0),
+            ViewPreset::Top => (0.0, MAX_PITCH),
+            ViewPreset::Bottom => (0.0, -MAX_PITCH),
+        };
+        self.yaw = yaw;
+        self.pitch = pitch;
+    }
+
+    /// World-space ray through `ndc` (x, y in [−1, 1], y up): origin and unit direction.
+    pub fn ray(&self, ndc: [f32; 2], aspect: f32) -> (Vec3, Vec3) {
+        let inv = self.view_proj(aspect).inverse();
+        let near = inv * Vec4::new(ndc[0], ndc[1], 0.0, 1.0);
+        let far = inv * Vec4::new(ndc[0], ndc[1], 1.0, 1.0);
+        let near = near.truncate() / near.w;
+        let far = far.truncate() / far.w;
+        (near, (far - near).normalize_or(-self.back()))
+    }
+
+    /// NDC of a world point, or `None` behind the camera.
+    pub fn project(&self, p: Vec3, aspect: f32) -> Option<[f32; 2]> {
+        let c = self.view_proj(aspect) * p.extend(1.0);
+        (c.w > 1e-9).then(|| [c.x / c.w, c.y / c.w])
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used, clippy::expect_used)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ray_through_projection_hits_the_point() {
+        let mut cam = OrbitCamera::default();
+        cam.frame(Vec3::new(1.0, 2.0, 3.0), 2.0);
+        let p = Vec3::new(1.3, 2.2, 2.9);
+        let ndc = cam.project(p, 1.5).unwrap();
+        let (o, d) = cam.ray(ndc, 1.5);
+        let closest = o + d * (p - o).dot(d);
+        assert!((closest - p).length() < 1e-3);
+    }
+}

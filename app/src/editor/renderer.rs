@@ -1,0 +1,633 @@
+//! The 3D viewport renderer: an egui_wgpu paint callback.
+//!
+//! Pipelines, layouts and the sampler are created once ([`install`]) and live in egui's
+//! `callback_resources`. Each viewport slot owns its uniform, vertex and index buffers and an
+//! offscreen color + depth target; they are updated in place with `queue.write_buffer` and
+//! reallocated only when they must grow (or the viewport is resized). `prepare` draws the mesh,
+//! its wireframe and the ground grid into the offscreen target (egui's own pass has no depth
+//! buffer); `paint` only binds and draws one triangle that copies the image into egui's pass.
+
+use std::sync::Arc;
+
+use bytemuck::{Pod, Zeroable};
+use eframe::egui_wgpu::{self, CallbackResources, CallbackTrait, ScreenDescriptor, wgpu};
+use glam::Vec3;
+
+const MESH_WGSL: &str = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/../shaders/mesh.wgsl"));
+const WIRE_WGSL: &str = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/../shaders/wire.wgsl"));
+const GRID_WGSL: &str = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/../shaders/grid.wgsl"));
+const BLIT_WGSL: &str = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/../shaders/blit.wgsl"));
+
+/// Every WGSL source, for the shader test.
+pub const SHADERS: [(&str, &str); 4] =
+    [("mesh", MESH_WGSL), ("wire", WIRE_WGSL), ("grid", GRID_WGSL), ("blit", BLIT_WGSL)];
+
+const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
+const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+
+/// One vertex as the shaders read it (`shaders/mesh.wgsl` `VertexIn`); color is linear RGBA.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
+pub struct Vertex {
+    pub position: [f32; 3],
+    pub normal: [f32; 3],
+    pub color: [f32; 4],
+}
+
+/// Matches `Uniforms` in the shaders: four vec4-aligned members, no implicit padding.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
+pub struct Uniforms {
+    pub view_proj: [[f32; 4]; 4],
+    /// xyz: eye position; w: unused (0).
+    pub eye: [f32; 4],
+    /// xyz: direction towards the key light; w: unused (0).
+    pub light_dir: [f32; 4],
+    /// rgb: wireframe color (linear); a: wireframe depth offset in NDC.
+    pub wire: [f32; 4],
+}
+
+/// Index data of the displayed mesh; `version` changes when the topology does.
+pub struct Topology {
+    pub version: u64,
+    pub triangles: Vec<u32>,
+    pub edges: Vec<u32>,
+}
+
+/// Vertex data; `version` changes whenever the contents do.
+pub struct VertexData {
+    pub version: u64,
+    pub vertices: Vec<Vertex>,
+}
+
+/// Area-weighted vertex normals, recomputed from the displayed positions each time they change.
+pub fn vertex_normals(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> Vec<[f32; 3]> {
+    let mut n = vec![Vec3::ZERO; positions.len()];
+    for t in triangles {
+        let a = Vec3::from_array(positions[t[0] as usize]);
+        let b = Vec3::from_array(positions[t[1] as usize]);
+        let c = Vec3::from_array(positions[t[2] as usize]);
+        let fnormal = (b - a).cross(c - a);
+        for &v in t {
+            n[v as usize] += fnormal;
+        }
+    }
+    n.into_iter().map(|v| v.normalize_or(Vec3::Y).to_array()).collect()
+}
+
+/// Interleaves positions, fresh normals and colors.
+pub fn build_vertices(
+    positions: &[[f32; 3]],
+    triangles: &[[u32; 3]],
+    colors: &[[f32; 4]],
+) -> Vec<Vertex> {
+    let normals = vertex_normals(positions, triangles);
+    positions
+        .iter()
+        .zip(&normals)
+        .zip(colors)
+        .map(|((&position, &normal), &color)| Vertex { position, normal, color })
+        .collect()
+}
+
+/// Line segments of a ground grid on the plane `y = height`, centred under `center`.
+pub fn build_grid(center: Vec3, height: f32, half_extent: f32) -> Vec<Vertex> {
+    let cells = 20;
+    let step = (2.0 * half_extent / cells as f32).max(1e-6);
+    let mut out = Vec::new();
+    let minor = [0.18, 0.18, 0.2, 1.0];
+    let mut line = |a: Vec3, b: Vec3, color: [f32; 4]| {
+        for p in [a, b] {
+            out.push(Vertex { position: p.to_array(), normal: [0.0, 1.0, 0.0], color });
+        }
+    };
+    for i in 0..=cells {
+        let o = -half_extent + i as f32 * step;
+        let major = i == cells / 2;
+        let cx = if major { [0.55, 0.12, 0.12, 1.0] } else { minor };
+        let cz = if major { [0.12, 0.2, 0.55, 1.0] } else { minor };
+        line(
+            Vec3::new(center.x - half_extent, height, center.z + o),
+            Vec3::new(center.x + half_extent, height, center.z + o),
+            cx,
+        );
+        line(
+            Vec3::new(center.x + o, height, center.z - half_extent),
+            Vec3::new(center.x + o, height, center.z + half_extent),
+            cz,
+        );
+    }
+    out
+}
+
+/// What one viewport draws this frame: plain values and shared (`Arc`) data.
+pub struct ViewportCallback {
+    /// Which set of GPU buffers to use (one per on-screen viewport).
+    pub slot: usize,
+    pub size_px: [u32; 2],
+    pub uniforms: Uniforms,
+    pub topology: Option<Arc<Topology>>,
+    pub vertices: Option<Arc<VertexData>>,
+    pub grid: Option<Arc<VertexData>>,
+    pub wireframe: bool,
+    pub show_grid: bool,
+    /// Linear background color.
+    pub background: [f64; 4],
+}
+
+/// A GPU buffer that is rewritten in place and grows when needed.
+struct GrowBuffer {
+    label: &'static str,
+    usage: wgpu::BufferUsages,
+    buffer: wgpu::Buffer,
+}
+
+impl GrowBuffer {
+    fn new(device: &wgpu::Device, label: &'static str, usage: wgpu::BufferUsages) -> Self {
+        let usage = usage | wgpu::BufferUsages::COPY_DST;
+        let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size: 256,
+            usage,
+            mapped_at_creation: false,
+        });
+        GrowBuffer { label, usage, buffer }
+    }
+
+    fn write(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, bytes: &[u8]) {
+        if bytes.is_empty() {
+            return;
+        }
+        if bytes.len() as u64 > self.buffer.size() {
+            let size = (bytes.len() as u64).next_power_of_two().max(256);
+            self.buffer = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(self.label),
+                size,
+                usage: self.usage,
+                mapped_at_creation: false,
+            });
+        }
+        queue.write_buffer(&self.buffer, 0, bytes);
+    }
+}
+
+struct Target {
+    size: [u32; 2],
+    color_view: wgpu::TextureView,
+    depth_view: wgpu::TextureView,
+    blit_bind_group: wgpu::BindGroup,
+}
+
+struct ViewportGpu {
+    uniform_buffer: wgpu::Buffer,
+    uniform_bind_group: wgpu::BindGroup,
+    vertices: GrowBuffer,
+    triangles: GrowBuffer,
+    edges: GrowBuffer,
+    grid: GrowBuffer,
+    vertex_version: Option<u64>,
+    topology_version: Option<u64>,
+    grid_version: Option<u64>,
+    n_vertices: u32,
+    n_triangle_indices: u32,
+    n_edge_indices: u32,
+    n_grid: u32,
+    target: Option<Target>,
+}
+
+/// Pipelines and per-viewport buffers, stored in egui_wgpu's `callback_resources`.
+pub struct RendererResources {
+    mesh_pipeline: wgpu::RenderPipeline,
+    wire_pipeline: wgpu::RenderPipeline,
+    grid_pipeline: wgpu::RenderPipeline,
+    blit_pipeline: wgpu::RenderPipeline,
+    uniform_layout: wgpu::BindGroupLayout,
+    blit_layout: wgpu::BindGroupLayout,
+    sampler: wgpu::Sampler,
+    viewports: Vec<ViewportGpu>,
+}
+
+fn vertex_layout() -> wgpu::VertexBufferLayout<'static> {
+    const ATTRS: [wgpu::VertexAttribute; 3] =
+        wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x4];
+    wgpu::VertexBufferLayout {
+        array_stride: std::mem::size_of::<Vertex>() as u64,
+        step_mode: wgpu::VertexStepMode::Vertex,
+        attributes: &ATTRS,
+    }
+}
+
+fn depth_state(write: bool) -> Option<wgpu::DepthStencilState> {
+    Some(wgpu::DepthStencilState {
+        format: DEPTH_FORMAT,
+        depth_write_enabled: Some(write),
+        depth_compare: Some(wgpu::CompareFunction::LessEqual),
+        stencil: wgpu::StencilState::default(),
+        bias: wgpu::DepthBiasState::default(),
+    })
+}
+
+struct PipelineSpec<'a> {
+    label: &'a str,
+    module: &'a wgpu::ShaderModule,
+    layout: &'a wgpu::PipelineLayout,
+    topology: wgpu::PrimitiveTopology,
+    buffers: &'a [Option<wgpu::VertexBufferLayout<'a>>],
+    depth: Option<wgpu::DepthStencilState>,
+    format: wgpu::TextureFormat,
+    constants: &'a [(&'a str, f64)],
+}
+
+fn pipeline(device: &wgpu::Device, s: PipelineSpec<'_>) -> wgpu::RenderPipeline {
+    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some(s.label),
+        layout: Some(s.layout),
+        vertex: wgpu::VertexState {
+            module: s.module,
+            entry_point: Some("vs_main"),
+            compilation_options: wgpu::PipelineCompilationOptions::default(),
+            buffers: s.buffers,
+        },
+        primitive: wgpu::PrimitiveState { topology: s.topology, ..Default::default() },
+        depth_stencil: s.depth,
+        multisample: wgpu::MultisampleState::default(),
+        fragment: Some(wgpu::FragmentState {
+            module: s.module,
+            entry_point: Some("fs_main"),
+            compilation_options: wgpu::PipelineCompilationOptions {
+                constants: s.constants,
+                ..Default::default()
+            },
+            targets: &[Some(wgpu::ColorTargetState {
+                format: s.format,
+                blend: None,
+                write_mask: wgpu::ColorWrites::ALL,
+            })],
+        }),
+        multiview_mask: None,
+        cache: None,
+    })
+}
+
+/// Creates the pipelines once and stores them in the renderer's callback resources.
+pub fn install(render_state: &egui_wgpu::RenderState) {
+    let device = &render_state.device;
+    let module = |label: &str, src: &str| {
+        device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some(label),
+            source: wgpu::ShaderSource::Wgsl(src.into()),
+        })
+    };
+    let mesh = module("bsarap mesh shader", MESH_WGSL);
+    let wire = module("bsarap wire shader", WIRE_WGSL);
+    let grid = module("bsarap grid shader", GRID_WGSL);
+    let blit = module("bsarap blit shader", BLIT_WGSL);
+
+    let uniform_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("bsarap uniforms layout"),
+        entries: &[wgpu::BindGroupLayoutEntry {
+            binding: 0,
+            visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Uniform,
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        }],
+    });
+    let blit_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("bsarap blit layout"),
+        entries: &[
+            wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Texture {
+                    sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                    view_dimension: wgpu::TextureViewDimension::D2,
+                    multisampled: false,
+                },
+                count: None,
+            },
+            wgpu::BindGroupLayoutEntry {
+                binding: 1,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                count: None,
+            },
+        ],
+    });
+    let scene_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("bsarap scene pipeline layout"),
+        bind_group_layouts: &[Some(&uniform_layout)],
+        immediate_size: 0,
+    });
+    let blit_pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("bsarap blit pipeline layout"),
+        bind_group_layouts: &[Some(&blit_layout)],
+        immediate_size: 0,
+    });
+    let buffers = [Some(vertex_layout())];
+    let position_only = [Some(wgpu::VertexBufferLayout {
+        array_stride: std::mem::size_of::<Vertex>() as u64,
+        step_mode: wgpu::VertexStepMode::Vertex,
+        attributes: &wgpu::vertex_attr_array![0 => Float32x3],
+    })];
+    let mesh_pipeline = pipeline(
+        device,
+        PipelineSpec {
+            label: "bsarap mesh pipeline",
+            module: &mesh,
+            layout: &scene_layout,
+            topology: wgpu::PrimitiveTopology::TriangleList,
+            buffers: &buffers,
+            depth: depth_state(true),
+            format: COLOR_FORMAT,
+            constants: &[],
+        },
+    );
+    let wire_pipeline = pipeline(
+        device,
+        PipelineSpec {
+            label: "bsarap wire pipeline",
+            module: &wire,
+            layout: &scene_layout,
+            topology: wgpu::PrimitiveTopology::LineList,
+            buffers: &position_only,
+            depth: depth_state(false),
+            format: COLOR_FORMAT,
+            constants: &[],
+        },
+    );
+    let grid_pipeline = pipeline(
+        device,
+        PipelineSpec {
+            label: "bsarap grid pipeline",
+            module: &grid,
+            layout: &scene_layout,
+            topology: wgpu::PrimitiveTopology::LineList,
+            buffers: &buffers,
+            depth: depth_state(true),
+            format: COLOR_FORMAT,
+            constants: &[],
+        },
+    );
+    let encode = if render_state.target_format.is_srgb() { 0.0 } else { 1.0 };
+    let blit_pipeline = pipeline(
+        device,
+        PipelineSpec {
+            label: "bsarap blit pipeline",
+            module: &blit,
+            layout: &blit_pipeline_layout,
+            topology: wgpu::PrimitiveTopology::TriangleList,
+            buffers: &[],
+            depth: None,
+            format: render_state.target_format,
+            constants: &[("ENCODE_SRGB", encode)],
+        },
+    );
+    let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+        label: Some("bsarap blit sampler"),
+        mag_filter: wgpu::FilterMode::Linear,
+        min_filter: wgpu::FilterMode::Linear,
+        ..Default::default()
+    });
+    render_state.renderer.write().callback_resources.insert(RendererResources {
+        mesh_pipeline,
+        wire_pipeline,
+        grid_pipeline,
+        blit_pipeline,
+        uniform_layout,
+        blit_layout,
+        sampler,
+        viewports: Vec::new(),
+    });
+}
+
+impl RendererResources {
+    fn viewport(&mut self, device: &wgpu::Device, slot: usize) -> &mut ViewportGpu {
+        while self.viewports.len() <= slot {
+            let uniform_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("bsarap uniforms"),
+                size: std::mem::size_of::<Uniforms>() as u64,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            let uniform_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("bsarap uniforms bind group"),
+                layout: &self.uniform_layout,
+                entries: &[wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: uniform_buffer.as_entire_binding(),
+                }],
+            });
+            let vertex = wgpu::BufferUsages::VERTEX;
+            let index = wgpu::BufferUsages::INDEX;
+            self.viewports.push(ViewportGpu {
+                uniform_buffer,
+                uniform_bind_group,
+                vertices: GrowBuffer::new(device, "bsarap mesh vertices", vertex),
+                triangles: GrowBuffer::new(device, "bsarap triangle indices", index),
+                edges: GrowBuffer::new(device, "bsarap edge indices", index),
+                grid: GrowBuffer::new(device, "bsarap grid vertices", vertex),
+                vertex_version: None,
+                topology_version: None,
+                grid_version: None,
+                n_vertices: 0,
+                n_triangle_indices: 0,
+                n_edge_indices: 0,
+                n_grid: 0,
+                target: None,
+            });
+        }
+        &mut self.viewports[slot]
+    }
+}
+
+fn make_target(
+    device: &wgpu::Device,
+    layout: &wgpu::BindGroupLayout,
+    sampler: &wgpu::Sampler,
+    size: [u32; 2],
+) -> Target {
+    let extent = wgpu::Extent3d { width: size[0], height: size[1], depth_or_array_layers: 1 };
+    let texture = |label, format, usage| {
+        device.create_texture(&wgpu::TextureDescriptor {
+            label: Some(label),
+            size: extent,
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format,
+            usage,
+            view_formats: &[],
+        })
+    };
+    let color = texture(
+        "bsarap viewport color",
+        COLOR_FORMAT,
+        wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+    );
+    let depth =
+        texture("bsarap viewport depth", DEPTH_FORMAT, wgpu::TextureUsages::RENDER_ATTACHMENT);
+    let color_view = color.create_view(&wgpu::TextureViewDescriptor::default());
+    let depth_view = depth.create_view(&wgpu::TextureViewDescriptor::default());
+    let blit_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("bsarap blit bind group"),
+        layout,
+        entries: &[
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: wgpu::BindingResource::TextureView(&color_view),
+            },
+            wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::Sampler(sampler) },
+        ],
+    });
+    Target { size, color_view, depth_view, blit_bind_group }
+}
+
+impl CallbackTrait for ViewportCallback {
+    fn prepare(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        _screen_descriptor: &ScreenDescriptor,
+        egui_encoder: &mut wgpu::CommandEncoder,
+        callback_resources: &mut CallbackResources,
+    ) -> Vec<wgpu::CommandBuffer> {
+        let Some(res) = callback_resources.get_mut::<RendererResources>() else {
+            return Vec::new();
+        };
+        let size = [self.size_px[0].max(1), self.size_px[1].max(1)];
+        let needs_target = res
+            .viewports
+            .get(self.slot)
+            .is_none_or(|v| v.target.as_ref().is_none_or(|t| t.size != size));
+        let new_target =
+            needs_target.then(|| make_target(device, &res.blit_layout, &res.sampler, size));
+        let vp = res.viewport(device, self.slot);
+        if let Some(t) = new_target {
+            vp.target = Some(t);
+        }
+        queue.write_buffer(&vp.uniform_buffer, 0, bytemuck::bytes_of(&self.uniforms));
+        if let Some(topo) = &self.topology
+            && vp.topology_version != Some(topo.version)
+        {
+            vp.triangles.write(device, queue, bytemuck::cast_slice(&topo.triangles));
+            vp.edges.write(device, queue, bytemuck::cast_slice(&topo.edges));
+            vp.n_triangle_indices = topo.triangles.len() as u32;
+            vp.n_edge_indices = topo.edges.len() as u32;
+            vp.topology_version = Some(topo.version);
+        }
+        if let Some(v) = &self.vertices
+            && vp.vertex_version != Some(v.version)
+        {
+            vp.vertices.write(device, queue, bytemuck::cast_slice(&v.vertices));
+            vp.n_vertices = v.vertices.len() as u32;
+            vp.vertex_version = Some(v.version);
+        }
+        if let Some(g) = &self.grid
+            && vp.grid_version != Some(g.version)
+        {
+            vp.grid.write(device, queue, bytemuck::cast_slice(&g.vertices));
+            vp.n_grid = g.vertices.len() as u32;
+            vp.grid_version = Some(g.version);
+        }
+        let vp = &res.viewports[self.slot];
+        let Some(target) = &vp.target else { return Vec::new() };
+        let [r, g, b, a] = self.background;
+        let mut pass = egui_encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("bsarap viewport pass"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: &target.color_view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a }),
+                    store: wgpu::StoreOp::Store,
+                },
+            })],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &target.depth_view,
+                depth_ops: Some(wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(1.0),
+                    store: wgpu::StoreOp::Discard,
+                }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_bind_group(0, &vp.uniform_bind_group, &[]);
+        if self.show_grid && vp.n_grid > 0 {
+            pass.set_pipeline(&res.grid_pipeline);
+            pass.set_vertex_buffer(0, vp.grid.buffer.slice(..));
+            pass.draw(0..vp.n_grid, 0..1);
+        }
+        let mesh_ready = self.topology.is_some() && self.vertices.is_some() && vp.n_vertices > 0;
+        if mesh_ready && vp.n_triangle_indices > 0 {
+            pass.set_pipeline(&res.mesh_pipeline);
+            pass.set_vertex_buffer(0, vp.vertices.buffer.slice(..));
+            pass.set_index_buffer(vp.triangles.buffer.slice(..), wgpu::IndexFormat::Uint32);
+            pass.draw_indexed(0..vp.n_triangle_indices, 0, 0..1);
+            if self.wireframe && vp.n_edge_indices > 0 {
+                pass.set_pipeline(&res.wire_pipeline);
+                pass.set_index_buffer(vp.edges.buffer.slice(..), wgpu::IndexFormat::Uint32);
+                pass.draw_indexed(0..vp.n_edge_indices, 0, 0..1);
+            }
+        }
+        Vec::new()
+    }
+
+    fn paint(
+        &self,
+        _info: egui::PaintCallbackInfo,
+        render_pass: &mut wgpu::RenderPass<'static>,
+        callback_resources: &CallbackResources,
+    ) {
+        let Some(res) = callback_resources.get::<RendererResources>() else { return };
+        let Some(target) = res.viewports.get(self.slot).and_then(|v| v.target.as_ref()) else {
+            return;
+        };
+        render_pass.set_pipeline(&res.blit_pipeline);
+        render_pass.set_bind_group(0, &target.blit_bind_group, &[]);
+        render_pass.draw(0..3, 0..1);
+    }
+}
+
+use eframe::egui;
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used, clippy::expect_used)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_shader_parses_and_validates() {
+        for (name, src) in SHADERS {
+            let module = wgpu::naga::front::wgsl::parse_str(src)
+                .unwrap_or_else(|e| panic!("{name}.wgsl: {}", e.emit_to_string(src)));
+            let mut v = wgpu::naga::valid::Validator::new(
+                wgpu::naga::valid::ValidationFlags::all(),
+                wgpu::naga::valid::Capabilities::all(),
+            );
+            v.validate(&module).unwrap_or_else(|e| panic!("{name}.wgsl: {e:?}"));
+            for ep in &module.entry_points {
+                assert!(ep.name == "vs_main" || ep.name == "fs_main", "{name}: {}", ep.name);
+            }
+        }
+    }
+
+    #[test]
+    fn uniforms_match_the_wgsl_size() {
+        assert_eq!(std::mem::size_of::<Uniforms>(), 112);
+        assert_eq!(std::mem::size_of::<Vertex>(), 40);
+    }
+
+    #[test]
+    fn normals_of_a_flat_triangle() {
+        let n = vertex_normals(&[[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], &[[0, 1, 2]]);
+        assert_eq!(n, vec![[0.0, 0.0, 1.0]; 3]);
+    }
+}

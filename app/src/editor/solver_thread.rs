@@ -1,0 +1,519 @@
+//! The background solver thread: commands in over a channel, the newest frame out through a
+//! single-slot mailbox.
+//!
+//! Architecture invariant: the UI thread never factorizes or iterates. It sends [`Command`]s
+//! (never waiting) and, once per UI frame, takes whatever [`SolvedFrame`] is in the
+//! [`Mailbox`] (never blocking: `try_lock`). A frame carries the `scene_generation` of the
+//! handle set / method it was solved with; the UI drops frames from an older generation.
+//!
+//! A panic inside a deformer is caught with `catch_unwind`, reported through
+//! [`SolverStatus::panics`] / [`SolverState::Panicked`], and the worker starts over with an
+//! empty state, waiting for the next scene.
+
+use std::panic::{AssertUnwindSafe, catch_unwind};
+use std::sync::mpsc::{Receiver, Sender, TryRecvError, channel};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::Instant;
+
+use solver::{Handles, Mesh};
+
+use super::pose::GroupPose;
+
+/// Energy of the ARAP cells.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum EnergyKind {
+    SpokesAndRims,
+    Spokes,
+}
+
+/// Method settings shown in the UI; sent whole to the solver, which rebuilds its deformer.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MethodSettings {
+    pub energy: EnergyKind,
+    /// Relative energy decrease below which a frame counts as converged.
+    pub tolerance: f64,
+    /// Iteration cap of one frame.
+    pub max_iterations: usize,
+}
+
+impl Default for MethodSettings {
+    fn default() -> Self {
+        MethodSettings { energy: EnergyKind::SpokesAndRims, tolerance: 1e-4, max_iterations: 30 }
+    }
+}
+
+/// Which deformation method a solver thread runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Method {
+    Arap,
+    BsArap,
+}
+
+impl Method {
+    pub fn label(self) -> &'static str {
+        match self {
+            Method::Arap => "ARAP",
+            Method::BsArap => "BS-ARAP",
+        }
+    }
+}
+
+/// What one `solve` call did.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct FrameStats {
+    pub iterations: usize,
+    pub energy: f64,
+    pub ms_per_iteration: f64,
+    pub converged: bool,
+}
+
+/// A deformation method with its precomputation done (factorization happens in the factory).
+pub trait Deformer: Send {
+    /// Solves for `targets` (positions of `handles.handle_vertices()`, in that order); `x` is
+    /// the warm start in and the result out (`#V×3`).
+    fn solve(&mut self, targets: &[[f64; 3]], x: &mut [[f64; 3]]) -> FrameStats;
+    /// The deformed base surface B' (BS-ARAP only), `#V×3`.
+    fn deformed_base(&self) -> Option<Vec<[f64; 3]>> {
+        None
+    }
+    /// Per-vertex detail magnitude |D_i| (BS-ARAP only), `#V`.
+    fn detail_magnitudes(&self) -> Option<Vec<f64>> {
+        None
+    }
+}
+
+/// Builds a deformer for a mesh and a handle set (the slow part: factorization).
+pub type DeformerFactory = Arc<
+    dyn Fn(Method, &Mesh, &Handles, &MethodSettings) -> Result<Box<dyn Deformer>, String>
+        + Send
+        + Sync,
+>;
+
+/// The closed set of messages the UI sends to a solver thread.
+pub enum Command {
+    /// A new mesh and/or handle set / method settings: rebuild the deformer.
+    SetScene {
+        scene_generation: u64,
+        mesh: Arc<Mesh>,
+        handles: Option<Handles>,
+        settings: MethodSettings,
+        poses: Vec<GroupPose>,
+        /// The pose generation `poses` belong to.
+        pose_generation: u64,
+    },
+    /// New group poses (no refactorization).
+    SetPoses {
+        pose_generation: u64,
+        poses: Vec<GroupPose>,
+    },
+    /// Test hook: make the worker panic, to exercise the recovery path.
+    InjectPanic,
+    Shutdown,
+}
+
+/// The newest solved frame.
+#[derive(Debug, Clone)]
+pub struct SolvedFrame {
+    pub scene_generation: u64,
+    pub pose_generation: u64,
+    pub positions: Arc<Vec<[f32; 3]>>,
+    pub deformed_base: Option<Arc<Vec<[f32; 3]>>>,
+    pub detail_magnitudes: Option<Arc<Vec<f32>>>,
+    pub stats: FrameStats,
+    /// Solved frames per second over the last frames while solving.
+    pub fps: f64,
+}
+
+/// Non-blocking single-slot mailbox: `put` replaces any unread frame (stale frames are dropped),
+/// `try_take` never waits.
+#[derive(Default)]
+pub struct Mailbox {
+    slot: Mutex<Option<SolvedFrame>>,
+}
+
+impl Mailbox {
+    pub fn put(&self, frame: SolvedFrame) {
+        match self.slot.lock() {
+            Ok(mut slot) => *slot = Some(frame),
+            Err(poisoned) => *poisoned.into_inner() = Some(frame),
+        }
+    }
+
+    /// The unread frame, if any and if the lock is free right now.
+    pub fn try_take(&self) -> Option<SolvedFrame> {
+        match self.slot.try_lock() {
+            Ok(mut slot) => slot.take(),
+            Err(_) => None,
+        }
+    }
+}
+
+/// What the solver thread is doing, for the status bar.
+#[derive(Debug, Clone, PartialEq)]
+pub enum SolverState {
+    /// No scene yet, or no handles.
+    Idle,
+    /// Building the deformer (factorization, base surface) since the given instant.
+    Factorizing {
+        since: Instant,
+    },
+    Solving,
+    Converged,
+    Failed(String),
+    /// The worker panicked with this message and restarted.
+    Panicked(String),
+}
+
+#[derive(Debug, Clone)]
+pub struct SolverStatus {
+    pub state: SolverState,
+    /// How many times the worker panicked and restarted.
+    pub panics: usize,
+}
+
+/// The UI's handle to one solver thread.
+pub struct SolverHandle {
+    pub method: Method,
+    tx: Sender<Command>,
+    mailbox: Arc<Mailbox>,
+    status: Arc<Mutex<SolverStatus>>,
+    thread: Option<JoinHandle<()>>,
+}
+
+impl SolverHandle {
+    /// Starts the thread. `repaint` is called after every published frame or status change.
+    pub fn spawn(
+        method: Method,
+        factory: DeformerFactory,
+        repaint: Arc<dyn Fn() + Send + Sync>,
+    ) -> anyhow::Result<SolverHandle> {
+        let (tx, rx) = channel();
+        let mailbox = Arc::new(Mailbox::default());
+        let status = Arc::new(Mutex::new(SolverStatus { state: SolverState::Idle, panics: 0 }));
+        let shared = Shared { mailbox: mailbox.clone(), status: status.clone(), repaint };
+        let thread = std::thread::Builder::new()
+            .name(format!("solver-{}", method.label()))
+            .spawn(move || supervise(method, factory, rx, shared))?;
+        Ok(SolverHandle { method, tx, mailbox, status, thread: Some(thread) })
+    }
+
+    /// Sends a command; never blocks. A dead thread is reported by the status.
+    pub fn send(&self, command: Command) {
+        if self.tx.send(command).is_err() {
+            set_status(&self.status, SolverState::Failed("the solver thread has exited".into()));
+        }
+    }
+
+    pub fn try_take_frame(&self) -> Option<SolvedFrame> {
+        self.mailbox.try_take()
+    }
+
+    /// The status, if its lock is free right now (never waits).
+    pub fn try_status(&self) -> Option<SolverStatus> {
+        self.status.try_lock().ok().map(|s| s.clone())
+    }
+}
+
+impl Drop for SolverHandle {
+    fn drop(&mut self) {
+        let _ = self.tx.send(Command::Shutdown);
+        // Do not join: a long factorization must not freeze the UI on exit.
+        drop(self.thread.take());
+    }
+}
+
+struct Shared {
+    mailbox: Arc<Mailbox>,
+    status: Arc<Mutex<SolverStatus>>,
+    repaint: Arc<dyn Fn() + Send + Sync>,
+}
+
+fn set_status(status: &Mutex<SolverStatus>, state: SolverState) {
+    match status.lock() {
+        Ok(mut s) => s.state = state,
+        Err(poisoned) => poisoned.into_inner().state = state,
+    }
+}
+
+/// Runs the worker, restarting it after a panic.
+fn supervise(method: Method, factory: DeformerFactory, rx: Receiver<Command>, shared: Shared) {
+    loop {
+        let result = catch_unwind(AssertUnwindSafe(|| worker_loop(method, &factory, &rx, &shared)));
+        match result {
+            Ok(()) => return,
+            Err(payload) => {
+                let msg = panic_message(payload.as_ref());
+                match shared.status.lock() {
+                    Ok(mut s) => {
+                        s.state = SolverState::Panicked(msg);
+                        s.panics += 1;
+                    }
+                    Err(poisoned) => {
+                        let mut s = poisoned.into_inner();
+                        s.state = SolverState::Panicked(msg);
+                        s.panics += 1;
+                    }
+                }
+                (shared.repaint)();
+            }
+        }
+    }
+}
+
+fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
+    if let Some(s) = payload.downcast_ref::<&str>() {
+        (*s).to_owned()
+    } else if let Some(s) = payload.downcast_ref::<String>() {
+        s.clone()
+    } else {
+        "unknown panic".to_owned()
+    }
+}
+
+struct Active {
+    scene_generation: u64,
+    pose_generation: u64,
+    mesh: Arc<Mesh>,
+    handles: Handles,
+    poses: Vec<GroupPose>,
+    deformer: Box<dyn Deformer>,
+    x: Vec<[f64; 3]>,
+    /// Targets changed since the last converged solve.
+    dirty: bool,
+    last_frame: Option<Instant>,
+    fps: f64,
+}
+
+/// Returns when told to shut down or when the UI side is gone.
+fn worker_loop(method: Method, factory: &DeformerFactory, rx: &Receiver<Command>, shared: &Shared) {
+    let mut active: Option<Active> = None;
+    loop {
+        // Block only when there is nothing to iterate on.
+        let idle = active.as_ref().is_none_or(|a| !a.dirty);
+        let mut commands = Vec::new();
+        if idle {
+            match rx.recv() {
+                Ok(c) => commands.push(c),
+                Err(_) => return,
+            }
+        }
+        loop {
+            match rx.try_recv() {
+                Ok(c) => commands.push(c),
+                Err(TryRecvError::Empty) => break,
+                Err(TryRecvError::Disconnected) => return,
+            }
+        }
+        // Only the newest scene and the newest poses matter.
+        let mut new_scene = None;
+        let mut new_poses = None;
+        for c in commands {
+            match c {
+                Command::Shutdown => return,
+                Command::InjectPanic => panic!("injected solver panic (test hook)"),
+                Command::SetScene { .. } => {
+                    new_scene = Some(c);
+                    new_poses = None;
+                }
+                Command::SetPoses { pose_generation, poses } => {
+                    new_poses = Some((pose_generation, poses))
+                }
+            }
+        }
+        if let Some(Command::SetScene {
+            scene_generation,
+            mesh,
+            handles,
+            settings,
+            poses,
+            pose_generation,
+        }) = new_scene
+        {
+            active = None;
+            let Some(handles) = handles else {
+                set_status(&shared.status, SolverState::Idle);
+                (shared.repaint)();
+                continue;
+            };
+            set_status(&shared.status, SolverState::Factorizing { since: Instant::now() });
+            (shared.repaint)();
+            match factory(method, &mesh, &handles, &settings) {
+                Ok(deformer) => {
+                    let x = mesh.positions().to_vec();
+                    active = Some(Active {
+                        scene_generation,
+                        pose_generation,
+                        mesh,
+                        handles,
+                        poses,
+                        deformer,
+                        x,
+                        dirty: true,
+                        last_frame: None,
+                        fps: 0.0,
+                    });
+                    set_status(&shared.status, SolverState::Solving);
+                }
+                Err(e) => {
+                    set_status(&shared.status, SolverState::Failed(e));
+                    (shared.repaint)();
+                    continue;
+                }
+            }
+        }
+        let Some(a) = active.as_mut() else { continue };
+        if let Some((generation, poses)) = new_poses {
+            a.pose_generation = generation;
+            a.poses = poses;
+            a.dirty = true;
+            set_status(&shared.status, SolverState::Solving);
+        }
+        if !a.dirty {
+            continue;
+        }
+        let targets = super::pose::handle_targets(&a.mesh, &a.handles, &a.poses);
+        let stats = a.deformer.solve(&targets, &mut a.x);
+        let now = Instant::now();
+        if let Some(prev) = a.last_frame {
+            let dt = now.duration_since(prev).as_secs_f64().max(1e-6);
+            a.fps = if a.fps == 0.0 { 1.0 / dt } else { 0.8 * a.fps + 0.2 / dt };
+        }
+        a.last_frame = Some(now);
+        if stats.converged || stats.iterations == 0 {
+            a.dirty = false;
+            a.last_frame = None;
+        }
+        let frame = SolvedFrame {
+            scene_generation: a.scene_generation,
+            pose_generation: a.pose_generation,
+            positions: Arc::new(to_f32(&a.x)),
+            deformed_base: a.deformer.deformed_base().map(|b| Arc::new(to_f32(&b))),
+            detail_magnitudes: a
+                .deformer
+                .detail_magnitudes()
+                .map(|d| Arc::new(d.iter().map(|&v| v as f32).collect())),
+            stats,
+            fps: a.fps,
+        };
+        shared.mailbox.put(frame);
+        if !a.dirty {
+            set_status(&shared.status, SolverState::Converged);
+        }
+        (shared.repaint)();
+    }
+}
+
+fn to_f32(x: &[[f64; 3]]) -> Vec<[f32; 3]> {
+    x.iter().map(|p| [p[0] as f32, p[1] as f32, p[2] as f32]).collect()
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used, clippy::expect_used)]
+mod tests {
+    use super::*;
+    use std::time::Duration;
+
+    /// Moves every vertex by the mean handle displacement: enough to test the plumbing.
+    struct Shift {
+        rest: Vec<[f64; 3]>,
+        handle_vertices: Vec<u32>,
+    }
+
+    impl Deformer for Shift {
+        fn solve(&mut self, targets: &[[f64; 3]], x: &mut [[f64; 3]]) -> FrameStats {
+            let mut d = [0.0; 3];
+            for (t, &v) in targets.iter().zip(&self.handle_vertices) {
+                for k in 0..3 {
+                    d[k] += (t[k] - self.rest[v as usize][k]) / targets.len() as f64;
+                }
+            }
+            for (xi, r) in x.iter_mut().zip(&self.rest) {
+                *xi = [r[0] + d[0], r[1] + d[1], r[2] + d[2]];
+            }
+            FrameStats { iterations: 1, energy: 0.0, ms_per_iteration: 0.0, converged: true }
+        }
+    }
+
+    fn factory() -> DeformerFactory {
+        Arc::new(|_, mesh: &Mesh, handles: &Handles, _: &MethodSettings| {
+            Ok(Box::new(Shift {
+                rest: mesh.positions().to_vec(),
+                handle_vertices: handles.handle_vertices(),
+            }) as Box<dyn Deformer>)
+        })
+    }
+
+    fn tri() -> Arc<Mesh> {
+        Arc::new(
+            Mesh::new(vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], vec![[0, 1, 2]]).unwrap(),
+        )
+    }
+
+    fn wait_frame(h: &SolverHandle, pred: impl Fn(&SolvedFrame) -> bool) -> SolvedFrame {
+        let start = Instant::now();
+        while start.elapsed() < Duration::from_secs(10) {
+            if let Some(f) = h.try_take_frame()
+                && pred(&f)
+            {
+                return f;
+            }
+            std::thread::sleep(Duration::from_millis(2));
+        }
+        panic!("no frame within 10 s");
+    }
+
+    fn scene(generation: u64, poses: Vec<GroupPose>) -> Command {
+        Command::SetScene {
+            scene_generation: generation,
+            mesh: tri(),
+            handles: Some(Handles::from_options(vec![Some(0), None, None]).unwrap()),
+            settings: MethodSettings::default(),
+            poses,
+            pose_generation: 0,
+        }
+    }
+
+    #[test]
+    fn frames_follow_poses_and_survive_a_panic() {
+        let h = SolverHandle::spawn(Method::Arap, factory(), Arc::new(|| {})).unwrap();
+        h.send(scene(1, vec![GroupPose::default()]));
+        let f = wait_frame(&h, |f| f.scene_generation == 1);
+        assert_eq!(f.positions[1], [1.0, 0.0, 0.0]);
+
+        let moved = GroupPose { translation: [0.0, 0.0, 2.0], ..Default::default() };
+        h.send(Command::SetPoses { pose_generation: 5, poses: vec![moved] });
+        let f = wait_frame(&h, |f| f.pose_generation == 5);
+        assert_eq!(f.positions[2], [0.0, 1.0, 2.0]);
+
+        h.send(Command::InjectPanic);
+        let start = Instant::now();
+        while h.try_status().is_none_or(|s| s.panics == 0) {
+            assert!(start.elapsed() < Duration::from_secs(10), "panic not reported");
+            std::thread::sleep(Duration::from_millis(2));
+        }
+        assert!(matches!(h.try_status().unwrap().state, SolverState::Panicked(_)));
+        // The restarted worker serves a new scene.
+        h.send(scene(2, vec![moved]));
+        let f = wait_frame(&h, |f| f.scene_generation == 2);
+        assert_eq!(f.positions[0], [0.0, 0.0, 2.0]);
+    }
+
+    #[test]
+    fn mailbox_keeps_only_the_newest() {
+        let m = Mailbox::default();
+        for g in 0..3 {
+            m.put(SolvedFrame {
+                scene_generation: g,
+                pose_generation: 0,
+                positions: Arc::new(vec![]),
+                deformed_base: None,
+                detail_magnitudes: None,
+                stats: FrameStats::default(),
+                fps: 0.0,
+            });
+        }
+        assert_eq!(m.try_take().map(|f| f.scene_generation), Some(2));
+        assert!(m.try_take().is_none());
+    }
+}

@@ -1,0 +1,149 @@
+//! The editable state (handle labels, groups, poses) and its undo/redo history.
+//!
+//! Every user edit (a brush stroke, a drag, a numeric change, a group added or deleted) first
+//! pushes a snapshot of the state it starts from. Snapshots are whole copies: a label array is
+//! `#V` bytes-ish and the history is capped, so this stays small and obviously correct.
+
+use eframe::egui::Color32;
+
+use super::pose::GroupPose;
+
+/// One handle group as the UI knows it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Group {
+    pub name: String,
+    pub color: Color32,
+    pub pose: GroupPose,
+}
+
+/// Everything undo/redo restores.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct EditState {
+    /// Per vertex: `None` free, `Some(k)` = `groups[k]`.
+    pub labels: Vec<Option<u32>>,
+    pub groups: Vec<Group>,
+}
+
+/// Distinct colors for handle groups (sRGB).
+pub const PALETTE: [Color32; 8] = [
+    Color32::from_rgb(230, 25, 75),
+    Color32::from_rgb(60, 180, 75),
+    Color32::from_rgb(67, 99, 216),
+    Color32::from_rgb(245, 130, 49),
+    Color32::from_rgb(145, 30, 180),
+    Color32::from_rgb(66, 212, 244),
+    Color32::from_rgb(240, 50, 230),
+    Color32::from_rgb(191, 239, 69),
+];
+
+impl EditState {
+    /// A state with the given labels and one group per label value.
+    pub fn from_labels(labels: Vec<Option<u32>>) -> EditState {
+        let n = labels.iter().flatten().map(|&k| k as usize + 1).max().unwrap_or(0);
+        let groups = (0..n).map(new_group).collect();
+        EditState { labels, groups }
+    }
+
+    pub fn add_group(&mut self) -> usize {
+        self.groups.push(new_group(self.groups.len()));
+        self.groups.len() - 1
+    }
+
+    /// Removes group `k`: its vertices become free, later groups shift down by one.
+    pub fn delete_group(&mut self, k: usize) {
+        if k >= self.groups.len() {
+            return;
+        }
+        self.groups.remove(k);
+        for l in &mut self.labels {
+            *l = match *l {
+                Some(g) if g as usize == k => None,
+                Some(g) if g as usize > k => Some(g - 1),
+                other => other,
+            };
+        }
+    }
+
+    /// Labels only (what the solver's handle set depends on).
+    pub fn has_handles(&self) -> bool {
+        self.labels.iter().any(Option::is_some)
+    }
+
+    pub fn group_size(&self, k: usize) -> usize {
+        self.labels.iter().filter(|l| **l == Some(k as u32)).count()
+    }
+}
+
+fn new_group(k: usize) -> Group {
+    Group {
+        name: format!("Group {k}"),
+        color: PALETTE[k % PALETTE.len()],
+        pose: GroupPose::default(),
+    }
+}
+
+const MAX_HISTORY: usize = 200;
+
+#[derive(Default)]
+pub struct History {
+    undo: Vec<EditState>,
+    redo: Vec<EditState>,
+}
+
+impl History {
+    /// Records `before`, the state an edit starts from.
+    pub fn push(&mut self, before: EditState) {
+        if self.undo.last() == Some(&before) {
+            return;
+        }
+        self.undo.push(before);
+        if self.undo.len() > MAX_HISTORY {
+            self.undo.remove(0);
+        }
+        self.redo.clear();
+    }
+
+    pub fn undo(&mut self, current: &EditState) -> Option<EditState> {
+        let prev = self.undo.pop()?;
+        self.redo.push(current.clone());
+        Some(prev)
+    }
+
+    pub fn redo(&mut self, current: &EditState) -> Option<EditState> {
+        let next = self.redo.pop()?;
+        self.undo.push(current.clone());
+        Some(next)
+    }
+
+    pub fn clear(&mut self) {
+        self.undo.clear();
+        self.redo.clear();
+    }
+
+    pub fn can_undo(&self) -> bool {
+        !self.undo.is_empty()
+    }
+
+    pub fn can_redo(&self) -> bool {
+        !self.redo.is_empty()
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used, clippy::expect_used)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn undo_redo_round_trip_and_delete_group() {
+        let mut s = EditState::from_labels(vec![Some(0), Some(1), None, Some(1)]);
+        let mut h = History::default();
+        h.push(s.clone());
+        s.delete_group(0);
+        assert_eq!(s.labels, vec![None, Some(0), None, Some(0)]);
+        let undone = h.undo(&s).unwrap();
+        assert_eq!(undone.labels, vec![Some(0), Some(1), None, Some(1)]);
+        let redone = h.redo(&undone).unwrap();
+        assert_eq!(redone, s);
+    }
+}

@@ -1,0 +1,3 @@
+//! The `bsarap` application: the editor (and, on `main`, the headless subcommands' glue).
+
+pub mod editor;

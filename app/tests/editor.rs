@@ -1,0 +1,204 @@
+//! Headless UI tests of the editor: egui_kittest drives the real `EditorApp` with simulated
+//! input and renders it through wgpu (software Vulkan, lavapipe, on machines without a GPU).
+//!
+//! Snapshots live in `app/tests/snapshots/`; regenerate them with `UPDATE_SNAPSHOTS=1`.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use app::editor::solver_thread::{Method, SolverState};
+use app::editor::{EditorApp, EditorOptions, Tool, View, default_mesh_path};
+use eframe::egui::{self, Event, Modifiers, PointerButton, Pos2, Vec2};
+use egui_kittest::{Harness, SnapshotOptions, kittest::Queryable};
+
+const SIZE: Vec2 = Vec2::new(1000.0, 640.0);
+
+/// The default asset of the editor (`BSARAP_TEST_MESH` overrides it).
+fn test_mesh() -> PathBuf {
+    std::env::var_os("BSARAP_TEST_MESH").map(PathBuf::from).unwrap_or_else(default_mesh_path)
+}
+
+fn harness(path: PathBuf) -> Harness<'static, EditorApp> {
+    Harness::builder().with_size(SIZE).with_render_cursor(false).wgpu().build_eframe(move |cc| {
+        EditorApp::new(cc, EditorOptions { mesh_path: Some(path), deterministic_overlays: true })
+    })
+}
+
+/// Steps the UI (background threads keep running) until `pred` holds; fails after 60 s.
+fn step_until(h: &mut Harness<'_, EditorApp>, what: &str, pred: impl Fn(&EditorApp) -> bool) {
+    let start = Instant::now();
+    while !pred(h.state()) {
+        assert!(start.elapsed() < Duration::from_secs(60), "timed out waiting for {what}");
+        h.step();
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    h.step();
+}
+
+/// Loaded, and the BS-ARAP solver has delivered a frame for the current pose.
+fn settled(app: &EditorApp) -> bool {
+    !app.is_loading()
+        && app.n_vertices() > 0
+        && app.latest_frame(Method::BsArap).is_some_and(|f| {
+            f.pose_generation == app.pose_generation()
+                && f.scene_generation == app.scene_generation()
+        })
+        && matches!(app.solver_state(), Some(SolverState::Converged))
+}
+
+fn snapshot_options() -> SnapshotOptions {
+    // Software rasterizers differ slightly in edge coverage; allow a few pixels to differ.
+    SnapshotOptions::new().threshold(2.0).max_failed_pixels(2000)
+}
+
+fn press(h: &Harness<'_, EditorApp>, pos: Pos2, pressed: bool, modifiers: Modifiers) {
+    h.event(Event::PointerButton { pos, button: PointerButton::Primary, pressed, modifiers });
+}
+
+/// Number of RGBA pixels that differ between two images of the same size.
+fn count_differing_pixels(a: &[u8], b: &[u8]) -> usize {
+    a.chunks_exact(4).zip(b.chunks_exact(4)).filter(|(p, q)| p != q).count()
+}
+
+#[test]
+fn opens_the_default_asset_and_views_change_the_image() {
+    let mut h = harness(test_mesh());
+    step_until(&mut h, "the default asset and a first frame", settled);
+    assert!(h.state().error().is_none(), "{:?}", h.state().error());
+    assert!(h.state().labels().iter().any(Option::is_some), "default handles were not loaded");
+    h.snapshot_options("editor_result", &snapshot_options());
+    let result = h.render().expect("render");
+
+    h.get_by_label("Details").click();
+    step_until(&mut h, "the details view", |a| a.view() == View::Details);
+    h.snapshot_options("editor_details", &snapshot_options());
+
+    h.get_by_label("ARAP | BS-ARAP").click();
+    step_until(&mut h, "an ARAP frame", |a| {
+        a.view() == View::Compare && a.latest_frame(Method::Arap).is_some()
+    });
+    h.snapshot_options("editor_compare", &snapshot_options());
+    let compare = h.render().expect("render");
+    assert!(
+        count_differing_pixels(result.as_raw(), compare.as_raw()) > 1000,
+        "the compare view looks like the result view"
+    );
+}
+
+#[test]
+fn painting_then_dragging_a_group_deforms_the_mesh() {
+    let mut h = harness(test_mesh());
+    step_until(&mut h, "the default asset", settled);
+    let app = h.state();
+    let rest = app.rest_positions().expect("rest positions").to_vec();
+    // A free vertex that is visible: the one drawn nearest the viewport centre.
+    let centre = Pos2::new(SIZE.x * 0.35, SIZE.y * 0.5);
+    let (v, pos) = (0..rest.len())
+        .filter(|&v| app.labels()[v].is_none())
+        .filter_map(|v| app.vertex_screen_pos(v).map(|p| (v, p)))
+        .min_by(|a, b| a.1.distance(centre).total_cmp(&b.1.distance(centre)))
+        .expect("a visible free vertex");
+
+    // Paint a new group at that vertex.
+    h.get_by_label("Add group").click();
+    h.step();
+    let group = h.state().labels().iter().flatten().map(|&g| g as usize + 1).max().unwrap_or(0);
+    h.state_mut().set_tool(Tool::Paint);
+    h.state_mut().set_active_group(Some(group));
+    h.event(Event::PointerMoved(pos));
+    h.step();
+    press(&h, pos, true, Modifiers::NONE);
+    h.step();
+    h.event(Event::PointerMoved(pos + Vec2::new(1.0, 0.0)));
+    h.step();
+    press(&h, pos + Vec2::new(1.0, 0.0), false, Modifiers::NONE);
+    h.step();
+    assert_eq!(h.state().labels()[v], Some(group as u32), "painting did not label vertex {v}");
+    let painted: Vec<usize> =
+        (0..rest.len()).filter(|&u| h.state().labels()[u] == Some(group as u32)).collect();
+    step_until(&mut h, "a frame for the new handle set", settled);
+
+    // Drag it 60 points to the right with the pose tool.
+    h.state_mut().set_tool(Tool::Pose);
+    let start = h.state().vertex_screen_pos(v).expect("painted vertex on screen");
+    h.event(Event::PointerMoved(start));
+    h.step();
+    press(&h, start, true, Modifiers::NONE);
+    h.step();
+    for i in 1..=6 {
+        h.event(Event::PointerMoved(start + Vec2::new(10.0 * i as f32, 0.0)));
+        h.step();
+    }
+    press(&h, start + Vec2::new(60.0, 0.0), false, Modifiers::NONE);
+    h.step();
+    assert!(h.state().pose_generation() > 0, "the drag sent no pose");
+    step_until(&mut h, "a frame for the dragged pose", settled);
+
+    let frame = h.state().latest_frame(Method::BsArap).expect("frame").clone();
+    let moved = |u: usize| {
+        let p = frame.positions[u];
+        let r = rest[u];
+        ((p[0] as f64 - r[0]).powi(2) + (p[1] as f64 - r[1]).powi(2) + (p[2] as f64 - r[2]).powi(2))
+            .sqrt()
+    };
+    let diag = 2.0
+        * rest
+            .iter()
+            .map(|p| (p[0].powi(2) + p[1].powi(2) + p[2].powi(2)).sqrt())
+            .fold(0.0, f64::max);
+    for &u in &painted {
+        assert!(moved(u) > 1e-3 * diag, "handle vertex {u} did not move ({})", moved(u));
+    }
+    let free_moved = (0..rest.len())
+        .filter(|&u| h.state().labels()[u].is_none())
+        .filter(|&u| moved(u) > 1e-4 * diag)
+        .count();
+    assert!(free_moved > 0, "no free vertex moved");
+
+    // Undo restores the rest pose of the group.
+    let before_undo = h.state().pose_generation();
+    h.key_press_modifiers(Modifiers::COMMAND, egui::Key::Z);
+    h.step();
+    assert!(h.state().pose_generation() > before_undo, "Ctrl+Z did not undo the drag");
+    step_until(&mut h, "the undone pose", settled);
+    let frame = h.state().latest_frame(Method::BsArap).expect("frame");
+    assert!(
+        (frame.positions[v][0] as f64 - rest[v][0]).abs() < 1e-4 * diag.max(1.0),
+        "undo did not restore the pose"
+    );
+}
+
+#[test]
+fn a_bad_file_shows_an_error_and_keeps_the_mesh() {
+    let mut h = harness(test_mesh());
+    step_until(&mut h, "the default asset", settled);
+    let n = h.state().n_vertices();
+    let path = h.state().mesh_path().map(|p| p.to_path_buf());
+    let ctx = h.ctx.clone();
+    h.state_mut().open(&ctx, PathBuf::from("/no/such/mesh.obj"));
+    step_until(&mut h, "the load to fail", |a| !a.is_loading());
+    let err = h.state().error().expect("an error").to_owned();
+    assert!(err.contains("/no/such/mesh.obj"), "{err}");
+    assert_eq!(h.state().n_vertices(), n);
+    assert_eq!(h.state().mesh_path().map(|p| p.to_path_buf()), path);
+    h.get_by_label_contains("no/such/mesh.obj");
+}
+
+#[test]
+fn a_solver_panic_is_reported_and_the_solver_restarts() {
+    let mut h = harness(test_mesh());
+    step_until(&mut h, "the default asset", settled);
+    h.state().inject_solver_panic();
+    step_until(&mut h, "the panic report", |a| {
+        matches!(a.solver_state(), Some(SolverState::Panicked(_)))
+    });
+    h.get_by_label_contains("panicked");
+    // A new handle set goes to the restarted solver.
+    h.get_by_label("Add group").click();
+    h.step();
+    let ctx = h.ctx.clone();
+    let path = h.state().mesh_path().expect("mesh").to_path_buf();
+    h.state_mut().open(&ctx, path);
+    step_until(&mut h, "a frame after the restart", settled);
+}

@@ -1,0 +1,23 @@
+// Wireframe edges over the shaded mesh, pulled slightly towards the camera.
+
+struct Uniforms {
+    view_proj: mat4x4<f32>,
+    eye: vec4<f32>,
+    light_dir: vec4<f32>,
+    // rgb: wireframe color; a: depth offset in NDC units.
+    wire: vec4<f32>,
+};
+
+@group(0) @binding(0) var<uniform> u: Uniforms;
+
+@vertex
+fn vs_main(@location(0) position: vec3<f32>) -> @builtin(position) vec4<f32> {
+    var clip = u.view_proj * vec4<f32>(position, 1.0);
+    clip.z = clip.z - u.wire.a * clip.w;
+    return clip;
+}
+
+@fragment
+fn fs_main() -> @location(0) vec4<f32> {
+    return vec4<f32>(u.wire.rgb, 1.0);
+}
