@@ -3,6 +3,7 @@
 //! See ARCHITECTURE.md at the repository root for the data flow and the role of each module.
 
 pub mod handles;
+pub mod io;
 pub mod mesh;
 
 pub use handles::{Handles, HandlesError};
