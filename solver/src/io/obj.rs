@@ -139,7 +139,8 @@ fn face_vertex(
             continue;
         }
         let i: i64 = part.parse().map_err(|_| {
-            ctx.parse(Some(line), format!("{tok:?}: {part:?} is not an integer {what} index"))
+            let whole = if parts.len() > 1 { format!(" (in {tok:?})") } else { String::new() };
+            ctx.parse(Some(line), format!("{part:?}{whole} is not an integer {what} index"))
         })?;
         let resolved = match i {
             0 => {

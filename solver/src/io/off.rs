@@ -59,8 +59,19 @@ pub(crate) fn parse(bytes: &[u8], ctx: Ctx) -> Result<RawMesh, LoadError> {
             format!("the header claims {n_v} vertices, more than 2^32-1 (and than the file holds)"),
         ));
     }
+    // One element per line: the header's counts must match the number of data lines.
+    let data_lines = lines.clone().count() as u64;
+    let claimed = n_v + n_f;
+    if data_lines < claimed {
+        return Err(ctx.truncated(
+            Some(count_line),
+            format!(
+                "the header announces {n_v} vertices and {n_f} faces ({claimed} lines), but only {data_lines} lines follow"
+            ),
+        ));
+    }
     // Capacities are capped by what the file can hold: a vertex line needs at least 6 bytes
-    // ("0 0 0\n"), a face line at least 8 ("3 0 1 2\n"); a lying header ends in `Truncated`.
+    // ("0 0 0\n"), a face line at least 8 ("3 0 1 2\n").
     let mut positions = Vec::with_capacity(capped(n_v, bytes.len(), 6));
     while (positions.len() as u64) < n_v {
         let vertex = positions.len();
@@ -165,7 +176,7 @@ mod tests {
         assert!(matches!(e, LoadError::Parse { line: Some(6), .. }), "{e}");
         let e = parse_str("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n3 0 1 2\n").unwrap_err();
         assert!(matches!(e, LoadError::CountMismatch { line: Some(7), .. }), "{e}");
-        let e = parse_str("OFF\n3 1 0\n0 0 0\n1 0 0 0\n").unwrap_err();
+        let e = parse_str("OFF\n3 1 0\n0 0 0\n1 0 0 0\n0 1 0\n3 0 1 2\n").unwrap_err();
         assert!(matches!(e, LoadError::Parse { line: Some(4), .. }), "{e}");
     }
 }

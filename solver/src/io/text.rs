@@ -49,7 +49,7 @@ pub(crate) fn integer(tok: &str, ctx: Ctx, line: usize, what: &str) -> Result<i6
 pub(crate) fn token_lines(
     text: &str,
     comment: Option<char>,
-) -> impl Iterator<Item = (usize, Vec<&str>)> {
+) -> impl Iterator<Item = (usize, Vec<&str>)> + Clone {
     text.lines().enumerate().filter_map(move |(i, line)| {
         let line = match comment.and_then(|c| line.find(c)) {
             Some(cut) => line.get(..cut).unwrap_or(line),
