@@ -2,12 +2,29 @@
 //!
 //! See ARCHITECTURE.md at the repository root for the data flow and the role of each module.
 
+pub mod arap;
+pub mod biharmonic;
+pub mod bs_arap;
 pub mod cleanup;
+pub mod constraints;
+pub mod cotan;
+pub mod deformer;
+pub mod error;
 pub mod handles;
 pub mod io;
+pub mod linsolve;
+pub mod mass;
 pub mod mesh;
+pub mod pose;
+pub mod rotation;
 pub mod selection;
+pub mod shapes;
 pub mod topology;
 
+pub use arap::{Arap, ArapConfig, Energy, SolveStats};
+pub use bs_arap::BsArap;
+pub use deformer::{Deformer, Method};
+pub use error::SolveError;
 pub use handles::{Handles, HandlesError};
 pub use mesh::{Mesh, MeshError};
+pub use pose::{GroupTransform, handle_targets};

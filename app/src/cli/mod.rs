@@ -1,0 +1,92 @@
+//! The headless subcommands. Each prints a readable report, or one JSON object with `--json`.
+
+mod bench;
+mod deform;
+mod info;
+
+use clap::{Parser, Subcommand, ValueEnum};
+use std::path::PathBuf;
+
+/// BS-ARAP mesh deformation: editor and headless tools.
+#[derive(Debug, Parser)]
+#[command(name = "bsarap", version, about)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Mesh statistics after loading and cleaning.
+    Info(info::InfoArgs),
+    /// Solve one pose from rest and write it as OBJ.
+    Deform(deform::DeformArgs),
+    /// The paper's animation benchmark: the first handle group moves on a circle.
+    Bench(bench::BenchArgs),
+}
+
+/// `--method`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum MethodArg {
+    Arap,
+    Bsarap,
+}
+
+impl From<MethodArg> for solver::Method {
+    fn from(m: MethodArg) -> Self {
+        match m {
+            MethodArg::Arap => solver::Method::Arap,
+            MethodArg::Bsarap => solver::Method::BsArap,
+        }
+    }
+}
+
+/// `--energy`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum EnergyArg {
+    SpokesAndRims,
+    Spokes,
+}
+
+impl From<EnergyArg> for solver::Energy {
+    fn from(e: EnergyArg) -> Self {
+        match e {
+            EnergyArg::SpokesAndRims => solver::Energy::SpokesAndRims,
+            EnergyArg::Spokes => solver::Energy::Spokes,
+        }
+    }
+}
+
+/// Runs one subcommand.
+pub fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Command::Info(a) => info::run(&a),
+        Command::Deform(a) => deform::run(&a),
+        Command::Bench(a) => bench::run(&a),
+    }
+}
+
+/// Loads and cleans a mesh, with the path in the error.
+pub fn load(path: &std::path::Path) -> anyhow::Result<solver::io::LoadedMesh> {
+    Ok(solver::io::load_mesh(path)?)
+}
+
+/// Loads a handle selection (.dmat or sphere .json) for `mesh`.
+pub fn load_handles(
+    path: &std::path::Path,
+    mesh: &solver::Mesh,
+) -> anyhow::Result<solver::Handles> {
+    Ok(solver::selection::load_selection(path, mesh.positions())?)
+}
+
+/// Tolerance and cap validation shared by deform and bench.
+pub fn check_stopping(tol: f64, max_iters: usize) -> anyhow::Result<()> {
+    anyhow::ensure!(tol.is_finite() && tol >= 0.0, "--tol must be a finite number ≥ 0 (got {tol})");
+    anyhow::ensure!(
+        (1..=100_000).contains(&max_iters),
+        "--max-iters must be between 1 and 100000 (got {max_iters})"
+    );
+    Ok(())
+}
+
+pub type PathArg = PathBuf;
