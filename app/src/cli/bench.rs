@@ -24,7 +24,7 @@ pub struct BenchArgs {
     pub handles: PathArg,
     #[arg(long, default_value_t = 20)]
     pub frames: usize,
-    #[arg(long, default_value_t = 1e-4)]
+    #[arg(long, default_value_t = 1e-4, allow_negative_numbers = true)]
     pub tol: f64,
     #[arg(long, default_value_t = 100)]
     pub max_iters: usize,
@@ -116,8 +116,12 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
     let loaded = load(&a.mesh)?;
     let mesh = &loaded.mesh;
     let handles = load_handles(&a.handles, mesh)?;
-    let config =
-        ArapConfig { energy: a.energy.into(), tolerance: a.tol, max_iterations: a.max_iters };
+    let config = ArapConfig {
+        energy: a.energy.into(),
+        tolerance: a.tol,
+        max_iterations: a.max_iters,
+        ..Default::default()
+    };
     let radius = a.radius * mesh.bbox_diagonal();
     let methods: &[Method] = match a.method {
         BenchMethod::Arap => &[Method::Arap],

@@ -25,7 +25,7 @@ pub struct DeformArgs {
     #[arg(long, value_enum, default_value = "spokes-and-rims")]
     pub energy: EnergyArg,
     /// Stop when the relative energy decrease falls below this; 0 runs exactly --max-iters.
-    #[arg(long, default_value_t = 1e-4)]
+    #[arg(long, default_value_t = 1e-4, allow_negative_numbers = true)]
     pub tol: f64,
     #[arg(long, default_value_t = 100)]
     pub max_iters: usize,
@@ -102,8 +102,12 @@ pub fn run(a: &DeformArgs) -> anyhow::Result<()> {
     let handles = load_handles(&a.handles, mesh)?;
     let targets = handle_targets(mesh.positions(), &handles, &transforms)
         .with_context(|| format!("{}", a.handles.display()))?;
-    let config =
-        ArapConfig { energy: a.energy.into(), tolerance: a.tol, max_iterations: a.max_iters };
+    let config = ArapConfig {
+        energy: a.energy.into(),
+        tolerance: a.tol,
+        max_iterations: a.max_iters,
+        ..Default::default()
+    };
     let t0 = Instant::now();
     let mut deformer = Deformer::new(a.method.into(), mesh, &handles, &config)?;
     let precompute_ms = t0.elapsed().as_secs_f64() * 1e3;

@@ -1,7 +1,7 @@
 //! Atomic file writing: Wavefront OBJ meshes and any byte buffer.
 //!
 //! Every writer goes through [`write_atomic`]: the bytes go to a temporary file in the same
-//! folder (`NAME.EXT.tmpPID`), which is flushed to disk (`fsync`) and then renamed over the
+//! folder (`NAME.EXT.tmpPID-N`), which is flushed to disk (`fsync`) and then renamed over the
 //! target, so a reader never sees a half-written file and a crash leaves the old file intact.
 
 use std::fmt::Write as _;
@@ -75,7 +75,11 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), SaveError> {
     let file = path.display().to_string();
     let io_err = |source| SaveError::Io { file: file.clone(), source };
     let ext = path.extension().map(|e| e.to_string_lossy().into_owned()).unwrap_or_default();
-    let tmp = path.with_extension(format!("{ext}.tmp{}", std::process::id()));
+    // Unique per process and per call, so that two threads saving the same file never share
+    // a temporary file.
+    static COUNTER: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let n = COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let tmp = path.with_extension(format!("{ext}.tmp{}-{n}", std::process::id()));
     let result = (|| -> std::io::Result<()> {
         let mut f = std::fs::File::create(&tmp)?;
         f.write_all(bytes)?;
