@@ -2,6 +2,7 @@
 //!
 //! See ARCHITECTURE.md at the repository root for the data flow and the role of each module.
 
+pub mod animation;
 pub mod arap;
 pub mod biharmonic;
 pub mod bs_arap;
@@ -10,13 +11,16 @@ pub mod constraints;
 pub mod cotan;
 pub mod deformer;
 pub mod error;
+pub mod export;
 pub mod handles;
 pub mod io;
 pub mod linsolve;
 pub mod mass;
 pub mod mesh;
 pub mod pose;
+pub mod recording;
 pub mod rotation;
+pub mod scene;
 pub mod selection;
 pub mod shapes;
 pub mod topology;

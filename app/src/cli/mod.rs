@@ -2,6 +2,7 @@
 
 mod bench;
 mod deform;
+mod export;
 mod info;
 
 use clap::{Parser, Subcommand, ValueEnum};
@@ -23,6 +24,8 @@ pub enum Command {
     Deform(deform::DeformArgs),
     /// The paper's animation benchmark: the first handle group moves on a circle.
     Bench(bench::BenchArgs),
+    /// Play a scene's timeline headless and write glTF (.glb/.gltf) with one morph target per frame.
+    Export(export::ExportArgs),
 }
 
 /// `--method`.
@@ -63,6 +66,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Info(a) => info::run(&a),
         Command::Deform(a) => deform::run(&a),
         Command::Bench(a) => bench::run(&a),
+        Command::Export(a) => export::run(&a),
     }
 }
 
