@@ -2,6 +2,7 @@
 //!
 //! See ARCHITECTURE.md at the repository root for the data flow and the role of each module.
 
+pub mod anderson;
 pub mod animation;
 pub mod arap;
 pub mod biharmonic;
