@@ -9,9 +9,18 @@
 //! $Q_{FF}$ is factored once per handle set. With $X_H$ the rest positions of the handle regions
 //! the solution $B$ interpolates them and smooths the free regions' details away.
 //!
+//! **Fairing with a data term** (our remedy for that collapse, issue 8): with a smoothing length
+//! $h$ (mesh units) and $\lambda = h^{-4}$,
+//! $$\min_X\; X^\top Q X + \lambda\,(X-M)^\top A\,(X-M) \;\Rightarrow\;
+//!   (Q+\lambda A)_{FF} X_F = \lambda A_{FF} M_F - Q_{FH} X_H,$$
+//! which removes features much shorter than $h$ and keeps the surface close to $M$ elsewhere
+//! ($\lambda = 0$ is the paper's bi-harmonic surface). $Q$ scales as length$^{-2}$ and $A$ as
+//! length$^2$, so $h^{-4}$ makes the two terms commensurate and the result scale-invariant.
+//!
 //! Inputs: a [`Mesh`] `#V×3`/`#F×3`, a [`Constraints`] partition, fixed values `#V×3` (read on
-//! fixed vertices only). Output `#V×3`. Known limitation: with small, sparse handles the
-//! minimizer shrinks the free regions (DESIGN.md §5), which can collapse triangles of $B$.
+//! fixed vertices only). Output `#V×3`. Known limitation: with small, sparse handles the pure
+//! bi-harmonic minimizer shrinks the free regions (DESIGN.md §5), which can collapse triangles
+//! of $B$; a finite smoothing length prevents it.
 
 use crate::constraints::Constraints;
 use crate::cotan::{edge_weights, face_cotangents};
@@ -28,6 +37,21 @@ pub fn biharmonic_surface(
     constraints: &Constraints,
     fixed_values: &[[f64; 3]],
 ) -> Result<Vec<[f64; 3]>, SolveError> {
+    faired_surface(mesh, constraints, fixed_values, None)
+}
+
+/// The faired surface for smoothing length `smoothing` (mesh units; `None` = pure bi-harmonic,
+/// see the module doc), interpolating `fixed_values` on the fixed vertices.
+pub fn faired_surface(
+    mesh: &Mesh,
+    constraints: &Constraints,
+    fixed_values: &[[f64; 3]],
+    smoothing: Option<f64>,
+) -> Result<Vec<[f64; 3]>, SolveError> {
+    let lambda = match smoothing {
+        Some(h) if h.is_finite() && h > 0.0 => h.powi(-4),
+        _ => 0.0,
+    };
     let n = mesh.n_vertices();
     let cot = face_cotangents(mesh.positions(), mesh.triangles(), 0.0)
         .map_err(|d| SolveError::DegenerateFace { face: d.face })?;
@@ -70,6 +94,16 @@ pub fn biharmonic_surface(
                         }
                     }
                 }
+            }
+        }
+    }
+    if lambda > 0.0 {
+        for (r, &v) in constraints.free_vertices.iter().enumerate() {
+            let w = lambda * mass[v as usize];
+            q.push(Triplet::new(r, r, w));
+            let p = mesh.positions()[v as usize];
+            for d in 0..3 {
+                rhs[(r, d)] += w * p[d];
             }
         }
     }

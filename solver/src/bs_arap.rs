@@ -10,16 +10,34 @@
 //! vertices $D_i = 0$, so they land exactly on their targets. The cost of an ARAP iteration is the
 //! same on $B$ as on $M$ (same connectivity): any speedup comes from fewer iterations.
 //!
-//! Inputs and outputs as [`crate::arap`]. Known limitation: with small, sparse handles $B$ can
-//! collapse (near-zero-area triangles, reported as [`SolveError::DegenerateBase`]).
+//! Inputs and outputs as [`crate::arap`]. Known limitation of the paper's base
+//! ([`BaseKind::Paper`]): with small, sparse handles $B$ can collapse (near-zero-area triangles,
+//! reported as [`SolveError::DegenerateBase`]). [`BaseKind::Faired`] adds a data term that keeps
+//! $B$ close to $M$ away from the handles ([`crate::biharmonic::faired_surface`]).
 
 use crate::arap::{Arap, ArapConfig, SolveStats};
-use crate::biharmonic::biharmonic_surface;
+use crate::biharmonic::faired_surface;
 use crate::constraints::Constraints;
 use crate::error::SolveError;
 use crate::handles::Handles;
 use crate::mesh::{Mesh, add, sub};
 use crate::rotation::mul_vec;
+
+/// How the base surface $B$ is made.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum BaseKind {
+    /// The paper's bi-harmonic surface interpolating the handle regions (Eqs. 6–9).
+    Paper,
+    /// Bi-Laplacian fairing with a data term; `smoothing` is the smoothing length as a fraction
+    /// of the bounding-box diagonal (features much shorter than it go into the details).
+    Faired { smoothing: f64 },
+}
+
+impl BaseKind {
+    /// The default smoothing length of [`BaseKind::Faired`], as a fraction of the diagonal.
+    pub const DEFAULT_SMOOTHING: f64 = 0.02;
+}
 
 /// BS-ARAP precomputed for one mesh and one handle set.
 #[derive(Debug)]
@@ -31,8 +49,18 @@ pub struct BsArap {
 }
 
 impl BsArap {
-    /// Computes $B$, $D$ and factors ARAP on $B$ (once per handle set).
+    /// Computes the paper's $B$, $D$ and factors ARAP on $B$ (once per handle set).
     pub fn new(mesh: &Mesh, handles: &Handles, config: &ArapConfig) -> Result<BsArap, SolveError> {
+        BsArap::with_base(mesh, handles, config, BaseKind::Paper)
+    }
+
+    /// As [`BsArap::new`] with a choice of base surface.
+    pub fn with_base(
+        mesh: &Mesh,
+        handles: &Handles,
+        config: &ArapConfig,
+        base_kind: BaseKind,
+    ) -> Result<BsArap, SolveError> {
         if handles.n_vertices() != mesh.n_vertices() {
             return Err(SolveError::HandleCount {
                 got: handles.n_vertices(),
@@ -40,7 +68,11 @@ impl BsArap {
             });
         }
         let constraints = Constraints::new(mesh, handles);
-        let base = biharmonic_surface(mesh, &constraints, mesh.positions())?;
+        let smoothing = match base_kind {
+            BaseKind::Paper => None,
+            BaseKind::Faired { smoothing } => Some(smoothing * mesh.bbox_diagonal()),
+        };
+        let base = faired_surface(mesh, &constraints, mesh.positions(), smoothing)?;
         let details: Vec<[f64; 3]> =
             mesh.positions().iter().zip(&base).map(|(&p, &b)| sub(p, b)).collect();
         let base_mesh =

@@ -95,27 +95,6 @@ pub struct HandlesSpec {
     pub spheres: Option<serde_json::Value>,
 }
 
-mod method_name {
-    //! `"method": "bsarap" | "arap"` (also accepts `"bs-arap"`).
-    use crate::deformer::Method;
-    use serde::{Deserialize, Deserializer, Serializer};
-
-    pub fn serialize<S: Serializer>(m: &Method, s: S) -> Result<S::Ok, S::Error> {
-        s.serialize_str(m.name())
-    }
-
-    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Method, D::Error> {
-        let s = String::deserialize(d)?;
-        match s.as_str() {
-            "bsarap" | "bs-arap" => Ok(Method::BsArap),
-            "arap" => Ok(Method::Arap),
-            other => Err(serde::de::Error::custom(format!(
-                "unknown method {other:?} (expected \"arap\" or \"bsarap\")"
-            ))),
-        }
-    }
-}
-
 /// A scene file's contents (see the module doc for the format).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -126,7 +105,7 @@ pub struct Scene {
     pub mesh: String,
     pub handles: HandlesSpec,
     pub timeline: Timeline,
-    #[serde(default, with = "method_name")]
+    #[serde(default)]
     pub method: Method,
     #[serde(default)]
     pub arap: ArapConfig,

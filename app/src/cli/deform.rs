@@ -1,6 +1,6 @@
 //! `bsarap deform MESH --handles SEL --move G:dx,dy,dz [--rotate G:ax,ay,az,deg] ... -o OUT.obj`.
 
-use super::{EnergyArg, MethodArg, PathArg, check_stopping, load, load_handles};
+use super::{BaseArgs, EnergyArg, MethodArg, PathArg, check_stopping, load, load_handles};
 use anyhow::{Context, bail};
 use clap::Args;
 use solver::rotation::{axis_angle, mul_mat};
@@ -29,6 +29,8 @@ pub struct DeformArgs {
     pub tol: f64,
     #[arg(long, default_value_t = 100)]
     pub max_iters: usize,
+    #[command(flatten)]
+    pub base: BaseArgs,
     /// Output OBJ (written atomically).
     #[arg(short = 'o', long = "output")]
     pub output: PathArg,
@@ -91,6 +93,7 @@ pub fn parse_transforms(
 
 pub fn run(a: &DeformArgs) -> anyhow::Result<()> {
     check_stopping(a.tol, a.max_iters)?;
+    let base = a.base.config()?;
     let transforms = parse_transforms(&a.moves, &a.rotates)?;
     let loaded = load(&a.mesh)?;
     let mesh = &loaded.mesh;
@@ -109,7 +112,7 @@ pub fn run(a: &DeformArgs) -> anyhow::Result<()> {
         ..Default::default()
     };
     let t0 = Instant::now();
-    let mut deformer = Deformer::new(a.method.into(), mesh, &handles, &config)?;
+    let mut deformer = Deformer::with_base(a.method.into(), mesh, &handles, &config, &base)?;
     let precompute_ms = t0.elapsed().as_secs_f64() * 1e3;
     let notice = deformer.arap().constraints().notice();
     let t1 = Instant::now();

@@ -31,8 +31,14 @@ pub enum Command {
 /// `--method`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum MethodArg {
+    /// ARAP on the mesh.
     Arap,
+    /// The paper's BS-ARAP (bi-harmonic base).
     Bsarap,
+    /// BS-ARAP on a faired base (bi-Laplacian with a data term).
+    BsarapFaired,
+    /// BS-ARAP with ARAP on a decimated faired base.
+    BsarapCoarse,
 }
 
 impl From<MethodArg> for solver::Method {
@@ -40,6 +46,8 @@ impl From<MethodArg> for solver::Method {
         match m {
             MethodArg::Arap => solver::Method::Arap,
             MethodArg::Bsarap => solver::Method::BsArap,
+            MethodArg::BsarapFaired => solver::Method::BsArapFaired,
+            MethodArg::BsarapCoarse => solver::Method::BsArapCoarse,
         }
     }
 }
@@ -94,3 +102,32 @@ pub fn check_stopping(tol: f64, max_iters: usize) -> anyhow::Result<()> {
 }
 
 pub type PathArg = PathBuf;
+
+/// Base-surface options shared by deform and bench.
+#[derive(Debug, Clone, clap::Args)]
+pub struct BaseArgs {
+    /// Smoothing length of the faired base (bsarap-faired, bsarap-coarse), as a fraction of the
+    /// bounding-box diagonal.
+    #[arg(long, default_value_t = solver::BaseConfig::default().smoothing)]
+    pub smoothing: f64,
+    /// Vertices of the coarse base (bsarap-coarse).
+    #[arg(long, default_value_t = solver::BaseConfig::default().coarse_vertices)]
+    pub coarse_vertices: usize,
+}
+
+impl BaseArgs {
+    /// Validated settings.
+    pub fn config(&self) -> anyhow::Result<solver::BaseConfig> {
+        anyhow::ensure!(
+            self.smoothing.is_finite() && self.smoothing > 0.0 && self.smoothing <= 1.0,
+            "--smoothing must be in (0, 1] (a fraction of the bounding-box diagonal; got {})",
+            self.smoothing
+        );
+        anyhow::ensure!(
+            (16..=10_000_000).contains(&self.coarse_vertices),
+            "--coarse-vertices must be between 16 and 10000000 (got {})",
+            self.coarse_vertices
+        );
+        Ok(solver::BaseConfig { smoothing: self.smoothing, coarse_vertices: self.coarse_vertices })
+    }
+}
