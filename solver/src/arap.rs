@@ -366,6 +366,15 @@ impl Arap {
         }
     }
 
+    /// The ARAP energy of pose `x` (`#V×3`) against this solver's rest shape with the best
+    /// rotations, $\min_R E(x, R)$: a quality figure for results of other methods. The pose is
+    /// kept as the next warm start.
+    pub fn pose_energy(&mut self, x: &[[f64; 3]]) -> f64 {
+        self.set_positions(x);
+        self.local_step();
+        self.energy()
+    }
+
     /// Runs local-global iterations from the current pose with the handle vertices moved to
     /// `targets` (`#H×3`, order of [`Handles::handle_vertices`]) and pinned vertices at rest.
     /// On a non-finite result the previous pose is kept and an error returned.

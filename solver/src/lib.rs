@@ -21,6 +21,7 @@ pub mod linsolve;
 pub mod mass;
 pub mod mesh;
 pub mod pose;
+pub mod quality;
 pub mod recording;
 pub mod rotation;
 pub mod scene;
