@@ -49,6 +49,7 @@ impl Method {
 
 /// Settings of the base surface for the BS-ARAP variants.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default)]
 pub struct BaseConfig {
     /// Smoothing length of the faired base, as a fraction of the bounding-box diagonal.
     pub smoothing: f64,

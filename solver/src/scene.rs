@@ -28,7 +28,7 @@ use thiserror::Error;
 
 use crate::animation::{AnimationError, Timeline};
 use crate::arap::ArapConfig;
-use crate::deformer::Method;
+use crate::deformer::{BaseConfig, Method};
 use crate::handles::{Handles, HandlesError};
 use crate::io::{LoadError, LoadedMesh, SaveError, load_mesh, write_atomic};
 use crate::selection::{SelectionError, load_selection, parse_spheres};
@@ -109,6 +109,9 @@ pub struct Scene {
     pub method: Method,
     #[serde(default)]
     pub arap: ArapConfig,
+    /// Base-surface settings of the BS-ARAP variants (smoothing, coarse size).
+    #[serde(default)]
+    pub base: BaseConfig,
     /// Opaque to the solver: whatever the editor stores about its view.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub camera: Option<serde_json::Value>,
@@ -147,6 +150,7 @@ impl Scene {
             timeline: Timeline::default(),
             method: Method::default(),
             arap: ArapConfig::default(),
+            base: BaseConfig::default(),
             camera: None,
         }
     }

@@ -51,8 +51,11 @@ pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
     anyhow::ensure!((1..=100_000).contains(&n_frames), "--frames must be between 1 and 100000");
 
     let t0 = Instant::now();
-    let mut deformer = Deformer::new(scene.method, mesh, &loaded.handles, &scene.arap)
-        .with_context(|| format!("{}: precomputing {}", a.scene.display(), scene.method.name()))?;
+    let mut deformer =
+        Deformer::with_base(scene.method, mesh, &loaded.handles, &scene.arap, &scene.base)
+            .with_context(|| {
+                format!("{}: precomputing {}", a.scene.display(), scene.method.name())
+            })?;
     let precompute_ms = t0.elapsed().as_secs_f64() * 1e3;
 
     let t1 = Instant::now();
