@@ -47,6 +47,13 @@ fn settled(app: &EditorApp) -> bool {
         && matches!(app.solver_state(), Some(SolverState::Converged))
 }
 
+/// A frame for the current handle set and pose has arrived (possibly not yet converged).
+fn has_current_frame(app: &EditorApp) -> bool {
+    app.latest_frame(Method::BsArap).is_some_and(|f| {
+        f.pose_generation == app.pose_generation() && f.scene_generation == app.scene_generation()
+    })
+}
+
 fn snapshot_options() -> SnapshotOptions {
     // Software rasterizers differ slightly in edge coverage; allow a few pixels to differ.
     SnapshotOptions::new().threshold(2.0).max_failed_pixels(2000)
@@ -133,7 +140,7 @@ fn painting_then_dragging_a_group_deforms_the_mesh() {
     press(&h, start + Vec2::new(60.0, 0.0), false, Modifiers::NONE);
     h.step();
     assert!(h.state().pose_generation() > 0, "the drag sent no pose");
-    step_until(&mut h, "a frame for the dragged pose", settled);
+    step_until(&mut h, "a frame for the dragged pose", has_current_frame);
 
     let frame = h.state().latest_frame(Method::BsArap).expect("frame").clone();
     let moved = |u: usize| {
@@ -161,7 +168,7 @@ fn painting_then_dragging_a_group_deforms_the_mesh() {
     h.key_press_modifiers(Modifiers::COMMAND, egui::Key::Z);
     h.step();
     assert!(h.state().pose_generation() > before_undo, "Ctrl+Z did not undo the drag");
-    step_until(&mut h, "the undone pose", settled);
+    step_until(&mut h, "the undone pose", has_current_frame);
     let frame = h.state().latest_frame(Method::BsArap).expect("frame");
     assert!(
         (frame.positions[v][0] as f64 - rest[v][0]).abs() < 1e-4 * diag.max(1.0),

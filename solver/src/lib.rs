@@ -2,8 +2,37 @@
 //!
 //! See ARCHITECTURE.md at the repository root for the data flow and the role of each module.
 
+pub mod anderson;
+pub mod animation;
+pub mod arap;
+pub mod biharmonic;
+pub mod bs_arap;
+pub mod cleanup;
+pub mod coarse;
+pub mod constraints;
+pub mod cotan;
+pub mod decimate;
+pub mod deformer;
+pub mod error;
+pub mod export;
 pub mod handles;
+pub mod io;
+pub mod linsolve;
+pub mod mass;
 pub mod mesh;
+pub mod pose;
+pub mod quality;
+pub mod recording;
+pub mod rotation;
+pub mod scene;
+pub mod selection;
+pub mod shapes;
+pub mod topology;
 
+pub use arap::{Arap, ArapConfig, Energy, SolveStats};
+pub use bs_arap::{BaseKind, BsArap};
+pub use deformer::{BaseConfig, Deformer, Method};
+pub use error::SolveError;
 pub use handles::{Handles, HandlesError};
 pub use mesh::{Mesh, MeshError};
+pub use pose::{GroupTransform, handle_targets};

@@ -1133,6 +1133,17 @@ impl EditorApp {
                 );
                 ui.selectable_value(&mut self.settings.energy, EnergyKind::Spokes, "spokes");
             });
+        egui::ComboBox::from_label("BS-ARAP base")
+            .selected_text(self.settings.bs_variant.name())
+            .show_ui(ui, |ui| {
+                for m in [
+                    solver::Method::BsArap,
+                    solver::Method::BsArapFaired,
+                    solver::Method::BsArapCoarse,
+                ] {
+                    ui.selectable_value(&mut self.settings.bs_variant, m, m.name());
+                }
+            });
         ui.add(
             egui::Slider::new(&mut self.settings.tolerance, 1e-8..=1e-1)
                 .logarithmic(true)

@@ -6,7 +6,7 @@
 //! thing on the command line.
 
 use glam::{DQuat, DVec3};
-use solver::{Handles, Mesh};
+use solver::{GroupTransform, Handles, Mesh};
 
 /// Pose of one handle group. The default is the rest pose.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -37,7 +37,7 @@ impl GroupPose {
     }
 }
 
-/// Centroid of the rest positions of group `k` (`None` for an empty group).
+/// Centroid of the rest positions of `vertices` (`None` when empty), for display.
 pub fn group_centroid(positions: &[[f64; 3]], vertices: &[u32]) -> Option<DVec3> {
     if vertices.is_empty() {
         return None;
@@ -46,28 +46,25 @@ pub fn group_centroid(positions: &[[f64; 3]], vertices: &[u32]) -> Option<DVec3>
     Some(sum / vertices.len() as f64)
 }
 
-/// Targets of `handles.handle_vertices()`, in that order. Groups without a pose stay at rest.
-pub fn handle_targets(mesh: &Mesh, handles: &Handles, poses: &[GroupPose]) -> Vec<[f64; 3]> {
-    let p = mesh.positions();
-    let mut target_of = vec![None; handles.n_groups()];
-    for k in handles.group_ids() {
-        let pose = poses.get(k).copied().unwrap_or_default();
-        let verts = handles.group(k).unwrap_or(&[]);
-        if let Some(c) = group_centroid(p, verts) {
-            target_of[k] = Some((c, pose.quat(), DVec3::from_array(pose.translation)));
-        }
+/// Targets of `handles.handle_vertices()`, in that order, through `solver::handle_targets`.
+/// `poses[k]` is the pose of group `k`; groups without a pose stay at rest.
+pub fn handle_targets(
+    mesh: &Mesh,
+    handles: &Handles,
+    poses: &[GroupPose],
+) -> Result<Vec<[f64; 3]>, String> {
+    let transforms: Vec<(usize, GroupTransform)> =
+        handles.group_ids().filter_map(|k| poses.get(k).map(|p| (k, p.transform()))).collect();
+    solver::handle_targets(mesh.positions(), handles, &transforms).map_err(|e| e.to_string())
+}
+
+impl GroupPose {
+    /// As the solver's rigid transform (row-major rotation about the rest centroid).
+    pub fn transform(&self) -> GroupTransform {
+        let m = glam::DMat3::from_quat(self.quat());
+        let rotation = [m.row(0).to_array(), m.row(1).to_array(), m.row(2).to_array()];
+        GroupTransform { translation: self.translation, rotation }
     }
-    handles
-        .handle_vertices()
-        .iter()
-        .map(|&v| {
-            let pv = DVec3::from_array(p[v as usize]);
-            match handles.labels()[v as usize].and_then(|k| target_of[k as usize]) {
-                Some((c, q, t)) => (c + q * (pv - c) + t).to_array(),
-                None => pv.to_array(),
-            }
-        })
-        .collect()
 }
 
 #[cfg(test)]
@@ -84,7 +81,7 @@ mod tests {
         let mut pose = GroupPose::default();
         pose.set_quat(DQuat::from_rotation_z(std::f64::consts::FRAC_PI_2));
         pose.translation = [0.0, 0.0, 1.0];
-        let t = handle_targets(&mesh, &handles, &[pose]);
+        let t = handle_targets(&mesh, &handles, &[pose]).unwrap();
         assert!((DVec3::from_array(t[0]) - DVec3::new(2.0, -1.0, 1.0)).length() < 1e-12);
         assert!((DVec3::from_array(t[1]) - DVec3::new(2.0, 1.0, 1.0)).length() < 1e-12);
     }

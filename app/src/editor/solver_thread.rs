@@ -35,11 +35,18 @@ pub struct MethodSettings {
     pub tolerance: f64,
     /// Iteration cap of one frame.
     pub max_iterations: usize,
+    /// Which BS-ARAP variant the BS-ARAP slot runs.
+    pub bs_variant: solver::Method,
 }
 
 impl Default for MethodSettings {
     fn default() -> Self {
-        MethodSettings { energy: EnergyKind::SpokesAndRims, tolerance: 1e-4, max_iterations: 30 }
+        MethodSettings {
+            energy: EnergyKind::SpokesAndRims,
+            tolerance: 1e-4,
+            max_iterations: 30,
+            bs_variant: solver::Method::BsArap,
+        }
     }
 }
 
@@ -72,7 +79,7 @@ pub struct FrameStats {
 pub trait Deformer: Send {
     /// Solves for `targets` (positions of `handles.handle_vertices()`, in that order); `x` is
     /// the warm start in and the result out (`#V×3`).
-    fn solve(&mut self, targets: &[[f64; 3]], x: &mut [[f64; 3]]) -> FrameStats;
+    fn solve(&mut self, targets: &[[f64; 3]], x: &mut [[f64; 3]]) -> Result<FrameStats, String>;
     /// The deformed base surface B' (BS-ARAP only), `#V×3`.
     fn deformed_base(&self) -> Option<Vec<[f64; 3]>> {
         None
@@ -372,8 +379,17 @@ fn worker_loop(method: Method, factory: &DeformerFactory, rx: &Receiver<Command>
         if !a.dirty {
             continue;
         }
-        let targets = super::pose::handle_targets(&a.mesh, &a.handles, &a.poses);
-        let stats = a.deformer.solve(&targets, &mut a.x);
+        let stats = match super::pose::handle_targets(&a.mesh, &a.handles, &a.poses)
+            .and_then(|targets| a.deformer.solve(&targets, &mut a.x))
+        {
+            Ok(stats) => stats,
+            Err(e) => {
+                set_status(&shared.status, SolverState::Failed(e));
+                a.dirty = false;
+                (shared.repaint)();
+                continue;
+            }
+        };
         let now = Instant::now();
         if let Some(prev) = a.last_frame {
             let dt = now.duration_since(prev).as_secs_f64().max(1e-6);
@@ -421,7 +437,11 @@ mod tests {
     }
 
     impl Deformer for Shift {
-        fn solve(&mut self, targets: &[[f64; 3]], x: &mut [[f64; 3]]) -> FrameStats {
+        fn solve(
+            &mut self,
+            targets: &[[f64; 3]],
+            x: &mut [[f64; 3]],
+        ) -> Result<FrameStats, String> {
             let mut d = [0.0; 3];
             for (t, &v) in targets.iter().zip(&self.handle_vertices) {
                 for k in 0..3 {
@@ -431,7 +451,7 @@ mod tests {
             for (xi, r) in x.iter_mut().zip(&self.rest) {
                 *xi = [r[0] + d[0], r[1] + d[1], r[2] + d[2]];
             }
-            FrameStats { iterations: 1, energy: 0.0, ms_per_iteration: 0.0, converged: true }
+            Ok(FrameStats { iterations: 1, energy: 0.0, ms_per_iteration: 0.0, converged: true })
         }
     }
 

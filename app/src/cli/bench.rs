@@ -1,0 +1,387 @@
+//! `bsarap bench MESH --handles SEL [--frames N] [--tol T] [--method arap|bsarap|both|all|NAME,..]
+//! [--json]`: the paper's animation benchmark (Sun et al. 2017, Table 1). The first handle group
+//! moves on a circle of radius `--radius`·diag (default 0.1) in the plane of the first two
+//! coordinate axes, starting and ending at rest; the other groups stay.
+//!
+//! What a frame is, the same for every method (defaults first):
+//! - stopping rule `--stop`: `relative` (the relative energy decrease of an iteration falls below
+//!   `--tol`, default 1e-4), `threshold` (the energy normalized by the frame's starting energy
+//!   falls below `--threshold`, the paper's Fig. 10 rule), `fixed` (exactly `--max-iters`);
+//!   every rule is capped at `--max-iters` (default 100);
+//! - starting guess `--start`: `previous` (the previous frame's result), `rest`, or `laplacian`
+//!   (the paper's step 4: a Laplacian-editing fit with the new handle positions);
+//! - `--anderson W` also runs each method with Anderson acceleration (window W), reported as
+//!   `NAME+aa` beside the plain loop.
+//!
+//! Methods are a list of [`solver::Method`]: adding a method to the solver adds it here, and
+//! per-method metrics go into [`MethodResult`].
+
+use super::{EnergyArg, PathArg, check_stopping, load, load_handles};
+use anyhow::Context;
+use clap::{Args, ValueEnum};
+use solver::arap::Acceleration;
+use solver::{ArapConfig, Deformer, GroupTransform, Method, handle_targets};
+use std::time::Instant;
+
+/// `--stop`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum StopRule {
+    Relative,
+    Threshold,
+    Fixed,
+}
+
+/// `--start`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum StartGuess {
+    Previous,
+    Rest,
+    Laplacian,
+}
+
+#[derive(Debug, Args)]
+pub struct BenchArgs {
+    pub mesh: PathArg,
+    #[arg(long)]
+    pub handles: PathArg,
+    #[arg(long, default_value_t = 20)]
+    pub frames: usize,
+    /// Relative-decrease tolerance (`--stop relative`).
+    #[arg(long, default_value_t = 1e-4)]
+    pub tol: f64,
+    /// Normalized-energy threshold in (0, 1) (`--stop threshold`).
+    #[arg(long, default_value_t = 0.01)]
+    pub threshold: f64,
+    #[arg(long, default_value_t = 100)]
+    pub max_iters: usize,
+    #[arg(long, value_enum, default_value = "relative")]
+    pub stop: StopRule,
+    #[arg(long, value_enum, default_value = "previous")]
+    pub start: StartGuess,
+    /// `arap`, `bsarap`, `both` (the two), `all`, or a comma-separated list of method names.
+    #[arg(long, default_value = "both")]
+    pub method: String,
+    /// Also run every method with Anderson acceleration of this window (0: off).
+    #[arg(long, default_value_t = 0)]
+    pub anderson: usize,
+    #[arg(long, value_enum, default_value = "spokes-and-rims")]
+    pub energy: EnergyArg,
+    /// Circle radius as a fraction of the bounding-box diagonal.
+    #[arg(long, default_value_t = 0.1)]
+    pub radius: f64,
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Measured figures of one method.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct MethodResult {
+    pub method: String,
+    pub acceleration: Acceleration,
+    pub precompute_ms: f64,
+    pub ms_per_iteration: f64,
+    pub local_ms_per_iteration: f64,
+    pub rhs_ms_per_iteration: f64,
+    pub solve_ms_per_iteration: f64,
+    pub energy_ms_per_iteration: f64,
+    pub iterations_per_frame: f64,
+    pub seconds_per_frame: f64,
+    pub fps: f64,
+    pub final_energy: f64,
+    pub frames_at_cap: usize,
+    pub rejected_steps: usize,
+    pub factor_nonzeros: usize,
+    /// Iterations of each frame.
+    pub iterations: Vec<usize>,
+    /// Energies of the first frame normalized by its starting energy, `[E_0, E_1, ...]/E_0`.
+    pub first_frame_normalized_energies: Vec<f64>,
+}
+
+/// One benchmarked variant: a method and its acceleration.
+struct Variant {
+    method: Method,
+    acceleration: Acceleration,
+}
+
+impl Variant {
+    fn label(&self) -> String {
+        match self.acceleration {
+            Acceleration::None => self.method.name().to_string(),
+            Acceleration::Anderson { .. } => format!("{}+aa", self.method.name()),
+        }
+    }
+}
+
+/// The methods `--method all` runs, in report order.
+const ALL_METHODS: [Method; 2] = [Method::Arap, Method::BsArap];
+
+fn parse_methods(s: &str) -> anyhow::Result<Vec<Method>> {
+    Ok(match s {
+        "both" => vec![Method::Arap, Method::BsArap],
+        "all" => ALL_METHODS.to_vec(),
+        list => list
+            .split(',')
+            .map(|n| {
+                ALL_METHODS.into_iter().find(|m| m.name() == n.trim()).with_context(|| {
+                    let names: Vec<_> = ALL_METHODS.iter().map(|m| m.name()).collect();
+                    format!(
+                        "unknown method {n:?} (expected one of {}, both, all)",
+                        names.join(", ")
+                    )
+                })
+            })
+            .collect::<anyhow::Result<_>>()?,
+    })
+}
+
+/// The ARAP solver of a deformer, mutably, for the starting guess.
+fn arap_mut(d: &mut Deformer) -> Option<&mut solver::Arap> {
+    match d {
+        Deformer::Arap(a) => Some(a),
+        Deformer::BsArap(b) => Some(b.base_arap_mut()),
+        #[allow(unreachable_patterns)]
+        _ => None,
+    }
+}
+
+struct Setup<'a> {
+    mesh: &'a solver::Mesh,
+    handles: &'a solver::Handles,
+    config: ArapConfig,
+    frames: usize,
+    radius: f64,
+    start: StartGuess,
+}
+
+fn bench_variant(
+    v: &Variant,
+    s: &Setup<'_>,
+    progress: &indicatif::ProgressBar,
+) -> anyhow::Result<MethodResult> {
+    let name = v.label();
+    let config = ArapConfig { acceleration: v.acceleration, ..s.config };
+    let t0 = Instant::now();
+    let mut d = Deformer::new(v.method, s.mesh, s.handles, &config)
+        .with_context(|| format!("precomputing {name}"))?;
+    let precompute_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let g = s.handles.group_ids().next().context("the selection has no group")?;
+    let (mut total_ms, mut local, mut rhs, mut solve, mut energy) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    let (mut last, mut at_cap, mut rejected) = (0.0, 0, 0);
+    let mut iterations = Vec::with_capacity(s.frames);
+    let mut first = Vec::new();
+    for f in 1..=s.frames {
+        let theta = std::f64::consts::TAU * f as f64 / s.frames as f64;
+        let t = [s.radius * (theta.cos() - 1.0), s.radius * theta.sin(), 0.0];
+        let targets = handle_targets(
+            s.mesh.positions(),
+            s.handles,
+            &[(g, GroupTransform { translation: t, ..Default::default() })],
+        )?;
+        let t1 = Instant::now();
+        match s.start {
+            StartGuess::Previous => {}
+            StartGuess::Rest => d.reset(),
+            StartGuess::Laplacian => arap_mut(&mut d)
+                .with_context(|| format!("--start laplacian is not available for {name}"))?
+                .start_from_laplacian_fit(&targets)?,
+        }
+        let st = d.solve(&targets).with_context(|| format!("{name} frame {f}"))?;
+        total_ms += t1.elapsed().as_secs_f64() * 1e3;
+        iterations.push(st.iterations);
+        local += st.local_ms;
+        rhs += st.rhs_ms;
+        solve += st.solve_ms;
+        energy += st.energy_ms;
+        last = st.energy();
+        at_cap += usize::from(!st.converged);
+        rejected += st.rejected_steps;
+        if f == 1 && st.initial_energy > 0.0 {
+            first.push(1.0);
+            first.extend(st.energies.iter().map(|e| e / st.initial_energy));
+        }
+        progress.inc(1);
+    }
+    let iters: usize = iterations.iter().sum();
+    let it = iters.max(1) as f64;
+    let spf = total_ms / 1e3 / s.frames as f64;
+    Ok(MethodResult {
+        method: name,
+        acceleration: v.acceleration,
+        precompute_ms,
+        ms_per_iteration: total_ms / it,
+        local_ms_per_iteration: local / it,
+        rhs_ms_per_iteration: rhs / it,
+        solve_ms_per_iteration: solve / it,
+        energy_ms_per_iteration: energy / it,
+        iterations_per_frame: it / s.frames as f64,
+        seconds_per_frame: spf,
+        fps: 1.0 / spf,
+        final_energy: last,
+        frames_at_cap: at_cap,
+        rejected_steps: rejected,
+        factor_nonzeros: d.arap().factor_nonzeros(),
+        iterations,
+        first_frame_normalized_energies: first,
+    })
+}
+
+pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
+    check_stopping(a.tol, a.max_iters)?;
+    anyhow::ensure!((1..=100_000).contains(&a.frames), "--frames must be between 1 and 100000");
+    anyhow::ensure!(
+        a.radius.is_finite() && a.radius >= 0.0,
+        "--radius must be a finite number ≥ 0"
+    );
+    anyhow::ensure!(
+        a.threshold.is_finite() && a.threshold > 0.0 && a.threshold < 1.0,
+        "--threshold must be between 0 and 1 (got {})",
+        a.threshold
+    );
+    let methods = parse_methods(&a.method)?;
+    let loaded = load(&a.mesh)?;
+    let mesh = &loaded.mesh;
+    let handles = load_handles(&a.handles, mesh)?;
+    let (tolerance, energy_threshold) = match a.stop {
+        StopRule::Relative => (a.tol, 0.0),
+        StopRule::Threshold => (0.0, a.threshold),
+        StopRule::Fixed => (0.0, 0.0),
+    };
+    let config = ArapConfig {
+        energy: a.energy.into(),
+        tolerance,
+        max_iterations: a.max_iters,
+        energy_threshold,
+        ..Default::default()
+    };
+    let setup = Setup {
+        mesh,
+        handles: &handles,
+        config,
+        frames: a.frames,
+        radius: a.radius * mesh.bbox_diagonal(),
+        start: a.start,
+    };
+    let mut variants = Vec::new();
+    for &m in &methods {
+        variants.push(Variant { method: m, acceleration: Acceleration::None });
+        if a.anderson > 0 {
+            let acceleration = Acceleration::Anderson { window: a.anderson };
+            variants.push(Variant { method: m, acceleration });
+        }
+    }
+    let progress = indicatif::ProgressBar::new((variants.len() * a.frames) as u64);
+    if a.json {
+        progress.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+    }
+    progress.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{msg:>14} [{bar:30}] {pos}/{len} frames {elapsed}",
+        )
+        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    let mut table = Vec::new();
+    for v in &variants {
+        progress.set_message(v.label());
+        table.push(bench_variant(v, &setup, &progress)?);
+    }
+    progress.finish_and_clear();
+    let find = |n: &str| table.iter().find(|r| r.method == n);
+    // Ratios of every other variant against plain ARAP (>1: the variant is better).
+    let mut ratios = serde_json::Map::new();
+    if let Some(ar) = find("arap") {
+        for r in table.iter().filter(|r| r.method != "arap") {
+            ratios.insert(
+                format!("{}_vs_arap", r.method),
+                serde_json::json!({
+                    "speedup_seconds_per_frame": ar.seconds_per_frame / r.seconds_per_frame,
+                    "iteration_ratio": ar.iterations_per_frame / r.iterations_per_frame,
+                    "ms_per_iteration_ratio": ar.ms_per_iteration / r.ms_per_iteration,
+                }),
+            );
+        }
+    }
+    if a.json {
+        let mut methods = serde_json::Map::new();
+        for r in &table {
+            methods.insert(r.method.clone(), serde_json::to_value(r)?);
+        }
+        let mut j = serde_json::json!({
+            "mesh": a.mesh.display().to_string(),
+            "vertices": mesh.n_vertices(),
+            "faces": mesh.n_faces(),
+            "frames": a.frames,
+            "stop": a.stop,
+            "start": a.start,
+            "tolerance": a.tol,
+            "threshold": a.threshold,
+            "max_iterations": a.max_iters,
+            "radius": setup.radius,
+            "threads": rayon::current_num_threads(),
+            "methods": methods,
+            "ratios": ratios,
+        });
+        if let Some(r) = j["ratios"].get("bsarap_vs_arap").cloned() {
+            j["ratios"]["speedup_seconds_per_frame"] = r["speedup_seconds_per_frame"].clone();
+            j["ratios"]["iteration_ratio"] = r["iteration_ratio"].clone();
+            j["ratios"]["ms_per_iteration_ratio"] = r["ms_per_iteration_ratio"].clone();
+        }
+        println!("{j}");
+        return Ok(());
+    }
+    let rule = match a.stop {
+        StopRule::Relative => format!("relative decrease < {}", a.tol),
+        StopRule::Threshold => format!("E/E0 < {}", a.threshold),
+        StopRule::Fixed => "fixed count".to_string(),
+    };
+    println!(
+        "{} — {} vertices, {} faces, {} frames, stop: {rule}, cap {}, start: {:?}, {} threads",
+        a.mesh.display(),
+        mesh.n_vertices(),
+        mesh.n_faces(),
+        a.frames,
+        a.max_iters,
+        a.start,
+        rayon::current_num_threads()
+    );
+    println!(
+        "{:<14} {:>11} {:>9} {:>8} {:>8} {:>8} {:>8} {:>10} {:>9} {:>8} {:>11}",
+        "method",
+        "precompute",
+        "ms/iter",
+        "local",
+        "rhs",
+        "solve",
+        "energy",
+        "iter/frame",
+        "s/frame",
+        "fps",
+        "energy"
+    );
+    for r in &table {
+        println!(
+            "{:<14} {:>9.1}ms {:>9.3} {:>8.3} {:>8.3} {:>8.3} {:>8.3} {:>10.1} {:>9.4} {:>8.2} {:>11.4e}",
+            r.method,
+            r.precompute_ms,
+            r.ms_per_iteration,
+            r.local_ms_per_iteration,
+            r.rhs_ms_per_iteration,
+            r.solve_ms_per_iteration,
+            r.energy_ms_per_iteration,
+            r.iterations_per_frame,
+            r.seconds_per_frame,
+            r.fps,
+            r.final_energy
+        );
+    }
+    for (k, r) in &ratios {
+        println!(
+            "{k}: {:.2}× per frame, {:.2}× fewer iterations, {:.2}× ms/iteration",
+            r["speedup_seconds_per_frame"].as_f64().unwrap_or(f64::NAN),
+            r["iteration_ratio"].as_f64().unwrap_or(f64::NAN),
+            r["ms_per_iteration_ratio"].as_f64().unwrap_or(f64::NAN)
+        );
+    }
+    Ok(())
+}

@@ -1,0 +1,145 @@
+//! The headless subcommands. Each prints a readable report, or one JSON object with `--json`.
+
+mod bench;
+mod deform;
+mod export;
+mod info;
+
+use clap::{Parser, Subcommand, ValueEnum};
+use std::path::PathBuf;
+
+/// BS-ARAP mesh deformation: editor and headless tools.
+#[derive(Debug, Parser)]
+#[command(name = "bsarap", version, about)]
+pub struct Cli {
+    /// Without a subcommand, `bsarap` opens the editor on the default mesh.
+    #[command(subcommand)]
+    pub command: Option<Command>,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Open the interactive editor (on the default mesh in assets/ when MESH is omitted).
+    Edit(EditArgs),
+    /// Mesh statistics after loading and cleaning.
+    Info(info::InfoArgs),
+    /// Solve one pose from rest and write it as OBJ.
+    Deform(deform::DeformArgs),
+    /// The paper's animation benchmark: the first handle group moves on a circle.
+    Bench(bench::BenchArgs),
+    /// Play a scene's timeline headless and write glTF (.glb/.gltf) with one morph target per frame.
+    Export(export::ExportArgs),
+}
+
+/// `bsarap edit [MESH]`.
+#[derive(Debug, clap::Args)]
+pub struct EditArgs {
+    /// Mesh to open (OBJ, OFF, PLY, STL).
+    pub mesh: Option<PathBuf>,
+}
+
+/// `--method`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum MethodArg {
+    /// ARAP on the mesh.
+    Arap,
+    /// The paper's BS-ARAP (bi-harmonic base).
+    Bsarap,
+    /// BS-ARAP on a faired base (bi-Laplacian with a data term).
+    BsarapFaired,
+    /// BS-ARAP with ARAP on a decimated faired base.
+    BsarapCoarse,
+}
+
+impl From<MethodArg> for solver::Method {
+    fn from(m: MethodArg) -> Self {
+        match m {
+            MethodArg::Arap => solver::Method::Arap,
+            MethodArg::Bsarap => solver::Method::BsArap,
+            MethodArg::BsarapFaired => solver::Method::BsArapFaired,
+            MethodArg::BsarapCoarse => solver::Method::BsArapCoarse,
+        }
+    }
+}
+
+/// `--energy`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum EnergyArg {
+    SpokesAndRims,
+    Spokes,
+}
+
+impl From<EnergyArg> for solver::Energy {
+    fn from(e: EnergyArg) -> Self {
+        match e {
+            EnergyArg::SpokesAndRims => solver::Energy::SpokesAndRims,
+            EnergyArg::Spokes => solver::Energy::Spokes,
+        }
+    }
+}
+
+/// Runs one subcommand.
+pub fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        None => app::editor::run(None),
+        Some(Command::Edit(a)) => app::editor::run(a.mesh),
+        Some(Command::Info(a)) => info::run(&a),
+        Some(Command::Deform(a)) => deform::run(&a),
+        Some(Command::Bench(a)) => bench::run(&a),
+        Some(Command::Export(a)) => export::run(&a),
+    }
+}
+
+/// Loads and cleans a mesh, with the path in the error.
+pub fn load(path: &std::path::Path) -> anyhow::Result<solver::io::LoadedMesh> {
+    Ok(solver::io::load_mesh(path)?)
+}
+
+/// Loads a handle selection (.dmat or sphere .json) for `mesh`.
+pub fn load_handles(
+    path: &std::path::Path,
+    mesh: &solver::Mesh,
+) -> anyhow::Result<solver::Handles> {
+    Ok(solver::selection::load_selection(path, mesh.positions())?)
+}
+
+/// Tolerance and cap validation shared by deform and bench.
+pub fn check_stopping(tol: f64, max_iters: usize) -> anyhow::Result<()> {
+    anyhow::ensure!(tol.is_finite() && tol >= 0.0, "--tol must be a finite number ≥ 0 (got {tol})");
+    anyhow::ensure!(
+        (1..=100_000).contains(&max_iters),
+        "--max-iters must be between 1 and 100000 (got {max_iters})"
+    );
+    Ok(())
+}
+
+pub type PathArg = PathBuf;
+
+/// Base-surface options shared by deform and bench.
+#[derive(Debug, Clone, clap::Args)]
+pub struct BaseArgs {
+    /// Smoothing length of the faired base (bsarap-faired, bsarap-coarse), as a fraction of the
+    /// bounding-box diagonal.
+    #[arg(long, default_value_t = solver::BaseConfig::default().smoothing)]
+    pub smoothing: f64,
+    /// Vertices of the coarse base (bsarap-coarse).
+    #[arg(long, default_value_t = solver::BaseConfig::default().coarse_vertices)]
+    pub coarse_vertices: usize,
+}
+
+impl BaseArgs {
+    /// Validated settings.
+    pub fn config(&self) -> anyhow::Result<solver::BaseConfig> {
+        anyhow::ensure!(
+            self.smoothing.is_finite() && self.smoothing > 0.0 && self.smoothing <= 1.0,
+            "--smoothing must be in (0, 1] (a fraction of the bounding-box diagonal; got {})",
+            self.smoothing
+        );
+        anyhow::ensure!(
+            (16..=10_000_000).contains(&self.coarse_vertices),
+            "--coarse-vertices must be between 16 and 10000000 (got {})",
+            self.coarse_vertices
+        );
+        Ok(solver::BaseConfig { smoothing: self.smoothing, coarse_vertices: self.coarse_vertices })
+    }
+}

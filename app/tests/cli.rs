@@ -1,0 +1,164 @@
+//! The `bsarap` command line: contracts of DESIGN.md section 3, run on the real binary.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn bsarap(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_bsarap")).args(args).output().expect("run bsarap");
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+fn shared() -> Option<PathBuf> {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/meshes");
+    p.is_dir().then_some(p)
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("bsarap-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d.join(name)
+}
+
+/// A small closed mesh (icosphere, 162 vertices) and a selection of its two x-caps,
+/// written to temp files; returns the labels too.
+fn sphere() -> (PathBuf, PathBuf, Vec<i64>) {
+    let m = solver::shapes::icosphere(2);
+    let obj = tmp("sphere.obj");
+    solver::io::write_obj(&obj, m.positions(), m.triangles()).unwrap();
+    let labels: Vec<i64> = m
+        .positions()
+        .iter()
+        .map(|p| {
+            if p[0] > 0.8 {
+                0
+            } else if p[0] < -0.8 {
+                1
+            } else {
+                -1
+            }
+        })
+        .collect();
+    let sel = tmp("sphere.dmat");
+    let body: Vec<String> = labels.iter().map(|l| l.to_string()).collect();
+    std::fs::write(&sel, format!("1 {}\n{}\n", labels.len(), body.join("\n"))).unwrap();
+    (obj, sel, labels)
+}
+
+#[test]
+fn info_matches_the_shared_meshes_readme() {
+    let Some(dir) = shared() else {
+        println!("skipped: ../shared/meshes not found");
+        return;
+    };
+    // (file, vertices, faces, boundary edges) from ../shared/meshes/README.md.
+    for (f, v, fc, b) in [
+        ("decimated-knight.off", 502, 1000, 0),
+        ("cheburashka.off", 6669, 13334, 0),
+        ("decimated-max.obj", 5272, 10540, 0),
+        ("armadillo.obj", 43243, 86482, 0),
+        ("bunny.off", 34834, 69451, 223),
+        ("dragon.obj", 50000, 100000, 0),
+    ] {
+        let (code, out, err) = bsarap(&["info", dir.join(f).to_str().unwrap(), "--json"]);
+        assert_eq!(code, 0, "{f}: {err}");
+        let j: serde_json::Value = serde_json::from_str(&out).unwrap();
+        assert_eq!(j["vertices"], v, "{f}");
+        assert_eq!(j["faces"], fc, "{f}");
+        assert_eq!(j["components"], 1, "{f}");
+        assert_eq!(j["boundary_edges"], b, "{f}");
+        assert_eq!(j["non_manifold_edges"], 0, "{f}");
+        assert_eq!(j["vertices_welded"], 0, "{f}");
+        assert_eq!(j["degenerate_faces_removed"], 0, "{f}");
+    }
+}
+
+#[test]
+fn errors_are_one_line_with_nonzero_exit() {
+    let (obj, sel, _) = sphere();
+    let bad = tmp("bad.obj");
+    std::fs::write(&bad, "v 0 0 0\nv 1 0 nan\nv 0 1 0\nf 1 2 3\n").unwrap();
+    let out = tmp("o.obj");
+    let (o, s, b, t) = (
+        obj.to_str().unwrap(),
+        sel.to_str().unwrap(),
+        bad.to_str().unwrap(),
+        out.to_str().unwrap(),
+    );
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (vec!["info", "/definitely/not/here.obj"], "not/here.obj"),
+        (vec!["info", b], "bad.obj:2"),
+        (vec!["info", "/tmp"], "directory"),
+        (vec!["deform", o, "--handles", s, "--move", "7:0,1,0", "-o", t], "group 7"),
+        (vec!["deform", o, "--handles", s, "--move", "0:0,x,0", "-o", t], "--move"),
+        (vec!["deform", o, "--handles", s, "--move", "0:0,1", "-o", t], "--move"),
+        (vec!["deform", o, "--handles", s, "--rotate", "0:0,0,0,30", "-o", t], "axis"),
+        (vec!["deform", o, "--handles", s, "--tol", "-1", "-o", t], "--tol"),
+        (vec!["deform", o, "--handles", "/nope.dmat", "-o", t], "nope.dmat"),
+        (vec!["deform", o, "--handles", s, "--method", "magic", "-o", t], "magic"),
+        (vec!["deform", o], "required"),
+        (vec!["bench", o, "--handles", s, "--frames", "0"], "--frames"),
+    ];
+    for (args, needle) in cases {
+        let (code, stdout, stderr) = bsarap(&args);
+        assert_ne!(code, 0, "{args:?} should fail");
+        assert_eq!(stderr.trim_end().lines().count(), 1, "{args:?}: not one line: {stderr}");
+        assert!(stderr.contains(needle), "{args:?}: {stderr:?} lacks {needle:?}");
+        assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+        assert!(stdout.is_empty(), "{args:?}: {stdout}");
+    }
+}
+
+#[test]
+fn deform_keeps_vertex_order_and_honours_tol_zero() {
+    let (obj, sel, labels) = sphere();
+    let rest = solver::io::load_mesh(&obj).unwrap().mesh;
+    let out = tmp("posed.obj");
+    for method in ["arap", "bsarap"] {
+        let (code, stdout, stderr) = bsarap(&[
+            "deform",
+            obj.to_str().unwrap(),
+            "--handles",
+            sel.to_str().unwrap(),
+            "--move",
+            "0:0.5,0,0",
+            "--rotate",
+            "1:1,0,0,20",
+            "--method",
+            method,
+            "--tol",
+            "0",
+            "--max-iters",
+            "7",
+            "-o",
+            out.to_str().unwrap(),
+            "--json",
+        ]);
+        assert_eq!(code, 0, "{stderr}");
+        let j: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+        assert_eq!(j["iterations"], 7, "{method}: --tol 0 runs exactly --max-iters");
+        assert!(j["final_energy"].as_f64().unwrap().is_finite());
+        let posed = std::fs::read_to_string(&out).unwrap();
+        let v: Vec<Vec<f64>> = posed
+            .lines()
+            .filter(|l| l.starts_with("v "))
+            .map(|l| l.split_whitespace().skip(1).map(|x| x.parse().unwrap()).collect())
+            .collect();
+        assert_eq!(v.len(), rest.n_vertices());
+        // Group 0 moved by +0.5 in x; group 1 turned about the x axis through its centroid,
+        // which keeps x: both at the same indices as in the input.
+        for (i, p) in rest.positions().iter().enumerate() {
+            match labels[i] {
+                0 => {
+                    assert!((v[i][0] - p[0] - 0.5).abs() < 1e-12 && (v[i][1] - p[1]).abs() < 1e-12)
+                }
+                1 => assert!((v[i][0] - p[0]).abs() < 1e-12, "{method}: vertex {i}"),
+                _ => {}
+            }
+        }
+    }
+}

@@ -1,0 +1,870 @@
+//! As-Rigid-As-Possible surface deformation (Sorkine & Alexa 2007) by local-global iteration.
+//!
+//! Energy (Sun et al. 2017, Eq. 3), over cells $\mathcal{C}_i$ of rest edges $e_{jk}=p_j-p_k$:
+//! $$E(p') = \sum_i \sum_{(j,k)\in\mathcal{C}_i} w_{jk}\,\lVert (p'_j-p'_k) - R_i(p_j-p_k)\rVert^2.$$
+//! - [`Energy::SpokesAndRims`] (default; Chao et al. 2010, the paper's Eq. 2, libigl's default
+//!   for surfaces): the cell of vertex $i$ is every edge of every triangle around $i$, with the
+//!   per-triangle weight $\tfrac12\cot$ of the opposite angle. Negative weights are kept.
+//! - [`Energy::Spokes`]: the cell of $i$ is its one-ring edges $(i,j)$, weight $w_{ij}$, clamped
+//!   at zero (negative spoke weights can make the local fit meaningless).
+//!
+//! **Local step** (Eq. 5): $S_i = \sum w_{jk} e_{jk} e'^\top_{jk}$, $R_i$ from
+//! [`crate::rotation::fit_rotation`]; parallel over vertices (rayon).
+//! **Global step** (Eq. 4): $L_{FF}\,p'_F = b_F - L_{FH}\,p'_H$ with
+//! $b_j = \sum_{t}\sum_{(j,k)\in t} w^t_{jk}\,\bar R_t\,e_{jk}$, $\bar R_t$ the mean of the three
+//! rotations of triangle $t$ (spokes and rims), or $b_i = \sum_j \tfrac{w_{ij}}2(R_i+R_j)e_{ij}$
+//! (spokes). $L_{FF}$ is factored once per handle set ([`crate::linsolve::SpdFactor`]); an
+//! iteration is one 3-column back-substitution.
+//!
+//! Each local and each global step weakly decreases $E$; iteration stops when the relative
+//! decrease $(E_{k-1}-E_k)/E_{k-1}$ falls below the tolerance, or at the iteration cap.
+//!
+//! Inputs: a [`Mesh`] (`#V×3`, `#F×3`), [`Handles`], an [`ArapConfig`]; targets `#H×3` in the
+//! order of [`Handles::handle_vertices`]. Known limitation: convergence is linear, slow for
+//! large rotations of far-apart handles (what BS-ARAP's smooth base is meant to help with).
+
+use crate::constraints::Constraints;
+use crate::cotan::{edge_weights, face_cotangents, laplacian_triplets, opposite_edge};
+use crate::error::SolveError;
+use crate::handles::Handles;
+use crate::linsolve::SpdFactor;
+use crate::mesh::{Mesh, sub};
+use crate::rotation::{IDENTITY, Mat3, add_mat, add_outer, fit_rotation, mul_vec, scale_mat};
+use faer::Mat;
+use faer::sparse::Triplet;
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// The ARAP cell type.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Energy {
+    /// Every edge of the triangles around a vertex (Chao et al. 2010). The default.
+    #[default]
+    SpokesAndRims,
+    /// The one-ring edges of a vertex (Sorkine & Alexa 2007).
+    Spokes,
+}
+
+/// How the local-global iteration is accelerated.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Acceleration {
+    /// Plain local-global (Sorkine & Alexa 2007). The default.
+    #[default]
+    None,
+    /// Anderson acceleration of the free positions with a window of `window` past steps
+    /// (Peng et al. 2018; [`crate::anderson`]), safeguarded: an accelerated iterate whose
+    /// energy $E(x, R(x))$ exceeds the last accepted one is replaced by the plain step.
+    Anderson { window: usize },
+}
+
+/// Settings of the local-global iteration.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ArapConfig {
+    /// Cell type of the energy. Default: spokes and rims.
+    pub energy: Energy,
+    /// Stop when the relative energy decrease of an iteration falls below this (unitless).
+    /// `0` runs exactly `max_iterations`. Default `1e-4` (the reference run of DESIGN.md §5).
+    pub tolerance: f64,
+    /// Iteration cap per solve. Default 100.
+    pub max_iterations: usize,
+    /// Acceleration of the loop. Default none (plain local-global).
+    #[serde(default)]
+    pub acceleration: Acceleration,
+    /// Also stop once $E_k \le$ `energy_threshold`$\cdot E_0$, $E_0$ the energy of the solve's
+    /// starting guess: the paper's absolute threshold on the energy normalized to 0–1 (its
+    /// Fig. 10). `0` (the default) disables it.
+    #[serde(default)]
+    pub energy_threshold: f64,
+}
+
+impl Default for ArapConfig {
+    fn default() -> Self {
+        ArapConfig {
+            energy: Energy::SpokesAndRims,
+            tolerance: 1e-4,
+            max_iterations: 100,
+            acceleration: Acceleration::None,
+            energy_threshold: 0.0,
+        }
+    }
+}
+
+/// What one call of [`Arap::solve`] did.
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
+pub struct SolveStats {
+    /// Local-global iterations run.
+    pub iterations: usize,
+    /// Whether the tolerance was met (false: stopped at the cap).
+    pub converged: bool,
+    /// $E(p'_0, R_1)$: the energy of the starting guess (with handles on target).
+    pub initial_energy: f64,
+    /// Energy after each iteration, $E(p'_k, R_k)$ (with Anderson acceleration
+    /// $E(p'_k, R(p'_k))$, the rotations fitted to the accepted iterate); never increases.
+    pub energies: Vec<f64>,
+    /// Milliseconds in the local steps (rotation fits), summed over iterations.
+    pub local_ms: f64,
+    /// Milliseconds assembling right-hand sides.
+    pub rhs_ms: f64,
+    /// Milliseconds in the back-substitutions.
+    pub solve_ms: f64,
+    /// Milliseconds evaluating the energy.
+    pub energy_ms: f64,
+    /// Anderson steps rejected by the energy safeguard (0 without acceleration).
+    pub rejected_steps: usize,
+}
+
+impl SolveStats {
+    /// Final energy (the initial one when no iteration ran).
+    pub fn energy(&self) -> f64 {
+        self.energies.last().copied().unwrap_or(self.initial_energy)
+    }
+    /// Total milliseconds of the solve.
+    pub fn total_ms(&self) -> f64 {
+        self.local_ms + self.rhs_ms + self.solve_ms + self.energy_ms
+    }
+}
+
+/// Compressed adjacency lists: `items[offsets[i]..offsets[i+1]]` belong to `i`.
+#[derive(Debug, Clone)]
+struct Csr<T> {
+    offsets: Vec<usize>,
+    items: Vec<T>,
+}
+
+impl<T: Copy> Csr<T> {
+    fn from_pairs(n: usize, pairs: &[(u32, T)]) -> Csr<T> {
+        let mut offsets = vec![0usize; n + 1];
+        for &(i, _) in pairs {
+            offsets[i as usize + 1] += 1;
+        }
+        for i in 0..n {
+            offsets[i + 1] += offsets[i];
+        }
+        let mut fill = offsets.clone();
+        let mut items: Vec<Option<T>> = vec![None; pairs.len()];
+        for &(i, x) in pairs {
+            items[fill[i as usize]] = Some(x);
+            fill[i as usize] += 1;
+        }
+        Csr { offsets, items: items.into_iter().flatten().collect() }
+    }
+    #[inline]
+    fn row(&self, i: usize) -> &[T] {
+        &self.items[self.offsets[i]..self.offsets[i + 1]]
+    }
+}
+
+/// The cells of the energy, with their weights.
+#[derive(Debug, Clone)]
+enum Cells {
+    /// Per face: half cotangents per corner and the rest edge opposite each corner
+    /// ($p_a - p_b$ for [`opposite_edge`]); per vertex: (face, corner) incidences and, aligned
+    /// with them, the constant vector $v$ with $b_i \mathrel{+}= \bar R_f v$ in the rhs.
+    SpokesAndRims {
+        cot: Vec<[f64; 3]>,
+        edges: Vec<[[f64; 3]; 3]>,
+        vertex_faces: Csr<(u32, u8)>,
+        rhs_vectors: Vec<[f64; 3]>,
+    },
+    /// Per vertex: (neighbour, clamped weight).
+    Spokes { neighbours: Csr<(u32, f64)> },
+}
+
+/// ARAP precomputed for one mesh and one handle set: the factorization of $L_{FF}$ and the
+/// current pose (the warm start of the next solve).
+#[derive(Debug)]
+pub struct Arap {
+    rest: Vec<[f64; 3]>,
+    triangles: Vec<[u32; 3]>,
+    config: ArapConfig,
+    cells: Cells,
+    constraints: Constraints,
+    /// Per free row: (fixed vertex h, w_ih) so that rhs_i += Σ w_ih x_h.
+    coupling: Csr<(u32, f64)>,
+    /// `None` when every vertex is fixed.
+    factor: Option<SpdFactor>,
+    rotations: Vec<Mat3>,
+    face_rotation: Vec<Mat3>,
+    /// Per-face covariance buffer of the local step (spokes and rims).
+    face_cov: Vec<Mat3>,
+    /// Per-free-row rhs buffer, copied into `rhs` before the solve.
+    rows: Vec<[f64; 3]>,
+    current: Vec<[f64; 3]>,
+    rhs: Mat<f64>,
+}
+
+impl Arap {
+    /// Precomputes cells and weights and factors $L_{FF}$ (once per handle set).
+    pub fn new(mesh: &Mesh, handles: &Handles, config: &ArapConfig) -> Result<Arap, SolveError> {
+        if handles.n_vertices() != mesh.n_vertices() {
+            return Err(SolveError::HandleCount {
+                got: handles.n_vertices(),
+                expected: mesh.n_vertices(),
+            });
+        }
+        let constraints = Constraints::new(mesh, handles);
+        Arap::with_constraints(mesh, constraints, config, 0.0)
+    }
+
+    /// As [`Arap::new`] with a precomputed partition (shared with the bi-harmonic base) and an
+    /// absolute floor on doubled triangle areas (see [`face_cotangents`]).
+    pub(crate) fn with_constraints(
+        mesh: &Mesh,
+        constraints: Constraints,
+        config: &ArapConfig,
+        min_double_area: f64,
+    ) -> Result<Arap, SolveError> {
+        let n = mesh.n_vertices();
+        let tris = mesh.triangles();
+        let cot = face_cotangents(mesh.positions(), tris, min_double_area)
+            .map_err(|d| SolveError::DegenerateFace { face: d.face })?;
+        let clamp = config.energy == Energy::Spokes;
+        let weights = edge_weights(tris, &cot, clamp);
+
+        // Free block L_FF (lower triangle) and the coupling to fixed vertices.
+        let mut ff = Vec::with_capacity(n + weights.len());
+        let mut coupling = Vec::new();
+        let mut diag = vec![0.0; constraints.free_vertices.len()];
+        for t in laplacian_triplets(n, tris, &cot, clamp) {
+            let (fi, fj) = (constraints.free_index[t.row], constraints.free_index[t.col]);
+            match (fi, fj) {
+                (Some(r), Some(_)) if t.row == t.col => diag[r as usize] += t.val,
+                (Some(r), Some(c)) if r > c => ff.push(Triplet::new(r as usize, c as usize, t.val)),
+                (Some(r), None) => coupling.push((r, (t.col as u32, -t.val))),
+                _ => {}
+            }
+        }
+        ff.extend(diag.iter().enumerate().map(|(r, &d)| Triplet::new(r, r, d)));
+        let n_free = constraints.free_vertices.len();
+        let factor = if n_free == 0 {
+            None
+        } else {
+            Some(SpdFactor::from_triplets(n_free, &ff).map_err(|source| {
+                SolveError::Factorization {
+                    matrix: "the free block of the cotangent Laplacian",
+                    source,
+                }
+            })?)
+        };
+        let coupling = Csr::from_pairs(n_free, &coupling);
+
+        let cells = match config.energy {
+            Energy::SpokesAndRims => {
+                let mut inc = Vec::with_capacity(3 * tris.len());
+                for (f, t) in tris.iter().enumerate() {
+                    for (k, &v) in t.iter().enumerate() {
+                        inc.push((v, (f as u32, k as u8)));
+                    }
+                }
+                let vertex_faces = Csr::from_pairs(n, &inc);
+                let p = mesh.positions();
+                let edges: Vec<[[f64; 3]; 3]> = tris
+                    .iter()
+                    .map(|t| {
+                        std::array::from_fn(|k| {
+                            let (a, b) = opposite_edge(*t, k);
+                            sub(p[a as usize], p[b as usize])
+                        })
+                    })
+                    .collect();
+                let mut rhs_vectors = Vec::with_capacity(vertex_faces.items.len());
+                for i in 0..n {
+                    for &(f, c) in vertex_faces.row(i) {
+                        let t = tris[f as usize];
+                        let w = cot[f as usize];
+                        let c = c as usize;
+                        let (n1, n2) = (t[(c + 1) % 3] as usize, t[(c + 2) % 3] as usize);
+                        // Edge (i, n2) is opposite corner c+1; edge (i, n1) opposite c+2.
+                        let e = sub(p[i], p[n2]);
+                        let g = sub(p[i], p[n1]);
+                        rhs_vectors.push([
+                            w[(c + 1) % 3] * e[0] + w[(c + 2) % 3] * g[0],
+                            w[(c + 1) % 3] * e[1] + w[(c + 2) % 3] * g[1],
+                            w[(c + 1) % 3] * e[2] + w[(c + 2) % 3] * g[2],
+                        ]);
+                    }
+                }
+                Cells::SpokesAndRims { cot, edges, vertex_faces, rhs_vectors }
+            }
+            Energy::Spokes => {
+                let mut nb = Vec::with_capacity(2 * weights.len());
+                for &(i, j, w) in &weights {
+                    nb.push((i, (j, w)));
+                    nb.push((j, (i, w)));
+                }
+                Cells::Spokes { neighbours: Csr::from_pairs(n, &nb) }
+            }
+        };
+        Ok(Arap {
+            rest: mesh.positions().to_vec(),
+            triangles: tris.to_vec(),
+            config: *config,
+            cells,
+            coupling,
+            factor,
+            rotations: vec![IDENTITY; n],
+            face_rotation: vec![IDENTITY; tris.len()],
+            face_cov: match config.energy {
+                Energy::SpokesAndRims => vec![[[0.0; 3]; 3]; tris.len()],
+                Energy::Spokes => Vec::new(),
+            },
+            rows: vec![[0.0; 3]; n_free],
+            current: mesh.positions().to_vec(),
+            rhs: Mat::zeros(n_free, 3),
+            constraints,
+        })
+    }
+
+    /// The fixed/free partition used (handles, pinned components).
+    pub fn constraints(&self) -> &Constraints {
+        &self.constraints
+    }
+
+    /// The settings.
+    pub fn config(&self) -> &ArapConfig {
+        &self.config
+    }
+
+    /// Changes tolerance, cap; an energy change needs a new [`Arap`] (other weights).
+    pub fn set_stopping(&mut self, tolerance: f64, max_iterations: usize) {
+        self.config.tolerance = tolerance;
+        self.config.max_iterations = max_iterations;
+    }
+
+    /// The current pose `#V×3` (the result of the last solve, the warm start of the next).
+    pub fn positions(&self) -> &[[f64; 3]] {
+        &self.current
+    }
+
+    /// Per-vertex rotations $R_i$ of the last local step.
+    pub fn rotations(&self) -> &[Mat3] {
+        &self.rotations
+    }
+
+    /// Rest positions `#V×3`.
+    pub fn rest(&self) -> &[[f64; 3]] {
+        &self.rest
+    }
+
+    /// Nonzeros of the Cholesky factor of $L_{FF}$ (0 when every vertex is fixed).
+    pub fn factor_nonzeros(&self) -> usize {
+        self.factor.as_ref().map_or(0, |f| f.factor_nonzeros())
+    }
+
+    /// Restarts the next solve from the rest pose.
+    pub fn reset(&mut self) {
+        self.current.copy_from_slice(&self.rest);
+        self.rotations.fill(IDENTITY);
+    }
+
+    /// Sets the starting guess of the next solve (`#V×3`, finite; other lengths are ignored).
+    pub fn set_positions(&mut self, x: &[[f64; 3]]) {
+        if x.len() == self.current.len() && x.iter().flatten().all(|c| c.is_finite()) {
+            self.current.copy_from_slice(x);
+        }
+    }
+
+    /// The ARAP energy of pose `x` (`#V×3`) against this solver's rest shape with the best
+    /// rotations, $\min_R E(x, R)$: a quality figure for results of other methods. The pose is
+    /// kept as the next warm start.
+    pub fn pose_energy(&mut self, x: &[[f64; 3]]) -> f64 {
+        self.set_positions(x);
+        self.local_step();
+        self.energy()
+    }
+
+    /// Runs local-global iterations from the current pose with the handle vertices moved to
+    /// `targets` (`#H×3`, order of [`Handles::handle_vertices`]) and pinned vertices at rest.
+    /// On a non-finite result the previous pose is kept and an error returned.
+    pub fn solve(&mut self, targets: &[[f64; 3]]) -> Result<SolveStats, SolveError> {
+        let hv = &self.constraints.handle_vertices;
+        if targets.len() != hv.len() {
+            return Err(SolveError::TargetCount { got: targets.len(), expected: hv.len() });
+        }
+        if let Some(index) = targets.iter().position(|t| !t.iter().all(|c| c.is_finite())) {
+            return Err(SolveError::NonFiniteTarget { index });
+        }
+        let previous = self.current.clone();
+        for (&v, t) in hv.iter().zip(targets) {
+            self.current[v as usize] = *t;
+        }
+        for &v in &self.constraints.pinned_vertices {
+            self.current[v as usize] = self.rest[v as usize];
+        }
+        let mut stats = SolveStats::default();
+        match self.config.acceleration {
+            Acceleration::None => self.iterate_plain(&mut stats),
+            Acceleration::Anderson { window } => self.iterate_anderson(&mut stats, window),
+        }
+        if let Some(vertex) = self.current.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
+            self.current = previous;
+            return Err(SolveError::NonFiniteResult { vertex });
+        }
+        Ok(stats)
+    }
+
+    /// The stopping rule: relative decrease below `tol`, or the normalized threshold.
+    fn stop(&self, tol: f64, prev: f64, e: f64, e0: f64) -> bool {
+        let th = self.config.energy_threshold;
+        (tol > 0.0 && (prev <= f64::MIN_POSITIVE || (prev - e) / prev < tol))
+            || (th > 0.0 && e <= th * e0)
+    }
+
+    /// Sets the starting guess to the Laplacian-editing fit for `targets` (Sun et al. 2017,
+    /// step 4): one global step with every $R_i = I$, i.e. $L_{FF}x_F = Lp|_F - L_{FH}x_H$.
+    /// Rotations are left at the identity.
+    pub fn start_from_laplacian_fit(&mut self, targets: &[[f64; 3]]) -> Result<(), SolveError> {
+        let hv = &self.constraints.handle_vertices;
+        if targets.len() != hv.len() {
+            return Err(SolveError::TargetCount { got: targets.len(), expected: hv.len() });
+        }
+        for (&v, t) in hv.iter().zip(targets) {
+            self.current[v as usize] = *t;
+        }
+        for &v in &self.constraints.pinned_vertices {
+            self.current[v as usize] = self.rest[v as usize];
+        }
+        self.rotations.fill(IDENTITY);
+        self.assemble_rhs();
+        if let Some(f) = self.factor.as_mut() {
+            f.solve_in_place(self.rhs.as_mut());
+        }
+        for (r, &v) in self.constraints.free_vertices.iter().enumerate() {
+            let p = [self.rhs[(r, 0)], self.rhs[(r, 1)], self.rhs[(r, 2)]];
+            if p.iter().all(|c| c.is_finite()) {
+                self.current[v as usize] = p;
+            }
+        }
+        Ok(())
+    }
+
+    /// Plain local-global iterations (the handles already on target in `current`).
+    fn iterate_plain(&mut self, stats: &mut SolveStats) {
+        let tol = self.config.tolerance;
+        for it in 0..self.config.max_iterations {
+            let t0 = Instant::now();
+            self.local_step();
+            let t1 = Instant::now();
+            stats.local_ms += ms(t0, t1);
+            if it == 0 {
+                stats.initial_energy = self.energy();
+                stats.energy_ms += ms(t1, Instant::now());
+            }
+            let t2 = Instant::now();
+            self.assemble_rhs();
+            let t3 = Instant::now();
+            stats.rhs_ms += ms(t2, t3);
+            if let Some(f) = self.factor.as_mut() {
+                f.solve_in_place(self.rhs.as_mut());
+            }
+            for (r, &v) in self.constraints.free_vertices.iter().enumerate() {
+                self.current[v as usize] = [self.rhs[(r, 0)], self.rhs[(r, 1)], self.rhs[(r, 2)]];
+            }
+            let t4 = Instant::now();
+            stats.solve_ms += ms(t3, t4);
+            let e = self.energy();
+            stats.energy_ms += ms(t4, Instant::now());
+            let prev = stats.energies.last().copied().unwrap_or(stats.initial_energy);
+            stats.energies.push(e);
+            stats.iterations = it + 1;
+            if self.stop(tol, prev, e, stats.initial_energy) {
+                stats.converged = true;
+                break;
+            }
+        }
+    }
+
+    /// Local-global with safeguarded Anderson acceleration of the free positions. Energies are
+    /// $E(x_k, R(x_k))$: each iterate gets its own local step, which the next global step reuses.
+    /// An accelerated iterate with a higher energy than the last accepted one is replaced by the
+    /// plain step $G(x_k)$, for which $E(G(x), R(G(x))) \le E(G(x), R(x)) \le E(x, R(x))$.
+    fn iterate_anderson(&mut self, stats: &mut SolveStats, window: usize) {
+        let tol = self.config.tolerance;
+        let free = self.constraints.free_vertices.clone();
+        let dim = 3 * free.len();
+        let mut aa = crate::anderson::Anderson::new(window, dim);
+        let gather = |cur: &[[f64; 3]], out: &mut [f64]| {
+            for (r, &v) in free.iter().enumerate() {
+                out[3 * r..3 * r + 3].copy_from_slice(&cur[v as usize]);
+            }
+        };
+        let scatter = |src: &[f64], cur: &mut [[f64; 3]]| {
+            for (r, &v) in free.iter().enumerate() {
+                cur[v as usize] = [src[3 * r], src[3 * r + 1], src[3 * r + 2]];
+            }
+        };
+        let (mut x, mut g, mut xa) = (vec![0.0; dim], vec![0.0; dim], vec![0.0; dim]);
+        gather(&self.current, &mut x);
+        let t0 = Instant::now();
+        self.local_step();
+        let t1 = Instant::now();
+        stats.local_ms += ms(t0, t1);
+        let mut accepted = self.energy();
+        stats.energy_ms += ms(t1, Instant::now());
+        stats.initial_energy = accepted;
+        for it in 0..self.config.max_iterations {
+            let t2 = Instant::now();
+            self.assemble_rhs();
+            let t3 = Instant::now();
+            stats.rhs_ms += ms(t2, t3);
+            if let Some(f) = self.factor.as_mut() {
+                f.solve_in_place(self.rhs.as_mut());
+            }
+            for r in 0..free.len() {
+                g[3 * r..3 * r + 3].copy_from_slice(&[
+                    self.rhs[(r, 0)],
+                    self.rhs[(r, 1)],
+                    self.rhs[(r, 2)],
+                ]);
+            }
+            aa.step(&x, &g, &mut xa);
+            scatter(&xa, &mut self.current);
+            let t4 = Instant::now();
+            stats.solve_ms += ms(t3, t4);
+            self.local_step();
+            let t5 = Instant::now();
+            stats.local_ms += ms(t4, t5);
+            let mut e = self.energy();
+            let t6 = Instant::now();
+            stats.energy_ms += ms(t5, t6);
+            if e <= accepted {
+                std::mem::swap(&mut x, &mut xa);
+            } else {
+                // Safeguard: take the plain step instead and restart the history.
+                stats.rejected_steps += 1;
+                aa.reset();
+                scatter(&g, &mut self.current);
+                self.local_step();
+                let t7 = Instant::now();
+                stats.local_ms += ms(t6, t7);
+                e = self.energy();
+                stats.energy_ms += ms(t7, Instant::now());
+                std::mem::swap(&mut x, &mut g);
+            }
+            let prev = accepted;
+            accepted = e;
+            stats.energies.push(e);
+            stats.iterations = it + 1;
+            if self.stop(tol, prev, e, stats.initial_energy) {
+                stats.converged = true;
+                break;
+            }
+        }
+    }
+
+    /// Local step: $R_i$ = best rotation of cell $i$ for the current pose. No allocation: the
+    /// per-face covariances go to a buffer kept between iterations.
+    fn local_step(&mut self) {
+        let x = &self.current;
+        let p = &self.rest;
+        match &self.cells {
+            Cells::SpokesAndRims { cot, edges, vertex_faces, .. } => {
+                let tris = &self.triangles;
+                // Per-face covariance, then per-vertex sums over the incident faces.
+                self.face_cov
+                    .par_iter_mut()
+                    .zip(tris.par_iter().zip(cot.par_iter().zip(edges.par_iter())))
+                    .with_min_len(1024)
+                    .for_each(|(c, (t, (w, e)))| {
+                        let mut m = [[0.0; 3]; 3];
+                        for k in 0..3 {
+                            let (a, b) = opposite_edge(*t, k);
+                            add_outer(&mut m, w[k], e[k], sub(x[a as usize], x[b as usize]));
+                        }
+                        *c = m;
+                    });
+                let face_cov = &self.face_cov;
+                self.rotations.par_iter_mut().enumerate().with_min_len(512).for_each(|(i, r)| {
+                    let mut s = [[0.0; 3]; 3];
+                    for &(f, _) in vertex_faces.row(i) {
+                        s = add_mat(&s, &face_cov[f as usize]);
+                    }
+                    *r = fit_rotation(&s);
+                });
+            }
+            Cells::Spokes { neighbours } => {
+                self.rotations.par_iter_mut().enumerate().with_min_len(512).for_each(|(i, r)| {
+                    let mut s = [[0.0; 3]; 3];
+                    for &(j, w) in neighbours.row(i) {
+                        let j = j as usize;
+                        add_outer(&mut s, w, sub(p[i], p[j]), sub(x[i], x[j]));
+                    }
+                    *r = fit_rotation(&s);
+                });
+            }
+        }
+    }
+
+    /// Right-hand side of the global step for the free rows: $b_F - L_{FH} x_H$. The constant
+    /// rest-edge combinations are precomputed; rows go to a buffer kept between iterations.
+    fn assemble_rhs(&mut self) {
+        let p = &self.rest;
+        let x = &self.current;
+        let rot = &self.rotations;
+        let free = &self.constraints.free_vertices;
+        let coupling = &self.coupling;
+        match &self.cells {
+            Cells::SpokesAndRims { vertex_faces, rhs_vectors, .. } => {
+                let tris = &self.triangles;
+                self.face_rotation.par_iter_mut().zip(tris.par_iter()).with_min_len(1024).for_each(
+                    |(fr, t)| {
+                        let [a, b, c] = t.map(|v| &rot[v as usize]);
+                        *fr = scale_mat(&add_mat(&add_mat(a, b), c), 1.0 / 3.0);
+                    },
+                );
+                let face_rotation = &self.face_rotation;
+                self.rows
+                    .par_iter_mut()
+                    .zip(free.par_iter())
+                    .enumerate()
+                    .with_min_len(512)
+                    .for_each(|(r, (row, &i))| {
+                        let i = i as usize;
+                        let (lo, hi) = (vertex_faces.offsets[i], vertex_faces.offsets[i + 1]);
+                        let mut b = [0.0; 3];
+                        for (&(f, _), &v) in
+                            vertex_faces.items[lo..hi].iter().zip(&rhs_vectors[lo..hi])
+                        {
+                            let rv = mul_vec(&face_rotation[f as usize], v);
+                            b = [b[0] + rv[0], b[1] + rv[1], b[2] + rv[2]];
+                        }
+                        *row = add_coupling(b, coupling.row(r), x);
+                    });
+            }
+            Cells::Spokes { neighbours } => {
+                self.rows
+                    .par_iter_mut()
+                    .zip(free.par_iter())
+                    .enumerate()
+                    .with_min_len(512)
+                    .for_each(|(r, (row, &i))| {
+                        let i = i as usize;
+                        let mut b = [0.0; 3];
+                        for &(j, w) in neighbours.row(i) {
+                            let j = j as usize;
+                            let rr = scale_mat(&add_mat(&rot[i], &rot[j]), 0.5 * w);
+                            let rv = mul_vec(&rr, sub(p[i], p[j]));
+                            b = [b[0] + rv[0], b[1] + rv[1], b[2] + rv[2]];
+                        }
+                        *row = add_coupling(b, coupling.row(r), x);
+                    });
+            }
+        }
+        for k in 0..3 {
+            let col = self.rhs.col_as_slice_mut(k);
+            for (c, row) in col.iter_mut().zip(&self.rows) {
+                *c = row[k];
+            }
+        }
+    }
+
+    /// $E(p', R)$ for the current pose and rotations.
+    pub fn energy(&self) -> f64 {
+        let x = &self.current;
+        let p = &self.rest;
+        let rot = &self.rotations;
+        match &self.cells {
+            Cells::SpokesAndRims { cot, edges, .. } => self
+                .triangles
+                .par_iter()
+                .zip(cot.par_iter().zip(edges.par_iter()))
+                .with_min_len(1024)
+                .map(|(t, (w, edge))| {
+                    let mut e = 0.0;
+                    let rs = t.map(|v| &rot[v as usize]);
+                    for k in 0..3 {
+                        let (a, b) = opposite_edge(*t, k);
+                        let de = sub(x[a as usize], x[b as usize]);
+                        let mut ek = 0.0;
+                        for r in rs {
+                            let d = sub(de, mul_vec(r, edge[k]));
+                            ek += d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+                        }
+                        e += w[k] * ek;
+                    }
+                    e
+                })
+                .sum(),
+            Cells::Spokes { neighbours } => (0..x.len())
+                .into_par_iter()
+                .with_min_len(512)
+                .map(|i| {
+                    let mut e = 0.0;
+                    for &(j, w) in neighbours.row(i) {
+                        let j = j as usize;
+                        let d = sub(sub(x[i], x[j]), mul_vec(&rot[i], sub(p[i], p[j])));
+                        e += w * (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+                    }
+                    e
+                })
+                .sum(),
+        }
+    }
+}
+
+#[inline]
+fn add_coupling(mut b: [f64; 3], row: &[(u32, f64)], x: &[[f64; 3]]) -> [f64; 3] {
+    for &(h, w) in row {
+        let xh = x[h as usize];
+        b = [b[0] + w * xh[0], b[1] + w * xh[1], b[2] + w * xh[2]];
+    }
+    b
+}
+
+#[inline]
+fn ms(a: Instant, b: Instant) -> f64 {
+    (b - a).as_secs_f64() * 1e3
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, clippy::expect_used, clippy::needless_range_loop)]
+    use super::*;
+    use crate::rotation::{axis_angle, fit_rotation_svd};
+    use crate::shapes::icosphere;
+
+    /// A bumpy ellipsoid with two end caps as handle groups.
+    fn setup() -> (Mesh, Handles) {
+        let s = icosphere(3);
+        let p: Vec<[f64; 3]> = s
+            .positions()
+            .iter()
+            .map(|&[x, y, z]| {
+                let bump = 1.0 + 0.05 * (7.0 * x).sin() * (5.0 * y).cos();
+                [2.0 * x * bump, 0.6 * y * bump, 0.5 * z * bump]
+            })
+            .collect();
+        let m = s.with_positions(p).unwrap();
+        let labels: Vec<i64> = m
+            .positions()
+            .iter()
+            .map(|p| {
+                if p[0] > 1.7 {
+                    0
+                } else if p[0] < -1.7 {
+                    1
+                } else {
+                    -1
+                }
+            })
+            .collect();
+        let h = Handles::from_labels(&labels, m.n_vertices()).unwrap();
+        (m, h)
+    }
+
+    /// A deformed pose: a twist and bend of the rest shape.
+    fn pose(rest: &[[f64; 3]]) -> Vec<[f64; 3]> {
+        rest.iter()
+            .map(|&p| {
+                let r = axis_angle([1.0, 0.3, 0.0], 0.4 * p[0]);
+                let q = mul_vec(&r, p);
+                [q[0], q[1] + 0.1 * p[0] * p[0], q[2]]
+            })
+            .collect()
+    }
+
+    /// The optimized local step and rhs (buffers, precomputed edges, quaternion fit) against a
+    /// direct transcription of the formulas with the SVD fit.
+    #[test]
+    fn optimized_local_step_and_rhs_match_reference() {
+        let (m, h) = setup();
+        let mut a = Arap::new(&m, &h, &ArapConfig::default()).unwrap();
+        let x = pose(m.positions());
+        a.set_positions(&x);
+        a.local_step();
+        a.assemble_rhs();
+        let p = m.positions();
+        let tris = m.triangles();
+        let cot = face_cotangents(p, tris, 0.0).unwrap();
+        // Reference rotations: S_i = Σ_{t ∋ i} Σ_k w_k (p_a - p_b)(x_a - x_b)^T.
+        let mut s = vec![[[0.0; 3]; 3]; p.len()];
+        for (t, w) in tris.iter().zip(&cot) {
+            for k in 0..3 {
+                let (u, v) = opposite_edge(*t, k);
+                let (u, v) = (u as usize, v as usize);
+                for &i in t {
+                    add_outer(&mut s[i as usize], w[k], sub(p[u], p[v]), sub(x[u], x[v]));
+                }
+            }
+        }
+        let mut max_r: f64 = 0.0;
+        for (i, si) in s.iter().enumerate() {
+            let r = fit_rotation_svd(si);
+            for (ra, rb) in r.iter().flatten().zip(a.rotations()[i].iter().flatten()) {
+                max_r = max_r.max((ra - rb).abs());
+            }
+        }
+        assert!(max_r < 1e-10, "rotations differ by {max_r}");
+        // Reference rhs: b_i = Σ_t Σ_{(j,k) ∋ i} w (R̄_t e) with signs, plus the coupling.
+        let rot = a.rotations().to_vec();
+        let mut b = vec![[0.0; 3]; p.len()];
+        for (t, w) in tris.iter().zip(&cot) {
+            let rbar = scale_mat(
+                &add_mat(&add_mat(&rot[t[0] as usize], &rot[t[1] as usize]), &rot[t[2] as usize]),
+                1.0 / 3.0,
+            );
+            for k in 0..3 {
+                let (u, v) = opposite_edge(*t, k);
+                let re = mul_vec(&rbar, sub(p[u as usize], p[v as usize]));
+                for c in 0..3 {
+                    b[u as usize][c] += w[k] * re[c];
+                    b[v as usize][c] -= w[k] * re[c];
+                }
+            }
+        }
+        let c = a.constraints();
+        let mut max_b: f64 = 0.0;
+        for (r, &v) in c.free_vertices.iter().enumerate() {
+            let mut want = b[v as usize];
+            for &(hv, w) in a.coupling.row(r) {
+                for k in 0..3 {
+                    want[k] += w * x[hv as usize][k];
+                }
+            }
+            for k in 0..3 {
+                max_b = max_b.max((want[k] - a.rhs[(r, k)]).abs());
+            }
+        }
+        assert!(max_b < 1e-12, "rhs differs by {max_b}");
+    }
+
+    /// Anderson-accelerated solves never increase the energy, reach the same pose as the plain
+    /// loop, and need no more iterations to a tight tolerance.
+    #[test]
+    fn anderson_is_monotone_and_agrees_with_plain() {
+        let (m, h) = setup();
+        let hv = h.handle_vertices();
+        let targets: Vec<[f64; 3]> = hv
+            .iter()
+            .map(|&v| {
+                let q = m.positions()[v as usize];
+                if q[0] > 0.0 { mul_vec(&axis_angle([0.0, 0.0, 1.0], 0.8), q) } else { q }
+            })
+            .collect();
+        let run = |acceleration| {
+            let cfg = ArapConfig {
+                tolerance: 1e-9,
+                max_iterations: 3000,
+                acceleration,
+                ..Default::default()
+            };
+            let mut a = Arap::new(&m, &h, &cfg).unwrap();
+            let s = a.solve(&targets).unwrap();
+            (s, a.positions().to_vec())
+        };
+        let (plain, xp) = run(Acceleration::None);
+        let (acc, xa) = run(Acceleration::Anderson { window: 5 });
+        let mut prev = acc.initial_energy;
+        for &e in &acc.energies {
+            assert!(e <= prev * (1.0 + 1e-12), "energy rose from {prev} to {e}");
+            prev = e;
+        }
+        assert!(acc.converged && plain.converged);
+        assert!(acc.iterations <= plain.iterations, "{} vs {}", acc.iterations, plain.iterations);
+        let d = xp.iter().zip(&xa).flat_map(|(a, b)| (0..3).map(move |k| (a[k] - b[k]).abs()));
+        let d = d.fold(0.0, f64::max);
+        assert!(d < 1e-3, "poses differ by {d}");
+    }
+}

@@ -1,0 +1,356 @@
+//! BS-ARAP on a coarse base: ARAP runs on a decimated copy of a smooth base surface and the
+//! full-resolution details ride on it (our variant for speed, issue 8).
+//!
+//! 1. $B$ = faired base of $M$ ([`crate::biharmonic::faired_surface`], smoothing length $h$).
+//! 2. $B_c$ = [`crate::decimate::decimate`] of $B$ to about `coarse_vertices` vertices (a subset of
+//!    $B$'s vertices, handle groups kept).
+//! 3. Embedding (prolongation $P$): each fine vertex $i$ gets the closest point of $B_c$ to $B_i$,
+//!    as barycentric weights $w_{ik}$ on a coarse triangle $t_i$; its detail is
+//!    $D_i = p_i - \sum_k w_{ik} B_{c,k}$.
+//! 4. Each frame: ARAP on $B_c$ (handles = the kept handle vertices) gives $B_c'$ and $R_k$;
+//!    $p'_i = \sum_k w_{ik} B'_{c,k} + \hat R_i D_i$ where $\hat R_i$ is the normalized blend of
+//!    the corner rotations as quaternions (signs aligned). Handle vertices are set to their
+//!    targets exactly, and the vertices of components without handles to their rest positions.
+//!
+//! Rest pose is exact ($B_c' = B_c$, $R = I$ gives $p' = p$) and a rigid motion of all handles
+//! moves the result rigidly. An iteration costs what ARAP on $B_c$ costs; the prolongation is
+//! one pass over the fine vertices per frame.
+
+use crate::arap::{Arap, ArapConfig, SolveStats};
+use crate::biharmonic::faired_surface;
+use crate::constraints::Constraints;
+use crate::decimate::decimate;
+use crate::error::SolveError;
+use crate::handles::Handles;
+use crate::mesh::{Mesh, add, dot, sub};
+use crate::rotation::Mat3;
+use rayon::prelude::*;
+
+/// Settings of the coarse base.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct CoarseConfig {
+    /// Smoothing length of the base, as a fraction of the bounding-box diagonal.
+    pub smoothing: f64,
+    /// Vertices of the coarse base (about; at least the handle groups' minimum).
+    pub coarse_vertices: usize,
+}
+
+impl Default for CoarseConfig {
+    fn default() -> Self {
+        CoarseConfig { smoothing: 0.02, coarse_vertices: 2000 }
+    }
+}
+
+/// Coarse-base BS-ARAP precomputed for one mesh and one handle set.
+#[derive(Debug)]
+pub struct CoarseBsArap {
+    arap: Arap,
+    /// Per fine vertex: coarse triangle corners and barycentric weights.
+    embedding: Vec<([u32; 3], [f64; 3])>,
+    details: Vec<[f64; 3]>,
+    base: Vec<[f64; 3]>,
+    deformed_base: Vec<[f64; 3]>,
+    result: Vec<[f64; 3]>,
+    fine_handles: Vec<u32>,
+    /// Fine vertices of components without handles, with their rest positions.
+    pinned: Vec<(u32, [f64; 3])>,
+    /// For each coarse handle vertex (in its handle order), the index in the fine targets.
+    coarse_targets: Vec<usize>,
+    quaternions: Vec<[f64; 4]>,
+}
+
+impl CoarseBsArap {
+    /// Builds the base, decimates it, embeds the fine vertices and factors coarse ARAP.
+    pub fn new(
+        mesh: &Mesh,
+        handles: &Handles,
+        config: &ArapConfig,
+        coarse: &CoarseConfig,
+    ) -> Result<CoarseBsArap, SolveError> {
+        if handles.n_vertices() != mesh.n_vertices() {
+            return Err(SolveError::HandleCount {
+                got: handles.n_vertices(),
+                expected: mesh.n_vertices(),
+            });
+        }
+        let diag = mesh.bbox_diagonal();
+        let constraints = Constraints::new(mesh, handles);
+        let smoothing = (coarse.smoothing.is_finite() && coarse.smoothing > 0.0)
+            .then(|| coarse.smoothing * diag);
+        let base = faired_surface(mesh, &constraints, mesh.positions(), smoothing)?;
+        let labels = handles.labels();
+        let dec = decimate(&base, mesh.triangles(), labels, coarse.coarse_vertices);
+        let coarse_positions: Vec<[f64; 3]> = dec.kept.iter().map(|&v| base[v as usize]).collect();
+        let coarse_mesh = Mesh::new(coarse_positions, dec.triangles.clone())
+            .map_err(|_| SolveError::NonFiniteResult { vertex: 0 })?;
+        let coarse_handles =
+            Handles::from_options(dec.kept.iter().map(|&v| labels[v as usize]).collect())?;
+        let floor = 2.0 * crate::cleanup::AREA_EPS * diag * diag;
+        let arap = Arap::with_constraints(
+            &coarse_mesh,
+            Constraints::new(&coarse_mesh, &coarse_handles),
+            config,
+            floor,
+        )
+        .map_err(|e| match e {
+            SolveError::DegenerateFace { face } => SolveError::DegenerateBase { face },
+            other => other,
+        })?;
+        let fine_handles = handles.handle_vertices();
+        let coarse_targets = coarse_handles
+            .handle_vertices()
+            .iter()
+            .map(|&j| fine_handles.binary_search(&dec.kept[j as usize]).unwrap_or(0))
+            .collect();
+
+        // Coarse vertex → faces adjacency for the local closest-point search.
+        let cp = coarse_mesh.positions();
+        let ct = coarse_mesh.triangles();
+        let mut vf = vec![Vec::new(); cp.len()];
+        for (f, t) in ct.iter().enumerate() {
+            for &v in t {
+                vf[v as usize].push(f as u32);
+            }
+        }
+        let embedding: Vec<([u32; 3], [f64; 3])> = (0..mesh.n_vertices())
+            .into_par_iter()
+            .map(|i| {
+                let r = dec.representative[i] as usize;
+                // Faces within two rings of the representative.
+                let mut faces: Vec<u32> = Vec::new();
+                for &f in &vf[r] {
+                    for &w in &ct[f as usize] {
+                        faces.extend_from_slice(&vf[w as usize]);
+                    }
+                }
+                faces.sort_unstable();
+                faces.dedup();
+                let q = base[i];
+                let mut best = (f64::INFINITY, [r as u32; 3], [1.0, 0.0, 0.0]);
+                for f in faces {
+                    let t = ct[f as usize];
+                    let (point, w) = closest_point_on_triangle(q, t.map(|v| cp[v as usize]));
+                    let d = sub(point, q);
+                    let d2 = dot(d, d);
+                    if d2 < best.0 {
+                        best = (d2, t, w);
+                    }
+                }
+                (best.1, best.2)
+            })
+            .collect();
+        let base_on_coarse: Vec<[f64; 3]> =
+            embedding.iter().map(|(t, w)| blend(cp, t, w)).collect();
+        let details =
+            mesh.positions().iter().zip(&base_on_coarse).map(|(&p, &b)| sub(p, b)).collect();
+        let pinned = constraints
+            .pinned_vertices
+            .iter()
+            .map(|&v| (v, mesh.positions()[v as usize]))
+            .collect();
+        Ok(CoarseBsArap {
+            pinned,
+            quaternions: vec![[1.0, 0.0, 0.0, 0.0]; cp.len()],
+            deformed_base: base_on_coarse.clone(),
+            base: base_on_coarse,
+            details,
+            result: mesh.positions().to_vec(),
+            embedding,
+            fine_handles,
+            coarse_targets,
+            arap,
+        })
+    }
+
+    /// Solves coarse ARAP for `targets` (`#H×3` of the fine mesh) and prolongs to the fine mesh.
+    pub fn solve(&mut self, targets: &[[f64; 3]]) -> Result<SolveStats, SolveError> {
+        if targets.len() != self.fine_handles.len() {
+            return Err(SolveError::TargetCount {
+                got: targets.len(),
+                expected: self.fine_handles.len(),
+            });
+        }
+        let coarse_targets: Vec<[f64; 3]> =
+            self.coarse_targets.iter().map(|&k| targets[k]).collect();
+        let stats = self.arap.solve(&coarse_targets)?;
+        let bc = self.arap.positions();
+        for (q, r) in self.quaternions.iter_mut().zip(self.arap.rotations()) {
+            *q = quaternion_of(r);
+        }
+        let quats = &self.quaternions;
+        self.deformed_base
+            .par_iter_mut()
+            .zip(self.result.par_iter_mut())
+            .zip(self.embedding.par_iter().zip(self.details.par_iter()))
+            .for_each(|((b, out), ((t, w), d))| {
+                *b = blend(bc, t, w);
+                let q0 = quats[t[0] as usize];
+                let mut q = [0.0; 4];
+                for k in 0..3 {
+                    let qk = quats[t[k] as usize];
+                    let s = if dot4(qk, q0) < 0.0 { -w[k] } else { w[k] };
+                    for c in 0..4 {
+                        q[c] += s * qk[c];
+                    }
+                }
+                let n = dot4(q, q).sqrt();
+                let q = if n > 0.0 { q.map(|c| c / n) } else { [1.0, 0.0, 0.0, 0.0] };
+                *out = add(*b, rotate(q, *d));
+            });
+        for (&v, t) in self.fine_handles.iter().zip(targets) {
+            self.result[v as usize] = *t;
+        }
+        for &(v, p) in &self.pinned {
+            self.result[v as usize] = p;
+        }
+        Ok(stats)
+    }
+
+    /// The result of the last solve, `#V×3`.
+    pub fn positions(&self) -> &[[f64; 3]] {
+        &self.result
+    }
+
+    /// The base at rest as seen by the fine vertices (their points on $B_c$), `#V×3`.
+    pub fn base(&self) -> &[[f64; 3]] {
+        &self.base
+    }
+
+    /// The deformed base at the fine vertices, `#V×3`.
+    pub fn deformed_base(&self) -> &[[f64; 3]] {
+        &self.deformed_base
+    }
+
+    /// Details $D_i$, `#V×3`.
+    pub fn details(&self) -> &[[f64; 3]] {
+        &self.details
+    }
+
+    /// The ARAP solver on the coarse base.
+    pub fn base_arap(&self) -> &Arap {
+        &self.arap
+    }
+
+    /// Mutable access to the coarse solver (stopping rule).
+    pub fn base_arap_mut(&mut self) -> &mut Arap {
+        &mut self.arap
+    }
+
+    /// Restarts the next solve from rest.
+    pub fn reset(&mut self) {
+        self.arap.reset();
+    }
+}
+
+#[inline]
+fn blend(p: &[[f64; 3]], t: &[u32; 3], w: &[f64; 3]) -> [f64; 3] {
+    let [a, b, c] = t.map(|v| p[v as usize]);
+    std::array::from_fn(|d| w[0] * a[d] + w[1] * b[d] + w[2] * c[d])
+}
+
+#[inline]
+fn dot4(a: [f64; 4], b: [f64; 4]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
+}
+
+/// Unit quaternion `[w, x, y, z]` of a rotation matrix (Shepperd's method).
+pub fn quaternion_of(r: &Mat3) -> [f64; 4] {
+    let tr = r[0][0] + r[1][1] + r[2][2];
+    let q = if tr > 0.0 {
+        let s = (tr + 1.0).sqrt() * 2.0;
+        [0.25 * s, (r[2][1] - r[1][2]) / s, (r[0][2] - r[2][0]) / s, (r[1][0] - r[0][1]) / s]
+    } else if r[0][0] > r[1][1] && r[0][0] > r[2][2] {
+        let s = (1.0 + r[0][0] - r[1][1] - r[2][2]).sqrt() * 2.0;
+        [(r[2][1] - r[1][2]) / s, 0.25 * s, (r[0][1] + r[1][0]) / s, (r[0][2] + r[2][0]) / s]
+    } else if r[1][1] > r[2][2] {
+        let s = (1.0 + r[1][1] - r[0][0] - r[2][2]).sqrt() * 2.0;
+        [(r[0][2] - r[2][0]) / s, (r[0][1] + r[1][0]) / s, 0.25 * s, (r[1][2] + r[2][1]) / s]
+    } else {
+        let s = (1.0 + r[2][2] - r[0][0] - r[1][1]).sqrt() * 2.0;
+        [(r[1][0] - r[0][1]) / s, (r[0][2] + r[2][0]) / s, (r[1][2] + r[2][1]) / s, 0.25 * s]
+    };
+    let n = dot4(q, q).sqrt();
+    q.map(|c| c / n)
+}
+
+/// $q\,v\,q^{-1}$ for a unit quaternion.
+#[inline]
+pub fn rotate(q: [f64; 4], v: [f64; 3]) -> [f64; 3] {
+    let u = [q[1], q[2], q[3]];
+    let t = crate::mesh::cross(u, v).map(|c| 2.0 * c);
+    let ut = crate::mesh::cross(u, t);
+    std::array::from_fn(|d| v[d] + q[0] * t[d] + ut[d])
+}
+
+/// Closest point of triangle `(a, b, c)` to `p` and its barycentric weights (Ericson,
+/// Real-Time Collision Detection, §5.1.5: Voronoi regions of vertices, edges, face).
+pub fn closest_point_on_triangle(p: [f64; 3], [a, b, c]: [[f64; 3]; 3]) -> ([f64; 3], [f64; 3]) {
+    let ab = sub(b, a);
+    let ac = sub(c, a);
+    let ap = sub(p, a);
+    let (d1, d2) = (dot(ab, ap), dot(ac, ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return (a, [1.0, 0.0, 0.0]);
+    }
+    let bp = sub(p, b);
+    let (d3, d4) = (dot(ab, bp), dot(ac, bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return (b, [0.0, 1.0, 0.0]);
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        let v = d1 / (d1 - d3);
+        return (add(a, ab.map(|x| x * v)), [1.0 - v, v, 0.0]);
+    }
+    let cp = sub(p, c);
+    let (d5, d6) = (dot(ab, cp), dot(ac, cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return (c, [0.0, 0.0, 1.0]);
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        let w = d2 / (d2 - d6);
+        return (add(a, ac.map(|x| x * w)), [1.0 - w, 0.0, w]);
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        return (add(b, sub(c, b).map(|x| x * w)), [0.0, 1.0 - w, w]);
+    }
+    let denom = 1.0 / (va + vb + vc);
+    let (v, w) = (vb * denom, vc * denom);
+    (add(a, add(ab.map(|x| x * v), ac.map(|x| x * w))), [1.0 - v - w, v, w])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rotation::axis_angle;
+
+    #[test]
+    fn quaternions_round_trip() {
+        for (axis, angle) in
+            [([1.0, 0.0, 0.0], 0.3), ([0.2, -1.0, 0.5], 2.9), ([0.0, 0.0, 1.0], 3.14)]
+        {
+            let r = axis_angle(axis, angle);
+            let q = quaternion_of(&r);
+            let v = [0.3, -0.7, 1.1];
+            let a = rotate(q, v);
+            let b = crate::rotation::mul_vec(&r, v);
+            for d in 0..3 {
+                assert!((a[d] - b[d]).abs() < 1e-12);
+            }
+        }
+    }
+
+    #[test]
+    fn closest_point_regions() {
+        let t = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+        let (p, w) = closest_point_on_triangle([0.2, 0.3, 5.0], t);
+        assert!((p[0] - 0.2).abs() < 1e-15 && (p[1] - 0.3).abs() < 1e-15 && p[2] == 0.0);
+        assert!((w[0] - 0.5).abs() < 1e-15);
+        assert_eq!(closest_point_on_triangle([-1.0, -1.0, 0.0], t).1, [1.0, 0.0, 0.0]);
+        let (_, w) = closest_point_on_triangle([2.0, 2.0, 0.0], t);
+        assert!((w[1] - 0.5).abs() < 1e-15 && (w[2] - 0.5).abs() < 1e-15);
+    }
+}

@@ -1,0 +1,158 @@
+//! One interface over the deformation methods, for the CLI and the editor's solver threads.
+
+use crate::arap::{Arap, ArapConfig, SolveStats};
+use crate::bs_arap::{BaseKind, BsArap};
+use crate::coarse::{CoarseBsArap, CoarseConfig};
+use crate::error::SolveError;
+use crate::handles::Handles;
+use crate::mesh::Mesh;
+
+/// The deformation method.
+/// Serialized as [`Method::name`] (scenes, JSON reports).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+pub enum Method {
+    /// ARAP on the mesh itself.
+    #[serde(rename = "arap")]
+    Arap,
+    /// The paper's BS-ARAP: ARAP on the bi-harmonic base, details rotated with it.
+    #[default]
+    #[serde(rename = "bsarap", alias = "bs-arap")]
+    BsArap,
+    /// BS-ARAP on a faired base that does not collapse (bi-Laplacian with a data term).
+    #[serde(rename = "bsarap-faired")]
+    BsArapFaired,
+    /// Faired base, decimated: ARAP runs on a coarse copy, details prolonged to the full mesh.
+    #[serde(rename = "bsarap-coarse")]
+    BsArapCoarse,
+}
+
+impl Method {
+    /// Short name used by the CLI and in reports (`arap`, `bsarap`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Arap => "arap",
+            Method::BsArap => "bsarap",
+            Method::BsArapFaired => "bsarap-faired",
+            Method::BsArapCoarse => "bsarap-coarse",
+        }
+    }
+
+    /// Every method, in the order reports list them.
+    pub const ALL: [Method; 4] =
+        [Method::Arap, Method::BsArap, Method::BsArapFaired, Method::BsArapCoarse];
+
+    /// Parses a [`Method::name`].
+    pub fn from_name(name: &str) -> Option<Method> {
+        Method::ALL.into_iter().find(|m| m.name() == name)
+    }
+}
+
+/// Settings of the base surface for the BS-ARAP variants.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default)]
+pub struct BaseConfig {
+    /// Smoothing length of the faired base, as a fraction of the bounding-box diagonal.
+    pub smoothing: f64,
+    /// Vertices of the coarse base ([`Method::BsArapCoarse`]).
+    pub coarse_vertices: usize,
+}
+
+impl Default for BaseConfig {
+    fn default() -> Self {
+        BaseConfig {
+            smoothing: BaseKind::DEFAULT_SMOOTHING,
+            coarse_vertices: CoarseConfig::default().coarse_vertices,
+        }
+    }
+}
+
+/// A precomputed deformer of either method.
+#[derive(Debug)]
+pub enum Deformer {
+    Arap(Arap),
+    BsArap(BsArap),
+    Coarse(CoarseBsArap),
+}
+
+impl Deformer {
+    /// Precomputes `method` for `mesh` and `handles` (factorizations; may take seconds).
+    pub fn new(
+        method: Method,
+        mesh: &Mesh,
+        handles: &Handles,
+        config: &ArapConfig,
+    ) -> Result<Deformer, SolveError> {
+        Deformer::with_base(method, mesh, handles, config, &BaseConfig::default())
+    }
+
+    /// As [`Deformer::new`] with explicit base-surface settings.
+    pub fn with_base(
+        method: Method,
+        mesh: &Mesh,
+        handles: &Handles,
+        config: &ArapConfig,
+        base: &BaseConfig,
+    ) -> Result<Deformer, SolveError> {
+        Ok(match method {
+            Method::Arap => Deformer::Arap(Arap::new(mesh, handles, config)?),
+            Method::BsArap => Deformer::BsArap(BsArap::new(mesh, handles, config)?),
+            Method::BsArapFaired => Deformer::BsArap(BsArap::with_base(
+                mesh,
+                handles,
+                config,
+                BaseKind::Faired { smoothing: base.smoothing },
+            )?),
+            Method::BsArapCoarse => Deformer::Coarse(CoarseBsArap::new(
+                mesh,
+                handles,
+                config,
+                &CoarseConfig { smoothing: base.smoothing, coarse_vertices: base.coarse_vertices },
+            )?),
+        })
+    }
+
+    /// Solves for `targets` (`#H×3`, order of [`Handles::handle_vertices`]), warm-started.
+    pub fn solve(&mut self, targets: &[[f64; 3]]) -> Result<SolveStats, SolveError> {
+        match self {
+            Deformer::Arap(a) => a.solve(targets),
+            Deformer::BsArap(b) => b.solve(targets),
+            Deformer::Coarse(c) => c.solve(targets),
+        }
+    }
+
+    /// The deformed positions of the last solve (rest before any), `#V×3`.
+    pub fn positions(&self) -> &[[f64; 3]] {
+        match self {
+            Deformer::Arap(a) => a.positions(),
+            Deformer::BsArap(b) => b.positions(),
+            Deformer::Coarse(c) => c.positions(),
+        }
+    }
+
+    /// The ARAP solver doing the iterations (on $M$ or on $B$).
+    pub fn arap(&self) -> &Arap {
+        match self {
+            Deformer::Arap(a) => a,
+            Deformer::BsArap(b) => b.base_arap(),
+            Deformer::Coarse(c) => c.base_arap(),
+        }
+    }
+
+    /// Changes the stopping rule without refactoring.
+    pub fn set_stopping(&mut self, tolerance: f64, max_iterations: usize) {
+        match self {
+            Deformer::Arap(a) => a.set_stopping(tolerance, max_iterations),
+            Deformer::BsArap(b) => b.base_arap_mut().set_stopping(tolerance, max_iterations),
+            Deformer::Coarse(c) => c.base_arap_mut().set_stopping(tolerance, max_iterations),
+        }
+    }
+
+    /// Restarts the next solve from rest.
+    pub fn reset(&mut self) {
+        match self {
+            Deformer::Arap(a) => a.reset(),
+            Deformer::BsArap(b) => b.reset(),
+            Deformer::Coarse(c) => c.reset(),
+        }
+    }
+}

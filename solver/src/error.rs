@@ -1,0 +1,35 @@
+//! Errors of the precomputations and solves (ARAP, bi-harmonic base, BS-ARAP).
+
+use crate::handles::HandlesError;
+use crate::linsolve::FactorError;
+use thiserror::Error;
+
+/// Why a deformer could not be built or a solve could not run. Each message names the likely
+/// cause so that the UI and the CLI can show it as one line.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum SolveError {
+    #[error(
+        "triangle {face} is degenerate (near-zero area): cotangent weights are undefined; clean the mesh"
+    )]
+    DegenerateFace { face: usize },
+    #[error(
+        "the smooth base surface collapsed: its triangle {face} has near-zero area, so ARAP on the base is undefined (handles too small or too sparse for the paper's bi-harmonic base)"
+    )]
+    DegenerateBase { face: usize },
+    #[error(
+        "factorizing {matrix} failed: {source}; likely cause: degenerate or duplicated geometry, or a component without handles that was not pinned"
+    )]
+    Factorization { matrix: &'static str, source: FactorError },
+    #[error("the selection has {expected} handle vertices but {got} targets were given")]
+    TargetCount { got: usize, expected: usize },
+    #[error("handle target {index} is not finite")]
+    NonFiniteTarget { index: usize },
+    #[error("the selection has {got} labels but the mesh has {expected} vertices")]
+    HandleCount { got: usize, expected: usize },
+    #[error("{0}")]
+    Handles(#[from] HandlesError),
+    #[error(
+        "the solve produced non-finite positions (at vertex {vertex}); the previous pose is kept"
+    )]
+    NonFiniteResult { vertex: usize },
+}

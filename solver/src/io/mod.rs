@@ -1,0 +1,145 @@
+//! Mesh files: reading OBJ, OFF, PLY and STL into a cleaned [`crate::Mesh`], writing OBJ.
+//!
+//! [`load_mesh`] picks the parser from the file extension (case-insensitive), parses the file
+//! into positions (`#V×3 f64`, file order) and triangles (`#F×3 u32`, polygons fan-triangulated
+//! as `(v0, v_k, v_k+1)`), then runs [`crate::cleanup::clean`] (weld, drop degenerate, duplicated
+//! and unreferenced elements) and returns the mesh with the [`CleanReport`].
+//!
+//! Every failure is a [`LoadError`] whose Display is one line, `file:line: what is wrong`. No
+//! input makes a parser panic, and counts read from headers never size an allocation beyond what
+//! the file's length could hold. Writers ([`write_obj`], [`write_atomic`]) replace the target
+//! atomically.
+
+mod error;
+mod obj;
+mod off;
+mod ply;
+mod stl;
+mod text;
+mod write;
+
+use std::path::Path;
+
+pub use error::LoadError;
+pub use write::{SaveError, write_atomic, write_obj};
+
+use crate::Mesh;
+use crate::cleanup::{CleanError, CleanReport, clean};
+use error::Ctx;
+
+/// A mesh file format.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Format {
+    /// Wavefront OBJ (read with `tobj`).
+    Obj,
+    /// Object File Format, ASCII.
+    Off,
+    /// Stanford PLY: ASCII, binary little- or big-endian.
+    Ply,
+    /// STL, binary or ASCII.
+    Stl,
+}
+
+impl Format {
+    /// The format named by a file extension (`"obj"`, `"OFF"`, ...; case-insensitive).
+    pub fn from_extension(ext: &str) -> Option<Format> {
+        match ext.to_ascii_lowercase().as_str() {
+            "obj" => Some(Format::Obj),
+            "off" => Some(Format::Off),
+            "ply" => Some(Format::Ply),
+            "stl" => Some(Format::Stl),
+            _ => None,
+        }
+    }
+}
+
+/// A loaded mesh and what cleaning changed.
+#[derive(Debug, Clone)]
+pub struct LoadedMesh {
+    /// The cleaned mesh. Its vertex order is the file's whenever `report.changed()` is false.
+    pub mesh: Mesh,
+    /// What cleaning did, and the topology of the result.
+    pub report: CleanReport,
+}
+
+/// Loads and cleans the mesh file at `path`, choosing the parser by extension.
+///
+/// Output: the mesh (`#V×3 f64`, `#F×3 u32`) and a [`CleanReport`]. Errors: see [`LoadError`];
+/// the error names the file as `path` displays.
+pub fn load_mesh(path: &Path) -> Result<LoadedMesh, LoadError> {
+    let file = path.display().to_string();
+    let io_error = |e: std::io::Error, what: &str| LoadError::Io {
+        file: file.clone(),
+        kind: e.kind(),
+        message: format!("{what}: {e}"),
+    };
+    let meta = std::fs::metadata(path).map_err(|e| io_error(e, "cannot open the file"))?;
+    if meta.is_dir() {
+        return Err(LoadError::Io {
+            file,
+            kind: std::io::ErrorKind::IsADirectory,
+            message: "is a directory, not a mesh file".to_string(),
+        });
+    }
+    let ext = path.extension().map(|e| e.to_string_lossy().into_owned()).unwrap_or_default();
+    let Some(format) = Format::from_extension(&ext) else {
+        return Err(LoadError::UnsupportedFormat { file, extension: ext });
+    };
+    let bytes = std::fs::read(path).map_err(|e| io_error(e, "cannot read the file"))?;
+    load_mesh_from_bytes(&bytes, format, &file)
+}
+
+/// Parses and cleans a mesh held in memory; `name` is used in error messages.
+///
+/// Inputs: the file's bytes, its format. Output and errors as [`load_mesh`]. An empty or
+/// whitespace-only input is [`LoadError::Truncated`] in every format.
+pub fn load_mesh_from_bytes(
+    bytes: &[u8],
+    format: Format,
+    name: &str,
+) -> Result<LoadedMesh, LoadError> {
+    let ctx = Ctx { file: name };
+    if text::is_blank(bytes) {
+        return Err(ctx.truncated(None, "the file is empty"));
+    }
+    let raw = match format {
+        Format::Obj => obj::parse(bytes, ctx)?,
+        Format::Off => off::parse(bytes, ctx)?,
+        Format::Ply => ply::parse(bytes, ctx)?,
+        Format::Stl => stl::parse(bytes, ctx)?,
+    };
+    if raw.triangles.is_empty() {
+        return Err(ctx.no_triangles(format!(
+            "the file has {} vertices but no faces (a point cloud cannot be deformed)",
+            raw.positions.len()
+        )));
+    }
+    let (mesh, report) = clean(raw.positions, raw.triangles).map_err(|e| match e {
+        CleanError::NoTriangles { .. } => ctx.no_triangles(e.to_string()),
+        CleanError::NonFinite { vertex, value } => ctx.non_finite(None, vertex, value),
+        CleanError::IndexOutOfRange { index, .. } => ctx.index(None, index.into(), e.to_string()),
+        CleanError::TooManyVertices { .. } => ctx.count(None, e.to_string()),
+    })?;
+    Ok(LoadedMesh { mesh, report })
+}
+
+/// What a parser produces: positions in file order and fan-triangulated faces.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct RawMesh {
+    pub positions: Vec<[f64; 3]>,
+    pub triangles: Vec<[u32; 3]>,
+}
+
+/// Appends the fan triangulation `(p0, p_k, p_k+1)` of polygon `poly` (`poly.len() ≥ 3`).
+pub(crate) fn push_fan(triangles: &mut Vec<[u32; 3]>, poly: &[u32]) {
+    if let Some((&first, rest)) = poly.split_first() {
+        for pair in rest.windows(2) {
+            triangles.push([first, pair[0], pair[1]]);
+        }
+    }
+}
+
+/// Hash key of a position: its bits, with `-0.0` made `+0.0` (the same point).
+pub(crate) fn key(p: [f64; 3]) -> [u64; 3] {
+    p.map(|c| (c + 0.0).to_bits())
+}

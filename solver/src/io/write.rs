@@ -1,0 +1,160 @@
+//! Atomic file writing: Wavefront OBJ meshes and any byte buffer.
+//!
+//! Every writer goes through [`write_atomic`]: the bytes go to a temporary file in the same
+//! folder (`NAME.EXT.tmpPID-N`), which is flushed to disk (`fsync`) and then renamed over the
+//! target, so a reader never sees a half-written file and a crash leaves the old file intact.
+
+use std::fmt::Write as _;
+use std::io::Write as _;
+use std::path::Path;
+
+use thiserror::Error;
+
+/// Why a file could not be written. Display is one line naming the file.
+#[derive(Debug, Error)]
+pub enum SaveError {
+    /// The operating system refused (folder missing, permission, disk full, ...).
+    #[error("{file}: cannot write: {source}")]
+    Io {
+        file: String,
+        #[source]
+        source: std::io::Error,
+    },
+    /// A coordinate is NaN or infinite: such values are never written to a file.
+    #[error("{file}: vertex {vertex} has a non-finite coordinate ({value}); nothing was written")]
+    NonFinite { file: String, vertex: usize, value: f64 },
+    /// A triangle refers to a vertex that does not exist.
+    #[error(
+        "{file}: triangle {face} refers to vertex {index}, but there are only {n_vertices} vertices; nothing was written"
+    )]
+    IndexOutOfRange { file: String, face: usize, index: u32, n_vertices: usize },
+}
+
+/// Writes a triangle mesh as Wavefront OBJ, atomically.
+///
+/// Inputs: `positions` `#V×3 f64` (finite), `triangles` `#F×3 u32` (0-based indices into
+/// `positions`). Output: `v x y z` lines with full `f64` precision (Rust's shortest
+/// round-tripping `{}` formatting, so reading the file back gives bit-identical coordinates),
+/// then `f i j k` lines with 1-based indices, no normals or texture coordinates.
+///
+/// Errors: [`SaveError::NonFinite`] or [`SaveError::IndexOutOfRange`] before anything touches the
+/// disk; [`SaveError::Io`] when the folder is missing or not writable.
+pub fn write_obj(
+    path: &Path,
+    positions: &[[f64; 3]],
+    triangles: &[[u32; 3]],
+) -> Result<(), SaveError> {
+    let file = path.display().to_string();
+    for (vertex, p) in positions.iter().enumerate() {
+        if let Some(&value) = p.iter().find(|c| !c.is_finite()) {
+            return Err(SaveError::NonFinite { file, vertex, value });
+        }
+    }
+    let n_vertices = positions.len();
+    for (face, t) in triangles.iter().enumerate() {
+        if let Some(&index) = t.iter().find(|&&i| i as usize >= n_vertices) {
+            return Err(SaveError::IndexOutOfRange { file, face, index, n_vertices });
+        }
+    }
+    let mut text = String::with_capacity(40 * positions.len() + 24 * triangles.len());
+    for p in positions {
+        // Writing into a String cannot fail.
+        let _ = writeln!(text, "v {} {} {}", p[0], p[1], p[2]);
+    }
+    for t in triangles {
+        let _ = writeln!(text, "f {} {} {}", t[0] + 1, t[1] + 1, t[2] + 1);
+    }
+    write_atomic(path, text.as_bytes())
+}
+
+/// Writes `bytes` to `path` atomically: temporary file in the same folder, `fsync`, rename.
+///
+/// Known limitation: on failure after the rename started, the operating system decides; the
+/// temporary file is removed on every error path this function sees.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), SaveError> {
+    let file = path.display().to_string();
+    let io_err = |source| SaveError::Io { file: file.clone(), source };
+    let ext = path.extension().map(|e| e.to_string_lossy().into_owned()).unwrap_or_default();
+    // Unique per process and per call, so that two threads saving the same file never share
+    // a temporary file.
+    static COUNTER: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let n = COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let tmp = path.with_extension(format!("{ext}.tmp{}-{n}", std::process::id()));
+    let result = (|| -> std::io::Result<()> {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()?;
+        drop(f);
+        std::fs::rename(&tmp, path)?;
+        Ok(())
+    })();
+    if let Err(e) = result {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(io_err(e));
+    }
+    // Make the rename itself durable; best effort (not every platform can open a folder).
+    if let Some(dir) = path.parent() {
+        let dir = if dir.as_os_str().is_empty() { Path::new(".") } else { dir };
+        if let Ok(d) = std::fs::File::open(dir) {
+            let _ = d.sync_all();
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+
+    fn temp_path(name: &str) -> std::path::PathBuf {
+        std::env::temp_dir().join(format!("solver-write-{}-{name}", std::process::id()))
+    }
+
+    #[test]
+    fn obj_is_exact_and_one_based() {
+        let p =
+            vec![[0.1, -2.5e-300, 1.0 / 3.0], [1e300, 0.0, -0.0], [f64::MIN_POSITIVE, 7.0, 8.0]];
+        let path = temp_path("exact.obj");
+        write_obj(&path, &p, &[[0, 1, 2]]).unwrap();
+        let text = std::fs::read_to_string(&path).unwrap();
+        let _ = std::fs::remove_file(&path);
+        let mut read = Vec::new();
+        for line in text.lines() {
+            let mut it = line.split_whitespace();
+            match it.next() {
+                Some("v") => {
+                    let v: Vec<f64> = it.map(|s| s.parse().unwrap()).collect();
+                    read.push([v[0], v[1], v[2]]);
+                }
+                Some("f") => assert_eq!(line, "f 1 2 3"),
+                _ => panic!("unexpected line {line}"),
+            }
+        }
+        for (a, b) in read.iter().zip(&p) {
+            for k in 0..3 {
+                assert_eq!(a[k].to_bits(), b[k].to_bits());
+            }
+        }
+    }
+
+    #[test]
+    fn refuses_bad_input_and_missing_folder() {
+        let path = temp_path("bad.obj");
+        let p = vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, f64::NAN, 0.0]];
+        assert!(matches!(
+            write_obj(&path, &p, &[[0, 1, 2]]),
+            Err(SaveError::NonFinite { vertex: 2, .. })
+        ));
+        let p = vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+        assert!(matches!(
+            write_obj(&path, &p, &[[0, 1, 3]]),
+            Err(SaveError::IndexOutOfRange { face: 0, index: 3, .. })
+        ));
+        assert!(!path.exists());
+        let missing = temp_path("no-such-dir").join("x.obj");
+        let err = write_obj(&missing, &p, &[[0, 1, 2]]).unwrap_err();
+        assert!(matches!(err, SaveError::Io { .. }));
+        assert!(err.to_string().contains("x.obj"));
+    }
+}

@@ -1,0 +1,382 @@
+//! Handle paths, timelines and scenes: evaluation formulas and the scene file round trip.
+#![allow(clippy::unwrap_used)]
+
+use std::path::PathBuf;
+
+use solver::animation::{
+    AxisAngle, CircularPath, GroupPath, Interpolation, Key, KeyframedPath, Path, Timeline,
+};
+use solver::rotation::{IDENTITY, Mat3};
+use solver::scene::{HandlesSpec, SCENE_VERSION, Scene, SceneError};
+use solver::{ArapConfig, GroupTransform, Method};
+
+fn temp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("solver-anim-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
+    (0..3).map(|d| (a[d] - b[d]).powi(2)).sum::<f64>().sqrt()
+}
+
+fn mat_dist(a: &Mat3, b: &Mat3) -> f64 {
+    (0..3)
+        .flat_map(|i| (0..3).map(move |j| (i, j)))
+        .map(|(i, j)| (a[i][j] - b[i][j]).abs())
+        .fold(0.0, f64::max)
+}
+
+fn circle(turn: bool, phase: f64) -> CircularPath {
+    CircularPath {
+        axis: [0.3, 1.0, -0.2],
+        reference: [1.0, 0.0, 0.0],
+        radius: 0.7,
+        period: 1.6,
+        phase,
+        turn_with_path: turn,
+    }
+}
+
+#[test]
+fn circular_path_starts_at_rest_stays_on_the_circle_and_returns() {
+    for (turn, phase) in [(false, 0.0), (true, 0.0), (false, 1.1), (true, -2.5)] {
+        let c = circle(turn, phase);
+        let path = Path::Circular(c);
+        let start = path.transform_at(0.0);
+        assert!(dist(start.translation, [0.0; 3]) < 1e-14);
+        assert!(mat_dist(&start.rotation, &IDENTITY) < 1e-14);
+        let end = path.transform_at(c.period);
+        assert!(dist(end.translation, [0.0; 3]) < 1e-12, "{:?}", end.translation);
+        assert!(mat_dist(&end.rotation, &IDENTITY) < 1e-12);
+        // Two periods too.
+        assert!(dist(path.transform_at(2.0 * c.period).translation, [0.0; 3]) < 1e-12);
+        let center = c.center_offset();
+        assert!((dist(center, [0.0; 3]) - c.radius).abs() < 1e-12);
+        let (axis, _, _) = c.frame();
+        let mut far = 0.0f64;
+        for i in 0..=200 {
+            let t = c.period * i as f64 / 200.0;
+            let p = path.transform_at(t).translation;
+            assert!((dist(p, center) - c.radius).abs() < 1e-12, "t = {t}");
+            // In the plane through the rest centroid orthogonal to the axis.
+            let along: f64 = (0..3).map(|d| p[d] * axis[d]).sum();
+            assert!(along.abs() < 1e-12);
+            far = far.max(dist(p, [0.0; 3]));
+        }
+        // The far side of the circle is reached (halfway: diameter away).
+        assert!((far - 2.0 * c.radius).abs() < 1e-3, "far = {far}");
+    }
+}
+
+#[test]
+fn circular_path_turns_by_the_swept_angle() {
+    let c = circle(true, 0.4);
+    let q = c.transform_at(c.period / 4.0).rotation;
+    let expected = solver::rotation::axis_angle(c.axis, std::f64::consts::FRAC_PI_2);
+    assert!(mat_dist(&q, &expected) < 1e-12);
+}
+
+fn keys() -> Vec<Key> {
+    vec![
+        Key { time: 0.0, translation: [0.0; 3], rotation: AxisAngle::default() },
+        Key {
+            time: 0.5,
+            translation: [0.3, 0.1, 0.0],
+            rotation: AxisAngle { axis: [0.0, 0.0, 1.0], degrees: 40.0 },
+        },
+        Key {
+            time: 1.25,
+            translation: [0.1, 0.5, -0.2],
+            rotation: AxisAngle { axis: [1.0, 1.0, 0.0], degrees: -70.0 },
+        },
+        Key {
+            time: 2.0,
+            translation: [-0.4, 0.0, 0.3],
+            rotation: AxisAngle { axis: [0.0, 1.0, 0.0], degrees: 170.0 },
+        },
+    ]
+}
+
+fn key_transform(k: &Key) -> GroupTransform {
+    GroupTransform {
+        translation: k.translation,
+        rotation: solver::rotation::axis_angle(k.rotation.axis, k.rotation.degrees.to_radians()),
+    }
+}
+
+#[test]
+fn keyframes_are_hit_exactly_and_interpolation_is_continuous() {
+    for interpolation in [Interpolation::Linear, Interpolation::Smooth] {
+        let path = Path::Keyframed(KeyframedPath { keys: keys(), interpolation });
+        for k in keys() {
+            let got = path.transform_at(k.time);
+            let want = key_transform(&k);
+            assert!(
+                dist(got.translation, want.translation) < 1e-12,
+                "{interpolation:?} t={}",
+                k.time
+            );
+            assert!(
+                mat_dist(&got.rotation, &want.rotation) < 1e-12,
+                "{interpolation:?} t={}",
+                k.time
+            );
+        }
+        // Held before the first and after the last key.
+        let first = key_transform(&keys()[0]);
+        assert!(dist(path.transform_at(-1.0).translation, first.translation) < 1e-12);
+        let last = key_transform(&keys()[3]);
+        assert!(mat_dist(&path.transform_at(5.0).rotation, &last.rotation) < 1e-12);
+        // Continuity: a step of dt moves by at most C·dt everywhere, across the keys as well.
+        let dt = 1e-6;
+        let mut t = -0.1;
+        while t < 2.1 {
+            let a = path.transform_at(t);
+            let b = path.transform_at(t + dt);
+            assert!(dist(a.translation, b.translation) < 10.0 * dt, "{interpolation:?} at t={t}");
+            assert!(mat_dist(&a.rotation, &b.rotation) < 20.0 * dt, "{interpolation:?} at t={t}");
+            t += 0.0037;
+        }
+        // Straddling each key exactly.
+        for k in keys() {
+            let a = path.transform_at(k.time - dt);
+            let b = path.transform_at(k.time + dt);
+            assert!(dist(a.translation, b.translation) < 20.0 * dt);
+            assert!(mat_dist(&a.rotation, &b.rotation) < 40.0 * dt);
+        }
+    }
+}
+
+#[test]
+fn smooth_translation_has_continuous_velocity_at_keys() {
+    let path = KeyframedPath { keys: keys(), interpolation: Interpolation::Smooth };
+    let h = 1e-5;
+    for k in &keys()[1..3] {
+        let p = |t: f64| path.transform_at(t).translation;
+        let left: Vec<f64> = (0..3).map(|d| (p(k.time)[d] - p(k.time - h)[d]) / h).collect();
+        let right: Vec<f64> = (0..3).map(|d| (p(k.time + h)[d] - p(k.time)[d]) / h).collect();
+        for d in 0..3 {
+            assert!((left[d] - right[d]).abs() < 1e-3, "key {} axis {d}", k.time);
+        }
+    }
+    // Linear has a kink at a key where the slope changes.
+    let lin = KeyframedPath { keys: keys(), interpolation: Interpolation::Linear };
+    let p = |t: f64| lin.transform_at(t).translation;
+    let k = keys()[1].time;
+    let left = (p(k)[0] - p(k - h)[0]) / h;
+    let right = (p(k + h)[0] - p(k)[0]) / h;
+    assert!((left - right).abs() > 0.1);
+}
+
+#[test]
+fn set_key_keeps_keys_sorted_and_replaces_same_time() {
+    let mut path = KeyframedPath::default();
+    for k in keys().into_iter().rev() {
+        path.set_key(k);
+    }
+    assert_eq!(path.keys, keys());
+    let mut k = keys()[2];
+    k.translation = [9.0, 9.0, 9.0];
+    path.set_key(k);
+    assert_eq!(path.keys.len(), 4);
+    assert_eq!(path.keys[2].translation, [9.0, 9.0, 9.0]);
+}
+
+fn timeline() -> Timeline {
+    Timeline {
+        duration: 2.0,
+        fps: 24.0,
+        looping: true,
+        paths: vec![
+            GroupPath { group: 0, path: Path::Circular(circle(true, 0.3)) },
+            GroupPath {
+                group: 1,
+                path: Path::Keyframed(KeyframedPath {
+                    keys: keys(),
+                    interpolation: Interpolation::Smooth,
+                }),
+            },
+            GroupPath { group: 2, path: Path::Static },
+        ],
+    }
+}
+
+#[test]
+fn timeline_frames_cover_the_duration() {
+    let tl = timeline();
+    assert_eq!(tl.default_frame_count(), 49);
+    let t = tl.frame_times(49);
+    assert_eq!(t.len(), 49);
+    assert_eq!(t[0], 0.0);
+    assert_eq!(t[48], 2.0);
+    assert!(t.windows(2).all(|w| w[1] > w[0]));
+    assert_eq!(tl.frame_times(1), vec![0.0]);
+    // Looping wraps beyond the end; not looping clamps.
+    assert!((tl.local_time(2.5) - 0.5).abs() < 1e-12);
+    let mut once = tl.clone();
+    once.looping = false;
+    assert_eq!(once.local_time(2.5), 2.0);
+    let tr = tl.transforms_at(0.0);
+    assert_eq!(tr.iter().map(|(g, _)| *g).collect::<Vec<_>>(), vec![0, 1, 2]);
+    assert!(tl.validate().is_ok());
+    let mut dup = tl.clone();
+    dup.paths.push(GroupPath { group: 1, path: Path::Static });
+    assert!(dup.validate().unwrap_err().to_string().contains("group 1"));
+    let mut bad = tl.clone();
+    bad.paths[0].path = Path::Circular(CircularPath { period: 0.0, ..circle(false, 0.0) });
+    assert!(bad.validate().unwrap_err().to_string().contains("period"));
+}
+
+fn write_test_mesh(dir: &std::path::Path) -> usize {
+    let mesh = solver::shapes::icosphere(1);
+    solver::io::write_obj(&dir.join("ball.obj"), mesh.positions(), mesh.triangles()).unwrap();
+    mesh.n_vertices()
+}
+
+fn labels(n: usize) -> Vec<i64> {
+    let mesh = solver::shapes::icosphere(1);
+    (0..n)
+        .map(|v| {
+            let z = mesh.positions()[v][2];
+            if z > 0.8 {
+                0
+            } else if z < -0.8 {
+                1
+            } else if mesh.positions()[v][0] > 0.9 {
+                2
+            } else {
+                -1
+            }
+        })
+        .collect()
+}
+
+#[test]
+fn scene_round_trip_and_load() {
+    let dir = temp_dir("roundtrip");
+    let n = write_test_mesh(&dir);
+    std::fs::create_dir_all(dir.join("scenes")).unwrap();
+    let mut scene =
+        Scene::new("../ball.obj", HandlesSpec { labels: Some(labels(n)), ..Default::default() });
+    scene.timeline = timeline();
+    scene.method = Method::Arap;
+    scene.arap = ArapConfig { tolerance: 1e-5, max_iterations: 40, ..Default::default() };
+    scene.camera = Some(serde_json::json!({"yaw": 0.5, "distance": 3}));
+    let path = dir.join("scenes").join("a.json");
+    scene.save(&path).unwrap();
+    let text = std::fs::read_to_string(&path).unwrap();
+    assert!(text.contains("\"version\": 1"));
+    assert!(text.contains("\"method\": \"arap\""));
+    let back = Scene::read(&path).unwrap();
+    assert_eq!(back, scene);
+    let loaded = Scene::load(&path).unwrap();
+    assert_eq!(loaded.mesh.mesh.n_vertices(), n);
+    assert_eq!(loaded.handles.n_groups(), 3);
+    assert_eq!(loaded.mesh_path, dir.join("scenes").join("../ball.obj"));
+    // Method defaults to bsarap and accepts both spellings.
+    let text2 = text.replace("\"method\": \"arap\",", "");
+    assert_eq!(Scene::from_json(&text2, "x").unwrap().method, Method::BsArap);
+    let text3 = text.replace("\"method\": \"arap\"", "\"method\": \"bs-arap\"");
+    assert_eq!(Scene::from_json(&text3, "x").unwrap().method, Method::BsArap);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn broken_scene_reports_file_line_and_column() {
+    let dir = temp_dir("broken");
+    let path = dir.join("broken.json");
+    std::fs::write(&path, "{\n  \"version\": 1,\n  \"mesh\": \"x.obj\"\n  \"handles\": {}\n}\n")
+        .unwrap();
+    let err = Scene::read(&path).unwrap_err();
+    match &err {
+        SceneError::Parse { line, column, .. } => {
+            assert_eq!(*line, 4);
+            assert!(*column > 0);
+        }
+        e => panic!("expected a parse error, got {e}"),
+    }
+    let msg = err.to_string();
+    assert!(msg.contains("broken.json:4:"), "{msg}");
+    assert!(!msg.contains('\n'));
+    // A type error in a field also has its position.
+    std::fs::write(&path, "{\"version\": 1, \"mesh\": 5, \"handles\": {\"file\": \"h.dmat\"}, \"timeline\": {\"duration\": 1, \"fps\": 10}}").unwrap();
+    assert!(matches!(Scene::read(&path).unwrap_err(), SceneError::Parse { line: 1, .. }));
+    // A misspelt field is an error that names it.
+    std::fs::write(&path, "{\"version\": 1, \"mesh\": \"m.obj\", \"handles\": {\"file\": \"h.dmat\"}, \"timeline\": {\"duration\": 1, \"fps\": 10}, \"metod\": \"arap\"}").unwrap();
+    assert!(Scene::read(&path).unwrap_err().to_string().contains("metod"));
+    // Missing file.
+    let missing = Scene::read(&dir.join("none.json")).unwrap_err();
+    assert!(matches!(missing, SceneError::Io { .. }) && missing.to_string().contains("none.json"));
+    // A handles spec with two sources.
+    std::fs::write(&path, "{\"version\": 1, \"mesh\": \"m.obj\", \"handles\": {\"file\": \"h.dmat\", \"labels\": [0]}, \"timeline\": {\"duration\": 1, \"fps\": 10}}").unwrap();
+    assert!(matches!(Scene::read(&path).unwrap_err(), SceneError::Invalid { .. }));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn unknown_or_missing_version_is_its_own_error() {
+    let text = "{\"version\": 7, \"mesh\": \"m.obj\", \"future\": true}";
+    let err = Scene::from_json(text, "new.json").unwrap_err();
+    assert!(
+        matches!(&err, SceneError::UnsupportedVersion { found, supported, .. } if found == "7" && *supported == SCENE_VERSION)
+    );
+    assert!(err.to_string().starts_with("new.json: scene version 7"));
+    let err = Scene::from_json("{\"mesh\": \"m.obj\"}", "old.json").unwrap_err();
+    assert!(matches!(err, SceneError::MissingVersion { .. }));
+}
+
+#[test]
+fn scene_errors_name_the_scene_and_the_missing_mesh() {
+    let dir = temp_dir("missing-mesh");
+    let path = dir.join("s.json");
+    let mut scene = Scene::new(
+        "nowhere.obj",
+        HandlesSpec { file: Some("h.dmat".into()), ..Default::default() },
+    );
+    scene.timeline = Timeline::default();
+    scene.save(&path).unwrap();
+    let msg = Scene::load(&path).unwrap_err().to_string();
+    assert!(msg.contains("s.json") && msg.contains("nowhere.obj"), "{msg}");
+    // A path for a group the selection lacks.
+    let n = write_test_mesh(&dir);
+    let mut scene =
+        Scene::new("ball.obj", HandlesSpec { labels: Some(labels(n)), ..Default::default() });
+    scene.timeline.paths.push(GroupPath { group: 5, path: Path::Static });
+    scene.save(&path).unwrap();
+    let msg = Scene::load(&path).unwrap_err().to_string();
+    assert!(msg.contains("group 5"), "{msg}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn failed_save_keeps_the_old_file() {
+    let dir = temp_dir("atomic");
+    let path = dir.join("s.json");
+    let scene =
+        Scene::new("m.obj", HandlesSpec { file: Some("h.dmat".into()), ..Default::default() });
+    scene.save(&path).unwrap();
+    let before = std::fs::read_to_string(&path).unwrap();
+    let mut bad = scene.clone();
+    bad.timeline.duration = f64::NAN;
+    assert!(bad.save(&path).is_err());
+    assert_eq!(std::fs::read_to_string(&path).unwrap(), before);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn example_scenes_parse() {
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../assets/scenes");
+    let Ok(entries) = std::fs::read_dir(&dir) else {
+        println!("skipped: no {}", dir.display());
+        return;
+    };
+    for e in entries {
+        let p = e.unwrap().path();
+        if p.extension().is_some_and(|x| x == "json") {
+            let s = Scene::read(&p).unwrap_or_else(|e| panic!("{e}"));
+            assert!(Scene::resolve_path(&p, &s.mesh).exists(), "{}", p.display());
+        }
+    }
+}

@@ -1,0 +1,333 @@
+//! Recording and glTF export: the file parses back with the `gltf` crate, its morph targets
+//! reproduce the solved frames, its animation spans the recording, and the Khronos validator
+//! finds no error (when node and tools/gltf-validate are installed).
+#![allow(clippy::unwrap_used)]
+
+use std::ops::ControlFlow;
+use std::path::{Path as FsPath, PathBuf};
+
+use solver::animation::{
+    CircularPath, GroupPath, Interpolation, Key, KeyframedPath, Path, Timeline,
+};
+use solver::export::{ExportError, GltfExport, GltfFormat, export_gltf};
+use solver::recording::{RecordError, Recording, record};
+use solver::{ArapConfig, Deformer, Handles, Mesh, Method};
+
+fn temp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("solver-export-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// An icosphere with three handle groups: top cap (0), bottom cap (1), a side patch (2).
+fn setup() -> (Mesh, Handles) {
+    let mesh = solver::shapes::icosphere(2);
+    let labels: Vec<i64> = mesh
+        .positions()
+        .iter()
+        .map(|p| {
+            if p[2] > 0.85 {
+                0
+            } else if p[2] < -0.85 {
+                1
+            } else if p[0] > 0.9 {
+                2
+            } else {
+                -1
+            }
+        })
+        .collect();
+    let handles = Handles::from_labels(&labels, mesh.n_vertices()).unwrap();
+    (mesh, handles)
+}
+
+fn timeline() -> Timeline {
+    Timeline {
+        duration: 1.5,
+        fps: 8.0,
+        looping: true,
+        paths: vec![
+            GroupPath {
+                group: 0,
+                path: Path::Circular(CircularPath {
+                    axis: [0.0, 0.0, 1.0],
+                    reference: [1.0, 0.0, 0.0],
+                    radius: 0.3,
+                    period: 1.5,
+                    phase: 0.0,
+                    turn_with_path: true,
+                }),
+            },
+            GroupPath {
+                group: 2,
+                path: Path::Keyframed(KeyframedPath {
+                    keys: vec![
+                        Key { time: 0.0, translation: [0.0; 3], rotation: Default::default() },
+                        Key {
+                            time: 0.75,
+                            translation: [0.4, 0.0, 0.2],
+                            rotation: Default::default(),
+                        },
+                        Key { time: 1.5, translation: [0.0; 3], rotation: Default::default() },
+                    ],
+                    interpolation: Interpolation::Smooth,
+                }),
+            },
+        ],
+    }
+}
+
+fn recording(method: Method, n_frames: usize) -> (Mesh, Recording) {
+    let (mesh, handles) = setup();
+    let config = ArapConfig { tolerance: 1e-5, max_iterations: 50, ..Default::default() };
+    let mut d = Deformer::new(method, &mesh, &handles, &config).unwrap();
+    let mut calls = Vec::new();
+    let rec =
+        record(&mut d, &mesh, &handles, &timeline(), n_frames, &config, &mut |done, total| {
+            calls.push((done, total));
+            ControlFlow::Continue(())
+        })
+        .unwrap();
+    assert_eq!(calls.first(), Some(&(0, n_frames)));
+    assert_eq!(calls.last(), Some(&(n_frames, n_frames)));
+    (mesh, rec)
+}
+
+#[test]
+fn recording_is_deterministic_and_starts_at_rest() {
+    let (mesh, a) = recording(Method::BsArap, 7);
+    let (_, b) = recording(Method::BsArap, 7);
+    assert_eq!(a.times, b.times);
+    assert_eq!(a.frames, b.frames, "two recordings of the same scene differ");
+    assert_eq!(a.times.len(), 7);
+    assert_eq!(*a.times.last().unwrap(), 1.5);
+    // Frame 0: every path is at rest, so the pose is the rest pose.
+    let diag = mesh.bbox_diagonal();
+    for (p, q) in a.frames[0].iter().zip(mesh.positions()) {
+        assert!((0..3).all(|d| (p[d] - q[d]).abs() < 1e-9 * diag));
+    }
+    // A middle frame moved.
+    let moved = a.frames[3].iter().zip(mesh.positions()).any(|(p, q)| (p[0] - q[0]).abs() > 0.05);
+    assert!(moved);
+}
+
+#[test]
+fn recording_can_be_cancelled_and_checks_groups() {
+    let (mesh, handles) = setup();
+    let config = ArapConfig::default();
+    let mut d = Deformer::new(Method::Arap, &mesh, &handles, &config).unwrap();
+    let err = record(&mut d, &mesh, &handles, &timeline(), 10, &config, &mut |done, _| {
+        if done >= 3 { ControlFlow::Break(()) } else { ControlFlow::Continue(()) }
+    })
+    .unwrap_err();
+    assert_eq!(err, RecordError::Cancelled { done: 3, total: 10 });
+    let mut tl = timeline();
+    tl.paths.push(GroupPath { group: 9, path: Path::Static });
+    let err =
+        record(&mut d, &mesh, &handles, &tl, 4, &config, &mut |_, _| ControlFlow::Continue(()))
+            .unwrap_err();
+    assert!(err.to_string().contains("group 9"), "{err}");
+}
+
+fn read_back(bytes: &[u8], mesh: &Mesh, rec: &Recording) {
+    let g = gltf::Gltf::from_slice(bytes).unwrap();
+    let blob = g.blob.as_deref().unwrap();
+    let gm = g.meshes().next().unwrap();
+    let prim = gm.primitives().next().unwrap();
+    let reader = prim.reader(|_| Some(blob));
+    let indices: Vec<u32> = reader.read_indices().unwrap().into_u32().collect();
+    let tris: Vec<u32> = mesh.triangles().iter().flatten().copied().collect();
+    assert_eq!(indices, tris);
+    assert!(matches!(
+        prim.get(&gltf::Semantic::Positions).unwrap().data_type(),
+        gltf::accessor::DataType::F32
+    ));
+    let base: Vec<[f32; 3]> = reader.read_positions().unwrap().collect();
+    let normals: Vec<[f32; 3]> = reader.read_normals().unwrap().collect();
+    assert_eq!(normals.len(), mesh.n_vertices());
+    for n in &normals {
+        let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+        assert!((l - 1.0).abs() < 1e-5);
+    }
+    let targets: Vec<_> = reader.read_morph_targets().collect();
+    assert_eq!(targets.len(), rec.frames.len(), "one morph target per frame");
+    let tol = 1e-5 * mesh.bbox_diagonal();
+    for (i, (pos, nor, _)) in targets.into_iter().enumerate() {
+        let deltas: Vec<[f32; 3]> = pos.unwrap().collect();
+        assert_eq!(nor.unwrap().count(), mesh.n_vertices());
+        for (v, (b, d)) in base.iter().zip(&deltas).enumerate() {
+            for k in 0..3 {
+                let got = b[k] as f64 + d[k] as f64;
+                let want = rec.frames[i][v][k];
+                assert!((got - want).abs() <= tol, "frame {i} vertex {v}: {got} vs {want}");
+            }
+        }
+    }
+    // Every POSITION accessor (base and targets) has min and max.
+    for a in g.accessors() {
+        if a.dimensions() == gltf::accessor::Dimensions::Vec3
+            && g.meshes()
+                .next()
+                .unwrap()
+                .primitives()
+                .next()
+                .unwrap()
+                .morph_targets()
+                .any(|t| t.positions().map(|p| p.index()) == Some(a.index()))
+        {
+            assert!(a.min().is_some() && a.max().is_some());
+        }
+    }
+    assert!(prim.get(&gltf::Semantic::Positions).unwrap().min().is_some());
+    // Target names.
+    let extras: serde_json::Value =
+        serde_json::from_str(gm.extras().as_ref().unwrap().get()).unwrap();
+    assert_eq!(extras["targetNames"].as_array().unwrap().len(), rec.frames.len());
+    // The animation: LINEAR, times = the recording's, one-hot weights.
+    let anim = g.animations().next().unwrap();
+    let ch = anim.channels().next().unwrap();
+    assert_eq!(ch.target().property(), gltf::animation::Property::MorphTargetWeights);
+    assert_eq!(ch.sampler().interpolation(), gltf::animation::Interpolation::Linear);
+    let r = ch.reader(|_| Some(blob));
+    let times: Vec<f32> = r.read_inputs().unwrap().collect();
+    assert_eq!(times.len(), rec.times.len());
+    assert_eq!(times[0] as f64, rec.times[0]);
+    assert!((*times.last().unwrap() as f64 - rec.times.last().unwrap()).abs() < 1e-6);
+    let gltf::animation::util::ReadOutputs::MorphTargetWeights(w) = r.read_outputs().unwrap()
+    else {
+        panic!("not a weights animation");
+    };
+    let w: Vec<f32> = w.into_f32().collect();
+    let n = rec.frames.len();
+    assert_eq!(w.len(), n * n);
+    for i in 0..n {
+        for j in 0..n {
+            assert_eq!(w[i * n + j], if i == j { 1.0 } else { 0.0 });
+        }
+    }
+}
+
+#[test]
+fn glb_parses_back_and_reproduces_every_frame() {
+    for method in [Method::Arap, Method::BsArap] {
+        let (mesh, rec) = recording(method, 9);
+        let dir = temp_dir(&format!("glb-{}", method.name()));
+        let path = dir.join("rec.glb");
+        let export = GltfExport::new(&mesh, &rec, GltfFormat::Glb).unwrap();
+        let predicted = export.file_size().unwrap();
+        let mut calls = 0;
+        let written = export
+            .write(&path, &mut |_, _| {
+                calls += 1;
+                ControlFlow::Continue(())
+            })
+            .unwrap();
+        assert_eq!(calls, 9);
+        let bytes = std::fs::read(&path).unwrap();
+        assert_eq!(bytes.len() as u64, written);
+        assert_eq!(predicted, written, "file_size() must predict the size");
+        assert_eq!(&bytes[..4], b"glTF");
+        read_back(&bytes, &mesh, &rec);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
+
+#[test]
+fn gltf_text_form_embeds_the_buffer() {
+    let (mesh, rec) = recording(Method::BsArap, 4);
+    let dir = temp_dir("gltf");
+    let path = dir.join("rec.gltf");
+    let export = GltfExport::new(&mesh, &rec, GltfFormat::Gltf).unwrap();
+    let predicted = export.file_size().unwrap();
+    let written = export_gltf(&path, &mesh, &rec, &mut |_, _| ControlFlow::Continue(())).unwrap();
+    assert_eq!(predicted, written);
+    let text = std::fs::read_to_string(&path).unwrap();
+    let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert!(
+        v["buffers"][0]["uri"]
+            .as_str()
+            .unwrap()
+            .starts_with("data:application/octet-stream;base64,")
+    );
+    let g = gltf::Gltf::from_slice(text.as_bytes()).unwrap();
+    assert_eq!(g.meshes().next().unwrap().primitives().next().unwrap().morph_targets().count(), 4);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn nothing_non_finite_is_written() {
+    let (mesh, mut rec) = recording(Method::Arap, 3);
+    rec.frames[1][17][1] = f64::NAN;
+    let dir = temp_dir("nan");
+    let path = dir.join("bad.glb");
+    let err = export_gltf(&path, &mesh, &rec, &mut |_, _| ControlFlow::Continue(())).unwrap_err();
+    assert!(matches!(&err, ExportError::NonFinite { vertex: 17, .. }), "{err}");
+    assert!(err.to_string().contains("frame 1"));
+    assert!(!path.exists());
+    rec.frames[1][17][1] = 0.0;
+    rec.times[2] = rec.times[1];
+    assert!(matches!(
+        export_gltf(&path, &mesh, &rec, &mut |_, _| ControlFlow::Continue(())),
+        Err(ExportError::Times { frame: 2, .. })
+    ));
+    let err = export_gltf(&dir.join("x.fbx"), &mesh, &rec, &mut |_, _| ControlFlow::Continue(()))
+        .unwrap_err();
+    assert!(err.to_string().contains("x.fbx"));
+    // Cancelling writes nothing.
+    let (mesh, rec) = recording(Method::Arap, 3);
+    let err = export_gltf(&path, &mesh, &rec, &mut |_, _| ControlFlow::Break(())).unwrap_err();
+    assert!(matches!(err, ExportError::Cancelled { .. }));
+    assert!(!path.exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Runs `node tools/gltf-validate/validate.mjs FILE` and returns its JSON report, or `None`
+/// (with a printed "skipped: ...") when node or the npm package is missing.
+fn khronos_validate(file: &FsPath) -> Option<serde_json::Value> {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
+    let tool = root.join("tools/gltf-validate");
+    if !tool.join("node_modules/gltf-validator").exists() {
+        println!(
+            "skipped: gltf-validator not installed (run `npm ci --prefix tools/gltf-validate`)"
+        );
+        return None;
+    }
+    let out = match std::process::Command::new("node")
+        .arg(tool.join("validate.mjs"))
+        .arg(file)
+        .output()
+    {
+        Ok(o) => o,
+        Err(e) => {
+            println!("skipped: cannot run node: {e}");
+            return None;
+        }
+    };
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success() || !text.is_empty(),
+        "validator failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    Some(serde_json::from_str(&text).unwrap())
+}
+
+#[test]
+fn khronos_validator_finds_no_errors() {
+    let (mesh, rec) = recording(Method::BsArap, 6);
+    let dir = temp_dir("validator");
+    for name in ["rec.glb", "rec.gltf"] {
+        let path = dir.join(name);
+        export_gltf(&path, &mesh, &rec, &mut |_, _| ControlFlow::Continue(())).unwrap();
+        let Some(report) = khronos_validate(&path) else {
+            let _ = std::fs::remove_dir_all(&dir);
+            return;
+        };
+        let issues = &report["issues"];
+        println!("{name}: {issues}");
+        assert_eq!(issues["numErrors"], 0, "{name}: {report:#}");
+        assert_eq!(issues["numWarnings"], 0, "{name}: {report:#}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

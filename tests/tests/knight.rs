@@ -1,0 +1,54 @@
+//! The paper's knight with libigl's handle selection (from ../shared/meshes when present).
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use integration_tests::{max_dist, shared_meshes};
+use solver::{ArapConfig, Deformer, GroupTransform, Method, handle_targets};
+
+#[test]
+fn knight_translated_group_converges_with_handles_on_target() {
+    let Some(dir) = shared_meshes() else {
+        println!("skipped: ../shared/meshes not found");
+        return;
+    };
+    let loaded = solver::io::load_mesh(&dir.join("decimated-knight.off")).unwrap();
+    let mesh = loaded.mesh;
+    assert!(!loaded.report.changed(), "the knight is clean");
+    let handles = solver::selection::load_selection(
+        &dir.join("decimated-knight-selection.dmat"),
+        mesh.positions(),
+    )
+    .unwrap();
+    assert_eq!(handles.group_ids().collect::<Vec<_>>(), vec![0, 1, 2]);
+    let diag = mesh.bbox_diagonal();
+    let tr =
+        [(0, GroupTransform { translation: [0.0, 0.1 * diag, 0.05 * diag], ..Default::default() })];
+    let targets = handle_targets(mesh.positions(), &handles, &tr).unwrap();
+    for method in [Method::Arap, Method::BsArap] {
+        let cfg = ArapConfig { tolerance: 1e-6, max_iterations: 2000, ..Default::default() };
+        let mut d = Deformer::new(method, &mesh, &handles, &cfg).unwrap();
+        let s = d.solve(&targets).unwrap();
+        assert!(s.converged, "{method:?} did not converge in {} iterations", s.iterations);
+        assert!(s.energy() < s.initial_energy, "{method:?}: energy did not decrease");
+        let mut prev = s.initial_energy;
+        for &e in &s.energies {
+            assert!(e <= prev * (1.0 + 1e-12), "{method:?}: energy rose {prev} -> {e}");
+            prev = e;
+        }
+        let x = d.positions();
+        for (&v, t) in handles.handle_vertices().iter().zip(&targets) {
+            assert!(
+                max_dist(&[x[v as usize]], &[*t]) <= 1e-12 * diag,
+                "{method:?}: handle {v} off target"
+            );
+        }
+        // Free vertices follow, but the pose stays plausible (no explosion).
+        let moved = max_dist(x, mesh.positions());
+        assert!(moved > 0.05 * diag && moved < 0.5 * diag, "{method:?}: max displacement {moved}");
+        println!(
+            "{method:?}: {} iterations, energy {:.3e} -> {:.3e}",
+            s.iterations,
+            s.initial_energy,
+            s.energy()
+        );
+    }
+}
