@@ -77,6 +77,10 @@ fn opens_the_default_asset_and_views_change_the_image() {
     h.snapshot_options("editor_result", &snapshot_options());
     let result = h.render().expect("render");
 
+    h.get_by_label("Base surface").click();
+    step_until(&mut h, "the base view", |a| a.view() == View::Base);
+    h.snapshot_options("editor_base", &snapshot_options());
+
     h.get_by_label("Details").click();
     step_until(&mut h, "the details view", |a| a.view() == View::Details);
     h.snapshot_options("editor_details", &snapshot_options());

@@ -150,6 +150,8 @@ pub struct EditorApp {
     viewport_rects: Vec<Rect>,
     /// Whether "first solved frame displayed" was logged (scripts wait for it).
     announced_first_frame: bool,
+    /// Frame the mesh once the viewport rectangles are known.
+    reframe: bool,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -205,6 +207,7 @@ impl EditorApp {
             last_frame: None,
             viewport_rects: Vec::new(),
             announced_first_frame: false,
+            reframe: false,
         };
         app.bsarap = app.spawn_solver(&ctx, Method::BsArap);
         if let Some(path) = options.mesh_path {
@@ -267,6 +270,8 @@ impl EditorApp {
     }
 
     pub fn set_view(&mut self, view: View) {
+        // Side by side halves the aspect ratio: frame the mesh again.
+        self.reframe |= (view == View::Compare) != (self.view == View::Compare);
         self.view = view;
         self.color_version += 1;
     }
@@ -403,11 +408,13 @@ impl EditorApp {
             Ok(Ok(scene)) => {
                 self.loading = None;
                 self.error = None;
-                self.camera.frame(scene.center, scene.radius);
+                self.camera.frame(scene.center, scene.radius, self.viewport_aspect());
                 let n = scene.mesh.n_vertices();
                 let labels = scene.default_labels.clone().unwrap_or_else(|| vec![None; n]);
-                self.info =
-                    scene.selection_path.as_ref().map(|p| format!("handles from {}", p.display()));
+                self.info = scene
+                    .selection_path
+                    .as_deref()
+                    .map(|p| format!("handles from {}", file_name(p)));
                 self.edit = EditState::from_labels(labels);
                 self.active_group = (!self.edit.groups.is_empty()).then_some(0);
                 self.history.clear();
@@ -496,7 +503,7 @@ impl EditorApp {
                 self.history.push(self.edit.clone());
                 self.edit = EditState::from_labels(labels);
                 self.active_group = (!self.edit.groups.is_empty()).then_some(0);
-                self.info = Some(format!("handles from {}", path.display()));
+                self.info = Some(format!("handles from {}", file_name(path)));
                 self.color_version += 1;
                 self.send_scene();
             }
@@ -566,10 +573,11 @@ impl EditorApp {
             }
         }
         let pressed = |k: Key| ctx.input(|i| i.key_pressed(k) && !i.modifiers.command);
+        let aspect = self.viewport_aspect();
         if pressed(Key::F)
             && let Some(s) = &self.scene
         {
-            self.camera.frame(s.center, s.radius);
+            self.camera.frame(s.center, s.radius, aspect);
         }
         if pressed(Key::W) {
             self.wireframe = !self.wireframe;
@@ -604,6 +612,11 @@ impl EditorApp {
         ];
         let (o, d) = self.camera.ray(ndc, rect.aspect_ratio());
         scene.bvh.intersect(&positions, scene.mesh.triangles(), o, d)
+    }
+
+    /// Aspect ratio of the (first) viewport; a typical one before the first frame.
+    fn viewport_aspect(&self) -> f32 {
+        self.viewport_rects.first().map_or(1.6, |r| r.aspect_ratio())
     }
 
     fn brush_world_radius(&self) -> f32 {
@@ -1070,7 +1083,8 @@ impl EditorApp {
             }
         });
         let (ex, ey, ez) = pose.quat().to_euler(EulerRot::XYZ);
-        let mut e = [ex.to_degrees(), ey.to_degrees(), ez.to_degrees()];
+        // `+ 0.0` shows -0 as 0.
+        let mut e = [ex.to_degrees() + 0.0, ey.to_degrees() + 0.0, ez.to_degrees() + 0.0];
         let mut rot_changed = false;
         ui.horizontal(|ui| {
             ui.label("rotate°");
@@ -1247,6 +1261,12 @@ impl EditorApp {
     }
 }
 
+/// The last component of `path`, for display.
+fn file_name(path: &Path) -> String {
+    path.file_name()
+        .map_or_else(|| path.display().to_string(), |n| n.to_string_lossy().into_owned())
+}
+
 fn method_index(m: Method) -> usize {
     match m {
         Method::BsArap => 0,
@@ -1344,6 +1364,11 @@ impl eframe::App for EditorApp {
             } else {
                 vec![full]
             };
+            if std::mem::take(&mut self.reframe)
+                && let Some(s) = &self.scene
+            {
+                self.camera.frame(s.center, s.radius, self.viewport_aspect());
+            }
             for (slot, rect) in self.viewport_rects.clone().into_iter().enumerate() {
                 self.draw_viewport(ui, slot, rect);
             }

@@ -96,10 +96,12 @@ impl OrbitCamera {
         2.0 * depth * (self.fov_y * 0.5).tan() / height.max(1.0)
     }
 
-    /// Frames a bounding sphere.
-    pub fn frame(&mut self, center: Vec3, radius: f32) {
+    /// Frames a bounding sphere in a viewport of the given aspect ratio (width / height).
+    pub fn frame(&mut self, center: Vec3, radius: f32, aspect: f32) {
+        let half_y = self.fov_y * 0.5;
+        let half_x = (half_y.tan() * aspect.max(1e-3)).atan();
         self.target = center;
-        self.distance = radius.max(1e-4) / (self.fov_y * 0.5).sin() * 1.05;
+        self.distance = radius.max(1e-4) / half_y.min(half_x).sin() * 1.05;
     }
 
     pub fn set_preset(&mut self, preset: ViewPreset) {
@@ -141,7 +143,7 @@ mod tests {
     #[test]
     fn ray_through_projection_hits_the_point() {
         let mut cam = OrbitCamera::default();
-        cam.frame(Vec3::new(1.0, 2.0, 3.0), 2.0);
+        cam.frame(Vec3::new(1.0, 2.0, 3.0), 2.0, 1.5);
         let p = Vec3::new(1.3, 2.2, 2.9);
         let ndc = cam.project(p, 1.5).unwrap();
         let (o, d) = cam.ray(ndc, 1.5);

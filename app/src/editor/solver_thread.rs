@@ -45,7 +45,9 @@ impl Default for MethodSettings {
             energy: EnergyKind::SpokesAndRims,
             tolerance: 1e-4,
             max_iterations: 30,
-            bs_variant: solver::Method::BsArap,
+            // The paper's base is slow to precompute and collapses under small handles on the
+            // default creature (see main's scenes); the coarse faired base is interactive.
+            bs_variant: solver::Method::BsArapCoarse,
         }
     }
 }
