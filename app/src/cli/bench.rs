@@ -281,11 +281,22 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
         )
         .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
     );
+    // A method that fails (a collapsed base, a non-finite frame) is reported, not fatal: the
+    // others still run.
     let mut table = Vec::new();
+    let mut failures = Vec::new();
     for v in &variants {
         progress.set_message(v.label());
-        table.push(bench_variant(v, &setup, &progress)?);
+        match bench_variant(v, &setup, &progress) {
+            Ok(r) => table.push(r),
+            Err(e) => failures.push((v.label(), format!("{e:#}"))),
+        }
     }
+    anyhow::ensure!(
+        !table.is_empty(),
+        "every method failed: {}",
+        failures.iter().map(|(m, e)| format!("{m}: {e}")).collect::<Vec<_>>().join("; ")
+    );
     progress.finish_and_clear();
     let find = |n: &str| table.iter().find(|r| r.method == n);
     // Ratios of every other variant against plain ARAP (>1: the variant is better).
@@ -306,6 +317,9 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
         let mut methods = serde_json::Map::new();
         for r in &table {
             methods.insert(r.method.clone(), serde_json::to_value(r)?);
+        }
+        for (m, e) in &failures {
+            methods.insert(m.clone(), serde_json::json!({ "error": e }));
         }
         let mut j = serde_json::json!({
             "mesh": a.mesh.display().to_string(),
@@ -374,6 +388,9 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
             r.fps,
             r.final_energy
         );
+    }
+    for (m, e) in &failures {
+        println!("{m:<14} failed: {e}");
     }
     for (k, r) in &ratios {
         println!(

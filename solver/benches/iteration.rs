@@ -1,0 +1,173 @@
+//! Phase timings of one ARAP iteration and an estimate of the machine's limit for it.
+//!
+//!     cargo bench -p solver --bench iteration [-- MESH SELECTION]
+//!
+//! Without arguments: icosphere levels 2–6 (seeded bumps, two end-cap handle groups). With a
+//! mesh and a selection (e.g. `../shared/meshes/armadillo.obj bench/handles/armadillo.json`
+//! from the repository root, or `../../shared/...` from `solver/`): that mesh. For each mesh it
+//! prints the factorization time, ms per iteration split into local step / rhs / solve /
+//! energy (median of 5 solves of 10 fixed iterations), and the limit estimate
+//!
+//!     limit = bytes of the Cholesky factor read per 3-column solve / memory bandwidth
+//!           + #V rotation fits / measured fit rate (all threads)
+//!
+//! with the bandwidth and the fit rate measured here. No assertions: timings are for reading.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use rayon::prelude::*;
+use solver::rotation::{Mat3, axis_angle, fit_rotation, mul_vec};
+use solver::shapes::icosphere;
+use solver::{Arap, ArapConfig, Handles, Mesh};
+use std::time::Instant;
+
+fn bumpy_bar(level: u32) -> (Mesh, Handles) {
+    let s = icosphere(level);
+    let p: Vec<[f64; 3]> = s
+        .positions()
+        .iter()
+        .map(|&[x, y, z]| {
+            let bump = 1.0 + 0.05 * (7.0 * x).sin() * (5.0 * y).cos();
+            [2.0 * x * bump, 0.6 * y * bump, 0.5 * z * bump]
+        })
+        .collect();
+    let m = s.with_positions(p).unwrap();
+    let labels: Vec<i64> = m
+        .positions()
+        .iter()
+        .map(|p| {
+            if p[0] > 1.7 {
+                0
+            } else if p[0] < -1.7 {
+                1
+            } else {
+                -1
+            }
+        })
+        .collect();
+    let h = Handles::from_labels(&labels, m.n_vertices()).unwrap();
+    (m, h)
+}
+
+/// Read bandwidth in GB/s: summing a 256 MiB array, on all threads (rayon).
+fn bandwidth_gbs() -> f64 {
+    let n = 32 << 20;
+    let v: Vec<f64> = (0..n).map(|i| i as f64).collect();
+    let mut best = f64::INFINITY;
+    let mut sink = 0.0;
+    for _ in 0..5 {
+        let t = Instant::now();
+        sink += v.par_chunks(1 << 16).map(|c| c.iter().sum::<f64>()).sum::<f64>();
+        best = best.min(t.elapsed().as_secs_f64());
+    }
+    std::hint::black_box(sink);
+    (n * 8) as f64 / best / 1e9
+}
+
+/// Rotation fits per second on all threads, on covariances of nearly flat cells.
+fn fit_rate() -> f64 {
+    let mut seed = 0x2545f4914f6cdd1du64;
+    let mut rnd = || {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+    };
+    let cov: Vec<Mat3> = (0..200_000)
+        .map(|_| {
+            let q = axis_angle([rnd(), rnd(), rnd()], 3.0 * rnd());
+            let mut s = [[0.0; 3]; 3];
+            for _ in 0..6 {
+                let e = [rnd(), rnd(), 0.05 * rnd()];
+                let f = mul_vec(&q, [e[0] + 0.1 * rnd(), e[1] + 0.1 * rnd(), e[2]]);
+                solver::rotation::add_outer(&mut s, 0.5 + 0.5 * rnd().abs(), e, f);
+            }
+            s
+        })
+        .collect();
+    let mut best = f64::INFINITY;
+    for _ in 0..5 {
+        let t = Instant::now();
+        let r: f64 = cov.par_iter().map(|s| fit_rotation(s)[0][0]).sum();
+        std::hint::black_box(r);
+        best = best.min(t.elapsed().as_secs_f64());
+    }
+    cov.len() as f64 / best
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+fn report(name: &str, mesh: &Mesh, handles: &Handles, bw: f64, rate: f64) {
+    let cfg = ArapConfig { tolerance: 0.0, max_iterations: 10, ..Default::default() };
+    let t = Instant::now();
+    let mut arap = Arap::new(mesh, handles, &cfg).unwrap();
+    let factor_ms = t.elapsed().as_secs_f64() * 1e3;
+    let hv = handles.handle_vertices();
+    let q = axis_angle([0.0, 0.0, 1.0], 0.3);
+    let targets: Vec<[f64; 3]> = hv
+        .iter()
+        .map(|&v| {
+            let p = mesh.positions()[v as usize];
+            if handles.labels()[v as usize] == Some(0) { mul_vec(&q, p) } else { p }
+        })
+        .collect();
+    let (mut l, mut r, mut s, mut e, mut tot) = (vec![], vec![], vec![], vec![], vec![]);
+    for _ in 0..5 {
+        arap.reset();
+        let st = arap.solve(&targets).unwrap();
+        let k = st.iterations as f64;
+        l.push(st.local_ms / k);
+        r.push(st.rhs_ms / k);
+        s.push(st.solve_ms / k);
+        e.push(st.energy_ms / k);
+        tot.push(st.total_ms() / k);
+    }
+    let nnz = arap.factor_nonzeros();
+    // Forward and backward substitution each read the factor once: values (f64) and row
+    // indices (usize).
+    let bytes = 2.0 * nnz as f64 * 16.0;
+    let solve_limit = bytes / (bw * 1e9) * 1e3;
+    let fit_limit = mesh.n_vertices() as f64 / rate * 1e3;
+    let tot = median(tot);
+    println!(
+        "{name:<28} V={:>6} factor {:>7.1} ms nnz(L)={:>8} | ms/iter {:>7.3} = local {:>6.3} + rhs {:>6.3} + solve {:>6.3} + energy {:>6.3} | limit {:>6.3} (solve {:.3} + fits {:.3}) → {:.1}× the limit",
+        mesh.n_vertices(),
+        factor_ms,
+        nnz,
+        tot,
+        median(l),
+        median(r),
+        median(s),
+        median(e),
+        solve_limit + fit_limit,
+        solve_limit,
+        fit_limit,
+        tot / (solve_limit + fit_limit),
+    );
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).filter(|a| !a.starts_with("--")).collect();
+    let bw = bandwidth_gbs();
+    let rate = fit_rate();
+    println!(
+        "threads {}, read bandwidth {:.1} GB/s, rotation fits {:.2} M/s ({:.3} µs each per thread)",
+        rayon::current_num_threads(),
+        bw,
+        rate / 1e6,
+        rayon::current_num_threads() as f64 / rate * 1e6
+    );
+    if let [mesh, sel] = &args[..] {
+        let m = solver::io::load_mesh(std::path::Path::new(mesh)).unwrap().mesh;
+        let h =
+            solver::selection::load_selection(std::path::Path::new(sel), m.positions()).unwrap();
+        report(mesh, &m, &h, bw, rate);
+    } else {
+        for level in 2..=6 {
+            let (m, h) = bumpy_bar(level);
+            report(&format!("icosphere level {level}"), &m, &h, bw, rate);
+        }
+    }
+}
