@@ -77,6 +77,15 @@ fn opens_the_default_asset_and_views_change_the_image() {
     h.snapshot_options("editor_result", &snapshot_options());
     let result = h.render().expect("render");
 
+    h.get_by_label("wireframe").click();
+    step_until(&mut h, "a frame", |_| true);
+    let wire = h.render().expect("render");
+    assert!(
+        count_differing_pixels(result.as_raw(), wire.as_raw()) > 1000,
+        "wireframe drew nothing"
+    );
+    h.get_by_label("wireframe").click();
+
     h.get_by_label("Base surface").click();
     step_until(&mut h, "the base view", |a| a.view() == View::Base);
     h.snapshot_options("editor_base", &snapshot_options());
@@ -158,8 +167,13 @@ fn painting_then_dragging_a_group_deforms_the_mesh() {
             .iter()
             .map(|p| (p[0].powi(2) + p[1].powi(2) + p[2].powi(2)).sqrt())
             .fold(0.0, f64::max);
+    let t = h.state().group_pose(group).expect("pose").translation;
+    assert!((t[0].powi(2) + t[1].powi(2) + t[2].powi(2)).sqrt() > 1e-3 * diag, "no translation");
     for &u in &painted {
-        assert!(moved(u) > 1e-3 * diag, "handle vertex {u} did not move ({})", moved(u));
+        // A pure translation: every handle vertex of the group moved by exactly `t`.
+        let d: Vec<f64> = (0..3).map(|k| frame.positions[u][k] as f64 - rest[u][k]).collect();
+        let err = ((d[0] - t[0]).powi(2) + (d[1] - t[1]).powi(2) + (d[2] - t[2]).powi(2)).sqrt();
+        assert!(err < 1e-4 * diag, "handle vertex {u} is {err} off its target");
     }
     let free_moved = (0..rest.len())
         .filter(|&u| h.state().labels()[u].is_none())
@@ -205,6 +219,10 @@ fn a_solver_panic_is_reported_and_the_solver_restarts() {
         matches!(a.solver_state(), Some(SolverState::Panicked(_)))
     });
     h.get_by_label_contains("panicked");
+    // The shortcut overlay opens with `?`.
+    h.event(Event::Text("?".into()));
+    h.run_steps(3);
+    h.get_by_label_contains("undo / redo");
     // A new handle set goes to the restarted solver.
     h.get_by_label("Add group").click();
     h.step();

@@ -297,6 +297,11 @@ impl EditorApp {
         self.pose_generation
     }
 
+    /// The pose of handle group `k`.
+    pub fn group_pose(&self, k: usize) -> Option<GroupPose> {
+        self.edit.groups.get(k).map(|g| g.pose)
+    }
+
     pub fn scene_generation(&self) -> u64 {
         self.scene_generation
     }
@@ -933,7 +938,14 @@ impl EditorApp {
             if self.options.deterministic_overlays {
                 lines.push(format!("iterations/frame {}", s.iterations));
             } else {
-                lines.push(format!("solver {:.1} fps  {} it/frame", f.fps, s.iterations));
+                let solving = handle
+                    .and_then(|h| h.try_status())
+                    .is_some_and(|st| st.state == SolverState::Solving);
+                if solving && f.fps > 0.0 {
+                    lines.push(format!("solver {:.1} fps  {} it/frame", f.fps, s.iterations));
+                } else {
+                    lines.push(format!("solver idle  {} it/frame", s.iterations));
+                }
                 lines.push(format!("{:.3} ms/it  E = {:.4e}", s.ms_per_iteration, s.energy));
             }
         }
