@@ -629,7 +629,10 @@ impl EditorApp {
     }
 
     fn update_hover(&mut self, slot: usize, rect: Rect, pos: Option<Pos2>) {
-        let old = self.hover.as_ref().map(|h| h.footprint.clone());
+        if pos.is_none() && self.hover.as_ref().is_some_and(|h| h.slot != slot) {
+            return; // the pointer is over another viewport
+        }
+        let old = self.hover.as_ref().map(|h| (h.slot, h.footprint.clone()));
         self.hover = None;
         if let Some(pos) = pos
             && self.tool == Tool::Paint
@@ -642,7 +645,7 @@ impl EditorApp {
             let fp = footprint(positions, &scene.adjacency, tri, hit.point, r);
             self.hover = Some(Hover { slot, hit, footprint: fp });
         }
-        if old != self.hover.as_ref().map(|h| h.footprint.clone()) {
+        if old != self.hover.as_ref().map(|h| (h.slot, h.footprint.clone())) {
             self.color_version += 1;
         }
     }
@@ -694,7 +697,12 @@ impl EditorApp {
         }
         let hover_pos = response.hover_pos().filter(|_| !alt_orbit);
         if self.drag.is_none() {
+            let before = self.color_version;
             self.update_hover(slot, rect, hover_pos);
+            if self.color_version != before {
+                // The colors are rebuilt at the start of the next frame.
+                ui.ctx().request_repaint();
+            }
         }
         if alt_orbit || self.scene.is_none() {
             return;
