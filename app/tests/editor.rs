@@ -181,7 +181,42 @@ fn painting_then_dragging_a_group_deforms_the_mesh() {
         .count();
     assert!(free_moved > 0, "no free vertex moved");
 
-    // Undo restores the rest pose of the group.
+    // Ctrl+drag rotates the group rigidly about its centroid.
+    let start = h.state().vertex_screen_pos(v).expect("painted vertex on screen");
+    h.event(Event::PointerMoved(start));
+    h.step();
+    h.event(Event::ModifiersChanged(Modifiers::COMMAND)); // Ctrl held during the drag
+    press(&h, start, true, Modifiers::COMMAND);
+    h.step();
+    for i in 1..=6 {
+        h.event(Event::PointerMoved(start + Vec2::new(10.0 * i as f32, 0.0)));
+        h.step();
+    }
+    press(&h, start + Vec2::new(60.0, 0.0), false, Modifiers::COMMAND);
+    h.step();
+    h.event(Event::ModifiersChanged(Modifiers::NONE));
+    h.step();
+    let q = h.state().group_pose(group).expect("pose").rotation;
+    assert!(q[3].abs() < 1.0 - 1e-6, "Ctrl+drag did not rotate the group: {q:?}");
+    step_until(&mut h, "a frame for the rotated pose", has_current_frame);
+    let rotated = h.state().latest_frame(Method::BsArap).expect("frame").clone();
+    let dist = |p: [f64; 3], q: [f64; 3]| {
+        ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt()
+    };
+    let f64s = |p: [f32; 3]| [p[0] as f64, p[1] as f64, p[2] as f64];
+    let (a, b) = (painted[0], painted[painted.len() - 1]);
+    let rest_ab = dist(rest[a], rest[b]);
+    let now_ab = dist(f64s(rotated.positions[a]), f64s(rotated.positions[b]));
+    assert!((rest_ab - now_ab).abs() < 1e-4 * diag, "the rotation is not rigid");
+    assert!(
+        dist(f64s(rotated.positions[a]), f64s(frame.positions[a])) > 0.0
+            || dist(f64s(rotated.positions[b]), f64s(frame.positions[b])) > 0.0,
+        "the rotation moved nothing"
+    );
+
+    // Undo (twice: the rotation, then the drag) restores the rest pose of the group.
+    h.key_press_modifiers(Modifiers::COMMAND, egui::Key::Z);
+    h.step();
     let before_undo = h.state().pose_generation();
     h.key_press_modifiers(Modifiers::COMMAND, egui::Key::Z);
     h.step();
