@@ -170,6 +170,10 @@ impl CoarseBsArap {
                 expected: self.fine_handles.len(),
             });
         }
+        // Only some targets reach the coarse ARAP (which checks them); all are copied to p'.
+        if let Some(index) = targets.iter().position(|t| !t.iter().all(|c| c.is_finite())) {
+            return Err(SolveError::NonFiniteTarget { index });
+        }
         let coarse_targets: Vec<[f64; 3]> =
             self.coarse_targets.iter().map(|&k| targets[k]).collect();
         let stats = self.arap.solve(&coarse_targets)?;
@@ -178,6 +182,9 @@ impl CoarseBsArap {
             *q = quaternion_of(r);
         }
         let quats = &self.quaternions;
+        // B'_c is finite (checked by ARAP) but the prolonged p' can still overflow: keep the
+        // previous pose to restore it then.
+        let previous = self.result.clone();
         self.deformed_base
             .par_iter_mut()
             .zip(self.result.par_iter_mut())
@@ -202,6 +209,12 @@ impl CoarseBsArap {
         }
         for &(v, p) in &self.pinned {
             self.result[v as usize] = p;
+        }
+        if let Some(vertex) =
+            self.result.par_iter().position_any(|p| !p.iter().all(|c| c.is_finite()))
+        {
+            self.result = previous;
+            return Err(SolveError::NonFiniteResult { vertex });
         }
         Ok(stats)
     }
