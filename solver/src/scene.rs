@@ -193,15 +193,25 @@ impl Scene {
                     .into(),
             });
         }
-        if !(self.arap.tolerance.is_finite() && self.arap.tolerance >= 0.0)
-            || !(1..=MAX_ITERATIONS).contains(&self.arap.max_iterations)
-            || !(self.arap.energy_threshold.is_finite() && self.arap.energy_threshold >= 0.0)
-        {
+        let non_negative = |x: f64| x.is_finite() && x >= 0.0;
+        let valid = non_negative(self.arap.tolerance)
+            && (1..=MAX_ITERATIONS).contains(&self.arap.max_iterations)
+            && non_negative(self.arap.energy_threshold);
+        if !valid {
             return Err(SceneError::Invalid {
                 file: file.to_string(),
                 message: format!(
                     "\"arap\": tolerance and energy_threshold must be finite and ≥ 0, max_iterations between 1 and {MAX_ITERATIONS}"
                 ),
+            });
+        }
+        let base = &self.base;
+        let smoothing_ok =
+            base.smoothing.is_finite() && base.smoothing > 0.0 && base.smoothing <= 1.0;
+        if !smoothing_ok || !(16..=10_000_000).contains(&base.coarse_vertices) {
+            return Err(SceneError::Invalid {
+                file: file.to_string(),
+                message: "\"base\": smoothing must be in (0, 1] and coarse_vertices between 16 and 10000000".into(),
             });
         }
         if let Acceleration::Anderson { window } = self.arap.acceleration
