@@ -98,8 +98,15 @@ impl BsArap {
         let stats = self.arap.solve(targets)?;
         let b = self.arap.positions();
         let r = self.arap.rotations();
+        // B' is finite (checked by ARAP) but B' + R D can still overflow: check before writing,
+        // so that the previous pose is kept.
+        let p = |i: usize| add(b[i], mul_vec(&r[i], self.details[i]));
+        if let Some(vertex) = (0..self.result.len()).find(|&i| !p(i).iter().all(|c| c.is_finite()))
+        {
+            return Err(SolveError::NonFiniteResult { vertex });
+        }
         for (i, out) in self.result.iter_mut().enumerate() {
-            *out = add(b[i], mul_vec(&r[i], self.details[i]));
+            *out = p(i);
         }
         Ok(stats)
     }

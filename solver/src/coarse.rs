@@ -57,6 +57,7 @@ pub struct CoarseBsArap {
     /// For each coarse handle vertex (in its handle order), the index in the fine targets.
     coarse_targets: Vec<usize>,
     quaternions: Vec<[f64; 4]>,
+    phases: Vec<(&'static str, f64)>,
 }
 
 impl CoarseBsArap {
@@ -74,12 +75,15 @@ impl CoarseBsArap {
             });
         }
         let diag = mesh.bbox_diagonal();
+        let mut clock = Phases::default();
         let constraints = Constraints::new(mesh, handles);
         let smoothing = (coarse.smoothing.is_finite() && coarse.smoothing > 0.0)
-            .then(|| coarse.smoothing * diag);
+            .then_some(coarse.smoothing * diag);
         let base = faired_surface(mesh, &constraints, mesh.positions(), smoothing)?;
+        clock.lap("faired base");
         let labels = handles.labels();
         let dec = decimate(&base, mesh.triangles(), labels, coarse.coarse_vertices);
+        clock.lap("decimation");
         let coarse_positions: Vec<[f64; 3]> = dec.kept.iter().map(|&v| base[v as usize]).collect();
         let coarse_mesh = Mesh::new(coarse_positions, dec.triangles.clone())
             .map_err(|_| SolveError::NonFiniteResult { vertex: 0 })?;
@@ -96,6 +100,7 @@ impl CoarseBsArap {
             SolveError::DegenerateFace { face } => SolveError::DegenerateBase { face },
             other => other,
         })?;
+        clock.lap("coarse factorization");
         let fine_handles = handles.handle_vertices();
         let coarse_targets = coarse_handles
             .handle_vertices()
@@ -143,12 +148,14 @@ impl CoarseBsArap {
             embedding.iter().map(|(t, w)| blend(cp, t, w)).collect();
         let details =
             mesh.positions().iter().zip(&base_on_coarse).map(|(&p, &b)| sub(p, b)).collect();
+        clock.lap("embedding");
         let pinned = constraints
             .pinned_vertices
             .iter()
             .map(|&v| (v, mesh.positions()[v as usize]))
             .collect();
         Ok(CoarseBsArap {
+            phases: clock.phases,
             pinned,
             quaternions: vec![[1.0, 0.0, 0.0, 0.0]; cp.len()],
             deformed_base: base_on_coarse.clone(),
@@ -170,6 +177,10 @@ impl CoarseBsArap {
                 expected: self.fine_handles.len(),
             });
         }
+        // Only some targets reach the coarse ARAP (which checks them); all are copied to p'.
+        if let Some(index) = targets.iter().position(|t| !t.iter().all(|c| c.is_finite())) {
+            return Err(SolveError::NonFiniteTarget { index });
+        }
         let coarse_targets: Vec<[f64; 3]> =
             self.coarse_targets.iter().map(|&k| targets[k]).collect();
         let stats = self.arap.solve(&coarse_targets)?;
@@ -178,6 +189,9 @@ impl CoarseBsArap {
             *q = quaternion_of(r);
         }
         let quats = &self.quaternions;
+        // B'_c is finite (checked by ARAP) but the prolonged p' can still overflow: keep the
+        // previous pose to restore it then.
+        let previous = self.result.clone();
         self.deformed_base
             .par_iter_mut()
             .zip(self.result.par_iter_mut())
@@ -203,6 +217,12 @@ impl CoarseBsArap {
         for &(v, p) in &self.pinned {
             self.result[v as usize] = p;
         }
+        if let Some(vertex) =
+            self.result.par_iter().position_any(|p| !p.iter().all(|c| c.is_finite()))
+        {
+            self.result = previous;
+            return Err(SolveError::NonFiniteResult { vertex });
+        }
         Ok(stats)
     }
 
@@ -226,6 +246,17 @@ impl CoarseBsArap {
         &self.details
     }
 
+    /// Milliseconds of each precomputation phase (faired base, decimation, coarse
+    /// factorization, embedding).
+    pub fn precompute_phases(&self) -> &[(&'static str, f64)] {
+        &self.phases
+    }
+
+    /// Vertices of the coarse base.
+    pub fn coarse_vertices(&self) -> usize {
+        self.arap.rest().len()
+    }
+
     /// The ARAP solver on the coarse base.
     pub fn base_arap(&self) -> &Arap {
         &self.arap
@@ -239,6 +270,26 @@ impl CoarseBsArap {
     /// Restarts the next solve from rest.
     pub fn reset(&mut self) {
         self.arap.reset();
+    }
+}
+
+/// Wall-clock laps of the precomputation.
+struct Phases {
+    last: std::time::Instant,
+    phases: Vec<(&'static str, f64)>,
+}
+
+impl Default for Phases {
+    fn default() -> Self {
+        Phases { last: std::time::Instant::now(), phases: Vec::new() }
+    }
+}
+
+impl Phases {
+    fn lap(&mut self, name: &'static str) {
+        let now = std::time::Instant::now();
+        self.phases.push((name, (now - self.last).as_secs_f64() * 1e3));
+        self.last = now;
     }
 }
 
@@ -330,7 +381,7 @@ mod tests {
     #[test]
     fn quaternions_round_trip() {
         for (axis, angle) in
-            [([1.0, 0.0, 0.0], 0.3), ([0.2, -1.0, 0.5], 2.9), ([0.0, 0.0, 1.0], 3.14)]
+            [([1.0, 0.0, 0.0], 0.3), ([0.2, -1.0, 0.5], 2.9), ([0.0, 0.0, 1.0], 3.0)]
         {
             let r = axis_angle(axis, angle);
             let q = quaternion_of(&r);

@@ -91,14 +91,29 @@ struct State<'a> {
 
 impl State<'_> {
     fn neighbours(&self, u: u32) -> Vec<u32> {
-        let mut n: Vec<u32> = self.vertex_faces[u as usize]
-            .iter()
-            .flat_map(|&f| self.faces[f as usize])
-            .filter(|&w| w != u)
-            .collect();
-        n.sort_unstable();
-        n.dedup();
+        let mut n = Vec::new();
+        self.neighbours_into(u, &mut n);
         n
+    }
+
+    /// The one-ring of `u`, sorted, into `out` (reused to avoid allocation).
+    fn neighbours_into(&self, u: u32, out: &mut Vec<u32>) {
+        out.clear();
+        for &f in &self.vertex_faces[u as usize] {
+            for w in self.faces[f as usize] {
+                if w != u {
+                    out.push(w);
+                }
+            }
+        }
+        out.sort_unstable();
+        out.dedup();
+    }
+
+    /// Valence of an interior vertex (its face count); boundary vertices are never removed
+    /// and only need a lower bound here.
+    fn valence(&self, w: u32) -> usize {
+        self.vertex_faces[w as usize].len()
     }
 
     fn face_normal(&self, t: [u32; 3]) -> [f64; 3] {
@@ -106,24 +121,35 @@ impl State<'_> {
         cross(sub(b, a), sub(c, a))
     }
 
-    /// Cost of collapsing `u` into `v`, or `None` when the collapse is not allowed.
-    fn cost(&self, u: u32, v: u32, nu: &[u32]) -> Option<f64> {
+    /// Cost of collapsing `u` into `v`, or `None` when the collapse is not allowed. `nv` is
+    /// scratch space.
+    fn cost(&self, u: u32, v: u32, nu: &[u32], nv: &mut Vec<u32>) -> Option<f64> {
         let (ui, vi) = (u as usize, v as usize);
         if self.boundary[ui] {
             return None;
         }
-        if let Some(g) = self.labels[ui] {
-            if self.labels[vi] != Some(g) || self.group_alive[g as usize] <= MIN_GROUP_VERTICES {
-                return None;
-            }
-        }
-        // Link condition: exactly two common neighbours, each of valence > 3.
-        let nv = self.neighbours(v);
-        let common: Vec<u32> = nu.iter().copied().filter(|w| nv.binary_search(w).is_ok()).collect();
-        if common.len() != 2 || nu.len() <= 3 || nv.len() <= 3 {
+        if let Some(g) = self.labels[ui]
+            && (self.labels[vi] != Some(g) || self.group_alive[g as usize] <= MIN_GROUP_VERTICES)
+        {
             return None;
         }
-        if common.iter().any(|&w| self.neighbours(w).len() <= 3) {
+        // Link condition: exactly two common neighbours, each of valence > 3.
+        self.neighbours_into(v, nv);
+        let mut common = [0u32; 2];
+        let mut n_common = 0;
+        for w in nu {
+            if nv.binary_search(w).is_ok() {
+                if n_common == 2 {
+                    return None;
+                }
+                common[n_common] = *w;
+                n_common += 1;
+            }
+        }
+        if n_common != 2 || nu.len() <= 3 || nv.len() <= 3 {
+            return None;
+        }
+        if common.iter().any(|&w| self.valence(w) <= 3) {
             return None;
         }
         // Faces of u that survive must not flip or degenerate.
@@ -135,7 +161,8 @@ impl State<'_> {
             let before = self.face_normal(t);
             let after = self.face_normal(t.map(|w| if w == u { v } else { w }));
             let (nb, na) = (norm(before), norm(after));
-            if !(na > 1e-12 * nb) || dot(before, after) < 0.34 * nb * na {
+            let degenerate = na.is_nan() || na <= 1e-12 * nb;
+            if degenerate || dot(before, after) < 0.34 * nb * na {
                 return None;
             }
         }
@@ -148,8 +175,9 @@ impl State<'_> {
             return None;
         }
         let nu = self.neighbours(u);
+        let mut nv = Vec::with_capacity(16);
         nu.iter()
-            .filter_map(|&v| self.cost(u, v, &nu).map(|cost| (cost, v)))
+            .filter_map(|&v| self.cost(u, v, &nu, &mut nv).map(|cost| (cost, v)))
             .min_by(|a, b| a.0.total_cmp(&b.0))
             .map(|(cost, v)| Candidate { cost, u, v, version: self.version[u as usize] })
     }
@@ -256,7 +284,8 @@ pub fn decimate(
         }
         // Re-check: the neighbourhood may have changed since the candidate was pushed.
         let nu = s.neighbours(c.u);
-        match s.cost(c.u, c.v, &nu) {
+        let mut nv = Vec::with_capacity(16);
+        match s.cost(c.u, c.v, &nu, &mut nv) {
             Some(cost) if cost <= c.cost * (1.0 + 1e-9) + 1e-300 => {}
             _ => {
                 s.version[u] += 1;
@@ -279,9 +308,9 @@ pub fn decimate(
     // Compact.
     let mut index = vec![u32::MAX; n];
     let mut kept = Vec::with_capacity(alive_count);
-    for v in 0..n {
+    for (v, slot) in index.iter_mut().enumerate() {
         if s.alive[v] {
-            index[v] = kept.len() as u32;
+            *slot = kept.len() as u32;
             kept.push(v as u32);
         }
     }

@@ -27,7 +27,7 @@ use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use crate::animation::{AnimationError, Timeline};
-use crate::arap::ArapConfig;
+use crate::arap::{Acceleration, ArapConfig};
 use crate::deformer::{BaseConfig, Method};
 use crate::handles::{Handles, HandlesError};
 use crate::io::{LoadError, LoadedMesh, SaveError, load_mesh, write_atomic};
@@ -35,6 +35,13 @@ use crate::selection::{SelectionError, load_selection, parse_spheres};
 
 /// The scene format version this build reads and writes.
 pub const SCENE_VERSION: u32 = 1;
+
+/// The largest `arap.max_iterations` a scene may ask for (the CLI's `--max-iters` cap): with
+/// `tolerance` 0 every solve runs that many iterations, so a larger value would hang playback.
+pub const MAX_ITERATIONS: usize = 100_000;
+
+/// The largest Anderson window a scene may ask for.
+pub const MAX_ANDERSON_WINDOW: usize = 64;
 
 /// Why a scene could not be read, resolved or saved. One line each, naming the file.
 #[derive(Debug, Error)]
@@ -186,12 +193,36 @@ impl Scene {
                     .into(),
             });
         }
-        if !(self.arap.tolerance.is_finite() && self.arap.tolerance >= 0.0)
-            || self.arap.max_iterations == 0
-        {
+        let non_negative = |x: f64| x.is_finite() && x >= 0.0;
+        let valid = non_negative(self.arap.tolerance)
+            && (1..=MAX_ITERATIONS).contains(&self.arap.max_iterations)
+            && non_negative(self.arap.energy_threshold);
+        if !valid {
             return Err(SceneError::Invalid {
                 file: file.to_string(),
-                message: "\"arap\": tolerance must be finite and ≥ 0, max_iterations ≥ 1".into(),
+                message: format!(
+                    "\"arap\": tolerance and energy_threshold must be finite and ≥ 0, max_iterations between 1 and {MAX_ITERATIONS}"
+                ),
+            });
+        }
+        let base = &self.base;
+        let smoothing_ok =
+            base.smoothing.is_finite() && base.smoothing > 0.0 && base.smoothing <= 1.0;
+        if !smoothing_ok || !(16..=10_000_000).contains(&base.coarse_vertices) {
+            return Err(SceneError::Invalid {
+                file: file.to_string(),
+                message: "\"base\": smoothing must be in (0, 1] and coarse_vertices between 16 and 10000000".into(),
+            });
+        }
+        if let Acceleration::Anderson { window } = self.arap.acceleration
+            && !(1..=MAX_ANDERSON_WINDOW).contains(&window)
+        {
+            // The window sizes dense window² buffers: an absurd one must not abort the program.
+            return Err(SceneError::Invalid {
+                file: file.to_string(),
+                message: format!(
+                    "\"arap\": the Anderson window must be between 1 and {MAX_ANDERSON_WINDOW} (got {window})"
+                ),
             });
         }
         self.timeline

@@ -76,3 +76,86 @@ pub fn icosphere(level: u32) -> Mesh {
         Err(e) => unreachable!("icosphere construction is valid: {e}"),
     }
 }
+
+/// One step of 1-to-4 midpoint subdivision: each triangle `(a, b, c)` becomes `(a, m_ab, m_ca)`,
+/// `(b, m_bc, m_ab)`, `(c, m_ca, m_bc)` and `(m_ab, m_bc, m_ca)`, where `m_xy` is the midpoint of
+/// edge `xy`, shared by the triangles on both sides of the edge.
+///
+/// Input: a mesh with `#V` vertices, `#E` edges, `#F` triangles. Output: `#V + #E` vertices (the
+/// original ones first, unchanged and in order, then one per edge) and `4·#F` triangles with the
+/// same orientation. The surface is geometrically the same, so selections by position (spheres)
+/// still pick the same region. Known limitation: indices are `u32`, so `#V + #E` must stay below
+/// 2³² (about 700M vertices).
+pub fn subdivide(mesh: &Mesh) -> Mesh {
+    let mut p = mesh.positions().to_vec();
+    let mut mid: HashMap<(u32, u32), u32> = HashMap::with_capacity(mesh.n_faces() * 3 / 2);
+    let mut f = Vec::with_capacity(mesh.n_faces() * 4);
+    for tri in mesh.triangles() {
+        let mut m = [0u32; 3];
+        for k in 0..3 {
+            let (a, b) = (tri[k], tri[(k + 1) % 3]);
+            m[k] = *mid.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                let (pa, pb) = (p[a as usize], p[b as usize]);
+                p.push(std::array::from_fn(|d| 0.5 * (pa[d] + pb[d])));
+                (p.len() - 1) as u32
+            });
+        }
+        f.push([tri[0], m[0], m[2]]);
+        f.push([tri[1], m[1], m[0]]);
+        f.push([tri[2], m[2], m[1]]);
+        f.push(m);
+    }
+    // Midpoints of finite points are finite, new indices are in range, and a triangle's
+    // corners and its edges' midpoints are all distinct vertices.
+    match Mesh::new(p, f) {
+        Ok(m) => m,
+        Err(e) => unreachable!("midpoint subdivision of a valid mesh is valid: {e}"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn subdivide_counts_positions_and_orientation() {
+        let ico = icosphere(0);
+        let sub = subdivide(&ico);
+        // 12 vertices + 30 edges; 4 × 20 triangles.
+        assert_eq!(sub.n_vertices(), 42);
+        assert_eq!(sub.n_faces(), 80);
+        assert_eq!(&sub.positions()[..12], ico.positions());
+        // Every new vertex is the midpoint of an edge of the original mesh.
+        for q in &sub.positions()[12..] {
+            let found = ico.triangles().iter().any(|t| {
+                (0..3).any(|k| {
+                    let (a, b) =
+                        (ico.positions()[t[k] as usize], ico.positions()[t[(k + 1) % 3] as usize]);
+                    (0..3).all(|d| (0.5 * (a[d] + b[d]) - q[d]).abs() < 1e-15)
+                })
+            });
+            assert!(found, "{q:?} is no edge midpoint");
+        }
+        // Orientation and area are kept: the signed volume of a closed mesh is unchanged.
+        let volume = |m: &Mesh| -> f64 {
+            m.triangles()
+                .iter()
+                .map(|t| {
+                    let [a, b, c] = t.map(|i| m.positions()[i as usize]);
+                    let cross = [
+                        b[1] * c[2] - b[2] * c[1],
+                        b[2] * c[0] - b[0] * c[2],
+                        b[0] * c[1] - b[1] * c[0],
+                    ];
+                    (a[0] * cross[0] + a[1] * cross[1] + a[2] * cross[2]) / 6.0
+                })
+                .sum()
+        };
+        let (v0, v1) = (volume(&ico), volume(&sub));
+        assert!(v0 > 0.0 && (v0 - v1).abs() < 1e-12 * v0, "{v0} vs {v1}");
+        // Twice: the counts follow V' = V + E, F' = 4F (E' = 2E + 3F).
+        let sub2 = subdivide(&sub);
+        assert_eq!(sub2.n_vertices(), 42 + 120);
+        assert_eq!(sub2.n_faces(), 320);
+    }
+}

@@ -134,6 +134,10 @@ pub fn run(a: &DeformArgs) -> anyhow::Result<()> {
             "solve_ms": solve_ms,
             "ms_per_iteration": solve_ms / stats.iterations.max(1) as f64,
             "pinned_components": deformer.arap().constraints().pinned_components,
+            "precompute_phases_ms": match &deformer {
+                solver::Deformer::Coarse(c) => c.precompute_phases().iter().map(|(k, v)| (k.to_string(), serde_json::json!(v))).collect::<serde_json::Map<_, _>>(),
+                _ => serde_json::Map::new(),
+            },
             "output": a.output.display().to_string(),
         });
         println!("{j}");

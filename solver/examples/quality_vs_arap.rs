@@ -1,0 +1,90 @@
+//! One pose, every method, measured against converged ARAP (issue 8's quality figures).
+//!
+//! Usage: `cargo run --release -p solver --example quality_vs_arap -- MESH SELECTION [COARSE...]`
+//!
+//! The first handle group moves by (−r, r, 0) with r = 0.1·diag (a quarter turn of the bench
+//! circle), the others stay. The reference is ARAP from rest with Anderson acceleration to a
+//! relative energy decrease of 1e-10 (cap 4000). Each method then solves the same pose from rest
+//! with the default stopping rule (tolerance 1e-4, cap 100) and is reported with its precompute
+//! and solve times, iterations, distances to the reference (fractions of the diagonal) and the
+//! ARAP energy of its result measured on the mesh.
+
+use solver::arap::Acceleration;
+use solver::quality::distances;
+use solver::{Arap, ArapConfig, BaseConfig, Deformer, GroupTransform, Method, handle_targets};
+use std::time::Instant;
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().collect();
+    if args.len() < 3 {
+        return Err("usage: quality_vs_arap MESH SELECTION [COARSE_VERTICES...]".into());
+    }
+    let mesh = solver::io::load_mesh(std::path::Path::new(&args[1]))?.mesh;
+    let handles =
+        solver::selection::load_selection(std::path::Path::new(&args[2]), mesh.positions())?;
+    let coarse: Vec<usize> = if args.len() > 3 {
+        args[3..].iter().map(|s| s.parse()).collect::<Result<_, _>>()?
+    } else {
+        vec![2000, 4000]
+    };
+    let diag = mesh.bbox_diagonal();
+    let r = 0.1 * diag;
+    let group = handles.group_ids().next().ok_or("empty selection")?;
+    let moved = [(group, GroupTransform { translation: [-r, r, 0.0], ..Default::default() })];
+    let targets = handle_targets(mesh.positions(), &handles, &moved)?;
+
+    let t = Instant::now();
+    let reference_config = ArapConfig {
+        tolerance: 1e-10,
+        max_iterations: 4000,
+        acceleration: Acceleration::Anderson { window: 6 },
+        ..Default::default()
+    };
+    let mut reference = Arap::new(&mesh, &handles, &reference_config)?;
+    let s = reference.solve(&targets)?;
+    let reference_positions = reference.positions().to_vec();
+    println!(
+        "{}: {} vertices; reference ARAP: {} iterations, converged {}, energy {:.4e}, {:.1} s",
+        args[1],
+        mesh.n_vertices(),
+        s.iterations,
+        s.converged,
+        s.energy(),
+        t.elapsed().as_secs_f64()
+    );
+    println!(
+        "| method | precompute ms | solve ms | iterations | max dist | mean dist | energy on M |"
+    );
+    println!("|---|---:|---:|---:|---:|---:|---:|");
+    let mut runs: Vec<(String, Method, usize)> = vec![
+        ("arap".into(), Method::Arap, 0),
+        ("bsarap".into(), Method::BsArap, 0),
+        ("bsarap-faired".into(), Method::BsArapFaired, 0),
+    ];
+    runs.extend(coarse.iter().map(|&c| (format!("bsarap-coarse {c}"), Method::BsArapCoarse, c)));
+    for (name, method, cv) in runs {
+        let base = BaseConfig { coarse_vertices: cv.max(16), ..Default::default() };
+        let t = Instant::now();
+        let mut d =
+            match Deformer::with_base(method, &mesh, &handles, &ArapConfig::default(), &base) {
+                Ok(d) => d,
+                Err(e) => {
+                    println!("| {name} | failed: {e} | | | | | |");
+                    continue;
+                }
+            };
+        let precompute = t.elapsed().as_secs_f64() * 1e3;
+        let t = Instant::now();
+        let s = d.solve(&targets)?;
+        let solve = t.elapsed().as_secs_f64() * 1e3;
+        let q = distances(d.positions(), &reference_positions, diag);
+        let e = reference.pose_energy(d.positions());
+        println!(
+            "| {name} | {precompute:.0} | {solve:.0} | {} | {:.2}% | {:.3}% | {e:.3e} |",
+            s.iterations,
+            q.max * 100.0,
+            q.mean * 100.0
+        );
+    }
+    Ok(())
+}
