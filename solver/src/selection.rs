@@ -211,7 +211,16 @@ pub fn parse_spheres(text: &str, positions: &[[f64; 3]]) -> Result<Handles, Sele
     for (v, p) in positions.iter().enumerate() {
         for (k, s) in spheres.iter().enumerate() {
             let d2: f64 = (0..3).map(|c| (p[c] - s.center[c]).powi(2)).sum();
-            if d2 <= s.radius * s.radius {
+            let r2 = s.radius * s.radius;
+            // Squares beyond f64 (coordinates near 1e154 and up) compare as inf ≤ inf: measure
+            // with hypot then (fuzzing found it).
+            let within = if d2.is_finite() && r2.is_finite() {
+                d2 <= r2
+            } else {
+                let d = (p[0] - s.center[0]).hypot(p[1] - s.center[1]).hypot(p[2] - s.center[2]);
+                d <= s.radius
+            };
+            if within {
                 inside[k] += 1;
                 if let Some(slot) = labels.get_mut(v)
                     && slot.is_none()

@@ -61,7 +61,8 @@ pub(crate) fn parse(bytes: &[u8], ctx: Ctx) -> Result<RawMesh, LoadError> {
     }
     // One element per line: the header's counts must match the number of data lines.
     let data_lines = lines.clone().count() as u64;
-    let claimed = n_v + n_f;
+    // Saturating: a face count near 2^64 must not wrap around (fuzzing found it).
+    let claimed = n_v.saturating_add(n_f);
     if data_lines < claimed {
         return Err(ctx.truncated(
             Some(count_line),
