@@ -114,8 +114,8 @@ impl Variant {
     }
 }
 
-/// The methods `--method all` runs, in report order.
-const ALL_METHODS: [Method; 2] = [Method::Arap, Method::BsArap];
+/// The methods `--method all` runs, in report order: every method of the solver.
+const ALL_METHODS: [Method; Method::ALL.len()] = Method::ALL;
 
 fn parse_methods(s: &str) -> anyhow::Result<Vec<Method>> {
     Ok(match s {
@@ -141,6 +141,7 @@ fn arap_mut(d: &mut Deformer) -> Option<&mut solver::Arap> {
     match d {
         Deformer::Arap(a) => Some(a),
         Deformer::BsArap(b) => Some(b.base_arap_mut()),
+        Deformer::Coarse(c) => Some(c.base_arap_mut()),
         #[allow(unreachable_patterns)]
         _ => None,
     }
