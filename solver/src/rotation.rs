@@ -58,7 +58,8 @@ fn polar_newton(s: &Mat3) -> Option<Mat3> {
     }
     for _ in 0..16 {
         let d = det3(&x);
-        if !(d > 0.0) {
+        // Also refuses NaN.
+        if d.is_nan() || d <= 0.0 {
             return None;
         }
         // X^{-T} = cof(X) / det X.
