@@ -16,37 +16,9 @@
 
 use rayon::prelude::*;
 use solver::rotation::{Mat3, axis_angle, fit_rotation, mul_vec};
-use solver::shapes::icosphere;
+use solver::shapes::bumpy_bar;
 use solver::{Arap, ArapConfig, Handles, Mesh};
 use std::time::Instant;
-
-fn bumpy_bar(level: u32) -> (Mesh, Handles) {
-    let s = icosphere(level);
-    let p: Vec<[f64; 3]> = s
-        .positions()
-        .iter()
-        .map(|&[x, y, z]| {
-            let bump = 1.0 + 0.05 * (7.0 * x).sin() * (5.0 * y).cos();
-            [2.0 * x * bump, 0.6 * y * bump, 0.5 * z * bump]
-        })
-        .collect();
-    let m = s.with_positions(p).unwrap();
-    let labels: Vec<i64> = m
-        .positions()
-        .iter()
-        .map(|p| {
-            if p[0] > 1.7 {
-                0
-            } else if p[0] < -1.7 {
-                1
-            } else {
-                -1
-            }
-        })
-        .collect();
-    let h = Handles::from_labels(&labels, m.n_vertices()).unwrap();
-    (m, h)
-}
 
 /// Read bandwidth in GB/s: summing a 256 MiB array, on all threads (rayon).
 fn bandwidth_gbs() -> f64 {

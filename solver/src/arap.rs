@@ -723,35 +723,10 @@ mod tests {
     #![allow(clippy::unwrap_used, clippy::expect_used, clippy::needless_range_loop)]
     use super::*;
     use crate::rotation::{axis_angle, fit_rotation_svd};
-    use crate::shapes::icosphere;
 
     /// A bumpy ellipsoid with two end caps as handle groups.
     fn setup() -> (Mesh, Handles) {
-        let s = icosphere(3);
-        let p: Vec<[f64; 3]> = s
-            .positions()
-            .iter()
-            .map(|&[x, y, z]| {
-                let bump = 1.0 + 0.05 * (7.0 * x).sin() * (5.0 * y).cos();
-                [2.0 * x * bump, 0.6 * y * bump, 0.5 * z * bump]
-            })
-            .collect();
-        let m = s.with_positions(p).unwrap();
-        let labels: Vec<i64> = m
-            .positions()
-            .iter()
-            .map(|p| {
-                if p[0] > 1.7 {
-                    0
-                } else if p[0] < -1.7 {
-                    1
-                } else {
-                    -1
-                }
-            })
-            .collect();
-        let h = Handles::from_labels(&labels, m.n_vertices()).unwrap();
-        (m, h)
+        crate::shapes::bumpy_bar(3)
     }
 
     /// A deformed pose: a twist and bend of the rest shape.

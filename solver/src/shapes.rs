@@ -113,6 +113,38 @@ pub fn subdivide(mesh: &Mesh) -> Mesh {
     }
 }
 
+/// A bumpy ellipsoid (2 × 0.6 × 0.5 with ripples, from [`icosphere`]`(level)`) and its two
+/// end caps as handle groups (`x > 1.7`: group 0, `x < −1.7`: group 1): the fixture of the ARAP
+/// tests and benches.
+pub fn bumpy_bar(level: u32) -> (Mesh, crate::handles::Handles) {
+    let s = icosphere(level);
+    let p: Vec<[f64; 3]> = s
+        .positions()
+        .iter()
+        .map(|&[x, y, z]| {
+            let bump = 1.0 + 0.05 * (7.0 * x).sin() * (5.0 * y).cos();
+            [2.0 * x * bump, 0.6 * y * bump, 0.5 * z * bump]
+        })
+        .collect();
+    let labels: Vec<Option<u32>> = p
+        .iter()
+        .map(|p| {
+            if p[0] > 1.7 {
+                Some(0)
+            } else if p[0] < -1.7 {
+                Some(1)
+            } else {
+                None
+            }
+        })
+        .collect();
+    // Same connectivity, finite positions, both caps non-empty: neither call can fail.
+    match (Mesh::new(p, s.triangles().to_vec()), crate::handles::Handles::from_options(labels)) {
+        (Ok(m), Ok(h)) => (m, h),
+        _ => unreachable!("bumpy_bar construction is valid"),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -7,33 +7,8 @@ use solver::{
     ArapConfig, BaseConfig, Deformer, Energy, GroupTransform, Handles, Mesh, Method, handle_targets,
 };
 
-/// An elongated bumpy ellipsoid (2 × 0.6 × 0.5, with ripples) and two end-cap handle groups.
 fn bar(level: u32) -> (Mesh, Handles) {
-    let s = icosphere(level);
-    let p: Vec<[f64; 3]> = s
-        .positions()
-        .iter()
-        .map(|&[x, y, z]| {
-            let bump = 1.0 + 0.05 * (7.0 * x).sin() * (5.0 * y).cos();
-            [2.0 * x * bump, 0.6 * y * bump, 0.5 * z * bump]
-        })
-        .collect();
-    let m = s.with_positions(p).unwrap();
-    let labels: Vec<i64> = m
-        .positions()
-        .iter()
-        .map(|p| {
-            if p[0] > 1.7 {
-                0
-            } else if p[0] < -1.7 {
-                1
-            } else {
-                -1
-            }
-        })
-        .collect();
-    let h = Handles::from_labels(&labels, m.n_vertices()).unwrap();
-    (m, h)
+    solver::shapes::bumpy_bar(level)
 }
 
 fn max_dist(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
