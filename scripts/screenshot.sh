@@ -36,7 +36,7 @@ sleep 1
 
 export DISPLAY=$DISPLAY_NUM XDG_RUNTIME_DIR=$RUNTIME
 unset WAYLAND_DISPLAY
-RUST_LOG=${RUST_LOG:-warn} "$BIN" ${MESH:+"$MESH"} >"$LOG" 2>&1 &
+RUST_LOG=${RUST_LOG:-warn} "$BIN" edit ${MESH:+"$MESH"} >"$LOG" 2>&1 &
 APP_PID=$!
 
 # Wait for the editor to report its first solved frame on screen.

@@ -102,6 +102,7 @@ fn errors_are_one_line_with_nonzero_exit() {
         (vec!["deform", o, "--handles", s, "--method", "magic", "-o", t], "magic"),
         (vec!["deform", o], "required"),
         (vec!["bench", o, "--handles", s, "--frames", "0"], "--frames"),
+        (vec!["bench", o, "--handles", s, "--anderson", "1000000"], "--anderson"),
     ];
     for (args, needle) in cases {
         let (code, stdout, stderr) = bsarap(&args);

@@ -48,7 +48,15 @@ pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
     let scene = &loaded.scene;
     let mesh = &loaded.mesh.mesh;
     let n_frames = a.frames.unwrap_or_else(|| scene.timeline.default_frame_count());
-    anyhow::ensure!((1..=100_000).contains(&n_frames), "--frames must be between 1 and 100000");
+    anyhow::ensure!(
+        (1..=100_000).contains(&n_frames),
+        "{}: {n_frames} frames; the limit is 1 to 100000",
+        if a.frames.is_some() {
+            "--frames".to_string()
+        } else {
+            format!("{} (duration × fps + 1)", a.scene.display())
+        }
+    );
 
     let t0 = Instant::now();
     let mut deformer =
