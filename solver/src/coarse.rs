@@ -58,6 +58,8 @@ pub struct CoarseBsArap {
     coarse_targets: Vec<usize>,
     quaternions: Vec<[f64; 4]>,
     phases: Vec<(&'static str, f64)>,
+    /// Scratch for the next result (swapped with `result` after a finite solve).
+    next: Vec<[f64; 3]>,
 }
 
 impl CoarseBsArap {
@@ -156,6 +158,7 @@ impl CoarseBsArap {
             .collect();
         Ok(CoarseBsArap {
             phases: clock.phases,
+            next: Vec::new(),
             pinned,
             quaternions: vec![[1.0, 0.0, 0.0, 0.0]; cp.len()],
             deformed_base: base_on_coarse.clone(),
@@ -189,12 +192,13 @@ impl CoarseBsArap {
             *q = quaternion_of(r);
         }
         let quats = &self.quaternions;
-        // B'_c is finite (checked by ARAP) but the prolonged p' can still overflow: keep the
-        // previous pose to restore it then.
-        let previous = self.result.clone();
+        // B'_c is finite (checked by ARAP) but the prolonged p' can still overflow: write into
+        // a reused buffer and swap it in only when it is finite (the previous pose stays).
+        let mut next = std::mem::take(&mut self.next);
+        next.resize(self.result.len(), [0.0; 3]);
         self.deformed_base
             .par_iter_mut()
-            .zip(self.result.par_iter_mut())
+            .zip(next.par_iter_mut())
             .zip(self.embedding.par_iter().zip(self.details.par_iter()))
             .for_each(|((b, out), ((t, w), d))| {
                 *b = blend(bc, t, w);
@@ -212,17 +216,19 @@ impl CoarseBsArap {
                 *out = add(*b, rotate(q, *d));
             });
         for (&v, t) in self.fine_handles.iter().zip(targets) {
-            self.result[v as usize] = *t;
+            next[v as usize] = *t;
         }
         for &(v, p) in &self.pinned {
-            self.result[v as usize] = p;
+            next[v as usize] = p;
         }
-        if let Some(vertex) =
-            self.result.par_iter().position_any(|p| !p.iter().all(|c| c.is_finite()))
-        {
-            self.result = previous;
+        let bad = next.par_iter().position_any(|p| !p.iter().all(|c| c.is_finite()));
+        std::mem::swap(&mut self.result, &mut next);
+        if let Some(vertex) = bad {
+            std::mem::swap(&mut self.result, &mut next);
+            self.next = next;
             return Err(SolveError::NonFiniteResult { vertex });
         }
+        self.next = next;
         Ok(stats)
     }
 
