@@ -20,9 +20,28 @@ fn test_mesh() -> PathBuf {
 }
 
 fn harness(path: PathBuf) -> Harness<'static, EditorApp> {
-    Harness::builder().with_size(SIZE).with_render_cursor(false).wgpu().build_eframe(move |cc| {
-        EditorApp::new(cc, EditorOptions { mesh_path: Some(path), deterministic_overlays: true })
+    harness_with_config(path, None)
+}
+
+/// An editor keeping recent files and autosaves in `config_dir`.
+fn harness_with_config(path: PathBuf, config_dir: Option<PathBuf>) -> Harness<'static, EditorApp> {
+    // Frames 1/30 s apart in egui's clock, so that two clicks make a double-click.
+    let builder =
+        Harness::builder().with_size(SIZE).with_render_cursor(false).with_step_dt(1.0 / 30.0);
+    builder.wgpu().build_eframe(move |cc| {
+        EditorApp::new(
+            cc,
+            EditorOptions { mesh_path: Some(path), deterministic_overlays: true, config_dir },
+        )
     })
+}
+
+/// A fresh folder under the system's temporary folder.
+fn temp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("bsarap-editor-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
 }
 
 /// Steps the UI (background threads keep running) until `pred` holds; fails after 60 s.
@@ -243,6 +262,203 @@ fn a_bad_file_shows_an_error_and_keeps_the_mesh() {
     assert_eq!(h.state().n_vertices(), n);
     assert_eq!(h.state().mesh_path().map(|p| p.to_path_buf()), path);
     h.get_by_label_contains("no/such/mesh.obj");
+
+    // A broken scene file: its error names the file and the line; the mesh stays.
+    let dir = temp_dir("badscene");
+    let bad = dir.join("broken.json");
+    std::fs::write(&bad, "{\"version\": 1,\n \"mesh\": 3 }").unwrap();
+    h.state_mut().open(&ctx, bad.clone());
+    step_until(&mut h, "the scene load to fail", |a| !a.is_loading());
+    let err = h.state().error().expect("an error").to_owned();
+    assert!(err.contains("broken.json:2:"), "{err}");
+    assert_eq!(h.state().mesh_path().map(|p| p.to_path_buf()), path);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Distance between two points.
+fn dist(p: [f64; 3], q: [f64; 3]) -> f64 {
+    ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt()
+}
+
+#[test]
+fn a_timeline_path_drives_the_handles_and_the_recording_matches_the_headless_export() {
+    use solver::animation::Path as AnimPath;
+    let mut h = harness(test_mesh());
+    step_until(&mut h, "the default asset", settled);
+    let rest = h.state().rest_positions().unwrap().to_vec();
+    let diag = {
+        let (mut lo, mut hi) = ([f64::MAX; 3], [f64::MIN; 3]);
+        for p in &rest {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        dist(lo, hi)
+    };
+
+    // Give group 0 a circular path from the timeline panel.
+    h.state_mut().set_active_group(Some(0));
+    h.step();
+    h.get_by_label("circular").click();
+    h.step();
+    let AnimPath::Circular(c) = h.state().edit_state().path(0).clone() else {
+        panic!("the circular button did not set a circular path")
+    };
+    // A short timeline for the test: 0.4 s at 10 fps, one turn, 5 frames.
+    let mut e = h.state().edit_state().clone();
+    e.timeline.duration = 0.4;
+    e.timeline.fps = 10.0;
+    e.set_path(0, AnimPath::Circular(solver::animation::CircularPath { period: 0.4, ..c }));
+    h.state_mut().set_edit_state(e);
+    h.step();
+
+    // Scrubbing to a quarter turn moves the group along the circle: by r·√2 from rest.
+    h.state_mut().set_playback_time(0.1);
+    step_until(&mut h, "a frame for the scrubbed time", has_current_frame);
+    let t = h.state().group_pose(0).unwrap().translation;
+    assert!((dist(t, [0.0; 3]) - c.radius * 2f64.sqrt()).abs() < 1e-9 * diag, "{t:?}");
+    let frame = h.state().latest_frame(Method::BsArap).unwrap().clone();
+    let group0: Vec<usize> =
+        (0..rest.len()).filter(|&v| h.state().labels()[v] == Some(0)).collect();
+    for &v in &group0 {
+        let p = frame.positions[v].map(f64::from);
+        let want = [rest[v][0] + t[0], rest[v][1] + t[1], rest[v][2] + t[2]];
+        assert!(dist(p, want) < 1e-4 * diag, "handle vertex {v} is off its path");
+    }
+
+    // Record from the panel's button; the recording keeps every frame of the timeline.
+    h.get_by_label_contains("Record 5 frames").click();
+    h.step();
+    assert!(h.state().is_recording());
+    step_until(&mut h, "the recording", |a| !a.is_recording());
+    assert!(h.state().error().is_none(), "{:?}", h.state().error());
+    let recorded = h.state().recorded_frames().expect("a recording").clone();
+    assert_eq!(recorded.frames.len(), 5);
+    assert_eq!(recorded.times.last().copied(), Some(0.4));
+
+    // The same scene, saved and recorded headless as `bsarap export` does: the same frames.
+    let dir = temp_dir("record");
+    let scene_path = dir.join("anim.json");
+    h.state_mut().save_scene(&scene_path).unwrap();
+    let loaded = solver::scene::Scene::load(&scene_path).unwrap();
+    let sc = &loaded.scene;
+    let mut d = solver::Deformer::with_base(
+        sc.method,
+        &loaded.mesh.mesh,
+        &loaded.handles,
+        &sc.arap,
+        &sc.base,
+    )
+    .unwrap();
+    let headless = solver::recording::record(
+        &mut d,
+        &loaded.mesh.mesh,
+        &loaded.handles,
+        &sc.timeline,
+        5,
+        &sc.arap,
+        &mut |_, _| std::ops::ControlFlow::Continue(()),
+    )
+    .unwrap();
+    for (i, (a, b)) in recorded.frames.iter().zip(&headless.frames).enumerate() {
+        let worst = a.iter().zip(b).map(|(p, q)| dist(*p, *q)).fold(0.0, f64::max);
+        assert!(worst < 1e-9 * diag, "frame {i} differs from the headless recording by {worst}");
+    }
+    // Frame 1 (t = 0.1) moved the group; the last (t = 0.4, one turn) is back at rest.
+    assert!(group0.iter().any(|&v| dist(recorded.frames[1][v], rest[v]) > 1e-3 * diag));
+    for &v in &group0 {
+        assert!(dist(recorded.frames[4][v], rest[v]) < 1e-9 * diag);
+    }
+
+    // Export from the editor: the file has the size the panel announced.
+    let ctx = h.ctx.clone();
+    let out = dir.join("anim.glb");
+    h.state_mut().export_gltf(&ctx, out.clone());
+    step_until(&mut h, "the export", |a| !a.is_exporting());
+    assert!(h.state().error().is_none(), "{:?}", h.state().error());
+    let written = std::fs::metadata(&out).unwrap().len();
+    assert!(h.state().info().is_some_and(|i| i.contains("anim.glb")), "{:?}", h.state().info());
+    let announced = format!("({:.1} MB)", written as f64 / 1e6);
+    assert!(h.query_all_by_label_contains(&announced).next().is_some(), "no {announced}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn scenes_recent_files_rename_and_autosave_restore() {
+    let dir = temp_dir("scenes");
+    let config = dir.join("config");
+    let mut h = harness_with_config(test_mesh(), Some(config.clone()));
+    step_until(&mut h, "the default asset", settled);
+    assert!(h.state().restore_offer().is_none());
+    assert_eq!(h.state().recent_files().len(), 1, "the opened mesh is a recent file");
+
+    // Rename group 0: double-click its name, type, Enter. Undo restores the old name.
+    h.get_by_label_contains("Group 0 (").click();
+    h.step();
+    h.get_by_label_contains("Group 0 (").click();
+    h.step();
+    h.step();
+    h.key_press_modifiers(Modifiers::COMMAND, egui::Key::A);
+    h.event(Event::Text("left foot".into()));
+    h.step();
+    h.key_press(egui::Key::Enter);
+    h.step();
+    h.step();
+    assert_eq!(h.state().edit_state().groups[0].name, "left foot");
+    h.key_press_modifiers(Modifiers::COMMAND, egui::Key::Z);
+    h.step();
+    assert_eq!(h.state().edit_state().groups[0].name, "Group 0");
+    h.key_press_modifiers(Modifiers::COMMAND | Modifiers::SHIFT, egui::Key::Z);
+    h.step();
+    assert_eq!(h.state().edit_state().groups[0].name, "left foot");
+
+    // Pose group 1, autosave, then "crash" (drop the editor without a clean exit).
+    let mut e = h.state().edit_state().clone();
+    e.groups[1].pose.translation = [0.0, 0.05, 0.0];
+    h.state_mut().set_edit_state(e.clone());
+    let autosave = h.state_mut().autosave_now().unwrap();
+    assert!(autosave.starts_with(&config));
+    drop(h);
+
+    // The next start offers it back; Restore brings back the pose and the names.
+    let mut h = harness_with_config(test_mesh(), Some(config.clone()));
+    h.step();
+    assert_eq!(h.state().restore_offer(), Some(autosave.as_path()));
+    step_until(&mut h, "the default asset", |a| !a.is_loading() && a.n_vertices() > 0);
+    h.get_by_label("Restore").click();
+    h.step();
+    step_until(&mut h, "the restored scene", |a| {
+        !a.is_loading() && a.group_pose(1).is_some_and(|p| p.translation[1] > 0.04)
+    });
+    assert_eq!(h.state().edit_state().groups[0].name, "left foot");
+    assert_eq!(h.state().edit_state().labels, e.labels);
+    assert_eq!(h.state().document_path(), None, "an autosave is not the document");
+
+    // Save as a scene: it becomes the document and a recent file; nothing is unsaved, so a
+    // clean exit removes the autosave.
+    let scene_path = dir.join("posed.json");
+    h.state_mut().save_scene(&scene_path).unwrap();
+    assert_eq!(h.state().document_path(), Some(scene_path.as_path()));
+    assert_eq!(h.state().recent_files().first(), Some(&scene_path));
+    assert!(!h.state_mut().exit_autosave(), "nothing unsaved: the autosave goes");
+    assert!(!autosave.exists());
+    drop(h);
+
+    // Opening the scene restores the state; an unsaved change survives a clean exit.
+    let mut h = harness_with_config(scene_path.clone(), Some(config.clone()));
+    step_until(&mut h, "the scene", settled);
+    assert!(h.state().restore_offer().is_none());
+    assert_eq!(h.state().document_path(), Some(scene_path.as_path()));
+    assert_eq!(h.state().edit_state().groups[0].name, "left foot");
+    let t = h.state().group_pose(1).unwrap().translation;
+    assert!((t[1] - 0.05).abs() < 1e-12, "{t:?}");
+    let mut e = h.state().edit_state().clone();
+    e.groups[0].pose.translation = [0.01, 0.0, 0.0];
+    h.state_mut().set_edit_state(e);
+    assert!(h.state_mut().exit_autosave(), "unsaved changes are kept for the next start");
+    assert!(autosave.exists());
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]

@@ -11,7 +11,8 @@
 //!                           "radius": 0.3, "period": 2.0}}]},
 //!   "method": "bsarap",
 //!   "arap": {"energy": "spokes-and-rims", "tolerance": 1e-4, "max_iterations": 100},
-//!   "camera": {"any": "JSON the editor stores"}
+//!   "camera": {"any": "JSON the editor stores"},
+//!   "editor": {"groups": [{"name": "left foot", "color": [230, 25, 75]}]}
 //! }
 //! ```
 //!
@@ -122,6 +123,9 @@ pub struct Scene {
     /// Opaque to the solver: whatever the editor stores about its view.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub camera: Option<serde_json::Value>,
+    /// Opaque to the solver: other editor state (group names and colors, the current time).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub editor: Option<serde_json::Value>,
 }
 
 /// A scene with its mesh loaded and its handles resolved.
@@ -159,6 +163,7 @@ impl Scene {
             arap: ArapConfig::default(),
             base: BaseConfig::default(),
             camera: None,
+            editor: None,
         }
     }
 
@@ -259,8 +264,20 @@ impl Scene {
         let mesh_path = Scene::resolve_path(path, &scene.mesh);
         let mesh = load_mesh(&mesh_path)
             .map_err(|source| SceneError::Mesh { file: file.clone(), source })?;
-        let positions = mesh.mesh.positions();
-        let h = &scene.handles;
+        let handles = scene.resolve_handles(path, mesh.mesh.positions())?;
+        Ok(LoadedScene { scene, path: path.to_path_buf(), mesh_path, mesh, handles })
+    }
+
+    /// The scene's handle groups for a mesh with rest `positions`, read from wherever
+    /// `handles` points (paths relative to the scene file `path`), checked against the timeline:
+    /// a path for a group the selection lacks is an error.
+    pub fn resolve_handles(
+        &self,
+        path: &Path,
+        positions: &[[f64; 3]],
+    ) -> Result<Handles, SceneError> {
+        let file = path.display().to_string();
+        let h = &self.handles;
         let handles = if let Some(f) = &h.file {
             load_selection(&Scene::resolve_path(path, f), positions)
                 .map_err(|source| SceneError::Selection { file: file.clone(), source })?
@@ -273,7 +290,7 @@ impl Scene {
         } else {
             return Err(SceneError::Invalid { file, message: "no handles".into() });
         };
-        if let Some(p) = scene.timeline.paths.iter().find(|p| handles.group(p.group).is_err()) {
+        if let Some(p) = self.timeline.paths.iter().find(|p| handles.group(p.group).is_err()) {
             return Err(SceneError::Invalid {
                 file,
                 message: format!(
@@ -283,7 +300,7 @@ impl Scene {
                 ),
             });
         }
-        Ok(LoadedScene { scene, path: path.to_path_buf(), mesh_path, mesh, handles })
+        Ok(handles)
     }
 
     /// Pretty JSON of the scene.

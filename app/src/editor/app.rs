@@ -5,10 +5,11 @@
 //! ([`super::solver_thread`]); each UI frame polls both without blocking. What it does itself is
 //! input handling, picking (BVH) and building vertex colors and normals for the GPU.
 
+use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::mpsc::{Receiver, TryRecvError};
-use std::time::Instant;
+use std::time::{Duration, Instant, SystemTime};
 
 use eframe::egui::{self, Color32, Key, Modifiers, PointerButton, Pos2, Rect, Sense, Vec2};
 use eframe::egui_wgpu;
@@ -18,13 +19,17 @@ use solver::Handles;
 use super::brush::footprint;
 use super::camera::{OrbitCamera, ViewPreset};
 use super::deformers;
+use super::document::{self, DocumentInput, MAX_UI_ITERATIONS};
+use super::jobs::{self, Job, RecordInput, Recorded};
 use super::loader::{self, LoadJob, Scene};
+use super::persist::{self, AUTOSAVE_INTERVAL, Persist, Snapshot};
 use super::picking::Hit;
 use super::pose::{GroupPose, group_centroid};
 use super::renderer::{self, Uniforms, VertexData, ViewportCallback, build_vertices};
 use super::solver_thread::{
     Command, EnergyKind, Method, MethodSettings, SolvedFrame, SolverHandle, SolverState,
 };
+use super::timeline::{self, Playback, RecordingView, TimelineAction, apply_paths};
 use super::undo::{EditState, History};
 
 /// Positions shared between the solver's frame and the renderer.
@@ -42,6 +47,8 @@ pub struct EditorOptions {
     pub mesh_path: Option<PathBuf>,
     /// Hide timing figures (FPS, ms) so that snapshot images are reproducible.
     pub deterministic_overlays: bool,
+    /// Where recent files and the autosave live (`None`: nothing is kept between sessions).
+    pub config_dir: Option<PathBuf>,
 }
 
 /// What the viewport shows.
@@ -99,7 +106,14 @@ struct Hover {
 struct SolverView {
     frame: Option<SolvedFrame>,
     dropped: usize,
+    /// `[seconds since start, solver fps, energy]` of the last frames, for the plot.
+    history: VecDeque<[f64; 3]>,
 }
+
+/// Seconds of solver history the plot shows.
+const PLOT_SECONDS: f64 = 10.0;
+/// How often the crash snapshot is refreshed.
+const SNAPSHOT_INTERVAL: Duration = Duration::from_secs(5);
 
 /// Vertex data uploaded for one viewport slot, with the inputs it was built from.
 #[derive(Default)]
@@ -152,6 +166,27 @@ pub struct EditorApp {
     announced_first_frame: bool,
     /// Frame the mesh once the viewport rectangles are known.
     reframe: bool,
+    playback: Playback,
+    record_job: Option<Job<Recorded>>,
+    recorded: Option<Recorded>,
+    show_recording: bool,
+    export_job: Option<Job<(PathBuf, u64)>>,
+    persist: Option<Persist>,
+    recent: Vec<PathBuf>,
+    /// The newest scene, for the crash hook.
+    snapshot: Snapshot,
+    last_snapshot: Option<Instant>,
+    last_autosave: Instant,
+    autosaved: Option<solver::scene::Scene>,
+    /// An autosave from a session that did not end cleanly, offered back at start.
+    restore_offer: Option<(PathBuf, SystemTime)>,
+    /// The scene file Save writes to.
+    document_path: Option<PathBuf>,
+    /// The edit state as last opened or saved (to know whether there are unsaved changes).
+    saved_edit: Option<EditState>,
+    /// Group being renamed, with the name typed so far.
+    renaming: Option<(usize, String)>,
+    started: Instant,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -159,6 +194,9 @@ enum DialogKind {
     OpenMesh,
     LoadSelection,
     SaveSelection,
+    OpenScene,
+    SaveScene,
+    ExportGltf,
 }
 
 impl EditorApp {
@@ -208,7 +246,27 @@ impl EditorApp {
             viewport_rects: Vec::new(),
             announced_first_frame: false,
             reframe: false,
+            playback: Playback::default(),
+            record_job: None,
+            recorded: None,
+            show_recording: false,
+            export_job: None,
+            persist: options.config_dir.clone().map(Persist::new),
+            recent: Vec::new(),
+            snapshot: Snapshot::default(),
+            last_snapshot: None,
+            last_autosave: Instant::now(),
+            autosaved: None,
+            restore_offer: None,
+            document_path: None,
+            saved_edit: None,
+            renaming: None,
+            started: Instant::now(),
         };
+        if let Some(p) = &app.persist {
+            app.recent = p.recent();
+            app.restore_offer = p.pending_autosave();
+        }
         app.bsarap = app.spawn_solver(&ctx, Method::BsArap);
         if let Some(path) = options.mesh_path {
             app.open(&ctx, path);
@@ -328,6 +386,357 @@ impl EditorApp {
         }
     }
 
+    /// The editable state (labels, groups, poses, timeline).
+    pub fn edit_state(&self) -> &EditState {
+        &self.edit
+    }
+
+    /// Replaces the editable state as one undoable edit (scripts and tests).
+    pub fn set_edit_state(&mut self, state: EditState) {
+        self.history.push(self.edit.clone());
+        self.apply_history(Some(state));
+    }
+
+    pub fn playback_time(&self) -> f64 {
+        self.playback.time
+    }
+
+    /// Moves the playback time; paths re-evaluate.
+    pub fn set_playback_time(&mut self, t: f64) {
+        self.playback.time = t.clamp(0.0, self.edit.timeline.duration);
+        self.time_changed();
+    }
+
+    pub fn is_playing(&self) -> bool {
+        self.playback.playing
+    }
+
+    pub fn is_recording(&self) -> bool {
+        self.record_job.is_some()
+    }
+
+    /// Frames of the kept recording.
+    pub fn recorded_frames(&self) -> Option<&solver::recording::Recording> {
+        self.recorded.as_ref().map(|r| r.recording.as_ref())
+    }
+
+    pub fn info(&self) -> Option<&str> {
+        self.info.as_deref()
+    }
+
+    pub fn method_settings(&self) -> MethodSettings {
+        self.settings
+    }
+
+    /// The scene file Save writes to.
+    pub fn document_path(&self) -> Option<&Path> {
+        self.document_path.as_deref()
+    }
+
+    pub fn recent_files(&self) -> &[PathBuf] {
+        &self.recent
+    }
+
+    /// The autosave offered back at start, if any.
+    pub fn restore_offer(&self) -> Option<&Path> {
+        self.restore_offer.as_ref().map(|(p, _)| p.as_path())
+    }
+
+    /// What the crash hook needs (see [`persist::install_crash_autosave`]).
+    pub fn crash_autosave(&self) -> Option<(Persist, Snapshot)> {
+        self.persist.clone().map(|p| (p, self.snapshot.clone()))
+    }
+
+    /// Writes the autosave now (tests; the editor does it on a timer).
+    pub fn autosave_now(&mut self) -> Result<PathBuf, String> {
+        let persist = self.persist.clone().ok_or("no configuration folder")?;
+        let doc = self.document(&persist.autosave_path())?;
+        let path = persist.write_autosave(&doc)?;
+        self.autosaved = Some(doc);
+        Ok(path)
+    }
+
+    /// Saves the scene to `path` (atomically); it becomes the document Save writes to.
+    pub fn save_scene(&mut self, path: &Path) -> Result<(), String> {
+        let doc = self.document(path)?;
+        doc.save(path).map_err(|e| e.to_string())?;
+        self.document_path = Some(path.to_path_buf());
+        self.saved_edit = Some(self.edit.clone());
+        self.info = Some(format!("saved {}", path.display()));
+        self.remember(path);
+        Ok(())
+    }
+
+    // ---- Scenes, recent files, autosave ---------------------------------------------------
+
+    /// The scene that would be written at `path`.
+    fn document(&self, path: &Path) -> Result<solver::scene::Scene, String> {
+        let scene = self.scene.as_ref().ok_or("no mesh is open")?;
+        document::to_scene(
+            path,
+            &DocumentInput {
+                mesh_path: &scene.path,
+                edit: &self.edit,
+                settings: &self.settings,
+                camera: &self.camera,
+                time: self.playback.time,
+            },
+        )
+    }
+
+    /// Adds `path` to the recent files.
+    fn remember(&mut self, path: &Path) {
+        let Some(p) = &self.persist else { return };
+        if path == p.autosave_path() {
+            return;
+        }
+        match p.push_recent(path) {
+            Ok(list) => self.recent = list,
+            Err(e) => self.info = Some(format!("recent files not saved: {e}")),
+        }
+    }
+
+    /// Refreshes the crash snapshot every few seconds and writes the autosave every
+    /// [`AUTOSAVE_INTERVAL`] when the scene changed; the file is written on a worker thread.
+    fn autosave_tick(&mut self) {
+        let Some(persist) = self.persist.clone() else { return };
+        if self.restore_offer.is_some() || self.loading.is_some() {
+            return; // never overwrite an autosave the user has not answered yet
+        }
+        let now = Instant::now();
+        if self.last_snapshot.is_some_and(|t| now.duration_since(t) < SNAPSHOT_INTERVAL) {
+            return;
+        }
+        self.last_snapshot = Some(now);
+        if self.saved_edit.as_ref() == Some(&self.edit) {
+            return; // nothing unsaved
+        }
+        let Ok(doc) = self.document(&persist.autosave_path()) else { return };
+        if let Ok(mut slot) = self.snapshot.try_lock() {
+            *slot = Some(doc.clone());
+        }
+        if now.duration_since(self.last_autosave) >= AUTOSAVE_INTERVAL
+            && self.autosaved.as_ref() != Some(&doc)
+        {
+            self.last_autosave = now;
+            self.autosaved = Some(doc.clone());
+            let _ = std::thread::Builder::new().name("autosave".into()).spawn(move || {
+                if let Err(e) = persist.write_autosave(&doc) {
+                    eprintln!("editor: autosave failed: {e}");
+                }
+            });
+        }
+    }
+
+    fn restore_window(&mut self, ctx: &egui::Context) {
+        let Some((path, when)) = self.restore_offer.clone() else { return };
+        let mesh = solver::scene::Scene::read(&path).map(|s| s.mesh);
+        egui::Window::new("Restore the last session?")
+            .collapsible(false)
+            .resizable(false)
+            .anchor(egui::Align2::CENTER_CENTER, Vec2::ZERO)
+            .show(ctx, |ui| {
+                match &mesh {
+                    Ok(m) => ui.label(format!(
+                        "The last session did not end cleanly. An autosave of {} from {} is available.",
+                        file_name(Path::new(m)),
+                        persist::ago(when)
+                    )),
+                    Err(e) => ui.label(format!("An autosave was found but cannot be read: {e}")),
+                };
+                ui.horizontal(|ui| {
+                    if mesh.is_ok() && ui.button("Restore").clicked() {
+                        self.restore_offer = None;
+                        self.open(ctx, path.clone());
+                    }
+                    if ui.button("Discard").clicked() {
+                        self.restore_offer = None;
+                        if let Some(p) = &self.persist {
+                            p.discard_autosave();
+                        }
+                    }
+                });
+            });
+    }
+
+    /// What a clean exit does with the autosave (see `on_exit`). Returns whether one was kept.
+    pub fn exit_autosave(&mut self) -> bool {
+        let Some(persist) = self.persist.clone() else { return false };
+        if self.restore_offer.is_some() {
+            return true; // unanswered: keep it for next time
+        }
+        let unsaved = self.saved_edit.as_ref() != Some(&self.edit);
+        if unsaved && let Ok(doc) = self.document(&persist.autosave_path()) {
+            match persist.write_autosave(&doc) {
+                Ok(_) => return true,
+                Err(e) => eprintln!("editor: could not keep your unsaved changes: {e}"),
+            }
+        }
+        persist.discard_autosave();
+        false
+    }
+
+    /// Answers the restore offer (tests): `true` restores, `false` discards.
+    pub fn answer_restore(&mut self, ctx: &egui::Context, restore: bool) {
+        let Some((path, _)) = self.restore_offer.take() else { return };
+        if restore {
+            self.open(ctx, path);
+        } else if let Some(p) = &self.persist {
+            p.discard_autosave();
+        }
+    }
+
+    // ---- Timeline, recording, export ------------------------------------------------------
+
+    /// The playback time moved: groups with paths take their pose at that time.
+    fn time_changed(&mut self) {
+        if apply_paths(&mut self.edit, self.playback.time) {
+            self.send_poses();
+        }
+    }
+
+    /// Starts recording the timeline with the BS-ARAP slot's method and settings.
+    pub fn start_recording(&mut self, ctx: &egui::Context) {
+        if self.record_job.is_some() {
+            return;
+        }
+        let Some(scene) = &self.scene else {
+            self.error = Some("open a mesh before recording".into());
+            return;
+        };
+        let Some(handles) = self.handles() else {
+            self.error = Some(
+                "paint a handle group before recording: a recording moves handle groups".into(),
+            );
+            return;
+        };
+        let timeline = timeline::effective_timeline(&self.edit);
+        if let Err(e) = timeline.validate() {
+            self.error = Some(format!("cannot record: {e}"));
+            return;
+        }
+        if timeline.paths.is_empty() {
+            self.info = Some("no group moves: every recorded frame is the rest pose".into());
+        }
+        let s = self.settings;
+        let config = solver::ArapConfig {
+            energy: match s.energy {
+                EnergyKind::SpokesAndRims => solver::Energy::SpokesAndRims,
+                EnergyKind::Spokes => solver::Energy::Spokes,
+            },
+            tolerance: s.tolerance,
+            max_iterations: s.max_iterations,
+            ..solver::ArapConfig::default()
+        };
+        let input = RecordInput {
+            mesh: scene.mesh.clone(),
+            handles,
+            n_frames: timeline::frame_count(&timeline),
+            timeline,
+            method: s.bs_variant,
+            config,
+            base: s.base,
+        };
+        let c = ctx.clone();
+        self.playback.set_playing(false);
+        self.record_job = Some(jobs::spawn_record(input, move || c.request_repaint()));
+    }
+
+    pub fn cancel_recording(&mut self) {
+        if let Some(j) = &self.record_job {
+            j.cancel();
+        }
+    }
+
+    /// Writes the kept recording to `path` (.glb or .gltf) on a worker thread.
+    pub fn export_gltf(&mut self, ctx: &egui::Context, path: PathBuf) {
+        let Some(rec) = &self.recorded else {
+            self.error = Some("record the timeline before exporting".into());
+            return;
+        };
+        if self.export_job.is_some() {
+            return;
+        }
+        let c = ctx.clone();
+        self.export_job = Some(jobs::spawn_export(rec, path, move || c.request_repaint()));
+    }
+
+    pub fn is_exporting(&self) -> bool {
+        self.export_job.is_some()
+    }
+
+    fn poll_jobs(&mut self) {
+        if let Some(r) = self.record_job.as_ref().and_then(Job::try_finish) {
+            let cancelled = self
+                .record_job
+                .as_ref()
+                .is_some_and(|j| j.progress.cancel.load(std::sync::atomic::Ordering::Relaxed));
+            self.record_job = None;
+            match r {
+                Ok(rec) => {
+                    let n = rec.recording.frames.len();
+                    let at_cap = rec.recording.stats.iter().filter(|s| !s.converged).count();
+                    self.info = Some(format!(
+                        "recorded {n} frames, {:.1} iterations/frame{}",
+                        rec.recording.total_iterations() as f64 / n.max(1) as f64,
+                        if at_cap > 0 {
+                            format!(", {at_cap} at the iteration cap")
+                        } else {
+                            String::new()
+                        }
+                    ));
+                    self.recorded = Some(rec);
+                }
+                Err(_) if cancelled => self.info = Some("recording cancelled".into()),
+                Err(e) => self.error = Some(e),
+            }
+        }
+        if let Some(r) = self.export_job.as_ref().and_then(Job::try_finish) {
+            self.export_job = None;
+            match r {
+                Ok((path, bytes)) => {
+                    self.info =
+                        Some(format!("wrote {} ({:.1} MB)", path.display(), bytes as f64 / 1e6))
+                }
+                Err(e) => self.error = Some(e),
+            }
+        }
+    }
+
+    fn recording_view(&self) -> RecordingView {
+        RecordingView {
+            progress: self.record_job.as_ref().map(|j| j.progress.get()),
+            kept: self.recorded.as_ref().map(|r| {
+                (
+                    r.recording.frames.len(),
+                    r.recording.times.last().copied().unwrap_or(0.0),
+                    r.glb_bytes,
+                )
+            }),
+            showing: self.show_recording,
+            exporting: self.export_job.as_ref().map(|j| j.progress.get()),
+        }
+    }
+
+    fn apply_timeline_actions(&mut self, ctx: &egui::Context, actions: Vec<TimelineAction>) {
+        for a in actions {
+            match a {
+                TimelineAction::TimeChanged => self.time_changed(),
+                TimelineAction::Edited { before } => {
+                    self.history.push(*before);
+                    self.color_version += 1;
+                }
+                TimelineAction::Record => self.start_recording(ctx),
+                TimelineAction::CancelRecord => self.cancel_recording(),
+                TimelineAction::ExportGltf => self.start_dialog(ctx, DialogKind::ExportGltf),
+                TimelineAction::ShowRecording(on) => {
+                    self.show_recording = on;
+                    self.color_version += 1;
+                }
+            }
+        }
+    }
+
     // ---- Solver commands ------------------------------------------------------------------
 
     fn solvers(&self) -> impl Iterator<Item = &SolverHandle> {
@@ -410,7 +819,7 @@ impl EditorApp {
                 self.error = Some(e);
                 self.loading = None;
             }
-            Ok(Ok(scene)) => {
+            Ok(Ok(mut scene)) => {
                 self.loading = None;
                 self.error = None;
                 self.camera.frame(scene.center, scene.radius, self.viewport_aspect());
@@ -420,7 +829,44 @@ impl EditorApp {
                     .selection_path
                     .as_deref()
                     .map(|p| format!("handles from {}", file_name(p)));
-                self.edit = EditState::from_labels(labels);
+                self.playback = Playback::default();
+                self.document_path = None;
+                let mut restored = false;
+                match scene.document.take() {
+                    Some((path, doc)) => {
+                        let applied = document::apply_scene(&doc, labels, &self.settings);
+                        self.edit = applied.edit;
+                        self.settings = applied.settings;
+                        self.playback.time = applied.time;
+                        if let Some(c) = applied.camera {
+                            self.camera = c;
+                        }
+                        if let Some(n) = applied.notice {
+                            self.info = Some(n);
+                        }
+                        let autosave = self.persist.as_ref().map(Persist::autosave_path);
+                        if autosave.as_deref() == Some(path.as_path()) {
+                            // Restored: Save asks where (the autosave is not a document), and
+                            // the restored work counts as unsaved.
+                            self.info = Some("restored the autosaved session".into());
+                            restored = true;
+                        } else {
+                            self.remember(&path);
+                            self.document_path = Some(path);
+                        }
+                    }
+                    None => {
+                        self.edit = EditState::from_labels(labels);
+                        let path = scene.path.clone();
+                        self.remember(&path);
+                    }
+                }
+                self.saved_edit = (!restored).then(|| self.edit.clone());
+                if let Some(j) = self.record_job.take() {
+                    j.cancel();
+                }
+                self.recorded = None;
+                self.show_recording = false;
                 self.active_group = (!self.edit.groups.is_empty()).then_some(0);
                 self.history.clear();
                 self.scene = Some(scene);
@@ -445,6 +891,12 @@ impl EditorApp {
                     if !self.announced_first_frame {
                         self.announced_first_frame = true;
                         eprintln!("editor: first solved frame displayed ({} vertices)", n);
+                    }
+                    let t = self.started.elapsed().as_secs_f64();
+                    let h = &mut self.views[slot].history;
+                    h.push_back([t, frame.fps, frame.stats.energy]);
+                    while h.front().is_some_and(|p| t - p[0] > PLOT_SECONDS) {
+                        h.pop_front();
                     }
                     self.views[slot].frame = Some(frame);
                 } else {
@@ -471,6 +923,19 @@ impl EditorApp {
                 Ok(()) => self.info = Some(format!("saved {}", path.display())),
                 Err(e) => self.error = Some(format!("{e:#}")),
             },
+            DialogKind::OpenScene => self.open(ctx, path),
+            DialogKind::SaveScene => {
+                let path =
+                    if path.extension().is_none() { path.with_extension("json") } else { path };
+                if let Err(e) = self.save_scene(&path) {
+                    self.error = Some(format!("scene not saved: {e}"));
+                }
+            }
+            DialogKind::ExportGltf => {
+                let path =
+                    if path.extension().is_none() { path.with_extension("glb") } else { path };
+                self.export_gltf(ctx, path)
+            }
         }
     }
 
@@ -483,7 +948,18 @@ impl EditorApp {
         let spawned = std::thread::Builder::new().name("file-dialog".into()).spawn(move || {
             let d = rfd::FileDialog::new();
             let r = match kind {
-                DialogKind::OpenMesh => d.add_filter("Meshes", &["obj", "off"]).pick_file(),
+                DialogKind::OpenMesh => d
+                    .add_filter("Meshes and scenes", &["obj", "off", "ply", "stl", "json"])
+                    .pick_file(),
+                DialogKind::OpenScene => d.add_filter("Scenes", &["json"]).pick_file(),
+                DialogKind::SaveScene => {
+                    d.add_filter("Scene", &["json"]).set_file_name("scene.json").save_file()
+                }
+                DialogKind::ExportGltf => d
+                    .add_filter("glTF binary", &["glb"])
+                    .add_filter("glTF JSON", &["gltf"])
+                    .set_file_name("animation.glb")
+                    .save_file(),
                 DialogKind::LoadSelection => {
                     d.add_filter("Selections", &["dmat", "json"]).pick_file()
                 }
@@ -566,6 +1042,28 @@ impl EditorApp {
         if consume(Modifiers::COMMAND, Key::O) {
             self.start_dialog(ctx, DialogKind::OpenMesh);
         }
+        if consume(cmd_shift, Key::S) {
+            self.start_dialog(ctx, DialogKind::SaveScene);
+        }
+        if consume(Modifiers::COMMAND, Key::S) {
+            self.save(ctx);
+        }
+        if consume(Modifiers::NONE, Key::Space) {
+            let playing = !self.playback.playing;
+            self.playback.set_playing(playing);
+        }
+        if consume(Modifiers::NONE, Key::Home) {
+            self.set_playback_time(0.0);
+        }
+        if consume(Modifiers::NONE, Key::K)
+            && let Some(k) = self.active_group
+        {
+            let before = self.edit.clone();
+            if timeline::key_current_pose(&mut self.edit, k, self.playback.time) {
+                self.history.push(before);
+                self.info = Some(format!("key set at {:.3} s", self.playback.time));
+            }
+        }
         for (k, front, back) in [
             (Key::Num1, ViewPreset::Front, ViewPreset::Back),
             (Key::Num3, ViewPreset::Right, ViewPreset::Left),
@@ -598,6 +1096,18 @@ impl EditorApp {
         }
         if pressed(Key::Escape) {
             self.show_shortcuts = false;
+        }
+    }
+
+    /// Saves to the current scene file, or asks where.
+    fn save(&mut self, ctx: &egui::Context) {
+        match self.document_path.clone() {
+            Some(p) => {
+                if let Err(e) = self.save_scene(&p) {
+                    self.error = Some(format!("scene not saved: {e}"));
+                }
+            }
+            None => self.start_dialog(ctx, DialogKind::SaveScene),
         }
     }
 
@@ -837,6 +1347,17 @@ impl EditorApp {
         let rest = || Ok((0, scene.rest_f32.clone()));
         let frame = |i: usize| self.views[i].frame.as_ref();
         let tag = |f: &SolvedFrame| f.pose_generation * 1_000_003 + f.scene_generation;
+        if let Some(rec) = self.recorded.as_ref().filter(|_| self.show_recording)
+            && matches!(self.view, View::Result | View::Details)
+        {
+            let n = rec.frames_f32.len();
+            let d = rec.recording.times.last().copied().unwrap_or(0.0).max(1e-9);
+            let i = ((self.playback.time / d) * (n.saturating_sub(1)) as f64).round() as usize;
+            let i = i.min(n.saturating_sub(1));
+            if let Some(f) = rec.frames_f32.get(i) {
+                return Ok((u64::MAX - i as u64, f.clone()));
+            }
+        }
         match (self.view, slot) {
             (View::Compare, 0) => {
                 frame(1).map_or_else(rest, |f| Ok((tag(f) * 2 + 1, f.positions.clone())))
@@ -1038,20 +1559,51 @@ impl EditorApp {
         let mut delete = None;
         let mut edited = false;
         let before = self.edit.clone();
+        let mut rename_done = None;
         for k in 0..self.edit.groups.len() {
             let count = self.edit.group_size(k);
             ui.horizontal(|ui| {
                 let g = &mut self.edit.groups[k];
                 edited |= ui.color_edit_button_srgba(&mut g.color).changed();
-                let label = format!("{} ({count} v)", g.name);
-                if ui.selectable_label(self.active_group == Some(k), label).clicked() {
-                    self.active_group = Some(k);
-                    self.color_version += 1;
+                match &mut self.renaming {
+                    Some((r, text)) if *r == k => {
+                        let resp = ui.add(
+                            egui::TextEdit::singleline(text)
+                                .id(egui::Id::unique(("rename", k)))
+                                .desired_width(110.0)
+                                .char_limit(64),
+                        );
+                        if resp.lost_focus() {
+                            let cancel = ui.input(|i| i.key_pressed(Key::Escape));
+                            rename_done = Some((k, (!cancel).then(|| text.trim().to_string())));
+                        }
+                    }
+                    _ => {
+                        let label = format!("{} ({count} v)", g.name);
+                        let r = ui
+                            .selectable_label(self.active_group == Some(k), label)
+                            .on_hover_text("click: select; double-click: rename");
+                        if r.clicked() {
+                            self.active_group = Some(k);
+                            self.color_version += 1;
+                        }
+                        if r.double_clicked() {
+                            ui.memory_mut(|m| m.request_focus(egui::Id::unique(("rename", k))));
+                            self.renaming = Some((k, g.name.clone()));
+                        }
+                    }
                 }
                 if ui.small_button("Delete").on_hover_text("delete group").clicked() {
                     delete = Some(k);
                 }
             });
+        }
+        if let Some((k, name)) = rename_done {
+            self.renaming = None;
+            if let Some(name) = name.filter(|n| !n.is_empty() && *n != self.edit.groups[k].name) {
+                self.history.push(self.edit.clone());
+                self.edit.groups[k].name = name;
+            }
         }
         if edited {
             self.history.push(before.clone());
@@ -1082,6 +1634,47 @@ impl EditorApp {
         self.pose_panel(ui);
         ui.separator();
         self.method_panel(ui);
+        if !self.options.deterministic_overlays {
+            ui.separator();
+            self.stats_plot(ui);
+        }
+    }
+
+    /// Solver frames per second and energy over the last [`PLOT_SECONDS`] (egui_plot).
+    fn stats_plot(&self, ui: &mut egui::Ui) {
+        use egui_plot::{Legend, Line, Plot, PlotPoints};
+        ui.heading("Solver");
+        let series = |k: usize| {
+            let h = &self.views[k].history;
+            let fps: PlotPoints = h.iter().map(|p| [p[0], p[1]]).collect();
+            let energy: PlotPoints = h.iter().map(|p| [p[0], p[2]]).collect();
+            (fps, energy)
+        };
+        let names = [Method::BsArap.label(), Method::Arap.label()];
+        let shown: Vec<usize> = if self.arap.is_some() { vec![0, 1] } else { vec![0] };
+        Plot::new("fps_plot")
+            .height(90.0)
+            .legend(Legend::default())
+            .allow_drag(false)
+            .allow_zoom(false)
+            .allow_scroll(false)
+            .y_axis_label("fps")
+            .show(ui, |p| {
+                for &k in &shown {
+                    p.line(Line::new(names[k], series(k).0));
+                }
+            });
+        Plot::new("energy_plot")
+            .height(90.0)
+            .allow_drag(false)
+            .allow_zoom(false)
+            .allow_scroll(false)
+            .y_axis_label("energy")
+            .show(ui, |p| {
+                for &k in &shown {
+                    p.line(Line::new(names[k], series(k).1));
+                }
+            });
     }
 
     fn pose_panel(&mut self, ui: &mut egui::Ui) {
@@ -1184,10 +1777,29 @@ impl EditorApp {
                 .text("tolerance"),
         );
         ui.add(
-            egui::Slider::new(&mut self.settings.max_iterations, 1..=500)
+            egui::Slider::new(&mut self.settings.max_iterations, 1..=MAX_UI_ITERATIONS)
                 .logarithmic(true)
                 .text("iteration cap"),
         );
+        if self.settings.bs_variant != solver::Method::BsArap {
+            ui.add(
+                egui::Slider::new(&mut self.settings.base.smoothing, 0.002..=0.2)
+                    .logarithmic(true)
+                    .text("base smoothing (of diagonal)"),
+            )
+            .on_hover_text("smoothing length of the faired base, as a fraction of the diagonal");
+        }
+        if self.settings.bs_variant == solver::Method::BsArapCoarse {
+            let n = self.scene.as_ref().map_or(100_000, |s| s.mesh.n_vertices()).max(64);
+            ui.add(
+                egui::Slider::new(&mut self.settings.base.coarse_vertices, 64..=n)
+                    .logarithmic(true)
+                    .text("coarse vertices"),
+            )
+            .on_hover_text(
+                "vertices of the decimated base ARAP runs on; more is closer to ARAP, slower",
+            );
+        }
         if self.settings != old {
             self.send_scene();
         }
@@ -1265,7 +1877,11 @@ impl EditorApp {
                         ("Left drag (pose)", "move a group in the view plane; Ctrl rotates"),
                         ("Ctrl+Z / Ctrl+Shift+Z", "undo / redo"),
                         ("W", "wireframe"),
-                        ("Ctrl+O", "open a mesh (or drop a file)"),
+                        ("Ctrl+O", "open a mesh or scene (or drop a file)"),
+                        ("Ctrl+S / Ctrl+Shift+S", "save scene / save as"),
+                        ("Space / Home", "play-pause / to the start"),
+                        ("K", "key the active group's pose at the current time"),
+                        ("Double-click a group", "rename it"),
                         ("Ctrl+Q", "quit"),
                         ("F3", "render FPS overlay"),
                         ("?", "this overlay"),
@@ -1307,6 +1923,12 @@ fn colormap(t: f32) -> [f32; 4] {
 }
 
 impl eframe::App for EditorApp {
+    /// A clean exit removes the autosave, unless there are unsaved changes: then it is written
+    /// now and offered back at the next start.
+    fn on_exit(&mut self) {
+        self.exit_autosave();
+    }
+
     fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
         let ctx = ui.ctx().clone();
         let now = Instant::now();
@@ -1321,6 +1943,14 @@ impl eframe::App for EditorApp {
         self.ensure_compare_solver(&ctx);
         self.poll_solvers();
         self.poll_dialog(&ctx);
+        self.poll_jobs();
+        if self.playback.tick(now, &self.edit.timeline) {
+            self.time_changed();
+        }
+        if self.playback.playing {
+            ctx.request_repaint();
+        }
+        self.autosave_tick();
         if let Some(path) =
             ctx.input(|i| i.raw.dropped_files.first().map(|f| f.path().to_path_buf()))
         {
@@ -1330,6 +1960,38 @@ impl eframe::App for EditorApp {
 
         egui::Panel::top("menu").show(ui, |ui| {
             ui.horizontal(|ui| {
+                ui.menu_button("File", |ui| {
+                    if ui.button("Open mesh or scene…  Ctrl+O").clicked() {
+                        self.start_dialog(&ctx, DialogKind::OpenMesh);
+                    }
+                    if ui.button("Open scene…").clicked() {
+                        self.start_dialog(&ctx, DialogKind::OpenScene);
+                    }
+                    ui.menu_button("Open recent", |ui| {
+                        if self.recent.is_empty() {
+                            ui.weak("nothing yet");
+                        }
+                        for p in self.recent.clone() {
+                            if ui.button(p.display().to_string()).clicked() {
+                                self.open(&ctx, p);
+                            }
+                        }
+                    });
+                    ui.separator();
+                    if ui.button("Save scene  Ctrl+S").clicked() {
+                        self.save(&ctx);
+                    }
+                    if ui.button("Save scene as…  Ctrl+Shift+S").clicked() {
+                        self.start_dialog(&ctx, DialogKind::SaveScene);
+                    }
+                    ui.separator();
+                    if ui
+                        .add_enabled(self.recorded.is_some(), egui::Button::new("Export glTF…"))
+                        .clicked()
+                    {
+                        self.start_dialog(&ctx, DialogKind::ExportGltf);
+                    }
+                });
                 if ui.button("Open…").clicked() {
                     self.start_dialog(&ctx, DialogKind::OpenMesh);
                 }
@@ -1357,6 +2019,19 @@ impl eframe::App for EditorApp {
             });
         });
         egui::Panel::bottom("status").show(ui, |ui| self.status_bar(ui));
+        egui::Panel::bottom("timeline").show(ui, |ui| {
+            let view = self.recording_view();
+            let scale = self.scene.as_ref().map_or(1.0, |s| 2.0 * s.radius as f64);
+            let actions = timeline::panel(
+                ui,
+                &mut self.edit,
+                &mut self.playback,
+                self.active_group,
+                &view,
+                scale,
+            );
+            self.apply_timeline_actions(&ctx, actions);
+        });
         egui::Panel::right("side").default_size(260.0).show(ui, |ui| {
             egui::ScrollArea::vertical().show(ui, |ui| self.side_panel(ui, &ctx));
         });
@@ -1395,6 +2070,10 @@ impl eframe::App for EditorApp {
         });
         if self.show_shortcuts {
             self.shortcuts_window(&ctx);
+        }
+        self.restore_window(&ctx);
+        if self.record_job.is_some() || self.export_job.is_some() {
+            ctx.request_repaint_after(Duration::from_millis(100));
         }
         if self.loading.is_some()
             || self

@@ -128,6 +128,34 @@ impl OrbitCamera {
         (near, (far - near).normalize_or(-self.back()))
     }
 
+    /// The camera as scene-file JSON: `{"target": [x, y, z], "yaw", "pitch", "distance", "fov_y"}`.
+    pub fn to_json(&self) -> serde_json::Value {
+        serde_json::json!({
+            "target": self.target.to_array(),
+            "yaw": self.yaw,
+            "pitch": self.pitch,
+            "distance": self.distance,
+            "fov_y": self.fov_y,
+        })
+    }
+
+    /// Reads [`OrbitCamera::to_json`]'s format; `None` when a field is missing or out of range
+    /// (the caller then frames the mesh instead).
+    pub fn from_json(v: &serde_json::Value) -> Option<OrbitCamera> {
+        let f = |k: &str| v.get(k)?.as_f64().map(|x| x as f32).filter(|x| x.is_finite());
+        let t = v.get("target")?.as_array()?;
+        let t: Vec<f32> = t.iter().filter_map(|x| x.as_f64()).map(|x| x as f32).collect();
+        let target = Vec3::from_slice(t.get(..3)?);
+        let cam = OrbitCamera {
+            target,
+            yaw: f("yaw")?,
+            pitch: f("pitch")?.clamp(-MAX_PITCH, MAX_PITCH),
+            distance: f("distance")?.clamp(1e-4, 1e6),
+            fov_y: f("fov_y")?.clamp(0.05, 3.0),
+        };
+        target.is_finite().then_some(cam)
+    }
+
     /// NDC of a world point, or `None` behind the camera.
     pub fn project(&self, p: Vec3, aspect: f32) -> Option<[f32; 2]> {
         let c = self.view_proj(aspect) * p.extend(1.0);
@@ -149,5 +177,17 @@ mod tests {
         let (o, d) = cam.ray(ndc, 1.5);
         let closest = o + d * (p - o).dot(d);
         assert!((closest - p).length() < 1e-3);
+    }
+
+    #[test]
+    fn json_round_trip_and_rejects_junk() {
+        let mut cam = OrbitCamera::default();
+        cam.frame(Vec3::new(1.0, -2.0, 0.5), 3.0, 1.2);
+        cam.orbit(40.0, -10.0);
+        assert_eq!(OrbitCamera::from_json(&cam.to_json()), Some(cam));
+        assert_eq!(OrbitCamera::from_json(&serde_json::json!({"yaw": 1})), None);
+        let mut bad = cam.to_json();
+        bad["target"] = serde_json::json!([1, "x", 2]);
+        assert_eq!(OrbitCamera::from_json(&bad), None);
     }
 }

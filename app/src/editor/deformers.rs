@@ -26,7 +26,8 @@ pub fn factory() -> DeformerFactory {
             Method::Arap => solver::Method::Arap,
             Method::BsArap => settings.bs_variant,
         };
-        let d = solver::Deformer::new(m, mesh, handles, &config).map_err(|e| e.to_string())?;
+        let d = solver::Deformer::with_base(m, mesh, handles, &config, &settings.base)
+            .map_err(|e| e.to_string())?;
         Ok(Box::new(SolverDeformer(d)) as Box<dyn Deformer>)
     })
 }

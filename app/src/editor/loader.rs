@@ -4,7 +4,8 @@
 //! derives from the topology once (adjacency, BVH, index buffers, grid), then hand back a
 //! [`Scene`] over a channel that the UI polls without blocking. A failure comes back as an
 //! error string; the UI keeps the current scene. Reading and cleaning are `solver::io`'s;
-//! selections are `solver::selection`'s.
+//! selections are `solver::selection`'s; scene files (`.json`) are `solver::scene`'s: the
+//! mesh they name is loaded and their handles resolved here, the rest is applied by the UI.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -36,6 +37,13 @@ pub struct Scene {
     pub default_labels: Option<Vec<Option<u32>>>,
     /// Where `default_labels` came from.
     pub selection_path: Option<PathBuf>,
+    /// The scene file this was opened from, and its contents.
+    pub document: Option<(PathBuf, solver::scene::Scene)>,
+}
+
+/// Whether `path` names a scene file rather than a mesh.
+pub fn is_scene_file(path: &Path) -> bool {
+    path.extension().is_some_and(|e| e.eq_ignore_ascii_case("json"))
 }
 
 /// A load running on a worker thread.
@@ -50,7 +58,10 @@ pub fn spawn_load(path: PathBuf, version: u64, repaint: impl Fn() + Send + 'stat
     let (tx, rx) = channel();
     let p = path.clone();
     let spawned = std::thread::Builder::new().name("mesh-loader".into()).spawn(move || {
-        let result = std::panic::catch_unwind(|| load_scene(&p, version))
+        let load = || {
+            if is_scene_file(&p) { load_scene_file(&p, version) } else { load_scene(&p, version) }
+        };
+        let result = std::panic::catch_unwind(load)
             .unwrap_or_else(|_| Err(anyhow!("the loader crashed while reading the file")))
             .map_err(|e| format!("Could not open {}: {e:#}", p.display()));
         let _ = tx.send(result);
@@ -111,7 +122,21 @@ pub fn load_scene(path: &Path, version: u64) -> anyhow::Result<Scene> {
         grid,
         default_labels,
         selection_path,
+        document: None,
     })
+}
+
+/// Reads a scene file, loads its mesh and resolves its handles (runs on the loader thread).
+pub fn load_scene_file(path: &Path, version: u64) -> anyhow::Result<Scene> {
+    let doc = solver::scene::Scene::read(path)?;
+    let mesh_path = solver::scene::Scene::resolve_path(path, &doc.mesh);
+    let mut scene = load_scene(&mesh_path, version)
+        .with_context(|| format!("the scene's mesh {}", mesh_path.display()))?;
+    let handles = doc.resolve_handles(path, scene.mesh.positions())?;
+    scene.default_labels = Some(handles.labels().to_vec());
+    scene.selection_path = Some(path.to_path_buf());
+    scene.document = Some((path.to_path_buf(), doc));
+    Ok(scene)
 }
 
 /// Selection files looked for next to `mesh.ext`, in order.

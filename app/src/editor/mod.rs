@@ -4,17 +4,23 @@
 //! paint callback, WGSL in `shaders/`), [`picking`] (BVH ray picking), [`brush`] (handle brush
 //! footprint), [`solver_thread`] (background solver, mailbox, panic isolation), [`pose`] (group
 //! poses → handle targets), [`deformers`] (the methods the threads run), [`loader`] (mesh
-//! loading off the UI thread) and [`undo`] (edit state and history).
+//! loading off the UI thread), [`undo`] (edit state and history), [`timeline`] (playback and
+//! path editing), [`jobs`] (recording and glTF export threads), [`document`] (the editor state
+//! as a scene file) and [`persist`] (recent files, autosave).
 
 pub mod app;
 pub mod brush;
 pub mod camera;
 pub mod deformers;
+pub mod document;
+pub mod jobs;
 pub mod loader;
+pub mod persist;
 pub mod picking;
 pub mod pose;
 pub mod renderer;
 pub mod solver_thread;
+pub mod timeline;
 pub mod undo;
 
 use std::path::PathBuf;
@@ -26,6 +32,7 @@ pub fn run(mesh_path: Option<PathBuf>) -> anyhow::Result<()> {
     let options = EditorOptions {
         mesh_path: Some(mesh_path.unwrap_or_else(default_mesh_path)),
         deterministic_overlays: false,
+        config_dir: persist::default_dir(),
     };
     let native = eframe::NativeOptions {
         viewport: eframe::egui::ViewportBuilder::default()
@@ -38,7 +45,13 @@ pub fn run(mesh_path: Option<PathBuf>) -> anyhow::Result<()> {
     eframe::run_native(
         "bsarap-editor",
         native,
-        Box::new(move |cc| Ok(Box::new(EditorApp::new(cc, options)))),
+        Box::new(move |cc| {
+            let app = EditorApp::new(cc, options);
+            if let Some((persist, snapshot)) = app.crash_autosave() {
+                persist::install_crash_autosave(persist, snapshot);
+            }
+            Ok(Box::new(app))
+        }),
     )
     .map_err(|e| anyhow::anyhow!("the editor window failed: {e}"))
 }

@@ -59,6 +59,29 @@ pub fn handle_targets(
 }
 
 impl GroupPose {
+    /// From the solver's rigid transform (the inverse of [`GroupPose::transform`]).
+    pub fn from_transform(t: &GroupTransform) -> GroupPose {
+        let r = t.rotation;
+        let m = glam::DMat3::from_cols_array_2d(&r).transpose();
+        let mut pose = GroupPose { translation: t.translation, ..GroupPose::default() };
+        pose.set_quat(DQuat::from_mat3(&m));
+        pose
+    }
+
+    /// A timeline key at `time` holding this pose.
+    pub fn to_key(&self, time: f64) -> solver::animation::Key {
+        let (axis, angle) = self.quat().to_axis_angle();
+        let axis = if axis.is_finite() && angle.abs() > 0.0 { axis } else { DVec3::Z };
+        solver::animation::Key {
+            time,
+            translation: self.translation,
+            rotation: solver::animation::AxisAngle {
+                axis: axis.to_array(),
+                degrees: angle.to_degrees(),
+            },
+        }
+    }
+
     /// As the solver's rigid transform (row-major rotation about the rest centroid).
     pub fn transform(&self) -> GroupTransform {
         let m = glam::DMat3::from_quat(self.quat());
@@ -84,5 +107,27 @@ mod tests {
         let t = handle_targets(&mesh, &handles, &[pose]).unwrap();
         assert!((DVec3::from_array(t[0]) - DVec3::new(2.0, -1.0, 1.0)).length() < 1e-12);
         assert!((DVec3::from_array(t[1]) - DVec3::new(2.0, 1.0, 1.0)).length() < 1e-12);
+    }
+
+    #[test]
+    fn transform_and_key_round_trip() {
+        let mut pose = GroupPose { translation: [0.5, -1.0, 2.0], ..Default::default() };
+        pose.set_quat(DQuat::from_euler(glam::EulerRot::XYZ, 0.3, -1.1, 2.0));
+        let back = GroupPose::from_transform(&pose.transform());
+        assert_eq!(back.translation, pose.translation);
+        assert!(back.quat().dot(pose.quat()).abs() > 1.0 - 1e-12);
+        let key = pose.to_key(1.5);
+        let from_key = solver::animation::KeyframedPath {
+            keys: vec![key],
+            interpolation: solver::animation::Interpolation::Linear,
+        }
+        .transform_at(1.5);
+        let again = GroupPose::from_transform(&from_key);
+        assert!(again.quat().dot(pose.quat()).abs() > 1.0 - 1e-12);
+        assert!(
+            (DVec3::from_array(again.translation) - DVec3::from_array(pose.translation)).length()
+                < 1e-12
+        );
+        assert!(GroupPose::from_transform(&GroupPose::default().transform()).is_rest());
     }
 }

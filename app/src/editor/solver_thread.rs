@@ -37,6 +37,8 @@ pub struct MethodSettings {
     pub max_iterations: usize,
     /// Which BS-ARAP variant the BS-ARAP slot runs.
     pub bs_variant: solver::Method,
+    /// Base-surface settings of the BS-ARAP variants (smoothing, coarse vertex count).
+    pub base: solver::BaseConfig,
 }
 
 impl Default for MethodSettings {
@@ -48,6 +50,7 @@ impl Default for MethodSettings {
             // The paper's base is slow to precompute and collapses under small handles on the
             // default creature (see main's scenes); the coarse faired base is interactive.
             bs_variant: solver::Method::BsArapCoarse,
+            base: solver::BaseConfig::default(),
         }
     }
 }

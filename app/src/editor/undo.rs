@@ -1,10 +1,12 @@
-//! The editable state (handle labels, groups, poses) and its undo/redo history.
+//! The editable state (handle labels, groups, poses, the timeline's paths) and its undo/redo
+//! history.
 //!
 //! Every user edit (a brush stroke, a drag, a numeric change, a group added or deleted) first
 //! pushes a snapshot of the state it starts from. Snapshots are whole copies: a label array is
 //! `#V` bytes-ish and the history is capped, so this stays small and obviously correct.
 
 use eframe::egui::Color32;
+use solver::animation::{Path, Timeline};
 
 use super::pose::GroupPose;
 
@@ -22,6 +24,9 @@ pub struct EditState {
     /// Per vertex: `None` free, `Some(k)` = `groups[k]`.
     pub labels: Vec<Option<u32>>,
     pub groups: Vec<Group>,
+    /// Duration, frame rate and one path per animated group (`paths[i].group` indexes
+    /// `groups`).
+    pub timeline: Timeline,
 }
 
 /// Distinct colors for handle groups (sRGB).
@@ -41,7 +46,7 @@ impl EditState {
     pub fn from_labels(labels: Vec<Option<u32>>) -> EditState {
         let n = labels.iter().flatten().map(|&k| k as usize + 1).max().unwrap_or(0);
         let groups = (0..n).map(new_group).collect();
-        EditState { labels, groups }
+        EditState { labels, groups, timeline: Timeline::default() }
     }
 
     pub fn add_group(&mut self) -> usize {
@@ -49,12 +54,19 @@ impl EditState {
         self.groups.len() - 1
     }
 
-    /// Removes group `k`: its vertices become free, later groups shift down by one.
+    /// Removes group `k`: its vertices become free, its path goes, later groups (and their
+    /// paths) shift down by one.
     pub fn delete_group(&mut self, k: usize) {
         if k >= self.groups.len() {
             return;
         }
         self.groups.remove(k);
+        self.timeline.paths.retain(|p| p.group != k);
+        for p in &mut self.timeline.paths {
+            if p.group > k {
+                p.group -= 1;
+            }
+        }
         for l in &mut self.labels {
             *l = match *l {
                 Some(g) if g as usize == k => None,
@@ -67,6 +79,21 @@ impl EditState {
     /// Labels only (what the solver's handle set depends on).
     pub fn has_handles(&self) -> bool {
         self.labels.iter().any(Option::is_some)
+    }
+
+    /// The path of group `k` (`Static` when it has none).
+    pub fn path(&self, k: usize) -> &Path {
+        const STATIC: &Path = &Path::Static;
+        self.timeline.paths.iter().find(|p| p.group == k).map_or(STATIC, |p| &p.path)
+    }
+
+    /// Sets the path of group `k`; `Static` removes it.
+    pub fn set_path(&mut self, k: usize, path: Path) {
+        self.timeline.paths.retain(|p| p.group != k);
+        if path != Path::Static {
+            self.timeline.paths.push(solver::animation::GroupPath { group: k, path });
+            self.timeline.paths.sort_by_key(|p| p.group);
+        }
     }
 
     pub fn group_size(&self, k: usize) -> usize {
@@ -137,12 +164,24 @@ mod tests {
     #[test]
     fn undo_redo_round_trip_and_delete_group() {
         let mut s = EditState::from_labels(vec![Some(0), Some(1), None, Some(1)]);
+        let circle = Path::Circular(solver::animation::CircularPath {
+            axis: [0.0, 0.0, 1.0],
+            reference: [1.0, 0.0, 0.0],
+            radius: 1.0,
+            period: 1.0,
+            phase: 0.0,
+            turn_with_path: false,
+        });
+        s.set_path(1, circle.clone());
         let mut h = History::default();
         h.push(s.clone());
         s.delete_group(0);
         assert_eq!(s.labels, vec![None, Some(0), None, Some(0)]);
+        assert_eq!(s.path(0), &circle, "group 1's path moved down with the group");
+        assert_eq!(s.path(1), &Path::Static);
         let undone = h.undo(&s).unwrap();
         assert_eq!(undone.labels, vec![Some(0), Some(1), None, Some(1)]);
+        assert_eq!(undone.path(1), &circle, "undo restores the path");
         let redone = h.redo(&undone).unwrap();
         assert_eq!(redone, s);
     }

@@ -1,0 +1,203 @@
+//! The editor's state as a scene file (`solver::scene::Scene`, versioned JSON) and back.
+//!
+//! What a scene holds: the mesh path (relative to the scene file), the handle labels inline,
+//! the timeline ([`effective_timeline`]: static non-rest poses become one-key paths, so the
+//! pose you see is the pose you load), the method and its settings, the camera, and the group
+//! names and colors (`editor`). Reading and writing (atomic) are `solver::scene`'s.
+
+use std::path::{Path, PathBuf};
+
+use eframe::egui::Color32;
+use solver::scene::{HandlesSpec, SCENE_VERSION, Scene, relative_path};
+
+use super::camera::OrbitCamera;
+use super::solver_thread::{EnergyKind, MethodSettings};
+use super::timeline::{apply_paths, effective_timeline};
+use super::undo::EditState;
+
+/// Everything a scene is made from.
+pub struct DocumentInput<'a> {
+    pub mesh_path: &'a Path,
+    pub edit: &'a EditState,
+    pub settings: &'a MethodSettings,
+    pub camera: &'a OrbitCamera,
+    pub time: f64,
+}
+
+/// An absolute version of `p` (through the current directory; symlinks kept).
+fn absolute(p: &Path) -> PathBuf {
+    std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf())
+}
+
+/// The scene to write at `scene_path`. Errors when there is nothing to save (no handles).
+pub fn to_scene(scene_path: &Path, input: &DocumentInput) -> Result<Scene, String> {
+    let edit = input.edit;
+    if !edit.has_handles() {
+        return Err("nothing to save yet: paint at least one handle group".into());
+    }
+    let dir = absolute(scene_path).parent().map(Path::to_path_buf).unwrap_or_default();
+    let mesh = relative_path(&dir, &absolute(input.mesh_path));
+    let labels = edit.labels.iter().map(|l| l.map_or(-1, i64::from)).collect();
+    let mut scene = Scene::new(mesh, HandlesSpec { labels: Some(labels), ..Default::default() });
+    scene.timeline = effective_timeline(edit);
+    let s = input.settings;
+    scene.method = s.bs_variant;
+    scene.arap.energy = match s.energy {
+        EnergyKind::SpokesAndRims => solver::Energy::SpokesAndRims,
+        EnergyKind::Spokes => solver::Energy::Spokes,
+    };
+    scene.arap.tolerance = s.tolerance;
+    scene.arap.max_iterations = s.max_iterations;
+    scene.base = s.base;
+    scene.camera = Some(input.camera.to_json());
+    let groups: Vec<serde_json::Value> = edit
+        .groups
+        .iter()
+        .map(|g| {
+            let [r, gr, b, _] = g.color.to_array();
+            serde_json::json!({"name": g.name, "color": [r, gr, b]})
+        })
+        .collect();
+    scene.editor = Some(serde_json::json!({"groups": groups, "time": input.time}));
+    debug_assert_eq!(scene.version, SCENE_VERSION);
+    Ok(scene)
+}
+
+/// What a loaded scene sets in the editor.
+pub struct Applied {
+    pub edit: EditState,
+    pub settings: MethodSettings,
+    pub camera: Option<OrbitCamera>,
+    pub time: f64,
+    /// Something the user should know (e.g. a method the editor's BS-ARAP slot cannot run).
+    pub notice: Option<String>,
+}
+
+/// The editor state of `scene` whose handles resolved to `labels`; `settings` are the current
+/// ones (kept where the scene says nothing).
+pub fn apply_scene(scene: &Scene, labels: Vec<Option<u32>>, settings: &MethodSettings) -> Applied {
+    let mut edit = EditState::from_labels(labels);
+    let extra = scene.editor.as_ref();
+    if let Some(groups) = extra.and_then(|e| e.get("groups")).and_then(|g| g.as_array()) {
+        for (g, v) in edit.groups.iter_mut().zip(groups) {
+            if let Some(name) = v.get("name").and_then(|n| n.as_str()) {
+                g.name = name.chars().take(64).collect();
+            }
+            if let Some(c) = v.get("color").and_then(|c| c.as_array())
+                && let [r, gr, b] = c.as_slice()
+                && let (Some(r), Some(gr), Some(b)) = (r.as_u64(), gr.as_u64(), b.as_u64())
+            {
+                let u = |x: u64| x.min(255) as u8;
+                g.color = Color32::from_rgb(u(r), u(gr), u(b));
+            }
+        }
+    }
+    edit.timeline = scene.timeline.clone();
+    let time = extra
+        .and_then(|e| e.get("time"))
+        .and_then(|t| t.as_f64())
+        .filter(|t| t.is_finite())
+        .map_or(0.0, |t| t.clamp(0.0, edit.timeline.duration));
+    apply_paths(&mut edit, time);
+    let mut s = *settings;
+    let mut notice = None;
+    if scene.method == solver::Method::Arap {
+        notice =
+            Some("the scene's method is ARAP: it is shown in the ARAP | BS-ARAP view".to_string());
+    } else {
+        s.bs_variant = scene.method;
+    }
+    s.energy = match scene.arap.energy {
+        solver::Energy::SpokesAndRims => EnergyKind::SpokesAndRims,
+        solver::Energy::Spokes => EnergyKind::Spokes,
+    };
+    s.tolerance = scene.arap.tolerance;
+    s.max_iterations = scene.arap.max_iterations.clamp(1, MAX_UI_ITERATIONS);
+    s.base = scene.base;
+    let camera = scene.camera.as_ref().and_then(OrbitCamera::from_json);
+    Applied { edit, settings: s, camera, time, notice }
+}
+
+/// The largest iteration cap the method panel offers.
+pub const MAX_UI_ITERATIONS: usize = 500;
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used, clippy::expect_used)]
+mod tests {
+    use super::*;
+    use solver::animation::{CircularPath, Path as AnimPath};
+
+    #[test]
+    fn a_saved_scene_loads_back_to_the_same_state() {
+        let dir = std::env::temp_dir().join(format!("bsarap-doc-{}", std::process::id()));
+        std::fs::create_dir_all(dir.join("scenes")).unwrap();
+        let mesh_path = dir.join("bar.obj");
+        let (mesh, handles) = solver::shapes::bumpy_bar(1);
+        solver::io::write_obj(&mesh_path, mesh.positions(), mesh.triangles()).unwrap();
+
+        let mut edit = EditState::from_labels(handles.labels().to_vec());
+        edit.groups[0].name = "left cap".into();
+        edit.groups[1].color = Color32::from_rgb(1, 2, 3);
+        edit.groups[1].pose.translation = [0.0, 0.25, 0.0];
+        edit.set_path(
+            0,
+            AnimPath::Circular(CircularPath {
+                axis: [0.0, 1.0, 0.0],
+                reference: [1.0, 0.0, 0.0],
+                radius: 0.2,
+                period: 2.0,
+                phase: 0.0,
+                turn_with_path: true,
+            }),
+        );
+        apply_paths(&mut edit, 0.5);
+        let settings = MethodSettings {
+            tolerance: 1e-5,
+            max_iterations: 42,
+            bs_variant: solver::Method::BsArapFaired,
+            ..MethodSettings::default()
+        };
+        let mut camera = OrbitCamera::default();
+        camera.orbit(10.0, 5.0);
+        let input = DocumentInput {
+            mesh_path: &mesh_path,
+            edit: &edit,
+            settings: &settings,
+            camera: &camera,
+            time: 0.5,
+        };
+        let scene_path = dir.join("scenes/pose.json");
+        let scene = to_scene(&scene_path, &input).unwrap();
+        assert_eq!(scene.mesh, "../bar.obj");
+        scene.save(&scene_path).unwrap();
+
+        let loaded = solver::scene::Scene::load(&scene_path).unwrap();
+        let back = apply_scene(
+            &loaded.scene,
+            loaded.handles.labels().to_vec(),
+            &MethodSettings::default(),
+        );
+        assert_eq!(back.edit.labels, edit.labels);
+        assert_eq!(back.edit.groups[0].name, "left cap");
+        assert_eq!(back.edit.groups[1].color, Color32::from_rgb(1, 2, 3));
+        assert_eq!(back.time, 0.5);
+        assert_eq!(back.settings, settings);
+        assert_eq!(back.camera, Some(camera));
+        for (a, b) in back.edit.groups.iter().zip(&edit.groups) {
+            assert!(
+                (glam::DVec3::from_array(a.pose.translation)
+                    - glam::DVec3::from_array(b.pose.translation))
+                .length()
+                    < 1e-12
+            );
+            assert!(a.pose.quat().dot(b.pose.quat()).abs() > 1.0 - 1e-12);
+        }
+        // The static pose of group 1 came back as a one-key path.
+        assert!(matches!(back.edit.path(1), AnimPath::Keyframed(k) if k.keys.len() == 1));
+
+        let empty = EditState::from_labels(vec![None; mesh.n_vertices()]);
+        let err = to_scene(&scene_path, &DocumentInput { edit: &empty, ..input }).err().unwrap();
+        assert!(err.contains("paint"), "{err}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}

@@ -1,0 +1,250 @@
+//! Long jobs off the UI thread: recording a timeline and writing glTF.
+//!
+//! Each job runs on its own thread (panics caught), publishes its progress through atomics the
+//! UI reads every frame, stops when its cancel flag is set, and hands its result back over a
+//! channel the UI polls without blocking. The numerics are `solver::recording::record` and
+//! `solver::export` — the same code `bsarap export` runs, so the editor's recording and the
+//! headless export give the same frames.
+
+use std::ops::ControlFlow;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::mpsc::{Receiver, TryRecvError, channel};
+
+use solver::animation::Timeline;
+use solver::export::{GltfExport, GltfFormat};
+use solver::recording::{Recording, record};
+use solver::{ArapConfig, BaseConfig, Deformer, Handles, Mesh, Method};
+
+/// A finished recording with what the UI shows about it.
+pub struct Recorded {
+    pub recording: Arc<Recording>,
+    /// Each frame as f32 for display.
+    pub frames_f32: Vec<Arc<Vec<[f32; 3]>>>,
+    /// Size of the `.glb` an export would write.
+    pub glb_bytes: u64,
+    /// The mesh it was recorded on (exports use it).
+    pub mesh: Arc<Mesh>,
+}
+
+/// Progress shared between a job thread and the UI.
+#[derive(Default)]
+pub struct Progress {
+    pub done: AtomicUsize,
+    /// 0 until known (e.g. while precomputing).
+    pub total: AtomicUsize,
+    pub cancel: AtomicBool,
+}
+
+impl Progress {
+    pub fn get(&self) -> (usize, usize) {
+        (self.done.load(Ordering::Relaxed), self.total.load(Ordering::Relaxed))
+    }
+
+    fn update(&self, done: usize, total: usize) -> ControlFlow<()> {
+        self.done.store(done, Ordering::Relaxed);
+        self.total.store(total, Ordering::Relaxed);
+        if self.cancel.load(Ordering::Relaxed) {
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
+        }
+    }
+}
+
+/// A job running on a worker thread, producing `T`.
+pub struct Job<T> {
+    pub progress: Arc<Progress>,
+    rx: Receiver<Result<T, String>>,
+}
+
+impl<T> Job<T> {
+    /// The result once the job has finished (never waits).
+    pub fn try_finish(&self) -> Option<Result<T, String>> {
+        match self.rx.try_recv() {
+            Ok(r) => Some(r),
+            Err(TryRecvError::Empty) => None,
+            Err(TryRecvError::Disconnected) => Some(Err("the job stopped without a result".into())),
+        }
+    }
+
+    pub fn cancel(&self) {
+        self.progress.cancel.store(true, Ordering::Relaxed);
+    }
+}
+
+fn spawn<T: Send + 'static>(
+    name: &str,
+    repaint: impl Fn() + Send + 'static,
+    work: impl FnOnce(&Progress) -> Result<T, String> + Send + 'static,
+) -> Job<T> {
+    let progress = Arc::new(Progress::default());
+    let (tx, rx) = channel();
+    let p = progress.clone();
+    let what = name.to_string();
+    let spawned = std::thread::Builder::new().name(name.into()).spawn(move || {
+        let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| work(&p)))
+            .unwrap_or_else(|_| Err(format!("the {what} job crashed (a bug; please report it)")));
+        let _ = tx.send(result);
+        repaint();
+    });
+    if let Err(e) = spawned {
+        let (tx, rx2) = channel();
+        let _ = tx.send(Err(format!("could not start the {name} thread: {e}")));
+        return Job { progress, rx: rx2 };
+    }
+    Job { progress, rx }
+}
+
+/// What a recording needs: everything is owned, the UI keeps editing meanwhile.
+pub struct RecordInput {
+    pub mesh: Arc<Mesh>,
+    pub handles: Handles,
+    pub timeline: Timeline,
+    pub n_frames: usize,
+    pub method: Method,
+    pub config: ArapConfig,
+    pub base: BaseConfig,
+}
+
+/// Precomputes the method and records every frame of the timeline.
+pub fn spawn_record(
+    input: RecordInput,
+    repaint: impl Fn() + Send + Sync + 'static,
+) -> Job<Recorded> {
+    let repaint = Arc::new(repaint);
+    let r2 = repaint.clone();
+    spawn(
+        "record",
+        move || repaint(),
+        move |progress| {
+            let RecordInput { mesh, handles, timeline, n_frames, method, config, base } = input;
+            let mut deformer = Deformer::with_base(method, &mesh, &handles, &config, &base)
+                .map_err(|e| format!("recording: precomputing {}: {e}", method.name()))?;
+            let recording = record(
+                &mut deformer,
+                &mesh,
+                &handles,
+                &timeline,
+                n_frames,
+                &config,
+                &mut |done, total| {
+                    let flow = progress.update(done, total);
+                    r2();
+                    flow
+                },
+            )
+            .map_err(|e| format!("recording: {e}"))?;
+            let glb_bytes = GltfExport::new(&mesh, &recording, GltfFormat::Glb)
+                .and_then(|e| e.file_size())
+                .map_err(|e| format!("recording: {e}"))?;
+            let frames_f32 = recording
+                .frames
+                .iter()
+                .map(|f| Arc::new(f.iter().map(|p| p.map(|c| c as f32)).collect()))
+                .collect();
+            Ok(Recorded { recording: Arc::new(recording), frames_f32, glb_bytes, mesh })
+        },
+    )
+}
+
+/// Writes `recorded` as glTF to `path` (format from the extension), atomically. Returns the
+/// path and the bytes written.
+pub fn spawn_export(
+    recorded: &Recorded,
+    path: PathBuf,
+    repaint: impl Fn() + Send + Sync + 'static,
+) -> Job<(PathBuf, u64)> {
+    let mesh = recorded.mesh.clone();
+    let recording = recorded.recording.clone();
+    let repaint = Arc::new(repaint);
+    let r2 = repaint.clone();
+    spawn(
+        "export",
+        move || repaint(),
+        move |progress| {
+            let fail = |e: solver::export::ExportError| format!("{}: {e}", path.display());
+            let format = GltfFormat::from_path(&path).map_err(fail)?;
+            let export = GltfExport::new(&mesh, &recording, format).map_err(fail)?;
+            let bytes = export
+                .write(&path, &mut |done, total| {
+                    let flow = progress.update(done, total);
+                    r2();
+                    flow
+                })
+                .map_err(fail)?;
+            Ok((path, bytes))
+        },
+    )
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used, clippy::expect_used)]
+mod tests {
+    use super::*;
+    use solver::animation::{CircularPath, GroupPath, Path};
+    use std::time::{Duration, Instant};
+
+    fn wait<T>(job: &Job<T>) -> Result<T, String> {
+        let start = Instant::now();
+        loop {
+            if let Some(r) = job.try_finish() {
+                return r;
+            }
+            assert!(start.elapsed() < Duration::from_secs(60), "job did not finish");
+            std::thread::sleep(Duration::from_millis(5));
+        }
+    }
+
+    fn input(n_frames: usize) -> RecordInput {
+        let (mesh, handles) = solver::shapes::bumpy_bar(2);
+        RecordInput {
+            mesh: Arc::new(mesh),
+            handles,
+            timeline: Timeline {
+                duration: 1.0,
+                fps: 10.0,
+                looping: true,
+                paths: vec![GroupPath {
+                    group: 1,
+                    path: Path::Circular(CircularPath {
+                        axis: [1.0, 0.0, 0.0],
+                        reference: [0.0, 1.0, 0.0],
+                        radius: 0.3,
+                        period: 1.0,
+                        phase: 0.0,
+                        turn_with_path: false,
+                    }),
+                }],
+            },
+            n_frames,
+            method: Method::Arap,
+            config: ArapConfig { tolerance: 1e-4, max_iterations: 50, ..ArapConfig::default() },
+            base: BaseConfig::default(),
+        }
+    }
+
+    #[test]
+    fn records_every_frame_then_exports_and_cancels_cleanly() {
+        let job = spawn_record(input(11), || {});
+        let rec = wait(&job).unwrap();
+        assert_eq!(rec.recording.frames.len(), 11);
+        assert_eq!(rec.frames_f32.len(), 11);
+        assert_eq!(job.progress.get(), (11, 11));
+        let dir = std::env::temp_dir().join(format!("bsarap-jobs-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let out = dir.join("anim.glb");
+        let ex = spawn_export(&rec, out.clone(), || {});
+        let (path, bytes) = wait(&ex).unwrap();
+        assert_eq!(path, out);
+        assert_eq!(bytes, rec.glb_bytes, "the size shown before writing is the size written");
+        assert_eq!(std::fs::metadata(&out).unwrap().len(), bytes);
+
+        let job = spawn_record(input(100_000), || {});
+        job.cancel();
+        let err = wait(&job).err().unwrap();
+        assert!(err.contains("cancelled"), "{err}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}

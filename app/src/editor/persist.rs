@@ -1,0 +1,174 @@
+//! What the editor keeps between sessions, in its configuration folder: the recent files list
+//! and the autosaved scene.
+//!
+//! The folder is `$BSARAP_CONFIG_DIR`, else `$XDG_CONFIG_HOME/bsarap`, else
+//! `$HOME/.config/bsarap`. Every write is atomic (`solver::io::write_atomic`). The autosave is
+//! a scene file (absolute mesh path) written every [`AUTOSAVE_INTERVAL`] while it changes, and
+//! by the panic hook when the editor crashes; it is removed on a clean exit, so one found at
+//! start means the last session did not end cleanly, and the editor offers it back.
+
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, SystemTime};
+
+use solver::io::write_atomic;
+use solver::scene::Scene;
+
+/// How often a changed scene is written to the autosave file.
+pub const AUTOSAVE_INTERVAL: Duration = Duration::from_secs(120);
+/// How many recent files are kept.
+pub const MAX_RECENT: usize = 10;
+
+/// The configuration folder (see the module doc), `None` without a home.
+pub fn default_dir() -> Option<PathBuf> {
+    let var = |k: &str| std::env::var_os(k).filter(|v| !v.is_empty()).map(PathBuf::from);
+    var("BSARAP_CONFIG_DIR")
+        .or_else(|| var("XDG_CONFIG_HOME").map(|d| d.join("bsarap")))
+        .or_else(|| var("HOME").map(|d| d.join(".config").join("bsarap")))
+}
+
+/// The editor's files in its configuration folder.
+#[derive(Debug, Clone)]
+pub struct Persist {
+    dir: PathBuf,
+}
+
+impl Persist {
+    pub fn new(dir: PathBuf) -> Persist {
+        Persist { dir }
+    }
+
+    fn recent_path(&self) -> PathBuf {
+        self.dir.join("recent.json")
+    }
+
+    pub fn autosave_path(&self) -> PathBuf {
+        self.dir.join("autosave.json")
+    }
+
+    fn write(&self, path: &Path, bytes: &[u8]) -> Result<(), String> {
+        std::fs::create_dir_all(&self.dir)
+            .map_err(|e| format!("cannot create {}: {e}", self.dir.display()))?;
+        write_atomic(path, bytes).map_err(|e| e.to_string())
+    }
+
+    /// The recent files, newest first (a missing or unreadable list is empty: it is only a
+    /// convenience).
+    pub fn recent(&self) -> Vec<PathBuf> {
+        let Ok(text) = std::fs::read_to_string(self.recent_path()) else { return Vec::new() };
+        let list: Vec<String> = serde_json::from_str(&text).unwrap_or_default();
+        list.into_iter().take(MAX_RECENT).map(PathBuf::from).collect()
+    }
+
+    /// Puts `path` first in the recent files and saves the list; returns the new list.
+    pub fn push_recent(&self, path: &Path) -> Result<Vec<PathBuf>, String> {
+        let path = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
+        let mut list = self.recent();
+        list.retain(|p| *p != path);
+        list.insert(0, path);
+        list.truncate(MAX_RECENT);
+        let strings: Vec<String> = list.iter().map(|p| p.display().to_string()).collect();
+        let json = serde_json::to_string_pretty(&strings).map_err(|e| e.to_string())?;
+        self.write(&self.recent_path(), json.as_bytes())?;
+        Ok(list)
+    }
+
+    /// Writes `scene` as the autosave.
+    pub fn write_autosave(&self, scene: &Scene) -> Result<PathBuf, String> {
+        let path = self.autosave_path();
+        self.write(&path, scene.to_json().as_bytes())?;
+        Ok(path)
+    }
+
+    /// The autosave left by a session that did not end cleanly, with when it was written.
+    pub fn pending_autosave(&self) -> Option<(PathBuf, SystemTime)> {
+        let path = self.autosave_path();
+        let modified = std::fs::metadata(&path).ok()?.modified().unwrap_or(SystemTime::now());
+        Some((path, modified))
+    }
+
+    /// Removes the autosave (clean exit, or the user declined it).
+    pub fn discard_autosave(&self) {
+        let _ = std::fs::remove_file(self.autosave_path());
+    }
+}
+
+/// The newest state, shared with the panic hook.
+pub type Snapshot = Arc<Mutex<Option<Scene>>>;
+
+/// Makes a panic anywhere in the process write `snapshot` to the autosave file before the
+/// default hook runs. Never blocks: a snapshot whose lock is held is skipped.
+pub fn install_crash_autosave(persist: Persist, snapshot: Snapshot) {
+    let previous = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        // Solver threads catch their panics and restart; only the UI thread's are crashes.
+        if std::thread::current().name() == Some("main")
+            && let Ok(guard) = snapshot.try_lock()
+            && let Some(scene) = guard.as_ref()
+        {
+            match persist.write_autosave(scene) {
+                Ok(p) => eprintln!("editor: crashed; your scene was saved to {}", p.display()),
+                Err(e) => eprintln!("editor: crashed, and the autosave failed: {e}"),
+            }
+        }
+        previous(info);
+    }));
+}
+
+/// How long ago `t` was, for a message ("3 min ago").
+pub fn ago(t: SystemTime) -> String {
+    let s = SystemTime::now().duration_since(t).map_or(0, |d| d.as_secs());
+    match s {
+        0..60 => format!("{s} s ago"),
+        60..7200 => format!("{} min ago", s / 60),
+        _ => format!("{} h ago", s / 3600),
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used, clippy::expect_used)]
+mod tests {
+    use super::*;
+
+    fn dir(name: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("bsarap-persist-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        d
+    }
+
+    #[test]
+    fn recent_files_are_newest_first_unique_and_capped() {
+        let d = dir("recent");
+        let p = Persist::new(d.clone());
+        assert!(p.recent().is_empty());
+        for i in 0..12 {
+            p.push_recent(&d.join(format!("m{i}.obj"))).unwrap();
+        }
+        p.push_recent(&d.join("m5.obj")).unwrap();
+        let r = p.recent();
+        assert_eq!(r.len(), MAX_RECENT);
+        assert_eq!(r[0], d.join("m5.obj"));
+        assert_eq!(r[1], d.join("m11.obj"));
+        assert_eq!(r.iter().filter(|x| **x == d.join("m5.obj")).count(), 1);
+        std::fs::write(d.join("recent.json"), "{broken").unwrap();
+        assert!(p.recent().is_empty(), "a broken list is ignored, not fatal");
+        let _ = std::fs::remove_dir_all(&d);
+    }
+
+    #[test]
+    fn autosave_is_found_until_discarded() {
+        let d = dir("autosave");
+        let p = Persist::new(d.clone());
+        assert!(p.pending_autosave().is_none());
+        let scene = Scene::new(
+            "/abs/mesh.obj",
+            solver::scene::HandlesSpec { labels: Some(vec![0, -1, -1]), ..Default::default() },
+        );
+        p.write_autosave(&scene).unwrap();
+        let (path, _) = p.pending_autosave().unwrap();
+        assert_eq!(Scene::read(&path).unwrap(), scene);
+        p.discard_autosave();
+        assert!(p.pending_autosave().is_none());
+        let _ = std::fs::remove_dir_all(&d);
+    }
+}

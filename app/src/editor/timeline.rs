@@ -1,0 +1,504 @@
+//! The timeline: playback clock, per-group paths driving the handle poses, and the timeline
+//! panel (duration, frame rate, loop, play/pause, scrub, path and keyframe editing).
+//!
+//! The paths themselves are `solver::animation`'s ([`Timeline`], [`Path`]); this module only
+//! evaluates them at the current time into [`GroupPose`]s (what the solver threads take) and
+//! edits them. The panel returns [`TimelineAction`]s; the app applies them (undo, solver
+//! commands, recording jobs).
+
+use std::time::Instant;
+
+use eframe::egui;
+use solver::animation::{CircularPath, GroupPath, Interpolation, KeyframedPath, Path, Timeline};
+
+use super::pose::GroupPose;
+use super::undo::EditState;
+
+/// Longest timeline the UI accepts (seconds).
+pub const MAX_DURATION: f64 = 3600.0;
+/// Highest frame rate the UI accepts.
+pub const MAX_FPS: f64 = 240.0;
+/// Most frames one recording may have (the CLI's `--frames` limit).
+pub const MAX_FRAMES: usize = 100_000;
+
+/// The playback clock.
+#[derive(Debug, Clone, Default)]
+pub struct Playback {
+    /// Playback time in seconds (in `[0, duration]`).
+    pub time: f64,
+    pub playing: bool,
+    last_tick: Option<Instant>,
+}
+
+impl Playback {
+    /// Advances a playing clock by the wall time since the last call; returns whether the time
+    /// changed. A non-looping timeline stops at its end.
+    pub fn tick(&mut self, now: Instant, timeline: &Timeline) -> bool {
+        if !self.playing {
+            self.last_tick = None;
+            return false;
+        }
+        let dt = self.last_tick.map_or(0.0, |t| now.duration_since(t).as_secs_f64());
+        self.last_tick = Some(now);
+        if dt <= 0.0 {
+            return false;
+        }
+        let t = self.time + dt;
+        if t >= timeline.duration && !timeline.looping {
+            self.time = timeline.duration;
+            self.playing = false;
+        } else {
+            self.time = timeline.local_time(t);
+        }
+        true
+    }
+
+    pub fn set_playing(&mut self, playing: bool) {
+        self.playing = playing;
+        self.last_tick = None;
+    }
+}
+
+/// Sets the pose of every group that has a path to the path's value at playback time `t`.
+/// Returns whether any pose changed. Groups without a path keep their pose.
+pub fn apply_paths(edit: &mut EditState, t: f64) -> bool {
+    let t = edit.timeline.local_time(t);
+    let mut changed = false;
+    for p in &edit.timeline.paths {
+        let Some(g) = edit.groups.get_mut(p.group) else { continue };
+        let pose = GroupPose::from_transform(&p.path.transform_at(t));
+        if g.pose != pose {
+            g.pose = pose;
+            changed = true;
+        }
+    }
+    changed
+}
+
+/// The timeline a scene file and a recording use: the edited paths, plus a one-key path for
+/// every group without a path whose pose is not the rest pose (it holds that pose for all
+/// time), so that what is recorded and saved is what the user sees. Groups without vertices
+/// are left out (a selection file cannot name them).
+pub fn effective_timeline(edit: &EditState) -> Timeline {
+    let mut painted = vec![false; edit.groups.len()];
+    for &k in edit.labels.iter().flatten() {
+        if let Some(p) = painted.get_mut(k as usize) {
+            *p = true;
+        }
+    }
+    let painted = |k: usize| painted.get(k).copied().unwrap_or(false);
+    let mut t = edit.timeline.clone();
+    t.paths.retain(|p| painted(p.group));
+    for (k, g) in edit.groups.iter().enumerate() {
+        if painted(k) && !g.pose.is_rest() && !t.paths.iter().any(|p| p.group == k) {
+            t.paths.push(GroupPath {
+                group: k,
+                path: Path::Keyframed(KeyframedPath {
+                    keys: vec![g.pose.to_key(0.0)],
+                    interpolation: Interpolation::Linear,
+                }),
+            });
+        }
+    }
+    t.paths.sort_by_key(|p| p.group);
+    t
+}
+
+/// Frames of a recording of `timeline` (both ends included), as `bsarap export` counts them.
+pub fn frame_count(timeline: &Timeline) -> usize {
+    timeline.default_frame_count().clamp(1, MAX_FRAMES)
+}
+
+/// What the timeline panel asks the app to do.
+#[derive(Debug, Clone, PartialEq)]
+pub enum TimelineAction {
+    /// The time was scrubbed or played: re-evaluate the paths.
+    TimeChanged,
+    /// The timeline or a path was edited; `before` is the state to push on the undo stack.
+    Edited {
+        before: Box<EditState>,
+    },
+    Record,
+    CancelRecord,
+    ExportGltf,
+    /// Show recorded frames instead of the live solve (or back).
+    ShowRecording(bool),
+}
+
+/// What the panel shows about the recording.
+#[derive(Debug, Clone, Default)]
+pub struct RecordingView {
+    /// `(done, total)` while recording; `total` is 0 while precomputing.
+    pub progress: Option<(usize, usize)>,
+    /// Frames, seconds of animation and `.glb` size in bytes of the kept recording.
+    pub kept: Option<(usize, f64, u64)>,
+    pub showing: bool,
+    /// An export in progress: `(done, total)` frames written.
+    pub exporting: Option<(usize, usize)>,
+}
+
+/// Draws the timeline panel. `active` is the selected handle group.
+pub fn panel(
+    ui: &mut egui::Ui,
+    edit: &mut EditState,
+    playback: &mut Playback,
+    active: Option<usize>,
+    recording: &RecordingView,
+    mesh_scale: f64,
+) -> Vec<TimelineAction> {
+    let mut actions = Vec::new();
+    let before = edit.clone();
+    let mut edited = false;
+    ui.horizontal(|ui| {
+        let play_label = if playback.playing { "Pause" } else { "Play" };
+        if ui.button(play_label).on_hover_text("Space").clicked() {
+            let playing = !playback.playing;
+            playback.set_playing(playing);
+        }
+        if ui.button("|<").on_hover_text("to the start (Home)").clicked() {
+            playback.time = 0.0;
+            actions.push(TimelineAction::TimeChanged);
+        }
+        let duration = edit.timeline.duration;
+        let r = ui.add(
+            egui::Slider::new(&mut playback.time, 0.0..=duration)
+                .text("s")
+                .max_decimals(3)
+                .clamping(egui::SliderClamping::Always),
+        );
+        if r.changed() {
+            actions.push(TimelineAction::TimeChanged);
+        }
+        ui.separator();
+        let l = ui.label("duration").id;
+        edited |= ui
+            .add(
+                egui::DragValue::new(&mut edit.timeline.duration)
+                    .range(0.01..=MAX_DURATION)
+                    .speed(0.05)
+                    .suffix(" s"),
+            )
+            .labelled_by(l)
+            .changed();
+        let l = ui.label("fps").id;
+        edited |= ui
+            .add(egui::DragValue::new(&mut edit.timeline.fps).range(1.0..=MAX_FPS).speed(0.5))
+            .labelled_by(l)
+            .changed();
+        edited |= ui.checkbox(&mut edit.timeline.looping, "loop").changed();
+    });
+    ui.horizontal(|ui| {
+        match recording.progress {
+            Some((done, total)) => {
+                let (frac, text) = if total == 0 {
+                    (0.0, "precomputing…".to_string())
+                } else {
+                    (done as f32 / total as f32, format!("recording {done}/{total} frames"))
+                };
+                ui.add(egui::ProgressBar::new(frac).text(text).desired_width(240.0));
+                if ui.button("Cancel").clicked() {
+                    actions.push(TimelineAction::CancelRecord);
+                }
+            }
+            None => {
+                let n = frame_count(&edit.timeline);
+                if ui
+                    .button(format!("Record {n} frames"))
+                    .on_hover_text(
+                        "Solve every frame of the timeline to the tolerance (deterministic, \
+                         not real time), warm-started from the previous frame",
+                    )
+                    .clicked()
+                {
+                    actions.push(TimelineAction::Record);
+                }
+            }
+        }
+        if let Some((frames, seconds, bytes)) = recording.kept {
+            ui.separator();
+            ui.label(format!("recorded {frames} frames ({seconds:.2} s)"));
+            let mut showing = recording.showing;
+            if ui.checkbox(&mut showing, "show recording").changed() {
+                actions.push(TimelineAction::ShowRecording(showing));
+            }
+            match recording.exporting {
+                Some((done, total)) => {
+                    let frac = if total == 0 { 0.0 } else { done as f32 / total as f32 };
+                    ui.add(
+                        egui::ProgressBar::new(frac)
+                            .text(format!("writing {done}/{total}"))
+                            .desired_width(160.0),
+                    );
+                }
+                None => {
+                    if ui
+                        .button(format!("Export glTF… ({:.1} MB)", bytes as f64 / 1e6))
+                        .on_hover_text("one morph target per frame; size of the .glb")
+                        .clicked()
+                    {
+                        actions.push(TimelineAction::ExportGltf);
+                    }
+                }
+            }
+        }
+    });
+    if let Some(k) = active.filter(|&k| k < edit.groups.len()) {
+        edited |= path_editor(ui, edit, k, playback.time, mesh_scale);
+    } else {
+        ui.weak("Select a handle group to give it a path.");
+    }
+    if edited && *edit != before {
+        actions.push(TimelineAction::Edited { before: Box::new(before) });
+        actions.push(TimelineAction::TimeChanged);
+    }
+    actions
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Kind {
+    Static,
+    Circular,
+    Keyframed,
+}
+
+/// The path editor of group `k`; returns whether anything changed.
+fn path_editor(ui: &mut egui::Ui, edit: &mut EditState, k: usize, time: f64, scale: f64) -> bool {
+    let mut path = edit.path(k).clone();
+    let kind = match path {
+        Path::Static => Kind::Static,
+        Path::Circular(_) => Kind::Circular,
+        Path::Keyframed(_) => Kind::Keyframed,
+    };
+    let mut new_kind = kind;
+    let name = edit.groups[k].name.clone();
+    ui.horizontal(|ui| {
+        ui.label(format!("{name} path:"));
+        ui.selectable_value(&mut new_kind, Kind::Static, "static");
+        ui.selectable_value(&mut new_kind, Kind::Circular, "circular");
+        ui.selectable_value(&mut new_kind, Kind::Keyframed, "keyframed");
+    });
+    if new_kind != kind {
+        path = match new_kind {
+            Kind::Static => Path::Static,
+            Kind::Circular => Path::Circular(CircularPath {
+                axis: [0.0, 0.0, 1.0],
+                reference: [1.0, 0.0, 0.0],
+                radius: 0.1 * scale,
+                period: edit.timeline.duration,
+                phase: 0.0,
+                turn_with_path: false,
+            }),
+            Kind::Keyframed => Path::Keyframed(KeyframedPath {
+                keys: vec![edit.groups[k].pose.to_key(time)],
+                interpolation: Interpolation::Smooth,
+            }),
+        };
+    }
+    let mut changed = new_kind != kind;
+    match &mut path {
+        Path::Static => {
+            ui.weak("Static: the group keeps the pose you give it.");
+        }
+        Path::Circular(c) => {
+            ui.horizontal(|ui| {
+                ui.label("axis");
+                for (v, n) in c.axis.iter_mut().zip(["x", "y", "z"]) {
+                    let l = ui.label(n).id;
+                    changed |= ui
+                        .add(egui::DragValue::new(v).speed(0.01).range(-1.0..=1.0))
+                        .labelled_by(l)
+                        .changed();
+                }
+                let l = ui.label("radius").id;
+                changed |= ui
+                    .add(
+                        egui::DragValue::new(&mut c.radius)
+                            .speed(0.002 * scale)
+                            .range(0.0..=10.0 * scale),
+                    )
+                    .labelled_by(l)
+                    .changed();
+                let l = ui.label("period").id;
+                changed |= ui
+                    .add(
+                        egui::DragValue::new(&mut c.period)
+                            .speed(0.05)
+                            .range(0.01..=MAX_DURATION)
+                            .suffix(" s"),
+                    )
+                    .labelled_by(l)
+                    .changed();
+                let mut phase = c.phase.to_degrees();
+                let l = ui.label("phase").id;
+                if ui
+                    .add(
+                        egui::DragValue::new(&mut phase)
+                            .speed(1.0)
+                            .range(-360.0..=360.0)
+                            .suffix("°"),
+                    )
+                    .labelled_by(l)
+                    .changed()
+                {
+                    c.phase = phase.to_radians();
+                    changed = true;
+                }
+                changed |= ui.checkbox(&mut c.turn_with_path, "turn with path").changed();
+            });
+            if c.axis.iter().all(|&a| a == 0.0) {
+                ui.colored_label(egui::Color32::YELLOW, "the axis must not be zero; using z");
+                c.axis = [0.0, 0.0, 1.0];
+            }
+        }
+        Path::Keyframed(kp) => {
+            ui.horizontal(|ui| {
+                if ui
+                    .button("Set key (K)")
+                    .on_hover_text("key the current pose at this time")
+                    .clicked()
+                {
+                    kp.set_key(edit.groups[k].pose.to_key(time));
+                    changed = true;
+                }
+                ui.label("interpolation");
+                changed |= ui
+                    .selectable_value(&mut kp.interpolation, Interpolation::Linear, "linear")
+                    .changed();
+                changed |= ui
+                    .selectable_value(&mut kp.interpolation, Interpolation::Smooth, "smooth")
+                    .changed();
+            });
+            let mut delete = None;
+            let mut retimed = false;
+            let n = kp.keys.len();
+            for i in 0..n {
+                ui.horizontal(|ui| {
+                    let lo = if i == 0 { 0.0 } else { kp.keys[i - 1].time + 1e-3 };
+                    let hi = if i + 1 == n { MAX_DURATION } else { kp.keys[i + 1].time - 1e-3 };
+                    let key = &mut kp.keys[i];
+                    let l = ui.label(format!("key {i} at")).id;
+                    retimed |= ui
+                        .add(
+                            egui::DragValue::new(&mut key.time)
+                                .range(lo..=hi.max(lo))
+                                .speed(0.01)
+                                .suffix(" s"),
+                        )
+                        .labelled_by(l)
+                        .changed();
+                    let t = key.translation;
+                    ui.weak(format!(
+                        "move ({:.3}, {:.3}, {:.3}), turn {:.1}°",
+                        t[0], t[1], t[2], key.rotation.degrees
+                    ));
+                    if ui.small_button("Delete").on_hover_text("delete this key").clicked() {
+                        delete = Some(i);
+                    }
+                });
+            }
+            if let Some(i) = delete {
+                kp.keys.remove(i);
+                changed = true;
+            }
+            changed |= retimed;
+            if kp.keys.is_empty() {
+                ui.weak("No keys: the group stays at rest. Pose it and press Set key.");
+            }
+        }
+    }
+    if changed {
+        edit.set_path(k, path);
+    }
+    changed
+}
+
+/// Sets a key from group `k`'s current pose at `time`, making its path keyframed if it was
+/// static (the K shortcut). Returns whether anything changed.
+pub fn key_current_pose(edit: &mut EditState, k: usize, time: f64) -> bool {
+    let Some(g) = edit.groups.get(k) else { return false };
+    let key = g.pose.to_key(time);
+    let path = match edit.path(k).clone() {
+        Path::Keyframed(mut kp) => {
+            kp.set_key(key);
+            Path::Keyframed(kp)
+        }
+        Path::Static => {
+            Path::Keyframed(KeyframedPath { keys: vec![key], interpolation: Interpolation::Smooth })
+        }
+        Path::Circular(_) => return false,
+    };
+    let changed = *edit.path(k) != path;
+    edit.set_path(k, path);
+    changed
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used, clippy::expect_used)]
+mod tests {
+    use super::*;
+
+    fn state() -> EditState {
+        EditState::from_labels(vec![Some(0), Some(1), None])
+    }
+
+    #[test]
+    fn paths_drive_poses_and_static_poses_are_kept_in_the_effective_timeline() {
+        let mut e = state();
+        e.set_path(
+            0,
+            Path::Circular(CircularPath {
+                axis: [0.0, 0.0, 1.0],
+                reference: [1.0, 0.0, 0.0],
+                radius: 2.0,
+                period: 2.0,
+                phase: 0.0,
+                turn_with_path: false,
+            }),
+        );
+        e.groups[1].pose.translation = [0.0, 3.0, 0.0];
+        assert!(apply_paths(&mut e, 1.0));
+        // Half a turn of radius 2 from angle 0: the centroid moved by (-4, 0, 0).
+        let t = e.groups[0].pose.translation;
+        assert!((t[0] + 4.0).abs() < 1e-12 && t[1].abs() < 1e-12, "{t:?}");
+        assert_eq!(e.groups[1].pose.translation, [0.0, 3.0, 0.0], "no path: pose kept");
+        assert!(!apply_paths(&mut e, 1.0), "same time: nothing changes");
+
+        let eff = effective_timeline(&e);
+        assert_eq!(eff.paths.len(), 2);
+        let held = eff.paths[1].path.transform_at(1.7);
+        assert_eq!(held.translation, [0.0, 3.0, 0.0]);
+        eff.validate().unwrap();
+    }
+
+    #[test]
+    fn keys_set_from_poses_are_hit() {
+        let mut e = state();
+        e.groups[0].pose.translation = [1.0, 0.0, 0.0];
+        assert!(key_current_pose(&mut e, 0, 0.0));
+        e.groups[0].pose.translation = [0.0, 2.0, 0.0];
+        assert!(key_current_pose(&mut e, 0, 1.0));
+        assert!(!key_current_pose(&mut e, 0, 1.0), "the same key again changes nothing");
+        apply_paths(&mut e, 0.0);
+        assert_eq!(e.groups[0].pose.translation, [1.0, 0.0, 0.0]);
+        apply_paths(&mut e, 1.0);
+        assert_eq!(e.groups[0].pose.translation, [0.0, 2.0, 0.0]);
+    }
+
+    #[test]
+    fn playback_loops_or_stops() {
+        let tl = Timeline { duration: 1.0, fps: 30.0, looping: false, paths: vec![] };
+        let mut p = Playback::default();
+        p.set_playing(true);
+        let t0 = Instant::now();
+        assert!(!p.tick(t0, &tl), "the first tick only starts the clock");
+        assert!(p.tick(t0 + std::time::Duration::from_millis(1500), &tl));
+        assert_eq!(p.time, 1.0);
+        assert!(!p.playing, "a non-looping timeline stops at its end");
+        let tl = Timeline { looping: true, ..tl };
+        p.time = 0.0;
+        p.set_playing(true);
+        p.tick(t0, &tl);
+        p.tick(t0 + std::time::Duration::from_millis(1250), &tl);
+        assert!((p.time - 0.25).abs() < 1e-9 && p.playing);
+    }
+}
