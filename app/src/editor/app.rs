@@ -729,6 +729,7 @@ impl EditorApp {
                 TimelineAction::Record => self.start_recording(ctx),
                 TimelineAction::CancelRecord => self.cancel_recording(),
                 TimelineAction::ExportGltf => self.start_dialog(ctx, DialogKind::ExportGltf),
+                TimelineAction::Rejected(e) => self.error = Some(format!("value refused: {e}")),
                 TimelineAction::ShowRecording(on) => {
                     self.show_recording = on;
                     self.color_version += 1;
@@ -1729,7 +1730,11 @@ impl EditorApp {
                 self.send_poses();
             }
         });
-        if changed && pose != self.edit.groups[k].pose {
+        let finite = pose.translation.iter().chain(&pose.rotation).all(|x| x.is_finite());
+        if changed && !finite {
+            self.error =
+                Some("value refused: move and rotate values must be finite numbers".into());
+        } else if changed && pose != self.edit.groups[k].pose {
             self.history.push(before);
             self.edit.groups[k].pose = pose;
             self.send_poses();

@@ -123,6 +123,8 @@ pub enum TimelineAction {
     ExportGltf,
     /// Show recorded frames instead of the live solve (or back).
     ShowRecording(bool),
+    /// A typed value was refused (the edit was reverted); the message names the field.
+    Rejected(String),
 }
 
 /// What the panel shows about the recording.
@@ -248,8 +250,16 @@ pub fn panel(
         ui.weak("Select a handle group to give it a path.");
     }
     if edited && *edit != before {
-        actions.push(TimelineAction::Edited { before: Box::new(before) });
-        actions.push(TimelineAction::TimeChanged);
+        match edit.validate() {
+            Ok(()) => {
+                actions.push(TimelineAction::Edited { before: Box::new(before) });
+                actions.push(TimelineAction::TimeChanged);
+            }
+            Err(e) => {
+                *edit = before;
+                actions.push(TimelineAction::Rejected(e));
+            }
+        }
     }
     actions
 }

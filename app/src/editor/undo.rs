@@ -81,6 +81,18 @@ impl EditState {
         self.labels.iter().any(Option::is_some)
     }
 
+    /// Checks what a user can type: every pose finite, the timeline valid (durations and
+    /// periods > 0, finite keys, strictly increasing key times). The message names the field.
+    pub fn validate(&self) -> Result<(), String> {
+        for g in &self.groups {
+            let p = &g.pose;
+            if p.translation.iter().chain(&p.rotation).any(|x| !x.is_finite()) {
+                return Err(format!("{}: move and rotate values must be finite numbers", g.name));
+            }
+        }
+        self.timeline.validate().map_err(|e| e.to_string())
+    }
+
     /// The path of group `k` (`Static` when it has none).
     pub fn path(&self, k: usize) -> &Path {
         const STATIC: &Path = &Path::Static;
@@ -160,6 +172,30 @@ impl History {
 #[allow(clippy::unwrap_used, clippy::expect_used)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn validation_names_the_bad_value() {
+        let mut s = EditState::from_labels(vec![Some(0), None]);
+        assert!(s.validate().is_ok());
+        s.groups[0].pose.translation[1] = f64::NAN;
+        assert!(s.validate().unwrap_err().contains("Group 0"));
+        s.groups[0].pose.translation[1] = 0.0;
+        s.timeline.duration = 0.0;
+        assert!(s.validate().unwrap_err().contains("duration"), "{:?}", s.validate());
+        s.timeline.duration = 1.0;
+        s.set_path(
+            0,
+            Path::Circular(solver::animation::CircularPath {
+                axis: [0.0, 0.0, 1.0],
+                reference: [1.0, 0.0, 0.0],
+                radius: 1.0,
+                period: f64::INFINITY,
+                phase: 0.0,
+                turn_with_path: false,
+            }),
+        );
+        assert!(s.validate().unwrap_err().contains("period"), "{:?}", s.validate());
+    }
 
     #[test]
     fn undo_redo_round_trip_and_delete_group() {

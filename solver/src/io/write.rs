@@ -111,6 +111,64 @@ mod tests {
         std::env::temp_dir().join(format!("solver-write-{}-{name}", std::process::id()))
     }
 
+    /// A write killed halfway (SIGKILL, no chance to clean up) leaves the previous file intact.
+    ///
+    /// The test re-runs its own binary as a child that writes 256 MB with [`write_atomic`];
+    /// the parent waits until the child's temporary file is partly written, kills the child,
+    /// and checks the target still holds its previous bytes.
+    #[test]
+    fn a_write_killed_halfway_keeps_the_previous_file() {
+        const CHILD: &str = "SOLVER_WRITE_ATOMIC_CHILD";
+        const SIZE: usize = 256 << 20;
+        if let Some(target) = std::env::var_os(CHILD) {
+            let bytes = vec![7u8; SIZE];
+            write_atomic(Path::new(&target), &bytes).unwrap();
+            return;
+        }
+        let dir = temp_path("killed");
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let target = dir.join("scene.json");
+        let previous = b"{\"version\": 1, \"the\": \"previous contents\"}\n";
+        std::fs::write(&target, previous).unwrap();
+
+        let exe = std::env::current_exe().unwrap();
+        let mut child = std::process::Command::new(exe)
+            .args(["--exact", "io::write::tests::a_write_killed_halfway_keeps_the_previous_file"])
+            .args(["--test-threads", "1"])
+            .env(CHILD, &target)
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap();
+        let start = std::time::Instant::now();
+        let partial = loop {
+            let tmp = std::fs::read_dir(&dir)
+                .unwrap()
+                .flatten()
+                .map(|e| e.path())
+                .find(|p| p.to_string_lossy().contains(".tmp"));
+            if let Some(tmp) = tmp
+                && let Ok(m) = std::fs::metadata(&tmp)
+                && m.len() > 0
+                && (m.len() as usize) < SIZE
+            {
+                child.kill().unwrap();
+                break tmp;
+            }
+            if let Ok(Some(status)) = child.try_wait() {
+                panic!("the child finished ({status}) before it could be interrupted");
+            }
+            assert!(start.elapsed().as_secs() < 60, "the child never started writing");
+            std::thread::sleep(std::time::Duration::from_micros(200));
+        };
+        child.wait().unwrap();
+        assert_eq!(std::fs::read(&target).unwrap(), previous, "the previous file was damaged");
+        let left = std::fs::metadata(&partial).map_or(0, |m| m.len()) as usize;
+        assert!(left < SIZE, "the temporary file is complete: the kill came too late");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
     #[test]
     fn obj_is_exact_and_one_based() {
         let p =
