@@ -113,16 +113,40 @@ fn opens_the_default_asset_and_views_change_the_image() {
     step_until(&mut h, "the details view", |a| a.view() == View::Details);
     h.snapshot_options("editor_details", &snapshot_options());
 
-    h.get_by_label("ARAP | BS-ARAP").click();
-    step_until(&mut h, "an ARAP frame", |a| {
-        a.view() == View::Compare && a.latest_frame(Method::Arap).is_some()
+    h.get_by_label("Side by side").click();
+    step_until(&mut h, "an ARAP frame and the distance between the two", |a| {
+        a.view() == View::Compare
+            && a.latest_frame(Method::Arap).is_some()
+            && a.side_by_side_distance().is_some()
     });
+    // At rest both methods reproduce the mesh.
+    let d = h.state().side_by_side_distance().unwrap();
+    assert!(d.max < 1e-4, "{d:?}");
     h.snapshot_options("editor_compare", &snapshot_options());
     let compare = h.render().expect("render");
     assert!(
         count_differing_pixels(result.as_raw(), compare.as_raw()) > 1000,
         "the compare view looks like the result view"
     );
+
+    // Posed, the live distance between ARAP (left) and BS-ARAP (right) is small but not zero.
+    let mut e = h.state().edit_state().clone();
+    e.groups[0].pose.translation = [0.0, 0.15, 0.0];
+    h.state_mut().set_edit_state(e);
+    let posed = |a: &EditorApp| {
+        let current = |m| {
+            a.latest_frame(m).is_some_and(|f: &app::editor::solver_thread::SolvedFrame| {
+                f.pose_generation == a.pose_generation() && f.stats.converged
+            })
+        };
+        current(Method::Arap) && current(Method::BsArap)
+    };
+    step_until(&mut h, "both methods converged on the pose", posed);
+    step_until(&mut h, "the distance of the posed results", |a| {
+        a.side_by_side_distance().is_some_and(|d| d.max > 1e-4)
+    });
+    let d = h.state().side_by_side_distance().unwrap();
+    assert!(d.max.is_finite() && d.max < 0.2 && d.mean <= d.max, "{d:?}");
 }
 
 #[test]

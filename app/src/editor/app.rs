@@ -60,7 +60,8 @@ pub enum View {
     Base,
     /// The result colored by detail magnitude |D_i|.
     Details,
-    /// ARAP (left) beside BS-ARAP (right), shared camera.
+    /// The comparison method (left, ARAP by default) beside the main one (right), shared
+    /// camera, with their distance live.
     Compare,
 }
 
@@ -71,7 +72,7 @@ impl View {
             View::Result => "BS-ARAP",
             View::Base => "Base surface",
             View::Details => "Details",
-            View::Compare => "ARAP | BS-ARAP",
+            View::Compare => "Side by side",
         }
     }
 }
@@ -184,6 +185,9 @@ pub struct EditorApp {
     document_path: Option<PathBuf>,
     /// The edit state as last opened or saved (to know whether there are unsaved changes).
     saved_edit: Option<EditState>,
+    /// Distance between the two side-by-side results: the frame tags it was computed for.
+    compare_job: Option<(u64, u64, Job<solver::quality::Distances>)>,
+    compared: Option<((u64, u64), solver::quality::Distances)>,
     /// Group being renamed, with the name typed so far.
     renaming: Option<(usize, String)>,
     started: Instant,
@@ -262,6 +266,8 @@ impl EditorApp {
             saved_edit: None,
             renaming: None,
             started: Instant::now(),
+            compare_job: None,
+            compared: None,
         };
         if let Some(p) = &app.persist {
             app.recent = p.recent();
@@ -701,6 +707,51 @@ impl EditorApp {
                 Err(e) => self.error = Some(e),
             }
         }
+    }
+
+    /// Starts (or collects) the distance between the two side-by-side results when both show
+    /// the current pose and it has not been computed for these frames yet.
+    fn poll_compare(&mut self, ctx: &egui::Context) {
+        if let Some((ka, kb, job)) = &self.compare_job
+            && let Some(r) = job.try_finish()
+        {
+            let key = (*ka, *kb);
+            self.compare_job = None;
+            if let Ok(d) = r {
+                self.compared = Some((key, d));
+            }
+        }
+        if self.view != View::Compare || self.compare_job.is_some() {
+            return;
+        }
+        let current = |f: &SolvedFrame| {
+            f.pose_generation == self.pose_generation && f.scene_generation == self.scene_generation
+        };
+        let (Some(a), Some(b), Some(scene)) =
+            (self.views[1].frame.as_ref(), self.views[0].frame.as_ref(), self.scene.as_ref())
+        else {
+            return;
+        };
+        if !(current(a) && current(b)) {
+            return;
+        }
+        let key = (Arc::as_ptr(&a.positions) as u64, Arc::as_ptr(&b.positions) as u64);
+        if self.compared.as_ref().is_some_and(|(k, _)| *k == key) {
+            return;
+        }
+        let c = ctx.clone();
+        let job = jobs::spawn_compare(
+            a.positions.clone(),
+            b.positions.clone(),
+            2.0 * scene.radius as f64,
+            move || c.request_repaint(),
+        );
+        self.compare_job = Some((key.0, key.1, job));
+    }
+
+    /// The live distance between the side-by-side results (max, mean over the diagonal).
+    pub fn side_by_side_distance(&self) -> Option<solver::quality::Distances> {
+        self.compared.as_ref().map(|(_, d)| *d)
     }
 
     fn recording_view(&self) -> RecordingView {
@@ -1451,12 +1502,12 @@ impl EditorApp {
         let font = egui::FontId::monospace(12.0);
         let mut lines = Vec::new();
         let (method, view_index, handle) = match (self.view, slot) {
-            (View::Compare, 0) => (Method::Arap, 1, self.arap.as_ref()),
-            _ => (Method::BsArap, 0, self.bsarap.as_ref()),
+            (View::Compare, 0) => (self.settings.compare_variant, 1, self.arap.as_ref()),
+            _ => (self.settings.bs_variant, 0, self.bsarap.as_ref()),
         };
         lines.push(format!(
             "{}{}",
-            method.label(),
+            deformers::label(method),
             match self.view {
                 View::Base => " — base surface B'",
                 View::Details => " — detail magnitude",
@@ -1478,6 +1529,16 @@ impl EditorApp {
                 }
                 lines.push(format!("{:.3} ms/it  E = {:.4e}", s.ms_per_iteration, s.energy));
             }
+        }
+        if self.view == View::Compare
+            && slot == 1
+            && let Some((_, d)) = &self.compared
+        {
+            lines.push(format!(
+                "vs left: max {:.2}%  mean {:.3}% of diagonal",
+                100.0 * d.max,
+                100.0 * d.mean
+            ));
         }
         if let Some(status) = handle.and_then(|h| h.try_status()) {
             match status.state {
@@ -1651,7 +1712,10 @@ impl EditorApp {
             let energy: PlotPoints = h.iter().map(|p| [p[0], p[2]]).collect();
             (fps, energy)
         };
-        let names = [Method::BsArap.label(), Method::Arap.label()];
+        let names = [
+            deformers::label(self.settings.bs_variant),
+            deformers::label(self.settings.compare_variant),
+        ];
         let shown: Vec<usize> = if self.arap.is_some() { vec![0, 1] } else { vec![0] };
         Plot::new("fps_plot")
             .height(90.0)
@@ -1765,15 +1829,18 @@ impl EditorApp {
                 );
                 ui.selectable_value(&mut self.settings.energy, EnergyKind::Spokes, "spokes");
             });
-        egui::ComboBox::from_label("BS-ARAP base")
-            .selected_text(self.settings.bs_variant.name())
+        egui::ComboBox::from_label("method")
+            .selected_text(deformers::label(self.settings.bs_variant))
             .show_ui(ui, |ui| {
-                for m in [
-                    solver::Method::BsArap,
-                    solver::Method::BsArapFaired,
-                    solver::Method::BsArapCoarse,
-                ] {
-                    ui.selectable_value(&mut self.settings.bs_variant, m, m.name());
+                for m in solver::Method::ALL {
+                    ui.selectable_value(&mut self.settings.bs_variant, m, deformers::label(m));
+                }
+            });
+        egui::ComboBox::from_label("left of side by side")
+            .selected_text(deformers::label(self.settings.compare_variant))
+            .show_ui(ui, |ui| {
+                for m in solver::Method::ALL {
+                    ui.selectable_value(&mut self.settings.compare_variant, m, deformers::label(m));
                 }
             });
         ui.add(
@@ -1949,6 +2016,7 @@ impl eframe::App for EditorApp {
         self.poll_solvers();
         self.poll_dialog(&ctx);
         self.poll_jobs();
+        self.poll_compare(&ctx);
         if self.playback.tick(now, &self.edit.timeline) {
             self.time_changed();
         }

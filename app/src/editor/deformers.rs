@@ -9,8 +9,8 @@ use super::solver_thread::{
     Deformer, DeformerFactory, EnergyKind, FrameStats, Method, MethodSettings,
 };
 
-/// The factory used by the editor: the ARAP slot runs `solver::Method::Arap`, the BS-ARAP slot
-/// runs the variant chosen in the method settings.
+/// The factory used by the editor: the main slot runs `settings.bs_variant`, the comparison
+/// slot `settings.compare_variant` (ARAP by default).
 pub fn factory() -> DeformerFactory {
     Arc::new(|method: Method, mesh: &Mesh, handles: &Handles, settings: &MethodSettings| {
         let config = ArapConfig {
@@ -23,13 +23,23 @@ pub fn factory() -> DeformerFactory {
             ..ArapConfig::default()
         };
         let m = match method {
-            Method::Arap => solver::Method::Arap,
+            Method::Arap => settings.compare_variant,
             Method::BsArap => settings.bs_variant,
         };
         let d = solver::Deformer::with_base(m, mesh, handles, &config, &settings.base)
             .map_err(|e| e.to_string())?;
         Ok(Box::new(SolverDeformer(d)) as Box<dyn Deformer>)
     })
+}
+
+/// How the UI names a method.
+pub fn label(m: solver::Method) -> &'static str {
+    match m {
+        solver::Method::Arap => "ARAP",
+        solver::Method::BsArap => "BS-ARAP (paper base)",
+        solver::Method::BsArapFaired => "BS-ARAP faired",
+        solver::Method::BsArapCoarse => "BS-ARAP coarse",
+    }
 }
 
 struct SolverDeformer(solver::Deformer);

@@ -179,6 +179,24 @@ pub fn spawn_export(
     )
 }
 
+/// Distances between two displayed results (`solver::quality`), as fractions of `diagonal`:
+/// the live quality figure of the side-by-side view.
+pub fn spawn_compare(
+    a: Arc<Vec<[f32; 3]>>,
+    b: Arc<Vec<[f32; 3]>>,
+    diagonal: f64,
+    repaint: impl Fn() + Send + 'static,
+) -> Job<solver::quality::Distances> {
+    spawn("compare", repaint, move |_| {
+        let f64s =
+            |x: &[[f32; 3]]| -> Vec<[f64; 3]> { x.iter().map(|p| p.map(f64::from)).collect() };
+        if a.len() != b.len() {
+            return Err("the two results have different vertex counts".into());
+        }
+        Ok(solver::quality::distances(&f64s(&a), &f64s(&b), diagonal.max(1e-300)))
+    })
+}
+
 #[cfg(test)]
 #[allow(clippy::unwrap_used, clippy::expect_used)]
 mod tests {

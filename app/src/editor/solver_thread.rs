@@ -39,6 +39,8 @@ pub struct MethodSettings {
     pub bs_variant: solver::Method,
     /// Base-surface settings of the BS-ARAP variants (smoothing, coarse vertex count).
     pub base: solver::BaseConfig,
+    /// What the left viewport of the side-by-side view runs (ARAP by default).
+    pub compare_variant: solver::Method,
 }
 
 impl Default for MethodSettings {
@@ -51,11 +53,14 @@ impl Default for MethodSettings {
             // default creature (see main's scenes); the coarse faired base is interactive.
             bs_variant: solver::Method::BsArapCoarse,
             base: solver::BaseConfig::default(),
+            compare_variant: solver::Method::Arap,
         }
     }
 }
 
-/// Which deformation method a solver thread runs.
+/// Which solver slot a thread serves: `BsArap` is the main viewport (it runs
+/// [`MethodSettings::bs_variant`]), `Arap` the left viewport of the side-by-side view (it runs
+/// [`MethodSettings::compare_variant`], ARAP by default).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Method {
     Arap,
