@@ -296,6 +296,26 @@ fn a_bad_file_shows_an_error_and_keeps_the_mesh() {
     let err = h.state().error().expect("an error").to_owned();
     assert!(err.contains("broken.json:2:"), "{err}");
     assert_eq!(h.state().mesh_path().map(|p| p.to_path_buf()), path);
+
+    // A mesh dropped on the window opens.
+    let (mesh, _) = solver::shapes::bumpy_bar(1);
+    let dropped = dir.join("dropped.obj");
+    solver::io::write_obj(&dropped, mesh.positions(), mesh.triangles()).unwrap();
+    #[derive(Debug)]
+    struct Dropped(PathBuf);
+    impl egui::DroppedFile for Dropped {
+        fn path(&self) -> &std::path::Path {
+            &self.0
+        }
+        fn bytes(&self) -> Result<Vec<u8>, String> {
+            std::fs::read(&self.0).map_err(|e| e.to_string())
+        }
+    }
+    h.input_mut().dropped_files.push(std::sync::Arc::new(Dropped(dropped.clone())));
+    h.step();
+    step_until(&mut h, "the dropped mesh", |a| !a.is_loading());
+    assert_eq!(h.state().mesh_path(), Some(dropped.as_path()));
+    assert_eq!(h.state().n_vertices(), mesh.n_vertices());
     let _ = std::fs::remove_dir_all(&dir);
 }
 
