@@ -24,7 +24,7 @@
 //! large rotations of far-apart handles (what BS-ARAP's smooth base is meant to help with).
 
 use crate::constraints::Constraints;
-use crate::cotan::{edge_weights, face_cotangents, laplacian_triplets, opposite_edge};
+use crate::cotan::{edge_weights, face_cotangents_or, laplacian_triplets, opposite_edge};
 use crate::error::SolveError;
 use crate::handles::Handles;
 use crate::linsolve::SpdFactor;
@@ -205,20 +205,22 @@ impl Arap {
             });
         }
         let constraints = Constraints::new(mesh, handles);
-        Arap::with_constraints(mesh, constraints, config, 0.0)
+        Arap::with_constraints(mesh, constraints, config, 0.0, None)
     }
 
-    /// As [`Arap::new`] with a precomputed partition (shared with the bi-harmonic base) and an
-    /// absolute floor on doubled triangle areas (see [`face_cotangents`]).
+    /// As [`Arap::new`] with a precomputed partition (shared with the bi-harmonic base), an
+    /// absolute floor on doubled triangle areas, and optional fallback positions whose
+    /// cotangents a degenerate triangle takes (see [`face_cotangents_or`]).
     pub(crate) fn with_constraints(
         mesh: &Mesh,
         constraints: Constraints,
         config: &ArapConfig,
         min_double_area: f64,
+        fallback: Option<&[[f64; 3]]>,
     ) -> Result<Arap, SolveError> {
         let n = mesh.n_vertices();
         let tris = mesh.triangles();
-        let cot = face_cotangents(mesh.positions(), tris, min_double_area)
+        let (cot, _) = face_cotangents_or(mesh.positions(), fallback, tris, min_double_area)
             .map_err(|d| SolveError::DegenerateFace { face: d.face })?;
         let clamp = config.energy == Energy::Spokes;
         let weights = edge_weights(tris, &cot, clamp);
@@ -752,7 +754,7 @@ mod tests {
         a.assemble_rhs();
         let p = m.positions();
         let tris = m.triangles();
-        let cot = face_cotangents(p, tris, 0.0).unwrap();
+        let cot = crate::cotan::face_cotangents(p, tris, 0.0).unwrap();
         // Reference rotations: S_i = Σ_{t ∋ i} Σ_k w_k (p_a - p_b)(x_a - x_b)^T.
         let mut s = vec![[[0.0; 3]; 3]; p.len()];
         for (t, w) in tris.iter().zip(&cot) {

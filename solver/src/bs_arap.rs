@@ -81,15 +81,16 @@ impl BsArap {
             })?;
         // A base triangle whose area is below 1e-14·diag(M)² (the threshold at which cleaning
         // drops a triangle of M as degenerate) has collapsed: its cotangent weights are
-        // meaningless even where they are finite.
+        // meaningless even where they are finite. The paper's base fails there (named, so the
+        // user can add handles); the faired base, whose features thinner than the smoothing
+        // length flatten by design, takes M's cotangents for those triangles instead.
         let floor = 2.0 * crate::cleanup::AREA_EPS * mesh.bbox_diagonal().powi(2);
-        let arap =
-            Arap::with_constraints(&base_mesh, constraints, config, floor).map_err(
-                |e| match e {
-                    SolveError::DegenerateFace { face } => SolveError::DegenerateBase { face },
-                    other => other,
-                },
-            )?;
+        let fallback = smoothing.is_some().then_some(mesh.positions());
+        let arap = Arap::with_constraints(&base_mesh, constraints, config, floor, fallback)
+            .map_err(|e| match e {
+                SolveError::DegenerateFace { face } => SolveError::DegenerateBase { face },
+                other => other,
+            })?;
         Ok(BsArap { base, details, arap, result: mesh.positions().to_vec() })
     }
 

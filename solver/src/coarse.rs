@@ -91,12 +91,17 @@ impl CoarseBsArap {
             .map_err(|_| SolveError::NonFiniteResult { vertex: 0 })?;
         let coarse_handles =
             Handles::from_options(dec.kept.iter().map(|&v| labels[v as usize]).collect())?;
+        // Collapsed coarse triangles (features thinner than the smoothing length flatten in
+        // the faired base) take the cotangents of the same vertices on M.
         let floor = 2.0 * crate::cleanup::AREA_EPS * diag * diag;
+        let rest_kept: Vec<[f64; 3]> =
+            dec.kept.iter().map(|&v| mesh.positions()[v as usize]).collect();
         let arap = Arap::with_constraints(
             &coarse_mesh,
             Constraints::new(&coarse_mesh, &coarse_handles),
             config,
             floor,
+            Some(&rest_kept),
         )
         .map_err(|e| match e {
             SolveError::DegenerateFace { face } => SolveError::DegenerateBase { face },

@@ -33,28 +33,54 @@ pub fn face_cotangents(
     triangles: &[[u32; 3]],
     min_double_area: f64,
 ) -> Result<Vec<[f64; 3]>, DegenerateFace> {
-    triangles
+    face_cotangents_or(positions, None, triangles, min_double_area).map(|(cot, _)| cot)
+}
+
+/// As [`face_cotangents`], except that a degenerate triangle takes the cotangents of the same
+/// triangle in `fallback` positions (when given and not degenerate there, floor 0): for a
+/// smoothed base surface $B$ whose features thinner than the smoothing length have flattened,
+/// the weights of the rest mesh $M$ keep $L$ PSD and finite where $B$'s own are undefined.
+/// Returns the cotangents and how many triangles took the fallback.
+pub fn face_cotangents_or(
+    positions: &[[f64; 3]],
+    fallback: Option<&[[f64; 3]]>,
+    triangles: &[[u32; 3]],
+    min_double_area: f64,
+) -> Result<(Vec<[f64; 3]>, usize), DegenerateFace> {
+    let mut replaced = 0;
+    let cot = triangles
         .iter()
         .enumerate()
         .map(|(face, t)| {
-            let p = t.map(|v| positions[v as usize]);
-            let mut w = [0.0; 3];
-            for k in 0..3 {
-                let u = sub(p[(k + 1) % 3], p[k]);
-                let v = sub(p[(k + 2) % 3], p[k]);
-                let twice_area = norm(cross(u, v));
-                let scale = dot(u, u).max(dot(v, v));
-                let valid = twice_area.is_finite()
-                    && twice_area > 1e-15 * scale
-                    && twice_area > min_double_area;
-                if !valid {
-                    return Err(DegenerateFace { face });
-                }
-                w[k] = 0.5 * dot(u, v) / twice_area;
+            if let Some(w) = triangle_cotangents(t.map(|v| positions[v as usize]), min_double_area)
+            {
+                return Ok(w);
             }
-            Ok(w)
+            let w = fallback.and_then(|f| triangle_cotangents(t.map(|v| f[v as usize]), 0.0));
+            replaced += 1;
+            w.ok_or(DegenerateFace { face })
         })
-        .collect()
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok((cot, replaced))
+}
+
+/// `[½cot∠a, ½cot∠b, ½cot∠c]` of one triangle, `None` when it is degenerate (see
+/// [`face_cotangents`]).
+fn triangle_cotangents(p: [[f64; 3]; 3], min_double_area: f64) -> Option<[f64; 3]> {
+    let mut w = [0.0; 3];
+    for k in 0..3 {
+        let u = sub(p[(k + 1) % 3], p[k]);
+        let v = sub(p[(k + 2) % 3], p[k]);
+        let twice_area = norm(cross(u, v));
+        let scale = dot(u, u).max(dot(v, v));
+        let valid =
+            twice_area.is_finite() && twice_area > 1e-15 * scale && twice_area > min_double_area;
+        if !valid {
+            return None;
+        }
+        w[k] = 0.5 * dot(u, v) / twice_area;
+    }
+    Some(w)
 }
 
 /// The edge `(i, j)` opposite corner `k` of triangle `t`.
@@ -204,5 +230,13 @@ mod tests {
         let tiny = vec![[0.0, 0.0, 0.0], [1e-9, 0.0, 0.0], [0.0, 1e-9, 0.0]];
         assert!(face_cotangents(&tiny, &[[0, 1, 2]], 0.0).is_ok());
         assert_eq!(face_cotangents(&tiny, &[[0, 1, 2]], 1e-12), Err(DegenerateFace { face: 0 }));
+        // A collapsed triangle takes the cotangents of the same triangle in the fallback.
+        let rest = [[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+        let (w, replaced) = face_cotangents_or(&flat, Some(&rest), &[[0, 1, 2]], 0.0).unwrap();
+        assert_eq!((w, replaced), (face_cotangents(&rest, &[[0, 1, 2]], 0.0).unwrap(), 1));
+        assert_eq!(
+            face_cotangents_or(&flat, Some(&flat), &[[0, 1, 2]], 0.0),
+            Err(DegenerateFace { face: 0 })
+        );
     }
 }

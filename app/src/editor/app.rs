@@ -25,15 +25,12 @@ use super::loader::{self, LoadJob, Scene};
 use super::persist::{self, AUTOSAVE_INTERVAL, Persist, Snapshot};
 use super::picking::Hit;
 use super::pose::{GroupPose, group_centroid};
-use super::renderer::{self, Uniforms, VertexData, ViewportCallback, build_vertices};
+use super::renderer::{self, Shape, Uniforms, VertexData, ViewportCallback, build_vertices};
 use super::solver_thread::{
     Command, EnergyKind, Method, MethodSettings, SolvedFrame, SolverHandle, SolverState,
 };
 use super::timeline::{self, Playback, RecordingView, TimelineAction, apply_paths};
 use super::undo::{EditState, History};
-
-/// Positions shared between the solver's frame and the renderer.
-type SharedPositions = Arc<Vec<[f32; 3]>>;
 
 /// The path of the default asset.
 pub fn default_mesh_path() -> PathBuf {
@@ -161,6 +158,8 @@ pub struct EditorApp {
     stroke: Option<bool>,
     drag: Option<PoseDrag>,
     render_fps: f32,
+    /// Milliseconds the UI thread spends in one `ui` call (moving average).
+    ui_ms: f32,
     last_frame: Option<Instant>,
     viewport_rects: Vec<Rect>,
     /// Whether "first solved frame displayed" was logged (scripts wait for it).
@@ -246,6 +245,7 @@ impl EditorApp {
             stroke: None,
             drag: None,
             render_fps: 0.0,
+            ui_ms: 0.0,
             last_frame: None,
             viewport_rects: Vec::new(),
             announced_first_frame: false,
@@ -424,6 +424,11 @@ impl EditorApp {
     /// Frames of the kept recording.
     pub fn recorded_frames(&self) -> Option<&solver::recording::Recording> {
         self.recorded.as_ref().map(|r| r.recording.as_ref())
+    }
+
+    /// Milliseconds per `ui` call on the UI thread (moving average), as the F3 overlay shows.
+    pub fn ui_thread_ms(&self) -> f32 {
+        self.ui_ms
     }
 
     pub fn info(&self) -> Option<&str> {
@@ -1393,27 +1398,27 @@ impl EditorApp {
         colors
     }
 
-    /// The positions slot `slot` shows, with a version tag, or a reason why there are none.
-    fn slot_positions(&self, slot: usize) -> Result<(u64, SharedPositions), &'static str> {
+    /// The shape slot `slot` shows, with a version tag, or a reason why there is none.
+    fn slot_shape(&self, slot: usize) -> Result<(u64, Shape), &'static str> {
         let scene = self.scene.as_ref().ok_or("no mesh")?;
-        let rest = || Ok((0, scene.rest_f32.clone()));
+        let rest = || Ok((0, scene.rest.clone()));
         let frame = |i: usize| self.views[i].frame.as_ref();
         let tag = |f: &SolvedFrame| f.pose_generation * 1_000_003 + f.scene_generation;
+        let shape =
+            |f: &SolvedFrame| Shape { positions: f.positions.clone(), normals: f.normals.clone() };
         if let Some(rec) = self.recorded.as_ref().filter(|_| self.show_recording)
             && matches!(self.view, View::Result | View::Details)
         {
-            let n = rec.frames_f32.len();
+            let n = rec.shapes.len();
             let d = rec.recording.times.last().copied().unwrap_or(0.0).max(1e-9);
             let i = ((self.playback.time / d) * (n.saturating_sub(1)) as f64).round() as usize;
             let i = i.min(n.saturating_sub(1));
-            if let Some(f) = rec.frames_f32.get(i) {
-                return Ok((u64::MAX - i as u64, f.clone()));
+            if let Some(s) = rec.shapes.get(i) {
+                return Ok((u64::MAX - i as u64, s.clone()));
             }
         }
         match (self.view, slot) {
-            (View::Compare, 0) => {
-                frame(1).map_or_else(rest, |f| Ok((tag(f) * 2 + 1, f.positions.clone())))
-            }
+            (View::Compare, 0) => frame(1).map_or_else(rest, |f| Ok((tag(f) * 2 + 1, shape(f)))),
             (View::Base, _) => match frame(0) {
                 Some(f) => match &f.deformed_base {
                     Some(b) => Ok((tag(f) * 2 + 1, b.clone())),
@@ -1421,24 +1426,24 @@ impl EditorApp {
                 },
                 None => Err("no solved frame yet"),
             },
-            _ => frame(0).map_or_else(rest, |f| Ok((tag(f) * 2, f.positions.clone()))),
+            _ => frame(0).map_or_else(rest, |f| Ok((tag(f) * 2, shape(f)))),
         }
     }
 
     fn draw_viewport(&mut self, ui: &mut egui::Ui, slot: usize, rect: Rect) {
         let response =
             ui.interact(rect, ui.scope_id().with(("viewport", slot)), Sense::click_and_drag());
-        let positions = self.slot_positions(slot);
-        if let (Ok((pv, positions)), Some(scene)) = (&positions, &self.scene) {
+        let positions = self.slot_shape(slot);
+        if let Ok((pv, shape)) = &positions {
             let key = (*pv, self.color_version);
             if self.slots[slot].key != Some(key) {
-                let colors = self.vertex_colors(slot, positions.len());
-                let vertices = build_vertices(positions, scene.mesh.triangles(), &colors);
+                let colors = self.vertex_colors(slot, shape.positions.len());
+                let vertices = build_vertices(&shape.positions, &shape.normals, &colors);
                 let version = self.next_version();
                 let cache = &mut self.slots[slot];
                 cache.data = Some(Arc::new(VertexData { version, vertices }));
                 cache.key = Some(key);
-                cache.positions = Some(positions.clone());
+                cache.positions = Some(shape.positions.clone());
             }
         }
         self.viewport_input(ui, slot, rect, &response);
@@ -1571,7 +1576,10 @@ impl EditorApp {
             }
         }
         if slot == 0 && self.show_render_fps && !self.options.deterministic_overlays {
-            lines.push(format!("render {:.0} fps", self.render_fps));
+            lines.push(format!(
+                "render {:.0} fps, UI thread {:.1} ms/frame",
+                self.render_fps, self.ui_ms
+            ));
         }
         let mut y = rect.top() + 6.0;
         for l in lines {
@@ -2145,6 +2153,8 @@ impl eframe::App for EditorApp {
             self.shortcuts_window(&ctx);
         }
         self.restore_window(&ctx);
+        let spent = now.elapsed().as_secs_f32() * 1e3;
+        self.ui_ms = if self.ui_ms == 0.0 { spent } else { 0.9 * self.ui_ms + 0.1 * spent };
         if self.record_job.is_some() || self.export_job.is_some() {
             ctx.request_repaint_after(Duration::from_millis(100));
         }

@@ -17,11 +17,13 @@ use solver::export::{GltfExport, GltfFormat};
 use solver::recording::{Recording, record};
 use solver::{ArapConfig, BaseConfig, Deformer, Handles, Mesh, Method};
 
+use super::renderer::Shape;
+
 /// A finished recording with what the UI shows about it.
 pub struct Recorded {
     pub recording: Arc<Recording>,
-    /// Each frame as f32 for display.
-    pub frames_f32: Vec<Arc<Vec<[f32; 3]>>>,
+    /// Each frame with its normals, for display.
+    pub shapes: Vec<Shape>,
     /// Size of the `.glb` an export would write.
     pub glb_bytes: u64,
     /// The mesh it was recorded on (exports use it).
@@ -139,12 +141,8 @@ pub fn spawn_record(
             let glb_bytes = GltfExport::new(&mesh, &recording, GltfFormat::Glb)
                 .and_then(|e| e.file_size())
                 .map_err(|e| format!("recording: {e}"))?;
-            let frames_f32 = recording
-                .frames
-                .iter()
-                .map(|f| Arc::new(f.iter().map(|p| p.map(|c| c as f32)).collect()))
-                .collect();
-            Ok(Recorded { recording: Arc::new(recording), frames_f32, glb_bytes, mesh })
+            let shapes = recording.frames.iter().map(|f| Shape::new(f, mesh.triangles())).collect();
+            Ok(Recorded { recording: Arc::new(recording), shapes, glb_bytes, mesh })
         },
     )
 }
@@ -248,7 +246,7 @@ mod tests {
         let job = spawn_record(input(11), || {});
         let rec = wait(&job).unwrap();
         assert_eq!(rec.recording.frames.len(), 11);
-        assert_eq!(rec.frames_f32.len(), 11);
+        assert_eq!(rec.shapes.len(), 11);
         assert_eq!(job.progress.get(), (11, 11));
         let dir = std::env::temp_dir().join(format!("bsarap-jobs-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();

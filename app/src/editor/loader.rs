@@ -18,7 +18,7 @@ use solver::{Handles, Mesh};
 
 use super::brush::Adjacency;
 use super::picking::Bvh;
-use super::renderer::{Topology, VertexData, build_grid};
+use super::renderer::{Shape, Topology, VertexData, build_grid};
 
 /// A loaded mesh with everything derived from its topology.
 pub struct Scene {
@@ -26,7 +26,7 @@ pub struct Scene {
     pub mesh: Arc<Mesh>,
     /// Cleaning notices to show in the status bar.
     pub notices: Vec<String>,
-    pub rest_f32: Arc<Vec<[f32; 3]>>,
+    pub rest: Shape,
     pub topology: Arc<Topology>,
     pub adjacency: Adjacency,
     pub bvh: Bvh,
@@ -80,10 +80,10 @@ pub fn load_scene(path: &Path, version: u64) -> anyhow::Result<Scene> {
     let loaded = solver::io::load_mesh(path)?;
     let mesh = loaded.mesh;
     let mut notices = loaded.report.notices();
-    let rest_f32: Vec<[f32; 3]> =
-        mesh.positions().iter().map(|p| [p[0] as f32, p[1] as f32, p[2] as f32]).collect();
+    let rest = Shape::new(mesh.positions(), mesh.triangles());
+    let rest_f32: &[[f32; 3]] = &rest.positions;
     let adjacency = Adjacency::new(mesh.n_vertices(), mesh.triangles());
-    let bvh = Bvh::build(&rest_f32, mesh.triangles());
+    let bvh = Bvh::build(rest_f32, mesh.triangles());
     let (lo, hi) = mesh.bounding_box();
     let lo = Vec3::new(lo[0] as f32, lo[1] as f32, lo[2] as f32);
     let hi = Vec3::new(hi[0] as f32, hi[1] as f32, hi[2] as f32);
@@ -113,7 +113,7 @@ pub fn load_scene(path: &Path, version: u64) -> anyhow::Result<Scene> {
         path: path.to_path_buf(),
         mesh: Arc::new(mesh),
         notices,
-        rest_f32: Arc::new(rest_f32),
+        rest,
         topology,
         adjacency,
         bvh,

@@ -60,31 +60,33 @@ pub struct VertexData {
     pub vertices: Vec<Vertex>,
 }
 
-/// Area-weighted vertex normals, recomputed from the displayed positions each time they change.
-pub fn vertex_normals(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> Vec<[f32; 3]> {
-    let mut n = vec![Vec3::ZERO; positions.len()];
-    for t in triangles {
-        let a = Vec3::from_array(positions[t[0] as usize]);
-        let b = Vec3::from_array(positions[t[1] as usize]);
-        let c = Vec3::from_array(positions[t[2] as usize]);
-        let fnormal = (b - a).cross(c - a);
-        for &v in t {
-            n[v as usize] += fnormal;
-        }
-    }
-    n.into_iter().map(|v| v.normalize_or(Vec3::Y).to_array()).collect()
+/// Positions to draw with their vertex normals, both computed where the positions are made
+/// (solver thread, loader, recording job), never on the UI thread.
+#[derive(Debug, Clone)]
+pub struct Shape {
+    pub positions: Arc<Vec<[f32; 3]>>,
+    pub normals: Arc<Vec<[f32; 3]>>,
 }
 
-/// Interleaves positions, fresh normals and colors.
+impl Shape {
+    /// From solver positions: area-weighted normals (`solver::export::vertex_normals`), then f32.
+    pub fn new(x: &[[f64; 3]], triangles: &[[u32; 3]]) -> Shape {
+        let f32s =
+            |v: &[[f64; 3]]| -> Vec<[f32; 3]> { v.iter().map(|p| p.map(|c| c as f32)).collect() };
+        let normals = solver::export::vertex_normals(x, triangles);
+        Shape { positions: Arc::new(f32s(x)), normals: Arc::new(f32s(&normals)) }
+    }
+}
+
+/// Interleaves positions, normals and colors into the vertex buffer's layout.
 pub fn build_vertices(
     positions: &[[f32; 3]],
-    triangles: &[[u32; 3]],
+    normals: &[[f32; 3]],
     colors: &[[f32; 4]],
 ) -> Vec<Vertex> {
-    let normals = vertex_normals(positions, triangles);
     positions
         .iter()
-        .zip(&normals)
+        .zip(normals)
         .zip(colors)
         .map(|((&position, &normal), &color)| Vertex { position, normal, color })
         .collect()
@@ -626,8 +628,11 @@ mod tests {
     }
 
     #[test]
-    fn normals_of_a_flat_triangle() {
-        let n = vertex_normals(&[[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], &[[0, 1, 2]]);
-        assert_eq!(n, vec![[0.0, 0.0, 1.0]; 3]);
+    fn shape_normals_of_a_flat_triangle() {
+        let s = Shape::new(&[[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], &[[0, 1, 2]]);
+        assert_eq!(*s.normals, vec![[0.0, 0.0, 1.0]; 3]);
+        let v = build_vertices(&s.positions, &s.normals, &[[1.0; 4]; 3]);
+        assert_eq!(v[1].position, [1.0, 0.0, 0.0]);
+        assert_eq!(v[2].normal, [0.0, 0.0, 1.0]);
     }
 }

@@ -19,6 +19,7 @@ use std::time::Instant;
 use solver::{Handles, Mesh};
 
 use super::pose::GroupPose;
+use super::renderer::Shape;
 
 /// Energy of the ARAP cells.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -135,7 +136,9 @@ pub struct SolvedFrame {
     pub scene_generation: u64,
     pub pose_generation: u64,
     pub positions: Arc<Vec<[f32; 3]>>,
-    pub deformed_base: Option<Arc<Vec<[f32; 3]>>>,
+    /// Vertex normals of `positions` (computed here, not on the UI thread).
+    pub normals: Arc<Vec<[f32; 3]>>,
+    pub deformed_base: Option<Shape>,
     pub detail_magnitudes: Option<Arc<Vec<f32>>>,
     pub stats: FrameStats,
     /// Solved frames per second over the last frames while solving.
@@ -410,11 +413,14 @@ fn worker_loop(method: Method, factory: &DeformerFactory, rx: &Receiver<Command>
             a.dirty = false;
             a.last_frame = None;
         }
+        let triangles = a.mesh.triangles();
+        let shape = Shape::new(&a.x, triangles);
         let frame = SolvedFrame {
             scene_generation: a.scene_generation,
             pose_generation: a.pose_generation,
-            positions: Arc::new(to_f32(&a.x)),
-            deformed_base: a.deformer.deformed_base().map(|b| Arc::new(to_f32(&b))),
+            positions: shape.positions,
+            normals: shape.normals,
+            deformed_base: a.deformer.deformed_base().map(|b| Shape::new(&b, triangles)),
             detail_magnitudes: a
                 .deformer
                 .detail_magnitudes()
@@ -428,10 +434,6 @@ fn worker_loop(method: Method, factory: &DeformerFactory, rx: &Receiver<Command>
         }
         (shared.repaint)();
     }
-}
-
-fn to_f32(x: &[[f64; 3]]) -> Vec<[f32; 3]> {
-    x.iter().map(|p| [p[0] as f32, p[1] as f32, p[2] as f32]).collect()
 }
 
 #[cfg(test)]
@@ -537,6 +539,7 @@ mod tests {
                 scene_generation: g,
                 pose_generation: 0,
                 positions: Arc::new(vec![]),
+                normals: Arc::new(vec![]),
                 deformed_base: None,
                 detail_magnitudes: None,
                 stats: FrameStats::default(),

@@ -1,0 +1,97 @@
+//! How much the editor's UI thread spends per frame on a mesh while the solver runs: opens
+//! MESH (default: the default asset) headless through egui_kittest, waits for the first solve,
+//! then moves handle group 0 a little every frame for 300 frames, as a drag does, and prints
+//! the UI thread's milliseconds per frame (mean, 95th percentile) and the solver's frames
+//! per second. GPU rendering is not included (nothing is rendered); build in release for
+//! figures a user would see:
+//!
+//!     cargo run --release -p app --example ui_cost -- ../shared/meshes/dragon.obj
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use app::editor::solver_thread::{Method, SolverState};
+use app::editor::{EditorApp, EditorOptions, default_mesh_path};
+use egui_kittest::Harness;
+
+fn main() {
+    let path = std::env::args().nth(1).map(PathBuf::from).unwrap_or_else(default_mesh_path);
+    let mut h = Harness::builder()
+        .with_size(eframe::egui::Vec2::new(1280.0, 800.0))
+        .wgpu()
+        .build_eframe(move |cc| {
+            EditorApp::new(
+                cc,
+                EditorOptions {
+                    mesh_path: Some(path),
+                    deterministic_overlays: false,
+                    config_dir: None,
+                },
+            )
+        });
+    let start = Instant::now();
+    while h.state().latest_frame(Method::BsArap).is_none() {
+        assert!(
+            start.elapsed() < Duration::from_secs(600),
+            "no solved frame in 10 minutes: {:?}",
+            h.state().solver_state()
+        );
+        if let Some(e) = h.state().error() {
+            panic!("{e}");
+        }
+        if let Some(SolverState::Failed(e)) = h.state().solver_state() {
+            panic!("the solver failed: {e}");
+        }
+        h.step();
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    let n = h.state().n_vertices();
+    let groups = h.state().edit_state().groups.len();
+    assert!(groups > 0, "the mesh has no handle groups (a .dmat or .handles.json beside it)");
+    let scale = {
+        let rest = h.state().rest_positions().unwrap();
+        let (mut lo, mut hi) = ([f64::MAX; 3], [f64::MIN; 3]);
+        for p in rest {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        ((hi[0] - lo[0]).powi(2) + (hi[1] - lo[1]).powi(2) + (hi[2] - lo[2]).powi(2)).sqrt()
+    };
+    let mut times = Vec::new();
+    let mut solver_frames = 0usize;
+    let mut last_gen = (0, 0);
+    let t0 = Instant::now();
+    for i in 0..300 {
+        let mut e = h.state().edit_state().clone();
+        let a = i as f64 * 0.02;
+        e.groups[0].pose.translation =
+            [0.05 * scale * a.sin(), 0.05 * scale * (1.0 - a.cos()), 0.0];
+        h.state_mut().set_edit_state(e);
+        let s = Instant::now();
+        h.step();
+        times.push(s.elapsed().as_secs_f64() * 1e3);
+        if let Some(f) = h.state().latest_frame(Method::BsArap) {
+            let g = (f.pose_generation, f.scene_generation);
+            if g != last_gen {
+                solver_frames += 1;
+                last_gen = g;
+            }
+        }
+        std::thread::sleep(Duration::from_millis(16));
+    }
+    let wall = t0.elapsed().as_secs_f64();
+    times.sort_by(f64::total_cmp);
+    let mean = times.iter().sum::<f64>() / times.len() as f64;
+    let p95 = times[times.len() * 95 / 100];
+    println!(
+        "{} vertices: UI thread {mean:.2} ms/frame mean, {p95:.2} ms p95 over {} frames; \
+         {solver_frames} new solver frames shown in {wall:.1} s ({:.1}/s) with {}",
+        n,
+        times.len(),
+        solver_frames as f64 / wall,
+        h.state().method_settings().bs_variant.name()
+    );
+}
