@@ -379,6 +379,8 @@ impl Arap {
 
     /// Runs local-global iterations from the current pose with the handle vertices moved to
     /// `targets` (`#H×3`, order of [`Handles::handle_vertices`]) and pinned vertices at rest.
+    /// When every target equals its rest position the result is the rest pose exactly, with
+    /// identity rotations, zero energy and no iteration (it is the minimizer).
     /// On a non-finite result the previous pose is kept and an error returned.
     pub fn solve(&mut self, targets: &[[f64; 3]]) -> Result<SolveStats, SolveError> {
         let hv = &self.constraints.handle_vertices;
@@ -387,6 +389,14 @@ impl Arap {
         }
         if let Some(index) = targets.iter().position(|t| !t.iter().all(|c| c.is_finite())) {
             return Err(SolveError::NonFiniteTarget { index });
+        }
+        if hv.iter().zip(targets).all(|(&v, t)| *t == self.rest[v as usize]) {
+            // Every handle at rest: the rest pose has $E = 0$ and $E \ge 0$ (per triangle the
+            // cotangent form is the Dirichlet energy of an affine map; spokes weights are
+            // clamped), so it is the minimizer. Return it exactly instead of iterating towards
+            // it from the warm start, which stops at the tolerance short of it.
+            self.reset();
+            return Ok(SolveStats { converged: true, ..SolveStats::default() });
         }
         let previous = self.current.clone();
         for (&v, t) in hv.iter().zip(targets) {
