@@ -12,6 +12,7 @@
 //!           + #V rotation fits / measured fit rate (all threads)
 //!
 //! with the bandwidth and the fit rate measured here. No assertions: timings are for reading.
+//! The criterion benches of the same phases, with history, are in `benches/phases.rs`.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use rayon::prelude::*;

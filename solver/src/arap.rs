@@ -102,6 +102,8 @@ pub struct SolveStats {
     pub initial_energy: f64,
     /// Energy after each iteration, $E(p'_k, R_k)$ (with Anderson acceleration
     /// $E(p'_k, R(p'_k))$, the rotations fitted to the accepted iterate); never increases.
+    /// With a fixed count (tolerance and threshold 0) and plain iterations, only the last
+    /// iteration's: the stopping rule does not need the others, so they are not evaluated.
     pub energies: Vec<f64>,
     /// Milliseconds in the local steps (rotation fits), summed over iterations.
     pub local_ms: f64,
@@ -379,6 +381,8 @@ impl Arap {
 
     /// Runs local-global iterations from the current pose with the handle vertices moved to
     /// `targets` (`#H×3`, order of [`Handles::handle_vertices`]) and pinned vertices at rest.
+    /// When every target equals its rest position the result is the rest pose exactly, with
+    /// identity rotations, zero energy and no iteration (it is the minimizer).
     /// On a non-finite result the previous pose is kept and an error returned.
     pub fn solve(&mut self, targets: &[[f64; 3]]) -> Result<SolveStats, SolveError> {
         let hv = &self.constraints.handle_vertices;
@@ -387,6 +391,14 @@ impl Arap {
         }
         if let Some(index) = targets.iter().position(|t| !t.iter().all(|c| c.is_finite())) {
             return Err(SolveError::NonFiniteTarget { index });
+        }
+        if hv.iter().zip(targets).all(|(&v, t)| *t == self.rest[v as usize]) {
+            // Every handle at rest: the rest pose has $E = 0$ and $E \ge 0$ (per triangle the
+            // cotangent form is the Dirichlet energy of an affine map; spokes weights are
+            // clamped), so it is the minimizer. Return it exactly instead of iterating towards
+            // it from the warm start, which stops at the tolerance short of it.
+            self.reset();
+            return Ok(SolveStats { converged: true, ..SolveStats::default() });
         }
         let previous = self.current.clone();
         for (&v, t) in hv.iter().zip(targets) {
@@ -405,6 +417,12 @@ impl Arap {
             return Err(SolveError::NonFiniteResult { vertex });
         }
         Ok(stats)
+    }
+
+    /// Whether the stopping rule reads the energy after every iteration (false for a fixed
+    /// count: tolerance and threshold both 0).
+    fn needs_energy_per_iteration(&self) -> bool {
+        self.config.tolerance > 0.0 || self.config.energy_threshold > 0.0
     }
 
     /// The stopping rule: relative decrease below `tol`, or the normalized threshold.
@@ -445,7 +463,11 @@ impl Arap {
     /// Plain local-global iterations (the handles already on target in `current`).
     fn iterate_plain(&mut self, stats: &mut SolveStats) {
         let tol = self.config.tolerance;
-        for it in 0..self.config.max_iterations {
+        let n = self.config.max_iterations;
+        // A fixed count (no tolerance, no threshold) needs no energy between iterations: it is
+        // evaluated once, after the last one.
+        let every = self.needs_energy_per_iteration();
+        for it in 0..n {
             let t0 = Instant::now();
             self.local_step();
             let t1 = Instant::now();
@@ -466,11 +488,14 @@ impl Arap {
             }
             let t4 = Instant::now();
             stats.solve_ms += ms(t3, t4);
+            stats.iterations = it + 1;
+            if !every && it + 1 < n {
+                continue;
+            }
             let e = self.energy();
             stats.energy_ms += ms(t4, Instant::now());
             let prev = stats.energies.last().copied().unwrap_or(stats.initial_energy);
             stats.energies.push(e);
-            stats.iterations = it + 1;
             if self.stop(tol, prev, e, stats.initial_energy) {
                 stats.converged = true;
                 break;
@@ -843,5 +868,41 @@ mod tests {
         let d = xp.iter().zip(&xa).flat_map(|(a, b)| (0..3).map(move |k| (a[k] - b[k]).abs()));
         let d = d.fold(0.0, f64::max);
         assert!(d < 1e-3, "poses differ by {d}");
+    }
+
+    /// A fixed count evaluates the energy once, after the last iteration, and that value and the
+    /// pose are those of the same iterations with the energy evaluated every time.
+    #[test]
+    fn fixed_count_evaluates_the_energy_once_and_reports_the_same_final_energy() {
+        let (m, h) = setup();
+        let targets: Vec<[f64; 3]> = h
+            .handle_vertices()
+            .iter()
+            .map(|&v| {
+                let q = m.positions()[v as usize];
+                if q[0] > 0.0 { mul_vec(&axis_angle([0.0, 0.0, 1.0], 0.5), q) } else { q }
+            })
+            .collect();
+        let run = |energy_threshold| {
+            let cfg = ArapConfig {
+                tolerance: 0.0,
+                max_iterations: 12,
+                energy_threshold,
+                ..Default::default()
+            };
+            let mut a = Arap::new(&m, &h, &cfg).unwrap();
+            let s = a.solve(&targets).unwrap();
+            (s, a.positions().to_vec())
+        };
+        let (fixed, xf) = run(0.0);
+        // A threshold far below any reachable energy never stops the loop early but makes the
+        // rule read the energy after every iteration.
+        let (every, xe) = run(1e-300);
+        assert_eq!((fixed.iterations, every.iterations), (12, 12));
+        assert_eq!(fixed.energies.len(), 1);
+        assert_eq!(every.energies.len(), 12);
+        assert_eq!(fixed.energy(), every.energy());
+        assert!(fixed.energy() < fixed.initial_energy);
+        assert_eq!(xf, xe);
     }
 }

@@ -38,7 +38,8 @@ pub fn group_centroid(
 }
 
 /// Targets `#H×3` in the order of [`Handles::handle_vertices`] for `(group, transform)` pairs;
-/// groups not listed stay at rest. An unknown group is an error.
+/// groups not listed, and groups with the identity transform, stay exactly at rest. An unknown
+/// group is an error.
 pub fn handle_targets(
     rest: &[[f64; 3]],
     handles: &Handles,
@@ -55,6 +56,8 @@ pub fn handle_targets(
         .map(|&v| {
             let p = rest[v as usize];
             match handles.labels()[v as usize].and_then(|k| per_group[k as usize]) {
+                // The identity leaves the group exactly at rest (c + (p − c) may round).
+                Some((t, _)) if t == GroupTransform::default() => p,
                 Some((t, c)) => {
                     let r = mul_vec(&t.rotation, [p[0] - c[0], p[1] - c[1], p[2] - c[2]]);
                     std::array::from_fn(|d| c[d] + r[d] + t.translation[d])

@@ -1,0 +1,96 @@
+//! Solver frames per second as the editor's solver thread produces them (issue 6, "editor rate").
+//!
+//! Usage: `cargo run --release -p app --example editor_rate -- MESH SELECTION [FRAMES [METHOD...]]`
+//! (methods: `arap`, `bsarap`, `bsarap-faired`, `bsarap-coarse`; default `arap bsarap bsarap-coarse`).
+//!
+//! Drives the editor's own deformer factory (`app::editor::deformers::factory`) with the editor's
+//! default method settings (tolerance 1e-4, cap 30 iterations per displayed frame), warm-started
+//! from the previous frame as the solver thread does, with the first group moving on the
+//! benchmark's circle (radius 0.1·diag in the xy plane, FRAMES steps of one turn, default 30),
+//! the others at rest. A frame is what the thread does per published frame: handle targets from
+//! the group poses, the solve, and the f32 copies of the positions, the deformed base and the
+//! detail magnitudes. Not included: the UI thread (rendering, normals, picking) competing for
+//! the same cores, and the second thread of the side-by-side view.
+
+use app::editor::deformers::factory;
+use app::editor::pose::{GroupPose, handle_targets};
+use app::editor::solver_thread::{Method as Slot, MethodSettings};
+use std::time::Instant;
+
+fn to_f32(x: &[[f64; 3]]) -> Vec<[f32; 3]> {
+    x.iter().map(|p| [p[0] as f32, p[1] as f32, p[2] as f32]).collect()
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().collect();
+    if args.len() < 3 {
+        return Err("usage: editor_rate MESH SELECTION [FRAMES [METHOD...]]".into());
+    }
+    let mesh = solver::io::load_mesh(std::path::Path::new(&args[1]))?.mesh;
+    let handles =
+        solver::selection::load_selection(std::path::Path::new(&args[2]), mesh.positions())?;
+    let frames: usize = args.get(3).map(|s| s.parse()).transpose()?.unwrap_or(30).max(1);
+    let methods: Vec<solver::Method> = if args.len() > 4 {
+        args[4..]
+            .iter()
+            .map(|n| solver::Method::from_name(n).ok_or_else(|| format!("unknown method {n}")))
+            .collect::<Result<_, _>>()?
+    } else {
+        vec![solver::Method::Arap, solver::Method::BsArap, solver::Method::BsArapCoarse]
+    };
+    let group = handles.group_ids().next().ok_or("empty selection")?;
+    let n_poses = handles.group_ids().max().map_or(0, |k| k + 1);
+    let radius = 0.1 * mesh.bbox_diagonal();
+    let defaults = MethodSettings::default();
+    println!(
+        "{}: {} vertices, {frames} frames, tolerance {}, cap {} iterations per frame, {} threads",
+        args[1],
+        mesh.n_vertices(),
+        defaults.tolerance,
+        defaults.max_iterations,
+        rayon::current_num_threads()
+    );
+    println!(
+        "| method | precompute ms | iterations/frame | frames at cap | ms/frame (mean) | ms/frame (median) | solver frames/s |"
+    );
+    println!("|---|---:|---:|---:|---:|---:|---:|");
+    let make = factory();
+    for m in methods {
+        let (slot, settings) = match m {
+            solver::Method::Arap => (Slot::Arap, defaults),
+            v => (Slot::BsArap, MethodSettings { bs_variant: v, ..defaults }),
+        };
+        let t = Instant::now();
+        let mut d = make(slot, &mesh, &handles, &settings)?;
+        let precompute = t.elapsed().as_secs_f64() * 1e3;
+        let mut x = mesh.positions().to_vec();
+        let (mut times, mut iterations, mut at_cap) = (Vec::new(), 0, 0);
+        for f in 1..=frames {
+            let theta = std::f64::consts::TAU * f as f64 / frames as f64;
+            let mut poses = vec![GroupPose::default(); n_poses];
+            poses[group].translation = [radius * (theta.cos() - 1.0), radius * theta.sin(), 0.0];
+            let t = Instant::now();
+            let targets = handle_targets(&mesh, &handles, &poses)?;
+            let stats = d.solve(&targets, &mut x)?;
+            let published = (
+                to_f32(&x),
+                d.deformed_base().map(|b| to_f32(&b)),
+                d.detail_magnitudes().map(|v| v.iter().map(|&a| a as f32).collect::<Vec<_>>()),
+            );
+            std::hint::black_box(published);
+            times.push(t.elapsed().as_secs_f64() * 1e3);
+            iterations += stats.iterations;
+            at_cap += usize::from(!stats.converged);
+        }
+        let mean = times.iter().sum::<f64>() / frames as f64;
+        times.sort_by(f64::total_cmp);
+        let median = times[frames / 2];
+        println!(
+            "| {} | {precompute:.0} | {:.1} | {at_cap}/{frames} | {mean:.1} | {median:.1} | {:.1} |",
+            m.name(),
+            iterations as f64 / frames as f64,
+            1e3 / mean
+        );
+    }
+    Ok(())
+}

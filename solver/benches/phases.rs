@@ -1,0 +1,130 @@
+//! Criterion benches of the phases of ARAP (Sorkine & Alexa 2007; Sun et al. 2017, Eqs. 3–5):
+//! the factorization of $L_{FF}$, and the three parts of one local-global iteration (local step:
+//! per-cell rotation fits; right-hand side $b_F - L_{FH}p'_H$; global solve: one 3-column
+//! back-substitution), on generated meshes of increasing size.
+//!
+//!     cargo bench -p solver --bench phases                 # full run, history in target/criterion
+//!     cargo bench -p solver --bench phases -- --quick      # a few seconds per bench
+//!     cargo bench -p solver --bench phases -- local_step   # one group
+//!
+//! Meshes: [`solver::shapes::bumpy_bar`] at icosphere levels 2–6 (162 to 40,962 vertices):
+//! deterministic (the bumps are a fixed function of position, so every run sees the same mesh),
+//! its two end caps as handle groups, the `x > 0` cap turned by 0.8 rad about z.
+//!
+//! - `factorization/symbolic+numeric`: [`SpdFactor::new`] on the free block of the
+//!   spokes-and-rims cotangent Laplacian (AMD ordering, elimination tree, numeric Cholesky), as
+//!   `Arap::new` does once per handle set; `factorization/numeric`: [`SpdFactor::refactor`].
+//! - `local_step`, `rhs`, `global_solve`: each phase of one iteration, timed inside
+//!   [`solver::Arap::solve`] (its `SolveStats` phase timers) over solves of one iteration started
+//!   from rest, and reported to criterion through `iter_custom`: the phase's own time, not the
+//!   whole solve's.
+//!
+//! `benches/iteration.rs` is the other harness: phase timings of a 10-iteration solve against an
+//! estimate of the machine's limit (bandwidth and rotation-fit rate), on these meshes or a file.
+
+use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
+use faer::sparse::Triplet;
+use solver::constraints::Constraints;
+use solver::linsolve::SpdFactor;
+use solver::rotation::{axis_angle, mul_vec};
+use solver::shapes::bumpy_bar;
+use solver::{Arap, ArapConfig, Handles, Mesh};
+use std::time::Duration;
+
+const LEVELS: std::ops::RangeInclusive<u32> = 2..=6;
+
+fn meshes() -> Vec<(Mesh, Handles)> {
+    LEVELS.map(bumpy_bar).collect()
+}
+
+/// The free block $L_{FF}$ of the cotangent Laplacian (lower and upper triangle).
+fn free_block(mesh: &Mesh, handles: &Handles) -> (usize, Vec<Triplet<usize, usize, f64>>) {
+    let Ok(l) = solver::cotan::cotan_laplacian(mesh.positions(), mesh.triangles()) else {
+        unreachable!("bumpy_bar has no degenerate face")
+    };
+    let c = Constraints::new(mesh, handles);
+    let mut t = Vec::new();
+    for j in 0..l.ncols() {
+        let Some(cj) = c.free_index[j] else { continue };
+        let col = l.col_range(j);
+        for (&i, &v) in l.symbolic().row_idx()[col.clone()].iter().zip(&l.val()[col]) {
+            if let Some(ri) = c.free_index[i] {
+                t.push(Triplet::new(ri as usize, cj as usize, v));
+            }
+        }
+    }
+    (c.free_vertices.len(), t)
+}
+
+fn factorization(c: &mut Criterion) {
+    let mut g = c.benchmark_group("factorization");
+    g.sample_size(10);
+    for (mesh, handles) in meshes() {
+        let (n, t) = free_block(&mesh, &handles);
+        let Ok(a) = faer::sparse::SparseColMat::<usize, f64>::try_new_from_triplets(n, n, &t)
+        else {
+            unreachable!("indices are in range")
+        };
+        let v = mesh.n_vertices();
+        g.bench_with_input(BenchmarkId::new("symbolic+numeric", v), &a, |b, a| {
+            b.iter(|| SpdFactor::new(a).map(|f| f.factor_nonzeros()))
+        });
+        let Ok(mut f) = SpdFactor::new(&a) else { unreachable!("L_FF is SPD") };
+        g.bench_with_input(BenchmarkId::new("numeric", v), &a, |b, a| b.iter(|| f.refactor(a)));
+    }
+    g.finish();
+}
+
+/// The phases of one iteration, each timed by `Arap::solve`'s own timers.
+fn iteration_phases(c: &mut Criterion) {
+    type Phase = fn(&solver::SolveStats) -> f64;
+    let phases: [(&str, Phase); 3] =
+        [("local_step", |s| s.local_ms), ("rhs", |s| s.rhs_ms), ("global_solve", |s| s.solve_ms)];
+    let config = ArapConfig { tolerance: 0.0, max_iterations: 1, ..Default::default() };
+    let mut setups: Vec<(usize, Arap, Vec<[f64; 3]>)> = meshes()
+        .into_iter()
+        .map(|(mesh, handles)| {
+            let q = axis_angle([0.0, 0.0, 1.0], 0.8);
+            let targets = handles
+                .handle_vertices()
+                .iter()
+                .map(|&v| {
+                    let p = mesh.positions()[v as usize];
+                    if p[0] > 0.0 { mul_vec(&q, p) } else { p }
+                })
+                .collect();
+            let Ok(arap) = Arap::new(&mesh, &handles, &config) else {
+                unreachable!("bumpy_bar is a valid ARAP problem")
+            };
+            (mesh.n_vertices(), arap, targets)
+        })
+        .collect();
+    for (name, phase) in phases {
+        let mut g = c.benchmark_group(name);
+        g.sample_size(20);
+        for (v, arap, targets) in &mut setups {
+            g.bench_function(BenchmarkId::from_parameter(*v), |b| {
+                b.iter_custom(|iters| {
+                    let mut total = 0.0;
+                    for _ in 0..iters {
+                        arap.reset();
+                        if let Ok(s) = arap.solve(targets) {
+                            total += phase(&s);
+                        }
+                    }
+                    Duration::from_secs_f64(total / 1e3)
+                })
+            });
+        }
+        g.finish();
+    }
+}
+
+fn config() -> Criterion {
+    Criterion::default()
+        .warm_up_time(Duration::from_secs(1))
+        .measurement_time(Duration::from_secs(3))
+}
+
+criterion_group! { name = benches; config = config(); targets = factorization, iteration_phases }
+criterion_main!(benches);
