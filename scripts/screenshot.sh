@@ -35,6 +35,8 @@ trap cleanup EXIT
 sleep 1
 
 export DISPLAY=$DISPLAY_NUM XDG_RUNTIME_DIR=$RUNTIME
+# Recent files and autosaves of this run stay in the temporary folder.
+export BSARAP_CONFIG_DIR=${BSARAP_CONFIG_DIR:-$RUNTIME/config}
 unset WAYLAND_DISPLAY
 RUST_LOG=${RUST_LOG:-warn} "$BIN" edit ${MESH:+"$MESH"} >"$LOG" 2>&1 &
 APP_PID=$!
