@@ -163,3 +163,76 @@ fn deform_keeps_vertex_order_and_honours_tol_zero() {
         }
     }
 }
+
+/// `bench --quality`: each method's pose at the chosen frame against converged full ARAP. ARAP
+/// run to a tight tolerance lands on the reference; one iteration per frame does not.
+#[test]
+fn bench_quality_against_converged_arap() {
+    let (obj, sel, _) = sphere();
+    let run = |extra: &[&str]| -> serde_json::Value {
+        let mut args = vec![
+            "bench",
+            obj.to_str().unwrap(),
+            "--handles",
+            sel.to_str().unwrap(),
+            "--frames",
+            "4",
+            "--radius",
+            "0.15",
+            "--method",
+            "arap",
+            "--quality",
+            "--quality-frame",
+            "2",
+            "--json",
+        ];
+        args.extend_from_slice(extra);
+        let (code, stdout, stderr) = bsarap(&args);
+        assert_eq!(code, 0, "{stderr}");
+        serde_json::from_str(&stdout).unwrap()
+    };
+    let converged = run(&["--tol", "1e-13", "--max-iters", "20000"]);
+    let capped = run(&["--stop", "fixed", "--max-iters", "1"]);
+    let reference = &converged["quality_reference"];
+    assert_eq!(reference["frame"], 2);
+    assert_eq!(reference["converged"], true);
+    let e_ref = reference["energy"].as_f64().unwrap();
+    assert!(e_ref > 0.0);
+    let q = |j: &serde_json::Value, k: &str| j["methods"]["arap"]["quality"][k].as_f64().unwrap();
+    // Converged ARAP is the reference, up to the two stopping tolerances.
+    assert!(q(&converged, "max_distance") < 1e-4, "{}", converged["methods"]["arap"]["quality"]);
+    assert!(q(&converged, "mean_distance") <= q(&converged, "max_distance"));
+    assert!((q(&converged, "energy_on_mesh") - e_ref).abs() < 1e-6 * e_ref);
+    // One iteration per frame lags far behind the handles, at a higher energy.
+    assert!(q(&capped, "max_distance") > 1e-2, "{}", capped["methods"]["arap"]["quality"]);
+    assert!(q(&capped, "energy_on_mesh") > 1.5 * e_ref);
+    // Without --quality there is no quality field; a frame out of range is an error.
+    let (_, plain, _) = bsarap(&[
+        "bench",
+        obj.to_str().unwrap(),
+        "--handles",
+        sel.to_str().unwrap(),
+        "--frames",
+        "2",
+        "--method",
+        "arap",
+        "--json",
+    ]);
+    let plain: serde_json::Value = serde_json::from_str(&plain).unwrap();
+    assert!(
+        plain["methods"]["arap"].get("quality").is_none()
+            && plain.get("quality_reference").is_none()
+    );
+    let (code, _, stderr) = bsarap(&[
+        "bench",
+        obj.to_str().unwrap(),
+        "--handles",
+        sel.to_str().unwrap(),
+        "--frames",
+        "2",
+        "--quality",
+        "--quality-frame",
+        "3",
+    ]);
+    assert!(code != 0 && stderr.contains("--quality-frame"), "{stderr}");
+}

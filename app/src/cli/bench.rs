@@ -13,6 +13,12 @@
 //! - `--anderson W` also runs each method with Anderson acceleration (window W), reported as
 //!   `NAME+aa` beside the plain loop.
 //!
+//! `--quality` also measures each method's pose at one frame (`--quality-frame F`, default the
+//! middle one, ⌈N/2⌉, where the group is farthest from rest; the last frame is the rest pose,
+//! which every method returns exactly) against converged full ARAP for that frame's targets ([`solver::quality::Reference`]):
+//! max and mean vertex distance over the bounding-box diagonal, and the ARAP energy of the pose
+//! on the mesh. The reference costs up to thousands of iterations, so it is off by default.
+//!
 //! Methods are a list of [`solver::Method`]: adding a method to the solver adds it here, and
 //! per-method metrics go into [`MethodResult`].
 
@@ -71,6 +77,12 @@ pub struct BenchArgs {
     /// Circle radius as a fraction of the bounding-box diagonal.
     #[arg(long, default_value_t = 0.1)]
     pub radius: f64,
+    /// Measure each method's pose against converged full ARAP (see the module doc).
+    #[arg(long)]
+    pub quality: bool,
+    /// The frame `--quality` measures, 1..=frames (default: the middle one, ⌈frames/2⌉).
+    #[arg(long)]
+    pub quality_frame: Option<usize>,
     #[arg(long)]
     pub json: bool,
 }
@@ -97,6 +109,9 @@ pub struct MethodResult {
     pub iterations: Vec<usize>,
     /// Energies of the first frame normalized by its starting energy, `[E_0, E_1, ...]/E_0`.
     pub first_frame_normalized_energies: Vec<f64>,
+    /// With `--quality`: the pose of the chosen frame against converged full ARAP.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub quality: Option<solver::quality::Quality>,
 }
 
 /// One benchmarked variant: a method and its acceleration.
@@ -154,32 +169,48 @@ struct Setup<'a> {
     frames: usize,
     radius: f64,
     start: StartGuess,
+    /// The frame whose pose `--quality` measures.
+    quality_frame: Option<usize>,
 }
 
+/// Handle targets of frame `f` (1..=frames): group `g` on the circle, the others at rest. The
+/// last frame is exactly the rest pose (θ = 0 rather than 2π, whose sine is not 0 in floating
+/// point), which every method returns exactly and without iterating.
+fn frame_targets(s: &Setup<'_>, g: usize, f: usize) -> anyhow::Result<Vec<[f64; 3]>> {
+    let theta = std::f64::consts::TAU * (f % s.frames) as f64 / s.frames as f64;
+    let t = [s.radius * (theta.cos() - 1.0), s.radius * theta.sin(), 0.0];
+    Ok(handle_targets(
+        s.mesh.positions(),
+        s.handles,
+        &[(g, GroupTransform { translation: t, ..Default::default() })],
+    )?)
+}
+
+/// The first handle group: the one that moves.
+fn moving_group(handles: &solver::Handles) -> anyhow::Result<usize> {
+    handles.group_ids().next().context("the selection has no group")
+}
+
+/// Runs one variant; also returns its pose at `s.quality_frame`.
 fn bench_variant(
     v: &Variant,
     s: &Setup<'_>,
     progress: &indicatif::ProgressBar,
-) -> anyhow::Result<MethodResult> {
+) -> anyhow::Result<(MethodResult, Option<Vec<[f64; 3]>>)> {
     let name = v.label();
     let config = ArapConfig { acceleration: v.acceleration, ..s.config };
     let t0 = Instant::now();
     let mut d = Deformer::new(v.method, s.mesh, s.handles, &config)
         .with_context(|| format!("precomputing {name}"))?;
     let precompute_ms = t0.elapsed().as_secs_f64() * 1e3;
-    let g = s.handles.group_ids().next().context("the selection has no group")?;
+    let g = moving_group(s.handles)?;
     let (mut total_ms, mut local, mut rhs, mut solve, mut energy) = (0.0, 0.0, 0.0, 0.0, 0.0);
     let (mut last, mut at_cap, mut rejected) = (0.0, 0, 0);
     let mut iterations = Vec::with_capacity(s.frames);
     let mut first = Vec::new();
+    let mut snapshot = None;
     for f in 1..=s.frames {
-        let theta = std::f64::consts::TAU * f as f64 / s.frames as f64;
-        let t = [s.radius * (theta.cos() - 1.0), s.radius * theta.sin(), 0.0];
-        let targets = handle_targets(
-            s.mesh.positions(),
-            s.handles,
-            &[(g, GroupTransform { translation: t, ..Default::default() })],
-        )?;
+        let targets = frame_targets(s, g, f)?;
         let t1 = Instant::now();
         match s.start {
             StartGuess::Previous => {}
@@ -202,12 +233,15 @@ fn bench_variant(
             first.push(1.0);
             first.extend(st.energies.iter().map(|e| e / st.initial_energy));
         }
+        if s.quality_frame == Some(f) {
+            snapshot = Some(d.positions().to_vec());
+        }
         progress.inc(1);
     }
     let iters: usize = iterations.iter().sum();
     let it = iters.max(1) as f64;
     let spf = total_ms / 1e3 / s.frames as f64;
-    Ok(MethodResult {
+    let result = MethodResult {
         method: name,
         acceleration: v.acceleration,
         precompute_ms,
@@ -225,7 +259,9 @@ fn bench_variant(
         factor_nonzeros: d.arap().factor_nonzeros(),
         iterations,
         first_frame_normalized_energies: first,
-    })
+        quality: None,
+    };
+    Ok((result, snapshot))
 }
 
 pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
@@ -261,6 +297,15 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
         energy_threshold,
         ..Default::default()
     };
+    let quality_frame = a.quality.then(|| a.quality_frame.unwrap_or(a.frames.div_ceil(2)));
+    if let Some(f) = a.quality_frame {
+        anyhow::ensure!(a.quality, "--quality-frame needs --quality");
+        anyhow::ensure!(
+            (1..=a.frames).contains(&f),
+            "--quality-frame must be between 1 and --frames ({}), got {f}",
+            a.frames
+        );
+    }
     let setup = Setup {
         mesh,
         handles: &handles,
@@ -268,6 +313,18 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
         frames: a.frames,
         radius: a.radius * mesh.bbox_diagonal(),
         start: a.start,
+        quality_frame,
+    };
+    // The converged reference first: if it fails, no method has run for nothing.
+    let mut reference = match quality_frame {
+        Some(f) => {
+            let targets = frame_targets(&setup, moving_group(&handles)?, f)?;
+            let t = Instant::now();
+            let r = solver::quality::Reference::new(mesh, &handles, &targets, a.energy.into())
+                .context("solving the converged ARAP reference for --quality")?;
+            Some((f, r, t.elapsed().as_secs_f64()))
+        }
+        None => None,
     };
     let mut variants = Vec::new();
     for &m in &methods {
@@ -294,7 +351,12 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
     for v in &variants {
         progress.set_message(v.label());
         match bench_variant(v, &setup, &progress) {
-            Ok(r) => table.push(r),
+            Ok((mut r, snapshot)) => {
+                if let (Some((_, reference, _)), Some(x)) = (reference.as_mut(), snapshot) {
+                    r.quality = Some(reference.measure(&x));
+                }
+                table.push(r);
+            }
             Err(e) => failures.push((v.label(), format!("{e:#}"))),
         }
     }
@@ -342,6 +404,15 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
             "methods": methods,
             "ratios": ratios,
         });
+        if let Some((f, r, seconds)) = &reference {
+            j["quality_reference"] = serde_json::json!({
+                "frame": f,
+                "iterations": r.stats().iterations,
+                "converged": r.stats().converged,
+                "energy": r.stats().energy(),
+                "seconds": seconds,
+            });
+        }
         if let Some(r) = j["ratios"].get("bsarap_vs_arap").cloned() {
             j["ratios"]["speedup_seconds_per_frame"] = r["speedup_seconds_per_frame"].clone();
             j["ratios"]["iteration_ratio"] = r["iteration_ratio"].clone();
@@ -397,6 +468,26 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
     }
     for (m, e) in &failures {
         println!("{m:<14} failed: {e}");
+    }
+    if let Some((f, r, seconds)) = &reference {
+        println!(
+            "quality at frame {f} against converged ARAP ({} iterations, converged {}, energy \
+             {:.4e}, {seconds:.1} s):",
+            r.stats().iterations,
+            r.stats().converged,
+            r.stats().energy()
+        );
+        for r in &table {
+            if let Some(q) = r.quality {
+                println!(
+                    "{:<14} max {:.4}% mean {:.4}% of the diagonal, ARAP energy on the mesh {:.4e}",
+                    r.method,
+                    q.max_distance * 100.0,
+                    q.mean_distance * 100.0,
+                    q.energy_on_mesh
+                );
+            }
+        }
     }
     for (k, r) in &ratios {
         println!(
