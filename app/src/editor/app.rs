@@ -108,6 +108,9 @@ struct SolverView {
     history: VecDeque<[f64; 3]>,
 }
 
+/// Quality of the left and right side-by-side results against converged ARAP.
+type SideBySideQuality = [solver::quality::Quality; 2];
+
 /// Seconds of solver history the plot shows.
 const PLOT_SECONDS: f64 = 10.0;
 /// How often the crash snapshot is refreshed.
@@ -184,9 +187,10 @@ pub struct EditorApp {
     document_path: Option<PathBuf>,
     /// The edit state as last opened or saved (to know whether there are unsaved changes).
     saved_edit: Option<EditState>,
-    /// Distance between the two side-by-side results: the frame tags it was computed for.
-    compare_job: Option<(u64, u64, Job<solver::quality::Distances>)>,
-    compared: Option<((u64, u64), solver::quality::Distances)>,
+    /// Quality of the two side-by-side results against converged ARAP, with the (scene, pose)
+    /// generations it was computed for.
+    compare_job: Option<((u64, u64), Job<SideBySideQuality>)>,
+    compared: Option<((u64, u64), SideBySideQuality)>,
     /// Group being renamed, with the name typed so far.
     renaming: Option<(usize, String)>,
     started: Instant,
@@ -714,49 +718,59 @@ impl EditorApp {
         }
     }
 
-    /// Starts (or collects) the distance between the two side-by-side results when both show
-    /// the current pose and it has not been computed for these frames yet.
+    /// Starts (or collects) the quality of the two side-by-side results against converged
+    /// ARAP once both have converged on the current pose (see [`jobs::spawn_quality`]).
     fn poll_compare(&mut self, ctx: &egui::Context) {
-        if let Some((ka, kb, job)) = &self.compare_job
+        if let Some((key, job)) = &self.compare_job
             && let Some(r) = job.try_finish()
         {
-            let key = (*ka, *kb);
+            let key = *key;
             self.compare_job = None;
-            if let Ok(d) = r {
-                self.compared = Some((key, d));
+            match r {
+                Ok(q) => self.compared = Some((key, q)),
+                Err(e) => self.info = Some(e),
             }
         }
-        if self.view != View::Compare || self.compare_job.is_some() {
+        let key = (self.scene_generation, self.pose_generation);
+        if self.view != View::Compare
+            || self.compare_job.is_some()
+            || self.compared.as_ref().is_some_and(|(k, _)| *k == key)
+        {
             return;
         }
-        let current = |f: &SolvedFrame| {
-            f.pose_generation == self.pose_generation && f.scene_generation == self.scene_generation
+        let settled = |f: Option<&SolvedFrame>| {
+            f.filter(|f| {
+                f.pose_generation == key.1 && f.scene_generation == key.0 && f.stats.converged
+            })
+            .map(|f| f.positions.clone())
         };
-        let (Some(a), Some(b), Some(scene)) =
-            (self.views[1].frame.as_ref(), self.views[0].frame.as_ref(), self.scene.as_ref())
-        else {
+        let (Some(left), Some(right), Some(scene), Some(handles)) = (
+            settled(self.views[1].frame.as_ref()),
+            settled(self.views[0].frame.as_ref()),
+            self.scene.as_ref(),
+            self.handles(),
+        ) else {
             return;
         };
-        if !(current(a) && current(b)) {
-            return;
-        }
-        let key = (Arc::as_ptr(&a.positions) as u64, Arc::as_ptr(&b.positions) as u64);
-        if self.compared.as_ref().is_some_and(|(k, _)| *k == key) {
-            return;
-        }
+        let input = jobs::QualityInput {
+            mesh: scene.mesh.clone(),
+            handles,
+            poses: self.poses(),
+            energy: match self.settings.energy {
+                EnergyKind::SpokesAndRims => solver::Energy::SpokesAndRims,
+                EnergyKind::Spokes => solver::Energy::Spokes,
+            },
+            results: [left, right],
+        };
         let c = ctx.clone();
-        let job = jobs::spawn_compare(
-            a.positions.clone(),
-            b.positions.clone(),
-            2.0 * scene.radius as f64,
-            move || c.request_repaint(),
-        );
-        self.compare_job = Some((key.0, key.1, job));
+        self.compare_job = Some((key, jobs::spawn_quality(input, move || c.request_repaint())));
     }
 
-    /// The live distance between the side-by-side results (max, mean over the diagonal).
-    pub fn side_by_side_distance(&self) -> Option<solver::quality::Distances> {
-        self.compared.as_ref().map(|(_, d)| *d)
+    /// Quality of the side-by-side results (left, right) against converged ARAP, and whether it
+    /// is for the current pose.
+    pub fn side_by_side_quality(&self) -> Option<([solver::quality::Quality; 2], bool)> {
+        let key = (self.scene_generation, self.pose_generation);
+        self.compared.as_ref().map(|(k, q)| (*q, *k == key))
     }
 
     fn recording_view(&self) -> RecordingView {
@@ -1536,14 +1550,18 @@ impl EditorApp {
             }
         }
         if self.view == View::Compare
-            && slot == 1
-            && let Some((_, d)) = &self.compared
+            && let Some((q, current)) = self.side_by_side_quality()
         {
+            let q = q[slot.min(1)];
             lines.push(format!(
-                "vs left: max {:.2}%  mean {:.3}% of diagonal",
-                100.0 * d.max,
-                100.0 * d.mean
+                "vs converged ARAP{}: max {:.2}% mean {:.3}%",
+                if current { "" } else { " (old pose)" },
+                100.0 * q.max_distance,
+                100.0 * q.mean_distance
             ));
+            lines.push(format!("ARAP energy on the mesh {:.3e}", q.energy_on_mesh));
+        } else if self.view == View::Compare && self.compare_job.is_some() {
+            lines.push("vs converged ARAP: computing…".into());
         }
         if let Some(status) = handle.and_then(|h| h.try_status()) {
             match status.state {

@@ -17,6 +17,7 @@ use solver::export::{GltfExport, GltfFormat};
 use solver::recording::{Recording, record};
 use solver::{ArapConfig, BaseConfig, Deformer, Handles, Mesh, Method};
 
+use super::pose::{GroupPose, handle_targets};
 use super::renderer::Shape;
 
 /// A finished recording with what the UI shows about it.
@@ -177,21 +178,35 @@ pub fn spawn_export(
     )
 }
 
-/// Distances between two displayed results (`solver::quality`), as fractions of `diagonal`:
-/// the live quality figure of the side-by-side view.
-pub fn spawn_compare(
-    a: Arc<Vec<[f32; 3]>>,
-    b: Arc<Vec<[f32; 3]>>,
-    diagonal: f64,
+/// What the quality job needs: the pose (handle targets come from it) and both results.
+pub struct QualityInput {
+    pub mesh: Arc<Mesh>,
+    pub handles: Handles,
+    pub poses: Vec<GroupPose>,
+    pub energy: solver::Energy,
+    /// The two side-by-side results (left, right).
+    pub results: [Arc<Vec<[f32; 3]>>; 2],
+}
+
+/// Issue 8's quality figures of both side-by-side results: distance to converged full ARAP
+/// for the same handle targets (max and mean over the diagonal) and the ARAP energy measured on
+/// the mesh (`solver::quality::Reference`). The reference solve costs seconds on a dense mesh,
+/// so the editor runs this when a pose has settled, never on the UI thread.
+pub fn spawn_quality(
+    input: QualityInput,
     repaint: impl Fn() + Send + 'static,
-) -> Job<solver::quality::Distances> {
-    spawn("compare", repaint, move |_| {
+) -> Job<[solver::quality::Quality; 2]> {
+    spawn("quality", repaint, move |_| {
+        let QualityInput { mesh, handles, poses, energy, results } = input;
+        let targets = handle_targets(&mesh, &handles, &poses)?;
+        let mut reference = solver::quality::Reference::new(&mesh, &handles, &targets, energy)
+            .map_err(|e| format!("quality reference: {e}"))?;
         let f64s =
             |x: &[[f32; 3]]| -> Vec<[f64; 3]> { x.iter().map(|p| p.map(f64::from)).collect() };
-        if a.len() != b.len() {
-            return Err("the two results have different vertex counts".into());
+        if results.iter().any(|r| r.len() != mesh.n_vertices()) {
+            return Err("a result does not match the mesh".into());
         }
-        Ok(solver::quality::distances(&f64s(&a), &f64s(&b), diagonal.max(1e-300)))
+        Ok([reference.measure(&f64s(&results[0])), reference.measure(&f64s(&results[1]))])
     })
 }
 
