@@ -507,6 +507,25 @@ fn scenes_recent_files_rename_and_autosave_restore() {
     h.state_mut().set_edit_state(e);
     assert!(h.state_mut().exit_autosave(), "unsaved changes are kept for the next start");
     assert!(autosave.exists());
+
+    // Opening another file with unsaved changes asks first: Cancel keeps everything.
+    let ctx = h.ctx.clone();
+    h.state_mut().request_open(&ctx, test_mesh());
+    h.step();
+    h.step(); // a new window is laid out invisibly in its first frame
+    assert!(h.state().pending_open().is_some() && !h.state().is_loading());
+    h.get_by_label("Cancel").click();
+    h.step();
+    assert!(h.state().pending_open().is_none() && !h.state().is_loading());
+    assert_eq!(h.state().edit_state().groups[0].pose.translation, [0.01, 0.0, 0.0]);
+    h.state_mut().request_open(&ctx, test_mesh());
+    h.step();
+    h.step();
+    h.get_by_label("Discard changes and open").click();
+    h.step();
+    step_until(&mut h, "the other mesh", |a| !a.is_loading());
+    assert_eq!(h.state().mesh_path(), Some(test_mesh().as_path()));
+    assert!(!h.state().has_unsaved_changes());
     let _ = std::fs::remove_dir_all(&dir);
 }
 

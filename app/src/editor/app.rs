@@ -191,6 +191,8 @@ pub struct EditorApp {
     /// generations it was computed for.
     compare_job: Option<((u64, u64), Job<SideBySideQuality>)>,
     compared: Option<((u64, u64), SideBySideQuality)>,
+    /// A file to open once the user has answered the unsaved-changes question.
+    pending_open: Option<PathBuf>,
     /// Group being renamed, with the name typed so far.
     renaming: Option<(usize, String)>,
     started: Instant,
@@ -269,6 +271,7 @@ impl EditorApp {
             document_path: None,
             saved_edit: None,
             renaming: None,
+            pending_open: None,
             started: Instant::now(),
             compare_job: None,
             compared: None,
@@ -302,6 +305,59 @@ impl EditorApp {
     fn next_version(&mut self) -> u64 {
         self.version_counter += 1;
         self.version_counter
+    }
+
+    /// Whether the edit state differs from what was last opened or saved.
+    pub fn has_unsaved_changes(&self) -> bool {
+        self.scene.is_some() && self.saved_edit.as_ref() != Some(&self.edit)
+    }
+
+    /// Opens `path` from the UI (menu, recent files, drop): with unsaved changes, asks first.
+    pub fn request_open(&mut self, ctx: &egui::Context, path: PathBuf) {
+        if self.has_unsaved_changes() {
+            self.pending_open = Some(path);
+        } else {
+            self.open(ctx, path);
+        }
+    }
+
+    /// The file waiting for the user to save or discard their changes.
+    pub fn pending_open(&self) -> Option<&Path> {
+        self.pending_open.as_deref()
+    }
+
+    fn unsaved_window(&mut self, ctx: &egui::Context) {
+        let Some(path) = self.pending_open.clone() else { return };
+        egui::Window::new("Unsaved changes")
+            .collapsible(false)
+            .resizable(false)
+            .anchor(egui::Align2::CENTER_CENTER, Vec2::ZERO)
+            .show(ctx, |ui| {
+                ui.label(format!(
+                    "The current scene has unsaved changes. Open {} anyway?",
+                    file_name(&path)
+                ));
+                ui.horizontal(|ui| {
+                    if ui.button("Save first").clicked() {
+                        self.pending_open = None;
+                        match self.document_path.clone() {
+                            Some(doc) => match self.save_scene(&doc) {
+                                Ok(()) => self.open(ctx, path.clone()),
+                                Err(e) => self.error = Some(format!("scene not saved: {e}")),
+                            },
+                            // No scene file yet: Save as, then open again.
+                            None => self.start_dialog(ctx, DialogKind::SaveScene),
+                        }
+                    }
+                    if ui.button("Discard changes and open").clicked() {
+                        self.pending_open = None;
+                        self.open(ctx, path.clone());
+                    }
+                    if ui.button("Cancel").clicked() {
+                        self.pending_open = None;
+                    }
+                });
+            });
     }
 
     /// Starts loading a mesh in the background; the current scene stays until it succeeds.
@@ -988,13 +1044,13 @@ impl EditorApp {
         self.dialog = None;
         let Some(path) = result else { return };
         match kind {
-            DialogKind::OpenMesh => self.open(ctx, path),
+            DialogKind::OpenMesh => self.request_open(ctx, path),
             DialogKind::LoadSelection => self.load_selection(&path),
             DialogKind::SaveSelection => match loader::write_dmat(&path, &self.edit.labels) {
                 Ok(()) => self.info = Some(format!("saved {}", path.display())),
                 Err(e) => self.error = Some(format!("{e:#}")),
             },
-            DialogKind::OpenScene => self.open(ctx, path),
+            DialogKind::OpenScene => self.request_open(ctx, path),
             DialogKind::SaveScene => {
                 let path =
                     if path.extension().is_none() { path.with_extension("json") } else { path };
@@ -2053,7 +2109,7 @@ impl eframe::App for EditorApp {
         if let Some(path) =
             ctx.input(|i| i.raw.dropped_files.first().map(|f| f.path().to_path_buf()))
         {
-            self.open(&ctx, path);
+            self.request_open(&ctx, path);
         }
         self.handle_keys(&ctx);
 
@@ -2072,7 +2128,7 @@ impl eframe::App for EditorApp {
                         }
                         for p in self.recent.clone() {
                             if ui.button(p.display().to_string()).clicked() {
-                                self.open(&ctx, p);
+                                self.request_open(&ctx, p);
                             }
                         }
                     });
@@ -2171,6 +2227,7 @@ impl eframe::App for EditorApp {
             self.shortcuts_window(&ctx);
         }
         self.restore_window(&ctx);
+        self.unsaved_window(&ctx);
         let spent = now.elapsed().as_secs_f32() * 1e3;
         self.ui_ms = if self.ui_ms == 0.0 { spent } else { 0.9 * self.ui_ms + 0.1 * spent };
         if self.record_job.is_some() || self.export_job.is_some() {
