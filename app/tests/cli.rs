@@ -103,6 +103,8 @@ fn errors_are_one_line_with_nonzero_exit() {
         (vec!["deform", o], "required"),
         (vec!["bench", o, "--handles", s, "--frames", "0"], "--frames"),
         (vec!["bench", o, "--handles", s, "--anderson", "1000000"], "--anderson"),
+        (vec!["bench", o, "--handles", s, "--coarse-vertices", "3"], "--coarse-vertices"),
+        (vec!["bench", o, "--handles", s, "--smoothing", "nan"], "--smoothing"),
     ];
     for (args, needle) in cases {
         let (code, stdout, stderr) = bsarap(&args);

@@ -22,7 +22,7 @@
 //! Methods are a list of [`solver::Method`]: adding a method to the solver adds it here, and
 //! per-method metrics go into [`MethodResult`].
 
-use super::{EnergyArg, PathArg, check_stopping, load, load_handles};
+use super::{BaseArgs, EnergyArg, PathArg, check_stopping, load, load_handles};
 use anyhow::Context;
 use clap::{Args, ValueEnum};
 use solver::arap::Acceleration;
@@ -83,6 +83,8 @@ pub struct BenchArgs {
     /// The frame `--quality` measures, 1..=frames (default: the middle one, ⌈frames/2⌉).
     #[arg(long)]
     pub quality_frame: Option<usize>,
+    #[command(flatten)]
+    pub base: BaseArgs,
     #[arg(long)]
     pub json: bool,
 }
@@ -171,6 +173,8 @@ struct Setup<'a> {
     start: StartGuess,
     /// The frame whose pose `--quality` measures.
     quality_frame: Option<usize>,
+    /// Base settings of the BS-ARAP variants.
+    base: solver::BaseConfig,
 }
 
 /// Handle targets of frame `f` (1..=frames): group `g` on the circle, the others at rest. The
@@ -200,7 +204,7 @@ fn bench_variant(
     let name = v.label();
     let config = ArapConfig { acceleration: v.acceleration, ..s.config };
     let t0 = Instant::now();
-    let mut d = Deformer::new(v.method, s.mesh, s.handles, &config)
+    let mut d = Deformer::with_base(v.method, s.mesh, s.handles, &config, &s.base)
         .with_context(|| format!("precomputing {name}"))?;
     let precompute_ms = t0.elapsed().as_secs_f64() * 1e3;
     let g = moving_group(s.handles)?;
@@ -314,6 +318,7 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
         radius: a.radius * mesh.bbox_diagonal(),
         start: a.start,
         quality_frame,
+        base: a.base.config()?,
     };
     // The converged reference first: if it fails, no method has run for nothing.
     let mut reference = match quality_frame {
@@ -397,6 +402,8 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
             "stop": a.stop,
             "start": a.start,
             "tolerance": a.tol,
+            "smoothing": a.base.smoothing,
+            "coarse_vertices": a.base.coarse_vertices,
             "threshold": a.threshold,
             "max_iterations": a.max_iters,
             "radius": setup.radius,
