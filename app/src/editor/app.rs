@@ -182,7 +182,7 @@ pub struct EditorApp {
     last_autosave: Instant,
     autosaved: Option<solver::scene::Scene>,
     /// An autosave from a session that did not end cleanly, offered back at start.
-    restore_offer: Option<(PathBuf, SystemTime)>,
+    restore_offer: Option<RestoreOffer>,
     /// The scene file Save writes to.
     document_path: Option<PathBuf>,
     /// The edit state as last opened or saved (to know whether there are unsaved changes).
@@ -196,6 +196,14 @@ pub struct EditorApp {
     /// Group being renamed, with the name typed so far.
     renaming: Option<(usize, String)>,
     started: Instant,
+}
+
+/// An autosave found at start: where, when, and the mesh it names (or why it cannot be read).
+#[derive(Debug, Clone)]
+struct RestoreOffer {
+    path: PathBuf,
+    when: SystemTime,
+    mesh: Result<String, String>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -278,7 +286,11 @@ impl EditorApp {
         };
         if let Some(p) = &app.persist {
             app.recent = p.recent();
-            app.restore_offer = p.pending_autosave();
+            app.restore_offer = p.pending_autosave().map(|(path, when)| RestoreOffer {
+                mesh: solver::scene::Scene::read(&path).map(|s| s.mesh).map_err(|e| e.to_string()),
+                path,
+                when,
+            });
         }
         app.bsarap = app.spawn_solver(&ctx, Method::BsArap);
         if let Some(path) = options.mesh_path {
@@ -510,7 +522,7 @@ impl EditorApp {
 
     /// The autosave offered back at start, if any.
     pub fn restore_offer(&self) -> Option<&Path> {
-        self.restore_offer.as_ref().map(|(p, _)| p.as_path())
+        self.restore_offer.as_ref().map(|o| o.path.as_path())
     }
 
     /// What the crash hook needs (see [`persist::install_crash_autosave`]).
@@ -533,6 +545,10 @@ impl EditorApp {
         doc.save(path).map_err(|e| e.to_string())?;
         self.document_path = Some(path.to_path_buf());
         self.saved_edit = Some(self.edit.clone());
+        // Saved: a crash from now on has nothing newer to keep than the file.
+        if let Ok(mut slot) = self.snapshot.try_lock() {
+            *slot = None;
+        }
         self.info = Some(format!("saved {}", path.display()));
         self.remember(path);
         Ok(())
@@ -600,8 +616,7 @@ impl EditorApp {
     }
 
     fn restore_window(&mut self, ctx: &egui::Context) {
-        let Some((path, when)) = self.restore_offer.clone() else { return };
-        let mesh = solver::scene::Scene::read(&path).map(|s| s.mesh);
+        let Some(RestoreOffer { path, when, mesh }) = self.restore_offer.clone() else { return };
         egui::Window::new("Restore the last session?")
             .collapsible(false)
             .resizable(false)
@@ -649,7 +664,7 @@ impl EditorApp {
 
     /// Answers the restore offer (tests): `true` restores, `false` discards.
     pub fn answer_restore(&mut self, ctx: &egui::Context, restore: bool) {
-        let Some((path, _)) = self.restore_offer.take() else { return };
+        let Some(RestoreOffer { path, .. }) = self.restore_offer.take() else { return };
         if restore {
             self.open(ctx, path);
         } else if let Some(p) = &self.persist {
