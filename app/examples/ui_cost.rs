@@ -49,17 +49,7 @@ fn main() {
     let n = h.state().n_vertices();
     let groups = h.state().edit_state().groups.len();
     assert!(groups > 0, "the mesh has no handle groups (a .dmat or .handles.json beside it)");
-    let scale = {
-        let rest = h.state().rest_positions().unwrap();
-        let (mut lo, mut hi) = ([f64::MAX; 3], [f64::MIN; 3]);
-        for p in rest {
-            for k in 0..3 {
-                lo[k] = lo[k].min(p[k]);
-                hi[k] = hi[k].max(p[k]);
-            }
-        }
-        ((hi[0] - lo[0]).powi(2) + (hi[1] - lo[1]).powi(2) + (hi[2] - lo[2]).powi(2)).sqrt()
-    };
+    let scale = h.state().diagonal();
     let mut times = Vec::new();
     let mut solver_frames = 0usize;
     let mut last_gen = (0, 0);

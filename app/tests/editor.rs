@@ -210,11 +210,7 @@ fn painting_then_dragging_a_group_deforms_the_mesh() {
         ((p[0] as f64 - r[0]).powi(2) + (p[1] as f64 - r[1]).powi(2) + (p[2] as f64 - r[2]).powi(2))
             .sqrt()
     };
-    let diag = 2.0
-        * rest
-            .iter()
-            .map(|p| (p[0].powi(2) + p[1].powi(2) + p[2].powi(2)).sqrt())
-            .fold(0.0, f64::max);
+    let diag = h.state().diagonal();
     let t = h.state().group_pose(group).expect("pose").translation;
     assert!((t[0].powi(2) + t[1].powi(2) + t[2].powi(2)).sqrt() > 1e-3 * diag, "no translation");
     for &u in &painted {
@@ -335,16 +331,7 @@ fn a_timeline_path_drives_the_handles_and_the_recording_matches_the_headless_exp
     let mut h = harness(test_mesh());
     step_until(&mut h, "the default asset", settled);
     let rest = h.state().rest_positions().unwrap().to_vec();
-    let diag = {
-        let (mut lo, mut hi) = ([f64::MAX; 3], [f64::MIN; 3]);
-        for p in &rest {
-            for k in 0..3 {
-                lo[k] = lo[k].min(p[k]);
-                hi[k] = hi[k].max(p[k]);
-            }
-        }
-        dist(lo, hi)
-    };
+    let diag = h.state().diagonal();
 
     // Give group 0 a circular path from the timeline panel.
     h.state_mut().set_active_group(Some(0));

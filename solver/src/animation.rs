@@ -276,6 +276,19 @@ fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
 }
 
 impl CircularPath {
+    /// A circle about `axis` of `radius` and `period` seconds, starting at phase 0 from the
+    /// default reference direction (+x projected onto the circle's plane), not turning.
+    pub fn new(axis: [f64; 3], radius: f64, period: f64) -> CircularPath {
+        CircularPath {
+            axis,
+            reference: default_reference(),
+            radius,
+            period,
+            phase: 0.0,
+            turn_with_path: false,
+        }
+    }
+
     /// The orthonormal frame $(\hat a, \hat u, \hat v)$ of the circle.
     pub fn frame(&self) -> ([f64; 3], [f64; 3], [f64; 3]) {
         let a = normalize(self.axis).unwrap_or([0.0, 0.0, 1.0]);

@@ -51,12 +51,8 @@ fn timeline() -> Timeline {
             GroupPath {
                 group: 0,
                 path: Path::Circular(CircularPath {
-                    axis: [0.0, 0.0, 1.0],
-                    reference: [1.0, 0.0, 0.0],
-                    radius: 0.3,
-                    period: 1.5,
-                    phase: 0.0,
                     turn_with_path: true,
+                    ..CircularPath::new([0.0, 0.0, 1.0], 0.3, 1.5)
                 }),
             },
             GroupPath {

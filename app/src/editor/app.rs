@@ -27,7 +27,7 @@ use super::picking::Hit;
 use super::pose::{GroupPose, group_centroid};
 use super::renderer::{self, Shape, Uniforms, VertexData, ViewportCallback, build_vertices};
 use super::solver_thread::{
-    Command, EnergyKind, Method, MethodSettings, SolvedFrame, SolverHandle, SolverState,
+    Command, Method, MethodSettings, SolvedFrame, SolverHandle, SolverState,
 };
 use super::timeline::{self, Playback, RecordingView, TimelineAction, apply_paths};
 use super::undo::{EditState, History};
@@ -420,6 +420,11 @@ impl EditorApp {
         self.active_group = group;
     }
 
+    /// Bounding-box diagonal of the open mesh (0 without one).
+    pub fn diagonal(&self) -> f64 {
+        self.scene.as_ref().map_or(0.0, |s| s.mesh.bbox_diagonal())
+    }
+
     pub fn rest_positions(&self) -> Option<&[[f64; 3]]> {
         self.scene.as_ref().map(|s| s.mesh.positions())
     }
@@ -705,15 +710,7 @@ impl EditorApp {
             self.info = Some("no group moves: every recorded frame is the rest pose".into());
         }
         let s = self.settings;
-        let config = solver::ArapConfig {
-            energy: match s.energy {
-                EnergyKind::SpokesAndRims => solver::Energy::SpokesAndRims,
-                EnergyKind::Spokes => solver::Energy::Spokes,
-            },
-            tolerance: s.tolerance,
-            max_iterations: s.max_iterations,
-            ..solver::ArapConfig::default()
-        };
+        let config = s.arap_config();
         let input = RecordInput {
             mesh: scene.mesh.clone(),
             handles,
@@ -827,10 +824,7 @@ impl EditorApp {
             mesh: scene.mesh.clone(),
             handles,
             poses: self.poses(),
-            energy: match self.settings.energy {
-                EnergyKind::SpokesAndRims => solver::Energy::SpokesAndRims,
-                EnergyKind::Spokes => solver::Energy::Spokes,
-            },
+            energy: self.settings.energy,
             results: [left, right],
         };
         let c = ctx.clone();
@@ -1717,7 +1711,8 @@ impl EditorApp {
         ui.heading("Handle groups");
         let mut delete = None;
         let mut edited = false;
-        let before = self.edit.clone();
+        // Only colours change in place below: keep those, not a copy of the whole state.
+        let colors_before: Vec<Color32> = self.edit.groups.iter().map(|g| g.color).collect();
         let mut rename_done = None;
         for k in 0..self.edit.groups.len() {
             let count = self.edit.group_size(k);
@@ -1765,7 +1760,11 @@ impl EditorApp {
             }
         }
         if edited {
-            self.history.push(before.clone());
+            let mut before = self.edit.clone();
+            for (g, c) in before.groups.iter_mut().zip(colors_before) {
+                g.color = c;
+            }
+            self.history.push(before);
             self.color_version += 1;
         }
         ui.horizontal(|ui| {
@@ -1845,7 +1844,6 @@ impl EditorApp {
             ui.label("Select a group.");
             return;
         };
-        let before = self.edit.clone();
         let mut pose = self.edit.groups[k].pose;
         let mut changed = false;
         let step = self.scene.as_ref().map_or(0.01, |s| s.radius as f64 * 0.005);
@@ -1884,19 +1882,18 @@ impl EditorApp {
                 changed = true;
             }
             if ui.button("Reset all").clicked() {
-                self.history.push(before.clone());
+                self.history.push(self.edit.clone());
                 for g in &mut self.edit.groups {
                     g.pose = GroupPose::default();
                 }
                 self.send_poses();
             }
         });
-        let finite = pose.translation.iter().chain(&pose.rotation).all(|x| x.is_finite());
-        if changed && !finite {
+        if changed && !pose.is_finite() {
             self.error =
                 Some("value refused: move and rotate values must be finite numbers".into());
         } else if changed && pose != self.edit.groups[k].pose {
-            self.history.push(before);
+            self.history.push(self.edit.clone());
             self.edit.groups[k].pose = pose;
             self.send_poses();
         }
@@ -1915,16 +1912,16 @@ impl EditorApp {
         let old = self.settings;
         egui::ComboBox::from_label("energy")
             .selected_text(match self.settings.energy {
-                EnergyKind::SpokesAndRims => "spokes and rims",
-                EnergyKind::Spokes => "spokes",
+                solver::Energy::SpokesAndRims => "spokes and rims",
+                solver::Energy::Spokes => "spokes",
             })
             .show_ui(ui, |ui| {
                 ui.selectable_value(
                     &mut self.settings.energy,
-                    EnergyKind::SpokesAndRims,
+                    solver::Energy::SpokesAndRims,
                     "spokes and rims",
                 );
-                ui.selectable_value(&mut self.settings.energy, EnergyKind::Spokes, "spokes");
+                ui.selectable_value(&mut self.settings.energy, solver::Energy::Spokes, "spokes");
             });
         egui::ComboBox::from_label("method")
             .selected_text(deformers::label(self.settings.bs_variant))

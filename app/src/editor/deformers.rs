@@ -3,25 +3,15 @@
 
 use std::sync::Arc;
 
-use solver::{ArapConfig, Handles, Mesh};
+use solver::{Handles, Mesh};
 
-use super::solver_thread::{
-    Deformer, DeformerFactory, EnergyKind, FrameStats, Method, MethodSettings,
-};
+use super::solver_thread::{Deformer, DeformerFactory, FrameStats, Method, MethodSettings};
 
 /// The factory used by the editor: the main slot runs `settings.bs_variant`, the comparison
 /// slot `settings.compare_variant` (ARAP by default).
 pub fn factory() -> DeformerFactory {
     Arc::new(|method: Method, mesh: &Mesh, handles: &Handles, settings: &MethodSettings| {
-        let config = ArapConfig {
-            energy: match settings.energy {
-                EnergyKind::SpokesAndRims => solver::Energy::SpokesAndRims,
-                EnergyKind::Spokes => solver::Energy::Spokes,
-            },
-            tolerance: settings.tolerance,
-            max_iterations: settings.max_iterations,
-            ..ArapConfig::default()
-        };
+        let config = settings.arap_config();
         let m = match method {
             Method::Arap => settings.compare_variant,
             Method::BsArap => settings.bs_variant,

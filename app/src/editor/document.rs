@@ -11,7 +11,7 @@ use eframe::egui::Color32;
 use solver::scene::{HandlesSpec, SCENE_VERSION, Scene, relative_path};
 
 use super::camera::OrbitCamera;
-use super::solver_thread::{EnergyKind, MethodSettings};
+use super::solver_thread::MethodSettings;
 use super::timeline::{apply_paths, effective_timeline};
 use super::undo::EditState;
 
@@ -42,12 +42,7 @@ pub fn to_scene(scene_path: &Path, input: &DocumentInput) -> Result<Scene, Strin
     scene.timeline = effective_timeline(edit);
     let s = input.settings;
     scene.method = s.bs_variant;
-    scene.arap.energy = match s.energy {
-        EnergyKind::SpokesAndRims => solver::Energy::SpokesAndRims,
-        EnergyKind::Spokes => solver::Energy::Spokes,
-    };
-    scene.arap.tolerance = s.tolerance;
-    scene.arap.max_iterations = s.max_iterations;
+    scene.arap = s.arap_config();
     scene.base = s.base;
     scene.camera = Some(input.camera.to_json());
     let groups: Vec<serde_json::Value> = edit
@@ -107,10 +102,7 @@ pub fn apply_scene(scene: &Scene, labels: Vec<Option<u32>>, settings: &MethodSet
     } else {
         s.bs_variant = scene.method;
     }
-    s.energy = match scene.arap.energy {
-        solver::Energy::SpokesAndRims => EnergyKind::SpokesAndRims,
-        solver::Energy::Spokes => EnergyKind::Spokes,
-    };
+    s.energy = scene.arap.energy;
     s.tolerance = scene.arap.tolerance;
     s.max_iterations = scene.arap.max_iterations.clamp(1, MAX_UI_ITERATIONS);
     s.base = scene.base;
@@ -142,12 +134,8 @@ mod tests {
         edit.set_path(
             0,
             AnimPath::Circular(CircularPath {
-                axis: [0.0, 1.0, 0.0],
-                reference: [1.0, 0.0, 0.0],
-                radius: 0.2,
-                period: 2.0,
-                phase: 0.0,
                 turn_with_path: true,
+                ..CircularPath::new([0.0, 1.0, 0.0], 0.2, 2.0)
             }),
         );
         apply_paths(&mut edit, 0.5);

@@ -239,14 +239,7 @@ mod tests {
                 looping: true,
                 paths: vec![GroupPath {
                     group: 1,
-                    path: Path::Circular(CircularPath {
-                        axis: [1.0, 0.0, 0.0],
-                        reference: [0.0, 1.0, 0.0],
-                        radius: 0.3,
-                        period: 1.0,
-                        phase: 0.0,
-                        turn_with_path: false,
-                    }),
+                    path: Path::Circular(CircularPath::new([1.0, 0.0, 0.0], 0.3, 1.0)),
                 }],
             },
             n_frames,

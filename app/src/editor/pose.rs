@@ -32,6 +32,11 @@ impl GroupPose {
         self.rotation = q.normalize().to_array();
     }
 
+    /// Whether every component is a finite number (what a typed value must give).
+    pub fn is_finite(&self) -> bool {
+        self.translation.iter().chain(&self.rotation).all(|x| x.is_finite())
+    }
+
     pub fn is_rest(&self) -> bool {
         *self == GroupPose::default()
     }

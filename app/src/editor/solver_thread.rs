@@ -21,17 +21,11 @@ use solver::{Handles, Mesh};
 use super::pose::GroupPose;
 use super::renderer::Shape;
 
-/// Energy of the ARAP cells.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum EnergyKind {
-    SpokesAndRims,
-    Spokes,
-}
-
 /// Method settings shown in the UI; sent whole to the solver, which rebuilds its deformer.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MethodSettings {
-    pub energy: EnergyKind,
+    /// ARAP cell type.
+    pub energy: solver::Energy,
     /// Relative energy decrease below which a frame counts as converged.
     pub tolerance: f64,
     /// Iteration cap of one frame.
@@ -47,7 +41,7 @@ pub struct MethodSettings {
 impl Default for MethodSettings {
     fn default() -> Self {
         MethodSettings {
-            energy: EnergyKind::SpokesAndRims,
+            energy: solver::Energy::SpokesAndRims,
             tolerance: 1e-4,
             max_iterations: 30,
             // The paper's base is slow to precompute and collapses under small handles on the
@@ -55,6 +49,19 @@ impl Default for MethodSettings {
             bs_variant: solver::Method::BsArapCoarse,
             base: solver::BaseConfig::default(),
             compare_variant: solver::Method::Arap,
+        }
+    }
+}
+
+impl MethodSettings {
+    /// The solver's configuration for these settings (the editor's threads, its recording, and
+    /// the scenes it saves use the same).
+    pub fn arap_config(&self) -> solver::ArapConfig {
+        solver::ArapConfig {
+            energy: self.energy,
+            tolerance: self.tolerance,
+            max_iterations: self.max_iterations,
+            ..solver::ArapConfig::default()
         }
     }
 }
@@ -95,7 +102,8 @@ pub trait Deformer: Send {
     fn deformed_base(&self) -> Option<Vec<[f64; 3]>> {
         None
     }
-    /// Per-vertex detail magnitude |D_i| (BS-ARAP only), `#V`.
+    /// Per-vertex detail magnitude |D_i| (BS-ARAP only), `#V`. Constant for a deformer: the
+    /// thread asks once per scene.
     fn detail_magnitudes(&self) -> Option<Vec<f64>> {
         None
     }
@@ -298,6 +306,8 @@ struct Active {
     handles: Handles,
     poses: Vec<GroupPose>,
     deformer: Box<dyn Deformer>,
+    /// |D_i| as f32, shared by every frame of this scene.
+    details: Option<Arc<Vec<f32>>>,
     x: Vec<[f64; 3]>,
     /// Targets changed since the last converged solve.
     dirty: bool,
@@ -361,6 +371,9 @@ fn worker_loop(method: Method, factory: &DeformerFactory, rx: &Receiver<Command>
             match factory(method, &mesh, &handles, &settings) {
                 Ok(deformer) => {
                     let x = mesh.positions().to_vec();
+                    let details = deformer
+                        .detail_magnitudes()
+                        .map(|d| Arc::new(d.iter().map(|&v| v as f32).collect()));
                     active = Some(Active {
                         scene_generation,
                         pose_generation,
@@ -368,6 +381,7 @@ fn worker_loop(method: Method, factory: &DeformerFactory, rx: &Receiver<Command>
                         handles,
                         poses,
                         deformer,
+                        details,
                         x,
                         dirty: true,
                         last_frame: None,
@@ -421,10 +435,7 @@ fn worker_loop(method: Method, factory: &DeformerFactory, rx: &Receiver<Command>
             positions: shape.positions,
             normals: shape.normals,
             deformed_base: a.deformer.deformed_base().map(|b| Shape::new(&b, triangles)),
-            detail_magnitudes: a
-                .deformer
-                .detail_magnitudes()
-                .map(|d| Arc::new(d.iter().map(|&v| v as f32).collect())),
+            detail_magnitudes: a.details.clone(),
             stats,
             fps: a.fps,
         };

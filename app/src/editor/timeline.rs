@@ -149,7 +149,8 @@ pub fn panel(
     mesh_scale: f64,
 ) -> Vec<TimelineAction> {
     let mut actions = Vec::new();
-    let before = edit.clone();
+    // The panel edits only the timeline: keep that, not a copy of the whole state (labels).
+    let timeline_before = edit.timeline.clone();
     let mut edited = false;
     ui.horizontal(|ui| {
         let play_label = if playback.playing { "Pause" } else { "Play" };
@@ -249,14 +250,15 @@ pub fn panel(
     } else {
         ui.weak("Select a handle group to give it a path.");
     }
-    if edited && *edit != before {
+    if edited && edit.timeline != timeline_before {
         match edit.validate() {
             Ok(()) => {
+                let before = EditState { timeline: timeline_before, ..edit.clone() };
                 actions.push(TimelineAction::Edited { before: Box::new(before) });
                 actions.push(TimelineAction::TimeChanged);
             }
             Err(e) => {
-                *edit = before;
+                edit.timeline = timeline_before;
                 actions.push(TimelineAction::Rejected(e));
             }
         }
@@ -290,14 +292,11 @@ fn path_editor(ui: &mut egui::Ui, edit: &mut EditState, k: usize, time: f64, sca
     if new_kind != kind {
         path = match new_kind {
             Kind::Static => Path::Static,
-            Kind::Circular => Path::Circular(CircularPath {
-                axis: [0.0, 0.0, 1.0],
-                reference: [1.0, 0.0, 0.0],
-                radius: 0.1 * scale,
-                period: edit.timeline.duration,
-                phase: 0.0,
-                turn_with_path: false,
-            }),
+            Kind::Circular => Path::Circular(CircularPath::new(
+                [0.0, 0.0, 1.0],
+                0.1 * scale,
+                edit.timeline.duration,
+            )),
             Kind::Keyframed => Path::Keyframed(KeyframedPath {
                 keys: vec![edit.groups[k].pose.to_key(time)],
                 interpolation: Interpolation::Smooth,
@@ -454,17 +453,7 @@ mod tests {
     #[test]
     fn paths_drive_poses_and_static_poses_are_kept_in_the_effective_timeline() {
         let mut e = state();
-        e.set_path(
-            0,
-            Path::Circular(CircularPath {
-                axis: [0.0, 0.0, 1.0],
-                reference: [1.0, 0.0, 0.0],
-                radius: 2.0,
-                period: 2.0,
-                phase: 0.0,
-                turn_with_path: false,
-            }),
-        );
+        e.set_path(0, Path::Circular(CircularPath::new([0.0, 0.0, 1.0], 2.0, 2.0)));
         e.groups[1].pose.translation = [0.0, 3.0, 0.0];
         assert!(apply_paths(&mut e, 1.0));
         // Half a turn of radius 2 from angle 0: the centroid moved by (-4, 0, 0).

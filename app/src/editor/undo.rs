@@ -85,8 +85,7 @@ impl EditState {
     /// periods > 0, finite keys, strictly increasing key times). The message names the field.
     pub fn validate(&self) -> Result<(), String> {
         for g in &self.groups {
-            let p = &g.pose;
-            if p.translation.iter().chain(&p.rotation).any(|x| !x.is_finite()) {
+            if !g.pose.is_finite() {
                 return Err(format!("{}: move and rotate values must be finite numbers", g.name));
             }
         }
@@ -185,14 +184,11 @@ mod tests {
         s.timeline.duration = 1.0;
         s.set_path(
             0,
-            Path::Circular(solver::animation::CircularPath {
-                axis: [0.0, 0.0, 1.0],
-                reference: [1.0, 0.0, 0.0],
-                radius: 1.0,
-                period: f64::INFINITY,
-                phase: 0.0,
-                turn_with_path: false,
-            }),
+            Path::Circular(solver::animation::CircularPath::new(
+                [0.0, 0.0, 1.0],
+                1.0,
+                f64::INFINITY,
+            )),
         );
         assert!(s.validate().unwrap_err().contains("period"), "{:?}", s.validate());
     }
@@ -200,14 +196,8 @@ mod tests {
     #[test]
     fn undo_redo_round_trip_and_delete_group() {
         let mut s = EditState::from_labels(vec![Some(0), Some(1), None, Some(1)]);
-        let circle = Path::Circular(solver::animation::CircularPath {
-            axis: [0.0, 0.0, 1.0],
-            reference: [1.0, 0.0, 0.0],
-            radius: 1.0,
-            period: 1.0,
-            phase: 0.0,
-            turn_with_path: false,
-        });
+        let circle =
+            Path::Circular(solver::animation::CircularPath::new([0.0, 0.0, 1.0], 1.0, 1.0));
         s.set_path(1, circle.clone());
         let mut h = History::default();
         h.push(s.clone());
