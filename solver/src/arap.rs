@@ -9,7 +9,8 @@
 //!   at zero (negative spoke weights can make the local fit meaningless).
 //!
 //! **Local step** (Eq. 5): $S_i = \sum w_{jk} e_{jk} e'^\top_{jk}$, $R_i$ from
-//! [`crate::rotation::fit_rotation`]; parallel over vertices (rayon).
+//! [`crate::rotation::fit_rotations_near`] (quaternion fit started from the previous $R_i$, four
+//! cells at a time); parallel over vertices (rayon).
 //! **Global step** (Eq. 4): $L_{FF}\,p'_F = b_F - L_{FH}\,p'_H$ with
 //! $b_j = \sum_{t}\sum_{(j,k)\in t} w^t_{jk}\,\bar R_t\,e_{jk}$, $\bar R_t$ the mean of the three
 //! rotations of triangle $t$ (spokes and rims), or $b_i = \sum_j \tfrac{w_{ij}}2(R_i+R_j)e_{ij}$
@@ -29,7 +30,10 @@ use crate::error::SolveError;
 use crate::handles::Handles;
 use crate::linsolve::SpdFactor;
 use crate::mesh::{Mesh, sub};
-use crate::rotation::{IDENTITY, Mat3, add_mat, add_outer, fit_rotation, mul_vec, scale_mat};
+use crate::rotation::{
+    IDENTITY, LANES, Mat3, add_mat, add_outer, fit_rotation_near, fit_rotations_near, mul_vec,
+    scale_mat,
+};
 use faer::Mat;
 use faer::sparse::Triplet;
 use rayon::prelude::*;
@@ -162,13 +166,16 @@ impl<T: Copy> Csr<T> {
 #[derive(Debug, Clone)]
 enum Cells {
     /// Per face: half cotangents per corner and the rest edge opposite each corner
-    /// ($p_a - p_b$ for [`opposite_edge`]); per vertex: (face, corner) incidences and, aligned
-    /// with them, the constant vector $v$ with $b_i \mathrel{+}= \bar R_f v$ in the rhs.
+    /// ($p_a - p_b$ for [`opposite_edge`]), for the energy. Per vertex $i$, over $j \in$
+    /// one-ring$(i) \cup \{i\}$ (`ring`, sorted): the covariance coefficient $k_{ij}$ with
+    /// $S_i = \sum_j k_{ij}\,(x_j - x_i)^\top$ and the rhs coefficient $u_{ij}$ with
+    /// $b_i = \sum_j R_j\,u_{ij}$ (see [`ring_coefficients`]).
     SpokesAndRims {
         cot: Vec<[f64; 3]>,
         edges: Vec<[[f64; 3]; 3]>,
-        vertex_faces: Csr<(u32, u8)>,
-        rhs_vectors: Vec<[f64; 3]>,
+        ring: Csr<u32>,
+        cov_coef: Vec<[f64; 3]>,
+        rhs_coef: Vec<[f64; 3]>,
     },
     /// Per vertex: (neighbour, clamped weight).
     Spokes { neighbours: Csr<(u32, f64)> },
@@ -188,9 +195,6 @@ pub struct Arap {
     /// `None` when every vertex is fixed.
     factor: Option<SpdFactor>,
     rotations: Vec<Mat3>,
-    face_rotation: Vec<Mat3>,
-    /// Per-face covariance buffer of the local step (spokes and rims).
-    face_cov: Vec<Mat3>,
     /// Per-free-row rhs buffer, copied into `rhs` before the solve.
     rows: Vec<[f64; 3]>,
     current: Vec<[f64; 3]>,
@@ -256,13 +260,6 @@ impl Arap {
 
         let cells = match config.energy {
             Energy::SpokesAndRims => {
-                let mut inc = Vec::with_capacity(3 * tris.len());
-                for (f, t) in tris.iter().enumerate() {
-                    for (k, &v) in t.iter().enumerate() {
-                        inc.push((v, (f as u32, k as u8)));
-                    }
-                }
-                let vertex_faces = Csr::from_pairs(n, &inc);
                 let p = mesh.positions();
                 let edges: Vec<[[f64; 3]; 3]> = tris
                     .iter()
@@ -273,24 +270,8 @@ impl Arap {
                         })
                     })
                     .collect();
-                let mut rhs_vectors = Vec::with_capacity(vertex_faces.items.len());
-                for i in 0..n {
-                    for &(f, c) in vertex_faces.row(i) {
-                        let t = tris[f as usize];
-                        let w = cot[f as usize];
-                        let c = c as usize;
-                        let (n1, n2) = (t[(c + 1) % 3] as usize, t[(c + 2) % 3] as usize);
-                        // Edge (i, n2) is opposite corner c+1; edge (i, n1) opposite c+2.
-                        let e = sub(p[i], p[n2]);
-                        let g = sub(p[i], p[n1]);
-                        rhs_vectors.push([
-                            w[(c + 1) % 3] * e[0] + w[(c + 2) % 3] * g[0],
-                            w[(c + 1) % 3] * e[1] + w[(c + 2) % 3] * g[1],
-                            w[(c + 1) % 3] * e[2] + w[(c + 2) % 3] * g[2],
-                        ]);
-                    }
-                }
-                Cells::SpokesAndRims { cot, edges, vertex_faces, rhs_vectors }
+                let (ring, cov_coef, rhs_coef) = ring_coefficients(n, tris, &cot, &edges);
+                Cells::SpokesAndRims { cot, edges, ring, cov_coef, rhs_coef }
             }
             Energy::Spokes => {
                 let mut nb = Vec::with_capacity(2 * weights.len());
@@ -309,11 +290,6 @@ impl Arap {
             coupling,
             factor,
             rotations: vec![IDENTITY; n],
-            face_rotation: vec![IDENTITY; tris.len()],
-            face_cov: match config.energy {
-                Energy::SpokesAndRims => vec![[[0.0; 3]; 3]; tris.len()],
-                Energy::Spokes => Vec::new(),
-            },
             rows: vec![[0.0; 3]; n_free],
             current: mesh.positions().to_vec(),
             rhs: Mat::zeros(n_free, 3),
@@ -581,44 +557,32 @@ impl Arap {
         }
     }
 
-    /// Local step: $R_i$ = best rotation of cell $i$ for the current pose. No allocation: the
-    /// per-face covariances go to a buffer kept between iterations.
+    /// Local step: $R_i$ = best rotation of cell $i$ for the current pose, from
+    /// $S_i = \sum_j k_{ij}(x_j - x_i)^\top$ over the one-ring (spokes and rims) or
+    /// $S_i = \sum_j w_{ij}(p_i - p_j)(x_i - x_j)^\top$ (spokes). No allocation.
     fn local_step(&mut self) {
         let x = &self.current;
         let p = &self.rest;
         match &self.cells {
-            Cells::SpokesAndRims { cot, edges, vertex_faces, .. } => {
-                let tris = &self.triangles;
-                // Per-face covariance, then per-vertex sums over the incident faces.
-                self.face_cov
-                    .par_iter_mut()
-                    .zip(tris.par_iter().zip(cot.par_iter().zip(edges.par_iter())))
-                    .with_min_len(1024)
-                    .for_each(|(c, (t, (w, e)))| {
-                        let mut m = [[0.0; 3]; 3];
-                        for k in 0..3 {
-                            let (a, b) = opposite_edge(*t, k);
-                            add_outer(&mut m, w[k], e[k], sub(x[a as usize], x[b as usize]));
-                        }
-                        *c = m;
-                    });
-                let face_cov = &self.face_cov;
-                self.rotations.par_iter_mut().enumerate().with_min_len(512).for_each(|(i, r)| {
+            Cells::SpokesAndRims { ring, cov_coef, .. } => {
+                fit_all(&mut self.rotations, |i| {
+                    let (lo, hi) = (ring.offsets[i], ring.offsets[i + 1]);
+                    let xi = x[i];
                     let mut s = [[0.0; 3]; 3];
-                    for &(f, _) in vertex_faces.row(i) {
-                        s = add_mat(&s, &face_cov[f as usize]);
+                    for (&j, &k) in ring.items[lo..hi].iter().zip(&cov_coef[lo..hi]) {
+                        add_outer(&mut s, 1.0, k, sub(x[j as usize], xi));
                     }
-                    *r = fit_rotation(&s);
+                    s
                 });
             }
             Cells::Spokes { neighbours } => {
-                self.rotations.par_iter_mut().enumerate().with_min_len(512).for_each(|(i, r)| {
+                fit_all(&mut self.rotations, |i| {
                     let mut s = [[0.0; 3]; 3];
                     for &(j, w) in neighbours.row(i) {
                         let j = j as usize;
                         add_outer(&mut s, w, sub(p[i], p[j]), sub(x[i], x[j]));
                     }
-                    *r = fit_rotation(&s);
+                    s
                 });
             }
         }
@@ -633,15 +597,7 @@ impl Arap {
         let free = &self.constraints.free_vertices;
         let coupling = &self.coupling;
         match &self.cells {
-            Cells::SpokesAndRims { vertex_faces, rhs_vectors, .. } => {
-                let tris = &self.triangles;
-                self.face_rotation.par_iter_mut().zip(tris.par_iter()).with_min_len(1024).for_each(
-                    |(fr, t)| {
-                        let [a, b, c] = t.map(|v| &rot[v as usize]);
-                        *fr = scale_mat(&add_mat(&add_mat(a, b), c), 1.0 / 3.0);
-                    },
-                );
-                let face_rotation = &self.face_rotation;
+            Cells::SpokesAndRims { ring, rhs_coef, .. } => {
                 self.rows
                     .par_iter_mut()
                     .zip(free.par_iter())
@@ -649,12 +605,10 @@ impl Arap {
                     .with_min_len(512)
                     .for_each(|(r, (row, &i))| {
                         let i = i as usize;
-                        let (lo, hi) = (vertex_faces.offsets[i], vertex_faces.offsets[i + 1]);
+                        let (lo, hi) = (ring.offsets[i], ring.offsets[i + 1]);
                         let mut b = [0.0; 3];
-                        for (&(f, _), &v) in
-                            vertex_faces.items[lo..hi].iter().zip(&rhs_vectors[lo..hi])
-                        {
-                            let rv = mul_vec(&face_rotation[f as usize], v);
+                        for (&j, &u) in ring.items[lo..hi].iter().zip(&rhs_coef[lo..hi]) {
+                            let rv = mul_vec(&rot[j as usize], u);
                             b = [b[0] + rv[0], b[1] + rv[1], b[2] + rv[2]];
                         }
                         *row = add_coupling(b, coupling.row(r), x);
@@ -729,6 +683,87 @@ impl Arap {
                 .sum(),
         }
     }
+}
+
+/// The per-vertex coefficients of the spokes-and-rims local step and rhs, over
+/// $j \in$ one-ring$(i) \cup \{i\}$ (CSR, sorted by $j$). With the half cotangents $w^t_k$
+/// and rest edges $e^t_k = p_a - p_b$ opposite corner $k$ of triangle $t$:
+/// - covariance: $S_i = \sum_{t \ni i}\sum_k w^t_k e^t_k (x_a - x_b)^\top
+///   = \sum_j k_{ij}(x_j - x_i)^\top$ with $k_{ij} = \sum_{t \ni i}\sum_k w^t_k e^t_k
+///   ([a = j] - [b = j])$ (and $\sum_j k_{ij} = 0$, so the differences cost nothing and keep
+///   precision far from the origin);
+/// - rhs: $b_i = \sum_{t \ni i} \bar R_t v_{it}$ with $\bar R_t = \tfrac13\sum_{c \in t} R_c$
+///   and $v_{it}$ the weighted rest edges of $t$ at $i$, so $b_i = \sum_j R_j u_{ij}$ with
+///   $u_{ij} = \tfrac13\sum_{t \ni i, j} v_{it}$ (libigl's precomputed-matrix form).
+fn ring_coefficients(
+    n: usize,
+    tris: &[[u32; 3]],
+    cot: &[[f64; 3]],
+    edges: &[[[f64; 3]; 3]],
+) -> (Csr<u32>, Vec<[f64; 3]>, Vec<[f64; 3]>) {
+    let mut inc = Vec::with_capacity(3 * tris.len());
+    for (f, t) in tris.iter().enumerate() {
+        for (c, &v) in t.iter().enumerate() {
+            inc.push((v, (f as u32, c as u8)));
+        }
+    }
+    let vertex_faces = Csr::from_pairs(n, &inc);
+    let mut offsets = Vec::with_capacity(n + 1);
+    offsets.push(0);
+    let (mut items, mut cov_coef, mut rhs_coef) = (Vec::new(), Vec::new(), Vec::new());
+    let mut acc: Vec<(u32, [f64; 3], [f64; 3])> = Vec::new();
+    let add =
+        |a: [f64; 3], s: f64, b: [f64; 3]| [a[0] + s * b[0], a[1] + s * b[1], a[2] + s * b[2]];
+    for i in 0..n {
+        acc.clear();
+        for &(f, c) in vertex_faces.row(i) {
+            let (t, w, e) = (tris[f as usize], cot[f as usize], &edges[f as usize]);
+            let c = c as usize;
+            // v_it: the edges of t at i, e_{c+1} = p_{c+2} - p_c and e_{c+2} = p_c - p_{c+1}.
+            let v = add(scale3(e[(c + 2) % 3], w[(c + 2) % 3]), -w[(c + 1) % 3], e[(c + 1) % 3]);
+            for k in 0..3 {
+                let (a, b) = opposite_edge(t, k);
+                acc.push((a, scale3(e[k], w[k]), [0.0; 3]));
+                acc.push((b, scale3(e[k], -w[k]), [0.0; 3]));
+                acc.push((t[k], [0.0; 3], scale3(v, 1.0 / 3.0)));
+            }
+        }
+        acc.sort_by_key(|a| a.0);
+        for &(j, k, u) in &acc {
+            if items.len() > offsets[i] && items.last() == Some(&j) {
+                let last = cov_coef.len() - 1;
+                cov_coef[last] = add(cov_coef[last], 1.0, k);
+                rhs_coef[last] = add(rhs_coef[last], 1.0, u);
+            } else {
+                items.push(j);
+                cov_coef.push(k);
+                rhs_coef.push(u);
+            }
+        }
+        offsets.push(items.len());
+    }
+    (Csr { offsets, items }, cov_coef, rhs_coef)
+}
+
+#[inline]
+fn scale3(a: [f64; 3], s: f64) -> [f64; 3] {
+    [s * a[0], s * a[1], s * a[2]]
+}
+
+/// $R_i$ = [`fit_rotations_near`] of `covariance(i)` from the current $R_i$, for every $i$,
+/// [`LANES`] cells per call, in parallel.
+fn fit_all(rotations: &mut [Mat3], covariance: impl Fn(usize) -> Mat3 + Sync) {
+    rotations.par_chunks_mut(LANES).enumerate().with_min_len(128).for_each(|(c, chunk)| {
+        let base = c * LANES;
+        if let Ok(lanes) = <&mut [Mat3; LANES]>::try_from(&mut *chunk) {
+            let s: [Mat3; LANES] = std::array::from_fn(|l| covariance(base + l));
+            *lanes = fit_rotations_near(&s, lanes);
+        } else {
+            for (l, r) in chunk.iter_mut().enumerate() {
+                *r = fit_rotation_near(&covariance(base + l), r);
+            }
+        }
+    });
 }
 
 #[inline]
