@@ -2,6 +2,8 @@
 //!
 //! Usage: `cargo run --release -p solver --example quality_vs_arap -- MESH SELECTION [COARSE...]`
 //!
+//! Each COARSE is a coarse vertex count, optionally with fine iterations: `2000` or `2000+5`.
+//!
 //! The first handle group moves by (−r, r, 0) with r = 0.1·diag (a quarter turn of the bench
 //! circle), the others stay. The reference is `solver::quality::Reference`: ARAP from rest with
 //! Anderson acceleration to a relative energy decrease of 1e-10 (cap 4000). Each method then solves the same pose from rest
@@ -21,10 +23,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mesh = solver::io::load_mesh(std::path::Path::new(&args[1]))?.mesh;
     let handles =
         solver::selection::load_selection(std::path::Path::new(&args[2]), mesh.positions())?;
-    let coarse: Vec<usize> = if args.len() > 3 {
-        args[3..].iter().map(|s| s.parse()).collect::<Result<_, _>>()?
+    let coarse: Vec<(usize, usize)> = if args.len() > 3 {
+        let parse = |s: &String| -> Result<(usize, usize), std::num::ParseIntError> {
+            match s.split_once('+') {
+                Some((c, f)) => Ok((c.parse()?, f.parse()?)),
+                None => Ok((s.parse()?, 0)),
+            }
+        };
+        args[3..].iter().map(parse).collect::<Result<_, _>>()?
     } else {
-        vec![2000, 4000]
+        vec![(2000, 0), (4000, 0)]
     };
     let diag = mesh.bbox_diagonal();
     let r = 0.1 * diag;
@@ -48,14 +56,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "| method | precompute ms | solve ms | iterations | max dist | mean dist | energy on M |"
     );
     println!("|---|---:|---:|---:|---:|---:|---:|");
-    let mut runs: Vec<(String, Method, usize)> = vec![
-        ("arap".into(), Method::Arap, 0),
-        ("bsarap".into(), Method::BsArap, 0),
-        ("bsarap-faired".into(), Method::BsArapFaired, 0),
+    let mut runs: Vec<(String, Method, (usize, usize))> = vec![
+        ("arap".into(), Method::Arap, (0, 0)),
+        ("bsarap".into(), Method::BsArap, (0, 0)),
+        ("bsarap-faired".into(), Method::BsArapFaired, (0, 0)),
     ];
-    runs.extend(coarse.iter().map(|&c| (format!("bsarap-coarse {c}"), Method::BsArapCoarse, c)));
-    for (name, method, cv) in runs {
-        let base = BaseConfig { coarse_vertices: cv.max(16), ..Default::default() };
+    runs.extend(coarse.iter().map(|&(c, f)| {
+        let name =
+            if f > 0 { format!("bsarap-coarse {c}+{f}") } else { format!("bsarap-coarse {c}") };
+        (name, Method::BsArapCoarse, (c, f))
+    }));
+    for (name, method, (cv, fine_iterations)) in runs {
+        let base =
+            BaseConfig { coarse_vertices: cv.max(16), fine_iterations, ..Default::default() };
         let t = Instant::now();
         let mut d =
             match Deformer::with_base(method, &mesh, &handles, &ArapConfig::default(), &base) {

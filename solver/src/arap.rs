@@ -39,6 +39,12 @@ use faer::sparse::Triplet;
 use rayon::prelude::*;
 use std::time::Instant;
 
+/// The least vertices (twice as many faces) per parallel task: about 0.1–0.3 ms of work, so a
+/// coarse mesh of a few thousand vertices runs on the calling thread without waking the pool
+/// (a wake-up and join cost milliseconds on a loaded machine), while a 40k-vertex mesh still
+/// splits into 20 tasks.
+const VERTICES_PER_TASK: usize = 2048;
+
 /// The ARAP cell type.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -119,6 +125,9 @@ pub struct SolveStats {
     pub energy_ms: f64,
     /// Anderson steps rejected by the energy safeguard (0 without acceleration).
     pub rejected_steps: usize,
+    /// Iterations of ARAP on the full mesh after a coarse solve ([`crate::coarse`]; their
+    /// times are in the phase columns above, `iterations` counts the coarse ones).
+    pub fine_iterations: usize,
 }
 
 impl SolveStats {
@@ -361,6 +370,31 @@ impl Arap {
     /// identity rotations, zero energy and no iteration (it is the minimizer).
     /// On a non-finite result the previous pose is kept and an error returned.
     pub fn solve(&mut self, targets: &[[f64; 3]]) -> Result<SolveStats, SolveError> {
+        self.run(targets, None)
+    }
+
+    /// Exactly `iterations` plain local-global iterations from the pose `start` (`#V×3`) with
+    /// the handles moved to `targets`, evaluating no energy (the returned statistics have the
+    /// phase times and the count only): the fine smoothing pass that follows a coarse solve
+    /// ([`crate::coarse`]). Rest targets give the rest pose exactly, as in [`Arap::solve`];
+    /// a `start` of another length or with non-finite values is ignored (the current pose is
+    /// the start).
+    pub fn refine(
+        &mut self,
+        start: &[[f64; 3]],
+        targets: &[[f64; 3]],
+        iterations: usize,
+    ) -> Result<SolveStats, SolveError> {
+        self.set_positions(start);
+        self.run(targets, Some(iterations))
+    }
+
+    /// [`Arap::solve`] (`fixed: None`) or [`Arap::refine`] (`Some(iterations)`).
+    fn run(
+        &mut self,
+        targets: &[[f64; 3]],
+        fixed: Option<usize>,
+    ) -> Result<SolveStats, SolveError> {
         let hv = &self.constraints.handle_vertices;
         if targets.len() != hv.len() {
             return Err(SolveError::TargetCount { got: targets.len(), expected: hv.len() });
@@ -384,9 +418,10 @@ impl Arap {
             self.current[v as usize] = self.rest[v as usize];
         }
         let mut stats = SolveStats::default();
-        match self.config.acceleration {
-            Acceleration::None => self.iterate_plain(&mut stats),
-            Acceleration::Anderson { window } => self.iterate_anderson(&mut stats, window),
+        match (fixed, self.config.acceleration) {
+            (Some(n), _) => self.iterate_fixed(&mut stats, n),
+            (None, Acceleration::None) => self.iterate_plain(&mut stats),
+            (None, Acceleration::Anderson { window }) => self.iterate_anderson(&mut stats, window),
         }
         if let Some(vertex) = self.current.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
             self.current = previous;
@@ -436,6 +471,38 @@ impl Arap {
         Ok(())
     }
 
+    /// `n` plain local-global iterations without any energy evaluation.
+    fn iterate_fixed(&mut self, stats: &mut SolveStats, n: usize) {
+        for _ in 0..n {
+            self.local_global(stats);
+        }
+    }
+
+    /// One local step, rhs and global solve, timed into `stats`.
+    fn local_global(&mut self, stats: &mut SolveStats) {
+        let t0 = Instant::now();
+        self.local_step();
+        let t1 = Instant::now();
+        stats.local_ms += ms(t0, t1);
+        self.global_step(stats);
+    }
+
+    /// The rhs and the global solve for the current rotations, timed into `stats`.
+    fn global_step(&mut self, stats: &mut SolveStats) {
+        let t2 = Instant::now();
+        self.assemble_rhs();
+        let t3 = Instant::now();
+        stats.rhs_ms += ms(t2, t3);
+        if let Some(f) = self.factor.as_mut() {
+            f.solve_in_place(self.rhs.as_mut());
+        }
+        for (r, &v) in self.constraints.free_vertices.iter().enumerate() {
+            self.current[v as usize] = [self.rhs[(r, 0)], self.rhs[(r, 1)], self.rhs[(r, 2)]];
+        }
+        stats.solve_ms += ms(t3, Instant::now());
+        stats.iterations += 1;
+    }
+
     /// Plain local-global iterations (the handles already on target in `current`).
     fn iterate_plain(&mut self, stats: &mut SolveStats) {
         let tol = self.config.tolerance;
@@ -452,19 +519,8 @@ impl Arap {
                 stats.initial_energy = self.energy();
                 stats.energy_ms += ms(t1, Instant::now());
             }
-            let t2 = Instant::now();
-            self.assemble_rhs();
-            let t3 = Instant::now();
-            stats.rhs_ms += ms(t2, t3);
-            if let Some(f) = self.factor.as_mut() {
-                f.solve_in_place(self.rhs.as_mut());
-            }
-            for (r, &v) in self.constraints.free_vertices.iter().enumerate() {
-                self.current[v as usize] = [self.rhs[(r, 0)], self.rhs[(r, 1)], self.rhs[(r, 2)]];
-            }
+            self.global_step(stats);
             let t4 = Instant::now();
-            stats.solve_ms += ms(t3, t4);
-            stats.iterations = it + 1;
             if !every && it + 1 < n {
                 continue;
             }
@@ -602,7 +658,7 @@ impl Arap {
                     .par_iter_mut()
                     .zip(free.par_iter())
                     .enumerate()
-                    .with_min_len(512)
+                    .with_min_len(VERTICES_PER_TASK)
                     .for_each(|(r, (row, &i))| {
                         let i = i as usize;
                         let (lo, hi) = (ring.offsets[i], ring.offsets[i + 1]);
@@ -619,7 +675,7 @@ impl Arap {
                     .par_iter_mut()
                     .zip(free.par_iter())
                     .enumerate()
-                    .with_min_len(512)
+                    .with_min_len(VERTICES_PER_TASK)
                     .for_each(|(r, (row, &i))| {
                         let i = i as usize;
                         let mut b = [0.0; 3];
@@ -651,7 +707,7 @@ impl Arap {
                 .triangles
                 .par_iter()
                 .zip(cot.par_iter().zip(edges.par_iter()))
-                .with_min_len(1024)
+                .with_min_len(2 * VERTICES_PER_TASK)
                 .map(|(t, (w, edge))| {
                     let mut e = 0.0;
                     let rs = t.map(|v| &rot[v as usize]);
@@ -670,7 +726,7 @@ impl Arap {
                 .sum(),
             Cells::Spokes { neighbours } => (0..x.len())
                 .into_par_iter()
-                .with_min_len(512)
+                .with_min_len(VERTICES_PER_TASK)
                 .map(|i| {
                     let mut e = 0.0;
                     for &(j, w) in neighbours.row(i) {
@@ -753,17 +809,19 @@ fn scale3(a: [f64; 3], s: f64) -> [f64; 3] {
 /// $R_i$ = [`fit_rotations_near`] of `covariance(i)` from the current $R_i$, for every $i$,
 /// [`LANES`] cells per call, in parallel.
 fn fit_all(rotations: &mut [Mat3], covariance: impl Fn(usize) -> Mat3 + Sync) {
-    rotations.par_chunks_mut(LANES).enumerate().with_min_len(128).for_each(|(c, chunk)| {
-        let base = c * LANES;
-        if let Ok(lanes) = <&mut [Mat3; LANES]>::try_from(&mut *chunk) {
-            let s: [Mat3; LANES] = std::array::from_fn(|l| covariance(base + l));
-            *lanes = fit_rotations_near(&s, lanes);
-        } else {
-            for (l, r) in chunk.iter_mut().enumerate() {
-                *r = fit_rotation_near(&covariance(base + l), r);
+    rotations.par_chunks_mut(LANES).enumerate().with_min_len(VERTICES_PER_TASK / LANES).for_each(
+        |(c, chunk)| {
+            let base = c * LANES;
+            if let Ok(lanes) = <&mut [Mat3; LANES]>::try_from(&mut *chunk) {
+                let s: [Mat3; LANES] = std::array::from_fn(|l| covariance(base + l));
+                *lanes = fit_rotations_near(&s, lanes);
+            } else {
+                for (l, r) in chunk.iter_mut().enumerate() {
+                    *r = fit_rotation_near(&covariance(base + l), r);
+                }
             }
-        }
-    });
+        },
+    );
 }
 
 #[inline]

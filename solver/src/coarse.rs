@@ -12,8 +12,13 @@
 //!    the corner rotations as quaternions (signs aligned). Handle vertices are set to their
 //!    targets exactly, and the vertices of components without handles to their rest positions.
 //!
-//! Rest pose is exact ($B_c' = B_c$, $R = I$ gives $p' = p$) and a rigid motion of all handles
-//! moves the result rigidly. An iteration costs what ARAP on $B_c$ costs; the prolongation is
+//! 5. Optionally ([`CoarseConfig::fine_iterations`]), a few plain ARAP iterations on $M$ start
+//!    from $p'$: a two-level scheme in which the coarse solve supplies the smooth, slowly
+//!    converging part of the deformation and the fine iterations remove what the coarse space
+//!    and the detail transfer cannot represent (local-global iterations damp that quickly).
+//!
+//! Rest pose is exact ($B_c' = B_c$, $R = I$ gives $p' = p$; rest targets skip the fine
+//! iterations) and a rigid motion of all handles moves the result rigidly. An iteration costs what ARAP on $B_c$ costs; the prolongation is
 //! one pass over the fine vertices per frame.
 
 use crate::arap::{Arap, ArapConfig, SolveStats};
@@ -33,11 +38,14 @@ pub struct CoarseConfig {
     pub smoothing: f64,
     /// Vertices of the coarse base (about; at least the handle groups' minimum).
     pub coarse_vertices: usize,
+    /// Plain ARAP iterations on the full mesh after each coarse solve, started from the
+    /// prolonged result (0: none, and no factorization of the full mesh).
+    pub fine_iterations: usize,
 }
 
 impl Default for CoarseConfig {
     fn default() -> Self {
-        CoarseConfig { smoothing: 0.02, coarse_vertices: 2000 }
+        CoarseConfig { smoothing: 0.02, coarse_vertices: 2000, fine_iterations: 0 }
     }
 }
 
@@ -57,6 +65,8 @@ pub struct CoarseBsArap {
     /// For each coarse handle vertex (in its handle order), the index in the fine targets.
     coarse_targets: Vec<usize>,
     quaternions: Vec<[f64; 4]>,
+    /// ARAP on the full mesh and its iteration count per solve (see [`CoarseConfig`]).
+    fine: Option<(Arap, usize)>,
     phases: Vec<(&'static str, f64)>,
     /// Scratch for the next result (swapped with `result` after a finite solve).
     next: Vec<[f64; 3]>,
@@ -156,12 +166,20 @@ impl CoarseBsArap {
         let details =
             mesh.positions().iter().zip(&base_on_coarse).map(|(&p, &b)| sub(p, b)).collect();
         clock.lap("embedding");
+        let fine = if coarse.fine_iterations > 0 {
+            let fine = Arap::with_constraints(mesh, constraints.clone(), config, 0.0, None)?;
+            clock.lap("fine factorization");
+            Some((fine, coarse.fine_iterations))
+        } else {
+            None
+        };
         let pinned = constraints
             .pinned_vertices
             .iter()
             .map(|&v| (v, mesh.positions()[v as usize]))
             .collect();
         Ok(CoarseBsArap {
+            fine,
             phases: clock.phases,
             next: Vec::new(),
             pinned,
@@ -234,6 +252,15 @@ impl CoarseBsArap {
             return Err(SolveError::NonFiniteResult { vertex });
         }
         self.next = next;
+        let mut stats = stats;
+        if let Some((fine, n)) = self.fine.as_mut() {
+            let st = fine.refine(&self.result, targets, *n)?;
+            self.result.copy_from_slice(fine.positions());
+            stats.local_ms += st.local_ms;
+            stats.rhs_ms += st.rhs_ms;
+            stats.solve_ms += st.solve_ms;
+            stats.fine_iterations = st.iterations;
+        }
         Ok(stats)
     }
 
@@ -281,6 +308,9 @@ impl CoarseBsArap {
     /// Restarts the next solve from rest.
     pub fn reset(&mut self) {
         self.arap.reset();
+        if let Some((fine, _)) = self.fine.as_mut() {
+            fine.reset();
+        }
     }
 }
 

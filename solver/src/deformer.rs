@@ -55,6 +55,8 @@ pub struct BaseConfig {
     pub smoothing: f64,
     /// Vertices of the coarse base ([`Method::BsArapCoarse`]).
     pub coarse_vertices: usize,
+    /// ARAP iterations on the full mesh after each coarse solve ([`Method::BsArapCoarse`]).
+    pub fine_iterations: usize,
 }
 
 impl Default for BaseConfig {
@@ -62,6 +64,7 @@ impl Default for BaseConfig {
         BaseConfig {
             smoothing: BaseKind::DEFAULT_SMOOTHING,
             coarse_vertices: CoarseConfig::default().coarse_vertices,
+            fine_iterations: CoarseConfig::default().fine_iterations,
         }
     }
 }
@@ -106,7 +109,11 @@ impl Deformer {
                 mesh,
                 handles,
                 config,
-                &CoarseConfig { smoothing: base.smoothing, coarse_vertices: base.coarse_vertices },
+                &CoarseConfig {
+                    smoothing: base.smoothing,
+                    coarse_vertices: base.coarse_vertices,
+                    fine_iterations: base.fine_iterations,
+                },
             )?),
         })
     }

@@ -7,7 +7,9 @@
 //!
 //! Triangular solves run sequentially (`Par::Seq`): faer's rayon parallelism made a 3-column
 //! solve on a 50k-unknown Laplacian 25× slower on our 2-core machines (../shared/TOOLCHAIN.md).
-//! The factorization itself may use rayon.
+//! Instead, a block of k ≥ 2 columns with at least 4096 rows is split into two halves solved at
+//! once on two rayon tasks, each sequential (1.2–1.5× faster for 3 columns on the armadillo and
+//! the bunny on 2 cores, BENCHMARKS.md). The factorization itself may use rayon.
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::sparse::linalg::cholesky::{LltRef, SymbolicCholesky, factorize_symbolic_cholesky};
@@ -31,6 +33,7 @@ pub struct SpdFactor {
     symbolic: SymbolicCholesky<usize>,
     values: Vec<f64>,
     solve_buffer: MemBuffer,
+    solve_split_buffer: MemBuffer,
     solve_columns: usize,
 }
 
@@ -68,6 +71,7 @@ impl SpdFactor {
             values: Vec::new(),
             symbolic,
             solve_buffer: MemBuffer::new(faer::dyn_stack::StackReq::EMPTY),
+            solve_split_buffer: MemBuffer::new(faer::dyn_stack::StackReq::EMPTY),
             solve_columns: 0,
         };
         this.refactor(a)?;
@@ -122,14 +126,26 @@ impl SpdFactor {
         if k != self.solve_columns {
             self.solve_buffer =
                 MemBuffer::new(self.symbolic.solve_in_place_scratch::<f64>(k, Par::Seq));
+            self.solve_split_buffer =
+                MemBuffer::new(self.symbolic.solve_in_place_scratch::<f64>(k, Par::Seq));
             self.solve_columns = k;
         }
-        LltRef::<'_, usize, f64>::new(&self.symbolic, &self.values).solve_in_place_with_conj(
-            Conj::No,
-            rhs,
-            Par::Seq,
-            MemStack::new(&mut self.solve_buffer),
-        );
+        let llt = LltRef::<'_, usize, f64>::new(&self.symbolic, &self.values);
+        if k >= 2 && self.symbolic.nrows() >= 4096 && rayon::current_num_threads() > 1 {
+            let (a, b) = rhs.split_at_col_mut(k / 2 + k % 2);
+            let (ba, bb) = (&mut self.solve_buffer, &mut self.solve_split_buffer);
+            rayon::join(
+                || llt.solve_in_place_with_conj(Conj::No, a, Par::Seq, MemStack::new(ba)),
+                || llt.solve_in_place_with_conj(Conj::No, b, Par::Seq, MemStack::new(bb)),
+            );
+        } else {
+            llt.solve_in_place_with_conj(
+                Conj::No,
+                rhs,
+                Par::Seq,
+                MemStack::new(&mut self.solve_buffer),
+            );
+        }
     }
 }
 
@@ -138,10 +154,16 @@ mod tests {
     use super::*;
     use faer::Mat;
 
-    /// 1D Laplacian plus identity: SPD; the residual of a solve must be tiny.
+    /// 1D Laplacian plus identity: SPD; the residual of a solve must be tiny, for a small
+    /// system and for one large enough that the columns are split over two tasks.
     #[test]
     fn solves_spd_system() {
-        let n = 50;
+        for n in [50, 5000] {
+            solve_and_check(n);
+        }
+    }
+
+    fn solve_and_check(n: usize) {
         let mut t = Vec::new();
         for i in 0..n {
             t.push(Triplet::new(i, i, 3.0));

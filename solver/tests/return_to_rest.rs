@@ -24,8 +24,15 @@ fn warm_started_sequence_returns_exactly_to_rest() {
     // The benchmark's rule and the editor's budget: tolerance 1e-4, cap 100 or 30.
     for max_iterations in [100, 30] {
         let config = ArapConfig { tolerance: 1e-4, max_iterations, ..Default::default() };
-        for method in [Method::Arap, Method::BsArapFaired, Method::BsArapCoarse] {
-            let mut d = Deformer::with_base(method, &mesh, &handles, &config, &base).unwrap();
+        let refined = BaseConfig { fine_iterations: 3, ..base };
+        for (method, base) in [
+            (Method::Arap, base),
+            (Method::BsArapFaired, base),
+            (Method::BsArapCoarse, base),
+            (Method::BsArapCoarse, refined),
+        ] {
+            let method = (method, base.fine_iterations);
+            let mut d = Deformer::with_base(method.0, &mesh, &handles, &config, &base).unwrap();
             let frames = 8;
             for f in 1..frames {
                 let theta = std::f64::consts::TAU * f as f64 / frames as f64;

@@ -404,6 +404,7 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
             "tolerance": a.tol,
             "smoothing": a.base.smoothing,
             "coarse_vertices": a.base.coarse_vertices,
+            "fine_iterations": a.base.fine_iterations,
             "threshold": a.threshold,
             "max_iterations": a.max_iters,
             "radius": setup.radius,

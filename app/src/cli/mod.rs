@@ -125,6 +125,9 @@ pub struct BaseArgs {
     /// Vertices of the coarse base (bsarap-coarse).
     #[arg(long, default_value_t = solver::BaseConfig::default().coarse_vertices)]
     pub coarse_vertices: usize,
+    /// ARAP iterations on the full mesh after each coarse solve (bsarap-coarse; 0: none).
+    #[arg(long, default_value_t = solver::BaseConfig::default().fine_iterations)]
+    pub fine_iterations: usize,
 }
 
 impl BaseArgs {
@@ -140,6 +143,15 @@ impl BaseArgs {
             "--coarse-vertices must be between 16 and 10000000 (got {})",
             self.coarse_vertices
         );
-        Ok(solver::BaseConfig { smoothing: self.smoothing, coarse_vertices: self.coarse_vertices })
+        anyhow::ensure!(
+            self.fine_iterations <= 1000,
+            "--fine-iterations must be between 0 and 1000 (got {})",
+            self.fine_iterations
+        );
+        Ok(solver::BaseConfig {
+            smoothing: self.smoothing,
+            coarse_vertices: self.coarse_vertices,
+            fine_iterations: self.fine_iterations,
+        })
     }
 }

@@ -1965,6 +1965,13 @@ impl EditorApp {
             .on_hover_text(
                 "vertices of the decimated base ARAP runs on; more is closer to ARAP, slower",
             );
+            ui.add(
+                egui::Slider::new(&mut self.settings.base.fine_iterations, 0..=50)
+                    .text("fine iterations"),
+            )
+            .on_hover_text(
+                "ARAP iterations on the full mesh after each coarse solve: closer to ARAP, slower",
+            );
         }
         if self.settings != old {
             self.send_scene();
