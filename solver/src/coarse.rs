@@ -66,7 +66,7 @@ pub struct CoarseBsArap {
     coarse_targets: Vec<usize>,
     quaternions: Vec<[f64; 4]>,
     /// ARAP on the full mesh and its iteration count per solve (see [`CoarseConfig`]).
-    fine: Option<(Box<Arap>, usize)>,
+    fine: Option<(Arap, usize)>,
     phases: Vec<(&'static str, f64)>,
     /// Scratch for the next result (swapped with `result` after a finite solve).
     next: Vec<[f64; 3]>,
@@ -169,7 +169,7 @@ impl CoarseBsArap {
         let fine = if coarse.fine_iterations > 0 {
             let fine = Arap::with_constraints(mesh, constraints.clone(), config, 0.0, None)?;
             clock.lap("fine factorization");
-            Some((Box::new(fine), coarse.fine_iterations))
+            Some((fine, coarse.fine_iterations))
         } else {
             None
         };

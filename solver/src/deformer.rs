@@ -74,7 +74,7 @@ impl Default for BaseConfig {
 pub enum Deformer {
     Arap(Arap),
     BsArap(BsArap),
-    Coarse(CoarseBsArap),
+    Coarse(Box<CoarseBsArap>),
 }
 
 impl Deformer {
@@ -105,7 +105,7 @@ impl Deformer {
                 config,
                 BaseKind::Faired { smoothing: base.smoothing },
             )?),
-            Method::BsArapCoarse => Deformer::Coarse(CoarseBsArap::new(
+            Method::BsArapCoarse => Deformer::Coarse(Box::new(CoarseBsArap::new(
                 mesh,
                 handles,
                 config,
@@ -114,7 +114,7 @@ impl Deformer {
                     coarse_vertices: base.coarse_vertices,
                     fine_iterations: base.fine_iterations,
                 },
-            )?),
+            )?)),
         })
     }
 
