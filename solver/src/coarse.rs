@@ -14,12 +14,13 @@
 //!
 //! 5. Optionally ([`CoarseConfig::fine_iterations`]), a few plain ARAP iterations on $M$ start
 //!    from $p'$: a two-level scheme in which the coarse solve supplies the smooth, slowly
-//!    converging part of the deformation and the fine iterations remove what the coarse space
-//!    and the detail transfer cannot represent (local-global iterations damp that quickly).
+//!    converging part of the deformation and the fine iterations reduce what the coarse space
+//!    and the detail transfer cannot represent (its local part quickly, its smooth part slowly:
+//!    BENCHMARKS.md).
 //!
 //! Rest pose is exact ($B_c' = B_c$, $R = I$ gives $p' = p$; rest targets skip the fine
 //! iterations) and a rigid motion of all handles moves the result rigidly. An iteration costs what ARAP on $B_c$ costs; the prolongation is
-//! one pass over the fine vertices per frame.
+//! one pass over the fine vertices per frame, each fine iteration one ARAP iteration on $M$.
 
 use crate::arap::{Arap, ArapConfig, SolveStats};
 use crate::biharmonic::faired_surface;
@@ -30,6 +31,9 @@ use crate::handles::Handles;
 use crate::mesh::{Mesh, add, dot, sub};
 use crate::rotation::Mat3;
 use rayon::prelude::*;
+
+/// The most fine iterations a configuration may ask for (CLI, scenes).
+pub const MAX_FINE_ITERATIONS: usize = 1000;
 
 /// Settings of the coarse base.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -254,12 +258,18 @@ impl CoarseBsArap {
         self.next = next;
         let mut stats = stats;
         if let Some((fine, n)) = self.fine.as_mut() {
-            let st = fine.refine(&self.result, targets, *n)?;
-            self.result.copy_from_slice(fine.positions());
-            stats.local_ms += st.local_ms;
-            stats.rhs_ms += st.rhs_ms;
-            stats.solve_ms += st.solve_ms;
-            stats.fine_iterations = st.iterations;
+            match fine.refine(&self.result, targets, *n) {
+                Ok(st) => {
+                    self.result.copy_from_slice(fine.positions());
+                    stats.fine_iterations = st.iterations;
+                    stats.fine_ms = st.total_ms();
+                }
+                Err(e) => {
+                    // The previous pose stays, as for a failed coarse solve.
+                    std::mem::swap(&mut self.result, &mut self.next);
+                    return Err(e);
+                }
+            }
         }
         Ok(stats)
     }
@@ -285,7 +295,7 @@ impl CoarseBsArap {
     }
 
     /// Milliseconds of each precomputation phase (faired base, decimation, coarse
-    /// factorization, embedding).
+    /// factorization, embedding, and the fine factorization with fine iterations).
     pub fn precompute_phases(&self) -> &[(&'static str, f64)] {
         &self.phases
     }

@@ -155,9 +155,7 @@ fn largest_root(c2: f64, c1: f64, c0: f64, start: f64) -> (f64, bool) {
 /// accurate (see there).
 #[inline]
 fn fit_rotation_quaternion(s: &Mat3, guess: Option<&Mat3>) -> Option<Mat3> {
-    // R is scale-invariant: normalize so that the thresholds are absolute.
-    let inv = 1.0 / frob2(s).sqrt();
-    let s = s.map(|r| r.map(|v| v * inv));
+    let s = normalized(s)?;
     let n = horn_matrix(&s);
     let (c2, c1, c0) = (-2.0, -8.0 * det3(&s), det4(&n));
     // From the guess's objective tr(G S) ≤ λ_max (usually within rounding of it inside the
@@ -205,7 +203,7 @@ fn rotation_for_eigenvalue(n: &[[f64; 4]; 4], s: &Mat3, lambda: f64) -> Option<M
 /// Cells per call of [`fit_rotations_near`].
 pub const LANES: usize = 4;
 
-/// [`fit_rotation_near`] for [`LANES`] cells at once, with the same results: the quaternion
+/// [`fit_rotation_near`] for [`LANES`] cells at once, with the same results up to rounding: the quaternion
 /// fit with exactly three Laguerre steps from each guess's objective, run in lockstep without
 /// branches so that the lanes' long dependency chains (square roots and divisions) overlap and
 /// the arithmetic can use SIMD. A lane whose root is not verified (Newton step below
@@ -241,17 +239,10 @@ fn lockstep_avx2(s: &[Mat3; LANES], guess: &[Mat3; LANES]) -> [Option<Mat3>; LAN
 #[inline(always)]
 fn lockstep(s: &[Mat3; LANES], guess: &[Mat3; LANES]) -> [Option<Mat3>; LANES] {
     const L: usize = LANES;
-    let norm2: [f64; L] = std::array::from_fn(|l| frob2(&s[l]));
     // Non-finite or zero lanes compute on the identity and are redone by the scalar path.
-    let usable: [bool; L] = std::array::from_fn(|l| norm2[l].is_finite() && norm2[l] > 0.0);
-    let sn: [Mat3; L] = std::array::from_fn(|l| {
-        if usable[l] {
-            let inv = 1.0 / norm2[l].sqrt();
-            s[l].map(|r| r.map(|v| v * inv))
-        } else {
-            IDENTITY
-        }
-    });
+    let normal: [Option<Mat3>; L] = std::array::from_fn(|l| normalized(&s[l]));
+    let usable: [bool; L] = std::array::from_fn(|l| normal[l].is_some());
+    let sn: [Mat3; L] = std::array::from_fn(|l| normal[l].unwrap_or(IDENTITY));
     let n: [[[f64; 4]; 4]; L] = std::array::from_fn(|l| horn_matrix(&sn[l]));
     let c1: [f64; L] = std::array::from_fn(|l| -8.0 * det3(&sn[l]));
     let c0: [f64; L] = std::array::from_fn(|l| det4(&n[l]));
@@ -284,22 +275,24 @@ fn lockstep(s: &[Mat3; LANES], guess: &[Mat3; LANES]) -> [Option<Mat3>; LANES] {
     })
 }
 
-/// The determinant of a 4×4 matrix (the twelve 2×2 minors of [`adjugate4`]).
+/// `s` scaled to unit Frobenius norm ($R$ is scale-invariant, and the thresholds of the fit are
+/// absolute), first by its largest entry so that no square overflows or underflows; `None` for
+/// a zero or non-finite `s`.
+#[inline(always)]
+fn normalized(s: &Mat3) -> Option<Mat3> {
+    let m = s.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
+    if !(m.is_finite() && m > 0.0) {
+        return None;
+    }
+    let t = s.map(|r| r.map(|v| v / m));
+    let inv = 1.0 / frob2(&t).sqrt();
+    Some(t.map(|r| r.map(|v| v * inv)))
+}
+
+/// The determinant of a 4×4 matrix (the part of [`adjugate4`] it needs survives inlining).
 #[inline(always)]
 fn det4(m: &[[f64; 4]; 4]) -> f64 {
-    let s0 = m[0][0] * m[1][1] - m[1][0] * m[0][1];
-    let s1 = m[0][0] * m[1][2] - m[1][0] * m[0][2];
-    let s2 = m[0][0] * m[1][3] - m[1][0] * m[0][3];
-    let s3 = m[0][1] * m[1][2] - m[1][1] * m[0][2];
-    let s4 = m[0][1] * m[1][3] - m[1][1] * m[0][3];
-    let s5 = m[0][2] * m[1][3] - m[1][2] * m[0][3];
-    let c5 = m[2][2] * m[3][3] - m[3][2] * m[2][3];
-    let c4 = m[2][1] * m[3][3] - m[3][1] * m[2][3];
-    let c3 = m[2][1] * m[3][2] - m[3][1] * m[2][2];
-    let c2 = m[2][0] * m[3][3] - m[3][0] * m[2][3];
-    let c1 = m[2][0] * m[3][2] - m[3][0] * m[2][2];
-    let c0 = m[2][0] * m[3][1] - m[3][0] * m[2][1];
-    s0 * c5 - s1 * c4 + s2 * c3 + s3 * c2 - s4 * c1 + s5 * c0
+    adjugate4(m).1
 }
 
 /// [`fit_rotation`] by a 3×3 SVD, the reference implementation (tests compare against it).
@@ -414,6 +407,15 @@ mod tests {
         }
         assert!((det(&fit_rotation(&m)) - 1.0).abs() < 1e-12);
         assert_eq!(fit_rotation(&[[0.0; 3]; 3]), IDENTITY);
+        // Huge and tiny (finite) covariances: the same rotation, no overflow or underflow.
+        for scale in [1e300, 1e-300] {
+            let r = fit_rotation(&scale_mat(&s, scale));
+            let lanes = fit_rotations_near(&[scale_mat(&s, scale); LANES], &[IDENTITY; LANES]);
+            for r in [r, lanes[0]] {
+                let err = r.iter().flatten().zip(q.iter().flatten()).map(|(a, b)| (a - b).abs());
+                assert!(err.fold(0.0, f64::max) < 1e-12, "scale {scale}: {r:?}");
+            }
+        }
     }
 
     #[test]

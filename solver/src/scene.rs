@@ -213,10 +213,16 @@ impl Scene {
         let base = &self.base;
         let smoothing_ok =
             base.smoothing.is_finite() && base.smoothing > 0.0 && base.smoothing <= 1.0;
-        if !smoothing_ok || !(16..=10_000_000).contains(&base.coarse_vertices) {
+        if !smoothing_ok
+            || !(16..=10_000_000).contains(&base.coarse_vertices)
+            || base.fine_iterations > crate::coarse::MAX_FINE_ITERATIONS
+        {
             return Err(SceneError::Invalid {
                 file: file.to_string(),
-                message: "\"base\": smoothing must be in (0, 1] and coarse_vertices between 16 and 10000000".into(),
+                message: format!(
+                    "\"base\": smoothing must be in (0, 1], coarse_vertices between 16 and 10000000 and fine_iterations at most {}",
+                    crate::coarse::MAX_FINE_ITERATIONS
+                ),
             });
         }
         if let Acceleration::Anderson { window } = self.arap.acceleration

@@ -132,7 +132,9 @@ pub fn run(a: &DeformArgs) -> anyhow::Result<()> {
             "final_energy": stats.energy(),
             "precompute_ms": precompute_ms,
             "solve_ms": solve_ms,
-            "ms_per_iteration": solve_ms / stats.iterations.max(1) as f64,
+            "ms_per_iteration": (solve_ms - stats.fine_ms) / stats.iterations.max(1) as f64,
+            "fine_iterations": stats.fine_iterations,
+            "fine_ms": stats.fine_ms,
             "pinned_components": deformer.arap().constraints().pinned_components,
             "precompute_phases_ms": match &deformer {
                 solver::Deformer::Coarse(c) => c.precompute_phases().iter().map(|(k, v)| (k.to_string(), serde_json::json!(v))).collect::<serde_json::Map<_, _>>(),

@@ -144,8 +144,9 @@ impl BaseArgs {
             self.coarse_vertices
         );
         anyhow::ensure!(
-            self.fine_iterations <= 1000,
-            "--fine-iterations must be between 0 and 1000 (got {})",
+            self.fine_iterations <= solver::coarse::MAX_FINE_ITERATIONS,
+            "--fine-iterations must be between 0 and {} (got {})",
+            solver::coarse::MAX_FINE_ITERATIONS,
             self.fine_iterations
         );
         Ok(solver::BaseConfig {

@@ -38,11 +38,10 @@ impl Deformer for SolverDeformer {
     fn solve(&mut self, targets: &[[f64; 3]], x: &mut [[f64; 3]]) -> Result<FrameStats, String> {
         let stats = self.0.solve(targets).map_err(|e| e.to_string())?;
         x.copy_from_slice(self.0.positions());
-        let it = stats.iterations.max(1) as f64;
         Ok(FrameStats {
             iterations: stats.iterations,
             energy: stats.energy(),
-            ms_per_iteration: stats.total_ms() / it,
+            ms_per_iteration: stats.ms_per_iteration(),
             converged: stats.converged,
         })
     }
