@@ -117,7 +117,7 @@ pub struct Scene {
     pub method: Method,
     #[serde(default)]
     pub arap: ArapConfig,
-    /// Base-surface settings of the BS-ARAP variants (smoothing, coarse size).
+    /// Base-surface settings of the BS-ARAP variants (smoothing, coarse size, fine iterations).
     #[serde(default)]
     pub base: BaseConfig,
     /// Opaque to the solver: whatever the editor stores about its view.

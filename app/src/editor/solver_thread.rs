@@ -32,7 +32,8 @@ pub struct MethodSettings {
     pub max_iterations: usize,
     /// Which BS-ARAP variant the BS-ARAP slot runs.
     pub bs_variant: solver::Method,
-    /// Base-surface settings of the BS-ARAP variants (smoothing, coarse vertex count).
+    /// Base-surface settings of the BS-ARAP variants (smoothing, coarse vertex count, fine
+    /// iterations).
     pub base: solver::BaseConfig,
     /// What the left viewport of the side-by-side view runs (ARAP by default).
     pub compare_variant: solver::Method,
