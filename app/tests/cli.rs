@@ -105,6 +105,7 @@ fn errors_are_one_line_with_nonzero_exit() {
         (vec!["bench", o, "--handles", s, "--anderson", "1000000"], "--anderson"),
         (vec!["bench", o, "--handles", s, "--coarse-vertices", "3"], "--coarse-vertices"),
         (vec!["bench", o, "--handles", s, "--smoothing", "nan"], "--smoothing"),
+        (vec!["bench", o, "--handles", s, "--fine-iterations", "5000"], "--fine-iterations"),
     ];
     for (args, needle) in cases {
         let (code, stdout, stderr) = bsarap(&args);

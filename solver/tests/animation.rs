@@ -263,6 +263,7 @@ fn scene_round_trip_and_load() {
     scene.timeline = timeline();
     scene.method = Method::Arap;
     scene.arap = ArapConfig { tolerance: 1e-5, max_iterations: 40, ..Default::default() };
+    scene.base.fine_iterations = 3;
     scene.camera = Some(serde_json::json!({"yaw": 0.5, "distance": 3}));
     let path = dir.join("scenes").join("a.json");
     scene.save(&path).unwrap();
@@ -280,6 +281,15 @@ fn scene_round_trip_and_load() {
     assert_eq!(Scene::from_json(&text2, "x").unwrap().method, Method::BsArap);
     let text3 = text.replace("\"method\": \"arap\"", "\"method\": \"bs-arap\"");
     assert_eq!(Scene::from_json(&text3, "x").unwrap().method, Method::BsArap);
+    // Scenes written before fine iterations existed load with none; absurd counts are refused.
+    assert!(text.contains("\"fine_iterations\": 3"));
+    let mut old: serde_json::Value = serde_json::from_str(&text).unwrap();
+    old["base"].as_object_mut().unwrap().remove("fine_iterations").unwrap();
+    let old = Scene::from_json(&old.to_string(), "x").unwrap();
+    assert_eq!(old.base.fine_iterations, 0);
+    let absurd = text.replace("\"fine_iterations\": 3", "\"fine_iterations\": 1000000");
+    let err = Scene::from_json(&absurd, "x").unwrap_err().to_string();
+    assert!(err.contains("fine_iterations"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
 
