@@ -49,7 +49,11 @@ pub struct CoarseConfig {
 
 impl Default for CoarseConfig {
     fn default() -> Self {
-        CoarseConfig { smoothing: 0.02, coarse_vertices: 2000, fine_iterations: 0 }
+        CoarseConfig {
+            smoothing: crate::bs_arap::BaseKind::DEFAULT_SMOOTHING,
+            coarse_vertices: 2000,
+            fine_iterations: 0,
+        }
     }
 }
 
