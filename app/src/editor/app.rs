@@ -1951,6 +1951,7 @@ impl EditorApp {
             ui.add(
                 egui::Slider::new(&mut self.settings.base.smoothing, 0.002..=0.2)
                     .logarithmic(true)
+                    .fixed_decimals(3)
                     .text("base smoothing (of diagonal)"),
             )
             .on_hover_text("smoothing length of the faired base, as a fraction of the diagonal");
