@@ -32,7 +32,7 @@ use crate::linsolve::SpdFactor;
 use crate::mesh::{Mesh, add, sub};
 use crate::rotation::{
     IDENTITY, LANES, Mat3, add_mat, add_outer, fit_rotation_near, fit_rotations_near, mul_vec,
-    scale_mat,
+    scale_mat, trace_of_product,
 };
 use faer::Mat;
 use faer::sparse::Triplet;
@@ -696,7 +696,7 @@ impl Arap {
                     let i = c * VERTICES_PER_TASK + l;
                     let (s, a) = covariance(i);
                     sums.0 += a;
-                    sums.1 += trace_product(&rot[i], &s);
+                    sums.1 += trace_of_product(&rot[i], &s);
                     *out = s;
                 }
                 sums
@@ -725,7 +725,7 @@ impl Arap {
                             }
                         }
                     }
-                    t += r.iter().zip(s).map(|(r, s)| trace_product(r, s)).sum::<f64>();
+                    t += r.iter().zip(s).map(|(r, s)| trace_of_product(r, s)).sum::<f64>();
                 }
                 t
             })
@@ -922,12 +922,6 @@ fn ring_coefficients(
 #[inline]
 fn scale3(a: [f64; 3], s: f64) -> [f64; 3] {
     [s * a[0], s * a[1], s * a[2]]
-}
-
-/// $\operatorname{tr}(R S) = \sum_{ij} R_{ij} S_{ji}$.
-#[inline]
-fn trace_product(r: &Mat3, s: &Mat3) -> f64 {
-    (0..3).map(|i| (0..3).map(|j| r[i][j] * s[j][i]).sum::<f64>()).sum()
 }
 
 #[inline]

@@ -35,18 +35,13 @@ pub const IDENTITY: Mat3 = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
 /// nearly equal top eigenvalues when a reflection would fit best: cases where the rotation is
 /// barely determined) the SVD fit [`fit_rotation_svd`] decides.
 pub fn fit_rotation(s: &Mat3) -> Mat3 {
-    if !s.iter().flatten().all(|x| x.is_finite()) || s.iter().flatten().all(|&x| x == 0.0) {
-        return IDENTITY;
-    }
+    // A zero or non-finite S is refused by the quaternion fit and gives the SVD's identity.
     fit_rotation_quaternion(s, None).unwrap_or_else(|| fit_rotation_svd(s))
 }
 
 /// [`fit_rotation`] started from a nearby rotation `guess` (the previous iteration's, in the
 /// local-global loop): the same result, in fewer root-finding steps when the guess is close.
 pub fn fit_rotation_near(s: &Mat3, guess: &Mat3) -> Mat3 {
-    if !s.iter().flatten().all(|x| x.is_finite()) || s.iter().flatten().all(|&x| x == 0.0) {
-        return IDENTITY;
-    }
     fit_rotation_quaternion(s, Some(guess)).unwrap_or_else(|| fit_rotation_svd(s))
 }
 
@@ -126,20 +121,38 @@ fn adjugate4(m: &[[f64; 4]; 4]) -> ([[f64; 4]; 4], f64) {
 /// root it decreases monotonically to it). Returns the root reached and whether it is provably
 /// the largest: by the Budan–Fourier theorem no root lies above $\lambda$ when $p'$, $p''$ and
 /// $p''' = 24\lambda$ are all positive there.
+/// $(p, p', p'')$ at $x$ for $p(\lambda) = \lambda^4 + c_2\lambda^2 + c_1\lambda + c_0$.
+#[inline(always)]
+fn quartic(c2: f64, c1: f64, c0: f64, x: f64) -> (f64, f64, f64) {
+    let x2 = x * x;
+    ((x2 + c2) * x2 + c1 * x + c0, (4.0 * x2 + 2.0 * c2) * x + c1, 12.0 * x2 + 2.0 * c2)
+}
+
+/// Laguerre's step for a quartic from $(p, p', p'')$ (the sign that maximizes the denominator);
+/// $p = 0$ gives 0, a zero denominator a non-finite step.
+#[inline(always)]
+fn laguerre_step(p: f64, dp: f64, ddp: f64) -> f64 {
+    let root = (3.0 * (3.0 * dp * dp - 4.0 * p * ddp)).max(0.0).sqrt();
+    4.0 * p / (dp + root.copysign(dp))
+}
+
+/// $\operatorname{tr}(A B) = \sum_{ij} A_{ij} B_{ji}$ (with $A = R$, $B = S$: the fit's objective).
+#[inline(always)]
+pub fn trace_of_product(a: &Mat3, b: &Mat3) -> f64 {
+    (0..3).map(|i| (0..3).map(|j| a[i][j] * b[j][i]).sum::<f64>()).sum()
+}
+
 #[inline]
 fn largest_root(c2: f64, c1: f64, c0: f64, start: f64) -> (f64, bool) {
     let mut lambda = start;
     let (mut dp, mut ddp) = (0.0, 0.0);
     for _ in 0..32 {
-        let l2 = lambda * lambda;
-        let p = (l2 + c2) * l2 + c1 * lambda + c0;
-        dp = (4.0 * l2 + 2.0 * c2) * lambda + c1;
-        ddp = 12.0 * l2 + 2.0 * c2;
+        let p;
+        (p, dp, ddp) = quartic(c2, c1, c0, lambda);
         if p == 0.0 || p.is_nan() {
             break;
         }
-        let root = (3.0 * (3.0 * dp * dp - 4.0 * p * ddp)).max(0.0).sqrt();
-        let step = 4.0 * p / (dp + dp.signum() * root);
+        let step = laguerre_step(p, dp, ddp);
         if !step.is_finite() {
             break;
         }
@@ -160,10 +173,7 @@ fn fit_rotation_quaternion(s: &Mat3, guess: Option<&Mat3>) -> Option<Mat3> {
     let (c2, c1, c0) = (-2.0, -8.0 * det3(&s), det4(&n));
     // From the guess's objective tr(G S) ≤ λ_max (usually within rounding of it inside the
     // local-global loop), else from the upper bound √3 ≥ σ₁+σ₂+σ₃ ≥ λ_max.
-    let warm = guess.map(|g| {
-        let objective = (0..3).map(|i| (0..3).map(|k| g[i][k] * s[k][i]).sum::<f64>()).sum();
-        largest_root(c2, c1, c0, objective)
-    });
+    let warm = guess.map(|g| largest_root(c2, c1, c0, trace_of_product(g, &s)));
     let lambda = match warm {
         Some((l, true)) => l,
         _ => largest_root(c2, c1, c0, 3f64.sqrt()).0,
@@ -247,27 +257,17 @@ fn lockstep(s: &[Mat3; LANES], guess: &[Mat3; LANES]) -> [Option<Mat3>; LANES] {
     let c1: [f64; L] = std::array::from_fn(|l| -8.0 * det3(&sn[l]));
     let c0: [f64; L] = std::array::from_fn(|l| det4(&n[l]));
     let c2 = -2.0;
-    let mut lambda: [f64; L] = std::array::from_fn(|l| {
-        (0..3).map(|i| (0..3).map(|k| guess[l][i][k] * sn[l][k][i]).sum::<f64>()).sum()
-    });
+    let mut lambda: [f64; L] = std::array::from_fn(|l| trace_of_product(&guess[l], &sn[l]));
     for _ in 0..3 {
         for l in 0..L {
-            let x = lambda[l];
-            let x2 = x * x;
-            let p = (x2 + c2) * x2 + c1[l] * x + c0[l];
-            let dp = (4.0 * x2 + 2.0 * c2) * x + c1[l];
-            let ddp = 12.0 * x2 + 2.0 * c2;
-            let root = (3.0 * (3.0 * dp * dp - 4.0 * p * ddp)).max(0.0).sqrt();
-            // p = 0 gives 0/(2dp) = 0; a zero denominator gives a non-finite λ, refused below.
-            lambda[l] = x - 4.0 * p / (dp + root.copysign(dp));
+            // A non-finite step gives a non-finite λ, refused below.
+            let (p, dp, ddp) = quartic(c2, c1[l], c0[l], lambda[l]);
+            lambda[l] -= laguerre_step(p, dp, ddp);
         }
     }
     let verified: [bool; L] = std::array::from_fn(|l| {
         let x = lambda[l];
-        let x2 = x * x;
-        let p = (x2 + c2) * x2 + c1[l] * x + c0[l];
-        let dp = (4.0 * x2 + 2.0 * c2) * x + c1[l];
-        let ddp = 12.0 * x2 + 2.0 * c2;
+        let (p, dp, ddp) = quartic(c2, c1[l], c0[l], x);
         usable[l] && x > 0.0 && dp > 0.0 && ddp > 0.0 && (p / dp).abs() <= 1e-13 * x
     });
     std::array::from_fn(|l| {
