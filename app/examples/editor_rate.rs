@@ -28,7 +28,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let mesh = solver::io::load_mesh(std::path::Path::new(&args[1]))?.mesh;
     let handles =
-        solver::selection::load_selection(std::path::Path::new(&args[2]), mesh.positions())?;
+        solver::selection::load_selection(std::path::Path::new(&args[2]), mesh.positions(), None)?;
     let frames: usize = args.get(3).map(|s| s.parse()).transpose()?.unwrap_or(30).max(1);
     let methods: Vec<solver::Method> = if args.len() > 4 {
         args[4..]

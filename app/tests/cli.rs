@@ -206,9 +206,15 @@ fn bench_quality_against_converged_arap() {
     assert!(q(&converged, "max_distance") < 1e-4, "{}", converged["methods"]["arap"]["quality"]);
     assert!(q(&converged, "mean_distance") <= q(&converged, "max_distance"));
     assert!((q(&converged, "energy_on_mesh") - e_ref).abs() < 1e-6 * e_ref);
+    assert_eq!(reference["start"], "rest");
     // One iteration per frame lags far behind the handles, at a higher energy.
     assert!(q(&capped, "max_distance") > 1e-2, "{}", capped["methods"]["arap"]["quality"]);
     assert!(q(&capped, "energy_on_mesh") > 1.5 * e_ref);
+    // The reference along the path: converged frame after frame, as the converged run is.
+    let along = run(&["--tol", "1e-13", "--max-iters", "20000", "--quality-reference", "path"]);
+    assert_eq!(along["quality_reference"]["start"], "path");
+    assert_eq!(along["quality_reference"]["converged"], true);
+    assert!(q(&along, "max_distance") < 1e-4, "{}", along["methods"]["arap"]["quality"]);
     // Without --quality there is no quality field; a frame out of range is an error.
     let (_, plain, _) = bsarap(&[
         "bench",
@@ -238,4 +244,13 @@ fn bench_quality_against_converged_arap() {
         "3",
     ]);
     assert!(code != 0 && stderr.contains("--quality-frame"), "{stderr}");
+    let (code, _, stderr) = bsarap(&[
+        "bench",
+        obj.to_str().unwrap(),
+        "--handles",
+        sel.to_str().unwrap(),
+        "--quality-reference",
+        "path",
+    ]);
+    assert!(code != 0 && stderr.contains("--quality-reference needs --quality"), "{stderr}");
 }

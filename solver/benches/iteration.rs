@@ -150,8 +150,8 @@ fn main() {
     );
     if let [mesh, sel] = &args[..] {
         let m = solver::io::load_mesh(std::path::Path::new(mesh)).unwrap().mesh;
-        let h =
-            solver::selection::load_selection(std::path::Path::new(sel), m.positions()).unwrap();
+        let h = solver::selection::load_selection(std::path::Path::new(sel), m.positions(), None)
+            .unwrap();
         report(mesh, &m, &h, bw, rate);
     } else {
         for level in 2..=6 {

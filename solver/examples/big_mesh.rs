@@ -98,7 +98,8 @@ fn run() -> Result<(), String> {
         loaded.report.changed()
     );
 
-    let handles = load_selection(selection, mesh.positions()).map_err(|e| e.to_string())?;
+    let handles = load_selection(selection, mesh.positions(), Some(&loaded.report.vertex_map))
+        .map_err(|e| e.to_string())?;
     let transform = GroupTransform {
         translation: [0.1 * mesh.bbox_diagonal(), 0.0, 0.0],
         ..GroupTransform::default()

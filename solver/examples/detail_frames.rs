@@ -56,7 +56,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let mesh = solver::io::load_mesh(std::path::Path::new(&args[1]))?.mesh;
     let handles =
-        solver::selection::load_selection(std::path::Path::new(&args[2]), mesh.positions())?;
+        solver::selection::load_selection(std::path::Path::new(&args[2]), mesh.positions(), None)?;
     let diag = mesh.bbox_diagonal();
     let r = 0.1 * diag;
     let group = handles.group_ids().next().ok_or("empty selection")?;

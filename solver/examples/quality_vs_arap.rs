@@ -22,7 +22,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let mesh = solver::io::load_mesh(std::path::Path::new(&args[1]))?.mesh;
     let handles =
-        solver::selection::load_selection(std::path::Path::new(&args[2]), mesh.positions())?;
+        solver::selection::load_selection(std::path::Path::new(&args[2]), mesh.positions(), None)?;
     let coarse: Vec<(usize, usize)> = if args.len() > 3 {
         let parse = |s: &String| -> Result<(usize, usize), std::num::ParseIntError> {
             match s.split_once('+') {

@@ -45,6 +45,9 @@ use std::time::Instant;
 /// splits into 16 or more tasks.
 const VERTICES_PER_TASK: usize = 2048;
 
+/// Anderson window of [`Arap::refine`].
+pub const REFINE_ANDERSON_WINDOW: usize = 5;
+
 /// The ARAP cell type.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -411,12 +414,13 @@ impl Arap {
         self.run(targets, None)
     }
 
-    /// Exactly `iterations` plain local-global iterations from the pose `start` (`#V×3`) with
-    /// the handles moved to `targets`, evaluating no energy (the returned statistics have the
-    /// phase times and the count only): the fine smoothing pass that follows a coarse solve
-    /// ([`crate::coarse`]). Rest targets give the rest pose exactly, as in [`Arap::solve`];
-    /// a `start` of another length or with non-finite values is ignored (the current pose is
-    /// the start).
+    /// Exactly `iterations` local-global iterations with safeguarded Anderson acceleration
+    /// (window [`REFINE_ANDERSON_WINDOW`], whatever the configuration says; no stopping rule)
+    /// from the pose `start` (`#V×3`) with the handles moved to `targets`: the fine pass that
+    /// follows a coarse solve ([`crate::coarse`]). Anderson because what is left after the
+    /// coarse solve is smooth, the slow part for plain local-global. Rest targets give the rest
+    /// pose exactly, as in [`Arap::solve`]; a `start` of another length or with non-finite
+    /// values is ignored (the current pose is the start).
     pub fn refine(
         &mut self,
         start: &[[f64; 3]],
@@ -457,9 +461,11 @@ impl Arap {
         }
         let mut stats = SolveStats::default();
         match (fixed, self.config.acceleration) {
-            (Some(n), _) => self.iterate_fixed(&mut stats, n),
+            (Some(n), _) => self.iterate_anderson(&mut stats, REFINE_ANDERSON_WINDOW, n, false),
             (None, Acceleration::None) => self.iterate_plain(&mut stats),
-            (None, Acceleration::Anderson { window }) => self.iterate_anderson(&mut stats, window),
+            (None, Acceleration::Anderson { window }) => {
+                self.iterate_anderson(&mut stats, window, self.config.max_iterations, true)
+            }
         }
         if let Some(vertex) = self.current.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
             self.current = previous;
@@ -501,22 +507,6 @@ impl Arap {
             }
         }
         Ok(())
-    }
-
-    /// `n` plain local-global iterations without any energy evaluation.
-    fn iterate_fixed(&mut self, stats: &mut SolveStats, n: usize) {
-        for _ in 0..n {
-            self.local_global(stats);
-        }
-    }
-
-    /// One local step, rhs and global solve, timed into `stats`.
-    fn local_global(&mut self, stats: &mut SolveStats) {
-        let t0 = Instant::now();
-        self.local_step();
-        let t1 = Instant::now();
-        stats.local_ms += ms(t0, t1);
-        self.global_step(stats);
     }
 
     /// The rhs and the global solve for the current rotations, timed into `stats`.
@@ -570,7 +560,14 @@ impl Arap {
     /// $E(x_k, R(x_k))$: each iterate gets its own local step, which the next global step reuses.
     /// An accelerated iterate with a higher energy than the last accepted one is replaced by the
     /// plain step $G(x_k)$, for which $E(G(x), R(G(x))) \le E(G(x), R(x)) \le E(x, R(x))$.
-    fn iterate_anderson(&mut self, stats: &mut SolveStats, window: usize) {
+    /// At most `max_iterations`; the stopping rule applies only when `stopping`.
+    fn iterate_anderson(
+        &mut self,
+        stats: &mut SolveStats,
+        window: usize,
+        max_iterations: usize,
+        stopping: bool,
+    ) {
         let tol = self.config.tolerance;
         let free = self.constraints.free_vertices.clone();
         let dim = 3 * free.len();
@@ -591,7 +588,7 @@ impl Arap {
         let mut accepted = self.local_step_energy();
         stats.local_ms += ms(t0, Instant::now());
         stats.initial_energy = accepted;
-        for it in 0..self.config.max_iterations {
+        for it in 0..max_iterations {
             let t2 = Instant::now();
             self.assemble_rhs();
             let t3 = Instant::now();
@@ -628,7 +625,7 @@ impl Arap {
             accepted = e;
             stats.energies.push(e);
             stats.iterations = it + 1;
-            if self.stop(tol, prev, e, stats.initial_energy) {
+            if stopping && self.stop(tol, prev, e, stats.initial_energy) {
                 stats.converged = true;
                 break;
             }

@@ -8,18 +8,22 @@
 //!    as barycentric weights $w_{ik}$ on a coarse triangle $t_i$; its detail is
 //!    $D_i = p_i - \sum_k w_{ik} B_{c,k}$.
 //! 4. Each frame: ARAP on $B_c$ (handles = the kept handle vertices) gives $B_c'$ and $R_k$;
-//!    $p'_i = \sum_k w_{ik} B'_{c,k} + \hat R_i D_i$ where $\hat R_i$ is the normalized blend of
-//!    the corner rotations as quaternions (signs aligned). Handle vertices are set to their
-//!    targets exactly, and the vertices of components without handles to their rest positions.
+//!    $p'_i = \sum_k w_{ik} B'_{c,k} + \hat R_i (D_i + C_i)$ where $\hat R_i$ is the normalized
+//!    blend of the corner rotations as quaternions (signs aligned) and $C_i$ the carried fine
+//!    correction (step 5; zero without it). Handle vertices are set to their targets exactly,
+//!    and the vertices of components without handles to their rest positions.
+//! 5. Optionally ([`CoarseConfig::fine_iterations`]), a few ARAP iterations on $M$ with
+//!    Anderson acceleration ([`Arap::refine`]) start from $p'$ and give the result $x$: a
+//!    two-level scheme in which the coarse solve supplies the smooth part of the deformation
+//!    and the fine iterations reduce what the coarse space and the detail transfer cannot
+//!    represent. What they changed is kept in the detail frames,
+//!    $C_i = \hat R_i^\top (x_i - \sum_k w_{ik} B'_{c,k}) - D_i$, and carried to the next
+//!    frame, so that over an animation the fine iterations add up instead of starting again
+//!    from the coarse pose every frame (BENCHMARKS.md measures both).
 //!
-//! 5. Optionally ([`CoarseConfig::fine_iterations`]), a few plain ARAP iterations on $M$ start
-//!    from $p'$: a two-level scheme in which the coarse solve supplies the smooth, slowly
-//!    converging part of the deformation and the fine iterations reduce what the coarse space
-//!    and the detail transfer cannot represent (its local part quickly, its smooth part slowly:
-//!    BENCHMARKS.md).
-//!
-//! Rest pose is exact ($B_c' = B_c$, $R = I$ gives $p' = p$; rest targets skip the fine
-//! iterations) and a rigid motion of all handles moves the result rigidly. An iteration costs what ARAP on $B_c$ costs; the prolongation is
+//! Rest pose is exact ($B_c' = B_c$, $R = I$ gives $p' = p$ without fine iterations; rest
+//! targets skip them and give $x = p$, so $C = 0$ again) and a rigid motion of all handles
+//! moves the result rigidly. An iteration costs what ARAP on $B_c$ costs; the prolongation is
 //! one pass over the fine vertices per frame, each fine iteration one ARAP iteration on $M$.
 
 use crate::arap::{Arap, ArapConfig, SolveStats};
@@ -73,6 +77,11 @@ pub struct CoarseBsArap {
     /// For each coarse handle vertex (in its handle order), the index in the fine targets.
     coarse_targets: Vec<usize>,
     quaternions: Vec<[f64; 4]>,
+    /// Per fine vertex, the blended rotation of the last solve (unit quaternion).
+    frames: Vec<[f64; 4]>,
+    /// Per fine vertex, what the last fine iterations added to its detail, in the detail's
+    /// frame (zero without fine iterations): carried to the next solve.
+    correction: Vec<[f64; 3]>,
     /// ARAP on the full mesh and its iteration count per solve (see [`CoarseConfig`]).
     fine: Option<(Arap, usize)>,
     phases: Vec<(&'static str, f64)>,
@@ -192,6 +201,8 @@ impl CoarseBsArap {
             next: Vec::new(),
             pinned,
             quaternions: vec![[1.0, 0.0, 0.0, 0.0]; cp.len()],
+            frames: vec![[1.0, 0.0, 0.0, 0.0]; mesh.n_vertices()],
+            correction: vec![[0.0; 3]; mesh.n_vertices()],
             deformed_base: base_on_coarse.clone(),
             base: base_on_coarse,
             details,
@@ -227,11 +238,12 @@ impl CoarseBsArap {
         // a reused buffer and swap it in only when it is finite (the previous pose stays).
         let mut next = std::mem::take(&mut self.next);
         next.resize(self.result.len(), [0.0; 3]);
+        let details = self.details.par_iter().zip(self.correction.par_iter());
         self.deformed_base
             .par_iter_mut()
-            .zip(next.par_iter_mut())
-            .zip(self.embedding.par_iter().zip(self.details.par_iter()))
-            .for_each(|((b, out), ((t, w), d))| {
+            .zip(next.par_iter_mut().zip(self.frames.par_iter_mut()))
+            .zip(self.embedding.par_iter().zip(details))
+            .for_each(|((b, (out, frame)), ((t, w), (d, c)))| {
                 *b = blend(bc, t, w);
                 let q0 = quats[t[0] as usize];
                 let mut q = [0.0; 4];
@@ -244,7 +256,8 @@ impl CoarseBsArap {
                 }
                 let n = dot4(q, q).sqrt();
                 let q = if n > 0.0 { q.map(|c| c / n) } else { [1.0, 0.0, 0.0, 0.0] };
-                *out = add(*b, rotate(q, *d));
+                *frame = q;
+                *out = add(*b, rotate(q, add(*d, *c)));
             });
         for (&v, t) in self.fine_handles.iter().zip(targets) {
             next[v as usize] = *t;
@@ -265,6 +278,16 @@ impl CoarseBsArap {
             match fine.refine(&self.result, targets, *n) {
                 Ok(st) => {
                     self.result.copy_from_slice(fine.positions());
+                    // What the fine iterations changed, kept in the detail frames for the next
+                    // solve (zero again when the result is the rest pose).
+                    self.correction
+                        .par_iter_mut()
+                        .zip(self.result.par_iter().zip(self.deformed_base.par_iter()))
+                        .zip(self.frames.par_iter().zip(self.details.par_iter()))
+                        .for_each(|((c, (x, b)), (q, d))| {
+                            let conj = [q[0], -q[1], -q[2], -q[3]];
+                            *c = sub(rotate(conj, sub(*x, *b)), *d);
+                        });
                     stats.fine_iterations = st.iterations;
                     stats.fine_ms = st.total_ms();
                 }
@@ -322,6 +345,7 @@ impl CoarseBsArap {
     /// Restarts the next solve from rest.
     pub fn reset(&mut self) {
         self.arap.reset();
+        self.correction.fill([0.0; 3]);
         if let Some((fine, _)) = self.fine.as_mut() {
             fine.reset();
         }

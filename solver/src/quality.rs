@@ -7,8 +7,10 @@
 //! [`Reference`] is the yardstick of issue 8: full ARAP on $M$ for the same handle targets,
 //! solved from rest with Anderson acceleration (window [`REFERENCE_ANDERSON_WINDOW`]) to a
 //! relative energy decrease of [`REFERENCE_TOLERANCE`] (cap [`REFERENCE_MAX_ITERATIONS`]).
-//! Known limitation: ARAP's minimizer need not be unique; the reference is the one reached from
-//! rest, which is what a user starting from the rest pose sees.
+//! ARAP's minimizer need not be unique (a thin part bent far can end up on either side): the
+//! reference [`Reference::new`] is the one reached from rest, what a user starting from the rest
+//! pose sees; [`Reference::along_path`] follows the targets of an animation frame by frame, each
+//! solve converged and started from the previous one, the minimizer an animation reaches.
 
 use crate::arap::{Acceleration, Arap, ArapConfig, Energy, SolveStats};
 use crate::error::SolveError;
@@ -82,6 +84,30 @@ impl Reference {
         Ok(Reference { arap, positions, diagonal: mesh.bbox_diagonal(), stats })
     }
 
+    /// Converged full ARAP at the last of `path` (each `#H×3`), reached by converging at every
+    /// target set of `path` in order, each solve started from the previous result (from rest
+    /// for the first). An empty path is rejected as a target count mismatch. The statistics
+    /// are summed over the path (iterations) and the last solve's (energies, convergence).
+    pub fn along_path(
+        mesh: &Mesh,
+        handles: &Handles,
+        path: &[Vec<[f64; 3]>],
+        energy: Energy,
+    ) -> Result<Reference, SolveError> {
+        let (first, rest) = path
+            .split_first()
+            .ok_or(SolveError::TargetCount { got: 0, expected: handles.handle_vertices().len() })?;
+        let mut r = Reference::new(mesh, handles, first, energy)?;
+        let mut iterations = r.stats.iterations;
+        for targets in rest {
+            r.stats = r.arap.solve(targets)?;
+            iterations += r.stats.iterations;
+        }
+        r.stats.iterations = iterations;
+        r.positions = r.arap.positions().to_vec();
+        Ok(r)
+    }
+
     /// The converged positions, `#V×3`.
     pub fn positions(&self) -> &[[f64; 3]] {
         &self.positions
@@ -134,5 +160,33 @@ mod tests {
         let u = r.measure(&unrelaxed);
         assert!(u.max_distance > 0.01, "{u:?}");
         assert!(u.energy_on_mesh > 2.0 * q.energy_on_mesh, "{u:?} vs {q:?}");
+    }
+
+    /// Along a path whose minimizer is unique, the path reference ends where the reference from
+    /// rest is (up to the tolerance); its iterations add up over the path; a one-step path is
+    /// the reference from rest; an empty path is an error.
+    #[test]
+    #[allow(clippy::unwrap_used)]
+    fn along_path_converges_at_every_step() {
+        let (m, h) = crate::shapes::bumpy_bar(2);
+        let path: Vec<Vec<[f64; 3]>> = (1..=3)
+            .map(|k| {
+                let moved = crate::pose::GroupTransform {
+                    translation: [0.0, 0.2 * k as f64, 0.0],
+                    ..Default::default()
+                };
+                crate::pose::handle_targets(m.positions(), &h, &[(0, moved)]).unwrap()
+            })
+            .collect();
+        let direct = Reference::new(&m, &h, &path[2], Energy::SpokesAndRims).unwrap();
+        let along = Reference::along_path(&m, &h, &path, Energy::SpokesAndRims).unwrap();
+        assert!(along.stats().converged);
+        let d = distances(along.positions(), direct.positions(), m.bbox_diagonal());
+        assert!(d.max < 1e-4, "{d:?}");
+        let first = Reference::new(&m, &h, &path[0], Energy::SpokesAndRims).unwrap();
+        assert!(along.stats().iterations > first.stats().iterations);
+        let one = Reference::along_path(&m, &h, &path[..1], Energy::SpokesAndRims).unwrap();
+        assert_eq!(one.positions(), first.positions());
+        assert!(Reference::along_path(&m, &h, &[], Energy::SpokesAndRims).is_err());
     }
 }

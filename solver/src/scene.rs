@@ -270,22 +270,25 @@ impl Scene {
         let mesh_path = Scene::resolve_path(path, &scene.mesh);
         let mesh = load_mesh(&mesh_path)
             .map_err(|source| SceneError::Mesh { file: file.clone(), source })?;
-        let handles = scene.resolve_handles(path, mesh.mesh.positions())?;
+        let handles =
+            scene.resolve_handles(path, mesh.mesh.positions(), Some(&mesh.report.vertex_map))?;
         Ok(LoadedScene { scene, path: path.to_path_buf(), mesh_path, mesh, handles })
     }
 
     /// The scene's handle groups for a mesh with rest `positions`, read from wherever
     /// `handles` points (paths relative to the scene file `path`), checked against the timeline:
-    /// a path for a group the selection lacks is an error.
+    /// a path for a group the selection lacks is an error. `vertex_map`: as in
+    /// [`load_selection`], for a `.dmat` of the mesh file as read.
     pub fn resolve_handles(
         &self,
         path: &Path,
         positions: &[[f64; 3]],
+        vertex_map: Option<&[Option<u32>]>,
     ) -> Result<Handles, SceneError> {
         let file = path.display().to_string();
         let h = &self.handles;
         let handles = if let Some(f) = &h.file {
-            load_selection(&Scene::resolve_path(path, f), positions)
+            load_selection(&Scene::resolve_path(path, f), positions, vertex_map)
                 .map_err(|source| SceneError::Selection { file: file.clone(), source })?
         } else if let Some(labels) = &h.labels {
             Handles::from_labels(labels, positions.len())

@@ -81,6 +81,16 @@ const JSON: &str = "<json>";
 /// [`Handles::from_labels`] rejects (wrong `#V`, no handle vertex, label below -1), wrapped in
 /// [`SelectionError::Handles`]. Errors name the file `<dmat>`; [`load_selection`] names the path.
 pub fn parse_dmat(text: &str, n_vertices: usize) -> Result<Handles, SelectionError> {
+    handles_from_labels(&read_dmat(text)?, n_vertices)
+}
+
+fn handles_from_labels(labels: &[i64], n_vertices: usize) -> Result<Handles, SelectionError> {
+    Handles::from_labels(labels, n_vertices)
+        .map_err(|source| SelectionError::Handles { file: DMAT.to_string(), source })
+}
+
+/// The labels of an ASCII `.dmat` (see [`parse_dmat`]), as many as its header announces.
+fn read_dmat(text: &str) -> Result<Vec<i64>, SelectionError> {
     let parse = |line, message: String| SelectionError::Parse {
         file: DMAT.to_string(),
         line: Some(line),
@@ -130,13 +140,7 @@ pub fn parse_dmat(text: &str, n_vertices: usize) -> Result<Handles, SelectionErr
     for _ in 0..2 {
         tokens.next();
     }
-    if expected != n_vertices {
-        return Err(SelectionError::Handles {
-            file: DMAT.to_string(),
-            source: HandlesError::WrongVertexCount { got: expected, expected: n_vertices },
-        });
-    }
-    let mut labels = Vec::with_capacity(n_vertices);
+    let mut labels = Vec::with_capacity(expected.min(1 << 24));
     let mut got = 0;
     for (line, tok) in tokens {
         got += 1;
@@ -160,8 +164,39 @@ pub fn parse_dmat(text: &str, n_vertices: usize) -> Result<Handles, SelectionErr
     if got != expected {
         return Err(SelectionError::CountMismatch { file: DMAT.to_string(), expected, got });
     }
-    Handles::from_labels(&labels, n_vertices)
-        .map_err(|source| SelectionError::Handles { file: DMAT.to_string(), source })
+    Ok(labels)
+}
+
+/// Labels of the file's vertices carried to the cleaned mesh's through `vertex_map` (input →
+/// output, `None`: removed; [`crate::cleanup::CleanReport::vertex_map`]): a handle label wins over
+/// a free one on welded vertices; two different groups welded into one vertex are an error.
+fn remap_labels(
+    labels: &[i64],
+    vertex_map: &[Option<u32>],
+    n_vertices: usize,
+) -> Result<Vec<i64>, SelectionError> {
+    let mut out = vec![-1; n_vertices];
+    let mut from = vec![usize::MAX; n_vertices];
+    for (i, (&l, m)) in labels.iter().zip(vertex_map).enumerate() {
+        let Some(o) = m.map(|o| o as usize).filter(|&o| o < n_vertices) else { continue };
+        if l < 0 {
+            continue;
+        }
+        if out[o] >= 0 && out[o] != l {
+            return Err(SelectionError::Parse {
+                file: DMAT.to_string(),
+                line: None,
+                message: format!(
+                    "vertices {} (group {}) and {i} (group {l}) of the file are welded into one \
+                     vertex of the cleaned mesh; give them the same label",
+                    from[o], out[o]
+                ),
+            });
+        }
+        out[o] = l;
+        from[o] = i;
+    }
+    Ok(out)
 }
 
 #[derive(Debug, Deserialize)]
@@ -255,7 +290,15 @@ pub fn parse_spheres(text: &str, positions: &[[f64; 3]]) -> Result<Handles, Sele
 
 /// Reads a selection file for a mesh with rest positions `positions` (`#V×3`), choosing the
 /// format by extension (`.dmat` or `.json`, case-insensitive). Errors name `path`.
-pub fn load_selection(path: &Path, positions: &[[f64; 3]]) -> Result<Handles, SelectionError> {
+///
+/// `vertex_map` (cleaning's input → output map, when the mesh was cleaned on load): a `.dmat`
+/// with one label per vertex of the file as read (before welding and removal) is carried to
+/// the cleaned mesh through it; one with a label per cleaned vertex is read as is.
+pub fn load_selection(
+    path: &Path,
+    positions: &[[f64; 3]],
+    vertex_map: Option<&[Option<u32>]>,
+) -> Result<Handles, SelectionError> {
     let file = path.display().to_string();
     let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
     let kind = match ext.as_deref() {
@@ -282,8 +325,16 @@ pub fn load_selection(path: &Path, positions: &[[f64; 3]]) -> Result<Handles, Se
         file: file.clone(),
         message: "not a text file (invalid UTF-8)".into(),
     })?;
-    let result =
-        if kind == 0 { parse_dmat(text, positions.len()) } else { parse_spheres(text, positions) };
+    let n = positions.len();
+    let result = match (kind, vertex_map) {
+        (1, _) => parse_spheres(text, positions),
+        (_, Some(map)) if map.len() != n => read_dmat(text).and_then(|labels| {
+            let labels =
+                if labels.len() == map.len() { remap_labels(&labels, map, n)? } else { labels };
+            handles_from_labels(&labels, n)
+        }),
+        _ => parse_dmat(text, n),
+    };
     result.map_err(|e| e.named(&file))
 }
 
@@ -304,6 +355,35 @@ pub fn write_dmat(path: &Path, handles: &Handles) -> Result<(), SaveError> {
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
+
+    /// A `.dmat` written for the file as read (before welding and removal) is carried to the
+    /// cleaned mesh; one for the cleaned mesh is read as is; welded vertices of two groups and
+    /// other counts are errors.
+    #[test]
+    fn dmat_of_the_file_as_read_goes_through_the_vertex_map() {
+        let dir = std::env::temp_dir().join(format!("bsarap-dmat-map-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let positions = [[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+        // Input vertex 3 was welded into 1, input 4 removed.
+        let map = [Some(0), Some(1), Some(2), Some(1), None];
+        let load = |name: &str, text: &str| {
+            let path = dir.join(name);
+            std::fs::write(&path, text).unwrap();
+            load_selection(&path, &positions, Some(&map))
+        };
+        let h = load("input.dmat", "1 5\n-1\n-1\n0\n0\n1\n").unwrap();
+        assert_eq!(h.labels(), &[None, Some(0), Some(0)]);
+        let h = load("output.dmat", "1 3\n0\n-1\n1\n").unwrap();
+        assert_eq!(h.labels(), &[Some(0), None, Some(1)]);
+        let e = load("conflict.dmat", "1 5\n-1\n1\n0\n0\n-1\n").unwrap_err().to_string();
+        assert!(e.contains("conflict.dmat") && e.contains("welded"), "{e}");
+        let e = load("four.dmat", "1 4\n-1\n0\n0\n0\n").unwrap_err();
+        assert!(matches!(e, SelectionError::Handles { .. }), "{e}");
+        // Without a map, a file-as-read count is a count mismatch, as before.
+        let path = dir.join("input.dmat");
+        assert!(load_selection(&path, &positions, None).is_err());
+        std::fs::remove_dir_all(&dir).ok();
+    }
 
     #[test]
     fn dmat_values() {

@@ -52,3 +52,55 @@ fn fine_iterations_move_the_coarse_result_towards_converged_arap() {
         assert!(q1.mean < q0.mean, "mean distance did not drop: {} -> {}", q0.mean, q1.mean);
     }
 }
+
+/// What the fine iterations change is carried to the next solve: solving the same targets
+/// again goes on converging (without it, each solve would start again from the coarse pose and
+/// end at the same place), and rest targets still give the rest pose exactly afterwards.
+#[test]
+fn fine_corrections_add_up_over_solves_and_rest_stays_exact() {
+    let (mesh, handles) = solver::shapes::bumpy_bar(4);
+    let diag = mesh.bbox_diagonal();
+    let t = GroupTransform {
+        translation: [0.0, 0.2 * diag, 0.1 * diag],
+        rotation: axis_angle([0.0, 0.0, 1.0], 0.6),
+    };
+    let targets = handle_targets(mesh.positions(), &handles, &[(0, t)]).unwrap();
+    let reference = {
+        let config = ArapConfig {
+            tolerance: 1e-12,
+            max_iterations: 20_000,
+            acceleration: Acceleration::Anderson { window: 5 },
+            ..Default::default()
+        };
+        let mut a = Arap::new(&mesh, &handles, &config).unwrap();
+        a.solve(&targets).unwrap();
+        a.positions().to_vec()
+    };
+    let config = ArapConfig { tolerance: 1e-4, max_iterations: 100, ..Default::default() };
+    let base = BaseConfig {
+        coarse_vertices: mesh.n_vertices() / 8,
+        fine_iterations: 2,
+        ..Default::default()
+    };
+    let mut d = Deformer::with_base(Method::BsArapCoarse, &mesh, &handles, &config, &base).unwrap();
+    let mut means = Vec::new();
+    for _ in 0..4 {
+        d.solve(&targets).unwrap();
+        means.push(distances(d.positions(), &reference, diag).mean);
+    }
+    eprintln!("mean distance over repeated solves: {means:?}");
+    for w in means.windows(2) {
+        assert!(w[1] < 0.95 * w[0], "the fine corrections did not add up: {means:?}");
+    }
+    let rest_targets: Vec<[f64; 3]> =
+        handles.handle_vertices().iter().map(|&v| mesh.positions()[v as usize]).collect();
+    d.solve(&rest_targets).unwrap();
+    assert_eq!(d.positions(), mesh.positions());
+    // And the next pose starts from no correction: the same as a fresh deformer's.
+    d.solve(&targets).unwrap();
+    let mut fresh =
+        Deformer::with_base(Method::BsArapCoarse, &mesh, &handles, &config, &base).unwrap();
+    fresh.solve(&targets).unwrap();
+    let q = distances(d.positions(), fresh.positions(), diag);
+    assert!(q.max < 1e-3, "{q:?}");
+}

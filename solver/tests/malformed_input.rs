@@ -457,7 +457,7 @@ fn malformed_inputs_give_their_specific_errors() {
                 Ok(m) => (format!("loaded {} faces", m.mesh.n_faces()), false),
                 Err(e) => (e.to_string(), check(&e)),
             },
-            Expect::Select(check) => match load_selection(&path, &TET_P) {
+            Expect::Select(check) => match load_selection(&path, &TET_P, None) {
                 Ok(h) => (format!("selected {:?}", h.labels()), false),
                 Err(e) => (e.to_string(), check(&e)),
             },
@@ -620,7 +620,7 @@ fn cleaning_that_removes_nothing_keeps_vertex_order_through_files() {
     let h = solver::Handles::from_labels(&[-1, 0, 2, -1], 4).unwrap();
     let sel = dir.join("sel.dmat");
     write_dmat(&sel, &h).unwrap();
-    assert_eq!(load_selection(&sel, &p).unwrap(), h);
+    assert_eq!(load_selection(&sel, &p, None).unwrap(), h);
     let _ = std::fs::remove_dir_all(&dir);
 }
 

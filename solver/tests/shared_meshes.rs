@@ -93,7 +93,7 @@ fn shared_selections_match_the_readme() {
             continue;
         }
         let m = load_mesh(&mesh).unwrap();
-        let h = load_selection(&sel, m.mesh.positions()).unwrap();
+        let h = load_selection(&sel, m.mesh.positions(), Some(&m.report.vertex_map)).unwrap();
         assert_eq!(h.labels().iter().filter(|l| l.is_none()).count(), free);
         let got: Vec<usize> =
             (0..h.n_groups()).map(|k| h.group(k).map_or(0, |g| g.len())).collect();

@@ -16,6 +16,7 @@ fn knight_translated_group_converges_with_handles_on_target() {
     let handles = solver::selection::load_selection(
         &dir.join("decimated-knight-selection.dmat"),
         mesh.positions(),
+        Some(&loaded.report.vertex_map),
     )
     .unwrap();
     assert_eq!(handles.group_ids().collect::<Vec<_>>(), vec![0, 1, 2]);

@@ -17,7 +17,10 @@
 //! middle one, ⌈N/2⌉, where the group is farthest from rest; the last frame is the rest pose,
 //! which every method returns exactly) against converged full ARAP for that frame's targets ([`solver::quality::Reference`]):
 //! max and mean vertex distance over the bounding-box diagonal, and the ARAP energy of the pose
-//! on the mesh. The reference costs up to thousands of iterations, so it is off by default.
+//! on the mesh. `--quality-reference rest` (default) converges from rest at that frame's
+//! targets; `path` converges at every frame up to it in turn, each from the previous one (the
+//! minimizer the animation reaches, which differs from rest's where a part can bend either
+//! way). The reference costs up to thousands of iterations per solve, so it is off by default.
 //!
 //! Methods are a list of [`solver::Method`]: adding a method to the solver adds it here, and
 //! per-method metrics go into [`MethodResult`].
@@ -28,6 +31,16 @@ use clap::{Args, ValueEnum};
 use solver::arap::Acceleration;
 use solver::{ArapConfig, Deformer, GroupTransform, Method, handle_targets};
 use std::time::Instant;
+
+/// `--quality-reference`: where the converged reference starts (see the module doc).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ReferenceStart {
+    /// Converged from rest at the measured frame's targets.
+    Rest,
+    /// Converged at every frame up to the measured one, each from the previous.
+    Path,
+}
 
 /// `--stop`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, serde::Serialize)]
@@ -83,6 +96,10 @@ pub struct BenchArgs {
     /// The frame `--quality` measures, 1..=frames (default: the middle one, ⌈frames/2⌉).
     #[arg(long)]
     pub quality_frame: Option<usize>,
+    /// Where the converged reference of `--quality` starts: `rest`, or `path` (along the
+    /// animation's frames up to the measured one). Default: rest.
+    #[arg(long, value_enum)]
+    pub quality_reference: Option<ReferenceStart>,
     #[command(flatten)]
     pub base: BaseArgs,
     #[arg(long)]
@@ -297,7 +314,7 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
     let methods = parse_methods(&a.method)?;
     let loaded = load(&a.mesh)?;
     let mesh = &loaded.mesh;
-    let handles = load_handles(&a.handles, mesh)?;
+    let handles = load_handles(&a.handles, &loaded)?;
     let (tolerance, energy_threshold) = match a.stop {
         StopRule::Relative => (a.tol, 0.0),
         StopRule::Threshold => (0.0, a.threshold),
@@ -311,6 +328,11 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
         ..Default::default()
     };
     let quality_frame = a.quality.then(|| a.quality_frame.unwrap_or(a.frames.div_ceil(2)));
+    anyhow::ensure!(
+        a.quality || a.quality_reference.is_none(),
+        "--quality-reference needs --quality"
+    );
+    let reference_start = a.quality_reference.unwrap_or(ReferenceStart::Rest);
     if let Some(f) = a.quality_frame {
         anyhow::ensure!(a.quality, "--quality-frame needs --quality");
         anyhow::ensure!(
@@ -332,10 +354,21 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
     // The converged reference first: if it fails, no method has run for nothing.
     let mut reference = match quality_frame {
         Some(f) => {
-            let targets = frame_targets(&setup, moving_group(&handles)?, f)?;
+            let g = moving_group(&handles)?;
             let t = Instant::now();
-            let r = solver::quality::Reference::new(mesh, &handles, &targets, a.energy.into())
-                .context("solving the converged ARAP reference for --quality")?;
+            let r = match reference_start {
+                ReferenceStart::Rest => {
+                    let targets = frame_targets(&setup, g, f)?;
+                    solver::quality::Reference::new(mesh, &handles, &targets, a.energy.into())
+                }
+                ReferenceStart::Path => {
+                    let path = (1..=f)
+                        .map(|k| frame_targets(&setup, g, k))
+                        .collect::<Result<Vec<_>, _>>()?;
+                    solver::quality::Reference::along_path(mesh, &handles, &path, a.energy.into())
+                }
+            }
+            .context("solving the converged ARAP reference for --quality")?;
             Some((f, r, t.elapsed().as_secs_f64()))
         }
         None => None,
@@ -424,6 +457,7 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
         if let Some((f, r, seconds)) = &reference {
             j["quality_reference"] = serde_json::json!({
                 "frame": f,
+                "start": reference_start,
                 "iterations": r.stats().iterations,
                 "converged": r.stats().converged,
                 "energy": r.stats().energy(),
@@ -488,8 +522,9 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
     }
     if let Some((f, r, seconds)) = &reference {
         println!(
-            "quality at frame {f} against converged ARAP ({} iterations, converged {}, energy \
-             {:.4e}, {seconds:.1} s):",
+            "quality at frame {f} against converged ARAP (from {:?}, {} iterations, converged {}, \
+             energy {:.4e}, {seconds:.1} s):",
+            reference_start,
             r.stats().iterations,
             r.stats().converged,
             r.stats().energy()

@@ -102,7 +102,7 @@ pub fn run(a: &DeformArgs) -> anyhow::Result<()> {
             eprintln!("note: {n} (the output follows the cleaned mesh's vertex order)");
         }
     }
-    let handles = load_handles(&a.handles, mesh)?;
+    let handles = load_handles(&a.handles, &loaded)?;
     let targets = handle_targets(mesh.positions(), &handles, &transforms)
         .with_context(|| format!("{}", a.handles.display()))?;
     let config = ArapConfig {

@@ -98,9 +98,10 @@ pub fn load(path: &std::path::Path) -> anyhow::Result<solver::io::LoadedMesh> {
 /// Loads a handle selection (.dmat or sphere .json) for `mesh`.
 pub fn load_handles(
     path: &std::path::Path,
-    mesh: &solver::Mesh,
+    loaded: &solver::io::LoadedMesh,
 ) -> anyhow::Result<solver::Handles> {
-    Ok(solver::selection::load_selection(path, mesh.positions())?)
+    let map = Some(loaded.report.vertex_map.as_slice());
+    Ok(solver::selection::load_selection(path, loaded.mesh.positions(), map)?)
 }
 
 /// Tolerance and cap validation shared by deform and bench.

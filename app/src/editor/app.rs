@@ -1115,7 +1115,7 @@ impl EditorApp {
 
     fn load_selection(&mut self, path: &Path) {
         let Some(scene) = &self.scene else { return };
-        match loader::load_selection(path, scene.mesh.positions()) {
+        match loader::load_selection(path, scene.mesh.positions(), &scene.vertex_map) {
             Ok(labels) => {
                 self.history.push(self.edit.clone());
                 self.edit = EditState::from_labels(labels);
@@ -1971,7 +1971,8 @@ impl EditorApp {
                     .text("fine iterations"),
             )
             .on_hover_text(
-                "ARAP iterations on the full mesh after each coarse solve: closer to ARAP, slower",
+                "ARAP iterations on the full mesh after each coarse solve (Anderson-accelerated, \
+                 carried from frame to frame): closer to ARAP, slower",
             );
         }
         if self.settings != old {

@@ -26,6 +26,8 @@ pub struct Scene {
     pub mesh: Arc<Mesh>,
     /// Cleaning notices to show in the status bar.
     pub notices: Vec<String>,
+    /// File vertex → mesh vertex (cleaning's map), to read selections of the file as read.
+    pub vertex_map: Vec<Option<u32>>,
     pub rest: Shape,
     pub topology: Arc<Topology>,
     pub adjacency: Adjacency,
@@ -99,7 +101,7 @@ pub fn load_scene(path: &Path, version: u64) -> anyhow::Result<Scene> {
     let mut selection_path = None;
     for candidate in selection_candidates(path) {
         if candidate.exists() {
-            match load_selection(&candidate, mesh.positions()) {
+            match load_selection(&candidate, mesh.positions(), &loaded.report.vertex_map) {
                 Ok(labels) => {
                     default_labels = Some(labels);
                     selection_path = Some(candidate);
@@ -113,6 +115,7 @@ pub fn load_scene(path: &Path, version: u64) -> anyhow::Result<Scene> {
         path: path.to_path_buf(),
         mesh: Arc::new(mesh),
         notices,
+        vertex_map: loaded.report.vertex_map,
         rest,
         topology,
         adjacency,
@@ -132,7 +135,7 @@ pub fn load_scene_file(path: &Path, version: u64) -> anyhow::Result<Scene> {
     let mesh_path = solver::scene::Scene::resolve_path(path, &doc.mesh);
     let mut scene = load_scene(&mesh_path, version)
         .with_context(|| format!("the scene's mesh {}", mesh_path.display()))?;
-    let handles = doc.resolve_handles(path, scene.mesh.positions())?;
+    let handles = doc.resolve_handles(path, scene.mesh.positions(), Some(&scene.vertex_map))?;
     scene.default_labels = Some(handles.labels().to_vec());
     scene.selection_path = Some(path.to_path_buf());
     scene.document = Some((path.to_path_buf(), doc));
@@ -150,9 +153,14 @@ fn selection_candidates(mesh: &Path) -> Vec<PathBuf> {
     ]
 }
 
-/// Reads a `.dmat` (one label per vertex) or a JSON list of spheres: per-vertex labels.
-pub fn load_selection(path: &Path, positions: &[[f64; 3]]) -> anyhow::Result<Vec<Option<u32>>> {
-    let handles = solver::selection::load_selection(path, positions)?;
+/// Reads a `.dmat` (one label per vertex, of the mesh or of its file as read, see
+/// `vertex_map`) or a JSON list of spheres: per-vertex labels.
+pub fn load_selection(
+    path: &Path,
+    positions: &[[f64; 3]],
+    vertex_map: &[Option<u32>],
+) -> anyhow::Result<Vec<Option<u32>>> {
+    let handles = solver::selection::load_selection(path, positions, Some(vertex_map))?;
     Ok(handles.labels().to_vec())
 }
 
