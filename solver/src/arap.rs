@@ -110,7 +110,8 @@ impl Default for ArapConfig {
 pub struct SolveStats {
     /// Local-global iterations run.
     pub iterations: usize,
-    /// Whether the tolerance was met (false: stopped at the cap).
+    /// Whether the tolerance was met (false: stopped at the cap). The coarse variant with fine
+    /// iterations: and they, too, lowered the energy by less than the tolerance per iteration.
     pub converged: bool,
     /// $E(p'_0, R_1)$: the energy of the starting guess (with handles on target).
     pub initial_energy: f64,

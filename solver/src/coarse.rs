@@ -290,6 +290,13 @@ impl CoarseBsArap {
                         });
                     stats.fine_iterations = st.iterations;
                     stats.fine_ms = st.total_ms();
+                    // Converged when the fine iterations, too, no longer lower the energy by
+                    // the tolerance per iteration: then solving the same targets again (the
+                    // editor does while a frame is not converged) would change nothing.
+                    let (e0, e1) = (st.initial_energy, st.energy());
+                    let tol = self.arap.config().tolerance;
+                    let per_iteration = (e0 - e1) / (e0 * st.iterations.max(1) as f64);
+                    stats.converged &= e0 <= f64::MIN_POSITIVE || per_iteration < tol;
                 }
                 Err(e) => {
                     // The previous pose stays, as for a failed coarse solve.

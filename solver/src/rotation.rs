@@ -21,7 +21,7 @@ pub const IDENTITY: Mat3 = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
 ///
 /// Fast path, Horn's quaternion method (Horn 1987) with the eigenvalue found as in Theobald's
 /// QCP (2005): for a unit quaternion $q$, $\operatorname{tr}(R(q)\,S) = q^\top N q$ with the
-/// traceless symmetric $4\times4$ matrix $N(S)$ of [`horn_matrix`], so the best *proper*
+/// traceless symmetric $4\times4$ matrix $N(S)$ of `horn_matrix`, so the best *proper*
 /// rotation is $R(q)$ for the eigenvector $q$ of $N$'s largest eigenvalue $\lambda_{\max}$
 /// ($=\sigma_1+\sigma_2\pm\sigma_3$, the sign of $\det S$): reflections are excluded by
 /// construction. $\lambda_{\max}$ is the largest root of the characteristic polynomial
@@ -217,7 +217,7 @@ pub const LANES: usize = 4;
 /// fit with exactly three Laguerre steps from each guess's objective, run in lockstep without
 /// branches so that the lanes' long dependency chains (square roots and divisions) overlap and
 /// the arithmetic can use SIMD. A lane whose root is not verified (Newton step below
-/// $10^{-13}\lambda$, the Budan–Fourier test of [`largest_root`]) or whose rotation fails the
+/// $10^{-13}\lambda$, the Budan–Fourier test of `largest_root`) or whose rotation fails the
 /// optimality check goes through the scalar [`fit_rotation_near`] instead.
 pub fn fit_rotations_near(s: &[Mat3; LANES], guess: &[Mat3; LANES]) -> [Mat3; LANES] {
     let fast = fit_rotations_lockstep(s, guess);

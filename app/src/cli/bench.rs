@@ -124,6 +124,8 @@ pub struct MethodResult {
     pub seconds_per_frame: f64,
     pub fps: f64,
     pub final_energy: f64,
+    /// Frames that did not converge ([`solver::SolveStats::converged`]: stopped at the cap, or,
+    /// with fine iterations, still lowering the energy on the mesh).
     pub frames_at_cap: usize,
     pub rejected_steps: usize,
     pub factor_nonzeros: usize,
