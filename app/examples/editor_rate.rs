@@ -11,6 +11,12 @@
 //! the group poses, the solve, and the f32 copies of the positions, the deformed base and the
 //! detail magnitudes. Not included: the UI thread (rendering, normals, picking) competing for
 //! the same cores, and the second thread of the side-by-side view.
+//!
+//! Then settling, for the methods that do it (the coarse BS-ARAP with the editor's default
+//! settle iterations): the group is dragged to the far point of the circle (0.2·diag from rest)
+//! and left there; the thread solves until converged, then settles until converged. Reported:
+//! settle steps and fine iterations, seconds, and the distance to converged ARAP on the mesh
+//! ([`solver::quality::Reference`]) before and after settling.
 
 use app::editor::deformers::factory;
 use app::editor::pose::{GroupPose, handle_targets};
@@ -55,6 +61,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     println!("|---|---:|---:|---:|---:|---:|---:|");
     let make = factory();
+    let mut settling = Vec::new();
     for m in methods {
         let (slot, settings) = match m {
             solver::Method::Arap => (Slot::Arap, defaults),
@@ -90,6 +97,75 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             m.name(),
             iterations as f64 / frames as f64,
             1e3 / mean
+        );
+
+        let mut poses = vec![GroupPose::default(); n_poses];
+        poses[group].translation = [-2.0 * radius, 0.0, 0.0];
+        let targets = handle_targets(&mesh, &handles, &poses)?;
+        let mut solves = 1;
+        while !d.solve(&targets, &mut x)?.converged && solves < 1000 {
+            solves += 1;
+        }
+        let before = x.clone();
+        let t = Instant::now();
+        let (mut steps, mut fine) = (0, 0);
+        while let Some(s) = d.settle(&targets, &mut x)? {
+            steps += 1;
+            fine += s.fine_iterations;
+            if s.converged || steps >= 1000 {
+                break;
+            }
+        }
+        if steps > 0 {
+            let seconds = t.elapsed().as_secs_f64();
+            settling.push((m, targets, solves, before, x.clone(), steps, fine, seconds));
+        }
+    }
+    if !settling.is_empty() {
+        println!();
+        println!(
+            "| method | solves to converge | settle steps | fine iterations | settle s | before: max / mean / energy | after: max / mean / energy | reference energy |"
+        );
+        println!("|---|---:|---:|---:|---:|---:|---:|---:|");
+    }
+    for (m, targets, solves, before, after, steps, fine, seconds) in settling {
+        let mut r = solver::quality::Reference::new(&mesh, &handles, &targets, defaults.energy)?;
+        let (b, a) = (r.measure(&before), r.measure(&after));
+        println!(
+            "| {} | {solves} | {steps} | {fine} | {seconds:.2} | {:.2}% / {:.3}% / {:.3e} | {:.2}% / {:.3}% / {:.3e} | {:.3e} |",
+            m.name(),
+            100.0 * b.max_distance,
+            100.0 * b.mean_distance,
+            b.energy_on_mesh,
+            100.0 * a.max_distance,
+            100.0 * a.mean_distance,
+            a.energy_on_mesh,
+            r.stats().energy()
+        );
+        // Full ARAP converged from the settled pose: which minimum the settled pose is near.
+        let tight = solver::ArapConfig {
+            tolerance: solver::quality::REFERENCE_TOLERANCE,
+            max_iterations: solver::quality::REFERENCE_MAX_ITERATIONS,
+            acceleration: solver::arap::Acceleration::Anderson {
+                window: solver::quality::REFERENCE_ANDERSON_WINDOW,
+            },
+            ..Default::default()
+        };
+        let mut from_settled = solver::Arap::new(&mesh, &handles, &tight)?;
+        from_settled.set_positions(&after);
+        let st = from_settled.solve(&targets)?;
+        let to_settled =
+            solver::quality::distances(from_settled.positions(), &after, mesh.bbox_diagonal());
+        let to_reference = r.measure(from_settled.positions());
+        println!(
+            "  ARAP converged from the settled pose: {} iterations, energy {:.4e}; from the settled \
+             pose {:.2}% / {:.3}%, from the reference {:.2}% / {:.3}% (max / mean)",
+            st.iterations,
+            st.energy(),
+            100.0 * to_settled.max,
+            100.0 * to_settled.mean,
+            100.0 * to_reference.max_distance,
+            100.0 * to_reference.mean_distance
         );
     }
     Ok(())

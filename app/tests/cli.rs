@@ -215,6 +215,14 @@ fn bench_quality_against_converged_arap() {
     assert_eq!(along["quality_reference"]["start"], "path");
     assert_eq!(along["quality_reference"]["converged"], true);
     assert!(q(&along, "max_distance") < 1e-4, "{}", along["methods"]["arap"]["quality"]);
+    // The reference converged from each method's own pose: here the minimum is unique, so the
+    // capped pose is as far from it as from the reference from rest.
+    let own = run(&["--stop", "fixed", "--max-iters", "1", "--quality-reference", "own"]);
+    assert_eq!(own["quality_reference"]["start"], "own");
+    assert_eq!(own["methods"]["arap"]["quality_reference"]["converged"], true);
+    let (d_own, d_rest) = (q(&own, "max_distance"), q(&capped, "max_distance"));
+    assert!((d_own - d_rest).abs() < 1e-3 * d_rest, "{d_own} vs {d_rest}");
+    assert!(capped["methods"]["arap"].get("quality_reference").is_none());
     // Without --quality there is no quality field; a frame out of range is an error.
     let (_, plain, _) = bsarap(&[
         "bench",

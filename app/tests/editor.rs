@@ -139,19 +139,22 @@ fn opens_the_default_asset_and_views_change_the_image() {
                 f.pose_generation == a.pose_generation() && f.stats.converged
             })
         };
-        current(Method::Arap) && current(Method::BsArap)
+        current(Method::Arap)
+            && current(Method::BsArap)
+            && matches!(a.solver_state(), Some(SolverState::Converged))
     };
-    step_until(&mut h, "both methods converged on the pose", posed);
+    step_until(&mut h, "both methods converged (and BS-ARAP settled) on the pose", posed);
     step_until(&mut h, "the quality of the posed results", |a| {
         a.side_by_side_quality().is_some_and(|(_, current)| current)
     });
-    // Both are close to converged ARAP; ARAP at tolerance 1e-4 is closer than the coarse base.
+    // Both are close to converged ARAP: ARAP at tolerance 1e-4, and the coarse BS-ARAP once its
+    // pose has settled on the full mesh.
     let (q, _) = h.state().side_by_side_quality().unwrap();
     for q in &q {
-        assert!(q.max_distance.is_finite() && q.max_distance < 0.1, "{q:?}");
+        assert!(q.max_distance.is_finite() && q.max_distance < 0.02, "{q:?}");
         assert!(q.mean_distance <= q.max_distance && q.energy_on_mesh > 0.0, "{q:?}");
+        assert!(q.mean_distance < 2e-3, "{q:?}");
     }
-    assert!(q[0].mean_distance < q[1].mean_distance, "{q:?}");
 }
 
 #[test]

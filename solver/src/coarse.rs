@@ -46,9 +46,12 @@ pub struct CoarseConfig {
     pub smoothing: f64,
     /// Vertices of the coarse base (about; at least the handle groups' minimum).
     pub coarse_vertices: usize,
-    /// Plain ARAP iterations on the full mesh after each coarse solve, started from the
-    /// prolonged result (0: none, and no factorization of the full mesh).
+    /// ARAP iterations on the full mesh after each coarse solve, started from the prolonged
+    /// result (0: none).
     pub fine_iterations: usize,
+    /// ARAP iterations on the full mesh per [`CoarseBsArap::settle`] step, the refinement of a
+    /// pose whose handles have stopped (0: off). Both 0: no factorization of the full mesh.
+    pub settle_iterations: usize,
 }
 
 impl Default for CoarseConfig {
@@ -57,6 +60,7 @@ impl Default for CoarseConfig {
             smoothing: crate::bs_arap::BaseKind::DEFAULT_SMOOTHING,
             coarse_vertices: 2000,
             fine_iterations: 0,
+            settle_iterations: 0,
         }
     }
 }
@@ -82,8 +86,16 @@ pub struct CoarseBsArap {
     /// Per fine vertex, what the last fine iterations added to its detail, in the detail's
     /// frame (zero without fine iterations): carried to the next solve.
     correction: Vec<[f64; 3]>,
-    /// ARAP on the full mesh and its iteration count per solve (see [`CoarseConfig`]).
-    fine: Option<(Arap, usize)>,
+    /// ARAP on the full mesh (when fine or settle iterations are asked for).
+    fine: Option<Arap>,
+    fine_iterations: usize,
+    settle_iterations: usize,
+    /// The targets of the last solve, and whether [`CoarseBsArap::settle`] may refine its
+    /// result (its coarse solve converged and it is not the rest pose).
+    last_targets: Vec<[f64; 3]>,
+    settle_ready: bool,
+    /// The coarse energy of the last solve (what a settle step reports).
+    last_energy: f64,
     phases: Vec<(&'static str, f64)>,
     /// Scratch for the next result (swapped with `result` after a finite solve).
     next: Vec<[f64; 3]>,
@@ -183,10 +195,10 @@ impl CoarseBsArap {
         let details =
             mesh.positions().iter().zip(&base_on_coarse).map(|(&p, &b)| sub(p, b)).collect();
         clock.lap("embedding");
-        let fine = if coarse.fine_iterations > 0 {
+        let fine = if coarse.fine_iterations > 0 || coarse.settle_iterations > 0 {
             let fine = Arap::with_constraints(mesh, constraints.clone(), config, 0.0, None)?;
             clock.lap("fine factorization");
-            Some((fine, coarse.fine_iterations))
+            Some(fine)
         } else {
             None
         };
@@ -197,6 +209,11 @@ impl CoarseBsArap {
             .collect();
         Ok(CoarseBsArap {
             fine,
+            fine_iterations: coarse.fine_iterations,
+            settle_iterations: coarse.settle_iterations,
+            last_targets: Vec::new(),
+            settle_ready: false,
+            last_energy: 0.0,
             phases: clock.phases,
             next: Vec::new(),
             pinned,
@@ -229,6 +246,11 @@ impl CoarseBsArap {
         let coarse_targets: Vec<[f64; 3]> =
             self.coarse_targets.iter().map(|&k| targets[k]).collect();
         let stats = self.arap.solve(&coarse_targets)?;
+        self.last_targets.clear();
+        self.last_targets.extend_from_slice(targets);
+        // Rest targets give the rest pose exactly, without iterating: nothing to settle.
+        self.settle_ready = stats.converged && stats.iterations > 0;
+        self.last_energy = stats.energy();
         let bc = self.arap.positions();
         for (q, r) in self.quaternions.iter_mut().zip(self.arap.rotations()) {
             *q = quaternion_of(r);
@@ -270,42 +292,77 @@ impl CoarseBsArap {
         if let Some(vertex) = bad {
             std::mem::swap(&mut self.result, &mut next);
             self.next = next;
+            self.settle_ready = false;
             return Err(SolveError::NonFiniteResult { vertex });
         }
         self.next = next;
         let mut stats = stats;
-        if let Some((fine, n)) = self.fine.as_mut() {
-            match fine.refine(&self.result, targets, *n) {
+        if self.fine_iterations > 0 {
+            match self.run_fine(targets, self.fine_iterations) {
                 Ok(st) => {
-                    self.result.copy_from_slice(fine.positions());
-                    // What the fine iterations changed, kept in the detail frames for the next
-                    // solve (zero again when the result is the rest pose).
-                    self.correction
-                        .par_iter_mut()
-                        .zip(self.result.par_iter().zip(self.deformed_base.par_iter()))
-                        .zip(self.frames.par_iter().zip(self.details.par_iter()))
-                        .for_each(|((c, (x, b)), (q, d))| {
-                            let conj = [q[0], -q[1], -q[2], -q[3]];
-                            *c = sub(rotate(conj, sub(*x, *b)), *d);
-                        });
                     stats.fine_iterations = st.iterations;
                     stats.fine_ms = st.total_ms();
-                    // Converged when the fine iterations, too, no longer lower the energy by
-                    // the tolerance per iteration: then solving the same targets again (the
-                    // editor does while a frame is not converged) would change nothing.
-                    let (e0, e1) = (st.initial_energy, st.energy());
-                    let tol = self.arap.config().tolerance;
-                    let per_iteration = (e0 - e1) / (e0 * st.iterations.max(1) as f64);
-                    stats.converged &= e0 <= f64::MIN_POSITIVE || per_iteration < tol;
+                    stats.converged &= self.fine_converged(&st);
                 }
                 Err(e) => {
                     // The previous pose stays, as for a failed coarse solve.
                     std::mem::swap(&mut self.result, &mut self.next);
+                    self.settle_ready = false;
                     return Err(e);
                 }
             }
         }
         Ok(stats)
+    }
+
+    /// Refines the result of the last solve, whose handles have stopped at `targets`: runs
+    /// [`CoarseConfig::settle_iterations`] fine iterations from it, carried like the fine
+    /// iterations of a solve. Call it again until the returned statistics say converged (the
+    /// fine iterations no longer lower the energy by the tolerance per iteration): the pose
+    /// approaches converged ARAP on the full mesh, the next solve goes on from it. `None`:
+    /// nothing to settle (no settle iterations, other targets than the last solve's, a coarse
+    /// solve that did not converge, or the rest pose, which is exact). The statistics have no
+    /// coarse iteration and the last solve's coarse energy.
+    pub fn settle(&mut self, targets: &[[f64; 3]]) -> Result<Option<SolveStats>, SolveError> {
+        if self.settle_iterations == 0 || !self.settle_ready || self.last_targets != targets {
+            return Ok(None);
+        }
+        let st = self.run_fine(targets, self.settle_iterations)?;
+        Ok(Some(SolveStats {
+            converged: self.fine_converged(&st),
+            initial_energy: self.last_energy,
+            fine_iterations: st.iterations,
+            fine_ms: st.total_ms(),
+            ..SolveStats::default()
+        }))
+    }
+
+    /// `n` fine iterations ([`Arap::refine`]) from the current result, which they replace; what
+    /// they changed is kept in the detail frames for the next solve (zero again when the result
+    /// is the rest pose). On error the result is unchanged.
+    fn run_fine(&mut self, targets: &[[f64; 3]], n: usize) -> Result<SolveStats, SolveError> {
+        let Some(fine) = self.fine.as_mut() else {
+            return Ok(SolveStats { converged: true, ..SolveStats::default() });
+        };
+        let st = fine.refine(&self.result, targets, n)?;
+        self.result.copy_from_slice(fine.positions());
+        self.correction
+            .par_iter_mut()
+            .zip(self.result.par_iter().zip(self.deformed_base.par_iter()))
+            .zip(self.frames.par_iter().zip(self.details.par_iter()))
+            .for_each(|((c, (x, b)), (q, d))| {
+                let conj = [q[0], -q[1], -q[2], -q[3]];
+                *c = sub(rotate(conj, sub(*x, *b)), *d);
+            });
+        Ok(st)
+    }
+
+    /// Whether fine iterations no longer lower the energy by the tolerance per iteration (then
+    /// running them again at the same targets would change nothing).
+    fn fine_converged(&self, st: &SolveStats) -> bool {
+        let (e0, e1) = (st.initial_energy, st.energy());
+        let per_iteration = (e0 - e1) / (e0 * st.iterations.max(1) as f64);
+        e0 <= f64::MIN_POSITIVE || per_iteration < self.arap.config().tolerance
     }
 
     /// The result of the last solve, `#V×3`.
@@ -353,7 +410,9 @@ impl CoarseBsArap {
     pub fn reset(&mut self) {
         self.arap.reset();
         self.correction.fill([0.0; 3]);
-        if let Some((fine, _)) = self.fine.as_mut() {
+        self.last_targets.clear();
+        self.settle_ready = false;
+        if let Some(fine) = self.fine.as_mut() {
             fine.reset();
         }
     }

@@ -57,6 +57,9 @@ pub struct BaseConfig {
     pub coarse_vertices: usize,
     /// ARAP iterations on the full mesh after each coarse solve ([`Method::BsArapCoarse`]).
     pub fine_iterations: usize,
+    /// ARAP iterations on the full mesh per [`Deformer::settle`] step ([`Method::BsArapCoarse`];
+    /// 0: off).
+    pub settle_iterations: usize,
 }
 
 impl Default for BaseConfig {
@@ -65,6 +68,7 @@ impl Default for BaseConfig {
             smoothing: BaseKind::DEFAULT_SMOOTHING,
             coarse_vertices: CoarseConfig::default().coarse_vertices,
             fine_iterations: CoarseConfig::default().fine_iterations,
+            settle_iterations: CoarseConfig::default().settle_iterations,
         }
     }
 }
@@ -113,6 +117,7 @@ impl Deformer {
                     smoothing: base.smoothing,
                     coarse_vertices: base.coarse_vertices,
                     fine_iterations: base.fine_iterations,
+                    settle_iterations: base.settle_iterations,
                 },
             )?)),
         })
@@ -124,6 +129,16 @@ impl Deformer {
             Deformer::Arap(a) => a.solve(targets),
             Deformer::BsArap(b) => b.solve(targets),
             Deformer::Coarse(c) => c.solve(targets),
+        }
+    }
+
+    /// Refines the last solve's pose once its handles have stopped at `targets`
+    /// ([`CoarseBsArap::settle`]); `None` when there is nothing to refine (other methods: their
+    /// solve already iterates on the full mesh to the tolerance).
+    pub fn settle(&mut self, targets: &[[f64; 3]]) -> Result<Option<SolveStats>, SolveError> {
+        match self {
+            Deformer::Coarse(c) => c.settle(targets),
+            Deformer::Arap(_) | Deformer::BsArap(_) => Ok(None),
         }
     }
 

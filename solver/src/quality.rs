@@ -10,7 +10,8 @@
 //! ARAP's minimizer need not be unique (a thin part bent far can end up on either side): the
 //! reference [`Reference::new`] is the one reached from rest, what a user starting from the rest
 //! pose sees; [`Reference::along_path`] follows the targets of an animation frame by frame, each
-//! solve converged and started from the previous one, the minimizer an animation reaches.
+//! solve converged and started from the previous one, the minimizer an animation reaches;
+//! [`Reference::from_pose`] converges from a given pose, the minimizer whose basin it is in.
 
 use crate::arap::{Acceleration, Arap, ArapConfig, Energy, SolveStats};
 use crate::error::SolveError;
@@ -23,6 +24,17 @@ pub const REFERENCE_TOLERANCE: f64 = 1e-10;
 pub const REFERENCE_MAX_ITERATIONS: usize = 4000;
 /// Anderson window of the reference.
 pub const REFERENCE_ANDERSON_WINDOW: usize = 6;
+
+/// The reference's solver settings (see the module doc).
+fn reference_config(energy: Energy) -> ArapConfig {
+    ArapConfig {
+        energy,
+        tolerance: REFERENCE_TOLERANCE,
+        max_iterations: REFERENCE_MAX_ITERATIONS,
+        acceleration: Acceleration::Anderson { window: REFERENCE_ANDERSON_WINDOW },
+        ..Default::default()
+    }
+}
 
 /// Distances between two poses of the same mesh, as fractions of a length (the diagonal).
 #[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize)]
@@ -71,14 +83,25 @@ impl Reference {
         targets: &[[f64; 3]],
         energy: Energy,
     ) -> Result<Reference, SolveError> {
-        let config = ArapConfig {
-            energy,
-            tolerance: REFERENCE_TOLERANCE,
-            max_iterations: REFERENCE_MAX_ITERATIONS,
-            acceleration: Acceleration::Anderson { window: REFERENCE_ANDERSON_WINDOW },
-            ..Default::default()
-        };
-        let mut arap = Arap::new(mesh, handles, &config)?;
+        let mut arap = Arap::new(mesh, handles, &reference_config(energy))?;
+        let stats = arap.solve(targets)?;
+        let positions = arap.positions().to_vec();
+        Ok(Reference { arap, positions, diagonal: mesh.bbox_diagonal(), stats })
+    }
+
+    /// Converged full ARAP for `targets` started from the pose `start` (`#V×3`): the minimum
+    /// whose basin `start` lies in. Measured against it, a pose's distance is how far it is
+    /// from being a converged ARAP solution, whichever minimum that is (compare energies to
+    /// see which minimum is lower).
+    pub fn from_pose(
+        mesh: &Mesh,
+        handles: &Handles,
+        targets: &[[f64; 3]],
+        start: &[[f64; 3]],
+        energy: Energy,
+    ) -> Result<Reference, SolveError> {
+        let mut arap = Arap::new(mesh, handles, &reference_config(energy))?;
+        arap.set_positions(start);
         let stats = arap.solve(targets)?;
         let positions = arap.positions().to_vec();
         Ok(Reference { arap, positions, diagonal: mesh.bbox_diagonal(), stats })

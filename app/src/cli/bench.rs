@@ -20,7 +20,10 @@
 //! on the mesh. `--quality-reference rest` (default) converges from rest at that frame's
 //! targets; `path` converges at every frame up to it in turn, each from the previous one (the
 //! minimizer the animation reaches, which differs from rest's where a part can bend either
-//! way). The reference costs up to thousands of iterations per solve, so it is off by default.
+//! way); `own` converges from each method's own pose (the minimizer whose basin the pose is in:
+//! how far the pose is from being a converged ARAP solution, whichever; its energy says which
+//! minimum is lower). The reference costs up to thousands of iterations per solve, so it is
+//! off by default.
 //!
 //! Methods are a list of [`solver::Method`]: adding a method to the solver adds it here, and
 //! per-method metrics go into [`MethodResult`].
@@ -40,6 +43,18 @@ pub enum ReferenceStart {
     Rest,
     /// Converged at every frame up to the measured one, each from the previous.
     Path,
+    /// Converged from each method's own pose at the measured frame: the minimum whose basin
+    /// the pose is in (ARAP can have several; see the per-method reference energies).
+    Own,
+}
+
+/// A method's own converged reference (`--quality-reference own`).
+#[derive(Debug, Clone, Copy, serde::Serialize)]
+pub struct ReferenceSummary {
+    pub iterations: usize,
+    pub converged: bool,
+    pub energy: f64,
+    pub seconds: f64,
 }
 
 /// `--stop`.
@@ -136,6 +151,9 @@ pub struct MethodResult {
     /// With `--quality`: the pose of the chosen frame against converged full ARAP.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub quality: Option<solver::quality::Quality>,
+    /// With `--quality-reference own`: the reference converged from this method's pose.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub quality_reference: Option<ReferenceSummary>,
 }
 
 /// One benchmarked variant: a method and its acceleration.
@@ -292,6 +310,7 @@ fn bench_variant(
         iterations,
         first_frame_normalized_energies: first,
         quality: None,
+        quality_reference: None,
     };
     Ok((result, snapshot))
 }
@@ -353,24 +372,32 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
         quality_frame,
         base: a.base.config()?,
     };
-    // The converged reference first: if it fails, no method has run for nothing.
-    let mut reference = match quality_frame {
-        Some(f) => {
-            let g = moving_group(&handles)?;
-            let t = Instant::now();
-            let r = match reference_start {
-                ReferenceStart::Rest => {
-                    let targets = frame_targets(&setup, g, f)?;
-                    solver::quality::Reference::new(mesh, &handles, &targets, a.energy.into())
-                }
-                ReferenceStart::Path => {
-                    let path = (1..=f)
-                        .map(|k| frame_targets(&setup, g, k))
-                        .collect::<Result<Vec<_>, _>>()?;
-                    solver::quality::Reference::along_path(mesh, &handles, &path, a.energy.into())
-                }
-            }
-            .context("solving the converged ARAP reference for --quality")?;
+    // The converged reference first: if it fails, no method has run for nothing. With `own`,
+    // each method's reference is solved from its pose after it ran.
+    let own = match (quality_frame, reference_start) {
+        (Some(f), ReferenceStart::Own) => {
+            Some((f, frame_targets(&setup, moving_group(&handles)?, f)?))
+        }
+        _ => None,
+    };
+    let g = moving_group(&handles)?;
+    let t = Instant::now();
+    let shared = match (quality_frame, reference_start) {
+        (Some(f), ReferenceStart::Rest) => {
+            let targets = frame_targets(&setup, g, f)?;
+            Some((f, solver::quality::Reference::new(mesh, &handles, &targets, a.energy.into())))
+        }
+        (Some(f), ReferenceStart::Path) => {
+            let path =
+                (1..=f).map(|k| frame_targets(&setup, g, k)).collect::<Result<Vec<_>, _>>()?;
+            let r = solver::quality::Reference::along_path(mesh, &handles, &path, a.energy.into());
+            Some((f, r))
+        }
+        _ => None,
+    };
+    let mut reference = match shared {
+        Some((f, r)) => {
+            let r = r.context("solving the converged ARAP reference for --quality")?;
             Some((f, r, t.elapsed().as_secs_f64()))
         }
         None => None,
@@ -401,8 +428,27 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
         progress.set_message(v.label());
         match bench_variant(v, &setup, &progress) {
             Ok((mut r, snapshot)) => {
-                if let (Some((_, reference, _)), Some(x)) = (reference.as_mut(), snapshot) {
-                    r.quality = Some(reference.measure(&x));
+                if let (Some((_, reference, _)), Some(x)) = (reference.as_mut(), &snapshot) {
+                    r.quality = Some(reference.measure(x));
+                }
+                if let (Some((_, targets)), Some(x)) = (&own, &snapshot) {
+                    let t = Instant::now();
+                    let mut own_ref = solver::quality::Reference::from_pose(
+                        mesh,
+                        &handles,
+                        targets,
+                        x,
+                        a.energy.into(),
+                    )
+                    .with_context(|| format!("converging ARAP from {}'s pose", v.label()))?;
+                    r.quality = Some(own_ref.measure(x));
+                    let st = own_ref.stats();
+                    r.quality_reference = Some(ReferenceSummary {
+                        iterations: st.iterations,
+                        converged: st.converged,
+                        energy: st.energy(),
+                        seconds: t.elapsed().as_secs_f64(),
+                    });
                 }
                 table.push(r);
             }
@@ -456,6 +502,9 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
             "methods": methods,
             "ratios": ratios,
         });
+        if let Some((f, _)) = &own {
+            j["quality_reference"] = serde_json::json!({ "frame": f, "start": reference_start });
+        }
         if let Some((f, r, seconds)) = &reference {
             j["quality_reference"] = serde_json::json!({
                 "frame": f,
@@ -539,6 +588,23 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
                     q.max_distance * 100.0,
                     q.mean_distance * 100.0,
                     q.energy_on_mesh
+                );
+            }
+        }
+    }
+    if let Some((f, _)) = &own {
+        println!("quality at frame {f} against ARAP converged from each method's own pose:");
+        for r in &table {
+            if let (Some(q), Some(own)) = (r.quality, r.quality_reference) {
+                println!(
+                    "{:<14} max {:.4}% mean {:.4}% of the diagonal, ARAP energy on the mesh {:.4e} \
+                     (its reference: {:.4e}, {} iterations)",
+                    r.method,
+                    q.max_distance * 100.0,
+                    q.mean_distance * 100.0,
+                    q.energy_on_mesh,
+                    own.energy,
+                    own.iterations
                 );
             }
         }

@@ -154,6 +154,8 @@ impl BaseArgs {
             smoothing: self.smoothing,
             coarse_vertices: self.coarse_vertices,
             fine_iterations: self.fine_iterations,
+            // Settling refines a pose whose handles have stopped: an interactive notion.
+            settle_iterations: 0,
         })
     }
 }

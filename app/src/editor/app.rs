@@ -1603,13 +1603,18 @@ impl EditorApp {
             if self.options.deterministic_overlays {
                 lines.push(format!("iterations/frame {}", s.iterations));
             } else {
-                let solving = handle
-                    .and_then(|h| h.try_status())
-                    .is_some_and(|st| st.state == SolverState::Solving);
-                if solving && f.fps > 0.0 {
-                    lines.push(format!("solver {:.1} fps  {} it/frame", f.fps, s.iterations));
+                let solving = handle.and_then(|h| h.try_status()).is_some_and(|st| {
+                    matches!(st.state, SolverState::Solving | SolverState::Settling)
+                });
+                let fine = if s.fine_iterations > 0 {
+                    format!(" + {} on the full mesh", s.fine_iterations)
                 } else {
-                    lines.push(format!("solver idle  {} it/frame", s.iterations));
+                    String::new()
+                };
+                if solving && f.fps > 0.0 {
+                    lines.push(format!("solver {:.1} fps  {} it/frame{fine}", f.fps, s.iterations));
+                } else {
+                    lines.push(format!("solver idle  {} it/frame{fine}", s.iterations));
                 }
                 lines.push(format!("{:.3} ms/it  E = {:.4e}", s.ms_per_iteration, s.energy));
             }
@@ -1974,6 +1979,14 @@ impl EditorApp {
                 "ARAP iterations on the full mesh after each coarse solve (Anderson-accelerated, \
                  carried from frame to frame): closer to ARAP, slower",
             );
+            ui.add(
+                egui::Slider::new(&mut self.settings.base.settle_iterations, 0..=50)
+                    .text("settle iterations"),
+            )
+            .on_hover_text(
+                "once the handles stop, the pose is refined on the full mesh in steps of this \
+                 many ARAP iterations until it converges (0: off)",
+            );
         }
         if self.settings != old {
             self.send_scene();
@@ -2011,6 +2024,7 @@ impl EditorApp {
                     Some(SolverState::Idle) => "idle (no handles)".to_string(),
                     Some(SolverState::Factorizing { .. }) => "factorizing…".to_string(),
                     Some(SolverState::Solving) => "solving".to_string(),
+                    Some(SolverState::Settling) => "refining on the full mesh".to_string(),
                     Some(SolverState::Converged) => "converged".to_string(),
                     Some(SolverState::Failed(e)) => format!("failed: {e}"),
                     Some(SolverState::Panicked(e)) => format!("panicked, restarted: {e}"),

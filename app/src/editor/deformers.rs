@@ -43,7 +43,26 @@ impl Deformer for SolverDeformer {
             energy: stats.energy(),
             ms_per_iteration: stats.ms_per_iteration(),
             converged: stats.converged,
+            fine_iterations: stats.fine_iterations,
         })
+    }
+
+    fn settle(
+        &mut self,
+        targets: &[[f64; 3]],
+        x: &mut [[f64; 3]],
+    ) -> Result<Option<FrameStats>, String> {
+        let Some(stats) = self.0.settle(targets).map_err(|e| e.to_string())? else {
+            return Ok(None);
+        };
+        x.copy_from_slice(self.0.positions());
+        Ok(Some(FrameStats {
+            iterations: 0,
+            energy: stats.energy(),
+            ms_per_iteration: stats.fine_ms / stats.fine_iterations.max(1) as f64,
+            converged: stats.converged,
+            fine_iterations: stats.fine_iterations,
+        }))
     }
 
     fn deformed_base(&self) -> Option<Vec<[f64; 3]>> {

@@ -48,7 +48,9 @@ impl Default for MethodSettings {
             // The paper's base is slow to precompute and collapses under small handles on the
             // default creature (see main's scenes); the coarse faired base is interactive.
             bs_variant: solver::Method::BsArapCoarse,
-            base: solver::BaseConfig::default(),
+            // Once the handles stop, the coarse variant's pose is refined on the full mesh in
+            // steps of 5 Anderson-accelerated ARAP iterations until they stop lowering the energy.
+            base: solver::BaseConfig { settle_iterations: 5, ..solver::BaseConfig::default() },
             compare_variant: solver::Method::Arap,
         }
     }
@@ -92,6 +94,9 @@ pub struct FrameStats {
     pub energy: f64,
     pub ms_per_iteration: f64,
     pub converged: bool,
+    /// ARAP iterations on the full mesh in this frame (the coarse BS-ARAP's fine or settle
+    /// iterations).
+    pub fine_iterations: usize,
 }
 
 /// A deformation method with its precomputation done (factorization happens in the factory).
@@ -107,6 +112,16 @@ pub trait Deformer: Send {
     /// thread asks once per scene.
     fn detail_magnitudes(&self) -> Option<Vec<f64>> {
         None
+    }
+    /// Refines the last solve's converged pose, whose handles have stopped at `targets`, by a
+    /// step (`x` as in [`Deformer::solve`]); the thread calls it until the stats say converged.
+    /// `None`: nothing to refine (the default).
+    fn settle(
+        &mut self,
+        _targets: &[[f64; 3]],
+        _x: &mut [[f64; 3]],
+    ) -> Result<Option<FrameStats>, String> {
+        Ok(None)
     }
 }
 
@@ -188,6 +203,9 @@ pub enum SolverState {
         since: Instant,
     },
     Solving,
+    /// The handles have stopped and the pose is being refined on the full mesh
+    /// ([`Deformer::settle`]).
+    Settling,
     Converged,
     Failed(String),
     /// The worker panicked with this message and restarted.
@@ -312,6 +330,8 @@ struct Active {
     x: Vec<[f64; 3]>,
     /// Targets changed since the last converged solve.
     dirty: bool,
+    /// The last solve converged and its pose is being refined ([`Deformer::settle`]).
+    settling: bool,
     last_frame: Option<Instant>,
     fps: f64,
 }
@@ -321,7 +341,7 @@ fn worker_loop(method: Method, factory: &DeformerFactory, rx: &Receiver<Command>
     let mut active: Option<Active> = None;
     loop {
         // Block only when there is nothing to iterate on.
-        let idle = active.as_ref().is_none_or(|a| !a.dirty);
+        let idle = active.as_ref().is_none_or(|a| !a.dirty && !a.settling);
         let mut commands = Vec::new();
         if idle {
             match rx.recv() {
@@ -385,6 +405,7 @@ fn worker_loop(method: Method, factory: &DeformerFactory, rx: &Receiver<Command>
                         details,
                         x,
                         dirty: true,
+                        settling: false,
                         last_frame: None,
                         fps: 0.0,
                     });
@@ -402,18 +423,34 @@ fn worker_loop(method: Method, factory: &DeformerFactory, rx: &Receiver<Command>
             a.pose_generation = generation;
             a.poses = poses;
             a.dirty = true;
+            a.settling = false;
             set_status(&shared.status, SolverState::Solving);
         }
-        if !a.dirty {
+        if !a.dirty && !a.settling {
             continue;
         }
-        let stats = match super::pose::handle_targets(&a.mesh, &a.handles, &a.poses)
-            .and_then(|targets| a.deformer.solve(&targets, &mut a.x))
-        {
-            Ok(stats) => stats,
+        let solving = a.dirty;
+        let step = super::pose::handle_targets(&a.mesh, &a.handles, &a.poses).and_then(|targets| {
+            if solving {
+                a.deformer.solve(&targets, &mut a.x).map(Some)
+            } else {
+                a.deformer.settle(&targets, &mut a.x)
+            }
+        });
+        let stats = match step {
+            Ok(Some(stats)) => stats,
+            Ok(None) => {
+                // Nothing (more) to refine.
+                a.settling = false;
+                a.last_frame = None;
+                set_status(&shared.status, SolverState::Converged);
+                (shared.repaint)();
+                continue;
+            }
             Err(e) => {
                 set_status(&shared.status, SolverState::Failed(e));
                 a.dirty = false;
+                a.settling = false;
                 (shared.repaint)();
                 continue;
             }
@@ -424,8 +461,13 @@ fn worker_loop(method: Method, factory: &DeformerFactory, rx: &Receiver<Command>
             a.fps = if a.fps == 0.0 { 1.0 / dt } else { 0.8 * a.fps + 0.2 / dt };
         }
         a.last_frame = Some(now);
-        if stats.converged || stats.iterations == 0 {
+        if solving && (stats.converged || stats.iterations == 0) {
             a.dirty = false;
+            a.settling = true;
+        } else if !solving && stats.converged {
+            a.settling = false;
+        }
+        if !a.dirty && !a.settling {
             a.last_frame = None;
         }
         let triangles = a.mesh.triangles();
@@ -441,7 +483,10 @@ fn worker_loop(method: Method, factory: &DeformerFactory, rx: &Receiver<Command>
             fps: a.fps,
         };
         shared.mailbox.put(frame);
-        if !a.dirty {
+        if !solving {
+            let state = if a.settling { SolverState::Settling } else { SolverState::Converged };
+            set_status(&shared.status, state);
+        } else if !a.dirty {
             set_status(&shared.status, SolverState::Converged);
         }
         (shared.repaint)();
@@ -475,7 +520,13 @@ mod tests {
             for (xi, r) in x.iter_mut().zip(&self.rest) {
                 *xi = [r[0] + d[0], r[1] + d[1], r[2] + d[2]];
             }
-            Ok(FrameStats { iterations: 1, energy: 0.0, ms_per_iteration: 0.0, converged: true })
+            Ok(FrameStats {
+                iterations: 1,
+                energy: 0.0,
+                ms_per_iteration: 0.0,
+                converged: true,
+                fine_iterations: 0,
+            })
         }
     }
 
@@ -541,6 +592,65 @@ mod tests {
         h.send(scene(2, vec![moved]));
         let f = wait_frame(&h, |f| f.scene_generation == 2);
         assert_eq!(f.positions[0], [0.0, 0.0, 2.0]);
+    }
+
+    /// Solves like [`Shift`], then refines: each settle step moves vertex 1 by 0.5 along x and
+    /// the third says converged.
+    struct Settles {
+        shift: Shift,
+        steps: usize,
+    }
+
+    impl Deformer for Settles {
+        fn solve(
+            &mut self,
+            targets: &[[f64; 3]],
+            x: &mut [[f64; 3]],
+        ) -> Result<FrameStats, String> {
+            self.steps = 0;
+            self.shift.solve(targets, x)
+        }
+
+        fn settle(
+            &mut self,
+            _targets: &[[f64; 3]],
+            x: &mut [[f64; 3]],
+        ) -> Result<Option<FrameStats>, String> {
+            self.steps += 1;
+            x[1][0] += 0.5;
+            let converged = self.steps == 3;
+            Ok(Some(FrameStats { fine_iterations: self.steps, converged, ..FrameStats::default() }))
+        }
+    }
+
+    /// After a converged solve the thread settles the pose until a step says converged, then
+    /// idles; new poses solve again (and settle again).
+    #[test]
+    fn converged_poses_are_settled_until_converged() {
+        let factory: DeformerFactory = Arc::new(|_, mesh: &Mesh, handles: &Handles, _: &_| {
+            let shift = Shift {
+                rest: mesh.positions().to_vec(),
+                handle_vertices: handles.handle_vertices(),
+            };
+            Ok(Box::new(Settles { shift, steps: 0 }) as Box<dyn Deformer>)
+        });
+        let h = SolverHandle::spawn(Method::BsArap, factory, Arc::new(|| {})).unwrap();
+        h.send(scene(1, vec![GroupPose::default()]));
+        let f = wait_frame(&h, |f| f.stats.fine_iterations == 3);
+        assert_eq!(f.positions[1], [2.5, 0.0, 0.0]);
+        let start = Instant::now();
+        while h.try_status().is_none_or(|s| s.state != SolverState::Converged) {
+            assert!(start.elapsed() < Duration::from_secs(10), "did not end converged");
+            std::thread::sleep(Duration::from_millis(2));
+        }
+        // Converged: no more steps.
+        std::thread::sleep(Duration::from_millis(50));
+        assert!(h.try_take_frame().is_none());
+
+        let moved = GroupPose { translation: [0.0, 0.0, 2.0], ..Default::default() };
+        h.send(Command::SetPoses { pose_generation: 7, poses: vec![moved] });
+        let f = wait_frame(&h, |f| f.pose_generation == 7 && f.stats.fine_iterations == 3);
+        assert_eq!(f.positions[1], [2.5, 0.0, 2.0]);
     }
 
     #[test]
