@@ -21,9 +21,12 @@
 //!    frame, so that over an animation the fine iterations add up instead of starting again
 //!    from the coarse pose every frame (BENCHMARKS.md measures both).
 //!
-//! Rest pose is exact ($B_c' = B_c$, $R = I$ gives $p' = p$ without fine iterations; rest
-//! targets skip them and give $x = p$, so $C = 0$ again) and a rigid motion of all handles
-//! moves the result rigidly. An iteration costs what ARAP on $B_c$ costs; the prolongation is
+//! 6. Optionally ([`CoarseConfig::settle_iterations`], [`CoarseBsArap::settle`]), once the
+//!    handles stop, more fine iterations refine the pose step by step, carried the same way,
+//!    until they no longer lower the energy: the pose approaches converged ARAP on $M$.
+//!
+//! Rest pose is exact (rest targets give $B_c' = B_c$, $R = I$ and clear $C$, so $p' = p$;
+//! they skip the fine iterations) and a rigid motion of all handles moves the result rigidly. An iteration costs what ARAP on $B_c$ costs; the prolongation is
 //! one pass over the fine vertices per frame, each fine iteration one ARAP iteration on $M$.
 
 use crate::arap::{Arap, ArapConfig, SolveStats};
@@ -248,8 +251,12 @@ impl CoarseBsArap {
         let stats = self.arap.solve(&coarse_targets)?;
         self.last_targets.clear();
         self.last_targets.extend_from_slice(targets);
-        // Rest targets give the rest pose exactly, without iterating: nothing to settle.
+        // Rest targets give the rest pose exactly, without iterating: nothing to settle, and
+        // no correction may carry over (the prolongation below is then exactly the rest pose).
         self.settle_ready = stats.converged && stats.iterations > 0;
+        if stats.iterations == 0 {
+            self.correction.fill([0.0; 3]);
+        }
         self.last_energy = stats.energy();
         let bc = self.arap.positions();
         for (q, r) in self.quaternions.iter_mut().zip(self.arap.rotations()) {

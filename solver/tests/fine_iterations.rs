@@ -147,3 +147,63 @@ fn repeated_solves_converge_towards_arap_on_the_mesh() {
     eprintln!("{solves} solves: mean distance {first_mean:.3e} -> {mean:.3e}");
     assert!(mean < 0.1 * first_mean, "{first_mean:e} -> {mean:e}");
 }
+
+/// `settle` refines a converged pose whose handles have stopped until the fine iterations stop
+/// lowering the energy, ending close to converged ARAP on the mesh; it does nothing for other
+/// targets, at rest, or when turned off, and the next solve goes on from the settled pose.
+#[test]
+fn settling_refines_a_stopped_pose_towards_arap_on_the_mesh() {
+    let (mesh, handles) = solver::shapes::bumpy_bar(4);
+    let diag = mesh.bbox_diagonal();
+    let t = GroupTransform {
+        translation: [0.0, 0.2 * diag, 0.1 * diag],
+        rotation: axis_angle([0.0, 0.0, 1.0], 0.6),
+    };
+    let targets = handle_targets(mesh.positions(), &handles, &[(0, t)]).unwrap();
+    let rest_targets: Vec<[f64; 3]> =
+        handles.handle_vertices().iter().map(|&v| mesh.positions()[v as usize]).collect();
+    let config = ArapConfig { tolerance: 1e-6, max_iterations: 200, ..Default::default() };
+    let reference = {
+        let tight = ArapConfig {
+            tolerance: 1e-12,
+            max_iterations: 20_000,
+            acceleration: Acceleration::Anderson { window: 5 },
+            ..Default::default()
+        };
+        let mut a = Arap::new(&mesh, &handles, &tight).unwrap();
+        a.solve(&targets).unwrap();
+        a.positions().to_vec()
+    };
+    let coarse_vertices = mesh.n_vertices() / 8;
+    let off = BaseConfig { coarse_vertices, ..Default::default() };
+    let mut d = Deformer::with_base(Method::BsArapCoarse, &mesh, &handles, &config, &off).unwrap();
+    assert!(d.solve(&targets).unwrap().converged);
+    assert!(d.settle(&targets).unwrap().is_none(), "settling is off");
+
+    let on = BaseConfig { coarse_vertices, settle_iterations: 3, ..Default::default() };
+    let mut d = Deformer::with_base(Method::BsArapCoarse, &mesh, &handles, &config, &on).unwrap();
+    assert!(d.settle(&targets).unwrap().is_none(), "nothing solved yet");
+    assert!(d.solve(&targets).unwrap().converged);
+    let before = distances(d.positions(), &reference, diag).mean;
+    assert!(d.settle(&rest_targets).unwrap().is_none(), "other targets than the last solve's");
+    let mut steps = 0;
+    loop {
+        let s = d.settle(&targets).unwrap().expect("a step");
+        assert_eq!((s.iterations, s.fine_iterations), (0, 3));
+        steps += 1;
+        if s.converged {
+            break;
+        }
+        assert!(steps < 2000, "did not converge");
+    }
+    let after = distances(d.positions(), &reference, diag).mean;
+    eprintln!("{steps} settle steps: mean distance {before:.3e} -> {after:.3e}");
+    assert!(after < 0.05 * before, "{before:e} -> {after:e}");
+    // The next solve at the same targets goes on from the settled pose.
+    d.solve(&targets).unwrap();
+    assert!(distances(d.positions(), &reference, diag).mean < 0.1 * before);
+    // At rest: exact, and nothing to settle.
+    d.solve(&rest_targets).unwrap();
+    assert!(d.positions() == mesh.positions(), "not exactly at rest after settling");
+    assert!(d.settle(&rest_targets).unwrap().is_none());
+}
