@@ -143,17 +143,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             r.stats().energy()
         );
         // Full ARAP converged from the settled pose: which minimum the settled pose is near.
-        let tight = solver::ArapConfig {
-            tolerance: solver::quality::REFERENCE_TOLERANCE,
-            max_iterations: solver::quality::REFERENCE_MAX_ITERATIONS,
-            acceleration: solver::arap::Acceleration::Anderson {
-                window: solver::quality::REFERENCE_ANDERSON_WINDOW,
-            },
-            ..Default::default()
-        };
-        let mut from_settled = solver::Arap::new(&mesh, &handles, &tight)?;
-        from_settled.set_positions(&after);
-        let st = from_settled.solve(&targets)?;
+        let from_settled = solver::quality::Reference::from_pose(
+            &mesh,
+            &handles,
+            &targets,
+            &after,
+            defaults.energy,
+        )?;
+        let st = from_settled.stats();
         let to_settled =
             solver::quality::distances(from_settled.positions(), &after, mesh.bbox_diagonal());
         let to_reference = r.measure(from_settled.positions());

@@ -331,7 +331,7 @@ impl CoarseBsArap {
     /// solve that did not converge, or the rest pose, which is exact). The statistics have no
     /// coarse iteration and the last solve's coarse energy.
     pub fn settle(&mut self, targets: &[[f64; 3]]) -> Result<Option<SolveStats>, SolveError> {
-        if self.settle_iterations == 0 || !self.settle_ready || self.last_targets != targets {
+        if !self.settle_pending() || self.last_targets != targets {
             return Ok(None);
         }
         let st = self.run_fine(targets, self.settle_iterations)?;
@@ -342,6 +342,12 @@ impl CoarseBsArap {
             fine_ms: st.total_ms(),
             ..SolveStats::default()
         }))
+    }
+
+    /// Whether [`CoarseBsArap::settle`] at the last solve's targets would refine: settle
+    /// iterations are set and the last solve converged away from rest.
+    pub fn settle_pending(&self) -> bool {
+        self.settle_iterations > 0 && self.settle_ready
     }
 
     /// `n` fine iterations ([`Arap::refine`]) from the current result, which they replace; what
@@ -365,11 +371,13 @@ impl CoarseBsArap {
     }
 
     /// Whether fine iterations no longer lower the energy by the tolerance per iteration (then
-    /// running them again at the same targets would change nothing).
+    /// running them again at the same targets would change nothing). Without a tolerance
+    /// (other stopping rules) or with a non-finite energy there is nothing to wait for: true.
     fn fine_converged(&self, st: &SolveStats) -> bool {
+        let tol = self.arap.config().tolerance;
         let (e0, e1) = (st.initial_energy, st.energy());
         let per_iteration = (e0 - e1) / (e0 * st.iterations.max(1) as f64);
-        e0 <= f64::MIN_POSITIVE || per_iteration < self.arap.config().tolerance
+        tol <= 0.0 || e0 <= f64::MIN_POSITIVE || per_iteration.is_nan() || per_iteration < tol
     }
 
     /// The result of the last solve, `#V×3`.
@@ -393,7 +401,7 @@ impl CoarseBsArap {
     }
 
     /// Milliseconds of each precomputation phase (faired base, decimation, coarse
-    /// factorization, embedding, and the fine factorization with fine iterations).
+    /// factorization, embedding, and the fine factorization with fine or settle iterations).
     pub fn precompute_phases(&self) -> &[(&'static str, f64)] {
         &self.phases
     }

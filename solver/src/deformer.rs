@@ -58,7 +58,8 @@ pub struct BaseConfig {
     /// ARAP iterations on the full mesh after each coarse solve ([`Method::BsArapCoarse`]).
     pub fine_iterations: usize,
     /// ARAP iterations on the full mesh per [`Deformer::settle`] step ([`Method::BsArapCoarse`];
-    /// 0: off).
+    /// 0: off). An interactive setting: not saved in scenes (read as 0).
+    #[serde(skip)]
     pub settle_iterations: usize,
 }
 
@@ -129,6 +130,15 @@ impl Deformer {
             Deformer::Arap(a) => a.solve(targets),
             Deformer::BsArap(b) => b.solve(targets),
             Deformer::Coarse(c) => c.solve(targets),
+        }
+    }
+
+    /// Whether [`Deformer::settle`] has work after the last solve (then the caller should call
+    /// it with the same targets until it says converged).
+    pub fn settle_pending(&self) -> bool {
+        match self {
+            Deformer::Coarse(c) => c.settle_pending(),
+            Deformer::Arap(_) | Deformer::BsArap(_) => false,
         }
     }
 

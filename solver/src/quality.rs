@@ -83,10 +83,7 @@ impl Reference {
         targets: &[[f64; 3]],
         energy: Energy,
     ) -> Result<Reference, SolveError> {
-        let mut arap = Arap::new(mesh, handles, &reference_config(energy))?;
-        let stats = arap.solve(targets)?;
-        let positions = arap.positions().to_vec();
-        Ok(Reference { arap, positions, diagonal: mesh.bbox_diagonal(), stats })
+        Reference::from_pose(mesh, handles, targets, mesh.positions(), energy)
     }
 
     /// Converged full ARAP for `targets` started from the pose `start` (`#V×3`): the minimum

@@ -3,10 +3,19 @@
 //! local-global step decreases it) and so does its distance to converged ARAP.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-use solver::arap::Acceleration;
 use solver::quality::distances;
 use solver::rotation::axis_angle;
-use solver::{Arap, ArapConfig, BaseConfig, Deformer, GroupTransform, Method, handle_targets};
+use solver::{
+    Arap, ArapConfig, BaseConfig, Deformer, Energy, GroupTransform, Handles, Mesh, Method,
+    handle_targets,
+};
+
+/// Converged full ARAP for `targets` ([`solver::quality::Reference`]).
+fn converged_arap(mesh: &Mesh, handles: &Handles, targets: &[[f64; 3]]) -> Vec<[f64; 3]> {
+    let r = solver::quality::Reference::new(mesh, handles, targets, Energy::SpokesAndRims).unwrap();
+    assert!(r.stats().converged);
+    r.positions().to_vec()
+}
 
 #[test]
 fn fine_iterations_move_the_coarse_result_towards_converged_arap() {
@@ -17,17 +26,7 @@ fn fine_iterations_move_the_coarse_result_towards_converged_arap() {
         rotation: axis_angle([0.0, 0.0, 1.0], 0.6),
     };
     let targets = handle_targets(mesh.positions(), &handles, &[(0, t)]).unwrap();
-    let reference = {
-        let config = ArapConfig {
-            tolerance: 1e-12,
-            max_iterations: 20_000,
-            acceleration: Acceleration::Anderson { window: 5 },
-            ..Default::default()
-        };
-        let mut a = Arap::new(&mesh, &handles, &config).unwrap();
-        a.solve(&targets).unwrap();
-        a.positions().to_vec()
-    };
+    let reference = converged_arap(&mesh, &handles, &targets);
     let mut probe = Arap::new(&mesh, &handles, &ArapConfig::default()).unwrap();
     let config = ArapConfig { tolerance: 1e-4, max_iterations: 100, ..Default::default() };
     let mut rows = Vec::new();
@@ -65,17 +64,7 @@ fn fine_corrections_add_up_over_solves_and_rest_stays_exact() {
         rotation: axis_angle([0.0, 0.0, 1.0], 0.6),
     };
     let targets = handle_targets(mesh.positions(), &handles, &[(0, t)]).unwrap();
-    let reference = {
-        let config = ArapConfig {
-            tolerance: 1e-12,
-            max_iterations: 20_000,
-            acceleration: Acceleration::Anderson { window: 5 },
-            ..Default::default()
-        };
-        let mut a = Arap::new(&mesh, &handles, &config).unwrap();
-        a.solve(&targets).unwrap();
-        a.positions().to_vec()
-    };
+    let reference = converged_arap(&mesh, &handles, &targets);
     let config = ArapConfig { tolerance: 1e-4, max_iterations: 100, ..Default::default() };
     let base = BaseConfig {
         coarse_vertices: mesh.n_vertices() / 8,
@@ -118,17 +107,7 @@ fn repeated_solves_converge_towards_arap_on_the_mesh() {
     };
     let targets = handle_targets(mesh.positions(), &handles, &[(0, t)]).unwrap();
     let config = ArapConfig { tolerance: 1e-6, max_iterations: 100, ..Default::default() };
-    let reference = {
-        let tight = ArapConfig {
-            tolerance: 1e-12,
-            max_iterations: 20_000,
-            acceleration: Acceleration::Anderson { window: 5 },
-            ..Default::default()
-        };
-        let mut a = Arap::new(&mesh, &handles, &tight).unwrap();
-        a.solve(&targets).unwrap();
-        a.positions().to_vec()
-    };
+    let reference = converged_arap(&mesh, &handles, &targets);
     let base = BaseConfig {
         coarse_vertices: mesh.n_vertices() / 8,
         fine_iterations: 2,
@@ -163,17 +142,7 @@ fn settling_refines_a_stopped_pose_towards_arap_on_the_mesh() {
     let rest_targets: Vec<[f64; 3]> =
         handles.handle_vertices().iter().map(|&v| mesh.positions()[v as usize]).collect();
     let config = ArapConfig { tolerance: 1e-6, max_iterations: 200, ..Default::default() };
-    let reference = {
-        let tight = ArapConfig {
-            tolerance: 1e-12,
-            max_iterations: 20_000,
-            acceleration: Acceleration::Anderson { window: 5 },
-            ..Default::default()
-        };
-        let mut a = Arap::new(&mesh, &handles, &tight).unwrap();
-        a.solve(&targets).unwrap();
-        a.positions().to_vec()
-    };
+    let reference = converged_arap(&mesh, &handles, &targets);
     let coarse_vertices = mesh.n_vertices() / 8;
     let off = BaseConfig { coarse_vertices, ..Default::default() };
     let mut d = Deformer::with_base(Method::BsArapCoarse, &mesh, &handles, &config, &off).unwrap();

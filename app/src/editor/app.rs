@@ -718,7 +718,8 @@ impl EditorApp {
             timeline,
             method: s.bs_variant,
             config,
-            base: s.base,
+            // A recording solves each frame once: nothing settles.
+            base: solver::BaseConfig { settle_iterations: 0, ..s.base },
         };
         let c = ctx.clone();
         self.playback.set_playing(false);
@@ -1980,7 +1981,7 @@ impl EditorApp {
                  carried from frame to frame): closer to ARAP, slower",
             );
             ui.add(
-                egui::Slider::new(&mut self.settings.base.settle_iterations, 0..=50)
+                egui::Slider::new(&mut self.settings.base.settle_iterations, 0..=20)
                     .text("settle iterations"),
             )
             .on_hover_text(

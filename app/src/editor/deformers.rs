@@ -47,6 +47,10 @@ impl Deformer for SolverDeformer {
         })
     }
 
+    fn settle_pending(&self) -> bool {
+        self.0.settle_pending()
+    }
+
     fn settle(
         &mut self,
         targets: &[[f64; 3]],

@@ -105,7 +105,8 @@ pub fn apply_scene(scene: &Scene, labels: Vec<Option<u32>>, settings: &MethodSet
     s.energy = scene.arap.energy;
     s.tolerance = scene.arap.tolerance;
     s.max_iterations = scene.arap.max_iterations.clamp(1, MAX_UI_ITERATIONS);
-    s.base = scene.base;
+    // Settling is the editor's own setting, not the scene's.
+    s.base = solver::BaseConfig { settle_iterations: s.base.settle_iterations, ..scene.base };
     let camera = scene.camera.as_ref().and_then(OrbitCamera::from_json);
     Applied { edit, settings: s, camera, time, notice }
 }

@@ -11,10 +11,10 @@
 //! empty state, waiting for the next scene.
 
 use std::panic::{AssertUnwindSafe, catch_unwind};
-use std::sync::mpsc::{Receiver, Sender, TryRecvError, channel};
+use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender, TryRecvError, channel};
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use solver::{Handles, Mesh};
 
@@ -112,6 +112,10 @@ pub trait Deformer: Send {
     /// thread asks once per scene.
     fn detail_magnitudes(&self) -> Option<Vec<f64>> {
         None
+    }
+    /// Whether [`Deformer::settle`] has work after the last solve (the default: never).
+    fn settle_pending(&self) -> bool {
+        false
     }
     /// Refines the last solve's converged pose, whose handles have stopped at `targets`, by a
     /// step (`x` as in [`Deformer::solve`]); the thread calls it until the stats say converged.
@@ -332,22 +336,45 @@ struct Active {
     dirty: bool,
     /// The last solve converged and its pose is being refined ([`Deformer::settle`]).
     settling: bool,
+    /// When the poses last changed, and the settle steps taken since.
+    poses_changed: Instant,
+    settle_steps: usize,
+    /// The statistics of the last published frame.
+    last_stats: FrameStats,
     last_frame: Option<Instant>,
     fps: f64,
 }
+
+/// How long the poses must stay unchanged before a converged pose is settled: a settle step
+/// cannot be interrupted, so a drag that pauses briefly does not wait for one.
+const SETTLE_DELAY: Duration = Duration::from_millis(150);
+
+/// The most settle steps per pose (a deformer whose steps never say converged stops here).
+const MAX_SETTLE_STEPS: usize = 2000;
 
 /// Returns when told to shut down or when the UI side is gone.
 fn worker_loop(method: Method, factory: &DeformerFactory, rx: &Receiver<Command>, shared: &Shared) {
     let mut active: Option<Active> = None;
     loop {
-        // Block only when there is nothing to iterate on.
-        let idle = active.as_ref().is_none_or(|a| !a.dirty && !a.settling);
+        // Block when there is nothing to iterate on; before settling, wait for the poses to
+        // have stayed unchanged for SETTLE_DELAY.
+        let wait = match active.as_ref() {
+            Some(a) if a.dirty => Some(Duration::ZERO),
+            Some(a) if a.settling => Some(SETTLE_DELAY.saturating_sub(a.poses_changed.elapsed())),
+            _ => None,
+        };
         let mut commands = Vec::new();
-        if idle {
-            match rx.recv() {
+        match wait {
+            None => match rx.recv() {
                 Ok(c) => commands.push(c),
                 Err(_) => return,
-            }
+            },
+            Some(d) if !d.is_zero() => match rx.recv_timeout(d) {
+                Ok(c) => commands.push(c),
+                Err(RecvTimeoutError::Timeout) => {}
+                Err(RecvTimeoutError::Disconnected) => return,
+            },
+            Some(_) => {}
         }
         loop {
             match rx.try_recv() {
@@ -406,6 +433,9 @@ fn worker_loop(method: Method, factory: &DeformerFactory, rx: &Receiver<Command>
                         x,
                         dirty: true,
                         settling: false,
+                        poses_changed: Instant::now(),
+                        settle_steps: 0,
+                        last_stats: FrameStats::default(),
                         last_frame: None,
                         fps: 0.0,
                     });
@@ -424,9 +454,10 @@ fn worker_loop(method: Method, factory: &DeformerFactory, rx: &Receiver<Command>
             a.poses = poses;
             a.dirty = true;
             a.settling = false;
+            a.poses_changed = Instant::now();
             set_status(&shared.status, SolverState::Solving);
         }
-        if !a.dirty && !a.settling {
+        if !a.dirty && (!a.settling || a.poses_changed.elapsed() < SETTLE_DELAY) {
             continue;
         }
         let solving = a.dirty;
@@ -439,14 +470,8 @@ fn worker_loop(method: Method, factory: &DeformerFactory, rx: &Receiver<Command>
         });
         let stats = match step {
             Ok(Some(stats)) => stats,
-            Ok(None) => {
-                // Nothing (more) to refine.
-                a.settling = false;
-                a.last_frame = None;
-                set_status(&shared.status, SolverState::Converged);
-                (shared.repaint)();
-                continue;
-            }
+            // Nothing (more) to refine: the current pose stands.
+            Ok(None) => FrameStats { converged: true, ..a.last_stats },
             Err(e) => {
                 set_status(&shared.status, SolverState::Failed(e));
                 a.dirty = false;
@@ -463,10 +488,17 @@ fn worker_loop(method: Method, factory: &DeformerFactory, rx: &Receiver<Command>
         a.last_frame = Some(now);
         if solving && (stats.converged || stats.iterations == 0) {
             a.dirty = false;
-            a.settling = true;
-        } else if !solving && stats.converged {
-            a.settling = false;
+            a.settling = a.deformer.settle_pending();
+            a.settle_steps = 0;
+        } else if !solving {
+            a.settle_steps += 1;
+            if stats.converged || a.settle_steps >= MAX_SETTLE_STEPS {
+                a.settling = false;
+            }
         }
+        // A frame counts as converged only when nothing more will be done at this pose.
+        let stats = FrameStats { converged: stats.converged && !a.dirty && !a.settling, ..stats };
+        a.last_stats = stats;
         if !a.dirty && !a.settling {
             a.last_frame = None;
         }
@@ -483,12 +515,14 @@ fn worker_loop(method: Method, factory: &DeformerFactory, rx: &Receiver<Command>
             fps: a.fps,
         };
         shared.mailbox.put(frame);
-        if !solving {
-            let state = if a.settling { SolverState::Settling } else { SolverState::Converged };
-            set_status(&shared.status, state);
-        } else if !a.dirty {
-            set_status(&shared.status, SolverState::Converged);
-        }
+        let state = if a.dirty {
+            SolverState::Solving
+        } else if a.settling {
+            SolverState::Settling
+        } else {
+            SolverState::Converged
+        };
+        set_status(&shared.status, state);
         (shared.repaint)();
     }
 }
@@ -602,6 +636,10 @@ mod tests {
     }
 
     impl Deformer for Settles {
+        fn settle_pending(&self) -> bool {
+            self.steps < 3
+        }
+
         fn solve(
             &mut self,
             targets: &[[f64; 3]],
@@ -638,6 +676,7 @@ mod tests {
         h.send(scene(1, vec![GroupPose::default()]));
         let f = wait_frame(&h, |f| f.stats.fine_iterations == 3);
         assert_eq!(f.positions[1], [2.5, 0.0, 0.0]);
+        assert!(f.stats.converged, "the last settle step's frame is the converged one");
         let start = Instant::now();
         while h.try_status().is_none_or(|s| s.state != SolverState::Converged) {
             assert!(start.elapsed() < Duration::from_secs(10), "did not end converged");
