@@ -236,6 +236,13 @@ fn bench_quality_against_converged_arap() {
         "--json",
     ]);
     let plain: serde_json::Value = serde_json::from_str(&plain).unwrap();
+    // The report names the commit the binary was built from.
+    let commit = plain["commit"].as_str().unwrap();
+    assert!(
+        commit == "unknown"
+            || (commit.len() == 40 && commit.chars().all(|c| c.is_ascii_hexdigit())),
+        "{commit}"
+    );
     assert!(
         plain["methods"]["arap"].get("quality").is_none()
             && plain.get("quality_reference").is_none()

@@ -25,6 +25,9 @@
 //! minimum is lower). The reference costs up to thousands of iterations per solve, so it is
 //! off by default.
 //!
+//! `--json` also records the git commit the binary was built from (`commit`; "unknown" outside a
+//! checkout).
+//!
 //! Methods are a list of [`solver::Method`]: adding a method to the solver adds it here, and
 //! per-method metrics go into [`MethodResult`].
 
@@ -501,6 +504,7 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
             "max_iterations": a.max_iters,
             "radius": setup.radius,
             "threads": rayon::current_num_threads(),
+            "commit": env!("BSARAP_GIT_COMMIT"),
             "methods": methods,
             "ratios": ratios,
         });
