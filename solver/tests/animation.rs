@@ -390,3 +390,24 @@ fn example_scenes_parse() {
         }
     }
 }
+
+/// A scene whose `.dmat` was written for the mesh file as read (one label per vertex of the
+/// file) still loads when cleaning welds vertices: the labels follow the weld.
+#[test]
+fn scene_dmat_of_the_file_as_read_follows_the_weld() {
+    let dir = temp_dir("welded-dmat");
+    // A tetrahedron whose vertex 4 repeats vertex 0 (cleaning welds it into 0).
+    let obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nv 0 0 0\n\
+               f 1 3 2\nf 1 2 4\nf 5 4 3\nf 2 3 4\n";
+    std::fs::write(dir.join("m.obj"), obj).unwrap();
+    // Group 0 on the duplicate only, group 1 on vertex 3.
+    std::fs::write(dir.join("h.dmat"), "1 5\n-1\n-1\n-1\n1\n0\n").unwrap();
+    let scene =
+        Scene::new("m.obj", HandlesSpec { file: Some("h.dmat".into()), ..Default::default() });
+    let path = dir.join("s.json");
+    scene.save(&path).unwrap();
+    let loaded = Scene::load(&path).unwrap();
+    assert_eq!(loaded.mesh.report.vertices_welded, 1);
+    assert_eq!(loaded.handles.labels(), &[Some(0), None, None, Some(1)]);
+    let _ = std::fs::remove_dir_all(&dir);
+}
