@@ -10,15 +10,17 @@ use solver::{
     handle_targets,
 };
 
-/// Converged full ARAP for `targets` ([`solver::quality::Reference`]).
-fn converged_arap(mesh: &Mesh, handles: &Handles, targets: &[[f64; 3]]) -> Vec<[f64; 3]> {
-    let r = solver::quality::Reference::new(mesh, handles, targets, Energy::SpokesAndRims).unwrap();
-    assert!(r.stats().converged);
-    r.positions().to_vec()
+/// The test pose: the bumpy bar with its first group moved and turned, and converged full ARAP
+/// for it ([`solver::quality::Reference`]).
+struct Case {
+    mesh: Mesh,
+    handles: Handles,
+    diag: f64,
+    targets: Vec<[f64; 3]>,
+    reference: Vec<[f64; 3]>,
 }
 
-#[test]
-fn fine_iterations_move_the_coarse_result_towards_converged_arap() {
+fn case() -> Case {
     let (mesh, handles) = solver::shapes::bumpy_bar(4);
     let diag = mesh.bbox_diagonal();
     let t = GroupTransform {
@@ -26,18 +28,39 @@ fn fine_iterations_move_the_coarse_result_towards_converged_arap() {
         rotation: axis_angle([0.0, 0.0, 1.0], 0.6),
     };
     let targets = handle_targets(mesh.positions(), &handles, &[(0, t)]).unwrap();
-    let reference = converged_arap(&mesh, &handles, &targets);
+    let r =
+        solver::quality::Reference::new(&mesh, &handles, &targets, Energy::SpokesAndRims).unwrap();
+    assert!(r.stats().converged);
+    let reference = r.positions().to_vec();
+    Case { mesh, handles, diag, targets, reference }
+}
+
+/// The coarse variant on an eighth of the mesh's vertices, with fine and settle iterations.
+fn coarse(c: &Case, config: &ArapConfig, fine_iterations: usize, settle: usize) -> Deformer {
+    let base = BaseConfig {
+        coarse_vertices: c.mesh.n_vertices() / 8,
+        fine_iterations,
+        settle_iterations: settle,
+        ..Default::default()
+    };
+    Deformer::with_base(Method::BsArapCoarse, &c.mesh, &c.handles, config, &base).unwrap()
+}
+
+/// The handle targets of the rest pose.
+fn rest_targets(mesh: &Mesh, handles: &Handles) -> Vec<[f64; 3]> {
+    handles.handle_vertices().iter().map(|&v| mesh.positions()[v as usize]).collect()
+}
+
+#[test]
+fn fine_iterations_move_the_coarse_result_towards_converged_arap() {
+    let c = case();
+    let Case { mesh, handles, targets, reference, .. } = &c;
+    let diag = c.diag;
     let mut probe = Arap::new(&mesh, &handles, &ArapConfig::default()).unwrap();
     let config = ArapConfig { tolerance: 1e-4, max_iterations: 100, ..Default::default() };
     let mut rows = Vec::new();
     for fine_iterations in [0, 5, 20] {
-        let base = BaseConfig {
-            coarse_vertices: mesh.n_vertices() / 8,
-            fine_iterations,
-            ..Default::default()
-        };
-        let mut d =
-            Deformer::with_base(Method::BsArapCoarse, &mesh, &handles, &config, &base).unwrap();
+        let mut d = coarse(&c, &config, fine_iterations, 0);
         let stats = d.solve(&targets).unwrap();
         assert_eq!(stats.fine_iterations, fine_iterations);
         let q = distances(d.positions(), &reference, diag);
@@ -57,21 +80,11 @@ fn fine_iterations_move_the_coarse_result_towards_converged_arap() {
 /// end at the same place), and rest targets still give the rest pose exactly afterwards.
 #[test]
 fn fine_corrections_add_up_over_solves_and_rest_stays_exact() {
-    let (mesh, handles) = solver::shapes::bumpy_bar(4);
-    let diag = mesh.bbox_diagonal();
-    let t = GroupTransform {
-        translation: [0.0, 0.2 * diag, 0.1 * diag],
-        rotation: axis_angle([0.0, 0.0, 1.0], 0.6),
-    };
-    let targets = handle_targets(mesh.positions(), &handles, &[(0, t)]).unwrap();
-    let reference = converged_arap(&mesh, &handles, &targets);
+    let c = case();
+    let Case { mesh, handles, targets, reference, .. } = &c;
+    let diag = c.diag;
     let config = ArapConfig { tolerance: 1e-4, max_iterations: 100, ..Default::default() };
-    let base = BaseConfig {
-        coarse_vertices: mesh.n_vertices() / 8,
-        fine_iterations: 2,
-        ..Default::default()
-    };
-    let mut d = Deformer::with_base(Method::BsArapCoarse, &mesh, &handles, &config, &base).unwrap();
+    let mut d = coarse(&c, &config, 2, 0);
     let mut means = Vec::new();
     for _ in 0..4 {
         d.solve(&targets).unwrap();
@@ -81,14 +94,12 @@ fn fine_corrections_add_up_over_solves_and_rest_stays_exact() {
     for w in means.windows(2) {
         assert!(w[1] < 0.95 * w[0], "the fine corrections did not add up: {means:?}");
     }
-    let rest_targets: Vec<[f64; 3]> =
-        handles.handle_vertices().iter().map(|&v| mesh.positions()[v as usize]).collect();
+    let rest_targets = rest_targets(&mesh, &handles);
     d.solve(&rest_targets).unwrap();
     assert_eq!(d.positions(), mesh.positions());
     // And the next pose starts from no correction: the same as a fresh deformer's.
     d.solve(&targets).unwrap();
-    let mut fresh =
-        Deformer::with_base(Method::BsArapCoarse, &mesh, &handles, &config, &base).unwrap();
+    let mut fresh = coarse(&c, &config, 2, 0);
     fresh.solve(&targets).unwrap();
     let q = distances(d.positions(), fresh.positions(), diag);
     assert!(q.max < 1e-3, "{q:?}");
@@ -99,21 +110,11 @@ fn fine_corrections_add_up_over_solves_and_rest_stays_exact() {
 /// converged) ends close to converged ARAP on the mesh.
 #[test]
 fn repeated_solves_converge_towards_arap_on_the_mesh() {
-    let (mesh, handles) = solver::shapes::bumpy_bar(4);
-    let diag = mesh.bbox_diagonal();
-    let t = GroupTransform {
-        translation: [0.0, 0.2 * diag, 0.1 * diag],
-        rotation: axis_angle([0.0, 0.0, 1.0], 0.6),
-    };
-    let targets = handle_targets(mesh.positions(), &handles, &[(0, t)]).unwrap();
+    let c = case();
+    let Case { targets, reference, .. } = &c;
+    let diag = c.diag;
     let config = ArapConfig { tolerance: 1e-6, max_iterations: 100, ..Default::default() };
-    let reference = converged_arap(&mesh, &handles, &targets);
-    let base = BaseConfig {
-        coarse_vertices: mesh.n_vertices() / 8,
-        fine_iterations: 2,
-        ..Default::default()
-    };
-    let mut d = Deformer::with_base(Method::BsArapCoarse, &mesh, &handles, &config, &base).unwrap();
+    let mut d = coarse(&c, &config, 2, 0);
     let first = d.solve(&targets).unwrap();
     assert!(!first.converged, "the first solve cannot have converged at the fine level");
     let first_mean = distances(d.positions(), &reference, diag).mean;
@@ -132,25 +133,16 @@ fn repeated_solves_converge_towards_arap_on_the_mesh() {
 /// targets, at rest, or when turned off, and the next solve goes on from the settled pose.
 #[test]
 fn settling_refines_a_stopped_pose_towards_arap_on_the_mesh() {
-    let (mesh, handles) = solver::shapes::bumpy_bar(4);
-    let diag = mesh.bbox_diagonal();
-    let t = GroupTransform {
-        translation: [0.0, 0.2 * diag, 0.1 * diag],
-        rotation: axis_angle([0.0, 0.0, 1.0], 0.6),
-    };
-    let targets = handle_targets(mesh.positions(), &handles, &[(0, t)]).unwrap();
-    let rest_targets: Vec<[f64; 3]> =
-        handles.handle_vertices().iter().map(|&v| mesh.positions()[v as usize]).collect();
+    let c = case();
+    let Case { mesh, handles, targets, reference, .. } = &c;
+    let diag = c.diag;
+    let rest_targets = rest_targets(&mesh, &handles);
     let config = ArapConfig { tolerance: 1e-6, max_iterations: 200, ..Default::default() };
-    let reference = converged_arap(&mesh, &handles, &targets);
-    let coarse_vertices = mesh.n_vertices() / 8;
-    let off = BaseConfig { coarse_vertices, ..Default::default() };
-    let mut d = Deformer::with_base(Method::BsArapCoarse, &mesh, &handles, &config, &off).unwrap();
+    let mut d = coarse(&c, &config, 0, 0);
     assert!(d.solve(&targets).unwrap().converged);
     assert!(d.settle(&targets).unwrap().is_none(), "settling is off");
 
-    let on = BaseConfig { coarse_vertices, settle_iterations: 3, ..Default::default() };
-    let mut d = Deformer::with_base(Method::BsArapCoarse, &mesh, &handles, &config, &on).unwrap();
+    let mut d = coarse(&c, &config, 0, 3);
     assert!(d.settle(&targets).unwrap().is_none(), "nothing solved yet");
     assert!(d.solve(&targets).unwrap().converged);
     let before = distances(d.positions(), &reference, diag).mean;
