@@ -26,8 +26,9 @@
 //!    until they no longer lower the energy: the pose approaches converged ARAP on $M$.
 //!
 //! Rest pose is exact (rest targets give $B_c' = B_c$, $R = I$ and clear $C$, so $p' = p$;
-//! they skip the fine iterations) and a rigid motion of all handles moves the result rigidly. An iteration costs what ARAP on $B_c$ costs; the prolongation is
-//! one pass over the fine vertices per frame, each fine iteration one ARAP iteration on $M$.
+//! they skip the fine iterations) and a rigid motion of all handles moves the result rigidly.
+//! An iteration costs what ARAP on $B_c$ costs; the prolongation is one pass over the fine
+//! vertices per frame, each fine iteration one ARAP iteration on $M$.
 
 use crate::arap::{Arap, ArapConfig, SolveStats};
 use crate::biharmonic::faired_surface;

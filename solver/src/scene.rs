@@ -216,12 +216,11 @@ impl Scene {
         if !smoothing_ok
             || !(16..=10_000_000).contains(&base.coarse_vertices)
             || base.fine_iterations > crate::coarse::MAX_FINE_ITERATIONS
-            || base.settle_iterations > crate::coarse::MAX_FINE_ITERATIONS
         {
             return Err(SceneError::Invalid {
                 file: file.to_string(),
                 message: format!(
-                    "\"base\": smoothing must be in (0, 1], coarse_vertices between 16 and 10000000 and fine_iterations and settle_iterations at most {}",
+                    "\"base\": smoothing must be in (0, 1], coarse_vertices between 16 and 10000000 and fine_iterations at most {}",
                     crate::coarse::MAX_FINE_ITERATIONS
                 ),
             });

@@ -326,14 +326,16 @@ pub fn load_selection(
         message: "not a text file (invalid UTF-8)".into(),
     })?;
     let n = positions.len();
-    let result = match (kind, vertex_map) {
-        (1, _) => parse_spheres(text, positions),
-        (_, Some(map)) if map.len() != n => read_dmat(text).and_then(|labels| {
-            let labels =
-                if labels.len() == map.len() { remap_labels(&labels, map, n)? } else { labels };
-            handles_from_labels(&labels, n)
-        }),
-        _ => parse_dmat(text, n),
+    let result = if kind == 1 {
+        parse_spheres(text, positions)
+    } else {
+        read_dmat(text).and_then(|labels| match vertex_map {
+            // One label per vertex of the file as read, and cleaning changed the count.
+            Some(map) if labels.len() == map.len() && map.len() != n => {
+                handles_from_labels(&remap_labels(&labels, map, n)?, n)
+            }
+            _ => handles_from_labels(&labels, n),
+        })
     };
     result.map_err(|e| e.named(&file))
 }

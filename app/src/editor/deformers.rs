@@ -34,17 +34,30 @@ pub fn label(m: solver::Method) -> &'static str {
 
 struct SolverDeformer(solver::Deformer);
 
+impl SolverDeformer {
+    /// The result into `x` and the frame's statistics (a settle step has no coarse iteration:
+    /// its time per iteration is the fine iterations').
+    fn frame(&self, stats: &solver::SolveStats, x: &mut [[f64; 3]]) -> FrameStats {
+        x.copy_from_slice(self.0.positions());
+        let ms_per_iteration = if stats.iterations > 0 {
+            stats.ms_per_iteration()
+        } else {
+            stats.fine_ms / stats.fine_iterations.max(1) as f64
+        };
+        FrameStats {
+            iterations: stats.iterations,
+            energy: stats.energy(),
+            ms_per_iteration,
+            converged: stats.converged,
+            fine_iterations: stats.fine_iterations,
+        }
+    }
+}
+
 impl Deformer for SolverDeformer {
     fn solve(&mut self, targets: &[[f64; 3]], x: &mut [[f64; 3]]) -> Result<FrameStats, String> {
         let stats = self.0.solve(targets).map_err(|e| e.to_string())?;
-        x.copy_from_slice(self.0.positions());
-        Ok(FrameStats {
-            iterations: stats.iterations,
-            energy: stats.energy(),
-            ms_per_iteration: stats.ms_per_iteration(),
-            converged: stats.converged,
-            fine_iterations: stats.fine_iterations,
-        })
+        Ok(self.frame(&stats, x))
     }
 
     fn settle_pending(&self) -> bool {
@@ -56,17 +69,8 @@ impl Deformer for SolverDeformer {
         targets: &[[f64; 3]],
         x: &mut [[f64; 3]],
     ) -> Result<Option<FrameStats>, String> {
-        let Some(stats) = self.0.settle(targets).map_err(|e| e.to_string())? else {
-            return Ok(None);
-        };
-        x.copy_from_slice(self.0.positions());
-        Ok(Some(FrameStats {
-            iterations: 0,
-            energy: stats.energy(),
-            ms_per_iteration: stats.fine_ms / stats.fine_iterations.max(1) as f64,
-            converged: stats.converged,
-            fine_iterations: stats.fine_iterations,
-        }))
+        let stats = self.0.settle(targets).map_err(|e| e.to_string())?;
+        Ok(stats.map(|stats| self.frame(&stats, x)))
     }
 
     fn deformed_base(&self) -> Option<Vec<[f64; 3]>> {

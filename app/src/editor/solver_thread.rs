@@ -457,7 +457,7 @@ fn worker_loop(method: Method, factory: &DeformerFactory, rx: &Receiver<Command>
             a.poses_changed = Instant::now();
             set_status(&shared.status, SolverState::Solving);
         }
-        if !a.dirty && (!a.settling || a.poses_changed.elapsed() < SETTLE_DELAY) {
+        if !a.dirty && !a.settling {
             continue;
         }
         let solving = a.dirty;
