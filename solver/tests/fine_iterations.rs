@@ -56,14 +56,14 @@ fn fine_iterations_move_the_coarse_result_towards_converged_arap() {
     let c = case();
     let Case { mesh, handles, targets, reference, .. } = &c;
     let diag = c.diag;
-    let mut probe = Arap::new(&mesh, &handles, &ArapConfig::default()).unwrap();
+    let mut probe = Arap::new(mesh, handles, &ArapConfig::default()).unwrap();
     let config = ArapConfig { tolerance: 1e-4, max_iterations: 100, ..Default::default() };
     let mut rows = Vec::new();
     for fine_iterations in [0, 5, 20] {
         let mut d = coarse(&c, &config, fine_iterations, 0);
-        let stats = d.solve(&targets).unwrap();
+        let stats = d.solve(targets).unwrap();
         assert_eq!(stats.fine_iterations, fine_iterations);
-        let q = distances(d.positions(), &reference, diag);
+        let q = distances(d.positions(), reference, diag);
         let e = probe.pose_energy(d.positions());
         eprintln!("fine {fine_iterations}: max {:.3e} mean {:.3e} energy {e:.4e}", q.max, q.mean);
         rows.push((q, e));
@@ -87,20 +87,20 @@ fn fine_corrections_add_up_over_solves_and_rest_stays_exact() {
     let mut d = coarse(&c, &config, 2, 0);
     let mut means = Vec::new();
     for _ in 0..4 {
-        d.solve(&targets).unwrap();
-        means.push(distances(d.positions(), &reference, diag).mean);
+        d.solve(targets).unwrap();
+        means.push(distances(d.positions(), reference, diag).mean);
     }
     eprintln!("mean distance over repeated solves: {means:?}");
     for w in means.windows(2) {
         assert!(w[1] < 0.95 * w[0], "the fine corrections did not add up: {means:?}");
     }
-    let rest_targets = rest_targets(&mesh, &handles);
+    let rest_targets = rest_targets(mesh, handles);
     d.solve(&rest_targets).unwrap();
     assert_eq!(d.positions(), mesh.positions());
     // And the next pose starts from no correction: the same as a fresh deformer's.
-    d.solve(&targets).unwrap();
+    d.solve(targets).unwrap();
     let mut fresh = coarse(&c, &config, 2, 0);
-    fresh.solve(&targets).unwrap();
+    fresh.solve(targets).unwrap();
     let q = distances(d.positions(), fresh.positions(), diag);
     assert!(q.max < 1e-3, "{q:?}");
 }
@@ -115,15 +115,15 @@ fn repeated_solves_converge_towards_arap_on_the_mesh() {
     let diag = c.diag;
     let config = ArapConfig { tolerance: 1e-6, max_iterations: 100, ..Default::default() };
     let mut d = coarse(&c, &config, 2, 0);
-    let first = d.solve(&targets).unwrap();
+    let first = d.solve(targets).unwrap();
     assert!(!first.converged, "the first solve cannot have converged at the fine level");
-    let first_mean = distances(d.positions(), &reference, diag).mean;
+    let first_mean = distances(d.positions(), reference, diag).mean;
     let mut solves = 1;
-    while !d.solve(&targets).unwrap().converged {
+    while !d.solve(targets).unwrap().converged {
         solves += 1;
         assert!(solves < 2000, "did not converge");
     }
-    let mean = distances(d.positions(), &reference, diag).mean;
+    let mean = distances(d.positions(), reference, diag).mean;
     eprintln!("{solves} solves: mean distance {first_mean:.3e} -> {mean:.3e}");
     assert!(mean < 0.1 * first_mean, "{first_mean:e} -> {mean:e}");
 }
@@ -136,20 +136,20 @@ fn settling_refines_a_stopped_pose_towards_arap_on_the_mesh() {
     let c = case();
     let Case { mesh, handles, targets, reference, .. } = &c;
     let diag = c.diag;
-    let rest_targets = rest_targets(&mesh, &handles);
+    let rest_targets = rest_targets(mesh, handles);
     let config = ArapConfig { tolerance: 1e-6, max_iterations: 200, ..Default::default() };
     let mut d = coarse(&c, &config, 0, 0);
-    assert!(d.solve(&targets).unwrap().converged);
-    assert!(d.settle(&targets).unwrap().is_none(), "settling is off");
+    assert!(d.solve(targets).unwrap().converged);
+    assert!(d.settle(targets).unwrap().is_none(), "settling is off");
 
     let mut d = coarse(&c, &config, 0, 3);
-    assert!(d.settle(&targets).unwrap().is_none(), "nothing solved yet");
-    assert!(d.solve(&targets).unwrap().converged);
-    let before = distances(d.positions(), &reference, diag).mean;
+    assert!(d.settle(targets).unwrap().is_none(), "nothing solved yet");
+    assert!(d.solve(targets).unwrap().converged);
+    let before = distances(d.positions(), reference, diag).mean;
     assert!(d.settle(&rest_targets).unwrap().is_none(), "other targets than the last solve's");
     let mut steps = 0;
     loop {
-        let s = d.settle(&targets).unwrap().expect("a step");
+        let s = d.settle(targets).unwrap().expect("a step");
         assert_eq!((s.iterations, s.fine_iterations), (0, 3));
         steps += 1;
         if s.converged {
@@ -157,12 +157,12 @@ fn settling_refines_a_stopped_pose_towards_arap_on_the_mesh() {
         }
         assert!(steps < 2000, "did not converge");
     }
-    let after = distances(d.positions(), &reference, diag).mean;
+    let after = distances(d.positions(), reference, diag).mean;
     eprintln!("{steps} settle steps: mean distance {before:.3e} -> {after:.3e}");
     assert!(after < 0.05 * before, "{before:e} -> {after:e}");
     // The next solve at the same targets goes on from the settled pose.
-    d.solve(&targets).unwrap();
-    assert!(distances(d.positions(), &reference, diag).mean < 0.1 * before);
+    d.solve(targets).unwrap();
+    assert!(distances(d.positions(), reference, diag).mean < 0.1 * before);
     // At rest: exact, and nothing to settle.
     d.solve(&rest_targets).unwrap();
     assert!(d.positions() == mesh.positions(), "not exactly at rest after settling");
