@@ -692,6 +692,77 @@ mod tests {
         assert_eq!(f.positions[1], [2.5, 0.0, 2.0]);
     }
 
+    /// Settles without ever converging, 5 ms a step; logs each call (settle or not, the first
+    /// target's z, when).
+    struct EndlessSettle {
+        shift: Shift,
+        log: Arc<Mutex<Vec<(bool, f64, Instant)>>>,
+    }
+
+    impl Deformer for EndlessSettle {
+        fn settle_pending(&self) -> bool {
+            true
+        }
+
+        fn solve(
+            &mut self,
+            targets: &[[f64; 3]],
+            x: &mut [[f64; 3]],
+        ) -> Result<FrameStats, String> {
+            self.log.lock().unwrap().push((false, targets[0][2], Instant::now()));
+            self.shift.solve(targets, x)
+        }
+
+        fn settle(
+            &mut self,
+            targets: &[[f64; 3]],
+            _x: &mut [[f64; 3]],
+        ) -> Result<Option<FrameStats>, String> {
+            std::thread::sleep(Duration::from_millis(5));
+            self.log.lock().unwrap().push((true, targets[0][2], Instant::now()));
+            Ok(Some(FrameStats { fine_iterations: 1, ..FrameStats::default() }))
+        }
+    }
+
+    /// A new pose arriving while the thread settles stops the settling after the step in
+    /// progress: the new pose is solved next, and settling starts again only once it has been
+    /// unchanged for the settle delay, at the new targets.
+    #[test]
+    fn a_new_pose_interrupts_settling() {
+        let log = Arc::new(Mutex::new(Vec::new()));
+        let shared_log = log.clone();
+        let factory: DeformerFactory = Arc::new(move |_, mesh: &Mesh, handles: &Handles, _: &_| {
+            let shift = Shift {
+                rest: mesh.positions().to_vec(),
+                handle_vertices: handles.handle_vertices(),
+            };
+            Ok(Box::new(EndlessSettle { shift, log: shared_log.clone() }) as Box<dyn Deformer>)
+        });
+        let h = SolverHandle::spawn(Method::BsArap, factory, Arc::new(|| {})).unwrap();
+        h.send(scene(1, vec![GroupPose::default()]));
+        wait_frame(&h, |f| f.stats.fine_iterations == 1);
+
+        let moved = GroupPose { translation: [0.0, 0.0, 2.0], ..Default::default() };
+        let at_send = log.lock().unwrap().len();
+        h.send(Command::SetPoses { pose_generation: 7, poses: vec![moved] });
+        let f = wait_frame(&h, |f| f.pose_generation == 7 && f.stats.fine_iterations == 1);
+        assert_eq!(f.positions[1], [1.0, 0.0, 2.0]);
+
+        let log = log.lock().unwrap().clone();
+        let solve = (at_send..log.len())
+            .find(|&k| !log[k].0)
+            .unwrap_or_else(|| panic!("the new pose was not solved: {log:?}"));
+        assert_eq!(log[solve].1, 2.0);
+        assert!(solve - at_send <= 1, "settled the old pose after the new one came: {log:?}");
+        let rest = &log[solve + 1..];
+        assert!(rest.iter().all(|e| e.0 && e.1 == 2.0), "after the solve: {log:?}");
+        let first_settle_done = rest[0].2;
+        assert!(
+            first_settle_done.duration_since(log[solve].2) >= SETTLE_DELAY,
+            "settled before the new pose had rested for the delay"
+        );
+    }
+
     #[test]
     fn mailbox_keeps_only_the_newest() {
         let m = Mailbox::default();
