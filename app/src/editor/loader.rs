@@ -170,3 +170,36 @@ pub fn write_dmat(path: &Path, labels: &[Option<u32>]) -> anyhow::Result<()> {
     solver::selection::write_dmat(path, &handles)
         .with_context(|| format!("cannot write {}", path.display()))
 }
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+
+    /// The selection found next to a mesh, written for the file as read (before cleaning welds
+    /// duplicated vertices), arrives in the editor on the cleaned mesh's vertices.
+    #[test]
+    fn a_dmat_of_the_file_as_read_follows_the_weld_into_the_editor() {
+        let dir = std::env::temp_dir().join(format!("bsarap-loader-weld-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        // A tetrahedron whose vertex 5 (1-based) repeats vertex 1: cleaning welds it.
+        let obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nv 0 0 0\n\
+                   f 1 3 2\nf 5 2 4\nf 1 4 3\nf 2 3 4\n";
+        std::fs::write(dir.join("tet.obj"), obj).unwrap();
+        std::fs::write(dir.join("tet.dmat"), "1 5\n0\n-1\n1\n-1\n0\n").unwrap();
+        let scene = load_scene(&dir.join("tet.obj"), 1).unwrap();
+        assert_eq!(scene.mesh.n_vertices(), 4);
+        assert!(scene.notices.iter().any(|n| n.contains("welded")), "{:?}", scene.notices);
+        assert_eq!(scene.selection_path.as_deref(), Some(dir.join("tet.dmat").as_path()));
+        let labels = scene.default_labels.unwrap();
+        let expected = [Some(0), None, Some(1), None];
+        assert_eq!(labels, expected);
+        // Welded vertices of two groups: the selection is ignored with a notice naming it.
+        std::fs::write(dir.join("tet.dmat"), "1 5\n0\n-1\n1\n-1\n1\n").unwrap();
+        let scene = load_scene(&dir.join("tet.obj"), 2).unwrap();
+        assert!(scene.default_labels.is_none());
+        let notice = scene.notices.iter().find(|n| n.contains("ignored selection"));
+        assert!(notice.is_some_and(|n| n.contains("tet.dmat")), "{:?}", scene.notices);
+        std::fs::remove_dir_all(&dir).ok();
+    }
+}
