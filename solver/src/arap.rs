@@ -232,6 +232,9 @@ pub struct Arap {
     /// Anderson state and its iterate buffers, kept between solves (13 MB on a 43k-vertex
     /// mesh: allocating them per call cost milliseconds per frame).
     anderson: Option<Box<AndersonWork>>,
+    /// The targets of the last [`Arap::refine`], while the pose is still its result: a refine
+    /// that continues from there at the same targets keeps the Anderson history.
+    refined_at: Option<Vec<[f64; 3]>>,
 }
 
 /// What [`Arap::iterate_anderson`] needs besides the solver: the acceleration state and the
@@ -359,6 +362,7 @@ impl Arap {
             rhs: Mat::zeros(n_free, 3),
             constraints,
             anderson: None,
+            refined_at: None,
         })
     }
 
@@ -400,12 +404,14 @@ impl Arap {
 
     /// Restarts the next solve from the rest pose.
     pub fn reset(&mut self) {
+        self.refined_at = None;
         self.current.copy_from_slice(&self.rest);
         self.rotations.fill(IDENTITY);
     }
 
     /// Sets the starting guess of the next solve (`#V×3`, finite; other lengths are ignored).
     pub fn set_positions(&mut self, x: &[[f64; 3]]) {
+        self.refined_at = None;
         if x.len() == self.current.len() && x.iter().flatten().all(|c| c.is_finite()) {
             self.current.copy_from_slice(x);
         }
@@ -426,7 +432,8 @@ impl Arap {
     /// identity rotations, zero energy and no iteration (it is the minimizer).
     /// On a non-finite result the previous pose is kept and an error returned.
     pub fn solve(&mut self, targets: &[[f64; 3]]) -> Result<SolveStats, SolveError> {
-        self.run(targets, None)
+        self.refined_at = None;
+        self.run(targets, None, false)
     }
 
     /// Exactly `iterations` local-global iterations with safeguarded Anderson acceleration
@@ -436,21 +443,34 @@ impl Arap {
     /// coarse solve is smooth, the slow part for plain local-global. Rest targets give the rest
     /// pose exactly, as in [`Arap::solve`]; a `start` of another length or with non-finite
     /// values is ignored (the current pose is the start).
+    ///
+    /// A refine that goes on from the previous one's result at the same targets (nothing else
+    /// touched the pose in between) continues its Anderson history instead of restarting it:
+    /// the fixed-point map is the same, so repeated short refines (settling) converge like one
+    /// long one.
     pub fn refine(
         &mut self,
         start: &[[f64; 3]],
         targets: &[[f64; 3]],
         iterations: usize,
     ) -> Result<SolveStats, SolveError> {
+        let continues =
+            self.refined_at.as_deref() == Some(targets) && start == self.current.as_slice();
         self.set_positions(start);
-        self.run(targets, Some(iterations))
+        let stats = self.run(targets, Some(iterations), continues)?;
+        if stats.iterations > 0 {
+            self.refined_at = Some(targets.to_vec());
+        }
+        Ok(stats)
     }
 
-    /// [`Arap::solve`] (`fixed: None`) or [`Arap::refine`] (`Some(iterations)`).
+    /// [`Arap::solve`] (`fixed: None`) or [`Arap::refine`] (`Some(iterations)`, keeping the
+    /// Anderson history when `continues`).
     fn run(
         &mut self,
         targets: &[[f64; 3]],
         fixed: Option<usize>,
+        continues: bool,
     ) -> Result<SolveStats, SolveError> {
         let hv = &self.constraints.handle_vertices;
         if targets.len() != hv.len() {
@@ -476,10 +496,12 @@ impl Arap {
         }
         let mut stats = SolveStats::default();
         match (fixed, self.config.acceleration) {
-            (Some(n), _) => self.iterate_anderson(&mut stats, REFINE_ANDERSON_WINDOW, n, false),
+            (Some(n), _) => {
+                self.iterate_anderson(&mut stats, REFINE_ANDERSON_WINDOW, n, false, continues)
+            }
             (None, Acceleration::None) => self.iterate_plain(&mut stats),
             (None, Acceleration::Anderson { window }) => {
-                self.iterate_anderson(&mut stats, window, self.config.max_iterations, true)
+                self.iterate_anderson(&mut stats, window, self.config.max_iterations, true, false)
             }
         }
         if let Some(vertex) = self.current.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
@@ -575,13 +597,15 @@ impl Arap {
     /// $E(x_k, R(x_k))$: each iterate gets its own local step, which the next global step reuses.
     /// An accelerated iterate with a higher energy than the last accepted one is replaced by the
     /// plain step $G(x_k)$, for which $E(G(x), R(G(x))) \le E(G(x), R(x)) \le E(x, R(x))$.
-    /// At most `max_iterations`; the stopping rule applies only when `stopping`.
+    /// At most `max_iterations`; the stopping rule applies only when `stopping`. The history
+    /// of the previous call is kept when `keep_history` (same map, same starting iterate).
     fn iterate_anderson(
         &mut self,
         stats: &mut SolveStats,
         window: usize,
         max_iterations: usize,
         stopping: bool,
+        keep_history: bool,
     ) {
         let tol = self.config.tolerance;
         let free = self.constraints.free_vertices.clone();
@@ -595,7 +619,9 @@ impl Arap {
                 xa: vec![0.0; dim],
             }),
         };
-        work.aa.reset();
+        if !keep_history {
+            work.aa.reset();
+        }
         let AndersonWork { aa, x, g, xa } = &mut *work;
         let gather = |cur: &[[f64; 3]], out: &mut [f64]| {
             for (r, &v) in free.iter().enumerate() {

@@ -168,3 +168,31 @@ fn settling_refines_a_stopped_pose_towards_arap_on_the_mesh() {
     assert!(d.positions() == mesh.positions(), "not exactly at rest after settling");
     assert!(d.settle(&rest_targets).unwrap().is_none());
 }
+
+/// Refines that go on from the previous one's result at the same targets keep its Anderson
+/// history: two refines of 6 iterations end where one of 12 does (up to rounding), while a
+/// restart of the history in between ends elsewhere.
+#[test]
+fn consecutive_refines_continue_the_anderson_history() {
+    let c = case();
+    let start = c.mesh.positions().to_vec();
+    let run = |splits: &[usize], touch: bool| {
+        let mut a = Arap::new(&c.mesh, &c.handles, &ArapConfig::default()).unwrap();
+        let mut x = start.clone();
+        for &n in splits {
+            if touch {
+                // Anything that sets the pose ends the continuation, even to the same values.
+                a.set_positions(&x);
+            }
+            a.refine(&x, &c.targets, n).unwrap();
+            x = a.positions().to_vec();
+        }
+        x
+    };
+    let gap = |a: &[[f64; 3]], b: &[[f64; 3]]| distances(a, b, c.diag).max;
+    let one = run(&[12], false);
+    let two = run(&[6, 6], false);
+    let restarted = run(&[6, 6], true);
+    assert!(gap(&one, &two) < 1e-9, "continued refines differ: {:e}", gap(&one, &two));
+    assert!(gap(&one, &restarted) > 1e-6, "a restart should differ: {:e}", gap(&one, &restarted));
+}
