@@ -48,6 +48,8 @@ pub struct BsArap {
     details: Vec<[f64; 3]>,
     arap: Arap,
     result: Vec<[f64; 3]>,
+    /// $B'$ of the last successful solve (the base solver's pose may be a failed solve's).
+    deformed_base: Vec<[f64; 3]>,
 }
 
 impl BsArap {
@@ -93,10 +95,13 @@ impl BsArap {
                 SolveError::DegenerateFace { face } => SolveError::DegenerateBase { face },
                 other => other,
             })?;
-        Ok(BsArap { base, details, arap, result: mesh.positions().to_vec() })
+        let deformed_base = base.clone();
+        Ok(BsArap { base, details, arap, result: mesh.positions().to_vec(), deformed_base })
     }
 
     /// Solves ARAP on the base for `targets` (warm-started) and adds the rotated details.
+    /// On error the pose and the deformed base of the last successful solve stay, and the next
+    /// solve starts from them.
     pub fn solve(&mut self, targets: &[[f64; 3]]) -> Result<SolveStats, SolveError> {
         let stats = self.arap.solve(targets)?;
         let b = self.arap.positions();
@@ -106,11 +111,13 @@ impl BsArap {
         let p = |i: usize| add(b[i], mul_vec(&r[i], self.details[i]));
         if let Some(vertex) = (0..self.result.len()).find(|&i| !p(i).iter().all(|c| c.is_finite()))
         {
+            self.arap.set_positions(&self.deformed_base);
             return Err(SolveError::NonFiniteResult { vertex });
         }
         for (i, out) in self.result.iter_mut().enumerate() {
             *out = p(i);
         }
+        self.deformed_base.copy_from_slice(b);
         Ok(stats)
     }
 
@@ -126,7 +133,7 @@ impl BsArap {
 
     /// The deformed base $B'$ of the last solve, `#V×3`.
     pub fn deformed_base(&self) -> &[[f64; 3]] {
-        self.arap.positions()
+        &self.deformed_base
     }
 
     /// Details $D = M - B$, `#V×3`.

@@ -101,8 +101,12 @@ pub struct CoarseBsArap {
     /// The coarse energy of the last solve (what a settle step reports).
     last_energy: f64,
     phases: Vec<(&'static str, f64)>,
-    /// Scratch for the next result (swapped with `result` after a finite solve).
+    /// Scratch for the next result, deformed base and frames: swapped in together after a
+    /// finite prolongation, and back when the fine iterations fail, so that after an error the
+    /// pose, the base and the frames all stay those of the last successful solve.
     next: Vec<[f64; 3]>,
+    next_base: Vec<[f64; 3]>,
+    next_frames: Vec<[f64; 4]>,
 }
 
 impl CoarseBsArap {
@@ -220,6 +224,8 @@ impl CoarseBsArap {
             last_energy: 0.0,
             phases: clock.phases,
             next: Vec::new(),
+            next_base: Vec::new(),
+            next_frames: Vec::new(),
             pinned,
             quaternions: vec![[1.0, 0.0, 0.0, 0.0]; cp.len()],
             frames: vec![[1.0, 0.0, 0.0, 0.0]; mesh.n_vertices()],
@@ -236,6 +242,8 @@ impl CoarseBsArap {
     }
 
     /// Solves coarse ARAP for `targets` (`#H×3` of the fine mesh) and prolongs to the fine mesh.
+    /// On error the pose, the deformed base and the detail frames of the last successful solve
+    /// stay.
     pub fn solve(&mut self, targets: &[[f64; 3]]) -> Result<SolveStats, SolveError> {
         if targets.len() != self.fine_handles.len() {
             return Err(SolveError::TargetCount {
@@ -250,28 +258,27 @@ impl CoarseBsArap {
         let coarse_targets: Vec<[f64; 3]> =
             self.coarse_targets.iter().map(|&k| targets[k]).collect();
         let stats = self.arap.solve(&coarse_targets)?;
-        self.last_targets.clear();
-        self.last_targets.extend_from_slice(targets);
         // Rest targets give the rest pose exactly, without iterating: nothing to settle, and
         // no correction may carry over (the prolongation below is then exactly the rest pose).
-        self.settle_ready = stats.converged && stats.iterations > 0;
         if stats.iterations == 0 {
             self.correction.fill([0.0; 3]);
         }
-        self.last_energy = stats.energy();
         let bc = self.arap.positions();
         for (q, r) in self.quaternions.iter_mut().zip(self.arap.rotations()) {
             *q = quaternion_of(r);
         }
         let quats = &self.quaternions;
         // B'_c is finite (checked by ARAP) but the prolonged p' can still overflow: write into
-        // a reused buffer and swap it in only when it is finite (the previous pose stays).
+        // reused buffers and swap them in only when p' is finite (the previous pose stays).
+        let n = self.result.len();
         let mut next = std::mem::take(&mut self.next);
-        next.resize(self.result.len(), [0.0; 3]);
+        next.resize(n, [0.0; 3]);
+        self.next_base.resize(n, [0.0; 3]);
+        self.next_frames.resize(n, [1.0, 0.0, 0.0, 0.0]);
         let details = self.details.par_iter().zip(self.correction.par_iter());
-        self.deformed_base
+        self.next_base
             .par_iter_mut()
-            .zip(next.par_iter_mut().zip(self.frames.par_iter_mut()))
+            .zip(next.par_iter_mut().zip(self.next_frames.par_iter_mut()))
             .zip(self.embedding.par_iter().zip(details))
             .for_each(|((b, (out, frame)), ((t, w), (d, c)))| {
                 *b = blend(bc, t, w);
@@ -296,14 +303,13 @@ impl CoarseBsArap {
             next[v as usize] = p;
         }
         let bad = next.par_iter().position_any(|p| !p.iter().all(|c| c.is_finite()));
-        std::mem::swap(&mut self.result, &mut next);
+        self.next = next;
         if let Some(vertex) = bad {
-            std::mem::swap(&mut self.result, &mut next);
-            self.next = next;
             self.settle_ready = false;
             return Err(SolveError::NonFiniteResult { vertex });
         }
-        self.next = next;
+        self.swap_next();
+        let coarse_converged = stats.converged && stats.iterations > 0;
         let mut stats = stats;
         if self.fine_iterations > 0 {
             match self.run_fine(targets, self.fine_iterations) {
@@ -313,14 +319,25 @@ impl CoarseBsArap {
                     stats.converged &= self.fine_converged(&st);
                 }
                 Err(e) => {
-                    // The previous pose stays, as for a failed coarse solve.
-                    std::mem::swap(&mut self.result, &mut self.next);
+                    // The previous pose, base and frames stay, as for a failed coarse solve.
+                    self.swap_next();
                     self.settle_ready = false;
                     return Err(e);
                 }
             }
         }
+        self.last_targets.clear();
+        self.last_targets.extend_from_slice(targets);
+        self.settle_ready = coarse_converged;
+        self.last_energy = stats.energy();
         Ok(stats)
+    }
+
+    /// Exchanges the result, the deformed base and the frames with their scratch buffers.
+    fn swap_next(&mut self) {
+        std::mem::swap(&mut self.result, &mut self.next);
+        std::mem::swap(&mut self.deformed_base, &mut self.next_base);
+        std::mem::swap(&mut self.frames, &mut self.next_frames);
     }
 
     /// Refines the result of the last solve, whose handles have stopped at `targets`: runs

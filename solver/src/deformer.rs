@@ -161,6 +161,16 @@ impl Deformer {
         }
     }
 
+    /// The deformed base surface $B'$ of the last solve at the mesh's vertices (`#V×3`); `None`
+    /// for ARAP, which has no base.
+    pub fn deformed_base(&self) -> Option<&[[f64; 3]]> {
+        match self {
+            Deformer::Arap(_) => None,
+            Deformer::BsArap(b) => Some(b.deformed_base()),
+            Deformer::Coarse(c) => Some(c.deformed_base()),
+        }
+    }
+
     /// The ARAP solver doing the iterations (on $M$ or on $B$).
     pub fn arap(&self) -> &Arap {
         match self {

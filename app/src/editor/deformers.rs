@@ -74,11 +74,7 @@ impl Deformer for SolverDeformer {
     }
 
     fn deformed_base(&self) -> Option<Vec<[f64; 3]>> {
-        match &self.0 {
-            solver::Deformer::Arap(_) => None,
-            solver::Deformer::BsArap(b) => Some(b.deformed_base().to_vec()),
-            solver::Deformer::Coarse(c) => Some(c.deformed_base().to_vec()),
-        }
+        self.0.deformed_base().map(<[_]>::to_vec)
     }
 
     fn detail_magnitudes(&self) -> Option<Vec<f64>> {
