@@ -1,7 +1,8 @@
 //! Solver frames per second as the editor's solver thread produces them (issue 6, "editor rate").
 //!
 //! Usage: `cargo run --release -p app --example editor_rate -- MESH SELECTION [FRAMES [METHOD...]]`
-//! (methods: `arap`, `bsarap`, `bsarap-faired`, `bsarap-coarse`; default `arap bsarap bsarap-coarse`).
+//! (methods: `arap`, `bsarap`, `bsarap-faired`, `bsarap-coarse`, each optionally with `+aa` for
+//! the method panel's Anderson acceleration; default `arap bsarap bsarap-coarse`).
 //!
 //! Drives the editor's own deformer factory (`app::editor::deformers::factory`) with the editor's
 //! default method settings (tolerance 1e-4, cap 30 iterations per displayed frame), warm-started
@@ -36,13 +37,21 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let handles =
         solver::selection::load_selection(std::path::Path::new(&args[2]), mesh.positions(), None)?;
     let frames: usize = args.get(3).map(|s| s.parse()).transpose()?.unwrap_or(30).max(1);
-    let methods: Vec<solver::Method> = if args.len() > 4 {
+    // A method name may end in `+aa`: the method panel's Anderson acceleration on.
+    let methods: Vec<(solver::Method, bool)> = if args.len() > 4 {
         args[4..]
             .iter()
-            .map(|n| solver::Method::from_name(n).ok_or_else(|| format!("unknown method {n}")))
+            .map(|n| {
+                let (name, aa) = n.strip_suffix("+aa").map_or((n.as_str(), false), |b| (b, true));
+                let m =
+                    solver::Method::from_name(name).ok_or_else(|| format!("unknown method {n}"));
+                m.map(|m| (m, aa))
+            })
             .collect::<Result<_, _>>()?
     } else {
-        vec![solver::Method::Arap, solver::Method::BsArap, solver::Method::BsArapCoarse]
+        [solver::Method::Arap, solver::Method::BsArap, solver::Method::BsArapCoarse]
+            .map(|m| (m, false))
+            .to_vec()
     };
     let group = handles.group_ids().next().ok_or("empty selection")?;
     let n_poses = handles.group_ids().max().map_or(0, |k| k + 1);
@@ -62,10 +71,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!("|---|---:|---:|---:|---:|---:|---:|");
     let make = factory();
     let mut settling = Vec::new();
-    for m in methods {
+    for (m, aa) in methods {
+        let acceleration = if aa {
+            solver::Acceleration::Anderson { window: 5 }
+        } else {
+            solver::Acceleration::None
+        };
+        let label = format!("{}{}", m.name(), if aa { "+aa" } else { "" });
         let (slot, settings) = match m {
-            solver::Method::Arap => (Slot::Arap, defaults),
-            v => (Slot::BsArap, MethodSettings { bs_variant: v, ..defaults }),
+            solver::Method::Arap => (Slot::Arap, MethodSettings { acceleration, ..defaults }),
+            v => (Slot::BsArap, MethodSettings { bs_variant: v, acceleration, ..defaults }),
         };
         let t = Instant::now();
         let mut d = make(slot, &mesh, &handles, &settings)?;
@@ -94,7 +109,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let median = times[frames / 2];
         println!(
             "| {} | {precompute:.0} | {:.1} | {at_cap}/{frames} | {mean:.1} | {median:.1} | {:.1} |",
-            m.name(),
+            label,
             iterations as f64 / frames as f64,
             1e3 / mean
         );
@@ -103,9 +118,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         poses[group].translation = [-2.0 * radius, 0.0, 0.0];
         let targets = handle_targets(&mesh, &handles, &poses)?;
         let mut solves = 1;
+        let t = Instant::now();
         while !d.solve(&targets, &mut x)?.converged && solves < 1000 {
             solves += 1;
         }
+        let solve_seconds = t.elapsed().as_secs_f64();
         let before = x.clone();
         let t = Instant::now();
         let (mut steps, mut fine) = (0, 0);
@@ -118,22 +135,34 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
         if steps > 0 {
             let seconds = t.elapsed().as_secs_f64();
-            settling.push((m, targets, solves, before, x.clone(), steps, fine, seconds));
+            let solves = (solves, solve_seconds);
+            settling.push((
+                label.clone(),
+                targets,
+                solves,
+                before,
+                x.clone(),
+                steps,
+                fine,
+                seconds,
+            ));
         }
     }
     if !settling.is_empty() {
         println!();
         println!(
-            "| method | solves to converge | settle steps | fine iterations | settle s | before: max / mean / energy | after: max / mean / energy | reference energy |"
+            "| method | solves to converge (s) | settle steps | fine iterations | settle s | before: max / mean / energy | after: max / mean / energy | reference energy |"
         );
         println!("|---|---:|---:|---:|---:|---:|---:|---:|");
     }
-    for (m, targets, solves, before, after, steps, fine, seconds) in settling {
+    for (label, targets, solves, before, after, steps, fine, seconds) in settling {
         let mut r = solver::quality::Reference::new(&mesh, &handles, &targets, defaults.energy)?;
         let (b, a) = (r.measure(&before), r.measure(&after));
         println!(
-            "| {} | {solves} | {steps} | {fine} | {seconds:.2} | {:.2}% / {:.3}% / {:.3e} | {:.2}% / {:.3}% / {:.3e} | {:.3e} |",
-            m.name(),
+            "| {} | {} ({:.2}) | {steps} | {fine} | {seconds:.2} | {:.2}% / {:.3}% / {:.3e} | {:.2}% / {:.3}% / {:.3e} | {:.3e} |",
+            label,
+            solves.0,
+            solves.1,
             100.0 * b.max_distance,
             100.0 * b.mean_distance,
             b.energy_on_mesh,

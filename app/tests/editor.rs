@@ -155,6 +155,25 @@ fn opens_the_default_asset_and_views_change_the_image() {
         assert!(q.mean_distance <= q.max_distance && q.energy_on_mesh > 0.0, "{q:?}");
         assert!(q.mean_distance < 2e-3, "{q:?}");
     }
+
+    // The method panel's Anderson acceleration reaches the solvers' configuration, and off again.
+    let anderson = |a: &EditorApp| {
+        matches!(a.method_settings().acceleration, solver::Acceleration::Anderson { window: 5 })
+    };
+    assert!(!anderson(h.state()), "Anderson is off by default");
+    // The panel is below the fold of the side panel's scroll area: click through AccessKit.
+    h.get_by_label("Anderson acceleration").click_accesskit();
+    step_until(&mut h, "Anderson on", anderson);
+    let rebuilt = |a: &EditorApp| {
+        [Method::Arap, Method::BsArap]
+            .into_iter()
+            .all(|m| a.latest_frame(m).is_some_and(|f| f.scene_generation == a.scene_generation()))
+    };
+    step_until(&mut h, "both solvers rebuilt and converged with Anderson", |a| {
+        rebuilt(a) && posed(a)
+    });
+    h.get_by_label("Anderson acceleration").click_accesskit();
+    step_until(&mut h, "Anderson off", |a| !anderson(a));
 }
 
 #[test]

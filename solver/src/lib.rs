@@ -29,7 +29,7 @@ pub mod selection;
 pub mod shapes;
 pub mod topology;
 
-pub use arap::{Arap, ArapConfig, Energy, SolveStats};
+pub use arap::{Acceleration, Arap, ArapConfig, Energy, SolveStats};
 pub use bs_arap::{BaseKind, BsArap};
 pub use deformer::{BaseConfig, Deformer, Method};
 pub use error::SolveError;

@@ -113,6 +113,9 @@ type SideBySideQuality = [solver::quality::Quality; 2];
 
 /// Seconds of solver history the plot shows.
 const PLOT_SECONDS: f64 = 10.0;
+/// Anderson window when the method panel's acceleration is on (Peng et al. 2018 use 5-6;
+/// BENCHMARKS.md measures 5).
+const ANDERSON_WINDOW: usize = 5;
 /// How often the crash snapshot is refreshed.
 const SNAPSHOT_INTERVAL: Duration = Duration::from_secs(5);
 
@@ -1953,6 +1956,22 @@ impl EditorApp {
                 .logarithmic(true)
                 .text("iteration cap"),
         );
+        let mut anderson =
+            matches!(self.settings.acceleration, solver::Acceleration::Anderson { .. });
+        if ui
+            .checkbox(&mut anderson, "Anderson acceleration")
+            .on_hover_text(
+                "safeguarded Anderson acceleration (window 5) of every solve: fewer iterations \
+                 to the tolerance, each a little dearer",
+            )
+            .changed()
+        {
+            self.settings.acceleration = if anderson {
+                solver::Acceleration::Anderson { window: ANDERSON_WINDOW }
+            } else {
+                solver::Acceleration::None
+            };
+        }
         if self.settings.bs_variant != solver::Method::BsArap {
             ui.add(
                 egui::Slider::new(&mut self.settings.base.smoothing, 0.002..=0.2)

@@ -105,6 +105,7 @@ pub fn apply_scene(scene: &Scene, labels: Vec<Option<u32>>, settings: &MethodSet
     s.energy = scene.arap.energy;
     s.tolerance = scene.arap.tolerance;
     s.max_iterations = scene.arap.max_iterations.clamp(1, MAX_UI_ITERATIONS);
+    s.acceleration = scene.arap.acceleration;
     // Settling is the editor's own setting, not the scene's.
     s.base = solver::BaseConfig { settle_iterations: s.base.settle_iterations, ..scene.base };
     let camera = scene.camera.as_ref().and_then(OrbitCamera::from_json);
@@ -143,6 +144,7 @@ mod tests {
         let settings = MethodSettings {
             tolerance: 1e-5,
             max_iterations: 42,
+            acceleration: solver::Acceleration::Anderson { window: 5 },
             bs_variant: solver::Method::BsArapFaired,
             ..MethodSettings::default()
         };

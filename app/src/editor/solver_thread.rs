@@ -30,6 +30,8 @@ pub struct MethodSettings {
     pub tolerance: f64,
     /// Iteration cap of one frame.
     pub max_iterations: usize,
+    /// Acceleration of every solve's local-global loop (plain or Anderson).
+    pub acceleration: solver::Acceleration,
     /// Which BS-ARAP variant the BS-ARAP slot runs.
     pub bs_variant: solver::Method,
     /// Base-surface settings of the BS-ARAP variants (smoothing, coarse vertex count, fine
@@ -45,6 +47,7 @@ impl Default for MethodSettings {
             energy: solver::Energy::SpokesAndRims,
             tolerance: 1e-4,
             max_iterations: 30,
+            acceleration: solver::Acceleration::None,
             // The paper's base is slow to precompute and collapses under small handles on the
             // default creature (see main's scenes); the coarse faired base is interactive.
             bs_variant: solver::Method::BsArapCoarse,
@@ -64,6 +67,7 @@ impl MethodSettings {
             energy: self.energy,
             tolerance: self.tolerance,
             max_iterations: self.max_iterations,
+            acceleration: self.acceleration,
             ..solver::ArapConfig::default()
         }
     }
