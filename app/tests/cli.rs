@@ -177,6 +177,41 @@ fn deform_keeps_vertex_order_and_honours_tol_zero() {
 
 /// `bench --quality`: each method's pose at the chosen frame against converged full ARAP. ARAP
 /// run to a tight tolerance lands on the reference; one iteration per frame does not.
+/// The coarse variant's frames at the cap count its coarse solve; fine iterations still
+/// lowering the energy on the mesh are counted apart.
+#[test]
+fn bench_counts_the_cap_and_unconverged_fine_iterations_apart() {
+    let (obj, sel, _) = sphere();
+    let (code, stdout, stderr) = bsarap(&[
+        "bench",
+        obj.to_str().unwrap(),
+        "--handles",
+        sel.to_str().unwrap(),
+        "--frames",
+        "4",
+        "--radius",
+        "0.15",
+        "--method",
+        "bsarap-coarse",
+        "--coarse-vertices",
+        "100",
+        "--fine-iterations",
+        "1",
+        "--tol",
+        "1e-9",
+        "--max-iters",
+        "5000",
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{stderr}");
+    let j: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    let m = &j["methods"]["bsarap-coarse"];
+    assert_eq!(m["frames_at_cap"], 0, "{m}");
+    // One fine iteration cannot lower the energy by less than 1e-9 of it; the last frame is
+    // the rest pose, which skips them.
+    assert_eq!(m["frames_fine_unconverged"], 3, "{m}");
+}
+
 #[test]
 fn bench_quality_against_converged_arap() {
     let (obj, sel, _) = sphere();

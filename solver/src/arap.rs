@@ -110,8 +110,8 @@ impl Default for ArapConfig {
 pub struct SolveStats {
     /// Local-global iterations run.
     pub iterations: usize,
-    /// Whether the tolerance was met (false: stopped at the cap). The coarse variant with fine
-    /// iterations: and they, too, lowered the energy by less than the tolerance per iteration.
+    /// Whether the tolerance was met (false: stopped at the cap). For the coarse variant, its
+    /// coarse solve; the fine iterations after it report in `fine_unconverged`.
     pub converged: bool,
     /// $E(p'_0, R_1)$: the energy of the starting guess (with handles on target).
     pub initial_energy: f64,
@@ -137,9 +137,18 @@ pub struct SolveStats {
     pub fine_iterations: usize,
     /// Milliseconds of those fine iterations.
     pub fine_ms: f64,
+    /// Fine iterations ran and were still lowering the energy by more than the tolerance per
+    /// iteration: solving again at the same targets would still change the pose.
+    pub fine_unconverged: bool,
 }
 
 impl SolveStats {
+    /// Nothing more to do at these targets: the solve converged, and so did the fine
+    /// iterations after it, if any.
+    pub fn done(&self) -> bool {
+        self.converged && !self.fine_unconverged
+    }
+
     /// Final energy (the initial one when no iteration ran).
     pub fn energy(&self) -> f64 {
         self.energies.last().copied().unwrap_or(self.initial_energy)

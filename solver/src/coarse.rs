@@ -309,14 +309,13 @@ impl CoarseBsArap {
             return Err(SolveError::NonFiniteResult { vertex });
         }
         self.swap_next();
-        let coarse_converged = stats.converged && stats.iterations > 0;
         let mut stats = stats;
         if self.fine_iterations > 0 {
             match self.run_fine(targets, self.fine_iterations) {
                 Ok(st) => {
                     stats.fine_iterations = st.iterations;
                     stats.fine_ms = st.total_ms();
-                    stats.converged &= self.fine_converged(&st);
+                    stats.fine_unconverged = !self.fine_converged(&st);
                 }
                 Err(e) => {
                     // The previous pose, base and frames stay, as for a failed coarse solve.
@@ -328,7 +327,7 @@ impl CoarseBsArap {
         }
         self.last_targets.clear();
         self.last_targets.extend_from_slice(targets);
-        self.settle_ready = coarse_converged;
+        self.settle_ready = stats.converged && stats.iterations > 0;
         self.last_energy = stats.energy();
         Ok(stats)
     }

@@ -143,9 +143,12 @@ pub struct MethodResult {
     pub seconds_per_frame: f64,
     pub fps: f64,
     pub final_energy: f64,
-    /// Frames that did not converge ([`solver::SolveStats::converged`]: stopped at the cap, or,
-    /// with fine iterations, still lowering the energy on the mesh).
+    /// Frames whose solve stopped at the cap ([`solver::SolveStats::converged`] false; for the
+    /// coarse variant, its coarse solve).
     pub frames_at_cap: usize,
+    /// Frames whose fine iterations were still lowering the energy on the mesh by more than the
+    /// tolerance per iteration ([`solver::SolveStats::fine_unconverged`]).
+    pub frames_fine_unconverged: usize,
     pub rejected_steps: usize,
     pub factor_nonzeros: usize,
     /// Iterations of each frame.
@@ -254,7 +257,7 @@ fn bench_variant(
     let g = moving_group(s.handles)?;
     let (mut total_ms, mut local, mut rhs, mut solve, mut energy) = (0.0, 0.0, 0.0, 0.0, 0.0);
     let (mut fine_iterations, mut fine_ms) = (0, 0.0);
-    let (mut last, mut at_cap, mut rejected) = (0.0, 0, 0);
+    let (mut last, mut at_cap, mut fine_open, mut rejected) = (0.0, 0, 0, 0);
     let mut iterations = Vec::with_capacity(s.frames);
     let mut first = Vec::new();
     let mut snapshot = None;
@@ -279,6 +282,7 @@ fn bench_variant(
         fine_ms += st.fine_ms;
         last = st.energy();
         at_cap += usize::from(!st.converged);
+        fine_open += usize::from(st.fine_unconverged);
         rejected += st.rejected_steps;
         if f == 1 && st.initial_energy > 0.0 {
             first.push(1.0);
@@ -309,6 +313,7 @@ fn bench_variant(
         fps: 1.0 / spf,
         final_energy: last,
         frames_at_cap: at_cap,
+        frames_fine_unconverged: fine_open,
         rejected_steps: rejected,
         factor_nonzeros: d.arap().factor_nonzeros(),
         iterations,

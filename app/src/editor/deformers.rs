@@ -48,7 +48,7 @@ impl SolverDeformer {
             iterations: stats.iterations,
             energy: stats.energy(),
             ms_per_iteration,
-            converged: stats.converged,
+            converged: stats.done(),
             fine_iterations: stats.fine_iterations,
         }
     }
