@@ -106,7 +106,11 @@ fn opens_the_default_asset_and_views_change_the_image() {
     h.get_by_label("wireframe").click();
 
     h.get_by_label("Base surface").click();
-    step_until(&mut h, "the base view", |a| a.view() == View::Base);
+    // The solver thread builds the base's shape only while the Base view shows it.
+    step_until(&mut h, "the base view and its surface", |a| {
+        a.view() == View::Base
+            && a.latest_frame(Method::BsArap).is_some_and(|f| f.deformed_base.is_some())
+    });
     h.snapshot_options("editor_base", &snapshot_options());
 
     h.get_by_label("Details").click();

@@ -1021,6 +1021,9 @@ impl EditorApp {
     }
 
     fn poll_solvers(&mut self) {
+        if let Some(h) = &self.bsarap {
+            h.show_base(self.view == View::Base);
+        }
         let generation = self.scene_generation;
         for (i, handle) in [self.arap.as_ref(), self.bsarap.as_ref()].into_iter().enumerate() {
             let Some(handle) = handle else { continue };

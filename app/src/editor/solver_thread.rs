@@ -11,6 +11,7 @@
 //! empty state, waiting for the next scene.
 
 use std::panic::{AssertUnwindSafe, catch_unwind};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender, TryRecvError, channel};
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
@@ -157,6 +158,9 @@ pub enum Command {
         pose_generation: u64,
         poses: Vec<GroupPose>,
     },
+    /// Publish the current pose again (the deformed base was asked for while the thread was
+    /// idle; see [`SolverHandle::show_base`]).
+    Republish,
     /// Test hook: make the worker panic, to exercise the recovery path.
     InjectPanic,
     Shutdown,
@@ -170,6 +174,7 @@ pub struct SolvedFrame {
     pub positions: Arc<Vec<[f32; 3]>>,
     /// Vertex normals of `positions` (computed here, not on the UI thread).
     pub normals: Arc<Vec<[f32; 3]>>,
+    /// The deformed base surface, while [`SolverHandle::show_base`] is on (BS-ARAP only).
     pub deformed_base: Option<Shape>,
     pub detail_magnitudes: Option<Arc<Vec<f32>>>,
     pub stats: FrameStats,
@@ -233,6 +238,7 @@ pub struct SolverHandle {
     tx: Sender<Command>,
     mailbox: Arc<Mailbox>,
     status: Arc<Mutex<SolverStatus>>,
+    show_base: Arc<AtomicBool>,
     thread: Option<JoinHandle<()>>,
 }
 
@@ -246,11 +252,26 @@ impl SolverHandle {
         let (tx, rx) = channel();
         let mailbox = Arc::new(Mailbox::default());
         let status = Arc::new(Mutex::new(SolverStatus { state: SolverState::Idle, panics: 0 }));
-        let shared = Shared { mailbox: mailbox.clone(), status: status.clone(), repaint };
+        let show_base = Arc::new(AtomicBool::new(false));
+        let shared = Shared {
+            mailbox: mailbox.clone(),
+            status: status.clone(),
+            show_base: show_base.clone(),
+            repaint,
+        };
         let thread = std::thread::Builder::new()
             .name(format!("solver-{}", method.label()))
             .spawn(move || supervise(method, factory, rx, shared))?;
-        Ok(SolverHandle { method, tx, mailbox, status, thread: Some(thread) })
+        Ok(SolverHandle { method, tx, mailbox, status, show_base, thread: Some(thread) })
+    }
+
+    /// Whether frames carry the deformed base surface (its shape and normals cost about 1 ms a
+    /// frame on a 43k-vertex mesh, so they are built only while the Base view shows them).
+    /// Turning it on republishes the current pose with its base.
+    pub fn show_base(&self, on: bool) {
+        if !self.show_base.swap(on, Ordering::Relaxed) && on {
+            self.send(Command::Republish);
+        }
     }
 
     /// Sends a command; never blocks. A dead thread is reported by the status.
@@ -281,6 +302,7 @@ impl Drop for SolverHandle {
 struct Shared {
     mailbox: Arc<Mailbox>,
     status: Arc<Mutex<SolverStatus>>,
+    show_base: Arc<AtomicBool>,
     repaint: Arc<dyn Fn() + Send + Sync>,
 }
 
@@ -347,6 +369,27 @@ struct Active {
     last_stats: FrameStats,
     last_frame: Option<Instant>,
     fps: f64,
+    /// A frame of this scene has been published (so there is a pose to republish).
+    last_frame_published: bool,
+}
+
+impl Active {
+    /// The frame of the current pose, with the deformed base when `with_base`.
+    fn frame(&self, stats: FrameStats, with_base: bool) -> SolvedFrame {
+        let triangles = self.mesh.triangles();
+        let shape = Shape::new(&self.x, triangles);
+        let base = with_base.then(|| self.deformer.deformed_base()).flatten();
+        SolvedFrame {
+            scene_generation: self.scene_generation,
+            pose_generation: self.pose_generation,
+            positions: shape.positions,
+            normals: shape.normals,
+            deformed_base: base.map(|b| Shape::new(&b, triangles)),
+            detail_magnitudes: self.details.clone(),
+            stats,
+            fps: self.fps,
+        }
+    }
 }
 
 /// How long the poses must stay unchanged before a converged pose is settled: a settle step
@@ -390,9 +433,11 @@ fn worker_loop(method: Method, factory: &DeformerFactory, rx: &Receiver<Command>
         // Only the newest scene and the newest poses matter.
         let mut new_scene = None;
         let mut new_poses = None;
+        let mut republish = false;
         for c in commands {
             match c {
                 Command::Shutdown => return,
+                Command::Republish => republish = true,
                 Command::InjectPanic => panic!("injected solver panic (test hook)"),
                 Command::SetScene { .. } => {
                     new_scene = Some(c);
@@ -442,6 +487,7 @@ fn worker_loop(method: Method, factory: &DeformerFactory, rx: &Receiver<Command>
                         last_stats: FrameStats::default(),
                         last_frame: None,
                         fps: 0.0,
+                        last_frame_published: false,
                     });
                     set_status(&shared.status, SolverState::Solving);
                 }
@@ -461,7 +507,14 @@ fn worker_loop(method: Method, factory: &DeformerFactory, rx: &Receiver<Command>
             a.poses_changed = Instant::now();
             set_status(&shared.status, SolverState::Solving);
         }
-        if !a.dirty && !a.settling {
+        // Settle only once the poses have rested for the delay (a command such as Republish
+        // can wake the thread before that).
+        let settle_due = a.settling && a.poses_changed.elapsed() >= SETTLE_DELAY;
+        if !a.dirty && !settle_due {
+            if republish && a.last_frame_published {
+                shared.mailbox.put(a.frame(a.last_stats, shared.show_base.load(Ordering::Relaxed)));
+                (shared.repaint)();
+            }
             continue;
         }
         let solving = a.dirty;
@@ -506,19 +559,8 @@ fn worker_loop(method: Method, factory: &DeformerFactory, rx: &Receiver<Command>
         if !a.dirty && !a.settling {
             a.last_frame = None;
         }
-        let triangles = a.mesh.triangles();
-        let shape = Shape::new(&a.x, triangles);
-        let frame = SolvedFrame {
-            scene_generation: a.scene_generation,
-            pose_generation: a.pose_generation,
-            positions: shape.positions,
-            normals: shape.normals,
-            deformed_base: a.deformer.deformed_base().map(|b| Shape::new(&b, triangles)),
-            detail_magnitudes: a.details.clone(),
-            stats,
-            fps: a.fps,
-        };
-        shared.mailbox.put(frame);
+        shared.mailbox.put(a.frame(stats, shared.show_base.load(Ordering::Relaxed)));
+        a.last_frame_published = true;
         let state = if a.dirty {
             SolverState::Solving
         } else if a.settling {
@@ -765,6 +807,57 @@ mod tests {
             first_settle_done.duration_since(log[solve].2) >= SETTLE_DELAY,
             "settled before the new pose had rested for the delay"
         );
+    }
+
+    /// [`Shift`] with a base: the rest shape lifted by one along y.
+    struct WithBase(Shift);
+
+    impl Deformer for WithBase {
+        fn solve(
+            &mut self,
+            targets: &[[f64; 3]],
+            x: &mut [[f64; 3]],
+        ) -> Result<FrameStats, String> {
+            self.0.solve(targets, x)
+        }
+
+        fn deformed_base(&self) -> Option<Vec<[f64; 3]>> {
+            Some(self.0.rest.iter().map(|p| [p[0], p[1] + 1.0, p[2]]).collect())
+        }
+    }
+
+    /// Frames carry the deformed base only while it is asked for; asking while the thread is
+    /// idle republishes the current pose with it.
+    #[test]
+    fn the_base_is_built_only_while_shown() {
+        let factory: DeformerFactory = Arc::new(|_, mesh: &Mesh, handles: &Handles, _: &_| {
+            let shift = Shift {
+                rest: mesh.positions().to_vec(),
+                handle_vertices: handles.handle_vertices(),
+            };
+            Ok(Box::new(WithBase(shift)) as Box<dyn Deformer>)
+        });
+        let h = SolverHandle::spawn(Method::BsArap, factory, Arc::new(|| {})).unwrap();
+        h.send(scene(1, vec![GroupPose::default()]));
+        let f = wait_frame(&h, |f| f.scene_generation == 1);
+        assert!(f.deformed_base.is_none(), "built while not shown");
+        let start = Instant::now();
+        while h.try_status().is_none_or(|s| s.state != SolverState::Converged) {
+            assert!(start.elapsed() < Duration::from_secs(10), "did not converge");
+            std::thread::sleep(Duration::from_millis(2));
+        }
+        h.show_base(true);
+        let f = wait_frame(&h, |f| f.deformed_base.is_some());
+        assert_eq!(f.pose_generation, 0, "the idle pose, republished");
+        assert_eq!(f.deformed_base.unwrap().positions[2], [0.0, 2.0, 0.0]);
+        let moved = GroupPose { translation: [0.0, 0.0, 2.0], ..Default::default() };
+        h.send(Command::SetPoses { pose_generation: 3, poses: vec![moved] });
+        let f = wait_frame(&h, |f| f.pose_generation == 3);
+        assert!(f.deformed_base.is_some(), "solved frames carry it while shown");
+        h.show_base(false);
+        h.send(Command::SetPoses { pose_generation: 4, poses: vec![GroupPose::default()] });
+        let f = wait_frame(&h, |f| f.pose_generation == 4);
+        assert!(f.deformed_base.is_none(), "built after the view closed");
     }
 
     #[test]
