@@ -73,7 +73,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut settling = Vec::new();
     for (m, aa) in methods {
         let acceleration = if aa {
-            solver::Acceleration::Anderson { window: 5 }
+            solver::Acceleration::Anderson { window: app::editor::solver_thread::ANDERSON_WINDOW }
         } else {
             solver::Acceleration::None
         };

@@ -98,6 +98,7 @@ fn errors_are_one_line_with_nonzero_exit() {
         (vec!["deform", o, "--handles", s, "--move", "0:0,1", "-o", t], "--move"),
         (vec!["deform", o, "--handles", s, "--rotate", "0:0,0,0,30", "-o", t], "axis"),
         (vec!["deform", o, "--handles", s, "--tol", "-1", "-o", t], "--tol"),
+        (vec!["deform", o, "--handles", s, "--anderson", "65", "-o", t], "--anderson"),
         (vec!["deform", o, "--handles", "/nope.dmat", "-o", t], "nope.dmat"),
         (vec!["deform", o, "--handles", s, "--method", "magic", "-o", t], "magic"),
         (vec!["deform", o], "required"),
@@ -175,8 +176,43 @@ fn deform_keeps_vertex_order_and_honours_tol_zero() {
     }
 }
 
-/// `bench --quality`: each method's pose at the chosen frame against converged full ARAP. ARAP
-/// run to a tight tolerance lands on the reference; one iteration per frame does not.
+/// `deform --anderson W` reaches the same pose as plain local-global in fewer iterations.
+#[test]
+fn deform_with_anderson_acceleration() {
+    let (obj, sel, _) = sphere();
+    let run = |anderson: &str| -> serde_json::Value {
+        let out = tmp(&format!("aa{anderson}.obj"));
+        let (code, stdout, stderr) = bsarap(&[
+            "deform",
+            obj.to_str().unwrap(),
+            "--handles",
+            sel.to_str().unwrap(),
+            "--move",
+            "0:0.6,0.3,0",
+            "--method",
+            "arap",
+            "--tol",
+            "1e-10",
+            "--max-iters",
+            "20000",
+            "--anderson",
+            anderson,
+            "-o",
+            out.to_str().unwrap(),
+            "--json",
+        ]);
+        assert_eq!(code, 0, "{stderr}");
+        serde_json::from_str(&stdout).unwrap()
+    };
+    let (plain, aa) = (run("0"), run("5"));
+    assert_eq!(plain["converged"], true);
+    assert_eq!(aa["converged"], true);
+    let it = |j: &serde_json::Value| j["iterations"].as_u64().unwrap();
+    assert!(it(&aa) < it(&plain), "anderson {} vs plain {}", it(&aa), it(&plain));
+    let e = |j: &serde_json::Value| j["final_energy"].as_f64().unwrap();
+    assert!((e(&aa) - e(&plain)).abs() <= 1e-6 * e(&plain), "{} vs {}", e(&aa), e(&plain));
+}
+
 /// The coarse variant's frames at the cap count its coarse solve; fine iterations still
 /// lowering the energy on the mesh are counted apart.
 #[test]
@@ -212,6 +248,8 @@ fn bench_counts_the_cap_and_unconverged_fine_iterations_apart() {
     assert_eq!(m["frames_fine_unconverged"], 3, "{m}");
 }
 
+/// `bench --quality`: each method's pose at the chosen frame against converged full ARAP. ARAP
+/// run to a tight tolerance lands on the reference; one iteration per frame does not.
 #[test]
 fn bench_quality_against_converged_arap() {
     let (obj, sel, _) = sphere();

@@ -162,7 +162,10 @@ fn opens_the_default_asset_and_views_change_the_image() {
 
     // The method panel's Anderson acceleration reaches the solvers' configuration, and off again.
     let anderson = |a: &EditorApp| {
-        matches!(a.method_settings().acceleration, solver::Acceleration::Anderson { window: 5 })
+        a.method_settings().acceleration
+            == solver::Acceleration::Anderson {
+                window: app::editor::solver_thread::ANDERSON_WINDOW,
+            }
     };
     assert!(!anderson(h.state()), "Anderson is off by default");
     // The panel is below the fold of the side panel's scroll area: click through AccessKit.

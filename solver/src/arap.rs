@@ -535,6 +535,7 @@ impl Arap {
         if targets.len() != hv.len() {
             return Err(SolveError::TargetCount { got: targets.len(), expected: hv.len() });
         }
+        self.refined_at = None;
         for (&v, t) in hv.iter().zip(targets) {
             self.current[v as usize] = *t;
         }

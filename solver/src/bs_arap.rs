@@ -154,5 +154,6 @@ impl BsArap {
     /// Restarts the next solve from rest.
     pub fn reset(&mut self) {
         self.arap.reset();
+        self.deformed_base.copy_from_slice(&self.base);
     }
 }

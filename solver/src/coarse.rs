@@ -243,7 +243,7 @@ impl CoarseBsArap {
 
     /// Solves coarse ARAP for `targets` (`#H×3` of the fine mesh) and prolongs to the fine mesh.
     /// On error the pose, the deformed base and the detail frames of the last successful solve
-    /// stay.
+    /// stay, and the next solve starts from its coarse pose.
     pub fn solve(&mut self, targets: &[[f64; 3]]) -> Result<SolveStats, SolveError> {
         if targets.len() != self.fine_handles.len() {
             return Err(SolveError::TargetCount {
@@ -257,6 +257,8 @@ impl CoarseBsArap {
         }
         let coarse_targets: Vec<[f64; 3]> =
             self.coarse_targets.iter().map(|&k| targets[k]).collect();
+        // The coarse pose to go back to if what follows fails (a few thousand vertices).
+        let coarse_before = self.arap.positions().to_vec();
         let stats = self.arap.solve(&coarse_targets)?;
         // Rest targets give the rest pose exactly, without iterating: nothing to settle, and
         // no correction may carry over (the prolongation below is then exactly the rest pose).
@@ -305,6 +307,7 @@ impl CoarseBsArap {
         let bad = next.par_iter().position_any(|p| !p.iter().all(|c| c.is_finite()));
         self.next = next;
         if let Some(vertex) = bad {
+            self.arap.set_positions(&coarse_before);
             self.settle_ready = false;
             return Err(SolveError::NonFiniteResult { vertex });
         }
@@ -320,6 +323,7 @@ impl CoarseBsArap {
                 Err(e) => {
                     // The previous pose, base and frames stay, as for a failed coarse solve.
                     self.swap_next();
+                    self.arap.set_positions(&coarse_before);
                     self.settle_ready = false;
                     return Err(e);
                 }

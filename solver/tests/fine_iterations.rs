@@ -105,8 +105,9 @@ fn fine_corrections_add_up_over_solves_and_rest_stays_exact() {
     assert!(q.max < 1e-3, "{q:?}");
 }
 
-/// With fine iterations a solve is done only when they, too, stop lowering the energy: solving the same targets until then (what the editor does while a frame is not
-/// converged) ends close to converged ARAP on the mesh.
+/// With fine iterations a solve is done only when they, too, stop lowering the energy: solving
+/// the same targets until then (what the editor does while a frame is not converged) ends close
+/// to converged ARAP on the mesh.
 #[test]
 fn repeated_solves_converge_towards_arap_on_the_mesh() {
     let c = case();

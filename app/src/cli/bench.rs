@@ -327,11 +327,7 @@ fn bench_variant(
 pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
     check_stopping(a.tol, a.max_iters)?;
     anyhow::ensure!((1..=100_000).contains(&a.frames), "--frames must be between 1 and 100000");
-    anyhow::ensure!(
-        a.anderson <= 64,
-        "--anderson must be between 0 (off) and 64 (got {})",
-        a.anderson
-    );
+    super::acceleration(a.anderson)?;
     anyhow::ensure!(
         a.radius.is_finite() && a.radius >= 0.0,
         "--radius must be a finite number ≥ 0"

@@ -1,6 +1,8 @@
 //! `bsarap deform MESH --handles SEL --move G:dx,dy,dz [--rotate G:ax,ay,az,deg] ... -o OUT.obj`.
 
-use super::{BaseArgs, EnergyArg, MethodArg, PathArg, check_stopping, load, load_handles};
+use super::{
+    BaseArgs, EnergyArg, MethodArg, PathArg, acceleration, check_stopping, load, load_handles,
+};
 use anyhow::{Context, bail};
 use clap::Args;
 use solver::rotation::{axis_angle, mul_mat};
@@ -29,6 +31,9 @@ pub struct DeformArgs {
     pub tol: f64,
     #[arg(long, default_value_t = 100)]
     pub max_iters: usize,
+    /// Anderson acceleration of the local-global iterations with this window (0: off).
+    #[arg(long, default_value_t = 0)]
+    pub anderson: usize,
     #[command(flatten)]
     pub base: BaseArgs,
     /// Output OBJ (written atomically).
@@ -109,6 +114,7 @@ pub fn run(a: &DeformArgs) -> anyhow::Result<()> {
         energy: a.energy.into(),
         tolerance: a.tol,
         max_iterations: a.max_iters,
+        acceleration: acceleration(a.anderson)?,
         ..Default::default()
     };
     let t0 = Instant::now();

@@ -105,6 +105,16 @@ pub fn load_handles(
 }
 
 /// Tolerance and cap validation shared by deform and bench.
+/// The acceleration for `--anderson W` (0: none), checked against the scene files' limit.
+pub fn acceleration(window: usize) -> anyhow::Result<solver::Acceleration> {
+    let max = solver::scene::MAX_ANDERSON_WINDOW;
+    anyhow::ensure!(window <= max, "--anderson must be between 0 (off) and {max} (got {window})");
+    Ok(match window {
+        0 => solver::Acceleration::None,
+        window => solver::Acceleration::Anderson { window },
+    })
+}
+
 pub fn check_stopping(tol: f64, max_iters: usize) -> anyhow::Result<()> {
     anyhow::ensure!(tol.is_finite() && tol >= 0.0, "--tol must be a finite number ≥ 0 (got {tol})");
     anyhow::ensure!(

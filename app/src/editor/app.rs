@@ -27,7 +27,7 @@ use super::picking::Hit;
 use super::pose::{GroupPose, group_centroid};
 use super::renderer::{self, Shape, Uniforms, VertexData, ViewportCallback, build_vertices};
 use super::solver_thread::{
-    Command, Method, MethodSettings, SolvedFrame, SolverHandle, SolverState,
+    ANDERSON_WINDOW, Command, Method, MethodSettings, SolvedFrame, SolverHandle, SolverState,
 };
 use super::timeline::{self, Playback, RecordingView, TimelineAction, apply_paths};
 use super::undo::{EditState, History};
@@ -113,9 +113,6 @@ type SideBySideQuality = [solver::quality::Quality; 2];
 
 /// Seconds of solver history the plot shows.
 const PLOT_SECONDS: f64 = 10.0;
-/// Anderson window when the method panel's acceleration is on (Peng et al. 2018 use 5-6;
-/// BENCHMARKS.md measures 5).
-const ANDERSON_WINDOW: usize = 5;
 /// How often the crash snapshot is refreshed.
 const SNAPSHOT_INTERVAL: Duration = Duration::from_secs(5);
 
@@ -1959,14 +1956,17 @@ impl EditorApp {
                 .logarithmic(true)
                 .text("iteration cap"),
         );
-        let mut anderson =
-            matches!(self.settings.acceleration, solver::Acceleration::Anderson { .. });
+        let window = match self.settings.acceleration {
+            solver::Acceleration::Anderson { window } => window,
+            solver::Acceleration::None => ANDERSON_WINDOW,
+        };
+        let mut anderson = self.settings.acceleration != solver::Acceleration::None;
         if ui
             .checkbox(&mut anderson, "Anderson acceleration")
-            .on_hover_text(
-                "safeguarded Anderson acceleration (window 5) of every solve: fewer iterations \
-                 to the tolerance, each a little dearer",
-            )
+            .on_hover_text(format!(
+                "safeguarded Anderson acceleration (window {window}) of every solve: fewer \
+                 iterations to the tolerance, each a little dearer"
+            ))
             .changed()
         {
             self.settings.acceleration = if anderson {

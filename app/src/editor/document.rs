@@ -144,7 +144,7 @@ mod tests {
         let settings = MethodSettings {
             tolerance: 1e-5,
             max_iterations: 42,
-            acceleration: solver::Acceleration::Anderson { window: 5 },
+            acceleration: solver::Acceleration::Anderson { window: 7 },
             bs_variant: solver::Method::BsArapFaired,
             ..MethodSettings::default()
         };
