@@ -11,6 +11,7 @@ use app::editor::solver_thread::{Method, SolverState};
 use app::editor::{EditorApp, EditorOptions, Tool, View, default_mesh_path};
 use eframe::egui::{self, Event, Modifiers, PointerButton, Pos2, Vec2};
 use egui_kittest::{Harness, SnapshotOptions, kittest::Queryable};
+use solver::testing::ScratchDir;
 
 const SIZE: Vec2 = Vec2::new(1000.0, 640.0);
 
@@ -37,11 +38,8 @@ fn harness_with_config(path: PathBuf, config_dir: Option<PathBuf>) -> Harness<'s
 }
 
 /// A fresh folder under the system's temporary folder.
-fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("bsarap-editor-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn temp_dir(name: &str) -> ScratchDir {
+    ScratchDir::new(&format!("editor-{name}"))
 }
 
 /// Steps the UI (background threads keep running) until `pred` holds; fails after 60 s.
@@ -346,7 +344,6 @@ fn a_bad_file_shows_an_error_and_keeps_the_mesh() {
     step_until(&mut h, "the dropped mesh", |a| !a.is_loading());
     assert_eq!(h.state().mesh_path(), Some(dropped.as_path()));
     assert_eq!(h.state().n_vertices(), mesh.n_vertices());
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Distance between two points.
@@ -446,7 +443,6 @@ fn a_timeline_path_drives_the_handles_and_the_recording_matches_the_headless_exp
     assert!(h.state().info().is_some_and(|i| i.contains("anim.glb")), "{:?}", h.state().info());
     let announced = format!("({:.1} MB)", written as f64 / 1e6);
     assert!(h.query_all_by_label_contains(&announced).next().is_some(), "no {announced}");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -542,7 +538,6 @@ fn scenes_recent_files_rename_and_autosave_restore() {
     step_until(&mut h, "the other mesh", |a| !a.is_loading());
     assert_eq!(h.state().mesh_path(), Some(test_mesh().as_path()));
     assert!(!h.state().has_unsaved_changes());
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]

@@ -13,9 +13,8 @@ fn bsarap(args: &[&str]) -> (i32, String, String) {
     )
 }
 
-fn dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("bsarap-export-cli-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
+fn dir(name: &str) -> solver::testing::ScratchDir {
+    let d = solver::testing::ScratchDir::new(&format!("export-cli-{name}"));
     std::fs::create_dir_all(d.join("scenes")).unwrap();
     d
 }
@@ -84,7 +83,6 @@ fn export_writes_one_morph_target_per_frame() {
     assert_eq!(j["meshes"][0]["primitives"][0]["targets"].as_array().unwrap().len(), 3);
     let input = j["animations"][0]["samplers"][0]["input"].as_u64().unwrap() as usize;
     assert_eq!(j["accessors"][input]["max"][0], 1.0);
-    let _ = std::fs::remove_dir_all(&d);
 }
 
 #[test]
@@ -105,5 +103,4 @@ fn export_errors_are_one_line() {
         bsarap(&["export", s.to_str().unwrap(), "-o", out.to_str().unwrap(), "--frames", "0"]);
     assert_ne!(code, 0);
     assert!(stderr.contains("--frames"), "{stderr}");
-    let _ = std::fs::remove_dir_all(&d);
 }

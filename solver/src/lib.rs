@@ -27,6 +27,8 @@ pub mod rotation;
 pub mod scene;
 pub mod selection;
 pub mod shapes;
+#[doc(hidden)]
+pub mod testing;
 pub mod topology;
 
 pub use arap::{Acceleration, Arap, ArapConfig, Energy, SolveStats};

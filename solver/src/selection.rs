@@ -363,8 +363,7 @@ mod tests {
     /// other counts are errors.
     #[test]
     fn dmat_of_the_file_as_read_goes_through_the_vertex_map() {
-        let dir = std::env::temp_dir().join(format!("bsarap-dmat-map-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = crate::testing::ScratchDir::new("dmat-map");
         let positions = [[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
         // Input vertex 3 was welded into 1, input 4 removed.
         let map = [Some(0), Some(1), Some(2), Some(1), None];
@@ -384,7 +383,6 @@ mod tests {
         // Without a map, a file-as-read count is a count mismatch, as before.
         let path = dir.join("input.dmat");
         assert!(load_selection(&path, &positions, None).is_err());
-        std::fs::remove_dir_all(&dir).ok();
     }
 
     #[test]

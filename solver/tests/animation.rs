@@ -8,13 +8,11 @@ use solver::animation::{
 };
 use solver::rotation::{IDENTITY, Mat3};
 use solver::scene::{HandlesSpec, SCENE_VERSION, Scene, SceneError};
+use solver::testing::ScratchDir;
 use solver::{ArapConfig, GroupTransform, Method};
 
-fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("solver-anim-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn temp_dir(name: &str) -> ScratchDir {
+    ScratchDir::new(&format!("anim-{name}"))
 }
 
 fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
@@ -290,7 +288,6 @@ fn scene_round_trip_and_load() {
     let absurd = text.replace("\"fine_iterations\": 3", "\"fine_iterations\": 1000000");
     let err = Scene::from_json(&absurd, "x").unwrap_err().to_string();
     assert!(err.contains("fine_iterations"), "{err}");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -322,7 +319,6 @@ fn broken_scene_reports_file_line_and_column() {
     // A handles spec with two sources.
     std::fs::write(&path, "{\"version\": 1, \"mesh\": \"m.obj\", \"handles\": {\"file\": \"h.dmat\", \"labels\": [0]}, \"timeline\": {\"duration\": 1, \"fps\": 10}}").unwrap();
     assert!(matches!(Scene::read(&path).unwrap_err(), SceneError::Invalid { .. }));
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -357,7 +353,6 @@ fn scene_errors_name_the_scene_and_the_missing_mesh() {
     scene.save(&path).unwrap();
     let msg = Scene::load(&path).unwrap_err().to_string();
     assert!(msg.contains("group 5"), "{msg}");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -372,7 +367,6 @@ fn failed_save_keeps_the_old_file() {
     bad.timeline.duration = f64::NAN;
     assert!(bad.save(&path).is_err());
     assert_eq!(std::fs::read_to_string(&path).unwrap(), before);
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -409,5 +403,4 @@ fn scene_dmat_of_the_file_as_read_follows_the_weld() {
     let loaded = Scene::load(&path).unwrap();
     assert_eq!(loaded.mesh.report.vertices_welded, 1);
     assert_eq!(loaded.handles.labels(), &[Some(0), None, None, Some(1)]);
-    let _ = std::fs::remove_dir_all(&dir);
 }

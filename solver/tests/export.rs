@@ -11,13 +11,11 @@ use solver::animation::{
 };
 use solver::export::{ExportError, GltfExport, GltfFormat, export_gltf};
 use solver::recording::{RecordError, Recording, record};
+use solver::testing::ScratchDir;
 use solver::{ArapConfig, Deformer, Handles, Mesh, Method};
 
-fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("solver-export-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn temp_dir(name: &str) -> ScratchDir {
+    ScratchDir::new(&format!("export-{name}"))
 }
 
 /// An icosphere with three handle groups: top cap (0), bottom cap (1), a side patch (2).
@@ -225,7 +223,6 @@ fn glb_parses_back_and_reproduces_every_frame() {
         assert_eq!(predicted, written, "file_size() must predict the size");
         assert_eq!(&bytes[..4], b"glTF");
         read_back(&bytes, &mesh, &rec);
-        let _ = std::fs::remove_dir_all(&dir);
     }
 }
 
@@ -248,7 +245,6 @@ fn gltf_text_form_embeds_the_buffer() {
     );
     let g = gltf::Gltf::from_slice(text.as_bytes()).unwrap();
     assert_eq!(g.meshes().next().unwrap().primitives().next().unwrap().morph_targets().count(), 4);
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -275,7 +271,6 @@ fn nothing_non_finite_is_written() {
     let err = export_gltf(&path, &mesh, &rec, &mut |_, _| ControlFlow::Break(())).unwrap_err();
     assert!(matches!(err, ExportError::Cancelled { .. }));
     assert!(!path.exists());
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Runs `node tools/gltf-validate/validate.mjs FILE` and returns its JSON report, or `None`
@@ -317,7 +312,6 @@ fn khronos_validator_finds_no_errors() {
         let path = dir.join(name);
         export_gltf(&path, &mesh, &rec, &mut |_, _| ControlFlow::Continue(())).unwrap();
         let Some(report) = khronos_validate(&path) else {
-            let _ = std::fs::remove_dir_all(&dir);
             return;
         };
         let issues = &report["issues"];
@@ -325,5 +319,4 @@ fn khronos_validator_finds_no_errors() {
         assert_eq!(issues["numErrors"], 0, "{name}: {report:#}");
         assert_eq!(issues["numWarnings"], 0, "{name}: {report:#}");
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -244,8 +244,7 @@ fn scene_stopping_values_are_validated() {
 
 #[test]
 fn written_files_never_hold_non_finite_values() {
-    let dir = std::env::temp_dir().join(format!("bsarap-guards-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = solver::testing::ScratchDir::new("guards");
     let path = dir.join("out.obj");
     let m = icosphere(0);
     write_obj(&path, m.positions(), m.triangles()).unwrap();
@@ -258,5 +257,4 @@ fn written_files_never_hold_non_finite_values() {
         // The previous file is untouched.
         assert_eq!(std::fs::read(&path).unwrap(), good);
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }

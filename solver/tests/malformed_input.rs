@@ -4,19 +4,17 @@
 //! The corpus is built here, in a fresh folder under the system temp dir.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use solver::HandlesError;
 use solver::io::{Format, LoadError, load_mesh, load_mesh_from_bytes, write_obj};
 use solver::selection::{SelectionError, load_selection, write_dmat};
+use solver::testing::ScratchDir;
 use solver::topology::{boundary_edges, connected_components, non_manifold_edges};
 
 /// A fresh, empty folder for this test process.
-fn temp_dir(tag: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("solver-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+fn temp_dir(tag: &str) -> ScratchDir {
+    ScratchDir::new(tag)
 }
 
 /// Deterministic junk bytes (xorshift).
@@ -469,7 +467,6 @@ fn malformed_inputs_give_their_specific_errors() {
             failures.push(format!("{}: {message}", c.name));
         }
     }
-    let _ = std::fs::remove_dir_all(&dir);
     assert!(failures.is_empty(), "cases that failed:\n{}", failures.join("\n"));
 }
 
@@ -621,7 +618,6 @@ fn cleaning_that_removes_nothing_keeps_vertex_order_through_files() {
     let sel = dir.join("sel.dmat");
     write_dmat(&sel, &h).unwrap();
     assert_eq!(load_selection(&sel, &p, None).unwrap(), h);
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -630,5 +626,4 @@ fn extension_is_case_insensitive() {
     let path: &Path = &dir.join("TET.OFF");
     std::fs::write(path, "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n").unwrap();
     assert_eq!(load_mesh(path).unwrap().mesh.n_faces(), 1);
-    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -123,7 +123,7 @@ mod tests {
 
     #[test]
     fn a_saved_scene_loads_back_to_the_same_state() {
-        let dir = std::env::temp_dir().join(format!("bsarap-doc-{}", std::process::id()));
+        let dir = solver::testing::ScratchDir::new("doc");
         std::fs::create_dir_all(dir.join("scenes")).unwrap();
         let mesh_path = dir.join("bar.obj");
         let (mesh, handles) = solver::shapes::bumpy_bar(1);
@@ -189,6 +189,5 @@ mod tests {
         let empty = EditState::from_labels(vec![None; mesh.n_vertices()]);
         let err = to_scene(&scene_path, &DocumentInput { edit: &empty, ..input }).err().unwrap();
         assert!(err.contains("paint"), "{err}");
-        let _ = std::fs::remove_dir_all(&dir);
     }
 }

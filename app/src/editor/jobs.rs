@@ -256,8 +256,7 @@ mod tests {
         assert_eq!(rec.recording.frames.len(), 11);
         assert_eq!(rec.shapes.len(), 11);
         assert_eq!(job.progress.get(), (11, 11));
-        let dir = std::env::temp_dir().join(format!("bsarap-jobs-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = solver::testing::ScratchDir::new("jobs");
         let out = dir.join("anim.glb");
         let ex = spawn_export(&rec, out.clone(), || {});
         let (path, bytes) = wait(&ex).unwrap();
@@ -269,6 +268,5 @@ mod tests {
         job.cancel();
         let err = wait(&job).err().unwrap();
         assert!(err.contains("cancelled"), "{err}");
-        let _ = std::fs::remove_dir_all(&dir);
     }
 }

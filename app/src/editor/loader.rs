@@ -180,8 +180,7 @@ mod tests {
     /// duplicated vertices), arrives in the editor on the cleaned mesh's vertices.
     #[test]
     fn a_dmat_of_the_file_as_read_follows_the_weld_into_the_editor() {
-        let dir = std::env::temp_dir().join(format!("bsarap-loader-weld-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = solver::testing::ScratchDir::new("loader-weld");
         // A tetrahedron whose vertex 5 (1-based) repeats vertex 1: cleaning welds it.
         let obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nv 0 0 0\n\
                    f 1 3 2\nf 5 2 4\nf 1 4 3\nf 2 3 4\n";
@@ -200,6 +199,5 @@ mod tests {
         assert!(scene.default_labels.is_none());
         let notice = scene.notices.iter().find(|n| n.contains("ignored selection"));
         assert!(notice.is_some_and(|n| n.contains("tet.dmat")), "{:?}", scene.notices);
-        std::fs::remove_dir_all(&dir).ok();
     }
 }

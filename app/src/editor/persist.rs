@@ -130,15 +130,16 @@ pub fn ago(t: SystemTime) -> String {
 mod tests {
     use super::*;
 
-    fn dir(name: &str) -> PathBuf {
-        let d = std::env::temp_dir().join(format!("bsarap-persist-{name}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&d);
-        d
+    /// A configuration folder that does not exist yet, inside a scratch directory.
+    fn dir(name: &str) -> (solver::testing::ScratchDir, PathBuf) {
+        let scratch = solver::testing::ScratchDir::new(&format!("persist-{name}"));
+        let d = scratch.join("config");
+        (scratch, d)
     }
 
     #[test]
     fn recent_files_are_newest_first_unique_and_capped() {
-        let d = dir("recent");
+        let (_scratch, d) = dir("recent");
         let p = Persist::new(d.clone());
         assert!(p.recent().is_empty());
         for i in 0..12 {
@@ -152,12 +153,11 @@ mod tests {
         assert_eq!(r.iter().filter(|x| **x == d.join("m5.obj")).count(), 1);
         std::fs::write(d.join("recent.json"), "{broken").unwrap();
         assert!(p.recent().is_empty(), "a broken list is ignored, not fatal");
-        let _ = std::fs::remove_dir_all(&d);
     }
 
     #[test]
     fn autosave_is_found_until_discarded() {
-        let d = dir("autosave");
+        let (_scratch, d) = dir("autosave");
         let p = Persist::new(d.clone());
         assert!(p.pending_autosave().is_none());
         let scene = Scene::new(
@@ -169,6 +169,5 @@ mod tests {
         assert_eq!(Scene::read(&path).unwrap(), scene);
         p.discard_autosave();
         assert!(p.pending_autosave().is_none());
-        let _ = std::fs::remove_dir_all(&d);
     }
 }
