@@ -254,6 +254,8 @@ struct AndersonWork {
     x: Vec<f64>,
     g: Vec<f64>,
     xa: Vec<f64>,
+    /// $E(x, R(x))$ of the pose the last call ended on (its rotations are the current ones).
+    energy: Option<f64>,
 }
 
 impl Arap {
@@ -627,12 +629,14 @@ impl Arap {
                 x: vec![0.0; dim],
                 g: vec![0.0; dim],
                 xa: vec![0.0; dim],
+                energy: None,
             }),
         };
         if !keep_history {
             work.aa.reset();
+            work.energy = None;
         }
-        let AndersonWork { aa, x, g, xa } = &mut *work;
+        let AndersonWork { aa, x, g, xa, energy: last_energy } = &mut *work;
         let gather = |cur: &[[f64; 3]], out: &mut [f64]| {
             for (r, &v) in free.iter().enumerate() {
                 out[3 * r..3 * r + 3].copy_from_slice(&cur[v as usize]);
@@ -644,8 +648,13 @@ impl Arap {
             }
         };
         gather(&self.current, x);
+        // Continuing: the pose and its rotations are where the last call left them, so its
+        // last local step stands (one local step saved per call).
         let t0 = Instant::now();
-        let mut accepted = self.local_step_energy();
+        let mut accepted = match last_energy.take() {
+            Some(e) => e,
+            None => self.local_step_energy(),
+        };
         stats.local_ms += ms(t0, Instant::now());
         stats.initial_energy = accepted;
         for it in 0..max_iterations {
@@ -690,6 +699,7 @@ impl Arap {
                 break;
             }
         }
+        *last_energy = Some(accepted);
         self.anderson = Some(work);
     }
 
