@@ -137,6 +137,9 @@ pub struct SolveStats {
     pub fine_iterations: usize,
     /// Milliseconds of those fine iterations.
     pub fine_ms: f64,
+    /// The ARAP energy on the full mesh after them, $E(x, R(x))$ (0 without fine iterations;
+    /// the energies above are the coarse solve's).
+    pub fine_energy: f64,
     /// Fine iterations ran and were still lowering the energy by more than the tolerance per
     /// iteration: solving again at the same targets would still change the pose.
     pub fine_unconverged: bool,

@@ -317,6 +317,7 @@ impl CoarseBsArap {
             match self.run_fine(targets, self.fine_iterations) {
                 Ok(st) => {
                     stats.fine_iterations = st.iterations;
+                    stats.fine_energy = st.energy();
                     stats.fine_ms = st.total_ms();
                     stats.fine_unconverged = !self.fine_converged(&st);
                 }
@@ -360,6 +361,7 @@ impl CoarseBsArap {
             converged: self.fine_converged(&st),
             initial_energy: self.last_energy,
             fine_iterations: st.iterations,
+            fine_energy: st.energy(),
             fine_ms: st.total_ms(),
             ..SolveStats::default()
         }))

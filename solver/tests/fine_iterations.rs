@@ -149,9 +149,17 @@ fn settling_refines_a_stopped_pose_towards_arap_on_the_mesh() {
     let before = distances(d.positions(), reference, diag).mean;
     assert!(d.settle(&rest_targets).unwrap().is_none(), "other targets than the last solve's");
     let mut steps = 0;
+    let mut energy = f64::INFINITY;
     loop {
         let s = d.settle(targets).unwrap().expect("a step");
         assert_eq!((s.iterations, s.fine_iterations), (0, 3));
+        // The energy on the mesh, reported per step, never increases (safeguarded Anderson).
+        assert!(
+            s.fine_energy > 0.0 && s.fine_energy <= energy,
+            "{energy:e} -> {:e}",
+            s.fine_energy
+        );
+        energy = s.fine_energy;
         steps += 1;
         if s.converged {
             break;

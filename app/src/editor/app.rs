@@ -1620,7 +1620,11 @@ impl EditorApp {
                 } else {
                     lines.push(format!("solver idle  {} it/frame{fine}", s.iterations));
                 }
-                lines.push(format!("{:.3} ms/it  E = {:.4e}", s.ms_per_iteration, s.energy));
+                let on_mesh = s.fine_energy.map_or(String::new(), |e| format!("  E(M) = {e:.4e}"));
+                lines.push(format!(
+                    "{:.3} ms/it  E = {:.4e}{on_mesh}",
+                    s.ms_per_iteration, s.energy
+                ));
             }
         }
         if self.view == View::Compare

@@ -50,6 +50,7 @@ impl SolverDeformer {
             ms_per_iteration,
             converged: stats.done(),
             fine_iterations: stats.fine_iterations,
+            fine_energy: (stats.fine_iterations > 0).then_some(stats.fine_energy),
         }
     }
 }

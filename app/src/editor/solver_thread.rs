@@ -106,6 +106,9 @@ pub struct FrameStats {
     /// ARAP iterations on the full mesh in this frame (the coarse BS-ARAP's fine or settle
     /// iterations).
     pub fine_iterations: usize,
+    /// The ARAP energy on the full mesh after those iterations (`None` without them; `energy`
+    /// is then the only one).
+    pub fine_energy: Option<f64>,
 }
 
 /// A deformation method with its precomputation done (factorization happens in the factory).
@@ -610,6 +613,7 @@ mod tests {
                 ms_per_iteration: 0.0,
                 converged: true,
                 fine_iterations: 0,
+                fine_energy: None,
             })
         }
     }
