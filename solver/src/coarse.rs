@@ -107,6 +107,11 @@ pub struct CoarseBsArap {
     next: Vec<[f64; 3]>,
     next_base: Vec<[f64; 3]>,
     next_frames: Vec<[f64; 4]>,
+    /// Per-solve scratch: the coarse handles' targets, and the coarse pose to go back to if
+    /// the prolongation or the fine iterations fail (a few thousand vertices; reused, not
+    /// allocated per frame).
+    coarse_target_buf: Vec<[f64; 3]>,
+    coarse_before: Vec<[f64; 3]>,
 }
 
 impl CoarseBsArap {
@@ -226,6 +231,8 @@ impl CoarseBsArap {
             next: Vec::new(),
             next_base: Vec::new(),
             next_frames: Vec::new(),
+            coarse_target_buf: Vec::new(),
+            coarse_before: Vec::new(),
             pinned,
             quaternions: vec![[1.0, 0.0, 0.0, 0.0]; cp.len()],
             frames: vec![[1.0, 0.0, 0.0, 0.0]; mesh.n_vertices()],
@@ -255,11 +262,11 @@ impl CoarseBsArap {
         if let Some(index) = targets.iter().position(|t| !t.iter().all(|c| c.is_finite())) {
             return Err(SolveError::NonFiniteTarget { index });
         }
-        let coarse_targets: Vec<[f64; 3]> =
-            self.coarse_targets.iter().map(|&k| targets[k]).collect();
-        // The coarse pose to go back to if what follows fails (a few thousand vertices).
-        let coarse_before = self.arap.positions().to_vec();
-        let stats = self.arap.solve(&coarse_targets)?;
+        self.coarse_target_buf.clear();
+        self.coarse_target_buf.extend(self.coarse_targets.iter().map(|&k| targets[k]));
+        self.coarse_before.clear();
+        self.coarse_before.extend_from_slice(self.arap.positions());
+        let stats = self.arap.solve(&self.coarse_target_buf)?;
         // Rest targets give the rest pose exactly, without iterating: nothing to settle, and
         // no correction may carry over (the prolongation below is then exactly the rest pose).
         if stats.iterations == 0 {
@@ -307,7 +314,7 @@ impl CoarseBsArap {
         let bad = next.par_iter().position_any(|p| !p.iter().all(|c| c.is_finite()));
         self.next = next;
         if let Some(vertex) = bad {
-            self.arap.set_positions(&coarse_before);
+            self.arap.set_positions(&self.coarse_before);
             self.settle_ready = false;
             return Err(SolveError::NonFiniteResult { vertex });
         }
@@ -324,7 +331,7 @@ impl CoarseBsArap {
                 Err(e) => {
                     // The previous pose, base and frames stay, as for a failed coarse solve.
                     self.swap_next();
-                    self.arap.set_positions(&coarse_before);
+                    self.arap.set_positions(&self.coarse_before);
                     self.settle_ready = false;
                     return Err(e);
                 }

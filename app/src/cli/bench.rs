@@ -327,7 +327,7 @@ fn bench_variant(
 pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
     check_stopping(a.tol, a.max_iters)?;
     anyhow::ensure!((1..=100_000).contains(&a.frames), "--frames must be between 1 and 100000");
-    super::acceleration(a.anderson)?;
+    let anderson = super::acceleration(a.anderson)?;
     anyhow::ensure!(
         a.radius.is_finite() && a.radius >= 0.0,
         "--radius must be a finite number ≥ 0"
@@ -408,9 +408,8 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
     let mut variants = Vec::new();
     for &m in &methods {
         variants.push(Variant { method: m, acceleration: Acceleration::None });
-        if a.anderson > 0 {
-            let acceleration = Acceleration::Anderson { window: a.anderson };
-            variants.push(Variant { method: m, acceleration });
+        if anderson != Acceleration::None {
+            variants.push(Variant { method: m, acceleration: anderson });
         }
     }
     let progress = indicatif::ProgressBar::new((variants.len() * a.frames) as u64);

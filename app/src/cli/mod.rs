@@ -104,7 +104,6 @@ pub fn load_handles(
     Ok(solver::selection::load_selection(path, loaded.mesh.positions(), map)?)
 }
 
-/// Tolerance and cap validation shared by deform and bench.
 /// The acceleration for `--anderson W` (0: none), checked against the scene files' limit.
 pub fn acceleration(window: usize) -> anyhow::Result<solver::Acceleration> {
     let max = solver::scene::MAX_ANDERSON_WINDOW;
@@ -115,6 +114,7 @@ pub fn acceleration(window: usize) -> anyhow::Result<solver::Acceleration> {
     })
 }
 
+/// Tolerance and cap validation shared by deform and bench.
 pub fn check_stopping(tol: f64, max_iters: usize) -> anyhow::Result<()> {
     anyhow::ensure!(tol.is_finite() && tol >= 0.0, "--tol must be a finite number ≥ 0 (got {tol})");
     anyhow::ensure!(
