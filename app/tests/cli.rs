@@ -25,8 +25,14 @@ fn tmp(name: &str) -> PathBuf {
 }
 
 /// A small closed mesh (icosphere, 162 vertices) and a selection of its two x-caps,
-/// written to temp files; returns the labels too.
+/// written to temp files; returns the labels too. Written once per test process: tests run in
+/// parallel, and one rewriting the files while another's command reads them was a race.
 fn sphere() -> (PathBuf, PathBuf, Vec<i64>) {
+    static FILES: std::sync::OnceLock<(PathBuf, PathBuf, Vec<i64>)> = std::sync::OnceLock::new();
+    FILES.get_or_init(write_sphere).clone()
+}
+
+fn write_sphere() -> (PathBuf, PathBuf, Vec<i64>) {
     let m = solver::shapes::icosphere(2);
     let obj = tmp("sphere.obj");
     solver::io::write_obj(&obj, m.positions(), m.triangles()).unwrap();
@@ -47,6 +53,18 @@ fn sphere() -> (PathBuf, PathBuf, Vec<i64>) {
     let body: Vec<String> = labels.iter().map(|l| l.to_string()).collect();
     std::fs::write(&sel, format!("1 {}\n{}\n", labels.len(), body.join("\n"))).unwrap();
     (obj, sel, labels)
+}
+
+/// `bsarap COMMAND sphere.obj --handles sphere.dmat ARGS... --json` on [`sphere`]: must
+/// succeed; its JSON.
+fn on_sphere(command: &str, args: &[&str]) -> serde_json::Value {
+    let (obj, sel, _) = sphere();
+    let mut all = vec![command, obj.to_str().unwrap(), "--handles", sel.to_str().unwrap()];
+    all.extend_from_slice(args);
+    all.push("--json");
+    let (code, stdout, stderr) = bsarap(&all);
+    assert_eq!(code, 0, "{all:?}: {stderr}");
+    serde_json::from_str(&stdout).unwrap()
 }
 
 #[test]
@@ -179,30 +197,11 @@ fn deform_keeps_vertex_order_and_honours_tol_zero() {
 /// `deform --anderson W` reaches the same pose as plain local-global in fewer iterations.
 #[test]
 fn deform_with_anderson_acceleration() {
-    let (obj, sel, _) = sphere();
     let run = |anderson: &str| -> serde_json::Value {
         let out = tmp(&format!("aa{anderson}.obj"));
-        let (code, stdout, stderr) = bsarap(&[
-            "deform",
-            obj.to_str().unwrap(),
-            "--handles",
-            sel.to_str().unwrap(),
-            "--move",
-            "0:0.6,0.3,0",
-            "--method",
-            "arap",
-            "--tol",
-            "1e-10",
-            "--max-iters",
-            "20000",
-            "--anderson",
-            anderson,
-            "-o",
-            out.to_str().unwrap(),
-            "--json",
-        ]);
-        assert_eq!(code, 0, "{stderr}");
-        serde_json::from_str(&stdout).unwrap()
+        let mut args = vec!["--move", "0:0.6,0.3,0", "--method", "arap", "--tol", "1e-10"];
+        args.extend(["--max-iters", "20000", "--anderson", anderson, "-o", out.to_str().unwrap()]);
+        on_sphere("deform", &args)
     };
     let (plain, aa) = (run("0"), run("5"));
     assert_eq!(plain["converged"], true);
@@ -217,30 +216,10 @@ fn deform_with_anderson_acceleration() {
 /// lowering the energy on the mesh are counted apart.
 #[test]
 fn bench_counts_the_cap_and_unconverged_fine_iterations_apart() {
-    let (obj, sel, _) = sphere();
-    let (code, stdout, stderr) = bsarap(&[
-        "bench",
-        obj.to_str().unwrap(),
-        "--handles",
-        sel.to_str().unwrap(),
-        "--frames",
-        "4",
-        "--radius",
-        "0.15",
-        "--method",
-        "bsarap-coarse",
-        "--coarse-vertices",
-        "100",
-        "--fine-iterations",
-        "1",
-        "--tol",
-        "1e-9",
-        "--max-iters",
-        "5000",
-        "--json",
-    ]);
-    assert_eq!(code, 0, "{stderr}");
-    let j: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    let mut args = vec!["--frames", "4", "--radius", "0.15", "--method", "bsarap-coarse"];
+    args.extend(["--coarse-vertices", "100", "--fine-iterations", "1"]);
+    args.extend(["--tol", "1e-9", "--max-iters", "5000"]);
+    let j = on_sphere("bench", &args);
     let m = &j["methods"]["bsarap-coarse"];
     assert_eq!(m["frames_at_cap"], 0, "{m}");
     // One fine iteration cannot lower the energy by less than 1e-9 of it; the last frame is
@@ -252,28 +231,11 @@ fn bench_counts_the_cap_and_unconverged_fine_iterations_apart() {
 /// run to a tight tolerance lands on the reference; one iteration per frame does not.
 #[test]
 fn bench_quality_against_converged_arap() {
-    let (obj, sel, _) = sphere();
     let run = |extra: &[&str]| -> serde_json::Value {
-        let mut args = vec![
-            "bench",
-            obj.to_str().unwrap(),
-            "--handles",
-            sel.to_str().unwrap(),
-            "--frames",
-            "4",
-            "--radius",
-            "0.15",
-            "--method",
-            "arap",
-            "--quality",
-            "--quality-frame",
-            "2",
-            "--json",
-        ];
+        let mut args = vec!["--frames", "4", "--radius", "0.15", "--method", "arap"];
+        args.extend(["--quality", "--quality-frame", "2"]);
         args.extend_from_slice(extra);
-        let (code, stdout, stderr) = bsarap(&args);
-        assert_eq!(code, 0, "{stderr}");
-        serde_json::from_str(&stdout).unwrap()
+        on_sphere("bench", &args)
     };
     let converged = run(&["--tol", "1e-13", "--max-iters", "20000"]);
     let capped = run(&["--stop", "fixed", "--max-iters", "1"]);
@@ -305,18 +267,7 @@ fn bench_quality_against_converged_arap() {
     assert!((d_own - d_rest).abs() < 1e-3 * d_rest, "{d_own} vs {d_rest}");
     assert!(capped["methods"]["arap"].get("quality_reference").is_none());
     // Without --quality there is no quality field (bad --quality arguments: the error table).
-    let (_, plain, _) = bsarap(&[
-        "bench",
-        obj.to_str().unwrap(),
-        "--handles",
-        sel.to_str().unwrap(),
-        "--frames",
-        "2",
-        "--method",
-        "arap",
-        "--json",
-    ]);
-    let plain: serde_json::Value = serde_json::from_str(&plain).unwrap();
+    let plain = on_sphere("bench", &["--frames", "2", "--method", "arap"]);
     // The report names the commit the binary was built from: this checkout's HEAD.
     let head = Command::new("git")
         .args(["rev-parse", "HEAD"])
