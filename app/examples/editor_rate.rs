@@ -9,9 +9,10 @@
 //! from the previous frame as the solver thread does, with the first group moving on the
 //! benchmark's circle (radius 0.1·diag in the xy plane, FRAMES steps of one turn, default 30),
 //! the others at rest. A frame is what the thread does per published frame: handle targets from
-//! the group poses, the solve, and the f32 copies of the positions, the deformed base and the
-//! detail magnitudes. Not included: the UI thread (rendering, normals, picking) competing for
-//! the same cores, and the second thread of the side-by-side view.
+//! the group poses, the solve, and the pose's shape (f32 positions and vertex normals). Not
+//! included: the deformed base (built only while the Base view is open), the UI thread
+//! (rendering, picking) competing for the same cores, and the second thread of the
+//! side-by-side view.
 //!
 //! Then settling, for the methods that do it (the coarse BS-ARAP with the editor's default
 //! settle iterations): the group is dragged to the far point of the circle (0.2·diag from rest)
@@ -21,12 +22,9 @@
 
 use app::editor::deformers::factory;
 use app::editor::pose::{GroupPose, handle_targets};
+use app::editor::renderer::Shape;
 use app::editor::solver_thread::{Method as Slot, MethodSettings};
 use std::time::Instant;
-
-fn to_f32(x: &[[f64; 3]]) -> Vec<[f32; 3]> {
-    x.iter().map(|p| [p[0] as f32, p[1] as f32, p[2] as f32]).collect()
-}
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
@@ -94,12 +92,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let t = Instant::now();
             let targets = handle_targets(&mesh, &handles, &poses)?;
             let stats = d.solve(&targets, &mut x)?;
-            let published = (
-                to_f32(&x),
-                d.deformed_base().map(|b| to_f32(&b)),
-                d.detail_magnitudes().map(|v| v.iter().map(|&a| a as f32).collect::<Vec<_>>()),
-            );
-            std::hint::black_box(published);
+            // What the thread publishes: the pose's f32 positions and normals (the deformed
+            // base only while the Base view is open; the detail magnitudes once per scene).
+            std::hint::black_box(Shape::new(&x, mesh.triangles()));
             times.push(t.elapsed().as_secs_f64() * 1e3);
             iterations += stats.iterations;
             at_cap += usize::from(!stats.converged);
