@@ -30,6 +30,7 @@ use crate::error::SolveError;
 use crate::handles::Handles;
 use crate::linsolve::SpdFactor;
 use crate::mesh::{Mesh, add, sub};
+use crate::reorder::VertexOrder;
 use crate::rotation::{
     IDENTITY, LANES, Mat3, add_mat, add_outer, fit_rotation_near, fit_rotations_near, mul_vec,
     scale_mat, trace_of_product,
@@ -39,11 +40,15 @@ use faer::sparse::Triplet;
 use rayon::prelude::*;
 use std::time::Instant;
 
-/// The least vertices (twice as many faces) per parallel task: about 0.1–0.3 ms of work, so a
-/// coarse mesh of a few thousand vertices runs on the calling thread without waking the pool
-/// (a wake-up and join cost milliseconds on a loaded machine), while a 40k-vertex mesh still
-/// splits into 16 or more tasks.
-const VERTICES_PER_TASK: usize = 2048;
+/// Vertices per parallel task for a mesh of `n` vertices: a sixteenth of the mesh, between
+/// 256 and 2048, a multiple of [`LANES`]. Sixteen tasks balance two threads (a 6,669-vertex mesh
+/// in 2048-vertex tasks split 4096 : 2573 and its iterations took 15–17 % longer than in
+/// 420-vertex tasks); tasks of at least 256 vertices (about 0.05 ms of work) keep the wake-ups
+/// and joins a small share. The task size also fixes the blocks of the energy's sums, so
+/// results do not depend on the number of threads.
+fn vertices_per_task(n: usize) -> usize {
+    n.div_ceil(16).clamp(256, 2048).next_multiple_of(LANES)
+}
 
 /// Anderson window of [`Arap::refine`].
 pub const REFINE_ANDERSON_WINDOW: usize = 5;
@@ -228,6 +233,19 @@ pub struct Arap {
     config: ArapConfig,
     cells: Cells,
     constraints: Constraints,
+    /// The partition in the internal numbering (free rows ascending in it; handles in the
+    /// order of the targets).
+    inner: Constraints,
+    /// Internal vertex `i` is mesh vertex `order.to_mesh[i]` ([`VertexOrder`]): one-rings close
+    /// in memory. Everything but the public pose, rotations and rest is kept in this order.
+    order: VertexOrder,
+    /// [`Arap::positions`], [`Arap::rotations`] and [`Arap::rest`] in mesh order, written when a
+    /// call changes the pose ([`Arap::publish`]).
+    mesh_current: Vec<[f64; 3]>,
+    mesh_rotations: Vec<Mat3>,
+    mesh_rest: Vec<[f64; 3]>,
+    /// Vertices per parallel task ([`vertices_per_task`]).
+    task: usize,
     /// Per free row: (fixed vertex h, w_ih) so that rhs_i += Σ w_ih x_h.
     coupling: Csr<(u32, f64)>,
     /// `None` when every vertex is fixed.
@@ -285,8 +303,12 @@ impl Arap {
         fallback: Option<&[[f64; 3]]>,
     ) -> Result<Arap, SolveError> {
         let n = mesh.n_vertices();
-        let tris = mesh.triangles();
-        let (cot, _) = face_cotangents_or(mesh.positions(), fallback, tris, min_double_area)
+        let order = VertexOrder::reverse_cuthill_mckee(n, mesh.triangles());
+        let inner = constraints.renumbered(&order);
+        let rest = order.gather(mesh.positions());
+        let tris = &order.triangles(mesh.triangles());
+        let fallback = fallback.map(|f| order.gather(f));
+        let (cot, _) = face_cotangents_or(&rest, fallback.as_deref(), tris, min_double_area)
             .map_err(|d| SolveError::DegenerateFace { face: d.face })?;
         let clamp = config.energy == Energy::Spokes;
         let weights = edge_weights(tris, &cot, clamp);
@@ -294,9 +316,9 @@ impl Arap {
         // Free block L_FF (lower triangle) and the coupling to fixed vertices.
         let mut ff = Vec::with_capacity(n + weights.len());
         let mut coupling = Vec::new();
-        let mut diag = vec![0.0; constraints.free_vertices.len()];
+        let mut diag = vec![0.0; inner.free_vertices.len()];
         for t in laplacian_triplets(n, tris, &cot, clamp) {
-            let (fi, fj) = (constraints.free_index[t.row], constraints.free_index[t.col]);
+            let (fi, fj) = (inner.free_index[t.row], inner.free_index[t.col]);
             match (fi, fj) {
                 (Some(r), Some(_)) if t.row == t.col => diag[r as usize] += t.val,
                 (Some(r), Some(c)) if r > c => ff.push(Triplet::new(r as usize, c as usize, t.val)),
@@ -305,7 +327,7 @@ impl Arap {
             }
         }
         ff.extend(diag.iter().enumerate().map(|(r, &d)| Triplet::new(r, r, d)));
-        let n_free = constraints.free_vertices.len();
+        let n_free = inner.free_vertices.len();
         let factor = if n_free == 0 {
             None
         } else {
@@ -320,7 +342,7 @@ impl Arap {
 
         let cells = match config.energy {
             Energy::SpokesAndRims => {
-                let p = mesh.positions();
+                let p = &rest;
                 let edges: Vec<[[f64; 3]; 3]> = tris
                     .iter()
                     .map(|t| {
@@ -344,7 +366,7 @@ impl Arap {
             }
         };
         let rest_term = {
-            let p = mesh.positions();
+            let p = &rest;
             match &cells {
                 Cells::SpokesAndRims { ring, edge_coef, .. } => (0..n)
                     .map(|i| {
@@ -362,7 +384,8 @@ impl Arap {
             }
         };
         Ok(Arap {
-            rest: mesh.positions().to_vec(),
+            current: rest.clone(),
+            rest,
             triangles: tris.to_vec(),
             config: *config,
             cells,
@@ -372,9 +395,14 @@ impl Arap {
             cov: vec![[[0.0; 3]; 3]; n],
             rest_term,
             rows: vec![[0.0; 3]; n_free],
-            current: mesh.positions().to_vec(),
             rhs: Mat::zeros(n_free, 3),
             constraints,
+            inner,
+            order,
+            task: vertices_per_task(n),
+            mesh_current: mesh.positions().to_vec(),
+            mesh_rotations: vec![IDENTITY; n],
+            mesh_rest: mesh.positions().to_vec(),
             anderson: None,
             refined_at: None,
         })
@@ -398,17 +426,19 @@ impl Arap {
 
     /// The current pose `#V×3` (the result of the last solve, the warm start of the next).
     pub fn positions(&self) -> &[[f64; 3]] {
-        &self.current
+        &self.mesh_current
     }
 
     /// Per-vertex rotations $R_i$ of the last local step.
+    #[expect(clippy::misnamed_getters, reason = "the mesh-order copy, not the internal one")]
     pub fn rotations(&self) -> &[Mat3] {
-        &self.rotations
+        &self.mesh_rotations
     }
 
     /// Rest positions `#V×3`.
+    #[expect(clippy::misnamed_getters, reason = "the mesh-order copy, not the internal one")]
     pub fn rest(&self) -> &[[f64; 3]] {
-        &self.rest
+        &self.mesh_rest
     }
 
     /// Nonzeros of the Cholesky factor of $L_{FF}$ (0 when every vertex is fixed).
@@ -421,13 +451,24 @@ impl Arap {
         self.refined_at = None;
         self.current.copy_from_slice(&self.rest);
         self.rotations.fill(IDENTITY);
+        self.publish();
+    }
+
+    /// Writes the pose and rotations in mesh order for [`Arap::positions`] and
+    /// [`Arap::rotations`].
+    fn publish(&mut self) {
+        self.order.scatter(&self.current, &mut self.mesh_current);
+        self.order.scatter(&self.rotations, &mut self.mesh_rotations);
     }
 
     /// Sets the starting guess of the next solve (`#V×3`, finite; other lengths are ignored).
     pub fn set_positions(&mut self, x: &[[f64; 3]]) {
         self.refined_at = None;
         if x.len() == self.current.len() && x.iter().flatten().all(|c| c.is_finite()) {
-            self.current.copy_from_slice(x);
+            for (c, &v) in self.current.iter_mut().zip(&self.order.to_mesh) {
+                *c = x[v as usize];
+            }
+            self.mesh_current.copy_from_slice(x);
         }
     }
 
@@ -437,6 +478,7 @@ impl Arap {
     pub fn pose_energy(&mut self, x: &[[f64; 3]]) -> f64 {
         self.set_positions(x);
         self.local_step();
+        self.publish();
         self.energy()
     }
 
@@ -469,7 +511,7 @@ impl Arap {
         iterations: usize,
     ) -> Result<SolveStats, SolveError> {
         let continues =
-            self.refined_at.as_deref() == Some(targets) && start == self.current.as_slice();
+            self.refined_at.as_deref() == Some(targets) && start == self.mesh_current.as_slice();
         self.set_positions(start);
         let stats = self.run(targets, Some(iterations), continues)?;
         if stats.iterations > 0 {
@@ -486,7 +528,7 @@ impl Arap {
         fixed: Option<usize>,
         continues: bool,
     ) -> Result<SolveStats, SolveError> {
-        let hv = &self.constraints.handle_vertices;
+        let hv = &self.inner.handle_vertices;
         if targets.len() != hv.len() {
             return Err(SolveError::TargetCount { got: targets.len(), expected: hv.len() });
         }
@@ -505,7 +547,7 @@ impl Arap {
         for (&v, t) in hv.iter().zip(targets) {
             self.current[v as usize] = *t;
         }
-        for &v in &self.constraints.pinned_vertices {
+        for &v in &self.inner.pinned_vertices {
             self.current[v as usize] = self.rest[v as usize];
         }
         let mut stats = SolveStats::default();
@@ -520,8 +562,10 @@ impl Arap {
         }
         if let Some(vertex) = self.current.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
             self.current = previous;
+            let vertex = self.order.to_mesh[vertex] as usize;
             return Err(SolveError::NonFiniteResult { vertex });
         }
+        self.publish();
         Ok(stats)
     }
 
@@ -536,7 +580,7 @@ impl Arap {
     /// step 4): one global step with every $R_i = I$, i.e. $L_{FF}x_F = Lp|_F - L_{FH}x_H$.
     /// Rotations are left at the identity.
     pub fn start_from_laplacian_fit(&mut self, targets: &[[f64; 3]]) -> Result<(), SolveError> {
-        let hv = &self.constraints.handle_vertices;
+        let hv = &self.inner.handle_vertices;
         if targets.len() != hv.len() {
             return Err(SolveError::TargetCount { got: targets.len(), expected: hv.len() });
         }
@@ -544,7 +588,7 @@ impl Arap {
         for (&v, t) in hv.iter().zip(targets) {
             self.current[v as usize] = *t;
         }
-        for &v in &self.constraints.pinned_vertices {
+        for &v in &self.inner.pinned_vertices {
             self.current[v as usize] = self.rest[v as usize];
         }
         self.rotations.fill(IDENTITY);
@@ -552,12 +596,13 @@ impl Arap {
         if let Some(f) = self.factor.as_mut() {
             f.solve_in_place(self.rhs.as_mut());
         }
-        for (r, &v) in self.constraints.free_vertices.iter().enumerate() {
+        for (r, &v) in self.inner.free_vertices.iter().enumerate() {
             let p = [self.rhs[(r, 0)], self.rhs[(r, 1)], self.rhs[(r, 2)]];
             if p.iter().all(|c| c.is_finite()) {
                 self.current[v as usize] = p;
             }
         }
+        self.publish();
         Ok(())
     }
 
@@ -570,7 +615,7 @@ impl Arap {
         if let Some(f) = self.factor.as_mut() {
             f.solve_in_place(self.rhs.as_mut());
         }
-        for (r, &v) in self.constraints.free_vertices.iter().enumerate() {
+        for (r, &v) in self.inner.free_vertices.iter().enumerate() {
             self.current[v as usize] = [self.rhs[(r, 0)], self.rhs[(r, 1)], self.rhs[(r, 2)]];
         }
         stats.solve_ms += ms(t3, Instant::now());
@@ -623,7 +668,7 @@ impl Arap {
         keep_history: bool,
     ) {
         let tol = self.config.tolerance;
-        let free = self.constraints.free_vertices.clone();
+        let free = self.inner.free_vertices.clone();
         let dim = 3 * free.len();
         let mut work = match self.anderson.take() {
             Some(w) if w.aa.shape() == (window.max(1), dim) => w,
@@ -759,12 +804,12 @@ impl Arap {
         };
         let parts: Vec<(f64, f64)> = self
             .cov
-            .par_chunks_mut(VERTICES_PER_TASK)
+            .par_chunks_mut(self.task)
             .enumerate()
             .map(|(c, chunk)| {
                 let mut sums = (0.0, 0.0);
                 for (l, out) in chunk.iter_mut().enumerate() {
-                    let i = c * VERTICES_PER_TASK + l;
+                    let i = c * self.task + l;
                     let (s, a) = covariance(i);
                     sums.0 += a;
                     sums.1 += trace_of_product(&rot[i], &s);
@@ -783,8 +828,8 @@ impl Arap {
         let cov = &self.cov;
         let parts: Vec<f64> = self
             .rotations
-            .par_chunks_mut(VERTICES_PER_TASK)
-            .zip(cov.par_chunks(VERTICES_PER_TASK))
+            .par_chunks_mut(self.task)
+            .zip(cov.par_chunks(self.task))
             .map(|(rots, covs)| {
                 let mut t = 0.0;
                 for (r, s) in rots.chunks_mut(LANES).zip(covs.chunks(LANES)) {
@@ -817,7 +862,7 @@ impl Arap {
         let p = &self.rest;
         let x = &self.current;
         let rot = &self.rotations;
-        let free = &self.constraints.free_vertices;
+        let free = &self.inner.free_vertices;
         let coupling = &self.coupling;
         match &self.cells {
             Cells::SpokesAndRims { ring, rhs_coef, .. } => {
@@ -825,7 +870,7 @@ impl Arap {
                     .par_iter_mut()
                     .zip(free.par_iter())
                     .enumerate()
-                    .with_min_len(VERTICES_PER_TASK)
+                    .with_min_len(self.task)
                     .for_each(|(r, (row, &i))| {
                         let i = i as usize;
                         let (lo, hi) = (ring.offsets[i], ring.offsets[i + 1]);
@@ -842,7 +887,7 @@ impl Arap {
                     .par_iter_mut()
                     .zip(free.par_iter())
                     .enumerate()
-                    .with_min_len(VERTICES_PER_TASK)
+                    .with_min_len(self.task)
                     .for_each(|(r, (row, &i))| {
                         let i = i as usize;
                         let mut b = [0.0; 3];
@@ -874,7 +919,7 @@ impl Arap {
                 .triangles
                 .par_iter()
                 .zip(cot.par_iter().zip(edges.par_iter()))
-                .with_min_len(2 * VERTICES_PER_TASK)
+                .with_min_len(2 * self.task)
                 .map(|(t, (w, edge))| {
                     let mut e = 0.0;
                     let rs = t.map(|v| &rot[v as usize]);
@@ -893,7 +938,7 @@ impl Arap {
                 .sum(),
             Cells::Spokes { neighbours } => (0..x.len())
                 .into_par_iter()
-                .with_min_len(VERTICES_PER_TASK)
+                .with_min_len(self.task)
                 .map(|i| {
                     let mut e = 0.0;
                     for &(j, w) in neighbours.row(i) {
@@ -1046,6 +1091,7 @@ mod tests {
         a.set_positions(&x);
         a.local_step();
         a.assemble_rhs();
+        a.publish();
         let p = m.positions();
         let tris = m.triangles();
         let cot = crate::cotan::face_cotangents(p, tris, 0.0).unwrap();
@@ -1085,13 +1131,14 @@ mod tests {
                 }
             }
         }
-        let c = a.constraints();
+        // Free rows and coupled vertices are in the solver's internal numbering.
+        let mesh_vertex = |i: u32| a.order.to_mesh[i as usize] as usize;
         let mut max_b: f64 = 0.0;
-        for (r, &v) in c.free_vertices.iter().enumerate() {
-            let mut want = b[v as usize];
+        for (r, &v) in a.inner.free_vertices.iter().enumerate() {
+            let mut want = b[mesh_vertex(v)];
             for &(hv, w) in a.coupling.row(r) {
                 for k in 0..3 {
-                    want[k] += w * x[hv as usize][k];
+                    want[k] += w * x[mesh_vertex(hv)][k];
                 }
             }
             for k in 0..3 {

@@ -7,12 +7,14 @@
 
 use crate::handles::Handles;
 use crate::mesh::Mesh;
+use crate::reorder::VertexOrder;
 use crate::topology::connected_components;
 
 /// The fixed/free partition of a mesh's vertices for one handle set.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Constraints {
-    /// Handle vertices, ascending (`Handles::handle_vertices`): their targets come from the user.
+    /// Handle vertices, ascending (`Handles::handle_vertices`): their targets come from the user,
+    /// in this order (a [`Constraints::renumbered`] copy keeps it).
     pub handle_vertices: Vec<u32>,
     /// Vertices of components without any handle, ascending: held at their rest positions.
     pub pinned_vertices: Vec<u32>,
@@ -51,6 +53,30 @@ impl Constraints {
             handle_vertices,
             pinned_vertices,
             pinned_components,
+            free_index,
+            free_vertices,
+        }
+    }
+
+    /// The same partition in the numbering of `order` (internal vertex `i` is mesh vertex
+    /// `order.to_mesh[i]`): handle vertices keep their order (that of the targets), pinned and
+    /// free vertices ascending in the new numbering.
+    pub fn renumbered(&self, order: &VertexOrder) -> Constraints {
+        let to_internal = |v: &u32| order.to_internal[*v as usize];
+        let mut pinned_vertices: Vec<u32> = self.pinned_vertices.iter().map(to_internal).collect();
+        pinned_vertices.sort_unstable();
+        let mut free_index = vec![None; self.free_index.len()];
+        let mut free_vertices = Vec::with_capacity(self.free_vertices.len());
+        for (i, &v) in order.to_mesh.iter().enumerate() {
+            if self.free_index[v as usize].is_some() {
+                free_index[i] = Some(free_vertices.len() as u32);
+                free_vertices.push(i as u32);
+            }
+        }
+        Constraints {
+            handle_vertices: self.handle_vertices.iter().map(to_internal).collect(),
+            pinned_vertices,
+            pinned_components: self.pinned_components,
             free_index,
             free_vertices,
         }

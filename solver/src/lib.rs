@@ -23,6 +23,7 @@ pub mod mesh;
 pub mod pose;
 pub mod quality;
 pub mod recording;
+pub mod reorder;
 pub mod rotation;
 pub mod scene;
 pub mod selection;
