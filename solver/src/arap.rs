@@ -20,6 +20,10 @@
 //! Each local and each global step weakly decreases $E$; iteration stops when the relative
 //! decrease $(E_{k-1}-E_k)/E_{k-1}$ falls below the tolerance, or at the iteration cap.
 //!
+//! Layout: the solver numbers the vertices in reverse Cuthill–McKee order
+//! ([`crate::reorder`]) so that one-ring gathers stay in cache; poses, rotations and errors at
+//! its interface are in the mesh's own order.
+//!
 //! Inputs: a [`Mesh`] (`#V×3`, `#F×3`), [`Handles`], an [`ArapConfig`]; targets `#H×3` in the
 //! order of [`Handles::handle_vertices`]. Known limitation: convergence is linear, slow for
 //! large rotations of far-apart handles (what BS-ARAP's smooth base is meant to help with).
