@@ -10,6 +10,8 @@
 //! component is numbered from a pseudo-peripheral vertex: the end of a breadth-first search,
 //! searched again from there while the depth grows.
 
+use crate::topology::Adjacency;
+
 /// A permutation of a mesh's vertices: internal index `i` is mesh vertex `to_mesh[i]`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct VertexOrder {
@@ -21,9 +23,9 @@ impl VertexOrder {
     /// The reverse Cuthill–McKee order of the vertices of `triangles` (`n` vertices; ones in no
     /// triangle are components of their own).
     pub fn reverse_cuthill_mckee(n: usize, triangles: &[[u32; 3]]) -> VertexOrder {
-        let (offsets, adjacent) = adjacency(n, triangles);
-        let neighbours = |v: usize| &adjacent[offsets[v]..offsets[v + 1]];
-        let degree = |v: usize| offsets[v + 1] - offsets[v];
+        let adjacency = Adjacency::new(n, triangles);
+        let neighbours = |v: usize| adjacency.neighbors(v as u32);
+        let degree = |v: usize| neighbours(v).len();
         let mut order = Vec::with_capacity(n);
         let mut seen = vec![false; n];
         // Scratch marks for the peripheral search, by search number (0: never).
@@ -108,28 +110,6 @@ impl VertexOrder {
     pub fn triangles(&self, triangles: &[[u32; 3]]) -> Vec<[u32; 3]> {
         triangles.iter().map(|t| t.map(|v| self.to_internal[v as usize])).collect()
     }
-}
-
-/// Sorted, deduplicated vertex neighbours of `triangles` as CSR (offsets, items).
-fn adjacency(n: usize, triangles: &[[u32; 3]]) -> (Vec<usize>, Vec<u32>) {
-    let mut pairs: Vec<(u32, u32)> = Vec::with_capacity(6 * triangles.len());
-    for t in triangles {
-        for k in 0..3 {
-            let (a, b) = (t[k], t[(k + 1) % 3]);
-            pairs.push((a, b));
-            pairs.push((b, a));
-        }
-    }
-    pairs.sort_unstable();
-    pairs.dedup();
-    let mut offsets = vec![0usize; n + 1];
-    for &(a, _) in &pairs {
-        offsets[a as usize + 1] += 1;
-    }
-    for i in 0..n {
-        offsets[i + 1] += offsets[i];
-    }
-    (offsets, pairs.into_iter().map(|(_, b)| b).collect())
 }
 
 #[cfg(test)]

@@ -1,4 +1,4 @@
-//! Mesh topology: connected components, boundary edges and non-manifold edges.
+//! Mesh topology: vertex adjacency, connected components, boundary edges and non-manifold edges.
 //!
 //! Inputs are raw triangle lists (`#F×3 u32`), so the functions work before a [`crate::Mesh`]
 //! exists. Edges are undirected vertex pairs; counting sorts the `3·#F` edge keys
@@ -119,6 +119,50 @@ pub fn boundary_edges(triangles: &[[u32; 3]]) -> usize {
 /// Number of edges used by more than two triangles (`#F×3` input). See [`edge_counts`].
 pub fn non_manifold_edges(triangles: &[[u32; 3]]) -> usize {
     edge_counts(triangles).non_manifold
+}
+
+/// Vertex adjacency in compressed rows: the neighbours of `v` are
+/// `neighbors[offsets[v]..offsets[v + 1]]`, sorted, without duplicates.
+#[derive(Debug, Clone)]
+pub struct Adjacency {
+    offsets: Vec<u32>,
+    neighbors: Vec<u32>,
+}
+
+impl Adjacency {
+    /// The edges of `triangles` over `n_vertices` vertices (ones in no triangle have none).
+    pub fn new(n_vertices: usize, triangles: &[[u32; 3]]) -> Adjacency {
+        let mut pairs: Vec<(u32, u32)> = Vec::with_capacity(triangles.len() * 6);
+        for t in triangles {
+            for k in 0..3 {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                pairs.push((a, b));
+                pairs.push((b, a));
+            }
+        }
+        pairs.sort_unstable();
+        pairs.dedup();
+        let mut offsets = vec![0u32; n_vertices + 1];
+        for &(a, _) in &pairs {
+            offsets[a as usize + 1] += 1;
+        }
+        for v in 0..n_vertices {
+            offsets[v + 1] += offsets[v];
+        }
+        Adjacency { offsets, neighbors: pairs.into_iter().map(|(_, b)| b).collect() }
+    }
+
+    /// The neighbours of `v`, ascending.
+    pub fn neighbors(&self, v: u32) -> &[u32] {
+        &self.neighbors[self.offsets[v as usize] as usize..self.offsets[v as usize + 1] as usize]
+    }
+
+    /// Unique undirected edges `(a, b)` with `a < b`.
+    pub fn edges(&self) -> impl Iterator<Item = (u32, u32)> + '_ {
+        (0..self.offsets.len().saturating_sub(1) as u32).flat_map(move |a| {
+            self.neighbors(a).iter().filter(move |&&b| a < b).map(move |&b| (a, b))
+        })
+    }
 }
 
 #[cfg(test)]

@@ -6,47 +6,7 @@
 //! fingers) is not painted.
 
 use glam::Vec3;
-
-/// Vertex adjacency in compressed rows: the neighbours of `v` are
-/// `neighbors[offsets[v]..offsets[v + 1]]`.
-pub struct Adjacency {
-    offsets: Vec<u32>,
-    neighbors: Vec<u32>,
-}
-
-impl Adjacency {
-    pub fn new(n_vertices: usize, triangles: &[[u32; 3]]) -> Adjacency {
-        let mut pairs: Vec<(u32, u32)> = Vec::with_capacity(triangles.len() * 6);
-        for t in triangles {
-            for k in 0..3 {
-                let (a, b) = (t[k], t[(k + 1) % 3]);
-                pairs.push((a, b));
-                pairs.push((b, a));
-            }
-        }
-        pairs.sort_unstable();
-        pairs.dedup();
-        let mut offsets = vec![0u32; n_vertices + 1];
-        for &(a, _) in &pairs {
-            offsets[a as usize + 1] += 1;
-        }
-        for v in 0..n_vertices {
-            offsets[v + 1] += offsets[v];
-        }
-        Adjacency { offsets, neighbors: pairs.into_iter().map(|(_, b)| b).collect() }
-    }
-
-    pub fn neighbors(&self, v: u32) -> &[u32] {
-        &self.neighbors[self.offsets[v as usize] as usize..self.offsets[v as usize + 1] as usize]
-    }
-
-    /// Unique undirected edges `(a, b)` with `a < b`.
-    pub fn edges(&self) -> impl Iterator<Item = (u32, u32)> + '_ {
-        (0..self.offsets.len().saturating_sub(1) as u32).flat_map(move |a| {
-            self.neighbors(a).iter().filter(move |&&b| a < b).map(move |&b| (a, b))
-        })
-    }
-}
+use solver::topology::Adjacency;
 
 /// Vertices covered by a brush of `radius` centred at `center` on triangle `tri`.
 ///

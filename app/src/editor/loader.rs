@@ -16,9 +16,9 @@ use anyhow::{Context, anyhow};
 use glam::Vec3;
 use solver::{Handles, Mesh};
 
-use super::brush::Adjacency;
 use super::picking::Bvh;
 use super::renderer::{Shape, Topology, VertexData, build_grid};
+use solver::topology::Adjacency;
 
 /// A loaded mesh with everything derived from its topology.
 pub struct Scene {
