@@ -227,6 +227,30 @@ fn bench_counts_the_cap_and_unconverged_fine_iterations_apart() {
     assert_eq!(m["frames_fine_unconverged"], 3, "{m}");
 }
 
+/// The readable table says when frames stopped at the cap instead of the stopping rule, and
+/// stays silent when every frame reached it.
+#[test]
+fn bench_table_names_frames_stopped_at_the_cap() {
+    let (obj, sel, _) = sphere();
+    let run = |cap: &str, tol: &str| -> String {
+        let mut args = vec!["bench", obj.to_str().unwrap(), "--handles", sel.to_str().unwrap()];
+        args.extend(["--frames", "3", "--radius", "0.15", "--method", "arap"]);
+        args.extend(["--tol", tol, "--max-iters", cap]);
+        let (code, stdout, stderr) = bsarap(&args);
+        assert_eq!(code, 0, "{stderr}");
+        stdout
+    };
+    // Three frames; the last is the rest pose, which needs no iteration.
+    let capped = run("2", "1e-12");
+    assert!(capped.contains("at cap"), "{capped}");
+    assert!(
+        capped.contains("stopped at the cap of 2 iterations") && capped.contains("arap (2 of 3)"),
+        "{capped}"
+    );
+    let reached = run("5000", "1e-3");
+    assert!(!reached.contains("stopped at the cap"), "{reached}");
+}
+
 /// `bench --quality`: each method's pose at the chosen frame against converged full ARAP. ARAP
 /// run to a tight tolerance lands on the reference; one iteration per frame does not.
 #[test]

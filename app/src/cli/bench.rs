@@ -545,7 +545,7 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
         rayon::current_num_threads()
     );
     println!(
-        "{:<14} {:>11} {:>9} {:>8} {:>8} {:>8} {:>8} {:>10} {:>9} {:>8} {:>11}",
+        "{:<14} {:>11} {:>9} {:>8} {:>8} {:>8} {:>8} {:>10} {:>7} {:>9} {:>8} {:>11}",
         "method",
         "precompute",
         "ms/iter",
@@ -554,13 +554,14 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
         "solve",
         "energy",
         "iter/frame",
+        "at cap",
         "s/frame",
         "fps",
         "energy"
     );
     for r in &table {
         println!(
-            "{:<14} {:>9.1}ms {:>9.3} {:>8.3} {:>8.3} {:>8.3} {:>8.3} {:>10.1} {:>9.4} {:>8.2} {:>11.4e}",
+            "{:<14} {:>9.1}ms {:>9.3} {:>8.3} {:>8.3} {:>8.3} {:>8.3} {:>10.1} {:>7} {:>9.4} {:>8.2} {:>11.4e}",
             r.method,
             r.precompute_ms,
             r.ms_per_iteration,
@@ -569,9 +570,24 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
             r.solve_ms_per_iteration,
             r.energy_ms_per_iteration,
             r.iterations_per_frame,
+            r.frames_at_cap,
             r.seconds_per_frame,
             r.fps,
             r.final_energy
+        );
+    }
+    let capped: Vec<String> = table
+        .iter()
+        .filter(|r| r.frames_at_cap > 0)
+        .map(|r| format!("{} ({} of {})", r.method, r.frames_at_cap, r.iterations.len()))
+        .collect();
+    if a.stop != StopRule::Fixed && !capped.is_empty() {
+        println!(
+            "note: frames stopped at the cap of {} iterations before the stopping rule: {}; \
+             their per-frame figures and ratios are for capped solves (raise --max-iters to \
+             compare solves that reach the rule)",
+            a.max_iters,
+            capped.join(", ")
         );
     }
     for (m, e) in &failures {
