@@ -9,6 +9,7 @@
 //! Matrices are row-major `[[f64; 3]; 3]`.
 
 use nalgebra::Matrix3;
+use std::ops::{Add, Div, Mul, Neg, Sub};
 
 /// A row-major 3×3 matrix.
 pub type Mat3 = [[f64; 3]; 3];
@@ -46,21 +47,25 @@ pub fn fit_rotation_near(s: &Mat3, guess: &Mat3) -> Mat3 {
 }
 
 #[inline(always)]
-fn det3(a: &Mat3) -> f64 {
+fn det3<T: Real>(a: &[[T; 3]; 3]) -> T {
     a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1])
         - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0])
         + a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0])
 }
 
 #[inline(always)]
-fn frob2(a: &Mat3) -> f64 {
-    a.iter().flatten().map(|x| x * x).sum()
+fn frob2<T: Real>(a: &[[T; 3]; 3]) -> T {
+    let mut sum = a[0][0] * a[0][0];
+    for &v in a.iter().flatten().skip(1) {
+        sum = sum + v * v;
+    }
+    sum
 }
 
 /// Horn's matrix: $q^\top N q = \operatorname{tr}(R(q)\,S)$ for $S = \sum_k w_k e_k e_k'^\top$
 /// and unit quaternions $q = (q_0, q_x, q_y, q_z)$ (Horn 1987, Eq. 4.5 with his $M = S$).
 #[inline(always)]
-fn horn_matrix(s: &Mat3) -> [[f64; 4]; 4] {
+fn horn_matrix<T: Real>(s: &[[T; 3]; 3]) -> [[T; 4]; 4] {
     let [[xx, xy, xz], [yx, yy, yz], [zx, zy, zz]] = *s;
     [
         [xx + yy + zz, yz - zy, zx - xz, xy - yx],
@@ -73,7 +78,7 @@ fn horn_matrix(s: &Mat3) -> [[f64; 4]; 4] {
 /// The adjugate of a 4×4 matrix and its determinant, from the twelve 2×2 minors of rows
 /// (0, 1) and (2, 3) (Laplace expansion).
 #[inline(always)]
-fn adjugate4(m: &[[f64; 4]; 4]) -> ([[f64; 4]; 4], f64) {
+fn adjugate4<T: Real>(m: &[[T; 4]; 4]) -> ([[T; 4]; 4], T) {
     let s0 = m[0][0] * m[1][1] - m[1][0] * m[0][1];
     let s1 = m[0][0] * m[1][2] - m[1][0] * m[0][2];
     let s2 = m[0][0] * m[1][3] - m[1][0] * m[0][3];
@@ -123,23 +128,31 @@ fn adjugate4(m: &[[f64; 4]; 4]) -> ([[f64; 4]; 4], f64) {
 /// $p''' = 24\lambda$ are all positive there.
 /// $(p, p', p'')$ at $x$ for $p(\lambda) = \lambda^4 + c_2\lambda^2 + c_1\lambda + c_0$.
 #[inline(always)]
-fn quartic(c2: f64, c1: f64, c0: f64, x: f64) -> (f64, f64, f64) {
+fn quartic<T: Real>(c2: T, c1: T, c0: T, x: T) -> (T, T, T) {
     let x2 = x * x;
-    ((x2 + c2) * x2 + c1 * x + c0, (4.0 * x2 + 2.0 * c2) * x + c1, 12.0 * x2 + 2.0 * c2)
+    let k = T::splat;
+    ((x2 + c2) * x2 + c1 * x + c0, (k(4.0) * x2 + k(2.0) * c2) * x + c1, k(12.0) * x2 + k(2.0) * c2)
 }
 
 /// Laguerre's step for a quartic from $(p, p', p'')$ (the sign that maximizes the denominator);
 /// $p = 0$ gives 0, a zero denominator a non-finite step.
 #[inline(always)]
-fn laguerre_step(p: f64, dp: f64, ddp: f64) -> f64 {
-    let root = (3.0 * (3.0 * dp * dp - 4.0 * p * ddp)).max(0.0).sqrt();
-    4.0 * p / (dp + root.copysign(dp))
+fn laguerre_step<T: Real>(p: T, dp: T, ddp: T) -> T {
+    let k = T::splat;
+    let root = (k(3.0) * (k(3.0) * dp * dp - k(4.0) * p * ddp)).max(k(0.0)).sqrt();
+    k(4.0) * p / (dp + root.copysign(dp))
 }
 
 /// $\operatorname{tr}(A B) = \sum_{ij} A_{ij} B_{ji}$ (with $A = R$, $B = S$: the fit's objective).
 #[inline(always)]
 pub fn trace_of_product(a: &Mat3, b: &Mat3) -> f64 {
-    (0..3).map(|i| (0..3).map(|j| a[i][j] * b[j][i]).sum::<f64>()).sum()
+    trace_product(a, b)
+}
+
+#[inline(always)]
+fn trace_product<T: Real>(a: &[[T; 3]; 3], b: &[[T; 3]; 3]) -> T {
+    let row = |i: usize| a[i][0] * b[0][i] + a[i][1] * b[1][i] + a[i][2] * b[2][i];
+    row(0) + row(1) + row(2)
 }
 
 #[inline]
@@ -185,38 +198,55 @@ fn fit_rotation_quaternion(s: &Mat3, guess: Option<&Mat3>) -> Option<Mat3> {
 /// eigenvalue `lambda`, if it passes the optimality check of [`fit_rotation`].
 #[inline(always)]
 fn rotation_for_eigenvalue(n: &[[f64; 4]; 4], s: &Mat3, lambda: f64) -> Option<Mat3> {
-    let mut a = *n;
-    for (k, row) in a.iter_mut().enumerate() {
-        row[k] -= lambda;
-    }
-    let (adj, _) = adjugate4(&a);
+    let (adj, _) = adjugate4(&shifted(n, lambda));
     // adj(A) = c q qᵀ: its largest column (largest |diagonal|) is the best-conditioned q.
     let k = (0..4).max_by(|&i, &j| adj[i][i].abs().total_cmp(&adj[j][j].abs()))?;
     let col = [adj[0][k], adj[1][k], adj[2][k], adj[3][k]];
-    let len = col.iter().map(|x| x * x).sum::<f64>().sqrt();
+    let len = (col[0] * col[0] + col[1] * col[1] + col[2] * col[2] + col[3] * col[3]).sqrt();
     if !(len.is_finite() && len > 1e-200) {
         return None;
     }
-    let [w, x, y, z] = col.map(|v| v / len);
-    let r = [
-        [w * w + x * x - y * y - z * z, 2.0 * (x * y - w * z), 2.0 * (x * z + w * y)],
-        [2.0 * (x * y + w * z), w * w - x * x + y * y - z * z, 2.0 * (y * z - w * x)],
-        [2.0 * (x * z - w * y), 2.0 * (y * z + w * x), w * w - x * x - y * y + z * z],
-    ];
+    let r = quaternion_rotation(col, len);
     // Optimality: at the maximizer of tr(RS), RS is symmetric.
-    let t = mul_mat(&r, s);
-    let asym =
-        (t[0][1] - t[1][0]).abs().max((t[0][2] - t[2][0]).abs()).max((t[1][2] - t[2][1]).abs());
-    (asym <= 1e-12).then_some(r)
+    (asymmetry(&mul3(&r, s)) <= 1e-12).then_some(r)
+}
+
+/// $N - \lambda I$.
+#[inline(always)]
+fn shifted<T: Real>(n: &[[T; 4]; 4], lambda: T) -> [[T; 4]; 4] {
+    let mut a = *n;
+    for (k, row) in a.iter_mut().enumerate() {
+        row[k] = row[k] - lambda;
+    }
+    a
+}
+
+/// The rotation of the quaternion `q / len` ($w, x, y, z$).
+#[inline(always)]
+fn quaternion_rotation<T: Real>(q: [T; 4], len: T) -> [[T; 3]; 3] {
+    let [w, x, y, z] = [q[0] / len, q[1] / len, q[2] / len, q[3] / len];
+    let two = T::splat(2.0);
+    [
+        [w * w + x * x - y * y - z * z, two * (x * y - w * z), two * (x * z + w * y)],
+        [two * (x * y + w * z), w * w - x * x + y * y - z * z, two * (y * z - w * x)],
+        [two * (x * z - w * y), two * (y * z + w * x), w * w - x * x - y * y + z * z],
+    ]
+}
+
+/// The largest off-diagonal asymmetry $|t_{ij} - t_{ji}|$.
+#[inline(always)]
+fn asymmetry<T: Real>(t: &[[T; 3]; 3]) -> T {
+    (t[0][1] - t[1][0]).abs().max((t[0][2] - t[2][0]).abs()).max((t[1][2] - t[2][1]).abs())
 }
 
 /// Cells per call of [`fit_rotations_near`].
 pub const LANES: usize = 4;
 
-/// [`fit_rotation_near`] for [`LANES`] cells at once, with the same results up to rounding: the quaternion
-/// fit with exactly three Laguerre steps from each guess's objective, run in lockstep without
-/// branches so that the lanes' long dependency chains (square roots and divisions) overlap and
-/// the arithmetic can use SIMD. A lane whose root is not verified (Newton step below
+/// [`fit_rotation_near`] for [`LANES`] cells at once, with the same results up to rounding: the
+/// quaternion fit with exactly three Laguerre steps from each guess's objective, run without
+/// branches on one cell per vector lane (the cells' matrices transposed into `[[F4; 3]; 3]`,
+/// the same generic formulas as the scalar fit), so that square roots, divisions and products
+/// run four at a time. A lane whose root is not verified (Newton step below
 /// $10^{-13}\lambda$, the Budan–Fourier test of `largest_root`) or whose rotation fails the
 /// optimality check goes through the scalar [`fit_rotation_near`] instead.
 pub fn fit_rotations_near(s: &[Mat3; LANES], guess: &[Mat3; LANES]) -> [Mat3; LANES] {
@@ -248,31 +278,167 @@ fn lockstep_avx2(s: &[Mat3; LANES], guess: &[Mat3; LANES]) -> [Option<Mat3>; LAN
 
 #[inline(always)]
 fn lockstep(s: &[Mat3; LANES], guess: &[Mat3; LANES]) -> [Option<Mat3>; LANES] {
-    const L: usize = LANES;
-    // Non-finite or zero lanes compute on the identity and are redone by the scalar path.
-    let normal: [Option<Mat3>; L] = std::array::from_fn(|l| normalized(&s[l]));
-    let usable: [bool; L] = std::array::from_fn(|l| normal[l].is_some());
-    let sn: [Mat3; L] = std::array::from_fn(|l| normal[l].unwrap_or(IDENTITY));
-    let n: [[[f64; 4]; 4]; L] = std::array::from_fn(|l| horn_matrix(&sn[l]));
-    let c1: [f64; L] = std::array::from_fn(|l| -8.0 * det3(&sn[l]));
-    let c0: [f64; L] = std::array::from_fn(|l| det4(&n[l]));
-    let c2 = -2.0;
-    let mut lambda: [f64; L] = std::array::from_fn(|l| trace_of_product(&guess[l], &sn[l]));
+    // One cell per lane of `F4`: the scalar fit's formulas, run on four cells at once.
+    let lanes = |m: &[Mat3; LANES]| -> [[F4; 3]; 3] {
+        let mut out = [[F4([0.0; LANES]); 3]; 3];
+        for (i, row) in out.iter_mut().enumerate() {
+            for (j, v) in row.iter_mut().enumerate() {
+                *v = F4([m[0][i][j], m[1][i][j], m[2][i][j], m[3][i][j]]);
+            }
+        }
+        out
+    };
+    let (s4, g4) = (lanes(s), lanes(guess));
+    // `normalized`, lane by lane: lanes with a zero or non-finite largest entry are unusable
+    // (their arithmetic continues on whatever it holds and is discarded at the end).
+    let mut m = F4([0.0; LANES]);
+    for &v in s4.iter().flatten() {
+        m = m.max(v.abs());
+    }
+    let usable = m.0.map(|m| m.is_finite() && m > 0.0);
+    let mut t = s4;
+    for v in t.iter_mut().flatten() {
+        *v = *v / m;
+    }
+    let inv = F4::splat(1.0) / frob2(&t).sqrt();
+    let mut sn = t;
+    for v in sn.iter_mut().flatten() {
+        *v = *v * inv;
+    }
+    let n = horn_matrix(&sn);
+    let (c2, c1, c0) = (F4::splat(-2.0), F4::splat(-8.0) * det3(&sn), det4(&n));
+    let mut lambda = trace_product(&g4, &sn);
     for _ in 0..3 {
-        for l in 0..L {
-            // A non-finite step gives a non-finite λ, refused below.
-            let (p, dp, ddp) = quartic(c2, c1[l], c0[l], lambda[l]);
-            lambda[l] -= laguerre_step(p, dp, ddp);
+        // A non-finite step gives a non-finite λ, refused below.
+        let (p, dp, ddp) = quartic(c2, c1, c0, lambda);
+        lambda = lambda - laguerre_step(p, dp, ddp);
+    }
+    let (p, dp, ddp) = quartic(c2, c1, c0, lambda);
+    let (adj, _) = adjugate4(&shifted(&n, lambda));
+    // Each lane's largest-diagonal column of the adjugate (see `rotation_for_eigenvalue`).
+    let mut col = [F4([0.0; LANES]); 4];
+    for l in 0..LANES {
+        let d = [adj[0][0].0[l], adj[1][1].0[l], adj[2][2].0[l], adj[3][3].0[l]];
+        let k = (0..4).max_by(|&i, &j| d[i].abs().total_cmp(&d[j].abs())).unwrap_or(0);
+        for (c, row) in col.iter_mut().zip(&adj) {
+            c.0[l] = row[k].0[l];
         }
     }
-    let verified: [bool; L] = std::array::from_fn(|l| {
-        let x = lambda[l];
-        let (p, dp, ddp) = quartic(c2, c1[l], c0[l], x);
-        usable[l] && x > 0.0 && dp > 0.0 && ddp > 0.0 && (p / dp).abs() <= 1e-13 * x
-    });
-    std::array::from_fn(|l| {
-        if verified[l] { rotation_for_eigenvalue(&n[l], &sn[l], lambda[l]) } else { None }
-    })
+    let len = (col[0] * col[0] + col[1] * col[1] + col[2] * col[2] + col[3] * col[3]).sqrt();
+    let r = quaternion_rotation(col, len);
+    let asym = asymmetry(&mul3(&r, &sn));
+    let mut out = [None; LANES];
+    for (l, out) in out.iter_mut().enumerate() {
+        let x = lambda.0[l];
+        let verified = usable[l]
+            && x > 0.0
+            && dp.0[l] > 0.0
+            && ddp.0[l] > 0.0
+            && (p.0[l] / dp.0[l]).abs() <= 1e-13 * x;
+        let found = len.0[l].is_finite() && len.0[l] > 1e-200 && asym.0[l] <= 1e-12;
+        if verified && found {
+            *out = Some(r.map(|row| row.map(|v| v.0[l])));
+        }
+    }
+    out
+}
+
+/// The arithmetic the fit needs, on `f64` (one cell) or [`F4`] (one cell per lane), so that the
+/// scalar and the lockstep fit run the same formulas.
+trait Real:
+    Copy
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Div<Output = Self>
+    + Neg<Output = Self>
+{
+    fn splat(v: f64) -> Self;
+    fn sqrt(self) -> Self;
+    fn abs(self) -> Self;
+    fn max(self, other: Self) -> Self;
+    fn copysign(self, sign: Self) -> Self;
+}
+
+impl Real for f64 {
+    #[inline(always)]
+    fn splat(v: f64) -> f64 {
+        v
+    }
+    #[inline(always)]
+    fn sqrt(self) -> f64 {
+        f64::sqrt(self)
+    }
+    #[inline(always)]
+    fn abs(self) -> f64 {
+        f64::abs(self)
+    }
+    #[inline(always)]
+    fn max(self, other: f64) -> f64 {
+        f64::max(self, other)
+    }
+    #[inline(always)]
+    fn copysign(self, sign: f64) -> f64 {
+        f64::copysign(self, sign)
+    }
+}
+
+/// [`LANES`] values operated on lane by lane; written as plain per-lane expressions that the
+/// compiler turns into 4-wide vector instructions where the target has them (AVX2).
+#[derive(Clone, Copy, Debug)]
+struct F4([f64; LANES]);
+
+macro_rules! lanewise {
+    ($trait:ident, $f:ident, $op:tt) => {
+        impl $trait for F4 {
+            type Output = F4;
+            #[inline(always)]
+            fn $f(self, o: F4) -> F4 {
+                let (a, b) = (self.0, o.0);
+                F4([a[0] $op b[0], a[1] $op b[1], a[2] $op b[2], a[3] $op b[3]])
+            }
+        }
+    };
+}
+lanewise!(Add, add, +);
+lanewise!(Sub, sub, -);
+lanewise!(Mul, mul, *);
+lanewise!(Div, div, /);
+
+impl Neg for F4 {
+    type Output = F4;
+    #[inline(always)]
+    fn neg(self) -> F4 {
+        let a = self.0;
+        F4([-a[0], -a[1], -a[2], -a[3]])
+    }
+}
+
+impl Real for F4 {
+    #[inline(always)]
+    fn splat(v: f64) -> F4 {
+        F4([v; LANES])
+    }
+    #[inline(always)]
+    fn sqrt(self) -> F4 {
+        let a = self.0;
+        F4([a[0].sqrt(), a[1].sqrt(), a[2].sqrt(), a[3].sqrt()])
+    }
+    #[inline(always)]
+    fn abs(self) -> F4 {
+        let a = self.0;
+        F4([a[0].abs(), a[1].abs(), a[2].abs(), a[3].abs()])
+    }
+    #[inline(always)]
+    fn max(self, o: F4) -> F4 {
+        let (a, b) = (self.0, o.0);
+        F4([a[0].max(b[0]), a[1].max(b[1]), a[2].max(b[2]), a[3].max(b[3])])
+    }
+    #[inline(always)]
+    fn copysign(self, sign: F4) -> F4 {
+        let (a, b) = (self.0, sign.0);
+        F4([a[0].copysign(b[0]), a[1].copysign(b[1]), a[2].copysign(b[2]), a[3].copysign(b[3])])
+    }
 }
 
 /// `s` scaled to unit Frobenius norm ($R$ is scale-invariant, and the thresholds of the fit are
@@ -291,7 +457,7 @@ fn normalized(s: &Mat3) -> Option<Mat3> {
 
 /// The determinant of a 4×4 matrix (the part of [`adjugate4`] it needs survives inlining).
 #[inline(always)]
-fn det4(m: &[[f64; 4]; 4]) -> f64 {
+fn det4<T: Real>(m: &[[T; 4]; 4]) -> T {
     adjugate4(m).1
 }
 
@@ -372,7 +538,18 @@ pub fn axis_angle(axis: [f64; 3], angle: f64) -> Mat3 {
 /// $AB$.
 #[inline(always)]
 pub fn mul_mat(a: &Mat3, b: &Mat3) -> Mat3 {
-    std::array::from_fn(|i| std::array::from_fn(|j| (0..3).map(|k| a[i][k] * b[k][j]).sum()))
+    mul3(a, b)
+}
+
+#[inline(always)]
+fn mul3<T: Real>(a: &[[T; 3]; 3], b: &[[T; 3]; 3]) -> [[T; 3]; 3] {
+    let mut out = *a;
+    for (row, a) in out.iter_mut().zip(a) {
+        for (j, o) in row.iter_mut().enumerate() {
+            *o = a[0] * b[0][j] + a[1] * b[1][j] + a[2] * b[2][j];
+        }
+    }
+    out
 }
 
 #[cfg(test)]
@@ -444,6 +621,27 @@ mod tests {
         let expanded =
             m[0][0] * minor(0) - m[0][1] * minor(1) + m[0][2] * minor(2) - m[0][3] * minor(3);
         assert!((expanded - d).abs() < 1e-12 * d.abs());
+    }
+
+    /// A zero or non-finite cell in a lockstep batch is left to the scalar path (which gives
+    /// the identity) without disturbing the other lanes.
+    #[test]
+    fn lockstep_lanes_are_independent() {
+        let q = axis_angle([0.3, -1.0, 0.4], 0.7);
+        let mut s = [[0.0; 3]; 3];
+        for e in [[1.0, 0.0, 0.1], [0.0, 1.0, 0.2], [0.2, 0.3, 1.0]] {
+            add_outer(&mut s, 1.0, e, mul_vec(&q, e));
+        }
+        let nan = [[f64::NAN; 3]; 3];
+        let inf = scale_mat(&IDENTITY, f64::INFINITY);
+        let batch = [s, [[0.0; 3]; 3], nan, inf];
+        let lock = fit_rotations_lockstep(&batch, &[IDENTITY; LANES]);
+        assert!(lock[1].is_none() && lock[2].is_none() && lock[3].is_none(), "{lock:?}");
+        let r = lock[0].expect("a well-posed lane is fitted in lockstep");
+        let err = r.iter().flatten().zip(q.iter().flatten()).map(|(a, b)| (a - b).abs());
+        assert!(err.fold(0.0, f64::max) < 1e-12);
+        let all = fit_rotations_near(&batch, &[IDENTITY; LANES]);
+        assert_eq!(all[1..], [IDENTITY; 3]);
     }
 
     /// The quaternion fit agrees with the SVD reference to rounding, on random covariances
