@@ -17,6 +17,7 @@ pub mod error;
 pub mod export;
 pub mod handles;
 pub mod io;
+mod lanes;
 pub mod linsolve;
 pub mod mass;
 pub mod mesh;

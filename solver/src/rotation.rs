@@ -8,8 +8,8 @@
 //!
 //! Matrices are row-major `[[f64; 3]; 3]`.
 
+use crate::lanes::{F4, Real};
 use nalgebra::Matrix3;
-use std::ops::{Add, Div, Mul, Neg, Sub};
 
 /// A row-major 3×3 matrix.
 pub type Mat3 = [[f64; 3]; 3];
@@ -240,7 +240,7 @@ fn asymmetry<T: Real>(t: &[[T; 3]; 3]) -> T {
 }
 
 /// Cells per call of [`fit_rotations_near`].
-pub const LANES: usize = 4;
+pub const LANES: usize = crate::lanes::LANES;
 
 /// [`fit_rotation_near`] for [`LANES`] cells at once, with the same results up to rounding: the
 /// quaternion fit with exactly three Laguerre steps from each guess's objective, run without
@@ -341,104 +341,6 @@ fn lockstep(s: &[Mat3; LANES], guess: &[Mat3; LANES]) -> [Option<Mat3>; LANES] {
         }
     }
     out
-}
-
-/// The arithmetic the fit needs, on `f64` (one cell) or [`F4`] (one cell per lane), so that the
-/// scalar and the lockstep fit run the same formulas.
-trait Real:
-    Copy
-    + Add<Output = Self>
-    + Sub<Output = Self>
-    + Mul<Output = Self>
-    + Div<Output = Self>
-    + Neg<Output = Self>
-{
-    fn splat(v: f64) -> Self;
-    fn sqrt(self) -> Self;
-    fn abs(self) -> Self;
-    fn max(self, other: Self) -> Self;
-    fn copysign(self, sign: Self) -> Self;
-}
-
-impl Real for f64 {
-    #[inline(always)]
-    fn splat(v: f64) -> f64 {
-        v
-    }
-    #[inline(always)]
-    fn sqrt(self) -> f64 {
-        f64::sqrt(self)
-    }
-    #[inline(always)]
-    fn abs(self) -> f64 {
-        f64::abs(self)
-    }
-    #[inline(always)]
-    fn max(self, other: f64) -> f64 {
-        f64::max(self, other)
-    }
-    #[inline(always)]
-    fn copysign(self, sign: f64) -> f64 {
-        f64::copysign(self, sign)
-    }
-}
-
-/// [`LANES`] values operated on lane by lane; written as plain per-lane expressions that the
-/// compiler turns into 4-wide vector instructions where the target has them (AVX2).
-#[derive(Clone, Copy, Debug)]
-struct F4([f64; LANES]);
-
-macro_rules! lanewise {
-    ($trait:ident, $f:ident, $op:tt) => {
-        impl $trait for F4 {
-            type Output = F4;
-            #[inline(always)]
-            fn $f(self, o: F4) -> F4 {
-                let (a, b) = (self.0, o.0);
-                F4([a[0] $op b[0], a[1] $op b[1], a[2] $op b[2], a[3] $op b[3]])
-            }
-        }
-    };
-}
-lanewise!(Add, add, +);
-lanewise!(Sub, sub, -);
-lanewise!(Mul, mul, *);
-lanewise!(Div, div, /);
-
-impl Neg for F4 {
-    type Output = F4;
-    #[inline(always)]
-    fn neg(self) -> F4 {
-        let a = self.0;
-        F4([-a[0], -a[1], -a[2], -a[3]])
-    }
-}
-
-impl Real for F4 {
-    #[inline(always)]
-    fn splat(v: f64) -> F4 {
-        F4([v; LANES])
-    }
-    #[inline(always)]
-    fn sqrt(self) -> F4 {
-        let a = self.0;
-        F4([a[0].sqrt(), a[1].sqrt(), a[2].sqrt(), a[3].sqrt()])
-    }
-    #[inline(always)]
-    fn abs(self) -> F4 {
-        let a = self.0;
-        F4([a[0].abs(), a[1].abs(), a[2].abs(), a[3].abs()])
-    }
-    #[inline(always)]
-    fn max(self, o: F4) -> F4 {
-        let (a, b) = (self.0, o.0);
-        F4([a[0].max(b[0]), a[1].max(b[1]), a[2].max(b[2]), a[3].max(b[3])])
-    }
-    #[inline(always)]
-    fn copysign(self, sign: F4) -> F4 {
-        let (a, b) = (self.0, sign.0);
-        F4([a[0].copysign(b[0]), a[1].copysign(b[1]), a[2].copysign(b[2]), a[3].copysign(b[3])])
-    }
 }
 
 /// `s` scaled to unit Frobenius norm ($R$ is scale-invariant, and the thresholds of the fit are
