@@ -249,6 +249,14 @@ fn bench_table_names_frames_stopped_at_the_cap() {
     );
     let reached = run("5000", "1e-3");
     assert!(!reached.contains("stopped at the cap"), "{reached}");
+    // A fixed count ends every frame at the cap by design: no count, no note.
+    let mut args = vec!["bench", obj.to_str().unwrap(), "--handles", sel.to_str().unwrap()];
+    args.extend(["--frames", "3", "--method", "arap", "--stop", "fixed", "--max-iters", "2"]);
+    let (code, fixed, stderr) = bsarap(&args);
+    assert_eq!(code, 0, "{stderr}");
+    let row = fixed.lines().find(|l| l.starts_with("arap ")).expect("an arap row");
+    assert!(row.split_whitespace().any(|c| c == "-"), "{row}");
+    assert!(!fixed.contains("stopped at the cap"), "{fixed}");
 }
 
 /// `bench --quality`: each method's pose at the chosen frame against converged full ARAP. ARAP

@@ -570,7 +570,8 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
             r.solve_ms_per_iteration,
             r.energy_ms_per_iteration,
             r.iterations_per_frame,
-            r.frames_at_cap,
+            // With a fixed count every frame ends at the cap by design.
+            if a.stop == StopRule::Fixed { "-".to_string() } else { r.frames_at_cap.to_string() },
             r.seconds_per_frame,
             r.fps,
             r.final_energy
