@@ -469,9 +469,7 @@ impl Arap {
     pub fn set_positions(&mut self, x: &[[f64; 3]]) {
         self.refined_at = None;
         if x.len() == self.current.len() && x.iter().flatten().all(|c| c.is_finite()) {
-            for (c, &v) in self.current.iter_mut().zip(&self.order.to_mesh) {
-                *c = x[v as usize];
-            }
+            self.order.gather_into(x, &mut self.current);
             self.mesh_current.copy_from_slice(x);
         }
     }

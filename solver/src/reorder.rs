@@ -99,6 +99,13 @@ impl VertexOrder {
         self.to_mesh.iter().map(|&v| values[v as usize]).collect()
     }
 
+    /// [`VertexOrder::gather`] into an existing buffer of the same length.
+    pub fn gather_into<T: Copy>(&self, values: &[T], out: &mut [T]) {
+        for (o, &v) in out.iter_mut().zip(&self.to_mesh) {
+            *o = values[v as usize];
+        }
+    }
+
     /// Internal per-vertex values back in mesh order: `out[to_mesh[i]] = values[i]`.
     pub fn scatter<T: Copy>(&self, values: &[T], out: &mut [T]) {
         for (&v, &x) in self.to_mesh.iter().zip(values) {
@@ -144,5 +151,8 @@ mod tests {
         let mut back = vec![0; n];
         order.scatter(&order.gather(&values), &mut back);
         assert_eq!(back, values);
+        let mut internal = vec![0; n];
+        order.gather_into(&values, &mut internal);
+        assert_eq!(internal, order.gather(&values));
     }
 }

@@ -199,16 +199,25 @@ fn fit_rotation_quaternion(s: &Mat3, guess: Option<&Mat3>) -> Option<Mat3> {
 #[inline(always)]
 fn rotation_for_eigenvalue(n: &[[f64; 4]; 4], s: &Mat3, lambda: f64) -> Option<Mat3> {
     let (adj, _) = adjugate4(&shifted(n, lambda));
-    // adj(A) = c q qᵀ: its largest column (largest |diagonal|) is the best-conditioned q.
-    let k = (0..4).max_by(|&i, &j| adj[i][i].abs().total_cmp(&adj[j][j].abs()))?;
+    let k = best_column([adj[0][0], adj[1][1], adj[2][2], adj[3][3]]);
     let col = [adj[0][k], adj[1][k], adj[2][k], adj[3][k]];
     let len = (col[0] * col[0] + col[1] * col[1] + col[2] * col[2] + col[3] * col[3]).sqrt();
-    if !(len.is_finite() && len > 1e-200) {
-        return None;
-    }
     let r = quaternion_rotation(col, len);
-    // Optimality: at the maximizer of tr(RS), RS is symmetric.
-    (asymmetry(&mul3(&r, s)) <= 1e-12).then_some(r)
+    accepted(len, asymmetry(&mul3(&r, s))).then_some(r)
+}
+
+/// adj(A) = c q qᵀ for the rank-one $A = N - \lambda_{\max} I$: its column with the largest
+/// |diagonal| is the best-conditioned multiple of q.
+#[inline(always)]
+fn best_column(diagonal: [f64; 4]) -> usize {
+    (0..4).max_by(|&i, &j| diagonal[i].abs().total_cmp(&diagonal[j].abs())).unwrap_or(0)
+}
+
+/// Whether the rotation from a quaternion column of length `len` is accepted: a usable length,
+/// and optimality (at the maximizer of tr(RS), RS is symmetric: `asymmetry` of RS ≤ 1e-12).
+#[inline(always)]
+fn accepted(len: f64, asymmetry: f64) -> bool {
+    len.is_finite() && len > 1e-200 && asymmetry <= 1e-12
 }
 
 /// $N - \lambda I$.
@@ -291,20 +300,9 @@ fn lockstep(s: &[Mat3; LANES], guess: &[Mat3; LANES]) -> [Option<Mat3>; LANES] {
     let (s4, g4) = (lanes(s), lanes(guess));
     // `normalized`, lane by lane: lanes with a zero or non-finite largest entry are unusable
     // (their arithmetic continues on whatever it holds and is discarded at the end).
-    let mut m = F4([0.0; LANES]);
-    for &v in s4.iter().flatten() {
-        m = m.max(v.abs());
-    }
+    let m = largest_entry(&s4);
     let usable = m.0.map(|m| m.is_finite() && m > 0.0);
-    let mut t = s4;
-    for v in t.iter_mut().flatten() {
-        *v = *v / m;
-    }
-    let inv = F4::splat(1.0) / frob2(&t).sqrt();
-    let mut sn = t;
-    for v in sn.iter_mut().flatten() {
-        *v = *v * inv;
-    }
+    let sn = scaled_to_unit(&s4, m);
     let n = horn_matrix(&sn);
     let (c2, c1, c0) = (F4::splat(-2.0), F4::splat(-8.0) * det3(&sn), det4(&n));
     let mut lambda = trace_product(&g4, &sn);
@@ -318,8 +316,7 @@ fn lockstep(s: &[Mat3; LANES], guess: &[Mat3; LANES]) -> [Option<Mat3>; LANES] {
     // Each lane's largest-diagonal column of the adjugate (see `rotation_for_eigenvalue`).
     let mut col = [F4([0.0; LANES]); 4];
     for l in 0..LANES {
-        let d = [adj[0][0].0[l], adj[1][1].0[l], adj[2][2].0[l], adj[3][3].0[l]];
-        let k = (0..4).max_by(|&i, &j| d[i].abs().total_cmp(&d[j].abs())).unwrap_or(0);
+        let k = best_column([adj[0][0].0[l], adj[1][1].0[l], adj[2][2].0[l], adj[3][3].0[l]]);
         for (c, row) in col.iter_mut().zip(&adj) {
             c.0[l] = row[k].0[l];
         }
@@ -335,8 +332,7 @@ fn lockstep(s: &[Mat3; LANES], guess: &[Mat3; LANES]) -> [Option<Mat3>; LANES] {
             && dp.0[l] > 0.0
             && ddp.0[l] > 0.0
             && (p.0[l] / dp.0[l]).abs() <= 1e-13 * x;
-        let found = len.0[l].is_finite() && len.0[l] > 1e-200 && asym.0[l] <= 1e-12;
-        if verified && found {
+        if verified && accepted(len.0[l], asym.0[l]) {
             *out = Some(r.map(|row| row.map(|v| v.0[l])));
         }
     }
@@ -348,13 +344,32 @@ fn lockstep(s: &[Mat3; LANES], guess: &[Mat3; LANES]) -> [Option<Mat3>; LANES] {
 /// a zero or non-finite `s`.
 #[inline(always)]
 fn normalized(s: &Mat3) -> Option<Mat3> {
-    let m = s.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
-    if !(m.is_finite() && m > 0.0) {
-        return None;
+    let m = largest_entry(s);
+    (m.is_finite() && m > 0.0).then(|| scaled_to_unit(s, m))
+}
+
+/// $\max_{ij} |s_{ij}|$.
+#[inline(always)]
+fn largest_entry<T: Real>(s: &[[T; 3]; 3]) -> T {
+    let mut m = s[0][0].abs();
+    for &v in s.iter().flatten().skip(1) {
+        m = m.max(v.abs());
     }
-    let t = s.map(|r| r.map(|v| v / m));
-    let inv = 1.0 / frob2(&t).sqrt();
-    Some(t.map(|r| r.map(|v| v * inv)))
+    m
+}
+
+/// `s` divided by its largest entry `m`, then scaled to unit Frobenius norm.
+#[inline(always)]
+fn scaled_to_unit<T: Real>(s: &[[T; 3]; 3], m: T) -> [[T; 3]; 3] {
+    let mut t = *s;
+    for v in t.iter_mut().flatten() {
+        *v = *v / m;
+    }
+    let inv = T::splat(1.0) / frob2(&t).sqrt();
+    for v in t.iter_mut().flatten() {
+        *v = *v * inv;
+    }
+    t
 }
 
 /// The determinant of a 4×4 matrix (the part of [`adjugate4`] it needs survives inlining).
