@@ -68,7 +68,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }));
     for (name, method, (cv, fine_iterations)) in runs {
         let base =
-            BaseConfig { coarse_vertices: cv.max(16), fine_iterations, ..Default::default() };
+            BaseConfig { coarse_vertices: Some(cv.max(16)), fine_iterations, ..Default::default() };
         let t = Instant::now();
         let mut d =
             match Deformer::with_base(method, &mesh, &handles, &ArapConfig::default(), &base) {

@@ -48,8 +48,9 @@ pub const MAX_FINE_ITERATIONS: usize = 1000;
 pub struct CoarseConfig {
     /// Smoothing length of the base, as a fraction of the bounding-box diagonal.
     pub smoothing: f64,
-    /// Vertices of the coarse base (about; at least the handle groups' minimum).
-    pub coarse_vertices: usize,
+    /// Vertices of the coarse base (about; at least the handle groups' minimum); `None`:
+    /// [`CoarseConfig::auto_coarse_vertices`] of the mesh.
+    pub coarse_vertices: Option<usize>,
     /// ARAP iterations on the full mesh after each coarse solve, started from the prolonged
     /// result (0: none).
     pub fine_iterations: usize,
@@ -62,10 +63,27 @@ impl Default for CoarseConfig {
     fn default() -> Self {
         CoarseConfig {
             smoothing: crate::bs_arap::BaseKind::DEFAULT_SMOOTHING,
-            coarse_vertices: 2000,
+            coarse_vertices: None,
             fine_iterations: 0,
             settle_iterations: 0,
         }
+    }
+}
+
+impl CoarseConfig {
+    /// The coarse size used when none is set: $\min(3000, 0.3\,n)$ for an $n$-vertex mesh
+    /// (at least 16). A coarse level is worth its approximation only while it is a fraction of
+    /// the mesh: on Cheburashka (6669 vertices) 2223 coarse vertices were already too close to
+    /// the full mesh's cost (9.2× against the target's 10×), and 3000 hold the mean distance
+    /// to converged ARAP below 1 % of the diagonal on armadillo and the bunny with five fine
+    /// iterations (BENCHMARKS.md, "One setting for all three meshes").
+    pub fn auto_coarse_vertices(n: usize) -> usize {
+        (3 * n / 10).clamp(16, 3000)
+    }
+
+    /// The coarse size for an `n`-vertex mesh: the set one, or the automatic one.
+    pub fn coarse_vertices_for(&self, n: usize) -> usize {
+        self.coarse_vertices.unwrap_or_else(|| CoarseConfig::auto_coarse_vertices(n))
     }
 }
 
@@ -136,7 +154,8 @@ impl CoarseBsArap {
         let base = faired_surface(mesh, &constraints, mesh.positions(), smoothing)?;
         clock.lap("faired base");
         let labels = handles.labels();
-        let dec = decimate(&base, mesh.triangles(), labels, coarse.coarse_vertices);
+        let target = coarse.coarse_vertices_for(mesh.n_vertices());
+        let dec = decimate(&base, mesh.triangles(), labels, target);
         clock.lap("decimation");
         let coarse_positions: Vec<[f64; 3]> = dec.kept.iter().map(|&v| base[v as usize]).collect();
         let coarse_mesh = Mesh::new(coarse_positions, dec.triangles.clone())
@@ -567,6 +586,25 @@ pub fn closest_point_on_triangle(p: [f64; 3], [a, b, c]: [[f64; 3]; 3]) -> ([f64
 mod tests {
     use super::*;
     use crate::rotation::axis_angle;
+
+    /// The automatic coarse size is min(3000, 0.3 n) (at least 16), and it is what the base
+    /// is decimated to when no size is set; a set size is kept.
+    #[test]
+    fn automatic_coarse_size() {
+        assert_eq!(CoarseConfig::auto_coarse_vertices(6669), 2000);
+        assert_eq!(CoarseConfig::auto_coarse_vertices(43243), 3000);
+        assert_eq!(CoarseConfig::auto_coarse_vertices(20), 16);
+        let (mesh, handles) = crate::shapes::bumpy_bar(3);
+        let n = mesh.n_vertices();
+        let config = ArapConfig::default();
+        let auto = CoarseBsArap::new(&mesh, &handles, &config, &CoarseConfig::default()).unwrap();
+        let expected = CoarseConfig::auto_coarse_vertices(n);
+        assert!(expected < n / 2);
+        assert!(auto.coarse_vertices().abs_diff(expected) <= expected / 20, "{expected}");
+        let set = CoarseConfig { coarse_vertices: Some(n / 8), ..Default::default() };
+        let explicit = CoarseBsArap::new(&mesh, &handles, &config, &set).unwrap();
+        assert!(explicit.coarse_vertices().abs_diff(n / 8) <= n / 160, "{}", n / 8);
+    }
 
     #[test]
     fn quaternions_round_trip() {

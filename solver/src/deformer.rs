@@ -53,8 +53,9 @@ impl Method {
 pub struct BaseConfig {
     /// Smoothing length of the faired base, as a fraction of the bounding-box diagonal.
     pub smoothing: f64,
-    /// Vertices of the coarse base ([`Method::BsArapCoarse`]).
-    pub coarse_vertices: usize,
+    /// Vertices of the coarse base ([`Method::BsArapCoarse`]); `None` (the default):
+    /// [`CoarseConfig::auto_coarse_vertices`] of the mesh.
+    pub coarse_vertices: Option<usize>,
     /// ARAP iterations on the full mesh after each coarse solve ([`Method::BsArapCoarse`]).
     pub fine_iterations: usize,
     /// ARAP iterations on the full mesh per [`Deformer::settle`] step ([`Method::BsArapCoarse`];
@@ -70,6 +71,18 @@ impl Default for BaseConfig {
             coarse_vertices: CoarseConfig::default().coarse_vertices,
             fine_iterations: CoarseConfig::default().fine_iterations,
             settle_iterations: CoarseConfig::default().settle_iterations,
+        }
+    }
+}
+
+impl BaseConfig {
+    /// The settings of [`Method::BsArapCoarse`].
+    pub fn coarse(&self) -> CoarseConfig {
+        CoarseConfig {
+            smoothing: self.smoothing,
+            coarse_vertices: self.coarse_vertices,
+            fine_iterations: self.fine_iterations,
+            settle_iterations: self.settle_iterations,
         }
     }
 }
@@ -114,12 +127,7 @@ impl Deformer {
                 mesh,
                 handles,
                 config,
-                &CoarseConfig {
-                    smoothing: base.smoothing,
-                    coarse_vertices: base.coarse_vertices,
-                    fine_iterations: base.fine_iterations,
-                    settle_iterations: base.settle_iterations,
-                },
+                &base.coarse(),
             )?)),
         })
     }

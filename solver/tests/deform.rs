@@ -31,7 +31,7 @@ fn check(
     let targets = handle_targets(mesh.positions(), handles, transforms).unwrap();
     // The coarse variant decimates to a quarter of the vertices, so that it is exercised.
     let base =
-        BaseConfig { coarse_vertices: (mesh.n_vertices() / 4).max(16), ..Default::default() };
+        BaseConfig { coarse_vertices: Some((mesh.n_vertices() / 4).max(16)), ..Default::default() };
     for method in Method::ALL {
         for energy in [Energy::SpokesAndRims, Energy::Spokes] {
             let cfg = ArapConfig { energy, ..config };

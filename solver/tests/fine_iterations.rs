@@ -38,7 +38,7 @@ fn case() -> Case {
 /// The coarse variant on an eighth of the mesh's vertices, with fine and settle iterations.
 fn coarse(c: &Case, config: &ArapConfig, fine_iterations: usize, settle: usize) -> Deformer {
     let base = BaseConfig {
-        coarse_vertices: c.mesh.n_vertices() / 8,
+        coarse_vertices: Some(c.mesh.n_vertices() / 8),
         fine_iterations,
         settle_iterations: settle,
         ..Default::default()

@@ -35,7 +35,7 @@ fn sphere_with_caps() -> (Mesh, Handles) {
 /// Every method, built with a coarse base small enough to be exercised on small meshes.
 fn deformers(mesh: &Mesh, handles: &Handles, config: &ArapConfig) -> Vec<(Method, Deformer)> {
     let base =
-        BaseConfig { coarse_vertices: (mesh.n_vertices() / 4).max(16), ..Default::default() };
+        BaseConfig { coarse_vertices: Some((mesh.n_vertices() / 4).max(16)), ..Default::default() };
     Method::ALL
         .into_iter()
         .map(|m| (m, Deformer::with_base(m, mesh, handles, config, &base).unwrap()))
@@ -74,7 +74,8 @@ fn huge_targets_give_a_finite_pose_or_an_error_never_nan() {
     let snapshot = |d: &Deformer| (d.positions().to_vec(), d.deformed_base().map(<[_]>::to_vec));
     for scale in [1e150, 1e300, f64::MAX / 4.0, f64::MAX] {
         let mut all = deformers(&m, &h, &config);
-        let fine = BaseConfig { coarse_vertices: 40, fine_iterations: 2, ..Default::default() };
+        let fine =
+            BaseConfig { coarse_vertices: Some(40), fine_iterations: 2, ..Default::default() };
         let coarse_fine = Deformer::with_base(Method::BsArapCoarse, &m, &h, &config, &fine);
         all.push((Method::BsArapCoarse, coarse_fine.unwrap()));
         for (method, mut d) in all {
@@ -154,7 +155,7 @@ fn single_vertex_handle_with_every_method() {
     let h = Handles::from_labels(&labels, m.n_vertices()).unwrap();
     let tr = GroupTransform { translation: [0.3, 0.2, 0.1], ..Default::default() };
     let targets = handle_targets(m.positions(), &h, &[(0, tr)]).unwrap();
-    let base = BaseConfig { coarse_vertices: 40, ..Default::default() };
+    let base = BaseConfig { coarse_vertices: Some(40), ..Default::default() };
     for method in Method::ALL {
         match Deformer::with_base(method, &m, &h, &ArapConfig::default(), &base) {
             Ok(mut d) => match d.solve(&targets) {
@@ -257,4 +258,22 @@ fn written_files_never_hold_non_finite_values() {
         // The previous file is untouched.
         assert_eq!(std::fs::read(&path).unwrap(), good);
     }
+}
+
+/// A scene's coarse size: absent or null is the automatic size, a number is kept, and one
+/// outside 16..=10000000 is a named error.
+#[test]
+fn scene_coarse_size_is_automatic_unless_set() {
+    let with_base = |base: &str| {
+        format!(
+            r#"{{"version": 1, "mesh": "m.obj", "handles": {{"labels": [0, -1, -1]}},
+                "timeline": {{"duration": 1.0, "fps": 10.0, "paths": []}}{base}}}"#
+        )
+    };
+    let coarse = |text: &str| Scene::from_json(text, "s.json").map(|s| s.base.coarse_vertices);
+    assert_eq!(coarse(&with_base("")).unwrap(), None);
+    assert_eq!(coarse(&with_base(r#", "base": {"coarse_vertices": null}"#)).unwrap(), None);
+    assert_eq!(coarse(&with_base(r#", "base": {"coarse_vertices": 2000}"#)).unwrap(), Some(2000));
+    let err = coarse(&with_base(r#", "base": {"coarse_vertices": 3}"#)).unwrap_err();
+    assert!(err.to_string().contains("coarse_vertices"), "{err}");
 }

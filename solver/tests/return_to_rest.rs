@@ -19,7 +19,7 @@ use solver::{ArapConfig, BaseConfig, Deformer, GroupTransform, Method, handle_ta
 fn warm_started_sequence_returns_exactly_to_rest() {
     let (mesh, handles) = solver::shapes::bumpy_bar(3);
     let diag = mesh.bbox_diagonal();
-    let base = BaseConfig { coarse_vertices: mesh.n_vertices() / 4, ..Default::default() };
+    let base = BaseConfig { coarse_vertices: Some(mesh.n_vertices() / 4), ..Default::default() };
     let mut failures = Vec::new();
     // The benchmark's rule and the editor's budget: tolerance 1e-4, cap 100 or 30.
     for max_iterations in [100, 30] {

@@ -133,9 +133,9 @@ pub struct BaseArgs {
     /// bounding-box diagonal.
     #[arg(long, default_value_t = solver::BaseConfig::default().smoothing)]
     pub smoothing: f64,
-    /// Vertices of the coarse base (bsarap-coarse).
-    #[arg(long, default_value_t = solver::BaseConfig::default().coarse_vertices)]
-    pub coarse_vertices: usize,
+    /// Vertices of the coarse base (bsarap-coarse). Default: min(3000, 30 % of the mesh).
+    #[arg(long)]
+    pub coarse_vertices: Option<usize>,
     /// ARAP iterations on the full mesh after each coarse solve (bsarap-coarse; 0: none).
     #[arg(long, default_value_t = solver::BaseConfig::default().fine_iterations)]
     pub fine_iterations: usize,
@@ -149,11 +149,12 @@ impl BaseArgs {
             "--smoothing must be in (0, 1] (a fraction of the bounding-box diagonal; got {})",
             self.smoothing
         );
-        anyhow::ensure!(
-            (16..=10_000_000).contains(&self.coarse_vertices),
-            "--coarse-vertices must be between 16 and 10000000 (got {})",
-            self.coarse_vertices
-        );
+        if let Some(n) = self.coarse_vertices {
+            anyhow::ensure!(
+                (16..=10_000_000).contains(&n),
+                "--coarse-vertices must be between 16 and 10000000 (got {n})"
+            );
+        }
         anyhow::ensure!(
             self.fine_iterations <= solver::coarse::MAX_FINE_ITERATIONS,
             "--fine-iterations must be between 0 and {} (got {})",

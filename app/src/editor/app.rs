@@ -1990,14 +1990,20 @@ impl EditorApp {
         }
         if self.settings.bs_variant == solver::Method::BsArapCoarse {
             let n = self.scene.as_ref().map_or(100_000, |s| s.mesh.n_vertices()).max(64);
-            ui.add(
-                egui::Slider::new(&mut self.settings.base.coarse_vertices, 64..=n)
-                    .logarithmic(true)
-                    .text("coarse vertices"),
+            let auto = solver::coarse::CoarseConfig::auto_coarse_vertices(n).max(64);
+            let mut automatic = self.settings.base.coarse_vertices.is_none();
+            ui.checkbox(&mut automatic, format!("automatic coarse size ({auto})")).on_hover_text(
+                "min(3000, 30 % of the mesh): a coarse level that is a fraction of the mesh",
+            );
+            let mut count = self.settings.base.coarse_vertices.unwrap_or(auto);
+            ui.add_enabled(
+                !automatic,
+                egui::Slider::new(&mut count, 64..=n).logarithmic(true).text("coarse vertices"),
             )
             .on_hover_text(
                 "vertices of the decimated base ARAP runs on; more is closer to ARAP, slower",
             );
+            self.settings.base.coarse_vertices = (!automatic).then_some(count);
             ui.add(
                 egui::Slider::new(&mut self.settings.base.fine_iterations, 0..=50)
                     .text("fine iterations"),
