@@ -71,8 +71,11 @@ def table():
         a, b = j["methods"].get("arap", {}), j["methods"].get("bsarap", {})
         pa, pb, ps = PAPER[n]
         if "error" in a or "error" in b or not a or not b:
-            print(f"| {n} | {pa} | {pb} | {ps}× | {a.get('seconds_per_frame', 'n/a')} | "
-                  f"{b.get('error', b.get('seconds_per_frame', 'n/a'))} | | |")
+            def spf(r):
+                if "error" in r:
+                    return "failed (see below)"
+                return f"{r['seconds_per_frame']:.4f}" if r else "n/a"
+            print(f"| {n} | {pa} | {pb} | {ps}× | {spf(a)} | {spf(b)} | | |")
             continue
         print(f"| {n} | {pa} | {pb} | {ps}× | {a['seconds_per_frame']:.4f} | {b['seconds_per_frame']:.4f} "
               f"| {a['seconds_per_frame'] / b['seconds_per_frame']:.2f}× "
