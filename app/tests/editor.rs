@@ -179,6 +179,16 @@ fn opens_the_default_asset_and_views_change_the_image() {
     });
     h.get_by_label("Anderson acceleration").click_accesskit();
     step_until(&mut h, "Anderson off", |a| !anderson(a));
+
+    // The coarse size is automatic by default (min(3000, 0.3 n): 3000 here); unticking the box
+    // sets that number explicitly, for the slider to change, and ticking it again goes back.
+    let coarse = |a: &EditorApp| a.method_settings().base.coarse_vertices;
+    assert_eq!(coarse(h.state()), None);
+    let auto = solver::coarse::CoarseConfig::auto_coarse_vertices(h.state().n_vertices());
+    h.get_by_label(&format!("automatic coarse size ({auto})")).click_accesskit();
+    step_until(&mut h, "explicit coarse size", |a| coarse(a) == Some(auto));
+    h.get_by_label(&format!("automatic coarse size ({auto})")).click_accesskit();
+    step_until(&mut h, "automatic coarse size again", |a| coarse(a).is_none());
 }
 
 #[test]
