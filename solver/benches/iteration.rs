@@ -134,6 +134,39 @@ fn report(name: &str, mesh: &Mesh, handles: &Handles, bw: f64, rate: f64) {
         fit_limit,
         tot / (solve_limit + fit_limit),
     );
+    solve_columns(&mut arap);
+}
+
+/// The global solve alone with 1, 2 and 3 right-hand-side columns on one thread, and the 3
+/// columns as the iteration runs them (split 2 + 1 over two threads when there are two):
+/// what the split costs against its parts (median of 15 solves).
+fn solve_columns(arap: &mut Arap) {
+    let Some(f) = arap.global_factor() else { return };
+    let n = f.n();
+    let mut time = |k: usize, one_thread: bool| {
+        let mut b = faer::Mat::<f64>::from_fn(n, k, |i, j| ((i * 7 + j) % 13) as f64 - 6.0);
+        let mut run = || {
+            (0..15)
+                .map(|_| {
+                    let t = Instant::now();
+                    f.solve_in_place(b.as_mut());
+                    t.elapsed().as_secs_f64() * 1e3
+                })
+                .collect::<Vec<f64>>()
+        };
+        let times = if one_thread {
+            rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap().install(run)
+        } else {
+            run()
+        };
+        median(times)
+    };
+    let (t1, t2, t3) = (time(1, true), time(2, true), time(3, true));
+    let split = time(3, false);
+    println!(
+        "{:<28} solve on one thread: 1 column {t1:.3} ms, 2 columns {t2:.3}, 3 columns {t3:.3}; 3 columns as the iteration runs them {split:.3}",
+        ""
+    );
 }
 
 fn main() {

@@ -450,6 +450,12 @@ impl Arap {
         self.factor.as_ref().map_or(0, |f| f.factor_nonzeros())
     }
 
+    /// The prefactored free block $L_{FF}$ (`None` when every vertex is fixed), for benchmarks
+    /// of the global solve; solving with it leaves the deformation untouched.
+    pub fn global_factor(&mut self) -> Option<&mut SpdFactor> {
+        self.factor.as_mut()
+    }
+
     /// Restarts the next solve from the rest pose.
     pub fn reset(&mut self) {
         self.refined_at = None;
