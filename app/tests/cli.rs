@@ -227,6 +227,30 @@ fn bench_counts_the_cap_and_unconverged_fine_iterations_apart() {
     assert_eq!(m["frames_fine_unconverged"], 3, "{m}");
 }
 
+/// The coarse size is automatic unless `--coarse-vertices` sets it, and both outputs say which
+/// size was used: min(3000, 0.3 n) on the 162-vertex sphere is 48.
+#[test]
+fn bench_reports_the_automatic_or_set_coarse_size() {
+    let (obj, sel, _) = sphere();
+    let run = |extra: &[&str]| -> String {
+        let mut args = vec!["bench", obj.to_str().unwrap(), "--handles", sel.to_str().unwrap()];
+        args.extend(["--frames", "2", "--method", "bsarap-coarse"]);
+        args.extend_from_slice(extra);
+        let (code, stdout, stderr) = bsarap(&args);
+        assert_eq!(code, 0, "{stderr}");
+        stdout
+    };
+    let auto = run(&[]);
+    assert!(auto.contains("about 48 vertices (automatic"), "{auto}");
+    let set = run(&["--coarse-vertices", "100"]);
+    assert!(set.contains("about 100 vertices (--coarse-vertices)"), "{set}");
+    let j = on_sphere("bench", &["--frames", "2", "--method", "bsarap-coarse"]);
+    assert_eq!(
+        (j["coarse_vertices"].as_u64(), j["coarse_vertices_auto"].as_bool()),
+        (Some(48), Some(true))
+    );
+}
+
 /// The readable table says when frames stopped at the cap instead of the stopping rule, and
 /// stays silent when every frame reached it.
 #[test]

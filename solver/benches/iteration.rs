@@ -11,7 +11,9 @@
 //!     limit = bytes of the Cholesky factor read per 3-column solve / memory bandwidth
 //!           + #V rotation fits / measured warm fit rate (all threads)
 //!
-//! with the bandwidth and the fit rate measured here. No assertions: timings are for reading.
+//! with the bandwidth and the fit rate measured here, then the global solve alone with 1, 2 and
+//! 3 right-hand-side columns on one thread and as the iteration runs it (median of 15 solves).
+//! No assertions: timings are for reading.
 //! The criterion benches of the same phases, with history, are in `benches/phases.rs`.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 

@@ -545,6 +545,20 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
         a.start,
         rayon::current_num_threads()
     );
+    if methods.contains(&Method::BsArapCoarse) {
+        let c = setup.base.coarse();
+        println!(
+            "bsarap-coarse: base decimated to about {} vertices ({}), smoothing {}, {} fine iterations",
+            c.coarse_vertices_for(mesh.n_vertices()),
+            if c.coarse_vertices.is_some() {
+                "--coarse-vertices"
+            } else {
+                "automatic: min(3000, 30 % of the mesh)"
+            },
+            c.smoothing,
+            c.fine_iterations
+        );
+    }
     println!(
         "{:<14} {:>11} {:>9} {:>8} {:>8} {:>8} {:>8} {:>10} {:>7} {:>9} {:>8} {:>11}",
         "method",
