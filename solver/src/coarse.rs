@@ -43,6 +43,9 @@ use rayon::prelude::*;
 /// The most fine iterations a configuration may ask for (CLI, scenes).
 pub const MAX_FINE_ITERATIONS: usize = 1000;
 
+/// The coarse sizes a configuration may set (CLI, scenes).
+pub const COARSE_VERTICES: std::ops::RangeInclusive<usize> = 16..=10_000_000;
+
 /// Settings of the coarse base.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct CoarseConfig {
@@ -80,6 +83,9 @@ impl CoarseConfig {
     pub fn auto_coarse_vertices(n: usize) -> usize {
         (3 * n / 10).clamp(16, 3000)
     }
+
+    /// [`CoarseConfig::auto_coarse_vertices`] in words, for the interfaces that report it.
+    pub const AUTO_RULE: &'static str = "min(3000, 30 % of the mesh)";
 
     /// The coarse size for an `n`-vertex mesh: the set one, or the automatic one.
     pub fn coarse_vertices_for(&self, n: usize) -> usize {

@@ -201,7 +201,7 @@ fn rotation_for_eigenvalue(n: &[[f64; 4]; 4], s: &Mat3, lambda: f64) -> Option<M
     let (adj, _) = adjugate4(&shifted(n, lambda));
     let k = best_column([adj[0][0], adj[1][1], adj[2][2], adj[3][3]]);
     let col = [adj[0][k], adj[1][k], adj[2][k], adj[3][k]];
-    let len = (col[0] * col[0] + col[1] * col[1] + col[2] * col[2] + col[3] * col[3]).sqrt();
+    let len = norm4(&col);
     let r = quaternion_rotation(col, len);
     accepted(len, asymmetry(&mul3(&r, s))).then_some(r)
 }
@@ -228,6 +228,12 @@ fn shifted<T: Real>(n: &[[T; 4]; 4], lambda: T) -> [[T; 4]; 4] {
         row[k] = row[k] - lambda;
     }
     a
+}
+
+/// The Euclidean length of a quaternion (unnormalized: an adjugate column).
+#[inline(always)]
+fn norm4<T: Real>(q: &[T; 4]) -> T {
+    (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]).sqrt()
 }
 
 /// The rotation of the quaternion `q / len` ($w, x, y, z$).
@@ -321,7 +327,7 @@ fn lockstep(s: &[Mat3; LANES], guess: &[Mat3; LANES]) -> [Option<Mat3>; LANES] {
             c.0[l] = row[k].0[l];
         }
     }
-    let len = (col[0] * col[0] + col[1] * col[1] + col[2] * col[2] + col[3] * col[3]).sqrt();
+    let len = norm4(&col);
     let r = quaternion_rotation(col, len);
     let asym = asymmetry(&mul3(&r, &sn));
     let mut out = [None; LANES];

@@ -214,13 +214,15 @@ impl Scene {
         let smoothing_ok =
             base.smoothing.is_finite() && base.smoothing > 0.0 && base.smoothing <= 1.0;
         if !smoothing_ok
-            || base.coarse_vertices.is_some_and(|n| !(16..=10_000_000).contains(&n))
+            || base.coarse_vertices.is_some_and(|n| !crate::coarse::COARSE_VERTICES.contains(&n))
             || base.fine_iterations > crate::coarse::MAX_FINE_ITERATIONS
         {
             return Err(SceneError::Invalid {
                 file: file.to_string(),
                 message: format!(
-                    "\"base\": smoothing must be in (0, 1], coarse_vertices null (automatic) or between 16 and 10000000, and fine_iterations at most {}",
+                    "\"base\": smoothing must be in (0, 1], coarse_vertices null (automatic) or between {} and {}, and fine_iterations at most {}",
+                    crate::coarse::COARSE_VERTICES.start(),
+                    crate::coarse::COARSE_VERTICES.end(),
                     crate::coarse::MAX_FINE_ITERATIONS
                 ),
             });

@@ -551,9 +551,9 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
             "bsarap-coarse: base decimated to about {} vertices ({}), smoothing {}, {} fine iterations",
             c.coarse_vertices_for(mesh.n_vertices()),
             if c.coarse_vertices.is_some() {
-                "--coarse-vertices"
+                "--coarse-vertices".to_string()
             } else {
-                "automatic: min(3000, 30 % of the mesh)"
+                format!("automatic: {}", solver::coarse::CoarseConfig::AUTO_RULE)
             },
             c.smoothing,
             c.fine_iterations

@@ -151,8 +151,10 @@ impl BaseArgs {
         );
         if let Some(n) = self.coarse_vertices {
             anyhow::ensure!(
-                (16..=10_000_000).contains(&n),
-                "--coarse-vertices must be between 16 and 10000000 (got {n})"
+                solver::coarse::COARSE_VERTICES.contains(&n),
+                "--coarse-vertices must be between {} and {} (got {n})",
+                solver::coarse::COARSE_VERTICES.start(),
+                solver::coarse::COARSE_VERTICES.end()
             );
         }
         anyhow::ensure!(

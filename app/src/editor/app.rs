@@ -1993,7 +1993,10 @@ impl EditorApp {
             let auto = solver::coarse::CoarseConfig::auto_coarse_vertices(n).max(64);
             let mut automatic = self.settings.base.coarse_vertices.is_none();
             ui.checkbox(&mut automatic, format!("automatic coarse size ({auto})")).on_hover_text(
-                "min(3000, 30 % of the mesh): a coarse level that is a fraction of the mesh",
+                format!(
+                    "{}: a coarse level that is a fraction of the mesh",
+                    solver::coarse::CoarseConfig::AUTO_RULE
+                ),
             );
             let mut count = self.settings.base.coarse_vertices.unwrap_or(auto);
             ui.add_enabled(
