@@ -1,15 +1,19 @@
-//! Four `f64` lanes operated on lane by lane ([`F4`]), and the arithmetic shared with plain
-//! `f64` ([`Real`]). Written as per-lane expressions that the compiler turns into 4-wide vector
-//! instructions inside functions compiled for AVX2 (chosen at run time); no fused multiply-add
-//! is introduced, so results round as the scalar code does.
+//! Four `f64` lanes operated on lane by lane, and the arithmetic shared with plain `f64`
+//! ([`Real`]), so that the rotation fit runs the same formulas on one cell or on four.
+//! - [`F4`]: portable, written as per-lane expressions (the fallback without AVX2).
+//! - `Avx4` (x86-64): one 256-bit AVX register per value, for code compiled for AVX2 and chosen
+//!   at run time. Left to the compiler, the per-lane expressions of `F4` became a mix of 2- and
+//!   4-wide instructions with many register shuffles and stack copies.
+//!
+//! No fused multiply-add is introduced by either, so both round exactly as the scalar code does.
 
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
 /// Lanes of [`F4`].
 pub const LANES: usize = 4;
 
-/// The arithmetic shared by scalar and four-lane code (`f64` or [`F4`]), so that both run the
-/// same formulas.
+/// The arithmetic shared by scalar and four-lane code (`f64`, [`F4`], `Avx4`), so that all
+/// run the same formulas.
 pub(crate) trait Real:
     Copy
     + Add<Output = Self>
@@ -102,5 +106,134 @@ impl Real for F4 {
     fn copysign(self, sign: F4) -> F4 {
         let (a, b) = (self.0, sign.0);
         F4([a[0].copysign(b[0]), a[1].copysign(b[1]), a[2].copysign(b[2]), a[3].copysign(b[3])])
+    }
+}
+
+/// A four-lane type the lockstep fit runs on: [`Real`] arithmetic lane by lane, plus moving
+/// lanes in and out and a lane-wise choice.
+pub(crate) trait Lanes: Real {
+    fn from_lanes(v: [f64; LANES]) -> Self;
+    fn to_lanes(self) -> [f64; LANES];
+    /// Lane by lane, `a` where `x >= y`, else `b` (also where either is NaN).
+    fn pick_ge(x: Self, y: Self, a: Self, b: Self) -> Self;
+}
+
+impl Lanes for F4 {
+    #[inline(always)]
+    fn from_lanes(v: [f64; LANES]) -> F4 {
+        F4(v)
+    }
+    #[inline(always)]
+    fn to_lanes(self) -> [f64; LANES] {
+        self.0
+    }
+    #[inline(always)]
+    fn pick_ge(x: F4, y: F4, a: F4, b: F4) -> F4 {
+        let (x, y, a, b) = (x.0, y.0, a.0, b.0);
+        F4([
+            if x[0] >= y[0] { a[0] } else { b[0] },
+            if x[1] >= y[1] { a[1] } else { b[1] },
+            if x[2] >= y[2] { a[2] } else { b[2] },
+            if x[3] >= y[3] { a[3] } else { b[3] },
+        ])
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+pub(crate) use avx::Avx4;
+
+#[cfg(target_arch = "x86_64")]
+mod avx {
+    //! Every method is `#[inline(always)]` and calls AVX intrinsics: use `Avx4` only inside
+    //! functions compiled with `#[target_feature(enable = "avx2")]`, which are called only
+    //! after `is_x86_feature_detected!("avx2")`. Inlined there, each method is one or two
+    //! instructions.
+    use super::{LANES, Lanes, Real};
+    use std::arch::x86_64::*;
+    use std::ops::{Add, Div, Mul, Neg, Sub};
+
+    /// Four `f64` lanes in one AVX register.
+    #[derive(Clone, Copy, Debug)]
+    pub(crate) struct Avx4(__m256d);
+
+    macro_rules! binary {
+        ($trait:ident, $f:ident, $intrinsic:ident) => {
+            impl $trait for Avx4 {
+                type Output = Avx4;
+                #[inline(always)]
+                fn $f(self, o: Avx4) -> Avx4 {
+                    // SAFETY: AVX is available wherever `Avx4` is used (module doc).
+                    Avx4(unsafe { $intrinsic(self.0, o.0) })
+                }
+            }
+        };
+    }
+    binary!(Add, add, _mm256_add_pd);
+    binary!(Sub, sub, _mm256_sub_pd);
+    binary!(Mul, mul, _mm256_mul_pd);
+    binary!(Div, div, _mm256_div_pd);
+
+    impl Neg for Avx4 {
+        type Output = Avx4;
+        #[inline(always)]
+        fn neg(self) -> Avx4 {
+            // SAFETY: as above. Flips the sign bit, as `-x` does.
+            Avx4(unsafe { _mm256_xor_pd(self.0, _mm256_set1_pd(-0.0)) })
+        }
+    }
+
+    impl Real for Avx4 {
+        #[inline(always)]
+        fn splat(v: f64) -> Avx4 {
+            // SAFETY: as above.
+            Avx4(unsafe { _mm256_set1_pd(v) })
+        }
+        #[inline(always)]
+        fn sqrt(self) -> Avx4 {
+            // SAFETY: as above.
+            Avx4(unsafe { _mm256_sqrt_pd(self.0) })
+        }
+        #[inline(always)]
+        fn abs(self) -> Avx4 {
+            // SAFETY: as above. Clears the sign bit, as `f64::abs` does.
+            Avx4(unsafe { _mm256_andnot_pd(_mm256_set1_pd(-0.0), self.0) })
+        }
+        #[inline(always)]
+        fn max(self, o: Avx4) -> Avx4 {
+            // SAFETY: as above. `f64::max` ignores a NaN operand; `_mm256_max_pd(a, b)` returns
+            // `b` when either is NaN, so lanes where `b` is NaN take `a`.
+            unsafe {
+                let m = _mm256_max_pd(self.0, o.0);
+                Avx4(_mm256_blendv_pd(m, self.0, _mm256_cmp_pd::<_CMP_UNORD_Q>(o.0, o.0)))
+            }
+        }
+        #[inline(always)]
+        fn copysign(self, sign: Avx4) -> Avx4 {
+            // SAFETY: as above. The magnitude of `self` with the sign bit of `sign`.
+            unsafe {
+                let bit = _mm256_set1_pd(-0.0);
+                Avx4(_mm256_or_pd(_mm256_andnot_pd(bit, self.0), _mm256_and_pd(bit, sign.0)))
+            }
+        }
+    }
+
+    impl Lanes for Avx4 {
+        #[inline(always)]
+        fn from_lanes(v: [f64; LANES]) -> Avx4 {
+            // SAFETY: as above; the load reads the four values of `v`.
+            Avx4(unsafe { _mm256_loadu_pd(v.as_ptr()) })
+        }
+        #[inline(always)]
+        fn to_lanes(self) -> [f64; LANES] {
+            let mut out = [0.0; LANES];
+            // SAFETY: as above; the store writes the four values of `out`.
+            unsafe { _mm256_storeu_pd(out.as_mut_ptr(), self.0) };
+            out
+        }
+        #[inline(always)]
+        fn pick_ge(x: Avx4, y: Avx4, a: Avx4, b: Avx4) -> Avx4 {
+            // SAFETY: as above. Ordered comparison: false where either is NaN.
+            unsafe { Avx4(_mm256_blendv_pd(b.0, a.0, _mm256_cmp_pd::<_CMP_GE_OQ>(x.0, y.0))) }
+        }
     }
 }

@@ -8,7 +8,7 @@
 //!
 //! Matrices are row-major `[[f64; 3]; 3]`.
 
-use crate::lanes::{F4, Real};
+use crate::lanes::{F4, Lanes, Real};
 use nalgebra::Matrix3;
 
 /// A row-major 3×3 matrix.
@@ -259,9 +259,9 @@ pub const LANES: usize = crate::lanes::LANES;
 
 /// [`fit_rotation_near`] for [`LANES`] cells at once, with the same results up to rounding: the
 /// quaternion fit with exactly three Laguerre steps from each guess's objective, run without
-/// branches on one cell per vector lane (the cells' matrices transposed into `[[F4; 3]; 3]`,
-/// the same generic formulas as the scalar fit), so that square roots, divisions and products
-/// run four at a time. A lane whose root is not verified (Newton step below
+/// branches on one cell per vector lane (the cells' matrices transposed into a 3×3 of four-lane
+/// values, the same generic formulas as the scalar fit), so that square roots, divisions and
+/// products run four at a time. A lane whose root is not verified (Newton step below
 /// $10^{-13}\lambda$, the Budan–Fourier test of `largest_root`) or whose rotation fails the
 /// optimality check goes through the scalar [`fit_rotation_near`] instead.
 pub fn fit_rotations_near(s: &[Mat3; LANES], guess: &[Mat3; LANES]) -> [Mat3; LANES] {
@@ -270,8 +270,11 @@ pub fn fit_rotations_near(s: &[Mat3; LANES], guess: &[Mat3; LANES]) -> [Mat3; LA
 }
 
 /// The lockstep part of [`fit_rotations_near`]: `None` for the lanes left to the scalar path.
-/// On x86-64 processors with AVX2 the same code is compiled for 4-wide vectors and chosen at
-/// run time (no fused multiply-add is introduced, so both versions round identically).
+/// On x86-64 processors with AVX2 the same code runs on `Avx4` (one AVX register per value,
+/// intrinsics), chosen at run time, elsewhere on the portable `F4`; no fused multiply-add is
+/// introduced, so both round identically (test `avx_lanes_match_portable_lanes`). The AVX
+/// build fits about twice as many cells per second as the portable lanes compiled for AVX2
+/// did (BENCHMARKS.md, "Fifth round").
 #[inline]
 fn fit_rotations_lockstep(s: &[Mat3; LANES], guess: &[Mat3; LANES]) -> [Option<Mat3>; LANES] {
     #[cfg(target_arch = "x86_64")]
@@ -282,23 +285,25 @@ fn fit_rotations_lockstep(s: &[Mat3; LANES], guess: &[Mat3; LANES]) -> [Option<M
             return unsafe { lockstep_avx2(s, guess) };
         }
     }
-    lockstep(s, guess)
+    lockstep::<F4>(s, guess)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 fn lockstep_avx2(s: &[Mat3; LANES], guess: &[Mat3; LANES]) -> [Option<Mat3>; LANES] {
-    lockstep(s, guess)
+    lockstep::<crate::lanes::Avx4>(s, guess)
 }
 
 #[inline(always)]
-fn lockstep(s: &[Mat3; LANES], guess: &[Mat3; LANES]) -> [Option<Mat3>; LANES] {
-    // One cell per lane of `F4`: the scalar fit's formulas, run on four cells at once.
-    let lanes = |m: &[Mat3; LANES]| -> [[F4; 3]; 3] {
-        let mut out = [[F4([0.0; LANES]); 3]; 3];
+fn lockstep<L: Lanes>(s: &[Mat3; LANES], guess: &[Mat3; LANES]) -> [Option<Mat3>; LANES] {
+    // One cell per lane: the scalar fit's formulas, run on four cells at once.
+    // Index loops rather than `array::from_fn`/`map`, whose closures were not always inlined
+    // into the AVX2 build.
+    let lanes = |m: &[Mat3; LANES]| -> [[L; 3]; 3] {
+        let mut out = [[L::splat(0.0); 3]; 3];
         for (i, row) in out.iter_mut().enumerate() {
             for (j, v) in row.iter_mut().enumerate() {
-                *v = F4([m[0][i][j], m[1][i][j], m[2][i][j], m[3][i][j]]);
+                *v = L::from_lanes([m[0][i][j], m[1][i][j], m[2][i][j], m[3][i][j]]);
             }
         }
         out
@@ -307,10 +312,10 @@ fn lockstep(s: &[Mat3; LANES], guess: &[Mat3; LANES]) -> [Option<Mat3>; LANES] {
     // `normalized`, lane by lane: lanes with a zero or non-finite largest entry are unusable
     // (their arithmetic continues on whatever it holds and is discarded at the end).
     let m = largest_entry(&s4);
-    let usable = m.0.map(|m| m.is_finite() && m > 0.0);
+    let m_lanes = m.to_lanes();
     let sn = scaled_to_unit(&s4, m);
     let n = horn_matrix(&sn);
-    let (c2, c1, c0) = (F4::splat(-2.0), F4::splat(-8.0) * det3(&sn), det4(&n));
+    let (c2, c1, c0) = (L::splat(-2.0), L::splat(-8.0) * det3(&sn), det4(&n));
     let mut lambda = trace_product(&g4, &sn);
     for _ in 0..3 {
         // A non-finite step gives a non-finite λ, refused below.
@@ -319,27 +324,46 @@ fn lockstep(s: &[Mat3; LANES], guess: &[Mat3; LANES]) -> [Option<Mat3>; LANES] {
     }
     let (p, dp, ddp) = quartic(c2, c1, c0, lambda);
     let (adj, _) = adjugate4(&shifted(&n, lambda));
-    // Each lane's largest-diagonal column of the adjugate (see `rotation_for_eigenvalue`).
-    let mut col = [F4([0.0; LANES]); 4];
-    for l in 0..LANES {
-        let k = best_column([adj[0][0].0[l], adj[1][1].0[l], adj[2][2].0[l], adj[3][3].0[l]]);
+    // Each lane's largest-|diagonal| column of the adjugate (see `rotation_for_eigenvalue`),
+    // without branches: a later column replaces the chosen one where its |diagonal| is at
+    // least as large (ties go to the later column, as in `best_column`).
+    let mut col = [adj[0][0], adj[1][0], adj[2][0], adj[3][0]];
+    let mut best = adj[0][0].abs();
+    for k in 1..4 {
+        let d = adj[k][k].abs();
         for (c, row) in col.iter_mut().zip(&adj) {
-            c.0[l] = row[k].0[l];
+            *c = L::pick_ge(d, best, row[k], *c);
         }
+        best = best.max(d);
     }
     let len = norm4(&col);
     let r = quaternion_rotation(col, len);
-    let asym = asymmetry(&mul3(&r, &sn));
+    let asym = asymmetry(&mul3(&r, &sn)).to_lanes();
+    let (lambda, p, dp, ddp, len) =
+        (lambda.to_lanes(), p.to_lanes(), dp.to_lanes(), ddp.to_lanes(), len.to_lanes());
+    let mut r_lanes = [[[0.0; LANES]; 3]; 3];
+    for (out, row) in r_lanes.iter_mut().zip(&r) {
+        for (out, v) in out.iter_mut().zip(row) {
+            *out = v.to_lanes();
+        }
+    }
     let mut out = [None; LANES];
     for (l, out) in out.iter_mut().enumerate() {
-        let x = lambda.0[l];
-        let verified = usable[l]
+        let x = lambda[l];
+        let verified = m_lanes[l].is_finite()
+            && m_lanes[l] > 0.0
             && x > 0.0
-            && dp.0[l] > 0.0
-            && ddp.0[l] > 0.0
-            && (p.0[l] / dp.0[l]).abs() <= 1e-13 * x;
-        if verified && accepted(len.0[l], asym.0[l]) {
-            *out = Some(r.map(|row| row.map(|v| v.0[l])));
+            && dp[l] > 0.0
+            && ddp[l] > 0.0
+            && (p[l] / dp[l]).abs() <= 1e-13 * x;
+        if verified && accepted(len[l], asym[l]) {
+            let mut rot = [[0.0; 3]; 3];
+            for (out, row) in rot.iter_mut().zip(&r_lanes) {
+                for (out, v) in out.iter_mut().zip(row) {
+                    *out = v[l];
+                }
+            }
+            *out = Some(rot);
         }
     }
     out
@@ -565,6 +589,54 @@ mod tests {
         assert!(err.fold(0.0, f64::max) < 1e-12);
         let all = fit_rotations_near(&batch, &[IDENTITY; LANES]);
         assert_eq!(all[1..], [IDENTITY; 3]);
+    }
+
+    /// The AVX build of the lockstep fit (`Avx4`, intrinsics) and the portable one (`F4`) give
+    /// the same bits on every lane, including the refused ones, on random covariances near and
+    /// far from their guesses and on the special cells of the test above.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn avx_lanes_match_portable_lanes() {
+        if !std::is_x86_feature_detected!("avx2") {
+            eprintln!("skipped: this processor has no AVX2");
+            return;
+        }
+        let mut seed = 0x2545f4914f6cdd1du64;
+        let mut rnd = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        let special = [[[0.0; 3]; 3], [[f64::NAN; 3]; 3], scale_mat(&IDENTITY, f64::INFINITY)];
+        let (mut fitted, mut refused) = (0, 0);
+        for round in 0..2000 {
+            let mut batch = [[[0.0; 3]; 3]; LANES];
+            let mut guess = [IDENTITY; LANES];
+            for (l, (s, g)) in batch.iter_mut().zip(&mut guess).enumerate() {
+                *s = std::array::from_fn(|_| std::array::from_fn(|_| rnd()));
+                if round % 7 == 0 && l < special.len() {
+                    *s = special[l];
+                }
+                let off = if round % 2 == 0 { 0.01 } else { 2.0 };
+                *g = mul_mat(&axis_angle([rnd(), rnd(), rnd()], off), &fit_rotation_svd(s));
+            }
+            // SAFETY: AVX2 was detected above.
+            let avx = unsafe { lockstep_avx2(&batch, &guess) };
+            let portable = lockstep::<F4>(&batch, &guess);
+            for (a, p) in avx.iter().zip(&portable) {
+                match (a, p) {
+                    (Some(a), Some(p)) => {
+                        let bits = |m: &Mat3| m.map(|row| row.map(f64::to_bits));
+                        assert_eq!(bits(a), bits(p));
+                        fitted += 1;
+                    }
+                    (None, None) => refused += 1,
+                    _ => panic!("one build fitted a lane the other refused: {a:?} {p:?}"),
+                }
+            }
+        }
+        assert!(fitted > 3000 && refused > 0, "{fitted} fitted, {refused} refused");
     }
 
     /// The quaternion fit agrees with the SVD reference to rounding, on random covariances
