@@ -25,7 +25,7 @@
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use faer::sparse::Triplet;
 use solver::constraints::Constraints;
-use solver::linsolve::SpdFactor;
+use solver::linsolve::{Layout, SpdFactor};
 use solver::rotation::{axis_angle, mul_vec};
 use solver::shapes::bumpy_bar;
 use solver::{Arap, ArapConfig, Handles, Mesh};
@@ -67,9 +67,9 @@ fn factorization(c: &mut Criterion) {
         };
         let v = mesh.n_vertices();
         g.bench_with_input(BenchmarkId::new("symbolic+numeric", v), &a, |b, a| {
-            b.iter(|| SpdFactor::new(a).map(|f| f.factor_nonzeros()))
+            b.iter(|| SpdFactor::new(a, Layout::Simplicial).map(|f| f.factor_nonzeros()))
         });
-        let Ok(mut f) = SpdFactor::new(&a) else { unreachable!("L_FF is SPD") };
+        let Ok(mut f) = SpdFactor::new(&a, Layout::Simplicial) else { unreachable!("L_FF is SPD") };
         g.bench_with_input(BenchmarkId::new("numeric", v), &a, |b, a| b.iter(|| f.refactor(a)));
     }
     g.finish();

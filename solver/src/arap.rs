@@ -32,7 +32,7 @@ use crate::constraints::Constraints;
 use crate::cotan::{edge_weights, face_cotangents_or, laplacian_triplets, opposite_edge};
 use crate::error::SolveError;
 use crate::handles::Handles;
-use crate::linsolve::SpdFactor;
+use crate::linsolve::{Layout, SpdFactor};
 use crate::mesh::{Mesh, add, sub};
 use crate::reorder::VertexOrder;
 use crate::rotation::{
@@ -353,7 +353,7 @@ impl Arap {
         let factor = if n_free == 0 {
             None
         } else {
-            Some(SpdFactor::from_triplets(n_free, &ff).map_err(|source| {
+            Some(SpdFactor::from_triplets(n_free, &ff, Layout::Simplicial).map_err(|source| {
                 SolveError::Factorization {
                     matrix: "the free block of the cotangent Laplacian",
                     source,

@@ -25,7 +25,7 @@
 use crate::constraints::Constraints;
 use crate::cotan::{edge_weights, face_cotangents};
 use crate::error::SolveError;
-use crate::linsolve::SpdFactor;
+use crate::linsolve::{Layout, SpdFactor};
 use crate::mass::{MassKind, lumped_mass};
 use crate::mesh::Mesh;
 use faer::Mat;
@@ -107,7 +107,7 @@ pub fn faired_surface(
             }
         }
     }
-    let mut factor = SpdFactor::from_triplets(n_free, &q).map_err(|source| {
+    let mut factor = SpdFactor::from_triplets(n_free, &q, Layout::Auto).map_err(|source| {
         SolveError::Factorization { matrix: "the free block of the bi-Laplacian", source }
     })?;
     factor.solve_in_place(rhs.as_mut());

@@ -9,13 +9,22 @@
 //! solve on a 50k-unknown Laplacian 25× slower on our 2-core machines (../shared/TOOLCHAIN.md).
 //! Instead, a block of k ≥ 2 columns with at least 4096 rows is split into two halves solved at
 //! once on two rayon tasks, each sequential (1.2–1.5× faster for 3 columns on the armadillo and
-//! the bunny on 2 cores, BENCHMARKS.md). The factorization itself may use rayon.
+//! the bunny on 2 cores, BENCHMARKS.md). Three columns (ARAP's global step) on a simplicial
+//! factor whose elimination tree cuts into two halves with a small top, on processors with
+//! AVX2, go through `tree.rs` instead: the two halves of the tree on two threads, the three
+//! columns in one vector register per row. The factorization itself may use rayon.
 
 use faer::dyn_stack::{MemBuffer, MemStack};
-use faer::sparse::linalg::cholesky::{LltRef, SymbolicCholesky, factorize_symbolic_cholesky};
+use faer::sparse::linalg::SupernodalThreshold;
+use faer::sparse::linalg::cholesky::{
+    CholeskySymbolicParams, LltRef, SymbolicCholesky, factorize_symbolic_cholesky,
+};
 use faer::sparse::{SparseColMat, Triplet};
 use faer::{Conj, MatMut, Par, Side};
 use thiserror::Error;
+
+#[cfg(target_arch = "x86_64")]
+mod tree;
 
 /// Why a factorization failed.
 #[derive(Debug, Clone, PartialEq, Error)]
@@ -28,6 +37,18 @@ pub enum FactorError {
     Other(String),
 }
 
+/// How the factor is stored.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Layout {
+    /// faer's choice: supernodal (dense blocks) when that saves enough work, else simplicial.
+    Auto,
+    /// Simplicial (one sparse column per unknown): what the three-column solve split along the
+    /// elimination tree needs. For the cotangent Laplacians of the paper's meshes faer's
+    /// supernodal choice (bunny) stored 1.74M entries against 1.30M and solved 2–2.5× slower
+    /// (BENCHMARKS.md, "Fifth round").
+    Simplicial,
+}
+
 /// A Cholesky factorization of a sparse SPD matrix, reusable for many right-hand sides.
 pub struct SpdFactor {
     symbolic: SymbolicCholesky<usize>,
@@ -35,6 +56,10 @@ pub struct SpdFactor {
     solve_buffer: MemBuffer,
     solve_split_buffer: MemBuffer,
     solve_columns: usize,
+    /// Three-column solves split along the elimination tree (simplicial factors of at least
+    /// 4096 rows whose tree cuts in halves, on processors with AVX2); `None`: faer's solve.
+    #[cfg(target_arch = "x86_64")]
+    tree: Option<tree::TreeSplit>,
 }
 
 impl std::fmt::Debug for SpdFactor {
@@ -52,19 +77,26 @@ impl SpdFactor {
     pub fn from_triplets(
         n: usize,
         triplets: &[Triplet<usize, usize, f64>],
+        layout: Layout,
     ) -> Result<Self, FactorError> {
         let a = SparseColMat::<usize, f64>::try_new_from_triplets(n, n, triplets)
             .map_err(|e| FactorError::Other(format!("{e:?}")))?;
-        Self::new(&a)
+        Self::new(&a, layout)
     }
 
     /// Symbolic analysis (AMD ordering, elimination tree) and numeric factorization of `a`.
-    pub fn new(a: &SparseColMat<usize, f64>) -> Result<Self, FactorError> {
+    pub fn new(a: &SparseColMat<usize, f64>, layout: Layout) -> Result<Self, FactorError> {
         let symbolic = factorize_symbolic_cholesky(
             a.symbolic(),
             Side::Lower,
             Default::default(),
-            Default::default(),
+            CholeskySymbolicParams {
+                supernodal_flop_ratio_threshold: match layout {
+                    Layout::Auto => SupernodalThreshold::AUTO,
+                    Layout::Simplicial => SupernodalThreshold::FORCE_SIMPLICIAL,
+                },
+                ..Default::default()
+            },
         )
         .map_err(|e| FactorError::Other(format!("{e:?}")))?;
         let mut this = SpdFactor {
@@ -73,7 +105,24 @@ impl SpdFactor {
             solve_buffer: MemBuffer::new(faer::dyn_stack::StackReq::EMPTY),
             solve_split_buffer: MemBuffer::new(faer::dyn_stack::StackReq::EMPTY),
             solve_columns: 0,
+            #[cfg(target_arch = "x86_64")]
+            tree: None,
         };
+        #[cfg(target_arch = "x86_64")]
+        if std::is_x86_feature_detected!("avx2")
+            && let faer::sparse::linalg::cholesky::SymbolicCholeskyRaw::Simplicial(l) =
+                this.symbolic.raw()
+        {
+            let identity: Vec<usize>;
+            let fwd = match this.symbolic.perm() {
+                Some(p) => p.arrays().0,
+                None => {
+                    identity = (0..l.nrows()).collect();
+                    &identity
+                }
+            };
+            this.tree = tree::TreeSplit::new(l.col_ptr(), l.row_idx(), fwd);
+        }
         this.refactor(a)?;
         Ok(this)
     }
@@ -106,6 +155,10 @@ impl SpdFactor {
                     FactorError::NotPositiveDefinite { pivot: index }
                 }
             })?;
+        #[cfg(target_arch = "x86_64")]
+        if let Some(t) = &mut self.tree {
+            t.set_values(&self.values);
+        }
         Ok(())
     }
 
@@ -123,6 +176,20 @@ impl SpdFactor {
     /// The workspace is allocated on the first call for a given `k` and then reused.
     pub fn solve_in_place(&mut self, rhs: MatMut<'_, f64>) {
         let k = rhs.ncols();
+        #[cfg(target_arch = "x86_64")]
+        if let (3, Some(t)) = (k, self.tree.as_mut()) {
+            let (a, rest) = rhs.split_at_col_mut(1);
+            let (b, c) = rest.split_at_col_mut(1);
+            fn col(m: MatMut<'_, f64>) -> Option<&mut [f64]> {
+                m.col_mut(0).try_as_col_major_mut().map(|c| c.as_slice_mut())
+            }
+            if let (Some(a), Some(b), Some(c)) = (col(a), col(b), col(c)) {
+                // SAFETY: a split exists only where AVX2 was detected (`SpdFactor::new`).
+                unsafe { t.solve3([a, b, c]) };
+                return;
+            }
+            unreachable!("faer's dense matrices store columns contiguously");
+        }
         if k != self.solve_columns {
             self.solve_buffer =
                 MemBuffer::new(self.symbolic.solve_in_place_scratch::<f64>(k, Par::Seq));
@@ -172,7 +239,7 @@ mod tests {
                 t.push(Triplet::new(i, i + 1, -1.0));
             }
         }
-        let mut f = SpdFactor::from_triplets(n, &t).unwrap();
+        let mut f = SpdFactor::from_triplets(n, &t, Layout::Auto).unwrap();
         let b = Mat::<f64>::from_fn(n, 3, |i, j| (i * 7 + j) as f64 % 5.0);
         let mut x = b.clone();
         f.solve_in_place(x.as_mut());
@@ -190,6 +257,59 @@ mod tests {
         }
     }
 
+    /// The elimination-tree split (the global step's three columns on two threads) solves a
+    /// graph Laplacian plus a mass term as faer's solve does, to rounding, and also after a
+    /// numeric refactorization with other values. The graph is a triangulated 12 × 800 strip:
+    /// faer factors it simplicially (as it does the paper's meshes), and its tree cuts in halves.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn tree_split_matches_faer() {
+        if !std::is_x86_feature_detected!("avx2") {
+            eprintln!("skipped: this processor has no AVX2");
+            return;
+        }
+        let (w, h) = (12, 800);
+        let n = w * h;
+        let laplacian = |shift: f64| {
+            let mut t = Vec::new();
+            let mut edge = |a: usize, b: usize| {
+                t.extend([Triplet::new(a, b, -1.0), Triplet::new(b, a, -1.0)]);
+                t.extend([Triplet::new(a, a, 1.0), Triplet::new(b, b, 1.0)]);
+            };
+            for y in 0..h {
+                for x in 0..w {
+                    let v = y * w + x;
+                    if x + 1 < w {
+                        edge(v, v + 1);
+                    }
+                    if y + 1 < h {
+                        edge(v, v + w);
+                        if x + 1 < w {
+                            edge(v, v + w + 1);
+                        }
+                    }
+                }
+            }
+            t.extend((0..n).map(|i| Triplet::new(i, i, shift * (1.0 + (i % 3) as f64))));
+            SparseColMat::<usize, f64>::try_new_from_triplets(n, n, &t).unwrap()
+        };
+        let mut f = SpdFactor::new(&laplacian(0.01), Layout::Simplicial).unwrap();
+        assert!(f.tree.is_some(), "the strip's tree cuts in halves");
+        let b = Mat::<f64>::from_fn(n, 3, |i, j| ((i * 7 + 3 * j) % 11) as f64 - 5.0);
+        for shift in [0.01, 0.5] {
+            f.refactor(&laplacian(shift)).unwrap();
+            let mut split = b.clone();
+            f.solve_in_place(split.as_mut());
+            let tree = f.tree.take();
+            let mut reference = b.clone();
+            f.solve_in_place(reference.as_mut());
+            f.tree = tree;
+            let scale = reference.norm_max();
+            let err = (&split - &reference).norm_max();
+            assert!(scale > 1.0 && err <= 1e-12 * scale, "{err} against {scale}");
+        }
+    }
+
     #[test]
     fn singular_matrix_is_an_error() {
         // Graph Laplacian of a path: singular (constants in the kernel).
@@ -200,7 +320,7 @@ mod tests {
             Triplet::new(1, 1, 1.0),
         ];
         assert!(matches!(
-            SpdFactor::from_triplets(2, &t),
+            SpdFactor::from_triplets(2, &t, Layout::Auto),
             Err(FactorError::NotPositiveDefinite { .. })
         ));
     }
