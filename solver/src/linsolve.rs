@@ -173,11 +173,13 @@ impl SpdFactor {
     }
 
     /// Solves $A X = B$ in place: `rhs` is `n×k` on entry ($B$) and on exit ($X$).
-    /// The workspace is allocated on the first call for a given `k` and then reused.
+    /// The workspace is allocated on the first call for a given `k` and then reused. Three
+    /// contiguous columns go through the elimination-tree split when the factor has one (module
+    /// doc); the result agrees with faer's to rounding, not bit for bit.
     pub fn solve_in_place(&mut self, rhs: MatMut<'_, f64>) {
         let k = rhs.ncols();
         #[cfg(target_arch = "x86_64")]
-        if let (3, Some(t)) = (k, self.tree.as_mut()) {
+        if let (3, 1, Some(t)) = (k, rhs.row_stride(), self.tree.as_mut()) {
             let (a, rest) = rhs.split_at_col_mut(1);
             let (b, c) = rest.split_at_col_mut(1);
             fn col(m: MatMut<'_, f64>) -> Option<&mut [f64]> {
@@ -188,7 +190,7 @@ impl SpdFactor {
                 unsafe { t.solve3([a, b, c]) };
                 return;
             }
-            unreachable!("faer's dense matrices store columns contiguously");
+            unreachable!("a row stride of 1 makes every column contiguous");
         }
         if k != self.solve_columns {
             self.solve_buffer =
