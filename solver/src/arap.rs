@@ -47,13 +47,7 @@ use std::time::Instant;
 #[cfg(target_arch = "x86_64")]
 mod avx;
 
-/// Vertices per parallel task for a mesh of `n` vertices: a sixteenth of the mesh, between
-/// 256 and 2048, a multiple of [`LANES`]. Sixteen tasks balance two threads (a 6,669-vertex mesh
-/// in 2048-vertex tasks split 4096 : 2573 and its iterations took 15–17 % longer than in
-/// 420-vertex tasks); tasks of at least 256 vertices (about 0.05 ms of work) keep the wake-ups
-/// and joins a small share. The task size also fixes the blocks of the energy's sums, so
-/// results do not depend on the number of threads.
-/// Whether this processor runs the AVX2 builds of the one-ring passes.
+/// Whether this processor runs the AVX2 build of the covariance pass.
 fn avx2_detected() -> bool {
     #[cfg(target_arch = "x86_64")]
     {
@@ -65,6 +59,12 @@ fn avx2_detected() -> bool {
     }
 }
 
+/// Vertices per parallel task for a mesh of `n` vertices: a sixteenth of the mesh, between
+/// 256 and 2048, a multiple of [`LANES`]. Sixteen tasks balance two threads (a 6,669-vertex mesh
+/// in 2048-vertex tasks split 4096 : 2573 and its iterations took 15–17 % longer than in
+/// 420-vertex tasks); tasks of at least 256 vertices (about 0.05 ms of work) keep the wake-ups
+/// and joins a small share. The task size also fixes the blocks of the energy's sums, so
+/// results do not depend on the number of threads.
 fn vertices_per_task(n: usize) -> usize {
     n.div_ceil(16).clamp(256, 2048).next_multiple_of(LANES)
 }
@@ -1122,8 +1122,6 @@ mod tests {
             .collect()
     }
 
-    /// The optimized local step and rhs (buffers, precomputed edges, quaternion fit) against a
-    /// direct transcription of the formulas with the SVD fit.
     /// The covariance pass's AVX2 build gives the same bits as the scalar loop: covariances,
     /// the edge-length sum and the rotation-trace sum.
     #[test]
@@ -1147,6 +1145,8 @@ mod tests {
         assert_eq!(avx, scalar);
     }
 
+    /// The optimized local step and rhs (buffers, precomputed edges, quaternion fit) against a
+    /// direct transcription of the formulas with the SVD fit.
     #[test]
     fn optimized_local_step_and_rhs_match_reference() {
         let (m, h) = setup();

@@ -45,7 +45,7 @@ pub enum Layout {
     /// Simplicial (one sparse column per unknown): what the three-column solve split along the
     /// elimination tree needs. For the cotangent Laplacians of the paper's meshes faer's
     /// supernodal choice (bunny) stored 1.74M entries against 1.30M and solved 2–2.5× slower
-    /// (BENCHMARKS.md, "Fifth round").
+    /// (BENCHMARKS.md, "Sixth round").
     Simplicial,
 }
 
