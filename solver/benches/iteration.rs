@@ -44,13 +44,7 @@ fn bandwidth_gbs() -> f64 {
 /// ([`fit_rotation`], one at a time) and warm ([`fit_rotations_near`], [`LANES`] at a time from
 /// guesses 0.01 rad off, as the local step calls it).
 fn fit_rates() -> (f64, f64) {
-    let mut seed = 0x2545f4914f6cdd1du64;
-    let mut rnd = || {
-        seed ^= seed << 13;
-        seed ^= seed >> 7;
-        seed ^= seed << 17;
-        (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-    };
+    let mut rnd = solver::testing::uniform(0x2545f4914f6cdd1du64);
     let cases: Vec<(Mat3, Mat3)> = (0..200_000)
         .map(|_| {
             let q = axis_angle([rnd(), rnd(), rnd()], 3.0 * rnd());

@@ -43,9 +43,9 @@ pub enum Layout {
     /// faer's choice: supernodal (dense blocks) when that saves enough work, else simplicial.
     Auto,
     /// Simplicial (one sparse column per unknown): what the three-column solve split along the
-    /// elimination tree needs. For the cotangent Laplacians of the paper's meshes faer's
-    /// supernodal choice (bunny) stored 1.74M entries against 1.30M and solved 2–2.5× slower
-    /// (BENCHMARKS.md, "Sixth round").
+    /// elimination tree needs. On the bunny's cotangent Laplacian faer's supernodal choice
+    /// stored 1.74M entries against 1.30M, and its three-column solve took about twice as long
+    /// as the simplicial factor's tree split (BENCHMARKS.md, "Sixth round").
     Simplicial,
 }
 

@@ -601,13 +601,7 @@ mod tests {
             eprintln!("skipped: this processor has no AVX2");
             return;
         }
-        let mut seed = 0x2545f4914f6cdd1du64;
-        let mut rnd = || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+        let mut rnd = crate::testing::uniform(0x2545f4914f6cdd1du64);
         let special = [[[0.0; 3]; 3], [[f64::NAN; 3]; 3], scale_mat(&IDENTITY, f64::INFINITY)];
         let (mut fitted, mut refused) = (0, 0);
         for round in 0..2000 {
@@ -645,13 +639,7 @@ mod tests {
     #[test]
     fn quaternion_fit_matches_svd() {
         let (mut fast, mut lockstep_near) = (0, 0);
-        let mut seed = 0x9e3779b97f4a7c15u64;
-        let mut rnd = || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+        let mut rnd = crate::testing::uniform(0x9e3779b97f4a7c15u64);
         for case in 0..30_000 {
             let q = axis_angle([rnd(), rnd(), rnd()], 3.0 * rnd());
             let mut s = [[0.0; 3]; 3];

@@ -1,4 +1,5 @@
-//! Test support shared by this crate's tests and the app's: scratch directories.
+//! Test support shared by this crate's tests and benches and the app's tests: scratch
+//! directories, seeded random values.
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -39,5 +40,17 @@ impl AsRef<Path> for ScratchDir {
 impl Drop for ScratchDir {
     fn drop(&mut self) {
         let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+/// A seeded xorshift generator of uniform values in [−1, 1): the random cases of tests and
+/// benches, the same sequence on every machine for a given nonzero `seed`.
+pub fn uniform(seed: u64) -> impl FnMut() -> f64 {
+    let mut state = seed;
+    move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
     }
 }

@@ -333,6 +333,34 @@ unsafe fn forward_top(f: &Factor<'_>, top: usize, x: &mut [[f64; 4]]) {
     }
 }
 
+/// `a − Σ L_p x_{row_p − offset}` over the stored entries `range`, the products alternately
+/// subtracted from `a` and `b` so that consecutive entries do not wait on each other.
+#[inline(always)]
+unsafe fn subtract_products(
+    f: &Factor<'_>,
+    range: std::ops::Range<usize>,
+    offset: usize,
+    x: &[[f64; 4]],
+    mut a: __m256d,
+    mut b: __m256d,
+) -> (__m256d, __m256d) {
+    // SAFETY (callers): AVX; `load` on elements of `x`.
+    unsafe {
+        let mut p = range.start;
+        while p + 1 < range.end {
+            let (i0, i1) = (f.row_idx[p] as usize - offset, f.row_idx[p + 1] as usize - offset);
+            a = _mm256_sub_pd(a, _mm256_mul_pd(_mm256_set1_pd(f.values[p]), load(&x[i0])));
+            b = _mm256_sub_pd(b, _mm256_mul_pd(_mm256_set1_pd(f.values[p + 1]), load(&x[i1])));
+            p += 2;
+        }
+        if p < range.end {
+            let i = f.row_idx[p] as usize - offset;
+            a = _mm256_sub_pd(a, _mm256_mul_pd(_mm256_set1_pd(f.values[p]), load(&x[i])));
+        }
+        (a, b)
+    }
+}
+
 /// Backward columns of the top, last first (rows in the top only).
 #[target_feature(enable = "avx2")]
 unsafe fn backward_top(f: &Factor<'_>, top: usize, x: &mut [[f64; 4]]) {
@@ -341,18 +369,7 @@ unsafe fn backward_top(f: &Factor<'_>, top: usize, x: &mut [[f64; 4]]) {
         let (lo, hi) = (f.col_ptr[j] as usize, f.col_ptr[j + 1] as usize);
         // SAFETY: as in `forward_part`.
         unsafe {
-            let (mut a, mut b) = (load(&x[k]), _mm256_setzero_pd());
-            let mut p = lo;
-            while p + 1 < hi {
-                let (i0, i1) = (f.row_idx[p] as usize - top, f.row_idx[p + 1] as usize - top);
-                a = _mm256_sub_pd(a, _mm256_mul_pd(_mm256_set1_pd(f.values[p]), load(&x[i0])));
-                b = _mm256_sub_pd(b, _mm256_mul_pd(_mm256_set1_pd(f.values[p + 1]), load(&x[i1])));
-                p += 2;
-            }
-            if p < hi {
-                let i = f.row_idx[p] as usize - top;
-                a = _mm256_sub_pd(a, _mm256_mul_pd(_mm256_set1_pd(f.values[p]), load(&x[i])));
-            }
+            let (a, b) = subtract_products(f, lo..hi, top, x, load(&x[k]), _mm256_setzero_pd());
             store(&mut x[k], _mm256_mul_pd(_mm256_add_pd(a, b), _mm256_set1_pd(f.inv_diag[j])));
         }
     }
@@ -374,22 +391,8 @@ unsafe fn backward_part(
             (f.col_ptr[j] as usize, f.to_top[j] as usize, f.col_ptr[j + 1] as usize);
         // SAFETY: as in `forward_part`.
         unsafe {
-            let (mut a, mut b) = (load(&x[k]), _mm256_setzero_pd());
-            for p in mid..hi {
-                let i = f.row_idx[p] as usize - top;
-                b = _mm256_sub_pd(b, _mm256_mul_pd(_mm256_set1_pd(f.values[p]), load(&xt[i])));
-            }
-            let mut p = lo;
-            while p + 1 < mid {
-                let (i0, i1) = (f.row_idx[p] as usize - first, f.row_idx[p + 1] as usize - first);
-                a = _mm256_sub_pd(a, _mm256_mul_pd(_mm256_set1_pd(f.values[p]), load(&x[i0])));
-                b = _mm256_sub_pd(b, _mm256_mul_pd(_mm256_set1_pd(f.values[p + 1]), load(&x[i1])));
-                p += 2;
-            }
-            if p < mid {
-                let i = f.row_idx[p] as usize - first;
-                a = _mm256_sub_pd(a, _mm256_mul_pd(_mm256_set1_pd(f.values[p]), load(&x[i])));
-            }
+            let (a, b) = subtract_products(f, mid..hi, top, xt, load(&x[k]), _mm256_setzero_pd());
+            let (a, b) = subtract_products(f, lo..mid, first, x, a, b);
             store(&mut x[k], _mm256_mul_pd(_mm256_add_pd(a, b), _mm256_set1_pd(f.inv_diag[j])));
         }
     }
