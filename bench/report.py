@@ -155,6 +155,29 @@ def fig10():
         print("| " + " | ".join(r) + " |")
 
 
+def pairs():
+    """bench/run_all.sh pairs: ours and libigl alternated on armadillo, one row per pair."""
+    rows = []
+    for k in range(1, 100):
+        j, g = load(f"pairs/armadillo.{k}.json"), load(f"pairs/armadillo.{k}.libigl.json")
+        if j is None or g is None:
+            break
+        a = j["methods"]["arap"]
+        rows.append((k, a, g))
+    if not rows:
+        return
+    print()
+    print("| pair | our ms/iter | local | rhs | solve | libigl ms/iter | libigl / ours "
+          "| our iters/frame | libigl iters/frame |")
+    print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+    for k, a, g in rows:
+        print(f"| {k} | {a['ms_per_iteration']:.2f} | {a['local_ms_per_iteration']:.2f} "
+              f"| {a['rhs_ms_per_iteration']:.2f} | {a['solve_ms_per_iteration']:.2f} "
+              f"| {g['ms_per_iteration']:.2f} | {g['ms_per_iteration'] / a['ms_per_iteration']:.2f}× "
+              f"| {a['iterations_per_frame']:.1f} | {np.mean(g['iterations']):.1f} |")
+
+
 if __name__ == "__main__":
     table()
     fig10()
+    pairs()

@@ -4,6 +4,8 @@
 # is measured in one run; then the Fig. 10 experiment on decimated-max. From the repository
 # root, after `cargo build --release -p app` and `pip install libigl==2.6.3`:
 #     bash bench/run_all.sh            # writes bench/results/*.json
+#     bash bench/run_all.sh pairs      # armadillo: ours (plain ARAP) and libigl alternated
+#                                      # PAIRS times (default 3), bench/results/pairs/
 # BSARAP overrides the binary (default target/release/bsarap).
 set -euo pipefail
 B=${BSARAP:-target/release/bsarap}
@@ -33,4 +35,16 @@ if [[ $only == all || $only == fig10 ]]; then
   # of the first frame (normalized in bench/report.py); 1000 fixed iterations per frame.
   "$B" bench "$M/decimated-max.obj" --handles "$M/decimated-max-selection.dmat" --frames 4 \
     --start laplacian --stop fixed --max-iters 1000 --anderson 5 --json > "$R/fig10.json"
+fi
+if [[ $only == pairs ]]; then
+  # The per-iteration ratio to libigl on armadillo (issue 6's target) as pairs measured back to
+  # back, alternated so that a change in the machine's load shows as a spread between pairs.
+  mkdir -p "$R/pairs"
+  for k in $(seq 1 "${PAIRS:-3}"); do
+    echo "== pair $k" >&2
+    "$B" bench "$M/armadillo.obj" --handles bench/handles/armadillo.json --frames 10 \
+      --tol 1e-4 --max-iters 100 --method arap --json > "$R/pairs/armadillo.$k.json"
+    python3 bench/libigl_reference.py "$M/armadillo.obj" --handles bench/handles/armadillo.json \
+      --frames 10 --tol 1e-4 --max-iters 100 > "$R/pairs/armadillo.$k.libigl.json"
+  done
 fi

@@ -125,6 +125,7 @@ fn errors_are_one_line_with_nonzero_exit() {
         (vec!["bench", o, "--handles", s, "--coarse-vertices", "3"], "--coarse-vertices"),
         (vec!["bench", o, "--handles", s, "--smoothing", "nan"], "--smoothing"),
         (vec!["bench", o, "--handles", s, "--fine-iterations", "5000"], "--fine-iterations"),
+        (vec!["bench", o, "--handles", s, "--repeat", "0"], "--repeat"),
         (
             vec!["bench", o, "--handles", s, "--frames", "2", "--quality", "--quality-frame", "3"],
             "--quality-frame",
@@ -210,6 +211,31 @@ fn deform_with_anderson_acceleration() {
     assert!(it(&aa) < it(&plain), "anderson {} vs plain {}", it(&aa), it(&plain));
     let e = |j: &serde_json::Value| j["final_energy"].as_f64().unwrap();
     assert!((e(&aa) - e(&plain)).abs() <= 1e-6 * e(&plain), "{} vs {}", e(&aa), e(&plain));
+}
+
+/// `--repeat 3` runs each method three times: the three figures are reported, the reported
+/// seconds per frame is their median, the iteration counts are those of one run, and the
+/// quality of the first run is kept.
+#[test]
+fn bench_repeat_reports_the_median_run() {
+    let args = ["--frames", "3", "--method", "arap", "--repeat", "3", "--quality"];
+    let j = on_sphere("bench", &args);
+    assert_eq!(j["repeat"], 3);
+    let m = &j["methods"]["arap"];
+    let runs: Vec<f64> = m["seconds_per_frame_runs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    assert_eq!(runs.len(), 3, "{m}");
+    let mut sorted = runs.clone();
+    sorted.sort_by(f64::total_cmp);
+    assert_eq!(m["seconds_per_frame"].as_f64().unwrap(), sorted[1], "{m}");
+    let once = on_sphere("bench", &["--frames", "3", "--method", "arap"]);
+    assert_eq!(m["iterations"], once["methods"]["arap"]["iterations"]);
+    assert_eq!(once["methods"]["arap"]["seconds_per_frame_runs"].as_array().unwrap().len(), 1);
+    assert!(m["quality"]["max_distance"].as_f64().is_some(), "{m}");
 }
 
 /// The coarse variant's frames at the cap count its coarse solve; fine iterations still

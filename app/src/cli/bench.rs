@@ -25,6 +25,12 @@
 //! minimum is lower). The reference costs up to thousands of iterations per solve, so it is
 //! off by default.
 //!
+//! `--repeat N` runs the whole animation N times per method, the methods taking turns (every
+//! method once, then every method again, …), and reports for each method the run with the
+//! median seconds per frame, with every run's figure in `seconds_per_frame_runs`: on a shared,
+//! noisy machine the ratios between methods then come from runs taken under the same load.
+//! Each run starts from a fresh precomputation; the iteration counts do not depend on the run.
+//!
 //! `--json` also records the git commit the binary was built from (`commit`; "unknown" outside a
 //! checkout).
 //!
@@ -119,6 +125,9 @@ pub struct BenchArgs {
     /// Default: rest.
     #[arg(long, value_enum)]
     pub quality_reference: Option<ReferenceStart>,
+    /// Runs of the animation per method, taking turns; the median run is reported.
+    #[arg(long, default_value_t = 1)]
+    pub repeat: usize,
     #[command(flatten)]
     pub base: BaseArgs,
     #[arg(long)]
@@ -141,6 +150,9 @@ pub struct MethodResult {
     pub fine_ms_per_frame: f64,
     pub iterations_per_frame: f64,
     pub seconds_per_frame: f64,
+    /// With `--repeat N`: the seconds per frame of every run, in order (the reported run is
+    /// the median one).
+    pub seconds_per_frame_runs: Vec<f64>,
     pub fps: f64,
     pub final_energy: f64,
     /// Frames whose solve stopped at the cap ([`solver::SolveStats::converged`] false; for the
@@ -211,6 +223,7 @@ fn arap_mut(d: &mut Deformer) -> Option<&mut solver::Arap> {
     }
 }
 
+#[derive(Clone)]
 struct Setup<'a> {
     mesh: &'a solver::Mesh,
     handles: &'a solver::Handles,
@@ -235,6 +248,23 @@ fn frame_targets(s: &Setup<'_>, g: usize, f: usize) -> anyhow::Result<Vec<[f64; 
         s.handles,
         &[(g, GroupTransform { translation: t, ..Default::default() })],
     )?)
+}
+
+/// Of the runs of one variant (`first` measured last, with the quality snapshot; the others
+/// in `others`), the one with the median seconds per frame (the lower middle for an even
+/// count), carrying every run's figure in `seconds_per_frame_runs` and `first`'s quality.
+fn median_run(first: MethodResult, mut others: Vec<MethodResult>) -> MethodResult {
+    if others.is_empty() {
+        return first;
+    }
+    let quality = first.quality;
+    others.push(first);
+    let all: Vec<f64> = others.iter().map(|r| r.seconds_per_frame).collect();
+    others.sort_by(|a, b| a.seconds_per_frame.total_cmp(&b.seconds_per_frame));
+    let mut r = others.swap_remove((others.len() - 1) / 2);
+    r.seconds_per_frame_runs = all;
+    r.quality = quality;
+    r
 }
 
 /// The first handle group: the one that moves.
@@ -310,6 +340,7 @@ fn bench_variant(
         fine_ms_per_frame: fine_ms / s.frames as f64,
         iterations_per_frame: it / s.frames as f64,
         seconds_per_frame: spf,
+        seconds_per_frame_runs: vec![spf],
         fps: 1.0 / spf,
         final_energy: last,
         frames_at_cap: at_cap,
@@ -327,6 +358,7 @@ fn bench_variant(
 pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
     check_stopping(a.tol, a.max_iters)?;
     anyhow::ensure!((1..=100_000).contains(&a.frames), "--frames must be between 1 and 100000");
+    anyhow::ensure!((1..=100).contains(&a.repeat), "--repeat must be between 1 and 100");
     let anderson = super::acceleration(a.anderson)?;
     anyhow::ensure!(
         a.radius.is_finite() && a.radius >= 0.0,
@@ -412,7 +444,7 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
             variants.push(Variant { method: m, acceleration: anderson });
         }
     }
-    let progress = indicatif::ProgressBar::new((variants.len() * a.frames) as u64);
+    let progress = indicatif::ProgressBar::new((variants.len() * a.frames * a.repeat) as u64);
     if a.json {
         progress.set_draw_target(indicatif::ProgressDrawTarget::hidden());
     }
@@ -426,9 +458,25 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
     // others still run.
     let mut table = Vec::new();
     let mut failures = Vec::new();
-    for v in &variants {
+    // Runs 2..=N (`--repeat`), the variants taking turns; the quality comes from the first run.
+    let mut runs: Vec<Vec<MethodResult>> = variants.iter().map(|_| Vec::new()).collect();
+    let mut failed = vec![false; variants.len()];
+    for _ in 1..a.repeat {
+        for (k, v) in variants.iter().enumerate() {
+            if failed[k] {
+                continue;
+            }
+            progress.set_message(v.label());
+            let again = Setup { quality_frame: None, ..setup.clone() };
+            match bench_variant(v, &again, &progress) {
+                Ok((r, _)) => runs[k].push(r),
+                Err(_) => failed[k] = true,
+            }
+        }
+    }
+    for (v, others) in variants.iter().zip(runs) {
         progress.set_message(v.label());
-        match bench_variant(v, &setup, &progress) {
+        match bench_variant(v, &setup, &progress).map(|(r, x)| (median_run(r, others), x)) {
             Ok((mut r, snapshot)) => {
                 if let (Some((_, reference, _)), Some(x)) = (reference.as_mut(), &snapshot) {
                     r.quality = Some(reference.measure(x));
@@ -505,6 +553,7 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
             "max_iterations": a.max_iters,
             "radius": setup.radius,
             "threads": rayon::current_num_threads(),
+            "repeat": a.repeat,
             "commit": env!("BSARAP_GIT_COMMIT"),
             "methods": methods,
             "ratios": ratios,
@@ -545,6 +594,9 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
         a.start,
         rayon::current_num_threads()
     );
+    if a.repeat > 1 {
+        println!("{} runs per method, taking turns: each row is the median run", a.repeat);
+    }
     if methods.contains(&Method::BsArapCoarse) {
         let c = setup.base.coarse();
         println!(

@@ -1989,8 +1989,10 @@ impl EditorApp {
             .on_hover_text("smoothing length of the faired base, as a fraction of the diagonal");
         }
         if self.settings.bs_variant == solver::Method::BsArapCoarse {
-            let n = self.scene.as_ref().map_or(100_000, |s| s.mesh.n_vertices()).max(64);
-            let auto = solver::coarse::CoarseConfig::auto_coarse_vertices(n).max(64);
+            let vertices = self.scene.as_ref().map_or(100_000, |s| s.mesh.n_vertices());
+            // The size the solver uses; the manual slider starts from it, within its range.
+            let auto = solver::coarse::CoarseConfig::auto_coarse_vertices(vertices);
+            let n = vertices.max(64);
             let mut automatic = self.settings.base.coarse_vertices.is_none();
             ui.checkbox(&mut automatic, format!("automatic coarse size ({auto})")).on_hover_text(
                 format!(
@@ -1998,7 +2000,7 @@ impl EditorApp {
                     solver::coarse::CoarseConfig::AUTO_RULE
                 ),
             );
-            let mut count = self.settings.base.coarse_vertices.unwrap_or(auto);
+            let mut count = self.settings.base.coarse_vertices.unwrap_or(auto.clamp(64, n));
             ui.add_enabled(
                 !automatic,
                 egui::Slider::new(&mut count, 64..=n).logarithmic(true).text("coarse vertices"),

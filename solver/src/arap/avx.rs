@@ -5,7 +5,7 @@
 //!
 //! Call only after `is_x86_feature_detected!("avx2")` (the functions are compiled for AVX2).
 
-use crate::rotation::{Mat3, trace_of_product};
+use crate::rotation::Mat3;
 use std::arch::x86_64::*;
 
 /// $(v_0, v_1, v_2, 0)$, without reading past `v`.
@@ -32,9 +32,9 @@ pub(super) struct Ring<'a> {
     pub edge_coef: &'a [f64],
 }
 
-/// $S_i$ for $i$ = `first`, `first + 1`, … (one per entry of `out`), with the sums
-/// $\sum_i \sum_j c_{ij}\lVert x_j - x_i\rVert^2$ and $\sum_i \operatorname{tr}(R_i S_i)$ over
-/// them: what the scalar loop of `Arap::covariances` computes.
+/// $S_i$ for $i$ = `first`, `first + 1`, … (one per entry of `out`), with the sum
+/// $\sum_i \sum_j c_{ij}\lVert x_j - x_i\rVert^2$ over them: what the scalar loop of
+/// `Arap::local_pass` computes.
 ///
 /// # Safety
 /// The processor supports AVX2.
@@ -43,10 +43,9 @@ pub(super) unsafe fn covariances(
     first: usize,
     out: &mut [Mat3],
     x: &[[f64; 3]],
-    rot: &[Mat3],
     ring: &Ring<'_>,
-) -> (f64, f64) {
-    let mut sums = (0.0, 0.0);
+) -> f64 {
+    let mut sum = 0.0;
     for (l, out) in out.iter_mut().enumerate() {
         let i = first + l;
         let (lo, hi) = (ring.offsets[i], ring.offsets[i + 1]);
@@ -70,10 +69,9 @@ pub(super) unsafe fn covariances(
                 let v = lanes(r);
                 [v[0], v[1], v[2]]
             });
-            sums.0 += a;
-            sums.1 += trace_of_product(&rot[i], &s);
+            sum += a;
             *out = s;
         }
     }
-    sums
+    sum
 }
