@@ -163,6 +163,18 @@ fn solve_columns(arap: &mut Arap) {
         "{:<28} solve on one thread: 1 column {t1:.3} ms, 2 columns {t2:.3}, 3 columns {t3:.3}; 3 columns as the iteration runs them {split:.3}",
         ""
     );
+    if let Some(s) = f.split_sizes() {
+        let all = (s.forest_entries[0] + s.forest_entries[1] + s.top_entries) as f64;
+        println!(
+            "{:<28} tree split: forests of {} and {} stored entries, top {} ({:.1} %) in {} columns",
+            "",
+            s.forest_entries[0],
+            s.forest_entries[1],
+            s.top_entries,
+            100.0 * s.top_entries as f64 / all,
+            s.top_columns
+        );
+    }
 }
 
 fn main() {

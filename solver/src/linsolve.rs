@@ -26,6 +26,15 @@ use thiserror::Error;
 #[cfg(target_arch = "x86_64")]
 mod tree;
 
+/// The sizes of an elimination-tree split ([`SpdFactor::split_sizes`]): stored entries of
+/// $L$, diagonal included, in each thread's forest and in the top, and the top's columns.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SplitSizes {
+    pub forest_entries: [usize; 2],
+    pub top_entries: usize,
+    pub top_columns: usize,
+}
+
 /// Why a factorization failed.
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum FactorError {
@@ -172,6 +181,19 @@ impl SpdFactor {
         self.values.len()
     }
 
+    /// The elimination-tree split the three-column solve runs on, if this factor has one
+    /// (module doc).
+    pub fn split_sizes(&self) -> Option<SplitSizes> {
+        #[cfg(target_arch = "x86_64")]
+        {
+            self.tree.as_ref().map(|t| t.sizes())
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            None
+        }
+    }
+
     /// Solves $A X = B$ in place: `rhs` is `n×k` on entry ($B$) and on exit ($X$).
     /// The workspace is allocated on the first call for a given `k` and then reused. Three
     /// contiguous columns go through the elimination-tree split when the factor has one (module
@@ -297,6 +319,9 @@ mod tests {
         };
         let mut f = SpdFactor::new(&laplacian(0.01), Layout::Simplicial).unwrap();
         assert!(f.tree.is_some(), "the strip's tree cuts in halves");
+        // Every stored entry of the factor is in exactly one of the three parts.
+        let s = f.split_sizes().unwrap();
+        assert_eq!(s.forest_entries[0] + s.forest_entries[1] + s.top_entries, f.factor_nonzeros());
         let b = Mat::<f64>::from_fn(n, 3, |i, j| ((i * 7 + 3 * j) % 11) as f64 - 5.0);
         for shift in [0.01, 0.5] {
             f.refactor(&laplacian(shift)).unwrap();

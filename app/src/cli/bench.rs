@@ -28,7 +28,7 @@
 //! `--repeat N` runs the whole animation N times per method, the methods taking turns (every
 //! method once, then every method again, …), and reports for each method the run with the
 //! median seconds per frame, with every run's figure in `seconds_per_frame_runs`: on a shared,
-//! noisy machine the ratios between methods then come from runs taken under the same load.
+//! noisy machine a change of load then reaches every method instead of one method's whole run.
 //! Each run starts from a fresh precomputation; the iteration counts do not depend on the run.
 //!
 //! `--json` also records the git commit the binary was built from (`commit`; "unknown" outside a
@@ -250,20 +250,19 @@ fn frame_targets(s: &Setup<'_>, g: usize, f: usize) -> anyhow::Result<Vec<[f64; 
     )?)
 }
 
-/// Of the runs of one variant (`first` measured last, with the quality snapshot; the others
-/// in `others`), the one with the median seconds per frame (the lower middle for an even
-/// count), carrying every run's figure in `seconds_per_frame_runs` and `first`'s quality.
-fn median_run(first: MethodResult, mut others: Vec<MethodResult>) -> MethodResult {
+/// Of the runs of one variant (`others` in the order they ran, then `last`, the run that
+/// takes the quality snapshot), the one with the median seconds per frame (the lower middle
+/// for an even count), with every run's figure in `seconds_per_frame_runs` in that order.
+/// The runs differ only in their times: the iterations are deterministic.
+fn median_run(last: MethodResult, mut others: Vec<MethodResult>) -> MethodResult {
     if others.is_empty() {
-        return first;
+        return last;
     }
-    let quality = first.quality;
-    others.push(first);
+    others.push(last);
     let all: Vec<f64> = others.iter().map(|r| r.seconds_per_frame).collect();
     others.sort_by(|a, b| a.seconds_per_frame.total_cmp(&b.seconds_per_frame));
     let mut r = others.swap_remove((others.len() - 1) / 2);
     r.seconds_per_frame_runs = all;
-    r.quality = quality;
     r
 }
 
@@ -458,7 +457,8 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
     // others still run.
     let mut table = Vec::new();
     let mut failures = Vec::new();
-    // Runs 2..=N (`--repeat`), the variants taking turns; the quality comes from the first run.
+    // Rounds 1..N-1 of `--repeat`, the variants taking turns; the last round below also takes
+    // the quality snapshot.
     let mut runs: Vec<Vec<MethodResult>> = variants.iter().map(|_| Vec::new()).collect();
     let mut failed = vec![false; variants.len()];
     for _ in 1..a.repeat {

@@ -203,6 +203,19 @@ impl TreeSplit {
         })
     }
 
+    /// Stored entries (diagonal included) of the two forests and of the top, and the top's
+    /// columns.
+    pub(super) fn sizes(&self) -> super::SplitSizes {
+        let n = self.inv_diag.len();
+        let (na, nb) = (self.na, self.nb);
+        let at = |k: usize| self.col_ptr[k] as usize;
+        super::SplitSizes {
+            forest_entries: [at(na) + na, at(na + nb) - at(na) + nb],
+            top_entries: at(n) - at(na + nb) + (n - na - nb),
+            top_columns: n - na - nb,
+        }
+    }
+
     /// Copies the numeric values of faer's factor (same layout as given to [`TreeSplit::new`]).
     pub(super) fn set_values(&mut self, values: &[f64]) {
         for (&m, &v) in self.value_map.iter().zip(values) {
