@@ -504,7 +504,7 @@ impl Arap {
     /// kept as the next warm start.
     pub fn pose_energy(&mut self, x: &[[f64; 3]]) -> f64 {
         self.set_positions(x);
-        self.local_step();
+        self.local_pass();
         self.publish();
         self.energy()
     }
@@ -765,31 +765,25 @@ impl Arap {
         self.anderson = Some(work);
     }
 
-    /// Local step: $R_i$ = best rotation of cell $i$ for the current pose
-    /// ([`Arap::local_pass`]).
-    fn local_step(&mut self) {
-        self.local_pass(true);
-    }
-
     /// The local step, returning $E(x, R(x))$ for the rotations it fitted.
     fn local_step_energy(&mut self) -> f64 {
-        let sums = self.local_pass(true);
+        let sums = self.local_pass();
         self.energy_from(sums.edges, sums.fitted)
     }
 
-    /// The covariances of the current pose into `cov`, and with `fit` the rotations fitted
-    /// to them, in one parallel pass: each task computes its block's covariances
+    /// The local step: the covariances of the current pose into `cov` and the rotations fitted
+    /// to them, in one parallel pass. Each task computes its block's covariances
     /// $S_i = \sum_j k_{ij}(x_j - x_i)^\top$ over the one-ring (spokes and rims) or
     /// $S_i = \sum_j w_{ij}(p_i - p_j)(x_i - x_j)^\top$ (spokes), then fits the block's
     /// rotations ([`fit_rotations_near`], started from the current $R_i$, [`LANES`] cells per
-    /// call) while the covariances are still in its cache. One pass instead of two saves a
-    /// fork and join per iteration, a visible share of a local step on a few thousand vertices
-    /// (the coarse levels of [`crate::coarse`]).
+    /// call) while the covariances are still in its cache (one fork and join per local step;
+    /// on armadillo no faster than two passes within the machine's noise, BENCHMARKS.md
+    /// "Seventh round").
     ///
     /// Returns the sums that make the energy $E(x, R(x)) = A + \sum w\lVert e\rVert^2 - 2T$
     /// ([`Arap::energy_from`]) for the fitted rotations. Sums are taken per fixed block of
     /// vertices and then in order, so they do not depend on the scheduling.
-    fn local_pass(&mut self, fit: bool) -> LocalSums {
+    fn local_pass(&mut self) -> LocalSums {
         let x = &self.current;
         let p = &self.rest;
         let cells = &self.cells;
@@ -823,8 +817,7 @@ impl Arap {
                 }
                 sum
             });
-            let fitted = if fit { fit_block(rots, covs) } else { 0.0 };
-            LocalSums { edges, fitted }
+            LocalSums { edges, fitted: fit_block(rots, covs) }
         };
         let parts: Vec<LocalSums> = self
             .cov
@@ -1031,8 +1024,7 @@ fn ring_coefficients(
 }
 
 /// The sums of one [`Arap::local_pass`]: $A = \sum_i\sum_j c_{ij}\lVert x_j - x_i\rVert^2$
-/// over the cells, and $T = \sum_i \operatorname{tr}(R_i S_i)$ for the fitted rotations (0
-/// without a fit).
+/// over the cells, and $T = \sum_i \operatorname{tr}(R_i S_i)$ for the fitted rotations.
 #[derive(Debug, Clone, Copy, Default)]
 struct LocalSums {
     edges: f64,
@@ -1136,8 +1128,7 @@ mod tests {
     /// the edge-length sum.
     #[test]
     fn avx_covariances_match_scalar() {
-        if !avx2_detected() {
-            eprintln!("skipped: this processor has no AVX2");
+        if !crate::testing::avx2_or_skip() {
             return;
         }
         let (m, h) = setup();
@@ -1145,10 +1136,11 @@ mod tests {
         a.set_positions(&pose(m.positions()));
         let mut run = |avx2: bool| {
             a.avx2 = avx2;
-            let sums = a.local_pass(false);
+            let sums = a.local_pass();
             let bits = |m: &Mat3| m.map(|row| row.map(f64::to_bits));
             (sums.edges.to_bits(), a.cov.iter().map(bits).collect::<Vec<_>>())
         };
+        // The covariances depend on the pose alone: the first run's fit does not change them.
         let (avx, scalar) = (run(true), run(false));
         assert!(avx.1.iter().any(|s| s[0][0] != 0));
         assert_eq!(avx, scalar);
@@ -1162,7 +1154,7 @@ mod tests {
         let mut a = Arap::new(&m, &h, &ArapConfig::default()).unwrap();
         let x = pose(m.positions());
         a.set_positions(&x);
-        a.local_step();
+        a.local_pass();
         a.assemble_rhs();
         a.publish();
         let p = m.positions();
@@ -1261,8 +1253,7 @@ mod tests {
 
     /// The energies the local pass reports are the direct form's, $E(x_k, R(x_k))$: the last
     /// one for the final pose and rotations, which are the rotations fitted to that pose; they
-    /// never increase from the starting guess on; a threshold that never stops the loop leaves
-    /// the iterates as they are.
+    /// never increase from the starting guess on.
     #[test]
     fn energies_come_with_the_local_step_and_match_the_direct_form() {
         let (m, h) = setup();
@@ -1274,37 +1265,23 @@ mod tests {
                 if q[0] > 0.0 { mul_vec(&axis_angle([0.0, 0.0, 1.0], 0.5), q) } else { q }
             })
             .collect();
-        let run = |energy_threshold| {
-            let cfg = ArapConfig {
-                tolerance: 0.0,
-                max_iterations: 12,
-                energy_threshold,
-                ..Default::default()
-            };
-            let mut a = Arap::new(&m, &h, &cfg).unwrap();
-            let s = a.solve(&targets).unwrap();
-            // The direct evaluation, for the final pose and rotations.
-            let direct = a.energy();
-            // The rotations are those of the final pose: a fresh fit does not move them.
-            let (x, r) = (a.positions().to_vec(), a.rotations().to_vec());
-            a.pose_energy(&x);
-            let refit = r.iter().flatten().flatten().zip(a.rotations().iter().flatten().flatten());
-            let moved = refit.map(|(p, q)| (p - q).abs()).fold(0.0, f64::max);
-            assert!(moved < 1e-9, "a fit at the final pose moves the rotations by {moved}");
-            (s, x, direct)
-        };
-        let (fixed, xf, direct) = run(0.0);
-        // A threshold far below any reachable energy never stops the loop early.
-        let (every, xe, _) = run(1e-300);
-        assert_eq!((fixed.iterations, every.iterations), (12, 12));
-        assert_eq!(fixed.energies.len(), 12);
-        assert_eq!(fixed.energies, every.energies);
-        assert_eq!(xf, xe);
-        assert!(fixed.energy() < fixed.initial_energy);
-        let rel = (fixed.energy() - direct).abs() / direct;
-        assert!(rel < 1e-10, "energy from the covariances {} vs direct {direct}", fixed.energy());
+        let cfg = ArapConfig { tolerance: 0.0, max_iterations: 12, ..Default::default() };
+        let mut a = Arap::new(&m, &h, &cfg).unwrap();
+        let s = a.solve(&targets).unwrap();
+        assert_eq!((s.iterations, s.energies.len()), (12, 12));
+        // The direct evaluation, for the final pose and rotations.
+        let direct = a.energy();
+        let rel = (s.energy() - direct).abs() / direct;
+        assert!(rel < 1e-10, "energy from the covariances {} vs direct {direct}", s.energy());
+        // The rotations are those of the final pose: a fresh fit does not move them.
+        let (x, r) = (a.positions().to_vec(), a.rotations().to_vec());
+        a.pose_energy(&x);
+        let refit = r.iter().flatten().flatten().zip(a.rotations().iter().flatten().flatten());
+        let moved = refit.map(|(p, q)| (p - q).abs()).fold(0.0, f64::max);
+        assert!(moved < 1e-9, "a fit at the final pose moves the rotations by {moved}");
+        assert!(s.energy() < s.initial_energy);
         let trace: Vec<f64> =
-            std::iter::once(fixed.initial_energy).chain(fixed.energies.iter().copied()).collect();
+            std::iter::once(s.initial_energy).chain(s.energies.iter().copied()).collect();
         assert!(trace.windows(2).all(|w| w[1] <= w[0] * (1.0 + 1e-12)), "{trace:?}");
     }
 }

@@ -288,8 +288,7 @@ mod tests {
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn tree_split_matches_faer() {
-        if !std::is_x86_feature_detected!("avx2") {
-            eprintln!("skipped: this processor has no AVX2");
+        if !crate::testing::avx2_or_skip() {
             return;
         }
         let (w, h) = (12, 800);

@@ -597,8 +597,7 @@ mod tests {
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn avx_lanes_match_portable_lanes() {
-        if !std::is_x86_feature_detected!("avx2") {
-            eprintln!("skipped: this processor has no AVX2");
+        if !crate::testing::avx2_or_skip() {
             return;
         }
         let mut rnd = crate::testing::uniform(0x2545f4914f6cdd1du64);

@@ -1,5 +1,5 @@
 //! Test support shared by this crate's tests and benches and the app's tests: scratch
-//! directories, seeded random values.
+//! directories, seeded random values, the AVX2 test guard.
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -53,4 +53,15 @@ pub fn uniform(seed: u64) -> impl FnMut() -> f64 {
         state ^= state << 17;
         (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
     }
+}
+
+/// Whether this processor has AVX2, for the tests of the AVX2 builds; prints that the test is
+/// skipped when it has not.
+pub fn avx2_or_skip() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    if std::is_x86_feature_detected!("avx2") {
+        return true;
+    }
+    eprintln!("skipped: this processor has no AVX2");
+    false
 }

@@ -298,6 +298,25 @@ unsafe fn store(v: &mut [f64; 4], x: __m256d) {
     unsafe { _mm256_storeu_pd(v.as_mut_ptr(), x) }
 }
 
+/// `x[row_p − offset] −= L_p x_j` over the stored entries `range` of column $j$ (`xj`).
+#[inline(always)]
+unsafe fn send_products(
+    f: &Factor<'_>,
+    range: std::ops::Range<usize>,
+    offset: usize,
+    x: &mut [[f64; 4]],
+    xj: __m256d,
+) {
+    for p in range {
+        let i = f.row_idx[p] as usize - offset;
+        // SAFETY (callers): AVX; `load`/`store` on an element of `x`.
+        unsafe {
+            let v = _mm256_sub_pd(load(&x[i]), _mm256_mul_pd(_mm256_set1_pd(f.values[p]), xj));
+            store(&mut x[i], v);
+        }
+    }
+}
+
 /// Forward columns `first..first + x.len()` (one forest): own rows in `x`, rows of the top
 /// (from `top`) into `acc`, which is cleared first.
 #[target_feature(enable = "avx2")]
@@ -317,17 +336,8 @@ unsafe fn forward_part(
         unsafe {
             let xj = _mm256_mul_pd(load(&x[k]), _mm256_set1_pd(f.inv_diag[j]));
             store(&mut x[k], xj);
-            for p in lo..mid {
-                let i = f.row_idx[p] as usize - first;
-                let v = _mm256_sub_pd(load(&x[i]), _mm256_mul_pd(_mm256_set1_pd(f.values[p]), xj));
-                store(&mut x[i], v);
-            }
-            for p in mid..hi {
-                let i = f.row_idx[p] as usize - top;
-                let v =
-                    _mm256_sub_pd(load(&acc[i]), _mm256_mul_pd(_mm256_set1_pd(f.values[p]), xj));
-                store(&mut acc[i], v);
-            }
+            send_products(f, lo..mid, first, x, xj);
+            send_products(f, mid..hi, top, acc, xj);
         }
     }
 }
@@ -342,11 +352,7 @@ unsafe fn forward_top(f: &Factor<'_>, top: usize, x: &mut [[f64; 4]]) {
         unsafe {
             let xj = _mm256_mul_pd(load(&x[k]), _mm256_set1_pd(f.inv_diag[j]));
             store(&mut x[k], xj);
-            for p in lo..hi {
-                let i = f.row_idx[p] as usize - top;
-                let v = _mm256_sub_pd(load(&x[i]), _mm256_mul_pd(_mm256_set1_pd(f.values[p]), xj));
-                store(&mut x[i], v);
-            }
+            send_products(f, lo..hi, top, x, xj);
         }
     }
 }
