@@ -59,6 +59,16 @@ fn avx2_detected() -> bool {
     }
 }
 
+/// Runs `f` on a thread of rayon's pool. Called from outside the pool (the editor's solver
+/// thread, the command line's main thread), every parallel pass inside `f` would otherwise be
+/// handed to the pool and waited for by a sleeping caller, two thread switches per pass; on a
+/// worker, `join` runs one half itself and the other may be taken by the second worker. On a
+/// 2,000-vertex coarse level (Cheburashka's) an iteration took 0.31–0.41 ms instead of
+/// 0.34–0.42, the rhs 0.028–0.037 ms instead of 0.040–0.046 (BENCHMARKS.md, "Eighth round").
+pub(crate) fn in_pool<R: Send>(f: impl FnOnce() -> R + Send) -> R {
+    if rayon::current_thread_index().is_some() { f() } else { rayon::scope(|_| f()) }
+}
+
 /// Vertices per parallel task for a mesh of `n` vertices: a sixteenth of the mesh, between
 /// 256 and 2048, a multiple of [`LANES`]. Sixteen tasks balance two threads (a 6,669-vertex mesh
 /// in 2048-vertex tasks split 4096 : 2573 and its iterations took 15–17 % longer than in
@@ -578,7 +588,7 @@ impl Arap {
             self.current[v as usize] = self.rest[v as usize];
         }
         let mut stats = SolveStats::default();
-        match (fixed, self.config.acceleration) {
+        in_pool(|| match (fixed, self.config.acceleration) {
             (Some(n), _) => {
                 self.iterate_anderson(&mut stats, REFINE_ANDERSON_WINDOW, n, false, continues)
             }
@@ -586,7 +596,7 @@ impl Arap {
             (None, Acceleration::Anderson { window }) => {
                 self.iterate_anderson(&mut stats, window, self.config.max_iterations, true, false)
             }
-        }
+        });
         if let Some(vertex) = self.current.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
             self.current = previous;
             let vertex = self.order.to_mesh[vertex] as usize;

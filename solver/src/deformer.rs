@@ -1,6 +1,6 @@
 //! One interface over the deformation methods, for the CLI and the editor's solver threads.
 
-use crate::arap::{Arap, ArapConfig, SolveStats};
+use crate::arap::{Arap, ArapConfig, SolveStats, in_pool};
 use crate::bs_arap::{BaseKind, BsArap};
 use crate::coarse::{CoarseBsArap, CoarseConfig};
 use crate::error::SolveError;
@@ -133,12 +133,13 @@ impl Deformer {
     }
 
     /// Solves for `targets` (`#H×3`, order of [`Handles::handle_vertices`]), warm-started.
+    /// The whole solve runs on rayon's pool ([`crate::arap::in_pool`]).
     pub fn solve(&mut self, targets: &[[f64; 3]]) -> Result<SolveStats, SolveError> {
-        match self {
+        in_pool(|| match self {
             Deformer::Arap(a) => a.solve(targets),
             Deformer::BsArap(b) => b.solve(targets),
             Deformer::Coarse(c) => c.solve(targets),
-        }
+        })
     }
 
     /// Whether [`Deformer::settle`] has work after the last solve (then the caller should call
@@ -154,10 +155,10 @@ impl Deformer {
     /// ([`CoarseBsArap::settle`]); `None` when there is nothing to refine (other methods: their
     /// solve already iterates on the full mesh to the tolerance).
     pub fn settle(&mut self, targets: &[[f64; 3]]) -> Result<Option<SolveStats>, SolveError> {
-        match self {
+        in_pool(|| match self {
             Deformer::Coarse(c) => c.settle(targets),
             Deformer::Arap(_) | Deformer::BsArap(_) => Ok(None),
-        }
+        })
     }
 
     /// The deformed positions of the last solve (rest before any), `#V×3`.
