@@ -11,8 +11,8 @@
 //! once on two rayon tasks, each sequential (1.2–1.5× faster for 3 columns on the armadillo and
 //! the bunny on 2 cores, BENCHMARKS.md). Three columns (ARAP's global step) on a simplicial
 //! factor whose elimination tree cuts into two halves with a small top, on processors with
-//! AVX2, go through `tree.rs` instead: the two halves of the tree on two threads, the three
-//! columns in one vector register per row. The factorization itself may use rayon.
+//! AVX2, go through `tree.rs` instead (at least 1024 rows): the two halves of the tree on two
+//! threads, the three columns in one vector register per row. The factorization itself may use rayon.
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::sparse::linalg::SupernodalThreshold;
@@ -66,7 +66,7 @@ pub struct SpdFactor {
     solve_split_buffer: MemBuffer,
     solve_columns: usize,
     /// Three-column solves split along the elimination tree (simplicial factors of at least
-    /// 4096 rows whose tree cuts in halves, on processors with AVX2); `None`: faer's solve.
+    /// 1024 rows whose tree cuts in halves, on processors with AVX2); `None`: faer's solve.
     #[cfg(target_arch = "x86_64")]
     tree: Option<tree::TreeSplit>,
 }

@@ -37,10 +37,13 @@ pub(super) struct TreeSplit {
     acc: [Vec<[f64; 4]>; 2],
 }
 
-/// The fewest rows a split is made for. With 1024, a 2002-vertex decimated Cheburashka (the
-/// size of a coarse level of [`crate::coarse`]) solved in 0.07–0.14 ms against faer's
-/// 0.10–0.12 ms: no gain there, where the two threads' wake-up and join weigh most.
-const MIN_ROWS: usize = 4096;
+/// The fewest rows a split is made for. On Cheburashka's 2000-vertex coarse level (the size of
+/// a coarse level of [`crate::coarse`]) the split solved in 0.054–0.057 ms per iteration
+/// against faer's 0.087–0.120 ms (three alternations, BENCHMARKS.md "Eighth round"), once the
+/// solve ran on a worker of rayon's pool ([`crate::arap`]'s `in_pool`); called from outside the
+/// pool, where each join cost a sleeping caller's wake-up, it gained nothing there and the floor
+/// was 4096. Below 1024 rows it was not measured.
+const MIN_ROWS: usize = 1024;
 
 /// A stored entry of faer's factor that is a diagonal: `value_map` marks it with this bit.
 const DIAGONAL: u32 = 1 << 31;
