@@ -18,16 +18,28 @@
 
 use rayon::prelude::*;
 
-/// Vector entries per parallel task. 2048 (it was 8192) puts a coarse level's 6000-entry step
-/// on both threads; the block sums are then added in a different grouping, which left the
-/// iteration counts of Cheburashka's `arap+aa` and `bsarap-coarse+aa` unchanged.
-const BLOCK: usize = 2048;
+/// Vector entries per parallel task.
+const BLOCK: usize = 8192;
+
+/// Vector entries per parallel task for vectors shorter than two [`BLOCK`]s (a coarse level's
+/// 6000 entries), so that both threads share the step. Longer vectors keep [`BLOCK`]: the block
+/// sums' grouping decides the last digits of the step, and the safeguard's accept/reject
+/// decisions flip on them (with 2048-entry blocks everywhere, the bunny's `arap+aa` took 46.3
+/// iterations per frame instead of 34.8; BENCHMARKS.md "Eighth round").
+const SMALL_BLOCK: usize = 2048;
+
+/// The task length for vectors of length `dim`.
+fn block_len(dim: usize) -> usize {
+    if dim < 2 * BLOCK { SMALL_BLOCK } else { BLOCK }
+}
 
 /// Anderson acceleration state with a window of `m` past differences.
 #[derive(Debug, Clone)]
 pub struct Anderson {
     m: usize,
     dim: usize,
+    /// Entries per parallel task ([`block_len`]).
+    block: usize,
     /// $G(x)$ and $f$ of the previous step.
     prev_g: Vec<f64>,
     prev_f: Vec<f64>,
@@ -51,6 +63,7 @@ impl Anderson {
         Anderson {
             m,
             dim,
+            block: block_len(dim),
             prev_g: vec![0.0; dim],
             prev_f: vec![0.0; dim],
             dg: vec![vec![0.0; dim]; m],
@@ -80,12 +93,13 @@ impl Anderson {
     /// (`g` itself while there is no history, or when the small system is singular).
     pub fn step(&mut self, x: &[f64], g: &[f64], out: &mut [f64]) {
         assert!(x.len() == self.dim && g.len() == self.dim && out.len() == self.dim);
+        let block = self.block;
         if !self.has_prev {
             // First step: only remember $f$ and $G(x)$.
             self.prev_f
-                .par_chunks_mut(BLOCK)
-                .zip(self.prev_g.par_chunks_mut(BLOCK))
-                .zip(x.par_chunks(BLOCK).zip(g.par_chunks(BLOCK)))
+                .par_chunks_mut(block)
+                .zip(self.prev_g.par_chunks_mut(block))
+                .zip(x.par_chunks(block).zip(g.par_chunks(block)))
                 .for_each(|((pf, pg), (x, g))| {
                     for (((pf, pg), &x), &g) in pf.iter_mut().zip(pg).zip(x).zip(g) {
                         *pf = g - x;
@@ -113,12 +127,12 @@ impl Anderson {
             .map(|(j, d)| (j, d.as_slice()))
             .collect();
         let sums: Vec<Vec<f64>> = df_s
-            .par_chunks_mut(BLOCK)
-            .zip(self.dg[s].par_chunks_mut(BLOCK))
-            .zip(self.prev_f.par_chunks_mut(BLOCK).zip(self.prev_g.par_chunks_mut(BLOCK)))
+            .par_chunks_mut(block)
+            .zip(self.dg[s].par_chunks_mut(block))
+            .zip(self.prev_f.par_chunks_mut(block).zip(self.prev_g.par_chunks_mut(block)))
             .enumerate()
             .map(|(b, ((dfs, dgs), (pf, pg)))| {
-                let lo = b * BLOCK;
+                let lo = b * block;
                 let hi = lo + dfs.len();
                 let (x, g) = (&x[lo..hi], &g[lo..hi]);
                 // [gram row s: k entries][rhs: k entries]
@@ -171,11 +185,11 @@ impl Anderson {
         let theta = &self.rhs[..k];
         let dg = &self.dg[..k];
         let finite = out
-            .par_chunks_mut(BLOCK)
-            .zip(g.par_chunks(BLOCK))
+            .par_chunks_mut(block)
+            .zip(g.par_chunks(block))
             .enumerate()
             .map(|(b, (o, g))| {
-                let lo = b * BLOCK;
+                let lo = b * block;
                 o.copy_from_slice(g);
                 for (t, d) in theta.iter().zip(dg) {
                     for (o, &d) in o.iter_mut().zip(&d[lo..lo + g.len()]) {
@@ -230,10 +244,19 @@ mod tests {
 
     /// The two fused, blocked passes give the iterate of the formula in the module doc, built
     /// directly from the whole history: over several blocks (the last one partial), through
-    /// the window's wrap-around and a reset.
+    /// the window's wrap-around and a reset; for long vectors ([`BLOCK`]s) and short ones
+    /// ([`SMALL_BLOCK`]s).
     #[test]
     fn blocked_step_matches_the_direct_formula() {
-        let (dim, window) = (3 * BLOCK + 17, 3);
+        assert_eq!(block_len(2 * SMALL_BLOCK + 5), SMALL_BLOCK);
+        assert_eq!(block_len(3 * BLOCK + 17), BLOCK);
+        for dim in [2 * SMALL_BLOCK + 5, 3 * BLOCK + 17] {
+            blocked_step_matches_the_direct_formula_at(dim);
+        }
+    }
+
+    fn blocked_step_matches_the_direct_formula_at(dim: usize) {
+        let window = 3;
         let mut seed = 12345u64;
         let mut next = || {
             seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
