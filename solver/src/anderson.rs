@@ -25,7 +25,8 @@ const BLOCK: usize = 8192;
 /// 6000 entries), so that both threads share the step. Longer vectors keep [`BLOCK`]: the block
 /// sums' grouping decides the last digits of the step, and the safeguard's accept/reject
 /// decisions flip on them (with 2048-entry blocks everywhere, the bunny's `arap+aa` took 46.3
-/// iterations per frame instead of 34.8; BENCHMARKS.md "Eighth round").
+/// iterations per frame instead of 34.8 with the same solve; BENCHMARKS.md "Eighth round").
+/// Any other change of last digits, such as the solve's, moves such counts just the same.
 const SMALL_BLOCK: usize = 2048;
 
 /// The task length for vectors of length `dim`.

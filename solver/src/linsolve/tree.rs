@@ -15,8 +15,9 @@
 //! of $L$ is read once for all three (George & Liu 1981 for the tree; the cut is ours). The
 //! inner loops read the factor without bounds checks (every row is checked once, when the split
 //! is built), and the backward pass sums a column's products last entry first into four partial
-//! sums, so that the parent's value, solved just before, is needed only at the end: on armadillo
-//! the solve in an iteration fell from 1.79–2.29 to 1.35–1.68 ms (BENCHMARKS.md "Eighth round").
+//! sums, so that the parent's value, solved earlier in the pass (often just before), is needed
+//! only at the end: on armadillo the solve in an iteration fell from 1.79–2.29 to 1.35–1.68 ms
+//! (BENCHMARKS.md "Eighth round").
 
 use std::arch::x86_64::*;
 
@@ -405,8 +406,9 @@ unsafe fn forward_top(f: &Factor<'_>, top: usize, x: &mut [[f64; 4]]) {
 /// `a − Σ L_p x_{row_p − offset}` over the stored entries `range`, last entry first, the
 /// products subtracted in turn from `a`, `b`, `c`, `d` so that consecutive entries do not wait
 /// on each other. The first entry of a column is its parent in the elimination tree, solved
-/// just before it in the backward pass: taken last, it is needed only at the end of the sums,
-/// while the other products (rows solved long before) overlap the parent's own solve.
+/// earlier in the backward pass, often just before it: taken last, it is needed only at the
+/// end of the sums, while the other products (rows solved longer before) overlap the parent's
+/// own solve.
 #[inline(always)]
 unsafe fn subtract_products(
     f: &Factor<'_>,
