@@ -215,7 +215,7 @@ fn deform_with_anderson_acceleration() {
 
 /// `--repeat 3` runs each method three times: the three figures are reported, the reported
 /// seconds per frame is their median, the iteration counts are those of one run, and the
-/// quality of the first run is kept.
+/// quality is measured (in the last round).
 #[test]
 fn bench_repeat_reports_the_median_run() {
     let args = ["--frames", "3", "--method", "arap", "--repeat", "3", "--quality"];

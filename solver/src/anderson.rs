@@ -39,8 +39,6 @@ fn block_len(dim: usize) -> usize {
 pub struct Anderson {
     m: usize,
     dim: usize,
-    /// Entries per parallel task ([`block_len`]).
-    block: usize,
     /// $G(x)$ and $f$ of the previous step.
     prev_g: Vec<f64>,
     prev_f: Vec<f64>,
@@ -64,7 +62,6 @@ impl Anderson {
         Anderson {
             m,
             dim,
-            block: block_len(dim),
             prev_g: vec![0.0; dim],
             prev_f: vec![0.0; dim],
             dg: vec![vec![0.0; dim]; m],
@@ -94,7 +91,7 @@ impl Anderson {
     /// (`g` itself while there is no history, or when the small system is singular).
     pub fn step(&mut self, x: &[f64], g: &[f64], out: &mut [f64]) {
         assert!(x.len() == self.dim && g.len() == self.dim && out.len() == self.dim);
-        let block = self.block;
+        let block = block_len(self.dim);
         if !self.has_prev {
             // First step: only remember $f$ and $G(x)$.
             self.prev_f

@@ -12,7 +12,8 @@
 //! the bunny on 2 cores, BENCHMARKS.md). Three columns (ARAP's global step) on a simplicial
 //! factor whose elimination tree cuts into two halves with a small top, on processors with
 //! AVX2, go through `tree.rs` instead (at least 1024 rows): the two halves of the tree on two
-//! threads, the three columns in one vector register per row. The factorization itself may use rayon.
+//! threads, the three columns in one vector register per row. The factorization itself may use
+//! rayon.
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::sparse::linalg::SupernodalThreshold;

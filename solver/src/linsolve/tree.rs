@@ -196,7 +196,7 @@ impl TreeSplit {
             new_col_ptr.push(new_rows.len() as u32);
         }
         let src = order.iter().map(|&j| fwd[j] as u32).collect();
-        Some(TreeSplit {
+        let split = TreeSplit {
             src,
             col_ptr: new_col_ptr,
             values: vec![0.0; new_rows.len()],
@@ -208,7 +208,11 @@ impl TreeSplit {
             value_map,
             x: vec![[0.0; 4]; n],
             acc: [vec![[0.0; 4]; n - top_start], vec![[0.0; 4]; n - top_start]],
-        })
+        };
+        // The checks above are what the kernels' unchecked loops rely on; in debug builds (the
+        // tests) every split is checked again from what was built.
+        debug_assert!(split.rows_in_range());
+        Some(split)
     }
 
     /// Stored entries (diagonal included) of the two forests and of the top, and the top's
@@ -226,7 +230,6 @@ impl TreeSplit {
 
     /// Whether every stored row is where the kernels' unchecked loops assume it (see `solve3`):
     /// a forest column's rows before `to_top` in its own forest, the others in the top.
-    #[cfg(test)]
     pub(super) fn rows_in_range(&self) -> bool {
         let n = self.inv_diag.len();
         let (na, top) = (self.na, self.na + self.nb);
@@ -328,14 +331,13 @@ unsafe fn store(v: &mut [f64; 4], x: __m256d) {
 }
 
 /// Stored entry `p`: its row less `offset`, and its value, read without bounds checks (the
-/// kernels' inner loops; checked in debug builds).
+/// kernels' inner loops; each split's rows are checked once in debug builds, `rows_in_range`).
 ///
 /// # Safety
-/// `p` is an entry of the factor and its row less `offset` is below `len` (the length of the
-/// slice the caller indexes with it).
+/// `p` is an entry of the factor, and the caller indexes with its row less `offset` only a
+/// slice that row fits (see `solve3`).
 #[inline(always)]
-unsafe fn entry(f: &Factor<'_>, p: usize, offset: usize, len: usize) -> (usize, f64) {
-    debug_assert!(p < f.row_idx.len() && (f.row_idx[p] as usize).wrapping_sub(offset) < len);
+unsafe fn entry(f: &Factor<'_>, p: usize, offset: usize) -> (usize, f64) {
     // SAFETY: the contract above.
     unsafe { (*f.row_idx.get_unchecked(p) as usize - offset, *f.values.get_unchecked(p)) }
 }
@@ -349,13 +351,12 @@ unsafe fn send_products(
     x: &mut [[f64; 4]],
     xj: __m256d,
 ) {
-    debug_assert!(range.end <= f.row_idx.len() && f.values.len() == f.row_idx.len());
     for p in range {
         // SAFETY (callers): AVX; `range` lies in the factor's entries, whose rows, less
         // `offset`, index `x` ([`TreeSplit::new`] checks every row of a forest column against
         // its forest and puts the others in the top; see `entry`).
         unsafe {
-            let (i, l) = entry(f, p, offset, x.len());
+            let (i, l) = entry(f, p, offset);
             let xi = x.get_unchecked_mut(i);
             let v = _mm256_sub_pd(load(xi), _mm256_mul_pd(_mm256_set1_pd(l), xj));
             store(xi, v);
@@ -417,11 +418,9 @@ unsafe fn subtract_products(
     x: &[[f64; 4]],
     [mut a, mut b, mut c, mut d]: [__m256d; 4],
 ) -> [__m256d; 4] {
-    debug_assert!(range.end <= f.row_idx.len() && f.values.len() == f.row_idx.len());
-    let n = x.len();
     // SAFETY (callers): AVX; `entry`'s contract as in `send_products`.
     let product = |p: usize| unsafe {
-        let (i, l) = entry(f, p, offset, n);
+        let (i, l) = entry(f, p, offset);
         _mm256_mul_pd(_mm256_set1_pd(l), load(x.get_unchecked(i)))
     };
     let mut p = range.end;
