@@ -79,6 +79,10 @@ fn vertices_per_task(n: usize) -> usize {
     n.div_ceil(16).clamp(256, 2048).next_multiple_of(LANES)
 }
 
+/// Vertices whose covariances [`Arap::local_pass`] computes and fits at a time (4.6 KB of
+/// covariances), a multiple of [`LANES`] so that the fits' sums run as over the whole block.
+const SCRATCH: usize = 64;
+
 /// Anderson window of [`Arap::refine`].
 pub const REFINE_ANDERSON_WINDOW: usize = 5;
 
@@ -284,8 +288,6 @@ pub struct Arap {
     /// `None` when every vertex is fixed.
     factor: Option<SpdFactor>,
     rotations: Vec<Mat3>,
-    /// Per-vertex covariances $S_i$ of the current pose (local step).
-    cov: Vec<Mat3>,
     /// The energy's rest term $\sum w\lVert e\rVert^2$ over all cells (constant).
     rest_term: f64,
     current: Vec<[f64; 3]>,
@@ -425,7 +427,6 @@ impl Arap {
             coupling,
             factor,
             rotations: vec![IDENTITY; n],
-            cov: vec![[[0.0; 3]; 3]; n],
             rest_term,
             rhs: vec![0.0; 3 * n_free],
             constraints,
@@ -781,65 +782,64 @@ impl Arap {
         self.energy_from(sums.edges, sums.fitted)
     }
 
-    /// The local step: the covariances of the current pose into `cov` and the rotations fitted
-    /// to them, in one parallel pass. Each task computes its block's covariances
-    /// $S_i = \sum_j k_{ij}(x_j - x_i)^\top$ over the one-ring (spokes and rims) or
-    /// $S_i = \sum_j w_{ij}(p_i - p_j)(x_i - x_j)^\top$ (spokes), then fits the block's
-    /// rotations ([`fit_rotations_near`], started from the current $R_i$, [`LANES`] cells per
-    /// call) while the covariances are still in its cache (one fork and join per local step;
-    /// on armadillo no faster than two passes within the machine's noise, BENCHMARKS.md
-    /// "Seventh round").
+    /// The local step: the rotations fitted to the covariances of the current pose, in one
+    /// parallel pass. Each task computes the covariances of [`SCRATCH`] vertices of its block at
+    /// a time, $S_i = \sum_j k_{ij}(x_j - x_i)^\top$ over the one-ring (spokes and rims) or
+    /// $S_i = \sum_j w_{ij}(p_i - p_j)(x_i - x_j)^\top$ (spokes), into a buffer on its stack,
+    /// and fits their rotations ([`fit_rotations_near`], started from the current $R_i$,
+    /// [`LANES`] cells per call) while they are in L1 (one fork and join per local step; on
+    /// armadillo no faster than two passes within the machine's noise, BENCHMARKS.md "Seventh
+    /// round"). The covariances are not kept: a mesh-sized array of them was 3 MB written
+    /// per pass on armadillo.
     ///
     /// Returns the sums that make the energy $E(x, R(x)) = A + \sum w\lVert e\rVert^2 - 2T$
     /// ([`Arap::energy_from`]) for the fitted rotations. Sums are taken per fixed block of
     /// vertices and then in order, so they do not depend on the scheduling.
     fn local_pass(&mut self) -> LocalSums {
-        let x = &self.current;
-        let p = &self.rest;
-        let cells = &self.cells;
         let task = self.task;
-        #[cfg(target_arch = "x86_64")]
-        let avx2 = self.avx2;
-        let block = |c: usize, covs: &mut [Mat3], rots: &mut [Mat3]| -> LocalSums {
-            let first = c * task;
-            #[cfg(target_arch = "x86_64")]
-            let vector = match (avx2, cells) {
-                (true, Cells::SpokesAndRims { ring, cov_coef, edge_coef, .. }) => {
-                    let ring = avx::Ring {
-                        offsets: &ring.offsets,
-                        items: &ring.items,
-                        cov_coef,
-                        edge_coef,
-                    };
-                    // SAFETY: `avx2` is true only where AVX2 was detected.
-                    Some(unsafe { avx::covariances(first, covs, x, &ring) })
-                }
-                _ => None,
-            };
-            #[cfg(not(target_arch = "x86_64"))]
-            let vector = None;
-            let edges = vector.unwrap_or_else(|| {
-                let mut sum = 0.0;
-                for (l, out) in covs.iter_mut().enumerate() {
-                    let (s, a) = covariance(cells, x, p, first + l);
-                    sum += a;
-                    *out = s;
-                }
-                sum
-            });
-            LocalSums { edges, fitted: fit_block(rots, covs) }
-        };
-        let parts: Vec<LocalSums> = self
-            .cov
+        let mut rotations = std::mem::take(&mut self.rotations);
+        let this = &*self;
+        let parts: Vec<LocalSums> = rotations
             .par_chunks_mut(task)
-            .zip(self.rotations.par_chunks_mut(task))
             .enumerate()
-            .map(|(c, (covs, rots))| block(c, covs, rots))
+            .map(|(c, rots)| {
+                let mut sums = LocalSums::default();
+                let mut covs = [[[0.0; 3]; 3]; SCRATCH];
+                for (k, rots) in rots.chunks_mut(SCRATCH).enumerate() {
+                    let covs = &mut covs[..rots.len()];
+                    sums.edges = this.covariances(c * task + k * SCRATCH, covs, sums.edges);
+                    sums.fitted = fit_block(rots, covs, sums.fitted);
+                }
+                sums
+            })
             .collect();
+        self.rotations = rotations;
         parts.iter().fold(LocalSums::default(), |acc, s| LocalSums {
             edges: acc.edges + s.edges,
             fitted: acc.fitted + s.fitted,
         })
+    }
+
+    /// $S_i$ of the current pose for $i$ = `first`, `first + 1`, … (one per entry of `out`),
+    /// on AVX registers where detected ([`avx::covariances`], the same bits); returns `sum`
+    /// plus the cells' $\sum_j c_{ij}\lVert x_j - x_i\rVert^2$, added vertex by vertex.
+    fn covariances(&self, first: usize, out: &mut [Mat3], sum: f64) -> f64 {
+        #[cfg(target_arch = "x86_64")]
+        if let (true, Cells::SpokesAndRims { ring, cov_coef, edge_coef, .. }) =
+            (self.avx2, &self.cells)
+        {
+            let ring =
+                avx::Ring { offsets: &ring.offsets, items: &ring.items, cov_coef, edge_coef };
+            // SAFETY: `avx2` is true only where AVX2 was detected.
+            return unsafe { avx::covariances(first, out, &self.current, &ring, sum) };
+        }
+        let mut sum = sum;
+        for (l, out) in out.iter_mut().enumerate() {
+            let (s, a) = covariance(&self.cells, &self.current, &self.rest, first + l);
+            sum += a;
+            *out = s;
+        }
+        sum
     }
 
     /// $E = A + \sum w\lVert e\rVert^2 - 2T$ from [`Arap::local_pass`]' sums, at least 0
@@ -1071,9 +1071,10 @@ fn covariance(cells: &Cells, x: &[[f64; 3]], p: &[[f64; 3]], i: usize) -> (Mat3,
 }
 
 /// $R_i$ = [`fit_rotations_near`] of $S_i$ started from the current $R_i$, [`LANES`] cells per
-/// call, over one block; returns $\sum_i \operatorname{tr}(R_i S_i)$ for the new rotations.
-fn fit_block(rots: &mut [Mat3], covs: &[Mat3]) -> f64 {
-    let mut t = 0.0;
+/// call, over one block; returns `t` plus $\sum_i \operatorname{tr}(R_i S_i)$ for the new
+/// rotations, added [`LANES`] cells at a time.
+fn fit_block(rots: &mut [Mat3], covs: &[Mat3], t: f64) -> f64 {
+    let mut t = t;
     for (r, s) in rots.chunks_mut(LANES).zip(covs.chunks(LANES)) {
         match (<&mut [Mat3; LANES]>::try_from(&mut *r), <&[Mat3; LANES]>::try_from(s)) {
             (Ok(lanes), Ok(s)) => *lanes = fit_rotations_near(s, lanes),
@@ -1146,11 +1147,11 @@ mod tests {
         a.set_positions(&pose(m.positions()));
         let mut run = |avx2: bool| {
             a.avx2 = avx2;
-            let sums = a.local_pass();
+            let mut cov = vec![[[0.0; 3]; 3]; m.n_vertices()];
+            let sum = a.covariances(0, &mut cov, 0.5);
             let bits = |m: &Mat3| m.map(|row| row.map(f64::to_bits));
-            (sums.edges.to_bits(), a.cov.iter().map(bits).collect::<Vec<_>>())
+            (sum.to_bits(), cov.iter().map(bits).collect::<Vec<_>>())
         };
-        // The covariances depend on the pose alone: the first run's fit does not change them.
         let (avx, scalar) = (run(true), run(false));
         assert!(avx.1.iter().any(|s| s[0][0] != 0));
         assert_eq!(avx, scalar);

@@ -32,9 +32,9 @@ pub(super) struct Ring<'a> {
     pub edge_coef: &'a [f64],
 }
 
-/// $S_i$ for $i$ = `first`, `first + 1`, … (one per entry of `out`), with the sum
+/// $S_i$ for $i$ = `first`, `first + 1`, … (one per entry of `out`), and `sum` plus
 /// $\sum_i \sum_j c_{ij}\lVert x_j - x_i\rVert^2$ over them: what the scalar loop of
-/// `Arap::local_pass` computes.
+/// `Arap::covariances` computes.
 ///
 /// # Safety
 /// The processor supports AVX2.
@@ -44,8 +44,9 @@ pub(super) unsafe fn covariances(
     out: &mut [Mat3],
     x: &[[f64; 3]],
     ring: &Ring<'_>,
+    sum: f64,
 ) -> f64 {
-    let mut sum = 0.0;
+    let mut sum = sum;
     for (l, out) in out.iter_mut().enumerate() {
         let i = first + l;
         let (lo, hi) = (ring.offsets[i], ring.offsets[i + 1]);
