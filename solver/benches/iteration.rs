@@ -72,8 +72,9 @@ fn fit_rates() -> (f64, f64) {
     let cold = rate(&|c| c.iter().map(|(s, _)| fit_rotation(s)[0][0]).sum());
     let warm = rate(&|c| {
         let s: [Mat3; LANES] = std::array::from_fn(|l| c[l].0);
-        let g: [Mat3; LANES] = std::array::from_fn(|l| c[l].1);
-        fit_rotations_near(&s, &g).iter().map(|r| r[0][0]).sum()
+        let mut r: [Mat3; LANES] = std::array::from_fn(|l| c[l].1);
+        fit_rotations_near(&s, &mut r);
+        r.iter().map(|r| r[0][0]).sum()
     });
     (cold, warm)
 }

@@ -1077,7 +1077,7 @@ fn fit_block(rots: &mut [Mat3], covs: &[Mat3], t: f64) -> f64 {
     let mut t = t;
     for (r, s) in rots.chunks_mut(LANES).zip(covs.chunks(LANES)) {
         match (<&mut [Mat3; LANES]>::try_from(&mut *r), <&[Mat3; LANES]>::try_from(s)) {
-            (Ok(lanes), Ok(s)) => *lanes = fit_rotations_near(s, lanes),
+            (Ok(lanes), Ok(s)) => fit_rotations_near(s, lanes),
             _ => {
                 for (r, s) in r.iter_mut().zip(s) {
                     *r = fit_rotation_near(s, r);

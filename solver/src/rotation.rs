@@ -257,45 +257,50 @@ fn asymmetry<T: Real>(t: &[[T; 3]; 3]) -> T {
 /// Cells per call of [`fit_rotations_near`].
 pub const LANES: usize = crate::lanes::LANES;
 
-/// [`fit_rotation_near`] for [`LANES`] cells at once, with the same results up to rounding: the
-/// quaternion fit with exactly three Laguerre steps from each guess's objective, run without
+/// [`fit_rotation_near`] for [`LANES`] cells at once, in place (`rots` holds the guesses and
+/// receives the rotations), with the same results up to rounding: the quaternion fit with exactly three Laguerre steps from each guess's objective, run without
 /// branches on one cell per vector lane (the cells' matrices transposed into a 3×3 of four-lane
 /// values, the same generic formulas as the scalar fit), so that square roots, divisions and
 /// products run four at a time. A lane whose root is not verified (Newton step below
 /// $10^{-13}\lambda$, the Budan–Fourier test of `largest_root`) or whose rotation fails the
 /// optimality check goes through the scalar [`fit_rotation_near`] instead.
-pub fn fit_rotations_near(s: &[Mat3; LANES], guess: &[Mat3; LANES]) -> [Mat3; LANES] {
-    let fast = fit_rotations_lockstep(s, guess);
-    std::array::from_fn(|l| fast[l].unwrap_or_else(|| fit_rotation_near(&s[l], &guess[l])))
+pub fn fit_rotations_near(s: &[Mat3; LANES], rots: &mut [Mat3; LANES]) {
+    let fitted = fit_rotations_lockstep(s, rots);
+    for ((r, s), ok) in rots.iter_mut().zip(s).zip(fitted) {
+        if !ok {
+            *r = fit_rotation_near(s, r);
+        }
+    }
 }
 
-/// The lockstep part of [`fit_rotations_near`]: `None` for the lanes left to the scalar path.
+/// The lockstep part of [`fit_rotations_near`]: the lanes it fits are written into `rots`
+/// (`true`), the others keep their guess and are left to the scalar path (`false`).
 /// On x86-64 processors with AVX2 the same code runs on `Avx4` (one AVX register per value,
 /// intrinsics), chosen at run time, elsewhere on the portable `F4`; no fused multiply-add is
 /// introduced, so both round identically (test `avx_lanes_match_portable_lanes`). The AVX
 /// build fits about twice as many cells per second as the portable lanes compiled for AVX2
 /// did (BENCHMARKS.md, "Fifth round").
 #[inline]
-fn fit_rotations_lockstep(s: &[Mat3; LANES], guess: &[Mat3; LANES]) -> [Option<Mat3>; LANES] {
+fn fit_rotations_lockstep(s: &[Mat3; LANES], rots: &mut [Mat3; LANES]) -> [bool; LANES] {
     #[cfg(target_arch = "x86_64")]
     {
         if std::is_x86_feature_detected!("avx2") {
             // SAFETY: the one requirement of a `target_feature` function, that the processor
             // supports the feature, was just checked.
-            return unsafe { lockstep_avx2(s, guess) };
+            return unsafe { lockstep_avx2(s, rots) };
         }
     }
-    lockstep::<F4>(s, guess)
+    lockstep::<F4>(s, rots)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn lockstep_avx2(s: &[Mat3; LANES], guess: &[Mat3; LANES]) -> [Option<Mat3>; LANES] {
-    lockstep::<crate::lanes::Avx4>(s, guess)
+fn lockstep_avx2(s: &[Mat3; LANES], rots: &mut [Mat3; LANES]) -> [bool; LANES] {
+    lockstep::<crate::lanes::Avx4>(s, rots)
 }
 
 #[inline(always)]
-fn lockstep<L: Lanes>(s: &[Mat3; LANES], guess: &[Mat3; LANES]) -> [Option<Mat3>; LANES] {
+fn lockstep<L: Lanes>(s: &[Mat3; LANES], rots: &mut [Mat3; LANES]) -> [bool; LANES] {
     // One cell per lane: the scalar fit's formulas, run on four cells at once.
     // Index loops rather than `array::from_fn`/`map`, whose closures were not always inlined
     // into the AVX2 build.
@@ -308,7 +313,7 @@ fn lockstep<L: Lanes>(s: &[Mat3; LANES], guess: &[Mat3; LANES]) -> [Option<Mat3>
         }
         out
     };
-    let (s4, g4) = (lanes(s), lanes(guess));
+    let (s4, g4) = (lanes(s), lanes(rots));
     // `normalized`, lane by lane: lanes with a zero or non-finite largest entry are unusable
     // (their arithmetic continues on whatever it holds and is discarded at the end).
     let m = largest_entry(&s4);
@@ -347,8 +352,8 @@ fn lockstep<L: Lanes>(s: &[Mat3; LANES], guess: &[Mat3; LANES]) -> [Option<Mat3>
             *out = v.to_lanes();
         }
     }
-    let mut out = [None; LANES];
-    for (l, out) in out.iter_mut().enumerate() {
+    let mut fitted = [false; LANES];
+    for (l, (out, ok)) in rots.iter_mut().zip(&mut fitted).enumerate() {
         let x = lambda[l];
         let verified = m_lanes[l].is_finite()
             && m_lanes[l] > 0.0
@@ -357,16 +362,15 @@ fn lockstep<L: Lanes>(s: &[Mat3; LANES], guess: &[Mat3; LANES]) -> [Option<Mat3>
             && ddp[l] > 0.0
             && (p[l] / dp[l]).abs() <= 1e-13 * x;
         if verified && accepted(len[l], asym[l]) {
-            let mut rot = [[0.0; 3]; 3];
-            for (out, row) in rot.iter_mut().zip(&r_lanes) {
+            for (out, row) in out.iter_mut().zip(&r_lanes) {
                 for (out, v) in out.iter_mut().zip(row) {
                     *out = v[l];
                 }
             }
-            *out = Some(rot);
+            *ok = true;
         }
     }
-    out
+    fitted
 }
 
 /// `s` scaled to unit Frobenius norm ($R$ is scale-invariant, and the thresholds of the fit are
@@ -534,7 +538,8 @@ mod tests {
         // Huge and tiny (finite) covariances: the same rotation, no overflow or underflow.
         for scale in [1e300, 1e-300] {
             let r = fit_rotation(&scale_mat(&s, scale));
-            let lanes = fit_rotations_near(&[scale_mat(&s, scale); LANES], &[IDENTITY; LANES]);
+            let mut lanes = [IDENTITY; LANES];
+            fit_rotations_near(&[scale_mat(&s, scale); LANES], &mut lanes);
             for r in [r, lanes[0]] {
                 let err = r.iter().flatten().zip(q.iter().flatten()).map(|(a, b)| (a - b).abs());
                 assert!(err.fold(0.0, f64::max) < 1e-12, "scale {scale}: {r:?}");
@@ -582,12 +587,13 @@ mod tests {
         let nan = [[f64::NAN; 3]; 3];
         let inf = scale_mat(&IDENTITY, f64::INFINITY);
         let batch = [s, [[0.0; 3]; 3], nan, inf];
-        let lock = fit_rotations_lockstep(&batch, &[IDENTITY; LANES]);
-        assert!(lock[1].is_none() && lock[2].is_none() && lock[3].is_none(), "{lock:?}");
-        let r = lock[0].expect("a well-posed lane is fitted in lockstep");
-        let err = r.iter().flatten().zip(q.iter().flatten()).map(|(a, b)| (a - b).abs());
+        let mut lock = [IDENTITY; LANES];
+        let fitted = fit_rotations_lockstep(&batch, &mut lock);
+        assert_eq!(fitted, [true, false, false, false], "a well-posed lane is fitted in lockstep");
+        let err = lock[0].iter().flatten().zip(q.iter().flatten()).map(|(a, b)| (a - b).abs());
         assert!(err.fold(0.0, f64::max) < 1e-12);
-        let all = fit_rotations_near(&batch, &[IDENTITY; LANES]);
+        let mut all = [IDENTITY; LANES];
+        fit_rotations_near(&batch, &mut all);
         assert_eq!(all[1..], [IDENTITY; 3]);
     }
 
@@ -615,17 +621,18 @@ mod tests {
                 *g = mul_mat(&axis_angle([rnd(), rnd(), rnd()], off), &fit_rotation_svd(s));
             }
             // SAFETY: AVX2 was detected above.
-            let avx = unsafe { lockstep_avx2(&batch, &guess) };
-            let portable = lockstep::<F4>(&batch, &guess);
-            for (a, p) in avx.iter().zip(&portable) {
-                match (a, p) {
-                    (Some(a), Some(p)) => {
-                        let bits = |m: &Mat3| m.map(|row| row.map(f64::to_bits));
-                        assert_eq!(bits(a), bits(p));
-                        fitted += 1;
-                    }
-                    (None, None) => refused += 1,
-                    _ => panic!("one build fitted a lane the other refused: {a:?} {p:?}"),
+            let (mut avx, mut portable) = (guess, guess);
+            let avx_fitted = unsafe { lockstep_avx2(&batch, &mut avx) };
+            let portable_fitted = lockstep::<F4>(&batch, &mut portable);
+            assert_eq!(avx_fitted, portable_fitted, "one build fitted a lane the other refused");
+            let bits = |m: &Mat3| m.map(|row| row.map(f64::to_bits));
+            for ((a, p), ok) in avx.iter().zip(&portable).zip(avx_fitted) {
+                // Refused lanes keep their guess in both.
+                assert_eq!(bits(a), bits(p));
+                if ok {
+                    fitted += 1;
+                } else {
+                    refused += 1;
                 }
             }
         }
@@ -667,9 +674,11 @@ mod tests {
             // In lockstep with three other cells (one near, two far guesses).
             let batch = [s, s, scale_mat(&s, 1e3), s];
             let guesses = [near, far, near, IDENTITY];
-            let lock = fit_rotations_lockstep(&batch, &guesses);
-            lockstep_near += usize::from(lock[0].is_some()) + usize::from(lock[2].is_some());
-            for (l, c) in fit_rotations_near(&batch, &guesses).iter().enumerate() {
+            let fitted = fit_rotations_lockstep(&batch, &mut guesses.clone());
+            lockstep_near += usize::from(fitted[0]) + usize::from(fitted[2]);
+            let mut all = guesses;
+            fit_rotations_near(&batch, &mut all);
+            for (l, c) in all.iter().enumerate() {
                 let diff = c.iter().flatten().zip(a.iter().flatten()).map(|(x, y)| (x - y).abs());
                 let diff = diff.fold(0.0, f64::max);
                 assert!(diff < 1e-7, "case {case}: lane {l} differs by {diff}");
