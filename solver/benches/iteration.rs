@@ -73,8 +73,7 @@ fn fit_rates() -> (f64, f64) {
     let warm = rate(&|c| {
         let s: [Mat3; LANES] = std::array::from_fn(|l| c[l].0);
         let mut r: [Mat3; LANES] = std::array::from_fn(|l| c[l].1);
-        fit_rotations_near(&s, &mut r);
-        r.iter().map(|r| r[0][0]).sum()
+        fit_rotations_near(&s, &mut r) + r.iter().map(|r| r[0][0]).sum::<f64>()
     });
     (cold, warm)
 }

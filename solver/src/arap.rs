@@ -1076,15 +1076,15 @@ fn covariance(cells: &Cells, x: &[[f64; 3]], p: &[[f64; 3]], i: usize) -> (Mat3,
 fn fit_block(rots: &mut [Mat3], covs: &[Mat3], t: f64) -> f64 {
     let mut t = t;
     for (r, s) in rots.chunks_mut(LANES).zip(covs.chunks(LANES)) {
-        match (<&mut [Mat3; LANES]>::try_from(&mut *r), <&[Mat3; LANES]>::try_from(s)) {
+        t += match (<&mut [Mat3; LANES]>::try_from(&mut *r), <&[Mat3; LANES]>::try_from(s)) {
             (Ok(lanes), Ok(s)) => fit_rotations_near(s, lanes),
             _ => {
                 for (r, s) in r.iter_mut().zip(s) {
                     *r = fit_rotation_near(s, r);
                 }
+                r.iter().zip(s).map(|(r, s)| trace_of_product(r, s)).sum::<f64>()
             }
-        }
-        t += r.iter().zip(s).map(|(r, s)| trace_of_product(r, s)).sum::<f64>();
+        };
     }
     t
 }

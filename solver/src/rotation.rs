@@ -264,24 +264,31 @@ pub const LANES: usize = crate::lanes::LANES;
 /// products run four at a time. A lane whose root is not verified (Newton step below
 /// $10^{-13}\lambda$, the Budan–Fourier test of `largest_root`) or whose rotation fails the
 /// optimality check goes through the scalar [`fit_rotation_near`] instead.
-pub fn fit_rotations_near(s: &[Mat3; LANES], rots: &mut [Mat3; LANES]) {
-    let fitted = fit_rotations_lockstep(s, rots);
-    for ((r, s), ok) in rots.iter_mut().zip(s).zip(fitted) {
+///
+/// Returns $\sum_l \operatorname{tr}(R_l S_l)$ for the new rotations (the local step's energy
+/// term), added lane by lane, $((t_0 + t_1) + t_2) + t_3$; each $t_l$ has the bits of
+/// [`trace_of_product`] (computed on the lanes by the same formula).
+pub fn fit_rotations_near(s: &[Mat3; LANES], rots: &mut [Mat3; LANES]) -> f64 {
+    let (fitted, mut traces) = fit_rotations_lockstep(s, rots);
+    for (((r, s), ok), t) in rots.iter_mut().zip(s).zip(fitted).zip(&mut traces) {
         if !ok {
             *r = fit_rotation_near(s, r);
+            *t = trace_of_product(r, s);
         }
     }
+    ((traces[0] + traces[1]) + traces[2]) + traces[3]
 }
 
 /// The lockstep part of [`fit_rotations_near`]: the lanes it fits are written into `rots`
-/// (`true`), the others keep their guess and are left to the scalar path (`false`).
+/// (`true`, with $\operatorname{tr}(R_l S_l)$), the others keep their guess and are left to the
+/// scalar path (`false`).
 /// On x86-64 processors with AVX2 the same code runs on `Avx4` (one AVX register per value,
 /// intrinsics), chosen at run time, elsewhere on the portable `F4`; no fused multiply-add is
 /// introduced, so both round identically (test `avx_lanes_match_portable_lanes`). The AVX
 /// build fits about twice as many cells per second as the portable lanes compiled for AVX2
 /// did (BENCHMARKS.md, "Fifth round").
 #[inline]
-fn fit_rotations_lockstep(s: &[Mat3; LANES], rots: &mut [Mat3; LANES]) -> [bool; LANES] {
+fn fit_rotations_lockstep(s: &[Mat3; LANES], rots: &mut [Mat3; LANES]) -> Fitted {
     #[cfg(target_arch = "x86_64")]
     {
         if std::is_x86_feature_detected!("avx2") {
@@ -293,14 +300,17 @@ fn fit_rotations_lockstep(s: &[Mat3; LANES], rots: &mut [Mat3; LANES]) -> [bool;
     lockstep::<F4>(s, rots)
 }
 
+/// Which lanes the lockstep fit fitted, and $\operatorname{tr}(R_l S_l)$ on them.
+type Fitted = ([bool; LANES], [f64; LANES]);
+
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn lockstep_avx2(s: &[Mat3; LANES], rots: &mut [Mat3; LANES]) -> [bool; LANES] {
+fn lockstep_avx2(s: &[Mat3; LANES], rots: &mut [Mat3; LANES]) -> Fitted {
     lockstep::<crate::lanes::Avx4>(s, rots)
 }
 
 #[inline(always)]
-fn lockstep<L: Lanes>(s: &[Mat3; LANES], rots: &mut [Mat3; LANES]) -> [bool; LANES] {
+fn lockstep<L: Lanes>(s: &[Mat3; LANES], rots: &mut [Mat3; LANES]) -> Fitted {
     // One cell per lane: the scalar fit's formulas, run on four cells at once.
     // Index loops rather than `array::from_fn`/`map`, whose closures were not always inlined
     // into the AVX2 build.
@@ -344,6 +354,7 @@ fn lockstep<L: Lanes>(s: &[Mat3; LANES], rots: &mut [Mat3; LANES]) -> [bool; LAN
     let len = norm4(&col);
     let r = quaternion_rotation(col, len);
     let asym = asymmetry(&mul3(&r, &sn)).to_lanes();
+    let traces = trace_product(&r, &s4).to_lanes();
     let (lambda, p, dp, ddp, len) =
         (lambda.to_lanes(), p.to_lanes(), dp.to_lanes(), ddp.to_lanes(), len.to_lanes());
     let mut r_lanes = [[[0.0; LANES]; 3]; 3];
@@ -370,7 +381,7 @@ fn lockstep<L: Lanes>(s: &[Mat3; LANES], rots: &mut [Mat3; LANES]) -> [bool; LAN
             *ok = true;
         }
     }
-    fitted
+    (fitted, traces)
 }
 
 /// `s` scaled to unit Frobenius norm ($R$ is scale-invariant, and the thresholds of the fit are
@@ -588,7 +599,7 @@ mod tests {
         let inf = scale_mat(&IDENTITY, f64::INFINITY);
         let batch = [s, [[0.0; 3]; 3], nan, inf];
         let mut lock = [IDENTITY; LANES];
-        let fitted = fit_rotations_lockstep(&batch, &mut lock);
+        let (fitted, _) = fit_rotations_lockstep(&batch, &mut lock);
         assert_eq!(fitted, [true, false, false, false], "a well-posed lane is fitted in lockstep");
         let err = lock[0].iter().flatten().zip(q.iter().flatten()).map(|(a, b)| (a - b).abs());
         assert!(err.fold(0.0, f64::max) < 1e-12);
@@ -622,13 +633,18 @@ mod tests {
             }
             // SAFETY: AVX2 was detected above.
             let (mut avx, mut portable) = (guess, guess);
-            let avx_fitted = unsafe { lockstep_avx2(&batch, &mut avx) };
-            let portable_fitted = lockstep::<F4>(&batch, &mut portable);
+            let (avx_fitted, avx_traces) = unsafe { lockstep_avx2(&batch, &mut avx) };
+            let (portable_fitted, portable_traces) = lockstep::<F4>(&batch, &mut portable);
             assert_eq!(avx_fitted, portable_fitted, "one build fitted a lane the other refused");
             let bits = |m: &Mat3| m.map(|row| row.map(f64::to_bits));
-            for ((a, p), ok) in avx.iter().zip(&portable).zip(avx_fitted) {
+            for (l, ((a, p), ok)) in avx.iter().zip(&portable).zip(avx_fitted).enumerate() {
                 // Refused lanes keep their guess in both.
                 assert_eq!(bits(a), bits(p));
+                if ok {
+                    // The lanes' traces are the scalar formula's, bit for bit.
+                    let t = trace_of_product(a, &batch[l]).to_bits();
+                    assert_eq!((avx_traces[l].to_bits(), portable_traces[l].to_bits()), (t, t));
+                }
                 if ok {
                     fitted += 1;
                 } else {
@@ -674,7 +690,7 @@ mod tests {
             // In lockstep with three other cells (one near, two far guesses).
             let batch = [s, s, scale_mat(&s, 1e3), s];
             let guesses = [near, far, near, IDENTITY];
-            let fitted = fit_rotations_lockstep(&batch, &mut guesses.clone());
+            let (fitted, _) = fit_rotations_lockstep(&batch, &mut guesses.clone());
             lockstep_near += usize::from(fitted[0]) + usize::from(fitted[2]);
             let mut all = guesses;
             fit_rotations_near(&batch, &mut all);
