@@ -258,10 +258,11 @@ fn asymmetry<T: Real>(t: &[[T; 3]; 3]) -> T {
 pub const LANES: usize = crate::lanes::LANES;
 
 /// [`fit_rotation_near`] for [`LANES`] cells at once, in place (`rots` holds the guesses and
-/// receives the rotations), with the same results up to rounding: the quaternion fit with exactly three Laguerre steps from each guess's objective, run without
-/// branches on one cell per vector lane (the cells' matrices transposed into a 3×3 of four-lane
-/// values, the same generic formulas as the scalar fit), so that square roots, divisions and
-/// products run four at a time. A lane whose root is not verified (Newton step below
+/// receives the rotations), with the same results up to rounding: the quaternion fit with
+/// exactly three Laguerre steps from each guess's objective, run without branches on one cell
+/// per vector lane (the cells' matrices transposed into a 3×3 of four-lane values, the same
+/// generic formulas as the scalar fit), so that square roots, divisions and products run four
+/// at a time. A lane whose root is not verified (Newton step below
 /// $10^{-13}\lambda$, the Budan–Fourier test of `largest_root`) or whose rotation fails the
 /// optimality check goes through the scalar [`fit_rotation_near`] instead.
 ///
