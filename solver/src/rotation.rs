@@ -645,8 +645,6 @@ mod tests {
                     // The lanes' traces are the scalar formula's, bit for bit.
                     let t = trace_of_product(a, &batch[l]).to_bits();
                     assert_eq!((avx_traces[l].to_bits(), portable_traces[l].to_bits()), (t, t));
-                }
-                if ok {
                     fitted += 1;
                 } else {
                     refused += 1;
@@ -694,7 +692,11 @@ mod tests {
             let (fitted, _) = fit_rotations_lockstep(&batch, &mut guesses.clone());
             lockstep_near += usize::from(fitted[0]) + usize::from(fitted[2]);
             let mut all = guesses;
-            fit_rotations_near(&batch, &mut all);
+            let t = fit_rotations_near(&batch, &mut all);
+            // The returned sum is the traces of the results, lockstep and scalar lanes alike.
+            let tr: Vec<f64> =
+                all.iter().zip(&batch).map(|(r, s)| trace_of_product(r, s)).collect();
+            assert_eq!(t.to_bits(), (((tr[0] + tr[1]) + tr[2]) + tr[3]).to_bits());
             for (l, c) in all.iter().enumerate() {
                 let diff = c.iter().flatten().zip(a.iter().flatten()).map(|(x, y)| (x - y).abs());
                 let diff = diff.fold(0.0, f64::max);
