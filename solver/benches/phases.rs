@@ -19,6 +19,11 @@
 //!   from rest, and reported to criterion through `iter_custom`: the phase's own time, not the
 //!   whole solve's.
 //!
+//! - `anderson_step`: one [`solver::anderson::Anderson::step`] (window 5, history full) on
+//!   vectors of 6,000, 20,000 and 60,000 entries (a 2,000-vertex coarse level, Cheburashka's
+//!   free positions, a 20,000-vertex mesh), run inside a rayon pool as `Arap` runs it. The
+//!   vectors cycle through seven fixed pseudo-random pairs $(x, G(x))$.
+//!
 //! `benches/iteration.rs` is the other harness: phase timings of a 10-iteration solve against an
 //! estimate of the machine's limit (bandwidth and rotation-fit rate), on these meshes or a file.
 
@@ -120,11 +125,45 @@ fn iteration_phases(c: &mut Criterion) {
     }
 }
 
+fn anderson_step(c: &mut Criterion) {
+    let mut g = c.benchmark_group("anderson_step");
+    let Ok(pool) = rayon::ThreadPoolBuilder::new().build() else {
+        unreachable!("a rayon pool with the default threads")
+    };
+    for dim in [6_000usize, 20_000, 60_000] {
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = move || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        let pairs: Vec<(Vec<f64>, Vec<f64>)> = (0..7)
+            .map(|_| {
+                let x: Vec<f64> = (0..dim).map(|_| next()).collect();
+                let gx = x.iter().map(|v| 0.9 * v + 0.1 * next()).collect();
+                (x, gx)
+            })
+            .collect();
+        let mut aa = solver::anderson::Anderson::new(5, dim);
+        let mut out = vec![0.0; dim];
+        let mut k = 0;
+        g.bench_function(BenchmarkId::from_parameter(dim), |b| {
+            pool.install(|| {
+                b.iter(|| {
+                    let (x, gx) = &pairs[k % pairs.len()];
+                    k += 1;
+                    aa.step(x, gx, &mut out);
+                })
+            })
+        });
+    }
+    g.finish();
+}
+
 fn config() -> Criterion {
     Criterion::default()
         .warm_up_time(Duration::from_secs(1))
         .measurement_time(Duration::from_secs(3))
 }
 
-criterion_group! { name = benches; config = config(); targets = factorization, iteration_phases }
+criterion_group! { name = benches; config = config(); targets = factorization, iteration_phases, anderson_step }
 criterion_main!(benches);

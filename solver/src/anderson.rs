@@ -11,27 +11,51 @@
 //! take $G(x_k)$ and [`Anderson::reset`]); [`crate::arap::Arap`] does so.
 //!
 //! Inputs: `x`, `g` of length `dim` (flattened `#F×3` free positions in ARAP). No allocation per
-//! step after [`Anderson::new`] beyond a few numbers per block. A step is two passes over the
-//! vectors, in parallel over fixed blocks: the first forms $f_k$, the new differences and
-//! every inner product the normal equations need; the second forms the accelerated iterate.
-//! Sums are taken per block and then in block order, so results do not depend on scheduling.
+//! step after [`Anderson::new`] beyond a few numbers per block. A step is two parallel passes
+//! over fixed blocks of the vectors: the first forms $f_k$ and the new differences, then, while
+//! the block is in cache, every inner product the normal equations need (each in four partial
+//! sums, [`dot2`]); the second forms the accelerated iterate. Sums are taken per block and then
+//! in block order, so results do not depend on scheduling.
 
 use rayon::prelude::*;
 
-/// Vector entries per parallel task.
+/// Vector entries per parallel task, at most.
 const BLOCK: usize = 8192;
 
-/// Vector entries per parallel task for vectors shorter than two [`BLOCK`]s (a coarse level's
-/// 6000 entries), so that both threads share the step. Longer vectors keep [`BLOCK`]: the block
-/// sums' grouping decides the last digits of the step, and the safeguard's accept/reject
-/// decisions flip on them (with 2048-entry blocks everywhere, the bunny's `arap+aa` took 46.3
-/// iterations per frame instead of 34.8 with the same solve; BENCHMARKS.md "Eighth round").
-/// Any other change of last digits, such as the solve's, moves such counts just the same.
-const SMALL_BLOCK: usize = 2048;
-
-/// The task length for vectors of length `dim`.
+/// The task length for vectors of length `dim`: [`BLOCK`], or for vectors shorter than four
+/// of them a quarter of the vector (rounded up to [`LANES`]), so that both threads of the
+/// machine get two equal tasks (a coarse level's 6000 entries, Cheburashka's 20000). The
+/// blocks depend on `dim` only, not on the threads, so results do not depend on scheduling.
+/// The block sums' grouping decides the last digits of the step, and the safeguard's
+/// accept/reject decisions flip on them: any change here moves the iteration counts of
+/// `arap+aa` (BENCHMARKS.md "Eighth round").
 fn block_len(dim: usize) -> usize {
-    if dim < 2 * BLOCK { SMALL_BLOCK } else { BLOCK }
+    dim.div_ceil(4).next_multiple_of(LANES).clamp(LANES, BLOCK)
+}
+
+/// Independent partial sums per dot product: a single running sum is a chain of dependent
+/// additions (one element per add latency); four chains let the additions overlap.
+const LANES: usize = 4;
+
+/// $\sum_i a_i c_i$ and $\sum_i b_i c_i$ over equal-length slices, in [`LANES`] partial sums
+/// added in lane order.
+fn dot2(a: &[f64], b: &[f64], c: &[f64]) -> (f64, f64) {
+    let (mut sa, mut sb) = ([0.0; LANES], [0.0; LANES]);
+    let n = c.len() / LANES * LANES;
+    for ((a, b), c) in
+        a[..n].chunks_exact(LANES).zip(b[..n].chunks_exact(LANES)).zip(c[..n].chunks_exact(LANES))
+    {
+        for l in 0..LANES {
+            sa[l] += a[l] * c[l];
+            sb[l] += b[l] * c[l];
+        }
+    }
+    for i in n..c.len() {
+        sa[0] += a[i] * c[i];
+        sb[0] += b[i] * c[i];
+    }
+    let sum = |s: [f64; LANES]| ((s[0] + s[1]) + s[2]) + s[3];
+    (sum(sa), sum(sb))
 }
 
 /// Anderson acceleration state with a window of `m` past differences.
@@ -137,23 +161,14 @@ impl Anderson {
                 let mut acc = vec![0.0; 2 * k];
                 for i in 0..dfs.len() {
                     let f = g[i] - x[i];
-                    let d = f - pf[i];
-                    dfs[i] = d;
+                    dfs[i] = f - pf[i];
                     dgs[i] = g[i] - pg[i];
                     pf[i] = f;
                     pg[i] = g[i];
-                    acc[s] += d * d;
-                    acc[k + s] += d * f;
                 }
+                (acc[s], acc[k + s]) = dot2(dfs, pf, dfs);
                 for &(j, dj) in &others {
-                    let dj = &dj[lo..hi];
-                    let (mut gs, mut r) = (0.0, 0.0);
-                    for i in 0..dfs.len() {
-                        gs += dfs[i] * dj[i];
-                        r += pf[i] * dj[i];
-                    }
-                    acc[j] = gs;
-                    acc[k + j] = r;
+                    (acc[j], acc[k + j]) = dot2(dfs, pf, &dj[lo..hi]);
                 }
                 acc
             })
@@ -194,7 +209,14 @@ impl Anderson {
                         *o -= t * d;
                     }
                 }
-                o.iter().all(|v| v.is_finite())
+                // v·0 is ±0 for a finite v and NaN otherwise: a sum without branches.
+                let mut z = [0.0; LANES];
+                for c in o.chunks(LANES) {
+                    for (z, v) in z.iter_mut().zip(c) {
+                        *z += v * 0.0;
+                    }
+                }
+                z.iter().sum::<f64>() == 0.0
             })
             .reduce(|| true, |a, b| a && b);
         if !finite {
@@ -241,14 +263,15 @@ mod tests {
     use super::*;
 
     /// The two fused, blocked passes give the iterate of the formula in the module doc, built
-    /// directly from the whole history: over several blocks (the last one partial), through
-    /// the window's wrap-around and a reset; for long vectors ([`BLOCK`]s) and short ones
-    /// ([`SMALL_BLOCK`]s).
+    /// directly from the whole history: over several blocks (the last one partial, with a
+    /// tail shorter than [`LANES`]), through the window's wrap-around and a reset; for vectors
+    /// split in quarters and for long ones split in [`BLOCK`]s.
     #[test]
     fn blocked_step_matches_the_direct_formula() {
-        assert_eq!(block_len(2 * SMALL_BLOCK + 5), SMALL_BLOCK);
-        assert_eq!(block_len(3 * BLOCK + 17), BLOCK);
-        for dim in [2 * SMALL_BLOCK + 5, 3 * BLOCK + 17] {
+        assert_eq!(block_len(4101), 1028);
+        assert_eq!(block_len(7), LANES);
+        assert_eq!(block_len(4 * BLOCK + 17), BLOCK);
+        for dim in [7, 4101, 4 * BLOCK + 17] {
             blocked_step_matches_the_direct_formula_at(dim);
         }
     }
