@@ -23,8 +23,8 @@ use rayon::prelude::*;
 const BLOCK: usize = 8192;
 
 /// The task length for vectors of length `dim`: [`BLOCK`], or for vectors shorter than four
-/// of them a quarter of the vector (rounded up to [`LANES`]), so that both threads of the
-/// machine get two equal tasks (a coarse level's 6000 entries, Cheburashka's 20000). The
+/// of them a quarter of the vector (rounded up to [`LANES`]), so that two threads get two
+/// equal tasks each (a coarse level's 6000 entries, Cheburashka's 20000). The
 /// blocks depend on `dim` only, not on the threads, so results do not depend on scheduling.
 /// The block sums' grouping decides the last digits of the step, and the safeguard's
 /// accept/reject decisions flip on them: any change here moves the iteration counts of
@@ -300,6 +300,24 @@ mod tests {
             let err = out.iter().zip(&expected).fold(0.0f64, |a, (o, e)| a.max((o - e).abs()));
             assert!(err <= 1e-9 * scale, "step {step}: error {err} of {scale}");
         }
+    }
+
+    /// A step whose accelerated iterate overflows gives `g` itself: the second pass's
+    /// finiteness check. One entry's residual barely changes (θ ≈ 10¹²), the other's
+    /// residual stays 0 while its value jumps by 10³⁰⁰, so $G - \Delta G\,\theta$ is −∞ there.
+    #[test]
+    fn an_overflowing_step_falls_back_to_g() {
+        let mut aa = Anderson::new(5, 2);
+        let mut out = [0.0; 2];
+        aa.step(&[0.0, 0.0], &[1.0, 0.0], &mut out);
+        let g = [1.0 + 1e-12, 1e300];
+        aa.step(&[0.0, 1e300], &g, &mut out);
+        assert_eq!(out, g);
+        // The same history with a harmless second entry is accelerated (θ·ΔG finite).
+        let mut aa = Anderson::new(5, 2);
+        aa.step(&[0.0, 0.0], &[1.0, 0.0], &mut out);
+        aa.step(&[0.0, 1.0], &[1.0 + 1e-12, 1.0], &mut out);
+        assert!(out.iter().all(|v| v.is_finite()) && out[1] != 1.0, "{out:?}");
     }
 
     /// $G(x_t) - \Delta G\,\theta$ with $\theta$ from the regularized normal equations over
