@@ -209,14 +209,7 @@ impl Anderson {
                         *o -= t * d;
                     }
                 }
-                // v·0 is ±0 for a finite v and NaN otherwise: a sum without branches.
-                let mut z = [0.0; LANES];
-                for c in o.chunks(LANES) {
-                    for (z, v) in z.iter_mut().zip(c) {
-                        *z += v * 0.0;
-                    }
-                }
-                z.iter().sum::<f64>() == 0.0
+                o.iter().all(|v| v.is_finite())
             })
             .reduce(|| true, |a, b| a && b);
         if !finite {
