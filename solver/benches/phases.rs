@@ -131,11 +131,7 @@ fn anderson_step(c: &mut Criterion) {
         unreachable!("a rayon pool with the default threads")
     };
     for dim in [6_000usize, 20_000, 60_000] {
-        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = move || {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
+        let mut next = solver::testing::uniform(0x9e37_79b9_7f4a_7c15);
         let pairs: Vec<(Vec<f64>, Vec<f64>)> = (0..7)
             .map(|_| {
                 let x: Vec<f64> = (0..dim).map(|_| next()).collect();

@@ -271,11 +271,7 @@ mod tests {
 
     fn blocked_step_matches_the_direct_formula_at(dim: usize) {
         let window = 3;
-        let mut seed = 12345u64;
-        let mut next = || {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
+        let mut next = crate::testing::uniform(12345);
         let mut aa = Anderson::new(window, dim);
         let mut history: Vec<(Vec<f64>, Vec<f64>)> = Vec::new();
         let mut out = vec![0.0; dim];
