@@ -1,13 +1,6 @@
 // Ground grid: colored line segments.
 
-struct Uniforms {
-    view_proj: mat4x4<f32>,
-    eye: vec4<f32>,
-    light_dir: vec4<f32>,
-    wire: vec4<f32>,
-};
-
-@group(0) @binding(0) var<uniform> u: Uniforms;
+// `Uniforms` and `u` come from uniforms.wgsl, prepended by the renderer.
 
 struct VertexOut {
     @builtin(position) clip: vec4<f32>,

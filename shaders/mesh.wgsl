@@ -1,16 +1,6 @@
 // Smooth-shaded mesh: per-vertex normals and colors (colors are linear RGB).
 
-struct Uniforms {
-    view_proj: mat4x4<f32>,
-    // xyz: camera position in world space; w unused.
-    eye: vec4<f32>,
-    // xyz: unit direction towards the key light; w unused.
-    light_dir: vec4<f32>,
-    // rgb: wireframe color; a: wireframe depth offset in NDC.
-    wire: vec4<f32>,
-};
-
-@group(0) @binding(0) var<uniform> u: Uniforms;
+// `Uniforms` and `u` come from uniforms.wgsl, prepended by the renderer.
 
 struct VertexIn {
     @location(0) position: vec3<f32>,

@@ -1,14 +1,6 @@
 // Wireframe edges over the shaded mesh, pulled slightly towards the camera.
 
-struct Uniforms {
-    view_proj: mat4x4<f32>,
-    eye: vec4<f32>,
-    light_dir: vec4<f32>,
-    // rgb: wireframe color; a: depth offset in NDC units.
-    wire: vec4<f32>,
-};
-
-@group(0) @binding(0) var<uniform> u: Uniforms;
+// `Uniforms` and `u` come from uniforms.wgsl, prepended by the renderer.
 
 @vertex
 fn vs_main(@location(0) position: vec3<f32>) -> @builtin(position) vec4<f32> {

@@ -6,6 +6,11 @@
 
 use std::path::Path;
 
+#[path = "support/gltf_files.rs"]
+mod gltf_files;
+use gltf_files::{tet_bin, tet_doc, tet_gltf_with, to_glb};
+use serde_json::json;
+
 use solver::HandlesError;
 use solver::io::{Format, LoadError, load_mesh, load_mesh_from_bytes, write_obj};
 use solver::selection::{SelectionError, load_selection, write_dmat};
@@ -425,6 +430,137 @@ fn corpus() -> Vec<Case> {
             }),
         ),
         case(
+            "gltf points primitive",
+            "points.gltf",
+            tet_gltf_with(|d| d["meshes"][0]["primitives"][0]["mode"] = json!(0)),
+            Load(
+                |e| matches!(e, LoadError::Unsupported { message, .. } if message.contains("Points")),
+            ),
+        ),
+        case(
+            "gltf lines primitive",
+            "lines.gltf",
+            tet_gltf_with(|d| d["meshes"][0]["primitives"][0]["mode"] = json!(1)),
+            Load(
+                |e| matches!(e, LoadError::Unsupported { message, .. } if message.contains("Lines")),
+            ),
+        ),
+        case(
+            "gltf sparse accessor",
+            "sparse.gltf",
+            tet_gltf_with(|d| {
+                d["accessors"][0]["sparse"] = json!({
+                    "count": 1,
+                    "indices": {"bufferView": 1, "componentType": 5125},
+                    "values": {"bufferView": 0}
+                })
+            }),
+            Load(
+                |e| matches!(e, LoadError::Unsupported { message, .. } if message.contains("sparse")),
+            ),
+        ),
+        case(
+            "gltf draco required",
+            "draco.gltf",
+            tet_gltf_with(|d| {
+                d["extensionsUsed"] = json!(["KHR_draco_mesh_compression"]);
+                d["extensionsRequired"] = json!(["KHR_draco_mesh_compression"]);
+            }),
+            Load(|e| {
+                matches!(e, LoadError::Unsupported { message, .. }
+                    if message.contains("KHR_draco_mesh_compression"))
+            }),
+        ),
+        case(
+            "gltf meshopt required",
+            "meshopt.glb",
+            {
+                let mut d = tet_doc(&[[0.0; 3]]);
+                d["extensionsUsed"] = json!(["EXT_meshopt_compression"]);
+                d["extensionsRequired"] = json!(["EXT_meshopt_compression"]);
+                to_glb(&d, &tet_bin())
+            },
+            Load(|e| {
+                matches!(e, LoadError::Unsupported { message, .. }
+                    if message.contains("EXT_meshopt_compression"))
+            }),
+        ),
+        case(
+            "gltf quantized positions",
+            "quantized.gltf",
+            tet_gltf_with(|d| {
+                d["accessors"][0]["componentType"] = json!(5122);
+                d["accessors"][0]["normalized"] = json!(true);
+            }),
+            Load(|e| {
+                matches!(e, LoadError::Unsupported { message, .. }
+                    if message.contains("KHR_mesh_quantization"))
+            }),
+        ),
+        case(
+            "gltf unknown required extension",
+            "unknown_ext.gltf",
+            tet_gltf_with(|d| {
+                d["extensionsUsed"] = json!(["EXT_made_up"]);
+                d["extensionsRequired"] = json!(["EXT_made_up"]);
+            }),
+            Load(
+                |e| matches!(e, LoadError::Unsupported { message, .. } if message.contains("EXT_made_up")),
+            ),
+        ),
+        case(
+            "gltf accessor past its buffer",
+            "past_end.gltf",
+            tet_gltf_with(|d| d["accessors"][0]["count"] = json!(400)),
+            Load(|e| matches!(e, LoadError::Truncated { .. })),
+        ),
+        case(
+            "gltf buffer shorter than declared",
+            "short_buffer.gltf",
+            tet_gltf_with(|d| d["buffers"][0]["byteLength"] = json!(4000)),
+            Load(|e| matches!(e, LoadError::Truncated { .. })),
+        ),
+        case(
+            "gltf index out of range",
+            "bad_index.gltf",
+            tet_gltf_with(|d| d["accessors"][0]["count"] = json!(2)),
+            Load(|e| matches!(e, LoadError::IndexOutOfRange { index: 2, .. })),
+        ),
+        case(
+            "gltf not json",
+            "not_json.gltf",
+            "{ \"asset\": ",
+            Load(|e| matches!(e, LoadError::Parse { .. })),
+        ),
+        case(
+            "gltf missing external buffer",
+            "external.gltf",
+            serde_json::to_vec(&{
+                let mut d = tet_doc(&[[0.0; 3]]);
+                d["buffers"][0]["uri"] = json!("missing%20file.bin");
+                d
+            })
+            .unwrap(),
+            Load(
+                |e| matches!(e, LoadError::Parse { message, .. } if message.contains("missing file.bin")),
+            ),
+        ),
+        case(
+            "glb truncated",
+            "truncated.glb",
+            {
+                let glb = to_glb(&tet_doc(&[[0.0; 3]]), &tet_bin());
+                glb[..glb.len() / 2].to_vec()
+            },
+            Load(|e| matches!(e, LoadError::Parse { .. })),
+        ),
+        case(
+            "glb junk after magic",
+            "junk.glb",
+            [b"glTF".as_slice(), &junk(200, 9)].concat(),
+            Load(|e| matches!(e, LoadError::Parse { .. })),
+        ),
+        case(
             "selection unsupported",
             "sel.txt",
             "1 4\n",
@@ -473,8 +609,10 @@ fn malformed_inputs_give_their_specific_errors() {
 #[test]
 fn random_bytes_never_panic() {
     // Text-looking and binary junk, with valid headers in front, in every format.
-    let prefixes: [&[u8]; 6] = [
+    let prefixes: [&[u8]; 8] = [
         b"",
+        b"glTF\x02\x00\x00\x00",
+        b"{\"asset\":{\"version\":\"2.0\"},\"buffers\":[{\"byteLength\":",
         b"OFF\n3 1 0\n",
         b"ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n",
         b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n",
@@ -489,7 +627,7 @@ fn random_bytes_never_panic() {
                 raw.iter().map(|b| alphabet[*b as usize % alphabet.len()]).collect();
             for body in [&raw, &texty] {
                 let bytes = [prefix, body.as_slice()].concat();
-                for format in [Format::Obj, Format::Off, Format::Ply, Format::Stl] {
+                for format in [Format::Obj, Format::Off, Format::Ply, Format::Stl, Format::Gltf] {
                     if let Err(e) = load_mesh_from_bytes(&bytes, format, "junk") {
                         assert!(!e.to_string().contains('\n'));
                     }

@@ -13,9 +13,19 @@ use bytemuck::{Pod, Zeroable};
 use eframe::egui_wgpu::{self, CallbackResources, CallbackTrait, ScreenDescriptor, wgpu};
 use glam::Vec3;
 
-const MESH_WGSL: &str = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/../shaders/mesh.wgsl"));
-const WIRE_WGSL: &str = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/../shaders/wire.wgsl"));
-const GRID_WGSL: &str = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/../shaders/grid.wgsl"));
+/// A shader's source with `shaders/uniforms.wgsl` (the shared uniform block) prepended.
+macro_rules! with_uniforms {
+    ($file:literal) => {
+        concat!(
+            include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/../shaders/uniforms.wgsl")),
+            include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/../shaders/", $file))
+        )
+    };
+}
+
+const MESH_WGSL: &str = with_uniforms!("mesh.wgsl");
+const WIRE_WGSL: &str = with_uniforms!("wire.wgsl");
+const GRID_WGSL: &str = with_uniforms!("grid.wgsl");
 const BLIT_WGSL: &str = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/../shaders/blit.wgsl"));
 
 /// Every WGSL source, for the shader test.
@@ -34,7 +44,7 @@ pub struct Vertex {
     pub color: [f32; 4],
 }
 
-/// Matches `Uniforms` in the shaders: four vec4-aligned members, no implicit padding.
+/// Matches `Uniforms` in `shaders/uniforms.wgsl`: four vec4-aligned members, no implicit padding.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
 pub struct Uniforms {

@@ -13,8 +13,15 @@ pub enum LoadError {
     #[error("{file}: {message}")]
     Io { file: String, kind: std::io::ErrorKind, message: String },
     /// The extension names no supported format.
-    #[error("{file}: unsupported mesh format {extension:?} (expected .obj, .off, .ply or .stl)")]
+    #[error(
+        "{file}: unsupported mesh format {extension:?} (expected .obj, .off, .ply, .stl, .glb or .gltf)"
+    )]
     UnsupportedFormat { file: String, extension: String },
+    /// The format is known but the file uses a feature of it that is not supported (a glTF
+    /// extension such as Draco compression, a sparse accessor, a points primitive); the message
+    /// names the feature.
+    #[error("{file}: {message}")]
+    Unsupported { file: String, message: String },
     /// A malformed token or line: a bad number, a wrong token count, an unknown keyword.
     #[error("{}: {message}", at(.file, .line))]
     Parse { file: String, line: Option<usize>, message: String },
@@ -46,6 +53,7 @@ impl LoadError {
         match self {
             LoadError::Io { file, .. }
             | LoadError::UnsupportedFormat { file, .. }
+            | LoadError::Unsupported { file, .. }
             | LoadError::Parse { file, .. }
             | LoadError::NonFinite { file, .. }
             | LoadError::IndexOutOfRange { file, .. }
@@ -109,6 +117,9 @@ impl Ctx<'_> {
             index,
             reason: reason.into(),
         }
+    }
+    pub fn unsupported(&self, message: impl Into<String>) -> LoadError {
+        LoadError::Unsupported { file: self.file.to_string(), message: message.into() }
     }
     pub fn no_triangles(&self, message: impl Into<String>) -> LoadError {
         LoadError::NoTriangles { file: self.file.to_string(), message: message.into() }

@@ -1,4 +1,4 @@
-//! Mesh files: reading OBJ, OFF, PLY and STL into a cleaned [`crate::Mesh`], writing OBJ.
+//! Mesh files: reading OBJ, OFF, PLY, STL and glTF into a cleaned [`crate::Mesh`], writing OBJ.
 //!
 //! [`load_mesh`] picks the parser from the file extension (case-insensitive), parses the file
 //! into positions (`#V×3 f64`, file order) and triangles (`#F×3 u32`, polygons fan-triangulated
@@ -11,6 +11,7 @@
 //! atomically.
 
 mod error;
+mod gltf;
 mod obj;
 mod off;
 mod ply;
@@ -38,6 +39,8 @@ pub enum Format {
     Ply,
     /// STL, binary or ASCII.
     Stl,
+    /// glTF 2.0, binary (`.glb`) or JSON (`.gltf`); see the `gltf` module for what is read.
+    Gltf,
 }
 
 impl Format {
@@ -48,6 +51,7 @@ impl Format {
             "off" => Some(Format::Off),
             "ply" => Some(Format::Ply),
             "stl" => Some(Format::Stl),
+            "glb" | "gltf" => Some(Format::Gltf),
             _ => None,
         }
     }
@@ -86,7 +90,7 @@ pub fn load_mesh(path: &Path) -> Result<LoadedMesh, LoadError> {
         return Err(LoadError::UnsupportedFormat { file, extension: ext });
     };
     let bytes = std::fs::read(path).map_err(|e| io_error(e, "cannot read the file"))?;
-    load_mesh_from_bytes(&bytes, format, &file)
+    parse_and_clean(&bytes, format, &file, path.parent())
 }
 
 /// Parses and cleans a mesh held in memory; `name` is used in error messages.
@@ -98,6 +102,17 @@ pub fn load_mesh_from_bytes(
     format: Format,
     name: &str,
 ) -> Result<LoadedMesh, LoadError> {
+    parse_and_clean(bytes, format, name, None)
+}
+
+/// [`load_mesh_from_bytes`] for a file in `dir`, where a glTF's external buffers are read
+/// (`None`: they are refused).
+fn parse_and_clean(
+    bytes: &[u8],
+    format: Format,
+    name: &str,
+    dir: Option<&Path>,
+) -> Result<LoadedMesh, LoadError> {
     let ctx = Ctx { file: name };
     if text::is_blank(bytes) {
         return Err(ctx.truncated(None, "the file is empty"));
@@ -107,6 +122,7 @@ pub fn load_mesh_from_bytes(
         Format::Off => off::parse(bytes, ctx)?,
         Format::Ply => ply::parse(bytes, ctx)?,
         Format::Stl => stl::parse(bytes, ctx)?,
+        Format::Gltf => gltf::parse(bytes, ctx, dir)?,
     };
     if raw.triangles.is_empty() {
         return Err(ctx.no_triangles(format!(

@@ -1,0 +1,84 @@
+//! Reading glTF 2.0: node transforms applied, instances and primitives merged into one surface,
+//! `.glb`, embedded and external buffers giving the same mesh, mirrored nodes keeping outward
+//! winding. The malformed cases are in `malformed_input.rs`.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+#[path = "support/gltf_files.rs"]
+mod gltf_files;
+
+use gltf_files::{TET_P, tet_bin, tet_doc, to_glb, to_gltf};
+use serde_json::json;
+use solver::io::{Format, load_mesh, load_mesh_from_bytes};
+use solver::testing::ScratchDir;
+
+/// Six times the signed volume enclosed by the triangles (positive for outward winding).
+fn signed_volume6(p: &[[f64; 3]], t: &[[u32; 3]]) -> f64 {
+    t.iter()
+        .map(|f| {
+            let [a, b, c] = f.map(|i| p[i as usize]);
+            a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
+                + a[2] * (b[0] * c[1] - b[1] * c[0])
+        })
+        .sum()
+}
+
+#[test]
+fn two_instances_become_one_surface_with_their_translations() {
+    let doc = tet_doc(&[[0.0; 3], [5.0, 0.0, 0.0]]);
+    let m = load_mesh_from_bytes(&to_gltf(doc, &tet_bin()), Format::Gltf, "two.gltf").unwrap();
+    assert_eq!(m.mesh.n_vertices(), 8);
+    assert_eq!(m.mesh.n_faces(), 8);
+    assert!(!m.report.changed(), "nothing to clean: vertex order is the file's");
+    let p = m.mesh.positions();
+    for (k, q) in TET_P.iter().enumerate() {
+        assert_eq!(p[k], q.map(f64::from));
+        assert_eq!(p[4 + k], [f64::from(q[0]) + 5.0, f64::from(q[1]), f64::from(q[2])]);
+    }
+    assert!(signed_volume6(p, m.mesh.triangles()) > 0.0);
+}
+
+#[test]
+fn glb_embedded_and_external_buffers_give_the_same_mesh() {
+    let dir = ScratchDir::new("gltf-buffers");
+    let doc = tet_doc(&[[0.0, 1.0, 2.0]]);
+    std::fs::write(dir.join("a.glb"), to_glb(&doc, &tet_bin())).unwrap();
+    std::fs::write(dir.join("b.gltf"), to_gltf(doc.clone(), &tet_bin())).unwrap();
+    let mut external = doc;
+    external["buffers"][0]["uri"] = json!("tet%20data.bin");
+    std::fs::write(dir.join("tet data.bin"), tet_bin()).unwrap();
+    std::fs::write(dir.join("c.gltf"), serde_json::to_vec(&external).unwrap()).unwrap();
+    let a = load_mesh(&dir.join("a.glb")).unwrap().mesh;
+    let b = load_mesh(&dir.join("b.gltf")).unwrap().mesh;
+    let c = load_mesh(&dir.join("c.gltf")).unwrap().mesh;
+    assert_eq!(a.positions(), b.positions());
+    assert_eq!(a.positions(), c.positions());
+    assert_eq!(a.triangles(), c.triangles());
+    assert_eq!(a.positions()[0], [0.0, 1.0, 2.0]);
+}
+
+#[test]
+fn nested_nodes_compose_and_a_mirror_keeps_outward_winding() {
+    // Parent: translate by (1, 0, 0); child: mirror in x, then scale 2 in y.
+    let mut doc = tet_doc(&[]);
+    doc["scenes"] = json!([{"nodes": [0]}]);
+    doc["nodes"] = json!([
+        {"translation": [1.0, 0.0, 0.0], "children": [1]},
+        {"mesh": 0, "scale": [-1.0, 2.0, 1.0]}
+    ]);
+    let m = load_mesh_from_bytes(&to_gltf(doc, &tet_bin()), Format::Gltf, "n.gltf").unwrap();
+    let p = m.mesh.positions();
+    assert_eq!(p[1], [0.0, 0.0, 0.0], "(1,0,0) mirrored to (-1,0,0), then moved by +1 in x");
+    assert_eq!(p[2], [1.0, 2.0, 0.0]);
+    assert!(signed_volume6(p, m.mesh.triangles()) > 0.0, "winding flipped with the mirror");
+}
+
+#[test]
+fn strips_and_unindexed_triangles_are_read() {
+    // The tetrahedron's four positions, unindexed, as a strip 0 1 2 3: triangles (0, 1, 2) and
+    // (2, 1, 3), every second one reversed to keep the strip's winding.
+    let mut doc = tet_doc(&[[0.0; 3]]);
+    doc["meshes"][0]["primitives"][0]["mode"] = json!(5);
+    doc["meshes"][0]["primitives"][0].as_object_mut().unwrap().remove("indices");
+    let m = load_mesh_from_bytes(&to_gltf(doc, &tet_bin()), Format::Gltf, "s.gltf").unwrap();
+    assert_eq!(m.mesh.triangles(), &[[0, 1, 2], [2, 1, 3]]);
+}
