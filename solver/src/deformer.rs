@@ -1,11 +1,12 @@
 //! One interface over the deformation methods, for the CLI and the editor's solver threads.
 
-use crate::arap::{Arap, ArapConfig, SolveStats, in_pool};
+use crate::arap::{Arap, ArapConfig, SolveStats};
 use crate::bs_arap::{BaseKind, BsArap};
 use crate::coarse::{CoarseBsArap, CoarseConfig};
 use crate::error::SolveError;
 use crate::handles::Handles;
 use crate::mesh::Mesh;
+use crate::pool::in_pool;
 
 /// The deformation method.
 /// Serialized as [`Method::name`] (scenes, JSON reports).
@@ -133,7 +134,7 @@ impl Deformer {
     }
 
     /// Solves for `targets` (`#H×3`, order of [`Handles::handle_vertices`]), warm-started.
-    /// The whole solve runs on rayon's pool ([`crate::arap::in_pool`]).
+    /// The whole solve runs on rayon's pool ([`crate::pool::in_pool`]).
     pub fn solve(&mut self, targets: &[[f64; 3]]) -> Result<SolveStats, SolveError> {
         in_pool(|| match self {
             Deformer::Arap(a) => a.solve(targets),

@@ -21,6 +21,7 @@ mod lanes;
 pub mod linsolve;
 pub mod mass;
 pub mod mesh;
+pub(crate) mod pool;
 pub mod pose;
 pub mod quality;
 pub mod recording;

@@ -45,7 +45,7 @@ pub(super) struct TreeSplit {
 /// The fewest rows a split is made for. On Cheburashka's 2000-vertex coarse level (the size of
 /// a coarse level of [`crate::coarse`]) the split solved in 0.054–0.057 ms per iteration
 /// against faer's 0.087–0.120 ms (three alternations, BENCHMARKS.md "Eighth round"), once the
-/// solve ran on a worker of rayon's pool ([`crate::arap`]'s `in_pool`); called from outside the
+/// solve ran on a worker of rayon's pool ([`crate::pool::in_pool`]); called from outside the
 /// pool, where each join cost a sleeping caller's wake-up, it gained nothing there and the floor
 /// was 4096. Below 1024 rows it was not measured.
 const MIN_ROWS: usize = 1024;
