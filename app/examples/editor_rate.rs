@@ -18,7 +18,7 @@
 //! settle iterations): the group is dragged to the far point of the circle (0.2·diag from rest)
 //! and left there; the thread solves until converged, then settles until converged. Reported:
 //! settle steps and fine iterations, seconds, and the distance to converged ARAP on the mesh
-//! ([`solver::quality::Reference`]) before and after settling.
+//! ([`solver::deform::quality::Reference`]) before and after settling.
 
 use app::editor::deformers::factory;
 use app::editor::pose::{GroupPose, handle_targets};
@@ -32,8 +32,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         return Err("usage: editor_rate MESH SELECTION [FRAMES [METHOD...]]".into());
     }
     let mesh = solver::io::load_mesh(std::path::Path::new(&args[1]))?.mesh;
-    let handles =
-        solver::selection::load_selection(std::path::Path::new(&args[2]), mesh.positions(), None)?;
+    let handles = solver::deform::selection::load_selection(
+        std::path::Path::new(&args[2]),
+        mesh.positions(),
+        None,
+    )?;
     let frames: usize = args.get(3).map(|s| s.parse()).transpose()?.unwrap_or(30).max(1);
     // A method name may end in `+aa`: the method panel's Anderson acceleration on.
     let methods: Vec<(solver::Method, bool)> = if args.len() > 4 {
@@ -151,7 +154,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         println!("|---|---:|---:|---:|---:|---:|---:|---:|");
     }
     for (label, targets, solves, before, after, steps, fine, seconds) in settling {
-        let mut r = solver::quality::Reference::new(&mesh, &handles, &targets, defaults.energy)?;
+        let mut r =
+            solver::deform::quality::Reference::new(&mesh, &handles, &targets, defaults.energy)?;
         let (b, a) = (r.measure(&before), r.measure(&after));
         println!(
             "| {} | {} ({:.2}) | {steps} | {fine} | {seconds:.2} | {:.2}% / {:.3}% / {:.3e} | {:.2}% / {:.3}% / {:.3e} | {:.3e} |",
@@ -167,7 +171,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             r.stats().energy()
         );
         // Full ARAP converged from the settled pose: which minimum the settled pose is near.
-        let from_settled = solver::quality::Reference::from_pose(
+        let from_settled = solver::deform::quality::Reference::from_pose(
             &mesh,
             &handles,
             &targets,
@@ -175,8 +179,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             defaults.energy,
         )?;
         let st = from_settled.stats();
-        let to_settled =
-            solver::quality::distances(from_settled.positions(), &after, mesh.bbox_diagonal());
+        let to_settled = solver::deform::quality::distances(
+            from_settled.positions(),
+            &after,
+            mesh.bbox_diagonal(),
+        );
         let to_reference = r.measure(from_settled.positions());
         println!(
             "  ARAP converged from the settled pose: {} iterations, energy {:.4e}; from the settled \

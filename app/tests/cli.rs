@@ -33,7 +33,7 @@ fn sphere() -> (PathBuf, PathBuf, Vec<i64>) {
 }
 
 fn write_sphere() -> (PathBuf, PathBuf, Vec<i64>) {
-    let m = solver::shapes::icosphere(2);
+    let m = solver::geometry::shapes::icosphere(2);
     let obj = tmp("sphere.obj");
     solver::io::write_obj(&obj, m.positions(), m.triangles()).unwrap();
     let labels: Vec<i64> = m

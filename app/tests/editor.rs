@@ -184,7 +184,7 @@ fn opens_the_default_asset_and_views_change_the_image() {
     // sets that number explicitly, for the slider to change, and ticking it again goes back.
     let coarse = |a: &EditorApp| a.method_settings().base.coarse_vertices;
     assert_eq!(coarse(h.state()), None);
-    let auto = solver::coarse::CoarseConfig::auto_coarse_vertices(h.state().n_vertices());
+    let auto = solver::deform::coarse::CoarseConfig::auto_coarse_vertices(h.state().n_vertices());
     h.get_by_label(&format!("automatic coarse size ({auto})")).click_accesskit();
     step_until(&mut h, "explicit coarse size", |a| coarse(a) == Some(auto));
     h.get_by_label(&format!("automatic coarse size ({auto})")).click_accesskit();
@@ -336,7 +336,7 @@ fn a_bad_file_shows_an_error_and_keeps_the_mesh() {
     assert_eq!(h.state().mesh_path().map(|p| p.to_path_buf()), path);
 
     // A mesh dropped on the window opens.
-    let (mesh, _) = solver::shapes::bumpy_bar(1);
+    let (mesh, _) = solver::geometry::shapes::bumpy_bar(1);
     let dropped = dir.join("dropped.obj");
     solver::io::write_obj(&dropped, mesh.positions(), mesh.triangles()).unwrap();
     #[derive(Debug)]
@@ -363,7 +363,7 @@ fn dist(p: [f64; 3], q: [f64; 3]) -> f64 {
 
 #[test]
 fn a_timeline_path_drives_the_handles_and_the_recording_matches_the_headless_export() {
-    use solver::animation::Path as AnimPath;
+    use solver::animation::timeline::Path as AnimPath;
     let mut h = harness(test_mesh());
     step_until(&mut h, "the default asset", settled);
     let rest = h.state().rest_positions().unwrap().to_vec();
@@ -381,7 +381,10 @@ fn a_timeline_path_drives_the_handles_and_the_recording_matches_the_headless_exp
     let mut e = h.state().edit_state().clone();
     e.timeline.duration = 0.4;
     e.timeline.fps = 10.0;
-    e.set_path(0, AnimPath::Circular(solver::animation::CircularPath { period: 0.4, ..c }));
+    e.set_path(
+        0,
+        AnimPath::Circular(solver::animation::timeline::CircularPath { period: 0.4, ..c }),
+    );
     h.state_mut().set_edit_state(e);
     h.step();
 
@@ -413,7 +416,7 @@ fn a_timeline_path_drives_the_handles_and_the_recording_matches_the_headless_exp
     let dir = temp_dir("record");
     let scene_path = dir.join("anim.json");
     h.state_mut().save_scene(&scene_path).unwrap();
-    let loaded = solver::scene::Scene::load(&scene_path).unwrap();
+    let loaded = solver::animation::scene::Scene::load(&scene_path).unwrap();
     let sc = &loaded.scene;
     let mut d = solver::Deformer::with_base(
         sc.method,
@@ -423,7 +426,7 @@ fn a_timeline_path_drives_the_handles_and_the_recording_matches_the_headless_exp
         &sc.base,
     )
     .unwrap();
-    let headless = solver::recording::record(
+    let headless = solver::animation::recording::record(
         &mut d,
         &loaded.mesh.mesh,
         &loaded.handles,

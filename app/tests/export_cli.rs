@@ -21,7 +21,7 @@ fn dir(name: &str) -> solver::testing::ScratchDir {
 
 /// An icosphere in `d`, and a scene in `d/scenes` that moves its top cap on a circle.
 fn scene(d: &std::path::Path, version: u32) -> PathBuf {
-    let m = solver::shapes::icosphere(2);
+    let m = solver::geometry::shapes::icosphere(2);
     solver::io::write_obj(&d.join("ball.obj"), m.positions(), m.triangles()).unwrap();
     let labels: Vec<i64> = m
         .positions()

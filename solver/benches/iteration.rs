@@ -18,10 +18,10 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use rayon::prelude::*;
-use solver::rotation::{
+use solver::geometry::shapes::bumpy_bar;
+use solver::linalg::rotation::{
     LANES, Mat3, axis_angle, fit_rotation, fit_rotations_near, mul_mat, mul_vec,
 };
-use solver::shapes::bumpy_bar;
 use solver::{Arap, ArapConfig, Handles, Mesh};
 use std::time::Instant;
 
@@ -52,7 +52,7 @@ fn fit_rates() -> (f64, f64) {
             for _ in 0..6 {
                 let e = [rnd(), rnd(), 0.05 * rnd()];
                 let f = mul_vec(&q, [e[0] + 0.1 * rnd(), e[1] + 0.1 * rnd(), e[2]]);
-                solver::rotation::add_outer(&mut s, 0.5 + 0.5 * rnd().abs(), e, f);
+                solver::linalg::rotation::add_outer(&mut s, 0.5 + 0.5 * rnd().abs(), e, f);
             }
             let guess = mul_mat(&axis_angle([rnd(), rnd(), rnd()], 0.01), &fit_rotation(&s));
             (s, guess)
@@ -191,8 +191,12 @@ fn main() {
     );
     if let [mesh, sel] = &args[..] {
         let m = solver::io::load_mesh(std::path::Path::new(mesh)).unwrap().mesh;
-        let h = solver::selection::load_selection(std::path::Path::new(sel), m.positions(), None)
-            .unwrap();
+        let h = solver::deform::selection::load_selection(
+            std::path::Path::new(sel),
+            m.positions(),
+            None,
+        )
+        .unwrap();
         report(mesh, &m, &h, bw, rate);
     } else {
         for level in 2..=6 {

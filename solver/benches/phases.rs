@@ -7,7 +7,7 @@
 //!     cargo bench -p solver --bench phases -- --quick      # a few seconds per bench
 //!     cargo bench -p solver --bench phases -- local_step   # one group
 //!
-//! Meshes: [`solver::shapes::bumpy_bar`] at icosphere levels 2–6 (162 to 40,962 vertices):
+//! Meshes: [`solver::geometry::shapes::bumpy_bar`] at icosphere levels 2–6 (162 to 40,962 vertices):
 //! deterministic (the bumps are a fixed function of position, so every run sees the same mesh),
 //! its two end caps as handle groups, the `x > 0` cap turned by 0.8 rad about z.
 //!
@@ -19,7 +19,7 @@
 //!   from rest, and reported to criterion through `iter_custom`: the phase's own time, not the
 //!   whole solve's.
 //!
-//! - `anderson_step`: one [`solver::anderson::Anderson::step`] (window 5, history full) on
+//! - `anderson_step`: one [`solver::linalg::anderson::Anderson::step`] (window 5, history full) on
 //!   vectors of 6,000, 20,000 and 60,000 entries (a 2,000-vertex coarse level, Cheburashka's
 //!   free positions, a 20,000-vertex mesh), run inside a rayon pool as `Arap` runs it. The
 //!   vectors cycle through seven fixed pseudo-random pairs $(x, G(x))$.
@@ -29,10 +29,10 @@
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use faer::sparse::Triplet;
-use solver::constraints::Constraints;
-use solver::linsolve::{Layout, SpdFactor};
-use solver::rotation::{axis_angle, mul_vec};
-use solver::shapes::bumpy_bar;
+use solver::deform::constraints::Constraints;
+use solver::geometry::shapes::bumpy_bar;
+use solver::linalg::linsolve::{Layout, SpdFactor};
+use solver::linalg::rotation::{axis_angle, mul_vec};
 use solver::{Arap, ArapConfig, Handles, Mesh};
 use std::time::Duration;
 
@@ -44,7 +44,7 @@ fn meshes() -> Vec<(Mesh, Handles)> {
 
 /// The free block $L_{FF}$ of the cotangent Laplacian (lower and upper triangle).
 fn free_block(mesh: &Mesh, handles: &Handles) -> (usize, Vec<Triplet<usize, usize, f64>>) {
-    let Ok(l) = solver::cotan::cotan_laplacian(mesh.positions(), mesh.triangles()) else {
+    let Ok(l) = solver::geometry::cotan::cotan_laplacian(mesh.positions(), mesh.triangles()) else {
         unreachable!("bumpy_bar has no degenerate face")
     };
     let c = Constraints::new(mesh, handles);
@@ -139,7 +139,7 @@ fn anderson_step(c: &mut Criterion) {
                 (x, gx)
             })
             .collect();
-        let mut aa = solver::anderson::Anderson::new(5, dim);
+        let mut aa = solver::linalg::anderson::Anderson::new(5, dim);
         let mut out = vec![0.0; dim];
         let mut k = 0;
         g.bench_function(BenchmarkId::from_parameter(dim), |b| {

@@ -18,9 +18,9 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 
+use solver::deform::selection::load_selection;
+use solver::geometry::shapes::subdivide;
 use solver::io::{load_mesh, write_obj};
-use solver::selection::load_selection;
-use solver::shapes::subdivide;
 use solver::{ArapConfig, BaseConfig, Deformer, GroupTransform, Method, handle_targets};
 
 /// Peak and current resident memory of this process in MiB (`VmHWM`, `VmRSS`).

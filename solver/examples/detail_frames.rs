@@ -11,13 +11,13 @@
 //!
 //! One pose (the first group moved by (−r, r, 0), r = 0.1·diag, as `quality_vs_arap`), the
 //! faired base (`bsarap-faired`), solved from rest with tolerance 1e-4 / cap 100. Both results
-//! are measured against converged ARAP (`solver::quality::Reference`): max and mean distance
+//! are measured against converged ARAP (`solver::deform::quality::Reference`): max and mean distance
 //! over the diagonal and the ARAP energy on the mesh.
 
-use solver::export::vertex_normals;
-use solver::quality::Reference;
+use solver::animation::export::vertex_normals;
+use solver::deform::quality::Reference;
 use solver::{
-    ArapConfig, BaseKind, BsArap, Energy, GroupTransform, handle_targets, rotation::mul_vec,
+    ArapConfig, BaseKind, BsArap, Energy, GroupTransform, handle_targets, linalg::rotation::mul_vec,
 };
 
 type V = [f64; 3];
@@ -55,8 +55,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         return Err("usage: detail_frames MESH SELECTION".into());
     }
     let mesh = solver::io::load_mesh(std::path::Path::new(&args[1]))?.mesh;
-    let handles =
-        solver::selection::load_selection(std::path::Path::new(&args[2]), mesh.positions(), None)?;
+    let handles = solver::deform::selection::load_selection(
+        std::path::Path::new(&args[2]),
+        mesh.positions(),
+        None,
+    )?;
     let diag = mesh.bbox_diagonal();
     let r = 0.1 * diag;
     let group = handles.group_ids().next().ok_or("empty selection")?;

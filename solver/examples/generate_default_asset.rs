@@ -931,7 +931,7 @@ fn main() -> Result<()> {
     ensure(loaded.mesh == mesh, "the OBJ reads back bit for bit")?;
     let expected = solver::Handles::from_labels(&labels, n_vertices)?;
     for file in ["creature.handles.json", "creature.dmat"] {
-        let read = solver::selection::load_selection(&out_dir.join(file), positions, None)?;
+        let read = solver::deform::selection::load_selection(&out_dir.join(file), positions, None)?;
         ensure(read == expected, "both selection files give the same groups")?;
     }
     println!("read back: OBJ unchanged, creature.handles.json and creature.dmat agree");

@@ -5,13 +5,13 @@
 //! Each COARSE is a coarse vertex count, optionally with fine iterations: `2000` or `2000+5`.
 //!
 //! The first handle group moves by (−r, r, 0) with r = 0.1·diag (a quarter turn of the bench
-//! circle), the others stay. The reference is `solver::quality::Reference`: ARAP from rest with
+//! circle), the others stay. The reference is `solver::deform::quality::Reference`: ARAP from rest with
 //! Anderson acceleration to a relative energy decrease of 1e-10 (cap 4000). Each method then solves the same pose from rest
 //! with the default stopping rule (tolerance 1e-4, cap 100) and is reported with its precompute
 //! and solve times, iterations, distances to the reference (fractions of the diagonal) and the
 //! ARAP energy of its result measured on the mesh.
 
-use solver::quality::Reference;
+use solver::deform::quality::Reference;
 use solver::{ArapConfig, BaseConfig, Deformer, Energy, GroupTransform, Method, handle_targets};
 use std::time::Instant;
 
@@ -21,8 +21,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         return Err("usage: quality_vs_arap MESH SELECTION [COARSE_VERTICES...]".into());
     }
     let mesh = solver::io::load_mesh(std::path::Path::new(&args[1]))?.mesh;
-    let handles =
-        solver::selection::load_selection(std::path::Path::new(&args[2]), mesh.positions(), None)?;
+    let handles = solver::deform::selection::load_selection(
+        std::path::Path::new(&args[2]),
+        mesh.positions(),
+        None,
+    )?;
     let coarse: Vec<(usize, usize)> = if args.len() > 3 {
         let parse = |s: &String| -> Result<(usize, usize), std::num::ParseIntError> {
             match s.split_once('+') {

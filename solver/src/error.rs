@@ -1,7 +1,7 @@
 //! Errors of the precomputations and solves (ARAP, bi-harmonic base, BS-ARAP).
 
-use crate::handles::HandlesError;
-use crate::linsolve::FactorError;
+use crate::deform::handles::HandlesError;
+use crate::linalg::linsolve::FactorError;
 use thiserror::Error;
 
 /// Why a deformer could not be built or a solve could not run. Each message names the likely

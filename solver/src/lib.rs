@@ -1,42 +1,34 @@
 //! `solver`: ARAP and BS-ARAP deformation of triangle meshes, with no UI dependency.
 //!
-//! See ARCHITECTURE.md at the repository root for the data flow and the role of each module.
+//! The modules are layers; each uses only those above it in this list:
+//! - [`geometry`]: the [`Mesh`](geometry::mesh::Mesh) type, its topology, cleaning, reordering,
+//!   decimation, procedural shapes, and the discrete operators on it (cotangent
+//!   Laplacian, mass matrix);
+//! - [`io`]: mesh files (OBJ, OFF, PLY, STL) in and out;
+//! - [`linalg`]: sparse factorizations, Anderson acceleration, the closest-rotation fit and the
+//!   four-lane arithmetic it runs on;
+//! - [`deform`]: handles, their selection files and constraints, and the deformation methods (ARAP, the bi-harmonic
+//!   base, BS-ARAP and its coarse variant) behind one [`Deformer`](deform::deformer::Deformer);
+//! - [`animation`]: timelines of handle paths, recordings of solved frames, scene files and
+//!   glTF export.
+//!
+//! See ARCHITECTURE.md at the repository root for the data flow.
 
-pub mod anderson;
 pub mod animation;
-pub mod arap;
-pub mod biharmonic;
-pub mod bs_arap;
-pub mod cleanup;
-pub mod coarse;
-pub mod constraints;
-pub mod cotan;
-pub mod decimate;
-pub mod deformer;
+pub mod deform;
 pub mod error;
-pub mod export;
-pub mod handles;
+pub mod geometry;
 pub mod io;
-mod lanes;
-pub mod linsolve;
-pub mod mass;
-pub mod mesh;
-pub mod pose;
-pub mod quality;
-pub mod recording;
-pub mod reorder;
-pub mod rotation;
-pub mod scene;
-pub mod selection;
-pub mod shapes;
+pub mod linalg;
+pub(crate) mod pool;
 #[doc(hidden)]
 pub mod testing;
-pub mod topology;
 
-pub use arap::{Acceleration, Arap, ArapConfig, Energy, SolveStats};
-pub use bs_arap::{BaseKind, BsArap};
-pub use deformer::{BaseConfig, Deformer, Method};
+// The types a user of the crate starts from.
+pub use deform::arap::{Acceleration, Arap, ArapConfig, Energy, SolveStats};
+pub use deform::bs_arap::{BaseKind, BsArap};
+pub use deform::deformer::{BaseConfig, Deformer, Method};
+pub use deform::handles::{Handles, HandlesError};
+pub use deform::pose::{GroupTransform, handle_targets};
 pub use error::SolveError;
-pub use handles::{Handles, HandlesError};
-pub use mesh::{Mesh, MeshError};
-pub use pose::{GroupTransform, handle_targets};
+pub use geometry::mesh::{Mesh, MeshError};

@@ -3,11 +3,11 @@
 
 use std::path::PathBuf;
 
-use solver::animation::{
+use solver::animation::scene::{HandlesSpec, SCENE_VERSION, Scene, SceneError};
+use solver::animation::timeline::{
     AxisAngle, CircularPath, GroupPath, Interpolation, Key, KeyframedPath, Path, Timeline,
 };
-use solver::rotation::{IDENTITY, Mat3};
-use solver::scene::{HandlesSpec, SCENE_VERSION, Scene, SceneError};
+use solver::linalg::rotation::{IDENTITY, Mat3};
 use solver::testing::ScratchDir;
 use solver::{ArapConfig, GroupTransform, Method};
 
@@ -72,7 +72,7 @@ fn circular_path_starts_at_rest_stays_on_the_circle_and_returns() {
 fn circular_path_turns_by_the_swept_angle() {
     let c = circle(true, 0.4);
     let q = c.transform_at(c.period / 4.0).rotation;
-    let expected = solver::rotation::axis_angle(c.axis, std::f64::consts::FRAC_PI_2);
+    let expected = solver::linalg::rotation::axis_angle(c.axis, std::f64::consts::FRAC_PI_2);
     assert!(mat_dist(&q, &expected) < 1e-12);
 }
 
@@ -100,7 +100,10 @@ fn keys() -> Vec<Key> {
 fn key_transform(k: &Key) -> GroupTransform {
     GroupTransform {
         translation: k.translation,
-        rotation: solver::rotation::axis_angle(k.rotation.axis, k.rotation.degrees.to_radians()),
+        rotation: solver::linalg::rotation::axis_angle(
+            k.rotation.axis,
+            k.rotation.degrees.to_radians(),
+        ),
     }
 }
 
@@ -228,13 +231,13 @@ fn timeline_frames_cover_the_duration() {
 }
 
 fn write_test_mesh(dir: &std::path::Path) -> usize {
-    let mesh = solver::shapes::icosphere(1);
+    let mesh = solver::geometry::shapes::icosphere(1);
     solver::io::write_obj(&dir.join("ball.obj"), mesh.positions(), mesh.triangles()).unwrap();
     mesh.n_vertices()
 }
 
 fn labels(n: usize) -> Vec<i64> {
-    let mesh = solver::shapes::icosphere(1);
+    let mesh = solver::geometry::shapes::icosphere(1);
     (0..n)
         .map(|v| {
             let z = mesh.positions()[v][2];

@@ -1,10 +1,10 @@
 //! The bi-harmonic base: interpolation of the handles and the discrete Δ²B = 0 on free vertices.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::needless_range_loop)]
 
-use solver::constraints::Constraints;
-use solver::cotan::cotan_laplacian;
-use solver::mass::{MassKind, lumped_mass};
-use solver::shapes::icosphere;
+use solver::deform::constraints::Constraints;
+use solver::geometry::cotan::cotan_laplacian;
+use solver::geometry::mass::{MassKind, lumped_mass};
+use solver::geometry::shapes::icosphere;
 use solver::{ArapConfig, BsArap, Handles};
 
 /// y = L x for the sparse L, per coordinate.

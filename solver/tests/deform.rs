@@ -1,14 +1,14 @@
 //! Numerical properties of ARAP and BS-ARAP on procedural meshes, through one `check` helper.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-use solver::rotation::{axis_angle, mul_vec};
-use solver::shapes::icosphere;
+use solver::geometry::shapes::icosphere;
+use solver::linalg::rotation::{axis_angle, mul_vec};
 use solver::{
     ArapConfig, BaseConfig, Deformer, Energy, GroupTransform, Handles, Mesh, Method, handle_targets,
 };
 
 fn bar(level: u32) -> (Mesh, Handles) {
-    solver::shapes::bumpy_bar(level)
+    solver::geometry::shapes::bumpy_bar(level)
 }
 
 fn max_dist(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
@@ -64,7 +64,7 @@ fn rigid_motion_of_all_handles_moves_the_mesh_rigidly() {
     let transforms: Vec<(usize, GroupTransform)> = h
         .group_ids()
         .map(|k| {
-            let c = solver::pose::group_centroid(m.positions(), &h, k).unwrap();
+            let c = solver::deform::pose::group_centroid(m.positions(), &h, k).unwrap();
             let rc = mul_vec(&r, c);
             (
                 k,
@@ -137,7 +137,7 @@ fn components_without_handles_are_pinned() {
         assert!(x[n as usize..] == two.positions()[n as usize..], "the handle-less copy moved");
         assert!(max_dist(&x[..n as usize], &two.positions()[..n as usize]) > 0.1);
     });
-    let c = solver::constraints::Constraints::new(&two, &h2);
+    let c = solver::deform::constraints::Constraints::new(&two, &h2);
     assert_eq!(c.pinned_components, 1);
     assert!(c.notice().unwrap().contains("pinned"));
 }

@@ -6,11 +6,11 @@
 use std::ops::ControlFlow;
 use std::path::{Path as FsPath, PathBuf};
 
-use solver::animation::{
+use solver::animation::export::{ExportError, GltfExport, GltfFormat, export_gltf};
+use solver::animation::recording::{RecordError, Recording, record};
+use solver::animation::timeline::{
     CircularPath, GroupPath, Interpolation, Key, KeyframedPath, Path, Timeline,
 };
-use solver::export::{ExportError, GltfExport, GltfFormat, export_gltf};
-use solver::recording::{RecordError, Recording, record};
 use solver::testing::ScratchDir;
 use solver::{ArapConfig, Deformer, Handles, Mesh, Method};
 
@@ -20,7 +20,7 @@ fn temp_dir(name: &str) -> ScratchDir {
 
 /// An icosphere with three handle groups: top cap (0), bottom cap (1), a side patch (2).
 fn setup() -> (Mesh, Handles) {
-    let mesh = solver::shapes::icosphere(2);
+    let mesh = solver::geometry::shapes::icosphere(2);
     let labels: Vec<i64> = mesh
         .positions()
         .iter()

@@ -3,15 +3,15 @@
 //! local-global step decreases it) and so does its distance to converged ARAP.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-use solver::quality::distances;
-use solver::rotation::axis_angle;
+use solver::deform::quality::distances;
+use solver::linalg::rotation::axis_angle;
 use solver::{
     Arap, ArapConfig, BaseConfig, Deformer, Energy, GroupTransform, Handles, Mesh, Method,
     handle_targets,
 };
 
 /// The test pose: the bumpy bar with its first group moved and turned, and converged full ARAP
-/// for it ([`solver::quality::Reference`]).
+/// for it ([`solver::deform::quality::Reference`]).
 struct Case {
     mesh: Mesh,
     handles: Handles,
@@ -21,7 +21,7 @@ struct Case {
 }
 
 fn case() -> Case {
-    let (mesh, handles) = solver::shapes::bumpy_bar(4);
+    let (mesh, handles) = solver::geometry::shapes::bumpy_bar(4);
     let diag = mesh.bbox_diagonal();
     let t = GroupTransform {
         translation: [0.0, 0.2 * diag, 0.1 * diag],
@@ -29,7 +29,8 @@ fn case() -> Case {
     };
     let targets = handle_targets(mesh.positions(), &handles, &[(0, t)]).unwrap();
     let r =
-        solver::quality::Reference::new(&mesh, &handles, &targets, Energy::SpokesAndRims).unwrap();
+        solver::deform::quality::Reference::new(&mesh, &handles, &targets, Energy::SpokesAndRims)
+            .unwrap();
     assert!(r.stats().converged);
     let reference = r.positions().to_vec();
     Case { mesh, handles, diag, targets, reference }

@@ -8,10 +8,10 @@
 //! guards against them cannot regress.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+use solver::animation::scene::{Scene, SceneError};
+use solver::deform::selection::{SelectionError, parse_dmat, parse_spheres};
+use solver::geometry::shapes::icosphere;
 use solver::io::{Format, LoadError, load_mesh_from_bytes};
-use solver::scene::{Scene, SceneError};
-use solver::selection::{SelectionError, parse_dmat, parse_spheres};
-use solver::shapes::icosphere;
 
 fn mesh_err(bytes: &[u8], format: Format) -> LoadError {
     match load_mesh_from_bytes(bytes, format, "fuzz") {

@@ -3,9 +3,9 @@
 //! handle, coincident targets) give a finite result or a typed error with every method.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+use solver::animation::scene::{MAX_ANDERSON_WINDOW, MAX_ITERATIONS, Scene, SceneError};
+use solver::geometry::shapes::icosphere;
 use solver::io::{SaveError, write_obj};
-use solver::scene::{MAX_ANDERSON_WINDOW, MAX_ITERATIONS, Scene, SceneError};
-use solver::shapes::icosphere;
 use solver::{
     ArapConfig, BaseConfig, Deformer, GroupTransform, Handles, Mesh, Method, SolveError,
     handle_targets,
@@ -132,7 +132,7 @@ fn every_vertex_a_handle_with_every_method_and_a_rotation() {
     let all = Handles::from_labels(&vec![0; m.n_vertices()], m.n_vertices()).unwrap();
     let tr = GroupTransform {
         translation: [0.5, 0.0, -1.0],
-        rotation: solver::rotation::axis_angle([0.0, 0.0, 1.0], 0.7),
+        rotation: solver::linalg::rotation::axis_angle([0.0, 0.0, 1.0], 0.7),
     };
     let targets = handle_targets(m.positions(), &all, &[(0, tr)]).unwrap();
     for method in Method::ALL {

@@ -12,10 +12,10 @@ use gltf_files::{tet_bin, tet_doc, tet_gltf_with, to_glb};
 use serde_json::json;
 
 use solver::HandlesError;
+use solver::deform::selection::{SelectionError, load_selection, write_dmat};
+use solver::geometry::topology::{boundary_edges, connected_components, non_manifold_edges};
 use solver::io::{Format, LoadError, load_mesh, load_mesh_from_bytes, write_obj};
-use solver::selection::{SelectionError, load_selection, write_dmat};
 use solver::testing::ScratchDir;
-use solver::topology::{boundary_edges, connected_components, non_manifold_edges};
 
 /// A fresh, empty folder for this test process.
 fn temp_dir(tag: &str) -> ScratchDir {

@@ -11,13 +11,13 @@
 //! warm start would stop, at tolerance 1e-4, orders of magnitude further away.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-use solver::quality::distances;
-use solver::rotation::axis_angle;
+use solver::deform::quality::distances;
+use solver::linalg::rotation::axis_angle;
 use solver::{ArapConfig, BaseConfig, Deformer, GroupTransform, Method, handle_targets};
 
 #[test]
 fn warm_started_sequence_returns_exactly_to_rest() {
-    let (mesh, handles) = solver::shapes::bumpy_bar(3);
+    let (mesh, handles) = solver::geometry::shapes::bumpy_bar(3);
     let diag = mesh.bbox_diagonal();
     let base = BaseConfig { coarse_vertices: Some(mesh.n_vertices() / 4), ..Default::default() };
     let mut failures = Vec::new();
@@ -72,7 +72,7 @@ fn warm_started_sequence_returns_exactly_to_rest() {
 /// rest pose), although `c + R(p − c) + t` with `R = I`, `t = 0` rounds for some vertices.
 #[test]
 fn identity_transform_targets_are_the_rest_positions_exactly() {
-    let (mesh, _) = solver::shapes::bumpy_bar(3);
+    let (mesh, _) = solver::geometry::shapes::bumpy_bar(3);
     // A group spread along the bar, its centroid far from some of its vertices' coordinates,
     // makes `c + (p − c)` round (the end caps alone do not).
     let labels: Vec<Option<u32>> = mesh
@@ -89,7 +89,7 @@ fn identity_transform_targets_are_the_rest_positions_exactly() {
     assert_eq!(targets, rest);
     // The arithmetic form does round here: the test above would catch its return.
     let rounded = handles.group_ids().any(|k| {
-        let c = solver::pose::group_centroid(mesh.positions(), &handles, k).unwrap();
+        let c = solver::deform::pose::group_centroid(mesh.positions(), &handles, k).unwrap();
         handles.group(k).unwrap().iter().any(|&v| {
             let p = mesh.positions()[v as usize];
             (0..3).any(|d| c[d] + (p[d] - c[d]) + 0.0 != p[d])

@@ -5,9 +5,9 @@
 
 use std::path::PathBuf;
 
+use solver::deform::selection::load_selection;
+use solver::geometry::topology::edge_counts;
 use solver::io::load_mesh;
-use solver::selection::load_selection;
-use solver::topology::edge_counts;
 
 /// `(file, vertices, faces, boundary edges, genus)` from the README; every mesh has one
 /// component and no non-manifold edge. Bunny has 5 holes.

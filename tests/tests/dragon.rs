@@ -18,7 +18,7 @@ fn faired_and_coarse_variants_deform_the_dragon() {
         "/../bench/handles/dragon.json"
     ))
     .unwrap();
-    let handles = solver::selection::parse_spheres(&spheres, mesh.positions()).unwrap();
+    let handles = solver::deform::selection::parse_spheres(&spheres, mesh.positions()).unwrap();
     let diag = mesh.bbox_diagonal();
     let tr = [(0, GroupTransform { translation: [0.0, 0.05 * diag, 0.0], ..Default::default() })];
     let targets = handle_targets(mesh.positions(), &handles, &tr).unwrap();

@@ -13,7 +13,7 @@ fn knight_translated_group_converges_with_handles_on_target() {
     let loaded = solver::io::load_mesh(&dir.join("decimated-knight.off")).unwrap();
     let mesh = loaded.mesh;
     assert!(!loaded.report.changed(), "the knight is clean");
-    let handles = solver::selection::load_selection(
+    let handles = solver::deform::selection::load_selection(
         &dir.join("decimated-knight-selection.dmat"),
         mesh.positions(),
         Some(&loaded.report.vertex_map),

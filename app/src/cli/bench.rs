@@ -15,7 +15,7 @@
 //!
 //! `--quality` also measures each method's pose at one frame (`--quality-frame F`, default the
 //! middle one, ⌈N/2⌉, where the group is farthest from rest; the last frame is the rest pose,
-//! which every method returns exactly) against converged full ARAP for that frame's targets ([`solver::quality::Reference`]):
+//! which every method returns exactly) against converged full ARAP for that frame's targets ([`solver::deform::quality::Reference`]):
 //! max and mean vertex distance over the bounding-box diagonal, and the ARAP energy of the pose
 //! on the mesh. `--quality-reference rest` (default) converges from rest at that frame's
 //! targets; `path` converges at every frame up to it in turn, each from the previous one (the
@@ -40,7 +40,7 @@
 use super::{BaseArgs, EnergyArg, PathArg, check_stopping, load, load_handles};
 use anyhow::Context;
 use clap::{Args, ValueEnum};
-use solver::arap::Acceleration;
+use solver::deform::arap::Acceleration;
 use solver::{ArapConfig, Deformer, GroupTransform, Method, handle_targets};
 use std::time::Instant;
 
@@ -169,7 +169,7 @@ pub struct MethodResult {
     pub first_frame_normalized_energies: Vec<f64>,
     /// With `--quality`: the pose of the chosen frame against converged full ARAP.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub quality: Option<solver::quality::Quality>,
+    pub quality: Option<solver::deform::quality::Quality>,
     /// With `--quality-reference own`: the reference converged from this method's pose.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub quality_reference: Option<ReferenceSummary>,
@@ -419,12 +419,20 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
     let shared = match (quality_frame, reference_start) {
         (Some(f), ReferenceStart::Rest) => {
             let targets = frame_targets(&setup, g, f)?;
-            Some((f, solver::quality::Reference::new(mesh, &handles, &targets, a.energy.into())))
+            Some((
+                f,
+                solver::deform::quality::Reference::new(mesh, &handles, &targets, a.energy.into()),
+            ))
         }
         (Some(f), ReferenceStart::Path) => {
             let path =
                 (1..=f).map(|k| frame_targets(&setup, g, k)).collect::<Result<Vec<_>, _>>()?;
-            let r = solver::quality::Reference::along_path(mesh, &handles, &path, a.energy.into());
+            let r = solver::deform::quality::Reference::along_path(
+                mesh,
+                &handles,
+                &path,
+                a.energy.into(),
+            );
             Some((f, r))
         }
         _ => None,
@@ -485,8 +493,9 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
                     let t = Instant::now();
                     let energy = a.energy.into();
                     // A reference that fails is reported beside the method, not fatal.
-                    match solver::quality::Reference::from_pose(mesh, &handles, targets, x, energy)
-                    {
+                    match solver::deform::quality::Reference::from_pose(
+                        mesh, &handles, targets, x, energy,
+                    ) {
                         Ok(mut own_ref) => {
                             r.quality = Some(own_ref.measure(x));
                             let st = own_ref.stats();
@@ -605,7 +614,7 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
             if c.coarse_vertices.is_some() {
                 "--coarse-vertices".to_string()
             } else {
-                format!("automatic: {}", solver::coarse::CoarseConfig::AUTO_RULE)
+                format!("automatic: {}", solver::deform::coarse::CoarseConfig::AUTO_RULE)
             },
             c.smoothing,
             c.fine_iterations

@@ -5,7 +5,7 @@ use super::{
 };
 use anyhow::{Context, bail};
 use clap::Args;
-use solver::rotation::{axis_angle, mul_mat};
+use solver::linalg::rotation::{axis_angle, mul_mat};
 use solver::{ArapConfig, Deformer, GroupTransform, handle_targets};
 use std::time::Instant;
 

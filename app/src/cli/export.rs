@@ -10,9 +10,9 @@ use anyhow::Context;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use solver::Deformer;
-use solver::export::{GltfExport, GltfFormat};
-use solver::recording::record;
-use solver::scene::Scene;
+use solver::animation::export::{GltfExport, GltfFormat};
+use solver::animation::recording::record;
+use solver::animation::scene::Scene;
 
 #[derive(Debug, Args)]
 pub struct ExportArgs {

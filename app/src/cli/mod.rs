@@ -101,12 +101,12 @@ pub fn load_handles(
     loaded: &solver::io::LoadedMesh,
 ) -> anyhow::Result<solver::Handles> {
     let map = Some(loaded.report.vertex_map.as_slice());
-    Ok(solver::selection::load_selection(path, loaded.mesh.positions(), map)?)
+    Ok(solver::deform::selection::load_selection(path, loaded.mesh.positions(), map)?)
 }
 
 /// The acceleration for `--anderson W` (0: none), checked against the scene files' limit.
 pub fn acceleration(window: usize) -> anyhow::Result<solver::Acceleration> {
-    let max = solver::scene::MAX_ANDERSON_WINDOW;
+    let max = solver::animation::scene::MAX_ANDERSON_WINDOW;
     anyhow::ensure!(window <= max, "--anderson must be between 0 (off) and {max} (got {window})");
     Ok(match window {
         0 => solver::Acceleration::None,
@@ -151,16 +151,16 @@ impl BaseArgs {
         );
         if let Some(n) = self.coarse_vertices {
             anyhow::ensure!(
-                solver::coarse::COARSE_VERTICES.contains(&n),
+                solver::deform::coarse::COARSE_VERTICES.contains(&n),
                 "--coarse-vertices must be between {} and {} (got {n})",
-                solver::coarse::COARSE_VERTICES.start(),
-                solver::coarse::COARSE_VERTICES.end()
+                solver::deform::coarse::COARSE_VERTICES.start(),
+                solver::deform::coarse::COARSE_VERTICES.end()
             );
         }
         anyhow::ensure!(
-            self.fine_iterations <= solver::coarse::MAX_FINE_ITERATIONS,
+            self.fine_iterations <= solver::deform::coarse::MAX_FINE_ITERATIONS,
             "--fine-iterations must be between 0 and {} (got {})",
-            solver::coarse::MAX_FINE_ITERATIONS,
+            solver::deform::coarse::MAX_FINE_ITERATIONS,
             self.fine_iterations
         );
         Ok(solver::BaseConfig {

@@ -109,7 +109,7 @@ struct SolverView {
 }
 
 /// Quality of the left and right side-by-side results against converged ARAP.
-type SideBySideQuality = [solver::quality::Quality; 2];
+type SideBySideQuality = [solver::deform::quality::Quality; 2];
 
 /// Seconds of solver history the plot shows.
 const PLOT_SECONDS: f64 = 10.0;
@@ -180,7 +180,7 @@ pub struct EditorApp {
     snapshot: Snapshot,
     last_snapshot: Option<Instant>,
     last_autosave: Instant,
-    autosaved: Option<solver::scene::Scene>,
+    autosaved: Option<solver::animation::scene::Scene>,
     /// An autosave from a session that did not end cleanly, offered back at start.
     restore_offer: Option<RestoreOffer>,
     /// The scene file Save writes to.
@@ -287,7 +287,9 @@ impl EditorApp {
         if let Some(p) = &app.persist {
             app.recent = p.recent();
             app.restore_offer = p.pending_autosave().map(|(path, when)| RestoreOffer {
-                mesh: solver::scene::Scene::read(&path).map(|s| s.mesh).map_err(|e| e.to_string()),
+                mesh: solver::animation::scene::Scene::read(&path)
+                    .map(|s| s.mesh)
+                    .map_err(|e| e.to_string()),
                 path,
                 when,
             });
@@ -499,7 +501,7 @@ impl EditorApp {
     }
 
     /// Frames of the kept recording.
-    pub fn recorded_frames(&self) -> Option<&solver::recording::Recording> {
+    pub fn recorded_frames(&self) -> Option<&solver::animation::recording::Recording> {
         self.recorded.as_ref().map(|r| r.recording.as_ref())
     }
 
@@ -562,7 +564,7 @@ impl EditorApp {
     // ---- Scenes, recent files, autosave ---------------------------------------------------
 
     /// The scene that would be written at `path`.
-    fn document(&self, path: &Path) -> Result<solver::scene::Scene, String> {
+    fn document(&self, path: &Path) -> Result<solver::animation::scene::Scene, String> {
         let scene = self.scene.as_ref().ok_or("no mesh is open")?;
         document::to_scene(
             path,
@@ -834,7 +836,7 @@ impl EditorApp {
 
     /// Quality of the side-by-side results (left, right) against converged ARAP, and whether it
     /// is for the current pose.
-    pub fn side_by_side_quality(&self) -> Option<([solver::quality::Quality; 2], bool)> {
+    pub fn side_by_side_quality(&self) -> Option<([solver::deform::quality::Quality; 2], bool)> {
         let key = (self.scene_generation, self.pose_generation);
         self.compared.as_ref().map(|(k, q)| (*q, *k == key))
     }
@@ -1991,13 +1993,13 @@ impl EditorApp {
         if self.settings.bs_variant == solver::Method::BsArapCoarse {
             let vertices = self.scene.as_ref().map_or(100_000, |s| s.mesh.n_vertices());
             // The size the solver uses; the manual slider starts from it, within its range.
-            let auto = solver::coarse::CoarseConfig::auto_coarse_vertices(vertices);
+            let auto = solver::deform::coarse::CoarseConfig::auto_coarse_vertices(vertices);
             let n = vertices.max(64);
             let mut automatic = self.settings.base.coarse_vertices.is_none();
             ui.checkbox(&mut automatic, format!("automatic coarse size ({auto})")).on_hover_text(
                 format!(
                     "{}: a coarse level that is a fraction of the mesh",
-                    solver::coarse::CoarseConfig::AUTO_RULE
+                    solver::deform::coarse::CoarseConfig::AUTO_RULE
                 ),
             );
             let mut count = self.settings.base.coarse_vertices.unwrap_or(auto.clamp(64, n));

@@ -6,7 +6,7 @@
 //! fingers) is not painted.
 
 use glam::Vec3;
-use solver::topology::Adjacency;
+use solver::geometry::topology::Adjacency;
 
 /// Vertices covered by a brush of `radius` centred at `center` on triangle `tri`.
 ///

@@ -1,14 +1,14 @@
-//! The editor's state as a scene file (`solver::scene::Scene`, versioned JSON) and back.
+//! The editor's state as a scene file (`solver::animation::scene::Scene`, versioned JSON) and back.
 //!
 //! What a scene holds: the mesh path (relative to the scene file), the handle labels inline,
 //! the timeline ([`effective_timeline`]: static non-rest poses become one-key paths, so the
 //! pose you see is the pose you load), the method and its settings, the camera, and the group
-//! names and colors (`editor`). Reading and writing (atomic) are `solver::scene`'s.
+//! names and colors (`editor`). Reading and writing (atomic) are `solver::animation::scene`'s.
 
 use std::path::{Path, PathBuf};
 
 use eframe::egui::Color32;
-use solver::scene::{HandlesSpec, SCENE_VERSION, Scene, relative_path};
+use solver::animation::scene::{HandlesSpec, SCENE_VERSION, Scene, relative_path};
 
 use super::camera::OrbitCamera;
 use super::solver_thread::MethodSettings;
@@ -119,14 +119,14 @@ pub const MAX_UI_ITERATIONS: usize = 500;
 #[allow(clippy::unwrap_used, clippy::expect_used)]
 mod tests {
     use super::*;
-    use solver::animation::{CircularPath, Path as AnimPath};
+    use solver::animation::timeline::{CircularPath, Path as AnimPath};
 
     #[test]
     fn a_saved_scene_loads_back_to_the_same_state() {
         let dir = solver::testing::ScratchDir::new("doc");
         std::fs::create_dir_all(dir.join("scenes")).unwrap();
         let mesh_path = dir.join("bar.obj");
-        let (mesh, handles) = solver::shapes::bumpy_bar(1);
+        let (mesh, handles) = solver::geometry::shapes::bumpy_bar(1);
         solver::io::write_obj(&mesh_path, mesh.positions(), mesh.triangles()).unwrap();
 
         let mut edit = EditState::from_labels(handles.labels().to_vec());
@@ -162,7 +162,7 @@ mod tests {
         assert_eq!(scene.mesh, "../bar.obj");
         scene.save(&scene_path).unwrap();
 
-        let loaded = solver::scene::Scene::load(&scene_path).unwrap();
+        let loaded = solver::animation::scene::Scene::load(&scene_path).unwrap();
         let back = apply_scene(
             &loaded.scene,
             loaded.handles.labels().to_vec(),

@@ -2,8 +2,8 @@
 //!
 //! Each job runs on its own thread (panics caught), publishes its progress through atomics the
 //! UI reads every frame, stops when its cancel flag is set, and hands its result back over a
-//! channel the UI polls without blocking. The numerics are `solver::recording::record` and
-//! `solver::export` — the same code `bsarap export` runs, so the editor's recording and the
+//! channel the UI polls without blocking. The numerics are `solver::animation::recording::record` and
+//! `solver::animation::export` — the same code `bsarap export` runs, so the editor's recording and the
 //! headless export give the same frames.
 
 use std::ops::ControlFlow;
@@ -12,9 +12,9 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::mpsc::{Receiver, TryRecvError, channel};
 
-use solver::animation::Timeline;
-use solver::export::{GltfExport, GltfFormat};
-use solver::recording::{Recording, record};
+use solver::animation::export::{GltfExport, GltfFormat};
+use solver::animation::recording::{Recording, record};
+use solver::animation::timeline::Timeline;
 use solver::{ArapConfig, BaseConfig, Deformer, Handles, Mesh, Method};
 
 use super::pose::{GroupPose, handle_targets};
@@ -163,7 +163,8 @@ pub fn spawn_export(
         "export",
         move || repaint(),
         move |progress| {
-            let fail = |e: solver::export::ExportError| format!("{}: {e}", path.display());
+            let fail =
+                |e: solver::animation::export::ExportError| format!("{}: {e}", path.display());
             let format = GltfFormat::from_path(&path).map_err(fail)?;
             let export = GltfExport::new(&mesh, &recording, format).map_err(fail)?;
             let bytes = export
@@ -190,17 +191,18 @@ pub struct QualityInput {
 
 /// Issue 8's quality figures of both side-by-side results: distance to converged full ARAP
 /// for the same handle targets (max and mean over the diagonal) and the ARAP energy measured on
-/// the mesh (`solver::quality::Reference`). The reference solve costs seconds on a dense mesh,
+/// the mesh (`solver::deform::quality::Reference`). The reference solve costs seconds on a dense mesh,
 /// so the editor runs this when a pose has settled, never on the UI thread.
 pub fn spawn_quality(
     input: QualityInput,
     repaint: impl Fn() + Send + 'static,
-) -> Job<[solver::quality::Quality; 2]> {
+) -> Job<[solver::deform::quality::Quality; 2]> {
     spawn("quality", repaint, move |_| {
         let QualityInput { mesh, handles, poses, energy, results } = input;
         let targets = handle_targets(&mesh, &handles, &poses)?;
-        let mut reference = solver::quality::Reference::new(&mesh, &handles, &targets, energy)
-            .map_err(|e| format!("quality reference: {e}"))?;
+        let mut reference =
+            solver::deform::quality::Reference::new(&mesh, &handles, &targets, energy)
+                .map_err(|e| format!("quality reference: {e}"))?;
         let f64s =
             |x: &[[f32; 3]]| -> Vec<[f64; 3]> { x.iter().map(|p| p.map(f64::from)).collect() };
         if results.iter().any(|r| r.len() != mesh.n_vertices()) {
@@ -214,7 +216,7 @@ pub fn spawn_quality(
 #[allow(clippy::unwrap_used, clippy::expect_used)]
 mod tests {
     use super::*;
-    use solver::animation::{CircularPath, GroupPath, Path};
+    use solver::animation::timeline::{CircularPath, GroupPath, Path};
     use std::time::{Duration, Instant};
 
     fn wait<T>(job: &Job<T>) -> Result<T, String> {
@@ -229,7 +231,7 @@ mod tests {
     }
 
     fn input(n_frames: usize) -> RecordInput {
-        let (mesh, handles) = solver::shapes::bumpy_bar(2);
+        let (mesh, handles) = solver::geometry::shapes::bumpy_bar(2);
         RecordInput {
             mesh: Arc::new(mesh),
             handles,

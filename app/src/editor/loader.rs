@@ -4,7 +4,7 @@
 //! derives from the topology once (adjacency, BVH, index buffers, grid), then hand back a
 //! [`Scene`] over a channel that the UI polls without blocking. A failure comes back as an
 //! error string; the UI keeps the current scene. Reading and cleaning are `solver::io`'s;
-//! selections are `solver::selection`'s; scene files (`.json`) are `solver::scene`'s: the
+//! selections are `solver::deform::selection`'s; scene files (`.json`) are `solver::animation::scene`'s: the
 //! mesh they name is loaded and their handles resolved here, the rest is applied by the UI.
 
 use std::path::{Path, PathBuf};
@@ -18,7 +18,7 @@ use solver::{Handles, Mesh};
 
 use super::picking::Bvh;
 use super::renderer::{Shape, Topology, VertexData, build_grid};
-use solver::topology::Adjacency;
+use solver::geometry::topology::Adjacency;
 
 /// A loaded mesh with everything derived from its topology.
 pub struct Scene {
@@ -40,7 +40,7 @@ pub struct Scene {
     /// Where `default_labels` came from.
     pub selection_path: Option<PathBuf>,
     /// The scene file this was opened from, and its contents.
-    pub document: Option<(PathBuf, solver::scene::Scene)>,
+    pub document: Option<(PathBuf, solver::animation::scene::Scene)>,
 }
 
 /// Whether `path` names a scene file rather than a mesh.
@@ -131,8 +131,8 @@ pub fn load_scene(path: &Path, version: u64) -> anyhow::Result<Scene> {
 
 /// Reads a scene file, loads its mesh and resolves its handles (runs on the loader thread).
 pub fn load_scene_file(path: &Path, version: u64) -> anyhow::Result<Scene> {
-    let doc = solver::scene::Scene::read(path)?;
-    let mesh_path = solver::scene::Scene::resolve_path(path, &doc.mesh);
+    let doc = solver::animation::scene::Scene::read(path)?;
+    let mesh_path = solver::animation::scene::Scene::resolve_path(path, &doc.mesh);
     let mut scene = load_scene(&mesh_path, version)
         .with_context(|| format!("the scene's mesh {}", mesh_path.display()))?;
     let handles = doc.resolve_handles(path, scene.mesh.positions(), Some(&scene.vertex_map))?;
@@ -160,14 +160,14 @@ pub fn load_selection(
     positions: &[[f64; 3]],
     vertex_map: &[Option<u32>],
 ) -> anyhow::Result<Vec<Option<u32>>> {
-    let handles = solver::selection::load_selection(path, positions, Some(vertex_map))?;
+    let handles = solver::deform::selection::load_selection(path, positions, Some(vertex_map))?;
     Ok(handles.labels().to_vec())
 }
 
 /// Writes labels as a libigl `.dmat` column (`-1` free, `k` group), atomically.
 pub fn write_dmat(path: &Path, labels: &[Option<u32>]) -> anyhow::Result<()> {
     let handles = Handles::from_options(labels.to_vec()).context("nothing to save")?;
-    solver::selection::write_dmat(path, &handles)
+    solver::deform::selection::write_dmat(path, &handles)
         .with_context(|| format!("cannot write {}", path.display()))
 }
 

@@ -11,8 +11,8 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, SystemTime};
 
+use solver::animation::scene::Scene;
 use solver::io::write_atomic;
-use solver::scene::Scene;
 
 /// How often a changed scene is written to the autosave file.
 pub const AUTOSAVE_INTERVAL: Duration = Duration::from_secs(120);
@@ -162,7 +162,10 @@ mod tests {
         assert!(p.pending_autosave().is_none());
         let scene = Scene::new(
             "/abs/mesh.obj",
-            solver::scene::HandlesSpec { labels: Some(vec![0, -1, -1]), ..Default::default() },
+            solver::animation::scene::HandlesSpec {
+                labels: Some(vec![0, -1, -1]),
+                ..Default::default()
+            },
         );
         p.write_autosave(&scene).unwrap();
         let (path, _) = p.pending_autosave().unwrap();

@@ -74,13 +74,13 @@ impl GroupPose {
     }
 
     /// A timeline key at `time` holding this pose.
-    pub fn to_key(&self, time: f64) -> solver::animation::Key {
+    pub fn to_key(&self, time: f64) -> solver::animation::timeline::Key {
         let (axis, angle) = self.quat().to_axis_angle();
         let axis = if axis.is_finite() && angle.abs() > 0.0 { axis } else { DVec3::Z };
-        solver::animation::Key {
+        solver::animation::timeline::Key {
             time,
             translation: self.translation,
-            rotation: solver::animation::AxisAngle {
+            rotation: solver::animation::timeline::AxisAngle {
                 axis: axis.to_array(),
                 degrees: angle.to_degrees(),
             },
@@ -122,9 +122,9 @@ mod tests {
         assert_eq!(back.translation, pose.translation);
         assert!(back.quat().dot(pose.quat()).abs() > 1.0 - 1e-12);
         let key = pose.to_key(1.5);
-        let from_key = solver::animation::KeyframedPath {
+        let from_key = solver::animation::timeline::KeyframedPath {
             keys: vec![key],
-            interpolation: solver::animation::Interpolation::Linear,
+            interpolation: solver::animation::timeline::Interpolation::Linear,
         }
         .transform_at(1.5);
         let again = GroupPose::from_transform(&from_key);

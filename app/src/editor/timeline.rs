@@ -1,7 +1,7 @@
 //! The timeline: playback clock, per-group paths driving the handle poses, and the timeline
 //! panel (duration, frame rate, loop, play/pause, scrub, path and keyframe editing).
 //!
-//! The paths themselves are `solver::animation`'s ([`Timeline`], [`Path`]); this module only
+//! The paths themselves are `solver::animation::timeline`'s ([`Timeline`], [`Path`]); this module only
 //! evaluates them at the current time into [`GroupPose`]s (what the solver threads take) and
 //! edits them. The panel returns [`TimelineAction`]s; the app applies them (undo, solver
 //! commands, recording jobs).
@@ -9,7 +9,9 @@
 use std::time::Instant;
 
 use eframe::egui;
-use solver::animation::{CircularPath, GroupPath, Interpolation, KeyframedPath, Path, Timeline};
+use solver::animation::timeline::{
+    CircularPath, GroupPath, Interpolation, KeyframedPath, Path, Timeline,
+};
 
 use super::pose::GroupPose;
 use super::undo::EditState;

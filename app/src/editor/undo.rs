@@ -6,7 +6,7 @@
 //! `#V` bytes-ish and the history is capped, so this stays small and obviously correct.
 
 use eframe::egui::Color32;
-use solver::animation::{Path, Timeline};
+use solver::animation::timeline::{Path, Timeline};
 
 use super::pose::GroupPose;
 
@@ -102,7 +102,7 @@ impl EditState {
     pub fn set_path(&mut self, k: usize, path: Path) {
         self.timeline.paths.retain(|p| p.group != k);
         if path != Path::Static {
-            self.timeline.paths.push(solver::animation::GroupPath { group: k, path });
+            self.timeline.paths.push(solver::animation::timeline::GroupPath { group: k, path });
             self.timeline.paths.sort_by_key(|p| p.group);
         }
     }
@@ -184,7 +184,7 @@ mod tests {
         s.timeline.duration = 1.0;
         s.set_path(
             0,
-            Path::Circular(solver::animation::CircularPath::new(
+            Path::Circular(solver::animation::timeline::CircularPath::new(
                 [0.0, 0.0, 1.0],
                 1.0,
                 f64::INFINITY,
@@ -196,8 +196,11 @@ mod tests {
     #[test]
     fn undo_redo_round_trip_and_delete_group() {
         let mut s = EditState::from_labels(vec![Some(0), Some(1), None, Some(1)]);
-        let circle =
-            Path::Circular(solver::animation::CircularPath::new([0.0, 0.0, 1.0], 1.0, 1.0));
+        let circle = Path::Circular(solver::animation::timeline::CircularPath::new(
+            [0.0, 0.0, 1.0],
+            1.0,
+            1.0,
+        ));
         s.set_path(1, circle.clone());
         let mut h = History::default();
         h.push(s.clone());

@@ -25,7 +25,7 @@ use nalgebra::{Matrix4, Vector4};
 
 use super::RawMesh;
 use super::error::Ctx;
-use crate::io::LoadError;
+use super::error::LoadError;
 
 /// Extensions whose data this reader cannot decode, with what a user can do about each.
 const UNDECODABLE: [(&str, &str); 3] = [

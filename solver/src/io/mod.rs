@@ -1,8 +1,9 @@
-//! Mesh files: reading OBJ, OFF, PLY, STL and glTF into a cleaned [`crate::Mesh`], writing OBJ.
+//! Mesh files: reading OBJ, OFF, PLY, STL and glTF into a cleaned
+//! [`crate::geometry::mesh::Mesh`], writing OBJ.
 //!
 //! [`load_mesh`] picks the parser from the file extension (case-insensitive), parses the file
 //! into positions (`#V×3 f64`, file order) and triangles (`#F×3 u32`, polygons fan-triangulated
-//! as `(v0, v_k, v_k+1)`), then runs [`crate::cleanup::clean`] (weld, drop degenerate, duplicated
+//! as `(v0, v_k, v_k+1)`), then runs [`crate::geometry::cleanup::clean`] (weld, drop degenerate, duplicated
 //! and unreferenced elements) and returns the mesh with the [`CleanReport`].
 //!
 //! Every failure is a [`LoadError`] whose Display is one line, `file:line: what is wrong`. No
@@ -24,8 +25,8 @@ use std::path::Path;
 pub use error::LoadError;
 pub use write::{SaveError, write_atomic, write_obj};
 
-use crate::Mesh;
-use crate::cleanup::{CleanError, CleanReport, clean};
+use crate::geometry::cleanup::{CleanError, CleanReport, clean};
+use crate::geometry::mesh::Mesh;
 use error::Ctx;
 
 /// A mesh file format.
@@ -153,9 +154,4 @@ pub(crate) fn push_fan(triangles: &mut Vec<[u32; 3]>, poly: &[u32]) {
             triangles.push([first, pair[0], pair[1]]);
         }
     }
-}
-
-/// Hash key of a position: its bits, with `-0.0` made `+0.0` (the same point).
-pub(crate) fn key(p: [f64; 3]) -> [u64; 3] {
-    p.map(|c| (c + 0.0).to_bits())
 }

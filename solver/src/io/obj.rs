@@ -20,6 +20,7 @@ use std::collections::HashMap;
 use super::RawMesh;
 use super::error::{Ctx, LoadError};
 use super::text::{as_text, coord, token_lines};
+use crate::geometry::cleanup::key;
 
 /// Parses OBJ bytes into file-order positions (`#V×3`) and fan-triangulated faces (`#F×3`).
 pub(crate) fn parse(bytes: &[u8], ctx: Ctx) -> Result<RawMesh, LoadError> {
@@ -202,7 +203,7 @@ fn read_with_tobj(text: &str, ctx: Ctx) -> Result<Option<Vec<tobj::Model>>, Load
 fn map_back(models: &[tobj::Model], positions: &[[f64; 3]]) -> Option<Vec<[u32; 3]>> {
     let mut first: HashMap<[u64; 3], u32> = HashMap::with_capacity(positions.len());
     for (i, p) in positions.iter().enumerate() {
-        first.entry(super::key(*p)).or_insert(i as u32);
+        first.entry(key(*p)).or_insert(i as u32);
     }
     let mut triangles = Vec::new();
     for model in models {
@@ -212,7 +213,7 @@ fn map_back(models: &[tobj::Model], positions: &[[f64; 3]]) -> Option<Vec<[u32; 
             .chunks_exact(3)
             .map(|c| {
                 let p = [c[0], c[1], c[2]];
-                first.get(&super::key(p)).copied()
+                first.get(&key(p)).copied()
             })
             .collect::<Option<_>>()?;
         for t in m.indices.chunks_exact(3) {

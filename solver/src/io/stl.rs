@@ -1,5 +1,5 @@
 //! STL reading, binary and ASCII. STL is a triangle soup: every triangle has its own three
-//! vertices, so the result needs welding ([`crate::cleanup::clean`] does it).
+//! vertices, so the result needs welding ([`crate::geometry::cleanup::clean`] does it).
 //!
 //! Binary: an 80-byte header, a little-endian `u32` triangle count `n`, then `n` records of 50
 //! bytes (normal, three vertices as `f32`, a `u16` attribute). A file is binary when its size is

@@ -1,0 +1,370 @@
+//! Scenes: a versioned JSON file naming a mesh, its handle groups, the timeline, the method and
+//! its settings, and an optional camera the editor owns.
+//!
+//! ```json
+//! {
+//!   "version": 1,
+//!   "mesh": "../creature.obj",
+//!   "handles": {"file": "../creature.handles.json"},
+//!   "timeline": {"duration": 2.0, "fps": 30, "looping": true,
+//!                "paths": [{"group": 0, "path": {"type": "circular", "axis": [0, 0, 1],
+//!                           "radius": 0.3, "period": 2.0}}]},
+//!   "method": "bsarap",
+//!   "arap": {"energy": "spokes-and-rims", "tolerance": 1e-4, "max_iterations": 100},
+//!   "camera": {"any": "JSON the editor stores"},
+//!   "editor": {"groups": [{"name": "left foot", "color": [230, 25, 75]}]}
+//! }
+//! ```
+//!
+//! Paths inside a scene (`mesh`, `handles.file`) are relative to the scene file's folder
+//! (absolute paths are kept as they are). `handles` is exactly one of `{"file": PATH}` (a `.dmat`
+//! or sphere `.json`), `{"labels": [-1, 0, …]}` (one per vertex) or `{"spheres": [...]}` (the
+//! sphere format of DESIGN.md §3). Unknown fields are errors (they are usually typos); a missing
+//! `method` is `bsarap`, a missing `arap` is [`ArapConfig::default`].
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+use crate::animation::timeline::{AnimationError, Timeline};
+use crate::deform::arap::{Acceleration, ArapConfig};
+use crate::deform::deformer::{BaseConfig, Method};
+use crate::deform::handles::{Handles, HandlesError};
+use crate::deform::selection::{SelectionError, load_selection, parse_spheres};
+use crate::io::{LoadError, LoadedMesh, SaveError, load_mesh, write_atomic};
+
+/// The scene format version this build reads and writes.
+pub const SCENE_VERSION: u32 = 1;
+
+/// The largest `arap.max_iterations` a scene may ask for (the CLI's `--max-iters` cap): with
+/// `tolerance` 0 every solve runs that many iterations, so a larger value would hang playback.
+pub const MAX_ITERATIONS: usize = 100_000;
+
+/// The largest Anderson window a scene may ask for.
+pub const MAX_ANDERSON_WINDOW: usize = 64;
+
+/// Why a scene could not be read, resolved or saved. One line each, naming the file.
+#[derive(Debug, Error)]
+pub enum SceneError {
+    #[error("{file}: cannot read the scene: {message}")]
+    Io { file: String, message: String },
+    #[error("{file}:{line}:{column}: {message}")]
+    Parse { file: String, line: usize, column: usize, message: String },
+    #[error("{file}: no \"version\" field: not a bsarap scene")]
+    MissingVersion { file: String },
+    #[error(
+        "{file}: scene version {found} is not supported (this build reads version {supported}; a newer bsarap wrote it?)"
+    )]
+    UnsupportedVersion { file: String, found: String, supported: u32 },
+    #[error("{file}: {message}")]
+    Invalid { file: String, message: String },
+    #[error("{file}: timeline: {source}")]
+    Timeline {
+        file: String,
+        #[source]
+        source: AnimationError,
+    },
+    #[error("scene {file}: mesh: {source}")]
+    Mesh {
+        file: String,
+        #[source]
+        source: LoadError,
+    },
+    #[error("scene {file}: handles: {source}")]
+    Selection {
+        file: String,
+        #[source]
+        source: SelectionError,
+    },
+    #[error("scene {file}: handles: {source}")]
+    Handles {
+        file: String,
+        #[source]
+        source: HandlesError,
+    },
+    #[error("{0}")]
+    Save(#[from] SaveError),
+}
+
+/// Where the handle groups come from; exactly one field is set.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HandlesSpec {
+    /// A selection file (`.dmat` or sphere `.json`), relative to the scene.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub file: Option<String>,
+    /// One label per vertex: −1 free, k ≥ 0 group k.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub labels: Option<Vec<i64>>,
+    /// Sphere list `[{"group":0,"center":[x,y,z],"radius":r}]` (kept as JSON, parsed by
+    /// [`parse_spheres`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spheres: Option<serde_json::Value>,
+}
+
+/// A scene file's contents (see the module doc for the format).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scene {
+    /// Always [`SCENE_VERSION`] once loaded.
+    pub version: u32,
+    /// Mesh file, relative to the scene's folder.
+    pub mesh: String,
+    pub handles: HandlesSpec,
+    pub timeline: Timeline,
+    #[serde(default)]
+    pub method: Method,
+    #[serde(default)]
+    pub arap: ArapConfig,
+    /// Base-surface settings of the BS-ARAP variants (smoothing, coarse size, fine iterations).
+    #[serde(default)]
+    pub base: BaseConfig,
+    /// Opaque to the solver: whatever the editor stores about its view.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub camera: Option<serde_json::Value>,
+    /// Opaque to the solver: other editor state (group names and colors, the current time).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub editor: Option<serde_json::Value>,
+}
+
+/// A scene with its mesh loaded and its handles resolved.
+#[derive(Debug, Clone)]
+pub struct LoadedScene {
+    pub scene: Scene,
+    /// The scene file.
+    pub path: PathBuf,
+    /// The mesh file as resolved against the scene's folder.
+    pub mesh_path: PathBuf,
+    pub mesh: LoadedMesh,
+    pub handles: Handles,
+}
+
+fn parse_error(file: &str, e: &serde_json::Error) -> SceneError {
+    // serde_json's Display appends " at line L column C"; the location is in the prefix.
+    let text = e.to_string();
+    let message = match text.rfind(" at line ") {
+        Some(i) => text[..i].to_string(),
+        None => text,
+    };
+    SceneError::Parse { file: file.to_string(), line: e.line(), column: e.column(), message }
+}
+
+impl Scene {
+    /// A scene for `mesh` (relative to the scene) with handles from `handles`, an empty timeline
+    /// and default settings.
+    pub fn new(mesh: impl Into<String>, handles: HandlesSpec) -> Scene {
+        Scene {
+            version: SCENE_VERSION,
+            mesh: mesh.into(),
+            handles,
+            timeline: Timeline::default(),
+            method: Method::default(),
+            arap: ArapConfig::default(),
+            base: BaseConfig::default(),
+            camera: None,
+            editor: None,
+        }
+    }
+
+    /// Parses scene text; `file` names it in errors. Checks the version first (a missing or
+    /// unknown version is its own error, before any other field is looked at), then the fields
+    /// (errors carry line and column), then the timeline and the handles spec.
+    pub fn from_json(text: &str, file: &str) -> Result<Scene, SceneError> {
+        let value: serde_json::Value =
+            serde_json::from_str(text).map_err(|e| parse_error(file, &e))?;
+        let Some(version) = value.get("version") else {
+            return Err(SceneError::MissingVersion { file: file.to_string() });
+        };
+        if version.as_u64() != Some(SCENE_VERSION as u64) {
+            return Err(SceneError::UnsupportedVersion {
+                file: file.to_string(),
+                found: version.to_string(),
+                supported: SCENE_VERSION,
+            });
+        }
+        let scene: Scene = serde_json::from_str(text).map_err(|e| parse_error(file, &e))?;
+        scene.validate(file)?;
+        Ok(scene)
+    }
+
+    fn validate(&self, file: &str) -> Result<(), SceneError> {
+        let h = &self.handles;
+        let set = [h.file.is_some(), h.labels.is_some(), h.spheres.is_some()];
+        if set.iter().filter(|&&b| b).count() != 1 {
+            return Err(SceneError::Invalid {
+                file: file.to_string(),
+                message: "\"handles\" needs exactly one of \"file\", \"labels\" or \"spheres\""
+                    .into(),
+            });
+        }
+        let non_negative = |x: f64| x.is_finite() && x >= 0.0;
+        let valid = non_negative(self.arap.tolerance)
+            && (1..=MAX_ITERATIONS).contains(&self.arap.max_iterations)
+            && non_negative(self.arap.energy_threshold);
+        if !valid {
+            return Err(SceneError::Invalid {
+                file: file.to_string(),
+                message: format!(
+                    "\"arap\": tolerance and energy_threshold must be finite and ≥ 0, max_iterations between 1 and {MAX_ITERATIONS}"
+                ),
+            });
+        }
+        let base = &self.base;
+        let smoothing_ok =
+            base.smoothing.is_finite() && base.smoothing > 0.0 && base.smoothing <= 1.0;
+        if !smoothing_ok
+            || base
+                .coarse_vertices
+                .is_some_and(|n| !crate::deform::coarse::COARSE_VERTICES.contains(&n))
+            || base.fine_iterations > crate::deform::coarse::MAX_FINE_ITERATIONS
+        {
+            return Err(SceneError::Invalid {
+                file: file.to_string(),
+                message: format!(
+                    "\"base\": smoothing must be in (0, 1], coarse_vertices null (automatic) or between {} and {}, and fine_iterations at most {}",
+                    crate::deform::coarse::COARSE_VERTICES.start(),
+                    crate::deform::coarse::COARSE_VERTICES.end(),
+                    crate::deform::coarse::MAX_FINE_ITERATIONS
+                ),
+            });
+        }
+        if let Acceleration::Anderson { window } = self.arap.acceleration
+            && !(1..=MAX_ANDERSON_WINDOW).contains(&window)
+        {
+            // The window sizes dense window² buffers: an absurd one must not abort the program.
+            return Err(SceneError::Invalid {
+                file: file.to_string(),
+                message: format!(
+                    "\"arap\": the Anderson window must be between 1 and {MAX_ANDERSON_WINDOW} (got {window})"
+                ),
+            });
+        }
+        self.timeline
+            .validate()
+            .map_err(|source| SceneError::Timeline { file: file.to_string(), source })
+    }
+
+    /// Reads and parses a scene file (mesh not loaded; see [`Scene::load`]).
+    pub fn read(path: &Path) -> Result<Scene, SceneError> {
+        let file = path.display().to_string();
+        let bytes = std::fs::read(path)
+            .map_err(|e| SceneError::Io { file: file.clone(), message: e.to_string() })?;
+        let text = std::str::from_utf8(&bytes).map_err(|_| SceneError::Io {
+            file: file.clone(),
+            message: "not a text file (invalid UTF-8)".into(),
+        })?;
+        Scene::from_json(text, &file)
+    }
+
+    /// `relative` resolved against the folder of the scene file `scene_path` (absolute paths
+    /// unchanged).
+    pub fn resolve_path(scene_path: &Path, relative: &str) -> PathBuf {
+        let rel = Path::new(relative);
+        if rel.is_absolute() {
+            return rel.to_path_buf();
+        }
+        scene_path.parent().unwrap_or(Path::new("")).join(rel)
+    }
+
+    /// Reads the scene at `path`, loads and cleans its mesh and resolves its handles.
+    pub fn load(path: &Path) -> Result<LoadedScene, SceneError> {
+        let scene = Scene::read(path)?;
+        let file = path.display().to_string();
+        let mesh_path = Scene::resolve_path(path, &scene.mesh);
+        let mesh = load_mesh(&mesh_path)
+            .map_err(|source| SceneError::Mesh { file: file.clone(), source })?;
+        let handles =
+            scene.resolve_handles(path, mesh.mesh.positions(), Some(&mesh.report.vertex_map))?;
+        Ok(LoadedScene { scene, path: path.to_path_buf(), mesh_path, mesh, handles })
+    }
+
+    /// The scene's handle groups for a mesh with rest `positions`, read from wherever
+    /// `handles` points (paths relative to the scene file `path`), checked against the timeline:
+    /// a path for a group the selection lacks is an error. `vertex_map`: as in
+    /// [`load_selection`], for a `.dmat` of the mesh file as read.
+    pub fn resolve_handles(
+        &self,
+        path: &Path,
+        positions: &[[f64; 3]],
+        vertex_map: Option<&[Option<u32>]>,
+    ) -> Result<Handles, SceneError> {
+        let file = path.display().to_string();
+        let h = &self.handles;
+        let handles = if let Some(f) = &h.file {
+            load_selection(&Scene::resolve_path(path, f), positions, vertex_map)
+                .map_err(|source| SceneError::Selection { file: file.clone(), source })?
+        } else if let Some(labels) = &h.labels {
+            Handles::from_labels(labels, positions.len())
+                .map_err(|source| SceneError::Handles { file: file.clone(), source })?
+        } else if let Some(spheres) = &h.spheres {
+            parse_spheres(&spheres.to_string(), positions)
+                .map_err(|source| SceneError::Selection { file: file.clone(), source })?
+        } else {
+            return Err(SceneError::Invalid { file, message: "no handles".into() });
+        };
+        if let Some(p) = self.timeline.paths.iter().find(|p| handles.group(p.group).is_err()) {
+            return Err(SceneError::Invalid {
+                file,
+                message: format!(
+                    "the timeline animates handle group {} but the selection has groups 0..{}",
+                    p.group,
+                    handles.n_groups()
+                ),
+            });
+        }
+        Ok(handles)
+    }
+
+    /// Pretty JSON of the scene.
+    pub fn to_json(&self) -> String {
+        // Serializing plain data with string keys cannot fail.
+        serde_json::to_string_pretty(self).unwrap_or_default() + "\n"
+    }
+
+    /// Writes the scene atomically (temporary file, then rename: a failed save keeps the old
+    /// file). Paths inside are written as they are: keep them relative to `path`'s folder.
+    pub fn save(&self, path: &Path) -> Result<(), SceneError> {
+        let file = path.display().to_string();
+        self.validate(&file)?;
+        write_atomic(path, self.to_json().as_bytes())?;
+        Ok(())
+    }
+}
+
+/// `target` expressed relative to the folder `base` when both are absolute or both relative
+/// (`../meshes/x.obj`); otherwise `target` as given. For storing a mesh path in a scene saved
+/// in `base`.
+pub fn relative_path(base: &Path, target: &Path) -> String {
+    use std::path::Component;
+    if base.is_absolute() != target.is_absolute() {
+        return target.display().to_string();
+    }
+    let b: Vec<Component> = base.components().filter(|c| *c != Component::CurDir).collect();
+    let t: Vec<Component> = target.components().filter(|c| *c != Component::CurDir).collect();
+    let common = b.iter().zip(&t).take_while(|(x, y)| x == y).count();
+    if b[common..].iter().any(|c| matches!(c, Component::ParentDir)) {
+        return target.display().to_string();
+    }
+    let mut out = PathBuf::new();
+    for _ in common..b.len() {
+        out.push("..");
+    }
+    for c in &t[common..] {
+        out.push(c.as_os_str());
+    }
+    out.to_string_lossy().replace('\\', "/")
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn relative_paths() {
+        assert_eq!(relative_path(Path::new("/a/b/scenes"), Path::new("/a/b/m.obj")), "../m.obj");
+        assert_eq!(relative_path(Path::new("/a"), Path::new("/a/x/m.obj")), "x/m.obj");
+        assert_eq!(relative_path(Path::new("a/s"), Path::new("a/s/m.obj")), "m.obj");
+    }
+}

@@ -1,0 +1,639 @@
+//! Handle animation: a path per handle group, evaluated at time $t$ (seconds) into the
+//! [`GroupTransform`] that [`crate::deform::pose::handle_targets`] turns into handle targets.
+//!
+//! Three kinds of [`Path`]:
+//! - [`Path::Static`]: the group stays at rest.
+//! - [`Path::Circular`]: the group's centroid runs around a circle that passes through its rest
+//!   centroid; at $t = 0$ the group is at rest and after one period it is back at rest.
+//! - [`Path::Keyframed`]: translation and rotation keys; Catmull-Rom positions, slerp or squad
+//!   rotations (Shoemake 1985).
+//!
+//! A [`Timeline`] holds the paths of all animated groups, its duration, frame rate and loop flag,
+//! and gives the frame times a recording samples. Everything here is plain data with serde, so a
+//! scene file (`crate::animation::scene`) stores it as JSON.
+
+use std::f64::consts::PI;
+
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+use crate::deform::pose::GroupTransform;
+use crate::linalg::rotation::{IDENTITY, Mat3, axis_angle};
+
+/// Why a timeline or a path cannot be evaluated. One line each.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum AnimationError {
+    #[error("timeline duration must be a finite number > 0 seconds (got {0})")]
+    Duration(f64),
+    #[error("timeline frame rate must be a finite number > 0 frames per second (got {0})")]
+    Fps(f64),
+    #[error("handle group {group} has more than one path")]
+    DuplicateGroup { group: usize },
+    #[error("path of group {group}: {message}")]
+    BadPath { group: usize, message: String },
+    #[error("a recording needs at least 1 frame (got {0})")]
+    NoFrames(usize),
+}
+
+/// A unit quaternion $q = w + x\mathbf i + y\mathbf j + z\mathbf k$ for rotation interpolation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Quat {
+    pub w: f64,
+    pub x: f64,
+    pub y: f64,
+    pub z: f64,
+}
+
+impl Quat {
+    /// The identity rotation.
+    pub const IDENTITY: Quat = Quat { w: 1.0, x: 0.0, y: 0.0, z: 0.0 };
+
+    /// $q = (\cos\frac\theta2, \sin\frac\theta2\,\hat a)$; a zero axis gives the identity.
+    pub fn from_axis_angle(axis: [f64; 3], radians: f64) -> Quat {
+        let n = (axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]).sqrt();
+        if n.is_nan() || n <= 0.0 {
+            return Quat::IDENTITY;
+        }
+        let (s, c) = (radians / 2.0).sin_cos();
+        Quat { w: c, x: s * axis[0] / n, y: s * axis[1] / n, z: s * axis[2] / n }
+    }
+
+    /// The row-major rotation matrix of the normalized quaternion.
+    pub fn to_mat3(self) -> Mat3 {
+        let q = self.normalized();
+        let (w, x, y, z) = (q.w, q.x, q.y, q.z);
+        [
+            [1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - w * z), 2.0 * (x * z + w * y)],
+            [2.0 * (x * y + w * z), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - w * x)],
+            [2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y)],
+        ]
+    }
+
+    /// $q / \lVert q\rVert$ (the identity for a zero quaternion).
+    pub fn normalized(self) -> Quat {
+        let n = self.dot(self).sqrt();
+        if n.is_nan() || n <= 0.0 {
+            return Quat::IDENTITY;
+        }
+        self.scale(1.0 / n)
+    }
+
+    /// Four-dimensional dot product.
+    pub fn dot(self, o: Quat) -> f64 {
+        self.w * o.w + self.x * o.x + self.y * o.y + self.z * o.z
+    }
+
+    fn scale(self, s: f64) -> Quat {
+        Quat { w: self.w * s, x: self.x * s, y: self.y * s, z: self.z * s }
+    }
+
+    fn neg(self) -> Quat {
+        self.scale(-1.0)
+    }
+
+    fn conj(self) -> Quat {
+        Quat { w: self.w, x: -self.x, y: -self.y, z: -self.z }
+    }
+
+    /// Hamilton product $ab$.
+    pub fn compose(self, b: Quat) -> Quat {
+        let a = self;
+        Quat {
+            w: a.w * b.w - a.x * b.x - a.y * b.y - a.z * b.z,
+            x: a.w * b.x + a.x * b.w + a.y * b.z - a.z * b.y,
+            y: a.w * b.y - a.x * b.z + a.y * b.w + a.z * b.x,
+            z: a.w * b.z + a.x * b.y - a.y * b.x + a.z * b.w,
+        }
+    }
+
+    /// $\log q = (0, \theta\,\hat v)$ for unit $q = (\cos\theta, \sin\theta\,\hat v)$.
+    fn log(self) -> Quat {
+        let v = (self.x * self.x + self.y * self.y + self.z * self.z).sqrt();
+        let theta = v.atan2(self.w);
+        let k = if v > 1e-12 { theta / v } else { 1.0 };
+        Quat { w: 0.0, x: self.x * k, y: self.y * k, z: self.z * k }
+    }
+
+    /// $\exp(0, \theta\hat v) = (\cos\theta, \sin\theta\,\hat v)$.
+    fn exp(self) -> Quat {
+        let theta = (self.x * self.x + self.y * self.y + self.z * self.z).sqrt();
+        let k = if theta > 1e-12 { theta.sin() / theta } else { 1.0 };
+        Quat { w: theta.cos(), x: self.x * k, y: self.y * k, z: self.z * k }
+    }
+
+    /// Spherical linear interpolation
+    /// $\mathrm{slerp}(a, b, h) = \frac{\sin((1-h)\Omega)}{\sin\Omega}a + \frac{\sin(h\Omega)}{\sin\Omega}b$,
+    /// $\cos\Omega = a\cdot b$, along the shorter arc ($b$ is negated when $a\cdot b < 0$);
+    /// normalized linear interpolation when the arc is tiny. `h = 0` gives `a`, `h = 1` gives `b`
+    /// (up to sign, which is the same rotation).
+    pub fn slerp(self, b: Quat, h: f64) -> Quat {
+        let mut b = b;
+        let mut d = self.dot(b);
+        if d < 0.0 {
+            b = b.neg();
+            d = -d;
+        }
+        if d > 1.0 - 1e-12 {
+            let q = Quat {
+                w: self.w + h * (b.w - self.w),
+                x: self.x + h * (b.x - self.x),
+                y: self.y + h * (b.y - self.y),
+                z: self.z + h * (b.z - self.z),
+            };
+            return q.normalized();
+        }
+        let omega = d.clamp(-1.0, 1.0).acos();
+        let s = omega.sin();
+        let (ka, kb) = (((1.0 - h) * omega).sin() / s, (h * omega).sin() / s);
+        Quat {
+            w: ka * self.w + kb * b.w,
+            x: ka * self.x + kb * b.x,
+            y: ka * self.y + kb * b.y,
+            z: ka * self.z + kb * b.z,
+        }
+    }
+
+    /// Slerp without the shorter-arc sign flip (squad needs the given signs).
+    fn slerp_no_flip(self, b: Quat, h: f64) -> Quat {
+        let d = self.dot(b).clamp(-1.0, 1.0);
+        if d.abs() > 1.0 - 1e-12 {
+            return Quat {
+                w: self.w + h * (b.w - self.w),
+                x: self.x + h * (b.x - self.x),
+                y: self.y + h * (b.y - self.y),
+                z: self.z + h * (b.z - self.z),
+            }
+            .normalized();
+        }
+        let omega = d.acos();
+        let s = omega.sin();
+        let (ka, kb) = (((1.0 - h) * omega).sin() / s, (h * omega).sin() / s);
+        Quat {
+            w: ka * self.w + kb * b.w,
+            x: ka * self.x + kb * b.x,
+            y: ka * self.y + kb * b.y,
+            z: ka * self.z + kb * b.z,
+        }
+    }
+}
+
+/// A rotation given as a unit axis and an angle in degrees (right-hand rule); the JSON form of
+/// a key's rotation. The default is no rotation.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AxisAngle {
+    /// Rotation axis (any non-zero length; normalized when used).
+    pub axis: [f64; 3],
+    /// Angle in degrees.
+    pub degrees: f64,
+}
+
+impl Default for AxisAngle {
+    fn default() -> Self {
+        AxisAngle { axis: [0.0, 0.0, 1.0], degrees: 0.0 }
+    }
+}
+
+impl AxisAngle {
+    /// The unit quaternion of this rotation.
+    pub fn to_quat(self) -> Quat {
+        Quat::from_axis_angle(self.axis, self.degrees.to_radians())
+    }
+}
+
+/// One keyframe: at `time`, the group is rotated by `rotation` about its rest centroid and then
+/// translated by `translation` (the convention of [`GroupTransform`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Key {
+    /// Seconds from the start of the timeline.
+    pub time: f64,
+    /// Translation (mesh units).
+    #[serde(default)]
+    pub translation: [f64; 3],
+    /// Rotation about the group's rest centroid.
+    #[serde(default)]
+    pub rotation: AxisAngle,
+}
+
+/// How keyframes are interpolated.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Interpolation {
+    /// Piecewise-linear translation, slerp rotation: $C^0$.
+    Linear,
+    /// Catmull-Rom translation, squad rotation: $C^1$ translation, smooth rotation.
+    #[default]
+    Smooth,
+}
+
+/// A circle through the group's rest centroid $c_g$.
+///
+/// With unit axis $\hat a$, unit in-plane reference direction $\hat u$ (the component of
+/// `reference` orthogonal to $\hat a$, normalized; a default when that vanishes),
+/// $\hat v = \hat a \times \hat u$, radius $r$, period $T$ and phase $\varphi$ (radians):
+///
+/// $$\theta(t) = 2\pi t / T + \varphi,\qquad
+///   \mathrm{translation}(t) = r\big[(\cos\theta - \cos\varphi)\,\hat u + (\sin\theta - \sin\varphi)\,\hat v\big].$$
+///
+/// So the circle's center is $c_g + o$ with $o = -r(\cos\varphi\,\hat u + \sin\varphi\,\hat v)$
+/// ([`CircularPath::center_offset`]); the centroid starts at angle $\varphi$ on the circle (at
+/// rest, translation 0 at $t = 0$), moves counter-clockwise about $\hat a$, stays at distance
+/// $r$ from the center, and is back at rest at $t = T$. With `turn_with_path`, the group also
+/// rotates about its centroid by $\theta(t) - \varphi$ about $\hat a$, so it keeps its
+/// orientation relative to the path's tangent (the identity again at $t = T$).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CircularPath {
+    /// Normal of the circle's plane (any non-zero length).
+    pub axis: [f64; 3],
+    /// Direction from the circle's center towards the rest centroid when `phase` is 0.
+    #[serde(default = "default_reference")]
+    pub reference: [f64; 3],
+    /// Radius (mesh units, ≥ 0).
+    pub radius: f64,
+    /// Seconds per revolution (> 0).
+    pub period: f64,
+    /// Angle on the circle of the rest centroid, radians, measured from `reference` about `axis`.
+    #[serde(default)]
+    pub phase: f64,
+    /// Whether the group turns with the path (rotation $\theta(t)-\varphi$ about `axis`).
+    #[serde(default)]
+    pub turn_with_path: bool,
+}
+
+fn default_reference() -> [f64; 3] {
+    [1.0, 0.0, 0.0]
+}
+
+fn normalize(v: [f64; 3]) -> Option<[f64; 3]> {
+    let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    (n.is_finite() && n > 1e-300).then(|| v.map(|c| c / n))
+}
+
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+}
+
+impl CircularPath {
+    /// A circle about `axis` of `radius` and `period` seconds, starting at phase 0 from the
+    /// default reference direction (+x projected onto the circle's plane), not turning.
+    pub fn new(axis: [f64; 3], radius: f64, period: f64) -> CircularPath {
+        CircularPath {
+            axis,
+            reference: default_reference(),
+            radius,
+            period,
+            phase: 0.0,
+            turn_with_path: false,
+        }
+    }
+
+    /// The orthonormal frame $(\hat a, \hat u, \hat v)$ of the circle.
+    pub fn frame(&self) -> ([f64; 3], [f64; 3], [f64; 3]) {
+        let a = normalize(self.axis).unwrap_or([0.0, 0.0, 1.0]);
+        let project = |r: [f64; 3]| {
+            let d = r[0] * a[0] + r[1] * a[1] + r[2] * a[2];
+            normalize([r[0] - d * a[0], r[1] - d * a[1], r[2] - d * a[2]])
+        };
+        let u = project(self.reference)
+            .or_else(|| project([1.0, 0.0, 0.0]))
+            .or_else(|| project([0.0, 1.0, 0.0]))
+            .unwrap_or([1.0, 0.0, 0.0]);
+        (a, u, cross(a, u))
+    }
+
+    /// Circle center minus the group's rest centroid: $o = -r(\cos\varphi\,\hat u + \sin\varphi\,\hat v)$.
+    pub fn center_offset(&self) -> [f64; 3] {
+        let (_, u, v) = self.frame();
+        let (s, c) = self.phase.sin_cos();
+        std::array::from_fn(|d| -self.radius * (c * u[d] + s * v[d]))
+    }
+
+    /// The transform at `t` seconds (formula in the type's doc).
+    pub fn transform_at(&self, t: f64) -> GroupTransform {
+        let (a, u, v) = self.frame();
+        let swept = 2.0 * PI * t / self.period;
+        let theta = swept + self.phase;
+        let (s, c) = theta.sin_cos();
+        let (s0, c0) = self.phase.sin_cos();
+        let translation =
+            std::array::from_fn(|d| self.radius * ((c - c0) * u[d] + (s - s0) * v[d]));
+        let rotation = if self.turn_with_path { axis_angle(a, swept) } else { IDENTITY };
+        GroupTransform { translation, rotation }
+    }
+}
+
+/// Keyframes of one group, sorted by strictly increasing time.
+///
+/// Between keys $k_i$ and $k_{i+1}$ with $h = (t - t_i)/(t_{i+1} - t_i)$:
+/// - translation, `Linear`: $p = (1-h)p_i + h p_{i+1}$;
+/// - translation, `Smooth`: cubic Hermite with Catmull-Rom tangents for uneven spacing,
+///   $m_i = (p_{i+1} - p_{i-1})/(t_{i+1} - t_{i-1})$ (one-sided differences at the ends),
+///   $p = H_{00}(h)p_i + H_{10}(h)\Delta t\,m_i + H_{01}(h)p_{i+1} + H_{11}(h)\Delta t\,m_{i+1}$;
+/// - rotation, `Linear`: $\mathrm{slerp}(q_i, q_{i+1}, h)$ (shorter arc);
+/// - rotation, `Smooth`: squad,
+///   $\mathrm{slerp}(\mathrm{slerp}(q_i, q_{i+1}, h), \mathrm{slerp}(s_i, s_{i+1}, h), 2h(1-h))$
+///   with $s_i = q_i \exp\!\big(-\tfrac14(\log(q_i^{-1}q_{i+1}) + \log(q_i^{-1}q_{i-1}))\big)$
+///   (Shoemake 1985), on keys made sign-consistent ($q_i\cdot q_{i+1} \ge 0$).
+///
+/// Every key is hit exactly ($h = 0$); before the first key the first is held, after the last the
+/// last. No keys: the group stays at rest. Known limitation: consecutive rotation keys more than
+/// 180° apart take the shorter way (as glTF players do); add an intermediate key.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct KeyframedPath {
+    pub keys: Vec<Key>,
+    #[serde(default)]
+    pub interpolation: Interpolation,
+}
+
+impl KeyframedPath {
+    /// Adds `key`, replacing a key at the same time (within 1e-9 s), keeping the keys sorted.
+    pub fn set_key(&mut self, key: Key) {
+        match self.keys.iter().position(|k| (k.time - key.time).abs() <= 1e-9) {
+            Some(i) => self.keys[i] = key,
+            None => {
+                let i = self.keys.partition_point(|k| k.time < key.time);
+                self.keys.insert(i, key);
+            }
+        }
+    }
+
+    /// Sign-consistent key quaternions.
+    fn quats(&self) -> Vec<Quat> {
+        let mut out: Vec<Quat> = Vec::with_capacity(self.keys.len());
+        for k in &self.keys {
+            let mut q = k.rotation.to_quat();
+            if let Some(prev) = out.last()
+                && prev.dot(q) < 0.0
+            {
+                q = q.neg();
+            }
+            out.push(q);
+        }
+        out
+    }
+
+    /// The transform at `t` seconds (formulas in the type's doc).
+    pub fn transform_at(&self, t: f64) -> GroupTransform {
+        let keys = &self.keys;
+        let (Some(first), Some(last)) = (keys.first(), keys.last()) else {
+            return GroupTransform::default();
+        };
+        let at_key = |k: &Key| GroupTransform {
+            translation: k.translation,
+            rotation: k.rotation.to_quat().to_mat3(),
+        };
+        if t <= first.time || keys.len() == 1 {
+            return at_key(first);
+        }
+        if t >= last.time {
+            return at_key(last);
+        }
+        // keys[i].time <= t < keys[i + 1].time
+        let i = keys.partition_point(|k| k.time <= t) - 1;
+        let (k0, k1) = (&keys[i], &keys[i + 1]);
+        let dt = k1.time - k0.time;
+        let h = ((t - k0.time) / dt).clamp(0.0, 1.0);
+        let qs = self.quats();
+        match self.interpolation {
+            Interpolation::Linear => GroupTransform {
+                translation: std::array::from_fn(|d| {
+                    (1.0 - h) * k0.translation[d] + h * k1.translation[d]
+                }),
+                rotation: qs[i].slerp(qs[i + 1], h).to_mat3(),
+            },
+            Interpolation::Smooth => {
+                let tangent = |j: usize| -> [f64; 3] {
+                    let (a, b) = (j.saturating_sub(1), (j + 1).min(keys.len() - 1));
+                    let span = keys[b].time - keys[a].time;
+                    std::array::from_fn(|d| {
+                        (keys[b].translation[d] - keys[a].translation[d]) / span
+                    })
+                };
+                let (m0, m1) = (tangent(i), tangent(i + 1));
+                let (h2, h3) = (h * h, h * h * h);
+                let h00 = 2.0 * h3 - 3.0 * h2 + 1.0;
+                let h10 = h3 - 2.0 * h2 + h;
+                let h01 = -2.0 * h3 + 3.0 * h2;
+                let h11 = h3 - h2;
+                let translation = std::array::from_fn(|d| {
+                    h00 * k0.translation[d]
+                        + h10 * dt * m0[d]
+                        + h01 * k1.translation[d]
+                        + h11 * dt * m1[d]
+                });
+                let control = |j: usize| -> Quat {
+                    let q = qs[j];
+                    let prev = qs[j.saturating_sub(1)];
+                    let next = qs[(j + 1).min(qs.len() - 1)];
+                    let inv = q.conj();
+                    let l = inv.compose(next).log();
+                    let m = inv.compose(prev).log();
+                    let e = Quat { w: 0.0, x: l.x + m.x, y: l.y + m.y, z: l.z + m.z }.scale(-0.25);
+                    q.compose(e.exp())
+                };
+                let (s0, s1) = (control(i), control(i + 1));
+                let outer = qs[i].slerp_no_flip(qs[i + 1], h);
+                let inner = s0.slerp_no_flip(s1, h);
+                let q = outer.slerp_no_flip(inner, 2.0 * h * (1.0 - h));
+                GroupTransform { translation, rotation: q.to_mat3() }
+            }
+        }
+    }
+
+    fn validate(&self, group: usize) -> Result<(), AnimationError> {
+        let bad = |message: String| AnimationError::BadPath { group, message };
+        for (i, k) in self.keys.iter().enumerate() {
+            if !k.time.is_finite()
+                || k.translation.iter().any(|c| !c.is_finite())
+                || k.rotation.axis.iter().any(|c| !c.is_finite())
+                || !k.rotation.degrees.is_finite()
+            {
+                return Err(bad(format!("key {i} has a non-finite value")));
+            }
+            if i > 0 && k.time <= self.keys[i - 1].time {
+                return Err(bad(format!(
+                    "key times must increase strictly (key {i} at {} s follows {} s)",
+                    k.time,
+                    self.keys[i - 1].time
+                )));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// How one handle group moves over time.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "kebab-case")]
+pub enum Path {
+    /// At rest for all $t$.
+    #[default]
+    Static,
+    /// See [`CircularPath`].
+    Circular(CircularPath),
+    /// See [`KeyframedPath`].
+    Keyframed(KeyframedPath),
+}
+
+impl Path {
+    /// The group's rigid transform at `t` seconds (rotation about its rest centroid, then
+    /// translation).
+    pub fn transform_at(&self, t: f64) -> GroupTransform {
+        match self {
+            Path::Static => GroupTransform::default(),
+            Path::Circular(c) => c.transform_at(t),
+            Path::Keyframed(k) => k.transform_at(t),
+        }
+    }
+
+    /// Checks finiteness and ranges; `group` is named in the error.
+    pub fn validate(&self, group: usize) -> Result<(), AnimationError> {
+        let bad = |message: String| AnimationError::BadPath { group, message };
+        match self {
+            Path::Static => Ok(()),
+            Path::Circular(c) => {
+                if !(c.period.is_finite() && c.period > 0.0) {
+                    return Err(bad(format!("period must be > 0 seconds (got {})", c.period)));
+                }
+                if !(c.radius.is_finite() && c.radius >= 0.0) {
+                    return Err(bad(format!("radius must be ≥ 0 (got {})", c.radius)));
+                }
+                if !c.phase.is_finite() || c.axis.iter().chain(&c.reference).any(|x| !x.is_finite())
+                {
+                    return Err(bad("axis, reference and phase must be finite".into()));
+                }
+                if normalize(c.axis).is_none() {
+                    return Err(bad("the axis must not be zero".into()));
+                }
+                Ok(())
+            }
+            Path::Keyframed(k) => k.validate(group),
+        }
+    }
+}
+
+/// The path of one handle group.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GroupPath {
+    /// Handle group id (as in the selection).
+    pub group: usize,
+    pub path: Path,
+}
+
+/// A timeline: duration, frame rate, loop flag and per-group paths. Groups without a path stay
+/// at rest.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Timeline {
+    /// Seconds (> 0).
+    pub duration: f64,
+    /// Frames per second (> 0) of playback and of a default recording.
+    pub fps: f64,
+    /// Whether playback wraps around after `duration`.
+    #[serde(default)]
+    pub looping: bool,
+    #[serde(default)]
+    pub paths: Vec<GroupPath>,
+}
+
+impl Default for Timeline {
+    fn default() -> Self {
+        Timeline { duration: 2.0, fps: 30.0, looping: true, paths: Vec::new() }
+    }
+}
+
+impl Timeline {
+    /// Checks duration, frame rate, every path, and that no group has two paths.
+    pub fn validate(&self) -> Result<(), AnimationError> {
+        if !(self.duration.is_finite() && self.duration > 0.0) {
+            return Err(AnimationError::Duration(self.duration));
+        }
+        if !(self.fps.is_finite() && self.fps > 0.0) {
+            return Err(AnimationError::Fps(self.fps));
+        }
+        for (i, p) in self.paths.iter().enumerate() {
+            if self.paths[..i].iter().any(|q| q.group == p.group) {
+                return Err(AnimationError::DuplicateGroup { group: p.group });
+            }
+            p.path.validate(p.group)?;
+        }
+        Ok(())
+    }
+
+    /// The time at which paths are evaluated for playback time `t`: `t` in `[0, duration]` as
+    /// is; beyond, wrapped (`t mod duration`) when looping, else clamped.
+    pub fn local_time(&self, t: f64) -> f64 {
+        if (0.0..=self.duration).contains(&t) {
+            t
+        } else if self.looping && self.duration > 0.0 {
+            t.rem_euclid(self.duration)
+        } else {
+            t.clamp(0.0, self.duration.max(0.0))
+        }
+    }
+
+    /// `(group, transform)` of every path at playback time `t` (see [`Timeline::local_time`]),
+    /// ready for [`crate::deform::pose::handle_targets`].
+    pub fn transforms_at(&self, t: f64) -> Vec<(usize, GroupTransform)> {
+        let t = self.local_time(t);
+        self.paths.iter().map(|p| (p.group, p.path.transform_at(t))).collect()
+    }
+
+    /// Frames of a recording at the timeline's rate, both ends included:
+    /// $\mathrm{round}(\mathrm{duration}\cdot\mathrm{fps}) + 1$.
+    pub fn default_frame_count(&self) -> usize {
+        let n = (self.duration * self.fps).round();
+        if n.is_finite() && n >= 0.0 { n as usize + 1 } else { 1 }
+    }
+
+    /// `n_frames` evenly spaced times covering `[0, duration]`, both ends included:
+    /// $t_i = i\cdot\mathrm{duration}/(n-1)$; one frame is `[0]`. For a looping timeline whose
+    /// paths are periodic in `duration`, the last frame equals the first, so a player that loops
+    /// the recording shows no jump.
+    pub fn frame_times(&self, n_frames: usize) -> Vec<f64> {
+        match n_frames {
+            0 => Vec::new(),
+            1 => vec![0.0],
+            n => (0..n)
+                .map(|i| {
+                    if i == n - 1 {
+                        self.duration
+                    } else {
+                        self.duration * i as f64 / (n - 1) as f64
+                    }
+                })
+                .collect(),
+        }
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quaternion_matches_rodrigues() {
+        let q = Quat::from_axis_angle([1.0, -2.0, 0.5], 1.3);
+        let a = q.to_mat3();
+        let b = axis_angle([1.0, -2.0, 0.5], 1.3);
+        for i in 0..3 {
+            for j in 0..3 {
+                assert!((a[i][j] - b[i][j]).abs() < 1e-12);
+            }
+        }
+    }
+
+    #[test]
+    fn slerp_halfway_is_half_the_angle() {
+        let a = Quat::IDENTITY;
+        let b = Quat::from_axis_angle([0.0, 0.0, 1.0], 1.0);
+        let m = a.slerp(b, 0.5);
+        let e = Quat::from_axis_angle([0.0, 0.0, 1.0], 0.5);
+        assert!((m.dot(e).abs() - 1.0).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,113 @@
+//! The Anderson loop (Peng et al. 2018): local-global steps $G$ on the flattened free
+//! positions, extrapolated over a window of past steps by [`crate::linalg::anderson::Anderson`], with
+//! the energy safeguard that falls back to the plain step $G(x_k)$ when the extrapolated
+//! iterate's $E(x, R(x))$ rises.
+
+use super::{Arap, SolveStats, ms};
+use std::time::Instant;
+
+/// What [`Arap::iterate_anderson`] needs besides the solver: the acceleration state and the
+/// flattened free positions $x_k$, $G(x_k)$ and the accelerated iterate.
+#[derive(Debug)]
+pub(super) struct AndersonWork {
+    aa: crate::linalg::anderson::Anderson,
+    x: Vec<f64>,
+    g: Vec<f64>,
+    xa: Vec<f64>,
+    /// $E(x, R(x))$ of the pose the last call ended on (its rotations are the current ones).
+    energy: Option<f64>,
+}
+
+impl Arap {
+    /// Local-global with safeguarded Anderson acceleration of the free positions. Energies are
+    /// $E(x_k, R(x_k))$: each iterate gets its own local step, which the next global step reuses.
+    /// An accelerated iterate with a higher energy than the last accepted one is replaced by the
+    /// plain step $G(x_k)$, for which $E(G(x), R(G(x))) \le E(G(x), R(x)) \le E(x, R(x))$.
+    /// At most `max_iterations`; the stopping rule applies only when `stopping`. The history
+    /// of the previous call is kept when `keep_history` (same map, same starting iterate).
+    pub(super) fn iterate_anderson(
+        &mut self,
+        stats: &mut SolveStats,
+        window: usize,
+        max_iterations: usize,
+        stopping: bool,
+        keep_history: bool,
+    ) {
+        let tol = self.config.tolerance;
+        let free = self.inner.free_vertices.clone();
+        let dim = 3 * free.len();
+        let mut work = match self.anderson.take() {
+            Some(w) if w.aa.shape() == (window.max(1), dim) => w,
+            _ => Box::new(AndersonWork {
+                aa: crate::linalg::anderson::Anderson::new(window, dim),
+                x: vec![0.0; dim],
+                g: vec![0.0; dim],
+                xa: vec![0.0; dim],
+                energy: None,
+            }),
+        };
+        if !keep_history {
+            work.aa.reset();
+            work.energy = None;
+        }
+        let AndersonWork { aa, x, g, xa, energy: last_energy } = &mut *work;
+        let gather = |cur: &[[f64; 3]], out: &mut [f64]| {
+            for (r, &v) in free.iter().enumerate() {
+                out[3 * r..3 * r + 3].copy_from_slice(&cur[v as usize]);
+            }
+        };
+        let scatter = |src: &[f64], cur: &mut [[f64; 3]]| {
+            for (r, &v) in free.iter().enumerate() {
+                cur[v as usize] = [src[3 * r], src[3 * r + 1], src[3 * r + 2]];
+            }
+        };
+        gather(&self.current, x);
+        // Continuing: the pose and its rotations are where the last call left them, so its
+        // last local step stands (one local step saved per call).
+        let t0 = Instant::now();
+        let mut accepted = match last_energy.take() {
+            Some(e) => e,
+            None => self.local_step_energy(),
+        };
+        stats.local_ms += ms(t0, Instant::now());
+        stats.initial_energy = accepted;
+        for it in 0..max_iterations {
+            let t2 = Instant::now();
+            self.assemble_rhs();
+            let t3 = Instant::now();
+            stats.rhs_ms += ms(t2, t3);
+            self.solve_rhs();
+            for r in 0..free.len() {
+                g[3 * r..3 * r + 3].copy_from_slice(&self.rhs_row(r));
+            }
+            aa.step(x, g, xa);
+            scatter(xa, &mut self.current);
+            let t4 = Instant::now();
+            stats.solve_ms += ms(t3, t4);
+            let mut e = self.local_step_energy();
+            let t6 = Instant::now();
+            stats.local_ms += ms(t4, t6);
+            if e <= accepted {
+                std::mem::swap(x, xa);
+            } else {
+                // Safeguard: take the plain step instead and restart the history.
+                stats.rejected_steps += 1;
+                aa.reset();
+                scatter(g, &mut self.current);
+                e = self.local_step_energy();
+                stats.local_ms += ms(t6, Instant::now());
+                std::mem::swap(x, g);
+            }
+            let prev = accepted;
+            accepted = e;
+            stats.energies.push(e);
+            stats.iterations = it + 1;
+            if stopping && self.stop(tol, prev, e, stats.initial_energy) {
+                stats.converged = true;
+                break;
+            }
+        }
+        *last_energy = Some(accepted);
+        self.anderson = Some(work);
+    }
+}

@@ -1,0 +1,125 @@
+//! The settings of the local-global iteration ([`ArapConfig`]: cell type, stopping rule,
+//! acceleration) and the statistics one solve reports ([`SolveStats`]).
+
+/// Anderson window of [`Arap::refine`].
+pub const REFINE_ANDERSON_WINDOW: usize = 5;
+
+/// The ARAP cell type.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Energy {
+    /// Every edge of the triangles around a vertex (Chao et al. 2010). The default.
+    #[default]
+    SpokesAndRims,
+    /// The one-ring edges of a vertex (Sorkine & Alexa 2007).
+    Spokes,
+}
+
+/// How the local-global iteration is accelerated.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Acceleration {
+    /// Plain local-global (Sorkine & Alexa 2007). The default.
+    #[default]
+    None,
+    /// Anderson acceleration of the free positions with a window of `window` past steps
+    /// (Peng et al. 2018; [`crate::linalg::anderson`]), safeguarded: an accelerated iterate whose
+    /// energy $E(x, R(x))$ exceeds the last accepted one is replaced by the plain step.
+    Anderson { window: usize },
+}
+
+/// Settings of the local-global iteration.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ArapConfig {
+    /// Cell type of the energy. Default: spokes and rims.
+    pub energy: Energy,
+    /// Stop when the relative energy decrease of an iteration falls below this (unitless).
+    /// `0` runs exactly `max_iterations`. Default `1e-4` (the reference run of DESIGN.md §5).
+    pub tolerance: f64,
+    /// Iteration cap per solve. Default 100.
+    pub max_iterations: usize,
+    /// Acceleration of the loop. Default none (plain local-global).
+    #[serde(default)]
+    pub acceleration: Acceleration,
+    /// Also stop once $E_k \le$ `energy_threshold`$\cdot E_0$, $E_0$ the energy of the solve's
+    /// starting guess: the paper's absolute threshold on the energy normalized to 0–1 (its
+    /// Fig. 10). `0` (the default) disables it.
+    #[serde(default)]
+    pub energy_threshold: f64,
+}
+
+impl Default for ArapConfig {
+    fn default() -> Self {
+        ArapConfig {
+            energy: Energy::SpokesAndRims,
+            tolerance: 1e-4,
+            max_iterations: 100,
+            acceleration: Acceleration::None,
+            energy_threshold: 0.0,
+        }
+    }
+}
+
+/// What one call of [`Arap::solve`] (or of a BS-ARAP variant's solve, which runs it on the base)
+/// did.
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
+pub struct SolveStats {
+    /// Local-global iterations run.
+    pub iterations: usize,
+    /// Whether the tolerance was met (false: stopped at the cap). For the coarse variant, its
+    /// coarse solve; the fine iterations after it report in `fine_unconverged`.
+    pub converged: bool,
+    /// $E(p'_0, R(p'_0))$: the energy of the starting guess (with handles on target).
+    pub initial_energy: f64,
+    /// Energy after each iteration, $E(p'_k, R(p'_k))$ with the rotations fitted to the pose
+    /// (with Anderson acceleration, to the accepted iterate); never increases.
+    /// Evaluated from the local step's covariances as $A + \sum w\lVert e\rVert^2 - 2\sum_i
+    /// \operatorname{tr}(R_i S_i)$, which agrees with [`Arap::energy`] to rounding of the
+    /// terms (relative $10^{-16}\cdot$ their sum over $E$).
+    pub energies: Vec<f64>,
+    /// Milliseconds in the local steps (rotation fits), summed over iterations.
+    pub local_ms: f64,
+    /// Milliseconds assembling right-hand sides.
+    pub rhs_ms: f64,
+    /// Milliseconds in the back-substitutions.
+    pub solve_ms: f64,
+    /// Milliseconds evaluating the energy: the local pass after the last global step, which
+    /// serves the stopping rule and the published rotations (the others also feed the next
+    /// global step and count as local).
+    pub energy_ms: f64,
+    /// Anderson steps rejected by the energy safeguard (0 without acceleration).
+    pub rejected_steps: usize,
+    /// Iterations of ARAP on the full mesh after a coarse solve ([`crate::deform::coarse`]; 0
+    /// otherwise); `iterations` and the phase times above count the coarse ones only.
+    pub fine_iterations: usize,
+    /// Milliseconds of those fine iterations.
+    pub fine_ms: f64,
+    /// The ARAP energy on the full mesh after them, $E(x, R(x))$ (0 without fine iterations;
+    /// the energies above are the coarse solve's).
+    pub fine_energy: f64,
+    /// Fine iterations ran and were still lowering the energy by more than the tolerance per
+    /// iteration: solving again at the same targets would still change the pose.
+    pub fine_unconverged: bool,
+}
+
+impl SolveStats {
+    /// Nothing more to do at these targets: the solve converged, and so did the fine
+    /// iterations after it, if any.
+    pub fn done(&self) -> bool {
+        self.converged && !self.fine_unconverged
+    }
+
+    /// Final energy (the initial one when no iteration ran).
+    pub fn energy(&self) -> f64 {
+        self.energies.last().copied().unwrap_or(self.initial_energy)
+    }
+    /// Total milliseconds of the solve, fine iterations included.
+    pub fn total_ms(&self) -> f64 {
+        self.local_ms + self.rhs_ms + self.solve_ms + self.energy_ms + self.fine_ms
+    }
+
+    /// Milliseconds per (coarse) iteration, without the fine iterations' time.
+    pub fn ms_per_iteration(&self) -> f64 {
+        (self.total_ms() - self.fine_ms) / self.iterations.max(1) as f64
+    }
+}

@@ -1,0 +1,164 @@
+//! The outer loop: [`Arap::solve`] and [`Arap::refine`] check the targets, put the handles
+//! on them and run the plain loop ([`Arap::iterate_plain`], alternating Eq. 4 and Eq. 5) or
+//! the Anderson loop (`accelerated`) under the stopping rule
+//! $(E_{k-1}-E_k)/E_{k-1} <$ tolerance; and the Laplacian-editing starting guess.
+
+use super::{Acceleration, Arap, REFINE_ANDERSON_WINDOW, SolveStats, ms};
+use crate::error::SolveError;
+use crate::linalg::rotation::IDENTITY;
+use crate::pool::in_pool;
+use std::time::Instant;
+
+impl Arap {
+    /// Runs local-global iterations from the current pose with the handle vertices moved to
+    /// `targets` (`#H×3`, order of
+    /// [`Handles::handle_vertices`](crate::deform::handles::Handles::handle_vertices)) and pinned
+    /// vertices at rest.
+    /// When every target equals its rest position the result is the rest pose exactly, with
+    /// identity rotations, zero energy and no iteration (it is the minimizer).
+    /// On a non-finite result the previous pose is kept and an error returned.
+    pub fn solve(&mut self, targets: &[[f64; 3]]) -> Result<SolveStats, SolveError> {
+        self.refined_at = None;
+        self.run(targets, None, false)
+    }
+
+    /// Exactly `iterations` local-global iterations with safeguarded Anderson acceleration
+    /// (window [`REFINE_ANDERSON_WINDOW`], whatever the configuration says; no stopping rule)
+    /// from the pose `start` (`#V×3`) with the handles moved to `targets`: the fine pass that
+    /// follows a coarse solve ([`crate::deform::coarse`]). Anderson because what is left after the
+    /// coarse solve is smooth, the slow part for plain local-global. Rest targets give the rest
+    /// pose exactly, as in [`Arap::solve`]; a `start` of another length or with non-finite
+    /// values is ignored (the current pose is the start).
+    ///
+    /// A refine that goes on from the previous one's result at the same targets (nothing else
+    /// touched the pose in between) continues its Anderson history instead of restarting it:
+    /// the fixed-point map is the same, so repeated short refines (settling) converge like one
+    /// long one.
+    pub fn refine(
+        &mut self,
+        start: &[[f64; 3]],
+        targets: &[[f64; 3]],
+        iterations: usize,
+    ) -> Result<SolveStats, SolveError> {
+        let continues =
+            self.refined_at.as_deref() == Some(targets) && start == self.mesh_current.as_slice();
+        self.set_positions(start);
+        let stats = self.run(targets, Some(iterations), continues)?;
+        if stats.iterations > 0 {
+            self.refined_at = Some(targets.to_vec());
+        }
+        Ok(stats)
+    }
+
+    /// [`Arap::solve`] (`fixed: None`) or [`Arap::refine`] (`Some(iterations)`, keeping the
+    /// Anderson history when `continues`).
+    pub(super) fn run(
+        &mut self,
+        targets: &[[f64; 3]],
+        fixed: Option<usize>,
+        continues: bool,
+    ) -> Result<SolveStats, SolveError> {
+        let hv = &self.inner.handle_vertices;
+        if targets.len() != hv.len() {
+            return Err(SolveError::TargetCount { got: targets.len(), expected: hv.len() });
+        }
+        if let Some(index) = targets.iter().position(|t| !t.iter().all(|c| c.is_finite())) {
+            return Err(SolveError::NonFiniteTarget { index });
+        }
+        if hv.iter().zip(targets).all(|(&v, t)| *t == self.rest[v as usize]) {
+            // Every handle at rest: the rest pose has $E = 0$ and $E \ge 0$ (per triangle the
+            // cotangent form is the Dirichlet energy of an affine map; spokes weights are
+            // clamped), so it is the minimizer. Return it exactly instead of iterating towards
+            // it from the warm start, which stops at the tolerance short of it.
+            self.reset();
+            return Ok(SolveStats { converged: true, ..SolveStats::default() });
+        }
+        let previous = self.current.clone();
+        for (&v, t) in hv.iter().zip(targets) {
+            self.current[v as usize] = *t;
+        }
+        for &v in &self.inner.pinned_vertices {
+            self.current[v as usize] = self.rest[v as usize];
+        }
+        let mut stats = SolveStats::default();
+        in_pool(|| match (fixed, self.config.acceleration) {
+            (Some(n), _) => {
+                self.iterate_anderson(&mut stats, REFINE_ANDERSON_WINDOW, n, false, continues)
+            }
+            (None, Acceleration::None) => self.iterate_plain(&mut stats),
+            (None, Acceleration::Anderson { window }) => {
+                self.iterate_anderson(&mut stats, window, self.config.max_iterations, true, false)
+            }
+        });
+        if let Some(vertex) = self.current.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
+            self.current = previous;
+            let vertex = self.order.to_mesh[vertex] as usize;
+            return Err(SolveError::NonFiniteResult { vertex });
+        }
+        self.publish();
+        Ok(stats)
+    }
+
+    /// The stopping rule: relative decrease below `tol`, or the normalized threshold.
+    pub(super) fn stop(&self, tol: f64, prev: f64, e: f64, e0: f64) -> bool {
+        let th = self.config.energy_threshold;
+        (tol > 0.0 && (prev <= f64::MIN_POSITIVE || (prev - e) / prev < tol))
+            || (th > 0.0 && e <= th * e0)
+    }
+
+    /// Sets the starting guess to the Laplacian-editing fit for `targets` (Sun et al. 2017,
+    /// step 4): one global step with every $R_i = I$, i.e. $L_{FF}x_F = Lp|_F - L_{FH}x_H$.
+    /// Rotations are left at the identity.
+    pub fn start_from_laplacian_fit(&mut self, targets: &[[f64; 3]]) -> Result<(), SolveError> {
+        let hv = &self.inner.handle_vertices;
+        if targets.len() != hv.len() {
+            return Err(SolveError::TargetCount { got: targets.len(), expected: hv.len() });
+        }
+        self.refined_at = None;
+        for (&v, t) in hv.iter().zip(targets) {
+            self.current[v as usize] = *t;
+        }
+        for &v in &self.inner.pinned_vertices {
+            self.current[v as usize] = self.rest[v as usize];
+        }
+        self.rotations.fill(IDENTITY);
+        self.assemble_rhs();
+        self.solve_rhs();
+        for (r, &v) in self.inner.free_vertices.iter().enumerate() {
+            let p = self.rhs_row(r);
+            if p.iter().all(|c| c.is_finite()) {
+                self.current[v as usize] = p;
+            }
+        }
+        self.publish();
+        Ok(())
+    }
+
+    /// Plain local-global iterations (the handles already on target in `current`). Each global
+    /// step is followed by the local pass ([`Arap::local_pass`]), whose sums give the energy
+    /// $E(x_k, R(x_k))$ the stopping rule reads, with the rotations fitted to the new pose
+    /// (the energy the Anderson loop and libigl's reference script measure). So the stopping
+    /// rule costs no extra pass, and a solve ends with the rotations of its result.
+    pub(super) fn iterate_plain(&mut self, stats: &mut SolveStats) {
+        let tol = self.config.tolerance;
+        let n = self.config.max_iterations;
+        let t0 = Instant::now();
+        stats.initial_energy = self.local_step_energy();
+        stats.local_ms += ms(t0, Instant::now());
+        for it in 0..n {
+            self.global_step(stats);
+            let t1 = Instant::now();
+            let e = self.local_step_energy();
+            let prev = stats.energies.last().copied().unwrap_or(stats.initial_energy);
+            stats.energies.push(e);
+            let stop = self.stop(tol, prev, e, stats.initial_energy);
+            if stop || it + 1 == n {
+                // This pass served the energy and the published rotations.
+                stats.energy_ms += ms(t1, Instant::now());
+                stats.converged = stop;
+                break;
+            }
+            stats.local_ms += ms(t1, Instant::now());
+        }
+    }
+}

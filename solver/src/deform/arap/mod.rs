@@ -1,0 +1,255 @@
+//! As-Rigid-As-Possible surface deformation (Sorkine & Alexa 2007) by local-global iteration.
+//!
+//! Energy (Sun et al. 2017, Eq. 3), over cells $\mathcal{C}_i$ of rest edges $e_{jk}=p_j-p_k$:
+//! $$E(p') = \sum_i \sum_{(j,k)\in\mathcal{C}_i} w_{jk}\,\lVert (p'_j-p'_k) - R_i(p_j-p_k)\rVert^2.$$
+//! - [`Energy::SpokesAndRims`] (default; Chao et al. 2010, the paper's Eq. 2, libigl's default
+//!   for surfaces): the cell of vertex $i$ is every edge of every triangle around $i$, with the
+//!   per-triangle weight $\tfrac12\cot$ of the opposite angle. Negative weights are kept.
+//! - [`Energy::Spokes`]: the cell of $i$ is its one-ring edges $(i,j)$, weight $w_{ij}$, clamped
+//!   at zero (negative spoke weights can make the local fit meaningless).
+//!
+//! **Local step** (Eq. 5): $S_i = \sum w_{jk} e_{jk} e'^\top_{jk}$, $R_i$ from
+//! [`crate::linalg::rotation::fit_rotations_near`] (quaternion fit started from the previous $R_i$, four
+//! cells at a time); parallel over vertices (rayon).
+//! **Global step** (Eq. 4): $L_{FF}\,p'_F = b_F - L_{FH}\,p'_H$ with
+//! $b_j = \sum_{t}\sum_{(j,k)\in t} w^t_{jk}\,\bar R_t\,e_{jk}$, $\bar R_t$ the mean of the three
+//! rotations of triangle $t$ (spokes and rims), or $b_i = \sum_j \tfrac{w_{ij}}2(R_i+R_j)e_{ij}$
+//! (spokes). $L_{FF}$ is factored once per handle set ([`crate::linalg::linsolve::SpdFactor`]); an
+//! iteration is one 3-column back-substitution.
+//!
+//! Each local and each global step weakly decreases $E$; iteration stops when the relative
+//! decrease $(E_{k-1}-E_k)/E_{k-1}$ falls below the tolerance, or at the iteration cap.
+//!
+//! Layout: the solver numbers the vertices in reverse Cuthill–McKee order
+//! ([`crate::geometry::reorder`]) so that one-ring gathers stay in cache; poses, rotations and errors at
+//! its interface are in the mesh's own order.
+//!
+//! Inputs: a [`Mesh`](crate::geometry::mesh::Mesh) (`#V×3`, `#F×3`), [`Handles`](crate::deform::handles::Handles),
+//! an [`ArapConfig`]; targets `#H×3` in the order of
+//! [`Handles::handle_vertices`](crate::deform::handles::Handles::handle_vertices). Known limitation:
+//! convergence is linear, slow for large rotations of far-apart handles (what BS-ARAP's smooth
+//! base is meant to help with).
+//!
+//! Files, one per step:
+//! - `config`: the settings ([`ArapConfig`]) and what a solve reports ([`SolveStats`]);
+//! - `precompute`: cells, weights and the factorization of $L_{FF}$ ([`Arap::new`]);
+//! - `iterate`: the outer loop ([`Arap::solve`], [`Arap::refine`]), its stopping rule and the
+//!   plain local-global loop;
+//! - `accelerated`: the safeguarded Anderson loop;
+//! - `local`: the local step (covariances and rotation fits, Eq. 5);
+//! - `global`: the right-hand side and the back-substitution (Eq. 4);
+//! - `energy`: $E(p', R)$, directly and from the local step's sums;
+//! - `avx`: the AVX2 build of the covariance pass.
+
+mod accelerated;
+#[cfg(target_arch = "x86_64")]
+mod avx;
+mod config;
+mod energy;
+mod global;
+mod iterate;
+mod local;
+mod precompute;
+#[cfg(test)]
+mod tests;
+
+pub use config::{Acceleration, ArapConfig, Energy, REFINE_ANDERSON_WINDOW, SolveStats};
+
+use crate::deform::constraints::Constraints;
+use crate::geometry::reorder::VertexOrder;
+use crate::linalg::linsolve::SpdFactor;
+use crate::linalg::rotation::{IDENTITY, Mat3};
+use accelerated::AndersonWork;
+use std::time::Instant;
+
+/// Compressed adjacency lists: `items[offsets[i]..offsets[i+1]]` belong to `i`.
+#[derive(Debug, Clone)]
+struct Csr<T> {
+    offsets: Vec<usize>,
+    items: Vec<T>,
+}
+
+impl<T: Copy> Csr<T> {
+    fn from_pairs(n: usize, pairs: &[(u32, T)]) -> Csr<T> {
+        let mut offsets = vec![0usize; n + 1];
+        for &(i, _) in pairs {
+            offsets[i as usize + 1] += 1;
+        }
+        for i in 0..n {
+            offsets[i + 1] += offsets[i];
+        }
+        let mut fill = offsets.clone();
+        let mut items: Vec<Option<T>> = vec![None; pairs.len()];
+        for &(i, x) in pairs {
+            items[fill[i as usize]] = Some(x);
+            fill[i as usize] += 1;
+        }
+        Csr { offsets, items: items.into_iter().flatten().collect() }
+    }
+    #[inline]
+    fn row(&self, i: usize) -> &[T] {
+        &self.items[self.offsets[i]..self.offsets[i + 1]]
+    }
+}
+
+/// The cells of the energy, with their weights.
+#[derive(Debug, Clone)]
+enum Cells {
+    /// Per face: half cotangents per corner and the rest edge opposite each corner
+    /// ($p_a - p_b$ for [`opposite_edge`](crate::geometry::cotan::opposite_edge)), for the energy. Per
+    /// vertex $i$, over $j \in$
+    /// one-ring$(i) \cup \{i\}$ (`ring`, sorted): the covariance coefficient $k_{ij}$ with
+    /// $S_i = \sum_j k_{ij}\,(x_j - x_i)^\top$ and the rhs coefficient $u_{ij}$ with
+    /// $b_i = \sum_j R_j\,u_{ij}$ (see `precompute::ring_coefficients`).
+    SpokesAndRims {
+        cot: Vec<[f64; 3]>,
+        edges: Vec<[[f64; 3]; 3]>,
+        ring: Csr<u32>,
+        cov_coef: Vec<[f64; 3]>,
+        rhs_coef: Vec<[f64; 3]>,
+        /// $c_{ij} = \tfrac32 w_{ij}$ (edge weight, 0 for $j = i$): $\sum_i\sum_j c_{ij}
+        /// \lVert x_j - x_i\rVert^2$ is the energy's $\sum \lVert e'\rVert^2$ term.
+        edge_coef: Vec<f64>,
+    },
+    /// Per vertex: (neighbour, clamped weight).
+    Spokes { neighbours: Csr<(u32, f64)> },
+}
+
+/// ARAP precomputed for one mesh and one handle set: the factorization of $L_{FF}$ and the
+/// current pose (the warm start of the next solve).
+#[derive(Debug)]
+pub struct Arap {
+    rest: Vec<[f64; 3]>,
+    triangles: Vec<[u32; 3]>,
+    config: ArapConfig,
+    cells: Cells,
+    constraints: Constraints,
+    /// The partition in the internal numbering (free rows ascending in it; handles in the
+    /// order of the targets).
+    inner: Constraints,
+    /// Internal vertex `i` is mesh vertex `order.to_mesh[i]` ([`VertexOrder`]): one-rings close
+    /// in memory. Everything but the public pose, rotations and rest is kept in this order.
+    order: VertexOrder,
+    /// [`Arap::positions`], [`Arap::rotations`] and [`Arap::rest`] in mesh order, written when a
+    /// call changes the pose ([`Arap::publish`]).
+    mesh_current: Vec<[f64; 3]>,
+    mesh_rotations: Vec<Mat3>,
+    mesh_rest: Vec<[f64; 3]>,
+    /// Vertices per parallel task (`precompute::vertices_per_task`).
+    task: usize,
+    /// Whether the covariance pass may run its AVX2 build (`avx`), detected once.
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+    avx2: bool,
+    /// Per free row: (fixed vertex h, w_ih) so that rhs_i += Σ w_ih x_h.
+    coupling: Csr<(u32, f64)>,
+    /// `None` when every vertex is fixed.
+    factor: Option<SpdFactor>,
+    rotations: Vec<Mat3>,
+    /// The energy's rest term $\sum w\lVert e\rVert^2$ over all cells (constant).
+    rest_term: f64,
+    current: Vec<[f64; 3]>,
+    /// The global step's three columns (x, then y, then z) over the free rows: the rhs, then
+    /// in place the solution.
+    rhs: Vec<f64>,
+    /// Anderson state and its iterate buffers, kept between solves (13 MB on a 43k-vertex
+    /// mesh: allocating them per call cost milliseconds per frame).
+    anderson: Option<Box<AndersonWork>>,
+    /// The targets of the last [`Arap::refine`], while the pose is still its result: a refine
+    /// that continues from there at the same targets keeps the Anderson history.
+    refined_at: Option<Vec<[f64; 3]>>,
+}
+
+impl Arap {
+    /// The fixed/free partition used (handles, pinned components).
+    pub fn constraints(&self) -> &Constraints {
+        &self.constraints
+    }
+
+    /// The settings.
+    pub fn config(&self) -> &ArapConfig {
+        &self.config
+    }
+
+    /// Changes tolerance, cap; an energy change needs a new [`Arap`] (other weights).
+    pub fn set_stopping(&mut self, tolerance: f64, max_iterations: usize) {
+        self.config.tolerance = tolerance;
+        self.config.max_iterations = max_iterations;
+    }
+
+    /// The current pose `#V×3` (the result of the last solve, the warm start of the next).
+    pub fn positions(&self) -> &[[f64; 3]] {
+        &self.mesh_current
+    }
+
+    /// Per-vertex rotations $R_i$ of the last local step.
+    #[expect(clippy::misnamed_getters, reason = "the mesh-order copy, not the internal one")]
+    pub fn rotations(&self) -> &[Mat3] {
+        &self.mesh_rotations
+    }
+
+    /// Rest positions `#V×3`.
+    #[expect(clippy::misnamed_getters, reason = "the mesh-order copy, not the internal one")]
+    pub fn rest(&self) -> &[[f64; 3]] {
+        &self.mesh_rest
+    }
+
+    /// Nonzeros of the Cholesky factor of $L_{FF}$ (0 when every vertex is fixed).
+    pub fn factor_nonzeros(&self) -> usize {
+        self.factor.as_ref().map_or(0, |f| f.factor_nonzeros())
+    }
+
+    /// The prefactored free block $L_{FF}$ (`None` when every vertex is fixed), for benchmarks
+    /// of the global solve; solving with it leaves the deformation untouched.
+    pub fn global_factor(&mut self) -> Option<&mut SpdFactor> {
+        self.factor.as_mut()
+    }
+
+    /// Restarts the next solve from the rest pose.
+    pub fn reset(&mut self) {
+        self.refined_at = None;
+        self.current.copy_from_slice(&self.rest);
+        self.rotations.fill(IDENTITY);
+        self.publish();
+    }
+
+    /// Writes the pose and rotations in mesh order for [`Arap::positions`] and
+    /// [`Arap::rotations`].
+    fn publish(&mut self) {
+        self.order.scatter(&self.current, &mut self.mesh_current);
+        self.order.scatter(&self.rotations, &mut self.mesh_rotations);
+    }
+
+    /// Sets the starting guess of the next solve (`#V×3`, finite; other lengths are ignored).
+    pub fn set_positions(&mut self, x: &[[f64; 3]]) {
+        self.refined_at = None;
+        if x.len() == self.current.len() && x.iter().flatten().all(|c| c.is_finite()) {
+            self.order.gather_into(x, &mut self.current);
+            self.mesh_current.copy_from_slice(x);
+        }
+    }
+
+    /// The ARAP energy of pose `x` (`#V×3`) against this solver's rest shape with the best
+    /// rotations, $\min_R E(x, R)$: a quality figure for results of other methods. The pose is
+    /// kept as the next warm start.
+    pub fn pose_energy(&mut self, x: &[[f64; 3]]) -> f64 {
+        self.set_positions(x);
+        self.local_pass();
+        self.publish();
+        self.energy()
+    }
+}
+
+#[inline]
+pub(super) fn scale3(a: [f64; 3], s: f64) -> [f64; 3] {
+    [s * a[0], s * a[1], s * a[2]]
+}
+
+#[inline]
+pub(super) fn norm2(a: [f64; 3]) -> f64 {
+    a[0] * a[0] + a[1] * a[1] + a[2] * a[2]
+}
+
+#[inline]
+pub(super) fn ms(a: Instant, b: Instant) -> f64 {
+    (b - a).as_secs_f64() * 1e3
+}

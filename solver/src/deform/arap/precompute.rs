@@ -1,0 +1,248 @@
+//! Precomputation, once per mesh and handle set: the vertex order, the cotangent weights of
+//! the cells, the coefficients of the local step and rhs over each one-ring
+//! ([`ring_coefficients`]), the energy's constant rest term, and the factorization of the
+//! free block $L_{FF}$ of the cotangent Laplacian (Sun et al. 2017, Eq. 4's matrix).
+
+use super::{Arap, ArapConfig, Cells, Csr, Energy, norm2, scale3};
+use crate::deform::constraints::Constraints;
+use crate::deform::handles::Handles;
+use crate::error::SolveError;
+use crate::geometry::cotan::{edge_weights, face_cotangents_or, laplacian_triplets, opposite_edge};
+use crate::geometry::mesh::{Mesh, add, sub};
+use crate::geometry::reorder::VertexOrder;
+use crate::linalg::linsolve::{Layout, SpdFactor};
+use crate::linalg::rotation::{IDENTITY, LANES};
+use faer::sparse::Triplet;
+
+/// Whether this processor runs the AVX2 build of the covariance pass.
+fn avx2_detected() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::is_x86_feature_detected!("avx2")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// Vertices per parallel task for a mesh of `n` vertices: a sixteenth of the mesh, between
+/// 256 and 2048, a multiple of [`LANES`]. Sixteen tasks balance two threads (a 6,669-vertex mesh
+/// in 2048-vertex tasks split 4096 : 2573 and its iterations took 15–17 % longer than in
+/// 420-vertex tasks); tasks of at least 256 vertices (about 0.05 ms of work) keep the wake-ups
+/// and joins a small share. The task size also fixes the blocks of the energy's sums, so
+/// results do not depend on the number of threads.
+fn vertices_per_task(n: usize) -> usize {
+    n.div_ceil(16).clamp(256, 2048).next_multiple_of(LANES)
+}
+
+impl Arap {
+    /// Precomputes cells and weights and factors $L_{FF}$ (once per handle set).
+    pub fn new(mesh: &Mesh, handles: &Handles, config: &ArapConfig) -> Result<Arap, SolveError> {
+        if handles.n_vertices() != mesh.n_vertices() {
+            return Err(SolveError::HandleCount {
+                got: handles.n_vertices(),
+                expected: mesh.n_vertices(),
+            });
+        }
+        let constraints = Constraints::new(mesh, handles);
+        Arap::with_constraints(mesh, constraints, config, 0.0, None)
+    }
+
+    /// As [`Arap::new`] with a precomputed partition (shared with the bi-harmonic base), an
+    /// absolute floor on doubled triangle areas, and optional fallback positions whose
+    /// cotangents a degenerate triangle takes (see [`face_cotangents_or`]).
+    pub(crate) fn with_constraints(
+        mesh: &Mesh,
+        constraints: Constraints,
+        config: &ArapConfig,
+        min_double_area: f64,
+        fallback: Option<&[[f64; 3]]>,
+    ) -> Result<Arap, SolveError> {
+        let n = mesh.n_vertices();
+        let order = VertexOrder::reverse_cuthill_mckee(n, mesh.triangles());
+        let inner = constraints.renumbered(&order);
+        let rest = order.gather(mesh.positions());
+        let tris = &order.triangles(mesh.triangles());
+        let fallback = fallback.map(|f| order.gather(f));
+        let (cot, _) = face_cotangents_or(&rest, fallback.as_deref(), tris, min_double_area)
+            .map_err(|d| SolveError::DegenerateFace { face: d.face })?;
+        let clamp = config.energy == Energy::Spokes;
+        let weights = edge_weights(tris, &cot, clamp);
+
+        // Free block L_FF (lower triangle) and the coupling to fixed vertices.
+        let mut ff = Vec::with_capacity(n + weights.len());
+        let mut coupling = Vec::new();
+        let mut diag = vec![0.0; inner.free_vertices.len()];
+        for t in laplacian_triplets(n, tris, &cot, clamp) {
+            let (fi, fj) = (inner.free_index[t.row], inner.free_index[t.col]);
+            match (fi, fj) {
+                (Some(r), Some(_)) if t.row == t.col => diag[r as usize] += t.val,
+                (Some(r), Some(c)) if r > c => ff.push(Triplet::new(r as usize, c as usize, t.val)),
+                (Some(r), None) => coupling.push((r, (t.col as u32, -t.val))),
+                _ => {}
+            }
+        }
+        ff.extend(diag.iter().enumerate().map(|(r, &d)| Triplet::new(r, r, d)));
+        let n_free = inner.free_vertices.len();
+        let factor = if n_free == 0 {
+            None
+        } else {
+            Some(SpdFactor::from_triplets(n_free, &ff, Layout::Simplicial).map_err(|source| {
+                SolveError::Factorization {
+                    matrix: "the free block of the cotangent Laplacian",
+                    source,
+                }
+            })?)
+        };
+        let coupling = Csr::from_pairs(n_free, &coupling);
+
+        let cells = match config.energy {
+            Energy::SpokesAndRims => {
+                let p = &rest;
+                let edges: Vec<[[f64; 3]; 3]> = tris
+                    .iter()
+                    .map(|t| {
+                        std::array::from_fn(|k| {
+                            let (a, b) = opposite_edge(*t, k);
+                            sub(p[a as usize], p[b as usize])
+                        })
+                    })
+                    .collect();
+                let (ring, cov_coef, rhs_coef, edge_coef) =
+                    ring_coefficients(n, tris, &cot, &edges);
+                Cells::SpokesAndRims { cot, edges, ring, cov_coef, rhs_coef, edge_coef }
+            }
+            Energy::Spokes => {
+                let mut nb = Vec::with_capacity(2 * weights.len());
+                for &(i, j, w) in &weights {
+                    nb.push((i, (j, w)));
+                    nb.push((j, (i, w)));
+                }
+                Cells::Spokes { neighbours: Csr::from_pairs(n, &nb) }
+            }
+        };
+        let rest_term = {
+            let p = &rest;
+            match &cells {
+                Cells::SpokesAndRims { ring, edge_coef, .. } => (0..n)
+                    .map(|i| {
+                        let (lo, hi) = (ring.offsets[i], ring.offsets[i + 1]);
+                        let row = ring.items[lo..hi].iter().zip(&edge_coef[lo..hi]);
+                        row.map(|(&j, &c)| c * norm2(sub(p[j as usize], p[i]))).sum::<f64>()
+                    })
+                    .sum(),
+                Cells::Spokes { neighbours } => (0..n)
+                    .map(|i| {
+                        let row = neighbours.row(i).iter();
+                        row.map(|&(j, w)| w * norm2(sub(p[i], p[j as usize]))).sum::<f64>()
+                    })
+                    .sum(),
+            }
+        };
+        Ok(Arap {
+            current: rest.clone(),
+            rest,
+            triangles: tris.to_vec(),
+            config: *config,
+            cells,
+            coupling,
+            factor,
+            rotations: vec![IDENTITY; n],
+            rest_term,
+            rhs: vec![0.0; 3 * n_free],
+            constraints,
+            inner,
+            order,
+            task: vertices_per_task(n),
+            avx2: avx2_detected(),
+            mesh_current: mesh.positions().to_vec(),
+            mesh_rotations: vec![IDENTITY; n],
+            mesh_rest: mesh.positions().to_vec(),
+            anderson: None,
+            refined_at: None,
+        })
+    }
+}
+
+/// The one-ring, the covariance, rhs and edge coefficients aligned with it.
+type RingCoefficients = (Csr<u32>, Vec<[f64; 3]>, Vec<[f64; 3]>, Vec<f64>);
+
+/// The per-vertex coefficients of the spokes-and-rims local step and rhs, over
+/// $j \in$ one-ring$(i) \cup \{i\}$ (CSR, sorted by $j$). With the half cotangents $w^t_k$
+/// and rest edges $e^t_k = p_a - p_b$ opposite corner $k$ of triangle $t$:
+/// - covariance: $S_i = \sum_{t \ni i}\sum_k w^t_k e^t_k (x_a - x_b)^\top
+///   = \sum_j k_{ij}(x_j - x_i)^\top$ with $k_{ij} = \sum_{t \ni i}\sum_k w^t_k e^t_k
+///   ([a = j] - [b = j])$ (and $\sum_j k_{ij} = 0$, so the differences cost nothing and keep
+///   precision far from the origin);
+/// - energy: the cells' $\sum w \lVert e'\rVert^2$ is $3\sum_{\text{edges}} w_e \lVert x_a -
+///   x_b\rVert^2 = \sum_i \sum_j c_{ij}\lVert x_j - x_i\rVert^2$ with $c_{ij} = \tfrac32 w_{ij}$
+///   (every triangle edge is in the cells of the triangle's three vertices);
+/// - rhs: $b_i = \sum_{t \ni i} \bar R_t v_{it}$ with $\bar R_t = \tfrac13\sum_{c \in t} R_c$
+///   and $v_{it}$ the weighted rest edges of $t$ at $i$, so $b_i = \sum_j R_j u_{ij}$ with
+///   $u_{ij} = \tfrac13\sum_{t \ni i, j} v_{it}$ (libigl's precomputed-matrix form).
+fn ring_coefficients(
+    n: usize,
+    tris: &[[u32; 3]],
+    cot: &[[f64; 3]],
+    edges: &[[[f64; 3]; 3]],
+) -> RingCoefficients {
+    let mut inc = Vec::with_capacity(3 * tris.len());
+    for (f, t) in tris.iter().enumerate() {
+        for (c, &v) in t.iter().enumerate() {
+            inc.push((v, (f as u32, c as u8)));
+        }
+    }
+    let vertex_faces = Csr::from_pairs(n, &inc);
+    let mut offsets = Vec::with_capacity(n + 1);
+    offsets.push(0);
+    let (mut items, mut cov_coef, mut rhs_coef) = (Vec::new(), Vec::new(), Vec::new());
+    let mut edge_coef = Vec::new();
+    let mut acc: Vec<(u32, [f64; 3], [f64; 3], f64)> = Vec::new();
+    for i in 0..n {
+        acc.clear();
+        for &(f, c) in vertex_faces.row(i) {
+            let (t, w, e) = (tris[f as usize], cot[f as usize], &edges[f as usize]);
+            let c = c as usize;
+            // v_it: the edges of t at i, e_{c+1} = p_{c+2} - p_c and e_{c+2} = p_c - p_{c+1}.
+            let v = add(
+                scale3(e[(c + 2) % 3], w[(c + 2) % 3]),
+                scale3(e[(c + 1) % 3], -w[(c + 1) % 3]),
+            );
+            for k in 0..3 {
+                let (a, b) = opposite_edge(t, k);
+                // The spoke (i, other end) of this edge, if it has one.
+                let spoke = if a as usize == i || b as usize == i { 1.5 * w[k] } else { 0.0 };
+                acc.push((
+                    a,
+                    scale3(e[k], w[k]),
+                    [0.0; 3],
+                    if b as usize == i { spoke } else { 0.0 },
+                ));
+                acc.push((
+                    b,
+                    scale3(e[k], -w[k]),
+                    [0.0; 3],
+                    if a as usize == i { spoke } else { 0.0 },
+                ));
+                acc.push((t[k], [0.0; 3], scale3(v, 1.0 / 3.0), 0.0));
+            }
+        }
+        acc.sort_by_key(|a| a.0);
+        for &(j, k, u, c) in &acc {
+            if items.len() > offsets[i] && items.last() == Some(&j) {
+                let last = cov_coef.len() - 1;
+                cov_coef[last] = add(cov_coef[last], k);
+                rhs_coef[last] = add(rhs_coef[last], u);
+                edge_coef[last] += c;
+            } else {
+                items.push(j);
+                cov_coef.push(k);
+                rhs_coef.push(u);
+                edge_coef.push(c);
+            }
+        }
+        offsets.push(items.len());
+    }
+    (Csr { offsets, items }, cov_coef, rhs_coef, edge_coef)
+}

@@ -1,0 +1,101 @@
+//! Which vertices a solve holds fixed: the handle vertices, plus every vertex of a connected
+//! component that has no handle (pinned at rest).
+//!
+//! Without the pinning, a component with no fixed vertex leaves the constant vectors of that
+//! component in the kernel of the free block $L_{FF}$, which is then singular (and so is the
+//! bi-Laplacian block). Pinning it rigidly at rest is what a user expects and what the UI reports.
+
+use crate::deform::handles::Handles;
+use crate::geometry::mesh::Mesh;
+use crate::geometry::reorder::VertexOrder;
+use crate::geometry::topology::connected_components;
+
+/// The fixed/free partition of a mesh's vertices for one handle set.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Constraints {
+    /// Handle vertices, ascending (`Handles::handle_vertices`): their targets come from the user,
+    /// in this order (a [`Constraints::renumbered`] copy keeps it).
+    pub handle_vertices: Vec<u32>,
+    /// Vertices of components without any handle, ascending: held at their rest positions.
+    pub pinned_vertices: Vec<u32>,
+    /// Number of components without a handle.
+    pub pinned_components: usize,
+    /// Per vertex: its row in the free block, or `None` when fixed.
+    pub free_index: Vec<Option<u32>>,
+    /// Free vertices, ascending (row `r` of the free block is vertex `free_vertices[r]`).
+    pub free_vertices: Vec<u32>,
+}
+
+impl Constraints {
+    /// Partitions the vertices of `mesh` for `handles` (which must have `#V` labels).
+    pub fn new(mesh: &Mesh, handles: &Handles) -> Constraints {
+        let n = mesh.n_vertices();
+        let comps = connected_components(n, mesh.triangles());
+        let mut has_handle = vec![false; comps.count];
+        for v in 0..n {
+            if handles.is_handle(v) {
+                has_handle[comps.label[v] as usize] = true;
+            }
+        }
+        let handle_vertices = handles.handle_vertices();
+        let pinned_vertices: Vec<u32> =
+            (0..n as u32).filter(|&v| !has_handle[comps.label[v as usize] as usize]).collect();
+        let pinned_components = has_handle.iter().filter(|&&h| !h).count();
+        let mut free_index = vec![None; n];
+        let mut free_vertices = Vec::with_capacity(n);
+        for v in 0..n {
+            if !handles.is_handle(v) && has_handle[comps.label[v] as usize] {
+                free_index[v] = Some(free_vertices.len() as u32);
+                free_vertices.push(v as u32);
+            }
+        }
+        Constraints {
+            handle_vertices,
+            pinned_vertices,
+            pinned_components,
+            free_index,
+            free_vertices,
+        }
+    }
+
+    /// The same partition in the numbering of `order` (internal vertex `i` is mesh vertex
+    /// `order.to_mesh[i]`): handle vertices keep their order (that of the targets), pinned and
+    /// free vertices ascending in the new numbering.
+    pub fn renumbered(&self, order: &VertexOrder) -> Constraints {
+        let to_internal = |v: &u32| order.to_internal[*v as usize];
+        let mut pinned_vertices: Vec<u32> = self.pinned_vertices.iter().map(to_internal).collect();
+        pinned_vertices.sort_unstable();
+        let mut free_index = vec![None; self.free_index.len()];
+        let mut free_vertices = Vec::with_capacity(self.free_vertices.len());
+        for (i, &v) in order.to_mesh.iter().enumerate() {
+            if self.free_index[v as usize].is_some() {
+                free_index[i] = Some(free_vertices.len() as u32);
+                free_vertices.push(i as u32);
+            }
+        }
+        Constraints {
+            handle_vertices: self.handle_vertices.iter().map(to_internal).collect(),
+            pinned_vertices,
+            pinned_components: self.pinned_components,
+            free_index,
+            free_vertices,
+        }
+    }
+
+    /// Is vertex `v` fixed (handle or pinned)?
+    #[inline]
+    pub fn is_fixed(&self, v: usize) -> bool {
+        self.free_index[v].is_none()
+    }
+
+    /// A human sentence for the UI and the CLI, or `None` when nothing is pinned.
+    pub fn notice(&self) -> Option<String> {
+        (self.pinned_components > 0).then(|| {
+            format!(
+                "{} component(s) without a handle ({} vertices) are pinned at rest",
+                self.pinned_components,
+                self.pinned_vertices.len()
+            )
+        })
+    }
+}

@@ -1,0 +1,14 @@
+//! Deformation: handle groups and the fixed/free partition they induce, the methods (ARAP,
+//! the bi-harmonic base, BS-ARAP and its coarse variant) behind one [`deformer::Deformer`],
+//! handle targets from group transforms, and quality figures against a reference.
+
+pub mod arap;
+pub mod biharmonic;
+pub mod bs_arap;
+pub mod coarse;
+pub mod constraints;
+pub mod deformer;
+pub mod handles;
+pub mod pose;
+pub mod quality;
+pub mod selection;

@@ -1,0 +1,8 @@
+//! Linear algebra the solvers share: sparse SPD factorizations kept for reuse, Anderson
+//! acceleration of fixed-point iterations, the closest rotation to a 3×3 covariance, and the
+//! four-lane arithmetic that fit runs on.
+
+pub mod anderson;
+pub(crate) mod lanes;
+pub mod linsolve;
+pub mod rotation;
