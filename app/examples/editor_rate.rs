@@ -4,7 +4,7 @@
 //! (methods: `arap`, `bsarap`, `bsarap-faired`, `bsarap-coarse`, each optionally with `+aa` for
 //! the method panel's Anderson acceleration; default `arap bsarap bsarap-coarse`).
 //!
-//! Drives the editor's own deformer factory (`app::editor::deformers::factory`) with the editor's
+//! Drives the editor's own deformer factory (`app::editor::pose_solvers::factory`) with the editor's
 //! default method settings (tolerance 1e-4, cap 30 iterations per displayed frame), warm-started
 //! from the previous frame as the solver thread does, with the first group moving on the
 //! benchmark's circle (radius 0.1·diag in the xy plane, FRAMES steps of one turn, default 30),
@@ -20,10 +20,10 @@
 //! settle steps and fine iterations, seconds, and the distance to converged ARAP on the mesh
 //! ([`solver::deform::quality::Reference`]) before and after settling.
 
-use app::editor::deformers::factory;
 use app::editor::pose::{GroupPose, handle_targets};
+use app::editor::pose_solvers::factory;
 use app::editor::renderer::Shape;
-use app::editor::solver_thread::{Method as Slot, MethodSettings};
+use app::editor::solver_thread::{MethodSettings, Slot};
 use std::time::Instant;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -80,8 +80,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         };
         let label = format!("{}{}", m.name(), if aa { "+aa" } else { "" });
         let (slot, settings) = match m {
-            solver::Method::Arap => (Slot::Arap, MethodSettings { acceleration, ..defaults }),
-            v => (Slot::BsArap, MethodSettings { bs_variant: v, acceleration, ..defaults }),
+            solver::Method::Arap => (Slot::Compare, MethodSettings { acceleration, ..defaults }),
+            v => (Slot::Main, MethodSettings { bs_variant: v, acceleration, ..defaults }),
         };
         let t = Instant::now();
         let mut d = make(slot, &mesh, &handles, &settings)?;

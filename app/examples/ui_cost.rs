@@ -11,7 +11,7 @@
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-use app::editor::solver_thread::{Method, SolverState};
+use app::editor::solver_thread::{Slot, SolverState};
 use app::editor::{EditorApp, EditorOptions, default_mesh_path};
 use egui_kittest::Harness;
 
@@ -31,7 +31,7 @@ fn main() {
             )
         });
     let start = Instant::now();
-    while h.state().latest_frame(Method::BsArap).is_none() {
+    while h.state().latest_frame(Slot::Main).is_none() {
         assert!(
             start.elapsed() < Duration::from_secs(600),
             "no solved frame in 10 minutes: {:?}",
@@ -63,7 +63,7 @@ fn main() {
         let s = Instant::now();
         h.step();
         times.push(s.elapsed().as_secs_f64() * 1e3);
-        if let Some(f) = h.state().latest_frame(Method::BsArap) {
+        if let Some(f) = h.state().latest_frame(Slot::Main) {
             let g = (f.pose_generation, f.scene_generation);
             if g != last_gen {
                 solver_frames += 1;

@@ -7,7 +7,7 @@
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-use app::editor::solver_thread::{Method, SolverState};
+use app::editor::solver_thread::{Slot, SolverState};
 use app::editor::{EditorApp, EditorOptions, Tool, View, default_mesh_path};
 use eframe::egui::{self, Event, Modifiers, PointerButton, Pos2, Vec2};
 use egui_kittest::{Harness, SnapshotOptions, kittest::Queryable};
@@ -57,7 +57,7 @@ fn step_until(h: &mut Harness<'_, EditorApp>, what: &str, pred: impl Fn(&EditorA
 fn settled(app: &EditorApp) -> bool {
     !app.is_loading()
         && app.n_vertices() > 0
-        && app.latest_frame(Method::BsArap).is_some_and(|f| {
+        && app.latest_frame(Slot::Main).is_some_and(|f| {
             f.pose_generation == app.pose_generation()
                 && f.scene_generation == app.scene_generation()
         })
@@ -66,7 +66,7 @@ fn settled(app: &EditorApp) -> bool {
 
 /// A frame for the current handle set and pose has arrived (possibly not yet converged).
 fn has_current_frame(app: &EditorApp) -> bool {
-    app.latest_frame(Method::BsArap).is_some_and(|f| {
+    app.latest_frame(Slot::Main).is_some_and(|f| {
         f.pose_generation == app.pose_generation() && f.scene_generation == app.scene_generation()
     })
 }
@@ -107,7 +107,7 @@ fn opens_the_default_asset_and_views_change_the_image() {
     // The solver thread builds the base's shape only while the Base view shows it.
     step_until(&mut h, "the base view and its surface", |a| {
         a.view() == View::Base
-            && a.latest_frame(Method::BsArap).is_some_and(|f| f.deformed_base.is_some())
+            && a.latest_frame(Slot::Main).is_some_and(|f| f.deformed_base.is_some())
     });
     h.snapshot_options("editor_base", &snapshot_options());
 
@@ -118,7 +118,7 @@ fn opens_the_default_asset_and_views_change_the_image() {
     h.get_by_label("Side by side").click();
     step_until(&mut h, "an ARAP frame and the quality of both", |a| {
         a.view() == View::Compare
-            && a.latest_frame(Method::Arap).is_some()
+            && a.latest_frame(Slot::Compare).is_some()
             && a.side_by_side_quality().is_some_and(|(_, current)| current)
     });
     // At rest both methods reproduce the mesh, which is converged ARAP (up to f32 rounding).
@@ -141,8 +141,8 @@ fn opens_the_default_asset_and_views_change_the_image() {
                 f.pose_generation == a.pose_generation() && f.stats.converged
             })
         };
-        current(Method::Arap)
-            && current(Method::BsArap)
+        current(Slot::Compare)
+            && current(Slot::Main)
             && matches!(a.solver_state(), Some(SolverState::Converged))
     };
     step_until(&mut h, "both methods converged (and BS-ARAP settled) on the pose", posed);
@@ -170,7 +170,7 @@ fn opens_the_default_asset_and_views_change_the_image() {
     h.get_by_label("Anderson acceleration").click_accesskit();
     step_until(&mut h, "Anderson on", anderson);
     let rebuilt = |a: &EditorApp| {
-        [Method::Arap, Method::BsArap]
+        [Slot::Compare, Slot::Main]
             .into_iter()
             .all(|m| a.latest_frame(m).is_some_and(|f| f.scene_generation == a.scene_generation()))
     };
@@ -240,7 +240,7 @@ fn painting_then_dragging_a_group_deforms_the_mesh() {
     assert!(h.state().pose_generation() > 0, "the drag sent no pose");
     step_until(&mut h, "a frame for the dragged pose", has_current_frame);
 
-    let frame = h.state().latest_frame(Method::BsArap).expect("frame").clone();
+    let frame = h.state().latest_frame(Slot::Main).expect("frame").clone();
     let moved = |u: usize| {
         let p = frame.positions[u];
         let r = rest[u];
@@ -280,7 +280,7 @@ fn painting_then_dragging_a_group_deforms_the_mesh() {
     let q = h.state().group_pose(group).expect("pose").rotation;
     assert!(q[3].abs() < 1.0 - 1e-6, "Ctrl+drag did not rotate the group: {q:?}");
     step_until(&mut h, "a frame for the rotated pose", has_current_frame);
-    let rotated = h.state().latest_frame(Method::BsArap).expect("frame").clone();
+    let rotated = h.state().latest_frame(Slot::Main).expect("frame").clone();
     let dist = |p: [f64; 3], q: [f64; 3]| {
         ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt()
     };
@@ -303,7 +303,7 @@ fn painting_then_dragging_a_group_deforms_the_mesh() {
     h.step();
     assert!(h.state().pose_generation() > before_undo, "Ctrl+Z did not undo the drag");
     step_until(&mut h, "the undone pose", has_current_frame);
-    let frame = h.state().latest_frame(Method::BsArap).expect("frame");
+    let frame = h.state().latest_frame(Slot::Main).expect("frame");
     assert!(
         (frame.positions[v][0] as f64 - rest[v][0]).abs() < 1e-4 * diag.max(1.0),
         "undo did not restore the pose"
@@ -393,7 +393,7 @@ fn a_timeline_path_drives_the_handles_and_the_recording_matches_the_headless_exp
     step_until(&mut h, "a frame for the scrubbed time", has_current_frame);
     let t = h.state().group_pose(0).unwrap().translation;
     assert!((dist(t, [0.0; 3]) - c.radius * 2f64.sqrt()).abs() < 1e-9 * diag, "{t:?}");
-    let frame = h.state().latest_frame(Method::BsArap).unwrap().clone();
+    let frame = h.state().latest_frame(Slot::Main).unwrap().clone();
     let group0: Vec<usize> =
         (0..rest.len()).filter(|&v| h.state().labels()[v] == Some(0)).collect();
     for &v in &group0 {

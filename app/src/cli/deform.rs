@@ -11,7 +11,7 @@ use std::time::Instant;
 
 #[derive(Debug, Args)]
 pub struct DeformArgs {
-    /// Mesh file (OBJ, OFF, PLY, STL).
+    /// Mesh file (OBJ, OFF, PLY, STL, glTF).
     pub mesh: PathArg,
     /// Handle selection: libigl .dmat or a JSON list of spheres.
     #[arg(long)]

@@ -5,7 +5,7 @@ use clap::Args;
 
 #[derive(Debug, Args)]
 pub struct InfoArgs {
-    /// Mesh file (OBJ, OFF, PLY, STL).
+    /// Mesh file (OBJ, OFF, PLY, STL, glTF).
     pub mesh: PathArg,
     /// Print one JSON object.
     #[arg(long)]

@@ -34,7 +34,7 @@ pub enum Command {
 /// `bsarap edit [MESH]`.
 #[derive(Debug, clap::Args)]
 pub struct EditArgs {
-    /// Mesh to open (OBJ, OFF, PLY, STL).
+    /// Mesh to open (OBJ, OFF, PLY, STL, glTF).
     pub mesh: Option<PathBuf>,
 }
 

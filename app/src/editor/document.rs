@@ -142,6 +142,7 @@ mod tests {
         );
         apply_paths(&mut edit, 0.5);
         let settings = MethodSettings {
+            // Not the default tolerance, on purpose: the round trip must carry it.
             tolerance: 1e-5,
             max_iterations: 42,
             acceleration: solver::Acceleration::Anderson { window: 7 },

@@ -246,7 +246,7 @@ mod tests {
             },
             n_frames,
             method: Method::Arap,
-            config: ArapConfig { tolerance: 1e-4, max_iterations: 50, ..ArapConfig::default() },
+            config: ArapConfig { max_iterations: 50, ..ArapConfig::default() },
             base: BaseConfig::default(),
         }
     }

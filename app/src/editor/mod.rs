@@ -3,7 +3,7 @@
 //! Modules: [`app`] (UI state and frame loop), [`camera`] (orbit camera), [`renderer`] (wgpu
 //! paint callback, WGSL in `shaders/`), [`picking`] (BVH ray picking), [`brush`] (handle brush
 //! footprint), [`solver_thread`] (background solver, mailbox, panic isolation), [`pose`] (group
-//! poses → handle targets), [`deformers`] (the methods the threads run), [`loader`] (mesh
+//! poses → handle targets), [`pose_solvers`] (the methods the threads run), [`loader`] (mesh
 //! loading off the UI thread), [`undo`] (edit state and history), [`timeline`] (playback and
 //! path editing), [`jobs`] (recording and glTF export threads), [`document`] (the editor state
 //! as a scene file) and [`persist`] (recent files, autosave).
@@ -11,13 +11,13 @@
 pub mod app;
 pub mod brush;
 pub mod camera;
-pub mod deformers;
 pub mod document;
 pub mod jobs;
 pub mod loader;
 pub mod persist;
 pub mod picking;
 pub mod pose;
+pub mod pose_solvers;
 pub mod renderer;
 pub mod solver_thread;
 pub mod timeline;

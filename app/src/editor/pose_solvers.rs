@@ -1,24 +1,24 @@
-//! The deformers the solver threads run: `solver::Deformer` (ARAP and the BS-ARAP variants)
-//! behind the thread's [`Deformer`] trait, which also lets tests plug in trivial methods.
+//! The pose solvers the solver threads run: `solver::Deformer` (ARAP and the BS-ARAP variants)
+//! behind the thread's [`PoseSolver`] trait, which also lets tests plug in trivial methods.
 
 use std::sync::Arc;
 
 use solver::{Handles, Mesh};
 
-use super::solver_thread::{Deformer, DeformerFactory, FrameStats, Method, MethodSettings};
+use super::solver_thread::{FrameStats, MethodSettings, PoseSolver, PoseSolverFactory, Slot};
 
 /// The factory used by the editor: the main slot runs `settings.bs_variant`, the comparison
 /// slot `settings.compare_variant` (ARAP by default).
-pub fn factory() -> DeformerFactory {
-    Arc::new(|method: Method, mesh: &Mesh, handles: &Handles, settings: &MethodSettings| {
+pub fn factory() -> PoseSolverFactory {
+    Arc::new(|slot: Slot, mesh: &Mesh, handles: &Handles, settings: &MethodSettings| {
         let config = settings.arap_config();
-        let m = match method {
-            Method::Arap => settings.compare_variant,
-            Method::BsArap => settings.bs_variant,
+        let m = match slot {
+            Slot::Compare => settings.compare_variant,
+            Slot::Main => settings.bs_variant,
         };
         let d = solver::Deformer::with_base(m, mesh, handles, &config, &settings.base)
             .map_err(|e| e.to_string())?;
-        Ok(Box::new(SolverDeformer(d)) as Box<dyn Deformer>)
+        Ok(Box::new(DeformerPoseSolver(d)) as Box<dyn PoseSolver>)
     })
 }
 
@@ -32,9 +32,9 @@ pub fn label(m: solver::Method) -> &'static str {
     }
 }
 
-struct SolverDeformer(solver::Deformer);
+struct DeformerPoseSolver(solver::Deformer);
 
-impl SolverDeformer {
+impl DeformerPoseSolver {
     /// The result into `x` and the frame's statistics (a settle step has no coarse iteration:
     /// its time per iteration is the fine iterations').
     fn frame(&self, stats: &solver::SolveStats, x: &mut [[f64; 3]]) -> FrameStats {
@@ -55,7 +55,7 @@ impl SolverDeformer {
     }
 }
 
-impl Deformer for SolverDeformer {
+impl PoseSolver for DeformerPoseSolver {
     fn solve(&mut self, targets: &[[f64; 3]], x: &mut [[f64; 3]]) -> Result<FrameStats, String> {
         let stats = self.0.solve(targets).map_err(|e| e.to_string())?;
         Ok(self.frame(&stats, x))

@@ -1,0 +1,171 @@
+//! Accessors for tests and scripts (`tests/editor.rs`, `examples/ui_cost.rs`): what the
+//! editor shows and holds, and a few setters that act as the UI would.
+
+use std::path::{Path, PathBuf};
+
+use eframe::egui::Pos2;
+use glam::Vec3;
+
+use super::{EditorApp, Tool, View};
+use crate::editor::persist::{Persist, Snapshot};
+use crate::editor::pose::GroupPose;
+use crate::editor::solver_thread::{MethodSettings, Slot, SolvedFrame, SolverCommand, SolverState};
+use crate::editor::undo::EditState;
+
+impl EditorApp {
+    /// The file waiting for the user to save or discard their changes.
+    pub fn pending_open(&self) -> Option<&Path> {
+        self.session.pending_open.as_deref()
+    }
+
+    pub fn is_loading(&self) -> bool {
+        self.jobs.loading.is_some()
+    }
+
+    pub fn mesh_path(&self) -> Option<&Path> {
+        self.session.scene.as_ref().map(|s| s.path.as_path())
+    }
+
+    pub fn n_vertices(&self) -> usize {
+        self.session.scene.as_ref().map_or(0, |s| s.mesh.n_vertices())
+    }
+
+    pub fn error(&self) -> Option<&str> {
+        self.error.as_deref()
+    }
+
+    pub fn labels(&self) -> &[Option<u32>] {
+        &self.session.edit.labels
+    }
+
+    pub fn view(&self) -> View {
+        self.display.view
+    }
+
+    pub fn set_tool(&mut self, tool: Tool) {
+        self.interaction.tool = tool;
+    }
+
+    pub fn set_active_group(&mut self, group: Option<usize>) {
+        self.interaction.active_group = group;
+    }
+
+    /// Bounding-box diagonal of the open mesh (0 without one).
+    pub fn diagonal(&self) -> f64 {
+        self.session.scene.as_ref().map_or(0.0, |s| s.mesh.bbox_diagonal())
+    }
+
+    pub fn rest_positions(&self) -> Option<&[[f64; 3]]> {
+        self.session.scene.as_ref().map(|s| s.mesh.positions())
+    }
+
+    /// The newest accepted frame of a solver slot.
+    pub fn latest_frame(&self, slot: Slot) -> Option<&SolvedFrame> {
+        self.solvers.view(slot).frame.as_ref()
+    }
+
+    pub fn pose_generation(&self) -> u64 {
+        self.solvers.pose_generation
+    }
+
+    /// The pose of handle group `k`.
+    pub fn group_pose(&self, k: usize) -> Option<GroupPose> {
+        self.session.edit.groups.get(k).map(|g| g.pose)
+    }
+
+    pub fn scene_generation(&self) -> u64 {
+        self.solvers.scene_generation
+    }
+
+    pub fn solver_state(&self) -> Option<SolverState> {
+        self.solvers.main.as_ref().and_then(|s| s.try_status()).map(|s| s.state)
+    }
+
+    /// Where vertex `v` is drawn in viewport 0 (as last displayed), in points.
+    pub fn vertex_screen_pos(&self, v: usize) -> Option<Pos2> {
+        let rect = *self.display.viewport_rects.first()?;
+        let p = self.display.viewports[0].positions.as_ref()?.get(v).copied()?;
+        let ndc = self.display.camera.project(Vec3::from_array(p), rect.aspect_ratio())?;
+        Some(Pos2::new(
+            rect.left() + (ndc[0] + 1.0) * 0.5 * rect.width(),
+            rect.top() + (1.0 - ndc[1]) * 0.5 * rect.height(),
+        ))
+    }
+
+    /// Sends a solver panic (test hook for the recovery path).
+    pub fn inject_solver_panic(&self) {
+        if let Some(s) = &self.solvers.main {
+            s.send(SolverCommand::InjectPanic);
+        }
+    }
+
+    /// The editable state (labels, groups, poses, timeline).
+    pub fn edit_state(&self) -> &EditState {
+        &self.session.edit
+    }
+
+    /// Replaces the editable state as one undoable edit (scripts and tests).
+    pub fn set_edit_state(&mut self, state: EditState) {
+        self.session.history.push(self.session.edit.clone());
+        self.apply_history(Some(state));
+    }
+
+    pub fn playback_time(&self) -> f64 {
+        self.session.playback.time
+    }
+
+    /// Moves the playback time; paths re-evaluate.
+    pub fn set_playback_time(&mut self, t: f64) {
+        self.session.playback.time = t.clamp(0.0, self.session.edit.timeline.duration);
+        self.time_changed();
+    }
+
+    pub fn is_playing(&self) -> bool {
+        self.session.playback.playing
+    }
+
+    pub fn is_recording(&self) -> bool {
+        self.jobs.record.is_some()
+    }
+
+    /// Frames of the kept recording.
+    pub fn recorded_frames(&self) -> Option<&solver::animation::recording::Recording> {
+        self.jobs.recorded.as_ref().map(|r| r.recording.as_ref())
+    }
+
+    /// Milliseconds per `ui` call on the UI thread (moving average), as the F3 overlay shows.
+    pub fn ui_thread_ms(&self) -> f32 {
+        self.display.ui_ms
+    }
+
+    pub fn info(&self) -> Option<&str> {
+        self.info.as_deref()
+    }
+
+    pub fn method_settings(&self) -> MethodSettings {
+        self.session.settings
+    }
+
+    /// The scene file Save writes to.
+    pub fn document_path(&self) -> Option<&Path> {
+        self.session.document_path.as_deref()
+    }
+
+    pub fn recent_files(&self) -> &[PathBuf] {
+        &self.store.recent
+    }
+
+    /// The autosave offered back at start, if any.
+    pub fn restore_offer(&self) -> Option<&Path> {
+        self.store.restore_offer.as_ref().map(|o| o.path.as_path())
+    }
+
+    /// What the crash hook needs (see [`persist::install_crash_autosave`]).
+    pub fn crash_autosave(&self) -> Option<(Persist, Snapshot)> {
+        self.store.persist.clone().map(|p| (p, self.store.snapshot.clone()))
+    }
+
+    pub fn is_exporting(&self) -> bool {
+        self.jobs.export.is_some()
+    }
+}

@@ -1,0 +1,340 @@
+//! Keyboard shortcuts and viewport input: the camera, picking, the paint brush and posing
+//! handle groups by dragging.
+
+use eframe::egui::{self, Key, Modifiers, PointerButton, Pos2, Rect, Vec2};
+use glam::{DQuat, DVec3};
+
+use super::{DialogKind, EditorApp, Tool};
+use crate::editor::brush::footprint;
+use crate::editor::camera::ViewPreset;
+use crate::editor::picking::Hit;
+use crate::editor::pose::GroupPose;
+use crate::editor::timeline;
+
+/// The pointer and tool state: what the user is doing right now.
+pub(super) struct Interaction {
+    pub(super) tool: Tool,
+    /// Brush radius as a fraction of the bounding-box diagonal.
+    pub(super) brush_radius: f32,
+    pub(super) active_group: Option<usize>,
+    pub(super) hover: Option<Hover>,
+    /// A paint stroke in progress (`true`: erasing).
+    pub(super) stroke: Option<bool>,
+    pub(super) drag: Option<PoseDrag>,
+    /// Group being renamed, with the name typed so far.
+    pub(super) renaming: Option<(usize, String)>,
+}
+
+impl Default for Interaction {
+    fn default() -> Self {
+        Interaction {
+            tool: Tool::Paint,
+            brush_radius: 0.05,
+            active_group: None,
+            hover: None,
+            stroke: None,
+            drag: None,
+            renaming: None,
+        }
+    }
+}
+
+/// A drag of a handle group in progress.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct PoseDrag {
+    group: usize,
+    start: GroupPose,
+    /// Depth of the grabbed point along the view axis (world units).
+    depth: f32,
+    rotate: bool,
+    accumulated: Vec2,
+}
+
+/// The brush under the pointer.
+#[derive(Debug, Clone)]
+pub(super) struct Hover {
+    /// The viewport it is in.
+    pub(super) slot: usize,
+    pub(super) hit: Hit,
+    pub(super) footprint: Vec<u32>,
+}
+
+impl EditorApp {
+    pub(super) fn handle_keys(&mut self, ctx: &egui::Context) {
+        if ctx.text_edit_focused() {
+            return;
+        }
+        let events = ctx.input(|i| i.events.clone());
+        for e in events {
+            match e {
+                egui::Event::Text(t) if t == "?" => {
+                    self.display.show_shortcuts = !self.display.show_shortcuts
+                }
+                egui::Event::Text(t) if t == "[" => {
+                    self.interaction.brush_radius = (self.interaction.brush_radius / 1.2).max(0.002)
+                }
+                egui::Event::Text(t) if t == "]" => {
+                    self.interaction.brush_radius = (self.interaction.brush_radius * 1.2).min(0.5)
+                }
+                _ => {}
+            }
+        }
+        let consume = |m: Modifiers, k: Key| ctx.input_mut(|i| i.consume_key(m, k));
+        let cmd_shift = Modifiers::COMMAND | Modifiers::SHIFT;
+        if consume(cmd_shift, Key::Z) || consume(Modifiers::COMMAND, Key::Y) {
+            let state = self.session.history.redo(&self.session.edit);
+            self.apply_history(state);
+        }
+        if consume(Modifiers::COMMAND, Key::Z) {
+            let state = self.session.history.undo(&self.session.edit);
+            self.apply_history(state);
+        }
+        if consume(Modifiers::COMMAND, Key::Q) {
+            ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+        }
+        if consume(Modifiers::COMMAND, Key::O) {
+            self.start_dialog(ctx, DialogKind::OpenMesh);
+        }
+        if consume(cmd_shift, Key::S) {
+            self.start_dialog(ctx, DialogKind::SaveScene);
+        }
+        if consume(Modifiers::COMMAND, Key::S) {
+            self.save(ctx);
+        }
+        if consume(Modifiers::NONE, Key::Space) {
+            let playing = !self.session.playback.playing;
+            self.session.playback.set_playing(playing);
+        }
+        if consume(Modifiers::NONE, Key::Home) {
+            self.set_playback_time(0.0);
+        }
+        if consume(Modifiers::NONE, Key::K)
+            && let Some(k) = self.interaction.active_group
+        {
+            let before = self.session.edit.clone();
+            if timeline::key_current_pose(&mut self.session.edit, k, self.session.playback.time) {
+                self.session.history.push(before);
+                self.info = Some(format!("key set at {:.3} s", self.session.playback.time));
+            }
+        }
+        for (k, front, back) in [
+            (Key::Num1, ViewPreset::Front, ViewPreset::Back),
+            (Key::Num3, ViewPreset::Right, ViewPreset::Left),
+            (Key::Num7, ViewPreset::Top, ViewPreset::Bottom),
+        ] {
+            if consume(Modifiers::COMMAND, k) {
+                self.display.camera.set_preset(back);
+            } else if consume(Modifiers::NONE, k) {
+                self.display.camera.set_preset(front);
+            }
+        }
+        let pressed = |k: Key| ctx.input(|i| i.key_pressed(k) && !i.modifiers.command);
+        let aspect = self.viewport_aspect();
+        if pressed(Key::F)
+            && let Some(s) = &self.session.scene
+        {
+            self.display.camera.frame(s.center, s.radius, aspect);
+        }
+        if pressed(Key::W) {
+            self.display.wireframe = !self.display.wireframe;
+        }
+        if pressed(Key::B) {
+            self.interaction.tool = Tool::Paint;
+        }
+        if pressed(Key::G) {
+            self.interaction.tool = Tool::Pose;
+        }
+        if pressed(Key::F3) {
+            self.display.show_render_fps = !self.display.show_render_fps;
+        }
+        if pressed(Key::Escape) {
+            self.display.show_shortcuts = false;
+        }
+    }
+
+    /// Picks the surface under `pos` in viewport `slot`.
+    pub(super) fn pick(&mut self, slot: usize, rect: Rect, pos: Pos2) -> Option<Hit> {
+        let scene = self.session.scene.as_mut()?;
+        let cache = &self.display.viewports[slot];
+        let positions = cache.positions.clone()?;
+        let version = cache.key.map_or(0, |k| k.0);
+        if self.display.bvh_fit != Some((slot, version)) {
+            scene.bvh.refit(&positions, scene.mesh.triangles());
+            self.display.bvh_fit = Some((slot, version));
+        }
+        let ndc = [
+            (pos.x - rect.left()) / rect.width() * 2.0 - 1.0,
+            1.0 - (pos.y - rect.top()) / rect.height() * 2.0,
+        ];
+        let (o, d) = self.display.camera.ray(ndc, rect.aspect_ratio());
+        scene.bvh.intersect(&positions, scene.mesh.triangles(), o, d)
+    }
+
+    pub(super) fn brush_world_radius(&self) -> f32 {
+        self.session.scene.as_ref().map_or(0.0, |s| self.interaction.brush_radius * 2.0 * s.radius)
+    }
+
+    pub(super) fn update_hover(&mut self, slot: usize, rect: Rect, pos: Option<Pos2>) {
+        if pos.is_none() && self.interaction.hover.as_ref().is_some_and(|h| h.slot != slot) {
+            return; // the pointer is over another viewport
+        }
+        let old = self.interaction.hover.as_ref().map(|h| (h.slot, h.footprint.clone()));
+        self.interaction.hover = None;
+        if let Some(pos) = pos
+            && self.interaction.tool == Tool::Paint
+            && let Some(hit) = self.pick(slot, rect, pos)
+            && let Some(scene) = &self.session.scene
+            && let Some(positions) = &self.display.viewports[slot].positions
+        {
+            let tri = scene.mesh.triangles()[hit.triangle as usize];
+            let r = self.brush_world_radius();
+            let fp = footprint(positions, &scene.adjacency, tri, hit.point, r);
+            self.interaction.hover = Some(Hover { slot, hit, footprint: fp });
+        }
+        if old != self.interaction.hover.as_ref().map(|h| (h.slot, h.footprint.clone())) {
+            self.display.color_version += 1;
+        }
+    }
+
+    pub(super) fn paint_footprint(&mut self, erase: bool) {
+        let Some(hover) = &self.interaction.hover else { return };
+        let group = match (erase, self.interaction.active_group) {
+            (true, _) => None,
+            (false, Some(g)) => Some(g as u32),
+            (false, None) => {
+                let g = self.session.edit.add_group();
+                self.interaction.active_group = Some(g);
+                Some(g as u32)
+            }
+        };
+        let mut changed = false;
+        for &v in &hover.footprint {
+            let l = &mut self.session.edit.labels[v as usize];
+            if *l != group {
+                *l = group;
+                changed = true;
+            }
+        }
+        if changed {
+            self.display.color_version += 1;
+        }
+    }
+
+    pub(super) fn viewport_input(
+        &mut self,
+        ui: &egui::Ui,
+        slot: usize,
+        rect: Rect,
+        response: &egui::Response,
+    ) {
+        let (modifiers, delta, scroll) =
+            ui.input(|i| (i.modifiers, i.pointer.delta(), i.smooth_scroll_delta.y));
+        // Camera: middle = orbit, Shift+middle = pan, Alt+left = orbit, wheel = zoom.
+        let alt_orbit = response.dragged_by(PointerButton::Primary) && modifiers.alt;
+        if response.dragged_by(PointerButton::Middle) || alt_orbit {
+            if modifiers.shift && !alt_orbit {
+                self.display.camera.pan(delta.x, delta.y, rect.height());
+            } else {
+                self.display.camera.orbit(delta.x, delta.y);
+            }
+        }
+        if response.hovered() && scroll != 0.0 {
+            self.display.camera.zoom(scroll);
+        }
+        let hover_pos = response.hover_pos().filter(|_| !alt_orbit);
+        if self.interaction.drag.is_none() {
+            let before = self.display.color_version;
+            self.update_hover(slot, rect, hover_pos);
+            if self.display.color_version != before {
+                // The colors are rebuilt at the start of the next frame.
+                ui.ctx().request_repaint();
+            }
+        }
+        if alt_orbit || self.session.scene.is_none() {
+            return;
+        }
+        match self.interaction.tool {
+            Tool::Paint => self.paint_input(response, modifiers),
+            Tool::Pose => self.pose_input(ui, slot, rect, response, modifiers, delta),
+        }
+    }
+
+    pub(super) fn paint_input(&mut self, response: &egui::Response, modifiers: Modifiers) {
+        let primary_down = response.is_pointer_button_down_on()
+            && response.ctx.input(|i| i.pointer.primary_down());
+        if primary_down && self.interaction.hover.is_some() {
+            if self.interaction.stroke.is_none() {
+                self.session.history.push(self.session.edit.clone());
+                self.interaction.stroke = Some(modifiers.command);
+            }
+            self.paint_footprint(self.interaction.stroke.unwrap_or(false));
+        }
+        let released = response.ctx.input(|i| i.pointer.primary_released());
+        if self.interaction.stroke.is_some() && (released || !primary_down) {
+            self.interaction.stroke = None;
+            self.send_scene();
+        }
+    }
+
+    pub(super) fn pose_input(
+        &mut self,
+        ui: &egui::Ui,
+        slot: usize,
+        rect: Rect,
+        response: &egui::Response,
+        modifiers: Modifiers,
+        delta: Vec2,
+    ) {
+        if response.drag_started_by(PointerButton::Primary)
+            && let Some(pos) =
+                ui.input(|i| i.pointer.press_origin()).or(response.interact_pointer_pos())
+        {
+            let hit = self.pick(slot, rect, pos);
+            let picked_group = hit.and_then(|h| {
+                let scene = self.session.scene.as_ref()?;
+                let tri = scene.mesh.triangles()[h.triangle as usize];
+                tri.iter().find_map(|&v| self.session.edit.labels[v as usize]).map(|g| g as usize)
+            });
+            if let Some(g) = picked_group.or(self.interaction.active_group)
+                && g < self.session.edit.groups.len()
+            {
+                self.interaction.active_group = Some(g);
+                let eye = self.display.camera.eye();
+                let anchor = hit.map_or(self.display.camera.target, |h| h.point);
+                let depth = (anchor - eye).dot(-self.display.camera.back()).max(1e-4);
+                self.session.history.push(self.session.edit.clone());
+                self.interaction.drag = Some(PoseDrag {
+                    group: g,
+                    start: self.session.edit.groups[g].pose,
+                    depth,
+                    rotate: modifiers.command,
+                    accumulated: Vec2::ZERO,
+                });
+                self.display.color_version += 1;
+            }
+        }
+        if let Some(mut d) = self.interaction.drag {
+            if response.dragged_by(PointerButton::Primary) && delta != Vec2::ZERO {
+                d.accumulated += delta;
+                self.interaction.drag = Some(d);
+                let mut pose = d.start;
+                if d.rotate {
+                    let axis = self.display.camera.back().as_dvec3();
+                    let angle = d.accumulated.x as f64 * 0.01;
+                    pose.set_quat(DQuat::from_axis_angle(axis, angle) * d.start.quat());
+                } else {
+                    let (right, up) = self.display.camera.axes();
+                    let s = self.display.camera.world_per_point(d.depth, rect.height());
+                    let w = (right * d.accumulated.x - up * d.accumulated.y) * s;
+                    let t = DVec3::from_array(d.start.translation) + w.as_dvec3();
+                    pose.translation = t.to_array();
+                }
+                self.session.edit.groups[d.group].pose = pose;
+                self.send_poses();
+            }
+            if !ui.input(|i| i.pointer.primary_down()) {
+                self.interaction.drag = None;
+            }
+        }
+    }
+}

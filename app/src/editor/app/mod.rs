@@ -1,0 +1,165 @@
+//! The editor's UI state and frame loop (`eframe::App`).
+//!
+//! Architecture invariant: this module does no numerics and never waits. Meshes load on a
+//! loader thread ([`super::loader`]), deformations run on solver threads
+//! ([`super::solver_thread`]); each UI frame polls both without blocking. What it does itself is
+//! input handling, picking (BVH) and building vertex colors and normals for the GPU.
+//!
+//! [`EditorApp`]'s state comes in groups, each defined beside the code that mostly uses it:
+//! the document ([`session::Session`]) and what persists between sessions
+//! ([`session::Store`]), the solver slots ([`solvers::Solvers`]), the pointer and keyboard
+//! state ([`input::Interaction`]), what and how the viewports draw ([`viewport::Display`]) and
+//! the background work ([`Jobs`]).
+//!
+//! Files: `session` (scenes, autosave, open and save, dialogs, undo), `playback` (timeline,
+//! recording, export), `solvers` (solver commands and polling), `input` (keys, picking,
+//! painting, posing), `viewport` (vertex colors, the paint callback, overlays), `panels` (menu,
+//! side panels, status bar and the frame loop `ui()`) and `accessors` (for tests and scripts).
+
+mod accessors;
+mod input;
+mod panels;
+mod playback;
+mod session;
+mod solvers;
+mod viewport;
+
+use std::path::{Path, PathBuf};
+use std::sync::mpsc::Receiver;
+
+use super::jobs::{Job, Recorded};
+use super::loader::LoadJob;
+use super::renderer;
+use super::solver_thread::Slot;
+use input::Interaction;
+use session::{Session, Store};
+use solvers::{SideBySideQuality, Solvers};
+use viewport::Display;
+
+/// The path of the default asset.
+pub fn default_mesh_path() -> PathBuf {
+    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../assets/creature.obj"))
+}
+
+/// How the editor starts.
+#[derive(Debug, Clone)]
+pub struct EditorOptions {
+    /// The mesh to open; `None` opens nothing.
+    pub mesh_path: Option<PathBuf>,
+    /// Hide timing figures (FPS, ms) so that snapshot images are reproducible.
+    pub deterministic_overlays: bool,
+    /// Where recent files and the autosave live (`None`: nothing is kept between sessions).
+    pub config_dir: Option<PathBuf>,
+}
+
+/// What the viewport shows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum View {
+    /// The BS-ARAP result.
+    Result,
+    /// The deformed bi-harmonic base surface B'.
+    Base,
+    /// The result colored by detail magnitude |D_i|.
+    Details,
+    /// The comparison method (left, ARAP by default) beside the main one (right), shared
+    /// camera, with their distance live.
+    Compare,
+}
+
+impl View {
+    pub const ALL: [View; 4] = [View::Result, View::Base, View::Details, View::Compare];
+    pub fn label(self) -> &'static str {
+        match self {
+            View::Result => "BS-ARAP",
+            View::Base => "Base surface",
+            View::Details => "Details",
+            View::Compare => "Side by side",
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Tool {
+    Paint,
+    Pose,
+}
+
+pub struct EditorApp {
+    options: EditorOptions,
+    has_gpu: bool,
+    /// The open document: mesh, edit state and history, settings, playback.
+    session: Session,
+    /// Recent files, autosave and the crash snapshot.
+    store: Store,
+    /// The two solver threads and what they last delivered.
+    solvers: Solvers,
+    /// Tool, brush, active group and the drag or stroke in progress.
+    interaction: Interaction,
+    /// Camera, view, overlays and the viewports' vertex caches.
+    display: Display,
+    /// Loading, dialogs, recording, export and the side-by-side quality.
+    jobs: Jobs,
+    error: Option<String>,
+    info: Option<String>,
+}
+
+/// Work running off the UI thread, polled each frame, and the results kept from it.
+#[derive(Default)]
+struct Jobs {
+    loading: Option<LoadJob>,
+    dialog: Option<(DialogKind, Receiver<Option<PathBuf>>)>,
+    record: Option<Job<Recorded>>,
+    /// The kept recording.
+    recorded: Option<Recorded>,
+    export: Option<Job<(PathBuf, u64)>>,
+    /// Quality of the two side-by-side results against converged ARAP, with the (scene, pose)
+    /// generations it was computed for.
+    compare: Option<((u64, u64), Job<SideBySideQuality>)>,
+    compared: Option<((u64, u64), SideBySideQuality)>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum DialogKind {
+    OpenMesh,
+    LoadSelection,
+    SaveSelection,
+    OpenScene,
+    SaveScene,
+    ExportGltf,
+}
+
+impl EditorApp {
+    /// Builds the editor; installs GPU resources if eframe runs on wgpu.
+    pub fn new(cc: &eframe::CreationContext<'_>, options: EditorOptions) -> EditorApp {
+        let has_gpu = if let Some(rs) = cc.wgpu_render_state.as_ref() {
+            renderer::install(rs);
+            true
+        } else {
+            false
+        };
+        let ctx = cc.egui_ctx.clone();
+        let mut app = EditorApp {
+            options: options.clone(),
+            has_gpu,
+            session: Session::default(),
+            store: Store::new(options.config_dir.clone()),
+            solvers: Solvers::default(),
+            interaction: Interaction::default(),
+            display: Display::new(&options),
+            jobs: Jobs::default(),
+            error: None,
+            info: None,
+        };
+        app.solvers.main = app.spawn_solver(&ctx, Slot::Main);
+        if let Some(path) = options.mesh_path {
+            app.open(&ctx, path);
+        }
+        app
+    }
+}
+
+/// The last component of `path`, for display.
+fn file_name(path: &Path) -> String {
+    path.file_name()
+        .map_or_else(|| path.display().to_string(), |n| n.to_string_lossy().into_owned())
+}

@@ -1,0 +1,640 @@
+//! The panels around the viewports (menu, side panel with tool, groups, pose, method and
+//! plot, status bar, timeline, windows) and the frame loop [`eframe::App::ui`] that polls the
+//! background work and lays them out.
+
+use std::time::{Duration, Instant};
+
+use eframe::egui::{self, Color32, Key, Rect, Vec2};
+use glam::{DQuat, EulerRot};
+
+use super::{DialogKind, EditorApp, Tool, View};
+use crate::editor::document::MAX_UI_ITERATIONS;
+use crate::editor::pose::{GroupPose, group_centroid};
+use crate::editor::pose_solvers;
+use crate::editor::solver_thread::{ANDERSON_WINDOW, SolverState};
+use crate::editor::timeline;
+
+impl EditorApp {
+    pub(super) fn side_panel(&mut self, ui: &mut egui::Ui, ctx: &egui::Context) {
+        ui.heading("Tool");
+        ui.horizontal(|ui| {
+            ui.selectable_value(&mut self.interaction.tool, Tool::Paint, "Paint (B)");
+            ui.selectable_value(&mut self.interaction.tool, Tool::Pose, "Pose (G)");
+        });
+        if self.interaction.tool == Tool::Paint {
+            ui.add(
+                egui::Slider::new(&mut self.interaction.brush_radius, 0.002..=0.5)
+                    .logarithmic(true)
+                    .text("brush radius"),
+            );
+            ui.label("Left drag paints, Ctrl erases; [ and ] resize.");
+        } else {
+            ui.label("Drag a group to move it; Ctrl+drag rotates it.");
+        }
+        ui.separator();
+        ui.heading("Handle groups");
+        let mut delete = None;
+        let mut edited = false;
+        // Only colours change in place below: keep those, not a copy of the whole state.
+        let colors_before: Vec<Color32> =
+            self.session.edit.groups.iter().map(|g| g.color).collect();
+        let mut rename_done = None;
+        for k in 0..self.session.edit.groups.len() {
+            let count = self.session.edit.group_size(k);
+            ui.horizontal(|ui| {
+                let g = &mut self.session.edit.groups[k];
+                edited |= ui.color_edit_button_srgba(&mut g.color).changed();
+                match &mut self.interaction.renaming {
+                    Some((r, text)) if *r == k => {
+                        let resp = ui.add(
+                            egui::TextEdit::singleline(text)
+                                .id(egui::Id::unique(("rename", k)))
+                                .desired_width(110.0)
+                                .char_limit(64),
+                        );
+                        if resp.lost_focus() {
+                            let cancel = ui.input(|i| i.key_pressed(Key::Escape));
+                            rename_done = Some((k, (!cancel).then(|| text.trim().to_string())));
+                        }
+                    }
+                    _ => {
+                        let label = format!("{} ({count} v)", g.name);
+                        let r = ui
+                            .selectable_label(self.interaction.active_group == Some(k), label)
+                            .on_hover_text("click: select; double-click: rename");
+                        if r.clicked() {
+                            self.interaction.active_group = Some(k);
+                            self.display.color_version += 1;
+                        }
+                        if r.double_clicked() {
+                            ui.memory_mut(|m| m.request_focus(egui::Id::unique(("rename", k))));
+                            self.interaction.renaming = Some((k, g.name.clone()));
+                        }
+                    }
+                }
+                if ui.small_button("Delete").on_hover_text("delete group").clicked() {
+                    delete = Some(k);
+                }
+            });
+        }
+        if let Some((k, name)) = rename_done {
+            self.interaction.renaming = None;
+            if let Some(name) =
+                name.filter(|n| !n.is_empty() && *n != self.session.edit.groups[k].name)
+            {
+                self.session.history.push(self.session.edit.clone());
+                self.session.edit.groups[k].name = name;
+            }
+        }
+        if edited {
+            let mut before = self.session.edit.clone();
+            for (g, c) in before.groups.iter_mut().zip(colors_before) {
+                g.color = c;
+            }
+            self.session.history.push(before);
+            self.display.color_version += 1;
+        }
+        ui.horizontal(|ui| {
+            if ui.button("Add group").clicked() {
+                self.session.history.push(self.session.edit.clone());
+                self.interaction.active_group = Some(self.session.edit.add_group());
+            }
+        });
+        if let Some(k) = delete {
+            self.session.history.push(self.session.edit.clone());
+            self.session.edit.delete_group(k);
+            self.interaction.active_group =
+                self.interaction.active_group.filter(|&a| a < self.session.edit.groups.len());
+            self.display.color_version += 1;
+            self.send_scene();
+        }
+        ui.horizontal(|ui| {
+            if ui.button("Load .dmat…").clicked() {
+                self.start_dialog(ctx, DialogKind::LoadSelection);
+            }
+            if ui.button("Save .dmat…").clicked() {
+                self.start_dialog(ctx, DialogKind::SaveSelection);
+            }
+        });
+        ui.separator();
+        self.pose_panel(ui);
+        ui.separator();
+        self.method_panel(ui);
+        if !self.options.deterministic_overlays {
+            ui.separator();
+            self.stats_plot(ui);
+        }
+    }
+
+    /// Solver frames per second and energy over the last [`PLOT_SECONDS`](super::solvers::PLOT_SECONDS) (egui_plot).
+    pub(super) fn stats_plot(&self, ui: &mut egui::Ui) {
+        use egui_plot::{Legend, Line, Plot, PlotPoints};
+        ui.heading("Solver");
+        let series = |k: usize| {
+            let h = &self.solvers.views[k].history;
+            let fps: PlotPoints = h.iter().map(|p| [p[0], p[1]]).collect();
+            let energy: PlotPoints = h.iter().map(|p| [p[0], p[2]]).collect();
+            (fps, energy)
+        };
+        let names = [
+            pose_solvers::label(self.session.settings.bs_variant),
+            pose_solvers::label(self.session.settings.compare_variant),
+        ];
+        let shown: Vec<usize> = if self.solvers.compare.is_some() { vec![0, 1] } else { vec![0] };
+        Plot::new("fps_plot")
+            .height(90.0)
+            .legend(Legend::default())
+            .allow_drag(false)
+            .allow_zoom(false)
+            .allow_scroll(false)
+            .y_axis_label("fps")
+            .show(ui, |p| {
+                for &k in &shown {
+                    p.line(Line::new(names[k], series(k).0));
+                }
+            });
+        Plot::new("energy_plot")
+            .height(90.0)
+            .allow_drag(false)
+            .allow_zoom(false)
+            .allow_scroll(false)
+            .y_axis_label("energy")
+            .show(ui, |p| {
+                for &k in &shown {
+                    p.line(Line::new(names[k], series(k).1));
+                }
+            });
+    }
+
+    pub(super) fn pose_panel(&mut self, ui: &mut egui::Ui) {
+        ui.heading("Pose");
+        let Some(k) = self.interaction.active_group.filter(|&k| k < self.session.edit.groups.len())
+        else {
+            ui.label("Select a group.");
+            return;
+        };
+        let mut pose = self.session.edit.groups[k].pose;
+        let mut changed = false;
+        let step = self.session.scene.as_ref().map_or(0.01, |s| s.radius as f64 * 0.005);
+        ui.horizontal(|ui| {
+            ui.label("move");
+            for (c, axis) in pose.translation.iter_mut().zip(["x", "y", "z"]) {
+                let l = ui.label(axis).id;
+                let r = ui.add(egui::DragValue::new(c).speed(step).max_decimals(4));
+                changed |= r.labelled_by(l).changed();
+            }
+        });
+        let (ex, ey, ez) = pose.quat().to_euler(EulerRot::XYZ);
+        // `+ 0.0` shows -0 as 0.
+        let mut e = [ex.to_degrees() + 0.0, ey.to_degrees() + 0.0, ez.to_degrees() + 0.0];
+        let mut rot_changed = false;
+        ui.horizontal(|ui| {
+            ui.label("rotate°");
+            for (c, axis) in e.iter_mut().zip(["rx", "ry", "rz"]) {
+                let l = ui.label(axis).id;
+                let r = ui.add(egui::DragValue::new(c).speed(0.5).max_decimals(2));
+                rot_changed |= r.labelled_by(l).changed();
+            }
+        });
+        if rot_changed {
+            pose.set_quat(DQuat::from_euler(
+                EulerRot::XYZ,
+                e[0].to_radians(),
+                e[1].to_radians(),
+                e[2].to_radians(),
+            ));
+            changed = true;
+        }
+        ui.horizontal(|ui| {
+            if ui.button("Reset group").clicked() {
+                pose = GroupPose::default();
+                changed = true;
+            }
+            if ui.button("Reset all").clicked() {
+                self.session.history.push(self.session.edit.clone());
+                for g in &mut self.session.edit.groups {
+                    g.pose = GroupPose::default();
+                }
+                self.send_poses();
+            }
+        });
+        if changed && !pose.is_finite() {
+            self.error =
+                Some("value refused: move and rotate values must be finite numbers".into());
+        } else if changed && pose != self.session.edit.groups[k].pose {
+            self.session.history.push(self.session.edit.clone());
+            self.session.edit.groups[k].pose = pose;
+            self.send_poses();
+        }
+        if let Some(scene) = &self.session.scene {
+            let verts: Vec<u32> = (0..self.session.edit.labels.len() as u32)
+                .filter(|&v| self.session.edit.labels[v as usize] == Some(k as u32))
+                .collect();
+            if let Some(c) = group_centroid(scene.mesh.positions(), &verts) {
+                ui.weak(format!("centroid ({:.3}, {:.3}, {:.3})", c.x, c.y, c.z));
+            }
+        }
+    }
+
+    pub(super) fn method_panel(&mut self, ui: &mut egui::Ui) {
+        ui.heading("Method");
+        let old = self.session.settings;
+        egui::ComboBox::from_label("energy")
+            .selected_text(match self.session.settings.energy {
+                solver::Energy::SpokesAndRims => "spokes and rims",
+                solver::Energy::Spokes => "spokes",
+            })
+            .show_ui(ui, |ui| {
+                ui.selectable_value(
+                    &mut self.session.settings.energy,
+                    solver::Energy::SpokesAndRims,
+                    "spokes and rims",
+                );
+                ui.selectable_value(
+                    &mut self.session.settings.energy,
+                    solver::Energy::Spokes,
+                    "spokes",
+                );
+            });
+        egui::ComboBox::from_label("method")
+            .selected_text(pose_solvers::label(self.session.settings.bs_variant))
+            .show_ui(ui, |ui| {
+                for m in solver::Method::ALL {
+                    ui.selectable_value(
+                        &mut self.session.settings.bs_variant,
+                        m,
+                        pose_solvers::label(m),
+                    );
+                }
+            });
+        egui::ComboBox::from_label("left of side by side")
+            .selected_text(pose_solvers::label(self.session.settings.compare_variant))
+            .show_ui(ui, |ui| {
+                for m in solver::Method::ALL {
+                    ui.selectable_value(
+                        &mut self.session.settings.compare_variant,
+                        m,
+                        pose_solvers::label(m),
+                    );
+                }
+            });
+        ui.add(
+            egui::Slider::new(&mut self.session.settings.tolerance, 1e-8..=1e-1)
+                .logarithmic(true)
+                .text("tolerance"),
+        );
+        ui.add(
+            egui::Slider::new(&mut self.session.settings.max_iterations, 1..=MAX_UI_ITERATIONS)
+                .logarithmic(true)
+                .text("iteration cap"),
+        );
+        let window = match self.session.settings.acceleration {
+            solver::Acceleration::Anderson { window } => window,
+            solver::Acceleration::None => ANDERSON_WINDOW,
+        };
+        let mut anderson = self.session.settings.acceleration != solver::Acceleration::None;
+        if ui
+            .checkbox(&mut anderson, "Anderson acceleration")
+            .on_hover_text(format!(
+                "safeguarded Anderson acceleration (window {window}) of every solve: fewer \
+                 iterations to the tolerance, each a little dearer"
+            ))
+            .changed()
+        {
+            self.session.settings.acceleration = if anderson {
+                solver::Acceleration::Anderson { window: ANDERSON_WINDOW }
+            } else {
+                solver::Acceleration::None
+            };
+        }
+        if self.session.settings.bs_variant != solver::Method::BsArap {
+            ui.add(
+                egui::Slider::new(&mut self.session.settings.base.smoothing, 0.002..=0.2)
+                    .logarithmic(true)
+                    .fixed_decimals(3)
+                    .text("base smoothing (of diagonal)"),
+            )
+            .on_hover_text("smoothing length of the faired base, as a fraction of the diagonal");
+        }
+        if self.session.settings.bs_variant == solver::Method::BsArapCoarse {
+            let vertices = self.session.scene.as_ref().map_or(100_000, |s| s.mesh.n_vertices());
+            // The size the solver uses; the manual slider starts from it, within its range.
+            let auto = solver::deform::coarse::CoarseConfig::auto_coarse_vertices(vertices);
+            let n = vertices.max(64);
+            let mut automatic = self.session.settings.base.coarse_vertices.is_none();
+            ui.checkbox(&mut automatic, format!("automatic coarse size ({auto})")).on_hover_text(
+                format!(
+                    "{}: a coarse level that is a fraction of the mesh",
+                    solver::deform::coarse::CoarseConfig::AUTO_RULE
+                ),
+            );
+            let mut count = self.session.settings.base.coarse_vertices.unwrap_or(auto.clamp(64, n));
+            ui.add_enabled(
+                !automatic,
+                egui::Slider::new(&mut count, 64..=n).logarithmic(true).text("coarse vertices"),
+            )
+            .on_hover_text(
+                "vertices of the decimated base ARAP runs on; more is closer to ARAP, slower",
+            );
+            self.session.settings.base.coarse_vertices = (!automatic).then_some(count);
+            ui.add(
+                egui::Slider::new(
+                    &mut self.session.settings.base.fine_iterations,
+                    0..=solver::deform::coarse::MAX_FINE_ITERATIONS,
+                )
+                .logarithmic(true)
+                .text("fine iterations"),
+            )
+            .on_hover_text(
+                "ARAP iterations on the full mesh after each coarse solve (Anderson-accelerated, \
+                 carried from frame to frame): closer to ARAP, slower",
+            );
+            ui.add(
+                egui::Slider::new(&mut self.session.settings.base.settle_iterations, 0..=20)
+                    .text("settle iterations"),
+            )
+            .on_hover_text(
+                "once the handles stop, the pose is refined on the full mesh in steps of this \
+                 many ARAP iterations until it converges (0: off)",
+            );
+        }
+        if self.session.settings != old {
+            self.send_scene();
+        }
+    }
+
+    pub(super) fn status_bar(&mut self, ui: &mut egui::Ui) {
+        ui.horizontal_wrapped(|ui| {
+            if let Some(s) = &self.session.scene {
+                ui.label(format!(
+                    "{}: {} vertices, {} faces",
+                    s.path.file_name().map_or_else(
+                        || s.path.display().to_string(),
+                        |n| n.to_string_lossy().into_owned()
+                    ),
+                    s.mesh.n_vertices(),
+                    s.mesh.n_faces()
+                ));
+                for n in &s.notices {
+                    ui.separator();
+                    ui.colored_label(Color32::YELLOW, n);
+                }
+            } else {
+                ui.label("no mesh");
+            }
+            ui.separator();
+            if self.jobs.loading.is_some() {
+                ui.spinner();
+                ui.label("loading…");
+                ui.separator();
+            }
+            for h in self.solvers.iter() {
+                let state = h.try_status().map(|s| s.state);
+                let text = match state {
+                    Some(SolverState::Idle) => "idle (no handles)".to_string(),
+                    Some(SolverState::Factorizing { .. }) => "factorizing…".to_string(),
+                    Some(SolverState::Solving) => "solving".to_string(),
+                    Some(SolverState::Settling) => "refining on the full mesh".to_string(),
+                    Some(SolverState::Converged) => "converged".to_string(),
+                    Some(SolverState::Failed(e)) => format!("failed: {e}"),
+                    Some(SolverState::Panicked(e)) => format!("panicked, restarted: {e}"),
+                    None => "busy".to_string(),
+                };
+                if matches!(h.try_status().map(|s| s.state), Some(SolverState::Factorizing { .. }))
+                {
+                    ui.spinner();
+                }
+                ui.label(format!("{}: {text}", h.slot.label()));
+                ui.separator();
+            }
+            let dropped: usize = self.solvers.views.iter().map(|v| v.dropped).sum();
+            if dropped > 0 {
+                ui.weak(format!("{dropped} stale frames dropped"));
+                ui.separator();
+            }
+            if let Some(i) = &self.info {
+                ui.weak(i);
+            }
+        });
+    }
+
+    pub(super) fn shortcuts_window(&mut self, ctx: &egui::Context) {
+        let mut open = self.display.show_shortcuts;
+        egui::Window::new("Shortcuts").open(&mut open).collapsible(false).resizable(false).show(
+            ctx,
+            |ui| {
+                egui::Grid::new("shortcuts").striped(true).show(ui, |ui| {
+                    for (k, what) in [
+                        ("Middle drag / Alt+left drag", "orbit"),
+                        ("Shift+middle drag", "pan"),
+                        ("Wheel", "zoom"),
+                        ("F", "frame the mesh"),
+                        ("1 / 3 / 7 (Ctrl: opposite)", "front / right / top view"),
+                        ("B / G", "paint tool / pose tool"),
+                        ("Left drag (paint)", "paint the active group; Ctrl erases"),
+                        ("[ / ]", "brush radius"),
+                        ("Left drag (pose)", "move a group in the view plane; Ctrl rotates"),
+                        ("Ctrl+Z / Ctrl+Shift+Z", "undo / redo"),
+                        ("W", "wireframe"),
+                        ("Ctrl+O", "open a mesh or scene (or drop a file)"),
+                        ("Ctrl+S / Ctrl+Shift+S", "save scene / save as"),
+                        ("Space / Home", "play-pause / to the start"),
+                        ("K", "key the active group's pose at the current time"),
+                        ("Double-click a group", "rename it"),
+                        ("Ctrl+Q", "quit"),
+                        ("F3", "render FPS overlay"),
+                        ("?", "this overlay"),
+                    ] {
+                        ui.monospace(k);
+                        ui.label(what);
+                        ui.end_row();
+                    }
+                });
+            },
+        );
+        self.display.show_shortcuts = open;
+    }
+}
+
+impl eframe::App for EditorApp {
+    /// A clean exit removes the autosave, unless there are unsaved changes: then it is written
+    /// now and offered back at the next start.
+    fn on_exit(&mut self) {
+        self.exit_autosave();
+    }
+
+    fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
+        let ctx = ui.ctx().clone();
+        let now = Instant::now();
+        if let Some(prev) = self.display.last_frame {
+            let dt = now.duration_since(prev).as_secs_f32().max(1e-4);
+            self.display.render_fps = if self.display.render_fps == 0.0 {
+                1.0 / dt
+            } else {
+                0.9 * self.display.render_fps + 0.1 / dt
+            };
+        }
+        self.display.last_frame = Some(now);
+
+        self.poll_loader();
+        self.ensure_compare_solver(&ctx);
+        self.poll_solvers();
+        self.poll_dialog(&ctx);
+        self.poll_jobs();
+        self.poll_compare(&ctx);
+        if self.session.playback.tick(now, &self.session.edit.timeline) {
+            self.time_changed();
+        }
+        if self.session.playback.playing {
+            ctx.request_repaint();
+        }
+        self.autosave_tick();
+        if let Some(path) =
+            ctx.input(|i| i.raw.dropped_files.first().map(|f| f.path().to_path_buf()))
+        {
+            self.request_open(&ctx, path);
+        }
+        self.handle_keys(&ctx);
+
+        egui::Panel::top("menu").show(ui, |ui| {
+            ui.horizontal(|ui| {
+                ui.menu_button("File", |ui| {
+                    if ui.button("Open mesh or scene…  Ctrl+O").clicked() {
+                        self.start_dialog(&ctx, DialogKind::OpenMesh);
+                    }
+                    if ui.button("Open scene…").clicked() {
+                        self.start_dialog(&ctx, DialogKind::OpenScene);
+                    }
+                    ui.menu_button("Open recent", |ui| {
+                        if self.store.recent.is_empty() {
+                            ui.weak("nothing yet");
+                        }
+                        for p in self.store.recent.clone() {
+                            if ui.button(p.display().to_string()).clicked() {
+                                self.request_open(&ctx, p);
+                            }
+                        }
+                    });
+                    ui.separator();
+                    if ui.button("Save scene  Ctrl+S").clicked() {
+                        self.save(&ctx);
+                    }
+                    if ui.button("Save scene as…  Ctrl+Shift+S").clicked() {
+                        self.start_dialog(&ctx, DialogKind::SaveScene);
+                    }
+                    ui.separator();
+                    if ui
+                        .add_enabled(
+                            self.jobs.recorded.is_some(),
+                            egui::Button::new("Export glTF…"),
+                        )
+                        .clicked()
+                    {
+                        self.start_dialog(&ctx, DialogKind::ExportGltf);
+                    }
+                });
+                if ui.button("Open…").clicked() {
+                    self.start_dialog(&ctx, DialogKind::OpenMesh);
+                }
+                ui.separator();
+                for v in View::ALL {
+                    if ui.selectable_label(self.display.view == v, v.label()).clicked() {
+                        self.set_view(v);
+                    }
+                }
+                ui.separator();
+                ui.checkbox(&mut self.display.wireframe, "wireframe");
+                ui.checkbox(&mut self.display.show_grid, "grid");
+                ui.separator();
+                if ui
+                    .add_enabled(self.session.history.can_undo(), egui::Button::new("Undo"))
+                    .clicked()
+                {
+                    let s = self.session.history.undo(&self.session.edit);
+                    self.apply_history(s);
+                }
+                if ui
+                    .add_enabled(self.session.history.can_redo(), egui::Button::new("Redo"))
+                    .clicked()
+                {
+                    let s = self.session.history.redo(&self.session.edit);
+                    self.apply_history(s);
+                }
+                if ui.button("?").on_hover_text("shortcuts").clicked() {
+                    self.display.show_shortcuts = !self.display.show_shortcuts;
+                }
+            });
+        });
+        egui::Panel::bottom("status").show(ui, |ui| self.status_bar(ui));
+        egui::Panel::bottom("timeline").show(ui, |ui| {
+            let view = self.recording_view();
+            let scale = self.session.scene.as_ref().map_or(1.0, |s| 2.0 * s.radius as f64);
+            let actions = timeline::panel(
+                ui,
+                &mut self.session.edit,
+                &mut self.session.playback,
+                self.interaction.active_group,
+                &view,
+                scale,
+            );
+            self.apply_timeline_actions(&ctx, actions);
+        });
+        egui::Panel::right("side").default_size(260.0).show(ui, |ui| {
+            egui::ScrollArea::vertical().show(ui, |ui| self.side_panel(ui, &ctx));
+        });
+        if let Some(err) = self.error.clone() {
+            egui::Panel::top("error").show(ui, |ui| {
+                ui.horizontal(|ui| {
+                    ui.colored_label(Color32::from_rgb(255, 110, 110), format!("Error: {err}"));
+                    if ui.small_button("x").clicked() {
+                        self.error = None;
+                    }
+                });
+            });
+        }
+        egui::CentralPanel::default().frame(egui::Frame::NONE).show(ui, |ui| {
+            let full = ui.max_rect();
+            self.display.viewport_rects = if self.display.view == View::Compare {
+                let half = full.width() * 0.5;
+                vec![
+                    Rect::from_min_size(full.min, Vec2::new(half - 1.0, full.height())),
+                    Rect::from_min_size(
+                        full.min + Vec2::new(half + 1.0, 0.0),
+                        Vec2::new(half - 1.0, full.height()),
+                    ),
+                ]
+            } else {
+                vec![full]
+            };
+            if std::mem::take(&mut self.display.reframe)
+                && let Some(s) = &self.session.scene
+            {
+                self.display.camera.frame(s.center, s.radius, self.viewport_aspect());
+            }
+            for (slot, rect) in self.display.viewport_rects.clone().into_iter().enumerate() {
+                self.draw_viewport(ui, slot, rect);
+            }
+        });
+        if self.display.show_shortcuts {
+            self.shortcuts_window(&ctx);
+        }
+        self.restore_window(&ctx);
+        self.unsaved_window(&ctx);
+        let spent = now.elapsed().as_secs_f32() * 1e3;
+        self.display.ui_ms =
+            if self.display.ui_ms == 0.0 { spent } else { 0.9 * self.display.ui_ms + 0.1 * spent };
+        if self.jobs.record.is_some() || self.jobs.export.is_some() {
+            ctx.request_repaint_after(Duration::from_millis(100));
+        }
+        if self.jobs.loading.is_some()
+            || self
+                .solvers
+                .main
+                .as_ref()
+                .and_then(|s| s.try_status())
+                .is_some_and(|s| matches!(s.state, SolverState::Factorizing { .. }))
+        {
+            ctx.request_repaint_after(std::time::Duration::from_millis(100));
+        }
+    }
+}

@@ -1,0 +1,156 @@
+//! The timeline's side of the editor: playback time, recording the timeline on a worker
+//! thread, and exporting the kept recording as glTF.
+
+use std::path::PathBuf;
+
+use eframe::egui;
+
+use super::{DialogKind, EditorApp};
+use crate::editor::jobs::{self, Job, RecordInput};
+use crate::editor::timeline::{self, RecordingView, TimelineAction, apply_paths};
+
+impl EditorApp {
+    /// The playback time moved: groups with paths take their pose at that time.
+    pub(super) fn time_changed(&mut self) {
+        if apply_paths(&mut self.session.edit, self.session.playback.time) {
+            self.send_poses();
+        }
+    }
+
+    /// Starts recording the timeline with the BS-ARAP slot's method and settings.
+    pub fn start_recording(&mut self, ctx: &egui::Context) {
+        if self.jobs.record.is_some() {
+            return;
+        }
+        let Some(scene) = &self.session.scene else {
+            self.error = Some("open a mesh before recording".into());
+            return;
+        };
+        let Some(handles) = self.handles() else {
+            self.error = Some(
+                "paint a handle group before recording: a recording moves handle groups".into(),
+            );
+            return;
+        };
+        let timeline = timeline::effective_timeline(&self.session.edit);
+        if let Err(e) = timeline.validate() {
+            self.error = Some(format!("cannot record: {e}"));
+            return;
+        }
+        if timeline.paths.is_empty() {
+            self.info = Some("no group moves: every recorded frame is the rest pose".into());
+        }
+        let s = self.session.settings;
+        let config = s.arap_config();
+        let input = RecordInput {
+            mesh: scene.mesh.clone(),
+            handles,
+            n_frames: timeline::frame_count(&timeline),
+            timeline,
+            method: s.bs_variant,
+            config,
+            // A recording solves each frame once: nothing settles.
+            base: solver::BaseConfig { settle_iterations: 0, ..s.base },
+        };
+        let c = ctx.clone();
+        self.session.playback.set_playing(false);
+        self.jobs.record = Some(jobs::spawn_record(input, move || c.request_repaint()));
+    }
+
+    pub fn cancel_recording(&mut self) {
+        if let Some(j) = &self.jobs.record {
+            j.cancel();
+        }
+    }
+
+    /// Writes the kept recording to `path` (.glb or .gltf) on a worker thread.
+    pub fn export_gltf(&mut self, ctx: &egui::Context, path: PathBuf) {
+        let Some(rec) = &self.jobs.recorded else {
+            self.error = Some("record the timeline before exporting".into());
+            return;
+        };
+        if self.jobs.export.is_some() {
+            return;
+        }
+        let c = ctx.clone();
+        self.jobs.export = Some(jobs::spawn_export(rec, path, move || c.request_repaint()));
+    }
+
+    pub(super) fn poll_jobs(&mut self) {
+        if let Some(r) = self.jobs.record.as_ref().and_then(Job::try_finish) {
+            let cancelled = self
+                .jobs
+                .record
+                .as_ref()
+                .is_some_and(|j| j.progress.cancel.load(std::sync::atomic::Ordering::Relaxed));
+            self.jobs.record = None;
+            match r {
+                Ok(rec) => {
+                    let n = rec.recording.frames.len();
+                    let at_cap = rec.recording.stats.iter().filter(|s| !s.converged).count();
+                    self.info = Some(format!(
+                        "recorded {n} frames, {:.1} iterations/frame{}",
+                        rec.recording.total_iterations() as f64 / n.max(1) as f64,
+                        if at_cap > 0 {
+                            format!(", {at_cap} at the iteration cap")
+                        } else {
+                            String::new()
+                        }
+                    ));
+                    self.jobs.recorded = Some(rec);
+                }
+                Err(_) if cancelled => self.info = Some("recording cancelled".into()),
+                Err(e) => self.error = Some(e),
+            }
+        }
+        if let Some(r) = self.jobs.export.as_ref().and_then(Job::try_finish) {
+            self.jobs.export = None;
+            match r {
+                Ok((path, bytes)) => {
+                    self.info =
+                        Some(format!("wrote {} ({:.1} MB)", path.display(), bytes as f64 / 1e6))
+                }
+                Err(e) => self.error = Some(e),
+            }
+        }
+    }
+
+    pub(super) fn recording_view(&self) -> RecordingView {
+        RecordingView {
+            progress: self.jobs.record.as_ref().map(|j| j.progress.get()),
+            kept: self.jobs.recorded.as_ref().map(|r| {
+                (
+                    r.recording.frames.len(),
+                    r.recording.times.last().copied().unwrap_or(0.0),
+                    r.glb_bytes,
+                )
+            }),
+            showing: self.display.show_recording,
+            exporting: self.jobs.export.as_ref().map(|j| j.progress.get()),
+        }
+    }
+
+    pub(super) fn apply_timeline_actions(
+        &mut self,
+        ctx: &egui::Context,
+        actions: Vec<TimelineAction>,
+    ) {
+        for a in actions {
+            match a {
+                TimelineAction::TimeChanged => self.time_changed(),
+                TimelineAction::Edited { before } => {
+                    self.session.history.push(*before);
+                    self.display.color_version += 1;
+                }
+                TimelineAction::Record => self.start_recording(ctx),
+                TimelineAction::CancelRecord => self.cancel_recording(),
+                TimelineAction::ExportGltf => self.start_dialog(ctx, DialogKind::ExportGltf),
+                TimelineAction::Rejected(e) => self.error = Some(format!("value refused: {e}")),
+                TimelineAction::ShowRecording(on) => {
+                    self.display.show_recording = on;
+                    self.display.color_version += 1;
+                }
+            }
+        }
+    }
+}

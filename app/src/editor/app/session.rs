@@ -1,0 +1,474 @@
+//! The document and its files: opening meshes and scenes (asking first about unsaved
+//! changes), saving, file dialogs, the undo history, recent files, the autosave and the crash
+//! snapshot.
+
+use std::path::{Path, PathBuf};
+use std::sync::mpsc::TryRecvError;
+use std::time::{Duration, Instant, SystemTime};
+
+use eframe::egui::{self, Vec2};
+
+use super::{DialogKind, EditorApp, file_name};
+use crate::editor::document::{self, DocumentInput};
+use crate::editor::loader::{self, Scene};
+use crate::editor::persist::{self, AUTOSAVE_INTERVAL, Persist, Snapshot};
+use crate::editor::solver_thread::MethodSettings;
+use crate::editor::timeline::Playback;
+use crate::editor::undo::{EditState, History};
+
+/// How often the crash snapshot is refreshed.
+const SNAPSHOT_INTERVAL: Duration = Duration::from_secs(5);
+
+/// The open document: what a scene file holds, plus the undo history.
+#[derive(Default)]
+pub(super) struct Session {
+    pub(super) scene: Option<Scene>,
+    pub(super) edit: EditState,
+    pub(super) history: History,
+    pub(super) settings: MethodSettings,
+    pub(super) playback: Playback,
+    /// The scene file Save writes to.
+    pub(super) document_path: Option<PathBuf>,
+    /// The edit state as last opened or saved (to know whether there are unsaved changes).
+    pub(super) saved_edit: Option<EditState>,
+    /// A file to open once the user has answered the unsaved-changes question.
+    pub(super) pending_open: Option<PathBuf>,
+}
+
+/// What is kept between sessions: recent files and the autosave, and the crash snapshot.
+pub(super) struct Store {
+    /// `None`: nothing is kept between sessions.
+    pub(super) persist: Option<Persist>,
+    pub(super) recent: Vec<PathBuf>,
+    /// The newest scene, for the crash hook.
+    pub(super) snapshot: Snapshot,
+    pub(super) last_snapshot: Option<Instant>,
+    pub(super) last_autosave: Instant,
+    pub(super) autosaved: Option<solver::animation::scene::Scene>,
+    /// An autosave from a session that did not end cleanly, offered back at start.
+    pub(super) restore_offer: Option<RestoreOffer>,
+}
+
+impl Store {
+    /// The store in `config_dir`, with its recent files and any autosave left to offer back.
+    pub(super) fn new(config_dir: Option<PathBuf>) -> Store {
+        let persist = config_dir.map(Persist::new);
+        let mut store = Store {
+            persist,
+            recent: Vec::new(),
+            snapshot: Snapshot::default(),
+            last_snapshot: None,
+            last_autosave: Instant::now(),
+            autosaved: None,
+            restore_offer: None,
+        };
+        if let Some(p) = &store.persist {
+            store.recent = p.recent();
+            store.restore_offer = p.pending_autosave().map(|(path, when)| RestoreOffer {
+                mesh: solver::animation::scene::Scene::read(&path)
+                    .map(|s| s.mesh)
+                    .map_err(|e| e.to_string()),
+                path,
+                when,
+            });
+        }
+        store
+    }
+}
+
+/// An autosave found at start: where, when, and the mesh it names (or why it cannot be read).
+#[derive(Debug, Clone)]
+pub(super) struct RestoreOffer {
+    pub(super) path: PathBuf,
+    when: SystemTime,
+    mesh: Result<String, String>,
+}
+
+impl EditorApp {
+    /// Whether the edit state differs from what was last opened or saved.
+    pub fn has_unsaved_changes(&self) -> bool {
+        self.session.scene.is_some() && self.session.saved_edit.as_ref() != Some(&self.session.edit)
+    }
+
+    /// Opens `path` from the UI (menu, recent files, drop): with unsaved changes, asks first.
+    pub fn request_open(&mut self, ctx: &egui::Context, path: PathBuf) {
+        if self.has_unsaved_changes() {
+            self.session.pending_open = Some(path);
+        } else {
+            self.open(ctx, path);
+        }
+    }
+
+    pub(super) fn unsaved_window(&mut self, ctx: &egui::Context) {
+        let Some(path) = self.session.pending_open.clone() else { return };
+        egui::Window::new("Unsaved changes")
+            .collapsible(false)
+            .resizable(false)
+            .anchor(egui::Align2::CENTER_CENTER, Vec2::ZERO)
+            .show(ctx, |ui| {
+                ui.label(format!(
+                    "The current scene has unsaved changes. Open {} anyway?",
+                    file_name(&path)
+                ));
+                ui.horizontal(|ui| {
+                    if ui.button("Save first").clicked() {
+                        self.session.pending_open = None;
+                        match self.session.document_path.clone() {
+                            Some(doc) => match self.save_scene(&doc) {
+                                Ok(()) => self.open(ctx, path.clone()),
+                                Err(e) => self.error = Some(format!("scene not saved: {e}")),
+                            },
+                            // No scene file yet: Save as, then open again.
+                            None => self.start_dialog(ctx, DialogKind::SaveScene),
+                        }
+                    }
+                    if ui.button("Discard changes and open").clicked() {
+                        self.session.pending_open = None;
+                        self.open(ctx, path.clone());
+                    }
+                    if ui.button("Cancel").clicked() {
+                        self.session.pending_open = None;
+                    }
+                });
+            });
+    }
+
+    /// Starts loading a mesh in the background; the current scene stays until it succeeds.
+    pub fn open(&mut self, ctx: &egui::Context, path: PathBuf) {
+        let version = self.next_version();
+        let c = ctx.clone();
+        self.jobs.loading = Some(loader::spawn_load(path, version, move || c.request_repaint()));
+    }
+
+    /// Writes the autosave now (tests; the editor does it on a timer).
+    pub fn autosave_now(&mut self) -> Result<PathBuf, String> {
+        let persist = self.store.persist.clone().ok_or("no configuration folder")?;
+        let doc = self.document(&persist.autosave_path())?;
+        let path = persist.write_autosave(&doc)?;
+        self.store.autosaved = Some(doc);
+        Ok(path)
+    }
+
+    /// Saves the scene to `path` (atomically); it becomes the document Save writes to.
+    pub fn save_scene(&mut self, path: &Path) -> Result<(), String> {
+        let doc = self.document(path)?;
+        doc.save(path).map_err(|e| e.to_string())?;
+        self.session.document_path = Some(path.to_path_buf());
+        self.session.saved_edit = Some(self.session.edit.clone());
+        // Saved: a crash from now on has nothing newer to keep than the file.
+        if let Ok(mut slot) = self.store.snapshot.try_lock() {
+            *slot = None;
+        }
+        self.info = Some(format!("saved {}", path.display()));
+        self.remember(path);
+        Ok(())
+    }
+
+    /// The scene that would be written at `path`.
+    pub(super) fn document(&self, path: &Path) -> Result<solver::animation::scene::Scene, String> {
+        let scene = self.session.scene.as_ref().ok_or("no mesh is open")?;
+        document::to_scene(
+            path,
+            &DocumentInput {
+                mesh_path: &scene.path,
+                edit: &self.session.edit,
+                settings: &self.session.settings,
+                camera: &self.display.camera,
+                time: self.session.playback.time,
+            },
+        )
+    }
+
+    /// Adds `path` to the recent files.
+    pub(super) fn remember(&mut self, path: &Path) {
+        let Some(p) = &self.store.persist else { return };
+        if path == p.autosave_path() {
+            return;
+        }
+        match p.push_recent(path) {
+            Ok(list) => self.store.recent = list,
+            Err(e) => self.info = Some(format!("recent files not saved: {e}")),
+        }
+    }
+
+    /// Refreshes the crash snapshot every few seconds and writes the autosave every
+    /// [`AUTOSAVE_INTERVAL`] when the scene changed; the file is written on a worker thread.
+    pub(super) fn autosave_tick(&mut self) {
+        let Some(persist) = self.store.persist.clone() else { return };
+        if self.store.restore_offer.is_some() || self.jobs.loading.is_some() {
+            return; // never overwrite an autosave the user has not answered yet
+        }
+        let now = Instant::now();
+        if self.store.last_snapshot.is_some_and(|t| now.duration_since(t) < SNAPSHOT_INTERVAL) {
+            return;
+        }
+        self.store.last_snapshot = Some(now);
+        if self.session.saved_edit.as_ref() == Some(&self.session.edit) {
+            return; // nothing unsaved
+        }
+        let Ok(doc) = self.document(&persist.autosave_path()) else { return };
+        if let Ok(mut slot) = self.store.snapshot.try_lock() {
+            *slot = Some(doc.clone());
+        }
+        if now.duration_since(self.store.last_autosave) >= AUTOSAVE_INTERVAL
+            && self.store.autosaved.as_ref() != Some(&doc)
+        {
+            self.store.last_autosave = now;
+            self.store.autosaved = Some(doc.clone());
+            let _ = std::thread::Builder::new().name("autosave".into()).spawn(move || {
+                if let Err(e) = persist.write_autosave(&doc) {
+                    eprintln!("editor: autosave failed: {e}");
+                }
+            });
+        }
+    }
+
+    pub(super) fn restore_window(&mut self, ctx: &egui::Context) {
+        let Some(RestoreOffer { path, when, mesh }) = self.store.restore_offer.clone() else {
+            return;
+        };
+        egui::Window::new("Restore the last session?")
+            .collapsible(false)
+            .resizable(false)
+            .anchor(egui::Align2::CENTER_CENTER, Vec2::ZERO)
+            .show(ctx, |ui| {
+                match &mesh {
+                    Ok(m) => ui.label(format!(
+                        "The last session did not end cleanly. An autosave of {} from {} is available.",
+                        file_name(Path::new(m)),
+                        persist::ago(when)
+                    )),
+                    Err(e) => ui.label(format!("An autosave was found but cannot be read: {e}")),
+                };
+                ui.horizontal(|ui| {
+                    if mesh.is_ok() && ui.button("Restore").clicked() {
+                        self.store.restore_offer = None;
+                        self.open(ctx, path.clone());
+                    }
+                    if ui.button("Discard").clicked() {
+                        self.store.restore_offer = None;
+                        if let Some(p) = &self.store.persist {
+                            p.discard_autosave();
+                        }
+                    }
+                });
+            });
+    }
+
+    /// What a clean exit does with the autosave (see `on_exit`). Returns whether one was kept.
+    pub fn exit_autosave(&mut self) -> bool {
+        let Some(persist) = self.store.persist.clone() else { return false };
+        if self.store.restore_offer.is_some() {
+            return true; // unanswered: keep it for next time
+        }
+        let unsaved = self.session.saved_edit.as_ref() != Some(&self.session.edit);
+        if unsaved && let Ok(doc) = self.document(&persist.autosave_path()) {
+            match persist.write_autosave(&doc) {
+                Ok(_) => return true,
+                Err(e) => eprintln!("editor: could not keep your unsaved changes: {e}"),
+            }
+        }
+        persist.discard_autosave();
+        false
+    }
+
+    /// Answers the restore offer (tests): `true` restores, `false` discards.
+    pub fn answer_restore(&mut self, ctx: &egui::Context, restore: bool) {
+        let Some(RestoreOffer { path, .. }) = self.store.restore_offer.take() else { return };
+        if restore {
+            self.open(ctx, path);
+        } else if let Some(p) = &self.store.persist {
+            p.discard_autosave();
+        }
+    }
+
+    pub(super) fn poll_loader(&mut self) {
+        let Some(job) = &self.jobs.loading else { return };
+        match job.rx.try_recv() {
+            Err(TryRecvError::Empty) => {}
+            Err(TryRecvError::Disconnected) => {
+                self.error = Some("the loader stopped without a result".into());
+                self.jobs.loading = None;
+            }
+            Ok(Err(e)) => {
+                self.error = Some(e);
+                self.jobs.loading = None;
+            }
+            Ok(Ok(mut scene)) => {
+                self.jobs.loading = None;
+                self.error = None;
+                self.display.camera.frame(scene.center, scene.radius, self.viewport_aspect());
+                let n = scene.mesh.n_vertices();
+                let labels = scene.default_labels.clone().unwrap_or_else(|| vec![None; n]);
+                self.info = scene
+                    .selection_path
+                    .as_deref()
+                    .map(|p| format!("handles from {}", file_name(p)));
+                self.session.playback = Playback::default();
+                self.session.document_path = None;
+                let mut restored = false;
+                match scene.document.take() {
+                    Some((path, doc)) => {
+                        let applied = document::apply_scene(&doc, labels, &self.session.settings);
+                        self.session.edit = applied.edit;
+                        self.session.settings = applied.settings;
+                        self.session.playback.time = applied.time;
+                        if let Some(c) = applied.camera {
+                            self.display.camera = c;
+                        }
+                        if let Some(n) = applied.notice {
+                            self.info = Some(n);
+                        }
+                        let autosave = self.store.persist.as_ref().map(Persist::autosave_path);
+                        if autosave.as_deref() == Some(path.as_path()) {
+                            // Restored: Save asks where (the autosave is not a document), and
+                            // the restored work counts as unsaved.
+                            self.info = Some("restored the autosaved session".into());
+                            restored = true;
+                        } else {
+                            self.remember(&path);
+                            self.session.document_path = Some(path);
+                        }
+                    }
+                    None => {
+                        self.session.edit = EditState::from_labels(labels);
+                        let path = scene.path.clone();
+                        self.remember(&path);
+                    }
+                }
+                self.session.saved_edit = (!restored).then(|| self.session.edit.clone());
+                if let Some(j) = self.jobs.record.take() {
+                    j.cancel();
+                }
+                self.jobs.recorded = None;
+                self.display.show_recording = false;
+                self.interaction.active_group = (!self.session.edit.groups.is_empty()).then_some(0);
+                self.session.history.clear();
+                self.session.scene = Some(scene);
+                self.solvers.views = Default::default();
+                self.display.viewports = Default::default();
+                self.display.bvh_fit = None;
+                self.interaction.hover = None;
+                self.display.color_version += 1;
+                self.send_scene();
+            }
+        }
+    }
+
+    pub(super) fn poll_dialog(&mut self, ctx: &egui::Context) {
+        let Some((kind, rx)) = &self.jobs.dialog else { return };
+        let kind = *kind;
+        let result = match rx.try_recv() {
+            Err(TryRecvError::Empty) => return,
+            Err(TryRecvError::Disconnected) => None,
+            Ok(r) => r,
+        };
+        self.jobs.dialog = None;
+        let Some(path) = result else { return };
+        match kind {
+            DialogKind::OpenMesh => self.request_open(ctx, path),
+            DialogKind::LoadSelection => self.load_selection(&path),
+            DialogKind::SaveSelection => match loader::write_dmat(&path, &self.session.edit.labels)
+            {
+                Ok(()) => self.info = Some(format!("saved {}", path.display())),
+                Err(e) => self.error = Some(format!("{e:#}")),
+            },
+            DialogKind::OpenScene => self.request_open(ctx, path),
+            DialogKind::SaveScene => {
+                let path =
+                    if path.extension().is_none() { path.with_extension("json") } else { path };
+                if let Err(e) = self.save_scene(&path) {
+                    self.error = Some(format!("scene not saved: {e}"));
+                }
+            }
+            DialogKind::ExportGltf => {
+                let path =
+                    if path.extension().is_none() { path.with_extension("glb") } else { path };
+                self.export_gltf(ctx, path)
+            }
+        }
+    }
+
+    pub(super) fn start_dialog(&mut self, ctx: &egui::Context, kind: DialogKind) {
+        if self.jobs.dialog.is_some() {
+            return;
+        }
+        let (tx, rx) = std::sync::mpsc::channel();
+        let c = ctx.clone();
+        let spawned = std::thread::Builder::new().name("file-dialog".into()).spawn(move || {
+            let d = rfd::FileDialog::new();
+            let r = match kind {
+                DialogKind::OpenMesh => d
+                    .add_filter(
+                        "Meshes and scenes",
+                        &["obj", "off", "ply", "stl", "glb", "gltf", "json"],
+                    )
+                    .pick_file(),
+                DialogKind::OpenScene => d.add_filter("Scenes", &["json"]).pick_file(),
+                DialogKind::SaveScene => {
+                    d.add_filter("Scene", &["json"]).set_file_name("scene.json").save_file()
+                }
+                DialogKind::ExportGltf => d
+                    .add_filter("glTF binary", &["glb"])
+                    .add_filter("glTF JSON", &["gltf"])
+                    .set_file_name("animation.glb")
+                    .save_file(),
+                DialogKind::LoadSelection => {
+                    d.add_filter("Selections", &["dmat", "json"]).pick_file()
+                }
+                DialogKind::SaveSelection => d
+                    .add_filter("libigl dmat", &["dmat"])
+                    .set_file_name("selection.dmat")
+                    .save_file(),
+            };
+            let _ = tx.send(r);
+            c.request_repaint();
+        });
+        match spawned {
+            Ok(_) => self.jobs.dialog = Some((kind, rx)),
+            Err(e) => self.error = Some(format!("cannot open a file dialog: {e}")),
+        }
+    }
+
+    pub(super) fn load_selection(&mut self, path: &Path) {
+        let Some(scene) = &self.session.scene else { return };
+        match loader::load_selection(path, scene.mesh.positions(), &scene.vertex_map) {
+            Ok(labels) => {
+                self.session.history.push(self.session.edit.clone());
+                self.session.edit = EditState::from_labels(labels);
+                self.interaction.active_group = (!self.session.edit.groups.is_empty()).then_some(0);
+                self.info = Some(format!("handles from {}", file_name(path)));
+                self.display.color_version += 1;
+                self.send_scene();
+            }
+            Err(e) => self.error = Some(format!("Could not load {}: {e:#}", path.display())),
+        }
+    }
+
+    pub(super) fn apply_history(&mut self, state: Option<EditState>) {
+        let Some(state) = state else { return };
+        let labels_changed = state.labels != self.session.edit.labels;
+        self.session.edit = state;
+        if self.interaction.active_group.is_some_and(|g| g >= self.session.edit.groups.len()) {
+            self.interaction.active_group = self.session.edit.groups.len().checked_sub(1);
+        }
+        self.display.color_version += 1;
+        if labels_changed {
+            self.send_scene();
+        } else {
+            self.send_poses();
+        }
+    }
+
+    /// Saves to the current scene file, or asks where.
+    pub(super) fn save(&mut self, ctx: &egui::Context) {
+        match self.session.document_path.clone() {
+            Some(p) => {
+                if let Err(e) = self.save_scene(&p) {
+                    self.error = Some(format!("scene not saved: {e}"));
+                }
+            }
+            None => self.start_dialog(ctx, DialogKind::SaveScene),
+        }
+    }
+}

@@ -1,0 +1,237 @@
+//! The two solver slots: starting their threads, sending them scenes and poses, taking their
+//! frames, and the side-by-side quality against converged ARAP.
+
+use std::collections::VecDeque;
+use std::sync::Arc;
+use std::time::Instant;
+
+use eframe::egui;
+use solver::Handles;
+
+use super::{EditorApp, View};
+use crate::editor::jobs;
+use crate::editor::pose::GroupPose;
+use crate::editor::pose_solvers;
+use crate::editor::solver_thread::{Slot, SolvedFrame, SolverCommand, SolverHandle};
+
+/// Quality of the left and right side-by-side results against converged ARAP.
+pub(super) type SideBySideQuality = [solver::deform::quality::Quality; 2];
+
+/// Seconds of solver history the plot shows.
+pub(super) const PLOT_SECONDS: f64 = 10.0;
+
+/// Per-solver display state.
+#[derive(Default)]
+pub(super) struct SolverView {
+    pub(super) frame: Option<SolvedFrame>,
+    pub(super) dropped: usize,
+    /// `[seconds since start, solver fps, energy]` of the last frames, for the plot.
+    pub(super) history: VecDeque<[f64; 3]>,
+}
+
+/// The solver slots, the generations sent to them, and what they last delivered.
+pub(super) struct Solvers {
+    /// [`Slot::Main`]: always running.
+    pub(super) main: Option<SolverHandle>,
+    /// [`Slot::Compare`]: running while the side-by-side view shows.
+    pub(super) compare: Option<SolverHandle>,
+    /// `views[0]`: the main slot's, `views[1]`: the compare slot's.
+    pub(super) views: [SolverView; 2],
+    pub(super) scene_generation: u64,
+    pub(super) pose_generation: u64,
+    /// Whether "first solved frame displayed" was logged (scripts wait for it).
+    pub(super) announced_first_frame: bool,
+    /// Time origin of the plot.
+    pub(super) started: Instant,
+}
+
+impl Default for Solvers {
+    fn default() -> Self {
+        Solvers {
+            main: None,
+            compare: None,
+            views: Default::default(),
+            scene_generation: 0,
+            pose_generation: 0,
+            announced_first_frame: false,
+            started: Instant::now(),
+        }
+    }
+}
+
+impl Solvers {
+    /// The running solver threads, main first.
+    pub(super) fn iter(&self) -> impl Iterator<Item = &SolverHandle> {
+        self.main.iter().chain(self.compare.iter())
+    }
+
+    /// What slot `slot` last delivered.
+    pub(super) fn view(&self, slot: Slot) -> &SolverView {
+        match slot {
+            Slot::Main => &self.views[0],
+            Slot::Compare => &self.views[1],
+        }
+    }
+}
+
+impl EditorApp {
+    pub(super) fn spawn_solver(&mut self, ctx: &egui::Context, slot: Slot) -> Option<SolverHandle> {
+        let c = ctx.clone();
+        match SolverHandle::spawn(
+            slot,
+            pose_solvers::factory(),
+            Arc::new(move || c.request_repaint()),
+        ) {
+            Ok(h) => Some(h),
+            Err(e) => {
+                self.error = Some(format!("cannot start the {} solver: {e}", slot.label()));
+                None
+            }
+        }
+    }
+
+    pub(super) fn handles(&self) -> Option<Handles> {
+        if !self.session.edit.has_handles() {
+            return None;
+        }
+        Handles::from_options(self.session.edit.labels.clone()).ok()
+    }
+
+    pub(super) fn poses(&self) -> Vec<GroupPose> {
+        self.session.edit.groups.iter().map(|g| g.pose).collect()
+    }
+
+    /// The handle set or method changed: every solver rebuilds (factorizes) on its thread.
+    pub(super) fn send_scene(&mut self) {
+        let Some(scene) = &self.session.scene else { return };
+        self.solvers.scene_generation += 1;
+        let handles = self.handles();
+        let poses = self.poses();
+        for s in self.solvers.iter() {
+            s.send(SolverCommand::SetScene {
+                scene_generation: self.solvers.scene_generation,
+                mesh: scene.mesh.clone(),
+                handles: handles.clone(),
+                settings: self.session.settings,
+                poses: poses.clone(),
+                pose_generation: self.solvers.pose_generation,
+            });
+        }
+    }
+
+    /// Only poses changed: no refactorization.
+    pub(super) fn send_poses(&mut self) {
+        self.solvers.pose_generation += 1;
+        let poses = self.poses();
+        for s in self.solvers.iter() {
+            s.send(SolverCommand::SetPoses {
+                pose_generation: self.solvers.pose_generation,
+                poses: poses.clone(),
+            });
+        }
+    }
+
+    pub(super) fn ensure_compare_solver(&mut self, ctx: &egui::Context) {
+        let want = self.display.view == View::Compare;
+        if want && self.solvers.compare.is_none() {
+            self.solvers.compare = self.spawn_solver(ctx, Slot::Compare);
+            self.solvers.views[1] = SolverView::default();
+            if let (Some(scene), Some(arap)) = (&self.session.scene, &self.solvers.compare) {
+                arap.send(SolverCommand::SetScene {
+                    scene_generation: self.solvers.scene_generation,
+                    mesh: scene.mesh.clone(),
+                    handles: self.handles(),
+                    settings: self.session.settings,
+                    poses: self.poses(),
+                    pose_generation: self.solvers.pose_generation,
+                });
+            }
+        } else if !want && self.solvers.compare.is_some() {
+            self.solvers.compare = None;
+            self.solvers.views[1] = SolverView::default();
+        }
+    }
+
+    pub(super) fn poll_solvers(&mut self) {
+        if let Some(h) = &self.solvers.main {
+            h.show_base(self.display.view == View::Base);
+        }
+        let generation = self.solvers.scene_generation;
+        for (i, handle) in
+            [self.solvers.compare.as_ref(), self.solvers.main.as_ref()].into_iter().enumerate()
+        {
+            let Some(handle) = handle else { continue };
+            let k = 1 - i; // views[0]: the main slot, views[1]: the compare slot
+            if let Some(frame) = handle.try_take_frame() {
+                let n = self.session.scene.as_ref().map_or(0, |s| s.mesh.n_vertices());
+                if frame.scene_generation == generation && frame.positions.len() == n {
+                    if !self.solvers.announced_first_frame {
+                        self.solvers.announced_first_frame = true;
+                        eprintln!("editor: first solved frame displayed ({} vertices)", n);
+                    }
+                    let t = self.solvers.started.elapsed().as_secs_f64();
+                    let h = &mut self.solvers.views[k].history;
+                    h.push_back([t, frame.fps, frame.stats.energy]);
+                    while h.front().is_some_and(|p| t - p[0] > PLOT_SECONDS) {
+                        h.pop_front();
+                    }
+                    self.solvers.views[k].frame = Some(frame);
+                } else {
+                    self.solvers.views[k].dropped += 1;
+                }
+            }
+        }
+    }
+
+    /// Starts (or collects) the quality of the two side-by-side results against converged
+    /// ARAP once both have converged on the current pose (see [`jobs::spawn_quality`]).
+    pub(super) fn poll_compare(&mut self, ctx: &egui::Context) {
+        if let Some((key, job)) = &self.jobs.compare
+            && let Some(r) = job.try_finish()
+        {
+            let key = *key;
+            self.jobs.compare = None;
+            match r {
+                Ok(q) => self.jobs.compared = Some((key, q)),
+                Err(e) => self.info = Some(e),
+            }
+        }
+        let key = (self.solvers.scene_generation, self.solvers.pose_generation);
+        if self.display.view != View::Compare
+            || self.jobs.compare.is_some()
+            || self.jobs.compared.as_ref().is_some_and(|(k, _)| *k == key)
+        {
+            return;
+        }
+        let settled = |f: Option<&SolvedFrame>| {
+            f.filter(|f| {
+                f.pose_generation == key.1 && f.scene_generation == key.0 && f.stats.converged
+            })
+            .map(|f| f.positions.clone())
+        };
+        let (Some(left), Some(right), Some(scene), Some(handles)) = (
+            settled(self.solvers.views[1].frame.as_ref()),
+            settled(self.solvers.views[0].frame.as_ref()),
+            self.session.scene.as_ref(),
+            self.handles(),
+        ) else {
+            return;
+        };
+        let input = jobs::QualityInput {
+            mesh: scene.mesh.clone(),
+            handles,
+            poses: self.poses(),
+            energy: self.session.settings.energy,
+            results: [left, right],
+        };
+        let c = ctx.clone();
+        self.jobs.compare = Some((key, jobs::spawn_quality(input, move || c.request_repaint())));
+    }
+
+    /// Quality of the side-by-side results (left, right) against converged ARAP, and whether it
+    /// is for the current pose.
+    pub fn side_by_side_quality(&self) -> Option<([solver::deform::quality::Quality; 2], bool)> {
+        let key = (self.solvers.scene_generation, self.solvers.pose_generation);
+        self.jobs.compared.as_ref().map(|(k, q)| (*q, *k == key))
+    }
+}

@@ -1,0 +1,373 @@
+//! Drawing a viewport: which shape it shows, its vertex colors (cached per viewport), the
+//! wgpu paint callback and the text overlays.
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use eframe::egui::{self, Color32, Pos2, Rect, Sense, Vec2};
+use eframe::egui_wgpu;
+
+use super::{EditorApp, EditorOptions, View};
+use crate::editor::camera::OrbitCamera;
+use crate::editor::pose_solvers;
+use crate::editor::renderer::{Shape, Uniforms, VertexData, ViewportCallback, build_vertices};
+use crate::editor::solver_thread::{SolvedFrame, SolverState};
+
+/// What the viewports show and how, and what was built for them.
+pub(super) struct Display {
+    pub(super) camera: OrbitCamera,
+    pub(super) view: View,
+    pub(super) wireframe: bool,
+    pub(super) show_grid: bool,
+    pub(super) show_render_fps: bool,
+    pub(super) show_shortcuts: bool,
+    /// Show the kept recording instead of the live result.
+    pub(super) show_recording: bool,
+    /// Bumped whenever colors change (labels, groups, hover, view).
+    pub(super) color_version: u64,
+    pub(super) version_counter: u64,
+    pub(super) viewports: [ViewportCache; 2],
+    /// Which viewport and positions version the BVH is fitted to.
+    pub(super) bvh_fit: Option<(usize, u64)>,
+    pub(super) viewport_rects: Vec<Rect>,
+    /// Frame the mesh once the viewport rectangles are known.
+    pub(super) reframe: bool,
+    pub(super) render_fps: f32,
+    /// Milliseconds the UI thread spends in one `ui` call (moving average).
+    pub(super) ui_ms: f32,
+    pub(super) last_frame: Option<Instant>,
+}
+
+impl Display {
+    pub(super) fn new(options: &EditorOptions) -> Display {
+        Display {
+            camera: OrbitCamera::default(),
+            view: View::Result,
+            wireframe: false,
+            show_grid: true,
+            show_render_fps: !options.deterministic_overlays,
+            show_shortcuts: false,
+            show_recording: false,
+            color_version: 0,
+            version_counter: 1,
+            viewports: Default::default(),
+            bvh_fit: None,
+            viewport_rects: Vec::new(),
+            reframe: false,
+            render_fps: 0.0,
+            ui_ms: 0.0,
+            last_frame: None,
+        }
+    }
+}
+
+/// Vertex data uploaded for one viewport, with the inputs it was built from.
+#[derive(Default)]
+pub(super) struct ViewportCache {
+    pub(super) key: Option<(u64, u64)>,
+    pub(super) data: Option<Arc<VertexData>>,
+    /// Positions drawn in this viewport (for picking).
+    pub(super) positions: Option<Arc<Vec<[f32; 3]>>>,
+}
+
+impl EditorApp {
+    pub(super) fn next_version(&mut self) -> u64 {
+        self.display.version_counter += 1;
+        self.display.version_counter
+    }
+
+    /// Aspect ratio of the (first) viewport; a typical one before the first frame.
+    pub(super) fn viewport_aspect(&self) -> f32 {
+        self.display.viewport_rects.first().map_or(1.6, |r| r.aspect_ratio())
+    }
+
+    pub fn set_view(&mut self, view: View) {
+        // Side by side halves the aspect ratio: frame the mesh again.
+        self.display.reframe |= (view == View::Compare) != (self.display.view == View::Compare);
+        self.display.view = view;
+        self.display.color_version += 1;
+    }
+
+    /// Colors per vertex (linear RGBA) for `slot`.
+    pub(super) fn vertex_colors(&self, slot: usize, n: usize) -> Vec<[f32; 4]> {
+        let base = egui::Rgba::from(Color32::from_rgb(200, 200, 192)).to_array();
+        let mut colors = vec![base; n];
+        let details = (self.display.view == View::Details)
+            .then(|| self.solvers.views[0].frame.as_ref().and_then(|f| f.detail_magnitudes.clone()))
+            .flatten();
+        if let Some(d) = details {
+            let max = d.iter().copied().fold(0.0f32, f32::max).max(1e-12);
+            for (c, &m) in colors.iter_mut().zip(d.iter()) {
+                *c = colormap(m / max);
+            }
+        }
+        for (c, l) in colors.iter_mut().zip(&self.session.edit.labels) {
+            if let Some(g) = l.and_then(|g| self.session.edit.groups.get(g as usize)) {
+                let mut rgba = egui::Rgba::from(g.color).to_array();
+                if Some(l.unwrap_or(0) as usize) != self.interaction.active_group {
+                    for ch in rgba.iter_mut().take(3) {
+                        *ch *= 0.75;
+                    }
+                }
+                *c = rgba;
+            }
+        }
+        if let Some(h) = self.interaction.hover.as_ref().filter(|h| h.slot == slot) {
+            let erase = self.interaction.stroke.unwrap_or(false);
+            let tint = if erase { [0.9, 0.9, 0.9, 1.0] } else { [1.0, 0.85, 0.1, 1.0] };
+            for &v in &h.footprint {
+                let c = &mut colors[v as usize];
+                for k in 0..3 {
+                    c[k] = 0.45 * c[k] + 0.55 * tint[k];
+                }
+            }
+        }
+        colors
+    }
+
+    /// The shape slot `slot` shows, with a version tag, or a reason why there is none.
+    pub(super) fn slot_shape(&self, slot: usize) -> Result<(u64, Shape), &'static str> {
+        let scene = self.session.scene.as_ref().ok_or("no mesh")?;
+        let rest = || Ok((0, scene.rest.clone()));
+        let frame = |i: usize| self.solvers.views[i].frame.as_ref();
+        let tag = |f: &SolvedFrame| f.pose_generation * 1_000_003 + f.scene_generation;
+        let shape =
+            |f: &SolvedFrame| Shape { positions: f.positions.clone(), normals: f.normals.clone() };
+        if let Some(rec) = self.jobs.recorded.as_ref().filter(|_| self.display.show_recording)
+            && matches!(self.display.view, View::Result | View::Details)
+        {
+            let n = rec.shapes.len();
+            let d = rec.recording.times.last().copied().unwrap_or(0.0).max(1e-9);
+            let i =
+                ((self.session.playback.time / d) * (n.saturating_sub(1)) as f64).round() as usize;
+            let i = i.min(n.saturating_sub(1));
+            if let Some(s) = rec.shapes.get(i) {
+                return Ok((u64::MAX - i as u64, s.clone()));
+            }
+        }
+        match (self.display.view, slot) {
+            (View::Compare, 0) => frame(1).map_or_else(rest, |f| Ok((tag(f) * 2 + 1, shape(f)))),
+            (View::Base, _) => match frame(0) {
+                Some(f) => match &f.deformed_base {
+                    Some(b) => Ok((tag(f) * 2 + 1, b.clone())),
+                    None => Err("this solver provides no base surface yet"),
+                },
+                None => Err("no solved frame yet"),
+            },
+            _ => frame(0).map_or_else(rest, |f| Ok((tag(f) * 2, shape(f)))),
+        }
+    }
+
+    pub(super) fn draw_viewport(&mut self, ui: &mut egui::Ui, slot: usize, rect: Rect) {
+        let response =
+            ui.interact(rect, ui.scope_id().with(("viewport", slot)), Sense::click_and_drag());
+        let positions = self.slot_shape(slot);
+        if let Ok((pv, shape)) = &positions {
+            let key = (*pv, self.display.color_version);
+            if self.display.viewports[slot].key != Some(key) {
+                let colors = self.vertex_colors(slot, shape.positions.len());
+                let vertices = build_vertices(&shape.positions, &shape.normals, &colors);
+                let version = self.next_version();
+                let cache = &mut self.display.viewports[slot];
+                cache.data = Some(Arc::new(VertexData { version, vertices }));
+                cache.key = Some(key);
+                cache.positions = Some(shape.positions.clone());
+            }
+        }
+        self.viewport_input(ui, slot, rect, &response);
+
+        let painter = ui.painter_at(rect);
+        if self.has_gpu {
+            let ppp = ui.ctx().pixels_per_point();
+            let aspect = rect.aspect_ratio();
+            let eye = self.display.camera.eye();
+            let (right, up) = self.display.camera.axes();
+            let light = (self.display.camera.back() + right * 0.4 + up * 0.8).normalize();
+            let wire = egui::Rgba::from(Color32::from_rgb(30, 30, 36)).to_array();
+            let uniforms = Uniforms {
+                view_proj: self.display.camera.view_proj(aspect).to_cols_array_2d(),
+                eye: eye.extend(0.0).to_array(),
+                light_dir: light.extend(0.0).to_array(),
+                wire: [wire[0], wire[1], wire[2], 2e-4],
+            };
+            let bg = egui::Rgba::from(Color32::from_rgb(38, 40, 46));
+            let draw_mesh = positions.is_ok();
+            let cb = ViewportCallback {
+                slot,
+                size_px: [
+                    (rect.width() * ppp).round() as u32,
+                    (rect.height() * ppp).round() as u32,
+                ],
+                uniforms,
+                topology: self
+                    .session
+                    .scene
+                    .as_ref()
+                    .filter(|_| draw_mesh)
+                    .map(|s| s.topology.clone()),
+                vertices: self.display.viewports[slot].data.clone().filter(|_| draw_mesh),
+                grid: self.session.scene.as_ref().map(|s| s.grid.clone()),
+                wireframe: self.display.wireframe,
+                show_grid: self.display.show_grid,
+                background: [bg.r() as f64, bg.g() as f64, bg.b() as f64, 1.0],
+            };
+            painter.add(egui_wgpu::Callback::new_paint_callback(rect, cb));
+        } else {
+            painter.rect_filled(rect, 0.0, Color32::from_rgb(38, 40, 46));
+            painter.text(
+                rect.center(),
+                egui::Align2::CENTER_CENTER,
+                "no wgpu renderer",
+                egui::FontId::proportional(16.0),
+                Color32::LIGHT_RED,
+            );
+        }
+        if let Err(reason) = positions
+            && self.session.scene.is_some()
+        {
+            painter.text(
+                rect.center(),
+                egui::Align2::CENTER_CENTER,
+                reason,
+                egui::FontId::proportional(16.0),
+                Color32::LIGHT_GRAY,
+            );
+        }
+        self.draw_overlays(&painter, slot, rect);
+    }
+
+    pub(super) fn draw_overlays(&self, painter: &egui::Painter, slot: usize, rect: Rect) {
+        let font = egui::FontId::monospace(12.0);
+        let mut lines = Vec::new();
+        let (method, view_index, handle) = match (self.display.view, slot) {
+            (View::Compare, 0) => {
+                (self.session.settings.compare_variant, 1, self.solvers.compare.as_ref())
+            }
+            _ => (self.session.settings.bs_variant, 0, self.solvers.main.as_ref()),
+        };
+        lines.push(format!(
+            "{}{}",
+            pose_solvers::label(method),
+            match self.display.view {
+                View::Base => " — base surface B'",
+                View::Details => " — detail magnitude",
+                _ => "",
+            }
+        ));
+        if let Some(f) = &self.solvers.views[view_index].frame {
+            let s = f.stats;
+            if self.options.deterministic_overlays {
+                lines.push(format!("iterations/frame {}", s.iterations));
+            } else {
+                let solving = handle.and_then(|h| h.try_status()).is_some_and(|st| {
+                    matches!(st.state, SolverState::Solving | SolverState::Settling)
+                });
+                let fine = if s.fine_iterations > 0 {
+                    format!(" + {} on the full mesh", s.fine_iterations)
+                } else {
+                    String::new()
+                };
+                if solving && f.fps > 0.0 {
+                    lines.push(format!("solver {:.1} fps  {} it/frame{fine}", f.fps, s.iterations));
+                } else {
+                    lines.push(format!("solver idle  {} it/frame{fine}", s.iterations));
+                }
+                let on_mesh = s.fine_energy.map_or(String::new(), |e| format!("  E(M) = {e:.4e}"));
+                lines.push(format!(
+                    "{:.3} ms/it  E = {:.4e}{on_mesh}",
+                    s.ms_per_iteration, s.energy
+                ));
+            }
+        }
+        if self.display.view == View::Compare
+            && let Some((q, current)) = self.side_by_side_quality()
+        {
+            let q = q[slot.min(1)];
+            lines.push(format!(
+                "vs converged ARAP{}: max {:.2}% mean {:.3}%",
+                if current { "" } else { " (old pose)" },
+                100.0 * q.max_distance,
+                100.0 * q.mean_distance
+            ));
+            lines.push(format!("ARAP energy on the mesh {:.3e}", q.energy_on_mesh));
+        } else if self.display.view == View::Compare && self.jobs.compare.is_some() {
+            lines.push("vs converged ARAP: computing…".into());
+        }
+        if let Some(status) = handle.and_then(|h| h.try_status()) {
+            match status.state {
+                SolverState::Factorizing { since } => {
+                    let secs = if self.options.deterministic_overlays {
+                        0.0
+                    } else {
+                        since.elapsed().as_secs_f32()
+                    };
+                    lines.push(format!("factorizing… {secs:.1} s"));
+                }
+                SolverState::Failed(e) => lines.push(format!("solver failed: {e}")),
+                SolverState::Panicked(e) => lines.push(format!("solver panicked (restarted): {e}")),
+                _ => {}
+            }
+        }
+        if let Some(h) = self.interaction.hover.as_ref().filter(|h| h.slot == slot) {
+            let depth = (h.hit.point - self.display.camera.eye())
+                .dot(-self.display.camera.back())
+                .max(1e-6);
+            let px = self.brush_world_radius()
+                / self.display.camera.world_per_point(depth, rect.height());
+            if let Some(ndc) = self.display.camera.project(h.hit.point, rect.aspect_ratio()) {
+                let c = Pos2::new(
+                    rect.left() + (ndc[0] + 1.0) * 0.5 * rect.width(),
+                    rect.top() + (1.0 - ndc[1]) * 0.5 * rect.height(),
+                );
+                painter.circle_stroke(
+                    c,
+                    px,
+                    egui::Stroke::new(1.0, Color32::from_rgb(255, 220, 60)),
+                );
+            }
+        }
+        if slot == 0 && self.display.show_render_fps && !self.options.deterministic_overlays {
+            lines.push(format!(
+                "render {:.0} fps, UI thread {:.1} ms/frame",
+                self.display.render_fps, self.display.ui_ms
+            ));
+        }
+        let mut y = rect.top() + 6.0;
+        for l in lines {
+            painter.text(
+                Pos2::new(rect.left() + 8.0, y),
+                egui::Align2::LEFT_TOP,
+                l,
+                font.clone(),
+                Color32::from_gray(220),
+            );
+            y += 15.0;
+        }
+        if let Some(job) = &self.jobs.loading {
+            let secs = if self.options.deterministic_overlays {
+                0.0
+            } else {
+                job.since.elapsed().as_secs_f32()
+            };
+            painter.text(
+                rect.center_bottom() - Vec2::new(0.0, 30.0),
+                egui::Align2::CENTER_CENTER,
+                format!("loading {} … {secs:.1} s", job.path.display()),
+                egui::FontId::proportional(15.0),
+                Color32::YELLOW,
+            );
+        }
+    }
+}
+
+/// A blue→green→yellow→red ramp for `t ∈ [0, 1]` (linear RGBA).
+fn colormap(t: f32) -> [f32; 4] {
+    const STOPS: [[f32; 3]; 4] =
+        [[0.05, 0.1, 0.6], [0.1, 0.6, 0.3], [0.95, 0.85, 0.1], [0.85, 0.1, 0.05]];
+    let t = t.clamp(0.0, 1.0) * 3.0;
+    let i = (t.floor() as usize).min(2);
+    let f = t - i as f32;
+    let a = STOPS[i];
+    let b = STOPS[i + 1];
+    [a[0] + (b[0] - a[0]) * f, a[1] + (b[1] - a[1]) * f, a[2] + (b[2] - a[2]) * f, 1.0]
+}

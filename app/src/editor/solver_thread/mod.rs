@@ -1,0 +1,100 @@
+//! The background solver thread: commands in over a channel, the newest frame out through a
+//! single-slot mailbox.
+//!
+//! Architecture invariant: the UI thread never factorizes or iterates. It sends [`SolverCommand`]s
+//! (never waiting) and, once per UI frame, takes whatever [`SolvedFrame`] is in the
+//! [`Mailbox`] (never blocking: `try_lock`). A frame carries the `scene_generation` of the
+//! handle set / method it was solved with; the UI drops frames from an older generation.
+//!
+//! A panic inside a pose solver is caught with `catch_unwind`, reported through
+//! [`SolverStatus::panics`] / [`SolverState::Panicked`], and the worker starts over with an
+//! empty state, waiting for the next scene.
+//!
+//! Files: [`protocol`] (settings, slots, the [`PoseSolver`] trait, commands, frames, status),
+//! [`mailbox`] (the newest frame) and `worker` (the thread's loop, step by step).
+
+mod mailbox;
+mod protocol;
+mod worker;
+
+#[cfg(test)]
+mod tests;
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{Sender, channel};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+
+pub use mailbox::Mailbox;
+pub use protocol::{
+    ANDERSON_WINDOW, FrameStats, MethodSettings, PoseSolver, PoseSolverFactory, Slot, SolvedFrame,
+    SolverCommand, SolverState, SolverStatus,
+};
+use worker::{Shared, set_status, supervise};
+
+/// The UI's handle to one solver thread.
+pub struct SolverHandle {
+    pub slot: Slot,
+    tx: Sender<SolverCommand>,
+    mailbox: Arc<Mailbox>,
+    status: Arc<Mutex<SolverStatus>>,
+    show_base: Arc<AtomicBool>,
+    thread: Option<JoinHandle<()>>,
+}
+
+impl SolverHandle {
+    /// Starts the thread. `repaint` is called after every published frame or status change.
+    pub fn spawn(
+        slot: Slot,
+        factory: PoseSolverFactory,
+        repaint: Arc<dyn Fn() + Send + Sync>,
+    ) -> anyhow::Result<SolverHandle> {
+        let (tx, rx) = channel();
+        let mailbox = Arc::new(Mailbox::default());
+        let status = Arc::new(Mutex::new(SolverStatus { state: SolverState::Idle, panics: 0 }));
+        let show_base = Arc::new(AtomicBool::new(false));
+        let shared = Shared {
+            mailbox: mailbox.clone(),
+            status: status.clone(),
+            show_base: show_base.clone(),
+            repaint,
+        };
+        let thread = std::thread::Builder::new()
+            .name(format!("solver-{}", slot.label()))
+            .spawn(move || supervise(slot, factory, rx, shared))?;
+        Ok(SolverHandle { slot, tx, mailbox, status, show_base, thread: Some(thread) })
+    }
+
+    /// Whether frames carry the deformed base surface (its shape and normals cost about 1 ms a
+    /// frame on a 43k-vertex mesh, so they are built only while the Base view shows them).
+    /// Turning it on republishes the current pose with its base.
+    pub fn show_base(&self, on: bool) {
+        if !self.show_base.swap(on, Ordering::Relaxed) && on {
+            self.send(SolverCommand::Republish);
+        }
+    }
+
+    /// Sends a command; never blocks. A dead thread is reported by the status.
+    pub fn send(&self, command: SolverCommand) {
+        if self.tx.send(command).is_err() {
+            set_status(&self.status, SolverState::Failed("the solver thread has exited".into()));
+        }
+    }
+
+    pub fn try_take_frame(&self) -> Option<SolvedFrame> {
+        self.mailbox.try_take()
+    }
+
+    /// The status, if its lock is free right now (never waits).
+    pub fn try_status(&self) -> Option<SolverStatus> {
+        self.status.try_lock().ok().map(|s| s.clone())
+    }
+}
+
+impl Drop for SolverHandle {
+    fn drop(&mut self) {
+        let _ = self.tx.send(SolverCommand::Shutdown);
+        // Do not join: a long factorization must not freeze the UI on exit.
+        drop(self.thread.take());
+    }
+}

@@ -1,0 +1,211 @@
+//! What the UI and a solver thread say to each other: the method settings, the slot a thread
+//! serves, the [`PoseSolver`] it runs, the [`SolverCommand`]s in and the [`SolvedFrame`]s and
+//! [`SolverStatus`] out.
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use solver::{Handles, Mesh};
+
+use crate::editor::pose::GroupPose;
+use crate::editor::renderer::Shape;
+
+/// Method settings shown in the UI; sent whole to the solver thread, which rebuilds its pose
+/// solver.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MethodSettings {
+    /// ARAP cell type.
+    pub energy: solver::Energy,
+    /// Relative energy decrease below which a frame counts as converged.
+    pub tolerance: f64,
+    /// Iteration cap of one frame.
+    pub max_iterations: usize,
+    /// Acceleration of every solve's local-global loop (plain or Anderson).
+    pub acceleration: solver::Acceleration,
+    /// Which BS-ARAP variant the BS-ARAP slot runs.
+    pub bs_variant: solver::Method,
+    /// Base-surface settings of the BS-ARAP variants (smoothing, coarse vertex count, fine
+    /// iterations).
+    pub base: solver::BaseConfig,
+    /// What the left viewport of the side-by-side view runs (ARAP by default).
+    pub compare_variant: solver::Method,
+}
+
+/// Anderson window when the method panel's acceleration is on (Peng et al. 2018 use 5-6;
+/// BENCHMARKS.md measures 5).
+pub const ANDERSON_WINDOW: usize = 5;
+
+impl Default for MethodSettings {
+    fn default() -> Self {
+        MethodSettings {
+            energy: solver::Energy::SpokesAndRims,
+            tolerance: solver::ArapConfig::default().tolerance,
+            // Fewer than the solver's default cap: a frame of a drag should stay short.
+            max_iterations: 30,
+            acceleration: solver::Acceleration::None,
+            // The paper's base is slow to precompute and collapses under small handles on the
+            // default creature (see main's scenes); the coarse faired base is interactive.
+            bs_variant: solver::Method::BsArapCoarse,
+            // Once the handles stop, the coarse variant's pose is refined on the full mesh in
+            // steps of 5 Anderson-accelerated ARAP iterations until they stop lowering the energy.
+            base: solver::BaseConfig { settle_iterations: 5, ..solver::BaseConfig::default() },
+            compare_variant: solver::Method::Arap,
+        }
+    }
+}
+
+impl MethodSettings {
+    /// The solver's configuration for these settings (the editor's threads, its recording, and
+    /// the scenes it saves use the same).
+    pub fn arap_config(&self) -> solver::ArapConfig {
+        solver::ArapConfig {
+            energy: self.energy,
+            tolerance: self.tolerance,
+            max_iterations: self.max_iterations,
+            acceleration: self.acceleration,
+            ..solver::ArapConfig::default()
+        }
+    }
+}
+
+/// Which solver slot a thread serves.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Slot {
+    /// The left viewport of the side-by-side view: runs [`MethodSettings::compare_variant`]
+    /// (ARAP by default).
+    Compare,
+    /// The main viewport (the right one side by side): runs [`MethodSettings::bs_variant`].
+    Main,
+}
+
+impl Slot {
+    /// How the status bar names the slot (by the method it runs by default).
+    pub fn label(self) -> &'static str {
+        match self {
+            Slot::Compare => "ARAP",
+            Slot::Main => "BS-ARAP",
+        }
+    }
+}
+
+/// What one `solve` call did.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct FrameStats {
+    pub iterations: usize,
+    pub energy: f64,
+    pub ms_per_iteration: f64,
+    pub converged: bool,
+    /// ARAP iterations on the full mesh in this frame (the coarse BS-ARAP's fine or settle
+    /// iterations).
+    pub fine_iterations: usize,
+    /// The ARAP energy on the full mesh after those iterations (`None` without them; `energy`
+    /// is then the only one).
+    pub fine_energy: Option<f64>,
+}
+
+/// What a solver thread runs: a deformation method for one mesh and handle set, with its
+/// precomputation done (factorization happens in the [`PoseSolverFactory`]). The editor's
+/// own implementation wraps `solver::Deformer` (see `editor::pose_solvers`); tests plug in
+/// trivial ones.
+pub trait PoseSolver: Send {
+    /// Solves for `targets` (positions of `handles.handle_vertices()`, in that order); `x` is
+    /// the warm start in and the result out (`#V×3`).
+    fn solve(&mut self, targets: &[[f64; 3]], x: &mut [[f64; 3]]) -> Result<FrameStats, String>;
+    /// The deformed base surface B' (BS-ARAP only), `#V×3`.
+    fn deformed_base(&self) -> Option<Vec<[f64; 3]>> {
+        None
+    }
+    /// Per-vertex detail magnitude |D_i| (BS-ARAP only), `#V`. Constant for a pose solver: the
+    /// thread asks once per scene.
+    fn detail_magnitudes(&self) -> Option<Vec<f64>> {
+        None
+    }
+    /// Whether [`PoseSolver::settle`] has work after the last solve (the default: never).
+    fn settle_pending(&self) -> bool {
+        false
+    }
+    /// Refines the last solve's converged pose, whose handles have stopped at `targets`, by a
+    /// step (`x` as in [`PoseSolver::solve`]); the thread calls it until the stats say converged.
+    /// `None`: nothing to refine (the default).
+    fn settle(
+        &mut self,
+        _targets: &[[f64; 3]],
+        _x: &mut [[f64; 3]],
+    ) -> Result<Option<FrameStats>, String> {
+        Ok(None)
+    }
+}
+
+/// Builds a pose solver for a slot, a mesh and a handle set (the slow part: factorization).
+pub type PoseSolverFactory = Arc<
+    dyn Fn(Slot, &Mesh, &Handles, &MethodSettings) -> Result<Box<dyn PoseSolver>, String>
+        + Send
+        + Sync,
+>;
+
+/// The closed set of messages the UI sends to a solver thread.
+pub enum SolverCommand {
+    /// A new mesh and/or handle set / method settings: rebuild the pose solver.
+    SetScene {
+        scene_generation: u64,
+        mesh: Arc<Mesh>,
+        handles: Option<Handles>,
+        settings: MethodSettings,
+        poses: Vec<GroupPose>,
+        /// The pose generation `poses` belong to.
+        pose_generation: u64,
+    },
+    /// New group poses (no refactorization).
+    SetPoses {
+        pose_generation: u64,
+        poses: Vec<GroupPose>,
+    },
+    /// Publish the current pose again (the deformed base was asked for while the thread was
+    /// idle; see [`SolverHandle::show_base`]).
+    Republish,
+    /// Test hook: make the worker panic, to exercise the recovery path.
+    InjectPanic,
+    Shutdown,
+}
+
+/// The newest solved frame.
+#[derive(Debug, Clone)]
+pub struct SolvedFrame {
+    pub scene_generation: u64,
+    pub pose_generation: u64,
+    pub positions: Arc<Vec<[f32; 3]>>,
+    /// Vertex normals of `positions` (computed here, not on the UI thread).
+    pub normals: Arc<Vec<[f32; 3]>>,
+    /// The deformed base surface, while [`SolverHandle::show_base`] is on (BS-ARAP only).
+    pub deformed_base: Option<Shape>,
+    pub detail_magnitudes: Option<Arc<Vec<f32>>>,
+    pub stats: FrameStats,
+    /// Solved frames per second over the last frames while solving.
+    pub fps: f64,
+}
+
+/// What the solver thread is doing, for the status bar.
+#[derive(Debug, Clone, PartialEq)]
+pub enum SolverState {
+    /// No scene yet, or no handles.
+    Idle,
+    /// Building the pose solver (factorization, base surface) since the given instant.
+    Factorizing {
+        since: Instant,
+    },
+    Solving,
+    /// The handles have stopped and the pose is being refined on the full mesh
+    /// ([`PoseSolver::settle`]).
+    Settling,
+    Converged,
+    Failed(String),
+    /// The worker panicked with this message and restarted.
+    Panicked(String),
+}
+
+#[derive(Debug, Clone)]
+pub struct SolverStatus {
+    pub state: SolverState,
+    /// How many times the worker panicked and restarted.
+    pub panics: usize,
+}

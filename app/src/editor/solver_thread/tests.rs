@@ -1,0 +1,293 @@
+//! The thread's plumbing with trivial pose solvers: frames follow poses, panics restart the
+//! worker, settling runs and stops as it should, the base is built only while shown.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use solver::{Handles, Mesh};
+
+use super::worker::SETTLE_DELAY;
+use super::*;
+use crate::editor::pose::GroupPose;
+
+/// Moves every vertex by the mean handle displacement: enough to test the plumbing.
+struct Shift {
+    rest: Vec<[f64; 3]>,
+    handle_vertices: Vec<u32>,
+}
+
+impl PoseSolver for Shift {
+    fn solve(&mut self, targets: &[[f64; 3]], x: &mut [[f64; 3]]) -> Result<FrameStats, String> {
+        let mut d = [0.0; 3];
+        for (t, &v) in targets.iter().zip(&self.handle_vertices) {
+            for k in 0..3 {
+                d[k] += (t[k] - self.rest[v as usize][k]) / targets.len() as f64;
+            }
+        }
+        for (xi, r) in x.iter_mut().zip(&self.rest) {
+            *xi = [r[0] + d[0], r[1] + d[1], r[2] + d[2]];
+        }
+        Ok(FrameStats {
+            iterations: 1,
+            energy: 0.0,
+            ms_per_iteration: 0.0,
+            converged: true,
+            fine_iterations: 0,
+            fine_energy: None,
+        })
+    }
+}
+
+fn factory() -> PoseSolverFactory {
+    Arc::new(|_, mesh: &Mesh, handles: &Handles, _: &MethodSettings| {
+        Ok(Box::new(Shift {
+            rest: mesh.positions().to_vec(),
+            handle_vertices: handles.handle_vertices(),
+        }) as Box<dyn PoseSolver>)
+    })
+}
+
+fn tri() -> Arc<Mesh> {
+    Arc::new(Mesh::new(vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], vec![[0, 1, 2]]).unwrap())
+}
+
+fn wait_frame(h: &SolverHandle, pred: impl Fn(&SolvedFrame) -> bool) -> SolvedFrame {
+    let start = Instant::now();
+    while start.elapsed() < Duration::from_secs(10) {
+        if let Some(f) = h.try_take_frame()
+            && pred(&f)
+        {
+            return f;
+        }
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    panic!("no frame within 10 s");
+}
+
+fn scene(generation: u64, poses: Vec<GroupPose>) -> SolverCommand {
+    SolverCommand::SetScene {
+        scene_generation: generation,
+        mesh: tri(),
+        handles: Some(Handles::from_options(vec![Some(0), None, None]).unwrap()),
+        settings: MethodSettings::default(),
+        poses,
+        pose_generation: 0,
+    }
+}
+
+#[test]
+fn frames_follow_poses_and_survive_a_panic() {
+    let h = SolverHandle::spawn(Slot::Compare, factory(), Arc::new(|| {})).unwrap();
+    h.send(scene(1, vec![GroupPose::default()]));
+    let f = wait_frame(&h, |f| f.scene_generation == 1);
+    assert_eq!(f.positions[1], [1.0, 0.0, 0.0]);
+
+    let moved = GroupPose { translation: [0.0, 0.0, 2.0], ..Default::default() };
+    h.send(SolverCommand::SetPoses { pose_generation: 5, poses: vec![moved] });
+    let f = wait_frame(&h, |f| f.pose_generation == 5);
+    assert_eq!(f.positions[2], [0.0, 1.0, 2.0]);
+
+    h.send(SolverCommand::InjectPanic);
+    let start = Instant::now();
+    while h.try_status().is_none_or(|s| s.panics == 0) {
+        assert!(start.elapsed() < Duration::from_secs(10), "panic not reported");
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    assert!(matches!(h.try_status().unwrap().state, SolverState::Panicked(_)));
+    // The restarted worker serves a new scene.
+    h.send(scene(2, vec![moved]));
+    let f = wait_frame(&h, |f| f.scene_generation == 2);
+    assert_eq!(f.positions[0], [0.0, 0.0, 2.0]);
+}
+
+/// Solves like [`Shift`], then refines: each settle step moves vertex 1 by 0.5 along x and
+/// the third says converged.
+struct Settles {
+    shift: Shift,
+    steps: usize,
+}
+
+impl PoseSolver for Settles {
+    fn settle_pending(&self) -> bool {
+        self.steps < 3
+    }
+
+    fn solve(&mut self, targets: &[[f64; 3]], x: &mut [[f64; 3]]) -> Result<FrameStats, String> {
+        self.steps = 0;
+        self.shift.solve(targets, x)
+    }
+
+    fn settle(
+        &mut self,
+        _targets: &[[f64; 3]],
+        x: &mut [[f64; 3]],
+    ) -> Result<Option<FrameStats>, String> {
+        self.steps += 1;
+        x[1][0] += 0.5;
+        let converged = self.steps == 3;
+        Ok(Some(FrameStats { fine_iterations: self.steps, converged, ..FrameStats::default() }))
+    }
+}
+
+/// After a converged solve the thread settles the pose until a step says converged, then
+/// idles; new poses solve again (and settle again).
+#[test]
+fn converged_poses_are_settled_until_converged() {
+    let factory: PoseSolverFactory = Arc::new(|_, mesh: &Mesh, handles: &Handles, _: &_| {
+        let shift =
+            Shift { rest: mesh.positions().to_vec(), handle_vertices: handles.handle_vertices() };
+        Ok(Box::new(Settles { shift, steps: 0 }) as Box<dyn PoseSolver>)
+    });
+    let h = SolverHandle::spawn(Slot::Main, factory, Arc::new(|| {})).unwrap();
+    h.send(scene(1, vec![GroupPose::default()]));
+    let f = wait_frame(&h, |f| f.stats.fine_iterations == 3);
+    assert_eq!(f.positions[1], [2.5, 0.0, 0.0]);
+    assert!(f.stats.converged, "the last settle step's frame is the converged one");
+    let start = Instant::now();
+    while h.try_status().is_none_or(|s| s.state != SolverState::Converged) {
+        assert!(start.elapsed() < Duration::from_secs(10), "did not end converged");
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    // Converged: no more steps.
+    std::thread::sleep(Duration::from_millis(50));
+    assert!(h.try_take_frame().is_none());
+
+    let moved = GroupPose { translation: [0.0, 0.0, 2.0], ..Default::default() };
+    h.send(SolverCommand::SetPoses { pose_generation: 7, poses: vec![moved] });
+    let f = wait_frame(&h, |f| f.pose_generation == 7 && f.stats.fine_iterations == 3);
+    assert_eq!(f.positions[1], [2.5, 0.0, 2.0]);
+}
+
+/// Settles without ever converging, 5 ms a step; logs each call (settle or not, the first
+/// target's z, when).
+struct EndlessSettle {
+    shift: Shift,
+    log: Arc<Mutex<Vec<(bool, f64, Instant)>>>,
+}
+
+impl PoseSolver for EndlessSettle {
+    fn settle_pending(&self) -> bool {
+        true
+    }
+
+    fn solve(&mut self, targets: &[[f64; 3]], x: &mut [[f64; 3]]) -> Result<FrameStats, String> {
+        self.log.lock().unwrap().push((false, targets[0][2], Instant::now()));
+        self.shift.solve(targets, x)
+    }
+
+    fn settle(
+        &mut self,
+        targets: &[[f64; 3]],
+        _x: &mut [[f64; 3]],
+    ) -> Result<Option<FrameStats>, String> {
+        std::thread::sleep(Duration::from_millis(5));
+        self.log.lock().unwrap().push((true, targets[0][2], Instant::now()));
+        Ok(Some(FrameStats { fine_iterations: 1, ..FrameStats::default() }))
+    }
+}
+
+/// A new pose arriving while the thread settles stops the settling after the step in
+/// progress: the new pose is solved next, and settling starts again only once it has been
+/// unchanged for the settle delay, at the new targets.
+#[test]
+fn a_new_pose_interrupts_settling() {
+    let log = Arc::new(Mutex::new(Vec::new()));
+    let shared_log = log.clone();
+    let factory: PoseSolverFactory = Arc::new(move |_, mesh: &Mesh, handles: &Handles, _: &_| {
+        let shift =
+            Shift { rest: mesh.positions().to_vec(), handle_vertices: handles.handle_vertices() };
+        Ok(Box::new(EndlessSettle { shift, log: shared_log.clone() }) as Box<dyn PoseSolver>)
+    });
+    let h = SolverHandle::spawn(Slot::Main, factory, Arc::new(|| {})).unwrap();
+    h.send(scene(1, vec![GroupPose::default()]));
+    wait_frame(&h, |f| f.stats.fine_iterations == 1);
+
+    let moved = GroupPose { translation: [0.0, 0.0, 2.0], ..Default::default() };
+    // Hold the log while sending: the thread then blocks on its next entry, so at most the
+    // step in progress is logged between the send and the command's arrival.
+    let guard = log.lock().unwrap();
+    let at_send = guard.len();
+    let sent = Instant::now();
+    h.send(SolverCommand::SetPoses { pose_generation: 7, poses: vec![moved] });
+    drop(guard);
+    let f = wait_frame(&h, |f| f.pose_generation == 7 && f.stats.fine_iterations == 1);
+    assert_eq!(f.positions[1], [1.0, 0.0, 2.0]);
+
+    let log = log.lock().unwrap().clone();
+    let solve = (at_send..log.len())
+        .find(|&k| !log[k].0)
+        .unwrap_or_else(|| panic!("the new pose was not solved: {log:?}"));
+    assert_eq!(log[solve].1, 2.0);
+    assert!(solve - at_send <= 1, "settled the old pose after the new one came: {log:?}");
+    let rest = &log[solve + 1..];
+    assert!(rest.iter().all(|e| e.0 && e.1 == 2.0), "after the solve: {log:?}");
+    assert!(
+        rest[0].2.duration_since(sent) >= SETTLE_DELAY,
+        "settled before the new pose had rested for the delay"
+    );
+}
+
+/// [`Shift`] with a base: the rest shape lifted by one along y.
+struct WithBase(Shift);
+
+impl PoseSolver for WithBase {
+    fn solve(&mut self, targets: &[[f64; 3]], x: &mut [[f64; 3]]) -> Result<FrameStats, String> {
+        self.0.solve(targets, x)
+    }
+
+    fn deformed_base(&self) -> Option<Vec<[f64; 3]>> {
+        Some(self.0.rest.iter().map(|p| [p[0], p[1] + 1.0, p[2]]).collect())
+    }
+}
+
+/// Frames carry the deformed base only while it is asked for; asking while the thread is
+/// idle republishes the current pose with it.
+#[test]
+fn the_base_is_built_only_while_shown() {
+    let factory: PoseSolverFactory = Arc::new(|_, mesh: &Mesh, handles: &Handles, _: &_| {
+        let shift =
+            Shift { rest: mesh.positions().to_vec(), handle_vertices: handles.handle_vertices() };
+        Ok(Box::new(WithBase(shift)) as Box<dyn PoseSolver>)
+    });
+    let h = SolverHandle::spawn(Slot::Main, factory, Arc::new(|| {})).unwrap();
+    h.send(scene(1, vec![GroupPose::default()]));
+    let f = wait_frame(&h, |f| f.scene_generation == 1);
+    assert!(f.deformed_base.is_none(), "built while not shown");
+    let start = Instant::now();
+    while h.try_status().is_none_or(|s| s.state != SolverState::Converged) {
+        assert!(start.elapsed() < Duration::from_secs(10), "did not converge");
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    h.show_base(true);
+    let f = wait_frame(&h, |f| f.deformed_base.is_some());
+    assert_eq!(f.pose_generation, 0, "the idle pose, republished");
+    assert_eq!(f.deformed_base.unwrap().positions[2], [0.0, 2.0, 0.0]);
+    let moved = GroupPose { translation: [0.0, 0.0, 2.0], ..Default::default() };
+    h.send(SolverCommand::SetPoses { pose_generation: 3, poses: vec![moved] });
+    let f = wait_frame(&h, |f| f.pose_generation == 3);
+    assert!(f.deformed_base.is_some(), "solved frames carry it while shown");
+    h.show_base(false);
+    h.send(SolverCommand::SetPoses { pose_generation: 4, poses: vec![GroupPose::default()] });
+    let f = wait_frame(&h, |f| f.pose_generation == 4);
+    assert!(f.deformed_base.is_none(), "built after the view closed");
+}
+
+#[test]
+fn mailbox_keeps_only_the_newest() {
+    let m = Mailbox::default();
+    for g in 0..3 {
+        m.put(SolvedFrame {
+            scene_generation: g,
+            pose_generation: 0,
+            positions: Arc::new(vec![]),
+            normals: Arc::new(vec![]),
+            deformed_base: None,
+            detail_magnitudes: None,
+            stats: FrameStats::default(),
+            fps: 0.0,
+        });
+    }
+    assert_eq!(m.try_take().map(|f| f.scene_generation), Some(2));
+    assert!(m.try_take().is_none());
+}

@@ -1,0 +1,378 @@
+//! The solver thread's loop. Each turn: wait for and [drain the commands](drain_commands)
+//! (only the newest scene and poses matter), [rebuild](rebuild) the pose solver on a new scene,
+//! take the new poses, then [step](step) (solve a changed pose, or settle a converged one
+//! whose handles have rested), [do the settling's bookkeeping](Active::settle_bookkeeping) and
+//! [publish](publish) the frame.
+
+use std::panic::{AssertUnwindSafe, catch_unwind};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{Receiver, RecvTimeoutError, TryRecvError};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use solver::{Handles, Mesh};
+
+use super::mailbox::Mailbox;
+use super::protocol::{
+    FrameStats, MethodSettings, PoseSolver, PoseSolverFactory, Slot, SolvedFrame, SolverCommand,
+    SolverState, SolverStatus,
+};
+use crate::editor::pose::GroupPose;
+use crate::editor::renderer::Shape;
+
+/// What the worker shares with its [`super::SolverHandle`].
+pub(super) struct Shared {
+    pub(super) mailbox: Arc<Mailbox>,
+    pub(super) status: Arc<Mutex<SolverStatus>>,
+    pub(super) show_base: Arc<AtomicBool>,
+    pub(super) repaint: Arc<dyn Fn() + Send + Sync>,
+}
+
+pub(super) fn set_status(status: &Mutex<SolverStatus>, state: SolverState) {
+    match status.lock() {
+        Ok(mut s) => s.state = state,
+        Err(poisoned) => poisoned.into_inner().state = state,
+    }
+}
+
+/// Runs the worker, restarting it after a panic.
+pub(super) fn supervise(
+    slot: Slot,
+    factory: PoseSolverFactory,
+    rx: Receiver<SolverCommand>,
+    shared: Shared,
+) {
+    loop {
+        let result = catch_unwind(AssertUnwindSafe(|| worker_loop(slot, &factory, &rx, &shared)));
+        match result {
+            Ok(()) => return,
+            Err(payload) => {
+                let msg = panic_message(payload.as_ref());
+                match shared.status.lock() {
+                    Ok(mut s) => {
+                        s.state = SolverState::Panicked(msg);
+                        s.panics += 1;
+                    }
+                    Err(poisoned) => {
+                        let mut s = poisoned.into_inner();
+                        s.state = SolverState::Panicked(msg);
+                        s.panics += 1;
+                    }
+                }
+                (shared.repaint)();
+            }
+        }
+    }
+}
+
+fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
+    if let Some(s) = payload.downcast_ref::<&str>() {
+        (*s).to_owned()
+    } else if let Some(s) = payload.downcast_ref::<String>() {
+        s.clone()
+    } else {
+        "unknown panic".to_owned()
+    }
+}
+
+/// The scene a worker serves: its pose solver, the current poses and result, and where the
+/// solving and settling stand.
+struct Active {
+    scene_generation: u64,
+    pose_generation: u64,
+    mesh: Arc<Mesh>,
+    handles: Handles,
+    poses: Vec<GroupPose>,
+    pose_solver: Box<dyn PoseSolver>,
+    /// |D_i| as f32, shared by every frame of this scene.
+    details: Option<Arc<Vec<f32>>>,
+    x: Vec<[f64; 3]>,
+    /// Targets changed since the last converged solve.
+    dirty: bool,
+    /// The last solve converged and its pose is being refined ([`PoseSolver::settle`]).
+    settling: bool,
+    /// When the poses last changed, and the settle steps taken since.
+    poses_changed: Instant,
+    settle_steps: usize,
+    /// The statistics of the last published frame.
+    last_stats: FrameStats,
+    last_frame: Option<Instant>,
+    fps: f64,
+    /// A frame of this scene has been published (so there is a pose to republish).
+    last_frame_published: bool,
+}
+
+impl Active {
+    /// The frame of the current pose, with the deformed base when `with_base`.
+    fn frame(&self, stats: FrameStats, with_base: bool) -> SolvedFrame {
+        let triangles = self.mesh.triangles();
+        let shape = Shape::new(&self.x, triangles);
+        let base = with_base.then(|| self.pose_solver.deformed_base()).flatten();
+        SolvedFrame {
+            scene_generation: self.scene_generation,
+            pose_generation: self.pose_generation,
+            positions: shape.positions,
+            normals: shape.normals,
+            deformed_base: base.map(|b| Shape::new(&b, triangles)),
+            detail_magnitudes: self.details.clone(),
+            stats,
+            fps: self.fps,
+        }
+    }
+
+    /// New poses: solve again, and settle again only once they have rested.
+    fn set_poses(&mut self, generation: u64, poses: Vec<GroupPose>) {
+        self.pose_generation = generation;
+        self.poses = poses;
+        self.dirty = true;
+        self.settling = false;
+        self.poses_changed = Instant::now();
+    }
+
+    /// After a step (`solving`: a solve, else a settle step) that returned `stats`: updates the
+    /// frame rate and whether the pose still needs solving or settling, and returns the stats
+    /// to publish, converged only when nothing more will be done at this pose.
+    fn settle_bookkeeping(&mut self, solving: bool, stats: FrameStats) -> FrameStats {
+        let now = Instant::now();
+        if let Some(prev) = self.last_frame {
+            let dt = now.duration_since(prev).as_secs_f64().max(1e-6);
+            self.fps = if self.fps == 0.0 { 1.0 / dt } else { 0.8 * self.fps + 0.2 / dt };
+        }
+        self.last_frame = Some(now);
+        if solving && (stats.converged || stats.iterations == 0) {
+            self.dirty = false;
+            self.settling = self.pose_solver.settle_pending();
+            self.settle_steps = 0;
+        } else if !solving {
+            self.settle_steps += 1;
+            if stats.converged || self.settle_steps >= MAX_SETTLE_STEPS {
+                self.settling = false;
+            }
+        }
+        // A frame counts as converged only when nothing more will be done at this pose.
+        let stats =
+            FrameStats { converged: stats.converged && !self.dirty && !self.settling, ..stats };
+        self.last_stats = stats;
+        if !self.dirty && !self.settling {
+            self.last_frame = None;
+        }
+        stats
+    }
+
+    /// The state the status bar shows after a published frame.
+    fn state(&self) -> SolverState {
+        if self.dirty {
+            SolverState::Solving
+        } else if self.settling {
+            SolverState::Settling
+        } else {
+            SolverState::Converged
+        }
+    }
+}
+
+/// How long the poses must stay unchanged before a converged pose is settled: a settle step
+/// cannot be interrupted, so a drag that pauses briefly does not wait for one.
+pub(super) const SETTLE_DELAY: Duration = Duration::from_millis(150);
+
+/// The most settle steps per pose (a pose solver whose steps never say converged stops here).
+const MAX_SETTLE_STEPS: usize = 2000;
+
+/// The newest scene and poses among the commands of one turn (older ones do not matter).
+#[derive(Default)]
+struct Inbox {
+    scene: Option<NewScene>,
+    poses: Option<(u64, Vec<GroupPose>)>,
+    /// The current pose is asked for again ([`SolverCommand::Republish`]).
+    republish: bool,
+}
+
+/// The fields of [`SolverCommand::SetScene`].
+struct NewScene {
+    scene_generation: u64,
+    mesh: Arc<Mesh>,
+    handles: Option<Handles>,
+    settings: MethodSettings,
+    poses: Vec<GroupPose>,
+    pose_generation: u64,
+}
+
+/// How long the worker may block for commands: forever with nothing to iterate on, not at all
+/// with a pose to solve, and before settling until the poses have rested for
+/// [`SETTLE_DELAY`].
+fn wait_time(active: Option<&Active>) -> Option<Duration> {
+    match active {
+        Some(a) if a.dirty => Some(Duration::ZERO),
+        Some(a) if a.settling => Some(SETTLE_DELAY.saturating_sub(a.poses_changed.elapsed())),
+        _ => None,
+    }
+}
+
+/// Waits up to `wait` (`None`: until a command comes) and takes every pending command. `None`
+/// when told to shut down or when the UI side is gone.
+fn drain_commands(rx: &Receiver<SolverCommand>, wait: Option<Duration>) -> Option<Inbox> {
+    let mut commands = Vec::new();
+    match wait {
+        None => commands.push(rx.recv().ok()?),
+        Some(d) if !d.is_zero() => match rx.recv_timeout(d) {
+            Ok(c) => commands.push(c),
+            Err(RecvTimeoutError::Timeout) => {}
+            Err(RecvTimeoutError::Disconnected) => return None,
+        },
+        Some(_) => {}
+    }
+    loop {
+        match rx.try_recv() {
+            Ok(c) => commands.push(c),
+            Err(TryRecvError::Empty) => break,
+            Err(TryRecvError::Disconnected) => return None,
+        }
+    }
+    let mut inbox = Inbox::default();
+    for c in commands {
+        match c {
+            SolverCommand::Shutdown => return None,
+            SolverCommand::Republish => inbox.republish = true,
+            SolverCommand::InjectPanic => panic!("injected solver panic (test hook)"),
+            SolverCommand::SetScene {
+                scene_generation,
+                mesh,
+                handles,
+                settings,
+                poses,
+                pose_generation,
+            } => {
+                inbox.scene = Some(NewScene {
+                    scene_generation,
+                    mesh,
+                    handles,
+                    settings,
+                    poses,
+                    pose_generation,
+                });
+                inbox.poses = None;
+            }
+            SolverCommand::SetPoses { pose_generation, poses } => {
+                inbox.poses = Some((pose_generation, poses))
+            }
+        }
+    }
+    Some(inbox)
+}
+
+/// Builds the pose solver for a new scene (the slow part: factorization). `None` without
+/// handles (idle) or when the build fails (the status says why).
+fn rebuild(
+    slot: Slot,
+    factory: &PoseSolverFactory,
+    scene: NewScene,
+    shared: &Shared,
+) -> Option<Active> {
+    let NewScene { scene_generation, mesh, handles, settings, poses, pose_generation } = scene;
+    let Some(handles) = handles else {
+        set_status(&shared.status, SolverState::Idle);
+        (shared.repaint)();
+        return None;
+    };
+    set_status(&shared.status, SolverState::Factorizing { since: Instant::now() });
+    (shared.repaint)();
+    match factory(slot, &mesh, &handles, &settings) {
+        Ok(pose_solver) => {
+            let x = mesh.positions().to_vec();
+            let details = pose_solver
+                .detail_magnitudes()
+                .map(|d| Arc::new(d.iter().map(|&v| v as f32).collect()));
+            set_status(&shared.status, SolverState::Solving);
+            Some(Active {
+                scene_generation,
+                pose_generation,
+                mesh,
+                handles,
+                poses,
+                pose_solver,
+                details,
+                x,
+                dirty: true,
+                settling: false,
+                poses_changed: Instant::now(),
+                settle_steps: 0,
+                last_stats: FrameStats::default(),
+                last_frame: None,
+                fps: 0.0,
+                last_frame_published: false,
+            })
+        }
+        Err(e) => {
+            set_status(&shared.status, SolverState::Failed(e));
+            (shared.repaint)();
+            None
+        }
+    }
+}
+
+/// One step at the current poses: a solve when they changed (`solving`), else a settle step.
+/// `Ok(None)` from a settle step (nothing more to refine) leaves the current pose standing.
+fn step(a: &mut Active, solving: bool) -> Result<FrameStats, String> {
+    let targets = crate::editor::pose::handle_targets(&a.mesh, &a.handles, &a.poses)?;
+    let stats = if solving {
+        Some(a.pose_solver.solve(&targets, &mut a.x)?)
+    } else {
+        a.pose_solver.settle(&targets, &mut a.x)?
+    };
+    Ok(stats.unwrap_or(FrameStats { converged: true, ..a.last_stats }))
+}
+
+/// Puts the frame of the current pose in the mailbox, updates the status and asks for a
+/// repaint.
+fn publish(a: &mut Active, stats: FrameStats, shared: &Shared) {
+    shared.mailbox.put(a.frame(stats, shared.show_base.load(Ordering::Relaxed)));
+    a.last_frame_published = true;
+    set_status(&shared.status, a.state());
+    (shared.repaint)();
+}
+
+/// Returns when told to shut down or when the UI side is gone.
+fn worker_loop(
+    slot: Slot,
+    factory: &PoseSolverFactory,
+    rx: &Receiver<SolverCommand>,
+    shared: &Shared,
+) {
+    let mut active: Option<Active> = None;
+    loop {
+        let Some(inbox) = drain_commands(rx, wait_time(active.as_ref())) else { return };
+        if let Some(scene) = inbox.scene {
+            // Free the old factorization before building the new one.
+            drop(active.take());
+            active = rebuild(slot, factory, scene, shared);
+        }
+        let Some(a) = active.as_mut() else { continue };
+        if let Some((generation, poses)) = inbox.poses {
+            a.set_poses(generation, poses);
+            set_status(&shared.status, SolverState::Solving);
+        }
+        // Settle only once the poses have rested for the delay (a command such as Republish
+        // can wake the thread before that).
+        let settle_due = a.settling && a.poses_changed.elapsed() >= SETTLE_DELAY;
+        if !a.dirty && !settle_due {
+            if inbox.republish && a.last_frame_published {
+                shared.mailbox.put(a.frame(a.last_stats, shared.show_base.load(Ordering::Relaxed)));
+                (shared.repaint)();
+            }
+            continue;
+        }
+        let solving = a.dirty;
+        match step(a, solving) {
+            Ok(stats) => {
+                let stats = a.settle_bookkeeping(solving, stats);
+                publish(a, stats, shared);
+            }
+            Err(e) => {
+                set_status(&shared.status, SolverState::Failed(e));
+                a.dirty = false;
+                a.settling = false;
+                (shared.repaint)();
+            }
+        }
+    }
+}
