@@ -37,7 +37,7 @@ if [[ $only == all || $only == fig10 ]]; then
     --start laplacian --stop fixed --max-iters 1000 --anderson 5 --json > "$R/fig10.json"
 fi
 if [[ $only == pairs ]]; then
-  # The per-iteration ratio to libigl on armadillo (issue 6's target) as pairs measured back to
+  # The per-iteration ratio to libigl on armadillo (docs/DESIGN.md, "Performance targets") as pairs measured back to
   # back, alternated so that a change in the machine's load shows as a spread between pairs.
   mkdir -p "$R/pairs"
   for k in $(seq 1 "${PAIRS:-3}"); do

@@ -1,4 +1,4 @@
-//! Solver frames per second as the editor's solver thread produces them (issue 6, "editor rate").
+//! Solver frames per second as the editor's solver thread produces them (BENCHMARKS.md, "Editor rate").
 //!
 //! Usage: `cargo run --release -p app --example editor_rate -- MESH SELECTION [FRAMES [METHOD...]]`
 //! (methods: `arap`, `bsarap`, `bsarap-faired`, `bsarap-coarse`, each optionally with `+aa` for

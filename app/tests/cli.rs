@@ -1,4 +1,4 @@
-//! The `bsarap` command line: contracts of DESIGN.md section 3, run on the real binary.
+//! The `bsarap` command line: the contracts of docs/DESIGN.md, "Command-line contracts", run on the real binary.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use std::path::{Path, PathBuf};

@@ -1,4 +1,4 @@
-//! Issue 8 item 3: how should the details D = M − B ride on the deformed base B'? Two
+//! (docs/DESIGN.md, "The coarse base") How should the details D = M − B ride on the deformed base B'? Two
 //! encodings, both exact at rest and invariant to rigid motions of the whole mesh:
 //!
 //! - **rotation** (what `BsArap` does): $p'_i = B'_i + R_i D_i$ with $R_i$ the ARAP rotation of

@@ -1,4 +1,4 @@
-//! One pose, every method, measured against converged ARAP (issue 8's quality figures).
+//! One pose, every method, measured against converged ARAP (docs/DESIGN.md, "Quality targets").
 //!
 //! Usage: `cargo run --release -p solver --example quality_vs_arap -- MESH SELECTION [COARSE...]`
 //!

@@ -1,4 +1,4 @@
-//! Issue 8: fine ARAP iterations after the coarse solve (`BaseConfig::fine_iterations`) bring
+//! Fine ARAP iterations (docs/DESIGN.md, "Fine iterations and settling") after the coarse solve (`BaseConfig::fine_iterations`) bring
 //! the coarse variant's result closer to ARAP on the mesh: its ARAP energy on $M$ drops (each
 //! local-global step decreases it) and so does its distance to converged ARAP.
 #![allow(clippy::unwrap_used, clippy::expect_used)]

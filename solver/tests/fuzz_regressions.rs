@@ -2,8 +2,7 @@
 //!
 //! Each case is an inline input and the outcome it must have: never a panic, never an abort
 //! from an allocation sized by a header, and the error kind named. A crash the fuzzer finds
-//! goes here with its bytes, once the parser is fixed. The fuzzing runs so far (about 75 s per
-//! target) found no crash; the cases below are the hostile shapes the targets exercise (counts
+//! goes here with its bytes, once the parser is fixed. The cases below are the hostile shapes the targets exercise (counts
 //! that lie by orders of magnitude, sizes at integer limits, values beyond f64), kept so the
 //! guards against them cannot regress.
 #![allow(clippy::unwrap_used, clippy::expect_used)]

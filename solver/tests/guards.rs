@@ -1,4 +1,4 @@
-//! Numerical guards (issue 7): no NaN or inf reaches the caller or a file, iteration caps hold
+//! Numerical guards (docs/DESIGN.md, "Robustness"): no NaN or inf reaches the caller or a file, iteration caps hold
 //! for user values, and the corner cases of handle sets (every vertex a handle, a single-vertex
 //! handle, coincident targets) give a finite result or a typed error with every method.
 #![allow(clippy::unwrap_used, clippy::expect_used)]

@@ -1,4 +1,4 @@
-//! Issue 8: when the handles return to rest, the result is the rest pose, whatever the warm
+//! Exact return to rest (docs/DESIGN.md): when the handles return to rest, the result is the rest pose, whatever the warm
 //! start. A warm-started animation moves the first group out along a circle and back, then
 //! puts every handle exactly at rest (the identity transform); each method must give the rest
 //! positions to 1e-12 of the diagonal.

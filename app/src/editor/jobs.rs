@@ -189,7 +189,7 @@ pub struct QualityInput {
     pub results: [Arc<Vec<[f32; 3]>>; 2],
 }
 
-/// Issue 8's quality figures of both side-by-side results: distance to converged full ARAP
+/// The quality figures (docs/DESIGN.md, "Quality targets") of both side-by-side results: distance to converged full ARAP
 /// for the same handle targets (max and mean over the diagonal) and the ARAP energy measured on
 /// the mesh (`solver::deform::quality::Reference`). The reference solve costs seconds on a dense mesh,
 /// so the editor runs this when a pose has settled, never on the UI thread.

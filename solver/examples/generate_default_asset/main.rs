@@ -4,7 +4,7 @@
 //!
 //! Writes, into the folder given as the only argument:
 //! - `creature.obj`: a closed, manifold, genus-0 triangle mesh (about 30k vertices);
-//! - `creature.handles.json`: the default handle selection as spheres (DESIGN.md section 3);
+//! - `creature.handles.json`: the default handle selection as spheres (docs/DESIGN.md, "Handle selections");
 //! - `creature.dmat`: the same selection as per-vertex labels (libigl ASCII `.dmat`);
 //! - `README.md`: what the files are, the command above, and the counts.
 //!

@@ -26,7 +26,7 @@ pub struct Groups {
 /// the positions, so the JSON file says exactly what was used. No vertex may lie within 1e-9
 /// of a sphere, so every reader of the JSON, however it computes distances, finds the same
 /// groups; each group must hold 24 to 1000 vertices. The tail and snout groups keep the
-/// paper's bi-harmonic base surface from collapsing there (DESIGN.md section 5).
+/// paper's bi-harmonic base surface from collapsing there (docs/DESIGN.md, "The reference run").
 pub fn handle_groups(
     handles: &[HandleSphere],
     positions: &[DVec3],
@@ -91,7 +91,8 @@ pub fn read_back(out_dir: &Path, obj: &Path, mesh: &Mesh, labels: &[i64]) -> Res
     ensure(loaded.mesh == *mesh, "the OBJ reads back bit for bit")?;
     let expected = solver::Handles::from_labels(labels, mesh.n_vertices())?;
     for file in ["creature.handles.json", "creature.dmat"] {
-        let read = solver::deform::selection::load_selection(&out_dir.join(file), mesh.positions(), None)?;
+        let read =
+            solver::deform::selection::load_selection(&out_dir.join(file), mesh.positions(), None)?;
         ensure(read == expected, "both selection files give the same groups")?;
     }
     Ok(())
@@ -146,7 +147,7 @@ pub fn write_readme(
     writeln!(
         s,
         "| `creature.handles.json` | default handle selection: {} spheres (feet, tail tip, snout), \
-         DESIGN.md section 3 format |",
+         in the sphere format of docs/DESIGN.md |",
         handles.len()
     )?;
     writeln!(

@@ -1,4 +1,4 @@
-//! glTF 2.0 export of a [`Recording`] as morph-target animation (DESIGN.md §3).
+//! glTF 2.0 export of a [`Recording`] as morph-target animation (docs/DESIGN.md, "glTF export").
 //!
 //! Layout of the document:
 //! - one mesh, one triangle primitive: `indices` (`#F·3 u32`), `POSITION` (rest, `#V×3 f32`,

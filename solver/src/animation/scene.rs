@@ -19,7 +19,7 @@
 //! Paths inside a scene (`mesh`, `handles.file`) are relative to the scene file's folder
 //! (absolute paths are kept as they are). `handles` is exactly one of `{"file": PATH}` (a `.dmat`
 //! or sphere `.json`), `{"labels": [-1, 0, …]}` (one per vertex) or `{"spheres": [...]}` (the
-//! sphere format of DESIGN.md §3). Unknown fields are errors (they are usually typos); a missing
+//! sphere format of docs/DESIGN.md, "Handle selections"). Unknown fields are errors (they are usually typos); a missing
 //! `method` is `bsarap`, a missing `arap` is [`ArapConfig::default`].
 
 use std::path::{Path, PathBuf};

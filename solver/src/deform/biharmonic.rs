@@ -9,7 +9,7 @@
 //! $Q_{FF}$ is factored once per handle set. With $X_H$ the rest positions of the handle regions
 //! the solution $B$ interpolates them and smooths the free regions' details away.
 //!
-//! **Fairing with a data term** (our remedy for that collapse, issue 8): with a smoothing length
+//! **Fairing with a data term** (our remedy for that collapse; docs/DESIGN.md, "The faired base"): with a smoothing length
 //! $h$ (mesh units) and $\lambda = h^{-4}$,
 //! $$\min_X\; X^\top Q X + \lambda\,(X-M)^\top A\,(X-M) \;\Rightarrow\;
 //!   (Q+\lambda A)_{FF} X_F = \lambda A_{FF} M_F - Q_{FH} X_H,$$
@@ -19,7 +19,7 @@
 //!
 //! Inputs: a [`Mesh`] `#V×3`/`#F×3`, a [`Constraints`] partition, fixed values `#V×3` (read on
 //! fixed vertices only). Output `#V×3`. Known limitation: with small, sparse handles the pure
-//! bi-harmonic minimizer shrinks the free regions (DESIGN.md §5), which can collapse triangles
+//! bi-harmonic minimizer shrinks the free regions (docs/DESIGN.md, "The reference run"), which can collapse triangles
 //! of $B$; a finite smoothing length prevents it.
 
 use crate::deform::constraints::Constraints;

@@ -1,5 +1,5 @@
 //! BS-ARAP on a coarse base: ARAP runs on a decimated copy of a smooth base surface and the
-//! full-resolution details ride on it (our variant for speed, issue 8).
+//! full-resolution details ride on it (our variant for speed; docs/DESIGN.md, "The coarse base").
 //!
 //! 1. $B$ = faired base of $M$ ([`crate::deform::biharmonic::faired_surface`], smoothing length $h$).
 //! 2. $B_c$ = [`crate::geometry::decimate::decimate`] of $B$ to about `coarse_vertices` vertices (a subset of

@@ -4,7 +4,7 @@
 //! $E_M(x) = \min_R \sum_i \sum_{(j,k)\in\mathcal{C}_i} w_{jk}\lVert (x_j-x_k) - R_i(p_j-p_k)\rVert^2$
 //! (Sun et al. 2017, Eq. 3, on $M$ whatever surface the method iterated on).
 //!
-//! [`Reference`] is the yardstick of issue 8: full ARAP on $M$ for the same handle targets,
+//! [`Reference`] is the yardstick of docs/DESIGN.md, "Quality targets": full ARAP on $M$ for the same handle targets,
 //! solved from rest with Anderson acceleration (window [`REFERENCE_ANDERSON_WINDOW`]) to a
 //! relative energy decrease of [`REFERENCE_TOLERANCE`] (cap [`REFERENCE_MAX_ITERATIONS`]).
 //! ARAP's minimizer need not be unique (a thin part bent far can end up on either side): the

@@ -2,7 +2,7 @@
 //!
 //! Inputs are raw triangle lists (`#F×3 u32`), so the functions work before a [`crate::geometry::mesh::Mesh`]
 //! exists. Edges are undirected vertex pairs; counting sorts the `3·#F` edge keys
-//! (`O(F log F)`, about 10 ms for 100k faces).
+//! (`O(F log F)`).
 
 /// Connected components of the vertex graph.
 #[derive(Debug, Clone, PartialEq, Eq)]

@@ -28,7 +28,7 @@ const BLOCK: usize = 8192;
 /// blocks depend on `dim` only, not on the threads, so results do not depend on scheduling.
 /// The block sums' grouping decides the last digits of the step, and the safeguard's
 /// accept/reject decisions flip on them: any change here moves the iteration counts of
-/// `arap+aa` (BENCHMARKS.md "Eighth round").
+/// `arap+aa` (docs/DESIGN.md, "Anderson acceleration").
 fn block_len(dim: usize) -> usize {
     dim.div_ceil(4).next_multiple_of(LANES).clamp(LANES, BLOCK)
 }

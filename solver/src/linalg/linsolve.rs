@@ -5,11 +5,11 @@
 //! [`SpdFactor::refactor`] redoes only the numeric part for a matrix with the same pattern;
 //! [`SpdFactor::solve_in_place`] is a forward and a backward substitution on a `#rows×k` block.
 //!
-//! Triangular solves run sequentially (`Par::Seq`): faer's rayon parallelism made a 3-column
-//! solve on a 50k-unknown Laplacian 25× slower on our 2-core machines (../shared/TOOLCHAIN.md).
+//! Triangular solves run sequentially (`Par::Seq`): faer's rayon parallelism made them more than
+//! an order of magnitude slower on two-core machines (docs/DESIGN.md, "Sparse solves").
 //! Instead, a block of k ≥ 2 columns with at least 4096 rows is split into two halves solved at
-//! once on two rayon tasks, each sequential (1.2–1.5× faster for 3 columns on the armadillo and
-//! the bunny on 2 cores, BENCHMARKS.md). Three columns (ARAP's global step) on a simplicial
+//! once on two rayon tasks, each sequential, which measured faster for three columns on the
+//! armadillo and the bunny (commit dbb542c). Three columns (ARAP's global step) on a simplicial
 //! factor whose elimination tree cuts into two halves with a small top, on processors with
 //! AVX2, go through `tree.rs` instead (at least 1024 rows): the two halves of the tree on two
 //! threads, the three columns in one vector register per row. The factorization itself may use
@@ -54,8 +54,8 @@ pub enum Layout {
     Auto,
     /// Simplicial (one sparse column per unknown): what the three-column solve split along the
     /// elimination tree needs. On the bunny's cotangent Laplacian faer's supernodal choice
-    /// stored 1.74M entries against 1.30M, and its three-column solve took about twice as long
-    /// as the simplicial factor's tree split (BENCHMARKS.md, "Sixth round").
+    /// stored 1.74M entries against 1.30M (padded blocks), and its three-column solve was slower
+    /// than the simplicial factor's tree split (docs/DESIGN.md, "Sparse solves"; commit 82bb4ad).
     Simplicial,
 }
 

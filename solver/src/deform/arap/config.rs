@@ -34,7 +34,7 @@ pub struct ArapConfig {
     /// Cell type of the energy. Default: spokes and rims.
     pub energy: Energy,
     /// Stop when the relative energy decrease of an iteration falls below this (unitless).
-    /// `0` runs exactly `max_iterations`. Default `1e-4` (the reference run of DESIGN.md §5).
+    /// `0` runs exactly `max_iterations`. Default `1e-4` (docs/DESIGN.md, "Stopping rule and defaults").
     pub tolerance: f64,
     /// Iteration cap per solve. Default 100.
     pub max_iterations: usize,

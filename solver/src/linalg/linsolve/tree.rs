@@ -16,8 +16,8 @@
 //! inner loops read the factor without bounds checks (every row is checked once, when the split
 //! is built), and the backward pass sums a column's products last entry first into four partial
 //! sums, so that the parent's value, solved earlier in the pass (often just before), is needed
-//! only at the end: on armadillo the solve in an iteration fell from 1.79–2.29 to 1.35–1.68 ms
-//! (BENCHMARKS.md "Eighth round").
+//! only at the end and the other products overlap its solve (measured faster on armadillo,
+//! commit 08eb979).
 
 use std::arch::x86_64::*;
 
@@ -42,10 +42,10 @@ pub(super) struct TreeSplit {
     acc: [Vec<[f64; 4]>; 2],
 }
 
-/// The fewest rows a split is made for. On Cheburashka's 2000-vertex coarse level (the size of
-/// a coarse level of [`crate::deform::coarse`]) the split solved in 0.054–0.057 ms per iteration
-/// against faer's 0.087–0.120 ms (three alternations, BENCHMARKS.md "Eighth round"), once the
-/// solve ran on a worker of rayon's pool ([`crate::pool::in_pool`]); called from outside the
+/// The fewest rows a split is made for. At the size of a coarse level of
+/// [`crate::deform::coarse`] (about 2000 rows) the split is faster than faer's solve once the
+/// solve runs on a worker of rayon's pool ([`crate::pool::in_pool`]; commit 08eb979); called
+/// from outside the
 /// pool, where each join cost a sleeping caller's wake-up, it gained nothing there and the floor
 /// was 4096. Below 1024 rows it was not measured.
 const MIN_ROWS: usize = 1024;
