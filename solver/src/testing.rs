@@ -55,13 +55,18 @@ pub fn uniform(seed: u64) -> impl FnMut() -> f64 {
     }
 }
 
-/// Whether this processor has AVX2, for the tests of the AVX2 builds; prints that the test is
-/// skipped when it has not.
-pub fn avx2_or_skip() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    if std::is_x86_feature_detected!("avx2") {
-        return true;
+/// Whether this processor has AVX2, for the tests of the AVX2 builds against their portable
+/// twins; where it has not, prints a line saying that the test `test` is SKIPPED, so that a run
+/// on such a machine shows what it did not check (run with `--nocapture` to see it).
+pub fn avx2_or_skip(test: &str) -> bool {
+    avx2_token_or_skip(test).is_some()
+}
+
+/// [`avx2_or_skip`], returning the token that the AVX2 builds take.
+pub(crate) fn avx2_token_or_skip(test: &str) -> Option<crate::linalg::lanes::Avx2> {
+    let token = crate::linalg::lanes::Avx2::detect();
+    if token.is_none() {
+        eprintln!("SKIPPED {test}: this processor has no AVX2, the AVX2 build was not compared");
     }
-    eprintln!("skipped: this processor has no AVX2");
-    false
+    token
 }

@@ -3,7 +3,9 @@
 //! - [`F4`]: portable, written as per-lane expressions (the fallback without AVX2).
 //! - `Avx4` (x86-64): one 256-bit AVX register per value, for code compiled for AVX2 and chosen
 //!   at run time. Left to the compiler, the per-lane expressions of `F4` became a mix of 2- and
-//!   4-wide instructions with many register shuffles and stack copies.
+//!   4-wide instructions with many register shuffles and stack copies. Its operators call AVX
+//!   intrinsics from safe code; that is sound because an `Avx4` can only be made with an
+//!   [`Avx2`] token, and a token only exists where the processor was found to have AVX2.
 //!
 //! No fused multiply-add is introduced by either, so both round exactly as the scalar code does.
 
@@ -11,6 +13,25 @@ use std::ops::{Add, Div, Mul, Neg, Sub};
 
 /// Lanes of [`F4`].
 pub const LANES: usize = 4;
+
+/// Proof that this processor supports AVX2 (and so AVX): a zero-sized token with a private
+/// field, made only by [`Avx2::detect`], after `is_x86_feature_detected!("avx2")` said yes.
+/// Code that holds one may run AVX2 code; passing it costs nothing.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Avx2(());
+
+impl Avx2 {
+    /// The token, where this processor has AVX2; `None` elsewhere (and on every other
+    /// architecture than x86-64).
+    #[inline]
+    pub(crate) fn detect() -> Option<Avx2> {
+        #[cfg(target_arch = "x86_64")]
+        if std::is_x86_feature_detected!("avx2") {
+            return Some(Avx2(()));
+        }
+        None
+    }
+}
 
 /// The arithmetic shared by scalar and four-lane code (`f64`, [`F4`], `Avx4`), so that all
 /// run the same formulas.
@@ -22,7 +43,10 @@ pub(crate) trait Real:
     + Div<Output = Self>
     + Neg<Output = Self>
 {
-    fn splat(v: f64) -> Self;
+    /// `v` in every lane, as a value of `self`'s type. `self` is only read for its type: an
+    /// existing value vouches that values of its type may be made (for `Avx4`, that AVX2 was
+    /// detected), which a free-standing constructor could not.
+    fn splat_like(self, v: f64) -> Self;
     fn sqrt(self) -> Self;
     fn abs(self) -> Self;
     fn max(self, other: Self) -> Self;
@@ -31,7 +55,7 @@ pub(crate) trait Real:
 
 impl Real for f64 {
     #[inline(always)]
-    fn splat(v: f64) -> f64 {
+    fn splat_like(self, v: f64) -> f64 {
         v
     }
     #[inline(always)]
@@ -84,7 +108,7 @@ impl Neg for F4 {
 
 impl Real for F4 {
     #[inline(always)]
-    fn splat(v: f64) -> F4 {
+    fn splat_like(self, v: f64) -> F4 {
         F4([v; LANES])
     }
     #[inline(always)]
@@ -112,15 +136,24 @@ impl Real for F4 {
 /// A four-lane type the lockstep fit runs on: [`Real`] arithmetic lane by lane, plus moving
 /// lanes in and out and a lane-wise choice.
 pub(crate) trait Lanes: Real {
-    fn from_lanes(v: [f64; LANES]) -> Self;
+    /// What making a value takes: `()` for [`F4`], the [`Avx2`] token for `Avx4`.
+    type Token: Copy;
+    /// `v` in every lane.
+    fn splat(t: Self::Token, v: f64) -> Self;
+    fn from_lanes(t: Self::Token, v: [f64; LANES]) -> Self;
     fn to_lanes(self) -> [f64; LANES];
     /// Lane by lane, `a` where `x >= y`, else `b` (also where either is NaN).
     fn pick_ge(x: Self, y: Self, a: Self, b: Self) -> Self;
 }
 
 impl Lanes for F4 {
+    type Token = ();
     #[inline(always)]
-    fn from_lanes(v: [f64; LANES]) -> F4 {
+    fn splat((): (), v: f64) -> F4 {
+        F4([v; LANES])
+    }
+    #[inline(always)]
+    fn from_lanes((): (), v: [f64; LANES]) -> F4 {
         F4(v)
     }
     #[inline(always)]
@@ -144,15 +177,18 @@ pub(crate) use avx::Avx4;
 
 #[cfg(target_arch = "x86_64")]
 mod avx {
-    //! Every method is `#[inline(always)]` and calls AVX intrinsics: use `Avx4` only inside
-    //! functions compiled with `#[target_feature(enable = "avx2")]`, which are called only
-    //! after `is_x86_feature_detected!("avx2")`. Inlined there, each method is one or two
-    //! instructions.
-    use super::{LANES, Lanes, Real};
+    //! Every method is `#[inline(always)]` and calls AVX intrinsics. They are safe to call
+    //! anywhere: an `Avx4` is made only by [`Lanes::splat`] and [`Lanes::from_lanes`], which
+    //! take an [`Avx2`] token, or from another `Avx4`, so one exists only where AVX2 (hence
+    //! AVX) was detected. For speed, use it inside functions compiled with
+    //! `#[target_feature(enable = "avx2")]`: inlined there, each method is one or two
+    //! instructions. No method uses FMA.
+    use super::{Avx2, LANES, Lanes, Real};
     use std::arch::x86_64::*;
     use std::ops::{Add, Div, Mul, Neg, Sub};
 
-    /// Four `f64` lanes in one AVX register.
+    /// Four `f64` lanes in one AVX register. The field is private: outside this module an
+    /// `Avx4` is made only through the token-taking constructors of [`Lanes`].
     #[derive(Clone, Copy, Debug)]
     pub(crate) struct Avx4(__m256d);
 
@@ -162,7 +198,7 @@ mod avx {
                 type Output = Avx4;
                 #[inline(always)]
                 fn $f(self, o: Avx4) -> Avx4 {
-                    // SAFETY: AVX is available wherever `Avx4` is used (module doc).
+                    // SAFETY: `self` exists, so AVX2 (hence AVX) was detected (module doc).
                     Avx4(unsafe { $intrinsic(self.0, o.0) })
                 }
             }
@@ -177,31 +213,34 @@ mod avx {
         type Output = Avx4;
         #[inline(always)]
         fn neg(self) -> Avx4 {
-            // SAFETY: as above. Flips the sign bit, as `-x` does.
+            // SAFETY: `self` exists, so AVX was detected (module doc). Flips the sign bit, as
+            // `-x` does.
             Avx4(unsafe { _mm256_xor_pd(self.0, _mm256_set1_pd(-0.0)) })
         }
     }
 
     impl Real for Avx4 {
         #[inline(always)]
-        fn splat(v: f64) -> Avx4 {
-            // SAFETY: as above.
+        fn splat_like(self, v: f64) -> Avx4 {
+            // SAFETY: `self` exists, so AVX was detected (module doc).
             Avx4(unsafe { _mm256_set1_pd(v) })
         }
         #[inline(always)]
         fn sqrt(self) -> Avx4 {
-            // SAFETY: as above.
+            // SAFETY: `self` exists, so AVX was detected (module doc).
             Avx4(unsafe { _mm256_sqrt_pd(self.0) })
         }
         #[inline(always)]
         fn abs(self) -> Avx4 {
-            // SAFETY: as above. Clears the sign bit, as `f64::abs` does.
+            // SAFETY: `self` exists, so AVX was detected (module doc). Clears the sign bit, as
+            // `f64::abs` does.
             Avx4(unsafe { _mm256_andnot_pd(_mm256_set1_pd(-0.0), self.0) })
         }
         #[inline(always)]
         fn max(self, o: Avx4) -> Avx4 {
-            // SAFETY: as above. `f64::max` ignores a NaN operand; `_mm256_max_pd(a, b)` returns
-            // `b` when either is NaN, so lanes where `b` is NaN take `a`.
+            // SAFETY: `self` exists, so AVX was detected (module doc). `f64::max` ignores a NaN
+            // operand; `_mm256_max_pd(a, b)` returns `b` when either is NaN, so lanes where `b`
+            // is NaN take `a`.
             unsafe {
                 let m = _mm256_max_pd(self.0, o.0);
                 Avx4(_mm256_blendv_pd(m, self.0, _mm256_cmp_pd::<_CMP_UNORD_Q>(o.0, o.0)))
@@ -209,7 +248,8 @@ mod avx {
         }
         #[inline(always)]
         fn copysign(self, sign: Avx4) -> Avx4 {
-            // SAFETY: as above. The magnitude of `self` with the sign bit of `sign`.
+            // SAFETY: `self` exists, so AVX was detected (module doc). The magnitude of `self`
+            // with the sign bit of `sign`.
             unsafe {
                 let bit = _mm256_set1_pd(-0.0);
                 Avx4(_mm256_or_pd(_mm256_andnot_pd(bit, self.0), _mm256_and_pd(bit, sign.0)))
@@ -218,21 +258,30 @@ mod avx {
     }
 
     impl Lanes for Avx4 {
+        type Token = Avx2;
         #[inline(always)]
-        fn from_lanes(v: [f64; LANES]) -> Avx4 {
-            // SAFETY: as above; the load reads the four values of `v`.
+        fn splat(_: Avx2, v: f64) -> Avx4 {
+            // SAFETY: the token proves that AVX2 (hence AVX) was detected.
+            Avx4(unsafe { _mm256_set1_pd(v) })
+        }
+        #[inline(always)]
+        fn from_lanes(_: Avx2, v: [f64; LANES]) -> Avx4 {
+            // SAFETY: the token proves that AVX was detected; the load reads the four values
+            // of `v`.
             Avx4(unsafe { _mm256_loadu_pd(v.as_ptr()) })
         }
         #[inline(always)]
         fn to_lanes(self) -> [f64; LANES] {
             let mut out = [0.0; LANES];
-            // SAFETY: as above; the store writes the four values of `out`.
+            // SAFETY: `self` exists, so AVX was detected (module doc); the store writes the
+            // four values of `out`.
             unsafe { _mm256_storeu_pd(out.as_mut_ptr(), self.0) };
             out
         }
         #[inline(always)]
         fn pick_ge(x: Avx4, y: Avx4, a: Avx4, b: Avx4) -> Avx4 {
-            // SAFETY: as above. Ordered comparison: false where either is NaN.
+            // SAFETY: `x` exists, so AVX was detected (module doc). Ordered comparison: false
+            // where either is NaN.
             unsafe { Avx4(_mm256_blendv_pd(b.0, a.0, _mm256_cmp_pd::<_CMP_GE_OQ>(x.0, y.0))) }
         }
     }

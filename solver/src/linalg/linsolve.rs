@@ -119,7 +119,7 @@ impl SpdFactor {
             tree: None,
         };
         #[cfg(target_arch = "x86_64")]
-        if std::is_x86_feature_detected!("avx2")
+        if let Some(avx2) = crate::linalg::lanes::Avx2::detect()
             && let faer::sparse::linalg::cholesky::SymbolicCholeskyRaw::Simplicial(l) =
                 this.symbolic.raw()
         {
@@ -131,7 +131,7 @@ impl SpdFactor {
                     &identity
                 }
             };
-            this.tree = tree::TreeSplit::new(l.col_ptr(), l.row_idx(), fwd);
+            this.tree = tree::TreeSplit::new(avx2, l.col_ptr(), l.row_idx(), fwd);
         }
         this.refactor(a)?;
         Ok(this)
@@ -209,8 +209,7 @@ impl SpdFactor {
                 m.col_mut(0).try_as_col_major_mut().map(|c| c.as_slice_mut())
             }
             if let (Some(a), Some(b), Some(c)) = (col(a), col(b), col(c)) {
-                // SAFETY: a split exists only where AVX2 was detected (`SpdFactor::new`).
-                unsafe { t.solve3([a, b, c]) };
+                t.solve3([a, b, c]);
                 return;
             }
             unreachable!("a row stride of 1 makes every column contiguous");
@@ -289,7 +288,7 @@ mod tests {
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn tree_split_matches_faer() {
-        if !crate::testing::avx2_or_skip() {
+        if !crate::testing::avx2_or_skip("tree_split_matches_faer") {
             return;
         }
         let (w, h) = (12, 800);

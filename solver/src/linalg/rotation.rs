@@ -8,6 +8,8 @@
 //!
 //! Matrices are row-major `[[f64; 3]; 3]`.
 
+#[cfg(target_arch = "x86_64")]
+use crate::linalg::lanes::Avx2;
 use crate::linalg::lanes::{F4, Lanes, Real};
 use nalgebra::Matrix3;
 
@@ -130,7 +132,7 @@ fn adjugate4<T: Real>(m: &[[T; 4]; 4]) -> ([[T; 4]; 4], T) {
 #[inline(always)]
 fn quartic<T: Real>(c2: T, c1: T, c0: T, x: T) -> (T, T, T) {
     let x2 = x * x;
-    let k = T::splat;
+    let k = |v| x.splat_like(v);
     ((x2 + c2) * x2 + c1 * x + c0, (k(4.0) * x2 + k(2.0) * c2) * x + c1, k(12.0) * x2 + k(2.0) * c2)
 }
 
@@ -138,7 +140,7 @@ fn quartic<T: Real>(c2: T, c1: T, c0: T, x: T) -> (T, T, T) {
 /// $p = 0$ gives 0, a zero denominator a non-finite step.
 #[inline(always)]
 fn laguerre_step<T: Real>(p: T, dp: T, ddp: T) -> T {
-    let k = T::splat;
+    let k = |v| p.splat_like(v);
     let root = (k(3.0) * (k(3.0) * dp * dp - k(4.0) * p * ddp)).max(k(0.0)).sqrt();
     k(4.0) * p / (dp + root.copysign(dp))
 }
@@ -240,7 +242,7 @@ fn norm4<T: Real>(q: &[T; 4]) -> T {
 #[inline(always)]
 fn quaternion_rotation<T: Real>(q: [T; 4], len: T) -> [[T; 3]; 3] {
     let [w, x, y, z] = [q[0] / len, q[1] / len, q[2] / len, q[3] / len];
-    let two = T::splat(2.0);
+    let two = len.splat_like(2.0);
     [
         [w * w + x * x - y * y - z * z, two * (x * y - w * z), two * (x * z + w * y)],
         [two * (x * y + w * z), w * w - x * x + y * y - z * z, two * (y * z - w * x)],
@@ -291,35 +293,41 @@ pub fn fit_rotations_near(s: &[Mat3; LANES], rots: &mut [Mat3; LANES]) -> f64 {
 #[inline]
 fn fit_rotations_lockstep(s: &[Mat3; LANES], rots: &mut [Mat3; LANES]) -> Fitted {
     #[cfg(target_arch = "x86_64")]
-    {
-        if std::is_x86_feature_detected!("avx2") {
-            // SAFETY: the one requirement of a `target_feature` function, that the processor
-            // supports the feature, was just checked.
-            return unsafe { lockstep_avx2(s, rots) };
-        }
+    if let Some(avx2) = Avx2::detect() {
+        return lockstep_avx(avx2, s, rots);
     }
-    lockstep::<F4>(s, rots)
+    lockstep::<F4>((), s, rots)
 }
 
 /// Which lanes the lockstep fit fitted, and $\operatorname{tr}(R_l S_l)$ on them.
 type Fitted = ([bool; LANES], [f64; LANES]);
 
+/// [`lockstep`] on `Avx4`, compiled for AVX2; the token proves the processor has it.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn lockstep_avx2(s: &[Mat3; LANES], rots: &mut [Mat3; LANES]) -> Fitted {
-    lockstep::<crate::linalg::lanes::Avx4>(s, rots)
+#[inline]
+fn lockstep_avx(avx2: Avx2, s: &[Mat3; LANES], rots: &mut [Mat3; LANES]) -> Fitted {
+    // SAFETY: the one requirement of a `target_feature` function, that the processor supports
+    // the feature, is what the token proves (`Avx2::detect`).
+    unsafe { lockstep_avx2(avx2, s, rots) }
 }
 
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn lockstep_avx2(avx2: Avx2, s: &[Mat3; LANES], rots: &mut [Mat3; LANES]) -> Fitted {
+    lockstep::<crate::linalg::lanes::Avx4>(avx2, s, rots)
+}
+
+/// The lockstep fit on lanes of type `L`, made with `t` (see [`Lanes::Token`]).
 #[inline(always)]
-fn lockstep<L: Lanes>(s: &[Mat3; LANES], rots: &mut [Mat3; LANES]) -> Fitted {
+fn lockstep<L: Lanes>(t: L::Token, s: &[Mat3; LANES], rots: &mut [Mat3; LANES]) -> Fitted {
     // One cell per lane: the scalar fit's formulas, run on four cells at once.
     // Index loops rather than `array::from_fn`/`map`, whose closures were not always inlined
     // into the AVX2 build.
     let lanes = |m: &[Mat3; LANES]| -> [[L; 3]; 3] {
-        let mut out = [[L::splat(0.0); 3]; 3];
+        let mut out = [[L::splat(t, 0.0); 3]; 3];
         for (i, row) in out.iter_mut().enumerate() {
             for (j, v) in row.iter_mut().enumerate() {
-                *v = L::from_lanes([m[0][i][j], m[1][i][j], m[2][i][j], m[3][i][j]]);
+                *v = L::from_lanes(t, [m[0][i][j], m[1][i][j], m[2][i][j], m[3][i][j]]);
             }
         }
         out
@@ -331,7 +339,7 @@ fn lockstep<L: Lanes>(s: &[Mat3; LANES], rots: &mut [Mat3; LANES]) -> Fitted {
     let m_lanes = m.to_lanes();
     let sn = scaled_to_unit(&s4, m);
     let n = horn_matrix(&sn);
-    let (c2, c1, c0) = (L::splat(-2.0), L::splat(-8.0) * det3(&sn), det4(&n));
+    let (c2, c1, c0) = (L::splat(t, -2.0), L::splat(t, -8.0) * det3(&sn), det4(&n));
     let mut lambda = trace_product(&g4, &sn);
     for _ in 0..3 {
         // A non-finite step gives a non-finite λ, refused below.
@@ -411,7 +419,7 @@ fn scaled_to_unit<T: Real>(s: &[[T; 3]; 3], m: T) -> [[T; 3]; 3] {
     for v in t.iter_mut().flatten() {
         *v = *v / m;
     }
-    let inv = T::splat(1.0) / frob2(&t).sqrt();
+    let inv = m.splat_like(1.0) / frob2(&t).sqrt();
     for v in t.iter_mut().flatten() {
         *v = *v * inv;
     }
@@ -615,9 +623,10 @@ mod tests {
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn avx_lanes_match_portable_lanes() {
-        if !crate::testing::avx2_or_skip() {
+        let Some(avx2) = crate::testing::avx2_token_or_skip("avx_lanes_match_portable_lanes")
+        else {
             return;
-        }
+        };
         let mut rnd = crate::testing::uniform(0x2545f4914f6cdd1du64);
         let special = [[[0.0; 3]; 3], [[f64::NAN; 3]; 3], scale_mat(&IDENTITY, f64::INFINITY)];
         let (mut fitted, mut refused) = (0, 0);
@@ -632,10 +641,9 @@ mod tests {
                 let off = if round % 2 == 0 { 0.01 } else { 2.0 };
                 *g = mul_mat(&axis_angle([rnd(), rnd(), rnd()], off), &fit_rotation_svd(s));
             }
-            // SAFETY: AVX2 was detected above.
             let (mut avx, mut portable) = (guess, guess);
-            let (avx_fitted, avx_traces) = unsafe { lockstep_avx2(&batch, &mut avx) };
-            let (portable_fitted, portable_traces) = lockstep::<F4>(&batch, &mut portable);
+            let (avx_fitted, avx_traces) = lockstep_avx(avx2, &batch, &mut avx);
+            let (portable_fitted, portable_traces) = lockstep::<F4>((), &batch, &mut portable);
             assert_eq!(avx_fitted, portable_fitted, "one build fitted a lane the other refused");
             let bits = |m: &Mat3| m.map(|row| row.map(f64::to_bits));
             for (l, ((a, p), ok)) in avx.iter().zip(&portable).zip(avx_fitted).enumerate() {

@@ -3,23 +3,33 @@
 //! $S_i$ updated by one vector multiply and add, $S_{i,r} \mathrel{+}= k_{ij,r}\, d$. The same
 //! operations in the same order as the scalar loop, so the same bits.
 //!
-//! Call only after `is_x86_feature_detected!("avx2")` (the functions are compiled for AVX2).
+//! The entry point, [`covariances`], takes the [`Avx2`] token that proves the processor has
+//! AVX2; the `unsafe fn`s below it require that of their callers.
 
+use crate::linalg::lanes::Avx2;
 use crate::linalg::rotation::Mat3;
 use std::arch::x86_64::*;
 
 /// $(v_0, v_1, v_2, 0)$, without reading past `v`.
+///
+/// # Safety
+/// The processor supports AVX.
 #[inline(always)]
 unsafe fn load3(v: &[f64; 3]) -> __m256d {
-    // SAFETY (callers): AVX is available; the masked load reads only the three values of `v`.
+    // SAFETY: AVX is available (this function's contract); the masked load reads only the
+    // three values of `v`, which a `&[f64; 3]` makes valid to read.
     unsafe { _mm256_maskload_pd(v.as_ptr(), _mm256_setr_epi64x(-1, -1, -1, 0)) }
 }
 
 /// The four lanes of `v`.
+///
+/// # Safety
+/// The processor supports AVX.
 #[inline(always)]
 unsafe fn lanes(v: __m256d) -> [f64; 4] {
     let mut out = [0.0; 4];
-    // SAFETY (callers): AVX is available; the store writes the four values of `out`.
+    // SAFETY: AVX is available (this function's contract); the unaligned store writes exactly
+    // the four values of the local `out`.
     unsafe { _mm256_storeu_pd(out.as_mut_ptr(), v) };
     out
 }
@@ -34,12 +44,28 @@ pub(super) struct Ring<'a> {
 
 /// $S_i$ for $i$ = `first`, `first + 1`, … (one per entry of `out`), and `sum` plus
 /// $\sum_i \sum_j c_{ij}\lVert x_j - x_i\rVert^2$ over them: what the scalar loop of
-/// `Arap::covariances` computes.
+/// `Arap::covariances` computes. Panics, as the scalar loop does, where `ring` or `x` is too
+/// short for the cells asked for.
+#[inline]
+pub(super) fn covariances(
+    _avx2: Avx2,
+    first: usize,
+    out: &mut [Mat3],
+    x: &[[f64; 3]],
+    ring: &Ring<'_>,
+    sum: f64,
+) -> f64 {
+    // SAFETY: the one requirement of `covariances_avx2`, that the processor supports AVX2, is
+    // what the token proves (`Avx2::detect`).
+    unsafe { covariances_avx2(first, out, x, ring, sum) }
+}
+
+/// [`covariances`], compiled for AVX2.
 ///
 /// # Safety
-/// The processor supports AVX2.
+/// The processor supports AVX2. (Every index is bounds-checked: nothing else is required.)
 #[target_feature(enable = "avx2")]
-pub(super) unsafe fn covariances(
+unsafe fn covariances_avx2(
     first: usize,
     out: &mut [Mat3],
     x: &[[f64; 3]],
@@ -50,8 +76,9 @@ pub(super) unsafe fn covariances(
     for (l, out) in out.iter_mut().enumerate() {
         let i = first + l;
         let (lo, hi) = (ring.offsets[i], ring.offsets[i + 1]);
-        // SAFETY: AVX2 is available (this function's contract); loads and stores stay inside
-        // their arrays (`load3`, `lanes`).
+        // SAFETY: AVX2, hence AVX, is available (this function's contract), which is all that
+        // `load3`, `lanes` and the intrinsics require; their loads and stores stay inside the
+        // arrays passed to them, which the bounds-checked indexing here produced.
         unsafe {
             let xi = load3(&x[i]);
             let mut rows = [_mm256_setzero_pd(); 3];

@@ -66,13 +66,12 @@ impl Arap {
     /// plus the cells' $\sum_j c_{ij}\lVert x_j - x_i\rVert^2$, added vertex by vertex.
     pub(super) fn covariances(&self, first: usize, out: &mut [Mat3], sum: f64) -> f64 {
         #[cfg(target_arch = "x86_64")]
-        if let (true, Cells::SpokesAndRims { ring, cov_coef, edge_coef, .. }) =
+        if let (Some(avx2), Cells::SpokesAndRims { ring, cov_coef, edge_coef, .. }) =
             (self.avx2, &self.cells)
         {
             let ring =
                 avx::Ring { offsets: &ring.offsets, items: &ring.items, cov_coef, edge_coef };
-            // SAFETY: `avx2` is true only where AVX2 was detected.
-            return unsafe { avx::covariances(first, out, &self.current, &ring, sum) };
+            return avx::covariances(avx2, first, out, &self.current, &ring, sum);
         }
         let mut sum = sum;
         for (l, out) in out.iter_mut().enumerate() {

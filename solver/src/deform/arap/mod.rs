@@ -57,6 +57,7 @@ pub use config::{Acceleration, ArapConfig, Energy, REFINE_ANDERSON_WINDOW, Solve
 
 use crate::deform::constraints::Constraints;
 use crate::geometry::reorder::VertexOrder;
+use crate::linalg::lanes::Avx2;
 use crate::linalg::linsolve::SpdFactor;
 use crate::linalg::rotation::{IDENTITY, Mat3};
 use accelerated::AndersonWork;
@@ -137,9 +138,10 @@ pub struct Arap {
     mesh_rest: Vec<[f64; 3]>,
     /// Vertices per parallel task (`precompute::vertices_per_task`).
     task: usize,
-    /// Whether the covariance pass may run its AVX2 build (`avx`), detected once.
+    /// The token of the covariance pass's AVX2 build (`avx`), where detected (once); `None`:
+    /// the scalar loop.
     #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
-    avx2: bool,
+    avx2: Option<Avx2>,
     /// Per free row: (fixed vertex h, w_ih) so that rhs_i += Σ w_ih x_h.
     coupling: Csr<(u32, f64)>,
     /// `None` when every vertex is fixed.

@@ -10,21 +10,10 @@ use crate::error::SolveError;
 use crate::geometry::cotan::{edge_weights, face_cotangents_or, laplacian_triplets, opposite_edge};
 use crate::geometry::mesh::{Mesh, add, sub};
 use crate::geometry::reorder::VertexOrder;
+use crate::linalg::lanes::Avx2;
 use crate::linalg::linsolve::{Layout, SpdFactor};
 use crate::linalg::rotation::{IDENTITY, LANES};
 use faer::sparse::Triplet;
-
-/// Whether this processor runs the AVX2 build of the covariance pass.
-fn avx2_detected() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::is_x86_feature_detected!("avx2")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
-}
 
 /// Vertices per parallel task for a mesh of `n` vertices: a sixteenth of the mesh, between
 /// 256 and 2048, a multiple of [`LANES`]. Sixteen tasks balance two threads (a 6,669-vertex mesh
@@ -155,7 +144,7 @@ impl Arap {
             inner,
             order,
             task: vertices_per_task(n),
-            avx2: avx2_detected(),
+            avx2: Avx2::detect(),
             mesh_current: mesh.positions().to_vec(),
             mesh_rotations: vec![IDENTITY; n],
             mesh_rest: mesh.positions().to_vec(),

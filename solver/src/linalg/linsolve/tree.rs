@@ -19,11 +19,20 @@
 //! only at the end and the other products overlap its solve (measured faster on armadillo,
 //! commit 08eb979).
 
+//!
+//! Safety: the kernels are `unsafe fn`s compiled for AVX2 that read the factor without bounds
+//! checks. A `TreeSplit` holds the [`Avx2`] token (so it exists only where AVX2 was detected)
+//! and is built only after its rows are checked, which is what the kernels require; its one
+//! entry point, [`TreeSplit::solve3`], is safe.
+
+use crate::linalg::lanes::Avx2;
 use std::arch::x86_64::*;
 
 /// The split factor, in the order $A, B, T$.
 #[derive(Debug)]
 pub(super) struct TreeSplit {
+    /// Proof that the processor has AVX2, which the kernels are compiled for.
+    avx2: Avx2,
     /// Row of the solver's (unpermuted) system for each position.
     src: Vec<u32>,
     col_ptr: Vec<u32>,
@@ -58,7 +67,12 @@ impl TreeSplit {
     /// diagonal first, rows ascending) and fill-reducing permutation `fwd` (row `i` of the
     /// factored system is row `fwd[i]` of the original), or `None` when the tree does not cut
     /// into two halves with a small top, or the layout is not the expected one.
-    pub(super) fn new(col_ptr: &[usize], row_idx: &[usize], fwd: &[usize]) -> Option<TreeSplit> {
+    pub(super) fn new(
+        avx2: Avx2,
+        col_ptr: &[usize],
+        row_idx: &[usize],
+        fwd: &[usize],
+    ) -> Option<TreeSplit> {
         let n = col_ptr.len().checked_sub(1)?;
         if n < MIN_ROWS || n >= (DIAGONAL as usize) || row_idx.len() >= (DIAGONAL as usize) {
             return None;
@@ -197,6 +211,7 @@ impl TreeSplit {
         }
         let src = order.iter().map(|&j| fwd[j] as u32).collect();
         let split = TreeSplit {
+            avx2,
             src,
             col_ptr: new_col_ptr,
             values: vec![0.0; new_rows.len()],
@@ -257,11 +272,8 @@ impl TreeSplit {
     }
 
     /// Solves for the three columns of `rhs` (`n×3`, column-major, each column contiguous),
-    /// in place.
-    ///
-    /// # Safety
-    /// The processor supports AVX2.
-    pub(super) unsafe fn solve3(&mut self, cols: [&mut [f64]; 3]) {
+    /// in place. Panics if a column is shorter than the factor's rows.
+    pub(super) fn solve3(&mut self, cols: [&mut [f64]; 3]) {
         let [c0, c1, c2] = cols;
         for (x, &s) in self.x.iter_mut().zip(&self.src) {
             let s = s as usize;
@@ -279,9 +291,11 @@ impl TreeSplit {
         let (own, xt) = self.x.split_at_mut(top);
         let (xa, xb) = own.split_at_mut(na);
         let [acc_a, acc_b] = &mut self.acc;
-        // SAFETY (all kernels): AVX2 is available (this function's contract). Per-column
-        // indices are checked; the inner loops' rows are not (`entry`), and are in range
-        // because `TreeSplit::new` returned this split only after checking that every row of a
+        // The token that makes the kernels' AVX2 requirement hold.
+        let _avx2: Avx2 = self.avx2;
+        // SAFETY (all kernels, here and below): AVX2 is available (`self.avx2`, a token made
+        // only where it was detected). Per-column indices are checked; the inner loops' rows
+        // are not (`entry`), and are in range because `TreeSplit::new` returned this split only after checking that every row of a
         // forest column before `to_top` lies in that forest, and the rest lie in the top, and
         // the slices passed here are exactly the forests, the top and its buffers.
         rayon::join(
@@ -293,11 +307,13 @@ impl TreeSplit {
                 x[l] += a[l] + b[l];
             }
         }
+        // SAFETY: as for the kernels above.
         unsafe {
             forward_top(&f, top, xt);
             backward_top(&f, top, xt);
         }
         let xt = &*xt;
+        // SAFETY: as for the kernels above.
         rayon::join(
             || unsafe { backward_part(&f, 0, xa, top, xt) },
             || unsafe { backward_part(&f, na, xb, top, xt) },
@@ -318,15 +334,25 @@ struct Factor<'a> {
     to_top: &'a [u32],
 }
 
+/// The four values of `v` in one register.
+///
+/// # Safety
+/// The processor supports AVX.
 #[inline(always)]
 unsafe fn load(v: &[f64; 4]) -> __m256d {
-    // SAFETY (callers): AVX; `v` holds four values.
+    // SAFETY: AVX (this function's contract); the unaligned load reads exactly the four values
+    // of `v`.
     unsafe { _mm256_loadu_pd(v.as_ptr()) }
 }
 
+/// The four lanes of `x` into `v`.
+///
+/// # Safety
+/// The processor supports AVX.
 #[inline(always)]
 unsafe fn store(v: &mut [f64; 4], x: __m256d) {
-    // SAFETY (callers): AVX; `v` holds four values.
+    // SAFETY: AVX (this function's contract); the unaligned store writes exactly the four
+    // values of `v`.
     unsafe { _mm256_storeu_pd(v.as_mut_ptr(), x) }
 }
 
@@ -334,15 +360,20 @@ unsafe fn store(v: &mut [f64; 4], x: __m256d) {
 /// kernels' inner loops; each split's rows are checked once in debug builds, `rows_in_range`).
 ///
 /// # Safety
-/// `p` is an entry of the factor, and the caller indexes with its row less `offset` only a
-/// slice that row fits (see `solve3`).
+/// `p < f.row_idx.len()` and `p < f.values.len()` (an entry of the factor), and its row is at
+/// least `offset`; the caller indexes with the result only a slice that row fits (see
+/// `solve3`).
 #[inline(always)]
 unsafe fn entry(f: &Factor<'_>, p: usize, offset: usize) -> (usize, f64) {
-    // SAFETY: the contract above.
+    // SAFETY: this function's contract: `p` is in bounds of both arrays.
     unsafe { (*f.row_idx.get_unchecked(p) as usize - offset, *f.values.get_unchecked(p)) }
 }
 
 /// `x[row_p − offset] −= L_p x_j` over the stored entries `range` of column $j$ (`xj`).
+///
+/// # Safety
+/// The processor supports AVX, and `entry`'s contract holds for every `p` in `range` with
+/// `x`: `range` lies in the factor's entries, and each one's row less `offset` indexes `x`.
 #[inline(always)]
 unsafe fn send_products(
     f: &Factor<'_>,
@@ -352,9 +383,8 @@ unsafe fn send_products(
     xj: __m256d,
 ) {
     for p in range {
-        // SAFETY (callers): AVX; `range` lies in the factor's entries, whose rows, less
-        // `offset`, index `x` ([`TreeSplit::new`] checks every row of a forest column against
-        // its forest and puts the others in the top; see `entry`).
+        // SAFETY: this function's contract: AVX, and `p` is an entry whose row less `offset`
+        // indexes `x` (so `entry` and `get_unchecked_mut` stay in bounds).
         unsafe {
             let (i, l) = entry(f, p, offset);
             let xi = x.get_unchecked_mut(i);
@@ -366,6 +396,12 @@ unsafe fn send_products(
 
 /// Forward columns `first..first + x.len()` (one forest): own rows in `x`, rows of the top
 /// (from `top`) into `acc`, which is cleared first.
+///
+/// # Safety
+/// The processor supports AVX2, and `f` is the factor of a [`TreeSplit`] (built by
+/// [`TreeSplit::new`], whose checks put the rows of every column where this kernel indexes
+/// them): `first..first + x.len()` are the columns of one forest (`0..na` or `na..top`), `x` its
+/// rows, and `acc` has a row for each of the top's `top..n`.
 #[target_feature(enable = "avx2")]
 unsafe fn forward_part(
     f: &Factor<'_>,
@@ -379,7 +415,9 @@ unsafe fn forward_part(
         let j = first + k;
         let (lo, mid, hi) =
             (f.col_ptr[j] as usize, f.to_top[j] as usize, f.col_ptr[j + 1] as usize);
-        // SAFETY: AVX2 and the rows of `f` (this function's contract, see `solve3`).
+        // SAFETY: AVX2 (this function's contract); entries `lo..mid` have rows in this
+        // forest, indexing `x` less `first`, and `mid..hi` rows in the top, indexing `acc` less
+        // `top` (this function's contract: `TreeSplit::new` checked them).
         unsafe {
             let xj = _mm256_mul_pd(load(&x[k]), _mm256_set1_pd(f.inv_diag[j]));
             store(&mut x[k], xj);
@@ -390,12 +428,18 @@ unsafe fn forward_part(
 }
 
 /// Forward columns of the top (rows in the top only).
+///
+/// # Safety
+/// The processor supports AVX2, and `f` is the factor of a [`TreeSplit`] (built by
+/// [`TreeSplit::new`], whose checks put the rows of every column where this kernel indexes
+/// them): `x` holds the top's rows `top..n`.
 #[target_feature(enable = "avx2")]
 unsafe fn forward_top(f: &Factor<'_>, top: usize, x: &mut [[f64; 4]]) {
     for k in 0..x.len() {
         let j = top + k;
         let (lo, hi) = (f.col_ptr[j] as usize, f.col_ptr[j + 1] as usize);
-        // SAFETY: as in `forward_part`.
+        // SAFETY: AVX2 (this function's contract); the top's columns have rows only in the
+        // top, which index `x` less `top`.
         unsafe {
             let xj = _mm256_mul_pd(load(&x[k]), _mm256_set1_pd(f.inv_diag[j]));
             store(&mut x[k], xj);
@@ -410,6 +454,10 @@ unsafe fn forward_top(f: &Factor<'_>, top: usize, x: &mut [[f64; 4]]) {
 /// earlier in the backward pass, often just before it: taken last, it is needed only at the
 /// end of the sums, while the other products (rows solved longer before) overlap the parent's
 /// own solve.
+///
+/// # Safety
+/// As for `send_products`: AVX, and every entry of `range` has a row that, less `offset`,
+/// indexes `x`.
 #[inline(always)]
 unsafe fn subtract_products(
     f: &Factor<'_>,
@@ -418,13 +466,14 @@ unsafe fn subtract_products(
     x: &[[f64; 4]],
     [mut a, mut b, mut c, mut d]: [__m256d; 4],
 ) -> [__m256d; 4] {
-    // SAFETY (callers): AVX; `entry`'s contract as in `send_products`.
+    // SAFETY: this function's contract: AVX, and `p` (an entry of `range`) has a row that,
+    // less `offset`, indexes `x`.
     let product = |p: usize| unsafe {
         let (i, l) = entry(f, p, offset);
         _mm256_mul_pd(_mm256_set1_pd(l), load(x.get_unchecked(i)))
     };
     let mut p = range.end;
-    // SAFETY: AVX (callers).
+    // SAFETY: AVX (this function's contract); `product` is called only on entries of `range`.
     unsafe {
         while p >= range.start + 4 {
             a = _mm256_sub_pd(a, product(p - 1));
@@ -445,26 +494,38 @@ unsafe fn subtract_products(
 }
 
 /// Partial sums starting from the right-hand side `v`.
+///
+/// # Safety
+/// The processor supports AVX.
 #[inline(always)]
 unsafe fn start(v: &[f64; 4]) -> [__m256d; 4] {
-    // SAFETY (callers): AVX.
+    // SAFETY: AVX (this function's contract).
     unsafe { [load(v), _mm256_setzero_pd(), _mm256_setzero_pd(), _mm256_setzero_pd()] }
 }
 
 /// The sum of the four partial sums.
+///
+/// # Safety
+/// The processor supports AVX.
 #[inline(always)]
 unsafe fn total([a, b, c, d]: [__m256d; 4]) -> __m256d {
-    // SAFETY (callers): AVX.
+    // SAFETY: AVX (this function's contract).
     unsafe { _mm256_add_pd(_mm256_add_pd(a, b), _mm256_add_pd(c, d)) }
 }
 
 /// Backward columns of the top, last first (rows in the top only).
+///
+/// # Safety
+/// The processor supports AVX2, and `f` is the factor of a [`TreeSplit`] (built by
+/// [`TreeSplit::new`], whose checks put the rows of every column where this kernel indexes
+/// them): `x` holds the top's rows `top..n`.
 #[target_feature(enable = "avx2")]
 unsafe fn backward_top(f: &Factor<'_>, top: usize, x: &mut [[f64; 4]]) {
     for k in (0..x.len()).rev() {
         let j = top + k;
         let (lo, hi) = (f.col_ptr[j] as usize, f.col_ptr[j + 1] as usize);
-        // SAFETY: as in `forward_part`.
+        // SAFETY: AVX2 (this function's contract); the top's columns have rows only in the
+        // top, which index `x` less `top`.
         unsafe {
             let sums = subtract_products(f, lo..hi, top, x, start(&x[k]));
             store(&mut x[k], _mm256_mul_pd(total(sums), _mm256_set1_pd(f.inv_diag[j])));
@@ -474,6 +535,12 @@ unsafe fn backward_top(f: &Factor<'_>, top: usize, x: &mut [[f64; 4]]) {
 
 /// Backward columns `first..first + x.len()` (one forest), last first, reading the top's
 /// solved rows `xt`.
+///
+/// # Safety
+/// The processor supports AVX2, and `f` is the factor of a [`TreeSplit`] (built by
+/// [`TreeSplit::new`], whose checks put the rows of every column where this kernel indexes
+/// them): `first..first + x.len()` are the columns of one forest (`0..na` or `na..top`), `x` its
+/// rows, and `xt` holds the top's rows `top..n`.
 #[target_feature(enable = "avx2")]
 unsafe fn backward_part(
     f: &Factor<'_>,
@@ -486,7 +553,9 @@ unsafe fn backward_part(
         let j = first + k;
         let (lo, mid, hi) =
             (f.col_ptr[j] as usize, f.to_top[j] as usize, f.col_ptr[j + 1] as usize);
-        // SAFETY: as in `forward_part`.
+        // SAFETY: AVX2 (this function's contract); entries `mid..hi` have rows in the top,
+        // indexing `xt` less `top`, and `lo..mid` rows in this forest, indexing `x` less
+        // `first` (this function's contract: `TreeSplit::new` checked them).
         unsafe {
             let sums = subtract_products(f, mid..hi, top, xt, start(&x[k]));
             let sums = subtract_products(f, lo..mid, first, x, sums);
