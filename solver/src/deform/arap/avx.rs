@@ -4,6 +4,9 @@
 //! operations in the same order as the scalar loop, so the same bits.
 //!
 //! Call only after `is_x86_feature_detected!("avx2")` (the functions are compiled for AVX2).
+//!
+//! Hand-written intrinsics rather than a library route because they measured faster in the
+//! local step (see [`crate::linalg::rotation`]).
 
 use crate::linalg::rotation::Mat3;
 use std::arch::x86_64::*;
