@@ -36,19 +36,7 @@ fn write_sphere() -> (PathBuf, PathBuf, Vec<i64>) {
     let m = solver::geometry::shapes::icosphere(2);
     let obj = tmp("sphere.obj");
     solver::io::write_obj(&obj, m.positions(), m.triangles()).unwrap();
-    let labels: Vec<i64> = m
-        .positions()
-        .iter()
-        .map(|p| {
-            if p[0] > 0.8 {
-                0
-            } else if p[0] < -0.8 {
-                1
-            } else {
-                -1
-            }
-        })
-        .collect();
+    let labels = solver::testing::cap_labels(m.positions(), 0, 0.8, None);
     let sel = tmp("sphere.dmat");
     let body: Vec<String> = labels.iter().map(|l| l.to_string()).collect();
     std::fs::write(&sel, format!("1 {}\n{}\n", labels.len(), body.join("\n"))).unwrap();

@@ -23,19 +23,7 @@ fn dir(name: &str) -> solver::testing::ScratchDir {
 fn scene(d: &std::path::Path, version: u32) -> PathBuf {
     let m = solver::geometry::shapes::icosphere(2);
     solver::io::write_obj(&d.join("ball.obj"), m.positions(), m.triangles()).unwrap();
-    let labels: Vec<i64> = m
-        .positions()
-        .iter()
-        .map(|p| {
-            if p[2] > 0.85 {
-                0
-            } else if p[2] < -0.85 {
-                1
-            } else {
-                -1
-            }
-        })
-        .collect();
+    let labels = solver::testing::cap_labels(m.positions(), 2, 0.85, None);
     let scene = serde_json::json!({
         "version": version,
         "mesh": "../ball.obj",

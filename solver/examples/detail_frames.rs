@@ -14,6 +14,7 @@
 //! are measured against converged ARAP (`solver::deform::quality::Reference`): max and mean distance
 //! over the diagonal and the ARAP energy on the mesh.
 
+use glam::DVec3;
 use solver::animation::export::vertex_normals;
 use solver::deform::quality::Reference;
 use solver::{
@@ -22,29 +23,19 @@ use solver::{
 
 type V = [f64; 3];
 
-fn sub(a: V, b: V) -> V {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-fn dot(a: V, b: V) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-fn cross(a: V, b: V) -> V {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-}
-fn unit(a: V) -> V {
-    let n = dot(a, a).sqrt().max(1e-300);
-    a.map(|c| c / n)
+fn unit(a: DVec3) -> DVec3 {
+    a / a.length().max(1e-300)
 }
 
 /// Frames `[t, n × t, n]` (as rows) of `positions` at every vertex; `neighbour[i]` picks `t`.
-fn frames(positions: &[V], triangles: &[[u32; 3]], neighbour: &[u32]) -> Vec<[V; 3]> {
+fn frames(positions: &[V], triangles: &[[u32; 3]], neighbour: &[u32]) -> Vec<[DVec3; 3]> {
     let normals = vertex_normals(positions, triangles);
     (0..positions.len())
         .map(|i| {
-            let n = unit(normals[i]);
-            let e = sub(positions[neighbour[i] as usize], positions[i]);
-            let t = unit(sub(e, n.map(|c| c * dot(n, e))));
-            [t, cross(n, t), n]
+            let n = unit(DVec3::from(normals[i]));
+            let e = DVec3::from(positions[neighbour[i] as usize]) - DVec3::from(positions[i]);
+            let t = unit(e - n * n.dot(e));
+            [t, n.cross(t), n]
         })
         .collect()
 }
@@ -83,15 +74,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let posed = frames(b.deformed_base(), tris, &neighbour);
     let by_frame: Vec<V> = (0..mesh.n_vertices())
         .map(|i| {
-            let d = b.details()[i];
-            let local = [dot(rest[i][0], d), dot(rest[i][1], d), dot(rest[i][2], d)];
+            let d = DVec3::from(b.details()[i]);
+            let local = rest[i].map(|r| r.dot(d));
             let f = posed[i];
-            std::array::from_fn(|k| {
-                b.deformed_base()[i][k]
-                    + f[0][k] * local[0]
-                    + f[1][k] * local[1]
-                    + f[2][k] * local[2]
-            })
+            (DVec3::from(b.deformed_base()[i])
+                + f[0] * local[0]
+                + f[1] * local[1]
+                + f[2] * local[2])
+                .to_array()
         })
         .collect();
     // The library's result is the rotation encoding; recompute it to be explicit.

@@ -1,5 +1,5 @@
 //! Test support shared by this crate's tests and benches and the app's tests: scratch
-//! directories, seeded random values, the AVX2 test guard.
+//! directories, seeded random values, the AVX2 test guard, the capped-sphere fixture.
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -69,4 +69,45 @@ pub(crate) fn avx2_token_or_skip(test: &str) -> Option<crate::linalg::lanes::Avx
         eprintln!("SKIPPED {test}: this processor has no AVX2, the AVX2 build was not compared");
     }
     token
+}
+
+/// Handle labels of the capped-sphere fixture on an icosphere's `positions`: group 0 where
+/// coordinate `axis` is above `cap`, group 1 where it is below `-cap`, and, with
+/// `side: Some(s)`, group 2 where `x > s` among the rest; −1 (free) elsewhere.
+pub fn cap_labels(positions: &[[f64; 3]], axis: usize, cap: f64, side: Option<f64>) -> Vec<i64> {
+    positions
+        .iter()
+        .map(|p| {
+            if p[axis] > cap {
+                0
+            } else if p[axis] < -cap {
+                1
+            } else if side.is_some_and(|s| p[0] > s) {
+                2
+            } else {
+                -1
+            }
+        })
+        .collect()
+}
+
+/// An icosphere of `level` with the handle caps of [`cap_labels`] (`axis`, `cap`, `side`).
+pub fn capped_sphere(
+    level: u32,
+    axis: usize,
+    cap: f64,
+    side: Option<f64>,
+) -> (crate::geometry::mesh::Mesh, crate::deform::handles::Handles) {
+    let mesh = crate::geometry::shapes::icosphere(level);
+    let labels = cap_labels(mesh.positions(), axis, cap, side);
+    match crate::deform::handles::Handles::from_labels(&labels, mesh.n_vertices()) {
+        Ok(handles) => (mesh, handles),
+        Err(e) => panic!("capped-sphere fixture: {e}"),
+    }
+}
+
+/// The common capped sphere: level 2 (162 vertices), group 0 at `x > 0.8`, group 1 at
+/// `x < -0.8`.
+pub fn sphere_with_caps() -> (crate::geometry::mesh::Mesh, crate::deform::handles::Handles) {
+    capped_sphere(2, 0, 0.8, None)
 }

@@ -238,20 +238,7 @@ fn write_test_mesh(dir: &std::path::Path) -> usize {
 
 fn labels(n: usize) -> Vec<i64> {
     let mesh = solver::geometry::shapes::icosphere(1);
-    (0..n)
-        .map(|v| {
-            let z = mesh.positions()[v][2];
-            if z > 0.8 {
-                0
-            } else if z < -0.8 {
-                1
-            } else if mesh.positions()[v][0] > 0.9 {
-                2
-            } else {
-                -1
-            }
-        })
-        .collect()
+    solver::testing::cap_labels(&mesh.positions()[..n], 2, 0.8, Some(0.9))
 }
 
 #[test]

@@ -20,24 +20,7 @@ fn temp_dir(name: &str) -> ScratchDir {
 
 /// An icosphere with three handle groups: top cap (0), bottom cap (1), a side patch (2).
 fn setup() -> (Mesh, Handles) {
-    let mesh = solver::geometry::shapes::icosphere(2);
-    let labels: Vec<i64> = mesh
-        .positions()
-        .iter()
-        .map(|p| {
-            if p[2] > 0.85 {
-                0
-            } else if p[2] < -0.85 {
-                1
-            } else if p[0] > 0.9 {
-                2
-            } else {
-                -1
-            }
-        })
-        .collect();
-    let handles = Handles::from_labels(&labels, mesh.n_vertices()).unwrap();
-    (mesh, handles)
+    solver::testing::capped_sphere(2, 2, 0.85, Some(0.9))
 }
 
 fn timeline() -> Timeline {

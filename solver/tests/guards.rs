@@ -6,31 +6,11 @@
 use solver::animation::scene::{MAX_ANDERSON_WINDOW, MAX_ITERATIONS, Scene, SceneError};
 use solver::geometry::shapes::icosphere;
 use solver::io::{SaveError, write_obj};
+use solver::testing::sphere_with_caps;
 use solver::{
     ArapConfig, BaseConfig, Deformer, GroupTransform, Handles, Mesh, Method, SolveError,
     handle_targets,
 };
-
-/// An icosphere of level 2 (162 vertices) with two handle caps: group 0 at `x > 0.8`, group 1
-/// at `x < -0.8`.
-fn sphere_with_caps() -> (Mesh, Handles) {
-    let m = icosphere(2);
-    let labels: Vec<i64> = m
-        .positions()
-        .iter()
-        .map(|p| {
-            if p[0] > 0.8 {
-                0
-            } else if p[0] < -0.8 {
-                1
-            } else {
-                -1
-            }
-        })
-        .collect();
-    let h = Handles::from_labels(&labels, m.n_vertices()).unwrap();
-    (m, h)
-}
 
 /// Every method, built with a coarse base small enough to be exercised on small meshes.
 fn deformers(mesh: &Mesh, handles: &Handles, config: &ArapConfig) -> Vec<(Method, Deformer)> {

@@ -14,10 +14,12 @@
 
 use std::f64::consts::PI;
 
+use glam::{DMat3, DQuat, DVec3};
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use crate::deform::pose::GroupTransform;
+use crate::geometry::mesh::cross;
 use crate::linalg::rotation::{IDENTITY, Mat3, axis_angle};
 
 /// Why a timeline or a path cannot be evaluated. One line each.
@@ -35,146 +37,34 @@ pub enum AnimationError {
     NoFrames(usize),
 }
 
-/// A unit quaternion $q = w + x\mathbf i + y\mathbf j + z\mathbf k$ for rotation interpolation.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Quat {
-    pub w: f64,
-    pub x: f64,
-    pub y: f64,
-    pub z: f64,
+/// The unit quaternion $q = (\cos\frac\theta2, \sin\frac\theta2\,\hat a)$ of a rotation by
+/// `radians` about `axis` (any non-zero length); a zero or non-finite axis gives the identity.
+pub fn quat_from_axis_angle(axis: [f64; 3], radians: f64) -> DQuat {
+    match DVec3::from(axis).try_normalize() {
+        Some(a) => DQuat::from_axis_angle(a, radians),
+        None => DQuat::IDENTITY,
+    }
 }
 
-impl Quat {
-    /// The identity rotation.
-    pub const IDENTITY: Quat = Quat { w: 1.0, x: 0.0, y: 0.0, z: 0.0 };
+/// The row-major rotation matrix of the normalized quaternion.
+pub fn quat_to_mat3(q: DQuat) -> Mat3 {
+    DMat3::from_quat(q.normalize()).transpose().to_cols_array_2d()
+}
 
-    /// $q = (\cos\frac\theta2, \sin\frac\theta2\,\hat a)$; a zero axis gives the identity.
-    pub fn from_axis_angle(axis: [f64; 3], radians: f64) -> Quat {
-        let n = (axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]).sqrt();
-        if n.is_nan() || n <= 0.0 {
-            return Quat::IDENTITY;
-        }
-        let (s, c) = (radians / 2.0).sin_cos();
-        Quat { w: c, x: s * axis[0] / n, y: s * axis[1] / n, z: s * axis[2] / n }
-    }
+/// $\log q = (0, \theta\,\hat v)$ for unit $q = (\cos\theta, \sin\theta\,\hat v)$, as the
+/// vector $\theta\hat v$ (glam has no quaternion logarithm).
+fn quat_log(q: DQuat) -> DVec3 {
+    let v = q.xyz();
+    let n = v.length();
+    let theta = n.atan2(q.w);
+    v * if n > 1e-12 { theta / n } else { 1.0 }
+}
 
-    /// The row-major rotation matrix of the normalized quaternion.
-    pub fn to_mat3(self) -> Mat3 {
-        let q = self.normalized();
-        let (w, x, y, z) = (q.w, q.x, q.y, q.z);
-        [
-            [1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - w * z), 2.0 * (x * z + w * y)],
-            [2.0 * (x * y + w * z), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - w * x)],
-            [2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y)],
-        ]
-    }
-
-    /// $q / \lVert q\rVert$ (the identity for a zero quaternion).
-    pub fn normalized(self) -> Quat {
-        let n = self.dot(self).sqrt();
-        if n.is_nan() || n <= 0.0 {
-            return Quat::IDENTITY;
-        }
-        self.scale(1.0 / n)
-    }
-
-    /// Four-dimensional dot product.
-    pub fn dot(self, o: Quat) -> f64 {
-        self.w * o.w + self.x * o.x + self.y * o.y + self.z * o.z
-    }
-
-    fn scale(self, s: f64) -> Quat {
-        Quat { w: self.w * s, x: self.x * s, y: self.y * s, z: self.z * s }
-    }
-
-    fn neg(self) -> Quat {
-        self.scale(-1.0)
-    }
-
-    fn conj(self) -> Quat {
-        Quat { w: self.w, x: -self.x, y: -self.y, z: -self.z }
-    }
-
-    /// Hamilton product $ab$.
-    pub fn compose(self, b: Quat) -> Quat {
-        let a = self;
-        Quat {
-            w: a.w * b.w - a.x * b.x - a.y * b.y - a.z * b.z,
-            x: a.w * b.x + a.x * b.w + a.y * b.z - a.z * b.y,
-            y: a.w * b.y - a.x * b.z + a.y * b.w + a.z * b.x,
-            z: a.w * b.z + a.x * b.y - a.y * b.x + a.z * b.w,
-        }
-    }
-
-    /// $\log q = (0, \theta\,\hat v)$ for unit $q = (\cos\theta, \sin\theta\,\hat v)$.
-    fn log(self) -> Quat {
-        let v = (self.x * self.x + self.y * self.y + self.z * self.z).sqrt();
-        let theta = v.atan2(self.w);
-        let k = if v > 1e-12 { theta / v } else { 1.0 };
-        Quat { w: 0.0, x: self.x * k, y: self.y * k, z: self.z * k }
-    }
-
-    /// $\exp(0, \theta\hat v) = (\cos\theta, \sin\theta\,\hat v)$.
-    fn exp(self) -> Quat {
-        let theta = (self.x * self.x + self.y * self.y + self.z * self.z).sqrt();
-        let k = if theta > 1e-12 { theta.sin() / theta } else { 1.0 };
-        Quat { w: theta.cos(), x: self.x * k, y: self.y * k, z: self.z * k }
-    }
-
-    /// Spherical linear interpolation
-    /// $\mathrm{slerp}(a, b, h) = \frac{\sin((1-h)\Omega)}{\sin\Omega}a + \frac{\sin(h\Omega)}{\sin\Omega}b$,
-    /// $\cos\Omega = a\cdot b$, along the shorter arc ($b$ is negated when $a\cdot b < 0$);
-    /// normalized linear interpolation when the arc is tiny. `h = 0` gives `a`, `h = 1` gives `b`
-    /// (up to sign, which is the same rotation).
-    pub fn slerp(self, b: Quat, h: f64) -> Quat {
-        let mut b = b;
-        let mut d = self.dot(b);
-        if d < 0.0 {
-            b = b.neg();
-            d = -d;
-        }
-        if d > 1.0 - 1e-12 {
-            let q = Quat {
-                w: self.w + h * (b.w - self.w),
-                x: self.x + h * (b.x - self.x),
-                y: self.y + h * (b.y - self.y),
-                z: self.z + h * (b.z - self.z),
-            };
-            return q.normalized();
-        }
-        let omega = d.clamp(-1.0, 1.0).acos();
-        let s = omega.sin();
-        let (ka, kb) = (((1.0 - h) * omega).sin() / s, (h * omega).sin() / s);
-        Quat {
-            w: ka * self.w + kb * b.w,
-            x: ka * self.x + kb * b.x,
-            y: ka * self.y + kb * b.y,
-            z: ka * self.z + kb * b.z,
-        }
-    }
-
-    /// Slerp without the shorter-arc sign flip (squad needs the given signs).
-    fn slerp_no_flip(self, b: Quat, h: f64) -> Quat {
-        let d = self.dot(b).clamp(-1.0, 1.0);
-        if d.abs() > 1.0 - 1e-12 {
-            return Quat {
-                w: self.w + h * (b.w - self.w),
-                x: self.x + h * (b.x - self.x),
-                y: self.y + h * (b.y - self.y),
-                z: self.z + h * (b.z - self.z),
-            }
-            .normalized();
-        }
-        let omega = d.acos();
-        let s = omega.sin();
-        let (ka, kb) = (((1.0 - h) * omega).sin() / s, (h * omega).sin() / s);
-        Quat {
-            w: ka * self.w + kb * b.w,
-            x: ka * self.x + kb * b.x,
-            y: ka * self.y + kb * b.y,
-            z: ka * self.z + kb * b.z,
-        }
-    }
+/// $\exp(0, \theta\hat v) = (\cos\theta, \sin\theta\,\hat v)$, the inverse of [`quat_log`].
+fn quat_exp(v: DVec3) -> DQuat {
+    let theta = v.length();
+    let k = if theta > 1e-12 { theta.sin() / theta } else { 1.0 };
+    DQuat::from_xyzw(v.x * k, v.y * k, v.z * k, theta.cos())
 }
 
 /// A rotation given as a unit axis and an angle in degrees (right-hand rule); the JSON form of
@@ -196,8 +86,8 @@ impl Default for AxisAngle {
 
 impl AxisAngle {
     /// The unit quaternion of this rotation.
-    pub fn to_quat(self) -> Quat {
-        Quat::from_axis_angle(self.axis, self.degrees.to_radians())
+    pub fn to_quat(self) -> DQuat {
+        quat_from_axis_angle(self.axis, self.degrees.to_radians())
     }
 }
 
@@ -269,10 +159,6 @@ fn default_reference() -> [f64; 3] {
 fn normalize(v: [f64; 3]) -> Option<[f64; 3]> {
     let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
     (n.is_finite() && n > 1e-300).then(|| v.map(|c| c / n))
-}
-
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 }
 
 impl CircularPath {
@@ -361,14 +247,14 @@ impl KeyframedPath {
     }
 
     /// Sign-consistent key quaternions.
-    fn quats(&self) -> Vec<Quat> {
-        let mut out: Vec<Quat> = Vec::with_capacity(self.keys.len());
+    fn quats(&self) -> Vec<DQuat> {
+        let mut out: Vec<DQuat> = Vec::with_capacity(self.keys.len());
         for k in &self.keys {
             let mut q = k.rotation.to_quat();
             if let Some(prev) = out.last()
                 && prev.dot(q) < 0.0
             {
-                q = q.neg();
+                q = -q;
             }
             out.push(q);
         }
@@ -383,7 +269,7 @@ impl KeyframedPath {
         };
         let at_key = |k: &Key| GroupTransform {
             translation: k.translation,
-            rotation: k.rotation.to_quat().to_mat3(),
+            rotation: quat_to_mat3(k.rotation.to_quat()),
         };
         if t <= first.time || keys.len() == 1 {
             return at_key(first);
@@ -402,7 +288,8 @@ impl KeyframedPath {
                 translation: std::array::from_fn(|d| {
                     (1.0 - h) * k0.translation[d] + h * k1.translation[d]
                 }),
-                rotation: qs[i].slerp(qs[i + 1], h).to_mat3(),
+                // Shorter arc: glam's slerp negates the end when the dot product is negative.
+                rotation: quat_to_mat3(qs[i].slerp(qs[i + 1], h)),
             },
             Interpolation::Smooth => {
                 let tangent = |j: usize| -> [f64; 3] {
@@ -424,21 +311,21 @@ impl KeyframedPath {
                         + h01 * k1.translation[d]
                         + h11 * dt * m1[d]
                 });
-                let control = |j: usize| -> Quat {
+                let control = |j: usize| -> DQuat {
                     let q = qs[j];
                     let prev = qs[j.saturating_sub(1)];
                     let next = qs[(j + 1).min(qs.len() - 1)];
-                    let inv = q.conj();
-                    let l = inv.compose(next).log();
-                    let m = inv.compose(prev).log();
-                    let e = Quat { w: 0.0, x: l.x + m.x, y: l.y + m.y, z: l.z + m.z }.scale(-0.25);
-                    q.compose(e.exp())
+                    let inv = q.conjugate();
+                    let e = (quat_log(inv * next) + quat_log(inv * prev)) * -0.25;
+                    q * quat_exp(e)
                 };
+                // Squad keeps the signs it is given (the keys are already sign-consistent):
+                // glam's `slerp_long` is slerp without the shorter-arc negation.
                 let (s0, s1) = (control(i), control(i + 1));
-                let outer = qs[i].slerp_no_flip(qs[i + 1], h);
-                let inner = s0.slerp_no_flip(s1, h);
-                let q = outer.slerp_no_flip(inner, 2.0 * h * (1.0 - h));
-                GroupTransform { translation, rotation: q.to_mat3() }
+                let outer = qs[i].slerp_long(qs[i + 1], h);
+                let inner = s0.slerp_long(s1, h);
+                let q = outer.slerp_long(inner, 2.0 * h * (1.0 - h));
+                GroupTransform { translation, rotation: quat_to_mat3(q) }
             }
         }
     }
@@ -618,8 +505,8 @@ mod tests {
 
     #[test]
     fn quaternion_matches_rodrigues() {
-        let q = Quat::from_axis_angle([1.0, -2.0, 0.5], 1.3);
-        let a = q.to_mat3();
+        let q = quat_from_axis_angle([1.0, -2.0, 0.5], 1.3);
+        let a = quat_to_mat3(q);
         let b = axis_angle([1.0, -2.0, 0.5], 1.3);
         for i in 0..3 {
             for j in 0..3 {
@@ -630,10 +517,10 @@ mod tests {
 
     #[test]
     fn slerp_halfway_is_half_the_angle() {
-        let a = Quat::IDENTITY;
-        let b = Quat::from_axis_angle([0.0, 0.0, 1.0], 1.0);
+        let a = DQuat::IDENTITY;
+        let b = quat_from_axis_angle([0.0, 0.0, 1.0], 1.0);
         let m = a.slerp(b, 0.5);
-        let e = Quat::from_axis_angle([0.0, 0.0, 1.0], 0.5);
+        let e = quat_from_axis_angle([0.0, 0.0, 1.0], 0.5);
         assert!((m.dot(e).abs() - 1.0).abs() < 1e-12);
     }
 }

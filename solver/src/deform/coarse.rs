@@ -519,24 +519,12 @@ fn dot4(a: [f64; 4], b: [f64; 4]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
 }
 
-/// Unit quaternion `[w, x, y, z]` of a rotation matrix (Shepperd's method).
+/// Unit quaternion `[w, x, y, z]` of a row-major rotation matrix (glam's `DQuat::from_mat3`,
+/// which takes columns, then normalized). Its sign is arbitrary: blending and [`rotate`] give
+/// the same result for $q$ and $-q$.
 pub fn quaternion_of(r: &Mat3) -> [f64; 4] {
-    let tr = r[0][0] + r[1][1] + r[2][2];
-    let q = if tr > 0.0 {
-        let s = (tr + 1.0).sqrt() * 2.0;
-        [0.25 * s, (r[2][1] - r[1][2]) / s, (r[0][2] - r[2][0]) / s, (r[1][0] - r[0][1]) / s]
-    } else if r[0][0] > r[1][1] && r[0][0] > r[2][2] {
-        let s = (1.0 + r[0][0] - r[1][1] - r[2][2]).sqrt() * 2.0;
-        [(r[2][1] - r[1][2]) / s, 0.25 * s, (r[0][1] + r[1][0]) / s, (r[0][2] + r[2][0]) / s]
-    } else if r[1][1] > r[2][2] {
-        let s = (1.0 + r[1][1] - r[0][0] - r[2][2]).sqrt() * 2.0;
-        [(r[0][2] - r[2][0]) / s, (r[0][1] + r[1][0]) / s, 0.25 * s, (r[1][2] + r[2][1]) / s]
-    } else {
-        let s = (1.0 + r[2][2] - r[0][0] - r[1][1]).sqrt() * 2.0;
-        [(r[1][0] - r[0][1]) / s, (r[0][2] + r[2][0]) / s, (r[1][2] + r[2][1]) / s, 0.25 * s]
-    };
-    let n = dot4(q, q).sqrt();
-    q.map(|c| c / n)
+    let q = glam::DQuat::from_mat3(&glam::DMat3::from_cols_array_2d(r).transpose()).normalize();
+    [q.w, q.x, q.y, q.z]
 }
 
 /// $q\,v\,q^{-1}$ for a unit quaternion.

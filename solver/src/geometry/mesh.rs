@@ -128,8 +128,16 @@ pub(crate) fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 }
 #[inline]
+pub(crate) fn scale(a: [f64; 3], s: f64) -> [f64; 3] {
+    [s * a[0], s * a[1], s * a[2]]
+}
+#[inline]
+pub(crate) fn norm2(a: [f64; 3]) -> f64 {
+    dot(a, a)
+}
+#[inline]
 pub(crate) fn norm(a: [f64; 3]) -> f64 {
-    dot(a, a).sqrt()
+    norm2(a).sqrt()
 }
 
 #[cfg(test)]

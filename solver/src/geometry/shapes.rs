@@ -177,12 +177,7 @@ mod tests {
                 .iter()
                 .map(|t| {
                     let [a, b, c] = t.map(|i| m.positions()[i as usize]);
-                    let cross = [
-                        b[1] * c[2] - b[2] * c[1],
-                        b[2] * c[0] - b[0] * c[2],
-                        b[0] * c[1] - b[1] * c[0],
-                    ];
-                    (a[0] * cross[0] + a[1] * cross[1] + a[2] * cross[2]) / 6.0
+                    crate::geometry::mesh::dot(a, crate::geometry::mesh::cross(b, c)) / 6.0
                 })
                 .sum()
         };

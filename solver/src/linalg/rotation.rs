@@ -7,6 +7,11 @@
 //! always a proper rotation (never a reflection).
 //!
 //! Matrices are row-major `[[f64; 3]; 3]`.
+//!
+//! The fit is hand-written (Horn's quaternion method on [`Real`] lanes, see `lanes.rs` and
+//! `deform/arap/avx.rs`) rather than built on glam or nalgebra because it measured faster than
+//! the library route in the ARAP local step; nalgebra's 3×3 SVD is used only for the fallback
+//! [`fit_rotation_svd`].
 
 #[cfg(target_arch = "x86_64")]
 use crate::linalg::lanes::Avx2;

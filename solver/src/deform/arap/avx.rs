@@ -5,6 +5,9 @@
 //!
 //! The entry point, [`covariances`], takes the [`Avx2`] token that proves the processor has
 //! AVX2; the `unsafe fn`s below it require that of their callers.
+//!
+//! Hand-written intrinsics rather than a library route because they measured faster in the
+//! local step (see [`crate::linalg::rotation`]).
 
 use crate::linalg::lanes::Avx2;
 use crate::linalg::rotation::Mat3;

@@ -5,8 +5,8 @@
 
 #[cfg(target_arch = "x86_64")]
 use super::avx;
-use super::{Arap, Cells, norm2};
-use crate::geometry::mesh::sub;
+use super::{Arap, Cells};
+use crate::geometry::mesh::{norm2, sub};
 use crate::linalg::rotation::{
     LANES, Mat3, add_outer, fit_rotation_near, fit_rotations_near, trace_of_product,
 };

@@ -242,16 +242,6 @@ impl Arap {
 }
 
 #[inline]
-pub(super) fn scale3(a: [f64; 3], s: f64) -> [f64; 3] {
-    [s * a[0], s * a[1], s * a[2]]
-}
-
-#[inline]
-pub(super) fn norm2(a: [f64; 3]) -> f64 {
-    a[0] * a[0] + a[1] * a[1] + a[2] * a[2]
-}
-
-#[inline]
 pub(super) fn ms(a: Instant, b: Instant) -> f64 {
     (b - a).as_secs_f64() * 1e3
 }

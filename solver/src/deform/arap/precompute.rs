@@ -3,12 +3,12 @@
 //! ([`ring_coefficients`]), the energy's constant rest term, and the factorization of the
 //! free block $L_{FF}$ of the cotangent Laplacian (Sun et al. 2017, Eq. 4's matrix).
 
-use super::{Arap, ArapConfig, Cells, Csr, Energy, norm2, scale3};
+use super::{Arap, ArapConfig, Cells, Csr, Energy};
 use crate::deform::constraints::Constraints;
 use crate::deform::handles::Handles;
 use crate::error::SolveError;
 use crate::geometry::cotan::{edge_weights, face_cotangents_or, laplacian_triplets, opposite_edge};
-use crate::geometry::mesh::{Mesh, add, sub};
+use crate::geometry::mesh::{Mesh, add, norm2, scale, sub};
 use crate::geometry::reorder::VertexOrder;
 use crate::linalg::lanes::Avx2;
 use crate::linalg::linsolve::{Layout, SpdFactor};
@@ -194,27 +194,25 @@ fn ring_coefficients(
             let (t, w, e) = (tris[f as usize], cot[f as usize], &edges[f as usize]);
             let c = c as usize;
             // v_it: the edges of t at i, e_{c+1} = p_{c+2} - p_c and e_{c+2} = p_c - p_{c+1}.
-            let v = add(
-                scale3(e[(c + 2) % 3], w[(c + 2) % 3]),
-                scale3(e[(c + 1) % 3], -w[(c + 1) % 3]),
-            );
+            let v =
+                add(scale(e[(c + 2) % 3], w[(c + 2) % 3]), scale(e[(c + 1) % 3], -w[(c + 1) % 3]));
             for k in 0..3 {
                 let (a, b) = opposite_edge(t, k);
                 // The spoke (i, other end) of this edge, if it has one.
                 let spoke = if a as usize == i || b as usize == i { 1.5 * w[k] } else { 0.0 };
                 acc.push((
                     a,
-                    scale3(e[k], w[k]),
+                    scale(e[k], w[k]),
                     [0.0; 3],
                     if b as usize == i { spoke } else { 0.0 },
                 ));
                 acc.push((
                     b,
-                    scale3(e[k], -w[k]),
+                    scale(e[k], -w[k]),
                     [0.0; 3],
                     if a as usize == i { spoke } else { 0.0 },
                 ));
-                acc.push((t[k], [0.0; 3], scale3(v, 1.0 / 3.0), 0.0));
+                acc.push((t[k], [0.0; 3], scale(v, 1.0 / 3.0), 0.0));
             }
         }
         acc.sort_by_key(|a| a.0);
