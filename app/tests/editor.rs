@@ -184,7 +184,7 @@ fn opens_the_default_asset_and_views_change_the_image() {
     // sets that number explicitly, for the slider to change, and ticking it again goes back.
     let coarse = |a: &EditorApp| a.method_settings().base.coarse_vertices;
     assert_eq!(coarse(h.state()), None);
-    let auto = solver::deform::coarse::CoarseConfig::auto_coarse_vertices(h.state().n_vertices());
+    let auto = solver::BaseConfig::auto_coarse_vertices(h.state().n_vertices());
     h.get_by_label(&format!("automatic coarse size ({auto})")).click_accesskit();
     step_until(&mut h, "explicit coarse size", |a| coarse(a) == Some(auto));
     h.get_by_label(&format!("automatic coarse size ({auto})")).click_accesskit();

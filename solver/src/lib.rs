@@ -27,7 +27,8 @@ pub mod testing;
 // The types a user of the crate starts from.
 pub use deform::arap::{Acceleration, Arap, ArapConfig, Energy, SolveStats};
 pub use deform::bs_arap::{BaseKind, BsArap};
-pub use deform::deformer::{BaseConfig, Deformer, Method};
+pub use deform::config::{BaseConfig, BaseConfigError};
+pub use deform::deformer::{Deformer, Method};
 pub use deform::handles::{Handles, HandlesError};
 pub use deform::pose::{GroupTransform, handle_targets};
 pub use error::SolveError;

@@ -555,7 +555,7 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
             "start": a.start,
             "tolerance": a.tol,
             "smoothing": a.base.smoothing,
-            "coarse_vertices": setup.base.coarse().coarse_vertices_for(mesh.n_vertices()),
+            "coarse_vertices": setup.base.coarse_vertices_for(mesh.n_vertices()),
             "coarse_vertices_auto": a.base.coarse_vertices.is_none(),
             "fine_iterations": a.base.fine_iterations,
             "threshold": a.threshold,
@@ -607,14 +607,14 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
         println!("{} runs per method, taking turns: each row is the median run", a.repeat);
     }
     if methods.contains(&Method::BsArapCoarse) {
-        let c = setup.base.coarse();
+        let c = &setup.base;
         println!(
             "bsarap-coarse: base decimated to about {} vertices ({}), smoothing {}, {} fine iterations",
             c.coarse_vertices_for(mesh.n_vertices()),
             if c.coarse_vertices.is_some() {
                 "--coarse-vertices".to_string()
             } else {
-                format!("automatic: {}", solver::deform::coarse::CoarseConfig::AUTO_RULE)
+                format!("automatic: {}", solver::BaseConfig::AUTO_RULE)
             },
             c.smoothing,
             c.fine_iterations

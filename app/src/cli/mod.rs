@@ -144,31 +144,19 @@ pub struct BaseArgs {
 impl BaseArgs {
     /// Validated settings.
     pub fn config(&self) -> anyhow::Result<solver::BaseConfig> {
-        anyhow::ensure!(
-            self.smoothing.is_finite() && self.smoothing > 0.0 && self.smoothing <= 1.0,
-            "--smoothing must be in (0, 1] (a fraction of the bounding-box diagonal; got {})",
-            self.smoothing
-        );
-        if let Some(n) = self.coarse_vertices {
-            anyhow::ensure!(
-                solver::deform::coarse::COARSE_VERTICES.contains(&n),
-                "--coarse-vertices must be between {} and {} (got {n})",
-                solver::deform::coarse::COARSE_VERTICES.start(),
-                solver::deform::coarse::COARSE_VERTICES.end()
-            );
-        }
-        anyhow::ensure!(
-            self.fine_iterations <= solver::deform::coarse::MAX_FINE_ITERATIONS,
-            "--fine-iterations must be between 0 and {} (got {})",
-            solver::deform::coarse::MAX_FINE_ITERATIONS,
-            self.fine_iterations
-        );
-        Ok(solver::BaseConfig {
+        let config = solver::BaseConfig {
             smoothing: self.smoothing,
             coarse_vertices: self.coarse_vertices,
             fine_iterations: self.fine_iterations,
             // Settling refines a pose whose handles have stopped: an interactive notion.
             settle_iterations: 0,
-        })
+        };
+        config.validate().map_err(|e| {
+            // The message begins with the field's name: name the flag instead.
+            let message = e.to_string();
+            let flag = e.field().replace('_', "-");
+            anyhow::anyhow!("--{flag}{}", &message[e.field().len()..])
+        })?;
+        Ok(config)
     }
 }

@@ -29,7 +29,8 @@ use thiserror::Error;
 
 use crate::animation::timeline::{AnimationError, Timeline};
 use crate::deform::arap::{Acceleration, ArapConfig};
-use crate::deform::deformer::{BaseConfig, Method};
+use crate::deform::config::BaseConfig;
+use crate::deform::deformer::Method;
 use crate::deform::handles::{Handles, HandlesError};
 use crate::deform::selection::{SelectionError, load_selection, parse_spheres};
 use crate::io::{LoadError, LoadedMesh, SaveError, load_mesh, write_atomic};
@@ -210,25 +211,10 @@ impl Scene {
                 ),
             });
         }
-        let base = &self.base;
-        let smoothing_ok =
-            base.smoothing.is_finite() && base.smoothing > 0.0 && base.smoothing <= 1.0;
-        if !smoothing_ok
-            || base
-                .coarse_vertices
-                .is_some_and(|n| !crate::deform::coarse::COARSE_VERTICES.contains(&n))
-            || base.fine_iterations > crate::deform::coarse::MAX_FINE_ITERATIONS
-        {
-            return Err(SceneError::Invalid {
-                file: file.to_string(),
-                message: format!(
-                    "\"base\": smoothing must be in (0, 1], coarse_vertices null (automatic) or between {} and {}, and fine_iterations at most {}",
-                    crate::deform::coarse::COARSE_VERTICES.start(),
-                    crate::deform::coarse::COARSE_VERTICES.end(),
-                    crate::deform::coarse::MAX_FINE_ITERATIONS
-                ),
-            });
-        }
+        self.base.validate().map_err(|e| SceneError::Invalid {
+            file: file.to_string(),
+            message: format!("\"base\": {e}"),
+        })?;
         if let Acceleration::Anderson { window } = self.arap.acceleration
             && !(1..=MAX_ANDERSON_WINDOW).contains(&window)
         {

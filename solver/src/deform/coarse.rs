@@ -12,7 +12,7 @@
 //!    blend of the corner rotations as quaternions (signs aligned) and $C_i$ the carried fine
 //!    correction (step 5; zero without it). Handle vertices are set to their targets exactly,
 //!    and the vertices of components without handles to their rest positions.
-//! 5. Optionally ([`CoarseConfig::fine_iterations`]), a few ARAP iterations on $M$ with
+//! 5. Optionally ([`BaseConfig::fine_iterations`]), a few ARAP iterations on $M$ with
 //!    Anderson acceleration ([`Arap::refine`]) start from $p'$ and give the result $x$: a
 //!    two-level scheme in which the coarse solve supplies the smooth part of the deformation
 //!    and the fine iterations reduce what the coarse space and the detail transfer cannot
@@ -21,7 +21,7 @@
 //!    frame, so that over an animation the fine iterations add up instead of starting again
 //!    from the coarse pose every frame (BENCHMARKS.md measures both).
 //!
-//! 6. Optionally ([`CoarseConfig::settle_iterations`], [`CoarseBsArap::settle`]), once the
+//! 6. Optionally ([`BaseConfig::settle_iterations`], [`CoarseBsArap::settle`]), once the
 //!    handles stop, more fine iterations refine the pose step by step, carried the same way,
 //!    until they no longer lower the energy: the pose approaches converged ARAP on $M$.
 //!
@@ -32,6 +32,7 @@
 
 use crate::deform::arap::{Arap, ArapConfig, SolveStats};
 use crate::deform::biharmonic::faired_surface;
+use crate::deform::config::BaseConfig;
 use crate::deform::constraints::Constraints;
 use crate::deform::handles::Handles;
 use crate::error::SolveError;
@@ -39,59 +40,6 @@ use crate::geometry::decimate::decimate;
 use crate::geometry::mesh::{Mesh, add, dot, sub};
 use crate::linalg::rotation::Mat3;
 use rayon::prelude::*;
-
-/// The most fine iterations a configuration may ask for (CLI, scenes).
-pub const MAX_FINE_ITERATIONS: usize = 1000;
-
-/// The coarse sizes a configuration may set (CLI, scenes).
-pub const COARSE_VERTICES: std::ops::RangeInclusive<usize> = 16..=10_000_000;
-
-/// Settings of the coarse base.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct CoarseConfig {
-    /// Smoothing length of the base, as a fraction of the bounding-box diagonal.
-    pub smoothing: f64,
-    /// Vertices of the coarse base (about; at least the handle groups' minimum); `None`:
-    /// [`CoarseConfig::auto_coarse_vertices`] of the mesh.
-    pub coarse_vertices: Option<usize>,
-    /// ARAP iterations on the full mesh after each coarse solve, started from the prolonged
-    /// result (0: none).
-    pub fine_iterations: usize,
-    /// ARAP iterations on the full mesh per [`CoarseBsArap::settle`] step, the refinement of a
-    /// pose whose handles have stopped (0: off). Both 0: no factorization of the full mesh.
-    pub settle_iterations: usize,
-}
-
-impl Default for CoarseConfig {
-    fn default() -> Self {
-        CoarseConfig {
-            smoothing: crate::deform::bs_arap::BaseKind::DEFAULT_SMOOTHING,
-            coarse_vertices: None,
-            fine_iterations: 0,
-            settle_iterations: 0,
-        }
-    }
-}
-
-impl CoarseConfig {
-    /// The coarse size used when none is set: $\min(3000, 0.3\,n)$ for an $n$-vertex mesh
-    /// (at least 16). A coarse level is worth its approximation only while it is a fraction of
-    /// the mesh: on Cheburashka (6669 vertices) 2223 coarse vertices were already too close to
-    /// the full mesh's cost (9.2× against the target's 10×), and 3000 hold the mean distance
-    /// to converged ARAP below 1 % of the diagonal on armadillo and the bunny with five fine
-    /// iterations (BENCHMARKS.md, "One setting for all three meshes").
-    pub fn auto_coarse_vertices(n: usize) -> usize {
-        (3 * n / 10).clamp(16, 3000)
-    }
-
-    /// [`CoarseConfig::auto_coarse_vertices`] in words, for the interfaces that report it.
-    pub const AUTO_RULE: &'static str = "min(3000, 30 % of the mesh)";
-
-    /// The coarse size for an `n`-vertex mesh: the set one, or the automatic one.
-    pub fn coarse_vertices_for(&self, n: usize) -> usize {
-        self.coarse_vertices.unwrap_or_else(|| CoarseConfig::auto_coarse_vertices(n))
-    }
-}
 
 /// Coarse-base BS-ARAP precomputed for one mesh and one handle set.
 #[derive(Debug)]
@@ -144,7 +92,7 @@ impl CoarseBsArap {
         mesh: &Mesh,
         handles: &Handles,
         config: &ArapConfig,
-        coarse: &CoarseConfig,
+        coarse: &BaseConfig,
     ) -> Result<CoarseBsArap, SolveError> {
         if handles.n_vertices() != mesh.n_vertices() {
             return Err(SolveError::HandleCount {
@@ -377,7 +325,7 @@ impl CoarseBsArap {
     }
 
     /// Refines the result of the last solve, whose handles have stopped at `targets`: runs
-    /// [`CoarseConfig::settle_iterations`] fine iterations from it, carried like the fine
+    /// [`BaseConfig::settle_iterations`] fine iterations from it, carried like the fine
     /// iterations of a solve. Call it again until the returned statistics say converged (the
     /// fine iterations no longer lower the energy by the tolerance per iteration): the pose
     /// approaches converged ARAP on the full mesh, the next solve goes on from it. `None`:
@@ -585,17 +533,17 @@ mod tests {
     /// is decimated to when no size is set; a set size is kept.
     #[test]
     fn automatic_coarse_size() {
-        assert_eq!(CoarseConfig::auto_coarse_vertices(6669), 2000);
-        assert_eq!(CoarseConfig::auto_coarse_vertices(43243), 3000);
-        assert_eq!(CoarseConfig::auto_coarse_vertices(20), 16);
+        assert_eq!(BaseConfig::auto_coarse_vertices(6669), 2000);
+        assert_eq!(BaseConfig::auto_coarse_vertices(43243), 3000);
+        assert_eq!(BaseConfig::auto_coarse_vertices(20), 16);
         let (mesh, handles) = crate::geometry::shapes::bumpy_bar(3);
         let n = mesh.n_vertices();
         let config = ArapConfig::default();
-        let auto = CoarseBsArap::new(&mesh, &handles, &config, &CoarseConfig::default()).unwrap();
-        let expected = CoarseConfig::auto_coarse_vertices(n);
+        let auto = CoarseBsArap::new(&mesh, &handles, &config, &BaseConfig::default()).unwrap();
+        let expected = BaseConfig::auto_coarse_vertices(n);
         assert!(expected < n / 2);
         assert!(auto.coarse_vertices().abs_diff(expected) <= expected / 20, "{expected}");
-        let set = CoarseConfig { coarse_vertices: Some(n / 8), ..Default::default() };
+        let set = BaseConfig { coarse_vertices: Some(n / 8), ..Default::default() };
         let explicit = CoarseBsArap::new(&mesh, &handles, &config, &set).unwrap();
         assert!(explicit.coarse_vertices().abs_diff(n / 8) <= n / 160, "{}", n / 8);
     }

@@ -2,7 +2,8 @@
 
 use crate::deform::arap::{Arap, ArapConfig, SolveStats};
 use crate::deform::bs_arap::{BaseKind, BsArap};
-use crate::deform::coarse::{CoarseBsArap, CoarseConfig};
+use crate::deform::coarse::CoarseBsArap;
+use crate::deform::config::BaseConfig;
 use crate::deform::handles::Handles;
 use crate::error::SolveError;
 use crate::geometry::mesh::Mesh;
@@ -48,46 +49,6 @@ impl Method {
     }
 }
 
-/// Settings of the base surface for the BS-ARAP variants.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(default)]
-pub struct BaseConfig {
-    /// Smoothing length of the faired base, as a fraction of the bounding-box diagonal.
-    pub smoothing: f64,
-    /// Vertices of the coarse base ([`Method::BsArapCoarse`]); `None` (the default):
-    /// [`CoarseConfig::auto_coarse_vertices`] of the mesh.
-    pub coarse_vertices: Option<usize>,
-    /// ARAP iterations on the full mesh after each coarse solve ([`Method::BsArapCoarse`]).
-    pub fine_iterations: usize,
-    /// ARAP iterations on the full mesh per [`Deformer::settle`] step ([`Method::BsArapCoarse`];
-    /// 0: off). An interactive setting: not saved in scenes (read as 0).
-    #[serde(skip)]
-    pub settle_iterations: usize,
-}
-
-impl Default for BaseConfig {
-    fn default() -> Self {
-        BaseConfig {
-            smoothing: BaseKind::DEFAULT_SMOOTHING,
-            coarse_vertices: CoarseConfig::default().coarse_vertices,
-            fine_iterations: CoarseConfig::default().fine_iterations,
-            settle_iterations: CoarseConfig::default().settle_iterations,
-        }
-    }
-}
-
-impl BaseConfig {
-    /// The settings of [`Method::BsArapCoarse`].
-    pub fn coarse(&self) -> CoarseConfig {
-        CoarseConfig {
-            smoothing: self.smoothing,
-            coarse_vertices: self.coarse_vertices,
-            fine_iterations: self.fine_iterations,
-            settle_iterations: self.settle_iterations,
-        }
-    }
-}
-
 /// A precomputed deformer of either method.
 #[derive(Debug)]
 pub enum Deformer {
@@ -124,12 +85,9 @@ impl Deformer {
                 config,
                 BaseKind::Faired { smoothing: base.smoothing },
             )?),
-            Method::BsArapCoarse => Deformer::Coarse(Box::new(CoarseBsArap::new(
-                mesh,
-                handles,
-                config,
-                &base.coarse(),
-            )?)),
+            Method::BsArapCoarse => {
+                Deformer::Coarse(Box::new(CoarseBsArap::new(mesh, handles, config, base)?))
+            }
         })
     }
 

@@ -319,13 +319,13 @@ impl EditorApp {
         if self.session.settings.bs_variant == solver::Method::BsArapCoarse {
             let vertices = self.session.scene.as_ref().map_or(100_000, |s| s.mesh.n_vertices());
             // The size the solver uses; the manual slider starts from it, within its range.
-            let auto = solver::deform::coarse::CoarseConfig::auto_coarse_vertices(vertices);
+            let auto = solver::BaseConfig::auto_coarse_vertices(vertices);
             let n = vertices.max(64);
             let mut automatic = self.session.settings.base.coarse_vertices.is_none();
             ui.checkbox(&mut automatic, format!("automatic coarse size ({auto})")).on_hover_text(
                 format!(
                     "{}: a coarse level that is a fraction of the mesh",
-                    solver::deform::coarse::CoarseConfig::AUTO_RULE
+                    solver::BaseConfig::AUTO_RULE
                 ),
             );
             let mut count = self.session.settings.base.coarse_vertices.unwrap_or(auto.clamp(64, n));
@@ -340,7 +340,7 @@ impl EditorApp {
             ui.add(
                 egui::Slider::new(
                     &mut self.session.settings.base.fine_iterations,
-                    0..=solver::deform::coarse::MAX_FINE_ITERATIONS,
+                    0..=solver::deform::config::MAX_FINE_ITERATIONS,
                 )
                 .logarithmic(true)
                 .text("fine iterations"),
