@@ -23,7 +23,7 @@ use ::gltf::accessor::{DataType, Dimensions};
 use ::gltf::mesh::Mode;
 use nalgebra::{Matrix4, Vector4};
 
-use super::RawMesh;
+use super::asset::Asset;
 use super::error::Ctx;
 use super::error::LoadError;
 
@@ -55,7 +55,7 @@ const HARMLESS: [&str; 12] = [
 ///
 /// Output: positions (`#V×3 f64`, world space) and triangles (`#F×3 u32`), primitives
 /// concatenated. Errors: one line each, see the module doc.
-pub(crate) fn parse(bytes: &[u8], ctx: Ctx, dir: Option<&Path>) -> Result<RawMesh, LoadError> {
+pub(crate) fn parse(bytes: &[u8], ctx: Ctx, dir: Option<&Path>) -> Result<Asset, LoadError> {
     // Parsed without validation first, so that a required extension this reader cannot decode
     // is named as such (the crate's validation reports it only as "unsupported extension").
     let unchecked = ::gltf::Gltf::from_slice_without_validation(bytes)
@@ -82,7 +82,7 @@ pub(crate) fn parse(bytes: &[u8], ctx: Ctx, dir: Option<&Path>) -> Result<RawMes
     // an accessor has no buffer view (then its data exists only compressed).
     let draco = gltf.document.extensions_used().any(|e| e == "KHR_draco_mesh_compression");
 
-    let mut raw = RawMesh::default();
+    let mut raw = Asset::default();
     let mut visit = |node: ::gltf::Node, world: &Matrix4<f64>| -> Result<(), LoadError> {
         if let Some(mesh) = node.mesh() {
             for prim in mesh.primitives() {
@@ -205,7 +205,7 @@ fn percent_decode(uri: &str) -> String {
 
 /// Appends one primitive's transformed positions and its triangles to `raw`.
 fn append_primitive(
-    raw: &mut RawMesh,
+    raw: &mut Asset,
     prim: &::gltf::Primitive,
     world: &Matrix4<f64>,
     buffers: &[Vec<u8>],

@@ -11,6 +11,7 @@
 //! the file's length could hold. Writers ([`write_obj`], [`write_atomic`]) replace the target
 //! atomically.
 
+pub mod asset;
 mod error;
 mod gltf;
 mod obj;
@@ -22,6 +23,7 @@ mod write;
 
 use std::path::Path;
 
+pub use asset::{Asset, Attribute, Image, Material, Part};
 pub use error::LoadError;
 pub use write::{SaveError, write_atomic, write_obj};
 
@@ -63,8 +65,11 @@ impl Format {
 pub struct LoadedMesh {
     /// The cleaned mesh. Its vertex order is the file's whenever `report.changed()` is false.
     pub mesh: Mesh,
-    /// What cleaning did, and the topology of the result.
+    /// What cleaning did, and the topology of the result; its `vertex_map` maps `asset`'s
+    /// vertices onto `mesh`'s.
     pub report: CleanReport,
+    /// The file's own vertex layout, attributes, parts and materials (see [`asset`]).
+    pub asset: Asset,
 }
 
 /// Loads and cleans the mesh file at `path`, choosing the parser by extension.
@@ -118,7 +123,7 @@ fn parse_and_clean(
     if text::is_blank(bytes) {
         return Err(ctx.truncated(None, "the file is empty"));
     }
-    let raw = match format {
+    let mut raw = match format {
         Format::Obj => obj::parse(bytes, ctx)?,
         Format::Off => off::parse(bytes, ctx)?,
         Format::Ply => ply::parse(bytes, ctx)?,
@@ -131,21 +136,18 @@ fn parse_and_clean(
             raw.positions.len()
         )));
     }
-    let (mesh, report) = clean(raw.positions, raw.triangles).map_err(|e| match e {
+    if raw.parts.is_empty() {
+        raw.parts = vec![Part { count: raw.triangles.len(), ..Part::default() }];
+    }
+    let (mesh, report) = clean(raw.positions.clone(), raw.triangles.clone()).map_err(|e| match e {
         CleanError::NoTriangles { .. } => ctx.no_triangles(e.to_string()),
         CleanError::NonFinite { vertex, value } => ctx.non_finite(None, vertex, value),
         CleanError::IndexOutOfRange { index, .. } => ctx.index(None, index.into(), e.to_string()),
         CleanError::TooManyVertices { .. } => ctx.count(None, e.to_string()),
     })?;
-    Ok(LoadedMesh { mesh, report })
+    Ok(LoadedMesh { mesh, report, asset: raw })
 }
 
-/// What a parser produces: positions in file order and fan-triangulated faces.
-#[derive(Debug, Clone, Default)]
-pub(crate) struct RawMesh {
-    pub positions: Vec<[f64; 3]>,
-    pub triangles: Vec<[u32; 3]>,
-}
 
 /// Appends the fan triangulation `(p0, p_k, p_k+1)` of polygon `poly` (`poly.len() ≥ 3`).
 pub(crate) fn push_fan(triangles: &mut Vec<[u32; 3]>, poly: &[u32]) {

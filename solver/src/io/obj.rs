@@ -17,20 +17,20 @@
 
 use std::collections::HashMap;
 
-use super::RawMesh;
+use super::asset::Asset;
 use super::error::{Ctx, LoadError};
 use super::text::{as_text, coord, token_lines};
 use crate::geometry::cleanup::key;
 
 /// Parses OBJ bytes into file-order positions (`#V×3`) and fan-triangulated faces (`#F×3`).
-pub(crate) fn parse(bytes: &[u8], ctx: Ctx) -> Result<RawMesh, LoadError> {
+pub(crate) fn parse(bytes: &[u8], ctx: Ctx) -> Result<Asset, LoadError> {
     let text = as_text(bytes, ctx)?;
     let checked = validate(text, ctx)?;
     let triangles = match read_with_tobj(text, ctx)? {
         Some(models) => map_back(&models, &checked.positions).unwrap_or(checked.triangles),
         None => checked.triangles,
     };
-    Ok(RawMesh { positions: checked.positions, triangles })
+    Ok(Asset::bare(checked.positions, triangles))
 }
 
 /// What the validation pass found: positions in file order and triangles in file indices.
@@ -229,7 +229,7 @@ fn map_back(models: &[tobj::Model], positions: &[[f64; 3]]) -> Option<Vec<[u32; 
 mod tests {
     use super::*;
 
-    fn parse_str(s: &str) -> Result<RawMesh, LoadError> {
+    fn parse_str(s: &str) -> Result<Asset, LoadError> {
         parse(s.as_bytes(), Ctx { file: "t.obj" })
     }
 

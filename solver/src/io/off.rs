@@ -8,12 +8,12 @@
 //! Known limitations: one vertex or face per line (the common layout, needed for line numbers);
 //! binary OFF and 4D/`nOFF` variants are rejected with a clear error.
 
-use super::RawMesh;
+use super::asset::Asset;
 use super::error::{Ctx, LoadError};
 use super::text::{as_text, capped, coord, integer, token_lines};
 
 /// Parses OFF bytes into positions (`#V×3`, file order) and triangles (`#F×3`).
-pub(crate) fn parse(bytes: &[u8], ctx: Ctx) -> Result<RawMesh, LoadError> {
+pub(crate) fn parse(bytes: &[u8], ctx: Ctx) -> Result<Asset, LoadError> {
     let text = as_text(bytes, ctx)?;
     let mut lines = token_lines(text, Some('#')).peekable();
     let Some((line, toks)) = lines.next() else {
@@ -145,7 +145,7 @@ pub(crate) fn parse(bytes: &[u8], ctx: Ctx) -> Result<RawMesh, LoadError> {
             format!("data after the {n_v} vertices and {n_f} faces the header announces"),
         ));
     }
-    Ok(RawMesh { positions, triangles })
+    Ok(Asset::bare(positions, triangles))
 }
 
 #[cfg(test)]
@@ -153,7 +153,7 @@ pub(crate) fn parse(bytes: &[u8], ctx: Ctx) -> Result<RawMesh, LoadError> {
 mod tests {
     use super::*;
 
-    fn parse_str(s: &str) -> Result<RawMesh, LoadError> {
+    fn parse_str(s: &str) -> Result<Asset, LoadError> {
         parse(s.as_bytes(), Ctx { file: "t.off" })
     }
 

@@ -8,7 +8,7 @@
 //! Known limitations: `tristrips` and other non-`face` connectivity is ignored; in ASCII each
 //! element must be on its own line (as every writer does), which gives line numbers to errors.
 
-use super::RawMesh;
+use super::asset::Asset;
 use super::error::{Ctx, LoadError};
 use super::text::{capped, integer, is_blank};
 
@@ -324,7 +324,7 @@ impl Source for Binary<'_> {
 }
 
 /// Parses PLY bytes into positions (`#V×3`, file order) and triangles (`#F×3`).
-pub(crate) fn parse(bytes: &[u8], ctx: Ctx) -> Result<RawMesh, LoadError> {
+pub(crate) fn parse(bytes: &[u8], ctx: Ctx) -> Result<Asset, LoadError> {
     let header = parse_header(bytes, ctx)?;
     let body = bytes.get(header.body..).unwrap_or_default();
     match header.encoding {
@@ -365,7 +365,7 @@ fn read_body(
     src: &mut dyn Source,
     body_len: usize,
     ctx: Ctx,
-) -> Result<RawMesh, LoadError> {
+) -> Result<Asset, LoadError> {
     let vertex_el = elements.iter().find(|e| e.name == "vertex");
     let Some(vertex_el) = vertex_el else {
         return Err(ctx.parse(None, "the PLY header declares no vertex element"));
@@ -467,7 +467,7 @@ fn read_body(
         }
     }
     src.finish()?;
-    Ok(RawMesh { positions, triangles })
+    Ok(Asset::bare(positions, triangles))
 }
 
 #[cfg(test)]
@@ -475,7 +475,7 @@ fn read_body(
 mod tests {
     use super::*;
 
-    fn parse_bytes(b: &[u8]) -> Result<RawMesh, LoadError> {
+    fn parse_bytes(b: &[u8]) -> Result<Asset, LoadError> {
         parse(b, Ctx { file: "t.ply" })
     }
 

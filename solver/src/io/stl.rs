@@ -11,12 +11,12 @@
 //! Known limitations: stored normals and attributes are ignored; `f32` coordinates are converted
 //! to `f64` exactly.
 
-use super::RawMesh;
+use super::asset::Asset;
 use super::error::{Ctx, LoadError};
 use super::text::{as_text, coord, token_lines};
 
 /// Parses STL bytes into soup positions (`3·#F×3`) and triangles (`#F×3`).
-pub(crate) fn parse(bytes: &[u8], ctx: Ctx) -> Result<RawMesh, LoadError> {
+pub(crate) fn parse(bytes: &[u8], ctx: Ctx) -> Result<Asset, LoadError> {
     let claimed = bytes
         .get(80..84)
         .and_then(|b| <[u8; 4]>::try_from(b).ok())
@@ -47,7 +47,7 @@ pub(crate) fn parse(bytes: &[u8], ctx: Ctx) -> Result<RawMesh, LoadError> {
     }
 }
 
-fn binary(bytes: &[u8], n: u64, ctx: Ctx) -> Result<RawMesh, LoadError> {
+fn binary(bytes: &[u8], n: u64, ctx: Ctx) -> Result<Asset, LoadError> {
     let records = bytes.get(84..).unwrap_or_default();
     let mut positions = Vec::with_capacity(3 * n as usize);
     let mut triangles = Vec::with_capacity(n as usize);
@@ -74,7 +74,7 @@ fn binary(bytes: &[u8], n: u64, ctx: Ctx) -> Result<RawMesh, LoadError> {
         let v = 3 * t as u32;
         triangles.push([v, v + 1, v + 2]);
     }
-    Ok(RawMesh { positions, triangles })
+    Ok(Asset::bare(positions, triangles))
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -91,7 +91,7 @@ enum State {
     EndLoop,
 }
 
-fn ascii(bytes: &[u8], ctx: Ctx) -> Result<RawMesh, LoadError> {
+fn ascii(bytes: &[u8], ctx: Ctx) -> Result<Asset, LoadError> {
     let text = as_text(bytes, ctx)?;
     if text.len() as u64 > u32::MAX as u64 * 8 {
         return Err(ctx.count(None, "ASCII STL too large"));
@@ -166,7 +166,7 @@ fn ascii(bytes: &[u8], ctx: Ctx) -> Result<RawMesh, LoadError> {
     if state != State::Outside {
         return Err(ctx.truncated(Some(last_line), "the file ends before \"endsolid\""));
     }
-    Ok(RawMesh { positions, triangles })
+    Ok(Asset::bare(positions, triangles))
 }
 
 #[cfg(test)]
@@ -174,7 +174,7 @@ fn ascii(bytes: &[u8], ctx: Ctx) -> Result<RawMesh, LoadError> {
 mod tests {
     use super::*;
 
-    fn parse_bytes(b: &[u8]) -> Result<RawMesh, LoadError> {
+    fn parse_bytes(b: &[u8]) -> Result<Asset, LoadError> {
         parse(b, Ctx { file: "t.stl" })
     }
 

@@ -1,0 +1,136 @@
+//! The user's asset as the file stores it: its own vertex layout, surface attributes, parts,
+//! materials and textures, kept beside the cleaned [`crate::geometry::mesh::Mesh`] the solver
+//! works on so that every output can be written back onto the file's vertices.
+//!
+//! **Layout.** `positions` are the file's vertices in the file's order (OBJ: the `v` lines;
+//! glTF: each primitive's vertices, primitives concatenated in scene order; PLY/OFF/STL: the
+//! file's vertices). Cleaning welds them into the solver's surface and records the map
+//! `CleanReport::vertex_map` (file vertex → mesh vertex). A pose $x$ of the mesh becomes a
+//! pose of the layout by $p_i = x_{\mathrm{map}(i)}$ ([`Asset::layout_positions`]); a file
+//! vertex that cleaning dropped (unreferenced) keeps its rest position. Vertices split at a UV
+//! seam or a hard normal edge map to the same mesh vertex, so seams never open.
+//!
+//! **Attributes** are indexed per triangle corner, as OBJ and FBX store them: an
+//! [`Attribute`] holds its distinct values and, for every triangle of [`Asset::triangles`],
+//! the three value indices of its corners. glTF stores one value per vertex, so there the
+//! corner indices equal the position indices. A hard edge is two corners at one position with
+//! different normal indices; deformed normals are recomputed per normal index
+//! ([`crate::geometry::normals`]), so hard edges stay hard.
+//!
+//! **Parts** are runs of triangles with one material and a name (OBJ objects/groups split by
+//! `usemtl`, glTF primitives with their mesh and node names), written back as they came.
+
+/// One corner-indexed surface attribute: `values` (`#values×N`) and the value index of each
+/// corner of each triangle (`#F×3`, parallel to [`Asset::triangles`]).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Attribute<const N: usize> {
+    pub values: Vec<[f32; N]>,
+    pub corners: Vec<[u32; 3]>,
+}
+
+impl<const N: usize> Attribute<N> {
+    /// An attribute stored per vertex (glTF): corner indices equal the position indices.
+    pub fn per_vertex(values: Vec<[f32; N]>, triangles: &[[u32; 3]]) -> Attribute<N> {
+        Attribute { values, corners: triangles.to_vec() }
+    }
+}
+
+/// A run of triangles drawn with one material, as the file named it.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Part {
+    /// The mesh's (glTF) or object/group's (OBJ) name; empty when the file has none.
+    pub name: String,
+    /// The glTF node that instances it (empty for other formats).
+    pub node: String,
+    /// Index into [`Asset::materials`], `None`: the default material.
+    pub material: Option<usize>,
+    /// Triangles `first..first + count` of [`Asset::triangles`].
+    pub first: usize,
+    pub count: usize,
+}
+
+/// A metallic-roughness material: what viewers draw, and what a round trip keeps.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Material {
+    pub name: String,
+    /// Linear RGBA factor (glTF `baseColorFactor`; OBJ/MTL `Kd` and `d`).
+    pub base_color: [f32; 4],
+    /// Index into [`Asset::images`] of the base-colour texture (glTF `baseColorTexture`; MTL
+    /// `map_Kd`), sampled with UV set `base_color_uv` (0 or 1).
+    pub base_color_texture: Option<usize>,
+    pub base_color_uv: u32,
+    pub metallic: f32,
+    pub roughness: f32,
+    pub double_sided: bool,
+    /// glTF `alphaMode` (`"OPAQUE"`, `"MASK"`, `"BLEND"`).
+    pub alpha_mode: String,
+}
+
+impl Default for Material {
+    fn default() -> Material {
+        Material {
+            name: String::new(),
+            base_color: [1.0; 4],
+            base_color_texture: None,
+            base_color_uv: 0,
+            metallic: 0.0,
+            roughness: 1.0,
+            double_sided: false,
+            alpha_mode: "OPAQUE".to_string(),
+        }
+    }
+}
+
+/// An encoded image (PNG or JPEG bytes, as the file held them; never decoded to be written).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Image {
+    /// The file name it came from or the glTF image's name.
+    pub name: String,
+    /// `"image/png"` or `"image/jpeg"`.
+    pub mime_type: String,
+    pub bytes: Vec<u8>,
+}
+
+/// A mesh file's vertex layout and surface attributes; see the module doc.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Asset {
+    /// File vertices in file order (`#N×3`; glTF: node transforms applied).
+    pub positions: Vec<[f64; 3]>,
+    /// All triangles in file order (`#F×3` indices into `positions`), polygons fan-triangulated,
+    /// before cleaning (degenerate ones included).
+    pub triangles: Vec<[u32; 3]>,
+    pub normals: Option<Attribute<3>>,
+    /// Texture coordinate sets 0 and 1 (glTF `TEXCOORD_n` convention: v down from the top).
+    pub uvs: Vec<Attribute<2>>,
+    /// Linear RGBA vertex colours.
+    pub colors: Option<Attribute<4>>,
+    /// Covers `triangles` in order; one part when the file has no grouping.
+    pub parts: Vec<Part>,
+    pub materials: Vec<Material>,
+    pub images: Vec<Image>,
+}
+
+impl Asset {
+    /// A bare asset (no attributes, one unnamed part) over positions and triangles.
+    pub fn bare(positions: Vec<[f64; 3]>, triangles: Vec<[u32; 3]>) -> Asset {
+        let count = triangles.len();
+        Asset {
+            positions,
+            triangles,
+            parts: vec![Part { count, ..Part::default() }],
+            ..Asset::default()
+        }
+    }
+
+    /// The pose of the file's vertices for a pose `x` of the cleaned mesh:
+    /// $p_i = x_{\mathrm{map}(i)}$, rest position where cleaning dropped the vertex.
+    /// `vertex_map` is `CleanReport::vertex_map` (one entry per file vertex).
+    pub fn layout_positions(&self, vertex_map: &[Option<u32>], x: &[[f64; 3]]) -> Vec<[f64; 3]> {
+        debug_assert_eq!(vertex_map.len(), self.positions.len());
+        vertex_map
+            .iter()
+            .zip(&self.positions)
+            .map(|(m, &rest)| m.map_or(rest, |v| x[v as usize]))
+            .collect()
+    }
+}
