@@ -92,12 +92,12 @@ pub struct BenchArgs {
     #[arg(long, default_value_t = 20)]
     pub frames: usize,
     /// Relative-decrease tolerance (`--stop relative`).
-    #[arg(long, default_value_t = 1e-4)]
+    #[arg(long, default_value_t = solver::deform::arap::DEFAULT_TOLERANCE)]
     pub tol: f64,
     /// Normalized-energy threshold in (0, 1) (`--stop threshold`).
     #[arg(long, default_value_t = 0.01)]
     pub threshold: f64,
-    #[arg(long, default_value_t = 100)]
+    #[arg(long, default_value_t = solver::deform::arap::DEFAULT_MAX_ITERATIONS)]
     pub max_iters: usize,
     #[arg(long, value_enum, default_value = "relative")]
     pub stop: StopRule,

@@ -27,9 +27,9 @@ pub struct DeformArgs {
     #[arg(long, value_enum, default_value = "spokes-and-rims")]
     pub energy: EnergyArg,
     /// Stop when the relative energy decrease falls below this; 0 runs exactly --max-iters.
-    #[arg(long, default_value_t = 1e-4, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = solver::deform::arap::DEFAULT_TOLERANCE, allow_negative_numbers = true)]
     pub tol: f64,
-    #[arg(long, default_value_t = 100)]
+    #[arg(long, default_value_t = solver::deform::arap::DEFAULT_MAX_ITERATIONS)]
     pub max_iters: usize,
     /// Anderson acceleration of the local-global iterations with this window (0: off).
     #[arg(long, default_value_t = 0)]

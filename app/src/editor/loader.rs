@@ -2,7 +2,7 @@
 //!
 //! [`spawn_load`] runs on a worker thread: read + clean the file, build everything the editor
 //! derives from the topology once (adjacency, BVH, index buffers, grid), then hand back a
-//! [`Scene`] over a channel that the UI polls without blocking. A failure comes back as an
+//! [`LoadedFile`] over a channel that the UI polls without blocking. A failure comes back as an
 //! error string; the UI keeps the current scene. Reading and cleaning are `solver::io`'s;
 //! selections are `solver::deform::selection`'s; scene files (`.json`) are `solver::animation::scene`'s: the
 //! mesh they name is loaded and their handles resolved here, the rest is applied by the UI.
@@ -21,7 +21,7 @@ use super::renderer::{Shape, Topology, VertexData, build_grid};
 use solver::geometry::topology::Adjacency;
 
 /// A loaded mesh with everything derived from its topology.
-pub struct Scene {
+pub struct LoadedFile {
     pub path: PathBuf,
     pub mesh: Arc<Mesh>,
     /// Cleaning notices to show in the status bar.
@@ -52,7 +52,7 @@ pub fn is_scene_file(path: &Path) -> bool {
 pub struct LoadJob {
     pub path: PathBuf,
     pub since: Instant,
-    pub rx: Receiver<Result<Scene, String>>,
+    pub rx: Receiver<Result<LoadedFile, String>>,
 }
 
 /// Starts loading `path`; `version` tags the topology for the renderer.
@@ -78,7 +78,7 @@ pub fn spawn_load(path: PathBuf, version: u64, repaint: impl Fn() + Send + 'stat
 }
 
 /// Reads and prepares a scene (runs on the loader thread).
-pub fn load_scene(path: &Path, version: u64) -> anyhow::Result<Scene> {
+pub fn load_scene(path: &Path, version: u64) -> anyhow::Result<LoadedFile> {
     let loaded = solver::io::load_mesh(path)?;
     let mesh = loaded.mesh;
     let mut notices = loaded.report.notices();
@@ -111,7 +111,7 @@ pub fn load_scene(path: &Path, version: u64) -> anyhow::Result<Scene> {
             }
         }
     }
-    Ok(Scene {
+    Ok(LoadedFile {
         path: path.to_path_buf(),
         mesh: Arc::new(mesh),
         notices,
@@ -130,7 +130,7 @@ pub fn load_scene(path: &Path, version: u64) -> anyhow::Result<Scene> {
 }
 
 /// Reads a scene file, loads its mesh and resolves its handles (runs on the loader thread).
-pub fn load_scene_file(path: &Path, version: u64) -> anyhow::Result<Scene> {
+pub fn load_scene_file(path: &Path, version: u64) -> anyhow::Result<LoadedFile> {
     let doc = solver::animation::scene::Scene::read(path)?;
     let mesh_path = solver::animation::scene::Scene::resolve_path(path, &doc.mesh);
     let mut scene = load_scene(&mesh_path, version)

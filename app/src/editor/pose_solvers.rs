@@ -3,9 +3,9 @@
 
 use std::sync::Arc;
 
-use solver::{Handles, Mesh};
+use solver::{FrameStats, Handles, Mesh};
 
-use super::solver_thread::{FrameStats, MethodSettings, PoseSolver, PoseSolverFactory, Slot};
+use super::solver_thread::{MethodSettings, PoseSolver, PoseSolverFactory, Slot};
 
 /// The factory used by the editor: the main slot runs `settings.bs_variant`, the comparison
 /// slot `settings.compare_variant` (ARAP by default).
@@ -35,23 +35,10 @@ pub fn label(m: solver::Method) -> &'static str {
 struct DeformerPoseSolver(solver::Deformer);
 
 impl DeformerPoseSolver {
-    /// The result into `x` and the frame's statistics (a settle step has no coarse iteration:
-    /// its time per iteration is the fine iterations').
+    /// The result into `x` and the frame's statistics.
     fn frame(&self, stats: &solver::SolveStats, x: &mut [[f64; 3]]) -> FrameStats {
         x.copy_from_slice(self.0.positions());
-        let ms_per_iteration = if stats.iterations > 0 {
-            stats.ms_per_iteration()
-        } else {
-            stats.fine_ms / stats.fine_iterations.max(1) as f64
-        };
-        FrameStats {
-            iterations: stats.iterations,
-            energy: stats.energy(),
-            ms_per_iteration,
-            converged: stats.done(),
-            fine_iterations: stats.fine_iterations,
-            fine_energy: (stats.fine_iterations > 0).then_some(stats.fine_energy),
-        }
+        stats.frame_stats()
     }
 }
 

@@ -12,7 +12,7 @@ use std::ops::ControlFlow;
 use thiserror::Error;
 
 use crate::animation::timeline::{AnimationError, Timeline};
-use crate::deform::arap::ArapConfig;
+use crate::deform::arap::{ArapConfig, FrameStats};
 use crate::deform::deformer::Deformer;
 use crate::deform::handles::{Handles, HandlesError};
 use crate::deform::pose::handle_targets;
@@ -35,19 +35,6 @@ pub enum RecordError {
     },
     #[error("recording cancelled after {done} of {total} frames")]
     Cancelled { done: usize, total: usize },
-}
-
-/// What the solver did for one frame.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
-pub struct FrameStats {
-    /// Local-global iterations.
-    pub iterations: usize,
-    /// Whether the tolerance was met before the cap.
-    pub converged: bool,
-    /// Final ARAP energy.
-    pub energy: f64,
-    /// Milliseconds of the solve.
-    pub ms: f64,
 }
 
 /// Recorded frames: `frames[i]` (`#V×3`) is the pose at `times[i]` seconds.
@@ -119,12 +106,7 @@ pub fn record(
             });
         }
         frames.push(positions.to_vec());
-        stats.push(FrameStats {
-            iterations: s.iterations,
-            converged: s.converged,
-            energy: s.energy(),
-            ms: s.total_ms(),
-        });
+        stats.push(s.frame_stats());
         if progress(frame + 1, n_frames).is_break() && frame + 1 < n_frames {
             return Err(RecordError::Cancelled { done: frame + 1, total: n_frames });
         }

@@ -9,7 +9,7 @@ pub const MAX_FINE_ITERATIONS: usize = 1000;
 pub const COARSE_VERTICES: std::ops::RangeInclusive<usize> = 16..=10_000_000;
 
 /// Settings of the base surface for the BS-ARAP variants: the faired base
-/// ([`crate::Method::BsArapFaired`]) and the coarse base ([`crate::Method::BsArapCoarse`],
+/// ([`crate::deform::deformer::Method::BsArapFaired`]) and the coarse base ([`crate::deform::deformer::Method::BsArapCoarse`],
 /// [`crate::deform::coarse::CoarseBsArap`]).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default)]
@@ -22,7 +22,7 @@ pub struct BaseConfig {
     /// ARAP iterations on the full mesh after each coarse solve, started from the prolonged
     /// result (0: none).
     pub fine_iterations: usize,
-    /// ARAP iterations on the full mesh per [`crate::Deformer::settle`] step, the refinement
+    /// ARAP iterations on the full mesh per [`crate::deform::deformer::Deformer::settle`] step, the refinement
     /// of a pose whose handles have stopped (0: off). With `fine_iterations` also 0 the coarse
     /// variant factors no ARAP on the full mesh. An interactive setting: not saved in scenes
     /// (read as 0).

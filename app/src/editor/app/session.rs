@@ -10,7 +10,7 @@ use eframe::egui::{self, Vec2};
 
 use super::{DialogKind, EditorApp, file_name};
 use crate::editor::document::{self, DocumentInput};
-use crate::editor::loader::{self, Scene};
+use crate::editor::loader::{self, LoadedFile};
 use crate::editor::persist::{self, AUTOSAVE_INTERVAL, Persist, Snapshot};
 use crate::editor::solver_thread::MethodSettings;
 use crate::editor::timeline::Playback;
@@ -22,7 +22,7 @@ const SNAPSHOT_INTERVAL: Duration = Duration::from_secs(5);
 /// The open document: what a scene file holds, plus the undo history.
 #[derive(Default)]
 pub(super) struct Session {
-    pub(super) scene: Option<Scene>,
+    pub(super) scene: Option<LoadedFile>,
     pub(super) edit: EditState,
     pub(super) history: History,
     pub(super) settings: MethodSettings,

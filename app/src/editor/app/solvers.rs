@@ -205,7 +205,7 @@ impl EditorApp {
         }
         let settled = |f: Option<&SolvedFrame>| {
             f.filter(|f| {
-                f.pose_generation == key.1 && f.scene_generation == key.0 && f.stats.converged
+                f.pose_generation == key.1 && f.scene_generation == key.0 && f.stats.done
             })
             .map(|f| f.positions.clone())
         };

@@ -27,7 +27,7 @@ use std::thread::JoinHandle;
 
 pub use mailbox::Mailbox;
 pub use protocol::{
-    ANDERSON_WINDOW, FrameStats, MethodSettings, PoseSolver, PoseSolverFactory, Slot, SolvedFrame,
+    ANDERSON_WINDOW, MethodSettings, PoseSolver, PoseSolverFactory, Slot, SolvedFrame,
     SolverCommand, SolverState, SolverStatus,
 };
 use worker::{Shared, set_status, supervise};

@@ -5,7 +5,7 @@
 use std::sync::Arc;
 use std::time::Instant;
 
-use solver::{Handles, Mesh};
+use solver::{FrameStats, Handles, Mesh};
 
 use crate::editor::pose::GroupPose;
 use crate::editor::renderer::Shape;
@@ -86,21 +86,6 @@ impl Slot {
             Slot::Main => "BS-ARAP",
         }
     }
-}
-
-/// What one `solve` call did.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct FrameStats {
-    pub iterations: usize,
-    pub energy: f64,
-    pub ms_per_iteration: f64,
-    pub converged: bool,
-    /// ARAP iterations on the full mesh in this frame (the coarse BS-ARAP's fine or settle
-    /// iterations).
-    pub fine_iterations: usize,
-    /// The ARAP energy on the full mesh after those iterations (`None` without them; `energy`
-    /// is then the only one).
-    pub fine_energy: Option<f64>,
 }
 
 /// What a solver thread runs: a deformation method for one mesh and handle set, with its

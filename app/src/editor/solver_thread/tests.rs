@@ -5,7 +5,7 @@
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use solver::{Handles, Mesh};
+use solver::{FrameStats, Handles, Mesh};
 
 use super::worker::SETTLE_DELAY;
 use super::*;
@@ -31,8 +31,10 @@ impl PoseSolver for Shift {
         Ok(FrameStats {
             iterations: 1,
             energy: 0.0,
+            ms: 0.0,
             ms_per_iteration: 0.0,
             converged: true,
+            done: true,
             fine_iterations: 0,
             fine_energy: None,
         })
@@ -126,7 +128,7 @@ impl PoseSolver for Settles {
         self.steps += 1;
         x[1][0] += 0.5;
         let converged = self.steps == 3;
-        Ok(Some(FrameStats { fine_iterations: self.steps, converged, ..FrameStats::default() }))
+        Ok(Some(FrameStats { fine_iterations: self.steps, done: converged, ..FrameStats::default() }))
     }
 }
 
@@ -143,7 +145,7 @@ fn converged_poses_are_settled_until_converged() {
     h.send(scene(1, vec![GroupPose::default()]));
     let f = wait_frame(&h, |f| f.stats.fine_iterations == 3);
     assert_eq!(f.positions[1], [2.5, 0.0, 0.0]);
-    assert!(f.stats.converged, "the last settle step's frame is the converged one");
+    assert!(f.stats.done, "the last settle step's frame is the converged one");
     let start = Instant::now();
     while h.try_status().is_none_or(|s| s.state != SolverState::Converged) {
         assert!(start.elapsed() < Duration::from_secs(10), "did not end converged");

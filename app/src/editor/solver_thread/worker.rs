@@ -10,12 +10,12 @@ use std::sync::mpsc::{Receiver, RecvTimeoutError, TryRecvError};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use solver::{Handles, Mesh};
+use solver::{FrameStats, Handles, Mesh};
 
 use super::mailbox::Mailbox;
 use super::protocol::{
-    FrameStats, MethodSettings, PoseSolver, PoseSolverFactory, Slot, SolvedFrame, SolverCommand,
-    SolverState, SolverStatus,
+    MethodSettings, PoseSolver, PoseSolverFactory, Slot, SolvedFrame, SolverCommand, SolverState,
+    SolverStatus,
 };
 use crate::editor::pose::GroupPose;
 use crate::editor::renderer::Shape;
@@ -139,19 +139,18 @@ impl Active {
             self.fps = if self.fps == 0.0 { 1.0 / dt } else { 0.8 * self.fps + 0.2 / dt };
         }
         self.last_frame = Some(now);
-        if solving && (stats.converged || stats.iterations == 0) {
+        if solving && (stats.done || stats.iterations == 0) {
             self.dirty = false;
             self.settling = self.pose_solver.settle_pending();
             self.settle_steps = 0;
         } else if !solving {
             self.settle_steps += 1;
-            if stats.converged || self.settle_steps >= MAX_SETTLE_STEPS {
+            if stats.done || self.settle_steps >= MAX_SETTLE_STEPS {
                 self.settling = false;
             }
         }
-        // A frame counts as converged only when nothing more will be done at this pose.
-        let stats =
-            FrameStats { converged: stats.converged && !self.dirty && !self.settling, ..stats };
+        // A frame is done only when nothing more will be done at this pose.
+        let stats = FrameStats { done: stats.done && !self.dirty && !self.settling, ..stats };
         self.last_stats = stats;
         if !self.dirty && !self.settling {
             self.last_frame = None;
@@ -319,7 +318,7 @@ fn step(a: &mut Active, solving: bool) -> Result<FrameStats, String> {
     } else {
         a.pose_solver.settle(&targets, &mut a.x)?
     };
-    Ok(stats.unwrap_or(FrameStats { converged: true, ..a.last_stats }))
+    Ok(stats.unwrap_or(FrameStats { done: true, ..a.last_stats }))
 }
 
 /// Puts the frame of the current pose in the mailbox, updates the status and asks for a

@@ -1,6 +1,13 @@
 //! The settings of the local-global iteration ([`ArapConfig`]: cell type, stopping rule,
 //! acceleration) and the statistics one solve reports ([`SolveStats`]).
 
+/// The default relative-decrease tolerance of a solve ([`ArapConfig::tolerance`]); the CLI,
+/// scenes and the editor start from it.
+pub const DEFAULT_TOLERANCE: f64 = 1e-4;
+
+/// The default iteration cap of a solve ([`ArapConfig::max_iterations`]).
+pub const DEFAULT_MAX_ITERATIONS: usize = 100;
+
 /// Anderson window of [`Arap::refine`].
 pub const REFINE_ANDERSON_WINDOW: usize = 5;
 
@@ -52,8 +59,8 @@ impl Default for ArapConfig {
     fn default() -> Self {
         ArapConfig {
             energy: Energy::SpokesAndRims,
-            tolerance: 1e-4,
-            max_iterations: 100,
+            tolerance: DEFAULT_TOLERANCE,
+            max_iterations: DEFAULT_MAX_ITERATIONS,
             acceleration: Acceleration::None,
             energy_threshold: 0.0,
         }
@@ -122,4 +129,48 @@ impl SolveStats {
     pub fn ms_per_iteration(&self) -> f64 {
         (self.total_ms() - self.fine_ms) / self.iterations.max(1) as f64
     }
+
+    /// The one-frame summary a recording keeps and the editor shows.
+    pub fn frame_stats(&self) -> FrameStats {
+        FrameStats {
+            iterations: self.iterations,
+            converged: self.converged,
+            done: self.done(),
+            energy: self.energy(),
+            ms: self.total_ms(),
+            // A settle step has no coarse iteration: its time per iteration is the fine ones'.
+            ms_per_iteration: if self.iterations > 0 {
+                self.ms_per_iteration()
+            } else {
+                self.fine_ms / self.fine_iterations.max(1) as f64
+            },
+            fine_iterations: self.fine_iterations,
+            fine_energy: (self.fine_iterations > 0).then_some(self.fine_energy),
+        }
+    }
+}
+
+/// What one frame's solve did, in short ([`SolveStats::frame_stats`]): kept per frame by a
+/// recording, shown per viewport by the editor.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct FrameStats {
+    /// Local-global iterations (for the coarse variant, on the coarse level).
+    pub iterations: usize,
+    /// The solve met its tolerance before the iteration cap ([`SolveStats::converged`]).
+    pub converged: bool,
+    /// Nothing more to do at these targets ([`SolveStats::done`]): also the fine iterations
+    /// after a coarse solve stopped lowering the energy.
+    pub done: bool,
+    /// The final ARAP energy ([`SolveStats::energy`]).
+    pub energy: f64,
+    /// Milliseconds of the solve, fine iterations included.
+    pub ms: f64,
+    /// Milliseconds per iteration (the fine iterations' when there was no coarse one).
+    pub ms_per_iteration: f64,
+    /// ARAP iterations on the full mesh in this frame (the coarse BS-ARAP's fine or settle
+    /// iterations).
+    pub fine_iterations: usize,
+    /// The ARAP energy on the full mesh after those iterations (`None` without them; `energy`
+    /// is then the only one).
+    pub fine_energy: Option<f64>,
 }

@@ -53,7 +53,10 @@ mod precompute;
 #[cfg(test)]
 mod tests;
 
-pub use config::{Acceleration, ArapConfig, Energy, REFINE_ANDERSON_WINDOW, SolveStats};
+pub use config::{
+    Acceleration, ArapConfig, DEFAULT_MAX_ITERATIONS, DEFAULT_TOLERANCE, Energy, FrameStats,
+    REFINE_ANDERSON_WINDOW, SolveStats,
+};
 
 use crate::deform::constraints::Constraints;
 use crate::geometry::reorder::VertexOrder;
