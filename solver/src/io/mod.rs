@@ -20,12 +20,14 @@ mod ply;
 mod stl;
 mod text;
 mod write;
+mod write_plain;
 
 use std::path::Path;
 
 pub use asset::{Asset, Attribute, Image, Material, Part};
 pub use error::LoadError;
 pub use write::{SaveError, write_atomic, write_obj};
+pub use write_plain::{write_off, write_ply};
 
 use crate::geometry::cleanup::{CleanError, CleanReport, clean};
 use crate::geometry::mesh::Mesh;
@@ -139,15 +141,17 @@ fn parse_and_clean(
     if raw.parts.is_empty() {
         raw.parts = vec![Part { count: raw.triangles.len(), ..Part::default() }];
     }
-    let (mesh, report) = clean(raw.positions.clone(), raw.triangles.clone()).map_err(|e| match e {
-        CleanError::NoTriangles { .. } => ctx.no_triangles(e.to_string()),
-        CleanError::NonFinite { vertex, value } => ctx.non_finite(None, vertex, value),
-        CleanError::IndexOutOfRange { index, .. } => ctx.index(None, index.into(), e.to_string()),
-        CleanError::TooManyVertices { .. } => ctx.count(None, e.to_string()),
-    })?;
+    let (mesh, report) =
+        clean(raw.positions.clone(), raw.triangles.clone()).map_err(|e| match e {
+            CleanError::NoTriangles { .. } => ctx.no_triangles(e.to_string()),
+            CleanError::NonFinite { vertex, value } => ctx.non_finite(None, vertex, value),
+            CleanError::IndexOutOfRange { index, .. } => {
+                ctx.index(None, index.into(), e.to_string())
+            }
+            CleanError::TooManyVertices { .. } => ctx.count(None, e.to_string()),
+        })?;
     Ok(LoadedMesh { mesh, report, asset: raw })
 }
-
 
 /// Appends the fan triangulation `(p0, p_k, p_k+1)` of polygon `poly` (`poly.len() ≥ 3`).
 pub(crate) fn push_fan(triangles: &mut Vec<[u32; 3]>, poly: &[u32]) {

@@ -44,18 +44,7 @@ pub fn write_obj(
     positions: &[[f64; 3]],
     triangles: &[[u32; 3]],
 ) -> Result<(), SaveError> {
-    let file = path.display().to_string();
-    for (vertex, p) in positions.iter().enumerate() {
-        if let Some(&value) = p.iter().find(|c| !c.is_finite()) {
-            return Err(SaveError::NonFinite { file, vertex, value });
-        }
-    }
-    let n_vertices = positions.len();
-    for (face, t) in triangles.iter().enumerate() {
-        if let Some(&index) = t.iter().find(|&&i| i as usize >= n_vertices) {
-            return Err(SaveError::IndexOutOfRange { file, face, index, n_vertices });
-        }
-    }
+    check_mesh(path, positions, triangles)?;
     let mut text = String::with_capacity(40 * positions.len() + 24 * triangles.len());
     for p in positions {
         // Writing into a String cannot fail.
@@ -65,6 +54,28 @@ pub fn write_obj(
         let _ = writeln!(text, "f {} {} {}", t[0] + 1, t[1] + 1, t[2] + 1);
     }
     write_atomic(path, text.as_bytes())
+}
+
+/// The checks every mesh writer makes before it touches the disk: finite coordinates
+/// ([`SaveError::NonFinite`]) and triangle indices in range ([`SaveError::IndexOutOfRange`]).
+pub(crate) fn check_mesh(
+    path: &Path,
+    positions: &[[f64; 3]],
+    triangles: &[[u32; 3]],
+) -> Result<(), SaveError> {
+    let file = || path.display().to_string();
+    for (vertex, p) in positions.iter().enumerate() {
+        if let Some(&value) = p.iter().find(|c| !c.is_finite()) {
+            return Err(SaveError::NonFinite { file: file(), vertex, value });
+        }
+    }
+    let n_vertices = positions.len();
+    for (face, t) in triangles.iter().enumerate() {
+        if let Some(&index) = t.iter().find(|&&i| i as usize >= n_vertices) {
+            return Err(SaveError::IndexOutOfRange { file: file(), face, index, n_vertices });
+        }
+    }
+    Ok(())
 }
 
 /// Writes `bytes` to `path` atomically: temporary file in the same folder, `fsync`, rename.
