@@ -7,7 +7,7 @@ The report (one JSON object on the last line of stdout, prefixed by "REPORT "):
 - "meshes": one entry per mesh object, sorted by name:
   - "name", "vertices", "faces", "uv_layers" (names);
   - "materials": [{"name", "image_texture": an Image Texture node has an image,
-    "image_size": [w, h] of the first such image (0, 0 when none)}];
+    "image_size": [w, h] of the first such image in pixels (0, 0 when none or unreadable)}];
   - "shape_keys": the number of shape keys besides the basis;
   - "action": name of the action animating the shape keys or the object (null when none);
   - "keyframes": frame numbers of the first animated channel's keys (shape-key channels first);
@@ -59,7 +59,7 @@ def material_report(mat):
     for node in mat.node_tree.nodes:
         if node.type == "TEX_IMAGE" and node.image is not None:
             w, h = node.image.size
-            entry["image_texture"] = w > 0 and h > 0
+            entry["image_texture"] = True
             entry["image_size"] = [w, h]
             break
     return entry

@@ -10,7 +10,7 @@ Writes into OUT_DIR:
 - head.glb                     (glTF binary, texture embedded as PNG)
 - head.obj, head.mtl, skin.png (OBJ with materials; path mode "copy" puts the texture beside)
 - source/skin.png              (the generated texture as authored)
-and prints one JSON line describing what was written (objects, vertex and face counts).
+and prints one line "REPORT {json}" describing what was written (objects, vertex and face counts).
 
 Nothing is downloaded: the geometry and the texture pixels are generated here.
 """
@@ -131,7 +131,7 @@ def main():
             for o in objects
         ],
     }
-    print(json.dumps(report))
+    print("REPORT " + json.dumps(report))
 
 
 if __name__ == "__main__":
