@@ -1,0 +1,348 @@
+//! Our exported glTF opened in the clients users open it in: Blender (the `bpy` module, run by
+//! tools/blender/check_gltf.py) and three.js (GLTFLoader + AnimationMixer in headless Chromium,
+//! run by tools/threejs-check/check.mjs). Also the asset pipeline's test asset, authored in
+//! Blender by tools/blender/make_asset.py, read back by `solver::io::load_mesh`.
+//!
+//! The tools are installed by .ci/run (see ARCHITECTURE.md, "Tests with real clients"). A test
+//! whose tool is not installed prints "skipped: ..." and passes; a tool that is installed but
+//! cannot start (bpy does not import, the browser does not launch) fails the test under CI=true
+//! and is skipped elsewhere; a client that runs and rejects our file always fails the test.
+#![allow(clippy::unwrap_used)]
+
+use std::ops::ControlFlow;
+use std::path::{Path as FsPath, PathBuf};
+use std::process::Command;
+
+use serde_json::Value;
+use solver::animation::export::export_gltf;
+use solver::animation::recording::{Recording, record};
+use solver::animation::timeline::{CircularPath, GroupPath, Path, Timeline};
+use solver::testing::ScratchDir;
+use solver::{ArapConfig, Deformer, Mesh, Method};
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+/// A tool that is installed but does not run: an error under CI (.ci/run installed it), a
+/// skip note elsewhere. Returns `None` for the caller to return.
+fn broken_tool<T>(what: &str) -> Option<T> {
+    if std::env::var("CI").is_ok_and(|v| v == "true") {
+        panic!("{what} (installed by .ci/run, so this is an error under CI=true)");
+    }
+    println!("skipped: {what}");
+    None
+}
+
+/// The Python of the venv that has `bpy` (tools/blender/.venv, or $BSARAP_BPY_PYTHON), checked
+/// to import it; `None` with a printed note when it is missing or broken.
+fn blender_python() -> Option<PathBuf> {
+    let python = std::env::var_os("BSARAP_BPY_PYTHON")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| root().join("tools/blender/.venv/bin/python"));
+    if !python.exists() {
+        println!(
+            "skipped: Blender's bpy not installed ({} missing; .ci/run installs it)",
+            python.display()
+        );
+        return None;
+    }
+    match Command::new(&python).args(["-c", "import bpy"]).output() {
+        Ok(o) if o.status.success() => Some(python),
+        Ok(o) => broken_tool(&format!(
+            "`import bpy` fails in {}: {}",
+            python.display(),
+            String::from_utf8_lossy(&o.stderr).trim()
+        )),
+        Err(e) => broken_tool(&format!("cannot run {}: {e}", python.display())),
+    }
+}
+
+/// Runs a Blender script with arguments and returns the JSON object printed on its line that
+/// starts with `prefix` (Blender prints its own log lines around it).
+fn run_blender(python: &FsPath, script: &str, args: &[&FsPath], prefix: &str) -> Value {
+    let out = Command::new(python)
+        .arg(root().join("tools/blender").join(script))
+        .args(args)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{script} failed ({}):\n{stdout}\n{}",
+        out.status,
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let line = stdout
+        .lines()
+        .rev()
+        .find_map(|l| l.strip_prefix(prefix))
+        .unwrap_or_else(|| panic!("{script} printed no report line:\n{stdout}"));
+    serde_json::from_str(line).unwrap()
+}
+
+/// Runs tools/threejs-check/check.mjs on `file` with `args`; `None` with a printed note when
+/// the package, node or the browser is missing.
+fn threejs_check(file: &FsPath, args: &[&str]) -> Option<Value> {
+    let tool = root().join("tools/threejs-check");
+    if !tool.join("node_modules/three").exists()
+        || !tool.join("node_modules/puppeteer-core").exists()
+    {
+        println!(
+            "skipped: three.js checker not installed (run \
+             `PUPPETEER_SKIP_DOWNLOAD=1 npm ci --prefix tools/threejs-check`)"
+        );
+        return None;
+    }
+    let chromium = std::env::var_os("CHROMIUM")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from("/usr/bin/chromium"));
+    if !chromium.exists() {
+        println!("skipped: no browser at {} (Debian package chromium)", chromium.display());
+        return None;
+    }
+    let out = match Command::new("node").arg(tool.join("check.mjs")).arg(file).args(args).output() {
+        Ok(o) => o,
+        Err(e) => return broken_tool(&format!("cannot run node: {e}")),
+    };
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    if out.status.code() == Some(2) && stderr.contains("cannot start the browser") {
+        return broken_tool(&format!("three.js checker: {}", stderr.trim()));
+    }
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "three.js checker failed ({}):\n{stdout}\n{stderr}", out.status);
+    Some(serde_json::from_str(stdout.trim()).unwrap())
+}
+
+/// A capped sphere whose top cap circles and whose side patch stays: every frame differs.
+fn recording(n_frames: usize) -> (Mesh, Recording) {
+    let (mesh, handles) = solver::testing::capped_sphere(2, 2, 0.85, Some(0.9));
+    let timeline = Timeline {
+        duration: 1.0,
+        fps: 8.0,
+        looping: false,
+        paths: vec![GroupPath {
+            group: 0,
+            path: Path::Circular(CircularPath {
+                turn_with_path: true,
+                ..CircularPath::new([0.0, 0.0, 1.0], 0.4, 1.0)
+            }),
+        }],
+    };
+    let config = ArapConfig { tolerance: 1e-5, max_iterations: 50, ..Default::default() };
+    let mut d = Deformer::new(Method::BsArap, &mesh, &handles, &config).unwrap();
+    let rec = record(&mut d, &mesh, &handles, &timeline, n_frames, &config, &mut |_, _| {
+        ControlFlow::Continue(())
+    })
+    .unwrap();
+    (mesh, rec)
+}
+
+fn export(dir: &FsPath, name: &str, mesh: &Mesh, rec: &Recording) -> PathBuf {
+    let path = dir.join(name);
+    export_gltf(&path, mesh, rec, &mut |_, _| ControlFlow::Continue(())).unwrap();
+    path
+}
+
+fn vec3(v: &Value) -> [f64; 3] {
+    let a = v.as_array().unwrap();
+    assert_eq!(a.len(), 3, "{v}");
+    [a[0].as_f64().unwrap(), a[1].as_f64().unwrap(), a[2].as_f64().unwrap()]
+}
+
+/// The largest coordinate difference between two bounding boxes.
+fn bbox_change(a: &Value, b: &Value) -> f64 {
+    let d = |k: &str| {
+        let (p, q) = (vec3(&a[k]), vec3(&b[k]));
+        (0..3).map(|i| (p[i] - q[i]).abs()).fold(0.0, f64::max)
+    };
+    d("min").max(d("max"))
+}
+
+/// The largest distance between a client's positions and our frame.
+fn max_error(got: &Value, want: &[[f64; 3]]) -> f64 {
+    let got = got.as_array().unwrap();
+    assert_eq!(got.len(), want.len());
+    got.iter()
+        .zip(want)
+        .map(|(g, w)| {
+            let g = vec3(g);
+            (0..3).map(|k| (g[k] - w[k]).abs()).fold(0.0, f64::max)
+        })
+        .fold(0.0, f64::max)
+}
+
+/// Materials a client reports: one that has a texture must have a decoded image of nonzero
+/// size (checks the richer exporter's textures when it writes them; vacuous for plain output).
+fn textures_have_pixels(materials: &Value, has: &str, size: &str) -> usize {
+    let mut textured = 0;
+    for m in materials.as_array().unwrap() {
+        if m[has].as_bool().unwrap() {
+            let s = m[size].as_array().unwrap();
+            assert!(s.iter().all(|x| x.as_u64().unwrap() > 0), "empty texture image: {m}");
+            textured += 1;
+        }
+    }
+    textured
+}
+
+#[test]
+fn blender_imports_the_animation() {
+    let Some(python) = blender_python() else { return };
+    let (mesh, rec) = recording(6);
+    let dir = ScratchDir::new("clients-blender");
+    let diag = mesh.bbox_diagonal();
+    for name in ["rec.glb", "rec.gltf"] {
+        let path = export(&dir, name, &mesh, &rec);
+        let report =
+            run_blender(&python, "check_gltf.py", &[&path, FsPath::new("--positions")], "REPORT ");
+        let meshes = report["meshes"].as_array().unwrap();
+        assert_eq!(meshes.len(), 1, "{name}: {report}");
+        let m = &meshes[0];
+        println!(
+            "{name}: Blender {}: {} vertices, {} shape keys, action {}",
+            report["blender"].as_str().unwrap_or("?"),
+            m["vertices"],
+            m["shape_keys"],
+            m["action"]
+        );
+        assert_eq!(m["vertices"].as_u64().unwrap() as usize, mesh.n_vertices(), "{name}");
+        assert_eq!(m["faces"].as_u64().unwrap() as usize, mesh.n_faces(), "{name}");
+        assert_eq!(m["shape_keys"].as_u64().unwrap() as usize, rec.frames.len(), "{name}");
+        assert!(m["action"].is_string(), "{name}: no action: {m}");
+        textures_have_pixels(&m["materials"], "image_texture", "image_size");
+        // One key per frame, at the recording's times on Blender's frame scale.
+        let keys = m["keyframes"].as_array().unwrap();
+        assert_eq!(keys.len(), rec.frames.len(), "{name}");
+        let fps = report["fps"].as_f64().unwrap();
+        let k0 = keys[0].as_f64().unwrap();
+        for (k, t) in keys.iter().zip(&rec.times) {
+            let f = k.as_f64().unwrap();
+            assert!((f - k0 - t * fps).abs() < 1e-3, "{name}: key at frame {f} for time {t}");
+        }
+        // The evaluated surface moves between the first and the middle frame of the action...
+        let samples = m["samples"].as_array().unwrap();
+        let moved = bbox_change(&samples[0], &samples[1]);
+        assert!(moved > 0.05 * diag, "{name}: the surface does not move ({moved})");
+        // ... and, at each key, is our frame (same vertex order: the importer keeps it).
+        let positions = m["positions"].as_array().unwrap();
+        assert_eq!(positions.len(), rec.frames.len());
+        for (i, (p, frame)) in positions.iter().zip(&rec.frames).enumerate() {
+            let err = max_error(p, frame);
+            assert!(err <= 1e-4 * diag, "{name}: Blender frame {i} is off by {err}");
+        }
+    }
+}
+
+#[test]
+fn threejs_plays_the_animation() {
+    let (mesh, rec) = recording(6);
+    let dir = ScratchDir::new("clients-threejs");
+    let diag = mesh.bbox_diagonal();
+    for name in ["rec.glb", "rec.gltf"] {
+        let path = export(&dir, name, &mesh, &rec);
+        let Some(report) = threejs_check(&path, &["--positions"]) else { return };
+        let meshes = report["meshes"].as_array().unwrap();
+        assert_eq!(meshes.len(), 1, "{name}: {report}");
+        let m = &meshes[0];
+        println!(
+            "{name}: three.js r{}: {} vertices, {} morph targets",
+            report["three"].as_str().unwrap_or("?"),
+            m["vertices"],
+            m["morphTargets"]
+        );
+        assert_eq!(m["vertices"].as_u64().unwrap() as usize, mesh.n_vertices(), "{name}");
+        assert_eq!(m["triangles"].as_u64().unwrap() as usize, mesh.n_faces(), "{name}");
+        assert_eq!(m["morphTargets"].as_u64().unwrap() as usize, rec.frames.len(), "{name}");
+        textures_have_pixels(&m["materials"], "map", "mapSize");
+        assert_eq!(report["animations"].as_array().unwrap().len(), 1, "{name}");
+        // Sampled at every key time: the recording's times, and there our frames.
+        let times = report["times"].as_array().unwrap();
+        assert_eq!(times.len(), rec.times.len(), "{name}");
+        for (t, want) in times.iter().zip(&rec.times) {
+            assert!((t.as_f64().unwrap() - want).abs() < 1e-6, "{name}: time {t} vs {want}");
+        }
+        let samples = report["samples"].as_array().unwrap();
+        for (i, (s, frame)) in samples.iter().zip(&rec.frames).enumerate() {
+            let err = max_error(&s[0]["positions"], frame);
+            assert!(err <= 1e-4 * diag, "{name}: three.js frame {i} is off by {err}");
+        }
+        let moved = bbox_change(&samples[0][0], &samples[samples.len() / 2][0]);
+        assert!(moved > 0.05 * diag, "{name}: the surface does not move ({moved})");
+    }
+    // Between two keys the mixer blends the two frames linearly.
+    let path = dir.join("rec.glb");
+    let t = 0.5 * (rec.times[1] + rec.times[2]);
+    let Some(report) = threejs_check(&path, &["--positions", &format!("--times={t}")]) else {
+        return;
+    };
+    let mid: Vec<[f64; 3]> = rec.frames[1]
+        .iter()
+        .zip(&rec.frames[2])
+        .map(|(a, b)| [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1]), 0.5 * (a[2] + b[2])])
+        .collect();
+    let err = max_error(&report["samples"][0][0]["positions"], &mid);
+    assert!(err <= 1e-4 * diag, "between frames 1 and 2 three.js is off by {err}");
+}
+
+/// Our reading of the asset that Blender authored: three loose parts, every vertex and face.
+fn check_authored(path: &FsPath, vertices: usize, faces: usize) {
+    let loaded = solver::io::load_mesh(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let r = &loaded.report;
+    println!(
+        "{}: {} vertices, {} faces, {} components (file: {} vertices)",
+        path.display(),
+        r.vertices_out,
+        r.faces_out,
+        r.components,
+        r.vertices_in
+    );
+    assert!(r.vertices_out > 0 && r.faces_out > 0);
+    assert_eq!(r.components, 3, "{}: head and two eyes", path.display());
+    assert_eq!(r.vertices_out, vertices, "{}", path.display());
+    assert_eq!(r.faces_out, faces, "{}", path.display());
+}
+
+#[test]
+fn blender_authored_asset_loads() {
+    let Some(python) = blender_python() else { return };
+    let dir = ScratchDir::new("clients-asset");
+    let made = run_blender(&python, "make_asset.py", &[&dir], "REPORT ");
+    println!("make_asset.py: {made}");
+    for f in ["head.glb", "head.obj", "head.mtl", "skin.png"] {
+        let len = std::fs::metadata(dir.join(f)).map(|m| m.len()).unwrap_or(0);
+        assert!(len > 0, "make_asset.py wrote no {f}: {made}");
+    }
+    assert!(std::fs::read_to_string(dir.join("head.mtl")).unwrap().contains("map_Kd skin.png"));
+    // Blender's quads triangulated: a UV sphere of s segments and r rings has s(r-1)+2
+    // vertices and 2s(r-1) triangles.
+    let objects = made["objects"].as_array().unwrap();
+    assert_eq!(objects.len(), 3);
+    let (mut vertices, mut faces) = (0, 0);
+    for o in objects {
+        let v = o["vertices"].as_u64().unwrap() as usize;
+        vertices += v;
+        faces += 2 * (v - 2);
+    }
+    check_authored(&dir.join("head.obj"), vertices, faces);
+    check_authored(&dir.join("head.glb"), vertices, faces);
+    // The clients see the texture on the head and none on the eyes.
+    let report = run_blender(&python, "check_gltf.py", &[&dir.join("head.glb")], "REPORT ");
+    let textured: usize = report["meshes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| textures_have_pixels(&m["materials"], "image_texture", "image_size"))
+        .sum();
+    assert_eq!(textured, 1, "{report}");
+    if let Some(report) = threejs_check(&dir.join("head.glb"), &[]) {
+        let meshes = report["meshes"].as_array().unwrap();
+        assert_eq!(meshes.len(), 3);
+        let textured: usize =
+            meshes.iter().map(|m| textures_have_pixels(&m["materials"], "map", "mapSize")).sum();
+        assert_eq!(textured, 1, "{report}");
+        let head = meshes.iter().find(|m| m["name"] == "head").unwrap();
+        assert!(head["uv"].as_bool().unwrap());
+        assert_eq!(head["materials"][0]["mapSize"], serde_json::json!([64, 64]));
+    }
+}
