@@ -1,33 +1,100 @@
-//! `bsarap export SCENE.json -o OUT.glb|OUT.gltf [--frames N] [--json]`: plays a saved scene's
-//! timeline headless (every frame solved to the scene's tolerance, warm-started: the same frames
-//! as the editor's recording) and writes glTF with one morph target per frame.
+//! `bsarap export SCENE.json -o OUT [--frames N] [--json]`: plays a saved scene's timeline
+//! headless (every frame solved to the scene's tolerance, warm-started: the same frames as the
+//! editor's recording) and writes the recording.
+//!
+//! `bsarap export --mesh MESH --handles SEL [--circle G] [--frames N] [--method M] -o OUT`: the
+//! same without a scene file, for scripts and tests: group `G` moves on the circle of
+//! `bsarap bench` (radius `--radius`·diag about +z, one turn over the recording, the last frame
+//! back at rest), the other groups stay.
 
 use std::ops::ControlFlow;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use super::PathArg;
+use super::{MethodArg, PathArg};
 use anyhow::Context;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use solver::Deformer;
 use solver::animation::export::{GltfExport, GltfFormat};
 use solver::animation::recording::record;
-use solver::animation::scene::Scene;
+use solver::animation::scene::{HandlesSpec, LoadedScene, Scene};
+use solver::animation::timeline::{CircularPath, GroupPath, Path as AnimPath, Timeline};
 
 #[derive(Debug, Args)]
 pub struct ExportArgs {
-    /// Scene file (JSON, version 1); paths inside it are relative to it.
-    pub scene: PathArg,
-    /// Output: .glb (binary) or .gltf (one JSON file, buffer embedded as base64). Written
-    /// atomically.
+    /// Scene file (JSON); paths inside it are relative to it. Omit it to use --mesh and
+    /// --handles.
+    #[arg(required_unless_present = "mesh", conflicts_with_all = ["mesh", "handles", "circle", "method", "radius"])]
+    pub scene: Option<PathArg>,
+    /// Mesh to animate without a scene file (needs --handles).
+    #[arg(long, requires = "handles")]
+    pub mesh: Option<PathArg>,
+    /// Handle selection (.dmat or sphere .json) for --mesh.
+    #[arg(long, requires = "mesh")]
+    pub handles: Option<PathArg>,
+    /// The handle group that moves on the circle (with --mesh).
+    #[arg(long, value_name = "G")]
+    pub circle: Option<usize>,
+    /// Circle radius as a fraction of the bounding-box diagonal (with --mesh; default 0.1).
+    #[arg(long)]
+    pub radius: Option<f64>,
+    /// Method (with --mesh; default: the editor's, bsarap-coarse).
+    #[arg(long, value_enum)]
+    pub method: Option<MethodArg>,
+    /// Output, by extension: .glb (binary glTF) or .gltf (one JSON file, buffer embedded as
+    /// base64). Written atomically.
     #[arg(short = 'o', long = "output")]
     pub output: PathArg,
-    /// Number of frames, both ends of the timeline included (default: duration·fps + 1).
+    /// Number of frames, both ends included (default: the scene's duration·fps + 1; with
+    /// --mesh, 24).
     #[arg(long)]
     pub frames: Option<usize>,
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
+}
+
+/// Frames of `--mesh` mode when `--frames` is not given: one second at 24 fps, both ends.
+const MESH_MODE_FRAMES: usize = 25;
+
+/// The scene `--mesh` mode plays: group `g` on the bench's circle over one second.
+fn circle_scene(a: &ExportArgs, mesh: &Path, handles: &Path) -> anyhow::Result<LoadedScene> {
+    let abs = |p: &Path| -> anyhow::Result<String> {
+        Ok(std::path::absolute(p)
+            .with_context(|| format!("{}: cannot resolve the path", p.display()))?
+            .display()
+            .to_string())
+    };
+    let radius = a.radius.unwrap_or(0.1);
+    anyhow::ensure!(
+        radius.is_finite() && radius >= 0.0,
+        "--radius must be a finite number ≥ 0 (got {radius})"
+    );
+    let frames = a.frames.unwrap_or(MESH_MODE_FRAMES).max(2);
+    let mut scene =
+        Scene::new(abs(mesh)?, HandlesSpec { file: Some(abs(handles)?), ..HandlesSpec::default() });
+    scene.method = a.method.map_or(solver::Method::BsArapCoarse, Into::into);
+    // Both ends included: `frames` samples over one second; the circle turns once in it.
+    scene.timeline = Timeline {
+        duration: 1.0,
+        fps: (frames - 1) as f64,
+        looping: true,
+        paths: vec![GroupPath {
+            group: a.circle.unwrap_or(0),
+            path: AnimPath::Circular(CircularPath::new([0.0, 0.0, 1.0], radius, 1.0)),
+        }],
+    };
+    let name = PathBuf::from("(command line)");
+    let mut loaded = scene.resolve(&name)?;
+    // The radius is relative to the cleaned mesh's diagonal.
+    let diag = loaded.mesh.mesh.bbox_diagonal();
+    if let Some(GroupPath { path: AnimPath::Circular(c), .. }) =
+        loaded.scene.timeline.paths.first_mut()
+    {
+        c.radius = radius * diag;
+    }
+    Ok(loaded)
 }
 
 fn bar(len: u64, what: &str, quiet: bool) -> ProgressBar {
@@ -44,7 +111,13 @@ fn bar(len: u64, what: &str, quiet: bool) -> ProgressBar {
 
 pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
     let format = GltfFormat::from_path(&a.output)?;
-    let loaded = Scene::load(&a.scene)?;
+    let (loaded, source) = match (&a.scene, &a.mesh, &a.handles) {
+        (Some(path), _, _) => (Scene::load(path)?, path.display().to_string()),
+        (None, Some(mesh), Some(handles)) => {
+            (circle_scene(a, mesh, handles)?, mesh.display().to_string())
+        }
+        _ => anyhow::bail!("give a scene file, or --mesh and --handles"),
+    };
     let scene = &loaded.scene;
     let mesh = &loaded.mesh.mesh;
     let n_frames = a.frames.unwrap_or_else(|| scene.timeline.default_frame_count());
@@ -54,16 +127,14 @@ pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
         if a.frames.is_some() {
             "--frames".to_string()
         } else {
-            format!("{} (duration × fps + 1)", a.scene.display())
+            format!("{source} (duration × fps + 1)")
         }
     );
 
     let t0 = Instant::now();
     let mut deformer =
         Deformer::with_base(scene.method, mesh, &loaded.handles, &scene.arap, &scene.base)
-            .with_context(|| {
-                format!("{}: precomputing {}", a.scene.display(), scene.method.name())
-            })?;
+            .with_context(|| format!("{source}: precomputing {}", scene.method.name()))?;
     let precompute_ms = t0.elapsed().as_secs_f64() * 1e3;
 
     let t1 = Instant::now();
@@ -80,7 +151,7 @@ pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
             ControlFlow::Continue(())
         },
     )
-    .with_context(|| format!("{}: recording", a.scene.display()))?;
+    .with_context(|| format!("{source}: recording"))?;
     pb.finish_and_clear();
     let record_s = t1.elapsed().as_secs_f64();
 
@@ -105,7 +176,7 @@ pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
     let at_cap = recording.stats.iter().filter(|s| !s.converged).count();
     if a.json {
         let j = serde_json::json!({
-            "scene": a.scene.display().to_string(),
+            "scene": source.to_string(),
             "mesh": loaded.mesh_path.display().to_string(),
             "output": a.output.display().to_string(),
             "method": scene.method.name(),
@@ -123,7 +194,7 @@ pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
     } else {
         println!(
             "{}: {} frames of {} ({} vertices) in {:.2} s, {:.1} iterations/frame{}; wrote {} ({} bytes)",
-            a.scene.display(),
+            source,
             n_frames,
             scene.method.name(),
             mesh.n_vertices(),

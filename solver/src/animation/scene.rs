@@ -255,14 +255,20 @@ impl Scene {
 
     /// Reads the scene at `path`, loads and cleans its mesh and resolves its handles.
     pub fn load(path: &Path) -> Result<LoadedScene, SceneError> {
-        let scene = Scene::read(path)?;
+        Scene::read(path)?.resolve(path)
+    }
+
+    /// Loads and cleans the scene's mesh and resolves its handles, paths relative to `path`
+    /// (the scene file's; for a scene made in memory with absolute paths, any name for the
+    /// messages).
+    pub fn resolve(self, path: &Path) -> Result<LoadedScene, SceneError> {
         let file = path.display().to_string();
-        let mesh_path = Scene::resolve_path(path, &scene.mesh);
+        let mesh_path = Scene::resolve_path(path, &self.mesh);
         let mesh = load_mesh(&mesh_path)
             .map_err(|source| SceneError::Mesh { file: file.clone(), source })?;
         let handles =
-            scene.resolve_handles(path, mesh.mesh.positions(), Some(&mesh.report.vertex_map))?;
-        Ok(LoadedScene { scene, path: path.to_path_buf(), mesh_path, mesh, handles })
+            self.resolve_handles(path, mesh.mesh.positions(), Some(&mesh.report.vertex_map))?;
+        Ok(LoadedScene { scene: self, path: path.to_path_buf(), mesh_path, mesh, handles })
     }
 
     /// The scene's handle groups for a mesh with rest `positions`, read from wherever
