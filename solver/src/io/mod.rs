@@ -8,13 +8,14 @@
 //!
 //! Every failure is a [`LoadError`] whose Display is one line, `file:line: what is wrong`. No
 //! input makes a parser panic, and counts read from headers never size an allocation beyond what
-//! the file's length could hold. Writers ([`write_obj`], [`write_atomic`]) replace the target
-//! atomically.
+//! the file's length could hold. Writers ([`write_obj`], [`write_obj_asset`] on the file's own
+//! layout with its materials, [`write_atomic`]) replace the target atomically.
 
 pub mod asset;
 mod error;
 mod gltf;
 mod obj;
+mod obj_write;
 mod off;
 mod ply;
 mod stl;
@@ -25,6 +26,7 @@ use std::path::Path;
 
 pub use asset::{Asset, Attribute, Image, Material, Part};
 pub use error::LoadError;
+pub use obj_write::{write_mtl_asset, write_obj_asset, write_obj_asset_with};
 pub use write::{SaveError, write_atomic, write_obj};
 
 use crate::geometry::cleanup::{CleanError, CleanReport, clean};
@@ -139,15 +141,17 @@ fn parse_and_clean(
     if raw.parts.is_empty() {
         raw.parts = vec![Part { count: raw.triangles.len(), ..Part::default() }];
     }
-    let (mesh, report) = clean(raw.positions.clone(), raw.triangles.clone()).map_err(|e| match e {
-        CleanError::NoTriangles { .. } => ctx.no_triangles(e.to_string()),
-        CleanError::NonFinite { vertex, value } => ctx.non_finite(None, vertex, value),
-        CleanError::IndexOutOfRange { index, .. } => ctx.index(None, index.into(), e.to_string()),
-        CleanError::TooManyVertices { .. } => ctx.count(None, e.to_string()),
-    })?;
+    let (mesh, report) =
+        clean(raw.positions.clone(), raw.triangles.clone()).map_err(|e| match e {
+            CleanError::NoTriangles { .. } => ctx.no_triangles(e.to_string()),
+            CleanError::NonFinite { vertex, value } => ctx.non_finite(None, vertex, value),
+            CleanError::IndexOutOfRange { index, .. } => {
+                ctx.index(None, index.into(), e.to_string())
+            }
+            CleanError::TooManyVertices { .. } => ctx.count(None, e.to_string()),
+        })?;
     Ok(LoadedMesh { mesh, report, asset: raw })
 }
-
 
 /// Appends the fan triangulation `(p0, p_k, p_k+1)` of polygon `poly` (`poly.len() ≥ 3`).
 pub(crate) fn push_fan(triangles: &mut Vec<[u32; 3]>, poly: &[u32]) {
