@@ -265,7 +265,8 @@ fn even_step(times: &[f64]) -> Result<(f64, Option<f64>), PointCacheError> {
     let step = (last - first) / (times.len() - 1) as f64;
     for (frame, &time) in times.iter().enumerate() {
         let expected = first + step * frame as f64;
-        if !((time - expected).abs() <= 1e-6 * step.abs()) || !(step > 0.0) {
+        let on_grid = (time - expected).abs() <= 1e-6 * step.abs();
+        if !on_grid || step.is_nan() || step <= 0.0 {
             return Err(PointCacheError::UnevenTimes { frame, time, step });
         }
     }

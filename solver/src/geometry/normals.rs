@@ -96,9 +96,12 @@ mod tests {
     use crate::geometry::shapes::icosphere;
     use glam::{DMat3, DVec3};
 
+    /// Positions, triangles, normal corners and normal values.
+    type Cube = (Vec<[f64; 3]>, Vec<[u32; 3]>, Vec<[u32; 3]>, Vec<[f64; 3]>);
+
     /// A unit cube as a file stores it: 8 positions, 12 triangles, 24 normal values (one per
     /// corner of each square side, all four equal to the side's axis).
-    fn split_cube() -> (Vec<[f64; 3]>, Vec<[u32; 3]>, Vec<[u32; 3]>, Vec<[f64; 3]>) {
+    fn split_cube() -> Cube {
         let positions: Vec<[f64; 3]> = (0..8)
             .map(|i| [(i & 1) as f64, ((i >> 1) & 1) as f64, ((i >> 2) & 1) as f64])
             .collect();
