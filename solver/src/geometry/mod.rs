@@ -1,6 +1,7 @@
 //! Triangle meshes and what is computed from their geometry alone: the [`mesh::Mesh`] type,
-//! topology, cleaning on load, vertex reordering, decimation, procedural
-//! shapes, and the discrete operators (cotangent Laplacian, lumped mass matrix).
+//! topology, cleaning on load, vertex reordering, decimation, procedural shapes, deformed
+//! normals on a file's layout, and the discrete operators (cotangent Laplacian, lumped mass
+//! matrix).
 //!
 //! One exception to the layering: [`shapes::bumpy_bar`] also returns handle groups
 //! ([`crate::deform::handles::Handles`]) for the tests and benches that use it.
@@ -10,6 +11,7 @@ pub mod cotan;
 pub mod decimate;
 pub mod mass;
 pub mod mesh;
+pub mod normals;
 pub mod reorder;
 pub mod shapes;
 pub mod topology;

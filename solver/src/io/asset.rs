@@ -20,6 +20,8 @@
 //! **Parts** are runs of triangles with one material and a name (OBJ objects/groups split by
 //! `usemtl`, glTF primitives with their mesh and node names), written back as they came.
 
+use crate::geometry::normals::{NormalsError, corner_normals, vertex_normals};
+
 /// One corner-indexed surface attribute: `values` (`#values×N`) and the value index of each
 /// corner of each triangle (`#F×3`, parallel to [`Asset::triangles`]).
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -132,5 +134,30 @@ impl Asset {
             .zip(&self.positions)
             .map(|(m, &rest)| m.map_or(rest, |v| x[v as usize]))
             .collect()
+    }
+
+    /// Normals of a pose `positions` (`#N×3`, this layout) as the file indexes them: one per
+    /// value of [`Asset::normals`] when the file has normals (hard edges stay hard,
+    /// [`corner_normals`]), else one smooth normal per position ([`vertex_normals`]). A value
+    /// without area (unreferenced, or on degenerate triangles only) keeps the file's normal if
+    /// that is a finite nonzero vector, else gets `[0, 0, 1]`.
+    ///
+    /// Errors: [`NormalsError`] when the triangles or corner indices do not fit.
+    pub fn deformed_normals(&self, positions: &[[f64; 3]]) -> Result<Vec<[f64; 3]>, NormalsError> {
+        let mut n = match &self.normals {
+            Some(a) => corner_normals(positions, &self.triangles, &a.corners, a.values.len())?,
+            None => vertex_normals(positions, &self.triangles)?,
+        };
+        for (k, n) in n.iter_mut().enumerate() {
+            if *n == [0.0; 3] {
+                let stored = self.normals.as_ref().and_then(|a| a.values.get(k));
+                let stored = stored.map(|v| glam::Vec3::from_array(*v).normalize_or_zero());
+                *n = match stored {
+                    Some(v) if v != glam::Vec3::ZERO && v.is_finite() => v.as_dvec3().to_array(),
+                    _ => [0.0, 0.0, 1.0],
+                };
+            }
+        }
+        Ok(n)
     }
 }

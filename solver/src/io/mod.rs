@@ -8,13 +8,14 @@
 //!
 //! Every failure is a [`LoadError`] whose Display is one line, `file:line: what is wrong`. No
 //! input makes a parser panic, and counts read from headers never size an allocation beyond what
-//! the file's length could hold. Writers ([`write_obj`], [`write_atomic`]) replace the target
-//! atomically.
+//! the file's length could hold. Writers ([`write_obj`], [`write_obj_asset`] on the file's own
+//! layout with its materials, [`write_atomic`]) replace the target atomically.
 
 pub mod asset;
 mod error;
 mod gltf;
 mod obj;
+mod obj_write;
 mod off;
 mod ply;
 mod stl;
@@ -26,6 +27,7 @@ use std::path::Path;
 
 pub use asset::{Asset, Attribute, Image, Material, Part};
 pub use error::LoadError;
+pub use obj_write::{write_mtl_asset, write_obj_asset, write_obj_asset_with};
 pub use write::{SaveError, write_atomic, write_obj};
 pub use write_plain::{write_off, write_ply};
 

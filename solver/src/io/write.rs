@@ -28,6 +28,10 @@ pub enum SaveError {
         "{file}: triangle {face} refers to vertex {index}, but there are only {n_vertices} vertices; nothing was written"
     )]
     IndexOutOfRange { file: String, face: usize, index: u32, n_vertices: usize },
+    /// The inputs do not fit together (a count, an attribute's or a material's index, the
+    /// parts' ranges), so the file would be wrong.
+    #[error("{file}: {what}; nothing was written")]
+    Inconsistent { file: String, what: String },
 }
 
 /// Writes a triangle mesh as Wavefront OBJ, atomically.

@@ -1,0 +1,250 @@
+//! Tests of the OBJ/MTL writer on the file's layout: the written text is checked line by line
+//! (the OBJ reader's `vt`/`vn`/`usemtl` support is separate), positions through `load_mesh`.
+#![allow(clippy::unwrap_used)]
+
+use super::*;
+use crate::io::asset::{Attribute, Image};
+use crate::io::load_mesh;
+use crate::testing::ScratchDir;
+
+/// A unit cube as a DCC tool exports it: 8 positions, 12 triangles, 24 split normals, a UV
+/// layout with seams (20 values), two parts ("box" with a textured material, "lid" with none),
+/// two images of which only the first is used.
+fn cube_asset() -> Asset {
+    let positions: Vec<[f64; 3]> =
+        (0..8).map(|i| [(i & 1) as f64, ((i >> 1) & 1) as f64, ((i >> 2) & 1) as f64]).collect();
+    let sides: [([u32; 4], [f32; 3]); 6] = [
+        ([0, 2, 3, 1], [0.0, 0.0, -1.0]),
+        ([0, 1, 5, 4], [0.0, -1.0, 0.0]),
+        ([2, 6, 7, 3], [0.0, 1.0, 0.0]),
+        ([0, 4, 6, 2], [-1.0, 0.0, 0.0]),
+        ([1, 3, 7, 5], [1.0, 0.0, 0.0]),
+        ([4, 5, 7, 6], [0.0, 0.0, 1.0]),
+    ];
+    let (mut triangles, mut n_corners, mut uv_corners, mut normals) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    for (s, (q, axis)) in sides.iter().enumerate() {
+        let k = normals.len() as u32;
+        normals.extend([*axis; 4]);
+        // UV values: four per side, the last side reusing the first one's (20 values).
+        let u = [0, 1, 2, 3].map(|c| 4 * (s as u32 % 5) + c);
+        triangles.push([q[0], q[1], q[2]]);
+        n_corners.push([k, k + 1, k + 2]);
+        uv_corners.push([u[0], u[1], u[2]]);
+        triangles.push([q[0], q[2], q[3]]);
+        n_corners.push([k, k + 2, k + 3]);
+        uv_corners.push([u[0], u[2], u[3]]);
+    }
+    let n_uv = uv_corners.iter().flatten().max().unwrap() + 1;
+    let uv_values = (0..n_uv).map(|i| [i as f32 / 32.0, 0.25 + i as f32 / 64.0]).collect();
+    Asset {
+        positions,
+        triangles,
+        normals: Some(Attribute { values: normals, corners: n_corners }),
+        uvs: vec![Attribute { values: uv_values, corners: uv_corners }],
+        colors: None,
+        parts: vec![
+            Part { name: "box".into(), material: Some(0), first: 0, count: 10, ..Part::default() },
+            Part { name: "lid".into(), material: None, first: 10, count: 2, ..Part::default() },
+        ],
+        materials: vec![Material {
+            name: "Red Paint".into(),
+            base_color: [0.8, 0.1, 0.05, 0.5],
+            base_color_texture: Some(0),
+            metallic: 0.25,
+            roughness: 0.75,
+            ..Material::default()
+        }],
+        images: vec![
+            Image {
+                name: "textures/skin tone.png".into(),
+                mime_type: "image/png".into(),
+                bytes: b"\x89PNG not really".to_vec(),
+            },
+            Image { name: "unused".into(), mime_type: "image/jpeg".into(), bytes: vec![1, 2] },
+        ],
+    }
+}
+
+/// The lines of `text` starting with `key` and a space, without the key.
+fn lines<'a>(text: &'a str, key: &str) -> Vec<&'a str> {
+    text.lines().filter_map(|l| l.strip_prefix(key)?.strip_prefix(' ')).collect()
+}
+
+fn numbers(line: &str) -> Vec<f64> {
+    line.split_whitespace().map(|t| t.parse().unwrap()).collect()
+}
+
+#[test]
+fn obj_on_the_layout_keeps_order_attributes_and_parts() {
+    let dir = ScratchDir::new("obj-asset");
+    let asset = cube_asset();
+    let rotation = glam::DMat3::from_euler(glam::EulerRot::XYZ, 0.4, 0.9, -0.3);
+    let pose: Vec<[f64; 3]> = asset
+        .positions
+        .iter()
+        .map(|&p| (rotation * glam::DVec3::from_array(p) * 1.7 + glam::DVec3::X).to_array())
+        .collect();
+    let normals = asset.deformed_normals(&pose).unwrap();
+    let path = dir.join("posed.obj");
+    write_obj_asset(&path, &asset, &pose, Some(&normals)).unwrap();
+    let text = std::fs::read_to_string(&path).unwrap();
+
+    assert_eq!(lines(&text, "mtllib"), ["posed.mtl"]);
+    let v = lines(&text, "v");
+    assert_eq!(v.len(), 8);
+    for (line, p) in v.iter().zip(&pose) {
+        assert_eq!(numbers(line), p.to_vec(), "positions are written exactly, in file order");
+    }
+    let uv = &asset.uvs[0];
+    let vt = lines(&text, "vt");
+    assert_eq!(vt.len(), uv.values.len());
+    for (line, [u, v]) in vt.iter().zip(&uv.values) {
+        let read = numbers(line);
+        assert_eq!(read[0] as f32, *u);
+        assert_eq!((1.0 - read[1]) as f32, *v, "v is flipped back to OBJ's v-up");
+    }
+    let vn = lines(&text, "vn");
+    assert_eq!(vn.len(), 24);
+    let file_normals = &asset.normals.as_ref().unwrap().values;
+    for (line, axis) in vn.iter().zip(file_normals) {
+        let read = glam::DVec3::from_slice(&numbers(line));
+        let expected = rotation * glam::Vec3::from_array(*axis).as_dvec3();
+        assert!((read - expected).length() < 1e-6, "{read} instead of {expected}");
+    }
+    let f = lines(&text, "f");
+    assert_eq!(f.len(), 12);
+    let n_corners = &asset.normals.as_ref().unwrap().corners;
+    for (t, line) in f.iter().enumerate() {
+        let expected: Vec<String> = (0..3)
+            .map(|c| {
+                let (p, u, n) = (asset.triangles[t][c], uv.corners[t][c], n_corners[t][c]);
+                format!("{}/{}/{}", p + 1, u + 1, n + 1)
+            })
+            .collect();
+        assert_eq!(*line, expected.join(" "), "face {t}");
+    }
+    // Parts: an object and a material each, in order, before their faces.
+    let structure: Vec<&str> = text
+        .lines()
+        .filter(|l| l.starts_with("o ") || l.starts_with("usemtl ") || l.starts_with("f "))
+        .map(|l| if l.starts_with("f ") { "f" } else { l })
+        .collect();
+    let mut expected = vec!["o box", "usemtl Red_Paint"];
+    expected.extend(["f"; 10]);
+    expected.extend(["o lid", "usemtl default"]);
+    expected.extend(["f"; 2]);
+    assert_eq!(structure, expected);
+
+    let mtl = std::fs::read_to_string(dir.join("posed.mtl")).unwrap();
+    let blocks: Vec<&str> = mtl.split("newmtl ").skip(1).map(str::trim).collect();
+    assert_eq!(
+        blocks[0],
+        "Red_Paint\nKd 0.8 0.1 0.05\nd 0.5\nPm 0.25\nPr 0.75\nmap_Kd skin_tone.png"
+    );
+    assert_eq!(blocks[1], "default\nKd 1 1 1\nd 1\nPm 0\nPr 1");
+    assert_eq!(blocks.len(), 2);
+    assert_eq!(std::fs::read(dir.join("skin_tone.png")).unwrap(), asset.images[0].bytes);
+    let mut files: Vec<String> = std::fs::read_dir(&*dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    files.sort();
+    assert_eq!(
+        files,
+        ["posed.mtl", "posed.obj", "skin_tone.png"],
+        "the unused image is not written"
+    );
+
+    // Read back: the file's vertices in the input's order, bit for bit.
+    let loaded = load_mesh(&path).unwrap();
+    assert_eq!(loaded.asset.positions, pose);
+    assert_eq!(loaded.asset.triangles, asset.triangles);
+}
+
+#[test]
+fn a_bare_asset_gets_per_position_normals_and_no_mtl() {
+    let dir = ScratchDir::new("obj-bare");
+    let mut asset = cube_asset();
+    asset.normals = None;
+    asset.uvs.clear();
+    asset.materials.clear();
+    asset.images.clear();
+    asset.parts = vec![Part { count: 12, ..Part::default() }];
+    let normals = asset.deformed_normals(&asset.positions).unwrap();
+    assert_eq!(normals.len(), 8);
+    let path = dir.join("bare.obj");
+    write_obj_asset(&path, &asset, &asset.positions, Some(&normals)).unwrap();
+    let text = std::fs::read_to_string(&path).unwrap();
+    assert!(lines(&text, "mtllib").is_empty() && lines(&text, "usemtl").is_empty());
+    assert!(lines(&text, "o").is_empty() && lines(&text, "vt").is_empty());
+    assert_eq!(lines(&text, "vn").len(), 8);
+    let t = asset.triangles[0];
+    assert_eq!(
+        lines(&text, "f")[0],
+        format!("{0}//{0} {1}//{1} {2}//{2}", t[0] + 1, t[1] + 1, t[2] + 1)
+    );
+    assert!(!dir.join("bare.mtl").exists());
+    write_obj_asset(&path, &asset, &asset.positions, None).unwrap();
+    let text = std::fs::read_to_string(&path).unwrap();
+    assert_eq!(lines(&text, "f")[0], format!("{} {} {}", t[0] + 1, t[1] + 1, t[2] + 1));
+    assert_eq!(load_mesh(&path).unwrap().asset.positions, asset.positions);
+}
+
+#[test]
+fn names_are_sanitized_and_unique() {
+    let dir = ScratchDir::new("obj-names");
+    let mut asset = cube_asset();
+    let png =
+        |name: &str| Image { name: name.into(), mime_type: "image/png".into(), bytes: vec![] };
+    asset.images = vec![
+        png("x.PNG"),
+        png("C:\\maps\\x.png"),
+        Image { name: "".into(), mime_type: "image/jpeg".into(), bytes: vec![] },
+        png("../a b"),
+    ];
+    asset.materials = ["a b", "a_b", "", "default"]
+        .iter()
+        .enumerate()
+        .map(|(i, n)| Material {
+            name: n.to_string(),
+            base_color_texture: Some(i),
+            ..Material::default()
+        })
+        .collect();
+    let path = dir.join("n.mtl");
+    assert_eq!(write_mtl_asset(&path, &asset).unwrap().as_deref(), Some("n.mtl"));
+    let mtl = std::fs::read_to_string(&path).unwrap();
+    assert_eq!(lines(&mtl, "newmtl"), ["a_b", "a_b_2", "material", "default", "default_2"]);
+    assert_eq!(lines(&mtl, "map_Kd"), ["x.PNG", "x_2.png", "texture_2.jpg", "a_b.png"]);
+    for name in ["x.PNG", "x_2.png", "texture_2.jpg", "a_b.png"] {
+        assert!(dir.join(name).exists(), "{name}");
+    }
+}
+
+#[test]
+fn bad_inputs_write_nothing() {
+    let dir = ScratchDir::new("obj-bad");
+    let asset = cube_asset();
+    let path = dir.join("bad.obj");
+    let normals = asset.deformed_normals(&asset.positions).unwrap();
+    let check = |result: Result<(), SaveError>, expected: &str| {
+        let err = result.unwrap_err();
+        assert!(err.to_string().contains(expected), "{err}");
+        assert_eq!(std::fs::read_dir(&*dir).unwrap().count(), 0, "{err}: something was written");
+    };
+    check(write_obj_asset(&path, &asset, &asset.positions[..7], None), "7 positions");
+    let mut nan = asset.positions.clone();
+    nan[3][1] = f64::NAN;
+    check(write_obj_asset(&path, &asset, &nan, None), "vertex 3");
+    check(write_obj_asset(&path, &asset, &asset.positions, Some(&normals[..8])), "8 normals");
+    let mut bad = asset.clone();
+    bad.materials[0].base_color_texture = Some(5);
+    check(write_obj_asset(&path, &bad, &asset.positions, None), "texture 5");
+    let mut bad = asset.clone();
+    bad.parts[1].first = 11;
+    check(write_obj_asset(&path, &bad, &asset.positions, None), "part 1 starts");
+    let mut bad = asset.clone();
+    bad.uvs[0].corners[4][2] = 99;
+    check(write_obj_asset(&path, &bad, &asset.positions, None), "texture coordinate 99");
+}
