@@ -92,3 +92,114 @@ fn export_errors_are_one_line() {
     assert_ne!(code, 0);
     assert!(stderr.contains("--frames"), "{stderr}");
 }
+
+/// An icosphere OBJ whose vertex 0 is repeated as a last vertex that two faces use (as a UV
+/// seam splits a vertex in a file), and a `.dmat` of two caps on the file's vertices.
+fn seamed_ball(d: &std::path::Path) -> (PathBuf, PathBuf, usize) {
+    let m = solver::geometry::shapes::icosphere(2);
+    let mut p = m.positions().to_vec();
+    let mut t = m.triangles().to_vec();
+    let dup = p.len() as u32;
+    p.push(p[0]);
+    let mut moved = 0;
+    for tri in t.iter_mut().filter(|tri| tri.contains(&0)) {
+        if moved < 2 {
+            tri.iter_mut().filter(|i| **i == 0).for_each(|i| *i = dup);
+            moved += 1;
+        }
+    }
+    let mesh = d.join("seamed.obj");
+    solver::io::write_obj(&mesh, &p, &t).unwrap();
+    let labels = solver::testing::cap_labels(&p, 2, 0.85, None);
+    let handles = solver::Handles::from_labels(&labels, p.len()).unwrap();
+    let sel = d.join("seamed.dmat");
+    solver::deform::selection::write_dmat(&sel, &handles).unwrap();
+    (mesh, sel, p.len())
+}
+
+#[test]
+fn export_without_a_scene_writes_point_caches_on_the_file_layout() {
+    let d = dir("mesh-mode");
+    let (mesh, sel, n_file) = seamed_ball(&d);
+    let (m, s) = (mesh.to_str().unwrap(), sel.to_str().unwrap());
+    let pc2 = d.join("out.pc2");
+    let args = ["export", "--mesh", m, "--handles", s, "--frames", "5", "--method", "arap"];
+    let (code, stdout, stderr) =
+        bsarap(&[&args[..], &["-o", pc2.to_str().unwrap(), "--json"]].concat());
+    assert_eq!(code, 0, "{stderr}");
+    let report: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
+    assert_eq!(report["frames"], 5);
+    let cache = solver::animation::pointcache::read_pc2(&pc2).unwrap();
+    assert_eq!(cache.samples.len(), 5);
+    for (f, sample) in cache.samples.iter().enumerate() {
+        // The file's vertices, the seam's copy moving with its original.
+        assert_eq!(sample.len(), n_file, "frame {f}");
+        assert_eq!(sample[n_file - 1], sample[0], "frame {f}: the seam opened");
+    }
+    // The first group moved off its rest position in the middle of the turn, and came back.
+    let top =
+        (0..n_file).max_by(|&a, &b| cache.samples[0][a][2].total_cmp(&cache.samples[0][b][2]));
+    let top = top.unwrap();
+    assert!((cache.samples[2][top][0] - cache.samples[0][top][0]).abs() > 0.05);
+    let back = (0..3).map(|k| (cache.samples[4][top][k] - cache.samples[0][top][k]).abs());
+    assert!(back.fold(0.0, f32::max) < 1e-6, "the last frame is the rest pose");
+
+    // The same recording as an OBJ sequence, and the circle of another group.
+    let seq = d.join("seq").join("pose.obj");
+    std::fs::create_dir_all(seq.parent().unwrap()).unwrap();
+    let (code, _, stderr) =
+        bsarap(&[&args[..], &["--circle", "1", "-o", seq.to_str().unwrap()]].concat());
+    assert_eq!(code, 0, "{stderr}");
+    for f in 1..=5 {
+        let frame = d.join("seq").join(format!("pose_{f:04}.obj"));
+        let text = std::fs::read_to_string(&frame).unwrap();
+        assert_eq!(text.lines().filter(|l| l.starts_with("v ")).count(), n_file, "{f}");
+    }
+    assert!(!d.join("seq").join("pose_0006.obj").exists());
+
+    // A group the selection lacks, and an output nobody reads, are one-line errors.
+    let (code, _, stderr) =
+        bsarap(&[&args[..], &["--circle", "9", "-o", pc2.to_str().unwrap()]].concat());
+    assert_ne!(code, 0);
+    assert!(stderr.contains("group 9"), "{stderr}");
+    let (code, _, stderr) = bsarap(&[&args[..], &["-o", "out.fbx"]].concat());
+    assert_ne!(code, 0);
+    assert!(stderr.contains("out.fbx"), "{stderr}");
+}
+
+#[test]
+fn deform_writes_the_pose_on_the_file_layout_by_extension() {
+    let d = dir("deform-layout");
+    let (mesh, sel, n_file) = seamed_ball(&d);
+    let (m, s) = (mesh.to_str().unwrap(), sel.to_str().unwrap());
+    for ext in ["obj", "ply", "off", "glb"] {
+        let out = d.join(format!("posed.{ext}"));
+        let (code, _, stderr) = bsarap(&[
+            "deform",
+            m,
+            "--handles",
+            s,
+            "--method",
+            "arap",
+            "--move",
+            "0:0.2,0,0",
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        assert_eq!(code, 0, "{ext}: {stderr}");
+        let back = solver::io::load_mesh(&out).unwrap();
+        if ext == "glb" {
+            assert!(back.mesh.n_vertices() > 0);
+            continue;
+        }
+        let p = &back.asset.positions;
+        assert_eq!(p.len(), n_file, "{ext}: the file's vertex count");
+        assert_eq!(p[n_file - 1], p[0], "{ext}: the seam's copy follows its vertex");
+        let top = (0..n_file).max_by(|&a, &b| p[a][2].total_cmp(&p[b][2])).unwrap();
+        assert!(p[top][0] > 0.15, "{ext}: the top cap moved");
+    }
+    let (code, _, stderr) =
+        bsarap(&["deform", m, "--handles", s, "--move", "0:0.2,0,0", "-o", "posed.fbx"]);
+    assert_ne!(code, 0);
+    assert!(stderr.contains("posed.fbx") && stderr.contains(".ply"), "{stderr}");
+}

@@ -1,13 +1,22 @@
-//! `bsarap deform MESH --handles SEL --move G:dx,dy,dz [--rotate G:ax,ay,az,deg] ... -o OUT.obj`.
+//! `bsarap deform MESH --handles SEL --move G:dx,dy,dz [--rotate G:ax,ay,az,deg] ... -o OUT`,
+//! the pose written on the input file's own vertices by `OUT`'s extension.
 
 use super::{
     BaseArgs, EnergyArg, MethodArg, PathArg, acceleration, check_stopping, load, load_handles,
 };
 use anyhow::{Context, bail};
 use clap::Args;
+use solver::FrameStats;
+use solver::animation::export::{GltfExport, GltfFormat};
+use solver::animation::recording::Recording;
+use solver::io::LoadedMesh;
 use solver::linalg::rotation::{axis_angle, mul_mat};
 use solver::{ArapConfig, Deformer, GroupTransform, handle_targets};
+use std::path::Path;
 use std::time::Instant;
+
+/// The extensions `-o` takes.
+const OUTPUTS: [&str; 5] = ["obj", "glb", "gltf", "ply", "off"];
 
 #[derive(Debug, Args)]
 pub struct DeformArgs {
@@ -36,7 +45,8 @@ pub struct DeformArgs {
     pub anderson: usize,
     #[command(flatten)]
     pub base: BaseArgs,
-    /// Output OBJ (written atomically).
+    /// Output, by extension, on the input file's own vertices in its order: .obj (UVs,
+    /// deformed normals, materials), .glb/.gltf (glTF), .ply/.off (geometry). Written atomically.
     #[arg(short = 'o', long = "output")]
     pub output: PathArg,
     /// Print one JSON object.
@@ -96,15 +106,58 @@ pub fn parse_transforms(
     Ok(out)
 }
 
+/// Writes the pose `x` of the cleaned mesh onto the input file's own vertices, in its order, as
+/// `path`'s extension asks: `.obj` with UVs, deformed normals (hard edges kept) and materials;
+/// `.glb`/`.gltf` as a one-frame glTF; `.ply`/`.off` geometry only.
+fn write_pose(path: &Path, loaded: &LoadedMesh, x: &[[f64; 3]]) -> anyhow::Result<()> {
+    let asset = &loaded.asset;
+    let layout = asset.layout_positions(&loaded.report.vertex_map, x);
+    let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
+    match ext.as_deref() {
+        Some("obj") => {
+            let normals =
+                asset.normals.as_ref().map(|_| asset.deformed_normals(&layout)).transpose()?;
+            solver::io::write_obj_asset(path, asset, &layout, normals.as_deref())?
+        }
+        Some("ply") => solver::io::write_ply(path, &layout, &asset.triangles)?,
+        Some("off") => solver::io::write_off(path, &layout, &asset.triangles)?,
+        Some("glb" | "gltf") => {
+            let format = GltfFormat::from_path(path)?;
+            let recording = Recording {
+                times: vec![0.0],
+                frames: vec![x.to_vec()],
+                stats: vec![FrameStats::default()],
+            };
+            GltfExport::new(&loaded.mesh, &recording, format)?
+                .write(path, &mut |_, _| std::ops::ControlFlow::Continue(()))?;
+        }
+        _ => check_output(path)?,
+    }
+    Ok(())
+}
+
+/// Refuses an output extension before any work is done.
+fn check_output(path: &Path) -> anyhow::Result<()> {
+    let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
+    anyhow::ensure!(
+        ext.as_deref().is_some_and(|e| OUTPUTS.contains(&e)),
+        "{}: unsupported output extension; use .obj (UVs, normals, materials), .glb or .gltf \
+         (the whole asset), .ply or .off (geometry)",
+        path.display()
+    );
+    Ok(())
+}
+
 pub fn run(a: &DeformArgs) -> anyhow::Result<()> {
     check_stopping(a.tol, a.max_iters)?;
+    check_output(&a.output)?;
     let base = a.base.config()?;
     let transforms = parse_transforms(&a.moves, &a.rotates)?;
     let loaded = load(&a.mesh)?;
     let mesh = &loaded.mesh;
     if loaded.report.changed() && !a.json {
         for n in loaded.report.notices() {
-            eprintln!("note: {n} (the output follows the cleaned mesh's vertex order)");
+            eprintln!("note: {n} (the output keeps the file's own vertices and their order)");
         }
     }
     let handles = load_handles(&a.handles, &loaded)?;
@@ -124,7 +177,7 @@ pub fn run(a: &DeformArgs) -> anyhow::Result<()> {
     let t1 = Instant::now();
     let stats = deformer.solve(&targets)?;
     let solve_ms = t1.elapsed().as_secs_f64() * 1e3;
-    solver::io::write_obj(&a.output, deformer.positions(), mesh.triangles())
+    write_pose(&a.output, &loaded, deformer.positions())
         .with_context(|| format!("writing {}", a.output.display()))?;
     if a.json {
         let j = serde_json::json!({

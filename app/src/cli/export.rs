@@ -17,6 +17,7 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use solver::Deformer;
 use solver::animation::export::{GltfExport, GltfFormat};
+use solver::animation::pointcache::{Pc2, write_obj_sequence, write_pc2};
 use solver::animation::recording::record;
 use solver::animation::scene::{HandlesSpec, LoadedScene, Scene};
 use solver::animation::timeline::{CircularPath, GroupPath, Path as AnimPath, Timeline};
@@ -43,7 +44,9 @@ pub struct ExportArgs {
     #[arg(long, value_enum)]
     pub method: Option<MethodArg>,
     /// Output, by extension: .glb (binary glTF) or .gltf (one JSON file, buffer embedded as
-    /// base64). Written atomically.
+    /// base64) with one morph target per frame; .pc2 (point cache for Blender's Mesh Cache
+    /// modifier and 3ds Max) or .obj (an OBJ sequence NAME_0001.obj, ... with one NAME.mtl), both
+    /// on the input file's own vertices in its order. Written atomically.
     #[arg(short = 'o', long = "output")]
     pub output: PathArg,
     /// Number of frames, both ends included (default: the scene's duration·fps + 1; with
@@ -109,8 +112,33 @@ fn bar(len: u64, what: &str, quiet: bool) -> ProgressBar {
     pb
 }
 
+/// What `-o` asks for, by its extension.
+enum Output {
+    Gltf(GltfFormat),
+    /// A PC2 point cache on the input file's vertex order.
+    Pc2,
+    /// `DIR/STEM_0001.obj`, ... on the input file's layout, with one `STEM.mtl`.
+    ObjSequence,
+}
+
+impl Output {
+    fn of(path: &Path) -> anyhow::Result<Output> {
+        let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
+        Ok(match ext.as_deref() {
+            Some("pc2") => Output::Pc2,
+            Some("obj") => Output::ObjSequence,
+            Some("glb" | "gltf") => Output::Gltf(GltfFormat::from_path(path)?),
+            _ => anyhow::bail!(
+                "{}: unsupported output; use .glb or .gltf (glTF morph targets), .pc2 (point \
+                 cache) or .obj (an OBJ sequence NAME_0001.obj, ...)",
+                path.display()
+            ),
+        })
+    }
+}
+
 pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
-    let format = GltfFormat::from_path(&a.output)?;
+    let output = Output::of(&a.output)?;
     let (loaded, source) = match (&a.scene, &a.mesh, &a.handles) {
         (Some(path), _, _) => (Scene::load(path)?, path.display().to_string()),
         (None, Some(mesh), Some(handles)) => {
@@ -155,22 +183,47 @@ pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
     pb.finish_and_clear();
     let record_s = t1.elapsed().as_secs_f64();
 
-    let export = GltfExport::new(mesh, &recording, format)?;
-    let size = export.file_size()?;
-    if !a.json {
-        eprintln!(
-            "writing {} ({:.1} MB, {} morph targets)",
-            a.output.display(),
-            size as f64 / 1e6,
-            n_frames
-        );
-    }
-    let pb = bar(n_frames as u64, "writing", a.json);
-    let written = export.write(&a.output, &mut |done, _| {
-        pb.set_position(done as u64);
-        ControlFlow::Continue(())
-    })?;
-    pb.finish_and_clear();
+    let asset = &loaded.mesh.asset;
+    let vertex_map = &loaded.mesh.report.vertex_map;
+    let written = match output {
+        Output::Gltf(format) => {
+            let export = GltfExport::new(mesh, &recording, format)?;
+            let size = export.file_size()?;
+            if !a.json {
+                eprintln!(
+                    "writing {} ({:.1} MB, {} morph targets)",
+                    a.output.display(),
+                    size as f64 / 1e6,
+                    n_frames
+                );
+            }
+            let pb = bar(n_frames as u64, "writing", a.json);
+            let written = export.write(&a.output, &mut |done, _| {
+                pb.set_position(done as u64);
+                ControlFlow::Continue(())
+            })?;
+            pb.finish_and_clear();
+            written
+        }
+        Output::Pc2 => {
+            let pc2 = Pc2::from_recording(&recording, asset, vertex_map, scene.timeline.fps)?;
+            write_pc2(&a.output, &pc2)?;
+            std::fs::metadata(&a.output).map(|m| m.len()).unwrap_or(0)
+        }
+        Output::ObjSequence => {
+            let dir = a.output.parent().filter(|d| !d.as_os_str().is_empty());
+            let dir = dir.unwrap_or(Path::new("."));
+            let stem = a.output.file_stem().map(|s| s.to_string_lossy().into_owned());
+            let files = write_obj_sequence(
+                dir,
+                stem.as_deref().unwrap_or("frame"),
+                asset,
+                vertex_map,
+                &recording,
+            )?;
+            files.iter().filter_map(|f| std::fs::metadata(f).ok()).map(|m| m.len()).sum()
+        }
+    };
 
     let iterations = recording.total_iterations();
     let at_cap = recording.stats.iter().filter(|s| !s.converged).count();
