@@ -204,8 +204,10 @@ impl EditorApp {
             return;
         }
         let settled = |f: Option<&SolvedFrame>| {
-            f.filter(|f| f.pose_generation == key.1 && f.scene_generation == key.0 && f.stats.done)
-                .map(|f| f.positions.clone())
+            f.filter(|f| {
+                f.pose_generation == key.1 && f.scene_generation == key.0 && f.stats.done
+            })
+            .map(|f| f.positions.clone())
         };
         let (Some(left), Some(right), Some(scene), Some(handles)) = (
             settled(self.solvers.views[1].frame.as_ref()),

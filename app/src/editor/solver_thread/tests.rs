@@ -128,11 +128,7 @@ impl PoseSolver for Settles {
         self.steps += 1;
         x[1][0] += 0.5;
         let converged = self.steps == 3;
-        Ok(Some(FrameStats {
-            fine_iterations: self.steps,
-            done: converged,
-            ..FrameStats::default()
-        }))
+        Ok(Some(FrameStats { fine_iterations: self.steps, done: converged, ..FrameStats::default() }))
     }
 }
 
