@@ -97,12 +97,13 @@ impl EditorApp {
         self.display.color_version += 1;
     }
 
+    /// Texture or clay shading (the toolbar's buttons and T).
     pub fn set_shading(&mut self, shading: Shading) {
         self.display.shading = shading;
         self.display.color_version += 1;
     }
 
-    /// The render layout slot `slot` draws with texture shading, for a shape of `n` vertices;
+    /// The render layout a viewport draws a shape of `n` vertices with in texture shading;
     /// `None`: clay (chosen, a bare mesh, the Details view, or a shape not on the mesh).
     pub(super) fn texture_layout(&self, n: usize) -> Option<&Arc<RenderLayout>> {
         let scene = self.session.scene.as_ref()?;
