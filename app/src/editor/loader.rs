@@ -130,12 +130,17 @@ fn prepare(
         triangles: mesh.triangles().iter().flatten().copied().collect(),
         edges: adjacency.edges().flat_map(|(a, b)| [a, b]).collect(),
     });
-    let render =
-        RenderLayout::build(&loaded.asset, &loaded.report.vertex_map, &topology.edges, version)
-            .map(|mut r| {
-                notices.extend(r.decode_images(&loaded.asset));
-                Arc::new(r)
-            });
+    let render = RenderLayout::build(
+        &loaded.asset,
+        &loaded.report.vertex_map,
+        mesh.n_vertices(),
+        &topology.edges,
+        version,
+    )
+    .map(|mut r| {
+        notices.extend(r.decode_images(&loaded.asset));
+        Arc::new(r)
+    });
     let mut default_labels = None;
     let mut selection_path = None;
     for candidate in selection_candidates(path) {

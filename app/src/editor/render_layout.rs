@@ -76,13 +76,15 @@ fn bits<const N: usize>(v: [f32; N]) -> [u32; N] {
 }
 
 impl RenderLayout {
-    /// Builds the layout of `asset` over the cleaned mesh (`vertex_map`: file vertex → mesh
-    /// vertex, `mesh_edges`: the mesh's edges as index pairs); `None` for a bare asset.
+    /// Builds the layout of `asset` over the cleaned mesh of `n_vertices` vertices
+    /// (`vertex_map`: file vertex → mesh vertex, `mesh_edges`: the mesh's edges as index
+    /// pairs); `None` for a bare asset.
     /// `version` tags the topology for the renderer. Images are not decoded here
     /// ([`RenderLayout::decode_images`]).
     pub fn build(
         asset: &Asset,
         vertex_map: &[Option<u32>],
+        n_vertices: usize,
         mesh_edges: &[u32],
         version: u64,
     ) -> Option<RenderLayout> {
@@ -114,7 +116,7 @@ impl RenderLayout {
         let mut buckets: BTreeMap<Option<usize>, Vec<u32>> = BTreeMap::new();
         let corner_value = |values: &[[f32; 2]], i: u32| values.get(i as usize).copied();
         for (t, tri) in asset.triangles.iter().enumerate() {
-            let Some(m) = mesh_triangle(tri, vertex_map) else { continue };
+            let Some(m) = mesh_triangle(tri, vertex_map, n_vertices) else { continue };
             let mat = material[t].map_or(&default_material, |i| &asset.materials[i]);
             let uvs = mat.base_color_texture.filter(|&i| i < asset.images.len()).and_then(|img| {
                 let set = asset.uvs.get(mat.base_color_uv as usize)?;
@@ -210,9 +212,11 @@ impl RenderLayout {
     }
 }
 
-/// The mesh vertices of file triangle `tri`, or `None` when cleaning dropped it.
-fn mesh_triangle(tri: &[u32; 3], vertex_map: &[Option<u32>]) -> Option<[u32; 3]> {
-    let m = [0, 1, 2].map(|k| vertex_map.get(tri[k] as usize).copied().flatten());
+/// The mesh vertices of file triangle `tri`, or `None` when cleaning dropped it (or the map
+/// points outside the mesh's `n` vertices).
+fn mesh_triangle(tri: &[u32; 3], vertex_map: &[Option<u32>], n: usize) -> Option<[u32; 3]> {
+    let mesh_vertex = |f: u32| vertex_map.get(f as usize).copied().flatten();
+    let m = [0, 1, 2].map(|k| mesh_vertex(tri[k]).filter(|&v| (v as usize) < n));
     let [Some(a), Some(b), Some(c)] = m else { return None };
     (a != b && b != c && a != c).then_some([a, b, c])
 }
@@ -281,7 +285,7 @@ mod tests {
     fn a_uv_seam_splits_mesh_vertices_and_each_render_vertex_keeps_its_own_uv() {
         let (asset, map) = seam_quad();
         let edges = [0, 1, 1, 2, 2, 0, 2, 3, 3, 0];
-        let layout = RenderLayout::build(&asset, &map, &edges, 7).expect("a layout");
+        let layout = RenderLayout::build(&asset, &map, 4, &edges, 7).expect("a layout");
         // 4 mesh vertices, 6 render vertices: 0 and 2 are split by the seam on the diagonal.
         assert_eq!(layout.mesh_vertex.len(), 6);
         assert!(layout.mesh_vertex.len() > 4);
@@ -325,7 +329,7 @@ mod tests {
     #[test]
     fn textures_decode_and_bare_assets_have_no_layout() {
         let (mut asset, map) = seam_quad();
-        let mut layout = RenderLayout::build(&asset, &map, &[], 1).unwrap();
+        let mut layout = RenderLayout::build(&asset, &map, 4, &[], 1).unwrap();
         assert!(!layout.has_texture_or_colors(), "not decoded yet");
         assert!(layout.decode_images(&asset).is_empty());
         let img = layout.images[0].as_ref().expect("decoded");
@@ -335,19 +339,23 @@ mod tests {
 
         // A broken image: a notice naming it, and its triangles drawn untextured.
         asset.images[0].bytes = b"not a png".to_vec();
-        let mut layout = RenderLayout::build(&asset, &map, &[], 1).unwrap();
+        let mut layout = RenderLayout::build(&asset, &map, 4, &[], 1).unwrap();
         let notices = layout.decode_images(&asset);
         assert!(notices.len() == 1 && notices[0].contains("red.png"), "{notices:?}");
         assert!(layout.images[0].is_none());
 
         // Without the UV set the texture names, the triangles are untextured.
         asset.uvs.clear();
-        let layout = RenderLayout::build(&asset, &map, &[], 1).unwrap();
+        let layout = RenderLayout::build(&asset, &map, 4, &[], 1).unwrap();
         assert_eq!(layout.draws, vec![DrawRange { image: None, indices: 0..6 }]);
         assert_eq!(layout.mesh_vertex.len(), 4, "no seam without UVs");
 
+        // A map pointing past the mesh (a bug elsewhere) drops the triangles, never panics.
+        let layout = RenderLayout::build(&asset, &map, 3, &[], 1).unwrap();
+        assert_eq!(layout.topology.triangles, vec![0, 1, 2]);
+
         let bare = Asset::bare(asset.positions.clone(), asset.triangles.clone());
-        assert!(RenderLayout::build(&bare, &map, &[], 1).is_none());
+        assert!(RenderLayout::build(&bare, &map, 4, &[], 1).is_none());
     }
 
     #[test]
@@ -361,7 +369,7 @@ mod tests {
             Part { material: Some(0), count: 1, ..Part::default() },
             Part { material: Some(1), first: 1, count: 2, ..Part::default() },
         ];
-        let layout = RenderLayout::build(&asset, &map, &[], 1).unwrap();
+        let layout = RenderLayout::build(&asset, &map, 4, &[], 1).unwrap();
         assert!(layout.has_texture_or_colors());
         // Mesh vertices 0 and 2 lie on the border of the two materials: split.
         assert_eq!(layout.mesh_vertex.len(), 6);
