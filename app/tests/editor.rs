@@ -622,7 +622,7 @@ fn textured_cube(png: Vec<u8>) -> solver::io::LoadedMesh {
 }
 
 /// The RGB of the rendered pixel under the centre of the mesh's projected vertices.
-fn pixel_at_mesh_centre(h: &mut Harness<'_, EditorApp>) -> [u8; 3] {
+fn pixel_at_mesh_centre(h: &mut Harness<'_, EditorApp>) -> [i32; 3] {
     let n = h.state().n_vertices();
     let points: Vec<Pos2> = (0..n).filter_map(|v| h.state().vertex_screen_pos(v)).collect();
     assert_eq!(points.len(), n, "every vertex is on screen");
@@ -630,7 +630,7 @@ fn pixel_at_mesh_centre(h: &mut Harness<'_, EditorApp>) -> [u8; 3] {
     let ppp = h.ctx.pixels_per_point();
     let image = h.render().expect("render");
     let p = image.get_pixel((c.x * ppp) as u32, (c.y * ppp) as u32);
-    [p[0], p[1], p[2]]
+    [p[0], p[1], p[2]].map(i32::from)
 }
 
 #[test]
@@ -677,7 +677,7 @@ fn a_textured_asset_shows_its_texture_and_the_clay_toggle_switches_back() {
     h.state_mut().set_edit_state(e);
     step_until(&mut h, "the solver on the new handles", settled);
     let tinted = pixel_at_mesh_centre(&mut h);
-    assert!(tinted[2] as i32 > red[2] as i32 + 40, "no group colour over the texture: {tinted:?}");
+    assert!(tinted[2] > red[2] + 40, "no group colour over the texture: {tinted:?}");
     assert!(tinted[0] > 2 * tinted[1], "the texture no longer shows under it: {tinted:?}");
     h.snapshot_options("editor_textured_group", &snapshot_options());
 }
