@@ -1,6 +1,7 @@
 // Smooth-shaded mesh: per-vertex normals and colors (colors are linear RGB).
 
-// `Uniforms` and `u` come from uniforms.wgsl, prepended by the renderer.
+// `Uniforms` and `u` come from uniforms.wgsl, `shade` from lighting.wgsl, both prepended by
+// the renderer.
 
 struct VertexIn {
     @location(0) position: vec3<f32>,
@@ -27,21 +28,5 @@ fn vs_main(v: VertexIn) -> VertexOut {
 
 @fragment
 fn fs_main(in: VertexOut, @builtin(front_facing) front: bool) -> @location(0) vec4<f32> {
-    var n = normalize(in.normal);
-    if (!front) {
-        n = -n;
-    }
-    let view_dir = normalize(u.eye.xyz - in.world);
-    let l = normalize(u.light_dir.xyz);
-    let key = max(dot(n, l), 0.0);
-    let fill = max(dot(n, view_dir), 0.0);
-    let h = normalize(l + view_dir);
-    let spec = pow(max(dot(n, h), 0.0), 48.0) * 0.25;
-    var base = in.color.rgb;
-    if (!front) {
-        // Back faces (holes, flipped triangles) are tinted so they are noticed.
-        base = base * vec3<f32>(0.8, 0.55, 0.55);
-    }
-    let rgb = base * (0.12 + 0.6 * key + 0.35 * fill) + vec3<f32>(spec);
-    return vec4<f32>(rgb, 1.0);
+    return vec4<f32>(shade(in.normal, in.world, in.color.rgb, front), 1.0);
 }

@@ -8,7 +8,7 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use app::editor::solver_thread::{Slot, SolverState};
-use app::editor::{EditorApp, EditorOptions, Tool, View, default_mesh_path};
+use app::editor::{EditorApp, EditorOptions, Shading, Tool, View, default_mesh_path};
 use eframe::egui::{self, Event, Modifiers, PointerButton, Pos2, Vec2};
 use egui_kittest::{Harness, SnapshotOptions, kittest::Queryable};
 use solver::testing::ScratchDir;
@@ -573,4 +573,111 @@ fn a_solver_panic_is_reported_and_the_solver_restarts() {
     let path = h.state().mesh_path().expect("mesh").to_path_buf();
     h.state_mut().open(&ctx, path);
     step_until(&mut h, "a frame after the restart", settled);
+}
+
+/// Pure red, 2×2, as PNG bytes.
+fn red_png() -> Vec<u8> {
+    let img = image::RgbaImage::from_pixel(2, 2, image::Rgba([255, 0, 0, 255]));
+    let mut out = std::io::Cursor::new(Vec::new());
+    img.write_to(&mut out, image::ImageFormat::Png).unwrap();
+    out.into_inner()
+}
+
+/// A unit cube stored as glTF stores it: each face has its own four vertices and UV square
+/// (24 file vertices, welded to 8 by cleaning), with one material whose base-colour texture is
+/// `png`.
+fn textured_cube(png: Vec<u8>) -> solver::io::LoadedMesh {
+    use solver::io::{Asset, Attribute, Image, LoadedMesh, Material};
+    let (mut positions, mut triangles, mut uvs) = (Vec::new(), Vec::new(), Vec::new());
+    for axis in 0..3 {
+        for sign in [-1.0, 1.0] {
+            let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+            let first = positions.len() as u32;
+            for (a, b) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+                let mut p = [0.0; 3];
+                p[axis] = 0.5 * sign;
+                p[u] = 0.5 * a;
+                p[v] = 0.5 * b;
+                positions.push(p);
+                uvs.push([(a as f32 + 1.0) * 0.5, (b as f32 + 1.0) * 0.5]);
+            }
+            // Counter-clockwise seen from outside.
+            let [a, b, c, d] = [first, first + 1, first + 2, first + 3];
+            if sign > 0.0 {
+                triangles.extend([[a, b, c], [a, c, d]]);
+            } else {
+                triangles.extend([[a, c, b], [a, d, c]]);
+            }
+        }
+    }
+    let mut asset = Asset::bare(positions.clone(), triangles.clone());
+    asset.uvs = vec![Attribute::per_vertex(uvs, &triangles)];
+    asset.materials =
+        vec![Material { name: "red".into(), base_color_texture: Some(0), ..Material::default() }];
+    asset.images =
+        vec![Image { name: "red.png".into(), mime_type: "image/png".into(), bytes: png }];
+    asset.parts[0].material = Some(0);
+    let (mesh, report) = solver::geometry::cleanup::clean(positions, triangles).unwrap();
+    LoadedMesh { mesh, report, asset }
+}
+
+/// The RGB of the rendered pixel under the centre of the mesh's projected vertices.
+fn pixel_at_mesh_centre(h: &mut Harness<'_, EditorApp>) -> [i32; 3] {
+    let n = h.state().n_vertices();
+    let points: Vec<Pos2> = (0..n).filter_map(|v| h.state().vertex_screen_pos(v)).collect();
+    assert_eq!(points.len(), n, "every vertex is on screen");
+    let c = points.iter().fold(Vec2::ZERO, |s, p| s + p.to_vec2()) / n as f32;
+    let ppp = h.ctx.pixels_per_point();
+    let image = h.render().expect("render");
+    let p = image.get_pixel((c.x * ppp) as u32, (c.y * ppp) as u32);
+    [p[0], p[1], p[2]].map(i32::from)
+}
+
+#[test]
+fn a_textured_asset_shows_its_texture_and_the_clay_toggle_switches_back() {
+    let dir = temp_dir("textured");
+    let builder =
+        Harness::builder().with_size(SIZE).with_render_cursor(false).with_step_dt(1.0 / 30.0);
+    let mut h = builder.wgpu().build_eframe(|cc| {
+        EditorApp::new(
+            cc,
+            EditorOptions { mesh_path: None, deterministic_overlays: true, config_dir: None },
+        )
+    });
+    h.step();
+    assert!(!h.state().has_texture_shading());
+    let ctx = h.ctx.clone();
+    h.state_mut().open_loaded(&ctx, dir.join("cube.glb"), textured_cube(red_png()));
+    step_until(&mut h, "the textured cube", |a| !a.is_loading() && a.n_vertices() == 8);
+    assert!(h.state().error().is_none(), "{:?}", h.state().error());
+    h.run_steps(3);
+
+    // Texture shading is on by default: the centre of the cube is red.
+    assert!(h.state().has_texture_shading());
+    assert_eq!(h.state().shading(), Shading::Texture);
+    h.snapshot_options("editor_textured", &snapshot_options());
+    let [r, g, b] = pixel_at_mesh_centre(&mut h);
+    assert!(r > 80 && r > 2 * g.max(b), "not red in texture shading: {:?}", [r, g, b]);
+
+    // The Clay button: grey.
+    h.get_by_label("Clay").click();
+    h.run_steps(3);
+    assert_eq!(h.state().shading(), Shading::Clay);
+    let [r, g, b] = pixel_at_mesh_centre(&mut h);
+    let spread = r.max(g).max(b) - r.min(g).min(b);
+    assert!(r > 60 && spread < 25, "not grey in clay shading: {:?}", [r, g, b]);
+
+    // T goes back to the texture; a painted group's colour (blue) shows over it.
+    h.key_press(egui::Key::T);
+    h.run_steps(3);
+    assert_eq!(h.state().shading(), Shading::Texture);
+    let red = pixel_at_mesh_centre(&mut h);
+    assert!(red[0] > 2 * red[2], "{red:?}");
+    let e = app::editor::undo::EditState::from_labels(vec![Some(2); 8]);
+    h.state_mut().set_edit_state(e);
+    step_until(&mut h, "the solver on the new handles", settled);
+    let tinted = pixel_at_mesh_centre(&mut h);
+    assert!(tinted[2] > red[2] + 40, "no group colour over the texture: {tinted:?}");
+    assert!(tinted[0] > 2 * tinted[1], "the texture no longer shows under it: {tinted:?}");
+    h.snapshot_options("editor_textured_group", &snapshot_options());
 }

@@ -1,7 +1,8 @@
 //! Loading a mesh (and its default handle selection) off the UI thread.
 //!
 //! [`spawn_load`] runs on a worker thread: read + clean the file, build everything the editor
-//! derives from the topology once (adjacency, BVH, index buffers, grid), then hand back a
+//! derives from the topology once (adjacency, BVH, index buffers, grid, the asset's render
+//! layout and decoded textures), then hand back a
 //! [`LoadedFile`] over a channel that the UI polls without blocking. A failure comes back as an
 //! error string; the UI keeps the current scene. Reading and cleaning are `solver::io`'s;
 //! selections are `solver::deform::selection`'s; scene files (`.json`) are `solver::animation::scene`'s: the
@@ -17,6 +18,7 @@ use glam::Vec3;
 use solver::{Handles, Mesh};
 
 use super::picking::Bvh;
+use super::render_layout::RenderLayout;
 use super::renderer::{Shape, Topology, VertexData, build_grid};
 use solver::geometry::topology::Adjacency;
 
@@ -35,6 +37,9 @@ pub struct LoadedFile {
     pub center: Vec3,
     pub radius: f32,
     pub grid: Arc<VertexData>,
+    /// The asset split at UV seams and material borders, with its decoded textures, for
+    /// texture shading; `None` for a bare mesh (no materials, no vertex colours).
+    pub render: Option<Arc<RenderLayout>>,
     /// The selection found next to the mesh, if any (labels per vertex).
     pub default_labels: Option<Vec<Option<u32>>>,
     /// Where `default_labels` came from.
@@ -57,13 +62,33 @@ pub struct LoadJob {
 
 /// Starts loading `path`; `version` tags the topology for the renderer.
 pub fn spawn_load(path: PathBuf, version: u64, repaint: impl Fn() + Send + 'static) -> LoadJob {
+    spawn_prepare(path, repaint, move |p| {
+        if is_scene_file(p) { load_scene_file(p, version) } else { load_scene(p, version) }
+    })
+}
+
+/// Prepares a mesh already read (`loaded`, as `solver::io::load_mesh` returns it) as if it
+/// came from `path`, on the loader thread: tests and scripts open assets built in code so.
+pub fn spawn_loaded(
+    path: PathBuf,
+    loaded: solver::io::LoadedMesh,
+    version: u64,
+    repaint: impl Fn() + Send + 'static,
+) -> LoadJob {
+    spawn_prepare(path, repaint, move |p| prepare(p, loaded, version))
+}
+
+/// Runs `load` on the loader thread, its panics caught.
+fn spawn_prepare(
+    path: PathBuf,
+    repaint: impl Fn() + Send + 'static,
+    load: impl FnOnce(&Path) -> anyhow::Result<LoadedFile> + Send + 'static,
+) -> LoadJob {
     let (tx, rx) = channel();
     let p = path.clone();
     let spawned = std::thread::Builder::new().name("mesh-loader".into()).spawn(move || {
-        let load = || {
-            if is_scene_file(&p) { load_scene_file(&p, version) } else { load_scene(&p, version) }
-        };
-        let result = std::panic::catch_unwind(load)
+        // Nothing the load touches outlives a panic: it is all dropped with the thread.
+        let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| load(&p)))
             .unwrap_or_else(|_| Err(anyhow!("the loader crashed while reading the file")))
             .map_err(|e| format!("Could not open {}: {e:#}", p.display()));
         let _ = tx.send(result);
@@ -79,7 +104,15 @@ pub fn spawn_load(path: PathBuf, version: u64, repaint: impl Fn() + Send + 'stat
 
 /// Reads and prepares a scene (runs on the loader thread).
 pub fn load_scene(path: &Path, version: u64) -> anyhow::Result<LoadedFile> {
-    let loaded = solver::io::load_mesh(path)?;
+    prepare(path, solver::io::load_mesh(path)?, version)
+}
+
+/// Derives everything the editor needs from a mesh read from `path` (runs on the loader thread).
+fn prepare(
+    path: &Path,
+    loaded: solver::io::LoadedMesh,
+    version: u64,
+) -> anyhow::Result<LoadedFile> {
     let mesh = loaded.mesh;
     let mut notices = loaded.report.notices();
     let rest = Shape::new(mesh.positions(), mesh.triangles());
@@ -96,6 +129,17 @@ pub fn load_scene(path: &Path, version: u64) -> anyhow::Result<LoadedFile> {
         version,
         triangles: mesh.triangles().iter().flatten().copied().collect(),
         edges: adjacency.edges().flat_map(|(a, b)| [a, b]).collect(),
+    });
+    let render = RenderLayout::build(
+        &loaded.asset,
+        &loaded.report.vertex_map,
+        mesh.n_vertices(),
+        &topology.edges,
+        version,
+    )
+    .map(|mut r| {
+        notices.extend(r.decode_images(&loaded.asset));
+        Arc::new(r)
     });
     let mut default_labels = None;
     let mut selection_path = None;
@@ -123,6 +167,7 @@ pub fn load_scene(path: &Path, version: u64) -> anyhow::Result<LoadedFile> {
         center,
         radius,
         grid,
+        render,
         default_labels,
         selection_path,
         document: None,

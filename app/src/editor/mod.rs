@@ -1,7 +1,8 @@
 //! The interactive editor: an eframe + wgpu window over the `solver` crate.
 //!
 //! Modules: [`app`] (UI state and frame loop), [`camera`] (orbit camera), [`renderer`] (wgpu
-//! paint callback, WGSL in `shaders/`), [`picking`] (BVH ray picking), [`brush`] (handle brush
+//! paint callback, WGSL in `shaders/`), [`render_layout`] (the asset split at UV seams for
+//! texture shading), [`textures`] (its base-colour textures on the GPU), [`picking`] (BVH ray picking), [`brush`] (handle brush
 //! footprint), [`solver_thread`] (background solver, mailbox, panic isolation), [`pose`] (group
 //! poses → handle targets), [`pose_solvers`] (the methods the threads run), [`loader`] (mesh
 //! loading off the UI thread), [`undo`] (edit state and history), [`timeline`] (playback and
@@ -18,14 +19,16 @@ pub mod persist;
 pub mod picking;
 pub mod pose;
 pub mod pose_solvers;
+pub mod render_layout;
 pub mod renderer;
 pub mod solver_thread;
+pub mod textures;
 pub mod timeline;
 pub mod undo;
 
 use std::path::PathBuf;
 
-pub use app::{EditorApp, EditorOptions, Tool, View, default_mesh_path};
+pub use app::{EditorApp, EditorOptions, Shading, Tool, View, default_mesh_path};
 
 /// Opens the editor window on `mesh_path`, or on the default asset when `None`.
 pub fn run(mesh_path: Option<PathBuf>) -> anyhow::Result<()> {

@@ -6,6 +6,11 @@
 //! reallocated only when they must grow (or the viewport is resized). `prepare` draws the mesh,
 //! its wireframe and the ground grid into the offscreen target (egui's own pass has no depth
 //! buffer); `paint` only binds and draws one triangle that copies the image into egui's pass.
+//!
+//! The mesh is drawn one of two ways. Clay shading draws the welded solver mesh with one colour
+//! per vertex ([`Vertex`], `mesh.wgsl`). Texture shading draws the asset's split layout
+//! ([`super::render_layout::RenderLayout`], [`TexturedVertex`], `textured.wgsl`): base colour
+//! × texture, with the handle colours blended over it; one draw per base-colour texture.
 
 use std::sync::Arc;
 
@@ -13,24 +18,33 @@ use bytemuck::{Pod, Zeroable};
 use eframe::egui_wgpu::{self, CallbackResources, CallbackTrait, ScreenDescriptor, wgpu};
 use glam::Vec3;
 
-/// A shader's source with `shaders/uniforms.wgsl` (the shared uniform block) prepended.
+use super::render_layout::RenderLayout;
+use super::textures::AssetTextures;
+
+/// A shader's source: `shaders/uniforms.wgsl` (the shared uniform block), then the files named.
 macro_rules! with_uniforms {
-    ($file:literal) => {
+    ($($file:literal),+) => {
         concat!(
             include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/../shaders/uniforms.wgsl")),
-            include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/../shaders/", $file))
+            $(include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/../shaders/", $file))),+
         )
     };
 }
 
-const MESH_WGSL: &str = with_uniforms!("mesh.wgsl");
+const MESH_WGSL: &str = with_uniforms!("lighting.wgsl", "mesh.wgsl");
+const TEXTURED_WGSL: &str = with_uniforms!("lighting.wgsl", "textured.wgsl");
 const WIRE_WGSL: &str = with_uniforms!("wire.wgsl");
 const GRID_WGSL: &str = with_uniforms!("grid.wgsl");
 const BLIT_WGSL: &str = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/../shaders/blit.wgsl"));
 
 /// Every WGSL source, for the shader test.
-pub const SHADERS: [(&str, &str); 4] =
-    [("mesh", MESH_WGSL), ("wire", WIRE_WGSL), ("grid", GRID_WGSL), ("blit", BLIT_WGSL)];
+pub const SHADERS: [(&str, &str); 5] = [
+    ("mesh", MESH_WGSL),
+    ("textured", TEXTURED_WGSL),
+    ("wire", WIRE_WGSL),
+    ("grid", GRID_WGSL),
+    ("blit", BLIT_WGSL),
+];
 
 const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
 const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
@@ -42,6 +56,19 @@ pub struct Vertex {
     pub position: [f32; 3],
     pub normal: [f32; 3],
     pub color: [f32; 4],
+}
+
+/// One vertex of the textured mesh (`shaders/textured.wgsl` `VertexIn`), colours linear RGBA.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
+pub struct TexturedVertex {
+    pub position: [f32; 3],
+    pub normal: [f32; 3],
+    /// Handle group / brush colour; alpha is its weight over the surface (0: none).
+    pub overlay: [f32; 4],
+    /// Material factor × vertex colour.
+    pub base_color: [f32; 4],
+    pub uv: [f32; 2],
 }
 
 /// Matches `Uniforms` in `shaders/uniforms.wgsl`: four vec4-aligned members, no implicit padding.
@@ -65,9 +92,15 @@ pub struct Topology {
 }
 
 /// Vertex data; `version` changes whenever the contents do.
-pub struct VertexData {
+pub struct VertexData<V = Vertex> {
     pub version: u64,
-    pub vertices: Vec<Vertex>,
+    pub vertices: Vec<V>,
+}
+
+/// The mesh in texture shading: the asset's layout and this frame's vertices on it.
+pub struct TexturedDraw {
+    pub layout: Arc<RenderLayout>,
+    pub vertices: Arc<VertexData<TexturedVertex>>,
 }
 
 /// Positions to draw with their vertex normals, both computed where the positions are made
@@ -141,6 +174,8 @@ pub struct ViewportCallback {
     pub topology: Option<Arc<Topology>>,
     pub vertices: Option<Arc<VertexData>>,
     pub grid: Option<Arc<VertexData>>,
+    /// Texture shading: drawn instead of `topology` and `vertices`.
+    pub textured: Option<TexturedDraw>,
     pub wireframe: bool,
     pub show_grid: bool,
     /// Linear background color.
@@ -198,7 +233,8 @@ struct ViewportGpu {
     edges: GrowBuffer,
     grid: GrowBuffer,
     vertex_version: Option<u64>,
-    topology_version: Option<u64>,
+    /// The topology in the index buffers, and whether it is the textured layout's.
+    topology_version: Option<(u64, bool)>,
     grid_version: Option<u64>,
     n_vertices: u32,
     n_triangle_indices: u32,
@@ -210,13 +246,38 @@ struct ViewportGpu {
 /// Pipelines and per-viewport buffers, stored in egui_wgpu's `callback_resources`.
 pub struct RendererResources {
     mesh_pipeline: wgpu::RenderPipeline,
+    textured_pipeline: wgpu::RenderPipeline,
     wire_pipeline: wgpu::RenderPipeline,
+    /// The wireframe over [`TexturedVertex`] buffers (another stride).
+    textured_wire_pipeline: wgpu::RenderPipeline,
+    textures: AssetTextures,
     grid_pipeline: wgpu::RenderPipeline,
     blit_pipeline: wgpu::RenderPipeline,
     uniform_layout: wgpu::BindGroupLayout,
     blit_layout: wgpu::BindGroupLayout,
     sampler: wgpu::Sampler,
     viewports: Vec<ViewportGpu>,
+}
+
+fn textured_vertex_layout() -> wgpu::VertexBufferLayout<'static> {
+    const ATTRS: [wgpu::VertexAttribute; 5] = wgpu::vertex_attr_array![
+        0 => Float32x3, 1 => Float32x3, 2 => Float32x4, 3 => Float32x4, 4 => Float32x2
+    ];
+    wgpu::VertexBufferLayout {
+        array_stride: std::mem::size_of::<TexturedVertex>() as u64,
+        step_mode: wgpu::VertexStepMode::Vertex,
+        attributes: &ATTRS,
+    }
+}
+
+/// Positions only, from vertices of `stride` bytes (the wireframe).
+fn position_layout(stride: usize) -> wgpu::VertexBufferLayout<'static> {
+    const ATTRS: [wgpu::VertexAttribute; 1] = wgpu::vertex_attr_array![0 => Float32x3];
+    wgpu::VertexBufferLayout {
+        array_stride: stride as u64,
+        step_mode: wgpu::VertexStepMode::Vertex,
+        attributes: &ATTRS,
+    }
 }
 
 fn vertex_layout() -> wgpu::VertexBufferLayout<'static> {
@@ -291,6 +352,7 @@ pub fn install(render_state: &egui_wgpu::RenderState) {
         })
     };
     let mesh = module("bsarap mesh shader", MESH_WGSL);
+    let textured = module("bsarap textured mesh shader", TEXTURED_WGSL);
     let wire = module("bsarap wire shader", WIRE_WGSL);
     let grid = module("bsarap grid shader", GRID_WGSL);
     let blit = module("bsarap blit shader", BLIT_WGSL);
@@ -334,17 +396,21 @@ pub fn install(render_state: &egui_wgpu::RenderState) {
         bind_group_layouts: &[Some(&uniform_layout)],
         immediate_size: 0,
     });
+    let textures = AssetTextures::new(device, &render_state.queue);
+    let texture_layout = super::textures::bind_group_layout(device);
+    let textured_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("bsarap textured pipeline layout"),
+        bind_group_layouts: &[Some(&uniform_layout), Some(&texture_layout)],
+        immediate_size: 0,
+    });
     let blit_pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
         label: Some("bsarap blit pipeline layout"),
         bind_group_layouts: &[Some(&blit_layout)],
         immediate_size: 0,
     });
     let buffers = [Some(vertex_layout())];
-    let position_only = [Some(wgpu::VertexBufferLayout {
-        array_stride: std::mem::size_of::<Vertex>() as u64,
-        step_mode: wgpu::VertexStepMode::Vertex,
-        attributes: &wgpu::vertex_attr_array![0 => Float32x3],
-    })];
+    let position_only = [Some(position_layout(std::mem::size_of::<Vertex>()))];
+    let textured_positions = [Some(position_layout(std::mem::size_of::<TexturedVertex>()))];
     let mesh_pipeline = pipeline(
         device,
         PipelineSpec {
@@ -358,19 +424,32 @@ pub fn install(render_state: &egui_wgpu::RenderState) {
             constants: &[],
         },
     );
-    let wire_pipeline = pipeline(
+    let textured_pipeline = pipeline(
         device,
         PipelineSpec {
-            label: "bsarap wire pipeline",
-            module: &wire,
-            layout: &scene_layout,
-            topology: wgpu::PrimitiveTopology::LineList,
-            buffers: &position_only,
-            depth: depth_state(false),
+            label: "bsarap textured mesh pipeline",
+            module: &textured,
+            layout: &textured_layout,
+            topology: wgpu::PrimitiveTopology::TriangleList,
+            buffers: &[Some(textured_vertex_layout())],
+            depth: depth_state(true),
             format: COLOR_FORMAT,
             constants: &[],
         },
     );
+    let wire_spec = |label, buffers| PipelineSpec {
+        label,
+        module: &wire,
+        layout: &scene_layout,
+        topology: wgpu::PrimitiveTopology::LineList,
+        buffers,
+        depth: depth_state(false),
+        format: COLOR_FORMAT,
+        constants: &[],
+    };
+    let textured_wire_pipeline =
+        pipeline(device, wire_spec("bsarap textured wire pipeline", &textured_positions));
+    let wire_pipeline = pipeline(device, wire_spec("bsarap wire pipeline", &position_only));
     let grid_pipeline = pipeline(
         device,
         PipelineSpec {
@@ -406,7 +485,10 @@ pub fn install(render_state: &egui_wgpu::RenderState) {
     });
     render_state.renderer.write().callback_resources.insert(RendererResources {
         mesh_pipeline,
+        textured_pipeline,
         wire_pipeline,
+        textured_wire_pipeline,
+        textures,
         grid_pipeline,
         blit_pipeline,
         uniform_layout,
@@ -522,21 +604,37 @@ impl CallbackTrait for ViewportCallback {
             vp.target = Some(t);
         }
         queue.write_buffer(&vp.uniform_buffer, 0, bytemuck::bytes_of(&self.uniforms));
-        if let Some(topo) = &self.topology
-            && vp.topology_version != Some(topo.version)
+        let textured = self.textured.is_some();
+        let topology = match &self.textured {
+            Some(t) => Some(&t.layout.topology),
+            None => self.topology.as_ref(),
+        };
+        if let Some(topo) = topology
+            && vp.topology_version != Some((topo.version, textured))
         {
             vp.triangles.write(device, queue, bytemuck::cast_slice(&topo.triangles));
             vp.edges.write(device, queue, bytemuck::cast_slice(&topo.edges));
             vp.n_triangle_indices = topo.triangles.len() as u32;
             vp.n_edge_indices = topo.edges.len() as u32;
-            vp.topology_version = Some(topo.version);
+            vp.topology_version = Some((topo.version, textured));
         }
-        if let Some(v) = &self.vertices
-            && vp.vertex_version != Some(v.version)
+        let vertices = match (&self.textured, &self.vertices) {
+            (Some(t), _) => Some((
+                t.vertices.version,
+                bytemuck::cast_slice(&t.vertices.vertices),
+                t.vertices.vertices.len(),
+            )),
+            (None, Some(v)) => {
+                Some((v.version, bytemuck::cast_slice(&v.vertices), v.vertices.len()))
+            }
+            (None, None) => None,
+        };
+        if let Some((version, bytes, n)) = vertices
+            && vp.vertex_version != Some(version)
         {
-            vp.vertices.write(device, queue, bytemuck::cast_slice(&v.vertices));
-            vp.n_vertices = v.vertices.len() as u32;
-            vp.vertex_version = Some(v.version);
+            vp.vertices.write(device, queue, bytes);
+            vp.n_vertices = n as u32;
+            vp.vertex_version = Some(version);
         }
         if let Some(g) = &self.grid
             && vp.grid_version != Some(g.version)
@@ -544,6 +642,9 @@ impl CallbackTrait for ViewportCallback {
             vp.grid.write(device, queue, bytemuck::cast_slice(&g.vertices));
             vp.n_grid = g.vertices.len() as u32;
             vp.grid_version = Some(g.version);
+        }
+        if let Some(t) = &self.textured {
+            res.textures.ensure(device, queue, &t.layout);
         }
         let vp = &res.viewports[self.slot];
         let Some(target) = &vp.target else { return Vec::new() };
@@ -577,14 +678,26 @@ impl CallbackTrait for ViewportCallback {
             pass.set_vertex_buffer(0, vp.grid.buffer.slice(..));
             pass.draw(0..vp.n_grid, 0..1);
         }
-        let mesh_ready = self.topology.is_some() && self.vertices.is_some() && vp.n_vertices > 0;
-        if mesh_ready && vp.n_triangle_indices > 0 {
-            pass.set_pipeline(&res.mesh_pipeline);
+        let mesh_ready = textured || (self.topology.is_some() && self.vertices.is_some());
+        if mesh_ready && vp.n_vertices > 0 && vp.n_triangle_indices > 0 {
             pass.set_vertex_buffer(0, vp.vertices.buffer.slice(..));
             pass.set_index_buffer(vp.triangles.buffer.slice(..), wgpu::IndexFormat::Uint32);
-            pass.draw_indexed(0..vp.n_triangle_indices, 0, 0..1);
+            match &self.textured {
+                Some(t) => {
+                    pass.set_pipeline(&res.textured_pipeline);
+                    for d in &t.layout.draws {
+                        pass.set_bind_group(1, res.textures.bind_group(d.image), &[]);
+                        pass.draw_indexed(d.indices.clone(), 0, 0..1);
+                    }
+                }
+                None => {
+                    pass.set_pipeline(&res.mesh_pipeline);
+                    pass.draw_indexed(0..vp.n_triangle_indices, 0, 0..1);
+                }
+            }
             if self.wireframe && vp.n_edge_indices > 0 {
-                pass.set_pipeline(&res.wire_pipeline);
+                let wire = if textured { &res.textured_wire_pipeline } else { &res.wire_pipeline };
+                pass.set_pipeline(wire);
                 pass.set_index_buffer(vp.edges.buffer.slice(..), wgpu::IndexFormat::Uint32);
                 pass.draw_indexed(0..vp.n_edge_indices, 0, 0..1);
             }
@@ -635,6 +748,7 @@ mod tests {
     fn uniforms_match_the_wgsl_size() {
         assert_eq!(std::mem::size_of::<Uniforms>(), 112);
         assert_eq!(std::mem::size_of::<Vertex>(), 40);
+        assert_eq!(std::mem::size_of::<TexturedVertex>(), 64);
     }
 
     #[test]

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use eframe::egui::Pos2;
 use glam::Vec3;
 
-use super::{EditorApp, Tool, View};
+use super::{EditorApp, Shading, Tool, View};
 use crate::editor::persist::{Persist, Snapshot};
 use crate::editor::pose::GroupPose;
 use crate::editor::solver_thread::{MethodSettings, Slot, SolvedFrame, SolverCommand, SolverState};
@@ -40,6 +40,31 @@ impl EditorApp {
 
     pub fn view(&self) -> View {
         self.display.view
+    }
+
+    /// The shading chosen (drawn as clay while [`Self::has_texture_shading`] is false).
+    pub fn shading(&self) -> Shading {
+        self.display.shading
+    }
+
+    /// Whether the open asset can be shown textured (it has materials or vertex colours).
+    pub fn has_texture_shading(&self) -> bool {
+        self.session.scene.as_ref().is_some_and(|s| s.render.is_some())
+    }
+
+    /// Opens a mesh already read (an asset built in code), as [`Self::open`] opens a file.
+    pub fn open_loaded(
+        &mut self,
+        ctx: &eframe::egui::Context,
+        path: PathBuf,
+        loaded: solver::io::LoadedMesh,
+    ) {
+        let version = self.next_version();
+        let c = ctx.clone();
+        self.jobs.loading =
+            Some(crate::editor::loader::spawn_loaded(path, loaded, version, move || {
+                c.request_repaint()
+            }));
     }
 
     pub fn set_tool(&mut self, tool: Tool) {

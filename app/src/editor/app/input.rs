@@ -4,7 +4,7 @@
 use eframe::egui::{self, Key, Modifiers, PointerButton, Pos2, Rect, Vec2};
 use glam::{DQuat, DVec3};
 
-use super::{DialogKind, EditorApp, Tool};
+use super::{DialogKind, EditorApp, Shading, Tool};
 use crate::editor::brush::footprint;
 use crate::editor::camera::ViewPreset;
 use crate::editor::picking::Hit;
@@ -137,6 +137,13 @@ impl EditorApp {
         }
         if pressed(Key::W) {
             self.display.wireframe = !self.display.wireframe;
+        }
+        if pressed(Key::T) && self.has_texture_shading() {
+            let next = match self.display.shading {
+                Shading::Texture => Shading::Clay,
+                Shading::Clay => Shading::Texture,
+            };
+            self.set_shading(next);
         }
         if pressed(Key::B) {
             self.interaction.tool = Tool::Paint;

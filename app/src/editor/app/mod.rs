@@ -78,6 +78,16 @@ impl View {
     }
 }
 
+/// How the mesh is shaded.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Shading {
+    /// The asset as it is: material colour, vertex colours and base-colour texture, with the
+    /// handle colours blended over it (`super::render_layout`).
+    Texture,
+    /// Uniform grey, to judge the deformation; handle groups in their colours.
+    Clay,
+}
+
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Tool {
     Paint,

@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 use eframe::egui::{self, Color32, Key, Rect, Vec2};
 use glam::{DQuat, EulerRot};
 
-use super::{DialogKind, EditorApp, Tool, View};
+use super::{DialogKind, EditorApp, Shading, Tool, View};
 use crate::editor::document::MAX_UI_ITERATIONS;
 use crate::editor::pose::{GroupPose, group_centroid};
 use crate::editor::pose_solvers;
@@ -436,6 +436,7 @@ impl EditorApp {
                         ("Left drag (pose)", "move a group in the view plane; Ctrl rotates"),
                         ("Ctrl+Z / Ctrl+Shift+Z", "undo / redo"),
                         ("W", "wireframe"),
+                        ("T", "texture / clay shading"),
                         ("Ctrl+O", "open a mesh or scene (or drop a file)"),
                         ("Ctrl+S / Ctrl+Shift+S", "save scene / save as"),
                         ("Space / Home", "play-pause / to the start"),
@@ -544,6 +545,17 @@ impl eframe::App for EditorApp {
                 }
                 ui.separator();
                 ui.checkbox(&mut self.display.wireframe, "wireframe");
+                let textured = self.has_texture_shading();
+                for (s, label, hint) in [
+                    (Shading::Texture, "Texture", "the asset's colours and texture (T)"),
+                    (Shading::Clay, "Clay", "uniform grey, to judge the deformation (T)"),
+                ] {
+                    let selected = self.display.shading == s && (textured || s == Shading::Clay);
+                    let r = ui.add_enabled(textured, egui::Button::selectable(selected, label));
+                    if r.on_hover_text(hint).clicked() {
+                        self.set_shading(s);
+                    }
+                }
                 ui.checkbox(&mut self.display.show_grid, "grid");
                 ui.separator();
                 if ui

@@ -8,7 +8,7 @@ use std::time::{Duration, Instant, SystemTime};
 
 use eframe::egui::{self, Vec2};
 
-use super::{DialogKind, EditorApp, file_name};
+use super::{DialogKind, EditorApp, Shading, file_name};
 use crate::editor::document::{self, DocumentInput};
 use crate::editor::loader::{self, LoadedFile};
 use crate::editor::persist::{self, AUTOSAVE_INTERVAL, Persist, Snapshot};
@@ -344,6 +344,8 @@ impl EditorApp {
                 self.display.show_recording = false;
                 self.interaction.active_group = (!self.session.edit.groups.is_empty()).then_some(0);
                 self.session.history.clear();
+                let textured = scene.render.as_ref().is_some_and(|r| r.has_texture_or_colors());
+                self.display.shading = if textured { Shading::Texture } else { Shading::Clay };
                 self.session.scene = Some(scene);
                 self.solvers.views = Default::default();
                 self.display.viewports = Default::default();

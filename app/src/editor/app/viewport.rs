@@ -7,16 +7,22 @@ use std::time::Instant;
 use eframe::egui::{self, Color32, Pos2, Rect, Sense, Vec2};
 use eframe::egui_wgpu;
 
-use super::{EditorApp, EditorOptions, View};
+use super::{EditorApp, EditorOptions, Shading, View};
 use crate::editor::camera::OrbitCamera;
 use crate::editor::pose_solvers;
-use crate::editor::renderer::{Shape, Uniforms, VertexData, ViewportCallback, build_vertices};
+use crate::editor::render_layout::RenderLayout;
+use crate::editor::renderer::{
+    Shape, TexturedDraw, TexturedVertex, Uniforms, VertexData, ViewportCallback, build_vertices,
+};
 use crate::editor::solver_thread::{SolvedFrame, SolverState};
 
 /// What the viewports show and how, and what was built for them.
 pub(super) struct Display {
     pub(super) camera: OrbitCamera,
     pub(super) view: View,
+    /// Texture or clay; set on each load (texture when the asset has a texture or vertex
+    /// colours).
+    pub(super) shading: Shading,
     pub(super) wireframe: bool,
     pub(super) show_grid: bool,
     pub(super) show_render_fps: bool,
@@ -43,6 +49,7 @@ impl Display {
         Display {
             camera: OrbitCamera::default(),
             view: View::Result,
+            shading: Shading::Clay,
             wireframe: false,
             show_grid: true,
             show_render_fps: !options.deterministic_overlays,
@@ -66,6 +73,8 @@ impl Display {
 pub(super) struct ViewportCache {
     pub(super) key: Option<(u64, u64)>,
     pub(super) data: Option<Arc<VertexData>>,
+    /// The same in texture shading (on the asset's render layout).
+    pub(super) textured: Option<Arc<VertexData<TexturedVertex>>>,
     /// Positions drawn in this viewport (for picking).
     pub(super) positions: Option<Arc<Vec<[f32; 3]>>>,
 }
@@ -88,9 +97,30 @@ impl EditorApp {
         self.display.color_version += 1;
     }
 
-    /// Colors per vertex (linear RGBA) for `slot`.
-    pub(super) fn vertex_colors(&self, slot: usize, n: usize) -> Vec<[f32; 4]> {
-        let base = egui::Rgba::from(Color32::from_rgb(200, 200, 192)).to_array();
+    /// Texture or clay shading (the toolbar's buttons and T).
+    pub fn set_shading(&mut self, shading: Shading) {
+        self.display.shading = shading;
+        self.display.color_version += 1;
+    }
+
+    /// The render layout a viewport draws a shape of `n` vertices with in texture shading;
+    /// `None`: clay (chosen, a bare mesh, the Details view, or a shape not on the mesh).
+    pub(super) fn texture_layout(&self, n: usize) -> Option<&Arc<RenderLayout>> {
+        let scene = self.session.scene.as_ref()?;
+        let on = self.display.shading == Shading::Texture
+            && self.display.view != View::Details
+            && n == scene.mesh.n_vertices();
+        scene.render.as_ref().filter(|_| on)
+    }
+
+    /// Colors per vertex (linear RGBA) for `slot`. Over a texture (`over_texture`) they are
+    /// an overlay whose alpha is its weight: 0 on free vertices, [`GROUP_TINT`] on handles.
+    pub(super) fn vertex_colors(&self, slot: usize, n: usize, over_texture: bool) -> Vec<[f32; 4]> {
+        let base = if over_texture {
+            [0.0; 4]
+        } else {
+            egui::Rgba::from(Color32::from_rgb(200, 200, 192)).to_array()
+        };
         let mut colors = vec![base; n];
         let details = (self.display.view == View::Details)
             .then(|| self.solvers.views[0].frame.as_ref().and_then(|f| f.detail_magnitudes.clone()))
@@ -109,6 +139,9 @@ impl EditorApp {
                         *ch *= 0.75;
                     }
                 }
+                if over_texture {
+                    rgba[3] = GROUP_TINT;
+                }
                 *c = rgba;
             }
         }
@@ -117,6 +150,10 @@ impl EditorApp {
             let tint = if erase { [0.9, 0.9, 0.9, 1.0] } else { [1.0, 0.85, 0.1, 1.0] };
             for &v in &h.footprint {
                 let c = &mut colors[v as usize];
+                if c[3] == 0.0 {
+                    *c = [tint[0], tint[1], tint[2], 0.55];
+                    continue;
+                }
                 for k in 0..3 {
                     c[k] = 0.45 * c[k] + 0.55 * tint[k];
                 }
@@ -165,11 +202,20 @@ impl EditorApp {
         if let Ok((pv, shape)) = &positions {
             let key = (*pv, self.display.color_version);
             if self.display.viewports[slot].key != Some(key) {
-                let colors = self.vertex_colors(slot, shape.positions.len());
-                let vertices = build_vertices(&shape.positions, &shape.normals, &colors);
+                let n = shape.positions.len();
+                let layout = self.texture_layout(n).cloned();
+                let colors = self.vertex_colors(slot, n, layout.is_some());
                 let version = self.next_version();
                 let cache = &mut self.display.viewports[slot];
-                cache.data = Some(Arc::new(VertexData { version, vertices }));
+                if let Some(layout) = layout {
+                    let vertices = layout.gather(&shape.positions, &shape.normals, &colors);
+                    cache.textured = Some(Arc::new(VertexData { version, vertices }));
+                    cache.data = None;
+                } else {
+                    let vertices = build_vertices(&shape.positions, &shape.normals, &colors);
+                    cache.data = Some(Arc::new(VertexData { version, vertices }));
+                    cache.textured = None;
+                }
                 cache.key = Some(key);
                 cache.positions = Some(shape.positions.clone());
             }
@@ -206,6 +252,12 @@ impl EditorApp {
                     .filter(|_| draw_mesh)
                     .map(|s| s.topology.clone()),
                 vertices: self.display.viewports[slot].data.clone().filter(|_| draw_mesh),
+                textured: self.display.viewports[slot]
+                    .textured
+                    .clone()
+                    .filter(|_| draw_mesh)
+                    .zip(self.session.scene.as_ref().and_then(|s| s.render.clone()))
+                    .map(|(vertices, layout)| TexturedDraw { layout, vertices }),
                 grid: self.session.scene.as_ref().map(|s| s.grid.clone()),
                 wireframe: self.display.wireframe,
                 show_grid: self.display.show_grid,
@@ -359,6 +411,9 @@ impl EditorApp {
         }
     }
 }
+
+/// Weight of a handle group's colour over the texture: painted groups stay visible.
+const GROUP_TINT: f32 = 0.55;
 
 /// A blue→green→yellow→red ramp for `t ∈ [0, 1]` (linear RGBA).
 fn colormap(t: f32) -> [f32; 4] {

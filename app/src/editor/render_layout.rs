@@ -1,0 +1,380 @@
+//! The asset as the viewport draws it in texture shading: the welded solver mesh split again
+//! where the file's surface attributes differ at one vertex, so that textures show without
+//! seams while the solver keeps its welded surface.
+//!
+//! **Render vertices.** Over the corners of the file's triangles ([`solver::io::Asset`]), a
+//! render vertex is a distinct pair (mesh vertex, surface values), the mesh vertex being
+//! `vertex_map[file vertex]` (cleaning's map) and the surface values the corner's texture
+//! coordinate and base colour. The base colour is the material's `base_color` factor times the
+//! corner's vertex colour (both linear RGBA); the texture coordinate comes from the UV set the
+//! material's base-colour texture names, and is (0, 0) on untextured triangles so that they
+//! share vertices. A UV seam or a material border thus splits a mesh vertex into several render
+//! vertices; each frame the pose is gathered onto them, $p_r = x_{\mathrm{mesh}(r)}$
+//! ([`RenderLayout::gather`]), so seams never open. Triangles that cleaning dropped (a corner
+//! mapped to `None` or a repeated mesh vertex) are not drawn.
+//!
+//! **Draws.** Triangles are sorted by base-colour texture (untextured first) into
+//! [`DrawRange`]s, one texture bind group each. Wireframe edges are the mesh's, on the first
+//! render vertex of each mesh vertex.
+//!
+//! A bare asset (no vertex colours, no part with a material) has no layout: the viewport draws
+//! the welded mesh directly, at no extra cost.
+
+use std::collections::{BTreeMap, HashMap};
+use std::ops::Range;
+use std::sync::Arc;
+
+use rayon::prelude::*;
+use solver::io::Asset;
+
+use super::renderer::{TexturedVertex, Topology};
+
+/// Textures larger than this (either side) are downscaled when decoded.
+pub const MAX_TEXTURE_SIZE: u32 = 4096;
+
+/// From this many render vertices on, [`RenderLayout::gather`] runs on rayon's pool.
+const PARALLEL_GATHER: usize = 32_768;
+
+/// Triangles `indices` (index-buffer positions) drawn with base-colour texture `image`
+/// (an index into [`RenderLayout::images`]; `None`: untextured).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct DrawRange {
+    pub image: Option<usize>,
+    pub indices: Range<u32>,
+}
+
+/// A decoded texture: `width × height` RGBA8 pixels, sRGB-encoded, row-major from the top.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DecodedImage {
+    pub width: u32,
+    pub height: u32,
+    pub rgba: Vec<u8>,
+}
+
+/// The split vertex layout of one loaded asset; see the module doc.
+#[derive(Clone)]
+pub struct RenderLayout {
+    /// Render vertex → mesh vertex.
+    pub mesh_vertex: Vec<u32>,
+    /// Per render vertex: texture coordinate (glTF convention, v down from the top).
+    pub uv: Vec<[f32; 2]>,
+    /// Per render vertex: material factor × vertex colour (linear RGBA).
+    pub base_color: Vec<[f32; 4]>,
+    /// Triangles over render vertices in draw order, and the mesh's edges mapped onto them.
+    pub topology: Arc<Topology>,
+    pub draws: Vec<DrawRange>,
+    /// Decoded base-colour textures, indexed like `Asset::images`; `None` where no draw uses
+    /// the image or it could not be decoded (its triangles are drawn untextured).
+    pub images: Vec<Option<Arc<DecodedImage>>>,
+    /// The asset has vertex colours.
+    pub has_vertex_colors: bool,
+}
+
+/// Bit pattern of a float vector, for exact-value hashing.
+fn bits<const N: usize>(v: [f32; N]) -> [u32; N] {
+    v.map(f32::to_bits)
+}
+
+impl RenderLayout {
+    /// Builds the layout of `asset` over the cleaned mesh of `n_vertices` vertices
+    /// (`vertex_map`: file vertex → mesh vertex, `mesh_edges`: the mesh's edges as index
+    /// pairs); `None` for a bare asset.
+    /// `version` tags the topology for the renderer. Images are not decoded here
+    /// ([`RenderLayout::decode_images`]).
+    pub fn build(
+        asset: &Asset,
+        vertex_map: &[Option<u32>],
+        n_vertices: usize,
+        mesh_edges: &[u32],
+        version: u64,
+    ) -> Option<RenderLayout> {
+        let has_vertex_colors = asset.colors.is_some();
+        if !has_vertex_colors && !asset.parts.iter().any(|p| p.material.is_some()) {
+            return None;
+        }
+        let n_triangles = asset.triangles.len();
+        // The material of each triangle (parts cover the triangles in order).
+        let mut material = vec![None; n_triangles];
+        for p in &asset.parts {
+            let end = p.first.saturating_add(p.count).min(n_triangles);
+            let m = p.material.filter(|&m| m < asset.materials.len());
+            for slot in material.iter_mut().take(end).skip(p.first) {
+                *slot = m;
+            }
+        }
+        let default_material = solver::io::Material::default();
+        let mut index: HashMap<(u32, [u32; 2], [u32; 4]), u32> = HashMap::new();
+        let mut layout = RenderLayout {
+            mesh_vertex: Vec::new(),
+            uv: Vec::new(),
+            base_color: Vec::new(),
+            topology: Arc::new(Topology { version, triangles: Vec::new(), edges: Vec::new() }),
+            draws: Vec::new(),
+            images: vec![None; asset.images.len()],
+            has_vertex_colors,
+        };
+        let mut buckets: BTreeMap<Option<usize>, Vec<u32>> = BTreeMap::new();
+        let corner_value = |values: &[[f32; 2]], i: u32| values.get(i as usize).copied();
+        for (t, tri) in asset.triangles.iter().enumerate() {
+            let Some(m) = mesh_triangle(tri, vertex_map, n_vertices) else { continue };
+            let mat = material[t].map_or(&default_material, |i| &asset.materials[i]);
+            let uvs = mat.base_color_texture.filter(|&i| i < asset.images.len()).and_then(|img| {
+                let set = asset.uvs.get(mat.base_color_uv as usize)?;
+                Some((img, set, set.corners.get(t)?))
+            });
+            let colors = asset.colors.as_ref().and_then(|c| Some((c, c.corners.get(t)?)));
+            let mut out = [0u32; 3];
+            for k in 0..3 {
+                let uv =
+                    uvs.and_then(|(_, set, c)| corner_value(&set.values, c[k])).unwrap_or([0.0; 2]);
+                let vc = colors
+                    .and_then(|(c, cs)| c.values.get(cs[k] as usize).copied())
+                    .unwrap_or([1.0; 4]);
+                let base: [f32; 4] = std::array::from_fn(|i| mat.base_color[i] * vc[i]);
+                let key = (m[k], bits(uv), bits(base));
+                out[k] = *index.entry(key).or_insert_with(|| {
+                    layout.mesh_vertex.push(m[k]);
+                    layout.uv.push(uv);
+                    layout.base_color.push(base);
+                    (layout.mesh_vertex.len() - 1) as u32
+                });
+            }
+            buckets.entry(uvs.map(|(img, _, _)| img)).or_default().extend(out);
+        }
+        let mut triangles = Vec::new();
+        for (image, indices) in buckets {
+            let start = triangles.len() as u32;
+            triangles.extend(indices);
+            layout.draws.push(DrawRange { image, indices: start..triangles.len() as u32 });
+        }
+        let n_mesh = layout.mesh_vertex.iter().map(|&m| m as usize + 1).max().unwrap_or(0);
+        let mut first = vec![u32::MAX; n_mesh];
+        for (r, &m) in layout.mesh_vertex.iter().enumerate().rev() {
+            first[m as usize] = r as u32;
+        }
+        let on_render = |m: u32| first.get(m as usize).copied().filter(|&r| r != u32::MAX);
+        let mut edges = Vec::with_capacity(mesh_edges.len());
+        for e in mesh_edges.chunks_exact(2) {
+            if let (Some(a), Some(b)) = (on_render(e[0]), on_render(e[1])) {
+                edges.extend([a, b]);
+            }
+        }
+        layout.topology = Arc::new(Topology { version, triangles, edges });
+        Some(layout)
+    }
+
+    /// Decodes the textures the draws use (PNG or JPEG, sRGB RGBA8, downscaled to fit
+    /// [`MAX_TEXTURE_SIZE`]); returns a notice for each image that could not be decoded.
+    pub fn decode_images(&mut self, asset: &Asset) -> Vec<String> {
+        let mut notices = Vec::new();
+        let used: Vec<usize> = self.draws.iter().filter_map(|d| d.image).collect();
+        for i in used {
+            let Some(img) = asset.images.get(i) else { continue };
+            match decode(&img.bytes) {
+                Ok(d) => self.images[i] = Some(Arc::new(d)),
+                Err(e) => notices.push(format!("texture {} not shown: {e}", img.name)),
+            }
+        }
+        notices
+    }
+
+    /// Whether texture shading shows more than the material colours: a decoded texture or
+    /// vertex colours.
+    pub fn has_texture_or_colors(&self) -> bool {
+        self.has_vertex_colors || self.images.iter().any(Option::is_some)
+    }
+
+    /// The vertices of one frame: positions, normals and the overlay colour (handle groups,
+    /// brush; alpha is its weight over the surface) of the mesh vertices, gathered onto the
+    /// render vertices beside their texture coordinates and base colours.
+    pub fn gather(
+        &self,
+        positions: &[[f32; 3]],
+        normals: &[[f32; 3]],
+        overlay: &[[f32; 4]],
+    ) -> Vec<TexturedVertex> {
+        let vertex = |r: usize| {
+            let m = self.mesh_vertex[r] as usize;
+            TexturedVertex {
+                position: positions[m],
+                normal: normals[m],
+                overlay: overlay[m],
+                base_color: self.base_color[r],
+                uv: self.uv[r],
+            }
+        };
+        let n = self.mesh_vertex.len();
+        if n >= PARALLEL_GATHER {
+            (0..n).into_par_iter().map(vertex).collect()
+        } else {
+            (0..n).map(vertex).collect()
+        }
+    }
+}
+
+/// The mesh vertices of file triangle `tri`, or `None` when cleaning dropped it (or the map
+/// points outside the mesh's `n` vertices).
+fn mesh_triangle(tri: &[u32; 3], vertex_map: &[Option<u32>], n: usize) -> Option<[u32; 3]> {
+    let mesh_vertex = |f: u32| vertex_map.get(f as usize).copied().flatten();
+    let m = [0, 1, 2].map(|k| mesh_vertex(tri[k]).filter(|&v| (v as usize) < n));
+    let [Some(a), Some(b), Some(c)] = m else { return None };
+    (a != b && b != c && a != c).then_some([a, b, c])
+}
+
+/// Decodes PNG or JPEG bytes to sRGB RGBA8, downscaled to fit [`MAX_TEXTURE_SIZE`].
+fn decode(bytes: &[u8]) -> Result<DecodedImage, image::ImageError> {
+    let mut img = image::load_from_memory(bytes)?.to_rgba8();
+    let (w, h) = img.dimensions();
+    if w > MAX_TEXTURE_SIZE || h > MAX_TEXTURE_SIZE {
+        let s = MAX_TEXTURE_SIZE as f64 / w.max(h) as f64;
+        let (nw, nh) = (((w as f64 * s) as u32).max(1), ((h as f64 * s) as u32).max(1));
+        img = image::imageops::resize(&img, nw, nh, image::imageops::FilterType::Triangle);
+    }
+    let (width, height) = img.dimensions();
+    Ok(DecodedImage { width, height, rgba: img.into_raw() })
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used, clippy::expect_used)]
+mod tests {
+    use super::*;
+    use solver::io::{Attribute, Image, Material, Part};
+
+    /// A quad of two triangles over four file vertices whose UVs are split along the diagonal
+    /// (each triangle has its own UV island), plus a fifth file vertex welded onto vertex 0.
+    fn seam_quad() -> (Asset, Vec<Option<u32>>) {
+        let positions = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]];
+        let mut positions = positions;
+        positions.push([0.0, 0.0, 0.0]); // file vertex 4 = vertex 0 after welding
+        let triangles = vec![[0, 1, 2], [4, 2, 3], [0, 0, 1]];
+        let mut asset = Asset::bare(positions, triangles);
+        // Triangle 0: island A; triangle 1: island B (shares the diagonal 0-2 at other UVs).
+        asset.uvs = vec![Attribute {
+            values: vec![
+                [0.0, 0.0],
+                [0.5, 0.0],
+                [0.5, 0.5],
+                [0.6, 0.6],
+                [0.6, 1.0],
+                [1.0, 1.0],
+                [0.9, 0.9],
+            ],
+            corners: vec![[0, 1, 2], [3, 4, 5], [6, 6, 6]],
+        }];
+        asset.materials = vec![Material {
+            base_color_texture: Some(0),
+            base_color: [1.0, 0.5, 0.5, 1.0],
+            ..Material::default()
+        }];
+        asset.images =
+            vec![Image { name: "red.png".into(), mime_type: "image/png".into(), bytes: red_png() }];
+        asset.parts = vec![Part { material: Some(0), count: 3, ..Part::default() }];
+        // The degenerate third triangle was dropped by cleaning; vertex 4 welded onto 0.
+        let vertex_map = vec![Some(0), Some(1), Some(2), Some(3), Some(0)];
+        (asset, vertex_map)
+    }
+
+    fn red_png() -> Vec<u8> {
+        let img = image::RgbaImage::from_pixel(2, 2, image::Rgba([255, 0, 0, 255]));
+        let mut out = std::io::Cursor::new(Vec::new());
+        img.write_to(&mut out, image::ImageFormat::Png).unwrap();
+        out.into_inner()
+    }
+
+    #[test]
+    fn a_uv_seam_splits_mesh_vertices_and_each_render_vertex_keeps_its_own_uv() {
+        let (asset, map) = seam_quad();
+        let edges = [0, 1, 1, 2, 2, 0, 2, 3, 3, 0];
+        let layout = RenderLayout::build(&asset, &map, 4, &edges, 7).expect("a layout");
+        // 4 mesh vertices, 6 render vertices: 0 and 2 are split by the seam on the diagonal.
+        assert_eq!(layout.mesh_vertex.len(), 6);
+        assert!(layout.mesh_vertex.len() > 4);
+        let tris = &layout.topology.triangles;
+        assert_eq!(tris.len(), 6, "the degenerate triangle is not drawn");
+        assert_eq!(layout.topology.version, 7);
+        // Every corner of every drawn triangle: the right mesh vertex and the right UV.
+        let expected = [
+            ([0, 1, 2], [[0.0, 0.0], [0.5, 0.0], [0.5, 0.5]]),
+            ([0, 2, 3], [[0.6, 0.6], [0.6, 1.0], [1.0, 1.0]]),
+        ];
+        for (t, (mesh, uv)) in tris.chunks_exact(3).zip(expected) {
+            for k in 0..3 {
+                let r = t[k] as usize;
+                assert_eq!(layout.mesh_vertex[r], mesh[k]);
+                assert_eq!(layout.uv[r], uv[k]);
+                assert_eq!(layout.base_color[r], [1.0, 0.5, 0.5, 1.0]);
+            }
+        }
+        // One textured draw over everything; edges land on render vertices of the same mesh
+        // vertex.
+        assert_eq!(layout.draws, vec![DrawRange { image: Some(0), indices: 0..6 }]);
+        let e = &layout.topology.edges;
+        assert_eq!(e.len(), edges.len());
+        for (r, m) in e.iter().zip(edges) {
+            assert_eq!(layout.mesh_vertex[*r as usize], m);
+        }
+        // The pose follows the mesh: both copies of a split vertex get its position.
+        let x: Vec<[f32; 3]> = (0..4).map(|i| [i as f32, 0.0, 0.0]).collect();
+        let n = vec![[0.0, 0.0, 1.0]; 4];
+        let overlay: Vec<[f32; 4]> = (0..4).map(|i| [0.0, 0.0, 0.0, i as f32]).collect();
+        let v = layout.gather(&x, &n, &overlay);
+        for (r, v) in v.iter().enumerate() {
+            let m = layout.mesh_vertex[r] as usize;
+            assert_eq!(v.position, x[m]);
+            assert_eq!(v.overlay[3], m as f32);
+            assert_eq!(v.uv, layout.uv[r]);
+        }
+    }
+
+    #[test]
+    fn textures_decode_and_bare_assets_have_no_layout() {
+        let (mut asset, map) = seam_quad();
+        let mut layout = RenderLayout::build(&asset, &map, 4, &[], 1).unwrap();
+        assert!(!layout.has_texture_or_colors(), "not decoded yet");
+        assert!(layout.decode_images(&asset).is_empty());
+        let img = layout.images[0].as_ref().expect("decoded");
+        assert_eq!((img.width, img.height), (2, 2));
+        assert_eq!(&img.rgba[..4], &[255, 0, 0, 255]);
+        assert!(layout.has_texture_or_colors());
+
+        // A broken image: a notice naming it, and its triangles drawn untextured.
+        asset.images[0].bytes = b"not a png".to_vec();
+        let mut layout = RenderLayout::build(&asset, &map, 4, &[], 1).unwrap();
+        let notices = layout.decode_images(&asset);
+        assert!(notices.len() == 1 && notices[0].contains("red.png"), "{notices:?}");
+        assert!(layout.images[0].is_none());
+
+        // Without the UV set the texture names, the triangles are untextured.
+        asset.uvs.clear();
+        let layout = RenderLayout::build(&asset, &map, 4, &[], 1).unwrap();
+        assert_eq!(layout.draws, vec![DrawRange { image: None, indices: 0..6 }]);
+        assert_eq!(layout.mesh_vertex.len(), 4, "no seam without UVs");
+
+        // A map pointing past the mesh (a bug elsewhere) drops the triangles, never panics.
+        let layout = RenderLayout::build(&asset, &map, 3, &[], 1).unwrap();
+        assert_eq!(layout.topology.triangles, vec![0, 1, 2]);
+
+        let bare = Asset::bare(asset.positions.clone(), asset.triangles.clone());
+        assert!(RenderLayout::build(&bare, &map, 4, &[], 1).is_none());
+    }
+
+    #[test]
+    fn vertex_colours_multiply_the_material_colour_and_split_at_material_borders() {
+        let (mut asset, map) = seam_quad();
+        asset.uvs.clear();
+        asset.colors =
+            Some(Attribute { values: vec![[0.5, 1.0, 1.0, 1.0]], corners: vec![[0, 0, 0]; 3] });
+        asset.materials.push(Material { base_color: [0.0, 0.0, 1.0, 1.0], ..Material::default() });
+        asset.parts = vec![
+            Part { material: Some(0), count: 1, ..Part::default() },
+            Part { material: Some(1), first: 1, count: 2, ..Part::default() },
+        ];
+        let layout = RenderLayout::build(&asset, &map, 4, &[], 1).unwrap();
+        assert!(layout.has_texture_or_colors());
+        // Mesh vertices 0 and 2 lie on the border of the two materials: split.
+        assert_eq!(layout.mesh_vertex.len(), 6);
+        let t = &layout.topology.triangles;
+        assert_eq!(layout.base_color[t[0] as usize], [0.5, 0.5, 0.5, 1.0]);
+        assert_eq!(layout.base_color[t[3] as usize], [0.0, 0.0, 1.0, 1.0]);
+    }
+}
