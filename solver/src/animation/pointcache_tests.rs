@@ -3,7 +3,7 @@
 #![allow(clippy::unwrap_used)]
 
 use super::*;
-use crate::animation::recording::FrameStats;
+use crate::deform::arap::FrameStats;
 use crate::io::{Attribute, Material, load_mesh};
 use crate::testing::ScratchDir;
 
@@ -39,7 +39,7 @@ fn quad_recording(dir: &Path, n: usize) -> (Asset, Vec<Option<u32>>, Recording) 
                 .collect()
         })
         .collect();
-    let stats = FrameStats { iterations: 1, converged: true, energy: 0.0, ms: 0.0 };
+    let stats = FrameStats { iterations: 1, converged: true, done: true, ..FrameStats::default() };
     let recording = Recording {
         times: (0..n).map(|i| 0.5 * i as f64).collect(),
         frames,
