@@ -1,0 +1,169 @@
+//! Morph-target storage: one target attribute (VEC3 per vertex) as dense, sparse, or no data.
+//!
+//! - **Dense**: one buffer view of `count` elements; f32 elements are 12 bytes, normalized
+//!   i16 elements are padded to a stride of 8 (glTF: vertex attribute elements start on
+//!   4-byte boundaries).
+//! - **Sparse** (glTF 2.0 §3.6.2.3): an accessor without a buffer view (all zeros) whose
+//!   `sparse` lists the `m` vertices with a nonzero delta: indices (u16, or u32 past 65 536
+//!   vertices) and tightly packed values, each view padded to 4 bytes. Chosen when it is
+//!   smaller: $\lceil m\,b_i\rceil_4 + \lceil m\,b_e\rceil_4 < \text{dense size}$.
+//! - **Zero**: no vertex moves: an accessor without a buffer view (glTF reads zeros), 0 bytes.
+//!
+//! Zero and sparse are used only when the settings allow sparse storage.
+
+/// A target attribute's values, as they will be stored.
+#[derive(Debug)]
+pub(super) enum Values {
+    F32(Vec<[f32; 3]>),
+    /// Normalized SHORT: the reader divides by 32767.
+    I16(Vec<[i16; 3]>),
+}
+
+/// How an encoded target is stored.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Storage {
+    Zero,
+    Dense,
+    /// `count` vertices, indices of `index_bytes` (2 or 4) each.
+    Sparse {
+        count: usize,
+        index_bytes: usize,
+    },
+}
+
+/// An encoded target: its storage, the bytes of its views (dense: one; sparse: indices then
+/// values; zero: none) and the min/max of its values (as stored: i16 as integers).
+#[derive(Debug)]
+pub(super) struct Encoded {
+    pub storage: Storage,
+    pub views: Vec<Vec<u8>>,
+    pub min: [f64; 3],
+    pub max: [f64; 3],
+}
+
+impl Values {
+    fn len(&self) -> usize {
+        match self {
+            Values::F32(v) => v.len(),
+            Values::I16(v) => v.len(),
+        }
+    }
+
+    fn is_zero(&self, i: usize) -> bool {
+        match self {
+            Values::F32(v) => v[i].iter().all(|&c| c == 0.0),
+            Values::I16(v) => v[i].iter().all(|&c| c == 0),
+        }
+    }
+
+    fn get(&self, i: usize) -> [f64; 3] {
+        match self {
+            Values::F32(v) => v[i].map(f64::from),
+            Values::I16(v) => v[i].map(f64::from),
+        }
+    }
+
+    /// Bytes of one tightly packed element.
+    fn element_bytes(&self) -> usize {
+        match self {
+            Values::F32(_) => 12,
+            Values::I16(_) => 6,
+        }
+    }
+
+    /// The byte stride of a dense view (`None`: tightly packed).
+    pub fn dense_stride(&self) -> Option<usize> {
+        match self {
+            Values::F32(_) => None,
+            Values::I16(_) => Some(8),
+        }
+    }
+
+    fn push(&self, i: usize, out: &mut Vec<u8>) {
+        match self {
+            Values::F32(v) => v[i].iter().for_each(|c| out.extend_from_slice(&c.to_le_bytes())),
+            Values::I16(v) => v[i].iter().for_each(|c| out.extend_from_slice(&c.to_le_bytes())),
+        }
+    }
+}
+
+/// Encodes `values` (dense when `sparse` is false; see the module doc).
+pub(super) fn encode(values: &Values, sparse: bool) -> Encoded {
+    let n = values.len();
+    let mut min = [0.0f64; 3];
+    let mut max = [0.0f64; 3];
+    if n > 0 {
+        min = [f64::INFINITY; 3];
+        max = [f64::NEG_INFINITY; 3];
+    }
+    let mut moving = Vec::new();
+    for i in 0..n {
+        let v = values.get(i);
+        for d in 0..3 {
+            min[d] = min[d].min(v[d]);
+            max[d] = max[d].max(v[d]);
+        }
+        if !values.is_zero(i) {
+            moving.push(i as u32);
+        }
+    }
+    let stride = values.dense_stride().unwrap_or(values.element_bytes());
+    let dense_size = n * stride;
+    let index_bytes = if n <= 1 << 16 { 2 } else { 4 };
+    let m = moving.len();
+    let sparse_size =
+        (m * index_bytes).next_multiple_of(4) + (m * values.element_bytes()).next_multiple_of(4);
+    if sparse && m == 0 {
+        return Encoded { storage: Storage::Zero, views: Vec::new(), min, max };
+    }
+    if sparse && sparse_size < dense_size {
+        let mut indices = Vec::with_capacity(m * index_bytes);
+        let mut data = Vec::with_capacity(m * values.element_bytes());
+        for &i in &moving {
+            if index_bytes == 2 {
+                indices.extend_from_slice(&(i as u16).to_le_bytes());
+            } else {
+                indices.extend_from_slice(&i.to_le_bytes());
+            }
+            values.push(i as usize, &mut data);
+        }
+        return Encoded {
+            storage: Storage::Sparse { count: m, index_bytes },
+            views: vec![indices, data],
+            min,
+            max,
+        };
+    }
+    let mut data = Vec::with_capacity(dense_size);
+    for i in 0..n {
+        values.push(i, &mut data);
+        data.resize(data.len().next_multiple_of(stride), 0);
+    }
+    Encoded { storage: Storage::Dense, views: vec![data], min, max }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sparse_only_when_smaller() {
+        let mut v = vec![[0i16; 3]; 100];
+        v[7] = [1, -2, 3];
+        let e = encode(&Values::I16(v.clone()), true);
+        assert_eq!(e.storage, Storage::Sparse { count: 1, index_bytes: 2 });
+        assert_eq!(e.views[0], 7u16.to_le_bytes());
+        assert_eq!((e.min, e.max), ([0.0, -2.0, 0.0], [1.0, 0.0, 3.0]));
+        let e = encode(&Values::I16(v.clone()), false);
+        assert_eq!(e.storage, Storage::Dense);
+        assert_eq!(e.views[0].len(), 800);
+        assert_eq!(&e.views[0][56..64], &[1, 0, 254, 255, 3, 0, 0, 0]);
+        for x in v.iter_mut() {
+            *x = [1, 1, 1];
+        }
+        assert_eq!(encode(&Values::I16(v), true).storage, Storage::Dense);
+        let e = encode(&Values::F32(vec![[0.0; 3]; 5]), true);
+        assert_eq!(e.storage, Storage::Zero);
+        assert!(e.views.is_empty());
+    }
+}
