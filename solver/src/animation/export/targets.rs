@@ -5,11 +5,16 @@
 //!   4-byte boundaries).
 //! - **Sparse** (glTF 2.0 §3.6.2.3): an accessor without a buffer view (all zeros) whose
 //!   `sparse` lists the `m` vertices with a nonzero delta: indices (u16, or u32 past 65 536
-//!   vertices) and tightly packed values, each view padded to 4 bytes. Chosen when it is
-//!   smaller: $\lceil m\,b_i\rceil_4 + \lceil m\,b_e\rceil_4 < \text{dense size}$.
+//!   vertices) and tightly packed values, each view padded to 4 bytes. Chosen when the file
+//!   gets smaller: $\lceil m\,b_i\rceil_4 + \lceil m\,b_e\rceil_4 + J < \text{dense size}$,
+//!   where $J$ = [`SPARSE_JSON_BYTES`] bounds the JSON a sparse accessor adds (one more view
+//!   and the `sparse` object).
 //! - **Zero**: no vertex moves: an accessor without a buffer view (glTF reads zeros), 0 bytes.
 //!
 //! Zero and sparse are used only when the settings allow sparse storage.
+
+/// Upper bound of the JSON bytes a sparse accessor adds over a dense one.
+pub(super) const SPARSE_JSON_BYTES: usize = 192;
 
 /// A target attribute's values, as they will be stored.
 #[derive(Debug)]
@@ -116,7 +121,7 @@ pub(super) fn encode(values: &Values, sparse: bool) -> Encoded {
     if sparse && m == 0 {
         return Encoded { storage: Storage::Zero, views: Vec::new(), min, max };
     }
-    if sparse && sparse_size < dense_size {
+    if sparse && sparse_size + SPARSE_JSON_BYTES < dense_size {
         let mut indices = Vec::with_capacity(m * index_bytes);
         let mut data = Vec::with_capacity(m * values.element_bytes());
         for &i in &moving {
@@ -148,7 +153,7 @@ mod tests {
 
     #[test]
     fn sparse_only_when_smaller() {
-        let mut v = vec![[0i16; 3]; 100];
+        let mut v = vec![[0i16; 3]; 200];
         v[7] = [1, -2, 3];
         let e = encode(&Values::I16(v.clone()), true);
         assert_eq!(e.storage, Storage::Sparse { count: 1, index_bytes: 2 });
@@ -156,7 +161,7 @@ mod tests {
         assert_eq!((e.min, e.max), ([0.0, -2.0, 0.0], [1.0, 0.0, 3.0]));
         let e = encode(&Values::I16(v.clone()), false);
         assert_eq!(e.storage, Storage::Dense);
-        assert_eq!(e.views[0].len(), 800);
+        assert_eq!(e.views[0].len(), 1600);
         assert_eq!(&e.views[0][56..64], &[1, 0, 254, 255, 3, 0, 0, 0]);
         for x in v.iter_mut() {
             *x = [1, 1, 1];
