@@ -594,3 +594,88 @@ fn khronos_validator_accepts_every_encoding() {
         }
     }
 }
+
+// ---------------------------------------------------------------- measurement (BENCHMARKS.md)
+
+/// Largest distance per component between the animation a viewer plays (base + weighted
+/// deltas, weights interpolated linearly between keys) and every recorded frame, for a bare
+/// mesh export (one primitive, vertices = mesh vertices).
+fn played_error(bytes: &[u8], rec: &Recording) -> f64 {
+    let doc = parse(bytes);
+    let g = &doc.gltf;
+    let prim = g.meshes().next().unwrap().primitives().next().unwrap();
+    let base = read(&doc, &prim.get(&gltf::Semantic::Positions).unwrap());
+    let deltas: Vec<Vec<Vec<f64>>> =
+        prim.morph_targets().map(|t| read(&doc, &t.positions().unwrap())).collect();
+    let sampler = g.animations().next().unwrap().channels().next().unwrap().sampler();
+    let keys: Vec<f64> = read(&doc, &sampler.input()).iter().map(|t| t[0]).collect();
+    let w: Vec<f64> = read(&doc, &sampler.output()).iter().map(|t| t[0]).collect();
+    let n = keys.len();
+    let mut err = 0.0f64;
+    for (frame, &t) in rec.frames.iter().zip(&rec.times) {
+        let b = keys.partition_point(|&k| k < t as f32 as f64).min(n - 1);
+        let a = b.saturating_sub(1);
+        let alpha = if a == b { 1.0 } else { (t - keys[a]) / (keys[b] - keys[a]) }.clamp(0.0, 1.0);
+        for (v, p) in frame.iter().enumerate() {
+            for c in 0..3 {
+                let got = base[v][c]
+                    + (1.0 - alpha) * w[a * n + a] * deltas[a][v][c]
+                    + alpha * w[b * n + b] * deltas[b][v][c];
+                err = err.max((got - p[c]).abs());
+            }
+        }
+    }
+    err
+}
+
+/// Prints size and played error per encoding for a recorded icosphere (642 vertices, 24
+/// frames); `cargo test -p solver --test export_asset measure -- --nocapture`.
+#[test]
+fn measure_sizes_and_errors() {
+    use solver::animation::recording::record;
+    use solver::animation::timeline::{CircularPath, GroupPath, Path, Timeline};
+    use solver::{ArapConfig, Deformer, Method};
+    let (mesh, handles) = solver::testing::capped_sphere(3, 2, 0.85, None);
+    let config = ArapConfig { tolerance: 1e-5, max_iterations: 30, ..Default::default() };
+    let mut d = Deformer::new(Method::Arap, &mesh, &handles, &config).unwrap();
+    let timeline = Timeline {
+        duration: 1.5,
+        fps: 16.0,
+        looping: false,
+        paths: vec![GroupPath {
+            group: 0,
+            path: Path::Circular(CircularPath::new([0.0, 0.0, 1.0], 0.3, 1.5)),
+        }],
+    };
+    let rec = record(&mut d, &mesh, &handles, &timeline, 24, &config, &mut |_, _| {
+        ControlFlow::Continue(())
+    })
+    .unwrap();
+    let asset = Asset::bare(mesh.positions().to_vec(), mesh.triangles().to_vec());
+    let map: Vec<Option<u32>> = (0..mesh.n_vertices() as u32).map(Some).collect();
+    let diag = mesh.bbox_diagonal();
+    println!("| encoding | sparse | normals | every_k | .glb bytes | max error / diagonal |");
+    let mut results = Vec::new();
+    for (encoding, sparse, normals, every_k) in [
+        (Encoding::Float, false, true, 1),
+        (Encoding::Float, true, true, 1),
+        (Encoding::Quantized, true, true, 1),
+        (Encoding::Quantized, true, false, 1),
+        (Encoding::Quantized, true, false, 2),
+        (Encoding::Quantized, true, false, 4),
+    ] {
+        let settings = ExportSettings { encoding, normals, sparse, every_k };
+        let input = AssetExport { asset: &asset, vertex_map: &map, recording: &rec, settings };
+        let export = GltfExport::from_asset(&input, GltfFormat::Glb).unwrap();
+        let bytes = export.to_bytes(&mut |_, _| ControlFlow::Continue(())).unwrap();
+        assert_eq!(bytes.len() as u64, export.file_size().unwrap());
+        let err = played_error(&bytes, &rec) / diag;
+        println!(
+            "| {encoding:?} | {sparse} | {normals} | {every_k} | {} | {err:.2e} |",
+            bytes.len()
+        );
+        results.push((bytes.len(), err));
+    }
+    assert!(results[2].0 < results[1].0, "quantized is smaller than float");
+    assert!(results[0].1 < 1e-6 && results[2].1 < 1e-4, "{results:?}");
+}
