@@ -378,7 +378,8 @@ fn check(bytes: &[u8], s: ExportSettings) -> f64 {
                 }
             }
         }
-        weights.push((ch.target().node().index(), (0..n).map(|i| w[i * n + i]).collect::<Vec<_>>()));
+        weights
+            .push((ch.target().node().index(), (0..n).map(|i| w[i * n + i]).collect::<Vec<_>>()));
     }
 
     let mut max_err = 0.0f64;
@@ -567,8 +568,11 @@ fn khronos_validate(file: &FsPath) -> Option<serde_json::Value> {
         println!("skipped: gltf-validator not installed (`npm ci --prefix tools/gltf-validate`)");
         return None;
     }
-    let out =
-        std::process::Command::new("node").arg(tool.join("validate.mjs")).arg(file).output().ok()?;
+    let out = std::process::Command::new("node")
+        .arg(tool.join("validate.mjs"))
+        .arg(file)
+        .output()
+        .ok()?;
     Some(serde_json::from_slice(&out.stdout).unwrap())
 }
 

@@ -128,7 +128,9 @@ impl Builder {
         };
         let bounds = with_bounds.then(|| (e.min.to_vec(), e.max.to_vec()));
         match e.storage {
-            Storage::Zero => self.accessor(None, count, component, normalized, T::Vec3, bounds, None),
+            Storage::Zero => {
+                self.accessor(None, count, component, normalized, T::Vec3, bounds, None)
+            }
             Storage::Dense => {
                 let view = self.view(&e.views[0], values.dense_stride(), Some(B::ArrayBuffer));
                 self.accessor(Some(view), count, component, normalized, T::Vec3, bounds, None)
@@ -287,14 +289,22 @@ impl GltfExport<'_> {
         for (p, rest_normals) in layout.primitives.iter().zip(&self.rest_normals) {
             let indices: Vec<u8> = p.indices.iter().flat_map(|i| i.to_le_bytes()).collect();
             let n = p.vertices.len();
-            let indices =
-                b.data(&indices, p.indices.len(), C::U32, T::Scalar, Some(B::ElementArrayBuffer), None);
-            let pos: Vec<[f32; 3]> = p.vertices.iter().map(|v| self.rest_f32[v[0] as usize]).collect();
+            let indices = b.data(
+                &indices,
+                p.indices.len(),
+                C::U32,
+                T::Scalar,
+                Some(B::ElementArrayBuffer),
+                None,
+            );
+            let pos: Vec<[f32; 3]> =
+                p.vertices.iter().map(|v| self.rest_f32[v[0] as usize]).collect();
             let bnd = bounds(&pos);
             let mut attributes = BTreeMap::new();
             let a = b.data(&f32_bytes(&pos), n, C::F32, T::Vec3, Some(B::ArrayBuffer), Some(bnd));
             attributes.insert(Valid(json::mesh::Semantic::Positions), a);
-            let a = b.data(&f32_bytes(rest_normals), n, C::F32, T::Vec3, Some(B::ArrayBuffer), None);
+            let a =
+                b.data(&f32_bytes(rest_normals), n, C::F32, T::Vec3, Some(B::ArrayBuffer), None);
             attributes.insert(Valid(json::mesh::Semantic::Normals), a);
             for (k, uv) in asset.uvs.iter().enumerate() {
                 let vals: Vec<[f32; 2]> =
@@ -326,10 +336,8 @@ impl GltfExport<'_> {
         let mut weights = vec![Vec::with_capacity(total); layout.meshes.len()];
         for (done, &fi) in self.kept.iter().enumerate() {
             let pose = asset.layout_positions(&self.vertex_map, &self.recording.frames[fi]);
-            let normals = self
-                .settings
-                .normals
-                .then(|| layout.normals(asset, &pose, &self.rest_normals));
+            let normals =
+                self.settings.normals.then(|| layout.normals(asset, &pose, &self.rest_normals));
             for (mi, mesh) in layout.meshes.iter().enumerate() {
                 let deltas: Vec<Vec<[f64; 3]>> = mesh
                     .primitives
@@ -346,7 +354,8 @@ impl GltfExport<'_> {
                     })
                     .collect();
                 let scale = if quantized {
-                    let max_abs = deltas.iter().flatten().flatten().fold(0.0f64, |m, d| m.max(d.abs()));
+                    let max_abs =
+                        deltas.iter().flatten().flatten().fold(0.0f64, |m, d| m.max(d.abs()));
                     quantization_scale(max_abs)
                 } else {
                     1.0
@@ -447,7 +456,8 @@ impl GltfExport<'_> {
             scene_nodes.push(node);
             // Float: every weight is 1, so all channels share one sampler.
             if quantized || samplers.is_empty() {
-                let output = b.data(&one_hot(&weights[mi]), total * total, C::F32, T::Scalar, None, None);
+                let output =
+                    b.data(&one_hot(&weights[mi]), total * total, C::F32, T::Scalar, None, None);
                 samplers.push(json::animation::Sampler {
                     extensions: None,
                     extras: None,

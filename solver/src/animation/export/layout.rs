@@ -214,7 +214,8 @@ impl Layout {
             vertices.dedup();
             let local: HashMap<VertexKey, u32> =
                 vertices.iter().enumerate().map(|(i, &v)| (v, i as u32)).collect();
-            let indices = faces.flat_map(|f| (0..3).map(move |k| (f, k))).map(|(f, k)| local[&corner(f, k)]);
+            let indices =
+                faces.flat_map(|f| (0..3).map(move |k| (f, k))).map(|(f, k)| local[&corner(f, k)]);
             let groups = vertices
                 .iter()
                 .map(|v| {

@@ -264,11 +264,13 @@ impl<'a> GltfExport<'a> {
         }
         layout::validate(&asset, &vertex_map)?;
         let n_mesh = recording.frames[0].len();
-        if let Some((frame, p)) = recording.frames.iter().enumerate().find(|(_, p)| p.len() != n_mesh)
+        if let Some((frame, p)) =
+            recording.frames.iter().enumerate().find(|(_, p)| p.len() != n_mesh)
         {
             return Err(ExportError::FrameSize { frame, got: p.len(), expected: n_mesh });
         }
-        if let Some(vertex) = vertex_map.iter().position(|m| m.is_some_and(|m| m as usize >= n_mesh))
+        if let Some(vertex) =
+            vertex_map.iter().position(|m| m.is_some_and(|m| m as usize >= n_mesh))
         {
             return Err(ExportError::BadAsset(format!(
                 "file vertex {vertex} maps past the {n_mesh} vertices of the recorded mesh"
