@@ -683,3 +683,22 @@ fn measure_sizes_and_errors() {
     assert!(results[2].0 < results[1].0, "quantized is smaller than float");
     assert!(results[0].1 < 1e-6 && results[2].1 < 1e-4, "{results:?}");
 }
+
+#[test]
+fn texture_without_its_uv_set_is_left_out() {
+    let (mut asset, map) = asset();
+    asset.uvs.clear();
+    let rec = recording(&asset);
+    let s = ExportSettings::default();
+    let input = AssetExport { asset: &asset, vertex_map: &map, recording: &rec, settings: s };
+    let bytes = GltfExport::from_asset(&input, GltfFormat::Glb)
+        .unwrap()
+        .to_bytes(&mut |_, _| ControlFlow::Continue(()))
+        .unwrap();
+    let doc = parse(&bytes);
+    let painted = doc.gltf.materials().next().unwrap();
+    assert!(painted.pbr_metallic_roughness().base_color_texture().is_none());
+    assert_eq!(painted.pbr_metallic_roughness().base_color_factor(), [0.9, 0.8, 0.7, 1.0]);
+    let prim = doc.gltf.meshes().next().unwrap().primitives().next().unwrap();
+    assert!(prim.get(&gltf::Semantic::TexCoords(0)).is_none());
+}

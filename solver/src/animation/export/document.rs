@@ -4,14 +4,13 @@
 use std::collections::BTreeMap;
 use std::ops::ControlFlow;
 
-use glam::DVec3;
 use gltf_json as json;
 use json::accessor::{ComponentType as C, Type as T};
 use json::buffer::Target as B;
 use json::validation::{Checked::Valid, USize64};
 
 use super::layout::Layout;
-use super::targets::{Encoded, Storage, Values, encode};
+use super::targets::{Encoded, Storage, Values, encode, store_mesh_frame};
 use super::{Encoding, ExportError, GltfExport, GltfFormat, base64_into};
 
 /// The buffer being laid out: every view starts on a 4-byte boundary; bytes are kept only
@@ -23,8 +22,12 @@ struct Builder {
     keep: bool,
 }
 
-fn value(v: &[f64]) -> serde_json::Value {
-    serde_json::json!(v)
+/// A min/max array in the accessor's component type (f32, or integers as stored).
+fn json_bound(v: &[f64], component: C) -> serde_json::Value {
+    match component {
+        C::F32 => serde_json::json!(v.iter().map(|&x| x as f32).collect::<Vec<_>>()),
+        _ => serde_json::json!(v.iter().map(|&x| x as i64).collect::<Vec<_>>()),
+    }
 }
 
 /// The stored f32 min/max of a VEC3 list (for base POSITION accessors).
@@ -81,7 +84,7 @@ impl Builder {
         sparse: Option<json::accessor::sparse::Sparse>,
     ) -> json::Index<json::Accessor> {
         let (min, max) = match bounds {
-            Some((lo, hi)) => (Some(value(&lo)), Some(value(&hi))),
+            Some((lo, hi)) => (Some(json_bound(&lo, component)), Some(json_bound(&hi, component))),
             None => (None, None),
         };
         self.root.push(json::Accessor {
@@ -172,19 +175,6 @@ fn alpha_mode(mode: &str) -> json::material::AlphaMode {
     }
 }
 
-/// The stored quantization scale of one mesh in one frame: the smallest f32 $s \ge \max|\Delta|$
-/// (0 when nothing moves measurably).
-fn quantization_scale(max_abs: f64) -> f32 {
-    if max_abs < 1e-30 {
-        return 0.0;
-    }
-    let mut s = max_abs as f32;
-    if (s as f64) < max_abs {
-        s = f32::from_bits(s.to_bits() + 1);
-    }
-    s
-}
-
 impl GltfExport<'_> {
     /// Builds the JSON document and, when `keep` is true, the binary buffer; returns both and
     /// the buffer's length. `progress(done, total)` after each kept frame (`Break` cancels).
@@ -255,6 +245,8 @@ impl GltfExport<'_> {
                 extras: None,
             });
         }
+        // A texture whose UV set the asset lacks cannot be sampled: the material keeps its factors.
+        let has_uv = |m: &crate::io::asset::Material| (m.base_color_uv as usize) < asset.uvs.len();
         for m in &asset.materials {
             b.root.push(json::Material {
                 alpha_cutoff: None,
@@ -263,11 +255,13 @@ impl GltfExport<'_> {
                 name: (!m.name.is_empty()).then(|| m.name.clone()),
                 pbr_metallic_roughness: json::material::PbrMetallicRoughness {
                     base_color_factor: json::material::PbrBaseColorFactor(m.base_color),
-                    base_color_texture: m.base_color_texture.map(|t| json::texture::Info {
-                        index: json::Index::new(t as u32),
-                        tex_coord: m.base_color_uv,
-                        extensions: None,
-                        extras: None,
+                    base_color_texture: m.base_color_texture.filter(|_| has_uv(m)).map(|t| {
+                        json::texture::Info {
+                            index: json::Index::new(t as u32),
+                            tex_coord: m.base_color_uv,
+                            extensions: None,
+                            extras: None,
+                        }
                     }),
                     metallic_factor: json::material::StrengthFactor(m.metallic),
                     roughness_factor: json::material::StrengthFactor(m.roughness),
@@ -339,64 +333,33 @@ impl GltfExport<'_> {
             let normals =
                 self.settings.normals.then(|| layout.normals(asset, &pose, &self.rest_normals));
             for (mi, mesh) in layout.meshes.iter().enumerate() {
-                let deltas: Vec<Vec<[f64; 3]>> = mesh
-                    .primitives
-                    .iter()
-                    .map(|&pi| {
-                        let verts = &layout.primitives[pi].vertices;
-                        verts
-                            .iter()
-                            .map(|v| {
-                                let (p, r) = (pose[v[0] as usize], self.rest_f32[v[0] as usize]);
-                                std::array::from_fn(|d| p[d] - r[d] as f64)
-                            })
-                            .collect()
-                    })
-                    .collect();
-                let scale = if quantized {
-                    let max_abs =
-                        deltas.iter().flatten().flatten().fold(0.0f64, |m, d| m.max(d.abs()));
-                    quantization_scale(max_abs)
-                } else {
-                    1.0
+                let delta = |pi: usize| -> Vec<[f64; 3]> {
+                    let verts = &layout.primitives[pi].vertices;
+                    let (pose, rest) = (&pose, &self.rest_f32);
+                    verts
+                        .iter()
+                        .map(|v| {
+                            let (p, r) = (pose[v[0] as usize], rest[v[0] as usize]);
+                            std::array::from_fn(|d| p[d] - r[d] as f64)
+                        })
+                        .collect()
                 };
-                weights[mi].push(scale);
-                for (&pi, d) in mesh.primitives.iter().zip(&deltas) {
-                    let n = d.len();
-                    let values = if quantized {
-                        let q = |x: f64| -> i16 {
-                            if scale == 0.0 {
-                                0
-                            } else {
-                                (x / scale as f64 * 32767.0).round().clamp(-32767.0, 32767.0) as i16
-                            }
-                        };
-                        Values::I16(d.iter().map(|v| v.map(q)).collect())
-                    } else {
-                        Values::F32(d.iter().map(|v| v.map(|x| x as f32)).collect())
-                    };
-                    let e = encode(&values, sparse);
-                    let positions = Some(b.target(&e, n, &values, true));
-                    let normals = normals.as_ref().map(|all| {
-                        let rest = &self.rest_normals[pi];
-                        let vals: Vec<[f32; 3]> = all[pi]
-                            .iter()
-                            .zip(rest)
-                            .map(|(nv, r): (&DVec3, _)| {
-                                std::array::from_fn(|k| {
-                                    let delta = nv[k] - r[k] as f64;
-                                    match (quantized, scale) {
-                                        (false, _) => delta as f32,
-                                        (true, 0.0) => 0.0,
-                                        (true, s) => (delta / s as f64) as f32,
-                                    }
-                                })
-                            })
-                            .collect();
-                        let values = Values::F32(vals);
-                        let e = encode(&values, sparse);
-                        b.target(&e, n, &values, false)
-                    });
+                let normal_delta = |pi: usize| -> Option<Vec<[f64; 3]>> {
+                    let all = normals.as_ref()?;
+                    let deltas = all[pi].iter().zip(&self.rest_normals[pi]);
+                    Some(deltas.map(|(n, r)| std::array::from_fn(|k| n[k] - r[k] as f64)).collect())
+                };
+                let deltas: Vec<_> = mesh.primitives.iter().map(|&pi| delta(pi)).collect();
+                let normal_deltas: Vec<_> =
+                    mesh.primitives.iter().map(|&pi| normal_delta(pi)).collect();
+                let (weight, stored) =
+                    store_mesh_frame(self.settings.encoding, &deltas, &normal_deltas);
+                weights[mi].push(weight);
+                for (&pi, (positions, normals)) in mesh.primitives.iter().zip(&stored) {
+                    let n = layout.primitives[pi].vertices.len();
+                    let positions = Some(b.target(&encode(positions, sparse), n, positions, true));
+                    let normals =
+                        normals.as_ref().map(|v| b.target(&encode(v, sparse), n, v, false));
                     if let Some(t) = primitives[pi].targets.as_mut() {
                         t.push(json::mesh::MorphTarget { positions, normals, tangents: None });
                     }

@@ -134,9 +134,6 @@ pub(super) fn validate(asset: &Asset, vertex_map: &[Option<u32>]) -> Result<(), 
         if m.base_color_texture.is_some_and(|t| t >= asset.images.len()) {
             return Err(bad(format!("material {:?} names a missing image", m.name)));
         }
-        if m.base_color_uv > 1 {
-            return Err(bad(format!("material {:?} uses UV set {}", m.name, m.base_color_uv)));
-        }
         let factors = m.base_color.iter().chain([&m.metallic, &m.roughness]);
         if factors.clone().any(|c| !c.is_finite()) {
             return Err(bad(format!("material {:?} has a non-finite factor", m.name)));

@@ -16,7 +16,8 @@
 //!   has them; its vertices are the distinct attribute tuples of its corners in file order;
 //! - materials: `pbrMetallicRoughness` (base colour factor and texture with its `texCoord`,
 //!   metallic, roughness), `doubleSided`, `alphaMode`; texture $i$ shows image $i$ through one
-//!   linear/repeat sampler; images are buffer views in `.glb` and `data:` URIs in `.gltf`;
+//!   linear/repeat sampler (a texture whose UV set the asset lacks is left out); images are
+//!   buffer views in `.glb` and `data:` URIs in `.gltf`;
 //! - per primitive, one morph target per kept frame $i$ (every `every_k`-th frame and the last):
 //!   `POSITION` deltas $\Delta^{(i)}_v = p^{(i)}_v - \tilde p_v$ against the rest position as
 //!   stored in f32, and optionally `NORMAL` deltas $n^{(i)}_v - \tilde n_v$ (deformed normals:
@@ -204,8 +205,8 @@ fn check_finite(what: String, p: &[[f64; 3]]) -> Result<(), ExportError> {
 
 impl<'a> GltfExport<'a> {
     /// The export of a bare mesh (no file attributes, identity vertex map) with `Float`
-    /// encoding, normals, dense targets and every frame: the document written before assets
-    /// existed, byte for byte.
+    /// encoding, normals, dense targets and every frame: one mesh `recording` on node
+    /// `deformed`, the document written before assets existed.
     ///
     /// Errors: no frames, frame/time count mismatch, a frame with the wrong vertex count, any
     /// non-finite coordinate, times not strictly increasing once stored as f32, more than

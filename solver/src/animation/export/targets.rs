@@ -16,6 +16,8 @@
 /// Upper bound of the JSON bytes a sparse accessor adds over a dense one.
 pub(super) const SPARSE_JSON_BYTES: usize = 192;
 
+use super::Encoding;
+
 /// A target attribute's values, as they will be stored.
 #[derive(Debug)]
 pub(super) enum Values {
@@ -147,6 +149,67 @@ pub(super) fn encode(values: &Values, sparse: bool) -> Encoded {
     Encoded { storage: Storage::Dense, views: vec![data], min, max }
 }
 
+/// The stored quantization scale of one mesh in one frame: the smallest f32
+/// $s \ge \max|\Delta|$ (0 when nothing moves measurably).
+fn quantization_scale(max_abs: f64) -> f32 {
+    if max_abs < 1e-30 {
+        return 0.0;
+    }
+    let mut s = max_abs as f32;
+    if (s as f64) < max_abs {
+        s = f32::from_bits(s.to_bits() + 1);
+    }
+    s
+}
+
+/// The stored values of one mesh in one frame (equations in `mod.rs`'s doc): its animation
+/// weight and, per primitive, the POSITION values and (when given) the NORMAL values, from the
+/// f64 deltas of every primitive.
+///
+/// `Float`: weight 1, f32 deltas. `Quantized`: weight $s = \max|\Delta|$ over the mesh,
+/// positions $\mathrm{round}(32767\,\Delta/s)$ as normalized i16, normals $\Delta n / s$ as f32.
+pub(super) fn store_mesh_frame(
+    encoding: Encoding,
+    deltas: &[Vec<[f64; 3]>],
+    normal_deltas: &[Option<Vec<[f64; 3]>>],
+) -> (f32, Vec<(Values, Option<Values>)>) {
+    let f32s = |d: &[[f64; 3]], s: f64| -> Values {
+        Values::F32(
+            d.iter().map(|v| v.map(|x| if s == 0.0 { 0.0 } else { (x / s) as f32 })).collect(),
+        )
+    };
+    match encoding {
+        Encoding::Float => {
+            let stored = deltas
+                .iter()
+                .zip(normal_deltas)
+                .map(|(d, n)| (f32s(d, 1.0), n.as_deref().map(|n| f32s(n, 1.0))))
+                .collect();
+            (1.0, stored)
+        }
+        Encoding::Quantized => {
+            let max_abs = deltas.iter().flatten().flatten().fold(0.0f64, |m, d| m.max(d.abs()));
+            let s = quantization_scale(max_abs);
+            let q = |x: f64| -> i16 {
+                if s == 0.0 {
+                    0
+                } else {
+                    (x / s as f64 * 32767.0).round().clamp(-32767.0, 32767.0) as i16
+                }
+            };
+            let stored = deltas
+                .iter()
+                .zip(normal_deltas)
+                .map(|(d, n)| {
+                    let p = Values::I16(d.iter().map(|v| v.map(q)).collect());
+                    (p, n.as_deref().map(|n| f32s(n, s as f64)))
+                })
+                .collect();
+            (s, stored)
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -170,5 +233,29 @@ mod tests {
         let e = encode(&Values::F32(vec![[0.0; 3]; 5]), true);
         assert_eq!(e.storage, Storage::Zero);
         assert!(e.views.is_empty());
+    }
+
+    #[test]
+    fn quantized_values_meet_the_error_bound() {
+        let d = vec![vec![[0.3, -0.7, 1e-9], [0.0, 0.123_456_789, -0.5]], vec![[0.25, 0.0, 0.0]]];
+        let n = vec![None, Some(vec![[0.5; 3], [0.0; 3]])];
+        let (s, stored) = store_mesh_frame(Encoding::Quantized, &d, &n);
+        assert!(s as f64 >= 0.7 && (s as f64) < 0.7 * (1.0 + 1e-6));
+        for (deltas, (p, _)) in d.iter().zip(&stored) {
+            let Values::I16(q) = p else { panic!("not i16") };
+            for (v, q) in deltas.iter().zip(q) {
+                for k in 0..3 {
+                    let got = s as f64 * q[k] as f64 / 32767.0;
+                    assert!((got - v[k]).abs() <= s as f64 / 65534.0, "{got} vs {}", v[k]);
+                }
+            }
+        }
+        let Some(Values::F32(nv)) = &stored[1].1 else { panic!("normals missing") };
+        assert!((nv[0][0] * s - 0.5).abs() < 1e-6);
+        let (s, stored) = store_mesh_frame(Encoding::Quantized, &[vec![[0.0; 3]]], &[None]);
+        assert_eq!(s, 0.0);
+        assert!(matches!(&stored[0].0, Values::I16(q) if q[0] == [0; 3]));
+        let (s, _) = store_mesh_frame(Encoding::Float, &d, &n);
+        assert_eq!(s, 1.0);
     }
 }
