@@ -131,9 +131,6 @@ impl Builder {
         };
         let bounds = with_bounds.then(|| (e.min.to_vec(), e.max.to_vec()));
         match e.storage {
-            Storage::Zero => {
-                self.accessor(None, count, component, normalized, T::Vec3, bounds, None)
-            }
             Storage::Dense => {
                 let view = self.view(&e.views[0], values.dense_stride(), Some(B::ArrayBuffer));
                 self.accessor(Some(view), count, component, normalized, T::Vec3, bounds, None)

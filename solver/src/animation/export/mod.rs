@@ -21,7 +21,7 @@
 //! - per primitive, one morph target per kept frame $i$ (every `every_k`-th frame and the last):
 //!   `POSITION` deltas $\Delta^{(i)}_v = p^{(i)}_v - \tilde p_v$ against the rest position as
 //!   stored in f32, and optionally `NORMAL` deltas $n^{(i)}_v - \tilde n_v$ (deformed normals:
-//!   `layout.rs`); dense, sparse or empty accessors (`targets.rs`);
+//!   `layout.rs`); dense or sparse accessors (`targets.rs`);
 //! - `mesh.weights` all zero (rest pose when nothing plays), `mesh.extras.targetNames =
 //!   ["frame0000", …]` (recorded frame indices);
 //! - one animation, one `weights` channel per mesh node, `LINEAR`, input = the kept times
@@ -140,7 +140,7 @@ pub struct ExportSettings {
     pub encoding: Encoding,
     /// Write NORMAL deltas in the morph targets (recomputed normals in every frame).
     pub normals: bool,
-    /// Allow sparse (and empty) target accessors where they make the file smaller.
+    /// Allow sparse target accessors where they make the file smaller.
     pub sparse: bool,
     /// Keep every k-th frame (0, k, 2k, …, and always the last); `0` is read as 1.
     pub every_k: usize,

@@ -1,4 +1,4 @@
-//! Morph-target storage: one target attribute (VEC3 per vertex) as dense, sparse, or no data.
+//! Morph-target storage: one target attribute (VEC3 per vertex) as dense or sparse data.
 //!
 //! - **Dense**: one buffer view of `count` elements; f32 elements are 12 bytes, normalized
 //!   i16 elements are padded to a stride of 8 (glTF: vertex attribute elements start on
@@ -9,9 +9,11 @@
 //!   gets smaller: $\lceil m\,b_i\rceil_4 + \lceil m\,b_e\rceil_4 + J < \text{dense size}$,
 //!   where $J$ = [`SPARSE_JSON_BYTES`] bounds the JSON a sparse accessor adds (one more view
 //!   and the `sparse` object).
-//! - **Zero**: no vertex moves: an accessor without a buffer view (glTF reads zeros), 0 bytes.
+//!   When no vertex moves, the sparse list holds vertex 0 with its zero value: the spec would
+//!   allow an accessor with neither buffer view nor `sparse`, but the `gltf` crate (and so
+//!   Bevy and our own reader) rejects one.
 //!
-//! Zero and sparse are used only when the settings allow sparse storage.
+//! Sparse storage is used only when the settings allow it.
 
 /// Upper bound of the JSON bytes a sparse accessor adds over a dense one.
 pub(super) const SPARSE_JSON_BYTES: usize = 192;
@@ -29,7 +31,6 @@ pub(super) enum Values {
 /// How an encoded target is stored.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(super) enum Storage {
-    Zero,
     Dense,
     /// `count` vertices, indices of `index_bytes` (2 or 4) each.
     Sparse {
@@ -117,12 +118,12 @@ pub(super) fn encode(values: &Values, sparse: bool) -> Encoded {
     let stride = values.dense_stride().unwrap_or(values.element_bytes());
     let dense_size = n * stride;
     let index_bytes = if n <= 1 << 16 { 2 } else { 4 };
+    if moving.is_empty() && n > 0 {
+        moving.push(0);
+    }
     let m = moving.len();
     let sparse_size =
         (m * index_bytes).next_multiple_of(4) + (m * values.element_bytes()).next_multiple_of(4);
-    if sparse && m == 0 {
-        return Encoded { storage: Storage::Zero, views: Vec::new(), min, max };
-    }
     if sparse && sparse_size + SPARSE_JSON_BYTES < dense_size {
         let mut indices = Vec::with_capacity(m * index_bytes);
         let mut data = Vec::with_capacity(m * values.element_bytes());
@@ -230,9 +231,9 @@ mod tests {
             *x = [1, 1, 1];
         }
         assert_eq!(encode(&Values::I16(v), true).storage, Storage::Dense);
-        let e = encode(&Values::F32(vec![[0.0; 3]; 5]), true);
-        assert_eq!(e.storage, Storage::Zero);
-        assert!(e.views.is_empty());
+        let e = encode(&Values::F32(vec![[0.0; 3]; 100]), true);
+        assert_eq!(e.storage, Storage::Sparse { count: 1, index_bytes: 2 });
+        assert_eq!((e.views[0].as_slice(), e.views[1].as_slice()), (&[0u8, 0][..], &[0u8; 12][..]));
     }
 
     #[test]
