@@ -1,0 +1,462 @@
+//! Assembles the glTF JSON and its binary buffer in one walk, so that the size computed before
+//! writing and the bytes written come from the same code (the layout is in `mod.rs`'s doc).
+
+use std::collections::BTreeMap;
+use std::ops::ControlFlow;
+
+use gltf_json as json;
+use json::accessor::{ComponentType as C, Type as T};
+use json::buffer::Target as B;
+use json::validation::{Checked::Valid, USize64};
+
+use super::layout::Layout;
+use super::targets::{Encoded, Storage, Values, encode, store_mesh_frame};
+use super::{Encoding, ExportError, GltfExport, GltfFormat, base64_into};
+
+/// The buffer being laid out: every view starts on a 4-byte boundary; bytes are kept only
+/// when writing.
+struct Builder {
+    root: json::Root,
+    bin: Vec<u8>,
+    len: usize,
+    keep: bool,
+}
+
+/// A min/max array in the accessor's component type (f32, or integers as stored).
+fn json_bound(v: &[f64], component: C) -> serde_json::Value {
+    match component {
+        C::F32 => serde_json::json!(v.iter().map(|&x| x as f32).collect::<Vec<_>>()),
+        _ => serde_json::json!(v.iter().map(|&x| x as i64).collect::<Vec<_>>()),
+    }
+}
+
+/// The stored f32 min/max of a VEC3 list (for base POSITION accessors).
+fn bounds(v: &[[f32; 3]]) -> (Vec<f64>, Vec<f64>) {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in v {
+        for d in 0..3 {
+            lo[d] = lo[d].min(p[d] as f64);
+            hi[d] = hi[d].max(p[d] as f64);
+        }
+    }
+    (lo.into(), hi.into())
+}
+
+fn f32_bytes<const N: usize>(v: &[[f32; N]]) -> Vec<u8> {
+    v.iter().flatten().flat_map(|c| c.to_le_bytes()).collect()
+}
+
+impl Builder {
+    fn view(
+        &mut self,
+        bytes: &[u8],
+        stride: Option<usize>,
+        target: Option<B>,
+    ) -> json::Index<json::buffer::View> {
+        let start = self.len.next_multiple_of(4);
+        if self.keep {
+            self.bin.resize(start, 0);
+            self.bin.extend_from_slice(bytes);
+        }
+        self.len = start + bytes.len();
+        self.root.push(json::buffer::View {
+            buffer: json::Index::new(0),
+            byte_length: USize64(bytes.len() as u64),
+            byte_offset: Some(USize64(start as u64)),
+            byte_stride: stride.map(json::buffer::Stride),
+            name: None,
+            target: target.map(Valid),
+            extensions: None,
+            extras: None,
+        })
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn accessor(
+        &mut self,
+        view: Option<json::Index<json::buffer::View>>,
+        count: usize,
+        component: C,
+        normalized: bool,
+        type_: T,
+        bounds: Option<(Vec<f64>, Vec<f64>)>,
+        sparse: Option<json::accessor::sparse::Sparse>,
+    ) -> json::Index<json::Accessor> {
+        let (min, max) = match bounds {
+            Some((lo, hi)) => (Some(json_bound(&lo, component)), Some(json_bound(&hi, component))),
+            None => (None, None),
+        };
+        self.root.push(json::Accessor {
+            buffer_view: view,
+            byte_offset: None,
+            count: USize64(count as u64),
+            component_type: Valid(json::accessor::GenericComponentType(component)),
+            extensions: None,
+            extras: None,
+            type_: Valid(type_),
+            min,
+            max,
+            name: None,
+            normalized,
+            sparse,
+        })
+    }
+
+    /// A simple accessor over a view holding `bytes`.
+    fn data(
+        &mut self,
+        bytes: &[u8],
+        count: usize,
+        component: C,
+        type_: T,
+        target: Option<B>,
+        bounds: Option<(Vec<f64>, Vec<f64>)>,
+    ) -> json::Index<json::Accessor> {
+        let view = self.view(bytes, None, target);
+        self.accessor(Some(view), count, component, false, type_, bounds, None)
+    }
+
+    /// The accessor of one encoded morph-target attribute over `count` vertices.
+    fn target(
+        &mut self,
+        e: &Encoded,
+        count: usize,
+        values: &Values,
+        with_bounds: bool,
+    ) -> json::Index<json::Accessor> {
+        let (component, normalized) = match values {
+            Values::F32(_) => (C::F32, false),
+            Values::I16(_) => (C::I16, true),
+        };
+        let bounds = with_bounds.then(|| (e.min.to_vec(), e.max.to_vec()));
+        match e.storage {
+            Storage::Dense => {
+                let view = self.view(&e.views[0], values.dense_stride(), Some(B::ArrayBuffer));
+                self.accessor(Some(view), count, component, normalized, T::Vec3, bounds, None)
+            }
+            Storage::Sparse { count: m, index_bytes } => {
+                let indices = self.view(&e.views[0], None, None);
+                let data = self.view(&e.views[1], None, None);
+                let sparse = json::accessor::sparse::Sparse {
+                    count: USize64(m as u64),
+                    indices: json::accessor::sparse::Indices {
+                        buffer_view: indices,
+                        byte_offset: USize64(0),
+                        component_type: Valid(json::accessor::IndexComponentType(
+                            if index_bytes == 2 { C::U16 } else { C::U32 },
+                        )),
+                        extensions: None,
+                        extras: None,
+                    },
+                    values: json::accessor::sparse::Values {
+                        buffer_view: data,
+                        byte_offset: USize64(0),
+                        extensions: None,
+                        extras: None,
+                    },
+                    extensions: None,
+                    extras: None,
+                };
+                self.accessor(None, count, component, normalized, T::Vec3, bounds, Some(sparse))
+            }
+        }
+    }
+}
+
+fn alpha_mode(mode: &str) -> json::material::AlphaMode {
+    match mode {
+        "MASK" => json::material::AlphaMode::Mask,
+        "BLEND" => json::material::AlphaMode::Blend,
+        _ => json::material::AlphaMode::Opaque,
+    }
+}
+
+impl GltfExport<'_> {
+    /// Builds the JSON document and, when `keep` is true, the binary buffer; returns both and
+    /// the buffer's length. `progress(done, total)` after each kept frame (`Break` cancels).
+    pub(super) fn assemble(
+        &self,
+        keep: bool,
+        progress: &mut dyn FnMut(usize, usize) -> ControlFlow<()>,
+    ) -> Result<(json::Root, Vec<u8>, usize), ExportError> {
+        let asset = &*self.asset;
+        let layout: &Layout = &self.layout;
+        let mut root = json::Root {
+            asset: json::Asset {
+                generator: Some(format!("bsarap {}", env!("CARGO_PKG_VERSION"))),
+                ..Default::default()
+            },
+            ..Default::default()
+        };
+        root.asset.version = "2.0".into();
+        if self.settings.encoding == Encoding::Quantized {
+            root.extensions_used.push("KHR_mesh_quantization".into());
+            root.extensions_required.push("KHR_mesh_quantization".into());
+        }
+        root.push(json::Buffer {
+            byte_length: USize64(0),
+            name: None,
+            uri: None,
+            extensions: None,
+            extras: None,
+        });
+        let mut b = Builder { root, bin: Vec::new(), len: 0, keep };
+
+        // Images, textures (texture i shows image i), materials.
+        for image in &asset.images {
+            let (buffer_view, uri) = match self.format {
+                GltfFormat::Glb => (Some(b.view(&image.bytes, None, None)), None),
+                GltfFormat::Gltf => {
+                    let mut uri = format!("data:{};base64,", image.mime_type);
+                    base64_into(&image.bytes, &mut uri);
+                    (None, Some(uri))
+                }
+            };
+            b.root.push(json::Image {
+                buffer_view,
+                mime_type: buffer_view.map(|_| json::image::MimeType(image.mime_type.clone())),
+                name: (!image.name.is_empty()).then(|| image.name.clone()),
+                uri,
+                extensions: None,
+                extras: None,
+            });
+        }
+        if !asset.images.is_empty() {
+            b.root.push(json::texture::Sampler {
+                mag_filter: Some(Valid(json::texture::MagFilter::Linear)),
+                min_filter: Some(Valid(json::texture::MinFilter::LinearMipmapLinear)),
+                name: None,
+                wrap_s: Valid(json::texture::WrappingMode::Repeat),
+                wrap_t: Valid(json::texture::WrappingMode::Repeat),
+                extensions: None,
+                extras: None,
+            });
+        }
+        for i in 0..asset.images.len() {
+            b.root.push(json::Texture {
+                name: None,
+                sampler: Some(json::Index::new(0)),
+                source: json::Index::new(i as u32),
+                extensions: None,
+                extras: None,
+            });
+        }
+        // A texture whose UV set the asset lacks cannot be sampled: the material keeps its factors.
+        let has_uv = |m: &crate::io::asset::Material| (m.base_color_uv as usize) < asset.uvs.len();
+        for m in &asset.materials {
+            b.root.push(json::Material {
+                alpha_cutoff: None,
+                alpha_mode: Valid(alpha_mode(&m.alpha_mode)),
+                double_sided: m.double_sided,
+                name: (!m.name.is_empty()).then(|| m.name.clone()),
+                pbr_metallic_roughness: json::material::PbrMetallicRoughness {
+                    base_color_factor: json::material::PbrBaseColorFactor(m.base_color),
+                    base_color_texture: m.base_color_texture.filter(|_| has_uv(m)).map(|t| {
+                        json::texture::Info {
+                            index: json::Index::new(t as u32),
+                            tex_coord: m.base_color_uv,
+                            extensions: None,
+                            extras: None,
+                        }
+                    }),
+                    metallic_factor: json::material::StrengthFactor(m.metallic),
+                    roughness_factor: json::material::StrengthFactor(m.roughness),
+                    metallic_roughness_texture: None,
+                    extensions: None,
+                    extras: None,
+                },
+                normal_texture: None,
+                occlusion_texture: None,
+                emissive_texture: None,
+                emissive_factor: json::material::EmissiveFactor([0.0; 3]),
+                extensions: None,
+                extras: None,
+            });
+        }
+
+        // Base attributes of every primitive.
+        let mut primitives = Vec::with_capacity(layout.primitives.len());
+        for (p, rest_normals) in layout.primitives.iter().zip(&self.rest_normals) {
+            let indices: Vec<u8> = p.indices.iter().flat_map(|i| i.to_le_bytes()).collect();
+            let n = p.vertices.len();
+            let indices = b.data(
+                &indices,
+                p.indices.len(),
+                C::U32,
+                T::Scalar,
+                Some(B::ElementArrayBuffer),
+                None,
+            );
+            let pos: Vec<[f32; 3]> =
+                p.vertices.iter().map(|v| self.rest_f32[v[0] as usize]).collect();
+            let bnd = bounds(&pos);
+            let mut attributes = BTreeMap::new();
+            let a = b.data(&f32_bytes(&pos), n, C::F32, T::Vec3, Some(B::ArrayBuffer), Some(bnd));
+            attributes.insert(Valid(json::mesh::Semantic::Positions), a);
+            let a =
+                b.data(&f32_bytes(rest_normals), n, C::F32, T::Vec3, Some(B::ArrayBuffer), None);
+            attributes.insert(Valid(json::mesh::Semantic::Normals), a);
+            for (k, uv) in asset.uvs.iter().enumerate() {
+                let vals: Vec<[f32; 2]> =
+                    p.vertices.iter().map(|v| uv.values[v[2 + k] as usize]).collect();
+                let a = b.data(&f32_bytes(&vals), n, C::F32, T::Vec2, Some(B::ArrayBuffer), None);
+                attributes.insert(Valid(json::mesh::Semantic::TexCoords(k as u32)), a);
+            }
+            if let Some(colors) = &asset.colors {
+                let vals: Vec<[f32; 4]> =
+                    p.vertices.iter().map(|v| colors.values[v[4] as usize]).collect();
+                let a = b.data(&f32_bytes(&vals), n, C::F32, T::Vec4, Some(B::ArrayBuffer), None);
+                attributes.insert(Valid(json::mesh::Semantic::Colors(0)), a);
+            }
+            primitives.push(json::mesh::Primitive {
+                attributes,
+                extensions: None,
+                extras: None,
+                indices: Some(indices),
+                material: asset.parts[p.part].material.map(|m| json::Index::new(m as u32)),
+                mode: Valid(json::mesh::Mode::Triangles),
+                targets: Some(Vec::with_capacity(self.kept.len())),
+            });
+        }
+
+        // Morph targets, frame by frame; `weights[mesh][k]`: the weight of target k at its key.
+        let quantized = self.settings.encoding == Encoding::Quantized;
+        let sparse = self.settings.sparse;
+        let total = self.kept.len();
+        let mut weights = vec![Vec::with_capacity(total); layout.meshes.len()];
+        for (done, &fi) in self.kept.iter().enumerate() {
+            let pose = asset.layout_positions(&self.vertex_map, &self.recording.frames[fi]);
+            let normals =
+                self.settings.normals.then(|| layout.normals(asset, &pose, &self.rest_normals));
+            for (mi, mesh) in layout.meshes.iter().enumerate() {
+                let delta = |pi: usize| -> Vec<[f64; 3]> {
+                    let verts = &layout.primitives[pi].vertices;
+                    let (pose, rest) = (&pose, &self.rest_f32);
+                    verts
+                        .iter()
+                        .map(|v| {
+                            let (p, r) = (pose[v[0] as usize], rest[v[0] as usize]);
+                            std::array::from_fn(|d| p[d] - r[d] as f64)
+                        })
+                        .collect()
+                };
+                let normal_delta = |pi: usize| -> Option<Vec<[f64; 3]>> {
+                    let all = normals.as_ref()?;
+                    let deltas = all[pi].iter().zip(&self.rest_normals[pi]);
+                    Some(deltas.map(|(n, r)| std::array::from_fn(|k| n[k] - r[k] as f64)).collect())
+                };
+                let deltas: Vec<_> = mesh.primitives.iter().map(|&pi| delta(pi)).collect();
+                let normal_deltas: Vec<_> =
+                    mesh.primitives.iter().map(|&pi| normal_delta(pi)).collect();
+                let (weight, stored) =
+                    store_mesh_frame(self.settings.encoding, &deltas, &normal_deltas);
+                weights[mi].push(weight);
+                for (&pi, (positions, normals)) in mesh.primitives.iter().zip(&stored) {
+                    let n = layout.primitives[pi].vertices.len();
+                    let positions = Some(b.target(&encode(positions, sparse), n, positions, true));
+                    let normals =
+                        normals.as_ref().map(|v| b.target(&encode(v, sparse), n, v, false));
+                    if let Some(t) = primitives[pi].targets.as_mut() {
+                        t.push(json::mesh::MorphTarget { positions, normals, tangents: None });
+                    }
+                }
+            }
+            if keep && progress(done + 1, total).is_break() && done + 1 < total {
+                return Err(ExportError::Cancelled { done: done + 1, total });
+            }
+        }
+
+        // Animation input (shared) and outputs: one-hot weights, the target's scale at its key.
+        let times: Vec<f32> = self.kept.iter().map(|&i| self.recording.times[i] as f32).collect();
+        let (t0, t1) = (times[0] as f64, times[total - 1] as f64);
+        let input = b.data(
+            &f32_bytes(&times.iter().map(|&t| [t]).collect::<Vec<_>>()),
+            total,
+            C::F32,
+            T::Scalar,
+            None,
+            Some((vec![t0], vec![t1])),
+        );
+        let one_hot = |w: &[f32]| -> Vec<u8> {
+            let mut out = Vec::with_capacity(total * total * 4);
+            for i in 0..total {
+                for (j, &wj) in w.iter().enumerate() {
+                    out.extend_from_slice(&(if i == j { wj } else { 0.0f32 }).to_le_bytes());
+                }
+            }
+            out
+        };
+        let mut samplers: Vec<json::animation::Sampler> = Vec::new();
+        let mut channels = Vec::new();
+        let names: Vec<String> = self.kept.iter().map(|i| format!("frame{i:04}")).collect();
+        let mut scene_nodes = Vec::new();
+        for (mi, mesh) in layout.meshes.iter().enumerate() {
+            let extras =
+                serde_json::value::to_raw_value(&serde_json::json!({ "targetNames": names }))
+                    .map_err(|e| ExportError::Json(e.to_string()))?;
+            let mesh_name = if mesh.name.is_empty() { "recording" } else { &mesh.name };
+            let node_name = match (mesh.node.is_empty(), mesh.name.is_empty()) {
+                (false, _) => &mesh.node,
+                (true, false) => &mesh.name,
+                (true, true) => "deformed",
+            };
+            let gmesh = b.root.push(json::Mesh {
+                extensions: None,
+                extras: Some(extras),
+                name: Some(mesh_name.to_string()),
+                primitives: mesh.primitives.iter().map(|&pi| primitives[pi].clone()).collect(),
+                weights: Some(vec![0.0; total]),
+            });
+            let node = b.root.push(json::Node {
+                mesh: Some(gmesh),
+                name: Some(node_name.to_string()),
+                ..Default::default()
+            });
+            scene_nodes.push(node);
+            // Float: every weight is 1, so all channels share one sampler.
+            if quantized || samplers.is_empty() {
+                let output =
+                    b.data(&one_hot(&weights[mi]), total * total, C::F32, T::Scalar, None, None);
+                samplers.push(json::animation::Sampler {
+                    extensions: None,
+                    extras: None,
+                    input,
+                    interpolation: Valid(json::animation::Interpolation::Linear),
+                    output,
+                });
+            }
+            channels.push(json::animation::Channel {
+                sampler: json::Index::new(samplers.len() as u32 - 1),
+                target: json::animation::Target {
+                    extensions: None,
+                    extras: None,
+                    node,
+                    path: Valid(json::animation::Property::MorphTargetWeights),
+                },
+                extensions: None,
+                extras: None,
+            });
+        }
+        let scene = b.root.push(json::Scene {
+            extensions: None,
+            extras: None,
+            name: None,
+            nodes: scene_nodes,
+        });
+        b.root.scene = Some(scene);
+        b.root.push(json::Animation {
+            extensions: None,
+            extras: None,
+            channels,
+            name: Some("recording".into()),
+            samplers,
+        });
+        let len = b.len.next_multiple_of(4);
+        if keep {
+            b.bin.resize(len, 0);
+        }
+        b.root.buffers[0].byte_length = USize64(len as u64);
+        Ok((b.root, b.bin, len))
+    }
+}

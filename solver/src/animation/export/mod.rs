@@ -1,0 +1,483 @@
+//! glTF 2.0 export of a recorded asset as morph-target animation (docs/DESIGN.md, "glTF
+//! export"): the user's file layout ([`Asset`]) with its parts, attributes and materials, and
+//! every kept frame of a [`Recording`] as one morph target.
+//!
+//! **Input.** An [`AssetExport`]: the asset, `CleanReport::vertex_map` and the recording, whose
+//! frames are poses $x$ of the cleaned mesh. Frame $i$'s file pose is
+//! $p^{(i)} = $ [`Asset::layout_positions`]$(\mathrm{map}, x^{(i)})$. A bare mesh
+//! ([`GltfExport::new`], [`export_gltf`]) is `Asset::bare` with the identity map.
+//!
+//! **Document** (vertices, meshes and normals: `layout.rs`):
+//! - one node + one mesh per distinct (`Part::node`, `Part::name`), named after them (a bare
+//!   asset: node `deformed`, mesh `recording`), one triangle primitive per part with its
+//!   material; node transforms are identity (the asset's positions are in world space);
+//! - each primitive: `indices` (u32), `POSITION` (rest, f32, min/max), `NORMAL` (unit rest
+//!   normals: the file's, else area-weighted), `TEXCOORD_0/1` and `COLOR_0` (f32) when the asset
+//!   has them; its vertices are the distinct attribute tuples of its corners in file order;
+//! - materials: `pbrMetallicRoughness` (base colour factor and texture with its `texCoord`,
+//!   metallic, roughness), `doubleSided`, `alphaMode`; texture $i$ shows image $i$ through one
+//!   linear/repeat sampler (a texture whose UV set the asset lacks is left out); images are
+//!   buffer views in `.glb` and `data:` URIs in `.gltf`;
+//! - per primitive, one morph target per kept frame $i$ (every `every_k`-th frame and the last):
+//!   `POSITION` deltas $\Delta^{(i)}_v = p^{(i)}_v - \tilde p_v$ against the rest position as
+//!   stored in f32, and optionally `NORMAL` deltas $n^{(i)}_v - \tilde n_v$ (deformed normals:
+//!   `layout.rs`); dense or sparse accessors (`targets.rs`);
+//! - `mesh.weights` all zero (rest pose when nothing plays), `mesh.extras.targetNames =
+//!   ["frame0000", …]` (recorded frame indices);
+//! - one animation, one `weights` channel per mesh node, `LINEAR`, input = the kept times
+//!   (s, shared), output = one-hot weights: at $t_i$ target $i$ has weight $w_i$, all others 0;
+//!   between two keys the two targets blend linearly, i.e. positions interpolate linearly.
+//!
+//! **Encodings** ([`Encoding`]). `Float`: f32 deltas, $w_i = 1$. `Quantized` (default,
+//! `KHR_mesh_quantization`, required): per mesh $m$ and frame $i$ the scale
+//! $s_{m,i} = \max_{v \in m, d} |\Delta^{(i)}_{v,d}|$ (rounded up to f32), stored deltas
+//! $q = \mathrm{round}(32767\,\Delta / s_{m,i}) \in [-32767, 32767]$ as normalized SHORT
+//! (readers decode $q / 32767$), and the weight $w_i = s_{m,i}$, so a viewer draws
+//! $$\tilde p_v + w_i \frac{q_v}{32767} = p^{(i)}_v + e, \qquad |e_d| \le \frac{s_{m,i}}{2 \cdot 32767}$$
+//! per component. The scale lives in the weights, not in a node scale, because glTF weights
+//! multiply the deltas only (a node scale would scale the base mesh too) and any real weight is
+//! valid; weights are per mesh, hence one scale per mesh and frame. `NORMAL` deltas are then
+//! stored as f32 values $(n^{(i)} - \tilde n)/s_{m,i}$ (0 when $s_{m,i} = 0$), decoded by the same
+//! weight. Normal deltas are not quantized: their range is unrelated to the positions'.
+//!
+//! **Buffer.** One buffer; every view starts on a 4-byte boundary, in this order: images
+//! (`.glb`), each primitive's base attributes, each kept frame's targets (primitive order), the
+//! times, the weight outputs. `.glb`: JSON chunk then BIN chunk (glTF 2.0 §4.4). `.gltf`: one
+//! self-contained JSON file whose buffer is a `data:application/octet-stream;base64,` URI (a
+//! third larger than `.glb`; no sidecar file, so the write stays one atomic rename). The size
+//! is known before writing ([`GltfExport::file_size`], [`exported_size`]) because the layout
+//! pass and the writing pass run the same code. Nothing non-finite is ever written: it is an
+//! error.
+
+mod document;
+mod layout;
+mod targets;
+
+use std::borrow::Cow;
+use std::ops::ControlFlow;
+use std::path::Path as FsPath;
+
+use gltf_json as json;
+use thiserror::Error;
+
+use crate::animation::recording::Recording;
+use crate::geometry::mesh::Mesh;
+use crate::io::asset::Asset;
+use crate::io::{SaveError, write_atomic};
+use layout::Layout;
+
+/// Why a recording could not be exported. One line each, naming the file where there is one.
+#[derive(Debug, Error)]
+pub enum ExportError {
+    #[error("{file}: unsupported glTF extension {extension:?} (use .glb or .gltf)")]
+    UnsupportedExtension { file: String, extension: String },
+    #[error("the recording has no frames")]
+    NoFrames,
+    #[error("the recording has {times} times but {frames} frames")]
+    Inconsistent { times: usize, frames: usize },
+    #[error("frame {frame} has {got} vertices but the mesh has {expected}")]
+    FrameSize { frame: usize, got: usize, expected: usize },
+    #[error("{what} is not finite at vertex {vertex}: nothing was written")]
+    NonFinite { what: String, vertex: usize },
+    #[error(
+        "frame times must be finite and strictly increasing in single precision (frame {frame} at {time} s)"
+    )]
+    Times { frame: usize, time: f64 },
+    #[error("the mesh has {0} vertices or indices, more than glTF's u32 indices allow")]
+    TooLarge(usize),
+    #[error("export cancelled after {done} of {total} frames; nothing was written")]
+    Cancelled { done: usize, total: usize },
+    #[error("building the glTF JSON failed: {0}")]
+    Json(String),
+    #[error("the asset cannot be exported: {0}")]
+    BadAsset(String),
+    #[error("{0}")]
+    Save(#[from] SaveError),
+}
+
+/// The container.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum GltfFormat {
+    /// Binary `.glb`: JSON and BIN chunks in one file.
+    Glb,
+    /// Text `.gltf` with the buffer embedded as a base64 data URI.
+    Gltf,
+}
+
+impl GltfFormat {
+    /// The format named by `path`'s extension (`.glb` or `.gltf`, case-insensitive).
+    pub fn from_path(path: &FsPath) -> Result<GltfFormat, ExportError> {
+        let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
+        match ext.as_deref() {
+            Some("glb") => Ok(GltfFormat::Glb),
+            Some("gltf") => Ok(GltfFormat::Gltf),
+            _ => Err(ExportError::UnsupportedExtension {
+                file: path.display().to_string(),
+                extension: ext.unwrap_or_default(),
+            }),
+        }
+    }
+}
+
+const DATA_URI_PREFIX: &str = "data:application/octet-stream;base64,";
+const GLB_MAGIC: u32 = 0x4654_6C67; // "glTF"
+const CHUNK_JSON: u32 = 0x4E4F_534A; // "JSON"
+const CHUNK_BIN: u32 = 0x004E_4942; // "BIN\0"
+
+/// How morph-target POSITION deltas are stored (module doc, "Encodings").
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Encoding {
+    /// f32 deltas; every animation weight is 0 or 1.
+    Float,
+    /// Normalized i16 deltas (`KHR_mesh_quantization`), the scale carried by the weights.
+    #[default]
+    Quantized,
+}
+
+/// What [`export_asset`] writes besides the asset itself.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ExportSettings {
+    pub encoding: Encoding,
+    /// Write NORMAL deltas in the morph targets (recomputed normals in every frame).
+    pub normals: bool,
+    /// Allow sparse target accessors where they make the file smaller.
+    pub sparse: bool,
+    /// Keep every k-th frame (0, k, 2k, …, and always the last); `0` is read as 1.
+    pub every_k: usize,
+}
+
+impl Default for ExportSettings {
+    fn default() -> ExportSettings {
+        ExportSettings { encoding: Encoding::Quantized, normals: true, sparse: true, every_k: 1 }
+    }
+}
+
+/// The export of a recorded asset: the file's layout (`asset`), the map from file vertices to
+/// the cleaned mesh (`vertex_map`, `CleanReport::vertex_map`), the recording (frames are poses
+/// of the cleaned mesh) and the settings.
+#[derive(Debug, Clone, Copy)]
+pub struct AssetExport<'a> {
+    pub asset: &'a Asset,
+    pub vertex_map: &'a [Option<u32>],
+    pub recording: &'a Recording,
+    pub settings: ExportSettings,
+}
+
+/// A validated export, ready to report its exact size and to be written.
+///
+/// `new`/`from_asset` check the inputs and lay out the document (one encoding pass over the
+/// kept frames: storage choice, quantization scales, min/max); `to_bytes`/`write` encode the
+/// frames again, filling the buffer with progress. Both passes run the same code, so
+/// [`GltfExport::file_size`] is exact.
+#[derive(Debug)]
+pub struct GltfExport<'a> {
+    asset: Cow<'a, Asset>,
+    vertex_map: Cow<'a, [Option<u32>]>,
+    recording: &'a Recording,
+    settings: ExportSettings,
+    format: GltfFormat,
+    layout: Layout,
+    /// Indices of the recorded frames that become targets.
+    kept: Vec<usize>,
+    /// File positions as stored (f32): the base every delta is taken against.
+    rest_f32: Vec<[f32; 3]>,
+    /// Stored unit rest normals of every primitive's vertices.
+    rest_normals: Vec<Vec<[f32; 3]>>,
+    root: json::Root,
+    bin_len: usize,
+}
+
+/// The kept frame indices of `n` frames with step `k` (the last always kept).
+fn kept_frames(n: usize, k: usize) -> Vec<usize> {
+    let mut kept: Vec<usize> = (0..n).step_by(k.max(1)).collect();
+    if kept.last() != Some(&(n - 1)) {
+        kept.push(n - 1);
+    }
+    kept
+}
+
+fn check_finite(what: String, p: &[[f64; 3]]) -> Result<(), ExportError> {
+    match p.iter().position(|p| p.iter().any(|c| !c.is_finite() || c.abs() > 1e30)) {
+        Some(vertex) => Err(ExportError::NonFinite { what, vertex }),
+        None => Ok(()),
+    }
+}
+
+impl<'a> GltfExport<'a> {
+    /// The export of a bare mesh (no file attributes, identity vertex map) with `Float`
+    /// encoding, normals, dense targets and every frame: one mesh `recording` on node
+    /// `deformed`, the document written before assets existed.
+    ///
+    /// Errors: no frames, frame/time count mismatch, a frame with the wrong vertex count, any
+    /// non-finite coordinate, times not strictly increasing once stored as f32, more than
+    /// `u32::MAX` vertices.
+    pub fn new(
+        mesh: &'a Mesh,
+        recording: &'a Recording,
+        format: GltfFormat,
+    ) -> Result<GltfExport<'a>, ExportError> {
+        let n_v = mesh.n_vertices();
+        if n_v > u32::MAX as usize - 1 {
+            return Err(ExportError::TooLarge(n_v));
+        }
+        if let Some((frame, p)) = recording.frames.iter().enumerate().find(|(_, p)| p.len() != n_v)
+        {
+            return Err(ExportError::FrameSize { frame, got: p.len(), expected: n_v });
+        }
+        let asset = Asset::bare(mesh.positions().to_vec(), mesh.triangles().to_vec());
+        let map: Vec<Option<u32>> = (0..n_v as u32).map(Some).collect();
+        let settings =
+            ExportSettings { encoding: Encoding::Float, normals: true, sparse: false, every_k: 1 };
+        GltfExport::build(Cow::Owned(asset), Cow::Owned(map), recording, settings, format)
+    }
+
+    /// The export of a recorded asset (see [`AssetExport`]).
+    ///
+    /// Errors: as [`GltfExport::new`], plus an inconsistent asset ([`ExportError::BadAsset`]:
+    /// indices out of range, attribute corner counts, parts, materials, images) and a vertex
+    /// map that does not fit the asset or the frames.
+    pub fn from_asset(
+        input: &AssetExport<'a>,
+        format: GltfFormat,
+    ) -> Result<GltfExport<'a>, ExportError> {
+        GltfExport::build(
+            Cow::Borrowed(input.asset),
+            Cow::Borrowed(input.vertex_map),
+            input.recording,
+            input.settings,
+            format,
+        )
+    }
+
+    fn build(
+        asset: Cow<'a, Asset>,
+        vertex_map: Cow<'a, [Option<u32>]>,
+        recording: &'a Recording,
+        settings: ExportSettings,
+        format: GltfFormat,
+    ) -> Result<GltfExport<'a>, ExportError> {
+        let n = recording.frames.len();
+        if n == 0 {
+            return Err(ExportError::NoFrames);
+        }
+        if recording.times.len() != n {
+            return Err(ExportError::Inconsistent { times: recording.times.len(), frames: n });
+        }
+        layout::validate(&asset, &vertex_map)?;
+        let n_mesh = recording.frames[0].len();
+        if let Some((frame, p)) =
+            recording.frames.iter().enumerate().find(|(_, p)| p.len() != n_mesh)
+        {
+            return Err(ExportError::FrameSize { frame, got: p.len(), expected: n_mesh });
+        }
+        if let Some(vertex) =
+            vertex_map.iter().position(|m| m.is_some_and(|m| m as usize >= n_mesh))
+        {
+            return Err(ExportError::BadAsset(format!(
+                "file vertex {vertex} maps past the {n_mesh} vertices of the recorded mesh"
+            )));
+        }
+        check_finite("the rest mesh".into(), &asset.positions)?;
+        for (frame, p) in recording.frames.iter().enumerate() {
+            check_finite(format!("frame {frame}"), p)?;
+        }
+        let mut prev = f32::NEG_INFINITY;
+        for (frame, &time) in recording.times.iter().enumerate() {
+            let t = time as f32;
+            if !time.is_finite() || t <= prev || t < 0.0 {
+                return Err(ExportError::Times { frame, time });
+            }
+            prev = t;
+        }
+        let layout = Layout::new(&asset, &vertex_map);
+        let rest_f32 = asset.positions.iter().map(|p| p.map(|c| c as f32)).collect();
+        let rest_normals = layout.rest_normals(&asset);
+        let mut export = GltfExport {
+            kept: kept_frames(n, settings.every_k),
+            asset,
+            vertex_map,
+            recording,
+            settings,
+            format,
+            layout,
+            rest_f32,
+            rest_normals,
+            root: json::Root::default(),
+            bin_len: 0,
+        };
+        let (root, _, bin_len) = export.assemble(false, &mut |_, _| ControlFlow::Continue(()))?;
+        export.root = root;
+        export.bin_len = bin_len;
+        Ok(export)
+    }
+
+    fn json_bytes(&self, uri: Option<String>) -> Result<Vec<u8>, ExportError> {
+        let mut root = self.root.clone();
+        root.buffers[0].uri = uri;
+        root.to_vec().map_err(|e| ExportError::Json(e.to_string()))
+    }
+
+    /// The exact size in bytes of the file [`GltfExport::write`] will produce.
+    pub fn file_size(&self) -> Result<u64, ExportError> {
+        Ok(match self.format {
+            GltfFormat::Glb => {
+                let j = self.json_bytes(None)?.len().next_multiple_of(4);
+                (12 + 8 + j + 8 + self.bin_len) as u64
+            }
+            GltfFormat::Gltf => {
+                let j = self.json_bytes(Some(String::new()))?.len();
+                (j + DATA_URI_PREFIX.len() + self.bin_len.div_ceil(3) * 4) as u64
+            }
+        })
+    }
+
+    /// Number of morph targets per primitive (= kept frames).
+    pub fn n_targets(&self) -> usize {
+        self.kept.len()
+    }
+
+    /// The recorded frame index of every morph target.
+    pub fn kept_frames(&self) -> &[usize] {
+        &self.kept
+    }
+
+    /// The whole file in memory; `progress(done, total)` after each kept frame (`Break`
+    /// cancels).
+    pub fn to_bytes(
+        &self,
+        progress: &mut dyn FnMut(usize, usize) -> ControlFlow<()>,
+    ) -> Result<Vec<u8>, ExportError> {
+        let (_, bin, _) = self.assemble(true, progress)?;
+        debug_assert_eq!(bin.len(), self.bin_len, "buffer layout and accessors disagree");
+        match self.format {
+            GltfFormat::Glb => {
+                let mut j = self.json_bytes(None)?;
+                while j.len() % 4 != 0 {
+                    j.push(b' ');
+                }
+                let total = 12 + 8 + j.len() + 8 + bin.len();
+                let total32 = u32::try_from(total).map_err(|_| ExportError::TooLarge(total))?;
+                let mut out = Vec::with_capacity(total);
+                out.extend_from_slice(&GLB_MAGIC.to_le_bytes());
+                out.extend_from_slice(&2u32.to_le_bytes());
+                out.extend_from_slice(&total32.to_le_bytes());
+                out.extend_from_slice(&(j.len() as u32).to_le_bytes());
+                out.extend_from_slice(&CHUNK_JSON.to_le_bytes());
+                out.extend_from_slice(&j);
+                out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
+                out.extend_from_slice(&CHUNK_BIN.to_le_bytes());
+                out.extend_from_slice(&bin);
+                Ok(out)
+            }
+            GltfFormat::Gltf => {
+                let mut uri = String::with_capacity(DATA_URI_PREFIX.len() + bin.len() / 3 * 4 + 4);
+                uri.push_str(DATA_URI_PREFIX);
+                base64_into(&bin, &mut uri);
+                self.json_bytes(Some(uri))
+            }
+        }
+    }
+
+    /// Writes the file atomically ([`write_atomic`]); returns its size in bytes.
+    pub fn write(
+        &self,
+        path: &FsPath,
+        progress: &mut dyn FnMut(usize, usize) -> ControlFlow<()>,
+    ) -> Result<u64, ExportError> {
+        let bytes = self.to_bytes(progress)?;
+        write_atomic(path, &bytes)?;
+        Ok(bytes.len() as u64)
+    }
+}
+
+/// One-off export of a bare mesh ([`GltfExport::new`]): format from `path`'s extension,
+/// written atomically; returns the size.
+pub fn export_gltf(
+    path: &FsPath,
+    mesh: &Mesh,
+    recording: &Recording,
+    progress: &mut dyn FnMut(usize, usize) -> ControlFlow<()>,
+) -> Result<u64, ExportError> {
+    GltfExport::new(mesh, recording, GltfFormat::from_path(path)?)?.write(path, progress)
+}
+
+/// One-off export of a recorded asset ([`GltfExport::from_asset`]): format from `path`'s
+/// extension, written atomically; returns the size (= [`exported_size`]).
+pub fn export_asset(
+    path: &FsPath,
+    input: &AssetExport,
+    progress: &mut dyn FnMut(usize, usize) -> ControlFlow<()>,
+) -> Result<u64, ExportError> {
+    GltfExport::from_asset(input, GltfFormat::from_path(path)?)?.write(path, progress)
+}
+
+/// The exact size in bytes that [`export_asset`] would write in `format` (one encoding pass,
+/// nothing written).
+pub fn exported_size(input: &AssetExport, format: GltfFormat) -> Result<u64, ExportError> {
+    GltfExport::from_asset(input, format)?.file_size()
+}
+
+/// Area-weighted unit vertex normals of `positions` on `triangles`:
+/// $n_v = \mathrm{normalize}\big(\sum_{f \ni v} (p_b - p_a)\times(p_c - p_a)\big)$ (the cross
+/// product is twice the face's area times its unit normal); $(0, 0, 1)$ where the sum vanishes.
+pub fn vertex_normals(positions: &[[f64; 3]], triangles: &[[u32; 3]]) -> Vec<[f64; 3]> {
+    let mut n = vec![[0.0f64; 3]; positions.len()];
+    for t in triangles {
+        let [a, b, c] = t.map(|i| positions[i as usize]);
+        let e1 = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+        let e2 = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
+        let x = [
+            e1[1] * e2[2] - e1[2] * e2[1],
+            e1[2] * e2[0] - e1[0] * e2[2],
+            e1[0] * e2[1] - e1[1] * e2[0],
+        ];
+        for &i in t {
+            for d in 0..3 {
+                n[i as usize][d] += x[d];
+            }
+        }
+    }
+    for v in &mut n {
+        let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        *v = if l.is_finite() && l > 0.0 { v.map(|c| c / l) } else { [0.0, 0.0, 1.0] };
+    }
+    n
+}
+
+/// Standard base64 (RFC 4648, with `=` padding), appended to `out`.
+fn base64_into(bytes: &[u8], out: &mut String) {
+    const ALPHABET: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    for chunk in bytes.chunks(3) {
+        let b = [chunk[0], *chunk.get(1).unwrap_or(&0), *chunk.get(2).unwrap_or(&0)];
+        let v = (b[0] as u32) << 16 | (b[1] as u32) << 8 | b[2] as u32;
+        for k in 0..4 {
+            if k <= chunk.len() {
+                out.push(ALPHABET[(v >> (18 - 6 * k) & 63) as usize] as char);
+            } else {
+                out.push('=');
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn base64_matches_rfc4648_vectors() {
+        for (input, expected) in [
+            ("", ""),
+            ("f", "Zg=="),
+            ("fo", "Zm8="),
+            ("foo", "Zm9v"),
+            ("foob", "Zm9vYg=="),
+            ("fooba", "Zm9vYmE="),
+            ("foobar", "Zm9vYmFy"),
+        ] {
+            let mut s = String::new();
+            base64_into(input.as_bytes(), &mut s);
+            assert_eq!(s, expected);
+        }
+    }
+}

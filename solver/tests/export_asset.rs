@@ -1,0 +1,762 @@
+//! glTF export of a whole asset (parts, normals with a hard edge, UVs, colours, two materials,
+//! a PNG texture) with its recording as morph targets: every encoding parses back (decoded here
+//! from the raw accessors, sparse included), reproduces the frames within its bound, keeps the
+//! file's vertices, names and materials, predicts its size exactly, and passes the Khronos
+//! validator (when node and tools/gltf-validate are installed).
+#![allow(clippy::unwrap_used)]
+
+use std::ops::ControlFlow;
+use std::path::{Path as FsPath, PathBuf};
+
+use base64::Engine as _;
+use solver::animation::export::{
+    AssetExport, Encoding, ExportSettings, GltfExport, GltfFormat, export_asset, exported_size,
+};
+use solver::animation::recording::Recording;
+use solver::io::{Asset, Attribute, Image, Material, Part};
+use solver::testing::ScratchDir;
+
+// ---------------------------------------------------------------- a tiny PNG, by hand
+
+fn crc32(bytes: &[u8]) -> u32 {
+    let mut c = !0u32;
+    for &b in bytes {
+        c ^= b as u32;
+        for _ in 0..8 {
+            c = if c & 1 != 0 { 0xEDB8_8320 ^ (c >> 1) } else { c >> 1 };
+        }
+    }
+    !c
+}
+
+fn chunk(out: &mut Vec<u8>, kind: &[u8; 4], data: &[u8]) {
+    out.extend_from_slice(&(data.len() as u32).to_be_bytes());
+    let mut body = kind.to_vec();
+    body.extend_from_slice(data);
+    out.extend_from_slice(&body);
+    out.extend_from_slice(&crc32(&body).to_be_bytes());
+}
+
+/// A valid 2×2 RGB PNG: zlib with one stored (uncompressed) deflate block.
+fn tiny_png() -> Vec<u8> {
+    let raw: Vec<u8> = [[0u8, 255, 0, 0, 0, 255, 0], [0, 0, 0, 255, 255, 255, 255]].concat();
+    let (mut a, mut b) = (1u32, 0u32);
+    for &x in &raw {
+        a = (a + x as u32) % 65521;
+        b = (b + a) % 65521;
+    }
+    let mut z = vec![0x78, 0x01, 0x01];
+    z.extend_from_slice(&(raw.len() as u16).to_le_bytes());
+    z.extend_from_slice(&(!(raw.len() as u16)).to_le_bytes());
+    z.extend_from_slice(&raw);
+    z.extend_from_slice(&(b << 16 | a).to_be_bytes());
+    let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+    let mut ihdr = Vec::new();
+    ihdr.extend_from_slice(&2u32.to_be_bytes());
+    ihdr.extend_from_slice(&2u32.to_be_bytes());
+    ihdr.extend_from_slice(&[8, 2, 0, 0, 0]);
+    chunk(&mut png, b"IHDR", &ihdr);
+    chunk(&mut png, b"IDAT", &z);
+    chunk(&mut png, b"IEND", &[]);
+    png
+}
+
+// ---------------------------------------------------------------- the asset and its recording
+
+const NX: usize = 5;
+const NY: usize = 4;
+/// Leaf grid side.
+const L: u32 = 9;
+/// File vertices: plate 0..20, leaf 20..101, one unreferenced (101), a seam copy of 21 (102).
+const SEAM: u32 = 20 + L * L + 1;
+/// Vertices of the cleaned mesh (plate and leaf).
+const N_MESH: usize = 20 + (L * L) as usize;
+/// The leaf's centre: the only leaf vertex that moves.
+const CENTRE: usize = 20 + (L / 2 * L + L / 2) as usize;
+
+fn plate_z(x: f64) -> f64 {
+    0.3 * (x - 0.5).abs()
+}
+
+/// "plate" (node "PlateNode"): a 5×4 grid folded along x = 0.5 with flat file normals per side
+/// (a hard edge, OBJ style), textured. "leaf" (node "Leaf"): a 9×9 grid, glTF style (one
+/// attribute value per vertex), with a UV seam vertex (30, a copy of 21), coloured material.
+fn asset() -> (Asset, Vec<Option<u32>>) {
+    let mut positions = Vec::new();
+    let mut uv = Vec::new();
+    for j in 0..NY {
+        for i in 0..NX {
+            let x = i as f64 / (NX - 1) as f64;
+            let y = j as f64 * 0.25;
+            positions.push([x, y, plate_z(x)]);
+            uv.push([x as f32, y as f32]);
+        }
+    }
+    for j in 0..L {
+        for i in 0..L {
+            positions.push([2.0 + i as f64 * 0.25, j as f64 * 0.25, 1.0]);
+            uv.push([i as f32 / L as f32, j as f32 / L as f32]);
+        }
+    }
+    positions.push([9.0, 9.0, 9.0]); // unreferenced
+    uv.push([0.0, 0.0]);
+    positions.push(positions[21]); // seam copy of 21
+    uv.push([0.9, 0.1]);
+    let mut triangles = Vec::new();
+    let mut normal_corners = Vec::new();
+    let q = |i: usize, j: usize| (j * NX + i) as u32;
+    for j in 0..NY - 1 {
+        for i in 0..NX - 1 {
+            let side = u32::from(i >= NX / 2);
+            triangles.push([q(i, j), q(i + 1, j), q(i + 1, j + 1)]);
+            triangles.push([q(i, j), q(i + 1, j + 1), q(i, j + 1)]);
+            normal_corners.extend([[side; 3], [side; 3]]);
+        }
+    }
+    let plate_faces = triangles.len();
+    let l = |i: u32, j: u32| 20 + j * L + i;
+    for j in 0..L - 1 {
+        for i in 0..L - 1 {
+            let a = if (i, j) == (0, 0) { SEAM } else { l(i + 1, j) };
+            triangles.push([l(i, j), a, l(i + 1, j + 1)]);
+            triangles.push([l(i, j), l(i + 1, j + 1), l(i, j + 1)]);
+        }
+    }
+    // Triangle 0 of the leaf uses the seam copy 30 instead of 21.
+    assert_eq!(triangles[plate_faces][1], SEAM);
+    let leaf_faces = triangles.len() - plate_faces;
+    // Leaf normals: per vertex, all +z; plate normals: the two flat sides.
+    let s = 0.3f32;
+    let n_left = [s, 0.0, 1.0];
+    let n_right = [-s, 0.0, 1.0];
+    let mut normal_values = vec![n_left, n_right];
+    normal_values.extend(std::iter::repeat_n([0.0, 0.0, 2.0], positions.len()));
+    for t in &triangles[plate_faces..] {
+        normal_corners.push(t.map(|v| v + 2));
+    }
+    let colors: Vec<[f32; 4]> = (0..positions.len())
+        .map(|v| [v as f32 / 103.0, 0.5, 1.0 - v as f32 / 103.0, 1.0])
+        .collect();
+    let asset = Asset {
+        normals: Some(Attribute { values: normal_values, corners: normal_corners }),
+        uvs: vec![Attribute::per_vertex(uv, &triangles)],
+        colors: Some(Attribute::per_vertex(colors, &triangles)),
+        parts: vec![
+            Part {
+                name: "plate".into(),
+                node: "PlateNode".into(),
+                material: Some(0),
+                first: 0,
+                count: plate_faces,
+            },
+            Part {
+                name: "leaf".into(),
+                node: "Leaf".into(),
+                material: Some(1),
+                first: plate_faces,
+                count: leaf_faces,
+            },
+        ],
+        materials: vec![
+            Material {
+                name: "painted".into(),
+                base_color: [0.9, 0.8, 0.7, 1.0],
+                base_color_texture: Some(0),
+                base_color_uv: 0,
+                metallic: 0.25,
+                roughness: 0.75,
+                double_sided: true,
+                alpha_mode: "OPAQUE".into(),
+            },
+            Material {
+                name: "glass".into(),
+                base_color: [0.2, 0.4, 0.6, 0.5],
+                alpha_mode: "BLEND".into(),
+                ..Material::default()
+            },
+        ],
+        images: vec![Image {
+            name: "checker.png".into(),
+            mime_type: "image/png".into(),
+            bytes: tiny_png(),
+        }],
+        positions,
+        triangles,
+    };
+    let mut map: Vec<Option<u32>> = (0..N_MESH as u32).map(Some).collect();
+    map.push(None);
+    map.push(Some(21));
+    (asset, map)
+}
+
+/// Five frames of the cleaned mesh: the plate's right half bends up (stays planar), the leaf's
+/// centre vertex rises; frame 0 is the rest pose.
+fn recording(asset: &Asset) -> Recording {
+    let n = 5;
+    let frames = (0..n)
+        .map(|k| {
+            let a = 0.2 * k as f64;
+            (0..N_MESH)
+                .map(|v| {
+                    let mut p = asset.positions[v];
+                    if v < 20 && p[0] > 0.5 {
+                        p[2] += a * (p[0] - 0.5);
+                    }
+                    if v == CENTRE {
+                        p[2] += 0.1 * k as f64;
+                    }
+                    p
+                })
+                .collect()
+        })
+        .collect();
+    Recording { times: (0..n).map(|k| k as f64 * 0.25).collect(), frames, stats: Vec::new() }
+}
+
+// ---------------------------------------------------------------- decoding, independently
+
+struct Doc {
+    gltf: gltf::Gltf,
+    buffer: Vec<u8>,
+}
+
+fn parse(bytes: &[u8]) -> Doc {
+    let gltf = gltf::Gltf::from_slice_without_validation(bytes).unwrap();
+    let buffer = match gltf.blob.clone() {
+        Some(b) => b,
+        None => {
+            let uri = gltf.buffers().next().unwrap();
+            let gltf::buffer::Source::Uri(uri) = uri.source() else { panic!("no uri") };
+            let data = uri.strip_prefix("data:application/octet-stream;base64,").unwrap();
+            base64::engine::general_purpose::STANDARD.decode(data).unwrap()
+        }
+    };
+    Doc { gltf, buffer }
+}
+
+fn component(bytes: &[u8], t: gltf::accessor::DataType, normalized: bool) -> f64 {
+    use gltf::accessor::DataType as D;
+    match t {
+        D::F32 => f32::from_le_bytes(bytes[..4].try_into().unwrap()) as f64,
+        D::I16 if normalized => {
+            (i16::from_le_bytes([bytes[0], bytes[1]]) as f64 / 32767.0).max(-1.0)
+        }
+        D::I16 => i16::from_le_bytes([bytes[0], bytes[1]]) as f64,
+        D::U16 => u16::from_le_bytes([bytes[0], bytes[1]]) as f64,
+        D::U32 => u32::from_le_bytes(bytes[..4].try_into().unwrap()) as f64,
+        other => panic!("unexpected component type {other:?}"),
+    }
+}
+
+/// Every element of an accessor as f64 components (normalized integers dequantized), with
+/// sparse substitution and zero initialisation where there is no buffer view.
+fn read(doc: &Doc, a: &gltf::Accessor) -> Vec<Vec<f64>> {
+    let dims = a.dimensions().multiplicity();
+    let size = a.data_type().size();
+    let elem = |view: &gltf::buffer::View, offset: usize, stride: usize, i: usize| -> Vec<f64> {
+        let start = view.offset() + offset + i * stride;
+        (0..dims)
+            .map(|d| component(&doc.buffer[start + d * size..], a.data_type(), a.normalized()))
+            .collect()
+    };
+    let mut out: Vec<Vec<f64>> = match a.view() {
+        Some(v) => {
+            let stride = v.stride().unwrap_or(dims * size);
+            (0..a.count()).map(|i| elem(&v, a.offset(), stride, i)).collect()
+        }
+        None => vec![vec![0.0; dims]; a.count()],
+    };
+    if let Some(s) = a.sparse() {
+        let iv = s.indices().view();
+        let isize = s.indices().index_type().size();
+        let vv = s.values().view();
+        for k in 0..s.count() {
+            let start = iv.offset() + s.indices().offset() + k * isize;
+            let i = match isize {
+                2 => u16::from_le_bytes([doc.buffer[start], doc.buffer[start + 1]]) as usize,
+                4 => u32::from_le_bytes(doc.buffer[start..start + 4].try_into().unwrap()) as usize,
+                _ => doc.buffer[start] as usize,
+            };
+            out[i] = elem(&vv, s.values().offset(), dims * size, k);
+        }
+    }
+    out
+}
+
+fn vec3(v: &[f64]) -> [f64; 3] {
+    [v[0], v[1], v[2]]
+}
+
+// ---------------------------------------------------------------- the checks
+
+fn settings(encoding: Encoding, sparse: bool, every_k: usize) -> ExportSettings {
+    ExportSettings { encoding, normals: true, sparse, every_k }
+}
+
+fn write(dir: &FsPath, name: &str, s: ExportSettings) -> (PathBuf, Vec<u8>, usize) {
+    let (asset, map) = asset();
+    let rec = recording(&asset);
+    let input = AssetExport { asset: &asset, vertex_map: &map, recording: &rec, settings: s };
+    let path = dir.join(name);
+    let format = GltfFormat::from_path(&path).unwrap();
+    let predicted = exported_size(&input, format).unwrap();
+    let mut calls = 0;
+    let written = export_asset(&path, &input, &mut |_, _| {
+        calls += 1;
+        ControlFlow::Continue(())
+    })
+    .unwrap();
+    assert_eq!(predicted, written, "{name}: exported_size must be exact");
+    let bytes = std::fs::read(&path).unwrap();
+    assert_eq!(bytes.len() as u64, written);
+    let targets = GltfExport::from_asset(&input, format).unwrap().n_targets();
+    assert_eq!(calls, targets);
+    (path, bytes, targets)
+}
+
+/// Decodes the file and checks layout, attributes, names, materials and every target.
+/// Returns the largest position error over all frames and vertices.
+fn check(bytes: &[u8], s: ExportSettings) -> f64 {
+    let (asset, map) = asset();
+    let rec = recording(&asset);
+    if s.encoding == Encoding::Float {
+        // The `gltf` crate's own validation (it knows no KHR_mesh_quantization).
+        gltf::Gltf::from_slice(bytes).unwrap();
+    }
+    let doc = parse(bytes);
+    let g = &doc.gltf;
+    let kept: Vec<usize> = match s.every_k {
+        1 => vec![0, 1, 2, 3, 4],
+        2 => vec![0, 2, 4],
+        3 => vec![0, 3, 4],
+        k => panic!("no expectation for every_k {k}"),
+    };
+    // Names and structure: two nodes, two meshes, one primitive each, materials in order.
+    let nodes: Vec<_> = g.nodes().map(|n| n.name().unwrap().to_string()).collect();
+    assert_eq!(nodes, ["PlateNode", "Leaf"]);
+    let meshes: Vec<_> = g.meshes().map(|m| m.name().unwrap().to_string()).collect();
+    assert_eq!(meshes, ["plate", "leaf"]);
+    let mats: Vec<_> = g.materials().map(|m| m.name().unwrap().to_string()).collect();
+    assert_eq!(mats, ["painted", "glass"]);
+    let painted = g.materials().next().unwrap();
+    let pbr = painted.pbr_metallic_roughness();
+    assert_eq!(pbr.base_color_factor(), [0.9, 0.8, 0.7, 1.0]);
+    assert_eq!((pbr.metallic_factor(), pbr.roughness_factor()), (0.25, 0.75));
+    assert!(painted.double_sided());
+    let info = pbr.base_color_texture().unwrap();
+    assert_eq!(info.tex_coord(), 0);
+    let image = info.texture().source();
+    assert_eq!(image.name(), Some("checker.png"));
+    let image_bytes = match image.source() {
+        gltf::image::Source::View { view, mime_type } => {
+            assert_eq!(mime_type, "image/png");
+            doc.buffer[view.offset()..view.offset() + view.length()].to_vec()
+        }
+        gltf::image::Source::Uri { uri, .. } => {
+            let data = uri.strip_prefix("data:image/png;base64,").unwrap();
+            base64::engine::general_purpose::STANDARD.decode(data).unwrap()
+        }
+    };
+    assert_eq!(image_bytes, tiny_png());
+    let glass = g.materials().nth(1).unwrap();
+    assert_eq!(glass.alpha_mode(), gltf::material::AlphaMode::Blend);
+    assert_eq!(glass.pbr_metallic_roughness().base_color_factor(), [0.2, 0.4, 0.6, 0.5]);
+
+    // Animation weights per node channel: one-hot, the target's weight at its key.
+    let anim = g.animations().next().unwrap();
+    let mut weights = Vec::new();
+    for ch in anim.channels() {
+        assert_eq!(ch.target().property(), gltf::animation::Property::MorphTargetWeights);
+        let times: Vec<f64> = read(&doc, &ch.sampler().input()).iter().map(|t| t[0]).collect();
+        let want: Vec<f64> = kept.iter().map(|&i| rec.times[i]).collect();
+        assert_eq!(times, want);
+        let w: Vec<f64> = read(&doc, &ch.sampler().output()).iter().map(|t| t[0]).collect();
+        let n = kept.len();
+        assert_eq!(w.len(), n * n);
+        for i in 0..n {
+            for j in 0..n {
+                if i != j {
+                    assert_eq!(w[i * n + j], 0.0);
+                } else if s.encoding == Encoding::Float {
+                    assert_eq!(w[i * n + j], 1.0);
+                }
+            }
+        }
+        weights
+            .push((ch.target().node().index(), (0..n).map(|i| w[i * n + i]).collect::<Vec<_>>()));
+    }
+
+    let mut max_err = 0.0f64;
+    let mut total_vertices = 0;
+    let mut sparse_seen = false;
+    for node in g.nodes() {
+        let mesh = node.mesh().unwrap();
+        let w = &weights.iter().find(|(n, _)| *n == node.index()).unwrap().1;
+        let prim = mesh.primitives().next().unwrap();
+        let get = |sem: gltf::Semantic| read(&doc, &prim.get(&sem).unwrap());
+        let pos = get(gltf::Semantic::Positions);
+        let nor = get(gltf::Semantic::Normals);
+        let uv = get(gltf::Semantic::TexCoords(0));
+        let col = get(gltf::Semantic::Colors(0));
+        let indices = read(&doc, &prim.indices().unwrap());
+        total_vertices += pos.len();
+        let plate = node.name() == Some("PlateNode");
+        // Expected vertices: positions in file order (the fold's 4 vertices twice, one per side).
+        let expected: Vec<u32> = if plate {
+            (0..20u32).flat_map(|v| if v % 5 == 2 { vec![v, v] } else { vec![v] }).collect()
+        } else {
+            (20..20 + L * L).chain([SEAM]).collect()
+        };
+        assert_eq!(pos.len(), expected.len(), "{:?}", node.name());
+        for (k, &v) in expected.iter().enumerate() {
+            let p = asset.positions[v as usize];
+            assert!((0..3).all(|d| pos[k][d] == p[d] as f32 as f64));
+            let c = asset.colors.as_ref().unwrap().values[v as usize];
+            assert!((0..4).all(|d| col[k][d] == c[d] as f64));
+            let t = asset.uvs[0].values[v as usize];
+            assert!((0..2).all(|d| uv[k][d] == t[d] as f64));
+            let n = nor[k].iter().map(|c| c * c).sum::<f64>().sqrt();
+            assert!((n - 1.0).abs() < 1e-6);
+        }
+        if plate {
+            // The hard edge: at the fold the two copies carry the two side normals.
+            let fold: Vec<usize> = (0..expected.len()).filter(|&k| expected[k] == 2).collect();
+            let l = 1.0 / (1.0f64 + 0.09).sqrt();
+            assert!((nor[fold[0]][0] - 0.3 * l).abs() < 1e-6, "{:?}", nor[fold[0]]);
+            assert!((nor[fold[1]][0] + 0.3 * l).abs() < 1e-6, "{:?}", nor[fold[1]]);
+        }
+        // Every triangle's corners are the file triangle's positions.
+        let part = if plate { &asset.parts[0] } else { &asset.parts[1] };
+        assert_eq!(indices.len(), part.count * 3);
+        for (f, t) in asset.triangles[part.first..part.first + part.count].iter().enumerate() {
+            for c in 0..3 {
+                assert_eq!(expected[indices[3 * f + c][0] as usize], t[c]);
+            }
+        }
+
+        // Morph targets reproduce the kept frames within the encoding's bound.
+        let targets: Vec<_> = prim.morph_targets().collect();
+        assert_eq!(targets.len(), kept.len());
+        let names: serde_json::Value =
+            serde_json::from_str(mesh.extras().as_ref().unwrap().get()).unwrap();
+        assert_eq!(names["targetNames"][1], format!("frame{:04}", kept[1]));
+        for (ti, (t, &fi)) in targets.iter().zip(&kept).enumerate() {
+            let acc = t.positions().unwrap();
+            sparse_seen |= acc.sparse().is_some();
+            if !s.sparse {
+                assert!(acc.sparse().is_none() && acc.view().is_some());
+            }
+            let d = read(&doc, &acc);
+            let layout = asset.layout_positions(&map, &rec.frames[fi]);
+            let bound = match s.encoding {
+                Encoding::Float => 1e-6,
+                Encoding::Quantized => w[ti] / (2.0 * 32767.0) * (1.0 + 1e-6) + 1e-7,
+            };
+            let mut lo = [f64::INFINITY; 3];
+            let mut hi = [f64::NEG_INFINITY; 3];
+            for (k, &v) in expected.iter().enumerate() {
+                let want = layout[v as usize];
+                for c in 0..3 {
+                    let got = pos[k][c] + w[ti] * d[k][c];
+                    let err = (got - want[c]).abs();
+                    max_err = max_err.max(err);
+                    assert!(err <= bound, "frame {fi} vertex {v}: {got} vs {} ({err})", want[c]);
+                    lo[c] = lo[c].min(d[k][c]);
+                    hi[c] = hi[c].max(d[k][c]);
+                }
+            }
+            // min/max (stored units) bound the decoded values.
+            let scale = if acc.normalized() { 32767.0 } else { 1.0 };
+            let (min, max) = (acc.min().unwrap(), acc.max().unwrap());
+            for c in 0..3 {
+                assert!((min[c].as_f64().unwrap() - lo[c] * scale).abs() < 1e-3);
+                assert!((max[c].as_f64().unwrap() - hi[c] * scale).abs() < 1e-3);
+            }
+            // Normals: the left side of the plate never moves, so its normals keep their
+            // delta 0; the right side's deformed normal is the bent plane's.
+            if plate && fi == 4 {
+                let dn = read(&doc, &t.normals().unwrap());
+                let a = 0.3 + 0.2 * 4.0;
+                let right = [-a, 0.0, 1.0].map(|c| c / (1.0f64 + a * a).sqrt());
+                for (k, &v) in expected.iter().enumerate() {
+                    let n: Vec<f64> = (0..3).map(|c| nor[k][c] + w[ti] * dn[k][c]).collect();
+                    if v % 5 < 2 || (v % 5 == 2 && nor[k][0] > 0.0) {
+                        assert!(dn[k].iter().all(|&c| c == 0.0), "left vertex {v} moved");
+                    } else {
+                        assert!((0..3).all(|c| (n[c] - right[c]).abs() < 1e-5), "{v}: {n:?}");
+                    }
+                }
+            }
+        }
+        // The seam: both copies of file vertex 21 are at one position in every frame.
+        if !plate {
+            for t in &targets {
+                let d = read(&doc, &t.positions().unwrap());
+                let (a, b) = (1, expected.len() - 1);
+                assert_eq!(expected[b], SEAM);
+                assert_eq!(vec3(&d[a]), vec3(&d[b]));
+            }
+        }
+    }
+    assert_eq!(total_vertices, 24 + 82, "vertex count = the layout's distinct tuples");
+    assert_eq!(sparse_seen, s.sparse, "sparse targets where allowed (they are smaller here)");
+    max_err
+}
+
+#[test]
+fn asset_round_trips_in_every_encoding() {
+    let dir = ScratchDir::new("export-asset");
+    let mut sizes = Vec::new();
+    for (encoding, sparse, k) in [
+        (Encoding::Float, false, 1),
+        (Encoding::Float, true, 1),
+        (Encoding::Quantized, false, 2),
+        (Encoding::Quantized, true, 1),
+        (Encoding::Quantized, true, 3),
+    ] {
+        for ext in ["glb", "gltf"] {
+            let s = settings(encoding, sparse, k);
+            let name = format!("{encoding:?}-{sparse}-{k}.{ext}");
+            let (_, bytes, _) = write(&dir, &name, s);
+            if ext == "glb" {
+                assert_eq!(&bytes[..4], b"glTF");
+            }
+            let err = check(&bytes, s);
+            println!("{name}: {} bytes, max error {err:.3e}", bytes.len());
+            sizes.push(((encoding, sparse, k, ext), bytes.len()));
+        }
+    }
+    let size = |key| sizes.iter().find(|(k, _)| *k == key).unwrap().1;
+    assert!(size((Encoding::Float, true, 1, "glb")) < size((Encoding::Float, false, 1, "glb")));
+    assert!(size((Encoding::Quantized, true, 1, "glb")) < size((Encoding::Float, true, 1, "glb")));
+}
+
+#[test]
+fn quantized_file_requires_the_extension() {
+    let dir = ScratchDir::new("export-asset-ext");
+    let (_, bytes, _) = write(&dir, "q.glb", ExportSettings::default());
+    let doc = parse(&bytes);
+    assert!(doc.gltf.extensions_required().any(|e| e == "KHR_mesh_quantization"));
+    let (_, bytes, _) = write(&dir, "f.glb", settings(Encoding::Float, true, 1));
+    assert_eq!(parse(&bytes).gltf.extensions_used().count(), 0);
+}
+
+#[test]
+fn inconsistent_assets_are_errors_not_panics() {
+    let (mut asset, map) = asset();
+    let rec = recording(&asset);
+    let s = ExportSettings::default();
+    let short_map = &map[..10];
+    let input = AssetExport { asset: &asset, vertex_map: short_map, recording: &rec, settings: s };
+    let err = GltfExport::from_asset(&input, GltfFormat::Glb).unwrap_err();
+    assert!(err.to_string().contains("vertex map"), "{err}");
+    asset.uvs[0].corners.pop();
+    let input = AssetExport { asset: &asset, vertex_map: &map, recording: &rec, settings: s };
+    let err = GltfExport::from_asset(&input, GltfFormat::Glb).unwrap_err();
+    assert!(err.to_string().contains("uv set 0"), "{err}");
+    let (mut asset, _) = self::asset();
+    asset.parts[1].material = Some(7);
+    let input = AssetExport { asset: &asset, vertex_map: &map, recording: &rec, settings: s };
+    assert!(GltfExport::from_asset(&input, GltfFormat::Glb).is_err());
+    let (asset, mut map) = self::asset();
+    map[3] = Some(500);
+    let input = AssetExport { asset: &asset, vertex_map: &map, recording: &rec, settings: s };
+    assert!(GltfExport::from_asset(&input, GltfFormat::Glb).is_err());
+}
+
+/// Runs `node tools/gltf-validate/validate.mjs FILE`; `None` when node or the package is
+/// missing (printed as skipped).
+fn khronos_validate(file: &FsPath) -> Option<serde_json::Value> {
+    let tool = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../tools/gltf-validate");
+    if !tool.join("node_modules/gltf-validator").exists() {
+        println!("skipped: gltf-validator not installed (`npm ci --prefix tools/gltf-validate`)");
+        return None;
+    }
+    let out = std::process::Command::new("node")
+        .arg(tool.join("validate.mjs"))
+        .arg(file)
+        .output()
+        .ok()?;
+    Some(serde_json::from_slice(&out.stdout).unwrap())
+}
+
+#[test]
+fn khronos_validator_accepts_every_encoding() {
+    let dir = ScratchDir::new("export-asset-validator");
+    for (encoding, sparse) in [
+        (Encoding::Float, false),
+        (Encoding::Float, true),
+        (Encoding::Quantized, false),
+        (Encoding::Quantized, true),
+    ] {
+        for ext in ["glb", "gltf"] {
+            let name = format!("{encoding:?}-{sparse}.{ext}");
+            let (path, _, _) = write(&dir, &name, settings(encoding, sparse, 2));
+            let Some(report) = khronos_validate(&path) else {
+                return;
+            };
+            let issues = &report["issues"];
+            println!("{name}: {issues}");
+            assert_eq!(issues["numErrors"], 0, "{name}: {report:#}");
+            assert_eq!(issues["numWarnings"], 0, "{name}: {report:#}");
+        }
+    }
+}
+
+// ---------------------------------------------------------------- measurement (BENCHMARKS.md)
+
+/// Largest distance per component between the animation a viewer plays (base + weighted
+/// deltas, weights interpolated linearly between keys) and every recorded frame, for a bare
+/// mesh export (one primitive, vertices = mesh vertices).
+fn played_error(bytes: &[u8], rec: &Recording) -> f64 {
+    let doc = parse(bytes);
+    let g = &doc.gltf;
+    let prim = g.meshes().next().unwrap().primitives().next().unwrap();
+    let base = read(&doc, &prim.get(&gltf::Semantic::Positions).unwrap());
+    let deltas: Vec<Vec<Vec<f64>>> =
+        prim.morph_targets().map(|t| read(&doc, &t.positions().unwrap())).collect();
+    let sampler = g.animations().next().unwrap().channels().next().unwrap().sampler();
+    let keys: Vec<f64> = read(&doc, &sampler.input()).iter().map(|t| t[0]).collect();
+    let w: Vec<f64> = read(&doc, &sampler.output()).iter().map(|t| t[0]).collect();
+    let n = keys.len();
+    let mut err = 0.0f64;
+    for (frame, &t) in rec.frames.iter().zip(&rec.times) {
+        let b = keys.partition_point(|&k| k < t as f32 as f64).min(n - 1);
+        let a = b.saturating_sub(1);
+        let alpha = if a == b { 1.0 } else { (t - keys[a]) / (keys[b] - keys[a]) }.clamp(0.0, 1.0);
+        for (v, p) in frame.iter().enumerate() {
+            for c in 0..3 {
+                let got = base[v][c]
+                    + (1.0 - alpha) * w[a * n + a] * deltas[a][v][c]
+                    + alpha * w[b * n + b] * deltas[b][v][c];
+                err = err.max((got - p[c]).abs());
+            }
+        }
+    }
+    err
+}
+
+/// Prints size and played error per encoding for a recorded icosphere (642 vertices, 24
+/// frames); `cargo test -p solver --test export_asset measure -- --nocapture`.
+#[test]
+fn measure_sizes_and_errors() {
+    use solver::animation::recording::record;
+    use solver::animation::timeline::{CircularPath, GroupPath, Path, Timeline};
+    use solver::{ArapConfig, Deformer, Method};
+    let (mesh, handles) = solver::testing::capped_sphere(3, 2, 0.85, None);
+    let config = ArapConfig { tolerance: 1e-5, max_iterations: 30, ..Default::default() };
+    let mut d = Deformer::new(Method::Arap, &mesh, &handles, &config).unwrap();
+    let timeline = Timeline {
+        duration: 1.5,
+        fps: 16.0,
+        looping: false,
+        paths: vec![GroupPath {
+            group: 0,
+            path: Path::Circular(CircularPath::new([0.0, 0.0, 1.0], 0.3, 1.5)),
+        }],
+    };
+    let rec = record(&mut d, &mesh, &handles, &timeline, 24, &config, &mut |_, _| {
+        ControlFlow::Continue(())
+    })
+    .unwrap();
+    let asset = Asset::bare(mesh.positions().to_vec(), mesh.triangles().to_vec());
+    let map: Vec<Option<u32>> = (0..mesh.n_vertices() as u32).map(Some).collect();
+    let diag = mesh.bbox_diagonal();
+    println!("| encoding | sparse | normals | every_k | .glb bytes | max error / diagonal |");
+    let mut results = Vec::new();
+    for (encoding, sparse, normals, every_k) in [
+        (Encoding::Float, false, true, 1),
+        (Encoding::Float, true, true, 1),
+        (Encoding::Quantized, true, true, 1),
+        (Encoding::Quantized, true, false, 1),
+        (Encoding::Quantized, true, false, 2),
+        (Encoding::Quantized, true, false, 4),
+    ] {
+        let settings = ExportSettings { encoding, normals, sparse, every_k };
+        let input = AssetExport { asset: &asset, vertex_map: &map, recording: &rec, settings };
+        let export = GltfExport::from_asset(&input, GltfFormat::Glb).unwrap();
+        let bytes = export.to_bytes(&mut |_, _| ControlFlow::Continue(())).unwrap();
+        assert_eq!(bytes.len() as u64, export.file_size().unwrap());
+        let err = played_error(&bytes, &rec) / diag;
+        println!(
+            "| {encoding:?} | {sparse} | {normals} | {every_k} | {} | {err:.2e} |",
+            bytes.len()
+        );
+        results.push((bytes.len(), err));
+    }
+    assert!(results[2].0 < results[1].0, "quantized is smaller than float");
+    assert!(results[0].1 < 1e-6 && results[2].1 < 1e-4, "{results:?}");
+}
+
+#[test]
+fn texture_without_its_uv_set_is_left_out() {
+    let (mut asset, map) = asset();
+    asset.uvs.clear();
+    let rec = recording(&asset);
+    let s = ExportSettings::default();
+    let input = AssetExport { asset: &asset, vertex_map: &map, recording: &rec, settings: s };
+    let bytes = GltfExport::from_asset(&input, GltfFormat::Glb)
+        .unwrap()
+        .to_bytes(&mut |_, _| ControlFlow::Continue(()))
+        .unwrap();
+    let doc = parse(&bytes);
+    let painted = doc.gltf.materials().next().unwrap();
+    assert!(painted.pbr_metallic_roughness().base_color_texture().is_none());
+    assert_eq!(painted.pbr_metallic_roughness().base_color_factor(), [0.9, 0.8, 0.7, 1.0]);
+    let prim = doc.gltf.meshes().next().unwrap().primitives().next().unwrap();
+    assert!(prim.get(&gltf::Semantic::TexCoords(0)).is_none());
+}
+
+/// Our own reader loads the exported file (Float: no required extension) as one layout vertex
+/// per written vertex, and exporting that asset again writes its vertices in the file's order
+/// and moves welded copies together.
+#[test]
+fn reloaded_export_keeps_its_vertex_order() {
+    let dir = ScratchDir::new("export-asset-reload");
+    let (path, bytes, _) = write(&dir, "f.glb", settings(Encoding::Float, true, 1));
+    let written: Vec<Vec<f64>> = {
+        let doc = parse(&bytes);
+        let prims: Vec<_> = doc.gltf.meshes().flat_map(|m| m.primitives()).collect();
+        prims.iter().flat_map(|p| read(&doc, &p.get(&gltf::Semantic::Positions).unwrap())).collect()
+    };
+    let loaded = solver::io::load_mesh(&path).unwrap();
+    let asset = &loaded.asset;
+    assert_eq!(asset.positions.len(), 24 + 82);
+    for (p, w) in asset.positions.iter().zip(&written) {
+        assert_eq!(p.to_vec(), *w);
+    }
+    assert!(loaded.mesh.n_vertices() < asset.positions.len(), "fold and seam copies weld");
+    let lift = |p: &[f64; 3]| [p[0], p[1], p[2] + 0.125];
+    let rec = Recording {
+        times: vec![0.0, 1.0],
+        frames: vec![
+            loaded.mesh.positions().to_vec(),
+            loaded.mesh.positions().iter().map(lift).collect(),
+        ],
+        stats: Vec::new(),
+    };
+    let input = AssetExport {
+        asset,
+        vertex_map: &loaded.report.vertex_map,
+        recording: &rec,
+        settings: ExportSettings::default(),
+    };
+    let bytes = GltfExport::from_asset(&input, GltfFormat::Glb)
+        .unwrap()
+        .to_bytes(&mut |_, _| ControlFlow::Continue(()))
+        .unwrap();
+    let doc = parse(&bytes);
+    let mut k = 0;
+    for prim in doc.gltf.meshes().flat_map(|m| m.primitives()) {
+        let pos = read(&doc, &prim.get(&gltf::Semantic::Positions).unwrap());
+        let t = prim.morph_targets().nth(1).unwrap();
+        let d = read(&doc, &t.positions().unwrap());
+        let w = 0.125f32 as f64; // the only delta: every weight of target 1 is 0.125
+        for (p, d) in pos.iter().zip(&d) {
+            assert_eq!(*p, asset.positions[k].map(|c| c as f32 as f64).to_vec());
+            assert!(d[0] == 0.0 && d[1] == 0.0 && (d[2] * w - 0.125).abs() < 1e-6, "{d:?}");
+            k += 1;
+        }
+    }
+    assert_eq!(k, asset.positions.len());
+}
