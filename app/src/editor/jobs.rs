@@ -12,11 +12,13 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::mpsc::{Receiver, TryRecvError, channel};
 
-use solver::animation::export::{GltfExport, GltfFormat};
+use solver::animation::export::{AssetExport, ExportSettings, GltfExport, GltfFormat};
+use solver::animation::pointcache::{Pc2, write_pc2};
 use solver::animation::recording::{Recording, record};
 use solver::animation::timeline::Timeline;
 use solver::{ArapConfig, BaseConfig, Deformer, Handles, Mesh, Method};
 
+use super::loader::FileLayout;
 use super::pose::{GroupPose, handle_targets};
 use super::renderer::Shape;
 
@@ -27,8 +29,12 @@ pub struct Recorded {
     pub shapes: Vec<Shape>,
     /// Size of the `.glb` an export would write.
     pub glb_bytes: u64,
-    /// The mesh it was recorded on (exports use it).
+    /// The mesh it was recorded on.
     pub mesh: Arc<Mesh>,
+    /// The file's layout the mesh came from: exports write onto its vertices.
+    pub layout: Arc<FileLayout>,
+    /// The timeline's frames per second (a point cache's sample rate).
+    pub fps: f64,
 }
 
 /// Progress shared between a job thread and the UI.
@@ -103,6 +109,7 @@ fn spawn<T: Send + 'static>(
 /// What a recording needs: everything is owned, the UI keeps editing meanwhile.
 pub struct RecordInput {
     pub mesh: Arc<Mesh>,
+    pub layout: Arc<FileLayout>,
     pub handles: Handles,
     pub timeline: Timeline,
     pub n_frames: usize,
@@ -122,9 +129,11 @@ pub fn spawn_record(
         "record",
         move || repaint(),
         move |progress| {
-            let RecordInput { mesh, handles, timeline, n_frames, method, config, base } = input;
+            let RecordInput { mesh, layout, handles, timeline, n_frames, method, config, base } =
+                input;
             let mut deformer = Deformer::with_base(method, &mesh, &handles, &config, &base)
                 .map_err(|e| format!("recording: precomputing {}: {e}", method.name()))?;
+            let fps = timeline.fps;
             let recording = record(
                 &mut deformer,
                 &mesh,
@@ -139,23 +148,37 @@ pub fn spawn_record(
                 },
             )
             .map_err(|e| format!("recording: {e}"))?;
-            let glb_bytes = GltfExport::new(&mesh, &recording, GltfFormat::Glb)
-                .and_then(|e| e.file_size())
-                .map_err(|e| format!("recording: {e}"))?;
+            let glb_bytes =
+                GltfExport::from_asset(&asset_export(&layout, &recording), GltfFormat::Glb)
+                    .and_then(|e| e.file_size())
+                    .map_err(|e| format!("recording: {e}"))?;
             let shapes = recording.frames.iter().map(|f| Shape::new(f, mesh.triangles())).collect();
-            Ok(Recorded { recording: Arc::new(recording), shapes, glb_bytes, mesh })
+            Ok(Recorded { recording: Arc::new(recording), shapes, glb_bytes, mesh, layout, fps })
         },
     )
 }
 
-/// Writes `recorded` as glTF to `path` (format from the extension), atomically. Returns the
-/// path and the bytes written.
+/// A recording on the file's layout with the default export settings (quantized, sparse where
+/// smaller, normals, every frame).
+fn asset_export<'a>(layout: &'a FileLayout, recording: &'a Recording) -> AssetExport<'a> {
+    AssetExport {
+        asset: &layout.asset,
+        vertex_map: &layout.vertex_map,
+        recording,
+        settings: ExportSettings::default(),
+    }
+}
+
+/// Writes `recorded` onto the file's own vertices to `path`, atomically, by its extension:
+/// glTF (`.glb`/`.gltf`, the whole asset with one morph target per frame) or a PC2 point
+/// cache (`.pc2`, at the timeline's rate). Returns the path and the bytes written.
 pub fn spawn_export(
     recorded: &Recorded,
     path: PathBuf,
     repaint: impl Fn() + Send + Sync + 'static,
 ) -> Job<(PathBuf, u64)> {
-    let mesh = recorded.mesh.clone();
+    let layout = recorded.layout.clone();
+    let fps = recorded.fps;
     let recording = recorded.recording.clone();
     let repaint = Arc::new(repaint);
     let r2 = repaint.clone();
@@ -163,10 +186,19 @@ pub fn spawn_export(
         "export",
         move || repaint(),
         move |progress| {
+            let is_pc2 = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("pc2"));
+            if is_pc2 {
+                let pc2 = Pc2::from_recording(&recording, &layout.asset, &layout.vertex_map, fps)
+                    .map_err(|e| format!("{}: {e}", path.display()))?;
+                write_pc2(&path, &pc2).map_err(|e| e.to_string())?;
+                let bytes = std::fs::metadata(&path).map(|m| m.len()).unwrap_or(0);
+                return Ok((path, bytes));
+            }
             let fail =
                 |e: solver::animation::export::ExportError| format!("{}: {e}", path.display());
             let format = GltfFormat::from_path(&path).map_err(fail)?;
-            let export = GltfExport::new(&mesh, &recording, format).map_err(fail)?;
+            let export =
+                GltfExport::from_asset(&asset_export(&layout, &recording), format).map_err(fail)?;
             let bytes = export
                 .write(&path, &mut |done, total| {
                     let flow = progress.update(done, total);
@@ -233,6 +265,7 @@ mod tests {
     fn input(n_frames: usize) -> RecordInput {
         let (mesh, handles) = solver::geometry::shapes::bumpy_bar(2);
         RecordInput {
+            layout: Arc::new(FileLayout::bare(&mesh)),
             mesh: Arc::new(mesh),
             handles,
             timeline: Timeline {
@@ -265,6 +298,14 @@ mod tests {
         assert_eq!(path, out);
         assert_eq!(bytes, rec.glb_bytes, "the size shown before writing is the size written");
         assert_eq!(std::fs::metadata(&out).unwrap().len(), bytes);
+        // A point cache of the same frames, at the timeline's rate.
+        let pc2 = dir.join("anim.pc2");
+        wait(&spawn_export(&rec, pc2.clone(), || {})).unwrap();
+        let cache = solver::animation::pointcache::read_pc2(&pc2).unwrap();
+        assert_eq!(cache.samples.len(), 11);
+        assert_eq!(cache.sample_rate, 1.0, "one sample per frame at 10 fps");
+        let last = rec.recording.frames[10][3].map(|c| c as f32);
+        assert_eq!(cache.samples[10][3], last);
 
         let job = spawn_record(input(100_000), || {});
         job.cancel();

@@ -22,14 +22,35 @@ use super::render_layout::RenderLayout;
 use super::renderer::{Shape, Topology, VertexData, build_grid};
 use solver::geometry::topology::Adjacency;
 
+/// A mesh file's own layout ([`solver::io::Asset`]) and cleaning's map from its vertices to the
+/// solver's mesh.
+#[derive(Debug, Default)]
+pub struct FileLayout {
+    pub asset: solver::io::Asset,
+    /// File vertex → mesh vertex (`CleanReport::vertex_map`).
+    pub vertex_map: Vec<Option<u32>>,
+}
+
+impl FileLayout {
+    /// The layout of a mesh made in code: its own vertices, the identity map.
+    pub fn bare(mesh: &solver::Mesh) -> FileLayout {
+        FileLayout {
+            asset: solver::io::Asset::bare(mesh.positions().to_vec(), mesh.triangles().to_vec()),
+            vertex_map: (0..mesh.n_vertices() as u32).map(Some).collect(),
+        }
+    }
+}
+
 /// A loaded mesh with everything derived from its topology.
 pub struct LoadedFile {
     pub path: PathBuf,
     pub mesh: Arc<Mesh>,
     /// Cleaning notices to show in the status bar.
     pub notices: Vec<String>,
-    /// File vertex → mesh vertex (cleaning's map), to read selections of the file as read.
-    pub vertex_map: Vec<Option<u32>>,
+    /// The file's own layout: its vertices in order, attributes, parts, materials and
+    /// textures, with cleaning's map from its vertices to the mesh's (selections of the file as
+    /// read, and exports onto the file's vertices, go through it).
+    pub layout: Arc<FileLayout>,
     pub rest: Shape,
     pub topology: Arc<Topology>,
     pub adjacency: Adjacency,
@@ -159,7 +180,7 @@ fn prepare(
         path: path.to_path_buf(),
         mesh: Arc::new(mesh),
         notices,
-        vertex_map: loaded.report.vertex_map,
+        layout: Arc::new(FileLayout { asset: loaded.asset, vertex_map: loaded.report.vertex_map }),
         rest,
         topology,
         adjacency,
@@ -180,7 +201,8 @@ pub fn load_scene_file(path: &Path, version: u64) -> anyhow::Result<LoadedFile> 
     let mesh_path = solver::animation::scene::Scene::resolve_path(path, &doc.mesh);
     let mut scene = load_scene(&mesh_path, version)
         .with_context(|| format!("the scene's mesh {}", mesh_path.display()))?;
-    let handles = doc.resolve_handles(path, scene.mesh.positions(), Some(&scene.vertex_map))?;
+    let handles =
+        doc.resolve_handles(path, scene.mesh.positions(), Some(&scene.layout.vertex_map))?;
     scene.default_labels = Some(handles.labels().to_vec());
     scene.selection_path = Some(path.to_path_buf());
     scene.document = Some((path.to_path_buf(), doc));

@@ -44,6 +44,7 @@ impl EditorApp {
         let config = s.arap_config();
         let input = RecordInput {
             mesh: scene.mesh.clone(),
+            layout: scene.layout.clone(),
             handles,
             n_frames: timeline::frame_count(&timeline),
             timeline,

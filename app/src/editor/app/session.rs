@@ -434,7 +434,7 @@ impl EditorApp {
 
     pub(super) fn load_selection(&mut self, path: &Path) {
         let Some(scene) = &self.session.scene else { return };
-        match loader::load_selection(path, scene.mesh.positions(), &scene.vertex_map) {
+        match loader::load_selection(path, scene.mesh.positions(), &scene.layout.vertex_map) {
             Ok(labels) => {
                 self.session.history.push(self.session.edit.clone());
                 self.session.edit = EditState::from_labels(labels);
