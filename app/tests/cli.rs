@@ -108,6 +108,7 @@ fn errors_are_one_line_with_nonzero_exit() {
         (vec!["deform", o, "--handles", "/nope.dmat", "-o", t], "nope.dmat"),
         (vec!["deform", o, "--handles", s, "--method", "magic", "-o", t], "magic"),
         (vec!["deform", o], "required"),
+        (vec!["deform", o, "--handles", s, "--pin-component", "9", "-o", t], "--pin-component 9"),
         (vec!["bench", o, "--handles", s, "--frames", "0"], "--frames"),
         (vec!["bench", o, "--handles", s, "--anderson", "1000000"], "--anderson"),
         (vec!["bench", o, "--handles", s, "--coarse-vertices", "3"], "--coarse-vertices"),
