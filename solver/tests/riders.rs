@@ -97,7 +97,9 @@ fn loose_part_follows_a_bending_surface_or_stays_pinned() {
         assert!(distance_change(x, rest, n..m.n_vertices()) < 1e-9, "{method:?}: not rigid");
         // The big sphere's vertex nearest to the eye, and how far it moved.
         let near = (0..n)
-            .min_by(|&a, &b| dist(rest[a], [0.0, 1.12, 0.0]).total_cmp(&dist(rest[b], [0.0, 1.12, 0.0])))
+            .min_by(|&a, &b| {
+                dist(rest[a], [0.0, 1.12, 0.0]).total_cmp(&dist(rest[b], [0.0, 1.12, 0.0]))
+            })
             .unwrap();
         let surface_moved = dist(x[near], rest[near]);
         let eye_bottom = (n..m.n_vertices())
@@ -199,7 +201,8 @@ fn components_are_listed_in_order() {
 /// Scenes carry the modes; scenes without them read as every part following.
 #[test]
 fn scenes_store_loose_part_modes() {
-    let mut scene = Scene::new("m.obj", HandlesSpec { labels: Some(vec![0]), ..Default::default() });
+    let mut scene =
+        Scene::new("m.obj", HandlesSpec { labels: Some(vec![0]), ..Default::default() });
     let plain = scene.to_json();
     assert!(!plain.contains("loose_parts"));
     assert!(Scene::from_json(&plain, "x").unwrap().loose_parts.is_default());

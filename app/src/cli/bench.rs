@@ -212,7 +212,6 @@ fn parse_methods(s: &str) -> anyhow::Result<Vec<Method>> {
     })
 }
 
-
 #[derive(Clone)]
 struct Setup<'a> {
     mesh: &'a solver::Mesh,

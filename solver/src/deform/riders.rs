@@ -211,8 +211,9 @@ impl Riders {
                 }
             }
         }
-        let handled: Vec<u32> =
-            (0..n as u32).filter(|&v| components[comps.label[v as usize] as usize].has_handles).collect();
+        let handled: Vec<u32> = (0..n as u32)
+            .filter(|&v| components[comps.label[v as usize] as usize].has_handles)
+            .collect();
         let following = components.iter().any(|c| c.mode == Some(ComponentMode::Follow));
         if handled.is_empty() || !following {
             return Riders { components, riders: Vec::new() };
@@ -322,8 +323,11 @@ impl Riders {
 
 impl Rider {
     fn motion(&self, deformed: &[[f64; 3]]) -> Motion {
-        let moved: Vec<[f64; 3]> =
-            self.anchor.iter().map(|&v| deformed.get(v as usize).copied().unwrap_or([0.0; 3])).collect();
+        let moved: Vec<[f64; 3]> = self
+            .anchor
+            .iter()
+            .map(|&v| deformed.get(v as usize).copied().unwrap_or([0.0; 3]))
+            .collect();
         if moved == self.anchor_rest {
             return Motion::IDENTITY;
         }
@@ -359,7 +363,8 @@ fn anchor_patch(tree: &KdTree, queries: &[[f64; 3]], floor: f64) -> (Vec<u32>, V
     candidates.sort_unstable_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
     candidates.truncate(ANCHOR_VERTICES);
     let dist: Vec<f64> = candidates.iter().map(|c| c.1.sqrt()).collect();
-    let rho = (dist.iter().sum::<f64>() / dist.len().max(1) as f64).max(floor).max(f64::MIN_POSITIVE);
+    let rho =
+        (dist.iter().sum::<f64>() / dist.len().max(1) as f64).max(floor).max(f64::MIN_POSITIVE);
     let mut weights: Vec<f64> = dist.iter().map(|d| 1.0 / (d + rho)).collect();
     let total: f64 = weights.iter().sum();
     for w in &mut weights {

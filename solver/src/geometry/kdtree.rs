@@ -65,7 +65,8 @@ impl KdTree {
         let mid = (lo + hi) / 2;
         let a = self.axis[mid] as usize;
         let delta = q[a] - self.points[mid][a];
-        let (near, far) = if delta < 0.0 { ((lo, mid), (mid + 1, hi)) } else { ((mid + 1, hi), (lo, mid)) };
+        let (near, far) =
+            if delta < 0.0 { ((lo, mid), (mid + 1, hi)) } else { ((mid + 1, hi), (lo, mid)) };
         self.search(q, k, near.0, near.1, best);
         self.offer(q, k, mid, best);
         if best.len() < k || delta * delta <= best[best.len() - 1].0 {
