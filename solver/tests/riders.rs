@@ -153,9 +153,9 @@ fn deformed_base_moves_the_loose_part_too() {
 fn all_components_handled_changes_nothing() {
     let (m, h, n) = sphere_and_eye([1.17, 0.0, 0.0], 0.15);
     let mut labels = h.labels().to_vec();
-    for v in n..m.n_vertices() {
-        if m.positions()[v][0] > 1.22 {
-            labels[v] = Some(2);
+    for (label, p) in labels.iter_mut().zip(m.positions()).skip(n) {
+        if p[0] > 1.22 {
+            *label = Some(2);
         }
     }
     let h2 = Handles::from_options(labels).unwrap();
