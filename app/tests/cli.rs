@@ -108,6 +108,7 @@ fn errors_are_one_line_with_nonzero_exit() {
         (vec!["deform", o, "--handles", "/nope.dmat", "-o", t], "nope.dmat"),
         (vec!["deform", o, "--handles", s, "--method", "magic", "-o", t], "magic"),
         (vec!["deform", o], "required"),
+        (vec!["deform", o, "--handles", s, "--pin-component", "9", "-o", t], "--pin-component 9"),
         (vec!["bench", o, "--handles", s, "--frames", "0"], "--frames"),
         (vec!["bench", o, "--handles", s, "--anderson", "1000000"], "--anderson"),
         (vec!["bench", o, "--handles", s, "--coarse-vertices", "3"], "--coarse-vertices"),
@@ -199,6 +200,61 @@ fn deform_with_anderson_acceleration() {
     assert!(it(&aa) < it(&plain), "anderson {} vs plain {}", it(&aa), it(&plain));
     let e = |j: &serde_json::Value| j["final_energy"].as_f64().unwrap();
     assert!((e(&aa) - e(&plain)).abs() <= 1e-6 * e(&plain), "{} vs {}", e(&aa), e(&plain));
+}
+
+/// A loose part (a second sphere without handles) follows the moved sphere by default and
+/// stays at rest with `--pin-component 1`; the JSON report counts both.
+#[test]
+fn deform_loose_part_follows_or_is_pinned() {
+    let m = solver::geometry::shapes::icosphere(2);
+    let n = m.n_vertices();
+    let mut p = m.positions().to_vec();
+    p.extend(m.positions().iter().map(|q| [q[0] * 0.2 + 1.3, q[1] * 0.2, q[2] * 0.2]));
+    let mut t = m.triangles().to_vec();
+    t.extend(m.triangles().iter().map(|f| f.map(|v| v + n as u32)));
+    let obj = tmp("two.obj");
+    solver::io::write_obj(&obj, &p, &t).unwrap();
+    let mut labels = solver::testing::cap_labels(m.positions(), 0, 0.8, None);
+    labels.extend(std::iter::repeat_n(-1, n));
+    let sel = tmp("two.dmat");
+    let body: Vec<String> = labels.iter().map(|l| l.to_string()).collect();
+    std::fs::write(&sel, format!("1 {}\n{}\n", labels.len(), body.join("\n"))).unwrap();
+    let run = |extra: &[&str]| {
+        let out = tmp(&format!("two{}.obj", extra.len()));
+        let mut args = vec!["deform", obj.to_str().unwrap(), "--handles", sel.to_str().unwrap()];
+        args.extend(["--move", "0:0.3,0.2,0", "--method", "arap", "--json"]);
+        args.extend(["-o", out.to_str().unwrap()]);
+        args.extend_from_slice(extra);
+        let (code, stdout, stderr) = bsarap(&args);
+        assert_eq!(code, 0, "{stderr}");
+        let j: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+        // The file's own vertex lines (the mesh is clean: its order is the input's).
+        let text = std::fs::read_to_string(&out).unwrap();
+        let v: Vec<[f64; 3]> = text
+            .lines()
+            .filter_map(|l| l.strip_prefix("v "))
+            .map(|l| {
+                let c: Vec<f64> = l.split_whitespace().map(|x| x.parse().unwrap()).collect();
+                [c[0], c[1], c[2]]
+            })
+            .collect();
+        assert_eq!(v.len(), 2 * n);
+        (j, v[n..].to_vec())
+    };
+    let (follow, x) = run(&[]);
+    assert_eq!(
+        (follow["following_components"].as_u64(), follow["pinned_components"].as_u64()),
+        (Some(1), Some(0))
+    );
+    let moved = x.iter().zip(&p[n..]).map(|(a, b)| (a[0] - b[0]).abs() + (a[1] - b[1]).abs());
+    assert!(moved.fold(0.0, f64::max) > 0.1, "the loose sphere did not follow");
+    let (pin, x) = run(&["--pin-component", "1"]);
+    assert_eq!(
+        (pin["following_components"].as_u64(), pin["pinned_components"].as_u64()),
+        (Some(0), Some(1))
+    );
+    let stayed = x.iter().zip(&p[n..]).map(|(a, b)| (a[0] - b[0]).abs() + (a[1] - b[1]).abs());
+    assert!(stayed.fold(0.0, f64::max) < 1e-6, "the pinned sphere moved");
 }
 
 /// `--repeat 3` runs each method three times: the three figures are reported, the reported

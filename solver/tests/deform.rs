@@ -119,8 +119,11 @@ fn energy_never_increases_and_handles_hit_targets() {
     });
 }
 
+/// A component without handles is fixed in the solve (the constraints pin it); the deformer
+/// then lets it follow the nearest handled surface rigidly by default, or keeps it at rest
+/// when pinned ([`solver::deform::riders`]).
 #[test]
-fn components_without_handles_are_pinned() {
+fn components_without_handles_follow_or_stay_pinned() {
     let (m, h) = bar(3);
     // A second, disjoint copy shifted away, with no handles.
     let n = m.n_vertices() as u32;
@@ -133,13 +136,32 @@ fn components_without_handles_are_pinned() {
     labels.extend(std::iter::repeat_n(None, n as usize));
     let h2 = Handles::from_options(labels).unwrap();
     let transforms = [(0, GroupTransform { translation: [0.0, 0.5, 0.0], ..Default::default() })];
-    check(&two, &h2, &transforms, ArapConfig::default(), |_, _, x, _, _| {
-        assert!(x[n as usize..] == two.positions()[n as usize..], "the handle-less copy moved");
-        assert!(max_dist(&x[..n as usize], &two.positions()[..n as usize]) > 0.1);
+    let rest = two.positions();
+    let copy = n as usize..rest.len();
+    let edge = |x: &[[f64; 3]], a: usize, b: usize| max_dist(&[x[a]], &[x[b]]);
+    check(&two, &h2, &transforms, ArapConfig::default(), |method, _, x, _, _| {
+        assert!(max_dist(&x[..n as usize], &rest[..n as usize]) > 0.1);
+        assert!(max_dist(&x[copy.clone()], &rest[copy.clone()]) > 0.01, "{method:?}: stayed");
+        for a in copy.clone().step_by(7) {
+            for b in copy.clone().step_by(11) {
+                let change = (edge(x, a, b) - edge(rest, a, b)).abs();
+                assert!(change < 1e-9, "{method:?}: the copy bent by {change}");
+            }
+        }
     });
+    let targets = handle_targets(rest, &h2, &transforms).unwrap();
+    let base = BaseConfig { coarse_vertices: Some(rest.len() / 4), ..Default::default() };
+    for method in Method::ALL {
+        let config = ArapConfig::default();
+        let pin = solver::LooseParts::pin_all();
+        let mut d = Deformer::with_loose_parts(method, &two, &h2, &config, &base, &pin).unwrap();
+        d.solve(&targets).unwrap();
+        assert!(d.positions()[copy.clone()] == rest[copy.clone()], "{method:?}: pinned copy moved");
+        assert!(d.notice().unwrap().contains("1 pinned"));
+    }
     let c = solver::deform::constraints::Constraints::new(&two, &h2);
     assert_eq!(c.pinned_components, 1);
-    assert!(c.notice().unwrap().contains("pinned"));
+    assert!(c.notice().unwrap().contains("fixed"));
 }
 
 #[test]

@@ -212,17 +212,6 @@ fn parse_methods(s: &str) -> anyhow::Result<Vec<Method>> {
     })
 }
 
-/// The ARAP solver of a deformer, mutably, for the starting guess.
-fn arap_mut(d: &mut Deformer) -> Option<&mut solver::Arap> {
-    match d {
-        Deformer::Arap(a) => Some(a),
-        Deformer::BsArap(b) => Some(b.base_arap_mut()),
-        Deformer::Coarse(c) => Some(c.base_arap_mut()),
-        #[allow(unreachable_patterns)]
-        _ => None,
-    }
-}
-
 #[derive(Clone)]
 struct Setup<'a> {
     mesh: &'a solver::Mesh,
@@ -296,9 +285,7 @@ fn bench_variant(
         match s.start {
             StartGuess::Previous => {}
             StartGuess::Rest => d.reset(),
-            StartGuess::Laplacian => arap_mut(&mut d)
-                .with_context(|| format!("--start laplacian is not available for {name}"))?
-                .start_from_laplacian_fit(&targets)?,
+            StartGuess::Laplacian => d.arap_mut().start_from_laplacian_fit(&targets)?,
         }
         let st = d.solve(&targets).with_context(|| format!("{name} frame {f}"))?;
         total_ms += t1.elapsed().as_secs_f64() * 1e3;

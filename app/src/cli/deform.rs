@@ -9,9 +9,10 @@ use clap::Args;
 use solver::FrameStats;
 use solver::animation::export::{GltfExport, GltfFormat};
 use solver::animation::recording::Recording;
+use solver::geometry::topology::connected_components;
 use solver::io::LoadedMesh;
 use solver::linalg::rotation::{axis_angle, mul_mat};
-use solver::{ArapConfig, Deformer, GroupTransform, handle_targets};
+use solver::{ArapConfig, ComponentMode, Deformer, GroupTransform, LooseParts, handle_targets};
 use std::path::Path;
 use std::time::Instant;
 
@@ -49,6 +50,10 @@ pub struct DeformArgs {
     /// deformed normals, materials), .glb/.gltf (glTF), .ply/.off (geometry). Written atomically.
     #[arg(short = 'o', long = "output")]
     pub output: PathArg,
+    /// Pin component N (a loose part without handles) at rest instead of letting it follow
+    /// the surface it sits on; repeatable. Components are numbered by their smallest vertex.
+    #[arg(long = "pin-component", value_name = "N")]
+    pub pin_components: Vec<usize>,
     /// Print one JSON object.
     #[arg(long)]
     pub json: bool,
@@ -170,10 +175,22 @@ pub fn run(a: &DeformArgs) -> anyhow::Result<()> {
         acceleration: acceleration(a.anderson)?,
         ..Default::default()
     };
+    let mut parts = LooseParts::default();
+    let count = connected_components(mesh.n_vertices(), mesh.triangles()).count;
+    for &c in &a.pin_components {
+        if c >= count {
+            bail!("--pin-component {c}: the mesh has components 0..{count}");
+        }
+        parts.set(c, ComponentMode::Pin);
+    }
     let t0 = Instant::now();
-    let mut deformer = Deformer::with_base(a.method.into(), mesh, &handles, &config, &base)?;
+    let mut deformer =
+        Deformer::with_loose_parts(a.method.into(), mesh, &handles, &config, &base, &parts)?;
     let precompute_ms = t0.elapsed().as_secs_f64() * 1e3;
-    let notice = deformer.arap().constraints().notice();
+    let loose = deformer.riders().components().iter().filter(|c| !c.has_handles);
+    let following = loose.clone().filter(|c| c.follows.is_some()).count();
+    let pinned = loose.count() - following;
+    let notice = deformer.notice();
     let t1 = Instant::now();
     let stats = deformer.solve(&targets)?;
     let solve_ms = t1.elapsed().as_secs_f64() * 1e3;
@@ -194,9 +211,10 @@ pub fn run(a: &DeformArgs) -> anyhow::Result<()> {
             "ms_per_iteration": (solve_ms - stats.fine_ms) / stats.iterations.max(1) as f64,
             "fine_iterations": stats.fine_iterations,
             "fine_ms": stats.fine_ms,
-            "pinned_components": deformer.arap().constraints().pinned_components,
-            "precompute_phases_ms": match &deformer {
-                solver::Deformer::Coarse(c) => c.precompute_phases().iter().map(|(k, v)| (k.to_string(), serde_json::json!(v))).collect::<serde_json::Map<_, _>>(),
+            "pinned_components": pinned,
+            "following_components": following,
+            "precompute_phases_ms": match deformer.solver() {
+                solver::Solver::Coarse(c) => c.precompute_phases().iter().map(|(k, v)| (k.to_string(), serde_json::json!(v))).collect::<serde_json::Map<_, _>>(),
                 _ => serde_json::Map::new(),
             },
             "output": a.output.display().to_string(),

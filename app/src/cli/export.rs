@@ -160,9 +160,15 @@ pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
     );
 
     let t0 = Instant::now();
-    let mut deformer =
-        Deformer::with_base(scene.method, mesh, &loaded.handles, &scene.arap, &scene.base)
-            .with_context(|| format!("{source}: precomputing {}", scene.method.name()))?;
+    let mut deformer = Deformer::with_loose_parts(
+        scene.method,
+        mesh,
+        &loaded.handles,
+        &scene.arap,
+        &scene.base,
+        &scene.loose_parts,
+    )
+    .with_context(|| format!("{source}: precomputing {}", scene.method.name()))?;
     let precompute_ms = t0.elapsed().as_secs_f64() * 1e3;
 
     let t1 = Instant::now();

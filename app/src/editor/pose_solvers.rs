@@ -66,11 +66,7 @@ impl PoseSolver for DeformerPoseSolver {
     }
 
     fn detail_magnitudes(&self) -> Option<Vec<f64>> {
-        let d = match &self.0 {
-            solver::Deformer::Arap(_) => return None,
-            solver::Deformer::BsArap(b) => b.details(),
-            solver::Deformer::Coarse(c) => c.details(),
-        };
+        let d = self.0.details()?;
         Some(d.iter().map(|v| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()).collect())
     }
 }

@@ -11,6 +11,7 @@
 //!                           "radius": 0.3, "period": 2.0}}]},
 //!   "method": "bsarap",
 //!   "arap": {"energy": "spokes-and-rims", "tolerance": 1e-4, "max_iterations": 100},
+//!   "loose_parts": {"default": "follow", "overrides": [{"component": 1, "mode": "pin"}]},
 //!   "camera": {"any": "JSON the editor stores"},
 //!   "editor": {"groups": [{"name": "left foot", "color": [230, 25, 75]}]}
 //! }
@@ -20,7 +21,12 @@
 //! (absolute paths are kept as they are). `handles` is exactly one of `{"file": PATH}` (a `.dmat`
 //! or sphere `.json`), `{"labels": [-1, 0, …]}` (one per vertex) or `{"spheres": [...]}` (the
 //! sphere format of docs/DESIGN.md, "Handle selections"). Unknown fields are errors (they are usually typos); a missing
-//! `method` is `bsarap`, a missing `arap` is [`ArapConfig::default`].
+//! `method` is `bsarap`, a missing `arap` is [`ArapConfig::default`], a missing `loose_parts` is
+//! [`LooseParts::default`] (components without handles follow the surface they sit on;
+//! [`crate::deform::riders`]). `loose_parts` came after the first version-1 scenes without a
+//! version change: it is optional and omitted when default, so every earlier scene reads as
+//! before and a scene that sets no mode is written as before (a build that predates the field
+//! rejects a scene that sets one as an unknown field).
 
 use std::path::{Path, PathBuf};
 
@@ -32,6 +38,7 @@ use crate::deform::arap::{Acceleration, ArapConfig};
 use crate::deform::config::BaseConfig;
 use crate::deform::deformer::Method;
 use crate::deform::handles::{Handles, HandlesError};
+use crate::deform::riders::LooseParts;
 use crate::deform::selection::{SelectionError, load_selection, parse_spheres};
 use crate::io::{LoadError, LoadedMesh, SaveError, load_mesh, write_atomic};
 
@@ -121,6 +128,10 @@ pub struct Scene {
     /// Base-surface settings of the BS-ARAP variants (smoothing, coarse size, fine iterations).
     #[serde(default)]
     pub base: BaseConfig,
+    /// Modes of the components without handles (optional; omitted when every one follows,
+    /// the default): `{"default": "follow", "overrides": [{"component": 2, "mode": "pin"}]}`.
+    #[serde(default, skip_serializing_if = "LooseParts::is_default")]
+    pub loose_parts: LooseParts,
     /// Opaque to the solver: whatever the editor stores about its view.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub camera: Option<serde_json::Value>,
@@ -163,6 +174,7 @@ impl Scene {
             method: Method::default(),
             arap: ArapConfig::default(),
             base: BaseConfig::default(),
+            loose_parts: LooseParts::default(),
             camera: None,
             editor: None,
         }

@@ -11,7 +11,8 @@
 //!    $p'_i = \sum_k w_{ik} B'_{c,k} + \hat R_i (D_i + C_i)$ where $\hat R_i$ is the normalized
 //!    blend of the corner rotations as quaternions (signs aligned) and $C_i$ the carried fine
 //!    correction (step 5; zero without it). Handle vertices are set to their targets exactly,
-//!    and the vertices of components without handles to their rest positions.
+//!    and the vertices of components without handles to their rest positions (the deformer
+//!    then moves the following ones, [`crate::deform::riders`]).
 //! 5. Optionally ([`BaseConfig::fine_iterations`]), a few ARAP iterations on $M$ with
 //!    Anderson acceleration ([`Arap::refine`]) start from $p'$ and give the result $x$: a
 //!    two-level scheme in which the coarse solve supplies the smooth part of the deformation

@@ -1,9 +1,12 @@
 //! Which vertices a solve holds fixed: the handle vertices, plus every vertex of a connected
-//! component that has no handle (pinned at rest).
+//! component that has no handle (held at rest in the solve).
 //!
-//! Without the pinning, a component with no fixed vertex leaves the constant vectors of that
+//! Without that, a component with no fixed vertex leaves the constant vectors of that
 //! component in the kernel of the free block $L_{FF}$, which is then singular (and so is the
-//! bi-Laplacian block). Pinning it rigidly at rest is what a user expects and what the UI reports.
+//! bi-Laplacian block). What the user sees of such a loose part is decided after the solve, by
+//! [`crate::deform::riders`]: by default it follows the handled surface it sits on, rigidly;
+//! pinned, it stays at rest. Either way the solve, and so the handled part of the result, is
+//! the same.
 
 use crate::deform::handles::Handles;
 use crate::geometry::mesh::Mesh;
@@ -16,7 +19,8 @@ pub struct Constraints {
     /// Handle vertices, ascending (`Handles::handle_vertices`): their targets come from the user,
     /// in this order (a [`Constraints::renumbered`] copy keeps it).
     pub handle_vertices: Vec<u32>,
-    /// Vertices of components without any handle, ascending: held at their rest positions.
+    /// Vertices of components without any handle, ascending: held at their rest positions in
+    /// the solve (the deformer may then move them rigidly, [`crate::deform::riders`]).
     pub pinned_vertices: Vec<u32>,
     /// Number of components without a handle.
     pub pinned_components: usize,
@@ -88,11 +92,12 @@ impl Constraints {
         self.free_index[v].is_none()
     }
 
-    /// A human sentence for the UI and the CLI, or `None` when nothing is pinned.
+    /// A sentence about the solve's view of the loose parts, or `None` when every component
+    /// has a handle. What they do in the result: [`crate::deform::riders::Riders::notice`].
     pub fn notice(&self) -> Option<String> {
         (self.pinned_components > 0).then(|| {
             format!(
-                "{} component(s) without a handle ({} vertices) are pinned at rest",
+                "{} component(s) without a handle ({} vertices) are fixed at rest in the solve",
                 self.pinned_components,
                 self.pinned_vertices.len()
             )

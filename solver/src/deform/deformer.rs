@@ -1,10 +1,13 @@
-//! One interface over the deformation methods, for the CLI and the editor's solver threads.
+//! One interface over the deformation methods, for the CLI and the editor's solver threads,
+//! with the loose parts (components without handles) following or pinned
+//! ([`crate::deform::riders`]).
 
 use crate::deform::arap::{Arap, ArapConfig, SolveStats};
 use crate::deform::bs_arap::{BaseKind, BsArap};
 use crate::deform::coarse::CoarseBsArap;
 use crate::deform::config::BaseConfig;
 use crate::deform::handles::Handles;
+use crate::deform::riders::{LooseParts, Riders};
 use crate::error::SolveError;
 use crate::geometry::mesh::Mesh;
 use crate::pool::in_pool;
@@ -49,16 +52,52 @@ impl Method {
     }
 }
 
-/// A precomputed deformer of either method.
+/// The solver of one method (what a [`Deformer`] runs).
 #[derive(Debug)]
-pub enum Deformer {
+pub enum Solver {
     Arap(Arap),
     BsArap(BsArap),
     Coarse(Box<CoarseBsArap>),
 }
 
+impl Solver {
+    /// The solver's result of the last solve, loose parts at rest (`#V×3`).
+    pub fn positions(&self) -> &[[f64; 3]] {
+        match self {
+            Solver::Arap(a) => a.positions(),
+            Solver::BsArap(b) => b.positions(),
+            Solver::Coarse(c) => c.positions(),
+        }
+    }
+
+    /// The solver's deformed base, loose parts at rest; `None` for ARAP.
+    pub fn deformed_base(&self) -> Option<&[[f64; 3]]> {
+        match self {
+            Solver::Arap(_) => None,
+            Solver::BsArap(b) => Some(b.deformed_base()),
+            Solver::Coarse(c) => Some(c.deformed_base()),
+        }
+    }
+}
+
+/// A precomputed deformer of any method, with the loose parts riding along
+/// ([`crate::deform::riders`]): components without handles are fixed at rest in the solve,
+/// then the following ones are moved rigidly with their anchor patch in
+/// [`Deformer::positions`] and [`Deformer::deformed_base`] (the solver's own views keep them
+/// at rest).
+#[derive(Debug)]
+pub struct Deformer {
+    solver: Solver,
+    riders: Riders,
+    /// The solver's pose with the riders moved; unused (empty) when no component follows.
+    positions: Vec<[f64; 3]>,
+    /// The same for the deformed base.
+    base: Vec<[f64; 3]>,
+}
+
 impl Deformer {
     /// Precomputes `method` for `mesh` and `handles` (factorizations; may take seconds).
+    /// Loose parts follow ([`LooseParts::default`]).
     pub fn new(
         method: Method,
         mesh: &Mesh,
@@ -76,37 +115,116 @@ impl Deformer {
         config: &ArapConfig,
         base: &BaseConfig,
     ) -> Result<Deformer, SolveError> {
-        Ok(match method {
-            Method::Arap => Deformer::Arap(Arap::new(mesh, handles, config)?),
-            Method::BsArap => Deformer::BsArap(BsArap::new(mesh, handles, config)?),
-            Method::BsArapFaired => Deformer::BsArap(BsArap::with_base(
+        Deformer::with_loose_parts(method, mesh, handles, config, base, &LooseParts::default())
+    }
+
+    /// As [`Deformer::with_base`] with the modes of the components without handles.
+    pub fn with_loose_parts(
+        method: Method,
+        mesh: &Mesh,
+        handles: &Handles,
+        config: &ArapConfig,
+        base: &BaseConfig,
+        parts: &LooseParts,
+    ) -> Result<Deformer, SolveError> {
+        let solver = match method {
+            Method::Arap => Solver::Arap(Arap::new(mesh, handles, config)?),
+            Method::BsArap => Solver::BsArap(BsArap::new(mesh, handles, config)?),
+            Method::BsArapFaired => Solver::BsArap(BsArap::with_base(
                 mesh,
                 handles,
                 config,
                 BaseKind::Faired { smoothing: base.smoothing },
             )?),
             Method::BsArapCoarse => {
-                Deformer::Coarse(Box::new(CoarseBsArap::new(mesh, handles, config, base)?))
+                Solver::Coarse(Box::new(CoarseBsArap::new(mesh, handles, config, base)?))
             }
-        })
+        };
+        let mut d = Deformer {
+            solver,
+            riders: Riders::new(mesh, Some(handles), parts),
+            positions: Vec::new(),
+            base: Vec::new(),
+        };
+        d.ride();
+        Ok(d)
+    }
+
+    /// Changes the loose parts' modes without refactoring (cheap: no solve, no factorization);
+    /// the current pose is updated. `mesh` and `handles` must be those the deformer was built
+    /// for (other vertex counts are an error).
+    pub fn set_loose_parts(
+        &mut self,
+        mesh: &Mesh,
+        handles: &Handles,
+        parts: &LooseParts,
+    ) -> Result<(), SolveError> {
+        let n = self.solver_positions().len();
+        for got in [mesh.n_vertices(), handles.n_vertices()] {
+            if got != n {
+                return Err(SolveError::HandleCount { got, expected: n });
+            }
+        }
+        self.riders = Riders::new(mesh, Some(handles), parts);
+        self.ride();
+        Ok(())
+    }
+
+    /// The components without handles and their anchor patches.
+    pub fn riders(&self) -> &Riders {
+        &self.riders
+    }
+
+    /// The method's solver. Its positions keep following loose parts at rest.
+    pub fn solver(&self) -> &Solver {
+        &self.solver
+    }
+
+    /// The method's solver, mutably (stopping rules, starting guesses); a pose set through it
+    /// reaches [`Deformer::positions`] at the next solve, settle or reset.
+    pub fn solver_mut(&mut self) -> &mut Solver {
+        &mut self.solver
+    }
+
+    /// Moves the following loose parts with their anchor patches in the published pose.
+    fn ride(&mut self) {
+        if self.riders.is_empty() {
+            return;
+        }
+        self.positions.clear();
+        self.positions.extend_from_slice(self.solver.positions());
+        let motions = self.riders.motions(&self.positions);
+        self.riders.apply(&motions, &mut self.positions);
+        self.base.clear();
+        if let Some(b) = self.solver.deformed_base() {
+            self.base.extend_from_slice(b);
+            self.riders.apply(&motions, &mut self.base);
+        }
+    }
+
+    fn solver_positions(&self) -> &[[f64; 3]] {
+        self.solver.positions()
     }
 
     /// Solves for `targets` (`#H×3`, order of [`Handles::handle_vertices`]), warm-started.
-    /// The whole solve runs on rayon's pool ([`crate::pool::in_pool`]).
+    /// The whole solve runs on rayon's pool ([`crate::pool::in_pool`]); the loose parts
+    /// follow after it.
     pub fn solve(&mut self, targets: &[[f64; 3]]) -> Result<SolveStats, SolveError> {
-        in_pool(|| match self {
-            Deformer::Arap(a) => a.solve(targets),
-            Deformer::BsArap(b) => b.solve(targets),
-            Deformer::Coarse(c) => c.solve(targets),
-        })
+        let result = in_pool(|| match &mut self.solver {
+            Solver::Arap(a) => a.solve(targets),
+            Solver::BsArap(b) => b.solve(targets),
+            Solver::Coarse(c) => c.solve(targets),
+        });
+        self.ride();
+        result
     }
 
     /// Whether [`Deformer::settle`] has work after the last solve (then the caller should call
     /// it with the same targets until it says converged).
     pub fn settle_pending(&self) -> bool {
-        match self {
-            Deformer::Coarse(c) => c.settle_pending(),
-            Deformer::Arap(_) | Deformer::BsArap(_) => false,
+        match &self.solver {
+            Solver::Coarse(c) => c.settle_pending(),
+            Solver::Arap(_) | Solver::BsArap(_) => false,
         }
     }
 
@@ -114,55 +232,74 @@ impl Deformer {
     /// ([`CoarseBsArap::settle`]); `None` when there is nothing to refine (other methods: their
     /// solve already iterates on the full mesh to the tolerance).
     pub fn settle(&mut self, targets: &[[f64; 3]]) -> Result<Option<SolveStats>, SolveError> {
-        in_pool(|| match self {
-            Deformer::Coarse(c) => c.settle(targets),
-            Deformer::Arap(_) | Deformer::BsArap(_) => Ok(None),
-        })
-    }
-
-    /// The deformed positions of the last solve (rest before any), `#V×3`.
-    pub fn positions(&self) -> &[[f64; 3]] {
-        match self {
-            Deformer::Arap(a) => a.positions(),
-            Deformer::BsArap(b) => b.positions(),
-            Deformer::Coarse(c) => c.positions(),
+        let result = in_pool(|| match &mut self.solver {
+            Solver::Coarse(c) => c.settle(targets),
+            Solver::Arap(_) | Solver::BsArap(_) => Ok(None),
+        });
+        if matches!(result, Ok(Some(_))) {
+            self.ride();
         }
+        result
     }
 
-    /// The deformed base surface $B'$ of the last solve at the mesh's vertices (`#V×3`); `None`
-    /// for ARAP, which has no base.
+    /// The deformed positions of the last solve (rest before any), `#V×3`, loose parts
+    /// included.
+    pub fn positions(&self) -> &[[f64; 3]] {
+        if self.riders.is_empty() { self.solver_positions() } else { &self.positions }
+    }
+
+    /// The deformed base surface $B'$ of the last solve at the mesh's vertices (`#V×3`, loose
+    /// parts moved as in [`Deformer::positions`]); `None` for ARAP, which has no base.
     pub fn deformed_base(&self) -> Option<&[[f64; 3]]> {
-        match self {
-            Deformer::Arap(_) => None,
-            Deformer::BsArap(b) => Some(b.deformed_base()),
-            Deformer::Coarse(c) => Some(c.deformed_base()),
+        let base = self.solver.deformed_base();
+        if self.riders.is_empty() { base } else { base.map(|_| self.base.as_slice()) }
+    }
+
+    /// Details $D = M - B$ at rest (`#V×3`); `None` for ARAP.
+    pub fn details(&self) -> Option<&[[f64; 3]]> {
+        match &self.solver {
+            Solver::Arap(_) => None,
+            Solver::BsArap(b) => Some(b.details()),
+            Solver::Coarse(c) => Some(c.details()),
         }
     }
 
     /// The ARAP solver doing the iterations (on $M$ or on $B$).
     pub fn arap(&self) -> &Arap {
-        match self {
-            Deformer::Arap(a) => a,
-            Deformer::BsArap(b) => b.base_arap(),
-            Deformer::Coarse(c) => c.base_arap(),
+        match &self.solver {
+            Solver::Arap(a) => a,
+            Solver::BsArap(b) => b.base_arap(),
+            Solver::Coarse(c) => c.base_arap(),
+        }
+    }
+
+    /// The ARAP solver doing the iterations, mutably (starting guesses, benchmarks); see
+    /// [`Deformer::solver_mut`].
+    pub fn arap_mut(&mut self) -> &mut Arap {
+        match &mut self.solver {
+            Solver::Arap(a) => a,
+            Solver::BsArap(b) => b.base_arap_mut(),
+            Solver::Coarse(c) => c.base_arap_mut(),
         }
     }
 
     /// Changes the stopping rule without refactoring.
     pub fn set_stopping(&mut self, tolerance: f64, max_iterations: usize) {
-        match self {
-            Deformer::Arap(a) => a.set_stopping(tolerance, max_iterations),
-            Deformer::BsArap(b) => b.base_arap_mut().set_stopping(tolerance, max_iterations),
-            Deformer::Coarse(c) => c.base_arap_mut().set_stopping(tolerance, max_iterations),
-        }
+        self.arap_mut().set_stopping(tolerance, max_iterations);
     }
 
     /// Restarts the next solve from rest.
     pub fn reset(&mut self) {
-        match self {
-            Deformer::Arap(a) => a.reset(),
-            Deformer::BsArap(b) => b.reset(),
-            Deformer::Coarse(c) => c.reset(),
+        match &mut self.solver {
+            Solver::Arap(a) => a.reset(),
+            Solver::BsArap(b) => b.reset(),
+            Solver::Coarse(c) => c.reset(),
         }
+        self.ride();
+    }
+
+    /// A sentence for the UI and the CLI about the loose parts ([`Riders::notice`]).
+    pub fn notice(&self) -> Option<String> {
+        self.riders.notice()
     }
 }

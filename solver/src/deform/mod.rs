@@ -1,6 +1,7 @@
 //! Deformation: handle groups and the fixed/free partition they induce, the methods (ARAP,
 //! the bi-harmonic base, BS-ARAP and its coarse variant) behind one [`deformer::Deformer`],
-//! handle targets from group transforms, and quality figures against a reference.
+//! the loose parts (components without handles) that ride along, handle targets from group
+//! transforms, and quality figures against a reference.
 
 pub mod arap;
 pub mod biharmonic;
@@ -12,4 +13,5 @@ pub mod deformer;
 pub mod handles;
 pub mod pose;
 pub mod quality;
+pub mod riders;
 pub mod selection;

@@ -1,7 +1,7 @@
 //! Triangle meshes and what is computed from their geometry alone: the [`mesh::Mesh`] type,
-//! topology, cleaning on load, vertex reordering, decimation, procedural shapes, deformed
-//! normals on a file's layout, and the discrete operators (cotangent Laplacian, lumped mass
-//! matrix).
+//! topology, cleaning on load, vertex reordering, decimation, nearest-neighbour search,
+//! procedural shapes, deformed normals on a file's layout, and the discrete operators
+//! (cotangent Laplacian, lumped mass matrix).
 //!
 //! One exception to the layering: [`shapes::bumpy_bar`] also returns handle groups
 //! ([`crate::deform::handles::Handles`]) for the tests and benches that use it.
@@ -9,6 +9,7 @@
 pub mod cleanup;
 pub mod cotan;
 pub mod decimate;
+pub mod kdtree;
 pub mod mass;
 pub mod mesh;
 pub mod normals;
