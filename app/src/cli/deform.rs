@@ -7,7 +7,7 @@ use super::{
 use anyhow::{Context, bail};
 use clap::Args;
 use solver::FrameStats;
-use solver::animation::export::{GltfExport, GltfFormat};
+use solver::animation::export::{AssetExport, ExportSettings, GltfExport, GltfFormat};
 use solver::animation::recording::Recording;
 use solver::geometry::topology::connected_components;
 use solver::io::LoadedMesh;
@@ -133,7 +133,13 @@ fn write_pose(path: &Path, loaded: &LoadedMesh, x: &[[f64; 3]]) -> anyhow::Resul
                 frames: vec![x.to_vec()],
                 stats: vec![FrameStats::default()],
             };
-            GltfExport::new(&loaded.mesh, &recording, format)?
+            let input = AssetExport {
+                asset,
+                vertex_map: &loaded.report.vertex_map,
+                recording: &recording,
+                settings: ExportSettings::default(),
+            };
+            GltfExport::from_asset(&input, format)?
                 .write(path, &mut |_, _| std::ops::ControlFlow::Continue(()))?;
         }
         _ => check_output(path)?,

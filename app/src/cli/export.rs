@@ -16,7 +16,7 @@ use anyhow::Context;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use solver::Deformer;
-use solver::animation::export::{GltfExport, GltfFormat};
+use solver::animation::export::{AssetExport, Encoding, ExportSettings, GltfExport, GltfFormat};
 use solver::animation::pointcache::{Pc2, write_obj_sequence, write_pc2};
 use solver::animation::recording::record;
 use solver::animation::scene::{HandlesSpec, LoadedScene, Scene};
@@ -53,6 +53,17 @@ pub struct ExportArgs {
     /// --mesh, 24).
     #[arg(long)]
     pub frames: Option<usize>,
+    /// glTF: full-precision f32 morph targets instead of 16-bit quantized ones
+    /// (KHR_mesh_quantization, error at most 1/65534 of the largest move per frame).
+    #[arg(long)]
+    pub float: bool,
+    /// glTF: no normal deltas in the morph targets (a third of the size; viewers then keep the
+    /// rest normals).
+    #[arg(long)]
+    pub no_normals: bool,
+    /// glTF: keep every K-th frame (and the last), played back by linear blending.
+    #[arg(long, value_name = "K", default_value_t = 1)]
+    pub every: usize,
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
@@ -193,14 +204,25 @@ pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
     let vertex_map = &loaded.mesh.report.vertex_map;
     let written = match output {
         Output::Gltf(format) => {
-            let export = GltfExport::new(mesh, &recording, format)?;
+            let input = AssetExport {
+                asset,
+                vertex_map,
+                recording: &recording,
+                settings: ExportSettings {
+                    encoding: if a.float { Encoding::Float } else { Encoding::Quantized },
+                    normals: !a.no_normals,
+                    sparse: true,
+                    every_k: a.every.max(1),
+                },
+            };
+            let export = GltfExport::from_asset(&input, format)?;
             let size = export.file_size()?;
             if !a.json {
                 eprintln!(
                     "writing {} ({:.1} MB, {} morph targets)",
                     a.output.display(),
                     size as f64 / 1e6,
-                    n_frames
+                    export.n_targets()
                 );
             }
             let pb = bar(n_frames as u64, "writing", a.json);
