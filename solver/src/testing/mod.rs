@@ -1,6 +1,8 @@
 //! Test support shared by this crate's tests and benches and the app's tests: scratch
 //! directories, seeded random values, the AVX2 test guard, the capped-sphere fixture.
 
+pub mod gltf_decode;
+
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
