@@ -108,6 +108,9 @@ pub struct Asset {
     pub parts: Vec<Part>,
     pub materials: Vec<Material>,
     pub images: Vec<Image>,
+    /// What the reader skipped but could load without (one line each, e.g. an OBJ's missing
+    /// MTL file or texture), for the caller to show; empty when everything was read.
+    pub notices: Vec<String>,
 }
 
 impl Asset {

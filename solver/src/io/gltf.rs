@@ -14,16 +14,27 @@
 //! (`KHR_draco_mesh_compression`) and meshopt (`EXT_meshopt_compression`) compressed data, and
 //! any other extension the file lists as required.
 //!
-//! Known limitations: only positions and indices are read (UVs, normals, colours and materials
-//! are not yet carried through); skins and morph targets of the input are ignored.
+//! **Asset** ([`Asset`]): besides positions and triangles, each primitive's NORMAL (turned
+//! by the node's inverse transpose, renormalized), TEXCOORD_0 and TEXCOORD_1 (float or
+//! normalized u8/u16), COLOR_0 (RGB or RGBA, float or normalized u8/u16; RGB gets alpha 1) as
+//! per-vertex [`Attribute`]s whose corner indices are the position indices. An attribute that
+//! only some primitives have covers all triangles: the others get `[0, 0, 0]` normals (meaning
+//! "none; compute from the surface"), `[0, 0]` UVs or white. Every primitive becomes a
+//! [`Part`] (mesh name, node name, material index, triangle range). Materials and images:
+//! see `gltf_material`. New accessors are checked like the positions: type, dimensions,
+//! count equal to POSITION's, byte range, finite values.
+//!
+//! Known limitations: TEXCOORD_2 and above, COLOR_1 and above, tangents, skins and morph
+//! targets of the input are ignored.
 
 use std::path::Path;
 
 use ::gltf::accessor::{DataType, Dimensions};
 use ::gltf::mesh::Mode;
-use nalgebra::{Matrix4, Vector4};
+use nalgebra::{Matrix3, Matrix4, Vector3, Vector4};
 
-use super::asset::Asset;
+use super::asset::{Asset, Attribute, Part};
+use super::gltf_material;
 use super::error::Ctx;
 use super::error::LoadError;
 
@@ -83,13 +94,13 @@ pub(crate) fn parse(bytes: &[u8], ctx: Ctx, dir: Option<&Path>) -> Result<Asset,
     let draco = gltf.document.extensions_used().any(|e| e == "KHR_draco_mesh_compression");
 
     let mut raw = Asset::default();
-    let mut visit = |node: ::gltf::Node, world: &Matrix4<f64>| -> Result<(), LoadError> {
-        if let Some(mesh) = node.mesh() {
-            for prim in mesh.primitives() {
-                append_primitive(&mut raw, &prim, world, &buffers, ctx, draco)?;
-            }
+    let mut layers = Layers::default();
+    let mut visit = |node: &str, mesh: ::gltf::Mesh, world: &Matrix4<f64>| {
+        for prim in mesh.primitives() {
+            let names = (mesh.name().unwrap_or_default(), node);
+            append_primitive(&mut raw, &mut layers, &prim, names, world, &buffers, ctx, draco)?;
         }
-        Ok(())
+        Ok::<(), LoadError>(())
     };
     let scene = gltf.document.default_scene().or_else(|| gltf.document.scenes().next());
     match scene {
@@ -106,7 +117,9 @@ pub(crate) fn parse(bytes: &[u8], ctx: Ctx, dir: Option<&Path>) -> Result<Asset,
                 }
                 let local = Matrix4::from_fn(|r, c| f64::from(node.transform().matrix()[c][r]));
                 let world = parent * local;
-                visit(node.clone(), &world)?;
+                if let Some(mesh) = node.mesh() {
+                    visit(node.name().unwrap_or_default(), mesh, &world)?;
+                }
                 let first_child = stack.len();
                 stack.extend(node.children().map(|child| (child, world, depth + 1)));
                 stack[first_child..].reverse();
@@ -115,13 +128,50 @@ pub(crate) fn parse(bytes: &[u8], ctx: Ctx, dir: Option<&Path>) -> Result<Asset,
         None => {
             // No scene: a library of meshes; take each once, untransformed.
             for mesh in gltf.document.meshes() {
-                for prim in mesh.primitives() {
-                    append_primitive(&mut raw, &prim, &Matrix4::identity(), &buffers, ctx, draco)?;
-                }
+                visit("", mesh, &Matrix4::identity())?;
             }
         }
     }
+    layers.finish(&mut raw);
+    raw.materials = gltf_material::materials(&gltf.document);
+    raw.images = gltf_material::images(&gltf.document, &buffers, ctx, dir)?;
     Ok(raw)
+}
+
+/// Per-vertex attribute values of all primitives read so far (one entry per position), and
+/// whether any primitive had each; a primitive without one gets the neutral value.
+#[derive(Default)]
+struct Layers {
+    normals: Vec<[f32; 3]>,
+    uvs: [Vec<[f32; 2]>; 2],
+    colors: Vec<[f32; 4]>,
+    has_normals: bool,
+    has_uvs: [bool; 2],
+    has_colors: bool,
+}
+
+/// Neutral values for a primitive that lacks an attribute others have: normal `[0, 0, 0]`
+/// (no normal; to be computed from the surface), uv `[0, 0]`, colour opaque white.
+const NO_NORMAL: [f32; 3] = [0.0; 3];
+const NO_UV: [f32; 2] = [0.0; 2];
+const WHITE: [f32; 4] = [1.0; 4];
+
+impl Layers {
+    /// Moves the attributes that some primitive had into `raw`, indexed like the positions.
+    fn finish(self, raw: &mut Asset) {
+        if self.has_normals {
+            raw.normals = Some(Attribute::per_vertex(self.normals, &raw.triangles));
+        }
+        for (set, (values, has)) in self.uvs.into_iter().zip(self.has_uvs).enumerate() {
+            // A TEXCOORD_1 without TEXCOORD_0 still gives set 0 (neutral) so indices keep meaning.
+            if has || (set == 0 && self.has_uvs[1]) {
+                raw.uvs.push(Attribute::per_vertex(values, &raw.triangles));
+            }
+        }
+        if self.has_colors {
+            raw.colors = Some(Attribute::per_vertex(self.colors, &raw.triangles));
+        }
+    }
 }
 
 /// Each buffer's bytes: the GLB's binary chunk, a `data:` URI, or a file next to the glTF.
@@ -139,7 +189,9 @@ fn load_buffers(
                     format!("buffer {} refers to a missing GLB binary chunk", buffer.index()),
                 )
             })?,
-            ::gltf::buffer::Source::Uri(uri) => read_uri(uri, ctx, dir, buffer.index())?,
+            ::gltf::buffer::Source::Uri(uri) => {
+                read_uri(uri, ctx, dir, &format!("buffer {}", buffer.index()))?
+            }
         };
         if data.len() < buffer.length() {
             return Err(ctx.truncated(
@@ -157,29 +209,34 @@ fn load_buffers(
     Ok(out)
 }
 
-/// The bytes of a buffer URI: base64 `data:` URIs, or a relative file path.
-fn read_uri(uri: &str, ctx: Ctx, dir: Option<&Path>, index: usize) -> Result<Vec<u8>, LoadError> {
+/// The bytes of a buffer or image URI (`what` names it in errors, e.g. `"buffer 0"`): base64
+/// `data:` URIs, or a file path relative to `dir`.
+pub(crate) fn read_uri(
+    uri: &str,
+    ctx: Ctx,
+    dir: Option<&Path>,
+    what: &str,
+) -> Result<Vec<u8>, LoadError> {
     use base64::Engine;
     if let Some(rest) = uri.strip_prefix("data:") {
         let Some((_, payload)) = rest.split_once(";base64,") else {
-            return Err(ctx.parse(None, format!("buffer {index}: a data URI that is not base64")));
+            return Err(ctx.parse(None, format!("{what}: a data URI that is not base64")));
         };
         return base64::engine::general_purpose::STANDARD
             .decode(payload)
-            .map_err(|e| ctx.parse(None, format!("buffer {index}: invalid base64 data ({e})")));
+            .map_err(|e| ctx.parse(None, format!("{what}: invalid base64 data ({e})")));
     }
     if uri.contains("://") {
-        return Err(ctx.unsupported(format!("buffer {index} refers to a remote URI ({uri})")));
+        return Err(ctx.unsupported(format!("{what} refers to a remote URI ({uri})")));
     }
     let Some(dir) = dir else {
         return Err(ctx.unsupported(format!(
-            "buffer {index} is an external file ({uri}), which needs the glTF's folder"
+            "{what} is an external file ({uri}), which needs the glTF's folder"
         )));
     };
     let path = dir.join(percent_decode(uri));
-    std::fs::read(&path).map_err(|e| {
-        ctx.parse(None, format!("buffer {index}: cannot read {}: {e}", path.display()))
-    })
+    std::fs::read(&path)
+        .map_err(|e| ctx.parse(None, format!("{what}: cannot read {}: {e}", path.display())))
 }
 
 /// `%XX` escapes in a relative URI decoded (a file name with spaces is written `%20`).
@@ -203,10 +260,14 @@ fn percent_decode(uri: &str) -> String {
     String::from_utf8_lossy(&out).into_owned()
 }
 
-/// Appends one primitive's transformed positions and its triangles to `raw`.
+/// Appends one primitive's transformed positions, its triangles, its vertex attributes and
+/// its [`Part`] (`names`: the mesh's and the node's) to `raw`.
+#[allow(clippy::too_many_arguments)]
 fn append_primitive(
     raw: &mut Asset,
+    layers: &mut Layers,
     prim: &::gltf::Primitive,
+    names: (&str, &str),
     world: &Matrix4<f64>,
     buffers: &[Vec<u8>],
     ctx: Ctx,
@@ -253,6 +314,7 @@ fn append_primitive(
         return Err(ctx.non_finite(None, vertex, value));
     }
     let n = raw.positions.len() - base;
+    read_layers(layers, prim, n, world, buffers, ctx)?;
     let mut indices = Vec::new();
     match prim.indices() {
         Some(acc) => {
@@ -276,6 +338,7 @@ fn append_primitive(
         }
         corners.push((base + i) as u32);
     }
+    let first = raw.triangles.len();
     let mut push = |t: [u32; 3]| raw.triangles.push(if flip { [t[0], t[2], t[1]] } else { t });
     match mode {
         Mode::Triangles => corners.chunks_exact(3).for_each(|t| push([t[0], t[1], t[2]])),
@@ -290,7 +353,134 @@ fn append_primitive(
             }
         }
     }
+    raw.parts.push(Part {
+        name: names.0.to_string(),
+        node: names.1.to_string(),
+        material: prim.material().index(),
+        first,
+        count: raw.triangles.len() - first,
+    });
     Ok(())
+}
+
+/// Appends the primitive's `n` vertices' NORMAL, TEXCOORD_0/1 and COLOR_0 to `layers`
+/// (neutral values where it lacks one). Normals are transformed by the inverse transpose of
+/// the node's linear part, $n' = M^{-\top} n / \lVert M^{-\top} n \rVert$, which also
+/// turns them correctly under a mirror (no extra flip; a singular $M$ gives `[0, 0, 0]`).
+fn read_layers(
+    layers: &mut Layers,
+    prim: &::gltf::Primitive,
+    n: usize,
+    world: &Matrix4<f64>,
+    buffers: &[Vec<u8>],
+    ctx: Ctx,
+) -> Result<(), LoadError> {
+    use ::gltf::Semantic;
+    let normal_matrix: Option<Matrix3<f64>> =
+        world.fixed_view::<3, 3>(0, 0).into_owned().try_inverse().map(|m| m.transpose());
+    match attribute(prim, &Semantic::Normals, "NORMAL", n, &[Dimensions::Vec3], false, buffers, ctx)? {
+        Some(values) => {
+            layers.has_normals = true;
+            layers.normals.extend(values.iter().map(|c| {
+                let v = Vector3::new(f64::from(c[0]), f64::from(c[1]), f64::from(c[2]));
+                let t = normal_matrix.map_or(Vector3::zeros(), |m| m * v);
+                let len = t.norm();
+                if len > 0.0 && len.is_finite() { (t / len).map(|x| x as f32).into() } else { NO_NORMAL }
+            }));
+        }
+        None => layers.normals.resize(layers.normals.len() + n, NO_NORMAL),
+    }
+    for set in 0..2 {
+        let name = format!("TEXCOORD_{set}");
+        let sem = Semantic::TexCoords(set as u32);
+        let uvs = &mut layers.uvs[set];
+        match attribute(prim, &sem, &name, n, &[Dimensions::Vec2], true, buffers, ctx)? {
+            Some(values) => {
+                layers.has_uvs[set] = true;
+                uvs.extend(values.iter().map(|c| [c[0], c[1]]));
+            }
+            None => uvs.resize(uvs.len() + n, NO_UV),
+        }
+    }
+    let rgba = [Dimensions::Vec3, Dimensions::Vec4];
+    match attribute(prim, &Semantic::Colors(0), "COLOR_0", n, &rgba, true, buffers, ctx)? {
+        Some(values) => {
+            layers.has_colors = true;
+            layers.colors.extend(values);
+        }
+        None => layers.colors.resize(layers.colors.len() + n, WHITE),
+    }
+    Ok(())
+}
+
+/// One vertex attribute of a primitive as RGBA-padded `f32` (missing components: 0, except
+/// alpha 1 for an RGB colour), or `None` when the primitive has none.
+///
+/// Checks: dimensions among `dims`; component type float, or (when `normalized_ok`) a
+/// normalized unsigned byte/short, divided by 255 or 65535; exactly `n` elements, like
+/// POSITION; every value finite. Any failure is a one-line error naming the accessor.
+#[allow(clippy::too_many_arguments)]
+fn attribute(
+    prim: &::gltf::Primitive,
+    semantic: &::gltf::Semantic,
+    name: &str,
+    n: usize,
+    dims: &[Dimensions],
+    normalized_ok: bool,
+    buffers: &[Vec<u8>],
+    ctx: Ctx,
+) -> Result<Option<Vec<[f32; 4]>>, LoadError> {
+    let Some(acc) = prim.get(semantic) else { return Ok(None) };
+    let (dt, dim) = (acc.data_type(), acc.dimensions());
+    let scale = match dt {
+        DataType::F32 => 1.0,
+        DataType::U8 if normalized_ok && acc.normalized() => 1.0 / 255.0,
+        DataType::U16 if normalized_ok && acc.normalized() => 1.0 / 65535.0,
+        _ => {
+            let allowed = if normalized_ok { "float or normalized unsigned byte/short" } else { "float" };
+            return Err(ctx.unsupported(format!(
+                "{name} accessor {} is {dt:?}{}; only {allowed} is supported",
+                acc.index(),
+                if acc.normalized() { " normalized" } else { "" }
+            )));
+        }
+    };
+    if !dims.contains(&dim) {
+        return Err(ctx.parse(
+            None,
+            format!("{name} accessor {} is {dim:?}, expected {dims:?}", acc.index()),
+        ));
+    }
+    if acc.count() != n {
+        return Err(ctx.count(
+            None,
+            format!(
+                "{name} accessor {} has {} elements but {} has {n} vertices",
+                acc.index(),
+                acc.count(),
+                format_args!("primitive {}", prim.index())
+            ),
+        ));
+    }
+    let mut out = Vec::with_capacity(n);
+    let mut bad = None;
+    read_accessor(&acc, buffers, ctx, |c| {
+        let mut v = c.map(|x| (x * scale) as f32);
+        if dim == Dimensions::Vec3 && name.starts_with("COLOR") {
+            v[3] = 1.0;
+        }
+        if bad.is_none() && v.iter().any(|x| !x.is_finite()) {
+            bad = Some(out.len());
+        }
+        out.push(v);
+    })?;
+    if let Some(k) = bad {
+        return Err(ctx.parse(
+            None,
+            format!("{name} accessor {}: element {k} is not finite", acc.index()),
+        ));
+    }
+    Ok(Some(out))
 }
 
 /// Calls `f` with each element of a float or unsigned-integer accessor (components as `f64`,

@@ -14,6 +14,8 @@
 pub mod asset;
 mod error;
 mod gltf;
+mod gltf_material;
+mod mtl;
 mod obj;
 mod off;
 mod ply;
@@ -34,7 +36,7 @@ use error::Ctx;
 /// A mesh file format.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Format {
-    /// Wavefront OBJ (read with `tobj`).
+    /// Wavefront OBJ, with its MTL files (MTL parsed with `tobj`).
     Obj,
     /// Object File Format, ASCII.
     Off,
@@ -124,7 +126,7 @@ fn parse_and_clean(
         return Err(ctx.truncated(None, "the file is empty"));
     }
     let mut raw = match format {
-        Format::Obj => obj::parse(bytes, ctx)?,
+        Format::Obj => obj::parse(bytes, ctx, dir)?,
         Format::Off => off::parse(bytes, ctx)?,
         Format::Ply => ply::parse(bytes, ctx)?,
         Format::Stl => stl::parse(bytes, ctx)?,
