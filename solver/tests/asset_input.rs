@@ -115,6 +115,7 @@ fn two_primitive_doc(image: Value) -> (Value, Bin) {
 /// Checks what both glTF files hold (everything but the image's source).
 fn check_two_primitives(m: &LoadedMesh) {
     let a = &m.asset;
+    a.check().unwrap();
     assert_eq!(a.positions.len(), 8, "5 + 3 file vertices");
     assert_eq!(a.triangles, vec![[0, 1, 2], [0, 4, 3], [5, 6, 7]]);
     let n = a.normals.as_ref().unwrap();
@@ -263,6 +264,7 @@ fn obj_with_mtl_seams_hard_normals_and_two_materials() {
     std::fs::write(dir.join("tex.png"), tiny_png()).unwrap();
     let m = load_mesh(&dir.join("cube.obj")).unwrap();
     let a = &m.asset;
+    a.check().unwrap();
     assert!(a.notices.is_empty(), "{:?}", a.notices);
     assert_eq!(a.positions.len(), 8);
     assert_eq!(a.triangles.len(), 12);
@@ -314,6 +316,53 @@ fn obj_with_mtl_seams_hard_normals_and_two_materials() {
     assert!(a.notices.len() == 1 && a.notices[0].contains("cube.mtl"), "{:?}", a.notices);
     assert_eq!(a.materials.len(), 2, "usemtl names are kept as default materials");
     assert_eq!(a.materials[1].base_color, [1.0; 4]);
+}
+
+/// Deterministic xorshift byte mutations of valid files (the fuzz targets' check, run here
+/// without cargo-fuzz): every result is a typed error or a consistent asset, never a panic.
+#[test]
+fn mutated_files_give_errors_or_consistent_assets() {
+    let (doc, bin) = two_primitive_doc(Value::Null);
+    let seeds = [
+        (to_glb(&doc, &bin.bytes), Format::Gltf),
+        (to_gltf(doc, &bin.bytes), Format::Gltf),
+        (CUBE_OBJ.as_bytes().to_vec(), Format::Obj),
+    ];
+    let mut state = 0x9E37_79B9_7F4A_7C15u64;
+    let mut next = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        state
+    };
+    let (mut accepted, mut refused) = (0, 0);
+    for (seed, format) in &seeds {
+        for _ in 0..400 {
+            let mut bytes = seed.clone();
+            for _ in 0..1 + next() % 4 {
+                let at = (next() % bytes.len() as u64) as usize;
+                bytes[at] = match next() % 3 {
+                    0 => (next() & 0xFF) as u8,
+                    1 => bytes[at].wrapping_add(1),
+                    _ => b"0123456789/-.e"[(next() % 14) as usize],
+                };
+            }
+            match load_mesh_from_bytes(&bytes, *format, "mutated") {
+                Ok(m) => {
+                    accepted += 1;
+                    if let Err(e) = m.asset.check() {
+                        panic!("{format:?}: accepted but inconsistent: {e}");
+                    }
+                    assert_eq!(m.report.vertex_map.len(), m.asset.positions.len());
+                }
+                Err(e) => {
+                    refused += 1;
+                    assert!(!e.to_string().contains('\n'), "{e}");
+                }
+            }
+        }
+    }
+    assert!(accepted > 0 && refused > 0, "{accepted} accepted, {refused} refused");
 }
 
 /// A tetrahedron `.gltf` with one extra attribute accessor `attr` (4 elements from `data`)

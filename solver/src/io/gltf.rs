@@ -85,7 +85,34 @@ pub(crate) fn parse(bytes: &[u8], ctx: Ctx, dir: Option<&Path>) -> Result<Asset,
         }
     }
     let ::gltf::Gltf { document, blob } = unchecked;
-    let document = ::gltf::Document::from_json(document.into_json())
+    let json = document.into_json();
+    // gltf-json 1.4.1's validation indexes `accessors` with each POSITION index unchecked
+    // (mesh.rs, `primitive_validate_hook`), so an out-of-range one would panic there.
+    for (m, mesh) in json.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            if let Some(i) = prim.attributes.values().find(|i| i.value() >= json.accessors.len()) {
+                return Err(ctx.parse(
+                    None,
+                    format!(
+                        "mesh {m} primitive {p}: an attribute refers to accessor {}, but the file \
+                         has {}",
+                        i.value(),
+                        json.accessors.len()
+                    ),
+                ));
+            }
+        }
+    }
+    // `gltf::Image::source` unwraps these two rules of the spec without validating them.
+    for (k, image) in json.images.iter().enumerate() {
+        if image.buffer_view.is_some() && image.mime_type.is_none() {
+            return Err(ctx.parse(None, format!("image {k} has a bufferView but no mimeType")));
+        }
+        if image.buffer_view.is_none() && image.uri.is_none() {
+            return Err(ctx.parse(None, format!("image {k} has neither a uri nor a bufferView")));
+        }
+    }
+    let document = ::gltf::Document::from_json(json)
         .map_err(|e| ctx.parse(None, format!("not a valid glTF 2.0 file: {e}")))?;
     let gltf = ::gltf::Gltf { document, blob };
     let buffers = load_buffers(&gltf, ctx, dir)?;
