@@ -34,15 +34,24 @@ impl Bin {
         while !self.bytes.len().is_multiple_of(4) {
             self.bytes.push(0);
         }
-        self.views.push(json!({"buffer": 0, "byteOffset": self.bytes.len(), "byteLength": data.len()}));
+        self.views
+            .push(json!({"buffer": 0, "byteOffset": self.bytes.len(), "byteLength": data.len()}));
         self.bytes.extend_from_slice(data);
         self.views.len() - 1
     }
 
     /// Appends `data` and an accessor over it; returns the accessor index.
-    fn accessor(&mut self, data: &[u8], component: u32, count: usize, ty: &str, normalized: bool) -> usize {
+    fn accessor(
+        &mut self,
+        data: &[u8],
+        component: u32,
+        count: usize,
+        ty: &str,
+        normalized: bool,
+    ) -> usize {
         let view = self.view(data);
-        let mut a = json!({"bufferView": view, "componentType": component, "count": count, "type": ty});
+        let mut a =
+            json!({"bufferView": view, "componentType": component, "count": count, "type": ty});
         if normalized {
             a["normalized"] = json!(true);
         }
@@ -58,7 +67,8 @@ impl Bin {
     /// A POSITION accessor (VEC3 with the `min`/`max` glTF requires).
     fn positions(&mut self, v: &[f32]) -> usize {
         let a = self.floats(v, v.len() / 3, "VEC3");
-        let bound = |f: fn(f32, f32) -> f32, k: usize| v.iter().skip(k).step_by(3).copied().reduce(f);
+        let bound =
+            |f: fn(f32, f32) -> f32, k: usize| v.iter().skip(k).step_by(3).copied().reduce(f);
         self.accessors[a]["min"] = json!([0, 1, 2].map(|k| bound(f32::min, k)));
         self.accessors[a]["max"] = json!([0, 1, 2].map(|k| bound(f32::max, k)));
         a
@@ -254,7 +264,8 @@ f 1/1/5 5/2/5 8/3/5 4/4/5
 f 2/1/6 3/2/6 7/3/6 6/4/6
 ";
 
-const CUBE_MTL: &str = "newmtl red\nKd 1 0 0\nd 0.5\nmap_Kd -s 1 1 1 tex.png\n\nnewmtl blue\nKd 0 0 1\n";
+const CUBE_MTL: &str =
+    "newmtl red\nKd 1 0 0\nd 0.5\nmap_Kd -s 1 1 1 tex.png\n\nnewmtl blue\nKd 0 0 1\n";
 
 #[test]
 fn obj_with_mtl_seams_hard_normals_and_two_materials() {
@@ -278,8 +289,8 @@ fn obj_with_mtl_seams_hard_normals_and_two_materials() {
     // Hard edges and a seam: position 3 (`v 0 1 0`) has three normal and three UV indices.
     let (mut normals_at_3, mut uvs_at_3) = (Vec::new(), Vec::new());
     for (f, t) in a.triangles.iter().enumerate() {
-        for k in 0..3 {
-            if t[k] == 3 {
+        for (k, &v) in t.iter().enumerate() {
+            if v == 3 {
                 normals_at_3.push(n.corners[f][k]);
                 uvs_at_3.push(uv.corners[f][k]);
             }
@@ -291,7 +302,8 @@ fn obj_with_mtl_seams_hard_normals_and_two_materials() {
     }
     assert_eq!(normals_at_3, vec![0, 3, 4]);
     assert_eq!(uvs_at_3, vec![0, 1, 3]);
-    let parts: Vec<_> = a.parts.iter().map(|p| (p.name.as_str(), p.material, p.first, p.count)).collect();
+    let parts: Vec<_> =
+        a.parts.iter().map(|p| (p.name.as_str(), p.material, p.first, p.count)).collect();
     assert_eq!(parts, vec![("cube", Some(0), 0, 6), ("cube", Some(1), 6, 6)]);
     assert_eq!(a.materials[0].name, "red");
     assert_eq!(a.materials[0].base_color, [1.0, 0.0, 0.0, 0.5]);
@@ -299,7 +311,10 @@ fn obj_with_mtl_seams_hard_normals_and_two_materials() {
     assert_eq!(a.materials[1].base_color, [0.0, 0.0, 1.0, 1.0]);
     assert_eq!(a.materials[1].base_color_texture, None);
     assert_eq!(a.images.len(), 1);
-    assert_eq!((a.images[0].name.as_str(), a.images[0].mime_type.as_str()), ("tex.png", "image/png"));
+    assert_eq!(
+        (a.images[0].name.as_str(), a.images[0].mime_type.as_str()),
+        ("tex.png", "image/png")
+    );
     assert_eq!(a.images[0].bytes, tiny_png());
     // OBJ shares positions across the seam, so cleaning keeps all 8, in file order.
     assert_eq!(m.mesh.n_vertices(), 8);
@@ -337,7 +352,7 @@ fn mutated_files_give_errors_or_consistent_assets() {
     };
     let (mut accepted, mut refused) = (0, 0);
     for (seed, format) in &seeds {
-        for _ in 0..400 {
+        for _ in 0..2000 {
             let mut bytes = seed.clone();
             for _ in 0..1 + next() % 4 {
                 let at = (next() % bytes.len() as u64) as usize;
@@ -438,7 +453,8 @@ fn malformed_attributes_and_images_give_their_errors() {
             "texture of a missing image",
             tet_with("TEXCOORD_0", &f32s(&[0.0; 8]), 5126, "VEC2", |d| {
                 d["textures"] = json!([{"source": 3}]);
-                d["materials"] = json!([{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}]);
+                d["materials"] =
+                    json!([{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}]);
             }),
             |e| matches!(e, LoadError::Parse { .. }),
         ),
@@ -452,10 +468,30 @@ fn malformed_attributes_and_images_give_their_errors() {
         (
             "image view past its buffer",
             tet_with("NORMAL", &n4, 5126, "VEC3", |d| {
-                d["bufferViews"].as_array_mut().unwrap().push(json!({"buffer": 0, "byteOffset": 100, "byteLength": 4000}));
+                d["bufferViews"]
+                    .as_array_mut()
+                    .unwrap()
+                    .push(json!({"buffer": 0, "byteOffset": 100, "byteLength": 4000}));
                 d["images"] = json!([{"bufferView": 3, "mimeType": "image/png"}]);
             }),
             |e| matches!(e, LoadError::Truncated { .. }),
+        ),
+        (
+            "image view without mimeType",
+            tet_with("NORMAL", &n4, 5126, "VEC3", |d| d["images"] = json!([{"bufferView": 0}])),
+            |e| matches!(e, LoadError::Parse { message, .. } if message.contains("mimeType")),
+        ),
+        (
+            "image without uri or view",
+            tet_with("NORMAL", &n4, 5126, "VEC3", |d| d["images"] = json!([{"name": "x"}])),
+            |e| matches!(e, LoadError::Parse { message, .. } if message.contains("image 0")),
+        ),
+        (
+            "attribute accessor out of range",
+            tet_with("NORMAL", &n4, 5126, "VEC3", |d| {
+                d["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = json!(9);
+            }),
+            |e| matches!(e, LoadError::Parse { message, .. } if message.contains("accessor 9")),
         ),
         (
             "external image without a folder",

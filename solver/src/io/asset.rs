@@ -149,7 +149,10 @@ impl Asset {
         }
         fn attribute<const N: usize>(a: &Attribute<N>, f: usize, what: &str) -> Result<(), String> {
             if a.corners.len() != f {
-                return Err(format!("{what}: {} corner triples for {f} triangles", a.corners.len()));
+                return Err(format!(
+                    "{what}: {} corner triples for {f} triangles",
+                    a.corners.len()
+                ));
             }
             let m = a.values.len();
             if let Some(c) = a.corners.iter().find(|c| c.iter().any(|&i| i as usize >= m)) {

@@ -34,9 +34,9 @@ use ::gltf::mesh::Mode;
 use nalgebra::{Matrix3, Matrix4, Vector3, Vector4};
 
 use super::asset::{Asset, Attribute, Part};
-use super::gltf_material;
 use super::error::Ctx;
 use super::error::LoadError;
+use super::gltf_material;
 
 /// Extensions whose data this reader cannot decode, with what a user can do about each.
 const UNDECODABLE: [(&str, &str); 3] = [
@@ -405,14 +405,27 @@ fn read_layers(
     use ::gltf::Semantic;
     let normal_matrix: Option<Matrix3<f64>> =
         world.fixed_view::<3, 3>(0, 0).into_owned().try_inverse().map(|m| m.transpose());
-    match attribute(prim, &Semantic::Normals, "NORMAL", n, &[Dimensions::Vec3], false, buffers, ctx)? {
+    match attribute(
+        prim,
+        &Semantic::Normals,
+        "NORMAL",
+        n,
+        &[Dimensions::Vec3],
+        false,
+        buffers,
+        ctx,
+    )? {
         Some(values) => {
             layers.has_normals = true;
             layers.normals.extend(values.iter().map(|c| {
                 let v = Vector3::new(f64::from(c[0]), f64::from(c[1]), f64::from(c[2]));
                 let t = normal_matrix.map_or(Vector3::zeros(), |m| m * v);
                 let len = t.norm();
-                if len > 0.0 && len.is_finite() { (t / len).map(|x| x as f32).into() } else { NO_NORMAL }
+                if len > 0.0 && len.is_finite() {
+                    (t / len).map(|x| x as f32).into()
+                } else {
+                    NO_NORMAL
+                }
             }));
         }
         None => layers.normals.resize(layers.normals.len() + n, NO_NORMAL),
@@ -464,7 +477,8 @@ fn attribute(
         DataType::U8 if normalized_ok && acc.normalized() => 1.0 / 255.0,
         DataType::U16 if normalized_ok && acc.normalized() => 1.0 / 65535.0,
         _ => {
-            let allowed = if normalized_ok { "float or normalized unsigned byte/short" } else { "float" };
+            let allowed =
+                if normalized_ok { "float or normalized unsigned byte/short" } else { "float" };
             return Err(ctx.unsupported(format!(
                 "{name} accessor {} is {dt:?}{}; only {allowed} is supported",
                 acc.index(),
@@ -502,10 +516,9 @@ fn attribute(
         out.push(v);
     })?;
     if let Some(k) = bad {
-        return Err(ctx.parse(
-            None,
-            format!("{name} accessor {}: element {k} is not finite", acc.index()),
-        ));
+        return Err(
+            ctx.parse(None, format!("{name} accessor {}: element {k} is not finite", acc.index()))
+        );
     }
     Ok(Some(out))
 }
@@ -575,4 +588,35 @@ fn read_accessor(
         f(c);
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn layers_cover_all_triangles_with_neutral_values() {
+        // Two primitives of one vertex-triangle each: the first with TEXCOORD_1 and a normal,
+        // the second with a colour.
+        let mut raw = Asset { triangles: vec![[0, 1, 2], [3, 4, 5]], ..Asset::default() };
+        let layers = Layers {
+            normals: [[0.0, 0.0, 1.0]; 3].into_iter().chain([NO_NORMAL; 3]).collect(),
+            uvs: [vec![NO_UV; 6], [[0.5, 0.5]; 3].into_iter().chain([NO_UV; 3]).collect()],
+            colors: [WHITE; 3].into_iter().chain([[1.0, 0.0, 0.0, 1.0]; 3]).collect(),
+            has_normals: true,
+            has_uvs: [false, true],
+            has_colors: true,
+        };
+        layers.finish(&mut raw);
+        assert_eq!(raw.uvs.len(), 2, "set 0 kept (neutral) so that set 1 keeps its index");
+        assert_eq!(raw.uvs[0].values, vec![NO_UV; 6]);
+        assert_eq!(raw.uvs[1].values[0], [0.5, 0.5]);
+        let normals = raw.normals.as_ref().unwrap_or_else(|| panic!("normals"));
+        assert_eq!(normals.corners, raw.triangles);
+        assert_eq!(normals.values[4], NO_NORMAL);
+        assert_eq!(raw.colors.as_ref().map(|c| c.values[0]), Some(WHITE));
+        raw.parts = vec![Part { count: 2, ..Part::default() }];
+        raw.positions = vec![[0.0; 3]; 6];
+        assert_eq!(raw.check(), Ok(()));
+    }
 }

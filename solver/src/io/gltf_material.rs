@@ -125,7 +125,10 @@ mod tests {
 
     #[test]
     fn mime_types() {
-        assert_eq!(data_uri_media_type("data:image/jpeg;base64,AAAA").as_deref(), Some("image/jpeg"));
+        assert_eq!(
+            data_uri_media_type("data:image/jpeg;base64,AAAA").as_deref(),
+            Some("image/jpeg")
+        );
         assert_eq!(data_uri_media_type("data:application/octet-stream;base64,AA"), None);
         assert_eq!(sniff_mime(b"\x89PNG\r\n\x1a\nrest").as_deref(), Some("image/png"));
         assert_eq!(sniff_mime(&[0xFF, 0xD8, 0xFF, 0xE0]).as_deref(), Some("image/jpeg"));

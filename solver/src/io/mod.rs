@@ -6,6 +6,13 @@
 //! as `(v0, v_k, v_k+1)`), then runs [`crate::geometry::cleanup::clean`] (weld, drop degenerate, duplicated
 //! and unreferenced elements) and returns the mesh with the [`CleanReport`].
 //!
+//! Besides the mesh, every reader fills the file's [`Asset`]: its own vertex layout, and the
+//! surface attributes, parts, materials and images the format has (glTF: normals, two UV
+//! sets, colours, primitives as parts, materials and images, see `gltf` and `gltf_material`;
+//! OBJ: `vt`/`vn` per corner, vertex colours, `usemtl` runs, the MTL's `Kd`/`d`/`map_Kd`,
+//! see `obj` and `mtl`; PLY: UVs and colours). What a reader skipped without failing (a
+//! missing MTL or texture) is listed in [`Asset::notices`].
+//!
 //! Every failure is a [`LoadError`] whose Display is one line, `file:line: what is wrong`. No
 //! input makes a parser panic, and counts read from headers never size an allocation beyond what
 //! the file's length could hold. Writers ([`write_obj`], [`write_atomic`]) replace the target
@@ -141,15 +148,17 @@ fn parse_and_clean(
     if raw.parts.is_empty() {
         raw.parts = vec![Part { count: raw.triangles.len(), ..Part::default() }];
     }
-    let (mesh, report) = clean(raw.positions.clone(), raw.triangles.clone()).map_err(|e| match e {
-        CleanError::NoTriangles { .. } => ctx.no_triangles(e.to_string()),
-        CleanError::NonFinite { vertex, value } => ctx.non_finite(None, vertex, value),
-        CleanError::IndexOutOfRange { index, .. } => ctx.index(None, index.into(), e.to_string()),
-        CleanError::TooManyVertices { .. } => ctx.count(None, e.to_string()),
-    })?;
+    let (mesh, report) =
+        clean(raw.positions.clone(), raw.triangles.clone()).map_err(|e| match e {
+            CleanError::NoTriangles { .. } => ctx.no_triangles(e.to_string()),
+            CleanError::NonFinite { vertex, value } => ctx.non_finite(None, vertex, value),
+            CleanError::IndexOutOfRange { index, .. } => {
+                ctx.index(None, index.into(), e.to_string())
+            }
+            CleanError::TooManyVertices { .. } => ctx.count(None, e.to_string()),
+        })?;
     Ok(LoadedMesh { mesh, report, asset: raw })
 }
-
 
 /// Appends the fan triangulation `(p0, p_k, p_k+1)` of polygon `poly` (`poly.len() ≥ 3`).
 pub(crate) fn push_fan(triangles: &mut Vec<[u32; 3]>, poly: &[u32]) {

@@ -23,9 +23,9 @@ use super::gltf_material::{mime_from_name, sniff_mime};
 pub(crate) fn attach(asset: &mut Asset, libs: &[String], dir: Option<&Path>) {
     let Some(dir) = dir else {
         for lib in libs {
-            asset.notices.push(format!(
-                "material library {lib} not read: the OBJ was not read from a file"
-            ));
+            asset
+                .notices
+                .push(format!("material library {lib} not read: the OBJ was not read from a file"));
         }
         return;
     };
@@ -52,10 +52,8 @@ pub(crate) fn attach(asset: &mut Asset, libs: &[String], dir: Option<&Path>) {
         };
         let folder = path.parent().unwrap_or(dir);
         for m in materials {
-            let texture = m
-                .diffuse_texture
-                .as_deref()
-                .and_then(|t| texture(asset, &mut textures, folder, t));
+            let texture =
+                m.diffuse_texture.as_deref().and_then(|t| texture(asset, &mut textures, folder, t));
             let index = match asset.materials.iter().position(|x| x.name == m.name) {
                 Some(i) => i,
                 None => {
@@ -103,14 +101,44 @@ fn texture(
         }
     };
     let Some(mime_type) = mime_from_name(file).or_else(|| sniff_mime(&bytes)) else {
-        asset.notices.push(format!(
-            "{}: not a PNG or JPEG texture; loaded without it",
-            path.display()
-        ));
+        asset
+            .notices
+            .push(format!("{}: not a PNG or JPEG texture; loaded without it", path.display()));
         return None;
     };
-    let name = Path::new(file).file_name().map_or(file.into(), |n| n.to_string_lossy()).into_owned();
+    let name =
+        Path::new(file).file_name().map_or(file.into(), |n| n.to_string_lossy()).into_owned();
     asset.images.push(Image { name, mime_type, bytes });
     textures.insert(path, asset.images.len() - 1);
     Some(asset.images.len() - 1)
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+    use crate::testing::ScratchDir;
+
+    #[test]
+    fn shared_textures_unknown_types_and_unused_materials() {
+        let dir = ScratchDir::new("mtl-unit");
+        let mtl =
+            "newmtl a\nmap_Kd t.jpeg\nnewmtl b\nmap_Kd -bm 0.5 t.jpeg\nnewmtl c\nmap_Kd t.tga\n";
+        std::fs::write(dir.join("m.mtl"), mtl).unwrap();
+        std::fs::write(dir.join("t.jpeg"), [0xFF, 0xD8, 0xFF, 0xE0]).unwrap();
+        std::fs::write(dir.join("t.tga"), [0u8; 4]).unwrap();
+        let mut asset = Asset {
+            materials: vec![Material { name: "b".into(), ..Material::default() }],
+            ..Asset::default()
+        };
+        attach(&mut asset, &["m.mtl".to_string(), "none.mtl".to_string()], Some(&dir.join("")));
+        let names: Vec<_> = asset.materials.iter().map(|m| m.name.as_str()).collect();
+        assert_eq!(names, ["b", "a", "c"], "used first, then the MTL's others");
+        assert_eq!(asset.images.len(), 1, "one image for the shared file");
+        assert_eq!(asset.images[0].mime_type, "image/jpeg");
+        let textures: Vec<_> = asset.materials.iter().map(|m| m.base_color_texture).collect();
+        assert_eq!(textures, [Some(0), Some(0), None]);
+        assert_eq!(asset.notices.len(), 2, "{:?}", asset.notices);
+        assert!(asset.notices[0].contains("t.tga") && asset.notices[1].contains("none.mtl"));
+    }
 }

@@ -161,7 +161,9 @@ fn validate(text: &str, ctx: Ctx) -> Result<Checked, LoadError> {
                     .collect::<Result<Vec<f64>, _>>()?;
                 let (p, color) = match nums.as_slice() {
                     [x, y, z] => ([*x, *y, *z], None),
-                    [x, y, z, r, g, b] => ([*x, *y, *z], Some([*r as f32, *g as f32, *b as f32, 1.0])),
+                    [x, y, z, r, g, b] => {
+                        ([*x, *y, *z], Some([*r as f32, *g as f32, *b as f32, 1.0]))
+                    }
                     [x, y, z, w] if *w != 0.0 => ([x / w, y / w, z / w], None),
                     [_, _, _, _] => return Err(ctx.parse(Some(line), "vertex weight w is 0")),
                     _ => {
@@ -208,7 +210,11 @@ fn validate(text: &str, ctx: Ctx) -> Result<Checked, LoadError> {
                     ));
                 };
                 let what = "normal";
-                let n = [number(x, ctx, line, what)?, number(y, ctx, line, what)?, number(z, ctx, line, what)?];
+                let n = [
+                    number(x, ctx, line, what)?,
+                    number(y, ctx, line, what)?,
+                    number(z, ctx, line, what)?,
+                ];
                 out.normal_values.push(n);
                 seen.vn += 1;
             }
@@ -383,7 +389,10 @@ mod tests {
         assert_eq!(c.corners, a.triangles);
         let parts: Vec<_> =
             a.parts.iter().map(|p| (p.name.as_str(), p.material, p.first, p.count)).collect();
-        assert_eq!(parts, vec![("quad", Some(0), 0, 1), ("quad", Some(1), 1, 1), ("other", Some(1), 2, 1)]);
+        assert_eq!(
+            parts,
+            vec![("quad", Some(0), 0, 1), ("quad", Some(1), 1, 1), ("other", Some(1), 2, 1)]
+        );
         let names: Vec<_> = a.materials.iter().map(|m| m.name.as_str()).collect();
         assert_eq!(names, ["red", "blue"]);
     }

@@ -608,7 +608,8 @@ mod tests {
     #[test]
     fn uvs_and_colors() {
         let head = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nproperty float s\nproperty float t\nproperty uchar red\nproperty uchar green\nproperty uchar blue\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
-        let ply = format!("{head}0 0 0 0 0 255 0 51\n1 0 0 1 0.25 0 255 0\n0 1 0 0 1 0 0 255\n3 0 1 2\n");
+        let ply =
+            format!("{head}0 0 0 0 0 255 0 51\n1 0 0 1 0.25 0 255 0\n0 1 0 0 1 0 0 255\n3 0 1 2\n");
         let a = parse_bytes(ply.as_bytes()).unwrap();
         let uv = &a.uvs[0];
         assert_eq!(uv.values, vec![[0.0, 1.0], [1.0, 0.75], [0.0, 0.0]]);
@@ -618,12 +619,14 @@ mod tests {
         assert_eq!(c.values[2], [0.0, 0.0, 1.0, 1.0]);
         // Float colours with alpha, as written; no uv when only u is present.
         let head = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nproperty float u\nproperty float red\nproperty float green\nproperty float blue\nproperty float alpha\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
-        let ply = format!("{head}0 0 0 0 0.5 0.5 0.5 0.5\n1 0 0 1 0 0 0 1\n0 1 0 0 1 1 1 0\n3 0 1 2\n");
+        let ply =
+            format!("{head}0 0 0 0 0.5 0.5 0.5 0.5\n1 0 0 1 0 0 0 1\n0 1 0 0 1 1 1 0\n3 0 1 2\n");
         let a = parse_bytes(ply.as_bytes()).unwrap();
         assert!(a.uvs.is_empty());
         assert_eq!(a.colors.unwrap().values[0], [0.5; 4]);
         // The plain tetrahedron has neither.
-        let a = parse_bytes(format!("{HEAD}0 0 0 9\n1 0 0 9\n0 1 0.5 9\n3 0 1 2 7\n").as_bytes()).unwrap();
+        let a = parse_bytes(format!("{HEAD}0 0 0 9\n1 0 0 9\n0 1 0.5 9\n3 0 1 2 7\n").as_bytes())
+            .unwrap();
         assert!(a.uvs.is_empty() && a.colors.is_none());
     }
 }
