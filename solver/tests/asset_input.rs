@@ -188,7 +188,7 @@ fn gltf_with_external_bin_and_png() {
     std::fs::write(dir.join("scene.gltf"), serde_json::to_vec(&doc).unwrap()).unwrap();
     let m = load_mesh(&dir.join("scene.gltf")).unwrap();
     check_two_primitives(&m);
-    assert_eq!(m.asset.images[0].name, "tex%20a.png");
+    assert_eq!(m.asset.images[0].name, "tex a.png");
     // The same image as a data URI, and the whole file from bytes.
     let uri = format!(
         "data:image/png;base64,{}",

@@ -25,7 +25,7 @@
 //! count equal to POSITION's, byte range, finite values.
 //!
 //! Known limitations: TEXCOORD_2 and above, COLOR_1 and above, tangents, skins and morph
-//! targets of the input are ignored.
+//! targets of the input are ignored; so is `KHR_texture_transform` (UVs are kept as stored).
 
 use std::path::Path;
 
@@ -267,7 +267,7 @@ pub(crate) fn read_uri(
 }
 
 /// `%XX` escapes in a relative URI decoded (a file name with spaces is written `%20`).
-fn percent_decode(uri: &str) -> String {
+pub(crate) fn percent_decode(uri: &str) -> String {
     let bytes = uri.as_bytes();
     let mut out = Vec::with_capacity(bytes.len());
     let mut i = 0;

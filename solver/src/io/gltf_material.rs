@@ -5,7 +5,9 @@
 //! texture's image index and its `texCoord` set), `metallicFactor`, `roughnessFactor`,
 //! `doubleSided` and `alphaMode`; its other textures (normal, occlusion, emissive) and
 //! extensions are not kept. `Asset::materials[i]` is the file's material `i`, so a primitive's
-//! material index is used as is.
+//! material index is used as is. `texCoord` is kept as written, though only sets 0 and 1 are
+//! read. An image's name is its `name`, else its file name (URI percent-decoded), else
+//! `imageN`.
 //!
 //! An image keeps its encoded bytes, never decoded: from a GLB buffer view (bounds-checked),
 //! a base64 `data:` URI, or a file beside the `.gltf` (a missing file is an error naming it).
@@ -18,7 +20,7 @@ use ::gltf::material::AlphaMode;
 
 use super::asset::{Image, Material};
 use super::error::{Ctx, LoadError};
-use super::gltf::read_uri;
+use super::gltf::{percent_decode, read_uri};
 
 /// The document's materials, in file order.
 pub(crate) fn materials(document: &::gltf::Document) -> Vec<Material> {
@@ -82,7 +84,7 @@ pub(crate) fn images(
         let name = match (image.name(), uri) {
             (Some(n), _) => n.to_string(),
             (None, Some(u)) if !u.starts_with("data:") => {
-                u.rsplit('/').next().unwrap_or(u).to_string()
+                percent_decode(u.rsplit('/').next().unwrap_or(u))
             }
             _ => what.replace(' ', ""),
         };

@@ -5,13 +5,13 @@
 //! `d < 1` sets alpha mode `BLEND`), `map_Kd` as the base-colour texture (UV set 0), its file's bytes read into
 //! [`Asset::images`] (one image per distinct file; MIME type from the extension `png`, `jpg`
 //! or `jpeg`, else from the bytes' PNG/JPEG signature). Texture options (`-s 1 1 1 file.png`)
-//! are skipped: the last word is the file name. Other MTL statements are ignored.
+//! are skipped: the last word is the file name (`\` read as `/`). Other MTL statements are ignored.
 //!
 //! An MTL file or texture that is missing, unreadable, unparsable or of another image type is
 //! not an error: the mesh loads without it and [`Asset::notices`] says what was skipped (one
 //! line each). MTL files are read relative to the OBJ's folder, textures relative to their MTL
 //! file's folder; an OBJ read from bytes has no folder, so its MTL files are skipped with a
-//! notice.
+//! notice. Each word after `mtllib` is one file (names with spaces are not supported).
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -85,7 +85,9 @@ fn texture(
     folder: &Path,
     spec: &str,
 ) -> Option<usize> {
-    let file = spec.split_whitespace().last()?;
+    // Windows exporters write `textures\a.png`.
+    let file = spec.split_whitespace().last()?.replace('\\', "/");
+    let file = file.as_str();
     let path = folder.join(file);
     if let Some(&i) = textures.get(&path) {
         return Some(i);
@@ -122,22 +124,27 @@ mod tests {
     #[test]
     fn shared_textures_unknown_types_and_unused_materials() {
         let dir = ScratchDir::new("mtl-unit");
-        let mtl =
-            "newmtl a\nmap_Kd t.jpeg\nnewmtl b\nmap_Kd -bm 0.5 t.jpeg\nnewmtl c\nmap_Kd t.tga\n";
+        let mtl = "newmtl a\nmap_Kd t.jpeg\nnewmtl b\nmap_Kd -bm 0.5 t.jpeg\nnewmtl c\nmap_Kd t.tga\nnewmtl d\nmap_Kd sub\\u.PNG\n";
         std::fs::write(dir.join("m.mtl"), mtl).unwrap();
         std::fs::write(dir.join("t.jpeg"), [0xFF, 0xD8, 0xFF, 0xE0]).unwrap();
         std::fs::write(dir.join("t.tga"), [0u8; 4]).unwrap();
+        std::fs::create_dir(dir.join("sub")).unwrap();
+        std::fs::write(dir.join("sub/u.PNG"), b"not really a png").unwrap();
         let mut asset = Asset {
             materials: vec![Material { name: "b".into(), ..Material::default() }],
             ..Asset::default()
         };
         attach(&mut asset, &["m.mtl".to_string(), "none.mtl".to_string()], Some(&dir.join("")));
         let names: Vec<_> = asset.materials.iter().map(|m| m.name.as_str()).collect();
-        assert_eq!(names, ["b", "a", "c"], "used first, then the MTL's others");
-        assert_eq!(asset.images.len(), 1, "one image for the shared file");
+        assert_eq!(names, ["b", "a", "c", "d"], "used first, then the MTL's others");
+        assert_eq!(asset.images.len(), 2, "one image for the shared file");
         assert_eq!(asset.images[0].mime_type, "image/jpeg");
+        assert_eq!(
+            (asset.images[1].name.as_str(), asset.images[1].mime_type.as_str()),
+            ("u.PNG", "image/png")
+        );
         let textures: Vec<_> = asset.materials.iter().map(|m| m.base_color_texture).collect();
-        assert_eq!(textures, [Some(0), Some(0), None]);
+        assert_eq!(textures, [Some(0), Some(0), None, Some(1)]);
         assert_eq!(asset.notices.len(), 2, "{:?}", asset.notices);
         assert!(asset.notices[0].contains("t.tga") && asset.notices[1].contains("none.mtl"));
     }
