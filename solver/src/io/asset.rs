@@ -108,8 +108,9 @@ pub struct Asset {
     pub parts: Vec<Part>,
     pub materials: Vec<Material>,
     pub images: Vec<Image>,
-    /// What the reader skipped but could load without (one line each, e.g. an OBJ's missing
-    /// MTL file or texture), for the caller to show; empty when everything was read.
+    /// What the reader skipped or replaced but could load without (one line each: an OBJ's
+    /// missing MTL file or texture, non-finite normals/UVs/colours read as neutral values),
+    /// for the caller to show; empty when everything was read as written.
     pub notices: Vec<String>,
 }
 

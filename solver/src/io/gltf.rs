@@ -22,7 +22,8 @@
 //! "none; compute from the surface"), `[0, 0]` UVs or white. Every primitive becomes a
 //! [`Part`] (mesh name, node name, material index, triangle range). Materials and images:
 //! see `gltf_material`. New accessors are checked like the positions: type, dimensions,
-//! count equal to POSITION's, byte range, finite values.
+//! count equal to POSITION's, byte range; a non-finite attribute value is not an error but
+//! becomes the neutral value, noted in [`Asset::notices`].
 //!
 //! Known limitations: TEXCOORD_2 and above, COLOR_1 and above, tangents, skins and morph
 //! targets of the input are ignored; so is `KHR_texture_transform` (UVs are kept as stored).
@@ -341,7 +342,7 @@ fn append_primitive(
         return Err(ctx.non_finite(None, vertex, value));
     }
     let n = raw.positions.len() - base;
-    read_layers(layers, prim, n, world, buffers, ctx)?;
+    read_layers(layers, &mut raw.notices, prim, n, world, buffers, ctx)?;
     let mut indices = Vec::new();
     match prim.indices() {
         Some(acc) => {
@@ -390,12 +391,23 @@ fn append_primitive(
     Ok(())
 }
 
+/// What [`attribute`] reads: the semantic, its name in messages, the allowed dimensions,
+/// whether normalized u8/u16 is allowed, and the neutral value (RGBA-padded).
+struct Spec<'a> {
+    semantic: ::gltf::Semantic,
+    name: &'a str,
+    dims: &'a [Dimensions],
+    normalized_ok: bool,
+    neutral: [f32; 4],
+}
+
 /// Appends the primitive's `n` vertices' NORMAL, TEXCOORD_0/1 and COLOR_0 to `layers`
 /// (neutral values where it lacks one). Normals are transformed by the inverse transpose of
 /// the node's linear part, $n' = M^{-\top} n / \lVert M^{-\top} n \rVert$, which also
 /// turns them correctly under a mirror (no extra flip; a singular $M$ gives `[0, 0, 0]`).
 fn read_layers(
     layers: &mut Layers,
+    notices: &mut Vec<String>,
     prim: &::gltf::Primitive,
     n: usize,
     world: &Matrix4<f64>,
@@ -403,18 +415,17 @@ fn read_layers(
     ctx: Ctx,
 ) -> Result<(), LoadError> {
     use ::gltf::Semantic;
+    let mut read = |spec: Spec| attribute(prim, &spec, n, buffers, ctx, notices);
     let normal_matrix: Option<Matrix3<f64>> =
         world.fixed_view::<3, 3>(0, 0).into_owned().try_inverse().map(|m| m.transpose());
-    match attribute(
-        prim,
-        &Semantic::Normals,
-        "NORMAL",
-        n,
-        &[Dimensions::Vec3],
-        false,
-        buffers,
-        ctx,
-    )? {
+    let normal = Spec {
+        semantic: Semantic::Normals,
+        name: "NORMAL",
+        dims: &[Dimensions::Vec3],
+        normalized_ok: false,
+        neutral: [0.0; 4],
+    };
+    match read(normal)? {
         Some(values) => {
             layers.has_normals = true;
             layers.normals.extend(values.iter().map(|c| {
@@ -432,9 +443,15 @@ fn read_layers(
     }
     for set in 0..2 {
         let name = format!("TEXCOORD_{set}");
-        let sem = Semantic::TexCoords(set as u32);
+        let uv = Spec {
+            semantic: Semantic::TexCoords(set as u32),
+            name: &name,
+            dims: &[Dimensions::Vec2],
+            normalized_ok: true,
+            neutral: [0.0; 4],
+        };
         let uvs = &mut layers.uvs[set];
-        match attribute(prim, &sem, &name, n, &[Dimensions::Vec2], true, buffers, ctx)? {
+        match read(uv)? {
             Some(values) => {
                 layers.has_uvs[set] = true;
                 uvs.extend(values.iter().map(|c| [c[0], c[1]]));
@@ -442,8 +459,14 @@ fn read_layers(
             None => uvs.resize(uvs.len() + n, NO_UV),
         }
     }
-    let rgba = [Dimensions::Vec3, Dimensions::Vec4];
-    match attribute(prim, &Semantic::Colors(0), "COLOR_0", n, &rgba, true, buffers, ctx)? {
+    let color = Spec {
+        semantic: Semantic::Colors(0),
+        name: "COLOR_0",
+        dims: &[Dimensions::Vec3, Dimensions::Vec4],
+        normalized_ok: true,
+        neutral: WHITE,
+    };
+    match read(color)? {
         Some(values) => {
             layers.has_colors = true;
             layers.colors.extend(values);
@@ -456,29 +479,32 @@ fn read_layers(
 /// One vertex attribute of a primitive as RGBA-padded `f32` (missing components: 0, except
 /// alpha 1 for an RGB colour), or `None` when the primitive has none.
 ///
-/// Checks: dimensions among `dims`; component type float, or (when `normalized_ok`) a
-/// normalized unsigned byte/short, divided by 255 or 65535; exactly `n` elements, like
-/// POSITION; every value finite. Any failure is a one-line error naming the accessor.
-#[allow(clippy::too_many_arguments)]
+/// Checks: dimensions among `spec.dims`; component type float, or (when
+/// `spec.normalized_ok`) a normalized unsigned byte/short, divided by 255 or 65535; exactly
+/// `n` elements, like POSITION. Any failure is a one-line error naming the accessor. An
+/// element with a non-finite value (exporters write NaN normals for degenerate triangles) is
+/// replaced by `spec.neutral`, with a line in `notices`.
 fn attribute(
     prim: &::gltf::Primitive,
-    semantic: &::gltf::Semantic,
-    name: &str,
+    spec: &Spec,
     n: usize,
-    dims: &[Dimensions],
-    normalized_ok: bool,
     buffers: &[Vec<u8>],
     ctx: Ctx,
+    notices: &mut Vec<String>,
 ) -> Result<Option<Vec<[f32; 4]>>, LoadError> {
-    let Some(acc) = prim.get(semantic) else { return Ok(None) };
+    let Some(acc) = prim.get(&spec.semantic) else { return Ok(None) };
+    let name = spec.name;
     let (dt, dim) = (acc.data_type(), acc.dimensions());
     let scale = match dt {
         DataType::F32 => 1.0,
-        DataType::U8 if normalized_ok && acc.normalized() => 1.0 / 255.0,
-        DataType::U16 if normalized_ok && acc.normalized() => 1.0 / 65535.0,
+        DataType::U8 if spec.normalized_ok && acc.normalized() => 1.0 / 255.0,
+        DataType::U16 if spec.normalized_ok && acc.normalized() => 1.0 / 65535.0,
         _ => {
-            let allowed =
-                if normalized_ok { "float or normalized unsigned byte/short" } else { "float" };
+            let allowed = if spec.normalized_ok {
+                "float or normalized unsigned byte/short"
+            } else {
+                "float"
+            };
             return Err(ctx.unsupported(format!(
                 "{name} accessor {} is {dt:?}{}; only {allowed} is supported",
                 acc.index(),
@@ -486,39 +512,43 @@ fn attribute(
             )));
         }
     };
-    if !dims.contains(&dim) {
+    if !spec.dims.contains(&dim) {
         return Err(ctx.parse(
             None,
-            format!("{name} accessor {} is {dim:?}, expected {dims:?}", acc.index()),
+            format!("{name} accessor {} is {dim:?}, expected {:?}", acc.index(), spec.dims),
         ));
     }
     if acc.count() != n {
         return Err(ctx.count(
             None,
             format!(
-                "{name} accessor {} has {} elements but {} has {n} vertices",
+                "{name} accessor {} has {} elements but primitive {} has {n} vertices",
                 acc.index(),
                 acc.count(),
-                format_args!("primitive {}", prim.index())
+                prim.index()
             ),
         ));
     }
     let mut out = Vec::with_capacity(n);
-    let mut bad = None;
+    let mut bad = 0;
     read_accessor(&acc, buffers, ctx, |c| {
         let mut v = c.map(|x| (x * scale) as f32);
-        if dim == Dimensions::Vec3 && name.starts_with("COLOR") {
+        if dim == Dimensions::Vec3 && spec.semantic == ::gltf::Semantic::Colors(0) {
             v[3] = 1.0;
         }
-        if bad.is_none() && v.iter().any(|x| !x.is_finite()) {
-            bad = Some(out.len());
+        if v.iter().any(|x| !x.is_finite()) {
+            bad += 1;
+            v = spec.neutral;
         }
         out.push(v);
     })?;
-    if let Some(k) = bad {
-        return Err(
-            ctx.parse(None, format!("{name} accessor {}: element {k} is not finite", acc.index()))
-        );
+    if bad > 0 {
+        notices.push(format!(
+            "{}: {name} accessor {}: {bad} of {n} elements are not finite; read as {:?}",
+            ctx.file,
+            acc.index(),
+            &spec.neutral[..dim.multiplicity().min(4)]
+        ));
     }
     Ok(Some(out))
 }

@@ -8,7 +8,8 @@
 //!
 //! The [`Asset`]'s attributes are indexed per corner, as the file indexes them: `uvs[0]`
 //! holds the `vt` lines (**stored in the glTF convention $v' = 1 - v$**, v down from the top;
-//! `w` dropped), `normals` the `vn` lines (as written, not renormalized), both with each
+//! `w` dropped), `normals` the `vn` lines (as written, not renormalized; a line with `nan` or
+//! `inf` reads as the neutral value, with a notice), both with each
 //! triangle corner's `vt`/`vn` index. A corner without one in a file whose other corners have
 //! them points at an appended neutral value (`[0, 0]`, normal `[0, 0, 0]` meaning "none").
 //! Vertex colours are per position (corners = position indices), white where a `v` line has
@@ -66,6 +67,7 @@ struct Checked {
     parts: Vec<Part>,
     /// Material names in order of first `usemtl`.
     materials: Vec<String>,
+    notices: Vec<String>,
 }
 
 impl Checked {
@@ -90,6 +92,7 @@ impl Checked {
             colors,
             parts: self.parts,
             materials,
+            notices: self.notices,
             ..Asset::default()
         }
     }
@@ -123,11 +126,45 @@ struct Totals {
 }
 
 /// One finite number of a `vt`/`vn` line.
+/// One number of a `vt`/`vn` line (may be `nan` or `inf`; the caller replaces those).
 fn number(tok: &str, ctx: Ctx, line: usize, what: &str) -> Result<f32, LoadError> {
-    match tok.parse::<f64>() {
-        Ok(x) if x.is_finite() => Ok(x as f32),
-        Ok(_) => Err(ctx.parse(Some(line), format!("{what} {tok:?} is not finite"))),
-        Err(_) => Err(ctx.parse(Some(line), format!("{tok:?} is not a number ({what})"))),
+    tok.parse::<f64>()
+        .map(|x| x as f32)
+        .map_err(|_| ctx.parse(Some(line), format!("{tok:?} is not a number ({what})")))
+}
+
+/// `vt`/`vn` lines with a non-finite number: how many, and the first one's line.
+#[derive(Default)]
+struct NonFinite {
+    count: usize,
+    first_line: usize,
+}
+
+impl NonFinite {
+    /// `value`, or `neutral` (counted) when a component is not finite.
+    fn check<const N: usize>(
+        &mut self,
+        value: [f32; N],
+        neutral: [f32; N],
+        line: usize,
+    ) -> [f32; N] {
+        if value.iter().all(|x| x.is_finite()) {
+            return value;
+        }
+        if self.count == 0 {
+            self.first_line = line;
+        }
+        self.count += 1;
+        neutral
+    }
+
+    fn notice(&self, ctx: Ctx, what: &str, neutral: &str) -> Option<String> {
+        (self.count > 0).then(|| {
+            format!(
+                "{}:{}: {} {what} lines have a non-finite value (the first here); read as {neutral}",
+                ctx.file, self.first_line, self.count
+            )
+        })
     }
 }
 
@@ -150,6 +187,7 @@ fn validate(text: &str, ctx: Ctx) -> Result<Checked, LoadError> {
     let mut name = String::new();
     let mut material: Option<usize> = None;
     let mut material_index: HashMap<String, usize> = HashMap::new();
+    let (mut bad_vt, mut bad_vn) = (NonFinite::default(), NonFinite::default());
     for (line, toks) in token_lines(text, None) {
         let Some((&key, rest)) = toks.split_first() else { continue };
         match key {
@@ -199,7 +237,7 @@ fn validate(text: &str, ctx: Ctx) -> Result<Checked, LoadError> {
                 if let Some(t) = rest.get(2) {
                     number(t, ctx, line, what)?;
                 }
-                out.uv_values.push([u, 1.0 - v]);
+                out.uv_values.push(bad_vt.check([u, 1.0 - v], [0.0; 2], line));
                 seen.vt += 1;
             }
             "vn" => {
@@ -215,7 +253,7 @@ fn validate(text: &str, ctx: Ctx) -> Result<Checked, LoadError> {
                     number(y, ctx, line, what)?,
                     number(z, ctx, line, what)?,
                 ];
-                out.normal_values.push(n);
+                out.normal_values.push(bad_vn.check(n, [0.0; 3], line));
                 seen.vn += 1;
             }
             "f" => {
@@ -261,6 +299,8 @@ fn validate(text: &str, ctx: Ctx) -> Result<Checked, LoadError> {
             _ => {}
         }
     }
+    out.notices.extend(bad_vt.notice(ctx, "vt", "[0, 0]"));
+    out.notices.extend(bad_vn.notice(ctx, "vn", "[0, 0, 0] (no normal)"));
     Ok(out)
 }
 
@@ -411,8 +451,12 @@ mod tests {
         assert!(matches!(e, LoadError::Parse { line: Some(2), .. }), "{e}");
         let e = parse_str("v 0 0 0\nvn 0 1\n").unwrap_err();
         assert!(matches!(e, LoadError::Parse { line: Some(2), .. }), "{e}");
-        let e = parse_str("v 0 0 0\n\nvn 0 nan 1\n").unwrap_err();
-        assert!(matches!(e, LoadError::Parse { line: Some(3), .. }), "{e}");
+        // A non-finite value is read as the neutral value, with a notice naming the line.
+        let a = parse_str("v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\n\nvn 0 nan 1\nvn -nan 0 1\nvt inf 0\nf 1//1 2//2 3//3\n").unwrap();
+        assert_eq!(a.normals.unwrap().values, vec![[0.0, 0.0, 1.0], [0.0; 3], [0.0; 3]]);
+        assert_eq!(a.notices.len(), 2, "{:?}", a.notices);
+        assert!(a.notices[0].starts_with("t.obj:8: 1 vt lines"), "{:?}", a.notices);
+        assert!(a.notices[1].starts_with("t.obj:6: 2 vn lines"), "{:?}", a.notices);
         let e = parse_str("vt\n").unwrap_err();
         assert!(matches!(e, LoadError::Parse { line: Some(1), .. }), "{e}");
     }
