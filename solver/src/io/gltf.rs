@@ -166,8 +166,9 @@ pub(crate) fn parse(bytes: &[u8], ctx: Ctx, dir: Option<&Path>) -> Result<Asset,
     Ok(raw)
 }
 
-/// Per-vertex attribute values of all primitives read so far (one entry per position), and
-/// whether any primitive had each; a primitive without one gets the neutral value.
+/// Per-vertex attribute values of all primitives read so far, and whether any primitive had
+/// each. A layer stays empty (costs nothing) until a primitive has it; from then on it has
+/// one entry per position, the neutral value for primitives without it.
 #[derive(Default)]
 struct Layers {
     normals: Vec<[f32; 3]>,
@@ -191,8 +192,11 @@ impl Layers {
             raw.normals = Some(Attribute::per_vertex(self.normals, &raw.triangles));
         }
         for (set, (values, has)) in self.uvs.into_iter().zip(self.has_uvs).enumerate() {
-            // A TEXCOORD_1 without TEXCOORD_0 still gives set 0 (neutral) so indices keep meaning.
-            if has || (set == 0 && self.has_uvs[1]) {
+            if has {
+                raw.uvs.push(Attribute::per_vertex(values, &raw.triangles));
+            } else if set == 0 && self.has_uvs[1] {
+                // TEXCOORD_1 without TEXCOORD_0: a neutral set 0, so that set 1 keeps its index.
+                let values = vec![NO_UV; raw.positions.len()];
                 raw.uvs.push(Attribute::per_vertex(values, &raw.triangles));
             }
         }
@@ -342,7 +346,7 @@ fn append_primitive(
         return Err(ctx.non_finite(None, vertex, value));
     }
     let n = raw.positions.len() - base;
-    read_layers(layers, &mut raw.notices, prim, n, world, buffers, ctx)?;
+    read_layers(layers, &mut raw.notices, prim, (base, n), world, buffers, ctx)?;
     let mut indices = Vec::new();
     match prim.indices() {
         Some(acc) => {
@@ -391,6 +395,28 @@ fn append_primitive(
     Ok(())
 }
 
+/// Appends one primitive's `n` values of a layer that holds `before` vertices' values (or
+/// none yet, when `!*has`): `values` when the primitive has the attribute, else `neutral`.
+fn append_layer<T: Copy>(
+    layer: &mut Vec<T>,
+    has: &mut bool,
+    (before, n): (usize, usize),
+    values: Option<impl Iterator<Item = T>>,
+    neutral: T,
+) {
+    match values {
+        Some(values) => {
+            if !*has {
+                layer.resize(before, neutral);
+                *has = true;
+            }
+            layer.extend(values);
+        }
+        None if *has => layer.resize(before + n, neutral),
+        None => {}
+    }
+}
+
 /// What [`attribute`] reads: the semantic, its name in messages, the allowed dimensions,
 /// whether normalized u8/u16 is allowed, and the neutral value (RGBA-padded).
 struct Spec<'a> {
@@ -409,7 +435,7 @@ fn read_layers(
     layers: &mut Layers,
     notices: &mut Vec<String>,
     prim: &::gltf::Primitive,
-    n: usize,
+    (before, n): (usize, usize),
     world: &Matrix4<f64>,
     buffers: &[Vec<u8>],
     ctx: Ctx,
@@ -425,22 +451,21 @@ fn read_layers(
         normalized_ok: false,
         neutral: [0.0; 4],
     };
-    match read(normal)? {
-        Some(values) => {
-            layers.has_normals = true;
-            layers.normals.extend(values.iter().map(|c| {
-                let v = Vector3::new(f64::from(c[0]), f64::from(c[1]), f64::from(c[2]));
-                let t = normal_matrix.map_or(Vector3::zeros(), |m| m * v);
-                let len = t.norm();
-                if len > 0.0 && len.is_finite() {
-                    (t / len).map(|x| x as f32).into()
-                } else {
-                    NO_NORMAL
-                }
-            }));
-        }
-        None => layers.normals.resize(layers.normals.len() + n, NO_NORMAL),
-    }
+    let span = (before, n);
+    let normals = read(normal)?;
+    let turned = normals.as_ref().map(|values| {
+        values.iter().map(|c| {
+            let v = Vector3::new(f64::from(c[0]), f64::from(c[1]), f64::from(c[2]));
+            let t = normal_matrix.map_or(Vector3::zeros(), |m| m * v);
+            let len = t.norm();
+            if len > 0.0 && len.is_finite() {
+                (t / len).map(|x| x as f32).into()
+            } else {
+                NO_NORMAL
+            }
+        })
+    });
+    append_layer(&mut layers.normals, &mut layers.has_normals, span, turned, NO_NORMAL);
     for set in 0..2 {
         let name = format!("TEXCOORD_{set}");
         let uv = Spec {
@@ -450,14 +475,9 @@ fn read_layers(
             normalized_ok: true,
             neutral: [0.0; 4],
         };
-        let uvs = &mut layers.uvs[set];
-        match read(uv)? {
-            Some(values) => {
-                layers.has_uvs[set] = true;
-                uvs.extend(values.iter().map(|c| [c[0], c[1]]));
-            }
-            None => uvs.resize(uvs.len() + n, NO_UV),
-        }
+        let values = read(uv)?;
+        let values = values.as_ref().map(|v| v.iter().map(|c| [c[0], c[1]]));
+        append_layer(&mut layers.uvs[set], &mut layers.has_uvs[set], span, values, NO_UV);
     }
     let color = Spec {
         semantic: Semantic::Colors(0),
@@ -466,13 +486,14 @@ fn read_layers(
         normalized_ok: true,
         neutral: WHITE,
     };
-    match read(color)? {
-        Some(values) => {
-            layers.has_colors = true;
-            layers.colors.extend(values);
-        }
-        None => layers.colors.resize(layers.colors.len() + n, WHITE),
-    }
+    let values = read(color)?;
+    append_layer(
+        &mut layers.colors,
+        &mut layers.has_colors,
+        span,
+        values.map(Vec::into_iter),
+        WHITE,
+    );
     Ok(())
 }
 
@@ -628,15 +649,46 @@ mod tests {
     fn layers_cover_all_triangles_with_neutral_values() {
         // Two primitives of one vertex-triangle each: the first with TEXCOORD_1 and a normal,
         // the second with a colour.
-        let mut raw = Asset { triangles: vec![[0, 1, 2], [3, 4, 5]], ..Asset::default() };
-        let layers = Layers {
-            normals: [[0.0, 0.0, 1.0]; 3].into_iter().chain([NO_NORMAL; 3]).collect(),
-            uvs: [vec![NO_UV; 6], [[0.5, 0.5]; 3].into_iter().chain([NO_UV; 3]).collect()],
-            colors: [WHITE; 3].into_iter().chain([[1.0, 0.0, 0.0, 1.0]; 3]).collect(),
-            has_normals: true,
-            has_uvs: [false, true],
-            has_colors: true,
+        let mut raw = Asset {
+            positions: vec![[0.0; 3]; 6],
+            triangles: vec![[0, 1, 2], [3, 4, 5]],
+            ..Asset::default()
         };
+        let mut layers = Layers::default();
+        let (first, second) = ((0, 3), (3, 3));
+        let l = &mut layers;
+        append_layer(
+            &mut l.normals,
+            &mut l.has_normals,
+            first,
+            Some([[0.0, 0.0, 1.0]; 3].into_iter()),
+            NO_NORMAL,
+        );
+        append_layer(
+            &mut l.normals,
+            &mut l.has_normals,
+            second,
+            None::<std::iter::Empty<_>>,
+            NO_NORMAL,
+        );
+        append_layer(
+            &mut l.uvs[1],
+            &mut l.has_uvs[1],
+            first,
+            Some([[0.5, 0.5]; 3].into_iter()),
+            NO_UV,
+        );
+        append_layer(&mut l.uvs[1], &mut l.has_uvs[1], second, None::<std::iter::Empty<_>>, NO_UV);
+        append_layer(&mut l.colors, &mut l.has_colors, first, None::<std::iter::Empty<_>>, WHITE);
+        assert!(l.colors.is_empty(), "no memory for a layer no primitive has yet");
+        append_layer(
+            &mut l.colors,
+            &mut l.has_colors,
+            second,
+            Some([[1.0, 0.0, 0.0, 1.0]; 3].into_iter()),
+            WHITE,
+        );
+        assert_eq!(l.colors.len(), 6);
         layers.finish(&mut raw);
         assert_eq!(raw.uvs.len(), 2, "set 0 kept (neutral) so that set 1 keeps its index");
         assert_eq!(raw.uvs[0].values, vec![NO_UV; 6]);
@@ -646,7 +698,6 @@ mod tests {
         assert_eq!(normals.values[4], NO_NORMAL);
         assert_eq!(raw.colors.as_ref().map(|c| c.values[0]), Some(WHITE));
         raw.parts = vec![Part { count: 2, ..Part::default() }];
-        raw.positions = vec![[0.0; 3]; 6];
         assert_eq!(raw.check(), Ok(()));
     }
 }
