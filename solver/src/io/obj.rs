@@ -57,8 +57,9 @@ const NONE: u32 = u32::MAX;
 #[derive(Default)]
 struct Checked {
     positions: Vec<[f64; 3]>,
-    /// Per vertex: the `v` line's colour, if it had one.
-    colors: Vec<Option<[f32; 4]>>,
+    /// Per vertex: the `v` line's colour, white for one without; empty until the first
+    /// coloured `v` line.
+    colors: Vec<[f32; 4]>,
     uv_values: Vec<[f32; 2]>,
     normal_values: Vec<[f32; 3]>,
     triangles: Vec<[u32; 3]>,
@@ -75,10 +76,8 @@ impl Checked {
         let triangles = self.triangles;
         let uvs = corner_attribute(self.uv_values, self.uv_corners, [0.0; 2]);
         let normals = corner_attribute(self.normal_values, self.normal_corners, [0.0; 3]);
-        let colors = self.colors.iter().any(Option::is_some).then(|| {
-            let values = self.colors.iter().map(|c| c.unwrap_or([1.0; 4])).collect();
-            Attribute::per_vertex(values, &triangles)
-        });
+        let colors =
+            (!self.colors.is_empty()).then(|| Attribute::per_vertex(self.colors, &triangles));
         let materials = self
             .materials
             .into_iter()
@@ -217,8 +216,15 @@ fn validate(text: &str, ctx: Ctx) -> Result<Checked, LoadError> {
                 if let Some(bad) = p.iter().find(|c| !c.is_finite()) {
                     return Err(ctx.non_finite(Some(line), vertex, bad));
                 }
+                match color {
+                    Some(c) => {
+                        out.colors.resize(out.positions.len(), [1.0; 4]);
+                        out.colors.push(c);
+                    }
+                    None if !out.colors.is_empty() => out.colors.push([1.0; 4]),
+                    None => {}
+                }
                 out.positions.push(p);
-                out.colors.push(color);
                 seen.v += 1;
             }
             "vt" => {
@@ -276,8 +282,13 @@ fn validate(text: &str, ctx: Ctx) -> Result<Checked, LoadError> {
                 for w in rest.windows(2) {
                     let tri = [c0, w[0], w[1]];
                     out.triangles.push(tri.map(|c| c[0]));
-                    out.uv_corners.push(tri.map(|c| c[1]));
-                    out.normal_corners.push(tri.map(|c| c[2]));
+                    // Kept only when the file has such lines (else every index is NONE).
+                    if totals.vt > 0 {
+                        out.uv_corners.push(tri.map(|c| c[1]));
+                    }
+                    if totals.vn > 0 {
+                        out.normal_corners.push(tri.map(|c| c[2]));
+                    }
                 }
                 if let Some(p) = out.parts.last_mut() {
                     p.count = out.triangles.len() - p.first;
@@ -410,7 +421,7 @@ mod tests {
     fn corners_parts_and_colors() {
         // A quad in two materials' runs, with a UV seam (corner 1 has two vt) and one hard
         // normal per face; vertex 4 has a colour.
-        let obj = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0 0.5 0.25 1\n\
+        let obj = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0 0.5 0.25 1\nv 5 5 5\n\
                    vt 0 0\nvt 1 0\nvt 1 1\nvt 0.5 0.25\nvn 0 0 1\nvn 0 0 -1\n\
                    o quad\nusemtl red\nf 1/1/1 2/2/1 3/3/1\nusemtl blue\nf 1/4/2 3/3/2 4/1/2\n\
                    g other\nf 1 2 4\n";
@@ -426,6 +437,8 @@ mod tests {
         let c = a.colors.as_ref().unwrap();
         assert_eq!(c.values[3], [0.5, 0.25, 1.0, 1.0]);
         assert_eq!(c.values[0], [1.0; 4]);
+        assert_eq!(c.values.len(), 5, "one per vertex, white after the coloured one too");
+        assert_eq!(c.values[4], [1.0; 4]);
         assert_eq!(c.corners, a.triangles);
         let parts: Vec<_> =
             a.parts.iter().map(|p| (p.name.as_str(), p.material, p.first, p.count)).collect();
