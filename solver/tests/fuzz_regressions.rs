@@ -161,3 +161,26 @@ fn scenes_with_values_at_the_limits() {
         Err(SceneError::Invalid { .. } | SceneError::Timeline { .. })
     ));
 }
+
+/// Found by the byte-mutation test in `asset_input.rs`: gltf-json 1.4.1's validation indexes
+/// `accessors` with an unchecked POSITION index, and `gltf::Image::source` unwraps a missing
+/// `mimeType` (image in a buffer view) or a missing `uri`; both panicked inside the crate.
+#[test]
+fn gltf_crate_panics_are_refused_first() {
+    let cases = [
+        (
+            r#"{"asset":{"version":"2.0"},"meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}]}"#,
+            "accessor 0",
+        ),
+        (r#"{"asset":{"version":"2.0"},"images":[{"name":"x"}]}"#, "neither a uri"),
+        (
+            r#"{"asset":{"version":"2.0"},"buffers":[{"byteLength":4,"uri":"data:application/octet-stream;base64,AAAAAA=="}],
+               "bufferViews":[{"buffer":0,"byteLength":4}],"images":[{"bufferView":0}]}"#,
+            "mimeType",
+        ),
+    ];
+    for (json, what) in cases {
+        let e = mesh_err(json.as_bytes(), Format::Gltf);
+        assert!(matches!(&e, LoadError::Parse { message, .. } if message.contains(what)), "{e}");
+    }
+}

@@ -110,6 +110,10 @@ pub struct Asset {
     pub parts: Vec<Part>,
     pub materials: Vec<Material>,
     pub images: Vec<Image>,
+    /// What the reader skipped or replaced but could load without (one line each: an OBJ's
+    /// missing MTL file or texture, non-finite normals/UVs/colours read as neutral values),
+    /// for the caller to show; empty when everything was read as written.
+    pub notices: Vec<String>,
 }
 
 impl Asset {
@@ -159,5 +163,65 @@ impl Asset {
             }
         }
         Ok(n)
+    }
+
+    /// Checks the invariants every reader guarantees, returning the first one broken: each
+    /// triangle's indices are below `#positions`; each attribute has one corner triple per
+    /// triangle, indices below its `#values`, finite values; `uvs` has at most two sets; parts
+    /// cover `triangles` in order without gaps; material and image indices are in range.
+    /// Used by tests and fuzz targets; `load_mesh`'s assets always pass.
+    pub fn check(&self) -> Result<(), String> {
+        let n = self.positions.len();
+        if let Some(t) = self.triangles.iter().find(|t| t.iter().any(|&i| i as usize >= n)) {
+            return Err(format!("triangle {t:?} indexes past {n} positions"));
+        }
+        fn attribute<const N: usize>(a: &Attribute<N>, f: usize, what: &str) -> Result<(), String> {
+            if a.corners.len() != f {
+                return Err(format!(
+                    "{what}: {} corner triples for {f} triangles",
+                    a.corners.len()
+                ));
+            }
+            let m = a.values.len();
+            if let Some(c) = a.corners.iter().find(|c| c.iter().any(|&i| i as usize >= m)) {
+                return Err(format!("{what}: corners {c:?} index past {m} values"));
+            }
+            if a.values.iter().flatten().any(|x| !x.is_finite()) {
+                return Err(format!("{what}: a value is not finite"));
+            }
+            Ok(())
+        }
+        let f = self.triangles.len();
+        if let Some(a) = &self.normals {
+            attribute(a, f, "normals")?;
+        }
+        if self.uvs.len() > 2 {
+            return Err(format!("{} uv sets (at most 2)", self.uvs.len()));
+        }
+        for (k, a) in self.uvs.iter().enumerate() {
+            attribute(a, f, &format!("uv set {k}"))?;
+        }
+        if let Some(a) = &self.colors {
+            attribute(a, f, "colors")?;
+        }
+        let mut next = 0;
+        for (k, p) in self.parts.iter().enumerate() {
+            if p.first != next {
+                return Err(format!("part {k} starts at triangle {} instead of {next}", p.first));
+            }
+            next = p.first.saturating_add(p.count);
+            if p.material.is_some_and(|m| m >= self.materials.len()) {
+                return Err(format!("part {k}: material {:?} out of range", p.material));
+            }
+        }
+        if next != f {
+            return Err(format!("parts cover {next} of {f} triangles"));
+        }
+        for (k, m) in self.materials.iter().enumerate() {
+            if m.base_color_texture.is_some_and(|i| i >= self.images.len()) {
+                return Err(format!("material {k}: image {:?} out of range", m.base_color_texture));
+            }
+        }
+        Ok(())
     }
 }

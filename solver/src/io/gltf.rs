@@ -14,18 +14,30 @@
 //! (`KHR_draco_mesh_compression`) and meshopt (`EXT_meshopt_compression`) compressed data, and
 //! any other extension the file lists as required.
 //!
-//! Known limitations: only positions and indices are read (UVs, normals, colours and materials
-//! are not yet carried through); skins and morph targets of the input are ignored.
+//! **Asset** ([`Asset`]): besides positions and triangles, each primitive's NORMAL (turned
+//! by the node's inverse transpose, renormalized), TEXCOORD_0 and TEXCOORD_1 (float or
+//! normalized u8/u16), COLOR_0 (RGB or RGBA, float or normalized u8/u16; RGB gets alpha 1) as
+//! per-vertex [`Attribute`]s whose corner indices are the position indices. An attribute that
+//! only some primitives have covers all triangles: the others get `[0, 0, 0]` normals (meaning
+//! "none; compute from the surface"), `[0, 0]` UVs or white. Every primitive becomes a
+//! [`Part`] (mesh name, node name, material index, triangle range). Materials and images:
+//! see `gltf_material`. New accessors are checked like the positions: type, dimensions,
+//! count equal to POSITION's, byte range; a non-finite attribute value is not an error but
+//! becomes the neutral value, noted in [`Asset::notices`].
+//!
+//! Known limitations: TEXCOORD_2 and above, COLOR_1 and above, tangents, skins and morph
+//! targets of the input are ignored; so is `KHR_texture_transform` (UVs are kept as stored).
 
 use std::path::Path;
 
 use ::gltf::accessor::{DataType, Dimensions};
 use ::gltf::mesh::Mode;
-use nalgebra::{Matrix4, Vector4};
+use nalgebra::{Matrix3, Matrix4, Vector3, Vector4};
 
-use super::asset::Asset;
+use super::asset::{Asset, Attribute, Part};
 use super::error::Ctx;
 use super::error::LoadError;
+use super::gltf_material;
 
 /// Extensions whose data this reader cannot decode, with what a user can do about each.
 const UNDECODABLE: [(&str, &str); 3] = [
@@ -74,7 +86,34 @@ pub(crate) fn parse(bytes: &[u8], ctx: Ctx, dir: Option<&Path>) -> Result<Asset,
         }
     }
     let ::gltf::Gltf { document, blob } = unchecked;
-    let document = ::gltf::Document::from_json(document.into_json())
+    let json = document.into_json();
+    // gltf-json 1.4.1's validation indexes `accessors` with each POSITION index unchecked
+    // (mesh.rs, `primitive_validate_hook`), so an out-of-range one would panic there.
+    for (m, mesh) in json.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            if let Some(i) = prim.attributes.values().find(|i| i.value() >= json.accessors.len()) {
+                return Err(ctx.parse(
+                    None,
+                    format!(
+                        "mesh {m} primitive {p}: an attribute refers to accessor {}, but the file \
+                         has {}",
+                        i.value(),
+                        json.accessors.len()
+                    ),
+                ));
+            }
+        }
+    }
+    // `gltf::Image::source` unwraps these two rules of the spec without validating them.
+    for (k, image) in json.images.iter().enumerate() {
+        if image.buffer_view.is_some() && image.mime_type.is_none() {
+            return Err(ctx.parse(None, format!("image {k} has a bufferView but no mimeType")));
+        }
+        if image.buffer_view.is_none() && image.uri.is_none() {
+            return Err(ctx.parse(None, format!("image {k} has neither a uri nor a bufferView")));
+        }
+    }
+    let document = ::gltf::Document::from_json(json)
         .map_err(|e| ctx.parse(None, format!("not a valid glTF 2.0 file: {e}")))?;
     let gltf = ::gltf::Gltf { document, blob };
     let buffers = load_buffers(&gltf, ctx, dir)?;
@@ -83,13 +122,13 @@ pub(crate) fn parse(bytes: &[u8], ctx: Ctx, dir: Option<&Path>) -> Result<Asset,
     let draco = gltf.document.extensions_used().any(|e| e == "KHR_draco_mesh_compression");
 
     let mut raw = Asset::default();
-    let mut visit = |node: ::gltf::Node, world: &Matrix4<f64>| -> Result<(), LoadError> {
-        if let Some(mesh) = node.mesh() {
-            for prim in mesh.primitives() {
-                append_primitive(&mut raw, &prim, world, &buffers, ctx, draco)?;
-            }
+    let mut layers = Layers::default();
+    let mut visit = |node: &str, mesh: ::gltf::Mesh, world: &Matrix4<f64>| {
+        for prim in mesh.primitives() {
+            let names = (mesh.name().unwrap_or_default(), node);
+            append_primitive(&mut raw, &mut layers, &prim, names, world, &buffers, ctx, draco)?;
         }
-        Ok(())
+        Ok::<(), LoadError>(())
     };
     let scene = gltf.document.default_scene().or_else(|| gltf.document.scenes().next());
     match scene {
@@ -106,7 +145,9 @@ pub(crate) fn parse(bytes: &[u8], ctx: Ctx, dir: Option<&Path>) -> Result<Asset,
                 }
                 let local = Matrix4::from_fn(|r, c| f64::from(node.transform().matrix()[c][r]));
                 let world = parent * local;
-                visit(node.clone(), &world)?;
+                if let Some(mesh) = node.mesh() {
+                    visit(node.name().unwrap_or_default(), mesh, &world)?;
+                }
                 let first_child = stack.len();
                 stack.extend(node.children().map(|child| (child, world, depth + 1)));
                 stack[first_child..].reverse();
@@ -115,13 +156,54 @@ pub(crate) fn parse(bytes: &[u8], ctx: Ctx, dir: Option<&Path>) -> Result<Asset,
         None => {
             // No scene: a library of meshes; take each once, untransformed.
             for mesh in gltf.document.meshes() {
-                for prim in mesh.primitives() {
-                    append_primitive(&mut raw, &prim, &Matrix4::identity(), &buffers, ctx, draco)?;
-                }
+                visit("", mesh, &Matrix4::identity())?;
             }
         }
     }
+    layers.finish(&mut raw);
+    raw.materials = gltf_material::materials(&gltf.document);
+    raw.images = gltf_material::images(&gltf.document, &buffers, ctx, dir)?;
     Ok(raw)
+}
+
+/// Per-vertex attribute values of all primitives read so far, and whether any primitive had
+/// each. A layer stays empty (costs nothing) until a primitive has it; from then on it has
+/// one entry per position, the neutral value for primitives without it.
+#[derive(Default)]
+struct Layers {
+    normals: Vec<[f32; 3]>,
+    uvs: [Vec<[f32; 2]>; 2],
+    colors: Vec<[f32; 4]>,
+    has_normals: bool,
+    has_uvs: [bool; 2],
+    has_colors: bool,
+}
+
+/// Neutral values for a primitive that lacks an attribute others have: normal `[0, 0, 0]`
+/// (no normal; to be computed from the surface), uv `[0, 0]`, colour opaque white.
+const NO_NORMAL: [f32; 3] = [0.0; 3];
+const NO_UV: [f32; 2] = [0.0; 2];
+const WHITE: [f32; 4] = [1.0; 4];
+
+impl Layers {
+    /// Moves the attributes that some primitive had into `raw`, indexed like the positions.
+    fn finish(self, raw: &mut Asset) {
+        if self.has_normals {
+            raw.normals = Some(Attribute::per_vertex(self.normals, &raw.triangles));
+        }
+        for (set, (values, has)) in self.uvs.into_iter().zip(self.has_uvs).enumerate() {
+            if has {
+                raw.uvs.push(Attribute::per_vertex(values, &raw.triangles));
+            } else if set == 0 && self.has_uvs[1] {
+                // TEXCOORD_1 without TEXCOORD_0: a neutral set 0, so that set 1 keeps its index.
+                let values = vec![NO_UV; raw.positions.len()];
+                raw.uvs.push(Attribute::per_vertex(values, &raw.triangles));
+            }
+        }
+        if self.has_colors {
+            raw.colors = Some(Attribute::per_vertex(self.colors, &raw.triangles));
+        }
+    }
 }
 
 /// Each buffer's bytes: the GLB's binary chunk, a `data:` URI, or a file next to the glTF.
@@ -139,7 +221,9 @@ fn load_buffers(
                     format!("buffer {} refers to a missing GLB binary chunk", buffer.index()),
                 )
             })?,
-            ::gltf::buffer::Source::Uri(uri) => read_uri(uri, ctx, dir, buffer.index())?,
+            ::gltf::buffer::Source::Uri(uri) => {
+                read_uri(uri, ctx, dir, &format!("buffer {}", buffer.index()))?
+            }
         };
         if data.len() < buffer.length() {
             return Err(ctx.truncated(
@@ -157,33 +241,38 @@ fn load_buffers(
     Ok(out)
 }
 
-/// The bytes of a buffer URI: base64 `data:` URIs, or a relative file path.
-fn read_uri(uri: &str, ctx: Ctx, dir: Option<&Path>, index: usize) -> Result<Vec<u8>, LoadError> {
+/// The bytes of a buffer or image URI (`what` names it in errors, e.g. `"buffer 0"`): base64
+/// `data:` URIs, or a file path relative to `dir`.
+pub(crate) fn read_uri(
+    uri: &str,
+    ctx: Ctx,
+    dir: Option<&Path>,
+    what: &str,
+) -> Result<Vec<u8>, LoadError> {
     use base64::Engine;
     if let Some(rest) = uri.strip_prefix("data:") {
         let Some((_, payload)) = rest.split_once(";base64,") else {
-            return Err(ctx.parse(None, format!("buffer {index}: a data URI that is not base64")));
+            return Err(ctx.parse(None, format!("{what}: a data URI that is not base64")));
         };
         return base64::engine::general_purpose::STANDARD
             .decode(payload)
-            .map_err(|e| ctx.parse(None, format!("buffer {index}: invalid base64 data ({e})")));
+            .map_err(|e| ctx.parse(None, format!("{what}: invalid base64 data ({e})")));
     }
     if uri.contains("://") {
-        return Err(ctx.unsupported(format!("buffer {index} refers to a remote URI ({uri})")));
+        return Err(ctx.unsupported(format!("{what} refers to a remote URI ({uri})")));
     }
     let Some(dir) = dir else {
         return Err(ctx.unsupported(format!(
-            "buffer {index} is an external file ({uri}), which needs the glTF's folder"
+            "{what} is an external file ({uri}), which needs the glTF's folder"
         )));
     };
     let path = dir.join(percent_decode(uri));
-    std::fs::read(&path).map_err(|e| {
-        ctx.parse(None, format!("buffer {index}: cannot read {}: {e}", path.display()))
-    })
+    std::fs::read(&path)
+        .map_err(|e| ctx.parse(None, format!("{what}: cannot read {}: {e}", path.display())))
 }
 
 /// `%XX` escapes in a relative URI decoded (a file name with spaces is written `%20`).
-fn percent_decode(uri: &str) -> String {
+pub(crate) fn percent_decode(uri: &str) -> String {
     let bytes = uri.as_bytes();
     let mut out = Vec::with_capacity(bytes.len());
     let mut i = 0;
@@ -203,10 +292,14 @@ fn percent_decode(uri: &str) -> String {
     String::from_utf8_lossy(&out).into_owned()
 }
 
-/// Appends one primitive's transformed positions and its triangles to `raw`.
+/// Appends one primitive's transformed positions, its triangles, its vertex attributes and
+/// its [`Part`] (`names`: the mesh's and the node's) to `raw`.
+#[allow(clippy::too_many_arguments)]
 fn append_primitive(
     raw: &mut Asset,
+    layers: &mut Layers,
     prim: &::gltf::Primitive,
+    names: (&str, &str),
     world: &Matrix4<f64>,
     buffers: &[Vec<u8>],
     ctx: Ctx,
@@ -253,6 +346,7 @@ fn append_primitive(
         return Err(ctx.non_finite(None, vertex, value));
     }
     let n = raw.positions.len() - base;
+    read_layers(layers, &mut raw.notices, prim, (base, n), world, buffers, ctx)?;
     let mut indices = Vec::new();
     match prim.indices() {
         Some(acc) => {
@@ -276,6 +370,7 @@ fn append_primitive(
         }
         corners.push((base + i) as u32);
     }
+    let first = raw.triangles.len();
     let mut push = |t: [u32; 3]| raw.triangles.push(if flip { [t[0], t[2], t[1]] } else { t });
     match mode {
         Mode::Triangles => corners.chunks_exact(3).for_each(|t| push([t[0], t[1], t[2]])),
@@ -290,7 +385,193 @@ fn append_primitive(
             }
         }
     }
+    raw.parts.push(Part {
+        name: names.0.to_string(),
+        node: names.1.to_string(),
+        material: prim.material().index(),
+        first,
+        count: raw.triangles.len() - first,
+    });
     Ok(())
+}
+
+/// Appends one primitive's `n` values of a layer that holds `before` vertices' values (or
+/// none yet, when `!*has`): `values` when the primitive has the attribute, else `neutral`.
+fn append_layer<T: Copy>(
+    layer: &mut Vec<T>,
+    has: &mut bool,
+    (before, n): (usize, usize),
+    values: Option<impl Iterator<Item = T>>,
+    neutral: T,
+) {
+    match values {
+        Some(values) => {
+            if !*has {
+                layer.resize(before, neutral);
+                *has = true;
+            }
+            layer.extend(values);
+        }
+        None if *has => layer.resize(before + n, neutral),
+        None => {}
+    }
+}
+
+/// What [`attribute`] reads: the semantic, its name in messages, the allowed dimensions,
+/// whether normalized u8/u16 is allowed, and the neutral value (RGBA-padded).
+struct Spec<'a> {
+    semantic: ::gltf::Semantic,
+    name: &'a str,
+    dims: &'a [Dimensions],
+    normalized_ok: bool,
+    neutral: [f32; 4],
+}
+
+/// Appends the primitive's `n` vertices' NORMAL, TEXCOORD_0/1 and COLOR_0 to `layers`
+/// (neutral values where it lacks one). Normals are transformed by the inverse transpose of
+/// the node's linear part, $n' = M^{-\top} n / \lVert M^{-\top} n \rVert$, which also
+/// turns them correctly under a mirror (no extra flip; a singular $M$ gives `[0, 0, 0]`).
+fn read_layers(
+    layers: &mut Layers,
+    notices: &mut Vec<String>,
+    prim: &::gltf::Primitive,
+    (before, n): (usize, usize),
+    world: &Matrix4<f64>,
+    buffers: &[Vec<u8>],
+    ctx: Ctx,
+) -> Result<(), LoadError> {
+    use ::gltf::Semantic;
+    let mut read = |spec: Spec| attribute(prim, &spec, n, buffers, ctx, notices);
+    let normal_matrix: Option<Matrix3<f64>> =
+        world.fixed_view::<3, 3>(0, 0).into_owned().try_inverse().map(|m| m.transpose());
+    let normal = Spec {
+        semantic: Semantic::Normals,
+        name: "NORMAL",
+        dims: &[Dimensions::Vec3],
+        normalized_ok: false,
+        neutral: [0.0; 4],
+    };
+    let span = (before, n);
+    let normals = read(normal)?;
+    let turned = normals.as_ref().map(|values| {
+        values.iter().map(|c| {
+            let v = Vector3::new(f64::from(c[0]), f64::from(c[1]), f64::from(c[2]));
+            let t = normal_matrix.map_or(Vector3::zeros(), |m| m * v);
+            let len = t.norm();
+            if len > 0.0 && len.is_finite() {
+                (t / len).map(|x| x as f32).into()
+            } else {
+                NO_NORMAL
+            }
+        })
+    });
+    append_layer(&mut layers.normals, &mut layers.has_normals, span, turned, NO_NORMAL);
+    for set in 0..2 {
+        let name = format!("TEXCOORD_{set}");
+        let uv = Spec {
+            semantic: Semantic::TexCoords(set as u32),
+            name: &name,
+            dims: &[Dimensions::Vec2],
+            normalized_ok: true,
+            neutral: [0.0; 4],
+        };
+        let values = read(uv)?;
+        let values = values.as_ref().map(|v| v.iter().map(|c| [c[0], c[1]]));
+        append_layer(&mut layers.uvs[set], &mut layers.has_uvs[set], span, values, NO_UV);
+    }
+    let color = Spec {
+        semantic: Semantic::Colors(0),
+        name: "COLOR_0",
+        dims: &[Dimensions::Vec3, Dimensions::Vec4],
+        normalized_ok: true,
+        neutral: WHITE,
+    };
+    let values = read(color)?;
+    append_layer(
+        &mut layers.colors,
+        &mut layers.has_colors,
+        span,
+        values.map(Vec::into_iter),
+        WHITE,
+    );
+    Ok(())
+}
+
+/// One vertex attribute of a primitive as RGBA-padded `f32` (missing components: 0, except
+/// alpha 1 for an RGB colour), or `None` when the primitive has none.
+///
+/// Checks: dimensions among `spec.dims`; component type float, or (when
+/// `spec.normalized_ok`) a normalized unsigned byte/short, divided by 255 or 65535; exactly
+/// `n` elements, like POSITION. Any failure is a one-line error naming the accessor. An
+/// element with a non-finite value (exporters write NaN normals for degenerate triangles) is
+/// replaced by `spec.neutral`, with a line in `notices`.
+fn attribute(
+    prim: &::gltf::Primitive,
+    spec: &Spec,
+    n: usize,
+    buffers: &[Vec<u8>],
+    ctx: Ctx,
+    notices: &mut Vec<String>,
+) -> Result<Option<Vec<[f32; 4]>>, LoadError> {
+    let Some(acc) = prim.get(&spec.semantic) else { return Ok(None) };
+    let name = spec.name;
+    let (dt, dim) = (acc.data_type(), acc.dimensions());
+    let scale = match dt {
+        DataType::F32 => 1.0,
+        DataType::U8 if spec.normalized_ok && acc.normalized() => 1.0 / 255.0,
+        DataType::U16 if spec.normalized_ok && acc.normalized() => 1.0 / 65535.0,
+        _ => {
+            let allowed = if spec.normalized_ok {
+                "float or normalized unsigned byte/short"
+            } else {
+                "float"
+            };
+            return Err(ctx.unsupported(format!(
+                "{name} accessor {} is {dt:?}{}; only {allowed} is supported",
+                acc.index(),
+                if acc.normalized() { " normalized" } else { "" }
+            )));
+        }
+    };
+    if !spec.dims.contains(&dim) {
+        return Err(ctx.parse(
+            None,
+            format!("{name} accessor {} is {dim:?}, expected {:?}", acc.index(), spec.dims),
+        ));
+    }
+    if acc.count() != n {
+        return Err(ctx.count(
+            None,
+            format!(
+                "{name} accessor {} has {} elements but primitive {} has {n} vertices",
+                acc.index(),
+                acc.count(),
+                prim.index()
+            ),
+        ));
+    }
+    let mut out = Vec::with_capacity(n);
+    let mut bad = 0;
+    read_accessor(&acc, buffers, ctx, |c| {
+        let mut v = c.map(|x| (x * scale) as f32);
+        if dim == Dimensions::Vec3 && spec.semantic == ::gltf::Semantic::Colors(0) {
+            v[3] = 1.0;
+        }
+        if v.iter().any(|x| !x.is_finite()) {
+            bad += 1;
+            v = spec.neutral;
+        }
+        out.push(v);
+    })?;
+    if bad > 0 {
+        notices.push(format!(
+            "{}: {name} accessor {}: {bad} of {n} elements are not finite; read as {:?}",
+            ctx.file,
+            acc.index(),
+            &spec.neutral[..dim.multiplicity().min(4)]
+        ));
+    }
+    Ok(Some(out))
 }
 
 /// Calls `f` with each element of a float or unsigned-integer accessor (components as `f64`,
@@ -358,4 +639,65 @@ fn read_accessor(
         f(c);
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn layers_cover_all_triangles_with_neutral_values() {
+        // Two primitives of one vertex-triangle each: the first with TEXCOORD_1 and a normal,
+        // the second with a colour.
+        let mut raw = Asset {
+            positions: vec![[0.0; 3]; 6],
+            triangles: vec![[0, 1, 2], [3, 4, 5]],
+            ..Asset::default()
+        };
+        let mut layers = Layers::default();
+        let (first, second) = ((0, 3), (3, 3));
+        let l = &mut layers;
+        append_layer(
+            &mut l.normals,
+            &mut l.has_normals,
+            first,
+            Some([[0.0, 0.0, 1.0]; 3].into_iter()),
+            NO_NORMAL,
+        );
+        append_layer(
+            &mut l.normals,
+            &mut l.has_normals,
+            second,
+            None::<std::iter::Empty<_>>,
+            NO_NORMAL,
+        );
+        append_layer(
+            &mut l.uvs[1],
+            &mut l.has_uvs[1],
+            first,
+            Some([[0.5, 0.5]; 3].into_iter()),
+            NO_UV,
+        );
+        append_layer(&mut l.uvs[1], &mut l.has_uvs[1], second, None::<std::iter::Empty<_>>, NO_UV);
+        append_layer(&mut l.colors, &mut l.has_colors, first, None::<std::iter::Empty<_>>, WHITE);
+        assert!(l.colors.is_empty(), "no memory for a layer no primitive has yet");
+        append_layer(
+            &mut l.colors,
+            &mut l.has_colors,
+            second,
+            Some([[1.0, 0.0, 0.0, 1.0]; 3].into_iter()),
+            WHITE,
+        );
+        assert_eq!(l.colors.len(), 6);
+        layers.finish(&mut raw);
+        assert_eq!(raw.uvs.len(), 2, "set 0 kept (neutral) so that set 1 keeps its index");
+        assert_eq!(raw.uvs[0].values, vec![NO_UV; 6]);
+        assert_eq!(raw.uvs[1].values[0], [0.5, 0.5]);
+        let normals = raw.normals.as_ref().unwrap_or_else(|| panic!("normals"));
+        assert_eq!(normals.corners, raw.triangles);
+        assert_eq!(normals.values[4], NO_NORMAL);
+        assert_eq!(raw.colors.as_ref().map(|c| c.values[0]), Some(WHITE));
+        raw.parts = vec![Part { count: 2, ..Part::default() }];
+        assert_eq!(raw.check(), Ok(()));
+    }
 }

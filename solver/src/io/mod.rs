@@ -6,6 +6,13 @@
 //! as `(v0, v_k, v_k+1)`), then runs [`crate::geometry::cleanup::clean`] (weld, drop degenerate, duplicated
 //! and unreferenced elements) and returns the mesh with the [`CleanReport`].
 //!
+//! Besides the mesh, every reader fills the file's [`Asset`]: its own vertex layout, and the
+//! surface attributes, parts, materials and images the format has (glTF: normals, two UV
+//! sets, colours, primitives as parts, materials and images, see `gltf` and `gltf_material`;
+//! OBJ: `vt`/`vn` per corner, vertex colours, `usemtl` runs, the MTL's `Kd`/`d`/`map_Kd`,
+//! see `obj` and `mtl`; PLY: UVs and colours). What a reader skipped without failing (a
+//! missing MTL or texture) is listed in [`Asset::notices`].
+//!
 //! Every failure is a [`LoadError`] whose Display is one line, `file:line: what is wrong`. No
 //! input makes a parser panic, and counts read from headers never size an allocation beyond what
 //! the file's length could hold. Writers ([`write_obj`], [`write_obj_asset`] on the file's own
@@ -14,6 +21,8 @@
 pub mod asset;
 mod error;
 mod gltf;
+mod gltf_material;
+mod mtl;
 mod obj;
 mod obj_write;
 mod off;
@@ -38,7 +47,7 @@ use error::Ctx;
 /// A mesh file format.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Format {
-    /// Wavefront OBJ (read with `tobj`).
+    /// Wavefront OBJ, with its MTL files (MTL parsed with `tobj`).
     Obj,
     /// Object File Format, ASCII.
     Off,
@@ -128,7 +137,7 @@ fn parse_and_clean(
         return Err(ctx.truncated(None, "the file is empty"));
     }
     let mut raw = match format {
-        Format::Obj => obj::parse(bytes, ctx)?,
+        Format::Obj => obj::parse(bytes, ctx, dir)?,
         Format::Off => off::parse(bytes, ctx)?,
         Format::Ply => ply::parse(bytes, ctx)?,
         Format::Stl => stl::parse(bytes, ctx)?,

@@ -1,42 +1,119 @@
-//! Wavefront OBJ reading: a line-numbered validation pass of our own, then `tobj`.
+//! Wavefront OBJ reading: a line-numbered pass of our own, and the MTL files it names (module
+//! `mtl`, parsed with `tobj`).
 //!
-//! Only `v` and `f` matter; `vt`, `vn`, groups, objects, materials, smoothing groups, lines and
-//! unknown keywords are ignored (a face's `vt`/`vn` indices are still range-checked, because
-//! `tobj` rejects them). Polygons are fan-triangulated (`tobj`'s `triangulate`).
+//! Read: `v x y z` (also `v x y z w`, divided by `w`, and `v x y z r g b`, a vertex colour),
+//! `vt u [v [w]]`, `vn x y z`, `f` with `v`, `v/vt`, `v//vn` or `v/vt/vn` corners (absolute
+//! or negative relative indices), `o`/`g` names, `usemtl` and `mtllib`. Polygons are
+//! fan-triangulated as `(c0, c_k, c_k+1)`. Positions keep the file's order and numbering.
 //!
-//! Why two passes: `tobj` reports no line numbers, accepts `nan`/`inf` coordinates, and renumbers
-//! the vertices of each object in order of first use (dropping unused ones). The validation pass
-//! reads the `v` lines in file order as `f64` and checks every face index with its line number.
-//! The triangles come from `tobj` and are mapped back to file vertices by their bit-identical
-//! positions (`tobj` is built with `use_f64`), which after welding gives the same mesh as file
-//! indices would; should a position not map back (or `tobj` panic), the validation pass's own
-//! triangles are used.
+//! The [`Asset`]'s attributes are indexed per corner, as the file indexes them: `uvs[0]`
+//! holds the `vt` lines (**stored in the glTF convention $v' = 1 - v$**, v down from the top;
+//! `w` dropped), `normals` the `vn` lines (as written, not renormalized; a line with `nan` or
+//! `inf` reads as the neutral value, with a notice), both with each
+//! triangle corner's `vt`/`vn` index. A corner without one in a file whose other corners have
+//! them points at an appended neutral value (`[0, 0]`, normal `[0, 0, 0]` meaning "none").
+//! Vertex colours are per position (corners = position indices), white where a `v` line has
+//! none, alpha 1, values as written. A [`Part`] is a run of faces with one `usemtl` material
+//! and one `o`/`g` name (the last seen). Materials are listed in order of first `usemtl`, then
+//! the MTL's unused ones; a `usemtl` name no MTL defines is a default material of that name.
 //!
-//! Known limitations: no inline comments (`v 1 2 3 # x` is an error, as in `tobj`); `v x y z w`
-//! is divided by `w` like `tobj` does; free-form geometry (`curv`, `surf`) is ignored.
+//! Why not `tobj` for the geometry: it reports no line numbers, accepts `nan`/`inf`
+//! coordinates, renumbers each object's vertices in order of first use (the asset needs the
+//! file's numbering) and refuses files where only some `v` lines carry a colour.
+//!
+//! Known limitations: no inline comments (`v 1 2 3 # x` is an error, as in `tobj`); free-form
+//! geometry (`curv`, `surf`), smoothing groups, lines and points are ignored.
 
 use std::collections::HashMap;
+use std::path::Path;
 
-use super::asset::Asset;
+use super::asset::{Asset, Attribute, Part};
 use super::error::{Ctx, LoadError};
+use super::mtl;
 use super::text::{as_text, coord, token_lines};
-use crate::geometry::cleanup::key;
 
-/// Parses OBJ bytes into file-order positions (`#V×3`) and fan-triangulated faces (`#F×3`).
-pub(crate) fn parse(bytes: &[u8], ctx: Ctx) -> Result<Asset, LoadError> {
+/// Parses OBJ bytes into an [`Asset`]; `dir` is where `mtllib` files are read from (`None`:
+/// MTL files are skipped with a notice).
+pub(crate) fn parse(bytes: &[u8], ctx: Ctx, dir: Option<&Path>) -> Result<Asset, LoadError> {
     let text = as_text(bytes, ctx)?;
     let checked = validate(text, ctx)?;
-    let triangles = match read_with_tobj(text, ctx)? {
-        Some(models) => map_back(&models, &checked.positions).unwrap_or(checked.triangles),
-        None => checked.triangles,
-    };
-    Ok(Asset::bare(checked.positions, triangles))
+    let mut asset = checked.into_asset();
+    mtl::attach(&mut asset, &mtl_libs(text), dir);
+    Ok(asset)
 }
 
-/// What the validation pass found: positions in file order and triangles in file indices.
+/// The `mtllib` file names, in file order.
+fn mtl_libs(text: &str) -> Vec<String> {
+    token_lines(text, None)
+        .filter(|(_, t)| t.first() == Some(&"mtllib"))
+        .flat_map(|(_, t)| t.into_iter().skip(1).map(str::to_string))
+        .collect()
+}
+
+/// Marks a corner with no `vt`/`vn` index.
+const NONE: u32 = u32::MAX;
+
+/// What the pass found, in file indices.
+#[derive(Default)]
 struct Checked {
     positions: Vec<[f64; 3]>,
+    /// Per vertex: the `v` line's colour, white for one without; empty until the first
+    /// coloured `v` line.
+    colors: Vec<[f32; 4]>,
+    uv_values: Vec<[f32; 2]>,
+    normal_values: Vec<[f32; 3]>,
     triangles: Vec<[u32; 3]>,
+    uv_corners: Vec<[u32; 3]>,
+    normal_corners: Vec<[u32; 3]>,
+    parts: Vec<Part>,
+    /// Material names in order of first `usemtl`.
+    materials: Vec<String>,
+    notices: Vec<String>,
+}
+
+impl Checked {
+    fn into_asset(self) -> Asset {
+        let triangles = self.triangles;
+        let uvs = corner_attribute(self.uv_values, self.uv_corners, [0.0; 2]);
+        let normals = corner_attribute(self.normal_values, self.normal_corners, [0.0; 3]);
+        let colors =
+            (!self.colors.is_empty()).then(|| Attribute::per_vertex(self.colors, &triangles));
+        let materials = self
+            .materials
+            .into_iter()
+            .map(|name| super::asset::Material { name, ..Default::default() })
+            .collect();
+        Asset {
+            positions: self.positions,
+            triangles,
+            normals,
+            uvs: uvs.into_iter().collect(),
+            colors,
+            parts: self.parts,
+            materials,
+            notices: self.notices,
+            ..Asset::default()
+        }
+    }
+}
+
+/// The attribute when some corner has an index, with [`NONE`] corners sent to an appended
+/// `neutral` value.
+fn corner_attribute<const N: usize>(
+    mut values: Vec<[f32; N]>,
+    mut corners: Vec<[u32; 3]>,
+    neutral: [f32; N],
+) -> Option<Attribute<N>> {
+    let flat = || corners.iter().flatten();
+    if !flat().any(|&i| i != NONE) {
+        return None;
+    }
+    if flat().any(|&i| i == NONE) {
+        let at = values.len() as u32;
+        values.push(neutral);
+        corners.iter_mut().flatten().filter(|i| **i == NONE).for_each(|i| *i = at);
+    }
+    Some(Attribute { values, corners })
 }
 
 /// Counts of the indexed element kinds in the whole file (OBJ allows forward references).
@@ -45,6 +122,49 @@ struct Totals {
     v: usize,
     vt: usize,
     vn: usize,
+}
+
+/// One finite number of a `vt`/`vn` line.
+/// One number of a `vt`/`vn` line (may be `nan` or `inf`; the caller replaces those).
+fn number(tok: &str, ctx: Ctx, line: usize, what: &str) -> Result<f32, LoadError> {
+    tok.parse::<f64>()
+        .map(|x| x as f32)
+        .map_err(|_| ctx.parse(Some(line), format!("{tok:?} is not a number ({what})")))
+}
+
+/// `vt`/`vn` lines with a non-finite number: how many, and the first one's line.
+#[derive(Default)]
+struct NonFinite {
+    count: usize,
+    first_line: usize,
+}
+
+impl NonFinite {
+    /// `value`, or `neutral` (counted) when a component is not finite.
+    fn check<const N: usize>(
+        &mut self,
+        value: [f32; N],
+        neutral: [f32; N],
+        line: usize,
+    ) -> [f32; N] {
+        if value.iter().all(|x| x.is_finite()) {
+            return value;
+        }
+        if self.count == 0 {
+            self.first_line = line;
+        }
+        self.count += 1;
+        neutral
+    }
+
+    fn notice(&self, ctx: Ctx, what: &str, neutral: &str) -> Option<String> {
+        (self.count > 0).then(|| {
+            format!(
+                "{}:{}: {} {what} lines have a non-finite value (the first here); read as {neutral}",
+                ctx.file, self.first_line, self.count
+            )
+        })
+    }
 }
 
 fn validate(text: &str, ctx: Ctx) -> Result<Checked, LoadError> {
@@ -60,22 +180,28 @@ fn validate(text: &str, ctx: Ctx) -> Result<Checked, LoadError> {
     if totals.v > u32::MAX as usize {
         return Err(ctx.count(None, format!("{} vertices are more than 2^32-1", totals.v)));
     }
-    let mut positions = Vec::with_capacity(totals.v);
-    let mut triangles = Vec::new();
+    let mut out = Checked { positions: Vec::with_capacity(totals.v), ..Checked::default() };
     let mut seen = Totals::default();
-    let mut poly: Vec<u32> = Vec::new();
+    let mut poly: Vec<[u32; 3]> = Vec::new();
+    let mut name = String::new();
+    let mut material: Option<usize> = None;
+    let mut material_index: HashMap<String, usize> = HashMap::new();
+    let (mut bad_vt, mut bad_vn) = (NonFinite::default(), NonFinite::default());
     for (line, toks) in token_lines(text, None) {
         let Some((&key, rest)) = toks.split_first() else { continue };
         match key {
             "v" => {
-                let vertex = positions.len();
+                let vertex = out.positions.len();
                 let nums = rest
                     .iter()
                     .map(|t| coord(t, ctx, line, vertex))
                     .collect::<Result<Vec<f64>, _>>()?;
-                let p = match nums.as_slice() {
-                    [x, y, z] | [x, y, z, _, _, _] => [*x, *y, *z],
-                    [x, y, z, w] if *w != 0.0 => [x / w, y / w, z / w],
+                let (p, color) = match nums.as_slice() {
+                    [x, y, z] => ([*x, *y, *z], None),
+                    [x, y, z, r, g, b] => {
+                        ([*x, *y, *z], Some([*r as f32, *g as f32, *b as f32, 1.0]))
+                    }
+                    [x, y, z, w] if *w != 0.0 => ([x / w, y / w, z / w], None),
                     [_, _, _, _] => return Err(ctx.parse(Some(line), "vertex weight w is 0")),
                     _ => {
                         return Err(ctx.parse(
@@ -90,11 +216,52 @@ fn validate(text: &str, ctx: Ctx) -> Result<Checked, LoadError> {
                 if let Some(bad) = p.iter().find(|c| !c.is_finite()) {
                     return Err(ctx.non_finite(Some(line), vertex, bad));
                 }
-                positions.push(p);
+                match color {
+                    Some(c) => {
+                        out.colors.resize(out.positions.len(), [1.0; 4]);
+                        out.colors.push(c);
+                    }
+                    None if !out.colors.is_empty() => out.colors.push([1.0; 4]),
+                    None => {}
+                }
+                out.positions.push(p);
                 seen.v += 1;
             }
-            "vt" => seen.vt += 1,
-            "vn" => seen.vn += 1,
+            "vt" => {
+                if rest.is_empty() || rest.len() > 3 {
+                    return Err(ctx.parse(
+                        Some(line),
+                        format!("a texture coordinate needs 1 to 3 numbers, found {}", rest.len()),
+                    ));
+                }
+                let what = "texture coordinate";
+                let u = number(rest[0], ctx, line, what)?;
+                let v = match rest.get(1) {
+                    Some(t) => number(t, ctx, line, what)?,
+                    None => 0.0,
+                };
+                if let Some(t) = rest.get(2) {
+                    number(t, ctx, line, what)?;
+                }
+                out.uv_values.push(bad_vt.check([u, 1.0 - v], [0.0; 2], line));
+                seen.vt += 1;
+            }
+            "vn" => {
+                let [x, y, z] = rest else {
+                    return Err(ctx.parse(
+                        Some(line),
+                        format!("a normal needs 3 numbers, found {}", rest.len()),
+                    ));
+                };
+                let what = "normal";
+                let n = [
+                    number(x, ctx, line, what)?,
+                    number(y, ctx, line, what)?,
+                    number(z, ctx, line, what)?,
+                ];
+                out.normal_values.push(bad_vn.check(n, [0.0; 3], line));
+                seen.vn += 1;
+            }
             "f" => {
                 if rest.len() < 3 {
                     return Err(ctx.parse(
@@ -106,25 +273,57 @@ fn validate(text: &str, ctx: Ctx) -> Result<Checked, LoadError> {
                 for tok in rest {
                     poly.push(face_vertex(tok, &totals, &seen, ctx, line)?);
                 }
-                super::push_fan(&mut triangles, &poly);
+                let part = out.parts.last().filter(|p| p.name == name && p.material == material);
+                if part.is_none() {
+                    let first = out.triangles.len();
+                    out.parts.push(Part { name: name.clone(), material, first, ..Part::default() });
+                }
+                let (c0, rest) = (poly[0], &poly[1..]);
+                for w in rest.windows(2) {
+                    let tri = [c0, w[0], w[1]];
+                    out.triangles.push(tri.map(|c| c[0]));
+                    // Kept only when the file has such lines (else every index is NONE).
+                    if totals.vt > 0 {
+                        out.uv_corners.push(tri.map(|c| c[1]));
+                    }
+                    if totals.vn > 0 {
+                        out.normal_corners.push(tri.map(|c| c[2]));
+                    }
+                }
+                if let Some(p) = out.parts.last_mut() {
+                    p.count = out.triangles.len() - p.first;
+                }
             }
-            "usemtl" if rest.is_empty() => {
-                return Err(ctx.parse(Some(line), "usemtl needs a material name"));
+            "o" | "g" => name = rest.join(" "),
+            "usemtl" => {
+                if rest.is_empty() {
+                    return Err(ctx.parse(Some(line), "usemtl needs a material name"));
+                }
+                let m = rest.join(" ");
+                let next = out.materials.len();
+                let index = *material_index.entry(m.clone()).or_insert(next);
+                if index == next {
+                    out.materials.push(m);
+                }
+                material = Some(index);
             }
             _ => {}
         }
     }
-    Ok(Checked { positions, triangles })
+    out.notices.extend(bad_vt.notice(ctx, "vt", "[0, 0]"));
+    out.notices.extend(bad_vn.notice(ctx, "vn", "[0, 0, 0] (no normal)"));
+    Ok(out)
 }
 
-/// Checks one face token `v`, `v/vt`, `v//vn` or `v/vt/vn`; returns the 0-based vertex index.
+/// Checks one face token `v`, `v/vt`, `v//vn` or `v/vt/vn`; returns the 0-based vertex,
+/// texture and normal indices ([`NONE`] where the token has none).
 fn face_vertex(
     tok: &str,
     totals: &Totals,
     seen: &Totals,
     ctx: Ctx,
     line: usize,
-) -> Result<u32, LoadError> {
+) -> Result<[u32; 3], LoadError> {
     let parts: Vec<&str> = tok.split('/').collect();
     if parts.len() > 3 || parts.first().is_none_or(|p| p.is_empty()) {
         return Err(ctx.parse(Some(line), format!("{tok:?} is not a face vertex (v, v/vt, v//vn)")));
@@ -134,7 +333,7 @@ fn face_vertex(
         ("texture", totals.vt, seen.vt),
         ("normal", totals.vn, seen.vn),
     ];
-    let mut vertex = 0;
+    let mut out = [NONE; 3];
     for (k, (part, (what, total, so_far))) in parts.iter().zip(kinds).enumerate() {
         if part.is_empty() {
             continue;
@@ -170,58 +369,11 @@ fn face_vertex(
                 r
             }
         };
-        if k == 0 {
-            vertex = resolved as u32;
-        }
+        // Below `total` ≤ 2^32 - 1 (vertices checked above; more `vt`/`vn` lines than that
+        // cannot be referenced by a smaller index), so the cast is exact.
+        out[k] = u32::try_from(resolved).unwrap_or(NONE);
     }
-    Ok(vertex)
-}
-
-/// Runs `tobj` on the validated text. `Ok(None)` should `tobj` panic (never seen; kept so a
-/// bug in a dependency cannot take the application down).
-fn read_with_tobj(text: &str, ctx: Ctx) -> Result<Option<Vec<tobj::Model>>, LoadError> {
-    let options = tobj::LoadOptions {
-        triangulate: true,
-        single_index: false,
-        ignore_points: true,
-        ignore_lines: true,
-    };
-    let run = || {
-        let mut reader = text.as_bytes();
-        tobj::load_obj_buf(&mut reader, &options, |_| Err(tobj::LoadError::OpenFileFailed))
-    };
-    match std::panic::catch_unwind(run) {
-        Ok(Ok((models, _materials))) => Ok(Some(models)),
-        Ok(Err(e)) => Err(ctx.parse(None, format!("the OBJ reader (tobj) rejected the file: {e}"))),
-        Err(_) => Ok(None),
-    }
-}
-
-/// Maps `tobj`'s per-object vertices back to the first file vertex with the same position bits.
-/// `None` when some position is not found (never seen: `tobj` parses with the same `f64::from_str`;
-/// solver/Cargo.toml enables its `use_f64` feature, without which this does not compile).
-fn map_back(models: &[tobj::Model], positions: &[[f64; 3]]) -> Option<Vec<[u32; 3]>> {
-    let mut first: HashMap<[u64; 3], u32> = HashMap::with_capacity(positions.len());
-    for (i, p) in positions.iter().enumerate() {
-        first.entry(key(*p)).or_insert(i as u32);
-    }
-    let mut triangles = Vec::new();
-    for model in models {
-        let m = &model.mesh;
-        let local: Vec<u32> = m
-            .positions
-            .chunks_exact(3)
-            .map(|c| {
-                let p = [c[0], c[1], c[2]];
-                first.get(&key(p)).copied()
-            })
-            .collect::<Option<_>>()?;
-        for t in m.indices.chunks_exact(3) {
-            let get = |i: u32| local.get(i as usize).copied();
-            triangles.push([get(t[0])?, get(t[1])?, get(t[2])?]);
-        }
-    }
-    Some(triangles)
+    Ok(out)
 }
 
 #[cfg(test)]
@@ -230,7 +382,7 @@ mod tests {
     use super::*;
 
     fn parse_str(s: &str) -> Result<Asset, LoadError> {
-        parse(s.as_bytes(), Ctx { file: "t.obj" })
+        parse(s.as_bytes(), Ctx { file: "t.obj" }, None)
     }
 
     #[test]
@@ -266,15 +418,66 @@ mod tests {
     }
 
     #[test]
-    fn tobj_triangles_are_used() {
-        let text = "v 9 9 9\nv 0.1 0.2 0.3\nv 1e-7 0 0\no a\nv 0 1 0\nf 4 3 2\no b\nf 2 3 4 -1\n";
-        let ctx = Ctx { file: "t.obj" };
-        let models = read_with_tobj(text, ctx).unwrap().unwrap();
-        assert_eq!(models.len(), 2);
-        let checked = validate(text, ctx).unwrap();
-        let mapped = map_back(&models, &checked.positions).unwrap();
-        assert_eq!(mapped, vec![[3, 2, 1], [1, 2, 3], [1, 3, 3]]);
-        assert_eq!(mapped, checked.triangles);
-        assert_eq!(checked.positions[1], [0.1, 0.2, 0.3]);
+    fn corners_parts_and_colors() {
+        // A quad in two materials' runs, with a UV seam (corner 1 has two vt) and one hard
+        // normal per face; vertex 4 has a colour.
+        let obj = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0 0.5 0.25 1\nv 5 5 5\n\
+                   vt 0 0\nvt 1 0\nvt 1 1\nvt 0.5 0.25\nvn 0 0 1\nvn 0 0 -1\n\
+                   o quad\nusemtl red\nf 1/1/1 2/2/1 3/3/1\nusemtl blue\nf 1/4/2 3/3/2 4/1/2\n\
+                   g other\nf 1 2 4\n";
+        let a = parse(obj.as_bytes(), Ctx { file: "t.obj" }, None).unwrap();
+        assert_eq!(a.triangles, vec![[0, 1, 2], [0, 2, 3], [0, 1, 3]]);
+        let uv = &a.uvs[0];
+        assert_eq!(uv.values[..4], [[0.0, 1.0], [1.0, 1.0], [1.0, 0.0], [0.5, 0.75]]);
+        assert_eq!(uv.values[4], [0.0, 0.0], "neutral value for the corners without vt");
+        assert_eq!(uv.corners, vec![[0, 1, 2], [3, 2, 0], [4, 4, 4]]);
+        let n = a.normals.as_ref().unwrap();
+        assert_eq!(n.values, vec![[0.0, 0.0, 1.0], [0.0, 0.0, -1.0], [0.0; 3]]);
+        assert_eq!(n.corners, vec![[0, 0, 0], [1, 1, 1], [2, 2, 2]]);
+        let c = a.colors.as_ref().unwrap();
+        assert_eq!(c.values[3], [0.5, 0.25, 1.0, 1.0]);
+        assert_eq!(c.values[0], [1.0; 4]);
+        assert_eq!(c.values.len(), 5, "one per vertex, white after the coloured one too");
+        assert_eq!(c.values[4], [1.0; 4]);
+        assert_eq!(c.corners, a.triangles);
+        let parts: Vec<_> =
+            a.parts.iter().map(|p| (p.name.as_str(), p.material, p.first, p.count)).collect();
+        assert_eq!(
+            parts,
+            vec![("quad", Some(0), 0, 1), ("quad", Some(1), 1, 1), ("other", Some(1), 2, 1)]
+        );
+        let names: Vec<_> = a.materials.iter().map(|m| m.name.as_str()).collect();
+        assert_eq!(names, ["red", "blue"]);
+    }
+
+    #[test]
+    fn no_attributes_without_indices() {
+        let a = parse_str("v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\nf 1 2 3\n").unwrap();
+        assert!(a.uvs.is_empty() && a.normals.is_none() && a.colors.is_none());
+        assert_eq!(a.parts.len(), 1);
+        assert_eq!(a.parts[0].material, None);
+    }
+
+    #[test]
+    fn bad_vt_and_vn_lines_name_the_line() {
+        let e = parse_str("v 0 0 0\nvt 0 x\n").unwrap_err();
+        assert!(matches!(e, LoadError::Parse { line: Some(2), .. }), "{e}");
+        let e = parse_str("v 0 0 0\nvn 0 1\n").unwrap_err();
+        assert!(matches!(e, LoadError::Parse { line: Some(2), .. }), "{e}");
+        // A non-finite value is read as the neutral value, with a notice naming the line.
+        let a = parse_str("v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\n\nvn 0 nan 1\nvn -nan 0 1\nvt inf 0\nf 1//1 2//2 3//3\n").unwrap();
+        assert_eq!(a.normals.unwrap().values, vec![[0.0, 0.0, 1.0], [0.0; 3], [0.0; 3]]);
+        assert_eq!(a.notices.len(), 2, "{:?}", a.notices);
+        assert!(a.notices[0].starts_with("t.obj:8: 1 vt lines"), "{:?}", a.notices);
+        assert!(a.notices[1].starts_with("t.obj:6: 2 vn lines"), "{:?}", a.notices);
+        let e = parse_str("vt\n").unwrap_err();
+        assert!(matches!(e, LoadError::Parse { line: Some(1), .. }), "{e}");
+    }
+
+    #[test]
+    fn mtllib_from_bytes_is_a_notice() {
+        let a = parse_str("mtllib a.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+        assert_eq!(a.notices.len(), 1, "{:?}", a.notices);
+        assert!(a.notices[0].contains("a.mtl"));
     }
 }

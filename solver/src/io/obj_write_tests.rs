@@ -63,6 +63,7 @@ fn cube_asset() -> Asset {
             },
             Image { name: "unused".into(), mime_type: "image/jpeg".into(), bytes: vec![1, 2] },
         ],
+        notices: Vec::new(),
     }
 }
 

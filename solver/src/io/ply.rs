@@ -5,10 +5,17 @@
 //! and index of any integer type, e.g. `list uchar int`). Every other property and element is
 //! skipped with its correct size. Polygons are fan-triangulated.
 //!
+//! Vertex attributes, when present: texture coordinates `u`/`v` (also `s`/`t`,
+//! `texture_u`/`texture_v`, `texture_s`/`texture_t`), stored in the glTF convention
+//! $v' = 1 - v$ like OBJ's (PLY writers use OpenGL's v up); colours `red`, `green`, `blue`
+//! and optionally `alpha` (also `r g b a`): integer types divided by 255 (`ushort`: 65535),
+//! floats as written, alpha 1 when absent. Both are per-vertex [`Attribute`]s (corners =
+//! position indices); a non-finite value becomes the neutral `[0, 0]` or white.
+//!
 //! Known limitations: `tristrips` and other non-`face` connectivity is ignored; in ASCII each
 //! element must be on its own line (as every writer does), which gives line numbers to errors.
 
-use super::asset::Asset;
+use super::asset::{Asset, Attribute};
 use super::error::{Ctx, LoadError};
 use super::text::{capped, integer, is_blank};
 
@@ -374,10 +381,9 @@ fn read_body(
     if n_v > u32::MAX as u64 {
         return Err(ctx.count(None, format!("{n_v} vertices are more than 2^32-1")));
     }
-    let coord_slot = |p: &Property| match p {
-        Property::Scalar { name, .. } => ["x", "y", "z"].iter().position(|c| c == name),
-        Property::List { .. } => None,
-    };
+    let slots: Vec<Slot> = vertex_el.props.iter().map(Slot::of).collect();
+    let has_uv = (0..2).all(|k| slots.contains(&Slot::Uv(k)));
+    let has_color = (0..3).all(|k| slots.iter().any(|s| matches!(s, Slot::Color(c, _) if *c == k)));
     for c in ["x", "y", "z"] {
         if !vertex_el.props.iter().any(|p| matches!(p, Property::Scalar { name, .. } if name == c))
         {
@@ -385,6 +391,8 @@ fn read_body(
         }
     }
     let mut positions = Vec::with_capacity(capped(n_v, body_len, 3));
+    let mut uvs: Vec<[f32; 2]> = Vec::new();
+    let mut colors: Vec<[f32; 4]> = Vec::new();
     let mut triangles = Vec::new();
     let mut poly = Vec::new();
     for el in elements {
@@ -403,17 +411,24 @@ fn read_body(
         for index in 0..el.count {
             src.begin(el, index)?;
             let mut p = [0.0; 3];
+            let (mut uv, mut color) = ([0.0f32; 2], [1.0f32; 4]);
             for (k, prop) in el.props.iter().enumerate() {
                 match prop {
                     Property::Scalar { ty, .. } => {
                         let v = src.read(*ty)?.as_f64();
-                        if is_vertex && let Some(c) = coord_slot(prop) {
-                            if !v.is_finite() {
-                                return Err(ctx.non_finite(src.line(), index as usize, v));
+                        let slot = if is_vertex { slots.get(k) } else { None };
+                        match slot {
+                            Some(Slot::Coord(c)) => {
+                                if !v.is_finite() {
+                                    return Err(ctx.non_finite(src.line(), index as usize, v));
+                                }
+                                if let Some(slot) = p.get_mut(*c) {
+                                    *slot = v;
+                                }
                             }
-                            if let Some(slot) = p.get_mut(c) {
-                                *slot = v;
-                            }
+                            Some(Slot::Uv(c)) => uv[*c & 1] = v as f32,
+                            Some(Slot::Color(c, scale)) => color[*c & 3] = (v * scale) as f32,
+                            _ => {}
                         }
                     }
                     Property::List { count, item, .. } => {
@@ -463,11 +478,63 @@ fn read_body(
             src.end()?;
             if is_vertex {
                 positions.push(p);
+                if has_uv {
+                    uvs.push(finite_or([uv[0], 1.0 - uv[1]], [0.0; 2]));
+                }
+                if has_color {
+                    colors.push(finite_or(color, [1.0; 4]));
+                }
             }
         }
     }
     src.finish()?;
-    Ok(Asset::bare(positions, triangles))
+    let mut asset = Asset::bare(positions, triangles);
+    if has_uv {
+        asset.uvs.push(Attribute::per_vertex(uvs, &asset.triangles));
+    }
+    if has_color {
+        asset.colors = Some(Attribute::per_vertex(colors, &asset.triangles));
+    }
+    Ok(asset)
+}
+
+/// `v`, or `fallback` when a component is not finite (attributes are not worth refusing a
+/// file over; positions are).
+fn finite_or<const N: usize>(v: [f32; N], fallback: [f32; N]) -> [f32; N] {
+    if v.iter().all(|x| x.is_finite()) { v } else { fallback }
+}
+
+/// What a vertex property holds: a coordinate (0..3), a UV component (0: u, 1: v), a colour
+/// channel (0..4) with the factor that maps its type to 0..1, or nothing read.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Slot {
+    Coord(usize),
+    Uv(usize),
+    Color(usize, f64),
+    Other,
+}
+
+impl Slot {
+    fn of(p: &Property) -> Slot {
+        let Property::Scalar { name, ty } = p else { return Slot::Other };
+        let scale = match ty {
+            Scalar::F32 | Scalar::F64 => 1.0,
+            Scalar::U16 => 1.0 / 65535.0,
+            _ => 1.0 / 255.0,
+        };
+        match name.as_str() {
+            "x" => Slot::Coord(0),
+            "y" => Slot::Coord(1),
+            "z" => Slot::Coord(2),
+            "u" | "s" | "texture_u" | "texture_s" => Slot::Uv(0),
+            "v" | "t" | "texture_v" | "texture_t" => Slot::Uv(1),
+            "red" | "r" => Slot::Color(0, scale),
+            "green" | "g" => Slot::Color(1, scale),
+            "blue" | "b" => Slot::Color(2, scale),
+            "alpha" | "a" => Slot::Color(3, scale),
+            _ => Slot::Other,
+        }
+    }
 }
 
 #[cfg(test)]
@@ -536,5 +603,30 @@ mod tests {
         let b = b"ply\nformat ascii 1.0\nelement vertex 1000000000000\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 0\n";
         let e = parse_bytes(b).unwrap_err();
         assert!(matches!(e, LoadError::CountMismatch { .. }), "{e}");
+    }
+
+    #[test]
+    fn uvs_and_colors() {
+        let head = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nproperty float s\nproperty float t\nproperty uchar red\nproperty uchar green\nproperty uchar blue\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
+        let ply =
+            format!("{head}0 0 0 0 0 255 0 51\n1 0 0 1 0.25 0 255 0\n0 1 0 0 1 0 0 255\n3 0 1 2\n");
+        let a = parse_bytes(ply.as_bytes()).unwrap();
+        let uv = &a.uvs[0];
+        assert_eq!(uv.values, vec![[0.0, 1.0], [1.0, 0.75], [0.0, 0.0]]);
+        assert_eq!(uv.corners, vec![[0, 1, 2]]);
+        let c = a.colors.as_ref().unwrap();
+        assert_eq!(c.values[0], [1.0, 0.0, 0.2, 1.0]);
+        assert_eq!(c.values[2], [0.0, 0.0, 1.0, 1.0]);
+        // Float colours with alpha, as written; no uv when only u is present.
+        let head = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nproperty float u\nproperty float red\nproperty float green\nproperty float blue\nproperty float alpha\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
+        let ply =
+            format!("{head}0 0 0 0 0.5 0.5 0.5 0.5\n1 0 0 1 0 0 0 1\n0 1 0 0 1 1 1 0\n3 0 1 2\n");
+        let a = parse_bytes(ply.as_bytes()).unwrap();
+        assert!(a.uvs.is_empty());
+        assert_eq!(a.colors.unwrap().values[0], [0.5; 4]);
+        // The plain tetrahedron has neither.
+        let a = parse_bytes(format!("{HEAD}0 0 0 9\n1 0 0 9\n0 1 0.5 9\n3 0 1 2 7\n").as_bytes())
+            .unwrap();
+        assert!(a.uvs.is_empty() && a.colors.is_none());
     }
 }
