@@ -7,7 +7,7 @@ use super::{
 use anyhow::{Context, bail};
 use clap::Args;
 use solver::FrameStats;
-use solver::animation::export::{AssetExport, ExportSettings, GltfExport, GltfFormat};
+use solver::animation::export::{AssetExport, Encoding, ExportSettings, GltfExport, GltfFormat};
 use solver::animation::recording::Recording;
 use solver::geometry::topology::connected_components;
 use solver::io::LoadedMesh;
@@ -128,16 +128,26 @@ fn write_pose(path: &Path, loaded: &LoadedMesh, x: &[[f64; 3]]) -> anyhow::Resul
         Some("off") => solver::io::write_off(path, &layout, &asset.triangles)?,
         Some("glb" | "gltf") => {
             let format = GltfFormat::from_path(path)?;
+            // The posed asset itself (its rest is the pose, with deformed normals), so that a
+            // viewer shows the pose without playing anything; one still frame (a zero morph
+            // target) in full precision keeps the file readable everywhere, ours included.
+            let mut posed = asset.clone();
+            if let Some(n) = &mut posed.normals {
+                n.values =
+                    asset.deformed_normals(&layout)?.iter().map(|v| v.map(|c| c as f32)).collect();
+            }
+            posed.positions = layout;
+            let identity: Vec<Option<u32>> = (0..posed.positions.len() as u32).map(Some).collect();
             let recording = Recording {
                 times: vec![0.0],
-                frames: vec![x.to_vec()],
+                frames: vec![posed.positions.clone()],
                 stats: vec![FrameStats::default()],
             };
             let input = AssetExport {
-                asset,
-                vertex_map: &loaded.report.vertex_map,
+                asset: &posed,
+                vertex_map: &identity,
                 recording: &recording,
-                settings: ExportSettings::default(),
+                settings: ExportSettings { encoding: Encoding::Float, ..ExportSettings::default() },
             };
             GltfExport::from_asset(&input, format)?
                 .write(path, &mut |_, _| std::ops::ControlFlow::Continue(()))?;

@@ -370,34 +370,15 @@ pub fn install(render_state: &egui_wgpu::RenderState) {
             count: None,
         }],
     });
-    let blit_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some("bsarap blit layout"),
-        entries: &[
-            wgpu::BindGroupLayoutEntry {
-                binding: 0,
-                visibility: wgpu::ShaderStages::FRAGMENT,
-                ty: wgpu::BindingType::Texture {
-                    sample_type: wgpu::TextureSampleType::Float { filterable: true },
-                    view_dimension: wgpu::TextureViewDimension::D2,
-                    multisampled: false,
-                },
-                count: None,
-            },
-            wgpu::BindGroupLayoutEntry {
-                binding: 1,
-                visibility: wgpu::ShaderStages::FRAGMENT,
-                ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
-                count: None,
-            },
-        ],
-    });
+    let blit_layout = super::textures::bind_group_layout(device, "bsarap blit layout");
     let scene_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
         label: Some("bsarap scene pipeline layout"),
         bind_group_layouts: &[Some(&uniform_layout)],
         immediate_size: 0,
     });
     let textures = AssetTextures::new(device, &render_state.queue);
-    let texture_layout = super::textures::bind_group_layout(device);
+    let texture_layout =
+        super::textures::bind_group_layout(device, "bsarap base colour texture layout");
     let textured_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
         label: Some("bsarap textured pipeline layout"),
         bind_group_layouts: &[Some(&uniform_layout), Some(&texture_layout)],

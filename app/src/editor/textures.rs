@@ -10,10 +10,11 @@ use eframe::egui_wgpu::wgpu;
 
 use super::render_layout::{DecodedImage, RenderLayout};
 
-/// The layout of bind group 1 of the textured pipeline.
-pub fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
+/// A bind group layout of one filterable 2D texture (binding 0) and its sampler (binding 1),
+/// read by the fragment stage: the textured pipeline's group 1 and the blit's group 0.
+pub fn bind_group_layout(device: &wgpu::Device, label: &str) -> wgpu::BindGroupLayout {
     device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some("bsarap base colour texture layout"),
+        label: Some(label),
         entries: &[
             wgpu::BindGroupLayoutEntry {
                 binding: 0,
@@ -47,7 +48,7 @@ pub struct AssetTextures {
 
 impl AssetTextures {
     pub fn new(device: &wgpu::Device, queue: &wgpu::Queue) -> AssetTextures {
-        let layout = bind_group_layout(device);
+        let layout = bind_group_layout(device, "bsarap base colour texture layout");
         let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
             label: Some("bsarap base colour sampler"),
             address_mode_u: wgpu::AddressMode::Repeat,
