@@ -69,6 +69,10 @@ pub struct ExportArgs {
     pub json: bool,
 }
 
+/// The morph targets every WebGL 2 viewer can hold: three.js keeps one layer of a 2D array
+/// texture per target, and WebGL 2 guarantees at least 256 layers (`MAX_ARRAY_TEXTURE_LAYERS`).
+const VIEWER_MORPH_TARGETS: usize = 256;
+
 /// Frames of `--mesh` mode when `--frames` is not given: one second at 24 fps, both ends.
 const MESH_MODE_FRAMES: usize = 25;
 
@@ -224,6 +228,14 @@ pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
                     size as f64 / 1e6,
                     export.n_targets()
                 );
+                if export.n_targets() > VIEWER_MORPH_TARGETS {
+                    eprintln!(
+                        "note: {} morph targets; three.js on WebGL 2 is only sure to play {} \
+                         (one texture layer each, MAX_ARRAY_TEXTURE_LAYERS); --every K keeps fewer",
+                        export.n_targets(),
+                        VIEWER_MORPH_TARGETS
+                    );
+                }
             }
             let pb = bar(n_frames as u64, "writing", a.json);
             let written = export.write(&a.output, &mut |done, _| {
