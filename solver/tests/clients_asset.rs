@@ -9,7 +9,7 @@
 //!
 //! Skip rules as clients.rs: a missing tool prints "skipped: ..." and passes (every test needs
 //! bpy to author the asset); a tool that cannot start fails under CI=true.
-#![allow(clippy::unwrap_used)]
+#![allow(clippy::unwrap_used, clippy::expect_used)]
 
 #[path = "support/clients.rs"]
 mod clients;
