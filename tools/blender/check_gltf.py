@@ -15,7 +15,11 @@ The report (one JSON object on the last line of stdout, prefixed by "REPORT "):
     key frame, the world-space bounding box of the *evaluated* mesh (modifiers, shape keys and
     the action applied): [{"frame", "min": [x, y, z], "max": [x, y, z]}];
   - "positions": the evaluated world-space vertex positions at each key frame (only with
-    --positions): [[[x, y, z], ...], ...], one list per key frame.
+    --positions): [[[x, y, z], ...], ...], one list per key frame;
+  - "slider_range": [smallest slider_min, largest slider_max] of the shape keys besides the
+    basis (Blender clamps a key's value to its slider range; null when there are none);
+  - "key_values": at each key frame, the value of every shape key besides the basis as the
+    action set it (the glTF morph weights as Blender plays them).
 Blender's axes are Z-up; glTF's Y-up. The importer turns (x, y, z)_gltf into
 (x, -z, y)_blender; "positions" and the bounding boxes are converted back to glTF axes so that
 they compare with the file directly.
@@ -121,7 +125,15 @@ def main():
             "action": action.name if action else None,
             "keyframes": keyframes,
             "samples": [],
+            "slider_range": None,
+            "key_values": [],
         }
+        blocks = list(keys.key_blocks)[1:] if keys else []
+        if blocks:
+            entry["slider_range"] = [
+                min(b.slider_min for b in blocks),
+                max(b.slider_max for b in blocks),
+            ]
         frames = []
         if action is not None:
             start, end = action.frame_range
@@ -133,8 +145,10 @@ def main():
             pts = evaluated_positions(obj, bpy.context.evaluated_depsgraph_get())
             lo, hi = bbox(pts)
             entry["samples"].append({"frame": f, "min": lo, "max": hi})
-            if want_positions and i >= len(frames) - len(keyframes):
-                positions.append(pts)
+            if i >= len(frames) - len(keyframes):
+                entry["key_values"].append([b.value for b in blocks])
+                if want_positions:
+                    positions.append(pts)
         if want_positions:
             entry["positions"] = positions
         meshes.append(entry)
