@@ -84,6 +84,9 @@ pub fn played_error(bytes: &[u8], times: &[f64], frames: &[Vec<[f64; 3]>]) -> f6
     let doc = parse(bytes);
     let g = &doc.gltf;
     let prim = g.meshes().next().unwrap().primitives().next().unwrap();
+    // The mesh's node scale (the quantized encoding's k_m), applied to base and deltas alike.
+    let node = g.nodes().find(|n| n.mesh().is_some_and(|m| m.index() == 0)).unwrap();
+    let k = node.transform().decomposed().2.map(f64::from);
     let base = read(&doc, &prim.get(&gltf::Semantic::Positions).unwrap());
     let deltas: Vec<Vec<Vec<f64>>> =
         prim.morph_targets().map(|t| read(&doc, &t.positions().unwrap())).collect();
@@ -98,9 +101,10 @@ pub fn played_error(bytes: &[u8], times: &[f64], frames: &[Vec<[f64; 3]>]) -> f6
         let alpha = if a == b { 1.0 } else { (t - keys[a]) / (keys[b] - keys[a]) }.clamp(0.0, 1.0);
         for (v, p) in frame.iter().enumerate() {
             for c in 0..3 {
-                let got = base[v][c]
-                    + (1.0 - alpha) * w[a * n + a] * deltas[a][v][c]
-                    + alpha * w[b * n + b] * deltas[b][v][c];
+                let got = k[c]
+                    * (base[v][c]
+                        + (1.0 - alpha) * w[a * n + a] * deltas[a][v][c]
+                        + alpha * w[b * n + b] * deltas[b][v][c]);
                 err = err.max((got - p[c]).abs());
             }
         }

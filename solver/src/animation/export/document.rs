@@ -275,9 +275,17 @@ impl GltfExport<'_> {
             });
         }
 
-        // Base attributes of every primitive.
+        // Base attributes of every primitive; positions divided by their mesh's node scale.
+        let mut prim_scale = vec![1.0f32; layout.primitives.len()];
+        for (mesh, &k) in layout.meshes.iter().zip(&self.node_scales) {
+            for &pi in &mesh.primitives {
+                prim_scale[pi] = k;
+            }
+        }
         let mut primitives = Vec::with_capacity(layout.primitives.len());
-        for (p, rest_normals) in layout.primitives.iter().zip(&self.rest_normals) {
+        for ((p, rest_normals), &k) in
+            layout.primitives.iter().zip(&self.rest_normals).zip(&prim_scale)
+        {
             let indices: Vec<u8> = p.indices.iter().flat_map(|i| i.to_le_bytes()).collect();
             let n = p.vertices.len();
             let indices = b.data(
@@ -289,7 +297,7 @@ impl GltfExport<'_> {
                 None,
             );
             let pos: Vec<[f32; 3]> =
-                p.vertices.iter().map(|v| self.rest_f32[v[0] as usize]).collect();
+                p.vertices.iter().map(|v| self.rest_f32[v[0] as usize].map(|c| c / k)).collect();
             let bnd = bounds(&pos);
             let mut attributes = BTreeMap::new();
             let a = b.data(&f32_bytes(&pos), n, C::F32, T::Vec3, Some(B::ArrayBuffer), Some(bnd));
@@ -349,8 +357,12 @@ impl GltfExport<'_> {
                 let deltas: Vec<_> = mesh.primitives.iter().map(|&pi| delta(pi)).collect();
                 let normal_deltas: Vec<_> =
                     mesh.primitives.iter().map(|&pi| normal_delta(pi)).collect();
-                let (weight, stored) =
-                    store_mesh_frame(self.settings.encoding, &deltas, &normal_deltas);
+                let (weight, stored) = store_mesh_frame(
+                    self.settings.encoding,
+                    self.node_scales[mi],
+                    &deltas,
+                    &normal_deltas,
+                );
                 weights[mi].push(weight);
                 for (&pi, (positions, normals)) in mesh.primitives.iter().zip(&stored) {
                     let n = layout.primitives[pi].vertices.len();
@@ -408,9 +420,11 @@ impl GltfExport<'_> {
                 primitives: mesh.primitives.iter().map(|&pi| primitives[pi].clone()).collect(),
                 weights: Some(vec![0.0; total]),
             });
+            let k = self.node_scales[mi];
             let node = b.root.push(json::Node {
                 mesh: Some(gmesh),
                 name: Some(node_name.to_string()),
+                scale: (k != 1.0).then_some([k; 3]),
                 ..Default::default()
             });
             scene_nodes.push(node);

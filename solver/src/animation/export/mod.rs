@@ -32,13 +32,20 @@
 //! `KHR_mesh_quantization`, required): per mesh $m$ and frame $i$ the scale
 //! $s_{m,i} = \max_{v \in m, d} |\Delta^{(i)}_{v,d}|$ (rounded up to f32), stored deltas
 //! $q = \mathrm{round}(32767\,\Delta / s_{m,i}) \in [-32767, 32767]$ as normalized SHORT
-//! (readers decode $q / 32767$), and the weight $w_i = s_{m,i}$, so a viewer draws
-//! $$\tilde p_v + w_i \frac{q_v}{32767} = p^{(i)}_v + e, \qquad |e_d| \le \frac{s_{m,i}}{2 \cdot 32767}$$
-//! per component. The scale lives in the weights, not in a node scale, because glTF weights
-//! multiply the deltas only (a node scale would scale the base mesh too) and any real weight is
-//! valid; weights are per mesh, hence one scale per mesh and frame. `NORMAL` deltas are then
-//! stored as f32 values $(n^{(i)} - \tilde n)/s_{m,i}$ (0 when $s_{m,i} = 0$), decoded by the same
-//! weight. Normal deltas are not quantized: their range is unrelated to the positions'.
+//! (readers decode $q / 32767$). The scale is carried by the weight and, where a frame moves
+//! more than one unit, by the mesh's node: with $k_m$ the smallest power of two
+//! $\ge \max(1, \max_i s_{m,i})$, the node has scale $k_m$, its base positions are stored as
+//! $\tilde p_v / k_m$ (exact: a power of two) and the weight is $w_i = s_{m,i} / k_m \le 1$, so a
+//! viewer draws
+//! $$k_m\Big(\frac{\tilde p_v}{k_m} + w_i \frac{q_v}{32767}\Big) = p^{(i)}_v + e, \qquad |e_d| \le \frac{s_{m,i}}{2 \cdot 32767}$$
+//! per component. Weights stay in $[0, 1]$ because Blender's glTF importer clamps a shape key's
+//! value to its slider range, which it widens past $[0, 1]$ only from the weights at the first
+//! key (all 0 here): weights above 1 would play as 1 (measured in `tests/clients_asset.rs`).
+//! Weights are per mesh, hence one scale per mesh and frame; $k_m = 1$ (no node scale) whenever
+//! no frame moves a vertex by more than one unit. `NORMAL` deltas are stored as f32 values
+//! $(n^{(i)} - \tilde n)/w_i$ (0 when $s_{m,i} = 0$), decoded by the same weight (the node's
+//! uniform scale does not change normals). Normal deltas are not quantized: their range is
+//! unrelated to the positions'.
 //!
 //! **Buffer.** One buffer; every view starts on a 4-byte boundary, in this order: images
 //! (`.glb`), each primitive's base attributes, each kept frame's targets (primitive order), the
@@ -183,8 +190,42 @@ pub struct GltfExport<'a> {
     rest_f32: Vec<[f32; 3]>,
     /// Stored unit rest normals of every primitive's vertices.
     rest_normals: Vec<Vec<[f32; 3]>>,
+    /// The node scale $k_m$ of every mesh of the layout (1 for `Float`; see the module doc).
+    node_scales: Vec<f32>,
     root: json::Root,
     bin_len: usize,
+}
+
+/// The node scale $k_m$ of every mesh (module doc): the smallest power of two at least 1 and
+/// at least the largest quantization scale of the mesh over `frames`.
+fn node_scales<'f>(
+    layout: &Layout,
+    asset: &Asset,
+    vertex_map: &[Option<u32>],
+    rest_f32: &[[f32; 3]],
+    frames: impl Iterator<Item = &'f Vec<[f64; 3]>>,
+) -> Vec<f32> {
+    let mut largest = vec![0.0f64; layout.meshes.len()];
+    for frame in frames {
+        let pose = asset.layout_positions(vertex_map, frame);
+        for (mesh, largest) in layout.meshes.iter().zip(&mut largest) {
+            for &pi in &mesh.primitives {
+                for v in &layout.primitives[pi].vertices {
+                    let (p, r) = (pose[v[0] as usize], rest_f32[v[0] as usize]);
+                    for d in 0..3 {
+                        *largest = largest.max((p[d] - r[d] as f64).abs());
+                    }
+                }
+            }
+        }
+    }
+    largest
+        .iter()
+        .map(|&m| {
+            let s = targets::quantization_scale(m) as f64;
+            (s.max(1.0).log2().ceil().exp2()) as f32
+        })
+        .collect()
 }
 
 /// The kept frame indices of `n` frames with step `k` (the last always kept).
@@ -290,10 +331,18 @@ impl<'a> GltfExport<'a> {
             prev = t;
         }
         let layout = Layout::new(&asset, &vertex_map);
-        let rest_f32 = asset.positions.iter().map(|p| p.map(|c| c as f32)).collect();
+        let rest_f32: Vec<[f32; 3]> = asset.positions.iter().map(|p| p.map(|c| c as f32)).collect();
         let rest_normals = layout.rest_normals(&asset);
+        let kept = kept_frames(n, settings.every_k);
+        let node_scales = match settings.encoding {
+            Encoding::Float => vec![1.0; layout.meshes.len()],
+            Encoding::Quantized => {
+                let frames = kept.iter().map(|&i| &recording.frames[i]);
+                node_scales(&layout, &asset, &vertex_map, &rest_f32, frames)
+            }
+        };
         let mut export = GltfExport {
-            kept: kept_frames(n, settings.every_k),
+            kept,
             asset,
             vertex_map,
             recording,
@@ -302,6 +351,7 @@ impl<'a> GltfExport<'a> {
             layout,
             rest_f32,
             rest_normals,
+            node_scales,
             root: json::Root::default(),
             bin_len: 0,
         };

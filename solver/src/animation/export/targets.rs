@@ -152,7 +152,7 @@ pub(super) fn encode(values: &Values, sparse: bool) -> Encoded {
 
 /// The stored quantization scale of one mesh in one frame: the smallest f32
 /// $s \ge \max|\Delta|$ (0 when nothing moves measurably).
-fn quantization_scale(max_abs: f64) -> f32 {
+pub(super) fn quantization_scale(max_abs: f64) -> f32 {
     if max_abs < 1e-30 {
         return 0.0;
     }
@@ -167,10 +167,12 @@ fn quantization_scale(max_abs: f64) -> f32 {
 /// weight and, per primitive, the POSITION values and (when given) the NORMAL values, from the
 /// f64 deltas of every primitive.
 ///
-/// `Float`: weight 1, f32 deltas. `Quantized`: weight $s = \max|\Delta|$ over the mesh,
-/// positions $\mathrm{round}(32767\,\Delta/s)$ as normalized i16, normals $\Delta n / s$ as f32.
+/// `Float`: weight 1, f32 deltas. `Quantized`: weight $w = s / k$ with $s = \max|\Delta|$ over
+/// the mesh and $k$ its node scale, positions $\mathrm{round}(32767\,\Delta/s)$ as normalized
+/// i16, normals $\Delta n / w$ as f32.
 pub(super) fn store_mesh_frame(
     encoding: Encoding,
+    node_scale: f32,
     deltas: &[Vec<[f64; 3]>],
     normal_deltas: &[Option<Vec<[f64; 3]>>],
 ) -> (f32, Vec<(Values, Option<Values>)>) {
@@ -198,15 +200,16 @@ pub(super) fn store_mesh_frame(
                     (x / s as f64 * 32767.0).round().clamp(-32767.0, 32767.0) as i16
                 }
             };
+            let w = s / node_scale;
             let stored = deltas
                 .iter()
                 .zip(normal_deltas)
                 .map(|(d, n)| {
                     let p = Values::I16(d.iter().map(|v| v.map(q)).collect());
-                    (p, n.as_deref().map(|n| f32s(n, s as f64)))
+                    (p, n.as_deref().map(|n| f32s(n, w as f64)))
                 })
                 .collect();
-            (s, stored)
+            (w, stored)
         }
     }
 }
@@ -240,7 +243,7 @@ mod tests {
     fn quantized_values_meet_the_error_bound() {
         let d = vec![vec![[0.3, -0.7, 1e-9], [0.0, 0.123_456_789, -0.5]], vec![[0.25, 0.0, 0.0]]];
         let n = vec![None, Some(vec![[0.5; 3], [0.0; 3]])];
-        let (s, stored) = store_mesh_frame(Encoding::Quantized, &d, &n);
+        let (s, stored) = store_mesh_frame(Encoding::Quantized, 1.0, &d, &n);
         assert!(s as f64 >= 0.7 && (s as f64) < 0.7 * (1.0 + 1e-6));
         for (deltas, (p, _)) in d.iter().zip(&stored) {
             let Values::I16(q) = p else { panic!("not i16") };
@@ -253,10 +256,10 @@ mod tests {
         }
         let Some(Values::F32(nv)) = &stored[1].1 else { panic!("normals missing") };
         assert!((nv[0][0] * s - 0.5).abs() < 1e-6);
-        let (s, stored) = store_mesh_frame(Encoding::Quantized, &[vec![[0.0; 3]]], &[None]);
+        let (s, stored) = store_mesh_frame(Encoding::Quantized, 1.0, &[vec![[0.0; 3]]], &[None]);
         assert_eq!(s, 0.0);
         assert!(matches!(&stored[0].0, Values::I16(q) if q[0] == [0; 3]));
-        let (s, _) = store_mesh_frame(Encoding::Float, &d, &n);
+        let (s, _) = store_mesh_frame(Encoding::Float, 1.0, &d, &n);
         assert_eq!(s, 1.0);
     }
 }
