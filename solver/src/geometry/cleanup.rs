@@ -101,7 +101,8 @@ impl CleanReport {
         }
         if self.components > 1 {
             out.push(format!(
-                "the mesh has {} connected components; a component without a handle is held at rest",
+                "the mesh has {} connected components; one without a handle follows the handled surface \
+                 nearest to it, rigidly",
                 self.components
             ));
         }
