@@ -682,14 +682,14 @@ fn a_textured_asset_shows_its_texture_and_the_clay_toggle_switches_back() {
     h.snapshot_options("editor_textured_group", &snapshot_options());
 }
 
-/// A big unit sphere and a small one resting on its top (two components, the big one first),
-/// written as OBJ in `dir`.
+/// A big unit sphere and a small one just above its top (two components, the big one first;
+/// touching, they would share a welded vertex), written as OBJ in `dir`.
 fn two_spheres(dir: &std::path::Path) -> PathBuf {
     let big = solver::geometry::shapes::icosphere(3);
     let small = solver::geometry::shapes::icosphere(1);
     let mut p: Vec<[f64; 3]> = big.positions().to_vec();
     let n = p.len() as u32;
-    p.extend(small.positions().iter().map(|q| [0.2 * q[0], 1.2 + 0.2 * q[1], 0.2 * q[2]]));
+    p.extend(small.positions().iter().map(|q| [0.2 * q[0], 1.25 + 0.2 * q[1], 0.2 * q[2]]));
     let mut t: Vec<[u32; 3]> = big.triangles().to_vec();
     t.extend(small.triangles().iter().map(|f| f.map(|v| v + n)));
     let path = dir.join("two_spheres.obj");

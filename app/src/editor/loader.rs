@@ -150,8 +150,7 @@ fn prepare(
     let radius = ((hi - lo).length() * 0.5).max(1e-6);
     let grid = Arc::new(VertexData { version, vertices: build_grid(center, lo.y, radius * 1.5) });
     // Without handles this is the union-find only (no anchor patches).
-    let components =
-        Arc::new(solver::list_components(&mesh, None, &solver::LooseParts::default()));
+    let components = Arc::new(solver::list_components(&mesh, None, &solver::LooseParts::default()));
     let topology = Arc::new(Topology {
         version,
         triangles: mesh.triangles().iter().flatten().copied().collect(),

@@ -439,7 +439,8 @@ impl EditorApp {
                 self.session.history.push(self.session.edit.clone());
                 // Component numbers depend on the mesh only: the loose parts' modes stay.
                 let parts = self.session.edit.loose_parts.clone();
-                self.session.edit = EditState { loose_parts: parts, ..EditState::from_labels(labels) };
+                self.session.edit =
+                    EditState { loose_parts: parts, ..EditState::from_labels(labels) };
                 self.interaction.active_group = (!self.session.edit.groups.is_empty()).then_some(0);
                 self.info = Some(format!("handles from {}", file_name(path)));
                 self.display.color_version += 1;

@@ -201,11 +201,14 @@ impl PoseSolver for EndlessSettle {
 fn a_new_pose_interrupts_settling() {
     let log = Arc::new(Mutex::new(Vec::new()));
     let shared_log = log.clone();
-    let factory: PoseSolverFactory = Arc::new(move |_, mesh: &Mesh, handles: &Handles, _: &_, _: &_| {
-        let shift =
-            Shift { rest: mesh.positions().to_vec(), handle_vertices: handles.handle_vertices() };
-        Ok(Box::new(EndlessSettle { shift, log: shared_log.clone() }) as Box<dyn PoseSolver>)
-    });
+    let factory: PoseSolverFactory =
+        Arc::new(move |_, mesh: &Mesh, handles: &Handles, _: &_, _: &_| {
+            let shift = Shift {
+                rest: mesh.positions().to_vec(),
+                handle_vertices: handles.handle_vertices(),
+            };
+            Ok(Box::new(EndlessSettle { shift, log: shared_log.clone() }) as Box<dyn PoseSolver>)
+        });
     let h = SolverHandle::spawn(Slot::Main, factory, Arc::new(|| {})).unwrap();
     h.send(scene(1, vec![GroupPose::default()]));
     wait_frame(&h, |f| f.stats.fine_iterations == 1);
@@ -323,10 +326,11 @@ fn loose_parts_change_without_a_rebuild() {
     let builds = Arc::new(Mutex::new(0usize));
     let counted = builds.clone();
     let inner = crate::editor::pose_solvers::factory();
-    let factory: PoseSolverFactory = Arc::new(move |slot, mesh: &Mesh, handles: &Handles, s: &_, l: &_| {
-        *counted.lock().unwrap() += 1;
-        inner(slot, mesh, handles, s, l)
-    });
+    let factory: PoseSolverFactory =
+        Arc::new(move |slot, mesh: &Mesh, handles: &Handles, s: &_, l: &_| {
+            *counted.lock().unwrap() += 1;
+            inner(slot, mesh, handles, s, l)
+        });
     let h = SolverHandle::spawn(Slot::Compare, factory, Arc::new(|| {})).unwrap();
     let moved = GroupPose { translation: [0.3, 0.0, 0.0], ..Default::default() };
     h.send(SolverCommand::SetScene {
@@ -340,7 +344,10 @@ fn loose_parts_change_without_a_rebuild() {
     });
     let small_vertices = n as usize..p.len();
     let shift = |f: &SolvedFrame| {
-        small_vertices.clone().map(|v| (f.positions[v][0] as f64 - p[v][0]).abs()).fold(0.0, f64::max)
+        small_vertices
+            .clone()
+            .map(|v| (f.positions[v][0] as f64 - p[v][0]).abs())
+            .fold(0.0, f64::max)
     };
     let f = wait_frame(&h, |f| f.pose_generation == 1 && f.stats.done);
     assert!(shift(&f) > 0.1, "the small sphere follows the moved top ({})", shift(&f));
