@@ -84,7 +84,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             v => (Slot::Main, MethodSettings { bs_variant: v, acceleration, ..defaults }),
         };
         let t = Instant::now();
-        let mut d = make(slot, &mesh, &handles, &settings)?;
+        let mut d = make(slot, &mesh, &handles, &settings, &solver::LooseParts::default())?;
         let precompute = t.elapsed().as_secs_f64() * 1e3;
         let mut x = mesh.positions().to_vec();
         let (mut times, mut iterations, mut at_cap) = (Vec::new(), 0, 0);

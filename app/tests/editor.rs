@@ -681,3 +681,110 @@ fn a_textured_asset_shows_its_texture_and_the_clay_toggle_switches_back() {
     assert!(tinted[0] > 2 * tinted[1], "the texture no longer shows under it: {tinted:?}");
     h.snapshot_options("editor_textured_group", &snapshot_options());
 }
+
+/// A big unit sphere and a small one just above its top (two components, the big one first;
+/// touching, they would share a welded vertex), written as OBJ in `dir`.
+fn two_spheres(dir: &std::path::Path) -> PathBuf {
+    let big = solver::geometry::shapes::icosphere(3);
+    let small = solver::geometry::shapes::icosphere(1);
+    let mut p: Vec<[f64; 3]> = big.positions().to_vec();
+    let n = p.len() as u32;
+    p.extend(small.positions().iter().map(|q| [0.2 * q[0], 1.25 + 0.2 * q[1], 0.2 * q[2]]));
+    let mut t: Vec<[u32; 3]> = big.triangles().to_vec();
+    t.extend(small.triangles().iter().map(|f| f.map(|v| v + n)));
+    let path = dir.join("two_spheres.obj");
+    solver::io::write_obj(&path, &p, &t).unwrap();
+    path
+}
+
+/// The largest change of a pairwise distance among `vs` between `a` and `b` (0 for a rigid
+/// motion).
+fn rigidity_error(vs: &[usize], a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
+    let mut worst = 0.0f64;
+    for (i, &u) in vs.iter().enumerate() {
+        for &v in &vs[i + 1..] {
+            worst = worst.max((dist(a[u], a[v]) - dist(b[u], b[v])).abs());
+        }
+    }
+    worst
+}
+
+#[test]
+fn a_loose_part_follows_the_handles_and_can_be_pinned_from_the_parts_panel() {
+    use solver::ComponentMode;
+    let dir = temp_dir("parts");
+    let mut h = harness(two_spheres(&dir));
+    step_until(&mut h, "the two spheres", |a| !a.is_loading() && a.n_vertices() > 0);
+    // The panel lists both pieces, and nothing is dirty yet.
+    assert!(h.query_by_label_contains("Part 0:").is_some());
+    assert!(h.query_by_label_contains("Part 1:").is_some());
+    assert!(h.query_by_label_contains("Part 2:").is_none());
+    assert!(!h.state().has_unsaved_changes());
+
+    // Handles on the big sphere: its bottom cap fixed (group 0), its top cap moved (group 1).
+    let rest = h.state().rest_positions().unwrap().to_vec();
+    let diag = h.state().diagonal();
+    let small: Vec<usize> = (0..rest.len()).filter(|&v| rest[v][1] > 1.0 + 1e-6).collect();
+    assert_eq!(small.len(), 42);
+    let labels = rest
+        .iter()
+        .map(|p| {
+            let on_big = p[1] < 1.0 + 1e-6;
+            match p[1] {
+                y if on_big && y < -0.7 => Some(0),
+                y if on_big && y > 0.7 => Some(1),
+                _ => None,
+            }
+        })
+        .collect();
+    let mut e = app::editor::undo::EditState::from_labels(labels);
+    e.groups[1].pose.translation = [0.3, 0.0, 0.0];
+    h.state_mut().set_edit_state(e);
+    step_until(&mut h, "the posed spheres", settled);
+    assert!(h.query_by_label("handles").is_some());
+    assert!(h.query_by_label("follows part 0").is_some(), "the small sphere rides on part 0");
+
+    // Following: the small sphere moved, rigidly.
+    let frame = |h: &Harness<'_, EditorApp>| -> Vec<[f64; 3]> {
+        let f = h.state().latest_frame(Slot::Main).unwrap();
+        f.positions.iter().map(|p| p.map(f64::from)).collect()
+    };
+    let followed = frame(&h);
+    let moved = small.iter().map(|&v| dist(followed[v], rest[v])).fold(0.0, f64::max);
+    assert!(moved > 0.05 * diag, "the loose sphere did not follow ({moved})");
+    let err = rigidity_error(&small, &followed, &rest);
+    assert!(err < 1e-5 * diag, "the loose sphere deformed ({err})");
+
+    // Pin it from the panel: it goes back to rest, as one undoable, unsaved edit.
+    h.get_by_label("Pin").click();
+    h.step();
+    assert_eq!(h.state().edit_state().loose_parts.mode(1), ComponentMode::Pin);
+    assert!(h.state().has_unsaved_changes());
+    step_until(&mut h, "the pinned frame", settled);
+    let pinned = frame(&h);
+    for &v in &small {
+        assert!(dist(pinned[v], rest[v]) < 1e-6 * diag, "pinned vertex {v} moved");
+    }
+    assert!(h.query_by_label("pinned").is_some());
+    // The big sphere's pose did not change.
+    let big_change =
+        (0..rest.len()).filter(|v| !small.contains(v)).map(|v| dist(pinned[v], followed[v]));
+    assert!(big_change.fold(0.0, f64::max) < 1e-3 * diag);
+
+    // A saved scene keeps the choice.
+    let scene_path = dir.join("pinned.json");
+    h.state_mut().save_scene(&scene_path).unwrap();
+    let loaded = solver::animation::scene::Scene::load(&scene_path).unwrap();
+    assert_eq!(loaded.scene.loose_parts.mode(1), ComponentMode::Pin);
+
+    // Ctrl+Z: following again, where it was.
+    h.key_press_modifiers(Modifiers::COMMAND, egui::Key::Z);
+    h.step();
+    assert_eq!(h.state().edit_state().loose_parts.mode(1), ComponentMode::Follow);
+    step_until(&mut h, "the following frame again", settled);
+    let again = frame(&h);
+    for &v in &small {
+        assert!(dist(again[v], followed[v]) < 1e-3 * diag, "vertex {v} not back on its ride");
+    }
+    assert!(h.query_by_label("follows part 0").is_some());
+}

@@ -2,8 +2,9 @@
 //!
 //! What a scene holds: the mesh path (relative to the scene file), the handle labels inline,
 //! the timeline ([`effective_timeline`]: static non-rest poses become one-key paths, so the
-//! pose you see is the pose you load), the method and its settings, the camera, and the group
-//! names and colors (`editor`). Reading and writing (atomic) are `solver::animation::scene`'s.
+//! pose you see is the pose you load), the method and its settings, the loose parts' modes
+//! (`loose_parts`; a scene without them reads as every loose part following), the camera, and
+//! the group names and colors (`editor`). Reading and writing (atomic) are `solver::animation::scene`'s.
 
 use std::path::{Path, PathBuf};
 
@@ -40,6 +41,7 @@ pub fn to_scene(scene_path: &Path, input: &DocumentInput) -> Result<Scene, Strin
     let labels = edit.labels.iter().map(|l| l.map_or(-1, i64::from)).collect();
     let mut scene = Scene::new(mesh, HandlesSpec { labels: Some(labels), ..Default::default() });
     scene.timeline = effective_timeline(edit);
+    scene.loose_parts = edit.loose_parts.clone();
     let s = input.settings;
     scene.method = s.bs_variant;
     scene.arap = s.arap_config();
@@ -88,6 +90,7 @@ pub fn apply_scene(scene: &Scene, labels: Vec<Option<u32>>, settings: &MethodSet
         }
     }
     edit.timeline = scene.timeline.clone();
+    edit.loose_parts = scene.loose_parts.clone();
     let time = extra
         .and_then(|e| e.get("time"))
         .and_then(|t| t.as_f64())
@@ -190,5 +193,48 @@ mod tests {
         let empty = EditState::from_labels(vec![None; mesh.n_vertices()]);
         let err = to_scene(&scene_path, &DocumentInput { edit: &empty, ..input }).err().unwrap();
         assert!(err.contains("paint"), "{err}");
+    }
+
+    #[test]
+    fn loose_parts_modes_survive_a_scene_round_trip_and_old_scenes_follow() {
+        use solver::{ComponentMode, LooseParts};
+        let dir = solver::testing::ScratchDir::new("doc-parts");
+        let mesh_path = dir.join("bar.obj");
+        let (mesh, handles) = solver::geometry::shapes::bumpy_bar(1);
+        solver::io::write_obj(&mesh_path, mesh.positions(), mesh.triangles()).unwrap();
+        let mut edit = EditState::from_labels(handles.labels().to_vec());
+        assert!(edit.loose_parts.is_default(), "a new document lets loose parts follow");
+        edit.loose_parts.set(2, ComponentMode::Pin);
+        edit.loose_parts.set(3, ComponentMode::Pin);
+        let camera = OrbitCamera::default();
+        let input = DocumentInput {
+            mesh_path: &mesh_path,
+            edit: &edit,
+            settings: &MethodSettings::default(),
+            camera: &camera,
+            time: 0.0,
+        };
+        let scene_path = dir.join("pinned.json");
+        let scene = to_scene(&scene_path, &input).unwrap();
+        assert_eq!(scene.loose_parts, edit.loose_parts);
+        scene.save(&scene_path).unwrap();
+        let text = std::fs::read_to_string(&scene_path).unwrap();
+        assert!(text.contains("\"loose_parts\""), "{text}");
+
+        let loaded = solver::animation::scene::Scene::load(&scene_path).unwrap();
+        let labels = loaded.handles.labels().to_vec();
+        let back = apply_scene(&loaded.scene, labels.clone(), &MethodSettings::default());
+        assert_eq!(back.edit.loose_parts, edit.loose_parts);
+        assert_eq!(back.edit.loose_parts.mode(2), ComponentMode::Pin);
+        assert_eq!(back.edit.loose_parts.mode(1), ComponentMode::Follow);
+
+        // A scene written before loose parts existed (no such field) reads as Follow.
+        let mut value: serde_json::Value = serde_json::from_str(&text).unwrap();
+        value.as_object_mut().unwrap().remove("loose_parts");
+        let old_path = dir.join("old.json");
+        std::fs::write(&old_path, serde_json::to_string(&value).unwrap()).unwrap();
+        let old = solver::animation::scene::Scene::load(&old_path).unwrap();
+        let back = apply_scene(&old.scene, labels, &MethodSettings::default());
+        assert_eq!(back.edit.loose_parts, LooseParts::default());
     }
 }

@@ -16,7 +16,7 @@ use solver::animation::export::{AssetExport, ExportSettings, GltfExport, GltfFor
 use solver::animation::pointcache::{Pc2, write_pc2};
 use solver::animation::recording::{Recording, record};
 use solver::animation::timeline::Timeline;
-use solver::{ArapConfig, BaseConfig, Deformer, Handles, Mesh, Method};
+use solver::{ArapConfig, BaseConfig, Deformer, Handles, LooseParts, Mesh, Method};
 
 use super::loader::FileLayout;
 use super::pose::{GroupPose, handle_targets};
@@ -116,6 +116,8 @@ pub struct RecordInput {
     pub method: Method,
     pub config: ArapConfig,
     pub base: BaseConfig,
+    /// Follow or pin per component without handles, as the document says.
+    pub loose_parts: LooseParts,
 }
 
 /// Precomputes the method and records every frame of the timeline.
@@ -129,10 +131,20 @@ pub fn spawn_record(
         "record",
         move || repaint(),
         move |progress| {
-            let RecordInput { mesh, layout, handles, timeline, n_frames, method, config, base } =
-                input;
-            let mut deformer = Deformer::with_base(method, &mesh, &handles, &config, &base)
-                .map_err(|e| format!("recording: precomputing {}: {e}", method.name()))?;
+            let RecordInput {
+                mesh,
+                layout,
+                handles,
+                timeline,
+                n_frames,
+                method,
+                config,
+                base,
+                loose_parts,
+            } = input;
+            let mut deformer =
+                Deformer::with_loose_parts(method, &mesh, &handles, &config, &base, &loose_parts)
+                    .map_err(|e| format!("recording: precomputing {}: {e}", method.name()))?;
             let fps = timeline.fps;
             let recording = record(
                 &mut deformer,
@@ -281,6 +293,7 @@ mod tests {
             method: Method::Arap,
             config: ArapConfig { max_iterations: 50, ..ArapConfig::default() },
             base: BaseConfig::default(),
+            loose_parts: LooseParts::default(),
         }
     }
 

@@ -67,6 +67,9 @@ pub struct LoadedFile {
     pub selection_path: Option<PathBuf>,
     /// The scene file this was opened from, and its contents.
     pub document: Option<(PathBuf, solver::animation::scene::Scene)>,
+    /// The connected components (index, vertex count, first vertex), for the Parts panel;
+    /// which have handles and what the loose ones ride on come from the solver's frames.
+    pub components: Arc<Vec<solver::ComponentInfo>>,
 }
 
 /// Whether `path` names a scene file rather than a mesh.
@@ -146,6 +149,8 @@ fn prepare(
     let center = (lo + hi) * 0.5;
     let radius = ((hi - lo).length() * 0.5).max(1e-6);
     let grid = Arc::new(VertexData { version, vertices: build_grid(center, lo.y, radius * 1.5) });
+    // Without handles this is the union-find only (no anchor patches).
+    let components = Arc::new(solver::list_components(&mesh, None, &solver::LooseParts::default()));
     let topology = Arc::new(Topology {
         version,
         triangles: mesh.triangles().iter().flatten().copied().collect(),
@@ -192,6 +197,7 @@ fn prepare(
         default_labels,
         selection_path,
         document: None,
+        components,
     })
 }
 

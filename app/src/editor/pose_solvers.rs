@@ -1,25 +1,40 @@
 //! The pose solvers the solver threads run: `solver::Deformer` (ARAP and the BS-ARAP variants)
 //! behind the thread's [`PoseSolver`] trait, which also lets tests plug in trivial methods.
+//! Loose parts (components without handles) follow or stay pinned as the document says
+//! (`solver::deform::riders`); changing their modes does not refactorize.
 
 use std::sync::Arc;
 
-use solver::{FrameStats, Handles, Mesh};
+use solver::{FrameStats, Handles, LooseParts, Mesh};
 
 use super::solver_thread::{MethodSettings, PoseSolver, PoseSolverFactory, Slot};
 
 /// The factory used by the editor: the main slot runs `settings.bs_variant`, the comparison
 /// slot `settings.compare_variant` (ARAP by default).
 pub fn factory() -> PoseSolverFactory {
-    Arc::new(|slot: Slot, mesh: &Mesh, handles: &Handles, settings: &MethodSettings| {
-        let config = settings.arap_config();
-        let m = match slot {
-            Slot::Compare => settings.compare_variant,
-            Slot::Main => settings.bs_variant,
-        };
-        let d = solver::Deformer::with_base(m, mesh, handles, &config, &settings.base)
+    Arc::new(
+        |slot: Slot,
+         mesh: &Mesh,
+         handles: &Handles,
+         settings: &MethodSettings,
+         parts: &LooseParts| {
+            let config = settings.arap_config();
+            let m = match slot {
+                Slot::Compare => settings.compare_variant,
+                Slot::Main => settings.bs_variant,
+            };
+            let d = solver::Deformer::with_loose_parts(
+                m,
+                mesh,
+                handles,
+                &config,
+                &settings.base,
+                parts,
+            )
             .map_err(|e| e.to_string())?;
-        Ok(Box::new(DeformerPoseSolver(d)) as Box<dyn PoseSolver>)
-    })
+            Ok(Box::new(DeformerPoseSolver(d)) as Box<dyn PoseSolver>)
+        },
+    )
 }
 
 /// How the UI names a method.
@@ -48,6 +63,10 @@ impl PoseSolver for DeformerPoseSolver {
         Ok(self.frame(&stats, x))
     }
 
+    fn components(&self) -> Vec<solver::ComponentInfo> {
+        self.0.riders().components().to_vec()
+    }
+
     fn settle_pending(&self) -> bool {
         self.0.settle_pending()
     }
@@ -59,6 +78,18 @@ impl PoseSolver for DeformerPoseSolver {
     ) -> Result<Option<FrameStats>, String> {
         let stats = self.0.settle(targets).map_err(|e| e.to_string())?;
         Ok(stats.map(|stats| self.frame(&stats, x)))
+    }
+
+    fn set_loose_parts(
+        &mut self,
+        mesh: &Mesh,
+        handles: &Handles,
+        parts: &LooseParts,
+        x: &mut [[f64; 3]],
+    ) -> Result<(), String> {
+        self.0.set_loose_parts(mesh, handles, parts).map_err(|e| e.to_string())?;
+        x.copy_from_slice(self.0.positions());
+        Ok(())
     }
 
     fn deformed_base(&self) -> Option<Vec<[f64; 3]>> {

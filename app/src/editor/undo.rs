@@ -1,11 +1,12 @@
-//! The editable state (handle labels, groups, poses, the timeline's paths) and its undo/redo
-//! history.
+//! The editable state (handle labels, groups, poses, the timeline's paths, the loose parts'
+//! modes) and its undo/redo history.
 //!
 //! Every user edit (a brush stroke, a drag, a numeric change, a group added or deleted) first
 //! pushes a snapshot of the state it starts from. Snapshots are whole copies: a label array is
 //! `#V` bytes-ish and the history is capped, so this stays small and obviously correct.
 
 use eframe::egui::Color32;
+use solver::LooseParts;
 use solver::animation::timeline::{Path, Timeline};
 
 use super::pose::GroupPose;
@@ -27,6 +28,8 @@ pub struct EditState {
     /// Duration, frame rate and one path per animated group (`paths[i].group` indexes
     /// `groups`).
     pub timeline: Timeline,
+    /// Follow or pin, per component without handles (`solver::deform::riders`).
+    pub loose_parts: LooseParts,
 }
 
 /// Distinct colors for handle groups (sRGB).
@@ -46,7 +49,12 @@ impl EditState {
     pub fn from_labels(labels: Vec<Option<u32>>) -> EditState {
         let n = labels.iter().flatten().map(|&k| k as usize + 1).max().unwrap_or(0);
         let groups = (0..n).map(new_group).collect();
-        EditState { labels, groups, timeline: Timeline::default() }
+        EditState {
+            labels,
+            groups,
+            timeline: Timeline::default(),
+            loose_parts: LooseParts::default(),
+        }
     }
 
     pub fn add_group(&mut self) -> usize {

@@ -14,11 +14,13 @@
 //! Files: `session` (scenes, autosave, open and save, dialogs, undo), `playback` (timeline,
 //! recording, export), `solvers` (solver commands and polling), `input` (keys, picking,
 //! painting, posing), `viewport` (vertex colors, the paint callback, overlays), `panels` (menu,
-//! side panels, status bar and the frame loop `ui()`) and `accessors` (for tests and scripts).
+//! side panels, status bar and the frame loop `ui()`), `parts` (the loose parts' Follow / Pin
+//! list) and `accessors` (for tests and scripts).
 
 mod accessors;
 mod input;
 mod panels;
+mod parts;
 mod playback;
 mod session;
 mod solvers;

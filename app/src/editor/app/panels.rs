@@ -1,5 +1,5 @@
-//! The panels around the viewports (menu, side panel with tool, groups, pose, method and
-//! plot, status bar, timeline, windows) and the frame loop [`eframe::App::ui`] that polls the
+//! The panels around the viewports (menu, side panel with tool, groups, parts, pose, method
+//! and plot, status bar, timeline, windows) and the frame loop [`eframe::App::ui`] that polls the
 //! background work and lays them out.
 
 use std::time::{Duration, Instant};
@@ -116,6 +116,7 @@ impl EditorApp {
                 self.start_dialog(ctx, DialogKind::SaveSelection);
             }
         });
+        self.parts_panel(ui);
         ui.separator();
         self.pose_panel(ui);
         ui.separator();

@@ -52,6 +52,7 @@ impl EditorApp {
             config,
             // A recording solves each frame once: nothing settles.
             base: solver::BaseConfig { settle_iterations: 0, ..s.base },
+            loose_parts: self.session.edit.loose_parts.clone(),
         };
         let c = ctx.clone();
         self.session.playback.set_playing(false);

@@ -437,7 +437,10 @@ impl EditorApp {
         match loader::load_selection(path, scene.mesh.positions(), &scene.layout.vertex_map) {
             Ok(labels) => {
                 self.session.history.push(self.session.edit.clone());
-                self.session.edit = EditState::from_labels(labels);
+                // Component numbers depend on the mesh only: the loose parts' modes stay.
+                let parts = self.session.edit.loose_parts.clone();
+                self.session.edit =
+                    EditState { loose_parts: parts, ..EditState::from_labels(labels) };
                 self.interaction.active_group = (!self.session.edit.groups.is_empty()).then_some(0);
                 self.info = Some(format!("handles from {}", file_name(path)));
                 self.display.color_version += 1;
@@ -450,6 +453,7 @@ impl EditorApp {
     pub(super) fn apply_history(&mut self, state: Option<EditState>) {
         let Some(state) = state else { return };
         let labels_changed = state.labels != self.session.edit.labels;
+        let parts_changed = state.loose_parts != self.session.edit.loose_parts;
         self.session.edit = state;
         if self.interaction.active_group.is_some_and(|g| g >= self.session.edit.groups.len()) {
             self.interaction.active_group = self.session.edit.groups.len().checked_sub(1);
@@ -459,6 +463,9 @@ impl EditorApp {
             self.send_scene();
         } else {
             self.send_poses();
+            if parts_changed {
+                self.send_loose_parts();
+            }
         }
     }
 

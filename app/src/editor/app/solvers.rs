@@ -113,6 +113,7 @@ impl EditorApp {
                 mesh: scene.mesh.clone(),
                 handles: handles.clone(),
                 settings: self.session.settings,
+                loose_parts: self.session.edit.loose_parts.clone(),
                 poses: poses.clone(),
                 pose_generation: self.solvers.pose_generation,
             });
@@ -131,6 +132,18 @@ impl EditorApp {
         }
     }
 
+    /// Only the loose parts' modes changed: no refactorization; the next frames carry a new
+    /// pose generation.
+    pub(super) fn send_loose_parts(&mut self) {
+        self.solvers.pose_generation += 1;
+        for s in self.solvers.iter() {
+            s.send(SolverCommand::SetLooseParts {
+                pose_generation: self.solvers.pose_generation,
+                loose_parts: self.session.edit.loose_parts.clone(),
+            });
+        }
+    }
+
     pub(super) fn ensure_compare_solver(&mut self, ctx: &egui::Context) {
         let want = self.display.view == View::Compare;
         if want && self.solvers.compare.is_none() {
@@ -142,6 +155,7 @@ impl EditorApp {
                     mesh: scene.mesh.clone(),
                     handles: self.handles(),
                     settings: self.session.settings,
+                    loose_parts: self.session.edit.loose_parts.clone(),
                     poses: self.poses(),
                     pose_generation: self.solvers.pose_generation,
                 });

@@ -5,7 +5,7 @@
 use std::sync::Arc;
 use std::time::Instant;
 
-use solver::{FrameStats, Handles, Mesh};
+use solver::{ComponentInfo, FrameStats, Handles, LooseParts, Mesh};
 
 use crate::editor::pose::GroupPose;
 use crate::editor::renderer::Shape;
@@ -105,6 +105,12 @@ pub trait PoseSolver: Send {
     fn detail_magnitudes(&self) -> Option<Vec<f64>> {
         None
     }
+    /// The mesh's connected components as this pose solver treats them (which have handles,
+    /// the loose parts' modes and what the following ones ride on); empty when it does not say
+    /// (the default).
+    fn components(&self) -> Vec<ComponentInfo> {
+        Vec::new()
+    }
     /// Whether [`PoseSolver::settle`] has work after the last solve (the default: never).
     fn settle_pending(&self) -> bool {
         false
@@ -119,11 +125,30 @@ pub trait PoseSolver: Send {
     ) -> Result<Option<FrameStats>, String> {
         Ok(None)
     }
+    /// Changes the loose parts' modes (no refactorization) and writes the current pose with
+    /// them into `x`; `mesh` and `handles` are the scene's. The default does nothing (a pose
+    /// solver that does not move loose parts).
+    fn set_loose_parts(
+        &mut self,
+        _mesh: &Mesh,
+        _handles: &Handles,
+        _parts: &LooseParts,
+        _x: &mut [[f64; 3]],
+    ) -> Result<(), String> {
+        Ok(())
+    }
 }
 
-/// Builds a pose solver for a slot, a mesh and a handle set (the slow part: factorization).
+/// Builds a pose solver for a slot, a mesh, a handle set and the loose parts' modes (the slow
+/// part: factorization).
 pub type PoseSolverFactory = Arc<
-    dyn Fn(Slot, &Mesh, &Handles, &MethodSettings) -> Result<Box<dyn PoseSolver>, String>
+    dyn Fn(
+            Slot,
+            &Mesh,
+            &Handles,
+            &MethodSettings,
+            &LooseParts,
+        ) -> Result<Box<dyn PoseSolver>, String>
         + Send
         + Sync,
 >;
@@ -136,9 +161,17 @@ pub enum SolverCommand {
         mesh: Arc<Mesh>,
         handles: Option<Handles>,
         settings: MethodSettings,
+        /// Follow or pin per component without handles.
+        loose_parts: LooseParts,
         poses: Vec<GroupPose>,
         /// The pose generation `poses` belong to.
         pose_generation: u64,
+    },
+    /// New modes of the loose parts (no refactorization); the frame that shows them carries
+    /// `pose_generation`.
+    SetLooseParts {
+        pose_generation: u64,
+        loose_parts: LooseParts,
     },
     /// New group poses (no refactorization).
     SetPoses {
@@ -164,6 +197,9 @@ pub struct SolvedFrame {
     /// The deformed base surface, while [`SolverHandle::show_base`] is on (BS-ARAP only).
     pub deformed_base: Option<Shape>,
     pub detail_magnitudes: Option<Arc<Vec<f32>>>,
+    /// [`PoseSolver::components`] as of this frame (shared by the frames until the scene or
+    /// the loose parts change).
+    pub components: Arc<Vec<ComponentInfo>>,
     pub stats: FrameStats,
     /// Solved frames per second over the last frames while solving.
     pub fps: f64,

@@ -42,7 +42,7 @@ impl PoseSolver for Shift {
 }
 
 fn factory() -> PoseSolverFactory {
-    Arc::new(|_, mesh: &Mesh, handles: &Handles, _: &MethodSettings| {
+    Arc::new(|_, mesh: &Mesh, handles: &Handles, _: &MethodSettings, _: &_| {
         Ok(Box::new(Shift {
             rest: mesh.positions().to_vec(),
             handle_vertices: handles.handle_vertices(),
@@ -73,6 +73,7 @@ fn scene(generation: u64, poses: Vec<GroupPose>) -> SolverCommand {
         mesh: tri(),
         handles: Some(Handles::from_options(vec![Some(0), None, None]).unwrap()),
         settings: MethodSettings::default(),
+        loose_parts: Default::default(),
         poses,
         pose_generation: 0,
     }
@@ -140,7 +141,7 @@ impl PoseSolver for Settles {
 /// idles; new poses solve again (and settle again).
 #[test]
 fn converged_poses_are_settled_until_converged() {
-    let factory: PoseSolverFactory = Arc::new(|_, mesh: &Mesh, handles: &Handles, _: &_| {
+    let factory: PoseSolverFactory = Arc::new(|_, mesh: &Mesh, handles: &Handles, _: &_, _: &_| {
         let shift =
             Shift { rest: mesh.positions().to_vec(), handle_vertices: handles.handle_vertices() };
         Ok(Box::new(Settles { shift, steps: 0 }) as Box<dyn PoseSolver>)
@@ -200,11 +201,14 @@ impl PoseSolver for EndlessSettle {
 fn a_new_pose_interrupts_settling() {
     let log = Arc::new(Mutex::new(Vec::new()));
     let shared_log = log.clone();
-    let factory: PoseSolverFactory = Arc::new(move |_, mesh: &Mesh, handles: &Handles, _: &_| {
-        let shift =
-            Shift { rest: mesh.positions().to_vec(), handle_vertices: handles.handle_vertices() };
-        Ok(Box::new(EndlessSettle { shift, log: shared_log.clone() }) as Box<dyn PoseSolver>)
-    });
+    let factory: PoseSolverFactory =
+        Arc::new(move |_, mesh: &Mesh, handles: &Handles, _: &_, _: &_| {
+            let shift = Shift {
+                rest: mesh.positions().to_vec(),
+                handle_vertices: handles.handle_vertices(),
+            };
+            Ok(Box::new(EndlessSettle { shift, log: shared_log.clone() }) as Box<dyn PoseSolver>)
+        });
     let h = SolverHandle::spawn(Slot::Main, factory, Arc::new(|| {})).unwrap();
     h.send(scene(1, vec![GroupPose::default()]));
     wait_frame(&h, |f| f.stats.fine_iterations == 1);
@@ -251,7 +255,7 @@ impl PoseSolver for WithBase {
 /// idle republishes the current pose with it.
 #[test]
 fn the_base_is_built_only_while_shown() {
-    let factory: PoseSolverFactory = Arc::new(|_, mesh: &Mesh, handles: &Handles, _: &_| {
+    let factory: PoseSolverFactory = Arc::new(|_, mesh: &Mesh, handles: &Handles, _: &_, _: &_| {
         let shift =
             Shift { rest: mesh.positions().to_vec(), handle_vertices: handles.handle_vertices() };
         Ok(Box::new(WithBase(shift)) as Box<dyn PoseSolver>)
@@ -290,10 +294,72 @@ fn mailbox_keeps_only_the_newest() {
             normals: Arc::new(vec![]),
             deformed_base: None,
             detail_magnitudes: None,
+            components: Arc::new(vec![]),
             stats: FrameStats::default(),
             fps: 0.0,
         });
     }
     assert_eq!(m.try_take().map(|f| f.scene_generation), Some(2));
     assert!(m.try_take().is_none());
+}
+
+#[test]
+fn loose_parts_change_without_a_rebuild() {
+    use solver::{ComponentMode, LooseParts};
+    // A unit sphere and a small one resting on its top; handles on the big one only.
+    let big = solver::geometry::shapes::icosphere(1);
+    let small = solver::geometry::shapes::icosphere(0);
+    let mut p = big.positions().to_vec();
+    let n = p.len() as u32;
+    p.extend(small.positions().iter().map(|q| [0.2 * q[0], 1.2 + 0.2 * q[1], 0.2 * q[2]]));
+    let mut t = big.triangles().to_vec();
+    t.extend(small.triangles().iter().map(|f| f.map(|v| v + n)));
+    let mesh = Arc::new(Mesh::new(p.clone(), t).unwrap());
+    let labels = (0..p.len())
+        .map(|v| match p[v][1] {
+            _ if v >= n as usize => None,
+            y if y < -0.5 => Some(0),
+            y if y > 0.5 => Some(1),
+            _ => None,
+        })
+        .collect();
+    let builds = Arc::new(Mutex::new(0usize));
+    let counted = builds.clone();
+    let inner = crate::editor::pose_solvers::factory();
+    let factory: PoseSolverFactory =
+        Arc::new(move |slot, mesh: &Mesh, handles: &Handles, s: &_, l: &_| {
+            *counted.lock().unwrap() += 1;
+            inner(slot, mesh, handles, s, l)
+        });
+    let h = SolverHandle::spawn(Slot::Compare, factory, Arc::new(|| {})).unwrap();
+    let moved = GroupPose { translation: [0.3, 0.0, 0.0], ..Default::default() };
+    h.send(SolverCommand::SetScene {
+        scene_generation: 1,
+        mesh,
+        handles: Some(Handles::from_options(labels).unwrap()),
+        settings: MethodSettings { max_iterations: 200, ..MethodSettings::default() },
+        loose_parts: LooseParts::default(),
+        poses: vec![GroupPose::default(), moved],
+        pose_generation: 1,
+    });
+    let small_vertices = n as usize..p.len();
+    let shift = |f: &SolvedFrame| {
+        small_vertices
+            .clone()
+            .map(|v| (f.positions[v][0] as f64 - p[v][0]).abs())
+            .fold(0.0, f64::max)
+    };
+    let f = wait_frame(&h, |f| f.pose_generation == 1 && f.stats.done);
+    assert!(shift(&f) > 0.1, "the small sphere follows the moved top ({})", shift(&f));
+    assert_eq!(f.components.len(), 2);
+    assert!(f.components[0].has_handles);
+    assert_eq!(f.components[1].follows, Some(0));
+
+    let mut pinned = LooseParts::default();
+    pinned.set(1, ComponentMode::Pin);
+    h.send(SolverCommand::SetLooseParts { pose_generation: 2, loose_parts: pinned });
+    let f = wait_frame(&h, |f| f.pose_generation == 2);
+    assert!(shift(&f) < 1e-6, "pinned at rest ({})", shift(&f));
+    assert_eq!(f.components[1].mode, Some(ComponentMode::Pin));
+    assert_eq!(*builds.lock().unwrap(), 1, "no rebuild for a change of modes");
 }

@@ -1,6 +1,6 @@
 //! The solver thread's loop. Each turn: wait for and [drain the commands](drain_commands)
-//! (only the newest scene and poses matter), [rebuild](rebuild) the pose solver on a new scene,
-//! take the new poses, then [step](step) (solve a changed pose, or settle a converged one
+//! (only the newest scene, poses and loose parts matter), [rebuild](rebuild) the pose solver on
+//! a new scene, take the new poses and [loose parts](Active::set_loose_parts), then [step](step) (solve a changed pose, or settle a converged one
 //! whose handles have rested), [do the settling's bookkeeping](Active::settle_bookkeeping) and
 //! [publish](publish) the frame.
 
@@ -10,7 +10,7 @@ use std::sync::mpsc::{Receiver, RecvTimeoutError, TryRecvError};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use solver::{FrameStats, Handles, Mesh};
+use solver::{FrameStats, Handles, LooseParts, Mesh};
 
 use super::mailbox::Mailbox;
 use super::protocol::{
@@ -86,6 +86,8 @@ struct Active {
     pose_solver: Box<dyn PoseSolver>,
     /// |D_i| as f32, shared by every frame of this scene.
     details: Option<Arc<Vec<f32>>>,
+    /// [`PoseSolver::components`], refreshed when the loose parts change.
+    components: Arc<Vec<solver::ComponentInfo>>,
     x: Vec<[f64; 3]>,
     /// Targets changed since the last converged solve.
     dirty: bool,
@@ -115,6 +117,7 @@ impl Active {
             normals: shape.normals,
             deformed_base: base.map(|b| Shape::new(&b, triangles)),
             detail_magnitudes: self.details.clone(),
+            components: self.components.clone(),
             stats,
             fps: self.fps,
         }
@@ -127,6 +130,15 @@ impl Active {
         self.dirty = true;
         self.settling = false;
         self.poses_changed = Instant::now();
+    }
+
+    /// New loose parts' modes: the pose solver moves them in the current pose, which is
+    /// published at once unless a solve is due anyway.
+    fn set_loose_parts(&mut self, generation: u64, parts: &LooseParts) -> Result<(), String> {
+        self.pose_generation = generation;
+        self.pose_solver.set_loose_parts(&self.mesh, &self.handles, parts, &mut self.x)?;
+        self.components = Arc::new(self.pose_solver.components());
+        Ok(())
     }
 
     /// After a step (`solving`: a solve, else a settle step) that returned `stats`: updates the
@@ -182,6 +194,7 @@ const MAX_SETTLE_STEPS: usize = 2000;
 struct Inbox {
     scene: Option<NewScene>,
     poses: Option<(u64, Vec<GroupPose>)>,
+    loose_parts: Option<(u64, LooseParts)>,
     /// The current pose is asked for again ([`SolverCommand::Republish`]).
     republish: bool,
 }
@@ -192,6 +205,7 @@ struct NewScene {
     mesh: Arc<Mesh>,
     handles: Option<Handles>,
     settings: MethodSettings,
+    loose_parts: LooseParts,
     poses: Vec<GroupPose>,
     pose_generation: u64,
 }
@@ -238,6 +252,7 @@ fn drain_commands(rx: &Receiver<SolverCommand>, wait: Option<Duration>) -> Optio
                 mesh,
                 handles,
                 settings,
+                loose_parts,
                 poses,
                 pose_generation,
             } => {
@@ -246,10 +261,15 @@ fn drain_commands(rx: &Receiver<SolverCommand>, wait: Option<Duration>) -> Optio
                     mesh,
                     handles,
                     settings,
+                    loose_parts,
                     poses,
                     pose_generation,
                 });
                 inbox.poses = None;
+                inbox.loose_parts = None;
+            }
+            SolverCommand::SetLooseParts { pose_generation, loose_parts } => {
+                inbox.loose_parts = Some((pose_generation, loose_parts))
             }
             SolverCommand::SetPoses { pose_generation, poses } => {
                 inbox.poses = Some((pose_generation, poses))
@@ -267,7 +287,8 @@ fn rebuild(
     scene: NewScene,
     shared: &Shared,
 ) -> Option<Active> {
-    let NewScene { scene_generation, mesh, handles, settings, poses, pose_generation } = scene;
+    let NewScene { scene_generation, mesh, handles, settings, loose_parts, poses, pose_generation } =
+        scene;
     let Some(handles) = handles else {
         set_status(&shared.status, SolverState::Idle);
         (shared.repaint)();
@@ -275,12 +296,13 @@ fn rebuild(
     };
     set_status(&shared.status, SolverState::Factorizing { since: Instant::now() });
     (shared.repaint)();
-    match factory(slot, &mesh, &handles, &settings) {
+    match factory(slot, &mesh, &handles, &settings, &loose_parts) {
         Ok(pose_solver) => {
             let x = mesh.positions().to_vec();
             let details = pose_solver
                 .detail_magnitudes()
                 .map(|d| Arc::new(d.iter().map(|&v| v as f32).collect()));
+            let components = Arc::new(pose_solver.components());
             set_status(&shared.status, SolverState::Solving);
             Some(Active {
                 scene_generation,
@@ -290,6 +312,7 @@ fn rebuild(
                 poses,
                 pose_solver,
                 details,
+                components,
                 x,
                 dirty: true,
                 settling: false,
@@ -349,6 +372,17 @@ fn worker_loop(
         if let Some((generation, poses)) = inbox.poses {
             a.set_poses(generation, poses);
             set_status(&shared.status, SolverState::Solving);
+        }
+        if let Some((generation, parts)) = inbox.loose_parts {
+            match a.set_loose_parts(generation, &parts) {
+                // Nothing else to do at this pose: show the parts moved now.
+                Ok(()) if !a.dirty && a.last_frame_published => publish(a, a.last_stats, shared),
+                Ok(()) => {}
+                Err(e) => {
+                    set_status(&shared.status, SolverState::Failed(e));
+                    (shared.repaint)();
+                }
+            }
         }
         // Settle only once the poses have rested for the delay (a command such as Republish
         // can wake the thread before that).
