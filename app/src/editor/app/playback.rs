@@ -65,7 +65,8 @@ impl EditorApp {
         }
     }
 
-    /// Writes the kept recording to `path` (.glb or .gltf) on a worker thread.
+    /// Writes the kept recording to `path` on a worker thread: `.glb`/`.gltf` (the whole asset)
+    /// or `.pc2` (a point cache on the file's vertex order).
     pub fn export_gltf(&mut self, ctx: &egui::Context, path: PathBuf) {
         let Some(rec) = &self.jobs.recorded else {
             self.error = Some("record the timeline before exporting".into());

@@ -413,6 +413,7 @@ impl EditorApp {
                 DialogKind::ExportGltf => d
                     .add_filter("glTF binary", &["glb"])
                     .add_filter("glTF JSON", &["gltf"])
+                    .add_filter("PC2 point cache (Blender Mesh Cache, 3ds Max)", &["pc2"])
                     .set_file_name("animation.glb")
                     .save_file(),
                 DialogKind::LoadSelection => {
