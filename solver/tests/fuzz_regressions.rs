@@ -183,4 +183,16 @@ fn gltf_crate_panics_are_refused_first() {
         let e = mesh_err(json.as_bytes(), Format::Gltf);
         assert!(matches!(&e, LoadError::Parse { message, .. } if message.contains(what)), "{e}");
     }
+    // A GLB whose header's total length (bytes 8..12) is below the header's own 12 bytes: the
+    // crate computed `length - 12` (cargo fuzz run gltf, crash-a2f34a89, minimized by hand).
+    for length in [0u32, 11] {
+        let mut glb = b"glTF\x02\x00\x00\x00".to_vec();
+        glb.extend_from_slice(&length.to_le_bytes());
+        glb.extend_from_slice(b"\x10\x00\x00\x00JSON{\"asset\":{}}   ");
+        let e = mesh_err(&glb, Format::Gltf);
+        assert!(
+            matches!(&e, LoadError::Parse { message, .. } if message.contains("header")),
+            "{e}"
+        );
+    }
 }

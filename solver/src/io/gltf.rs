@@ -68,6 +68,17 @@ const HARMLESS: [&str; 12] = [
 /// Output: positions (`#V×3 f64`, world space) and triangles (`#F×3 u32`), primitives
 /// concatenated. Errors: one line each, see the module doc.
 pub(crate) fn parse(bytes: &[u8], ctx: Ctx, dir: Option<&Path>) -> Result<Asset, LoadError> {
+    // A GLB header whose total length is shorter than the header itself makes gltf 1.4.1
+    // subtract past zero (a panic with overflow checks; found by the `gltf` fuzz target).
+    if let Some(length) = bytes.strip_prefix(b"glTF").and_then(|b| b.get(4..8)) {
+        let length = u32::from_le_bytes([length[0], length[1], length[2], length[3]]);
+        if length < 12 {
+            return Err(ctx.parse(
+                None,
+                format!("GLB header: total length {length} is shorter than the 12-byte header"),
+            ));
+        }
+    }
     // Parsed without validation first, so that a required extension this reader cannot decode
     // is named as such (the crate's validation reports it only as "unsupported extension").
     let unchecked = ::gltf::Gltf::from_slice_without_validation(bytes)
