@@ -1,14 +1,14 @@
 //! `solver`: ARAP and BS-ARAP deformation of triangle meshes, with no UI dependency.
 //!
 //! The modules are layers; each uses only those above it in this list:
-//! - [`geometry`]: the [`Mesh`](geometry::mesh::Mesh) type, its topology, cleaning, reordering,
+//! - [`geometry`]: the [`Mesh`] type, its topology, cleaning, reordering,
 //!   decimation, procedural shapes, and the discrete operators on it (cotangent
 //!   Laplacian, mass matrix);
 //! - [`io`]: mesh files (OBJ, OFF, PLY, STL) in and out;
 //! - [`linalg`]: sparse factorizations, Anderson acceleration, the closest-rotation fit and the
 //!   four-lane arithmetic it runs on;
 //! - [`deform`]: handles, their selection files and constraints, and the deformation methods (ARAP, the bi-harmonic
-//!   base, BS-ARAP and its coarse variant) behind one [`Deformer`](deform::deformer::Deformer);
+//!   base, BS-ARAP and its coarse variant) behind one [`Deformer`];
 //! - [`animation`]: timelines of handle paths, recordings of solved frames, scene files and
 //!   glTF export.
 //!

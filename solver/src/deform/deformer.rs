@@ -207,7 +207,7 @@ impl Deformer {
     }
 
     /// Solves for `targets` (`#H×3`, order of [`Handles::handle_vertices`]), warm-started.
-    /// The whole solve runs on rayon's pool ([`crate::pool::in_pool`]); the loose parts
+    /// The whole solve runs on rayon's pool (`pool::in_pool`); the loose parts
     /// follow after it.
     pub fn solve(&mut self, targets: &[[f64; 3]]) -> Result<SolveStats, SolveError> {
         let result = in_pool(|| match &mut self.solver {

@@ -14,7 +14,7 @@
 //! step after [`Anderson::new`] beyond a few numbers per block. A step is two parallel passes
 //! over fixed blocks of the vectors: the first forms $f_k$ and the new differences, then, while
 //! the block is in cache, every inner product the normal equations need (each in four partial
-//! sums, [`dot2`]); the second forms the accelerated iterate. Sums are taken per block and then
+//! sums, `dot2`); the second forms the accelerated iterate. Sums are taken per block and then
 //! in block order, so results do not depend on scheduling.
 
 use rayon::prelude::*;

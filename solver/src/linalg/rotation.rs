@@ -8,7 +8,7 @@
 //!
 //! Matrices are row-major `[[f64; 3]; 3]`.
 //!
-//! The fit is hand-written (Horn's quaternion method on [`Real`] lanes, see `lanes.rs` and
+//! The fit is hand-written (Horn's quaternion method on `Real` lanes, see `lanes.rs` and
 //! `deform/arap/avx.rs`) rather than built on glam or nalgebra because it measured faster than
 //! the library route in the ARAP local step; nalgebra's 3×3 SVD is used only for the fallback
 //! [`fit_rotation_svd`].

@@ -8,7 +8,7 @@ pub const DEFAULT_TOLERANCE: f64 = 1e-4;
 /// The default iteration cap of a solve ([`ArapConfig::max_iterations`]).
 pub const DEFAULT_MAX_ITERATIONS: usize = 100;
 
-/// Anderson window of [`Arap::refine`].
+/// Anderson window of [`Arap::refine`](super::Arap::refine).
 pub const REFINE_ANDERSON_WINDOW: usize = 5;
 
 /// The ARAP cell type.
@@ -67,7 +67,7 @@ impl Default for ArapConfig {
     }
 }
 
-/// What one call of [`Arap::solve`] (or of a BS-ARAP variant's solve, which runs it on the base)
+/// What one call of [`Arap::solve`](super::Arap::solve) (or of a BS-ARAP variant's solve, which runs it on the base)
 /// did.
 #[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
 pub struct SolveStats {
@@ -81,7 +81,7 @@ pub struct SolveStats {
     /// Energy after each iteration, $E(p'_k, R(p'_k))$ with the rotations fitted to the pose
     /// (with Anderson acceleration, to the accepted iterate); never increases.
     /// Evaluated from the local step's covariances as $A + \sum w\lVert e\rVert^2 - 2\sum_i
-    /// \operatorname{tr}(R_i S_i)$, which agrees with [`Arap::energy`] to rounding of the
+    /// \operatorname{tr}(R_i S_i)$, which agrees with [`Arap::energy`](super::Arap::energy) to rounding of the
     /// terms (relative $10^{-16}\cdot$ their sum over $E$).
     pub energies: Vec<f64>,
     /// Milliseconds in the local steps (rotation fits), summed over iterations.
