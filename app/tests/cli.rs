@@ -408,3 +408,24 @@ fn bench_quality_against_converged_arap() {
             && plain.get("quality_reference").is_none()
     );
 }
+
+/// What the reader skipped reaches the user: a missing material library is a note, and the
+/// asset's layout is summarized.
+#[test]
+fn info_reports_the_asset_and_what_was_skipped() {
+    let obj = tmp("info-asset.obj");
+    std::fs::write(
+        &obj,
+        "mtllib missing.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nusemtl skin\nf 1/1 2/2 3/3\n",
+    )
+    .unwrap();
+    let (code, stdout, stderr) = bsarap(&["info", obj.to_str().unwrap()]);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stdout.contains("note:") && stdout.contains("missing.mtl"), "{stdout}");
+    assert!(stdout.contains("uv sets, normals, colours 1, no, no"), "{stdout}");
+    let (code, stdout, _) = bsarap(&["info", obj.to_str().unwrap(), "--json"]);
+    assert_eq!(code, 0);
+    let j: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
+    assert_eq!((j["file_vertices"].as_u64(), j["uv_sets"].as_u64()), (Some(3), Some(1)));
+    assert!(j["notices"].to_string().contains("missing.mtl"), "{j}");
+}

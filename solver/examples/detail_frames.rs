@@ -15,8 +15,8 @@
 //! over the diagonal and the ARAP energy on the mesh.
 
 use glam::DVec3;
-use solver::animation::export::vertex_normals;
 use solver::deform::quality::Reference;
+use solver::geometry::normals::vertex_normals_or_up;
 use solver::{
     ArapConfig, BaseKind, BsArap, Energy, GroupTransform, handle_targets, linalg::rotation::mul_vec,
 };
@@ -29,7 +29,7 @@ fn unit(a: DVec3) -> DVec3 {
 
 /// Frames `[t, n × t, n]` (as rows) of `positions` at every vertex; `neighbour[i]` picks `t`.
 fn frames(positions: &[V], triangles: &[[u32; 3]], neighbour: &[u32]) -> Vec<[DVec3; 3]> {
-    let normals = vertex_normals(positions, triangles);
+    let normals = vertex_normals_or_up(positions, triangles);
     (0..positions.len())
         .map(|i| {
             let n = unit(DVec3::from(normals[i]));

@@ -176,9 +176,9 @@ pub fn run(a: &DeformArgs) -> anyhow::Result<()> {
     let transforms = parse_transforms(&a.moves, &a.rotates)?;
     let loaded = load(&a.mesh)?;
     let mesh = &loaded.mesh;
-    if loaded.report.changed() && !a.json {
-        for n in loaded.report.notices() {
-            eprintln!("note: {n} (the output keeps the file's own vertices and their order)");
+    if !a.json {
+        for n in loaded.notices() {
+            eprintln!("note: {n}");
         }
     }
     let handles = load_handles(&a.handles, &loaded)?;

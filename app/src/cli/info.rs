@@ -16,6 +16,7 @@ pub fn run(a: &InfoArgs) -> anyhow::Result<()> {
     let loaded = load(&a.mesh)?;
     let m = &loaded.mesh;
     let r = &loaded.report;
+    let asset = &loaded.asset;
     if a.json {
         let j = serde_json::json!({
             "mesh": a.mesh.display().to_string(),
@@ -29,7 +30,14 @@ pub fn run(a: &InfoArgs) -> anyhow::Result<()> {
             "vertices_welded": r.vertices_welded,
             "unreferenced_removed": r.unreferenced_removed,
             "bbox_diagonal": m.bbox_diagonal(),
-            "notices": r.notices(),
+            "file_vertices": asset.positions.len(),
+            "parts": asset.parts.len(),
+            "materials": asset.materials.len(),
+            "textures": asset.images.len(),
+            "uv_sets": asset.uvs.len(),
+            "normals": asset.normals.is_some(),
+            "colors": asset.colors.is_some(),
+            "notices": loaded.notices(),
         });
         println!("{j}");
     } else {
@@ -44,7 +52,17 @@ pub fn run(a: &InfoArgs) -> anyhow::Result<()> {
         println!("vertices welded           {}", r.vertices_welded);
         println!("unreferenced removed      {}", r.unreferenced_removed);
         println!("bounding-box diagonal     {:.6}", m.bbox_diagonal());
-        for n in r.notices() {
+        println!("file vertices             {}", asset.positions.len());
+        println!("parts                     {}", asset.parts.len());
+        println!("materials, textures       {}, {}", asset.materials.len(), asset.images.len());
+        let yes = |b: bool| if b { "yes" } else { "no" };
+        println!(
+            "uv sets, normals, colours {}, {}, {}",
+            asset.uvs.len(),
+            yes(asset.normals.is_some()),
+            yes(asset.colors.is_some())
+        );
+        for n in loaded.notices() {
             println!("note: {n}");
         }
     }

@@ -137,8 +137,8 @@ fn prepare(
     loaded: solver::io::LoadedMesh,
     version: u64,
 ) -> anyhow::Result<LoadedFile> {
+    let mut notices = loaded.notices();
     let mesh = loaded.mesh;
-    let mut notices = loaded.report.notices();
     let rest = Shape::new(mesh.positions(), mesh.triangles());
     let rest_f32: &[[f32; 3]] = &rest.positions;
     let adjacency = Adjacency::new(mesh.n_vertices(), mesh.triangles());

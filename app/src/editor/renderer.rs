@@ -112,11 +112,11 @@ pub struct Shape {
 }
 
 impl Shape {
-    /// From solver positions: area-weighted normals (`solver::animation::export::vertex_normals`), then f32.
+    /// From solver positions: area-weighted normals (`solver::geometry::normals::vertex_normals_or_up`), then f32.
     pub fn new(x: &[[f64; 3]], triangles: &[[u32; 3]]) -> Shape {
         let f32s =
             |v: &[[f64; 3]]| -> Vec<[f32; 3]> { v.iter().map(|p| p.map(|c| c as f32)).collect() };
-        let normals = solver::animation::export::vertex_normals(x, triangles);
+        let normals = solver::geometry::normals::vertex_normals_or_up(x, triangles);
         Shape { positions: Arc::new(f32s(x)), normals: Arc::new(f32s(&normals)) }
     }
 }

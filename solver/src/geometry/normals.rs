@@ -89,6 +89,17 @@ pub fn vertex_normals(
     corner_normals(positions, triangles, triangles, positions.len())
 }
 
+/// [`vertex_normals`] for drawing and export: never fails and never returns a zero vector. A
+/// vertex without area gets $(0, 0, 1)$; triangles that do not fit `positions` (impossible for
+/// a [`crate::geometry::mesh::Mesh`]) give $(0, 0, 1)$ everywhere.
+pub fn vertex_normals_or_up(positions: &[[f64; 3]], triangles: &[[u32; 3]]) -> Vec<[f64; 3]> {
+    const UP: [f64; 3] = [0.0, 0.0, 1.0];
+    match vertex_normals(positions, triangles) {
+        Ok(n) => n.into_iter().map(|v| if v == [0.0; 3] { UP } else { v }).collect(),
+        Err(_) => vec![UP; positions.len()],
+    }
+}
+
 #[cfg(test)]
 #[allow(clippy::unwrap_used)]
 mod tests {
@@ -182,5 +193,12 @@ mod tests {
             vertex_normals(&positions[..7], &triangles),
             Err(NormalsError::Position { index: 7, .. })
         ));
+        // The drawing variant: (0, 0, 1) where there is no area or the triangles do not fit.
+        let mut with_loose = positions.clone();
+        with_loose.push([5.0, 5.0, 5.0]);
+        let n = vertex_normals_or_up(&with_loose, &triangles);
+        assert_eq!(n[8], [0.0, 0.0, 1.0]);
+        assert_eq!(n[..8], vertex_normals(&positions, &triangles).unwrap()[..]);
+        assert_eq!(vertex_normals_or_up(&positions[..7], &triangles), vec![[0.0, 0.0, 1.0]; 7]);
     }
 }

@@ -85,6 +85,17 @@ pub struct LoadedMesh {
     pub asset: Asset,
 }
 
+impl LoadedMesh {
+    /// Everything the user should read about the load, one line each: what cleaning changed
+    /// ([`CleanReport::notices`]) and what the reader skipped or replaced
+    /// ([`Asset::notices`]: a missing MTL or texture, non-finite attribute values).
+    pub fn notices(&self) -> Vec<String> {
+        let mut out = self.report.notices();
+        out.extend(self.asset.notices.iter().cloned());
+        out
+    }
+}
+
 /// Loads and cleans the mesh file at `path`, choosing the parser by extension.
 ///
 /// Output: the mesh (`#V×3 f64`, `#F×3 u32`) and a [`CleanReport`]. Errors: see [`LoadError`];

@@ -467,33 +467,6 @@ pub fn exported_size(input: &AssetExport, format: GltfFormat) -> Result<u64, Exp
     GltfExport::from_asset(input, format)?.file_size()
 }
 
-/// Area-weighted unit vertex normals of `positions` on `triangles`:
-/// $n_v = \mathrm{normalize}\big(\sum_{f \ni v} (p_b - p_a)\times(p_c - p_a)\big)$ (the cross
-/// product is twice the face's area times its unit normal); $(0, 0, 1)$ where the sum vanishes.
-pub fn vertex_normals(positions: &[[f64; 3]], triangles: &[[u32; 3]]) -> Vec<[f64; 3]> {
-    let mut n = vec![[0.0f64; 3]; positions.len()];
-    for t in triangles {
-        let [a, b, c] = t.map(|i| positions[i as usize]);
-        let e1 = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-        let e2 = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
-        let x = [
-            e1[1] * e2[2] - e1[2] * e2[1],
-            e1[2] * e2[0] - e1[0] * e2[2],
-            e1[0] * e2[1] - e1[1] * e2[0],
-        ];
-        for &i in t {
-            for d in 0..3 {
-                n[i as usize][d] += x[d];
-            }
-        }
-    }
-    for v in &mut n {
-        let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-        *v = if l.is_finite() && l > 0.0 { v.map(|c| c / l) } else { [0.0, 0.0, 1.0] };
-    }
-    n
-}
-
 /// Standard base64 (RFC 4648, with `=` padding), appended to `out`.
 fn base64_into(bytes: &[u8], out: &mut String) {
     const ALPHABET: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
