@@ -429,3 +429,25 @@ fn info_reports_the_asset_and_what_was_skipped() {
     assert_eq!((j["file_vertices"].as_u64(), j["uv_sets"].as_u64()), (Some(3), Some(1)));
     assert!(j["notices"].to_string().contains("missing.mtl"), "{j}");
 }
+
+/// `deform` without `--method` runs the editor's default, the coarse BS-ARAP (the paper's base
+/// collapses under small handles on real meshes, so it is no first command's default).
+#[test]
+fn deform_defaults_to_the_editors_method() {
+    let (obj, sel, _) = sphere();
+    let out = tmp("default-method.obj");
+    let (code, stdout, stderr) = bsarap(&[
+        "deform",
+        obj.to_str().unwrap(),
+        "--handles",
+        sel.to_str().unwrap(),
+        "--move",
+        "0:0.2,0,0",
+        "-o",
+        out.to_str().unwrap(),
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{stderr}");
+    let j: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(j["method"], solver::Method::BsArapCoarse.name(), "{j}");
+}

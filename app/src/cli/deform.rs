@@ -32,7 +32,7 @@ pub struct DeformArgs {
     /// Rotate group G about its centroid by DEG degrees about axis (ax,ay,az); repeatable.
     #[arg(long = "rotate", value_name = "G:AX,AY,AZ,DEG")]
     pub rotates: Vec<String>,
-    #[arg(long, value_enum, default_value = "bsarap")]
+    #[arg(long, value_enum, default_value = "bsarap-coarse")]
     pub method: MethodArg,
     #[arg(long, value_enum, default_value = "spokes-and-rims")]
     pub energy: EnergyArg,
