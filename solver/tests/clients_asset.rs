@@ -21,7 +21,6 @@ use std::path::{Path as FsPath, PathBuf};
 use clients::{
     bbox_change, blender_python, max_error, run_blender, textures_have_pixels, threejs_check,
 };
-use serde_json::Value;
 use solver::animation::export::{AssetExport, Encoding, ExportSettings, export_asset};
 use solver::animation::recording::{Recording, record};
 use solver::animation::timeline::{CircularPath, GroupPath, Path, Timeline};
@@ -435,22 +434,6 @@ fn threejs_plays_the_exported_asset() {
     }
 }
 
-/// Runs `node tools/gltf-validate/validate.mjs FILE`; `None` when node or the package is
-/// missing (printed as skipped).
-fn khronos_validate(file: &FsPath) -> Option<Value> {
-    let tool = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../tools/gltf-validate");
-    if !tool.join("node_modules/gltf-validator").exists() {
-        println!("skipped: gltf-validator not installed (`npm ci --prefix tools/gltf-validate`)");
-        return None;
-    }
-    let out = std::process::Command::new("node")
-        .arg(tool.join("validate.mjs"))
-        .arg(file)
-        .output()
-        .ok()?;
-    Some(serde_json::from_slice(&out.stdout).unwrap())
-}
-
 #[test]
 fn khronos_validator_accepts_the_exported_asset() {
     let dir = ScratchDir::new("clients-asset-validator");
@@ -460,7 +443,7 @@ fn khronos_validator_accepts_the_exported_asset() {
     for input in INPUTS {
         let case = case(&dir, input);
         for (name, path, _) in &case.exports {
-            let Some(report) = khronos_validate(path) else { return };
+            let Some(report) = solver::testing::khronos_validate(path) else { return };
             let issues = &report["issues"];
             println!("{name}: {issues}");
             assert_eq!(issues["numErrors"], 0, "{name}: {report:#}");

@@ -4,7 +4,6 @@
 #![allow(clippy::unwrap_used)]
 
 use std::ops::ControlFlow;
-use std::path::{Path as FsPath, PathBuf};
 
 use solver::animation::export::{ExportError, GltfExport, GltfFormat, export_gltf};
 use solver::animation::recording::{RecordError, Recording, record};
@@ -256,37 +255,6 @@ fn nothing_non_finite_is_written() {
     assert!(!path.exists());
 }
 
-/// Runs `node tools/gltf-validate/validate.mjs FILE` and returns its JSON report, or `None`
-/// (with a printed "skipped: ...") when node or the npm package is missing.
-fn khronos_validate(file: &FsPath) -> Option<serde_json::Value> {
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
-    let tool = root.join("tools/gltf-validate");
-    if !tool.join("node_modules/gltf-validator").exists() {
-        println!(
-            "skipped: gltf-validator not installed (run `npm ci --prefix tools/gltf-validate`)"
-        );
-        return None;
-    }
-    let out = match std::process::Command::new("node")
-        .arg(tool.join("validate.mjs"))
-        .arg(file)
-        .output()
-    {
-        Ok(o) => o,
-        Err(e) => {
-            println!("skipped: cannot run node: {e}");
-            return None;
-        }
-    };
-    let text = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success() || !text.is_empty(),
-        "validator failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    Some(serde_json::from_str(&text).unwrap())
-}
-
 #[test]
 fn khronos_validator_finds_no_errors() {
     let (mesh, rec) = recording(Method::BsArap, 6);
@@ -294,7 +262,7 @@ fn khronos_validator_finds_no_errors() {
     for name in ["rec.glb", "rec.gltf"] {
         let path = dir.join(name);
         export_gltf(&path, &mesh, &rec, &mut |_, _| ControlFlow::Continue(())).unwrap();
-        let Some(report) = khronos_validate(&path) else {
+        let Some(report) = solver::testing::khronos_validate(&path) else {
             return;
         };
         let issues = &report["issues"];

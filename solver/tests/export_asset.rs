@@ -498,22 +498,6 @@ fn inconsistent_assets_are_errors_not_panics() {
     assert!(GltfExport::from_asset(&input, GltfFormat::Glb).is_err());
 }
 
-/// Runs `node tools/gltf-validate/validate.mjs FILE`; `None` when node or the package is
-/// missing (printed as skipped).
-fn khronos_validate(file: &FsPath) -> Option<serde_json::Value> {
-    let tool = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../tools/gltf-validate");
-    if !tool.join("node_modules/gltf-validator").exists() {
-        println!("skipped: gltf-validator not installed (`npm ci --prefix tools/gltf-validate`)");
-        return None;
-    }
-    let out = std::process::Command::new("node")
-        .arg(tool.join("validate.mjs"))
-        .arg(file)
-        .output()
-        .ok()?;
-    Some(serde_json::from_slice(&out.stdout).unwrap())
-}
-
 #[test]
 fn khronos_validator_accepts_every_encoding() {
     let dir = ScratchDir::new("export-asset-validator");
@@ -526,7 +510,7 @@ fn khronos_validator_accepts_every_encoding() {
         for ext in ["glb", "gltf"] {
             let name = format!("{encoding:?}-{sparse}.{ext}");
             let (path, _, _) = write(&dir, &name, settings(encoding, sparse, 2));
-            let Some(report) = khronos_validate(&path) else {
+            let Some(report) = solver::testing::khronos_validate(&path) else {
                 return;
             };
             let issues = &report["issues"];

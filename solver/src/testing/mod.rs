@@ -113,3 +113,35 @@ pub fn capped_sphere(
 pub fn sphere_with_caps() -> (crate::geometry::mesh::Mesh, crate::deform::handles::Handles) {
     capped_sphere(2, 0, 0.8, None)
 }
+
+/// Runs the Khronos glTF validator (`node tools/gltf-validate/validate.mjs FILE`) and returns
+/// its JSON report, or `None` (with a printed "skipped: ...") when node or the npm package is
+/// missing. Panics when the validator runs but produces no report (test code).
+#[allow(clippy::expect_used)]
+pub fn khronos_validate(file: &Path) -> Option<serde_json::Value> {
+    let tool = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../tools/gltf-validate");
+    if !tool.join("node_modules/gltf-validator").exists() {
+        println!(
+            "skipped: gltf-validator not installed (run `npm ci --prefix tools/gltf-validate`)"
+        );
+        return None;
+    }
+    let out = match std::process::Command::new("node")
+        .arg(tool.join("validate.mjs"))
+        .arg(file)
+        .output()
+    {
+        Ok(o) => o,
+        Err(e) => {
+            println!("skipped: cannot run node: {e}");
+            return None;
+        }
+    };
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success() || !text.is_empty(),
+        "validator failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    Some(serde_json::from_str(&text).expect("the validator prints one JSON report"))
+}
