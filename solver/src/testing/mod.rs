@@ -114,17 +114,18 @@ pub fn sphere_with_caps() -> (crate::geometry::mesh::Mesh, crate::deform::handle
     capped_sphere(2, 0, 0.8, None)
 }
 
-/// Runs the Khronos glTF validator (`node tools/gltf-validate/validate.mjs FILE`) and returns
-/// its JSON report, or `None` (with a printed "skipped: ...") when node or the npm package is
-/// missing. Panics when the validator runs but produces no report (test code).
+/// Runs the Khronos glTF validator (`node tools/gltf-validate/validate.mjs FILE`) and asserts
+/// that it reports no error and no warning (its report is printed). Returns false, with a
+/// printed "skipped: ...", when node or the npm package is missing, so that the caller can
+/// return; panics on a finding or when the validator runs but produces no report (test code).
 #[allow(clippy::expect_used)]
-pub fn khronos_validate(file: &Path) -> Option<serde_json::Value> {
+pub fn khronos_accepts(file: &Path) -> bool {
     let tool = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../tools/gltf-validate");
     if !tool.join("node_modules/gltf-validator").exists() {
         println!(
             "skipped: gltf-validator not installed (run `npm ci --prefix tools/gltf-validate`)"
         );
-        return None;
+        return false;
     }
     let out = match std::process::Command::new("node")
         .arg(tool.join("validate.mjs"))
@@ -134,7 +135,7 @@ pub fn khronos_validate(file: &Path) -> Option<serde_json::Value> {
         Ok(o) => o,
         Err(e) => {
             println!("skipped: cannot run node: {e}");
-            return None;
+            return false;
         }
     };
     let text = String::from_utf8_lossy(&out.stdout);
@@ -143,5 +144,11 @@ pub fn khronos_validate(file: &Path) -> Option<serde_json::Value> {
         "validator failed: {}",
         String::from_utf8_lossy(&out.stderr)
     );
-    Some(serde_json::from_str(&text).expect("the validator prints one JSON report"))
+    let report: serde_json::Value =
+        serde_json::from_str(&text).expect("the validator prints one JSON report");
+    let issues = &report["issues"];
+    println!("{}: {issues}", file.display());
+    assert_eq!(issues["numErrors"], 0, "{}: {report:#}", file.display());
+    assert_eq!(issues["numWarnings"], 0, "{}: {report:#}", file.display());
+    true
 }
