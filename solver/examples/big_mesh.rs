@@ -140,6 +140,11 @@ fn run() -> Result<(), String> {
             Err(e) => format!("failed: {e}"),
         };
         let finite = deformer.positions().iter().flatten().all(|c| c.is_finite());
+        if let solver::Solver::Coarse(c) = deformer.solver() {
+            let phases: Vec<String> =
+                c.precompute_phases().iter().map(|(k, v)| format!("{k} {v:.0} ms")).collect();
+            eprintln!("  {} phases: {}", method.name(), phases.join(", "));
+        }
         println!(
             "| {} | {load_ms:.0} | {} | {precompute_ms:.0} | {solve_ms:.0} | {iterations} | {peak:.0} |",
             mesh.n_vertices(),

@@ -21,13 +21,13 @@
 //!    $$\min_{R \in SO(3),\,t} \sum_j w_j \lVert R p_j + t - p'_j \rVert^2,$$
 //!    i.e. $\bar p = \sum_j w_j p_j$, $\bar p' = \sum_j w_j p'_j$,
 //!    $S = \sum_j w_j (p_j - \bar p)(p'_j - \bar p')^\top$, $R$ =
-//!    [`fit_rotation_svd`]$(S)$ (never a reflection), $t = \bar p' - R \bar p$ (Kabsch 1976;
-//!    the ARAP local step's fit). A patch exactly at rest gives $R = I$, $t = 0$ exactly.
+//!    the rotation closest to $S$ (never a reflection), $t = \bar p' - R \bar p$
+//!    ([`crate::linalg::rigid`], Kabsch 1976). A patch exactly at rest gives $R = I$, $t = 0$ exactly.
 //! 4. Every vertex of $C$ goes to $R x + t$, $x$ its rest position ([`Riders::apply`]).
 //!
 //! Known limitations: a patch that is collinear (or one vertex) leaves the rotation about its
 //! line (or all of it) undetermined: the fit returns the rotation nearest to what it can see
-//! ([`fit_rotation_svd`]), the identity for one vertex. A loose part rides on handled
+//! ([`crate::linalg::rigid`]), the identity for one vertex. A loose part rides on handled
 //! components only, not on another loose part. If no component has a handle, nothing moves.
 //!
 //! Components are numbered as [`connected_components`] numbers them: in the order of each
@@ -37,7 +37,8 @@ use crate::deform::handles::Handles;
 use crate::geometry::kdtree::KdTree;
 use crate::geometry::mesh::Mesh;
 use crate::geometry::topology::connected_components;
-use crate::linalg::rotation::{IDENTITY, Mat3, add_outer, fit_rotation_svd, mul_vec};
+pub use crate::linalg::rigid::Motion;
+use crate::linalg::rigid::fit_motion;
 use rayon::prelude::*;
 
 /// Vertices of a loose part's anchor patch (fewer when its handled component has fewer): 32
@@ -138,25 +139,6 @@ pub struct ComponentInfo {
     /// For a following component: the handled component whose surface it rides on (`None`
     /// when pinned, handled, or when no component has a handle).
     pub follows: Option<usize>,
-}
-
-/// A rigid motion $x \mapsto R x + t$.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Motion {
-    pub rotation: Mat3,
-    pub translation: [f64; 3],
-}
-
-impl Motion {
-    /// The identity.
-    pub const IDENTITY: Motion = Motion { rotation: IDENTITY, translation: [0.0; 3] };
-
-    /// $R x + t$.
-    #[inline]
-    pub fn apply(&self, x: [f64; 3]) -> [f64; 3] {
-        let r = mul_vec(&self.rotation, x);
-        std::array::from_fn(|d| r[d] + self.translation[d])
-    }
 }
 
 /// A following component and its anchor patch.
@@ -328,28 +310,7 @@ impl Rider {
             .iter()
             .map(|&v| deformed.get(v as usize).copied().unwrap_or([0.0; 3]))
             .collect();
-        if moved == self.anchor_rest {
-            return Motion::IDENTITY;
-        }
-        let centroid = |x: &[[f64; 3]]| {
-            let mut c = [0.0; 3];
-            for (p, &w) in x.iter().zip(&self.weights) {
-                for d in 0..3 {
-                    c[d] += w * p[d];
-                }
-            }
-            c
-        };
-        let (c0, c1) = (centroid(&self.anchor_rest), centroid(&moved));
-        let mut s = [[0.0; 3]; 3];
-        for ((p, q), &w) in self.anchor_rest.iter().zip(&moved).zip(&self.weights) {
-            let e: [f64; 3] = std::array::from_fn(|d| p[d] - c0[d]);
-            let f: [f64; 3] = std::array::from_fn(|d| q[d] - c1[d]);
-            add_outer(&mut s, w, e, f);
-        }
-        let rotation = fit_rotation_svd(&s);
-        let rc0 = mul_vec(&rotation, c0);
-        Motion { rotation, translation: std::array::from_fn(|d| c1[d] - rc0[d]) }
+        fit_motion(&self.anchor_rest, &moved, Some(&self.weights))
     }
 }
 

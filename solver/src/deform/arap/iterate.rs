@@ -1,11 +1,10 @@
 //! The outer loop: [`Arap::solve`] and [`Arap::refine`] check the targets, put the handles
 //! on them and run the plain loop ([`Arap::iterate_plain`], alternating Eq. 4 and Eq. 5) or
 //! the Anderson loop (`accelerated`) under the stopping rule
-//! $(E_{k-1}-E_k)/E_{k-1} <$ tolerance; and the Laplacian-editing starting guess.
+//! $(E_{k-1}-E_k)/E_{k-1} <$ tolerance.
 
 use super::{Acceleration, Arap, REFINE_ANDERSON_WINDOW, SolveStats, ms};
 use crate::error::SolveError;
-use crate::linalg::rotation::IDENTITY;
 use crate::pool::in_pool;
 use std::time::Instant;
 
@@ -74,14 +73,18 @@ impl Arap {
             return Ok(SolveStats { converged: true, ..SolveStats::default() });
         }
         let previous = self.current.clone();
-        for (&v, t) in hv.iter().zip(targets) {
-            self.current[v as usize] = *t;
-        }
-        for &v in &self.inner.pinned_vertices {
-            self.current[v as usize] = self.rest[v as usize];
-        }
+        let exact = if fixed.is_none() {
+            self.rigid_start(targets)
+        } else {
+            self.place_handles(targets);
+            None
+        };
         let mut stats = SolveStats::default();
         in_pool(|| match (fixed, self.config.acceleration) {
+            _ if exact.is_some() => {
+                stats.initial_energy = exact.unwrap_or(0.0);
+                stats.converged = true;
+            }
             (Some(n), _) => {
                 self.iterate_anderson(&mut stats, REFINE_ANDERSON_WINDOW, n, false, continues)
             }
@@ -92,9 +95,12 @@ impl Arap {
         });
         if let Some(vertex) = self.current.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
             self.current = previous;
+            self.solved_at = None;
             let vertex = self.order.to_mesh[vertex] as usize;
             return Err(SolveError::NonFiniteResult { vertex });
         }
+        self.at_rest = false;
+        self.solved_at = Some(targets.to_vec());
         self.publish();
         Ok(stats)
     }
@@ -104,34 +110,6 @@ impl Arap {
         let th = self.config.energy_threshold;
         (tol > 0.0 && (prev <= f64::MIN_POSITIVE || (prev - e) / prev < tol))
             || (th > 0.0 && e <= th * e0)
-    }
-
-    /// Sets the starting guess to the Laplacian-editing fit for `targets` (Sun et al. 2017,
-    /// step 4): one global step with every $R_i = I$, i.e. $L_{FF}x_F = Lp|_F - L_{FH}x_H$.
-    /// Rotations are left at the identity.
-    pub fn start_from_laplacian_fit(&mut self, targets: &[[f64; 3]]) -> Result<(), SolveError> {
-        let hv = &self.inner.handle_vertices;
-        if targets.len() != hv.len() {
-            return Err(SolveError::TargetCount { got: targets.len(), expected: hv.len() });
-        }
-        self.refined_at = None;
-        for (&v, t) in hv.iter().zip(targets) {
-            self.current[v as usize] = *t;
-        }
-        for &v in &self.inner.pinned_vertices {
-            self.current[v as usize] = self.rest[v as usize];
-        }
-        self.rotations.fill(IDENTITY);
-        self.assemble_rhs();
-        self.solve_rhs();
-        for (r, &v) in self.inner.free_vertices.iter().enumerate() {
-            let p = self.rhs_row(r);
-            if p.iter().all(|c| c.is_finite()) {
-                self.current[v as usize] = p;
-            }
-        }
-        self.publish();
-        Ok(())
     }
 
     /// Plain local-global iterations (the handles already on target in `current`). Each global

@@ -38,6 +38,7 @@
 //! - `accelerated`: the safeguarded Anderson loop;
 //! - `local`: the local step (covariances and rotation fits, Eq. 5);
 //! - `global`: the right-hand side and the back-substitution (Eq. 4);
+//! - `start`: the starting guesses (the rigid start of every solve, the Laplacian fit);
 //! - `energy`: $E(p', R)$, directly and from the local step's sums;
 //! - `avx`: the AVX2 build of the covariance pass.
 
@@ -50,6 +51,7 @@ mod global;
 mod iterate;
 mod local;
 mod precompute;
+mod start;
 #[cfg(test)]
 mod tests;
 
@@ -162,6 +164,14 @@ pub struct Arap {
     /// The targets of the last [`Arap::refine`], while the pose is still its result: a refine
     /// that continues from there at the same targets keeps the Anderson history.
     refined_at: Option<Vec<[f64; 3]>>,
+    /// Whether the pose is the rest pose (a new solver, or reset): the next solve may start
+    /// from the handles' rigid motion (`start`).
+    at_rest: bool,
+    /// The targets of the last solve, while the pose is still its result: the next solve
+    /// moves the pose along when the handles moved rigidly from them (`start`).
+    solved_at: Option<Vec<[f64; 3]>>,
+    /// The rest bounding-box diagonal (the scale of the rigid-motion test).
+    rest_diagonal: f64,
 }
 
 impl Arap {
@@ -212,6 +222,8 @@ impl Arap {
     /// Restarts the next solve from the rest pose.
     pub fn reset(&mut self) {
         self.refined_at = None;
+        self.solved_at = None;
+        self.at_rest = true;
         self.current.copy_from_slice(&self.rest);
         self.rotations.fill(IDENTITY);
         self.publish();
@@ -227,9 +239,11 @@ impl Arap {
     /// Sets the starting guess of the next solve (`#V×3`, finite; other lengths are ignored).
     pub fn set_positions(&mut self, x: &[[f64; 3]]) {
         self.refined_at = None;
+        self.solved_at = None;
         if x.len() == self.current.len() && x.iter().flatten().all(|c| c.is_finite()) {
             self.order.gather_into(x, &mut self.current);
             self.mesh_current.copy_from_slice(x);
+            self.at_rest = false;
         }
     }
 

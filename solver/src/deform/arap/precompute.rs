@@ -150,6 +150,9 @@ impl Arap {
             mesh_rest: mesh.positions().to_vec(),
             anderson: None,
             refined_at: None,
+            at_rest: true,
+            solved_at: None,
+            rest_diagonal: mesh.bbox_diagonal(),
         })
     }
 }

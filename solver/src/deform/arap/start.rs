@@ -1,0 +1,130 @@
+//! Starting guesses of a solve.
+//!
+//! **Rigid start** ([`Arap::solve`]): local-global iterations converge linearly, so a pose
+//! that is far from the start in a direction the energy does not see (a rigid motion costs
+//! nothing) takes many iterations to reach. Before iterating, with $(R, t)$ the best rigid
+//! motion of the handles ([`crate::linalg::rigid`]):
+//! - from the rest pose (a new solver, or after [`Arap::reset`]): $(R,t)$ fits the handles'
+//!   rest positions to the targets, and the start is the better by energy of the rest pose and
+//!   $x_i = R p_i + t$, $R_i = R$ on the free vertices (handles on their targets in both; one
+//!   local pass each). When every handle moves by one rigid motion the second start has
+//!   $E = 0$ (up to rounding: at most [`EXACT`] times the energy's rest term
+//!   $\sum w \lVert e \rVert^2$): it is the minimizer, returned as it is with $R_i = R$ and
+//!   no iteration (an iteration's rotation fits would only add their own rounding);
+//! - from the previous solve's pose: when the handles moved from the previous targets by one
+//!   rigid motion (largest residual at most $10^{-9}$ of the rest bounding-box diagonal), the
+//!   whole pose moves with it ($x_i \leftarrow R x_i + t$, $R_i \leftarrow R R_i$), so a
+//!   whole-mesh move keeps the solved pose exactly instead of re-solving it. Otherwise the
+//!   previous pose is the start (the warm start of a drag), as before.
+//!
+//! Pinned vertices stay at rest in every case.
+//!
+//! **Laplacian-editing fit** ([`Arap::start_from_laplacian_fit`], Sun et al. 2017, step 4):
+//! one global step with every $R_i = I$.
+
+use super::Arap;
+use crate::error::SolveError;
+use crate::linalg::rigid::{Motion, fit_motion};
+use crate::linalg::rotation::{IDENTITY, mul_mat};
+
+/// The largest residual, as a fraction of the rest diagonal, of a handle motion that
+/// [`Arap::solve`] treats as rigid when continuing from the previous pose.
+pub const RIGID_RESIDUAL: f64 = 1e-9;
+
+/// The energy, relative to the rest term, below which a rigid start is the exact answer
+/// (rounding of a rigid motion leaves about 1e-32).
+pub const EXACT: f64 = 1e-20;
+
+impl Arap {
+    /// Puts the handles on `targets` and the pinned vertices at rest (internal order).
+    pub(super) fn place_handles(&mut self, targets: &[[f64; 3]]) {
+        for (&v, t) in self.inner.handle_vertices.iter().zip(targets) {
+            self.current[v as usize] = *t;
+        }
+        for &v in &self.inner.pinned_vertices {
+            self.current[v as usize] = self.rest[v as usize];
+        }
+    }
+
+    /// The rigid start (module doc), then the handles on `targets`. Returns the energy when
+    /// the start is the exact answer (a rigid move of every handle from rest).
+    pub(super) fn rigid_start(&mut self, targets: &[[f64; 3]]) -> Option<f64> {
+        let hv = &self.inner.handle_vertices;
+        if self.at_rest {
+            let rest: Vec<[f64; 3]> = hv.iter().map(|&v| self.rest[v as usize]).collect();
+            let motion = fit_motion(&rest, targets, None);
+            self.place_handles(targets);
+            if motion == Motion::IDENTITY || self.inner.free_vertices.is_empty() {
+                return None;
+            }
+            let rotations = self.rotations.clone();
+            let at_rest = self.local_step_energy();
+            self.move_free(&motion, true);
+            let rigid = self.local_step_energy();
+            if rigid <= EXACT * self.rest_term {
+                self.rotations.fill(motion.rotation);
+                return Some(rigid);
+            }
+            if rigid < at_rest {
+                return None;
+            }
+            for &v in &self.inner.free_vertices {
+                self.current[v as usize] = self.rest[v as usize];
+            }
+            self.rotations = rotations;
+            None
+        } else if let Some(previous) = self.solved_at.take() {
+            let motion = fit_motion(&previous, targets, None);
+            let tolerance = RIGID_RESIDUAL * self.rest_diagonal;
+            if motion != Motion::IDENTITY && motion.max_residual(&previous, targets) <= tolerance {
+                self.move_free(&motion, false);
+            }
+            self.place_handles(targets);
+            None
+        } else {
+            self.place_handles(targets);
+            None
+        }
+    }
+
+    /// Moves the free vertices by `motion`: from rest (`from_rest`) or from the current pose,
+    /// and the rotations with them.
+    fn move_free(&mut self, motion: &Motion, from_rest: bool) {
+        for &v in &self.inner.free_vertices {
+            let x = if from_rest { self.rest[v as usize] } else { self.current[v as usize] };
+            self.current[v as usize] = motion.apply(x);
+        }
+        if from_rest {
+            self.rotations.fill(motion.rotation);
+        } else {
+            for r in &mut self.rotations {
+                *r = mul_mat(&motion.rotation, r);
+            }
+        }
+    }
+
+    /// Sets the starting guess to the Laplacian-editing fit for `targets` (Sun et al. 2017,
+    /// step 4): one global step with every $R_i = I$, i.e. $L_{FF}x_F = Lp|_F - L_{FH}x_H$.
+    /// Rotations are left at the identity.
+    pub fn start_from_laplacian_fit(&mut self, targets: &[[f64; 3]]) -> Result<(), SolveError> {
+        let hv = &self.inner.handle_vertices;
+        if targets.len() != hv.len() {
+            return Err(SolveError::TargetCount { got: targets.len(), expected: hv.len() });
+        }
+        self.refined_at = None;
+        self.solved_at = None;
+        self.at_rest = false;
+        self.place_handles(targets);
+        self.rotations.fill(IDENTITY);
+        self.assemble_rhs();
+        self.solve_rhs();
+        for (r, &v) in self.inner.free_vertices.iter().enumerate() {
+            let p = self.rhs_row(r);
+            if p.iter().all(|c| c.is_finite()) {
+                self.current[v as usize] = p;
+            }
+        }
+        self.publish();
+        Ok(())
+    }
+}
