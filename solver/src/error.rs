@@ -17,6 +17,10 @@ pub enum SolveError {
     )]
     DegenerateBase { face: usize },
     #[error(
+        "the precomputed coarse base belongs to another mesh or other base settings (smoothing, coarse size)"
+    )]
+    StaleBase,
+    #[error(
         "factorizing {matrix} failed: {source}; likely cause: degenerate or duplicated geometry, or a component without handles that was not pinned"
     )]
     Factorization { matrix: &'static str, source: FactorError },

@@ -43,8 +43,10 @@ fn non_finite_targets_are_rejected_and_the_pose_kept() {
 
 /// Huge targets give a finite pose or a typed error. After an error nothing of the failed solve
 /// shows (pose and base are those of the last good solve) and the next solve starts from it:
-/// solving the good targets again stays where they were. Every method, and the coarse variant
-/// with fine iterations too.
+/// solving the good targets again lands where a twin lands that solved them twice with no
+/// failure between (a re-solve iterates on from the last pose, and the fine iterations of the
+/// coarse variant move it on by themselves). Every method, and the coarse variant with fine
+/// iterations too.
 #[test]
 fn huge_targets_give_a_finite_pose_or_an_error_never_nan() {
     let (m, h) = sphere_with_caps();
@@ -53,13 +55,18 @@ fn huge_targets_give_a_finite_pose_or_an_error_never_nan() {
     let good = handle_targets(m.positions(), &h, &[(0, good_tr)]).unwrap();
     let snapshot = |d: &Deformer| (d.positions().to_vec(), d.deformed_base().map(<[_]>::to_vec));
     for scale in [1e150, 1e300, f64::MAX / 4.0, f64::MAX] {
-        let mut all = deformers(&m, &h, &config);
         let fine =
             BaseConfig { coarse_vertices: Some(40), fine_iterations: 2, ..Default::default() };
-        let coarse_fine = Deformer::with_base(Method::BsArapCoarse, &m, &h, &config, &fine);
-        all.push((Method::BsArapCoarse, coarse_fine.unwrap()));
-        for (method, mut d) in all {
+        let all = || {
+            let mut all = deformers(&m, &h, &config);
+            let coarse_fine = Deformer::with_base(Method::BsArapCoarse, &m, &h, &config, &fine);
+            all.push((Method::BsArapCoarse, coarse_fine.unwrap()));
+            all
+        };
+        for ((method, mut d), (_, mut twin)) in all().into_iter().zip(all()) {
             d.solve(&good).unwrap();
+            twin.solve(&good).unwrap();
+            twin.solve(&good).unwrap();
             let before = snapshot(&d);
             let tr = GroupTransform { translation: [scale, -scale, 0.0], ..Default::default() };
             let targets = handle_targets(m.positions(), &h, &[(0, tr)]).unwrap();
@@ -71,10 +78,10 @@ fn huge_targets_give_a_finite_pose_or_an_error_never_nan() {
                         "{method:?} at {scale:e}: a failed solve showed"
                     );
                     d.solve(&good).unwrap();
-                    let moved = d.positions().iter().zip(&before.0);
+                    let moved = d.positions().iter().zip(twin.positions());
                     let gap = moved.map(|(a, b)| (0..3).map(|k| (a[k] - b[k]).abs()).sum::<f64>());
                     let gap = gap.fold(0.0, f64::max);
-                    assert!(gap < 1e-2, "{method:?} at {scale:e}: restarted elsewhere ({gap:e})");
+                    assert!(gap < 1e-3, "{method:?} at {scale:e}: restarted elsewhere ({gap:e})");
                 }
                 Err(e) => panic!("{method:?} at {scale:e}: unexpected error {e}"),
             }

@@ -1,19 +1,30 @@
 //! BS-ARAP on a coarse base: ARAP runs on a decimated copy of a smooth base surface and the
 //! full-resolution details ride on it (our variant for speed; docs/DESIGN.md, "The coarse base").
 //!
-//! 1. $B$ = faired base of $M$ ([`crate::deform::biharmonic::faired_surface`], smoothing length $h$).
-//! 2. $B_c$ = [`crate::geometry::decimate::decimate`] of $B$ to about `coarse_vertices` vertices (a subset of
-//!    $B$'s vertices, handle groups kept).
-//! 3. Embedding (prolongation $P$): each fine vertex $i$ gets the closest point of $B_c$ to $B_i$,
-//!    as barycentric weights $w_{ik}$ on a coarse triangle $t_i$; its detail is
-//!    $D_i = p_i - \sum_k w_{ik} B_{c,k}$.
-//! 4. Each frame: ARAP on $B_c$ (handles = the kept handle vertices) gives $B_c'$ and $R_k$;
+//! Per mesh, whatever the handles ([`CoarseBase`], built once and shared by every handle set):
+//! 1–3. $B$ = the faired base of $M$ with no vertex held, $B_c$ its decimation, the embedding
+//!    of each fine vertex as barycentric weights $w_{ik}$ on a coarse triangle $t_i$, and the
+//!    details $D_i = p_i - \sum_k w_{ik} B_{c,k}$ ([`crate::deform::coarse_base`]).
+//!
+//! Per handle set ([`CoarseBsArap::with_base`]; milliseconds at a few thousand coarse vertices):
+//! - **Handles on the coarse level**: coarse vertex $k$ joins group $g$ when at least half of
+//!   the fine vertices merged into it are in $g$; a group left with fewer than
+//!   [`MIN_COARSE_GROUP`] coarse vertices takes those with the largest share of its vertices,
+//!   then their neighbours nearest to its centroid. Each frame, group $g$'s coarse targets
+//!   are $T_g(B_{c,k})$, $T_g$ the best rigid motion of its fine handles from rest to their
+//!   targets ([`crate::linalg::rigid`]): exact for groups that move rigidly (every editor and
+//!   scene pose), the rigid part otherwise; the fine handle vertices get their own targets
+//!   exactly in step 4.
+//! - ARAP on $B_c$ with those handles, factored.
+//!
+//! 4. Each frame: ARAP on $B_c$ (the coarse handles on their targets) gives $B_c'$ and $R_k$;
 //!    $p'_i = \sum_k w_{ik} B'_{c,k} + \hat R_i (D_i + C_i)$ where $\hat R_i$ is the normalized
 //!    blend of the corner rotations as quaternions (signs aligned) and $C_i$ the carried fine
 //!    correction (step 5; zero without it). Handle vertices are set to their targets exactly,
 //!    and the vertices of components without handles to their rest positions (the deformer
 //!    then moves the following ones, [`crate::deform::riders`]).
-//! 5. Optionally ([`BaseConfig::fine_iterations`]), a few ARAP iterations on $M$ with
+//! 5. Optionally ([`BaseConfig::fine_iterations`]), a few ARAP iterations on $M$ (factored
+//!    when first needed, [`CoarseBsArap::factor_fine`]) with
 //!    Anderson acceleration ([`Arap::refine`]) start from $p'$ and give the result $x$: a
 //!    two-level scheme in which the coarse solve supplies the smooth part of the deformation
 //!    and the fine iterations reduce what the coarse space and the detail transfer cannot
@@ -32,39 +43,44 @@
 //! vertices per frame, each fine iteration one ARAP iteration on $M$.
 
 use crate::deform::arap::{Arap, ArapConfig, SolveStats};
-use crate::deform::biharmonic::faired_surface;
+use crate::deform::coarse_base::{CoarseBase, Phases, blend};
 use crate::deform::config::BaseConfig;
 use crate::deform::constraints::Constraints;
 use crate::deform::handles::Handles;
 use crate::error::SolveError;
-use crate::geometry::decimate::decimate;
-use crate::geometry::mesh::{Mesh, add, dot, sub};
+use crate::geometry::mesh::{Mesh, add, sub};
+use crate::linalg::rigid::{Motion, fit_motion};
 use crate::linalg::rotation::Mat3;
 use rayon::prelude::*;
+use std::sync::Arc;
+
+/// The fewest coarse vertices a handle group holds (its rotation needs three points off a
+/// line), or all of the coarse vertices its component has.
+pub const MIN_COARSE_GROUP: usize = 3;
 
 /// Coarse-base BS-ARAP precomputed for one mesh and one handle set.
 #[derive(Debug)]
 pub struct CoarseBsArap {
+    /// The mesh's handle-independent part: $B_c$, the embedding, the details.
+    base: Arc<CoarseBase>,
     arap: Arap,
-    /// Per fine vertex: coarse triangle corners and barycentric weights.
-    embedding: Vec<([u32; 3], [f64; 3])>,
-    details: Vec<[f64; 3]>,
-    base: Vec<[f64; 3]>,
     deformed_base: Vec<[f64; 3]>,
     result: Vec<[f64; 3]>,
     fine_handles: Vec<u32>,
     /// Fine vertices of components without handles, with their rest positions.
     pinned: Vec<(u32, [f64; 3])>,
-    /// For each coarse handle vertex (in its handle order), the index in the fine targets.
-    coarse_targets: Vec<usize>,
+    groups: CoarseGroups,
+    /// Per-solve scratch: each group's motion.
+    motions: Vec<Motion>,
     quaternions: Vec<[f64; 4]>,
     /// Per fine vertex, the blended rotation of the last solve (unit quaternion).
     frames: Vec<[f64; 4]>,
     /// Per fine vertex, what the last fine iterations added to its detail, in the detail's
     /// frame (zero without fine iterations): carried to the next solve.
     correction: Vec<[f64; 3]>,
-    /// ARAP on the full mesh (when fine or settle iterations are asked for).
-    fine: Option<Arap>,
+    /// ARAP on the full mesh (when fine or settle iterations are asked for), factored when
+    /// first needed.
+    fine: Option<FineLevel>,
     fine_iterations: usize,
     settle_iterations: usize,
     /// The targets of the last solve, and whether [`CoarseBsArap::settle`] may refine its
@@ -87,9 +103,156 @@ pub struct CoarseBsArap {
     coarse_before: Vec<[f64; 3]>,
 }
 
+/// The ARAP on the full mesh: what to build it from until it is first needed, then itself.
+#[derive(Debug)]
+enum FineLevel {
+    Pending(Box<(Mesh, Constraints, ArapConfig)>),
+    Ready(Box<Arap>),
+}
+
+/// Which coarse vertices hold which handle group (module doc, "Handles on the coarse level"),
+/// and how their targets follow the fine handles.
+#[derive(Debug, Clone)]
+struct CoarseGroups {
+    /// Per coarse vertex, its group.
+    labels: Vec<Option<u32>>,
+    /// Per group: the positions of its vertices in the fine targets, and their rest positions.
+    fine: Vec<(Vec<usize>, Vec<[f64; 3]>)>,
+    /// Per coarse handle vertex (in the coarse handle order): its group and rest position.
+    coarse: Vec<(u32, [f64; 3])>,
+}
+
+impl CoarseGroups {
+    /// Coarse vertex $k$ joins group $g$ when at least half of the fine vertices it
+    /// represents are in $g$; a group with fewer than [`MIN_COARSE_GROUP`] coarse vertices
+    /// then takes the coarse vertices representing its vertices with the largest share,
+    /// then their coarse neighbours nearest to its centroid.
+    fn new(base: &CoarseBase, handles: &Handles, rest: &[[f64; 3]]) -> CoarseGroups {
+        let nc = base.kept.len();
+        let labels = handles.labels();
+        let n_groups = handles.n_groups();
+        let mut total = vec![0u32; nc];
+        for &r in &base.representative {
+            total[r as usize] += 1;
+        }
+        // Per group, (coarse vertex, fine vertices of the group it represents).
+        let mut share: Vec<std::collections::HashMap<u32, u32>> =
+            vec![Default::default(); n_groups];
+        for (v, l) in labels.iter().enumerate() {
+            if let Some(g) = l {
+                *share[*g as usize].entry(base.representative[v]).or_default() += 1;
+            }
+        }
+        let mut coarse_labels: Vec<Option<u32>> = vec![None; nc];
+        let mut counts = vec![0usize; n_groups];
+        for (g, map) in share.iter().enumerate() {
+            for (&k, &c) in map {
+                if 2 * c >= total[k as usize] && coarse_labels[k as usize].is_none() {
+                    coarse_labels[k as usize] = Some(g as u32);
+                    counts[g] += 1;
+                }
+            }
+        }
+        let cp = base.coarse_mesh.positions();
+        let mut neighbours = vec![Vec::new(); nc];
+        for t in base.coarse_mesh.triangles() {
+            for k in 0..3 {
+                neighbours[t[k] as usize].push(t[(k + 1) % 3]);
+                neighbours[t[(k + 1) % 3] as usize].push(t[k]);
+            }
+        }
+        for (g, map) in share.iter().enumerate() {
+            if counts[g] >= MIN_COARSE_GROUP || map.is_empty() {
+                continue;
+            }
+            let group = handles.group(g).unwrap_or(&[]);
+            let mut centroid = [0.0; 3];
+            for &v in group {
+                centroid = add(centroid, base.base_on_coarse[v as usize]);
+            }
+            let centroid = centroid.map(|c| c / group.len().max(1) as f64);
+            let dist2 = |k: u32| {
+                let d = sub(cp[k as usize], centroid);
+                d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
+            };
+            let mut by_share: Vec<(u32, u32)> = map.iter().map(|(&k, &c)| (k, c)).collect();
+            by_share.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
+            let mut ring: Vec<u32> = Vec::new();
+            for (k, _) in by_share {
+                ring.push(k);
+                if coarse_labels[k as usize].is_none() && counts[g] < MIN_COARSE_GROUP {
+                    coarse_labels[k as usize] = Some(g as u32);
+                    counts[g] += 1;
+                }
+            }
+            // Grow ring by ring through free coarse vertices, nearest to the centroid first.
+            let mut seen: std::collections::HashSet<u32> = ring.iter().copied().collect();
+            while counts[g] < MIN_COARSE_GROUP && !ring.is_empty() {
+                let mut next: Vec<u32> = Vec::new();
+                for &k in &ring {
+                    for &w in &neighbours[k as usize] {
+                        if seen.insert(w) {
+                            next.push(w);
+                        }
+                    }
+                }
+                next.sort_by(|&a, &b| dist2(a).total_cmp(&dist2(b)).then(a.cmp(&b)));
+                for &k in &next {
+                    if coarse_labels[k as usize].is_none() && counts[g] < MIN_COARSE_GROUP {
+                        coarse_labels[k as usize] = Some(g as u32);
+                        counts[g] += 1;
+                    }
+                }
+                ring = next;
+            }
+        }
+        let handle_vertices = handles.handle_vertices();
+        let mut fine: Vec<(Vec<usize>, Vec<[f64; 3]>)> = vec![Default::default(); n_groups];
+        for (i, &v) in handle_vertices.iter().enumerate() {
+            if let Some(g) = labels[v as usize] {
+                fine[g as usize].0.push(i);
+                fine[g as usize].1.push(rest[v as usize]);
+            }
+        }
+        let coarse =
+            coarse_labels.iter().enumerate().filter_map(|(k, l)| l.map(|g| (g, cp[k]))).collect();
+        CoarseGroups { labels: coarse_labels, fine, coarse }
+    }
+
+    /// The coarse handles' targets for fine `targets`: each group's best rigid motion of its
+    /// fine handles ([`crate::linalg::rigid`]) applied to its coarse vertices' rest positions.
+    fn targets(&self, targets: &[[f64; 3]], motions: &mut Vec<Motion>, out: &mut Vec<[f64; 3]>) {
+        motions.clear();
+        let mut moved = Vec::new();
+        for (indices, rest) in &self.fine {
+            moved.clear();
+            moved.extend(indices.iter().map(|&i| targets[i]));
+            motions.push(fit_motion(rest, &moved, None));
+        }
+        out.clear();
+        out.extend(self.coarse.iter().map(|&(g, p)| motions[g as usize].apply(p)));
+    }
+}
+
 impl CoarseBsArap {
-    /// Builds the base, decimates it, embeds the fine vertices and factors coarse ARAP.
+    /// Builds the mesh's [`CoarseBase`] and then the solver for `handles` on it.
     pub fn new(
+        mesh: &Mesh,
+        handles: &Handles,
+        config: &ArapConfig,
+        coarse: &BaseConfig,
+    ) -> Result<CoarseBsArap, SolveError> {
+        let base = Arc::new(CoarseBase::new(mesh, coarse)?);
+        CoarseBsArap::with_base(base, mesh, handles, config, coarse)
+    }
+
+    /// The solver for `handles` on a [`CoarseBase`] built for `mesh` (the handle-dependent
+    /// part, module doc: coarse handle groups, their factorization). Refused with
+    /// [`SolveError::StaleBase`] when `base` does not fit `mesh` and `coarse`.
+    /// The ARAP on the full mesh that fine and settle iterations need is factored when they
+    /// first run, not here.
+    pub fn with_base(
+        base: Arc<CoarseBase>,
         mesh: &Mesh,
         handles: &Handles,
         config: &ArapConfig,
@@ -101,94 +264,30 @@ impl CoarseBsArap {
                 expected: mesh.n_vertices(),
             });
         }
-        let diag = mesh.bbox_diagonal();
+        if !base.fits(mesh, coarse) {
+            return Err(SolveError::StaleBase);
+        }
         let mut clock = Phases::default();
         let constraints = Constraints::new(mesh, handles);
-        let smoothing = (coarse.smoothing.is_finite() && coarse.smoothing > 0.0)
-            .then_some(coarse.smoothing * diag);
-        let base = faired_surface(mesh, &constraints, mesh.positions(), smoothing)?;
-        clock.lap("faired base");
-        let labels = handles.labels();
-        let target = coarse.coarse_vertices_for(mesh.n_vertices());
-        let dec = decimate(&base, mesh.triangles(), labels, target);
-        clock.lap("decimation");
-        let coarse_positions: Vec<[f64; 3]> = dec.kept.iter().map(|&v| base[v as usize]).collect();
-        let coarse_mesh = Mesh::new(coarse_positions, dec.triangles.clone())
-            .map_err(|_| SolveError::NonFiniteResult { vertex: 0 })?;
-        let coarse_handles =
-            Handles::from_options(dec.kept.iter().map(|&v| labels[v as usize]).collect())?;
-        // Collapsed coarse triangles (features thinner than the smoothing length flatten in
-        // the faired base) take the cotangents of the same vertices on M.
-        let floor = 2.0 * crate::geometry::cleanup::AREA_EPS * diag * diag;
-        let rest_kept: Vec<[f64; 3]> =
-            dec.kept.iter().map(|&v| mesh.positions()[v as usize]).collect();
+        let groups = CoarseGroups::new(&base, handles, mesh.positions());
+        let coarse_handles = Handles::from_options(groups.labels.clone())?;
+        clock.lap("coarse handles");
+        let coarse_mesh = &base.coarse_mesh;
         let arap = Arap::with_constraints(
-            &coarse_mesh,
-            Constraints::new(&coarse_mesh, &coarse_handles),
+            coarse_mesh,
+            Constraints::new(coarse_mesh, &coarse_handles),
             config,
-            floor,
-            Some(&rest_kept),
+            base.floor,
+            Some(&base.rest_kept),
         )
         .map_err(|e| match e {
             SolveError::DegenerateFace { face } => SolveError::DegenerateBase { face },
             other => other,
         })?;
         clock.lap("coarse factorization");
-        let fine_handles = handles.handle_vertices();
-        let coarse_targets = coarse_handles
-            .handle_vertices()
-            .iter()
-            .map(|&j| fine_handles.binary_search(&dec.kept[j as usize]).unwrap_or(0))
-            .collect();
-
-        // Coarse vertex → faces adjacency for the local closest-point search.
-        let cp = coarse_mesh.positions();
-        let ct = coarse_mesh.triangles();
-        let mut vf = vec![Vec::new(); cp.len()];
-        for (f, t) in ct.iter().enumerate() {
-            for &v in t {
-                vf[v as usize].push(f as u32);
-            }
-        }
-        let embedding: Vec<([u32; 3], [f64; 3])> = (0..mesh.n_vertices())
-            .into_par_iter()
-            .map(|i| {
-                let r = dec.representative[i] as usize;
-                // Faces within two rings of the representative.
-                let mut faces: Vec<u32> = Vec::new();
-                for &f in &vf[r] {
-                    for &w in &ct[f as usize] {
-                        faces.extend_from_slice(&vf[w as usize]);
-                    }
-                }
-                faces.sort_unstable();
-                faces.dedup();
-                let q = base[i];
-                let mut best = (f64::INFINITY, [r as u32; 3], [1.0, 0.0, 0.0]);
-                for f in faces {
-                    let t = ct[f as usize];
-                    let (point, w) = closest_point_on_triangle(q, t.map(|v| cp[v as usize]));
-                    let d = sub(point, q);
-                    let d2 = dot(d, d);
-                    if d2 < best.0 {
-                        best = (d2, t, w);
-                    }
-                }
-                (best.1, best.2)
-            })
-            .collect();
-        let base_on_coarse: Vec<[f64; 3]> =
-            embedding.iter().map(|(t, w)| blend(cp, t, w)).collect();
-        let details =
-            mesh.positions().iter().zip(&base_on_coarse).map(|(&p, &b)| sub(p, b)).collect();
-        clock.lap("embedding");
-        let fine = if coarse.fine_iterations > 0 || coarse.settle_iterations > 0 {
-            let fine = Arap::with_constraints(mesh, constraints.clone(), config, 0.0, None)?;
-            clock.lap("fine factorization");
-            Some(fine)
-        } else {
-            None
-        };
+        let n = mesh.n_vertices();
+        let fine = (coarse.fine_iterations > 0 || coarse.settle_iterations > 0)
+            .then(|| FineLevel::Pending(Box::new((mesh.clone(), constraints.clone(), *config))));
         let pinned = constraints
             .pinned_vertices
             .iter()
@@ -207,24 +306,20 @@ impl CoarseBsArap {
             next_frames: Vec::new(),
             coarse_target_buf: Vec::new(),
             coarse_before: Vec::new(),
+            motions: Vec::new(),
             pinned,
-            quaternions: vec![[1.0, 0.0, 0.0, 0.0]; cp.len()],
-            frames: vec![[1.0, 0.0, 0.0, 0.0]; mesh.n_vertices()],
-            correction: vec![[0.0; 3]; mesh.n_vertices()],
-            deformed_base: base_on_coarse.clone(),
-            base: base_on_coarse,
-            details,
+            quaternions: vec![[1.0, 0.0, 0.0, 0.0]; coarse_mesh.n_vertices()],
+            frames: vec![[1.0, 0.0, 0.0, 0.0]; n],
+            correction: vec![[0.0; 3]; n],
+            deformed_base: base.base_on_coarse.clone(),
             result: mesh.positions().to_vec(),
-            embedding,
-            fine_handles,
-            coarse_targets,
+            fine_handles: handles.handle_vertices(),
+            groups,
+            base,
             arap,
         })
     }
 
-    /// Solves coarse ARAP for `targets` (`#H×3` of the fine mesh) and prolongs to the fine mesh.
-    /// On error the pose, the deformed base and the detail frames of the last successful solve
-    /// stay, and the next solve starts from its coarse pose.
     pub fn solve(&mut self, targets: &[[f64; 3]]) -> Result<SolveStats, SolveError> {
         if targets.len() != self.fine_handles.len() {
             return Err(SolveError::TargetCount {
@@ -236,8 +331,7 @@ impl CoarseBsArap {
         if let Some(index) = targets.iter().position(|t| !t.iter().all(|c| c.is_finite())) {
             return Err(SolveError::NonFiniteTarget { index });
         }
-        self.coarse_target_buf.clear();
-        self.coarse_target_buf.extend(self.coarse_targets.iter().map(|&k| targets[k]));
+        self.groups.targets(targets, &mut self.motions, &mut self.coarse_target_buf);
         self.coarse_before.clear();
         self.coarse_before.extend_from_slice(self.arap.positions());
         let stats = self.arap.solve(&self.coarse_target_buf)?;
@@ -258,11 +352,11 @@ impl CoarseBsArap {
         next.resize(n, [0.0; 3]);
         self.next_base.resize(n, [0.0; 3]);
         self.next_frames.resize(n, [1.0, 0.0, 0.0, 0.0]);
-        let details = self.details.par_iter().zip(self.correction.par_iter());
+        let details = self.base.details.par_iter().zip(self.correction.par_iter());
         self.next_base
             .par_iter_mut()
             .zip(next.par_iter_mut().zip(self.next_frames.par_iter_mut()))
-            .zip(self.embedding.par_iter().zip(details))
+            .zip(self.base.embedding.par_iter().zip(details))
             .for_each(|((b, (out, frame)), ((t, w), (d, c)))| {
                 *b = blend(bc, t, w);
                 let q0 = quats[t[0] as usize];
@@ -358,7 +452,8 @@ impl CoarseBsArap {
     /// they changed is kept in the detail frames for the next solve (zero again when the result
     /// is the rest pose). On error the result is unchanged.
     fn run_fine(&mut self, targets: &[[f64; 3]], n: usize) -> Result<SolveStats, SolveError> {
-        let Some(fine) = self.fine.as_mut() else {
+        self.factor_fine()?;
+        let Some(FineLevel::Ready(fine)) = self.fine.as_mut() else {
             return Ok(SolveStats { converged: true, ..SolveStats::default() });
         };
         let st = fine.refine(&self.result, targets, n)?;
@@ -366,12 +461,32 @@ impl CoarseBsArap {
         self.correction
             .par_iter_mut()
             .zip(self.result.par_iter().zip(self.deformed_base.par_iter()))
-            .zip(self.frames.par_iter().zip(self.details.par_iter()))
+            .zip(self.frames.par_iter().zip(self.base.details.par_iter()))
             .for_each(|((c, (x, b)), (q, d))| {
                 let conj = [q[0], -q[1], -q[2], -q[3]];
                 *c = sub(rotate(conj, sub(*x, *b)), *d);
             });
         Ok(st)
+    }
+
+    /// Factors the ARAP on the full mesh if it is pending (its phase is added to
+    /// [`CoarseBsArap::precompute_phases`]); nothing without fine or settle iterations or
+    /// when done already.
+    pub fn factor_fine(&mut self) -> Result<(), SolveError> {
+        if let Some(FineLevel::Pending(inputs)) = &self.fine {
+            let mut clock = Phases::default();
+            let (mesh, constraints, config) = &**inputs;
+            let arap = Arap::with_constraints(mesh, constraints.clone(), config, 0.0, None)?;
+            clock.lap("fine factorization");
+            self.phases.extend(clock.phases);
+            self.fine = Some(FineLevel::Ready(Box::new(arap)));
+        }
+        Ok(())
+    }
+
+    /// Whether the ARAP on the full mesh is factored (fine and settle iterations run at once).
+    pub fn fine_ready(&self) -> bool {
+        matches!(self.fine, Some(FineLevel::Ready(_)))
     }
 
     /// Whether fine iterations no longer lower the energy by the tolerance per iteration (then
@@ -391,6 +506,11 @@ impl CoarseBsArap {
 
     /// The base at rest as seen by the fine vertices (their points on $B_c$), `#V×3`.
     pub fn base(&self) -> &[[f64; 3]] {
+        &self.base.base_on_coarse
+    }
+
+    /// The mesh's handle-independent part, shared with other handle sets of the mesh.
+    pub fn coarse_base(&self) -> &Arc<CoarseBase> {
         &self.base
     }
 
@@ -401,11 +521,12 @@ impl CoarseBsArap {
 
     /// Details $D_i$, `#V×3`.
     pub fn details(&self) -> &[[f64; 3]] {
-        &self.details
+        &self.base.details
     }
 
-    /// Milliseconds of each precomputation phase (faired base, decimation, coarse
-    /// factorization, embedding, and the fine factorization with fine or settle iterations).
+    /// Milliseconds of each precomputation phase for this handle set (coarse handles, coarse
+    /// factorization, and the fine factorization once fine or settle iterations ran); the
+    /// mesh's own phases are [`CoarseBase::precompute_phases`].
     pub fn precompute_phases(&self) -> &[(&'static str, f64)] {
         &self.phases
     }
@@ -431,36 +552,10 @@ impl CoarseBsArap {
         self.correction.fill([0.0; 3]);
         self.last_targets.clear();
         self.settle_ready = false;
-        if let Some(fine) = self.fine.as_mut() {
+        if let Some(FineLevel::Ready(fine)) = self.fine.as_mut() {
             fine.reset();
         }
     }
-}
-
-/// Wall-clock laps of the precomputation.
-struct Phases {
-    last: std::time::Instant,
-    phases: Vec<(&'static str, f64)>,
-}
-
-impl Default for Phases {
-    fn default() -> Self {
-        Phases { last: std::time::Instant::now(), phases: Vec::new() }
-    }
-}
-
-impl Phases {
-    fn lap(&mut self, name: &'static str) {
-        let now = std::time::Instant::now();
-        self.phases.push((name, (now - self.last).as_secs_f64() * 1e3));
-        self.last = now;
-    }
-}
-
-#[inline]
-fn blend(p: &[[f64; 3]], t: &[u32; 3], w: &[f64; 3]) -> [f64; 3] {
-    let [a, b, c] = t.map(|v| p[v as usize]);
-    std::array::from_fn(|d| w[0] * a[d] + w[1] * b[d] + w[2] * c[d])
 }
 
 #[inline]
@@ -483,46 +578,6 @@ pub fn rotate(q: [f64; 4], v: [f64; 3]) -> [f64; 3] {
     let t = crate::geometry::mesh::cross(u, v).map(|c| 2.0 * c);
     let ut = crate::geometry::mesh::cross(u, t);
     std::array::from_fn(|d| v[d] + q[0] * t[d] + ut[d])
-}
-
-/// Closest point of triangle `(a, b, c)` to `p` and its barycentric weights (Ericson,
-/// Real-Time Collision Detection, §5.1.5: Voronoi regions of vertices, edges, face).
-pub fn closest_point_on_triangle(p: [f64; 3], [a, b, c]: [[f64; 3]; 3]) -> ([f64; 3], [f64; 3]) {
-    let ab = sub(b, a);
-    let ac = sub(c, a);
-    let ap = sub(p, a);
-    let (d1, d2) = (dot(ab, ap), dot(ac, ap));
-    if d1 <= 0.0 && d2 <= 0.0 {
-        return (a, [1.0, 0.0, 0.0]);
-    }
-    let bp = sub(p, b);
-    let (d3, d4) = (dot(ab, bp), dot(ac, bp));
-    if d3 >= 0.0 && d4 <= d3 {
-        return (b, [0.0, 1.0, 0.0]);
-    }
-    let vc = d1 * d4 - d3 * d2;
-    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
-        let v = d1 / (d1 - d3);
-        return (add(a, ab.map(|x| x * v)), [1.0 - v, v, 0.0]);
-    }
-    let cp = sub(p, c);
-    let (d5, d6) = (dot(ab, cp), dot(ac, cp));
-    if d6 >= 0.0 && d5 <= d6 {
-        return (c, [0.0, 0.0, 1.0]);
-    }
-    let vb = d5 * d2 - d1 * d6;
-    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
-        let w = d2 / (d2 - d6);
-        return (add(a, ac.map(|x| x * w)), [1.0 - w, 0.0, w]);
-    }
-    let va = d3 * d6 - d5 * d4;
-    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
-        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
-        return (add(b, sub(c, b).map(|x| x * w)), [0.0, 1.0 - w, w]);
-    }
-    let denom = 1.0 / (va + vb + vc);
-    let (v, w) = (vb * denom, vc * denom);
-    (add(a, add(ab.map(|x| x * v), ac.map(|x| x * w))), [1.0 - v - w, v, w])
 }
 
 #[cfg(test)]
@@ -563,16 +618,5 @@ mod tests {
                 assert!((a[d] - b[d]).abs() < 1e-12);
             }
         }
-    }
-
-    #[test]
-    fn closest_point_regions() {
-        let t = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
-        let (p, w) = closest_point_on_triangle([0.2, 0.3, 5.0], t);
-        assert!((p[0] - 0.2).abs() < 1e-15 && (p[1] - 0.3).abs() < 1e-15 && p[2] == 0.0);
-        assert!((w[0] - 0.5).abs() < 1e-15);
-        assert_eq!(closest_point_on_triangle([-1.0, -1.0, 0.0], t).1, [1.0, 0.0, 0.0]);
-        let (_, w) = closest_point_on_triangle([2.0, 2.0, 0.0], t);
-        assert!((w[1] - 0.5).abs() < 1e-15 && (w[2] - 0.5).abs() < 1e-15);
     }
 }

@@ -62,6 +62,19 @@ impl Constraints {
         }
     }
 
+    /// Every one of `n` vertices free (no handle, nothing pinned): for problems whose own
+    /// data term makes them well posed, such as the faired base of
+    /// [`crate::deform::coarse_base`].
+    pub fn all_free(n: usize) -> Constraints {
+        Constraints {
+            handle_vertices: Vec::new(),
+            pinned_vertices: Vec::new(),
+            pinned_components: 0,
+            free_index: (0..n as u32).map(Some).collect(),
+            free_vertices: (0..n as u32).collect(),
+        }
+    }
+
     /// The same partition in the numbering of `order` (internal vertex `i` is mesh vertex
     /// `order.to_mesh[i]`): handle vertices keep their order (that of the targets), pinned and
     /// free vertices ascending in the new numbering.

@@ -5,12 +5,14 @@
 use crate::deform::arap::{Arap, ArapConfig, SolveStats};
 use crate::deform::bs_arap::{BaseKind, BsArap};
 use crate::deform::coarse::CoarseBsArap;
+use crate::deform::coarse_base::CoarseBase;
 use crate::deform::config::BaseConfig;
 use crate::deform::handles::Handles;
 use crate::deform::riders::{LooseParts, Riders};
 use crate::error::SolveError;
 use crate::geometry::mesh::Mesh;
 use crate::pool::in_pool;
+use std::sync::Arc;
 
 /// The deformation method.
 /// Serialized as [`Method::name`] (scenes, JSON reports).
@@ -80,6 +82,46 @@ impl Solver {
     }
 }
 
+/// What the methods precompute per mesh whatever the handles, kept for the next handle set
+/// of the same mesh: the coarse BS-ARAP's [`CoarseBase`] (the other methods' precomputation
+/// all depends on the handles). Entries are checked against the mesh and settings before
+/// reuse ([`CoarseBase::fits`]); a cache holds one mesh's entry at a time.
+#[derive(Debug, Clone, Default)]
+pub struct MeshCache {
+    coarse: Option<Arc<CoarseBase>>,
+}
+
+impl MeshCache {
+    /// Builds (or finds) what `method` precomputes per mesh for `mesh` and `base`: the
+    /// [`CoarseBase`] for [`Method::BsArapCoarse`], `None` for the other methods. Call it
+    /// right after loading, in the background, so that the first handle set waits only for
+    /// its own part.
+    pub fn prepare(
+        &mut self,
+        method: Method,
+        mesh: &Mesh,
+        base: &BaseConfig,
+    ) -> Result<Option<Arc<CoarseBase>>, SolveError> {
+        if method != Method::BsArapCoarse {
+            return Ok(None);
+        }
+        if let Some(c) = &self.coarse
+            && c.fits(mesh, base)
+        {
+            return Ok(Some(c.clone()));
+        }
+        self.coarse = None;
+        let c = Arc::new(in_pool(|| CoarseBase::new(mesh, base))?);
+        self.coarse = Some(c.clone());
+        Ok(Some(c))
+    }
+
+    /// The cached coarse base, if any (whatever mesh it belongs to).
+    pub fn coarse_base(&self) -> Option<&Arc<CoarseBase>> {
+        self.coarse.as_ref()
+    }
+}
+
 /// A precomputed deformer of any method, with the loose parts riding along
 /// ([`crate::deform::riders`]): components without handles are fixed at rest in the solve,
 /// then the following ones are moved rigidly with their anchor patch in
@@ -127,6 +169,22 @@ impl Deformer {
         base: &BaseConfig,
         parts: &LooseParts,
     ) -> Result<Deformer, SolveError> {
+        let mut cache = MeshCache::default();
+        Deformer::with_cache(method, mesh, handles, config, base, parts, &mut cache)
+    }
+
+    /// As [`Deformer::with_loose_parts`], taking what depends on the mesh only from `cache`
+    /// (built there first if it holds nothing for this mesh and these settings): a new handle
+    /// set of the same mesh then costs only its own part.
+    pub fn with_cache(
+        method: Method,
+        mesh: &Mesh,
+        handles: &Handles,
+        config: &ArapConfig,
+        base: &BaseConfig,
+        parts: &LooseParts,
+        cache: &mut MeshCache,
+    ) -> Result<Deformer, SolveError> {
         let solver = match method {
             Method::Arap => Solver::Arap(Arap::new(mesh, handles, config)?),
             Method::BsArap => Solver::BsArap(BsArap::new(mesh, handles, config)?),
@@ -137,7 +195,13 @@ impl Deformer {
                 BaseKind::Faired { smoothing: base.smoothing },
             )?),
             Method::BsArapCoarse => {
-                Solver::Coarse(Box::new(CoarseBsArap::new(mesh, handles, config, base)?))
+                let coarse = match cache.prepare(method, mesh, base)? {
+                    Some(c) => c,
+                    None => Arc::new(CoarseBase::new(mesh, base)?),
+                };
+                Solver::Coarse(Box::new(CoarseBsArap::with_base(
+                    coarse, mesh, handles, config, base,
+                )?))
             }
         };
         let mut d = Deformer {

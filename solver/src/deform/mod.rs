@@ -7,6 +7,7 @@ pub mod arap;
 pub mod biharmonic;
 pub mod bs_arap;
 pub mod coarse;
+pub mod coarse_base;
 pub mod config;
 pub mod constraints;
 pub mod deformer;

@@ -1,0 +1,259 @@
+//! What the coarse BS-ARAP ([`crate::deform::coarse`]) needs of a mesh whatever its handles:
+//! built once per mesh (and base settings) and shared by every handle set, so that painting a
+//! new handle group costs only the coarse level's update (docs/DESIGN.md, "The coarse base").
+//!
+//! 1. $B$ = the faired surface of $M$ with no vertex held
+//!    ([`crate::deform::biharmonic::faired_surface`], smoothing length $h$):
+//!    $(Q + \lambda A)\,B = \lambda A\,M$, $\lambda = h^{-4}$. Without handle constraints the
+//!    base does not depend on the handle set (the handle regions are smoothed like the rest;
+//!    their vertices are put on their targets exactly after the prolongation anyway).
+//! 2. $B_c$ = [`crate::geometry::decimate::decimate`] of $B$ to about `coarse_vertices`
+//!    vertices, no group kept: the coarse vertices are a subset of the fine ones, and every fine
+//!    vertex has a *representative*, the coarse vertex it was merged into.
+//! 3. Embedding (prolongation $P$): each fine vertex $i$ gets the closest point of $B_c$ to
+//!    $B_i$ among the coarse triangles within two rings of its representative, as barycentric
+//!    weights $w_{ik}$ on a coarse triangle $t_i$; its detail is
+//!    $D_i = p_i - \sum_k w_{ik} B_{c,k}$.
+//!
+//! Which coarse vertices hold a handle group, and the coarse factorization, depend on the
+//! handles: [`crate::deform::coarse::CoarseBsArap::with_base`].
+//!
+//! A [`CoarseBase`] remembers the mesh it was built for by a fingerprint of its positions and
+//! triangles ([`mesh_fingerprint`]) and the settings ([`CoarseBase::fits`]), so that a cache
+//! never hands it to another mesh.
+
+use crate::deform::biharmonic::faired_surface;
+use crate::deform::config::BaseConfig;
+use crate::deform::constraints::Constraints;
+use crate::error::SolveError;
+use crate::geometry::decimate::decimate;
+use crate::geometry::mesh::{Mesh, add, dot, sub};
+use rayon::prelude::*;
+use std::hash::{Hash, Hasher};
+use std::time::Instant;
+
+/// The handle-independent precomputation of the coarse BS-ARAP for one mesh (module doc).
+#[derive(Debug)]
+pub struct CoarseBase {
+    fingerprint: u64,
+    smoothing: f64,
+    target_vertices: usize,
+    /// $B_c$: positions are $B$ at the kept vertices.
+    pub(crate) coarse_mesh: Mesh,
+    /// Fine index of each coarse vertex (ascending).
+    pub(crate) kept: Vec<u32>,
+    /// Per fine vertex, the coarse vertex it was merged into.
+    pub(crate) representative: Vec<u32>,
+    /// $M$ at the kept vertices: the cotangent weights of coarse triangles that collapsed.
+    pub(crate) rest_kept: Vec<[f64; 3]>,
+    /// Per fine vertex: coarse triangle corners and barycentric weights.
+    pub(crate) embedding: Vec<([u32; 3], [f64; 3])>,
+    /// $P B_c$ at each fine vertex (the base the details sit on).
+    pub(crate) base_on_coarse: Vec<[f64; 3]>,
+    pub(crate) details: Vec<[f64; 3]>,
+    /// Area below which a coarse triangle counts as collapsed.
+    pub(crate) floor: f64,
+    phases: Vec<(&'static str, f64)>,
+}
+
+impl CoarseBase {
+    /// Fairs, decimates and embeds (module doc, steps 1–3).
+    pub fn new(mesh: &Mesh, config: &BaseConfig) -> Result<CoarseBase, SolveError> {
+        let mut clock = Phases::default();
+        let fingerprint = mesh_fingerprint(mesh);
+        let diag = mesh.bbox_diagonal();
+        let smoothing = (config.smoothing.is_finite() && config.smoothing > 0.0)
+            .then_some(config.smoothing * diag);
+        let all_free = Constraints::all_free(mesh.n_vertices());
+        let base = faired_surface(mesh, &all_free, mesh.positions(), smoothing)?;
+        clock.lap("faired base");
+        let target_vertices = config.coarse_vertices_for(mesh.n_vertices());
+        let no_groups = vec![None; mesh.n_vertices()];
+        let dec = decimate(&base, mesh.triangles(), &no_groups, target_vertices);
+        clock.lap("decimation");
+        let coarse_positions: Vec<[f64; 3]> = dec.kept.iter().map(|&v| base[v as usize]).collect();
+        let coarse_mesh = Mesh::new(coarse_positions, dec.triangles)
+            .map_err(|_| SolveError::NonFiniteResult { vertex: 0 })?;
+        let embedding = embed(&base, &coarse_mesh, &dec.representative);
+        let cp = coarse_mesh.positions();
+        let base_on_coarse: Vec<[f64; 3]> =
+            embedding.iter().map(|(t, w)| blend(cp, t, w)).collect();
+        let details =
+            mesh.positions().iter().zip(&base_on_coarse).map(|(&p, &b)| sub(p, b)).collect();
+        clock.lap("embedding");
+        Ok(CoarseBase {
+            fingerprint,
+            smoothing: config.smoothing,
+            target_vertices,
+            rest_kept: dec.kept.iter().map(|&v| mesh.positions()[v as usize]).collect(),
+            kept: dec.kept,
+            representative: dec.representative,
+            coarse_mesh,
+            embedding,
+            base_on_coarse,
+            details,
+            // A coarse triangle below the area at which cleaning drops a triangle of M as
+            // degenerate has collapsed (features thinner than the smoothing length flatten).
+            floor: 2.0 * crate::geometry::cleanup::AREA_EPS * diag * diag,
+            phases: clock.phases,
+        })
+    }
+
+    /// Whether this base was built for `mesh` (same fingerprint) with `config`'s smoothing and
+    /// coarse size: then any handle set of that mesh may use it.
+    pub fn fits(&self, mesh: &Mesh, config: &BaseConfig) -> bool {
+        self.smoothing == config.smoothing
+            && self.target_vertices == config.coarse_vertices_for(mesh.n_vertices())
+            && self.representative.len() == mesh.n_vertices()
+            && self.fingerprint == mesh_fingerprint(mesh)
+    }
+
+    /// The number of coarse vertices.
+    pub fn coarse_vertices(&self) -> usize {
+        self.kept.len()
+    }
+
+    /// Milliseconds per phase of [`CoarseBase::new`].
+    pub fn precompute_phases(&self) -> &[(&'static str, f64)] {
+        &self.phases
+    }
+
+    /// Milliseconds of [`CoarseBase::new`] in all.
+    pub fn precompute_ms(&self) -> f64 {
+        self.phases.iter().map(|(_, ms)| ms).sum()
+    }
+}
+
+/// A 64-bit hash of a mesh's positions (bit patterns) and triangles: which mesh a cached
+/// precomputation belongs to.
+pub fn mesh_fingerprint(mesh: &Mesh) -> u64 {
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    mesh.n_vertices().hash(&mut h);
+    for p in mesh.positions() {
+        p.map(f64::to_bits).hash(&mut h);
+    }
+    mesh.triangles().hash(&mut h);
+    h.finish()
+}
+
+/// Step 3 of the module doc, parallel over the fine vertices.
+fn embed(base: &[[f64; 3]], coarse: &Mesh, representative: &[u32]) -> Vec<([u32; 3], [f64; 3])> {
+    let cp = coarse.positions();
+    let ct = coarse.triangles();
+    let mut vf = vec![Vec::new(); cp.len()];
+    for (f, t) in ct.iter().enumerate() {
+        for &v in t {
+            vf[v as usize].push(f as u32);
+        }
+    }
+    (0..base.len())
+        .into_par_iter()
+        .map_init(Vec::new, |faces, i| {
+            let r = representative[i] as usize;
+            faces.clear();
+            for &f in &vf[r] {
+                for &w in &ct[f as usize] {
+                    faces.extend_from_slice(&vf[w as usize]);
+                }
+            }
+            faces.sort_unstable();
+            faces.dedup();
+            let q = base[i];
+            let mut best = (f64::INFINITY, [r as u32; 3], [1.0, 0.0, 0.0]);
+            for &f in faces.iter() {
+                let t = ct[f as usize];
+                let (point, w) = closest_point_on_triangle(q, t.map(|v| cp[v as usize]));
+                let d = sub(point, q);
+                let d2 = dot(d, d);
+                if d2 < best.0 {
+                    best = (d2, t, w);
+                }
+            }
+            (best.1, best.2)
+        })
+        .collect()
+}
+
+/// $\sum_k w_k x_{t_k}$.
+#[inline]
+pub(crate) fn blend(x: &[[f64; 3]], t: &[u32; 3], w: &[f64; 3]) -> [f64; 3] {
+    let [a, b, c] = t.map(|v| x[v as usize]);
+    std::array::from_fn(|d| w[0] * a[d] + w[1] * b[d] + w[2] * c[d])
+}
+
+/// Wall-clock milliseconds per named phase of a precomputation.
+#[derive(Debug)]
+pub(crate) struct Phases {
+    last: Instant,
+    pub(crate) phases: Vec<(&'static str, f64)>,
+}
+
+impl Default for Phases {
+    fn default() -> Self {
+        Phases { last: Instant::now(), phases: Vec::new() }
+    }
+}
+
+impl Phases {
+    pub(crate) fn lap(&mut self, name: &'static str) {
+        let now = Instant::now();
+        self.phases.push((name, (now - self.last).as_secs_f64() * 1e3));
+        self.last = now;
+    }
+}
+
+/// Closest point of triangle `(a, b, c)` to `p` and its barycentric weights (Ericson,
+/// Real-Time Collision Detection, §5.1.5: Voronoi regions of vertices, edges, face).
+pub fn closest_point_on_triangle(p: [f64; 3], [a, b, c]: [[f64; 3]; 3]) -> ([f64; 3], [f64; 3]) {
+    let ab = sub(b, a);
+    let ac = sub(c, a);
+    let ap = sub(p, a);
+    let (d1, d2) = (dot(ab, ap), dot(ac, ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return (a, [1.0, 0.0, 0.0]);
+    }
+    let bp = sub(p, b);
+    let (d3, d4) = (dot(ab, bp), dot(ac, bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return (b, [0.0, 1.0, 0.0]);
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        let v = d1 / (d1 - d3);
+        return (add(a, ab.map(|x| x * v)), [1.0 - v, v, 0.0]);
+    }
+    let cp = sub(p, c);
+    let (d5, d6) = (dot(ab, cp), dot(ac, cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return (c, [0.0, 0.0, 1.0]);
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        let w = d2 / (d2 - d6);
+        return (add(a, ac.map(|x| x * w)), [1.0 - w, 0.0, w]);
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        return (add(b, sub(c, b).map(|x| x * w)), [0.0, 1.0 - w, w]);
+    }
+    let denom = 1.0 / (va + vb + vc);
+    let (v, w) = (vb * denom, vc * denom);
+    (add(a, add(ab.map(|x| x * v), ac.map(|x| x * w))), [1.0 - v - w, v, w])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn closest_point_regions() {
+        let t = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+        let (p, w) = closest_point_on_triangle([0.2, 0.3, 5.0], t);
+        assert!((p[0] - 0.2).abs() < 1e-15 && (p[1] - 0.3).abs() < 1e-15 && p[2] == 0.0);
+        assert!((w[0] - 0.5).abs() < 1e-15);
+        assert_eq!(closest_point_on_triangle([-1.0, -1.0, 0.0], t).1, [1.0, 0.0, 0.0]);
+        let (_, w) = closest_point_on_triangle([2.0, 2.0, 0.0], t);
+        assert!((w[1] - 0.5).abs() < 1e-15 && (w[2] - 0.5).abs() < 1e-15);
+    }
+}

@@ -1,0 +1,96 @@
+//! The coarse BS-ARAP's split precomputation (`solver::deform::coarse_base`): what depends on
+//! the mesh only is built once and shared by handle sets, with the same results as building
+//! everything per handle set, and it is never used for another mesh or other settings.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use std::sync::Arc;
+
+use solver::deform::coarse::CoarseBsArap;
+use solver::deform::coarse_base::CoarseBase;
+use solver::{
+    ArapConfig, BaseConfig, Deformer, GroupTransform, Handles, LooseParts, MeshCache, Method,
+    SolveError, handle_targets,
+};
+
+fn two_handle_sets() -> (solver::Mesh, Handles, Handles) {
+    let (mesh, caps) = solver::geometry::shapes::bumpy_bar(3);
+    // A second set: one cap and a band around the middle.
+    let labels: Vec<Option<u32>> = mesh
+        .positions()
+        .iter()
+        .zip(caps.labels())
+        .map(|(p, &l)| match l {
+            Some(0) => Some(0),
+            _ if p[0].abs() < 0.1 => Some(1),
+            _ => None,
+        })
+        .collect();
+    (mesh, caps, Handles::from_options(labels).unwrap())
+}
+
+#[test]
+fn a_shared_base_gives_what_a_base_per_handle_set_gives() {
+    let (mesh, a, b) = two_handle_sets();
+    let config = ArapConfig::default();
+    let settings = BaseConfig { coarse_vertices: Some(300), ..Default::default() };
+    let shared = Arc::new(CoarseBase::new(&mesh, &settings).unwrap());
+    let diag = mesh.bbox_diagonal();
+    for handles in [&a, &b] {
+        let tr =
+            GroupTransform { translation: [0.0, 0.1 * diag, 0.05 * diag], ..Default::default() };
+        let targets = handle_targets(mesh.positions(), handles, &[(0, tr)]).unwrap();
+        let mut fresh = CoarseBsArap::new(&mesh, handles, &config, &settings).unwrap();
+        let mut reused =
+            CoarseBsArap::with_base(shared.clone(), &mesh, handles, &config, &settings).unwrap();
+        let (s1, s2) = (fresh.solve(&targets).unwrap(), reused.solve(&targets).unwrap());
+        assert_eq!(s1.iterations, s2.iterations);
+        assert_eq!(fresh.positions(), reused.positions(), "the same base gives the same pose");
+        let phases: Vec<&str> = reused.precompute_phases().iter().map(|p| p.0).collect();
+        assert!(!phases.contains(&"faired base") && !phases.contains(&"decimation"), "{phases:?}");
+        let moved = fresh.positions().iter().zip(mesh.positions()).any(|(x, p)| x != p);
+        assert!(moved);
+    }
+}
+
+#[test]
+fn a_base_is_refused_for_another_mesh_or_other_settings() {
+    let (mesh, a, _) = two_handle_sets();
+    let config = ArapConfig::default();
+    let settings = BaseConfig { coarse_vertices: Some(300), ..Default::default() };
+    let base = Arc::new(CoarseBase::new(&mesh, &settings).unwrap());
+    let other = BaseConfig { smoothing: 0.02, ..settings };
+    let err = CoarseBsArap::with_base(base.clone(), &mesh, &a, &config, &other).unwrap_err();
+    assert!(matches!(err, SolveError::StaleBase), "{err}");
+    let mut p = mesh.positions().to_vec();
+    p[5][1] += 1e-9;
+    let nudged = mesh.with_positions(p).unwrap();
+    let err = CoarseBsArap::with_base(base, &nudged, &a, &config, &settings).unwrap_err();
+    assert!(matches!(err, SolveError::StaleBase), "{err}");
+}
+
+#[test]
+fn the_cache_builds_once_per_mesh_and_settings() {
+    let (mesh, a, b) = two_handle_sets();
+    let config = ArapConfig::default();
+    let settings = BaseConfig { coarse_vertices: Some(300), ..Default::default() };
+    let mut cache = MeshCache::default();
+    assert!(cache.prepare(Method::Arap, &mesh, &settings).unwrap().is_none());
+    let first = cache.prepare(Method::BsArapCoarse, &mesh, &settings).unwrap().unwrap();
+    let parts = LooseParts::default();
+    for handles in [&a, &b] {
+        Deformer::with_cache(
+            Method::BsArapCoarse,
+            &mesh,
+            handles,
+            &config,
+            &settings,
+            &parts,
+            &mut cache,
+        )
+        .unwrap();
+        assert!(Arc::ptr_eq(cache.coarse_base().unwrap(), &first), "reused");
+    }
+    let other = BaseConfig { coarse_vertices: Some(200), ..settings };
+    let rebuilt = cache.prepare(Method::BsArapCoarse, &mesh, &other).unwrap().unwrap();
+    assert!(!Arc::ptr_eq(&rebuilt, &first));
+}
