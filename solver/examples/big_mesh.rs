@@ -141,8 +141,11 @@ fn run() -> Result<(), String> {
         };
         let finite = deformer.positions().iter().flatten().all(|c| c.is_finite());
         if let solver::Solver::Coarse(c) = deformer.solver() {
-            let phases: Vec<String> =
-                c.precompute_phases().iter().map(|(k, v)| format!("{k} {v:.0} ms")).collect();
+            let mesh_phases = c.coarse_base().precompute_phases().iter();
+            let phases: Vec<String> = mesh_phases
+                .chain(c.precompute_phases())
+                .map(|(k, v)| format!("{k} {v:.0} ms"))
+                .collect();
             eprintln!("  {} phases: {}", method.name(), phases.join(", "));
         }
         println!(

@@ -21,6 +21,10 @@ pub enum SolveError {
     )]
     StaleBase,
     #[error(
+        "decimating the base to about {target} vertices left too few vertices, or a part with none (mesh too small for the coarse size?)"
+    )]
+    DecimationFailed { target: usize },
+    #[error(
         "factorizing {matrix} failed: {source}; likely cause: degenerate or duplicated geometry, or a component without handles that was not pinned"
     )]
     Factorization { matrix: &'static str, source: FactorError },

@@ -8,7 +8,7 @@
 //!
 //! Per handle set ([`CoarseBsArap::with_base`]; milliseconds at a few thousand coarse vertices):
 //! - **Handles on the coarse level**: coarse vertex $k$ joins group $g$ when at least half of
-//!   the fine vertices merged into it are in $g$; a group left with fewer than
+//!   the fine vertices it represents are in $g$; a group left with fewer than
 //!   [`MIN_COARSE_GROUP`] coarse vertices takes those with the largest share of its vertices,
 //!   then their neighbours nearest to its centroid. Each frame, group $g$'s coarse targets
 //!   are $T_g(B_{c,k})$, $T_g$ the best rigid motion of its fine handles from rest to their
@@ -336,7 +336,7 @@ impl CoarseBsArap {
         self.coarse_before.extend_from_slice(self.arap.positions());
         let stats = self.arap.solve(&self.coarse_target_buf)?;
         // Rest targets give the rest pose exactly, without iterating: nothing to settle, and
-        // no correction may carry over (the prolongation below is then exactly the rest pose).
+        // no correction may carry over (the rest pose itself is copied below).
         if stats.iterations == 0 {
             self.correction.fill([0.0; 3]);
         }
@@ -373,6 +373,12 @@ impl CoarseBsArap {
                 *frame = q;
                 *out = add(*b, rotate(q, add(*d, *c)));
             });
+        if stats.iterations == 0
+            && self.fine_handles.iter().zip(targets).all(|(&v, t)| *t == self.base.rest[v as usize])
+        {
+            // Rest targets: M exactly (the prolongation B + D may differ in the last bit).
+            next.copy_from_slice(&self.base.rest);
+        }
         for (&v, t) in self.fine_handles.iter().zip(targets) {
             next[v as usize] = *t;
         }

@@ -7,9 +7,10 @@
 //!    $(Q + \lambda A)\,B = \lambda A\,M$, $\lambda = h^{-4}$. Without handle constraints the
 //!    base does not depend on the handle set (the handle regions are smoothed like the rest;
 //!    their vertices are put on their targets exactly after the prolongation anyway).
-//! 2. $B_c$ = [`crate::geometry::decimate::decimate`] of $B$ to about `coarse_vertices`
-//!    vertices, no group kept: the coarse vertices are a subset of the fine ones, and every fine
-//!    vertex has a *representative*, the coarse vertex it was merged into.
+//! 2. $B_c$ = [`crate::geometry::simplify::simplify`] of $B$ to about `coarse_vertices`
+//!    vertices (meshoptimizer), no group kept: the coarse vertices are a subset of the fine
+//!    ones, and every fine vertex has a *representative*, the coarse vertex nearest to it along
+//!    the mesh's edges.
 //! 3. Embedding (prolongation $P$): each fine vertex $i$ gets the closest point of $B_c$ to
 //!    $B_i$ among the coarse triangles within two rings of its representative, as barycentric
 //!    weights $w_{ik}$ on a coarse triangle $t_i$; its detail is
@@ -26,8 +27,8 @@ use crate::deform::biharmonic::faired_surface;
 use crate::deform::config::BaseConfig;
 use crate::deform::constraints::Constraints;
 use crate::error::SolveError;
-use crate::geometry::decimate::decimate;
 use crate::geometry::mesh::{Mesh, add, dot, sub};
+use crate::geometry::simplify::simplify;
 use rayon::prelude::*;
 use std::hash::{Hash, Hasher};
 use std::time::Instant;
@@ -42,7 +43,7 @@ pub struct CoarseBase {
     pub(crate) coarse_mesh: Mesh,
     /// Fine index of each coarse vertex (ascending).
     pub(crate) kept: Vec<u32>,
-    /// Per fine vertex, the coarse vertex it was merged into.
+    /// Per fine vertex, its representative coarse vertex (nearest along the edges).
     pub(crate) representative: Vec<u32>,
     /// $M$ at the kept vertices: the cotangent weights of coarse triangles that collapsed.
     pub(crate) rest_kept: Vec<[f64; 3]>,
@@ -51,6 +52,8 @@ pub struct CoarseBase {
     /// $P B_c$ at each fine vertex (the base the details sit on).
     pub(crate) base_on_coarse: Vec<[f64; 3]>,
     pub(crate) details: Vec<[f64; 3]>,
+    /// $M$ itself: the result of rest targets, exactly ($P B_c + D$ can differ in the last bit).
+    pub(crate) rest: Vec<[f64; 3]>,
     /// Area below which a coarse triangle counts as collapsed.
     pub(crate) floor: f64,
     phases: Vec<(&'static str, f64)>,
@@ -68,8 +71,8 @@ impl CoarseBase {
         let base = faired_surface(mesh, &all_free, mesh.positions(), smoothing)?;
         clock.lap("faired base");
         let target_vertices = config.coarse_vertices_for(mesh.n_vertices());
-        let no_groups = vec![None; mesh.n_vertices()];
-        let dec = decimate(&base, mesh.triangles(), &no_groups, target_vertices);
+        let dec = simplify(&base, mesh.triangles(), target_vertices)
+            .ok_or(SolveError::DecimationFailed { target: target_vertices })?;
         clock.lap("decimation");
         let coarse_positions: Vec<[f64; 3]> = dec.kept.iter().map(|&v| base[v as usize]).collect();
         let coarse_mesh = Mesh::new(coarse_positions, dec.triangles)
@@ -92,6 +95,7 @@ impl CoarseBase {
             embedding,
             base_on_coarse,
             details,
+            rest: mesh.positions().to_vec(),
             // A coarse triangle below the area at which cleaning drops a triangle of M as
             // degenerate has collapsed (features thinner than the smoothing length flatten).
             floor: 2.0 * crate::geometry::cleanup::AREA_EPS * diag * diag,

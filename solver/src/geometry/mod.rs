@@ -1,5 +1,5 @@
 //! Triangle meshes and what is computed from their geometry alone: the [`mesh::Mesh`] type,
-//! topology, cleaning on load, vertex reordering, decimation, nearest-neighbour search,
+//! topology, cleaning on load, vertex reordering, decimation (meshoptimizer's), nearest-neighbour search,
 //! procedural shapes, deformed normals on a file's layout, and the discrete operators
 //! (cotangent Laplacian, lumped mass matrix).
 //!
@@ -8,11 +8,11 @@
 
 pub mod cleanup;
 pub mod cotan;
-pub mod decimate;
 pub mod kdtree;
 pub mod mass;
 pub mod mesh;
 pub mod normals;
 pub mod reorder;
 pub mod shapes;
+pub mod simplify;
 pub mod topology;
