@@ -70,7 +70,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "| method | precompute ms | iterations/frame | frames at cap | ms/frame (mean) | ms/frame (median) | solver frames/s |"
     );
     println!("|---|---:|---:|---:|---:|---:|---:|");
-    let make = factory();
+    let make = factory(Default::default());
     let mut settling = Vec::new();
     for (m, aa) in methods {
         let acceleration = if aa {

@@ -140,6 +140,18 @@ pub struct MethodResult {
     pub method: String,
     pub acceleration: Acceleration,
     pub precompute_ms: f64,
+    /// The part of `precompute_ms` that depends on the mesh only (built once per mesh,
+    /// [`solver::MeshCache`]; 0 for the methods whose precomputation all depends on the
+    /// handles).
+    pub precompute_mesh_ms: f64,
+    /// The part that a new handle set costs.
+    pub precompute_handles_ms: f64,
+    /// What a user waits after a handle change: `precompute_handles_ms` plus the first frame's
+    /// solve (from rest).
+    pub first_frame_ms: f64,
+    /// Solver frames per second while the handle moves along the circle (frames 2 to N, each
+    /// warm-started from the previous one).
+    pub moving_fps: f64,
     pub ms_per_iteration: f64,
     pub local_ms_per_iteration: f64,
     pub rhs_ms_per_iteration: f64,
@@ -268,10 +280,18 @@ fn bench_variant(
 ) -> anyhow::Result<(MethodResult, Option<Vec<[f64; 3]>>)> {
     let name = v.label();
     let config = ArapConfig { acceleration: v.acceleration, ..s.config };
+    let mut cache = solver::MeshCache::default();
     let t0 = Instant::now();
-    let mut d = Deformer::with_base(v.method, s.mesh, s.handles, &config, &s.base)
-        .with_context(|| format!("precomputing {name}"))?;
-    let precompute_ms = t0.elapsed().as_secs_f64() * 1e3;
+    cache.prepare(v.method, s.mesh, &s.base).with_context(|| format!("precomputing {name}"))?;
+    let precompute_mesh_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let t0 = Instant::now();
+    let parts = solver::LooseParts::default();
+    let mut d =
+        Deformer::with_cache(v.method, s.mesh, s.handles, &config, &s.base, &parts, &mut cache)
+            .with_context(|| format!("precomputing {name}"))?;
+    let precompute_handles_ms = t0.elapsed().as_secs_f64() * 1e3;
+    drop(cache);
+    let mut first_frame_ms = 0.0;
     let g = moving_group(s.handles)?;
     let (mut total_ms, mut local, mut rhs, mut solve, mut energy) = (0.0, 0.0, 0.0, 0.0, 0.0);
     let (mut fine_iterations, mut fine_ms) = (0, 0.0);
@@ -288,7 +308,11 @@ fn bench_variant(
             StartGuess::Laplacian => d.arap_mut().start_from_laplacian_fit(&targets)?,
         }
         let st = d.solve(&targets).with_context(|| format!("{name} frame {f}"))?;
-        total_ms += t1.elapsed().as_secs_f64() * 1e3;
+        let frame_ms = t1.elapsed().as_secs_f64() * 1e3;
+        if f == 1 {
+            first_frame_ms = frame_ms;
+        }
+        total_ms += frame_ms;
         iterations.push(st.iterations);
         local += st.local_ms;
         rhs += st.rhs_ms;
@@ -315,7 +339,15 @@ fn bench_variant(
     let result = MethodResult {
         method: name,
         acceleration: v.acceleration,
-        precompute_ms,
+        precompute_ms: precompute_mesh_ms + precompute_handles_ms,
+        precompute_mesh_ms,
+        precompute_handles_ms,
+        first_frame_ms: precompute_handles_ms + first_frame_ms,
+        moving_fps: if s.frames > 1 {
+            (s.frames - 1) as f64 / ((total_ms - first_frame_ms) / 1e3).max(1e-9)
+        } else {
+            f64::NAN
+        },
         // Per coarse iteration: the fine iterations' time is reported on its own.
         ms_per_iteration: (total_ms - fine_ms) / it,
         local_ms_per_iteration: local / it,
@@ -553,6 +585,7 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
             "commit": env!("BSARAP_GIT_COMMIT"),
             "methods": methods,
             "ratios": ratios,
+            "peak_memory_mib": peak_memory_mib(),
         });
         if let Some((f, _)) = &own {
             j["quality_reference"] = serde_json::json!({ "frame": f, "start": reference_start });
@@ -640,6 +673,19 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
             r.final_energy
         );
     }
+    println!(
+        "{:<14} {:>13} {:>16} {:>12} {:>11}",
+        "method", "mesh precomp.", "handles precomp.", "first frame", "moving fps"
+    );
+    for r in &table {
+        println!(
+            "{:<14} {:>11.1}ms {:>14.1}ms {:>10.1}ms {:>11.2}",
+            r.method, r.precompute_mesh_ms, r.precompute_handles_ms, r.first_frame_ms, r.moving_fps
+        );
+    }
+    if let Some(mib) = peak_memory_mib() {
+        println!("peak memory (VmHWM) {mib:.0} MiB");
+    }
     let capped: Vec<String> = table
         .iter()
         .filter(|r| r.frames_at_cap > 0)
@@ -704,4 +750,12 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
         );
     }
     Ok(())
+}
+
+/// The process's peak resident memory in MiB (`VmHWM` of `/proc/self/status`); `None` where
+/// the kernel does not report it.
+fn peak_memory_mib() -> Option<f64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let kb = status.lines().find_map(|l| l.strip_prefix("VmHWM:"))?.split_whitespace().next()?;
+    Some(kb.parse::<f64>().ok()? / 1024.0)
 }

@@ -1,4 +1,5 @@
-//! Long jobs off the UI thread: recording a timeline and writing glTF.
+//! Long jobs off the UI thread: recording a timeline, writing glTF, and the mesh's own
+//! precomputation right after loading.
 //!
 //! Each job runs on its own thread (panics caught), publishes its progress through atomics the
 //! UI reads every frame, stops when its cancel flag is set, and hands its result back over a
@@ -8,15 +9,15 @@
 
 use std::ops::ControlFlow;
 use std::path::PathBuf;
-use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::mpsc::{Receiver, TryRecvError, channel};
+use std::sync::{Arc, Mutex};
 
 use solver::animation::export::{AssetExport, ExportSettings, GltfExport, GltfFormat};
 use solver::animation::pointcache::{Pc2, write_pc2};
 use solver::animation::recording::{Recording, record};
 use solver::animation::timeline::Timeline;
-use solver::{ArapConfig, BaseConfig, Deformer, Handles, LooseParts, Mesh, Method};
+use solver::{ArapConfig, BaseConfig, Deformer, Handles, LooseParts, Mesh, MeshCache, Method};
 
 use super::loader::FileLayout;
 use super::pose::{GroupPose, handle_targets};
@@ -104,6 +105,27 @@ fn spawn<T: Send + 'static>(
         return Job { progress, rx: rx2 };
     }
     Job { progress, rx }
+}
+
+/// Builds what `method` precomputes per mesh ([`MeshCache::prepare`]) into the cache the
+/// pose solvers share, so that the first handle group waits only for its own part. Returns
+/// the milliseconds it took (0 when there was nothing to build). A pose solver that needs the
+/// cache meanwhile waits for it (it then reuses the result).
+pub fn spawn_prepare(
+    cache: Arc<Mutex<MeshCache>>,
+    mesh: Arc<Mesh>,
+    method: Method,
+    base: BaseConfig,
+    repaint: impl Fn() + Send + 'static,
+) -> Job<f64> {
+    spawn("prepare", repaint, move |_| {
+        let t = std::time::Instant::now();
+        let mut cache = cache.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        match cache.prepare(method, &mesh, &base).map_err(|e| e.to_string())? {
+            Some(_) => Ok(t.elapsed().as_secs_f64() * 1e3),
+            None => Ok(0.0),
+        }
+    })
 }
 
 /// What a recording needs: everything is owned, the UI keeps editing meanwhile.

@@ -3,35 +3,36 @@
 //! Loose parts (components without handles) follow or stay pinned as the document says
 //! (`solver::deform::riders`); changing their modes does not refactorize.
 
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 
-use solver::{FrameStats, Handles, LooseParts, Mesh};
+use solver::{FrameStats, Handles, LooseParts, Mesh, MeshCache};
 
 use super::solver_thread::{MethodSettings, PoseSolver, PoseSolverFactory, Slot};
 
 /// The factory used by the editor: the main slot runs `settings.bs_variant`, the comparison
-/// slot `settings.compare_variant` (ARAP by default).
-pub fn factory() -> PoseSolverFactory {
+/// slot `settings.compare_variant` (ARAP by default). What depends on the mesh only comes from
+/// `cache` (shared with the precomputation started on loading, `jobs::spawn_prepare`), so a
+/// repainted handle set costs only its own part.
+pub fn factory(cache: Arc<Mutex<MeshCache>>) -> PoseSolverFactory {
     Arc::new(
-        |slot: Slot,
-         mesh: &Mesh,
-         handles: &Handles,
-         settings: &MethodSettings,
-         parts: &LooseParts| {
+        move |slot: Slot,
+              mesh: &Mesh,
+              handles: &Handles,
+              settings: &MethodSettings,
+              parts: &LooseParts| {
             let config = settings.arap_config();
             let m = match slot {
                 Slot::Compare => settings.compare_variant,
                 Slot::Main => settings.bs_variant,
             };
-            let d = solver::Deformer::with_loose_parts(
-                m,
-                mesh,
-                handles,
-                &config,
-                &settings.base,
-                parts,
-            )
-            .map_err(|e| e.to_string())?;
+            let built = if m == solver::Method::BsArapCoarse {
+                let mut cache = cache.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+                let base = &settings.base;
+                solver::Deformer::with_cache(m, mesh, handles, &config, base, parts, &mut cache)
+            } else {
+                solver::Deformer::with_loose_parts(m, mesh, handles, &config, &settings.base, parts)
+            };
+            let d = built.map_err(|e| e.to_string())?;
             Ok(Box::new(DeformerPoseSolver(d)) as Box<dyn PoseSolver>)
         },
     )
@@ -99,5 +100,47 @@ impl PoseSolver for DeformerPoseSolver {
     fn detail_magnitudes(&self) -> Option<Vec<f64>> {
         let d = self.0.details()?;
         Some(d.iter().map(|v| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()).collect())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::editor::jobs;
+
+    /// The editor's pose solvers take the mesh's own part from the cache the loading-time job
+    /// filled: two handle sets of one mesh share one coarse base, built once.
+    #[test]
+    fn handle_sets_reuse_the_mesh_precomputed_on_loading() {
+        let (mesh, caps) = solver::geometry::shapes::bumpy_bar(3);
+        let mesh = Arc::new(mesh);
+        let settings = MethodSettings::default();
+        assert_eq!(settings.bs_variant, solver::Method::BsArapCoarse);
+        let cache: Arc<Mutex<MeshCache>> = Arc::default();
+        let job = jobs::spawn_prepare(
+            cache.clone(),
+            mesh.clone(),
+            settings.bs_variant,
+            settings.base,
+            || {},
+        );
+        let ms = loop {
+            if let Some(r) = job.try_finish() {
+                break r.expect("the mesh precomputes");
+            }
+            std::thread::sleep(std::time::Duration::from_millis(5));
+        };
+        assert!(ms > 0.0);
+        let built = cache.lock().expect("lock").coarse_base().cloned().expect("a coarse base");
+        let band: Vec<Option<u32>> =
+            mesh.positions().iter().map(|p| (p[0].abs() < 0.1).then_some(0)).collect();
+        let factory = factory(cache.clone());
+        for handles in [caps, Handles::from_options(band).expect("a band")] {
+            let parts = LooseParts::default();
+            let built_solver = factory(Slot::Main, &mesh, &handles, &settings, &parts);
+            assert!(built_solver.is_ok());
+            let now = cache.lock().expect("lock").coarse_base().cloned().expect("kept");
+            assert!(Arc::ptr_eq(&now, &built), "the handle set rebuilt the mesh's part");
+        }
     }
 }

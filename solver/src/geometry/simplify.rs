@@ -45,7 +45,8 @@ pub fn simplify(
     let n = positions.len();
     let points: Vec<[f32; 3]> = positions.iter().map(|p| p.map(|c| c as f32)).collect();
     let indices: Vec<u32> = triangles.iter().flatten().copied().collect();
-    let target_faces = (triangles.len() * target_vertices).div_ceil(n.max(1));
+    // The simplifier asserts (aborting the process) that the target is at most the input.
+    let target_faces = (triangles.len() * target_vertices).div_ceil(n.max(1)).min(triangles.len());
     let options = meshopt::SimplifyOptions::LockBorder;
     let out = meshopt::simplify_decoder(&indices, &points, 3 * target_faces, 1.0, options, None);
     let mut index = vec![u32::MAX; n];
@@ -164,5 +165,15 @@ mod tests {
             let gap = norm(sub(m.positions()[v], m.positions()[d.kept[r as usize] as usize]));
             assert!(gap < 2.0 * spacing, "vertex {v} is {gap} from its representative");
         }
+    }
+
+    /// A target above the mesh's size keeps the mesh (the simplifier would abort the process
+    /// on a target index count above the input's).
+    #[test]
+    fn a_target_above_the_mesh_keeps_it() {
+        let m = crate::geometry::shapes::icosphere(1);
+        let d = simplify(m.positions(), m.triangles(), 10 * m.n_vertices()).expect("kept");
+        assert_eq!(d.kept.len(), m.n_vertices());
+        assert_eq!(d.triangles.len(), m.n_faces());
     }
 }

@@ -128,6 +128,9 @@ struct Jobs {
     /// generations it was computed for.
     compare: Option<((u64, u64), Job<SideBySideQuality>)>,
     compared: Option<((u64, u64), SideBySideQuality)>,
+    /// The mesh's own precomputation (`jobs::spawn_prepare`), started when a mesh is shown
+    /// without handles, and when it started.
+    prepare: Option<(std::time::Instant, Job<f64>)>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

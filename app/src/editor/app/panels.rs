@@ -480,6 +480,7 @@ impl eframe::App for EditorApp {
 
         self.poll_loader();
         self.ensure_compare_solver(&ctx);
+        self.poll_prepare(&ctx);
         self.poll_solvers();
         self.poll_dialog(&ctx);
         self.poll_jobs();

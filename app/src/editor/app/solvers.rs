@@ -2,7 +2,7 @@
 //! frames, and the side-by-side quality against converged ARAP.
 
 use std::collections::VecDeque;
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 use eframe::egui;
@@ -43,6 +43,10 @@ pub(super) struct Solvers {
     pub(super) announced_first_frame: bool,
     /// Time origin of the plot.
     pub(super) started: Instant,
+    /// What the pose solvers precompute per mesh, kept across handle sets.
+    pub(super) mesh_cache: Arc<Mutex<solver::MeshCache>>,
+    /// The mesh (by address) and settings the last mesh precomputation was started for.
+    prepared_for: Option<(usize, solver::Method, solver::BaseConfig)>,
 }
 
 impl Default for Solvers {
@@ -55,6 +59,8 @@ impl Default for Solvers {
             pose_generation: 0,
             announced_first_frame: false,
             started: Instant::now(),
+            mesh_cache: Arc::default(),
+            prepared_for: None,
         }
     }
 }
@@ -79,7 +85,7 @@ impl EditorApp {
         let c = ctx.clone();
         match SolverHandle::spawn(
             slot,
-            pose_solvers::factory(),
+            pose_solvers::factory(self.solvers.mesh_cache.clone()),
             Arc::new(move || c.request_repaint()),
         ) {
             Ok(h) => Some(h),
@@ -141,6 +147,39 @@ impl EditorApp {
                 pose_generation: self.solvers.pose_generation,
                 loose_parts: self.session.edit.loose_parts.clone(),
             });
+        }
+    }
+
+    /// Starts the mesh's own precomputation (`jobs::spawn_prepare`) when a mesh is shown or the
+    /// method's settings change, before any handle is painted, and reports when it ends.
+    pub(super) fn poll_prepare(&mut self, ctx: &egui::Context) {
+        if let Some((started, job)) = &self.jobs.prepare
+            && let Some(result) = job.try_finish()
+        {
+            match result {
+                Ok(ms) if ms > 0.0 => eprintln!(
+                    "editor: mesh precomputed in {ms:.0} ms ({:.1} s after it was asked for)",
+                    started.elapsed().as_secs_f64()
+                ),
+                Ok(_) => {}
+                Err(e) => self.error = Some(format!("precomputing the mesh failed: {e}")),
+            }
+            self.jobs.prepare = None;
+        }
+        let Some(scene) = &self.session.scene else { return };
+        let settings = self.session.settings;
+        let key = (Arc::as_ptr(&scene.mesh) as usize, settings.bs_variant, settings.base);
+        if self.jobs.prepare.is_none() && self.solvers.prepared_for != Some(key) {
+            self.solvers.prepared_for = Some(key);
+            let c = ctx.clone();
+            let job = jobs::spawn_prepare(
+                self.solvers.mesh_cache.clone(),
+                scene.mesh.clone(),
+                settings.bs_variant,
+                settings.base,
+                move || c.request_repaint(),
+            );
+            self.jobs.prepare = Some((Instant::now(), job));
         }
     }
 

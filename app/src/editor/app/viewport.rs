@@ -345,6 +345,14 @@ impl EditorApp {
         } else if self.display.view == View::Compare && self.jobs.compare.is_some() {
             lines.push("vs converged ARAP: computing…".into());
         }
+        if let Some((since, _)) = &self.jobs.prepare {
+            let secs = if self.options.deterministic_overlays {
+                0.0
+            } else {
+                since.elapsed().as_secs_f32()
+            };
+            lines.push(format!("precomputing the mesh for posing… {secs:.1} s"));
+        }
         if let Some(status) = handle.and_then(|h| h.try_status()) {
             match status.state {
                 SolverState::Factorizing { since } => {

@@ -325,7 +325,7 @@ fn loose_parts_change_without_a_rebuild() {
         .collect();
     let builds = Arc::new(Mutex::new(0usize));
     let counted = builds.clone();
-    let inner = crate::editor::pose_solvers::factory();
+    let inner = crate::editor::pose_solvers::factory(Default::default());
     let factory: PoseSolverFactory =
         Arc::new(move |slot, mesh: &Mesh, handles: &Handles, s: &_, l: &_| {
             *counted.lock().unwrap() += 1;
