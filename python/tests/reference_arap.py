@@ -1,20 +1,35 @@
 """libigl's spokes-and-rims ARAP iteration in numpy, in double precision throughout.
 
-libigl 2.6's ``arap_solve`` fits its rotations with ``fit_rotations(S, true, R)``: a
-*single-precision* 3x3 SVD (hence the normalization of S before it, "important to get single
-precision SVD code to work correctly"). Its fixed point therefore differs from the
-double-precision one by the float rounding of R amplified by the slow modes of the iteration.
-This module runs the same iteration (libigl's cotangent entries, covariances over the triangles
-around a vertex, the global step with the triangle-mean rotation) with numpy's double SVD, to
-tell that rounding apart from a difference of method.
+libigl 2.6's ``arap_solve`` fits its rotations with ``fit_rotations(S, true, R)``: the
+*single-precision* 3x3 polar SVD (hence the normalization of S before it, "important to get
+single precision SVD code to work correctly"), whose rotations are off by ~1e-5. Its fixed
+point therefore differs from the double-precision one, and has a higher energy. This module
+runs the same iteration (libigl's cotangent entries, covariances over the triangles around a
+vertex, the global step with the triangle-mean rotation) with either numpy's double SVD or
+libigl's own single-precision fit, to tell that rounding apart from a difference of method.
 """
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 
-def arap_double(igl, V, F, b, bc, U0, iterations):
-    """``iterations`` local-global steps of spokes-and-rims ARAP from ``U0``; returns U."""
+def closest_rotations(S):
+    """argmax_R tr(R S) per 3x3 cell (R = V U^T of S = U Sigma V^T, reflections fixed)."""
+    u, _, vt = np.linalg.svd(S)
+    R = np.einsum("nji,nkj->nik", vt, u)
+    bad = np.linalg.det(R) < 0
+    if bad.any():
+        u[bad, :, 2] *= -1
+        R[bad] = np.einsum("nji,nkj->nik", vt[bad], u[bad])
+    return R
+
+
+def arap_double(igl, V, F, b, bc, U0, iterations, libigl_rotations=False):
+    """``iterations`` local-global steps of spokes-and-rims ARAP from ``U0``; returns U.
+
+    ``libigl_rotations``: fit the rotations as libigl's arap_solve does,
+    ``igl.fit_rotations(S / max|S|, single_precision=True)`` (errors ~1e-5), instead of numpy's
+    double-precision SVD: this reproduces libigl's own pose."""
     n = len(V)
     c = igl.cotmatrix_entries(V, F)  # #F x 3: half cotangent of the edge opposite corner k
     i1, i2 = F[:, [1, 2, 0]], F[:, [2, 0, 1]]  # edge k = (i1, i2)
@@ -40,12 +55,12 @@ def arap_double(igl, V, F, b, bc, U0, iterations):
         d = U[i1] - U[i2]
         cov = np.einsum("fk,fki,fkj->fij", c, e, d).reshape(-1, 9)
         S = (inc @ cov).reshape(-1, 3, 3)
-        u, _, vt = np.linalg.svd(S)
-        R = np.einsum("nji,nkj->nik", vt, u)
-        bad = np.linalg.det(R) < 0
-        if bad.any():
-            u[bad, :, 2] *= -1
-            R[bad] = np.einsum("nji,nkj->nik", vt[bad], u[bad])
+        if libigl_rotations:
+            stack = S.transpose(1, 0, 2).reshape(3 * n, 3)  # row i*n + r: row i of S_r
+            R = igl.fit_rotations(stack / np.abs(stack).max(), True)
+            R = R.reshape(3, n, 3).transpose(1, 0, 2)  # block r of a 3 x 3n matrix
+        else:
+            R = closest_rotations(S)
         Rbar = (R[F[:, 0]] + R[F[:, 1]] + R[F[:, 2]]) / 3
         re = w[:, :, None] * np.einsum("fij,fkj->fki", Rbar, e)  # w R e per edge
         rhs = D @ re.reshape(-1, 3)
