@@ -9,8 +9,6 @@ vertex, the global step with the triangle-mean rotation) with either numpy's dou
 libigl's own single-precision fit, to tell that rounding apart from a difference of method.
 """
 import numpy as np
-import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 
 def closest_rotations(S):
@@ -27,9 +25,14 @@ def closest_rotations(S):
 def arap_double(igl, V, F, b, bc, U0, iterations, libigl_rotations=False):
     """``iterations`` local-global steps of spokes-and-rims ARAP from ``U0``; returns U.
 
+    Needs scipy (installed with libigl).
+
     ``libigl_rotations``: fit the rotations as libigl's arap_solve does,
     ``igl.fit_rotations(S / max|S|, single_precision=True)`` (errors ~1e-5), instead of numpy's
     double-precision SVD: this reproduces libigl's own pose."""
+    import scipy.sparse as sp
+    import scipy.sparse.linalg as spla
+
     n = len(V)
     c = igl.cotmatrix_entries(V, F)  # #F x 3: half cotangent of the edge opposite corner k
     i1, i2 = F[:, [1, 2, 0]], F[:, [2, 0, 1]]  # edge k = (i1, i2)
