@@ -399,8 +399,10 @@ class Deformer:
 
     def settle(self) -> Optional[np.ndarray]:
         """Refine the last pose at the same targets (``bsarap-coarse`` with
-        ``settle_iterations > 0``): the new positions, or ``None`` when there is nothing to
-        refine. Call while :attr:`settle_pending` is true, as the editor does after a drag."""
+        ``settle_iterations > 0``, after a solve whose coarse iterations converged; solve
+        again at the same targets until ``stats.converged``): the new positions, or ``None``
+        when there is nothing to refine. Call while :attr:`settle_pending` is true, as the
+        editor does after a drag."""
         r = self._native.settle()
         if r is None:
             return None
