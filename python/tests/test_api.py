@@ -166,3 +166,15 @@ def test_export_bare_mesh(tmp_path):
     out = tmp_path / "tube.gltf"
     assert bsarap.export_gltf(out, rec, quantized=False) == out.stat().st_size
     assert json.loads(out.read_text())["asset"]["version"] == "2.0"
+
+
+def test_no_copies_where_the_layout_fits():
+    V, F, _ = tube()
+    assert bsarap._positions(V, "V") is V  # C-contiguous float64 passes as is
+    assert bsarap._indices(F, "F", 2) is F  # and int64 triangles
+    Vt = np.asfortranarray(V)
+    assert bsarap._positions(Vt, "V") is not Vt  # other layouts are converted once
+    U = bsarap.Arap(V, F, [0, 1, 2]).solve(V[[0, 1, 2]], V)
+    assert U.flags.c_contiguous and U.flags.writeable
+    # A view of the 1-d array made from the solver's Vec (rust-numpy keeps the Vec as its base).
+    assert U.base is not None and not isinstance(U.base.base, np.ndarray)
