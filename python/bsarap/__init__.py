@@ -226,8 +226,9 @@ class Arap:
 
         Args:
             bc: ``(#b, 3)`` positions of the fixed vertices, rows in the order of ``b``.
-            U0: ``(#V, 3)`` starting guess (libigl's ``U``); ``None`` continues from the last
-                result (the rest pose before any solve).
+            U0: ``(#V, 3)`` starting guess (libigl's ``U``), used as given with the fixed
+                vertices moved onto ``bc``; ``None``: the solver's own warm start (the last
+                result; before any solve or after :meth:`reset`, its start from rest).
             max_iters, tol: this solve's stopping rule (default: the constructor's).
 
         The per-iteration energies and phase times are in ``self.stats``.
