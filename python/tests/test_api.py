@@ -75,6 +75,10 @@ def test_every_method(method):
     d.reset()
     U1 = d.solve({1: {"translate": [0.3, 0.0, 0.2], "rotate": R}})
     np.testing.assert_allclose(U1, U, atol=1e-9)
+    d.reset()
+    np.testing.assert_allclose(d.solve_targets(targets), U, atol=1e-9)
+    np.testing.assert_array_equal(d.rest, V)
+    assert d.notice is None
 
 
 def test_anderson_and_settle():
@@ -135,6 +139,10 @@ def test_scene_record_export(tmp_path, repo):
     tr, R = tl.transforms_at(0.5 * tl.duration)[0]
     assert tr.shape == (3,) and R.shape == (3, 3)
     assert bsarap.Timeline.from_json(tl.to_json()).to_json() == tl.to_json()
+    path = repo / "assets" / "scenes" / "creature-circle.json"
+    assert bsarap.Timeline.from_scene(path).to_json() == tl.to_json()
+    assert scene.settings["coarse_vertices"] == 2000 and scene.settings["energy"] == "spokes-and-rims"
+    assert scene.mesh_path.endswith("creature.obj") and (scene.labels >= 0).any()
     d = scene.deformer()
     rec = bsarap.record(d, tl, n_frames=4)
     assert len(rec) == 4 and rec.frames.shape == (4, len(scene.V), 3)
