@@ -1,0 +1,204 @@
+"""Type stubs of bsarap (see __init__.py for the documentation)."""
+
+import os
+from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union, overload, Literal
+
+import numpy as np
+import numpy.typing as npt
+
+PathLike = Union[str, os.PathLike[str]]
+ArrayLike = npt.ArrayLike
+F64 = npt.NDArray[np.float64]
+I64 = npt.NDArray[np.int64]
+Method = Literal["arap", "bsarap", "bsarap-faired", "bsarap-coarse"]
+EnergyName = Literal["spokes-and-rims", "spokes"]
+Transform = Union[
+    Sequence[float],
+    Tuple[Sequence[float], ArrayLike],
+    Mapping[str, ArrayLike],
+]
+
+class BsarapError(ValueError):
+    """An error of the solver (bad mesh, handles, settings or file), with its message."""
+
+METHODS: Tuple[str, ...]
+ENERGIES: Tuple[str, ...]
+DEFAULT_TOL: float
+DEFAULT_MAX_ITERS: int
+
+class SolveStats:
+    """What one solve did (solver::SolveStats)."""
+
+    iterations: int
+    converged: bool
+    done: bool
+    initial_energy: float
+    energy: float
+    energies: F64
+    local_ms: float
+    rhs_ms: float
+    solve_ms: float
+    energy_ms: float
+    total_ms: float
+    ms_per_iteration: float
+    rejected_steps: int
+    fine_iterations: int
+    fine_ms: float
+    fine_energy: float
+    fine_unconverged: bool
+
+@overload
+def load_mesh(path: PathLike, *, with_report: Literal[False] = ...) -> Tuple[F64, I64]: ...
+@overload
+def load_mesh(path: PathLike, *, with_report: Literal[True]) -> Tuple[F64, I64, Dict[str, Any]]: ...
+def clean(V: ArrayLike, F: ArrayLike) -> Tuple[F64, I64, Dict[str, Any]]: ...
+def save_mesh(path: PathLike, V: ArrayLike, F: ArrayLike) -> None: ...
+def load_selection(path: PathLike, V: ArrayLike) -> I64: ...
+def rotation(axis: Sequence[float], degrees: float) -> F64: ...
+
+class Arap:
+    """libigl-shaped ARAP: Arap(V, F, b).solve(bc, U0) -> U."""
+
+    n_vertices: int
+    stats: Optional[SolveStats]
+    def __init__(
+        self,
+        V: ArrayLike,
+        F: ArrayLike,
+        b: ArrayLike,
+        energy: EnergyName = ...,
+        *,
+        max_iters: int = ...,
+        tol: float = ...,
+        anderson: int = ...,
+    ) -> None: ...
+    def solve(
+        self,
+        bc: ArrayLike,
+        U0: Optional[ArrayLike] = ...,
+        max_iters: Optional[int] = ...,
+        tol: Optional[float] = ...,
+    ) -> F64: ...
+    def energy(self, U: ArrayLike) -> float: ...
+    @property
+    def positions(self) -> F64: ...
+    @property
+    def rotations(self) -> F64: ...
+    @property
+    def b(self) -> I64: ...
+    def reset(self) -> None: ...
+
+class Deformer:
+    """Every method of the bsarap CLI: Deformer(V, F, handles, method).solve({group: transform})."""
+
+    stats: Optional[SolveStats]
+    def __init__(
+        self,
+        V: ArrayLike,
+        F: ArrayLike,
+        handles: Union[ArrayLike, PathLike],
+        method: Method = ...,
+        *,
+        energy: EnergyName = ...,
+        tol: float = ...,
+        max_iters: int = ...,
+        anderson: int = ...,
+        smoothing: float = ...,
+        coarse_vertices: Optional[int] = ...,
+        fine_iterations: int = ...,
+        settle_iterations: int = ...,
+        pinned_components: Sequence[int] = ...,
+    ) -> None: ...
+    def solve(self, group_transforms: Mapping[int, Transform]) -> F64: ...
+    def solve_targets(self, targets: ArrayLike) -> F64: ...
+    def targets(self, group_transforms: Mapping[int, Transform]) -> F64: ...
+    def settle(self) -> Optional[F64]: ...
+    @property
+    def settle_pending(self) -> bool: ...
+    def set_stopping(self, tol: float, max_iters: int) -> None: ...
+    def reset(self) -> None: ...
+    @property
+    def positions(self) -> F64: ...
+    @property
+    def base(self) -> Optional[F64]: ...
+    @property
+    def details(self) -> Optional[F64]: ...
+    @property
+    def rest(self) -> F64: ...
+    @property
+    def labels(self) -> I64: ...
+    @property
+    def handle_vertices(self) -> I64: ...
+    @property
+    def groups(self) -> List[int]: ...
+    @property
+    def method(self) -> str: ...
+    @property
+    def notice(self) -> Optional[str]: ...
+
+class Timeline:
+    """Handle paths over time, from a scene file or JSON."""
+
+    def __init__(self, native: Any) -> None: ...
+    @classmethod
+    def from_json(cls, text: str) -> Timeline: ...
+    @classmethod
+    def from_scene(cls, path: PathLike) -> Timeline: ...
+    @property
+    def duration(self) -> float: ...
+    @property
+    def fps(self) -> float: ...
+    @property
+    def looping(self) -> bool: ...
+    @property
+    def groups(self) -> List[int]: ...
+    def default_frame_count(self) -> int: ...
+    def frame_times(self, n: int) -> F64: ...
+    def transforms_at(self, t: float) -> Dict[int, Tuple[F64, F64]]: ...
+    def to_json(self) -> str: ...
+
+class Scene:
+    """A scene file with its mesh loaded and its handles resolved."""
+
+    def __init__(self, native: Any) -> None: ...
+    @property
+    def V(self) -> F64: ...
+    @property
+    def F(self) -> I64: ...
+    @property
+    def labels(self) -> I64: ...
+    @property
+    def method(self) -> str: ...
+    @property
+    def mesh_path(self) -> str: ...
+    @property
+    def settings(self) -> Dict[str, Any]: ...
+    @property
+    def timeline(self) -> Timeline: ...
+    def deformer(self) -> Deformer: ...
+
+def load_scene(path: PathLike) -> Scene: ...
+
+class Recording:
+    """Solved frames of a timeline."""
+
+    def __init__(self, native: Any) -> None: ...
+    @property
+    def times(self) -> F64: ...
+    @property
+    def frames(self) -> F64: ...
+    @property
+    def stats(self) -> List[Dict[str, Any]]: ...
+    @property
+    def total_iterations(self) -> int: ...
+    def __len__(self) -> int: ...
+
+def record(deformer: Deformer, timeline: Timeline, n_frames: Optional[int] = ...) -> Recording: ...
+def export_gltf(
+    path: PathLike,
+    recording: Recording,
+    *,
+    quantized: bool = ...,
+    normals: bool = ...,
+    every: int = ...,
+) -> int: ...

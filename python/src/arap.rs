@@ -1,0 +1,157 @@
+//! `bsarap.Arap`'s native half: libigl's `arap_precomputation` / `arap_solve` shape over
+//! `solver::Arap` (fixed vertex indices `b`, their positions `bc` in the order of `b`).
+
+use numpy::{PyArray1, PyReadonlyArray1, PyReadonlyArray2};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use solver::{Arap, ArapConfig, Handles, Mesh};
+
+use crate::convert::{acceleration, array3, check_stopping, energy, ints, rows3, stats, triangles};
+use crate::err;
+
+/// ARAP precomputed for `V`, `F` and the fixed vertices `b` (one factorization).
+#[pyclass(module = "bsarap._bsarap")]
+pub struct NativeArap {
+    arap: Arap,
+    /// `b` in the order the user gave it.
+    b: Vec<i64>,
+    /// The solver's targets are the fixed vertices ascending: `targets[k] = bc[order[k]]`.
+    order: Vec<usize>,
+    /// The stopping rule of a solve that does not set its own.
+    tol: f64,
+    max_iters: usize,
+}
+
+#[pymethods]
+impl NativeArap {
+    #[new]
+    #[pyo3(signature = (v, f, b, energy_name, max_iters, tol, anderson))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        py: Python<'_>,
+        v: PyReadonlyArray2<'_, f64>,
+        f: PyReadonlyArray2<'_, i64>,
+        b: PyReadonlyArray1<'_, i64>,
+        energy_name: &str,
+        max_iters: usize,
+        tol: f64,
+        anderson: usize,
+    ) -> PyResult<NativeArap> {
+        check_stopping(tol, max_iters)?;
+        let config = ArapConfig {
+            energy: energy(energy_name)?,
+            tolerance: tol,
+            max_iterations: max_iters,
+            acceleration: acceleration(anderson)?,
+            ..ArapConfig::default()
+        };
+        let positions = rows3(&v, "V")?;
+        let n = positions.len();
+        let tris = triangles(&f, n)?;
+        let b = ints(&b);
+        if b.is_empty() {
+            return Err(err("b is empty: ARAP needs at least one fixed vertex"));
+        }
+        let mut labels = vec![None; n];
+        for (k, &i) in b.iter().enumerate() {
+            if i < 0 || i as u64 >= n as u64 {
+                return Err(err(format!("b[{k}] = {i} is not a vertex index (V has {n} rows)")));
+            }
+            if labels[i as usize].replace(0u32).is_some() {
+                return Err(err(format!("b lists vertex {i} twice")));
+            }
+        }
+        let mut order: Vec<usize> = (0..b.len()).collect();
+        order.sort_by_key(|&k| b[k]);
+        let mesh = Mesh::new(positions, tris).map_err(err)?;
+        let handles = Handles::from_options(labels).map_err(err)?;
+        let arap = py.allow_threads(|| Arap::new(&mesh, &handles, &config)).map_err(err)?;
+        Ok(NativeArap { arap, b, order, tol, max_iters })
+    }
+
+    /// Solves for the fixed positions `bc` (`#b×3`, rows in the order of `b`), from `u0` when
+    /// given (else the last result, rest at first): `(U, stats)`.
+    #[pyo3(signature = (bc, u0=None, max_iters=None, tol=None))]
+    fn solve<'py>(
+        &mut self,
+        py: Python<'py>,
+        bc: PyReadonlyArray2<'py, f64>,
+        u0: Option<PyReadonlyArray2<'py, f64>>,
+        max_iters: Option<usize>,
+        tol: Option<f64>,
+    ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyDict>)> {
+        let (tol, max_iters) = (tol.unwrap_or(self.tol), max_iters.unwrap_or(self.max_iters));
+        check_stopping(tol, max_iters)?;
+        let bc = rows3(&bc, "bc")?;
+        if bc.len() != self.b.len() {
+            return Err(err(format!(
+                "bc has {} rows but b has {} fixed vertices",
+                bc.len(),
+                self.b.len()
+            )));
+        }
+        let start = match u0 {
+            Some(u0) => {
+                let u0 = rows3(&u0, "U0")?;
+                let n = self.arap.rest().len();
+                if u0.len() != n {
+                    return Err(err(format!("U0 has {} rows but V has {n}", u0.len())));
+                }
+                Some(u0)
+            }
+            None => None,
+        };
+        let targets: Vec<[f64; 3]> = self.order.iter().map(|&k| bc[k]).collect();
+        let arap = &mut self.arap;
+        let result = py.allow_threads(|| {
+            if let Some(u0) = &start {
+                arap.set_positions(u0);
+            }
+            arap.set_stopping(tol, max_iters);
+            arap.solve(&targets)
+        });
+        let s = result.map_err(err)?;
+        Ok((array3(py, self.arap.positions().to_vec())?, stats(py, &s)?))
+    }
+
+    /// The ARAP energy of `u` with rotations fitted to it, $\min_R E(u, R)$ (`u` becomes the
+    /// next solve's starting guess).
+    fn energy(&mut self, py: Python<'_>, u: PyReadonlyArray2<'_, f64>) -> PyResult<f64> {
+        let u = rows3(&u, "U")?;
+        if u.len() != self.arap.rest().len() {
+            return Err(err(format!(
+                "U has {} rows but V has {}",
+                u.len(),
+                self.arap.rest().len()
+            )));
+        }
+        let arap = &mut self.arap;
+        Ok(py.allow_threads(|| arap.pose_energy(&u)))
+    }
+
+    /// The current pose (`#V×3`).
+    #[getter]
+    fn positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        array3(py, self.arap.positions().to_vec())
+    }
+
+    /// The per-vertex rotations of the last local step (`#V×3×3`).
+    #[getter]
+    fn rotations<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let r = self.arap.rotations();
+        let flat: Vec<f64> = r.iter().flatten().flatten().copied().collect();
+        use numpy::PyArrayMethods;
+        Ok(PyArray1::from_vec(py, flat).reshape([r.len(), 3, 3])?.into_any())
+    }
+
+    /// The fixed vertex indices, in the order given.
+    #[getter]
+    fn b<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<i64>> {
+        PyArray1::from_slice(py, &self.b)
+    }
+
+    /// Restarts the next solve without `U0` from rest.
+    fn reset(&mut self) {
+        self.arap.reset();
+    }
+}

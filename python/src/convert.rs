@@ -1,0 +1,122 @@
+//! numpy ⇄ solver conversions, with the checks every entry point needs (shapes, index ranges,
+//! finite values), and the statistics of a solve as a dict.
+
+use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use solver::SolveStats;
+
+use crate::err;
+
+/// `#N×3` float64 rows; `what` names the argument in errors. Non-finite values are refused.
+pub fn rows3(a: &PyReadonlyArray2<'_, f64>, what: &str) -> PyResult<Vec<[f64; 3]>> {
+    let shape = a.shape();
+    if shape[1] != 3 {
+        return Err(err(format!("{what} must have shape (n, 3); got {shape:?}")));
+    }
+    let view = a.as_array();
+    let mut out = Vec::with_capacity(shape[0]);
+    for (i, row) in view.rows().into_iter().enumerate() {
+        let p = [row[0], row[1], row[2]];
+        if let Some(c) = p.iter().find(|c| !c.is_finite()) {
+            return Err(err(format!("{what}: row {i} has a non-finite coordinate ({c})")));
+        }
+        out.push(p);
+    }
+    Ok(out)
+}
+
+/// `#F×3` vertex indices, each in `0..n_vertices`.
+pub fn triangles(a: &PyReadonlyArray2<'_, i64>, n_vertices: usize) -> PyResult<Vec<[u32; 3]>> {
+    let shape = a.shape();
+    if shape[1] != 3 {
+        return Err(err(format!("F must have shape (#F, 3); got {shape:?}")));
+    }
+    let mut out = Vec::with_capacity(shape[0]);
+    for (face, row) in a.as_array().rows().into_iter().enumerate() {
+        let mut t = [0u32; 3];
+        for (k, &i) in row.iter().enumerate() {
+            if i < 0 || i as u64 >= n_vertices as u64 {
+                return Err(err(format!(
+                    "F: triangle {face} refers to vertex {i}, but V has {n_vertices} rows"
+                )));
+            }
+            t[k] = i as u32;
+        }
+        out.push(t);
+    }
+    Ok(out)
+}
+
+/// A 1-d integer array as a vector.
+pub fn ints(a: &PyReadonlyArray1<'_, i64>) -> Vec<i64> {
+    a.as_array().iter().copied().collect()
+}
+
+/// `#N×3` rows as a new `(n, 3)` float64 array; the vector becomes the array's buffer (no copy).
+pub fn array3<'py>(py: Python<'py>, rows: Vec<[f64; 3]>) -> PyResult<Bound<'py, PyAny>> {
+    let n = rows.len();
+    Ok(PyArray1::from_vec(py, rows.into_flattened()).reshape([n, 3])?.into_any())
+}
+
+/// Triangles as an `(#F, 3)` int64 array.
+pub fn array_triangles<'py>(py: Python<'py>, t: &[[u32; 3]]) -> PyResult<Bound<'py, PyAny>> {
+    let flat: Vec<i64> = t.iter().flatten().map(|&i| i64::from(i)).collect();
+    Ok(PyArray1::from_vec(py, flat).reshape([t.len(), 3])?.into_any())
+}
+
+/// A solve's statistics ([`SolveStats`]) as a dict, energies as a float64 array.
+pub fn stats<'py>(py: Python<'py>, s: &SolveStats) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("iterations", s.iterations)?;
+    d.set_item("converged", s.converged)?;
+    d.set_item("done", s.done())?;
+    d.set_item("initial_energy", s.initial_energy)?;
+    d.set_item("energy", s.energy())?;
+    d.set_item("energies", PyArray1::from_slice(py, &s.energies))?;
+    d.set_item("local_ms", s.local_ms)?;
+    d.set_item("rhs_ms", s.rhs_ms)?;
+    d.set_item("solve_ms", s.solve_ms)?;
+    d.set_item("energy_ms", s.energy_ms)?;
+    d.set_item("total_ms", s.total_ms())?;
+    d.set_item("ms_per_iteration", s.ms_per_iteration())?;
+    d.set_item("rejected_steps", s.rejected_steps)?;
+    d.set_item("fine_iterations", s.fine_iterations)?;
+    d.set_item("fine_ms", s.fine_ms)?;
+    d.set_item("fine_energy", s.fine_energy)?;
+    d.set_item("fine_unconverged", s.fine_unconverged)?;
+    Ok(d)
+}
+
+/// The CLI's checks of a stopping rule (`bsarap deform --tol --max-iters`).
+pub fn check_stopping(tol: f64, max_iters: usize) -> PyResult<()> {
+    if !(tol.is_finite() && tol >= 0.0) {
+        return Err(err(format!("tol must be a finite number ≥ 0 (got {tol})")));
+    }
+    let max = solver::animation::scene::MAX_ITERATIONS;
+    if !(1..=max).contains(&max_iters) {
+        return Err(err(format!("max_iters must be between 1 and {max} (got {max_iters})")));
+    }
+    Ok(())
+}
+
+/// The energy named as in the CLI's `--energy`.
+pub fn energy(name: &str) -> PyResult<solver::Energy> {
+    match name {
+        "spokes-and-rims" => Ok(solver::Energy::SpokesAndRims),
+        "spokes" => Ok(solver::Energy::Spokes),
+        _ => Err(err(format!("energy must be \"spokes-and-rims\" or \"spokes\" (got {name:?})"))),
+    }
+}
+
+/// The acceleration for an Anderson window (0: none), as the CLI's `--anderson`.
+pub fn acceleration(window: usize) -> PyResult<solver::Acceleration> {
+    let max = solver::animation::scene::MAX_ANDERSON_WINDOW;
+    if window > max {
+        return Err(err(format!("anderson must be between 0 (off) and {max} (got {window})")));
+    }
+    Ok(match window {
+        0 => solver::Acceleration::None,
+        window => solver::Acceleration::Anderson { window },
+    })
+}

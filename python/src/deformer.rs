@@ -1,0 +1,293 @@
+//! `bsarap.Deformer`'s native half: every method of the CLI behind `solver::Deformer`, posed by
+//! per-group rigid transforms as the CLI's `--move` / `--rotate`.
+
+use std::sync::Arc;
+
+use numpy::{PyArray1, PyReadonlyArray1, PyReadonlyArray2};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use solver::deform::config::MAX_FINE_ITERATIONS;
+use solver::geometry::topology::connected_components;
+use solver::io::Asset;
+use solver::linalg::rotation::Mat3;
+use solver::{
+    ArapConfig, BaseConfig, ComponentMode, Deformer, GroupTransform, Handles, LooseParts, Mesh,
+    Method, handle_targets,
+};
+
+use crate::convert::{acceleration, array3, check_stopping, energy, ints, rows3, stats, triangles};
+use crate::err;
+
+/// The file layout a recording is exported on: the asset and cleaning's vertex map (a scene's
+/// mesh), shared with the recordings made from this deformer.
+pub type Layout = Arc<(Asset, Vec<Option<u32>>)>;
+
+/// A precomputed deformer of one method, with the mesh and handle groups it was built for.
+#[pyclass(module = "bsarap._bsarap")]
+pub struct NativeDeformer {
+    pub deformer: Deformer,
+    pub mesh: Mesh,
+    pub handles: Handles,
+    pub config: ArapConfig,
+    /// The targets of the last solve (what `settle` refines at).
+    last_targets: Option<Vec<[f64; 3]>>,
+    pub layout: Option<Layout>,
+    method: Method,
+}
+
+impl NativeDeformer {
+    /// Precomputes with the GIL released.
+    #[expect(clippy::too_many_arguments, reason = "the Deformer's own inputs, one each")]
+    pub fn build(
+        py: Python<'_>,
+        method: Method,
+        mesh: Mesh,
+        handles: Handles,
+        config: ArapConfig,
+        base: BaseConfig,
+        parts: LooseParts,
+        layout: Option<Layout>,
+    ) -> PyResult<NativeDeformer> {
+        let deformer = py
+            .allow_threads(|| {
+                Deformer::with_loose_parts(method, &mesh, &handles, &config, &base, &parts)
+            })
+            .map_err(err)?;
+        Ok(NativeDeformer { deformer, mesh, handles, config, last_targets: None, layout, method })
+    }
+}
+
+/// Checks that `r` is a proper rotation (orthonormal to 1e-6, determinant +1).
+fn check_rotation(group: usize, r: &Mat3) -> PyResult<()> {
+    let finite = r.iter().flatten().all(|c| c.is_finite());
+    let mut worst = 0.0f64;
+    for i in 0..3 {
+        for j in 0..3 {
+            let dot: f64 = (0..3).map(|k| r[k][i] * r[k][j]).sum();
+            worst = worst.max((dot - if i == j { 1.0 } else { 0.0 }).abs());
+        }
+    }
+    let det = r[0][0] * (r[1][1] * r[2][2] - r[1][2] * r[2][1])
+        - r[0][1] * (r[1][0] * r[2][2] - r[1][2] * r[2][0])
+        + r[0][2] * (r[1][0] * r[2][1] - r[1][1] * r[2][0]);
+    if !finite || worst > 1e-6 || det <= 0.0 {
+        return Err(err(format!(
+            "group {group}: the rotation must be a proper 3×3 rotation matrix (orthonormal, \
+             determinant +1)"
+        )));
+    }
+    Ok(())
+}
+
+#[pymethods]
+impl NativeDeformer {
+    #[new]
+    #[pyo3(signature = (v, f, labels, method, energy_name, tol, max_iters, anderson, smoothing,
+        coarse_vertices, fine_iterations, settle_iterations, pinned_components))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        py: Python<'_>,
+        v: PyReadonlyArray2<'_, f64>,
+        f: PyReadonlyArray2<'_, i64>,
+        labels: PyReadonlyArray1<'_, i64>,
+        method: &str,
+        energy_name: &str,
+        tol: f64,
+        max_iters: usize,
+        anderson: usize,
+        smoothing: f64,
+        coarse_vertices: Option<usize>,
+        fine_iterations: usize,
+        settle_iterations: usize,
+        pinned_components: Vec<usize>,
+    ) -> PyResult<NativeDeformer> {
+        let Some(method) = Method::from_name(method) else {
+            let names: Vec<&str> = Method::ALL.iter().map(|m| m.name()).collect();
+            return Err(err(format!(
+                "method must be one of {} (got {method:?})",
+                names.join(", ")
+            )));
+        };
+        check_stopping(tol, max_iters)?;
+        let config = ArapConfig {
+            energy: energy(energy_name)?,
+            tolerance: tol,
+            max_iterations: max_iters,
+            acceleration: acceleration(anderson)?,
+            ..ArapConfig::default()
+        };
+        let base = BaseConfig { smoothing, coarse_vertices, fine_iterations, settle_iterations };
+        base.validate().map_err(err)?;
+        if settle_iterations > MAX_FINE_ITERATIONS {
+            return Err(err(format!(
+                "settle_iterations must be between 0 and {MAX_FINE_ITERATIONS} (got \
+                 {settle_iterations})"
+            )));
+        }
+        let positions = rows3(&v, "V")?;
+        let tris = triangles(&f, positions.len())?;
+        let mesh = Mesh::new(positions, tris).map_err(err)?;
+        let handles = Handles::from_labels(&ints(&labels), mesh.n_vertices()).map_err(err)?;
+        let mut parts = LooseParts::default();
+        let count = connected_components(mesh.n_vertices(), mesh.triangles()).count;
+        for &c in &pinned_components {
+            if c >= count {
+                return Err(err(format!(
+                    "pinned component {c}: the mesh has components 0..{count}"
+                )));
+            }
+            parts.set(c, ComponentMode::Pin);
+        }
+        NativeDeformer::build(py, method, mesh, handles, config, base, parts, None)
+    }
+
+    /// The handle targets (`#H×3`, order of `handle_vertices`) of per-group transforms
+    /// `[(group, translation, rotation)]`; unlisted groups stay at rest.
+    fn targets<'py>(
+        &self,
+        py: Python<'py>,
+        transforms: Vec<(usize, [f64; 3], Mat3)>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        array3(py, self.targets_of(transforms)?)
+    }
+
+    /// Solves for per-group transforms `[(group, translation, rotation)]` (rotation about the
+    /// group's rest centroid, then translation), warm-started: `(positions, stats)`.
+    fn solve<'py>(
+        &mut self,
+        py: Python<'py>,
+        transforms: Vec<(usize, [f64; 3], Mat3)>,
+    ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyDict>)> {
+        let targets = self.targets_of(transforms)?;
+        self.solve_at(py, targets)
+    }
+
+    /// Solves for handle targets given directly (`#H×3`, order of `handle_vertices`).
+    fn solve_targets<'py>(
+        &mut self,
+        py: Python<'py>,
+        targets: PyReadonlyArray2<'py, f64>,
+    ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyDict>)> {
+        let targets = rows3(&targets, "targets")?;
+        self.solve_at(py, targets)
+    }
+
+    /// Refines the last solve's pose at the same targets (the coarse BS-ARAP with
+    /// `settle_iterations > 0`): `(positions, stats)`, or `None` when there is nothing to do.
+    fn settle<'py>(
+        &mut self,
+        py: Python<'py>,
+    ) -> PyResult<Option<(Bound<'py, PyAny>, Bound<'py, PyDict>)>> {
+        let Some(targets) = &self.last_targets else {
+            return Err(err("settle: nothing was solved yet"));
+        };
+        let deformer = &mut self.deformer;
+        let result = py.allow_threads(|| deformer.settle(targets)).map_err(err)?;
+        match result {
+            None => Ok(None),
+            Some(s) => Ok(Some((array3(py, self.deformer.positions().to_vec())?, stats(py, &s)?))),
+        }
+    }
+
+    /// Whether `settle` has work after the last solve.
+    #[getter]
+    fn settle_pending(&self) -> bool {
+        self.deformer.settle_pending()
+    }
+
+    /// Changes the stopping rule without refactoring.
+    fn set_stopping(&mut self, tol: f64, max_iters: usize) -> PyResult<()> {
+        check_stopping(tol, max_iters)?;
+        self.config.tolerance = tol;
+        self.config.max_iterations = max_iters;
+        self.deformer.set_stopping(tol, max_iters);
+        Ok(())
+    }
+
+    /// Restarts the next solve from rest.
+    fn reset(&mut self) {
+        self.last_targets = None;
+        self.deformer.reset();
+    }
+
+    /// The pose of the last solve (rest before any), `#V×3`.
+    #[getter]
+    fn positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        array3(py, self.deformer.positions().to_vec())
+    }
+
+    /// The deformed base surface B' (`#V×3`); `None` for ARAP.
+    #[getter]
+    fn base<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        self.deformer.deformed_base().map(|b| array3(py, b.to_vec())).transpose()
+    }
+
+    /// The details D = M − B at rest (`#V×3`); `None` for ARAP.
+    #[getter]
+    fn details<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        self.deformer.details().map(|d| array3(py, d.to_vec())).transpose()
+    }
+
+    /// The handle vertices, ascending (the row order of targets).
+    #[getter]
+    fn handle_vertices<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<i64>> {
+        let h: Vec<i64> = self.handles.handle_vertices().into_iter().map(i64::from).collect();
+        PyArray1::from_vec(py, h)
+    }
+
+    /// Per-vertex labels (-1 free, k group k).
+    #[getter]
+    fn labels<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<i64>> {
+        let l: Vec<i64> = self.handles.labels().iter().map(|l| l.map_or(-1, i64::from)).collect();
+        PyArray1::from_vec(py, l)
+    }
+
+    /// The ids of the non-empty handle groups.
+    #[getter]
+    fn groups(&self) -> Vec<usize> {
+        self.handles.group_ids().collect()
+    }
+
+    /// The method's name.
+    #[getter]
+    fn method(&self) -> &'static str {
+        self.method.name()
+    }
+
+    /// The rest positions (`#V×3`).
+    #[getter]
+    fn rest<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        array3(py, self.mesh.positions().to_vec())
+    }
+
+    /// A sentence about the loose parts (components without handles), if any.
+    #[getter]
+    fn notice(&self) -> Option<String> {
+        self.deformer.notice()
+    }
+}
+
+impl NativeDeformer {
+    fn targets_of(&self, transforms: Vec<(usize, [f64; 3], Mat3)>) -> PyResult<Vec<[f64; 3]>> {
+        let mut list = Vec::with_capacity(transforms.len());
+        for (group, translation, rotation) in transforms {
+            if translation.iter().any(|c| !c.is_finite()) {
+                return Err(err(format!("group {group}: the translation is not finite")));
+            }
+            check_rotation(group, &rotation)?;
+            list.push((group, GroupTransform { translation, rotation }));
+        }
+        handle_targets(self.mesh.positions(), &self.handles, &list).map_err(err)
+    }
+
+    fn solve_at<'py>(
+        &mut self,
+        py: Python<'py>,
+        targets: Vec<[f64; 3]>,
+    ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyDict>)> {
+        let deformer = &mut self.deformer;
+        let s = py.allow_threads(|| deformer.solve(&targets)).map_err(err)?;
+        self.last_targets = Some(targets);
+        Ok((array3(py, self.deformer.positions().to_vec())?, stats(py, &s)?))
+    }
+}

@@ -1,0 +1,188 @@
+"""The API on a small tube and the repository's assets: shapes, dtypes, no copies, every
+method, settle, base and details, scenes, recording and glTF export."""
+import json
+import struct
+import threading
+
+import numpy as np
+import pytest
+
+import bsarap
+from conftest import tube
+
+
+def test_load_clean_save_roundtrip(tmp_path, small):
+    V, F, _ = small
+    path = tmp_path / "tube.off"
+    bsarap.save_mesh(path, V, F)
+    V2, F2 = bsarap.load_mesh(path)
+    assert V2.dtype == np.float64 and F2.dtype == np.int64
+    assert V2.flags.c_contiguous and V2.flags.writeable
+    np.testing.assert_array_equal(V2, V)
+    np.testing.assert_array_equal(F2, F)
+    _, _, report = bsarap.load_mesh(path, with_report=True)
+    assert report["vertices_out"] == len(V) and not report["changed"]
+    assert any("open" in n for n in report["notices"])
+
+
+def test_clean_welds_and_drops(small):
+    V, F, _ = small
+    V2 = np.vstack([V, V[:1]])  # a duplicate of vertex 0 ...
+    F2 = np.vstack([F, F[:1]])  # plus a duplicated face
+    F2[0, 0] = len(V)  # the duplicate used by a face
+    V3, F3, report = bsarap.clean(V2, F2)
+    assert report["vertices_welded"] == 1 and report["duplicate_faces_removed"] == 1
+    assert len(V3) == len(V) and report["vertex_map"][len(V)] == 0
+
+
+def test_arap_libigl_shape(small):
+    V, F, labels = small
+    b = np.nonzero(labels >= 0)[0][::-1].copy()  # any order: bc follows b
+    bc = V[b] + np.where(labels[b, None] == 1, [0.5, 0.0, 0.0], 0.0)
+    solver = bsarap.Arap(V, F, b)
+    U = solver.solve(bc, V)
+    np.testing.assert_allclose(U[b], bc, atol=0, rtol=0)
+    st = solver.stats
+    assert st.iterations == len(st.energies) and st.converged
+    assert np.all(np.diff(st.energies) <= 1e-12 * st.initial_energy)
+    assert solver.rotations.shape == (len(V), 3, 3)
+    np.testing.assert_array_equal(solver.b, b)
+    # tol = 0 runs exactly max_iters (libigl's rule); None continues from the last result.
+    U2 = solver.solve(bc, max_iters=7, tol=0)
+    assert solver.stats.iterations == 7
+    assert np.abs(U2 - U).max() < 1e-2
+    assert solver.energy(U2) <= solver.stats.initial_energy + 1e-15
+    # int32 b and float32 inputs are converted.
+    U3 = bsarap.Arap(V.astype(np.float32), F.astype(np.int32), b.astype(np.int32)).solve(bc, V)
+    assert U3.shape == V.shape
+
+
+@pytest.mark.parametrize("method", bsarap.METHODS)
+def test_every_method(method):
+    V, F, labels = tube(16, 24)
+    d = bsarap.Deformer(V, F, labels, method=method, coarse_vertices=200 if method == "bsarap-coarse" else None)
+    R = bsarap.rotation([0, 0, 1], 30)
+    U = d.solve({1: ([0.3, 0.0, 0.2], R)})
+    targets = d.targets({1: ([0.3, 0.0, 0.2], R)})
+    np.testing.assert_allclose(U[d.handle_vertices], targets, atol=1e-12)
+    assert np.all(U[labels == 0] == V[labels == 0])
+    assert d.stats.iterations >= 1 and d.method == method
+    if method == "arap":
+        assert d.base is None and d.details is None
+    else:
+        assert d.base.shape == V.shape and d.details.shape == V.shape
+    # The same pose as a dict or a bare translation.
+    d.reset()
+    U1 = d.solve({1: {"translate": [0.3, 0.0, 0.2], "rotate": R}})
+    np.testing.assert_allclose(U1, U, atol=1e-9)
+    d.reset()
+    np.testing.assert_allclose(d.solve_targets(targets), U, atol=1e-9)
+    np.testing.assert_array_equal(d.rest, V)
+    assert d.notice is None
+
+
+def test_anderson_and_settle():
+    V, F, labels = tube(16, 24)
+    plain = bsarap.Deformer(V, F, labels, method="arap", tol=1e-6, max_iters=500)
+    fast = bsarap.Deformer(V, F, labels, method="arap", tol=1e-6, max_iters=500, anderson=5)
+    move = {1: (0.8, 0.0, 0.0)}
+    U = plain.solve(move)
+    Ua = fast.solve(move)
+    assert fast.stats.iterations < plain.stats.iterations
+    assert np.abs(U - Ua).max() < 1e-2
+    coarse = bsarap.Deformer(V, F, labels, coarse_vertices=150, settle_iterations=5)
+    coarse.solve(move)
+    assert coarse.settle_pending
+    steps = 0
+    while coarse.settle_pending and steps < 50:
+        assert coarse.settle() is not None
+        steps += 1
+    assert steps >= 1 and coarse.stats.fine_iterations == 5
+    assert bsarap.Deformer(V, F, labels, method="arap").settle_pending is False
+
+
+def test_handles_from_file(tmp_path, small):
+    V, F, labels = small
+    sel = tmp_path / "sel.dmat"
+    sel.write_text(f"1 {len(V)}\n" + "\n".join(str(x) for x in labels) + "\n")
+    d = bsarap.Deformer(V, F, str(sel), method="arap")
+    np.testing.assert_array_equal(d.labels, labels)
+    assert d.groups == [0, 1]
+
+
+def test_gil_released_during_solves():
+    V, F, labels = tube(40, 60)
+    d = bsarap.Deformer(V, F, labels, method="arap", tol=0, max_iters=400)
+    ticks = []
+    stop = threading.Event()
+
+    def count():
+        while not stop.is_set():
+            ticks.append(1)
+
+    t = threading.Thread(target=count)
+    t.start()
+    try:
+        d.solve({1: (1.0, 0.0, 0.0)})
+    finally:
+        stop.set()
+        t.join()
+    assert d.stats.iterations == 400
+    assert len(ticks) > 100  # the counting thread ran during the solve
+
+
+def test_scene_record_export(tmp_path, repo):
+    scene = bsarap.load_scene(repo / "assets" / "scenes" / "creature-circle.json")
+    assert scene.method == "bsarap-coarse" and scene.V.shape[1] == 3
+    tl = scene.timeline
+    assert tl.groups == [0] and tl.default_frame_count() == round(tl.duration * tl.fps) + 1
+    tr, R = tl.transforms_at(0.5 * tl.duration)[0]
+    assert tr.shape == (3,) and R.shape == (3, 3)
+    assert bsarap.Timeline.from_json(tl.to_json()).to_json() == tl.to_json()
+    path = repo / "assets" / "scenes" / "creature-circle.json"
+    assert bsarap.Timeline.from_scene(path).to_json() == tl.to_json()
+    assert scene.settings["coarse_vertices"] == 2000 and scene.settings["energy"] == "spokes-and-rims"
+    assert scene.mesh_path.endswith("creature.obj") and (scene.labels >= 0).any()
+    d = scene.deformer()
+    rec = bsarap.record(d, tl, n_frames=4)
+    assert len(rec) == 4 and rec.frames.shape == (4, len(scene.V), 3)
+    np.testing.assert_allclose(rec.times, tl.frame_times(4))
+    # A recording is the solves of its frames, each warm-started from the previous one.
+    d.reset()
+    for k, t in enumerate(rec.times):
+        U = d.solve(tl.transforms_at(t))
+        np.testing.assert_allclose(U, rec.frames[k], atol=1e-12)
+    out = tmp_path / "creature.glb"
+    size = bsarap.export_gltf(out, rec)
+    assert out.stat().st_size == size
+    data = out.read_bytes()
+    assert data[:4] == b"glTF"
+    (json_len,) = struct.unpack("<I", data[12:16])
+    doc = json.loads(data[20:20 + json_len])
+    assert len(doc["animations"]) == 1 and "KHR_mesh_quantization" in doc.get("extensionsUsed", [])
+
+
+def test_export_bare_mesh(tmp_path):
+    V, F, labels = tube()
+    d = bsarap.Deformer(V, F, labels, method="arap")
+    tl = bsarap.Timeline.from_json(json.dumps({
+        "duration": 1.0, "fps": 4, "paths": [{"group": 1, "path": {
+            "type": "circular", "axis": [0, 0, 1], "reference": [1, 0, 0], "radius": 0.2,
+            "period": 1.0, "phase": 0.0, "turn_with_path": False}}]}))
+    rec = bsarap.record(d, tl)
+    assert len(rec) == 5 and rec.total_iterations >= 1
+    out = tmp_path / "tube.gltf"
+    assert bsarap.export_gltf(out, rec, quantized=False) == out.stat().st_size
+    assert json.loads(out.read_text())["asset"]["version"] == "2.0"
+
+
+def test_no_copies_where_the_layout_fits():
+    V, F, _ = tube()
+    assert bsarap._positions(V, "V") is V  # C-contiguous float64 passes as is
+    assert bsarap._indices(F, "F", 2) is F  # and int64 triangles
+    Vt = np.asfortranarray(V)
+    assert bsarap._positions(Vt, "V") is not Vt  # other layouts are converted once
+    U = bsarap.Arap(V, F, [0, 1, 2]).solve(V[[0, 1, 2]], V)
+    assert U.flags.c_contiguous and U.flags.writeable
+    # A view of the 1-d array made from the solver's Vec (rust-numpy keeps the Vec as its base).
+    assert U.base is not None and not isinstance(U.base.base, np.ndarray)
