@@ -451,3 +451,53 @@ fn deform_defaults_to_the_editors_method() {
     let j: serde_json::Value = serde_json::from_str(&stdout).unwrap();
     assert_eq!(j["method"], solver::Method::BsArapCoarse.name(), "{j}");
 }
+
+/// `bench` reports the mesh's and the handle set's precomputation apart, the first frame after
+/// a handle change and the rate while the handle moves, and the peak memory.
+#[test]
+fn bench_splits_the_precomputation_and_reports_memory() {
+    let j = on_sphere("bench", &["--frames", "4", "--method", "arap,bsarap-coarse"]);
+    let num = |m: &str, k: &str| j["methods"][m][k].as_f64().unwrap_or_else(|| panic!("{m} {k}"));
+    assert!(j["peak_memory_mib"].as_f64().unwrap() > 1.0, "{j}");
+    for m in ["arap", "bsarap-coarse"] {
+        let (mesh, handles) = (num(m, "precompute_mesh_ms"), num(m, "precompute_handles_ms"));
+        assert!((mesh + handles - num(m, "precompute_ms")).abs() < 1e-9, "{m}");
+        assert!(num(m, "first_frame_ms") >= handles, "{m}");
+        assert!(num(m, "moving_fps") > 0.0, "{m}");
+    }
+    // Everything ARAP precomputes depends on the handles; the coarse base on the mesh.
+    assert_eq!(num("arap", "precompute_mesh_ms"), 0.0);
+    assert!(num("bsarap-coarse", "precompute_mesh_ms") > 0.0);
+}
+
+/// `subdivide` writes a 1-to-4 subdivision (V' = V + E, F' = 4F per level) that loads back,
+/// and refuses bad levels and extensions before any work.
+#[test]
+fn subdivide_writes_a_denser_mesh() {
+    let (obj, _, _) = sphere();
+    for ext in ["obj", "ply", "off"] {
+        let out = tmp(&format!("sphere2.{ext}"));
+        let (code, stdout, stderr) = bsarap(&[
+            "subdivide",
+            obj.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--levels",
+            "2",
+        ]);
+        assert_eq!(code, 0, "{stderr}");
+        assert!(stdout.contains("2562 vertices"), "{stdout}");
+        let m = solver::io::load_mesh(&out).unwrap().mesh;
+        assert_eq!((m.n_vertices(), m.n_faces()), (2562, 5120));
+    }
+    let out = tmp("bad.stl");
+    let (code, _, stderr) =
+        bsarap(&["subdivide", obj.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert_ne!(code, 0);
+    assert!(stderr.contains("unsupported output extension"), "{stderr}");
+    let out = tmp("x.obj");
+    let (code, _, stderr) =
+        bsarap(&["subdivide", obj.to_str().unwrap(), "-o", out.to_str().unwrap(), "--levels", "9"]);
+    assert_ne!(code, 0);
+    assert!(stderr.contains("--levels"), "{stderr}");
+}

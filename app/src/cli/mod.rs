@@ -4,6 +4,7 @@ mod bench;
 mod deform;
 mod export;
 mod info;
+mod subdivide;
 
 use clap::{Parser, Subcommand, ValueEnum};
 use std::path::PathBuf;
@@ -29,6 +30,8 @@ pub enum Command {
     Bench(bench::BenchArgs),
     /// Play a scene's timeline headless and write glTF (.glb/.gltf) with one morph target per frame.
     Export(export::ExportArgs),
+    /// A dense test mesh: 1-to-4 midpoint subdivision, written as OBJ, PLY or OFF.
+    Subdivide(subdivide::SubdivideArgs),
 }
 
 /// `bsarap edit [MESH]`.
@@ -87,6 +90,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Some(Command::Deform(a)) => deform::run(&a),
         Some(Command::Bench(a)) => bench::run(&a),
         Some(Command::Export(a)) => export::run(&a),
+        Some(Command::Subdivide(a)) => subdivide::run(&a),
     }
 }
 
