@@ -6,6 +6,10 @@ hand, the lowest point of a foot), found from the geometry so the choice is repr
     python3 bench/make_handles.py   # from the repository root; reads ../shared/meshes
 Group 0 is the one the benchmark moves on a circle; the others stay at rest. The knight and
 decimated-max use libigl's own .dmat selections from ../shared/meshes instead.
+
+`*-b.json` are held-out sets for armadillo, Cheburashka and the bunny: other regions, other
+sizes and another moving group, on which no default was tuned (the defaults are checked on
+them, BENCHMARKS.md "Defaults on held-out handle sets").
 """
 import json
 import sys
@@ -78,6 +82,29 @@ def main():
         ("right wing", extreme(v, [1, 0, 0])),
         ("front foot", extreme(v, [0, -0.2, -1], lowy)),
         ("tail", extreme(v, [0, -0.2, 1], lowy)),
+    ], 0.03)
+    # Held-out sets (`-b`): different regions, radii and moving group.
+    v = read(MESHES + "armadillo.obj")
+    lowy = v[:, 1] < np.quantile(v[:, 1], 0.05)
+    sets["armadillo-b"] = (v, [
+        ("head", extreme(v, [0, 1, 0.3])),
+        ("right foot", extreme(v, [0.3, -1, 0], lowy & (v[:, 0] > 0))),
+        ("left foot", extreme(v, [-0.3, -1, 0], lowy & (v[:, 0] < 0))),
+        ("tail end", extreme(v, [0, -0.3, -1])),
+    ], 0.05)
+    v = read(MESHES + "cheburashka.off")
+    mid = v[:, 0].mean()
+    sets["cheburashka-b"] = (v, [
+        ("left foot", extreme(v, [0, -1, 0], v[:, 0] < mid)),
+        ("right foot", extreme(v, [0, -1, 0], v[:, 0] > mid)),
+        ("top of the head", extreme(v, [0, 1, 0])),
+    ], 0.05)
+    v = read(MESHES + "bunny.off")
+    lowy = v[:, 1] < np.quantile(v[:, 1], 0.03)
+    sets["bunny-b"] = (v, [
+        ("front feet", extreme(v, [1, -0.2, 0], lowy)),
+        ("tail", extreme(v, [-1, 0, 0])),
+        ("nose", extreme(v, [1, 0.3, 0])),
     ], 0.03)
     for name, (v, regions, r) in sets.items():
         print(name, file=sys.stderr)
