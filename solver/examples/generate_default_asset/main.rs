@@ -2,7 +2,12 @@
 //!
 //! Run: `cargo run -p solver --release --example generate_default_asset -- assets/`
 //!
-//! Writes, into the folder given as the only argument:
+//! A second argument sets the vertex count (default 30,000): the dense test mesh of the
+//! dense-mesh benchmarks is `... -- DIR 1500000` (BENCHMARKS.md, "Dense meshes"): the scales
+//! stay about five edges wide, so a denser creature carries more and finer detail, not a
+//! smoother surface.
+//!
+//! Writes, into the folder given as the first argument:
 //! - `creature.obj`: a closed, manifold, genus-0 triangle mesh (about 30k vertices);
 //! - `creature.handles.json`: the default handle selection as spheres (docs/DESIGN.md, "Handle selections");
 //! - `creature.dmat`: the same selection as per-vertex labels (libigl ASCII `.dmat`);
@@ -15,7 +20,7 @@
 //!    ([`sdf`], [`creature`])
 //! 2. Naive surface nets on a regular grid give a quad mesh of that level set; each quad is
 //!    split along its shorter diagonal. The grid step is chosen from a coarse trial run so that
-//!    the mesh has about [`TARGET_VERTICES`] vertices. ([`surface_nets`])
+//!    the mesh has about [`TARGET_VERTICES`] (or the given count) vertices. ([`surface_nets`])
 //! 3. Tangential relaxation (area-weighted centroid, moved in the tangent plane, projected back
 //!    onto the level set by Newton steps) and intrinsic Delaunay edge flips make the triangles
 //!    regular. ([`remesh`])
@@ -53,7 +58,7 @@ use crate::surface_nets::surface_nets;
 
 type Result<T> = std::result::Result<T, Box<dyn Error>>;
 
-/// Vertex count the grid step is tuned for.
+/// Vertex count the grid step is tuned for, unless the second argument sets one.
 const TARGET_VERTICES: f64 = 30_000.0;
 /// Coordinates are rounded to this many decimals before writing (keeps the file small).
 const DECIMALS: i32 = 6;
@@ -66,13 +71,20 @@ fn round(x: f64) -> f64 {
 
 fn main() -> Result<()> {
     let out_dir = PathBuf::from(std::env::args().nth(1).unwrap_or_else(|| "assets".into()));
+    let target = match std::env::args().nth(2) {
+        None => TARGET_VERTICES,
+        Some(a) => match a.parse::<f64>() {
+            Ok(n) if (1_000.0..=5_000_000.0).contains(&n) => n,
+            _ => return Err(format!("vertex count must be 1000 to 5000000 (got {a})").into()),
+        },
+    };
     std::fs::create_dir_all(&out_dir)?;
     let creature = Creature::new();
 
     // 1–2. Surface nets, with the grid step tuned on a coarse trial to the target vertex count.
     let trial_h = 0.06;
     let trial = surface_nets(&creature, trial_h).0.len() as f64;
-    let h = trial_h * (trial / TARGET_VERTICES).sqrt();
+    let h = trial_h * (trial / target).sqrt();
     let (mut positions, mut triangles) = surface_nets(&creature, h);
     println!(
         "surface nets: grid step {h:.5}, {} vertices, {} triangles",
