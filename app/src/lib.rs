@@ -1,3 +1,4 @@
 //! The `bsarap` application: the editor (and, on `main`, the headless subcommands' glue).
 
 pub mod editor;
+pub mod gpu;

@@ -193,6 +193,19 @@ impl RenderLayout {
         normals: &[[f32; 3]],
         overlay: &[[f32; 4]],
     ) -> Vec<TexturedVertex> {
+        let mut out = Vec::new();
+        self.gather_into(&mut out, positions, normals, overlay);
+        out
+    }
+
+    /// [`RenderLayout::gather`] into `out`, reusing its allocation.
+    pub fn gather_into(
+        &self,
+        out: &mut Vec<TexturedVertex>,
+        positions: &[[f32; 3]],
+        normals: &[[f32; 3]],
+        overlay: &[[f32; 4]],
+    ) {
         let vertex = |r: usize| {
             let m = self.mesh_vertex[r] as usize;
             TexturedVertex {
@@ -204,10 +217,11 @@ impl RenderLayout {
             }
         };
         let n = self.mesh_vertex.len();
+        out.clear();
         if n >= PARALLEL_GATHER {
-            (0..n).into_par_iter().map(vertex).collect()
+            (0..n).into_par_iter().map(vertex).collect_into_vec(out);
         } else {
-            (0..n).map(vertex).collect()
+            out.extend((0..n).map(vertex));
         }
     }
 }

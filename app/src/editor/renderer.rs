@@ -127,12 +127,27 @@ pub fn build_vertices(
     normals: &[[f32; 3]],
     colors: &[[f32; 4]],
 ) -> Vec<Vertex> {
-    positions
-        .iter()
-        .zip(normals)
-        .zip(colors)
-        .map(|((&position, &normal), &color)| Vertex { position, normal, color })
-        .collect()
+    let mut out = Vec::new();
+    fill_vertices(&mut out, positions, normals, colors);
+    out
+}
+
+/// [`build_vertices`] into `out`, reusing its allocation (the viewport refills the buffer of
+/// its previous frame, so that a new pose allocates nothing on the UI thread).
+pub fn fill_vertices(
+    out: &mut Vec<Vertex>,
+    positions: &[[f32; 3]],
+    normals: &[[f32; 3]],
+    colors: &[[f32; 4]],
+) {
+    out.clear();
+    out.extend(
+        positions.iter().zip(normals).zip(colors).map(|((&position, &normal), &color)| Vertex {
+            position,
+            normal,
+            color,
+        }),
+    );
 }
 
 /// Line segments of a ground grid on the plane `y = height`, centred under `center`.

@@ -344,7 +344,6 @@ impl CoarseBsArap {
         for (q, r) in self.quaternions.iter_mut().zip(self.arap.rotations()) {
             *q = quaternion_of(r);
         }
-        let quats = &self.quaternions;
         // B'_c is finite (checked by ARAP) but the prolonged p' can still overflow: write into
         // reused buffers and swap them in only when p' is finite (the previous pose stays).
         let n = self.result.len();
@@ -352,27 +351,18 @@ impl CoarseBsArap {
         next.resize(n, [0.0; 3]);
         self.next_base.resize(n, [0.0; 3]);
         self.next_frames.resize(n, [1.0, 0.0, 0.0, 0.0]);
-        let details = self.base.details.par_iter().zip(self.correction.par_iter());
-        self.next_base
-            .par_iter_mut()
-            .zip(next.par_iter_mut().zip(self.next_frames.par_iter_mut()))
-            .zip(self.base.embedding.par_iter().zip(details))
-            .for_each(|((b, (out, frame)), ((t, w), (d, c)))| {
-                *b = blend(bc, t, w);
-                let q0 = quats[t[0] as usize];
-                let mut q = [0.0; 4];
-                for k in 0..3 {
-                    let qk = quats[t[k] as usize];
-                    let s = if dot4(qk, q0) < 0.0 { -w[k] } else { w[k] };
-                    for c in 0..4 {
-                        q[c] += s * qk[c];
-                    }
-                }
-                let n = dot4(q, q).sqrt();
-                let q = if n > 0.0 { q.map(|c| c / n) } else { [1.0, 0.0, 0.0, 0.0] };
-                *frame = q;
-                *out = add(*b, rotate(q, add(*d, *c)));
-            });
+        prolong(
+            Prolongation {
+                coarse: bc,
+                quaternions: &self.quaternions,
+                embedding: &self.base.embedding,
+                details: &self.base.details,
+                corrections: &self.correction,
+            },
+            &mut self.next_base,
+            &mut next,
+            &mut self.next_frames,
+        );
         if stats.iterations == 0
             && self.fine_handles.iter().zip(targets).all(|(&v, t)| *t == self.base.rest[v as usize])
         {
@@ -530,6 +520,27 @@ impl CoarseBsArap {
         &self.base.details
     }
 
+    /// The inputs of the last solve's prolongation (step 4 of the module doc).
+    pub fn prolongation(&self) -> Prolongation<'_> {
+        Prolongation {
+            coarse: self.arap.positions(),
+            quaternions: &self.quaternions,
+            embedding: &self.base.embedding,
+            details: &self.base.details,
+            corrections: &self.correction,
+        }
+    }
+
+    /// The fine vertices the last solve put on given positions after the prolongation: the
+    /// handles on their targets, then the vertices of components without handles at rest.
+    pub fn fixed_vertices(&self) -> impl Iterator<Item = (u32, [f64; 3])> + '_ {
+        self.fine_handles
+            .iter()
+            .copied()
+            .zip(self.last_targets.iter().copied())
+            .chain(self.pinned.iter().copied())
+    }
+
     /// Milliseconds of each precomputation phase for this handle set (coarse handles, coarse
     /// factorization, and the fine factorization once fine or settle iterations ran); the
     /// mesh's own phases are [`CoarseBase::precompute_phases`].
@@ -562,6 +573,57 @@ impl CoarseBsArap {
             fine.reset();
         }
     }
+}
+
+/// What step 4 of the module doc reads: the coarse pose and rotations of a solve and the
+/// mesh's embedding, details and carried corrections. The GPU prolongation in the editor
+/// (`app/src/gpu/prolong.rs`, shaders/prolong.wgsl) computes the same from the same inputs.
+#[derive(Clone, Copy)]
+pub struct Prolongation<'a> {
+    /// $B_c'$, `#Vc×3`.
+    pub coarse: &'a [[f64; 3]],
+    /// $R_k$ as unit quaternions `[w, x, y, z]`, `#Vc`.
+    pub quaternions: &'a [[f64; 4]],
+    /// Per fine vertex: coarse triangle corners $t_i$ and weights $w_{ik}$.
+    pub embedding: &'a [([u32; 3], [f64; 3])],
+    /// $D_i$, `#V×3`.
+    pub details: &'a [[f64; 3]],
+    /// $C_i$, `#V×3`.
+    pub corrections: &'a [[f64; 3]],
+}
+
+/// Step 4 of the module doc at every fine vertex, in parallel:
+/// $b_i = \sum_k w_{ik} B'_{c,k}$, $\hat q_i$ = the normalized blend of the corner quaternions
+/// (signs aligned with the first corner's), $p'_i = b_i + \hat q_i (D_i + C_i) \hat q_i^{-1}$.
+/// Writes $b$, $p'$ and $\hat q$ (each `#V` long); handle and pinned vertices are not special
+/// here (the solve overwrites them).
+pub fn prolong(
+    input: Prolongation<'_>,
+    base: &mut [[f64; 3]],
+    out: &mut [[f64; 3]],
+    frames: &mut [[f64; 4]],
+) {
+    let Prolongation { coarse, quaternions: quats, embedding, details, corrections } = input;
+    let details = details.par_iter().zip(corrections.par_iter());
+    base.par_iter_mut()
+        .zip(out.par_iter_mut().zip(frames.par_iter_mut()))
+        .zip(embedding.par_iter().zip(details))
+        .for_each(|((b, (out, frame)), ((t, w), (d, c)))| {
+            *b = blend(coarse, t, w);
+            let q0 = quats[t[0] as usize];
+            let mut q = [0.0; 4];
+            for k in 0..3 {
+                let qk = quats[t[k] as usize];
+                let s = if dot4(qk, q0) < 0.0 { -w[k] } else { w[k] };
+                for c in 0..4 {
+                    q[c] += s * qk[c];
+                }
+            }
+            let n = dot4(q, q).sqrt();
+            let q = if n > 0.0 { q.map(|c| c / n) } else { [1.0, 0.0, 0.0, 0.0] };
+            *frame = q;
+            *out = add(*b, rotate(q, add(*d, *c)));
+        });
 }
 
 #[inline]

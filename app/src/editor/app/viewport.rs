@@ -12,7 +12,7 @@ use crate::editor::camera::OrbitCamera;
 use crate::editor::pose_solvers;
 use crate::editor::render_layout::RenderLayout;
 use crate::editor::renderer::{
-    Shape, TexturedDraw, TexturedVertex, Uniforms, VertexData, ViewportCallback, build_vertices,
+    Shape, TexturedDraw, TexturedVertex, Uniforms, VertexData, ViewportCallback, fill_vertices,
 };
 use crate::editor::solver_thread::{SolvedFrame, SolverState};
 
@@ -77,6 +77,15 @@ pub(super) struct ViewportCache {
     pub(super) textured: Option<Arc<VertexData<TexturedVertex>>>,
     /// Positions drawn in this viewport (for picking).
     pub(super) positions: Option<Arc<Vec<[f32; 3]>>>,
+    /// This viewport's vertex colors and the color version they were made for: kept while only
+    /// the positions change (not in the Details view, whose colors follow the pose).
+    pub(super) colors: Option<(u64, Vec<[f32; 4]>)>,
+}
+
+/// The vertices of a viewport's previous frame, to be refilled in place when no draw holds
+/// them any more (egui drops its paint callbacks after each frame).
+fn recycle<V>(data: &mut Option<Arc<VertexData<V>>>) -> Vec<V> {
+    data.take().and_then(|d| Arc::try_unwrap(d).ok()).map(|d| d.vertices).unwrap_or_default()
 }
 
 impl EditorApp {
@@ -204,15 +213,25 @@ impl EditorApp {
             if self.display.viewports[slot].key != Some(key) {
                 let n = shape.positions.len();
                 let layout = self.texture_layout(n).cloned();
-                let colors = self.vertex_colors(slot, n, layout.is_some());
+                let color_version = self.display.color_version;
+                let fresh = self.display.view != View::Details
+                    && matches!(&self.display.viewports[slot].colors,
+                        Some((v, c)) if *v == color_version && c.len() == n);
+                if !fresh {
+                    let colors = self.vertex_colors(slot, n, layout.is_some());
+                    self.display.viewports[slot].colors = Some((color_version, colors));
+                }
                 let version = self.next_version();
                 let cache = &mut self.display.viewports[slot];
+                let colors = cache.colors.as_ref().map_or(&[][..], |c| &c.1[..]);
                 if let Some(layout) = layout {
-                    let vertices = layout.gather(&shape.positions, &shape.normals, &colors);
+                    let mut vertices = recycle(&mut cache.textured);
+                    layout.gather_into(&mut vertices, &shape.positions, &shape.normals, colors);
                     cache.textured = Some(Arc::new(VertexData { version, vertices }));
                     cache.data = None;
                 } else {
-                    let vertices = build_vertices(&shape.positions, &shape.normals, &colors);
+                    let mut vertices = recycle(&mut cache.data);
+                    fill_vertices(&mut vertices, &shape.positions, &shape.normals, colors);
                     cache.data = Some(Arc::new(VertexData { version, vertices }));
                     cache.textured = None;
                 }

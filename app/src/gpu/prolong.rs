@@ -1,0 +1,371 @@
+//! The coarse BS-ARAP's per-vertex work as a wgpu compute pass (`shaders/prolong.wgsl`): the
+//! prolongation $p'_i = \sum_k w_{ik} B'_{c,k} + \hat q_i (D_i + C_i) \hat q_i^{-1}$ (step 4 of
+//! `solver::deform::coarse`, whose [`solver::deform::coarse::prolong`] is the CPU path), the
+//! fixed vertices put on their positions, and smooth area-weighted vertex normals
+//! (`solver::geometry::normals`).
+//!
+//! What depends only on the mesh and its coarse base (embedding, triangles, the vertex-to-face
+//! rows) is uploaded once; a frame uploads the coarse pose and rotations ($16\,|V_c|$ bytes
+//! each), the fixed vertices, and the details only when the carried corrections changed. The
+//! results stay on the GPU in `positions` and `normals` (`vec4<f32>` per vertex), where a
+//! renderer can read them; [`GpuProlongation::read_back`] copies them out for tests and
+//! benchmarks. Everything is in f32: the result is the CPU path's (f64) rounded, within a few
+//! units in the last place of the coordinates.
+
+use eframe::wgpu;
+use solver::deform::coarse::Prolongation;
+use wgpu::util::DeviceExt;
+
+const SHADER: &str = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/../shaders/prolong.wgsl"));
+const WORKGROUP: u32 = 256;
+
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct Params {
+    n_vertices: u32,
+    n_fixed: u32,
+    n_faces: u32,
+    _pad: u32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct Embed {
+    corners: [u32; 4],
+    weights: [f32; 4],
+}
+
+/// One compute entry point and its bind group.
+struct Stage {
+    pipeline: wgpu::ComputePipeline,
+    bind_group: wgpu::BindGroup,
+    /// Invocations (vertices, fixed vertices or faces).
+    count: u32,
+}
+
+/// The compute pass for one mesh, its coarse base and its fixed-vertex set.
+pub struct GpuProlongation {
+    n_vertices: usize,
+    n_coarse: usize,
+    n_fixed: usize,
+    coarse: wgpu::Buffer,
+    quats: wgpu::Buffer,
+    details: wgpu::Buffer,
+    fixed: wgpu::Buffer,
+    /// Per vertex, `vec4<f32>` (w = 1).
+    pub positions: wgpu::Buffer,
+    /// Per vertex, unit `vec4<f32>` (w = 0).
+    pub normals: wgpu::Buffer,
+    params: wgpu::Buffer,
+    stages: Vec<Stage>,
+    staging: Vec<[f32; 4]>,
+}
+
+fn storage(
+    device: &wgpu::Device,
+    label: &str,
+    contents: &[u8],
+    extra: wgpu::BufferUsages,
+) -> wgpu::Buffer {
+    // wgpu refuses zero-sized bindings: an empty list gets one unused element.
+    let padded;
+    let contents = if contents.is_empty() {
+        padded = [0u8; 16];
+        &padded[..]
+    } else {
+        contents
+    };
+    device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some(label),
+        contents,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | extra,
+    })
+}
+
+fn vec4s(v: &[[f64; 3]], w: f32) -> Vec<[f32; 4]> {
+    v.iter().map(|p| [p[0] as f32, p[1] as f32, p[2] as f32, w]).collect()
+}
+
+/// Quaternions `[w, x, y, z]` (the solver's order) as WGSL's `(x, y, z, w)`.
+fn quats_xyzw(q: &[[f64; 4]], out: &mut Vec<[f32; 4]>) {
+    out.clear();
+    out.extend(q.iter().map(|q| [q[1] as f32, q[2] as f32, q[3] as f32, q[0] as f32]));
+}
+
+fn fixed_entries(fixed: impl Iterator<Item = (u32, [f64; 3])>, out: &mut Vec<[f32; 4]>) {
+    out.clear();
+    out.extend(fixed.map(|(v, p)| [p[0] as f32, p[1] as f32, p[2] as f32, f32::from_bits(v)]));
+}
+
+/// $D_i + C_i$, added in f64 as the CPU path does.
+fn detail_entries(input: &Prolongation<'_>) -> Vec<[f32; 4]> {
+    input
+        .details
+        .iter()
+        .zip(input.corrections)
+        .map(|(d, c)| [(d[0] + c[0]) as f32, (d[1] + c[1]) as f32, (d[2] + c[2]) as f32, 0.0])
+        .collect()
+}
+
+impl GpuProlongation {
+    /// Uploads the mesh's part: `input`'s embedding and details (its coarse pose is uploaded
+    /// by [`GpuProlongation::run`]), the triangles, and room for `max_fixed` fixed vertices.
+    /// Errors when a buffer exceeds the device's limits.
+    pub fn new(
+        device: &wgpu::Device,
+        input: Prolongation<'_>,
+        triangles: &[[u32; 3]],
+        max_fixed: usize,
+    ) -> anyhow::Result<GpuProlongation> {
+        let n = input.embedding.len();
+        let nc = input.coarse.len();
+        let limits = device.limits();
+        let largest = (n.max(triangles.len()) * std::mem::size_of::<Embed>()) as u64;
+        if largest > limits.max_storage_buffer_binding_size {
+            anyhow::bail!(
+                "{n} vertices need {largest} bytes per buffer; this GPU binds at most {}",
+                limits.max_storage_buffer_binding_size
+            );
+        }
+        if n.div_ceil(WORKGROUP as usize).max(triangles.len().div_ceil(WORKGROUP as usize))
+            > limits.max_compute_workgroups_per_dimension as usize
+        {
+            anyhow::bail!("{n} vertices exceed one dispatch of this GPU");
+        }
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let embed: Vec<Embed> = input
+            .embedding
+            .iter()
+            .map(|(t, w)| Embed {
+                corners: [t[0], t[1], t[2], 0],
+                weights: [w[0] as f32, w[1] as f32, w[2] as f32, 0.0],
+            })
+            .collect();
+        // Vertex -> incident faces as compressed rows.
+        let mut offsets = vec![0u32; n + 1];
+        for t in triangles {
+            for &v in t {
+                offsets[v as usize + 1] += 1;
+            }
+        }
+        for i in 0..n {
+            offsets[i + 1] += offsets[i];
+        }
+        let mut fill = offsets.clone();
+        let mut incident = vec![0u32; 3 * triangles.len()];
+        for (f, t) in triangles.iter().enumerate() {
+            for &v in t {
+                incident[fill[v as usize] as usize] = f as u32;
+                fill[v as usize] += 1;
+            }
+        }
+        let params =
+            Params { n_vertices: n as u32, n_fixed: 0, n_faces: triangles.len() as u32, _pad: 0 };
+        let none = wgpu::BufferUsages::empty();
+        let params_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("prolong params"),
+            contents: bytemuck::bytes_of(&params),
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        });
+        let coarse =
+            storage(device, "coarse pose", bytemuck::cast_slice(&vec4s(input.coarse, 0.0)), none);
+        let mut q = Vec::new();
+        quats_xyzw(input.quaternions, &mut q);
+        let quats = storage(device, "coarse rotations", bytemuck::cast_slice(&q), none);
+        let embedding = storage(device, "embedding", bytemuck::cast_slice(&embed), none);
+        let details =
+            storage(device, "details", bytemuck::cast_slice(&detail_entries(&input)), none);
+        let fixed = storage(device, "fixed", &vec![0u8; 16 * max_fixed.max(1)], none);
+        let zeros = vec![0u8; 16 * n.max(1)];
+        let positions = storage(device, "positions", &zeros, wgpu::BufferUsages::COPY_SRC);
+        let normals = storage(device, "normals", &zeros, wgpu::BufferUsages::COPY_SRC);
+        let tri = storage(device, "triangles", bytemuck::cast_slice(triangles), none);
+        let face_normals =
+            storage(device, "face normals", &vec![0u8; 16 * triangles.len().max(1)], none);
+        let offsets = storage(device, "incident offsets", bytemuck::cast_slice(&offsets), none);
+        let incident = storage(device, "incident faces", bytemuck::cast_slice(&incident), none);
+
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("prolong.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(SHADER.into()),
+        });
+        let stage = |entry: &str, bindings: &[(u32, &wgpu::Buffer)], count: usize| {
+            let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(entry),
+                layout: None,
+                module: &module,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                cache: None,
+            });
+            let entries: Vec<wgpu::BindGroupEntry> = bindings
+                .iter()
+                .map(|&(binding, buffer)| wgpu::BindGroupEntry {
+                    binding,
+                    resource: buffer.as_entire_binding(),
+                })
+                .collect();
+            let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some(entry),
+                layout: &pipeline.get_bind_group_layout(0),
+                entries: &entries,
+            });
+            Stage { pipeline, bind_group, count: count as u32 }
+        };
+        let stages = vec![
+            stage(
+                "prolong",
+                &[
+                    (0, &params_buf),
+                    (1, &coarse),
+                    (2, &quats),
+                    (3, &embedding),
+                    (4, &details),
+                    (6, &positions),
+                ],
+                n,
+            ),
+            stage("fix", &[(0, &params_buf), (5, &fixed), (6, &positions)], 0),
+            stage(
+                "face_normal",
+                &[(0, &params_buf), (6, &positions), (7, &tri), (8, &face_normals)],
+                triangles.len(),
+            ),
+            stage(
+                "vertex_normal",
+                &[
+                    (0, &params_buf),
+                    (8, &face_normals),
+                    (9, &offsets),
+                    (10, &incident),
+                    (11, &normals),
+                ],
+                n,
+            ),
+        ];
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            anyhow::bail!("the prolongation's compute pass could not be built: {e}");
+        }
+        Ok(GpuProlongation {
+            n_vertices: n,
+            n_coarse: nc,
+            n_fixed: max_fixed,
+            coarse,
+            quats,
+            details,
+            fixed,
+            positions,
+            normals,
+            stages,
+            staging: Vec::new(),
+            params: params_buf,
+        })
+    }
+
+    /// Vertices of the mesh.
+    pub fn n_vertices(&self) -> usize {
+        self.n_vertices
+    }
+
+    /// Uploads a frame's coarse pose and rotations (`input.coarse`, `input.quaternions`), the
+    /// fixed vertices (at most the `max_fixed` given to [`GpuProlongation::new`]) and, when
+    /// `details_changed` (the carried corrections moved), $D + C$; then records and submits
+    /// the four dispatches. The results are in [`GpuProlongation::positions`] and
+    /// [`GpuProlongation::normals`] once the queue has run them.
+    pub fn run(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        input: Prolongation<'_>,
+        fixed: impl Iterator<Item = (u32, [f64; 3])>,
+        details_changed: bool,
+    ) -> anyhow::Result<()> {
+        if input.coarse.len() != self.n_coarse || input.embedding.len() != self.n_vertices {
+            anyhow::bail!(
+                "the prolongation was built for {} coarse and {} fine vertices, not {} and {}",
+                self.n_coarse,
+                self.n_vertices,
+                input.coarse.len(),
+                input.embedding.len()
+            );
+        }
+        let staging = &mut self.staging;
+        staging.clear();
+        staging.extend(input.coarse.iter().map(|p| [p[0] as f32, p[1] as f32, p[2] as f32, 0.0]));
+        queue.write_buffer(&self.coarse, 0, bytemuck::cast_slice(staging));
+        quats_xyzw(input.quaternions, staging);
+        queue.write_buffer(&self.quats, 0, bytemuck::cast_slice(staging));
+        fixed_entries(fixed, staging);
+        if staging.len() > self.n_fixed {
+            anyhow::bail!("{} fixed vertices; room for {}", staging.len(), self.n_fixed);
+        }
+        let n_fixed = staging.len();
+        if n_fixed > 0 {
+            queue.write_buffer(&self.fixed, 0, bytemuck::cast_slice(staging));
+        }
+        queue.write_buffer(&self.params, 4, bytemuck::bytes_of(&(n_fixed as u32)));
+        if details_changed {
+            queue.write_buffer(&self.details, 0, bytemuck::cast_slice(&detail_entries(&input)));
+        }
+        let mut encoder = device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("prolong") });
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("prolong"),
+                timestamp_writes: None,
+            });
+            for (k, stage) in self.stages.iter().enumerate() {
+                // Stage 1 (`fix`) runs over this frame's fixed vertices.
+                let count = if k == 1 { n_fixed as u32 } else { stage.count };
+                if count == 0 {
+                    continue;
+                }
+                pass.set_pipeline(&stage.pipeline);
+                pass.set_bind_group(0, &stage.bind_group, &[]);
+                pass.dispatch_workgroups(count.div_ceil(WORKGROUP), 1, 1);
+            }
+        }
+        queue.submit([encoder.finish()]);
+        Ok(())
+    }
+
+    /// Waits for the queue and copies the positions and normals out (tests, benchmarks).
+    pub fn read_back(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+    ) -> anyhow::Result<(Vec<[f32; 3]>, Vec<[f32; 3]>)> {
+        let size = (16 * self.n_vertices) as u64;
+        let readback = |label| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
+        };
+        let (p, n) = (readback("positions read back"), readback("normals read back"));
+        let mut encoder = device.create_command_encoder(&Default::default());
+        encoder.copy_buffer_to_buffer(&self.positions, 0, &p, 0, size);
+        encoder.copy_buffer_to_buffer(&self.normals, 0, &n, 0, size);
+        queue.submit([encoder.finish()]);
+        let mut out = Vec::new();
+        for buffer in [&p, &n] {
+            let slice = buffer.slice(..);
+            slice.map_async(wgpu::MapMode::Read, |_| {});
+            device.poll(wgpu::PollType::wait_indefinitely())?;
+            let data = slice.get_mapped_range()?;
+            let v: &[[f32; 4]] = bytemuck::cast_slice(&data);
+            out.push(v.iter().map(|q| [q[0], q[1], q[2]]).collect::<Vec<_>>());
+        }
+        let normals = out.pop().unwrap_or_default();
+        let positions = out.pop().unwrap_or_default();
+        Ok((positions, normals))
+    }
+
+    /// Blocks until the submitted work has run (benchmarks).
+    pub fn wait(&self, device: &wgpu::Device) -> anyhow::Result<()> {
+        device.poll(wgpu::PollType::wait_indefinitely())?;
+        Ok(())
+    }
+}

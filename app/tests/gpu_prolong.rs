@@ -1,0 +1,100 @@
+//! The GPU prolongation and normals (`app::gpu::prolong`, `shaders/prolong.wgsl`) against the
+//! CPU path (`solver::deform::coarse`, `solver::geometry::normals`): the same pose within f32
+//! precision, on whatever adapter the machine has (lavapipe without a GPU).
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use app::gpu::{headless, prolong::GpuProlongation};
+use solver::deform::coarse::CoarseBsArap;
+use solver::geometry::normals::vertex_normals_or_up;
+use solver::linalg::rotation::axis_angle;
+use solver::{ArapConfig, BaseConfig, GroupTransform, handle_targets};
+
+fn max_abs(v: &[f64]) -> f64 {
+    v.iter().fold(0.0, |m, x| m.max(x.abs()))
+}
+
+/// Positions within a few f32 ulps of the coordinates' size; normals within 1e-4 (unit).
+fn assert_matches(
+    cpu: &CoarseBsArap,
+    triangles: &[[u32; 3]],
+    gpu: &(Vec<[f32; 3]>, Vec<[f32; 3]>),
+) {
+    let x = cpu.positions();
+    let scale = max_abs(&x.iter().flatten().copied().collect::<Vec<_>>());
+    let tol = 8.0 * f32::EPSILON as f64 * scale;
+    let pos_err = x
+        .iter()
+        .zip(&gpu.0)
+        .map(|(a, b)| (0..3).map(|d| (a[d] - b[d] as f64).abs()).fold(0.0, f64::max))
+        .fold(0.0, f64::max);
+    assert!(pos_err <= tol, "positions differ by {pos_err:e} (tolerance {tol:e})");
+    let n = vertex_normals_or_up(x, triangles);
+    let normal_err = n
+        .iter()
+        .zip(&gpu.1)
+        .map(|(a, b)| (0..3).map(|d| (a[d] - b[d] as f64).abs()).fold(0.0, f64::max))
+        .fold(0.0, f64::max);
+    assert!(normal_err <= 1e-4, "normals differ by {normal_err:e}");
+}
+
+#[test]
+fn the_gpu_prolongation_gives_the_cpu_pose_and_normals() {
+    let (mesh, handles) = solver::geometry::shapes::bumpy_bar(4);
+    let gpu = match headless() {
+        Ok(g) => g,
+        Err(e) => {
+            eprintln!("skipped: {e}");
+            return;
+        }
+    };
+    eprintln!("adapter: {}", gpu.adapter);
+    let diag = mesh.bbox_diagonal();
+    for fine_iterations in [0, 3] {
+        let settings =
+            BaseConfig { coarse_vertices: Some(400), fine_iterations, ..Default::default() };
+        let mut cpu =
+            CoarseBsArap::new(&mesh, &handles, &ArapConfig::default(), &settings).unwrap();
+        let n_fixed = handles.handle_vertices().len();
+        let mut pass =
+            GpuProlongation::new(&gpu.device, cpu.prolongation(), mesh.triangles(), n_fixed)
+                .unwrap();
+        // Two frames: a bend, then a larger one (the second reuses the uploaded mesh part).
+        for angle in [0.4, 1.1] {
+            let tr = GroupTransform {
+                translation: [0.1 * diag, 0.2 * diag, 0.0],
+                rotation: axis_angle([0.0, 0.0, 1.0], angle),
+            };
+            let targets = handle_targets(mesh.positions(), &handles, &[(1, tr)]).unwrap();
+            cpu.solve(&targets).unwrap();
+            pass.run(&gpu.device, &gpu.queue, cpu.prolongation(), cpu.fixed_vertices(), true)
+                .unwrap();
+            let out = pass.read_back(&gpu.device, &gpu.queue).unwrap();
+            assert_eq!(out.0.len(), mesh.n_vertices());
+            assert_matches(&cpu, mesh.triangles(), &out);
+            let moved = cpu.positions().iter().zip(mesh.positions()).any(|(a, b)| a != b);
+            assert!(moved, "the test pose must move the mesh");
+        }
+    }
+}
+
+#[test]
+fn the_gpu_prolongation_refuses_another_coarse_base_or_too_many_fixed_vertices() {
+    let (mesh, handles) = solver::geometry::shapes::bumpy_bar(3);
+    let Ok(gpu) = headless() else {
+        eprintln!("skipped: no adapter");
+        return;
+    };
+    let make = |coarse| {
+        let settings = BaseConfig { coarse_vertices: Some(coarse), ..Default::default() };
+        CoarseBsArap::new(&mesh, &handles, &ArapConfig::default(), &settings).unwrap()
+    };
+    let (a, b) = (make(200), make(100));
+    let mut pass =
+        GpuProlongation::new(&gpu.device, a.prolongation(), mesh.triangles(), 1).unwrap();
+    let err =
+        pass.run(&gpu.device, &gpu.queue, b.prolongation(), std::iter::empty(), false).unwrap_err();
+    assert!(err.to_string().contains("coarse"), "{err}");
+    let too_many = (0..5u32).map(|v| (v, [0.0; 3]));
+    let err = pass.run(&gpu.device, &gpu.queue, a.prolongation(), too_many, false).unwrap_err();
+    assert!(err.to_string().contains("fixed"), "{err}");
+}
