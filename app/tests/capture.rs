@@ -8,7 +8,7 @@ use std::time::{Duration, Instant};
 
 use app::editor::{EditorApp, EditorOptions, default_mesh_path};
 use eframe::egui::{self, Vec2};
-use egui_kittest::Harness;
+use egui_kittest::{Harness, kittest::Queryable};
 use solver::animation::scene::{CaptureSettings, Scene};
 use solver::testing::ScratchDir;
 
@@ -250,12 +250,16 @@ fn scenes_without_a_capture_object_read_and_write_as_before() {
 // ---- F12 in the editor ----
 
 fn harness(config_dir: PathBuf) -> Harness<'static, EditorApp> {
+    harness_on(default_mesh_path(), config_dir)
+}
+
+fn harness_on(mesh: PathBuf, config_dir: PathBuf) -> Harness<'static, EditorApp> {
     let builder = Harness::builder().with_size(Vec2::new(900.0, 600.0)).with_render_cursor(false);
     builder.wgpu().build_eframe(move |cc| {
         EditorApp::new(
             cc,
             EditorOptions {
-                mesh_path: Some(default_mesh_path()),
+                mesh_path: Some(mesh),
                 deterministic_overlays: true,
                 config_dir: Some(config_dir),
             },
@@ -316,4 +320,37 @@ fn f12_saves_a_png_of_the_viewport_next_to_the_config() {
     let over = png(&f12(&mut h));
     let d = differing_pixels(&plain_img, &over);
     assert!(d > 100, "overlays (grid, handle colours) changed {d} pixels only");
+
+    // The settings window opens from the File menu; its button takes a screenshot too.
+    h.get_by_label("File").click();
+    h.run_steps(2);
+    h.get_by_label("Capture settings…").click();
+    h.run_steps(3);
+    h.get_by_label("the viewport's size");
+    h.get_by_label("Screenshot (F12)").click();
+    step_until(&mut h, "the window's screenshot", |a| {
+        !a.is_capturing() && a.last_capture().is_some_and(|p| p.ends_with("screenshot_0004.png"))
+    });
+    assert!(h.state().error().is_none(), "{:?}", h.state().error());
+}
+
+#[test]
+fn the_scene_capture_object_sizes_screenshots_and_is_saved_back() {
+    let dir = ScratchDir::new("capture-scene-editor");
+    let capture = r#", "capture": {"width": 200, "height": 100, "turntable": true}"#;
+    let scene = scene(&dir, None, capture);
+    let mut h = harness_on(scene, dir.join("config"));
+    step_until(&mut h, "the scene", |a| !a.is_loading() && a.n_vertices() > 0);
+    h.step();
+    let shot = f12(&mut h);
+    assert_eq!(shot, dir.join("config/screenshots/screenshot_0001.png"));
+    let img = png(&shot);
+    assert_eq!(img.dimensions(), (200, 100), "the scene's capture size");
+    assert!(drawn_pixels(&img) > 200 * 100 / 20);
+
+    let saved = dir.join("saved.json");
+    h.state_mut().save_scene(&saved).unwrap();
+    let back = Scene::read(&saved).unwrap();
+    let c = back.capture.expect("capture saved");
+    assert_eq!((c.width, c.height, c.turntable), (200, 100, true), "{c:?}");
 }

@@ -31,8 +31,8 @@ pub struct RenderArgs {
     /// Output folder (created if needed): frame_0000.png, frame_0001.png, …
     #[arg(short = 'o', long = "output")]
     pub output: PathArg,
-    /// Number of frames (default: the scene's capture.frames, else its duration·fps + 1; a
-    /// turntable of a still scene: 36).
+    /// Number of frames (default: the scene's capture.frames, else its duration·fps + 1 when
+    /// the timeline moves; a still scene: 1, its turntable 36).
     #[arg(long)]
     pub frames: Option<usize>,
     /// Image width in pixels (default: the scene's capture.width, else 1280).
@@ -91,10 +91,10 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
     let mesh = &file.mesh;
     let handles = doc.resolve_handles(&a.scene, mesh.positions(), Some(&file.layout.vertex_map))?;
     let moving = !doc.timeline.paths.is_empty() && handles.n_groups() > 0;
-    let n_frames = settings.frames.unwrap_or(if settings.turntable && !moving {
-        STILL_TURNTABLE_FRAMES
-    } else {
-        doc.timeline.default_frame_count()
+    let n_frames = settings.frames.unwrap_or(match (moving, settings.turntable) {
+        (true, _) => doc.timeline.default_frame_count(),
+        (false, true) => STILL_TURNTABLE_FRAMES,
+        (false, false) => 1,
     });
     anyhow::ensure!(
         (1..=CaptureSettings::MAX_FRAMES).contains(&n_frames),

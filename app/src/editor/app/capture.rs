@@ -115,6 +115,12 @@ impl Capture {
         }
     }
 
+    /// A mesh without a scene was opened: its scene gets a `capture` object only when a size
+    /// is chosen.
+    pub(super) fn forget_scene(&mut self) {
+        self.scene = None;
+    }
+
     /// The scene's `capture` object to save: the one loaded with the size and overlays set
     /// here, or none while nothing was chosen (the viewport's size).
     pub(super) fn to_scene(&self) -> Option<CaptureSettings> {
@@ -375,7 +381,7 @@ impl EditorApp {
                 ui.horizontal(|ui| {
                     let max = CaptureSettings::MAX_SIDE;
                     ui.add(egui::DragValue::new(&mut c.width).range(1..=max).suffix(" px"));
-                    ui.label("×");
+                    ui.label("x");
                     ui.add(egui::DragValue::new(&mut c.height).range(1..=max).suffix(" px"));
                 });
             });

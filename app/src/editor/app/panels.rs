@@ -445,7 +445,7 @@ impl EditorApp {
                         ("Double-click a group", "rename it"),
                         ("Ctrl+Q", "quit"),
                         ("F3", "render FPS overlay"),
-                        ("F12", "screenshot (File ▸ Capture settings…)"),
+                        ("F12", "screenshot (size and folder: File, Capture settings…)"),
                         ("?", "this overlay"),
                     ] {
                         ui.monospace(k);

@@ -334,6 +334,7 @@ impl EditorApp {
                     }
                     None => {
                         self.session.edit = EditState::from_labels(labels);
+                        self.capture.forget_scene();
                         let path = scene.path.clone();
                         self.remember(&path);
                     }
