@@ -4,6 +4,7 @@ mod bench;
 mod deform;
 mod export;
 mod info;
+mod render;
 mod subdivide;
 
 use clap::{Parser, Subcommand, ValueEnum};
@@ -32,6 +33,8 @@ pub enum Command {
     Export(export::ExportArgs),
     /// A dense test mesh: 1-to-4 midpoint subdivision, written as OBJ, PLY or OFF.
     Subdivide(subdivide::SubdivideArgs),
+    /// Render a scene's timeline (or a turntable) offscreen to DIR/frame_0000.png, …
+    Render(render::RenderArgs),
 }
 
 /// `bsarap edit [MESH]`.
@@ -91,6 +94,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Some(Command::Bench(a)) => bench::run(&a),
         Some(Command::Export(a)) => export::run(&a),
         Some(Command::Subdivide(a)) => subdivide::run(&a),
+        Some(Command::Render(a)) => render::run(&a),
     }
 }
 

@@ -7,11 +7,13 @@
 //! poses → handle targets), [`pose_solvers`] (the methods the threads run), [`loader`] (mesh
 //! loading off the UI thread), [`undo`] (edit state and history), [`timeline`] (playback and
 //! path editing), [`jobs`] (recording and glTF export threads), [`document`] (the editor state
-//! as a scene file) and [`persist`] (recent files, autosave).
+//! as a scene file), [`persist`] (recent files, autosave) and [`capture`] (offscreen pictures:
+//! `bsarap render`, screenshots).
 
 pub mod app;
 pub mod brush;
 pub mod camera;
+pub mod capture;
 pub mod document;
 pub mod jobs;
 pub mod loader;

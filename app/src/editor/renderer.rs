@@ -235,6 +235,8 @@ impl GrowBuffer {
 
 struct Target {
     size: [u32; 2],
+    /// Kept for captures (`super::capture`), which copy it to a buffer.
+    color: wgpu::Texture,
     color_view: wgpu::TextureView,
     depth_view: wgpu::TextureView,
     blit_bind_group: wgpu::BindGroup,
@@ -359,7 +361,18 @@ fn pipeline(device: &wgpu::Device, s: PipelineSpec<'_>) -> wgpu::RenderPipeline 
 
 /// Creates the pipelines once and stores them in the renderer's callback resources.
 pub fn install(render_state: &egui_wgpu::RenderState) {
-    let device = &render_state.device;
+    let res = resources(&render_state.device, &render_state.queue, render_state.target_format);
+    render_state.renderer.write().callback_resources.insert(res);
+}
+
+/// The pipelines, layouts and sampler; `target_format` is the format `paint` blits into.
+/// The editor stores them in egui's callback resources ([`install`]); offscreen captures
+/// (`super::capture`) keep their own.
+pub fn resources(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    target_format: wgpu::TextureFormat,
+) -> RendererResources {
     let module = |label: &str, src: &str| {
         device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some(label),
@@ -391,7 +404,7 @@ pub fn install(render_state: &egui_wgpu::RenderState) {
         bind_group_layouts: &[Some(&uniform_layout)],
         immediate_size: 0,
     });
-    let textures = AssetTextures::new(device, &render_state.queue);
+    let textures = AssetTextures::new(device, queue);
     let texture_layout =
         super::textures::bind_group_layout(device, "bsarap base colour texture layout");
     let textured_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -459,7 +472,7 @@ pub fn install(render_state: &egui_wgpu::RenderState) {
             constants: &[],
         },
     );
-    let encode = if render_state.target_format.is_srgb() { 0.0 } else { 1.0 };
+    let encode = if target_format.is_srgb() { 0.0 } else { 1.0 };
     let blit_pipeline = pipeline(
         device,
         PipelineSpec {
@@ -469,7 +482,7 @@ pub fn install(render_state: &egui_wgpu::RenderState) {
             topology: wgpu::PrimitiveTopology::TriangleList,
             buffers: &[],
             depth: None,
-            format: render_state.target_format,
+            format: target_format,
             constants: &[("ENCODE_SRGB", encode)],
         },
     );
@@ -479,7 +492,7 @@ pub fn install(render_state: &egui_wgpu::RenderState) {
         min_filter: wgpu::FilterMode::Linear,
         ..Default::default()
     });
-    render_state.renderer.write().callback_resources.insert(RendererResources {
+    RendererResources {
         mesh_pipeline,
         textured_pipeline,
         wire_pipeline,
@@ -491,10 +504,14 @@ pub fn install(render_state: &egui_wgpu::RenderState) {
         blit_layout,
         sampler,
         viewports: Vec::new(),
-    });
+    }
 }
 
 impl RendererResources {
+    /// The color target `slot` was last drawn into (`Rgba8UnormSrgb`, copyable), if any.
+    pub fn color_texture(&self, slot: usize) -> Option<&wgpu::Texture> {
+        self.viewports.get(slot)?.target.as_ref().map(|t| &t.color)
+    }
     fn viewport(&mut self, device: &wgpu::Device, slot: usize) -> &mut ViewportGpu {
         while self.viewports.len() <= slot {
             let uniform_buffer = device.create_buffer(&wgpu::BufferDescriptor {
@@ -556,7 +573,9 @@ fn make_target(
     let color = texture(
         "bsarap viewport color",
         COLOR_FORMAT,
-        wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+        wgpu::TextureUsages::RENDER_ATTACHMENT
+            | wgpu::TextureUsages::TEXTURE_BINDING
+            | wgpu::TextureUsages::COPY_SRC,
     );
     let depth =
         texture("bsarap viewport depth", DEPTH_FORMAT, wgpu::TextureUsages::RENDER_ATTACHMENT);
@@ -573,7 +592,7 @@ fn make_target(
             wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::Sampler(sampler) },
         ],
     });
-    Target { size, color_view, depth_view, blit_bind_group }
+    Target { size, color, color_view, depth_view, blit_bind_group }
 }
 
 impl CallbackTrait for ViewportCallback {

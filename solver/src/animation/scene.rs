@@ -138,6 +138,10 @@ pub struct Scene {
     /// Opaque to the solver: other editor state (group names and colors, the current time).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub editor: Option<serde_json::Value>,
+    /// Picture settings for `bsarap render` and the editor's screenshots (optional; omitted
+    /// when absent, so older scenes read and write as before).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub capture: Option<CaptureSettings>,
 }
 
 /// A scene with its mesh loaded and its handles resolved.
@@ -177,6 +181,7 @@ impl Scene {
             loose_parts: LooseParts::default(),
             camera: None,
             editor: None,
+            capture: None,
         }
     }
 
@@ -358,6 +363,59 @@ pub fn relative_path(base: &Path, target: &Path) -> String {
         out.push(c.as_os_str());
     }
     out.to_string_lossy().replace('\\', "/")
+}
+
+/// A scene's `capture` object: how `bsarap render` and the editor's screenshots picture it.
+/// Every field is optional: `{"capture": {"width": 640}}` keeps the other defaults. The
+/// consumers check the ranges ([`CaptureSettings::validate`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CaptureSettings {
+    /// Image width in pixels (default 1280).
+    pub width: u32,
+    /// Image height in pixels (default 720).
+    pub height: u32,
+    /// Draw the ground grid and the handle groups' colours (default false: the mesh alone).
+    pub overlays: bool,
+    /// Number of frames (default: the timeline's duration × fps + 1).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub frames: Option<usize>,
+    /// Orbit the camera once around the mesh over the frames (default false).
+    pub turntable: bool,
+}
+
+impl Default for CaptureSettings {
+    fn default() -> Self {
+        CaptureSettings {
+            width: 1280,
+            height: 720,
+            overlays: false,
+            frames: None,
+            turntable: false,
+        }
+    }
+}
+
+impl CaptureSettings {
+    /// The largest image side: the wgpu default limit on 2D textures.
+    pub const MAX_SIDE: u32 = 8192;
+    /// The most frames one capture may ask for.
+    pub const MAX_FRAMES: usize = 100_000;
+
+    /// Sides between 1 and [`Self::MAX_SIDE`], frames between 1 and [`Self::MAX_FRAMES`].
+    pub fn validate(&self) -> Result<(), String> {
+        for (name, v) in [("width", self.width), ("height", self.height)] {
+            if !(1..=Self::MAX_SIDE).contains(&v) {
+                return Err(format!("{name} must be between 1 and {} (got {v})", Self::MAX_SIDE));
+            }
+        }
+        if let Some(n) = self.frames
+            && !(1..=Self::MAX_FRAMES).contains(&n)
+        {
+            return Err(format!("frames must be between 1 and {} (got {n})", Self::MAX_FRAMES));
+        }
+        Ok(())
+    }
 }
 
 #[cfg(test)]

@@ -18,6 +18,7 @@
 //! list) and `accessors` (for tests and scripts).
 
 mod accessors;
+mod capture;
 mod input;
 mod panels;
 mod parts;
@@ -113,6 +114,8 @@ pub struct EditorApp {
     jobs: Jobs,
     error: Option<String>,
     info: Option<String>,
+    /// Screenshots and PNG sequences (F12, File menu).
+    capture: capture::Capture,
 }
 
 /// Work running off the UI thread, polled each frame, and the results kept from it.
@@ -164,6 +167,7 @@ impl EditorApp {
             jobs: Jobs::default(),
             error: None,
             info: None,
+            capture: capture::Capture::new(options.config_dir.clone()),
         };
         app.solvers.main = app.spawn_solver(&ctx, Slot::Main);
         if let Some(path) = options.mesh_path {

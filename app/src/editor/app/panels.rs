@@ -445,6 +445,7 @@ impl EditorApp {
                         ("Double-click a group", "rename it"),
                         ("Ctrl+Q", "quit"),
                         ("F3", "render FPS overlay"),
+                        ("F12", "screenshot (size and folder: File, Capture settings…)"),
                         ("?", "this overlay"),
                     ] {
                         ui.monospace(k);
@@ -465,7 +466,7 @@ impl eframe::App for EditorApp {
         self.exit_autosave();
     }
 
-    fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
+    fn ui(&mut self, ui: &mut egui::Ui, frame: &mut eframe::Frame) {
         let ctx = ui.ctx().clone();
         let now = Instant::now();
         if let Some(prev) = self.display.last_frame {
@@ -498,6 +499,7 @@ impl eframe::App for EditorApp {
             self.request_open(&ctx, path);
         }
         self.handle_keys(&ctx);
+        self.capture_tick(&ctx, frame);
 
         egui::Panel::top("menu").show(ui, |ui| {
             ui.horizontal(|ui| {
@@ -535,6 +537,8 @@ impl eframe::App for EditorApp {
                     {
                         self.start_dialog(&ctx, DialogKind::ExportGltf);
                     }
+                    ui.separator();
+                    self.capture_menu(ui);
                 });
                 if ui.button("Open…").clicked() {
                     self.start_dialog(&ctx, DialogKind::OpenMesh);

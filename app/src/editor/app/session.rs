@@ -177,6 +177,7 @@ impl EditorApp {
                 time: self.session.playback.time,
             },
         )
+        .map(|doc| solver::animation::scene::Scene { capture: self.capture.to_scene(), ..doc })
     }
 
     /// Adds `path` to the recent files.
@@ -310,6 +311,7 @@ impl EditorApp {
                 match scene.document.take() {
                     Some((path, doc)) => {
                         let applied = document::apply_scene(&doc, labels, &self.session.settings);
+                        self.capture.load(doc.capture.as_ref());
                         self.session.edit = applied.edit;
                         self.session.settings = applied.settings;
                         self.session.playback.time = applied.time;
@@ -332,6 +334,7 @@ impl EditorApp {
                     }
                     None => {
                         self.session.edit = EditState::from_labels(labels);
+                        self.capture.forget_scene();
                         let path = scene.path.clone();
                         self.remember(&path);
                     }

@@ -1,0 +1,230 @@
+//! `bsarap render SCENE.json -o DIR [--frames N] [--width W --height H] [--turntable]
+//! [--overlays] [--json]`: poses a scene's mesh along its timeline (the recording code of
+//! `bsarap export`) and renders every frame offscreen through the editor's renderer
+//! (`app::editor::capture`) to `DIR/frame_0000.png`, … No window: its own wgpu device, a GPU
+//! when there is one, else lavapipe.
+//!
+//! Settings come from the flags, then the scene's optional `capture` object, then the
+//! defaults (1280×720, no overlays, the timeline's frame count).
+
+use std::ops::ControlFlow;
+use std::time::Instant;
+
+use super::PathArg;
+use anyhow::Context;
+use app::editor::camera::OrbitCamera;
+use app::editor::capture::{self, Offscreen, Picture};
+use app::editor::document::apply_scene;
+use app::editor::loader::load_scene_file;
+use app::editor::renderer::Shape;
+use app::editor::solver_thread::MethodSettings;
+use clap::Args;
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use solver::Deformer;
+use solver::animation::recording::record;
+use solver::animation::scene::CaptureSettings;
+
+#[derive(Debug, Args)]
+pub struct RenderArgs {
+    /// Scene file (JSON); paths inside it are relative to it.
+    pub scene: PathArg,
+    /// Output folder (created if needed): frame_0000.png, frame_0001.png, …
+    #[arg(short = 'o', long = "output")]
+    pub output: PathArg,
+    /// Number of frames (default: the scene's capture.frames, else its duration·fps + 1 when
+    /// the timeline moves; a still scene: 1, its turntable 36).
+    #[arg(long)]
+    pub frames: Option<usize>,
+    /// Image width in pixels (default: the scene's capture.width, else 1280).
+    #[arg(long)]
+    pub width: Option<u32>,
+    /// Image height in pixels (default: the scene's capture.height, else 720).
+    #[arg(long)]
+    pub height: Option<u32>,
+    /// Orbit the camera once around the mesh over the frames (posed along the timeline when
+    /// it moves, else at rest).
+    #[arg(long)]
+    pub turntable: bool,
+    /// Draw the ground grid and the handle groups' colours.
+    #[arg(long)]
+    pub overlays: bool,
+    /// Print one JSON object on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Frames of a turntable of a still scene when nothing says how many: 10° a frame.
+const STILL_TURNTABLE_FRAMES: usize = 36;
+
+fn bar(len: u64, what: &str, quiet: bool) -> ProgressBar {
+    let target = if quiet { ProgressDrawTarget::hidden() } else { ProgressDrawTarget::stderr() };
+    let pb = ProgressBar::with_draw_target(Some(len), target);
+    if let Ok(style) = ProgressStyle::with_template("{prefix:>9} [{bar:40}] {pos}/{len} frames") {
+        pb.set_style(style.progress_chars("=> "));
+    }
+    pb.set_prefix(what.to_string());
+    pb
+}
+
+pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
+    // The flags' own ranges, named as flags, before anything is loaded.
+    let flags = CaptureSettings {
+        width: a.width.unwrap_or(1),
+        height: a.height.unwrap_or(1),
+        frames: a.frames,
+        ..CaptureSettings::default()
+    };
+    flags.validate().map_err(|e| anyhow::anyhow!("--{e}"))?;
+
+    let t0 = Instant::now();
+    let file = load_scene_file(&a.scene, 1)?;
+    let source = a.scene.display().to_string();
+    let (_, doc) = file.document.clone().context("not a scene")?;
+    let mut settings = doc.capture.clone().unwrap_or_default();
+    settings.width = a.width.unwrap_or(settings.width);
+    settings.height = a.height.unwrap_or(settings.height);
+    settings.frames = a.frames.or(settings.frames);
+    settings.overlays |= a.overlays;
+    settings.turntable |= a.turntable;
+    settings.validate().map_err(|e| anyhow::anyhow!("{source}: \"capture\": {e}"))?;
+
+    let mesh = &file.mesh;
+    let handles = doc.resolve_handles(&a.scene, mesh.positions(), Some(&file.layout.vertex_map))?;
+    let moving = !doc.timeline.paths.is_empty() && handles.n_groups() > 0;
+    let n_frames = settings.frames.unwrap_or(match (moving, settings.turntable) {
+        (true, _) => doc.timeline.default_frame_count(),
+        (false, true) => STILL_TURNTABLE_FRAMES,
+        (false, false) => 1,
+    });
+    anyhow::ensure!(
+        (1..=CaptureSettings::MAX_FRAMES).contains(&n_frames),
+        "{source}: {n_frames} frames (duration × fps + 1); the limit is 1 to {}",
+        CaptureSettings::MAX_FRAMES
+    );
+    capture::ensure_dir(&a.output)?;
+    // The device before the solve: no adapter fails at once.
+    let mut offscreen = Offscreen::headless()?;
+    let max = offscreen.max_side();
+    anyhow::ensure!(
+        settings.width <= max && settings.height <= max,
+        "{}×{} pixels: {} renders at most {max} pixels a side",
+        settings.width,
+        settings.height,
+        offscreen.adapter
+    );
+    let load_s = t0.elapsed().as_secs_f64();
+
+    // Poses: the recording `bsarap export` writes, or the rest pose.
+    let t1 = Instant::now();
+    let shapes: Vec<Shape> = if moving {
+        let mut deformer = Deformer::with_loose_parts(
+            doc.method,
+            mesh,
+            &handles,
+            &doc.arap,
+            &doc.base,
+            &doc.loose_parts,
+        )
+        .with_context(|| format!("{source}: precomputing {}", doc.method.name()))?;
+        let pb = bar(n_frames as u64, "solving", a.json);
+        let recording = record(
+            &mut deformer,
+            mesh,
+            &handles,
+            &doc.timeline,
+            n_frames,
+            &doc.arap,
+            &mut |done, _| {
+                pb.set_position(done as u64);
+                ControlFlow::Continue(())
+            },
+        )
+        .with_context(|| format!("{source}: recording"))?;
+        pb.finish_and_clear();
+        recording.frames.iter().map(|f| Shape::new(f, mesh.triangles())).collect()
+    } else {
+        vec![file.rest.clone()]
+    };
+    let solve_s = t1.elapsed().as_secs_f64();
+
+    let applied = apply_scene(&doc, handles.labels().to_vec(), &MethodSettings::default());
+    let group_colors: Vec<_> = applied.edit.groups.iter().map(|g| g.color).collect();
+    let render = file.render.clone().filter(|r| r.has_texture_or_colors());
+    let colors = capture::vertex_colors(
+        handles.labels(),
+        mesh.n_vertices(),
+        settings.overlays.then_some(group_colors.as_slice()),
+        render.is_some(),
+    );
+    let aspect = settings.width as f32 / settings.height as f32;
+    let camera = doc.camera.as_ref().and_then(OrbitCamera::from_json).unwrap_or_else(|| {
+        let mut c = OrbitCamera::default();
+        c.frame(file.center, file.radius, aspect);
+        c
+    });
+    let grid = settings.overlays.then(|| file.grid.clone());
+
+    let t2 = Instant::now();
+    let pb = bar(n_frames as u64, "rendering", a.json);
+    let written = capture::render_sequence(
+        &mut offscreen,
+        &a.output,
+        n_frames,
+        |i| {
+            let mut camera = camera;
+            if settings.turntable {
+                camera.yaw = capture::turntable_yaw(camera.yaw, i, n_frames);
+            }
+            Picture {
+                size: [settings.width, settings.height],
+                camera,
+                topology: file.topology.clone(),
+                shape: shapes[i.min(shapes.len() - 1)].clone(),
+                colors: colors.clone(),
+                render: render.clone(),
+                grid: grid.clone(),
+                wireframe: false,
+            }
+        },
+        &mut |done| {
+            pb.set_position(done as u64);
+            true
+        },
+    )?;
+    pb.finish_and_clear();
+    let render_s = t2.elapsed().as_secs_f64();
+
+    if a.json {
+        let j = serde_json::json!({
+            "scene": source,
+            "mesh": file.path.display().to_string(),
+            "output": a.output.display().to_string(),
+            "files": written.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
+            "frames": written.len(),
+            "width": settings.width,
+            "height": settings.height,
+            "turntable": settings.turntable,
+            "overlays": settings.overlays,
+            "posed": moving,
+            "adapter": offscreen.adapter,
+            "load_seconds": load_s,
+            "solve_seconds": solve_s,
+            "render_seconds": render_s,
+        });
+        println!("{j}");
+    } else {
+        println!(
+            "{source}: {} frames of {}×{}{}{} on {} in {:.2} s (solve {:.2} s); wrote {}",
+            written.len(),
+            settings.width,
+            settings.height,
+            if settings.turntable { ", turntable" } else { "" },
+            if moving { ", posed along the timeline" } else { ", at rest" },
+            offscreen.adapter,
+            render_s,
+            solve_s,
+            capture::frame_path(&a.output, 0).display()
+        );
+    }
+    Ok(())
+}

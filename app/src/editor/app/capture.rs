@@ -1,0 +1,427 @@
+//! Screenshots (F12), the capture settings window and the kept recording as a PNG sequence.
+//!
+//! The UI thread only builds a [`Picture`] from what the viewport already holds and hands it
+//! to a capture thread; that thread renders it through [`Offscreen`] on the editor's own wgpu
+//! device (pipelines built once, on the first capture), reads it back and writes the PNG, then
+//! reports the file back. The sequence uses [`capture::render_sequence`], the code of
+//! `bsarap render`.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::mpsc::{Receiver, channel};
+use std::sync::{Arc, Mutex};
+
+use eframe::egui::{self, Key, Modifiers};
+use solver::animation::scene::CaptureSettings;
+
+use super::EditorApp;
+use crate::editor::capture::{self, Offscreen, Picture};
+
+/// The capture settings (window "Capture settings", File menu) and the running captures.
+pub(super) struct Capture {
+    pub(super) show_settings: bool,
+    /// The viewport's own size in pixels (else `width` × `height`).
+    pub(super) viewport_size: bool,
+    pub(super) width: u32,
+    pub(super) height: u32,
+    /// Grid, handle colours and wireframe as the viewport shows them; else the mesh alone.
+    pub(super) overlays: bool,
+    /// Where the files go; empty: [`Capture::default_folder`].
+    pub(super) folder: String,
+    /// The open scene's `capture` object (its frames and turntable are kept on save).
+    scene: Option<CaptureSettings>,
+    /// The configuration folder (`screenshots/` in it is the default folder).
+    config_dir: Option<PathBuf>,
+    /// Shared by the capture threads; built on the first capture.
+    offscreen: Arc<Mutex<Option<Offscreen>>>,
+    jobs: Vec<CaptureJob>,
+    /// A capture asked for from the menu, started on the next frame (which has the
+    /// `eframe::Frame` with the device).
+    requested: Option<Request>,
+    /// Numbers below this one are taken (files written or being written).
+    next_index: usize,
+    /// The last file or folder written.
+    last: Option<PathBuf>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Request {
+    Screenshot,
+    Sequence,
+}
+
+struct CaptureJob {
+    rx: Receiver<Result<PathBuf, String>>,
+    /// Frames done and in all (a screenshot: 0 of 1).
+    done: Arc<AtomicUsize>,
+    total: usize,
+    cancel: Arc<AtomicBool>,
+    sequence: bool,
+}
+
+impl Capture {
+    pub(super) fn new(config_dir: Option<PathBuf>) -> Capture {
+        let d = CaptureSettings::default();
+        Capture {
+            show_settings: false,
+            viewport_size: true,
+            width: d.width,
+            height: d.height,
+            overlays: true,
+            folder: String::new(),
+            config_dir,
+            scene: None,
+            offscreen: Arc::new(Mutex::new(None)),
+            jobs: Vec::new(),
+            requested: None,
+            next_index: 1,
+            last: None,
+        }
+    }
+
+    /// `CONFIG/screenshots`, or `screenshots` in the working folder without a configuration
+    /// folder.
+    pub(super) fn default_folder(&self) -> PathBuf {
+        self.config_dir.as_deref().unwrap_or(Path::new(".")).join("screenshots")
+    }
+
+    fn folder(&self) -> PathBuf {
+        match self.folder.trim() {
+            "" => self.default_folder(),
+            f => PathBuf::from(f),
+        }
+    }
+
+    /// The first `PREFIX_NNNN[EXT]` in the folder that does not exist and was not handed out
+    /// before (a capture still being written has no file yet).
+    fn next_name(&mut self, prefix: &str, ext: &str) -> PathBuf {
+        let dir = self.folder();
+        let mut i = self.next_index;
+        while dir.join(format!("{prefix}_{i:04}{ext}")).exists() {
+            i += 1;
+        }
+        self.next_index = i + 1;
+        dir.join(format!("{prefix}_{i:04}{ext}"))
+    }
+
+    /// Takes a loaded scene's `capture` object (absent: the viewport's size).
+    pub(super) fn load(&mut self, s: Option<&CaptureSettings>) {
+        self.scene = s.cloned();
+        self.viewport_size = s.is_none();
+        if let Some(s) = s {
+            self.width = s.width;
+            self.height = s.height;
+            self.overlays = s.overlays;
+        }
+    }
+
+    /// A mesh without a scene was opened: its scene gets a `capture` object only when a size
+    /// is chosen.
+    pub(super) fn forget_scene(&mut self) {
+        self.scene = None;
+    }
+
+    /// The scene's `capture` object to save: the one loaded with the size and overlays set
+    /// here, or none while nothing was chosen (the viewport's size).
+    pub(super) fn to_scene(&self) -> Option<CaptureSettings> {
+        if self.viewport_size && self.scene.is_none() {
+            return None;
+        }
+        let base = self.scene.clone().unwrap_or_default();
+        Some(CaptureSettings {
+            width: self.width,
+            height: self.height,
+            overlays: self.overlays,
+            ..base
+        })
+    }
+}
+
+impl EditorApp {
+    /// The last screenshot or sequence folder written.
+    pub fn last_capture(&self) -> Option<&Path> {
+        self.capture.last.as_deref()
+    }
+
+    /// The first viewport's size in physical pixels (what F12 captures by default).
+    pub fn viewport_pixels(&self, ctx: &egui::Context) -> Option<[u32; 2]> {
+        self.display.viewport_rects.first()?;
+        Some(self.pixels_of_viewport(ctx))
+    }
+
+    /// The capture settings window's choices: a size (`None`: the viewport's) and overlays.
+    pub fn set_capture_settings(&mut self, size: Option<[u32; 2]>, overlays: bool) {
+        self.capture.viewport_size = size.is_none();
+        if let Some([w, h]) = size {
+            self.capture.width = w;
+            self.capture.height = h;
+        }
+        self.capture.overlays = overlays;
+    }
+
+    /// Whether a capture is being rendered or written.
+    pub fn is_capturing(&self) -> bool {
+        !self.capture.jobs.is_empty()
+    }
+
+    /// Each frame: F12, a menu request, finished captures and the settings window.
+    pub(super) fn capture_tick(&mut self, ctx: &egui::Context, frame: &eframe::Frame) {
+        self.poll_captures();
+        let f12 =
+            !ctx.text_edit_focused() && ctx.input_mut(|i| i.consume_key(Modifiers::NONE, Key::F12));
+        match (f12, self.capture.requested.take()) {
+            (true, _) | (false, Some(Request::Screenshot)) => self.screenshot(ctx, frame),
+            (false, Some(Request::Sequence)) => self.render_recording(ctx, frame),
+            (false, None) => {}
+        }
+        if !self.capture.jobs.is_empty() {
+            ctx.request_repaint_after(std::time::Duration::from_millis(100));
+        }
+        if self.capture.show_settings {
+            self.capture_window(ctx, frame);
+        }
+    }
+
+    /// The File menu's entries.
+    pub(super) fn capture_menu(&mut self, ui: &mut egui::Ui) {
+        if ui.button("Screenshot  F12").clicked() {
+            self.capture.requested = Some(Request::Screenshot);
+            ui.ctx().request_repaint();
+        }
+        let recorded = self.jobs.recorded.is_some();
+        if ui
+            .add_enabled(recorded, egui::Button::new("Render the recording to PNGs"))
+            .on_disabled_hover_text("record the timeline first")
+            .clicked()
+        {
+            self.capture.requested = Some(Request::Sequence);
+            ui.ctx().request_repaint();
+        }
+        if ui.button("Capture settings…").clicked() {
+            self.capture.show_settings = true;
+        }
+    }
+
+    fn poll_captures(&mut self) {
+        let mut finished = Vec::new();
+        self.capture.jobs.retain(|j| match j.rx.try_recv() {
+            Ok(r) => {
+                finished.push((j.sequence, r));
+                false
+            }
+            Err(std::sync::mpsc::TryRecvError::Empty) => true,
+            Err(std::sync::mpsc::TryRecvError::Disconnected) => {
+                finished.push((j.sequence, Err("the capture thread stopped".into())));
+                false
+            }
+        });
+        for (sequence, r) in finished {
+            match r {
+                Ok(path) => {
+                    self.info = Some(if sequence {
+                        format!("PNG sequence saved in {}", path.display())
+                    } else {
+                        format!("screenshot saved: {}", path.display())
+                    });
+                    self.capture.last = Some(path);
+                }
+                Err(e) => self.error = Some(format!("capture: {e}")),
+            }
+        }
+    }
+
+    /// The picture of the first viewport at `size`, as it shows now.
+    fn viewport_picture(&self, size: [u32; 2]) -> Result<Picture, String> {
+        let scene = self.session.scene.as_ref().ok_or("open a mesh first")?;
+        let (_, shape) = self.slot_shape(0)?;
+        let n = shape.positions.len();
+        let render = self.texture_layout(n).cloned();
+        let overlays = self.capture.overlays;
+        let colors = if overlays {
+            self.vertex_colors(0, n, render.is_some())
+        } else {
+            capture::vertex_colors(&[], n, None, render.is_some())
+        };
+        Ok(Picture {
+            size,
+            camera: self.display.camera,
+            topology: scene.topology.clone(),
+            shape,
+            colors,
+            render,
+            grid: (overlays && self.display.show_grid).then(|| scene.grid.clone()),
+            wireframe: overlays && self.display.wireframe,
+        })
+    }
+
+    /// The first viewport's size in physical pixels (a typical one before the first frame).
+    fn pixels_of_viewport(&self, ctx: &egui::Context) -> [u32; 2] {
+        let ppp = ctx.pixels_per_point();
+        let size =
+            self.display.viewport_rects.first().map_or(egui::vec2(1280.0, 720.0), |r| r.size());
+        [((size.x * ppp).round() as u32).max(1), ((size.y * ppp).round() as u32).max(1)]
+    }
+
+    /// The size a capture renders at: the viewport's pixels or the chosen size.
+    fn capture_size(&self, ctx: &egui::Context) -> [u32; 2] {
+        if self.capture.viewport_size {
+            return self.pixels_of_viewport(ctx);
+        }
+        [self.capture.width.max(1), self.capture.height.max(1)]
+    }
+
+    /// Starts a screenshot of the first viewport (F12).
+    pub fn screenshot(&mut self, ctx: &egui::Context, frame: &eframe::Frame) {
+        let size = self.capture_size(ctx);
+        let picture = match self.viewport_picture(size) {
+            Ok(p) => p,
+            Err(e) => {
+                self.error = Some(format!("screenshot: {e}"));
+                return;
+            }
+        };
+        let path = self.capture.next_name("screenshot", ".png");
+        self.spawn_capture(ctx, frame, 1, false, move |offscreen, _, _| {
+            if let Some(dir) = path.parent() {
+                capture::ensure_dir(dir)?;
+            }
+            let image = offscreen.render(&picture)?;
+            capture::write_png(&path, &image)?;
+            Ok(path)
+        });
+    }
+
+    /// Renders the kept recording, frame by frame with the current camera and capture
+    /// settings, to `FOLDER/frames_NNNN/frame_0000.png`, … (`bsarap render`'s code).
+    pub fn render_recording(&mut self, ctx: &egui::Context, frame: &eframe::Frame) {
+        let Some(rec) = &self.jobs.recorded else {
+            self.error = Some("record the timeline before rendering it".into());
+            return;
+        };
+        let shapes = rec.shapes.clone();
+        let size = self.capture_size(ctx);
+        let base = match self.viewport_picture(size) {
+            Ok(p) => p,
+            Err(e) => {
+                self.error = Some(format!("render: {e}"));
+                return;
+            }
+        };
+        if shapes.first().is_none_or(|s| s.positions.len() != base.shape.positions.len()) {
+            self.error = Some("render: the recording is of another mesh".into());
+            return;
+        }
+        let dir = self.capture.next_name("frames", "");
+        let n = shapes.len();
+        self.spawn_capture(ctx, frame, n, true, move |offscreen, done, cancel| {
+            capture::render_sequence(
+                offscreen,
+                &dir,
+                n,
+                |i| Picture { shape: shapes[i].clone(), ..base.clone() },
+                &mut |k| {
+                    done.store(k, Ordering::Relaxed);
+                    !cancel.load(Ordering::Relaxed)
+                },
+            )?;
+            Ok(dir)
+        });
+    }
+
+    /// Runs `work` on a capture thread with the shared [`Offscreen`] on the editor's device.
+    fn spawn_capture(
+        &mut self,
+        ctx: &egui::Context,
+        frame: &eframe::Frame,
+        total: usize,
+        sequence: bool,
+        work: impl FnOnce(&mut Offscreen, &AtomicUsize, &AtomicBool) -> anyhow::Result<PathBuf>
+        + Send
+        + 'static,
+    ) {
+        let Some(rs) = frame.wgpu_render_state() else {
+            self.error = Some("capture: the editor runs without wgpu".into());
+            return;
+        };
+        let (device, queue) = (rs.device.clone(), rs.queue.clone());
+        let adapter = rs.adapter.get_info().name;
+        let shared = self.capture.offscreen.clone();
+        let (tx, rx) = channel();
+        let done = Arc::new(AtomicUsize::new(0));
+        let cancel = Arc::new(AtomicBool::new(false));
+        let (d, c, repaint) = (done.clone(), cancel.clone(), ctx.clone());
+        let spawned = std::thread::Builder::new().name("bsarap capture".into()).spawn(move || {
+            let result = match shared.lock() {
+                Ok(mut guard) => {
+                    let offscreen =
+                        guard.get_or_insert_with(|| Offscreen::with_device(device, queue, adapter));
+                    work(offscreen, &d, &c).map_err(|e| format!("{e:#}"))
+                }
+                Err(_) => Err("an earlier capture failed".to_string()),
+            };
+            let _ = tx.send(result);
+            repaint.request_repaint();
+        });
+        match spawned {
+            Ok(_) => {
+                self.capture.jobs.push(CaptureJob { rx, done, total, cancel, sequence });
+            }
+            Err(e) => self.error = Some(format!("capture: cannot start a thread: {e}")),
+        }
+    }
+
+    fn capture_window(&mut self, ctx: &egui::Context, frame: &eframe::Frame) {
+        let mut open = self.capture.show_settings;
+        let mut shoot = false;
+        let mut sequence = false;
+        egui::Window::new("Capture settings").open(&mut open).resizable(false).show(ctx, |ui| {
+            let c = &mut self.capture;
+            ui.checkbox(&mut c.viewport_size, "the viewport's size");
+            ui.add_enabled_ui(!c.viewport_size, |ui| {
+                ui.horizontal(|ui| {
+                    let max = CaptureSettings::MAX_SIDE;
+                    ui.add(egui::DragValue::new(&mut c.width).range(1..=max).suffix(" px"));
+                    ui.label("x");
+                    ui.add(egui::DragValue::new(&mut c.height).range(1..=max).suffix(" px"));
+                });
+            });
+            ui.checkbox(&mut c.overlays, "overlays (grid, handle colours, wireframe)")
+                .on_hover_text("off: the mesh alone on the background");
+            ui.horizontal(|ui| {
+                ui.label("folder");
+                let hint = c.default_folder().display().to_string();
+                ui.add(egui::TextEdit::singleline(&mut c.folder).hint_text(hint));
+            });
+            ui.horizontal(|ui| {
+                shoot = ui.button("Screenshot (F12)").clicked();
+                sequence = ui
+                    .add_enabled(
+                        self.jobs.recorded.is_some(),
+                        egui::Button::new("Render the recording to PNGs"),
+                    )
+                    .on_disabled_hover_text("record the timeline first")
+                    .clicked();
+            });
+            for j in &self.capture.jobs {
+                ui.horizontal(|ui| {
+                    ui.spinner();
+                    let done = j.done.load(Ordering::Relaxed);
+                    ui.label(format!("rendering {done}/{}", j.total));
+                    if j.sequence && ui.small_button("cancel").clicked() {
+                        j.cancel.store(true, Ordering::Relaxed);
+                    }
+                });
+            }
+            if let Some(p) = &self.capture.last {
+                ui.weak(format!("last: {}", p.display()));
+            }
+        });
+        self.capture.show_settings = open;
+        if shoot {
+            self.screenshot(ctx, frame);
+        }
+        if sequence {
+            self.render_recording(ctx, frame);
+        }
+    }
+}

@@ -1,0 +1,383 @@
+//! Offscreen pictures of a mesh through the viewport's own renderer: `bsarap render` and the
+//! editor's screenshots (F12) and PNG sequences.
+//!
+//! [`Offscreen`] owns a wgpu device (its own, [`Offscreen::headless`], or the editor's) and a
+//! private set of [`RendererResources`] (the viewport's pipelines and WGSL). A [`Picture`]
+//! (camera, size, shape, colours, what to overlay) becomes the same [`ViewportCallback`] the
+//! editor paints; `prepare` draws it into the slot's color target, which is copied to a
+//! buffer (rows padded to [`wgpu::COPY_BYTES_PER_ROW_ALIGNMENT`]), mapped and returned as an
+//! RGBA image. There is no second renderer: what a capture shows is what the viewport draws,
+//! less egui's text overlays.
+//!
+//! Architecture invariant: nothing here runs on the editor's UI thread except building a
+//! [`Picture`] from data the UI already holds (`Arc` clones and one colour per vertex); the
+//! rendering, the read-back and the PNG encoding run on a capture thread.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use anyhow::Context;
+use eframe::egui::{Color32, Rgba};
+use eframe::egui_wgpu::{CallbackResources, CallbackTrait, ScreenDescriptor, wgpu};
+
+use super::camera::OrbitCamera;
+use super::render_layout::RenderLayout;
+use super::renderer::{
+    self, RendererResources, Shape, TexturedDraw, Topology, Uniforms, VertexData, ViewportCallback,
+    build_vertices,
+};
+
+/// The viewport's background (sRGB), as in the editor.
+pub const BACKGROUND: Color32 = Color32::from_rgb(38, 40, 46);
+/// Clay: the mesh's colour without texture (sRGB), as in the editor.
+pub const CLAY: Color32 = Color32::from_rgb(200, 200, 192);
+/// A handle group's colour over a texture: its weight, as in the editor.
+const GROUP_TINT: f32 = 0.55;
+
+/// The slot of the private resources a capture draws into.
+const SLOT: usize = 0;
+
+/// Vertex versions unique over the process: every picture uploads its vertices.
+static VERSION: AtomicU64 = AtomicU64::new(1);
+
+/// The viewport's uniforms for `camera` at `aspect` (width / height): the light follows the
+/// camera (up and to the right of the eye), as in the editor.
+pub fn uniforms(camera: &OrbitCamera, aspect: f32) -> Uniforms {
+    let (right, up) = camera.axes();
+    let light = (camera.back() + right * 0.4 + up * 0.8).normalize();
+    let wire = Rgba::from(Color32::from_rgb(30, 30, 36)).to_array();
+    Uniforms {
+        view_proj: camera.view_proj(aspect).to_cols_array_2d(),
+        eye: camera.eye().extend(0.0).to_array(),
+        light_dir: light.extend(0.0).to_array(),
+        wire: [wire[0], wire[1], wire[2], 2e-4],
+    }
+}
+
+/// Per-vertex colours (linear RGBA) of a capture: clay (or nothing over a texture), with the
+/// handle groups in `group_colors` painted over their vertices when given (the overlays).
+pub fn vertex_colors(
+    labels: &[Option<u32>],
+    n: usize,
+    group_colors: Option<&[Color32]>,
+    over_texture: bool,
+) -> Vec<[f32; 4]> {
+    let base = if over_texture { [0.0; 4] } else { Rgba::from(CLAY).to_array() };
+    let mut colors = vec![base; n];
+    if let Some(groups) = group_colors {
+        for (c, l) in colors.iter_mut().zip(labels) {
+            if let Some(g) = l.and_then(|g| groups.get(g as usize)) {
+                let mut rgba = Rgba::from(*g).to_array();
+                if over_texture {
+                    rgba[3] = GROUP_TINT;
+                }
+                *c = rgba;
+            }
+        }
+    }
+    colors
+}
+
+/// What one capture shows. Built from data the viewport already has.
+#[derive(Clone)]
+pub struct Picture {
+    /// Width and height in pixels.
+    pub size: [u32; 2],
+    pub camera: OrbitCamera,
+    pub topology: Arc<Topology>,
+    pub shape: Shape,
+    /// One per vertex of `shape`, linear RGBA; over a texture, an overlay whose alpha is its
+    /// weight (see [`vertex_colors`]).
+    pub colors: Vec<[f32; 4]>,
+    /// Texture shading: the asset's layout (`None`: clay).
+    pub render: Option<Arc<RenderLayout>>,
+    /// The ground grid, drawn when given.
+    pub grid: Option<Arc<VertexData>>,
+    pub wireframe: bool,
+}
+
+impl Picture {
+    /// The viewport callback that draws this picture into `slot`.
+    pub fn callback(&self, slot: usize) -> ViewportCallback {
+        let version = VERSION.fetch_add(1, Ordering::Relaxed);
+        let [w, h] = self.size;
+        let aspect = w.max(1) as f32 / h.max(1) as f32;
+        let bg = Rgba::from(BACKGROUND);
+        let (vertices, textured) = match &self.render {
+            Some(layout) => {
+                let vertices =
+                    layout.gather(&self.shape.positions, &self.shape.normals, &self.colors);
+                let vertices = Arc::new(VertexData { version, vertices });
+                (None, Some(TexturedDraw { layout: layout.clone(), vertices }))
+            }
+            None => {
+                let vertices =
+                    build_vertices(&self.shape.positions, &self.shape.normals, &self.colors);
+                (Some(Arc::new(VertexData { version, vertices })), None)
+            }
+        };
+        ViewportCallback {
+            slot,
+            size_px: self.size,
+            uniforms: uniforms(&self.camera, aspect),
+            topology: Some(self.topology.clone()),
+            vertices,
+            grid: self.grid.clone(),
+            textured,
+            wireframe: self.wireframe,
+            show_grid: self.grid.is_some(),
+            background: [bg.r() as f64, bg.g() as f64, bg.b() as f64, 1.0],
+        }
+    }
+}
+
+/// A wgpu device with the viewport's pipelines, rendering into textures that are read back.
+pub struct Offscreen {
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    resources: CallbackResources,
+    /// The adapter, for reports ("llvmpipe (LLVM 15.0.6, 256 bits) (Vulkan)").
+    pub adapter: String,
+}
+
+/// Runs a future that wgpu's native backends complete without waiting on anything else
+/// (adapter and device requests): polled in a loop with a no-op waker, no executor needed.
+fn block_on<F: std::future::Future>(future: F) -> F::Output {
+    let mut future = std::pin::pin!(future);
+    let mut cx = std::task::Context::from_waker(std::task::Waker::noop());
+    loop {
+        if let std::task::Poll::Ready(v) = future.as_mut().poll(&mut cx) {
+            return v;
+        }
+        std::thread::yield_now();
+    }
+}
+
+impl Offscreen {
+    /// Its own device, without a window: a GPU when there is one, else a software adapter
+    /// (lavapipe); Vulkan, Metal or DX12 before OpenGL. `WGPU_BACKEND` restricts the
+    /// backends. Fails with a readable message when there is no adapter.
+    pub fn headless() -> anyhow::Result<Offscreen> {
+        let desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+        let backends = desc.backends;
+        let instance = wgpu::Instance::new(desc);
+        let mut adapters = block_on(instance.enumerate_adapters(backends));
+        adapters.sort_by_key(|a| {
+            let info = a.get_info();
+            let device = match info.device_type {
+                wgpu::DeviceType::DiscreteGpu => 0,
+                wgpu::DeviceType::IntegratedGpu => 1,
+                wgpu::DeviceType::VirtualGpu | wgpu::DeviceType::Other => 2,
+                wgpu::DeviceType::Cpu => 3,
+            };
+            (device, info.backend == wgpu::Backend::Gl)
+        });
+        let adapter = adapters.into_iter().find(|a| a.get_info().backend != wgpu::Backend::Noop);
+        let Some(adapter) = adapter else {
+            anyhow::bail!(
+                "no GPU adapter for offscreen rendering (backends {backends:?}); install a Vulkan \
+                 driver (Mesa's lavapipe, package mesa-vulkan-drivers, renders on the CPU)"
+            );
+        };
+        let info = adapter.get_info();
+        let name = format!("{} ({:?})", info.name, info.backend);
+        let limits = adapter.limits();
+        let (device, queue) = block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("bsarap offscreen device"),
+            required_limits: wgpu::Limits {
+                max_texture_dimension_2d: limits.max_texture_dimension_2d,
+                ..wgpu::Limits::downlevel_defaults()
+            },
+            ..Default::default()
+        }))
+        .with_context(|| format!("{name}: cannot create a device"))?;
+        Ok(Offscreen::with_device(device, queue, name))
+    }
+
+    /// On an existing device (the editor's): the pipelines are built here, once.
+    pub fn with_device(device: wgpu::Device, queue: wgpu::Queue, adapter: String) -> Offscreen {
+        let mut resources = CallbackResources::default();
+        let format = wgpu::TextureFormat::Rgba8UnormSrgb;
+        resources.insert(renderer::resources(&device, &queue, format));
+        Offscreen { device, queue, resources, adapter }
+    }
+
+    /// The largest image side this device renders.
+    pub fn max_side(&self) -> u32 {
+        self.device.limits().max_texture_dimension_2d
+    }
+
+    /// Draws `picture` and reads it back: sRGB RGBA8, opaque, `picture.size` pixels.
+    pub fn render(&mut self, picture: &Picture) -> anyhow::Result<image::RgbaImage> {
+        let [w, h] = picture.size;
+        let max = self.max_side();
+        anyhow::ensure!(
+            (1..=max).contains(&w) && (1..=max).contains(&h),
+            "{w}×{h} pixels: each side must be between 1 and {max} on {}",
+            self.adapter
+        );
+        let callback = picture.callback(SLOT);
+        let mut encoder = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("bsarap capture encoder"),
+        });
+        let screen = ScreenDescriptor { size_in_pixels: [w, h], pixels_per_point: 1.0 };
+        let extra =
+            callback.prepare(&self.device, &self.queue, &screen, &mut encoder, &mut self.resources);
+        let texture = self
+            .resources
+            .get::<RendererResources>()
+            .and_then(|r| r.color_texture(SLOT))
+            .context("the renderer drew no target")?;
+        let row = 4 * w;
+        let padded =
+            row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+        let buffer = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("bsarap capture read-back"),
+            size: padded as u64 * h as u64,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        encoder.copy_texture_to_buffer(
+            wgpu::TexelCopyTextureInfo {
+                texture,
+                mip_level: 0,
+                origin: wgpu::Origin3d::ZERO,
+                aspect: wgpu::TextureAspect::All,
+            },
+            wgpu::TexelCopyBufferInfo {
+                buffer: &buffer,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(padded),
+                    rows_per_image: Some(h),
+                },
+            },
+            wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+        );
+        self.queue.submit(extra.into_iter().chain(std::iter::once(encoder.finish())));
+        let slice = buffer.slice(..);
+        let (tx, rx) = std::sync::mpsc::channel();
+        slice.map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx.send(r);
+        });
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .with_context(|| format!("{}: waiting for the frame", self.adapter))?;
+        rx.recv()
+            .context("the read-back was dropped")?
+            .with_context(|| format!("{}: mapping the read-back buffer", self.adapter))?;
+        let mut pixels = Vec::with_capacity((row * h) as usize);
+        {
+            let view = slice.get_mapped_range().map_err(|e| anyhow::anyhow!("{e:?}"))?;
+            for r in view.chunks_exact(padded as usize) {
+                pixels.extend_from_slice(&r[..row as usize]);
+            }
+        }
+        buffer.unmap();
+        // The shaders write the vertex colour's alpha; a picture is opaque.
+        for p in pixels.chunks_exact_mut(4) {
+            p[3] = 255;
+        }
+        image::RgbaImage::from_raw(w, h, pixels).context("read-back size")
+    }
+}
+
+/// Writes `image` as PNG to `path`, naming the file in the error.
+pub fn write_png(path: &Path, image: &image::RgbaImage) -> anyhow::Result<()> {
+    image
+        .save_with_format(path, image::ImageFormat::Png)
+        .with_context(|| format!("{}: cannot write the PNG", path.display()))
+}
+
+/// Creates `dir` (and its parents) for a capture, with a clear error when it cannot.
+pub fn ensure_dir(dir: &Path) -> anyhow::Result<()> {
+    std::fs::create_dir_all(dir)
+        .with_context(|| format!("{}: cannot create the output folder", dir.display()))?;
+    anyhow::ensure!(dir.is_dir(), "{}: not a folder", dir.display());
+    Ok(())
+}
+
+/// `dir/frame_0000.png`, `dir/frame_0001.png`, …
+pub fn frame_path(dir: &Path, i: usize) -> PathBuf {
+    dir.join(format!("frame_{i:04}.png"))
+}
+
+/// Renders `n` pictures (`picture(i)` for i in 0..n) to `dir/frame_NNNN.png`; `progress(done)`
+/// after each, which may stop early by returning false. The PNGs are encoded on a writer
+/// thread while the next frame renders. Returns the files written.
+pub fn render_sequence(
+    offscreen: &mut Offscreen,
+    dir: &Path,
+    n: usize,
+    mut picture: impl FnMut(usize) -> Picture,
+    progress: &mut dyn FnMut(usize) -> bool,
+) -> anyhow::Result<Vec<PathBuf>> {
+    ensure_dir(dir)?;
+    let (tx, rx) = std::sync::mpsc::sync_channel::<(PathBuf, image::RgbaImage)>(2);
+    let writer = std::thread::Builder::new()
+        .name("bsarap png writer".into())
+        .spawn(move || -> anyhow::Result<()> {
+            for (path, image) in rx {
+                write_png(&path, &image)?;
+            }
+            Ok(())
+        })
+        .context("cannot start the PNG writer thread")?;
+    let mut written = Vec::with_capacity(n);
+    let mut result = Ok(());
+    for i in 0..n {
+        let path = frame_path(dir, i);
+        match offscreen.render(&picture(i)) {
+            Ok(image) => {
+                if tx.send((path.clone(), image)).is_err() {
+                    break; // the writer failed: its error is below
+                }
+            }
+            Err(e) => {
+                result = Err(e);
+                break;
+            }
+        }
+        written.push(path);
+        if !progress(i + 1) {
+            break;
+        }
+    }
+    drop(tx);
+    let wrote = writer.join().map_err(|_| anyhow::anyhow!("the PNG writer panicked"))?;
+    result?;
+    wrote?;
+    Ok(written)
+}
+
+/// Camera yaw of turntable frame `i` of `n`: one full turn over the frames (the last frame one
+/// step short of the first, so that the sequence loops).
+pub fn turntable_yaw(start: f32, i: usize, n: usize) -> f32 {
+    start + std::f32::consts::TAU * i as f32 / n.max(1) as f32
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn turntable_turns_once() {
+        assert_eq!(turntable_yaw(0.5, 0, 4), 0.5);
+        assert!((turntable_yaw(0.0, 2, 4) - std::f32::consts::PI).abs() < 1e-6);
+    }
+
+    #[test]
+    fn overlays_paint_handle_groups_only_when_asked() {
+        let labels = [None, Some(0), Some(1)];
+        let red = Color32::from_rgb(255, 0, 0);
+        let plain = vertex_colors(&labels, 3, None, false);
+        assert_eq!(plain[0], plain[1]);
+        let painted = vertex_colors(&labels, 3, Some(&[red, red]), false);
+        assert_eq!(painted[1], Rgba::from(red).to_array());
+        assert_eq!(painted[0], plain[0]);
+        let over = vertex_colors(&labels, 3, Some(&[red, red]), true);
+        assert_eq!(over[0], [0.0; 4]);
+        assert_eq!(over[2][3], GROUP_TINT);
+    }
+}

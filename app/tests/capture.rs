@@ -1,0 +1,389 @@
+//! Captures: `bsarap render` on the real binary, F12 in the editor through egui_kittest, and
+//! the scene's optional `capture` object. Rendering runs on lavapipe where there is no GPU.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+use app::editor::{EditorApp, EditorOptions, default_mesh_path};
+use eframe::egui::{self, Vec2};
+use egui_kittest::{Harness, kittest::Queryable};
+use solver::animation::scene::{CaptureSettings, Scene};
+use solver::testing::ScratchDir;
+
+/// The viewport's background, sRGB (`app::editor::capture::BACKGROUND`).
+const BACKGROUND: [u8; 3] = [38, 40, 46];
+
+fn bsarap(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_bsarap")).args(args).output().expect("run bsarap");
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// An icosphere (162 vertices) with its two x-caps as handle groups 0 and 1, and a scene
+/// whose group 0 moves on a circle over one second at `fps` (no path when `fps` is None).
+fn scene(dir: &Path, fps: Option<f64>, capture: &str) -> PathBuf {
+    let m = solver::geometry::shapes::icosphere(2);
+    solver::io::write_obj(&dir.join("sphere.obj"), m.positions(), m.triangles()).unwrap();
+    let labels = solver::testing::cap_labels(m.positions(), 0, 0.8, None);
+    let paths = match fps {
+        Some(_) => {
+            r#"[{"group": 0, "path": {"type": "circular", "axis": [0, 0, 1], "radius": 0.4, "period": 1.0}}]"#
+        }
+        None => "[]",
+    };
+    let text = format!(
+        r#"{{"version": 1, "mesh": "sphere.obj", "handles": {{"labels": {labels:?}}},
+            "timeline": {{"duration": 1.0, "fps": {}, "looping": true, "paths": {paths}}},
+            "method": "arap"{capture}}}"#,
+        fps.unwrap_or(2.0)
+    );
+    let path = dir.join("scene.json");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+fn png(path: &Path) -> image::RgbaImage {
+    image::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display())).to_rgba8()
+}
+
+/// Pixels that are not the background: the mesh (and overlays) drew something.
+fn drawn_pixels(img: &image::RgbaImage) -> usize {
+    img.pixels().filter(|p| p.0[..3] != BACKGROUND).count()
+}
+
+fn differing_pixels(a: &image::RgbaImage, b: &image::RgbaImage) -> usize {
+    a.pixels().zip(b.pixels()).filter(|(p, q)| p != q).count()
+}
+
+fn pngs_in(dir: &Path) -> Vec<PathBuf> {
+    let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "png"))
+        .collect();
+    v.sort();
+    v
+}
+
+#[test]
+fn render_writes_one_png_per_frame_of_the_moving_timeline() {
+    let dir = ScratchDir::new("render-timeline");
+    let scene = scene(&dir, Some(2.0), "");
+    let out = dir.join("frames");
+    let (code, stdout, stderr) = bsarap(&[
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--frames",
+        "3",
+        "--width",
+        "160",
+        "--height",
+        "120",
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{stderr}");
+    let j: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(j["frames"], 3);
+    assert_eq!(j["posed"], true);
+    let files = pngs_in(&out);
+    let names: Vec<_> = files.iter().map(|f| f.file_name().unwrap().to_owned()).collect();
+    assert_eq!(names, ["frame_0000.png", "frame_0001.png", "frame_0002.png"]);
+    let imgs: Vec<_> = files.iter().map(|f| png(f)).collect();
+    for (f, img) in files.iter().zip(&imgs) {
+        assert_eq!(img.dimensions(), (160, 120), "{}", f.display());
+        let drawn = drawn_pixels(img);
+        assert!(drawn > 160 * 120 / 20, "{}: only {drawn} mesh pixels", f.display());
+    }
+    // t = 0 and t = 0.5 s: the cap is half a turn apart on its circle.
+    let d = differing_pixels(&imgs[0], &imgs[1]);
+    assert!(d > 100, "frames 0 and 1 of a moving timeline differ in {d} pixels only");
+}
+
+#[test]
+fn render_turntable_orbits_the_rest_mesh_with_overlays() {
+    let dir = ScratchDir::new("render-turntable");
+    let scene = scene(&dir, None, "");
+    let out = dir.join("turn");
+    let run = |extra: &[&str]| {
+        let mut args =
+            vec!["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--json"];
+        args.extend_from_slice(extra);
+        let (code, stdout, stderr) = bsarap(&args);
+        assert_eq!(code, 0, "{args:?}: {stderr}");
+        serde_json::from_str::<serde_json::Value>(&stdout).unwrap()
+    };
+    let j = run(&["--turntable", "--overlays", "--frames", "4", "--width", "96", "--height", "64"]);
+    assert_eq!(j["posed"], false);
+    assert_eq!(j["turntable"], true);
+    let files = pngs_in(&out);
+    assert_eq!(files.len(), 4);
+    let imgs: Vec<_> = files.iter().map(|f| png(f)).collect();
+    assert!(imgs.iter().all(|i| i.dimensions() == (96, 64)));
+    // A quarter turn apart: the coloured caps and the grid move.
+    for k in 1..4 {
+        let d = differing_pixels(&imgs[0], &imgs[k]);
+        assert!(d > 50, "turntable frames 0 and {k} differ in {d} pixels only");
+    }
+    // Without --overlays the handle colours are gone: the sphere is clay only.
+    std::fs::remove_dir_all(&out).unwrap();
+    run(&["--frames", "1", "--width", "96", "--height", "64"]);
+    let plain = png(&out.join("frame_0000.png"));
+    let d = differing_pixels(&imgs[0], &plain);
+    assert!(d > 50, "overlays changed {d} pixels only");
+}
+
+#[test]
+fn render_takes_its_settings_from_the_scene_capture_object() {
+    let dir = ScratchDir::new("render-scene-capture");
+    let capture = r#", "capture": {"width": 80, "height": 50, "frames": 2}"#;
+    let scene = scene(&dir, None, capture);
+    let out = dir.join("out");
+    let (code, _, stderr) =
+        bsarap(&["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert_eq!(code, 0, "{stderr}");
+    let files = pngs_in(&out);
+    assert_eq!(files.len(), 2);
+    assert_eq!(png(&files[1]).dimensions(), (80, 50));
+    // Flags win over the scene.
+    let (code, _, stderr) = bsarap(&[
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--width",
+        "64",
+        "--frames",
+        "1",
+    ]);
+    assert_eq!(code, 0, "{stderr}");
+    assert_eq!(png(&out.join("frame_0000.png")).dimensions(), (64, 50));
+}
+
+#[test]
+fn render_errors_are_one_line_and_name_the_problem() {
+    let dir = ScratchDir::new("render-errors");
+    let out = dir.join("out");
+    let out = out.to_str().unwrap();
+    let check = |args: &[&str], envs: &[(&str, &str)], expect: &[&str]| {
+        let o = Command::new(env!("CARGO_BIN_EXE_bsarap"))
+            .args(args)
+            .envs(envs.iter().copied())
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {stderr}");
+        assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+        for e in expect {
+            assert!(stderr.contains(e), "{args:?}: {e:?} not in {stderr:?}");
+        }
+    };
+    let missing = dir.join("nope.json");
+    check(&["render", missing.to_str().unwrap(), "-o", out], &[], &["nope.json", "cannot read"]);
+
+    let scene_path = scene(&dir, Some(2.0), "");
+    let s = scene_path.to_str().unwrap();
+    check(&["render", s, "-o", out, "--width", "0"], &[], &["--width must be between 1 and"]);
+    check(&["render", s, "-o", out, "--frames", "0"], &[], &["--frames must be between 1 and"]);
+
+    // The mesh the scene names is missing.
+    let lost = dir.join("lost.json");
+    let text = std::fs::read_to_string(&scene_path).unwrap().replace("sphere.obj", "gone.obj");
+    std::fs::write(&lost, text).unwrap();
+    check(&["render", lost.to_str().unwrap(), "-o", out], &[], &["gone.obj"]);
+
+    // A bad capture object.
+    let bad = dir.join("bad.json");
+    let text = std::fs::read_to_string(&scene_path)
+        .unwrap()
+        .replace(r#""method": "arap""#, r#""method": "arap", "capture": {"width": 100000}"#);
+    std::fs::write(&bad, text).unwrap();
+    check(&["render", bad.to_str().unwrap(), "-o", out], &[], &["bad.json", "capture", "width"]);
+
+    // The output folder cannot be created: a file is in the way.
+    let file = dir.join("a-file");
+    std::fs::write(&file, "x").unwrap();
+    let under = file.join("frames");
+    check(
+        &["render", s, "-o", under.to_str().unwrap()],
+        &[],
+        &["a-file", "cannot create the output folder"],
+    );
+
+    // No adapter: a backend this platform does not have.
+    check(
+        &["render", s, "-o", out, "--frames", "1"],
+        &[("WGPU_BACKEND", "metal")],
+        &["no GPU adapter"],
+    );
+}
+
+#[test]
+fn scenes_without_a_capture_object_read_and_write_as_before() {
+    let old = r#"{"version": 1, "mesh": "m.obj", "handles": {"file": "m.dmat"},
+        "timeline": {"duration": 1.0, "fps": 24, "looping": false, "paths": []}}"#;
+    let s = Scene::from_json(old, "old.json").unwrap();
+    assert_eq!(s.capture, None);
+    assert!(!s.to_json().contains("capture"), "{}", s.to_json());
+
+    let partial = old.replacen('{', r#"{"capture": {"width": 640, "turntable": true},"#, 1);
+    let s = Scene::from_json(&partial, "new.json").unwrap();
+    let c = s.capture.clone().unwrap();
+    assert_eq!(
+        c,
+        CaptureSettings { width: 640, turntable: true, ..CaptureSettings::default() },
+        "missing fields take their defaults"
+    );
+    assert_eq!(Scene::from_json(&s.to_json(), "again.json").unwrap(), s, "round trip");
+
+    let typo = old.replacen('{', r#"{"capture": {"widht": 640},"#, 1);
+    let e = Scene::from_json(&typo, "typo.json").unwrap_err().to_string();
+    assert!(e.contains("widht"), "{e}");
+}
+
+// ---- F12 in the editor ----
+
+fn harness(config_dir: PathBuf) -> Harness<'static, EditorApp> {
+    harness_on(default_mesh_path(), config_dir)
+}
+
+fn harness_on(mesh: PathBuf, config_dir: PathBuf) -> Harness<'static, EditorApp> {
+    let builder = Harness::builder().with_size(Vec2::new(900.0, 600.0)).with_render_cursor(false);
+    builder.wgpu().build_eframe(move |cc| {
+        EditorApp::new(
+            cc,
+            EditorOptions {
+                mesh_path: Some(mesh),
+                deterministic_overlays: true,
+                config_dir: Some(config_dir),
+            },
+        )
+    })
+}
+
+fn step_until(h: &mut Harness<'_, EditorApp>, what: &str, pred: impl Fn(&EditorApp) -> bool) {
+    let start = Instant::now();
+    while !pred(h.state()) {
+        assert!(start.elapsed() < Duration::from_secs(90), "timed out waiting for {what}");
+        h.step();
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    h.step();
+}
+
+/// Presses F12 and waits for the capture; its file.
+fn f12(h: &mut Harness<'_, EditorApp>) -> PathBuf {
+    let before = h.state().last_capture().map(Path::to_path_buf);
+    h.key_press(egui::Key::F12);
+    step_until(h, "the screenshot", |a| {
+        !a.is_capturing() && a.last_capture().map(Path::to_path_buf) != before
+            || a.error().is_some()
+    });
+    assert!(h.state().error().is_none(), "{:?}", h.state().error());
+    h.state().last_capture().unwrap().to_path_buf()
+}
+
+#[test]
+fn f12_saves_a_png_of_the_viewport_next_to_the_config() {
+    let config = ScratchDir::new("capture-f12");
+    let mut h = harness(config.to_path_buf());
+    step_until(&mut h, "the default asset", |a| !a.is_loading() && a.n_vertices() > 0);
+    for _ in 0..3 {
+        h.step();
+    }
+
+    // The size now: the status message that names the file may wrap and resize it after.
+    let expected = h.state().viewport_pixels(&h.ctx).unwrap();
+    let shot = f12(&mut h);
+    assert_eq!(shot, config.join("screenshots").join("screenshot_0001.png"));
+    let info = h.state().info().unwrap_or_default().to_string();
+    assert!(info.contains("screenshot_0001.png"), "status: {info:?}");
+    let img = png(&shot);
+    assert_eq!([img.width(), img.height()], expected, "the viewport's size in pixels");
+    let drawn = drawn_pixels(&img);
+    assert!(drawn > (img.width() * img.height() / 20) as usize, "only {drawn} mesh pixels");
+
+    // A chosen size, without overlays: the next number, another picture.
+    h.state_mut().set_capture_settings(Some([320, 200]), false);
+    let plain = f12(&mut h);
+    assert_eq!(plain.file_name().unwrap(), "screenshot_0002.png");
+    let plain_img = png(&plain);
+    assert_eq!(plain_img.dimensions(), (320, 200));
+    assert!(drawn_pixels(&plain_img) > 320 * 200 / 20);
+    h.state_mut().set_capture_settings(Some([320, 200]), true);
+    let over = png(&f12(&mut h));
+    let d = differing_pixels(&plain_img, &over);
+    assert!(d > 100, "overlays (grid, handle colours) changed {d} pixels only");
+
+    // The settings window opens from the File menu; its button takes a screenshot too.
+    h.get_by_label("File").click();
+    h.run_steps(2);
+    h.get_by_label("Capture settings…").click();
+    h.run_steps(3);
+    h.get_by_label("the viewport's size");
+    h.get_by_label("Screenshot (F12)").click();
+    step_until(&mut h, "the window's screenshot", |a| {
+        !a.is_capturing() && a.last_capture().is_some_and(|p| p.ends_with("screenshot_0004.png"))
+    });
+    assert!(h.state().error().is_none(), "{:?}", h.state().error());
+}
+
+#[test]
+fn the_scene_capture_object_sizes_screenshots_and_is_saved_back() {
+    let dir = ScratchDir::new("capture-scene-editor");
+    let capture = r#", "capture": {"width": 200, "height": 100, "turntable": true}"#;
+    let scene = scene(&dir, None, capture);
+    let mut h = harness_on(scene, dir.join("config"));
+    step_until(&mut h, "the scene", |a| !a.is_loading() && a.n_vertices() > 0);
+    h.step();
+    let shot = f12(&mut h);
+    assert_eq!(shot, dir.join("config/screenshots/screenshot_0001.png"));
+    let img = png(&shot);
+    assert_eq!(img.dimensions(), (200, 100), "the scene's capture size");
+    assert!(drawn_pixels(&img) > 200 * 100 / 20);
+
+    let saved = dir.join("saved.json");
+    h.state_mut().save_scene(&saved).unwrap();
+    let back = Scene::read(&saved).unwrap();
+    let c = back.capture.expect("capture saved");
+    assert_eq!((c.width, c.height, c.turntable), (200, 100, true), "{c:?}");
+}
+
+#[test]
+fn the_recording_renders_to_a_png_sequence_from_the_file_menu() {
+    let dir = ScratchDir::new("capture-sequence-editor");
+    let path = scene(&dir, Some(2.0), "");
+    let text = std::fs::read_to_string(&path).unwrap().replace(r#""arap""#, r#""bsarap""#);
+    std::fs::write(&path, text).unwrap();
+    let mut h = harness_on(path, dir.join("config"));
+    step_until(&mut h, "the scene", |a| !a.is_loading() && a.n_vertices() > 0);
+    h.state_mut().set_capture_settings(Some([120, 90]), true);
+    let ctx = h.ctx.clone();
+    h.state_mut().start_recording(&ctx);
+    step_until(&mut h, "the recording", |a| !a.is_recording());
+    assert!(h.state().error().is_none(), "{:?}", h.state().error());
+    let n = h.state().recorded_frames().expect("a recording").frames.len();
+    assert_eq!(n, 3);
+
+    h.get_by_label("File").click();
+    h.run_steps(2);
+    h.get_by_label("Render the recording to PNGs").click();
+    step_until(&mut h, "the PNG sequence", |a| {
+        !a.is_capturing() && a.last_capture().is_some() || a.error().is_some()
+    });
+    assert!(h.state().error().is_none(), "{:?}", h.state().error());
+    let out = h.state().last_capture().unwrap().to_path_buf();
+    assert_eq!(out, dir.join("config/screenshots/frames_0001"));
+    let files = pngs_in(&out);
+    assert_eq!(files.len(), 3, "{files:?}");
+    let imgs: Vec<_> = files.iter().map(|f| png(f)).collect();
+    assert!(imgs.iter().all(|i| i.dimensions() == (120, 90)));
+    let d = differing_pixels(&imgs[0], &imgs[1]);
+    assert!(d > 20, "recorded frames 0 and 1 differ in {d} pixels only");
+}
