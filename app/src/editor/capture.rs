@@ -141,58 +141,11 @@ pub struct Offscreen {
     pub adapter: String,
 }
 
-/// Runs a future that wgpu's native backends complete without waiting on anything else
-/// (adapter and device requests): polled in a loop with a no-op waker, no executor needed.
-fn block_on<F: std::future::Future>(future: F) -> F::Output {
-    let mut future = std::pin::pin!(future);
-    let mut cx = std::task::Context::from_waker(std::task::Waker::noop());
-    loop {
-        if let std::task::Poll::Ready(v) = future.as_mut().poll(&mut cx) {
-            return v;
-        }
-        std::thread::yield_now();
-    }
-}
-
 impl Offscreen {
-    /// Its own device, without a window: a GPU when there is one, else a software adapter
-    /// (lavapipe); Vulkan, Metal or DX12 before OpenGL. `WGPU_BACKEND` restricts the
-    /// backends. Fails with a readable message when there is no adapter.
+    /// Its own device, without a window ([`crate::gpu::headless`]).
     pub fn headless() -> anyhow::Result<Offscreen> {
-        let desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
-        let backends = desc.backends;
-        let instance = wgpu::Instance::new(desc);
-        let mut adapters = block_on(instance.enumerate_adapters(backends));
-        adapters.sort_by_key(|a| {
-            let info = a.get_info();
-            let device = match info.device_type {
-                wgpu::DeviceType::DiscreteGpu => 0,
-                wgpu::DeviceType::IntegratedGpu => 1,
-                wgpu::DeviceType::VirtualGpu | wgpu::DeviceType::Other => 2,
-                wgpu::DeviceType::Cpu => 3,
-            };
-            (device, info.backend == wgpu::Backend::Gl)
-        });
-        let adapter = adapters.into_iter().find(|a| a.get_info().backend != wgpu::Backend::Noop);
-        let Some(adapter) = adapter else {
-            anyhow::bail!(
-                "no GPU adapter for offscreen rendering (backends {backends:?}); install a Vulkan \
-                 driver (Mesa's lavapipe, package mesa-vulkan-drivers, renders on the CPU)"
-            );
-        };
-        let info = adapter.get_info();
-        let name = format!("{} ({:?})", info.name, info.backend);
-        let limits = adapter.limits();
-        let (device, queue) = block_on(adapter.request_device(&wgpu::DeviceDescriptor {
-            label: Some("bsarap offscreen device"),
-            required_limits: wgpu::Limits {
-                max_texture_dimension_2d: limits.max_texture_dimension_2d,
-                ..wgpu::Limits::downlevel_defaults()
-            },
-            ..Default::default()
-        }))
-        .with_context(|| format!("{name}: cannot create a device"))?;
-        Ok(Offscreen::with_device(device, queue, name))
+        let gpu = crate::gpu::headless()?;
+        Ok(Offscreen::with_device(gpu.device, gpu.queue, gpu.adapter))
     }
 
     /// On an existing device (the editor's): the pipelines are built here, once.
