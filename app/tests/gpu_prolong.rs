@@ -14,11 +14,7 @@ fn max_abs(v: &[f64]) -> f64 {
 }
 
 /// Positions within a few f32 ulps of the coordinates' size; normals within 1e-4 (unit).
-fn assert_matches(
-    cpu: &CoarseBsArap,
-    triangles: &[[u32; 3]],
-    gpu: &(Vec<[f32; 3]>, Vec<[f32; 3]>),
-) {
+fn assert_matches(cpu: &CoarseBsArap, triangles: &[[u32; 3]], gpu: &app::gpu::prolong::ReadBack) {
     let x = cpu.positions();
     let scale = max_abs(&x.iter().flatten().copied().collect::<Vec<_>>());
     let tol = 8.0 * f32::EPSILON as f64 * scale;

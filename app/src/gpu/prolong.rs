@@ -43,6 +43,9 @@ struct Stage {
     count: u32,
 }
 
+/// Positions and normals copied back from the GPU.
+pub type ReadBack = (Vec<[f32; 3]>, Vec<[f32; 3]>);
+
 /// The compute pass for one mesh, its coarse base and its fixed-vertex set.
 pub struct GpuProlongation {
     n_vertices: usize,
@@ -334,7 +337,7 @@ impl GpuProlongation {
         &self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
-    ) -> anyhow::Result<(Vec<[f32; 3]>, Vec<[f32; 3]>)> {
+    ) -> anyhow::Result<ReadBack> {
         let size = (16 * self.n_vertices) as u64;
         let readback = |label| {
             device.create_buffer(&wgpu::BufferDescriptor {
