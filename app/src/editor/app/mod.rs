@@ -15,13 +15,15 @@
 //! recording, export), `solvers` (solver commands and polling), `input` (keys, picking,
 //! painting, posing), `viewport` (vertex colors, the paint callback, overlays), `panels` (menu,
 //! side panels, status bar and the frame loop `ui()`), `parts` (the loose parts' Follow / Pin
-//! list) and `accessors` (for tests and scripts).
+//! list), `rigging` (rigidity brush, soft falloffs, symmetry) and `accessors` (for tests and
+//! scripts).
 
 mod accessors;
 mod input;
 mod panels;
 mod parts;
 mod playback;
+mod rigging;
 mod session;
 mod solvers;
 mod viewport;
@@ -94,6 +96,8 @@ pub enum Shading {
 pub enum Tool {
     Paint,
     Pose,
+    /// Paints the rigidity map (`solver::deform::rig`; Shift+R).
+    Rigidity,
 }
 
 pub struct EditorApp {
@@ -111,6 +115,8 @@ pub struct EditorApp {
     display: Display,
     /// Loading, dialogs, recording, export and the side-by-side quality.
     jobs: Jobs,
+    /// Rigidity brush, symmetry and the mirror map (`rigging`).
+    rigging: rigging::Rigging,
     error: Option<String>,
     info: Option<String>,
 }
@@ -162,6 +168,7 @@ impl EditorApp {
             interaction: Interaction::default(),
             display: Display::new(&options),
             jobs: Jobs::default(),
+            rigging: rigging::Rigging::default(),
             error: None,
             info: None,
         };
