@@ -228,6 +228,7 @@ impl EditorApp {
         } else if changed && pose != self.session.edit.groups[k].pose {
             self.session.history.push(self.session.edit.clone());
             self.session.edit.groups[k].pose = pose;
+            self.mirror_pose(k);
             self.send_poses();
         }
         if let Some(scene) = &self.session.scene {
