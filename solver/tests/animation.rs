@@ -256,7 +256,7 @@ fn scene_round_trip_and_load() {
     let path = dir.join("scenes").join("a.json");
     scene.save(&path).unwrap();
     let text = std::fs::read_to_string(&path).unwrap();
-    assert!(text.contains("\"version\": 1"));
+    assert!(text.contains("\"version\": 2"));
     assert!(text.contains("\"method\": \"arap\""));
     let back = Scene::read(&path).unwrap();
     assert_eq!(back, scene);

@@ -3,13 +3,16 @@
 //! What a scene holds: the mesh path (relative to the scene file), the handle labels inline,
 //! the timeline ([`effective_timeline`]: static non-rest poses become one-key paths, so the
 //! pose you see is the pose you load), the method and its settings, the loose parts' modes
-//! (`loose_parts`; a scene without them reads as every loose part following), the camera, and
-//! the group names and colors (`editor`). Reading and writing (atomic) are `solver::animation::scene`'s.
+//! (`loose_parts`; a scene without them reads as every loose part following), the rig
+//! (`rig`: rigidity map, soft falloffs, symmetry settings; absent in version-1 scenes), the
+//! camera, and the group names and colors (`editor`). Reading and writing (atomic) are `solver::animation::scene`'s.
 
 use std::path::{Path, PathBuf};
 
 use eframe::egui::Color32;
-use solver::animation::scene::{HandlesSpec, SCENE_VERSION, Scene, relative_path};
+use solver::animation::scene::{
+    GroupFalloff, HandlesSpec, RigSpec, SCENE_VERSION, Scene, SymmetrySpec, relative_path,
+};
 
 use super::camera::OrbitCamera;
 use super::solver_thread::MethodSettings;
@@ -56,6 +59,18 @@ pub fn to_scene(scene_path: &Path, input: &DocumentInput) -> Result<Scene, Strin
         })
         .collect();
     scene.editor = Some(serde_json::json!({"groups": groups, "time": input.time}));
+    scene.rig = RigSpec {
+        rigidity: edit.rigidity.clone(),
+        falloff: (edit.groups.iter().enumerate())
+            .filter(|(_, g)| g.falloff.is_soft())
+            .map(|(group, g)| GroupFalloff {
+                group,
+                radius: g.falloff.radius,
+                curve: g.falloff.curve,
+            })
+            .collect(),
+        symmetry: (edit.symmetry != SymmetrySpec::default()).then_some(edit.symmetry),
+    };
     debug_assert_eq!(scene.version, SCENE_VERSION);
     Ok(scene)
 }
@@ -91,6 +106,13 @@ pub fn apply_scene(scene: &Scene, labels: Vec<Option<u32>>, settings: &MethodSet
     }
     edit.timeline = scene.timeline.clone();
     edit.loose_parts = scene.loose_parts.clone();
+    edit.rigidity = scene.rig.rigidity.clone().filter(|r| r.len() == edit.labels.len());
+    for f in &scene.rig.falloff {
+        if let Some(g) = edit.groups.get_mut(f.group) {
+            g.falloff = solver::deform::rig::Falloff { radius: f.radius, curve: f.curve };
+        }
+    }
+    edit.symmetry = scene.rig.symmetry.unwrap_or_default();
     let time = extra
         .and_then(|e| e.get("time"))
         .and_then(|t| t.as_f64())
@@ -236,5 +258,59 @@ mod tests {
         let old = solver::animation::scene::Scene::load(&old_path).unwrap();
         let back = apply_scene(&old.scene, labels, &MethodSettings::default());
         assert_eq!(back.edit.loose_parts, LooseParts::default());
+    }
+
+    /// The rig (rigidity map, a group's falloff, symmetry settings) survives a scene round
+    /// trip; the same scene as version 1 (no `rig`) reads with none.
+    #[test]
+    fn the_rig_survives_a_scene_round_trip_and_version_1_scenes_have_none() {
+        use solver::animation::scene::SymmetrySpec;
+        use solver::deform::rig::{Falloff, FalloffCurve};
+        use solver::deform::symmetry::{Axis, SymmetryPlane};
+        let dir = solver::testing::ScratchDir::new("doc-rig");
+        let mesh_path = dir.join("bar.obj");
+        let (mesh, handles) = solver::geometry::shapes::bumpy_bar(1);
+        solver::io::write_obj(&mesh_path, mesh.positions(), mesh.triangles()).unwrap();
+        let mut edit = EditState::from_labels(handles.labels().to_vec());
+        let mut r = vec![1.0; mesh.n_vertices()];
+        r[3] = 0.25;
+        edit.rigidity = Some(r);
+        edit.groups[1].falloff = Falloff { radius: 0.125, curve: FalloffCurve::Linear };
+        edit.symmetry = SymmetrySpec {
+            plane: Some(SymmetryPlane { axis: Axis::Y, offset: 0.5 }),
+            mirror_painting: true,
+            mirror_posing: true,
+        };
+        let camera = OrbitCamera::default();
+        let input = DocumentInput {
+            mesh_path: &mesh_path,
+            edit: &edit,
+            settings: &MethodSettings::default(),
+            camera: &camera,
+            time: 0.0,
+        };
+        let scene_path = dir.join("rig.json");
+        to_scene(&scene_path, &input).unwrap().save(&scene_path).unwrap();
+        let loaded = solver::animation::scene::Scene::load(&scene_path).unwrap();
+        assert_eq!(loaded.handles.rig().falloff(1).radius, 0.125);
+        let labels = loaded.handles.labels().to_vec();
+        let back = apply_scene(&loaded.scene, labels.clone(), &MethodSettings::default());
+        assert_eq!(back.edit.rigidity, edit.rigidity);
+        assert_eq!(back.edit.groups[1].falloff, edit.groups[1].falloff);
+        assert_eq!(back.edit.groups[0].falloff, Falloff::default());
+        assert_eq!(back.edit.symmetry, edit.symmetry);
+
+        let text = std::fs::read_to_string(&scene_path).unwrap();
+        let mut value: serde_json::Value = serde_json::from_str(&text).unwrap();
+        let object = value.as_object_mut().unwrap();
+        object.remove("rig");
+        object.insert("version".into(), 1.into());
+        let old_path = dir.join("v1.json");
+        std::fs::write(&old_path, serde_json::to_string(&value).unwrap()).unwrap();
+        let old = solver::animation::scene::Scene::load(&old_path).unwrap();
+        assert!(old.handles.rig().is_plain());
+        let back = apply_scene(&old.scene, labels, &MethodSettings::default());
+        assert_eq!(back.edit.rigidity, None);
+        assert_eq!(back.edit.symmetry, SymmetrySpec::default());
     }
 }

@@ -1,5 +1,5 @@
 //! The editable state (handle labels, groups, poses, the timeline's paths, the loose parts'
-//! modes) and its undo/redo history.
+//! modes, the rig: rigidity map, falloffs, symmetry settings) and its undo/redo history.
 //!
 //! Every user edit (a brush stroke, a drag, a numeric change, a group added or deleted) first
 //! pushes a snapshot of the state it starts from. Snapshots are whole copies: a label array is
@@ -7,7 +7,9 @@
 
 use eframe::egui::Color32;
 use solver::LooseParts;
+use solver::animation::scene::SymmetrySpec;
 use solver::animation::timeline::{Path, Timeline};
+use solver::deform::rig::Falloff;
 
 use super::pose::GroupPose;
 
@@ -17,6 +19,8 @@ pub struct Group {
     pub name: String,
     pub color: Color32,
     pub pose: GroupPose,
+    /// Soft-handle falloff (radius 0: a hard handle; `solver::deform::rig`).
+    pub falloff: Falloff,
 }
 
 /// Everything undo/redo restores.
@@ -30,6 +34,10 @@ pub struct EditState {
     pub timeline: Timeline,
     /// Follow or pin, per component without handles (`solver::deform::riders`).
     pub loose_parts: LooseParts,
+    /// Per-vertex rigidity in [0, 1] (`None`: 1 everywhere; `solver::deform::rig`).
+    pub rigidity: Option<Vec<f64>>,
+    /// Mirror painting and posing, and the plane (`None`: fitted; `solver::deform::symmetry`).
+    pub symmetry: SymmetrySpec,
 }
 
 /// Distinct colors for handle groups (sRGB).
@@ -54,6 +62,8 @@ impl EditState {
             groups,
             timeline: Timeline::default(),
             loose_parts: LooseParts::default(),
+            rigidity: None,
+            symmetry: SymmetrySpec::default(),
         }
     }
 
@@ -125,6 +135,7 @@ fn new_group(k: usize) -> Group {
         name: format!("Group {k}"),
         color: PALETTE[k % PALETTE.len()],
         pose: GroupPose::default(),
+        falloff: Falloff::default(),
     }
 }
 

@@ -3,7 +3,7 @@
 //!
 //! ```json
 //! {
-//!   "version": 1,
+//!   "version": 2,
 //!   "mesh": "../creature.obj",
 //!   "handles": {"file": "../creature.handles.json"},
 //!   "timeline": {"duration": 2.0, "fps": 30, "looping": true,
@@ -13,9 +13,18 @@
 //!   "arap": {"energy": "spokes-and-rims", "tolerance": 1e-4, "max_iterations": 100},
 //!   "loose_parts": {"default": "follow", "overrides": [{"component": 1, "mode": "pin"}]},
 //!   "camera": {"any": "JSON the editor stores"},
-//!   "editor": {"groups": [{"name": "left foot", "color": [230, 25, 75]}]}
+//!   "editor": {"groups": [{"name": "left foot", "color": [230, 25, 75]}]},
+//!   "rig": {"rigidity": [1.0, 0.2, …], "falloff": [{"group": 0, "radius": 0.1, "curve": "smooth"}],
+//!           "symmetry": {"plane": {"axis": "x", "offset": 0.0}, "mirror_painting": true,
+//!                        "mirror_posing": true}}
 //! }
 //! ```
+//!
+//! Version 2 added `rig` (optional, omitted when empty; [`RigSpec`]): the rigidity map (one
+//! value in [0, 1] per vertex of the cleaned mesh, 1 = plain ARAP), soft-handle falloffs per
+//! group (radius a fraction of the bounding-box diagonal) and the editor's symmetry settings
+//! ([`crate::deform::rig`], [`crate::deform::symmetry`]). Version-1 scenes are read as they are
+//! (no rig) and written back as version 2.
 //!
 //! Paths inside a scene (`mesh`, `handles.file`) are relative to the scene file's folder
 //! (absolute paths are kept as they are). `handles` is exactly one of `{"file": PATH}` (a `.dmat`
@@ -39,11 +48,97 @@ use crate::deform::config::BaseConfig;
 use crate::deform::deformer::Method;
 use crate::deform::handles::{Handles, HandlesError};
 use crate::deform::riders::LooseParts;
+use crate::deform::rig::{Falloff, FalloffCurve, Rig};
 use crate::deform::selection::{SelectionError, load_selection, parse_spheres};
+use crate::deform::symmetry::SymmetryPlane;
 use crate::io::{LoadError, LoadedMesh, SaveError, load_mesh, write_atomic};
 
-/// The scene format version this build reads and writes.
-pub const SCENE_VERSION: u32 = 1;
+/// The scene format version this build writes; it reads this one and
+/// [`OLDEST_SCENE_VERSION`] onwards.
+pub const SCENE_VERSION: u32 = 2;
+
+/// The oldest scene version this build reads (version 1: no `rig`).
+pub const OLDEST_SCENE_VERSION: u32 = 1;
+
+/// A group's soft-handle falloff in a scene.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GroupFalloff {
+    pub group: usize,
+    /// A fraction of the bounding-box diagonal, in [0, 1].
+    pub radius: f64,
+    #[serde(default)]
+    pub curve: FalloffCurve,
+}
+
+/// The editor's symmetry settings.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SymmetrySpec {
+    /// The plane; `None`: fitted to the mesh ([`crate::deform::symmetry::fit_plane`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub plane: Option<SymmetryPlane>,
+    /// Painting (handles, rigidity) also paints the mirror vertices.
+    #[serde(default)]
+    pub mirror_painting: bool,
+    /// Posing a group also poses its mirror partner, mirrored.
+    #[serde(default)]
+    pub mirror_posing: bool,
+}
+
+/// Stiff regions, soft handles and symmetry (version 2; module doc).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RigSpec {
+    /// One rigidity in [0, 1] per vertex of the cleaned mesh; absent: 1 everywhere.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rigidity: Option<Vec<f64>>,
+    /// Soft-handle falloffs; groups not listed are hard.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub falloff: Vec<GroupFalloff>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub symmetry: Option<SymmetrySpec>,
+}
+
+impl RigSpec {
+    /// Nothing set (the field is omitted).
+    pub fn is_empty(&self) -> bool {
+        *self == RigSpec::default()
+    }
+
+    /// The solver's [`Rig`] (falloffs indexed by group id).
+    pub fn to_rig(&self) -> Rig {
+        let n = self.falloff.iter().map(|f| f.group + 1).max().unwrap_or(0);
+        let mut falloff = vec![Falloff::default(); n];
+        for f in &self.falloff {
+            falloff[f.group] = Falloff { radius: f.radius, curve: f.curve };
+        }
+        Rig { rigidity: self.rigidity.clone(), falloff }
+    }
+
+    fn validate(&self) -> Result<(), String> {
+        if let Some(r) = &self.rigidity
+            && let Some(i) = r.iter().position(|r| !(0.0..=1.0).contains(r))
+        {
+            return Err(format!("\"rig\": rigidity {} of vertex {i} is not in [0, 1]", r[i]));
+        }
+        if let Some(f) = self.falloff.iter().find(|f| !(0.0..=1.0).contains(&f.radius)) {
+            return Err(format!(
+                "\"rig\": the falloff radius of group {} must be in [0, 1] (got {})",
+                f.group, f.radius
+            ));
+        }
+        if let Some(f) = self.falloff.iter().find(|f| f.group > u32::MAX as usize / 2) {
+            return Err(format!("\"rig\": group {} is out of range", f.group));
+        }
+        if let Some(p) = self.symmetry.and_then(|s| s.plane)
+            && !p.offset.is_finite()
+        {
+            return Err("\"rig\": the symmetry plane's offset must be finite".into());
+        }
+        Ok(())
+    }
+}
 
 /// The largest `arap.max_iterations` a scene may ask for (the CLI's `--max-iters` cap): with
 /// `tolerance` 0 every solve runs that many iterations, so a larger value would hang playback.
@@ -142,6 +237,9 @@ pub struct Scene {
     /// when absent, so older scenes read and write as before).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub capture: Option<CaptureSettings>,
+    /// Stiff regions, soft handles, symmetry (version 2; optional, omitted when empty).
+    #[serde(default, skip_serializing_if = "RigSpec::is_empty")]
+    pub rig: RigSpec,
 }
 
 /// A scene with its mesh loaded and its handles resolved.
@@ -182,6 +280,7 @@ impl Scene {
             camera: None,
             editor: None,
             capture: None,
+            rig: RigSpec::default(),
         }
     }
 
@@ -194,14 +293,18 @@ impl Scene {
         let Some(version) = value.get("version") else {
             return Err(SceneError::MissingVersion { file: file.to_string() });
         };
-        if version.as_u64() != Some(SCENE_VERSION as u64) {
+        if !version
+            .as_u64()
+            .is_some_and(|v| (OLDEST_SCENE_VERSION as u64..=SCENE_VERSION as u64).contains(&v))
+        {
             return Err(SceneError::UnsupportedVersion {
                 file: file.to_string(),
                 found: version.to_string(),
                 supported: SCENE_VERSION,
             });
         }
-        let scene: Scene = serde_json::from_str(text).map_err(|e| parse_error(file, &e))?;
+        let mut scene: Scene = serde_json::from_str(text).map_err(|e| parse_error(file, &e))?;
+        scene.version = SCENE_VERSION;
         scene.validate(file)?;
         Ok(scene)
     }
@@ -243,6 +346,9 @@ impl Scene {
                 ),
             });
         }
+        self.rig
+            .validate()
+            .map_err(|message| SceneError::Invalid { file: file.to_string(), message })?;
         self.timeline
             .validate()
             .map_err(|source| SceneError::Timeline { file: file.to_string(), source })
@@ -312,6 +418,19 @@ impl Scene {
         } else {
             return Err(SceneError::Invalid { file, message: "no handles".into() });
         };
+        if let Some(r) = &self.rig.rigidity
+            && r.len() != positions.len()
+        {
+            return Err(SceneError::Invalid {
+                file,
+                message: format!(
+                    "\"rig\": the rigidity map has {} values but the mesh has {} vertices",
+                    r.len(),
+                    positions.len()
+                ),
+            });
+        }
+        let handles = handles.with_rig(self.rig.to_rig());
         if let Some(p) = self.timeline.paths.iter().find(|p| handles.group(p.group).is_err()) {
             return Err(SceneError::Invalid {
                 file,
@@ -422,6 +541,47 @@ impl CaptureSettings {
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
+
+    const V1: &str = r#"{"version": 1, "mesh": "m.obj", "handles": {"labels": [0, -1, -1]},
+        "timeline": {"duration": 1.0, "fps": 24, "looping": false, "paths": []}}"#;
+
+    /// A version-1 scene reads as before (no rig) and is written back as version 2 without a
+    /// rig field; a version-2 scene's rig survives a round trip and reaches the handles.
+    #[test]
+    fn versions_and_rig_round_trip() {
+        let v1 = Scene::from_json(V1, "v1.json").unwrap();
+        assert_eq!(v1.version, SCENE_VERSION);
+        assert!(v1.rig.is_empty());
+        assert!(!v1.to_json().contains("rig"));
+        let mut v2 = v1.clone();
+        v2.rig = RigSpec {
+            rigidity: Some(vec![1.0, 0.25, 0.0]),
+            falloff: vec![GroupFalloff { group: 0, radius: 0.1, curve: FalloffCurve::Linear }],
+            symmetry: Some(SymmetrySpec {
+                plane: Some(SymmetryPlane { axis: crate::deform::symmetry::Axis::Z, offset: 0.5 }),
+                mirror_painting: true,
+                mirror_posing: false,
+            }),
+        };
+        let text = v2.to_json();
+        assert!(text.contains("\"version\": 2") && text.contains("\"curve\": \"linear\""));
+        let back = Scene::from_json(&text, "v2.json").unwrap();
+        assert_eq!(back, v2);
+        let p = [[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+        let h = back.resolve_handles(Path::new("v2.json"), &p, None).unwrap();
+        assert_eq!(h.rig().rigidity.as_deref(), Some(&[1.0, 0.25, 0.0][..]));
+        assert_eq!(h.rig().falloff(0), Falloff { radius: 0.1, curve: FalloffCurve::Linear });
+        let short =
+            Scene { rig: RigSpec { rigidity: Some(vec![1.0]), ..RigSpec::default() }, ..back };
+        assert!(short.resolve_handles(Path::new("s.json"), &p, None).is_err());
+        let bad = text.replace("0.25", "1.5");
+        assert!(Scene::from_json(&bad, "bad.json").is_err());
+        let v3 = V1.replace("\"version\": 1", "\"version\": 3");
+        assert!(matches!(
+            Scene::from_json(&v3, "v3.json"),
+            Err(SceneError::UnsupportedVersion { .. })
+        ));
+    }
 
     #[test]
     fn relative_paths() {

@@ -47,6 +47,7 @@ use crate::deform::coarse_base::{CoarseBase, Phases, blend};
 use crate::deform::config::BaseConfig;
 use crate::deform::constraints::Constraints;
 use crate::deform::handles::Handles;
+use crate::deform::rig::Rig;
 use crate::error::SolveError;
 use crate::geometry::mesh::{Mesh, add, sub};
 use crate::linalg::rigid::{Motion, fit_motion};
@@ -108,6 +109,25 @@ pub struct CoarseBsArap {
 enum FineLevel {
     Pending(Box<(Mesh, Constraints, ArapConfig)>),
     Ready(Box<Arap>),
+}
+
+/// The rig on the coarse level (`crate::deform::rig`): the falloffs as they are (radii are
+/// fractions of the diagonal), each coarse vertex's rigidity the mean over the fine vertices
+/// it represents.
+fn coarse_rig(base: &CoarseBase, handles: &Handles) -> Rig {
+    let rig = handles.rig();
+    let rigidity = rig.rigidity.as_ref().map(|r| {
+        let mut sum = vec![(0.0, 0usize); base.kept.len()];
+        for (v, &k) in base.representative.iter().enumerate() {
+            sum[k as usize].0 += r[v];
+            sum[k as usize].1 += 1;
+        }
+        sum.iter()
+            .zip(&base.kept)
+            .map(|(&(s, c), &v)| if c > 0 { s / c as f64 } else { r[v as usize] })
+            .collect()
+    });
+    Rig { rigidity, falloff: rig.falloff.clone() }
 }
 
 /// Which coarse vertices hold which handle group (module doc, "Handles on the coarse level"),
@@ -270,7 +290,8 @@ impl CoarseBsArap {
         let mut clock = Phases::default();
         let constraints = Constraints::new(mesh, handles);
         let groups = CoarseGroups::new(&base, handles, mesh.positions());
-        let coarse_handles = Handles::from_options(groups.labels.clone())?;
+        let coarse_handles =
+            Handles::from_options(groups.labels.clone())?.with_rig(coarse_rig(&base, handles));
         clock.lap("coarse handles");
         let coarse_mesh = &base.coarse_mesh;
         let arap = Arap::with_constraints(

@@ -9,6 +9,7 @@
 //! the same.
 
 use crate::deform::handles::Handles;
+use crate::deform::rig::{SoftTerm, soft_terms};
 use crate::geometry::mesh::Mesh;
 use crate::geometry::reorder::VertexOrder;
 use crate::geometry::topology::connected_components;
@@ -28,6 +29,14 @@ pub struct Constraints {
     pub free_index: Vec<Option<u32>>,
     /// Free vertices, ascending (row `r` of the free block is vertex `free_vertices[r]`).
     pub free_vertices: Vec<u32>,
+    /// Per-vertex stiffness $s_i$ of the rig's rigidity ([`crate::deform::rig`]); `None`:
+    /// 1 everywhere (nothing is scaled).
+    pub stiffness: Option<Vec<f64>>,
+    /// Soft-handle terms on free vertices, ascending by vertex ([`crate::deform::rig`]).
+    pub soft: Vec<SoftTerm>,
+    /// Per group id: the positions in `handle_vertices` of its vertices (the targets its motion
+    /// is fitted to); empty when there is no soft term.
+    pub soft_groups: Vec<Vec<u32>>,
 }
 
 impl Constraints {
@@ -53,12 +62,30 @@ impl Constraints {
                 free_vertices.push(v as u32);
             }
         }
+        let rig = handles.rig();
+        let soft = if rig.is_plain() {
+            Vec::new()
+        } else {
+            soft_terms(mesh, &handles.groups(), rig, |v| free_index[v].is_some())
+        };
+        let mut soft_groups = Vec::new();
+        if !soft.is_empty() {
+            soft_groups = vec![Vec::new(); handles.n_groups()];
+            for (i, &v) in handle_vertices.iter().enumerate() {
+                if let Some(g) = handles.labels()[v as usize] {
+                    soft_groups[g as usize].push(i as u32);
+                }
+            }
+        }
         Constraints {
             handle_vertices,
             pinned_vertices,
             pinned_components,
             free_index,
             free_vertices,
+            stiffness: rig.stiffness(),
+            soft,
+            soft_groups,
         }
     }
 
@@ -72,6 +99,9 @@ impl Constraints {
             pinned_components: 0,
             free_index: (0..n as u32).map(Some).collect(),
             free_vertices: (0..n as u32).collect(),
+            stiffness: None,
+            soft: Vec::new(),
+            soft_groups: Vec::new(),
         }
     }
 
@@ -90,12 +120,18 @@ impl Constraints {
                 free_vertices.push(i as u32);
             }
         }
+        let mut soft: Vec<SoftTerm> =
+            self.soft.iter().map(|t| SoftTerm { vertex: to_internal(&t.vertex), ..*t }).collect();
+        soft.sort_by_key(|t| t.vertex);
         Constraints {
             handle_vertices: self.handle_vertices.iter().map(to_internal).collect(),
             pinned_vertices,
             pinned_components: self.pinned_components,
             free_index,
             free_vertices,
+            stiffness: self.stiffness.as_ref().map(|s| order.gather(s)),
+            soft,
+            soft_groups: self.soft_groups.clone(),
         }
     }
 

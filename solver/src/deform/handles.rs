@@ -5,6 +5,7 @@
 //! but a [`Handles`] value always has at least one handle vertex; reading files lives in
 //! [`crate::deform::selection`].
 
+use crate::deform::rig::Rig;
 use thiserror::Error;
 
 /// Why a set of labels is not a usable handle selection.
@@ -27,6 +28,9 @@ pub struct Handles {
     labels: Vec<Option<u32>>,
     /// `groups[k]` = sorted vertex indices of group `k` (empty for ids absent from the labels).
     groups: Vec<Vec<u32>>,
+    /// Stiff regions and soft falloffs ([`crate::deform::rig`]); empty by default. Boxed: a
+    /// handle set travels in messages (the editor's solver commands) where size counts.
+    rig: Box<Rig>,
 }
 
 impl Handles {
@@ -60,7 +64,27 @@ impl Handles {
                 groups[*k as usize].push(v as u32);
             }
         }
-        Ok(Handles { labels, groups })
+        Ok(Handles { labels, groups, rig: Box::default() })
+    }
+
+    /// The same selection with `rig` (rigidity map, per-group falloffs). A rigidity map of
+    /// another length than the labels is dropped.
+    pub fn with_rig(mut self, mut rig: Rig) -> Handles {
+        if rig.rigidity.as_ref().is_some_and(|r| r.len() != self.labels.len()) {
+            rig.rigidity = None;
+        }
+        self.rig = Box::new(rig);
+        self
+    }
+
+    /// The rig ([`crate::deform::rig`]).
+    pub fn rig(&self) -> &Rig {
+        &self.rig
+    }
+
+    /// The vertices of every group id (empty for absent ids).
+    pub fn groups(&self) -> Vec<&[u32]> {
+        self.groups.iter().map(|g| g.as_slice()).collect()
     }
 
     /// Number of vertices of the mesh this selection belongs to.

@@ -15,4 +15,6 @@ pub mod handles;
 pub mod pose;
 pub mod quality;
 pub mod riders;
+pub mod rig;
 pub mod selection;
+pub mod symmetry;

@@ -79,6 +79,7 @@ impl EditorApp {
                 _ => {}
             }
         }
+        self.rigging_keys(ctx);
         let consume = |m: Modifiers, k: Key| ctx.input_mut(|i| i.consume_key(m, k));
         let cmd_shift = Modifiers::COMMAND | Modifiers::SHIFT;
         if consume(cmd_shift, Key::Z) || consume(Modifiers::COMMAND, Key::Y) {
@@ -188,7 +189,7 @@ impl EditorApp {
         let old = self.interaction.hover.as_ref().map(|h| (h.slot, h.footprint.clone()));
         self.interaction.hover = None;
         if let Some(pos) = pos
-            && self.interaction.tool == Tool::Paint
+            && matches!(self.interaction.tool, Tool::Paint | Tool::Rigidity)
             && let Some(hit) = self.pick(slot, rect, pos)
             && let Some(scene) = &self.session.scene
             && let Some(positions) = &self.display.viewports[slot].positions
@@ -204,6 +205,9 @@ impl EditorApp {
     }
 
     pub(super) fn paint_footprint(&mut self, erase: bool) {
+        if self.interaction.tool == Tool::Rigidity {
+            return self.paint_rigidity(erase);
+        }
         let Some(hover) = &self.interaction.hover else { return };
         let group = match (erase, self.interaction.active_group) {
             (true, _) => None,
@@ -225,6 +229,8 @@ impl EditorApp {
         if changed {
             self.display.color_version += 1;
         }
+        let footprint = hover.footprint.clone();
+        self.mirror_labels(&footprint, group);
     }
 
     pub(super) fn viewport_input(
@@ -261,7 +267,7 @@ impl EditorApp {
             return;
         }
         match self.interaction.tool {
-            Tool::Paint => self.paint_input(response, modifiers),
+            Tool::Paint | Tool::Rigidity => self.paint_input(response, modifiers),
             Tool::Pose => self.pose_input(ui, slot, rect, response, modifiers, delta),
         }
     }
@@ -279,6 +285,7 @@ impl EditorApp {
         let released = response.ctx.input(|i| i.pointer.primary_released());
         if self.interaction.stroke.is_some() && (released || !primary_down) {
             self.interaction.stroke = None;
+            self.rigging.stroke_partner = None;
             self.send_scene();
         }
     }
@@ -337,6 +344,7 @@ impl EditorApp {
                     pose.translation = t.to_array();
                 }
                 self.session.edit.groups[d.group].pose = pose;
+                self.mirror_pose(d.group);
                 self.send_poses();
             }
             if !ui.input(|i| i.pointer.primary_down()) {

@@ -15,7 +15,8 @@
 //! recording, export), `solvers` (solver commands and polling), `input` (keys, picking,
 //! painting, posing), `viewport` (vertex colors, the paint callback, overlays), `panels` (menu,
 //! side panels, status bar and the frame loop `ui()`), `parts` (the loose parts' Follow / Pin
-//! list) and `accessors` (for tests and scripts).
+//! list), `rigging` (rigidity brush, soft falloffs, symmetry) and `accessors` (for tests and
+//! scripts).
 
 mod accessors;
 mod capture;
@@ -23,6 +24,7 @@ mod input;
 mod panels;
 mod parts;
 mod playback;
+mod rigging;
 mod session;
 mod solvers;
 mod viewport;
@@ -95,6 +97,8 @@ pub enum Shading {
 pub enum Tool {
     Paint,
     Pose,
+    /// Paints the rigidity map (`solver::deform::rig`; Shift+R).
+    Rigidity,
 }
 
 pub struct EditorApp {
@@ -112,6 +116,8 @@ pub struct EditorApp {
     display: Display,
     /// Loading, dialogs, recording, export and the side-by-side quality.
     jobs: Jobs,
+    /// Rigidity brush, symmetry and the mirror map (`rigging`).
+    rigging: rigging::Rigging,
     error: Option<String>,
     info: Option<String>,
     /// Screenshots and PNG sequences (F12, File menu).
@@ -165,6 +171,7 @@ impl EditorApp {
             interaction: Interaction::default(),
             display: Display::new(&options),
             jobs: Jobs::default(),
+            rigging: rigging::Rigging::default(),
             error: None,
             info: None,
             capture: capture::Capture::new(options.config_dir.clone()),

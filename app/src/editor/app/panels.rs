@@ -20,7 +20,9 @@ impl EditorApp {
         ui.horizontal(|ui| {
             ui.selectable_value(&mut self.interaction.tool, Tool::Paint, "Paint (B)");
             ui.selectable_value(&mut self.interaction.tool, Tool::Pose, "Pose (G)");
+            ui.selectable_value(&mut self.interaction.tool, Tool::Rigidity, "Rigidity (Shift+R)");
         });
+        self.rigidity_tool_panel(ui);
         if self.interaction.tool == Tool::Paint {
             ui.add(
                 egui::Slider::new(&mut self.interaction.brush_radius, 0.002..=0.5)
@@ -28,7 +30,7 @@ impl EditorApp {
                     .text("brush radius"),
             );
             ui.label("Left drag paints, Ctrl erases; [ and ] resize.");
-        } else {
+        } else if self.interaction.tool == Tool::Pose {
             ui.label("Drag a group to move it; Ctrl+drag rotates it.");
         }
         ui.separator();
@@ -116,6 +118,7 @@ impl EditorApp {
                 self.start_dialog(ctx, DialogKind::SaveSelection);
             }
         });
+        self.rigging_panel(ui);
         self.parts_panel(ui);
         ui.separator();
         self.pose_panel(ui);
@@ -225,6 +228,7 @@ impl EditorApp {
         } else if changed && pose != self.session.edit.groups[k].pose {
             self.session.history.push(self.session.edit.clone());
             self.session.edit.groups[k].pose = pose;
+            self.mirror_pose(k);
             self.send_poses();
         }
         if let Some(scene) = &self.session.scene {
@@ -434,6 +438,8 @@ impl EditorApp {
                         ("B / G", "paint tool / pose tool"),
                         ("Left drag (paint)", "paint the active group; Ctrl erases"),
                         ("[ / ]", "brush radius"),
+                        ("Shift+R", "rigidity brush (shows the rigidity map)"),
+                        ("M / Shift+M", "mirror painting / mirror posing on-off"),
                         ("Left drag (pose)", "move a group in the view plane; Ctrl rotates"),
                         ("Ctrl+Z / Ctrl+Shift+Z", "undo / redo"),
                         ("W", "wireframe"),

@@ -443,8 +443,14 @@ impl EditorApp {
                 self.session.history.push(self.session.edit.clone());
                 // Component numbers depend on the mesh only: the loose parts' modes stay.
                 let parts = self.session.edit.loose_parts.clone();
-                self.session.edit =
-                    EditState { loose_parts: parts, ..EditState::from_labels(labels) };
+                let (rigidity, symmetry) =
+                    (self.session.edit.rigidity.clone(), self.session.edit.symmetry);
+                self.session.edit = EditState {
+                    loose_parts: parts,
+                    rigidity,
+                    symmetry,
+                    ..EditState::from_labels(labels)
+                };
                 self.interaction.active_group = (!self.session.edit.groups.is_empty()).then_some(0);
                 self.info = Some(format!("handles from {}", file_name(path)));
                 self.display.color_version += 1;
@@ -456,7 +462,7 @@ impl EditorApp {
 
     pub(super) fn apply_history(&mut self, state: Option<EditState>) {
         let Some(state) = state else { return };
-        let labels_changed = state.labels != self.session.edit.labels;
+        let labels_changed = state.labels != self.session.edit.labels || self.rig_differs(&state);
         let parts_changed = state.loose_parts != self.session.edit.loose_parts;
         self.session.edit = state;
         if self.interaction.active_group.is_some_and(|g| g >= self.session.edit.groups.len()) {

@@ -100,7 +100,7 @@ impl EditorApp {
         if !self.session.edit.has_handles() {
             return None;
         }
-        Handles::from_options(self.session.edit.labels.clone()).ok()
+        Handles::from_options(self.session.edit.labels.clone()).ok().map(|h| h.with_rig(self.rig()))
     }
 
     pub(super) fn poses(&self) -> Vec<GroupPose> {

@@ -140,6 +140,7 @@ impl EditorApp {
                 *c = colormap(m / max);
             }
         }
+        self.rigidity_colors(&mut colors, over_texture);
         for (c, l) in colors.iter_mut().zip(&self.session.edit.labels) {
             if let Some(g) = l.and_then(|g| self.session.edit.groups.get(g as usize)) {
                 let mut rgba = egui::Rgba::from(g.color).to_array();

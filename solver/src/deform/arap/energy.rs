@@ -13,11 +13,31 @@ impl Arap {
     /// (the expansion cancels when the pose is very close to rigid; the exact form is
     /// [`Arap::energy`]).
     pub(super) fn energy_from(&self, a: f64, t: f64) -> f64 {
-        (a + self.rest_term - 2.0 * t).max(0.0)
+        (a + self.rest_term - 2.0 * t).max(0.0) + self.soft_energy()
+    }
+
+    /// The soft handles' $\sum_v \lambda_v \lVert x_v - T_g(p_v)\rVert^2$ (0 without).
+    fn soft_energy(&self) -> f64 {
+        self.soft.as_deref().map_or(0.0, |soft| {
+            let x = &self.current;
+            soft.terms
+                .iter()
+                .zip(&soft.targets)
+                .map(|(&(_, v, _, lambda), t)| {
+                    let d = sub(x[v as usize], *t);
+                    lambda * (d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+                })
+                .sum()
+        })
     }
 
     /// $E(p', R)$ for the current pose and rotations.
     pub fn energy(&self) -> f64 {
+        self.cell_energy() + self.soft_energy()
+    }
+
+    /// The cells' part of [`Arap::energy`].
+    fn cell_energy(&self) -> f64 {
         let x = &self.current;
         let p = &self.rest;
         let rot = &self.rotations;

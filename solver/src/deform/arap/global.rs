@@ -66,6 +66,15 @@ impl Arap {
                 [*x, *y, *z] = row(c * task + l);
             }
         });
+        if let Some(soft) = self.soft.as_deref() {
+            let n = free.len();
+            for (&(r, _, _, lambda), t) in soft.terms.iter().zip(&soft.targets) {
+                let r = r as usize;
+                self.rhs[r] += lambda * t[0];
+                self.rhs[n + r] += lambda * t[1];
+                self.rhs[2 * n + r] += lambda * t[2];
+            }
+        }
     }
 
     /// Solves $L_{FF} X = $ `rhs` in place (the global step's back-substitution).

@@ -172,6 +172,19 @@ pub struct Arap {
     solved_at: Option<Vec<[f64; 3]>>,
     /// The rest bounding-box diagonal (the scale of the rigid-motion test).
     rest_diagonal: f64,
+    /// Soft-handle penalties (`None`: hard handles only; [`crate::deform::rig`]).
+    soft: Option<Box<Soft>>,
+}
+
+/// The soft-handle terms $\lambda_v \lVert x_v - T_g(p_v)\rVert^2$ in the internal numbering.
+#[derive(Debug, Clone)]
+struct Soft {
+    /// (free row, vertex, group, $\lambda_v$).
+    terms: Vec<(u32, u32, u32, f64)>,
+    /// Per group id: the positions of its vertices in the targets.
+    groups: Vec<Vec<u32>>,
+    /// Per term, $T_g(p_v)$ for the current targets (written by `place_handles`).
+    targets: Vec<[f64; 3]>,
 }
 
 impl Arap {

@@ -3,9 +3,10 @@
 //! ([`ring_coefficients`]), the energy's constant rest term, and the factorization of the
 //! free block $L_{FF}$ of the cotangent Laplacian (Sun et al. 2017, Eq. 4's matrix).
 
-use super::{Arap, ArapConfig, Cells, Csr, Energy};
+use super::{Arap, ArapConfig, Cells, Csr, Energy, Soft};
 use crate::deform::constraints::Constraints;
 use crate::deform::handles::Handles;
+use crate::deform::rig::soft_penalty;
 use crate::error::SolveError;
 use crate::geometry::cotan::{edge_weights, face_cotangents_or, laplacian_triplets, opposite_edge};
 use crate::geometry::mesh::{Mesh, add, norm2, scale, sub};
@@ -54,8 +55,16 @@ impl Arap {
         let rest = order.gather(mesh.positions());
         let tris = &order.triangles(mesh.triangles());
         let fallback = fallback.map(|f| order.gather(f));
-        let (cot, _) = face_cotangents_or(&rest, fallback.as_deref(), tris, min_double_area)
+        let (mut cot, _) = face_cotangents_or(&rest, fallback.as_deref(), tris, min_double_area)
             .map_err(|d| SolveError::DegenerateFace { face: d.face })?;
+        if let Some(s) = &inner.stiffness {
+            // Stiff regions (crate::deform::rig): each triangle's cotangents times the mean
+            // stiffness of its corners. Absent for rigidity 1 everywhere: no operation changes.
+            for (w, t) in cot.iter_mut().zip(tris) {
+                let sigma = (s[t[0] as usize] + s[t[1] as usize] + s[t[2] as usize]) / 3.0;
+                *w = w.map(|c| c * sigma);
+            }
+        }
         let clamp = config.energy == Energy::Spokes;
         let weights = edge_weights(tris, &cot, clamp);
 
@@ -72,6 +81,23 @@ impl Arap {
                 _ => {}
             }
         }
+        // Soft handles (crate::deform::rig): λ_v = L_vv w/(1 − w + δ) on the diagonal.
+        let soft = (!inner.soft.is_empty()).then(|| {
+            let terms = inner
+                .soft
+                .iter()
+                .filter_map(|t| {
+                    let r = inner.free_index[t.vertex as usize]?;
+                    let lambda = soft_penalty(diag[r as usize], t.weight);
+                    Some((r, t.vertex, t.group, lambda))
+                })
+                .collect::<Vec<_>>();
+            for &(r, _, _, lambda) in &terms {
+                diag[r as usize] += lambda;
+            }
+            let targets = terms.iter().map(|&(_, v, _, _)| rest[v as usize]).collect();
+            Box::new(Soft { terms, groups: inner.soft_groups.clone(), targets })
+        });
         ff.extend(diag.iter().enumerate().map(|(r, &d)| Triplet::new(r, r, d)));
         let n_free = inner.free_vertices.len();
         let factor = if n_free == 0 {
@@ -153,6 +179,7 @@ impl Arap {
             at_rest: true,
             solved_at: None,
             rest_diagonal: mesh.bbox_diagonal(),
+            soft,
         })
     }
 }

@@ -44,6 +44,26 @@ impl Arap {
         for &v in &self.inner.pinned_vertices {
             self.current[v as usize] = self.rest[v as usize];
         }
+        if let Some(soft) = self.soft.as_deref_mut() {
+            // Each soft group's motion: the best rigid fit of its handles' rest to targets.
+            let hv = &self.inner.handle_vertices;
+            let motions: Vec<Option<Motion>> = soft
+                .groups
+                .iter()
+                .map(|g| {
+                    (!g.is_empty()).then(|| {
+                        let from: Vec<[f64; 3]> =
+                            g.iter().map(|&i| self.rest[hv[i as usize] as usize]).collect();
+                        let to: Vec<[f64; 3]> = g.iter().map(|&i| targets[i as usize]).collect();
+                        fit_motion(&from, &to, None)
+                    })
+                })
+                .collect();
+            for (t, &(_, v, g, _)) in soft.targets.iter_mut().zip(&soft.terms) {
+                let p = self.rest[v as usize];
+                *t = motions.get(g as usize).copied().flatten().map_or(p, |m| m.apply(p));
+            }
+        }
     }
 
     /// The rigid start (module doc), then the handles on `targets`. Returns the energy when

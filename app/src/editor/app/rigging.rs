@@ -1,0 +1,439 @@
+//! Stiff regions, soft handles and symmetry in the editor: the rigidity brush and its colour
+//! view, the active group's falloff, the symmetry toggles, mirrored painting and mirrored
+//! posing. The equations are the solver's (`solver::deform::rig`, `solver::deform::symmetry`);
+//! the mirror map (a plane fit and a kd-tree pass over the mesh) is computed on a worker
+//! thread and polled here. Every edit goes through the undo history ([`EditState`]) and the
+//! rig reaches the solver with the handles ([`EditorApp::rig`], `SolverCommand::SetScene`).
+
+use std::sync::Arc;
+use std::sync::mpsc::{Receiver, channel};
+
+use eframe::egui::{self, Key, Modifiers};
+use solver::deform::rig::{Falloff, FalloffCurve, Rig};
+use solver::deform::symmetry::{
+    Axis, MirrorMap, SymmetryPlane, fit_plane, fit_plane_on, mirror_map, mirror_transform,
+    partner_group,
+};
+
+use super::{EditorApp, Tool};
+use crate::editor::pose::GroupPose;
+use crate::editor::undo::EditState;
+
+/// Which plane the mirror map is for.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Request {
+    /// The best fit over the three axes.
+    Auto,
+    /// The best offset along an axis the user chose.
+    Axis(Axis),
+    /// A plane as stored (a loaded scene, or a fit kept).
+    Exact(SymmetryPlane),
+}
+
+/// A mirror map for one mesh (identified by its `Arc`) and request.
+struct Mirror {
+    key: (usize, Request),
+    plane: SymmetryPlane,
+    error: f64,
+    map: Arc<MirrorMap>,
+}
+
+/// The rigging tools' UI state (not undoable: brush value, view toggle, the mirror map).
+pub(super) struct Rigging {
+    /// The rigidity the brush paints, in [0, 1].
+    pub(super) value: f64,
+    /// Show the rigidity map as colours (also while the rigidity brush is active).
+    pub(super) show: bool,
+    /// An axis chosen in the panel whose fitted plane is awaited.
+    fit_axis: Option<Axis>,
+    mirror: Option<Mirror>,
+    job: Option<((usize, Request), Receiver<Mirror>)>,
+    /// The partner group of the stroke in progress (mirrored painting of a handle group).
+    pub(super) stroke_partner: Option<u32>,
+    /// The state before a falloff slider drag, pushed when it ends.
+    slider_before: Option<EditState>,
+    /// Whether the last vertex colours showed the rigidity map.
+    shown: bool,
+}
+
+impl Default for Rigging {
+    fn default() -> Self {
+        Rigging {
+            value: 0.2,
+            show: false,
+            fit_axis: None,
+            mirror: None,
+            job: None,
+            stroke_partner: None,
+            slider_before: None,
+            shown: false,
+        }
+    }
+}
+
+/// Soft (blue) to stiff (orange) for rigidity `r`.
+fn rigidity_color(r: f64) -> [f32; 4] {
+    let t = r.clamp(0.0, 1.0) as f32;
+    let (soft, stiff) = ([0.15, 0.35, 1.0], [1.0, 0.45, 0.1]);
+    let c = |k: usize| soft[k] + t * (stiff[k] - soft[k]);
+    [c(0), c(1), c(2), 1.0]
+}
+
+impl EditorApp {
+    /// The rig the solver gets with the handles: the rigidity map and each group's falloff.
+    pub(super) fn rig(&self) -> Rig {
+        let edit = &self.session.edit;
+        Rig {
+            rigidity: edit.rigidity.clone(),
+            falloff: edit.groups.iter().map(|g| g.falloff).collect(),
+        }
+    }
+
+    /// Whether `state` has another rig than the current one (the solver must rebuild).
+    pub(super) fn rig_differs(&self, state: &EditState) -> bool {
+        let falloffs = |s: &EditState| s.groups.iter().map(|g| g.falloff).collect::<Vec<_>>();
+        state.rigidity != self.session.edit.rigidity
+            || falloffs(state) != falloffs(&self.session.edit)
+    }
+
+    fn mirror_request(&self) -> Request {
+        match (self.rigging.fit_axis, self.session.edit.symmetry.plane) {
+            (Some(a), _) => Request::Axis(a),
+            (None, Some(p)) => Request::Exact(p),
+            (None, None) => Request::Auto,
+        }
+    }
+
+    /// Whether mirroring is on at all (painting or posing).
+    fn mirror_wanted(&self) -> bool {
+        let s = &self.session.edit.symmetry;
+        s.mirror_painting || s.mirror_posing || self.rigging.fit_axis.is_some()
+    }
+
+    /// Starts the mirror map's job when the mesh or the plane changed, and takes its result.
+    pub(super) fn poll_rigging(&mut self) {
+        if self.showing_rigidity() != self.rigging.shown {
+            self.rigging.shown = self.showing_rigidity();
+            self.display.color_version += 1;
+        }
+        let Some(scene) = &self.session.scene else { return };
+        let key = (Arc::as_ptr(&scene.mesh) as usize, self.mirror_request());
+        if let Some((k, rx)) = &self.rigging.job
+            && let Ok(m) = rx.try_recv()
+        {
+            let done = *k;
+            self.rigging.job = None;
+            if done == key {
+                if let Request::Axis(_) = done.1 {
+                    self.rigging.fit_axis = None;
+                    self.session.edit.symmetry.plane = Some(m.plane);
+                    self.rigging.mirror =
+                        Some(Mirror { key: (done.0, Request::Exact(m.plane)), ..m });
+                } else {
+                    self.rigging.mirror = Some(m);
+                }
+            }
+        }
+        let have = self.rigging.mirror.as_ref().is_some_and(|m| m.key == key);
+        let running = self.rigging.job.as_ref().is_some_and(|(k, _)| *k == key);
+        if have || running || !self.mirror_wanted() {
+            return;
+        }
+        let positions = scene.mesh.positions().to_vec();
+        let (tx, rx) = channel();
+        let request = key.1;
+        std::thread::spawn(move || {
+            let (plane, error) = match request {
+                Request::Auto => fit_plane(&positions),
+                Request::Axis(a) => fit_plane_on(&positions, a),
+                Request::Exact(p) => (p, f64::NAN),
+            };
+            let map = mirror_map(&positions, &plane);
+            let error = if error.is_nan() { map.mean_error } else { error };
+            let _ = tx.send(Mirror { key, plane, error, map: Arc::new(map) });
+        });
+        self.rigging.job = Some((key, rx));
+    }
+
+    /// The mirror map for the current mesh and plane, once computed.
+    pub fn mirror(&self) -> Option<(SymmetryPlane, &MirrorMap)> {
+        let scene = self.session.scene.as_ref()?;
+        let key = (Arc::as_ptr(&scene.mesh) as usize, self.mirror_request());
+        self.rigging.mirror.as_ref().filter(|m| m.key == key).map(|m| (m.plane, &*m.map))
+    }
+
+    /// [`EditorApp::mirror`] with the map shared, so that the state can change meanwhile.
+    fn mirror_shared(&self) -> Option<(SymmetryPlane, Arc<MirrorMap>)> {
+        let scene = self.session.scene.as_ref()?;
+        let key = (Arc::as_ptr(&scene.mesh) as usize, self.mirror_request());
+        self.rigging.mirror.as_ref().filter(|m| m.key == key).map(|m| (m.plane, m.map.clone()))
+    }
+
+    /// The rigidity brush: footprint vertices (and their mirror partners when mirrored
+    /// painting is on) set to the brush value, or back to 1 when erasing.
+    pub(super) fn paint_rigidity(&mut self, erase: bool) {
+        let Some(hover) = &self.interaction.hover else { return };
+        let n = self.session.edit.labels.len();
+        let mut vertices = hover.footprint.clone();
+        if self.session.edit.symmetry.mirror_painting
+            && let Some((_, map)) = self.mirror_shared()
+        {
+            let partners: Vec<u32> = vertices.iter().map(|&v| map.partner[v as usize]).collect();
+            vertices.extend(partners);
+        }
+        let value = if erase { 1.0 } else { self.rigging.value.clamp(0.0, 1.0) };
+        let r = self.session.edit.rigidity.get_or_insert_with(|| vec![1.0; n]);
+        let mut changed = false;
+        for v in vertices {
+            if let Some(x) = r.get_mut(v as usize)
+                && *x != value
+            {
+                *x = value;
+                changed = true;
+            }
+        }
+        if r.iter().all(|&x| x == 1.0) {
+            self.session.edit.rigidity = None;
+        }
+        if changed {
+            self.display.color_version += 1;
+        }
+    }
+
+    /// Mirrored painting of a handle group: the footprint's mirror partners (outside the
+    /// footprint) get the partner group, created as a pair on the stroke's first paint.
+    pub(super) fn mirror_labels(&mut self, footprint: &[u32], group: Option<u32>) {
+        if !self.session.edit.symmetry.mirror_painting {
+            return;
+        }
+        let Some((_, map)) = self.mirror_shared() else { return };
+        let mut partners: Vec<u32> = footprint.iter().map(|&v| map.partner[v as usize]).collect();
+        partners.retain(|v| !footprint.contains(v));
+        if partners.is_empty() {
+            return;
+        }
+        let target = match group {
+            None => None,
+            Some(g) => Some(match self.rigging.stroke_partner {
+                Some(p) => p,
+                None => {
+                    let edit = &self.session.edit;
+                    let p = match partner_group(&edit.labels, &map, g) {
+                        Some(p) => p,
+                        None => {
+                            let name = format!("{} mirror", edit.groups[g as usize].name);
+                            let falloff = edit.groups[g as usize].falloff;
+                            let k = self.session.edit.add_group();
+                            self.session.edit.groups[k].name = name;
+                            self.session.edit.groups[k].falloff = falloff;
+                            k as u32
+                        }
+                    };
+                    self.rigging.stroke_partner = Some(p);
+                    p
+                }
+            }),
+        };
+        for v in partners {
+            self.session.edit.labels[v as usize] = target;
+        }
+        self.display.color_version += 1;
+    }
+
+    /// Mirrored posing: the partner of `group` takes its pose mirrored across the plane.
+    pub(super) fn mirror_pose(&mut self, group: usize) {
+        if !self.session.edit.symmetry.mirror_posing {
+            return;
+        }
+        let Some((plane, map)) = self.mirror_shared() else { return };
+        let Some(p) = partner_group(&self.session.edit.labels, &map, group as u32) else { return };
+        let pose = self.session.edit.groups[group].pose;
+        let mirrored = GroupPose::from_transform(&mirror_transform(&plane, &pose.transform()));
+        if let Some(g) = self.session.edit.groups.get_mut(p as usize) {
+            g.pose = mirrored;
+        }
+    }
+
+    /// Whether the rigidity map is drawn (the toggle, or the rigidity brush active).
+    pub(super) fn showing_rigidity(&self) -> bool {
+        self.rigging.show || self.interaction.tool == Tool::Rigidity
+    }
+
+    /// Paints the rigidity map into `colors` (soft blue to stiff orange).
+    pub(super) fn rigidity_colors(&self, colors: &mut [[f32; 4]], over_texture: bool) {
+        if !self.showing_rigidity() {
+            return;
+        }
+        let r = self.session.edit.rigidity.as_deref();
+        for (v, c) in colors.iter_mut().enumerate() {
+            let mut rgba = rigidity_color(r.and_then(|r| r.get(v)).copied().unwrap_or(1.0));
+            if over_texture {
+                rgba[3] = 0.7;
+            }
+            *c = rgba;
+        }
+    }
+
+    /// Shift+R: rigidity brush; M: mirrored painting; Shift+M: mirrored posing.
+    pub(super) fn rigging_keys(&mut self, ctx: &egui::Context) {
+        let consume = |m: Modifiers, k: Key| ctx.input_mut(|i| i.consume_key(m, k));
+        if consume(Modifiers::SHIFT, Key::R) {
+            self.interaction.tool = Tool::Rigidity;
+            self.display.color_version += 1;
+        }
+        if consume(Modifiers::SHIFT, Key::M) {
+            self.toggle_symmetry(|s| s.mirror_posing = !s.mirror_posing);
+        }
+        if consume(Modifiers::NONE, Key::M) {
+            self.toggle_symmetry(|s| s.mirror_painting = !s.mirror_painting);
+        }
+    }
+
+    fn toggle_symmetry(&mut self, f: impl FnOnce(&mut solver::animation::scene::SymmetrySpec)) {
+        self.session.history.push(self.session.edit.clone());
+        f(&mut self.session.edit.symmetry);
+    }
+
+    /// The rigidity brush's settings, under the tool buttons.
+    pub(super) fn rigidity_tool_panel(&mut self, ui: &mut egui::Ui) {
+        if self.interaction.tool != Tool::Rigidity {
+            return;
+        }
+        ui.add(
+            egui::Slider::new(&mut self.interaction.brush_radius, 0.002..=0.5)
+                .logarithmic(true)
+                .text("brush radius"),
+        );
+        ui.add(egui::Slider::new(&mut self.rigging.value, 0.0..=1.0).text("rigidity"));
+        ui.label("Left drag paints the rigidity (1 = plain ARAP, 0 = soft); Ctrl resets to 1.");
+        if ui.button("Clear rigidity").clicked() && self.session.edit.rigidity.is_some() {
+            self.session.history.push(self.session.edit.clone());
+            self.session.edit.rigidity = None;
+            self.display.color_version += 1;
+            self.send_scene();
+        }
+    }
+
+    /// The active group's falloff and the symmetry settings, below the group list.
+    pub(super) fn rigging_panel(&mut self, ui: &mut egui::Ui) {
+        self.poll_rigging();
+        if let Some(k) =
+            self.interaction.active_group.filter(|&k| k < self.session.edit.groups.len())
+        {
+            let before = self.session.edit.clone();
+            let mut f: Falloff = self.session.edit.groups[k].falloff;
+            ui.label(format!("Soft falloff of {}", self.session.edit.groups[k].name));
+            let slider = ui.add(
+                egui::Slider::new(&mut f.radius, 0.0..=0.5)
+                    .text("falloff radius")
+                    .custom_formatter(
+                        |r, _| if r == 0.0 { "hard".into() } else { format!("{r:.3}") },
+                    ),
+            );
+            let mut curve_changed = false;
+            ui.horizontal(|ui| {
+                for c in FalloffCurve::ALL {
+                    curve_changed |= ui.selectable_value(&mut f.curve, c, c.name()).changed();
+                }
+            });
+            if f != self.session.edit.groups[k].falloff {
+                if self.rigging.slider_before.is_none() {
+                    self.rigging.slider_before = Some(before);
+                }
+                self.session.edit.groups[k].falloff = f;
+            }
+            if self.rigging.slider_before.is_some() && (curve_changed || !slider.dragged()) {
+                if let Some(b) = self.rigging.slider_before.take() {
+                    self.session.history.push(b);
+                }
+                self.send_scene();
+            }
+        }
+        ui.horizontal(|ui| {
+            let s = self.session.edit.symmetry;
+            let mut paint = s.mirror_painting;
+            let mut pose = s.mirror_posing;
+            if ui.checkbox(&mut paint, "Mirror painting (M)").changed() {
+                self.toggle_symmetry(|s| s.mirror_painting = paint);
+            }
+            if ui.checkbox(&mut pose, "Mirror posing (Shift+M)").changed() {
+                self.toggle_symmetry(|s| s.mirror_posing = pose);
+            }
+        });
+        ui.horizontal(|ui| {
+            ui.label("Mirror plane:");
+            let current =
+                self.rigging.fit_axis.or(self.session.edit.symmetry.plane.map(|p| p.axis));
+            if ui.selectable_label(current.is_none(), "Auto").clicked() && current.is_some() {
+                self.rigging.fit_axis = None;
+                self.toggle_symmetry(|s| s.plane = None);
+            }
+            for a in Axis::ALL {
+                if ui.selectable_label(current == Some(a), a.name()).clicked() && current != Some(a)
+                {
+                    self.session.history.push(self.session.edit.clone());
+                    self.rigging.fit_axis = Some(a);
+                }
+            }
+        });
+        ui.horizontal(|ui| {
+            if ui
+                .checkbox(&mut self.rigging.show, "Show rigidity")
+                .on_hover_text("colour the mesh by rigidity: blue soft, orange stiff")
+                .changed()
+            {
+                self.display.color_version += 1;
+            }
+            match self.mirror() {
+                Some((p, _)) => {
+                    let err = self.rigging.mirror.as_ref().map_or(0.0, |m| m.error);
+                    ui.weak(format!("{} = {:.3}, error {:.1e}", p.axis.name(), p.offset, err))
+                }
+                None if self.mirror_wanted() => ui.weak("fitting the plane…"),
+                None => ui.weak(""),
+            };
+        });
+        if self.rigging.job.is_some() {
+            ui.ctx().request_repaint();
+        }
+    }
+}
+
+/// What tests and scripts read and set (beside `accessors`).
+impl EditorApp {
+    /// The rigidity map (`None`: 1 everywhere).
+    pub fn rigidity(&self) -> Option<&[f64]> {
+        self.session.edit.rigidity.as_deref()
+    }
+
+    /// The handle set the solvers get (labels with the rig), `None` without handles.
+    pub fn solver_handles(&self) -> Option<solver::Handles> {
+        self.handles()
+    }
+
+    /// The symmetry settings.
+    pub fn symmetry(&self) -> solver::animation::scene::SymmetrySpec {
+        self.session.edit.symmetry
+    }
+
+    /// The active tool.
+    pub fn tool(&self) -> Tool {
+        self.interaction.tool
+    }
+
+    /// The rigidity the brush paints.
+    pub fn set_rigidity_value(&mut self, value: f64) {
+        self.rigging.value = value.clamp(0.0, 1.0);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn colours_run_from_soft_to_stiff() {
+        let close = |a: [f32; 4], b: [f32; 4]| a.iter().zip(&b).all(|(x, y)| (x - y).abs() < 1e-6);
+        assert!(close(super::rigidity_color(0.0), [0.15, 0.35, 1.0, 1.0]));
+        assert!(close(super::rigidity_color(1.0), [1.0, 0.45, 0.1, 1.0]));
+        assert!(close(super::rigidity_color(7.0), super::rigidity_color(1.0)));
+    }
+}

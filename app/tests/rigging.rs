@@ -1,0 +1,215 @@
+//! Headless UI tests of the rigging tools (issue 26): the rigidity brush, a group's soft
+//! falloff, mirrored painting and mirrored posing, each driven through the editor with real
+//! keys, clicks and drags (egui_kittest + wgpu, as `editor.rs`), checked on what the solver
+//! gets (the handle set and its rig) or on the pose.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use app::editor::solver_thread::{Slot, SolverState};
+use app::editor::{EditorApp, EditorOptions, Tool, default_mesh_path};
+use eframe::egui::{Event, Key, Modifiers, PointerButton, Pos2, Vec2};
+use egui_kittest::{Harness, kittest::Queryable};
+use solver::deform::constraints::Constraints;
+
+const SIZE: Vec2 = Vec2::new(1000.0, 700.0);
+
+fn harness(path: PathBuf) -> Harness<'static, EditorApp> {
+    let builder =
+        Harness::builder().with_size(SIZE).with_render_cursor(false).with_step_dt(1.0 / 30.0);
+    builder.wgpu().build_eframe(move |cc| {
+        EditorApp::new(
+            cc,
+            EditorOptions { mesh_path: Some(path), deterministic_overlays: true, config_dir: None },
+        )
+    })
+}
+
+fn step_until(h: &mut Harness<'_, EditorApp>, what: &str, pred: impl Fn(&EditorApp) -> bool) {
+    let start = Instant::now();
+    while !pred(h.state()) {
+        assert!(start.elapsed() < Duration::from_secs(60), "timed out waiting for {what}");
+        h.step();
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    h.step();
+}
+
+fn settled(app: &EditorApp) -> bool {
+    !app.is_loading()
+        && app.n_vertices() > 0
+        && app.latest_frame(Slot::Main).is_some_and(|f| {
+            f.pose_generation == app.pose_generation()
+                && f.scene_generation == app.scene_generation()
+        })
+        && matches!(app.solver_state(), Some(SolverState::Converged))
+}
+
+fn press(h: &Harness<'_, EditorApp>, pos: Pos2, pressed: bool, modifiers: Modifiers) {
+    h.event(Event::PointerButton { pos, button: PointerButton::Primary, pressed, modifiers });
+}
+
+/// A left drag from `from` by `by`, in six steps, with `modifiers` held.
+fn drag(h: &mut Harness<'_, EditorApp>, from: Pos2, by: Vec2, modifiers: Modifiers) {
+    h.event(Event::PointerMoved(from));
+    h.step();
+    press(h, from, true, modifiers);
+    h.step();
+    for i in 1..=6 {
+        h.event(Event::PointerMoved(from + by * (i as f32 / 6.0)));
+        h.step();
+    }
+    press(h, from + by, false, modifiers);
+    h.step();
+    h.step();
+}
+
+/// The visible vertex drawn nearest `target` among those `keep` accepts.
+fn visible_vertex(app: &EditorApp, target: Pos2, keep: impl Fn(usize) -> bool) -> (usize, Pos2) {
+    (0..app.n_vertices())
+        .filter(|&v| keep(v))
+        .filter_map(|v| app.vertex_screen_pos(v).map(|p| (v, p)))
+        .filter(|(_, p)| p.x > 330.0 && p.x < SIZE.x - 10.0 && p.y > 60.0 && p.y < SIZE.y - 160.0)
+        .min_by(|a, b| a.1.distance(target).total_cmp(&b.1.distance(target)))
+        .expect("a visible vertex")
+}
+
+/// Shift+R picks the rigidity brush; a stroke paints the brush value into the map the solver
+/// gets; Ctrl+Z takes it back.
+#[test]
+fn the_rigidity_brush_paints_the_solvers_rigidity_map() {
+    let mut h = harness(default_mesh_path());
+    step_until(&mut h, "the default asset", settled);
+    assert!(h.state().rigidity().is_none());
+    h.key_press_modifiers(Modifiers::SHIFT, Key::R);
+    h.step();
+    assert_eq!(h.state().tool(), Tool::Rigidity, "Shift+R did not pick the rigidity brush");
+    h.state_mut().set_rigidity_value(0.25);
+    let rest = h.state().rest_positions().unwrap().to_vec();
+    let labels = h.state().labels().to_vec();
+    let keep = |v: usize| labels[v].is_none() && rest[v][2] > 0.15;
+    let (v, pos) = visible_vertex(h.state(), Pos2::new(SIZE.x * 0.55, SIZE.y * 0.45), keep);
+    // The tool's button is there too.
+    assert!(h.get_by_label("Rigidity (Shift+R)").rect().width() > 0.0);
+    let generation = h.state().scene_generation();
+    let labels_before = h.state().labels().to_vec();
+    drag(&mut h, pos, Vec2::new(2.0, 0.0), Modifiers::NONE);
+    assert_eq!(h.state().labels(), &labels_before[..], "the rigidity brush painted labels");
+    let r = h
+        .state()
+        .rigidity()
+        .unwrap_or_else(|| panic!("no rigidity map; vertex {v} at {pos:?}"))
+        .to_vec();
+    assert_eq!(r[v], 0.25, "vertex {v} not painted");
+    assert!(r.contains(&1.0), "the stroke painted everything");
+    assert!(h.state().scene_generation() > generation, "the stroke sent no new scene");
+    let handles = h.state().solver_handles().expect("handles");
+    assert_eq!(handles.rig().rigidity.as_deref(), Some(&r[..]));
+    step_until(&mut h, "a frame with the rigidity map", settled);
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    assert!(h.state().rigidity().is_none(), "undo kept the rigidity");
+}
+
+/// Dragging the falloff slider of the selected group gives the solver soft terms around it,
+/// and the pose of a dragged group then moves its neighbours more than a hard handle does.
+#[test]
+fn a_group_falloff_gives_the_solver_soft_constraints() {
+    let mut h = harness(default_mesh_path());
+    step_until(&mut h, "the default asset", settled);
+    h.state_mut().set_active_group(Some(5));
+    h.step();
+    let slider = h.get_all_by_label("falloff radius").next().expect("the falloff slider").rect();
+    drag(
+        &mut h,
+        slider.left_center() + Vec2::new(2.0, 0.0),
+        Vec2::new(slider.width() * 0.3, 0.0),
+        Modifiers::NONE,
+    );
+    let handles = h.state().solver_handles().expect("handles");
+    let f = handles.rig().falloff(5);
+    assert!(f.radius > 0.0, "the slider set no radius: {f:?}");
+    let loaded = solver::io::load_mesh(&default_mesh_path()).unwrap();
+    let c = Constraints::new(&loaded.mesh, &handles);
+    assert!(!c.soft.is_empty(), "no soft terms");
+    assert!(c.soft.iter().all(|t| t.group == 5 && t.weight > 0.0 && t.weight <= 1.0));
+    step_until(&mut h, "a frame for the soft handle set", settled);
+    // The curve buttons change it too, and undo restores the hard handle.
+    h.get_by_label("constant").click();
+    h.step();
+    h.step();
+    let curve = h.state().solver_handles().unwrap().rig().falloff(5).curve;
+    assert_eq!(curve, solver::deform::rig::FalloffCurve::Constant);
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    assert!(!h.state().solver_handles().unwrap().rig().falloff(5).is_soft());
+}
+
+/// With M on, painting a new group on one side also paints the mirror vertices, in a second
+/// group created as its pair; with Shift+M on, dragging a leg poses its mirror leg mirrored.
+#[test]
+fn mirrored_painting_and_posing() {
+    let mut h = harness(default_mesh_path());
+    step_until(&mut h, "the default asset", settled);
+    h.key_press(Key::M);
+    h.step();
+    assert!(h.state().symmetry().mirror_painting);
+    step_until(&mut h, "the mirror map", |a| a.mirror().is_some());
+    let (plane, map) = h.state().mirror().map(|(p, m)| (p, m.clone())).unwrap();
+    assert_eq!(plane.axis, solver::deform::symmetry::Axis::Z, "{plane:?}");
+    assert!(plane.offset.abs() < 1e-3 * h.state().diagonal());
+
+    // A new group on a free vertex off the plane.
+    let rest = h.state().rest_positions().unwrap().to_vec();
+    let labels = h.state().labels().to_vec();
+    let keep = |v: usize| labels[v].is_none() && rest[v][2] > 0.15 && map.partner[v] as usize != v;
+    let (v, pos) = visible_vertex(h.state(), Pos2::new(SIZE.x * 0.55, SIZE.y * 0.45), keep);
+    let n_groups = h.state().edit_state().groups.len();
+    h.get_by_label("Add group").click();
+    h.step();
+    h.state_mut().set_tool(Tool::Paint);
+    h.state_mut().set_active_group(Some(n_groups));
+    drag(&mut h, pos, Vec2::new(1.0, 0.0), Modifiers::NONE);
+    let labels = h.state().labels().to_vec();
+    assert_eq!(labels[v], Some(n_groups as u32), "vertex {v} not painted");
+    let partner = map.partner[v] as usize;
+    assert_eq!(labels[partner], Some(n_groups as u32 + 1), "mirror vertex {partner} not painted");
+    assert_eq!(h.state().edit_state().groups.len(), n_groups + 2, "no pair created");
+    step_until(&mut h, "a frame for the new groups", settled);
+
+    // Mirrored posing: drag group 0 (a leg); its partner follows mirrored across z = 0.
+    h.key_press_modifiers(Modifiers::SHIFT, Key::M);
+    h.step();
+    assert!(h.state().symmetry().mirror_posing);
+    h.state_mut().set_tool(Tool::Pose);
+    h.state_mut().set_active_group(Some(0));
+    let labels = h.state().labels().to_vec();
+    let partner_group = solver::deform::symmetry::partner_group(&labels, &map, 0).expect("pair");
+    let keep = |v: usize| labels[v] == Some(0) && rest[v][2] > 0.3;
+    let (_, pos) = visible_vertex(h.state(), Pos2::new(SIZE.x * 0.5, SIZE.y * 0.5), keep);
+    drag(&mut h, pos, Vec2::new(40.0, -30.0), Modifiers::NONE);
+    let t = h.state().group_pose(0).unwrap().translation;
+    let m = h.state().group_pose(partner_group as usize).unwrap().translation;
+    assert!(t.iter().map(|x| x * x).sum::<f64>() > 0.0, "the drag did not move group 0");
+    assert_eq!([m[0], m[1], -m[2]], t, "group {partner_group} not mirrored");
+    step_until(&mut h, "a frame for the mirrored pose", settled);
+    // A handle vertex of group 0 and its partner land mirrored (handles sit on their targets).
+    let f = h.state().latest_frame(Slot::Main).unwrap();
+    let a = (0..labels.len())
+        .find(|&a| labels[a] == Some(0) && labels[map.partner[a] as usize] == Some(partner_group))
+        .expect("a paired handle vertex");
+    let (pa, pb) = (f.positions[a], f.positions[map.partner[a] as usize]);
+    let (ra, rb) = (rest[a], rest[map.partner[a] as usize]);
+    let tol = 1e-4 * h.state().diagonal();
+    let mirrored_rest = [ra[0] - rb[0], ra[1] - rb[1], ra[2] + rb[2]];
+    let mirrored_now = [pa[0] - pb[0], pa[1] - pb[1], pa[2] + pb[2]].map(f64::from);
+    for k in 0..3 {
+        assert!(
+            (mirrored_now[k] - mirrored_rest[k]).abs() < tol + 1e-5,
+            "{mirrored_now:?} vs {mirrored_rest:?}"
+        );
+    }
+}
