@@ -18,11 +18,15 @@
 //! list) and `accessors` (for tests and scripts).
 
 mod accessors;
+mod gizmo;
 mod input;
 mod panels;
 mod parts;
 mod playback;
+mod prefs;
+mod selection;
 mod session;
+mod shortcuts;
 mod solvers;
 mod viewport;
 
@@ -37,6 +41,9 @@ use input::Interaction;
 use session::{Session, Store};
 use solvers::{SideBySideQuality, Solvers};
 use viewport::Display;
+
+pub use gizmo::TransformKind;
+pub use selection::{SelectCommand, SelectMode};
 
 /// The path of the default asset.
 pub fn default_mesh_path() -> PathBuf {
@@ -111,6 +118,11 @@ pub struct EditorApp {
     display: Display,
     /// Loading, dialogs, recording, export and the side-by-side quality.
     jobs: Jobs,
+    /// Box / lasso selection (`selection.rs`), the transform gizmo (`gizmo.rs`) and the
+    /// preferences (`prefs.rs`).
+    selecting: selection::Selecting,
+    gizmo: gizmo::GizmoState,
+    prefs: prefs::PrefsState,
     error: Option<String>,
     info: Option<String>,
 }
@@ -162,9 +174,13 @@ impl EditorApp {
             interaction: Interaction::default(),
             display: Display::new(&options),
             jobs: Jobs::default(),
+            selecting: Default::default(),
+            gizmo: Default::default(),
+            prefs: Default::default(),
             error: None,
             info: None,
         };
+        app.load_prefs(&ctx);
         app.solvers.main = app.spawn_solver(&ctx, Slot::Main);
         if let Some(path) = options.mesh_path {
             app.open(&ctx, path);
