@@ -64,9 +64,9 @@ fn box_and_lasso_select_into_the_active_group_and_undo_restores() {
     assert!(expected.len() > 20, "the box covers only {} vertices", expected.len());
     drag(&mut h, &path(&[r.left_top(), r.right_bottom()], 10.0, false), Modifiers::NONE);
     assert_eq!(in_group(h.state(), g), expected, "box selection");
-    for v in 0..h.state().n_vertices() {
+    for (v, rest) in rest_labels.iter().enumerate() {
         if !expected.contains(&v) {
-            assert_eq!(h.state().labels()[v], rest_labels[v], "vertex {v} outside the box changed");
+            assert_eq!(h.state().labels()[v], *rest, "vertex {v} outside the box changed");
         }
     }
     // Ctrl+drag over the left half removes those from the group.
@@ -199,8 +199,8 @@ fn grow_shrink_invert_connected_and_clear_edit_the_active_group() {
     let before = h.state().labels().to_vec();
     h.key_press_modifiers(Modifiers::COMMAND, Key::I);
     h.step();
-    for u in 0..n {
-        let want = match before[u] {
+    for (u, b) in before.iter().enumerate() {
+        let want = match *b {
             Some(k) if k as usize == g => None,
             None => Some(g as u32),
             other => other,

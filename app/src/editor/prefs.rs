@@ -121,7 +121,7 @@ mod tests {
     #[test]
     fn round_trip_through_the_folder() {
         let dir = ScratchDir::new("prefs-round-trip");
-        assert_eq!(Preferences::load(&*dir), (Preferences::default(), None));
+        assert_eq!(Preferences::load(&dir), (Preferences::default(), None));
         let p = Preferences {
             ui_scale: 1.5,
             theme: Theme::Light,
@@ -137,7 +137,7 @@ mod tests {
     fn bad_files_give_defaults_and_a_message() {
         let dir = ScratchDir::new("prefs-bad");
         std::fs::write(dir.join(FILE_NAME), "{ not json").unwrap();
-        let (p, msg) = Preferences::load(&*dir);
+        let (p, msg) = Preferences::load(&dir);
         assert_eq!(p, Preferences::default());
         let msg = msg.unwrap();
         assert!(msg.contains(FILE_NAME) && msg.contains("defaults used"), "{msg}");
@@ -152,7 +152,7 @@ mod tests {
         // A folder where the file should be: unreadable, not a panic.
         let dir2 = ScratchDir::new("prefs-dir");
         std::fs::create_dir(dir2.join(FILE_NAME)).unwrap();
-        let (p, msg) = Preferences::load(&*dir2);
+        let (p, msg) = Preferences::load(&dir2);
         assert_eq!(p, Preferences::default());
         assert!(msg.is_some());
     }

@@ -155,7 +155,7 @@ mod tests {
         let adj = Adjacency::new(8, &t);
         assert_eq!(set(&connected(&adj, &mask(8, &[3]))), vec![0, 1, 2, 3]);
         assert_eq!(set(&connected(&adj, &mask(8, &[5, 7]))), vec![4, 5, 6, 7]);
-        assert!(set(&connected(&adj, &vec![false; 8])).is_empty());
+        assert!(set(&connected(&adj, &[false; 8])).is_empty());
         // An isolated vertex stays under shrink (it has no neighbour outside).
         assert_eq!(set(&shrink(&adj, &mask(8, &[7]))), vec![7]);
     }

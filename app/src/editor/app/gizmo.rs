@@ -69,6 +69,9 @@ pub(super) struct GizmoState {
     swallow_press: bool,
 }
 
+/// The gizmo on screen: centre, the X, Y and Z arrow tips, the rings about X, Y and Z.
+type GizmoScreen = (Pos2, [Option<Pos2>; 3], [Vec<Pos2>; 3]);
+
 /// A grabbable part of the gizmo.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Part {
@@ -281,7 +284,9 @@ impl EditorApp {
         if self.interaction.tool != Tool::Pose {
             return false;
         }
+        // Ctrl+drag keeps its meaning of the pose tool (rotate the group under the pointer).
         if primary_pressed
+            && !ctrl
             && response.hovered()
             && let Some(p) = pos
             && let Some(part) = self.gizmo_part_at(rect, p)
@@ -356,7 +361,7 @@ impl EditorApp {
     }
 
     /// The screen geometry of the gizmo for the active group: centre, arrow tips, rings.
-    fn gizmo_geometry(&self, rect: Rect) -> Option<(Pos2, [Option<Pos2>; 3], [Vec<Pos2>; 3])> {
+    fn gizmo_geometry(&self, rect: Rect) -> Option<GizmoScreen> {
         let g = self.active_gizmo_group()?;
         let center = match &self.gizmo.transform {
             Some(t) if t.kind == TransformKind::Rotate => t.center,
@@ -378,8 +383,8 @@ impl EditorApp {
             return Some(Part::Plane);
         }
         let mut best: Option<(f32, Part)> = None;
-        for a in 0..3 {
-            if let Some(tip) = tips[a] {
+        for (a, tip) in tips.iter().enumerate() {
+            if let Some(tip) = *tip {
                 // The outer part of the arrow, so the centre stays the plane handle.
                 let d = distance_to_segment(p, c + (tip - c) * 0.25, tip);
                 if d <= GRAB_POINTS && best.is_none_or(|(b, _)| d < b) {

@@ -180,7 +180,7 @@ impl EditorApp {
             error: None,
             info: None,
         };
-        app.load_prefs(&ctx);
+        app.load_prefs();
         app.solvers.main = app.spawn_solver(&ctx, Slot::Main);
         if let Some(path) = options.mesh_path {
             app.open(&ctx, path);

@@ -17,11 +17,14 @@ pub(super) struct PrefsState {
     pub(super) show: bool,
     /// A bad file's message, shown once the first mesh has loaded (a load clears errors).
     message: Option<String>,
+    /// Scale and theme still to apply (on the first frame: the context's options set while
+    /// the app is created do not all last).
+    apply_look: bool,
 }
 
 impl EditorApp {
     /// Loads the preferences from the configuration folder and applies them (start only).
-    pub(super) fn load_prefs(&mut self, ctx: &egui::Context) {
+    pub(super) fn load_prefs(&mut self) {
         let Some(dir) = self.options.config_dir.clone() else { return };
         let (prefs, message) = Preferences::load(&dir);
         self.prefs.message = message;
@@ -29,7 +32,7 @@ impl EditorApp {
         self.prefs.saved = prefs;
         self.session.settings.bs_variant = prefs.default_method;
         self.interaction.brush_radius = prefs.brush_radius;
-        apply_look(ctx, &prefs);
+        self.prefs.apply_look = true;
     }
 
     pub(super) fn prefs_keys(&mut self, ctx: &egui::Context) {
@@ -40,6 +43,9 @@ impl EditorApp {
 
     /// The window when open, then saves what changed.
     pub(super) fn prefs_frame(&mut self, ctx: &egui::Context) {
+        if std::mem::take(&mut self.prefs.apply_look) {
+            apply_look(ctx, &self.prefs.current);
+        }
         if self.jobs.loading.is_none()
             && let Some(m) = self.prefs.message.take()
         {

@@ -138,7 +138,7 @@ impl EditorApp {
         ui.horizontal_wrapped(|ui| {
             for (c, label, hint) in [
                 (SelectCommand::Grow, "Grow", "add one ring of free vertices (+)"),
-                (SelectCommand::Shrink, "Shrink", "remove the group's border ring (−)"),
+                (SelectCommand::Shrink, "Shrink", "remove the group's border ring (-)"),
                 (SelectCommand::Invert, "Invert", "swap the group and the free vertices (Ctrl+I)"),
                 (
                     SelectCommand::Connected,
@@ -363,34 +363,6 @@ impl EditorApp {
     }
 }
 
-#[cfg(test)]
-#[allow(clippy::unwrap_used, clippy::expect_used)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn polygon_containment() {
-        let tri = [Pos2::new(0.0, 0.0), Pos2::new(10.0, 0.0), Pos2::new(0.0, 10.0)];
-        assert!(point_in_polygon(Pos2::new(2.0, 2.0), &tri));
-        assert!(!point_in_polygon(Pos2::new(8.0, 8.0), &tri));
-        // A concave "C": the notch is outside.
-        let c = [
-            Pos2::new(0.0, 0.0),
-            Pos2::new(10.0, 0.0),
-            Pos2::new(10.0, 3.0),
-            Pos2::new(3.0, 3.0),
-            Pos2::new(3.0, 7.0),
-            Pos2::new(10.0, 7.0),
-            Pos2::new(10.0, 10.0),
-            Pos2::new(0.0, 10.0),
-        ];
-        assert!(!point_in_polygon(Pos2::new(6.0, 5.0), &c));
-        assert!(point_in_polygon(Pos2::new(1.0, 5.0), &c));
-        assert!(!point_in_polygon(Pos2::new(1.0, 5.0), &c[..2]));
-        assert_eq!(SelectMode::Brush.next().next().next(), SelectMode::Brush);
-    }
-}
-
 /// For tests and scripts.
 impl EditorApp {
     pub fn select_mode(&self) -> SelectMode {
@@ -421,5 +393,33 @@ impl EditorApp {
     /// The open mesh's triangles (empty without one).
     pub fn triangles(&self) -> &[[u32; 3]] {
         self.session.scene.as_ref().map_or(&[], |s| s.mesh.triangles())
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used, clippy::expect_used)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn polygon_containment() {
+        let tri = [Pos2::new(0.0, 0.0), Pos2::new(10.0, 0.0), Pos2::new(0.0, 10.0)];
+        assert!(point_in_polygon(Pos2::new(2.0, 2.0), &tri));
+        assert!(!point_in_polygon(Pos2::new(8.0, 8.0), &tri));
+        // A concave "C": the notch is outside.
+        let c = [
+            Pos2::new(0.0, 0.0),
+            Pos2::new(10.0, 0.0),
+            Pos2::new(10.0, 3.0),
+            Pos2::new(3.0, 3.0),
+            Pos2::new(3.0, 7.0),
+            Pos2::new(10.0, 7.0),
+            Pos2::new(10.0, 10.0),
+            Pos2::new(0.0, 10.0),
+        ];
+        assert!(!point_in_polygon(Pos2::new(6.0, 5.0), &c));
+        assert!(point_in_polygon(Pos2::new(1.0, 5.0), &c));
+        assert!(!point_in_polygon(Pos2::new(1.0, 5.0), &c[..2]));
+        assert_eq!(SelectMode::Brush.next().next().next(), SelectMode::Brush);
     }
 }
