@@ -191,3 +191,35 @@ fn dragging_an_arrow_or_the_plane_square_moves_the_group() {
     let x_tip = tips[0].unwrap();
     assert!((x_tip.x - c.x) * t[0] as f32 > 0.0, "moved the wrong way: {t:?}");
 }
+
+#[test]
+fn dragging_a_ring_turns_the_group_about_its_axis() {
+    let mut h = start();
+    h.get_by_label("Pose (G)").click();
+    h.step();
+    let (c, tips) = h.state().gizmo_screen().unwrap();
+    let ring = h.state().gizmo_ring(2);
+    assert_eq!(ring.len(), 48, "the Z ring is on screen");
+    let others: Vec<Vec<Pos2>> = [0, 1].iter().map(|&a| h.state().gizmo_ring(a)).collect();
+    // A point of the Z ring well away from the arrows and the other rings.
+    let clear = |p: Pos2| {
+        let arrows = tips.iter().flatten().map(|&t| {
+            let (a, b) = (c + (t - c) * 0.25, t);
+            let ab = b - a;
+            let s = ((p - a).dot(ab) / ab.length_sq()).clamp(0.0, 1.0);
+            p.distance(a + ab * s)
+        });
+        let rings = others.iter().flatten().map(|&q| p.distance(q));
+        arrows.chain(rings).fold(f32::INFINITY, f32::min)
+    };
+    let i = (0..ring.len()).max_by(|&a, &b| clear(ring[a]).total_cmp(&clear(ring[b]))).unwrap();
+    assert!(clear(ring[i]) > 12.0, "no clear point on the Z ring");
+    let points: Vec<Pos2> = (0..=6).map(|k| ring[(i + k) % ring.len()]).collect();
+    drag(&mut h, &points, Modifiers::NONE);
+    assert_eq!(h.state().running_transform(), None);
+    let pose = h.state().group_pose(0).unwrap();
+    let q = pose.rotation;
+    assert!(angle_degrees(q) > 5.0, "the ring drag turned {}°", angle_degrees(q));
+    assert!(q[0].abs() < 1e-9 && q[1].abs() < 1e-9, "not about Z: {q:?}");
+    assert_eq!(pose.translation, [0.0; 3]);
+}

@@ -67,6 +67,17 @@ fn a_bad_preferences_file_gives_defaults_and_a_message() {
     assert_eq!(h.state().preferences(), Preferences::default());
     let err = h.state().error().expect("a message about the file").to_string();
     assert!(err.contains(FILE_NAME) && err.contains("defaults used"), "{err}");
+    // The ? window lists the new shortcuts.
+    h.event(Event::Text("?".into()));
+    h.step();
+    h.step();
+    for k in
+        ["Q", "Ctrl+I", "Ctrl+L", "Alt+A", "Alt+Z", "+ / -", "G or R, then X / Y / Z", "Ctrl+,"]
+    {
+        assert!(h.query_by_label(k).is_some(), "the ? window does not list {k}");
+    }
+    h.event(Event::Text("?".into()));
+    h.step();
     // The window still opens from the File menu.
     h.get_by_label("File").click();
     h.step();

@@ -493,6 +493,14 @@ impl EditorApp {
         let rect = *self.display.viewport_rects.first()?;
         self.gizmo_geometry(rect).map(|(c, tips, _)| (c, tips))
     }
+
+    /// The ring about world axis `axis` (0 = X) as drawn in viewport 0, in order.
+    pub fn gizmo_ring(&self, axis: usize) -> Vec<Pos2> {
+        let Some(&rect) = self.display.viewport_rects.first() else { return Vec::new() };
+        self.gizmo_geometry(rect)
+            .and_then(|(_, _, rings)| rings.get(axis).cloned())
+            .unwrap_or_default()
+    }
 }
 
 impl EditorApp {
