@@ -223,3 +223,48 @@ fn dragging_a_ring_turns_the_group_about_its_axis() {
     assert!(q[0].abs() < 1e-9 && q[1].abs() < 1e-9, "not about Z: {q:?}");
     assert_eq!(pose.translation, [0.0; 3]);
 }
+
+/// Types `text` into the drag value labelled `label` of the pose panel and confirms it.
+fn type_value(h: &mut Harness<'_, EditorApp>, label: &str, text: &str) {
+    h.get_by_label(label).click();
+    h.step();
+    h.key_press_modifiers(Modifiers::COMMAND, Key::A);
+    h.event(Event::Text(text.into()));
+    h.step();
+    h.key_press(Key::Enter);
+    h.step();
+    h.step();
+}
+
+#[test]
+fn typed_values_still_set_the_pose_after_a_gizmo_move() {
+    let mut h = start();
+    let (c, _) = h.state().gizmo_screen().unwrap();
+    let p0 = c + Vec2::new(30.0, 30.0);
+    move_pointer(&mut h, [p0]);
+    h.key_press(Key::G);
+    h.step();
+    h.key_press(Key::Y);
+    h.step();
+    move_pointer(&mut h, (1..=4).map(|i| p0 + Vec2::new(0.0, -10.0 * i as f32)));
+    h.key_press(Key::Enter);
+    h.step();
+    let t = h.state().group_pose(0).unwrap().translation;
+    assert!(t[1] > 0.0 && t[0] == 0.0 && t[2] == 0.0, "{t:?}");
+    // The typed x joins the gizmo's y.
+    type_value(&mut h, "x", "0.25");
+    let t2 = h.state().group_pose(0).unwrap().translation;
+    assert_eq!(t2[0], 0.25, "typed x: {t2:?}");
+    assert_eq!((t2[1], t2[2]), (t[1], t[2]));
+    type_value(&mut h, "rz", "30");
+    let q = h.state().group_pose(0).unwrap().rotation;
+    assert!(
+        (angle_degrees(q) - 30.0).abs() < 1e-6 && q[0] == 0.0 && q[1] == 0.0,
+        "typed rz: {q:?}"
+    );
+    // Undo goes back through the typed values to the gizmo move.
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    assert_eq!(h.state().group_pose(0).unwrap().translation, t);
+}
