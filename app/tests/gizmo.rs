@@ -268,3 +268,45 @@ fn typed_values_still_set_the_pose_after_a_gizmo_move() {
     h.step();
     assert_eq!(h.state().group_pose(0).unwrap().translation, t);
 }
+
+#[test]
+fn numbers_typed_during_g_or_r_set_the_distance_or_angle() {
+    let mut h = start();
+    let (c, _) = h.state().gizmo_screen().unwrap();
+    move_pointer(&mut h, [c + Vec2::new(30.0, 30.0)]);
+    h.key_press(Key::G);
+    h.step();
+    h.key_press(Key::X);
+    h.step();
+    // A keyboard sends the digit key and its text; the digit's view preset must not fire.
+    for ch in ["0", ".", "5"] {
+        h.event(Event::Text(ch.into()));
+    }
+    h.key_press(Key::Num5);
+    h.step();
+    h.key_press(Key::Backspace);
+    h.step();
+    h.event(Event::Text("7".into()));
+    h.step();
+    // "0.5", Backspace, "7": 0.7.
+    assert_eq!(h.state().group_pose(0).unwrap().translation, [0.7, 0.0, 0.0]);
+    // The pointer no longer moves it while a number is typed.
+    move_pointer(&mut h, [c + Vec2::new(90.0, 10.0)]);
+    assert_eq!(h.state().group_pose(0).unwrap().translation, [0.7, 0.0, 0.0]);
+    h.key_press(Key::Enter);
+    h.step();
+    assert_eq!(h.state().running_transform(), None);
+
+    h.key_press(Key::R);
+    h.step();
+    h.key_press(Key::Z);
+    h.step();
+    h.event(Event::Text("-30".into()));
+    h.step();
+    h.key_press(Key::Enter);
+    h.step();
+    let pose = h.state().group_pose(0).unwrap();
+    assert!((angle_degrees(pose.rotation) - 30.0).abs() < 1e-9, "{:?}", pose.rotation);
+    assert!(pose.rotation[2] < 0.0 && pose.rotation[0] == 0.0 && pose.rotation[1] == 0.0);
+    assert_eq!(pose.translation, [0.7, 0.0, 0.0]);
+}

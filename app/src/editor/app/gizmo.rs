@@ -4,7 +4,8 @@
 //! (X red, Y green, Z blue), three rotate rings and a screen-plane square; dragging one moves
 //! or turns the group along that axis (the square: in the view plane). From the keyboard,
 //! G starts a modal move and R a modal rotation of the active group that follow the pointer;
-//! X, Y or Z then constrains to that world axis (again: free), a click or Enter confirms, Esc
+//! X, Y or Z then constrains to that world axis (again: free), a typed number sets the
+//! distance or the angle in degrees, a click or Enter confirms, Esc
 //! or a right click cancels. Ctrl snaps moves to [`snap_step`] and turns to 15°.
 //!
 //! The maths is in `crate::editor::gizmo`; the result is a group pose written and sent as
@@ -59,6 +60,10 @@ pub(super) struct Transform {
     last_pointer: Pos2,
     /// Screen turn accumulated frame by frame (so turns past ±180° keep counting), radians.
     turned: f32,
+    /// A value typed during a modal transform (Blender's numeric input): a distance along
+    /// the axis (X when free) or an angle in degrees; it overrides the pointer while it
+    /// parses.
+    typed: String,
 }
 
 /// The gizmo's state.
@@ -148,6 +153,7 @@ impl EditorApp {
             start_pointer: pointer,
             last_pointer: pointer,
             turned: 0.0,
+            typed: String::new(),
         });
         self.interaction.drag = None;
         true
@@ -200,6 +206,7 @@ impl EditorApp {
                     }
                 }
             }
+            self.modal_typing(ctx);
             if consume(Modifiers::NONE, Key::Enter) {
                 self.confirm_transform();
             }
@@ -234,6 +241,52 @@ impl EditorApp {
                     consume(Modifiers::NONE, k);
                     self.interaction.tool = Tool::Pose;
                 }
+            }
+        }
+    }
+
+    /// Digits, '.', '-' and Backspace edit the typed value of a modal transform (the digit
+    /// keys' view presets are held off meanwhile); the pose follows at once.
+    fn modal_typing(&mut self, ctx: &egui::Context) {
+        let Some(t) = &mut self.gizmo.transform else { return };
+        let before = t.typed.clone();
+        let events = ctx.input(|i| i.events.clone());
+        for e in events {
+            match e {
+                egui::Event::Text(s) => {
+                    for ch in s.chars().filter(|c| c.is_ascii_digit() || *c == '.' || *c == '-') {
+                        t.typed.push(ch);
+                    }
+                }
+                egui::Event::Key { key: Key::Backspace, pressed: true, .. } => {
+                    t.typed.pop();
+                }
+                _ => {}
+            }
+        }
+        ctx.input_mut(|i| {
+            for k in [
+                Key::Num0,
+                Key::Num1,
+                Key::Num2,
+                Key::Num3,
+                Key::Num4,
+                Key::Num5,
+                Key::Num6,
+                Key::Num7,
+                Key::Num8,
+                Key::Num9,
+                Key::Minus,
+                Key::Period,
+                Key::Backspace,
+            ] {
+                i.consume_key(Modifiers::NONE, k);
+            }
+        });
+        if t.typed != before {
+            let (slot, pointer) = (t.slot, t.last_pointer);
+            if let Some(&rect) = self.display.viewport_rects.get(slot) {
+                self.update_transform(rect, pointer, false);
             }
         }
     }
@@ -312,8 +365,18 @@ impl EditorApp {
         let radius = self.session.scene.as_ref().map_or(1.0, |s| s.radius);
         let back = self.display.camera.back();
         let mut pose = t.start_pose;
-        match t.kind {
-            TransformKind::Translate => {
+        let typed: Option<f64> = t.typed.parse().ok().filter(|v: &f64| v.is_finite());
+        match (t.kind, typed) {
+            (TransformKind::Translate, Some(v)) => {
+                let axis = AXES[t.axis.unwrap_or(0)].as_dvec3();
+                let tr = DVec3::from_array(t.start_pose.translation) + axis * v;
+                pose.translation = tr.to_array();
+            }
+            (TransformKind::Rotate, Some(v)) => {
+                let axis = t.axis.map_or(back, |a| AXES[a]).as_dvec3();
+                pose.set_quat(DQuat::from_axis_angle(axis, v.to_radians()) * t.start_pose.quat());
+            }
+            (TransformKind::Translate, None) => {
                 let mut delta = match t.axis {
                     Some(a) => {
                         let start = self.ray_at(rect, t.start_pointer);
@@ -339,7 +402,7 @@ impl EditorApp {
                 let tr = DVec3::from_array(t.start_pose.translation) + delta.as_dvec3();
                 pose.translation = tr.to_array();
             }
-            TransformKind::Rotate => {
+            (TransformKind::Rotate, None) => {
                 let axis = t.axis.map_or(back, |a| AXES[a]);
                 let mut angle = angle_about_axis(t.turned, axis, back);
                 if ctrl {
@@ -469,6 +532,7 @@ impl EditorApp {
                 }
             };
             let axis = t.axis.map_or("", |a| ["  along X", "  along Y", "  along Z"][a]);
+            let text = if t.typed.is_empty() { text } else { format!("{text}  [{}]", t.typed) };
             painter.text(
                 rect.left_bottom() + egui::vec2(10.0, -10.0),
                 egui::Align2::LEFT_BOTTOM,

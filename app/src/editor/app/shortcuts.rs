@@ -28,6 +28,10 @@ pub const SHORTCUTS: &[(&str, &str)] = &[
     ("G", "move the active group with the pointer (pose tool)"),
     ("R", "rotate the active group with the pointer"),
     ("G or R, then X / Y / Z", "constrain to that world axis (again: free)"),
+    (
+        "G or R, then a number",
+        "move by that distance (along the axis, X when free) / turn by degrees",
+    ),
     ("Ctrl (moving, rotating)", "snap to grid cells / 15°"),
     ("Click / Enter", "confirm the move or rotation"),
     ("Esc / right click", "cancel the move or rotation"),
