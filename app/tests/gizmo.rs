@@ -67,6 +67,21 @@ fn g_then_x_moves_the_group_along_x_only_and_the_handles_follow() {
     let t = h.state().group_pose(0).unwrap().translation;
     assert!(t[0] > 1e-3 * diag, "no move along X: {t:?}");
     assert_eq!((t[1], t[2]), (0.0, 0.0), "moved off the X axis: {t:?}");
+    // Ctrl+Z during the transform cancels it, and undoes nothing else.
+    let edits_before = h.state().edit_state().clone();
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    assert_eq!(h.state().running_transform(), None);
+    assert_eq!(h.state().group_pose(0).unwrap().translation, [0.0; 3]);
+    assert_eq!(h.state().labels(), &edits_before.labels[..]);
+    // Again, confirmed this time.
+    move_pointer(&mut h, [p0]);
+    h.key_press(Key::G);
+    h.step();
+    h.key_press(Key::X);
+    h.step();
+    move_pointer(&mut h, (1..=6).map(|i| p0 + Vec2::new(12.0 * i as f32, 5.0 * i as f32)));
+    assert_eq!(h.state().group_pose(0).unwrap().translation, t);
     h.key_press(Key::Enter);
     h.step();
     assert_eq!(h.state().running_transform(), None, "Enter confirms");

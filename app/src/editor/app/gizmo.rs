@@ -181,6 +181,11 @@ impl EditorApp {
     /// Esc mean the transform's while one runs.
     pub(super) fn gizmo_keys(&mut self, ctx: &egui::Context) {
         let consume = |m: Modifiers, k: Key| ctx.input_mut(|i| i.consume_key(m, k));
+        // Undo while a transform runs: it cancels the transform (nothing else is undone).
+        if self.gizmo.transform.is_some() && consume(Modifiers::COMMAND, Key::Z) {
+            self.cancel_transform();
+            return;
+        }
         if self.gizmo.transform.as_ref().is_some_and(|t| t.modal) {
             for (k, a) in [(Key::X, 0), (Key::Y, 1), (Key::Z, 2)] {
                 if consume(Modifiers::NONE, k)
