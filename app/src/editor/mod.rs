@@ -7,20 +7,23 @@
 //! poses → handle targets), [`pose_solvers`] (the methods the threads run), [`loader`] (mesh
 //! loading off the UI thread), [`undo`] (edit state and history), [`timeline`] (playback and
 //! path editing), [`jobs`] (recording and glTF export threads), [`document`] (the editor state
-//! as a scene file), [`persist`] (recent files, autosave) and [`capture`] (offscreen pictures:
-//! `bsarap render`, screenshots).
+//! as a scene file), [`persist`] (recent files, autosave), [`capture`] (offscreen pictures:
+//! `bsarap render`, screenshots), [`prefs`] (preferences file) and [`gizmo`] (the transform
+//! gizmo's geometry).
 
 pub mod app;
 pub mod brush;
 pub mod camera;
 pub mod capture;
 pub mod document;
+pub mod gizmo;
 pub mod jobs;
 pub mod loader;
 pub mod persist;
 pub mod picking;
 pub mod pose;
 pub mod pose_solvers;
+pub mod prefs;
 pub mod render_layout;
 pub mod renderer;
 pub mod solver_thread;
@@ -30,7 +33,10 @@ pub mod undo;
 
 use std::path::PathBuf;
 
-pub use app::{EditorApp, EditorOptions, Shading, Tool, View, default_mesh_path};
+pub use app::{
+    EditorApp, EditorOptions, SelectCommand, SelectMode, Shading, Tool, TransformKind, View,
+    default_mesh_path,
+};
 
 /// Opens the editor window on `mesh_path`, or on the default asset when `None`.
 pub fn run(mesh_path: Option<PathBuf>) -> anyhow::Result<()> {

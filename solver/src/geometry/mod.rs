@@ -12,6 +12,7 @@ pub mod kdtree;
 pub mod mass;
 pub mod mesh;
 pub mod normals;
+pub mod region;
 pub mod reorder;
 pub mod shapes;
 pub mod simplify;

@@ -152,6 +152,11 @@ impl Adjacency {
         Adjacency { offsets, neighbors: pairs.into_iter().map(|(_, b)| b).collect() }
     }
 
+    /// The number of vertices (`n_vertices` of [`Adjacency::new`]).
+    pub fn n_vertices(&self) -> usize {
+        self.offsets.len().saturating_sub(1)
+    }
+
     /// The neighbours of `v`, ascending.
     pub fn neighbors(&self, v: u32) -> &[u32] {
         &self.neighbors[self.offsets[v as usize] as usize..self.offsets[v as usize + 1] as usize]

@@ -64,6 +64,7 @@ impl EditorApp {
         if ctx.text_edit_focused() {
             return;
         }
+        self.tool_keys(ctx);
         let events = ctx.input(|i| i.events.clone());
         for e in events {
             match e {
@@ -253,6 +254,9 @@ impl EditorApp {
         }
         if response.hovered() && scroll != 0.0 {
             self.display.camera.zoom(scroll);
+        }
+        if !alt_orbit && self.tool_input(ui, slot, rect, response, modifiers) {
+            return;
         }
         let hover_pos = response.hover_pos().filter(|_| !alt_orbit);
         if self.interaction.drag.is_none() {

@@ -20,12 +20,16 @@
 
 mod accessors;
 mod capture;
+mod gizmo;
 mod input;
 mod panels;
 mod parts;
 mod playback;
+mod prefs;
 mod rigging;
+mod selection;
 mod session;
+mod shortcuts;
 mod solvers;
 mod viewport;
 
@@ -40,6 +44,9 @@ use input::Interaction;
 use session::{Session, Store};
 use solvers::{SideBySideQuality, Solvers};
 use viewport::Display;
+
+pub use gizmo::TransformKind;
+pub use selection::{SelectCommand, SelectMode};
 
 /// The path of the default asset.
 pub fn default_mesh_path() -> PathBuf {
@@ -118,6 +125,11 @@ pub struct EditorApp {
     jobs: Jobs,
     /// Rigidity brush, symmetry and the mirror map (`rigging`).
     rigging: rigging::Rigging,
+    /// Box / lasso selection (`selection.rs`), the transform gizmo (`gizmo.rs`) and the
+    /// preferences (`prefs.rs`).
+    selecting: selection::Selecting,
+    gizmo: gizmo::GizmoState,
+    prefs: prefs::PrefsState,
     error: Option<String>,
     info: Option<String>,
     /// Screenshots and PNG sequences (F12, File menu).
@@ -172,10 +184,14 @@ impl EditorApp {
             display: Display::new(&options),
             jobs: Jobs::default(),
             rigging: rigging::Rigging::default(),
+            selecting: Default::default(),
+            gizmo: Default::default(),
+            prefs: Default::default(),
             error: None,
             info: None,
             capture: capture::Capture::new(options.config_dir.clone()),
         };
+        app.load_prefs();
         app.solvers.main = app.spawn_solver(&ctx, Slot::Main);
         if let Some(path) = options.mesh_path {
             app.open(&ctx, path);

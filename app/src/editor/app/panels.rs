@@ -30,6 +30,7 @@ impl EditorApp {
                     .text("brush radius"),
             );
             ui.label("Left drag paints, Ctrl erases; [ and ] resize.");
+            self.selection_panel(ui);
         } else if self.interaction.tool == Tool::Pose {
             ui.label("Drag a group to move it; Ctrl+drag rotates it.");
         }
@@ -428,37 +429,7 @@ impl EditorApp {
         egui::Window::new("Shortcuts").open(&mut open).collapsible(false).resizable(false).show(
             ctx,
             |ui| {
-                egui::Grid::new("shortcuts").striped(true).show(ui, |ui| {
-                    for (k, what) in [
-                        ("Middle drag / Alt+left drag", "orbit"),
-                        ("Shift+middle drag", "pan"),
-                        ("Wheel", "zoom"),
-                        ("F", "frame the mesh"),
-                        ("1 / 3 / 7 (Ctrl: opposite)", "front / right / top view"),
-                        ("B / G", "paint tool / pose tool"),
-                        ("Left drag (paint)", "paint the active group; Ctrl erases"),
-                        ("[ / ]", "brush radius"),
-                        ("Shift+R", "rigidity brush (shows the rigidity map)"),
-                        ("M / Shift+M", "mirror painting / mirror posing on-off"),
-                        ("Left drag (pose)", "move a group in the view plane; Ctrl rotates"),
-                        ("Ctrl+Z / Ctrl+Shift+Z", "undo / redo"),
-                        ("W", "wireframe"),
-                        ("T", "texture / clay shading"),
-                        ("Ctrl+O", "open a mesh or scene (or drop a file)"),
-                        ("Ctrl+S / Ctrl+Shift+S", "save scene / save as"),
-                        ("Space / Home", "play-pause / to the start"),
-                        ("K", "key the active group's pose at the current time"),
-                        ("Double-click a group", "rename it"),
-                        ("Ctrl+Q", "quit"),
-                        ("F3", "render FPS overlay"),
-                        ("F12", "screenshot (size and folder: File, Capture settings…)"),
-                        ("?", "this overlay"),
-                    ] {
-                        ui.monospace(k);
-                        ui.label(what);
-                        ui.end_row();
-                    }
-                });
+                super::shortcuts::grid(ui, "shortcuts");
             },
         );
         self.display.show_shortcuts = open;
@@ -532,6 +503,10 @@ impl eframe::App for EditorApp {
                     }
                     if ui.button("Save scene as…  Ctrl+Shift+S").clicked() {
                         self.start_dialog(&ctx, DialogKind::SaveScene);
+                    }
+                    ui.separator();
+                    if ui.button("Preferences…  Ctrl+,").clicked() {
+                        self.prefs.show = true;
                     }
                     ui.separator();
                     if ui
@@ -642,6 +617,7 @@ impl eframe::App for EditorApp {
         if self.display.show_shortcuts {
             self.shortcuts_window(&ctx);
         }
+        self.prefs_frame(&ctx);
         self.restore_window(&ctx);
         self.unsaved_window(&ctx);
         let spent = now.elapsed().as_secs_f32() * 1e3;

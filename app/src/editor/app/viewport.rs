@@ -306,6 +306,7 @@ impl EditorApp {
             );
         }
         self.draw_overlays(&painter, slot, rect);
+        self.draw_tool_overlays(&painter, slot, rect);
     }
 
     pub(super) fn draw_overlays(&self, painter: &egui::Painter, slot: usize, rect: Rect) {

@@ -1,0 +1,147 @@
+//! The preferences window (Ctrl+,) and applying [`Preferences`]: loaded at start from the
+//! configuration folder, saved there whenever one changes (the brush radius too, however it
+//! was changed). Without a configuration folder they live for the session only.
+
+use eframe::egui::{self, Key, Modifiers};
+
+use super::EditorApp;
+use crate::editor::pose_solvers;
+use crate::editor::prefs::{BRUSH_RADIUS_RANGE, Preferences, Theme, UI_SCALES};
+
+/// The preferences and the window's state.
+#[derive(Debug, Clone, Default)]
+pub(super) struct PrefsState {
+    pub(super) current: Preferences,
+    /// What the file holds (what was loaded or last saved).
+    saved: Preferences,
+    pub(super) show: bool,
+    /// A bad file's message, shown once the first mesh has loaded (a load clears errors).
+    message: Option<String>,
+    /// Scale and theme still to apply (on the first frame: the context's options set while
+    /// the app is created do not all last).
+    apply_look: bool,
+}
+
+impl EditorApp {
+    /// Loads the preferences from the configuration folder and applies them (start only).
+    pub(super) fn load_prefs(&mut self) {
+        let Some(dir) = self.options.config_dir.clone() else { return };
+        let (prefs, message) = Preferences::load(&dir);
+        self.prefs.message = message;
+        self.prefs.current = prefs;
+        self.prefs.saved = prefs;
+        self.session.settings.bs_variant = prefs.default_method;
+        self.interaction.brush_radius = prefs.brush_radius;
+        self.prefs.apply_look = true;
+    }
+
+    pub(super) fn prefs_keys(&mut self, ctx: &egui::Context) {
+        if ctx.input_mut(|i| i.consume_key(Modifiers::COMMAND, Key::Comma)) {
+            self.prefs.show = !self.prefs.show;
+        }
+    }
+
+    /// The window when open, then saves what changed.
+    pub(super) fn prefs_frame(&mut self, ctx: &egui::Context) {
+        if std::mem::take(&mut self.prefs.apply_look) {
+            apply_look(ctx, &self.prefs.current);
+        }
+        if self.jobs.loading.is_none()
+            && let Some(m) = self.prefs.message.take()
+        {
+            self.error = Some(m);
+        }
+        self.prefs.current.brush_radius = self.interaction.brush_radius;
+        if self.prefs.show {
+            let mut open = true;
+            let before = self.prefs.current;
+            egui::Window::new("Preferences").open(&mut open).resizable(false).show(ctx, |ui| {
+                self.prefs_ui(ui);
+            });
+            self.prefs.show = open;
+            let now = self.prefs.current;
+            if now.ui_scale != before.ui_scale || now.theme != before.theme {
+                apply_look(ctx, &now);
+            }
+            self.interaction.brush_radius = now.brush_radius;
+        }
+        if self.prefs.current != self.prefs.saved
+            && let Some(dir) = &self.options.config_dir
+        {
+            match self.prefs.current.save(dir) {
+                Ok(_) => self.prefs.saved = self.prefs.current,
+                Err(e) => {
+                    self.error = Some(format!("preferences not saved: {e}"));
+                    // Do not retry every frame; the next change tries again.
+                    self.prefs.saved = self.prefs.current;
+                }
+            }
+        }
+    }
+
+    fn prefs_ui(&mut self, ui: &mut egui::Ui) {
+        let p = &mut self.prefs.current;
+        egui::Grid::new("prefs_grid").num_columns(2).show(ui, |ui| {
+            ui.label("UI scale");
+            ui.horizontal(|ui| {
+                for s in UI_SCALES {
+                    ui.selectable_value(&mut p.ui_scale, s, format!("{:.0} %", s * 100.0));
+                }
+            });
+            ui.end_row();
+            ui.label("theme");
+            ui.horizontal(|ui| {
+                ui.selectable_value(&mut p.theme, Theme::Dark, "Dark");
+                ui.selectable_value(&mut p.theme, Theme::Light, "Light");
+            });
+            ui.end_row();
+            ui.label("default method");
+            ui.vertical(|ui| {
+                for m in solver::Method::ALL {
+                    ui.radio_value(&mut p.default_method, m, pose_solvers::label(m));
+                }
+            });
+            ui.end_row();
+            ui.label("brush radius");
+            let (lo, hi) = BRUSH_RADIUS_RANGE;
+            ui.add(egui::Slider::new(&mut p.brush_radius, lo..=hi).logarithmic(true));
+            ui.end_row();
+        });
+        ui.weak("The default method applies to new sessions.");
+        match &self.options.config_dir {
+            Some(d) => {
+                ui.weak(format!("Saved in {}", d.join(crate::editor::prefs::FILE_NAME).display()))
+            }
+            None => ui.weak("No configuration folder: kept for this session only."),
+        };
+        ui.collapsing("Key bindings", |ui| {
+            egui::ScrollArea::vertical().max_height(240.0).show(ui, |ui| {
+                super::shortcuts::grid(ui, "prefs_shortcuts");
+            });
+        });
+    }
+
+    /// The preferences in effect.
+    pub fn preferences(&self) -> Preferences {
+        self.prefs.current
+    }
+
+    /// Whether the preferences window is open.
+    pub fn preferences_open(&self) -> bool {
+        self.prefs.show
+    }
+
+    /// The brush radius, fraction of the bounding-box diagonal.
+    pub fn brush_radius(&self) -> f32 {
+        self.interaction.brush_radius
+    }
+}
+
+/// UI scale and theme.
+fn apply_look(ctx: &egui::Context, p: &Preferences) {
+    ctx.set_zoom_factor(p.ui_scale);
+    ctx.set_theme(match p.theme {
+        Theme::Dark => egui::Theme::Dark,
+        Theme::Light => egui::Theme::Light,
+    });
+}

@@ -1,0 +1,327 @@
+//! The transform gizmo and the modal G / R transforms driven through the UI: axis
+//! constraints by key, Esc cancelling, Ctrl snapping, dragging an arrow and the view-plane
+//! square; checked on the group's pose and on the solver's result for its handles.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+mod support;
+
+use app::editor::solver_thread::Slot;
+use app::editor::{EditorApp, Tool, TransformKind};
+use eframe::egui::{Event, Key, Modifiers, Pos2, Vec2};
+use egui_kittest::{Harness, kittest::Queryable};
+use support::{SIZE, drag, harness, has_current_frame, press, settled, step_until, test_mesh};
+
+/// The default asset with group 0 active.
+fn start() -> Harness<'static, EditorApp> {
+    let mut h = harness(test_mesh(), None);
+    step_until(&mut h, "the default asset", settled);
+    h.state_mut().set_active_group(Some(0));
+    h.step();
+    let (c, _) = h.state().gizmo_screen().expect("the gizmo of group 0");
+    assert!(c.x > 0.0 && c.x < SIZE.x && c.y > 0.0 && c.y < SIZE.y, "gizmo off screen: {c:?}");
+    h
+}
+
+fn move_pointer(h: &mut Harness<'_, EditorApp>, points: impl IntoIterator<Item = Pos2>) {
+    for p in points {
+        h.event(Event::PointerMoved(p));
+        h.step();
+    }
+}
+
+/// Points along the arc about `c` of radius `r` from 0 to `degrees` (counter-clockwise on
+/// screen).
+fn arc(c: Pos2, r: f32, degrees: f32) -> Vec<Pos2> {
+    (0..=10)
+        .map(|i| {
+            let a = (degrees * i as f32 / 10.0).to_radians();
+            c + Vec2::new(a.cos(), -a.sin()) * r
+        })
+        .collect()
+}
+
+fn group_vertices(app: &EditorApp, g: u32) -> Vec<usize> {
+    (0..app.n_vertices()).filter(|&v| app.labels()[v] == Some(g)).collect()
+}
+
+fn angle_degrees(q: [f64; 4]) -> f64 {
+    2.0 * q[3].abs().clamp(0.0, 1.0).acos().to_degrees()
+}
+
+#[test]
+fn g_then_x_moves_the_group_along_x_only_and_the_handles_follow() {
+    let mut h = start();
+    let diag = h.state().diagonal();
+    let rest = h.state().rest_positions().unwrap().to_vec();
+    let (c, _) = h.state().gizmo_screen().unwrap();
+    let p0 = c + Vec2::new(40.0, 30.0);
+    move_pointer(&mut h, [p0]);
+    h.key_press(Key::G);
+    h.step();
+    assert_eq!(h.state().running_transform(), Some((TransformKind::Translate, None)));
+    assert_eq!(h.state().tool(), Tool::Pose);
+    h.key_press(Key::X);
+    h.step();
+    assert_eq!(h.state().running_transform(), Some((TransformKind::Translate, Some(0))));
+    move_pointer(&mut h, (1..=6).map(|i| p0 + Vec2::new(12.0 * i as f32, 5.0 * i as f32)));
+    let t = h.state().group_pose(0).unwrap().translation;
+    assert!(t[0] > 1e-3 * diag, "no move along X: {t:?}");
+    assert_eq!((t[1], t[2]), (0.0, 0.0), "moved off the X axis: {t:?}");
+    // Ctrl+Z during the transform cancels it, and undoes nothing else.
+    let edits_before = h.state().edit_state().clone();
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    assert_eq!(h.state().running_transform(), None);
+    assert_eq!(h.state().group_pose(0).unwrap().translation, [0.0; 3]);
+    assert_eq!(h.state().labels(), &edits_before.labels[..]);
+    // Again, confirmed this time.
+    move_pointer(&mut h, [p0]);
+    h.key_press(Key::G);
+    h.step();
+    h.key_press(Key::X);
+    h.step();
+    move_pointer(&mut h, (1..=6).map(|i| p0 + Vec2::new(12.0 * i as f32, 5.0 * i as f32)));
+    assert_eq!(h.state().group_pose(0).unwrap().translation, t);
+    h.key_press(Key::Enter);
+    h.step();
+    assert_eq!(h.state().running_transform(), None, "Enter confirms");
+    assert_eq!(h.state().group_pose(0).unwrap().translation, t);
+
+    // The solver puts every handle vertex of the group at rest + t.
+    step_until(&mut h, "a frame for the moved group", has_current_frame);
+    let frame = h.state().latest_frame(Slot::Main).unwrap().clone();
+    for v in group_vertices(h.state(), 0) {
+        let moved: Vec<f64> = (0..3).map(|k| frame.positions[v][k] as f64 - rest[v][k]).collect();
+        let err = support::dist([moved[0], moved[1], moved[2]], t);
+        assert!(err < 1e-4 * diag, "handle vertex {v} is {err} off its target");
+    }
+    // One undo step for the whole transform.
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    assert_eq!(h.state().group_pose(0).unwrap().translation, [0.0; 3]);
+}
+
+#[test]
+fn r_then_z_rotates_about_z_esc_cancels_and_ctrl_snaps() {
+    let mut h = start();
+    let (c, _) = h.state().gizmo_screen().unwrap();
+    let path = arc(c, 80.0, 50.0);
+    move_pointer(&mut h, [path[0]]);
+    h.key_press(Key::R);
+    h.step();
+    h.key_press(Key::Z);
+    h.step();
+    assert_eq!(h.state().running_transform(), Some((TransformKind::Rotate, Some(2))));
+    move_pointer(&mut h, path[1..].iter().copied());
+    let pose = h.state().group_pose(0).unwrap();
+    let q = pose.rotation;
+    assert!(q[0].abs() < 1e-9 && q[1].abs() < 1e-9, "not about Z: {q:?}");
+    let deg = angle_degrees(q);
+    assert!((deg - 50.0).abs() < 15.0, "turned {deg}° for a 50° arc");
+    assert_eq!(pose.translation, [0.0; 3], "a rotation about the centre moves no centre");
+    // Esc cancels: back to rest, nothing to undo.
+    h.key_press(Key::Escape);
+    h.step();
+    assert_eq!(h.state().running_transform(), None);
+    assert_eq!(h.state().group_pose(0).unwrap().rotation, [0.0, 0.0, 0.0, 1.0]);
+
+    // Ctrl held: multiples of 15°, confirmed by a click (Ctrl still held).
+    move_pointer(&mut h, [path[0]]);
+    h.key_press(Key::R);
+    h.step();
+    h.key_press(Key::Z);
+    h.step();
+    h.event(Event::ModifiersChanged(Modifiers::COMMAND));
+    move_pointer(&mut h, path[1..].iter().copied());
+    let end = *path.last().unwrap();
+    press(&h, end, true, Modifiers::COMMAND);
+    h.step();
+    press(&h, end, false, Modifiers::COMMAND);
+    h.step();
+    h.event(Event::ModifiersChanged(Modifiers::NONE));
+    h.step();
+    assert_eq!(h.state().running_transform(), None, "the click confirms");
+    let q = h.state().group_pose(0).unwrap().rotation;
+    let deg = angle_degrees(q);
+    assert!(deg > 1.0 && (deg / 15.0 - (deg / 15.0).round()).abs() < 1e-4, "not snapped: {deg}°");
+    assert!(q[0].abs() < 1e-9 && q[1].abs() < 1e-9, "not about Z: {q:?}");
+
+    // G, X with Ctrl: whole grid steps along X. A right click cancels it.
+    let step = h.state().translation_snap_step() as f64;
+    let p0 = c + Vec2::new(20.0, 40.0);
+    move_pointer(&mut h, [p0]);
+    h.key_press(Key::G);
+    h.step();
+    h.key_press(Key::X);
+    h.step();
+    h.event(Event::ModifiersChanged(Modifiers::COMMAND));
+    move_pointer(&mut h, (1..=10).map(|i| p0 + Vec2::new(16.0 * i as f32, 0.0)));
+    let t = h.state().group_pose(0).unwrap().translation;
+    let k = t[0] / step;
+    assert!(
+        k.round() >= 1.0 && (k - k.round()).abs() < 1e-3,
+        "not a grid multiple: {t:?} / {step}"
+    );
+    assert_eq!((t[1], t[2]), (0.0, 0.0));
+    h.event(Event::ModifiersChanged(Modifiers::NONE));
+    h.event(Event::PointerButton {
+        pos: p0 + Vec2::new(160.0, 0.0),
+        button: eframe::egui::PointerButton::Secondary,
+        pressed: true,
+        modifiers: Modifiers::NONE,
+    });
+    h.step();
+    assert_eq!(h.state().running_transform(), None);
+    assert_eq!(h.state().group_pose(0).unwrap().translation, [0.0; 3], "right click cancels");
+    assert_eq!(h.state().group_pose(0).unwrap().rotation, q, "the confirmed rotation stays");
+}
+
+#[test]
+fn dragging_an_arrow_or_the_plane_square_moves_the_group() {
+    let mut h = start();
+    h.get_by_label("Pose (G)").click();
+    h.step();
+    assert_eq!(h.state().tool(), Tool::Pose);
+    let (c, tips) = h.state().gizmo_screen().unwrap();
+    let tip = tips[1].expect("the Y arrow on screen");
+    let grab = c + (tip - c) * 0.7;
+    let dir = (tip - c).normalized();
+    let points: Vec<Pos2> = (0..=6).map(|i| grab + dir * (8.0 * i as f32)).collect();
+    drag(&mut h, &points, Modifiers::NONE);
+    assert_eq!(h.state().running_transform(), None, "released: done");
+    let t = h.state().group_pose(0).unwrap().translation;
+    assert!(t[1] > 0.0, "the Y arrow dragged outwards moves +Y: {t:?}");
+    assert_eq!((t[0], t[2]), (0.0, 0.0), "moved off the Y axis: {t:?}");
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    assert_eq!(h.state().group_pose(0).unwrap().translation, [0.0; 3], "undo");
+
+    // The centre square moves in the view plane: to the right on screen.
+    let (c, tips) = h.state().gizmo_screen().unwrap();
+    let points: Vec<Pos2> = (0..=5).map(|i| c + Vec2::new(10.0 * i as f32, 0.0)).collect();
+    drag(&mut h, &points, Modifiers::NONE);
+    let t = h.state().group_pose(0).unwrap().translation;
+    assert!(t.iter().any(|x| x.abs() > 0.0), "the square did not move the group");
+    // Screen right is the direction of the X tip's horizontal component here (X points right).
+    let x_tip = tips[0].unwrap();
+    assert!((x_tip.x - c.x) * t[0] as f32 > 0.0, "moved the wrong way: {t:?}");
+}
+
+#[test]
+fn dragging_a_ring_turns_the_group_about_its_axis() {
+    let mut h = start();
+    h.get_by_label("Pose (G)").click();
+    h.step();
+    let (c, tips) = h.state().gizmo_screen().unwrap();
+    let ring = h.state().gizmo_ring(2);
+    assert_eq!(ring.len(), 48, "the Z ring is on screen");
+    let others: Vec<Vec<Pos2>> = [0, 1].iter().map(|&a| h.state().gizmo_ring(a)).collect();
+    // A point of the Z ring well away from the arrows and the other rings.
+    let clear = |p: Pos2| {
+        let arrows = tips.iter().flatten().map(|&t| {
+            let (a, b) = (c + (t - c) * 0.25, t);
+            let ab = b - a;
+            let s = ((p - a).dot(ab) / ab.length_sq()).clamp(0.0, 1.0);
+            p.distance(a + ab * s)
+        });
+        let rings = others.iter().flatten().map(|&q| p.distance(q));
+        arrows.chain(rings).fold(f32::INFINITY, f32::min)
+    };
+    let i = (0..ring.len()).max_by(|&a, &b| clear(ring[a]).total_cmp(&clear(ring[b]))).unwrap();
+    assert!(clear(ring[i]) > 12.0, "no clear point on the Z ring");
+    let points: Vec<Pos2> = (0..=6).map(|k| ring[(i + k) % ring.len()]).collect();
+    drag(&mut h, &points, Modifiers::NONE);
+    assert_eq!(h.state().running_transform(), None);
+    let pose = h.state().group_pose(0).unwrap();
+    let q = pose.rotation;
+    assert!(angle_degrees(q) > 5.0, "the ring drag turned {}°", angle_degrees(q));
+    assert!(q[0].abs() < 1e-9 && q[1].abs() < 1e-9, "not about Z: {q:?}");
+    assert_eq!(pose.translation, [0.0; 3]);
+}
+
+/// Types `text` into the drag value labelled `label` of the pose panel and confirms it.
+fn type_value(h: &mut Harness<'_, EditorApp>, label: &str, text: &str) {
+    h.get_by_label(label).click();
+    h.step();
+    h.key_press_modifiers(Modifiers::COMMAND, Key::A);
+    h.event(Event::Text(text.into()));
+    h.step();
+    h.key_press(Key::Enter);
+    h.step();
+    h.step();
+}
+
+#[test]
+fn typed_values_still_set_the_pose_after_a_gizmo_move() {
+    let mut h = start();
+    let (c, _) = h.state().gizmo_screen().unwrap();
+    let p0 = c + Vec2::new(30.0, 30.0);
+    move_pointer(&mut h, [p0]);
+    h.key_press(Key::G);
+    h.step();
+    h.key_press(Key::Y);
+    h.step();
+    move_pointer(&mut h, (1..=4).map(|i| p0 + Vec2::new(0.0, -10.0 * i as f32)));
+    h.key_press(Key::Enter);
+    h.step();
+    let t = h.state().group_pose(0).unwrap().translation;
+    assert!(t[1] > 0.0 && t[0] == 0.0 && t[2] == 0.0, "{t:?}");
+    // The typed x joins the gizmo's y.
+    type_value(&mut h, "x", "0.25");
+    let t2 = h.state().group_pose(0).unwrap().translation;
+    assert_eq!(t2[0], 0.25, "typed x: {t2:?}");
+    assert_eq!((t2[1], t2[2]), (t[1], t[2]));
+    type_value(&mut h, "rz", "30");
+    let q = h.state().group_pose(0).unwrap().rotation;
+    assert!(
+        (angle_degrees(q) - 30.0).abs() < 1e-6 && q[0] == 0.0 && q[1] == 0.0,
+        "typed rz: {q:?}"
+    );
+    // Undo goes back through the typed values to the gizmo move.
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    assert_eq!(h.state().group_pose(0).unwrap().translation, t);
+}
+
+#[test]
+fn numbers_typed_during_g_or_r_set_the_distance_or_angle() {
+    let mut h = start();
+    let (c, _) = h.state().gizmo_screen().unwrap();
+    move_pointer(&mut h, [c + Vec2::new(30.0, 30.0)]);
+    h.key_press(Key::G);
+    h.step();
+    h.key_press(Key::X);
+    h.step();
+    // A keyboard sends the digit key and its text; the digit's view preset must not fire.
+    for ch in ["0", ".", "5"] {
+        h.event(Event::Text(ch.into()));
+    }
+    h.key_press(Key::Num5);
+    h.step();
+    h.key_press(Key::Backspace);
+    h.step();
+    h.event(Event::Text("7".into()));
+    h.step();
+    // "0.5", Backspace, "7": 0.7.
+    assert_eq!(h.state().group_pose(0).unwrap().translation, [0.7, 0.0, 0.0]);
+    // The pointer no longer moves it while a number is typed.
+    move_pointer(&mut h, [c + Vec2::new(90.0, 10.0)]);
+    assert_eq!(h.state().group_pose(0).unwrap().translation, [0.7, 0.0, 0.0]);
+    h.key_press(Key::Enter);
+    h.step();
+    assert_eq!(h.state().running_transform(), None);
+
+    h.key_press(Key::R);
+    h.step();
+    h.key_press(Key::Z);
+    h.step();
+    h.event(Event::Text("-30".into()));
+    h.step();
+    h.key_press(Key::Enter);
+    h.step();
+    let pose = h.state().group_pose(0).unwrap();
+    assert!((angle_degrees(pose.rotation) - 30.0).abs() < 1e-9, "{:?}", pose.rotation);
+    assert!(pose.rotation[2] < 0.0 && pose.rotation[0] == 0.0 && pose.rotation[1] == 0.0);
+    assert_eq!(pose.translation, [0.7, 0.0, 0.0]);
+}

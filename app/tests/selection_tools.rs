@@ -1,0 +1,237 @@
+//! The selection tools driven through the UI: box and lasso selection (through the mesh and
+//! visible only), grow / shrink, invert, select connected, clear, and undo, checked on the
+//! labels the solver's handle set is built from.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+mod support;
+
+use app::editor::{EditorApp, SelectMode, Tool};
+use eframe::egui::{Event, Key, Modifiers, Pos2, Rect, Vec2};
+use egui_kittest::{Harness, kittest::Queryable};
+use solver::geometry::region;
+use solver::geometry::topology::{Adjacency, connected_components};
+use support::{SIZE, drag, harness, path, settled, step_until, test_mesh};
+
+fn even_odd(p: Pos2, poly: &[Pos2]) -> bool {
+    let n = poly.len();
+    let mut inside = false;
+    for i in 0..n {
+        let (a, b) = (poly[i], poly[(i + n - 1) % n]);
+        if (a.y > p.y) != (b.y > p.y) && p.x < (b.x - a.x) * (p.y - a.y) / (b.y - a.y) + a.x {
+            inside = !inside;
+        }
+    }
+    inside
+}
+
+/// Vertices drawn inside `poly` (through the mesh).
+fn drawn_inside(app: &EditorApp, poly: &[Pos2]) -> Vec<usize> {
+    (0..app.n_vertices())
+        .filter(|&v| app.vertex_screen_pos(v).is_some_and(|p| even_odd(p, poly)))
+        .collect()
+}
+
+fn in_group(app: &EditorApp, g: usize) -> Vec<usize> {
+    (0..app.n_vertices()).filter(|&v| app.labels()[v] == Some(g as u32)).collect()
+}
+
+/// Opens the default asset and adds a group (the active one) with the panel's button.
+fn start() -> (Harness<'static, EditorApp>, usize) {
+    let mut h = harness(test_mesh(), None);
+    step_until(&mut h, "the default asset", settled);
+    assert_eq!(h.state().tool(), Tool::Paint);
+    h.get_by_label("Add group").click();
+    h.step();
+    let g = h.state().active_group().expect("the new group is active");
+    assert_eq!(g + 1, h.state().edit_state().groups.len());
+    (h, g)
+}
+
+#[test]
+fn box_and_lasso_select_into_the_active_group_and_undo_restores() {
+    let (mut h, g) = start();
+    let rest_labels = h.state().labels().to_vec();
+    // Q: brush → box.
+    h.key_press(Key::Q);
+    h.step();
+    assert_eq!(h.state().select_mode(), SelectMode::Box);
+
+    // A box around the middle of the creature, dragged from corner to corner.
+    let centre = Pos2::new(SIZE.x * 0.35, SIZE.y * 0.5);
+    let r = Rect::from_center_size(centre, Vec2::new(80.0, 60.0));
+    let corners = [r.left_top(), r.right_top(), r.right_bottom(), r.left_bottom()];
+    let expected = drawn_inside(h.state(), &corners);
+    assert!(expected.len() > 20, "the box covers only {} vertices", expected.len());
+    drag(&mut h, &path(&[r.left_top(), r.right_bottom()], 10.0, false), Modifiers::NONE);
+    assert_eq!(in_group(h.state(), g), expected, "box selection");
+    for (v, rest) in rest_labels.iter().enumerate() {
+        if !expected.contains(&v) {
+            assert_eq!(h.state().labels()[v], *rest, "vertex {v} outside the box changed");
+        }
+    }
+    // Ctrl+drag over the left half removes those from the group.
+    let left = Rect::from_min_max(r.left_top(), Pos2::new(r.center().x, r.bottom()));
+    let left_corners = [left.left_top(), left.right_top(), left.right_bottom(), left.left_bottom()];
+    let removed = drawn_inside(h.state(), &left_corners);
+    h.event(Event::ModifiersChanged(Modifiers::COMMAND));
+    drag(&mut h, &path(&[left.left_top(), left.right_bottom()], 10.0, false), Modifiers::COMMAND);
+    h.event(Event::ModifiersChanged(Modifiers::NONE));
+    h.step();
+    let kept: Vec<usize> = expected.iter().copied().filter(|v| !removed.contains(v)).collect();
+    assert_eq!(in_group(h.state(), g), kept, "Ctrl+box removes");
+    // Undo twice restores the labels before the box.
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    assert_eq!(in_group(h.state(), g), expected, "undo of the removal");
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    assert_eq!(h.state().labels(), &rest_labels[..], "undo of the box");
+
+    // Visible only (Alt+Z): the same box takes a non-empty strict subset (the creature's far
+    // side is hidden).
+    h.key_press_modifiers(Modifiers::ALT, Key::Z);
+    h.step();
+    assert!(h.state().visible_only());
+    drag(&mut h, &path(&[r.left_top(), r.right_bottom()], 10.0, false), Modifiers::NONE);
+    let visible = in_group(h.state(), g);
+    assert!(!visible.is_empty(), "no visible vertex selected");
+    assert!(visible.iter().all(|v| expected.contains(v)), "a visible vertex outside the box");
+    assert!(visible.len() < expected.len(), "hidden vertices were selected too");
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.key_press_modifiers(Modifiers::ALT, Key::Z);
+    h.step();
+    assert!(!h.state().visible_only());
+
+    // Q again: lasso. A triangle drawn point by point selects what it encloses.
+    h.key_press(Key::Q);
+    h.step();
+    assert_eq!(h.state().select_mode(), SelectMode::Lasso);
+    let tri = [
+        centre + Vec2::new(-60.0, 50.0),
+        centre + Vec2::new(0.0, -60.0),
+        centre + Vec2::new(60.0, 50.0),
+    ];
+    let expected = drawn_inside(h.state(), &tri);
+    assert!(expected.len() > 20);
+    drag(&mut h, &path(&tri, 6.0, false), Modifiers::NONE);
+    let got = in_group(h.state(), g);
+    // The lasso's polygon is the path drawn (collinear points along the edges), so vertices
+    // on an edge may go either way: compare up to a handful.
+    let differ = got.iter().filter(|v| !expected.contains(v)).count()
+        + expected.iter().filter(|v| !got.contains(v)).count();
+    assert!(
+        differ <= 3,
+        "lasso: {} selected, {} expected, {differ} differ",
+        got.len(),
+        expected.len()
+    );
+    assert!(got.len() > 20);
+    h.key_press(Key::Q);
+    h.step();
+    assert_eq!(h.state().select_mode(), SelectMode::Brush);
+}
+
+#[test]
+fn grow_shrink_invert_connected_and_clear_edit_the_active_group() {
+    let (mut h, g) = start();
+    let n = h.state().n_vertices();
+    let adj = Adjacency::new(n, h.state().triangles());
+    let rest_labels = h.state().labels().to_vec();
+    // One free vertex, selected with a box of a few points around it.
+    let centre = Pos2::new(SIZE.x * 0.35, SIZE.y * 0.5);
+    let (v, pos) = (0..n)
+        .filter(|&v| rest_labels[v].is_none())
+        .filter(|&v| {
+            let mut m = vec![false; n];
+            m[v] = true;
+            let m = region::grow(&adj, &region::grow(&adj, &region::grow(&adj, &m)));
+            (0..n).all(|u| !m[u] || rest_labels[u].is_none())
+        })
+        .filter_map(|v| h.state().vertex_screen_pos(v).map(|p| (v, p)))
+        .filter(|(_, p)| p.distance(centre) < 150.0)
+        .find(|&(u, p)| {
+            let r = Rect::from_center_size(p, Vec2::splat(1.0));
+            (0..n).all(|w| w == u || h.state().vertex_screen_pos(w).is_none_or(|q| !r.contains(q)))
+        })
+        .expect("a free vertex alone in a 1-point box");
+    h.get_by_label("Box").click();
+    h.step();
+    assert_eq!(h.state().select_mode(), SelectMode::Box);
+    drag(&mut h, &[pos - Vec2::splat(0.5), pos + Vec2::splat(0.5)], Modifiers::NONE);
+    assert_eq!(in_group(h.state(), g), vec![v]);
+
+    // Grow (the panel's button, then the key): the one-ring, then the two-ring.
+    h.get_by_label("Grow").click();
+    h.step();
+    let mut ring: Vec<usize> = adj.neighbors(v as u32).iter().map(|&w| w as usize).collect();
+    ring.push(v);
+    ring.sort_unstable();
+    assert_eq!(in_group(h.state(), g), ring, "grow adds the one-ring");
+    let mask = |vs: &[usize]| {
+        let mut m = vec![false; n];
+        vs.iter().for_each(|&u| m[u] = true);
+        m
+    };
+    let set = |m: Vec<bool>| (0..n).filter(|&u| m[u]).collect::<Vec<usize>>();
+    h.key_press(Key::Minus);
+    h.step();
+    assert_eq!(in_group(h.state(), g), vec![v], "grow then shrink round-trips");
+    h.key_press(Key::Plus);
+    h.step();
+    h.key_press(Key::Equals);
+    h.step();
+    let two = set(region::grow(&adj, &mask(&ring)));
+    assert_eq!(in_group(h.state(), g), two, "+ and = grow");
+    h.key_press(Key::Minus);
+    h.step();
+    let one = set(region::shrink(&adj, &mask(&two)));
+    assert!(ring.iter().all(|u| one.contains(u)));
+    assert_eq!(in_group(h.state(), g), one, "- shrinks");
+    h.key_press(Key::Minus);
+    h.step();
+    assert_eq!(in_group(h.state(), g), set(region::shrink(&adj, &mask(&one))));
+    // Back to the single vertex for what follows.
+    drag(&mut h, &[pos - Vec2::splat(40.0), pos + Vec2::splat(40.0)], Modifiers::COMMAND);
+    drag(&mut h, &[pos - Vec2::splat(0.5), pos + Vec2::splat(0.5)], Modifiers::NONE);
+    assert_eq!(in_group(h.state(), g), vec![v]);
+
+    // Invert: the free vertices become the group, the vertex becomes free; other groups stay.
+    let before = h.state().labels().to_vec();
+    h.key_press_modifiers(Modifiers::COMMAND, Key::I);
+    h.step();
+    for (u, b) in before.iter().enumerate() {
+        let want = match *b {
+            Some(k) if k as usize == g => None,
+            None => Some(g as u32),
+            other => other,
+        };
+        assert_eq!(h.state().labels()[u], want, "invert at vertex {u}");
+    }
+    h.key_press_modifiers(Modifiers::COMMAND, Key::I);
+    h.step();
+    assert_eq!(h.state().labels(), &before[..], "inverting twice is the identity");
+
+    // Connected: every free vertex of the vertex's component.
+    h.key_press_modifiers(Modifiers::COMMAND, Key::L);
+    h.step();
+    let comps = connected_components(n, h.state().triangles());
+    let c = comps.label[v];
+    let want: Vec<usize> =
+        (0..n).filter(|&u| comps.label[u] == c && (before[u].is_none() || u == v)).collect();
+    assert_eq!(in_group(h.state(), g), want, "select connected");
+    assert!(want.len() > 100);
+
+    // Clear (Alt+A) empties the group; undo brings the component back, then the vertex.
+    h.key_press_modifiers(Modifiers::ALT, Key::A);
+    h.step();
+    assert!(in_group(h.state(), g).is_empty(), "clear");
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    assert_eq!(in_group(h.state(), g), want, "undo of clear");
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    assert_eq!(h.state().labels(), &before[..], "undo of connected");
+    // The solver gets the new handle set.
+    step_until(&mut h, "a frame for the handle set", settled);
+    assert!(h.state().error().is_none(), "{:?}", h.state().error());
+}

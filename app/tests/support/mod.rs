@@ -1,0 +1,98 @@
+//! The harness shared by the editor's tool tests (`selection_tools.rs`, `gizmo.rs`,
+//! `preferences.rs`): the real `EditorApp` under egui_kittest with wgpu, as in `editor.rs`.
+#![allow(dead_code, clippy::unwrap_used, clippy::expect_used)]
+
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use app::editor::solver_thread::{Slot, SolverState};
+use app::editor::{EditorApp, EditorOptions, default_mesh_path};
+use eframe::egui::{Event, Modifiers, PointerButton, Pos2, Vec2};
+use egui_kittest::Harness;
+
+pub const SIZE: Vec2 = Vec2::new(1000.0, 640.0);
+
+/// The default asset of the editor (`BSARAP_TEST_MESH` overrides it).
+pub fn test_mesh() -> PathBuf {
+    std::env::var_os("BSARAP_TEST_MESH").map(PathBuf::from).unwrap_or_else(default_mesh_path)
+}
+
+/// An editor on `path`, keeping its files in `config_dir`.
+pub fn harness(path: PathBuf, config_dir: Option<PathBuf>) -> Harness<'static, EditorApp> {
+    let builder =
+        Harness::builder().with_size(SIZE).with_render_cursor(false).with_step_dt(1.0 / 30.0);
+    builder.wgpu().build_eframe(move |cc| {
+        EditorApp::new(
+            cc,
+            EditorOptions { mesh_path: Some(path), deterministic_overlays: true, config_dir },
+        )
+    })
+}
+
+/// Steps the UI until `pred` holds; fails after 90 s.
+pub fn step_until(h: &mut Harness<'_, EditorApp>, what: &str, pred: impl Fn(&EditorApp) -> bool) {
+    let start = Instant::now();
+    while !pred(h.state()) {
+        assert!(start.elapsed() < Duration::from_secs(90), "timed out waiting for {what}");
+        h.step();
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    h.step();
+}
+
+/// Loaded, and the solver has delivered a converged frame for the current pose.
+pub fn settled(app: &EditorApp) -> bool {
+    !app.is_loading()
+        && app.n_vertices() > 0
+        && has_current_frame(app)
+        && matches!(app.solver_state(), Some(SolverState::Converged))
+}
+
+/// A frame for the current handle set and pose has arrived.
+pub fn has_current_frame(app: &EditorApp) -> bool {
+    app.latest_frame(Slot::Main).is_some_and(|f| {
+        f.pose_generation == app.pose_generation() && f.scene_generation == app.scene_generation()
+    })
+}
+
+pub fn press(h: &Harness<'_, EditorApp>, pos: Pos2, pressed: bool, modifiers: Modifiers) {
+    h.event(Event::PointerButton { pos, button: PointerButton::Primary, pressed, modifiers });
+}
+
+/// A left drag through `points` (pressed at the first, released at the last), one frame
+/// per point.
+pub fn drag(h: &mut Harness<'_, EditorApp>, points: &[Pos2], modifiers: Modifiers) {
+    // Held modifiers (Ctrl) for the whole drag.
+    h.event(Event::ModifiersChanged(modifiers));
+    h.event(Event::PointerMoved(points[0]));
+    h.step();
+    press(h, points[0], true, modifiers);
+    h.step();
+    for &p in &points[1..] {
+        h.event(Event::PointerMoved(p));
+        h.step();
+    }
+    press(h, *points.last().unwrap(), false, modifiers);
+    h.step();
+    h.event(Event::ModifiersChanged(Modifiers::NONE));
+    h.step();
+}
+
+/// Points every `step` along the segments of `corners` (closed when `close`).
+pub fn path(corners: &[Pos2], step: f32, close: bool) -> Vec<Pos2> {
+    let mut out = vec![corners[0]];
+    let n = corners.len();
+    let segments = if close { n } else { n - 1 };
+    for i in 0..segments {
+        let (a, b) = (corners[i], corners[(i + 1) % n]);
+        let k = ((b - a).length() / step).ceil().max(1.0) as usize;
+        for j in 1..=k {
+            out.push(a + (b - a) * (j as f32 / k as f32));
+        }
+    }
+    out
+}
+
+pub fn dist(p: [f64; 3], q: [f64; 3]) -> f64 {
+    ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt()
+}
