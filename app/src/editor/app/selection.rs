@@ -382,10 +382,6 @@ impl EditorApp {
         self.selecting.visible_only = visible_only;
     }
 
-    pub fn tool(&self) -> super::Tool {
-        self.interaction.tool
-    }
-
     pub fn active_group(&self) -> Option<usize> {
         self.interaction.active_group
     }
