@@ -90,6 +90,9 @@ fn g_then_x_moves_the_group_along_x_only_and_the_handles_follow() {
     // The solver puts every handle vertex of the group at rest + t.
     step_until(&mut h, "a frame for the moved group", has_current_frame);
     let frame = h.state().latest_frame(Slot::Main).unwrap().clone();
+    // The README's picture of the gizmo on the moved group.
+    step_until(&mut h, "the moved group settled", settled);
+    h.snapshot_options("gizmo_move_x", &support::snapshot_options());
     for v in group_vertices(h.state(), 0) {
         let moved: Vec<f64> = (0..3).map(|k| frame.positions[v][k] as f64 - rest[v][k]).collect();
         let err = support::dist([moved[0], moved[1], moved[2]], t);

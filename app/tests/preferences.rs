@@ -20,9 +20,12 @@ fn preferences_are_saved_and_restored_by_the_next_session() {
     assert_eq!(h.state().preferences(), Preferences::default());
     assert!(!dir.join(FILE_NAME).exists(), "nothing written before a change");
 
+    step_until(&mut h, "a solved frame", support::settled);
     h.key_press_modifiers(Modifiers::COMMAND, Key::Comma);
     h.step();
     assert!(h.state().preferences_open(), "Ctrl+, opens the window");
+    // The README's picture of the window.
+    h.snapshot_options("preferences_window", &support::snapshot_options());
     h.get_by_label("Light").click();
     h.step();
     h.get_by_label("125 %").click();

@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 use app::editor::solver_thread::{Slot, SolverState};
 use app::editor::{EditorApp, EditorOptions, Tool, default_mesh_path};
 use eframe::egui::{Event, Key, Modifiers, PointerButton, Pos2, Vec2};
-use egui_kittest::{Harness, kittest::Queryable};
+use egui_kittest::{Harness, SnapshotOptions, kittest::Queryable};
 use solver::deform::constraints::Constraints;
 
 const SIZE: Vec2 = Vec2::new(1000.0, 700.0);
@@ -24,6 +24,11 @@ fn harness(path: PathBuf) -> Harness<'static, EditorApp> {
             EditorOptions { mesh_path: Some(path), deterministic_overlays: true, config_dir: None },
         )
     })
+}
+
+/// As in `editor.rs`: software rasterizers differ slightly in edge coverage.
+fn snapshot_options() -> SnapshotOptions {
+    SnapshotOptions::new().threshold(2.0).max_failed_pixels(2000)
 }
 
 fn step_until(h: &mut Harness<'_, EditorApp>, what: &str, pred: impl Fn(&EditorApp) -> bool) {
@@ -107,6 +112,8 @@ fn the_rigidity_brush_paints_the_solvers_rigidity_map() {
     let handles = h.state().solver_handles().expect("handles");
     assert_eq!(handles.rig().rigidity.as_deref(), Some(&r[..]));
     step_until(&mut h, "a frame with the rigidity map", settled);
+    // The README's picture of the rigidity view (blue soft, orange stiff).
+    h.snapshot_options("rigging_rigidity", &snapshot_options());
     h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
     h.step();
     assert!(h.state().rigidity().is_none(), "undo kept the rigidity");
@@ -196,6 +203,7 @@ fn mirrored_painting_and_posing() {
     assert!(t.iter().map(|x| x * x).sum::<f64>() > 0.0, "the drag did not move group 0");
     assert_eq!([m[0], m[1], -m[2]], t, "group {partner_group} not mirrored");
     step_until(&mut h, "a frame for the mirrored pose", settled);
+    h.snapshot_options("rigging_mirrored_pose", &snapshot_options());
     // A handle vertex of group 0 and its partner land mirrored (handles sit on their targets).
     let f = h.state().latest_frame(Slot::Main).unwrap();
     let a = (0..labels.len())

@@ -64,6 +64,9 @@ fn box_and_lasso_select_into_the_active_group_and_undo_restores() {
     assert!(expected.len() > 20, "the box covers only {} vertices", expected.len());
     drag(&mut h, &path(&[r.left_top(), r.right_bottom()], 10.0, false), Modifiers::NONE);
     assert_eq!(in_group(h.state(), g), expected, "box selection");
+    // The README's picture of a box selection (the group's new vertices in its colour).
+    step_until(&mut h, "the new handle set solved", settled);
+    h.snapshot_options("selection_box", &support::snapshot_options());
     for (v, rest) in rest_labels.iter().enumerate() {
         if !expected.contains(&v) {
             assert_eq!(h.state().labels()[v], *rest, "vertex {v} outside the box changed");

@@ -96,3 +96,9 @@ pub fn path(corners: &[Pos2], step: f32, close: bool) -> Vec<Pos2> {
 pub fn dist(p: [f64; 3], q: [f64; 3]) -> f64 {
     ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt()
 }
+
+/// As in `editor.rs`: software rasterizers differ slightly in edge coverage.
+#[allow(dead_code)]
+pub fn snapshot_options() -> egui_kittest::SnapshotOptions {
+    egui_kittest::SnapshotOptions::new().threshold(2.0).max_failed_pixels(2000)
+}
