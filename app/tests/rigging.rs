@@ -142,16 +142,30 @@ fn a_group_falloff_gives_the_solver_soft_constraints() {
     assert!(!c.soft.is_empty(), "no soft terms");
     assert!(c.soft.iter().all(|t| t.group == 5 && t.weight > 0.0 && t.weight <= 1.0));
     step_until(&mut h, "a frame for the soft handle set", settled);
+    // Posed (G, X, a typed distance, Enter), its neighbours follow partly: the README's picture.
+    h.state_mut().set_tool(Tool::Pose);
+    h.key_press(Key::G);
+    h.step();
+    h.key_press(Key::X);
+    h.step();
+    h.event(Event::Text("0.3".into()));
+    h.step();
+    h.key_press(Key::Enter);
+    h.step();
+    assert_eq!(h.state().group_pose(5).unwrap().translation, [0.3, 0.0, 0.0]);
+    step_until(&mut h, "the soft group posed", settled);
+    h.snapshot_options("rigging_falloff", &snapshot_options());
     // The curve buttons change it too, and undo restores the hard handle.
     h.get_by_label("constant").click();
     h.step();
     h.step();
     let curve = h.state().solver_handles().unwrap().rig().falloff(5).curve;
     assert_eq!(curve, solver::deform::rig::FalloffCurve::Constant);
-    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
-    h.step();
-    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
-    h.step();
+    // Undo the curve, the pose and the radius.
+    for _ in 0..3 {
+        h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+        h.step();
+    }
     assert!(!h.state().solver_handles().unwrap().rig().falloff(5).is_soft());
 }
 
