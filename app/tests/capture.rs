@@ -2,15 +2,17 @@
 //! the scene's optional `capture` object. Rendering runs on lavapipe where there is no GPU.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+mod support;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
-use std::time::{Duration, Instant};
 
-use app::editor::{EditorApp, EditorOptions, default_mesh_path};
+use app::editor::{EditorApp, default_mesh_path};
 use eframe::egui::{self, Vec2};
 use egui_kittest::{Harness, kittest::Queryable};
 use solver::animation::scene::{CaptureSettings, Scene};
 use solver::testing::ScratchDir;
+use support::step_until;
 
 /// The viewport's background, sRGB (`app::editor::capture::BACKGROUND`).
 const BACKGROUND: [u8; 3] = [38, 40, 46];
@@ -254,27 +256,7 @@ fn harness(config_dir: PathBuf) -> Harness<'static, EditorApp> {
 }
 
 fn harness_on(mesh: PathBuf, config_dir: PathBuf) -> Harness<'static, EditorApp> {
-    let builder = Harness::builder().with_size(Vec2::new(900.0, 600.0)).with_render_cursor(false);
-    builder.wgpu().build_eframe(move |cc| {
-        EditorApp::new(
-            cc,
-            EditorOptions {
-                mesh_path: Some(mesh),
-                deterministic_overlays: true,
-                config_dir: Some(config_dir),
-            },
-        )
-    })
-}
-
-fn step_until(h: &mut Harness<'_, EditorApp>, what: &str, pred: impl Fn(&EditorApp) -> bool) {
-    let start = Instant::now();
-    while !pred(h.state()) {
-        assert!(start.elapsed() < Duration::from_secs(90), "timed out waiting for {what}");
-        h.step();
-        std::thread::sleep(Duration::from_millis(5));
-    }
-    h.step();
+    support::harness_sized(mesh, Some(config_dir), Vec2::new(900.0, 600.0))
 }
 
 /// Presses F12 and waits for the capture; its file.

@@ -4,80 +4,26 @@
 //! Snapshots live in `app/tests/snapshots/`; regenerate them with `UPDATE_SNAPSHOTS=1`.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+mod support;
+
 use std::path::PathBuf;
-use std::time::{Duration, Instant};
 
 use app::editor::solver_thread::{Slot, SolverState};
-use app::editor::{EditorApp, EditorOptions, Shading, Tool, View, default_mesh_path};
-use eframe::egui::{self, Event, Modifiers, PointerButton, Pos2, Vec2};
-use egui_kittest::{Harness, SnapshotOptions, kittest::Queryable};
+use app::editor::{EditorApp, EditorOptions, Shading, Tool, View};
+use eframe::egui::{self, Event, Modifiers, Pos2, Vec2};
+use egui_kittest::{Harness, kittest::Queryable};
 use solver::testing::ScratchDir;
-
-const SIZE: Vec2 = Vec2::new(1000.0, 640.0);
-
-/// The default asset of the editor (`BSARAP_TEST_MESH` overrides it).
-fn test_mesh() -> PathBuf {
-    std::env::var_os("BSARAP_TEST_MESH").map(PathBuf::from).unwrap_or_else(default_mesh_path)
-}
+use support::{
+    SIZE, dist, has_current_frame, press, settled, snapshot_options, step_until, test_mesh,
+};
 
 fn harness(path: PathBuf) -> Harness<'static, EditorApp> {
-    harness_with_config(path, None)
-}
-
-/// An editor keeping recent files and autosaves in `config_dir`.
-fn harness_with_config(path: PathBuf, config_dir: Option<PathBuf>) -> Harness<'static, EditorApp> {
-    // Frames 1/30 s apart in egui's clock, so that two clicks make a double-click.
-    let builder =
-        Harness::builder().with_size(SIZE).with_render_cursor(false).with_step_dt(1.0 / 30.0);
-    builder.wgpu().build_eframe(move |cc| {
-        EditorApp::new(
-            cc,
-            EditorOptions { mesh_path: Some(path), deterministic_overlays: true, config_dir },
-        )
-    })
+    support::harness(path, None)
 }
 
 /// A fresh folder under the system's temporary folder.
 fn temp_dir(name: &str) -> ScratchDir {
     ScratchDir::new(&format!("editor-{name}"))
-}
-
-/// Steps the UI (background threads keep running) until `pred` holds; fails after 60 s.
-fn step_until(h: &mut Harness<'_, EditorApp>, what: &str, pred: impl Fn(&EditorApp) -> bool) {
-    let start = Instant::now();
-    while !pred(h.state()) {
-        assert!(start.elapsed() < Duration::from_secs(60), "timed out waiting for {what}");
-        h.step();
-        std::thread::sleep(Duration::from_millis(5));
-    }
-    h.step();
-}
-
-/// Loaded, and the BS-ARAP solver has delivered a frame for the current pose.
-fn settled(app: &EditorApp) -> bool {
-    !app.is_loading()
-        && app.n_vertices() > 0
-        && app.latest_frame(Slot::Main).is_some_and(|f| {
-            f.pose_generation == app.pose_generation()
-                && f.scene_generation == app.scene_generation()
-        })
-        && matches!(app.solver_state(), Some(SolverState::Converged))
-}
-
-/// A frame for the current handle set and pose has arrived (possibly not yet converged).
-fn has_current_frame(app: &EditorApp) -> bool {
-    app.latest_frame(Slot::Main).is_some_and(|f| {
-        f.pose_generation == app.pose_generation() && f.scene_generation == app.scene_generation()
-    })
-}
-
-fn snapshot_options() -> SnapshotOptions {
-    // Software rasterizers differ slightly in edge coverage; allow a few pixels to differ.
-    SnapshotOptions::new().threshold(2.0).max_failed_pixels(2000)
-}
-
-fn press(h: &Harness<'_, EditorApp>, pos: Pos2, pressed: bool, modifiers: Modifiers) {
-    h.event(Event::PointerButton { pos, button: PointerButton::Primary, pressed, modifiers });
 }
 
 /// Number of RGBA pixels that differ between two images of the same size.
@@ -356,11 +302,6 @@ fn a_bad_file_shows_an_error_and_keeps_the_mesh() {
     assert_eq!(h.state().n_vertices(), mesh.n_vertices());
 }
 
-/// Distance between two points.
-fn dist(p: [f64; 3], q: [f64; 3]) -> f64 {
-    ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt()
-}
-
 #[test]
 fn a_timeline_path_drives_the_handles_and_the_recording_matches_the_headless_export() {
     use solver::animation::timeline::Path as AnimPath;
@@ -462,7 +403,7 @@ fn a_timeline_path_drives_the_handles_and_the_recording_matches_the_headless_exp
 fn scenes_recent_files_rename_and_autosave_restore() {
     let dir = temp_dir("scenes");
     let config = dir.join("config");
-    let mut h = harness_with_config(test_mesh(), Some(config.clone()));
+    let mut h = support::harness(test_mesh(), Some(config.clone()));
     step_until(&mut h, "the default asset", settled);
     assert!(h.state().restore_offer().is_none());
     assert_eq!(h.state().recent_files().len(), 1, "the opened mesh is a recent file");
@@ -496,7 +437,7 @@ fn scenes_recent_files_rename_and_autosave_restore() {
     drop(h);
 
     // The next start offers it back; Restore brings back the pose and the names.
-    let mut h = harness_with_config(test_mesh(), Some(config.clone()));
+    let mut h = support::harness(test_mesh(), Some(config.clone()));
     h.step();
     assert_eq!(h.state().restore_offer(), Some(autosave.as_path()));
     step_until(&mut h, "the default asset", |a| !a.is_loading() && a.n_vertices() > 0);
@@ -520,7 +461,7 @@ fn scenes_recent_files_rename_and_autosave_restore() {
     drop(h);
 
     // Opening the scene restores the state; an unsaved change survives a clean exit.
-    let mut h = harness_with_config(scene_path.clone(), Some(config.clone()));
+    let mut h = support::harness(scene_path.clone(), Some(config.clone()));
     step_until(&mut h, "the scene", settled);
     assert!(h.state().restore_offer().is_none());
     assert_eq!(h.state().document_path(), Some(scene_path.as_path()));

@@ -4,55 +4,21 @@
 //! gets (the handle set and its rig) or on the pose.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-use std::path::PathBuf;
-use std::time::{Duration, Instant};
+mod support;
 
-use app::editor::solver_thread::{Slot, SolverState};
-use app::editor::{EditorApp, EditorOptions, Tool, default_mesh_path};
-use eframe::egui::{Event, Key, Modifiers, PointerButton, Pos2, Vec2};
-use egui_kittest::{Harness, SnapshotOptions, kittest::Queryable};
+use std::path::PathBuf;
+
+use app::editor::solver_thread::Slot;
+use app::editor::{EditorApp, Tool, default_mesh_path};
+use eframe::egui::{Event, Key, Modifiers, Pos2, Vec2};
+use egui_kittest::{Harness, kittest::Queryable};
 use solver::deform::constraints::Constraints;
+use support::{press, settled, step_until};
 
 const SIZE: Vec2 = Vec2::new(1000.0, 700.0);
 
 fn harness(path: PathBuf) -> Harness<'static, EditorApp> {
-    let builder =
-        Harness::builder().with_size(SIZE).with_render_cursor(false).with_step_dt(1.0 / 30.0);
-    builder.wgpu().build_eframe(move |cc| {
-        EditorApp::new(
-            cc,
-            EditorOptions { mesh_path: Some(path), deterministic_overlays: true, config_dir: None },
-        )
-    })
-}
-
-/// As in `editor.rs`: software rasterizers differ slightly in edge coverage.
-fn snapshot_options() -> SnapshotOptions {
-    SnapshotOptions::new().threshold(2.0).max_failed_pixels(2000)
-}
-
-fn step_until(h: &mut Harness<'_, EditorApp>, what: &str, pred: impl Fn(&EditorApp) -> bool) {
-    let start = Instant::now();
-    while !pred(h.state()) {
-        assert!(start.elapsed() < Duration::from_secs(60), "timed out waiting for {what}");
-        h.step();
-        std::thread::sleep(Duration::from_millis(5));
-    }
-    h.step();
-}
-
-fn settled(app: &EditorApp) -> bool {
-    !app.is_loading()
-        && app.n_vertices() > 0
-        && app.latest_frame(Slot::Main).is_some_and(|f| {
-            f.pose_generation == app.pose_generation()
-                && f.scene_generation == app.scene_generation()
-        })
-        && matches!(app.solver_state(), Some(SolverState::Converged))
-}
-
-fn press(h: &Harness<'_, EditorApp>, pos: Pos2, pressed: bool, modifiers: Modifiers) {
-    h.event(Event::PointerButton { pos, button: PointerButton::Primary, pressed, modifiers });
+    support::harness_sized(path, None, SIZE)
 }
 
 /// A left drag from `from` by `by`, in six steps, with `modifiers` held.
@@ -113,7 +79,7 @@ fn the_rigidity_brush_paints_the_solvers_rigidity_map() {
     assert_eq!(handles.rig().rigidity.as_deref(), Some(&r[..]));
     step_until(&mut h, "a frame with the rigidity map", settled);
     // The README's picture of the rigidity view (blue soft, orange stiff).
-    h.snapshot_options("rigging_rigidity", &snapshot_options());
+    h.snapshot_options("rigging_rigidity", &support::snapshot_options());
     h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
     h.step();
     assert!(h.state().rigidity().is_none(), "undo kept the rigidity");
@@ -154,7 +120,7 @@ fn a_group_falloff_gives_the_solver_soft_constraints() {
     h.step();
     assert_eq!(h.state().group_pose(5).unwrap().translation, [0.3, 0.0, 0.0]);
     step_until(&mut h, "the soft group posed", settled);
-    h.snapshot_options("rigging_falloff", &snapshot_options());
+    h.snapshot_options("rigging_falloff", &support::snapshot_options());
     // The curve buttons change it too, and undo restores the hard handle.
     h.get_by_label("constant").click();
     h.step();
@@ -217,7 +183,7 @@ fn mirrored_painting_and_posing() {
     assert!(t.iter().map(|x| x * x).sum::<f64>() > 0.0, "the drag did not move group 0");
     assert_eq!([m[0], m[1], -m[2]], t, "group {partner_group} not mirrored");
     step_until(&mut h, "a frame for the mirrored pose", settled);
-    h.snapshot_options("rigging_mirrored_pose", &snapshot_options());
+    h.snapshot_options("rigging_mirrored_pose", &support::snapshot_options());
     // A handle vertex of group 0 and its partner land mirrored (handles sit on their targets).
     let f = h.state().latest_frame(Slot::Main).unwrap();
     let a = (0..labels.len())

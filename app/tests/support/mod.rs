@@ -1,5 +1,6 @@
-//! The harness shared by the editor's tool tests (`selection_tools.rs`, `gizmo.rs`,
-//! `preferences.rs`): the real `EditorApp` under egui_kittest with wgpu, as in `editor.rs`.
+//! The harness shared by the editor's UI tests (`editor.rs`, `selection_tools.rs`, `gizmo.rs`,
+//! `preferences.rs`, `rigging.rs`, `capture.rs`): the real `EditorApp` under egui_kittest with
+//! wgpu (software Vulkan, lavapipe, on machines without a GPU).
 #![allow(dead_code, clippy::unwrap_used, clippy::expect_used)]
 
 use std::path::PathBuf;
@@ -19,8 +20,18 @@ pub fn test_mesh() -> PathBuf {
 
 /// An editor on `path`, keeping its files in `config_dir`.
 pub fn harness(path: PathBuf, config_dir: Option<PathBuf>) -> Harness<'static, EditorApp> {
+    harness_sized(path, config_dir, SIZE)
+}
+
+/// [`harness`] in a window of `size` points. Frames are 1/30 s apart in egui's clock, so that
+/// two clicks make a double-click.
+pub fn harness_sized(
+    path: PathBuf,
+    config_dir: Option<PathBuf>,
+    size: Vec2,
+) -> Harness<'static, EditorApp> {
     let builder =
-        Harness::builder().with_size(SIZE).with_render_cursor(false).with_step_dt(1.0 / 30.0);
+        Harness::builder().with_size(size).with_render_cursor(false).with_step_dt(1.0 / 30.0);
     builder.wgpu().build_eframe(move |cc| {
         EditorApp::new(
             cc,
