@@ -166,6 +166,8 @@ fn mirrored_painting_and_posing() {
     assert_eq!(labels[partner], Some(n_groups as u32 + 1), "mirror vertex {partner} not painted");
     assert_eq!(h.state().edit_state().groups.len(), n_groups + 2, "no pair created");
     step_until(&mut h, "a frame for the new groups", settled);
+    // The README's picture of the mirrored pair (at rest: deterministic, unlike a dragged pose).
+    h.snapshot_options("rigging_mirrored_paint", &support::snapshot_options());
 
     // Mirrored posing: drag group 0 (a leg); its partner follows mirrored across z = 0.
     h.key_press_modifiers(Modifiers::SHIFT, Key::M);
@@ -183,7 +185,6 @@ fn mirrored_painting_and_posing() {
     assert!(t.iter().map(|x| x * x).sum::<f64>() > 0.0, "the drag did not move group 0");
     assert_eq!([m[0], m[1], -m[2]], t, "group {partner_group} not mirrored");
     step_until(&mut h, "a frame for the mirrored pose", settled);
-    h.snapshot_options("rigging_mirrored_pose", &support::snapshot_options());
     // A handle vertex of group 0 and its partner land mirrored (handles sit on their targets).
     let f = h.state().latest_frame(Slot::Main).unwrap();
     let a = (0..labels.len())
