@@ -202,3 +202,49 @@ fn mirrored_painting_and_posing() {
         );
     }
 }
+
+/// A rigidity stroke, a group's falloff and mirror painting, set through the UI, are saved in
+/// the scene (version 2) and restored, with the same rig reaching the solver, when the scene
+/// is opened again.
+#[test]
+fn the_rig_is_saved_in_the_scene_and_restored() {
+    let dir = solver::testing::ScratchDir::new("rigging-scene");
+    let mut h = harness(default_mesh_path());
+    step_until(&mut h, "the default asset", settled);
+    h.key_press_modifiers(Modifiers::SHIFT, Key::R);
+    h.step();
+    h.state_mut().set_rigidity_value(0.5);
+    let rest = h.state().rest_positions().unwrap().to_vec();
+    let labels = h.state().labels().to_vec();
+    let keep = |v: usize| labels[v].is_none() && rest[v][2] > 0.15;
+    let (_, pos) = visible_vertex(h.state(), Pos2::new(SIZE.x * 0.55, SIZE.y * 0.45), keep);
+    drag(&mut h, pos, Vec2::new(2.0, 0.0), Modifiers::NONE);
+    h.state_mut().set_active_group(Some(5));
+    h.step();
+    let slider = h.get_all_by_label("falloff radius").next().expect("the falloff slider").rect();
+    drag(
+        &mut h,
+        slider.left_center() + Vec2::new(2.0, 0.0),
+        Vec2::new(slider.width() * 0.3, 0.0),
+        Modifiers::NONE,
+    );
+    h.key_press(Key::M);
+    h.step();
+    let rig = h.state().solver_handles().unwrap().rig().clone();
+    assert!(rig.rigidity.is_some() && rig.falloff(5).is_soft(), "{rig:?}");
+    let symmetry = h.state().symmetry();
+    assert!(symmetry.mirror_painting);
+    step_until(&mut h, "a frame for the rig", settled);
+    let scene = dir.join("rigged.json");
+    h.state_mut().save_scene(&scene).unwrap();
+    let text = std::fs::read_to_string(&scene).unwrap();
+    let json: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(json["version"], 2, "a rigged scene is version 2");
+    drop(h);
+
+    let mut h = harness(scene);
+    step_until(&mut h, "the rigged scene", settled);
+    assert_eq!(h.state().rigidity(), rig.rigidity.as_deref());
+    assert_eq!(h.state().symmetry(), symmetry);
+    assert_eq!(h.state().solver_handles().unwrap().rig(), &rig, "the solver gets the same rig");
+}
