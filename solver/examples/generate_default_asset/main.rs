@@ -153,7 +153,9 @@ fn main() -> Result<()> {
     ensure(report.euler == 2, "genus 0 (Euler characteristic 2)")?;
     ensure(report.min_area > 1e-3 * report.mean_area, "no near-degenerate triangle")?;
     ensure(inverted == 0 && min_dot > 0.0, "no inverted triangle")?;
-    ensure((20_000..=60_000).contains(&mesh.n_vertices()), "20k to 60k vertices")?;
+    // Within a factor 1.5 below and 2 above the target (20k to 60k for the default asset).
+    let n = mesh.n_vertices() as f64;
+    ensure(n >= target / 1.5 && n <= 2.0 * target, "the vertex count near the target")?;
 
     // Handles: spheres around the feet, the tail tip and the snout.
     let groups = output::handle_groups(&creature.handles, &positions, round)?;
