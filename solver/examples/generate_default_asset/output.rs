@@ -49,9 +49,11 @@ pub fn handle_groups(
         (0..spheres.len()).map(|g| labels.iter().filter(|&&l| l == g as i64).count()).collect();
     for (g, size) in sizes.iter().enumerate() {
         println!("handle group {g} ({}): {size} vertices", handles[g].name);
+        // Dozens to hundreds of vertices at the default size; the same share at any size.
+        let n = positions.len();
         ensure(
-            (24..=1000).contains(size),
-            "each handle group holds dozens to hundreds of vertices",
+            (n * 24 / 30_000..=n / 30).contains(size),
+            "each handle group holds 0.08% to 3.3% of the vertices",
         )?;
     }
     Ok(Groups { spheres, labels, sizes })
