@@ -46,6 +46,27 @@ fn visible_vertex(app: &EditorApp, target: Pos2, keep: impl Fn(usize) -> bool) -
         .expect("a visible vertex")
 }
 
+/// A free vertex on one side of the body (z > 0.15), drawn near the middle of the view.
+fn free_vertex_on_the_body(app: &EditorApp) -> (usize, Pos2) {
+    let rest = app.rest_positions().unwrap();
+    let labels = app.labels();
+    let keep = |v: usize| labels[v].is_none() && rest[v][2] > 0.15;
+    visible_vertex(app, Pos2::new(SIZE.x * 0.55, SIZE.y * 0.45), keep)
+}
+
+/// Selects group 5 (the snout) and drags its falloff slider to 30 % of its length.
+fn soft_falloff_on_group_5(h: &mut Harness<'_, EditorApp>) {
+    h.state_mut().set_active_group(Some(5));
+    h.step();
+    let slider = h.get_all_by_label("falloff radius").next().expect("the falloff slider").rect();
+    drag(
+        h,
+        slider.left_center() + Vec2::new(2.0, 0.0),
+        Vec2::new(slider.width() * 0.3, 0.0),
+        Modifiers::NONE,
+    );
+}
+
 /// Shift+R picks the rigidity brush; a stroke paints the brush value into the map the solver
 /// gets; Ctrl+Z takes it back.
 #[test]
@@ -57,10 +78,7 @@ fn the_rigidity_brush_paints_the_solvers_rigidity_map() {
     h.step();
     assert_eq!(h.state().tool(), Tool::Rigidity, "Shift+R did not pick the rigidity brush");
     h.state_mut().set_rigidity_value(0.25);
-    let rest = h.state().rest_positions().unwrap().to_vec();
-    let labels = h.state().labels().to_vec();
-    let keep = |v: usize| labels[v].is_none() && rest[v][2] > 0.15;
-    let (v, pos) = visible_vertex(h.state(), Pos2::new(SIZE.x * 0.55, SIZE.y * 0.45), keep);
+    let (v, pos) = free_vertex_on_the_body(h.state());
     // The tool's button is there too.
     assert!(h.get_by_label("Rigidity (Shift+R)").rect().width() > 0.0);
     let generation = h.state().scene_generation();
@@ -91,15 +109,7 @@ fn the_rigidity_brush_paints_the_solvers_rigidity_map() {
 fn a_group_falloff_gives_the_solver_soft_constraints() {
     let mut h = harness(default_mesh_path());
     step_until(&mut h, "the default asset", settled);
-    h.state_mut().set_active_group(Some(5));
-    h.step();
-    let slider = h.get_all_by_label("falloff radius").next().expect("the falloff slider").rect();
-    drag(
-        &mut h,
-        slider.left_center() + Vec2::new(2.0, 0.0),
-        Vec2::new(slider.width() * 0.3, 0.0),
-        Modifiers::NONE,
-    );
+    soft_falloff_on_group_5(&mut h);
     let handles = h.state().solver_handles().expect("handles");
     let f = handles.rig().falloff(5);
     assert!(f.radius > 0.0, "the slider set no radius: {f:?}");
@@ -214,20 +224,9 @@ fn the_rig_is_saved_in_the_scene_and_restored() {
     h.key_press_modifiers(Modifiers::SHIFT, Key::R);
     h.step();
     h.state_mut().set_rigidity_value(0.5);
-    let rest = h.state().rest_positions().unwrap().to_vec();
-    let labels = h.state().labels().to_vec();
-    let keep = |v: usize| labels[v].is_none() && rest[v][2] > 0.15;
-    let (_, pos) = visible_vertex(h.state(), Pos2::new(SIZE.x * 0.55, SIZE.y * 0.45), keep);
+    let (_, pos) = free_vertex_on_the_body(h.state());
     drag(&mut h, pos, Vec2::new(2.0, 0.0), Modifiers::NONE);
-    h.state_mut().set_active_group(Some(5));
-    h.step();
-    let slider = h.get_all_by_label("falloff radius").next().expect("the falloff slider").rect();
-    drag(
-        &mut h,
-        slider.left_center() + Vec2::new(2.0, 0.0),
-        Vec2::new(slider.width() * 0.3, 0.0),
-        Modifiers::NONE,
-    );
+    soft_falloff_on_group_5(&mut h);
     h.key_press(Key::M);
     h.step();
     let rig = h.state().solver_handles().unwrap().rig().clone();
