@@ -116,7 +116,13 @@ impl NativeDeformer {
             acceleration: acceleration(anderson)?,
             ..ArapConfig::default()
         };
-        let base = BaseConfig { smoothing, coarse_vertices, fine_iterations, settle_iterations };
+        let base = BaseConfig {
+            smoothing,
+            coarse_vertices,
+            fine_iterations,
+            settle_iterations,
+            ..BaseConfig::default()
+        };
         base.validate().map_err(err)?;
         if settle_iterations > MAX_FINE_ITERATIONS {
             return Err(err(format!(

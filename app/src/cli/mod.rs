@@ -147,6 +147,10 @@ pub struct BaseArgs {
     /// ARAP iterations on the full mesh after each coarse solve (bsarap-coarse; 0: none).
     #[arg(long, default_value_t = solver::BaseConfig::default().fine_iterations)]
     pub fine_iterations: usize,
+    /// Fair the coarse base on the whole mesh even where a decimated level would do
+    /// (bsarap-coarse on dense meshes): the comparison for the level fairing.
+    #[arg(long)]
+    pub direct_fairing: bool,
 }
 
 impl BaseArgs {
@@ -158,6 +162,7 @@ impl BaseArgs {
             fine_iterations: self.fine_iterations,
             // Settling refines a pose whose handles have stopped: an interactive notion.
             settle_iterations: 0,
+            level_fairing: !self.direct_fairing,
         };
         config.validate().map_err(|e| {
             // The message begins with the field's name: name the flag instead.

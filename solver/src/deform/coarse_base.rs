@@ -4,9 +4,11 @@
 //!
 //! 1. $B$ = the faired surface of $M$ with no vertex held
 //!    ([`crate::deform::biharmonic::faired_surface`], smoothing length $h$):
-//!    $(Q + \lambda A)\,B = \lambda A\,M$, $\lambda = h^{-4}$. Without handle constraints the
-//!    base does not depend on the handle set (the handle regions are smoothed like the rest;
-//!    their vertices are put on their targets exactly after the prolongation anyway).
+//!    $(Q + \lambda A)\,B = \lambda A\,M$, $\lambda = h^{-4}$, on a decimated level of $M$ when
+//!    $M$ is much denser than $h$ needs ([`crate::deform::level_fairing`]). Without handle
+//!    constraints the base does not depend on the handle set (the handle regions are smoothed
+//!    like the rest; their vertices are put on their targets exactly after the prolongation
+//!    anyway).
 //! 2. $B_c$ = [`crate::geometry::simplify::simplify`] of $B$ to about `coarse_vertices`
 //!    vertices (meshoptimizer), no group kept: the coarse vertices are a subset of the fine
 //!    ones, and every fine vertex has a *representative*, the coarse vertex nearest to it along
@@ -23,9 +25,8 @@
 //! triangles ([`mesh_fingerprint`]) and the settings ([`CoarseBase::fits`]), so that a cache
 //! never hands it to another mesh.
 
-use crate::deform::biharmonic::faired_surface;
 use crate::deform::config::BaseConfig;
-use crate::deform::constraints::Constraints;
+use crate::deform::level_fairing::{Fairing, LEVEL_EDGES_PER_SMOOTHING_LENGTH, faired_base};
 use crate::error::SolveError;
 use crate::geometry::mesh::{Mesh, add, dot, sub};
 use crate::geometry::simplify::simplify;
@@ -38,6 +39,7 @@ use std::time::Instant;
 pub struct CoarseBase {
     fingerprint: u64,
     smoothing: f64,
+    level_fairing: bool,
     target_vertices: usize,
     /// $B_c$: positions are $B$ at the kept vertices.
     pub(crate) coarse_mesh: Mesh,
@@ -56,6 +58,7 @@ pub struct CoarseBase {
     pub(crate) rest: Vec<[f64; 3]>,
     /// Area below which a coarse triangle counts as collapsed.
     pub(crate) floor: f64,
+    fairing: Fairing,
     phases: Vec<(&'static str, f64)>,
 }
 
@@ -67,17 +70,18 @@ impl CoarseBase {
         let diag = mesh.bbox_diagonal();
         let smoothing = (config.smoothing.is_finite() && config.smoothing > 0.0)
             .then_some(config.smoothing * diag);
-        let all_free = Constraints::all_free(mesh.n_vertices());
-        let base = faired_surface(mesh, &all_free, mesh.positions(), smoothing)?;
+        let level_edges =
+            if config.level_fairing { LEVEL_EDGES_PER_SMOOTHING_LENGTH } else { f64::INFINITY };
+        let (base, fairing) = faired_base(mesh, smoothing, level_edges)?;
         clock.lap("faired base");
         let target_vertices = config.coarse_vertices_for(mesh.n_vertices());
-        let dec = simplify(&base, mesh.triangles(), target_vertices)
+        let dec = simplify(&base, mesh.triangles(), target_vertices, false)
             .ok_or(SolveError::DecimationFailed { target: target_vertices })?;
         clock.lap("decimation");
         let coarse_positions: Vec<[f64; 3]> = dec.kept.iter().map(|&v| base[v as usize]).collect();
         let coarse_mesh = Mesh::new(coarse_positions, dec.triangles)
             .map_err(|_| SolveError::NonFiniteResult { vertex: 0 })?;
-        let embedding = embed(&base, &coarse_mesh, &dec.representative);
+        let embedding = embed(&base, &coarse_mesh, &dec.representative, false);
         let cp = coarse_mesh.positions();
         let base_on_coarse: Vec<[f64; 3]> =
             embedding.iter().map(|(t, w)| blend(cp, t, w)).collect();
@@ -87,6 +91,7 @@ impl CoarseBase {
         Ok(CoarseBase {
             fingerprint,
             smoothing: config.smoothing,
+            level_fairing: config.level_fairing,
             target_vertices,
             rest_kept: dec.kept.iter().map(|&v| mesh.positions()[v as usize]).collect(),
             kept: dec.kept,
@@ -99,6 +104,7 @@ impl CoarseBase {
             // A coarse triangle below the area at which cleaning drops a triangle of M as
             // degenerate has collapsed (features thinner than the smoothing length flatten).
             floor: 2.0 * crate::geometry::cleanup::AREA_EPS * diag * diag,
+            fairing,
             phases: clock.phases,
         })
     }
@@ -107,6 +113,7 @@ impl CoarseBase {
     /// coarse size: then any handle set of that mesh may use it.
     pub fn fits(&self, mesh: &Mesh, config: &BaseConfig) -> bool {
         self.smoothing == config.smoothing
+            && self.level_fairing == config.level_fairing
             && self.target_vertices == config.coarse_vertices_for(mesh.n_vertices())
             && self.representative.len() == mesh.n_vertices()
             && self.fingerprint == mesh_fingerprint(mesh)
@@ -115,6 +122,11 @@ impl CoarseBase {
     /// The number of coarse vertices.
     pub fn coarse_vertices(&self) -> usize {
         self.kept.len()
+    }
+
+    /// Whether the base was faired on the whole mesh or on a decimated level.
+    pub fn fairing(&self) -> Fairing {
+        self.fairing
     }
 
     /// Milliseconds per phase of [`CoarseBase::new`].
@@ -140,8 +152,16 @@ pub fn mesh_fingerprint(mesh: &Mesh) -> u64 {
     h.finish()
 }
 
-/// Step 3 of the module doc, parallel over the fine vertices.
-fn embed(base: &[[f64; 3]], coarse: &Mesh, representative: &[u32]) -> Vec<([u32; 3], [f64; 3])> {
+/// Step 3 of the module doc, parallel over the fine vertices. With `descend`, the search goes
+/// on from the best triangle found: the triangles around its corners are tried until none is
+/// closer (a walk to the local closest point, for levels whose triangles are long and thin, where
+/// two rings of the representative can miss the closest triangle).
+pub(crate) fn embed(
+    base: &[[f64; 3]],
+    coarse: &Mesh,
+    representative: &[u32],
+    descend: bool,
+) -> Vec<([u32; 3], [f64; 3])> {
     let cp = coarse.positions();
     let ct = coarse.triangles();
     let mut vf = vec![Vec::new(); cp.len()];
@@ -150,6 +170,20 @@ fn embed(base: &[[f64; 3]], coarse: &Mesh, representative: &[u32]) -> Vec<([u32;
             vf[v as usize].push(f as u32);
         }
     }
+    let closest = |q: [f64; 3], faces: &[u32], best: &mut (f64, [u32; 3], [f64; 3])| {
+        let mut improved = false;
+        for &f in faces {
+            let t = ct[f as usize];
+            let (point, w) = closest_point_on_triangle(q, t.map(|v| cp[v as usize]));
+            let d = sub(point, q);
+            let d2 = dot(d, d);
+            if d2 < best.0 {
+                *best = (d2, t, w);
+                improved = true;
+            }
+        }
+        improved
+    };
     (0..base.len())
         .into_par_iter()
         .map_init(Vec::new, |faces, i| {
@@ -164,13 +198,15 @@ fn embed(base: &[[f64; 3]], coarse: &Mesh, representative: &[u32]) -> Vec<([u32;
             faces.dedup();
             let q = base[i];
             let mut best = (f64::INFINITY, [r as u32; 3], [1.0, 0.0, 0.0]);
-            for &f in faces.iter() {
-                let t = ct[f as usize];
-                let (point, w) = closest_point_on_triangle(q, t.map(|v| cp[v as usize]));
-                let d = sub(point, q);
-                let d2 = dot(d, d);
-                if d2 < best.0 {
-                    best = (d2, t, w);
+            closest(q, faces, &mut best);
+            // Each step strictly decreases the distance, so the walk ends; 64 steps bound it.
+            for _ in 0..if descend { 64 } else { 0 } {
+                faces.clear();
+                for &v in &best.1 {
+                    faces.extend_from_slice(&vf[v as usize]);
+                }
+                if !closest(q, faces, &mut best) {
+                    break;
                 }
             }
             (best.1, best.2)

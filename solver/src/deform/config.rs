@@ -28,6 +28,11 @@ pub struct BaseConfig {
     /// (read as 0).
     #[serde(skip)]
     pub settle_iterations: usize,
+    /// Fair the base on a decimated level when the mesh is much denser than the smoothing length
+    /// needs ([`crate::deform::level_fairing`]; the default). Off: always on the whole mesh, the
+    /// comparison `bsarap bench --direct-fairing` measures. Not saved in scenes (read as on).
+    #[serde(skip)]
+    pub level_fairing: bool,
 }
 
 impl Default for BaseConfig {
@@ -37,6 +42,7 @@ impl Default for BaseConfig {
             coarse_vertices: None,
             fine_iterations: 0,
             settle_iterations: 0,
+            level_fairing: true,
         }
     }
 }

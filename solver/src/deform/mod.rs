@@ -12,6 +12,7 @@ pub mod config;
 pub mod constraints;
 pub mod deformer;
 pub mod handles;
+pub mod level_fairing;
 pub mod pose;
 pub mod quality;
 pub mod riders;

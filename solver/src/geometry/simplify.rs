@@ -6,9 +6,10 @@
 //!
 //! 1. The simplifier reduces the triangle count to $F_t = \lceil F\,n_t / n \rceil$ for a
 //!    target of $n_t$ of the $n$ vertices (a closed mesh keeps $F \approx 2n$), border
-//!    vertices locked, with its `Regularize` option (rounder triangles: better-conditioned
-//!    cotangent weights on the coarse level) and no error bound. Coarse vertices are the fine
-//!    vertices its triangles still use.
+//!    vertices locked, no error bound; with `regular`, its `Regularize` option too (rounder
+//!    triangles at some cost to geometric fidelity: better-conditioned cotangent weights, what the
+//!    level fairing needs; the coarse base goes without it, which measured closer to converged
+//!    ARAP). Coarse vertices are the fine vertices its triangles still use.
 //! 2. Each fine vertex's *representative* is the coarse vertex nearest to it along the fine
 //!    mesh's edges (multi-source Dijkstra from the coarse vertices, edge lengths as weights;
 //!    ties to the lower index): what the embedding searches around and the coarse handle
@@ -41,13 +42,17 @@ pub fn simplify(
     positions: &[[f64; 3]],
     triangles: &[[u32; 3]],
     target_vertices: usize,
+    regular: bool,
 ) -> Option<Decimation> {
     let n = positions.len();
     let points: Vec<[f32; 3]> = positions.iter().map(|p| p.map(|c| c as f32)).collect();
     let indices: Vec<u32> = triangles.iter().flatten().copied().collect();
     // The simplifier asserts (aborting the process) that the target is at most the input.
     let target_faces = (triangles.len() * target_vertices).div_ceil(n.max(1)).min(triangles.len());
-    let options = meshopt::SimplifyOptions::LockBorder;
+    let mut options = meshopt::SimplifyOptions::LockBorder;
+    if regular {
+        options |= meshopt::SimplifyOptions::Regularize;
+    }
     let out = meshopt::simplify_decoder(&indices, &points, 3 * target_faces, 1.0, options, None);
     let mut index = vec![u32::MAX; n];
     for &v in &out {
@@ -150,7 +155,7 @@ mod tests {
     #[test]
     fn simplifies_a_sphere_to_about_the_target() {
         let m = crate::geometry::shapes::icosphere(4);
-        let d = simplify(m.positions(), m.triangles(), 300).expect("a sphere simplifies");
+        let d = simplify(m.positions(), m.triangles(), 300, false).expect("a sphere simplifies");
         let n = d.kept.len();
         assert!((240..=360).contains(&n), "{n} coarse vertices");
         assert_eq!(boundary_edges(&d.triangles), 0);
@@ -172,7 +177,7 @@ mod tests {
     #[test]
     fn a_target_above_the_mesh_keeps_it() {
         let m = crate::geometry::shapes::icosphere(1);
-        let d = simplify(m.positions(), m.triangles(), 10 * m.n_vertices()).expect("kept");
+        let d = simplify(m.positions(), m.triangles(), 10 * m.n_vertices(), false).expect("kept");
         assert_eq!(d.kept.len(), m.n_vertices());
         assert_eq!(d.triangles.len(), m.n_faces());
     }
