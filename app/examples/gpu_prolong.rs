@@ -54,8 +54,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 
     let diag = mesh.bbox_diagonal();
     let group = handles.group_ids().next().ok_or("the selection has no group")?;
-    let (mut base, mut out, mut frames_q) =
-        (vec![[0.0; 3]; n], vec![[0.0; 3]; n], vec![[0.0; 4]; n]);
+    let mut out = vec![[0.0; 3]; n];
     let (mut cpu_ms, mut gpu_ms, mut read_ms, mut max_err) = (0.0, 0.0, 0.0, 0.0f64);
     for k in 1..=frames {
         let a = std::f64::consts::TAU * k as f64 / frames as f64;
@@ -67,7 +66,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         cpu.solve(&targets)?;
 
         let t = Instant::now();
-        prolong(cpu.prolongation(), &mut base, &mut out, &mut frames_q);
+        prolong(cpu.prolongation(), &mut out);
         for (v, p) in cpu.fixed_vertices() {
             out[v as usize] = p;
         }

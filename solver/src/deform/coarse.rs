@@ -65,7 +65,9 @@ pub struct CoarseBsArap {
     /// The mesh's handle-independent part: $B_c$, the embedding, the details.
     base: Arc<CoarseBase>,
     arap: Arap,
-    deformed_base: Vec<[f64; 3]>,
+    /// $\sum_k w_{ik} B'_{c,k}$ of the last solve, computed when first asked for
+    /// ([`CoarseBsArap::deformed_base`]): the frames need no copy of it.
+    deformed_base: std::sync::OnceLock<Vec<[f64; 3]>>,
     result: Vec<[f64; 3]>,
     fine_handles: Vec<u32>,
     /// Fine vertices of components without handles, with their rest positions.
@@ -73,12 +75,15 @@ pub struct CoarseBsArap {
     groups: CoarseGroups,
     /// Per-solve scratch: each group's motion.
     motions: Vec<Motion>,
+    /// $R_k$ of the last successful solve as unit quaternions; `next_quaternions` is the
+    /// solve in progress, swapped in with the result.
     quaternions: Vec<[f64; 4]>,
-    /// Per fine vertex, the blended rotation of the last solve (unit quaternion).
-    frames: Vec<[f64; 4]>,
+    next_quaternions: Vec<[f64; 4]>,
     /// Per fine vertex, what the last fine iterations added to its detail, in the detail's
     /// frame (zero without fine iterations): carried to the next solve.
     correction: Vec<[f64; 3]>,
+    /// Whether `correction` holds anything but zeros (else the prolongation skips it).
+    corrected: bool,
     /// ARAP on the full mesh (when fine or settle iterations are asked for), factored when
     /// first needed.
     fine: Option<FineLevel>,
@@ -91,12 +96,11 @@ pub struct CoarseBsArap {
     /// The coarse energy of the last solve (what a settle step reports).
     last_energy: f64,
     phases: Vec<(&'static str, f64)>,
-    /// Scratch for the next result, deformed base and frames: swapped in together after a
-    /// finite prolongation, and back when the fine iterations fail, so that after an error the
-    /// pose, the base and the frames all stay those of the last successful solve.
+    /// Scratch for the next result: swapped in with the rotations after a finite
+    /// prolongation, and back when the fine iterations fail, so that after an error the pose,
+    /// the base and the rotations all stay those of the last successful solve (the coarse pose
+    /// goes back too, and the deformed base is computed from it).
     next: Vec<[f64; 3]>,
-    next_base: Vec<[f64; 3]>,
-    next_frames: Vec<[f64; 4]>,
     /// Per-solve scratch: the coarse handles' targets, and the coarse pose to go back to if
     /// the prolongation or the fine iterations fail (a few thousand vertices; reused, not
     /// allocated per frame).
@@ -323,16 +327,16 @@ impl CoarseBsArap {
             last_energy: 0.0,
             phases: clock.phases,
             next: Vec::new(),
-            next_base: Vec::new(),
-            next_frames: Vec::new(),
+
             coarse_target_buf: Vec::new(),
             coarse_before: Vec::new(),
             motions: Vec::new(),
             pinned,
             quaternions: vec![[1.0, 0.0, 0.0, 0.0]; coarse_mesh.n_vertices()],
-            frames: vec![[1.0, 0.0, 0.0, 0.0]; n],
+            next_quaternions: vec![[1.0, 0.0, 0.0, 0.0]; coarse_mesh.n_vertices()],
             correction: vec![[0.0; 3]; n],
-            deformed_base: base.base_on_coarse.clone(),
+            corrected: false,
+            deformed_base: std::sync::OnceLock::new(),
             result: mesh.positions().to_vec(),
             fine_handles: handles.handle_vertices(),
             groups,
@@ -358,11 +362,13 @@ impl CoarseBsArap {
         let stats = self.arap.solve(&self.coarse_target_buf)?;
         // Rest targets give the rest pose exactly, without iterating: nothing to settle, and
         // no correction may carry over (the rest pose itself is copied below).
-        if stats.iterations == 0 {
+        if stats.iterations == 0 && self.corrected {
             self.correction.fill([0.0; 3]);
+            self.corrected = false;
         }
+        self.deformed_base = std::sync::OnceLock::new();
         let bc = self.arap.positions();
-        for (q, r) in self.quaternions.iter_mut().zip(self.arap.rotations()) {
+        for (q, r) in self.next_quaternions.iter_mut().zip(self.arap.rotations()) {
             *q = quaternion_of(r);
         }
         // B'_c is finite (checked by ARAP) but the prolonged p' can still overflow: write into
@@ -370,19 +376,17 @@ impl CoarseBsArap {
         let n = self.result.len();
         let mut next = std::mem::take(&mut self.next);
         next.resize(n, [0.0; 3]);
-        self.next_base.resize(n, [0.0; 3]);
-        self.next_frames.resize(n, [1.0, 0.0, 0.0, 0.0]);
         prolong(
             Prolongation {
                 coarse: bc,
-                quaternions: &self.quaternions,
+                quaternions: &self.next_quaternions,
+                triangles: self.base.coarse_mesh.triangles(),
+                faces: &self.base.faces,
                 embedding: &self.base.embedding,
                 details: &self.base.details,
-                corrections: &self.correction,
+                corrections: if self.corrected { &self.correction } else { &[] },
             },
-            &mut self.next_base,
             &mut next,
-            &mut self.next_frames,
         );
         if stats.iterations == 0
             && self.fine_handles.iter().zip(targets).all(|(&v, t)| *t == self.base.rest[v as usize])
@@ -429,11 +433,10 @@ impl CoarseBsArap {
         Ok(stats)
     }
 
-    /// Exchanges the result, the deformed base and the frames with their scratch buffers.
+    /// Exchanges the result and the rotations with their scratch buffers.
     fn swap_next(&mut self) {
         std::mem::swap(&mut self.result, &mut self.next);
-        std::mem::swap(&mut self.deformed_base, &mut self.next_base);
-        std::mem::swap(&mut self.frames, &mut self.next_frames);
+        std::mem::swap(&mut self.quaternions, &mut self.next_quaternions);
     }
 
     /// Refines the result of the last solve, whose handles have stopped at `targets`: runs
@@ -475,14 +478,18 @@ impl CoarseBsArap {
         };
         let st = fine.refine(&self.result, targets, n)?;
         self.result.copy_from_slice(fine.positions());
+        let (bc, quats) = (self.arap.positions(), &self.quaternions);
         self.correction
             .par_iter_mut()
-            .zip(self.result.par_iter().zip(self.deformed_base.par_iter()))
-            .zip(self.frames.par_iter().zip(self.base.details.par_iter()))
-            .for_each(|((c, (x, b)), (q, d))| {
+            .zip(self.result.par_iter().zip(self.base.embedding.par_iter()))
+            .zip(self.base.details.par_iter())
+            .for_each(|((c, (x, (t, w))), d)| {
+                let b = blend(bc, t, w);
+                let q = blend_rotation(quats, t, w);
                 let conj = [q[0], -q[1], -q[2], -q[3]];
-                *c = sub(rotate(conj, sub(*x, *b)), *d);
+                *c = sub(rotate(conj, sub(*x, b)), *d);
             });
+        self.corrected = true;
         Ok(st)
     }
 
@@ -531,9 +538,13 @@ impl CoarseBsArap {
         &self.base
     }
 
-    /// The deformed base at the fine vertices, `#V×3`.
+    /// The deformed base at the fine vertices, `#V×3` (computed on the first call after a
+    /// solve: the prolongation itself does not need it).
     pub fn deformed_base(&self) -> &[[f64; 3]] {
-        &self.deformed_base
+        self.deformed_base.get_or_init(|| {
+            let bc = self.arap.positions();
+            self.base.embedding.par_iter().map(|(t, w)| blend(bc, t, w)).collect()
+        })
     }
 
     /// Details $D_i$, `#V×3`.
@@ -546,6 +557,8 @@ impl CoarseBsArap {
         Prolongation {
             coarse: self.arap.positions(),
             quaternions: &self.quaternions,
+            triangles: self.base.coarse_mesh.triangles(),
+            faces: &self.base.faces,
             embedding: &self.base.embedding,
             details: &self.base.details,
             corrections: &self.correction,
@@ -587,7 +600,10 @@ impl CoarseBsArap {
     /// Restarts the next solve from rest.
     pub fn reset(&mut self) {
         self.arap.reset();
+        self.deformed_base = std::sync::OnceLock::new();
+        self.quaternions.fill([1.0, 0.0, 0.0, 0.0]);
         self.correction.fill([0.0; 3]);
+        self.corrected = false;
         self.last_targets.clear();
         self.settle_ready = false;
         if let Some(FineLevel::Ready(fine)) = self.fine.as_mut() {
@@ -605,46 +621,96 @@ pub struct Prolongation<'a> {
     pub coarse: &'a [[f64; 3]],
     /// $R_k$ as unit quaternions `[w, x, y, z]`, `#Vc`.
     pub quaternions: &'a [[f64; 4]],
+    /// The coarse triangles, `#Fc×3`.
+    pub triangles: &'a [[u32; 3]],
+    /// Per fine vertex, the index of its coarse triangle $t_i$.
+    pub faces: &'a [u32],
     /// Per fine vertex: coarse triangle corners $t_i$ and weights $w_{ik}$.
     pub embedding: &'a [([u32; 3], [f64; 3])],
     /// $D_i$, `#V×3`.
     pub details: &'a [[f64; 3]],
-    /// $C_i$, `#V×3`.
+    /// $C_i$, `#V×3`, or empty for none (all zero).
     pub corrections: &'a [[f64; 3]],
 }
 
 /// Step 4 of the module doc at every fine vertex, in parallel:
-/// $b_i = \sum_k w_{ik} B'_{c,k}$, $\hat q_i$ = the normalized blend of the corner quaternions
-/// (signs aligned with the first corner's), $p'_i = b_i + \hat q_i (D_i + C_i) \hat q_i^{-1}$.
-/// Writes $b$, $p'$ and $\hat q$ (each `#V` long); handle and pinned vertices are not special
-/// here (the solve overwrites them).
-pub fn prolong(
-    input: Prolongation<'_>,
-    base: &mut [[f64; 3]],
-    out: &mut [[f64; 3]],
-    frames: &mut [[f64; 4]],
-) {
-    let Prolongation { coarse, quaternions: quats, embedding, details, corrections } = input;
-    let details = details.par_iter().zip(corrections.par_iter());
-    base.par_iter_mut()
-        .zip(out.par_iter_mut().zip(frames.par_iter_mut()))
-        .zip(embedding.par_iter().zip(details))
-        .for_each(|((b, (out, frame)), ((t, w), (d, c)))| {
-            *b = blend(coarse, t, w);
-            let q0 = quats[t[0] as usize];
-            let mut q = [0.0; 4];
-            for k in 0..3 {
-                let qk = quats[t[k] as usize];
-                let s = if dot4(qk, q0) < 0.0 { -w[k] } else { w[k] };
-                for c in 0..4 {
-                    q[c] += s * qk[c];
-                }
-            }
-            let n = dot4(q, q).sqrt();
-            let q = if n > 0.0 { q.map(|c| c / n) } else { [1.0, 0.0, 0.0, 0.0] };
-            *frame = q;
-            *out = add(*b, rotate(q, add(*d, *c)));
-        });
+/// $p'_i = b_i + \hat q_i (D_i + C_i) \hat q_i^{-1}$ with $b_i = \sum_k w_{ik} B'_{c,k}$ and
+/// $\hat q_i$ = [`blend_rotation`]. Writes `out` (`#V` long); handle and pinned vertices are not
+/// special here (the solve overwrites them). The corners' positions and sign-aligned
+/// quaternions are gathered per coarse triangle first ([`TriangleFrame`]), so that the pass
+/// over the fine vertices reads one small record per vertex and branches nowhere; it writes
+/// only $p'$ and skips the corrections when they are empty (all zero).
+pub fn prolong(input: Prolongation<'_>, out: &mut [[f64; 3]]) {
+    let Prolongation { coarse, quaternions, triangles, faces, embedding, details, corrections } =
+        input;
+    let frames: Vec<TriangleFrame> =
+        triangles.iter().map(|t| TriangleFrame::new(coarse, quaternions, t)).collect();
+    let at = |f: u32, w: &[f64; 3], d: [f64; 3]| frames[f as usize].apply(w, d);
+    let work = out.par_iter_mut().zip(faces.par_iter().zip(embedding.par_iter()));
+    if corrections.is_empty() {
+        work.zip(details.par_iter()).for_each(|((out, (&f, (_, w))), d)| *out = at(f, w, *d));
+    } else {
+        work.zip(details.par_iter().zip(corrections.par_iter()))
+            .for_each(|((out, (&f, (_, w))), (d, c))| *out = at(f, w, add(*d, *c)));
+    }
+}
+
+/// A coarse triangle's corner positions $B'_{c,k}$ and quaternions $q_k$, the latter with
+/// signs aligned to the first corner's: what [`prolong`] blends at each fine vertex on it.
+#[derive(Clone, Copy)]
+pub struct TriangleFrame {
+    positions: [[f64; 3]; 3],
+    quaternions: [[f64; 4]; 3],
+}
+
+impl TriangleFrame {
+    fn new(coarse: &[[f64; 3]], quats: &[[f64; 4]], t: &[u32; 3]) -> TriangleFrame {
+        let q0 = quats[t[0] as usize];
+        TriangleFrame {
+            positions: t.map(|v| coarse[v as usize]),
+            quaternions: t.map(|v| {
+                let q = quats[v as usize];
+                if dot4(q, q0) < 0.0 { q.map(|c| -c) } else { q }
+            }),
+        }
+    }
+
+    /// $\sum_k w_k B'_{c,k} + \hat q\, d\, \hat q^{-1}$.
+    #[inline]
+    fn apply(&self, w: &[f64; 3], d: [f64; 3]) -> [f64; 3] {
+        let [a, b, c] = self.quaternions;
+        let q: [f64; 4] = std::array::from_fn(|k| w[0] * a[k] + w[1] * b[k] + w[2] * c[k]);
+        let [p, r, s] = self.positions;
+        let base: [f64; 3] = std::array::from_fn(|k| w[0] * p[k] + w[1] * r[k] + w[2] * s[k]);
+        add(base, rotate(unit(q), d))
+    }
+}
+
+/// $\hat q_i$: the normalized blend $\sum_k w_{ik} q_{t_k}$ of the corner quaternions, signs
+/// aligned with the first corner's (the identity if the blend vanishes).
+pub fn blend_rotation(quats: &[[f64; 4]], t: &[u32; 3], w: &[f64; 3]) -> [f64; 4] {
+    let q0 = quats[t[0] as usize];
+    let mut q = [0.0; 4];
+    for k in 0..3 {
+        let qk = quats[t[k] as usize];
+        let s = if dot4(qk, q0) < 0.0 { -w[k] } else { w[k] };
+        for c in 0..4 {
+            q[c] += s * qk[c];
+        }
+    }
+    unit(q)
+}
+
+/// $q / |q|$, or the identity for $q = 0$.
+#[inline]
+fn unit(q: [f64; 4]) -> [f64; 4] {
+    let n2 = dot4(q, q);
+    if n2 > 0.0 {
+        let inv = 1.0 / n2.sqrt();
+        q.map(|c| c * inv)
+    } else {
+        [1.0, 0.0, 0.0, 0.0]
+    }
 }
 
 #[inline]

@@ -51,6 +51,8 @@ pub struct CoarseBase {
     pub(crate) rest_kept: Vec<[f64; 3]>,
     /// Per fine vertex: coarse triangle corners and barycentric weights.
     pub(crate) embedding: Vec<([u32; 3], [f64; 3])>,
+    /// Per fine vertex: the index of its coarse triangle (the one `embedding` names).
+    pub(crate) faces: Vec<u32>,
     /// $P B_c$ at each fine vertex (the base the details sit on).
     pub(crate) base_on_coarse: Vec<[f64; 3]>,
     pub(crate) details: Vec<[f64; 3]>,
@@ -81,7 +83,12 @@ impl CoarseBase {
         let coarse_positions: Vec<[f64; 3]> = dec.kept.iter().map(|&v| base[v as usize]).collect();
         let coarse_mesh = Mesh::new(coarse_positions, dec.triangles)
             .map_err(|_| SolveError::NonFiniteResult { vertex: 0 })?;
-        let embedding = embed(&base, &coarse_mesh, &dec.representative, false);
+        let (faces, weights) = embed(&base, &coarse_mesh, &dec.representative, false);
+        let embedding: Vec<([u32; 3], [f64; 3])> = faces
+            .iter()
+            .zip(weights)
+            .map(|(&f, w)| (coarse_mesh.triangles()[f as usize], w))
+            .collect();
         let cp = coarse_mesh.positions();
         let base_on_coarse: Vec<[f64; 3]> =
             embedding.iter().map(|(t, w)| blend(cp, t, w)).collect();
@@ -98,6 +105,7 @@ impl CoarseBase {
             representative: dec.representative,
             coarse_mesh,
             embedding,
+            faces,
             base_on_coarse,
             details,
             rest: mesh.positions().to_vec(),
@@ -152,7 +160,8 @@ pub fn mesh_fingerprint(mesh: &Mesh) -> u64 {
     h.finish()
 }
 
-/// Step 3 of the module doc, parallel over the fine vertices. With `descend`, the search goes
+/// Step 3 of the module doc, parallel over the fine vertices: per vertex, the index of its
+/// coarse triangle and the barycentric weights on it. With `descend`, the search goes
 /// on from the best triangle found: the triangles around its corners are tried until none is
 /// closer (a walk to the local closest point, for levels whose triangles are long and thin, where
 /// two rings of the representative can miss the closest triangle).
@@ -161,7 +170,7 @@ pub(crate) fn embed(
     coarse: &Mesh,
     representative: &[u32],
     descend: bool,
-) -> Vec<([u32; 3], [f64; 3])> {
+) -> (Vec<u32>, Vec<[f64; 3]>) {
     let cp = coarse.positions();
     let ct = coarse.triangles();
     let mut vf = vec![Vec::new(); cp.len()];
@@ -170,7 +179,7 @@ pub(crate) fn embed(
             vf[v as usize].push(f as u32);
         }
     }
-    let closest = |q: [f64; 3], faces: &[u32], best: &mut (f64, [u32; 3], [f64; 3])| {
+    let closest = |q: [f64; 3], faces: &[u32], best: &mut (f64, u32, [f64; 3])| {
         let mut improved = false;
         for &f in faces {
             let t = ct[f as usize];
@@ -178,7 +187,7 @@ pub(crate) fn embed(
             let d = sub(point, q);
             let d2 = dot(d, d);
             if d2 < best.0 {
-                *best = (d2, t, w);
+                *best = (d2, f, w);
                 improved = true;
             }
         }
@@ -197,12 +206,15 @@ pub(crate) fn embed(
             faces.sort_unstable();
             faces.dedup();
             let q = base[i];
-            let mut best = (f64::INFINITY, [r as u32; 3], [1.0, 0.0, 0.0]);
+            // Every coarse vertex is a corner of some coarse triangle (the decimation keeps
+            // the vertices its triangles use; the level fairing factors only such levels).
+            let mut best = (f64::INFINITY, vf[r].first().copied().unwrap_or(0), [0.0; 3]);
+            best.2[ct[best.1 as usize].iter().position(|&v| v as usize == r).unwrap_or(0)] = 1.0;
             closest(q, faces, &mut best);
             // Each step strictly decreases the distance, so the walk ends; 64 steps bound it.
             for _ in 0..if descend { 64 } else { 0 } {
                 faces.clear();
-                for &v in &best.1 {
+                for &v in &ct[best.1 as usize] {
                     faces.extend_from_slice(&vf[v as usize]);
                 }
                 if !closest(q, faces, &mut best) {
@@ -211,7 +223,7 @@ pub(crate) fn embed(
             }
             (best.1, best.2)
         })
-        .collect()
+        .unzip()
 }
 
 /// $\sum_k w_k x_{t_k}$.

@@ -91,9 +91,14 @@ pub fn faired_base(
     };
     let embedding =
         crate::deform::coarse_base::embed(mesh.positions(), &level_mesh, &dec.representative, true);
-    let mut base: Vec<[f64; 3]> = embedding
+    let (faces, weights) = embedding;
+    let level_triangles = level_mesh.triangles();
+    let mut base: Vec<[f64; 3]> = faces
         .iter()
-        .map(|(t, w)| crate::deform::coarse_base::blend(&level_base, t, w))
+        .zip(&weights)
+        .map(|(&f, w)| {
+            crate::deform::coarse_base::blend(&level_base, &level_triangles[f as usize], w)
+        })
         .collect();
     for (k, &v) in dec.kept.iter().enumerate() {
         base[v as usize] = level_base[k];
