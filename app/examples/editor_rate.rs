@@ -1,6 +1,6 @@
 //! Solver frames per second as the editor's solver thread produces them (BENCHMARKS.md, "Editor rate").
 //!
-//! Usage: `cargo run --release -p app --example editor_rate -- MESH SELECTION [FRAMES [METHOD...]]`
+//! Usage: `cargo run --release -p app --example editor_rate -- [--no-settle] MESH SELECTION [FRAMES [METHOD...]]`
 //! (methods: `arap`, `bsarap`, `bsarap-faired`, `bsarap-coarse`, each optionally with `+aa` for
 //! the method panel's Anderson acceleration; default `arap bsarap bsarap-coarse`).
 //!
@@ -18,7 +18,8 @@
 //! settle iterations): the group is dragged to the far point of the circle (0.2·diag from rest)
 //! and left there; the thread solves until converged, then settles until converged. Reported:
 //! settle steps and fine iterations, seconds, and the distance to converged ARAP on the mesh
-//! ([`solver::deform::quality::Reference`]) before and after settling.
+//! ([`solver::deform::quality::Reference`]) before and after settling. `--no-settle` stops after
+//! the drag (on dense meshes the converged references take many minutes).
 
 use app::editor::pose::{GroupPose, handle_targets};
 use app::editor::pose_solvers::factory;
@@ -27,7 +28,9 @@ use app::editor::solver_thread::{MethodSettings, Slot};
 use std::time::Instant;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let args: Vec<String> = std::env::args().collect();
+    let all: Vec<String> = std::env::args().collect();
+    let no_settle = all.iter().any(|a| a == "--no-settle");
+    let args: Vec<String> = all.into_iter().filter(|a| a != "--no-settle").collect();
     if args.len() < 3 {
         return Err("usage: editor_rate MESH SELECTION [FRAMES [METHOD...]]".into());
     }
@@ -67,10 +70,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         rayon::current_num_threads()
     );
     println!(
-        "| method | precompute ms | iterations/frame | frames at cap | ms/frame (mean) | ms/frame (median) | solver frames/s |"
+        "| method | precompute ms | iterations/frame | frames at cap | ms/frame (mean) | ms/frame (median) | of which shape ms | solver frames/s |"
     );
-    println!("|---|---:|---:|---:|---:|---:|---:|");
+    println!("|---|---:|---:|---:|---:|---:|---:|---:|");
     let make = factory(Default::default());
+    let vertex_faces = solver::geometry::normals::VertexFaces::new(&mesh);
     let mut settling = Vec::new();
     for (m, aa) in methods {
         let acceleration = if aa {
@@ -87,7 +91,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let mut d = make(slot, &mesh, &handles, &settings, &solver::LooseParts::default())?;
         let precompute = t.elapsed().as_secs_f64() * 1e3;
         let mut x = mesh.positions().to_vec();
-        let (mut times, mut iterations, mut at_cap) = (Vec::new(), 0, 0);
+        let (mut times, mut iterations, mut at_cap, mut shape_ms) = (Vec::new(), 0, 0, 0.0);
         for f in 1..=frames {
             let theta = std::f64::consts::TAU * f as f64 / frames as f64;
             let mut poses = vec![GroupPose::default(); n_poses];
@@ -97,7 +101,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let stats = d.solve(&targets, &mut x)?;
             // What the thread publishes: the pose's f32 positions and normals (the deformed
             // base only while the Base view is open; the detail magnitudes once per scene).
-            std::hint::black_box(Shape::new(&x, mesh.triangles()));
+            let ts = Instant::now();
+            std::hint::black_box(Shape::with_faces(&x, mesh.triangles(), &vertex_faces));
+            shape_ms += ts.elapsed().as_secs_f64() * 1e3;
             times.push(t.elapsed().as_secs_f64() * 1e3);
             iterations += stats.iterations;
             at_cap += usize::from(!stats.converged);
@@ -106,11 +112,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         times.sort_by(f64::total_cmp);
         let median = times[frames / 2];
         println!(
-            "| {} | {precompute:.0} | {:.1} | {at_cap}/{frames} | {mean:.1} | {median:.1} | {:.1} |",
+            "| {} | {precompute:.0} | {:.1} | {at_cap}/{frames} | {mean:.1} | {median:.1} | {:.1} | {:.1} |",
             label,
             iterations as f64 / frames as f64,
+            shape_ms / frames as f64,
             1e3 / mean
         );
+        if no_settle {
+            continue;
+        }
 
         let mut poses = vec![GroupPose::default(); n_poses];
         poses[group].translation = [-2.0 * radius, 0.0, 0.0];

@@ -119,6 +119,20 @@ impl Shape {
         let normals = solver::geometry::normals::vertex_normals_or_up(x, triangles);
         Shape { positions: Arc::new(f32s(x)), normals: Arc::new(f32s(&normals)) }
     }
+
+    /// As [`Shape::new`] for a pose of the mesh `faces` was built for, in parallel over the
+    /// vertices (the solver thread's per-frame path on dense meshes).
+    pub fn with_faces(
+        x: &[[f64; 3]],
+        triangles: &[[u32; 3]],
+        faces: &solver::geometry::normals::VertexFaces,
+    ) -> Shape {
+        use rayon::prelude::*;
+        let positions: Vec<[f32; 3]> = x.par_iter().map(|p| p.map(|c| c as f32)).collect();
+        let mut normals = Vec::new();
+        faces.normals_f32(x, triangles, &mut normals);
+        Shape { positions: Arc::new(positions), normals: Arc::new(normals) }
+    }
 }
 
 /// Interleaves positions, normals and colors into the vertex buffer's layout.

@@ -125,8 +125,15 @@ impl EditState {
         }
     }
 
-    pub fn group_size(&self, k: usize) -> usize {
-        self.labels.iter().filter(|l| **l == Some(k as u32)).count()
+    /// Vertices per group, in one pass over the labels (the side panel shows them every frame).
+    pub fn group_sizes(&self) -> Vec<usize> {
+        let mut sizes = vec![0; self.groups.len()];
+        for &k in self.labels.iter().flatten() {
+            if let Some(n) = sizes.get_mut(k as usize) {
+                *n += 1;
+            }
+        }
+        sizes
     }
 }
 

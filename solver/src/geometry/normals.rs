@@ -100,10 +100,99 @@ pub fn vertex_normals_or_up(positions: &[[f64; 3]], triangles: &[[u32; 3]]) -> V
     }
 }
 
+/// Each vertex's triangles (compressed rows), built once per topology so that the vertex
+/// normals of many poses ([`VertexFaces::normals_f32`]) run in parallel over the vertices,
+/// each summing its own triangles' area normals: no scattered writes, no per-pose allocation
+/// but the output.
+#[derive(Debug)]
+pub struct VertexFaces {
+    offsets: Vec<usize>,
+    faces: Vec<u32>,
+    /// Per triangle, its area normal in the last pose: scratch reused between poses.
+    area_normals: std::sync::Mutex<Vec<[f64; 3]>>,
+}
+
+impl VertexFaces {
+    /// The triangles of each of `mesh`'s vertices.
+    pub fn new(mesh: &crate::geometry::mesh::Mesh) -> VertexFaces {
+        let mut offsets = vec![0usize; mesh.n_vertices() + 1];
+        for t in mesh.triangles() {
+            for &v in t {
+                offsets[v as usize + 1] += 1;
+            }
+        }
+        for i in 0..mesh.n_vertices() {
+            offsets[i + 1] += offsets[i];
+        }
+        let mut next = offsets.clone();
+        let mut faces = vec![0u32; offsets[mesh.n_vertices()]];
+        for (f, t) in mesh.triangles().iter().enumerate() {
+            for &v in t {
+                faces[next[v as usize]] = f as u32;
+                next[v as usize] += 1;
+            }
+        }
+        VertexFaces { offsets, faces, area_normals: Default::default() }
+    }
+
+    /// [`vertex_normals_or_up`] of `positions` in `f32` (the same sums in another order), into
+    /// `out`: the triangles' area normals first, then per vertex the sum of its triangles'.
+    /// `positions` and `triangles` are the pose and the triangles of the mesh this was built
+    /// for.
+    pub fn normals_f32(
+        &self,
+        positions: &[[f64; 3]],
+        triangles: &[[u32; 3]],
+        out: &mut Vec<[f32; 3]>,
+    ) {
+        use rayon::prelude::*;
+        let mut area_normals = match self.area_normals.lock() {
+            Ok(guard) => guard,
+            Err(poisoned) => poisoned.into_inner(),
+        };
+        area_normals.resize(triangles.len(), [0.0; 3]);
+        area_normals.par_iter_mut().zip(triangles.par_iter()).for_each(|(n, t)| {
+            let [a, b, d] = t.map(|i| glam::DVec3::from(positions[i as usize]));
+            *n = (b - a).cross(d - a).to_array();
+        });
+        let area_normals = &*area_normals;
+        out.resize(positions.len(), [0.0; 3]);
+        out.par_iter_mut().enumerate().for_each(|(v, n)| {
+            let mut m = glam::DVec3::ZERO;
+            for &f in &self.faces[self.offsets[v]..self.offsets[v + 1]] {
+                m += glam::DVec3::from(area_normals[f as usize]);
+            }
+            let u = m.normalize_or_zero();
+            *n = if u.is_finite() && u != glam::DVec3::ZERO {
+                u.as_vec3().to_array()
+            } else {
+                [0.0, 0.0, 1.0]
+            };
+        });
+    }
+}
+
 #[cfg(test)]
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
+
+    /// The parallel gather gives the scattered sum's normals, in f32.
+    #[test]
+    fn vertex_faces_match_vertex_normals() {
+        let mesh = icosphere(3);
+        let p: Vec<[f64; 3]> =
+            mesh.positions().iter().map(|&[x, y, z]| [2.0 * x + 0.3 * y * y, y, 0.5 * z]).collect();
+        let expected = vertex_normals_or_up(&p, mesh.triangles());
+        let mut got = Vec::new();
+        VertexFaces::new(&mesh).normals_f32(&p, mesh.triangles(), &mut got);
+        assert_eq!(got.len(), expected.len());
+        for (g, e) in got.iter().zip(&expected) {
+            for k in 0..3 {
+                assert!((g[k] as f64 - e[k]).abs() < 1e-6, "{g:?} against {e:?}");
+            }
+        }
+    }
     use crate::geometry::shapes::icosphere;
     use glam::{DMat3, DVec3};
 

@@ -42,8 +42,8 @@ impl EditorApp {
         let colors_before: Vec<Color32> =
             self.session.edit.groups.iter().map(|g| g.color).collect();
         let mut rename_done = None;
-        for k in 0..self.session.edit.groups.len() {
-            let count = self.session.edit.group_size(k);
+        let sizes = self.session.edit.group_sizes();
+        for (k, count) in sizes.into_iter().enumerate() {
             ui.horizontal(|ui| {
                 let g = &mut self.session.edit.groups[k];
                 edited |= ui.color_edit_button_srgba(&mut g.color).changed();

@@ -10,6 +10,7 @@ use std::sync::mpsc::{Receiver, RecvTimeoutError, TryRecvError};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
+use solver::geometry::normals::VertexFaces;
 use solver::{FrameStats, Handles, LooseParts, Mesh};
 
 use super::mailbox::Mailbox;
@@ -89,6 +90,8 @@ struct Active {
     /// [`PoseSolver::components`], refreshed when the loose parts change.
     components: Arc<Vec<solver::ComponentInfo>>,
     x: Vec<[f64; 3]>,
+    /// Each vertex's triangles, for the per-frame normals (kept while the mesh stays).
+    vertex_faces: Arc<VertexFaces>,
     /// Targets changed since the last converged solve.
     dirty: bool,
     /// The last solve converged and its pose is being refined ([`PoseSolver::settle`]).
@@ -108,14 +111,14 @@ impl Active {
     /// The frame of the current pose, with the deformed base when `with_base`.
     fn frame(&self, stats: FrameStats, with_base: bool) -> SolvedFrame {
         let triangles = self.mesh.triangles();
-        let shape = Shape::new(&self.x, triangles);
+        let shape = Shape::with_faces(&self.x, triangles, &self.vertex_faces);
         let base = with_base.then(|| self.pose_solver.deformed_base()).flatten();
         SolvedFrame {
             scene_generation: self.scene_generation,
             pose_generation: self.pose_generation,
             positions: shape.positions,
             normals: shape.normals,
-            deformed_base: base.map(|b| Shape::new(&b, triangles)),
+            deformed_base: base.map(|b| Shape::with_faces(&b, triangles, &self.vertex_faces)),
             detail_magnitudes: self.details.clone(),
             components: self.components.clone(),
             stats,
@@ -285,6 +288,7 @@ fn rebuild(
     slot: Slot,
     factory: &PoseSolverFactory,
     scene: NewScene,
+    vertex_faces: Option<Arc<VertexFaces>>,
     shared: &Shared,
 ) -> Option<Active> {
     let NewScene { scene_generation, mesh, handles, settings, loose_parts, poses, pose_generation } =
@@ -303,8 +307,10 @@ fn rebuild(
                 .detail_magnitudes()
                 .map(|d| Arc::new(d.iter().map(|&v| v as f32).collect()));
             let components = Arc::new(pose_solver.components());
+            let vertex_faces = vertex_faces.unwrap_or_else(|| Arc::new(VertexFaces::new(&mesh)));
             set_status(&shared.status, SolverState::Solving);
             Some(Active {
+                vertex_faces,
                 scene_generation,
                 pose_generation,
                 mesh,
@@ -364,9 +370,12 @@ fn worker_loop(
     loop {
         let Some(inbox) = drain_commands(rx, wait_time(active.as_ref())) else { return };
         if let Some(scene) = inbox.scene {
-            // Free the old factorization before building the new one.
-            drop(active.take());
-            active = rebuild(slot, factory, scene, shared);
+            // Free the old factorization before building the new one; keep what depends on
+            // the mesh only when the mesh stays.
+            let faces = active
+                .take()
+                .and_then(|a| Arc::ptr_eq(&a.mesh, &scene.mesh).then_some(a.vertex_faces));
+            active = rebuild(slot, factory, scene, faces, shared);
         }
         let Some(a) = active.as_mut() else { continue };
         if let Some((generation, poses)) = inbox.poses {
