@@ -89,3 +89,25 @@ fn a_bad_preferences_file_gives_defaults_and_a_message() {
     h.step();
     assert!(h.state().preferences_open());
 }
+
+/// The mesh's precomputation is kept in the configuration folder's `cache/` and read, not
+/// rebuilt, by an editor reopened on the same mesh (the file is not written again).
+#[test]
+fn the_mesh_precomputation_is_kept_on_disk_for_the_next_session() {
+    let dir = ScratchDir::new("editor-mesh-cache");
+    let cache = dir.join("cache");
+    let files = || -> Vec<std::path::PathBuf> {
+        std::fs::read_dir(&cache).map_or(Vec::new(), |d| d.map(|e| e.unwrap().path()).collect())
+    };
+    let mut h = harness(test_mesh(), Some(dir.to_path_buf()));
+    step_until(&mut h, "a solved frame", support::settled);
+    let written = files();
+    assert_eq!(written.len(), 1, "{written:?}");
+    let modified = std::fs::metadata(&written[0]).unwrap().modified().unwrap();
+    drop(h);
+
+    let mut h = harness(test_mesh(), Some(dir.to_path_buf()));
+    step_until(&mut h, "a solved frame after reopening", support::settled);
+    assert_eq!(files(), written);
+    assert_eq!(std::fs::metadata(&written[0]).unwrap().modified().unwrap(), modified);
+}

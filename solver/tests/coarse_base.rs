@@ -94,3 +94,49 @@ fn the_cache_builds_once_per_mesh_and_settings() {
     let rebuilt = cache.prepare(Method::BsArapCoarse, &mesh, &other).unwrap().unwrap();
     assert!(!Arc::ptr_eq(&rebuilt, &first));
 }
+
+/// With a directory, a cache writes each base to a file; a fresh cache (the editor reopening
+/// the mesh) reads it, and a solve from the read base is the solve from a built one, bit for
+/// bit. A damaged file is refused, rebuilt and rewritten.
+#[test]
+fn a_cache_on_disk_is_read_back_and_a_damaged_file_rebuilt() {
+    let (mesh, a, _) = two_handle_sets();
+    let config = ArapConfig::default();
+    let settings = BaseConfig { coarse_vertices: Some(300), ..Default::default() };
+    let scratch = solver::testing::ScratchDir::new("disk-cache");
+    let dir = scratch.to_path_buf();
+    let mut first = MeshCache::on_disk(dir.clone());
+    let built = first.prepare(Method::BsArapCoarse, &mesh, &settings).unwrap().unwrap();
+    assert!(first.disk_note().is_none(), "a missing file is no news: {:?}", first.disk_note());
+    let files: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().path()).collect();
+    assert_eq!(files.len(), 1, "{files:?}");
+
+    let mut reopened = MeshCache::on_disk(dir.clone());
+    let read = reopened.prepare(Method::BsArapCoarse, &mesh, &settings).unwrap().unwrap();
+    assert_eq!(read.precompute_phases()[0].0, "read from the disk cache");
+    assert!(reopened.disk_note().is_none(), "{:?}", reopened.disk_note());
+    let targets = {
+        let g = a.group_ids().next().unwrap();
+        let tr = GroupTransform { translation: [0.3, 0.2, 0.0], ..Default::default() };
+        handle_targets(mesh.positions(), &a, &[(g, tr)]).unwrap()
+    };
+    let mut x = CoarseBsArap::with_base(built, &mesh, &a, &config, &settings).unwrap();
+    let mut y = CoarseBsArap::with_base(read, &mesh, &a, &config, &settings).unwrap();
+    x.solve(&targets).unwrap();
+    y.solve(&targets).unwrap();
+    assert!(x.positions() == y.positions(), "the read base solves as the built one");
+
+    let mut bytes = std::fs::read(&files[0]).unwrap();
+    let k = bytes.len() / 2;
+    bytes[k] ^= 0xff;
+    std::fs::write(&files[0], &bytes).unwrap();
+    let mut damaged = MeshCache::on_disk(dir.clone());
+    let rebuilt = damaged.prepare(Method::BsArapCoarse, &mesh, &settings).unwrap().unwrap();
+    assert!(damaged.disk_note().unwrap().contains("damaged"), "{:?}", damaged.disk_note());
+    assert_ne!(rebuilt.precompute_phases()[0].0, "read from the disk cache");
+    let again = MeshCache::on_disk(dir.clone())
+        .prepare(Method::BsArapCoarse, &mesh, &settings)
+        .unwrap()
+        .unwrap();
+    assert_eq!(again.precompute_phases()[0].0, "read from the disk cache", "rewritten");
+}

@@ -109,7 +109,8 @@ fn spawn<T: Send + 'static>(
 
 /// Builds what `method` precomputes per mesh ([`MeshCache::prepare`]) into the cache the
 /// pose solvers share, so that the first handle group waits only for its own part. Returns
-/// the milliseconds it took (0 when there was nothing to build). A pose solver that needs the
+/// the milliseconds it took (0 when there was nothing to build; with a cache on disk, reading
+/// the file when it fits). A pose solver that needs the
 /// cache meanwhile waits for it (it then reuses the result).
 pub fn spawn_prepare(
     cache: Arc<Mutex<MeshCache>>,
@@ -121,7 +122,11 @@ pub fn spawn_prepare(
     spawn("prepare", repaint, move |_| {
         let t = std::time::Instant::now();
         let mut cache = cache.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-        match cache.prepare(method, &mesh, &base).map_err(|e| e.to_string())? {
+        let prepared = cache.prepare(method, &mesh, &base).map_err(|e| e.to_string())?;
+        if let Some(note) = cache.disk_note() {
+            eprintln!("editor: mesh cache: {note}");
+        }
+        match prepared {
             Some(_) => Ok(t.elapsed().as_secs_f64() * 1e3),
             None => Ok(0.0),
         }

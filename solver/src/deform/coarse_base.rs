@@ -37,10 +37,10 @@ use std::time::Instant;
 /// The handle-independent precomputation of the coarse BS-ARAP for one mesh (module doc).
 #[derive(Debug)]
 pub struct CoarseBase {
-    fingerprint: u64,
-    smoothing: f64,
-    level_fairing: bool,
-    target_vertices: usize,
+    pub(crate) fingerprint: u64,
+    pub(crate) smoothing: f64,
+    pub(crate) level_fairing: bool,
+    pub(crate) target_vertices: usize,
     /// $B_c$: positions are $B$ at the kept vertices.
     pub(crate) coarse_mesh: Mesh,
     /// Fine index of each coarse vertex (ascending).
@@ -60,8 +60,8 @@ pub struct CoarseBase {
     pub(crate) rest: Vec<[f64; 3]>,
     /// Area below which a coarse triangle counts as collapsed.
     pub(crate) floor: f64,
-    fairing: Fairing,
-    phases: Vec<(&'static str, f64)>,
+    pub(crate) fairing: Fairing,
+    pub(crate) phases: Vec<(&'static str, f64)>,
 }
 
 impl CoarseBase {

@@ -6,6 +6,7 @@ use crate::deform::arap::{Arap, ArapConfig, SolveStats};
 use crate::deform::bs_arap::{BaseKind, BsArap};
 use crate::deform::coarse::CoarseBsArap;
 use crate::deform::coarse_base::CoarseBase;
+use crate::deform::coarse_cache;
 use crate::deform::config::BaseConfig;
 use crate::deform::handles::Handles;
 use crate::deform::riders::{LooseParts, Riders};
@@ -85,13 +86,31 @@ impl Solver {
 /// What the methods precompute per mesh whatever the handles, kept for the next handle set
 /// of the same mesh: the coarse BS-ARAP's [`CoarseBase`] (the other methods' precomputation
 /// all depends on the handles). Entries are checked against the mesh and settings before
-/// reuse ([`CoarseBase::fits`]); a cache holds one mesh's entry at a time.
+/// reuse ([`CoarseBase::fits`]); a cache holds one mesh's entry at a time. With a directory
+/// ([`MeshCache::on_disk`]) it also keeps each base in a file there
+/// ([`crate::deform::coarse_cache`]), so that reopening a mesh reads it instead of building it.
 #[derive(Debug, Clone, Default)]
 pub struct MeshCache {
     coarse: Option<Arc<CoarseBase>>,
+    disk: Option<std::path::PathBuf>,
+    /// Why the last file was not read or written (none: read, written, or no directory).
+    disk_note: Option<String>,
 }
 
 impl MeshCache {
+    /// A cache that also reads and writes its bases as files in `dir` (created when first
+    /// written).
+    pub fn on_disk(dir: std::path::PathBuf) -> MeshCache {
+        MeshCache { disk: Some(dir), ..MeshCache::default() }
+    }
+
+    /// Why the last [`MeshCache::prepare`] did not read its file, or could not write it: a
+    /// stale or damaged file (never used, rebuilt and rewritten), an unreadable directory, a
+    /// full disk. A new mesh's missing file is not worth a note.
+    pub fn disk_note(&self) -> Option<&str> {
+        self.disk_note.as_deref()
+    }
+
     /// Builds (or finds) what `method` precomputes per mesh for `mesh` and `base`: the
     /// [`CoarseBase`] for [`Method::BsArapCoarse`], `None` for the other methods. Call it
     /// right after loading, in the background, so that the first handle set waits only for
@@ -111,7 +130,28 @@ impl MeshCache {
             return Ok(Some(c.clone()));
         }
         self.coarse = None;
-        let c = Arc::new(in_pool(|| CoarseBase::new(mesh, base))?);
+        self.disk_note = None;
+        let path = self.disk.as_ref().map(|dir| coarse_cache::cache_path(dir, mesh, base));
+        let read = path.as_ref().map(|p| coarse_cache::load(p, mesh, base));
+        let c = match read {
+            Some(Ok(c)) => c,
+            other => {
+                // A mesh opened for the first time has no file yet: nothing to say.
+                if let Some(Err(e)) = other
+                    && !e.is_missing()
+                {
+                    self.disk_note = Some(e.to_string());
+                }
+                let c = in_pool(|| CoarseBase::new(mesh, base))?;
+                if let Some(p) = &path
+                    && let Err(e) = coarse_cache::save(&c, p)
+                {
+                    self.disk_note = Some(format!("writing {}: {e}", p.display()));
+                }
+                c
+            }
+        };
+        let c = Arc::new(c);
         self.coarse = Some(c.clone());
         Ok(Some(c))
     }

@@ -8,6 +8,7 @@ pub mod biharmonic;
 pub mod bs_arap;
 pub mod coarse;
 pub mod coarse_base;
+pub mod coarse_cache;
 pub mod config;
 pub mod constraints;
 pub mod deformer;

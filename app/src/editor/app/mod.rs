@@ -179,7 +179,7 @@ impl EditorApp {
             has_gpu,
             session: Session::default(),
             store: Store::new(options.config_dir.clone()),
-            solvers: Solvers::default(),
+            solvers: Solvers::with_cache_dir(options.config_dir.as_ref().map(|d| d.join("cache"))),
             interaction: Interaction::default(),
             display: Display::new(&options),
             jobs: Jobs::default(),

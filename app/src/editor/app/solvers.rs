@@ -49,6 +49,16 @@ pub(super) struct Solvers {
     prepared_for: Option<(usize, solver::Method, solver::BaseConfig)>,
 }
 
+impl Solvers {
+    /// Solver slots whose per-mesh precomputation is also kept in files in `dir` (the
+    /// config directory's `cache/`), so that reopening a mesh reads it; `None` keeps it in
+    /// memory only (tests, no config directory).
+    pub(super) fn with_cache_dir(dir: Option<std::path::PathBuf>) -> Solvers {
+        let cache = dir.map_or_else(solver::MeshCache::default, solver::MeshCache::on_disk);
+        Solvers { mesh_cache: Arc::new(Mutex::new(cache)), ..Solvers::default() }
+    }
+}
+
 impl Default for Solvers {
     fn default() -> Self {
         Solvers {

@@ -1,0 +1,47 @@
+//! The coarse base's disk cache (`solver::deform::coarse_cache`; BENCHMARKS.md, "Dense
+//! meshes"): the time to build a mesh's `CoarseBase`, to write it, and to read it back (what
+//! reopening the mesh in the editor costs instead of the build), and the file's size.
+//!
+//!     cargo run --release -p solver --example disk_cache -- MESH
+
+use std::process::ExitCode;
+use std::time::Instant;
+
+use solver::BaseConfig;
+use solver::deform::coarse_base::CoarseBase;
+use solver::deform::coarse_cache::{cache_path, load, save};
+
+fn run() -> Result<(), String> {
+    let path = std::env::args().nth(1).ok_or("usage: disk_cache MESH")?;
+    let mesh = solver::io::load_mesh(std::path::Path::new(&path)).map_err(|e| e.to_string())?.mesh;
+    let config = BaseConfig::default();
+    let t = Instant::now();
+    let base = CoarseBase::new(&mesh, &config).map_err(|e| e.to_string())?;
+    let build = t.elapsed().as_secs_f64() * 1e3;
+    let dir = std::env::temp_dir().join(format!("bsarap-disk-cache-{}", std::process::id()));
+    let file = cache_path(&dir, &mesh, &config);
+    let t = Instant::now();
+    save(&base, &file).map_err(|e| e.to_string())?;
+    let write = t.elapsed().as_secs_f64() * 1e3;
+    let size = std::fs::metadata(&file).map_err(|e| e.to_string())?.len() as f64 / 1048576.0;
+    let t = Instant::now();
+    load(&file, &mesh, &config).map_err(|e| e.to_string())?;
+    let read = t.elapsed().as_secs_f64() * 1e3;
+    let _ = std::fs::remove_dir_all(&dir);
+    println!(
+        "{path}: {} vertices; build {build:.0} ms, write {write:.0} ms, read {read:.0} ms, \
+         file {size:.1} MiB",
+        mesh.n_vertices()
+    );
+    Ok(())
+}
+
+fn main() -> ExitCode {
+    match run() {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -1,0 +1,344 @@
+//! A [`CoarseBase`] on disk, so that reopening a mesh skips its per-mesh precomputation.
+//!
+//! The file holds what cannot be recomputed cheaply: the coarse mesh $B_c$ (positions and
+//! triangles), the fine index of each coarse vertex, each fine vertex's representative, coarse
+//! triangle and barycentric weights, and the settings and mesh fingerprint it was built for.
+//! The rest is recomputed on reading: the embedded points $P B_c$, the details
+//! $D = M - P B_c$ and $M$ itself from the mesh.
+//!
+//! Layout (little-endian): the magic `BSARAPCB`, a format version, a 64-bit hash of everything
+//! after it, then the header and the arrays. A file is **never trusted blindly**: it is used
+//! only if its magic, version and hash are right, it was built for this mesh (fingerprint of
+//! positions and triangles) and these settings ([`CoarseBase::fits`]), every count matches and
+//! every index and number is in range; otherwise [`load`] says why and the caller builds the
+//! base anew. [`save`] writes a temporary file and renames it, so a reader never sees half a
+//! file.
+
+use crate::deform::coarse_base::{CoarseBase, blend};
+use crate::deform::config::BaseConfig;
+use crate::deform::level_fairing::Fairing;
+use crate::geometry::mesh::{Mesh, sub};
+use std::hash::Hasher;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+const MAGIC: &[u8; 8] = b"BSARAPCB";
+
+/// The most files [`save`] leaves in its directory (the oldest go first): a base of a
+/// million-vertex mesh is about 30 MiB.
+pub const MAX_FILES: usize = 8;
+const VERSION: u32 = 1;
+
+/// Why a cache file was not used.
+#[derive(Debug, thiserror::Error)]
+pub enum CacheError {
+    #[error("reading {file}: {source}")]
+    Io { file: String, source: std::io::Error },
+    #[error("{file} is not a coarse-base cache of this version, or is damaged ({why})")]
+    Invalid { file: String, why: &'static str },
+    #[error("{file} was built for another mesh or other settings")]
+    Stale { file: String },
+}
+
+impl CacheError {
+    /// Whether the file does not exist (a mesh not opened before).
+    pub fn is_missing(&self) -> bool {
+        matches!(self, CacheError::Io { source, .. } if source.kind() == std::io::ErrorKind::NotFound)
+    }
+}
+
+/// The file for `mesh` with `config` in `dir`: named by the mesh's fingerprint and the
+/// settings, so that other meshes and settings get their own files.
+pub fn cache_path(dir: &Path, mesh: &Mesh, config: &BaseConfig) -> PathBuf {
+    let fingerprint = crate::deform::coarse_base::mesh_fingerprint(mesh);
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    h.write_u64(config.smoothing.to_bits());
+    h.write_u64(config.coarse_vertices_for(mesh.n_vertices()) as u64);
+    h.write_u8(u8::from(config.level_fairing));
+    dir.join(format!("coarse-{fingerprint:016x}-{:08x}.bin", h.finish() as u32))
+}
+
+/// Writes `base` to `path` (a temporary file beside it, then renamed over it), then removes
+/// the oldest cache files of the directory beyond [`MAX_FILES`].
+pub fn save(base: &CoarseBase, path: &Path) -> std::io::Result<()> {
+    let mut body = Vec::new();
+    let u32s = |out: &mut Vec<u8>, v: &[u32]| v.iter().for_each(|x| out.extend(x.to_le_bytes()));
+    let f64s = |out: &mut Vec<u8>, v: &[f64]| v.iter().for_each(|x| out.extend(x.to_le_bytes()));
+    body.extend(base.fingerprint.to_le_bytes());
+    body.extend(base.smoothing.to_le_bytes());
+    body.push(u8::from(base.level_fairing));
+    body.extend((base.target_vertices as u64).to_le_bytes());
+    let level = match base.fairing {
+        Fairing::Direct => 0u64,
+        Fairing::Level(n) => n as u64 + 1,
+    };
+    body.extend(level.to_le_bytes());
+    body.extend(base.floor.to_le_bytes());
+    let coarse = &base.coarse_mesh;
+    for n in [base.representative.len(), coarse.n_vertices(), coarse.n_faces()] {
+        body.extend((n as u64).to_le_bytes());
+    }
+    f64s(&mut body, coarse.positions().as_flattened());
+    u32s(&mut body, coarse.triangles().as_flattened());
+    u32s(&mut body, &base.kept);
+    u32s(&mut body, &base.representative);
+    u32s(&mut body, &base.faces);
+    for (_, w) in &base.embedding {
+        f64s(&mut body, w);
+    }
+    let mut file = Vec::with_capacity(body.len() + 20);
+    file.extend(MAGIC);
+    file.extend(VERSION.to_le_bytes());
+    file.extend(checksum(&body).to_le_bytes());
+    file.extend(body);
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir)?;
+    }
+    let tmp = path.with_extension(format!("tmp{}", std::process::id()));
+    std::fs::write(&tmp, &file)?;
+    std::fs::rename(&tmp, path).inspect_err(|_| {
+        let _ = std::fs::remove_file(&tmp);
+    })?;
+    if let Some(dir) = path.parent() {
+        prune(dir);
+    }
+    Ok(())
+}
+
+/// Removes all but the [`MAX_FILES`] newest `coarse-*.bin` files of `dir` (best effort).
+fn prune(dir: &Path) {
+    let Ok(entries) = std::fs::read_dir(dir) else { return };
+    let mut files: Vec<(std::time::SystemTime, PathBuf)> = entries
+        .flatten()
+        .filter(|e| {
+            let name = e.file_name();
+            let name = name.to_string_lossy();
+            name.starts_with("coarse-") && name.ends_with(".bin")
+        })
+        .filter_map(|e| Some((e.metadata().ok()?.modified().ok()?, e.path())))
+        .collect();
+    files.sort_by_key(|f| std::cmp::Reverse(f.0));
+    for (_, old) in files.iter().skip(MAX_FILES) {
+        let _ = std::fs::remove_file(old);
+    }
+}
+
+/// Reads the base of `mesh` with `config` from `path`, checking everything the module doc
+/// lists.
+pub fn load(path: &Path, mesh: &Mesh, config: &BaseConfig) -> Result<CoarseBase, CacheError> {
+    let started = Instant::now();
+    let file = path.display().to_string();
+    let bytes =
+        std::fs::read(path).map_err(|source| CacheError::Io { file: file.clone(), source })?;
+    let invalid = |why| CacheError::Invalid { file: file.clone(), why };
+    if bytes.len() < 20 || &bytes[..8] != MAGIC {
+        return Err(invalid("no magic"));
+    }
+    if bytes[8..12] != VERSION.to_le_bytes() {
+        return Err(invalid("another format version"));
+    }
+    let body = &bytes[20..];
+    if bytes[12..20] != checksum(body).to_le_bytes() {
+        return Err(invalid("checksum"));
+    }
+    let mut r = Reader { bytes: body };
+    let fingerprint = r.u64().ok_or_else(|| invalid("short header"))?;
+    let smoothing = r.f64().ok_or_else(|| invalid("short header"))?;
+    let level_fairing = r.take(1).ok_or_else(|| invalid("short header"))?[0] != 0;
+    let target_vertices = r.u64().ok_or_else(|| invalid("short header"))? as usize;
+    let level = r.u64().ok_or_else(|| invalid("short header"))?;
+    let floor = r.f64().ok_or_else(|| invalid("short header"))?;
+    let n = r.u64().ok_or_else(|| invalid("short header"))? as usize;
+    let nc = r.u64().ok_or_else(|| invalid("short header"))? as usize;
+    let nt = r.u64().ok_or_else(|| invalid("short header"))? as usize;
+    let stale = || CacheError::Stale { file: file.clone() };
+    if n != mesh.n_vertices() {
+        return Err(stale());
+    }
+    if nc < 3 || nc > n || nt == 0 || nt > 4 * n {
+        return Err(invalid("counts out of range"));
+    }
+    let cp = r.f64s(3 * nc).ok_or_else(|| invalid("short arrays"))?;
+    let ct = r.u32s(3 * nt).ok_or_else(|| invalid("short arrays"))?;
+    let kept = r.u32s(nc).ok_or_else(|| invalid("short arrays"))?;
+    let representative = r.u32s(n).ok_or_else(|| invalid("short arrays"))?;
+    let faces = r.u32s(n).ok_or_else(|| invalid("short arrays"))?;
+    let weights = r.f64s(3 * n).ok_or_else(|| invalid("short arrays"))?;
+    if !r.bytes.is_empty() {
+        return Err(invalid("trailing bytes"));
+    }
+    if ct.iter().any(|&v| v as usize >= nc)
+        || kept.iter().any(|&v| v as usize >= n)
+        || kept.windows(2).any(|w| w[0] >= w[1])
+        || representative.iter().any(|&v| v as usize >= nc)
+        || faces.iter().any(|&f| f as usize >= nt)
+    {
+        return Err(invalid("index out of range"));
+    }
+    if !cp.iter().chain(&weights).all(|x| x.is_finite()) || !floor.is_finite() || floor < 0.0 {
+        return Err(invalid("a number that is not finite"));
+    }
+    let positions: Vec<[f64; 3]> = cp.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+    let triangles: Vec<[u32; 3]> = ct.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+    let coarse_mesh = Mesh::new(positions, triangles).map_err(|_| invalid("coarse mesh"))?;
+    let embedding: Vec<([u32; 3], [f64; 3])> = faces
+        .iter()
+        .zip(weights.chunks_exact(3))
+        .map(|(&f, w)| (coarse_mesh.triangles()[f as usize], [w[0], w[1], w[2]]))
+        .collect();
+    let cpos = coarse_mesh.positions();
+    let base_on_coarse: Vec<[f64; 3]> = embedding.iter().map(|(t, w)| blend(cpos, t, w)).collect();
+    let details = mesh.positions().iter().zip(&base_on_coarse).map(|(&p, &b)| sub(p, b)).collect();
+    let base = CoarseBase {
+        fingerprint,
+        smoothing,
+        level_fairing,
+        target_vertices,
+        rest_kept: kept.iter().map(|&v| mesh.positions()[v as usize]).collect(),
+        coarse_mesh,
+        kept,
+        representative,
+        embedding,
+        faces,
+        base_on_coarse,
+        details,
+        rest: mesh.positions().to_vec(),
+        floor,
+        fairing: if level == 0 { Fairing::Direct } else { Fairing::Level(level as usize - 1) },
+        phases: vec![("read from the disk cache", started.elapsed().as_secs_f64() * 1e3)],
+    };
+    if !base.fits(mesh, config) {
+        return Err(stale());
+    }
+    Ok(base)
+}
+
+fn checksum(bytes: &[u8]) -> u64 {
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    h.write(bytes);
+    h.finish()
+}
+
+/// Little-endian reads from the front of a byte slice.
+struct Reader<'a> {
+    bytes: &'a [u8],
+}
+
+impl Reader<'_> {
+    fn take(&mut self, n: usize) -> Option<&[u8]> {
+        if self.bytes.len() < n {
+            return None;
+        }
+        let (head, rest) = self.bytes.split_at(n);
+        self.bytes = rest;
+        Some(head)
+    }
+
+    fn u64(&mut self) -> Option<u64> {
+        self.take(8).map(|b| u64::from_le_bytes(b.try_into().unwrap_or_default()))
+    }
+
+    fn f64(&mut self) -> Option<f64> {
+        self.u64().map(f64::from_bits)
+    }
+
+    fn u32s(&mut self, n: usize) -> Option<Vec<u32>> {
+        let b = self.take(n.checked_mul(4)?)?;
+        Some(b.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect())
+    }
+
+    fn f64s(&mut self, n: usize) -> Option<Vec<f64>> {
+        let b = self.take(n.checked_mul(8)?)?;
+        Some(
+            b.chunks_exact(8)
+                .map(|c| f64::from_le_bytes(c.try_into().unwrap_or_default()))
+                .collect(),
+        )
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+    use crate::geometry::shapes::bumpy_bar;
+    use crate::testing::ScratchDir;
+
+    fn fixture() -> (Mesh, BaseConfig, CoarseBase) {
+        let mesh = bumpy_bar(3).0;
+        let config = BaseConfig { coarse_vertices: Some(100), ..BaseConfig::default() };
+        let base = CoarseBase::new(&mesh, &config).unwrap();
+        (mesh, config, base)
+    }
+
+    /// A saved base reads back equal in every array the solver uses.
+    #[test]
+    fn round_trip() {
+        let (mesh, config, base) = fixture();
+        let dir = ScratchDir::new("cache-round-trip");
+        let path = cache_path(&dir, &mesh, &config);
+        save(&base, &path).unwrap();
+        let back = load(&path, &mesh, &config).unwrap();
+        assert_eq!(back.coarse_mesh.positions(), base.coarse_mesh.positions());
+        assert_eq!(back.coarse_mesh.triangles(), base.coarse_mesh.triangles());
+        assert_eq!(back.kept, base.kept);
+        assert_eq!(back.representative, base.representative);
+        assert_eq!(back.faces, base.faces);
+        assert_eq!(back.embedding, base.embedding);
+        assert_eq!(back.base_on_coarse, base.base_on_coarse);
+        assert_eq!(back.details, base.details);
+        assert_eq!(back.rest_kept, base.rest_kept);
+        assert_eq!(back.fairing(), base.fairing());
+        assert!(back.fits(&mesh, &config));
+    }
+
+    /// Saving keeps the directory to the newest [`MAX_FILES`] cache files, the new one
+    /// among them, and leaves other files alone.
+    #[test]
+    fn old_files_are_pruned() {
+        let (mesh, config, base) = fixture();
+        let dir = ScratchDir::new("cache-prune");
+        let old = std::time::SystemTime::now() - std::time::Duration::from_secs(3600);
+        for i in 0..MAX_FILES + 3 {
+            let p = dir.join(format!("coarse-old{i}.bin"));
+            std::fs::write(&p, b"old").unwrap();
+            std::fs::File::options().write(true).open(&p).unwrap().set_modified(old).unwrap();
+        }
+        std::fs::write(dir.join("notes.txt"), b"mine").unwrap();
+        let path = cache_path(&dir, &mesh, &config);
+        save(&base, &path).unwrap();
+        let names: Vec<String> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        assert_eq!(names.iter().filter(|n| n.starts_with("coarse-")).count(), MAX_FILES);
+        assert!(path.exists() && dir.join("notes.txt").exists(), "{names:?}");
+    }
+
+    /// Another mesh, other settings, a damaged or truncated file: an error, never a base.
+    #[test]
+    fn stale_or_damaged_files_are_refused() {
+        let (mesh, config, base) = fixture();
+        let dir = ScratchDir::new("cache-refused");
+        let path = dir.join("base.bin");
+        save(&base, &path).unwrap();
+        let moved: Vec<[f64; 3]> =
+            mesh.positions().iter().map(|p| [p[0] + 1e-9, p[1], p[2]]).collect();
+        let other = mesh.with_positions(moved).unwrap();
+        assert!(matches!(load(&path, &other, &config), Err(CacheError::Stale { .. })));
+        let finer = BaseConfig { smoothing: 0.02, ..config };
+        assert!(matches!(load(&path, &mesh, &finer), Err(CacheError::Stale { .. })));
+        let good = std::fs::read(&path).unwrap();
+        let mut flipped = good.clone();
+        let last = flipped.len() - 1;
+        flipped[last] ^= 1;
+        std::fs::write(&path, &flipped).unwrap();
+        assert!(matches!(load(&path, &mesh, &config), Err(CacheError::Invalid { .. })));
+        std::fs::write(&path, &good[..good.len() / 2]).unwrap();
+        assert!(matches!(load(&path, &mesh, &config), Err(CacheError::Invalid { .. })));
+        std::fs::write(&path, b"not a cache").unwrap();
+        assert!(matches!(load(&path, &mesh, &config), Err(CacheError::Invalid { .. })));
+        let missing = dir.join("none.bin");
+        assert!(matches!(load(&missing, &mesh, &config), Err(CacheError::Io { .. })));
+    }
+}
