@@ -327,7 +327,6 @@ impl CoarseBsArap {
             last_energy: 0.0,
             phases: clock.phases,
             next: Vec::new(),
-
             coarse_target_buf: Vec::new(),
             coarse_before: Vec::new(),
             motions: Vec::new(),
@@ -637,7 +636,7 @@ pub struct Prolongation<'a> {
 /// $p'_i = b_i + \hat q_i (D_i + C_i) \hat q_i^{-1}$ with $b_i = \sum_k w_{ik} B'_{c,k}$ and
 /// $\hat q_i$ = [`blend_rotation`]. Writes `out` (`#V` long); handle and pinned vertices are not
 /// special here (the solve overwrites them). The corners' positions and sign-aligned
-/// quaternions are gathered per coarse triangle first ([`TriangleFrame`]), so that the pass
+/// quaternions are gathered per coarse triangle first (`TriangleFrame`), so that the pass
 /// over the fine vertices reads one small record per vertex and branches nowhere; it writes
 /// only $p'$ and skips the corrections when they are empty (all zero).
 pub fn prolong(input: Prolongation<'_>, out: &mut [[f64; 3]]) {
@@ -658,7 +657,7 @@ pub fn prolong(input: Prolongation<'_>, out: &mut [[f64; 3]]) {
 /// A coarse triangle's corner positions $B'_{c,k}$ and quaternions $q_k$, the latter with
 /// signs aligned to the first corner's: what [`prolong`] blends at each fine vertex on it.
 #[derive(Clone, Copy)]
-pub struct TriangleFrame {
+struct TriangleFrame {
     positions: [[f64; 3]; 3],
     quaternions: [[f64; 4]; 3],
 }
