@@ -43,9 +43,10 @@
 //! vertices per frame, each fine iteration one ARAP iteration on $M$.
 
 use crate::deform::arap::{Arap, ArapConfig, SolveStats};
-use crate::deform::coarse_base::{CoarseBase, Phases, blend};
+use crate::deform::coarse_base::{CoarseBase, Phases};
 use crate::deform::config::BaseConfig;
 use crate::deform::constraints::Constraints;
+use crate::deform::embedding::blend;
 use crate::deform::handles::Handles;
 use crate::deform::rig::Rig;
 use crate::error::SolveError;

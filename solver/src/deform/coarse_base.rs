@@ -13,10 +13,10 @@
 //!    vertices (meshoptimizer), no group kept: the coarse vertices are a subset of the fine
 //!    ones, and every fine vertex has a *representative*, the coarse vertex nearest to it along
 //!    the mesh's edges.
-//! 3. Embedding (prolongation $P$): each fine vertex $i$ gets the closest point of $B_c$ to
-//!    $B_i$ among the coarse triangles within two rings of its representative, as barycentric
-//!    weights $w_{ik}$ on a coarse triangle $t_i$; its detail is
-//!    $D_i = p_i - \sum_k w_{ik} B_{c,k}$.
+//! 3. Embedding (prolongation $P$, [`crate::deform::embedding`]): each fine vertex $i$ gets
+//!    the closest point of $B_c$ to $B_i$ among the coarse triangles within two rings of its
+//!    representative, as barycentric weights $w_{ik}$ on a coarse triangle $t_i$; its detail
+//!    is $D_i = p_i - \sum_k w_{ik} B_{c,k}$.
 //!
 //! Which coarse vertices hold a handle group, and the coarse factorization, depend on the
 //! handles: [`crate::deform::coarse::CoarseBsArap::with_base`].
@@ -26,11 +26,11 @@
 //! never hands it to another mesh.
 
 use crate::deform::config::BaseConfig;
+use crate::deform::embedding::{blend, embed};
 use crate::deform::level_fairing::{Fairing, LEVEL_EDGES_PER_SMOOTHING_LENGTH, faired_base};
 use crate::error::SolveError;
-use crate::geometry::mesh::{Mesh, add, dot, sub};
+use crate::geometry::mesh::{Mesh, sub};
 use crate::geometry::simplify::simplify;
-use rayon::prelude::*;
 use std::hash::{Hash, Hasher};
 use std::time::Instant;
 
@@ -160,79 +160,6 @@ pub fn mesh_fingerprint(mesh: &Mesh) -> u64 {
     h.finish()
 }
 
-/// Step 3 of the module doc, parallel over the fine vertices: per vertex, the index of its
-/// coarse triangle and the barycentric weights on it. With `descend`, the search goes
-/// on from the best triangle found: the triangles around its corners are tried until none is
-/// closer (a walk to the local closest point, for levels whose triangles are long and thin, where
-/// two rings of the representative can miss the closest triangle).
-pub(crate) fn embed(
-    base: &[[f64; 3]],
-    coarse: &Mesh,
-    representative: &[u32],
-    descend: bool,
-) -> (Vec<u32>, Vec<[f64; 3]>) {
-    let cp = coarse.positions();
-    let ct = coarse.triangles();
-    let mut vf = vec![Vec::new(); cp.len()];
-    for (f, t) in ct.iter().enumerate() {
-        for &v in t {
-            vf[v as usize].push(f as u32);
-        }
-    }
-    let closest = |q: [f64; 3], faces: &[u32], best: &mut (f64, u32, [f64; 3])| {
-        let mut improved = false;
-        for &f in faces {
-            let t = ct[f as usize];
-            let (point, w) = closest_point_on_triangle(q, t.map(|v| cp[v as usize]));
-            let d = sub(point, q);
-            let d2 = dot(d, d);
-            if d2 < best.0 {
-                *best = (d2, f, w);
-                improved = true;
-            }
-        }
-        improved
-    };
-    (0..base.len())
-        .into_par_iter()
-        .map_init(Vec::new, |faces, i| {
-            let r = representative[i] as usize;
-            faces.clear();
-            for &f in &vf[r] {
-                for &w in &ct[f as usize] {
-                    faces.extend_from_slice(&vf[w as usize]);
-                }
-            }
-            faces.sort_unstable();
-            faces.dedup();
-            let q = base[i];
-            // Every coarse vertex is a corner of some coarse triangle (the decimation keeps
-            // the vertices its triangles use; the level fairing factors only such levels).
-            let mut best = (f64::INFINITY, vf[r].first().copied().unwrap_or(0), [0.0; 3]);
-            best.2[ct[best.1 as usize].iter().position(|&v| v as usize == r).unwrap_or(0)] = 1.0;
-            closest(q, faces, &mut best);
-            // Each step strictly decreases the distance, so the walk ends; 64 steps bound it.
-            for _ in 0..if descend { 64 } else { 0 } {
-                faces.clear();
-                for &v in &ct[best.1 as usize] {
-                    faces.extend_from_slice(&vf[v as usize]);
-                }
-                if !closest(q, faces, &mut best) {
-                    break;
-                }
-            }
-            (best.1, best.2)
-        })
-        .unzip()
-}
-
-/// $\sum_k w_k x_{t_k}$.
-#[inline]
-pub(crate) fn blend(x: &[[f64; 3]], t: &[u32; 3], w: &[f64; 3]) -> [f64; 3] {
-    let [a, b, c] = t.map(|v| x[v as usize]);
-    std::array::from_fn(|d| w[0] * a[d] + w[1] * b[d] + w[2] * c[d])
-}
-
 /// Wall-clock milliseconds per named phase of a precomputation.
 #[derive(Debug)]
 pub(crate) struct Phases {
@@ -251,61 +178,5 @@ impl Phases {
         let now = Instant::now();
         self.phases.push((name, (now - self.last).as_secs_f64() * 1e3));
         self.last = now;
-    }
-}
-
-/// Closest point of triangle `(a, b, c)` to `p` and its barycentric weights (Ericson,
-/// Real-Time Collision Detection, §5.1.5: Voronoi regions of vertices, edges, face).
-pub fn closest_point_on_triangle(p: [f64; 3], [a, b, c]: [[f64; 3]; 3]) -> ([f64; 3], [f64; 3]) {
-    let ab = sub(b, a);
-    let ac = sub(c, a);
-    let ap = sub(p, a);
-    let (d1, d2) = (dot(ab, ap), dot(ac, ap));
-    if d1 <= 0.0 && d2 <= 0.0 {
-        return (a, [1.0, 0.0, 0.0]);
-    }
-    let bp = sub(p, b);
-    let (d3, d4) = (dot(ab, bp), dot(ac, bp));
-    if d3 >= 0.0 && d4 <= d3 {
-        return (b, [0.0, 1.0, 0.0]);
-    }
-    let vc = d1 * d4 - d3 * d2;
-    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
-        let v = d1 / (d1 - d3);
-        return (add(a, ab.map(|x| x * v)), [1.0 - v, v, 0.0]);
-    }
-    let cp = sub(p, c);
-    let (d5, d6) = (dot(ab, cp), dot(ac, cp));
-    if d6 >= 0.0 && d5 <= d6 {
-        return (c, [0.0, 0.0, 1.0]);
-    }
-    let vb = d5 * d2 - d1 * d6;
-    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
-        let w = d2 / (d2 - d6);
-        return (add(a, ac.map(|x| x * w)), [1.0 - w, 0.0, w]);
-    }
-    let va = d3 * d6 - d5 * d4;
-    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
-        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
-        return (add(b, sub(c, b).map(|x| x * w)), [0.0, 1.0 - w, w]);
-    }
-    let denom = 1.0 / (va + vb + vc);
-    let (v, w) = (vb * denom, vc * denom);
-    (add(a, add(ab.map(|x| x * v), ac.map(|x| x * w))), [1.0 - v - w, v, w])
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn closest_point_regions() {
-        let t = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
-        let (p, w) = closest_point_on_triangle([0.2, 0.3, 5.0], t);
-        assert!((p[0] - 0.2).abs() < 1e-15 && (p[1] - 0.3).abs() < 1e-15 && p[2] == 0.0);
-        assert!((w[0] - 0.5).abs() < 1e-15);
-        assert_eq!(closest_point_on_triangle([-1.0, -1.0, 0.0], t).1, [1.0, 0.0, 0.0]);
-        let (_, w) = closest_point_on_triangle([2.0, 2.0, 0.0], t);
-        assert!((w[1] - 0.5).abs() < 1e-15 && (w[2] - 0.5).abs() < 1e-15);
     }
 }

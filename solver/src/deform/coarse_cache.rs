@@ -14,8 +14,9 @@
 //! base anew. [`save`] writes a temporary file and renames it, so a reader never sees half a
 //! file.
 
-use crate::deform::coarse_base::{CoarseBase, blend};
+use crate::deform::coarse_base::CoarseBase;
 use crate::deform::config::BaseConfig;
+use crate::deform::embedding::blend;
 use crate::deform::level_fairing::Fairing;
 use crate::geometry::mesh::{Mesh, sub};
 use std::hash::Hasher;

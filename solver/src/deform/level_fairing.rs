@@ -90,14 +90,14 @@ pub fn faired_base(
         return direct();
     };
     let embedding =
-        crate::deform::coarse_base::embed(mesh.positions(), &level_mesh, &dec.representative, true);
+        crate::deform::embedding::embed(mesh.positions(), &level_mesh, &dec.representative, true);
     let (faces, weights) = embedding;
     let level_triangles = level_mesh.triangles();
     let mut base: Vec<[f64; 3]> = faces
         .iter()
         .zip(&weights)
         .map(|(&f, w)| {
-            crate::deform::coarse_base::blend(&level_base, &level_triangles[f as usize], w)
+            crate::deform::embedding::blend(&level_base, &level_triangles[f as usize], w)
         })
         .collect();
     for (k, &v) in dec.kept.iter().enumerate() {

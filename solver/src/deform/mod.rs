@@ -12,6 +12,7 @@ pub mod coarse_cache;
 pub mod config;
 pub mod constraints;
 pub mod deformer;
+pub mod embedding;
 pub mod handles;
 pub mod level_fairing;
 pub mod pose;
