@@ -478,14 +478,17 @@ impl CoarseBsArap {
         };
         let st = fine.refine(&self.result, targets, n)?;
         self.result.copy_from_slice(fine.positions());
-        let (bc, quats) = (self.arap.positions(), &self.quaternions);
+        let frames = triangle_frames(
+            self.arap.positions(),
+            &self.quaternions,
+            self.base.coarse_mesh.triangles(),
+        );
         self.correction
             .par_iter_mut()
-            .zip(self.result.par_iter().zip(self.base.embedding.par_iter()))
-            .zip(self.base.details.par_iter())
-            .for_each(|((c, (x, (t, w))), d)| {
-                let b = blend(bc, t, w);
-                let q = blend_rotation(quats, t, w);
+            .zip(self.result.par_iter().zip(self.base.faces.par_iter()))
+            .zip(self.base.embedding.par_iter().zip(self.base.details.par_iter()))
+            .for_each(|((c, (x, &f)), ((_, w), d))| {
+                let (b, q) = frames[f as usize].at(w);
                 let conj = [q[0], -q[1], -q[2], -q[3]];
                 *c = sub(rotate(conj, sub(*x, b)), *d);
             });
@@ -635,7 +638,8 @@ pub struct Prolongation<'a> {
 
 /// Step 4 of the module doc at every fine vertex, in parallel:
 /// $p'_i = b_i + \hat q_i (D_i + C_i) \hat q_i^{-1}$ with $b_i = \sum_k w_{ik} B'_{c,k}$ and
-/// $\hat q_i$ = [`blend_rotation`]. Writes `out` (`#V` long); handle and pinned vertices are not
+/// $\hat q_i$ the normalized blend $\sum_k w_{ik} q_{t_k}$ of the corner quaternions, signs
+/// aligned with the first corner's (the identity if the blend vanishes). Writes `out` (`#V` long); handle and pinned vertices are not
 /// special here (the solve overwrites them). The corners' positions and sign-aligned
 /// quaternions are gathered per coarse triangle first (`TriangleFrame`), so that the pass
 /// over the fine vertices reads one small record per vertex and branches nowhere; it writes
@@ -643,9 +647,11 @@ pub struct Prolongation<'a> {
 pub fn prolong(input: Prolongation<'_>, out: &mut [[f64; 3]]) {
     let Prolongation { coarse, quaternions, triangles, faces, embedding, details, corrections } =
         input;
-    let frames: Vec<TriangleFrame> =
-        triangles.iter().map(|t| TriangleFrame::new(coarse, quaternions, t)).collect();
-    let at = |f: u32, w: &[f64; 3], d: [f64; 3]| frames[f as usize].apply(w, d);
+    let frames = triangle_frames(coarse, quaternions, triangles);
+    let at = |f: u32, w: &[f64; 3], d: [f64; 3]| {
+        let (b, q) = frames[f as usize].at(w);
+        add(b, rotate(q, d))
+    };
     let work = out.par_iter_mut().zip(faces.par_iter().zip(embedding.par_iter()));
     if corrections.is_empty() {
         work.zip(details.par_iter()).for_each(|((out, (&f, (_, w))), d)| *out = at(f, w, *d));
@@ -655,8 +661,19 @@ pub fn prolong(input: Prolongation<'_>, out: &mut [[f64; 3]]) {
     }
 }
 
+/// Every coarse triangle's [`TriangleFrame`] for the coarse pose `coarse` and rotations
+/// `quats`.
+fn triangle_frames(
+    coarse: &[[f64; 3]],
+    quats: &[[f64; 4]],
+    triangles: &[[u32; 3]],
+) -> Vec<TriangleFrame> {
+    triangles.iter().map(|t| TriangleFrame::new(coarse, quats, t)).collect()
+}
+
 /// A coarse triangle's corner positions $B'_{c,k}$ and quaternions $q_k$, the latter with
-/// signs aligned to the first corner's: what [`prolong`] blends at each fine vertex on it.
+/// signs aligned to the first corner's: what [`prolong`] and the fine iterations' corrections
+/// blend at each fine vertex on it.
 #[derive(Clone, Copy)]
 struct TriangleFrame {
     positions: [[f64; 3]; 3],
@@ -675,30 +692,16 @@ impl TriangleFrame {
         }
     }
 
-    /// $\sum_k w_k B'_{c,k} + \hat q\, d\, \hat q^{-1}$.
+    /// At barycentric weights `w`: $b = \sum_k w_k B'_{c,k}$ and $\hat q$, the normalized
+    /// $\sum_k w_k q_k$.
     #[inline]
-    fn apply(&self, w: &[f64; 3], d: [f64; 3]) -> [f64; 3] {
+    fn at(&self, w: &[f64; 3]) -> ([f64; 3], [f64; 4]) {
         let [a, b, c] = self.quaternions;
         let q: [f64; 4] = std::array::from_fn(|k| w[0] * a[k] + w[1] * b[k] + w[2] * c[k]);
         let [p, r, s] = self.positions;
         let base: [f64; 3] = std::array::from_fn(|k| w[0] * p[k] + w[1] * r[k] + w[2] * s[k]);
-        add(base, rotate(unit(q), d))
+        (base, unit(q))
     }
-}
-
-/// $\hat q_i$: the normalized blend $\sum_k w_{ik} q_{t_k}$ of the corner quaternions, signs
-/// aligned with the first corner's (the identity if the blend vanishes).
-pub fn blend_rotation(quats: &[[f64; 4]], t: &[u32; 3], w: &[f64; 3]) -> [f64; 4] {
-    let q0 = quats[t[0] as usize];
-    let mut q = [0.0; 4];
-    for k in 0..3 {
-        let qk = quats[t[k] as usize];
-        let s = if dot4(qk, q0) < 0.0 { -w[k] } else { w[k] };
-        for c in 0..4 {
-            q[c] += s * qk[c];
-        }
-    }
-    unit(q)
 }
 
 /// $q / |q|$, or the identity for $q = 0$.
