@@ -12,22 +12,25 @@ use solver::geometry::region;
 use solver::geometry::topology::{Adjacency, connected_components};
 use support::{SIZE, drag, harness, path, settled, step_until, test_mesh};
 
-fn even_odd(p: Pos2, poly: &[Pos2]) -> bool {
+/// Whether `p` is inside `poly` by its winding number (the sum of the angles the edges
+/// subtend at `p`): a different method from the editor's even-odd crossing count, so that the
+/// expected sets do not repeat the code under test. They agree on the simple lassos drawn here.
+fn inside_by_winding(p: Pos2, poly: &[Pos2]) -> bool {
     let n = poly.len();
-    let mut inside = false;
+    let mut turn = 0.0f64;
     for i in 0..n {
-        let (a, b) = (poly[i], poly[(i + n - 1) % n]);
-        if (a.y > p.y) != (b.y > p.y) && p.x < (b.x - a.x) * (p.y - a.y) / (b.y - a.y) + a.x {
-            inside = !inside;
-        }
+        let (a, b) = (poly[i] - p, poly[(i + 1) % n] - p);
+        let cross = f64::from(a.x) * f64::from(b.y) - f64::from(a.y) * f64::from(b.x);
+        let dot = f64::from(a.x) * f64::from(b.x) + f64::from(a.y) * f64::from(b.y);
+        turn += cross.atan2(dot);
     }
-    inside
+    turn.abs() > std::f64::consts::PI
 }
 
 /// Vertices drawn inside `poly` (through the mesh).
 fn drawn_inside(app: &EditorApp, poly: &[Pos2]) -> Vec<usize> {
     (0..app.n_vertices())
-        .filter(|&v| app.vertex_screen_pos(v).is_some_and(|p| even_odd(p, poly)))
+        .filter(|&v| app.vertex_screen_pos(v).is_some_and(|p| inside_by_winding(p, poly)))
         .collect()
 }
 
