@@ -217,14 +217,23 @@ mod tests {
         assert!(err.contains("paint"), "{err}");
     }
 
-    #[test]
-    fn loose_parts_modes_survive_a_scene_round_trip_and_old_scenes_follow() {
-        use solver::{ComponentMode, LooseParts};
-        let dir = solver::testing::ScratchDir::new("doc-parts");
+    /// The bumpy bar written as OBJ in a scratch folder named by `tag`, its vertex count, and a
+    /// document whose groups are the bar's two end caps.
+    fn bar_document(
+        tag: &str,
+    ) -> (solver::testing::ScratchDir, std::path::PathBuf, usize, EditState) {
+        let dir = solver::testing::ScratchDir::new(tag);
         let mesh_path = dir.join("bar.obj");
         let (mesh, handles) = solver::geometry::shapes::bumpy_bar(1);
         solver::io::write_obj(&mesh_path, mesh.positions(), mesh.triangles()).unwrap();
-        let mut edit = EditState::from_labels(handles.labels().to_vec());
+        let edit = EditState::from_labels(handles.labels().to_vec());
+        (dir, mesh_path, mesh.n_vertices(), edit)
+    }
+
+    #[test]
+    fn loose_parts_modes_survive_a_scene_round_trip_and_old_scenes_follow() {
+        use solver::{ComponentMode, LooseParts};
+        let (dir, mesh_path, _, mut edit) = bar_document("doc-parts");
         assert!(edit.loose_parts.is_default(), "a new document lets loose parts follow");
         edit.loose_parts.set(2, ComponentMode::Pin);
         edit.loose_parts.set(3, ComponentMode::Pin);
@@ -267,12 +276,8 @@ mod tests {
         use solver::animation::scene::SymmetrySpec;
         use solver::deform::rig::{Falloff, FalloffCurve};
         use solver::deform::symmetry::{Axis, SymmetryPlane};
-        let dir = solver::testing::ScratchDir::new("doc-rig");
-        let mesh_path = dir.join("bar.obj");
-        let (mesh, handles) = solver::geometry::shapes::bumpy_bar(1);
-        solver::io::write_obj(&mesh_path, mesh.positions(), mesh.triangles()).unwrap();
-        let mut edit = EditState::from_labels(handles.labels().to_vec());
-        let mut r = vec![1.0; mesh.n_vertices()];
+        let (dir, mesh_path, n_vertices, mut edit) = bar_document("doc-rig");
+        let mut r = vec![1.0; n_vertices];
         r[3] = 0.25;
         edit.rigidity = Some(r);
         edit.groups[1].falloff = Falloff { radius: 0.125, curve: FalloffCurve::Linear };
