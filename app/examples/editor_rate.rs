@@ -74,7 +74,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     println!("|---|---:|---:|---:|---:|---:|---:|---:|");
     let make = factory(Default::default());
-    let vertex_faces = solver::geometry::normals::VertexFaces::new(&mesh);
+    let vertex_faces =
+        solver::geometry::normals::VertexFaces::new(mesh.n_vertices(), mesh.triangles());
     let mut settling = Vec::new();
     for (m, aa) in methods {
         let acceleration = if aa {

@@ -145,23 +145,7 @@ impl GpuProlongation {
             })
             .collect();
         // Vertex -> incident faces as compressed rows.
-        let mut offsets = vec![0u32; n + 1];
-        for t in triangles {
-            for &v in t {
-                offsets[v as usize + 1] += 1;
-            }
-        }
-        for i in 0..n {
-            offsets[i + 1] += offsets[i];
-        }
-        let mut fill = offsets.clone();
-        let mut incident = vec![0u32; 3 * triangles.len()];
-        for (f, t) in triangles.iter().enumerate() {
-            for &v in t {
-                incident[fill[v as usize] as usize] = f as u32;
-                fill[v as usize] += 1;
-            }
-        }
+        let vertex_faces = solver::geometry::normals::VertexFaces::new(n, triangles);
         let params =
             Params { n_vertices: n as u32, n_fixed: 0, n_faces: triangles.len() as u32, _pad: 0 };
         let none = wgpu::BufferUsages::empty();
@@ -185,8 +169,10 @@ impl GpuProlongation {
         let tri = storage(device, "triangles", bytemuck::cast_slice(triangles), none);
         let face_normals =
             storage(device, "face normals", &vec![0u8; 16 * triangles.len().max(1)], none);
-        let offsets = storage(device, "incident offsets", bytemuck::cast_slice(&offsets), none);
-        let incident = storage(device, "incident faces", bytemuck::cast_slice(&incident), none);
+        let offsets =
+            storage(device, "incident offsets", bytemuck::cast_slice(vertex_faces.offsets()), none);
+        let incident =
+            storage(device, "incident faces", bytemuck::cast_slice(vertex_faces.faces()), none);
 
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("prolong.wgsl"),

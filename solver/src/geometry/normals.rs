@@ -106,33 +106,45 @@ pub fn vertex_normals_or_up(positions: &[[f64; 3]], triangles: &[[u32; 3]]) -> V
 /// but the output.
 #[derive(Debug)]
 pub struct VertexFaces {
-    offsets: Vec<usize>,
+    offsets: Vec<u32>,
     faces: Vec<u32>,
     /// Per triangle, its area normal in the last pose: scratch reused between poses.
     area_normals: std::sync::Mutex<Vec<[f64; 3]>>,
 }
 
 impl VertexFaces {
-    /// The triangles of each of `mesh`'s vertices.
-    pub fn new(mesh: &crate::geometry::mesh::Mesh) -> VertexFaces {
-        let mut offsets = vec![0usize; mesh.n_vertices() + 1];
-        for t in mesh.triangles() {
+    /// The triangles of each of `n_vertices` vertices; every index of `triangles` is below
+    /// `n_vertices` (a [`crate::geometry::mesh::Mesh`]'s are).
+    pub fn new(n_vertices: usize, triangles: &[[u32; 3]]) -> VertexFaces {
+        let mut offsets = vec![0u32; n_vertices + 1];
+        for t in triangles {
             for &v in t {
                 offsets[v as usize + 1] += 1;
             }
         }
-        for i in 0..mesh.n_vertices() {
+        for i in 0..n_vertices {
             offsets[i + 1] += offsets[i];
         }
         let mut next = offsets.clone();
-        let mut faces = vec![0u32; offsets[mesh.n_vertices()]];
-        for (f, t) in mesh.triangles().iter().enumerate() {
+        let mut faces = vec![0u32; 3 * triangles.len()];
+        for (f, t) in triangles.iter().enumerate() {
             for &v in t {
-                faces[next[v as usize]] = f as u32;
+                faces[next[v as usize] as usize] = f as u32;
                 next[v as usize] += 1;
             }
         }
         VertexFaces { offsets, faces, area_normals: Default::default() }
+    }
+
+    /// Where each vertex's triangles start in [`VertexFaces::faces`] (`#V + 1`, compressed
+    /// rows).
+    pub fn offsets(&self) -> &[u32] {
+        &self.offsets
+    }
+
+    /// The triangles of vertex `v` are `faces()[offsets()[v]..offsets()[v + 1]]`.
+    pub fn faces(&self) -> &[u32] {
+        &self.faces
     }
 
     /// [`vertex_normals_or_up`] of `positions` in `f32` (the same sums in another order), into
@@ -159,7 +171,7 @@ impl VertexFaces {
         out.resize(positions.len(), [0.0; 3]);
         out.par_iter_mut().enumerate().for_each(|(v, n)| {
             let mut m = glam::DVec3::ZERO;
-            for &f in &self.faces[self.offsets[v]..self.offsets[v + 1]] {
+            for &f in &self.faces[self.offsets[v] as usize..self.offsets[v + 1] as usize] {
                 m += glam::DVec3::from(area_normals[f as usize]);
             }
             let u = m.normalize_or_zero();
@@ -185,7 +197,11 @@ mod tests {
             mesh.positions().iter().map(|&[x, y, z]| [2.0 * x + 0.3 * y * y, y, 0.5 * z]).collect();
         let expected = vertex_normals_or_up(&p, mesh.triangles());
         let mut got = Vec::new();
-        VertexFaces::new(&mesh).normals_f32(&p, mesh.triangles(), &mut got);
+        VertexFaces::new(mesh.n_vertices(), mesh.triangles()).normals_f32(
+            &p,
+            mesh.triangles(),
+            &mut got,
+        );
         assert_eq!(got.len(), expected.len());
         for (g, e) in got.iter().zip(&expected) {
             for k in 0..3 {

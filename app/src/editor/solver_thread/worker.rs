@@ -307,7 +307,8 @@ fn rebuild(
                 .detail_magnitudes()
                 .map(|d| Arc::new(d.iter().map(|&v| v as f32).collect()));
             let components = Arc::new(pose_solver.components());
-            let vertex_faces = vertex_faces.unwrap_or_else(|| Arc::new(VertexFaces::new(&mesh)));
+            let vertex_faces = vertex_faces
+                .unwrap_or_else(|| Arc::new(VertexFaces::new(mesh.n_vertices(), mesh.triangles())));
             set_status(&shared.status, SolverState::Solving);
             Some(Active {
                 vertex_faces,
