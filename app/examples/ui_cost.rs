@@ -1,7 +1,8 @@
 //! How much the editor's UI thread spends per frame on a mesh while the solver runs: opens
 //! MESH (default: the default asset) headless through egui_kittest, waits for the first solve
 //! (printing the seconds from opening to it: when the mesh becomes posable),
-//! then moves handle group 0 a little every frame for 300 frames, as a drag does, and prints
+//! then moves handle group 0 a little every frame for 300 frames as the gizmo's drag does
+//! (`EditorApp::drag_group`: no undo entry, no colour change), and prints
 //! the UI thread's milliseconds per frame (mean, 95th percentile) and the solver's frames
 //! per second. GPU rendering is not included (nothing is rendered); build in release for
 //! figures a user would see:
@@ -56,16 +57,16 @@ fn main() {
     let groups = h.state().edit_state().groups.len();
     assert!(groups > 0, "the mesh has no handle groups (a .dmat or .handles.json beside it)");
     let scale = h.state().diagonal();
+    let start_pose = h.state().group_pose(0).expect("group 0");
     let mut times = Vec::new();
     let mut solver_frames = 0usize;
     let mut last_gen = (0, 0);
     let t0 = Instant::now();
     for i in 0..300 {
-        let mut e = h.state().edit_state().clone();
+        let mut pose = start_pose;
         let a = i as f64 * 0.02;
-        e.groups[0].pose.translation =
-            [0.05 * scale * a.sin(), 0.05 * scale * (1.0 - a.cos()), 0.0];
-        h.state_mut().set_edit_state(e);
+        pose.translation = [0.05 * scale * a.sin(), 0.05 * scale * (1.0 - a.cos()), 0.0];
+        h.state_mut().drag_group(0, pose);
         let s = Instant::now();
         h.step();
         times.push(s.elapsed().as_secs_f64() * 1e3);

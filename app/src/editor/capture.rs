@@ -24,8 +24,8 @@ use eframe::egui_wgpu::{CallbackResources, CallbackTrait, ScreenDescriptor, wgpu
 use super::camera::OrbitCamera;
 use super::render_layout::RenderLayout;
 use super::renderer::{
-    self, RendererResources, Shape, TexturedDraw, Topology, Uniforms, VertexData, ViewportCallback,
-    build_vertices,
+    self, ClayDraw, RendererResources, Shape, TexturedDraw, Topology, Uniforms, VertexData,
+    ViewportCallback,
 };
 
 /// The viewport's background (sRGB), as in the editor.
@@ -104,7 +104,7 @@ impl Picture {
         let [w, h] = self.size;
         let aspect = w.max(1) as f32 / h.max(1) as f32;
         let bg = Rgba::from(BACKGROUND);
-        let (vertices, textured) = match &self.render {
+        let (clay, textured) = match &self.render {
             Some(layout) => {
                 let vertices =
                     layout.gather(&self.shape.positions, &self.shape.normals, &self.colors);
@@ -112,9 +112,9 @@ impl Picture {
                 (None, Some(TexturedDraw { layout: layout.clone(), vertices }))
             }
             None => {
-                let vertices =
-                    build_vertices(&self.shape.positions, &self.shape.normals, &self.colors);
-                (Some(Arc::new(VertexData { version, vertices })), None)
+                let colors = Arc::new(VertexData { version, vertices: self.colors.clone() });
+                let shape = self.shape.clone();
+                (Some(ClayDraw { shape_version: version, shape, colors }), None)
             }
         };
         ViewportCallback {
@@ -122,7 +122,7 @@ impl Picture {
             size_px: self.size,
             uniforms: uniforms(&self.camera, aspect),
             topology: Some(self.topology.clone()),
-            vertices,
+            clay,
             grid: self.grid.clone(),
             textured,
             wireframe: self.wireframe,

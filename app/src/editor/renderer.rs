@@ -7,8 +7,10 @@
 //! its wireframe and the ground grid into the offscreen target (egui's own pass has no depth
 //! buffer); `paint` only binds and draws one triangle that copies the image into egui's pass.
 //!
-//! The mesh is drawn one of two ways. Clay shading draws the welded solver mesh with one colour
-//! per vertex ([`Vertex`], `mesh.wgsl`). Texture shading draws the asset's split layout
+//! The mesh is drawn one of two ways. Clay shading draws the welded solver mesh from three
+//! vertex streams ([`ClayDraw`], `mesh.wgsl`): the shape's positions and normals as the solver
+//! thread made them (uploaded as they are when the pose changes: nothing per vertex runs on the
+//! UI thread for a new pose) and one colour per vertex (uploaded when the colours change). Texture shading draws the asset's split layout
 //! ([`super::render_layout::RenderLayout`], [`TexturedVertex`], `textured.wgsl`): base colour
 //! × texture, with the handle colours blended over it; one draw per base-colour texture.
 
@@ -49,7 +51,7 @@ pub const SHADERS: [(&str, &str); 5] = [
 const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
 const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
-/// One vertex as the shaders read it (`shaders/mesh.wgsl` `VertexIn`); color is linear RGBA.
+/// One vertex of the ground grid (`shaders/grid.wgsl`); color is linear RGBA.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
 pub struct Vertex {
@@ -97,6 +99,16 @@ pub struct VertexData<V = Vertex> {
     pub vertices: Vec<V>,
 }
 
+/// The mesh in clay shading: the shape's positions and normals, uploaded as they are when
+/// `shape_version` changes, and linear RGBA colours per vertex (`mesh.wgsl` reads the three
+/// as separate vertex buffers).
+#[derive(Clone)]
+pub struct ClayDraw {
+    pub shape_version: u64,
+    pub shape: Shape,
+    pub colors: Arc<VertexData<[f32; 4]>>,
+}
+
 /// The mesh in texture shading: the asset's layout and this frame's vertices on it.
 pub struct TexturedDraw {
     pub layout: Arc<RenderLayout>,
@@ -133,35 +145,6 @@ impl Shape {
         faces.normals_f32(x, triangles, &mut normals);
         Shape { positions: Arc::new(positions), normals: Arc::new(normals) }
     }
-}
-
-/// Interleaves positions, normals and colors into the vertex buffer's layout.
-pub fn build_vertices(
-    positions: &[[f32; 3]],
-    normals: &[[f32; 3]],
-    colors: &[[f32; 4]],
-) -> Vec<Vertex> {
-    let mut out = Vec::new();
-    fill_vertices(&mut out, positions, normals, colors);
-    out
-}
-
-/// [`build_vertices`] into `out`, reusing its allocation (the viewport refills the buffer of
-/// its previous frame, so that a new pose allocates nothing on the UI thread).
-pub fn fill_vertices(
-    out: &mut Vec<Vertex>,
-    positions: &[[f32; 3]],
-    normals: &[[f32; 3]],
-    colors: &[[f32; 4]],
-) {
-    out.clear();
-    out.extend(
-        positions.iter().zip(normals).zip(colors).map(|((&position, &normal), &color)| Vertex {
-            position,
-            normal,
-            color,
-        }),
-    );
 }
 
 /// Line segments of a ground grid on the plane `y = height`, centred under `center`.
@@ -201,9 +184,10 @@ pub struct ViewportCallback {
     pub size_px: [u32; 2],
     pub uniforms: Uniforms,
     pub topology: Option<Arc<Topology>>,
-    pub vertices: Option<Arc<VertexData>>,
+    /// Clay shading, on `topology`.
+    pub clay: Option<ClayDraw>,
     pub grid: Option<Arc<VertexData>>,
-    /// Texture shading: drawn instead of `topology` and `vertices`.
+    /// Texture shading: drawn instead of `topology` and `clay`.
     pub textured: Option<TexturedDraw>,
     pub wireframe: bool,
     pub show_grid: bool,
@@ -259,15 +243,21 @@ struct Target {
 struct ViewportGpu {
     uniform_buffer: wgpu::Buffer,
     uniform_bind_group: wgpu::BindGroup,
+    /// Positions (clay) or whole [`TexturedVertex`]s.
     vertices: GrowBuffer,
+    /// Clay only: normals and colours, beside the positions in `vertices`.
+    normals: GrowBuffer,
+    colors: GrowBuffer,
     triangles: GrowBuffer,
     edges: GrowBuffer,
     grid: GrowBuffer,
     vertex_version: Option<u64>,
+    color_version: Option<u64>,
     /// The topology in the index buffers, and whether it is the textured layout's.
     topology_version: Option<(u64, bool)>,
     grid_version: Option<u64>,
     n_vertices: u32,
+    n_colors: u32,
     n_triangle_indices: u32,
     n_edge_indices: u32,
     n_grid: u32,
@@ -311,6 +301,30 @@ fn position_layout(stride: usize) -> wgpu::VertexBufferLayout<'static> {
     }
 }
 
+/// One attribute per buffer: the clay mesh's normals (location 1) and colours (location 2),
+/// read beside [`position_layout`]`(12)`.
+fn stream_layout(
+    attribute: &'static [wgpu::VertexAttribute; 1],
+) -> wgpu::VertexBufferLayout<'static> {
+    wgpu::VertexBufferLayout {
+        array_stride: attribute[0].format.size(),
+        step_mode: wgpu::VertexStepMode::Vertex,
+        attributes: attribute,
+    }
+}
+
+const NORMAL_STREAM: [wgpu::VertexAttribute; 1] = [wgpu::VertexAttribute {
+    format: wgpu::VertexFormat::Float32x3,
+    offset: 0,
+    shader_location: 1,
+}];
+const COLOR_STREAM: [wgpu::VertexAttribute; 1] = [wgpu::VertexAttribute {
+    format: wgpu::VertexFormat::Float32x4,
+    offset: 0,
+    shader_location: 2,
+}];
+
+/// The grid's interleaved [`Vertex`].
 fn vertex_layout() -> wgpu::VertexBufferLayout<'static> {
     const ATTRS: [wgpu::VertexAttribute; 3] =
         wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x4];
@@ -431,8 +445,14 @@ pub fn resources(
         bind_group_layouts: &[Some(&blit_layout)],
         immediate_size: 0,
     });
-    let buffers = [Some(vertex_layout())];
-    let position_only = [Some(position_layout(std::mem::size_of::<Vertex>()))];
+    let grid_buffers = [Some(vertex_layout())];
+    let positions = std::mem::size_of::<[f32; 3]>();
+    let clay_buffers = [
+        Some(position_layout(positions)),
+        Some(stream_layout(&NORMAL_STREAM)),
+        Some(stream_layout(&COLOR_STREAM)),
+    ];
+    let position_only = [Some(position_layout(positions))];
     let textured_positions = [Some(position_layout(std::mem::size_of::<TexturedVertex>()))];
     let mesh_pipeline = pipeline(
         device,
@@ -441,7 +461,7 @@ pub fn resources(
             module: &mesh,
             layout: &scene_layout,
             topology: wgpu::PrimitiveTopology::TriangleList,
-            buffers: &buffers,
+            buffers: &clay_buffers,
             depth: depth_state(true),
             format: COLOR_FORMAT,
             constants: &[],
@@ -480,7 +500,7 @@ pub fn resources(
             module: &grid,
             layout: &scene_layout,
             topology: wgpu::PrimitiveTopology::LineList,
-            buffers: &buffers,
+            buffers: &grid_buffers,
             depth: depth_state(true),
             format: COLOR_FORMAT,
             constants: &[],
@@ -548,13 +568,17 @@ impl RendererResources {
                 uniform_buffer,
                 uniform_bind_group,
                 vertices: GrowBuffer::new(device, "bsarap mesh vertices", vertex),
+                normals: GrowBuffer::new(device, "bsarap mesh normals", vertex),
+                colors: GrowBuffer::new(device, "bsarap mesh colours", vertex),
                 triangles: GrowBuffer::new(device, "bsarap triangle indices", index),
                 edges: GrowBuffer::new(device, "bsarap edge indices", index),
                 grid: GrowBuffer::new(device, "bsarap grid vertices", vertex),
                 vertex_version: None,
+                color_version: None,
                 topology_version: None,
                 grid_version: None,
                 n_vertices: 0,
+                n_colors: 0,
                 n_triangle_indices: 0,
                 n_edge_indices: 0,
                 n_grid: 0,
@@ -647,23 +671,30 @@ impl CallbackTrait for ViewportCallback {
             vp.n_edge_indices = topo.edges.len() as u32;
             vp.topology_version = Some((topo.version, textured));
         }
-        let vertices = match (&self.textured, &self.vertices) {
-            (Some(t), _) => Some((
-                t.vertices.version,
-                bytemuck::cast_slice(&t.vertices.vertices),
-                t.vertices.vertices.len(),
-            )),
-            (None, Some(v)) => {
-                Some((v.version, bytemuck::cast_slice(&v.vertices), v.vertices.len()))
+        match (&self.textured, &self.clay) {
+            (Some(t), _) => {
+                if vp.vertex_version != Some(t.vertices.version) {
+                    vp.vertices.write(device, queue, bytemuck::cast_slice(&t.vertices.vertices));
+                    vp.n_vertices = t.vertices.vertices.len() as u32;
+                    vp.vertex_version = Some(t.vertices.version);
+                }
             }
-            (None, None) => None,
-        };
-        if let Some((version, bytes, n)) = vertices
-            && vp.vertex_version != Some(version)
-        {
-            vp.vertices.write(device, queue, bytes);
-            vp.n_vertices = n as u32;
-            vp.vertex_version = Some(version);
+            (None, Some(c)) => {
+                if vp.vertex_version != Some(c.shape_version) {
+                    let positions = &c.shape.positions;
+                    vp.vertices.write(device, queue, bytemuck::cast_slice(positions));
+                    vp.normals.write(device, queue, bytemuck::cast_slice(&c.shape.normals));
+                    let n = positions.len().min(c.shape.normals.len());
+                    vp.n_vertices = n as u32;
+                    vp.vertex_version = Some(c.shape_version);
+                }
+                if vp.color_version != Some(c.colors.version) {
+                    vp.colors.write(device, queue, bytemuck::cast_slice(&c.colors.vertices));
+                    vp.n_colors = c.colors.vertices.len() as u32;
+                    vp.color_version = Some(c.colors.version);
+                }
+            }
+            (None, None) => {}
         }
         if let Some(g) = &self.grid
             && vp.grid_version != Some(g.version)
@@ -707,9 +738,15 @@ impl CallbackTrait for ViewportCallback {
             pass.set_vertex_buffer(0, vp.grid.buffer.slice(..));
             pass.draw(0..vp.n_grid, 0..1);
         }
-        let mesh_ready = textured || (self.topology.is_some() && self.vertices.is_some());
+        // Clay needs a colour for every vertex (the streams of one shape).
+        let mesh_ready = textured
+            || (self.topology.is_some() && self.clay.is_some() && vp.n_colors >= vp.n_vertices);
         if mesh_ready && vp.n_vertices > 0 && vp.n_triangle_indices > 0 {
             pass.set_vertex_buffer(0, vp.vertices.buffer.slice(..));
+            if !textured {
+                pass.set_vertex_buffer(1, vp.normals.buffer.slice(..));
+                pass.set_vertex_buffer(2, vp.colors.buffer.slice(..));
+            }
             pass.set_index_buffer(vp.triangles.buffer.slice(..), wgpu::IndexFormat::Uint32);
             match &self.textured {
                 Some(t) => {
@@ -784,8 +821,6 @@ mod tests {
     fn shape_normals_of_a_flat_triangle() {
         let s = Shape::new(&[[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], &[[0, 1, 2]]);
         assert_eq!(*s.normals, vec![[0.0, 0.0, 1.0]; 3]);
-        let v = build_vertices(&s.positions, &s.normals, &[[1.0; 4]; 3]);
-        assert_eq!(v[1].position, [1.0, 0.0, 0.0]);
-        assert_eq!(v[2].normal, [0.0, 0.0, 1.0]);
+        assert_eq!(s.positions[1], [1.0, 0.0, 0.0]);
     }
 }

@@ -109,7 +109,7 @@ impl EditorApp {
     /// Where vertex `v` is drawn in viewport 0 (as last displayed), in points.
     pub fn vertex_screen_pos(&self, v: usize) -> Option<Pos2> {
         let rect = *self.display.viewport_rects.first()?;
-        let p = self.display.viewports[0].positions.as_ref()?.get(v).copied()?;
+        let p = self.display.viewports[0].positions()?.get(v).copied()?;
         let ndc = self.display.camera.project(Vec3::from_array(p), rect.aspect_ratio())?;
         Some(Pos2::new(
             rect.left() + (ndc[0] + 1.0) * 0.5 * rect.width(),

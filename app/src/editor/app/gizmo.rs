@@ -420,14 +420,22 @@ impl EditorApp {
         }
         let group = t.group;
         self.gizmo.transform = Some(t);
-        if pose.is_finite()
-            && let Some(g) = self.session.edit.groups.get_mut(group)
-            && g.pose != pose
-        {
-            g.pose = pose;
-            self.mirror_pose(group);
-            self.send_poses();
+        self.drag_group(group, pose);
+    }
+
+    /// Moves handle group `group` to `pose` as one step of a drag does (the gizmo's; scripts
+    /// that measure a drag): mirrored to its symmetric group and sent to the solver, with no
+    /// undo entry (a drag pushes one when it ends) and no change of colours. False when the
+    /// group does not exist, the pose is not finite or is the group's already.
+    pub fn drag_group(&mut self, group: usize, pose: GroupPose) -> bool {
+        let Some(g) = self.session.edit.groups.get_mut(group) else { return false };
+        if !pose.is_finite() || g.pose == pose {
+            return false;
         }
+        g.pose = pose;
+        self.mirror_pose(group);
+        self.send_poses();
+        true
     }
 
     /// The screen geometry of the gizmo for the active group: centre, arrow tips, rings.

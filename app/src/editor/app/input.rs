@@ -165,7 +165,7 @@ impl EditorApp {
     pub(super) fn pick(&mut self, slot: usize, rect: Rect, pos: Pos2) -> Option<Hit> {
         let scene = self.session.scene.as_mut()?;
         let cache = &self.display.viewports[slot];
-        let positions = cache.positions.clone()?;
+        let positions = cache.positions()?.clone();
         let version = cache.key.map_or(0, |k| k.0);
         if self.display.bvh_fit != Some((slot, version)) {
             scene.bvh.refit(&positions, scene.mesh.triangles());
@@ -193,7 +193,7 @@ impl EditorApp {
             && matches!(self.interaction.tool, Tool::Paint | Tool::Rigidity)
             && let Some(hit) = self.pick(slot, rect, pos)
             && let Some(scene) = &self.session.scene
-            && let Some(positions) = &self.display.viewports[slot].positions
+            && let Some(positions) = self.display.viewports[slot].positions()
         {
             let tri = scene.mesh.triangles()[hit.triangle as usize];
             let r = self.brush_world_radius();

@@ -266,7 +266,7 @@ impl EditorApp {
         rect: Rect,
         polygon: &[Pos2],
     ) -> Vec<u32> {
-        let Some(positions) = self.display.viewports[slot].positions.clone() else {
+        let Some(positions) = self.display.viewports[slot].positions().cloned() else {
             return Vec::new();
         };
         let bounds = Rect::from_points(polygon);

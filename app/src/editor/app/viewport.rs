@@ -12,7 +12,7 @@ use crate::editor::camera::OrbitCamera;
 use crate::editor::pose_solvers;
 use crate::editor::render_layout::RenderLayout;
 use crate::editor::renderer::{
-    Shape, TexturedDraw, TexturedVertex, Uniforms, VertexData, ViewportCallback, fill_vertices,
+    ClayDraw, Shape, TexturedDraw, TexturedVertex, Uniforms, VertexData, ViewportCallback,
 };
 use crate::editor::solver_thread::{SolvedFrame, SolverState};
 
@@ -72,14 +72,21 @@ impl Display {
 #[derive(Default)]
 pub(super) struct ViewportCache {
     pub(super) key: Option<(u64, u64)>,
-    pub(super) data: Option<Arc<VertexData>>,
-    /// The same in texture shading (on the asset's render layout).
+    /// The shape drawn (clay: as it is; its positions are also what picking reads), with the
+    /// version its upload carries.
+    pub(super) shape: Option<(u64, Shape)>,
+    /// Texture shading: the shape and colours gathered onto the asset's render layout.
     pub(super) textured: Option<Arc<VertexData<TexturedVertex>>>,
-    /// Positions drawn in this viewport (for picking).
-    pub(super) positions: Option<Arc<Vec<[f32; 3]>>>,
     /// This viewport's vertex colors and the color version they were made for: kept while only
     /// the positions change (not in the Details view, whose colors follow the pose).
-    pub(super) colors: Option<(u64, Vec<[f32; 4]>)>,
+    pub(super) colors: Option<(u64, Arc<VertexData<[f32; 4]>>)>,
+}
+
+impl ViewportCache {
+    /// The positions drawn in this viewport (for picking).
+    pub(super) fn positions(&self) -> Option<&Arc<Vec<[f32; 3]>>> {
+        self.shape.as_ref().map(|(_, s)| &s.positions)
+    }
 }
 
 /// The vertices of a viewport's previous frame, to be refilled in place when no draw holds
@@ -141,10 +148,11 @@ impl EditorApp {
             }
         }
         self.rigidity_colors(&mut colors, over_texture);
-        for (c, l) in colors.iter_mut().zip(&self.session.edit.labels) {
-            if let Some(g) = l.and_then(|g| self.session.edit.groups.get(g as usize)) {
+        // Each group's colour once (the sRGB → linear conversion is not free per vertex).
+        let group_colors: Vec<[f32; 4]> = (self.session.edit.groups.iter().enumerate())
+            .map(|(k, g)| {
                 let mut rgba = egui::Rgba::from(g.color).to_array();
-                if Some(l.unwrap_or(0) as usize) != self.interaction.active_group {
+                if Some(k) != self.interaction.active_group {
                     for ch in rgba.iter_mut().take(3) {
                         *ch *= 0.75;
                     }
@@ -152,6 +160,11 @@ impl EditorApp {
                 if over_texture {
                     rgba[3] = GROUP_TINT;
                 }
+                rgba
+            })
+            .collect();
+        for (c, l) in colors.iter_mut().zip(&self.session.edit.labels) {
+            if let Some(&rgba) = l.and_then(|g| group_colors.get(g as usize)) {
                 *c = rgba;
             }
         }
@@ -217,27 +230,23 @@ impl EditorApp {
                 let color_version = self.display.color_version;
                 let fresh = self.display.view != View::Details
                     && matches!(&self.display.viewports[slot].colors,
-                        Some((v, c)) if *v == color_version && c.len() == n);
+                        Some((v, c)) if *v == color_version && c.vertices.len() == n);
                 if !fresh {
-                    let colors = self.vertex_colors(slot, n, layout.is_some());
+                    let vertices = self.vertex_colors(slot, n, layout.is_some());
+                    let version = self.next_version();
+                    let colors = Arc::new(VertexData { version, vertices });
                     self.display.viewports[slot].colors = Some((color_version, colors));
                 }
                 let version = self.next_version();
                 let cache = &mut self.display.viewports[slot];
-                let colors = cache.colors.as_ref().map_or(&[][..], |c| &c.1[..]);
-                if let Some(layout) = layout {
-                    let mut vertices = recycle(&mut cache.textured);
+                let colors = cache.colors.as_ref().map_or(&[][..], |c| &c.1.vertices[..]);
+                let mut vertices = recycle(&mut cache.textured);
+                cache.textured = layout.map(|layout| {
                     layout.gather_into(&mut vertices, &shape.positions, &shape.normals, colors);
-                    cache.textured = Some(Arc::new(VertexData { version, vertices }));
-                    cache.data = None;
-                } else {
-                    let mut vertices = recycle(&mut cache.data);
-                    fill_vertices(&mut vertices, &shape.positions, &shape.normals, colors);
-                    cache.data = Some(Arc::new(VertexData { version, vertices }));
-                    cache.textured = None;
-                }
+                    Arc::new(VertexData { version, vertices })
+                });
                 cache.key = Some(key);
-                cache.positions = Some(shape.positions.clone());
+                cache.shape = Some((version, shape.clone()));
             }
         }
         self.viewport_input(ui, slot, rect, &response);
@@ -271,7 +280,19 @@ impl EditorApp {
                     .as_ref()
                     .filter(|_| draw_mesh)
                     .map(|s| s.topology.clone()),
-                vertices: self.display.viewports[slot].data.clone().filter(|_| draw_mesh),
+                clay: {
+                    let cache = &self.display.viewports[slot];
+                    cache
+                        .shape
+                        .clone()
+                        .zip(cache.colors.as_ref().map(|c| c.1.clone()))
+                        .filter(|_| draw_mesh && cache.textured.is_none())
+                        .map(|((shape_version, shape), colors)| ClayDraw {
+                            shape_version,
+                            shape,
+                            colors,
+                        })
+                },
                 textured: self.display.viewports[slot]
                     .textured
                     .clone()
