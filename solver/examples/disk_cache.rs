@@ -1,5 +1,5 @@
 //! The coarse base's disk cache (`solver::deform::coarse_cache`; BENCHMARKS.md, "Dense
-//! meshes"): the time to build a mesh's `CoarseBase`, to write it, and to read it back (what
+//! meshes"): the time to build a mesh's `CoarseBase` (and each of its phases), to write it, and to read it back (what
 //! reopening the mesh in the editor costs instead of the build), and the file's size.
 //!
 //!     cargo run --release -p solver --example disk_cache -- MESH
@@ -28,10 +28,13 @@ fn run() -> Result<(), String> {
     load(&file, &mesh, &config).map_err(|e| e.to_string())?;
     let read = t.elapsed().as_secs_f64() * 1e3;
     let _ = std::fs::remove_dir_all(&dir);
+    let phases: Vec<String> =
+        base.precompute_phases().iter().map(|(k, ms)| format!("{k} {ms:.0}")).collect();
     println!(
-        "{path}: {} vertices; build {build:.0} ms, write {write:.0} ms, read {read:.0} ms, \
+        "{path}: {} vertices; build {build:.0} ms ({}), write {write:.0} ms, read {read:.0} ms, \
          file {size:.1} MiB",
-        mesh.n_vertices()
+        mesh.n_vertices(),
+        phases.join(", ")
     );
     Ok(())
 }

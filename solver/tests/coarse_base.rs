@@ -140,3 +140,49 @@ fn a_cache_on_disk_is_read_back_and_a_damaged_file_rebuilt() {
         .unwrap();
     assert_eq!(again.precompute_phases()[0].0, "read from the disk cache", "rewritten");
 }
+
+/// A mesh dense enough to be faired on a level takes its coarse level from that level (not
+/// from the base on every vertex): its details stay as short as those of the base decimated
+/// on every vertex (each fine vertex found its coarse triangle through the level), and a bend
+/// lands near the one the every-vertex base gives.
+#[test]
+fn a_coarse_level_decimated_from_the_fairing_level_embeds_every_vertex() {
+    let (mesh, handles) = solver::geometry::shapes::bumpy_bar(6);
+    let diag = mesh.bbox_diagonal();
+    let config = ArapConfig::default();
+    let level = BaseConfig { smoothing: 0.03, coarse_vertices: Some(800), ..Default::default() };
+    let direct = BaseConfig { level_fairing: false, ..level };
+    let tr = GroupTransform { translation: [0.0, 0.15 * diag, 0.0], ..Default::default() };
+    let targets = handle_targets(mesh.positions(), &handles, &[(0, tr)]).unwrap();
+    let solve = |settings: &BaseConfig| {
+        let base = Arc::new(CoarseBase::new(&mesh, settings).unwrap());
+        let fairing = base.fairing();
+        let mut s = CoarseBsArap::with_base(base, &mesh, &handles, &config, settings).unwrap();
+        s.solve(&targets).unwrap();
+        let longest = s.details().iter().map(|d| norm(*d)).fold(0.0, f64::max);
+        (fairing, longest, s.positions().to_vec())
+    };
+    let (how, level_detail, level_pose) = solve(&level);
+    assert!(matches!(how, solver::deform::level_fairing::Fairing::Level(_)), "{how:?}");
+    let (how, direct_detail, direct_pose) = solve(&direct);
+    assert_eq!(how, solver::deform::level_fairing::Fairing::Direct);
+    assert!(
+        level_detail < 1.5 * direct_detail,
+        "longest detail {level_detail:e} through the level, {direct_detail:e} on every vertex"
+    );
+    let mean = level_pose.iter().zip(&direct_pose).map(|(a, b)| norm(sub(*a, *b))).sum::<f64>()
+        / level_pose.len() as f64;
+    println!(
+        "details {level_detail:e} / {direct_detail:e}, mean pose difference {:e}",
+        mean / diag
+    );
+    assert!(mean < 5e-3 * diag, "mean difference {:e} of the diagonal", mean / diag);
+}
+
+fn norm(d: [f64; 3]) -> f64 {
+    glam::DVec3::from_array(d).length()
+}
+
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    (glam::DVec3::from_array(a) - glam::DVec3::from_array(b)).to_array()
+}

@@ -12,11 +12,15 @@
 //! 2. $B_c$ = [`crate::geometry::simplify::simplify`] of $B$ to about `coarse_vertices`
 //!    vertices (meshoptimizer), no group kept: the coarse vertices are a subset of the fine
 //!    ones, and every fine vertex has a *representative*, the coarse vertex nearest to it along
-//!    the mesh's edges.
+//!    the mesh's edges. When $B$ was faired on a level, the level (its faired positions are $B$
+//!    at its vertices) is decimated instead of $B$ on every vertex: the same surface at a tenth
+//!    of the vertices or fewer, and a fine vertex's representative is then the coarse
+//!    representative of its level representative.
 //! 3. Embedding (prolongation $P$, [`crate::deform::embedding`]): each fine vertex $i$ gets
 //!    the closest point of $B_c$ to $B_i$ among the coarse triangles within two rings of its
-//!    representative, as barycentric weights $w_{ik}$ on a coarse triangle $t_i$; its detail
-//!    is $D_i = p_i - \sum_k w_{ik} B_{c,k}$.
+//!    representative (walking on from there when the representative came through the level),
+//!    as barycentric weights $w_{ik}$ on a coarse triangle $t_i$; its detail is
+//!    $D_i = p_i - \sum_k w_{ik} B_{c,k}$.
 //!
 //! Which coarse vertices hold a handle group, and the coarse factorization, depend on the
 //! handles: [`crate::deform::coarse::CoarseBsArap::with_base`].
@@ -27,10 +31,12 @@
 
 use crate::deform::config::BaseConfig;
 use crate::deform::embedding::{blend, embed};
-use crate::deform::level_fairing::{Fairing, LEVEL_EDGES_PER_SMOOTHING_LENGTH, faired_base};
+use crate::deform::level_fairing::{
+    FairedBase, FairedLevel, Fairing, LEVEL_EDGES_PER_SMOOTHING_LENGTH, faired_base,
+};
 use crate::error::SolveError;
 use crate::geometry::mesh::{Mesh, sub};
-use crate::geometry::simplify::simplify;
+use crate::geometry::simplify::{Decimation, simplify};
 use std::hash::{Hash, Hasher};
 use std::time::Instant;
 
@@ -74,16 +80,23 @@ impl CoarseBase {
             .then_some(config.smoothing * diag);
         let level_edges =
             if config.level_fairing { LEVEL_EDGES_PER_SMOOTHING_LENGTH } else { f64::INFINITY };
-        let (base, fairing) = faired_base(mesh, smoothing, level_edges)?;
+        let FairedBase { base, fairing, level } = faired_base(mesh, smoothing, level_edges)?;
         clock.lap("faired base");
         let target_vertices = config.coarse_vertices_for(mesh.n_vertices());
-        let dec = simplify(&base, mesh.triangles(), target_vertices, false)
-            .ok_or(SolveError::DecimationFailed { target: target_vertices })?;
+        let from_level = level.as_ref().and_then(|l| decimate_level(l, target_vertices));
+        let on_level = from_level.is_some();
+        let dec = match from_level {
+            Some(dec) => dec,
+            None => simplify(&base, mesh.triangles(), target_vertices, false)
+                .ok_or(SolveError::DecimationFailed { target: target_vertices })?,
+        };
+        drop(level);
         clock.lap("decimation");
         let coarse_positions: Vec<[f64; 3]> = dec.kept.iter().map(|&v| base[v as usize]).collect();
         let coarse_mesh = Mesh::new(coarse_positions, dec.triangles)
             .map_err(|_| SolveError::NonFiniteResult { vertex: 0 })?;
-        let (faces, weights) = embed(&base, &coarse_mesh, &dec.representative, false);
+        // A representative found through the level is a coarser guess: walk on from it.
+        let (faces, weights) = embed(&base, &coarse_mesh, &dec.representative, on_level);
         let embedding: Vec<([u32; 3], [f64; 3])> = faces
             .iter()
             .zip(weights)
@@ -146,6 +159,27 @@ impl CoarseBase {
     pub fn precompute_ms(&self) -> f64 {
         self.phases.iter().map(|(_, ms)| ms).sum()
     }
+}
+
+/// $B_c$ decimated from the faired level instead of from $B$ on every fine vertex (the level
+/// has a tenth of the vertices or fewer, and its positions are $B$ at its vertices): the
+/// decimation of the level's vertices, renumbered as fine vertices, each fine vertex's
+/// representative the coarse representative of its level representative. `None` when the
+/// level is not larger than the target or cannot be decimated (then $B$ is).
+fn decimate_level(level: &FairedLevel, target_vertices: usize) -> Option<Decimation> {
+    if target_vertices >= level.kept.len() {
+        return None;
+    }
+    let dec = simplify(&level.base, &level.triangles, target_vertices, false)?;
+    Some(Decimation {
+        kept: dec.kept.iter().map(|&k| level.kept[k as usize]).collect(),
+        triangles: dec.triangles,
+        representative: level
+            .representative
+            .iter()
+            .map(|&l| dec.representative[l as usize])
+            .collect(),
+    })
 }
 
 /// A 64-bit hash of a mesh's positions (bit patterns) and triangles: which mesh a cached

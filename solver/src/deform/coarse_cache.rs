@@ -28,7 +28,8 @@ const MAGIC: &[u8; 8] = b"BSARAPCB";
 /// The most files [`save`] leaves in its directory (the oldest go first): a base of a
 /// million-vertex mesh is about 30 MiB.
 pub const MAX_FILES: usize = 8;
-const VERSION: u32 = 1;
+/// The file format and the construction it stores: a file of another version is rebuilt.
+const VERSION: u32 = 2;
 
 /// Why a cache file was not used.
 #[derive(Debug, thiserror::Error)]

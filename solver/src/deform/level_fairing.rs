@@ -22,11 +22,15 @@
 //! would have removed it. The simplifier can leave nearly flat triangles (corners almost on a
 //! line); the level drops them ([`LEVEL_MAX_HALF_COTANGENT`]: they cover almost no area, and
 //! their weights would make the level's bi-Laplacian numerically indefinite). The level is
-//! decimated with meshoptimizer's `Regularize` option (rounder triangles). When $n_\ell \ge n / 2$ (every paper mesh at the default
+//! decimated with meshoptimizer's `Regularize` option (rounder triangles). The level's
+//! fairing and the embedding of the fine vertices on it need only the level and run side by
+//! side; the level is returned with the base ([`FairedBase`]) for the coarse base to decimate
+//! further. When $n_\ell \ge n / 2$ (every paper mesh at the default
 //! smoothing), or when the level cannot be built or faired, the whole mesh is faired directly.
 
 use crate::deform::biharmonic::faired_surface;
 use crate::deform::constraints::Constraints;
+use crate::deform::embedding::{blend, embed};
 use crate::error::SolveError;
 use crate::geometry::cotan::face_cotangents;
 use crate::geometry::mesh::{Mesh, dot, sub};
@@ -48,6 +52,28 @@ pub enum Fairing {
     Level(usize),
 }
 
+/// A faired base: $B$ at every vertex of the mesh and, when it was faired on a level, that
+/// level (from which the coarse base decimates further, [`crate::deform::coarse_base`]).
+#[derive(Debug)]
+pub struct FairedBase {
+    pub base: Vec<[f64; 3]>,
+    pub fairing: Fairing,
+    pub level: Option<FairedLevel>,
+}
+
+/// The level $M_\ell$ a base was faired on, with its faired positions $B_\ell$.
+#[derive(Debug)]
+pub struct FairedLevel {
+    /// Fine index of each level vertex (ascending).
+    pub kept: Vec<u32>,
+    /// The level's triangles (indices into `kept`), nearly flat ones left out.
+    pub triangles: Vec<[u32; 3]>,
+    /// $B_\ell$.
+    pub base: Vec<[f64; 3]>,
+    /// Per fine vertex, the level vertex nearest to it along the mesh's edges.
+    pub representative: Vec<u32>,
+}
+
 /// The faired surface of `mesh` with no vertex held, for smoothing length `smoothing` (mesh
 /// units), on a decimated level when the mesh is dense enough (module doc). `level_edges` is
 /// $k$ ([`LEVEL_EDGES_PER_SMOOTHING_LENGTH`] by default; `f64::INFINITY` always fairs directly).
@@ -55,10 +81,14 @@ pub fn faired_base(
     mesh: &Mesh,
     smoothing: Option<f64>,
     level_edges: f64,
-) -> Result<(Vec<[f64; 3]>, Fairing), SolveError> {
+) -> Result<FairedBase, SolveError> {
     let direct = || {
         let all_free = Constraints::all_free(mesh.n_vertices());
-        faired_surface(mesh, &all_free, mesh.positions(), smoothing).map(|b| (b, Fairing::Direct))
+        faired_surface(mesh, &all_free, mesh.positions(), smoothing).map(|base| FairedBase {
+            base,
+            fairing: Fairing::Direct,
+            level: None,
+        })
     };
     let Some(h) = smoothing else { return direct() };
     let n = mesh.n_vertices();
@@ -84,26 +114,33 @@ pub fn faired_base(
         .copied()
         .collect();
     let Ok(level_mesh) = Mesh::new(level_positions, triangles) else { return direct() };
-    let all_free = Constraints::all_free(level_mesh.n_vertices());
-    let Ok(level_base) = faired_surface(&level_mesh, &all_free, level_mesh.positions(), Some(h))
-    else {
-        return direct();
-    };
-    let embedding =
-        crate::deform::embedding::embed(mesh.positions(), &level_mesh, &dec.representative, true);
-    let (faces, weights) = embedding;
+    // The fairing (one sparse factorization) and the embedding (parallel over the fine
+    // vertices) need only the level: side by side.
+    let (level_base, (faces, weights)) = rayon::join(
+        || {
+            let all_free = Constraints::all_free(level_mesh.n_vertices());
+            faired_surface(&level_mesh, &all_free, level_mesh.positions(), Some(h))
+        },
+        || embed(mesh.positions(), &level_mesh, &dec.representative, true),
+    );
+    let Ok(level_base) = level_base else { return direct() };
     let level_triangles = level_mesh.triangles();
     let mut base: Vec<[f64; 3]> = faces
         .iter()
         .zip(&weights)
-        .map(|(&f, w)| {
-            crate::deform::embedding::blend(&level_base, &level_triangles[f as usize], w)
-        })
+        .map(|(&f, w)| blend(&level_base, &level_triangles[f as usize], w))
         .collect();
     for (k, &v) in dec.kept.iter().enumerate() {
         base[v as usize] = level_base[k];
     }
-    Ok((base, Fairing::Level(level_mesh.n_vertices())))
+    let fairing = Fairing::Level(level_mesh.n_vertices());
+    let level = FairedLevel {
+        kept: dec.kept,
+        triangles: level_mesh.triangles().to_vec(),
+        base: level_base,
+        representative: dec.representative,
+    };
+    Ok(FairedBase { base, fairing, level: Some(level) })
 }
 
 /// $n_\ell$ of the module doc for smoothing length `h` and $k$ = `level_edges`.
@@ -138,11 +175,21 @@ mod tests {
         let mesh = bumpy_bar(6).0;
         let diag = mesh.bbox_diagonal();
         let h = 0.03 * diag;
-        let (direct, how) = faired_base(&mesh, Some(h), f64::INFINITY).unwrap();
-        assert_eq!(how, Fairing::Direct);
-        let (level, how) = faired_base(&mesh, Some(h), LEVEL_EDGES_PER_SMOOTHING_LENGTH).unwrap();
+        let direct = faired_base(&mesh, Some(h), f64::INFINITY).unwrap();
+        assert_eq!(direct.fairing, Fairing::Direct);
+        assert!(direct.level.is_none());
+        let (direct, level) =
+            (direct.base, faired_base(&mesh, Some(h), LEVEL_EDGES_PER_SMOOTHING_LENGTH).unwrap());
+        let how = level.fairing;
+        let faired_level = level.level.expect("the level");
+        let level = level.base;
         let Fairing::Level(nl) = how else { panic!("{how:?} for {} vertices", mesh.n_vertices()) };
         assert!(nl * 3 <= mesh.n_vertices(), "{nl} of {}", mesh.n_vertices());
+        // The level's vertices carry their own faired positions.
+        assert_eq!(faired_level.kept.len(), nl);
+        for (k, &v) in faired_level.kept.iter().enumerate() {
+            assert_eq!(level[v as usize], faired_level.base[k]);
+        }
         let dist: Vec<f64> = direct
             .iter()
             .zip(&level)
@@ -171,9 +218,9 @@ mod tests {
     fn a_mesh_near_the_smoothing_length_is_faired_directly() {
         let bar = bumpy_bar(3).0;
         let h = 0.01 * bar.bbox_diagonal();
-        let (_, how) = faired_base(&bar, Some(h), LEVEL_EDGES_PER_SMOOTHING_LENGTH).unwrap();
-        assert_eq!(how, Fairing::Direct);
-        let (_, how) = faired_base(&bar, None, LEVEL_EDGES_PER_SMOOTHING_LENGTH).unwrap();
-        assert_eq!(how, Fairing::Direct);
+        let faired = faired_base(&bar, Some(h), LEVEL_EDGES_PER_SMOOTHING_LENGTH).unwrap();
+        assert_eq!(faired.fairing, Fairing::Direct);
+        let faired = faired_base(&bar, None, LEVEL_EDGES_PER_SMOOTHING_LENGTH).unwrap();
+        assert_eq!(faired.fairing, Fairing::Direct);
     }
 }
