@@ -206,3 +206,37 @@ fn consecutive_refines_continue_the_anderson_history() {
     assert!(gap(&one, &two) < 1e-9, "continued refines differ: {:e}", gap(&one, &two));
     assert!(gap(&one, &restarted) > 1e-6, "a restart should differ: {:e}", gap(&one, &restarted));
 }
+
+/// The full-mesh factorization settling needs can be made on a thread of its own while the
+/// caller goes on solving: settling after it gives what settling after a factorization on the
+/// caller's thread gives.
+#[test]
+fn a_fine_level_factored_in_the_background_settles_as_one_factored_in_place() {
+    let c = case();
+    let config = ArapConfig { tolerance: 1e-6, ..Default::default() };
+    let (mut here, mut there) = (coarse(&c, &config, 0, 5), coarse(&c, &config, 0, 5));
+    for d in [&mut here, &mut there] {
+        d.solve(&c.targets).unwrap();
+    }
+    let mut waited = 0;
+    loop {
+        let solver::Solver::Coarse(s) = there.solver_mut() else { panic!("not coarse") };
+        if s.factor_fine_in_background() {
+            break;
+        }
+        assert!(!s.fine_ready());
+        waited += 1;
+        std::thread::sleep(std::time::Duration::from_millis(5));
+        assert!(waited < 12_000, "the factorization did not finish in a minute");
+    }
+    // Another solve at the same targets on both (the settle step refines the last solve).
+    there.solve(&c.targets).unwrap();
+    here.solve(&c.targets).unwrap();
+    let a = here.settle(&c.targets).unwrap().expect("a settle step");
+    let b = there.settle(&c.targets).unwrap().expect("a settle step");
+    assert_eq!(a.fine_iterations, b.fine_iterations);
+    assert_eq!(here.positions(), there.positions());
+    let solver::Solver::Coarse(s) = there.solver() else { panic!("not coarse") };
+    assert!(s.fine_ready());
+    assert!(s.precompute_phases().iter().any(|p| p.0 == "fine factorization"));
+}

@@ -72,6 +72,13 @@ impl PoseSolver for DeformerPoseSolver {
         self.0.settle_pending()
     }
 
+    fn settle_ready(&mut self) -> bool {
+        match self.0.solver_mut() {
+            solver::Solver::Coarse(c) => c.factor_fine_in_background(),
+            _ => true,
+        }
+    }
+
     fn settle(
         &mut self,
         targets: &[[f64; 3]],

@@ -24,7 +24,8 @@
 //!    and the vertices of components without handles to their rest positions (the deformer
 //!    then moves the following ones, [`crate::deform::riders`]).
 //! 5. Optionally ([`BaseConfig::fine_iterations`]), a few ARAP iterations on $M$ (factored
-//!    when first needed, [`CoarseBsArap::factor_fine`]) with
+//!    when first needed, [`CoarseBsArap::factor_fine`], or on a thread of its own,
+//!    [`CoarseBsArap::factor_fine_in_background`]) with
 //!    Anderson acceleration ([`Arap::refine`]) start from $p'$ and give the result $x$: a
 //!    two-level scheme in which the coarse solve supplies the smooth part of the deformation
 //!    and the fine iterations reduce what the coarse space and the detail transfer cannot
@@ -51,6 +52,7 @@ use crate::deform::handles::Handles;
 use crate::deform::rig::Rig;
 use crate::error::SolveError;
 use crate::geometry::mesh::{Mesh, add, sub};
+use crate::linalg::linsolve::FactorError;
 use crate::linalg::rigid::{Motion, fit_motion};
 use crate::linalg::rotation::Mat3;
 use rayon::prelude::*;
@@ -109,11 +111,24 @@ pub struct CoarseBsArap {
     coarse_before: Vec<[f64; 3]>,
 }
 
-/// The ARAP on the full mesh: what to build it from until it is first needed, then itself.
+/// The ARAP on the full mesh: what to build it from until it is first needed, the thread
+/// factoring it ([`CoarseBsArap::factor_fine_in_background`]), then itself.
 #[derive(Debug)]
 enum FineLevel {
     Pending(Box<(Mesh, Constraints, ArapConfig)>),
+    /// Its factorization and the milliseconds it took.
+    Factoring(std::thread::JoinHandle<(Result<Arap, SolveError>, f64)>),
     Ready(Box<Arap>),
+    /// The factorization failed (it would again: reported by every call that needs it).
+    Failed(SolveError),
+}
+
+/// Factors the ARAP on the full mesh from `inputs`; with the milliseconds it took.
+fn factor_full_mesh(inputs: &(Mesh, Constraints, ArapConfig)) -> (Result<Arap, SolveError>, f64) {
+    let (mesh, constraints, config) = inputs;
+    let t = std::time::Instant::now();
+    let arap = Arap::with_constraints(mesh, constraints.clone(), config, 0.0, None);
+    (arap, t.elapsed().as_secs_f64() * 1e3)
 }
 
 /// The rig on the coarse level (`crate::deform::rig`): the falloffs as they are (radii are
@@ -496,19 +511,80 @@ impl CoarseBsArap {
         Ok(st)
     }
 
-    /// Factors the ARAP on the full mesh if it is pending (its phase is added to
-    /// [`CoarseBsArap::precompute_phases`]); nothing without fine or settle iterations or
-    /// when done already.
+    /// Factors the ARAP on the full mesh if it is pending, or waits for the thread factoring it
+    /// ([`CoarseBsArap::factor_fine_in_background`]); its phase is added to
+    /// [`CoarseBsArap::precompute_phases`]. Nothing without fine or settle iterations or when
+    /// done already; the error of a failed factorization every time.
     pub fn factor_fine(&mut self) -> Result<(), SolveError> {
-        if let Some(FineLevel::Pending(inputs)) = &self.fine {
-            let mut clock = Phases::default();
-            let (mesh, constraints, config) = &**inputs;
-            let arap = Arap::with_constraints(mesh, constraints.clone(), config, 0.0, None)?;
-            clock.lap("fine factorization");
-            self.phases.extend(clock.phases);
-            self.fine = Some(FineLevel::Ready(Box::new(arap)));
+        match self.fine.take() {
+            Some(FineLevel::Pending(inputs)) => self.take_fine(factor_full_mesh(&inputs)),
+            Some(FineLevel::Factoring(thread)) => match thread.join() {
+                Ok(done) => self.take_fine(done),
+                Err(panic) => std::panic::resume_unwind(panic),
+            },
+            Some(FineLevel::Failed(e)) => {
+                self.fine = Some(FineLevel::Failed(e.clone()));
+                Err(e)
+            }
+            other => {
+                self.fine = other;
+                Ok(())
+            }
         }
-        Ok(())
+    }
+
+    /// Starts factoring the ARAP on the full mesh on a thread of its own if it is pending (a
+    /// caller that must stay responsive, such as the editor's solver thread, settles only once
+    /// this says true). True when fine and settle iterations can run without waiting for a
+    /// factorization (done, failed, or none asked for): the next [`CoarseBsArap::settle`]
+    /// takes the result, or reports the failure, or resumes a panic of that thread.
+    pub fn factor_fine_in_background(&mut self) -> bool {
+        match self.fine.take() {
+            Some(FineLevel::Pending(inputs)) => {
+                let spawned = std::thread::Builder::new()
+                    .name("bsarap fine factorization".into())
+                    .spawn(move || factor_full_mesh(&inputs));
+                match spawned {
+                    Ok(thread) => {
+                        self.fine = Some(FineLevel::Factoring(thread));
+                        false
+                    }
+                    Err(e) => {
+                        // No thread to be had: the fine level is given up, with the reason.
+                        let reason = FactorError::Other(format!("no thread to factor on: {e}"));
+                        self.fine = Some(FineLevel::Failed(SolveError::Factorization {
+                            matrix: "the full-mesh ARAP",
+                            source: reason,
+                        }));
+                        true
+                    }
+                }
+            }
+            Some(FineLevel::Factoring(thread)) => {
+                let done = thread.is_finished();
+                self.fine = Some(FineLevel::Factoring(thread));
+                done
+            }
+            other => {
+                self.fine = other;
+                true
+            }
+        }
+    }
+
+    /// Keeps a finished factorization (its phase) or its error.
+    fn take_fine(&mut self, (arap, ms): (Result<Arap, SolveError>, f64)) -> Result<(), SolveError> {
+        match arap {
+            Ok(arap) => {
+                self.phases.push(("fine factorization", ms));
+                self.fine = Some(FineLevel::Ready(Box::new(arap)));
+                Ok(())
+            }
+            Err(e) => {
+                self.fine = Some(FineLevel::Failed(e.clone()));
+                Err(e)
+            }
+        }
     }
 
     /// Whether the ARAP on the full mesh is factored (fine and settle iterations run at once).

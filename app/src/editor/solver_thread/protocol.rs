@@ -115,6 +115,13 @@ pub trait PoseSolver: Send {
     fn settle_pending(&self) -> bool {
         false
     }
+    /// Whether [`PoseSolver::settle`] can run now without a long wait: starts what it needs
+    /// (a factorization) in the background when it is not started yet, so that the thread
+    /// stays free for new poses meanwhile; the thread asks again while it waits (the default:
+    /// always ready).
+    fn settle_ready(&mut self) -> bool {
+        true
+    }
     /// Refines the last solve's converged pose, whose handles have stopped at `targets`, by a
     /// step (`x` as in [`PoseSolver::solve`]); the thread calls it until the stats say converged.
     /// `None`: nothing to refine (the default).

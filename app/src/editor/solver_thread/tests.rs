@@ -2,6 +2,7 @@
 //! worker, settling runs and stops as it should, the base is built only while shown.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
@@ -236,6 +237,76 @@ fn a_new_pose_interrupts_settling() {
         rest[0].2.duration_since(sent) >= SETTLE_DELAY,
         "settled before the new pose had rested for the delay"
     );
+}
+
+/// Settles by one step (vertex 1 by 0.5 along x) once a shared flag says what settling needs
+/// is ready (a factorization in the background, in the coarse pose solver); counts the asks.
+struct SlowToSettle {
+    shift: Shift,
+    ready: Arc<AtomicBool>,
+    asked: Arc<AtomicUsize>,
+    settled: bool,
+}
+
+impl PoseSolver for SlowToSettle {
+    fn settle_pending(&self) -> bool {
+        !self.settled
+    }
+
+    fn settle_ready(&mut self) -> bool {
+        self.asked.fetch_add(1, Ordering::Relaxed);
+        self.ready.load(Ordering::Relaxed)
+    }
+
+    fn solve(&mut self, targets: &[[f64; 3]], x: &mut [[f64; 3]]) -> Result<FrameStats, String> {
+        self.settled = false;
+        self.shift.solve(targets, x)
+    }
+
+    fn settle(
+        &mut self,
+        _targets: &[[f64; 3]],
+        x: &mut [[f64; 3]],
+    ) -> Result<Option<FrameStats>, String> {
+        assert!(self.ready.load(Ordering::Relaxed), "settled before it was ready");
+        self.settled = true;
+        x[1][0] += 0.5;
+        Ok(Some(FrameStats { fine_iterations: 1, done: true, ..FrameStats::default() }))
+    }
+}
+
+/// While what settling needs is still being prepared, the thread asks again now and then
+/// and meanwhile solves new poses at once; it settles once it is ready.
+#[test]
+fn settling_waits_for_its_preparation_without_holding_up_new_poses() {
+    let ready = Arc::new(AtomicBool::new(false));
+    let asked = Arc::new(AtomicUsize::new(0));
+    let (r, a) = (ready.clone(), asked.clone());
+    let factory: PoseSolverFactory =
+        Arc::new(move |_, mesh: &Mesh, handles: &Handles, _: &_, _: &_| {
+            let shift = Shift {
+                rest: mesh.positions().to_vec(),
+                handle_vertices: handles.handle_vertices(),
+            };
+            let (ready, asked) = (r.clone(), a.clone());
+            Ok(Box::new(SlowToSettle { shift, ready, asked, settled: false })
+                as Box<dyn PoseSolver>)
+        });
+    let h = SolverHandle::spawn(Slot::Main, factory, Arc::new(|| {})).unwrap();
+    h.send(scene(1, vec![GroupPose::default()]));
+    wait_frame(&h, |f| f.scene_generation == 1);
+    std::thread::sleep(SETTLE_DELAY * 3);
+    assert!(asked.load(Ordering::Relaxed) >= 2, "asked {} times", asked.load(Ordering::Relaxed));
+    assert!(h.try_take_frame().is_none(), "a frame while settling could not start");
+
+    let moved = GroupPose { translation: [0.0, 0.0, 2.0], ..Default::default() };
+    h.send(SolverCommand::SetPoses { pose_generation: 7, poses: vec![moved] });
+    let f = wait_frame(&h, |f| f.pose_generation == 7);
+    assert_eq!(f.positions[1], [1.0, 0.0, 2.0], "solved, not settled");
+
+    ready.store(true, Ordering::Relaxed);
+    let f = wait_frame(&h, |f| f.pose_generation == 7 && f.stats.fine_iterations == 1);
+    assert_eq!(f.positions[1], [1.5, 0.0, 2.0]);
 }
 
 /// [`Shift`] with a base: the rest shape lifted by one along y.

@@ -96,6 +96,8 @@ struct Active {
     dirty: bool,
     /// The last solve converged and its pose is being refined ([`PoseSolver::settle`]).
     settling: bool,
+    /// Settling is due but waits for the pose solver ([`PoseSolver::settle_ready`]).
+    settle_waiting: bool,
     /// When the poses last changed, and the settle steps taken since.
     poses_changed: Instant,
     settle_steps: usize,
@@ -189,6 +191,9 @@ impl Active {
 /// cannot be interrupted, so a drag that pauses briefly does not wait for one.
 pub(super) const SETTLE_DELAY: Duration = Duration::from_millis(150);
 
+/// How often the thread asks whether settling can start while the pose solver prepares it.
+const SETTLE_POLL: Duration = Duration::from_millis(50);
+
 /// The most settle steps per pose (a pose solver whose steps never say converged stops here).
 const MAX_SETTLE_STEPS: usize = 2000;
 
@@ -219,6 +224,7 @@ struct NewScene {
 fn wait_time(active: Option<&Active>) -> Option<Duration> {
     match active {
         Some(a) if a.dirty => Some(Duration::ZERO),
+        Some(a) if a.settle_waiting => Some(SETTLE_POLL),
         Some(a) if a.settling => Some(SETTLE_DELAY.saturating_sub(a.poses_changed.elapsed())),
         _ => None,
     }
@@ -325,6 +331,7 @@ fn rebuild(
                 settling: false,
                 poses_changed: Instant::now(),
                 settle_steps: 0,
+                settle_waiting: false,
                 last_stats: FrameStats::default(),
                 last_frame: None,
                 fps: 0.0,
@@ -396,7 +403,9 @@ fn worker_loop(
         }
         // Settle only once the poses have rested for the delay (a command such as Republish
         // can wake the thread before that).
-        let settle_due = a.settling && a.poses_changed.elapsed() >= SETTLE_DELAY;
+        let rested = a.settling && !a.dirty && a.poses_changed.elapsed() >= SETTLE_DELAY;
+        let settle_due = rested && a.pose_solver.settle_ready();
+        a.settle_waiting = rested && !settle_due;
         if !a.dirty && !settle_due {
             if inbox.republish && a.last_frame_published {
                 shared.mailbox.put(a.frame(a.last_stats, shared.show_base.load(Ordering::Relaxed)));
