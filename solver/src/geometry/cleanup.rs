@@ -15,7 +15,7 @@
 //! order is exactly the input order. Known limitation: near-coincident (not bit-identical)
 //! vertices are not welded, and slivers above the area threshold are kept.
 
-use std::collections::{HashMap, HashSet};
+use rustc_hash::{FxHashMap, FxHashSet};
 
 use serde::Serialize;
 use thiserror::Error;
@@ -163,7 +163,8 @@ pub fn clean(
     }
 
     // 1. Weld: rep[v] = the first vertex with v's position.
-    let mut first: HashMap<[u64; 3], u32> = HashMap::with_capacity(n);
+    let mut first: FxHashMap<[u64; 3], u32> =
+        FxHashMap::with_capacity_and_hasher(n, Default::default());
     let rep: Vec<u32> = positions
         .iter()
         .enumerate()
@@ -182,7 +183,8 @@ pub fn clean(
     let welded = triangles.iter().map(|t| t.map(|i| rep.get(i as usize).copied().unwrap_or(i)));
     let mut degenerate = 0;
     let mut duplicates = 0;
-    let mut seen: HashSet<[u32; 3]> = HashSet::with_capacity(triangles.len());
+    let mut seen: FxHashSet<[u32; 3]> =
+        FxHashSet::with_capacity_and_hasher(triangles.len(), Default::default());
     let mut kept = Vec::with_capacity(triangles.len());
     for t in welded {
         if t[0] == t[1]

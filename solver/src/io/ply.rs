@@ -187,6 +187,31 @@ fn parse_header(bytes: &[u8], ctx: Ctx) -> Result<Header, LoadError> {
     Ok(Header { encoding, elements, body: pos, body_line: line_no + 1 })
 }
 
+/// The element being read, for error messages: formatted only when one is made (a
+/// `format!` per element was a tenth of reading a large binary file).
+#[derive(Default)]
+struct At {
+    name: String,
+    index: u64,
+    count: u64,
+}
+
+impl At {
+    fn set(&mut self, el: &Element, index: u64) {
+        if self.name != el.name {
+            self.name.clone_from(&el.name);
+        }
+        self.index = index;
+        self.count = el.count;
+    }
+}
+
+impl std::fmt::Display for At {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{} {} of {}", self.name, self.index, self.count)
+    }
+}
+
 /// Where the values of the body come from.
 trait Source {
     /// Starts element `index` of `el`; ASCII moves to the next line.
@@ -204,13 +229,13 @@ struct Ascii<'a, I: Iterator<Item = (usize, &'a str)>> {
     lines: I,
     toks: std::str::SplitWhitespace<'a>,
     line: usize,
-    what: String,
+    what: At,
     ctx: Ctx<'a>,
 }
 
 impl<'a, I: Iterator<Item = (usize, &'a str)>> Source for Ascii<'a, I> {
     fn begin(&mut self, el: &Element, index: u64) -> Result<(), LoadError> {
-        self.what = format!("{} {index}", el.name);
+        self.what.set(el, index);
         loop {
             let Some((line, text)) = self.lines.next() else {
                 return Err(self.ctx.truncated(
@@ -268,7 +293,7 @@ struct Binary<'a> {
     bytes: &'a [u8],
     pos: usize,
     big: bool,
-    what: String,
+    what: At,
     ctx: Ctx<'a>,
 }
 
@@ -292,7 +317,7 @@ impl Binary<'_> {
 
 impl Source for Binary<'_> {
     fn begin(&mut self, el: &Element, index: u64) -> Result<(), LoadError> {
-        self.what = format!("{} {index} of {}", el.name, el.count);
+        self.what.set(el, index);
         Ok(())
     }
 
@@ -345,7 +370,7 @@ pub(crate) fn parse(bytes: &[u8], ctx: Ctx) -> Result<Asset, LoadError> {
             let first = header.body_line;
             let lines = text.lines().enumerate().map(move |(i, l)| (i + first, l));
             let mut src =
-                Ascii { lines, toks: "".split_whitespace(), line: first, what: String::new(), ctx };
+                Ascii { lines, toks: "".split_whitespace(), line: first, what: At::default(), ctx };
             read_body(&header.elements, &mut src, body.len(), ctx)
         }
         enc => {
@@ -361,7 +386,7 @@ pub(crate) fn parse(bytes: &[u8], ctx: Ctx) -> Result<Asset, LoadError> {
                 ));
             }
             let mut src =
-                Binary { bytes: body, pos: 0, big: enc == Encoding::Big, what: String::new(), ctx };
+                Binary { bytes: body, pos: 0, big: enc == Encoding::Big, what: At::default(), ctx };
             read_body(&header.elements, &mut src, body.len(), ctx)
         }
     }
