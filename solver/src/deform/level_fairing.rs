@@ -23,8 +23,8 @@
 //! line); the level drops them ([`LEVEL_MAX_HALF_COTANGENT`]: they cover almost no area, and
 //! their weights would make the level's bi-Laplacian numerically indefinite). The level is
 //! decimated with meshoptimizer's `Regularize` option (rounder triangles). The level's
-//! fairing and the embedding of the fine vertices on it need only the level and run side by
-//! side; the level is returned with the base ([`FairedBase`]) for the coarse base to decimate
+//! fairing and the embedding of the fine vertices on it (with their representatives) need
+//! only the level and run side by side; the level is returned with the base ([`FairedBase`]) for the coarse base to decimate
 //! further. When $n_\ell \ge n / 2$ (every paper mesh at the default
 //! smoothing), or when the level cannot be built or faired, the whole mesh is faired directly.
 
@@ -34,7 +34,7 @@ use crate::deform::embedding::{blend, embed};
 use crate::error::SolveError;
 use crate::geometry::cotan::face_cotangents;
 use crate::geometry::mesh::{Mesh, dot, sub};
-use crate::geometry::simplify::simplify;
+use crate::geometry::simplify::{collapse, representatives};
 
 /// $k$ of the module doc: the level's mean edge is the smoothing length over $k$.
 pub const LEVEL_EDGES_PER_SMOOTHING_LENGTH: f64 = 3.0;
@@ -96,16 +96,16 @@ pub fn faired_base(
     if level >= n / 2 || level < 16 {
         return direct();
     }
-    let Some(dec) = simplify(mesh.positions(), mesh.triangles(), level, true) else {
+    let Some((kept, level_triangles)) = collapse(mesh.positions(), mesh.triangles(), level, true)
+    else {
         return direct();
     };
     let level_positions: Vec<[f64; 3]> =
-        dec.kept.iter().map(|&v| mesh.positions()[v as usize]).collect();
+        kept.iter().map(|&v| mesh.positions()[v as usize]).collect();
     // The simplifier can leave nearly flat triangles (an angle near 0° or 180°), whose cotangent
     // weights overwhelm the level's Laplacian: they cover almost no area, so the level goes
     // without them.
-    let triangles: Vec<[u32; 3]> = dec
-        .triangles
+    let triangles: Vec<[u32; 3]> = level_triangles
         .iter()
         .filter(|t| {
             face_cotangents(&level_positions, std::slice::from_ref(t), 0.0)
@@ -114,31 +114,38 @@ pub fn faired_base(
         .copied()
         .collect();
     let Ok(level_mesh) = Mesh::new(level_positions, triangles) else { return direct() };
-    // The fairing (one sparse factorization) and the embedding (parallel over the fine
-    // vertices) need only the level: side by side.
-    let (level_base, (faces, weights)) = rayon::join(
+    // The fairing (one sparse factorization) needs only the level, the embedding of the fine
+    // vertices on it (their representatives first) only the level's rest positions: side by
+    // side.
+    let (level_base, embedded) = rayon::join(
         || {
             let all_free = Constraints::all_free(level_mesh.n_vertices());
             faired_surface(&level_mesh, &all_free, level_mesh.positions(), Some(h))
         },
-        || embed(mesh.positions(), &level_mesh, &dec.representative, true),
+        || {
+            let representative = representatives(mesh.positions(), mesh.triangles(), &kept)?;
+            let embedding = embed(mesh.positions(), &level_mesh, &representative, true);
+            Some((representative, embedding))
+        },
     );
-    let Ok(level_base) = level_base else { return direct() };
+    let (Ok(level_base), Some((representative, (faces, weights)))) = (level_base, embedded) else {
+        return direct();
+    };
     let level_triangles = level_mesh.triangles();
     let mut base: Vec<[f64; 3]> = faces
         .iter()
         .zip(&weights)
         .map(|(&f, w)| blend(&level_base, &level_triangles[f as usize], w))
         .collect();
-    for (k, &v) in dec.kept.iter().enumerate() {
+    for (k, &v) in kept.iter().enumerate() {
         base[v as usize] = level_base[k];
     }
     let fairing = Fairing::Level(level_mesh.n_vertices());
     let level = FairedLevel {
-        kept: dec.kept,
+        kept,
         triangles: level_mesh.triangles().to_vec(),
         base: level_base,
-        representative: dec.representative,
+        representative,
     };
     Ok(FairedBase { base, fairing, level: Some(level) })
 }

@@ -44,6 +44,19 @@ pub fn simplify(
     target_vertices: usize,
     regular: bool,
 ) -> Option<Decimation> {
+    let (kept, coarse) = collapse(positions, triangles, target_vertices, regular)?;
+    let representative = representatives(positions, triangles, &kept)?;
+    Some(Decimation { kept, triangles: coarse, representative })
+}
+
+/// Step 1 of the module doc alone: the kept fine vertices (ascending) and the coarse triangles
+/// (indices into them); `None` below 4 vertices.
+pub fn collapse(
+    positions: &[[f64; 3]],
+    triangles: &[[u32; 3]],
+    target_vertices: usize,
+    regular: bool,
+) -> Option<(Vec<u32>, Vec<[u32; 3]>)> {
     let n = positions.len();
     let points: Vec<[f32; 3]> = positions.iter().map(|p| p.map(|c| c as f32)).collect();
     let indices: Vec<u32> = triangles.iter().flatten().copied().collect();
@@ -70,11 +83,18 @@ pub fn simplify(
     }
     let coarse: Vec<[u32; 3]> =
         out.chunks_exact(3).map(|t| [t[0], t[1], t[2]].map(|v| index[v as usize])).collect();
-    let representative = nearest_along_edges(positions, triangles, &kept);
-    if representative.contains(&u32::MAX) {
-        return None;
-    }
-    Some(Decimation { kept, triangles: coarse, representative })
+    Some((kept, coarse))
+}
+
+/// Step 2 of the module doc alone: each fine vertex's representative among `kept` (indices
+/// into it); `None` when a fine vertex has no kept vertex in its component.
+pub fn representatives(
+    positions: &[[f64; 3]],
+    triangles: &[[u32; 3]],
+    kept: &[u32],
+) -> Option<Vec<u32>> {
+    let representative = nearest_along_edges(positions, triangles, kept);
+    (!representative.contains(&u32::MAX)).then_some(representative)
 }
 
 /// Per vertex, the index in `sources` of the source nearest along the mesh's edges
