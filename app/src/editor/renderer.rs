@@ -139,10 +139,8 @@ impl Shape {
         triangles: &[[u32; 3]],
         faces: &solver::geometry::normals::VertexFaces,
     ) -> Shape {
-        use rayon::prelude::*;
-        let positions: Vec<[f32; 3]> = x.par_iter().map(|p| p.map(|c| c as f32)).collect();
-        let mut normals = Vec::new();
-        faces.normals_f32(x, triangles, &mut normals);
+        let (mut positions, mut normals) = (Vec::new(), Vec::new());
+        faces.shape_f32(x, triangles, &mut positions, &mut normals);
         Shape { positions: Arc::new(positions), normals: Arc::new(normals) }
     }
 }
