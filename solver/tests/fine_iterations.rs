@@ -209,7 +209,7 @@ fn consecutive_refines_continue_the_anderson_history() {
 
 /// The full-mesh factorization settling needs can be made on a thread of its own while the
 /// caller goes on solving: settling after it gives what settling after a factorization on the
-/// caller's thread gives.
+/// caller's thread gives, and two handle sets asking at once both get theirs.
 #[test]
 fn a_fine_level_factored_in_the_background_settles_as_one_factored_in_place() {
     let c = case();
@@ -218,17 +218,22 @@ fn a_fine_level_factored_in_the_background_settles_as_one_factored_in_place() {
     for d in [&mut here, &mut there] {
         d.solve(&c.targets).unwrap();
     }
+    // A second handle set asking at the same time waits for the first's factorization (one
+    // runs at a time), then gets its own.
+    let mut other = coarse(&c, &config, 0, 5);
+    other.solve(&c.targets).unwrap();
     let mut waited = 0;
-    loop {
-        let solver::Solver::Coarse(s) = there.solver_mut() else { panic!("not coarse") };
-        if s.factor_fine_in_background() {
-            break;
+    let mut ready = [false; 2];
+    while !(ready[0] && ready[1]) {
+        for (k, d) in [&mut there, &mut other].into_iter().enumerate() {
+            let solver::Solver::Coarse(s) = d.solver_mut() else { panic!("not coarse") };
+            ready[k] = s.factor_fine_in_background();
         }
-        assert!(!s.fine_ready());
         waited += 1;
         std::thread::sleep(std::time::Duration::from_millis(5));
-        assert!(waited < 12_000, "the factorization did not finish in a minute");
+        assert!(waited < 12_000, "the factorizations did not finish in a minute");
     }
+    assert!(other.settle(&c.targets).unwrap().is_some());
     // Another solve at the same targets on both (the settle step refines the last solve).
     there.solve(&c.targets).unwrap();
     here.solve(&c.targets).unwrap();

@@ -57,6 +57,7 @@ use crate::linalg::rigid::{Motion, fit_motion};
 use crate::linalg::rotation::Mat3;
 use rayon::prelude::*;
 use std::sync::Arc;
+use std::sync::atomic::{AtomicUsize, Ordering as AtomicOrdering};
 
 /// The fewest coarse vertices a handle group holds (its rotation needs three points off a
 /// line), or all of the coarse vertices its component has.
@@ -121,6 +122,19 @@ enum FineLevel {
     Ready(Box<Arap>),
     /// The factorization failed (it would again: reported by every call that needs it).
     Failed(SolveError),
+}
+
+/// Full-mesh factorizations running on threads of their own (0 or 1,
+/// [`CoarseBsArap::factor_fine_in_background`]).
+static BACKGROUND_FACTORIZATIONS: AtomicUsize = AtomicUsize::new(0);
+
+/// Held by the thread that took the one [`BACKGROUND_FACTORIZATIONS`] slot; frees it on drop.
+struct BackgroundSlot;
+
+impl Drop for BackgroundSlot {
+    fn drop(&mut self) {
+        BACKGROUND_FACTORIZATIONS.store(0, AtomicOrdering::Release);
+    }
 }
 
 /// Factors the ARAP on the full mesh from `inputs`; with the milliseconds it took.
@@ -538,18 +552,37 @@ impl CoarseBsArap {
     /// this says true). True when fine and settle iterations can run without waiting for a
     /// factorization (done, failed, or none asked for): the next [`CoarseBsArap::settle`]
     /// takes the result, or reports the failure, or resumes a panic of that thread.
+    ///
+    /// One such factorization runs at a time in the process: a solver dropped while its
+    /// factorization runs cannot stop it (the sparse factorization has no way to be
+    /// interrupted), so a new handle set's waits for it instead of adding its own memory and
+    /// cores (a full-mesh factorization at 692k vertices holds about 2 GiB).
     pub fn factor_fine_in_background(&mut self) -> bool {
         match self.fine.take() {
             Some(FineLevel::Pending(inputs)) => {
+                if BACKGROUND_FACTORIZATIONS
+                    .compare_exchange(0, 1, AtomicOrdering::AcqRel, AtomicOrdering::Acquire)
+                    .is_err()
+                {
+                    self.fine = Some(FineLevel::Pending(inputs));
+                    return false;
+                }
                 let spawned = std::thread::Builder::new()
                     .name("bsarap fine factorization".into())
-                    .spawn(move || factor_full_mesh(&inputs));
+                    .spawn(move || {
+                        // Frees the slot when done, and when unwinding from a panic.
+                        let _slot = BackgroundSlot;
+                        let done = factor_full_mesh(&inputs);
+                        drop(inputs);
+                        done
+                    });
                 match spawned {
                     Ok(thread) => {
                         self.fine = Some(FineLevel::Factoring(thread));
                         false
                     }
                     Err(e) => {
+                        BACKGROUND_FACTORIZATIONS.store(0, AtomicOrdering::Release);
                         // No thread to be had: the fine level is given up, with the reason.
                         let reason = FactorError::Other(format!("no thread to factor on: {e}"));
                         self.fine = Some(FineLevel::Failed(SolveError::Factorization {
