@@ -17,9 +17,9 @@ use anyhow::{Context, anyhow};
 use glam::Vec3;
 use solver::{Handles, Mesh};
 
-use super::picking::Bvh;
 use super::render_layout::RenderLayout;
 use super::renderer::{Shape, Topology, VertexData, build_grid};
+use solver::geometry::bvh::Bvh;
 use solver::geometry::topology::Adjacency;
 
 /// A mesh file's own layout ([`solver::io::Asset`]) and cleaning's map from its vertices to the

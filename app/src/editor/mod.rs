@@ -2,7 +2,7 @@
 //!
 //! Modules: [`app`] (UI state and frame loop), [`camera`] (orbit camera), [`renderer`] (wgpu
 //! paint callback, WGSL in `shaders/`), [`render_layout`] (the asset split at UV seams for
-//! texture shading), [`textures`] (its base-colour textures on the GPU), [`picking`] (BVH ray picking), [`brush`] (handle brush
+//! texture shading), [`textures`] (its base-colour textures on the GPU), (ray picking: `solver::geometry::bvh`), [`brush`] (handle brush
 //! footprint), [`solver_thread`] (background solver, mailbox, panic isolation), [`pose`] (group
 //! poses → handle targets), [`pose_solvers`] (the methods the threads run), [`loader`] (mesh
 //! loading off the UI thread), [`undo`] (edit state and history), [`timeline`] (playback and
@@ -20,7 +20,6 @@ pub mod gizmo;
 pub mod jobs;
 pub mod loader;
 pub mod persist;
-pub mod picking;
 pub mod pose;
 pub mod pose_solvers;
 pub mod prefs;

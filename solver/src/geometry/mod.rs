@@ -1,11 +1,12 @@
 //! Triangle meshes and what is computed from their geometry alone: the [`mesh::Mesh`] type,
-//! topology, cleaning on load, vertex reordering, decimation (meshoptimizer's), nearest-neighbour search,
+//! topology, cleaning on load, vertex reordering, decimation (meshoptimizer's), nearest-neighbour search, ray picking (BVH),
 //! procedural shapes, deformed normals on a file's layout, and the discrete operators
 //! (cotangent Laplacian, lumped mass matrix).
 //!
 //! One exception to the layering: [`shapes::bumpy_bar`] also returns handle groups
 //! ([`crate::deform::handles::Handles`]) for the tests and benches that use it.
 
+pub mod bvh;
 pub mod cleanup;
 pub mod cotan;
 pub mod kdtree;

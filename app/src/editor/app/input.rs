@@ -7,9 +7,9 @@ use glam::{DQuat, DVec3};
 use super::{DialogKind, EditorApp, Shading, Tool};
 use crate::editor::brush::footprint;
 use crate::editor::camera::ViewPreset;
-use crate::editor::picking::Hit;
 use crate::editor::pose::GroupPose;
 use crate::editor::timeline;
+use solver::geometry::bvh::Hit;
 
 /// The pointer and tool state: what the user is doing right now.
 pub(super) struct Interaction {
@@ -168,7 +168,7 @@ impl EditorApp {
         let positions = cache.positions()?.clone();
         let version = cache.key.map_or(0, |k| k.0);
         if self.display.bvh_fit != Some((slot, version)) {
-            scene.bvh.refit(&positions, scene.mesh.triangles());
+            scene.bvh.refit(&positions);
             self.display.bvh_fit = Some((slot, version));
         }
         let ndc = [

@@ -292,7 +292,7 @@ impl EditorApp {
         {
             let version = self.display.viewports[slot].key.map_or(0, |k| k.0);
             if self.display.bvh_fit != Some((slot, version)) {
-                scene.bvh.refit(&positions, scene.mesh.triangles());
+                scene.bvh.refit(&positions);
                 self.display.bvh_fit = Some((slot, version));
             }
             let eye = self.display.camera.eye();
