@@ -5,7 +5,8 @@
 //! (`EditorApp::drag_group`: no undo entry, no colour change), and prints
 //! the UI thread's milliseconds per frame (mean, 95th percentile) and the solver's frames
 //! per second. GPU rendering is not included (nothing is rendered); build in release for
-//! figures a user would see:
+//! figures a user would see. Then paints a brush stroke of 100 frames on group 0 and prints
+//! the same for it:
 //!
 //!     cargo run --release -p app --example ui_cost -- ../shared/meshes/dragon.obj [CONFIG_DIR]
 //!
@@ -91,4 +92,65 @@ fn main() {
         solver_frames as f64 / wall,
         h.state().method_settings().bs_variant.name()
     );
+    paint_stroke(&mut h);
+}
+
+/// A brush stroke on group 0 through the vertex drawn nearest the window's centre: hovering
+/// for 30 frames, then 100 frames pressed, moving 2 points a frame. Prints the UI thread's
+/// milliseconds per frame (mean, 95th percentile, most) of the stroke.
+fn paint_stroke(h: &mut Harness<'_, EditorApp>) {
+    use eframe::egui::{Event, Modifiers, PointerButton, Pos2, Vec2};
+    let centre = Pos2::new(640.0, 400.0);
+    let n = h.state().n_vertices();
+    let start = (0..n)
+        .step_by(97)
+        .filter_map(|v| h.state().vertex_screen_pos(v))
+        .min_by(|a, b| a.distance(centre).total_cmp(&b.distance(centre)))
+        .expect("a vertex on screen");
+    let before = h.state().labels().iter().filter(|l| **l == Some(0)).count();
+    h.state_mut().set_tool(app::editor::Tool::Paint);
+    h.state_mut().set_active_group(Some(0));
+    let mut times = Vec::new();
+    let mut pos = start;
+    for i in 0..130 {
+        if i == 30 {
+            let modifiers = Modifiers::NONE;
+            h.event(Event::PointerButton {
+                pos,
+                button: PointerButton::Primary,
+                pressed: true,
+                modifiers,
+            });
+        }
+        if i >= 30 {
+            pos += Vec2::new(2.0, 0.0);
+        }
+        h.event(Event::PointerMoved(pos));
+        let s = Instant::now();
+        h.step();
+        times.push(s.elapsed().as_secs_f64() * 1e3);
+        std::thread::sleep(Duration::from_millis(16));
+    }
+    let modifiers = Modifiers::NONE;
+    h.event(Event::PointerButton {
+        pos,
+        button: PointerButton::Primary,
+        pressed: false,
+        modifiers,
+    });
+    h.step();
+    let painted = h.state().labels().iter().filter(|l| **l == Some(0)).count();
+    let hover = times[..30].iter().sum::<f64>() / 30.0;
+    let stroke = &mut times[30..];
+    stroke.sort_by(f64::total_cmp);
+    let mean = stroke.iter().sum::<f64>() / stroke.len() as f64;
+    let p95 = stroke[stroke.len() * 95 / 100];
+    let max = stroke[stroke.len() - 1];
+    println!(
+        "{n} vertices: brush stroke UI thread {mean:.2} ms/frame mean, {p95:.2} ms p95, \
+         {max:.1} ms most over {} frames (hovering before it: {hover:.2} ms); group 0 went \
+         from {before} to {painted} vertices",
+        stroke.len()
+    );
+    assert!(painted > before, "the stroke painted nothing");
 }
