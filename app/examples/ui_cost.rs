@@ -110,17 +110,15 @@ fn paint_stroke(h: &mut Harness<'_, EditorApp>) {
     let before = h.state().labels().iter().filter(|l| **l == Some(0)).count();
     h.state_mut().set_tool(app::editor::Tool::Paint);
     h.state_mut().set_active_group(Some(0));
+    let press = |h: &mut Harness<'_, EditorApp>, pos: Pos2, pressed: bool| {
+        let (button, modifiers) = (PointerButton::Primary, Modifiers::NONE);
+        h.event(Event::PointerButton { pos, button, pressed, modifiers });
+    };
     let mut times = Vec::new();
     let mut pos = start;
     for i in 0..130 {
         if i == 30 {
-            let modifiers = Modifiers::NONE;
-            h.event(Event::PointerButton {
-                pos,
-                button: PointerButton::Primary,
-                pressed: true,
-                modifiers,
-            });
+            press(h, pos, true);
         }
         if i >= 30 {
             pos += Vec2::new(2.0, 0.0);
@@ -131,13 +129,7 @@ fn paint_stroke(h: &mut Harness<'_, EditorApp>) {
         times.push(s.elapsed().as_secs_f64() * 1e3);
         std::thread::sleep(Duration::from_millis(16));
     }
-    let modifiers = Modifiers::NONE;
-    h.event(Event::PointerButton {
-        pos,
-        button: PointerButton::Primary,
-        pressed: false,
-        modifiers,
-    });
+    press(h, pos, false);
     h.step();
     let painted = h.state().labels().iter().filter(|l| **l == Some(0)).count();
     let hover = times[..30].iter().sum::<f64>() / 30.0;

@@ -48,16 +48,15 @@ use crate::deform::coarse_base::{CoarseBase, Phases};
 use crate::deform::config::BaseConfig;
 use crate::deform::constraints::Constraints;
 use crate::deform::embedding::blend;
+use crate::deform::fine_level::FineLevel;
 use crate::deform::handles::Handles;
 use crate::deform::rig::Rig;
 use crate::error::SolveError;
 use crate::geometry::mesh::{Mesh, add, sub};
-use crate::linalg::linsolve::FactorError;
 use crate::linalg::rigid::{Motion, fit_motion};
 use crate::linalg::rotation::Mat3;
 use rayon::prelude::*;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicUsize, Ordering as AtomicOrdering};
 
 /// The fewest coarse vertices a handle group holds (its rotation needs three points off a
 /// line), or all of the coarse vertices its component has.
@@ -110,39 +109,6 @@ pub struct CoarseBsArap {
     /// allocated per frame).
     coarse_target_buf: Vec<[f64; 3]>,
     coarse_before: Vec<[f64; 3]>,
-}
-
-/// The ARAP on the full mesh: what to build it from until it is first needed, the thread
-/// factoring it ([`CoarseBsArap::factor_fine_in_background`]), then itself.
-#[derive(Debug)]
-enum FineLevel {
-    Pending(Box<(Mesh, Constraints, ArapConfig)>),
-    /// Its factorization and the milliseconds it took.
-    Factoring(std::thread::JoinHandle<(Result<Arap, SolveError>, f64)>),
-    Ready(Box<Arap>),
-    /// The factorization failed (it would again: reported by every call that needs it).
-    Failed(SolveError),
-}
-
-/// Full-mesh factorizations running on threads of their own (0 or 1,
-/// [`CoarseBsArap::factor_fine_in_background`]).
-static BACKGROUND_FACTORIZATIONS: AtomicUsize = AtomicUsize::new(0);
-
-/// Held by the thread that took the one [`BACKGROUND_FACTORIZATIONS`] slot; frees it on drop.
-struct BackgroundSlot;
-
-impl Drop for BackgroundSlot {
-    fn drop(&mut self) {
-        BACKGROUND_FACTORIZATIONS.store(0, AtomicOrdering::Release);
-    }
-}
-
-/// Factors the ARAP on the full mesh from `inputs`; with the milliseconds it took.
-fn factor_full_mesh(inputs: &(Mesh, Constraints, ArapConfig)) -> (Result<Arap, SolveError>, f64) {
-    let (mesh, constraints, config) = inputs;
-    let t = std::time::Instant::now();
-    let arap = Arap::with_constraints(mesh, constraints.clone(), config, 0.0, None);
-    (arap, t.elapsed().as_secs_f64() * 1e3)
 }
 
 /// The rig on the coarse level (`crate::deform::rig`): the falloffs as they are (radii are
@@ -342,7 +308,7 @@ impl CoarseBsArap {
         clock.lap("coarse factorization");
         let n = mesh.n_vertices();
         let fine = (coarse.fine_iterations > 0 || coarse.settle_iterations > 0)
-            .then(|| FineLevel::Pending(Box::new((mesh.clone(), constraints.clone(), *config))));
+            .then(|| FineLevel::new(mesh, &constraints, config));
         let pinned = constraints
             .pinned_vertices
             .iter()
@@ -502,7 +468,7 @@ impl CoarseBsArap {
     /// is the rest pose). On error the result is unchanged.
     fn run_fine(&mut self, targets: &[[f64; 3]], n: usize) -> Result<SolveStats, SolveError> {
         self.factor_fine()?;
-        let Some(FineLevel::Ready(fine)) = self.fine.as_mut() else {
+        let Some(fine) = self.fine.as_mut().and_then(FineLevel::arap_mut) else {
             return Ok(SolveStats { converged: true, ..SolveStats::default() });
         };
         let st = fine.refine(&self.result, targets, n)?;
@@ -530,99 +496,25 @@ impl CoarseBsArap {
     /// [`CoarseBsArap::precompute_phases`]. Nothing without fine or settle iterations or when
     /// done already; the error of a failed factorization every time.
     pub fn factor_fine(&mut self) -> Result<(), SolveError> {
-        match self.fine.take() {
-            Some(FineLevel::Pending(inputs)) => self.take_fine(factor_full_mesh(&inputs)),
-            Some(FineLevel::Factoring(thread)) => match thread.join() {
-                Ok(done) => self.take_fine(done),
-                Err(panic) => std::panic::resume_unwind(panic),
-            },
-            Some(FineLevel::Failed(e)) => {
-                self.fine = Some(FineLevel::Failed(e.clone()));
-                Err(e)
-            }
-            other => {
-                self.fine = other;
-                Ok(())
-            }
+        if let Some(ms) = self.fine.as_mut().map(FineLevel::factor).transpose()?.flatten() {
+            self.phases.push(("fine factorization", ms));
         }
+        Ok(())
     }
 
-    /// Starts factoring the ARAP on the full mesh on a thread of its own if it is pending (a
-    /// caller that must stay responsive, such as the editor's solver thread, settles only once
-    /// this says true). True when fine and settle iterations can run without waiting for a
-    /// factorization (done, failed, or none asked for): the next [`CoarseBsArap::settle`]
-    /// takes the result, or reports the failure, or resumes a panic of that thread.
-    ///
-    /// One such factorization runs at a time in the process: a solver dropped while its
-    /// factorization runs cannot stop it (the sparse factorization has no way to be
-    /// interrupted), so a new handle set's waits for it instead of adding its own memory and
-    /// cores (a full-mesh factorization at 692k vertices holds about 2 GiB).
+    /// Starts factoring the ARAP on the full mesh on a thread of its own if it is pending
+    /// ([`crate::deform::fine_level`]: one at a time in the process); a caller that must stay
+    /// responsive, such as the editor's solver thread, settles only once this says true. True
+    /// when fine and settle iterations can run without waiting for a factorization (done,
+    /// failed, or none asked for): the next [`CoarseBsArap::settle`] takes the result, or
+    /// reports the failure, or resumes a panic of that thread.
     pub fn factor_fine_in_background(&mut self) -> bool {
-        match self.fine.take() {
-            Some(FineLevel::Pending(inputs)) => {
-                if BACKGROUND_FACTORIZATIONS
-                    .compare_exchange(0, 1, AtomicOrdering::AcqRel, AtomicOrdering::Acquire)
-                    .is_err()
-                {
-                    self.fine = Some(FineLevel::Pending(inputs));
-                    return false;
-                }
-                let spawned = std::thread::Builder::new()
-                    .name("bsarap fine factorization".into())
-                    .spawn(move || {
-                        // Frees the slot when done, and when unwinding from a panic.
-                        let _slot = BackgroundSlot;
-                        let done = factor_full_mesh(&inputs);
-                        drop(inputs);
-                        done
-                    });
-                match spawned {
-                    Ok(thread) => {
-                        self.fine = Some(FineLevel::Factoring(thread));
-                        false
-                    }
-                    Err(e) => {
-                        BACKGROUND_FACTORIZATIONS.store(0, AtomicOrdering::Release);
-                        // No thread to be had: the fine level is given up, with the reason.
-                        let reason = FactorError::Other(format!("no thread to factor on: {e}"));
-                        self.fine = Some(FineLevel::Failed(SolveError::Factorization {
-                            matrix: "the full-mesh ARAP",
-                            source: reason,
-                        }));
-                        true
-                    }
-                }
-            }
-            Some(FineLevel::Factoring(thread)) => {
-                let done = thread.is_finished();
-                self.fine = Some(FineLevel::Factoring(thread));
-                done
-            }
-            other => {
-                self.fine = other;
-                true
-            }
-        }
-    }
-
-    /// Keeps a finished factorization (its phase) or its error.
-    fn take_fine(&mut self, (arap, ms): (Result<Arap, SolveError>, f64)) -> Result<(), SolveError> {
-        match arap {
-            Ok(arap) => {
-                self.phases.push(("fine factorization", ms));
-                self.fine = Some(FineLevel::Ready(Box::new(arap)));
-                Ok(())
-            }
-            Err(e) => {
-                self.fine = Some(FineLevel::Failed(e.clone()));
-                Err(e)
-            }
-        }
+        self.fine.as_mut().is_none_or(FineLevel::factor_in_background)
     }
 
     /// Whether the ARAP on the full mesh is factored (fine and settle iterations run at once).
     pub fn fine_ready(&self) -> bool {
-        matches!(self.fine, Some(FineLevel::Ready(_)))
+        self.fine.as_ref().is_some_and(FineLevel::is_ready)
     }
 
     /// Whether fine iterations no longer lower the energy by the tolerance per iteration (then
@@ -718,7 +610,7 @@ impl CoarseBsArap {
         self.corrected = false;
         self.last_targets.clear();
         self.settle_ready = false;
-        if let Some(FineLevel::Ready(fine)) = self.fine.as_mut() {
+        if let Some(fine) = self.fine.as_mut().and_then(FineLevel::arap_mut) {
             fine.reset();
         }
     }

@@ -13,6 +13,7 @@ pub mod config;
 pub mod constraints;
 pub mod deformer;
 pub mod embedding;
+pub mod fine_level;
 pub mod handles;
 pub mod level_fairing;
 pub mod pose;
