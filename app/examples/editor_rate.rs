@@ -23,7 +23,7 @@
 
 use app::editor::pose::{GroupPose, handle_targets};
 use app::editor::pose_solvers::factory;
-use app::editor::renderer::Shape;
+use app::editor::shape::Shape;
 use app::editor::solver_thread::{MethodSettings, Slot};
 use std::time::Instant;
 

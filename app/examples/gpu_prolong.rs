@@ -17,7 +17,7 @@
 //! Prints the adapter, the mean milliseconds of each, and the largest position difference
 //! between the two (relative to the bounding-box diagonal).
 
-use app::editor::renderer::Shape;
+use app::editor::shape::Shape;
 use app::gpu::{headless, prolong::GpuProlongation};
 use solver::deform::coarse::{CoarseBsArap, prolong};
 use solver::{Acceleration, ArapConfig, BaseConfig, GroupTransform, handle_targets};

@@ -16,7 +16,7 @@ use app::editor::camera::OrbitCamera;
 use app::editor::capture::{self, Offscreen, Picture};
 use app::editor::document::apply_scene;
 use app::editor::loader::load_scene_file;
-use app::editor::renderer::Shape;
+use app::editor::shape::Shape;
 use app::editor::solver_thread::MethodSettings;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};

@@ -24,9 +24,10 @@ use eframe::egui_wgpu::{CallbackResources, CallbackTrait, ScreenDescriptor, wgpu
 use super::camera::OrbitCamera;
 use super::render_layout::RenderLayout;
 use super::renderer::{
-    self, ClayDraw, RendererResources, Shape, TexturedDraw, Topology, Uniforms, VertexData,
+    self, ClayDraw, RendererResources, TexturedDraw, Topology, Uniforms, VertexData,
     ViewportCallback,
 };
+use super::shape::Shape;
 
 /// The viewport's background (sRGB), as in the editor.
 pub const BACKGROUND: Color32 = Color32::from_rgb(38, 40, 46);

@@ -21,7 +21,7 @@ use solver::{ArapConfig, BaseConfig, Deformer, Handles, LooseParts, Mesh, MeshCa
 
 use super::loader::FileLayout;
 use super::pose::{GroupPose, handle_targets};
-use super::renderer::Shape;
+use super::shape::Shape;
 
 /// A finished recording with what the UI shows about it.
 pub struct Recorded {

@@ -18,7 +18,8 @@ use glam::Vec3;
 use solver::{Handles, Mesh};
 
 use super::render_layout::RenderLayout;
-use super::renderer::{Shape, Topology, VertexData, build_grid};
+use super::renderer::{Topology, VertexData, build_grid};
+use super::shape::Shape;
 use solver::geometry::bvh::Bvh;
 use solver::geometry::topology::Adjacency;
 

@@ -25,6 +25,7 @@ pub mod pose_solvers;
 pub mod prefs;
 pub mod render_layout;
 pub mod renderer;
+pub mod shape;
 pub mod solver_thread;
 pub mod textures;
 pub mod timeline;

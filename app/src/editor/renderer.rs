@@ -10,8 +10,8 @@
 //! The mesh is drawn one of two ways. Clay shading draws the welded solver mesh from three
 //! vertex streams ([`ClayDraw`], `mesh.wgsl`): the shape's positions and normals as the solver
 //! thread made them (uploaded as they are when the pose changes: nothing per vertex runs on the
-//! UI thread for a new pose) and one colour per vertex (uploaded when the colours change). Texture shading draws the asset's split layout
-//! ([`super::render_layout::RenderLayout`], [`TexturedVertex`], `textured.wgsl`): base colour
+//! UI thread for a new pose) and one colour per vertex (uploaded when the colours change).
+//! Texture shading draws the asset's split layout ([`super::render_layout::RenderLayout`], [`TexturedVertex`], `textured.wgsl`): base colour
 //! × texture, with the handle colours blended over it; one draw per base-colour texture.
 
 use std::sync::Arc;
@@ -21,6 +21,7 @@ use eframe::egui_wgpu::{self, CallbackResources, CallbackTrait, ScreenDescriptor
 use glam::Vec3;
 
 use super::render_layout::RenderLayout;
+use super::shape::Shape;
 use super::textures::AssetTextures;
 
 /// A shader's source: `shaders/uniforms.wgsl` (the shared uniform block), then the files named.
@@ -113,36 +114,6 @@ pub struct ClayDraw {
 pub struct TexturedDraw {
     pub layout: Arc<RenderLayout>,
     pub vertices: Arc<VertexData<TexturedVertex>>,
-}
-
-/// Positions to draw with their vertex normals, both computed where the positions are made
-/// (solver thread, loader, recording job), never on the UI thread.
-#[derive(Debug, Clone)]
-pub struct Shape {
-    pub positions: Arc<Vec<[f32; 3]>>,
-    pub normals: Arc<Vec<[f32; 3]>>,
-}
-
-impl Shape {
-    /// From solver positions: area-weighted normals (`solver::geometry::normals::vertex_normals_or_up`), then f32.
-    pub fn new(x: &[[f64; 3]], triangles: &[[u32; 3]]) -> Shape {
-        let f32s =
-            |v: &[[f64; 3]]| -> Vec<[f32; 3]> { v.iter().map(|p| p.map(|c| c as f32)).collect() };
-        let normals = solver::geometry::normals::vertex_normals_or_up(x, triangles);
-        Shape { positions: Arc::new(f32s(x)), normals: Arc::new(f32s(&normals)) }
-    }
-
-    /// As [`Shape::new`] for a pose of the mesh `faces` was built for, in parallel over the
-    /// vertices (the solver thread's per-frame path on dense meshes).
-    pub fn with_faces(
-        x: &[[f64; 3]],
-        triangles: &[[u32; 3]],
-        faces: &solver::geometry::normals::VertexFaces,
-    ) -> Shape {
-        let (mut positions, mut normals) = (Vec::new(), Vec::new());
-        faces.shape_f32(x, triangles, &mut positions, &mut normals);
-        Shape { positions: Arc::new(positions), normals: Arc::new(normals) }
-    }
 }
 
 /// Line segments of a ground grid on the plane `y = height`, centred under `center`.
@@ -813,12 +784,5 @@ mod tests {
         assert_eq!(std::mem::size_of::<Uniforms>(), 112);
         assert_eq!(std::mem::size_of::<Vertex>(), 40);
         assert_eq!(std::mem::size_of::<TexturedVertex>(), 64);
-    }
-
-    #[test]
-    fn shape_normals_of_a_flat_triangle() {
-        let s = Shape::new(&[[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], &[[0, 1, 2]]);
-        assert_eq!(*s.normals, vec![[0.0, 0.0, 1.0]; 3]);
-        assert_eq!(s.positions[1], [1.0, 0.0, 0.0]);
     }
 }

@@ -12,8 +12,9 @@ use crate::editor::camera::OrbitCamera;
 use crate::editor::pose_solvers;
 use crate::editor::render_layout::RenderLayout;
 use crate::editor::renderer::{
-    ClayDraw, Shape, TexturedDraw, TexturedVertex, Uniforms, VertexData, ViewportCallback,
+    ClayDraw, TexturedDraw, TexturedVertex, Uniforms, VertexData, ViewportCallback,
 };
+use crate::editor::shape::Shape;
 use crate::editor::solver_thread::{SolvedFrame, SolverState};
 
 /// What the viewports show and how, and what was built for them.

@@ -8,7 +8,7 @@ use std::time::Instant;
 use solver::{ComponentInfo, FrameStats, Handles, LooseParts, Mesh};
 
 use crate::editor::pose::GroupPose;
-use crate::editor::renderer::Shape;
+use crate::editor::shape::Shape;
 
 /// Method settings shown in the UI; sent whole to the solver thread, which rebuilds its pose
 /// solver.

@@ -19,7 +19,7 @@ use super::protocol::{
     SolverStatus,
 };
 use crate::editor::pose::GroupPose;
-use crate::editor::renderer::Shape;
+use crate::editor::shape::Shape;
 
 /// What the worker shares with its [`super::SolverHandle`].
 pub(super) struct Shared {
