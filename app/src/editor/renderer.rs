@@ -11,8 +11,9 @@
 //! vertex streams ([`ClayDraw`], `mesh.wgsl`): the shape's positions and normals as the solver
 //! thread made them (uploaded as they are when the pose changes: nothing per vertex runs on the
 //! UI thread for a new pose) and one colour per vertex (uploaded when the colours change).
-//! Texture shading draws the asset's split layout ([`super::render_layout::RenderLayout`], [`TexturedVertex`], `textured.wgsl`): base colour
-//! × texture, with the handle colours blended over it; one draw per base-colour texture.
+//! Texture shading draws the asset's split layout ([`super::render_layout::RenderLayout`],
+//! [`TexturedVertex`], `textured.wgsl`): base colour × texture, with the handle colours
+//! blended over it; one draw per base-colour texture.
 
 use std::sync::Arc;
 

@@ -13,9 +13,9 @@
 //!    vertices (meshoptimizer), no group kept: the coarse vertices are a subset of the fine
 //!    ones, and every fine vertex has a *representative*, the coarse vertex nearest to it along
 //!    the mesh's edges. When $B$ was faired on a level, the level (its faired positions are $B$
-//!    at its vertices) is decimated instead of $B$ on every vertex: the same surface at a tenth
-//!    of the vertices or fewer, and a fine vertex's representative is then the coarse
-//!    representative of its level representative.
+//!    at its vertices) is decimated instead of $B$ on every vertex: the same surface on fewer
+//!    vertices (under half; a ninth on the armadillo subdivided twice), and a fine vertex's
+//!    representative is then the coarse representative of its level representative.
 //! 3. Embedding (prolongation $P$, [`crate::deform::embedding`]): each fine vertex $i$ gets
 //!    the closest point of $B_c$ to $B_i$ among the coarse triangles within two rings of its
 //!    representative (walking on from there when the representative came through the level),
@@ -162,7 +162,7 @@ impl CoarseBase {
 }
 
 /// $B_c$ decimated from the faired level instead of from $B$ on every fine vertex (the level
-/// has a tenth of the vertices or fewer, and its positions are $B$ at its vertices): the
+/// has fewer vertices, and its positions are $B$ at its vertices): the
 /// decimation of the level's vertices, renumbered as fine vertices, each fine vertex's
 /// representative the coarse representative of its level representative. `None` when the
 /// level is not larger than the target or cannot be decimated (then $B$ is).

@@ -24,9 +24,10 @@
 //! their weights would make the level's bi-Laplacian numerically indefinite). The level is
 //! decimated with meshoptimizer's `Regularize` option (rounder triangles). The level's
 //! fairing and the embedding of the fine vertices on it (with their representatives) need
-//! only the level and run side by side; the level is returned with the base ([`FairedBase`]) for the coarse base to decimate
-//! further. When $n_\ell \ge n / 2$ (every paper mesh at the default
-//! smoothing), or when the level cannot be built or faired, the whole mesh is faired directly.
+//! only the level and run side by side; the level is returned with the base
+//! ([`FairedBase`]) for the coarse base to decimate further. When $n_\ell \ge n / 2$ (every
+//! paper mesh at the default smoothing), or when the level cannot be built or faired, the
+//! whole mesh is faired directly.
 
 use crate::deform::biharmonic::faired_surface;
 use crate::deform::constraints::Constraints;

@@ -74,8 +74,9 @@ impl Display {
 pub(super) struct ViewportCache {
     pub(super) key: Option<(u64, u64)>,
     /// The shape drawn (clay: as it is; its positions are also what picking reads), with the
-    /// version its upload carries.
-    pub(super) shape: Option<(u64, Shape)>,
+    /// version its upload carries and the tag of the pose it shows (a change of colours alone
+    /// keeps the version: the positions and normals are not uploaded again).
+    pub(super) shape: Option<(u64, u64, Shape)>,
     /// Texture shading: the shape and colours gathered onto the asset's render layout.
     pub(super) textured: Option<Arc<VertexData<TexturedVertex>>>,
     /// This viewport's vertex colors and the color version they were made for: kept while only
@@ -86,7 +87,7 @@ pub(super) struct ViewportCache {
 impl ViewportCache {
     /// The positions drawn in this viewport (for picking).
     pub(super) fn positions(&self) -> Option<&Arc<Vec<[f32; 3]>>> {
-        self.shape.as_ref().map(|(_, s)| &s.positions)
+        self.shape.as_ref().map(|(_, _, s)| &s.positions)
     }
 }
 
@@ -238,7 +239,8 @@ impl EditorApp {
                     let colors = Arc::new(VertexData { version, vertices });
                     self.display.viewports[slot].colors = Some((color_version, colors));
                 }
-                let version = self.next_version();
+                // Distinct numbers: the textured vertices and the clay positions share a buffer.
+                let (version, shape_version) = (self.next_version(), self.next_version());
                 let cache = &mut self.display.viewports[slot];
                 let colors = cache.colors.as_ref().map_or(&[][..], |c| &c.1.vertices[..]);
                 let mut vertices = recycle(&mut cache.textured);
@@ -247,7 +249,9 @@ impl EditorApp {
                     Arc::new(VertexData { version, vertices })
                 });
                 cache.key = Some(key);
-                cache.shape = Some((version, shape.clone()));
+                if cache.shape.as_ref().is_none_or(|(_, tag, _)| tag != pv) {
+                    cache.shape = Some((shape_version, *pv, shape.clone()));
+                }
             }
         }
         self.viewport_input(ui, slot, rect, &response);
@@ -288,7 +292,7 @@ impl EditorApp {
                         .clone()
                         .zip(cache.colors.as_ref().map(|c| c.1.clone()))
                         .filter(|_| draw_mesh && cache.textured.is_none())
-                        .map(|((shape_version, shape), colors)| ClayDraw {
+                        .map(|((shape_version, _, shape), colors)| ClayDraw {
                             shape_version,
                             shape,
                             colors,
