@@ -729,3 +729,25 @@ fn a_loose_part_follows_the_handles_and_can_be_pinned_from_the_parts_panel() {
     }
     assert!(h.query_by_label("follows part 0").is_some());
 }
+
+/// The status bar reports the process's resident memory and its peak (where the kernel says
+/// them); snapshot tests, with deterministic overlays, leave it out.
+#[test]
+fn the_status_bar_reports_memory() {
+    if !std::path::Path::new("/proc/self/status").exists() {
+        eprintln!("skipped: the kernel reports no process memory here");
+        return;
+    }
+    let builder = Harness::builder().with_size(SIZE).with_step_dt(1.0 / 30.0);
+    let mut h = builder.wgpu().build_eframe(|cc| {
+        let mesh_path = Some(test_mesh());
+        EditorApp::new(
+            cc,
+            EditorOptions { mesh_path, deterministic_overlays: false, config_dir: None },
+        )
+    });
+    step_until(&mut h, "the default asset", |a| !a.is_loading() && a.n_vertices() > 0);
+    h.get_by_label_contains("MiB (peak");
+    let deterministic = harness(test_mesh());
+    assert!(deterministic.query_by_label_contains("MiB (peak").is_none());
+}

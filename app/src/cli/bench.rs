@@ -587,7 +587,7 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
             "commit": env!("BSARAP_GIT_COMMIT"),
             "methods": methods,
             "ratios": ratios,
-            "peak_memory_mib": peak_memory_mib(),
+            "peak_memory_mib": app::memory::process_memory().map(|m| m.peak_mib),
         });
         if let Some((f, _)) = &own {
             j["quality_reference"] = serde_json::json!({ "frame": f, "start": reference_start });
@@ -685,7 +685,7 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
             r.method, r.precompute_mesh_ms, r.precompute_handles_ms, r.first_frame_ms, r.moving_fps
         );
     }
-    if let Some(mib) = peak_memory_mib() {
+    if let Some(mib) = app::memory::process_memory().map(|m| m.peak_mib) {
         println!("peak memory (VmHWM) {mib:.0} MiB");
     }
     let capped: Vec<String> = table
@@ -752,12 +752,4 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
         );
     }
     Ok(())
-}
-
-/// The process's peak resident memory in MiB (`VmHWM` of `/proc/self/status`); `None` where
-/// the kernel does not report it.
-fn peak_memory_mib() -> Option<f64> {
-    let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    let kb = status.lines().find_map(|l| l.strip_prefix("VmHWM:"))?.split_whitespace().next()?;
-    Some(kb.parse::<f64>().ok()? / 1024.0)
 }

@@ -418,6 +418,19 @@ impl EditorApp {
                 ui.weak(format!("{dropped} stale frames dropped"));
                 ui.separator();
             }
+            if !self.options.deterministic_overlays {
+                let stale =
+                    self.display.memory.is_none_or(|(t, _)| t.elapsed().as_secs_f32() >= 1.0);
+                if stale {
+                    self.display.memory = Some((Instant::now(), crate::memory::process_memory()));
+                }
+                if let Some((_, Some(m))) = self.display.memory {
+                    let text =
+                        format!("memory {:.0} MiB (peak {:.0} MiB)", m.resident_mib, m.peak_mib);
+                    ui.weak(text).on_hover_text("resident memory of the editor's process");
+                    ui.separator();
+                }
+            }
             if let Some(i) = &self.info {
                 ui.weak(i);
             }

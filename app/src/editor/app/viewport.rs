@@ -42,6 +42,8 @@ pub(super) struct Display {
     pub(super) render_fps: f32,
     /// Milliseconds the UI thread spends in one `ui` call (moving average).
     pub(super) ui_ms: f32,
+    /// The process's memory for the status bar and when it was read (once a second).
+    pub(super) memory: Option<(Instant, Option<crate::memory::Memory>)>,
     pub(super) last_frame: Option<Instant>,
 }
 
@@ -64,6 +66,7 @@ impl Display {
             reframe: false,
             render_fps: 0.0,
             ui_ms: 0.0,
+            memory: None,
             last_frame: None,
         }
     }
