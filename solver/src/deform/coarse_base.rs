@@ -18,9 +18,11 @@
 //!    representative is then the coarse representative of its level representative.
 //! 3. Embedding (prolongation $P$, [`crate::deform::embedding`]): each fine vertex $i$ gets
 //!    the closest point of $B_c$ to $B_i$ among the coarse triangles within two rings of its
-//!    representative (walking on from there when the representative came through the level),
-//!    as barycentric weights $w_{ik}$ on a coarse triangle $t_i$; its detail is
-//!    $D_i = p_i - \sum_k w_{ik} B_{c,k}$.
+//!    representative, as barycentric weights $w_{ik}$ on a coarse triangle $t_i$; its detail
+//!    is $D_i = p_i - \sum_k w_{ik} B_{c,k}$. When the coarse level came from the faired level,
+//!    the level's vertices are embedded so (walking on from the two rings), and each fine
+//!    vertex walks from its level representative's coarse triangle instead
+//!    ([`crate::deform::embedding::embed_from`]).
 //!
 //! Which coarse vertices hold a handle group, and the coarse factorization, depend on the
 //! handles: [`crate::deform::coarse::CoarseBsArap::with_base`].
@@ -30,7 +32,7 @@
 //! never hands it to another mesh.
 
 use crate::deform::config::BaseConfig;
-use crate::deform::embedding::{blend, embed};
+use crate::deform::embedding::{blend, embed, embed_from};
 use crate::deform::level_fairing::{
     FairedBase, FairedLevel, Fairing, LEVEL_EDGES_PER_SMOOTHING_LENGTH, faired_base,
 };
@@ -84,19 +86,29 @@ impl CoarseBase {
         clock.lap("faired base");
         let target_vertices = config.coarse_vertices_for(mesh.n_vertices());
         let from_level = level.as_ref().and_then(|l| decimate_level(l, target_vertices));
-        let on_level = from_level.is_some();
-        let dec = match from_level {
-            Some(dec) => dec,
-            None => simplify(&base, mesh.triangles(), target_vertices, false)
-                .ok_or(SolveError::DecimationFailed { target: target_vertices })?,
+        let (dec, on_level) = match from_level {
+            Some((dec, level_representative)) => (dec, level.zip(Some(level_representative))),
+            None => {
+                let dec = simplify(&base, mesh.triangles(), target_vertices, false)
+                    .ok_or(SolveError::DecimationFailed { target: target_vertices })?;
+                (dec, None)
+            }
         };
-        drop(level);
         clock.lap("decimation");
         let coarse_positions: Vec<[f64; 3]> = dec.kept.iter().map(|&v| base[v as usize]).collect();
         let coarse_mesh = Mesh::new(coarse_positions, dec.triangles)
             .map_err(|_| SolveError::NonFiniteResult { vertex: 0 })?;
-        // A representative found through the level is a coarser guess: walk on from it.
-        let (faces, weights) = embed(&base, &coarse_mesh, &dec.representative, on_level);
+        let (faces, weights) = match on_level {
+            // The level's vertices first (two rings of their coarse representatives, then the
+            // walk), then each fine vertex walks from its level representative's triangle.
+            Some((level, level_representative)) => {
+                let (level_faces, _) =
+                    embed(&level.base, &coarse_mesh, &level_representative, true);
+                let start = |i: usize| level_faces[level.representative[i] as usize];
+                embed_from(&base, &coarse_mesh, start)
+            }
+            None => embed(&base, &coarse_mesh, &dec.representative, false),
+        };
         let embedding: Vec<([u32; 3], [f64; 3])> = faces
             .iter()
             .zip(weights)
@@ -162,16 +174,17 @@ impl CoarseBase {
 }
 
 /// $B_c$ decimated from the faired level instead of from $B$ on every fine vertex (the level
-/// has fewer vertices, and its positions are $B$ at its vertices): the
-/// decimation of the level's vertices, renumbered as fine vertices, each fine vertex's
-/// representative the coarse representative of its level representative. `None` when the
-/// level is not larger than the target or cannot be decimated (then $B$ is).
-fn decimate_level(level: &FairedLevel, target_vertices: usize) -> Option<Decimation> {
+/// has fewer vertices, and its positions are $B$ at its vertices): the decimation of the
+/// level's vertices, renumbered as fine vertices, each fine vertex's representative the
+/// coarse representative of its level representative; and each level vertex's coarse
+/// representative. `None` when the level is not larger than the target or cannot be
+/// decimated (then $B$ is).
+fn decimate_level(level: &FairedLevel, target_vertices: usize) -> Option<(Decimation, Vec<u32>)> {
     if target_vertices >= level.kept.len() {
         return None;
     }
     let dec = simplify(&level.base, &level.triangles, target_vertices, false)?;
-    Some(Decimation {
+    let fine = Decimation {
         kept: dec.kept.iter().map(|&k| level.kept[k as usize]).collect(),
         triangles: dec.triangles,
         representative: level
@@ -179,7 +192,8 @@ fn decimate_level(level: &FairedLevel, target_vertices: usize) -> Option<Decimat
             .iter()
             .map(|&l| dec.representative[l as usize])
             .collect(),
-    })
+    };
+    Some((fine, dec.representative))
 }
 
 /// A 64-bit hash of a mesh's positions (bit patterns) and triangles: which mesh a cached

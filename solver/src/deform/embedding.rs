@@ -25,28 +25,9 @@ pub fn embed(
     representative: &[u32],
     descend: bool,
 ) -> (Vec<u32>, Vec<[f64; 3]>) {
-    let cp = coarse.positions();
     let ct = coarse.triangles();
-    let mut vf = vec![Vec::new(); cp.len()];
-    for (f, t) in ct.iter().enumerate() {
-        for &v in t {
-            vf[v as usize].push(f as u32);
-        }
-    }
-    let closest = |q: [f64; 3], faces: &[u32], best: &mut (f64, u32, [f64; 3])| {
-        let mut improved = false;
-        for &f in faces {
-            let t = ct[f as usize];
-            let (point, w) = closest_point_on_triangle(q, t.map(|v| cp[v as usize]));
-            let d = sub(point, q);
-            let d2 = dot(d, d);
-            if d2 < best.0 {
-                *best = (d2, f, w);
-                improved = true;
-            }
-        }
-        improved
-    };
+    let vf = vertex_faces(coarse);
+    let search = Search { coarse, vf: &vf };
     (0..base.len())
         .into_par_iter()
         .map_init(Vec::new, |faces, i| {
@@ -64,20 +45,86 @@ pub fn embed(
             // the vertices its triangles use; the level fairing factors only such levels).
             let mut best = (f64::INFINITY, vf[r].first().copied().unwrap_or(0), [0.0; 3]);
             best.2[ct[best.1 as usize].iter().position(|&v| v as usize == r).unwrap_or(0)] = 1.0;
-            closest(q, faces, &mut best);
-            // Each step strictly decreases the distance, so the walk ends; 64 steps bound it.
-            for _ in 0..if descend { 64 } else { 0 } {
-                faces.clear();
-                for &v in &ct[best.1 as usize] {
-                    faces.extend_from_slice(&vf[v as usize]);
-                }
-                if !closest(q, faces, &mut best) {
-                    break;
-                }
+            search.closest(q, faces, &mut best);
+            if descend {
+                search.walk(q, faces, &mut best);
             }
             (best.1, best.2)
         })
         .unzip()
+}
+
+/// The embedding of `points` on `coarse` by the walk alone (module doc), each from its own
+/// coarse triangle in `start`: for points whose nearby triangle is known already (the fine
+/// vertices of a level whose own vertices were embedded), without the two-ring search.
+pub fn embed_from(
+    points: &[[f64; 3]],
+    coarse: &Mesh,
+    start: impl Fn(usize) -> u32 + Sync,
+) -> (Vec<u32>, Vec<[f64; 3]>) {
+    let vf = vertex_faces(coarse);
+    let search = Search { coarse, vf: &vf };
+    (0..points.len())
+        .into_par_iter()
+        .map_init(Vec::new, |faces, i| {
+            let q = points[i];
+            let mut best = (f64::INFINITY, start(i), [1.0, 0.0, 0.0]);
+            search.closest(q, &[best.1], &mut best);
+            search.walk(q, faces, &mut best);
+            (best.1, best.2)
+        })
+        .unzip()
+}
+
+/// Each coarse vertex's triangles.
+fn vertex_faces(coarse: &Mesh) -> Vec<Vec<u32>> {
+    let mut vf = vec![Vec::new(); coarse.n_vertices()];
+    for (f, t) in coarse.triangles().iter().enumerate() {
+        for &v in t {
+            vf[v as usize].push(f as u32);
+        }
+    }
+    vf
+}
+
+/// The closest-point search on one coarse mesh.
+struct Search<'a> {
+    coarse: &'a Mesh,
+    vf: &'a [Vec<u32>],
+}
+
+impl Search<'_> {
+    /// Replaces `best` (squared distance, triangle, weights) by the closest of `faces` to `q`
+    /// when closer; whether it did.
+    fn closest(&self, q: [f64; 3], faces: &[u32], best: &mut (f64, u32, [f64; 3])) -> bool {
+        let (cp, ct) = (self.coarse.positions(), self.coarse.triangles());
+        let mut improved = false;
+        for &f in faces {
+            let t = ct[f as usize];
+            let (point, w) = closest_point_on_triangle(q, t.map(|v| cp[v as usize]));
+            let d = sub(point, q);
+            let d2 = dot(d, d);
+            if d2 < best.0 {
+                *best = (d2, f, w);
+                improved = true;
+            }
+        }
+        improved
+    }
+
+    /// The walk: the triangles around the best one's corners while one of them is closer.
+    /// Each step strictly decreases the distance, so the walk ends; 64 steps bound it.
+    fn walk(&self, q: [f64; 3], faces: &mut Vec<u32>, best: &mut (f64, u32, [f64; 3])) {
+        for _ in 0..64 {
+            faces.clear();
+            for &v in &self.coarse.triangles()[best.1 as usize] {
+                faces.extend_from_slice(&self.vf[v as usize]);
+            }
+            if !self.closest(q, faces, best) {
+                break;
+            }
+        }
+    }
 }
 
 /// $\sum_k w_k x_{t_k}$.
