@@ -12,13 +12,15 @@
 //! $\sum_k w_{ik} x_{t_{ik}}$ ([`blend`]).
 
 use crate::geometry::mesh::{Mesh, add, dot, sub};
+use crate::geometry::normals::VertexFaces;
 use rayon::prelude::*;
 
 /// The embedding of `base` (`#V×3`) on `coarse`, parallel over the points: per point, the
-/// index of its coarse triangle and the barycentric weights on it (module doc). With `descend`, the search goes
-/// on from the best triangle found: the triangles around its corners are tried until none is
-/// closer (a walk to the local closest point, for levels whose triangles are long and thin, where
-/// two rings of the representative can miss the closest triangle).
+/// index of its coarse triangle and the barycentric weights on it (module doc). With
+/// `descend`, the search goes on from the best triangle found: the triangles around its
+/// corners are tried until none is closer (a walk to the local closest point, for levels whose
+/// triangles are long and thin, where two rings of the representative can miss the closest
+/// triangle).
 pub fn embed(
     base: &[[f64; 3]],
     coarse: &Mesh,
@@ -26,16 +28,16 @@ pub fn embed(
     descend: bool,
 ) -> (Vec<u32>, Vec<[f64; 3]>) {
     let ct = coarse.triangles();
-    let vf = vertex_faces(coarse);
+    let vf = VertexFaces::new(coarse.n_vertices(), ct);
     let search = Search { coarse, vf: &vf };
     (0..base.len())
         .into_par_iter()
         .map_init(Vec::new, |faces, i| {
             let r = representative[i] as usize;
             faces.clear();
-            for &f in &vf[r] {
+            for &f in vf.of(r) {
                 for &w in &ct[f as usize] {
-                    faces.extend_from_slice(&vf[w as usize]);
+                    faces.extend_from_slice(vf.of(w as usize));
                 }
             }
             faces.sort_unstable();
@@ -43,7 +45,7 @@ pub fn embed(
             let q = base[i];
             // Every coarse vertex is a corner of some coarse triangle (the decimation keeps
             // the vertices its triangles use; the level fairing factors only such levels).
-            let mut best = (f64::INFINITY, vf[r].first().copied().unwrap_or(0), [0.0; 3]);
+            let mut best = (f64::INFINITY, vf.of(r).first().copied().unwrap_or(0), [0.0; 3]);
             best.2[ct[best.1 as usize].iter().position(|&v| v as usize == r).unwrap_or(0)] = 1.0;
             search.closest(q, faces, &mut best);
             if descend {
@@ -62,7 +64,7 @@ pub fn embed_from(
     coarse: &Mesh,
     start: impl Fn(usize) -> u32 + Sync,
 ) -> (Vec<u32>, Vec<[f64; 3]>) {
-    let vf = vertex_faces(coarse);
+    let vf = VertexFaces::new(coarse.n_vertices(), coarse.triangles());
     let search = Search { coarse, vf: &vf };
     (0..points.len())
         .into_par_iter()
@@ -76,21 +78,10 @@ pub fn embed_from(
         .unzip()
 }
 
-/// Each coarse vertex's triangles.
-fn vertex_faces(coarse: &Mesh) -> Vec<Vec<u32>> {
-    let mut vf = vec![Vec::new(); coarse.n_vertices()];
-    for (f, t) in coarse.triangles().iter().enumerate() {
-        for &v in t {
-            vf[v as usize].push(f as u32);
-        }
-    }
-    vf
-}
-
 /// The closest-point search on one coarse mesh.
 struct Search<'a> {
     coarse: &'a Mesh,
-    vf: &'a [Vec<u32>],
+    vf: &'a VertexFaces,
 }
 
 impl Search<'_> {
@@ -118,7 +109,7 @@ impl Search<'_> {
         for _ in 0..64 {
             faces.clear();
             for &v in &self.coarse.triangles()[best.1 as usize] {
-                faces.extend_from_slice(&self.vf[v as usize]);
+                faces.extend_from_slice(self.vf.of(v as usize));
             }
             if !self.closest(q, faces, best) {
                 break;

@@ -147,6 +147,11 @@ impl VertexFaces {
         &self.faces
     }
 
+    /// The triangles of vertex `v`, in ascending order.
+    pub fn of(&self, v: usize) -> &[u32] {
+        &self.faces[self.offsets[v] as usize..self.offsets[v + 1] as usize]
+    }
+
     /// The display shape of a pose, in `f32` and in parallel: `positions` converted into
     /// `out_positions`, and their vertex normals into `out_normals`, as
     /// [`vertex_normals_or_up`] computes them but in `f32` arithmetic from the converted
@@ -180,7 +185,7 @@ impl VertexFaces {
         out_normals.resize(positions.len(), [0.0; 3]);
         out_normals.par_iter_mut().enumerate().for_each(|(v, n)| {
             let mut m = glam::Vec3::ZERO;
-            for &f in &self.faces[self.offsets[v] as usize..self.offsets[v + 1] as usize] {
+            for &f in self.of(v) {
                 m += glam::Vec3::from(area_normals[f as usize]);
             }
             let u = m.normalize_or_zero();
