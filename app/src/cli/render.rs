@@ -141,7 +141,9 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
         )
         .with_context(|| format!("{source}: recording"))?;
         pb.finish_and_clear();
-        recording.frames.iter().map(|f| Shape::new(f, mesh.triangles())).collect()
+        let t = mesh.triangles();
+        let faces = solver::geometry::normals::VertexFaces::new(mesh.n_vertices(), t);
+        recording.frames.iter().map(|f| Shape::with_faces(f, t, &faces)).collect()
     } else {
         vec![file.rest.clone()]
     };

@@ -191,7 +191,9 @@ pub fn spawn_record(
                 GltfExport::from_asset(&asset_export(&layout, &recording), GltfFormat::Glb)
                     .and_then(|e| e.file_size())
                     .map_err(|e| format!("recording: {e}"))?;
-            let shapes = recording.frames.iter().map(|f| Shape::new(f, mesh.triangles())).collect();
+            let t = mesh.triangles();
+            let faces = solver::geometry::normals::VertexFaces::new(mesh.n_vertices(), t);
+            let shapes = recording.frames.iter().map(|f| Shape::with_faces(f, t, &faces)).collect();
             Ok(Recorded { recording: Arc::new(recording), shapes, glb_bytes, mesh, layout, fps })
         },
     )

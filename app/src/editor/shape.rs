@@ -4,6 +4,8 @@
 
 use std::sync::Arc;
 
+use solver::geometry::normals::VertexFaces;
+
 /// Positions to draw with their vertex normals, both computed where the positions are made
 /// (solver thread, loader, recording job), never on the UI thread.
 #[derive(Debug, Clone)]
@@ -13,21 +15,16 @@ pub struct Shape {
 }
 
 impl Shape {
-    /// From solver positions: area-weighted normals (`solver::geometry::normals::vertex_normals_or_up`), then f32.
+    /// One pose of a mesh (`triangles` index `x`): [`Shape::with_faces`] with the vertices'
+    /// triangles found for it alone.
     pub fn new(x: &[[f64; 3]], triangles: &[[u32; 3]]) -> Shape {
-        let f32s =
-            |v: &[[f64; 3]]| -> Vec<[f32; 3]> { v.iter().map(|p| p.map(|c| c as f32)).collect() };
-        let normals = solver::geometry::normals::vertex_normals_or_up(x, triangles);
-        Shape { positions: Arc::new(f32s(x)), normals: Arc::new(f32s(&normals)) }
+        Shape::with_faces(x, triangles, &VertexFaces::new(x.len(), triangles))
     }
 
-    /// As [`Shape::new`] for a pose of the mesh `faces` was built for, in parallel over the
-    /// vertices (the solver thread's per-frame path on dense meshes).
-    pub fn with_faces(
-        x: &[[f64; 3]],
-        triangles: &[[u32; 3]],
-        faces: &solver::geometry::normals::VertexFaces,
-    ) -> Shape {
+    /// A pose of the mesh `faces` was built for: f32 positions and area-weighted vertex
+    /// normals ([`VertexFaces::shape_f32`], in parallel; the solver thread's per-frame path,
+    /// and every frame of a recording).
+    pub fn with_faces(x: &[[f64; 3]], triangles: &[[u32; 3]], faces: &VertexFaces) -> Shape {
         let (mut positions, mut normals) = (Vec::new(), Vec::new());
         faces.shape_f32(x, triangles, &mut positions, &mut normals);
         Shape { positions: Arc::new(positions), normals: Arc::new(normals) }
