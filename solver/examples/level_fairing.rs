@@ -43,7 +43,8 @@ fn run() -> Result<(), String> {
         let _ = std::fs::write("/proc/self/clear_refs", "5");
         let t = Instant::now();
         let faired = faired_base(&mesh, Some(h), k).map_err(|e| e.to_string())?;
-        let (base, how) = (faired.base, faired.fairing);
+        let how = faired.fairing();
+        let base = faired.base;
         let ms = t.elapsed().as_secs_f64() * 1e3;
         let how = match how {
             Fairing::Direct => "whole mesh".to_string(),

@@ -82,7 +82,9 @@ impl CoarseBase {
             .then_some(config.smoothing * diag);
         let level_edges =
             if config.level_fairing { LEVEL_EDGES_PER_SMOOTHING_LENGTH } else { f64::INFINITY };
-        let FairedBase { base, fairing, level } = faired_base(mesh, smoothing, level_edges)?;
+        let faired = faired_base(mesh, smoothing, level_edges)?;
+        let fairing = faired.fairing();
+        let FairedBase { base, level } = faired;
         clock.lap("faired base");
         let target_vertices = config.coarse_vertices_for(mesh.n_vertices());
         let from_level = level.as_ref().and_then(|l| decimate_level(l, target_vertices));

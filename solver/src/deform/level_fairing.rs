@@ -58,8 +58,14 @@ pub enum Fairing {
 #[derive(Debug)]
 pub struct FairedBase {
     pub base: Vec<[f64; 3]>,
-    pub fairing: Fairing,
     pub level: Option<FairedLevel>,
+}
+
+impl FairedBase {
+    /// Which way it was faired.
+    pub fn fairing(&self) -> Fairing {
+        self.level.as_ref().map_or(Fairing::Direct, |l| Fairing::Level(l.kept.len()))
+    }
 }
 
 /// The level $M_\ell$ a base was faired on, with its faired positions $B_\ell$.
@@ -85,11 +91,8 @@ pub fn faired_base(
 ) -> Result<FairedBase, SolveError> {
     let direct = || {
         let all_free = Constraints::all_free(mesh.n_vertices());
-        faired_surface(mesh, &all_free, mesh.positions(), smoothing).map(|base| FairedBase {
-            base,
-            fairing: Fairing::Direct,
-            level: None,
-        })
+        faired_surface(mesh, &all_free, mesh.positions(), smoothing)
+            .map(|base| FairedBase { base, level: None })
     };
     let Some(h) = smoothing else { return direct() };
     let n = mesh.n_vertices();
@@ -141,14 +144,13 @@ pub fn faired_base(
     for (k, &v) in kept.iter().enumerate() {
         base[v as usize] = level_base[k];
     }
-    let fairing = Fairing::Level(level_mesh.n_vertices());
     let level = FairedLevel {
         kept,
         triangles: level_mesh.triangles().to_vec(),
         base: level_base,
         representative,
     };
-    Ok(FairedBase { base, fairing, level: Some(level) })
+    Ok(FairedBase { base, level: Some(level) })
 }
 
 /// $n_\ell$ of the module doc for smoothing length `h` and $k$ = `level_edges`.
@@ -184,11 +186,11 @@ mod tests {
         let diag = mesh.bbox_diagonal();
         let h = 0.03 * diag;
         let direct = faired_base(&mesh, Some(h), f64::INFINITY).unwrap();
-        assert_eq!(direct.fairing, Fairing::Direct);
+        assert_eq!(direct.fairing(), Fairing::Direct);
         assert!(direct.level.is_none());
         let (direct, level) =
             (direct.base, faired_base(&mesh, Some(h), LEVEL_EDGES_PER_SMOOTHING_LENGTH).unwrap());
-        let how = level.fairing;
+        let how = level.fairing();
         let faired_level = level.level.expect("the level");
         let level = level.base;
         let Fairing::Level(nl) = how else { panic!("{how:?} for {} vertices", mesh.n_vertices()) };
@@ -227,8 +229,8 @@ mod tests {
         let bar = bumpy_bar(3).0;
         let h = 0.01 * bar.bbox_diagonal();
         let faired = faired_base(&bar, Some(h), LEVEL_EDGES_PER_SMOOTHING_LENGTH).unwrap();
-        assert_eq!(faired.fairing, Fairing::Direct);
+        assert_eq!(faired.fairing(), Fairing::Direct);
         let faired = faired_base(&bar, None, LEVEL_EDGES_PER_SMOOTHING_LENGTH).unwrap();
-        assert_eq!(faired.fairing, Fairing::Direct);
+        assert_eq!(faired.fairing(), Fairing::Direct);
     }
 }
