@@ -12,11 +12,11 @@
 //!    ([`LEVEL_EDGES_PER_SMOOTHING_LENGTH`] $= k$): $n_\ell = n\,(\bar e\,k / h)^2$ for $M$'s
 //!    mean edge length $\bar e$ (vertex density scales as the inverse square of the edge).
 //! 2. $B_\ell$ = the faired surface of $M_\ell$ (same $h$).
-//! 3. Each fine vertex $i$ takes the closest point of $M_\ell$ to $M_i$ among the level's
-//!    triangles within two rings of its representative, as barycentric weights $w_{ik}$ on a
-//!    level triangle $t_i$, and $B_i = \sum_k w_{ik} B_{\ell,k}$ (the same embedding as the
-//!    coarse level's, [`crate::deform::coarse_base`]). A vertex the level kept gets
-//!    $B_{\ell}$ at itself.
+//! 3. Each fine vertex $i$ takes the closest point of $M_\ell$ to $M_i$ found by walking from
+//!    a triangle around its representative ([`crate::deform::embedding::embed_from`]: on to
+//!    the triangles around the best one's corners while one is closer), as barycentric
+//!    weights $w_{ik}$ on a level triangle $t_i$, and $B_i = \sum_k w_{ik} B_{\ell,k}$. A
+//!    vertex the level kept gets $B_{\ell}$ at itself.
 //!
 //! The offset of $M_i$ from $M_\ell$ is shorter than the level's edges, below $h$: the fairing
 //! would have removed it. The simplifier can leave nearly flat triangles (corners almost on a
@@ -31,10 +31,11 @@
 
 use crate::deform::biharmonic::faired_surface;
 use crate::deform::constraints::Constraints;
-use crate::deform::embedding::{blend, embed};
+use crate::deform::embedding::{blend, embed_from};
 use crate::error::SolveError;
 use crate::geometry::cotan::face_cotangents;
 use crate::geometry::mesh::{Mesh, dot, sub};
+use crate::geometry::normals::VertexFaces;
 use crate::geometry::simplify::{collapse, representatives};
 
 /// $k$ of the module doc: the level's mean edge is the smoothing length over $k$.
@@ -128,7 +129,13 @@ pub fn faired_base(
         },
         || {
             let representative = representatives(mesh.positions(), mesh.triangles(), &kept)?;
-            let embedding = embed(mesh.positions(), &level_mesh, &representative, true);
+            let vf = VertexFaces::new(level_mesh.n_vertices(), level_mesh.triangles());
+            let fan = |i: usize| vf.of(representative[i] as usize).first().copied();
+            if (0..n).any(|i| fan(i).is_none()) {
+                return None;
+            }
+            let embedding =
+                embed_from(mesh.positions(), &level_mesh, |i| fan(i).unwrap_or_default());
             Some((representative, embedding))
         },
     );
