@@ -12,6 +12,7 @@ use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::mpsc::{Receiver, TryRecvError, channel};
 use std::sync::{Arc, Mutex};
+use std::time::Instant;
 
 use solver::animation::export::{AssetExport, ExportSettings, GltfExport, GltfFormat};
 use solver::animation::pointcache::{Pc2, write_pc2};
@@ -131,6 +132,28 @@ pub fn spawn_prepare(
             None => Ok(0.0),
         }
     })
+}
+
+/// A mesh precomputation under way ([`spawn_prepare`]), with the settings it was started for.
+pub struct Preparing {
+    pub method: Method,
+    pub base: BaseConfig,
+    pub since: Instant,
+    pub job: Job<f64>,
+}
+
+impl Preparing {
+    /// [`spawn_prepare`] for `method` and `base`, timed from now.
+    pub fn start(
+        cache: Arc<Mutex<MeshCache>>,
+        mesh: Arc<Mesh>,
+        method: Method,
+        base: BaseConfig,
+        repaint: impl Fn() + Send + 'static,
+    ) -> Preparing {
+        let since = Instant::now();
+        Preparing { method, base, since, job: spawn_prepare(cache, mesh, method, base, repaint) }
+    }
 }
 
 /// What a recording needs: everything is owned, the UI keeps editing meanwhile.

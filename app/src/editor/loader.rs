@@ -1,8 +1,9 @@
 //! Loading a mesh (and its default handle selection) off the UI thread.
 //!
-//! [`spawn_load`] runs on a worker thread: read + clean the file, build everything the editor
-//! derives from the topology once (adjacency, BVH, index buffers, grid, the asset's render
-//! layout and decoded textures), then hand back a
+//! [`spawn_load`] runs on a worker thread: read + clean the file, start the mesh's own
+//! precomputation ([`StartPrepare`]), build everything the editor derives from the topology
+//! once (adjacency, BVH, index buffers, grid, the asset's render layout and decoded textures)
+//! beside it, then hand back a
 //! [`LoadedFile`] over a channel that the UI polls without blocking. A failure comes back as an
 //! error string; the UI keeps the current scene. Reading and cleaning are `solver::io`'s;
 //! selections are `solver::deform::selection`'s; scene files (`.json`) are `solver::animation::scene`'s: the
@@ -17,6 +18,7 @@ use anyhow::{Context, anyhow};
 use glam::Vec3;
 use solver::{Handles, Mesh};
 
+use super::jobs::Preparing;
 use super::render_layout::RenderLayout;
 use super::renderer::{Topology, VertexData, build_grid};
 use super::shape::Shape;
@@ -71,7 +73,15 @@ pub struct LoadedFile {
     /// The connected components (index, vertex count, first vertex), for the Parts panel;
     /// which have handles and what the loose ones ride on come from the solver's frames.
     pub components: Arc<Vec<solver::ComponentInfo>>,
+    /// The mesh's own precomputation, started as soon as the mesh was read ([`StartPrepare`]);
+    /// the UI takes it over.
+    pub preparing: Option<Preparing>,
 }
+
+/// Starts the mesh's own precomputation (`jobs::spawn_prepare`) on the mesh the loader has
+/// just read and cleaned, so that it runs beside the rest of the loading (normals, adjacency,
+/// BVH, render layout) instead of after it.
+pub type StartPrepare = Box<dyn FnOnce(Arc<Mesh>) -> Preparing + Send>;
 
 /// Whether `path` names a scene file rather than a mesh.
 pub fn is_scene_file(path: &Path) -> bool {
@@ -85,10 +95,21 @@ pub struct LoadJob {
     pub rx: Receiver<Result<LoadedFile, String>>,
 }
 
-/// Starts loading `path`; `version` tags the topology for the renderer.
-pub fn spawn_load(path: PathBuf, version: u64, repaint: impl Fn() + Send + 'static) -> LoadJob {
-    spawn_prepare(path, repaint, move |p| {
-        if is_scene_file(p) { load_scene_file(p, version) } else { load_scene(p, version) }
+/// Starts loading `path`; `version` tags the topology for the renderer. A mesh file (not a
+/// scene file, which may name other method settings) starts `start_prepare` as soon as its
+/// mesh is read.
+pub fn spawn_load(
+    path: PathBuf,
+    version: u64,
+    repaint: impl Fn() + Send + 'static,
+    start_prepare: Option<StartPrepare>,
+) -> LoadJob {
+    spawn_loader(path, repaint, move |p| {
+        if is_scene_file(p) {
+            load_scene_file(p, version)
+        } else {
+            load_scene(p, version, start_prepare)
+        }
     })
 }
 
@@ -100,11 +121,11 @@ pub fn spawn_loaded(
     version: u64,
     repaint: impl Fn() + Send + 'static,
 ) -> LoadJob {
-    spawn_prepare(path, repaint, move |p| prepare(p, loaded, version))
+    spawn_loader(path, repaint, move |p| prepare(p, loaded, version, None))
 }
 
 /// Runs `load` on the loader thread, its panics caught.
-fn spawn_prepare(
+fn spawn_loader(
     path: PathBuf,
     repaint: impl Fn() + Send + 'static,
     load: impl FnOnce(&Path) -> anyhow::Result<LoadedFile> + Send + 'static,
@@ -128,8 +149,12 @@ fn spawn_prepare(
 }
 
 /// Reads and prepares a scene (runs on the loader thread).
-pub fn load_scene(path: &Path, version: u64) -> anyhow::Result<LoadedFile> {
-    prepare(path, solver::io::load_mesh(path)?, version)
+pub fn load_scene(
+    path: &Path,
+    version: u64,
+    start_prepare: Option<StartPrepare>,
+) -> anyhow::Result<LoadedFile> {
+    prepare(path, solver::io::load_mesh(path)?, version, start_prepare)
 }
 
 /// Derives everything the editor needs from a mesh read from `path` (runs on the loader thread).
@@ -137,9 +162,12 @@ fn prepare(
     path: &Path,
     loaded: solver::io::LoadedMesh,
     version: u64,
+    start_prepare: Option<StartPrepare>,
 ) -> anyhow::Result<LoadedFile> {
     let mut notices = loaded.notices();
-    let mesh = loaded.mesh;
+    let mesh = Arc::new(loaded.mesh);
+    // Nothing below is needed by the mesh's own precomputation: it starts now.
+    let preparing = start_prepare.map(|start| start(mesh.clone()));
     let rest = Shape::new(mesh.positions(), mesh.triangles());
     let rest_f32: &[[f32; 3]] = &rest.positions;
     // Independent, and each a second or so on a dense mesh: side by side.
@@ -187,7 +215,7 @@ fn prepare(
     }
     Ok(LoadedFile {
         path: path.to_path_buf(),
-        mesh: Arc::new(mesh),
+        mesh,
         notices,
         layout: Arc::new(FileLayout { asset: loaded.asset, vertex_map: loaded.report.vertex_map }),
         rest,
@@ -202,6 +230,7 @@ fn prepare(
         selection_path,
         document: None,
         components,
+        preparing,
     })
 }
 
@@ -209,7 +238,7 @@ fn prepare(
 pub fn load_scene_file(path: &Path, version: u64) -> anyhow::Result<LoadedFile> {
     let doc = solver::animation::scene::Scene::read(path)?;
     let mesh_path = solver::animation::scene::Scene::resolve_path(path, &doc.mesh);
-    let mut scene = load_scene(&mesh_path, version)
+    let mut scene = load_scene(&mesh_path, version, None)
         .with_context(|| format!("the scene's mesh {}", mesh_path.display()))?;
     let handles =
         doc.resolve_handles(path, scene.mesh.positions(), Some(&scene.layout.vertex_map))?;
@@ -263,7 +292,7 @@ mod tests {
                    f 1 3 2\nf 5 2 4\nf 1 4 3\nf 2 3 4\n";
         std::fs::write(dir.join("tet.obj"), obj).unwrap();
         std::fs::write(dir.join("tet.dmat"), "1 5\n0\n-1\n1\n-1\n0\n").unwrap();
-        let scene = load_scene(&dir.join("tet.obj"), 1).unwrap();
+        let scene = load_scene(&dir.join("tet.obj"), 1, None).unwrap();
         assert_eq!(scene.mesh.n_vertices(), 4);
         assert!(scene.notices.iter().any(|n| n.contains("welded")), "{:?}", scene.notices);
         assert_eq!(scene.selection_path.as_deref(), Some(dir.join("tet.dmat").as_path()));
@@ -272,9 +301,50 @@ mod tests {
         assert_eq!(labels, expected);
         // Welded vertices of two groups: the selection is ignored with a notice naming it.
         std::fs::write(dir.join("tet.dmat"), "1 5\n0\n-1\n1\n-1\n1\n").unwrap();
-        let scene = load_scene(&dir.join("tet.obj"), 2).unwrap();
+        let scene = load_scene(&dir.join("tet.obj"), 2, None).unwrap();
         assert!(scene.default_labels.is_none());
         let notice = scene.notices.iter().find(|n| n.contains("ignored selection"));
         assert!(notice.is_some_and(|n| n.contains("tet.dmat")), "{:?}", scene.notices);
+    }
+
+    /// A mesh file starts the mesh's own precomputation from the loader thread, on the mesh
+    /// the editor then shows, before the rest of the loading; a scene file does not (it may
+    /// name other settings).
+    #[test]
+    fn a_mesh_file_starts_its_precomputation_while_loading() {
+        let dir = solver::testing::ScratchDir::new("loader-prepare");
+        let path = dir.join("bar.obj");
+        let (bar, _) = solver::geometry::shapes::bumpy_bar(3);
+        solver::io::write_obj(&path, bar.positions(), bar.triangles()).unwrap();
+        let cache: Arc<std::sync::Mutex<solver::MeshCache>> = Arc::default();
+        let base = solver::BaseConfig::default();
+        let started: Arc<std::sync::Mutex<Option<Arc<Mesh>>>> = Arc::default();
+        let (c, s) = (cache.clone(), started.clone());
+        let start: StartPrepare = Box::new(move |mesh| {
+            *s.lock().unwrap() = Some(mesh.clone());
+            Preparing::start(c, mesh, solver::Method::BsArapCoarse, base, || {})
+        });
+        let mut scene = load_scene(&path, 1, Some(start)).unwrap();
+        let on = started.lock().unwrap().clone().expect("started on the loader thread");
+        assert!(Arc::ptr_eq(&on, &scene.mesh), "started on another mesh than the one shown");
+        let preparing = scene.preparing.take().expect("handed over with the scene");
+        let ms = loop {
+            if let Some(r) = preparing.job.try_finish() {
+                break r.unwrap();
+            }
+            std::thread::sleep(std::time::Duration::from_millis(5));
+        };
+        assert!(ms > 0.0);
+        let built = cache.lock().unwrap().coarse_base().cloned().expect("a coarse base");
+        assert!(built.fits(&scene.mesh, &base));
+        let scene_file = dir.join("bar.json");
+        let labels = (0..bar.n_vertices()).map(|v| if v < 3 { 0 } else { -1 }).collect();
+        let spec =
+            solver::animation::scene::HandlesSpec { labels: Some(labels), ..Default::default() };
+        solver::animation::scene::Scene::new("bar.obj", spec).save(&scene_file).unwrap();
+        let start: StartPrepare = Box::new(|_| panic!("a scene file started a precomputation"));
+        let job = spawn_load(scene_file, 2, || {}, Some(start));
+        let loaded = job.rx.recv().unwrap().unwrap();
+        assert!(loaded.preparing.is_none());
     }
 }

@@ -36,7 +36,7 @@ mod viewport;
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::Receiver;
 
-use super::jobs::{Job, Recorded};
+use super::jobs::{Job, Preparing, Recorded};
 use super::loader::LoadJob;
 use super::renderer;
 use super::solver_thread::Slot;
@@ -149,9 +149,9 @@ struct Jobs {
     /// generations it was computed for.
     compare: Option<((u64, u64), Job<SideBySideQuality>)>,
     compared: Option<((u64, u64), SideBySideQuality)>,
-    /// The mesh's own precomputation (`jobs::spawn_prepare`), started when a mesh is shown
-    /// without handles, and when it started.
-    prepare: Option<(std::time::Instant, Job<f64>)>,
+    /// The mesh's own precomputation (`jobs::spawn_prepare`), started by the loader as soon
+    /// as it has the mesh, or when the method's settings change.
+    prepare: Option<Preparing>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -137,7 +137,9 @@ impl EditorApp {
     pub fn open(&mut self, ctx: &egui::Context, path: PathBuf) {
         let version = self.next_version();
         let c = ctx.clone();
-        self.jobs.loading = Some(loader::spawn_load(path, version, move || c.request_repaint()));
+        let start = self.start_prepare(ctx);
+        self.jobs.loading =
+            Some(loader::spawn_load(path, version, move || c.request_repaint(), Some(start)));
     }
 
     /// Writes the autosave now (tests; the editor does it on a timer).
@@ -298,6 +300,9 @@ impl EditorApp {
             Ok(Ok(mut scene)) => {
                 self.jobs.loading = None;
                 self.error = None;
+                if let Some(p) = scene.preparing.take() {
+                    self.adopt_prepare(&scene.mesh, p);
+                }
                 self.display.camera.frame(scene.center, scene.radius, self.viewport_aspect());
                 let n = scene.mesh.n_vertices();
                 let labels = scene.default_labels.clone().unwrap_or_else(|| vec![None; n]);

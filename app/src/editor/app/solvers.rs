@@ -9,10 +9,10 @@ use eframe::egui;
 use solver::Handles;
 
 use super::{EditorApp, View};
-use crate::editor::jobs;
 use crate::editor::pose::GroupPose;
 use crate::editor::pose_solvers;
 use crate::editor::solver_thread::{Slot, SolvedFrame, SolverCommand, SolverHandle};
+use crate::editor::{jobs, loader};
 
 /// Quality of the left and right side-by-side results against converged ARAP.
 pub(super) type SideBySideQuality = [solver::deform::quality::Quality; 2];
@@ -160,16 +160,35 @@ impl EditorApp {
         }
     }
 
-    /// Starts the mesh's own precomputation (`jobs::spawn_prepare`) when a mesh is shown or the
-    /// method's settings change, before any handle is painted, and reports when it ends.
+    /// The mesh's own precomputation for the current method settings, for a loader to start
+    /// as soon as it has read the mesh ([`loader::StartPrepare`]).
+    pub(super) fn start_prepare(&self, ctx: &egui::Context) -> loader::StartPrepare {
+        let cache = self.solvers.mesh_cache.clone();
+        let settings = self.session.settings;
+        let c = ctx.clone();
+        Box::new(move |mesh| {
+            let repaint = move || c.request_repaint();
+            jobs::Preparing::start(cache, mesh, settings.bs_variant, settings.base, repaint)
+        })
+    }
+
+    /// Takes over the precomputation a loader started for `mesh` (the scene it loaded).
+    pub(super) fn adopt_prepare(&mut self, mesh: &Arc<solver::Mesh>, p: jobs::Preparing) {
+        self.solvers.prepared_for = Some((Arc::as_ptr(mesh) as usize, p.method, p.base));
+        self.jobs.prepare = Some(p);
+    }
+
+    /// Starts the mesh's own precomputation (`jobs::spawn_prepare`) when a mesh is shown
+    /// without one started by its loader, or when the method's settings change, before any
+    /// handle is painted, and reports when it ends.
     pub(super) fn poll_prepare(&mut self, ctx: &egui::Context) {
-        if let Some((started, job)) = &self.jobs.prepare
+        if let Some(jobs::Preparing { since, job, .. }) = &self.jobs.prepare
             && let Some(result) = job.try_finish()
         {
             match result {
                 Ok(ms) if ms > 0.0 => eprintln!(
                     "editor: mesh precomputed in {ms:.0} ms ({:.1} s after it was asked for)",
-                    started.elapsed().as_secs_f64()
+                    since.elapsed().as_secs_f64()
                 ),
                 Ok(_) => {}
                 Err(e) => self.error = Some(format!("precomputing the mesh failed: {e}")),
@@ -182,14 +201,13 @@ impl EditorApp {
         if self.jobs.prepare.is_none() && self.solvers.prepared_for != Some(key) {
             self.solvers.prepared_for = Some(key);
             let c = ctx.clone();
-            let job = jobs::spawn_prepare(
+            self.jobs.prepare = Some(jobs::Preparing::start(
                 self.solvers.mesh_cache.clone(),
                 scene.mesh.clone(),
                 settings.bs_variant,
                 settings.base,
                 move || c.request_repaint(),
-            );
-            self.jobs.prepare = Some((Instant::now(), job));
+            ));
         }
     }
 

@@ -395,7 +395,7 @@ impl EditorApp {
         } else if self.display.view == View::Compare && self.jobs.compare.is_some() {
             lines.push("vs converged ARAP: computing…".into());
         }
-        if let Some((since, _)) = &self.jobs.prepare {
+        if let Some(crate::editor::jobs::Preparing { since, .. }) = &self.jobs.prepare {
             let secs = if self.options.deterministic_overlays {
                 0.0
             } else {
