@@ -131,25 +131,42 @@ pub struct Adjacency {
 
 impl Adjacency {
     /// The edges of `triangles` over `n_vertices` vertices (ones in no triangle have none).
+    /// Each vertex's row is filled from its triangles (two entries per corner: most
+    /// neighbours twice), then sorted and deduplicated on its own: no sort of all the
+    /// mesh's half-edges together.
     pub fn new(n_vertices: usize, triangles: &[[u32; 3]]) -> Adjacency {
-        let mut pairs: Vec<(u32, u32)> = Vec::with_capacity(triangles.len() * 6);
+        let mut start = vec![0usize; n_vertices + 1];
         for t in triangles {
-            for k in 0..3 {
-                let (a, b) = (t[k], t[(k + 1) % 3]);
-                pairs.push((a, b));
-                pairs.push((b, a));
+            for &v in t {
+                start[v as usize + 1] += 2;
             }
         }
-        pairs.sort_unstable();
-        pairs.dedup();
-        let mut offsets = vec![0u32; n_vertices + 1];
-        for &(a, _) in &pairs {
-            offsets[a as usize + 1] += 1;
-        }
         for v in 0..n_vertices {
-            offsets[v + 1] += offsets[v];
+            start[v + 1] += start[v];
         }
-        Adjacency { offsets, neighbors: pairs.into_iter().map(|(_, b)| b).collect() }
+        let mut fill = start.clone();
+        let mut rows = vec![0u32; start[n_vertices]];
+        for t in triangles {
+            for k in 0..3 {
+                let a = t[k] as usize;
+                rows[fill[a]] = t[(k + 1) % 3];
+                rows[fill[a] + 1] = t[(k + 2) % 3];
+                fill[a] += 2;
+            }
+        }
+        let mut offsets = vec![0u32; n_vertices + 1];
+        let mut neighbors = Vec::with_capacity(rows.len() / 2 + n_vertices);
+        for v in 0..n_vertices {
+            let row = &mut rows[start[v]..start[v + 1]];
+            row.sort_unstable();
+            for (i, &w) in row.iter().enumerate() {
+                if i == 0 || w != row[i - 1] {
+                    neighbors.push(w);
+                }
+            }
+            offsets[v + 1] = neighbors.len() as u32;
+        }
+        Adjacency { offsets, neighbors }
     }
 
     /// The number of vertices (`n_vertices` of [`Adjacency::new`]).
@@ -192,5 +209,31 @@ mod tests {
         assert_eq!(edge_counts(&fin), EdgeCounts { edges: 7, boundary: 6, non_manifold: 1 });
         assert_eq!(boundary_edges(&[[0, 1, 2]]), 3);
         assert_eq!(non_manifold_edges(&fin), 1);
+    }
+
+    /// The rows are each vertex's distinct neighbours, ascending: all directed half-edges of
+    /// the triangles, sorted and deduplicated.
+    #[test]
+    fn adjacency_rows_are_the_sorted_distinct_half_edges() {
+        let mesh = crate::geometry::shapes::icosphere(2);
+        let mut tris = mesh.triangles().to_vec();
+        tris.push([0, 0, 5]);
+        tris.push([3, 7, 11]);
+        let n = mesh.n_vertices() + 2;
+        let adjacency = Adjacency::new(n, &tris);
+        let mut pairs: Vec<(u32, u32)> = tris
+            .iter()
+            .flat_map(|t| {
+                (0..3).flat_map(move |k| [(t[k], t[(k + 1) % 3]), (t[(k + 1) % 3], t[k])])
+            })
+            .collect();
+        pairs.sort_unstable();
+        pairs.dedup();
+        let got: Vec<(u32, u32)> = (0..n as u32)
+            .flat_map(|v| adjacency.neighbors(v).iter().map(move |&w| (v, w)))
+            .collect();
+        assert_eq!(got, pairs);
+        assert_eq!(adjacency.n_vertices(), n);
+        assert!(adjacency.neighbors(n as u32 - 1).is_empty());
     }
 }
