@@ -52,17 +52,19 @@ fn tri_bounds(positions: &[[f32; 3]], t: [u32; 3]) -> (Vec3, Vec3) {
 
 impl Bvh {
     pub fn build(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> Bvh {
-        let mut order: Vec<u32> = (0..triangles.len() as u32).collect();
-        let centroids: Vec<Vec3> = triangles
+        // Each triangle's box centre beside its index, permuted together: the splits read
+        // contiguous memory, not the centres through the permutation.
+        let mut items: Vec<(Vec3, u32)> = triangles
             .iter()
-            .map(|&t| {
+            .zip(0u32..)
+            .map(|(&t, f)| {
                 let (lo, hi) = tri_bounds(positions, t);
-                (lo + hi) * 0.5
+                ((lo + hi) * 0.5, f)
             })
             .collect();
         let mut nodes = vec![Node { min: Vec3::ZERO, max: Vec3::ZERO, first: 0, count: 0 }];
         // (node index, start, end) still to split.
-        let mut stack = vec![(0usize, 0usize, order.len())];
+        let mut stack = vec![(0usize, 0usize, items.len())];
         while let Some((node, start, end)) = stack.pop() {
             if end - start <= LEAF_SIZE {
                 nodes[node].first = start as u32;
@@ -70,9 +72,9 @@ impl Bvh {
                 continue;
             }
             let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
-            for &t in &order[start..end] {
-                lo = lo.min(centroids[t as usize]);
-                hi = hi.max(centroids[t as usize]);
+            for &(c, _) in &items[start..end] {
+                lo = lo.min(c);
+                hi = hi.max(c);
             }
             let ext = hi - lo;
             let axis = if ext.x >= ext.y && ext.x >= ext.z {
@@ -83,9 +85,8 @@ impl Bvh {
                 2
             };
             let mid = (start + end) / 2;
-            order[start..end].select_nth_unstable_by(mid - start, |&a, &b| {
-                centroids[a as usize][axis].total_cmp(&centroids[b as usize][axis])
-            });
+            items[start..end]
+                .select_nth_unstable_by(mid - start, |a, b| a.0[axis].total_cmp(&b.0[axis]));
             let left = nodes.len();
             nodes.push(Node { min: Vec3::ZERO, max: Vec3::ZERO, first: 0, count: 0 });
             nodes.push(Node { min: Vec3::ZERO, max: Vec3::ZERO, first: 0, count: 0 });
@@ -94,6 +95,7 @@ impl Bvh {
             stack.push((left, start, mid));
             stack.push((left + 1, mid, end));
         }
+        let order: Vec<u32> = items.into_iter().map(|(_, f)| f).collect();
         let mut vertex_ranges = vec![(0, 0); nodes.len()];
         let mut leaf_vertices = Vec::with_capacity(order.len() * 2);
         for (n, range) in nodes.iter().zip(&mut vertex_ranges) {
