@@ -15,7 +15,7 @@
 //! order is exactly the input order. Known limitation: near-coincident (not bit-identical)
 //! vertices are not welded, and slivers above the area threshold are kept.
 
-use rustc_hash::{FxHashMap, FxHashSet};
+use rustc_hash::FxHashMap;
 
 use serde::Serialize;
 use thiserror::Error;
@@ -182,10 +182,7 @@ pub fn clean(
     let min_area = AREA_EPS * diag * diag;
     let welded = triangles.iter().map(|t| t.map(|i| rep.get(i as usize).copied().unwrap_or(i)));
     let mut degenerate = 0;
-    let mut duplicates = 0;
-    let mut seen: FxHashSet<[u32; 3]> =
-        FxHashSet::with_capacity_and_hasher(triangles.len(), Default::default());
-    let mut kept = Vec::with_capacity(triangles.len());
+    let mut candidates = Vec::with_capacity(triangles.len());
     for t in welded {
         if t[0] == t[1]
             || t[1] == t[2]
@@ -195,16 +192,14 @@ pub fn clean(
             degenerate += 1;
             continue;
         }
-        // 3. Duplicated triangles.
-        let mut sorted = t;
-        sorted.sort_unstable();
-        if !seen.insert(sorted) {
-            duplicates += 1;
-            continue;
-        }
-        kept.push(t);
+        candidates.push(t);
     }
-    drop(seen);
+    // 3. Duplicated triangles.
+    let repeated = repeated_triangles(n, &candidates);
+    let duplicates = repeated.iter().filter(|&&r| r).count();
+    let kept: Vec<[u32; 3]> =
+        candidates.iter().zip(&repeated).filter(|&(_, &r)| !r).map(|(&t, _)| t).collect();
+    drop(candidates);
     if kept.is_empty() {
         return Err(CleanError::NoTriangles { faces_in: triangles.len(), degenerate, duplicates });
     }
@@ -263,6 +258,43 @@ pub fn clean(
         _ => CleanError::NoTriangles { faces_in: triangles.len(), degenerate, duplicates },
     })?;
     Ok((mesh, report))
+}
+
+/// Per triangle (vertices `< n`, none repeated within a triangle), whether an earlier one has
+/// the same three vertices in any order. Triangles go to the row of their lowest vertex; each
+/// row is sorted on its own by vertex set and position, so the first of equal sets is the
+/// one kept (no hash set of every triangle).
+fn repeated_triangles(n: usize, triangles: &[[u32; 3]]) -> Vec<bool> {
+    let sorted = |t: &[u32; 3]| {
+        let mut s = *t;
+        s.sort_unstable();
+        s
+    };
+    let mut start = vec![0usize; n + 1];
+    for t in triangles {
+        start[sorted(t)[0] as usize + 1] += 1;
+    }
+    for v in 0..n {
+        start[v + 1] += start[v];
+    }
+    let mut fill = start.clone();
+    let mut rows = vec![([0u32; 2], 0u32); triangles.len()];
+    for (f, t) in triangles.iter().enumerate() {
+        let s = sorted(t);
+        rows[fill[s[0] as usize]] = ([s[1], s[2]], f as u32);
+        fill[s[0] as usize] += 1;
+    }
+    let mut repeated = vec![false; triangles.len()];
+    for v in 0..n {
+        let row = &mut rows[start[v]..start[v + 1]];
+        row.sort_unstable();
+        for w in 1..row.len() {
+            if row[w].0 == row[w - 1].0 {
+                repeated[row[w].1 as usize] = true;
+            }
+        }
+    }
+    repeated
 }
 
 /// Triangle area from the cross product of the two shortest edges (those meeting at the vertex
@@ -348,5 +380,24 @@ mod tests {
         let a = area([0.0, 0.0, 0.0], [1e8, 0.0, 0.0], [1e8, 1e-6, 0.0]);
         assert!((a - 0.5 * 1e8 * 1e-6).abs() < 1e-9 * a);
         assert_eq!(area([0.0; 3], [1.0; 3], [3.0; 3]), 0.0);
+    }
+
+    /// Of triangles with the same vertex set, in any order, the first is kept, in the input's
+    /// order among the others.
+    #[test]
+    fn repeated_triangles_keep_the_first() {
+        let tris = [[0, 1, 2], [2, 3, 0], [1, 2, 0], [3, 0, 2], [0, 2, 1], [1, 3, 2], [4, 1, 0]];
+        let repeated = repeated_triangles(5, &tris);
+        assert_eq!(repeated, [false, false, true, true, true, false, false]);
+        let p = vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, 0.0, 1.0],
+            [1.0, 1.0, 1.0],
+        ];
+        let (m, r) = clean(p, tris.to_vec()).unwrap();
+        assert_eq!(r.duplicate_faces_removed, 3);
+        assert_eq!(m.triangles(), &[[0, 1, 2], [2, 3, 0], [1, 3, 2], [4, 1, 0]]);
     }
 }

@@ -91,21 +91,40 @@ pub struct EdgeCounts {
 /// A triangle that repeats a vertex contributes its degenerate edge `(i, i)` like any other;
 /// clean the mesh first ([`crate::geometry::cleanup::clean`]) for meaningful numbers.
 pub fn edge_counts(triangles: &[[u32; 3]]) -> EdgeCounts {
-    let mut keys: Vec<u64> = Vec::with_capacity(3 * triangles.len());
+    // Each edge goes to the row of its lower vertex as its higher one; a row, sorted on its
+    // own, holds each edge once per triangle using it (no sort of every edge together).
+    let n = triangles.iter().flatten().max().map_or(0, |&m| m as usize + 1);
+    let mut start = vec![0usize; n + 1];
+    let ends = |t: &[u32; 3]| {
+        [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])].map(|(a, b)| if a < b { (a, b) } else { (b, a) })
+    };
     for t in triangles {
-        for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
-            let (lo, hi) = if a < b { (a, b) } else { (b, a) };
-            keys.push(u64::from(lo) << 32 | u64::from(hi));
+        for (lo, _) in ends(t) {
+            start[lo as usize + 1] += 1;
         }
     }
-    keys.sort_unstable();
+    for v in 0..n {
+        start[v + 1] += start[v];
+    }
+    let mut fill = start.clone();
+    let mut higher = vec![0u32; start[n]];
+    for t in triangles {
+        for (lo, hi) in ends(t) {
+            higher[fill[lo as usize]] = hi;
+            fill[lo as usize] += 1;
+        }
+    }
     let mut counts = EdgeCounts::default();
-    for run in keys.chunk_by(|a, b| a == b) {
-        counts.edges += 1;
-        match run.len() {
-            1 => counts.boundary += 1,
-            2 => {}
-            _ => counts.non_manifold += 1,
+    for v in 0..n {
+        let row = &mut higher[start[v]..start[v + 1]];
+        row.sort_unstable();
+        for run in row.chunk_by(|a, b| a == b) {
+            counts.edges += 1;
+            match run.len() {
+                1 => counts.boundary += 1,
+                2 => {}
+                _ => counts.non_manifold += 1,
+            }
         }
     }
     counts
@@ -235,5 +254,35 @@ mod tests {
         assert_eq!(got, pairs);
         assert_eq!(adjacency.n_vertices(), n);
         assert!(adjacency.neighbors(n as u32 - 1).is_empty());
+    }
+
+    /// The per-row count agrees with counting runs of every edge sorted together.
+    #[test]
+    fn edge_counts_match_sorted_edges() {
+        let mesh = crate::geometry::shapes::icosphere(2);
+        // Five triangles gone (boundary edges), an edge used by a third triangle (non-manifold)
+        // and a degenerate one.
+        let mut tris = mesh.triangles()[5..].to_vec();
+        let [a, b, _] = tris[0];
+        tris.push([a, b, 0]);
+        tris.push([4, 4, 9]);
+        let mut keys: Vec<(u32, u32)> = tris
+            .iter()
+            .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
+            .map(|(a, b)| (a.min(b), a.max(b)))
+            .collect();
+        keys.sort_unstable();
+        let mut expected = EdgeCounts::default();
+        for run in keys.chunk_by(|a, b| a == b) {
+            expected.edges += 1;
+            match run.len() {
+                1 => expected.boundary += 1,
+                2 => {}
+                _ => expected.non_manifold += 1,
+            }
+        }
+        assert!(expected.boundary > 0 && expected.non_manifold > 0);
+        assert_eq!(edge_counts(&tris), expected);
+        assert_eq!(edge_counts(&[]), EdgeCounts::default());
     }
 }
