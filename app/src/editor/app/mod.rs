@@ -173,6 +173,10 @@ impl EditorApp {
         } else {
             false
         };
+        let software_rendering = cc
+            .wgpu_render_state
+            .as_ref()
+            .is_some_and(|rs| rs.adapter.get_info().device_type == eframe::wgpu::DeviceType::Cpu);
         let ctx = cc.egui_ctx.clone();
         let mut app = EditorApp {
             options: options.clone(),
@@ -181,7 +185,7 @@ impl EditorApp {
             store: Store::new(options.config_dir.clone()),
             solvers: Solvers::with_cache_dir(options.config_dir.as_ref().map(|d| d.join("cache"))),
             interaction: Interaction::default(),
-            display: Display::new(&options),
+            display: Display { software_rendering, ..Display::new(&options) },
             jobs: Jobs::default(),
             rigging: rigging::Rigging::default(),
             selecting: Default::default(),

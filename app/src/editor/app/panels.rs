@@ -389,8 +389,13 @@ impl EditorApp {
                 ui.label("no mesh");
             }
             ui.separator();
+            // A spinner repaints every frame: not on a software adapter, where each frame of a
+            // dense mesh takes the cores the loading and the precomputation run on.
+            let animate = !self.display.software_rendering;
             if self.jobs.loading.is_some() {
-                ui.spinner();
+                if animate {
+                    ui.spinner();
+                }
                 ui.label("loading…");
                 ui.separator();
             }
@@ -406,7 +411,11 @@ impl EditorApp {
                     Some(SolverState::Panicked(e)) => format!("panicked, restarted: {e}"),
                     None => "busy".to_string(),
                 };
-                if matches!(h.try_status().map(|s| s.state), Some(SolverState::Factorizing { .. }))
+                if animate
+                    && matches!(
+                        h.try_status().map(|s| s.state),
+                        Some(SolverState::Factorizing { .. })
+                    )
                 {
                     ui.spinner();
                 }
@@ -647,7 +656,7 @@ impl eframe::App for EditorApp {
                 .and_then(|s| s.try_status())
                 .is_some_and(|s| matches!(s.state, SolverState::Factorizing { .. }))
         {
-            ctx.request_repaint_after(std::time::Duration::from_millis(100));
+            ctx.request_repaint_after(self.display.progress_repaint());
         }
     }
 }

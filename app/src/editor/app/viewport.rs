@@ -2,7 +2,7 @@
 //! wgpu paint callback and the text overlays.
 
 use std::sync::Arc;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use eframe::egui::{self, Color32, Pos2, Rect, Sense, Vec2};
 use eframe::egui_wgpu;
@@ -42,12 +42,23 @@ pub(super) struct Display {
     pub(super) render_fps: f32,
     /// Milliseconds the UI thread spends in one `ui` call (moving average).
     pub(super) ui_ms: f32,
+    /// The window renders on a software adapter (lavapipe, llvmpipe): on the CPU cores the
+    /// solver and the precomputation need.
+    pub(super) software_rendering: bool,
     /// The process's memory for the status bar and when it was read (once a second).
     pub(super) memory: Option<(Instant, Option<crate::memory::Memory>)>,
     pub(super) last_frame: Option<Instant>,
 }
 
 impl Display {
+    /// How often progress (loading, precomputing) repaints the window: every 100 ms on a GPU;
+    /// every 2 s on a software adapter, where a frame of a dense mesh costs about a third of a
+    /// second of the cores the precomputation runs on (its work runs on the adapter's own
+    /// threads, so eframe's frame time does not show it).
+    pub(super) fn progress_repaint(&self) -> Duration {
+        Duration::from_millis(if self.software_rendering { 2000 } else { 100 })
+    }
+
     pub(super) fn new(options: &EditorOptions) -> Display {
         Display {
             camera: OrbitCamera::default(),
@@ -66,6 +77,7 @@ impl Display {
             reframe: false,
             render_fps: 0.0,
             ui_ms: 0.0,
+            software_rendering: false,
             memory: None,
             last_frame: None,
         }
