@@ -90,6 +90,10 @@ impl Solvers {
     }
 }
 
+/// The shortest rest before settling when the window renders on a software adapter (about
+/// three frames of a 700k-vertex mesh under lavapipe on two cores).
+const SOFTWARE_SETTLE_DELAY: std::time::Duration = std::time::Duration::from_secs(1);
+
 impl EditorApp {
     pub(super) fn spawn_solver(&mut self, ctx: &egui::Context, slot: Slot) -> Option<SolverHandle> {
         let c = ctx.clone();
@@ -98,7 +102,14 @@ impl EditorApp {
             pose_solvers::factory(self.solvers.mesh_cache.clone()),
             Arc::new(move || c.request_repaint()),
         ) {
-            Ok(h) => Some(h),
+            Ok(h) => {
+                // A software adapter renders a dense mesh a few frames a second: a drag's
+                // poses come that far apart, and must not each start settling.
+                if self.display.software_rendering {
+                    h.set_min_settle_delay(SOFTWARE_SETTLE_DELAY);
+                }
+                Some(h)
+            }
             Err(e) => {
                 self.error = Some(format!("cannot start the {} solver: {e}", slot.label()));
                 None

@@ -20,10 +20,11 @@ mod worker;
 #[cfg(test)]
 mod tests;
 
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::mpsc::{Sender, channel};
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
+use std::time::Duration;
 
 pub use mailbox::Mailbox;
 pub use protocol::{
@@ -39,6 +40,7 @@ pub struct SolverHandle {
     mailbox: Arc<Mailbox>,
     status: Arc<Mutex<SolverStatus>>,
     show_base: Arc<AtomicBool>,
+    min_settle_ms: Arc<AtomicU64>,
     thread: Option<JoinHandle<()>>,
 }
 
@@ -53,16 +55,34 @@ impl SolverHandle {
         let mailbox = Arc::new(Mailbox::default());
         let status = Arc::new(Mutex::new(SolverStatus { state: SolverState::Idle, panics: 0 }));
         let show_base = Arc::new(AtomicBool::new(false));
+        let min_settle_ms = Arc::new(AtomicU64::new(worker::SETTLE_DELAY.as_millis() as u64));
         let shared = Shared {
             mailbox: mailbox.clone(),
             status: status.clone(),
             show_base: show_base.clone(),
+            min_settle_ms: min_settle_ms.clone(),
             repaint,
         };
         let thread = std::thread::Builder::new()
             .name(format!("solver-{}", slot.label()))
             .spawn(move || supervise(slot, factory, rx, shared))?;
-        Ok(SolverHandle { slot, tx, mailbox, status, show_base, thread: Some(thread) })
+        Ok(SolverHandle {
+            slot,
+            tx,
+            mailbox,
+            status,
+            show_base,
+            min_settle_ms,
+            thread: Some(thread),
+        })
+    }
+
+    /// The shortest time the poses must rest before the thread settles (150 ms unless set):
+    /// a window that renders slowly sets it longer, so that a drag's pauses between frames do
+    /// not start settling. The thread also lengthens it by itself for drags whose poses come
+    /// far apart.
+    pub fn set_min_settle_delay(&self, delay: Duration) {
+        self.min_settle_ms.store(delay.as_millis() as u64, Ordering::Relaxed);
     }
 
     /// Whether frames carry the deformed base surface (its shape and normals cost about 1 ms a

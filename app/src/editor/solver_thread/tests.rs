@@ -434,3 +434,61 @@ fn loose_parts_change_without_a_rebuild() {
     assert_eq!(f.components[1].mode, Some(ComponentMode::Pin));
     assert_eq!(*builds.lock().unwrap(), 1, "no rebuild for a change of modes");
 }
+
+/// The settle log of an [`EndlessSettle`] thread fed a drag: `poses` new poses `every` apart
+/// (after the scene's first solve has settled), then nothing for `after`. Returns the log
+/// and when the last pose was sent.
+fn slow_drag(
+    min_settle: Option<Duration>,
+    poses: usize,
+    every: Duration,
+    after: Duration,
+) -> (Vec<(bool, f64, Instant)>, Instant) {
+    let log = Arc::new(Mutex::new(Vec::new()));
+    let shared_log = log.clone();
+    let factory: PoseSolverFactory =
+        Arc::new(move |_, mesh: &Mesh, handles: &Handles, _: &_, _: &_| {
+            let shift = Shift {
+                rest: mesh.positions().to_vec(),
+                handle_vertices: handles.handle_vertices(),
+            };
+            Ok(Box::new(EndlessSettle { shift, log: shared_log.clone() }) as Box<dyn PoseSolver>)
+        });
+    let h = SolverHandle::spawn(Slot::Main, factory, Arc::new(|| {})).unwrap();
+    if let Some(d) = min_settle {
+        h.set_min_settle_delay(d);
+    }
+    h.send(scene(1, vec![GroupPose::default()]));
+    let mut last = Instant::now();
+    for k in 1..=poses {
+        std::thread::sleep(every);
+        let moved = GroupPose { translation: [0.0, 0.0, k as f64], ..Default::default() };
+        h.send(SolverCommand::SetPoses { pose_generation: k as u64, poses: vec![moved] });
+        last = Instant::now();
+    }
+    std::thread::sleep(after);
+    let log = log.lock().unwrap().clone();
+    (log, last)
+}
+
+/// A drag whose poses come 300 ms apart (a window rendering a dense mesh in software) does
+/// not settle between them once the thread has seen its cadence, nor at all with a floor of
+/// 1 s; settling follows once the poses rest long enough.
+#[test]
+fn a_slow_drag_does_not_settle_between_its_poses() {
+    let every = Duration::from_millis(300);
+    // The cadence alone: after the first two poses, no settling until the last one rested.
+    let (log, last) = slow_drag(None, 6, every, Duration::from_millis(1500));
+    let third = log.iter().position(|e| !e.0 && e.1 == 3.0).expect("pose 3 solved");
+    let settled: Vec<_> = log[third..].iter().filter(|e| e.0).collect();
+    assert!(!settled.is_empty(), "never settled after the drag: {log:?}");
+    assert!(settled.iter().all(|e| e.1 == 6.0), "settled mid-drag: {log:?}");
+    assert!(settled[0].2.duration_since(last) >= 2 * every, "settled too soon after the drag");
+    // With a floor of 1 s: no settling before the last pose, not even at the start.
+    let (log, last) =
+        slow_drag(Some(Duration::from_secs(1)), 4, every, Duration::from_millis(1500));
+    let settled: Vec<_> = log.iter().filter(|e| e.0).collect();
+    assert!(!settled.is_empty(), "never settled after the drag: {log:?}");
+    assert!(settled.iter().all(|e| e.1 == 4.0), "settled mid-drag: {log:?}");
+    assert!(settled[0].2.duration_since(last) >= Duration::from_secs(1));
+}

@@ -5,7 +5,7 @@
 //! [publish](publish) the frame.
 
 use std::panic::{AssertUnwindSafe, catch_unwind};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::mpsc::{Receiver, RecvTimeoutError, TryRecvError};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
@@ -26,7 +26,15 @@ pub(super) struct Shared {
     pub(super) mailbox: Arc<Mailbox>,
     pub(super) status: Arc<Mutex<SolverStatus>>,
     pub(super) show_base: Arc<AtomicBool>,
+    /// The shortest rest before settling, in milliseconds ([`super::SolverHandle::set_min_settle_delay`]).
+    pub(super) min_settle_ms: Arc<AtomicU64>,
     pub(super) repaint: Arc<dyn Fn() + Send + Sync>,
+}
+
+impl Shared {
+    fn min_settle_delay(&self) -> Duration {
+        Duration::from_millis(self.min_settle_ms.load(Ordering::Relaxed))
+    }
 }
 
 pub(super) fn set_status(status: &Mutex<SolverStatus>, state: SolverState) {
@@ -100,6 +108,9 @@ struct Active {
     settle_waiting: bool,
     /// When the poses last changed, and the settle steps taken since.
     poses_changed: Instant,
+    /// How far apart the poses have been changing while they came in a stream (a drag): the
+    /// longest recent interval under [`DRAG_GAP`], decaying by a tenth at each change.
+    pose_cadence: Duration,
     settle_steps: usize,
     /// The statistics of the last published frame.
     last_stats: FrameStats,
@@ -130,11 +141,24 @@ impl Active {
 
     /// New poses: solve again, and settle again only once they have rested.
     fn set_poses(&mut self, generation: u64, poses: Vec<GroupPose>) {
+        let now = Instant::now();
+        let interval = now.duration_since(self.poses_changed);
+        let decayed = self.pose_cadence.mul_f64(0.9);
+        self.pose_cadence = if interval < DRAG_GAP { interval.max(decayed) } else { decayed };
         self.pose_generation = generation;
         self.poses = poses;
         self.dirty = true;
         self.settling = false;
-        self.poses_changed = Instant::now();
+        self.poses_changed = now;
+    }
+
+    /// How long the poses must stay unchanged before settling: `floor`, or three times the
+    /// cadence at which they have been changing when that is longer (at most
+    /// [`MAX_SETTLE_DELAY`]). A window that renders a few frames a second (software rendering
+    /// of a dense mesh) delivers a drag's poses a third of a second apart; with a fixed
+    /// 150 ms each would look like a rest and start the full mesh's factorization mid-drag.
+    fn settle_delay(&self, floor: Duration) -> Duration {
+        floor.max((3 * self.pose_cadence).min(MAX_SETTLE_DELAY))
     }
 
     /// New loose parts' modes: the pose solver moves them in the current pose, which is
@@ -187,9 +211,16 @@ impl Active {
     }
 }
 
-/// How long the poses must stay unchanged before a converged pose is settled: a settle step
-/// cannot be interrupted, so a drag that pauses briefly does not wait for one.
+/// How long the poses must stay unchanged before a converged pose is settled, at least (the
+/// default floor; [`Active::settle_delay`] lengthens it for slow drags): a settle step cannot
+/// be interrupted, so a drag that pauses briefly does not wait for one.
 pub(super) const SETTLE_DELAY: Duration = Duration::from_millis(150);
+
+/// The longest wait before settling that a drag's cadence can ask for.
+const MAX_SETTLE_DELAY: Duration = Duration::from_secs(2);
+
+/// Pose changes further apart than this are not a drag's cadence.
+const DRAG_GAP: Duration = Duration::from_secs(1);
 
 /// How often the thread asks whether settling can start while the pose solver prepares it.
 const SETTLE_POLL: Duration = Duration::from_millis(50);
@@ -221,11 +252,13 @@ struct NewScene {
 /// How long the worker may block for commands: forever with nothing to iterate on, not at all
 /// with a pose to solve, and before settling until the poses have rested for
 /// [`SETTLE_DELAY`].
-fn wait_time(active: Option<&Active>) -> Option<Duration> {
+fn wait_time(active: Option<&Active>, floor: Duration) -> Option<Duration> {
     match active {
         Some(a) if a.dirty => Some(Duration::ZERO),
         Some(a) if a.settle_waiting => Some(SETTLE_POLL),
-        Some(a) if a.settling => Some(SETTLE_DELAY.saturating_sub(a.poses_changed.elapsed())),
+        Some(a) if a.settling => {
+            Some(a.settle_delay(floor).saturating_sub(a.poses_changed.elapsed()))
+        }
         _ => None,
     }
 }
@@ -330,6 +363,7 @@ fn rebuild(
                 dirty: true,
                 settling: false,
                 poses_changed: Instant::now(),
+                pose_cadence: Duration::ZERO,
                 settle_steps: 0,
                 settle_waiting: false,
                 last_stats: FrameStats::default(),
@@ -376,7 +410,8 @@ fn worker_loop(
 ) {
     let mut active: Option<Active> = None;
     loop {
-        let Some(inbox) = drain_commands(rx, wait_time(active.as_ref())) else { return };
+        let floor = shared.min_settle_delay();
+        let Some(inbox) = drain_commands(rx, wait_time(active.as_ref(), floor)) else { return };
         if let Some(scene) = inbox.scene {
             // Free the old factorization before building the new one; keep what depends on
             // the mesh only when the mesh stays.
@@ -403,7 +438,7 @@ fn worker_loop(
         }
         // Settle only once the poses have rested for the delay (a command such as Republish
         // can wake the thread before that).
-        let rested = a.settling && !a.dirty && a.poses_changed.elapsed() >= SETTLE_DELAY;
+        let rested = a.settling && !a.dirty && a.poses_changed.elapsed() >= a.settle_delay(floor);
         let settle_due = rested && a.pose_solver.settle_ready();
         a.settle_waiting = rested && !settle_due;
         if !a.dirty && !settle_due {
