@@ -167,11 +167,29 @@ fn converged_poses_are_settled_until_converged() {
     assert_eq!(f.positions[1], [2.5, 0.0, 2.0]);
 }
 
+/// A factory of [`EndlessSettle`] pose solvers sharing one log.
+fn endless_settle_factory() -> (Arc<Mutex<SettleLog>>, PoseSolverFactory) {
+    let log = Arc::new(Mutex::new(Vec::new()));
+    let shared_log = log.clone();
+    let factory: PoseSolverFactory =
+        Arc::new(move |_, mesh: &Mesh, handles: &Handles, _: &_, _: &_| {
+            let shift = Shift {
+                rest: mesh.positions().to_vec(),
+                handle_vertices: handles.handle_vertices(),
+            };
+            Ok(Box::new(EndlessSettle { shift, log: shared_log.clone() }) as Box<dyn PoseSolver>)
+        });
+    (log, factory)
+}
+
+/// Per call of an [`EndlessSettle`]: whether it settled, the first target's z, when.
+type SettleLog = Vec<(bool, f64, Instant)>;
+
 /// Settles without ever converging, 5 ms a step; logs each call (settle or not, the first
 /// target's z, when).
 struct EndlessSettle {
     shift: Shift,
-    log: Arc<Mutex<Vec<(bool, f64, Instant)>>>,
+    log: Arc<Mutex<SettleLog>>,
 }
 
 impl PoseSolver for EndlessSettle {
@@ -200,16 +218,7 @@ impl PoseSolver for EndlessSettle {
 /// unchanged for the settle delay, at the new targets.
 #[test]
 fn a_new_pose_interrupts_settling() {
-    let log = Arc::new(Mutex::new(Vec::new()));
-    let shared_log = log.clone();
-    let factory: PoseSolverFactory =
-        Arc::new(move |_, mesh: &Mesh, handles: &Handles, _: &_, _: &_| {
-            let shift = Shift {
-                rest: mesh.positions().to_vec(),
-                handle_vertices: handles.handle_vertices(),
-            };
-            Ok(Box::new(EndlessSettle { shift, log: shared_log.clone() }) as Box<dyn PoseSolver>)
-        });
+    let (log, factory) = endless_settle_factory();
     let h = SolverHandle::spawn(Slot::Main, factory, Arc::new(|| {})).unwrap();
     h.send(scene(1, vec![GroupPose::default()]));
     wait_frame(&h, |f| f.stats.fine_iterations == 1);
@@ -443,17 +452,8 @@ fn slow_drag(
     poses: usize,
     every: Duration,
     after: Duration,
-) -> (Vec<(bool, f64, Instant)>, Instant) {
-    let log = Arc::new(Mutex::new(Vec::new()));
-    let shared_log = log.clone();
-    let factory: PoseSolverFactory =
-        Arc::new(move |_, mesh: &Mesh, handles: &Handles, _: &_, _: &_| {
-            let shift = Shift {
-                rest: mesh.positions().to_vec(),
-                handle_vertices: handles.handle_vertices(),
-            };
-            Ok(Box::new(EndlessSettle { shift, log: shared_log.clone() }) as Box<dyn PoseSolver>)
-        });
+) -> (SettleLog, Instant) {
+    let (log, factory) = endless_settle_factory();
     let h = SolverHandle::spawn(Slot::Main, factory, Arc::new(|| {})).unwrap();
     if let Some(d) = min_settle {
         h.set_min_settle_delay(d);
