@@ -134,8 +134,10 @@ pub fn spawn_prepare(
     })
 }
 
-/// A mesh precomputation under way ([`spawn_prepare`]), with the settings it was started for.
+/// A mesh precomputation under way ([`spawn_prepare`]), with the mesh and settings it was
+/// started for.
 pub struct Preparing {
+    pub mesh: Arc<Mesh>,
     pub method: Method,
     pub base: BaseConfig,
     pub since: Instant,
@@ -152,7 +154,8 @@ impl Preparing {
         repaint: impl Fn() + Send + 'static,
     ) -> Preparing {
         let since = Instant::now();
-        Preparing { method, base, since, job: spawn_prepare(cache, mesh, method, base, repaint) }
+        let job = spawn_prepare(cache, mesh.clone(), method, base, repaint);
+        Preparing { mesh, method, base, since, job }
     }
 }
 

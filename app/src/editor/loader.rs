@@ -18,7 +18,6 @@ use anyhow::{Context, anyhow};
 use glam::Vec3;
 use solver::{Handles, Mesh};
 
-use super::jobs::Preparing;
 use super::render_layout::RenderLayout;
 use super::renderer::{Topology, VertexData, build_grid};
 use super::shape::Shape;
@@ -73,15 +72,13 @@ pub struct LoadedFile {
     /// The connected components (index, vertex count, first vertex), for the Parts panel;
     /// which have handles and what the loose ones ride on come from the solver's frames.
     pub components: Arc<Vec<solver::ComponentInfo>>,
-    /// The mesh's own precomputation, started as soon as the mesh was read ([`StartPrepare`]);
-    /// the UI takes it over.
-    pub preparing: Option<Preparing>,
 }
 
-/// Starts the mesh's own precomputation (`jobs::spawn_prepare`) on the mesh the loader has
-/// just read and cleaned, so that it runs beside the rest of the loading (normals, adjacency,
-/// BVH, render layout) instead of after it.
-pub type StartPrepare = Box<dyn FnOnce(Arc<Mesh>) -> Preparing + Send>;
+/// Called with the mesh the loader has just read and cleaned: starts the mesh's own
+/// precomputation there (the app's `jobs::spawn_prepare`, which the app takes over with the
+/// scene), so that it runs beside the rest of the loading (normals, adjacency, BVH, render
+/// layout) instead of after it.
+pub type StartPrepare = Box<dyn FnOnce(Arc<Mesh>) + Send>;
 
 /// Whether `path` names a scene file rather than a mesh.
 pub fn is_scene_file(path: &Path) -> bool {
@@ -167,7 +164,9 @@ fn prepare(
     let mut notices = loaded.notices();
     let mesh = Arc::new(loaded.mesh);
     // Nothing below is needed by the mesh's own precomputation: it starts now.
-    let preparing = start_prepare.map(|start| start(mesh.clone()));
+    if let Some(start) = start_prepare {
+        start(mesh.clone());
+    }
     let rest = Shape::new(mesh.positions(), mesh.triangles());
     let rest_f32: &[[f32; 3]] = &rest.positions;
     // Independent, and each a second or so on a dense mesh: side by side.
@@ -230,7 +229,6 @@ fn prepare(
         selection_path,
         document: None,
         components,
-        preparing,
     })
 }
 
@@ -318,16 +316,16 @@ mod tests {
         solver::io::write_obj(&path, bar.positions(), bar.triangles()).unwrap();
         let cache: Arc<std::sync::Mutex<solver::MeshCache>> = Arc::default();
         let base = solver::BaseConfig::default();
-        let started: Arc<std::sync::Mutex<Option<Arc<Mesh>>>> = Arc::default();
+        let started = Arc::new(std::sync::Mutex::new(None));
         let (c, s) = (cache.clone(), started.clone());
         let start: StartPrepare = Box::new(move |mesh| {
-            *s.lock().unwrap() = Some(mesh.clone());
-            Preparing::start(c, mesh, solver::Method::BsArapCoarse, base, || {})
+            let method = solver::Method::BsArapCoarse;
+            let p = super::super::jobs::Preparing::start(c, mesh, method, base, || {});
+            *s.lock().unwrap() = Some(p);
         });
-        let mut scene = load_scene(&path, 1, Some(start)).unwrap();
-        let on = started.lock().unwrap().clone().expect("started on the loader thread");
-        assert!(Arc::ptr_eq(&on, &scene.mesh), "started on another mesh than the one shown");
-        let preparing = scene.preparing.take().expect("handed over with the scene");
+        let scene = load_scene(&path, 1, Some(start)).unwrap();
+        let preparing = started.lock().unwrap().take().expect("started while loading");
+        assert!(Arc::ptr_eq(&preparing.mesh, &scene.mesh), "started on another mesh");
         let ms = loop {
             if let Some(r) = preparing.job.try_finish() {
                 break r.unwrap();
@@ -344,7 +342,6 @@ mod tests {
         solver::animation::scene::Scene::new("bar.obj", spec).save(&scene_file).unwrap();
         let start: StartPrepare = Box::new(|_| panic!("a scene file started a precomputation"));
         let job = spawn_load(scene_file, 2, || {}, Some(start));
-        let loaded = job.rx.recv().unwrap().unwrap();
-        assert!(loaded.preparing.is_none());
+        job.rx.recv().unwrap().unwrap();
     }
 }

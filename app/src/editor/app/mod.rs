@@ -140,6 +140,9 @@ pub struct EditorApp {
 #[derive(Default)]
 struct Jobs {
     loading: Option<LoadJob>,
+    /// The precomputation a loader started on the mesh it read (`loader::StartPrepare`),
+    /// until the loaded scene takes it over.
+    early_prepare: std::sync::Arc<std::sync::Mutex<Option<Preparing>>>,
     dialog: Option<(DialogKind, Receiver<Option<PathBuf>>)>,
     record: Option<Job<Recorded>>,
     /// The kept recording.

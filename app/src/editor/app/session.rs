@@ -300,9 +300,7 @@ impl EditorApp {
             Ok(Ok(mut scene)) => {
                 self.jobs.loading = None;
                 self.error = None;
-                if let Some(p) = scene.preparing.take() {
-                    self.adopt_prepare(&scene.mesh, p);
-                }
+                self.adopt_prepare(&scene.mesh);
                 self.display.camera.frame(scene.center, scene.radius, self.viewport_aspect());
                 let n = scene.mesh.n_vertices();
                 let labels = scene.default_labels.clone().unwrap_or_else(|| vec![None; n]);

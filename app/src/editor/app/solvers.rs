@@ -172,21 +172,29 @@ impl EditorApp {
     }
 
     /// The mesh's own precomputation for the current method settings, for a loader to start
-    /// as soon as it has read the mesh ([`loader::StartPrepare`]).
+    /// as soon as it has read the mesh ([`loader::StartPrepare`]); it waits in
+    /// `Jobs::early_prepare` for [`EditorApp::adopt_prepare`].
     pub(super) fn start_prepare(&self, ctx: &egui::Context) -> loader::StartPrepare {
         let cache = self.solvers.mesh_cache.clone();
         let settings = self.session.settings;
+        let slot = self.jobs.early_prepare.clone();
         let c = ctx.clone();
         Box::new(move |mesh| {
             let repaint = move || c.request_repaint();
-            jobs::Preparing::start(cache, mesh, settings.bs_variant, settings.base, repaint)
+            let (method, base) = (settings.bs_variant, settings.base);
+            let p = jobs::Preparing::start(cache, mesh, method, base, repaint);
+            *slot.lock().unwrap_or_else(std::sync::PoisonError::into_inner) = Some(p);
         })
     }
 
-    /// Takes over the precomputation a loader started for `mesh` (the scene it loaded).
-    pub(super) fn adopt_prepare(&mut self, mesh: &Arc<solver::Mesh>, p: jobs::Preparing) {
-        self.solvers.prepared_for = Some((Arc::as_ptr(mesh) as usize, p.method, p.base));
-        self.jobs.prepare = Some(p);
+    /// Takes over the precomputation a loader started, when it was started on `mesh` (the
+    /// scene just loaded).
+    pub(super) fn adopt_prepare(&mut self, mesh: &Arc<solver::Mesh>) {
+        let early = self.jobs.early_prepare.lock().ok().and_then(|mut p| p.take());
+        if let Some(p) = early.filter(|p| Arc::ptr_eq(&p.mesh, mesh)) {
+            self.solvers.prepared_for = Some((Arc::as_ptr(mesh) as usize, p.method, p.base));
+            self.jobs.prepare = Some(p);
+        }
     }
 
     /// Starts the mesh's own precomputation (`jobs::spawn_prepare`) when a mesh is shown
