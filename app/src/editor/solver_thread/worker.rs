@@ -250,8 +250,8 @@ struct NewScene {
 }
 
 /// How long the worker may block for commands: forever with nothing to iterate on, not at all
-/// with a pose to solve, and before settling until the poses have rested for
-/// [`SETTLE_DELAY`].
+/// with a pose to solve, and before settling until the poses have rested for the settle delay
+/// ([`Active::settle_delay`] above `floor`).
 fn wait_time(active: Option<&Active>, floor: Duration) -> Option<Duration> {
     match active {
         Some(a) if a.dirty => Some(Duration::ZERO),
