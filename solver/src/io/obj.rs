@@ -30,7 +30,7 @@ use std::path::Path;
 use super::asset::{Asset, Attribute, Part};
 use super::error::{Ctx, LoadError};
 use super::mtl;
-use super::text::{as_text, coord, token_lines};
+use super::text::{as_text, coord};
 
 /// Parses OBJ bytes into an [`Asset`]; `dir` is where `mtllib` files are read from (`None`:
 /// MTL files are skipped with a notice).
@@ -44,10 +44,14 @@ pub(crate) fn parse(bytes: &[u8], ctx: Ctx, dir: Option<&Path>) -> Result<Asset,
 
 /// The `mtllib` file names, in file order.
 fn mtl_libs(text: &str) -> Vec<String> {
-    token_lines(text, None)
-        .filter(|(_, t)| t.first() == Some(&"mtllib"))
-        .flat_map(|(_, t)| t.into_iter().skip(1).map(str::to_string))
-        .collect()
+    let mut libs = Vec::new();
+    for line in text.lines() {
+        let mut toks = line.split_whitespace();
+        if toks.next() == Some("mtllib") {
+            libs.extend(toks.map(str::to_string));
+        }
+    }
+    libs
 }
 
 /// Marks a corner with no `vt`/`vn` index.
@@ -169,11 +173,11 @@ impl NonFinite {
 
 fn validate(text: &str, ctx: Ctx) -> Result<Checked, LoadError> {
     let mut totals = Totals::default();
-    for (_, toks) in token_lines(text, None) {
-        match toks.first() {
-            Some(&"v") => totals.v += 1,
-            Some(&"vt") => totals.vt += 1,
-            Some(&"vn") => totals.vn += 1,
+    for line in text.lines() {
+        match line.split_whitespace().next() {
+            Some("v") => totals.v += 1,
+            Some("vt") => totals.vt += 1,
+            Some("vn") => totals.vn += 1,
             _ => {}
         }
     }
@@ -187,15 +191,21 @@ fn validate(text: &str, ctx: Ctx) -> Result<Checked, LoadError> {
     let mut material: Option<usize> = None;
     let mut material_index: HashMap<String, usize> = HashMap::new();
     let (mut bad_vt, mut bad_vn) = (NonFinite::default(), NonFinite::default());
-    for (line, toks) in token_lines(text, None) {
+    // One line's tokens, the buffer reused from line to line (millions of lines).
+    let mut toks: Vec<&str> = Vec::new();
+    let mut nums: Vec<f64> = Vec::new();
+    for (i, text_line) in text.lines().enumerate() {
+        let line = i + 1;
+        toks.clear();
+        toks.extend(text_line.split_whitespace());
         let Some((&key, rest)) = toks.split_first() else { continue };
         match key {
             "v" => {
                 let vertex = out.positions.len();
-                let nums = rest
-                    .iter()
-                    .map(|t| coord(t, ctx, line, vertex))
-                    .collect::<Result<Vec<f64>, _>>()?;
+                nums.clear();
+                for t in rest {
+                    nums.push(coord(t, ctx, line, vertex)?);
+                }
                 let (p, color) = match nums.as_slice() {
                     [x, y, z] => ([*x, *y, *z], None),
                     [x, y, z, r, g, b] => {
@@ -324,8 +334,15 @@ fn face_vertex(
     ctx: Ctx,
     line: usize,
 ) -> Result<[u32; 3], LoadError> {
-    let parts: Vec<&str> = tok.split('/').collect();
-    if parts.len() > 3 || parts.first().is_none_or(|p| p.is_empty()) {
+    let mut split = tok.split('/');
+    let mut parts = [""; 3];
+    let mut n_parts = 0;
+    for part in split.by_ref().take(3) {
+        parts[n_parts] = part;
+        n_parts += 1;
+    }
+    let parts = &parts[..n_parts];
+    if split.next().is_some() || parts.first().is_none_or(|p| p.is_empty()) {
         return Err(ctx.parse(Some(line), format!("{tok:?} is not a face vertex (v, v/vt, v//vn)")));
     }
     let kinds = [
