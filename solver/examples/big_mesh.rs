@@ -15,7 +15,6 @@
 //! repository root with `../shared/meshes/armadillo.obj` present.
 
 use std::path::{Path, PathBuf};
-use std::process::ExitCode;
 use std::time::Instant;
 
 use solver::deform::selection::load_selection;
@@ -46,7 +45,7 @@ fn ms(t: Instant) -> f64 {
     t.elapsed().as_secs_f64() * 1e3
 }
 
-fn run() -> Result<(), String> {
+fn main() -> Result<(), String> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let levels: u32 = match args.first() {
         Some(a) => a.parse().map_err(|_| format!("LEVELS must be 0, 1, 2 or 3 (got {a})"))?,
@@ -161,14 +160,4 @@ fn run() -> Result<(), String> {
         drop(deformer);
     }
     Ok(())
-}
-
-fn main() -> ExitCode {
-    match run() {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("big_mesh: {e}");
-            ExitCode::FAILURE
-        }
-    }
 }

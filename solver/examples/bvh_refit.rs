@@ -4,12 +4,11 @@
 //!
 //!     cargo run -p solver --example bvh_refit -- MESH
 
-use std::process::ExitCode;
 use std::time::Instant;
 
 use solver::geometry::bvh::Bvh;
 
-fn run() -> Result<(), String> {
+fn main() -> Result<(), String> {
     let path = std::env::args().nth(1).ok_or("usage: bvh_refit MESH")?;
     let mesh = solver::io::load_mesh(std::path::Path::new(&path)).map_err(|e| e.to_string())?.mesh;
     let p: Vec<[f32; 3]> = mesh.positions().iter().map(|p| p.map(|c| c as f32)).collect();
@@ -43,14 +42,4 @@ fn run() -> Result<(), String> {
         refits[2]
     );
     Ok(())
-}
-
-fn main() -> ExitCode {
-    match run() {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("error: {e}");
-            ExitCode::FAILURE
-        }
-    }
 }

@@ -4,14 +4,13 @@
 //!
 //!     cargo run --release -p solver --example disk_cache -- MESH
 
-use std::process::ExitCode;
 use std::time::Instant;
 
 use solver::BaseConfig;
 use solver::deform::coarse_base::CoarseBase;
 use solver::deform::coarse_cache::{cache_path, load, save};
 
-fn run() -> Result<(), String> {
+fn main() -> Result<(), String> {
     let path = std::env::args().nth(1).ok_or("usage: disk_cache MESH")?;
     let mesh = solver::io::load_mesh(std::path::Path::new(&path)).map_err(|e| e.to_string())?.mesh;
     let config = BaseConfig::default();
@@ -37,14 +36,4 @@ fn run() -> Result<(), String> {
         phases.join(", ")
     );
     Ok(())
-}
-
-fn main() -> ExitCode {
-    match run() {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("error: {e}");
-            ExitCode::FAILURE
-        }
-    }
 }

@@ -15,7 +15,6 @@
 
 use std::ops::ControlFlow;
 use std::path::Path;
-use std::process::ExitCode;
 use std::time::Instant;
 
 use solver::animation::export::{AssetExport, Encoding, ExportSettings, GltfExport, GltfFormat};
@@ -98,7 +97,7 @@ fn from_mesh(mesh: &Path, handles: &Path, levels: u32, frames: usize) -> Result<
     })
 }
 
-fn run() -> Result<(), String> {
+fn main() -> Result<(), String> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let input = match args.as_slice() {
         [scene] => from_scene(Path::new(scene))?,
@@ -183,14 +182,4 @@ fn row(
         bytes.len() as f64 / 1e6,
     );
     Ok(())
-}
-
-fn main() -> ExitCode {
-    match run() {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("export_sizes: {e}");
-            ExitCode::FAILURE
-        }
-    }
 }

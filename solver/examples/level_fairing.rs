@@ -7,7 +7,6 @@
 //! SMOOTHING: fraction of the diagonal (default: the coarse base's default smoothing); K: the
 //! level's edges per smoothing length (default: `LEVEL_EDGES_PER_SMOOTHING_LENGTH`).
 
-use std::process::ExitCode;
 use std::time::Instant;
 
 use solver::deform::level_fairing::{Fairing, LEVEL_EDGES_PER_SMOOTHING_LENGTH, faired_base};
@@ -24,7 +23,7 @@ fn peak_mib() -> f64 {
         .map_or(f64::NAN, |kb| kb / 1024.0)
 }
 
-fn run() -> Result<(), String> {
+fn main() -> Result<(), String> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let path = args.first().ok_or("usage: level_fairing MESH [SMOOTHING [K]]")?;
     let fraction: f64 = match args.get(1) {
@@ -73,14 +72,4 @@ fn run() -> Result<(), String> {
          (the fairing itself moves vertices up to {moved:.3e})"
     );
     Ok(())
-}
-
-fn main() -> ExitCode {
-    match run() {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("error: {e}");
-            ExitCode::FAILURE
-        }
-    }
 }
