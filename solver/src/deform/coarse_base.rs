@@ -38,6 +38,7 @@ use crate::deform::level_fairing::{
 };
 use crate::error::SolveError;
 use crate::geometry::mesh::{Mesh, sub};
+use crate::geometry::normals::VertexFaces;
 use crate::geometry::simplify::{Decimation, simplify};
 use std::hash::{Hash, Hasher};
 use std::time::Instant;
@@ -100,16 +101,17 @@ impl CoarseBase {
         let coarse_positions: Vec<[f64; 3]> = dec.kept.iter().map(|&v| base[v as usize]).collect();
         let coarse_mesh = Mesh::new(coarse_positions, dec.triangles)
             .map_err(|_| SolveError::NonFiniteResult { vertex: 0 })?;
+        let vf = VertexFaces::new(coarse_mesh.n_vertices(), coarse_mesh.triangles());
         let (faces, weights) = match on_level {
             // The level's vertices first (two rings of their coarse representatives, then the
             // walk), then each fine vertex walks from its level representative's triangle.
             Some((level, level_representative)) => {
                 let (level_faces, _) =
-                    embed(&level.base, &coarse_mesh, &level_representative, true);
+                    embed(&level.base, &coarse_mesh, &vf, &level_representative, true);
                 let start = |i: usize| level_faces[level.representative[i] as usize];
-                embed_from(&base, &coarse_mesh, start)
+                embed_from(&base, &coarse_mesh, &vf, start)
             }
-            None => embed(&base, &coarse_mesh, &dec.representative, false),
+            None => embed(&base, &coarse_mesh, &vf, &dec.representative, false),
         };
         let embedding: Vec<([u32; 3], [f64; 3])> = faces
             .iter()

@@ -20,16 +20,16 @@ use rayon::prelude::*;
 /// `descend`, the search goes on from the best triangle found: the triangles around its
 /// corners are tried until none is closer (a walk to the local closest point, for levels whose
 /// triangles are long and thin, where two rings of the representative can miss the closest
-/// triangle).
+/// triangle). `vf` is `coarse`'s vertex-to-triangle rows.
 pub fn embed(
     base: &[[f64; 3]],
     coarse: &Mesh,
+    vf: &VertexFaces,
     representative: &[u32],
     descend: bool,
 ) -> (Vec<u32>, Vec<[f64; 3]>) {
     let ct = coarse.triangles();
-    let vf = VertexFaces::new(coarse.n_vertices(), ct);
-    let search = Search { coarse, vf: &vf };
+    let search = Search { coarse, vf };
     (0..base.len())
         .into_par_iter()
         .map_init(Vec::new, |faces, i| {
@@ -58,14 +58,15 @@ pub fn embed(
 
 /// The embedding of `points` on `coarse` by the walk alone (module doc), each from its own
 /// coarse triangle in `start`: for points whose nearby triangle is known already (the fine
-/// vertices of a level whose own vertices were embedded), without the two-ring search.
+/// vertices of a level whose own vertices were embedded), without the two-ring search. `vf`
+/// is `coarse`'s vertex-to-triangle rows.
 pub fn embed_from(
     points: &[[f64; 3]],
     coarse: &Mesh,
+    vf: &VertexFaces,
     start: impl Fn(usize) -> u32 + Sync,
 ) -> (Vec<u32>, Vec<[f64; 3]>) {
-    let vf = VertexFaces::new(coarse.n_vertices(), coarse.triangles());
-    let search = Search { coarse, vf: &vf };
+    let search = Search { coarse, vf };
     (0..points.len())
         .into_par_iter()
         .map_init(Vec::new, |faces, i| {

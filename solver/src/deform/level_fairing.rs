@@ -130,12 +130,13 @@ pub fn faired_base(
         || {
             let representative = representatives(mesh.positions(), mesh.triangles(), &kept)?;
             let vf = VertexFaces::new(level_mesh.n_vertices(), level_mesh.triangles());
-            let fan = |i: usize| vf.of(representative[i] as usize).first().copied();
-            if (0..n).any(|i| fan(i).is_none()) {
-                return None;
-            }
-            let embedding =
-                embed_from(mesh.positions(), &level_mesh, |i| fan(i).unwrap_or_default());
+            // A triangle around each representative (every level vertex has one: the level
+            // is a mesh of the vertices its triangles use, checked here all the same).
+            let start: Vec<u32> = representative
+                .iter()
+                .map(|&r| vf.of(r as usize).first().copied())
+                .collect::<Option<_>>()?;
+            let embedding = embed_from(mesh.positions(), &level_mesh, &vf, |i| start[i]);
             Some((representative, embedding))
         },
     );
