@@ -108,32 +108,6 @@ fn spawn<T: Send + 'static>(
     Job { progress, rx }
 }
 
-/// Builds what `method` precomputes per mesh ([`MeshCache::prepare`]) into the cache the
-/// pose solvers share, so that the first handle group waits only for its own part. Returns
-/// the milliseconds it took (0 when there was nothing to build; with a cache on disk, reading
-/// the file when it fits). A pose solver that needs the
-/// cache meanwhile waits for it (it then reuses the result).
-pub fn spawn_prepare(
-    cache: Arc<Mutex<MeshCache>>,
-    mesh: Arc<Mesh>,
-    method: Method,
-    base: BaseConfig,
-    repaint: impl Fn() + Send + 'static,
-) -> Job<f64> {
-    spawn("prepare", repaint, move |_| {
-        let t = std::time::Instant::now();
-        let mut cache = cache.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-        let prepared = cache.prepare(method, &mesh, &base).map_err(|e| e.to_string())?;
-        if let Some(note) = cache.disk_note() {
-            eprintln!("editor: mesh cache: {note}");
-        }
-        match prepared {
-            Some(_) => Ok(t.elapsed().as_secs_f64() * 1e3),
-            None => Ok(0.0),
-        }
-    })
-}
-
 /// A mesh precomputation under way ([`spawn_prepare`]), with the mesh and settings it was
 /// started for.
 pub struct Preparing {
@@ -141,22 +115,36 @@ pub struct Preparing {
     pub method: Method,
     pub base: BaseConfig,
     pub since: Instant,
+    /// The milliseconds the build took (0 when there was nothing to build; with a cache on
+    /// disk, reading the file when it fits).
     pub job: Job<f64>,
 }
 
-impl Preparing {
-    /// [`spawn_prepare`] for `method` and `base`, timed from now.
-    pub fn start(
-        cache: Arc<Mutex<MeshCache>>,
-        mesh: Arc<Mesh>,
-        method: Method,
-        base: BaseConfig,
-        repaint: impl Fn() + Send + 'static,
-    ) -> Preparing {
-        let since = Instant::now();
-        let job = spawn_prepare(cache, mesh.clone(), method, base, repaint);
-        Preparing { mesh, method, base, since, job }
-    }
+/// Builds what `method` precomputes per mesh ([`MeshCache::prepare`]) into the cache the
+/// pose solvers share, so that the first handle group waits only for its own part. A pose
+/// solver that needs the cache meanwhile waits for it (it then reuses the result).
+pub fn spawn_prepare(
+    cache: Arc<Mutex<MeshCache>>,
+    mesh: Arc<Mesh>,
+    method: Method,
+    base: BaseConfig,
+    repaint: impl Fn() + Send + 'static,
+) -> Preparing {
+    let since = Instant::now();
+    let m = mesh.clone();
+    let job = spawn("prepare", repaint, move |_| {
+        let t = Instant::now();
+        let mut cache = cache.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        let prepared = cache.prepare(method, &m, &base).map_err(|e| e.to_string())?;
+        if let Some(note) = cache.disk_note() {
+            eprintln!("editor: mesh cache: {note}");
+        }
+        match prepared {
+            Some(_) => Ok(t.elapsed().as_secs_f64() * 1e3),
+            None => Ok(0.0),
+        }
+    });
+    Preparing { mesh, method, base, since, job }
 }
 
 /// What a recording needs: everything is owned, the UI keeps editing meanwhile.

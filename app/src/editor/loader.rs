@@ -320,7 +320,7 @@ mod tests {
         let (c, s) = (cache.clone(), started.clone());
         let start: StartPrepare = Box::new(move |mesh| {
             let method = solver::Method::BsArapCoarse;
-            let p = super::super::jobs::Preparing::start(c, mesh, method, base, || {});
+            let p = super::super::jobs::spawn_prepare(c, mesh, method, base, || {});
             *s.lock().unwrap() = Some(p);
         });
         let scene = load_scene(&path, 1, Some(start)).unwrap();

@@ -124,7 +124,7 @@ mod tests {
         let settings = MethodSettings::default();
         assert_eq!(settings.bs_variant, solver::Method::BsArapCoarse);
         let cache: Arc<Mutex<MeshCache>> = Arc::default();
-        let job = jobs::spawn_prepare(
+        let preparing = jobs::spawn_prepare(
             cache.clone(),
             mesh.clone(),
             settings.bs_variant,
@@ -132,7 +132,7 @@ mod tests {
             || {},
         );
         let ms = loop {
-            if let Some(r) = job.try_finish() {
+            if let Some(r) = preparing.job.try_finish() {
                 break r.expect("the mesh precomputes");
             }
             std::thread::sleep(std::time::Duration::from_millis(5));

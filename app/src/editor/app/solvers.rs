@@ -90,8 +90,8 @@ impl Solvers {
     }
 }
 
-/// The shortest rest before settling when the window renders on a software adapter (about
-/// three frames of a 700k-vertex mesh under lavapipe on two cores).
+/// The shortest rest before settling when the window renders on a software adapter: a few
+/// frames of a dense mesh there (BENCHMARKS.md, "The editor in a window").
 const SOFTWARE_SETTLE_DELAY: std::time::Duration = std::time::Duration::from_secs(1);
 
 impl EditorApp {
@@ -182,7 +182,7 @@ impl EditorApp {
         Box::new(move |mesh| {
             let repaint = move || c.request_repaint();
             let (method, base) = (settings.bs_variant, settings.base);
-            let p = jobs::Preparing::start(cache, mesh, method, base, repaint);
+            let p = jobs::spawn_prepare(cache, mesh, method, base, repaint);
             *slot.lock().unwrap_or_else(std::sync::PoisonError::into_inner) = Some(p);
         })
     }
@@ -220,7 +220,7 @@ impl EditorApp {
         if self.jobs.prepare.is_none() && self.solvers.prepared_for != Some(key) {
             self.solvers.prepared_for = Some(key);
             let c = ctx.clone();
-            self.jobs.prepare = Some(jobs::Preparing::start(
+            self.jobs.prepare = Some(jobs::spawn_prepare(
                 self.solvers.mesh_cache.clone(),
                 scene.mesh.clone(),
                 settings.bs_variant,
