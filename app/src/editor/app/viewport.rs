@@ -52,9 +52,9 @@ pub(super) struct Display {
 
 impl Display {
     /// How often progress (loading, precomputing) repaints the window: every 100 ms on a GPU;
-    /// every 2 s on a software adapter, where a frame of a dense mesh costs about a third of a
-    /// second of the cores the precomputation runs on (its work runs on the adapter's own
-    /// threads, so eframe's frame time does not show it).
+    /// every 2 s on a software adapter, where each frame of a dense mesh takes the cores the
+    /// precomputation runs on (on the adapter's own threads, so eframe's frame time does not
+    /// show it; BENCHMARKS.md, "The editor in a window").
     pub(super) fn progress_repaint(&self) -> Duration {
         Duration::from_millis(if self.software_rendering { 2000 } else { 100 })
     }

@@ -155,8 +155,9 @@ impl Active {
     /// How long the poses must stay unchanged before settling: `floor`, or three times the
     /// cadence at which they have been changing when that is longer (at most
     /// [`MAX_SETTLE_DELAY`]). A window that renders a few frames a second (software rendering
-    /// of a dense mesh) delivers a drag's poses a third of a second apart; with a fixed
-    /// 150 ms each would look like a rest and start the full mesh's factorization mid-drag.
+    /// of a dense mesh) delivers a drag's poses that far apart; with a fixed 150 ms each
+    /// would look like a rest and start the full mesh's factorization mid-drag (BENCHMARKS.md,
+    /// "The editor in a window").
     fn settle_delay(&self, floor: Duration) -> Duration {
         floor.max((3 * self.pose_cadence).min(MAX_SETTLE_DELAY))
     }
