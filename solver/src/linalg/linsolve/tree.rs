@@ -466,31 +466,41 @@ unsafe fn subtract_products(
     x: &[[f64; 4]],
     [mut a, mut b, mut c, mut d]: [__m256d; 4],
 ) -> [__m256d; 4] {
-    // SAFETY: this function's contract: AVX, and `p` (an entry of `range`) has a row that,
-    // less `offset`, indexes `x`.
-    let product = |p: usize| unsafe {
-        let (i, l) = entry(f, p, offset);
-        _mm256_mul_pd(_mm256_set1_pd(l), load(x.get_unchecked(i)))
-    };
     let mut p = range.end;
-    // SAFETY: AVX (this function's contract); `product` is called only on entries of `range`.
+    // SAFETY: this function's contract: AVX, and `product` is called only on entries of
+    // `range`, whose rows less `offset` index `x`.
     unsafe {
         while p >= range.start + 4 {
-            a = _mm256_sub_pd(a, product(p - 1));
-            b = _mm256_sub_pd(b, product(p - 2));
-            c = _mm256_sub_pd(c, product(p - 3));
-            d = _mm256_sub_pd(d, product(p - 4));
+            a = _mm256_sub_pd(a, product(f, p - 1, offset, x));
+            b = _mm256_sub_pd(b, product(f, p - 2, offset, x));
+            c = _mm256_sub_pd(c, product(f, p - 3, offset, x));
+            d = _mm256_sub_pd(d, product(f, p - 4, offset, x));
             p -= 4;
         }
         for (k, q) in (range.start..p).rev().enumerate() {
             match k {
-                0 => a = _mm256_sub_pd(a, product(q)),
-                1 => b = _mm256_sub_pd(b, product(q)),
-                _ => c = _mm256_sub_pd(c, product(q)),
+                0 => a = _mm256_sub_pd(a, product(f, q, offset, x)),
+                1 => b = _mm256_sub_pd(b, product(f, q, offset, x)),
+                _ => c = _mm256_sub_pd(c, product(f, q, offset, x)),
             }
         }
     }
     [a, b, c, d]
+}
+
+/// $L_p x_{row_p − offset}$ for the stored entry `p`. A function, not a closure: a closure
+/// does not take its caller's `target_feature`s, so the intrinsics in it were not inlined
+/// (each product was a call through memory).
+///
+/// # Safety
+/// The processor supports AVX, and `entry`'s contract holds for `p` with `x`.
+#[inline(always)]
+unsafe fn product(f: &Factor<'_>, p: usize, offset: usize, x: &[[f64; 4]]) -> __m256d {
+    // SAFETY: this function's contract.
+    unsafe {
+        let (i, l) = entry(f, p, offset);
+        _mm256_mul_pd(_mm256_set1_pd(l), load(x.get_unchecked(i)))
+    }
 }
 
 /// Partial sums starting from the right-hand side `v`.
