@@ -14,8 +14,9 @@
 //!    across their cut ([`collapse`]).
 //! 2. Each fine vertex's *representative* is the coarse vertex nearest to it along the fine
 //!    mesh's edges (multi-source Dijkstra from the coarse vertices, edge lengths as weights;
-//!    ties to the lower index): what the embedding searches around and the coarse handle
-//!    groups count. A fine vertex in a component the simplifier removed entirely (it does not
+//!    ties to the lower index; from [`SPLIT_VERTICES`] vertices on in two halves side by side,
+//!    then mended across their cut, with the same result): what the embedding searches
+//!    around and the coarse handle groups count. A fine vertex in a component the simplifier removed entirely (it does not
 //!    remove components: it keeps topology) would keep `u32::MAX`; [`simplify`] refuses that.
 //!
 //! Positions go to the simplifier as `f32` (it works in single precision); the coarse
@@ -182,56 +183,167 @@ pub fn representatives(
     (!representative.contains(&u32::MAX)).then_some(representative)
 }
 
+/// Meshes of at least this many vertices find their representatives in two halves side by
+/// side ([`nearest_along_edges`]).
+pub const SPLIT_VERTICES: usize = 200_000;
+
 /// Per vertex, the index in `sources` of the source nearest along the mesh's edges
-/// (`u32::MAX` where no source is reachable).
+/// (`u32::MAX` where no source is reachable): in two halves from [`SPLIT_VERTICES`] on.
 fn nearest_along_edges(
     positions: &[[f64; 3]],
     triangles: &[[u32; 3]],
     sources: &[u32],
 ) -> Vec<u32> {
+    nearest_along_edges_with(positions, triangles, sources, positions.len() >= SPLIT_VERTICES)
+}
+
+/// [`nearest_along_edges`], in two halves with `split`: the vertices are cut at the median of
+/// their bounding box's longest axis; each half runs the multi-source Dijkstra on its own
+/// edges from its own sources, side by side; then one more run, seeded with every vertex on
+/// an edge across the cut at the label its half gave it, lowers the labels that a path across
+/// the cut shortens. Every label is the length of a path from its source and only falls, and
+/// at the end no edge can lower one (lexicographically in distance, then source): the labels
+/// of one run over the whole mesh, ties to the lower source included.
+fn nearest_along_edges_with(
+    positions: &[[f64; 3]],
+    triangles: &[[u32; 3]],
+    sources: &[u32],
+    split: bool,
+) -> Vec<u32> {
     let n = positions.len();
-    let mut offsets = vec![0usize; n + 1];
-    for t in triangles {
-        for &v in t {
-            offsets[v as usize + 1] += 2;
+    let graph = EdgeGraph::new(n, triangles);
+    let seeded = |keep: &dyn Fn(usize) -> bool| {
+        let mut labels = Labels::new(n);
+        let mut heap = BinaryHeap::new();
+        for (j, &s) in sources.iter().enumerate() {
+            if keep(s as usize) {
+                labels.dist[s as usize] = 0.0;
+                labels.owner[s as usize] = j as u32;
+                heap.push(Reverse((Key(0.0), j as u32, s)));
+            }
         }
+        (labels, heap)
+    };
+    if !split {
+        let (mut labels, heap) = seeded(&|_| true);
+        labels.run(&graph, positions, heap, |_| true);
+        return labels.owner;
     }
-    for i in 0..n {
-        offsets[i + 1] += offsets[i];
+    let side = halves(positions);
+    let half = |h: bool| {
+        let (mut labels, heap) = seeded(&|v| side[v] == h);
+        labels.run(&graph, positions, heap, |w| side[w] == h);
+        labels
+    };
+    let (mut labels, upper) = rayon::join(|| half(false), || half(true));
+    for v in (0..n).filter(|&v| side[v]) {
+        labels.dist[v] = upper.dist[v];
+        labels.owner[v] = upper.owner[v];
     }
-    let mut fill = offsets.clone();
-    let mut adjacency = vec![0u32; offsets[n]];
-    for t in triangles {
-        for k in 0..3 {
-            let (a, b, c) = (t[k], t[(k + 1) % 3], t[(k + 2) % 3]);
-            adjacency[fill[a as usize]] = b;
-            adjacency[fill[a as usize] + 1] = c;
-            fill[a as usize] += 2;
-        }
-    }
-    let mut dist = vec![f64::INFINITY; n];
-    let mut owner = vec![u32::MAX; n];
     let mut heap = BinaryHeap::new();
-    for (j, &s) in sources.iter().enumerate() {
-        dist[s as usize] = 0.0;
-        owner[s as usize] = j as u32;
-        heap.push(Reverse((Key(0.0), j as u32, s)));
-    }
-    while let Some(Reverse((Key(d), j, v))) = heap.pop() {
-        if d > dist[v as usize] || owner[v as usize] != j {
-            continue;
+    for v in 0..n {
+        let on_cut = graph.neighbours(v).iter().any(|&w| side[w as usize] != side[v]);
+        if on_cut && labels.owner[v] != u32::MAX {
+            heap.push(Reverse((Key(labels.dist[v]), labels.owner[v], v as u32)));
         }
-        for &w in &adjacency[offsets[v as usize]..offsets[v as usize + 1]] {
-            let nd = d + norm(sub(positions[w as usize], positions[v as usize]));
-            let better = nd < dist[w as usize] || (nd == dist[w as usize] && j < owner[w as usize]);
-            if better {
-                dist[w as usize] = nd;
-                owner[w as usize] = j;
-                heap.push(Reverse((Key(nd), j, w)));
+    }
+    labels.run(&graph, positions, heap, |_| true);
+    labels.owner
+}
+
+/// Per vertex, whether it lies above the median of the bounding box's longest axis.
+fn halves(positions: &[[f64; 3]]) -> Vec<bool> {
+    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    for p in positions {
+        for k in 0..3 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    let axis = (0..3).max_by(|&a, &b| (hi[a] - lo[a]).total_cmp(&(hi[b] - lo[b]))).unwrap_or(0);
+    let mut coordinates: Vec<f64> = positions.iter().map(|p| p[axis]).collect();
+    let middle = coordinates.len() / 2;
+    let median = match coordinates.get(middle) {
+        Some(_) => *coordinates.select_nth_unstable_by(middle, f64::total_cmp).1,
+        None => 0.0,
+    };
+    positions.iter().map(|p| p[axis] > median).collect()
+}
+
+/// The mesh's vertex neighbours as compressed rows (each neighbour once per triangle).
+struct EdgeGraph {
+    offsets: Vec<usize>,
+    adjacency: Vec<u32>,
+}
+
+impl EdgeGraph {
+    fn new(n: usize, triangles: &[[u32; 3]]) -> EdgeGraph {
+        let mut offsets = vec![0usize; n + 1];
+        for t in triangles {
+            for &v in t {
+                offsets[v as usize + 1] += 2;
+            }
+        }
+        for i in 0..n {
+            offsets[i + 1] += offsets[i];
+        }
+        let mut fill = offsets.clone();
+        let mut adjacency = vec![0u32; offsets[n]];
+        for t in triangles {
+            for k in 0..3 {
+                let (a, b, c) = (t[k], t[(k + 1) % 3], t[(k + 2) % 3]);
+                adjacency[fill[a as usize]] = b;
+                adjacency[fill[a as usize] + 1] = c;
+                fill[a as usize] += 2;
+            }
+        }
+        EdgeGraph { offsets, adjacency }
+    }
+
+    fn neighbours(&self, v: usize) -> &[u32] {
+        &self.adjacency[self.offsets[v]..self.offsets[v + 1]]
+    }
+}
+
+/// Multi-source Dijkstra labels: per vertex its distance and its source (`u32::MAX`: none).
+struct Labels {
+    dist: Vec<f64>,
+    owner: Vec<u32>,
+}
+
+impl Labels {
+    fn new(n: usize) -> Labels {
+        Labels { dist: vec![f64::INFINITY; n], owner: vec![u32::MAX; n] }
+    }
+
+    /// Pops `heap` (entries: distance, source, vertex) until empty, relaxing the edges to the
+    /// vertices `allowed` accepts; a label falls to a shorter distance, or to the same one
+    /// from a lower source.
+    fn run(
+        &mut self,
+        graph: &EdgeGraph,
+        positions: &[[f64; 3]],
+        mut heap: BinaryHeap<Reverse<(Key, u32, u32)>>,
+        allowed: impl Fn(usize) -> bool,
+    ) {
+        while let Some(Reverse((Key(d), j, v))) = heap.pop() {
+            if d > self.dist[v as usize] || self.owner[v as usize] != j {
+                continue;
+            }
+            for &w in graph.neighbours(v as usize) {
+                let wi = w as usize;
+                if !allowed(wi) {
+                    continue;
+                }
+                let nd = d + norm(sub(positions[wi], positions[v as usize]));
+                if nd < self.dist[wi] || (nd == self.dist[wi] && j < self.owner[wi]) {
+                    self.dist[wi] = nd;
+                    self.owner[wi] = j;
+                    heap.push(Reverse((Key(nd), j, w)));
+                }
             }
         }
     }
-    owner
 }
 
 /// A distance ordered by `total_cmp` (the heap's key).
@@ -274,6 +386,33 @@ mod tests {
         for (v, &r) in d.representative.iter().enumerate() {
             let gap = norm(sub(m.positions()[v], m.positions()[d.kept[r as usize] as usize]));
             assert!(gap < 2.0 * spacing, "vertex {v} is {gap} from its representative");
+        }
+    }
+
+    /// The representatives found in two halves are those of one run over the whole mesh:
+    /// on a sphere, a bar, and two spheres side by side of which only one holds sources (the
+    /// other's vertices reach none).
+    #[test]
+    fn halves_find_the_same_representatives() {
+        let sphere = crate::geometry::shapes::icosphere(4);
+        let (bar, _) = crate::geometry::shapes::bumpy_bar(4);
+        let mut positions = sphere.positions().to_vec();
+        positions.extend(sphere.positions().iter().map(|p| [p[0] + 3.0, p[1], p[2]]));
+        let k = sphere.n_vertices() as u32;
+        let mut triangles = sphere.triangles().to_vec();
+        triangles.extend(sphere.triangles().iter().map(|t| t.map(|v| v + k)));
+        let meshes = [
+            (sphere.positions().to_vec(), sphere.triangles().to_vec(), 7),
+            (bar.positions().to_vec(), bar.triangles().to_vec(), 11),
+            (positions, triangles, 5),
+        ];
+        for (m, (p, t, every)) in meshes.iter().enumerate() {
+            let limit = if m == 2 { k } else { p.len() as u32 };
+            let sources: Vec<u32> = (0..limit).step_by(*every).collect();
+            let one = nearest_along_edges_with(p, t, &sources, false);
+            let two = nearest_along_edges_with(p, t, &sources, true);
+            assert_eq!(one, two, "mesh {m}");
+            assert_eq!(one.contains(&u32::MAX), m == 2, "mesh {m}");
         }
     }
 
