@@ -10,7 +10,7 @@
 
 use glam::Vec3;
 
-const LEAF_SIZE: usize = 4;
+const LEAF_SIZE: usize = 8;
 
 #[derive(Debug, Clone, Copy)]
 struct Node {
