@@ -126,14 +126,7 @@ fn simplify_in_halves(
     target_faces: usize,
     options: meshopt::SimplifyOptions,
 ) -> Vec<u32> {
-    let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
-    for p in points {
-        for k in 0..3 {
-            lo[k] = lo[k].min(p[k]);
-            hi[k] = hi[k].max(p[k]);
-        }
-    }
-    let axis = (0..3).max_by(|&a, &b| (hi[a] - lo[a]).total_cmp(&(hi[b] - lo[b]))).unwrap_or(0);
+    let axis = longest_axis(points.iter().map(|p| p.map(f64::from)));
     // Centroid coordinate along the axis (times 3), ties broken by the triangle's index.
     let key = |t: &[u32; 3]| t.iter().map(|&v| points[v as usize][axis]).sum::<f32>();
     let mut order: Vec<u32> = (0..triangles.len() as u32).collect();
@@ -251,16 +244,21 @@ fn nearest_along_edges_with(
     labels.owner
 }
 
-/// Per vertex, whether it lies above the median of the bounding box's longest axis.
-fn halves(positions: &[[f64; 3]]) -> Vec<bool> {
+/// The axis (0, 1 or 2) along which the points' bounding box is longest.
+fn longest_axis(points: impl Iterator<Item = [f64; 3]>) -> usize {
     let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
-    for p in positions {
+    for p in points {
         for k in 0..3 {
             lo[k] = lo[k].min(p[k]);
             hi[k] = hi[k].max(p[k]);
         }
     }
-    let axis = (0..3).max_by(|&a, &b| (hi[a] - lo[a]).total_cmp(&(hi[b] - lo[b]))).unwrap_or(0);
+    (0..3).max_by(|&a, &b| (hi[a] - lo[a]).total_cmp(&(hi[b] - lo[b]))).unwrap_or(0)
+}
+
+/// Per vertex, whether it lies above the median of the bounding box's longest axis.
+fn halves(positions: &[[f64; 3]]) -> Vec<bool> {
+    let axis = longest_axis(positions.iter().copied());
     let mut coordinates: Vec<f64> = positions.iter().map(|p| p[axis]).collect();
     let middle = coordinates.len() / 2;
     let median = match coordinates.get(middle) {
