@@ -168,6 +168,11 @@ fn painting_then_dragging_a_group_deforms_the_mesh() {
     assert_eq!(h.state().labels()[v], Some(group as u32), "painting did not label vertex {v}");
     let painted: Vec<usize> =
         (0..rest.len()).filter(|&u| h.state().labels()[u] == Some(group as u32)).collect();
+    // The side panel showed the new group empty before the stroke; its count is kept between
+    // label changes and must follow this one.
+    h.step();
+    let count = format!("({} v)", painted.len());
+    assert!(h.query_all_by_label_contains(&count).next().is_some(), "no group of {count}");
     step_until(&mut h, "a frame for the new handle set", settled);
 
     // Drag it 60 points to the right with the pose tool.

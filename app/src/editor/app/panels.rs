@@ -42,7 +42,7 @@ impl EditorApp {
         let colors_before: Vec<Color32> =
             self.session.edit.groups.iter().map(|g| g.color).collect();
         let mut rename_done = None;
-        let sizes = self.session.edit.group_sizes();
+        let (sizes, _) = self.group_stats();
         for (k, count) in sizes.into_iter().enumerate() {
             ui.horizontal(|ui| {
                 let g = &mut self.session.edit.groups[k];
@@ -232,14 +232,32 @@ impl EditorApp {
             self.mirror_pose(k);
             self.send_poses();
         }
-        if let Some(scene) = &self.session.scene {
-            let verts: Vec<u32> = (0..self.session.edit.labels.len() as u32)
-                .filter(|&v| self.session.edit.labels[v as usize] == Some(k as u32))
-                .collect();
-            if let Some(c) = group_centroid(scene.mesh.positions(), &verts) {
-                ui.weak(format!("centroid ({:.3}, {:.3}, {:.3})", c.x, c.y, c.z));
-            }
+        if let (_, Some(c)) = self.group_stats() {
+            ui.weak(format!("centroid ({:.3}, {:.3}, {:.3})", c.x, c.y, c.z));
         }
+    }
+
+    /// The group sizes and the active group's rest centroid, counted again only when the
+    /// labels may have changed ([`super::viewport::Display::group_stats`]): each is a pass
+    /// over every vertex's label, too much for every frame of a dense mesh.
+    fn group_stats(&mut self) -> (Vec<usize>, Option<glam::DVec3>) {
+        let edit = &self.session.edit;
+        let active = self.interaction.active_group;
+        let key = (self.display.color_version, edit.labels.len(), edit.groups.len(), active);
+        if self.display.group_stats.as_ref().is_none_or(|s| s.key != key) {
+            let centroid = active.zip(self.session.scene.as_ref()).and_then(|(k, scene)| {
+                let verts: Vec<u32> = (0..edit.labels.len() as u32)
+                    .filter(|&v| edit.labels[v as usize] == Some(k as u32))
+                    .collect();
+                group_centroid(scene.mesh.positions(), &verts)
+            });
+            let sizes = edit.group_sizes();
+            self.display.group_stats = Some(super::viewport::GroupStats { key, sizes, centroid });
+        }
+        self.display
+            .group_stats
+            .as_ref()
+            .map_or((Vec::new(), None), |s| (s.sizes.clone(), s.centroid))
     }
 
     pub(super) fn method_panel(&mut self, ui: &mut egui::Ui) {

@@ -36,6 +36,10 @@ pub(super) struct Display {
     pub(super) viewports: [ViewportCache; 2],
     /// Which viewport and positions version the BVH is fitted to.
     pub(super) bvh_fit: Option<(usize, u64)>,
+    /// The side panel's group sizes and the active group's rest centroid, with the
+    /// `color_version` (which every label change bumps), the labels' count and the group
+    /// they were counted for: recounted only when one of those changes, not every frame.
+    pub(super) group_stats: Option<GroupStats>,
     pub(super) viewport_rects: Vec<Rect>,
     /// Frame the mesh once the viewport rectangles are known.
     pub(super) reframe: bool,
@@ -73,6 +77,7 @@ impl Display {
             version_counter: 1,
             viewports: Default::default(),
             bvh_fit: None,
+            group_stats: None,
             viewport_rects: Vec::new(),
             reframe: false,
             render_fps: 0.0,
@@ -495,4 +500,12 @@ fn colormap(t: f32) -> [f32; 4] {
     let a = STOPS[i];
     let b = STOPS[i + 1];
     [a[0] + (b[0] - a[0]) * f, a[1] + (b[1] - a[1]) * f, a[2] + (b[2] - a[2]) * f, 1.0]
+}
+
+/// What [`Display::group_stats`] keeps.
+pub(super) struct GroupStats {
+    /// `color_version`, the number of labels, the groups' count and the active group.
+    pub(super) key: (u64, usize, usize, Option<usize>),
+    pub(super) sizes: Vec<usize>,
+    pub(super) centroid: Option<glam::DVec3>,
 }
