@@ -24,6 +24,7 @@
 //! vertices keep their `f64` positions, being fine vertices.
 
 use crate::geometry::mesh::{norm, sub};
+use crate::geometry::topology::Adjacency;
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
@@ -205,7 +206,7 @@ fn nearest_along_edges_with(
     split: bool,
 ) -> Vec<u32> {
     let n = positions.len();
-    let graph = EdgeGraph::new(n, triangles);
+    let graph = Adjacency::new(n, triangles);
     let seeded = |keep: &dyn Fn(usize) -> bool| {
         let mut labels = Labels::new(n);
         let mut heap = BinaryHeap::new();
@@ -236,7 +237,7 @@ fn nearest_along_edges_with(
     }
     let mut heap = BinaryHeap::new();
     for v in 0..n {
-        let on_cut = graph.neighbours(v).iter().any(|&w| side[w as usize] != side[v]);
+        let on_cut = graph.neighbors(v as u32).iter().any(|&w| side[w as usize] != side[v]);
         if on_cut && labels.owner[v] != u32::MAX {
             heap.push(Reverse((Key(labels.dist[v]), labels.owner[v], v as u32)));
         }
@@ -269,41 +270,6 @@ fn halves(positions: &[[f64; 3]]) -> Vec<bool> {
     positions.iter().map(|p| p[axis] > median).collect()
 }
 
-/// The mesh's vertex neighbours as compressed rows (each neighbour once per triangle).
-struct EdgeGraph {
-    offsets: Vec<usize>,
-    adjacency: Vec<u32>,
-}
-
-impl EdgeGraph {
-    fn new(n: usize, triangles: &[[u32; 3]]) -> EdgeGraph {
-        let mut offsets = vec![0usize; n + 1];
-        for t in triangles {
-            for &v in t {
-                offsets[v as usize + 1] += 2;
-            }
-        }
-        for i in 0..n {
-            offsets[i + 1] += offsets[i];
-        }
-        let mut fill = offsets.clone();
-        let mut adjacency = vec![0u32; offsets[n]];
-        for t in triangles {
-            for k in 0..3 {
-                let (a, b, c) = (t[k], t[(k + 1) % 3], t[(k + 2) % 3]);
-                adjacency[fill[a as usize]] = b;
-                adjacency[fill[a as usize] + 1] = c;
-                fill[a as usize] += 2;
-            }
-        }
-        EdgeGraph { offsets, adjacency }
-    }
-
-    fn neighbours(&self, v: usize) -> &[u32] {
-        &self.adjacency[self.offsets[v]..self.offsets[v + 1]]
-    }
-}
-
 /// Multi-source Dijkstra labels: per vertex its distance and its source (`u32::MAX`: none).
 struct Labels {
     dist: Vec<f64>,
@@ -320,7 +286,7 @@ impl Labels {
     /// from a lower source.
     fn run(
         &mut self,
-        graph: &EdgeGraph,
+        graph: &Adjacency,
         positions: &[[f64; 3]],
         mut heap: BinaryHeap<Reverse<(Key, u32, u32)>>,
         allowed: impl Fn(usize) -> bool,
@@ -329,7 +295,7 @@ impl Labels {
             if d > self.dist[v as usize] || self.owner[v as usize] != j {
                 continue;
             }
-            for &w in graph.neighbours(v as usize) {
+            for &w in graph.neighbors(v) {
                 let wi = w as usize;
                 if !allowed(wi) {
                     continue;
