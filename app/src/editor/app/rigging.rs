@@ -320,7 +320,6 @@ impl EditorApp {
         if let Some(k) =
             self.interaction.active_group.filter(|&k| k < self.session.edit.groups.len())
         {
-            let before = self.session.edit.clone();
             let mut f: Falloff = self.session.edit.groups[k].falloff;
             ui.label(format!("Soft falloff of {}", self.session.edit.groups[k].name));
             let slider = ui.add(
@@ -337,8 +336,10 @@ impl EditorApp {
                 }
             });
             if f != self.session.edit.groups[k].falloff {
+                // The state before the slider moved, for one undo step per drag (cloned only
+                // on a change: the labels are a word per vertex).
                 if self.rigging.slider_before.is_none() {
-                    self.rigging.slider_before = Some(before);
+                    self.rigging.slider_before = Some(self.session.edit.clone());
                 }
                 self.session.edit.groups[k].falloff = f;
             }
