@@ -137,6 +137,51 @@ fn opens_the_default_asset_and_views_change_the_image() {
     step_until(&mut h, "automatic coarse size again", |a| coarse(a).is_none());
 }
 
+/// The brush's footprint is found when the pointer, the camera, the brush or the tool
+/// changes, not for every new solver frame under a still pointer (each would refit the
+/// picking tree and recolour every vertex): it stays on its vertices while the mesh moves
+/// under it, and follows the pointer when it moves.
+#[test]
+fn a_still_brush_keeps_its_footprint_while_the_mesh_moves() {
+    let mut h = harness(test_mesh());
+    step_until(&mut h, "the default asset", settled);
+    h.state_mut().set_tool(Tool::Paint);
+    // The pointer over a vertex of group 0, which is then moved away from under it.
+    let centre = Pos2::new(SIZE.x * 0.6, SIZE.y * 0.5);
+    let app = h.state();
+    let (v, pos) = (0..app.n_vertices())
+        .filter(|&v| app.labels()[v] == Some(0))
+        .filter_map(|v| app.vertex_screen_pos(v).map(|p| (v, p)))
+        .filter(|(_, p)| p.x > 330.0 && p.x < SIZE.x - 10.0 && p.y > 60.0 && p.y < SIZE.y - 160.0)
+        .min_by(|a, b| a.1.distance(centre).total_cmp(&b.1.distance(centre)))
+        .expect("a visible vertex of group 0");
+    h.event(Event::PointerMoved(pos));
+    h.step();
+    let before = h.state().hover_footprint().expect("a footprint under the pointer").to_vec();
+    assert!(before.contains(&(v as u32)), "the footprint misses the vertex under the pointer");
+
+    let mut pose = h.state().group_pose(0).expect("group 0");
+    pose.translation[1] += 0.3 * h.state().diagonal();
+    assert!(h.state_mut().drag_group(0, pose));
+    let generation = h.state().pose_generation();
+    step_until(&mut h, "a frame of the moved group", |a| {
+        a.latest_frame(Slot::Main).is_some_and(|f| f.pose_generation == generation)
+    });
+    h.step();
+    let moved = h.state().vertex_screen_pos(v).expect("the vertex on screen");
+    assert!(moved.distance(pos) > 20.0, "the vertex stayed under the pointer");
+    assert_eq!(
+        h.state().hover_footprint(),
+        Some(&before[..]),
+        "the footprint changed under a still pointer"
+    );
+
+    h.event(Event::PointerMoved(moved));
+    h.step();
+    let after = h.state().hover_footprint().expect("a footprint at the moved vertex");
+    assert!(after.contains(&(v as u32)), "the footprint did not follow the pointer");
+}
+
 #[test]
 fn painting_then_dragging_a_group_deforms_the_mesh() {
     let mut h = harness(test_mesh());

@@ -106,6 +106,11 @@ impl EditorApp {
         self.solvers.main.as_ref().and_then(|s| s.try_status()).map(|s| s.state)
     }
 
+    /// The vertices under the paint brush (its footprint), if the pointer is over the mesh.
+    pub fn hover_footprint(&self) -> Option<&[u32]> {
+        self.interaction.hover.as_ref().map(|h| &h.footprint[..])
+    }
+
     /// Where vertex `v` is drawn in viewport 0 (as last displayed), in points.
     pub fn vertex_screen_pos(&self, v: usize) -> Option<Pos2> {
         let rect = *self.display.viewport_rects.first()?;

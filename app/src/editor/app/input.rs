@@ -4,7 +4,7 @@
 use eframe::egui::{self, Key, Modifiers, PointerButton, Pos2, Rect, Vec2};
 use glam::{DQuat, DVec3};
 
-use super::{DialogKind, EditorApp, Shading, Tool};
+use super::{DialogKind, EditorApp, Shading, Tool, View};
 use crate::editor::brush::footprint;
 use crate::editor::camera::ViewPreset;
 use crate::editor::pose::GroupPose;
@@ -18,6 +18,8 @@ pub(super) struct Interaction {
     pub(super) brush_radius: f32,
     pub(super) active_group: Option<usize>,
     pub(super) hover: Option<Hover>,
+    /// What `hover` was found for ([`HoverKey`]); `None` when it is to be found again.
+    pub(super) hover_key: Option<HoverKey>,
     /// A paint stroke in progress (`true`: erasing).
     pub(super) stroke: Option<bool>,
     pub(super) drag: Option<PoseDrag>,
@@ -32,11 +34,35 @@ impl Default for Interaction {
             brush_radius: 0.05,
             active_group: None,
             hover: None,
+            hover_key: None,
             stroke: None,
             drag: None,
             renaming: None,
         }
     }
+}
+
+impl Interaction {
+    /// No brush under the pointer until the pointer is over a mesh again.
+    pub(super) fn clear_hover(&mut self) {
+        self.hover = None;
+        self.hover_key = None;
+    }
+}
+
+/// What the brush under the pointer was found for. While none of it changes (a still pointer
+/// over a mesh that settles or plays), the footprint stays on its vertices: neither picking
+/// (a BVH refit per new solver frame), the footprint's walk nor the recolouring of every
+/// vertex runs again.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct HoverKey {
+    slot: usize,
+    pos: Pos2,
+    rect: Rect,
+    view_proj: [[f32; 4]; 4],
+    radius: f32,
+    tool: Tool,
+    view: View,
 }
 
 /// A drag of a handle group in progress.
@@ -187,6 +213,19 @@ impl EditorApp {
         if pos.is_none() && self.interaction.hover.as_ref().is_some_and(|h| h.slot != slot) {
             return; // the pointer is over another viewport
         }
+        let key = pos.map(|pos| HoverKey {
+            slot,
+            pos,
+            rect,
+            view_proj: self.display.camera.view_proj(rect.aspect_ratio()).to_cols_array_2d(),
+            radius: self.interaction.brush_radius,
+            tool: self.interaction.tool,
+            view: self.display.view,
+        });
+        if key.is_some() && key == self.interaction.hover_key {
+            return;
+        }
+        self.interaction.hover_key = key;
         let old = self.interaction.hover.as_ref().map(|h| (h.slot, h.footprint.clone()));
         self.interaction.hover = None;
         if let Some(pos) = pos

@@ -105,7 +105,7 @@ impl EditorApp {
             self.selecting.mode = self.selecting.mode.next();
             self.selecting.region = None;
             self.interaction.tool = super::Tool::Paint;
-            self.interaction.hover = None;
+            self.interaction.clear_hover();
             self.display.color_version += 1;
         }
         let commands = [

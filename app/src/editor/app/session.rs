@@ -356,7 +356,7 @@ impl EditorApp {
                 self.solvers.views = Default::default();
                 self.display.viewports = Default::default();
                 self.display.bvh_fit = None;
-                self.interaction.hover = None;
+                self.interaction.clear_hover();
                 self.display.color_version += 1;
                 self.send_scene();
             }

@@ -91,7 +91,8 @@ impl EditorApp {
             && self.selecting.mode != super::selection::SelectMode::Brush
             && self.session.scene.is_some()
         {
-            if self.interaction.hover.take().is_some() {
+            if self.interaction.hover.is_some() {
+                self.interaction.clear_hover();
                 self.display.color_version += 1; // no brush footprint under box and lasso
             }
             self.region_input(ui, slot, rect, response, modifiers);
