@@ -54,6 +54,18 @@ impl eframe::App for Driver {
             panic!("{e}");
         }
         if self.start_pose.is_none() {
+            if self.opening_frames == 0 {
+                // Progress on stderr, so that a run that never reaches its report says how far
+                // it came (the window opened, on which adapter).
+                let adapter = frame.wgpu_render_state().map_or("no wgpu".into(), |rs| {
+                    let info = rs.adapter.get_info();
+                    format!("{} {:?}", info.name, info.backend)
+                });
+                eprintln!(
+                    "window_rate: first frame after {:.1} s on {adapter}",
+                    self.opened.elapsed().as_secs_f64()
+                );
+            }
             self.opening_frames += 1;
             self.opening_cpu += frame.info().cpu_usage.unwrap_or(0.0) as f64;
         }
@@ -68,6 +80,10 @@ impl eframe::App for Driver {
         let generation = (f.pose_generation, f.scene_generation);
         let Some(start_pose) = self.start_pose else {
             self.posable = Some(self.opened.elapsed().as_secs_f64());
+            eprintln!(
+                "window_rate: posable after {:.1} s, dragging",
+                self.opened.elapsed().as_secs_f64()
+            );
             self.start_pose = Some(self.editor.group_pose(0).expect("group 0"));
             self.scale = self.editor.diagonal();
             self.last_generation = generation;
