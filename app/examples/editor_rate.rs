@@ -23,7 +23,7 @@
 
 use app::editor::pose::{GroupPose, handle_targets};
 use app::editor::pose_solvers::factory;
-use app::editor::shape::Shape;
+use app::editor::shape::ShapePool;
 use app::editor::solver_thread::{MethodSettings, Slot};
 use std::time::Instant;
 
@@ -93,6 +93,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let precompute = t.elapsed().as_secs_f64() * 1e3;
         let mut x = mesh.positions().to_vec();
         let (mut times, mut iterations, mut at_cap, mut shape_ms) = (Vec::new(), 0, 0, 0.0);
+        let (mut shapes, mut shown) = (ShapePool::default(), None);
         for f in 1..=frames {
             let theta = std::f64::consts::TAU * f as f64 / frames as f64;
             let mut poses = vec![GroupPose::default(); n_poses];
@@ -102,9 +103,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let stats = d.solve(&targets, &mut x)?;
             // What the thread publishes: the pose's f32 positions and normals (the deformed
             // base only while the Base view is open; the detail magnitudes once per scene).
+            // The thread's pool reuses a frame's buffers once the UI has dropped them; the UI
+            // holds the shape it draws until the next one comes.
             let ts = Instant::now();
-            std::hint::black_box(Shape::with_faces(&x, mesh.triangles(), &vertex_faces));
+            let shape = shapes.shape(&x, mesh.triangles(), &vertex_faces);
             shape_ms += ts.elapsed().as_secs_f64() * 1e3;
+            std::hint::black_box(shown.replace(shape));
             times.push(t.elapsed().as_secs_f64() * 1e3);
             iterations += stats.iterations;
             at_cap += usize::from(!stats.converged);

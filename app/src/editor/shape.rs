@@ -31,10 +31,73 @@ impl Shape {
     }
 }
 
+/// How many handed-out shapes a [`ShapePool`] watches, and so keeps alive beyond their other
+/// holders: the one in the mailbox and the one the UI draws are held at once, a third is
+/// usually free.
+const POOL_WATCH: usize = 3;
+
+/// A shape's positions and normals, unshared.
+type F32Buffers = (Vec<[f32; 3]>, Vec<[f32; 3]>);
+
+/// Shapes made again and again for the same mesh (the solver thread's frames) without a fresh
+/// allocation each: the pool keeps a handle on the last shapes it handed out, and once every
+/// other holder (the UI, the renderer) has dropped one, the next shape is written into its
+/// buffers in place. A fresh 2 × 12 bytes per vertex each frame (36 MB at 1.5M vertices) is
+/// zeroed and faulted in page by page by the kernel.
+#[derive(Default)]
+pub struct ShapePool {
+    handed_out: Vec<Shape>,
+}
+
+impl ShapePool {
+    /// [`Shape::with_faces`], into the buffers of a shape nobody else holds when there is one.
+    pub fn shape(&mut self, x: &[[f64; 3]], triangles: &[[u32; 3]], faces: &VertexFaces) -> Shape {
+        let (mut positions, mut normals) = self.take_free().unwrap_or_default();
+        faces.shape_f32(x, triangles, &mut positions, &mut normals);
+        let shape = Shape { positions: Arc::new(positions), normals: Arc::new(normals) };
+        if self.handed_out.len() == POOL_WATCH {
+            self.handed_out.remove(0);
+        }
+        self.handed_out.push(shape.clone());
+        shape
+    }
+
+    /// The buffers of a handed-out shape whose only holder is the pool (nobody can clone an
+    /// `Arc` that only the pool holds, so the count cannot rise between the check and the
+    /// unwrap).
+    fn take_free(&mut self) -> Option<F32Buffers> {
+        let free =
+            |s: &Shape| Arc::strong_count(&s.positions) == 1 && Arc::strong_count(&s.normals) == 1;
+        let i = self.handed_out.iter().position(free)?;
+        let s = self.handed_out.remove(i);
+        Some((Arc::try_unwrap(s.positions).ok()?, Arc::try_unwrap(s.normals).ok()?))
+    }
+}
+
 #[cfg(test)]
 #[allow(clippy::unwrap_used, clippy::expect_used)]
 mod tests {
     use super::*;
+
+    /// A pool reuses the buffers of a shape once it alone holds them, never one still held,
+    /// and what it makes is what `Shape::with_faces` makes.
+    #[test]
+    fn pool_reuses_only_dropped_shapes() {
+        let t = [[0, 1, 2]];
+        let faces = VertexFaces::new(3, &t);
+        let x = |s: f64| [[0.0; 3], [s, 0.0, 0.0], [0.0, s, 0.0]];
+        let mut pool = ShapePool::default();
+        let held = pool.shape(&x(1.0), &t, &faces);
+        let dropped = pool.shape(&x(2.0), &t, &faces);
+        let freed = dropped.positions.as_ptr();
+        drop(dropped);
+        let next = pool.shape(&x(3.0), &t, &faces);
+        assert_eq!(next.positions.as_ptr(), freed, "the dropped shape's buffer was not reused");
+        assert_eq!(held.positions[1], [1.0, 0.0, 0.0], "a held shape was overwritten");
+        let fresh = Shape::with_faces(&x(3.0), &t, &faces);
+        assert_eq!(*next.positions, *fresh.positions);
+        assert_eq!(*next.normals, *fresh.normals);
+    }
 
     #[test]
     fn shape_normals_of_a_flat_triangle() {

@@ -19,7 +19,7 @@ use super::protocol::{
     SolverStatus,
 };
 use crate::editor::pose::GroupPose;
-use crate::editor::shape::Shape;
+use crate::editor::shape::{Shape, ShapePool};
 
 /// What the worker shares with its [`super::SolverHandle`].
 pub(super) struct Shared {
@@ -100,6 +100,8 @@ struct Active {
     x: Vec<[f64; 3]>,
     /// Each vertex's triangles, for the per-frame normals (kept while the mesh stays).
     vertex_faces: Arc<VertexFaces>,
+    /// The buffers of the frames' shapes, reused once the UI has dropped them.
+    shapes: ShapePool,
     /// Targets changed since the last converged solve.
     dirty: bool,
     /// The last solve converged and its pose is being refined ([`PoseSolver::settle`]).
@@ -122,9 +124,9 @@ struct Active {
 
 impl Active {
     /// The frame of the current pose, with the deformed base when `with_base`.
-    fn frame(&self, stats: FrameStats, with_base: bool) -> SolvedFrame {
+    fn frame(&mut self, stats: FrameStats, with_base: bool) -> SolvedFrame {
         let triangles = self.mesh.triangles();
-        let shape = Shape::with_faces(&self.x, triangles, &self.vertex_faces);
+        let shape = self.shapes.shape(&self.x, triangles, &self.vertex_faces);
         let base = with_base.then(|| self.pose_solver.deformed_base()).flatten();
         SolvedFrame {
             scene_generation: self.scene_generation,
@@ -352,6 +354,7 @@ fn rebuild(
             set_status(&shared.status, SolverState::Solving);
             Some(Active {
                 vertex_faces,
+                shapes: ShapePool::default(),
                 scene_generation,
                 pose_generation,
                 mesh,
