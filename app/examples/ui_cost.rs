@@ -12,6 +12,13 @@
 //!
 //! With CONFIG_DIR the editor keeps its files there, the mesh's precomputation included: a
 //! second run on the same folder shows how soon a mesh opened before becomes posable.
+//!
+//! With `--render` every dragged frame is also rendered through wgpu as a window's frame
+//! would be without its presentation ([`WindowLike`]: egui's tessellation, the viewport's
+//! uploads and draws into a target kept between frames, and the wait for the GPU to finish),
+//! on a hardware adapter where there is one (as a window picks it; lavapipe otherwise), and
+//! the rendering's milliseconds per frame are printed: the editor with a GPU where no window
+//! can be opened.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use std::path::PathBuf;
@@ -21,21 +28,140 @@ use app::editor::solver_thread::{Slot, SolverState};
 use app::editor::{EditorApp, EditorOptions, default_mesh_path};
 use egui_kittest::Harness;
 
+/// A window's frame without its presentation, as a kittest renderer: egui's tessellation, the
+/// paint callbacks (the viewport's uploads and draws), egui's pass into a target kept between
+/// frames (a swapchain image), the submission and the wait for the GPU. No image comes back:
+/// kittest's own renderer copies the frame back and converts it byte by byte, which took most
+/// of its time per frame (a window never reads its image back).
+struct WindowLike {
+    rs: eframe::egui_wgpu::RenderState,
+    target: Option<(eframe::wgpu::Texture, [u32; 2])>,
+}
+
+impl egui_kittest::TestRenderer for WindowLike {
+    fn setup_eframe(&self, cc: &mut eframe::CreationContext<'_>, frame: &mut eframe::Frame) {
+        cc.wgpu_render_state = Some(self.rs.clone());
+        frame.wgpu_render_state = Some(self.rs.clone());
+    }
+
+    fn handle_delta(&mut self, delta: &mut eframe::egui::TexturesDelta) {
+        let mut renderer = self.rs.renderer.write();
+        for (id, images) in delta.set.drain() {
+            for image in images {
+                renderer.update_texture(&self.rs.device, &self.rs.queue, id, &image);
+            }
+        }
+        for id in delta.free.drain() {
+            renderer.free_texture(&id);
+        }
+    }
+
+    fn render(
+        &mut self,
+        ctx: &eframe::egui::Context,
+        output: &eframe::egui::FullOutput,
+    ) -> Result<image::RgbaImage, String> {
+        use eframe::wgpu;
+        let (device, queue) = (&self.rs.device, &self.rs.queue);
+        let ppp = ctx.pixels_per_point();
+        let size = ctx.content_rect().size() * ppp;
+        let size = [size.x.round() as u32, size.y.round() as u32];
+        let screen =
+            eframe::egui_wgpu::ScreenDescriptor { size_in_pixels: size, pixels_per_point: ppp };
+        if self.target.as_ref().is_none_or(|(_, s)| *s != size) {
+            let texture = device.create_texture(&wgpu::TextureDescriptor {
+                label: Some("ui_cost window-like target"),
+                size: wgpu::Extent3d { width: size[0], height: size[1], depth_or_array_layers: 1 },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: self.rs.target_format,
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+                view_formats: &[],
+            });
+            self.target = Some((texture, size));
+        }
+        let view = self.target.as_ref().ok_or("no target")?.0.create_view(&Default::default());
+        let mut renderer = self.rs.renderer.write();
+        let mut encoder = device.create_command_encoder(&Default::default());
+        let tessellated = ctx.tessellate(output.shapes.clone(), ppp);
+        let user = renderer.update_buffers(device, queue, &mut encoder, &tessellated, &screen);
+        {
+            let mut pass = encoder
+                .begin_render_pass(&wgpu::RenderPassDescriptor {
+                    label: Some("ui_cost window-like pass"),
+                    color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                        view: &view,
+                        resolve_target: None,
+                        ops: wgpu::Operations {
+                            load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                            store: wgpu::StoreOp::Store,
+                        },
+                        depth_slice: None,
+                    })],
+                    ..Default::default()
+                })
+                .forget_lifetime();
+            renderer.render(&mut pass, &tessellated, &screen);
+        }
+        queue.submit(user.into_iter().chain(std::iter::once(encoder.finish())));
+        device
+            .poll(wgpu::PollType::Wait {
+                submission_index: None,
+                timeout: Some(Duration::from_secs(10)),
+            })
+            .map_err(|e| format!("the GPU did not finish: {e}"))?;
+        Ok(image::RgbaImage::new(1, 1))
+    }
+}
+
+/// kittest's wgpu setup with a window's choice of adapter: hardware before software (kittest
+/// itself prefers a software rasterizer, for reproducible snapshots). Prints the choice.
+fn hardware_first() -> eframe::egui_wgpu::WgpuSetup {
+    use eframe::wgpu::DeviceType;
+    let mut setup = egui_kittest::wgpu::default_wgpu_setup();
+    if let eframe::egui_wgpu::WgpuSetup::CreateNew(s) = &mut setup {
+        s.native_adapter_selector = Some(std::sync::Arc::new(|adapters, _surface| {
+            let rank = |a: &&eframe::wgpu::Adapter| match a.get_info().device_type {
+                DeviceType::DiscreteGpu => 0,
+                DeviceType::IntegratedGpu => 1,
+                DeviceType::VirtualGpu | DeviceType::Other => 2,
+                DeviceType::Cpu => 3,
+            };
+            let best = adapters.iter().min_by_key(rank).ok_or("no adapter")?;
+            let info = best.get_info();
+            println!("rendering on {} ({:?})", info.name, info.backend);
+            Ok(best.clone())
+        }));
+    }
+    setup
+}
+
 fn main() {
-    let path = std::env::args().nth(1).map(PathBuf::from).unwrap_or_else(default_mesh_path);
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let render = args.iter().any(|a| a == "--render");
+    let mut args = args.into_iter().filter(|a| a != "--render");
+    let path = args.next().map(PathBuf::from).unwrap_or_else(default_mesh_path);
     // A configuration folder: the mesh's precomputation is read from its cache/ when an
     // earlier run on the same folder left it there (none: always built).
-    let config_dir = std::env::args().nth(2).map(PathBuf::from);
+    let config_dir = args.next().map(PathBuf::from);
     let opened = Instant::now();
-    let mut h = Harness::builder()
-        .with_size(eframe::egui::Vec2::new(1280.0, 800.0))
-        .wgpu()
-        .build_eframe(move |cc| {
-            EditorApp::new(
-                cc,
-                EditorOptions { mesh_path: Some(path), deterministic_overlays: false, config_dir },
-            )
-        });
+    let builder = Harness::builder().with_size(eframe::egui::Vec2::new(1280.0, 800.0));
+    let builder = if render {
+        let rs = egui_kittest::wgpu::create_render_state(
+            hardware_first(),
+            eframe::egui_wgpu::RendererOptions::default(),
+        );
+        builder.renderer(WindowLike { rs, target: None })
+    } else {
+        builder.wgpu()
+    };
+    let mut h = builder.build_eframe(move |cc| {
+        EditorApp::new(
+            cc,
+            EditorOptions { mesh_path: Some(path), deterministic_overlays: false, config_dir },
+        )
+    });
     let start = Instant::now();
     while h.state().latest_frame(Slot::Main).is_none() {
         assert!(
@@ -59,7 +185,7 @@ fn main() {
     assert!(groups > 0, "the mesh has no handle groups (a .dmat or .handles.json beside it)");
     let scale = h.state().diagonal();
     let start_pose = h.state().group_pose(0).expect("group 0");
-    let mut times = Vec::new();
+    let (mut times, mut render_ms) = (Vec::new(), Vec::new());
     let mut solver_frames = 0usize;
     let mut last_gen = (0, 0);
     let t0 = Instant::now();
@@ -71,6 +197,11 @@ fn main() {
         let s = Instant::now();
         h.step();
         times.push(s.elapsed().as_secs_f64() * 1e3);
+        if render {
+            let s = Instant::now();
+            h.render().expect("rendering failed");
+            render_ms.push(s.elapsed().as_secs_f64() * 1e3);
+        }
         if let Some(f) = h.state().latest_frame(Slot::Main) {
             let g = (f.pose_generation, f.scene_generation);
             if g != last_gen {
@@ -92,6 +223,14 @@ fn main() {
         solver_frames as f64 / wall,
         h.state().method_settings().bs_variant.name()
     );
+    if render {
+        render_ms.sort_by(f64::total_cmp);
+        let mean = render_ms.iter().sum::<f64>() / render_ms.len() as f64;
+        let p95 = render_ms[render_ms.len() * 95 / 100];
+        println!(
+            "{n} vertices: rendering {mean:.2} ms/frame mean, {p95:.2} ms p95 (no presentation)"
+        );
+    }
     paint_stroke(&mut h);
 }
 
