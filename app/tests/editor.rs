@@ -781,7 +781,8 @@ fn a_loose_part_follows_the_handles_and_can_be_pinned_from_the_parts_panel() {
 }
 
 /// The status bar reports the process's resident memory and its peak (where the kernel says
-/// them); snapshot tests, with deterministic overlays, leave it out.
+/// them) and whether the window renders on a software adapter; snapshot tests, with
+/// deterministic overlays, leave both out.
 #[test]
 fn the_status_bar_reports_memory() {
     if !std::path::Path::new("/proc/self/status").exists() {
@@ -798,6 +799,15 @@ fn the_status_bar_reports_memory() {
     });
     step_until(&mut h, "the default asset", |a| !a.is_loading() && a.n_vertices() > 0);
     h.get_by_label_contains("MiB (peak");
+    // The tests render on a software adapter where there is one (kittest prefers it): the
+    // status bar says so, and names the adapter in its tooltip.
+    let software = h.state().software_rendering().map(str::to_owned);
+    assert_eq!(
+        h.query_by_label("software rendering").is_some(),
+        software.is_some(),
+        "the status bar and the adapter ({software:?}) disagree"
+    );
     let deterministic = harness(test_mesh());
     assert!(deterministic.query_by_label_contains("MiB (peak").is_none());
+    assert!(deterministic.query_by_label("software rendering").is_none());
 }

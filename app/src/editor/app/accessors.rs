@@ -106,6 +106,11 @@ impl EditorApp {
         self.solvers.main.as_ref().and_then(|s| s.try_status()).map(|s| s.state)
     }
 
+    /// The software adapter the window renders on (lavapipe, llvmpipe), if it does.
+    pub fn software_rendering(&self) -> Option<&str> {
+        self.display.software_rendering.as_deref()
+    }
+
     /// The vertices under the paint brush (its footprint), if the pointer is over the mesh.
     pub fn hover_footprint(&self) -> Option<&[u32]> {
         self.interaction.hover.as_ref().map(|h| &h.footprint[..])

@@ -176,10 +176,10 @@ impl EditorApp {
         } else {
             false
         };
-        let software_rendering = cc
-            .wgpu_render_state
-            .as_ref()
-            .is_some_and(|rs| rs.adapter.get_info().device_type == eframe::wgpu::DeviceType::Cpu);
+        let software_rendering = cc.wgpu_render_state.as_ref().and_then(|rs| {
+            let info = rs.adapter.get_info();
+            (info.device_type == eframe::wgpu::DeviceType::Cpu).then_some(info.name)
+        });
         let ctx = cc.egui_ctx.clone();
         let mut app = EditorApp {
             options: options.clone(),

@@ -409,7 +409,7 @@ impl EditorApp {
             ui.separator();
             // A spinner repaints every frame: not on a software adapter, where each frame of a
             // dense mesh takes the cores the loading and the precomputation run on.
-            let animate = !self.display.software_rendering;
+            let animate = self.display.software_rendering.is_none();
             if self.jobs.loading.is_some() {
                 if animate {
                     ui.spinner();
@@ -457,6 +457,16 @@ impl EditorApp {
                     ui.weak(text).on_hover_text("resident memory of the editor's process");
                     ui.separator();
                 }
+            }
+            if let Some(name) = self.display.software_rendering.as_ref()
+                && !self.options.deterministic_overlays
+            {
+                ui.colored_label(Color32::YELLOW, "software rendering").on_hover_text(format!(
+                    "The window renders on {name}, on the CPU cores the solver needs: a dense \
+                     mesh draws a few frames a second. A GPU driver (Vulkan, Metal, DirectX 12 \
+                     or OpenGL) makes the viewport real-time."
+                ));
+                ui.separator();
             }
             if let Some(i) = &self.info {
                 ui.weak(i);

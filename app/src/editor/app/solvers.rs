@@ -105,7 +105,7 @@ impl EditorApp {
             Ok(h) => {
                 // A software adapter renders a dense mesh a few frames a second: a drag's
                 // poses come that far apart, and must not each start settling.
-                if self.display.software_rendering {
+                if self.display.software_rendering.is_some() {
                     h.set_min_settle_delay(SOFTWARE_SETTLE_DELAY);
                 }
                 Some(h)

@@ -46,9 +46,9 @@ pub(super) struct Display {
     pub(super) render_fps: f32,
     /// Milliseconds the UI thread spends in one `ui` call (moving average).
     pub(super) ui_ms: f32,
-    /// The window renders on a software adapter (lavapipe, llvmpipe): on the CPU cores the
-    /// solver and the precomputation need.
-    pub(super) software_rendering: bool,
+    /// The software adapter the window renders on (lavapipe, llvmpipe), if it does: on the CPU
+    /// cores the solver and the precomputation need.
+    pub(super) software_rendering: Option<String>,
     /// The process's memory for the status bar and when it was read (once a second).
     pub(super) memory: Option<(Instant, Option<crate::memory::Memory>)>,
     pub(super) last_frame: Option<Instant>,
@@ -60,7 +60,7 @@ impl Display {
     /// precomputation runs on (on the adapter's own threads, so eframe's frame time does not
     /// show it; BENCHMARKS.md, "The editor in a window").
     pub(super) fn progress_repaint(&self) -> Duration {
-        Duration::from_millis(if self.software_rendering { 2000 } else { 100 })
+        Duration::from_millis(if self.software_rendering.is_some() { 2000 } else { 100 })
     }
 
     pub(super) fn new(options: &EditorOptions) -> Display {
@@ -82,7 +82,7 @@ impl Display {
             reframe: false,
             render_fps: 0.0,
             ui_ms: 0.0,
-            software_rendering: false,
+            software_rendering: None,
             memory: None,
             last_frame: None,
         }
