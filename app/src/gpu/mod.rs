@@ -1,10 +1,80 @@
 //! GPU work outside the editor's render passes: compute passes that take per-vertex work off
-//! the solver thread ([`prolong`]), and a headless device to run them without a window (tests,
-//! benchmarks; lavapipe where there is no GPU).
+//! the solver thread ([`normals`], [`prolong`]), and a headless device to run them without a
+//! window (tests, benchmarks; lavapipe where there is no GPU).
 
+pub mod normals;
 pub mod prolong;
 
 use eframe::wgpu;
+use wgpu::util::DeviceExt;
+
+/// Invocations per workgroup of every compute entry point (`@workgroup_size(256)`).
+const WORKGROUP: u32 = 256;
+
+/// A storage buffer holding `contents` (usable as `extra` too). wgpu refuses zero-sized
+/// bindings: an empty list gets one unused element.
+fn storage(
+    device: &wgpu::Device,
+    label: &str,
+    contents: &[u8],
+    extra: wgpu::BufferUsages,
+) -> wgpu::Buffer {
+    let padded;
+    let contents = if contents.is_empty() {
+        padded = [0u8; 16];
+        &padded[..]
+    } else {
+        contents
+    };
+    device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some(label),
+        contents,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | extra,
+    })
+}
+
+/// One compute entry point and its bind group.
+struct Stage {
+    pipeline: wgpu::ComputePipeline,
+    bind_group: wgpu::BindGroup,
+    /// Invocations (vertices, fixed vertices or faces).
+    count: u32,
+}
+
+impl Stage {
+    /// `pipeline` (its layout derived from the shader) with `entries` (binding, buffer) bound
+    /// whole in group 0, over `count` invocations.
+    fn new(
+        device: &wgpu::Device,
+        pipeline: wgpu::ComputePipeline,
+        entries: &[(u32, &wgpu::Buffer)],
+        count: usize,
+    ) -> Stage {
+        let entries: Vec<wgpu::BindGroupEntry> = entries
+            .iter()
+            .map(|&(binding, buffer)| wgpu::BindGroupEntry {
+                binding,
+                resource: buffer.as_entire_binding(),
+            })
+            .collect();
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: None,
+            layout: &pipeline.get_bind_group_layout(0),
+            entries: &entries,
+        });
+        Stage { pipeline, bind_group, count: count as u32 }
+    }
+
+    /// Records the dispatch over `count` invocations (none when 0).
+    fn record(&self, pass: &mut wgpu::ComputePass<'_>, count: u32) {
+        if count == 0 {
+            return;
+        }
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, &self.bind_group, &[]);
+        pass.dispatch_workgroups(count.div_ceil(WORKGROUP), 1, 1);
+    }
+}
 
 /// A device and its queue, with the adapter's name for reports.
 pub struct Headless {

@@ -1,14 +1,14 @@
-//! The coarse BS-ARAP's per-vertex work as a wgpu compute pass (`shaders/prolong.wgsl`): the
-//! prolongation $p'_i = \sum_k w_{ik} B'_{c,k} + \hat q_i (D_i + C_i) \hat q_i^{-1}$ (step 4 of
-//! `solver::deform::coarse`, whose [`solver::deform::coarse::prolong`] is the CPU path), the
-//! fixed vertices put on their positions, and smooth area-weighted vertex normals
-//! (`solver::geometry::normals`).
+//! The coarse BS-ARAP's per-vertex work as wgpu compute passes (`shaders/prolong.wgsl`, then
+//! [`super::normals`]): the prolongation $p'_i = \sum_k w_{ik} B'_{c,k} + \hat q_i (D_i + C_i)
+//! \hat q_i^{-1}$ (step 4 of `solver::deform::coarse`, whose
+//! [`solver::deform::coarse::prolong`] is the CPU path), the fixed vertices put on their
+//! positions, and smooth area-weighted vertex normals (`solver::geometry::normals`).
 //!
 //! What depends only on the mesh and its coarse base (embedding, triangles, the vertex-to-face
 //! rows) is uploaded once; a frame uploads the coarse pose and rotations ($16\,|V_c|$ bytes
 //! each), the fixed vertices, and the details only when the carried corrections changed. The
-//! results stay on the GPU in `positions` and `normals` (`vec4<f32>` per vertex), where a
-//! renderer can read them; [`GpuProlongation::read_back`] copies them out for tests and
+//! results stay on the GPU in `positions` and `normals` (packed xyz `f32` per vertex, the
+//! viewport's vertex layout); [`GpuProlongation::read_back`] copies them out for tests and
 //! benchmarks. Everything is in f32: the result is the CPU path's (f64) rounded, within a few
 //! units in the last place of the coordinates.
 
@@ -16,16 +16,17 @@ use eframe::wgpu;
 use solver::deform::coarse::Prolongation;
 use wgpu::util::DeviceExt;
 
+use super::normals::{BYTES_PER_VERTEX, GpuNormals, NormalsBinding};
+use super::{Stage, WORKGROUP, storage};
+
 const SHADER: &str = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/../shaders/prolong.wgsl"));
-const WORKGROUP: u32 = 256;
 
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 struct Params {
     n_vertices: u32,
     n_fixed: u32,
-    n_faces: u32,
-    _pad: u32,
+    _pad: [u32; 2],
 }
 
 #[repr(C)]
@@ -35,13 +36,6 @@ struct Embed {
     weights: [f32; 4],
 }
 
-/// One compute entry point and its bind group.
-struct Stage {
-    pipeline: wgpu::ComputePipeline,
-    bind_group: wgpu::BindGroup,
-    /// Invocations (vertices, fixed vertices or faces).
-    count: u32,
-}
 
 /// Positions and normals copied back from the GPU.
 pub type ReadBack = (Vec<[f32; 3]>, Vec<[f32; 3]>);
@@ -55,35 +49,18 @@ pub struct GpuProlongation {
     quats: wgpu::Buffer,
     details: wgpu::Buffer,
     fixed: wgpu::Buffer,
-    /// Per vertex, `vec4<f32>` (w = 1).
+    /// Per vertex, packed xyz `f32`.
     pub positions: wgpu::Buffer,
-    /// Per vertex, unit `vec4<f32>` (w = 0).
+    /// Per vertex, unit, packed xyz `f32`.
     pub normals: wgpu::Buffer,
     params: wgpu::Buffer,
-    stages: Vec<Stage>,
+    /// `prolong` and `fix`.
+    stages: [Stage; 2],
+    /// The normals of `positions` into `normals`, and the pass they are bound to (kept alive).
+    normals_pass: (GpuNormals, NormalsBinding),
     staging: Vec<[f32; 4]>,
 }
 
-fn storage(
-    device: &wgpu::Device,
-    label: &str,
-    contents: &[u8],
-    extra: wgpu::BufferUsages,
-) -> wgpu::Buffer {
-    // wgpu refuses zero-sized bindings: an empty list gets one unused element.
-    let padded;
-    let contents = if contents.is_empty() {
-        padded = [0u8; 16];
-        &padded[..]
-    } else {
-        contents
-    };
-    device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some(label),
-        contents,
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | extra,
-    })
-}
 
 fn vec4s(v: &[[f64; 3]], w: f32) -> Vec<[f32; 4]> {
     v.iter().map(|p| [p[0] as f32, p[1] as f32, p[2] as f32, w]).collect()
@@ -123,16 +100,16 @@ impl GpuProlongation {
         let n = input.embedding.len();
         let nc = input.coarse.len();
         let limits = device.limits();
-        let largest = (n.max(triangles.len()) * std::mem::size_of::<Embed>()) as u64;
-        if largest > limits.max_storage_buffer_binding_size {
+        let largest = (n * std::mem::size_of::<Embed>()) as u64;
+        if largest > limits.max_storage_buffer_binding_size
+            || !GpuNormals::fits(&limits, n, triangles.len())
+        {
             anyhow::bail!(
                 "{n} vertices need {largest} bytes per buffer; this GPU binds at most {}",
                 limits.max_storage_buffer_binding_size
             );
         }
-        if n.div_ceil(WORKGROUP as usize).max(triangles.len().div_ceil(WORKGROUP as usize))
-            > limits.max_compute_workgroups_per_dimension as usize
-        {
+        if n.div_ceil(WORKGROUP as usize) > limits.max_compute_workgroups_per_dimension as usize {
             anyhow::bail!("{n} vertices exceed one dispatch of this GPU");
         }
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
@@ -144,10 +121,7 @@ impl GpuProlongation {
                 weights: [w[0] as f32, w[1] as f32, w[2] as f32, 0.0],
             })
             .collect();
-        // Vertex -> incident faces as compressed rows.
-        let vertex_faces = solver::geometry::normals::VertexFaces::new(n, triangles);
-        let params =
-            Params { n_vertices: n as u32, n_fixed: 0, n_faces: triangles.len() as u32, _pad: 0 };
+        let params = Params { n_vertices: n as u32, n_fixed: 0, _pad: [0; 2] };
         let none = wgpu::BufferUsages::empty();
         let params_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("prolong params"),
@@ -163,17 +137,13 @@ impl GpuProlongation {
         let details =
             storage(device, "details", bytemuck::cast_slice(&detail_entries(&input)), none);
         let fixed = storage(device, "fixed", &vec![0u8; 16 * max_fixed.max(1)], none);
-        let zeros = vec![0u8; 16 * n.max(1)];
-        let positions = storage(device, "positions", &zeros, wgpu::BufferUsages::COPY_SRC);
-        let normals = storage(device, "normals", &zeros, wgpu::BufferUsages::COPY_SRC);
+        let zeros = vec![0u8; (BYTES_PER_VERTEX as usize) * n.max(1)];
+        let out = wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::VERTEX;
+        let positions = storage(device, "positions", &zeros, out);
+        let normals = storage(device, "normals", &zeros, out);
         let tri = storage(device, "triangles", bytemuck::cast_slice(triangles), none);
-        let face_normals =
-            storage(device, "face normals", &vec![0u8; 16 * triangles.len().max(1)], none);
-        let offsets =
-            storage(device, "incident offsets", bytemuck::cast_slice(vertex_faces.offsets()), none);
-        let incident =
-            storage(device, "incident faces", bytemuck::cast_slice(vertex_faces.faces()), none);
-
+        let normals_pass = GpuNormals::new(device, n, triangles)?;
+        let binding = normals_pass.bind(device, &positions, &tri, &normals);
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("prolong.wgsl"),
             source: wgpu::ShaderSource::Wgsl(SHADER.into()),
@@ -187,21 +157,9 @@ impl GpuProlongation {
                 compilation_options: Default::default(),
                 cache: None,
             });
-            let entries: Vec<wgpu::BindGroupEntry> = bindings
-                .iter()
-                .map(|&(binding, buffer)| wgpu::BindGroupEntry {
-                    binding,
-                    resource: buffer.as_entire_binding(),
-                })
-                .collect();
-            let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some(entry),
-                layout: &pipeline.get_bind_group_layout(0),
-                entries: &entries,
-            });
-            Stage { pipeline, bind_group, count: count as u32 }
+            Stage::new(device, pipeline, bindings, count)
         };
-        let stages = vec![
+        let stages = [
             stage(
                 "prolong",
                 &[
@@ -215,22 +173,6 @@ impl GpuProlongation {
                 n,
             ),
             stage("fix", &[(0, &params_buf), (5, &fixed), (6, &positions)], 0),
-            stage(
-                "face_normal",
-                &[(0, &params_buf), (6, &positions), (7, &tri), (8, &face_normals)],
-                triangles.len(),
-            ),
-            stage(
-                "vertex_normal",
-                &[
-                    (0, &params_buf),
-                    (8, &face_normals),
-                    (9, &offsets),
-                    (10, &incident),
-                    (11, &normals),
-                ],
-                n,
-            ),
         ];
         if let Some(e) = pollster::block_on(scope.pop()) {
             anyhow::bail!("the prolongation's compute pass could not be built: {e}");
@@ -246,6 +188,7 @@ impl GpuProlongation {
             positions,
             normals,
             stages,
+            normals_pass: (normals_pass, binding),
             staging: Vec::new(),
             params: params_buf,
         })
@@ -303,16 +246,10 @@ impl GpuProlongation {
                 label: Some("prolong"),
                 timestamp_writes: None,
             });
-            for (k, stage) in self.stages.iter().enumerate() {
-                // Stage 1 (`fix`) runs over this frame's fixed vertices.
-                let count = if k == 1 { n_fixed as u32 } else { stage.count };
-                if count == 0 {
-                    continue;
-                }
-                pass.set_pipeline(&stage.pipeline);
-                pass.set_bind_group(0, &stage.bind_group, &[]);
-                pass.dispatch_workgroups(count.div_ceil(WORKGROUP), 1, 1);
-            }
+            self.stages[0].record(&mut pass, self.stages[0].count);
+            // `fix` runs over this frame's fixed vertices.
+            self.stages[1].record(&mut pass, n_fixed as u32);
+            self.normals_pass.1.record(&mut pass);
         }
         queue.submit([encoder.finish()]);
         Ok(())
@@ -324,7 +261,7 @@ impl GpuProlongation {
         device: &wgpu::Device,
         queue: &wgpu::Queue,
     ) -> anyhow::Result<ReadBack> {
-        let size = (16 * self.n_vertices) as u64;
+        let size = BYTES_PER_VERTEX * self.n_vertices as u64;
         let readback = |label| {
             device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(label),
@@ -344,8 +281,7 @@ impl GpuProlongation {
             slice.map_async(wgpu::MapMode::Read, |_| {});
             device.poll(wgpu::PollType::wait_indefinitely())?;
             let data = slice.get_mapped_range()?;
-            let v: &[[f32; 4]] = bytemuck::cast_slice(&data);
-            out.push(v.iter().map(|q| [q[0], q[1], q[2]]).collect::<Vec<_>>());
+            out.push(bytemuck::cast_slice::<u8, [f32; 3]>(&data).to_vec());
         }
         let normals = out.pop().unwrap_or_default();
         let positions = out.pop().unwrap_or_default();
