@@ -106,7 +106,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             // The thread's pool reuses a frame's buffers once the UI has dropped them; the UI
             // holds the shape it draws until the next one comes.
             let ts = Instant::now();
-            let shape = shapes.shape(&x, mesh.triangles(), &vertex_faces);
+            let shape = shapes.shape(&x, mesh.triangles(), Some(&vertex_faces));
             shape_ms += ts.elapsed().as_secs_f64() * 1e3;
             std::hint::black_box(shown.replace(shape));
             times.push(t.elapsed().as_secs_f64() * 1e3);

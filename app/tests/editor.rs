@@ -7,7 +7,9 @@
 mod support;
 
 use std::path::PathBuf;
+use std::sync::Arc;
 
+use app::editor::pose::GroupPose;
 use app::editor::solver_thread::{Slot, SolverState};
 use app::editor::{EditorApp, EditorOptions, Shading, Tool, View};
 use eframe::egui::{self, Event, Modifiers, Pos2, Vec2};
@@ -180,6 +182,97 @@ fn a_still_brush_keeps_its_footprint_while_the_mesh_moves() {
     h.step();
     let after = h.state().hover_footprint().expect("a footprint at the moved vertex");
     assert!(after.contains(&(v as u32)), "the footprint did not follow the pointer");
+}
+
+/// Steps until the solver has published a converged frame of pose `generation` and then no
+/// new frame for a second (settling on the full mesh done).
+fn rest(h: &mut Harness<'_, EditorApp>, generation: u64) {
+    step_until(h, "the pose", |a| {
+        settled(a) && a.latest_frame(Slot::Main).is_some_and(|f| f.pose_generation == generation)
+    });
+    let frame_id = |a: &EditorApp| a.latest_frame(Slot::Main).map(|f| f.sequence);
+    let start = std::time::Instant::now();
+    let (mut last, mut since) = (frame_id(h.state()), std::time::Instant::now());
+    while since.elapsed().as_secs_f64() < 1.0 {
+        assert!(start.elapsed().as_secs() < 60, "the solver never rested");
+        h.step();
+        std::thread::sleep(std::time::Duration::from_millis(20));
+        if frame_id(h.state()) != last {
+            (last, since) = (frame_id(h.state()), std::time::Instant::now());
+        }
+    }
+    h.step();
+}
+
+/// Settling refines a pose on the full mesh after the drag and publishes frames of the same
+/// generations: the viewport draws each one (it keyed its shape on the generations and kept
+/// drawing the pose's first frame).
+#[test]
+fn the_viewport_draws_the_settled_frames() {
+    let mut h = harness(test_mesh());
+    step_until(&mut h, "the default asset", settled);
+    let mut pose = h.state().group_pose(0).expect("group 0");
+    pose.translation[1] += 0.15 * h.state().diagonal();
+    assert!(h.state_mut().drag_group(0, pose));
+    let generation = h.state().pose_generation();
+    let first = {
+        step_until(&mut h, "the pose's first frame", |a| {
+            a.latest_frame(Slot::Main).is_some_and(|f| f.pose_generation == generation)
+        });
+        h.state().latest_frame(Slot::Main).map(|f| f.sequence)
+    };
+    rest(&mut h, generation);
+    let frame = h.state().latest_frame(Slot::Main).expect("a frame").clone();
+    assert_ne!(Some(frame.sequence), first, "no settling frame came after the first");
+    let drawn = h.state().drawn_positions(0).expect("drawn positions");
+    assert!(Arc::ptr_eq(drawn, &frame.positions), "the viewport draws an older frame");
+}
+
+/// Vertex normals computed by the viewport's GPU pass (`gpu::normals`, what the editor does on
+/// a hardware adapter, here forced on whatever adapter the tests have) draw the same image as
+/// the solver thread's CPU normals, and the frames then come without normals. The pose is
+/// changed with the GPU pass on, so that the normals left in the buffer by the rest pose
+/// would show.
+#[test]
+fn gpu_normals_draw_what_cpu_normals_draw() {
+    let mut h = harness(test_mesh());
+    step_until(&mut h, "the default asset", settled);
+    assert_eq!(h.state().shading(), Shading::Clay);
+    h.state_mut().set_gpu_normals(true);
+    // Every group turned alike: the whole mesh turns (about the origin, by 40 degrees about
+    // y), so every normal changes.
+    let (s, c) = (0.35f64.sin(), 0.35f64.cos());
+    for k in 0..h.state().edit_state().groups.len() {
+        let pose = GroupPose { translation: [0.0; 3], rotation: [0.0, s, 0.0, c] };
+        assert!(h.state_mut().drag_group(k, pose));
+    }
+    let generation = h.state().pose_generation();
+    // Settled on the full mesh too, so that the republished frame below has the same
+    // positions.
+    rest(&mut h, generation);
+    assert!(h.state().latest_frame(Slot::Main).is_some_and(|f| f.normals.is_empty()));
+    h.step();
+    let gpu = h.render().expect("render with GPU normals");
+    h.state_mut().set_gpu_normals(false);
+    step_until(&mut h, "the same pose with normals", |a| {
+        a.latest_frame(Slot::Main)
+            .is_some_and(|f| f.pose_generation == generation && !f.normals.is_empty())
+    });
+    h.step();
+    let cpu = h.render().expect("render with CPU normals");
+    assert_eq!(cpu.dimensions(), gpu.dimensions());
+    cpu.save("/tmp/n_cpu.png").unwrap();
+    // The viewport below its overlay text (which names the solver's state and iterations).
+    // Summation order differs (f32): allow a shade of difference, on few pixels.
+    let (mut off, mut total) = (0, 0);
+    for y in 80..500 {
+        for x in 20..640 {
+            let (a, b) = (cpu.get_pixel(x, y), gpu.get_pixel(x, y));
+            off += usize::from(a.0.iter().zip(b.0).any(|(p, q)| p.abs_diff(q) > 2));
+            total += 1;
+        }
+    }
+    assert!(off * 1000 < total, "{off} of {total} pixels differ");
 }
 
 #[test]

@@ -10,7 +10,9 @@
 //! The mesh is drawn one of two ways. Clay shading draws the welded solver mesh from three
 //! vertex streams ([`ClayDraw`], `mesh.wgsl`): the shape's positions and normals as the solver
 //! thread made them (uploaded as they are when the pose changes: nothing per vertex runs on the
-//! UI thread for a new pose) and one colour per vertex (uploaded when the colours change).
+//! UI thread for a new pose) and one colour per vertex (uploaded when the colours change). A
+//! shape without normals (on a GPU the solver thread leaves them out) gets them from a compute
+//! pass over the uploaded positions ([`crate::gpu::normals`]) before the draw.
 //! Texture shading draws the asset's split layout ([`super::render_layout::RenderLayout`],
 //! [`TexturedVertex`], `textured.wgsl`): base colour × texture, with the handle colours
 //! blended over it; one draw per base-colour texture.
@@ -24,6 +26,7 @@ use glam::Vec3;
 use super::render_layout::RenderLayout;
 use super::shape::Shape;
 use super::textures::AssetTextures;
+use crate::gpu::normals::{BYTES_PER_VERTEX, GpuNormals, NormalsBinding};
 
 /// A shader's source: `shaders/uniforms.wgsl` (the shared uniform block), then the files named.
 macro_rules! with_uniforms {
@@ -102,8 +105,8 @@ pub struct VertexData<V = Vertex> {
 }
 
 /// The mesh in clay shading: the shape's positions and normals, uploaded as they are when
-/// `shape_version` changes, and linear RGBA colours per vertex (`mesh.wgsl` reads the three
-/// as separate vertex buffers).
+/// `shape_version` changes (normals computed on the GPU when the shape has none), and linear
+/// RGBA colours per vertex (`mesh.wgsl` reads the three as separate vertex buffers).
 #[derive(Clone)]
 pub struct ClayDraw {
     pub shape_version: u64,
@@ -170,6 +173,8 @@ struct GrowBuffer {
     label: &'static str,
     usage: wgpu::BufferUsages,
     buffer: wgpu::Buffer,
+    /// Bumped when `buffer` is replaced (bind groups over it must be made again).
+    generation: u64,
 }
 
 impl GrowBuffer {
@@ -181,22 +186,28 @@ impl GrowBuffer {
             usage,
             mapped_at_creation: false,
         });
-        GrowBuffer { label, usage, buffer }
+        GrowBuffer { label, usage, buffer, generation: 0 }
     }
 
-    fn write(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, bytes: &[u8]) {
-        if bytes.is_empty() {
-            return;
-        }
-        if bytes.len() as u64 > self.buffer.size() {
-            let size = (bytes.len() as u64).next_power_of_two().max(256);
+    /// Room for at least `bytes` (the contents are lost when it grows).
+    fn reserve(&mut self, device: &wgpu::Device, bytes: u64) {
+        if bytes > self.buffer.size() {
+            let size = bytes.next_power_of_two().max(256);
             self.buffer = device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(self.label),
                 size,
                 usage: self.usage,
                 mapped_at_creation: false,
             });
+            self.generation += 1;
         }
+    }
+
+    fn write(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, bytes: &[u8]) {
+        if bytes.is_empty() {
+            return;
+        }
+        self.reserve(device, bytes.len() as u64);
         queue.write_buffer(&self.buffer, 0, bytes);
     }
 }
@@ -232,6 +243,51 @@ struct ViewportGpu {
     n_edge_indices: u32,
     n_grid: u32,
     target: Option<Target>,
+    /// The normals pass for clay shapes that come without normals, for the topology version
+    /// it was built for, and its binding to `vertices`, `triangles` and `normals` (their
+    /// generations); `Err` once it could not be built for that topology.
+    gpu_normals: Option<(u64, Result<GpuNormals, String>)>,
+    normals_binding: Option<([u64; 3], NormalsBinding)>,
+}
+
+impl ViewportGpu {
+    /// The normals pass bound to this viewport's buffers for `topology`'s mesh of
+    /// `n_vertices`, built and bound when the topology or a buffer changed. Errors (kept for
+    /// the topology, reported once) when the mesh does not fit the device.
+    fn normals_pass(
+        &mut self,
+        device: &wgpu::Device,
+        topology: &Topology,
+        n_vertices: usize,
+    ) -> Result<&NormalsBinding, String> {
+        let triangles: &[[u32; 3]] = bytemuck::cast_slice(&topology.triangles);
+        if self.gpu_normals.as_ref().is_none_or(|(v, p)| {
+            *v != topology.version
+                || p.as_ref().is_ok_and(|p| p.size() != (n_vertices, triangles.len()))
+        }) {
+            let pass = GpuNormals::new(device, n_vertices, triangles).map_err(|e| {
+                eprintln!("bsarap: vertex normals on the GPU: {e}");
+                e.to_string()
+            });
+            self.gpu_normals = Some((topology.version, pass));
+            self.normals_binding = None;
+        }
+        let Some((_, pass)) = &self.gpu_normals else { return Err("no pass".into()) };
+        let pass = pass.as_ref().map_err(Clone::clone)?;
+        self.normals.reserve(device, BYTES_PER_VERTEX * n_vertices as u64);
+        let generations =
+            [self.vertices.generation, self.triangles.generation, self.normals.generation];
+        if self.normals_binding.as_ref().is_none_or(|(g, _)| *g != generations) {
+            let binding = pass.bind(
+                device,
+                &self.vertices.buffer,
+                &self.triangles.buffer,
+                &self.normals.buffer,
+            );
+            self.normals_binding = Some((generations, binding));
+        }
+        self.normals_binding.as_ref().map(|(_, b)| b).ok_or_else(|| "no binding".into())
+    }
 }
 
 /// Pipelines and per-viewport buffers, stored in egui_wgpu's `callback_resources`.
@@ -534,13 +590,15 @@ impl RendererResources {
             });
             let vertex = wgpu::BufferUsages::VERTEX;
             let index = wgpu::BufferUsages::INDEX;
+            // The normals pass reads the positions and triangles and writes the normals.
+            let storage = wgpu::BufferUsages::STORAGE;
             self.viewports.push(ViewportGpu {
                 uniform_buffer,
                 uniform_bind_group,
-                vertices: GrowBuffer::new(device, "bsarap mesh vertices", vertex),
-                normals: GrowBuffer::new(device, "bsarap mesh normals", vertex),
+                vertices: GrowBuffer::new(device, "bsarap mesh vertices", vertex | storage),
+                normals: GrowBuffer::new(device, "bsarap mesh normals", vertex | storage),
                 colors: GrowBuffer::new(device, "bsarap mesh colours", vertex),
-                triangles: GrowBuffer::new(device, "bsarap triangle indices", index),
+                triangles: GrowBuffer::new(device, "bsarap triangle indices", index | storage),
                 edges: GrowBuffer::new(device, "bsarap edge indices", index),
                 grid: GrowBuffer::new(device, "bsarap grid vertices", vertex),
                 vertex_version: None,
@@ -553,6 +611,8 @@ impl RendererResources {
                 n_edge_indices: 0,
                 n_grid: 0,
                 target: None,
+                gpu_normals: None,
+                normals_binding: None,
             });
         }
         &mut self.viewports[slot]
@@ -653,8 +713,28 @@ impl CallbackTrait for ViewportCallback {
                 if vp.vertex_version != Some(c.shape_version) {
                     let positions = &c.shape.positions;
                     vp.vertices.write(device, queue, bytemuck::cast_slice(positions));
-                    vp.normals.write(device, queue, bytemuck::cast_slice(&c.shape.normals));
-                    let n = positions.len().min(c.shape.normals.len());
+                    let n = if c.shape.normals.is_empty() && !positions.is_empty() {
+                        match self
+                            .topology
+                            .as_deref()
+                            .map(|t| vp.normals_pass(device, t, positions.len()))
+                        {
+                            Some(Ok(binding)) => {
+                                let mut pass =
+                                    egui_encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                                        label: Some("bsarap vertex normals"),
+                                        timestamp_writes: None,
+                                    });
+                                binding.record(&mut pass);
+                                positions.len()
+                            }
+                            // Nothing drawn rather than a mesh lit by stale normals.
+                            _ => 0,
+                        }
+                    } else {
+                        vp.normals.write(device, queue, bytemuck::cast_slice(&c.shape.normals));
+                        positions.len().min(c.shape.normals.len())
+                    };
                     vp.n_vertices = n as u32;
                     vp.vertex_version = Some(c.shape_version);
                 }

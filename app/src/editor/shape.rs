@@ -31,6 +31,15 @@ impl Shape {
     }
 }
 
+impl Shape {
+    /// These positions with their vertex normals computed here (for a shape made without them,
+    /// [`ShapePool::shape`] with no faces).
+    pub fn with_vertex_normals(&self, triangles: &[[u32; 3]]) -> Shape {
+        let x: Vec<[f64; 3]> = self.positions.iter().map(|p| p.map(f64::from)).collect();
+        Shape::new(&x, triangles)
+    }
+}
+
 /// How many handed-out shapes a [`ShapePool`] watches, and so keeps alive beyond their other
 /// holders: the one in the mailbox and the one the UI draws are held at once, a third is
 /// usually free.
@@ -50,10 +59,27 @@ pub struct ShapePool {
 }
 
 impl ShapePool {
-    /// [`Shape::with_faces`], into the buffers of a shape nobody else holds when there is one.
-    pub fn shape(&mut self, x: &[[f64; 3]], triangles: &[[u32; 3]], faces: &VertexFaces) -> Shape {
+    /// [`Shape::with_faces`] (`faces` given) or the f32 positions alone with no normals (the
+    /// viewport computes them on the GPU, `crate::gpu::normals`), into the buffers of a shape
+    /// nobody else holds when there is one.
+    pub fn shape(
+        &mut self,
+        x: &[[f64; 3]],
+        triangles: &[[u32; 3]],
+        faces: Option<&VertexFaces>,
+    ) -> Shape {
         let (mut positions, mut normals) = self.take_free().unwrap_or_default();
-        faces.shape_f32(x, triangles, &mut positions, &mut normals);
+        match faces {
+            Some(faces) => faces.shape_f32(x, triangles, &mut positions, &mut normals),
+            None => {
+                use rayon::prelude::*;
+                positions.resize(x.len(), [0.0; 3]);
+                positions.par_iter_mut().zip(x.par_iter()).for_each(|(o, p)| {
+                    *o = p.map(|c| c as f32);
+                });
+                normals.clear();
+            }
+        }
         let shape = Shape { positions: Arc::new(positions), normals: Arc::new(normals) };
         if self.handed_out.len() == POOL_WATCH {
             self.handed_out.remove(0);
@@ -87,16 +113,32 @@ mod tests {
         let faces = VertexFaces::new(3, &t);
         let x = |s: f64| [[0.0; 3], [s, 0.0, 0.0], [0.0, s, 0.0]];
         let mut pool = ShapePool::default();
-        let held = pool.shape(&x(1.0), &t, &faces);
-        let dropped = pool.shape(&x(2.0), &t, &faces);
+        let held = pool.shape(&x(1.0), &t, Some(&faces));
+        let dropped = pool.shape(&x(2.0), &t, Some(&faces));
         let freed = dropped.positions.as_ptr();
         drop(dropped);
-        let next = pool.shape(&x(3.0), &t, &faces);
+        let next = pool.shape(&x(3.0), &t, Some(&faces));
         assert_eq!(next.positions.as_ptr(), freed, "the dropped shape's buffer was not reused");
         assert_eq!(held.positions[1], [1.0, 0.0, 0.0], "a held shape was overwritten");
         let fresh = Shape::with_faces(&x(3.0), &t, &faces);
         assert_eq!(*next.positions, *fresh.positions);
         assert_eq!(*next.normals, *fresh.normals);
+    }
+
+    /// Without the mesh's faces a pool makes the positions alone, and its next shape with
+    /// faces has its normals again in the same buffers.
+    #[test]
+    fn pool_makes_positions_alone_without_faces() {
+        let t = [[0, 1, 2]];
+        let faces = VertexFaces::new(3, &t);
+        let x = [[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+        let mut pool = ShapePool::default();
+        let bare = pool.shape(&x, &t, None);
+        assert_eq!(bare.positions[1], [1.0, 0.0, 0.0]);
+        assert!(bare.normals.is_empty());
+        drop(bare);
+        let full = pool.shape(&x, &t, Some(&faces));
+        assert_eq!(*full.normals, vec![[0.0, 0.0, 1.0]; 3]);
     }
 
     #[test]

@@ -70,11 +70,8 @@ impl GpuNormals {
         }
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let rows = solver::geometry::normals::VertexFaces::new(n_vertices, triangles);
-        let params = Params {
-            n_vertices: n_vertices as u32,
-            n_faces: triangles.len() as u32,
-            _pad: [0; 2],
-        };
+        let params =
+            Params { n_vertices: n_vertices as u32, n_faces: triangles.len() as u32, _pad: [0; 2] };
         let params = wgpu::util::DeviceExt::create_buffer_init(
             device,
             &wgpu::util::BufferInitDescriptor {
@@ -140,12 +137,7 @@ impl GpuNormals {
             stages: [
                 stage(
                     &self.face_pipeline,
-                    &[
-                        (0, &self.params),
-                        (1, positions),
-                        (2, triangles),
-                        (3, &self.face_normals),
-                    ],
+                    &[(0, &self.params), (1, positions), (2, triangles), (3, &self.face_normals)],
                     self.n_faces,
                 ),
                 stage(

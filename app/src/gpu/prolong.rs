@@ -36,7 +36,6 @@ struct Embed {
     weights: [f32; 4],
 }
 
-
 /// Positions and normals copied back from the GPU.
 pub type ReadBack = (Vec<[f32; 3]>, Vec<[f32; 3]>);
 
@@ -60,7 +59,6 @@ pub struct GpuProlongation {
     normals_pass: (GpuNormals, NormalsBinding),
     staging: Vec<[f32; 4]>,
 }
-
 
 fn vec4s(v: &[[f64; 3]], w: f32) -> Vec<[f32; 4]> {
     v.iter().map(|p| [p[0] as f32, p[1] as f32, p[2] as f32, w]).collect()

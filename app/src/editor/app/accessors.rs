@@ -2,6 +2,7 @@
 //! editor shows and holds, and a few setters that act as the UI would.
 
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use eframe::egui::Pos2;
 use glam::Vec3;
@@ -106,6 +107,18 @@ impl EditorApp {
         self.solvers.main.as_ref().and_then(|s| s.try_status()).map(|s| s.state)
     }
 
+    /// Computes the clay viewport's vertex normals on the GPU (`on`, for meshes within wgpu's
+    /// default limits) or takes them from the solver threads, whatever the adapter (the editor
+    /// chooses the GPU on hardware adapters; tests and benchmarks compare the two).
+    pub fn set_gpu_normals(&mut self, on: bool) {
+        self.display.gpu_normals = on.then(eframe::wgpu::Limits::default);
+    }
+
+    /// Whether the clay viewport computes vertex normals on the GPU.
+    pub fn gpu_normals(&self) -> bool {
+        self.display.gpu_normals.is_some()
+    }
+
     /// The software adapter the window renders on (lavapipe, llvmpipe), if it does.
     pub fn software_rendering(&self) -> Option<&str> {
         self.display.software_rendering.as_deref()
@@ -114,6 +127,11 @@ impl EditorApp {
     /// The vertices under the paint brush (its footprint), if the pointer is over the mesh.
     pub fn hover_footprint(&self) -> Option<&[u32]> {
         self.interaction.hover.as_ref().map(|h| &h.footprint[..])
+    }
+
+    /// The positions viewport `slot` draws (as last displayed).
+    pub fn drawn_positions(&self, slot: usize) -> Option<&Arc<Vec<[f32; 3]>>> {
+        self.display.viewports.get(slot)?.positions()
     }
 
     /// Where vertex `v` is drawn in viewport 0 (as last displayed), in points.

@@ -180,6 +180,11 @@ impl EditorApp {
             let info = rs.adapter.get_info();
             (info.device_type == eframe::wgpu::DeviceType::Cpu).then_some(info.name)
         });
+        let gpu_normals = cc
+            .wgpu_render_state
+            .as_ref()
+            .filter(|_| software_rendering.is_none())
+            .map(|rs| rs.device.limits());
         let ctx = cc.egui_ctx.clone();
         let mut app = EditorApp {
             options: options.clone(),
@@ -188,7 +193,7 @@ impl EditorApp {
             store: Store::new(options.config_dir.clone()),
             solvers: Solvers::with_cache_dir(options.config_dir.as_ref().map(|d| d.join("cache"))),
             interaction: Interaction::default(),
-            display: Display { software_rendering, ..Display::new(&options) },
+            display: Display { software_rendering, gpu_normals, ..Display::new(&options) },
             jobs: Jobs::default(),
             rigging: rigging::Rigging::default(),
             selecting: Default::default(),

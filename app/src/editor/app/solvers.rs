@@ -8,11 +8,12 @@ use std::time::Instant;
 use eframe::egui;
 use solver::Handles;
 
-use super::{EditorApp, View};
+use super::{EditorApp, Shading, View};
 use crate::editor::pose::GroupPose;
 use crate::editor::pose_solvers;
 use crate::editor::solver_thread::{Slot, SolvedFrame, SolverCommand, SolverHandle};
 use crate::editor::{jobs, loader};
+use crate::gpu::normals::GpuNormals;
 
 /// Quality of the left and right side-by-side results against converged ARAP.
 pub(super) type SideBySideQuality = [solver::deform::quality::Quality; 2];
@@ -255,6 +256,16 @@ impl EditorApp {
     pub(super) fn poll_solvers(&mut self) {
         if let Some(h) = &self.solvers.main {
             h.show_base(self.display.view == View::Base);
+        }
+        // Clay frames leave their normals to the viewport's GPU pass where it fits the mesh.
+        let normals_on_gpu = self.display.shading == Shading::Clay
+            && self.session.scene.as_ref().is_some_and(|s| {
+                self.display.gpu_normals.as_ref().is_some_and(|limits| {
+                    GpuNormals::fits(limits, s.mesh.n_vertices(), s.mesh.n_faces())
+                })
+            });
+        for h in [self.solvers.main.as_ref(), self.solvers.compare.as_ref()].into_iter().flatten() {
+            h.normals_on_gpu(normals_on_gpu);
         }
         let generation = self.solvers.scene_generation;
         for (i, handle) in

@@ -49,6 +49,10 @@ pub(super) struct Display {
     /// The software adapter the window renders on (lavapipe, llvmpipe), if it does: on the CPU
     /// cores the solver and the precomputation need.
     pub(super) software_rendering: Option<String>,
+    /// The viewport's device limits, when it computes vertex normals on the GPU (a hardware
+    /// adapter; tests can ask for it on any): the solver threads then leave the normals out
+    /// of the frames drawn in clay shading, for meshes whose buffers fit.
+    pub(super) gpu_normals: Option<eframe::wgpu::Limits>,
     /// The process's memory for the status bar and when it was read (once a second).
     pub(super) memory: Option<(Instant, Option<crate::memory::Memory>)>,
     pub(super) last_frame: Option<Instant>,
@@ -83,6 +87,7 @@ impl Display {
             render_fps: 0.0,
             ui_ms: 0.0,
             software_rendering: None,
+            gpu_normals: None,
             memory: None,
             last_frame: None,
         }
@@ -212,9 +217,18 @@ impl EditorApp {
         let scene = self.session.scene.as_ref().ok_or("no mesh")?;
         let rest = || Ok((0, scene.rest.clone()));
         let frame = |i: usize| self.solvers.views[i].frame.as_ref();
-        let tag = |f: &SolvedFrame| f.pose_generation * 1_000_003 + f.scene_generation;
-        let shape =
-            |f: &SolvedFrame| Shape { positions: f.positions.clone(), normals: f.normals.clone() };
+        let tag = |f: &SolvedFrame| f.sequence;
+        let shape = |f: &SolvedFrame| {
+            let shape = Shape { positions: f.positions.clone(), normals: f.normals.clone() };
+            // A frame made while the viewport drew clay on a GPU has no normals; the texture
+            // layout gathers them on the CPU (until the thread republishes with normals).
+            match self.display.shading {
+                Shading::Texture if shape.normals.is_empty() => {
+                    shape.with_vertex_normals(scene.mesh.triangles())
+                }
+                _ => shape,
+            }
+        };
         if let Some(rec) = self.jobs.recorded.as_ref().filter(|_| self.display.show_recording)
             && matches!(self.display.view, View::Result | View::Details)
         {

@@ -40,6 +40,7 @@ pub struct SolverHandle {
     mailbox: Arc<Mailbox>,
     status: Arc<Mutex<SolverStatus>>,
     show_base: Arc<AtomicBool>,
+    normals_on_gpu: Arc<AtomicBool>,
     min_settle_ms: Arc<AtomicU64>,
     thread: Option<JoinHandle<()>>,
 }
@@ -55,11 +56,13 @@ impl SolverHandle {
         let mailbox = Arc::new(Mailbox::default());
         let status = Arc::new(Mutex::new(SolverStatus { state: SolverState::Idle, panics: 0 }));
         let show_base = Arc::new(AtomicBool::new(false));
+        let normals_on_gpu = Arc::new(AtomicBool::new(false));
         let min_settle_ms = Arc::new(AtomicU64::new(worker::SETTLE_DELAY.as_millis() as u64));
         let shared = Shared {
             mailbox: mailbox.clone(),
             status: status.clone(),
             show_base: show_base.clone(),
+            normals_on_gpu: normals_on_gpu.clone(),
             min_settle_ms: min_settle_ms.clone(),
             repaint,
         };
@@ -72,6 +75,7 @@ impl SolverHandle {
             mailbox,
             status,
             show_base,
+            normals_on_gpu,
             min_settle_ms,
             thread: Some(thread),
         })
@@ -90,6 +94,16 @@ impl SolverHandle {
     /// Turning it on republishes the current pose with its base.
     pub fn show_base(&self, on: bool) {
         if !self.show_base.swap(on, Ordering::Relaxed) && on {
+            self.send(SolverCommand::Republish);
+        }
+    }
+
+    /// Whether the viewport computes the frames' vertex normals on the GPU (`gpu::normals`), so
+    /// that the frames carry positions only: the normals are half of the per-vertex work a
+    /// frame costs this thread on a dense mesh. A change republishes the current pose (with
+    /// its normals when turned off).
+    pub fn normals_on_gpu(&self, on: bool) {
+        if self.normals_on_gpu.swap(on, Ordering::Relaxed) != on {
             self.send(SolverCommand::Republish);
         }
     }

@@ -198,8 +198,13 @@ pub enum SolverCommand {
 pub struct SolvedFrame {
     pub scene_generation: u64,
     pub pose_generation: u64,
+    /// This frame's number, unique among every solver thread's frames: settling publishes new
+    /// positions for the same generations, and a republished pose can differ in what it
+    /// carries (normals), so the viewport keys its drawn shape on this.
+    pub sequence: u64,
     pub positions: Arc<Vec<[f32; 3]>>,
-    /// Vertex normals of `positions` (computed here, not on the UI thread).
+    /// Vertex normals of `positions` (computed here, not on the UI thread), or none when the
+    /// viewport computes them on the GPU ([`super::SolverHandle::normals_on_gpu`]).
     pub normals: Arc<Vec<[f32; 3]>>,
     /// The deformed base surface, while [`SolverHandle::show_base`] is on (BS-ARAP only).
     pub deformed_base: Option<Shape>,

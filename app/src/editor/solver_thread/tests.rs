@@ -368,6 +368,7 @@ fn mailbox_keeps_only_the_newest() {
     let m = Mailbox::default();
     for g in 0..3 {
         m.put(SolvedFrame {
+            sequence: g,
             scene_generation: g,
             pose_generation: 0,
             positions: Arc::new(vec![]),

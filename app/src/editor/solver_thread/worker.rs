@@ -21,17 +21,30 @@ use super::protocol::{
 use crate::editor::pose::GroupPose;
 use crate::editor::shape::{Shape, ShapePool};
 
+/// The next [`SolvedFrame::sequence`], shared by every solver thread.
+static NEXT_FRAME: AtomicU64 = AtomicU64::new(1);
+
 /// What the worker shares with its [`super::SolverHandle`].
 pub(super) struct Shared {
     pub(super) mailbox: Arc<Mailbox>,
     pub(super) status: Arc<Mutex<SolverStatus>>,
     pub(super) show_base: Arc<AtomicBool>,
+    /// Frames carry no vertex normals ([`super::SolverHandle::normals_on_gpu`]).
+    pub(super) normals_on_gpu: Arc<AtomicBool>,
     /// The shortest rest before settling, in milliseconds ([`super::SolverHandle::set_min_settle_delay`]).
     pub(super) min_settle_ms: Arc<AtomicU64>,
     pub(super) repaint: Arc<dyn Fn() + Send + Sync>,
 }
 
 impl Shared {
+    fn show_base(&self) -> bool {
+        self.show_base.load(Ordering::Relaxed)
+    }
+
+    fn normals_on_gpu(&self) -> bool {
+        self.normals_on_gpu.load(Ordering::Relaxed)
+    }
+
     fn min_settle_delay(&self) -> Duration {
         Duration::from_millis(self.min_settle_ms.load(Ordering::Relaxed))
     }
@@ -123,12 +136,15 @@ struct Active {
 }
 
 impl Active {
-    /// The frame of the current pose, with the deformed base when `with_base`.
-    fn frame(&mut self, stats: FrameStats, with_base: bool) -> SolvedFrame {
+    /// The frame of the current pose, with the deformed base when `with_base` and the vertex
+    /// normals unless `normals_on_gpu`.
+    fn frame(&mut self, stats: FrameStats, with_base: bool, normals_on_gpu: bool) -> SolvedFrame {
         let triangles = self.mesh.triangles();
-        let shape = self.shapes.shape(&self.x, triangles, &self.vertex_faces);
+        let faces = (!normals_on_gpu).then_some(&*self.vertex_faces);
+        let shape = self.shapes.shape(&self.x, triangles, faces);
         let base = with_base.then(|| self.pose_solver.deformed_base()).flatten();
         SolvedFrame {
+            sequence: NEXT_FRAME.fetch_add(1, Ordering::Relaxed),
             scene_generation: self.scene_generation,
             pose_generation: self.pose_generation,
             positions: shape.positions,
@@ -399,7 +415,7 @@ fn step(a: &mut Active, solving: bool) -> Result<FrameStats, String> {
 /// Puts the frame of the current pose in the mailbox, updates the status and asks for a
 /// repaint.
 fn publish(a: &mut Active, stats: FrameStats, shared: &Shared) {
-    shared.mailbox.put(a.frame(stats, shared.show_base.load(Ordering::Relaxed)));
+    shared.mailbox.put(a.frame(stats, shared.show_base(), shared.normals_on_gpu()));
     a.last_frame_published = true;
     set_status(&shared.status, a.state());
     (shared.repaint)();
@@ -447,7 +463,11 @@ fn worker_loop(
         a.settle_waiting = rested && !settle_due;
         if !a.dirty && !settle_due {
             if inbox.republish && a.last_frame_published {
-                shared.mailbox.put(a.frame(a.last_stats, shared.show_base.load(Ordering::Relaxed)));
+                shared.mailbox.put(a.frame(
+                    a.last_stats,
+                    shared.show_base(),
+                    shared.normals_on_gpu(),
+                ));
                 (shared.repaint)();
             }
             continue;
