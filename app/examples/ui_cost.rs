@@ -181,6 +181,10 @@ fn main() {
     let posable = opened.elapsed().as_secs_f64();
     let n = h.state().n_vertices();
     println!("{n} vertices: first solved frame {posable:.1} s after opening");
+    if render {
+        let on = if h.state().gpu_normals() { "on the GPU" } else { "from the solver thread" };
+        println!("{n} vertices: vertex normals {on}");
+    }
     let groups = h.state().edit_state().groups.len();
     assert!(groups > 0, "the mesh has no handle groups (a .dmat or .handles.json beside it)");
     let scale = h.state().diagonal();
