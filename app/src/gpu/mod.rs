@@ -33,6 +33,22 @@ fn storage(
     })
 }
 
+/// The compute pipeline of `entry` in `module`, its bind group layout derived from the shader.
+fn compute_pipeline(
+    device: &wgpu::Device,
+    module: &wgpu::ShaderModule,
+    entry: &str,
+) -> wgpu::ComputePipeline {
+    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some(entry),
+        layout: None,
+        module,
+        entry_point: Some(entry),
+        compilation_options: Default::default(),
+        cache: None,
+    })
+}
+
 /// One compute entry point and its bind group.
 struct Stage {
     pipeline: wgpu::ComputePipeline,

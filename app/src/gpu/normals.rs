@@ -13,7 +13,7 @@
 
 use eframe::wgpu;
 
-use super::{Stage, WORKGROUP, storage};
+use super::{Stage, WORKGROUP, compute_pipeline, storage};
 
 const SHADER: &str = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/../shaders/normals.wgsl"));
 
@@ -90,16 +90,7 @@ impl GpuNormals {
             label: Some("normals.wgsl"),
             source: wgpu::ShaderSource::Wgsl(SHADER.into()),
         });
-        let pipeline = |entry: &str| {
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(entry),
-                layout: None,
-                module: &module,
-                entry_point: Some(entry),
-                compilation_options: Default::default(),
-                cache: None,
-            })
-        };
+        let pipeline = |entry: &str| compute_pipeline(device, &module, entry);
         let (face_pipeline, vertex_pipeline) = (pipeline("face_normal"), pipeline("vertex_normal"));
         if let Some(e) = pollster::block_on(scope.pop()) {
             anyhow::bail!("the normals' compute pass could not be built: {e}");

@@ -17,7 +17,7 @@ use solver::deform::coarse::Prolongation;
 use wgpu::util::DeviceExt;
 
 use super::normals::{BYTES_PER_VERTEX, GpuNormals, NormalsBinding};
-use super::{Stage, WORKGROUP, storage};
+use super::{Stage, WORKGROUP, compute_pipeline, storage};
 
 const SHADER: &str = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/../shaders/prolong.wgsl"));
 
@@ -147,15 +147,7 @@ impl GpuProlongation {
             source: wgpu::ShaderSource::Wgsl(SHADER.into()),
         });
         let stage = |entry: &str, bindings: &[(u32, &wgpu::Buffer)], count: usize| {
-            let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(entry),
-                layout: None,
-                module: &module,
-                entry_point: Some(entry),
-                compilation_options: Default::default(),
-                cache: None,
-            });
-            Stage::new(device, pipeline, bindings, count)
+            Stage::new(device, compute_pipeline(device, &module, entry), bindings, count)
         };
         let stages = [
             stage(
