@@ -1,6 +1,6 @@
 //! Solver frames per second as the editor's solver thread produces them (BENCHMARKS.md, "Editor rate").
 //!
-//! Usage: `cargo run --release -p app --example editor_rate -- [--no-settle] MESH SELECTION [FRAMES [METHOD...]]`
+//! Usage: `cargo run --release -p app --example editor_rate -- [--no-settle] [--gpu-normals] MESH SELECTION [FRAMES [METHOD...]]`
 //! (methods: `arap`, `bsarap`, `bsarap-faired`, `bsarap-coarse`, each optionally with `+aa` for
 //! the method panel's Anderson acceleration; default `arap bsarap bsarap-coarse`).
 //!
@@ -18,7 +18,9 @@
 //! settle iterations): the group is dragged to the far point of the circle (0.2·diag from rest)
 //! and left there; the thread solves until converged, then settles until converged. Reported:
 //! settle steps and fine iterations, seconds, and the distance to converged ARAP on the mesh
-//! ([`solver::deform::quality::Reference`]) before and after settling. `--no-settle` stops after
+//! ([`solver::deform::quality::Reference`]) before and after settling. `--gpu-normals` makes the
+//! shape as the thread does when the viewport computes the normals on the GPU (positions only).
+//! `--no-settle` stops after
 //! the drag (on dense meshes the converged references take many minutes).
 
 use app::editor::pose::{GroupPose, handle_targets};
@@ -30,7 +32,9 @@ use std::time::Instant;
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let all: Vec<String> = std::env::args().collect();
     let no_settle = all.iter().any(|a| a == "--no-settle");
-    let args: Vec<String> = all.into_iter().filter(|a| a != "--no-settle").collect();
+    let gpu_normals = all.iter().any(|a| a == "--gpu-normals");
+    let args: Vec<String> =
+        all.into_iter().filter(|a| a != "--no-settle" && a != "--gpu-normals").collect();
     if args.len() < 3 {
         return Err("usage: editor_rate MESH SELECTION [FRAMES [METHOD...]]".into());
     }
@@ -106,7 +110,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             // The thread's pool reuses a frame's buffers once the UI has dropped them; the UI
             // holds the shape it draws until the next one comes.
             let ts = Instant::now();
-            let shape = shapes.shape(&x, mesh.triangles(), Some(&vertex_faces));
+            let shape = shapes.shape(&x, mesh.triangles(), (!gpu_normals).then_some(&vertex_faces));
             shape_ms += ts.elapsed().as_secs_f64() * 1e3;
             std::hint::black_box(shown.replace(shape));
             times.push(t.elapsed().as_secs_f64() * 1e3);
