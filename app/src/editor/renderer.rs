@@ -26,7 +26,9 @@ use glam::Vec3;
 use super::render_layout::RenderLayout;
 use super::shape::Shape;
 use super::textures::AssetTextures;
-use crate::gpu::normals::{BYTES_PER_VERTEX, GpuNormals, NormalsBinding};
+
+mod viewport_gpu;
+use viewport_gpu::{ViewportGpu, make_target};
 
 /// A shader's source: `shaders/uniforms.wgsl` (the shared uniform block), then the files named.
 macro_rules! with_uniforms {
@@ -166,128 +168,6 @@ pub struct ViewportCallback {
     pub show_grid: bool,
     /// Linear background color.
     pub background: [f64; 4],
-}
-
-/// A GPU buffer that is rewritten in place and grows when needed.
-struct GrowBuffer {
-    label: &'static str,
-    usage: wgpu::BufferUsages,
-    buffer: wgpu::Buffer,
-    /// Bumped when `buffer` is replaced (bind groups over it must be made again).
-    generation: u64,
-}
-
-impl GrowBuffer {
-    fn new(device: &wgpu::Device, label: &'static str, usage: wgpu::BufferUsages) -> Self {
-        let usage = usage | wgpu::BufferUsages::COPY_DST;
-        let buffer = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some(label),
-            size: 256,
-            usage,
-            mapped_at_creation: false,
-        });
-        GrowBuffer { label, usage, buffer, generation: 0 }
-    }
-
-    /// Room for at least `bytes` (the contents are lost when it grows).
-    fn reserve(&mut self, device: &wgpu::Device, bytes: u64) {
-        if bytes > self.buffer.size() {
-            let size = bytes.next_power_of_two().max(256);
-            self.buffer = device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some(self.label),
-                size,
-                usage: self.usage,
-                mapped_at_creation: false,
-            });
-            self.generation += 1;
-        }
-    }
-
-    fn write(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, bytes: &[u8]) {
-        if bytes.is_empty() {
-            return;
-        }
-        self.reserve(device, bytes.len() as u64);
-        queue.write_buffer(&self.buffer, 0, bytes);
-    }
-}
-
-struct Target {
-    size: [u32; 2],
-    /// Kept for captures (`super::capture`), which copy it to a buffer.
-    color: wgpu::Texture,
-    color_view: wgpu::TextureView,
-    depth_view: wgpu::TextureView,
-    blit_bind_group: wgpu::BindGroup,
-}
-
-struct ViewportGpu {
-    uniform_buffer: wgpu::Buffer,
-    uniform_bind_group: wgpu::BindGroup,
-    /// Positions (clay) or whole [`TexturedVertex`]s.
-    vertices: GrowBuffer,
-    /// Clay only: normals and colours, beside the positions in `vertices`.
-    normals: GrowBuffer,
-    colors: GrowBuffer,
-    triangles: GrowBuffer,
-    edges: GrowBuffer,
-    grid: GrowBuffer,
-    vertex_version: Option<u64>,
-    color_version: Option<u64>,
-    /// The topology in the index buffers, and whether it is the textured layout's.
-    topology_version: Option<(u64, bool)>,
-    grid_version: Option<u64>,
-    n_vertices: u32,
-    n_colors: u32,
-    n_triangle_indices: u32,
-    n_edge_indices: u32,
-    n_grid: u32,
-    target: Option<Target>,
-    /// The normals pass for clay shapes that come without normals, for the topology version
-    /// it was built for, and its binding to `vertices`, `triangles` and `normals` (their
-    /// generations); `Err` once it could not be built for that topology.
-    gpu_normals: Option<(u64, Result<GpuNormals, String>)>,
-    normals_binding: Option<([u64; 3], NormalsBinding)>,
-}
-
-impl ViewportGpu {
-    /// The normals pass bound to this viewport's buffers for `topology`'s mesh of
-    /// `n_vertices`, built and bound when the topology or a buffer changed. Errors (kept for
-    /// the topology, reported once) when the mesh does not fit the device.
-    fn normals_pass(
-        &mut self,
-        device: &wgpu::Device,
-        topology: &Topology,
-        n_vertices: usize,
-    ) -> Result<&NormalsBinding, String> {
-        let triangles: &[[u32; 3]] = bytemuck::cast_slice(&topology.triangles);
-        if self.gpu_normals.as_ref().is_none_or(|(v, p)| {
-            *v != topology.version
-                || p.as_ref().is_ok_and(|p| p.size() != (n_vertices, triangles.len()))
-        }) {
-            let pass = GpuNormals::new(device, n_vertices, triangles).map_err(|e| {
-                eprintln!("bsarap: vertex normals on the GPU: {e}");
-                e.to_string()
-            });
-            self.gpu_normals = Some((topology.version, pass));
-            self.normals_binding = None;
-        }
-        let Some((_, pass)) = &self.gpu_normals else { return Err("no pass".into()) };
-        let pass = pass.as_ref().map_err(Clone::clone)?;
-        self.normals.reserve(device, BYTES_PER_VERTEX * n_vertices as u64);
-        let generations =
-            [self.vertices.generation, self.triangles.generation, self.normals.generation];
-        if self.normals_binding.as_ref().is_none_or(|(g, _)| *g != generations) {
-            let binding = pass.bind(
-                device,
-                &self.vertices.buffer,
-                &self.triangles.buffer,
-                &self.normals.buffer,
-            );
-            self.normals_binding = Some((generations, binding));
-        }
-        self.normals_binding.as_ref().map(|(_, b)| b).ok_or_else(|| "no binding".into())
-    }
 }
 
 /// Pipelines and per-viewport buffers, stored in egui_wgpu's `callback_resources`.
@@ -574,93 +454,10 @@ impl RendererResources {
     }
     fn viewport(&mut self, device: &wgpu::Device, slot: usize) -> &mut ViewportGpu {
         while self.viewports.len() <= slot {
-            let uniform_buffer = device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("bsarap uniforms"),
-                size: std::mem::size_of::<Uniforms>() as u64,
-                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            });
-            let uniform_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("bsarap uniforms bind group"),
-                layout: &self.uniform_layout,
-                entries: &[wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: uniform_buffer.as_entire_binding(),
-                }],
-            });
-            let vertex = wgpu::BufferUsages::VERTEX;
-            let index = wgpu::BufferUsages::INDEX;
-            // The normals pass reads the positions and triangles and writes the normals.
-            let storage = wgpu::BufferUsages::STORAGE;
-            self.viewports.push(ViewportGpu {
-                uniform_buffer,
-                uniform_bind_group,
-                vertices: GrowBuffer::new(device, "bsarap mesh vertices", vertex | storage),
-                normals: GrowBuffer::new(device, "bsarap mesh normals", vertex | storage),
-                colors: GrowBuffer::new(device, "bsarap mesh colours", vertex),
-                triangles: GrowBuffer::new(device, "bsarap triangle indices", index | storage),
-                edges: GrowBuffer::new(device, "bsarap edge indices", index),
-                grid: GrowBuffer::new(device, "bsarap grid vertices", vertex),
-                vertex_version: None,
-                color_version: None,
-                topology_version: None,
-                grid_version: None,
-                n_vertices: 0,
-                n_colors: 0,
-                n_triangle_indices: 0,
-                n_edge_indices: 0,
-                n_grid: 0,
-                target: None,
-                gpu_normals: None,
-                normals_binding: None,
-            });
+            self.viewports.push(ViewportGpu::new(device, &self.uniform_layout));
         }
         &mut self.viewports[slot]
     }
-}
-
-fn make_target(
-    device: &wgpu::Device,
-    layout: &wgpu::BindGroupLayout,
-    sampler: &wgpu::Sampler,
-    size: [u32; 2],
-) -> Target {
-    let extent = wgpu::Extent3d { width: size[0], height: size[1], depth_or_array_layers: 1 };
-    let texture = |label, format, usage| {
-        device.create_texture(&wgpu::TextureDescriptor {
-            label: Some(label),
-            size: extent,
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format,
-            usage,
-            view_formats: &[],
-        })
-    };
-    let color = texture(
-        "bsarap viewport color",
-        COLOR_FORMAT,
-        wgpu::TextureUsages::RENDER_ATTACHMENT
-            | wgpu::TextureUsages::TEXTURE_BINDING
-            | wgpu::TextureUsages::COPY_SRC,
-    );
-    let depth =
-        texture("bsarap viewport depth", DEPTH_FORMAT, wgpu::TextureUsages::RENDER_ATTACHMENT);
-    let color_view = color.create_view(&wgpu::TextureViewDescriptor::default());
-    let depth_view = depth.create_view(&wgpu::TextureViewDescriptor::default());
-    let blit_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("bsarap blit bind group"),
-        layout,
-        entries: &[
-            wgpu::BindGroupEntry {
-                binding: 0,
-                resource: wgpu::BindingResource::TextureView(&color_view),
-            },
-            wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::Sampler(sampler) },
-        ],
-    });
-    Target { size, color, color_view, depth_view, blit_bind_group }
 }
 
 impl CallbackTrait for ViewportCallback {

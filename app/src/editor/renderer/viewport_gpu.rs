@@ -1,0 +1,222 @@
+//! One viewport's GPU resources: its uniform, vertex and index buffers (rewritten in place,
+//! grown when needed), its offscreen colour and depth target, and the vertex-normals pass for
+//! clay shapes that come without normals. [`super::ViewportCallback`] fills and draws them.
+
+use eframe::egui_wgpu::wgpu;
+
+use super::{COLOR_FORMAT, DEPTH_FORMAT, Topology, Uniforms};
+use crate::gpu::normals::{BYTES_PER_VERTEX, GpuNormals, NormalsBinding};
+
+/// A GPU buffer that is rewritten in place and grows when needed.
+pub(super) struct GrowBuffer {
+    label: &'static str,
+    usage: wgpu::BufferUsages,
+    pub(super) buffer: wgpu::Buffer,
+    /// Bumped when `buffer` is replaced (bind groups over it must be made again).
+    generation: u64,
+}
+
+impl GrowBuffer {
+    pub(super) fn new(
+        device: &wgpu::Device,
+        label: &'static str,
+        usage: wgpu::BufferUsages,
+    ) -> Self {
+        let usage = usage | wgpu::BufferUsages::COPY_DST;
+        let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size: 256,
+            usage,
+            mapped_at_creation: false,
+        });
+        GrowBuffer { label, usage, buffer, generation: 0 }
+    }
+
+    /// Room for at least `bytes` (the contents are lost when it grows).
+    pub(super) fn reserve(&mut self, device: &wgpu::Device, bytes: u64) {
+        if bytes > self.buffer.size() {
+            let size = bytes.next_power_of_two().max(256);
+            self.buffer = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(self.label),
+                size,
+                usage: self.usage,
+                mapped_at_creation: false,
+            });
+            self.generation += 1;
+        }
+    }
+
+    pub(super) fn write(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, bytes: &[u8]) {
+        if bytes.is_empty() {
+            return;
+        }
+        self.reserve(device, bytes.len() as u64);
+        queue.write_buffer(&self.buffer, 0, bytes);
+    }
+}
+
+pub(super) struct Target {
+    pub(super) size: [u32; 2],
+    /// Kept for captures (`super::capture`), which copy it to a buffer.
+    pub(super) color: wgpu::Texture,
+    pub(super) color_view: wgpu::TextureView,
+    pub(super) depth_view: wgpu::TextureView,
+    pub(super) blit_bind_group: wgpu::BindGroup,
+}
+
+pub(super) struct ViewportGpu {
+    pub(super) uniform_buffer: wgpu::Buffer,
+    pub(super) uniform_bind_group: wgpu::BindGroup,
+    /// Positions (clay) or whole [`TexturedVertex`]s.
+    pub(super) vertices: GrowBuffer,
+    /// Clay only: normals and colours, beside the positions in `vertices`.
+    pub(super) normals: GrowBuffer,
+    pub(super) colors: GrowBuffer,
+    pub(super) triangles: GrowBuffer,
+    pub(super) edges: GrowBuffer,
+    pub(super) grid: GrowBuffer,
+    pub(super) vertex_version: Option<u64>,
+    pub(super) color_version: Option<u64>,
+    /// The topology in the index buffers, and whether it is the textured layout's.
+    pub(super) topology_version: Option<(u64, bool)>,
+    pub(super) grid_version: Option<u64>,
+    pub(super) n_vertices: u32,
+    pub(super) n_colors: u32,
+    pub(super) n_triangle_indices: u32,
+    pub(super) n_edge_indices: u32,
+    pub(super) n_grid: u32,
+    pub(super) target: Option<Target>,
+    /// The normals pass for clay shapes that come without normals, for the topology version
+    /// it was built for, and its binding to `vertices`, `triangles` and `normals` (their
+    /// generations); `Err` once it could not be built for that topology.
+    gpu_normals: Option<(u64, Result<GpuNormals, String>)>,
+    normals_binding: Option<([u64; 3], NormalsBinding)>,
+}
+
+impl ViewportGpu {
+    /// Empty buffers for one viewport, its uniforms bound with `uniform_layout`.
+    pub(super) fn new(device: &wgpu::Device, uniform_layout: &wgpu::BindGroupLayout) -> Self {
+        let uniform_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("bsarap uniforms"),
+            size: std::mem::size_of::<Uniforms>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let uniform_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("bsarap uniforms bind group"),
+            layout: uniform_layout,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: uniform_buffer.as_entire_binding(),
+            }],
+        });
+        let vertex = wgpu::BufferUsages::VERTEX;
+        let index = wgpu::BufferUsages::INDEX;
+        // The normals pass reads the positions and triangles and writes the normals.
+        let storage = wgpu::BufferUsages::STORAGE;
+        ViewportGpu {
+            uniform_buffer,
+            uniform_bind_group,
+            vertices: GrowBuffer::new(device, "bsarap mesh vertices", vertex | storage),
+            normals: GrowBuffer::new(device, "bsarap mesh normals", vertex | storage),
+            colors: GrowBuffer::new(device, "bsarap mesh colours", vertex),
+            triangles: GrowBuffer::new(device, "bsarap triangle indices", index | storage),
+            edges: GrowBuffer::new(device, "bsarap edge indices", index),
+            grid: GrowBuffer::new(device, "bsarap grid vertices", vertex),
+            vertex_version: None,
+            color_version: None,
+            topology_version: None,
+            grid_version: None,
+            n_vertices: 0,
+            n_colors: 0,
+            n_triangle_indices: 0,
+            n_edge_indices: 0,
+            n_grid: 0,
+            target: None,
+            gpu_normals: None,
+            normals_binding: None,
+        }
+    }
+
+    /// The normals pass bound to this viewport's buffers for `topology`'s mesh of
+    /// `n_vertices`, built and bound when the topology or a buffer changed. Errors (kept for
+    /// the topology, reported once) when the mesh does not fit the device.
+    pub(super) fn normals_pass(
+        &mut self,
+        device: &wgpu::Device,
+        topology: &Topology,
+        n_vertices: usize,
+    ) -> Result<&NormalsBinding, String> {
+        let triangles: &[[u32; 3]] = bytemuck::cast_slice(&topology.triangles);
+        if self.gpu_normals.as_ref().is_none_or(|(v, p)| {
+            *v != topology.version
+                || p.as_ref().is_ok_and(|p| p.size() != (n_vertices, triangles.len()))
+        }) {
+            let pass = GpuNormals::new(device, n_vertices, triangles).map_err(|e| {
+                eprintln!("bsarap: vertex normals on the GPU: {e}");
+                e.to_string()
+            });
+            self.gpu_normals = Some((topology.version, pass));
+            self.normals_binding = None;
+        }
+        let Some((_, pass)) = &self.gpu_normals else { return Err("no pass".into()) };
+        let pass = pass.as_ref().map_err(Clone::clone)?;
+        self.normals.reserve(device, BYTES_PER_VERTEX * n_vertices as u64);
+        let generations =
+            [self.vertices.generation, self.triangles.generation, self.normals.generation];
+        if self.normals_binding.as_ref().is_none_or(|(g, _)| *g != generations) {
+            let binding = pass.bind(
+                device,
+                &self.vertices.buffer,
+                &self.triangles.buffer,
+                &self.normals.buffer,
+            );
+            self.normals_binding = Some((generations, binding));
+        }
+        self.normals_binding.as_ref().map(|(_, b)| b).ok_or_else(|| "no binding".into())
+    }
+}
+
+pub(super) fn make_target(
+    device: &wgpu::Device,
+    layout: &wgpu::BindGroupLayout,
+    sampler: &wgpu::Sampler,
+    size: [u32; 2],
+) -> Target {
+    let extent = wgpu::Extent3d { width: size[0], height: size[1], depth_or_array_layers: 1 };
+    let texture = |label, format, usage| {
+        device.create_texture(&wgpu::TextureDescriptor {
+            label: Some(label),
+            size: extent,
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format,
+            usage,
+            view_formats: &[],
+        })
+    };
+    let color = texture(
+        "bsarap viewport color",
+        COLOR_FORMAT,
+        wgpu::TextureUsages::RENDER_ATTACHMENT
+            | wgpu::TextureUsages::TEXTURE_BINDING
+            | wgpu::TextureUsages::COPY_SRC,
+    );
+    let depth =
+        texture("bsarap viewport depth", DEPTH_FORMAT, wgpu::TextureUsages::RENDER_ATTACHMENT);
+    let color_view = color.create_view(&wgpu::TextureViewDescriptor::default());
+    let depth_view = depth.create_view(&wgpu::TextureViewDescriptor::default());
+    let blit_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("bsarap blit bind group"),
+        layout,
+        entries: &[
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: wgpu::BindingResource::TextureView(&color_view),
+            },
+            wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::Sampler(sampler) },
+        ],
+    });
+    Target { size, color, color_view, depth_view, blit_bind_group }
+}
