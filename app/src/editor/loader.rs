@@ -16,6 +16,7 @@ use std::time::Instant;
 
 use anyhow::{Context, anyhow};
 use glam::Vec3;
+use solver::geometry::normals::VertexFaces;
 use solver::{Handles, Mesh};
 
 use super::render_layout::RenderLayout;
@@ -54,6 +55,9 @@ pub struct LoadedFile {
     /// read, and exports onto the file's vertices, go through it).
     pub layout: Arc<FileLayout>,
     pub rest: Shape,
+    /// Each vertex's triangles: the solver threads' per-frame normals and the viewport's GPU
+    /// normals read them (built once here, off the UI thread).
+    pub vertex_faces: Arc<VertexFaces>,
     pub topology: Arc<Topology>,
     pub adjacency: Adjacency,
     pub bvh: Bvh,
@@ -167,7 +171,8 @@ fn prepare(
     if let Some(start) = start_prepare {
         start(mesh.clone());
     }
-    let rest = Shape::new(mesh.positions(), mesh.triangles());
+    let vertex_faces = Arc::new(VertexFaces::new(mesh.n_vertices(), mesh.triangles()));
+    let rest = Shape::with_faces(mesh.positions(), mesh.triangles(), &vertex_faces);
     let rest_f32: &[[f32; 3]] = &rest.positions;
     // Independent, and each a second or so on a dense mesh: side by side.
     let (adjacency, bvh) = rayon::join(
@@ -186,6 +191,7 @@ fn prepare(
         version,
         triangles: mesh.triangles().iter().flatten().copied().collect(),
         edges: adjacency.edges().flat_map(|(a, b)| [a, b]).collect(),
+        vertex_faces: Some(vertex_faces.clone()),
     });
     let render = RenderLayout::build(
         &loaded.asset,
@@ -218,6 +224,7 @@ fn prepare(
         notices,
         layout: Arc::new(FileLayout { asset: loaded.asset, vertex_map: loaded.report.vertex_map }),
         rest,
+        vertex_faces,
         topology,
         adjacency,
         bvh,

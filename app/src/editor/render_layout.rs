@@ -108,7 +108,12 @@ impl RenderLayout {
             mesh_vertex: Vec::new(),
             uv: Vec::new(),
             base_color: Vec::new(),
-            topology: Arc::new(Topology { version, triangles: Vec::new(), edges: Vec::new() }),
+            topology: Arc::new(Topology {
+                version,
+                triangles: Vec::new(),
+                edges: Vec::new(),
+                vertex_faces: None,
+            }),
             draws: Vec::new(),
             images: vec![None; asset.images.len()],
             has_vertex_colors,
@@ -159,7 +164,7 @@ impl RenderLayout {
                 edges.extend([a, b]);
             }
         }
-        layout.topology = Arc::new(Topology { version, triangles, edges });
+        layout.topology = Arc::new(Topology { version, triangles, edges, vertex_faces: None });
         Some(layout)
     }
 

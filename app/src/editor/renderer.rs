@@ -23,6 +23,8 @@ use bytemuck::{Pod, Zeroable};
 use eframe::egui_wgpu::{self, CallbackResources, CallbackTrait, ScreenDescriptor, wgpu};
 use glam::Vec3;
 
+use solver::geometry::normals::VertexFaces;
+
 use super::render_layout::RenderLayout;
 use super::shape::Shape;
 use super::textures::AssetTextures;
@@ -98,6 +100,9 @@ pub struct Topology {
     pub version: u64,
     pub triangles: Vec<u32>,
     pub edges: Vec<u32>,
+    /// Each vertex's triangles, for the vertex normals on the GPU (the welded mesh's; none for
+    /// a texture layout, whose normals come gathered).
+    pub vertex_faces: Option<Arc<VertexFaces>>,
 }
 
 /// Vertex data; `version` changes whenever the contents do.

@@ -13,6 +13,8 @@
 
 use eframe::wgpu;
 
+use solver::geometry::normals::VertexFaces;
+
 use super::{Stage, WORKGROUP, compute_pipeline, storage};
 
 const SHADER: &str = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/../shaders/normals.wgsl"));
@@ -55,23 +57,24 @@ impl GpuNormals {
             && groups <= limits.max_compute_workgroups_per_dimension as usize
     }
 
-    /// Uploads what depends on the mesh: each vertex's triangles and room for the triangles'
-    /// normals. Errors when the mesh does not fit the device ([`GpuNormals::fits`]).
+    /// Uploads what depends on the mesh of `n_faces` triangles: each vertex's triangles
+    /// (`rows`, built by the caller once per mesh) and room for the triangles' normals. Errors
+    /// when the mesh does not fit the device ([`GpuNormals::fits`]).
     pub fn new(
         device: &wgpu::Device,
-        n_vertices: usize,
-        triangles: &[[u32; 3]],
+        rows: &VertexFaces,
+        n_faces: usize,
     ) -> anyhow::Result<GpuNormals> {
-        if !Self::fits(&device.limits(), n_vertices, triangles.len()) {
+        let n_vertices = rows.offsets().len().saturating_sub(1);
+        if !Self::fits(&device.limits(), n_vertices, n_faces) {
             anyhow::bail!(
-                "{n_vertices} vertices and {} triangles exceed this GPU's buffers or dispatches",
-                triangles.len()
+                "{n_vertices} vertices and {n_faces} triangles exceed this GPU's buffers or \
+                 dispatches"
             );
         }
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let rows = solver::geometry::normals::VertexFaces::new(n_vertices, triangles);
         let params =
-            Params { n_vertices: n_vertices as u32, n_faces: triangles.len() as u32, _pad: [0; 2] };
+            Params { n_vertices: n_vertices as u32, n_faces: n_faces as u32, _pad: [0; 2] };
         let params = wgpu::util::DeviceExt::create_buffer_init(
             device,
             &wgpu::util::BufferInitDescriptor {
@@ -81,8 +84,7 @@ impl GpuNormals {
             },
         );
         let none = wgpu::BufferUsages::empty();
-        let face_normals =
-            storage(device, "face normals", &vec![0u8; 12 * triangles.len().max(1)], none);
+        let face_normals = storage(device, "face normals", &vec![0u8; 12 * n_faces.max(1)], none);
         let offsets =
             storage(device, "incident offsets", bytemuck::cast_slice(rows.offsets()), none);
         let incident = storage(device, "incident faces", bytemuck::cast_slice(rows.faces()), none);
@@ -97,7 +99,7 @@ impl GpuNormals {
         }
         Ok(GpuNormals {
             n_vertices,
-            n_faces: triangles.len(),
+            n_faces,
             params,
             face_normals,
             offsets,

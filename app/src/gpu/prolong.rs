@@ -140,7 +140,8 @@ impl GpuProlongation {
         let positions = storage(device, "positions", &zeros, out);
         let normals = storage(device, "normals", &zeros, out);
         let tri = storage(device, "triangles", bytemuck::cast_slice(triangles), none);
-        let normals_pass = GpuNormals::new(device, n, triangles)?;
+        let rows = solver::geometry::normals::VertexFaces::new(n, triangles);
+        let normals_pass = GpuNormals::new(device, &rows, triangles.len())?;
         let binding = normals_pass.bind(device, &positions, &tri, &normals);
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("prolong.wgsl"),

@@ -139,6 +139,7 @@ impl EditorApp {
             s.send(SolverCommand::SetScene {
                 scene_generation: self.solvers.scene_generation,
                 mesh: scene.mesh.clone(),
+                vertex_faces: scene.vertex_faces.clone(),
                 handles: handles.clone(),
                 settings: self.session.settings,
                 loose_parts: self.session.edit.loose_parts.clone(),
@@ -240,6 +241,7 @@ impl EditorApp {
                 arap.send(SolverCommand::SetScene {
                     scene_generation: self.solvers.scene_generation,
                     mesh: scene.mesh.clone(),
+                    vertex_faces: scene.vertex_faces.clone(),
                     handles: self.handles(),
                     settings: self.session.settings,
                     loose_parts: self.session.edit.loose_parts.clone(),

@@ -138,21 +138,23 @@ impl ViewportGpu {
         }
     }
 
-    /// The normals pass bound to this viewport's buffers for `topology`'s mesh of
-    /// `n_vertices`, built and bound when the topology or a buffer changed. Errors (kept for
-    /// the topology, reported once) when the mesh does not fit the device.
+    /// The normals pass bound to this viewport's buffers for `topology`'s mesh, drawn with
+    /// `n_vertices` positions; built when the topology changes and bound again when a buffer
+    /// was replaced. Errors (kept for the topology, reported once) when the mesh does not fit
+    /// the device or the positions are not the topology's.
     pub(super) fn normals_pass(
         &mut self,
         device: &wgpu::Device,
         topology: &Topology,
         n_vertices: usize,
     ) -> Result<&NormalsBinding, String> {
-        let triangles: &[[u32; 3]] = bytemuck::cast_slice(&topology.triangles);
-        if self.gpu_normals.as_ref().is_none_or(|(v, p)| {
-            *v != topology.version
-                || p.as_ref().is_ok_and(|p| p.size() != (n_vertices, triangles.len()))
-        }) {
-            let pass = GpuNormals::new(device, n_vertices, triangles).map_err(|e| {
+        if self.gpu_normals.as_ref().is_none_or(|(v, _)| *v != topology.version) {
+            let n_faces = topology.triangles.len() / 3;
+            let pass = match &topology.vertex_faces {
+                Some(rows) => GpuNormals::new(device, rows, n_faces),
+                None => Err(anyhow::anyhow!("the topology has no vertex-to-triangle rows")),
+            };
+            let pass = pass.map_err(|e| {
                 eprintln!("bsarap: vertex normals on the GPU: {e}");
                 e.to_string()
             });
@@ -161,6 +163,9 @@ impl ViewportGpu {
         }
         let Some((_, pass)) = &self.gpu_normals else { return Err("no pass".into()) };
         let pass = pass.as_ref().map_err(Clone::clone)?;
+        if pass.size().0 != n_vertices {
+            return Err(format!("{n_vertices} positions for {} vertices", pass.size().0));
+        }
         self.normals.reserve(device, BYTES_PER_VERTEX * n_vertices as u64);
         let generations =
             [self.vertices.generation, self.triangles.generation, self.normals.generation];

@@ -5,6 +5,7 @@
 use std::sync::Arc;
 use std::time::Instant;
 
+use solver::geometry::normals::VertexFaces;
 use solver::{ComponentInfo, FrameStats, Handles, LooseParts, Mesh};
 
 use crate::editor::pose::GroupPose;
@@ -166,6 +167,9 @@ pub enum SolverCommand {
     SetScene {
         scene_generation: u64,
         mesh: Arc<Mesh>,
+        /// Each vertex's triangles in `mesh`, for the frames' normals (built once per mesh, by
+        /// the loader).
+        vertex_faces: Arc<VertexFaces>,
         handles: Option<Handles>,
         settings: MethodSettings,
         /// Follow or pin per component without handles.

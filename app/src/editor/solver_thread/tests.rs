@@ -6,6 +6,7 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
+use solver::geometry::normals::VertexFaces;
 use solver::{FrameStats, Handles, Mesh};
 
 use super::worker::SETTLE_DELAY;
@@ -68,9 +69,14 @@ fn wait_frame(h: &SolverHandle, pred: impl Fn(&SolvedFrame) -> bool) -> SolvedFr
     panic!("no frame within 10 s");
 }
 
+fn faces_of(mesh: &Mesh) -> Arc<VertexFaces> {
+    Arc::new(VertexFaces::new(mesh.n_vertices(), mesh.triangles()))
+}
+
 fn scene(generation: u64, poses: Vec<GroupPose>) -> SolverCommand {
     SolverCommand::SetScene {
         scene_generation: generation,
+        vertex_faces: faces_of(&tri()),
         mesh: tri(),
         handles: Some(Handles::from_options(vec![Some(0), None, None]).unwrap()),
         settings: MethodSettings::default(),
@@ -416,6 +422,7 @@ fn loose_parts_change_without_a_rebuild() {
     let moved = GroupPose { translation: [0.3, 0.0, 0.0], ..Default::default() };
     h.send(SolverCommand::SetScene {
         scene_generation: 1,
+        vertex_faces: faces_of(&mesh),
         mesh,
         handles: Some(Handles::from_options(labels).unwrap()),
         settings: MethodSettings { max_iterations: 200, ..MethodSettings::default() },

@@ -261,6 +261,7 @@ struct Inbox {
 struct NewScene {
     scene_generation: u64,
     mesh: Arc<Mesh>,
+    vertex_faces: Arc<VertexFaces>,
     handles: Option<Handles>,
     settings: MethodSettings,
     loose_parts: LooseParts,
@@ -311,6 +312,7 @@ fn drain_commands(rx: &Receiver<SolverCommand>, wait: Option<Duration>) -> Optio
             SolverCommand::SetScene {
                 scene_generation,
                 mesh,
+                vertex_faces,
                 handles,
                 settings,
                 loose_parts,
@@ -320,6 +322,7 @@ fn drain_commands(rx: &Receiver<SolverCommand>, wait: Option<Duration>) -> Optio
                 inbox.scene = Some(NewScene {
                     scene_generation,
                     mesh,
+                    vertex_faces,
                     handles,
                     settings,
                     loose_parts,
@@ -346,11 +349,18 @@ fn rebuild(
     slot: Slot,
     factory: &PoseSolverFactory,
     scene: NewScene,
-    vertex_faces: Option<Arc<VertexFaces>>,
     shared: &Shared,
 ) -> Option<Active> {
-    let NewScene { scene_generation, mesh, handles, settings, loose_parts, poses, pose_generation } =
-        scene;
+    let NewScene {
+        scene_generation,
+        mesh,
+        vertex_faces,
+        handles,
+        settings,
+        loose_parts,
+        poses,
+        pose_generation,
+    } = scene;
     let Some(handles) = handles else {
         set_status(&shared.status, SolverState::Idle);
         (shared.repaint)();
@@ -365,8 +375,6 @@ fn rebuild(
                 .detail_magnitudes()
                 .map(|d| Arc::new(d.iter().map(|&v| v as f32).collect()));
             let components = Arc::new(pose_solver.components());
-            let vertex_faces = vertex_faces
-                .unwrap_or_else(|| Arc::new(VertexFaces::new(mesh.n_vertices(), mesh.triangles())));
             set_status(&shared.status, SolverState::Solving);
             Some(Active {
                 vertex_faces,
@@ -433,12 +441,9 @@ fn worker_loop(
         let floor = shared.min_settle_delay();
         let Some(inbox) = drain_commands(rx, wait_time(active.as_ref(), floor)) else { return };
         if let Some(scene) = inbox.scene {
-            // Free the old factorization before building the new one; keep what depends on
-            // the mesh only when the mesh stays.
-            let faces = active
-                .take()
-                .and_then(|a| Arc::ptr_eq(&a.mesh, &scene.mesh).then_some(a.vertex_faces));
-            active = rebuild(slot, factory, scene, faces, shared);
+            // Free the old factorization before building the new one.
+            drop(active.take());
+            active = rebuild(slot, factory, scene, shared);
         }
         let Some(a) = active.as_mut() else { continue };
         if let Some((generation, poses)) = inbox.poses {
