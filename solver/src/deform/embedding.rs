@@ -29,7 +29,7 @@ pub fn embed(
     descend: bool,
 ) -> (Vec<u32>, Vec<[f64; 3]>) {
     let ct = coarse.triangles();
-    let search = Search { coarse, vf };
+    let search = Search::new(coarse, vf);
     (0..base.len())
         .into_par_iter()
         .map_init(Vec::new, |faces, i| {
@@ -66,13 +66,15 @@ pub fn embed_from(
     vf: &VertexFaces,
     start: impl Fn(usize) -> u32 + Sync,
 ) -> (Vec<u32>, Vec<[f64; 3]>) {
-    let search = Search { coarse, vf };
+    let search = Search::new(coarse, vf);
     (0..points.len())
         .into_par_iter()
         .map_init(Vec::new, |faces, i| {
             let q = points[i];
             let mut best = (f64::INFINITY, start(i), [1.0, 0.0, 0.0]);
-            search.closest(q, &[best.1], &mut best);
+            faces.clear();
+            faces.push(best.1);
+            search.closest(q, faces, &mut best);
             search.walk(q, faces, &mut best);
             (best.1, best.2)
         })
@@ -83,17 +85,24 @@ pub fn embed_from(
 struct Search<'a> {
     coarse: &'a Mesh,
     vf: &'a VertexFaces,
+    /// Each coarse triangle's corners, side by side: one read per triangle tried instead of
+    /// three scattered ones.
+    corners: Vec<[[f64; 3]; 3]>,
 }
 
-impl Search<'_> {
+impl<'a> Search<'a> {
+    fn new(coarse: &'a Mesh, vf: &'a VertexFaces) -> Search<'a> {
+        let cp = coarse.positions();
+        let corners = coarse.triangles().par_iter().map(|t| t.map(|v| cp[v as usize])).collect();
+        Search { coarse, vf, corners }
+    }
+
     /// Replaces `best` (squared distance, triangle, weights) by the closest of `faces` to `q`
     /// when closer; whether it did.
     fn closest(&self, q: [f64; 3], faces: &[u32], best: &mut (f64, u32, [f64; 3])) -> bool {
-        let (cp, ct) = (self.coarse.positions(), self.coarse.triangles());
         let mut improved = false;
         for &f in faces {
-            let t = ct[f as usize];
-            let (point, w) = closest_point_on_triangle(q, t.map(|v| cp[v as usize]));
+            let (point, w) = closest_point_on_triangle(q, self.corners[f as usize]);
             let d = sub(point, q);
             let d2 = dot(d, d);
             if d2 < best.0 {
@@ -105,14 +114,30 @@ impl Search<'_> {
     }
 
     /// The walk: the triangles around the best one's corners while one of them is closer.
-    /// Each step strictly decreases the distance, so the walk ends; 64 steps bound it.
-    fn walk(&self, q: [f64; 3], faces: &mut Vec<u32>, best: &mut (f64, u32, [f64; 3])) {
+    /// `tried` holds the triangles already compared with `best` (scratch, extended here): a
+    /// triangle tried once is never closer than the best since, so each is tried at most
+    /// once (the result is the same as trying every triangle around the corners at every
+    /// step). Each step strictly decreases the distance, so the walk ends; 64 steps bound it.
+    fn walk(&self, q: [f64; 3], tried: &mut Vec<u32>, best: &mut (f64, u32, [f64; 3])) {
+        let ct = self.coarse.triangles();
         for _ in 0..64 {
-            faces.clear();
-            for &v in &self.coarse.triangles()[best.1 as usize] {
-                faces.extend_from_slice(self.vf.of(v as usize));
+            let mut improved = false;
+            for v in ct[best.1 as usize] {
+                for &f in self.vf.of(v as usize) {
+                    if tried.contains(&f) {
+                        continue;
+                    }
+                    tried.push(f);
+                    let (point, w) = closest_point_on_triangle(q, self.corners[f as usize]);
+                    let d = sub(point, q);
+                    let d2 = dot(d, d);
+                    if d2 < best.0 {
+                        *best = (d2, f, w);
+                        improved = true;
+                    }
+                }
             }
-            if !self.closest(q, faces, best) {
+            if !improved {
                 break;
             }
         }
