@@ -214,7 +214,7 @@ fn nearest_along_edges_with(
             if keep(s as usize) {
                 labels.dist[s as usize] = 0.0;
                 labels.owner[s as usize] = j as u32;
-                heap.push(Reverse((Key(0.0), j as u32, s)));
+                heap.push(Reverse(entry(0.0, j as u32, s)));
             }
         }
         (labels, heap)
@@ -239,7 +239,7 @@ fn nearest_along_edges_with(
     for v in 0..n {
         let on_cut = graph.neighbors(v as u32).iter().any(|&w| side[w as usize] != side[v]);
         if on_cut && labels.owner[v] != u32::MAX {
-            heap.push(Reverse((Key(labels.dist[v]), labels.owner[v], v as u32)));
+            heap.push(Reverse(entry(labels.dist[v], labels.owner[v], v as u32)));
         }
     }
     labels.run(&graph, positions, heap, |_| true);
@@ -288,10 +288,11 @@ impl Labels {
         &mut self,
         graph: &Adjacency,
         positions: &[[f64; 3]],
-        mut heap: BinaryHeap<Reverse<(Key, u32, u32)>>,
+        mut heap: BinaryHeap<Reverse<u128>>,
         allowed: impl Fn(usize) -> bool,
     ) {
-        while let Some(Reverse((Key(d), j, v))) = heap.pop() {
+        while let Some(Reverse(e)) = heap.pop() {
+            let (d, j, v) = (f64::from_bits((e >> 64) as u64), (e >> 32) as u32, e as u32);
             if d > self.dist[v as usize] || self.owner[v as usize] != j {
                 continue;
             }
@@ -304,29 +305,19 @@ impl Labels {
                 if nd < self.dist[wi] || (nd == self.dist[wi] && j < self.owner[wi]) {
                     self.dist[wi] = nd;
                     self.owner[wi] = j;
-                    heap.push(Reverse((Key(nd), j, w)));
+                    heap.push(Reverse(entry(nd, j, w)));
                 }
             }
         }
     }
 }
 
-/// A distance ordered by `total_cmp` (the heap's key).
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct Key(f64);
-
-impl Eq for Key {}
-
-impl PartialOrd for Key {
-    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
-        Some(self.cmp(other))
-    }
-}
-
-impl Ord for Key {
-    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
-        self.0.total_cmp(&other.0)
-    }
+/// A heap entry (distance, source, vertex) as one integer ordered as the triple is
+/// (lexicographically): a distance is never negative, and the bits of non-negative floats
+/// order as their values do.
+fn entry(d: f64, j: u32, v: u32) -> u128 {
+    debug_assert!(d >= 0.0);
+    ((d.to_bits() as u128) << 64) | ((j as u128) << 32) | v as u128
 }
 
 #[cfg(test)]
