@@ -190,6 +190,8 @@ fn validate(text: &str, ctx: Ctx) -> Result<Checked, LoadError> {
     let mut name = String::new();
     let mut material: Option<usize> = None;
     let mut material_index: HashMap<String, usize> = HashMap::new();
+    // Whether `name` or `material` may differ from the last part's (true before any face).
+    let mut part_changed = true;
     let (mut bad_vt, mut bad_vn) = (NonFinite::default(), NonFinite::default());
     // One line's tokens, the buffer reused from line to line (millions of lines).
     let mut toks: Vec<&str> = Vec::new();
@@ -283,10 +285,20 @@ fn validate(text: &str, ctx: Ctx) -> Result<Checked, LoadError> {
                 for tok in rest {
                     poly.push(face_vertex(tok, &totals, &seen, ctx, line)?);
                 }
-                let part = out.parts.last().filter(|p| p.name == name && p.material == material);
-                if part.is_none() {
-                    let first = out.triangles.len();
-                    out.parts.push(Part { name: name.clone(), material, first, ..Part::default() });
+                // Compared with the last part only after a line that may have changed them.
+                if part_changed {
+                    part_changed = false;
+                    let part =
+                        out.parts.last().filter(|p| p.name == name && p.material == material);
+                    if part.is_none() {
+                        let first = out.triangles.len();
+                        out.parts.push(Part {
+                            name: name.clone(),
+                            material,
+                            first,
+                            ..Part::default()
+                        });
+                    }
                 }
                 let (c0, rest) = (poly[0], &poly[1..]);
                 for w in rest.windows(2) {
@@ -304,7 +316,10 @@ fn validate(text: &str, ctx: Ctx) -> Result<Checked, LoadError> {
                     p.count = out.triangles.len() - p.first;
                 }
             }
-            "o" | "g" => name = rest.join(" "),
+            "o" | "g" => {
+                name = rest.join(" ");
+                part_changed = true;
+            }
             "usemtl" => {
                 if rest.is_empty() {
                     return Err(ctx.parse(Some(line), "usemtl needs a material name"));
@@ -316,6 +331,7 @@ fn validate(text: &str, ctx: Ctx) -> Result<Checked, LoadError> {
                     out.materials.push(m);
                 }
                 material = Some(index);
+                part_changed = true;
             }
             _ => {}
         }
