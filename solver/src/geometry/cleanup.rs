@@ -175,9 +175,11 @@ pub fn clean(
 
     // 2. Degenerate triangles, against the bounding box of the referenced vertices.
     let pos = |i: u32| positions.get(i as usize).copied().unwrap_or_default();
-    let referenced: Vec<[f64; 3]> = triangles.iter().flatten().map(|&i| pos(i)).collect();
-    let (lo, hi) = crate::geometry::mesh::bounding_box(&referenced);
-    drop(referenced);
+    let mut corners = triangles.iter().flatten().map(|&i| pos(i));
+    let first = corners.next().unwrap_or_default();
+    let (lo, hi) = corners.fold((first, first), |(lo, hi), p| {
+        (std::array::from_fn(|k| lo[k].min(p[k])), std::array::from_fn(|k| hi[k].max(p[k])))
+    });
     let diag = norm(sub(hi, lo));
     let min_area = AREA_EPS * diag * diag;
     let welded = triangles.iter().map(|t| t.map(|i| rep.get(i as usize).copied().unwrap_or(i)));
