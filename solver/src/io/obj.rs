@@ -36,22 +36,11 @@ use super::text::{as_text, coord};
 /// MTL files are skipped with a notice).
 pub(crate) fn parse(bytes: &[u8], ctx: Ctx, dir: Option<&Path>) -> Result<Asset, LoadError> {
     let text = as_text(bytes, ctx)?;
-    let checked = validate(text, ctx)?;
+    let mut checked = validate(text, ctx)?;
+    let libs = std::mem::take(&mut checked.mtl_libs);
     let mut asset = checked.into_asset();
-    mtl::attach(&mut asset, &mtl_libs(text), dir);
+    mtl::attach(&mut asset, &libs, dir);
     Ok(asset)
-}
-
-/// The `mtllib` file names, in file order.
-fn mtl_libs(text: &str) -> Vec<String> {
-    let mut libs = Vec::new();
-    for line in text.lines() {
-        let mut toks = line.split_whitespace();
-        if toks.next() == Some("mtllib") {
-            libs.extend(toks.map(str::to_string));
-        }
-    }
-    libs
 }
 
 /// Marks a corner with no `vt`/`vn` index.
@@ -72,6 +61,8 @@ struct Checked {
     parts: Vec<Part>,
     /// Material names in order of first `usemtl`.
     materials: Vec<String>,
+    /// The `mtllib` file names, in file order.
+    mtl_libs: Vec<String>,
     notices: Vec<String>,
 }
 
@@ -121,7 +112,7 @@ fn corner_attribute<const N: usize>(
 }
 
 /// Counts of the indexed element kinds in the whole file (OBJ allows forward references).
-#[derive(Default)]
+#[derive(Default, Clone, Copy)]
 struct Totals {
     v: usize,
     vt: usize,
@@ -161,6 +152,14 @@ impl NonFinite {
         neutral
     }
 
+    /// Adds a later chunk's lines.
+    fn add(&mut self, later: &NonFinite) {
+        if self.count == 0 {
+            self.first_line = later.first_line;
+        }
+        self.count += later.count;
+    }
+
     fn notice(&self, ctx: Ctx, what: &str, neutral: &str) -> Option<String> {
         (self.count > 0).then(|| {
             format!(
@@ -171,9 +170,66 @@ impl NonFinite {
     }
 }
 
+/// Files of at least this many bytes are read in chunks side by side ([`validate`]).
+const CHUNK_BYTES: usize = 4 << 20;
+
+/// Reads the file in two passes over chunks of whole lines, each pass side by side over the
+/// chunks: the first counts each chunk's lines and `v`/`vt`/`vn` lines (the totals check
+/// forward references, the counts before a chunk resolve its relative indices and number its
+/// lines), the second reads each chunk as if the file were read from its start; then the
+/// chunks are joined in file order, parts and materials followed through them as one reader
+/// would ([`join`]). The first error in file order is the one reported.
 fn validate(text: &str, ctx: Ctx) -> Result<Checked, LoadError> {
-    let mut totals = Totals::default();
-    for line in text.lines() {
+    let n = if text.len() >= CHUNK_BYTES { 4 * rayon::current_num_threads() } else { 1 };
+    validate_in(text, ctx, n)
+}
+
+/// [`validate`] over `n_chunks` chunks.
+fn validate_in(text: &str, ctx: Ctx, n_chunks: usize) -> Result<Checked, LoadError> {
+    use rayon::prelude::*;
+    let chunks = split_lines(text, n_chunks.max(1));
+    let counts: Vec<(usize, Totals)> = chunks.par_iter().map(|c| count(c)).collect();
+    let mut starts = Vec::with_capacity(chunks.len());
+    let (mut line, mut totals) = (0, Totals::default());
+    for (lines, t) in &counts {
+        starts.push((line, totals));
+        line += lines;
+        totals = Totals { v: totals.v + t.v, vt: totals.vt + t.vt, vn: totals.vn + t.vn };
+    }
+    if totals.v > u32::MAX as usize {
+        return Err(ctx.count(None, format!("{} vertices are more than 2^32-1", totals.v)));
+    }
+    let read: Vec<Result<Chunk, LoadError>> = chunks
+        .par_iter()
+        .zip(&starts)
+        .map(|(c, &(line, seen))| read_chunk(c, line, seen, &totals, ctx))
+        .collect();
+    let read = read.into_iter().collect::<Result<Vec<Chunk>, LoadError>>()?;
+    Ok(join(read, &totals, ctx))
+}
+
+/// `text` cut into `n` pieces of whole lines (each ends after a `\n`, the last at the end).
+fn split_lines(text: &str, n: usize) -> Vec<&str> {
+    let bytes = text.as_bytes();
+    let mut out = Vec::with_capacity(n);
+    let mut start = 0;
+    for k in 1..n {
+        let target = (text.len() * k / n).max(start);
+        let end =
+            bytes[target..].iter().position(|&b| b == b'\n').map_or(text.len(), |p| target + p + 1);
+        // `\n` never occurs inside a multi-byte character: `end` is a character boundary.
+        out.push(&text[start..end]);
+        start = end;
+    }
+    out.push(&text[start..]);
+    out
+}
+
+/// A chunk's lines and `v`/`vt`/`vn` lines.
+fn count(chunk: &str) -> (usize, Totals) {
+    let (mut lines, mut totals) = (0, Totals::default());
+    for line in chunk.lines() {
+        lines += 1;
         match line.split_whitespace().next() {
             Some("v") => totals.v += 1,
             Some("vt") => totals.vt += 1,
@@ -181,29 +237,55 @@ fn validate(text: &str, ctx: Ctx) -> Result<Checked, LoadError> {
             _ => {}
         }
     }
-    if totals.v > u32::MAX as usize {
-        return Err(ctx.count(None, format!("{} vertices are more than 2^32-1", totals.v)));
-    }
-    let mut out = Checked { positions: Vec::with_capacity(totals.v), ..Checked::default() };
-    let mut seen = Totals::default();
+    (lines, totals)
+}
+
+/// An `o`/`g` or `usemtl` line, after the chunk's first `at` triangles.
+struct Event {
+    at: usize,
+    name: Option<String>,
+    material: Option<String>,
+}
+
+/// What one chunk holds, in file indices.
+#[derive(Default)]
+struct Chunk {
+    positions: Vec<[f64; 3]>,
+    /// The coloured vertices (file index, colour).
+    colors: Vec<(usize, [f32; 4])>,
+    uv_values: Vec<[f32; 2]>,
+    normal_values: Vec<[f32; 3]>,
+    triangles: Vec<[u32; 3]>,
+    uv_corners: Vec<[u32; 3]>,
+    normal_corners: Vec<[u32; 3]>,
+    events: Vec<Event>,
+    mtl_libs: Vec<String>,
+    bad_vt: NonFinite,
+    bad_vn: NonFinite,
+}
+
+/// Reads one chunk whose first line is the file's line `line + 1`, after `seen` elements;
+/// `totals` are the file's.
+fn read_chunk(
+    text: &str,
+    line: usize,
+    mut seen: Totals,
+    totals: &Totals,
+    ctx: Ctx,
+) -> Result<Chunk, LoadError> {
+    let mut out = Chunk::default();
     let mut poly: Vec<[u32; 3]> = Vec::new();
-    let mut name = String::new();
-    let mut material: Option<usize> = None;
-    let mut material_index: HashMap<String, usize> = HashMap::new();
-    // Whether `name` or `material` may differ from the last part's (true before any face).
-    let mut part_changed = true;
-    let (mut bad_vt, mut bad_vn) = (NonFinite::default(), NonFinite::default());
     // One line's tokens, the buffer reused from line to line (millions of lines).
     let mut toks: Vec<&str> = Vec::new();
     let mut nums: Vec<f64> = Vec::new();
     for (i, text_line) in text.lines().enumerate() {
-        let line = i + 1;
+        let line = line + i + 1;
         toks.clear();
         toks.extend(text_line.split_whitespace());
         let Some((&key, rest)) = toks.split_first() else { continue };
         match key {
             "v" => {
-                let vertex = out.positions.len();
+                let vertex = seen.v;
                 nums.clear();
                 for t in rest {
                     nums.push(coord(t, ctx, line, vertex)?);
@@ -228,13 +310,8 @@ fn validate(text: &str, ctx: Ctx) -> Result<Checked, LoadError> {
                 if let Some(bad) = p.iter().find(|c| !c.is_finite()) {
                     return Err(ctx.non_finite(Some(line), vertex, bad));
                 }
-                match color {
-                    Some(c) => {
-                        out.colors.resize(out.positions.len(), [1.0; 4]);
-                        out.colors.push(c);
-                    }
-                    None if !out.colors.is_empty() => out.colors.push([1.0; 4]),
-                    None => {}
+                if let Some(c) = color {
+                    out.colors.push((vertex, c));
                 }
                 out.positions.push(p);
                 seen.v += 1;
@@ -255,7 +332,7 @@ fn validate(text: &str, ctx: Ctx) -> Result<Checked, LoadError> {
                 if let Some(t) = rest.get(2) {
                     number(t, ctx, line, what)?;
                 }
-                out.uv_values.push(bad_vt.check([u, 1.0 - v], [0.0; 2], line));
+                out.uv_values.push(out.bad_vt.check([u, 1.0 - v], [0.0; 2], line));
                 seen.vt += 1;
             }
             "vn" => {
@@ -271,7 +348,7 @@ fn validate(text: &str, ctx: Ctx) -> Result<Checked, LoadError> {
                     number(y, ctx, line, what)?,
                     number(z, ctx, line, what)?,
                 ];
-                out.normal_values.push(bad_vn.check(n, [0.0; 3], line));
+                out.normal_values.push(out.bad_vn.check(n, [0.0; 3], line));
                 seen.vn += 1;
             }
             "f" => {
@@ -283,22 +360,7 @@ fn validate(text: &str, ctx: Ctx) -> Result<Checked, LoadError> {
                 }
                 poly.clear();
                 for tok in rest {
-                    poly.push(face_vertex(tok, &totals, &seen, ctx, line)?);
-                }
-                // Compared with the last part only after a line that may have changed them.
-                if part_changed {
-                    part_changed = false;
-                    let part =
-                        out.parts.last().filter(|p| p.name == name && p.material == material);
-                    if part.is_none() {
-                        let first = out.triangles.len();
-                        out.parts.push(Part {
-                            name: name.clone(),
-                            material,
-                            first,
-                            ..Part::default()
-                        });
-                    }
+                    poly.push(face_vertex(tok, totals, &seen, ctx, line)?);
                 }
                 let (c0, rest) = (poly[0], &poly[1..]);
                 for w in rest.windows(2) {
@@ -312,33 +374,95 @@ fn validate(text: &str, ctx: Ctx) -> Result<Checked, LoadError> {
                         out.normal_corners.push(tri.map(|c| c[2]));
                     }
                 }
-                if let Some(p) = out.parts.last_mut() {
-                    p.count = out.triangles.len() - p.first;
-                }
             }
-            "o" | "g" => {
-                name = rest.join(" ");
-                part_changed = true;
-            }
+            "o" | "g" => out.events.push(Event {
+                at: out.triangles.len(),
+                name: Some(rest.join(" ")),
+                material: None,
+            }),
             "usemtl" => {
                 if rest.is_empty() {
                     return Err(ctx.parse(Some(line), "usemtl needs a material name"));
                 }
-                let m = rest.join(" ");
-                let next = out.materials.len();
-                let index = *material_index.entry(m.clone()).or_insert(next);
-                if index == next {
-                    out.materials.push(m);
-                }
-                material = Some(index);
-                part_changed = true;
+                out.events.push(Event {
+                    at: out.triangles.len(),
+                    name: None,
+                    material: Some(rest.join(" ")),
+                });
             }
+            "mtllib" => out.mtl_libs.extend(rest.iter().map(|s| s.to_string())),
             _ => {}
         }
     }
+    Ok(out)
+}
+
+/// The chunks in file order as one file: a [`Part`] is a run of faces with one name and
+/// material, and materials are numbered in order of first `usemtl`.
+fn join(chunks: Vec<Chunk>, totals: &Totals, ctx: Ctx) -> Checked {
+    let mut out = Checked { positions: Vec::with_capacity(totals.v), ..Checked::default() };
+    let mut name = String::new();
+    let mut material: Option<usize> = None;
+    let mut material_index: HashMap<String, usize> = HashMap::new();
+    let (mut bad_vt, mut bad_vn) = (NonFinite::default(), NonFinite::default());
+    let coloured = chunks.iter().any(|c| !c.colors.is_empty());
+    if coloured {
+        out.colors = vec![[1.0; 4]; totals.v];
+    }
+    for chunk in chunks {
+        let base = out.triangles.len();
+        let mut events = chunk.events.into_iter().peekable();
+        let mut at = 0;
+        while at < chunk.triangles.len() || events.peek().is_some() {
+            // The faces before the next event, under the current name and material.
+            let until = events.peek().map_or(chunk.triangles.len(), |e| e.at);
+            if until > at {
+                let last = out.parts.last().filter(|p| p.name == name && p.material == material);
+                if last.is_none() {
+                    out.parts.push(Part {
+                        name: name.clone(),
+                        material,
+                        first: base + at,
+                        ..Part::default()
+                    });
+                }
+                at = until;
+            }
+            if let Some(e) = events.next() {
+                if let Some(n) = e.name {
+                    name = n;
+                }
+                if let Some(m) = e.material {
+                    let next = out.materials.len();
+                    let index = *material_index.entry(m.clone()).or_insert(next);
+                    if index == next {
+                        out.materials.push(m);
+                    }
+                    material = Some(index);
+                }
+            }
+        }
+        for (v, c) in chunk.colors {
+            out.colors[v] = c;
+        }
+        out.positions.extend(chunk.positions);
+        out.uv_values.extend(chunk.uv_values);
+        out.normal_values.extend(chunk.normal_values);
+        out.triangles.extend(chunk.triangles);
+        out.uv_corners.extend(chunk.uv_corners);
+        out.normal_corners.extend(chunk.normal_corners);
+        out.mtl_libs.extend(chunk.mtl_libs);
+        bad_vt.add(&chunk.bad_vt);
+        bad_vn.add(&chunk.bad_vn);
+    }
+    let total = out.triangles.len();
+    let firsts: Vec<usize> = out.parts.iter().skip(1).map(|p| p.first).chain([total]).collect();
+    for (p, end) in out.parts.iter_mut().zip(firsts) {
+        p.count = end - p.first;
+    }
     out.notices.extend(bad_vt.notice(ctx, "vt", "[0, 0]"));
     out.notices.extend(bad_vn.notice(ctx, "vn", "[0, 0, 0] (no normal)"));
-    Ok(out)
+    out
 }
 
 /// Checks one face token `v`, `v/vt`, `v//vn` or `v/vt/vn`; returns the 0-based vertex,
@@ -505,6 +629,40 @@ mod tests {
         assert!(a.notices[1].starts_with("t.obj:6: 2 vn lines"), "{:?}", a.notices);
         let e = parse_str("vt\n").unwrap_err();
         assert!(matches!(e, LoadError::Parse { line: Some(1), .. }), "{e}");
+    }
+
+    /// The file read in any number of chunks is the file read in one: relative indices,
+    /// parts and materials across chunk boundaries, colours, non-finite `vn` notices; and an
+    /// error in a later chunk names its line.
+    #[test]
+    fn chunks_read_as_one_file() {
+        let mut obj = String::from("mtllib a.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\n");
+        for k in 0..12 {
+            obj += &format!("v {k} 1 0 0.5 0.25 1\nv {k} 2 0\nvt 0.{k} 0.5\nvn 0 0 1\n");
+            if k % 3 == 0 {
+                obj += &format!("usemtl m{}\n", k % 2);
+            }
+            if k % 4 == 1 {
+                obj += &format!("g part {}\n\nvn 0 nan 1\n", k % 3);
+            }
+            obj += "f -1/-1/-1 -2/-1/-1 1/1/1\nf 1 2 3 -1\n";
+        }
+        let ctx = Ctx { file: "t.obj" };
+        let one = validate_in(&obj, ctx, 1).unwrap().into_asset();
+        assert_eq!(one.parts.len(), 6, "{:?}", one.parts);
+        assert_eq!(one.materials.len(), 2);
+        assert!(one.colors.is_some() && one.normals.is_some() && !one.uvs.is_empty());
+        for n in 2..=80 {
+            let chunked = validate_in(&obj, ctx, n).unwrap();
+            assert_eq!(chunked.mtl_libs, ["a.mtl"]);
+            assert_eq!(chunked.into_asset(), one, "{n} chunks");
+        }
+        let bad = obj.replacen("f 1 2 3 -1", "f 1 2 3 0", 7);
+        let line = bad.lines().position(|l| l == "f 1 2 3 0").unwrap() + 1;
+        for n in [1, 3, 17, 80] {
+            let e = validate_in(&bad, ctx, n).err().unwrap();
+            assert!(matches!(e, LoadError::IndexOutOfRange { line: Some(l), .. } if l == line));
+        }
     }
 
     #[test]
