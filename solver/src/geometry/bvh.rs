@@ -1,11 +1,11 @@
 //! Ray picking on a deforming surface (the editor's displayed mesh, in `f32`) through a
 //! bounding-volume hierarchy over triangles.
 //!
-//! The tree is built once per mesh (median split on the longest axis of the centroid box) and
-//! refitted in O(#V) when the positions change (each leaf's box from the distinct vertices of
-//! its triangles, kept at build time, the leaves in parallel; then the inner boxes from their
-//! children), so picking a deforming mesh costs a refit plus a logarithmic
-//! traversal instead of a test against every triangle (ray–triangle test: Möller and
+//! The tree is built once per mesh (median split on the longest axis of the centroid box; large
+//! subtrees side by side) and refitted in O(#V) when the positions change (each leaf's box
+//! from the distinct vertices of its triangles, kept at build time, the leaves in parallel;
+//! then the inner boxes from their children), so picking a deforming mesh costs a refit plus
+//! a logarithmic traversal instead of a test against every triangle (ray–triangle test: Möller and
 //! Trumbore, "Fast, minimum storage ray/triangle intersection", 1997).
 
 use glam::Vec3;
@@ -52,70 +52,50 @@ fn tri_bounds(positions: &[[f32; 3]], t: [u32; 3]) -> (Vec3, Vec3) {
 
 impl Bvh {
     pub fn build(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> Bvh {
+        use rayon::prelude::*;
         // Each triangle's box centre beside its index, permuted together: the splits read
         // contiguous memory, not the centres through the permutation.
         let mut items: Vec<(Vec3, u32)> = triangles
-            .iter()
-            .zip(0u32..)
-            .map(|(&t, f)| {
+            .par_iter()
+            .enumerate()
+            .map(|(f, &t)| {
                 let (lo, hi) = tri_bounds(positions, t);
-                ((lo + hi) * 0.5, f)
+                ((lo + hi) * 0.5, f as u32)
             })
             .collect();
-        let mut nodes = vec![Node { min: Vec3::ZERO, max: Vec3::ZERO, first: 0, count: 0 }];
-        // (node index, start, end) still to split.
-        let mut stack = vec![(0usize, 0usize, items.len())];
-        while let Some((node, start, end)) = stack.pop() {
-            if end - start <= LEAF_SIZE {
-                nodes[node].first = start as u32;
-                nodes[node].count = (end - start) as u32;
-                continue;
-            }
-            let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
-            for &(c, _) in &items[start..end] {
-                lo = lo.min(c);
-                hi = hi.max(c);
-            }
-            let ext = hi - lo;
-            let axis = if ext.x >= ext.y && ext.x >= ext.z {
-                0
-            } else if ext.y >= ext.z {
-                1
-            } else {
-                2
-            };
-            let mid = (start + end) / 2;
-            items[start..end]
-                .select_nth_unstable_by(mid - start, |a, b| a.0[axis].total_cmp(&b.0[axis]));
-            let left = nodes.len();
-            nodes.push(Node { min: Vec3::ZERO, max: Vec3::ZERO, first: 0, count: 0 });
-            nodes.push(Node { min: Vec3::ZERO, max: Vec3::ZERO, first: 0, count: 0 });
-            nodes[node].first = left as u32;
-            nodes[node].count = 0;
-            stack.push((left, start, mid));
-            stack.push((left + 1, mid, end));
-        }
+        let nodes = subtree(&mut items, 0);
         let order: Vec<u32> = items.into_iter().map(|(_, f)| f).collect();
-        let mut vertex_ranges = vec![(0, 0); nodes.len()];
-        let mut leaf_vertices = Vec::with_capacity(order.len() * 2);
-        for (n, range) in nodes.iter().zip(&mut vertex_ranges) {
-            if n.count == 0 {
-                continue;
-            }
-            let start = leaf_vertices.len();
-            for &t in &order[n.first as usize..(n.first + n.count) as usize] {
-                leaf_vertices.extend_from_slice(&triangles[t as usize]);
-            }
-            leaf_vertices[start..].sort_unstable();
-            let mut unique = start;
-            for k in start..leaf_vertices.len() {
-                if k == start || leaf_vertices[k] != leaf_vertices[unique - 1] {
-                    leaf_vertices[unique] = leaf_vertices[k];
-                    unique += 1;
+        // Each leaf's distinct vertices, runs of nodes side by side, then joined in order.
+        let runs: Vec<LeafRun> = nodes
+            .par_chunks(4096)
+            .map(|run| {
+                let mut vertices = Vec::with_capacity(run.len() * LEAF_SIZE);
+                let mut ranges = Vec::with_capacity(run.len());
+                for n in run {
+                    let start = vertices.len();
+                    for &t in &order[n.first as usize..(n.first + n.count) as usize] {
+                        vertices.extend_from_slice(&triangles[t as usize]);
+                    }
+                    vertices[start..].sort_unstable();
+                    let mut unique = start;
+                    for k in start..vertices.len() {
+                        if k == start || vertices[k] != vertices[unique - 1] {
+                            vertices[unique] = vertices[k];
+                            unique += 1;
+                        }
+                    }
+                    vertices.truncate(unique);
+                    ranges.push((start as u32, unique as u32));
                 }
-            }
-            leaf_vertices.truncate(unique);
-            *range = (start as u32, unique as u32);
+                (vertices, ranges)
+            })
+            .collect();
+        let mut vertex_ranges = Vec::with_capacity(nodes.len());
+        let mut leaf_vertices = Vec::with_capacity(runs.iter().map(|r| r.0.len()).sum());
+        for (vertices, ranges) in runs {
+            let offset = leaf_vertices.len() as u32;
+            vertex_ranges.extend(ranges.iter().map(|&(a, b)| (a + offset, b + offset)));
+            leaf_vertices.extend_from_slice(&vertices);
         }
         let mut bvh = Bvh { nodes, order, vertex_ranges, leaf_vertices };
         bvh.refit(positions);
@@ -184,6 +164,83 @@ impl Bvh {
         }
         best
     }
+}
+
+/// A run of nodes' leaf vertices and each node's range in them (ranges local to the run).
+type LeafRun = (Vec<u32>, Vec<(u32, u32)>);
+
+/// Subtrees of at least this many triangles are split side by side ([`subtree`]).
+const PARALLEL_ITEMS: usize = 1 << 16;
+
+/// The tree over `items` (triangle centres and indices), which sit at `first` in the whole
+/// list: the median split on the longest axis of the centres' box, down to leaves of at most
+/// [`LEAF_SIZE`] triangles. Nodes are listed root first, each node's children side by side
+/// after it (right = left + 1); leaves index the whole list. Large subtrees are built side by
+/// side and listed one after the other (the same splits as one builder would make).
+fn subtree(items: &mut [(Vec3, u32)], first: usize) -> Vec<Node> {
+    if items.len() < PARALLEL_ITEMS {
+        return subtree_here(items, first);
+    }
+    let mid = split(items);
+    let (l, r) = items.split_at_mut(mid);
+    let (left, right) = rayon::join(|| subtree(l, first), || subtree(r, first + mid));
+    // Root, the two subtree roots, the rest of the left subtree, the rest of the right one:
+    // a left node i ≥ 1 moves to i + 2, a right one to i + 1 + left.len().
+    let (nl, mut nodes) = (left.len(), Vec::with_capacity(1 + left.len() + right.len()));
+    let inner = |n: &Node, shift: usize| {
+        if n.count == 0 { Node { first: n.first + shift as u32, ..*n } } else { *n }
+    };
+    nodes.push(Node { min: Vec3::ZERO, max: Vec3::ZERO, first: 1, count: 0 });
+    nodes.push(inner(&left[0], 2));
+    nodes.push(inner(&right[0], 1 + nl));
+    nodes.extend(left[1..].iter().map(|n| inner(n, 2)));
+    nodes.extend(right[1..].iter().map(|n| inner(n, 1 + nl)));
+    nodes
+}
+
+/// [`subtree`] on this thread.
+fn subtree_here(items: &mut [(Vec3, u32)], first: usize) -> Vec<Node> {
+    let empty = Node { min: Vec3::ZERO, max: Vec3::ZERO, first: 0, count: 0 };
+    let mut nodes = vec![empty];
+    // (node index, start, end) still to split.
+    let mut stack = vec![(0usize, 0usize, items.len())];
+    while let Some((node, start, end)) = stack.pop() {
+        if end - start <= LEAF_SIZE {
+            nodes[node].first = (first + start) as u32;
+            nodes[node].count = (end - start) as u32;
+            continue;
+        }
+        let mid = start + split(&mut items[start..end]);
+        let left = nodes.len();
+        nodes.push(empty);
+        nodes.push(empty);
+        nodes[node].first = left as u32;
+        nodes[node].count = 0;
+        stack.push((left, start, mid));
+        stack.push((left + 1, mid, end));
+    }
+    nodes
+}
+
+/// Puts the lower half of `items` along the longest axis of their centres' box first;
+/// returns the length of that half.
+fn split(items: &mut [(Vec3, u32)]) -> usize {
+    let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
+    for &(c, _) in items.iter() {
+        lo = lo.min(c);
+        hi = hi.max(c);
+    }
+    let ext = hi - lo;
+    let axis = if ext.x >= ext.y && ext.x >= ext.z {
+        0
+    } else if ext.y >= ext.z {
+        1
+    } else {
+        2
+    };
+    let mid = items.len() / 2;
+    items.select_nth_unstable_by(mid, |a, b| a.0[axis].total_cmp(&b.0[axis]));
+    mid
 }
 
 fn ray_box(origin: Vec3, inv: Vec3, lo: Vec3, hi: Vec3, limit: f32) -> bool {
@@ -255,6 +312,49 @@ mod tests {
             }
         }
         best
+    }
+
+    /// A tree large enough to be built side by side makes the same splits as one builder
+    /// (the same triangle order and leaves), lists every child after its parent, and picks
+    /// what testing every triangle picks.
+    #[test]
+    fn side_by_side_build_is_the_one_builder_tree() {
+        let (mut p, t) = grid(200);
+        for q in &mut p {
+            q[2] = (q[0] * 0.2).sin() + (q[1] * 0.13).cos();
+        }
+        assert!(t.len() > PARALLEL_ITEMS);
+        let centres = |t: &[[u32; 3]]| -> Vec<(Vec3, u32)> {
+            t.iter()
+                .enumerate()
+                .map(|(f, &tri)| {
+                    let (lo, hi) = tri_bounds(&p, tri);
+                    ((lo + hi) * 0.5, f as u32)
+                })
+                .collect()
+        };
+        let (mut a, mut b) = (centres(&t), centres(&t));
+        let (na, nb) = (subtree(&mut a, 0), subtree_here(&mut b, 0));
+        assert_eq!(
+            a.iter().map(|x| x.1).collect::<Vec<_>>(),
+            b.iter().map(|x| x.1).collect::<Vec<_>>()
+        );
+        let leaves = |n: &[Node]| {
+            let mut l: Vec<(u32, u32)> =
+                n.iter().filter(|n| n.count > 0).map(|n| (n.first, n.count)).collect();
+            l.sort_unstable();
+            l
+        };
+        assert_eq!(na.len(), nb.len());
+        assert_eq!(leaves(&na), leaves(&nb));
+        assert!(na.iter().enumerate().all(|(i, n)| n.count > 0 || n.first as usize > i));
+        let bvh = Bvh::build(&p, &t);
+        for k in 0..200 {
+            let o = Vec3::new(0.97 * k as f32 % 200.0, 0.61 * k as f32 % 200.0, 5.0);
+            let d = Vec3::new(0.05, -0.03, -1.0).normalize();
+            let hit = bvh.intersect(&p, &t, o, d).map(|h| h.triangle);
+            assert_eq!(hit, brute(&p, &t, o, d).map(|h| h.0));
+        }
     }
 
     #[test]
