@@ -1,0 +1,104 @@
+//! Coarse-variant settings against one converged ARAP, and how well that reference is
+//! converged (BENCHMARKS.md, "Dense meshes"): the bench's animation (group 0 on a circle of
+//! 0.1·diag in ten frames) solved through frames 1–5 with Anderson acceleration (window 5,
+//! cap 1000), each setting measured at frame 5 against ARAP from rest
+//! (`solver::deform::quality::Reference`, computed once for every setting):
+//!
+//!     cargo run --release -p solver --example coarse_quality -- MESH SELECTION C:S[:F[:L]]...
+//!
+//! `C:S:F:L` = coarse vertices, smoothing (fraction of the diagonal), fine iterations (default
+//! 0), level fairing (`0`: off; default on). With `--own`, ARAP is also converged from each
+//! setting's pose, and its energy and distances to the reference are printed: a reference
+//! from rest that another start beats in energy is not the minimum it seems.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use solver::deform::quality::{Reference, distances};
+use solver::{
+    Acceleration, ArapConfig, BaseConfig, Deformer, Energy, GroupTransform, Method, handle_targets,
+};
+
+fn main() {
+    let mut args: Vec<String> = std::env::args().skip(1).collect();
+    let own = args.iter().any(|a| a == "--own");
+    args.retain(|a| a != "--own");
+    assert!(args.len() >= 3, "usage: coarse_quality MESH SELECTION C:S[:F[:L]]... [--own]");
+    let mesh = solver::io::load_mesh(std::path::Path::new(&args[0])).expect("mesh").mesh;
+    let handles = solver::deform::selection::load_selection(
+        std::path::Path::new(&args[1]),
+        mesh.positions(),
+        None,
+    )
+    .expect("selection");
+    let diag = mesh.bbox_diagonal();
+    let group = handles.group_ids().next().expect("a handle group");
+    let frame = |f: usize| {
+        let theta = std::f64::consts::TAU * f as f64 / 10.0;
+        let r = 0.1 * diag;
+        let moved = GroupTransform {
+            translation: [r * (theta.cos() - 1.0), r * theta.sin(), 0.0],
+            ..Default::default()
+        };
+        handle_targets(mesh.positions(), &handles, &[(group, moved)]).expect("targets")
+    };
+    let t = std::time::Instant::now();
+    let mut reference =
+        Reference::new(&mesh, &handles, &frame(5), Energy::SpokesAndRims).expect("reference");
+    println!(
+        "{}: {} vertices; reference from rest: {} iterations, energy {:.5e}, {:.0} s",
+        args[0],
+        mesh.n_vertices(),
+        reference.stats().iterations,
+        reference.stats().energy(),
+        t.elapsed().as_secs_f64()
+    );
+    for spec in &args[2..] {
+        let v: Vec<&str> = spec.split(':').collect();
+        let base = BaseConfig {
+            coarse_vertices: Some(v[0].parse().expect("coarse vertices")),
+            smoothing: v.get(1).map_or(0.01, |s| s.parse().expect("smoothing")),
+            fine_iterations: v.get(2).map_or(0, |s| s.parse().expect("fine iterations")),
+            level_fairing: v.get(3).is_none_or(|s| *s != "0"),
+            ..Default::default()
+        };
+        let config = ArapConfig {
+            max_iterations: 1000,
+            acceleration: Acceleration::Anderson { window: 5 },
+            ..Default::default()
+        };
+        let mut d = Deformer::with_base(Method::BsArapCoarse, &mesh, &handles, &config, &base)
+            .expect("precompute");
+        let mut iterations = 0;
+        for f in 1..=5 {
+            iterations += d.solve(&frame(f)).expect("solve").iterations;
+        }
+        let q = reference.measure(d.positions());
+        println!(
+            "{spec}: {:.1} iterations a frame; max {:.2} % mean {:.3} %; energy on the mesh {:.5e}",
+            iterations as f64 / 5.0,
+            q.max_distance * 100.0,
+            q.mean_distance * 100.0,
+            q.energy_on_mesh
+        );
+        if own {
+            let o = Reference::from_pose(
+                &mesh,
+                &handles,
+                &frame(5),
+                d.positions(),
+                Energy::SpokesAndRims,
+            )
+            .expect("own reference");
+            let apart = distances(o.positions(), reference.positions(), diag);
+            let pose = distances(d.positions(), o.positions(), diag);
+            println!(
+                "  ARAP from this pose: {} iterations, energy {:.5e}; {:.2} % max / {:.3} % mean from the reference; the pose {:.2} % / {:.3} % from it",
+                o.stats().iterations,
+                o.stats().energy(),
+                apart.max * 100.0,
+                apart.mean * 100.0,
+                pose.max * 100.0,
+                pose.mean * 100.0
+            );
+        }
+    }
+}
