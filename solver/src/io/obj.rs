@@ -49,15 +49,10 @@ const NONE: u32 = u32::MAX;
 /// What the pass found, in file indices.
 #[derive(Default)]
 struct Checked {
-    positions: Vec<[f64; 3]>,
-    /// Per vertex: the `v` line's colour, white for one without; empty until the first
-    /// coloured `v` line.
+    elements: Elements,
+    /// Per vertex: the `v` line's colour, white for one without; empty when no `v` line has
+    /// one.
     colors: Vec<[f32; 4]>,
-    uv_values: Vec<[f32; 2]>,
-    normal_values: Vec<[f32; 3]>,
-    triangles: Vec<[u32; 3]>,
-    uv_corners: Vec<[u32; 3]>,
-    normal_corners: Vec<[u32; 3]>,
     parts: Vec<Part>,
     /// Material names in order of first `usemtl`.
     materials: Vec<String>,
@@ -66,11 +61,35 @@ struct Checked {
     notices: Vec<String>,
 }
 
+/// The `v`, `vt`, `vn` values and the triangles' corners, as the file lists them.
+#[derive(Default)]
+struct Elements {
+    positions: Vec<[f64; 3]>,
+    uv_values: Vec<[f32; 2]>,
+    normal_values: Vec<[f32; 3]>,
+    triangles: Vec<[u32; 3]>,
+    uv_corners: Vec<[u32; 3]>,
+    normal_corners: Vec<[u32; 3]>,
+}
+
+impl Elements {
+    /// Appends the elements of the lines after these.
+    fn append(&mut self, later: Elements) {
+        self.positions.extend(later.positions);
+        self.uv_values.extend(later.uv_values);
+        self.normal_values.extend(later.normal_values);
+        self.triangles.extend(later.triangles);
+        self.uv_corners.extend(later.uv_corners);
+        self.normal_corners.extend(later.normal_corners);
+    }
+}
+
 impl Checked {
     fn into_asset(self) -> Asset {
-        let triangles = self.triangles;
-        let uvs = corner_attribute(self.uv_values, self.uv_corners, [0.0; 2]);
-        let normals = corner_attribute(self.normal_values, self.normal_corners, [0.0; 3]);
+        let e = self.elements;
+        let triangles = e.triangles;
+        let uvs = corner_attribute(e.uv_values, e.uv_corners, [0.0; 2]);
+        let normals = corner_attribute(e.normal_values, e.normal_corners, [0.0; 3]);
         let colors =
             (!self.colors.is_empty()).then(|| Attribute::per_vertex(self.colors, &triangles));
         let materials = self
@@ -79,7 +98,7 @@ impl Checked {
             .map(|name| super::asset::Material { name, ..Default::default() })
             .collect();
         Asset {
-            positions: self.positions,
+            positions: e.positions,
             triangles,
             normals,
             uvs: uvs.into_iter().collect(),
@@ -250,14 +269,9 @@ struct Event {
 /// What one chunk holds, in file indices.
 #[derive(Default)]
 struct Chunk {
-    positions: Vec<[f64; 3]>,
+    elements: Elements,
     /// The coloured vertices (file index, colour).
     colors: Vec<(usize, [f32; 4])>,
-    uv_values: Vec<[f32; 2]>,
-    normal_values: Vec<[f32; 3]>,
-    triangles: Vec<[u32; 3]>,
-    uv_corners: Vec<[u32; 3]>,
-    normal_corners: Vec<[u32; 3]>,
     events: Vec<Event>,
     mtl_libs: Vec<String>,
     bad_vt: NonFinite,
@@ -313,7 +327,7 @@ fn read_chunk(
                 if let Some(c) = color {
                     out.colors.push((vertex, c));
                 }
-                out.positions.push(p);
+                out.elements.positions.push(p);
                 seen.v += 1;
             }
             "vt" => {
@@ -332,7 +346,7 @@ fn read_chunk(
                 if let Some(t) = rest.get(2) {
                     number(t, ctx, line, what)?;
                 }
-                out.uv_values.push(out.bad_vt.check([u, 1.0 - v], [0.0; 2], line));
+                out.elements.uv_values.push(out.bad_vt.check([u, 1.0 - v], [0.0; 2], line));
                 seen.vt += 1;
             }
             "vn" => {
@@ -348,7 +362,7 @@ fn read_chunk(
                     number(y, ctx, line, what)?,
                     number(z, ctx, line, what)?,
                 ];
-                out.normal_values.push(out.bad_vn.check(n, [0.0; 3], line));
+                out.elements.normal_values.push(out.bad_vn.check(n, [0.0; 3], line));
                 seen.vn += 1;
             }
             "f" => {
@@ -365,18 +379,18 @@ fn read_chunk(
                 let (c0, rest) = (poly[0], &poly[1..]);
                 for w in rest.windows(2) {
                     let tri = [c0, w[0], w[1]];
-                    out.triangles.push(tri.map(|c| c[0]));
+                    out.elements.triangles.push(tri.map(|c| c[0]));
                     // Kept only when the file has such lines (else every index is NONE).
                     if totals.vt > 0 {
-                        out.uv_corners.push(tri.map(|c| c[1]));
+                        out.elements.uv_corners.push(tri.map(|c| c[1]));
                     }
                     if totals.vn > 0 {
-                        out.normal_corners.push(tri.map(|c| c[2]));
+                        out.elements.normal_corners.push(tri.map(|c| c[2]));
                     }
                 }
             }
             "o" | "g" => out.events.push(Event {
-                at: out.triangles.len(),
+                at: out.elements.triangles.len(),
                 name: Some(rest.join(" ")),
                 material: None,
             }),
@@ -385,7 +399,7 @@ fn read_chunk(
                     return Err(ctx.parse(Some(line), "usemtl needs a material name"));
                 }
                 out.events.push(Event {
-                    at: out.triangles.len(),
+                    at: out.elements.triangles.len(),
                     name: None,
                     material: Some(rest.join(" ")),
                 });
@@ -400,7 +414,8 @@ fn read_chunk(
 /// The chunks in file order as one file: a [`Part`] is a run of faces with one name and
 /// material, and materials are numbered in order of first `usemtl`.
 fn join(chunks: Vec<Chunk>, totals: &Totals, ctx: Ctx) -> Checked {
-    let mut out = Checked { positions: Vec::with_capacity(totals.v), ..Checked::default() };
+    let mut out = Checked::default();
+    out.elements.positions.reserve(totals.v);
     let mut name = String::new();
     let mut material: Option<usize> = None;
     let mut material_index: HashMap<String, usize> = HashMap::new();
@@ -410,12 +425,12 @@ fn join(chunks: Vec<Chunk>, totals: &Totals, ctx: Ctx) -> Checked {
         out.colors = vec![[1.0; 4]; totals.v];
     }
     for chunk in chunks {
-        let base = out.triangles.len();
+        let base = out.elements.triangles.len();
         let mut events = chunk.events.into_iter().peekable();
         let mut at = 0;
-        while at < chunk.triangles.len() || events.peek().is_some() {
+        while at < chunk.elements.triangles.len() || events.peek().is_some() {
             // The faces before the next event, under the current name and material.
-            let until = events.peek().map_or(chunk.triangles.len(), |e| e.at);
+            let until = events.peek().map_or(chunk.elements.triangles.len(), |e| e.at);
             if until > at {
                 let last = out.parts.last().filter(|p| p.name == name && p.material == material);
                 if last.is_none() {
@@ -445,17 +460,12 @@ fn join(chunks: Vec<Chunk>, totals: &Totals, ctx: Ctx) -> Checked {
         for (v, c) in chunk.colors {
             out.colors[v] = c;
         }
-        out.positions.extend(chunk.positions);
-        out.uv_values.extend(chunk.uv_values);
-        out.normal_values.extend(chunk.normal_values);
-        out.triangles.extend(chunk.triangles);
-        out.uv_corners.extend(chunk.uv_corners);
-        out.normal_corners.extend(chunk.normal_corners);
+        out.elements.append(chunk.elements);
         out.mtl_libs.extend(chunk.mtl_libs);
         bad_vt.add(&chunk.bad_vt);
         bad_vn.add(&chunk.bad_vn);
     }
-    let total = out.triangles.len();
+    let total = out.elements.triangles.len();
     let firsts: Vec<usize> = out.parts.iter().skip(1).map(|p| p.first).chain([total]).collect();
     for (p, end) in out.parts.iter_mut().zip(firsts) {
         p.count = end - p.first;
