@@ -18,6 +18,7 @@ use solver::animation::export::{AssetExport, ExportSettings, GltfExport, GltfFor
 use solver::animation::pointcache::{Pc2, write_pc2};
 use solver::animation::recording::{Recording, record};
 use solver::animation::timeline::Timeline;
+use solver::geometry::normals::VertexFaces;
 use solver::{ArapConfig, BaseConfig, Deformer, Handles, LooseParts, Mesh, MeshCache, Method};
 
 use super::loader::FileLayout;
@@ -159,6 +160,11 @@ pub struct RecordInput {
     pub base: BaseConfig,
     /// Follow or pin per component without handles, as the document says.
     pub loose_parts: LooseParts,
+    /// The pose solvers' cache of what the method precomputes per mesh: a recording of the
+    /// mesh the editor shows reuses it (at 1.5M vertices, seconds) instead of building its own.
+    pub cache: Arc<Mutex<MeshCache>>,
+    /// Each vertex's triangles, as the loader built them (for the frames' normals).
+    pub vertex_faces: Arc<VertexFaces>,
 }
 
 /// Precomputes the method and records every frame of the timeline.
@@ -182,10 +188,22 @@ pub fn spawn_record(
                 config,
                 base,
                 loose_parts,
+                cache,
+                vertex_faces,
             } = input;
-            let mut deformer =
-                Deformer::with_loose_parts(method, &mesh, &handles, &config, &base, &loose_parts)
-                    .map_err(|e| format!("recording: precomputing {}: {e}", method.name()))?;
+            let mut deformer = {
+                let mut cache = cache.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+                Deformer::with_cache(
+                    method,
+                    &mesh,
+                    &handles,
+                    &config,
+                    &base,
+                    &loose_parts,
+                    &mut cache,
+                )
+            }
+            .map_err(|e| format!("recording: precomputing {}: {e}", method.name()))?;
             let fps = timeline.fps;
             let recording = record(
                 &mut deformer,
@@ -206,8 +224,8 @@ pub fn spawn_record(
                     .and_then(|e| e.file_size())
                     .map_err(|e| format!("recording: {e}"))?;
             let t = mesh.triangles();
-            let faces = solver::geometry::normals::VertexFaces::new(mesh.n_vertices(), t);
-            let shapes = recording.frames.iter().map(|f| Shape::with_faces(f, t, &faces)).collect();
+            let shapes =
+                recording.frames.iter().map(|f| Shape::with_faces(f, t, &vertex_faces)).collect();
             Ok(Recorded { recording: Arc::new(recording), shapes, glb_bytes, mesh, layout, fps })
         },
     )
@@ -319,6 +337,7 @@ mod tests {
 
     fn input(n_frames: usize) -> RecordInput {
         let (mesh, handles) = solver::geometry::shapes::bumpy_bar(2);
+        let vertex_faces = Arc::new(VertexFaces::new(mesh.n_vertices(), mesh.triangles()));
         RecordInput {
             layout: Arc::new(FileLayout::bare(&mesh)),
             mesh: Arc::new(mesh),
@@ -337,7 +356,30 @@ mod tests {
             config: ArapConfig { max_iterations: 50, ..ArapConfig::default() },
             base: BaseConfig::default(),
             loose_parts: LooseParts::default(),
+            cache: Arc::default(),
+            vertex_faces,
         }
+    }
+
+    /// A coarse recording takes the mesh's own part from the pose solvers' cache: built
+    /// there when missing (for the next handle set), reused when there, and the same frames
+    /// either way.
+    #[test]
+    fn a_recording_shares_the_mesh_cache() {
+        let coarse = |cache: &Arc<Mutex<MeshCache>>| RecordInput {
+            method: Method::BsArapCoarse,
+            base: BaseConfig { coarse_vertices: Some(60), ..BaseConfig::default() },
+            cache: cache.clone(),
+            ..input(4)
+        };
+        let cache = Arc::new(Mutex::new(MeshCache::default()));
+        let first = wait(&spawn_record(coarse(&cache), || {})).unwrap();
+        let built = cache.lock().unwrap().coarse_base().cloned().expect("the recording built it");
+        let again = wait(&spawn_record(coarse(&cache), || {})).unwrap();
+        let kept = cache.lock().unwrap().coarse_base().cloned().unwrap();
+        assert!(Arc::ptr_eq(&built, &kept), "the second recording rebuilt the mesh's part");
+        assert_eq!(first.recording.frames, again.recording.frames);
+        assert!(first.recording.frames[3] != first.recording.frames[0], "nothing moved");
     }
 
     #[test]

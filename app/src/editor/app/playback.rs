@@ -53,6 +53,8 @@ impl EditorApp {
             // A recording solves each frame once: nothing settles.
             base: solver::BaseConfig { settle_iterations: 0, ..s.base },
             loose_parts: self.session.edit.loose_parts.clone(),
+            cache: self.solvers.mesh_cache.clone(),
+            vertex_faces: scene.vertex_faces.clone(),
         };
         let c = ctx.clone();
         self.session.playback.set_playing(false);
