@@ -28,7 +28,7 @@
 //! handles: [`crate::deform::coarse::CoarseBsArap::with_base`].
 //!
 //! A [`CoarseBase`] remembers the mesh it was built for by a fingerprint of its positions and
-//! triangles ([`mesh_fingerprint`]) and the settings ([`CoarseBase::fits`]), so that a cache
+//! triangles ([`Mesh::fingerprint`]) and the settings ([`CoarseBase::fits`]), so that a cache
 //! never hands it to another mesh.
 
 use crate::deform::config::BaseConfig;
@@ -40,7 +40,6 @@ use crate::error::SolveError;
 use crate::geometry::mesh::{Mesh, sub};
 use crate::geometry::normals::VertexFaces;
 use crate::geometry::simplify::{Decimation, simplify};
-use std::hash::{Hash, Hasher};
 use std::time::Instant;
 
 /// The handle-independent precomputation of the coarse BS-ARAP for one mesh (module doc).
@@ -77,7 +76,7 @@ impl CoarseBase {
     /// Fairs, decimates and embeds (module doc, steps 1–3).
     pub fn new(mesh: &Mesh, config: &BaseConfig) -> Result<CoarseBase, SolveError> {
         let mut clock = Phases::default();
-        let fingerprint = mesh_fingerprint(mesh);
+        let fingerprint = mesh.fingerprint();
         let diag = mesh.bbox_diagonal();
         let smoothing = (config.smoothing.is_finite() && config.smoothing > 0.0)
             .then_some(config.smoothing * diag);
@@ -153,7 +152,7 @@ impl CoarseBase {
             && self.level_fairing == config.level_fairing
             && self.target_vertices == config.coarse_vertices_for(mesh.n_vertices())
             && self.representative.len() == mesh.n_vertices()
-            && self.fingerprint == mesh_fingerprint(mesh)
+            && self.fingerprint == mesh.fingerprint()
     }
 
     /// The number of coarse vertices.
@@ -198,18 +197,6 @@ fn decimate_level(level: &FairedLevel, target_vertices: usize) -> Option<(Decima
             .collect(),
     };
     Some((fine, dec.representative))
-}
-
-/// A 64-bit hash of a mesh's positions (bit patterns) and triangles: which mesh a cached
-/// precomputation belongs to.
-pub fn mesh_fingerprint(mesh: &Mesh) -> u64 {
-    let mut h = std::collections::hash_map::DefaultHasher::new();
-    mesh.n_vertices().hash(&mut h);
-    for p in mesh.positions() {
-        p.map(f64::to_bits).hash(&mut h);
-    }
-    mesh.triangles().hash(&mut h);
-    h.finish()
 }
 
 /// Wall-clock milliseconds per named phase of a precomputation.

@@ -52,7 +52,7 @@ impl CacheError {
 /// The file for `mesh` with `config` in `dir`: named by the mesh's fingerprint and the
 /// settings, so that other meshes and settings get their own files.
 pub fn cache_path(dir: &Path, mesh: &Mesh, config: &BaseConfig) -> PathBuf {
-    let fingerprint = crate::deform::coarse_base::mesh_fingerprint(mesh);
+    let fingerprint = mesh.fingerprint();
     let mut h = std::collections::hash_map::DefaultHasher::new();
     h.write_u64(config.smoothing.to_bits());
     h.write_u64(config.coarse_vertices_for(mesh.n_vertices()) as u64);

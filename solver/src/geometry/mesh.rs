@@ -22,10 +22,19 @@ pub enum MeshError {
 }
 
 /// A triangle mesh: positions (`#V×3 f64`) and triangles (`#F×3 u32`, counter-clockwise).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone)]
 pub struct Mesh {
     positions: Vec<[f64; 3]>,
     triangles: Vec<[u32; 3]>,
+    /// [`Mesh::fingerprint`], computed when first asked for (a mesh never changes).
+    fingerprint: std::sync::OnceLock<u64>,
+}
+
+/// Two meshes are equal when their positions and triangles are.
+impl PartialEq for Mesh {
+    fn eq(&self, other: &Mesh) -> bool {
+        self.positions == other.positions && self.triangles == other.triangles
+    }
 }
 
 impl Mesh {
@@ -49,7 +58,23 @@ impl Mesh {
                 return Err(MeshError::RepeatedVertex { face, a: t[0], b: t[1], c: t[2] });
             }
         }
-        Ok(Mesh { positions, triangles })
+        Ok(Mesh { positions, triangles, fingerprint: std::sync::OnceLock::new() })
+    }
+
+    /// A 64-bit hash of the positions (bit patterns) and triangles, computed once per mesh
+    /// (tens of milliseconds at a million vertices): which mesh a cached precomputation
+    /// belongs to ([`crate::deform::coarse_base::CoarseBase::fits`], the disk cache's key).
+    pub fn fingerprint(&self) -> u64 {
+        *self.fingerprint.get_or_init(|| {
+            use std::hash::{Hash, Hasher};
+            let mut h = std::collections::hash_map::DefaultHasher::new();
+            self.n_vertices().hash(&mut h);
+            for p in &self.positions {
+                p.map(f64::to_bits).hash(&mut h);
+            }
+            self.triangles.hash(&mut h);
+            h.finish()
+        })
     }
 
     /// Rest positions, `#V×3`.
@@ -143,6 +168,23 @@ pub(crate) fn norm(a: [f64; 3]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The fingerprint follows the positions' bits and the triangles, is the same when asked
+    /// again and on a clone, and equality ignores whether it was computed.
+    #[test]
+    fn fingerprint_follows_the_content() {
+        let p = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+        let t = vec![[0, 1, 2], [0, 2, 3]];
+        let a = Mesh::new(p.clone(), t.clone()).unwrap();
+        let b = Mesh::new(p.clone(), t.clone()).unwrap();
+        let f = a.fingerprint();
+        assert_eq!(a, b, "equal before one of them computed its fingerprint");
+        assert_eq!((a.fingerprint(), a.clone().fingerprint(), b.fingerprint()), (f, f, f));
+        let moved = a.with_positions(vec![p[0], p[1], p[2], [0.0, 0.0, 1.0 + f64::EPSILON]]);
+        assert_ne!(moved.unwrap().fingerprint(), f, "one bit of one coordinate");
+        let flipped = Mesh::new(p, vec![[0, 2, 1], [0, 2, 3]]).unwrap();
+        assert_ne!(flipped.fingerprint(), f);
+    }
 
     #[test]
     fn rejects_bad_arrays() {
