@@ -11,7 +11,7 @@ use solver::Handles;
 use super::{EditorApp, Shading, View};
 use crate::editor::pose::GroupPose;
 use crate::editor::pose_solvers;
-use crate::editor::solver_thread::{Slot, SolvedFrame, SolverCommand, SolverHandle};
+use crate::editor::solver_thread::{NewScene, Slot, SolvedFrame, SolverCommand, SolverHandle};
 use crate::editor::{jobs, loader};
 use crate::gpu::normals::GpuNormals;
 
@@ -131,22 +131,29 @@ impl EditorApp {
 
     /// The handle set or method changed: every solver rebuilds (factorizes) on its thread.
     pub(super) fn send_scene(&mut self) {
-        let Some(scene) = &self.session.scene else { return };
-        self.solvers.scene_generation += 1;
-        let handles = self.handles();
-        let poses = self.poses();
-        for s in self.solvers.iter() {
-            s.send(SolverCommand::SetScene {
-                scene_generation: self.solvers.scene_generation,
-                mesh: scene.mesh.clone(),
-                vertex_faces: scene.vertex_faces.clone(),
-                handles: handles.clone(),
-                settings: self.session.settings,
-                loose_parts: self.session.edit.loose_parts.clone(),
-                poses: poses.clone(),
-                pose_generation: self.solvers.pose_generation,
-            });
+        if self.session.scene.is_none() {
+            return;
         }
+        self.solvers.scene_generation += 1;
+        let Some(scene) = self.new_scene() else { return };
+        for s in self.solvers.iter() {
+            s.send(SolverCommand::SetScene(scene.clone()));
+        }
+    }
+
+    /// The current scene as a solver thread rebuilds for it (`None` without a mesh).
+    fn new_scene(&self) -> Option<NewScene> {
+        let scene = self.session.scene.as_ref()?;
+        Some(NewScene {
+            scene_generation: self.solvers.scene_generation,
+            mesh: scene.mesh.clone(),
+            vertex_faces: scene.vertex_faces.clone(),
+            handles: self.handles(),
+            settings: self.session.settings,
+            loose_parts: self.session.edit.loose_parts.clone(),
+            poses: self.poses(),
+            pose_generation: self.solvers.pose_generation,
+        })
     }
 
     /// Only poses changed: no refactorization.
@@ -237,17 +244,8 @@ impl EditorApp {
         if want && self.solvers.compare.is_none() {
             self.solvers.compare = self.spawn_solver(ctx, Slot::Compare);
             self.solvers.views[1] = SolverView::default();
-            if let (Some(scene), Some(arap)) = (&self.session.scene, &self.solvers.compare) {
-                arap.send(SolverCommand::SetScene {
-                    scene_generation: self.solvers.scene_generation,
-                    mesh: scene.mesh.clone(),
-                    vertex_faces: scene.vertex_faces.clone(),
-                    handles: self.handles(),
-                    settings: self.session.settings,
-                    loose_parts: self.session.edit.loose_parts.clone(),
-                    poses: self.poses(),
-                    pose_generation: self.solvers.pose_generation,
-                });
+            if let (Some(scene), Some(arap)) = (self.new_scene(), &self.solvers.compare) {
+                arap.send(SolverCommand::SetScene(scene));
             }
         } else if !want && self.solvers.compare.is_some() {
             self.solvers.compare = None;

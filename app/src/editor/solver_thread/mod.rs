@@ -28,7 +28,7 @@ use std::time::Duration;
 
 pub use mailbox::Mailbox;
 pub use protocol::{
-    ANDERSON_WINDOW, MethodSettings, PoseSolver, PoseSolverFactory, Slot, SolvedFrame,
+    ANDERSON_WINDOW, MethodSettings, NewScene, PoseSolver, PoseSolverFactory, Slot, SolvedFrame,
     SolverCommand, SolverState, SolverStatus,
 };
 use worker::{Shared, set_status, supervise};

@@ -161,23 +161,27 @@ pub type PoseSolverFactory = Arc<
         + Sync,
 >;
 
+/// What a solver thread rebuilds its pose solver for ([`SolverCommand::SetScene`]).
+#[derive(Clone)]
+pub struct NewScene {
+    pub scene_generation: u64,
+    pub mesh: Arc<Mesh>,
+    /// Each vertex's triangles in `mesh`, for the frames' normals (built once per mesh, by
+    /// the loader).
+    pub vertex_faces: Arc<VertexFaces>,
+    pub handles: Option<Handles>,
+    pub settings: MethodSettings,
+    /// Follow or pin per component without handles.
+    pub loose_parts: LooseParts,
+    pub poses: Vec<GroupPose>,
+    /// The pose generation `poses` belong to.
+    pub pose_generation: u64,
+}
+
 /// The closed set of messages the UI sends to a solver thread.
 pub enum SolverCommand {
     /// A new mesh and/or handle set / method settings: rebuild the pose solver.
-    SetScene {
-        scene_generation: u64,
-        mesh: Arc<Mesh>,
-        /// Each vertex's triangles in `mesh`, for the frames' normals (built once per mesh, by
-        /// the loader).
-        vertex_faces: Arc<VertexFaces>,
-        handles: Option<Handles>,
-        settings: MethodSettings,
-        /// Follow or pin per component without handles.
-        loose_parts: LooseParts,
-        poses: Vec<GroupPose>,
-        /// The pose generation `poses` belong to.
-        pose_generation: u64,
-    },
+    SetScene(NewScene),
     /// New modes of the loose parts (no refactorization); the frame that shows them carries
     /// `pose_generation`.
     SetLooseParts {

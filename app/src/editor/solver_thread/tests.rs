@@ -74,7 +74,7 @@ fn faces_of(mesh: &Mesh) -> Arc<VertexFaces> {
 }
 
 fn scene(generation: u64, poses: Vec<GroupPose>) -> SolverCommand {
-    SolverCommand::SetScene {
+    SolverCommand::SetScene(NewScene {
         scene_generation: generation,
         vertex_faces: faces_of(&tri()),
         mesh: tri(),
@@ -83,7 +83,7 @@ fn scene(generation: u64, poses: Vec<GroupPose>) -> SolverCommand {
         loose_parts: Default::default(),
         poses,
         pose_generation: 0,
-    }
+    })
 }
 
 #[test]
@@ -420,7 +420,7 @@ fn loose_parts_change_without_a_rebuild() {
         });
     let h = SolverHandle::spawn(Slot::Compare, factory, Arc::new(|| {})).unwrap();
     let moved = GroupPose { translation: [0.3, 0.0, 0.0], ..Default::default() };
-    h.send(SolverCommand::SetScene {
+    h.send(SolverCommand::SetScene(NewScene {
         scene_generation: 1,
         vertex_faces: faces_of(&mesh),
         mesh,
@@ -429,7 +429,7 @@ fn loose_parts_change_without_a_rebuild() {
         loose_parts: LooseParts::default(),
         poses: vec![GroupPose::default(), moved],
         pose_generation: 1,
-    });
+    }));
     let small_vertices = n as usize..p.len();
     let shift = |f: &SolvedFrame| {
         small_vertices

@@ -15,7 +15,7 @@ use solver::{FrameStats, Handles, LooseParts, Mesh};
 
 use super::mailbox::Mailbox;
 use super::protocol::{
-    MethodSettings, PoseSolver, PoseSolverFactory, Slot, SolvedFrame, SolverCommand, SolverState,
+    NewScene, PoseSolver, PoseSolverFactory, Slot, SolvedFrame, SolverCommand, SolverState,
     SolverStatus,
 };
 use crate::editor::pose::GroupPose;
@@ -257,18 +257,6 @@ struct Inbox {
     republish: bool,
 }
 
-/// The fields of [`SolverCommand::SetScene`].
-struct NewScene {
-    scene_generation: u64,
-    mesh: Arc<Mesh>,
-    vertex_faces: Arc<VertexFaces>,
-    handles: Option<Handles>,
-    settings: MethodSettings,
-    loose_parts: LooseParts,
-    poses: Vec<GroupPose>,
-    pose_generation: u64,
-}
-
 /// How long the worker may block for commands: forever with nothing to iterate on, not at all
 /// with a pose to solve, and before settling until the poses have rested for the settle delay
 /// ([`Active::settle_delay`] above `floor`).
@@ -309,26 +297,8 @@ fn drain_commands(rx: &Receiver<SolverCommand>, wait: Option<Duration>) -> Optio
             SolverCommand::Shutdown => return None,
             SolverCommand::Republish => inbox.republish = true,
             SolverCommand::InjectPanic => panic!("injected solver panic (test hook)"),
-            SolverCommand::SetScene {
-                scene_generation,
-                mesh,
-                vertex_faces,
-                handles,
-                settings,
-                loose_parts,
-                poses,
-                pose_generation,
-            } => {
-                inbox.scene = Some(NewScene {
-                    scene_generation,
-                    mesh,
-                    vertex_faces,
-                    handles,
-                    settings,
-                    loose_parts,
-                    poses,
-                    pose_generation,
-                });
+            SolverCommand::SetScene(scene) => {
+                inbox.scene = Some(scene);
                 inbox.poses = None;
                 inbox.loose_parts = None;
             }
