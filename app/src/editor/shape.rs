@@ -33,10 +33,10 @@ impl Shape {
 
 impl Shape {
     /// These positions with their vertex normals computed here (for a shape made without them,
-    /// [`ShapePool::shape`] with no faces).
-    pub fn with_vertex_normals(&self, triangles: &[[u32; 3]]) -> Shape {
+    /// [`ShapePool::shape`] with no faces); `faces` were built for `triangles`.
+    pub fn with_vertex_normals(&self, triangles: &[[u32; 3]], faces: &VertexFaces) -> Shape {
         let x: Vec<[f64; 3]> = self.positions.iter().map(|p| p.map(f64::from)).collect();
-        Shape::new(&x, triangles)
+        Shape::with_faces(&x, triangles, faces)
     }
 }
 

@@ -218,17 +218,8 @@ impl EditorApp {
         let rest = || Ok((0, scene.rest.clone()));
         let frame = |i: usize| self.solvers.views[i].frame.as_ref();
         let tag = |f: &SolvedFrame| f.sequence;
-        let shape = |f: &SolvedFrame| {
-            let shape = Shape { positions: f.positions.clone(), normals: f.normals.clone() };
-            // A frame made while the viewport drew clay on a GPU has no normals; the texture
-            // layout gathers them on the CPU (until the thread republishes with normals).
-            match self.display.shading {
-                Shading::Texture if shape.normals.is_empty() => {
-                    shape.with_vertex_normals(scene.mesh.triangles())
-                }
-                _ => shape,
-            }
-        };
+        let shape =
+            |f: &SolvedFrame| Shape { positions: f.positions.clone(), normals: f.normals.clone() };
         if let Some(rec) = self.jobs.recorded.as_ref().filter(|_| self.display.show_recording)
             && matches!(self.display.view, View::Result | View::Details)
         {
@@ -254,6 +245,18 @@ impl EditorApp {
         }
     }
 
+    /// `shape` with vertex normals, for the texture layout to gather: a frame made while the
+    /// viewport drew clay on a GPU has none, and gets them here on the CPU, once per such frame
+    /// (the solver thread republishes with normals after a switch to texture shading).
+    pub(super) fn with_normals(&self, shape: Shape) -> Shape {
+        match &self.session.scene {
+            Some(scene) if shape.normals.is_empty() => {
+                shape.with_vertex_normals(scene.mesh.triangles(), &scene.vertex_faces)
+            }
+            _ => shape,
+        }
+    }
+
     pub(super) fn draw_viewport(&mut self, ui: &mut egui::Ui, slot: usize, rect: Rect) {
         let response =
             ui.interact(rect, ui.scope_id().with(("viewport", slot)), Sense::click_and_drag());
@@ -263,6 +266,7 @@ impl EditorApp {
             if self.display.viewports[slot].key != Some(key) {
                 let n = shape.positions.len();
                 let layout = self.texture_layout(n).cloned();
+                let gathered = layout.as_ref().map(|_| self.with_normals(shape.clone()));
                 let color_version = self.display.color_version;
                 let fresh = self.display.view != View::Details
                     && matches!(&self.display.viewports[slot].colors,
@@ -278,8 +282,8 @@ impl EditorApp {
                 let cache = &mut self.display.viewports[slot];
                 let colors = cache.colors.as_ref().map_or(&[][..], |c| &c.1.vertices[..]);
                 let mut vertices = recycle(&mut cache.textured);
-                cache.textured = layout.map(|layout| {
-                    layout.gather_into(&mut vertices, &shape.positions, &shape.normals, colors);
+                cache.textured = layout.zip(gathered).map(|(layout, s)| {
+                    layout.gather_into(&mut vertices, &s.positions, &s.normals, colors);
                     Arc::new(VertexData { version, vertices })
                 });
                 cache.key = Some(key);
