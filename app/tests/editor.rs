@@ -261,7 +261,6 @@ fn gpu_normals_draw_what_cpu_normals_draw() {
     h.step();
     let cpu = h.render().expect("render with CPU normals");
     assert_eq!(cpu.dimensions(), gpu.dimensions());
-    cpu.save("/tmp/n_cpu.png").unwrap();
     // The viewport below its overlay text (which names the solver's state and iterations).
     // Summation order differs (f32): allow a shade of difference, on few pixels.
     let (mut off, mut total) = (0, 0);
