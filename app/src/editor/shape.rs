@@ -1,13 +1,14 @@
 //! What a viewport draws of a pose: f32 positions and vertex normals, made where the
-//! positions are made (the solver thread, the loader, the recording job), never on the UI
-//! thread, and shared with the renderer and picking as `Arc`s.
+//! positions are made (the solver thread, the loader, the recording job), and shared with the
+//! renderer and picking as `Arc`s. A frame may come without normals when the clay viewport
+//! computes them on the GPU; only a texture layout then gathers them on the UI thread, once
+//! per such frame (`EditorApp::with_normals`).
 
 use std::sync::Arc;
 
 use solver::geometry::normals::VertexFaces;
 
-/// Positions to draw with their vertex normals, both computed where the positions are made
-/// (solver thread, loader, recording job), never on the UI thread.
+/// Positions to draw with their vertex normals (module doc: where each is computed).
 #[derive(Debug, Clone)]
 pub struct Shape {
     pub positions: Arc<Vec<[f32; 3]>>,
