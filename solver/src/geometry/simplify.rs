@@ -13,8 +13,8 @@
 //!    [`SPLIT_TRIANGLES`] or more is simplified in two halves side by side, then once more
 //!    across their cut ([`collapse`]).
 //! 2. Each fine vertex's *representative* is the coarse vertex nearest to it along the fine
-//!    mesh's edges (multi-source Dijkstra from the coarse vertices, edge lengths as weights;
-//!    ties to the lower index; from [`SPLIT_VERTICES`] vertices on in two halves side by side,
+//!    mesh's edges (multi-source Dijkstra from the coarse vertices, edge lengths as weights,
+//!    on a radix heap; ties to the lower index; from [`SPLIT_VERTICES`] vertices on in two halves side by side,
 //!    then mended across their cut, with the same result): what the embedding searches
 //!    around and the coarse handle groups count. A fine vertex in a component the simplifier
 //!    removed entirely (it does not remove components: it keeps topology) would keep
@@ -25,8 +25,6 @@
 
 use crate::geometry::mesh::{norm, sub};
 use crate::geometry::topology::Adjacency;
-use std::cmp::Reverse;
-use std::collections::BinaryHeap;
 
 /// A decimated mesh whose vertices are a subset of the fine mesh's.
 #[derive(Debug, Clone)]
@@ -207,42 +205,42 @@ fn nearest_along_edges_with(
 ) -> Vec<u32> {
     let n = positions.len();
     let graph = Adjacency::new(n, triangles);
-    let seeded = |keep: &dyn Fn(usize) -> bool| {
-        let mut labels = Labels::new(n);
-        let mut heap = BinaryHeap::new();
+    let seeded = |part: &dyn Fn(usize) -> bool| {
+        let mut labels = Labels::new(positions, part);
+        let mut heap = RadixHeap::default();
         for (j, &s) in sources.iter().enumerate() {
-            if keep(s as usize) {
-                labels.dist[s as usize] = 0.0;
+            if part(s as usize) {
+                labels.node[s as usize][3] = 0.0;
                 labels.owner[s as usize] = j as u32;
-                heap.push(Reverse(entry(0.0, j as u32, s)));
+                heap.push(0.0, j as u32, s);
             }
         }
         (labels, heap)
     };
     if !split {
         let (mut labels, heap) = seeded(&|_| true);
-        labels.run(&graph, positions, heap, |_| true);
+        labels.run(&graph, heap);
         return labels.owner;
     }
     let side = halves(positions);
     let half = |h: bool| {
         let (mut labels, heap) = seeded(&|v| side[v] == h);
-        labels.run(&graph, positions, heap, |w| side[w] == h);
+        labels.run(&graph, heap);
         labels
     };
     let (mut labels, upper) = rayon::join(|| half(false), || half(true));
     for v in (0..n).filter(|&v| side[v]) {
-        labels.dist[v] = upper.dist[v];
+        labels.node[v][3] = upper.node[v][3];
         labels.owner[v] = upper.owner[v];
     }
-    let mut heap = BinaryHeap::new();
+    let mut heap = RadixHeap::default();
     for v in 0..n {
         let on_cut = graph.neighbors(v as u32).iter().any(|&w| side[w as usize] != side[v]);
         if on_cut && labels.owner[v] != u32::MAX {
-            heap.push(Reverse(entry(labels.dist[v], labels.owner[v], v as u32)));
+            heap.push(labels.node[v][3], labels.owner[v], v as u32);
         }
     }
-    labels.run(&graph, positions, heap, |_| true);
+    labels.run(&graph, heap);
     labels.owner
 }
 
@@ -270,54 +268,101 @@ fn halves(positions: &[[f64; 3]]) -> Vec<bool> {
     positions.iter().map(|p| p[axis] > median).collect()
 }
 
-/// Multi-source Dijkstra labels: per vertex its distance and its source (`u32::MAX`: none).
+/// Multi-source Dijkstra labels: per vertex its position with its distance beside it (one
+/// cache line per edge relaxed: on a mesh whose neighbours lie far apart in memory, the run
+/// waits for memory more than it computes) and its source (`u32::MAX`: none). A vertex
+/// outside the run's part has distance −∞, which no path lowers: the run never enters it.
 struct Labels {
-    dist: Vec<f64>,
+    node: Vec<[f64; 4]>,
     owner: Vec<u32>,
 }
 
 impl Labels {
-    fn new(n: usize) -> Labels {
-        Labels { dist: vec![f64::INFINITY; n], owner: vec![u32::MAX; n] }
+    fn new(positions: &[[f64; 3]], part: &dyn Fn(usize) -> bool) -> Labels {
+        let node = positions
+            .iter()
+            .enumerate()
+            .map(|(v, p)| {
+                let d = if part(v) { f64::INFINITY } else { f64::NEG_INFINITY };
+                [p[0], p[1], p[2], d]
+            })
+            .collect();
+        Labels { node, owner: vec![u32::MAX; positions.len()] }
     }
 
-    /// Pops `heap` (entries: distance, source, vertex) until empty, relaxing the edges to the
-    /// vertices `allowed` accepts; a label falls to a shorter distance, or to the same one
-    /// from a lower source.
-    fn run(
-        &mut self,
-        graph: &Adjacency,
-        positions: &[[f64; 3]],
-        mut heap: BinaryHeap<Reverse<u128>>,
-        allowed: impl Fn(usize) -> bool,
-    ) {
-        while let Some(Reverse(e)) = heap.pop() {
-            let (d, j, v) = (f64::from_bits((e >> 64) as u64), (e >> 32) as u32, e as u32);
-            if d > self.dist[v as usize] || self.owner[v as usize] != j {
+    /// Pops `heap` (entries: distance, source, vertex) until empty, relaxing the edges; a
+    /// label falls to a shorter distance, or to the same one from a lower source. The labels
+    /// do not depend on the order in which entries of equal distance pop: an edge is longer
+    /// than zero, so such entries cannot lower each other.
+    fn run(&mut self, graph: &Adjacency, mut heap: RadixHeap) {
+        while let Some((d, j, v)) = heap.pop() {
+            let [x, y, z, dv] = self.node[v as usize];
+            if d > dv || self.owner[v as usize] != j {
                 continue;
             }
             for &w in graph.neighbors(v) {
                 let wi = w as usize;
-                if !allowed(wi) {
-                    continue;
-                }
-                let nd = d + norm(sub(positions[wi], positions[v as usize]));
-                if nd < self.dist[wi] || (nd == self.dist[wi] && j < self.owner[wi]) {
-                    self.dist[wi] = nd;
+                let node = &mut self.node[wi];
+                let nd = d + norm(sub([node[0], node[1], node[2]], [x, y, z]));
+                if nd < node[3] || (nd == node[3] && j < self.owner[wi]) {
+                    node[3] = nd;
                     self.owner[wi] = j;
-                    heap.push(Reverse(entry(nd, j, w)));
+                    heap.push(nd, j, w);
                 }
             }
         }
     }
 }
 
-/// A heap entry (distance, source, vertex) as one integer ordered as the triple is
-/// (lexicographically): a distance is never negative, and the bits of non-negative floats
-/// order as their values do.
-fn entry(d: f64, j: u32, v: u32) -> u128 {
-    debug_assert!(d >= 0.0);
-    ((d.to_bits() as u128) << 64) | ((j as u128) << 32) | v as u128
+/// A monotone priority queue of (distance, source, vertex) entries: the radix heap of Ahuja,
+/// Mehlhorn, Orlin and Tarjan ("Faster algorithms for the shortest path problem", J. ACM
+/// 37(2), 1990) on the distances' bits (the bits of non-negative floats order as their
+/// values). Dijkstra pops distances in non-decreasing order and pushes none below the last
+/// popped, `last`; an entry waits in bucket $b$ = the number of bits up to the highest one in
+/// which its key differs from `last` (bucket 0: equal to it). Popping from an empty bucket 0
+/// takes the first non-empty bucket, makes its smallest key `last` and spreads its entries over
+/// the lower buckets: each entry moves down a few times at most, instead of the binary heap's
+/// $\log_2$ of the frontier (tens of thousands of entries) per pop on a dense mesh.
+struct RadixHeap {
+    last: u64,
+    buckets: [Vec<(u64, u64)>; 65],
+}
+
+impl Default for RadixHeap {
+    fn default() -> RadixHeap {
+        RadixHeap { last: 0, buckets: std::array::from_fn(|_| Vec::new()) }
+    }
+}
+
+impl RadixHeap {
+    fn bucket(&self, key: u64) -> usize {
+        (64 - (key ^ self.last).leading_zeros()) as usize
+    }
+
+    fn push(&mut self, d: f64, j: u32, v: u32) {
+        debug_assert!(d >= 0.0);
+        let key = d.to_bits();
+        debug_assert!(key >= self.last, "a push below the last pop");
+        let b = self.bucket(key);
+        self.buckets[b].push((key, (u64::from(j) << 32) | u64::from(v)));
+    }
+
+    fn pop(&mut self) -> Option<(f64, u32, u32)> {
+        if self.buckets[0].is_empty() {
+            let i = self.buckets.iter().position(|b| !b.is_empty())?;
+            let entries = std::mem::take(&mut self.buckets[i]);
+            self.last = entries.iter().map(|e| e.0).min().unwrap_or(self.last);
+            for &e in &entries {
+                let b = self.bucket(e.0);
+                self.buckets[b].push(e);
+            }
+            // Keep the bucket's allocation for later entries.
+            self.buckets[i] = entries;
+            self.buckets[i].clear();
+        }
+        let (key, payload) = self.buckets[0].pop()?;
+        Some((f64::from_bits(key), (payload >> 32) as u32, payload as u32))
+    }
 }
 
 #[cfg(test)]
@@ -370,6 +415,70 @@ mod tests {
             assert_eq!(one, two, "mesh {m}");
             assert_eq!(one.contains(&u32::MAX), m == 2, "mesh {m}");
         }
+    }
+
+    /// The labels are those of the plain fixed point (Bellman–Ford over every edge until no
+    /// label falls, ties to the lower source), on a bumpy bar whose edges vary in length.
+    #[test]
+    fn labels_are_the_shortest_paths() {
+        let (bar, _) = crate::geometry::shapes::bumpy_bar(4);
+        let (p, t) = (bar.positions(), bar.triangles());
+        let sources: Vec<u32> = (0..p.len() as u32).step_by(13).collect();
+        let graph = Adjacency::new(p.len(), t);
+        let mut dist = vec![f64::INFINITY; p.len()];
+        let mut owner = vec![u32::MAX; p.len()];
+        for (j, &s) in sources.iter().enumerate() {
+            (dist[s as usize], owner[s as usize]) = (0.0, j as u32);
+        }
+        let mut changed = true;
+        while changed {
+            changed = false;
+            for v in 0..p.len() {
+                for &w in graph.neighbors(v as u32) {
+                    let (d, j) = (dist[v], owner[v]);
+                    let nd = d + norm(sub(p[w as usize], p[v]));
+                    let w = w as usize;
+                    if j != u32::MAX && (nd < dist[w] || (nd == dist[w] && j < owner[w])) {
+                        (dist[w], owner[w]) = (nd, j);
+                        changed = true;
+                    }
+                }
+            }
+        }
+        assert!(!owner.contains(&u32::MAX));
+        for split in [false, true] {
+            assert_eq!(nearest_along_edges_with(p, t, &sources, split), owner, "split {split}");
+        }
+    }
+
+    /// The radix heap pops what it holds in the order of the distances, whatever the order
+    /// of the pushes (each at least the last pop, as Dijkstra pushes).
+    #[test]
+    fn the_radix_heap_pops_in_order() {
+        let mut heap = RadixHeap::default();
+        let mut held: Vec<f64> = Vec::new();
+        let mut popped: Vec<f64> = Vec::new();
+        let mut state = 12345u64;
+        let mut next = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for round in 0..2000 {
+            let last = popped.last().copied().unwrap_or(0.0);
+            for k in 0..(round % 4) {
+                let d = last + next() * 10f64.powi(k - 2);
+                heap.push(d, k as u32, round as u32);
+                held.push(d);
+            }
+            if let Some((d, _, _)) = heap.pop() {
+                popped.push(d);
+                let i = held.iter().position(|&h| h == d).expect("popped what was pushed");
+                held.swap_remove(i);
+                assert!(held.iter().all(|&h| h >= d), "a smaller entry was left behind");
+            }
+        }
+        assert!(popped.windows(2).all(|w| w[0] <= w[1]));
+        assert!(popped.len() > 1000);
     }
 
     /// A target above the mesh's size keeps the mesh (the simplifier would abort the process
