@@ -5,6 +5,7 @@
 //! `vt u [v [w]]`, `vn x y z`, `f` with `v`, `v/vt`, `v//vn` or `v/vt/vn` corners (absolute
 //! or negative relative indices), `o`/`g` names, `usemtl` and `mtllib`. Polygons are
 //! fan-triangulated as `(c0, c_k, c_k+1)`. Positions keep the file's order and numbering.
+//! Tokens are separated by ASCII whitespace (space, tab, form feed; OBJ has no other).
 //!
 //! The [`Asset`]'s attributes are indexed per corner, as the file indexes them: `uvs[0]`
 //! holds the `vt` lines (**stored in the glTF convention $v' = 1 - v$**, v down from the top;
@@ -249,7 +250,7 @@ fn count(chunk: &str) -> (usize, Totals) {
     let (mut lines, mut totals) = (0, Totals::default());
     for line in chunk.lines() {
         lines += 1;
-        match line.split_whitespace().next() {
+        match line.split_ascii_whitespace().next() {
             Some("v") => totals.v += 1,
             Some("vt") => totals.vt += 1,
             Some("vn") => totals.vn += 1,
@@ -295,7 +296,7 @@ fn read_chunk(
     for (i, text_line) in text.lines().enumerate() {
         let line = line + i + 1;
         toks.clear();
-        toks.extend(text_line.split_whitespace());
+        toks.extend(text_line.split_ascii_whitespace());
         let Some((&key, rest)) = toks.split_first() else { continue };
         match key {
             "v" => {
@@ -484,15 +485,21 @@ fn face_vertex(
     ctx: Ctx,
     line: usize,
 ) -> Result<[u32; 3], LoadError> {
-    let mut split = tok.split('/');
+    // Up to three `/`-separated parts; `rest` is what follows the third (an error).
     let mut parts = [""; 3];
     let mut n_parts = 0;
-    for part in split.by_ref().take(3) {
-        parts[n_parts] = part;
+    let mut rest = Some(tok);
+    while n_parts < 3
+        && let Some(r) = rest
+    {
+        (parts[n_parts], rest) = match r.bytes().position(|c| c == b'/') {
+            Some(k) => (&r[..k], Some(&r[k + 1..])),
+            None => (r, None),
+        };
         n_parts += 1;
     }
     let parts = &parts[..n_parts];
-    if split.next().is_some() || parts.first().is_none_or(|p| p.is_empty()) {
+    if rest.is_some() || parts.first().is_none_or(|p| p.is_empty()) {
         return Err(ctx.parse(Some(line), format!("{tok:?} is not a face vertex (v, v/vt, v//vn)")));
     }
     let kinds = [
