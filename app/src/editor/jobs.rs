@@ -11,7 +11,7 @@ use std::ops::ControlFlow;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::mpsc::{Receiver, TryRecvError, channel};
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, OnceLock};
 use std::time::Instant;
 
 use solver::animation::export::{AssetExport, ExportSettings, GltfExport, GltfFormat};
@@ -123,7 +123,8 @@ pub struct Preparing {
 
 /// Builds what `method` precomputes per mesh ([`MeshCache::prepare`]) into the cache the
 /// pose solvers share, so that the first handle group waits only for its own part. A pose
-/// solver that needs the cache meanwhile waits for it (it then reuses the result).
+/// solver that needs the cache meanwhile waits for it (it then reuses the result). Runs on
+/// [`background_pool`].
 pub fn spawn_prepare(
     cache: Arc<Mutex<MeshCache>>,
     mesh: Arc<Mesh>,
@@ -136,17 +137,55 @@ pub fn spawn_prepare(
     let job = spawn("prepare", repaint, move |_| {
         let t = Instant::now();
         let mut cache = cache.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-        let prepared = cache.prepare(method, &m, &base).map_err(|e| e.to_string())?;
+        let inner: &mut MeshCache = &mut cache;
+        let mut build = || inner.prepare(method, &m, &base).map(|p| p.is_some());
+        let built = match background_pool() {
+            Some(pool) => pool.install(build),
+            None => build(),
+        }
+        .map_err(|e| e.to_string())?;
         if let Some(note) = cache.disk_note() {
             eprintln!("editor: mesh cache: {note}");
         }
-        match prepared {
-            Some(_) => Ok(t.elapsed().as_secs_f64() * 1e3),
-            None => Ok(0.0),
-        }
+        Ok(if built { t.elapsed().as_secs_f64() * 1e3 } else { 0.0 })
     });
     Preparing { mesh, method, base, since, job }
 }
+
+/// The pool the mesh's own precomputation runs on: as many threads as rayon's own, at a lower
+/// scheduling priority (nice 10, on Linux). The precomputation starts as soon as the file is
+/// read, while the loader still derives what the viewport shows (normals, the picking tree,
+/// the edges) on rayon's pool. On that one pool the loader's passes queued behind the
+/// precomputation's long tasks (a simplifier's half is one task of a second or more at 1.5M
+/// vertices) and the mesh appeared seconds late; side by side at equal priority each slowed
+/// the other. At a lower priority the precomputation takes what the loader, the UI and the
+/// solvers leave of the cores. `None` when the pool cannot be made (then rayon's own).
+pub fn background_pool() -> Option<&'static rayon::ThreadPool> {
+    static POOL: OnceLock<Option<rayon::ThreadPool>> = OnceLock::new();
+    POOL.get_or_init(|| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(rayon::current_num_threads())
+            .thread_name(|i| format!("background-{i}"))
+            .start_handler(|_| lower_priority())
+            .build()
+            .ok()
+    })
+    .as_ref()
+}
+
+/// Lowers the calling thread's scheduling priority (nice 10; a failure leaves it as it was).
+#[cfg(target_os = "linux")]
+fn lower_priority() {
+    // On Linux the nice value is per thread, and `who` = 0 names the calling thread.
+    // SAFETY: setpriority takes plain integers and touches no memory of ours.
+    unsafe {
+        libc::setpriority(libc::PRIO_PROCESS, 0, 10);
+    }
+}
+
+/// Lowers the calling thread's scheduling priority (not done outside Linux).
+#[cfg(not(target_os = "linux"))]
+fn lower_priority() {}
 
 /// What a recording needs: everything is owned, the UI keeps editing meanwhile.
 pub struct RecordInput {
@@ -409,5 +448,20 @@ mod tests {
         job.cancel();
         let err = wait(&job).err().unwrap();
         assert!(err.contains("cancelled"), "{err}");
+    }
+
+    /// The precomputation's pool runs below the priority of the threads that show the mesh
+    /// (the loader's, the UI's): at nice 10, or where the process already was if lower.
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn the_background_pool_runs_at_a_lower_priority() {
+        // SAFETY: getpriority takes plain integers and touches no memory of ours.
+        let nice = || unsafe { libc::getpriority(libc::PRIO_PROCESS, 0) };
+        let here = nice();
+        let pool = background_pool().expect("a pool");
+        let there: Vec<i32> = pool.broadcast(|_| nice());
+        assert_eq!(there.len(), rayon::current_num_threads());
+        assert!(there.iter().all(|&n| n >= 10.max(here)), "{there:?} (here {here})");
+        assert_eq!(nice(), here, "the caller's own priority is unchanged");
     }
 }
