@@ -2,8 +2,8 @@
 //!
 //! [`spawn_load`] runs on a worker thread: read + clean the file, start the mesh's own
 //! precomputation ([`StartPrepare`]), build everything the editor derives from the topology
-//! once (adjacency, BVH, index buffers, grid, the asset's render layout and decoded textures)
-//! beside it, then hand back a
+//! once (the adjacency, kept with the mesh; BVH, index buffers, grid, the asset's render
+//! layout and decoded textures) beside it, then hand back a
 //! [`LoadedFile`] over a channel that the UI polls without blocking. A failure comes back as an
 //! error string; the UI keeps the current scene. Reading and cleaning are `solver::io`'s;
 //! selections are `solver::deform::selection`'s; scene files (`.json`) are `solver::animation::scene`'s: the
@@ -23,7 +23,6 @@ use super::render_layout::RenderLayout;
 use super::renderer::{Topology, VertexData, build_grid};
 use super::shape::Shape;
 use solver::geometry::bvh::Bvh;
-use solver::geometry::topology::Adjacency;
 
 /// A mesh file's own layout ([`solver::io::Asset`]) and cleaning's map from its vertices to the
 /// solver's mesh.
@@ -59,7 +58,6 @@ pub struct LoadedFile {
     /// normals read them (built once here, off the UI thread).
     pub vertex_faces: Arc<VertexFaces>,
     pub topology: Arc<Topology>,
-    pub adjacency: Adjacency,
     pub bvh: Bvh,
     pub center: Vec3,
     pub radius: f32,
@@ -175,10 +173,9 @@ fn prepare(
     let rest = Shape::with_faces(mesh.positions(), mesh.triangles(), &vertex_faces);
     let rest_f32: &[[f32; 3]] = &rest.positions;
     // Independent, and each a second or so on a dense mesh: side by side.
-    let (adjacency, bvh) = rayon::join(
-        || Adjacency::new(mesh.n_vertices(), mesh.triangles()),
-        || Bvh::build(rest_f32, mesh.triangles()),
-    );
+    // The adjacency is kept with the mesh, where the mesh's own precomputation finds it.
+    let (adjacency, bvh) =
+        rayon::join(|| mesh.adjacency(), || Bvh::build(rest_f32, mesh.triangles()));
     let (lo, hi) = mesh.bounding_box();
     let lo = Vec3::new(lo[0] as f32, lo[1] as f32, lo[2] as f32);
     let hi = Vec3::new(hi[0] as f32, hi[1] as f32, hi[2] as f32);
@@ -226,7 +223,6 @@ fn prepare(
         rest,
         vertex_faces,
         topology,
-        adjacency,
         bvh,
         center,
         radius,

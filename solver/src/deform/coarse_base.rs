@@ -40,6 +40,7 @@ use crate::error::SolveError;
 use crate::geometry::mesh::{Mesh, sub};
 use crate::geometry::normals::VertexFaces;
 use crate::geometry::simplify::{Decimation, simplify};
+use crate::geometry::topology::Adjacency;
 use std::time::Instant;
 
 /// The handle-independent precomputation of the coarse BS-ARAP for one mesh (module doc).
@@ -91,8 +92,9 @@ impl CoarseBase {
         let (dec, on_level) = match from_level {
             Some((dec, level_representative)) => (dec, level.zip(Some(level_representative))),
             None => {
-                let dec = simplify(&base, mesh.triangles(), target_vertices, false)
-                    .ok_or(SolveError::DecimationFailed { target: target_vertices })?;
+                let dec =
+                    simplify(&base, mesh.triangles(), mesh.adjacency(), target_vertices, false)
+                        .ok_or(SolveError::DecimationFailed { target: target_vertices })?;
                 (dec, None)
             }
         };
@@ -186,7 +188,8 @@ fn decimate_level(level: &FairedLevel, target_vertices: usize) -> Option<(Decima
     if target_vertices >= level.kept.len() {
         return None;
     }
-    let dec = simplify(&level.base, &level.triangles, target_vertices, false)?;
+    let graph = Adjacency::new(level.base.len(), &level.triangles);
+    let dec = simplify(&level.base, &level.triangles, &graph, target_vertices, false)?;
     let fine = Decimation {
         kept: dec.kept.iter().map(|&k| level.kept[k as usize]).collect(),
         triangles: dec.triangles,

@@ -128,7 +128,7 @@ pub fn faired_base(
             faired_surface(&level_mesh, &all_free, level_mesh.positions(), Some(h))
         },
         || {
-            let representative = representatives(mesh.positions(), mesh.triangles(), &kept)?;
+            let representative = representatives(mesh.positions(), mesh.adjacency(), &kept)?;
             let vf = VertexFaces::new(level_mesh.n_vertices(), level_mesh.triangles());
             // A triangle around each representative (every level vertex has one: the level
             // is a mesh of the vertices its triangles use, checked here all the same).

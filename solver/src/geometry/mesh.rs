@@ -6,6 +6,8 @@
 
 use thiserror::Error;
 
+use crate::geometry::topology::Adjacency;
+
 /// A problem with the raw arrays handed to [`Mesh::new`].
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum MeshError {
@@ -28,6 +30,8 @@ pub struct Mesh {
     triangles: Vec<[u32; 3]>,
     /// [`Mesh::fingerprint`], computed when first asked for (a mesh never changes).
     fingerprint: std::sync::OnceLock<u64>,
+    /// [`Mesh::adjacency`], built when first asked for.
+    adjacency: std::sync::OnceLock<Adjacency>,
 }
 
 /// Two meshes are equal when their positions and triangles are.
@@ -58,7 +62,12 @@ impl Mesh {
                 return Err(MeshError::RepeatedVertex { face, a: t[0], b: t[1], c: t[2] });
             }
         }
-        Ok(Mesh { positions, triangles, fingerprint: std::sync::OnceLock::new() })
+        Ok(Mesh {
+            positions,
+            triangles,
+            fingerprint: std::sync::OnceLock::new(),
+            adjacency: std::sync::OnceLock::new(),
+        })
     }
 
     /// A 64-bit hash of the positions (bit patterns) and triangles, computed once per mesh
@@ -75,6 +84,13 @@ impl Mesh {
             self.triangles.hash(&mut h);
             h.finish()
         })
+    }
+
+    /// Each vertex's neighbours along the triangles' edges, built once per mesh and shared by
+    /// whoever needs them (the editor's brush and selection tools, the representatives of a
+    /// decimation: 0.1 s at 1.5M vertices each time before).
+    pub fn adjacency(&self) -> &Adjacency {
+        self.adjacency.get_or_init(|| Adjacency::new(self.n_vertices(), &self.triangles))
     }
 
     /// Rest positions, `#V×3`.
@@ -184,6 +200,19 @@ mod tests {
         assert_ne!(moved.unwrap().fingerprint(), f, "one bit of one coordinate");
         let flipped = Mesh::new(p, vec![[0, 2, 1], [0, 2, 3]]).unwrap();
         assert_ne!(flipped.fingerprint(), f);
+    }
+
+    /// The adjacency is the triangles' own, built once: asked again, it is the same rows.
+    #[test]
+    fn adjacency_is_built_once() {
+        let m = crate::geometry::shapes::icosphere(2);
+        let first: *const Adjacency = m.adjacency();
+        assert!(std::ptr::eq(first, m.adjacency()));
+        let own = Adjacency::new(m.n_vertices(), m.triangles());
+        assert_eq!(m.adjacency().n_vertices(), m.n_vertices());
+        for v in 0..m.n_vertices() as u32 {
+            assert_eq!(m.adjacency().neighbors(v), own.neighbors(v));
+        }
     }
 
     #[test]

@@ -38,17 +38,18 @@ pub struct Decimation {
     pub representative: Vec<u32>,
 }
 
-/// Simplifies to about `target_vertices` vertices (module doc). `None` when the result is
-/// unusable as a coarse base: fewer than 4 vertices, or a fine vertex with no coarse vertex in
-/// its component.
+/// Simplifies to about `target_vertices` vertices (module doc); `graph` is the triangles'
+/// adjacency. `None` when the result is unusable as a coarse base: fewer than 4 vertices, or a
+/// fine vertex with no coarse vertex in its component.
 pub fn simplify(
     positions: &[[f64; 3]],
     triangles: &[[u32; 3]],
+    graph: &Adjacency,
     target_vertices: usize,
     regular: bool,
 ) -> Option<Decimation> {
     let (kept, coarse) = collapse(positions, triangles, target_vertices, regular)?;
-    let representative = representatives(positions, triangles, &kept)?;
+    let representative = representatives(positions, graph, &kept)?;
     Some(Decimation { kept, triangles: coarse, representative })
 }
 
@@ -166,13 +167,16 @@ fn simplify_in_halves(
 }
 
 /// Step 2 of the module doc alone: each fine vertex's representative among `kept` (indices
-/// into it); `None` when a fine vertex has no kept vertex in its component.
+/// into it), along the edges of `graph` (the fine mesh's adjacency, [`Mesh::adjacency`]);
+/// `None` when a fine vertex has no kept vertex in its component.
+///
+/// [`Mesh::adjacency`]: crate::geometry::mesh::Mesh::adjacency
 pub fn representatives(
     positions: &[[f64; 3]],
-    triangles: &[[u32; 3]],
+    graph: &Adjacency,
     kept: &[u32],
 ) -> Option<Vec<u32>> {
-    let representative = nearest_along_edges(positions, triangles, kept);
+    let representative = nearest_along_edges(positions, graph, kept);
     (!representative.contains(&u32::MAX)).then_some(representative)
 }
 
@@ -182,12 +186,8 @@ pub const SPLIT_VERTICES: usize = 200_000;
 
 /// Per vertex, the index in `sources` of the source nearest along the mesh's edges
 /// (`u32::MAX` where no source is reachable): in two halves from [`SPLIT_VERTICES`] on.
-fn nearest_along_edges(
-    positions: &[[f64; 3]],
-    triangles: &[[u32; 3]],
-    sources: &[u32],
-) -> Vec<u32> {
-    nearest_along_edges_with(positions, triangles, sources, positions.len() >= SPLIT_VERTICES)
+fn nearest_along_edges(positions: &[[f64; 3]], graph: &Adjacency, sources: &[u32]) -> Vec<u32> {
+    nearest_along_edges_with(positions, graph, sources, positions.len() >= SPLIT_VERTICES)
 }
 
 /// [`nearest_along_edges`], in two halves with `split`: the vertices are cut at the median of
@@ -199,12 +199,11 @@ fn nearest_along_edges(
 /// of one run over the whole mesh, ties to the lower source included.
 fn nearest_along_edges_with(
     positions: &[[f64; 3]],
-    triangles: &[[u32; 3]],
+    graph: &Adjacency,
     sources: &[u32],
     split: bool,
 ) -> Vec<u32> {
     let n = positions.len();
-    let graph = Adjacency::new(n, triangles);
     let seeded = |part: &dyn Fn(usize) -> bool| {
         let mut labels = Labels::new(positions, part);
         let mut heap = RadixHeap::default();
@@ -219,13 +218,13 @@ fn nearest_along_edges_with(
     };
     if !split {
         let (mut labels, heap) = seeded(&|_| true);
-        labels.run(&graph, heap);
+        labels.run(graph, heap);
         return labels.owner;
     }
     let side = halves(positions);
     let half = |h: bool| {
         let (mut labels, heap) = seeded(&|v| side[v] == h);
-        labels.run(&graph, heap);
+        labels.run(graph, heap);
         labels
     };
     let (mut labels, upper) = rayon::join(|| half(false), || half(true));
@@ -240,7 +239,7 @@ fn nearest_along_edges_with(
             heap.push(labels.node[v][3], labels.owner[v], v as u32);
         }
     }
-    labels.run(&graph, heap);
+    labels.run(graph, heap);
     labels.owner
 }
 
@@ -373,7 +372,8 @@ mod tests {
     #[test]
     fn simplifies_a_sphere_to_about_the_target() {
         let m = crate::geometry::shapes::icosphere(4);
-        let d = simplify(m.positions(), m.triangles(), 300, false).expect("a sphere simplifies");
+        let d = simplify(m.positions(), m.triangles(), m.adjacency(), 300, false)
+            .expect("a sphere simplifies");
         let n = d.kept.len();
         assert!((240..=360).contains(&n), "{n} coarse vertices");
         assert_eq!(boundary_edges(&d.triangles), 0);
@@ -410,8 +410,9 @@ mod tests {
         for (m, (p, t, every)) in meshes.iter().enumerate() {
             let limit = if m == 2 { k } else { p.len() as u32 };
             let sources: Vec<u32> = (0..limit).step_by(*every).collect();
-            let one = nearest_along_edges_with(p, t, &sources, false);
-            let two = nearest_along_edges_with(p, t, &sources, true);
+            let graph = Adjacency::new(p.len(), t);
+            let one = nearest_along_edges_with(p, &graph, &sources, false);
+            let two = nearest_along_edges_with(p, &graph, &sources, true);
             assert_eq!(one, two, "mesh {m}");
             assert_eq!(one.contains(&u32::MAX), m == 2, "mesh {m}");
         }
@@ -447,7 +448,8 @@ mod tests {
         }
         assert!(!owner.contains(&u32::MAX));
         for split in [false, true] {
-            assert_eq!(nearest_along_edges_with(p, t, &sources, split), owner, "split {split}");
+            let labels = nearest_along_edges_with(p, &graph, &sources, split);
+            assert_eq!(labels, owner, "split {split}");
         }
     }
 
@@ -486,7 +488,8 @@ mod tests {
     #[test]
     fn a_target_above_the_mesh_keeps_it() {
         let m = crate::geometry::shapes::icosphere(1);
-        let d = simplify(m.positions(), m.triangles(), 10 * m.n_vertices(), false).expect("kept");
+        let d = simplify(m.positions(), m.triangles(), m.adjacency(), 10 * m.n_vertices(), false)
+            .expect("kept");
         assert_eq!(d.kept.len(), m.n_vertices());
         assert_eq!(d.triangles.len(), m.n_faces());
     }

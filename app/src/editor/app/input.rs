@@ -236,7 +236,7 @@ impl EditorApp {
         {
             let tri = scene.mesh.triangles()[hit.triangle as usize];
             let r = self.brush_world_radius();
-            let fp = footprint(positions, &scene.adjacency, tri, hit.point, r);
+            let fp = footprint(positions, scene.mesh.adjacency(), tri, hit.point, r);
             self.interaction.hover = Some(Hover { slot, hit, footprint: fp });
         }
         if old != self.interaction.hover.as_ref().map(|h| (h.slot, h.footprint.clone())) {

@@ -167,7 +167,7 @@ impl EditorApp {
         let labels = &self.session.edit.labels;
         let mine: Vec<bool> = labels.iter().map(|l| *l == Some(g)).collect();
         let allowed: Vec<bool> = labels.iter().map(|l| l.is_none() || *l == Some(g)).collect();
-        let adj = &scene.adjacency;
+        let adj = scene.mesh.adjacency();
         let target = match command {
             SelectCommand::Grow => region::grow(adj, &mine),
             SelectCommand::Shrink => region::shrink(adj, &mine),
