@@ -88,13 +88,31 @@ struct Search<'a> {
     /// Each coarse triangle's corners, side by side: one read per triangle tried instead of
     /// three scattered ones.
     corners: Vec<[[f64; 3]; 3]>,
+    /// Each coarse triangle's bounding ball (centroid, farthest corner's distance, widened
+    /// by [`BALL_MARGIN`]): a triangle whose ball is farther from the point than the best
+    /// distance so far cannot be closer, and its closest point is not computed.
+    balls: Vec<[f64; 4]>,
 }
+
+/// Relative widening of the bounding balls and of the best distance in the ball test, far
+/// above the rounding of either: the test only skips triangles that are clearly farther, so
+/// the search finds what it found without it.
+const BALL_MARGIN: f64 = 1e-9;
 
 impl<'a> Search<'a> {
     fn new(coarse: &'a Mesh, vf: &'a VertexFaces) -> Search<'a> {
         let cp = coarse.positions();
-        let corners = coarse.triangles().par_iter().map(|t| t.map(|v| cp[v as usize])).collect();
-        Search { coarse, vf, corners }
+        let corners: Vec<[[f64; 3]; 3]> =
+            coarse.triangles().par_iter().map(|t| t.map(|v| cp[v as usize])).collect();
+        let balls = corners
+            .par_iter()
+            .map(|&[a, b, c]| {
+                let m: [f64; 3] = std::array::from_fn(|k| (a[k] + b[k] + c[k]) / 3.0);
+                let r = [a, b, c].iter().map(|&p| dot(sub(p, m), sub(p, m))).fold(0.0, f64::max);
+                [m[0], m[1], m[2], r.sqrt() * (1.0 + BALL_MARGIN)]
+            })
+            .collect();
+        Search { coarse, vf, corners, balls }
     }
 
     /// Replaces `best` (squared distance, triangle, weights) by the closest of `faces` to `q`
@@ -102,15 +120,29 @@ impl<'a> Search<'a> {
     fn closest(&self, q: [f64; 3], faces: &[u32], best: &mut (f64, u32, [f64; 3])) -> bool {
         let mut improved = false;
         for &f in faces {
-            let (point, w) = closest_point_on_triangle(q, self.corners[f as usize]);
-            let d = sub(point, q);
-            let d2 = dot(d, d);
-            if d2 < best.0 {
-                *best = (d2, f, w);
-                improved = true;
-            }
+            improved |= self.try_face(q, f, best);
         }
         improved
+    }
+
+    /// Replaces `best` by triangle `f` when it is closer to `q`; whether it did. Skips the
+    /// closest point of a triangle whose bounding ball is farther than `best`.
+    #[inline]
+    fn try_face(&self, q: [f64; 3], f: u32, best: &mut (f64, u32, [f64; 3])) -> bool {
+        let [x, y, z, r] = self.balls[f as usize];
+        let reach = r + best.0.sqrt() * (1.0 + BALL_MARGIN);
+        let to_center = dot(sub(q, [x, y, z]), sub(q, [x, y, z]));
+        if to_center > reach * reach {
+            return false;
+        }
+        let (point, w) = closest_point_on_triangle(q, self.corners[f as usize]);
+        let d = sub(point, q);
+        let d2 = dot(d, d);
+        if d2 < best.0 {
+            *best = (d2, f, w);
+            return true;
+        }
+        false
     }
 
     /// The walk: the triangles around the best one's corners while one of them is closer.
@@ -128,13 +160,7 @@ impl<'a> Search<'a> {
                         continue;
                     }
                     tried.push(f);
-                    let (point, w) = closest_point_on_triangle(q, self.corners[f as usize]);
-                    let d = sub(point, q);
-                    let d2 = dot(d, d);
-                    if d2 < best.0 {
-                        *best = (d2, f, w);
-                        improved = true;
-                    }
+                    improved |= self.try_face(q, f, best);
                 }
             }
             if !improved {
@@ -194,6 +220,33 @@ pub fn closest_point_on_triangle(p: [f64; 3], [a, b, c]: [[f64; 3]; 3]) -> ([f64
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The ball test changes no comparison: for points near and far, each triangle replaces
+    /// the best exactly when its closest point is nearer, as without the test.
+    #[test]
+    fn the_ball_test_skips_only_farther_triangles() {
+        let mesh = crate::geometry::shapes::icosphere(2);
+        let vf = VertexFaces::new(mesh.n_vertices(), mesh.triangles());
+        let search = Search::new(&mesh, &vf);
+        let mut skipped = 0;
+        for (i, p) in mesh.positions().iter().enumerate() {
+            let scale = [0.0, 0.9, 1.01, 1.5, 3.0][i % 5];
+            let q = p.map(|c| c * scale + 1e-3 * (i % 7) as f64);
+            for best_d2 in [1e-6, 1e-3, 0.05, 0.5, 4.0] {
+                for f in 0..mesh.n_faces() as u32 {
+                    let (point, _) = closest_point_on_triangle(q, search.corners[f as usize]);
+                    let d2 = dot(sub(point, q), sub(point, q));
+                    let mut best = (best_d2, u32::MAX, [0.0; 3]);
+                    assert_eq!(search.try_face(q, f, &mut best), d2 < best_d2);
+                    let [x, y, z, r] = search.balls[f as usize];
+                    let reach = r + best_d2.sqrt();
+                    skipped +=
+                        usize::from(dot(sub(q, [x, y, z]), sub(q, [x, y, z])) > reach * reach);
+                }
+            }
+        }
+        assert!(skipped > 1000, "the test skips: {skipped}");
+    }
 
     #[test]
     fn closest_point_regions() {
