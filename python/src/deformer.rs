@@ -7,7 +7,6 @@ use numpy::{PyArray1, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use solver::deform::config::MAX_FINE_ITERATIONS;
-use solver::geometry::topology::connected_components;
 use solver::io::Asset;
 use solver::linalg::rotation::Mat3;
 use solver::{
@@ -135,7 +134,7 @@ impl NativeDeformer {
         let mesh = Mesh::new(positions, tris).map_err(err)?;
         let handles = Handles::from_labels(&ints(&labels), mesh.n_vertices()).map_err(err)?;
         let mut parts = LooseParts::default();
-        let count = connected_components(mesh.n_vertices(), mesh.triangles()).count;
+        let count = mesh.components().count;
         for &c in &pinned_components {
             if c >= count {
                 return Err(err(format!(

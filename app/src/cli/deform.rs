@@ -9,7 +9,6 @@ use clap::Args;
 use solver::FrameStats;
 use solver::animation::export::{AssetExport, Encoding, ExportSettings, GltfExport, GltfFormat};
 use solver::animation::recording::Recording;
-use solver::geometry::topology::connected_components;
 use solver::io::LoadedMesh;
 use solver::linalg::rotation::{axis_angle, mul_mat};
 use solver::{ArapConfig, ComponentMode, Deformer, GroupTransform, LooseParts, handle_targets};
@@ -192,7 +191,7 @@ pub fn run(a: &DeformArgs) -> anyhow::Result<()> {
         ..Default::default()
     };
     let mut parts = LooseParts::default();
-    let count = connected_components(mesh.n_vertices(), mesh.triangles()).count;
+    let count = mesh.components().count;
     for &c in &a.pin_components {
         if c >= count {
             bail!("--pin-component {c}: the mesh has components 0..{count}");

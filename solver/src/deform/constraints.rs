@@ -12,7 +12,6 @@ use crate::deform::handles::Handles;
 use crate::deform::rig::{SoftTerm, soft_terms};
 use crate::geometry::mesh::Mesh;
 use crate::geometry::reorder::VertexOrder;
-use crate::geometry::topology::connected_components;
 
 /// The fixed/free partition of a mesh's vertices for one handle set.
 #[derive(Debug, Clone, PartialEq)]
@@ -43,7 +42,7 @@ impl Constraints {
     /// Partitions the vertices of `mesh` for `handles` (which must have `#V` labels).
     pub fn new(mesh: &Mesh, handles: &Handles) -> Constraints {
         let n = mesh.n_vertices();
-        let comps = connected_components(n, mesh.triangles());
+        let comps = mesh.components();
         let mut has_handle = vec![false; comps.count];
         for v in 0..n {
             if handles.is_handle(v) {

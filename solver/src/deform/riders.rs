@@ -36,6 +36,7 @@
 use crate::deform::handles::Handles;
 use crate::geometry::kdtree::KdTree;
 use crate::geometry::mesh::Mesh;
+#[cfg(doc)]
 use crate::geometry::topology::connected_components;
 pub use crate::linalg::rigid::Motion;
 use crate::linalg::rigid::fit_motion;
@@ -165,7 +166,7 @@ impl Riders {
     pub fn new(mesh: &Mesh, handles: Option<&Handles>, parts: &LooseParts) -> Riders {
         let n = mesh.n_vertices();
         let p = mesh.positions();
-        let comps = connected_components(n, mesh.triangles());
+        let comps = mesh.components();
         let labels = handles.map(|h| h.labels()).filter(|l| l.len() == n).unwrap_or(&[]);
         let mut components: Vec<ComponentInfo> = (0..comps.count)
             .map(|index| ComponentInfo {

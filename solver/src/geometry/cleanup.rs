@@ -22,7 +22,7 @@ use thiserror::Error;
 
 use crate::geometry::mesh::Mesh;
 use crate::geometry::mesh::{cross, norm, sub};
-use crate::geometry::topology::{connected_components, edge_counts};
+use crate::geometry::topology::edge_counts;
 
 /// Relative area below which a triangle counts as degenerate: `area ≤ AREA_EPS · diag²`.
 pub const AREA_EPS: f64 = 1e-14;
@@ -232,23 +232,7 @@ pub fn clean(
         .map(|t| t.map(|i| new_index.get(i as usize).copied().flatten().unwrap_or(0)))
         .collect();
 
-    // 5. Topology of the result.
-    let components = connected_components(out_positions.len(), &out_triangles).count;
-    let edges = edge_counts(&out_triangles);
-    let report = CleanReport {
-        vertices_in: n,
-        faces_in: triangles.len(),
-        vertices_out: out_positions.len(),
-        faces_out: out_triangles.len(),
-        vertices_welded,
-        unreferenced_removed,
-        degenerate_faces_removed: degenerate,
-        duplicate_faces_removed: duplicates,
-        components,
-        boundary_edges: edges.boundary,
-        non_manifold_edges: edges.non_manifold,
-        vertex_map,
-    };
+    // 5. The mesh, and the topology of the result (the mesh keeps its components for later).
     let mesh = Mesh::new(out_positions, out_triangles).map_err(|e| match e {
         // Unreachable after the checks above; kept as errors rather than panics.
         crate::geometry::mesh::MeshError::NonFinite { vertex, value } => {
@@ -259,6 +243,22 @@ pub fn clean(
         }
         _ => CleanError::NoTriangles { faces_in: triangles.len(), degenerate, duplicates },
     })?;
+    let (components, edges) =
+        rayon::join(|| mesh.components().count, || edge_counts(mesh.triangles()));
+    let report = CleanReport {
+        vertices_in: n,
+        faces_in: triangles.len(),
+        vertices_out: mesh.n_vertices(),
+        faces_out: mesh.n_faces(),
+        vertices_welded,
+        unreferenced_removed,
+        degenerate_faces_removed: degenerate,
+        duplicate_faces_removed: duplicates,
+        components,
+        boundary_edges: edges.boundary,
+        non_manifold_edges: edges.non_manifold,
+        vertex_map,
+    };
     Ok((mesh, report))
 }
 
