@@ -25,6 +25,7 @@
 
 use crate::geometry::mesh::{norm, sub};
 use crate::geometry::topology::Adjacency;
+use rayon::prelude::*;
 
 /// A decimated mesh whose vertices are a subset of the fine mesh's.
 #[derive(Debug, Clone)]
@@ -128,19 +129,24 @@ fn simplify_in_halves(
     options: meshopt::SimplifyOptions,
 ) -> Vec<u32> {
     let axis = longest_axis(points.iter().map(|p| p.map(f64::from)));
-    // Centroid coordinate along the axis (times 3), ties broken by the triangle's index.
+    // Centroid coordinate along the axis (times 3), ties broken by the triangle's index;
+    // computed once per triangle, beside it.
     let key = |t: &[u32; 3]| t.iter().map(|&v| points[v as usize][axis]).sum::<f32>();
-    let mut order: Vec<u32> = (0..triangles.len() as u32).collect();
-    let half = order.len() / 2;
-    order.select_nth_unstable_by(half, |&a, &b| {
-        key(&triangles[a as usize]).total_cmp(&key(&triangles[b as usize])).then(a.cmp(&b))
-    });
-    let indices_of = |part: &[u32]| -> Vec<u32> {
-        let mut part = part.to_vec();
-        part.sort_unstable();
-        part.iter().flat_map(|&f| triangles[f as usize]).collect()
+    let mut keyed: Vec<(f32, u32)> =
+        triangles.par_iter().enumerate().map(|(f, t)| (key(t), f as u32)).collect();
+    let half = keyed.len() / 2;
+    keyed.select_nth_unstable_by(half, |a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    let mut lower = vec![false; triangles.len()];
+    for &(_, f) in &keyed[..half] {
+        lower[f as usize] = true;
+    }
+    drop(keyed);
+    // Each half in the triangles' order.
+    let indices_of = |side: bool| -> Vec<u32> {
+        let part = triangles.iter().zip(&lower).filter(|&(_, &l)| l == side);
+        part.flat_map(|(t, _)| *t).collect()
     };
-    let (a, b) = (indices_of(&order[..half]), indices_of(&order[half..]));
+    let (a, b) = (indices_of(true), indices_of(false));
     // The cut's vertices (in both halves) stay in each half's pass: the last pass removes
     // about as many triangles as there are of them.
     let mut side = vec![0u8; points.len()];
