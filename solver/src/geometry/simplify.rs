@@ -14,11 +14,11 @@
 //!    across their cut ([`collapse`]).
 //! 2. Each fine vertex's *representative* is the coarse vertex nearest to it along the fine
 //!    mesh's edges (multi-source Dijkstra from the coarse vertices, edge lengths as weights,
-//!    on a radix heap; ties to the lower index; from [`SPLIT_VERTICES`] vertices on in two halves side by side,
-//!    then mended across their cut, with the same result): what the embedding searches
-//!    around and the coarse handle groups count. A fine vertex in a component the simplifier
-//!    removed entirely (it does not remove components: it keeps topology) would keep
-//!    `u32::MAX`; [`simplify`] refuses that.
+//!    on a radix heap; ties to the lower index; from [`SPLIT_VERTICES`] vertices on in two
+//!    halves side by side, then mended across their cut, with the same result): what the
+//!    embedding searches around and the coarse handle groups count. A fine vertex in a
+//!    component the simplifier removed entirely (it does not remove components: it keeps
+//!    topology) would keep `u32::MAX`; [`simplify`] refuses that.
 //!
 //! Positions go to the simplifier as `f32` (it works in single precision); the coarse
 //! vertices keep their `f64` positions, being fine vertices.
