@@ -111,7 +111,7 @@ pub fn mirror_map(positions: &[[f64; 3]], plane: &SymmetryPlane) -> MirrorMap {
             }
         })
         .collect();
-    let (lo, hi) = bounding_box(positions);
+    let (lo, hi) = bounding_box(positions.iter().copied());
     let diag = crate::geometry::mesh::norm2(crate::geometry::mesh::sub(hi, lo)).sqrt();
     let n = positions.len().max(1) as f64;
     MirrorMap { partner, mean_error: if diag > 0.0 { sum / n / diag } else { 0.0 } }
@@ -123,7 +123,7 @@ pub fn fit_plane_on(positions: &[[f64; 3]], axis: Axis) -> (SymmetryPlane, f64) 
     let a = axis.index();
     let n = positions.len().max(1) as f64;
     let centroid = positions.iter().map(|p| p[a]).sum::<f64>() / n;
-    let (lo, hi) = bounding_box(positions);
+    let (lo, hi) = bounding_box(positions.iter().copied());
     let mut best: Option<(SymmetryPlane, MirrorMap)> = None;
     for offset in [centroid, 0.5 * (lo[a] + hi[a])] {
         let plane = SymmetryPlane { axis, offset };

@@ -20,7 +20,7 @@ use rustc_hash::FxHashMap;
 use serde::Serialize;
 use thiserror::Error;
 
-use crate::geometry::mesh::Mesh;
+use crate::geometry::mesh::{Mesh, bounding_box};
 use crate::geometry::mesh::{cross, norm, sub};
 use crate::geometry::topology::edge_counts;
 
@@ -175,11 +175,7 @@ pub fn clean(
 
     // 2. Degenerate triangles, against the bounding box of the referenced vertices.
     let pos = |i: u32| positions.get(i as usize).copied().unwrap_or_default();
-    let mut corners = triangles.iter().flatten().map(|&i| pos(i));
-    let first = corners.next().unwrap_or_default();
-    let (lo, hi) = corners.fold((first, first), |(lo, hi), p| {
-        (std::array::from_fn(|k| lo[k].min(p[k])), std::array::from_fn(|k| hi[k].max(p[k])))
-    });
+    let (lo, hi) = bounding_box(triangles.iter().flatten().map(|&i| pos(i)));
     let diag = norm(sub(hi, lo));
     let min_area = AREA_EPS * diag * diag;
     let welded = triangles.iter().map(|t| t.map(|i| rep.get(i as usize).copied().unwrap_or(i)));

@@ -122,7 +122,7 @@ impl Mesh {
 
     /// Axis-aligned bounding box `(min, max)`.
     pub fn bounding_box(&self) -> ([f64; 3], [f64; 3]) {
-        bounding_box(&self.positions)
+        bounding_box(self.positions.iter().copied())
     }
 
     /// Length of the bounding-box diagonal: the length unit of tolerances and error figures.
@@ -145,12 +145,13 @@ impl Mesh {
 }
 
 /// Axis-aligned bounding box of a point set; `([0;3],[0;3])` when empty.
-pub fn bounding_box(points: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {
-    let Some(first) = points.first() else {
+pub fn bounding_box(points: impl IntoIterator<Item = [f64; 3]>) -> ([f64; 3], [f64; 3]) {
+    let mut points = points.into_iter();
+    let Some(first) = points.next() else {
         return ([0.0; 3], [0.0; 3]);
     };
-    let mut lo = *first;
-    let mut hi = *first;
+    let mut lo = first;
+    let mut hi = first;
     for p in points {
         for k in 0..3 {
             lo[k] = lo[k].min(p[k]);

@@ -23,7 +23,7 @@
 //! Positions go to the simplifier as `f32` (it works in single precision); the coarse
 //! vertices keep their `f64` positions, being fine vertices.
 
-use crate::geometry::mesh::{norm, sub};
+use crate::geometry::mesh::{bounding_box, norm, sub};
 use crate::geometry::topology::Adjacency;
 use rayon::prelude::*;
 
@@ -251,13 +251,7 @@ fn nearest_along_edges_with(
 
 /// The axis (0, 1 or 2) along which the points' bounding box is longest.
 fn longest_axis(points: impl Iterator<Item = [f64; 3]>) -> usize {
-    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
-    for p in points {
-        for k in 0..3 {
-            lo[k] = lo[k].min(p[k]);
-            hi[k] = hi[k].max(p[k]);
-        }
-    }
+    let (lo, hi) = bounding_box(points);
     (0..3).max_by(|&a, &b| (hi[a] - lo[a]).total_cmp(&(hi[b] - lo[b]))).unwrap_or(0)
 }
 
