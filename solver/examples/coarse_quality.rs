@@ -53,12 +53,13 @@ fn main() {
     );
     for spec in &args[2..] {
         let v: Vec<&str> = spec.split(':').collect();
+        let default = BaseConfig::default();
         let base = BaseConfig {
             coarse_vertices: Some(v[0].parse().expect("coarse vertices")),
-            smoothing: v.get(1).map_or(0.01, |s| s.parse().expect("smoothing")),
+            smoothing: v.get(1).map_or(default.smoothing, |s| s.parse().expect("smoothing")),
             fine_iterations: v.get(2).map_or(0, |s| s.parse().expect("fine iterations")),
             level_fairing: v.get(3).is_none_or(|s| *s != "0"),
-            ..Default::default()
+            ..default
         };
         let config = ArapConfig {
             max_iterations: 1000,

@@ -5,8 +5,8 @@
 //! subtrees side by side) and refitted in O(#V) when the positions change (each leaf's box
 //! from the distinct vertices of its triangles, kept at build time, the leaves in parallel;
 //! then the inner boxes from their children), so picking a deforming mesh costs a refit plus
-//! a logarithmic traversal instead of a test against every triangle (ray–triangle test: Möller and
-//! Trumbore, "Fast, minimum storage ray/triangle intersection", 1997).
+//! a logarithmic traversal instead of a test against every triangle (ray–triangle test: Möller
+//! and Trumbore, "Fast, minimum storage ray/triangle intersection", 1997).
 
 use glam::Vec3;
 
