@@ -74,6 +74,17 @@ struct Elements {
 }
 
 impl Elements {
+    /// Room for the elements of all of `parts` (the chunks [`Elements::append`] will add).
+    fn reserve<'a>(&mut self, parts: impl Iterator<Item = &'a Elements> + Clone) {
+        let sum = |len: fn(&Elements) -> usize| parts.clone().map(len).sum::<usize>();
+        self.positions.reserve(sum(|e| e.positions.len()));
+        self.uv_values.reserve(sum(|e| e.uv_values.len()));
+        self.normal_values.reserve(sum(|e| e.normal_values.len()));
+        self.triangles.reserve(sum(|e| e.triangles.len()));
+        self.uv_corners.reserve(sum(|e| e.uv_corners.len()));
+        self.normal_corners.reserve(sum(|e| e.normal_corners.len()));
+    }
+
     /// Appends the elements of the lines after these.
     fn append(&mut self, later: Elements) {
         self.positions.extend(later.positions);
@@ -416,7 +427,7 @@ fn read_chunk(
 /// material, and materials are numbered in order of first `usemtl`.
 fn join(chunks: Vec<Chunk>, totals: &Totals, ctx: Ctx) -> Checked {
     let mut out = Checked::default();
-    out.elements.positions.reserve(totals.v);
+    out.elements.reserve(chunks.iter().map(|c| &c.elements));
     let mut name = String::new();
     let mut material: Option<usize> = None;
     let mut material_index: HashMap<String, usize> = HashMap::new();
