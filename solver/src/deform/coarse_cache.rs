@@ -29,7 +29,7 @@ const MAGIC: &[u8; 8] = b"BSARAPCB";
 /// million-vertex mesh is about 30 MiB.
 pub const MAX_FILES: usize = 8;
 /// The file format and the construction it stores: a file of another version is rebuilt.
-const VERSION: u32 = 3;
+const VERSION: u32 = 4;
 
 /// Why a cache file was not used.
 #[derive(Debug, thiserror::Error)]

@@ -9,10 +9,13 @@
 //! (closest point on a triangle: Ericson, Real-Time Collision Detection, §5.1.5). With the
 //! walk, the search goes on from the best triangle found through the triangles around its
 //! corners while one is closer. Values at the coarse vertices then reach the point as
-//! $\sum_k w_{ik} x_{t_{ik}}$ ([`blend`]).
+//! $\sum_k w_{ik} x_{t_{ik}}$ ([`blend`]). On a mesh much denser than the coarse one, the
+//! walk alone from a neighbour's triangle, ring by ring outward from the coarse vertices
+//! ([`embed_outward`]), replaces the representatives' Dijkstra and the two-ring search.
 
 use crate::geometry::mesh::{Mesh, add, dot, sub};
 use crate::geometry::normals::VertexFaces;
+use crate::geometry::topology::Adjacency;
 use rayon::prelude::*;
 
 /// The embedding of `base` (`#V×3`) on `coarse`, parallel over the points: per point, the
@@ -79,6 +82,89 @@ pub fn embed_from(
             (best.1, best.2)
         })
         .unzip()
+}
+
+/// The embedding of a fine mesh's vertices (`positions`, edges `graph`) on `coarse`, a mesh of
+/// the `kept` fine vertices (coarse vertex `j` is fine `kept[j]`), ring by ring outward from
+/// the kept vertices, each fine vertex walking from a neighbour's triangle: per fine vertex its
+/// representative (the coarse vertex the fewest edges away, the first in breadth-first order
+/// from the kept vertices in their order), its coarse triangle and its barycentric weights.
+/// `None` when a fine vertex has no kept vertex in its component.
+///
+/// A kept vertex lies on the coarse mesh: a triangle around it, weight 1 at its corner. The
+/// next ring of a breadth-first search over `graph` from the kept vertices takes, per vertex,
+/// the representative of the vertex of the ring before that reached it first and walks from
+/// that vertex's triangle (rings in parallel, each after the one before): its start is an edge
+/// away, where the multi-source Dijkstra and the two-ring search of [`embed`] cost far more on
+/// a mesh much denser than `coarse` (the fairing level, [`crate::deform::level_fairing`]).
+/// `vf` is `coarse`'s vertex-to-triangle rows.
+pub fn embed_outward(
+    positions: &[[f64; 3]],
+    graph: &Adjacency,
+    coarse: &Mesh,
+    vf: &VertexFaces,
+    kept: &[u32],
+) -> Option<OutwardEmbedding> {
+    let n = positions.len();
+    let ct = coarse.triangles();
+    let mut representative = vec![u32::MAX; n];
+    let mut faces = vec![u32::MAX; n];
+    let mut weights = vec![[0.0; 3]; n];
+    for (j, &k) in kept.iter().enumerate() {
+        let &f = vf.of(j).first()?;
+        representative[k as usize] = j as u32;
+        faces[k as usize] = f;
+        weights[k as usize][ct[f as usize].iter().position(|&c| c as usize == j)?] = 1.0;
+    }
+    let search = Search::new(coarse, vf);
+    let mut ring: Vec<u32> = kept.to_vec();
+    let mut reached: Vec<(u32, u32)> = Vec::new();
+    while !ring.is_empty() {
+        // (vertex, the vertex of the ring before that reached it first)
+        reached.clear();
+        for &v in &ring {
+            for &w in graph.neighbors(v) {
+                if representative[w as usize] == u32::MAX {
+                    representative[w as usize] = representative[v as usize];
+                    reached.push((w, v));
+                }
+            }
+        }
+        let walked: Vec<(u32, [f64; 3])> = reached
+            .par_iter()
+            .map_init(Vec::new, |tried, &(w, from)| {
+                let mut best = (f64::INFINITY, faces[from as usize], [1.0, 0.0, 0.0]);
+                tried.clear();
+                tried.push(best.1);
+                let q = positions[w as usize];
+                search.closest(q, tried, &mut best);
+                search.walk(q, tried, &mut best);
+                (best.1, best.2)
+            })
+            .collect();
+        for (&(w, _), (f, weight)) in reached.iter().zip(walked) {
+            faces[w as usize] = f;
+            weights[w as usize] = weight;
+        }
+        ring.clear();
+        ring.extend(reached.iter().map(|&(w, _)| w));
+    }
+    (!representative.contains(&u32::MAX)).then_some(OutwardEmbedding {
+        representative,
+        faces,
+        weights,
+    })
+}
+
+/// What [`embed_outward`] gives, per fine vertex.
+#[derive(Debug)]
+pub struct OutwardEmbedding {
+    /// The coarse vertex the fewest edges away.
+    pub representative: Vec<u32>,
+    /// The coarse triangle of its closest point.
+    pub faces: Vec<u32>,
+    /// The closest point's barycentric weights on that triangle.
+    pub weights: Vec<[f64; 3]>,
 }
 
 /// The closest-point search on one coarse mesh.
@@ -246,6 +332,63 @@ mod tests {
             }
         }
         assert!(skipped > 1000, "the test skips: {skipped}");
+    }
+
+    /// `embed_outward` on a bumpy bar decimated to a tenth: each representative is a kept
+    /// vertex the fewest edges away (checked against a breadth-first search of its own), and
+    /// each vertex lands on the closest point of the whole coarse mesh (brute force).
+    #[test]
+    fn outward_embedding_finds_the_nearest_kept_vertex_and_the_closest_point() {
+        let mesh = crate::geometry::shapes::bumpy_bar(4).0;
+        let (p, n) = (mesh.positions(), mesh.n_vertices());
+        let (kept, triangles) =
+            crate::geometry::simplify::collapse(p, mesh.triangles(), n / 10, true).unwrap();
+        let coarse = Mesh::new(kept.iter().map(|&v| p[v as usize]).collect(), triangles).unwrap();
+        let vf = VertexFaces::new(coarse.n_vertices(), coarse.triangles());
+        let OutwardEmbedding { representative, faces, weights } =
+            embed_outward(p, mesh.adjacency(), &coarse, &vf, &kept).unwrap();
+        let graph = mesh.adjacency();
+        // Hops to the nearest kept vertex, by a plain multi-source breadth-first search.
+        let mut hops = vec![usize::MAX; n];
+        let mut queue: std::collections::VecDeque<u32> = kept.iter().copied().collect();
+        for &k in &kept {
+            hops[k as usize] = 0;
+        }
+        while let Some(v) = queue.pop_front() {
+            for &w in graph.neighbors(v) {
+                if hops[w as usize] == usize::MAX {
+                    hops[w as usize] = hops[v as usize] + 1;
+                    queue.push_back(w);
+                }
+            }
+        }
+        for (j, &k) in kept.iter().enumerate() {
+            assert_eq!(representative[k as usize], j as u32);
+        }
+        let search = Search::new(&coarse, &vf);
+        for v in 0..n {
+            // A chain of neighbours one hop nearer, with the same representative, leads to it.
+            if hops[v] > 0 {
+                let from = graph.neighbors(v as u32).iter().find(|&&u| {
+                    hops[u as usize] + 1 == hops[v]
+                        && representative[u as usize] == representative[v]
+                });
+                assert!(from.is_some(), "vertex {v}: no neighbour one hop nearer");
+            }
+            let found =
+                blend(coarse.positions(), &coarse.triangles()[faces[v] as usize], &weights[v]);
+            let nearest = (0..coarse.n_faces())
+                .map(|f| {
+                    let (q, _) = closest_point_on_triangle(p[v], search.corners[f]);
+                    dot(sub(q, p[v]), sub(q, p[v]))
+                })
+                .fold(f64::INFINITY, f64::min);
+            let d2 = dot(sub(found, p[v]), sub(found, p[v]));
+            assert!(
+                d2 <= nearest + 1e-12 * mesh.bbox_diagonal().powi(2),
+                "vertex {v}: {d2} > {nearest}"
+            );
+        }
     }
 
     #[test]

@@ -13,10 +13,12 @@
 //!    mean edge length $\bar e$ (vertex density scales as the inverse square of the edge).
 //! 2. $B_\ell$ = the faired surface of $M_\ell$ (same $h$).
 //! 3. Each fine vertex $i$ takes the closest point of $M_\ell$ to $M_i$ found by walking from
-//!    a triangle around its representative ([`crate::deform::embedding::embed_from`]: on to
-//!    the triangles around the best one's corners while one is closer), as barycentric
-//!    weights $w_{ik}$ on a level triangle $t_i$, and $B_i = \sum_k w_{ik} B_{\ell,k}$. A
-//!    vertex the level kept gets $B_{\ell}$ at itself.
+//!    the triangle of a neighbour one edge nearer the level's vertices
+//!    ([`crate::deform::embedding::embed_outward`]: ring by ring outward from the level's
+//!    vertices, on to the triangles around the best one's corners while one is closer), as
+//!    barycentric weights $w_{ik}$ on a level triangle $t_i$, and
+//!    $B_i = \sum_k w_{ik} B_{\ell,k}$; its representative is the level vertex the fewest
+//!    edges away. A vertex the level kept gets $B_{\ell}$ at itself.
 //!
 //! The offset of $M_i$ from $M_\ell$ is shorter than the level's edges, below $h$: the fairing
 //! would have removed it. The simplifier can leave nearly flat triangles (corners almost on a
@@ -31,12 +33,12 @@
 
 use crate::deform::biharmonic::faired_surface;
 use crate::deform::constraints::Constraints;
-use crate::deform::embedding::{blend, embed_from};
+use crate::deform::embedding::{OutwardEmbedding, blend, embed_outward};
 use crate::error::SolveError;
 use crate::geometry::cotan::face_cotangents;
 use crate::geometry::mesh::{Mesh, dot, sub};
 use crate::geometry::normals::VertexFaces;
-use crate::geometry::simplify::{collapse, representatives};
+use crate::geometry::simplify::collapse;
 
 /// $k$ of the module doc: the level's mean edge is the smoothing length over $k$.
 pub const LEVEL_EDGES_PER_SMOOTHING_LENGTH: f64 = 3.0;
@@ -78,7 +80,8 @@ pub struct FairedLevel {
     pub triangles: Vec<[u32; 3]>,
     /// $B_\ell$.
     pub base: Vec<[f64; 3]>,
-    /// Per fine vertex, the level vertex nearest to it along the mesh's edges.
+    /// Per fine vertex, the level vertex the fewest of the mesh's edges away (the first in
+    /// breadth-first order, [`crate::deform::embedding::embed_outward`]).
     pub representative: Vec<u32>,
 }
 
@@ -120,27 +123,20 @@ pub fn faired_base(
         .collect();
     let Ok(level_mesh) = Mesh::new(level_positions, triangles) else { return direct() };
     // The fairing (one sparse factorization) needs only the level, the embedding of the fine
-    // vertices on it (their representatives first) only the level's rest positions: side by
-    // side.
+    // vertices on it only the level's rest positions: side by side.
     let (level_base, embedded) = rayon::join(
         || {
             let all_free = Constraints::all_free(level_mesh.n_vertices());
             faired_surface(&level_mesh, &all_free, level_mesh.positions(), Some(h))
         },
         || {
-            let representative = representatives(mesh.positions(), mesh.adjacency(), &kept)?;
             let vf = VertexFaces::new(level_mesh.n_vertices(), level_mesh.triangles());
-            // A triangle around each representative (every level vertex has one: the level
-            // is a mesh of the vertices its triangles use, checked here all the same).
-            let start: Vec<u32> = representative
-                .iter()
-                .map(|&r| vf.of(r as usize).first().copied())
-                .collect::<Option<_>>()?;
-            let embedding = embed_from(mesh.positions(), &level_mesh, &vf, |i| start[i]);
-            Some((representative, embedding))
+            embed_outward(mesh.positions(), mesh.adjacency(), &level_mesh, &vf, &kept)
         },
     );
-    let (Ok(level_base), Some((representative, (faces, weights)))) = (level_base, embedded) else {
+    let (Ok(level_base), Some(OutwardEmbedding { representative, faces, weights })) =
+        (level_base, embedded)
+    else {
         return direct();
     };
     let level_triangles = level_mesh.triangles();
