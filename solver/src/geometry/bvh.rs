@@ -1,8 +1,8 @@
 //! Ray picking on a deforming surface (the editor's displayed mesh, in `f32`) through a
 //! bounding-volume hierarchy over triangles.
 //!
-//! The tree is built once per mesh (median split on the longest axis of the centroid box; large
-//! subtrees side by side) and refitted in O(#V) when the positions change (each leaf's box
+//! The tree is built once per mesh (split at the middle of the longest axis of the centroid
+//! box; large subtrees side by side) and refitted in O(#V) when the positions change (each leaf's box
 //! from the distinct vertices of its triangles, kept at build time, the leaves in parallel;
 //! then the inner boxes from their children), so picking a deforming mesh costs a refit plus
 //! a logarithmic traversal instead of a test against every triangle (ray–triangle test: Möller
@@ -173,8 +173,8 @@ type LeafRun = (Vec<u32>, Vec<(u32, u32)>);
 const PARALLEL_ITEMS: usize = 1 << 16;
 
 /// The tree over `items` (triangle centres and indices), which sit at `first` in the whole
-/// list: the median split on the longest axis of the centres' box, down to leaves of at most
-/// [`LEAF_SIZE`] triangles. Nodes are listed root first, each node's children side by side
+/// list: split at the middle of the longest axis of the centres' box ([`split`]), down to
+/// leaves of at most [`LEAF_SIZE`] triangles. Nodes are listed root first, each node's children side by side
 /// after it (right = left + 1); leaves index the whole list. Large subtrees are built side by
 /// side and listed one after the other (the same splits as one builder would make).
 fn subtree(items: &mut [(Vec3, u32)], first: usize) -> Vec<Node> {
@@ -222,8 +222,9 @@ fn subtree_here(items: &mut [(Vec3, u32)], first: usize) -> Vec<Node> {
     nodes
 }
 
-/// Puts the lower half of `items` along the longest axis of their centres' box first;
-/// returns the length of that half.
+/// Splits `items` at the middle of the longest axis of their centres' box (those below it
+/// first); returns the length of the lower part. Where every centre falls on one side (all
+/// equal along that axis), at the median instead.
 fn split(items: &mut [(Vec3, u32)]) -> usize {
     let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
     for &(c, _) in items.iter() {
@@ -238,6 +239,17 @@ fn split(items: &mut [(Vec3, u32)]) -> usize {
     } else {
         2
     };
+    let middle = 0.5 * (lo[axis] + hi[axis]);
+    let mut below = 0;
+    for k in 0..items.len() {
+        if items[k].0[axis] < middle {
+            items.swap(k, below);
+            below += 1;
+        }
+    }
+    if below > 0 && below < items.len() {
+        return below;
+    }
     let mid = items.len() / 2;
     items.select_nth_unstable_by(mid, |a, b| a.0[axis].total_cmp(&b.0[axis]));
     mid
