@@ -15,7 +15,10 @@
 //!    the mesh's edges. When $B$ was faired on a level, the level (its faired positions are $B$
 //!    at its vertices) is decimated instead of $B$ on every vertex: the same surface on fewer
 //!    vertices (under half; a ninth on the armadillo subdivided twice), and a fine vertex's
-//!    representative is then the coarse representative of its level representative.
+//!    representative is then the coarse representative of its level representative. The
+//!    level is decimated (and its vertices embedded, step 3) as soon as it is faired, beside
+//!    the fine vertices' embedding on it
+//!    ([`crate::deform::level_fairing::faired_base_then`]).
 //! 3. Embedding (prolongation $P$, [`crate::deform::embedding`]): each fine vertex $i$ gets
 //!    the closest point of $B_c$ to $B_i$ among the coarse triangles within two rings of its
 //!    representative, as barycentric weights $w_{ik}$ on a coarse triangle $t_i$; its detail
@@ -34,7 +37,7 @@
 use crate::deform::config::BaseConfig;
 use crate::deform::embedding::{blend, embed, embed_from};
 use crate::deform::level_fairing::{
-    FairedBase, FairedLevel, Fairing, LEVEL_EDGES_PER_SMOOTHING_LENGTH, faired_base,
+    FairedBase, Fairing, LEVEL_EDGES_PER_SMOOTHING_LENGTH, LevelView, faired_base_then,
 };
 use crate::error::SolveError;
 use crate::geometry::mesh::{Mesh, sub};
@@ -83,36 +86,45 @@ impl CoarseBase {
             .then_some(config.smoothing * diag);
         let level_edges =
             if config.level_fairing { LEVEL_EDGES_PER_SMOOTHING_LENGTH } else { f64::INFINITY };
-        let faired = faired_base(mesh, smoothing, level_edges)?;
+        let target_vertices = config.coarse_vertices_for(mesh.n_vertices());
+        // On a level, the coarse level is decimated from it and its vertices embedded as soon
+        // as it is faired, beside the fine vertices' embedding on the level.
+        let (faired, on_level) = faired_base_then(mesh, smoothing, level_edges, |level| {
+            coarse_from_level(level, target_vertices)
+        })?;
         let fairing = faired.fairing();
         let FairedBase { base, level } = faired;
         clock.lap("faired base");
-        let target_vertices = config.coarse_vertices_for(mesh.n_vertices());
-        let from_level = level.as_ref().and_then(|l| decimate_level(l, target_vertices));
-        let (dec, on_level) = match from_level {
-            Some((dec, level_representative)) => (dec, level.zip(Some(level_representative))),
-            None => {
+        let (dec, coarse_mesh, faces, weights) = match (level, on_level.flatten()) {
+            // Each fine vertex walks from its level representative's coarse triangle.
+            (Some(level), Some(c)) => {
+                let dec = Decimation {
+                    kept: c.dec.kept.iter().map(|&k| level.kept[k as usize]).collect(),
+                    triangles: c.dec.triangles,
+                    representative: level
+                        .representative
+                        .iter()
+                        .map(|&l| c.dec.representative[l as usize])
+                        .collect(),
+                };
+                clock.lap("decimation");
+                let start = |i: usize| c.level_faces[level.representative[i] as usize];
+                let (faces, weights) = embed_from(&base, &c.mesh, &c.vf, start);
+                (dec, c.mesh, faces, weights)
+            }
+            _ => {
                 let dec =
                     simplify(&base, mesh.triangles(), mesh.adjacency(), target_vertices, false)
                         .ok_or(SolveError::DecimationFailed { target: target_vertices })?;
-                (dec, None)
+                clock.lap("decimation");
+                let coarse_positions: Vec<[f64; 3]> =
+                    dec.kept.iter().map(|&v| base[v as usize]).collect();
+                let coarse_mesh = Mesh::new(coarse_positions, dec.triangles.clone())
+                    .map_err(|_| SolveError::NonFiniteResult { vertex: 0 })?;
+                let vf = VertexFaces::new(coarse_mesh.n_vertices(), coarse_mesh.triangles());
+                let (faces, weights) = embed(&base, &coarse_mesh, &vf, &dec.representative, false);
+                (dec, coarse_mesh, faces, weights)
             }
-        };
-        clock.lap("decimation");
-        let coarse_positions: Vec<[f64; 3]> = dec.kept.iter().map(|&v| base[v as usize]).collect();
-        let coarse_mesh = Mesh::new(coarse_positions, dec.triangles)
-            .map_err(|_| SolveError::NonFiniteResult { vertex: 0 })?;
-        let vf = VertexFaces::new(coarse_mesh.n_vertices(), coarse_mesh.triangles());
-        let (faces, weights) = match on_level {
-            // The level's vertices first (two rings of their coarse representatives, then the
-            // walk), then each fine vertex walks from its level representative's triangle.
-            Some((level, level_representative)) => {
-                let (level_faces, _) =
-                    embed(&level.base, &coarse_mesh, &vf, &level_representative, true);
-                let start = |i: usize| level_faces[level.representative[i] as usize];
-                embed_from(&base, &coarse_mesh, &vf, start)
-            }
-            None => embed(&base, &coarse_mesh, &vf, &dec.representative, false),
         };
         let embedding: Vec<([u32; 3], [f64; 3])> = faces
             .iter()
@@ -167,7 +179,8 @@ impl CoarseBase {
         self.fairing
     }
 
-    /// Milliseconds per phase of [`CoarseBase::new`].
+    /// Milliseconds per phase of [`CoarseBase::new`] (on a level, the coarse level's
+    /// decimation is part of the faired base's phase, beside the level's embedding).
     pub fn precompute_phases(&self) -> &[(&'static str, f64)] {
         &self.phases
     }
@@ -179,27 +192,29 @@ impl CoarseBase {
 }
 
 /// $B_c$ decimated from the faired level instead of from $B$ on every fine vertex (the level
-/// has fewer vertices, and its positions are $B$ at its vertices): the decimation of the
-/// level's vertices, renumbered as fine vertices, each fine vertex's representative the
-/// coarse representative of its level representative; and each level vertex's coarse
-/// representative. `None` when the level is not larger than the target or cannot be
-/// decimated (then $B$ is).
-fn decimate_level(level: &FairedLevel, target_vertices: usize) -> Option<(Decimation, Vec<u32>)> {
+/// has fewer vertices, and its positions are $B$ at its vertices), and the level's vertices
+/// embedded on it (two rings of their coarse representatives, then the walk). `None` when the
+/// level is not larger than the target or cannot be decimated (then $B$ is).
+fn coarse_from_level(level: LevelView, target_vertices: usize) -> Option<LevelCoarse> {
     if target_vertices >= level.kept.len() {
         return None;
     }
-    let graph = Adjacency::new(level.base.len(), &level.triangles);
-    let dec = simplify(&level.base, &level.triangles, &graph, target_vertices, false)?;
-    let fine = Decimation {
-        kept: dec.kept.iter().map(|&k| level.kept[k as usize]).collect(),
-        triangles: dec.triangles,
-        representative: level
-            .representative
-            .iter()
-            .map(|&l| dec.representative[l as usize])
-            .collect(),
-    };
-    Some((fine, dec.representative))
+    let graph = Adjacency::new(level.base.len(), level.triangles);
+    let dec = simplify(level.base, level.triangles, &graph, target_vertices, false)?;
+    let positions = dec.kept.iter().map(|&k| level.base[k as usize]).collect();
+    let mesh = Mesh::new(positions, dec.triangles.clone()).ok()?;
+    let vf = VertexFaces::new(mesh.n_vertices(), mesh.triangles());
+    let (level_faces, _) = embed(level.base, &mesh, &vf, &dec.representative, true);
+    Some(LevelCoarse { dec, mesh, vf, level_faces })
+}
+
+/// [`coarse_from_level`]'s result: the decimation in the level's indices, $B_c$, its
+/// vertex-to-triangle rows, and each level vertex's coarse triangle.
+struct LevelCoarse {
+    dec: Decimation,
+    mesh: Mesh,
+    vf: VertexFaces,
+    level_faces: Vec<u32>,
 }
 
 /// Wall-clock milliseconds per named phase of a precomputation.

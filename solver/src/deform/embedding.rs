@@ -35,7 +35,8 @@ pub fn embed(
     let search = Search::new(coarse, vf);
     (0..base.len())
         .into_par_iter()
-        .map_init(Vec::new, |faces, i| {
+        .map_init(Scratch::default, |scratch, i| {
+            let faces = &mut scratch.tried;
             let r = representative[i] as usize;
             faces.clear();
             for &f in vf.of(r) {
@@ -52,7 +53,7 @@ pub fn embed(
             best.2[ct[best.1 as usize].iter().position(|&v| v as usize == r).unwrap_or(0)] = 1.0;
             search.closest(q, faces, &mut best);
             if descend {
-                search.walk(q, faces, &mut best);
+                search.walk(q, scratch, &mut best);
             }
             (best.1, best.2)
         })
@@ -72,13 +73,13 @@ pub fn embed_from(
     let search = Search::new(coarse, vf);
     (0..points.len())
         .into_par_iter()
-        .map_init(Vec::new, |faces, i| {
+        .map_init(Scratch::default, |scratch, i| {
             let q = points[i];
             let mut best = (f64::INFINITY, start(i), [1.0, 0.0, 0.0]);
-            faces.clear();
-            faces.push(best.1);
-            search.closest(q, faces, &mut best);
-            search.walk(q, faces, &mut best);
+            scratch.tried.clear();
+            scratch.tried.push(best.1);
+            search.closest(q, &scratch.tried, &mut best);
+            search.walk(q, scratch, &mut best);
             (best.1, best.2)
         })
         .unzip()
@@ -132,13 +133,13 @@ pub fn embed_outward(
         }
         let walked: Vec<(u32, [f64; 3])> = reached
             .par_iter()
-            .map_init(Vec::new, |tried, &(w, from)| {
+            .map_init(Scratch::default, |scratch, &(w, from)| {
                 let mut best = (f64::INFINITY, faces[from as usize], [1.0, 0.0, 0.0]);
-                tried.clear();
-                tried.push(best.1);
+                scratch.tried.clear();
+                scratch.tried.push(best.1);
                 let q = positions[w as usize];
-                search.closest(q, tried, &mut best);
-                search.walk(q, tried, &mut best);
+                search.closest(q, &scratch.tried, &mut best);
+                search.walk(q, scratch, &mut best);
                 (best.1, best.2)
             })
             .collect();
@@ -165,6 +166,14 @@ pub struct OutwardEmbedding {
     pub faces: Vec<u32>,
     /// The closest point's barycentric weights on that triangle.
     pub weights: Vec<[f64; 3]>,
+}
+
+/// A walk's scratch, kept per thread: the triangles tried ([`Search::walk`]) and the corners
+/// whose triangles all were.
+#[derive(Default)]
+struct Scratch {
+    tried: Vec<u32>,
+    expanded: Vec<u32>,
 }
 
 /// The closest-point search on one coarse mesh.
@@ -235,12 +244,20 @@ impl<'a> Search<'a> {
     /// `tried` holds the triangles already compared with `best` (scratch, extended here): a
     /// triangle tried once is never closer than the best since, so each is tried at most
     /// once (the result is the same as trying every triangle around the corners at every
-    /// step). Each step strictly decreases the distance, so the walk ends; 64 steps bound it.
-    fn walk(&self, q: [f64; 3], tried: &mut Vec<u32>, best: &mut (f64, u32, [f64; 3])) {
+    /// step), and a corner whose triangles were all tried is passed over (the next best
+    /// triangle shares one or two corners with the last). Each step strictly decreases the
+    /// distance, so the walk ends; 64 steps bound it.
+    fn walk(&self, q: [f64; 3], scratch: &mut Scratch, best: &mut (f64, u32, [f64; 3])) {
         let ct = self.coarse.triangles();
+        let Scratch { tried, expanded } = scratch;
+        expanded.clear();
         for _ in 0..64 {
             let mut improved = false;
             for v in ct[best.1 as usize] {
+                if expanded.contains(&v) {
+                    continue;
+                }
+                expanded.push(v);
                 for &f in self.vf.of(v as usize) {
                     if tried.contains(&f) {
                         continue;

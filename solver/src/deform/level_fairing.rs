@@ -27,7 +27,8 @@
 //! decimated with meshoptimizer's `Regularize` option (rounder triangles). The level's
 //! fairing and the embedding of the fine vertices on it (with their representatives) need
 //! only the level and run side by side; the level is returned with the base
-//! ([`FairedBase`]) for the coarse base to decimate further. When $n_\ell \ge n / 2$ (every
+//! ([`FairedBase`]) for the coarse base to decimate further, or handed over as soon as it is
+//! faired, beside the embedding ([`faired_base_then`]). When $n_\ell \ge n / 2$ (every
 //! paper mesh at the default smoothing), or when the level cannot be built or faired, the
 //! whole mesh is faired directly.
 
@@ -93,10 +94,34 @@ pub fn faired_base(
     smoothing: Option<f64>,
     level_edges: f64,
 ) -> Result<FairedBase, SolveError> {
+    faired_base_then(mesh, smoothing, level_edges, |_| ()).map(|(base, _)| base)
+}
+
+/// What a level is before its fine vertices are embedded on it: enough for work that needs
+/// only the faired level ([`faired_base_then`]).
+#[derive(Clone, Copy, Debug)]
+pub struct LevelView<'a> {
+    /// Fine index of each level vertex (ascending).
+    pub kept: &'a [u32],
+    /// The level's triangles (indices into `kept`).
+    pub triangles: &'a [[u32; 3]],
+    /// $B_\ell$.
+    pub base: &'a [[f64; 3]],
+}
+
+/// [`faired_base`], and `then` run on the faired level as soon as it is faired, beside the
+/// embedding of the fine vertices on it (its result `None` when the mesh was faired
+/// directly): the coarse base decimates the level there ([`crate::deform::coarse_base`]).
+pub fn faired_base_then<R: Send>(
+    mesh: &Mesh,
+    smoothing: Option<f64>,
+    level_edges: f64,
+    then: impl FnOnce(LevelView) -> R + Send,
+) -> Result<(FairedBase, Option<R>), SolveError> {
     let direct = || {
         let all_free = Constraints::all_free(mesh.n_vertices());
         faired_surface(mesh, &all_free, mesh.positions(), smoothing)
-            .map(|base| FairedBase { base, level: None })
+            .map(|base| (FairedBase { base, level: None }, None))
     };
     let Some(h) = smoothing else { return direct() };
     let n = mesh.n_vertices();
@@ -127,14 +152,17 @@ pub fn faired_base(
     let (level_base, embedded) = rayon::join(
         || {
             let all_free = Constraints::all_free(level_mesh.n_vertices());
-            faired_surface(&level_mesh, &all_free, level_mesh.positions(), Some(h))
+            let base = faired_surface(&level_mesh, &all_free, level_mesh.positions(), Some(h))?;
+            let view = LevelView { kept: &kept, triangles: level_mesh.triangles(), base: &base };
+            let after = then(view);
+            Ok::<_, SolveError>((base, after))
         },
         || {
             let vf = VertexFaces::new(level_mesh.n_vertices(), level_mesh.triangles());
             embed_outward(mesh.positions(), mesh.adjacency(), &level_mesh, &vf, &kept)
         },
     );
-    let (Ok(level_base), Some(OutwardEmbedding { representative, faces, weights })) =
+    let (Ok((level_base, after)), Some(OutwardEmbedding { representative, faces, weights })) =
         (level_base, embedded)
     else {
         return direct();
@@ -154,7 +182,7 @@ pub fn faired_base(
         base: level_base,
         representative,
     };
-    Ok(FairedBase { base, level: Some(level) })
+    Ok((FairedBase { base, level: Some(level) }, Some(after)))
 }
 
 /// $n_\ell$ of the module doc for smoothing length `h` and $k$ = `level_edges`.
