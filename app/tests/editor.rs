@@ -700,7 +700,7 @@ fn textured_cube(png: Vec<u8>) -> solver::io::LoadedMesh {
     asset.images =
         vec![Image { name: "red.png".into(), mime_type: "image/png".into(), bytes: png }];
     asset.parts[0].material = Some(0);
-    let (mesh, report) = solver::geometry::cleanup::clean(positions, triangles).unwrap();
+    let (mesh, report) = solver::geometry::cleanup::clean(&positions, &triangles).unwrap();
     LoadedMesh { mesh, report, asset }
 }
 

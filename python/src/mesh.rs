@@ -56,7 +56,7 @@ pub fn clean<'py>(
     let positions = rows3(&v, "V")?;
     let tris = triangles(&f, positions.len())?;
     let (mesh, report) =
-        py.allow_threads(|| solver::geometry::cleanup::clean(positions, tris)).map_err(err)?;
+        py.allow_threads(|| solver::geometry::cleanup::clean(&positions, &tris)).map_err(err)?;
     let f = array_triangles(py, mesh.triangles())?;
     Ok((array3(py, mesh.positions().to_vec())?, f, report_dict(py, &report)?))
 }

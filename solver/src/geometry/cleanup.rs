@@ -15,6 +15,7 @@
 //! order is exactly the input order. Known limitation: near-coincident (not bit-identical)
 //! vertices are not welded, and slivers above the area threshold are kept.
 
+use rayon::prelude::*;
 use rustc_hash::FxHashMap;
 
 use serde::Serialize;
@@ -144,59 +145,57 @@ pub enum CleanError {
 /// `vertex_map` sends input vertices to output vertices.
 /// Errors: a non-finite coordinate or bad index ([`CleanError`]), or no triangle left.
 pub fn clean(
-    positions: Vec<[f64; 3]>,
-    triangles: Vec<[u32; 3]>,
+    positions: &[[f64; 3]],
+    triangles: &[[u32; 3]],
 ) -> Result<(Mesh, CleanReport), CleanError> {
     let n = positions.len();
     if n > u32::MAX as usize {
         return Err(CleanError::TooManyVertices { n_vertices: n });
     }
-    for (vertex, p) in positions.iter().enumerate() {
-        if let Some(&value) = p.iter().find(|c| !c.is_finite()) {
-            return Err(CleanError::NonFinite { vertex, value });
-        }
+    if let Some(vertex) = positions.par_iter().position_first(|p| !p.iter().all(|c| c.is_finite()))
+    {
+        let value = positions[vertex].iter().copied().find(|c| !c.is_finite()).unwrap_or(f64::NAN);
+        return Err(CleanError::NonFinite { vertex, value });
     }
-    for (face, t) in triangles.iter().enumerate() {
-        if let Some(&index) = t.iter().find(|&&i| i as usize >= n) {
-            return Err(CleanError::IndexOutOfRange { face, index, n_vertices: n });
-        }
+    if let Some(face) = triangles.par_iter().position_first(|t| t.iter().any(|&i| i as usize >= n))
+    {
+        let index = triangles[face].iter().copied().find(|&i| i as usize >= n).unwrap_or(0);
+        return Err(CleanError::IndexOutOfRange { face, index, n_vertices: n });
     }
 
     // 1. Weld: rep[v] = the first vertex with v's position.
-    let mut first: FxHashMap<[u64; 3], u32> =
-        FxHashMap::with_capacity_and_hasher(n, Default::default());
-    let rep: Vec<u32> = positions
-        .iter()
-        .enumerate()
-        .map(|(v, p)| *first.entry(key(*p)).or_insert(v as u32))
-        .collect();
-    drop(first);
+    let rep = weld(positions);
     let vertices_welded = rep.iter().enumerate().filter(|&(v, &r)| r as usize != v).count();
 
     // 2. Degenerate triangles, against the bounding box of the referenced vertices.
-    let pos = |i: u32| positions.get(i as usize).copied().unwrap_or_default();
-    let (lo, hi) = bounding_box(triangles.iter().flatten().map(|&i| pos(i)));
+    let pos = |i: u32| positions[i as usize];
+    let (lo, hi) = triangles
+        .par_chunks(1 << 14)
+        .map(|c| bounding_box(c.iter().flatten().map(|&i| pos(i))))
+        .reduce(
+            || ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]),
+            |(a, b), (c, d)| {
+                (std::array::from_fn(|k| a[k].min(c[k])), std::array::from_fn(|k| b[k].max(d[k])))
+            },
+        );
     let diag = norm(sub(hi, lo));
     let min_area = AREA_EPS * diag * diag;
-    let welded = triangles.iter().map(|t| t.map(|i| rep.get(i as usize).copied().unwrap_or(i)));
-    let mut degenerate = 0;
-    let mut candidates = Vec::with_capacity(triangles.len());
-    for t in welded {
-        if t[0] == t[1]
-            || t[1] == t[2]
-            || t[0] == t[2]
-            || area(pos(t[0]), pos(t[1]), pos(t[2])) <= min_area
-        {
-            degenerate += 1;
-            continue;
-        }
-        candidates.push(t);
-    }
+    let candidates: Vec<[u32; 3]> = triangles
+        .par_iter()
+        .map(|t| t.map(|i| rep[i as usize]))
+        .filter(|t| {
+            t[0] != t[1]
+                && t[1] != t[2]
+                && t[0] != t[2]
+                && area(pos(t[0]), pos(t[1]), pos(t[2])) > min_area
+        })
+        .collect();
+    let degenerate = triangles.len() - candidates.len();
     // 3. Duplicated triangles.
     let repeated = repeated_triangles(n, &candidates);
     let duplicates = repeated.iter().filter(|&&r| r).count();
     let kept: Vec<[u32; 3]> =
-        candidates.iter().zip(&repeated).filter(|&(_, &r)| !r).map(|(&t, _)| t).collect();
+        candidates.par_iter().zip(&repeated).filter(|&(_, &r)| !r).map(|(&t, _)| t).collect();
     drop(candidates);
     if kept.is_empty() {
         return Err(CleanError::NoTriangles { faces_in: triangles.len(), degenerate, duplicates });
@@ -205,28 +204,21 @@ pub fn clean(
     // 4. Unreferenced vertices; new indices follow the input order.
     let mut used = vec![false; n];
     for &i in kept.iter().flatten() {
-        if let Some(u) = used.get_mut(i as usize) {
-            *u = true;
-        }
+        used[i as usize] = true;
     }
     let mut new_index = vec![None; n];
     let mut out_positions = Vec::with_capacity(n);
     for (v, p) in positions.iter().enumerate() {
-        if used.get(v).copied().unwrap_or(false) {
-            if let Some(slot) = new_index.get_mut(v) {
-                *slot = Some(out_positions.len() as u32);
-            }
+        if used[v] {
+            new_index[v] = Some(out_positions.len() as u32);
             out_positions.push(*p);
         }
     }
     let representatives = rep.iter().enumerate().filter(|&(v, &r)| r as usize == v).count();
     let unreferenced_removed = representatives - out_positions.len();
-    let vertex_map: Vec<Option<u32>> =
-        rep.iter().map(|&r| new_index.get(r as usize).copied().flatten()).collect();
-    let out_triangles: Vec<[u32; 3]> = kept
-        .iter()
-        .map(|t| t.map(|i| new_index.get(i as usize).copied().flatten().unwrap_or(0)))
-        .collect();
+    let vertex_map: Vec<Option<u32>> = rep.par_iter().map(|&r| new_index[r as usize]).collect();
+    let out_triangles: Vec<[u32; 3]> =
+        kept.par_iter().map(|t| t.map(|i| new_index[i as usize].unwrap_or(0))).collect();
 
     // 5. The mesh, and the topology of the result (the mesh keeps its components for later).
     let mesh = Mesh::new(out_positions, out_triangles).map_err(|e| match e {
@@ -257,6 +249,40 @@ pub fn clean(
     };
     Ok((mesh, report))
 }
+
+/// Per vertex, the first vertex with its position ([`key`]). The positions are dealt into
+/// [`WELD_SHARDS`] shards by a hash of their key, each welded on its own (side by side) in
+/// vertex order: equal positions share a shard, and the first of them is the first its shard
+/// meets.
+fn weld(positions: &[[f64; 3]]) -> Vec<u32> {
+    let keys: Vec<[u64; 3]> = positions.par_iter().map(|&p| key(p)).collect();
+    let shard = |k: &[u64; 3]| {
+        let h = (k[0] ^ k[1].rotate_left(21) ^ k[2].rotate_left(42))
+            .wrapping_mul(0x9e37_79b9_7f4a_7c15);
+        (h >> 58) as usize % WELD_SHARDS
+    };
+    let mut members: Vec<Vec<u32>> = vec![Vec::new(); WELD_SHARDS];
+    for (v, k) in keys.iter().enumerate() {
+        members[shard(k)].push(v as u32);
+    }
+    let welded: Vec<Vec<(u32, u32)>> = members
+        .par_iter()
+        .map(|vertices| {
+            let mut first: FxHashMap<[u64; 3], u32> =
+                FxHashMap::with_capacity_and_hasher(vertices.len(), Default::default());
+            vertices.iter().map(|&v| (v, *first.entry(keys[v as usize]).or_insert(v))).collect()
+        })
+        .collect();
+    let mut rep = vec![0u32; positions.len()];
+    for (v, r) in welded.into_iter().flatten() {
+        rep[v as usize] = r;
+    }
+    rep
+}
+
+/// Shards of [`weld`] (a power of two up to 64; fixed, so the result does not depend on the
+/// threads there are, though it would not anyway).
+const WELD_SHARDS: usize = 16;
 
 /// Per triangle (vertices `< n`, none repeated within a triangle), whether an earlier one has
 /// the same three vertices in any order. Triangles go to the row of their lowest vertex; each
@@ -325,7 +351,7 @@ mod tests {
     fn nothing_to_remove_keeps_order() {
         let p = vec![[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 0.0]];
         let t = vec![[3, 2, 1], [3, 1, 0], [3, 0, 2], [0, 1, 2]];
-        let (m, r) = clean(p.clone(), t.clone()).unwrap();
+        let (m, r) = clean(&p, &t).unwrap();
         assert_eq!(m.positions(), p.as_slice());
         assert_eq!(m.triangles(), t.as_slice());
         assert!(!r.changed());
@@ -346,7 +372,7 @@ mod tests {
             [9.0, 9.0, 9.0],
         ];
         let t = vec![[0, 1, 2], [1, 3, 2], [2, 0, 4], [0, 1, 3], [0, 0, 2]];
-        let (m, r) = clean(p, t).unwrap();
+        let (m, r) = clean(&p, &t).unwrap();
         assert_eq!(m.n_vertices(), 4);
         assert_eq!(m.triangles(), &[[0, 1, 2], [1, 3, 2]]);
         assert_eq!(r.vertex_map, vec![Some(0), Some(1), Some(2), Some(3), Some(1), None]);
@@ -364,11 +390,39 @@ mod tests {
         assert!(json.contains("\"vertices_welded\":1") && !json.contains("vertex_map"));
     }
 
+    /// A triangle soup (every corner its own vertex, as in STL) of a sphere with hundreds of
+    /// vertices, spread over every weld shard, welds back to the indexed sphere: the first
+    /// corner at each position is the one kept, in the soup's order.
+    #[test]
+    fn a_soup_welds_back_to_the_mesh() {
+        let sphere = crate::geometry::shapes::icosphere(3);
+        let (p, t) = (sphere.positions(), sphere.triangles());
+        let soup: Vec<[f64; 3]> = t.iter().flatten().map(|&v| p[v as usize]).collect();
+        let faces: Vec<[u32; 3]> =
+            (0..t.len() as u32).map(|f| [3 * f, 3 * f + 1, 3 * f + 2]).collect();
+        let (m, r) = clean(&soup, &faces).unwrap();
+        assert_eq!(m.n_vertices(), sphere.n_vertices());
+        assert_eq!(r.vertices_welded, soup.len() - sphere.n_vertices());
+        assert_eq!(m.n_faces(), t.len());
+        // Output vertex k is the k-th position in order of first appearance in the soup.
+        let mut seen = Vec::new();
+        for q in &soup {
+            if !seen.contains(q) {
+                seen.push(*q);
+            }
+        }
+        assert_eq!(m.positions(), seen.as_slice());
+        for (f, tri) in m.triangles().iter().enumerate() {
+            let want = t[f].map(|v| seen.iter().position(|q| *q == p[v as usize]).unwrap() as u32);
+            assert_eq!(*tri, want);
+        }
+    }
+
     #[test]
     fn all_degenerate_is_an_error() {
         let p = vec![[0.0; 3], [1.0, 1.0, 1.0], [2.0, 2.0, 2.0]];
         assert!(matches!(
-            clean(p, vec![[0, 1, 2]]),
+            clean(&p, &[[0, 1, 2]]),
             Err(CleanError::NoTriangles { degenerate: 1, .. })
         ));
     }
@@ -394,7 +448,7 @@ mod tests {
             [0.0, 0.0, 1.0],
             [1.0, 1.0, 1.0],
         ];
-        let (m, r) = clean(p, tris.to_vec()).unwrap();
+        let (m, r) = clean(&p, &tris).unwrap();
         assert_eq!(r.duplicate_faces_removed, 3);
         assert_eq!(m.triangles(), &[[0, 1, 2], [2, 3, 0], [1, 3, 2], [4, 1, 0]]);
     }

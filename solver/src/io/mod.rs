@@ -163,15 +163,12 @@ fn parse_and_clean(
     if raw.parts.is_empty() {
         raw.parts = vec![Part { count: raw.triangles.len(), ..Part::default() }];
     }
-    let (mesh, report) =
-        clean(raw.positions.clone(), raw.triangles.clone()).map_err(|e| match e {
-            CleanError::NoTriangles { .. } => ctx.no_triangles(e.to_string()),
-            CleanError::NonFinite { vertex, value } => ctx.non_finite(None, vertex, value),
-            CleanError::IndexOutOfRange { index, .. } => {
-                ctx.index(None, index.into(), e.to_string())
-            }
-            CleanError::TooManyVertices { .. } => ctx.count(None, e.to_string()),
-        })?;
+    let (mesh, report) = clean(&raw.positions, &raw.triangles).map_err(|e| match e {
+        CleanError::NoTriangles { .. } => ctx.no_triangles(e.to_string()),
+        CleanError::NonFinite { vertex, value } => ctx.non_finite(None, vertex, value),
+        CleanError::IndexOutOfRange { index, .. } => ctx.index(None, index.into(), e.to_string()),
+        CleanError::TooManyVertices { .. } => ctx.count(None, e.to_string()),
+    })?;
     Ok(LoadedMesh { mesh, report, asset: raw })
 }
 
