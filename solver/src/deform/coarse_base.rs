@@ -57,7 +57,8 @@ pub struct CoarseBase {
     pub(crate) coarse_mesh: Mesh,
     /// Fine index of each coarse vertex (ascending).
     pub(crate) kept: Vec<u32>,
-    /// Per fine vertex, its representative coarse vertex (nearest along the edges).
+    /// Per fine vertex, its representative coarse vertex (nearest along the edges; on a level,
+    /// its level representative's).
     pub(crate) representative: Vec<u32>,
     /// $M$ at the kept vertices: the cotangent weights of coarse triangles that collapsed.
     pub(crate) rest_kept: Vec<[f64; 3]>,
