@@ -142,7 +142,10 @@ fn free_block(
     for (c, &v) in constraints.free_vertices.iter().enumerate() {
         rows.clear();
         for &(k, lkc) in &cols[v as usize] {
-            let scale = lkc / mass[k as usize];
+            // The same product as the right-hand side's (lik · ljk · 1/a_k): the rows of Q sum
+            // to zero in floating point as closely as they did, which a translation of every
+            // handle relies on to move the free vertices by the same vector.
+            let inv_a = 1.0 / mass[k as usize];
             for &(i, lik) in &cols[k as usize] {
                 let Some(r) = free[i as usize].map(|r| r as usize) else { continue };
                 if r < c {
@@ -151,7 +154,7 @@ fn free_block(
                 if acc[r] == 0.0 && !rows.contains(&r) {
                     rows.push(r);
                 }
-                acc[r] += lik * scale;
+                acc[r] += lik * lkc * inv_a;
             }
         }
         acc[c] += lambda * mass[v as usize];
