@@ -137,6 +137,7 @@ fn free_block(
     let mut row_idx = Vec::new();
     let mut values = Vec::new();
     let mut acc = vec![0.0; n_free];
+    let mut in_column = vec![false; n_free];
     let mut rows: Vec<usize> = Vec::new();
     col_ptr.push(0);
     for (c, &v) in constraints.free_vertices.iter().enumerate() {
@@ -151,18 +152,20 @@ fn free_block(
                 if r < c {
                     continue;
                 }
-                if acc[r] == 0.0 && !rows.contains(&r) {
+                if !in_column[r] {
+                    in_column[r] = true;
                     rows.push(r);
                 }
                 acc[r] += lik * lkc * inv_a;
             }
         }
         acc[c] += lambda * mass[v as usize];
-        if !rows.contains(&c) {
+        if !in_column[c] {
             rows.push(c);
         }
         rows.sort_unstable();
         for &r in &rows {
+            in_column[r] = false;
             row_idx.push(r);
             values.push(std::mem::take(&mut acc[r]));
         }

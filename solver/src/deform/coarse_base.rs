@@ -96,35 +96,35 @@ impl CoarseBase {
         let fairing = faired.fairing();
         let FairedBase { base, level } = faired;
         clock.lap("faired base");
-        let (dec, coarse_mesh, faces, weights) = match (level, on_level.flatten()) {
-            // Each fine vertex walks from its level representative's coarse triangle.
+        let (kept, representative, coarse_mesh, faces, weights) = match (level, on_level.flatten())
+        {
+            // The decimation of the level's vertices, renumbered as fine vertices, each fine
+            // vertex's representative the coarse representative of its level representative;
+            // each fine vertex walks from its level representative's coarse triangle.
             (Some(level), Some(c)) => {
-                let dec = Decimation {
-                    kept: c.dec.kept.iter().map(|&k| level.kept[k as usize]).collect(),
-                    triangles: c.dec.triangles,
-                    representative: level
-                        .representative
-                        .iter()
-                        .map(|&l| c.dec.representative[l as usize])
-                        .collect(),
-                };
+                let kept = c.dec.kept.iter().map(|&k| level.kept[k as usize]).collect();
+                let representative = level
+                    .representative
+                    .iter()
+                    .map(|&l| c.dec.representative[l as usize])
+                    .collect();
                 clock.lap("decimation");
                 let start = |i: usize| c.level_faces[level.representative[i] as usize];
                 let (faces, weights) = embed_from(&base, &c.mesh, &c.vf, start);
-                (dec, c.mesh, faces, weights)
+                (kept, representative, c.mesh, faces, weights)
             }
             _ => {
-                let dec =
+                let Decimation { kept, triangles, representative } =
                     simplify(&base, mesh.triangles(), mesh.adjacency(), target_vertices, false)
                         .ok_or(SolveError::DecimationFailed { target: target_vertices })?;
                 clock.lap("decimation");
                 let coarse_positions: Vec<[f64; 3]> =
-                    dec.kept.iter().map(|&v| base[v as usize]).collect();
-                let coarse_mesh = Mesh::new(coarse_positions, dec.triangles.clone())
+                    kept.iter().map(|&v| base[v as usize]).collect();
+                let coarse_mesh = Mesh::new(coarse_positions, triangles)
                     .map_err(|_| SolveError::NonFiniteResult { vertex: 0 })?;
                 let vf = VertexFaces::new(coarse_mesh.n_vertices(), coarse_mesh.triangles());
-                let (faces, weights) = embed(&base, &coarse_mesh, &vf, &dec.representative, false);
-                (dec, coarse_mesh, faces, weights)
+                let (faces, weights) = embed(&base, &coarse_mesh, &vf, &representative, false);
+                (kept, representative, coarse_mesh, faces, weights)
             }
         };
         let embedding: Vec<([u32; 3], [f64; 3])> = faces
@@ -143,9 +143,9 @@ impl CoarseBase {
             smoothing: config.smoothing,
             level_fairing: config.level_fairing,
             target_vertices,
-            rest_kept: dec.kept.iter().map(|&v| mesh.positions()[v as usize]).collect(),
-            kept: dec.kept,
-            representative: dec.representative,
+            rest_kept: kept.iter().map(|&v| mesh.positions()[v as usize]).collect(),
+            kept,
+            representative,
             coarse_mesh,
             embedding,
             faces,

@@ -73,15 +73,7 @@ pub fn embed_from(
     let search = Search::new(coarse, vf);
     (0..points.len())
         .into_par_iter()
-        .map_init(Scratch::default, |scratch, i| {
-            let q = points[i];
-            let mut best = (f64::INFINITY, start(i), [1.0, 0.0, 0.0]);
-            scratch.tried.clear();
-            scratch.tried.push(best.1);
-            search.closest(q, &scratch.tried, &mut best);
-            search.walk(q, scratch, &mut best);
-            (best.1, best.2)
-        })
+        .map_init(Scratch::default, |scratch, i| search.walk_from(points[i], start(i), scratch))
         .unzip()
 }
 
@@ -134,13 +126,7 @@ pub fn embed_outward(
         let walked: Vec<(u32, [f64; 3])> = reached
             .par_iter()
             .map_init(Scratch::default, |scratch, &(w, from)| {
-                let mut best = (f64::INFINITY, faces[from as usize], [1.0, 0.0, 0.0]);
-                scratch.tried.clear();
-                scratch.tried.push(best.1);
-                let q = positions[w as usize];
-                search.closest(q, &scratch.tried, &mut best);
-                search.walk(q, scratch, &mut best);
-                (best.1, best.2)
+                search.walk_from(positions[w as usize], faces[from as usize], scratch)
             })
             .collect();
         for (&(w, _), (f, weight)) in reached.iter().zip(walked) {
@@ -208,6 +194,17 @@ impl<'a> Search<'a> {
             })
             .collect();
         Search { coarse, vf, corners, balls }
+    }
+
+    /// The walk from triangle `start` alone: the closest point to `q` it reaches, as a
+    /// triangle and barycentric weights.
+    fn walk_from(&self, q: [f64; 3], start: u32, scratch: &mut Scratch) -> (u32, [f64; 3]) {
+        let mut best = (f64::INFINITY, start, [1.0, 0.0, 0.0]);
+        scratch.tried.clear();
+        scratch.tried.push(start);
+        self.closest(q, &scratch.tried, &mut best);
+        self.walk(q, scratch, &mut best);
+        (best.1, best.2)
     }
 
     /// Replaces `best` (squared distance, triangle, weights) by the closest of `faces` to `q`

@@ -370,6 +370,18 @@ mod tests {
     }
 
     #[test]
+    fn coincident_centres_split_at_the_median() {
+        // Every triangle's centre on one point: no middle separates them, and the split falls
+        // back to the median (else the builder would never reach a leaf).
+        let p = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+        let t = vec![[0u32, 1, 2]; 100];
+        let bvh = Bvh::build(&p, &t);
+        let hit = bvh.intersect(&p, &t, Vec3::new(0.2, 0.2, 1.0), Vec3::new(0.0, 0.0, -1.0));
+        assert!(hit.is_some_and(|h| (h.t - 1.0).abs() < 1e-6));
+        assert!(bvh.nodes.len() >= 2 * 100 / LEAF_SIZE - 1, "{} nodes", bvh.nodes.len());
+    }
+
+    #[test]
     fn matches_brute_force_after_refit() {
         let (mut p, t) = grid(20);
         let mut bvh = Bvh::build(&p, &t);

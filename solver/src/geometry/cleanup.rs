@@ -169,15 +169,11 @@ pub fn clean(
 
     // 2. Degenerate triangles, against the bounding box of the referenced vertices.
     let pos = |i: u32| positions[i as usize];
-    let (lo, hi) = triangles
+    let boxes: Vec<([f64; 3], [f64; 3])> = triangles
         .par_chunks(1 << 14)
         .map(|c| bounding_box(c.iter().flatten().map(|&i| pos(i))))
-        .reduce(
-            || ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]),
-            |(a, b), (c, d)| {
-                (std::array::from_fn(|k| a[k].min(c[k])), std::array::from_fn(|k| b[k].max(d[k])))
-            },
-        );
+        .collect();
+    let (lo, hi) = bounding_box(boxes.iter().flat_map(|&(lo, hi)| [lo, hi]));
     let diag = norm(sub(hi, lo));
     let min_area = AREA_EPS * diag * diag;
     let candidates: Vec<[u32; 3]> = triangles
