@@ -22,10 +22,10 @@ use eframe::egui::{Color32, Rgba};
 use eframe::egui_wgpu::{CallbackResources, CallbackTrait, ScreenDescriptor, wgpu};
 
 use super::camera::OrbitCamera;
+use super::draw_data::{Topology, VertexData};
 use super::render_layout::RenderLayout;
 use super::renderer::{
-    self, ClayDraw, RendererResources, TexturedDraw, Topology, Uniforms, VertexData,
-    ViewportCallback,
+    self, ClayDraw, RendererResources, TexturedDraw, Uniforms, ViewportCallback,
 };
 use super::shape::Shape;
 

@@ -19,8 +19,9 @@ use glam::Vec3;
 use solver::geometry::normals::VertexFaces;
 use solver::{Handles, Mesh};
 
+use super::draw_data::{Topology, VertexData};
 use super::render_layout::RenderLayout;
-use super::renderer::{Topology, VertexData, build_grid};
+use super::renderer::build_grid;
 use super::shape::Shape;
 use solver::geometry::bvh::Bvh;
 

@@ -1,9 +1,10 @@
 //! The interactive editor: an eframe + wgpu window over the `solver` crate.
 //!
 //! Modules: [`app`] (UI state and frame loop), [`camera`] (orbit camera), [`renderer`] (wgpu
-//! paint callback, WGSL in `shaders/`), [`render_layout`] (the asset split at UV seams for
-//! texture shading), [`textures`] (its base-colour textures on the GPU), (ray picking: `solver::geometry::bvh`), [`brush`] (handle brush
-//! footprint), [`solver_thread`] (background solver, mailbox, panic isolation), [`pose`] (group
+//! paint callback, WGSL in `shaders/`), [`draw_data`] (the vertex formats and versioned buffers
+//! it is handed), [`render_layout`] (the asset split at UV seams for texture shading),
+//! [`textures`] (its base-colour textures on the GPU), [`brush`] (handle brush footprint; ray
+//! picking is `solver::geometry::bvh`), [`solver_thread`] (background solver, mailbox, panic isolation), [`pose`] (group
 //! poses → handle targets), [`pose_solvers`] (the methods the threads run), [`loader`] (mesh
 //! loading off the UI thread), [`undo`] (edit state and history), [`timeline`] (playback and
 //! path editing), [`jobs`] (recording and glTF export threads), [`document`] (the editor state
@@ -16,6 +17,7 @@ pub mod brush;
 pub mod camera;
 pub mod capture;
 pub mod document;
+pub mod draw_data;
 pub mod gizmo;
 pub mod jobs;
 pub mod loader;

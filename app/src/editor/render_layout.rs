@@ -27,7 +27,7 @@ use std::sync::Arc;
 use rayon::prelude::*;
 use solver::io::Asset;
 
-use super::renderer::{TexturedVertex, Topology};
+use super::draw_data::{TexturedVertex, Topology};
 
 /// Textures larger than this (either side) are downscaled when decoded.
 pub const MAX_TEXTURE_SIZE: u32 = 4096;

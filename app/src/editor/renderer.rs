@@ -14,7 +14,7 @@
 //! shape without normals (on a GPU the solver thread leaves them out) gets them from a compute
 //! pass over the uploaded positions ([`crate::gpu::normals`]) before the draw.
 //! Texture shading draws the asset's split layout ([`super::render_layout::RenderLayout`],
-//! [`TexturedVertex`], `textured.wgsl`): base colour × texture, with the handle colours
+//! [`super::draw_data::TexturedVertex`], `textured.wgsl`): base colour × texture, with the handle colours
 //! blended over it; one draw per base-colour texture.
 
 use std::sync::Arc;
@@ -23,8 +23,7 @@ use bytemuck::{Pod, Zeroable};
 use eframe::egui_wgpu::{self, CallbackResources, CallbackTrait, ScreenDescriptor, wgpu};
 use glam::Vec3;
 
-use solver::geometry::normals::VertexFaces;
-
+use super::draw_data::{TexturedVertex, Topology, Vertex, VertexData};
 use super::render_layout::RenderLayout;
 use super::shape::Shape;
 use super::textures::AssetTextures;
@@ -60,28 +59,6 @@ pub const SHADERS: [(&str, &str); 5] = [
 const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
 const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
-/// One vertex of the ground grid (`shaders/grid.wgsl`); color is linear RGBA.
-#[repr(C)]
-#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
-pub struct Vertex {
-    pub position: [f32; 3],
-    pub normal: [f32; 3],
-    pub color: [f32; 4],
-}
-
-/// One vertex of the textured mesh (`shaders/textured.wgsl` `VertexIn`), colours linear RGBA.
-#[repr(C)]
-#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
-pub struct TexturedVertex {
-    pub position: [f32; 3],
-    pub normal: [f32; 3],
-    /// Handle group / brush colour; alpha is its weight over the surface (0: none).
-    pub overlay: [f32; 4],
-    /// Material factor × vertex colour.
-    pub base_color: [f32; 4],
-    pub uv: [f32; 2],
-}
-
 /// Matches `Uniforms` in `shaders/uniforms.wgsl`: four vec4-aligned members, no implicit padding.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
@@ -93,22 +70,6 @@ pub struct Uniforms {
     pub light_dir: [f32; 4],
     /// rgb: wireframe color (linear); a: wireframe depth offset in NDC.
     pub wire: [f32; 4],
-}
-
-/// Index data of the displayed mesh; `version` changes when the topology does.
-pub struct Topology {
-    pub version: u64,
-    pub triangles: Vec<u32>,
-    pub edges: Vec<u32>,
-    /// Each vertex's triangles, for the vertex normals on the GPU (the welded mesh's; none for
-    /// a texture layout, whose normals come gathered).
-    pub vertex_faces: Option<Arc<VertexFaces>>,
-}
-
-/// Vertex data; `version` changes whenever the contents do.
-pub struct VertexData<V = Vertex> {
-    pub version: u64,
-    pub vertices: Vec<V>,
 }
 
 /// The mesh in clay shading: the shape's positions and normals, uploaded as they are when
@@ -665,7 +626,5 @@ mod tests {
     #[test]
     fn uniforms_match_the_wgsl_size() {
         assert_eq!(std::mem::size_of::<Uniforms>(), 112);
-        assert_eq!(std::mem::size_of::<Vertex>(), 40);
-        assert_eq!(std::mem::size_of::<TexturedVertex>(), 64);
     }
 }

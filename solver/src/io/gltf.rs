@@ -38,6 +38,7 @@ use super::asset::{Asset, Attribute, Part};
 use super::error::Ctx;
 use super::error::LoadError;
 use super::gltf_material;
+use super::uri::read_uri;
 
 /// Extensions whose data this reader cannot decode, with what a user can do about each.
 const UNDECODABLE: [(&str, &str); 3] = [
@@ -250,57 +251,6 @@ fn load_buffers(
         out.push(data);
     }
     Ok(out)
-}
-
-/// The bytes of a buffer or image URI (`what` names it in errors, e.g. `"buffer 0"`): base64
-/// `data:` URIs, or a file path relative to `dir`.
-pub(crate) fn read_uri(
-    uri: &str,
-    ctx: Ctx,
-    dir: Option<&Path>,
-    what: &str,
-) -> Result<Vec<u8>, LoadError> {
-    use base64::Engine;
-    if let Some(rest) = uri.strip_prefix("data:") {
-        let Some((_, payload)) = rest.split_once(";base64,") else {
-            return Err(ctx.parse(None, format!("{what}: a data URI that is not base64")));
-        };
-        return base64::engine::general_purpose::STANDARD
-            .decode(payload)
-            .map_err(|e| ctx.parse(None, format!("{what}: invalid base64 data ({e})")));
-    }
-    if uri.contains("://") {
-        return Err(ctx.unsupported(format!("{what} refers to a remote URI ({uri})")));
-    }
-    let Some(dir) = dir else {
-        return Err(ctx.unsupported(format!(
-            "{what} is an external file ({uri}), which needs the glTF's folder"
-        )));
-    };
-    let path = dir.join(percent_decode(uri));
-    std::fs::read(&path)
-        .map_err(|e| ctx.parse(None, format!("{what}: cannot read {}: {e}", path.display())))
-}
-
-/// `%XX` escapes in a relative URI decoded (a file name with spaces is written `%20`).
-pub(crate) fn percent_decode(uri: &str) -> String {
-    let bytes = uri.as_bytes();
-    let mut out = Vec::with_capacity(bytes.len());
-    let mut i = 0;
-    while i < bytes.len() {
-        let hex = bytes.get(i + 1..i + 3).and_then(|h| std::str::from_utf8(h).ok());
-        match (bytes[i], hex.and_then(|h| u8::from_str_radix(h, 16).ok())) {
-            (b'%', Some(b)) => {
-                out.push(b);
-                i += 3;
-            }
-            (c, _) => {
-                out.push(c);
-                i += 1;
-            }
-        }
-    }
-    String::from_utf8_lossy(&out).into_owned()
 }
 
 /// Appends one primitive's transformed positions, its triangles, its vertex attributes and

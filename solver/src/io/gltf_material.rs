@@ -20,7 +20,7 @@ use ::gltf::material::AlphaMode;
 
 use super::asset::{Image, Material};
 use super::error::{Ctx, LoadError};
-use super::gltf::{percent_decode, read_uri};
+use super::uri::{percent_decode, read_uri};
 
 /// The document's materials, in file order.
 pub(crate) fn materials(document: &::gltf::Document) -> Vec<Material> {

@@ -8,7 +8,7 @@
 //!
 //! Besides the mesh, every reader fills the file's [`Asset`]: its own vertex layout, and the
 //! surface attributes, parts, materials and images the format has (glTF: normals, two UV
-//! sets, colours, primitives as parts, materials and images, see `gltf` and `gltf_material`;
+//! sets, colours, primitives as parts, materials and images, see `gltf`, `gltf_material` and `uri`;
 //! OBJ: `vt`/`vn` per corner, vertex colours, `usemtl` runs, the MTL's `Kd`/`d`/`map_Kd`,
 //! see `obj` and `mtl`; PLY: UVs and colours). What a reader skipped without failing (a
 //! missing MTL or texture) is listed in [`Asset::notices`].
@@ -29,6 +29,7 @@ mod off;
 mod ply;
 mod stl;
 mod text;
+mod uri;
 mod write;
 mod write_plain;
 

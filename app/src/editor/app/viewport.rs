@@ -9,11 +9,10 @@ use eframe::egui_wgpu;
 
 use super::{EditorApp, EditorOptions, Shading, View};
 use crate::editor::camera::OrbitCamera;
+use crate::editor::draw_data::{TexturedVertex, VertexData};
 use crate::editor::pose_solvers;
 use crate::editor::render_layout::RenderLayout;
-use crate::editor::renderer::{
-    ClayDraw, TexturedDraw, TexturedVertex, Uniforms, VertexData, ViewportCallback,
-};
+use crate::editor::renderer::{ClayDraw, TexturedDraw, Uniforms, ViewportCallback};
 use crate::editor::shape::Shape;
 use crate::editor::solver_thread::{SolvedFrame, SolverState};
 

@@ -4,7 +4,8 @@
 
 use eframe::egui_wgpu::wgpu;
 
-use super::{COLOR_FORMAT, DEPTH_FORMAT, Topology, Uniforms};
+use super::{COLOR_FORMAT, DEPTH_FORMAT, Uniforms};
+use crate::editor::draw_data::Topology;
 use crate::gpu::normals::{BYTES_PER_VERTEX, GpuNormals, NormalsBinding};
 
 /// A GPU buffer that is rewritten in place and grows when needed.
