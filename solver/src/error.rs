@@ -24,9 +24,7 @@ pub enum SolveError {
         "decimating the base to about {target} vertices left too few vertices, or a part with none (mesh too small for the coarse size?)"
     )]
     DecimationFailed { target: usize },
-    #[error(
-        "factorizing {matrix} failed: {source}; likely cause: degenerate or duplicated geometry, or a component without handles that was not pinned"
-    )]
+    #[error("factorizing {matrix} failed: {source}")]
     Factorization { matrix: &'static str, source: FactorError },
     #[error("the selection has {expected} handle vertices but {got} targets were given")]
     TargetCount { got: usize, expected: usize },

@@ -84,7 +84,8 @@ impl PoseSolver for DeformerPoseSolver {
         targets: &[[f64; 3]],
         x: &mut [[f64; 3]],
     ) -> Result<Option<FrameStats>, String> {
-        let stats = self.0.settle(targets).map_err(|e| e.to_string())?;
+        let stats =
+            self.0.settle(targets).map_err(|e| format!("settling on the full mesh: {e}"))?;
         Ok(stats.map(|stats| self.frame(&stats, x)))
     }
 

@@ -458,9 +458,14 @@ impl CoarseBsArap {
     }
 
     /// Whether [`CoarseBsArap::settle`] at the last solve's targets would refine: settle
-    /// iterations are set and the last solve converged away from rest.
+    /// iterations are set, the last solve converged away from rest, and the full mesh's
+    /// factorization has not failed (a mesh too large for this machine's memory, for one:
+    /// [`crate::linalg::linsolve::MEMORY_SHARE`]; the settle step that found it out returned
+    /// the error, and later poses are not settled).
     pub fn settle_pending(&self) -> bool {
-        self.settle_iterations > 0 && self.settle_ready
+        self.settle_iterations > 0
+            && self.settle_ready
+            && !self.fine.as_ref().is_some_and(FineLevel::has_failed)
     }
 
     /// `n` fine iterations ([`Arap::refine`]) from the current result, which they replace; what

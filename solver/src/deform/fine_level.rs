@@ -147,11 +147,42 @@ impl FineLevel {
         matches!(self.state, State::Ready(_))
     }
 
+    /// Whether its factorization failed (and would fail again: [`FineLevel::factor`] reports
+    /// the error every time).
+    pub fn has_failed(&self) -> bool {
+        matches!(self.state, State::Failed(_))
+    }
+
     /// The factored ARAP, once [`FineLevel::factor`] has made it.
     pub fn arap_mut(&mut self) -> Option<&mut Arap> {
         match &mut self.state {
             State::Ready(arap) => Some(arap),
             _ => None,
         }
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+    use crate::deform::handles::Handles;
+
+    /// A factorization that fails (here a collapsed triangle; on a dense mesh, one too large
+    /// for the memory available) is kept as failed and reported again, without another try;
+    /// [`crate::deform::coarse::CoarseBsArap::settle_pending`] reads it to stop settling.
+    #[test]
+    fn a_failed_factorization_stays_failed() {
+        let positions = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+        let mesh = Mesh::new(positions, vec![[0, 1, 3], [1, 2, 3], [0, 2, 1]]).unwrap();
+        let handles = Handles::from_options(vec![Some(0), None, None, Some(0)]).unwrap();
+        let constraints = Constraints::new(&mesh, &handles);
+        let mut fine = FineLevel::new(&mesh, &constraints, &ArapConfig::default());
+        assert!(!fine.has_failed() && !fine.is_ready());
+        let first = fine.factor().unwrap_err();
+        assert!(fine.has_failed() && !fine.is_ready());
+        assert_eq!(fine.factor().unwrap_err(), first);
+        assert!(fine.factor_in_background(), "a failed one is not waited for");
+        assert!(fine.has_failed());
     }
 }

@@ -40,11 +40,50 @@ pub struct SplitSizes {
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum FactorError {
     /// The matrix is singular or indefinite: pivot `pivot` (in the permuted order) was ≤ 0.
-    #[error("the matrix is not positive definite (pivot {pivot} is not positive)")]
+    #[error(
+        "the matrix is not positive definite (pivot {pivot} is not positive); likely cause: \
+         degenerate or duplicated geometry, or a component without handles that was not pinned"
+    )]
     NotPositiveDefinite { pivot: usize },
+    /// The factor and its workspace would take more than [`MEMORY_SHARE`] of the memory
+    /// the system has available ([`check_memory`]): refused before the numeric factorization.
+    #[error(
+        "the factorization would need {needed_mib} MiB, more than {share:.0} % of the \
+         {available_mib} MiB of memory available",
+        share = MEMORY_SHARE * 100.0
+    )]
+    TooLarge { needed_mib: u64, available_mib: u64 },
     /// Not enough memory, or faer refused the matrix structure.
     #[error("the sparse factorization failed: {0}")]
     Other(String),
+}
+
+/// The most of the memory the system has available (`MemAvailable`) that one numeric
+/// factorization may take, its factor and workspace together. The numeric part allocates far
+/// more than the matrix (fill: the full-mesh ARAP factor of a 1.5M-vertex mesh is several GiB),
+/// and on Linux an allocation that does not fit is not refused but ends the process when its
+/// pages are touched: checked first, so that a factorization too large for the machine is an
+/// error the caller can report (the editor's settling at millions of vertices) and leaves
+/// memory for the rest of the process.
+pub const MEMORY_SHARE: f64 = 0.75;
+
+/// Whether a factorization needing `needed` bytes may run with `available` bytes available
+/// (`None`: unknown, not checked).
+pub fn check_memory(needed: u64, available: Option<u64>) -> Result<(), FactorError> {
+    match available {
+        Some(available) if needed as f64 > MEMORY_SHARE * available as f64 => {
+            Err(FactorError::TooLarge { needed_mib: needed >> 20, available_mib: available >> 20 })
+        }
+        _ => Ok(()),
+    }
+}
+
+/// `MemAvailable` from `/proc/meminfo` in bytes (Linux); `None` elsewhere or unreadable.
+pub fn available_memory() -> Option<u64> {
+    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = info.lines().find_map(|l| l.strip_prefix("MemAvailable:"))?;
+    let kib: u64 = line.split_whitespace().next()?.parse().ok()?;
+    Some(kib.saturating_mul(1024))
 }
 
 /// How the factor is stored.
@@ -133,6 +172,11 @@ impl SpdFactor {
             };
             this.tree = tree::TreeSplit::new(avx2, l.col_ptr(), l.row_idx(), fwd);
         }
+        // Values and the numeric workspace (the symbolic part is allocated already).
+        let par = faer::get_global_parallelism();
+        let workspace = this.symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default());
+        let values = this.symbolic.len_val().saturating_mul(std::mem::size_of::<f64>());
+        check_memory(values.saturating_add(workspace.size_bytes()) as u64, available_memory())?;
         this.refactor(a)?;
         Ok(this)
     }
@@ -252,6 +296,21 @@ mod tests {
         for n in [50, 5000] {
             solve_and_check(n);
         }
+    }
+
+    /// A factorization over the share of available memory is refused with both sizes in the
+    /// message; within it, or with the available memory unknown, it runs.
+    #[test]
+    fn factorizations_beyond_the_available_memory_are_refused() {
+        let gib = 1u64 << 30;
+        assert_eq!(check_memory(gib, Some(2 * gib)), Ok(()));
+        let e = check_memory(7 * gib, Some(8 * gib)).unwrap_err();
+        assert_eq!(e, FactorError::TooLarge { needed_mib: 7 * 1024, available_mib: 8 * 1024 });
+        let text = e.to_string();
+        assert!(text.contains("7168 MiB") && text.contains("8192 MiB") && text.contains("75 %"));
+        assert_eq!(check_memory(u64::MAX, None), Ok(()));
+        // This machine's figure, where there is one, is positive.
+        assert!(available_memory().is_none_or(|m| m > 0));
     }
 
     fn solve_and_check(n: usize) {
