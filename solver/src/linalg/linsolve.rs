@@ -148,6 +148,11 @@ impl SpdFactor {
             },
         )
         .map_err(|e| FactorError::Other(format!("{e:?}")))?;
+        // Values and the numeric workspace (the symbolic part is allocated already).
+        let par = faer::get_global_parallelism();
+        let workspace = symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default());
+        let values = symbolic.len_val().saturating_mul(std::mem::size_of::<f64>());
+        check_memory(values.saturating_add(workspace.size_bytes()) as u64, available_memory())?;
         let mut this = SpdFactor {
             values: Vec::new(),
             symbolic,
@@ -172,11 +177,6 @@ impl SpdFactor {
             };
             this.tree = tree::TreeSplit::new(avx2, l.col_ptr(), l.row_idx(), fwd);
         }
-        // Values and the numeric workspace (the symbolic part is allocated already).
-        let par = faer::get_global_parallelism();
-        let workspace = this.symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default());
-        let values = this.symbolic.len_val().saturating_mul(std::mem::size_of::<f64>());
-        check_memory(values.saturating_add(workspace.size_bytes()) as u64, available_memory())?;
         this.refactor(a)?;
         Ok(this)
     }
