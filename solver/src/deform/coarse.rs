@@ -745,42 +745,5 @@ pub fn rotate(q: [f64; 4], v: [f64; 3]) -> [f64; 3] {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::linalg::rotation::axis_angle;
-
-    /// The automatic coarse size is min(3000, 0.3 n) (at least 16), and it is what the base
-    /// is decimated to when no size is set; a set size is kept.
-    #[test]
-    fn automatic_coarse_size() {
-        assert_eq!(BaseConfig::auto_coarse_vertices(6669), 2000);
-        assert_eq!(BaseConfig::auto_coarse_vertices(43243), 3000);
-        assert_eq!(BaseConfig::auto_coarse_vertices(20), 16);
-        let (mesh, handles) = crate::geometry::shapes::bumpy_bar(3);
-        let n = mesh.n_vertices();
-        let config = ArapConfig::default();
-        let auto = CoarseBsArap::new(&mesh, &handles, &config, &BaseConfig::default()).unwrap();
-        let expected = BaseConfig::auto_coarse_vertices(n);
-        assert!(expected < n / 2);
-        assert!(auto.coarse_vertices().abs_diff(expected) <= expected / 20, "{expected}");
-        let set = BaseConfig { coarse_vertices: Some(n / 8), ..Default::default() };
-        let explicit = CoarseBsArap::new(&mesh, &handles, &config, &set).unwrap();
-        assert!(explicit.coarse_vertices().abs_diff(n / 8) <= n / 160, "{}", n / 8);
-    }
-
-    #[test]
-    fn quaternions_round_trip() {
-        for (axis, angle) in
-            [([1.0, 0.0, 0.0], 0.3), ([0.2, -1.0, 0.5], 2.9), ([0.0, 0.0, 1.0], 3.0)]
-        {
-            let r = axis_angle(axis, angle);
-            let q = quaternion_of(&r);
-            let v = [0.3, -0.7, 1.1];
-            let a = rotate(q, v);
-            let b = crate::linalg::rotation::mul_vec(&r, v);
-            for d in 0..3 {
-                assert!((a[d] - b[d]).abs() < 1e-12);
-            }
-        }
-    }
-}
+#[path = "coarse_tests.rs"]
+mod tests;

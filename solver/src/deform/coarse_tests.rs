@@ -1,0 +1,77 @@
+//! Unit tests of the coarse BS-ARAP (`coarse.rs`).
+
+use super::*;
+use crate::linalg::rotation::axis_angle;
+
+/// The automatic coarse size is min(3000, 0.3 n) (at least 16), and it is what the base
+/// is decimated to when no size is set; a set size is kept.
+#[test]
+fn automatic_coarse_size() {
+    assert_eq!(BaseConfig::auto_coarse_vertices(6669), 2000);
+    assert_eq!(BaseConfig::auto_coarse_vertices(43243), 3000);
+    assert_eq!(BaseConfig::auto_coarse_vertices(20), 16);
+    let (mesh, handles) = crate::geometry::shapes::bumpy_bar(3);
+    let n = mesh.n_vertices();
+    let config = ArapConfig::default();
+    let auto = CoarseBsArap::new(&mesh, &handles, &config, &BaseConfig::default()).unwrap();
+    let expected = BaseConfig::auto_coarse_vertices(n);
+    assert!(expected < n / 2);
+    assert!(auto.coarse_vertices().abs_diff(expected) <= expected / 20, "{expected}");
+    let set = BaseConfig { coarse_vertices: Some(n / 8), ..Default::default() };
+    let explicit = CoarseBsArap::new(&mesh, &handles, &config, &set).unwrap();
+    assert!(explicit.coarse_vertices().abs_diff(n / 8) <= n / 160, "{}", n / 8);
+}
+
+#[test]
+fn quaternions_round_trip() {
+    for (axis, angle) in [([1.0, 0.0, 0.0], 0.3), ([0.2, -1.0, 0.5], 2.9), ([0.0, 0.0, 1.0], 3.0)] {
+        let r = axis_angle(axis, angle);
+        let q = quaternion_of(&r);
+        let v = [0.3, -0.7, 1.1];
+        let a = rotate(q, v);
+        let b = crate::linalg::rotation::mul_vec(&r, v);
+        for d in 0..3 {
+            assert!((a[d] - b[d]).abs() < 1e-12);
+        }
+    }
+}
+
+/// A full-mesh factorization that fails (in the editor, one too large for the memory
+/// available; here a fine level on a collapsed triangle put in its place) makes the settle step
+/// that needs it return the error, and the solver stops offering to settle while its coarse
+/// solves go on.
+#[test]
+fn a_failed_fine_factorization_stops_settling_not_solving() {
+    let (mesh, handles) = crate::geometry::shapes::bumpy_bar(3);
+    let config = ArapConfig::default();
+    let base = BaseConfig { settle_iterations: 2, ..Default::default() };
+    let mut c = CoarseBsArap::new(&mesh, &handles, &config, &base).unwrap();
+    let diag = mesh.bbox_diagonal();
+    let rest: Vec<[f64; 3]> =
+        handles.handle_vertices().iter().map(|&v| mesh.positions()[v as usize]).collect();
+    let g0 = handles.group(0).unwrap();
+    let moved = |dy: f64| -> Vec<[f64; 3]> {
+        handles
+            .handle_vertices()
+            .iter()
+            .zip(&rest)
+            .map(|(v, p)| if g0.contains(v) { [p[0], p[1] + dy * diag, p[2]] } else { *p })
+            .collect()
+    };
+    let targets = moved(0.1);
+    assert!(c.solve(&targets).unwrap().converged);
+    assert!(c.settle_pending());
+    let collapsed = Mesh::new(
+        vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+        vec![[0, 1, 3], [1, 2, 3], [0, 2, 1]],
+    )
+    .unwrap();
+    let collapsed_handles = Handles::from_options(vec![Some(0), None, None, Some(0)]).unwrap();
+    let constraints = Constraints::new(&collapsed, &collapsed_handles);
+    c.fine = Some(FineLevel::new(&collapsed, &constraints, &config));
+    assert!(c.settle(&targets).is_err());
+    assert!(!c.settle_pending(), "settling offered again after its factorization failed");
+    assert!(c.solve(&moved(0.12)).unwrap().converged);
+    assert!(!c.settle_pending());
+    assert!(c.settle(&moved(0.12)).unwrap().is_none());
+}
