@@ -29,6 +29,9 @@ use app::editor::shape::ShapePool;
 use app::editor::solver_thread::{MethodSettings, Slot};
 use std::time::Instant;
 
+/// Seconds into settling at which the pose is kept and measured (at the first step after each).
+const SNAPSHOTS: [f64; 6] = [0.25, 0.5, 1.0, 2.0, 5.0, 10.0];
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let all: Vec<String> = std::env::args().collect();
     let no_settle = all.iter().any(|a| a == "--no-settle");
@@ -143,9 +146,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let before = x.clone();
         let t = Instant::now();
         let (mut steps, mut fine) = (0, 0);
+        let mut timeline = Vec::new();
         while let Some(s) = d.settle(&targets, &mut x)? {
             steps += 1;
             fine += s.fine_iterations;
+            let at = t.elapsed().as_secs_f64();
+            if SNAPSHOTS.get(timeline.len()).is_some_and(|&due| at >= due) {
+                timeline.push((at, x.clone()));
+            }
             if s.converged || steps >= 1000 {
                 break;
             }
@@ -162,6 +170,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 steps,
                 fine,
                 seconds,
+                timeline,
             ));
         }
     }
@@ -172,10 +181,22 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         );
         println!("|---|---:|---:|---:|---:|---:|---:|---:|");
     }
-    for (label, targets, solves, before, after, steps, fine, seconds) in settling {
+    for (label, targets, solves, before, after, steps, fine, seconds, timeline) in settling {
         let mut r =
             solver::deform::quality::Reference::new(&mesh, &handles, &targets, defaults.energy)?;
         let (b, a) = (r.measure(&before), r.measure(&after));
+        let during: Vec<String> = timeline
+            .iter()
+            .map(|(at, x)| {
+                let q = r.measure(x);
+                format!(
+                    "{at:.2} s: {:.2}% / {:.3}%",
+                    100.0 * q.max_distance,
+                    100.0 * q.mean_distance
+                )
+            })
+            .collect();
+        println!("  {label} while settling (max / mean): {}", during.join("; "));
         println!(
             "| {} | {} ({:.2}) | {steps} | {fine} | {seconds:.2} | {:.2}% / {:.3}% / {:.3e} | {:.2}% / {:.3}% / {:.3e} | {:.3e} |",
             label,

@@ -36,7 +36,9 @@
 //!
 //! 6. Optionally ([`BaseConfig::settle_iterations`], [`CoarseBsArap::settle`]), once the
 //!    handles stop, more fine iterations refine the pose step by step, carried the same way,
-//!    until they no longer lower the energy: the pose approaches converged ARAP on $M$.
+//!    until they no longer lower the energy: the pose approaches converged ARAP on $M$. A base
+//!    faired on a level settles on that level first ([`crate::deform::middle_level`]: factored
+//!    in a fraction of the full mesh's time and memory), then on $M$.
 //!
 //! Rest pose is exact (rest targets give $B_c' = B_c$, $R = I$ and clear $C$, so $p' = p$;
 //! they skip the fine iterations) and a rigid motion of all handles moves the result rigidly.
@@ -45,15 +47,16 @@
 
 use crate::deform::arap::{Arap, ArapConfig, SolveStats};
 use crate::deform::coarse_base::{CoarseBase, Phases};
+use crate::deform::coarse_groups::{CoarseGroups, coarse_rig};
 use crate::deform::config::BaseConfig;
 use crate::deform::constraints::Constraints;
 use crate::deform::embedding::blend;
 use crate::deform::fine_level::FineLevel;
 use crate::deform::handles::Handles;
-use crate::deform::rig::Rig;
+use crate::deform::middle_level::LevelSolver;
 use crate::error::SolveError;
 use crate::geometry::mesh::{Mesh, add, sub};
-use crate::linalg::rigid::{Motion, fit_motion};
+use crate::linalg::rigid::Motion;
 use crate::linalg::rotation::Mat3;
 use rayon::prelude::*;
 use std::sync::Arc;
@@ -91,6 +94,10 @@ pub struct CoarseBsArap {
     /// first needed.
     fine: Option<FineLevel>,
     fine_iterations: usize,
+    /// ARAP on the fairing level (step 6), when settle iterations are asked for and the base
+    /// was faired on a level; whether the last solve's pose has settled on it.
+    level: Option<LevelSolver>,
+    level_settled: bool,
     settle_iterations: usize,
     /// The targets of the last solve, and whether [`CoarseBsArap::settle`] may refine its
     /// result (its coarse solve converged and it is not the rest pose).
@@ -109,149 +116,6 @@ pub struct CoarseBsArap {
     /// allocated per frame).
     coarse_target_buf: Vec<[f64; 3]>,
     coarse_before: Vec<[f64; 3]>,
-}
-
-/// The rig on the coarse level (`crate::deform::rig`): the falloffs as they are (radii are
-/// fractions of the diagonal), each coarse vertex's rigidity the mean over the fine vertices
-/// it represents.
-fn coarse_rig(base: &CoarseBase, handles: &Handles) -> Rig {
-    let rig = handles.rig();
-    let rigidity = rig.rigidity.as_ref().map(|r| {
-        let mut sum = vec![(0.0, 0usize); base.kept.len()];
-        for (v, &k) in base.representative.iter().enumerate() {
-            sum[k as usize].0 += r[v];
-            sum[k as usize].1 += 1;
-        }
-        sum.iter()
-            .zip(&base.kept)
-            .map(|(&(s, c), &v)| if c > 0 { s / c as f64 } else { r[v as usize] })
-            .collect()
-    });
-    Rig { rigidity, falloff: rig.falloff.clone() }
-}
-
-/// Which coarse vertices hold which handle group (module doc, "Handles on the coarse level"),
-/// and how their targets follow the fine handles.
-#[derive(Debug, Clone)]
-struct CoarseGroups {
-    /// Per coarse vertex, its group.
-    labels: Vec<Option<u32>>,
-    /// Per group: the positions of its vertices in the fine targets, and their rest positions.
-    fine: Vec<(Vec<usize>, Vec<[f64; 3]>)>,
-    /// Per coarse handle vertex (in the coarse handle order): its group and rest position.
-    coarse: Vec<(u32, [f64; 3])>,
-}
-
-impl CoarseGroups {
-    /// Coarse vertex $k$ joins group $g$ when at least half of the fine vertices it
-    /// represents are in $g$; a group with fewer than [`MIN_COARSE_GROUP`] coarse vertices
-    /// then takes the coarse vertices representing its vertices with the largest share,
-    /// then their coarse neighbours nearest to its centroid.
-    fn new(base: &CoarseBase, handles: &Handles, rest: &[[f64; 3]]) -> CoarseGroups {
-        let nc = base.kept.len();
-        let labels = handles.labels();
-        let n_groups = handles.n_groups();
-        let mut total = vec![0u32; nc];
-        for &r in &base.representative {
-            total[r as usize] += 1;
-        }
-        // Per group, (coarse vertex, fine vertices of the group it represents).
-        let mut share: Vec<std::collections::HashMap<u32, u32>> =
-            vec![Default::default(); n_groups];
-        for (v, l) in labels.iter().enumerate() {
-            if let Some(g) = l {
-                *share[*g as usize].entry(base.representative[v]).or_default() += 1;
-            }
-        }
-        let mut coarse_labels: Vec<Option<u32>> = vec![None; nc];
-        let mut counts = vec![0usize; n_groups];
-        for (g, map) in share.iter().enumerate() {
-            for (&k, &c) in map {
-                if 2 * c >= total[k as usize] && coarse_labels[k as usize].is_none() {
-                    coarse_labels[k as usize] = Some(g as u32);
-                    counts[g] += 1;
-                }
-            }
-        }
-        let cp = base.coarse_mesh.positions();
-        let mut neighbours = vec![Vec::new(); nc];
-        for t in base.coarse_mesh.triangles() {
-            for k in 0..3 {
-                neighbours[t[k] as usize].push(t[(k + 1) % 3]);
-                neighbours[t[(k + 1) % 3] as usize].push(t[k]);
-            }
-        }
-        for (g, map) in share.iter().enumerate() {
-            if counts[g] >= MIN_COARSE_GROUP || map.is_empty() {
-                continue;
-            }
-            let group = handles.group(g).unwrap_or(&[]);
-            let mut centroid = [0.0; 3];
-            for &v in group {
-                centroid = add(centroid, base.base_on_coarse[v as usize]);
-            }
-            let centroid = centroid.map(|c| c / group.len().max(1) as f64);
-            let dist2 = |k: u32| {
-                let d = sub(cp[k as usize], centroid);
-                d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
-            };
-            let mut by_share: Vec<(u32, u32)> = map.iter().map(|(&k, &c)| (k, c)).collect();
-            by_share.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
-            let mut ring: Vec<u32> = Vec::new();
-            for (k, _) in by_share {
-                ring.push(k);
-                if coarse_labels[k as usize].is_none() && counts[g] < MIN_COARSE_GROUP {
-                    coarse_labels[k as usize] = Some(g as u32);
-                    counts[g] += 1;
-                }
-            }
-            // Grow ring by ring through free coarse vertices, nearest to the centroid first.
-            let mut seen: std::collections::HashSet<u32> = ring.iter().copied().collect();
-            while counts[g] < MIN_COARSE_GROUP && !ring.is_empty() {
-                let mut next: Vec<u32> = Vec::new();
-                for &k in &ring {
-                    for &w in &neighbours[k as usize] {
-                        if seen.insert(w) {
-                            next.push(w);
-                        }
-                    }
-                }
-                next.sort_by(|&a, &b| dist2(a).total_cmp(&dist2(b)).then(a.cmp(&b)));
-                for &k in &next {
-                    if coarse_labels[k as usize].is_none() && counts[g] < MIN_COARSE_GROUP {
-                        coarse_labels[k as usize] = Some(g as u32);
-                        counts[g] += 1;
-                    }
-                }
-                ring = next;
-            }
-        }
-        let handle_vertices = handles.handle_vertices();
-        let mut fine: Vec<(Vec<usize>, Vec<[f64; 3]>)> = vec![Default::default(); n_groups];
-        for (i, &v) in handle_vertices.iter().enumerate() {
-            if let Some(g) = labels[v as usize] {
-                fine[g as usize].0.push(i);
-                fine[g as usize].1.push(rest[v as usize]);
-            }
-        }
-        let coarse =
-            coarse_labels.iter().enumerate().filter_map(|(k, l)| l.map(|g| (g, cp[k]))).collect();
-        CoarseGroups { labels: coarse_labels, fine, coarse }
-    }
-
-    /// The coarse handles' targets for fine `targets`: each group's best rigid motion of its
-    /// fine handles ([`crate::linalg::rigid`]) applied to its coarse vertices' rest positions.
-    fn targets(&self, targets: &[[f64; 3]], motions: &mut Vec<Motion>, out: &mut Vec<[f64; 3]>) {
-        motions.clear();
-        let mut moved = Vec::new();
-        for (indices, rest) in &self.fine {
-            moved.clear();
-            moved.extend(indices.iter().map(|&i| targets[i]));
-            motions.push(fit_motion(rest, &moved, None));
-        }
-        out.clear();
-        out.extend(self.coarse.iter().map(|&(g, p)| motions[g as usize].apply(p)));
-    }
 }
 
 impl CoarseBsArap {
@@ -309,6 +173,11 @@ impl CoarseBsArap {
         let n = mesh.n_vertices();
         let fine = (coarse.fine_iterations > 0 || coarse.settle_iterations > 0)
             .then(|| FineLevel::new(mesh, &constraints, config));
+        let fine_handles = handles.handle_vertices();
+        let level = match (&base.level, coarse.settle_iterations) {
+            (Some(l), 1..) => Some(LevelSolver::new(mesh, l, handles, &fine_handles, config)?),
+            _ => None,
+        };
         let pinned = constraints
             .pinned_vertices
             .iter()
@@ -317,6 +186,8 @@ impl CoarseBsArap {
         Ok(CoarseBsArap {
             fine,
             fine_iterations: coarse.fine_iterations,
+            level,
+            level_settled: false,
             settle_iterations: coarse.settle_iterations,
             last_targets: Vec::new(),
             settle_ready: false,
@@ -333,7 +204,7 @@ impl CoarseBsArap {
             corrected: false,
             deformed_base: std::sync::OnceLock::new(),
             result: mesh.positions().to_vec(),
-            fine_handles: handles.handle_vertices(),
+            fine_handles,
             groups,
             base,
             arap,
@@ -423,6 +294,7 @@ impl CoarseBsArap {
         }
         self.last_targets.clear();
         self.last_targets.extend_from_slice(targets);
+        self.level_settled = false;
         self.settle_ready = stats.converged && stats.iterations > 0;
         self.last_energy = stats.energy();
         Ok(stats)
@@ -446,6 +318,44 @@ impl CoarseBsArap {
         if !self.settle_pending() || self.last_targets != targets {
             return Ok(None);
         }
+        if !self.level_settled
+            && let Some(level) = self.level.as_mut().filter(|l| !l.has_failed())
+            && let Some(embedding) = self.base.level.as_ref()
+        {
+            // On the level first (module doc, step 6): its failure leaves the full mesh.
+            let st = match level.refine(
+                embedding,
+                &mut self.result,
+                targets,
+                &self.motions,
+                self.settle_iterations,
+            ) {
+                Ok(st) => st,
+                Err(_) if level.has_failed() => {
+                    SolveStats { converged: true, ..Default::default() }
+                }
+                Err(e) => return Err(e),
+            };
+            for (&v, t) in self.fine_handles.iter().zip(targets) {
+                self.result[v as usize] = *t;
+            }
+            for &(v, p) in &self.pinned {
+                self.result[v as usize] = p;
+            }
+            if st.iterations > 0 {
+                self.carry();
+            }
+            self.level_settled = self.fine_converged(&st);
+            let full_after = !self.fine.as_ref().is_none_or(FineLevel::has_failed);
+            return Ok(Some(SolveStats {
+                converged: self.level_settled && !full_after,
+                initial_energy: self.last_energy,
+                fine_iterations: st.iterations,
+                fine_energy: st.energy(),
+                fine_ms: st.total_ms(),
+                ..SolveStats::default()
+            }));
+        }
         let st = self.run_fine(targets, self.settle_iterations)?;
         Ok(Some(SolveStats {
             converged: self.fine_converged(&st),
@@ -463,9 +373,11 @@ impl CoarseBsArap {
     /// [`crate::linalg::linsolve::MEMORY_SHARE`]; the settle step that found it out returned
     /// the error, and later poses are not settled).
     pub fn settle_pending(&self) -> bool {
+        let level_left =
+            !self.level_settled && self.level.as_ref().is_some_and(|l| !l.has_failed());
         self.settle_iterations > 0
             && self.settle_ready
-            && !self.fine.as_ref().is_some_and(FineLevel::has_failed)
+            && (level_left || !self.fine.as_ref().is_some_and(FineLevel::has_failed))
     }
 
     /// `n` fine iterations ([`Arap::refine`]) from the current result, which they replace; what
@@ -478,6 +390,13 @@ impl CoarseBsArap {
         };
         let st = fine.refine(&self.result, targets, n)?;
         self.result.copy_from_slice(fine.positions());
+        self.carry();
+        Ok(st)
+    }
+
+    /// Keeps what the fine or level iterations changed of the result in the detail frames,
+    /// for the next solve's prolongation.
+    fn carry(&mut self) {
         let frames = triangle_frames(
             self.arap.positions(),
             &self.quaternions,
@@ -493,7 +412,6 @@ impl CoarseBsArap {
                 *c = sub(rotate(conj, sub(*x, b)), *d);
             });
         self.corrected = true;
-        Ok(st)
     }
 
     /// Factors the ARAP on the full mesh if it is pending, or waits for the thread factoring it
@@ -514,6 +432,11 @@ impl CoarseBsArap {
     /// failed, or none asked for): the next [`CoarseBsArap::settle`] takes the result, or
     /// reports the failure, or resumes a panic of that thread.
     pub fn factor_fine_in_background(&mut self) -> bool {
+        if !self.level_settled
+            && let Some(level) = self.level.as_mut().filter(|l| !l.has_failed())
+        {
+            return level.factor_in_background();
+        }
         self.fine.as_mut().is_none_or(FineLevel::factor_in_background)
     }
 

@@ -37,8 +37,9 @@
 use crate::deform::config::BaseConfig;
 use crate::deform::embedding::{blend, embed, embed_from};
 use crate::deform::level_fairing::{
-    FairedBase, Fairing, LEVEL_EDGES_PER_SMOOTHING_LENGTH, LevelView, faired_base_then,
+    FairedBase, FairedLevel, Fairing, LEVEL_EDGES_PER_SMOOTHING_LENGTH, LevelView, faired_base_then,
 };
+use crate::deform::middle_level::LevelEmbedding;
 use crate::error::SolveError;
 use crate::geometry::mesh::{Mesh, sub};
 use crate::geometry::normals::VertexFaces;
@@ -74,6 +75,9 @@ pub struct CoarseBase {
     /// Area below which a coarse triangle counts as collapsed.
     pub(crate) floor: f64,
     pub(crate) fairing: Fairing,
+    /// The level the base was faired on, with the fine vertices' embedding on it (`None` when
+    /// faired directly): what level iterations run on ([`crate::deform::middle_level`]).
+    pub(crate) level: Option<LevelEmbedding>,
     pub(crate) phases: Vec<(&'static str, f64)>,
 }
 
@@ -96,7 +100,7 @@ impl CoarseBase {
         let fairing = faired.fairing();
         let FairedBase { base, level } = faired;
         clock.lap("faired base");
-        let (kept, representative, coarse_mesh, faces, weights) = match (level, on_level.flatten())
+        let (kept, representative, coarse_mesh, faces, weights) = match (&level, on_level.flatten())
         {
             // The decimation of the level's vertices, renumbered as fine vertices, each fine
             // vertex's representative the coarse representative of its level representative;
@@ -137,6 +141,7 @@ impl CoarseBase {
             embedding.iter().map(|(t, w)| blend(cp, t, w)).collect();
         let details =
             mesh.positions().iter().zip(&base_on_coarse).map(|(&p, &b)| sub(p, b)).collect();
+        let level = level.and_then(|l| level_embedding(mesh, l));
         clock.lap("embedding");
         Ok(CoarseBase {
             fingerprint,
@@ -156,6 +161,7 @@ impl CoarseBase {
             // degenerate has collapsed (features thinner than the smoothing length flatten).
             floor: 2.0 * crate::geometry::cleanup::AREA_EPS * diag * diag,
             fairing,
+            level,
             phases: clock.phases,
         })
     }
@@ -190,6 +196,15 @@ impl CoarseBase {
     pub fn precompute_ms(&self) -> f64 {
         self.phases.iter().map(|(_, ms)| ms).sum()
     }
+}
+
+/// The level as [`crate::deform::middle_level`] needs it: $M$ at its vertices, each fine
+/// vertex's triangle corners and weights on it. `None` when the level is not a valid mesh.
+fn level_embedding(mesh: &Mesh, level: FairedLevel) -> Option<LevelEmbedding> {
+    let FairedLevel { kept, triangles, representative, faces, weights, .. } = level;
+    let positions = kept.iter().map(|&v| mesh.positions()[v as usize]).collect();
+    let mesh = Mesh::new(positions, triangles).ok()?;
+    Some(LevelEmbedding { mesh, kept, representative, faces, weights })
 }
 
 /// $B_c$ decimated from the faired level instead of from $B$ on every fine vertex (the level

@@ -2,7 +2,9 @@
 //!
 //! The file holds what cannot be recomputed cheaply: the coarse mesh $B_c$ (positions and
 //! triangles), the fine index of each coarse vertex, each fine vertex's representative, coarse
-//! triangle and barycentric weights, and the settings and mesh fingerprint it was built for.
+//! triangle and barycentric weights, and the settings and mesh fingerprint it was built for;
+//! for a base faired on a level, the level's triangles and vertices and each fine vertex's
+//! level representative, level triangle and weights ([`crate::deform::middle_level`]).
 //! The rest is recomputed on reading: the embedded points $P B_c$, the details
 //! $D = M - P B_c$ and $M$ itself from the mesh.
 //!
@@ -18,6 +20,7 @@ use crate::deform::coarse_base::CoarseBase;
 use crate::deform::config::BaseConfig;
 use crate::deform::embedding::blend;
 use crate::deform::level_fairing::Fairing;
+use crate::deform::middle_level::LevelEmbedding;
 use crate::geometry::mesh::{Mesh, sub};
 use std::hash::Hasher;
 use std::path::{Path, PathBuf};
@@ -29,7 +32,7 @@ const MAGIC: &[u8; 8] = b"BSARAPCB";
 /// million-vertex mesh is about 30 MiB.
 pub const MAX_FILES: usize = 8;
 /// The file format and the construction it stores: a file of another version is rebuilt.
-const VERSION: u32 = 4;
+const VERSION: u32 = 5;
 
 /// Why a cache file was not used.
 #[derive(Debug, thiserror::Error)]
@@ -87,6 +90,18 @@ pub fn save(base: &CoarseBase, path: &Path) -> std::io::Result<()> {
     u32s(&mut body, &base.faces);
     for (_, w) in &base.embedding {
         f64s(&mut body, w);
+    }
+    match &base.level {
+        None => body.extend(0u64.to_le_bytes()),
+        Some(l) => {
+            body.extend((l.kept.len() as u64).to_le_bytes());
+            body.extend((l.mesh.n_faces() as u64).to_le_bytes());
+            u32s(&mut body, l.mesh.triangles().as_flattened());
+            u32s(&mut body, &l.kept);
+            u32s(&mut body, &l.representative);
+            u32s(&mut body, &l.faces);
+            f64s(&mut body, l.weights.as_flattened());
+        }
     }
     let mut file = Vec::with_capacity(body.len() + 20);
     file.extend(MAGIC);
@@ -166,6 +181,7 @@ pub fn load(path: &Path, mesh: &Mesh, config: &BaseConfig) -> Result<CoarseBase,
     let representative = r.u32s(n).ok_or_else(|| invalid("short arrays"))?;
     let faces = r.u32s(n).ok_or_else(|| invalid("short arrays"))?;
     let weights = r.f64s(3 * n).ok_or_else(|| invalid("short arrays"))?;
+    let level_mesh = read_level(&mut r, mesh).map_err(invalid)?;
     if !r.bytes.is_empty() {
         return Err(invalid("trailing bytes"));
     }
@@ -207,12 +223,48 @@ pub fn load(path: &Path, mesh: &Mesh, config: &BaseConfig) -> Result<CoarseBase,
         rest: mesh.positions().to_vec(),
         floor,
         fairing: if level == 0 { Fairing::Direct } else { Fairing::Level(level as usize - 1) },
+        level: level_mesh,
         phases: vec![("read from the disk cache", started.elapsed().as_secs_f64() * 1e3)],
     };
     if !base.fits(mesh, config) {
         return Err(stale());
     }
     Ok(base)
+}
+
+/// The level part of a file (after the coarse arrays): `None` for a base faired directly;
+/// checked like the rest (counts, indices, finite weights).
+fn read_level(r: &mut Reader, mesh: &Mesh) -> Result<Option<LevelEmbedding>, &'static str> {
+    let n = mesh.n_vertices();
+    let nl = r.u64().ok_or("short level header")? as usize;
+    if nl == 0 {
+        return Ok(None);
+    }
+    let nt = r.u64().ok_or("short level header")? as usize;
+    if nl < 3 || nl > n || nt == 0 || nt > 4 * n {
+        return Err("level counts out of range");
+    }
+    let lt = r.u32s(3 * nt).ok_or("short level arrays")?;
+    let kept = r.u32s(nl).ok_or("short level arrays")?;
+    let representative = r.u32s(n).ok_or("short level arrays")?;
+    let faces = r.u32s(n).ok_or("short level arrays")?;
+    let weights = r.f64s(3 * n).ok_or("short level arrays")?;
+    if lt.iter().any(|&v| v as usize >= nl)
+        || kept.iter().any(|&v| v as usize >= n)
+        || kept.windows(2).any(|w| w[0] >= w[1])
+        || representative.iter().any(|&v| v as usize >= nl)
+        || faces.iter().any(|&f| f as usize >= nt)
+    {
+        return Err("level index out of range");
+    }
+    if !weights.iter().all(|x| x.is_finite()) {
+        return Err("a level weight that is not finite");
+    }
+    let positions = kept.iter().map(|&v| mesh.positions()[v as usize]).collect();
+    let triangles = lt.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+    let level = Mesh::new(positions, triangles).map_err(|_| "level mesh")?;
+    let weights = weights.chunks_exact(3).map(|w| [w[0], w[1], w[2]]).collect();
+    Ok(Some(LevelEmbedding { mesh: level, kept, representative, faces, weights }))
 }
 
 fn checksum(bytes: &[u8]) -> u64 {
@@ -271,6 +323,28 @@ mod tests {
         let config = BaseConfig { coarse_vertices: Some(100), ..BaseConfig::default() };
         let base = CoarseBase::new(&mesh, &config).unwrap();
         (mesh, config, base)
+    }
+
+    /// A base faired on a level reads back with its level.
+    #[test]
+    fn round_trip_with_a_level() {
+        let mesh = bumpy_bar(6).0;
+        let config =
+            BaseConfig { coarse_vertices: Some(300), smoothing: 0.03, ..BaseConfig::default() };
+        let base = CoarseBase::new(&mesh, &config).unwrap();
+        let level = base.level.as_ref().expect("faired on a level");
+        let dir = ScratchDir::new("cache-round-trip-level");
+        let path = cache_path(&dir, &mesh, &config);
+        save(&base, &path).unwrap();
+        let back = load(&path, &mesh, &config).unwrap();
+        let read = back.level.as_ref().expect("the level read back");
+        assert_eq!(read.mesh.positions(), level.mesh.positions());
+        assert_eq!(read.mesh.triangles(), level.mesh.triangles());
+        assert_eq!(read.kept, level.kept);
+        assert_eq!(read.representative, level.representative);
+        assert_eq!(read.faces, level.faces);
+        assert_eq!(read.weights, level.weights);
+        assert_eq!(back.fairing(), base.fairing());
     }
 
     /// A saved base reads back equal in every array the solver uses.

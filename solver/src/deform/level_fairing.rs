@@ -84,6 +84,10 @@ pub struct FairedLevel {
     /// Per fine vertex, the level vertex the fewest of the mesh's edges away (the first in
     /// breadth-first order, [`crate::deform::embedding::embed_outward`]).
     pub representative: Vec<u32>,
+    /// Per fine vertex, the level triangle (index into `triangles`) its closest point lies on,
+    /// and that point's barycentric weights.
+    pub faces: Vec<u32>,
+    pub weights: Vec<[f64; 3]>,
 }
 
 /// The faired surface of `mesh` with no vertex held, for smoothing length `smoothing` (mesh
@@ -181,6 +185,8 @@ pub fn faired_base_then<R: Send>(
         triangles: level_mesh.triangles().to_vec(),
         base: level_base,
         representative,
+        faces,
+        weights,
     };
     Ok((FairedBase { base, level: Some(level) }, Some(after)))
 }

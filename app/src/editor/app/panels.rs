@@ -423,7 +423,7 @@ impl EditorApp {
                     Some(SolverState::Idle) => "idle (no handles)".to_string(),
                     Some(SolverState::Factorizing { .. }) => "factorizing…".to_string(),
                     Some(SolverState::Solving) => "solving".to_string(),
-                    Some(SolverState::Settling) => "refining on the full mesh".to_string(),
+                    Some(SolverState::Settling) => "refining the pose".to_string(),
                     Some(SolverState::Converged) => "converged".to_string(),
                     Some(SolverState::Failed(e)) => format!("failed: {e}"),
                     Some(SolverState::Panicked(e)) => format!("panicked, restarted: {e}"),

@@ -1,0 +1,158 @@
+//! Which coarse vertices hold which handle group in the coarse BS-ARAP, and how their targets
+//! follow the fine handles ([`crate::deform::coarse`], "Handles on the coarse level"); the rig
+//! (rigidity, falloffs) carried to the coarse level.
+
+use crate::deform::coarse::MIN_COARSE_GROUP;
+use crate::deform::coarse_base::CoarseBase;
+use crate::deform::handles::Handles;
+use crate::deform::rig::Rig;
+use crate::geometry::mesh::{add, sub};
+use crate::linalg::rigid::{Motion, fit_motion};
+
+/// The rig on the coarse level (`crate::deform::rig`): the falloffs as they are (radii are
+/// fractions of the diagonal), each coarse vertex's rigidity the mean over the fine vertices
+/// it represents.
+pub(crate) fn coarse_rig(base: &CoarseBase, handles: &Handles) -> Rig {
+    let rig = handles.rig();
+    let rigidity = rig.rigidity.as_ref().map(|r| {
+        let mut sum = vec![(0.0, 0usize); base.kept.len()];
+        for (v, &k) in base.representative.iter().enumerate() {
+            sum[k as usize].0 += r[v];
+            sum[k as usize].1 += 1;
+        }
+        sum.iter()
+            .zip(&base.kept)
+            .map(|(&(s, c), &v)| if c > 0 { s / c as f64 } else { r[v as usize] })
+            .collect()
+    });
+    Rig { rigidity, falloff: rig.falloff.clone() }
+}
+
+/// Which coarse vertices hold which handle group (module doc, "Handles on the coarse level"),
+/// and how their targets follow the fine handles.
+#[derive(Debug, Clone)]
+pub(crate) struct CoarseGroups {
+    /// Per coarse vertex, its group.
+    pub(crate) labels: Vec<Option<u32>>,
+    /// Per group: the positions of its vertices in the fine targets, and their rest positions.
+    fine: Vec<(Vec<usize>, Vec<[f64; 3]>)>,
+    /// Per coarse handle vertex (in the coarse handle order): its group and rest position.
+    coarse: Vec<(u32, [f64; 3])>,
+}
+
+impl CoarseGroups {
+    /// Coarse vertex $k$ joins group $g$ when at least half of the fine vertices it
+    /// represents are in $g$; a group with fewer than [`MIN_COARSE_GROUP`] coarse vertices
+    /// then takes the coarse vertices representing its vertices with the largest share,
+    /// then their coarse neighbours nearest to its centroid.
+    pub(crate) fn new(base: &CoarseBase, handles: &Handles, rest: &[[f64; 3]]) -> CoarseGroups {
+        let nc = base.kept.len();
+        let labels = handles.labels();
+        let n_groups = handles.n_groups();
+        let mut total = vec![0u32; nc];
+        for &r in &base.representative {
+            total[r as usize] += 1;
+        }
+        // Per group, (coarse vertex, fine vertices of the group it represents).
+        let mut share: Vec<std::collections::HashMap<u32, u32>> =
+            vec![Default::default(); n_groups];
+        for (v, l) in labels.iter().enumerate() {
+            if let Some(g) = l {
+                *share[*g as usize].entry(base.representative[v]).or_default() += 1;
+            }
+        }
+        let mut coarse_labels: Vec<Option<u32>> = vec![None; nc];
+        let mut counts = vec![0usize; n_groups];
+        for (g, map) in share.iter().enumerate() {
+            for (&k, &c) in map {
+                if 2 * c >= total[k as usize] && coarse_labels[k as usize].is_none() {
+                    coarse_labels[k as usize] = Some(g as u32);
+                    counts[g] += 1;
+                }
+            }
+        }
+        let cp = base.coarse_mesh.positions();
+        let mut neighbours = vec![Vec::new(); nc];
+        for t in base.coarse_mesh.triangles() {
+            for k in 0..3 {
+                neighbours[t[k] as usize].push(t[(k + 1) % 3]);
+                neighbours[t[(k + 1) % 3] as usize].push(t[k]);
+            }
+        }
+        for (g, map) in share.iter().enumerate() {
+            if counts[g] >= MIN_COARSE_GROUP || map.is_empty() {
+                continue;
+            }
+            let group = handles.group(g).unwrap_or(&[]);
+            let mut centroid = [0.0; 3];
+            for &v in group {
+                centroid = add(centroid, base.base_on_coarse[v as usize]);
+            }
+            let centroid = centroid.map(|c| c / group.len().max(1) as f64);
+            let dist2 = |k: u32| {
+                let d = sub(cp[k as usize], centroid);
+                d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
+            };
+            let mut by_share: Vec<(u32, u32)> = map.iter().map(|(&k, &c)| (k, c)).collect();
+            by_share.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
+            let mut ring: Vec<u32> = Vec::new();
+            for (k, _) in by_share {
+                ring.push(k);
+                if coarse_labels[k as usize].is_none() && counts[g] < MIN_COARSE_GROUP {
+                    coarse_labels[k as usize] = Some(g as u32);
+                    counts[g] += 1;
+                }
+            }
+            // Grow ring by ring through free coarse vertices, nearest to the centroid first.
+            let mut seen: std::collections::HashSet<u32> = ring.iter().copied().collect();
+            while counts[g] < MIN_COARSE_GROUP && !ring.is_empty() {
+                let mut next: Vec<u32> = Vec::new();
+                for &k in &ring {
+                    for &w in &neighbours[k as usize] {
+                        if seen.insert(w) {
+                            next.push(w);
+                        }
+                    }
+                }
+                next.sort_by(|&a, &b| dist2(a).total_cmp(&dist2(b)).then(a.cmp(&b)));
+                for &k in &next {
+                    if coarse_labels[k as usize].is_none() && counts[g] < MIN_COARSE_GROUP {
+                        coarse_labels[k as usize] = Some(g as u32);
+                        counts[g] += 1;
+                    }
+                }
+                ring = next;
+            }
+        }
+        let handle_vertices = handles.handle_vertices();
+        let mut fine: Vec<(Vec<usize>, Vec<[f64; 3]>)> = vec![Default::default(); n_groups];
+        for (i, &v) in handle_vertices.iter().enumerate() {
+            if let Some(g) = labels[v as usize] {
+                fine[g as usize].0.push(i);
+                fine[g as usize].1.push(rest[v as usize]);
+            }
+        }
+        let coarse =
+            coarse_labels.iter().enumerate().filter_map(|(k, l)| l.map(|g| (g, cp[k]))).collect();
+        CoarseGroups { labels: coarse_labels, fine, coarse }
+    }
+
+    /// The coarse handles' targets for fine `targets`: each group's best rigid motion of its
+    /// fine handles ([`crate::linalg::rigid`]) applied to its coarse vertices' rest positions.
+    pub(crate) fn targets(
+        &self,
+        targets: &[[f64; 3]],
+        motions: &mut Vec<Motion>,
+        out: &mut Vec<[f64; 3]>,
+    ) {
+        motions.clear();
+        let mut moved = Vec::new();
+        for (indices, rest) in &self.fine {
+            moved.clear();
+            moved.extend(indices.iter().map(|&i| targets[i]));
+            motions.push(fit_motion(rest, &moved, None));
+        }
+        out.clear();
+        out.extend(self.coarse.iter().map(|&(g, p)| motions[g as usize].apply(p)));
+    }
+}

@@ -1,0 +1,235 @@
+//! Settling on the fairing level before the full mesh: a third level for the coarse BS-ARAP
+//! on dense meshes ([`crate::deform::coarse`], step 6).
+//!
+//! A mesh faired on a level ([`crate::deform::level_fairing`]) has, beside its coarse level
+//! $B_c$ (a few thousand vertices), the level $M_\ell$ itself: $M$ decimated to a mean edge of
+//! a third of the smoothing length (77,685 of the 691,858 vertices of the armadillo subdivided
+//! twice), each fine vertex $i$ embedded on it as barycentric weights $w_{ik}$ on a level
+//! triangle $t_i$. $M_\ell$ resolves bends the coarse level cannot, and it is factored in a
+//! fraction of the time and memory the full mesh needs (at 1.5M vertices, about 80 s and
+//! 6 GiB for the full mesh). Settling a stopped pose $p'$ first iterates on it:
+//!
+//! 1. $y^0_k = p'_{v_k}$ at the level's vertices $v_k$ (level vertices are fine vertices);
+//! 2. $y$ = ARAP iterations on $M_\ell$ from $y^0$ ([`crate::deform::arap::Arap::refine`], Anderson-accelerated as
+//!    configured), the level's handles on their targets: a level vertex that is a fine handle
+//!    takes its target; a group's part of a connected component in which the level kept none
+//!    of its vertices is held by the level representatives of those vertices, moved by the
+//!    group's rigid motion (components without handles stay at rest, as on the mesh);
+//! 3. every fine vertex moves by the interpolated change,
+//!    $x_i = p'_i + \sum_k w_{ik}\,(y_{t_{ik}} - y^0_{t_{ik}})$, the level's vertices to $y$
+//!    exactly.
+//!
+//! This is a coarse-grid correction in the multigrid sense: the level's change, interpolated
+//! linearly, corrects the positions at the level's resolution; the details keep the coarse
+//! rotations. Steps repeat until they no longer lower the level's energy, then settling goes
+//! on with the full mesh (which is factored meanwhile). Measured on the armadillo subdivided
+//! twice (BENCHMARKS.md, "Settling in the editor"), the level alone brings the coarse pose from
+//! 1.32 % to about 0.6 % of the diagonal from converged ARAP; as fine iterations on every
+//! frame it cost more than a larger coarse level for the same distance, so it runs only when
+//! the handles stop.
+
+use crate::deform::arap::{ArapConfig, SolveStats};
+use crate::deform::constraints::Constraints;
+use crate::deform::fine_level::FineLevel;
+use crate::deform::handles::Handles;
+use crate::deform::rig::Rig;
+use crate::error::SolveError;
+use crate::geometry::mesh::{Mesh, add, sub};
+use crate::linalg::rigid::Motion;
+use rayon::prelude::*;
+
+/// The handle-independent part: the level and the fine vertices' embedding on it.
+#[derive(Debug)]
+pub struct LevelEmbedding {
+    /// $M_\ell$: $M$ at the level's vertices, the level's triangles.
+    pub(crate) mesh: Mesh,
+    /// Fine index of each level vertex (ascending).
+    pub(crate) kept: Vec<u32>,
+    /// Per fine vertex, its level representative (the level vertex the fewest edges away).
+    pub(crate) representative: Vec<u32>,
+    /// Per fine vertex, its level triangle (index into the level's triangles) and barycentric
+    /// weights.
+    pub(crate) faces: Vec<u32>,
+    pub(crate) weights: Vec<[f64; 3]>,
+}
+
+/// Where a level handle's target comes from.
+#[derive(Debug, Clone, Copy)]
+enum LevelTarget {
+    /// The fine target with this index (the level vertex is a fine handle).
+    Fine(usize),
+    /// The group's rigid motion applied to the level vertex's rest position.
+    Moved(u32, [f64; 3]),
+}
+
+/// The level's ARAP for one handle set (step 2 of the module doc), factored when first
+/// needed like the full mesh's ([`FineLevel`]).
+#[derive(Debug)]
+pub struct LevelSolver {
+    arap: FineLevel,
+    /// Per level handle (in the level's handle order), its target's source.
+    targets: Vec<LevelTarget>,
+    target_buf: Vec<[f64; 3]>,
+    start: Vec<[f64; 3]>,
+}
+
+impl LevelSolver {
+    /// The level's ARAP for `handles` of `mesh` (`fine_handles` its handle vertices in target
+    /// order) with `config`, not factored yet.
+    pub fn new(
+        mesh: &Mesh,
+        level: &LevelEmbedding,
+        handles: &Handles,
+        fine_handles: &[u32],
+        config: &ArapConfig,
+    ) -> Result<LevelSolver, SolveError> {
+        let fine_labels = handles.labels();
+        let component = &mesh.components().label;
+        let mut labels: Vec<Option<u32>> =
+            level.kept.iter().map(|&v| fine_labels[v as usize]).collect();
+        // The (group, component) pairs the level holds by vertices of its own.
+        let held: std::collections::HashSet<(u32, u32)> = level
+            .kept
+            .iter()
+            .zip(&labels)
+            .filter_map(|(&v, l)| l.map(|g| (g, component[v as usize])))
+            .collect();
+        // A group's part of a component the level kept no handle vertex of: its vertices'
+        // level representatives (in the same component: found along the mesh's edges).
+        let mut moved = vec![false; labels.len()];
+        for (v, l) in fine_labels.iter().enumerate() {
+            if let Some(g) = l
+                && !held.contains(&(*g, component[v]))
+            {
+                let k = level.representative[v] as usize;
+                if labels[k].is_none() {
+                    labels[k] = Some(*g);
+                    moved[k] = true;
+                }
+            }
+        }
+        let rig = handles.rig();
+        let level_rig = Rig {
+            rigidity: rig
+                .rigidity
+                .as_ref()
+                .map(|r| level.kept.iter().map(|&v| r[v as usize]).collect()),
+            falloff: rig.falloff.clone(),
+        };
+        let level_handles = Handles::from_options(labels.clone())?.with_rig(level_rig);
+        let rest = level.mesh.positions();
+        let targets = level_handles
+            .handle_vertices()
+            .iter()
+            .map(|&k| {
+                let v = level.kept[k as usize];
+                match fine_handles.binary_search(&v) {
+                    Ok(i) if !moved[k as usize] => LevelTarget::Fine(i),
+                    _ => LevelTarget::Moved(labels[k as usize].unwrap_or(0), rest[k as usize]),
+                }
+            })
+            .collect();
+        let constraints = Constraints::new(&level.mesh, &level_handles);
+        let arap = FineLevel::new(&level.mesh, &constraints, config);
+        Ok(LevelSolver { arap, targets, target_buf: Vec::new(), start: Vec::new() })
+    }
+
+    /// Steps 1–3 of the module doc on `result` (the pose, every fine vertex), the fine handles
+    /// at `targets`, the groups' rigid motions `motions`: `iterations` level iterations
+    /// (factoring the level first if needed), their change interpolated to every fine vertex.
+    /// On error `result` is unchanged.
+    pub fn refine(
+        &mut self,
+        level: &LevelEmbedding,
+        result: &mut [[f64; 3]],
+        targets: &[[f64; 3]],
+        motions: &[Motion],
+        iterations: usize,
+    ) -> Result<SolveStats, SolveError> {
+        self.target_buf.clear();
+        self.target_buf.extend(self.targets.iter().map(|t| match *t {
+            LevelTarget::Fine(i) => targets[i],
+            LevelTarget::Moved(g, p) => motions.get(g as usize).map_or(p, |m| m.apply(p)),
+        }));
+        self.start.clear();
+        self.start.extend(level.kept.iter().map(|&v| result[v as usize]));
+        self.arap.factor()?;
+        let Some(arap) = self.arap.arap_mut() else {
+            return Ok(SolveStats { converged: true, ..SolveStats::default() });
+        };
+        let st = arap.refine(&self.start, &self.target_buf, iterations)?;
+        let y = arap.positions();
+        let change: Vec<[f64; 3]> = y.iter().zip(&self.start).map(|(&a, &b)| sub(a, b)).collect();
+        let triangles = level.mesh.triangles();
+        let embedding = level.faces.par_iter().zip(&level.weights);
+        result.par_iter_mut().zip(embedding).for_each(|(x, (&f, w))| {
+            let t = triangles[f as usize];
+            let mut d = [0.0; 3];
+            for k in 0..3 {
+                let c = change[t[k] as usize];
+                for a in 0..3 {
+                    d[a] += w[k] * c[a];
+                }
+            }
+            *x = add(*x, d);
+        });
+        for (&v, &p) in level.kept.iter().zip(y) {
+            result[v as usize] = p;
+        }
+        Ok(st)
+    }
+}
+
+impl LevelSolver {
+    /// [`FineLevel::factor_in_background`] for the level: true when [`LevelSolver::refine`]
+    /// would not wait for a factorization.
+    pub fn factor_in_background(&mut self) -> bool {
+        self.arap.factor_in_background()
+    }
+
+    /// Whether the level's factorization failed (then settling goes on the full mesh alone).
+    pub fn has_failed(&self) -> bool {
+        self.arap.has_failed()
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+    use crate::deform::coarse_base::CoarseBase;
+    use crate::deform::config::BaseConfig;
+
+    /// A level vertex that is a fine handle takes the fine target; a group the level kept no
+    /// vertex of is held by its vertices' level representatives, moved with the group.
+    #[test]
+    fn level_handles_come_from_the_fine_ones() {
+        let (mesh, _) = crate::geometry::shapes::bumpy_bar(5);
+        let settings = BaseConfig { smoothing: 0.06, ..Default::default() };
+        let base = CoarseBase::new(&mesh, &settings).unwrap();
+        let level = base.level.as_ref().expect("faired on a level");
+        let on_level = level.kept[10];
+        let off_level =
+            (0..mesh.n_vertices() as u32).find(|v| level.kept.binary_search(v).is_err());
+        let off_level = off_level.unwrap();
+        let mut labels = vec![None; mesh.n_vertices()];
+        labels[on_level as usize] = Some(0);
+        labels[off_level as usize] = Some(1);
+        let handles = Handles::from_options(labels).unwrap();
+        let fine_handles = handles.handle_vertices();
+        let config = ArapConfig::default();
+        let solver = LevelSolver::new(&mesh, level, &handles, &fine_handles, &config).unwrap();
+        assert_eq!(solver.targets.len(), 2, "{:?}", solver.targets);
+        let fine_index = fine_handles.binary_search(&on_level).unwrap();
+        assert!(
+            solver.targets.iter().any(|t| matches!(t, LevelTarget::Fine(i) if *i == fine_index))
+        );
+        let representative = level.representative[off_level as usize] as usize;
+        let rest = level.mesh.positions()[representative];
+        assert!(
+            solver.targets.iter().any(|t| matches!(t, LevelTarget::Moved(1, p) if *p == rest)),
+            "{:?}",
+            solver.targets
+        );
+    }
+}
