@@ -28,7 +28,7 @@ pub mod testing;
 pub use deform::arap::{Acceleration, Arap, ArapConfig, Energy, FrameStats, SolveStats};
 pub use deform::bs_arap::{BaseKind, BsArap};
 pub use deform::config::{BaseConfig, BaseConfigError};
-pub use deform::deformer::{Deformer, MeshCache, Method, Solver};
+pub use deform::deformer::{Deformer, MeshCache, Method, Solver, UnwrittenBase};
 pub use deform::handles::{Handles, HandlesError};
 pub use deform::pose::{GroupTransform, handle_targets};
 pub use deform::riders::{ComponentInfo, ComponentMode, LooseParts, list_components};

@@ -186,3 +186,28 @@ fn norm(d: [f64; 3]) -> f64 {
 fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     (glam::DVec3::from_array(a) - glam::DVec3::from_array(b)).to_array()
 }
+
+/// `prepare_unwritten` (the editor's: the shared cache is let go before the file is written)
+/// keeps the base in the cache at once and writes its file only when asked; a base read from
+/// its file has nothing left to write.
+#[test]
+fn an_unwritten_base_is_written_when_asked() {
+    let (mesh, _, _) = two_handle_sets();
+    let settings = BaseConfig { coarse_vertices: Some(300), ..Default::default() };
+    let scratch = solver::testing::ScratchDir::new("disk-cache-unwritten");
+    let dir = scratch.to_path_buf();
+    let files = || std::fs::read_dir(&dir).map_or(0, |d| d.count());
+    let mut cache = MeshCache::on_disk(dir.clone());
+    let (built, unwritten) =
+        cache.prepare_unwritten(Method::BsArapCoarse, &mesh, &settings).unwrap();
+    let built = built.unwrap();
+    assert!(Arc::ptr_eq(cache.coarse_base().unwrap(), &built));
+    assert_eq!(files(), 0, "written before it was asked");
+    unwritten.expect("a base to write").write().unwrap();
+    assert_eq!(files(), 1);
+    let (read, unwritten) = MeshCache::on_disk(dir.clone())
+        .prepare_unwritten(Method::BsArapCoarse, &mesh, &settings)
+        .unwrap();
+    assert_eq!(read.unwrap().precompute_phases()[0].0, "read from the disk cache");
+    assert!(unwritten.is_none());
+}

@@ -19,7 +19,9 @@ use solver::animation::pointcache::{Pc2, write_pc2};
 use solver::animation::recording::{Recording, record};
 use solver::animation::timeline::Timeline;
 use solver::geometry::normals::VertexFaces;
-use solver::{ArapConfig, BaseConfig, Deformer, Handles, LooseParts, Mesh, MeshCache, Method};
+use solver::{
+    ArapConfig, BaseConfig, Deformer, Handles, LooseParts, Mesh, MeshCache, Method, UnwrittenBase,
+};
 
 use super::loader::FileLayout;
 use super::pose::{GroupPose, handle_targets};
@@ -121,10 +123,10 @@ pub struct Preparing {
     pub job: Job<f64>,
 }
 
-/// Builds what `method` precomputes per mesh ([`MeshCache::prepare`]) into the cache the
-/// pose solvers share, so that the first handle group waits only for its own part. A pose
+/// Builds what `method` precomputes per mesh ([`MeshCache::prepare_unwritten`]) into the cache
+/// the pose solvers share, so that the first handle group waits only for its own part. A pose
 /// solver that needs the cache meanwhile waits for it (it then reuses the result). Runs on
-/// [`background_pool`].
+/// [`background_pool`]; a base built anew is written to its file after the cache is let go.
 pub fn spawn_prepare(
     cache: Arc<Mutex<MeshCache>>,
     mesh: Arc<Mesh>,
@@ -138,8 +140,8 @@ pub fn spawn_prepare(
         let t = Instant::now();
         let mut cache = cache.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
         let inner: &mut MeshCache = &mut cache;
-        let mut build = || inner.prepare(method, &m, &base).map(|p| p.is_some());
-        let built = match background_pool() {
+        let mut build = || inner.prepare_unwritten(method, &m, &base);
+        let (built, unwritten) = match background_pool() {
             Some(pool) => pool.install(build),
             None => build(),
         }
@@ -147,7 +149,13 @@ pub fn spawn_prepare(
         if let Some(note) = cache.disk_note() {
             eprintln!("editor: mesh cache: {note}");
         }
-        Ok(if built { t.elapsed().as_secs_f64() * 1e3 } else { 0.0 })
+        // The solvers take the base from the cache meanwhile.
+        drop(cache);
+        let ms = t.elapsed().as_secs_f64() * 1e3;
+        if let Some(Err(e)) = unwritten.map(UnwrittenBase::write) {
+            eprintln!("editor: mesh cache: {e}");
+        }
+        Ok(if built.is_some() { ms } else { 0.0 })
     });
     Preparing { mesh, method, base, since, job }
 }

@@ -97,6 +97,22 @@ pub struct MeshCache {
     disk_note: Option<String>,
 }
 
+/// A base [`MeshCache::prepare_unwritten`] built and did not write to its file yet.
+#[derive(Debug)]
+pub struct UnwrittenBase {
+    base: Arc<CoarseBase>,
+    path: std::path::PathBuf,
+}
+
+impl UnwrittenBase {
+    /// Writes the file ([`coarse_cache::save`]: a temporary file renamed over it); the error
+    /// in words.
+    pub fn write(self) -> Result<(), String> {
+        coarse_cache::save(&self.base, &self.path)
+            .map_err(|e| format!("writing {}: {e}", self.path.display()))
+    }
+}
+
 impl MeshCache {
     /// A cache that also reads and writes its bases as files in `dir` (created when first
     /// written).
@@ -114,27 +130,45 @@ impl MeshCache {
     /// Builds (or finds) what `method` precomputes per mesh for `mesh` and `base`: the
     /// [`CoarseBase`] for [`Method::BsArapCoarse`], `None` for the other methods. Call it
     /// right after loading, in the background, so that the first handle set waits only for
-    /// its own part.
+    /// its own part. A base built anew is written to the cache directory before it returns.
     pub fn prepare(
         &mut self,
         method: Method,
         mesh: &Mesh,
         base: &BaseConfig,
     ) -> Result<Option<Arc<CoarseBase>>, SolveError> {
+        let (c, unwritten) = self.prepare_unwritten(method, mesh, base)?;
+        if let Some(w) = unwritten
+            && let Err(e) = w.write()
+        {
+            self.disk_note = Some(e);
+        }
+        Ok(c)
+    }
+
+    /// [`MeshCache::prepare`] that leaves the writing of a base built anew to the caller
+    /// ([`UnwrittenBase::write`]), so that a cache shared between threads need not be held
+    /// while the file is written (about 100 MiB at 1.5M vertices).
+    pub fn prepare_unwritten(
+        &mut self,
+        method: Method,
+        mesh: &Mesh,
+        base: &BaseConfig,
+    ) -> Result<(Option<Arc<CoarseBase>>, Option<UnwrittenBase>), SolveError> {
         if method != Method::BsArapCoarse {
-            return Ok(None);
+            return Ok((None, None));
         }
         if let Some(c) = &self.coarse
             && c.fits(mesh, base)
         {
-            return Ok(Some(c.clone()));
+            return Ok((Some(c.clone()), None));
         }
         self.coarse = None;
         self.disk_note = None;
         let path = self.disk.as_ref().map(|dir| coarse_cache::cache_path(dir, mesh, base));
         let read = path.as_ref().map(|p| coarse_cache::load(p, mesh, base));
-        let c = match read {
-            Some(Ok(c)) => c,
+        let (c, path) = match read {
+            Some(Ok(c)) => (Arc::new(c), None),
             other => {
                 // A mesh opened for the first time has no file yet: nothing to say.
                 if let Some(Err(e)) = other
@@ -142,18 +176,12 @@ impl MeshCache {
                 {
                     self.disk_note = Some(e.to_string());
                 }
-                let c = in_pool(|| CoarseBase::new(mesh, base))?;
-                if let Some(p) = &path
-                    && let Err(e) = coarse_cache::save(&c, p)
-                {
-                    self.disk_note = Some(format!("writing {}: {e}", p.display()));
-                }
-                c
+                (Arc::new(in_pool(|| CoarseBase::new(mesh, base))?), path)
             }
         };
-        let c = Arc::new(c);
         self.coarse = Some(c.clone());
-        Ok(Some(c))
+        let unwritten = path.map(|path| UnwrittenBase { base: c.clone(), path });
+        Ok((Some(c), unwritten))
     }
 
     /// The cached coarse base, if any (whatever mesh it belongs to).
