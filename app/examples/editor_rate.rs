@@ -18,7 +18,8 @@
 //! settle iterations): the group is dragged to the far point of the circle (0.2·diag from rest)
 //! and left there; the thread solves until converged, then settles until converged. Reported:
 //! settle steps and fine iterations, seconds, and the distance to converged ARAP on the mesh
-//! ([`solver::deform::quality::Reference`]) before and after settling. `--gpu-normals` makes the
+//! ([`solver::deform::quality::Reference`]) before and after settling, and while settling (at
+//! the first step after each of [`SNAPSHOTS`] seconds). `--gpu-normals` makes the
 //! shape as the thread does when the viewport computes the normals on the GPU (positions only).
 //! `--no-settle` stops after
 //! the drag (on dense meshes the converged references take many minutes).
