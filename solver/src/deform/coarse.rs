@@ -47,6 +47,7 @@
 
 use crate::deform::arap::{Arap, ArapConfig, SolveStats};
 use crate::deform::coarse_base::{CoarseBase, Phases};
+pub use crate::deform::coarse_groups::MIN_COARSE_GROUP;
 use crate::deform::coarse_groups::{CoarseGroups, coarse_rig};
 use crate::deform::config::BaseConfig;
 use crate::deform::constraints::Constraints;
@@ -60,10 +61,6 @@ use crate::linalg::rigid::Motion;
 use crate::linalg::rotation::Mat3;
 use rayon::prelude::*;
 use std::sync::Arc;
-
-/// The fewest coarse vertices a handle group holds (its rotation needs three points off a
-/// line), or all of the coarse vertices its component has.
-pub const MIN_COARSE_GROUP: usize = 3;
 
 /// Coarse-base BS-ARAP precomputed for one mesh and one handle set.
 #[derive(Debug)]

@@ -2,12 +2,15 @@
 //! follow the fine handles ([`crate::deform::coarse`], "Handles on the coarse level"); the rig
 //! (rigidity, falloffs) carried to the coarse level.
 
-use crate::deform::coarse::MIN_COARSE_GROUP;
 use crate::deform::coarse_base::CoarseBase;
 use crate::deform::handles::Handles;
 use crate::deform::rig::Rig;
 use crate::geometry::mesh::{add, sub};
 use crate::linalg::rigid::{Motion, fit_motion};
+
+/// The fewest coarse vertices a handle group holds (its rotation needs three points off a
+/// line), or all of the coarse vertices its component has.
+pub const MIN_COARSE_GROUP: usize = 3;
 
 /// The rig on the coarse level (`crate::deform::rig`): the falloffs as they are (radii are
 /// fractions of the diagonal), each coarse vertex's rigidity the mean over the fine vertices
