@@ -350,6 +350,7 @@ impl CoarseBsArap {
                 fine_iterations: st.iterations,
                 fine_energy: st.energy(),
                 fine_ms: st.total_ms(),
+                fine_on_level: true,
                 ..SolveStats::default()
             }));
         }

@@ -114,7 +114,10 @@ fn settling_goes_through_the_level_first() {
     let (mut level_steps, mut on_level) = (0, f64::NAN);
     for _ in 0..2000 {
         let st = c.settle(&targets).unwrap().expect("a pose to settle");
+        // A step on the level names no energy of the mesh; one on the mesh does.
+        assert_eq!(st.frame_stats().fine_energy.is_none(), st.fine_on_level);
         if !c.fine_ready() {
+            assert!(st.fine_on_level);
             level_steps += 1;
             on_level = reference.measure(c.positions()).mean_distance;
         }

@@ -107,6 +107,9 @@ pub struct SolveStats {
     /// Fine iterations ran and were still lowering the energy by more than the tolerance per
     /// iteration: solving again at the same targets would still change the pose.
     pub fine_unconverged: bool,
+    /// The fine iterations ran on the fairing level, not on the full mesh (a settle step of a
+    /// dense mesh, [`crate::deform::middle_level`]): `fine_energy` is the level's.
+    pub fine_on_level: bool,
 }
 
 impl SolveStats {
@@ -145,7 +148,9 @@ impl SolveStats {
                 self.fine_ms / self.fine_iterations.max(1) as f64
             },
             fine_iterations: self.fine_iterations,
-            fine_energy: (self.fine_iterations > 0).then_some(self.fine_energy),
+            // The level's energy is not the mesh's: a settle step on the level has none.
+            fine_energy: (self.fine_iterations > 0 && !self.fine_on_level)
+                .then_some(self.fine_energy),
         }
     }
 }
