@@ -5,9 +5,9 @@
 //! $B_c$ (a few thousand vertices), the level $M_\ell$ itself: $M$ decimated to a mean edge of
 //! a third of the smoothing length (77,685 of the 691,858 vertices of the armadillo subdivided
 //! twice), each fine vertex $i$ embedded on it as barycentric weights $w_{ik}$ on a level
-//! triangle $t_i$. $M_\ell$ resolves bends the coarse level cannot, and it is factored in a
-//! fraction of the time and memory the full mesh needs (at 1.5M vertices, about 80 s and
-//! 6 GiB for the full mesh). Settling a stopped pose $p'$ first iterates on it:
+//! triangle $t_i$. $M_\ell$ resolves bends the coarse level cannot, and it is factored far
+//! sooner than the full mesh (at 692k, factored and stepped once within 0.6 s against about
+//! 10 s for the full mesh; BENCHMARKS.md, "Settling in the editor"). Settling a stopped pose $p'$ first iterates on it:
 //!
 //! 1. $y^0_k = p'_{v_k}$ at the level's vertices $v_k$ (level vertices are fine vertices);
 //! 2. $y$ = ARAP iterations on $M_\ell$ from $y^0$ ([`crate::deform::arap::Arap::refine`], Anderson-accelerated as
