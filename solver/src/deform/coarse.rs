@@ -52,7 +52,7 @@ use crate::deform::coarse_groups::{CoarseGroups, coarse_rig};
 use crate::deform::config::BaseConfig;
 use crate::deform::constraints::Constraints;
 use crate::deform::embedding::blend;
-use crate::deform::fine_level::FineLevel;
+use crate::deform::fine_level::{FineLevel, Queue};
 use crate::deform::handles::Handles;
 use crate::deform::middle_level::LevelSolver;
 use crate::error::SolveError;
@@ -180,7 +180,7 @@ impl CoarseBsArap {
         clock.lap("coarse factorization");
         let n = mesh.n_vertices();
         let fine = (coarse.fine_iterations > 0 || coarse.settle_iterations > 0)
-            .then(|| FineLevel::new(mesh, &constraints, config));
+            .then(|| FineLevel::new(mesh, &constraints, config, Queue::FullMesh));
         let fine_handles = handles.handle_vertices();
         let level = match (&base.level, coarse.settle_iterations) {
             (Some(l), 1..) => Some(LevelSolver::new(mesh, l, handles, &fine_handles, config)?),

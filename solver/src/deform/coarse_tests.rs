@@ -68,7 +68,7 @@ fn a_failed_fine_factorization_stops_settling_not_solving() {
     .unwrap();
     let collapsed_handles = Handles::from_options(vec![Some(0), None, None, Some(0)]).unwrap();
     let constraints = Constraints::new(&collapsed, &collapsed_handles);
-    c.fine = Some(FineLevel::new(&collapsed, &constraints, &config));
+    c.fine = Some(FineLevel::new(&collapsed, &constraints, &config, Queue::FullMesh));
     assert!(c.settle(&targets).is_err());
     assert!(!c.settle_pending(), "settling offered again after its factorization failed");
     assert!(c.solve(&moved(0.12)).unwrap().converged);
@@ -76,12 +76,11 @@ fn a_failed_fine_factorization_stops_settling_not_solving() {
     assert!(c.settle(&moved(0.12)).unwrap().is_none());
 }
 
-/// Settling a mesh faired on a level ([`crate::deform::middle_level`]) first iterates on the
-/// level, before the full mesh is factored: those steps bring the pose closer to converged
-/// ARAP than the coarse solve, the full mesh's steps closer still; the handles stay on their
-/// targets and the rest pose stays exact.
-#[test]
-fn settling_goes_through_the_level_first() {
+/// A coarse BS-ARAP of the bumpy bar faired on a level, group 0 moved up by 0.2 of the
+/// diagonal in four solves; with the converged ARAP at those targets, and the coarse pose's
+/// mean distance to it.
+fn on_a_level()
+-> (Mesh, Handles, CoarseBsArap, Vec<[f64; 3]>, crate::deform::quality::Reference, f64) {
     use crate::deform::arap::Energy;
     use crate::deform::quality::Reference;
     let (mesh, handles) = crate::geometry::shapes::bumpy_bar(5);
@@ -111,6 +110,16 @@ fn settling_goes_through_the_level_first() {
         c.solve(&moved(0.05 * k as f64)).unwrap();
     }
     let coarse = reference.measure(c.positions()).mean_distance;
+    (mesh, handles, c, targets, reference, coarse)
+}
+
+/// Settling a mesh faired on a level ([`crate::deform::middle_level`]) first iterates on the
+/// level, before the full mesh is factored: those steps bring the pose closer to converged
+/// ARAP than the coarse solve, the full mesh's steps closer still; the handles stay on their
+/// targets and the rest pose stays exact.
+#[test]
+fn settling_goes_through_the_level_first() {
+    let (mesh, handles, mut c, targets, mut reference, coarse) = on_a_level();
     let (mut level_steps, mut on_level) = (0, f64::NAN);
     for _ in 0..2000 {
         let st = c.settle(&targets).unwrap().expect("a pose to settle");
@@ -135,6 +144,46 @@ fn settling_goes_through_the_level_first() {
     for (&v, t) in handles.handle_vertices().iter().zip(&targets) {
         assert_eq!(c.positions()[v as usize], *t);
     }
+    let rest: Vec<[f64; 3]> =
+        handles.handle_vertices().iter().map(|&v| mesh.positions()[v as usize]).collect();
     c.solve(&rest).unwrap();
     assert_eq!(c.positions(), mesh.positions());
+}
+
+/// When the level's factorization fails (here a collapsed triangle put in its place), the
+/// settle step that finds out changes nothing and says so, and settling goes on with the
+/// full mesh to the same quality.
+#[test]
+fn a_failed_level_leaves_settling_to_the_full_mesh() {
+    let (_, handles, mut c, targets, mut reference, coarse) = on_a_level();
+    let collapsed = Mesh::new(
+        vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+        vec![[0, 1, 3], [1, 2, 3], [0, 2, 1]],
+    )
+    .unwrap();
+    let collapsed_handles = Handles::from_options(vec![Some(0), None, None, Some(0)]).unwrap();
+    let constraints = Constraints::new(&collapsed, &collapsed_handles);
+    let config = ArapConfig::default();
+    c.level.as_mut().expect("a level solver").arap =
+        FineLevel::new(&collapsed, &constraints, &config, Queue::Level);
+    let before = c.positions().to_vec();
+    let st = c.settle(&targets).unwrap().expect("a settle step");
+    assert!(st.fine_on_level && st.fine_iterations == 0 && !st.converged, "{st:?}");
+    assert_eq!(c.positions(), &before[..]);
+    assert!(c.settle_pending(), "settling stopped with the full mesh left");
+    assert!(c.factor_fine_in_background() || !c.fine_ready(), "the full mesh is asked for next");
+    let mut steps = 0;
+    loop {
+        let st = c.settle(&targets).unwrap().expect("a settle step");
+        assert!(!st.fine_on_level);
+        steps += 1;
+        if st.converged || steps == 2000 {
+            break;
+        }
+    }
+    let settled = reference.measure(c.positions()).mean_distance;
+    assert!(settled < 0.7 * coarse, "settled {settled:e}, coarse {coarse:e}");
+    for (&v, t) in handles.handle_vertices().iter().zip(&targets) {
+        assert_eq!(c.positions()[v as usize], *t);
+    }
 }

@@ -4,24 +4,55 @@
 //! ([`FineLevel::factor_in_background`]) so that a caller that must stay responsive (the
 //! editor's solver thread: about 10 s at 692k vertices) goes on solving meanwhile.
 //!
-//! One background factorization runs at a time in the process: one whose solver was dropped
-//! cannot be stopped (the sparse factorization has no way to be interrupted), so a new handle
-//! set's waits for it instead of adding its own memory and cores (a full-mesh factorization at
-//! 692k vertices holds about 2 GiB). A failed factorization is kept and reported every time
-//! (it would fail again); a panic of the factoring thread is resumed on the caller's.
+//! One background factorization of each [`Queue`] runs at a time in the process: one whose
+//! solver was dropped cannot be stopped (the sparse factorization has no way to be
+//! interrupted), so a new handle set's waits for it instead of adding its own memory and cores
+//! (a full-mesh factorization at 692k vertices holds about 2 GiB, at 1.5M about 6 GiB and 80 s).
+//! The fairing level's ([`crate::deform::middle_level`]), a tenth of the mesh, has a queue of
+//! its own, so that a handle set painted while the previous set's full mesh is still being
+//! factored settles on the level without waiting for it. A failed factorization is kept and
+//! reported every time (it would fail again); a panic of the factoring thread is resumed on the
+//! caller's.
 
 use crate::deform::arap::{Arap, ArapConfig};
 use crate::deform::constraints::Constraints;
 use crate::error::SolveError;
 use crate::geometry::mesh::Mesh;
 use crate::linalg::linsolve::FactorError;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::thread::JoinHandle;
 
 /// The ARAP on the full mesh: what to build it from until it is factored, then itself.
 #[derive(Debug)]
 pub struct FineLevel {
     state: State,
+    queue: Queue,
+}
+
+/// Which one-at-a-time line a background factorization waits in (module doc).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Queue {
+    /// The full mesh's, for fine and settle iterations.
+    FullMesh,
+    /// The fairing level's, for settling on the level first.
+    Level,
+}
+
+/// Per [`Queue`], whether a factorization of it runs on a thread of its own.
+static RUNNING: [AtomicBool; 2] = [AtomicBool::new(false), AtomicBool::new(false)];
+
+impl Queue {
+    fn running(self) -> &'static AtomicBool {
+        &RUNNING[self as usize]
+    }
+
+    /// Takes the queue's one place if it is free.
+    fn take(self) -> Option<BackgroundSlot> {
+        let running = self.running();
+        let free = running.compare_exchange(false, true, Ordering::AcqRel, Ordering::Acquire);
+        // Made only when taken: a slot dropped frees the queue.
+        if free.is_ok() { Some(BackgroundSlot(self)) } else { None }
+    }
 }
 
 #[derive(Debug)]
@@ -33,16 +64,13 @@ enum State {
     Failed(SolveError),
 }
 
-/// Full-mesh factorizations running on threads of their own (0 or 1).
-static BACKGROUND_FACTORIZATIONS: AtomicUsize = AtomicUsize::new(0);
-
-/// Held by the thread that took the one [`BACKGROUND_FACTORIZATIONS`] slot; frees it on drop
-/// (when done, and when unwinding from a panic).
-struct BackgroundSlot;
+/// Held by the thread that took its queue's one place; frees it on drop (when done, and when
+/// unwinding from a panic).
+struct BackgroundSlot(Queue);
 
 impl Drop for BackgroundSlot {
     fn drop(&mut self) {
-        BACKGROUND_FACTORIZATIONS.store(0, Ordering::Release);
+        self.0.running().store(false, Ordering::Release);
     }
 }
 
@@ -55,10 +83,16 @@ fn factor(inputs: &(Mesh, Constraints, ArapConfig)) -> (Result<Arap, SolveError>
 }
 
 impl FineLevel {
-    /// Not factored yet: `mesh` with `constraints` (the handles and pinned parts), `config`.
-    pub fn new(mesh: &Mesh, constraints: &Constraints, config: &ArapConfig) -> FineLevel {
+    /// Not factored yet: `mesh` with `constraints` (the handles and pinned parts), `config`;
+    /// factored in the background in `queue`'s line.
+    pub fn new(
+        mesh: &Mesh,
+        constraints: &Constraints,
+        config: &ArapConfig,
+        queue: Queue,
+    ) -> FineLevel {
         let inputs = (mesh.clone(), constraints.clone(), *config);
-        FineLevel { state: State::Pending(Box::new(inputs)) }
+        FineLevel { state: State::Pending(Box::new(inputs)), queue }
     }
 
     /// Factors it now, or waits for the thread factoring it. `Some(ms)`: this call finished
@@ -91,8 +125,8 @@ impl FineLevel {
         }
     }
 
-    /// Starts the factorization on a thread of its own if it is pending and no other is
-    /// running (module doc). True when [`FineLevel::factor`] would not wait: factored, failed,
+    /// Starts the factorization on a thread of its own if it is pending and no other of its
+    /// queue is running (module doc). True when [`FineLevel::factor`] would not wait: factored, failed,
     /// or its thread done.
     pub fn factor_in_background(&mut self) -> bool {
         let inputs = match self.take() {
@@ -107,16 +141,13 @@ impl FineLevel {
                 return true;
             }
         };
-        if BACKGROUND_FACTORIZATIONS
-            .compare_exchange(0, 1, Ordering::AcqRel, Ordering::Acquire)
-            .is_err()
-        {
+        let Some(slot) = self.queue.take() else {
             self.state = State::Pending(inputs);
             return false;
-        }
+        };
         let spawned =
             std::thread::Builder::new().name("bsarap fine factorization".into()).spawn(move || {
-                let _slot = BackgroundSlot;
+                let _slot = slot;
                 let done = factor(&inputs);
                 drop(inputs);
                 done
@@ -127,10 +158,13 @@ impl FineLevel {
                 false
             }
             Err(e) => {
-                BACKGROUND_FACTORIZATIONS.store(0, Ordering::Release);
-                // No thread to be had: the fine level is given up, with the reason.
+                // No thread to be had (the slot went back with the closure): the fine level is
+                // given up, with the reason.
                 let source = FactorError::Other(format!("no thread to factor on: {e}"));
-                let matrix = "the full-mesh ARAP";
+                let matrix = match self.queue {
+                    Queue::FullMesh => "the full-mesh ARAP",
+                    Queue::Level => "the fairing level's ARAP",
+                };
                 self.state = State::Failed(SolveError::Factorization { matrix, source });
                 true
             }
@@ -177,12 +211,50 @@ mod tests {
         let mesh = Mesh::new(positions, vec![[0, 1, 3], [1, 2, 3], [0, 2, 1]]).unwrap();
         let handles = Handles::from_options(vec![Some(0), None, None, Some(0)]).unwrap();
         let constraints = Constraints::new(&mesh, &handles);
-        let mut fine = FineLevel::new(&mesh, &constraints, &ArapConfig::default());
+        let mut fine = FineLevel::new(&mesh, &constraints, &ArapConfig::default(), Queue::Level);
         assert!(!fine.has_failed() && !fine.is_ready());
         let first = fine.factor().unwrap_err();
         assert!(fine.has_failed() && !fine.is_ready());
         assert_eq!(fine.factor().unwrap_err(), first);
         assert!(fine.factor_in_background(), "a failed one is not waited for");
         assert!(fine.has_failed());
+    }
+
+    /// A level's factorization starts while the full mesh's queue is taken (by a handle set
+    /// still being factored), and a full mesh's waits for it. Other tests of this binary may
+    /// hold a queue for a moment: the waits below tolerate that.
+    #[test]
+    fn the_level_does_not_wait_for_the_full_mesh() {
+        let (mesh, handles) = crate::geometry::shapes::bumpy_bar(2);
+        let constraints = Constraints::new(&mesh, &handles);
+        let config = ArapConfig::default();
+        let patience = std::time::Instant::now();
+        let wait = |what: &str| {
+            assert!(patience.elapsed().as_secs() < 60, "{what}: over a minute");
+            std::thread::sleep(std::time::Duration::from_millis(2));
+        };
+        let full_taken = loop {
+            match Queue::FullMesh.take() {
+                Some(slot) => break slot,
+                None => wait("the full mesh's queue never came free"),
+            }
+        };
+        let mut full = FineLevel::new(&mesh, &constraints, &config, Queue::FullMesh);
+        let mut level = FineLevel::new(&mesh, &constraints, &config, Queue::Level);
+        while !level.factor_in_background() {
+            wait("the level's factorization did not end");
+        }
+        for _ in 0..2 {
+            // Twice: a refused try must not free the place it did not get.
+            assert!(!full.factor_in_background(), "the full mesh did not wait its turn");
+            assert!(matches!(full.state, State::Pending(_)));
+        }
+        assert_eq!(level.factor().unwrap().map(|ms| ms >= 0.0), Some(true));
+        assert!(level.is_ready());
+        drop(full_taken);
+        while !full.factor_in_background() {
+            wait("the full mesh's factorization did not end");
+        }
+        assert!(full.factor().unwrap().is_some() && full.is_ready());
     }
 }

@@ -30,7 +30,7 @@
 
 use crate::deform::arap::{ArapConfig, SolveStats};
 use crate::deform::constraints::Constraints;
-use crate::deform::fine_level::FineLevel;
+use crate::deform::fine_level::{FineLevel, Queue};
 use crate::deform::handles::Handles;
 use crate::deform::rig::Rig;
 use crate::error::SolveError;
@@ -66,11 +66,13 @@ enum LevelTarget {
 /// needed like the full mesh's ([`FineLevel`]).
 #[derive(Debug)]
 pub struct LevelSolver {
-    arap: FineLevel,
+    pub(crate) arap: FineLevel,
     /// Per level handle (in the level's handle order), its target's source.
     targets: Vec<LevelTarget>,
     target_buf: Vec<[f64; 3]>,
     start: Vec<[f64; 3]>,
+    /// Per level vertex, the last step's change (kept to reuse its memory).
+    change: Vec<[f64; 3]>,
 }
 
 impl LevelSolver {
@@ -130,8 +132,14 @@ impl LevelSolver {
             })
             .collect();
         let constraints = Constraints::new(&level.mesh, &level_handles);
-        let arap = FineLevel::new(&level.mesh, &constraints, config);
-        Ok(LevelSolver { arap, targets, target_buf: Vec::new(), start: Vec::new() })
+        let arap = FineLevel::new(&level.mesh, &constraints, config, Queue::Level);
+        Ok(LevelSolver {
+            arap,
+            targets,
+            target_buf: Vec::new(),
+            start: Vec::new(),
+            change: Vec::new(),
+        })
     }
 
     /// Steps 1–3 of the module doc on `result` (the pose, every fine vertex), the fine handles
@@ -159,7 +167,9 @@ impl LevelSolver {
         };
         let st = arap.refine(&self.start, &self.target_buf, iterations)?;
         let y = arap.positions();
-        let change: Vec<[f64; 3]> = y.iter().zip(&self.start).map(|(&a, &b)| sub(a, b)).collect();
+        self.change.clear();
+        self.change.extend(y.iter().zip(&self.start).map(|(&a, &b)| sub(a, b)));
+        let change = &self.change;
         let triangles = level.mesh.triangles();
         let embedding = level.faces.par_iter().zip(&level.weights);
         result.par_iter_mut().zip(embedding).for_each(|(x, (&f, w))| {
