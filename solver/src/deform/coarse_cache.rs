@@ -8,7 +8,7 @@
 //! The rest is recomputed on reading: the embedded points $P B_c$, the details
 //! $D = M - P B_c$ and $M$ itself from the mesh.
 //!
-//! Layout (little-endian): the magic `BSARAPCB`, a format version, a 64-bit hash of everything
+//! Layout (little-endian): the magic `BSARAPCB`, a format version, a 64-bit XXH3 of everything
 //! after it, then the header and the arrays. A file is **never trusted blindly**: it is used
 //! only if its magic, version and hash are right, it was built for this mesh (fingerprint of
 //! positions and triangles) and these settings ([`CoarseBase::fits`]), every count matches and
@@ -22,7 +22,6 @@ use crate::deform::embedding::blend;
 use crate::deform::level_fairing::Fairing;
 use crate::deform::middle_level::LevelEmbedding;
 use crate::geometry::mesh::{Mesh, sub};
-use std::hash::Hasher;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -32,7 +31,7 @@ const MAGIC: &[u8; 8] = b"BSARAPCB";
 /// million-vertex mesh faired on a level is about 65 MiB (its level included).
 pub const MAX_FILES: usize = 8;
 /// The file format and the construction it stores: a file of another version is rebuilt.
-const VERSION: u32 = 5;
+const VERSION: u32 = 6;
 
 /// Why a cache file was not used.
 #[derive(Debug, thiserror::Error)]
@@ -56,11 +55,12 @@ impl CacheError {
 /// settings, so that other meshes and settings get their own files.
 pub fn cache_path(dir: &Path, mesh: &Mesh, config: &BaseConfig) -> PathBuf {
     let fingerprint = mesh.fingerprint();
-    let mut h = std::collections::hash_map::DefaultHasher::new();
-    h.write_u64(config.smoothing.to_bits());
-    h.write_u64(config.coarse_vertices_for(mesh.n_vertices()) as u64);
-    h.write_u8(u8::from(config.level_fairing));
-    dir.join(format!("coarse-{fingerprint:016x}-{:08x}.bin", h.finish() as u32))
+    let mut settings = Vec::with_capacity(17);
+    settings.extend(config.smoothing.to_bits().to_le_bytes());
+    settings.extend((config.coarse_vertices_for(mesh.n_vertices()) as u64).to_le_bytes());
+    settings.push(u8::from(config.level_fairing));
+    let h = xxhash_rust::xxh3::xxh3_64(&settings);
+    dir.join(format!("coarse-{fingerprint:016x}-{:08x}.bin", h as u32))
 }
 
 /// Writes `base` to `path` (a temporary file beside it, then renamed over it), then removes
@@ -267,10 +267,9 @@ fn read_level(r: &mut Reader, mesh: &Mesh) -> Result<Option<LevelEmbedding>, &'s
     Ok(Some(LevelEmbedding { mesh: level, kept, representative, faces, weights }))
 }
 
+/// XXH3 of `bytes`: specified, so a file written by one build checks in the next.
 fn checksum(bytes: &[u8]) -> u64 {
-    let mut h = std::collections::hash_map::DefaultHasher::new();
-    h.write(bytes);
-    h.finish()
+    xxhash_rust::xxh3::xxh3_64(bytes)
 }
 
 /// Little-endian reads from the front of a byte slice.
