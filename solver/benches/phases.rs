@@ -24,6 +24,10 @@
 //!   free positions, a 20,000-vertex mesh), run inside a rayon pool as `Arap` runs it. The
 //!   vectors cycle through seven fixed pseudo-random pairs $(x, G(x))$.
 //!
+//! - `shape_f32`: [`solver::geometry::normals::VertexFaces::shape_f32`], the editor's per-frame
+//!   display shape (f32 positions and vertex normals of a pose), on the bumpy bar at icosphere
+//!   level 8 (655,362 vertices) turned as in the other benches.
+//!
 //! `benches/iteration.rs` is the other harness: phase timings of a 10-iteration solve against an
 //! estimate of the machine's limit (bandwidth and rotation-fit rate), on these meshes or a file.
 
@@ -155,11 +159,25 @@ fn anderson_step(c: &mut Criterion) {
     g.finish();
 }
 
+fn shape_f32(c: &mut Criterion) {
+    let (mesh, _) = bumpy_bar(8);
+    let q = axis_angle([0.0, 0.0, 1.0], 0.8);
+    let pose: Vec<[f64; 3]> =
+        mesh.positions().iter().map(|&p| if p[0] > 0.0 { mul_vec(&q, p) } else { p }).collect();
+    let faces = solver::geometry::normals::VertexFaces::new(mesh.n_vertices(), mesh.triangles());
+    let (mut positions, mut normals) = (Vec::new(), Vec::new());
+    let mut g = c.benchmark_group("shape_f32");
+    g.bench_function(BenchmarkId::from_parameter(mesh.n_vertices()), |b| {
+        b.iter(|| faces.shape_f32(&pose, mesh.triangles(), &mut positions, &mut normals))
+    });
+    g.finish();
+}
+
 fn config() -> Criterion {
     Criterion::default()
         .warm_up_time(Duration::from_secs(1))
         .measurement_time(Duration::from_secs(3))
 }
 
-criterion_group! { name = benches; config = config(); targets = factorization, iteration_phases, anderson_step }
+criterion_group! { name = benches; config = config(); targets = factorization, iteration_phases, anderson_step, shape_f32 }
 criterion_main!(benches);

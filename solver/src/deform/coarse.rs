@@ -179,18 +179,19 @@ impl CoarseBsArap {
         })?;
         clock.lap("coarse factorization");
         let n = mesh.n_vertices();
-        let fine = (coarse.fine_iterations > 0 || coarse.settle_iterations > 0)
-            .then(|| FineLevel::new(mesh, &constraints, config, Queue::FullMesh));
-        let fine_handles = handles.handle_vertices();
-        let level = match (&base.level, coarse.settle_iterations) {
-            (Some(l), 1..) => Some(LevelSolver::new(mesh, l, handles, &fine_handles, config)?),
-            _ => None,
-        };
         let pinned = constraints
             .pinned_vertices
             .iter()
             .map(|&v| (v, mesh.positions()[v as usize]))
             .collect();
+        let fine = (coarse.fine_iterations > 0 || coarse.settle_iterations > 0)
+            .then(|| FineLevel::new(mesh, constraints, config, Queue::FullMesh));
+        let fine_handles = handles.handle_vertices();
+        let level = match (&base.level, coarse.settle_iterations) {
+            (Some(l), 1..) => Some(LevelSolver::new(mesh, l, handles, &fine_handles, config)?),
+            _ => None,
+        };
+        clock.lap("settling's inputs");
         Ok(CoarseBsArap {
             fine,
             fine_iterations: coarse.fine_iterations,

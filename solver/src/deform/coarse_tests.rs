@@ -68,7 +68,7 @@ fn a_failed_fine_factorization_stops_settling_not_solving() {
     .unwrap();
     let collapsed_handles = Handles::from_options(vec![Some(0), None, None, Some(0)]).unwrap();
     let constraints = Constraints::new(&collapsed, &collapsed_handles);
-    c.fine = Some(FineLevel::new(&collapsed, &constraints, &config, Queue::FullMesh));
+    c.fine = Some(FineLevel::new(&collapsed, constraints, &config, Queue::FullMesh));
     assert!(c.settle(&targets).is_err());
     assert!(!c.settle_pending(), "settling offered again after its factorization failed");
     assert!(c.solve(&moved(0.12)).unwrap().converged);
@@ -165,7 +165,7 @@ fn a_failed_level_leaves_settling_to_the_full_mesh() {
     let constraints = Constraints::new(&collapsed, &collapsed_handles);
     let config = ArapConfig::default();
     c.level.as_mut().expect("a level solver").arap =
-        FineLevel::new(&collapsed, &constraints, &config, Queue::Level);
+        FineLevel::new(&collapsed, constraints, &config, Queue::Level);
     let before = c.positions().to_vec();
     let st = c.settle(&targets).unwrap().expect("a settle step");
     assert!(st.fine_on_level && st.fine_iterations == 0 && !st.converged, "{st:?}");

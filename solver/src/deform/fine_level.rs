@@ -84,14 +84,15 @@ fn factor(inputs: &(Mesh, Constraints, ArapConfig)) -> (Result<Arap, SolveError>
 
 impl FineLevel {
     /// Not factored yet: `mesh` with `constraints` (the handles and pinned parts), `config`;
-    /// factored in the background in `queue`'s line.
+    /// factored in the background in `queue`'s line. Keeps a copy of the mesh's geometry
+    /// ([`Mesh::copy_geometry`]).
     pub fn new(
         mesh: &Mesh,
-        constraints: &Constraints,
+        constraints: Constraints,
         config: &ArapConfig,
         queue: Queue,
     ) -> FineLevel {
-        let inputs = (mesh.clone(), constraints.clone(), *config);
+        let inputs = (mesh.copy_geometry(), constraints, *config);
         FineLevel { state: State::Pending(Box::new(inputs)), queue }
     }
 
@@ -211,7 +212,7 @@ mod tests {
         let mesh = Mesh::new(positions, vec![[0, 1, 3], [1, 2, 3], [0, 2, 1]]).unwrap();
         let handles = Handles::from_options(vec![Some(0), None, None, Some(0)]).unwrap();
         let constraints = Constraints::new(&mesh, &handles);
-        let mut fine = FineLevel::new(&mesh, &constraints, &ArapConfig::default(), Queue::Level);
+        let mut fine = FineLevel::new(&mesh, constraints, &ArapConfig::default(), Queue::Level);
         assert!(!fine.has_failed() && !fine.is_ready());
         let first = fine.factor().unwrap_err();
         assert!(fine.has_failed() && !fine.is_ready());
@@ -239,8 +240,8 @@ mod tests {
                 None => wait("the full mesh's queue never came free"),
             }
         };
-        let mut full = FineLevel::new(&mesh, &constraints, &config, Queue::FullMesh);
-        let mut level = FineLevel::new(&mesh, &constraints, &config, Queue::Level);
+        let mut full = FineLevel::new(&mesh, constraints.clone(), &config, Queue::FullMesh);
+        let mut level = FineLevel::new(&mesh, constraints, &config, Queue::Level);
         while !level.factor_in_background() {
             wait("the level's factorization did not end");
         }

@@ -132,7 +132,7 @@ impl LevelSolver {
             })
             .collect();
         let constraints = Constraints::new(&level.mesh, &level_handles);
-        let arap = FineLevel::new(&level.mesh, &constraints, config, Queue::Level);
+        let arap = FineLevel::new(&level.mesh, constraints, config, Queue::Level);
         Ok(LevelSolver {
             arap,
             targets,
