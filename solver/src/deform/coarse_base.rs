@@ -35,7 +35,7 @@
 //! never hands it to another mesh.
 
 use crate::deform::config::BaseConfig;
-use crate::deform::embedding::{blend, embed, embed_from};
+use crate::deform::embedding::{blend, embed, embed_from, stored_weights};
 use crate::deform::level_fairing::{
     FairedBase, FairedLevel, Fairing, LEVEL_EDGES_PER_SMOOTHING_LENGTH, LevelView, faired_base_then,
 };
@@ -134,7 +134,7 @@ impl CoarseBase {
         let embedding: Vec<([u32; 3], [f64; 3])> = faces
             .iter()
             .zip(weights)
-            .map(|(&f, w)| (coarse_mesh.triangles()[f as usize], w))
+            .map(|(&f, w)| (coarse_mesh.triangles()[f as usize], stored_weights(w)))
             .collect();
         let cp = coarse_mesh.positions();
         let base_on_coarse: Vec<[f64; 3]> =
@@ -204,6 +204,7 @@ fn level_embedding(mesh: &Mesh, level: FairedLevel) -> Option<LevelEmbedding> {
     let FairedLevel { kept, triangles, representative, faces, weights, .. } = level;
     let positions = kept.iter().map(|&v| mesh.positions()[v as usize]).collect();
     let mesh = Mesh::new(positions, triangles).ok()?;
+    let weights = weights.into_iter().map(stored_weights).collect();
     Some(LevelEmbedding { mesh, kept, representative, faces, weights })
 }
 

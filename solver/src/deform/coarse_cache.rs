@@ -2,7 +2,7 @@
 //!
 //! The file holds what cannot be recomputed cheaply: the coarse mesh $B_c$ (positions and
 //! triangles), the fine index of each coarse vertex, each fine vertex's representative, coarse
-//! triangle and barycentric weights, and the settings and mesh fingerprint it was built for;
+//! triangle and barycentric weights (two `f32`s, [`crate::deform::embedding::stored_weights`]), and the settings and mesh fingerprint it was built for;
 //! for a base faired on a level, the level's triangles and vertices and each fine vertex's
 //! level representative, level triangle and weights ([`crate::deform::middle_level`]).
 //! The rest is recomputed on reading: the embedded points $P B_c$, the details
@@ -18,7 +18,7 @@
 
 use crate::deform::coarse_base::CoarseBase;
 use crate::deform::config::BaseConfig;
-use crate::deform::embedding::blend;
+use crate::deform::embedding::{blend, from_stored};
 use crate::deform::level_fairing::Fairing;
 use crate::deform::middle_level::LevelEmbedding;
 use crate::geometry::mesh::{Mesh, sub};
@@ -28,10 +28,10 @@ use std::time::Instant;
 const MAGIC: &[u8; 8] = b"BSARAPCB";
 
 /// The most files [`save`] leaves in its directory (the oldest go first): a base of a
-/// million-vertex mesh faired on a level is about 65 MiB (its level included).
+/// 1.5M-vertex mesh faired on a level is about 50 MiB (its level included).
 pub const MAX_FILES: usize = 8;
 /// The file format and the construction it stores: a file of another version is rebuilt.
-const VERSION: u32 = 6;
+const VERSION: u32 = 7;
 
 /// Why a cache file was not used.
 #[derive(Debug, thiserror::Error)]
@@ -69,6 +69,11 @@ pub fn save(base: &CoarseBase, path: &Path) -> std::io::Result<()> {
     let mut body = Vec::new();
     let u32s = |out: &mut Vec<u8>, v: &[u32]| v.iter().for_each(|x| out.extend(x.to_le_bytes()));
     let f64s = |out: &mut Vec<u8>, v: &[f64]| v.iter().for_each(|x| out.extend(x.to_le_bytes()));
+    // Two f32s per vertex: the weights are made so (`stored_weights`), the third follows.
+    let weights = |out: &mut Vec<u8>, w: &[f64; 3]| {
+        out.extend((w[0] as f32).to_le_bytes());
+        out.extend((w[1] as f32).to_le_bytes());
+    };
     body.extend(base.fingerprint.to_le_bytes());
     body.extend(base.smoothing.to_le_bytes());
     body.push(u8::from(base.level_fairing));
@@ -89,7 +94,7 @@ pub fn save(base: &CoarseBase, path: &Path) -> std::io::Result<()> {
     u32s(&mut body, &base.representative);
     u32s(&mut body, &base.faces);
     for (_, w) in &base.embedding {
-        f64s(&mut body, w);
+        weights(&mut body, w);
     }
     match &base.level {
         None => body.extend(0u64.to_le_bytes()),
@@ -100,7 +105,7 @@ pub fn save(base: &CoarseBase, path: &Path) -> std::io::Result<()> {
             u32s(&mut body, &l.kept);
             u32s(&mut body, &l.representative);
             u32s(&mut body, &l.faces);
-            f64s(&mut body, l.weights.as_flattened());
+            l.weights.iter().for_each(|w| weights(&mut body, w));
         }
     }
     let mut file = Vec::with_capacity(body.len() + 20);
@@ -180,7 +185,7 @@ pub fn load(path: &Path, mesh: &Mesh, config: &BaseConfig) -> Result<CoarseBase,
     let kept = r.u32s(nc).ok_or_else(|| invalid("short arrays"))?;
     let representative = r.u32s(n).ok_or_else(|| invalid("short arrays"))?;
     let faces = r.u32s(n).ok_or_else(|| invalid("short arrays"))?;
-    let weights = r.f64s(3 * n).ok_or_else(|| invalid("short arrays"))?;
+    let weights = r.weights(n).ok_or_else(|| invalid("short arrays"))?;
     let level_mesh = read_level(&mut r, mesh).map_err(invalid)?;
     if !r.bytes.is_empty() {
         return Err(invalid("trailing bytes"));
@@ -193,17 +198,15 @@ pub fn load(path: &Path, mesh: &Mesh, config: &BaseConfig) -> Result<CoarseBase,
     {
         return Err(invalid("index out of range"));
     }
-    if !cp.iter().chain(&weights).all(|x| x.is_finite()) || !floor.is_finite() || floor < 0.0 {
+    let finite = cp.iter().chain(weights.as_flattened()).all(|x| x.is_finite());
+    if !finite || !floor.is_finite() || floor < 0.0 {
         return Err(invalid("a number that is not finite"));
     }
     let positions: Vec<[f64; 3]> = cp.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
     let triangles: Vec<[u32; 3]> = ct.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
     let coarse_mesh = Mesh::new(positions, triangles).map_err(|_| invalid("coarse mesh"))?;
-    let embedding: Vec<([u32; 3], [f64; 3])> = faces
-        .iter()
-        .zip(weights.chunks_exact(3))
-        .map(|(&f, w)| (coarse_mesh.triangles()[f as usize], [w[0], w[1], w[2]]))
-        .collect();
+    let embedding: Vec<([u32; 3], [f64; 3])> =
+        faces.iter().zip(weights).map(|(&f, w)| (coarse_mesh.triangles()[f as usize], w)).collect();
     let cpos = coarse_mesh.positions();
     let base_on_coarse: Vec<[f64; 3]> = embedding.iter().map(|(t, w)| blend(cpos, t, w)).collect();
     let details = mesh.positions().iter().zip(&base_on_coarse).map(|(&p, &b)| sub(p, b)).collect();
@@ -248,7 +251,7 @@ fn read_level(r: &mut Reader, mesh: &Mesh) -> Result<Option<LevelEmbedding>, &'s
     let kept = r.u32s(nl).ok_or("short level arrays")?;
     let representative = r.u32s(n).ok_or("short level arrays")?;
     let faces = r.u32s(n).ok_or("short level arrays")?;
-    let weights = r.f64s(3 * n).ok_or("short level arrays")?;
+    let weights = r.weights(n).ok_or("short level arrays")?;
     if lt.iter().any(|&v| v as usize >= nl)
         || kept.iter().any(|&v| v as usize >= n)
         || kept.windows(2).any(|w| w[0] >= w[1])
@@ -257,13 +260,12 @@ fn read_level(r: &mut Reader, mesh: &Mesh) -> Result<Option<LevelEmbedding>, &'s
     {
         return Err("level index out of range");
     }
-    if !weights.iter().all(|x| x.is_finite()) {
+    if !weights.as_flattened().iter().all(|x| x.is_finite()) {
         return Err("a level weight that is not finite");
     }
     let positions = kept.iter().map(|&v| mesh.positions()[v as usize]).collect();
     let triangles = lt.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
     let level = Mesh::new(positions, triangles).map_err(|_| "level mesh")?;
-    let weights = weights.chunks_exact(3).map(|w| [w[0], w[1], w[2]]).collect();
     Ok(Some(LevelEmbedding { mesh: level, kept, representative, faces, weights }))
 }
 
@@ -298,6 +300,13 @@ impl Reader<'_> {
     fn u32s(&mut self, n: usize) -> Option<Vec<u32>> {
         let b = self.take(n.checked_mul(4)?)?;
         Some(b.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect())
+    }
+
+    /// `n` vertices' barycentric weights, two `f32`s each ([`from_stored`]).
+    fn weights(&mut self, n: usize) -> Option<Vec<[f64; 3]>> {
+        let b = self.take(n.checked_mul(8)?)?;
+        let f = |c: &[u8]| f32::from_le_bytes([c[0], c[1], c[2], c[3]]);
+        Some(b.chunks_exact(8).map(|c| from_stored(f(&c[..4]), f(&c[4..]))).collect())
     }
 
     fn f64s(&mut self, n: usize) -> Option<Vec<f64>> {

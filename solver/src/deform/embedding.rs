@@ -270,6 +270,23 @@ impl<'a> Search<'a> {
     }
 }
 
+/// Barycentric weights as the bases keep them: the first two rounded to `f32`, the third
+/// $1 - w_0 - w_1$ in `f64`. The disk cache ([`crate::deform::coarse_cache`]) stores the two
+/// `f32`s, a third of three `f64`s, and gets back exactly these; the sum stays one to the last
+/// bit or two, so a whole-mesh move is still reproduced exactly. Rounding moves an embedded
+/// point by at most about $10^{-7}$ of its triangle's size, and the details take it up.
+#[inline]
+pub fn stored_weights(w: [f64; 3]) -> [f64; 3] {
+    from_stored(w[0] as f32, w[1] as f32)
+}
+
+/// The weights [`stored_weights`] keeps, from its two `f32`s.
+#[inline]
+pub fn from_stored(w0: f32, w1: f32) -> [f64; 3] {
+    let (a, b) = (f64::from(w0), f64::from(w1));
+    [a, b, 1.0 - a - b]
+}
+
 /// $\sum_k w_k x_{t_k}$.
 #[inline]
 pub fn blend(x: &[[f64; 3]], t: &[u32; 3], w: &[f64; 3]) -> [f64; 3] {
