@@ -36,6 +36,19 @@ fn quaternions_round_trip() {
     }
 }
 
+/// A factorization that will fail, for `queue`: ARAP on a collapsed triangle (in place of a
+/// mesh too large for the memory available).
+fn failing(queue: Queue) -> FineLevel {
+    let collapsed = Mesh::new(
+        vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+        vec![[0, 1, 3], [1, 2, 3], [0, 2, 1]],
+    )
+    .unwrap();
+    let handles = Handles::from_options(vec![Some(0), None, None, Some(0)]).unwrap();
+    let constraints = Constraints::new(&collapsed, &handles);
+    FineLevel::new(&collapsed, constraints, &ArapConfig::default(), queue)
+}
+
 /// A full-mesh factorization that fails (in the editor, one too large for the memory
 /// available; here a fine level on a collapsed triangle put in its place) makes the settle step
 /// that needs it return the error, and the solver stops offering to settle while its coarse
@@ -61,14 +74,7 @@ fn a_failed_fine_factorization_stops_settling_not_solving() {
     let targets = moved(0.1);
     assert!(c.solve(&targets).unwrap().converged);
     assert!(c.settle_pending());
-    let collapsed = Mesh::new(
-        vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
-        vec![[0, 1, 3], [1, 2, 3], [0, 2, 1]],
-    )
-    .unwrap();
-    let collapsed_handles = Handles::from_options(vec![Some(0), None, None, Some(0)]).unwrap();
-    let constraints = Constraints::new(&collapsed, &collapsed_handles);
-    c.fine = Some(FineLevel::new(&collapsed, constraints, &config, Queue::FullMesh));
+    c.fine = Some(failing(Queue::FullMesh));
     assert!(c.settle(&targets).is_err());
     assert!(!c.settle_pending(), "settling offered again after its factorization failed");
     assert!(c.solve(&moved(0.12)).unwrap().converged);
@@ -156,16 +162,7 @@ fn settling_goes_through_the_level_first() {
 #[test]
 fn a_failed_level_leaves_settling_to_the_full_mesh() {
     let (_, handles, mut c, targets, mut reference, coarse) = on_a_level();
-    let collapsed = Mesh::new(
-        vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
-        vec![[0, 1, 3], [1, 2, 3], [0, 2, 1]],
-    )
-    .unwrap();
-    let collapsed_handles = Handles::from_options(vec![Some(0), None, None, Some(0)]).unwrap();
-    let constraints = Constraints::new(&collapsed, &collapsed_handles);
-    let config = ArapConfig::default();
-    c.level.as_mut().expect("a level solver").arap =
-        FineLevel::new(&collapsed, constraints, &config, Queue::Level);
+    c.level.as_mut().expect("a level solver").arap = failing(Queue::Level);
     let before = c.positions().to_vec();
     let st = c.settle(&targets).unwrap().expect("a settle step");
     assert!(st.fine_on_level && st.fine_iterations == 0 && !st.converged, "{st:?}");
