@@ -188,6 +188,33 @@ pub fn background_pool() -> Option<&'static rayon::ThreadPool> {
     .as_ref()
 }
 
+/// The pool settling's factorizations run on (`solver::deform::fine_level`: the full mesh's
+/// takes seconds at 692k vertices and over a minute at 1.5M), at the idle scheduling class:
+/// a thread of it runs only on a core nothing else wants, so a drag started while the full
+/// mesh is still being factored keeps most of its rate (`editor_rate --while-factoring` at
+/// 692k, BENCHMARKS.md: on rayon's pool the factorization added 30 ms to a 43 ms frame, at
+/// nice 10 about as much, here 5 ms). Settling waits for the handles to stop, when the cores
+/// are free. The mesh's own precomputation stays at nice 10 on
+/// [`background_pool`]: it must progress even while a software-rendered window keeps the
+/// cores busy. Registered with the solver on first use; `None` when it cannot be made.
+pub fn factorization_pool() -> Option<&'static rayon::ThreadPool> {
+    static POOL: OnceLock<Option<rayon::ThreadPool>> = OnceLock::new();
+    let pool = POOL
+        .get_or_init(|| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(rayon::current_num_threads())
+                .thread_name(|i| format!("factorization-{i}"))
+                .start_handler(|_| idle_priority())
+                .build()
+                .ok()
+        })
+        .as_ref();
+    if let Some(pool) = pool {
+        solver::deform::fine_level::set_background_pool(pool);
+    }
+    pool
+}
+
 /// Lowers the calling thread's scheduling priority (nice 10; a failure leaves it as it was).
 #[cfg(target_os = "linux")]
 fn lower_priority() {
@@ -201,6 +228,24 @@ fn lower_priority() {
 /// Lowers the calling thread's scheduling priority (not done outside Linux).
 #[cfg(not(target_os = "linux"))]
 fn lower_priority() {}
+
+/// Puts the calling thread in the idle scheduling class (`SCHED_IDLE`; nice 19 where that is
+/// refused).
+#[cfg(target_os = "linux")]
+fn idle_priority() {
+    let param = libc::sched_param { sched_priority: 0 };
+    // SAFETY: both take plain integers or a pointer to a live local; `pid` 0 and `who` 0 name
+    // the calling thread.
+    unsafe {
+        if libc::sched_setscheduler(0, libc::SCHED_IDLE, &param) != 0 {
+            libc::setpriority(libc::PRIO_PROCESS, 0, 19);
+        }
+    }
+}
+
+/// The idle scheduling class (not done outside Linux).
+#[cfg(not(target_os = "linux"))]
+fn idle_priority() {}
 
 /// What a recording needs: everything is owned, the UI keeps editing meanwhile.
 pub struct RecordInput {
@@ -478,5 +523,23 @@ mod tests {
         assert_eq!(there.len(), rayon::current_num_threads());
         assert!(there.iter().all(|&n| n >= 10.max(here)), "{there:?} (here {here})");
         assert_eq!(nice(), here, "the caller's own priority is unchanged");
+    }
+
+    /// Settling's factorizations run at the idle scheduling class, and the solver library
+    /// knows the pool.
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn factorizations_run_at_the_idle_class() {
+        // SAFETY: sched_getscheduler takes a plain integer and touches no memory of ours.
+        let policy = || unsafe { libc::sched_getscheduler(0) };
+        let here = policy();
+        let pool = factorization_pool().expect("a pool");
+        let there: Vec<i32> = pool.broadcast(|_| policy());
+        assert!(there.iter().all(|&p| p == libc::SCHED_IDLE), "{there:?}");
+        assert_eq!(policy(), here, "the caller's own class is unchanged");
+        assert!(
+            !solver::deform::fine_level::set_background_pool(pool),
+            "the pool was not registered with the solver"
+        );
     }
 }

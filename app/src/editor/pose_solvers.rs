@@ -10,10 +10,13 @@ use solver::{FrameStats, Handles, LooseParts, Mesh, MeshCache};
 use super::solver_thread::{MethodSettings, PoseSolver, PoseSolverFactory, Slot};
 
 /// The factory used by the editor: the main slot runs `settings.bs_variant`, the comparison
-/// slot `settings.compare_variant` (ARAP by default). What depends on the mesh only comes from
+/// slot `settings.compare_variant` (ARAP by default); the full mesh's and the level's
+/// factorizations for settling run on `jobs::factorization_pool`. What depends on the mesh only comes from
 /// `cache` (shared with the precomputation started on loading, `jobs::spawn_prepare`), so a
 /// repainted handle set costs only its own part.
 pub fn factory(cache: Arc<Mutex<MeshCache>>) -> PoseSolverFactory {
+    // Settling's factorizations run on their idle pool, beside the solves.
+    let _ = super::jobs::factorization_pool();
     Arc::new(
         move |slot: Slot,
               mesh: &Mesh,

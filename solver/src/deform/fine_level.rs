@@ -13,6 +13,11 @@
 //! factored settles on the level without waiting for it. A failed factorization is kept and
 //! reported every time (it would fail again); a panic of the factoring thread is resumed on the
 //! caller's.
+//!
+//! An application can give the factorizations a pool of its own to run their parallel work on
+//! ([`set_background_pool`]; the editor's runs at a lower priority): otherwise they share
+//! rayon's global pool with whatever the application does meanwhile, such as the next drag's
+//! solves, whose parallel passes then queue behind the factorization's tasks.
 
 use crate::deform::arap::{Arap, ArapConfig};
 use crate::deform::constraints::Constraints;
@@ -62,6 +67,17 @@ enum State {
     Factoring(JoinHandle<(Result<Arap, SolveError>, f64)>),
     Ready(Box<Arap>),
     Failed(SolveError),
+}
+
+/// Where background factorizations run their parallel work ([`set_background_pool`]).
+static BACKGROUND_POOL: std::sync::OnceLock<&'static rayon::ThreadPool> =
+    std::sync::OnceLock::new();
+
+/// Makes background factorizations ([`FineLevel::factor_in_background`]) run their parallel
+/// work on `pool` (module doc), from the next one on; false when a pool was set before (it
+/// stays).
+pub fn set_background_pool(pool: &'static rayon::ThreadPool) -> bool {
+    BACKGROUND_POOL.set(pool).is_ok()
 }
 
 /// Held by the thread that took its queue's one place; frees it on drop (when done, and when
@@ -149,7 +165,10 @@ impl FineLevel {
         let spawned =
             std::thread::Builder::new().name("bsarap fine factorization".into()).spawn(move || {
                 let _slot = slot;
-                let done = factor(&inputs);
+                let done = match BACKGROUND_POOL.get() {
+                    Some(pool) => pool.install(|| factor(&inputs)),
+                    None => factor(&inputs),
+                };
                 drop(inputs);
                 done
             });
