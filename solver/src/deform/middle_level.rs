@@ -66,6 +66,7 @@ enum LevelTarget {
 /// needed like the full mesh's ([`FineLevel`]).
 #[derive(Debug)]
 pub struct LevelSolver {
+    /// The level's ARAP (crate-visible for a test that puts a failing one in its place).
     pub(crate) arap: FineLevel,
     /// Per level handle (in the level's handle order), its target's source.
     targets: Vec<LevelTarget>,
