@@ -236,7 +236,7 @@ impl NativeDeformer {
     /// The handle vertices, ascending (the row order of targets).
     #[getter]
     fn handle_vertices<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<i64>> {
-        let h: Vec<i64> = self.handles.handle_vertices().into_iter().map(i64::from).collect();
+        let h: Vec<i64> = self.handles.handle_vertices().iter().map(|&v| i64::from(v)).collect();
         PyArray1::from_vec(py, h)
     }
 

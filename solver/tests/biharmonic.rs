@@ -49,7 +49,7 @@ fn base_interpolates_handles_and_is_biharmonic() {
     let h = Handles::from_labels(&labels, m.n_vertices()).unwrap();
     let bs = BsArap::new(&m, &h, &ArapConfig::default()).unwrap();
     let b = bs.base();
-    for v in h.handle_vertices() {
+    for &v in h.handle_vertices() {
         assert_eq!(b[v as usize], m.positions()[v as usize], "B must interpolate handle {v}");
         assert_eq!(bs.details()[v as usize], [0.0; 3]);
     }

@@ -100,7 +100,7 @@ fn coincident_handle_targets_give_a_finite_pose() {
         d.solve(&targets).unwrap_or_else(|e| panic!("{method:?}: {e}"));
         let x = d.positions();
         assert!(all_finite(x), "{method:?}");
-        for v in h.handle_vertices() {
+        for &v in h.handle_vertices() {
             assert_eq!(x[v as usize], point, "{method:?}: handle {v} is off its target");
         }
     }

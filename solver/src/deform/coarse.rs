@@ -188,7 +188,7 @@ impl CoarseBsArap {
             .then(|| FineLevel::new(mesh, constraints, config, Queue::FullMesh));
         let fine_handles = handles.handle_vertices();
         let level = match (&base.level, coarse.settle_iterations) {
-            (Some(l), 1..) => Some(LevelSolver::new(mesh, l, handles, &fine_handles, config)?),
+            (Some(l), 1..) => Some(LevelSolver::new(mesh, l, handles, fine_handles, config)?),
             _ => None,
         };
         clock.lap("settling's inputs");
@@ -213,7 +213,7 @@ impl CoarseBsArap {
             corrected: false,
             deformed_base: std::sync::OnceLock::new(),
             result: mesh.positions().to_vec(),
-            fine_handles,
+            fine_handles: fine_handles.to_vec(),
             groups,
             base,
             arap,

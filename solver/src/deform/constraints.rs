@@ -77,7 +77,7 @@ impl Constraints {
             }
         }
         Constraints {
-            handle_vertices,
+            handle_vertices: handle_vertices.to_vec(),
             pinned_vertices,
             pinned_components,
             free_index,

@@ -28,6 +28,10 @@ pub struct Handles {
     labels: Vec<Option<u32>>,
     /// `groups[k]` = sorted vertex indices of group `k` (empty for ids absent from the labels).
     groups: Vec<Vec<u32>>,
+    /// Every handle vertex, ascending ([`Handles::handle_vertices`]: read every frame, where a
+    /// scan of the labels cost milliseconds at a million vertices). A boxed slice: a handle
+    /// set travels in messages (the editor's solver commands) where size counts.
+    handle_vertices: Box<[u32]>,
     /// Stiff regions and soft falloffs ([`crate::deform::rig`]); empty by default. Boxed: a
     /// handle set travels in messages (the editor's solver commands) where size counts.
     rig: Box<Rig>,
@@ -59,12 +63,15 @@ impl Handles {
             return Err(HandlesError::Empty);
         }
         let mut groups = vec![Vec::new(); n_groups];
+        let mut handle_vertices = Vec::new();
         for (v, l) in labels.iter().enumerate() {
             if let Some(k) = l {
                 groups[*k as usize].push(v as u32);
+                handle_vertices.push(v as u32);
             }
         }
-        Ok(Handles { labels, groups, rig: Box::default() })
+        let handle_vertices = handle_vertices.into_boxed_slice();
+        Ok(Handles { labels, groups, handle_vertices, rig: Box::default() })
     }
 
     /// The same selection with `rig` (rigidity map, per-group falloffs). A rigidity map of
@@ -116,8 +123,8 @@ impl Handles {
     }
 
     /// All handle vertices, ascending.
-    pub fn handle_vertices(&self) -> Vec<u32> {
-        (0..self.labels.len() as u32).filter(|&v| self.labels[v as usize].is_some()).collect()
+    pub fn handle_vertices(&self) -> &[u32] {
+        &self.handle_vertices
     }
 
     /// Is vertex `v` a handle vertex?

@@ -229,7 +229,7 @@ mod tests {
         let handles = Handles::from_options(labels).unwrap();
         let fine_handles = handles.handle_vertices();
         let config = ArapConfig::default();
-        let solver = LevelSolver::new(&mesh, level, &handles, &fine_handles, &config).unwrap();
+        let solver = LevelSolver::new(&mesh, level, &handles, fine_handles, &config).unwrap();
         assert_eq!(solver.targets.len(), 2, "{:?}", solver.targets);
         let fine_index = fine_handles.binary_search(&on_level).unwrap();
         assert!(

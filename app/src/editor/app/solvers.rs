@@ -137,7 +137,7 @@ impl EditorApp {
         self.solvers.scene_generation += 1;
         let Some(scene) = self.new_scene() else { return };
         for s in self.solvers.iter() {
-            s.send(SolverCommand::SetScene(scene.clone()));
+            s.send(SolverCommand::SetScene(Box::new(scene.clone())));
         }
     }
 
@@ -245,7 +245,7 @@ impl EditorApp {
             self.solvers.compare = self.spawn_solver(ctx, Slot::Compare);
             self.solvers.views[1] = SolverView::default();
             if let (Some(scene), Some(arap)) = (self.new_scene(), &self.solvers.compare) {
-                arap.send(SolverCommand::SetScene(scene));
+                arap.send(SolverCommand::SetScene(Box::new(scene)));
             }
         } else if !want && self.solvers.compare.is_some() {
             self.solvers.compare = None;

@@ -180,8 +180,9 @@ pub struct NewScene {
 
 /// The closed set of messages the UI sends to a solver thread.
 pub enum SolverCommand {
-    /// A new mesh and/or handle set / method settings: rebuild the pose solver.
-    SetScene(NewScene),
+    /// A new mesh and/or handle set / method settings: rebuild the pose solver (boxed: the
+    /// other messages are small).
+    SetScene(Box<NewScene>),
     /// New modes of the loose parts (no refactorization); the frame that shows them carries
     /// `pose_generation`.
     SetLooseParts {

@@ -47,7 +47,7 @@ fn factory() -> PoseSolverFactory {
     Arc::new(|_, mesh: &Mesh, handles: &Handles, _: &MethodSettings, _: &_| {
         Ok(Box::new(Shift {
             rest: mesh.positions().to_vec(),
-            handle_vertices: handles.handle_vertices(),
+            handle_vertices: handles.handle_vertices().to_vec(),
         }) as Box<dyn PoseSolver>)
     })
 }
@@ -74,7 +74,7 @@ fn faces_of(mesh: &Mesh) -> Arc<VertexFaces> {
 }
 
 fn scene(generation: u64, poses: Vec<GroupPose>) -> SolverCommand {
-    SolverCommand::SetScene(NewScene {
+    SolverCommand::SetScene(Box::new(NewScene {
         scene_generation: generation,
         vertex_faces: faces_of(&tri()),
         mesh: tri(),
@@ -83,7 +83,7 @@ fn scene(generation: u64, poses: Vec<GroupPose>) -> SolverCommand {
         loose_parts: Default::default(),
         poses,
         pose_generation: 0,
-    })
+    }))
 }
 
 #[test]
@@ -149,8 +149,10 @@ impl PoseSolver for Settles {
 #[test]
 fn converged_poses_are_settled_until_converged() {
     let factory: PoseSolverFactory = Arc::new(|_, mesh: &Mesh, handles: &Handles, _: &_, _: &_| {
-        let shift =
-            Shift { rest: mesh.positions().to_vec(), handle_vertices: handles.handle_vertices() };
+        let shift = Shift {
+            rest: mesh.positions().to_vec(),
+            handle_vertices: handles.handle_vertices().to_vec(),
+        };
         Ok(Box::new(Settles { shift, steps: 0 }) as Box<dyn PoseSolver>)
     });
     let h = SolverHandle::spawn(Slot::Main, factory, Arc::new(|| {})).unwrap();
@@ -181,7 +183,7 @@ fn endless_settle_factory() -> (Arc<Mutex<SettleLog>>, PoseSolverFactory) {
         Arc::new(move |_, mesh: &Mesh, handles: &Handles, _: &_, _: &_| {
             let shift = Shift {
                 rest: mesh.positions().to_vec(),
-                handle_vertices: handles.handle_vertices(),
+                handle_vertices: handles.handle_vertices().to_vec(),
             };
             Ok(Box::new(EndlessSettle { shift, log: shared_log.clone() }) as Box<dyn PoseSolver>)
         });
@@ -301,7 +303,7 @@ fn settling_waits_for_its_preparation_without_holding_up_new_poses() {
         Arc::new(move |_, mesh: &Mesh, handles: &Handles, _: &_, _: &_| {
             let shift = Shift {
                 rest: mesh.positions().to_vec(),
-                handle_vertices: handles.handle_vertices(),
+                handle_vertices: handles.handle_vertices().to_vec(),
             };
             let (ready, asked) = (r.clone(), a.clone());
             Ok(Box::new(SlowToSettle { shift, ready, asked, settled: false })
@@ -342,8 +344,10 @@ impl PoseSolver for WithBase {
 #[test]
 fn the_base_is_built_only_while_shown() {
     let factory: PoseSolverFactory = Arc::new(|_, mesh: &Mesh, handles: &Handles, _: &_, _: &_| {
-        let shift =
-            Shift { rest: mesh.positions().to_vec(), handle_vertices: handles.handle_vertices() };
+        let shift = Shift {
+            rest: mesh.positions().to_vec(),
+            handle_vertices: handles.handle_vertices().to_vec(),
+        };
         Ok(Box::new(WithBase(shift)) as Box<dyn PoseSolver>)
     });
     let h = SolverHandle::spawn(Slot::Main, factory, Arc::new(|| {})).unwrap();
@@ -420,7 +424,7 @@ fn loose_parts_change_without_a_rebuild() {
         });
     let h = SolverHandle::spawn(Slot::Compare, factory, Arc::new(|| {})).unwrap();
     let moved = GroupPose { translation: [0.3, 0.0, 0.0], ..Default::default() };
-    h.send(SolverCommand::SetScene(NewScene {
+    h.send(SolverCommand::SetScene(Box::new(NewScene {
         scene_generation: 1,
         vertex_faces: faces_of(&mesh),
         mesh,
@@ -429,7 +433,7 @@ fn loose_parts_change_without_a_rebuild() {
         loose_parts: LooseParts::default(),
         poses: vec![GroupPose::default(), moved],
         pose_generation: 1,
-    }));
+    })));
     let small_vertices = n as usize..p.len();
     let shift = |f: &SolvedFrame| {
         small_vertices

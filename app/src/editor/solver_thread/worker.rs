@@ -298,7 +298,7 @@ fn drain_commands(rx: &Receiver<SolverCommand>, wait: Option<Duration>) -> Optio
             SolverCommand::Republish => inbox.republish = true,
             SolverCommand::InjectPanic => panic!("injected solver panic (test hook)"),
             SolverCommand::SetScene(scene) => {
-                inbox.scene = Some(scene);
+                inbox.scene = Some(*scene);
                 inbox.poses = None;
                 inbox.loose_parts = None;
             }
