@@ -45,22 +45,23 @@ pub fn handle_targets(
     handles: &Handles,
     transforms: &[(usize, GroupTransform)],
 ) -> Result<Vec<[f64; 3]>, HandlesError> {
-    let mut per_group: Vec<Option<(GroupTransform, [f64; 3])>> = vec![None; handles.n_groups()];
+    // Per group: (rotation, rest centroid, translation), or `None` to stay exactly at rest.
+    let mut per_group: Vec<Option<(Mat3, [f64; 3], [f64; 3])>> = vec![None; handles.n_groups()];
     for &(k, t) in transforms {
         let c = group_centroid(rest, handles, k)?;
-        per_group[k] = Some((t, c));
+        // The identity leaves the group exactly at rest (c + (p − c) may round).
+        per_group[k] = (t != GroupTransform::default()).then_some((t.rotation, c, t.translation));
     }
+    let labels = handles.labels();
     Ok(handles
         .handle_vertices()
         .iter()
         .map(|&v| {
             let p = rest[v as usize];
-            match handles.labels()[v as usize].and_then(|k| per_group[k as usize]) {
-                // The identity leaves the group exactly at rest (c + (p − c) may round).
-                Some((t, _)) if t == GroupTransform::default() => p,
-                Some((t, c)) => {
-                    let r = mul_vec(&t.rotation, [p[0] - c[0], p[1] - c[1], p[2] - c[2]]);
-                    std::array::from_fn(|d| c[d] + r[d] + t.translation[d])
+            match labels[v as usize].and_then(|k| per_group[k as usize].as_ref()) {
+                Some((rotation, c, t)) => {
+                    let r = mul_vec(rotation, [p[0] - c[0], p[1] - c[1], p[2] - c[2]]);
+                    std::array::from_fn(|d| c[d] + r[d] + t[d])
                 }
                 None => p,
             }
