@@ -37,6 +37,9 @@ pub fn group_centroid(
     Ok(c.map(|x| x / g.len() as f64))
 }
 
+/// A moved group's rotation, rest centroid and translation.
+type Moved = (Mat3, [f64; 3], [f64; 3]);
+
 /// Targets `#H×3` in the order of [`Handles::handle_vertices`] for `(group, transform)` pairs;
 /// groups not listed, and groups with the identity transform, stay exactly at rest. An unknown
 /// group is an error.
@@ -45,8 +48,8 @@ pub fn handle_targets(
     handles: &Handles,
     transforms: &[(usize, GroupTransform)],
 ) -> Result<Vec<[f64; 3]>, HandlesError> {
-    // Per group: (rotation, rest centroid, translation), or `None` to stay exactly at rest.
-    let mut per_group: Vec<Option<(Mat3, [f64; 3], [f64; 3])>> = vec![None; handles.n_groups()];
+    // Per group: its motion, or `None` to stay exactly at rest.
+    let mut per_group: Vec<Option<Moved>> = vec![None; handles.n_groups()];
     for &(k, t) in transforms {
         let c = group_centroid(rest, handles, k)?;
         // The identity leaves the group exactly at rest (c + (p − c) may round).
