@@ -177,15 +177,17 @@ pub fn spawn_prepare(
 /// solvers leave of the cores. `None` when the pool cannot be made (then rayon's own).
 pub fn background_pool() -> Option<&'static rayon::ThreadPool> {
     static POOL: OnceLock<Option<rayon::ThreadPool>> = OnceLock::new();
-    POOL.get_or_init(|| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(rayon::current_num_threads())
-            .thread_name(|i| format!("background-{i}"))
-            .start_handler(|_| lower_priority())
-            .build()
-            .ok()
-    })
-    .as_ref()
+    POOL.get_or_init(|| pool_of("background", lower_priority)).as_ref()
+}
+
+/// A pool as wide as rayon's own, its threads named `name-i`, each running `setup` first.
+fn pool_of(name: &'static str, setup: fn()) -> Option<rayon::ThreadPool> {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(rayon::current_num_threads())
+        .thread_name(move |i| format!("{name}-{i}"))
+        .start_handler(move |_| setup())
+        .build()
+        .ok()
 }
 
 /// The pool settling's factorizations run on (`solver::deform::fine_level`: the full mesh's
@@ -199,16 +201,7 @@ pub fn background_pool() -> Option<&'static rayon::ThreadPool> {
 /// cores busy. Registered with the solver on first use; `None` when it cannot be made.
 pub fn factorization_pool() -> Option<&'static rayon::ThreadPool> {
     static POOL: OnceLock<Option<rayon::ThreadPool>> = OnceLock::new();
-    let pool = POOL
-        .get_or_init(|| {
-            rayon::ThreadPoolBuilder::new()
-                .num_threads(rayon::current_num_threads())
-                .thread_name(|i| format!("factorization-{i}"))
-                .start_handler(|_| idle_priority())
-                .build()
-                .ok()
-        })
-        .as_ref();
+    let pool = POOL.get_or_init(|| pool_of("factorization", idle_priority)).as_ref();
     if let Some(pool) = pool {
         solver::deform::fine_level::set_background_pool(pool);
     }
