@@ -106,7 +106,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let t = Instant::now();
         let mut d = make(slot, &mesh, &handles, &settings, &solver::LooseParts::default())?;
         let precompute = t.elapsed().as_secs_f64() * 1e3;
-        let mut x = mesh.positions().to_vec();
         let (mut times, mut iterations, mut at_cap, mut shape_ms) = (Vec::new(), 0, 0, 0.0);
         let (mut shapes, mut shown) = (ShapePool::default(), None);
         for f in 1..=frames {
@@ -115,13 +114,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             poses[group].translation = [radius * (theta.cos() - 1.0), radius * theta.sin(), 0.0];
             let t = Instant::now();
             let targets = handle_targets(&mesh, &handles, &poses)?;
-            let stats = d.solve(&targets, &mut x)?;
+            let stats = d.solve(&targets)?;
             // What the thread publishes: the pose's f32 positions and normals (the deformed
             // base only while the Base view is open; the detail magnitudes once per scene).
             // The thread's pool reuses a frame's buffers once the UI has dropped them; the UI
             // holds the shape it draws until the next one comes.
             let ts = Instant::now();
-            let shape = shapes.shape(&x, mesh.triangles(), (!gpu_normals).then_some(&vertex_faces));
+            let shape = shapes.shape(
+                d.positions(),
+                mesh.triangles(),
+                (!gpu_normals).then_some(&vertex_faces),
+            );
             shape_ms += ts.elapsed().as_secs_f64() * 1e3;
             std::hint::black_box(shown.replace(shape));
             times.push(t.elapsed().as_secs_f64() * 1e3);
@@ -151,20 +154,20 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let targets = handle_targets(&mesh, &handles, &poses)?;
         let mut solves = 1;
         let t = Instant::now();
-        while !d.solve(&targets, &mut x)?.converged && solves < 1000 {
+        while !d.solve(&targets)?.converged && solves < 1000 {
             solves += 1;
         }
         let solve_seconds = t.elapsed().as_secs_f64();
-        let before = x.clone();
+        let before = d.positions().to_vec();
         let t = Instant::now();
         let (mut steps, mut fine) = (0, 0);
         let mut timeline = Vec::new();
-        while let Some(s) = d.settle(&targets, &mut x)? {
+        while let Some(s) = d.settle(&targets)? {
             steps += 1;
             fine += s.fine_iterations;
             let at = t.elapsed().as_secs_f64();
             if SNAPSHOTS.get(timeline.len()).is_some_and(|&due| at >= due) {
-                timeline.push((at, x.clone()));
+                timeline.push((at, d.positions().to_vec()));
             }
             if s.converged || steps >= 1000 {
                 break;
@@ -178,7 +181,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 targets,
                 solves,
                 before,
-                x.clone(),
+                d.positions().to_vec(),
                 steps,
                 fine,
                 seconds,
@@ -269,13 +272,12 @@ fn drag_while_factoring(
         poses[group].translation = [radius * (theta.cos() - 1.0), radius * theta.sin(), 0.0];
         poses
     };
-    let mut x = mesh.positions().to_vec();
     let targets = handle_targets(mesh, handles, &pose(frames / 2))?;
-    while !d.solve(&targets, &mut x)?.converged {}
+    while !d.solve(&targets)?.converged {}
     let (t, mut level_steps) = (Instant::now(), 0);
     loop {
         if d.settle_ready() {
-            if d.settle(&targets, &mut x)?.is_none() {
+            if d.settle(&targets)?.is_none() {
                 return Err("nothing to settle".into());
             }
             level_steps += 1;
@@ -295,8 +297,12 @@ fn drag_while_factoring(
     for f in 1..=frames {
         let t = Instant::now();
         let targets = handle_targets(mesh, handles, &pose(f))?;
-        d.solve(&targets, &mut x)?;
-        std::hint::black_box(shown.replace(shapes.shape(&x, mesh.triangles(), Some(vertex_faces))));
+        d.solve(&targets)?;
+        std::hint::black_box(shown.replace(shapes.shape(
+            d.positions(),
+            mesh.triangles(),
+            Some(vertex_faces),
+        )));
         times.push(t.elapsed().as_secs_f64() * 1e3);
     }
     let mean = times.iter().sum::<f64>() / frames as f64;

@@ -53,18 +53,14 @@ pub fn label(m: solver::Method) -> &'static str {
 
 struct DeformerPoseSolver(solver::Deformer);
 
-impl DeformerPoseSolver {
-    /// The result into `x` and the frame's statistics.
-    fn frame(&self, stats: &solver::SolveStats, x: &mut [[f64; 3]]) -> FrameStats {
-        x.copy_from_slice(self.0.positions());
-        stats.frame_stats()
-    }
-}
-
 impl PoseSolver for DeformerPoseSolver {
-    fn solve(&mut self, targets: &[[f64; 3]], x: &mut [[f64; 3]]) -> Result<FrameStats, String> {
+    fn solve(&mut self, targets: &[[f64; 3]]) -> Result<FrameStats, String> {
         let stats = self.0.solve(targets).map_err(|e| e.to_string())?;
-        Ok(self.frame(&stats, x))
+        Ok(stats.frame_stats())
+    }
+
+    fn positions(&self) -> &[[f64; 3]] {
+        self.0.positions()
     }
 
     fn components(&self) -> Vec<solver::ComponentInfo> {
@@ -82,14 +78,10 @@ impl PoseSolver for DeformerPoseSolver {
         }
     }
 
-    fn settle(
-        &mut self,
-        targets: &[[f64; 3]],
-        x: &mut [[f64; 3]],
-    ) -> Result<Option<FrameStats>, String> {
+    fn settle(&mut self, targets: &[[f64; 3]]) -> Result<Option<FrameStats>, String> {
         let stats =
             self.0.settle(targets).map_err(|e| format!("settling on the full mesh: {e}"))?;
-        Ok(stats.map(|stats| self.frame(&stats, x)))
+        Ok(stats.map(|stats| stats.frame_stats()))
     }
 
     fn set_loose_parts(
@@ -97,11 +89,8 @@ impl PoseSolver for DeformerPoseSolver {
         mesh: &Mesh,
         handles: &Handles,
         parts: &LooseParts,
-        x: &mut [[f64; 3]],
     ) -> Result<(), String> {
-        self.0.set_loose_parts(mesh, handles, parts).map_err(|e| e.to_string())?;
-        x.copy_from_slice(self.0.positions());
-        Ok(())
+        self.0.set_loose_parts(mesh, handles, parts).map_err(|e| e.to_string())
     }
 
     fn deformed_base(&self) -> Option<Vec<[f64; 3]>> {

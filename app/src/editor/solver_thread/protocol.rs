@@ -94,9 +94,13 @@ impl Slot {
 /// own implementation wraps `solver::Deformer` (see `editor::pose_solvers`); tests plug in
 /// trivial ones.
 pub trait PoseSolver: Send {
-    /// Solves for `targets` (positions of `handles.handle_vertices()`, in that order); `x` is
-    /// the warm start in and the result out (`#V×3`).
-    fn solve(&mut self, targets: &[[f64; 3]], x: &mut [[f64; 3]]) -> Result<FrameStats, String>;
+    /// Solves for `targets` (positions of `handles.handle_vertices()`, in that order), warm
+    /// started from the pose it holds; the result is [`PoseSolver::positions`].
+    fn solve(&mut self, targets: &[[f64; 3]]) -> Result<FrameStats, String>;
+    /// The pose it holds (`#V×3`): the rest pose until the first solve, then the last solve's
+    /// or settle step's result. The thread makes each frame's shape from it without copying
+    /// it (36 MB a frame at 1.5M vertices).
+    fn positions(&self) -> &[[f64; 3]];
     /// The deformed base surface B' (BS-ARAP only), `#V×3`.
     fn deformed_base(&self) -> Option<Vec<[f64; 3]>> {
         None
@@ -124,24 +128,19 @@ pub trait PoseSolver: Send {
         true
     }
     /// Refines the last solve's converged pose, whose handles have stopped at `targets`, by a
-    /// step (`x` as in [`PoseSolver::solve`]); the thread calls it until the stats say converged.
-    /// `None`: nothing to refine (the default).
-    fn settle(
-        &mut self,
-        _targets: &[[f64; 3]],
-        _x: &mut [[f64; 3]],
-    ) -> Result<Option<FrameStats>, String> {
+    /// step (the result in [`PoseSolver::positions`]); the thread calls it until the stats say
+    /// converged. `None`: nothing to refine (the default).
+    fn settle(&mut self, _targets: &[[f64; 3]]) -> Result<Option<FrameStats>, String> {
         Ok(None)
     }
-    /// Changes the loose parts' modes (no refactorization) and writes the current pose with
-    /// them into `x`; `mesh` and `handles` are the scene's. The default does nothing (a pose
-    /// solver that does not move loose parts).
+    /// Changes the loose parts' modes (no refactorization), the current pose with them in
+    /// [`PoseSolver::positions`]; `mesh` and `handles` are the scene's. The default does
+    /// nothing (a pose solver that does not move loose parts).
     fn set_loose_parts(
         &mut self,
         _mesh: &Mesh,
         _handles: &Handles,
         _parts: &LooseParts,
-        _x: &mut [[f64; 3]],
     ) -> Result<(), String> {
         Ok(())
     }

@@ -17,17 +17,29 @@ use crate::editor::pose::GroupPose;
 struct Shift {
     rest: Vec<[f64; 3]>,
     handle_vertices: Vec<u32>,
+    x: Vec<[f64; 3]>,
+}
+
+impl Shift {
+    fn new(mesh: &Mesh, handles: &Handles) -> Shift {
+        let rest = mesh.positions().to_vec();
+        Shift { x: rest.clone(), rest, handle_vertices: handles.handle_vertices().to_vec() }
+    }
 }
 
 impl PoseSolver for Shift {
-    fn solve(&mut self, targets: &[[f64; 3]], x: &mut [[f64; 3]]) -> Result<FrameStats, String> {
+    fn positions(&self) -> &[[f64; 3]] {
+        &self.x
+    }
+
+    fn solve(&mut self, targets: &[[f64; 3]]) -> Result<FrameStats, String> {
         let mut d = [0.0; 3];
         for (t, &v) in targets.iter().zip(&self.handle_vertices) {
             for k in 0..3 {
                 d[k] += (t[k] - self.rest[v as usize][k]) / targets.len() as f64;
             }
         }
-        for (xi, r) in x.iter_mut().zip(&self.rest) {
+        for (xi, r) in self.x.iter_mut().zip(&self.rest) {
             *xi = [r[0] + d[0], r[1] + d[1], r[2] + d[2]];
         }
         Ok(FrameStats {
@@ -45,10 +57,7 @@ impl PoseSolver for Shift {
 
 fn factory() -> PoseSolverFactory {
     Arc::new(|_, mesh: &Mesh, handles: &Handles, _: &MethodSettings, _: &_| {
-        Ok(Box::new(Shift {
-            rest: mesh.positions().to_vec(),
-            handle_vertices: handles.handle_vertices().to_vec(),
-        }) as Box<dyn PoseSolver>)
+        Ok(Box::new(Shift::new(mesh, handles)) as Box<dyn PoseSolver>)
     })
 }
 
@@ -119,22 +128,22 @@ struct Settles {
 }
 
 impl PoseSolver for Settles {
+    fn positions(&self) -> &[[f64; 3]] {
+        self.shift.positions()
+    }
+
     fn settle_pending(&self) -> bool {
         self.steps < 3
     }
 
-    fn solve(&mut self, targets: &[[f64; 3]], x: &mut [[f64; 3]]) -> Result<FrameStats, String> {
+    fn solve(&mut self, targets: &[[f64; 3]]) -> Result<FrameStats, String> {
         self.steps = 0;
-        self.shift.solve(targets, x)
+        self.shift.solve(targets)
     }
 
-    fn settle(
-        &mut self,
-        _targets: &[[f64; 3]],
-        x: &mut [[f64; 3]],
-    ) -> Result<Option<FrameStats>, String> {
+    fn settle(&mut self, _targets: &[[f64; 3]]) -> Result<Option<FrameStats>, String> {
         self.steps += 1;
-        x[1][0] += 0.5;
+        self.shift.x[1][0] += 0.5;
         let converged = self.steps == 3;
         Ok(Some(FrameStats {
             fine_iterations: self.steps,
@@ -149,10 +158,7 @@ impl PoseSolver for Settles {
 #[test]
 fn converged_poses_are_settled_until_converged() {
     let factory: PoseSolverFactory = Arc::new(|_, mesh: &Mesh, handles: &Handles, _: &_, _: &_| {
-        let shift = Shift {
-            rest: mesh.positions().to_vec(),
-            handle_vertices: handles.handle_vertices().to_vec(),
-        };
+        let shift = Shift::new(mesh, handles);
         Ok(Box::new(Settles { shift, steps: 0 }) as Box<dyn PoseSolver>)
     });
     let h = SolverHandle::spawn(Slot::Main, factory, Arc::new(|| {})).unwrap();
@@ -181,10 +187,7 @@ fn endless_settle_factory() -> (Arc<Mutex<SettleLog>>, PoseSolverFactory) {
     let shared_log = log.clone();
     let factory: PoseSolverFactory =
         Arc::new(move |_, mesh: &Mesh, handles: &Handles, _: &_, _: &_| {
-            let shift = Shift {
-                rest: mesh.positions().to_vec(),
-                handle_vertices: handles.handle_vertices().to_vec(),
-            };
+            let shift = Shift::new(mesh, handles);
             Ok(Box::new(EndlessSettle { shift, log: shared_log.clone() }) as Box<dyn PoseSolver>)
         });
     (log, factory)
@@ -201,20 +204,20 @@ struct EndlessSettle {
 }
 
 impl PoseSolver for EndlessSettle {
+    fn positions(&self) -> &[[f64; 3]] {
+        self.shift.positions()
+    }
+
     fn settle_pending(&self) -> bool {
         true
     }
 
-    fn solve(&mut self, targets: &[[f64; 3]], x: &mut [[f64; 3]]) -> Result<FrameStats, String> {
+    fn solve(&mut self, targets: &[[f64; 3]]) -> Result<FrameStats, String> {
         self.log.lock().unwrap().push((false, targets[0][2], Instant::now()));
-        self.shift.solve(targets, x)
+        self.shift.solve(targets)
     }
 
-    fn settle(
-        &mut self,
-        targets: &[[f64; 3]],
-        _x: &mut [[f64; 3]],
-    ) -> Result<Option<FrameStats>, String> {
+    fn settle(&mut self, targets: &[[f64; 3]]) -> Result<Option<FrameStats>, String> {
         std::thread::sleep(Duration::from_millis(5));
         self.log.lock().unwrap().push((true, targets[0][2], Instant::now()));
         Ok(Some(FrameStats { fine_iterations: 1, ..FrameStats::default() }))
@@ -266,6 +269,10 @@ struct SlowToSettle {
 }
 
 impl PoseSolver for SlowToSettle {
+    fn positions(&self) -> &[[f64; 3]] {
+        self.shift.positions()
+    }
+
     fn settle_pending(&self) -> bool {
         !self.settled
     }
@@ -275,19 +282,15 @@ impl PoseSolver for SlowToSettle {
         self.ready.load(Ordering::Relaxed)
     }
 
-    fn solve(&mut self, targets: &[[f64; 3]], x: &mut [[f64; 3]]) -> Result<FrameStats, String> {
+    fn solve(&mut self, targets: &[[f64; 3]]) -> Result<FrameStats, String> {
         self.settled = false;
-        self.shift.solve(targets, x)
+        self.shift.solve(targets)
     }
 
-    fn settle(
-        &mut self,
-        _targets: &[[f64; 3]],
-        x: &mut [[f64; 3]],
-    ) -> Result<Option<FrameStats>, String> {
+    fn settle(&mut self, _targets: &[[f64; 3]]) -> Result<Option<FrameStats>, String> {
         assert!(self.ready.load(Ordering::Relaxed), "settled before it was ready");
         self.settled = true;
-        x[1][0] += 0.5;
+        self.shift.x[1][0] += 0.5;
         Ok(Some(FrameStats { fine_iterations: 1, done: true, ..FrameStats::default() }))
     }
 }
@@ -301,10 +304,7 @@ fn settling_waits_for_its_preparation_without_holding_up_new_poses() {
     let (r, a) = (ready.clone(), asked.clone());
     let factory: PoseSolverFactory =
         Arc::new(move |_, mesh: &Mesh, handles: &Handles, _: &_, _: &_| {
-            let shift = Shift {
-                rest: mesh.positions().to_vec(),
-                handle_vertices: handles.handle_vertices().to_vec(),
-            };
+            let shift = Shift::new(mesh, handles);
             let (ready, asked) = (r.clone(), a.clone());
             Ok(Box::new(SlowToSettle { shift, ready, asked, settled: false })
                 as Box<dyn PoseSolver>)
@@ -330,8 +330,12 @@ fn settling_waits_for_its_preparation_without_holding_up_new_poses() {
 struct WithBase(Shift);
 
 impl PoseSolver for WithBase {
-    fn solve(&mut self, targets: &[[f64; 3]], x: &mut [[f64; 3]]) -> Result<FrameStats, String> {
-        self.0.solve(targets, x)
+    fn positions(&self) -> &[[f64; 3]] {
+        self.0.positions()
+    }
+
+    fn solve(&mut self, targets: &[[f64; 3]]) -> Result<FrameStats, String> {
+        self.0.solve(targets)
     }
 
     fn deformed_base(&self) -> Option<Vec<[f64; 3]>> {
@@ -344,10 +348,7 @@ impl PoseSolver for WithBase {
 #[test]
 fn the_base_is_built_only_while_shown() {
     let factory: PoseSolverFactory = Arc::new(|_, mesh: &Mesh, handles: &Handles, _: &_, _: &_| {
-        let shift = Shift {
-            rest: mesh.positions().to_vec(),
-            handle_vertices: handles.handle_vertices().to_vec(),
-        };
+        let shift = Shift::new(mesh, handles);
         Ok(Box::new(WithBase(shift)) as Box<dyn PoseSolver>)
     });
     let h = SolverHandle::spawn(Slot::Main, factory, Arc::new(|| {})).unwrap();

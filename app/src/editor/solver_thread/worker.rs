@@ -110,7 +110,6 @@ struct Active {
     details: Option<Arc<Vec<f32>>>,
     /// [`PoseSolver::components`], refreshed when the loose parts change.
     components: Arc<Vec<solver::ComponentInfo>>,
-    x: Vec<[f64; 3]>,
     /// Each vertex's triangles, for the per-frame normals (kept while the mesh stays).
     vertex_faces: Arc<VertexFaces>,
     /// The buffers of the frames' shapes, reused once the UI has dropped them.
@@ -141,7 +140,7 @@ impl Active {
     fn frame(&mut self, stats: FrameStats, with_base: bool, normals_on_gpu: bool) -> SolvedFrame {
         let triangles = self.mesh.triangles();
         let faces = (!normals_on_gpu).then_some(&*self.vertex_faces);
-        let shape = self.shapes.shape(&self.x, triangles, faces);
+        let shape = self.shapes.shape(self.pose_solver.positions(), triangles, faces);
         let base = with_base.then(|| self.pose_solver.deformed_base()).flatten();
         SolvedFrame {
             sequence: NEXT_FRAME.fetch_add(1, Ordering::Relaxed),
@@ -184,7 +183,7 @@ impl Active {
     /// published at once unless a solve is due anyway.
     fn set_loose_parts(&mut self, generation: u64, parts: &LooseParts) -> Result<(), String> {
         self.pose_generation = generation;
-        self.pose_solver.set_loose_parts(&self.mesh, &self.handles, parts, &mut self.x)?;
+        self.pose_solver.set_loose_parts(&self.mesh, &self.handles, parts)?;
         self.components = Arc::new(self.pose_solver.components());
         Ok(())
     }
@@ -340,7 +339,6 @@ fn rebuild(
     (shared.repaint)();
     match factory(slot, &mesh, &handles, &settings, &loose_parts) {
         Ok(pose_solver) => {
-            let x = mesh.positions().to_vec();
             let details = pose_solver
                 .detail_magnitudes()
                 .map(|d| Arc::new(d.iter().map(|&v| v as f32).collect()));
@@ -357,7 +355,6 @@ fn rebuild(
                 pose_solver,
                 details,
                 components,
-                x,
                 dirty: true,
                 settling: false,
                 poses_changed: Instant::now(),
@@ -383,9 +380,9 @@ fn rebuild(
 fn step(a: &mut Active, solving: bool) -> Result<FrameStats, String> {
     let targets = crate::editor::pose::handle_targets(&a.mesh, &a.handles, &a.poses)?;
     let stats = if solving {
-        Some(a.pose_solver.solve(&targets, &mut a.x)?)
+        Some(a.pose_solver.solve(&targets)?)
     } else {
-        a.pose_solver.settle(&targets, &mut a.x)?
+        a.pose_solver.settle(&targets)?
     };
     Ok(stats.unwrap_or(FrameStats { done: true, ..a.last_stats }))
 }
