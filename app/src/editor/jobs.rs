@@ -154,7 +154,7 @@ pub fn spawn_prepare(
         let ms = t.elapsed().as_secs_f64() * 1e3;
         // Written at the background pool's lower priority too: the solver thread builds the
         // first handle set's part and solves its first frame meanwhile (serializing and writing
-        // about 100 MB at 1.5M vertices took the cores from it).
+        // about 50 MB at 1.5M vertices took the cores from it).
         let write = |u: UnwrittenBase| match background_pool() {
             Some(pool) => pool.install(|| u.write()),
             None => u.write(),
@@ -195,7 +195,7 @@ fn pool_of(name: &'static str, setup: fn()) -> Option<rayon::ThreadPool> {
 /// a thread of it runs only on a core nothing else wants, so a drag started while the full
 /// mesh is still being factored keeps most of its rate (`editor_rate --while-factoring` at
 /// 692k, BENCHMARKS.md: on rayon's pool the factorization added 30 ms to a 43 ms frame, at
-/// nice 10 about as much, here 5 ms). Settling waits for the handles to stop, when the cores
+/// nice 10 23 ms, here 5 ms). Settling waits for the handles to stop, when the cores
 /// are free. The mesh's own precomputation stays at nice 10 on
 /// [`background_pool`]: it must progress even while a software-rendered window keeps the
 /// cores busy. Registered with the solver on first use; `None` when it cannot be made.

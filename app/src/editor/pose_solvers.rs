@@ -11,9 +11,9 @@ use super::solver_thread::{MethodSettings, PoseSolver, PoseSolverFactory, Slot};
 
 /// The factory used by the editor: the main slot runs `settings.bs_variant`, the comparison
 /// slot `settings.compare_variant` (ARAP by default); the full mesh's and the level's
-/// factorizations for settling run on `jobs::factorization_pool`. What depends on the mesh only comes from
-/// `cache` (shared with the precomputation started on loading, `jobs::spawn_prepare`), so a
-/// repainted handle set costs only its own part.
+/// factorizations for settling run on `jobs::factorization_pool`. What depends on the mesh
+/// only comes from `cache` (shared with the precomputation started on loading,
+/// `jobs::spawn_prepare`), so a repainted handle set costs only its own part.
 pub fn factory(cache: Arc<Mutex<MeshCache>>) -> PoseSolverFactory {
     // Settling's factorizations run on their idle pool, beside the solves.
     let _ = super::jobs::factorization_pool();
@@ -79,8 +79,7 @@ impl PoseSolver for DeformerPoseSolver {
     }
 
     fn settle(&mut self, targets: &[[f64; 3]]) -> Result<Option<FrameStats>, String> {
-        let stats =
-            self.0.settle(targets).map_err(|e| format!("settling on the full mesh: {e}"))?;
+        let stats = self.0.settle(targets).map_err(|e| format!("settling: {e}"))?;
         Ok(stats.map(|stats| stats.frame_stats()))
     }
 

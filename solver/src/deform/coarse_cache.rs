@@ -2,7 +2,8 @@
 //!
 //! The file holds what cannot be recomputed cheaply: the coarse mesh $B_c$ (positions and
 //! triangles), the fine index of each coarse vertex, each fine vertex's representative, coarse
-//! triangle and barycentric weights (two `f32`s, [`crate::deform::embedding::stored_weights`]), and the settings and mesh fingerprint it was built for;
+//! triangle and barycentric weights (two `f32`s, [`crate::deform::embedding::stored_weights`]),
+//! and the settings and mesh fingerprint it was built for;
 //! for a base faired on a level, the level's triangles and vertices and each fine vertex's
 //! level representative, level triangle and weights ([`crate::deform::middle_level`]).
 //! The rest is recomputed on reading: the embedded points $P B_c$, the details

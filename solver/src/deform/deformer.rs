@@ -148,7 +148,7 @@ impl MeshCache {
 
     /// [`MeshCache::prepare`] that leaves the writing of a base built anew to the caller
     /// ([`UnwrittenBase::write`]), so that a cache shared between threads need not be held
-    /// while the file is written (about 100 MiB at 1.5M vertices).
+    /// while the file is written (about 50 MiB at 1.5M vertices).
     pub fn prepare_unwritten(
         &mut self,
         method: Method,

@@ -143,8 +143,8 @@ impl FineLevel {
     }
 
     /// Starts the factorization on a thread of its own if it is pending and no other of its
-    /// queue is running (module doc). True when [`FineLevel::factor`] would not wait: factored, failed,
-    /// or its thread done.
+    /// queue is running (module doc). True when [`FineLevel::factor`] would not wait:
+    /// factored, failed, or its thread done.
     pub fn factor_in_background(&mut self) -> bool {
         let inputs = match self.take() {
             State::Pending(inputs) => inputs,

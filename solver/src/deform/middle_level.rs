@@ -7,7 +7,8 @@
 //! twice), each fine vertex $i$ embedded on it as barycentric weights $w_{ik}$ on a level
 //! triangle $t_i$. $M_\ell$ resolves bends the coarse level cannot, and it is factored far
 //! sooner than the full mesh (at 692k, factored and stepped once within 0.6 s against about
-//! 10 s for the full mesh; BENCHMARKS.md, "Settling in the editor"). Settling a stopped pose $p'$ first iterates on it:
+//! 10 s for the full mesh; BENCHMARKS.md, "Settling in the editor"). Settling a stopped pose
+//! $p'$ first iterates on it:
 //!
 //! 1. $y^0_k = p'_{v_k}$ at the level's vertices $v_k$ (level vertices are fine vertices);
 //! 2. $y$ = ARAP iterations on $M_\ell$ from $y^0$ ([`crate::deform::arap::Arap::refine`], Anderson-accelerated as

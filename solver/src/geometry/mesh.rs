@@ -218,8 +218,6 @@ pub(crate) fn norm(a: [f64; 3]) -> f64 {
 mod tests {
     use super::*;
 
-    /// The fingerprint follows the positions' bits and the triangles, is the same when asked
-    /// again and on a clone, and equality ignores whether it was computed.
     /// The fingerprint is XXH3 of the vertex count, the positions' bits and the triangles, all
     /// little-endian: a value fixed by the hash's specification, so that the cache files of one
     /// build are found by the next (the literal was computed once and must not change).
@@ -236,6 +234,8 @@ mod tests {
         assert_eq!(f, 0x1476_3d98_ec0d_bac3, "{f:#018x}");
     }
 
+    /// The fingerprint follows the positions' bits and the triangles, is the same when asked
+    /// again and on a clone, and equality ignores whether it was computed.
     #[test]
     fn fingerprint_follows_the_content() {
         let p = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
