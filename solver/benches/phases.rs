@@ -28,16 +28,21 @@
 //!   display shape (f32 positions and vertex normals of a pose), on the bumpy bar at icosphere
 //!   level 8 (655,362 vertices) turned as in the other benches.
 //!
+//! - `prolong`: [`solver::deform::prolong::prolong`], the coarse variant's per-frame carry of the
+//!   coarse pose to every fine vertex (step 4 of its module doc), on the same level-8 bar after
+//!   one solve of its turned cap (automatic coarse size).
+//!
 //! `benches/iteration.rs` is the other harness: phase timings of a 10-iteration solve against an
 //! estimate of the machine's limit (bandwidth and rotation-fit rate), on these meshes or a file.
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use faer::sparse::Triplet;
+use solver::deform::coarse::CoarseBsArap;
 use solver::deform::constraints::Constraints;
 use solver::geometry::shapes::bumpy_bar;
 use solver::linalg::linsolve::{Layout, SpdFactor};
 use solver::linalg::rotation::{axis_angle, mul_vec};
-use solver::{Arap, ArapConfig, Handles, Mesh};
+use solver::{Arap, ArapConfig, BaseConfig, Handles, Mesh};
 use std::time::Duration;
 
 const LEVELS: std::ops::RangeInclusive<u32> = 2..=6;
@@ -173,11 +178,35 @@ fn shape_f32(c: &mut Criterion) {
     g.finish();
 }
 
+fn prolong(c: &mut Criterion) {
+    let (mesh, handles) = bumpy_bar(8);
+    let config = ArapConfig::default();
+    let Ok(mut d) = CoarseBsArap::new(&mesh, &handles, &config, &BaseConfig::default()) else {
+        unreachable!("the bumpy bar has a coarse base")
+    };
+    let q = axis_angle([0.0, 0.0, 1.0], 0.8);
+    let targets: Vec<[f64; 3]> = handles
+        .handle_vertices()
+        .iter()
+        .map(|&v| mesh.positions()[v as usize])
+        .map(|p| if p[0] > 0.0 { mul_vec(&q, p) } else { p })
+        .collect();
+    if let Err(e) = d.solve(&targets) {
+        unreachable!("the turned bar solves: {e}")
+    }
+    let mut out = vec![[0.0; 3]; mesh.n_vertices()];
+    let mut g = c.benchmark_group("prolong");
+    g.bench_function(BenchmarkId::from_parameter(mesh.n_vertices()), |b| {
+        b.iter(|| solver::deform::prolong::prolong(d.prolongation(), &mut out))
+    });
+    g.finish();
+}
+
 fn config() -> Criterion {
     Criterion::default()
         .warm_up_time(Duration::from_secs(1))
         .measurement_time(Duration::from_secs(3))
 }
 
-criterion_group! { name = benches; config = config(); targets = factorization, iteration_phases, anderson_step, shape_f32 }
+criterion_group! { name = benches; config = config(); targets = factorization, iteration_phases, anderson_step, shape_f32, prolong }
 criterion_main!(benches);

@@ -55,10 +55,10 @@ use crate::deform::embedding::blend;
 use crate::deform::fine_level::{FineLevel, Queue};
 use crate::deform::handles::Handles;
 use crate::deform::middle_level::LevelSolver;
+use crate::deform::prolong::{Prolongation, at, prolong, quaternion_of, rotate, triangle_frames};
 use crate::error::SolveError;
-use crate::geometry::mesh::{Mesh, add, sub};
+use crate::geometry::mesh::{Mesh, sub};
 use crate::linalg::rigid::Motion;
-use crate::linalg::rotation::Mat3;
 use rayon::prelude::*;
 use std::sync::Arc;
 
@@ -407,7 +407,8 @@ impl CoarseBsArap {
             .zip(self.result.par_iter().zip(self.base.faces.par_iter()))
             .zip(self.base.embedding.par_iter().zip(self.base.details.par_iter()))
             .for_each(|((c, (x, &f)), ((_, w), d))| {
-                let (b, q) = frames[f as usize].at(w);
+                let frame = &frames[f as usize];
+                let (b, q) = at(&frame.positions, &frame.quaternions, w);
                 let conj = [q[0], -q[1], -q[2], -q[3]];
                 *c = sub(rotate(conj, sub(*x, b)), *d);
             });
@@ -542,129 +543,6 @@ impl CoarseBsArap {
             fine.reset();
         }
     }
-}
-
-/// What step 4 of the module doc reads: the coarse pose and rotations of a solve and the
-/// mesh's embedding, details and carried corrections. The GPU prolongation in the editor
-/// (`app/src/gpu/prolong.rs`, shaders/prolong.wgsl) computes the same from the same inputs.
-#[derive(Clone, Copy)]
-pub struct Prolongation<'a> {
-    /// $B_c'$, `#Vc×3`.
-    pub coarse: &'a [[f64; 3]],
-    /// $R_k$ as unit quaternions `[w, x, y, z]`, `#Vc`.
-    pub quaternions: &'a [[f64; 4]],
-    /// The coarse triangles, `#Fc×3`.
-    pub triangles: &'a [[u32; 3]],
-    /// Per fine vertex, the index of its coarse triangle $t_i$.
-    pub faces: &'a [u32],
-    /// Per fine vertex: coarse triangle corners $t_i$ and weights $w_{ik}$.
-    pub embedding: &'a [([u32; 3], [f64; 3])],
-    /// $D_i$, `#V×3`.
-    pub details: &'a [[f64; 3]],
-    /// $C_i$, `#V×3`, or empty for none (all zero).
-    pub corrections: &'a [[f64; 3]],
-}
-
-/// Step 4 of the module doc at every fine vertex, in parallel:
-/// $p'_i = b_i + \hat q_i (D_i + C_i) \hat q_i^{-1}$ with $b_i = \sum_k w_{ik} B'_{c,k}$ and
-/// $\hat q_i$ the normalized blend $\sum_k w_{ik} q_{t_k}$ of the corner quaternions, signs
-/// aligned with the first corner's (the identity if the blend vanishes). Writes `out` (`#V` long); handle and pinned vertices are not
-/// special here (the solve overwrites them). The corners' positions and sign-aligned
-/// quaternions are gathered per coarse triangle first (`TriangleFrame`), so that the pass
-/// over the fine vertices reads one small record per vertex and branches nowhere; it writes
-/// only $p'$ and skips the corrections when they are empty (all zero).
-pub fn prolong(input: Prolongation<'_>, out: &mut [[f64; 3]]) {
-    let Prolongation { coarse, quaternions, triangles, faces, embedding, details, corrections } =
-        input;
-    let frames = triangle_frames(coarse, quaternions, triangles);
-    let at = |f: u32, w: &[f64; 3], d: [f64; 3]| {
-        let (b, q) = frames[f as usize].at(w);
-        add(b, rotate(q, d))
-    };
-    let work = out.par_iter_mut().zip(faces.par_iter().zip(embedding.par_iter()));
-    if corrections.is_empty() {
-        work.zip(details.par_iter()).for_each(|((out, (&f, (_, w))), d)| *out = at(f, w, *d));
-    } else {
-        work.zip(details.par_iter().zip(corrections.par_iter()))
-            .for_each(|((out, (&f, (_, w))), (d, c))| *out = at(f, w, add(*d, *c)));
-    }
-}
-
-/// Every coarse triangle's [`TriangleFrame`] for the coarse pose `coarse` and rotations
-/// `quats`.
-fn triangle_frames(
-    coarse: &[[f64; 3]],
-    quats: &[[f64; 4]],
-    triangles: &[[u32; 3]],
-) -> Vec<TriangleFrame> {
-    triangles.iter().map(|t| TriangleFrame::new(coarse, quats, t)).collect()
-}
-
-/// A coarse triangle's corner positions $B'_{c,k}$ and quaternions $q_k$, the latter with
-/// signs aligned to the first corner's: what [`prolong`] and the fine iterations' corrections
-/// blend at each fine vertex on it.
-#[derive(Clone, Copy)]
-struct TriangleFrame {
-    positions: [[f64; 3]; 3],
-    quaternions: [[f64; 4]; 3],
-}
-
-impl TriangleFrame {
-    fn new(coarse: &[[f64; 3]], quats: &[[f64; 4]], t: &[u32; 3]) -> TriangleFrame {
-        let q0 = quats[t[0] as usize];
-        TriangleFrame {
-            positions: t.map(|v| coarse[v as usize]),
-            quaternions: t.map(|v| {
-                let q = quats[v as usize];
-                if dot4(q, q0) < 0.0 { q.map(|c| -c) } else { q }
-            }),
-        }
-    }
-
-    /// At barycentric weights `w`: $b = \sum_k w_k B'_{c,k}$ and $\hat q$, the normalized
-    /// $\sum_k w_k q_k$.
-    #[inline]
-    fn at(&self, w: &[f64; 3]) -> ([f64; 3], [f64; 4]) {
-        let [a, b, c] = self.quaternions;
-        let q: [f64; 4] = std::array::from_fn(|k| w[0] * a[k] + w[1] * b[k] + w[2] * c[k]);
-        let [p, r, s] = self.positions;
-        let base: [f64; 3] = std::array::from_fn(|k| w[0] * p[k] + w[1] * r[k] + w[2] * s[k]);
-        (base, unit(q))
-    }
-}
-
-/// $q / |q|$, or the identity for $q = 0$.
-#[inline]
-fn unit(q: [f64; 4]) -> [f64; 4] {
-    let n2 = dot4(q, q);
-    if n2 > 0.0 {
-        let inv = 1.0 / n2.sqrt();
-        q.map(|c| c * inv)
-    } else {
-        [1.0, 0.0, 0.0, 0.0]
-    }
-}
-
-#[inline]
-fn dot4(a: [f64; 4], b: [f64; 4]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
-}
-
-/// Unit quaternion `[w, x, y, z]` of a row-major rotation matrix (glam's `DQuat::from_mat3`,
-/// which takes columns, then normalized). Its sign is arbitrary: blending and [`rotate`] give
-/// the same result for $q$ and $-q$.
-pub fn quaternion_of(r: &Mat3) -> [f64; 4] {
-    let q = glam::DQuat::from_mat3(&glam::DMat3::from_cols_array_2d(r).transpose()).normalize();
-    [q.w, q.x, q.y, q.z]
-}
-
-/// $q\,v\,q^{-1}$ for a unit quaternion.
-#[inline]
-pub fn rotate(q: [f64; 4], v: [f64; 3]) -> [f64; 3] {
-    let u = [q[1], q[2], q[3]];
-    let t = crate::geometry::mesh::cross(u, v).map(|c| 2.0 * c);
-    let ut = crate::geometry::mesh::cross(u, t);
-    std::array::from_fn(|d| v[d] + q[0] * t[d] + ut[d])
 }
 
 #[cfg(test)]

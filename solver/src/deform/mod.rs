@@ -19,6 +19,7 @@ pub mod handles;
 pub mod level_fairing;
 pub mod middle_level;
 pub mod pose;
+pub mod prolong;
 pub mod quality;
 pub mod riders;
 pub mod rig;

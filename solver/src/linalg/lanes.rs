@@ -54,6 +54,8 @@ pub(crate) trait Real:
     fn abs(self) -> Self;
     fn max(self, other: Self) -> Self;
     fn copysign(self, sign: Self) -> Self;
+    /// Lane by lane, `a` where `x >= y`, else `b` (also where either is NaN).
+    fn pick_ge(x: Self, y: Self, a: Self, b: Self) -> Self;
 }
 
 impl Real for f64 {
@@ -76,6 +78,10 @@ impl Real for f64 {
     #[inline(always)]
     fn copysign(self, sign: f64) -> f64 {
         f64::copysign(self, sign)
+    }
+    #[inline(always)]
+    fn pick_ge(x: f64, y: f64, a: f64, b: f64) -> f64 {
+        if x >= y { a } else { b }
     }
 }
 
@@ -134,10 +140,20 @@ impl Real for F4 {
         let (a, b) = (self.0, sign.0);
         F4([a[0].copysign(b[0]), a[1].copysign(b[1]), a[2].copysign(b[2]), a[3].copysign(b[3])])
     }
+    #[inline(always)]
+    fn pick_ge(x: F4, y: F4, a: F4, b: F4) -> F4 {
+        let (x, y, a, b) = (x.0, y.0, a.0, b.0);
+        F4([
+            if x[0] >= y[0] { a[0] } else { b[0] },
+            if x[1] >= y[1] { a[1] } else { b[1] },
+            if x[2] >= y[2] { a[2] } else { b[2] },
+            if x[3] >= y[3] { a[3] } else { b[3] },
+        ])
+    }
 }
 
-/// A four-lane type the lockstep fit runs on: [`Real`] arithmetic lane by lane, plus moving
-/// lanes in and out and a lane-wise choice.
+/// A four-lane type the lockstep fit and the prolongation run on: [`Real`] arithmetic lane by
+/// lane, plus moving lanes in and out.
 pub(crate) trait Lanes: Real {
     /// What making a value takes: `()` for [`F4`], the [`Avx2`] token for `Avx4`.
     type Token: Copy;
@@ -145,8 +161,6 @@ pub(crate) trait Lanes: Real {
     fn splat(t: Self::Token, v: f64) -> Self;
     fn from_lanes(t: Self::Token, v: [f64; LANES]) -> Self;
     fn to_lanes(self) -> [f64; LANES];
-    /// Lane by lane, `a` where `x >= y`, else `b` (also where either is NaN).
-    fn pick_ge(x: Self, y: Self, a: Self, b: Self) -> Self;
 }
 
 impl Lanes for F4 {
@@ -162,16 +176,6 @@ impl Lanes for F4 {
     #[inline(always)]
     fn to_lanes(self) -> [f64; LANES] {
         self.0
-    }
-    #[inline(always)]
-    fn pick_ge(x: F4, y: F4, a: F4, b: F4) -> F4 {
-        let (x, y, a, b) = (x.0, y.0, a.0, b.0);
-        F4([
-            if x[0] >= y[0] { a[0] } else { b[0] },
-            if x[1] >= y[1] { a[1] } else { b[1] },
-            if x[2] >= y[2] { a[2] } else { b[2] },
-            if x[3] >= y[3] { a[3] } else { b[3] },
-        ])
     }
 }
 
@@ -258,6 +262,12 @@ mod avx {
                 Avx4(_mm256_or_pd(_mm256_andnot_pd(bit, self.0), _mm256_and_pd(bit, sign.0)))
             }
         }
+        #[inline(always)]
+        fn pick_ge(x: Avx4, y: Avx4, a: Avx4, b: Avx4) -> Avx4 {
+            // SAFETY: `x` exists, so AVX was detected (module doc). Ordered comparison: false
+            // where either is NaN.
+            unsafe { Avx4(_mm256_blendv_pd(b.0, a.0, _mm256_cmp_pd::<_CMP_GE_OQ>(x.0, y.0))) }
+        }
     }
 
     impl Lanes for Avx4 {
@@ -280,12 +290,6 @@ mod avx {
             // four values of `out`.
             unsafe { _mm256_storeu_pd(out.as_mut_ptr(), self.0) };
             out
-        }
-        #[inline(always)]
-        fn pick_ge(x: Avx4, y: Avx4, a: Avx4, b: Avx4) -> Avx4 {
-            // SAFETY: `x` exists, so AVX was detected (module doc). Ordered comparison: false
-            // where either is NaN.
-            unsafe { Avx4(_mm256_blendv_pd(b.0, a.0, _mm256_cmp_pd::<_CMP_GE_OQ>(x.0, y.0))) }
         }
     }
 }

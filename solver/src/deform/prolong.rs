@@ -1,0 +1,325 @@
+//! The coarse BS-ARAP's prolongation (step 4 of [`crate::deform::coarse`]; Sun et al. 2017,
+//! Sec. 4, detail transfer): the coarse pose carried to every fine vertex,
+//! $p'_i = b_i + \hat q_i (D_i + C_i) \hat q_i^{-1}$ with $b_i = \sum_k w_{ik} B'_{c,k}$ and
+//! $\hat q_i$ the normalized blend $\sum_k w_{ik} q_{t_k}$ of the corner quaternions, signs
+//! aligned with the first corner's (the identity if the blend vanishes).
+//!
+//! It is the per-frame pass over every fine vertex, so it runs on four vertices at once
+//! ([`crate::linalg::lanes`]: AVX2 where the processor has it, else portable lanes) with the
+//! scalar formulas (no fused multiply-add): the lanes give the scalar path's result to the bit,
+//! and the fine iterations' carried corrections ([`at`], [`rotate`]) invert exactly what the
+//! prolongation applies. The GPU prolongation in the editor (`app/src/gpu/prolong.rs`,
+//! shaders/prolong.wgsl) computes the same from the same inputs in f32.
+
+use crate::linalg::lanes::{Avx2, F4, LANES, Lanes, Real};
+use crate::linalg::rotation::Mat3;
+use rayon::prelude::*;
+
+/// What the prolongation reads: the coarse pose and rotations of a solve and the mesh's
+/// embedding, details and carried corrections.
+#[derive(Clone, Copy)]
+pub struct Prolongation<'a> {
+    /// $B_c'$, `#Vc×3`.
+    pub coarse: &'a [[f64; 3]],
+    /// $R_k$ as unit quaternions `[w, x, y, z]`, `#Vc`.
+    pub quaternions: &'a [[f64; 4]],
+    /// The coarse triangles, `#Fc×3`.
+    pub triangles: &'a [[u32; 3]],
+    /// Per fine vertex, the index of its coarse triangle $t_i$.
+    pub faces: &'a [u32],
+    /// Per fine vertex: coarse triangle corners $t_i$ and weights $w_{ik}$.
+    pub embedding: &'a [([u32; 3], [f64; 3])],
+    /// $D_i$, `#V×3`.
+    pub details: &'a [[f64; 3]],
+    /// $C_i$, `#V×3`, or empty for none (all zero).
+    pub corrections: &'a [[f64; 3]],
+}
+
+/// Fine vertices per parallel task: large enough that a task's overhead is small, small enough
+/// that two threads share the pass evenly.
+const CHUNK: usize = 4096;
+
+/// The module doc's $p'_i$ at every fine vertex, in parallel, into `out` (`#V` long). Handle
+/// and pinned vertices are not special here (the solve overwrites them). The corners' positions
+/// and sign-aligned quaternions are gathered per coarse triangle first ([`TriangleFrame`]), so
+/// that the pass over the fine vertices reads one small record per vertex and branches nowhere;
+/// it skips the corrections when they are empty (all zero).
+pub fn prolong(input: Prolongation<'_>, out: &mut [[f64; 3]]) {
+    let frames = triangle_frames(input.coarse, input.quaternions, input.triangles);
+    let avx2 = Avx2::detect();
+    out.par_chunks_mut(CHUNK).enumerate().for_each(|(k, chunk)| {
+        let start = k * CHUNK;
+        #[cfg(target_arch = "x86_64")]
+        if let Some(t) = avx2 {
+            // SAFETY: the one requirement of a `target_feature` function, that the processor
+            // supports the feature, is what the token proves (`Avx2::detect`).
+            return unsafe { prolong_avx2(t, &frames, &input, start, chunk) };
+        }
+        let _ = avx2;
+        prolong_lanes::<F4>((), &frames, &input, start, chunk);
+    });
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn prolong_avx2(
+    t: Avx2,
+    frames: &[TriangleFrame],
+    input: &Prolongation<'_>,
+    start: usize,
+    out: &mut [[f64; 3]],
+) {
+    prolong_lanes::<crate::linalg::lanes::Avx4>(t, frames, input, start, out);
+}
+
+/// [`prolong`] on the fine vertices `start..start + out.len()`, [`LANES`] at a time (the last
+/// group padded with copies of its last vertex, not written).
+#[inline(always)]
+#[allow(clippy::needless_range_loop)] // `c` and `k` index several arrays at once
+fn prolong_lanes<L: Lanes>(
+    t: L::Token,
+    frames: &[TriangleFrame],
+    input: &Prolongation<'_>,
+    start: usize,
+    out: &mut [[f64; 3]],
+) {
+    let corrected = !input.corrections.is_empty();
+    for (g, out) in out.chunks_mut(LANES).enumerate() {
+        let first = start + g * LANES;
+        let mut lane = [0usize; LANES];
+        for (j, v) in lane.iter_mut().enumerate() {
+            *v = first + j.min(out.len() - 1);
+        }
+        let mut frame = [&frames[0]; LANES];
+        for j in 0..LANES {
+            frame[j] = &frames[input.faces[lane[j]] as usize];
+        }
+        // Lane j of the value `$e` reads with `$j` = j (a macro, not a closure: closures were
+        // not always inlined into the AVX2 build, `crate::linalg::rotation`).
+        macro_rules! gather {
+            ($j:ident => $e:expr) => {
+                L::from_lanes(
+                    t,
+                    [
+                        {
+                            let $j = 0;
+                            $e
+                        },
+                        {
+                            let $j = 1;
+                            $e
+                        },
+                        {
+                            let $j = 2;
+                            $e
+                        },
+                        {
+                            let $j = 3;
+                            $e
+                        },
+                    ],
+                )
+            };
+        }
+        let zero = L::splat(t, 0.0);
+        let mut positions = [[zero; 3]; 3];
+        let mut quaternions = [[zero; 4]; 3];
+        let mut w = [zero; 3];
+        let mut d = [zero; 3];
+        for c in 0..3 {
+            for k in 0..3 {
+                positions[c][k] = gather!(j => frame[j].positions[c][k]);
+            }
+            for k in 0..4 {
+                quaternions[c][k] = gather!(j => frame[j].quaternions[c][k]);
+            }
+            w[c] = gather!(j => input.embedding[lane[j]].1[c]);
+            d[c] = if corrected {
+                gather!(j => input.details[lane[j]][c] + input.corrections[lane[j]][c])
+            } else {
+                gather!(j => input.details[lane[j]][c])
+            };
+        }
+        let (b, q) = at(&positions, &quaternions, &w);
+        let r = rotate(q, d);
+        let p = [(b[0] + r[0]).to_lanes(), (b[1] + r[1]).to_lanes(), (b[2] + r[2]).to_lanes()];
+        for (j, o) in out.iter_mut().enumerate() {
+            *o = [p[0][j], p[1][j], p[2][j]];
+        }
+    }
+}
+
+/// Every coarse triangle's [`TriangleFrame`] for the coarse pose `coarse` and rotations
+/// `quats`.
+pub(crate) fn triangle_frames(
+    coarse: &[[f64; 3]],
+    quats: &[[f64; 4]],
+    triangles: &[[u32; 3]],
+) -> Vec<TriangleFrame> {
+    triangles.iter().map(|t| TriangleFrame::new(coarse, quats, t)).collect()
+}
+
+/// A coarse triangle's corner positions $B'_{c,k}$ and quaternions $q_k$, the latter with
+/// signs aligned to the first corner's: what [`prolong`] and the fine iterations' corrections
+/// blend at each fine vertex on it ([`at`]).
+#[derive(Clone, Copy)]
+pub(crate) struct TriangleFrame {
+    pub(crate) positions: [[f64; 3]; 3],
+    pub(crate) quaternions: [[f64; 4]; 3],
+}
+
+impl TriangleFrame {
+    fn new(coarse: &[[f64; 3]], quats: &[[f64; 4]], t: &[u32; 3]) -> TriangleFrame {
+        let q0 = quats[t[0] as usize];
+        TriangleFrame {
+            positions: t.map(|v| coarse[v as usize]),
+            quaternions: t.map(|v| {
+                let q = quats[v as usize];
+                if dot4(q, q0) < 0.0 { q.map(|c| -c) } else { q }
+            }),
+        }
+    }
+}
+
+/// At barycentric weights `w` on a triangle's frame (corner positions and aligned quaternions):
+/// $b = \sum_k w_k B'_{c,k}$ and $\hat q$, the normalized $\sum_k w_k q_k$, or the identity where
+/// its squared norm is below the smallest normal `f64` (zero: the blend vanished). On one vertex
+/// (`f64`) or on lanes of them.
+#[inline(always)]
+pub(crate) fn at<R: Real>(
+    positions: &[[R; 3]; 3],
+    quaternions: &[[R; 4]; 3],
+    w: &[R; 3],
+) -> ([R; 3], [R; 4]) {
+    let [a, b, c] = quaternions;
+    let mut q = [w[0]; 4];
+    for k in 0..4 {
+        q[k] = w[0] * a[k] + w[1] * b[k] + w[2] * c[k];
+    }
+    let [p, r, s] = positions;
+    let mut base = [w[0]; 3];
+    for k in 0..3 {
+        base[k] = w[0] * p[k] + w[1] * r[k] + w[2] * s[k];
+    }
+    let n2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
+    let inv = n2.splat_like(1.0) / n2.sqrt();
+    let small = n2.splat_like(f64::MIN_POSITIVE);
+    let mut unit = q;
+    for k in 0..4 {
+        let identity = n2.splat_like(if k == 0 { 1.0 } else { 0.0 });
+        unit[k] = R::pick_ge(n2, small, q[k] * inv, identity);
+    }
+    (base, unit)
+}
+
+/// $q\,v\,q^{-1}$ for a unit quaternion `[w, x, y, z]`, on one vector or on lanes of them.
+#[inline(always)]
+pub(crate) fn rotate<R: Real>(q: [R; 4], v: [R; 3]) -> [R; 3] {
+    let u = [q[1], q[2], q[3]];
+    let two = q[0].splat_like(2.0);
+    let c = cross(u, v);
+    let t = [two * c[0], two * c[1], two * c[2]];
+    let ut = cross(u, t);
+    [v[0] + q[0] * t[0] + ut[0], v[1] + q[0] * t[1] + ut[1], v[2] + q[0] * t[2] + ut[2]]
+}
+
+#[inline(always)]
+fn cross<R: Real>(a: [R; 3], b: [R; 3]) -> [R; 3] {
+    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+}
+
+#[inline]
+fn dot4(a: [f64; 4], b: [f64; 4]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
+}
+
+/// Unit quaternion `[w, x, y, z]` of a row-major rotation matrix (glam's `DQuat::from_mat3`,
+/// which takes columns, then normalized). Its sign is arbitrary: blending and [`rotate`] give
+/// the same result for $q$ and $-q$.
+pub fn quaternion_of(r: &Mat3) -> [f64; 4] {
+    let q = glam::DQuat::from_mat3(&glam::DMat3::from_cols_array_2d(r).transpose()).normalize();
+    [q.w, q.x, q.y, q.z]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The lanes (AVX2 here where the processor has it) give, to the bit, the one-vertex
+    /// formulas at every vertex: over several chunks and a last group of fewer than four
+    /// vertices, with and without corrections, with corner quaternions of opposite signs and a
+    /// blend that vanishes (the identity).
+    #[test]
+    fn lanes_match_one_vertex_at_a_time() {
+        let mut seed = 0x9e37_79b9_7f4a_7c15_u64;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        let n_coarse = 50;
+        let coarse: Vec<[f64; 3]> = (0..n_coarse).map(|_| [next(), next(), next()]).collect();
+        let mut quats: Vec<[f64; 4]> = (0..n_coarse)
+            .map(|_| {
+                let q = [next(), next(), next(), next()];
+                let n = dot4(q, q).sqrt();
+                q.map(|c| c / n)
+            })
+            .collect();
+        // Opposite signs for the same rotation at two corners (triangle 0 has both).
+        quats[1] = quats[0].map(|c| -c);
+        let triangles: Vec<[u32; 3]> = (0..40)
+            .map(|k| [k % n_coarse, (k * 7 + 1) % n_coarse, (k * 13 + 2) % n_coarse])
+            .collect();
+        let n = 2 * CHUNK + 7;
+        let faces: Vec<u32> = (0..n).map(|i| (i * 31 % triangles.len()) as u32).collect();
+        let embedding: Vec<([u32; 3], [f64; 3])> = faces
+            .iter()
+            .map(|&f| {
+                let (a, b) = (next().abs(), next().abs());
+                let (a, b) = if a + b > 1.0 { (1.0 - a, 1.0 - b) } else { (a, b) };
+                (triangles[f as usize], [a, b, 1.0 - a - b])
+            })
+            .collect();
+        let details: Vec<[f64; 3]> = (0..n).map(|_| [next(), next(), next()]).collect();
+        let corrections: Vec<[f64; 3]> = (0..n).map(|_| [next(), next(), next()]).collect();
+        // A vanishing blend: zero quaternions at a triangle's corners.
+        let mut zeroed = quats.clone();
+        for &v in &triangles[3] {
+            zeroed[v as usize] = [0.0; 4];
+        }
+        for (quats, corrections) in [(&quats, &corrections[..]), (&zeroed, &[][..])] {
+            let input = Prolongation {
+                coarse: &coarse,
+                quaternions: quats,
+                triangles: &triangles,
+                faces: &faces,
+                embedding: &embedding,
+                details: &details,
+                corrections,
+            };
+            let mut out = vec![[f64::NAN; 3]; n];
+            prolong(input, &mut out);
+            let frames = triangle_frames(&coarse, quats, &triangles);
+            for i in 0..n {
+                let f = &frames[faces[i] as usize];
+                let (b, q) = at(&f.positions, &f.quaternions, &embedding[i].1);
+                let d = if corrections.is_empty() {
+                    details[i]
+                } else {
+                    std::array::from_fn(|k| details[i][k] + corrections[i][k])
+                };
+                let r = rotate(q, d);
+                let expected = [b[0] + r[0], b[1] + r[1], b[2] + r[2]];
+                assert_eq!(out[i].map(f64::to_bits), expected.map(f64::to_bits), "vertex {i}");
+            }
+            let on_zeroed = faces.iter().position(|&f| f == 3).unwrap();
+            let f = &frames[3];
+            let (_, q) = at(&f.positions, &f.quaternions, &embedding[on_zeroed].1);
+            if std::ptr::eq(quats, &zeroed) {
+                assert_eq!(q, [1.0, 0.0, 0.0, 0.0]);
+            }
+        }
+    }
+}
