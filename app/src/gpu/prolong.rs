@@ -13,6 +13,7 @@
 //! units in the last place of the coordinates.
 
 use eframe::wgpu;
+use solver::deform::embedding::from_stored;
 use solver::deform::prolong::Prolongation;
 use wgpu::util::DeviceExt;
 
@@ -95,7 +96,7 @@ impl GpuProlongation {
         triangles: &[[u32; 3]],
         max_fixed: usize,
     ) -> anyhow::Result<GpuProlongation> {
-        let n = input.embedding.len();
+        let n = input.weights.len();
         let nc = input.coarse.len();
         let limits = device.limits();
         let largest = (n * std::mem::size_of::<Embed>()) as u64;
@@ -112,11 +113,16 @@ impl GpuProlongation {
         }
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let embed: Vec<Embed> = input
-            .embedding
+            .faces
             .iter()
-            .map(|(t, w)| Embed {
-                corners: [t[0], t[1], t[2], 0],
-                weights: [w[0] as f32, w[1] as f32, w[2] as f32, 0.0],
+            .zip(input.weights)
+            .map(|(&f, w)| {
+                let t = input.triangles[f as usize];
+                let w = from_stored(w[0], w[1]);
+                Embed {
+                    corners: [t[0], t[1], t[2], 0],
+                    weights: [w[0] as f32, w[1] as f32, w[2] as f32, 0.0],
+                }
             })
             .collect();
         let params = Params { n_vertices: n as u32, n_fixed: 0, _pad: [0; 2] };
@@ -203,13 +209,13 @@ impl GpuProlongation {
         fixed: impl Iterator<Item = (u32, [f64; 3])>,
         details_changed: bool,
     ) -> anyhow::Result<()> {
-        if input.coarse.len() != self.n_coarse || input.embedding.len() != self.n_vertices {
+        if input.coarse.len() != self.n_coarse || input.weights.len() != self.n_vertices {
             anyhow::bail!(
                 "the prolongation was built for {} coarse and {} fine vertices, not {} and {}",
                 self.n_coarse,
                 self.n_vertices,
                 input.coarse.len(),
-                input.embedding.len()
+                input.weights.len()
             );
         }
         let staging = &mut self.staging;

@@ -51,7 +51,7 @@ pub use crate::deform::coarse_groups::MIN_COARSE_GROUP;
 use crate::deform::coarse_groups::{CoarseGroups, coarse_rig};
 use crate::deform::config::BaseConfig;
 use crate::deform::constraints::Constraints;
-use crate::deform::embedding::blend;
+use crate::deform::embedding::{blend, from_stored};
 use crate::deform::fine_level::{FineLevel, Queue};
 use crate::deform::handles::Handles;
 use crate::deform::middle_level::LevelSolver;
@@ -257,7 +257,7 @@ impl CoarseBsArap {
                 quaternions: &self.next_quaternions,
                 triangles: self.base.coarse_mesh.triangles(),
                 faces: &self.base.faces,
-                embedding: &self.base.embedding,
+                weights: &self.base.weights,
                 details: &self.base.details,
                 corrections: if self.corrected { &self.correction } else { &[] },
             },
@@ -405,10 +405,10 @@ impl CoarseBsArap {
         self.correction
             .par_iter_mut()
             .zip(self.result.par_iter().zip(self.base.faces.par_iter()))
-            .zip(self.base.embedding.par_iter().zip(self.base.details.par_iter()))
-            .for_each(|((c, (x, &f)), ((_, w), d))| {
+            .zip(self.base.weights.par_iter().zip(self.base.details.par_iter()))
+            .for_each(|((c, (x, &f)), (w, d))| {
                 let frame = &frames[f as usize];
-                let (b, q) = at(&frame.positions, &frame.quaternions, w);
+                let (b, q) = at(&frame.positions, &frame.quaternions, &from_stored(w[0], w[1]));
                 let conj = [q[0], -q[1], -q[2], -q[3]];
                 *c = sub(rotate(conj, sub(*x, b)), *d);
             });
@@ -476,7 +476,13 @@ impl CoarseBsArap {
     pub fn deformed_base(&self) -> &[[f64; 3]] {
         self.deformed_base.get_or_init(|| {
             let bc = self.arap.positions();
-            self.base.embedding.par_iter().map(|(t, w)| blend(bc, t, w)).collect()
+            (0..self.base.faces.len())
+                .into_par_iter()
+                .map(|i| {
+                    let (t, w) = self.base.embedding(i);
+                    blend(bc, &t, &w)
+                })
+                .collect()
         })
     }
 
@@ -492,7 +498,7 @@ impl CoarseBsArap {
             quaternions: &self.quaternions,
             triangles: self.base.coarse_mesh.triangles(),
             faces: &self.base.faces,
-            embedding: &self.base.embedding,
+            weights: &self.base.weights,
             details: &self.base.details,
             corrections: &self.correction,
         }

@@ -35,7 +35,7 @@
 //! never hands it to another mesh.
 
 use crate::deform::config::BaseConfig;
-use crate::deform::embedding::{blend, embed, embed_from, stored_weights};
+use crate::deform::embedding::{blend, embed, embed_from, from_stored, stored_weights};
 use crate::deform::level_fairing::{
     FairedBase, FairedLevel, Fairing, LEVEL_EDGES_PER_SMOOTHING_LENGTH, LevelView, faired_base_then,
 };
@@ -63,10 +63,12 @@ pub struct CoarseBase {
     pub(crate) representative: Vec<u32>,
     /// $M$ at the kept vertices: the cotangent weights of coarse triangles that collapsed.
     pub(crate) rest_kept: Vec<[f64; 3]>,
-    /// Per fine vertex: coarse triangle corners and barycentric weights.
-    pub(crate) embedding: Vec<([u32; 3], [f64; 3])>,
-    /// Per fine vertex: the index of its coarse triangle (the one `embedding` names).
+    /// Per fine vertex: the index of its coarse triangle.
     pub(crate) faces: Vec<u32>,
+    /// Per fine vertex: its barycentric weights on that triangle as two `f32`s, the third
+    /// $1 - w_0 - w_1$ ([`from_stored`]; [`CoarseBase::embedding`] gives all three). Eight
+    /// bytes a vertex: the prolongation reads them every frame.
+    pub(crate) weights: Vec<[f32; 2]>,
     /// $P B_c$ at each fine vertex (the base the details sit on).
     pub(crate) base_on_coarse: Vec<[f64; 3]>,
     pub(crate) details: Vec<[f64; 3]>,
@@ -131,14 +133,8 @@ impl CoarseBase {
                 (kept, representative, coarse_mesh, faces, weights)
             }
         };
-        let embedding: Vec<([u32; 3], [f64; 3])> = faces
-            .iter()
-            .zip(weights)
-            .map(|(&f, w)| (coarse_mesh.triangles()[f as usize], stored_weights(w)))
-            .collect();
-        let cp = coarse_mesh.positions();
-        let base_on_coarse: Vec<[f64; 3]> =
-            embedding.iter().map(|(t, w)| blend(cp, t, w)).collect();
+        let weights: Vec<[f32; 2]> = weights.iter().map(|w| [w[0] as f32, w[1] as f32]).collect();
+        let base_on_coarse = on_coarse(&coarse_mesh, &faces, &weights);
         let details =
             mesh.positions().iter().zip(&base_on_coarse).map(|(&p, &b)| sub(p, b)).collect();
         let level = level.and_then(|l| level_embedding(mesh, l));
@@ -152,8 +148,8 @@ impl CoarseBase {
             kept,
             representative,
             coarse_mesh,
-            embedding,
             faces,
+            weights,
             base_on_coarse,
             details,
             rest: mesh.positions().to_vec(),
@@ -164,6 +160,13 @@ impl CoarseBase {
             level,
             phases: clock.phases,
         })
+    }
+
+    /// Fine vertex `i`'s coarse triangle corners and barycentric weights.
+    #[inline]
+    pub(crate) fn embedding(&self, i: usize) -> ([u32; 3], [f64; 3]) {
+        let w = self.weights[i];
+        (self.coarse_mesh.triangles()[self.faces[i] as usize], from_stored(w[0], w[1]))
     }
 
     /// Whether this base was built for `mesh` (same fingerprint) with `config`'s smoothing and
@@ -253,4 +256,14 @@ impl Phases {
         self.phases.push((name, (now - self.last).as_secs_f64() * 1e3));
         self.last = now;
     }
+}
+
+/// $P B_c$: each fine vertex's point on the coarse mesh at rest, from its triangle and weights.
+pub(crate) fn on_coarse(coarse: &Mesh, faces: &[u32], weights: &[[f32; 2]]) -> Vec<[f64; 3]> {
+    let (p, t) = (coarse.positions(), coarse.triangles());
+    faces
+        .iter()
+        .zip(weights)
+        .map(|(&f, w)| blend(p, &t[f as usize], &from_stored(w[0], w[1])))
+        .collect()
 }

@@ -17,9 +17,9 @@
 //! base anew. [`save`] writes a temporary file and renames it, so a reader never sees half a
 //! file.
 
-use crate::deform::coarse_base::CoarseBase;
+use crate::deform::coarse_base::{CoarseBase, on_coarse};
 use crate::deform::config::BaseConfig;
-use crate::deform::embedding::{blend, from_stored};
+use crate::deform::embedding::from_stored;
 use crate::deform::level_fairing::Fairing;
 use crate::deform::middle_level::LevelEmbedding;
 use crate::geometry::mesh::{Mesh, sub};
@@ -94,8 +94,9 @@ pub fn save(base: &CoarseBase, path: &Path) -> std::io::Result<()> {
     u32s(&mut body, &base.kept);
     u32s(&mut body, &base.representative);
     u32s(&mut body, &base.faces);
-    for (_, w) in &base.embedding {
-        weights(&mut body, w);
+    for w in &base.weights {
+        body.extend(w[0].to_le_bytes());
+        body.extend(w[1].to_le_bytes());
     }
     match &base.level {
         None => body.extend(0u64.to_le_bytes()),
@@ -206,10 +207,9 @@ pub fn load(path: &Path, mesh: &Mesh, config: &BaseConfig) -> Result<CoarseBase,
     let positions: Vec<[f64; 3]> = cp.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
     let triangles: Vec<[u32; 3]> = ct.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
     let coarse_mesh = Mesh::new(positions, triangles).map_err(|_| invalid("coarse mesh"))?;
-    let embedding: Vec<([u32; 3], [f64; 3])> =
-        faces.iter().zip(weights).map(|(&f, w)| (coarse_mesh.triangles()[f as usize], w)).collect();
-    let cpos = coarse_mesh.positions();
-    let base_on_coarse: Vec<[f64; 3]> = embedding.iter().map(|(t, w)| blend(cpos, t, w)).collect();
+    // Exact: the weights were read as two f32s.
+    let weights: Vec<[f32; 2]> = weights.iter().map(|w| [w[0] as f32, w[1] as f32]).collect();
+    let base_on_coarse = on_coarse(&coarse_mesh, &faces, &weights);
     let details = mesh.positions().iter().zip(&base_on_coarse).map(|(&p, &b)| sub(p, b)).collect();
     let base = CoarseBase {
         fingerprint,
@@ -220,8 +220,8 @@ pub fn load(path: &Path, mesh: &Mesh, config: &BaseConfig) -> Result<CoarseBase,
         coarse_mesh,
         kept,
         representative,
-        embedding,
         faces,
+        weights,
         base_on_coarse,
         details,
         rest: mesh.positions().to_vec(),
@@ -369,7 +369,7 @@ mod tests {
         assert_eq!(back.kept, base.kept);
         assert_eq!(back.representative, base.representative);
         assert_eq!(back.faces, base.faces);
-        assert_eq!(back.embedding, base.embedding);
+        assert_eq!(back.weights, base.weights);
         assert_eq!(back.base_on_coarse, base.base_on_coarse);
         assert_eq!(back.details, base.details);
         assert_eq!(back.rest_kept, base.rest_kept);

@@ -27,8 +27,9 @@ pub struct Prolongation<'a> {
     pub triangles: &'a [[u32; 3]],
     /// Per fine vertex, the index of its coarse triangle $t_i$.
     pub faces: &'a [u32],
-    /// Per fine vertex: coarse triangle corners $t_i$ and weights $w_{ik}$.
-    pub embedding: &'a [([u32; 3], [f64; 3])],
+    /// Per fine vertex, its weights $w_{i0}, w_{i1}$ on that triangle as `f32`s; the third is
+    /// $1 - w_{i0} - w_{i1}$ in `f64` ([`crate::deform::embedding::from_stored`]).
+    pub weights: &'a [[f32; 2]],
     /// $D_i$, `#V×3`.
     pub details: &'a [[f64; 3]],
     /// $C_i$, `#V×3`, or empty for none (all zero).
@@ -133,13 +134,15 @@ fn prolong_lanes<L: Lanes>(
             for k in 0..4 {
                 quaternions[c][k] = gather!(j => frame[j].quaternions[c][k]);
             }
-            w[c] = gather!(j => input.embedding[lane[j]].1[c]);
             d[c] = if corrected {
                 gather!(j => input.details[lane[j]][c] + input.corrections[lane[j]][c])
             } else {
                 gather!(j => input.details[lane[j]][c])
             };
         }
+        w[0] = gather!(j => f64::from(input.weights[lane[j]][0]));
+        w[1] = gather!(j => f64::from(input.weights[lane[j]][1]));
+        w[2] = L::splat(t, 1.0) - w[0] - w[1];
         let (b, q) = at(&positions, &quaternions, &w);
         let r = rotate(q, d);
         let p = [(b[0] + r[0]).to_lanes(), (b[1] + r[1]).to_lanes(), (b[2] + r[2]).to_lanes()];
@@ -274,14 +277,14 @@ mod tests {
             .collect();
         let n = 2 * CHUNK + 7;
         let faces: Vec<u32> = (0..n).map(|i| (i * 31 % triangles.len()) as u32).collect();
-        let embedding: Vec<([u32; 3], [f64; 3])> = faces
-            .iter()
-            .map(|&f| {
+        let weights: Vec<[f32; 2]> = (0..n)
+            .map(|_| {
                 let (a, b) = (next().abs(), next().abs());
                 let (a, b) = if a + b > 1.0 { (1.0 - a, 1.0 - b) } else { (a, b) };
-                (triangles[f as usize], [a, b, 1.0 - a - b])
+                [a as f32, b as f32]
             })
             .collect();
+        let w = |i: usize| crate::deform::embedding::from_stored(weights[i][0], weights[i][1]);
         let details: Vec<[f64; 3]> = (0..n).map(|_| [next(), next(), next()]).collect();
         let corrections: Vec<[f64; 3]> = (0..n).map(|_| [next(), next(), next()]).collect();
         // A vanishing blend: zero quaternions at a triangle's corners.
@@ -295,7 +298,7 @@ mod tests {
                 quaternions: quats,
                 triangles: &triangles,
                 faces: &faces,
-                embedding: &embedding,
+                weights: &weights,
                 details: &details,
                 corrections,
             };
@@ -304,7 +307,7 @@ mod tests {
             let frames = triangle_frames(&coarse, quats, &triangles);
             for i in 0..n {
                 let f = &frames[faces[i] as usize];
-                let (b, q) = at(&f.positions, &f.quaternions, &embedding[i].1);
+                let (b, q) = at(&f.positions, &f.quaternions, &w(i));
                 let d = if corrections.is_empty() {
                     details[i]
                 } else {
@@ -316,7 +319,7 @@ mod tests {
             }
             let on_zeroed = faces.iter().position(|&f| f == 3).unwrap();
             let f = &frames[3];
-            let (_, q) = at(&f.positions, &f.quaternions, &embedding[on_zeroed].1);
+            let (_, q) = at(&f.positions, &f.quaternions, &w(on_zeroed));
             if std::ptr::eq(quats, &zeroed) {
                 assert_eq!(q, [1.0, 0.0, 0.0, 0.0]);
             }
