@@ -8,6 +8,7 @@ mod support;
 
 use std::path::PathBuf;
 
+use app::editor::pose::GroupPose;
 use app::editor::solver_thread::Slot;
 use app::editor::{EditorApp, EditorOptions, Shading};
 use eframe::egui::{self, Modifiers, Pos2, Vec2};
@@ -129,6 +130,66 @@ fn a_textured_asset_shows_its_texture_and_the_clay_toggle_switches_back() {
     assert!(tinted[2] > red[2] + 40, "no group colour over the texture: {tinted:?}");
     assert!(tinted[0] > 2 * tinted[1], "the texture no longer shows under it: {tinted:?}");
     h.snapshot_options("editor_textured_group", &snapshot_options());
+}
+
+/// In texture shading too, frames may come without normals (the viewport's GPU pass, what
+/// the editor does on a hardware adapter, here forced on lavapipe) and the gathered render
+/// vertices draw what the solver thread's CPU normals draw. The cube is turned with the pass
+/// on, so that the normals of the rest pose left in its buffer would show.
+#[test]
+fn texture_shading_draws_the_same_with_gpu_normals() {
+    let dir = temp_dir("textured-gpu-normals");
+    let builder =
+        Harness::builder().with_size(SIZE).with_render_cursor(false).with_step_dt(1.0 / 30.0);
+    let mut h = builder.wgpu().build_eframe(|cc| {
+        EditorApp::new(
+            cc,
+            EditorOptions { mesh_path: None, deterministic_overlays: true, config_dir: None },
+        )
+    });
+    h.step();
+    let ctx = h.ctx.clone();
+    h.state_mut().open_loaded(&ctx, dir.join("cube.glb"), textured_cube(red_png()));
+    step_until(&mut h, "the textured cube", |a| !a.is_loading() && a.n_vertices() == 8);
+    let e = app::editor::undo::EditState::from_labels(vec![Some(0); 8]);
+    h.state_mut().set_edit_state(e);
+    step_until(&mut h, "the solver on the handles", settled);
+    assert_eq!(h.state().shading(), Shading::Texture);
+    h.state_mut().set_gpu_normals(true);
+    // 40 degrees about (0, 1, 1): every face's normal changes.
+    let (s, c) = (0.35f64.sin() * std::f64::consts::FRAC_1_SQRT_2, 0.35f64.cos());
+    for k in 0..h.state().edit_state().groups.len() {
+        let pose = GroupPose { translation: [0.0; 3], rotation: [0.0, s, s, c] };
+        assert!(h.state_mut().drag_group(k, pose));
+    }
+    let generation = h.state().pose_generation();
+    let frame = |normals: bool| {
+        move |a: &EditorApp| {
+            settled(a)
+                && a.latest_frame(Slot::Main).is_some_and(|f| {
+                    f.pose_generation == generation && f.normals.is_empty() != normals
+                })
+        }
+    };
+    step_until(&mut h, "the turned cube without normals", frame(false));
+    h.run_steps(2);
+    let gpu = h.render().expect("render with GPU normals");
+    h.state_mut().set_gpu_normals(false);
+    step_until(&mut h, "the turned cube with normals", frame(true));
+    h.run_steps(2);
+    let cpu = h.render().expect("render with CPU normals");
+    assert_eq!(cpu.dimensions(), gpu.dimensions());
+    let (w, ht) = cpu.dimensions();
+    let (mut off, mut lit) = (0, 0);
+    for y in 80..ht {
+        for x in 0..w {
+            let (a, b) = (cpu.get_pixel(x, y), gpu.get_pixel(x, y));
+            off += usize::from(a.0.iter().zip(b.0).any(|(p, q)| p.abs_diff(q) > 2));
+            lit += usize::from(u16::from(a.0[0]) > 2 * u16::from(a.0[1].max(a.0[2])));
+        }
+    }
+    assert!(lit > 1000, "the red cube is not drawn ({lit} red pixels)");
+    assert!(off * 1000 < (w * (ht - 80)) as usize, "{off} pixels differ");
 }
 
 /// A big unit sphere and a small one just above its top (two components, the big one first;

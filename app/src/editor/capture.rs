@@ -105,19 +105,9 @@ impl Picture {
         let [w, h] = self.size;
         let aspect = w.max(1) as f32 / h.max(1) as f32;
         let bg = Rgba::from(BACKGROUND);
-        let (clay, textured) = match &self.render {
-            Some(layout) => {
-                let vertices =
-                    layout.gather(&self.shape.positions, &self.shape.normals, &self.colors);
-                let vertices = Arc::new(VertexData { version, vertices });
-                (None, Some(TexturedDraw { layout: layout.clone(), vertices }))
-            }
-            None => {
-                let colors = Arc::new(VertexData { version, vertices: self.colors.clone() });
-                let shape = self.shape.clone();
-                (Some(ClayDraw { shape_version: version, shape, colors }), None)
-            }
-        };
+        let colors = Arc::new(VertexData { version, vertices: self.colors.clone() });
+        let clay = Some(ClayDraw { shape_version: version, shape: self.shape.clone(), colors });
+        let textured = self.render.as_ref().map(|layout| TexturedDraw { layout: layout.clone() });
         ViewportCallback {
             slot,
             size_px: self.size,

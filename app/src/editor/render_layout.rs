@@ -9,8 +9,8 @@
 //! corner's vertex colour (both linear RGBA); the texture coordinate comes from the UV set the
 //! material's base-colour texture names, and is (0, 0) on untextured triangles so that they
 //! share vertices. A UV seam or a material border thus splits a mesh vertex into several render
-//! vertices; each frame the pose is gathered onto them, $p_r = x_{\mathrm{mesh}(r)}$
-//! ([`RenderLayout::gather`]), so seams never open. Triangles that cleaning dropped (a corner
+//! vertices; each frame the pose is gathered onto them on the GPU, $p_r = x_{\mathrm{mesh}(r)}$
+//! ([`crate::gpu::gather`]), so seams never open. Triangles that cleaning dropped (a corner
 //! mapped to `None` or a repeated mesh vertex) are not drawn.
 //!
 //! **Draws.** Triangles are sorted by base-colour texture (untextured first) into
@@ -24,16 +24,12 @@ use std::collections::{BTreeMap, HashMap};
 use std::ops::Range;
 use std::sync::Arc;
 
-use rayon::prelude::*;
 use solver::io::Asset;
 
-use super::draw_data::{TexturedVertex, Topology};
+use super::draw_data::Topology;
 
 /// Textures larger than this (either side) are downscaled when decoded.
 pub const MAX_TEXTURE_SIZE: u32 = 4096;
-
-/// From this many render vertices on, [`RenderLayout::gather`] runs on rayon's pool.
-const PARALLEL_GATHER: usize = 32_768;
 
 /// Triangles `indices` (index-buffer positions) drawn with base-colour texture `image`
 /// (an index into [`RenderLayout::images`]; `None`: untextured).
@@ -188,47 +184,6 @@ impl RenderLayout {
     pub fn has_texture_or_colors(&self) -> bool {
         self.has_vertex_colors || self.images.iter().any(Option::is_some)
     }
-
-    /// The vertices of one frame: positions, normals and the overlay colour (handle groups,
-    /// brush; alpha is its weight over the surface) of the mesh vertices, gathered onto the
-    /// render vertices beside their texture coordinates and base colours.
-    pub fn gather(
-        &self,
-        positions: &[[f32; 3]],
-        normals: &[[f32; 3]],
-        overlay: &[[f32; 4]],
-    ) -> Vec<TexturedVertex> {
-        let mut out = Vec::new();
-        self.gather_into(&mut out, positions, normals, overlay);
-        out
-    }
-
-    /// [`RenderLayout::gather`] into `out`, reusing its allocation.
-    pub fn gather_into(
-        &self,
-        out: &mut Vec<TexturedVertex>,
-        positions: &[[f32; 3]],
-        normals: &[[f32; 3]],
-        overlay: &[[f32; 4]],
-    ) {
-        let vertex = |r: usize| {
-            let m = self.mesh_vertex[r] as usize;
-            TexturedVertex {
-                position: positions[m],
-                normal: normals[m],
-                overlay: overlay[m],
-                base_color: self.base_color[r],
-                uv: self.uv[r],
-            }
-        };
-        let n = self.mesh_vertex.len();
-        out.clear();
-        if n >= PARALLEL_GATHER {
-            (0..n).into_par_iter().map(vertex).collect_into_vec(out);
-        } else {
-            out.extend((0..n).map(vertex));
-        }
-    }
 }
 
 /// The mesh vertices of file triangle `tri`, or `None` when cleaning dropped it (or the map
@@ -331,17 +286,6 @@ mod tests {
         assert_eq!(e.len(), edges.len());
         for (r, m) in e.iter().zip(edges) {
             assert_eq!(layout.mesh_vertex[*r as usize], m);
-        }
-        // The pose follows the mesh: both copies of a split vertex get its position.
-        let x: Vec<[f32; 3]> = (0..4).map(|i| [i as f32, 0.0, 0.0]).collect();
-        let n = vec![[0.0, 0.0, 1.0]; 4];
-        let overlay: Vec<[f32; 4]> = (0..4).map(|i| [0.0, 0.0, 0.0, i as f32]).collect();
-        let v = layout.gather(&x, &n, &overlay);
-        for (r, v) in v.iter().enumerate() {
-            let m = layout.mesh_vertex[r] as usize;
-            assert_eq!(v.position, x[m]);
-            assert_eq!(v.overlay[3], m as f32);
-            assert_eq!(v.uv, layout.uv[r]);
         }
     }
 

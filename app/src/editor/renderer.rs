@@ -14,8 +14,10 @@
 //! shape without normals (on a GPU the solver thread leaves them out) gets them from a compute
 //! pass over the uploaded positions ([`crate::gpu::normals`]) before the draw.
 //! Texture shading draws the asset's split layout ([`super::render_layout::RenderLayout`],
-//! [`super::draw_data::TexturedVertex`], `textured.wgsl`): base colour × texture, with the handle colours
-//! blended over it; one draw per base-colour texture.
+//! [`super::draw_data::TexturedVertex`], `textured.wgsl`): base colour × texture, with the
+//! handle colours blended over it; one draw per base-colour texture. Its vertices are gathered
+//! on the GPU from the same three streams ([`crate::gpu::gather`]), so that a new pose costs
+//! the UI thread no more than in clay.
 
 use std::sync::Arc;
 
@@ -82,10 +84,11 @@ pub struct ClayDraw {
     pub colors: Arc<VertexData<[f32; 4]>>,
 }
 
-/// The mesh in texture shading: the asset's layout and this frame's vertices on it.
+/// The mesh in texture shading: the asset's layout, onto whose render vertices the viewport
+/// gathers the [`ClayDraw`] streams (positions, normals, overlay colours) on the GPU
+/// ([`crate::gpu::gather`]) before drawing them.
 pub struct TexturedDraw {
     pub layout: Arc<RenderLayout>,
-    pub vertices: Arc<VertexData<TexturedVertex>>,
 }
 
 /// Line segments of a ground grid on the plane `y = height`, centred under `center`.
@@ -125,10 +128,11 @@ pub struct ViewportCallback {
     pub size_px: [u32; 2],
     pub uniforms: Uniforms,
     pub topology: Option<Arc<Topology>>,
-    /// Clay shading, on `topology`.
+    /// The shape and its colours on `topology`: drawn in clay shading, gathered onto
+    /// `textured` in texture shading.
     pub clay: Option<ClayDraw>,
     pub grid: Option<Arc<VertexData>>,
-    /// Texture shading: drawn instead of `topology` and `clay`.
+    /// Texture shading: `clay` drawn through the asset's layout.
     pub textured: Option<TexturedDraw>,
     pub wireframe: bool,
     pub show_grid: bool,
@@ -464,50 +468,60 @@ impl CallbackTrait for ViewportCallback {
             vp.n_edge_indices = topo.edges.len() as u32;
             vp.topology_version = Some((topo.version, textured));
         }
-        match (&self.textured, &self.clay) {
-            (Some(t), _) => {
-                if vp.vertex_version != Some(t.vertices.version) {
-                    vp.vertices.write(device, queue, bytemuck::cast_slice(&t.vertices.vertices));
-                    vp.n_vertices = t.vertices.vertices.len() as u32;
-                    vp.vertex_version = Some(t.vertices.version);
-                }
-            }
-            (None, Some(c)) => {
-                if vp.vertex_version != Some(c.shape_version) {
-                    let positions = &c.shape.positions;
-                    vp.vertices.write(device, queue, bytemuck::cast_slice(positions));
-                    let n = if c.shape.normals.is_empty() && !positions.is_empty() {
-                        match self
-                            .topology
-                            .as_deref()
-                            .map(|t| vp.normals_pass(device, t, positions.len()))
-                        {
-                            Some(Ok(binding)) => {
-                                let mut pass =
-                                    egui_encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                                        label: Some("bsarap vertex normals"),
-                                        timestamp_writes: None,
-                                    });
-                                binding.record(&mut pass);
-                                positions.len()
-                            }
-                            // Nothing drawn rather than a mesh lit by stale normals.
-                            _ => 0,
+        if let Some(c) = &self.clay {
+            if vp.vertex_version != Some(c.shape_version) {
+                let positions = &c.shape.positions;
+                vp.vertices.write(device, queue, bytemuck::cast_slice(positions));
+                let n = if c.shape.normals.is_empty() && !positions.is_empty() {
+                    match self
+                        .topology
+                        .as_deref()
+                        .map(|t| vp.normals_pass(device, queue, t, positions.len()))
+                    {
+                        Some(Ok(binding)) => {
+                            let mut pass =
+                                egui_encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                                    label: Some("bsarap vertex normals"),
+                                    timestamp_writes: None,
+                                });
+                            binding.record(&mut pass);
+                            positions.len()
                         }
-                    } else {
-                        vp.normals.write(device, queue, bytemuck::cast_slice(&c.shape.normals));
-                        positions.len().min(c.shape.normals.len())
-                    };
-                    vp.n_vertices = n as u32;
-                    vp.vertex_version = Some(c.shape_version);
-                }
-                if vp.color_version != Some(c.colors.version) {
-                    vp.colors.write(device, queue, bytemuck::cast_slice(&c.colors.vertices));
-                    vp.n_colors = c.colors.vertices.len() as u32;
-                    vp.color_version = Some(c.colors.version);
-                }
+                        // Nothing drawn rather than a mesh lit by stale normals.
+                        _ => 0,
+                    }
+                } else {
+                    vp.normals.write(device, queue, bytemuck::cast_slice(&c.shape.normals));
+                    positions.len().min(c.shape.normals.len())
+                };
+                vp.n_vertices = n as u32;
+                vp.vertex_version = Some(c.shape_version);
             }
-            (None, None) => {}
+            if vp.color_version != Some(c.colors.version) {
+                vp.colors.write(device, queue, bytemuck::cast_slice(&c.colors.vertices));
+                vp.n_colors = c.colors.vertices.len() as u32;
+                vp.color_version = Some(c.colors.version);
+            }
+        }
+        if let (Some(t), Some(c)) = (&self.textured, &self.clay) {
+            let key = (t.layout.topology.version, c.shape_version, c.colors.version);
+            if vp.render_version != Some(key) {
+                // Every mesh vertex a render vertex names must have its three streams.
+                let complete = vp.n_vertices > 0
+                    && vp.n_colors >= vp.n_vertices
+                    && t.layout.mesh_vertex.iter().all(|&m| m < vp.n_vertices);
+                vp.n_render = 0;
+                if complete && let Ok(binding) = vp.gather_pass(device, &t.layout) {
+                    let mut pass = egui_encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                        label: Some("bsarap texture layout gather"),
+                        timestamp_writes: None,
+                    });
+                    binding.record(&mut pass);
+                    drop(pass);
+                    vp.n_render = t.layout.mesh_vertex.len() as u32;
+                }
+                vp.render_version = Some(key);
+            }
         }
         if let Some(g) = &self.grid
             && vp.grid_version != Some(g.version)
@@ -551,11 +565,17 @@ impl CallbackTrait for ViewportCallback {
             pass.set_vertex_buffer(0, vp.grid.buffer.slice(..));
             pass.draw(0..vp.n_grid, 0..1);
         }
-        // Clay needs a colour for every vertex (the streams of one shape).
-        let mesh_ready = textured
-            || (self.topology.is_some() && self.clay.is_some() && vp.n_colors >= vp.n_vertices);
-        if mesh_ready && vp.n_vertices > 0 && vp.n_triangle_indices > 0 {
-            pass.set_vertex_buffer(0, vp.vertices.buffer.slice(..));
+        // Clay needs a colour for every vertex (the streams of one shape); texture shading, the
+        // render vertices gathered from them.
+        let (vertices, n_vertices) = if textured {
+            (&vp.render, vp.n_render)
+        } else if self.topology.is_some() && self.clay.is_some() && vp.n_colors >= vp.n_vertices {
+            (&vp.vertices, vp.n_vertices)
+        } else {
+            (&vp.vertices, 0)
+        };
+        if n_vertices > 0 && vp.n_triangle_indices > 0 {
+            pass.set_vertex_buffer(0, vertices.buffer.slice(..));
             if !textured {
                 pass.set_vertex_buffer(1, vp.normals.buffer.slice(..));
                 pass.set_vertex_buffer(2, vp.colors.buffer.slice(..));

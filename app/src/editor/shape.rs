@@ -1,8 +1,7 @@
 //! What a viewport draws of a pose: f32 positions and vertex normals, made where the
 //! positions are made (the solver thread, the loader, the recording job), and shared with the
-//! renderer and picking as `Arc`s. A frame may come without normals when the clay viewport
-//! computes them on the GPU; only a texture layout then gathers them on the UI thread, once
-//! per such frame (`EditorApp::with_normals`).
+//! renderer and picking as `Arc`s. A frame may come without normals when the viewport
+//! computes them on the GPU (`gpu::normals`, in clay and texture shading alike).
 
 use std::sync::Arc;
 
@@ -29,15 +28,6 @@ impl Shape {
         let (mut positions, mut normals) = (Vec::new(), Vec::new());
         faces.shape_f32(x, triangles, &mut positions, &mut normals);
         Shape { positions: Arc::new(positions), normals: Arc::new(normals) }
-    }
-}
-
-impl Shape {
-    /// These positions with their vertex normals computed here (for a shape made without them,
-    /// [`ShapePool::shape`] with no faces); `faces` were built for `triangles`.
-    pub fn with_vertex_normals(&self, triangles: &[[u32; 3]], faces: &VertexFaces) -> Shape {
-        let x: Vec<[f64; 3]> = self.positions.iter().map(|p| p.map(f64::from)).collect();
-        Shape::with_faces(&x, triangles, faces)
     }
 }
 

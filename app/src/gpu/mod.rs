@@ -1,7 +1,8 @@
 //! GPU work outside the editor's render passes: compute passes that take per-vertex work off
-//! the solver thread ([`normals`], [`prolong`]), and a headless device to run them without a
-//! window (tests, benchmarks; lavapipe where there is no GPU).
+//! the solver thread ([`normals`], [`prolong`]) or the UI thread ([`gather`]), and a headless
+//! device to run them without a window (tests, benchmarks; lavapipe where there is no GPU).
 
+pub mod gather;
 pub mod normals;
 pub mod prolong;
 

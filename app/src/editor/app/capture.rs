@@ -236,7 +236,6 @@ impl EditorApp {
         let (_, shape) = self.slot_shape(0)?;
         let n = shape.positions.len();
         let render = self.texture_layout(n).cloned();
-        let shape = if render.is_some() { self.with_normals(shape) } else { shape };
         let overlays = self.capture.overlays;
         let colors = if overlays {
             self.vertex_colors(0, n, render.is_some())

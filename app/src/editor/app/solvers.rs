@@ -8,7 +8,7 @@ use std::time::Instant;
 use eframe::egui;
 use solver::Handles;
 
-use super::{EditorApp, Shading, View};
+use super::{EditorApp, View};
 use crate::editor::pose::GroupPose;
 use crate::editor::pose_solvers;
 use crate::editor::solver_thread::{NewScene, Slot, SolvedFrame, SolverCommand, SolverHandle};
@@ -257,13 +257,12 @@ impl EditorApp {
         if let Some(h) = &self.solvers.main {
             h.show_base(self.display.view == View::Base);
         }
-        // Clay frames leave their normals to the viewport's GPU pass where it fits the mesh.
-        let normals_on_gpu = self.display.shading == Shading::Clay
-            && self.session.scene.as_ref().is_some_and(|s| {
-                self.display.gpu_normals.as_ref().is_some_and(|limits| {
-                    GpuNormals::fits(limits, s.mesh.n_vertices(), s.mesh.n_faces())
-                })
-            });
+        // Frames leave their normals to the viewport's GPU pass where it fits the mesh.
+        let normals_on_gpu = self.session.scene.as_ref().is_some_and(|s| {
+            self.display.gpu_normals.as_ref().is_some_and(|limits| {
+                GpuNormals::fits(limits, s.mesh.n_vertices(), s.mesh.n_faces())
+            })
+        });
         for h in [self.solvers.main.as_ref(), self.solvers.compare.as_ref()].into_iter().flatten() {
             h.normals_on_gpu(normals_on_gpu);
         }

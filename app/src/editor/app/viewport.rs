@@ -9,7 +9,7 @@ use eframe::egui_wgpu;
 
 use super::{EditorApp, EditorOptions, Shading, View};
 use crate::editor::camera::OrbitCamera;
-use crate::editor::draw_data::{TexturedVertex, VertexData};
+use crate::editor::draw_data::VertexData;
 use crate::editor::pose_solvers;
 use crate::editor::render_layout::RenderLayout;
 use crate::editor::renderer::{ClayDraw, TexturedDraw, Uniforms, ViewportCallback};
@@ -101,8 +101,6 @@ pub(super) struct ViewportCache {
     /// version its upload carries and the tag of the pose it shows (a change of colours alone
     /// keeps the version: the positions and normals are not uploaded again).
     pub(super) shape: Option<(u64, u64, Shape)>,
-    /// Texture shading: the shape and colours gathered onto the asset's render layout.
-    pub(super) textured: Option<Arc<VertexData<TexturedVertex>>>,
     /// This viewport's vertex colors and the color version they were made for: kept while only
     /// the positions change (not in the Details view, whose colors follow the pose).
     pub(super) colors: Option<(u64, Arc<VertexData<[f32; 4]>>)>,
@@ -113,12 +111,6 @@ impl ViewportCache {
     pub(super) fn positions(&self) -> Option<&Arc<Vec<[f32; 3]>>> {
         self.shape.as_ref().map(|(_, _, s)| &s.positions)
     }
-}
-
-/// The vertices of a viewport's previous frame, to be refilled in place when no draw holds
-/// them any more (egui drops its paint callbacks after each frame).
-fn recycle<V>(data: &mut Option<Arc<VertexData<V>>>) -> Vec<V> {
-    data.take().and_then(|d| Arc::try_unwrap(d).ok()).map(|d| d.vertices).unwrap_or_default()
 }
 
 impl EditorApp {
@@ -244,18 +236,6 @@ impl EditorApp {
         }
     }
 
-    /// `shape` with vertex normals, for the texture layout to gather: a frame made while the
-    /// viewport drew clay on a GPU has none, and gets them here on the CPU, once per such frame
-    /// (the solver thread republishes with normals after a switch to texture shading).
-    pub(super) fn with_normals(&self, shape: Shape) -> Shape {
-        match &self.session.scene {
-            Some(scene) if shape.normals.is_empty() => {
-                shape.with_vertex_normals(scene.mesh.triangles(), &scene.vertex_faces)
-            }
-            _ => shape,
-        }
-    }
-
     pub(super) fn draw_viewport(&mut self, ui: &mut egui::Ui, slot: usize, rect: Rect) {
         let response =
             ui.interact(rect, ui.scope_id().with(("viewport", slot)), Sense::click_and_drag());
@@ -264,31 +244,24 @@ impl EditorApp {
             let key = (*pv, self.display.color_version);
             if self.display.viewports[slot].key != Some(key) {
                 let n = shape.positions.len();
-                let layout = self.texture_layout(n).cloned();
-                let gathered = layout.as_ref().map(|_| self.with_normals(shape.clone()));
+                let textured = self.texture_layout(n).is_some();
                 let color_version = self.display.color_version;
                 let fresh = self.display.view != View::Details
                     && matches!(&self.display.viewports[slot].colors,
                         Some((v, c)) if *v == color_version && c.vertices.len() == n);
                 if !fresh {
-                    let vertices = self.vertex_colors(slot, n, layout.is_some());
+                    let vertices = self.vertex_colors(slot, n, textured);
                     let version = self.next_version();
                     let colors = Arc::new(VertexData { version, vertices });
                     self.display.viewports[slot].colors = Some((color_version, colors));
                 }
-                // Distinct numbers: the textured vertices and the clay positions share a buffer.
-                let (version, shape_version) = (self.next_version(), self.next_version());
-                let cache = &mut self.display.viewports[slot];
-                let colors = cache.colors.as_ref().map_or(&[][..], |c| &c.1.vertices[..]);
-                let mut vertices = recycle(&mut cache.textured);
-                cache.textured = layout.zip(gathered).map(|(layout, s)| {
-                    layout.gather_into(&mut vertices, &s.positions, &s.normals, colors);
-                    Arc::new(VertexData { version, vertices })
-                });
-                cache.key = Some(key);
-                if cache.shape.as_ref().is_none_or(|(_, tag, _)| tag != pv) {
-                    cache.shape = Some((shape_version, *pv, shape.clone()));
+                // A shape without normals (made on a GPU) gets them from the viewport's pass,
+                // in either shading.
+                if self.display.viewports[slot].shape.as_ref().is_none_or(|(_, tag, _)| tag != pv) {
+                    let shape_version = self.next_version();
+                    self.display.viewports[slot].shape = Some((shape_version, *pv, shape.clone()));
                 }
+                self.display.viewports[slot].key = Some(key);
             }
         }
         self.viewport_input(ui, slot, rect, &response);
@@ -309,6 +282,10 @@ impl EditorApp {
             };
             let bg = egui::Rgba::from(Color32::from_rgb(38, 40, 46));
             let draw_mesh = positions.is_ok();
+            let drawn = self.display.viewports[slot]
+                .shape
+                .as_ref()
+                .map_or(0, |(_, _, s)| s.positions.len());
             let cb = ViewportCallback {
                 slot,
                 size_px: [
@@ -328,19 +305,17 @@ impl EditorApp {
                         .shape
                         .clone()
                         .zip(cache.colors.as_ref().map(|c| c.1.clone()))
-                        .filter(|_| draw_mesh && cache.textured.is_none())
+                        .filter(|_| draw_mesh)
                         .map(|((shape_version, _, shape), colors)| ClayDraw {
                             shape_version,
                             shape,
                             colors,
                         })
                 },
-                textured: self.display.viewports[slot]
-                    .textured
-                    .clone()
+                textured: self
+                    .texture_layout(drawn)
                     .filter(|_| draw_mesh)
-                    .zip(self.session.scene.as_ref().and_then(|s| s.render.clone()))
-                    .map(|(vertices, layout)| TexturedDraw { layout, vertices }),
+                    .map(|layout| TexturedDraw { layout: layout.clone() }),
                 grid: self.session.scene.as_ref().map(|s| s.grid.clone()),
                 wireframe: self.display.wireframe,
                 show_grid: self.display.show_grid,

@@ -1,11 +1,14 @@
 //! One viewport's GPU resources: its uniform, vertex and index buffers (rewritten in place,
-//! grown when needed), its offscreen colour and depth target, and the vertex-normals pass for
-//! clay shapes that come without normals. [`super::ViewportCallback`] fills and draws them.
+//! grown when needed), its offscreen colour and depth target, the vertex-normals pass for
+//! shapes that come without normals, and the gather of the welded streams onto the texture
+//! layout's render vertices. [`super::ViewportCallback`] fills and draws them.
 
 use eframe::egui_wgpu::wgpu;
 
 use super::{COLOR_FORMAT, DEPTH_FORMAT, Uniforms};
 use crate::editor::draw_data::Topology;
+use crate::editor::render_layout::RenderLayout;
+use crate::gpu::gather::{BYTES_PER_RENDER_VERTEX, GatherBinding, GpuGather};
 use crate::gpu::normals::{BYTES_PER_VERTEX, GpuNormals, NormalsBinding};
 
 /// A GPU buffer that is rewritten in place and grows when needed.
@@ -68,12 +71,17 @@ pub(super) struct Target {
 pub(super) struct ViewportGpu {
     pub(super) uniform_buffer: wgpu::Buffer,
     pub(super) uniform_bind_group: wgpu::BindGroup,
-    /// Positions (clay) or whole [`TexturedVertex`]s.
+    /// The welded mesh's streams: positions, normals and colours (in texture shading the
+    /// overlay), one entry per mesh vertex.
     pub(super) vertices: GrowBuffer,
-    /// Clay only: normals and colours, beside the positions in `vertices`.
     pub(super) normals: GrowBuffer,
     pub(super) colors: GrowBuffer,
+    /// Texture shading: the render vertices gathered from those streams
+    /// ([`crate::gpu::gather`], `TexturedVertex`s).
+    pub(super) render: GrowBuffer,
     pub(super) triangles: GrowBuffer,
+    /// The welded mesh's triangles for the normals pass.
+    welded: GrowBuffer,
     pub(super) edges: GrowBuffer,
     pub(super) grid: GrowBuffer,
     pub(super) vertex_version: Option<u64>,
@@ -83,6 +91,10 @@ pub(super) struct ViewportGpu {
     pub(super) grid_version: Option<u64>,
     pub(super) n_vertices: u32,
     pub(super) n_colors: u32,
+    /// The layout version, shape version and colour version `render` was gathered from, and
+    /// its render vertices (0: nothing to draw).
+    pub(super) render_version: Option<(u64, u64, u64)>,
+    pub(super) n_render: u32,
     pub(super) n_triangle_indices: u32,
     pub(super) n_edge_indices: u32,
     pub(super) n_grid: u32,
@@ -92,6 +104,10 @@ pub(super) struct ViewportGpu {
     /// generations); `Err` once it could not be built for that topology.
     gpu_normals: Option<(u64, Result<GpuNormals, String>)>,
     normals_binding: Option<([u64; 3], NormalsBinding)>,
+    /// The gather for the layout version it was built for (`Err` once it could not be), and
+    /// its binding to `vertices`, `normals`, `colors` and `render` (their generations).
+    gather: Option<(u64, Result<GpuGather, String>)>,
+    gather_binding: Option<([u64; 4], GatherBinding)>,
 }
 
 impl ViewportGpu {
@@ -113,15 +129,18 @@ impl ViewportGpu {
         });
         let vertex = wgpu::BufferUsages::VERTEX;
         let index = wgpu::BufferUsages::INDEX;
-        // The normals pass reads the positions and triangles and writes the normals.
+        // The normals pass reads the positions and triangles and writes the normals; the
+        // gather reads the three streams and writes the render vertices.
         let storage = wgpu::BufferUsages::STORAGE;
         ViewportGpu {
             uniform_buffer,
             uniform_bind_group,
             vertices: GrowBuffer::new(device, "bsarap mesh vertices", vertex | storage),
             normals: GrowBuffer::new(device, "bsarap mesh normals", vertex | storage),
-            colors: GrowBuffer::new(device, "bsarap mesh colours", vertex),
-            triangles: GrowBuffer::new(device, "bsarap triangle indices", index | storage),
+            colors: GrowBuffer::new(device, "bsarap mesh colours", vertex | storage),
+            render: GrowBuffer::new(device, "bsarap textured vertices", vertex | storage),
+            triangles: GrowBuffer::new(device, "bsarap triangle indices", index),
+            welded: GrowBuffer::new(device, "bsarap welded triangles", storage),
             edges: GrowBuffer::new(device, "bsarap edge indices", index),
             grid: GrowBuffer::new(device, "bsarap grid vertices", vertex),
             vertex_version: None,
@@ -130,26 +149,33 @@ impl ViewportGpu {
             grid_version: None,
             n_vertices: 0,
             n_colors: 0,
+            render_version: None,
+            n_render: 0,
             n_triangle_indices: 0,
             n_edge_indices: 0,
             n_grid: 0,
             target: None,
             gpu_normals: None,
             normals_binding: None,
+            gather: None,
+            gather_binding: None,
         }
     }
 
-    /// The normals pass bound to this viewport's buffers for `topology`'s mesh, drawn with
-    /// `n_vertices` positions; built when the topology changes and bound again when a buffer
-    /// was replaced. Errors (kept for the topology, reported once) when the mesh does not fit
-    /// the device or the positions are not the topology's.
+    /// The normals pass bound to this viewport's buffers for `topology`'s mesh (the welded
+    /// one, whose triangles it keeps in `welded`: texture shading's index buffer holds the
+    /// render layout's), drawn with `n_vertices` positions; built when the topology changes and
+    /// bound again when a buffer was replaced. Errors (kept for the topology, reported once)
+    /// when the mesh does not fit the device or the positions are not the topology's.
     pub(super) fn normals_pass(
         &mut self,
         device: &wgpu::Device,
+        queue: &wgpu::Queue,
         topology: &Topology,
         n_vertices: usize,
     ) -> Result<&NormalsBinding, String> {
         if self.gpu_normals.as_ref().is_none_or(|(v, _)| *v != topology.version) {
+            self.welded.write(device, queue, bytemuck::cast_slice(&topology.triangles));
             let n_faces = topology.triangles.len() / 3;
             let pass = match &topology.vertex_faces {
                 Some(rows) => GpuNormals::new(device, rows, n_faces),
@@ -169,17 +195,53 @@ impl ViewportGpu {
         }
         self.normals.reserve(device, BYTES_PER_VERTEX * n_vertices as u64);
         let generations =
-            [self.vertices.generation, self.triangles.generation, self.normals.generation];
+            [self.vertices.generation, self.welded.generation, self.normals.generation];
         if self.normals_binding.as_ref().is_none_or(|(g, _)| *g != generations) {
-            let binding = pass.bind(
-                device,
-                &self.vertices.buffer,
-                &self.triangles.buffer,
-                &self.normals.buffer,
-            );
+            let binding =
+                pass.bind(device, &self.vertices.buffer, &self.welded.buffer, &self.normals.buffer);
             self.normals_binding = Some((generations, binding));
         }
         self.normals_binding.as_ref().map(|(_, b)| b).ok_or_else(|| "no binding".into())
+    }
+
+    /// The gather onto `layout`'s render vertices bound to this viewport's streams; built when
+    /// the layout changes and bound again when a buffer was replaced. Errors (kept for the
+    /// layout, reported once) when the layout does not fit the device.
+    pub(super) fn gather_pass(
+        &mut self,
+        device: &wgpu::Device,
+        layout: &RenderLayout,
+    ) -> Result<&GatherBinding, String> {
+        let version = layout.topology.version;
+        if self.gather.as_ref().is_none_or(|(v, _)| *v != version) {
+            let pass = GpuGather::new(device, &layout.mesh_vertex, &layout.base_color, &layout.uv)
+                .map_err(|e| {
+                    eprintln!("bsarap: texture layout on the GPU: {e}");
+                    e.to_string()
+                });
+            self.gather = Some((version, pass));
+            self.gather_binding = None;
+        }
+        let Some((_, pass)) = &self.gather else { return Err("no pass".into()) };
+        let pass = pass.as_ref().map_err(Clone::clone)?;
+        self.render.reserve(device, BYTES_PER_RENDER_VERTEX * pass.len() as u64);
+        let generations = [
+            self.vertices.generation,
+            self.normals.generation,
+            self.colors.generation,
+            self.render.generation,
+        ];
+        if self.gather_binding.as_ref().is_none_or(|(g, _)| *g != generations) {
+            let binding = pass.bind(
+                device,
+                &self.vertices.buffer,
+                &self.normals.buffer,
+                &self.colors.buffer,
+                &self.render.buffer,
+            );
+            self.gather_binding = Some((generations, binding));
+        }
+        self.gather_binding.as_ref().map(|(_, b)| b).ok_or_else(|| "no binding".into())
     }
 }
 
