@@ -20,8 +20,10 @@
 //! A bare asset (no vertex colours, no part with a material) has no layout: the viewport draws
 //! the welded mesh directly, at no extra cost.
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::BTreeMap;
 use std::ops::Range;
+
+use rustc_hash::FxHashMap;
 use std::sync::Arc;
 
 use solver::io::Asset;
@@ -99,7 +101,8 @@ impl RenderLayout {
             }
         }
         let default_material = solver::io::Material::default();
-        let mut index: HashMap<(u32, [u32; 2], [u32; 4]), u32> = HashMap::new();
+        let mut index: FxHashMap<(u32, [u32; 2], [u32; 4]), u32> = FxHashMap::default();
+        index.reserve(n_vertices);
         let mut layout = RenderLayout {
             mesh_vertex: Vec::new(),
             uv: Vec::new(),
