@@ -83,9 +83,8 @@ fn pixel_at_mesh_centre(h: &mut Harness<'_, EditorApp>) -> [i32; 3] {
     [p[0], p[1], p[2]].map(i32::from)
 }
 
-#[test]
-fn a_textured_asset_shows_its_texture_and_the_clay_toggle_switches_back() {
-    let dir = temp_dir("textured");
+/// The editor with no mesh open, after its first frame.
+fn empty_editor() -> Harness<'static, EditorApp> {
     let builder =
         Harness::builder().with_size(SIZE).with_render_cursor(false).with_step_dt(1.0 / 30.0);
     let mut h = builder.wgpu().build_eframe(|cc| {
@@ -95,6 +94,13 @@ fn a_textured_asset_shows_its_texture_and_the_clay_toggle_switches_back() {
         )
     });
     h.step();
+    h
+}
+
+#[test]
+fn a_textured_asset_shows_its_texture_and_the_clay_toggle_switches_back() {
+    let dir = temp_dir("textured");
+    let mut h = empty_editor();
     assert!(!h.state().has_texture_shading());
     let ctx = h.ctx.clone();
     h.state_mut().open_loaded(&ctx, dir.join("cube.glb"), textured_cube(red_png()));
@@ -139,15 +145,7 @@ fn a_textured_asset_shows_its_texture_and_the_clay_toggle_switches_back() {
 #[test]
 fn texture_shading_draws_the_same_with_gpu_normals() {
     let dir = temp_dir("textured-gpu-normals");
-    let builder =
-        Harness::builder().with_size(SIZE).with_render_cursor(false).with_step_dt(1.0 / 30.0);
-    let mut h = builder.wgpu().build_eframe(|cc| {
-        EditorApp::new(
-            cc,
-            EditorOptions { mesh_path: None, deterministic_overlays: true, config_dir: None },
-        )
-    });
-    h.step();
+    let mut h = empty_editor();
     let ctx = h.ctx.clone();
     h.state_mut().open_loaded(&ctx, dir.join("cube.glb"), textured_cube(red_png()));
     step_until(&mut h, "the textured cube", |a| !a.is_loading() && a.n_vertices() == 8);

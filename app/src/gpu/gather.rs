@@ -11,7 +11,7 @@
 
 use eframe::wgpu;
 
-use super::{Stage, WORKGROUP, compute_pipeline, storage};
+use super::{Stage, WORKGROUP, compute_pipeline, storage, uniform};
 
 const SHADER: &str = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/../shaders/gather.wgsl"));
 
@@ -78,15 +78,8 @@ impl GpuGather {
         }
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let params = Params { n_render: n_render as u32, _pad: [0; 3] };
-        let params = wgpu::util::DeviceExt::create_buffer_init(
-            device,
-            &wgpu::util::BufferInitDescriptor {
-                label: Some("gather params"),
-                contents: bytemuck::bytes_of(&params),
-                usage: wgpu::BufferUsages::UNIFORM,
-            },
-        );
         let none = wgpu::BufferUsages::empty();
+        let params = uniform(device, "gather params", bytemuck::bytes_of(&params), none);
         let surface: Vec<Surface> = base_color
             .iter()
             .zip(uv)

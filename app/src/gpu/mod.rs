@@ -34,6 +34,20 @@ fn storage(
     })
 }
 
+/// A uniform buffer holding `contents` (a pass's parameters; `COPY_DST` for one updated later).
+fn uniform(
+    device: &wgpu::Device,
+    label: &str,
+    contents: &[u8],
+    extra: wgpu::BufferUsages,
+) -> wgpu::Buffer {
+    device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some(label),
+        contents,
+        usage: wgpu::BufferUsages::UNIFORM | extra,
+    })
+}
+
 /// The compute pipeline of `entry` in `module`, its bind group layout derived from the shader.
 fn compute_pipeline(
     device: &wgpu::Device,

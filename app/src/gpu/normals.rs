@@ -15,7 +15,7 @@ use eframe::wgpu;
 
 use solver::geometry::normals::VertexFaces;
 
-use super::{Stage, WORKGROUP, compute_pipeline, storage};
+use super::{Stage, WORKGROUP, compute_pipeline, storage, uniform};
 
 const SHADER: &str = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/../shaders/normals.wgsl"));
 
@@ -75,15 +75,8 @@ impl GpuNormals {
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let params =
             Params { n_vertices: n_vertices as u32, n_faces: n_faces as u32, _pad: [0; 2] };
-        let params = wgpu::util::DeviceExt::create_buffer_init(
-            device,
-            &wgpu::util::BufferInitDescriptor {
-                label: Some("normals params"),
-                contents: bytemuck::bytes_of(&params),
-                usage: wgpu::BufferUsages::UNIFORM,
-            },
-        );
         let none = wgpu::BufferUsages::empty();
+        let params = uniform(device, "normals params", bytemuck::bytes_of(&params), none);
         let face_normals = storage(device, "face normals", &vec![0u8; 12 * n_faces.max(1)], none);
         let offsets =
             storage(device, "incident offsets", bytemuck::cast_slice(rows.offsets()), none);

@@ -15,10 +15,9 @@
 use eframe::wgpu;
 use solver::deform::embedding::from_stored;
 use solver::deform::prolong::Prolongation;
-use wgpu::util::DeviceExt;
 
 use super::normals::{BYTES_PER_VERTEX, GpuNormals, NormalsBinding};
-use super::{Stage, WORKGROUP, compute_pipeline, storage};
+use super::{Stage, WORKGROUP, compute_pipeline, storage, uniform};
 
 const SHADER: &str = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/../shaders/prolong.wgsl"));
 
@@ -127,11 +126,12 @@ impl GpuProlongation {
             .collect();
         let params = Params { n_vertices: n as u32, n_fixed: 0, _pad: [0; 2] };
         let none = wgpu::BufferUsages::empty();
-        let params_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("prolong params"),
-            contents: bytemuck::bytes_of(&params),
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-        });
+        let params_buf = uniform(
+            device,
+            "prolong params",
+            bytemuck::bytes_of(&params),
+            wgpu::BufferUsages::COPY_DST,
+        );
         let coarse =
             storage(device, "coarse pose", bytemuck::cast_slice(&vec4s(input.coarse, 0.0)), none);
         let mut q = Vec::new();
