@@ -107,14 +107,14 @@ impl EditorApp {
         self.solvers.main.as_ref().and_then(|s| s.try_status()).map(|s| s.state)
     }
 
-    /// Computes the clay viewport's vertex normals on the GPU (`on`, for meshes within wgpu's
+    /// Computes the viewport's vertex normals on the GPU (`on`, for meshes within wgpu's
     /// default limits) or takes them from the solver threads, whatever the adapter (the editor
     /// chooses the GPU on hardware adapters; tests and benchmarks compare the two).
     pub fn set_gpu_normals(&mut self, on: bool) {
         self.display.gpu_normals = on.then(eframe::wgpu::Limits::default);
     }
 
-    /// Whether the clay viewport computes vertex normals on the GPU.
+    /// Whether the viewport computes vertex normals on the GPU.
     pub fn gpu_normals(&self) -> bool {
         self.display.gpu_normals.is_some()
     }

@@ -99,8 +99,8 @@ pub(super) struct ViewportGpu {
     pub(super) n_edge_indices: u32,
     pub(super) n_grid: u32,
     pub(super) target: Option<Target>,
-    /// The normals pass for clay shapes that come without normals, for the topology version
-    /// it was built for, and its binding to `vertices`, `triangles` and `normals` (their
+    /// The normals pass for shapes that come without normals, for the topology version
+    /// it was built for, and its binding to `vertices`, `welded` and `normals` (their
     /// generations); `Err` once it could not be built for that topology.
     gpu_normals: Option<(u64, Result<GpuNormals, String>)>,
     normals_binding: Option<([u64; 3], NormalsBinding)>,
