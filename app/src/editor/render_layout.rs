@@ -66,6 +66,9 @@ pub struct RenderLayout {
     pub images: Vec<Option<Arc<DecodedImage>>>,
     /// The asset has vertex colours.
     pub has_vertex_colors: bool,
+    /// One past the largest mesh vertex a render vertex names: the mesh streams the layout
+    /// needs to be drawn.
+    pub n_mesh: usize,
 }
 
 /// Bit pattern of a float vector, for exact-value hashing.
@@ -116,6 +119,7 @@ impl RenderLayout {
             draws: Vec::new(),
             images: vec![None; asset.images.len()],
             has_vertex_colors,
+            n_mesh: 0,
         };
         let mut buckets: BTreeMap<Option<usize>, Vec<u32>> = BTreeMap::new();
         let corner_value = |values: &[[f32; 2]], i: u32| values.get(i as usize).copied();
@@ -152,6 +156,7 @@ impl RenderLayout {
             layout.draws.push(DrawRange { image, indices: start..triangles.len() as u32 });
         }
         let n_mesh = layout.mesh_vertex.iter().map(|&m| m as usize + 1).max().unwrap_or(0);
+        layout.n_mesh = n_mesh;
         let mut first = vec![u32::MAX; n_mesh];
         for (r, &m) in layout.mesh_vertex.iter().enumerate().rev() {
             first[m as usize] = r as u32;
@@ -285,6 +290,7 @@ mod tests {
         // One textured draw over everything; edges land on render vertices of the same mesh
         // vertex.
         assert_eq!(layout.draws, vec![DrawRange { image: Some(0), indices: 0..6 }]);
+        assert_eq!(layout.n_mesh, 4);
         let e = &layout.topology.edges;
         assert_eq!(e.len(), edges.len());
         for (r, m) in e.iter().zip(edges) {

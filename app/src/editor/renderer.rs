@@ -506,10 +506,11 @@ impl CallbackTrait for ViewportCallback {
         if let (Some(t), Some(c)) = (&self.textured, &self.clay) {
             let key = (t.layout.topology.version, c.shape_version, c.colors.version);
             if vp.render_version != Some(key) {
-                // Every mesh vertex a render vertex names must have its three streams.
+                // Every mesh vertex a render vertex names must have its three streams (the
+                // layout knows how many it names: no pass over it here, on the UI thread).
                 let complete = vp.n_vertices > 0
                     && vp.n_colors >= vp.n_vertices
-                    && t.layout.mesh_vertex.iter().all(|&m| m < vp.n_vertices);
+                    && t.layout.n_mesh <= vp.n_vertices as usize;
                 vp.n_render = 0;
                 if complete && let Ok(binding) = vp.gather_pass(device, &t.layout) {
                     let mut pass = egui_encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
