@@ -18,8 +18,9 @@
 //! would be without its presentation ([`WindowLike`]: egui's tessellation, the viewport's
 //! uploads and draws into a target kept between frames, and the wait for the GPU to finish),
 //! on a hardware adapter where there is one (as a window picks it; lavapipe otherwise), and
-//! the rendering's milliseconds per frame are printed: the editor with a GPU where no window
-//! can be opened.
+//! the rendering's milliseconds per frame are printed, and how they divide between egui's
+//! tessellation, recording (the viewport's uploads among it), the submission and the wait for
+//! the GPU: the editor with a GPU where no window can be opened.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use std::path::PathBuf;
@@ -34,6 +35,10 @@ use egui_kittest::Harness;
 /// frames (a swapchain image), the submission and the wait for the GPU. No image comes back:
 /// kittest's own renderer copies the frame back and converts it byte by byte, which took most
 /// of its time per frame (a window never reads its image back).
+/// Per rendered frame, milliseconds of: egui's tessellation; recording (egui's buffers, the
+/// paint callbacks' uploads and passes); the submission; the wait for the GPU.
+static RENDER_PHASES: std::sync::Mutex<Vec<[f64; 4]>> = std::sync::Mutex::new(Vec::new());
+
 struct WindowLike {
     rs: eframe::egui_wgpu::RenderState,
     target: Option<(eframe::wgpu::Texture, [u32; 2])>,
@@ -83,9 +88,11 @@ impl egui_kittest::TestRenderer for WindowLike {
             self.target = Some((texture, size));
         }
         let view = self.target.as_ref().ok_or("no target")?.0.create_view(&Default::default());
+        let start = Instant::now();
         let mut renderer = self.rs.renderer.write();
         let mut encoder = device.create_command_encoder(&Default::default());
         let tessellated = ctx.tessellate(output.shapes.clone(), ppp);
+        let tessellated_at = Instant::now();
         let user = renderer.update_buffers(device, queue, &mut encoder, &tessellated, &screen);
         {
             let mut pass = encoder
@@ -105,13 +112,24 @@ impl egui_kittest::TestRenderer for WindowLike {
                 .forget_lifetime();
             renderer.render(&mut pass, &tessellated, &screen);
         }
+        let recorded_at = Instant::now();
         queue.submit(user.into_iter().chain(std::iter::once(encoder.finish())));
-        device
+        let submitted_at = Instant::now();
+        let waited = device
             .poll(wgpu::PollType::Wait {
                 submission_index: None,
                 timeout: Some(Duration::from_secs(10)),
             })
-            .map_err(|e| format!("the GPU did not finish: {e}"))?;
+            .map_err(|e| format!("the GPU did not finish: {e}"));
+        let ms = |a: Instant, b: Instant| (b - a).as_secs_f64() * 1e3;
+        let now = Instant::now();
+        RENDER_PHASES.lock().expect("phases").push([
+            ms(start, tessellated_at),
+            ms(tessellated_at, recorded_at),
+            ms(recorded_at, submitted_at),
+            ms(submitted_at, now),
+        ]);
+        waited?;
         Ok(image::RgbaImage::new(1, 1))
     }
 }
@@ -249,6 +267,16 @@ fn main() {
         let p95 = render_ms[render_ms.len() * 95 / 100];
         println!(
             "{n} vertices: rendering {mean:.2} ms/frame mean, {p95:.2} ms p95 (no presentation)"
+        );
+        let phases = RENDER_PHASES.lock().expect("phases");
+        let mean = |k: usize| phases.iter().map(|p| p[k]).sum::<f64>() / phases.len() as f64;
+        println!(
+            "{n} vertices: of which tessellation {:.2}, recording {:.2}, submission {:.2}, \
+             waiting for the GPU {:.2} ms/frame mean",
+            mean(0),
+            mean(1),
+            mean(2),
+            mean(3)
         );
     }
     paint_stroke(&mut h);

@@ -311,6 +311,54 @@ mod tests {
         assert!((turntable_yaw(0.0, 2, 4) - std::f32::consts::PI).abs() < 1e-6);
     }
 
+    /// Poses drawn one after another through one viewport (its staging belt handing back
+    /// the memory of earlier uploads) give what a fresh viewport draws for the last of them.
+    #[test]
+    fn consecutive_poses_draw_what_a_fresh_viewport_draws() {
+        let mut reused = match Offscreen::headless() {
+            Ok(o) => o,
+            Err(e) => {
+                eprintln!("skipped: {e}");
+                return;
+            }
+        };
+        let mesh = solver::geometry::shapes::icosphere(3);
+        let triangles = mesh.triangles();
+        let topology = Arc::new(Topology {
+            version: 1,
+            triangles: triangles.iter().flatten().copied().collect(),
+            edges: Vec::new(),
+            vertex_faces: None,
+        });
+        let picture = |k: usize| {
+            // Each pose squashes the sphere along another axis.
+            let x: Vec<[f64; 3]> = mesh
+                .positions()
+                .iter()
+                .map(|p| std::array::from_fn(|d| if d == k % 3 { 0.4 * p[d] } else { p[d] }))
+                .collect();
+            let mut camera = OrbitCamera::default();
+            camera.frame(glam::Vec3::ZERO, 1.0, 1.0);
+            Picture {
+                size: [64, 64],
+                camera,
+                topology: topology.clone(),
+                shape: Shape::new(&x, triangles),
+                colors: vec![[0.8, 0.5, 0.3, 1.0]; x.len()],
+                render: None,
+                grid: None,
+                wireframe: false,
+            }
+        };
+        let mut images = Vec::new();
+        for k in 0..6 {
+            images.push(reused.render(&picture(k)).unwrap());
+        }
+        assert_ne!(images[0], images[1], "the poses must draw differently");
+        let fresh = Offscreen::headless().unwrap().render(&picture(5)).unwrap();
+        assert_eq!(images[5], fresh);
+    }
+
     #[test]
     fn overlays_paint_handle_groups_only_when_asked() {
         let labels = [None, Some(0), Some(1)];

@@ -6,6 +6,9 @@
 //! reallocated only when they must grow (or the viewport is resized). `prepare` draws the mesh,
 //! its wireframe and the ground grid into the offscreen target (egui's own pass has no depth
 //! buffer); `paint` only binds and draws one triangle that copies the image into egui's pass.
+//! What changes with every pose (positions, normals, colours) is uploaded through the
+//! viewport's staging belt, whose mapped memory is reused from frame to frame, rather than
+//! through `queue.write_buffer`, which stages every call in a new buffer.
 //!
 //! The mesh is drawn one of two ways. Clay shading draws the welded solver mesh from three
 //! vertex streams ([`ClayDraw`], `mesh.wgsl`): the shape's positions and normals as the solver
@@ -471,7 +474,12 @@ impl CallbackTrait for ViewportCallback {
         if let Some(c) = &self.clay {
             if vp.vertex_version != Some(c.shape_version) {
                 let positions = &c.shape.positions;
-                vp.vertices.write(device, queue, bytemuck::cast_slice(positions));
+                vp.vertices.stream(
+                    device,
+                    &mut vp.belt,
+                    egui_encoder,
+                    bytemuck::cast_slice(positions),
+                );
                 let n = if c.shape.normals.is_empty() && !positions.is_empty() {
                     match self
                         .topology
@@ -491,14 +499,16 @@ impl CallbackTrait for ViewportCallback {
                         _ => 0,
                     }
                 } else {
-                    vp.normals.write(device, queue, bytemuck::cast_slice(&c.shape.normals));
+                    let normals = bytemuck::cast_slice(&c.shape.normals);
+                    vp.normals.stream(device, &mut vp.belt, egui_encoder, normals);
                     positions.len().min(c.shape.normals.len())
                 };
                 vp.n_vertices = n as u32;
                 vp.vertex_version = Some(c.shape_version);
             }
             if vp.color_version != Some(c.colors.version) {
-                vp.colors.write(device, queue, bytemuck::cast_slice(&c.colors.vertices));
+                let colors = bytemuck::cast_slice(&c.colors.vertices);
+                vp.colors.stream(device, &mut vp.belt, egui_encoder, colors);
                 vp.n_colors = c.colors.vertices.len() as u32;
                 vp.color_version = Some(c.colors.version);
             }
@@ -531,6 +541,9 @@ impl CallbackTrait for ViewportCallback {
             vp.n_grid = g.vertices.len() as u32;
             vp.grid_version = Some(g.version);
         }
+        // The streams' staging is unmapped for the copies recorded above and mapped again for
+        // reuse once `egui_encoder` has been submitted and run.
+        vp.belt.finish_and_recall_on_submit(egui_encoder);
         if let Some(t) = &self.textured {
             res.textures.ensure(device, queue, &t.layout);
         }

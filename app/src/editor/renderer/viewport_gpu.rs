@@ -1,7 +1,8 @@
 //! One viewport's GPU resources: its uniform, vertex and index buffers (rewritten in place,
-//! grown when needed), its offscreen colour and depth target, the vertex-normals pass for
-//! shapes that come without normals, and the gather of the welded streams onto the texture
-//! layout's render vertices. [`super::ViewportCallback`] fills and draws them.
+//! grown when needed), the staging memory its per-pose streams are uploaded through, its
+//! offscreen colour and depth target, the vertex-normals pass for shapes that come without
+//! normals, and the gather of the welded streams onto the texture layout's render vertices.
+//! [`super::ViewportCallback`] fills and draws them.
 
 use eframe::egui_wgpu::wgpu;
 
@@ -10,6 +11,10 @@ use crate::editor::draw_data::Topology;
 use crate::editor::render_layout::RenderLayout;
 use crate::gpu::gather::{BYTES_PER_RENDER_VERTEX, GatherBinding, GpuGather};
 use crate::gpu::normals::{BYTES_PER_VERTEX, GpuNormals, NormalsBinding};
+
+/// The staging belt's chunk: a larger upload gets a chunk of its own size, which later uploads
+/// of that size reuse.
+const STAGING_CHUNK: u64 = 4 << 20;
 
 /// A GPU buffer that is rewritten in place and grows when needed.
 pub(super) struct GrowBuffer {
@@ -50,12 +55,36 @@ impl GrowBuffer {
         }
     }
 
+    /// Replaces the contents with `bytes` through the queue (a staging buffer made for the
+    /// call): for what changes rarely, such as a topology.
     pub(super) fn write(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, bytes: &[u8]) {
         if bytes.is_empty() {
             return;
         }
         self.reserve(device, bytes.len() as u64);
         queue.write_buffer(&self.buffer, 0, bytes);
+    }
+
+    /// Replaces the contents with `bytes` through `belt`'s reused staging memory, the copy
+    /// recorded in `encoder` (before what `encoder` records next): for what changes every
+    /// pose, which `write` would stage in a new buffer each time. The caller finishes the belt
+    /// before `encoder` is submitted.
+    pub(super) fn stream(
+        &mut self,
+        device: &wgpu::Device,
+        belt: &mut wgpu::util::StagingBelt,
+        encoder: &mut wgpu::CommandEncoder,
+        bytes: &[u8],
+    ) {
+        // Copies move whole multiples of COPY_BUFFER_ALIGNMENT; the buffer has room for the
+        // rounded size (it grows by powers of two from 256 bytes).
+        let padded = (bytes.len() as u64).next_multiple_of(wgpu::COPY_BUFFER_ALIGNMENT);
+        let Some(size) = wgpu::BufferSize::new(padded) else { return };
+        self.reserve(device, padded);
+        let mut view = belt.write_buffer(encoder, &self.buffer, 0, size);
+        view.slice(..bytes.len()).copy_from_slice(bytes);
+        let pad = [0u8; wgpu::COPY_BUFFER_ALIGNMENT as usize];
+        view.slice(bytes.len()..).copy_from_slice(&pad[..padded as usize - bytes.len()]);
     }
 }
 
@@ -69,6 +98,9 @@ pub(super) struct Target {
 }
 
 pub(super) struct ViewportGpu {
+    /// Staging memory for the per-pose streams ([`GrowBuffer::stream`]), mapped again for
+    /// reuse once the GPU has copied from it.
+    pub(super) belt: wgpu::util::StagingBelt,
     pub(super) uniform_buffer: wgpu::Buffer,
     pub(super) uniform_bind_group: wgpu::BindGroup,
     /// The welded mesh's streams: positions, normals and colours (in texture shading the
@@ -133,6 +165,7 @@ impl ViewportGpu {
         // gather reads the three streams and writes the render vertices.
         let storage = wgpu::BufferUsages::STORAGE;
         ViewportGpu {
+            belt: wgpu::util::StagingBelt::new(device.clone(), STAGING_CHUNK),
             uniform_buffer,
             uniform_bind_group,
             vertices: GrowBuffer::new(device, "bsarap mesh vertices", vertex | storage),
