@@ -48,6 +48,7 @@ use std::error::Error;
 use std::path::PathBuf;
 
 use glam::DVec3;
+use rayon::prelude::*;
 use solver::Mesh;
 
 use crate::check::{check, ensure, print_report};
@@ -113,7 +114,7 @@ fn main() -> Result<()> {
     let centers = scale_centers(&creature, spacing);
     let detail = Detail::new(&centers, 0.75 * spacing);
     let detailed: Vec<[f64; 3]> = smooth
-        .iter()
+        .par_iter()
         .map(|&p| (p + creature.normal(p) * detail.height(&creature, p)).to_array().map(round))
         .collect();
     println!(

@@ -5,6 +5,7 @@ use std::collections::{HashMap, HashSet};
 use std::f64::consts::PI;
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use crate::creature::Creature;
 use crate::triangle;
@@ -24,16 +25,17 @@ pub fn relax(creature: &Creature, positions: &mut [DVec3], triangles: &[[u32; 3]
             weight[v as usize] += area;
         }
     }
-    for (v, p) in positions.iter_mut().enumerate() {
+    // Each vertex moves from the sums above alone: the same result in any order.
+    positions.par_iter_mut().enumerate().for_each(|(v, p)| {
         if weight[v] <= 0.0 {
-            continue;
+            return;
         }
         let target = sum[v] * (1.0 / weight[v]);
         let nrm = creature.normal(*p);
         let d = target - *p;
         let tangential = d - nrm * d.dot(nrm);
         *p = creature.project(*p + tangential * step);
-    }
+    });
 }
 
 /// One pass of intrinsic Delaunay flips: an edge whose two opposite angles sum to more than π

@@ -2,6 +2,7 @@
 //! distance sampled on a regular grid.
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use crate::creature::Creature;
 
@@ -37,13 +38,14 @@ pub fn surface_nets(creature: &Creature, h: f64) -> (Vec<DVec3>, Vec<[u32; 3]>) 
         origin + DVec3::new(i as f64 * h, j as f64 * h, k as f64 * h)
     };
     let mut f = vec![0.0; n[0] * n[1] * n[2]];
-    for k in 0..n[2] {
+    // One slab of constant k per task: every value is computed as alone, in any order.
+    f.par_chunks_mut(n[0] * n[1]).enumerate().for_each(|(k, slab)| {
         for j in 0..n[1] {
             for i in 0..n[0] {
-                f[idx(i, j, k)] = creature.sdf(point(i, j, k));
+                slab[i + n[0] * j] = creature.sdf(point(i, j, k));
             }
         }
-    }
+    });
     let inside = |i: usize, j: usize, k: usize| f[idx(i, j, k)] < 0.0;
 
     // Cell vertices: the mean of the edge crossings, projected onto the surface.
@@ -69,10 +71,11 @@ pub fn surface_nets(creature: &Creature, h: f64) -> (Vec<DVec3>, Vec<[u32; 3]>) 
                     }
                 }
                 cell_vertex[idx(i, j, k)] = positions.len() as u32;
-                positions.push(creature.project(sum * (1.0 / count)));
+                positions.push(sum * (1.0 / count));
             }
         }
     }
+    positions.par_iter_mut().for_each(|p| *p = creature.project(*p));
 
     // Quads around crossed grid edges. For an edge along axis `a`, the four cells around it
     // are listed counter-clockwise seen from the +a side, so the quad faces +a; it is
