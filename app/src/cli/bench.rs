@@ -579,6 +579,7 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
             "coarse_vertices": setup.base.coarse_vertices_for(mesh.n_vertices()),
             "coarse_vertices_auto": a.base.coarse_vertices.is_none(),
             "fine_iterations": a.base.fine_iterations,
+            "membrane": a.base.membrane,
             "threshold": a.threshold,
             "max_iterations": a.max_iters,
             "radius": setup.radius,
@@ -631,7 +632,7 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
     if methods.contains(&Method::BsArapCoarse) {
         let c = &setup.base;
         println!(
-            "bsarap-coarse: base decimated to about {} vertices ({}), smoothing {}, {} fine iterations",
+            "bsarap-coarse: base decimated to about {} vertices ({}), smoothing {}, {} fine iterations, membrane share {}",
             c.coarse_vertices_for(mesh.n_vertices()),
             if c.coarse_vertices.is_some() {
                 "--coarse-vertices".to_string()
@@ -639,7 +640,8 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
                 format!("automatic: {}", solver::BaseConfig::AUTO_RULE)
             },
             c.smoothing,
-            c.fine_iterations
+            c.fine_iterations,
+            c.membrane
         );
     }
     println!(

@@ -151,6 +151,10 @@ pub struct BaseArgs {
     /// (bsarap-coarse on dense meshes): the comparison for the level fairing.
     #[arg(long)]
     pub direct_fairing: bool,
+    /// The coarse level's membrane share (bsarap-coarse): the part of its energy in cells of
+    /// single triangles, which resist no bending, in [0, 1].
+    #[arg(long, default_value_t = solver::BaseConfig::default().membrane)]
+    pub membrane: f64,
 }
 
 impl BaseArgs {
@@ -163,6 +167,7 @@ impl BaseArgs {
             // Settling refines a pose whose handles have stopped: an interactive notion.
             settle_iterations: 0,
             level_fairing: !self.direct_fairing,
+            membrane: self.membrane,
         };
         config.validate().map_err(|e| {
             // The message begins with the field's name: name the flag instead.

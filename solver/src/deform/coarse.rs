@@ -166,10 +166,11 @@ impl CoarseBsArap {
             Handles::from_options(groups.labels.clone())?.with_rig(coarse_rig(&base, handles));
         clock.lap("coarse handles");
         let coarse_mesh = &base.coarse_mesh;
+        let coarse_config = ArapConfig { membrane: coarse.membrane, ..*config };
         let arap = Arap::with_constraints(
             coarse_mesh,
             Constraints::new(coarse_mesh, &coarse_handles),
-            config,
+            &coarse_config,
             base.floor,
             Some(&base.rest_kept),
         )

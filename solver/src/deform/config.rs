@@ -33,6 +33,9 @@ pub struct BaseConfig {
     /// comparison `bsarap bench --direct-fairing` measures. Not saved in scenes (read as on).
     #[serde(skip)]
     pub level_fairing: bool,
+    /// The coarse level's membrane share: the part of its ARAP energy in cells of single
+    /// triangles, which resist no bending ([`crate::ArapConfig::membrane`]), in $[0, 1]$.
+    pub membrane: f64,
 }
 
 impl Default for BaseConfig {
@@ -43,6 +46,7 @@ impl Default for BaseConfig {
             fine_iterations: 0,
             settle_iterations: 0,
             level_fairing: true,
+            membrane: BaseConfig::DEFAULT_MEMBRANE,
         }
     }
 }
@@ -61,6 +65,8 @@ pub enum BaseConfigError {
     CoarseVertices(usize),
     #[error("fine_iterations must be between 0 and {MAX_FINE_ITERATIONS} (got {0})")]
     FineIterations(usize),
+    #[error("membrane must be in [0, 1] (got {0})")]
+    Membrane(f64),
 }
 
 impl BaseConfigError {
@@ -70,11 +76,15 @@ impl BaseConfigError {
             BaseConfigError::Smoothing(_) => "smoothing",
             BaseConfigError::CoarseVertices(_) => "coarse_vertices",
             BaseConfigError::FineIterations(_) => "fine_iterations",
+            BaseConfigError::Membrane(_) => "membrane",
         }
     }
 }
 
 impl BaseConfig {
+    /// The default [`BaseConfig::membrane`].
+    pub const DEFAULT_MEMBRANE: f64 = 0.0;
+
     /// The coarse size used when none is set: $\min(3000, 0.3\,n)$ for an $n$-vertex mesh
     /// (at least 16). A coarse level is worth its approximation only while it is a fraction of
     /// the mesh: on Cheburashka (6669 vertices) 2223 coarse vertices were already too close to
@@ -95,7 +105,7 @@ impl BaseConfig {
 
     /// Checks the ranges the interfaces accept (CLI, scenes): smoothing in (0, 1],
     /// coarse_vertices unset or in [`COARSE_VERTICES`], fine_iterations at most
-    /// [`MAX_FINE_ITERATIONS`]. settle_iterations is not checked (the editor sets it).
+    /// [`MAX_FINE_ITERATIONS`], membrane in [0, 1]. settle_iterations is not checked (the editor sets it).
     pub fn validate(&self) -> Result<(), BaseConfigError> {
         if !(self.smoothing.is_finite() && self.smoothing > 0.0 && self.smoothing <= 1.0) {
             return Err(BaseConfigError::Smoothing(self.smoothing));
@@ -107,6 +117,9 @@ impl BaseConfig {
         }
         if self.fine_iterations > MAX_FINE_ITERATIONS {
             return Err(BaseConfigError::FineIterations(self.fine_iterations));
+        }
+        if !(0.0..=1.0).contains(&self.membrane) {
+            return Err(BaseConfigError::Membrane(self.membrane));
         }
         Ok(())
     }

@@ -53,6 +53,11 @@ pub struct ArapConfig {
     /// Fig. 10). `0` (the default) disables it.
     #[serde(default)]
     pub energy_threshold: f64,
+    /// The share $\mu \in [0, 1]$ of the energy in cells of single triangles, which resist no
+    /// bending ([`super::membrane`]); spokes and rims only. `0` (the default): vertex cells
+    /// alone. The coarse BS-ARAP sets it on its coarse level ([`BaseConfig::membrane`](crate::BaseConfig::membrane)).
+    #[serde(default)]
+    pub membrane: f64,
 }
 
 impl Default for ArapConfig {
@@ -63,6 +68,7 @@ impl Default for ArapConfig {
             max_iterations: DEFAULT_MAX_ITERATIONS,
             acceleration: Acceleration::None,
             energy_threshold: 0.0,
+            membrane: 0.0,
         }
     }
 }

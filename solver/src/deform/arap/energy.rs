@@ -12,8 +12,19 @@ impl Arap {
     /// $E = A + \sum w\lVert e\rVert^2 - 2T$ from [`Arap::local_pass`]' sums, at least 0
     /// (the expansion cancels when the pose is very close to rigid; the exact form is
     /// [`Arap::energy`]).
-    pub(super) fn energy_from(&self, a: f64, t: f64) -> f64 {
-        (a + self.rest_term - 2.0 * t).max(0.0) + self.soft_energy()
+    /// With triangle cells, `membrane` is their $E_T$ ([`Arap::fit_membrane`]) and the cells'
+    /// part is $(1-\mu)E_{SR} + 3\mu E_T$ ([`super::membrane`]).
+    pub(super) fn energy_from(&self, a: f64, t: f64, membrane: Option<f64>) -> f64 {
+        self.blend((a + self.rest_term - 2.0 * t).max(0.0), membrane) + self.soft_energy()
+    }
+
+    /// $(1-\mu)E_{SR} + 3\mu E_T$ for the vertex cells' `vertex_cells` and the triangle cells'
+    /// `membrane` (the vertex cells' alone without triangle cells).
+    fn blend(&self, vertex_cells: f64, membrane: Option<f64>) -> f64 {
+        match (self.membrane.as_deref(), membrane) {
+            (Some(m), Some(e)) => (1.0 - m.share) * vertex_cells + 3.0 * m.share * e,
+            _ => vertex_cells,
+        }
     }
 
     /// The soft handles' $\sum_v \lambda_v \lVert x_v - T_g(p_v)\rVert^2$ (0 without).
@@ -33,7 +44,13 @@ impl Arap {
 
     /// $E(p', R)$ for the current pose and rotations.
     pub fn energy(&self) -> f64 {
-        self.cell_energy() + self.soft_energy()
+        let membrane = match (&self.cells, self.membrane.as_deref()) {
+            (Cells::SpokesAndRims { cot, edges, .. }, Some(m)) => {
+                Some(m.energy(&self.current, &self.triangles, cot, edges))
+            }
+            _ => None,
+        };
+        self.blend(self.cell_energy(), membrane) + self.soft_energy()
     }
 
     /// The cells' part of [`Arap::energy`].

@@ -34,6 +34,7 @@ impl Arap {
         let free = &self.inner.free_vertices;
         let coupling = &self.coupling;
         let cells = &self.cells;
+        let membrane = self.membrane.as_deref();
         let row = |r: usize| -> [f64; 3] {
             let i = free[r] as usize;
             let mut b = [0.0; 3];
@@ -53,6 +54,10 @@ impl Arap {
                         b = [b[0] + rv[0], b[1] + rv[1], b[2] + rv[2]];
                     }
                 }
+            }
+            if let Some(m) = membrane {
+                let t = m.rhs(i);
+                b = [b[0] + t[0], b[1] + t[1], b[2] + t[2]];
             }
             add_coupling(b, coupling.row(r), x)
         };

@@ -20,7 +20,17 @@ impl Arap {
     /// The local step, returning $E(x, R(x))$ for the rotations it fitted.
     pub(super) fn local_step_energy(&mut self) -> f64 {
         let sums = self.local_pass();
-        self.energy_from(sums.edges, sums.fitted)
+        let membrane = self.fit_membrane();
+        self.energy_from(sums.edges, sums.fitted, membrane)
+    }
+
+    /// The triangle cells' local step ([`super::membrane`]), when the energy has them:
+    /// returns their energy $E_T$ for the fitted rotations.
+    pub(super) fn fit_membrane(&mut self) -> Option<f64> {
+        let Cells::SpokesAndRims { cot, edges, .. } = &self.cells else { return None };
+        let m = self.membrane.as_deref_mut()?;
+        let sums = m.fit(&self.current, &self.triangles, cot, edges);
+        Some(m.energy_from(sums))
     }
 
     /// The local step: the rotations fitted to the covariances of the current pose, in one
@@ -123,7 +133,7 @@ fn covariance(cells: &Cells, x: &[[f64; 3]], p: &[[f64; 3]], i: usize) -> (Mat3,
 /// $R_i$ = [`fit_rotations_near`] of $S_i$ started from the current $R_i$, [`LANES`] cells per
 /// call, over one block; returns `t` plus $\sum_i \operatorname{tr}(R_i S_i)$ for the new
 /// rotations, added [`LANES`] cells at a time.
-fn fit_block(rots: &mut [Mat3], covs: &[Mat3], t: f64) -> f64 {
+pub(super) fn fit_block(rots: &mut [Mat3], covs: &[Mat3], t: f64) -> f64 {
     let mut t = t;
     for (r, s) in rots.chunks_mut(LANES).zip(covs.chunks(LANES)) {
         t += match (<&mut [Mat3; LANES]>::try_from(&mut *r), <&[Mat3; LANES]>::try_from(s)) {

@@ -40,7 +40,8 @@
 //! - `global`: the right-hand side and the back-substitution (Eq. 4);
 //! - `start`: the starting guesses (the rigid start of every solve, the Laplacian fit);
 //! - `energy`: $E(p', R)$, directly and from the local step's sums;
-//! - `avx`: the AVX2 build of the covariance pass.
+//! - `avx`: the AVX2 build of the covariance pass;
+//! - `membrane`: triangle cells blended into the energy (the coarse level's membrane share).
 
 mod accelerated;
 #[cfg(target_arch = "x86_64")]
@@ -50,6 +51,7 @@ mod energy;
 mod global;
 mod iterate;
 mod local;
+mod membrane;
 mod precompute;
 mod start;
 #[cfg(test)]
@@ -174,6 +176,8 @@ pub struct Arap {
     rest_diagonal: f64,
     /// Soft-handle penalties (`None`: hard handles only; [`crate::deform::rig`]).
     soft: Option<Box<Soft>>,
+    /// Triangle cells blended into the energy (`None`: [`ArapConfig::membrane`] is 0).
+    membrane: Option<Box<membrane::Membrane>>,
 }
 
 /// The soft-handle terms $\lambda_v \lVert x_v - T_g(p_v)\rVert^2$ in the internal numbering.
@@ -239,6 +243,9 @@ impl Arap {
         self.at_rest = true;
         self.current.copy_from_slice(&self.rest);
         self.rotations.fill(IDENTITY);
+        if let Some(m) = self.membrane.as_deref_mut() {
+            m.fill(IDENTITY);
+        }
         self.publish();
     }
 
@@ -266,6 +273,7 @@ impl Arap {
     pub fn pose_energy(&mut self, x: &[[f64; 3]]) -> f64 {
         self.set_positions(x);
         self.local_pass();
+        self.fit_membrane();
         self.publish();
         self.energy()
     }

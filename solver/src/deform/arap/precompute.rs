@@ -3,6 +3,7 @@
 //! ([`ring_coefficients`]), the energy's constant rest term, and the factorization of the
 //! free block $L_{FF}$ of the cotangent Laplacian (Sun et al. 2017, Eq. 4's matrix).
 
+use super::membrane::Membrane;
 use super::{Arap, ArapConfig, Cells, Csr, Energy, Soft};
 use crate::deform::constraints::Constraints;
 use crate::deform::handles::Handles;
@@ -124,8 +125,14 @@ impl Arap {
                         })
                     })
                     .collect();
-                let (ring, cov_coef, rhs_coef, edge_coef) =
+                let (ring, cov_coef, mut rhs_coef, edge_coef) =
                     ring_coefficients(n, tris, &cot, &edges);
+                if config.membrane > 0.0 {
+                    // The vertex cells' share of the rhs (membrane::Membrane adds the rest).
+                    for u in &mut rhs_coef {
+                        *u = scale(*u, 1.0 - config.membrane);
+                    }
+                }
                 Cells::SpokesAndRims { cot, edges, ring, cov_coef, rhs_coef, edge_coef }
             }
             Energy::Spokes => {
@@ -155,7 +162,14 @@ impl Arap {
                     .sum(),
             }
         };
+        let membrane = match &cells {
+            Cells::SpokesAndRims { cot, edges, .. } if config.membrane > 0.0 => {
+                Some(Box::new(Membrane::new(n, tris, cot, edges, config.membrane)))
+            }
+            _ => None,
+        };
         Ok(Arap {
+            membrane,
             current: rest.clone(),
             rest,
             triangles: tris.to_vec(),

@@ -83,6 +83,9 @@ impl Arap {
             let rigid = self.local_step_energy();
             if rigid <= EXACT * self.rest_term {
                 self.rotations.fill(motion.rotation);
+                if let Some(m) = self.membrane.as_deref_mut() {
+                    m.fill(motion.rotation);
+                }
                 return Some(rigid);
             }
             if rigid < at_rest {
@@ -121,6 +124,13 @@ impl Arap {
                 *r = mul_mat(&motion.rotation, r);
             }
         }
+        if let Some(m) = self.membrane.as_deref_mut() {
+            if from_rest {
+                m.fill(motion.rotation);
+            } else {
+                m.turn(&motion.rotation);
+            }
+        }
     }
 
     /// Sets the starting guess to the Laplacian-editing fit for `targets` (Sun et al. 2017,
@@ -136,6 +146,9 @@ impl Arap {
         self.at_rest = false;
         self.place_handles(targets);
         self.rotations.fill(IDENTITY);
+        if let Some(m) = self.membrane.as_deref_mut() {
+            m.fill(IDENTITY);
+        }
         self.assemble_rhs();
         self.solve_rhs();
         for (r, &v) in self.inner.free_vertices.iter().enumerate() {

@@ -184,3 +184,56 @@ fn energies_come_with_the_local_step_and_match_the_direct_form() {
         std::iter::once(s.initial_energy).chain(s.energies.iter().copied()).collect();
     assert!(trace.windows(2).all(|w| w[1] <= w[0] * (1.0 + 1e-12)), "{trace:?}");
 }
+
+/// With a membrane share the loop minimizes one energy: plain iterations never raise it, the
+/// local step's sums give the direct form's value, the pose differs from vertex cells
+/// alone, and rest and rigid targets give the rest pose and the rigid motion exactly.
+#[test]
+fn membrane_share_is_one_energy_with_exact_rest_and_rigid_poses() {
+    let (m, h) = setup();
+    let hv = h.handle_vertices();
+    let bend: Vec<[f64; 3]> = hv
+        .iter()
+        .map(|&v| {
+            let q = m.positions()[v as usize];
+            if q[0] > 0.0 { mul_vec(&axis_angle([0.0, 0.0, 1.0], 0.8), q) } else { q }
+        })
+        .collect();
+    let cfg =
+        ArapConfig { membrane: 0.7, tolerance: 0.0, max_iterations: 40, ..Default::default() };
+    let mut a = Arap::new(&m, &h, &cfg).unwrap();
+    let s = a.solve(&bend).unwrap();
+    let trace: Vec<f64> =
+        std::iter::once(s.initial_energy).chain(s.energies.iter().copied()).collect();
+    assert!(trace.windows(2).all(|w| w[1] <= w[0] * (1.0 + 1e-12)), "{trace:?}");
+    assert!(s.energy() < 0.5 * s.initial_energy);
+    let direct = a.energy();
+    let rel = (s.energy() - direct).abs() / direct;
+    assert!(rel < 1e-10, "energy from the sums {} vs direct {direct}", s.energy());
+
+    let mut cells = Arap::new(&m, &h, &ArapConfig { membrane: 0.0, ..cfg }).unwrap();
+    cells.solve(&bend).unwrap();
+    let d = cells
+        .positions()
+        .iter()
+        .zip(a.positions())
+        .flat_map(|(p, q)| (0..3).map(move |k| (p[k] - q[k]).abs()));
+    assert!(d.fold(0.0, f64::max) > 1e-4, "the membrane share changed nothing");
+
+    let rest: Vec<[f64; 3]> = hv.iter().map(|&v| m.positions()[v as usize]).collect();
+    a.solve(&rest).unwrap();
+    assert_eq!(a.positions(), m.positions());
+    let turn = axis_angle([0.2, 1.0, 0.1], 0.9);
+    let moved = |p: [f64; 3]| {
+        let q = mul_vec(&turn, p);
+        [q[0] + 0.3, q[1] - 0.2, q[2] + 0.1]
+    };
+    let rigid: Vec<[f64; 3]> = rest.iter().map(|&p| moved(p)).collect();
+    a.solve(&rigid).unwrap();
+    let off = m.positions().iter().zip(a.positions()).flat_map(|(&p, x)| {
+        let q = moved(p);
+        (0..3).map(move |k| (q[k] - x[k]).abs())
+    });
+    let off = off.fold(0.0, f64::max);
+    assert!(off < 1e-12, "a rigid move of every handle is off by {off}");
+}
