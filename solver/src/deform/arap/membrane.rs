@@ -29,6 +29,9 @@ use rayon::prelude::*;
 
 /// Triangles per parallel task of the triangles' local step.
 const TRIANGLES_PER_TASK: usize = 1024;
+/// Triangles whose covariances a task computes and fits at a time (a buffer on its stack, as
+/// the vertex cells' local step does), a multiple of the fits' lanes.
+const SCRATCH: usize = 64;
 
 /// The triangle cells of $E_\mu$ (module doc) in the solver's internal numbering.
 #[derive(Debug, Clone)]
@@ -97,22 +100,24 @@ impl Membrane {
             .par_chunks_mut(TRIANGLES_PER_TASK)
             .enumerate()
             .map(|(c, rots)| {
-                let first = c * TRIANGLES_PER_TASK;
                 let mut sums = MembraneSums::default();
-                let covs: Vec<Mat3> = (first..first + rots.len())
-                    .map(|f| {
+                let mut covs = [[[0.0; 3]; 3]; SCRATCH];
+                for (k, rots) in rots.chunks_mut(SCRATCH).enumerate() {
+                    let first = c * TRIANGLES_PER_TASK + k * SCRATCH;
+                    let covs = &mut covs[..rots.len()];
+                    for (l, s) in covs.iter_mut().enumerate() {
+                        let f = first + l;
                         let (t, w, e) = (tris[f], cot[f], &edges[f]);
-                        let mut s = [[0.0; 3]; 3];
+                        *s = [[0.0; 3]; 3];
                         for k in 0..3 {
                             let (a, b) = opposite_edge(t, k);
                             let d = sub(x[a as usize], x[b as usize]);
-                            add_outer(&mut s, w[k], e[k], d);
+                            add_outer(s, w[k], e[k], d);
                             sums.edges += w[k] * norm2(d);
                         }
-                        s
-                    })
-                    .collect();
-                sums.fitted = fit_block(rots, &covs, 0.0);
+                    }
+                    sums.fitted = fit_block(rots, covs, sums.fitted);
+                }
                 sums
             })
             .collect();

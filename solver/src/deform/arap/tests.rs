@@ -24,6 +24,17 @@ fn pose(rest: &[[f64; 3]]) -> Vec<[f64; 3]> {
         .collect()
 }
 
+/// Handle targets that turn the cap at $x > 0$ by `angle` about $z$ and hold the other.
+fn turned_cap(m: &Mesh, h: &Handles, angle: f64) -> Vec<[f64; 3]> {
+    h.handle_vertices()
+        .iter()
+        .map(|&v| {
+            let q = m.positions()[v as usize];
+            if q[0] > 0.0 { mul_vec(&axis_angle([0.0, 0.0, 1.0], angle), q) } else { q }
+        })
+        .collect()
+}
+
 /// The covariance pass's AVX2 build gives the same bits as the scalar loop: covariances and
 /// the edge-length sum.
 #[test]
@@ -118,14 +129,7 @@ fn optimized_local_step_and_rhs_match_reference() {
 #[test]
 fn anderson_is_monotone_and_agrees_with_plain() {
     let (m, h) = setup();
-    let hv = h.handle_vertices();
-    let targets: Vec<[f64; 3]> = hv
-        .iter()
-        .map(|&v| {
-            let q = m.positions()[v as usize];
-            if q[0] > 0.0 { mul_vec(&axis_angle([0.0, 0.0, 1.0], 0.8), q) } else { q }
-        })
-        .collect();
+    let targets = turned_cap(&m, &h, 0.8);
     let run = |acceleration| {
         let cfg = ArapConfig {
             tolerance: 1e-9,
@@ -157,14 +161,7 @@ fn anderson_is_monotone_and_agrees_with_plain() {
 #[test]
 fn energies_come_with_the_local_step_and_match_the_direct_form() {
     let (m, h) = setup();
-    let targets: Vec<[f64; 3]> = h
-        .handle_vertices()
-        .iter()
-        .map(|&v| {
-            let q = m.positions()[v as usize];
-            if q[0] > 0.0 { mul_vec(&axis_angle([0.0, 0.0, 1.0], 0.5), q) } else { q }
-        })
-        .collect();
+    let targets = turned_cap(&m, &h, 0.5);
     let cfg = ArapConfig { tolerance: 0.0, max_iterations: 12, ..Default::default() };
     let mut a = Arap::new(&m, &h, &cfg).unwrap();
     let s = a.solve(&targets).unwrap();
@@ -192,13 +189,7 @@ fn energies_come_with_the_local_step_and_match_the_direct_form() {
 fn membrane_share_is_one_energy_with_exact_rest_and_rigid_poses() {
     let (m, h) = setup();
     let hv = h.handle_vertices();
-    let bend: Vec<[f64; 3]> = hv
-        .iter()
-        .map(|&v| {
-            let q = m.positions()[v as usize];
-            if q[0] > 0.0 { mul_vec(&axis_angle([0.0, 0.0, 1.0], 0.8), q) } else { q }
-        })
-        .collect();
+    let bend = turned_cap(&m, &h, 0.8);
     let cfg =
         ArapConfig { membrane: 0.7, tolerance: 0.0, max_iterations: 40, ..Default::default() };
     let mut a = Arap::new(&m, &h, &cfg).unwrap();
