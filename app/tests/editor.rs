@@ -137,6 +137,17 @@ fn opens_the_default_asset_and_views_change_the_image() {
     step_until(&mut h, "explicit coarse size", |a| coarse(a) == Some(auto));
     h.get_by_label(&format!("automatic coarse size ({auto})")).click_accesskit();
     step_until(&mut h, "automatic coarse size again", |a| coarse(a).is_none());
+
+    // The coarse level's membrane share is off by default; its slider reaches the solvers,
+    // which rebuild and converge with it.
+    let membrane = |a: &EditorApp| a.method_settings().base.membrane;
+    assert_eq!(membrane(h.state()), 0.0);
+    h.get_by_role_and_label(egui::accesskit::Role::Slider, "membrane share")
+        .set_value_accesskit(0.7);
+    step_until(&mut h, "membrane share 0.7", |a| (membrane(a) - 0.7).abs() < 1e-9);
+    step_until(&mut h, "both solvers rebuilt and converged with the share", |a| {
+        rebuilt(a) && posed(a)
+    });
 }
 
 /// The brush's footprint is found when the pointer, the camera, the brush or the tool

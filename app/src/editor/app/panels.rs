@@ -374,6 +374,15 @@ impl EditorApp {
                  carried from frame to frame): closer to ARAP, slower",
             );
             ui.add(
+                egui::Slider::new(&mut self.session.settings.base.membrane, 0.0..=1.0)
+                    .fixed_decimals(2)
+                    .text("membrane share"),
+            )
+            .on_hover_text(
+                "part of the coarse level's energy in cells of single triangles, which do not \
+                 resist bending: on dense meshes closer to ARAP, each frame dearer (0: off)",
+            );
+            ui.add(
                 egui::Slider::new(&mut self.session.settings.base.settle_iterations, 0..=20)
                     .text("settle iterations"),
             )
