@@ -65,10 +65,7 @@ impl Arap {
             })
             .collect();
         self.rotations = rotations;
-        parts.iter().fold(LocalSums::default(), |acc, s| LocalSums {
-            edges: acc.edges + s.edges,
-            fitted: acc.fitted + s.fitted,
-        })
+        LocalSums::total(&parts)
     }
 
     /// $S_i$ of the current pose for $i$ = `first`, `first + 1`, … (one per entry of `out`),
@@ -93,12 +90,24 @@ impl Arap {
     }
 }
 
-/// The sums of one [`Arap::local_pass`]: $A = \sum_i\sum_j c_{ij}\lVert x_j - x_i\rVert^2$
-/// over the cells, and $T = \sum_i \operatorname{tr}(R_i S_i)$ for the fitted rotations.
+/// The sums of one local step over its cells (the vertex cells' [`Arap::local_pass`], the
+/// triangle cells' [`super::membrane::Membrane::fit`]): $A = \sum w\lVert x_a - x_b\rVert^2$
+/// over the cells' edges, and $T = \sum \operatorname{tr}(R S)$ for the fitted rotations.
 #[derive(Debug, Clone, Copy, Default)]
 pub(super) struct LocalSums {
     pub(super) edges: f64,
     pub(super) fitted: f64,
+}
+
+impl LocalSums {
+    /// The sums of the parallel tasks' blocks, added in block order (so they do not depend on
+    /// the scheduling).
+    pub(super) fn total(parts: &[LocalSums]) -> LocalSums {
+        parts.iter().fold(LocalSums::default(), |acc, s| LocalSums {
+            edges: acc.edges + s.edges,
+            fitted: acc.fitted + s.fitted,
+        })
+    }
 }
 
 /// $S_i$ of the pose `x` and the cell's $\sum c\lVert x_j - x_i\rVert^2$ (the scalar form of

@@ -21,7 +21,8 @@
 //! away (BENCHMARKS.md, "The membrane share on the coarse level").
 
 use super::Csr;
-use super::local::fit_block;
+use super::local::{LocalSums, fit_block};
+use super::precompute::corner_edges;
 use crate::geometry::cotan::opposite_edge;
 use crate::geometry::mesh::{add, norm2, scale, sub};
 use crate::linalg::rotation::{IDENTITY, Mat3, add_outer, mul_mat, mul_vec};
@@ -46,14 +47,6 @@ pub(super) struct Membrane {
     rest_term: f64,
 }
 
-/// The sums of the triangles' local step: $\sum_t\sum_k w^t_k\lVert x_a - x_b\rVert^2$ and
-/// $\sum_t \operatorname{tr}(R_t S_t)$.
-#[derive(Debug, Clone, Copy, Default)]
-pub(super) struct MembraneSums {
-    pub(super) edges: f64,
-    pub(super) fitted: f64,
-}
-
 impl Membrane {
     /// The triangle cells of `tris` (internal numbering, `n` vertices) with half cotangents
     /// `cot` and rest edges `edges` (as the spokes-and-rims cells keep them), share `share`.
@@ -68,12 +61,7 @@ impl Membrane {
         let mut rest_term = 0.0;
         for (f, ((t, w), e)) in tris.iter().zip(cot).zip(edges).enumerate() {
             for c in 0..3 {
-                // v_it, as in ring_coefficients: the edges of t at corner c.
-                let v = add(
-                    scale(e[(c + 2) % 3], w[(c + 2) % 3]),
-                    scale(e[(c + 1) % 3], -w[(c + 1) % 3]),
-                );
-                pairs.push((t[c], (f as u32, v)));
+                pairs.push((t[c], (f as u32, corner_edges(w, e, c))));
                 rest_term += w[c] * norm2(e[c]);
             }
         }
@@ -94,13 +82,13 @@ impl Membrane {
         tris: &[[u32; 3]],
         cot: &[[f64; 3]],
         edges: &[[[f64; 3]; 3]],
-    ) -> MembraneSums {
-        let parts: Vec<MembraneSums> = self
+    ) -> LocalSums {
+        let parts: Vec<LocalSums> = self
             .rotations
             .par_chunks_mut(TRIANGLES_PER_TASK)
             .enumerate()
             .map(|(c, rots)| {
-                let mut sums = MembraneSums::default();
+                let mut sums = LocalSums::default();
                 let mut covs = [[[0.0; 3]; 3]; SCRATCH];
                 for (k, rots) in rots.chunks_mut(SCRATCH).enumerate() {
                     let first = c * TRIANGLES_PER_TASK + k * SCRATCH;
@@ -121,14 +109,11 @@ impl Membrane {
                 sums
             })
             .collect();
-        parts.iter().fold(MembraneSums::default(), |acc, s| MembraneSums {
-            edges: acc.edges + s.edges,
-            fitted: acc.fitted + s.fitted,
-        })
+        LocalSums::total(&parts)
     }
 
     /// $E_T$ from the sums of [`Membrane::fit`].
-    pub(super) fn energy_from(&self, sums: MembraneSums) -> f64 {
+    pub(super) fn energy_from(&self, sums: LocalSums) -> f64 {
         (sums.edges + self.rest_term - 2.0 * sums.fitted).max(0.0)
     }
 

@@ -236,10 +236,7 @@ fn ring_coefficients(
         acc.clear();
         for &(f, c) in vertex_faces.row(i) {
             let (t, w, e) = (tris[f as usize], cot[f as usize], &edges[f as usize]);
-            let c = c as usize;
-            // v_it: the edges of t at i, e_{c+1} = p_{c+2} - p_c and e_{c+2} = p_c - p_{c+1}.
-            let v =
-                add(scale(e[(c + 2) % 3], w[(c + 2) % 3]), scale(e[(c + 1) % 3], -w[(c + 1) % 3]));
+            let v = corner_edges(&w, e, c as usize);
             for k in 0..3 {
                 let (a, b) = opposite_edge(t, k);
                 // The spoke (i, other end) of this edge, if it has one.
@@ -276,4 +273,12 @@ fn ring_coefficients(
         offsets.push(items.len());
     }
     (Csr { offsets, items }, cov_coef, rhs_coef, edge_coef)
+}
+
+/// $v_{it}$: the weighted rest edges of triangle $t$ (half cotangents `w`, rest edges `e`
+/// opposite each corner) at its corner `c`, $w_{c+2} e_{c+2} - w_{c+1} e_{c+1}$ with
+/// $e_{c+1} = p_{c+2} - p_c$ and $e_{c+2} = p_c - p_{c+1}$: what the rhs of vertex $i$ at
+/// corner `c` gets from $t$'s rotation.
+pub(super) fn corner_edges(w: &[f64; 3], e: &[[f64; 3]; 3], c: usize) -> [f64; 3] {
+    add(scale(e[(c + 2) % 3], w[(c + 2) % 3]), scale(e[(c + 1) % 3], -w[(c + 1) % 3]))
 }
