@@ -28,6 +28,8 @@ pub enum SolveError {
     Factorization { matrix: &'static str, source: FactorError },
     #[error("the selection has {expected} handle vertices but {got} targets were given")]
     TargetCount { got: usize, expected: usize },
+    #[error("the membrane share must be in [0, 1] (got {0})")]
+    MembraneShare(f64),
     #[error("handle target {index} is not finite")]
     NonFiniteTarget { index: usize },
     #[error("the selection has {got} labels but the mesh has {expected} vertices")]

@@ -55,7 +55,8 @@ pub struct ArapConfig {
     pub energy_threshold: f64,
     /// The share $\mu \in [0, 1]$ of the energy in cells of single triangles, which resist no
     /// bending ([`super::membrane`]); spokes and rims only. `0` (the default): vertex cells
-    /// alone. The coarse BS-ARAP sets it on its coarse level ([`BaseConfig::membrane`](crate::BaseConfig::membrane)).
+    /// alone; outside $[0, 1]$ [`Arap::new`](super::Arap::new) refuses it. The coarse BS-ARAP
+    /// sets it on its coarse level ([`BaseConfig::membrane`](crate::BaseConfig::membrane)).
     #[serde(default)]
     pub membrane: f64,
 }

@@ -40,7 +40,7 @@ pub(super) struct Membrane {
     /// $\mu$, in $(0, 1]$.
     pub(super) share: f64,
     /// $R_t$ of the last local step.
-    rotations: Vec<Mat3>,
+    pub(super) rotations: Vec<Mat3>,
     /// Per vertex $i$: (triangle $t \ni i$, $v_{it}$), the weighted rest edges of $t$ at $i$.
     incident: Csr<(u32, [f64; 3])>,
     /// $\sum_t \sum_k w^t_k \lVert e^t_k\rVert^2$.

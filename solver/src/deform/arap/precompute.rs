@@ -50,6 +50,9 @@ impl Arap {
         min_double_area: f64,
         fallback: Option<&[[f64; 3]]>,
     ) -> Result<Arap, SolveError> {
+        if !(0.0..=1.0).contains(&config.membrane) {
+            return Err(SolveError::MembraneShare(config.membrane));
+        }
         let n = mesh.n_vertices();
         let order = VertexOrder::reverse_cuthill_mckee(n, mesh.triangles());
         let inner = constraints.renumbered(&order);

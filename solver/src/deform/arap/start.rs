@@ -78,6 +78,7 @@ impl Arap {
                 return None;
             }
             let rotations = self.rotations.clone();
+            let triangle_rotations = self.membrane.as_deref().map(|m| m.rotations.clone());
             let at_rest = self.local_step_energy();
             self.move_free(&motion, true);
             let rigid = self.local_step_energy();
@@ -95,6 +96,9 @@ impl Arap {
                 self.current[v as usize] = self.rest[v as usize];
             }
             self.rotations = rotations;
+            if let (Some(m), Some(r)) = (self.membrane.as_deref_mut(), triangle_rotations) {
+                m.rotations = r;
+            }
             None
         } else if let Some(previous) = self.solved_at.take() {
             let motion = fit_motion(&previous, targets, None);

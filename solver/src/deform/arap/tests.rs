@@ -3,6 +3,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::needless_range_loop)]
 use super::*;
 use crate::deform::handles::Handles;
+use crate::error::SolveError;
 use crate::geometry::cotan::opposite_edge;
 use crate::geometry::mesh::{Mesh, sub};
 use crate::linalg::rotation::{add_mat, add_outer, mul_vec, scale_mat};
@@ -227,4 +228,42 @@ fn membrane_share_is_one_energy_with_exact_rest_and_rigid_poses() {
     });
     let off = off.fold(0.0, f64::max);
     assert!(off < 1e-12, "a rigid move of every handle is off by {off}");
+}
+
+/// A membrane share outside [0, 1] is refused with its value in the error.
+#[test]
+fn membrane_share_out_of_range_is_refused() {
+    let (m, h) = setup();
+    for share in [-0.1, 1.5, f64::NAN] {
+        let cfg = ArapConfig { membrane: share, ..Default::default() };
+        let Err(err) = Arap::new(&m, &h, &cfg) else { panic!("share {share} was accepted") };
+        assert!(matches!(err, SolveError::MembraneShare(_)), "{err}");
+        assert!(err.to_string().contains("membrane share"), "{err}");
+    }
+}
+
+/// A rigid start from rest that is not taken leaves every rotation as it was, the triangle
+/// cells' too (they seed the next fit).
+#[test]
+fn rigid_start_not_taken_restores_the_triangle_rotations() {
+    let (m, h) = setup();
+    let cfg = ArapConfig { membrane: 0.7, ..Default::default() };
+    let mut a = Arap::new(&m, &h, &cfg).unwrap();
+    let seeded = axis_angle([0.3, 0.2, 1.0], 0.05);
+    a.membrane.as_deref_mut().unwrap().fill(seeded);
+    let before = (a.rotations.clone(), a.membrane.as_deref().unwrap().rotations.clone());
+    // The cap at x > 0 widened twice across the bar: the handles' best rigid motion is not
+    // the identity, and moving the whole bar by it is worse than rest.
+    let hv = h.handle_vertices();
+    let rest: Vec<[f64; 3]> = hv.iter().map(|&v| m.positions()[v as usize]).collect();
+    let wide: Vec<[f64; 3]> =
+        rest.iter().map(|&q| if q[0] > 0.0 { [q[0], 2.0 * q[1], 2.0 * q[2]] } else { q }).collect();
+    let motion = crate::linalg::rigid::fit_motion(&rest, &wide, None);
+    assert_ne!(motion, crate::linalg::rigid::Motion::IDENTITY);
+    assert!(a.rigid_start(&wide).is_none());
+    let free = &a.inner.free_vertices;
+    let kept_rest = free.iter().all(|&v| a.current[v as usize] == a.rest[v as usize]);
+    assert!(kept_rest, "the rigid start was taken: these targets do not test the restore");
+    assert_eq!(a.rotations, before.0);
+    assert_eq!(a.membrane.as_deref().unwrap().rotations, before.1);
 }
