@@ -1,4 +1,5 @@
-"""Type stubs of bsarap (see __init__.py for the documentation)."""
+"""Type stubs of bsarap, the whole public API in one file (the documentation is in the modules
+the package imports it from: _common, _mesh, _arap, _deformer, _animation)."""
 
 import os
 from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union, overload, Literal
@@ -25,6 +26,7 @@ METHODS: Tuple[str, ...]
 ENERGIES: Tuple[str, ...]
 DEFAULT_TOL: float
 DEFAULT_MAX_ITERS: int
+DEFAULT_MEMBRANE: float
 
 class SolveStats:
     """What one solve did (solver::SolveStats)."""
@@ -107,6 +109,7 @@ class Deformer:
         coarse_vertices: Optional[int] = ...,
         fine_iterations: int = ...,
         settle_iterations: int = ...,
+        membrane: float = ...,
         pinned_components: Sequence[int] = ...,
     ) -> None: ...
     def solve(self, group_transforms: Mapping[int, Transform]) -> F64: ...

@@ -66,7 +66,7 @@ impl NativeScene {
     }
 
     /// The scene's settings: energy, tol, max_iters, anderson, smoothing, coarse_vertices,
-    /// fine_iterations.
+    /// fine_iterations, membrane.
     #[getter]
     fn settings<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let s = &self.scene.scene;
@@ -90,6 +90,7 @@ impl NativeScene {
         d.set_item("smoothing", s.base.smoothing)?;
         d.set_item("coarse_vertices", s.base.coarse_vertices)?;
         d.set_item("fine_iterations", s.base.fine_iterations)?;
+        d.set_item("membrane", s.base.membrane)?;
         Ok(d)
     }
 

@@ -82,7 +82,7 @@ fn check_rotation(group: usize, r: &Mat3) -> PyResult<()> {
 impl NativeDeformer {
     #[new]
     #[pyo3(signature = (v, f, labels, method, energy_name, tol, max_iters, anderson, smoothing,
-        coarse_vertices, fine_iterations, settle_iterations, pinned_components))]
+        coarse_vertices, fine_iterations, settle_iterations, membrane, pinned_components))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -98,6 +98,7 @@ impl NativeDeformer {
         coarse_vertices: Option<usize>,
         fine_iterations: usize,
         settle_iterations: usize,
+        membrane: f64,
         pinned_components: Vec<usize>,
     ) -> PyResult<NativeDeformer> {
         let Some(method) = Method::from_name(method) else {
@@ -120,6 +121,7 @@ impl NativeDeformer {
             coarse_vertices,
             fine_iterations,
             settle_iterations,
+            membrane,
             ..BaseConfig::default()
         };
         base.validate().map_err(err)?;

@@ -2,8 +2,9 @@
 //! the `solver` crate. Numerics live in `solver/`; this crate only converts arrays, checks what
 //! Python hands it (shapes, index ranges, finiteness) and maps the solver's errors to
 //! `bsarap.BsarapError` with the solver's message. Every precomputation, solve, recording and
-//! export runs with the GIL released. The documented Python API is `bsarap/__init__.py`, which
-//! coerces dtypes (without copying when they already fit) and calls this module.
+//! export runs with the GIL released. The documented Python API is the `bsarap` package
+//! (`bsarap/*.py`), which coerces dtypes (without copying when they already fit) and calls this
+//! module.
 
 mod animation;
 mod arap;
@@ -43,5 +44,6 @@ fn _bsarap(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(animation::record, m)?)?;
     m.add_function(wrap_pyfunction!(animation::export_gltf, m)?)?;
     m.add("METHODS", solver::Method::ALL.map(|m| m.name()).to_vec())?;
+    m.add("DEFAULT_MEMBRANE", solver::BaseConfig::DEFAULT_MEMBRANE)?;
     Ok(())
 }

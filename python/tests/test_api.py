@@ -101,6 +101,41 @@ def test_anderson_and_settle():
     assert bsarap.Deformer(V, F, labels, method="arap").settle_pending is False
 
 
+def test_membrane_share():
+    """The coarse level's membrane share changes the coarse variant's pose; 0 is the default."""
+    V, F, labels = tube(16, 24)
+    pose = {1: ([0.3, 0.0, 0.2], bsarap.rotation([0, 0, 1], 30))}
+    assert bsarap.DEFAULT_MEMBRANE == 0.0
+    U0 = bsarap.Deformer(V, F, labels, coarse_vertices=200, membrane=0.0).solve(pose)
+    d = bsarap.Deformer(V, F, labels, coarse_vertices=200, membrane=0.7)
+    U = d.solve(pose)
+    assert np.isfinite(U0).all() and np.isfinite(U).all()
+    np.testing.assert_allclose(U[d.handle_vertices], d.targets(pose), atol=1e-12)
+    assert np.abs(U - U0).max() > 1e-3  # the tube is 4 high: a visible change of pose
+    default = bsarap.Deformer(V, F, labels, coarse_vertices=200).solve(pose)
+    np.testing.assert_array_equal(default, U0)
+
+
+def test_membrane_in_scene_settings(tmp_path):
+    """A scene's membrane share is reported in its settings and used by its deformer."""
+    V, F, labels = tube(16, 24)
+    bsarap.save_mesh(tmp_path / "tube.off", V, F)
+    pose = {1: ([0.3, 0.0, 0.2], bsarap.rotation([0, 0, 1], 30))}
+    poses = {}
+    for mu in (0.0, 0.7):
+        path = tmp_path / f"scene-{mu}.json"
+        path.write_text(json.dumps({
+            "version": 1, "mesh": "tube.off", "handles": {"labels": labels.tolist()},
+            "timeline": {"duration": 1.0, "fps": 2}, "method": "bsarap-coarse",
+            "base": {"coarse_vertices": 200, "membrane": mu}}))
+        scene = bsarap.load_scene(path)
+        assert scene.settings["membrane"] == mu
+        poses[mu] = scene.deformer().solve(pose)
+        direct = bsarap.Deformer(V, F, labels, coarse_vertices=200, membrane=mu).solve(pose)
+        np.testing.assert_allclose(poses[mu], direct, atol=1e-12)
+    assert np.abs(poses[0.7] - poses[0.0]).max() > 1e-3
+
+
 def test_handles_from_file(tmp_path, small):
     V, F, labels = small
     sel = tmp_path / "sel.dmat"
@@ -142,6 +177,7 @@ def test_scene_record_export(tmp_path, repo):
     path = repo / "assets" / "scenes" / "creature-circle.json"
     assert bsarap.Timeline.from_scene(path).to_json() == tl.to_json()
     assert scene.settings["coarse_vertices"] == 2000 and scene.settings["energy"] == "spokes-and-rims"
+    assert scene.settings["membrane"] == bsarap.DEFAULT_MEMBRANE  # not in the file: the default
     assert scene.mesh_path.endswith("creature.obj") and (scene.labels >= 0).any()
     d = scene.deformer()
     rec = bsarap.record(d, tl, n_frames=4)

@@ -91,6 +91,9 @@ def test_deformer_errors():
         (lambda: bsarap.Deformer(V, F, labels, coarse_vertices=3), "coarse_vertices"),
         (lambda: bsarap.Deformer(V, F, labels, fine_iterations=10**6), "fine_iterations"),
         (lambda: bsarap.Deformer(V, F, labels, settle_iterations=10**6), "settle_iterations"),
+        (lambda: bsarap.Deformer(V, F, labels, membrane=-0.1), r"membrane must be in \[0, 1\]"),
+        (lambda: bsarap.Deformer(V, F, labels, membrane=1.5), r"membrane must be in \[0, 1\]"),
+        (lambda: bsarap.Deformer(V, F, labels, membrane=float("nan")), r"membrane .*NaN"),
         (lambda: bsarap.Deformer(V, F, labels, pinned_components=[4]), "components"),
         (lambda: bsarap.Deformer(V, F, "missing.dmat"), "missing.dmat"),
         (lambda: bsarap.Deformer(V, F, "handles.txt"), "txt"),
@@ -129,6 +132,12 @@ def test_animation_errors(tmp_path):
     (tmp_path / "s.json").write_text('{"mesh": "x.obj"}')
     with pytest.raises(BsarapError, match="version"):
         bsarap.load_scene(tmp_path / "s.json")
+    bsarap.save_mesh(tmp_path / "tube.off", V, F)
+    (tmp_path / "m.json").write_text(
+        '{"version": 1, "mesh": "tube.off", "handles": {"labels": %s}, "timeline": {"duration": 1, '
+        '"fps": 2}, "base": {"membrane": 1.5}}' % labels.tolist())
+    with pytest.raises(BsarapError, match="membrane must be in"):
+        bsarap.load_scene(tmp_path / "m.json")
     with pytest.raises(BsarapError):
         bsarap.Timeline.from_json('{"duration": -1, "fps": 10}')
     with pytest.raises(BsarapError):

@@ -2,7 +2,7 @@
 
 - equality with the Rust API: `bsarap deform` (the CLI over solver::Deformer, built by
   `cargo test --workspace` into target/debug, or $BSARAP_BIN) writes the same pose as
-  bsarap.Deformer for every method;
+  bsarap.Deformer for every method, and for the coarse one with a membrane share;
 - the libigl comparison: bsarap.Arap and igl.arap_solve (libigl 2.6.3 from PyPI), spokes and
   rims, same b / bc / starting guess, 3000 iterations each.
 """
@@ -47,9 +47,14 @@ def problem(name):
     return V, F, labels, b, bc, U0, diag
 
 
+#: Every method with the CLI's defaults, and the coarse variant with a membrane share.
+CLI_CASES = [(m, {}) for m in bsarap.METHODS] + [("bsarap-coarse", {"membrane": 0.7})]
+
+
 @pytest.mark.parametrize("name", MESHES)
-@pytest.mark.parametrize("method", bsarap.METHODS)
-def test_equal_to_rust_cli(tmp_path, name, method):
+@pytest.mark.parametrize(("method", "settings"), CLI_CASES,
+                         ids=[m + "".join(f"-{k}" for k in s) for m, s in CLI_CASES])
+def test_equal_to_rust_cli(tmp_path, name, method, settings):
     exe = cli()
     mesh, sel = paper_mesh(name)
     V, F = bsarap.load_mesh(mesh)
@@ -59,11 +64,12 @@ def test_equal_to_rust_cli(tmp_path, name, method):
     subprocess.run(
         [exe, "deform", str(mesh), "--handles", str(sel), "--method", method,
          "--move", "0:{},{},{}".format(*move), "--rotate", "0:0,0,1,20", "--anderson", "3",
-         "--tol", "1e-5", "--max-iters", "200", "-o", str(out)],
+         "--tol", "1e-5", "--max-iters", "200", "-o", str(out)]
+        + [a for k, v in settings.items() for a in (f"--{k}", str(v))],
         check=True, capture_output=True,
     )
     U_cli, F_cli = bsarap.load_mesh(out)
-    d = bsarap.Deformer(V, F, str(sel), method=method, anderson=3, tol=1e-5, max_iters=200)
+    d = bsarap.Deformer(V, F, str(sel), method=method, anderson=3, tol=1e-5, max_iters=200, **settings)
     U = d.solve({0: (move, bsarap.rotation([0, 0, 1], 20))})
     np.testing.assert_array_equal(F_cli, F)
     err = np.abs(U - U_cli).max() / diag

@@ -1,0 +1,99 @@
+"""What the rest of the package shares: the settings' defaults and names, the array coercions
+(no copy when the layout already fits) and :class:`SolveStats`."""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from typing import Any, Mapping, Tuple, Union
+
+import numpy as np
+
+from . import _bsarap
+from ._bsarap import BsarapError
+
+#: The method names of :class:`~bsarap.Deformer` (the CLI's ``--method``).
+METHODS: Tuple[str, ...] = tuple(_bsarap.METHODS)
+#: The ARAP energies (the CLI's ``--energy``).
+ENERGIES: Tuple[str, ...] = ("spokes-and-rims", "spokes")
+
+#: The solver's defaults (``solver::deform::arap::DEFAULT_TOLERANCE`` / ``DEFAULT_MAX_ITERATIONS``).
+DEFAULT_TOL = 1e-4
+DEFAULT_MAX_ITERS = 100
+#: The coarse level's default membrane share (``solver::BaseConfig::DEFAULT_MEMBRANE``, read from
+#: the native module).
+DEFAULT_MEMBRANE: float = _bsarap.DEFAULT_MEMBRANE
+
+PathLike = Union[str, "os.PathLike[str]"]
+
+
+def _positions(a: Any, name: str) -> np.ndarray:
+    """``a`` as a C-contiguous ``(n, 3)`` float64 array (no copy when it already is one)."""
+    try:
+        arr = np.ascontiguousarray(a, dtype=np.float64)
+    except (TypeError, ValueError) as e:
+        raise BsarapError(f"{name} must be an (n, 3) array of numbers: {e}") from None
+    if arr.ndim != 2 or arr.shape[1] != 3:
+        raise BsarapError(f"{name} must have shape (n, 3); got {arr.shape}")
+    return arr
+
+
+def _indices(a: Any, name: str, ndim: int) -> np.ndarray:
+    """``a`` as a C-contiguous int64 array of ``ndim`` dimensions (integer dtypes only)."""
+    arr = np.asarray(a)
+    if arr.size == 0 and arr.dtype.kind == "f":
+        arr = arr.astype(np.int64)
+    if arr.dtype.kind not in "iu":
+        raise BsarapError(f"{name} must hold integers; got dtype {arr.dtype}")
+    if arr.dtype.kind == "u" and arr.size and int(arr.max()) > np.iinfo(np.int64).max:
+        raise BsarapError(f"{name}: index out of range")
+    arr = np.ascontiguousarray(arr, dtype=np.int64)
+    if ndim == 2 and (arr.ndim != 2 or arr.shape[1] != 3):
+        raise BsarapError(f"{name} must have shape (m, 3); got {arr.shape}")
+    if ndim == 1:
+        if arr.ndim == 2 and 1 in arr.shape:
+            arr = arr.reshape(-1)
+        if arr.ndim != 1:
+            raise BsarapError(f"{name} must be a 1-d array; got shape {arr.shape}")
+    return arr
+
+
+def _count(x: Any, name: str) -> int:
+    """A non-negative int (bools and negative numbers refused)."""
+    if isinstance(x, bool) or not isinstance(x, (int, np.integer)) or int(x) < 0:
+        raise BsarapError(f"{name} must be a non-negative integer (got {x!r})")
+    return int(x)
+
+
+@dataclass(frozen=True)
+class SolveStats:
+    """What one solve did (``solver::SolveStats``).
+
+    ``energies[k]`` is the ARAP energy after iteration ``k + 1`` with rotations fitted to the
+    pose (never increasing); ``initial_energy`` that of the starting guess. Times are
+    milliseconds of the local steps, right-hand sides, back-substitutions and the final
+    energy evaluation. For ``bsarap-coarse``, ``iterations`` counts the coarse iterations and
+    ``fine_*`` the ARAP iterations on the full mesh after them.
+    """
+
+    iterations: int
+    converged: bool
+    done: bool
+    initial_energy: float
+    energy: float
+    energies: np.ndarray = field(repr=False)
+    local_ms: float
+    rhs_ms: float
+    solve_ms: float
+    energy_ms: float
+    total_ms: float
+    ms_per_iteration: float
+    rejected_steps: int
+    fine_iterations: int
+    fine_ms: float
+    fine_energy: float
+    fine_unconverged: bool
+
+    @classmethod
+    def _from(cls, d: Mapping[str, Any]) -> "SolveStats":
+        return cls(**d)

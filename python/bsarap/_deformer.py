@@ -1,0 +1,221 @@
+"""Every method of the ``bsarap`` CLI: :class:`Deformer`, posed by per-group rigid transforms."""
+
+from __future__ import annotations
+
+import os
+from typing import Any, Mapping, Optional, Sequence, Tuple, Union
+
+import numpy as np
+
+from . import _bsarap
+from ._bsarap import BsarapError
+from ._common import (
+    DEFAULT_MAX_ITERS,
+    DEFAULT_MEMBRANE,
+    DEFAULT_TOL,
+    SolveStats,
+    _count,
+    _indices,
+    _positions,
+)
+from ._mesh import load_selection
+
+
+Transform = Union[Sequence[float], Tuple[Sequence[float], Any], Mapping[str, Any]]
+
+
+def _transforms(group_transforms: Mapping[int, Transform]):
+    """``{group: transform}`` as ``[(group, translation, rotation)]`` for the native layer."""
+    if not isinstance(group_transforms, Mapping):
+        raise BsarapError("group_transforms must be a dict {group: transform}")
+    out = []
+    for g, t in group_transforms.items():
+        if isinstance(g, bool) or not isinstance(g, (int, np.integer)) or int(g) < 0:
+            raise BsarapError(f"group ids must be non-negative integers (got {g!r})")
+        translation, rot = np.zeros(3), np.eye(3)
+        if isinstance(t, Mapping):
+            unknown = set(t) - {"translate", "rotate"}
+            if unknown:
+                raise BsarapError(f"group {g}: unknown keys {sorted(unknown)} (use translate, rotate)")
+            translation = t.get("translate", translation)
+            rot = t.get("rotate", rot)
+        elif isinstance(t, tuple) and len(t) == 2:
+            translation, rot = t
+        else:
+            translation = t
+        translation = np.asarray(translation, dtype=np.float64)
+        rot = np.asarray(rot, dtype=np.float64)
+        if translation.shape != (3,):
+            raise BsarapError(f"group {g}: the translation must have 3 components; got {translation.shape}")
+        if rot.shape != (3, 3):
+            raise BsarapError(f"group {g}: the rotation must be a 3x3 matrix; got {rot.shape}")
+        out.append((int(g), translation.tolist(), rot.tolist()))
+    return out
+
+
+class Deformer:
+    """Every deformation method of the ``bsarap`` CLI behind one interface.
+
+    ``Deformer(V, F, handles, method="bsarap-coarse", **settings)`` precomputes (may take
+    seconds on large meshes); ``solve({group: transform})`` poses the handle groups as the
+    CLI's ``--move`` / ``--rotate`` do and returns the deformed positions.
+
+    Args:
+        V, F: the mesh (``(#V, 3)``, ``(#F, 3)``; see :func:`load_mesh` / :func:`clean`).
+        handles: per-vertex labels ``(#V,)`` (-1 free, k >= 0 group k), or the path of a
+            ``.dmat`` / sphere ``.json`` selection (read with :func:`load_selection`).
+        method: ``"arap"``, ``"bsarap"`` (the paper), ``"bsarap-faired"`` or
+            ``"bsarap-coarse"`` (default, the editor's).
+
+    Settings (keywords; the CLI's flags):
+        energy: ``"spokes-and-rims"`` (default) or ``"spokes"``.
+        tol: relative energy decrease at which a solve stops (default 1e-4; 0: run max_iters).
+        max_iters: iteration cap (default 100).
+        anderson: Anderson acceleration window, 0 (default) to 64.
+        smoothing: smoothing length of the faired base, fraction of the diagonal (default 0.01).
+        coarse_vertices: vertices of the coarse base (default min(3000, 30 % of the mesh)).
+        fine_iterations: ARAP iterations on the full mesh after each coarse solve (default 0).
+        settle_iterations: ARAP iterations per :meth:`settle` step (coarse; default 0: off).
+        membrane: the coarse level's membrane share, in [0, 1]: the part of its ARAP energy in
+            cells of single triangles, which resist no bending (``bsarap-coarse`` with the
+            spokes-and-rims energy; default ``DEFAULT_MEMBRANE``, 0: vertex cells alone).
+        pinned_components: components without handles kept at rest instead of following.
+
+    ``positions``, ``base`` (the deformed base surface B') and ``details`` (D = M - B at rest)
+    are readable after each solve; ``base``/``details`` are ``None`` for ARAP.
+    """
+
+    def __init__(
+        self,
+        V: Any,
+        F: Any,
+        handles: Any,
+        method: str = "bsarap-coarse",
+        *,
+        energy: str = "spokes-and-rims",
+        tol: float = DEFAULT_TOL,
+        max_iters: int = DEFAULT_MAX_ITERS,
+        anderson: int = 0,
+        smoothing: float = 0.01,
+        coarse_vertices: Optional[int] = None,
+        fine_iterations: int = 0,
+        settle_iterations: int = 0,
+        membrane: float = DEFAULT_MEMBRANE,
+        pinned_components: Sequence[int] = (),
+    ) -> None:
+        V = _positions(V, "V")
+        if isinstance(handles, (str, os.PathLike)):
+            labels = load_selection(handles, V)
+        else:
+            labels = _indices(handles, "handles", 1)
+        self._native = _bsarap.NativeDeformer(
+            V, _indices(F, "F", 2), labels, str(method), str(energy), float(tol),
+            _count(max_iters, "max_iters"), _count(anderson, "anderson"), float(smoothing),
+            None if coarse_vertices is None else _count(coarse_vertices, "coarse_vertices"),
+            _count(fine_iterations, "fine_iterations"), _count(settle_iterations, "settle_iterations"),
+            float(membrane), [_count(c, "pinned_components") for c in pinned_components],
+        )
+        self.stats: Optional[SolveStats] = None
+
+    @classmethod
+    def _wrap(cls, native: Any) -> "Deformer":
+        d = cls.__new__(cls)
+        d._native = native
+        d.stats = None
+        return d
+
+    def solve(self, group_transforms: Mapping[int, Transform]) -> np.ndarray:
+        """Pose the handle groups and solve, warm-started from the last result.
+
+        ``group_transforms`` maps a group id to its rigid motion, one of:
+        a translation ``(dx, dy, dz)``; a pair ``(translation, R)`` with ``R`` a 3x3 rotation;
+        or ``{"translate": (dx, dy, dz), "rotate": R}``. The rotation turns the group about its
+        rest centroid, then the translation moves it (the CLI's ``--rotate`` then ``--move``;
+        :func:`rotation` builds ``R`` from an axis and degrees). Groups not listed stay at rest.
+        Returns the positions ``(#V, 3)``; statistics in ``self.stats``.
+        """
+        U, stats = self._native.solve(_transforms(group_transforms))
+        self.stats = SolveStats._from(stats)
+        return U
+
+    def solve_targets(self, targets: Any) -> np.ndarray:
+        """Solve for handle positions given directly, ``(#H, 3)`` in the order of
+        :attr:`handle_vertices`."""
+        U, stats = self._native.solve_targets(_positions(targets, "targets"))
+        self.stats = SolveStats._from(stats)
+        return U
+
+    def targets(self, group_transforms: Mapping[int, Transform]) -> np.ndarray:
+        """The handle positions ``(#H, 3)`` that :meth:`solve` would use."""
+        return self._native.targets(_transforms(group_transforms))
+
+    def settle(self) -> Optional[np.ndarray]:
+        """Refine the last pose at the same targets (``bsarap-coarse`` with
+        ``settle_iterations > 0``, after a solve whose coarse iterations converged; solve
+        again at the same targets until ``stats.converged``): the new positions, or ``None``
+        when there is nothing to refine. Call while :attr:`settle_pending` is true, as the
+        editor does after a drag."""
+        r = self._native.settle()
+        if r is None:
+            return None
+        U, stats = r
+        self.stats = SolveStats._from(stats)
+        return U
+
+    @property
+    def settle_pending(self) -> bool:
+        """Whether :meth:`settle` has work after the last solve."""
+        return self._native.settle_pending
+
+    def set_stopping(self, tol: float, max_iters: int) -> None:
+        """Change the stopping rule without precomputing again."""
+        self._native.set_stopping(float(tol), _count(max_iters, "max_iters"))
+
+    def reset(self) -> None:
+        """Restart the next solve from rest."""
+        self._native.reset()
+
+    @property
+    def positions(self) -> np.ndarray:
+        """The deformed positions of the last solve (rest before any), ``(#V, 3)``."""
+        return self._native.positions
+
+    @property
+    def base(self) -> Optional[np.ndarray]:
+        """The deformed base surface B' of the last solve, ``(#V, 3)``; ``None`` for ARAP."""
+        return self._native.base
+
+    @property
+    def details(self) -> Optional[np.ndarray]:
+        """The details D = M - B at rest, ``(#V, 3)``; ``None`` for ARAP."""
+        return self._native.details
+
+    @property
+    def rest(self) -> np.ndarray:
+        """The rest positions, ``(#V, 3)``."""
+        return self._native.rest
+
+    @property
+    def labels(self) -> np.ndarray:
+        """Per-vertex handle labels (-1 free, k group k)."""
+        return self._native.labels
+
+    @property
+    def handle_vertices(self) -> np.ndarray:
+        """The handle vertices, ascending (the row order of :meth:`targets`)."""
+        return self._native.handle_vertices
+
+    @property
+    def groups(self) -> list:
+        """The ids of the non-empty handle groups."""
+        return self._native.groups
+
+    @property
+    def method(self) -> str:
+        """The method's name."""
+        return self._native.method
+
+    @property
+    def notice(self) -> Optional[str]:
+        """A sentence about the loose parts (components without handles), if any."""
+        return self._native.notice
