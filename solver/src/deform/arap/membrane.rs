@@ -13,6 +13,20 @@
 //! the global step's rhs $b_i = \sum_{t \ni i} \bar R_t v_{it}$ (`precompute::ring_coefficients`)
 //! becomes $\sum_{t \ni i} ((1-\mu)\bar R_t + \mu R_t)\, v_{it}$.
 //!
+//! **The triangles' fit in closed form.** A triangle's rest edges lie in its plane, with
+//! orthonormal frame $(\bar u, \bar v, \bar n)$ and plane coordinates $a_k$; its posed edges
+//! $d_k$ lie in the posed triangle's plane, frame $(u, v, n)$ ($u$ along $d_0$, $n$ along
+//! $d_0 \times d_1$), coordinates $b_k$. With $M = \sum_k w^t_k a_k b_k^\top$ (2×2),
+//! $\operatorname{tr}(R\,S_t)$ over rotations that take $\bar n$ to $n$ and turn the plane by
+//! $\theta$ is $A\cos\theta + B\sin\theta$, $A = M_{00} + M_{11}$, $B = M_{01} - M_{10}$, largest
+//! at $(\cos\theta, \sin\theta) = (A, B)/\sqrt{A^2 + B^2}$ with value $\sqrt{A^2+B^2}$, which is
+//! $\sigma_1 + \sigma_2$ of $M$ (the best over all rotations, $S_t$ having rank 2) when
+//! $\det M \ge 0$; then $R_t = (cu + sv)\bar u^\top + (-su + cv)\bar v^\top + n\bar n^\top$.
+//! With cotangent weights $\sum_k w_k a_k a_k^\top$ is the triangle's area times the identity,
+//! so $M$ is the area times the transposed plane map, $\det M > 0$ for any posed triangle that
+//! is not degenerate; a degenerate one, or $\det M < 0$ (weights that are not the plain
+//! cotangents), takes the general fit of $S_t$ ([`fit_rotation_near`]).
+//!
 //! Why: a triangle cell resists stretching and shearing but not bending (it is flat), while a
 //! vertex cell also resists bending, by an amount that grows with the square of the edge length
 //! relative to its resistance to stretching. A coarse level made of vertex cells alone is thus
@@ -21,18 +35,72 @@
 //! away (BENCHMARKS.md, "The membrane share on the coarse level").
 
 use super::Csr;
-use super::local::{LocalSums, fit_block};
+use super::local::LocalSums;
 use super::precompute::corner_edges;
 use crate::geometry::cotan::opposite_edge;
-use crate::geometry::mesh::{add, norm2, scale, sub};
-use crate::linalg::rotation::{IDENTITY, Mat3, add_outer, mul_mat, mul_vec};
+use crate::geometry::mesh::{add, cross, dot, norm2, scale, sub};
+use crate::linalg::rotation::{
+    IDENTITY, Mat3, add_outer, fit_rotation_near, mul_mat, mul_vec, trace_of_product,
+};
 use rayon::prelude::*;
 
 /// Triangles per parallel task of the triangles' local step.
 const TRIANGLES_PER_TASK: usize = 1024;
-/// Triangles whose covariances a task computes and fits at a time (a buffer on its stack, as
-/// the vertex cells' local step does), a multiple of the fits' lanes.
-const SCRATCH: usize = 64;
+
+/// A triangle's rest frame (module doc): $\bar u, \bar v, \bar n$ and its edges' plane
+/// coordinates $a_k$; `None` for a triangle too thin to have one.
+#[derive(Debug, Clone, Copy)]
+struct RestFrame {
+    axes: [[f64; 3]; 3],
+    a: [[f64; 2]; 3],
+}
+
+impl RestFrame {
+    fn new(e: &[[f64; 3]; 3]) -> Option<RestFrame> {
+        let (u, n) = (unit(e[0])?, unit(cross(e[0], e[1]))?);
+        let v = cross(n, u);
+        let a = e.map(|e| [dot(u, e), dot(v, e)]);
+        Some(RestFrame { axes: [u, v, n], a })
+    }
+}
+
+/// `x` scaled to length 1, `None` when too short for that.
+fn unit(x: [f64; 3]) -> Option<[f64; 3]> {
+    let l = norm2(x).sqrt();
+    (l > f64::MIN_POSITIVE.sqrt() && l.is_finite()).then(|| scale(x, 1.0 / l))
+}
+
+/// $R_t$ for posed edges `d`, weights `w` and rest frame `f` (module doc), with
+/// $\operatorname{tr}(R_t S_t)$; `None` when the closed form does not apply.
+#[inline]
+fn fit_in_plane(d: &[[f64; 3]; 3], w: &[f64; 3], f: &RestFrame) -> Option<(Mat3, f64)> {
+    let u = unit(d[0])?;
+    let n = unit(cross(d[0], d[1]))?;
+    let v = cross(n, u);
+    let mut m = [0.0; 4];
+    for k in 0..3 {
+        let (a, b) = (f.a[k], [dot(u, d[k]), dot(v, d[k])]);
+        m[0] += w[k] * a[0] * b[0];
+        m[1] += w[k] * a[0] * b[1];
+        m[2] += w[k] * a[1] * b[0];
+        m[3] += w[k] * a[1] * b[1];
+    }
+    if m[0] * m[3] - m[1] * m[2] < 0.0 {
+        return None;
+    }
+    let (big_a, big_b) = (m[0] + m[3], m[1] - m[2]);
+    let t = big_a.hypot(big_b);
+    if t.is_nan() || t <= 0.0 {
+        return None;
+    }
+    let (c, s) = (big_a / t, big_b / t);
+    let cols = [add(scale(u, c), scale(v, s)), add(scale(u, -s), scale(v, c)), n];
+    let [ub, vb, nb] = f.axes;
+    let r = std::array::from_fn(|i| {
+        std::array::from_fn(|j| cols[0][i] * ub[j] + cols[1][i] * vb[j] + cols[2][i] * nb[j])
+    });
+    Some((r, t))
+}
 
 /// The triangle cells of $E_\mu$ (module doc) in the solver's internal numbering.
 #[derive(Debug, Clone)]
@@ -41,6 +109,8 @@ pub(super) struct Membrane {
     pub(super) share: f64,
     /// $R_t$ of the last local step.
     pub(super) rotations: Vec<Mat3>,
+    /// Each triangle's rest frame for the closed-form fit.
+    frames: Vec<Option<RestFrame>>,
     /// Per vertex $i$: (triangle $t \ni i$, $v_{it}$), the weighted rest edges of $t$ at $i$.
     incident: Csr<(u32, [f64; 3])>,
     /// $\sum_t \sum_k w^t_k \lVert e^t_k\rVert^2$.
@@ -68,6 +138,7 @@ impl Membrane {
         Membrane {
             share,
             rotations: vec![IDENTITY; tris.len()],
+            frames: edges.iter().map(RestFrame::new).collect(),
             incident: Csr::from_pairs(n, &pairs),
             rest_term,
         }
@@ -83,28 +154,35 @@ impl Membrane {
         cot: &[[f64; 3]],
         edges: &[[[f64; 3]; 3]],
     ) -> LocalSums {
+        let frames = &self.frames;
         let parts: Vec<LocalSums> = self
             .rotations
             .par_chunks_mut(TRIANGLES_PER_TASK)
             .enumerate()
             .map(|(c, rots)| {
                 let mut sums = LocalSums::default();
-                let mut covs = [[[0.0; 3]; 3]; SCRATCH];
-                for (k, rots) in rots.chunks_mut(SCRATCH).enumerate() {
-                    let first = c * TRIANGLES_PER_TASK + k * SCRATCH;
-                    let covs = &mut covs[..rots.len()];
-                    for (l, s) in covs.iter_mut().enumerate() {
-                        let f = first + l;
-                        let (t, w, e) = (tris[f], cot[f], &edges[f]);
-                        *s = [[0.0; 3]; 3];
-                        for k in 0..3 {
-                            let (a, b) = opposite_edge(t, k);
-                            let d = sub(x[a as usize], x[b as usize]);
-                            add_outer(s, w[k], e[k], d);
-                            sums.edges += w[k] * norm2(d);
+                for (l, r) in rots.iter_mut().enumerate() {
+                    let f = c * TRIANGLES_PER_TASK + l;
+                    let (t, w, e) = (tris[f], &cot[f], &edges[f]);
+                    let d: [[f64; 3]; 3] = std::array::from_fn(|k| {
+                        let (a, b) = opposite_edge(t, k);
+                        sub(x[a as usize], x[b as usize])
+                    });
+                    sums.edges += (0..3).map(|k| w[k] * norm2(d[k])).sum::<f64>();
+                    match frames[f].as_ref().and_then(|fr| fit_in_plane(&d, w, fr)) {
+                        Some((fitted, t)) => {
+                            *r = fitted;
+                            sums.fitted += t;
+                        }
+                        None => {
+                            let mut s = [[0.0; 3]; 3];
+                            for k in 0..3 {
+                                add_outer(&mut s, w[k], e[k], d[k]);
+                            }
+                            *r = fit_rotation_near(&s, r);
+                            sums.fitted += trace_of_product(r, &s);
                         }
                     }
-                    sums.fitted = fit_block(rots, covs, sums.fitted);
                 }
                 sums
             })

@@ -267,3 +267,49 @@ fn rigid_start_not_taken_restores_the_triangle_rotations() {
     assert_eq!(a.rotations, before.0);
     assert_eq!(a.membrane.as_deref().unwrap().rotations, before.1);
 }
+
+/// The triangle cells' closed-form fit gives each triangle the rotation the general 3×3 fit
+/// gives its covariance, and the fitted sum $\sum_t \operatorname{tr}(R_t S_t)$ of those
+/// rotations; a collapsed triangle (no plane) takes the general fit.
+#[test]
+fn triangle_fits_in_closed_form_match_the_general_fit() {
+    let (m, h) = setup();
+    let cfg = ArapConfig { membrane: 0.7, ..Default::default() };
+    let mut a = Arap::new(&m, &h, &cfg).unwrap();
+    let mut x = pose(m.positions());
+    // Collapse one triangle of the pose onto a point.
+    let t0 = m.triangles()[7];
+    for &v in &t0[1..] {
+        x[v as usize] = x[t0[0] as usize];
+    }
+    a.set_positions(&x);
+    let Cells::SpokesAndRims { cot, edges, .. } = &a.cells else { panic!("spokes and rims") };
+    let (tris, cur) = (&a.triangles, &a.current);
+    let mut fitted = 0.0;
+    let expected: Vec<Mat3> = tris
+        .iter()
+        .zip(cot)
+        .zip(edges)
+        .map(|((t, w), e)| {
+            let mut s = [[0.0; 3]; 3];
+            for k in 0..3 {
+                let (p, q) = opposite_edge(*t, k);
+                add_outer(&mut s, w[k], e[k], sub(cur[p as usize], cur[q as usize]));
+            }
+            let r = fit_rotation_svd(&s);
+            fitted += crate::linalg::rotation::trace_of_product(&r, &s);
+            r
+        })
+        .collect();
+    let mut mem = a.membrane.take().unwrap();
+    let sums = mem.fit(cur, tris, cot, edges);
+    let worst = mem
+        .rotations
+        .iter()
+        .zip(&expected)
+        .flat_map(|(r, e)| (0..9).map(move |k| (r[k / 3][k % 3] - e[k / 3][k % 3]).abs()))
+        .fold(0.0, f64::max);
+    assert!(worst < 1e-9, "closed-form rotations off by {worst}");
+    let rel = (sums.fitted - fitted).abs() / fitted;
+    assert!(rel < 1e-12, "fitted sum {} against {fitted}", sums.fitted);
+}
