@@ -35,8 +35,8 @@
 //! away (BENCHMARKS.md, "The membrane share on the coarse level").
 
 use super::Csr;
+use super::corner_edges;
 use super::local::LocalSums;
-use super::precompute::corner_edges;
 use crate::geometry::cotan::opposite_edge;
 use crate::geometry::mesh::{add, cross, dot, norm2, scale, sub};
 use crate::linalg::rotation::{

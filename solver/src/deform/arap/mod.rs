@@ -283,3 +283,12 @@ impl Arap {
 pub(super) fn ms(a: Instant, b: Instant) -> f64 {
     (b - a).as_secs_f64() * 1e3
 }
+
+/// $v_{it}$: the weighted rest edges of triangle $t$ (half cotangents `w`, rest edges `e`
+/// opposite each corner) at its corner `c`, $w_{c+2} e_{c+2} - w_{c+1} e_{c+1}$ with
+/// $e_{c+1} = p_{c+2} - p_c$ and $e_{c+2} = p_c - p_{c+1}$: what the rhs of vertex $i$ at
+/// corner `c` gets from $t$'s rotation.
+fn corner_edges(w: &[f64; 3], e: &[[f64; 3]; 3], c: usize) -> [f64; 3] {
+    use crate::geometry::mesh::{add, scale};
+    add(scale(e[(c + 2) % 3], w[(c + 2) % 3]), scale(e[(c + 1) % 3], -w[(c + 1) % 3]))
+}

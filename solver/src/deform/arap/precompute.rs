@@ -4,7 +4,7 @@
 //! free block $L_{FF}$ of the cotangent Laplacian (Sun et al. 2017, Eq. 4's matrix).
 
 use super::membrane::Membrane;
-use super::{Arap, ArapConfig, Cells, Csr, Energy, Soft};
+use super::{Arap, ArapConfig, Cells, Csr, Energy, Soft, corner_edges};
 use crate::deform::constraints::Constraints;
 use crate::deform::handles::Handles;
 use crate::deform::rig::soft_penalty;
@@ -276,12 +276,4 @@ fn ring_coefficients(
         offsets.push(items.len());
     }
     (Csr { offsets, items }, cov_coef, rhs_coef, edge_coef)
-}
-
-/// $v_{it}$: the weighted rest edges of triangle $t$ (half cotangents `w`, rest edges `e`
-/// opposite each corner) at its corner `c`, $w_{c+2} e_{c+2} - w_{c+1} e_{c+1}$ with
-/// $e_{c+1} = p_{c+2} - p_c$ and $e_{c+2} = p_c - p_{c+1}$: what the rhs of vertex $i$ at
-/// corner `c` gets from $t$'s rotation.
-pub(super) fn corner_edges(w: &[f64; 3], e: &[[f64; 3]; 3], c: usize) -> [f64; 3] {
-    add(scale(e[(c + 2) % 3], w[(c + 2) % 3]), scale(e[(c + 1) % 3], -w[(c + 1) % 3]))
 }
