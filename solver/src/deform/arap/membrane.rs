@@ -144,9 +144,10 @@ impl Membrane {
         }
     }
 
-    /// Fits every $R_t$ to the pose `x` (started from the last ones) and returns the sums
-    /// of the triangles' energy, taken per fixed block of triangles and then in order (so
-    /// they do not depend on the scheduling).
+    /// Fits every $R_t$ to the pose `x` (in closed form; where that does not apply, the general
+    /// fit started from the last $R_t$) and returns the sums of the triangles' energy, taken
+    /// per fixed block of triangles and then in order (so they do not depend on the
+    /// scheduling).
     pub(super) fn fit(
         &mut self,
         x: &[[f64; 3]],
