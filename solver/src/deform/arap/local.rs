@@ -142,7 +142,7 @@ fn covariance(cells: &Cells, x: &[[f64; 3]], p: &[[f64; 3]], i: usize) -> (Mat3,
 /// $R_i$ = [`fit_rotations_near`] of $S_i$ started from the current $R_i$, [`LANES`] cells per
 /// call, over one block; returns `t` plus $\sum_i \operatorname{tr}(R_i S_i)$ for the new
 /// rotations, added [`LANES`] cells at a time.
-pub(super) fn fit_block(rots: &mut [Mat3], covs: &[Mat3], t: f64) -> f64 {
+fn fit_block(rots: &mut [Mat3], covs: &[Mat3], t: f64) -> f64 {
     let mut t = t;
     for (r, s) in rots.chunks_mut(LANES).zip(covs.chunks(LANES)) {
         t += match (<&mut [Mat3; LANES]>::try_from(&mut *r), <&[Mat3; LANES]>::try_from(s)) {
