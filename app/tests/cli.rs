@@ -430,6 +430,26 @@ fn info_reports_the_asset_and_what_was_skipped() {
     assert!(j["notices"].to_string().contains("missing.mtl"), "{j}");
 }
 
+/// A reader that stops early (`bsarap info MESH | head -1`) ends a headless command as it ends
+/// other Unix tools, by `SIGPIPE`, not by a panic message on a closed pipe. The pipe's read end
+/// is closed before the command starts, so its first line already fails.
+#[cfg(unix)]
+#[test]
+fn a_closed_pipe_ends_a_command_quietly() {
+    use std::os::unix::process::ExitStatusExt;
+    let (obj, _, _) = sphere();
+    let (reader, writer) = std::io::pipe().unwrap();
+    drop(reader);
+    let out = Command::new(env!("CARGO_BIN_EXE_bsarap"))
+        .args(["info", obj.to_str().unwrap()])
+        .stdout(writer)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert_eq!(out.status.signal(), Some(libc::SIGPIPE), "{:?}: {stderr}", out.status);
+}
+
 /// `deform` without `--method` runs the editor's default, the coarse BS-ARAP (the paper's base
 /// collapses under small handles on real meshes, so it is no first command's default).
 #[test]

@@ -86,6 +86,9 @@ impl From<EnergyArg> for solver::Energy {
 
 /// Runs one subcommand.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
+    if !matches!(cli.command, None | Some(Command::Edit(_))) {
+        end_quietly_on_closed_pipe();
+    }
     match cli.command {
         None => app::editor::run(None),
         Some(Command::Edit(a)) => app::editor::run(a.mesh),
@@ -95,6 +98,19 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Some(Command::Export(a)) => export::run(&a),
         Some(Command::Subdivide(a)) => subdivide::run(&a),
         Some(Command::Render(a)) => render::run(&a),
+    }
+}
+
+/// A headless subcommand whose reader has gone (`bsarap info MESH | head -3`) ends as other
+/// Unix tools do, by the default action of `SIGPIPE`, instead of a panic in `println!` (Rust
+/// ignores the signal, so a write to a closed pipe fails and `println!` panics on the error).
+/// Not for the editor, whose log lines must never end it.
+fn end_quietly_on_closed_pipe() {
+    #[cfg(unix)]
+    // SAFETY: `signal` with `SIG_DFL` only resets one disposition; called before any thread
+    // of ours is started.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
 }
 
