@@ -16,6 +16,12 @@
 //! a later run starts ARAP from them, which confirms their convergence in a few iterations
 //! instead of converging from rest (279 s at 692k vertices), and refuses a file of another
 //! vertex count or with a value that is not finite.
+//!
+//! With `--coarser COARSE_MESH` (a mesh whose vertices are MESH's first ones, as
+//! `bsarap subdivide` keeps them, e.g. the mesh MESH was subdivided from), converged ARAP on
+//! COARSE_MESH for the same frame (from rest, its own selection from SELECTION) is measured
+//! against the reference at those shared vertices: how far the minimum moves with the
+//! resolution of the same surface alone (BENCHMARKS.md, "Dense meshes").
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use solver::deform::quality::{Reference, distances};
@@ -27,14 +33,18 @@ fn main() {
     let mut args: Vec<String> = std::env::args().skip(1).collect();
     let own = args.iter().any(|a| a == "--own");
     args.retain(|a| a != "--own");
-    let stored = args.iter().position(|a| a == "--reference").map(|i| {
-        let file = args.get(i + 1).expect("--reference FILE").clone();
-        args.drain(i..i + 2);
-        std::path::PathBuf::from(file)
-    });
+    let mut option = |name: &str| {
+        args.iter().position(|a| a == name).map(|i| {
+            let file = args.get(i + 1).unwrap_or_else(|| panic!("{name} FILE")).clone();
+            args.drain(i..i + 2);
+            std::path::PathBuf::from(file)
+        })
+    };
+    let stored = option("--reference");
+    let coarser = option("--coarser");
     assert!(
-        args.len() >= 3,
-        "usage: coarse_quality MESH SELECTION C:S[:F[:L[:M]]]... [--own] [--reference FILE]"
+        args.len() >= 2,
+        "usage: coarse_quality MESH SELECTION C:S[:F[:L[:M]]]... [--own] [--reference FILE] [--coarser MESH]"
     );
     let mesh = solver::io::load_mesh(std::path::Path::new(&args[0])).expect("mesh").mesh;
     let handles = solver::deform::selection::load_selection(
@@ -44,16 +54,7 @@ fn main() {
     )
     .expect("selection");
     let diag = mesh.bbox_diagonal();
-    let group = handles.group_ids().next().expect("a handle group");
-    let frame = |f: usize| {
-        let theta = std::f64::consts::TAU * f as f64 / 10.0;
-        let r = 0.1 * diag;
-        let moved = GroupTransform {
-            translation: [r * (theta.cos() - 1.0), r * theta.sin(), 0.0],
-            ..Default::default()
-        };
-        handle_targets(mesh.positions(), &handles, &[(group, moved)]).expect("targets")
-    };
+    let frame = |f: usize| bench_frame(mesh.positions(), &handles, diag, f);
     let t = std::time::Instant::now();
     let kept = stored.as_ref().filter(|f| f.exists()).map(|f| read_positions(f, mesh.n_vertices()));
     let start = kept.as_deref().unwrap_or(mesh.positions());
@@ -66,14 +67,18 @@ fn main() {
         std::fs::write(file, bytes).expect("write the reference");
     }
     println!(
-        "{}: {} vertices; reference from {}: {} iterations, energy {:.5e}, {:.0} s",
+        "{}: {} vertices; reference from {}: {} iterations{}, energy {:.5e}, {:.0} s",
         args[0],
         mesh.n_vertices(),
         if kept.is_some() { "the stored pose" } else { "rest" },
         reference.stats().iterations,
+        if reference.stats().converged { "" } else { " (the cap: not converged)" },
         reference.stats().energy(),
         t.elapsed().as_secs_f64()
     );
+    if let Some(file) = &coarser {
+        resolution_gap(file, &args[1], mesh.positions(), &reference, diag);
+    }
     for spec in &args[2..] {
         let v: Vec<&str> = spec.split(':').collect();
         let default = BaseConfig::default();
@@ -132,6 +137,69 @@ fn main() {
             );
         }
     }
+}
+
+/// Targets of the bench's frame `f` (of ten): the first group of `handles` moved on a circle of
+/// 0.1·`diag` in the xy plane, the others at rest.
+fn bench_frame(
+    positions: &[[f64; 3]],
+    handles: &solver::Handles,
+    diag: f64,
+    f: usize,
+) -> Vec<[f64; 3]> {
+    let group = handles.group_ids().next().expect("a handle group");
+    let theta = std::f64::consts::TAU * f as f64 / 10.0;
+    let r = 0.1 * diag;
+    let moved = GroupTransform {
+        translation: [r * (theta.cos() - 1.0), r * theta.sin(), 0.0],
+        ..Default::default()
+    };
+    handle_targets(positions, handles, &[(group, moved)]).expect("targets")
+}
+
+/// `--coarser` (module doc): converged ARAP at frame 5 on the coarser mesh in `file`, against
+/// `reference` at the vertices the two meshes share (the coarser mesh's rest positions must be
+/// the first of `fine_rest`, within 1e-6·`diag`: files may store single precision); prints the
+/// max and mean distance over `diag`.
+fn resolution_gap(
+    file: &std::path::Path,
+    selection: &str,
+    fine_rest: &[[f64; 3]],
+    reference: &Reference,
+    diag: f64,
+) {
+    let coarse = solver::io::load_mesh(file).expect("coarser mesh").mesh;
+    let n = coarse.n_vertices();
+    let rest = coarse.positions();
+    let shared = n <= fine_rest.len()
+        && rest
+            .iter()
+            .zip(fine_rest)
+            .all(|(p, q)| (0..3).all(|k| (p[k] - q[k]).abs() <= 1e-6 * diag));
+    assert!(shared, "{}: its vertices are not the mesh's first ones", file.display());
+    let fine = reference.positions();
+    let handles =
+        solver::deform::selection::load_selection(std::path::Path::new(selection), rest, None)
+            .expect("selection on the coarser mesh");
+    let t = std::time::Instant::now();
+    let r = Reference::new(
+        &coarse,
+        &handles,
+        &bench_frame(rest, &handles, diag, 5),
+        Energy::SpokesAndRims,
+    )
+    .expect("coarser reference");
+    let gap = distances(r.positions(), &fine[..n], diag);
+    println!(
+        "converged ARAP on {} ({n} vertices: {} iterations{}, energy {:.5e}, {:.0} s) at the shared vertices: max {:.2} % mean {:.3} %",
+        file.display(),
+        r.stats().iterations,
+        if r.stats().converged { "" } else { " (the cap: not converged)" },
+        r.stats().energy(),
+        t.elapsed().as_secs_f64(),
+        gap.max * 100.0,
+        gap.mean * 100.0
+    );
 }
 
 /// The positions kept by `--reference` (module doc).
