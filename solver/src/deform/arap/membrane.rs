@@ -239,3 +239,44 @@ impl Membrane {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::cotan::face_cotangents;
+    use crate::linalg::rotation::{axis_angle, fit_rotation_svd};
+
+    /// The closed form applies to a posed triangle that is stretched, sheared and turned out
+    /// of its plane, and gives the general fit's rotation and $\operatorname{tr}(R_t S_t)$;
+    /// it declines a collapsed one. (The pipeline's test, `arap::tests`, passes with either
+    /// path; this one fails if the closed form is never taken.)
+    #[test]
+    fn the_closed_form_applies_and_matches_the_general_fit() {
+        let p = [[0.0, 0.0, 0.0], [1.0, 0.1, 0.2], [0.3, 0.9, -0.1]];
+        let t = [0u32, 1, 2];
+        let w = face_cotangents(&p, &[t], 0.0).unwrap()[0];
+        let edge = |x: &[[f64; 3]; 3], k: usize| {
+            let (a, b) = opposite_edge(t, k);
+            sub(x[a as usize], x[b as usize])
+        };
+        let e: [[f64; 3]; 3] = std::array::from_fn(|k| edge(&p, k));
+        let turn = axis_angle([0.3, -0.5, 0.8], 1.9);
+        let x = p.map(|q| mul_vec(&turn, [1.3 * q[0] + 0.4 * q[1], 0.8 * q[1], q[2]]));
+        let d: [[f64; 3]; 3] = std::array::from_fn(|k| edge(&x, k));
+        let frame = RestFrame::new(&e).expect("a rest frame");
+        let (r, fitted) = fit_in_plane(&d, &w, &frame).expect("the closed form applies");
+        let mut s = [[0.0; 3]; 3];
+        for k in 0..3 {
+            add_outer(&mut s, w[k], e[k], d[k]);
+        }
+        let expected = fit_rotation_svd(&s);
+        for i in 0..3 {
+            for j in 0..3 {
+                assert!((r[i][j] - expected[i][j]).abs() < 1e-12, "{r:?} against {expected:?}");
+            }
+        }
+        assert!((fitted - trace_of_product(&expected, &s)).abs() < 1e-12 * fitted.abs());
+        let collapsed = [[0.0; 3]; 3];
+        assert!(fit_in_plane(&collapsed, &w, &frame).is_none());
+    }
+}
