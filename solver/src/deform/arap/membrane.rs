@@ -57,11 +57,18 @@ struct RestFrame {
 
 impl RestFrame {
     fn new(e: &[[f64; 3]; 3]) -> Option<RestFrame> {
-        let (u, n) = (unit(e[0])?, unit(cross(e[0], e[1]))?);
-        let v = cross(n, u);
-        let a = e.map(|e| [dot(u, e), dot(v, e)]);
-        Some(RestFrame { axes: [u, v, n], a })
+        let axes = plane_axes(e)?;
+        let a = e.map(|e| [dot(axes[0], e), dot(axes[1], e)]);
+        Some(RestFrame { axes, a })
     }
+}
+
+/// A triangle's orthonormal frame $(u, v, n)$ from its edges `e`: $u$ along $e_0$, $n$ along
+/// $e_0 \times e_1$; `None` for a triangle too thin to have one.
+#[inline]
+fn plane_axes(e: &[[f64; 3]; 3]) -> Option<[[f64; 3]; 3]> {
+    let (u, n) = (unit(e[0])?, unit(cross(e[0], e[1]))?);
+    Some([u, cross(n, u), n])
 }
 
 /// `x` scaled to length 1, `None` when too short for that.
@@ -74,9 +81,7 @@ fn unit(x: [f64; 3]) -> Option<[f64; 3]> {
 /// $\operatorname{tr}(R_t S_t)$; `None` when the closed form does not apply.
 #[inline]
 fn fit_in_plane(d: &[[f64; 3]; 3], w: &[f64; 3], f: &RestFrame) -> Option<(Mat3, f64)> {
-    let u = unit(d[0])?;
-    let n = unit(cross(d[0], d[1]))?;
-    let v = cross(n, u);
+    let [u, v, n] = plane_axes(d)?;
     let mut m = [0.0; 4];
     for k in 0..3 {
         let (a, b) = (f.a[k], [dot(u, d[k]), dot(v, d[k])]);
