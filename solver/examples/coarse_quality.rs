@@ -4,7 +4,7 @@
 //! cap 1000), each setting measured at frame 5 against ARAP from rest
 //! (`solver::deform::quality::Reference`, computed once for every setting):
 //!
-//!     cargo run --release -p solver --example coarse_quality -- MESH SELECTION C:S[:F[:L[:M]]]... [--own] [--reference FILE]
+//!     cargo run --release -p solver --example coarse_quality -- MESH SELECTION C:S[:F[:L[:M]]]... [--own] [--reference FILE] [--coarser MESH]
 //!
 //! `C:S:F:L:M` = coarse vertices, smoothing (fraction of the diagonal), fine iterations (default
 //! 0), level fairing (`0`: off; default on), membrane share (default 0). Each setting also
@@ -21,7 +21,7 @@
 //! `bsarap subdivide` keeps them, e.g. the mesh MESH was subdivided from), converged ARAP on
 //! COARSE_MESH for the same frame (from rest, its own selection from SELECTION) is measured
 //! against the reference at those shared vertices: how far the minimum moves with the
-//! resolution of the same surface alone (BENCHMARKS.md, "Dense meshes").
+//! resolution of the same surface alone (BENCHMARKS.md, "Dense held-out sets").
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use solver::deform::quality::{Reference, distances};
