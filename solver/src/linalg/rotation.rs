@@ -294,7 +294,7 @@ pub fn fit_rotations_near(s: &[Mat3; LANES], rots: &mut [Mat3; LANES]) -> f64 {
 /// intrinsics), chosen at run time, elsewhere on the portable `F4`; no fused multiply-add is
 /// introduced, so both round identically (test `avx_lanes_match_portable_lanes`). The AVX
 /// build fits about twice as many cells per second as the portable lanes compiled for AVX2
-/// did (BENCHMARKS.md, "Fifth round").
+/// did (measured in BENCHMARKS.md's git history, its "Fifth round").
 #[inline]
 fn fit_rotations_lockstep(s: &[Mat3; LANES], rots: &mut [Mat3; LANES]) -> Fitted {
     #[cfg(target_arch = "x86_64")]
