@@ -521,3 +521,75 @@ fn subdivide_writes_a_denser_mesh() {
     assert_ne!(code, 0);
     assert!(stderr.contains("--levels"), "{stderr}");
 }
+
+/// Issue 50's attack end to end: a downloaded `.gltf` whose image `uri` leaves its folder.
+/// `bsarap deform` loads it without the texture, says so, and neither a GLB nor a `.gltf`
+/// export (nor any file written beside it) holds the outside file's bytes, with or without
+/// `--allow-outside-references` (the bytes are no image).
+#[test]
+fn exports_never_carry_files_from_outside_the_assets_folder() {
+    const SECRET: &[u8] = b"-----BEGIN OPENSSH PRIVATE KEY----- bsarap test secret";
+    let root = tmp("hostile-gltf");
+    let asset = root.join("asset");
+    std::fs::create_dir_all(&asset).unwrap();
+    std::fs::write(root.join("id_rsa.png"), SECRET).unwrap();
+    let m = solver::geometry::shapes::icosphere(2);
+    let mut bin = Vec::new();
+    for c in m.positions().iter().flatten() {
+        bin.extend_from_slice(&(*c as f32).to_le_bytes());
+    }
+    let pos_len = bin.len();
+    for i in m.triangles().iter().flatten() {
+        bin.extend_from_slice(&i.to_le_bytes());
+    }
+    std::fs::write(asset.join("ico.bin"), &bin).unwrap();
+    let n = m.n_vertices();
+    let doc = serde_json::json!({
+        "asset": {"version": "2.0"},
+        "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1, "material": 0}]}],
+        "materials": [{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}],
+        "textures": [{"source": 0}],
+        "images": [{"uri": "../id_rsa.png"}],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": n, "type": "VEC3",
+             "min": [-1.0, -1.0, -1.0], "max": [1.0, 1.0, 1.0]},
+            {"bufferView": 1, "componentType": 5125, "count": m.triangles().len() * 3,
+             "type": "SCALAR"}
+        ],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": pos_len},
+            {"buffer": 0, "byteOffset": pos_len, "byteLength": bin.len() - pos_len}
+        ],
+        "buffers": [{"uri": "ico.bin", "byteLength": bin.len()}]
+    });
+    let gltf = asset.join("hostile.gltf");
+    std::fs::write(&gltf, doc.to_string()).unwrap();
+    let (_, sel, _) = sphere();
+    for (k, extra) in [None, Some("--allow-outside-references")].into_iter().enumerate() {
+        for name in ["out.glb", "out.gltf"] {
+            let out_dir = root.join(format!("out{k}-{name}"));
+            std::fs::create_dir_all(&out_dir).unwrap();
+            let out = out_dir.join(name);
+            let mut args = vec![
+                "deform",
+                gltf.to_str().unwrap(),
+                "--handles",
+                sel.to_str().unwrap(),
+                "--move",
+                "0:0,0.1,0",
+                "-o",
+                out.to_str().unwrap(),
+            ];
+            args.extend(extra);
+            let (code, _, stderr) = bsarap(&args);
+            assert_eq!(code, 0, "{args:?}: {stderr}");
+            assert!(stderr.contains("../id_rsa.png"), "the note names the URI: {stderr}");
+            for file in std::fs::read_dir(&out_dir).unwrap() {
+                let bytes = std::fs::read(file.unwrap().path()).unwrap();
+                assert!(!bytes.windows(SECRET.len()).any(|w| w == SECRET), "{args:?}");
+                assert!(!String::from_utf8_lossy(&bytes).contains("LS0tLS1CRUdJT"), "{args:?}");
+            }
+        }
+    }
+}

@@ -370,7 +370,7 @@ fn example_scenes_parse() {
         let p = e.unwrap().path();
         if p.extension().is_some_and(|x| x == "json") {
             let s = Scene::read(&p).unwrap_or_else(|e| panic!("{e}"));
-            assert!(Scene::resolve_path(&p, &s.mesh).exists(), "{}", p.display());
+            assert!(Scene::resolve_path(&p, &s.mesh).unwrap().0.exists(), "{}", p.display());
         }
     }
 }

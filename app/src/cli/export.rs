@@ -104,7 +104,7 @@ fn circle_scene(a: &ExportArgs, mesh: &Path, handles: &Path) -> anyhow::Result<L
         }],
     };
     let name = PathBuf::from("(command line)");
-    let mut loaded = scene.resolve(&name)?;
+    let mut loaded = scene.resolve_with(&name, super::reference_policy())?;
     // The radius is relative to the cleaned mesh's diagonal.
     let diag = loaded.mesh.mesh.bbox_diagonal();
     if let Some(GroupPath { path: AnimPath::Circular(c), .. }) =
@@ -155,12 +155,19 @@ impl Output {
 pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
     let output = Output::of(&a.output)?;
     let (loaded, source) = match (&a.scene, &a.mesh, &a.handles) {
-        (Some(path), _, _) => (Scene::load(path)?, path.display().to_string()),
+        (Some(path), _, _) => {
+            (Scene::load_with(path, super::reference_policy())?, path.display().to_string())
+        }
         (None, Some(mesh), Some(handles)) => {
             (circle_scene(a, mesh, handles)?, mesh.display().to_string())
         }
         _ => anyhow::bail!("give a scene file, or --mesh and --handles"),
     };
+    // What the reader left out (a texture refused or outside the folder) is said before the
+    // file is written, not found missing in it later.
+    for n in loaded.mesh.notices() {
+        eprintln!("note: {n}");
+    }
     let scene = &loaded.scene;
     let mesh = &loaded.mesh.mesh;
     let n_frames = a.frames.unwrap_or_else(|| scene.timeline.default_frame_count());

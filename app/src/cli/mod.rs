@@ -17,6 +17,20 @@ pub struct Cli {
     /// Without a subcommand, `bsarap` opens the editor on the default mesh.
     #[command(subcommand)]
     pub command: Option<Command>,
+    /// Read the files a mesh refers to (glTF buffers and images, OBJ material libraries) even
+    /// outside the mesh's folder: absolute paths, `..` out of it, links out of it. Off by
+    /// default, so that a downloaded asset cannot carry another of your files into an export.
+    #[arg(long, global = true)]
+    pub allow_outside_references: bool,
+}
+
+/// `--allow-outside-references`, set once by [`run`] before any subcommand loads a file.
+static ALLOW_OUTSIDE: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// The reference policy the command line asked for.
+pub fn reference_policy() -> solver::io::ReferencePolicy {
+    let allow_outside = ALLOW_OUTSIDE.load(std::sync::atomic::Ordering::Relaxed);
+    solver::io::ReferencePolicy { allow_outside }
 }
 
 #[derive(Debug, Subcommand)]
@@ -89,6 +103,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     if !matches!(cli.command, None | Some(Command::Edit(_))) {
         end_quietly_on_closed_pipe();
     }
+    ALLOW_OUTSIDE.store(cli.allow_outside_references, std::sync::atomic::Ordering::Relaxed);
     match cli.command {
         None => app::editor::run(None),
         Some(Command::Edit(a)) => app::editor::run(a.mesh),
@@ -114,9 +129,10 @@ fn end_quietly_on_closed_pipe() {
     }
 }
 
-/// Loads and cleans a mesh, with the path in the error.
+/// Loads and cleans a mesh, with the path in the error; its references under
+/// [`reference_policy`].
 pub fn load(path: &std::path::Path) -> anyhow::Result<solver::io::LoadedMesh> {
-    Ok(solver::io::load_mesh(path)?)
+    Ok(solver::io::load_mesh_with(path, reference_policy())?)
 }
 
 /// Loads a handle selection (.dmat or sphere .json) for `mesh`.

@@ -239,7 +239,7 @@ fn prepare(
 /// Reads a scene file, loads its mesh and resolves its handles (runs on the loader thread).
 pub fn load_scene_file(path: &Path, version: u64) -> anyhow::Result<LoadedFile> {
     let doc = solver::animation::scene::Scene::read(path)?;
-    let mesh_path = solver::animation::scene::Scene::resolve_path(path, &doc.mesh);
+    let (mesh_path, _) = solver::animation::scene::Scene::resolve_path(path, &doc.mesh)?;
     let mut scene = load_scene(&mesh_path, version, None)
         .with_context(|| format!("the scene's mesh {}", mesh_path.display()))?;
     let handles =

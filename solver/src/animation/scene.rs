@@ -27,7 +27,13 @@
 //! (no rig) and written back as version 2.
 //!
 //! Paths inside a scene (`mesh`, `handles.file`) are relative to the scene file's folder
-//! (absolute paths are kept as they are). `handles` is exactly one of `{"file": PATH}` (a `.dmat`
+//! (absolute paths are kept as they are; `\` is read as `/`). A scene is a project file that
+//! names files the user keeps elsewhere (the editor's autosave names the mesh the user opened;
+//! `assets/scenes/` name `../creature.obj`), so its references may leave its folder, by the
+//! rule an MTL's textures follow (`crate::io::reference`): what they name must parse as a mesh
+//! or a handle file, [`Scene::resolve`] adds a notice naming each file read from outside the
+//! scene's folder, and a URI scheme (`file:`, `http:`) is refused. The mesh's own references
+//! (glTF buffers and images, MTL files) follow the mesh folder's rule. `handles` is exactly one of `{"file": PATH}` (a `.dmat`
 //! or sphere `.json`), `{"labels": [-1, 0, …]}` (one per vertex) or `{"spheres": [...]}` (the
 //! sphere format of docs/DESIGN.md, "Handle selections"). Unknown fields are errors (they are usually typos); a missing
 //! `method` is `bsarap`, a missing `arap` is [`ArapConfig::default`], a missing `loose_parts` is
@@ -51,7 +57,7 @@ use crate::deform::riders::LooseParts;
 use crate::deform::rig::{Falloff, FalloffCurve, Rig};
 use crate::deform::selection::{SelectionError, load_selection, parse_spheres};
 use crate::deform::symmetry::SymmetryPlane;
-use crate::io::{LoadError, LoadedMesh, SaveError, load_mesh, write_atomic};
+use crate::io::{LoadError, LoadedMesh, ReferencePolicy, SaveError, load_mesh_with, write_atomic};
 
 /// The scene format version this build writes; it reads this one and
 /// [`OLDEST_SCENE_VERSION`] onwards.
@@ -367,30 +373,61 @@ impl Scene {
     }
 
     /// `relative` resolved against the folder of the scene file `scene_path` (absolute paths
-    /// unchanged).
-    pub fn resolve_path(scene_path: &Path, relative: &str) -> PathBuf {
-        let rel = Path::new(relative);
-        if rel.is_absolute() {
-            return rel.to_path_buf();
-        }
-        scene_path.parent().unwrap_or(Path::new("")).join(rel)
+    /// unchanged, `..` resolved lexically), and whether it is outside that folder.
+    ///
+    /// Errors: [`SceneError::Invalid`] for an empty path or a URI (`file:///...`).
+    pub fn resolve_path(scene_path: &Path, relative: &str) -> Result<(PathBuf, bool), SceneError> {
+        let dir = scene_path.parent().unwrap_or(Path::new(""));
+        crate::io::reference::resolve(dir, dir, relative).map(|r| (r.path, r.outside)).map_err(
+            |why| SceneError::Invalid {
+                file: scene_path.display().to_string(),
+                message: format!("a path in the scene is {why}"),
+            },
+        )
     }
 
     /// Reads the scene at `path`, loads and cleans its mesh and resolves its handles.
     pub fn load(path: &Path) -> Result<LoadedScene, SceneError> {
-        Scene::read(path)?.resolve(path)
+        Scene::load_with(path, ReferencePolicy::default())
+    }
+
+    /// [`Scene::load`] with the mesh's own references read under `policy`.
+    pub fn load_with(path: &Path, policy: ReferencePolicy) -> Result<LoadedScene, SceneError> {
+        Scene::read(path)?.resolve_with(path, policy)
     }
 
     /// Loads and cleans the scene's mesh and resolves its handles, paths relative to `path`
     /// (the scene file's; for a scene made in memory with absolute paths, any name for the
-    /// messages).
+    /// messages). Files outside the scene file's folder are noted in the mesh's
+    /// `asset.notices` (not for a scene made in memory: `path` is not a file).
     pub fn resolve(self, path: &Path) -> Result<LoadedScene, SceneError> {
+        self.resolve_with(path, ReferencePolicy::default())
+    }
+
+    /// [`Scene::resolve`] with the mesh's own references read under `policy`.
+    pub fn resolve_with(
+        self,
+        path: &Path,
+        policy: ReferencePolicy,
+    ) -> Result<LoadedScene, SceneError> {
         let file = path.display().to_string();
-        let mesh_path = Scene::resolve_path(path, &self.mesh);
-        let mesh = load_mesh(&mesh_path)
+        let (mesh_path, outside) = Scene::resolve_path(path, &self.mesh)?;
+        let mut mesh = load_mesh_with(&mesh_path, policy)
             .map_err(|source| SceneError::Mesh { file: file.clone(), source })?;
         let handles =
             self.resolve_handles(path, mesh.mesh.positions(), Some(&mesh.report.vertex_map))?;
+        let mut named = vec![("mesh", mesh_path.clone(), outside)];
+        if let Some(f) = &self.handles.file {
+            let (handle_path, outside) = Scene::resolve_path(path, f)?;
+            named.push(("handles", handle_path, outside));
+        }
+        let from_file = path.is_file();
+        for (what, named, _) in named.iter().filter(|(_, _, outside)| *outside && from_file) {
+            mesh.asset.notices.push(format!(
+                "the scene's {what} {} is outside the scene's folder ({file})",
+                named.display()
+            ));
+        }
         Ok(LoadedScene { scene: self, path: path.to_path_buf(), mesh_path, mesh, handles })
     }
 
@@ -407,7 +444,7 @@ impl Scene {
         let file = path.display().to_string();
         let h = &self.handles;
         let handles = if let Some(f) = &h.file {
-            load_selection(&Scene::resolve_path(path, f), positions, vertex_map)
+            load_selection(&Scene::resolve_path(path, f)?.0, positions, vertex_map)
                 .map_err(|source| SceneError::Selection { file: file.clone(), source })?
         } else if let Some(labels) = &h.labels {
             Handles::from_labels(labels, positions.len())

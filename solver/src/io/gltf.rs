@@ -25,10 +25,14 @@
 //! count equal to POSITION's, byte range; a non-finite attribute value is not an error but
 //! becomes the neutral value, noted in [`Asset::notices`].
 //!
+//! **External files** (buffers and images given by a relative `uri`) are read from the
+//! glTF's own folder only (`reference` module): a `uri` with a scheme other than `data:`, an
+//! absolute path, a `..` that leaves the folder or a link out of it is refused, naming the
+//! URI; for a buffer the load fails, for an image the mesh loads without it and a notice says
+//! why, unless [`super::ReferencePolicy::allow_outside`].
+//!
 //! Known limitations: TEXCOORD_2 and above, COLOR_1 and above, tangents, skins and morph
 //! targets of the input are ignored; so is `KHR_texture_transform` (UVs are kept as stored).
-
-use std::path::Path;
 
 use ::gltf::accessor::{DataType, Dimensions};
 use ::gltf::mesh::Mode;
@@ -38,6 +42,7 @@ use super::asset::{Asset, Attribute, Part};
 use super::error::Ctx;
 use super::error::LoadError;
 use super::gltf_material;
+use super::reference::Folder;
 use super::uri::read_uri;
 
 /// Extensions whose data this reader cannot decode, with what a user can do about each.
@@ -63,12 +68,13 @@ const HARMLESS: [&str; 12] = [
     "KHR_texture_basisu",
 ];
 
-/// Parses a glTF or GLB file's bytes; `dir` is the folder external buffers are relative to
-/// (`None`: external buffers are refused, as for bytes with no file).
+/// Parses a glTF or GLB file's bytes; `folder` is where external buffers and images are read
+/// from, and the policy for references outside it (`None`: external files are refused, as for
+/// bytes with no file).
 ///
 /// Output: positions (`#V×3 f64`, world space) and triangles (`#F×3 u32`), primitives
 /// concatenated. Errors: one line each, see the module doc.
-pub(crate) fn parse(bytes: &[u8], ctx: Ctx, dir: Option<&Path>) -> Result<Asset, LoadError> {
+pub(crate) fn parse(bytes: &[u8], ctx: Ctx, folder: Option<Folder>) -> Result<Asset, LoadError> {
     // A GLB header whose total length is shorter than the header itself makes gltf 1.4.1
     // subtract past zero (a panic with overflow checks; found by the `gltf` fuzz target).
     if let Some(length) = bytes.strip_prefix(b"glTF").and_then(|b| b.get(4..8)) {
@@ -128,7 +134,7 @@ pub(crate) fn parse(bytes: &[u8], ctx: Ctx, dir: Option<&Path>) -> Result<Asset,
     let document = ::gltf::Document::from_json(json)
         .map_err(|e| ctx.parse(None, format!("not a valid glTF 2.0 file: {e}")))?;
     let gltf = ::gltf::Gltf { document, blob };
-    let buffers = load_buffers(&gltf, ctx, dir)?;
+    let buffers = load_buffers(&gltf, ctx, folder)?;
     // Draco listed as used but not required: primitives carry an uncompressed fallback, unless
     // an accessor has no buffer view (then its data exists only compressed).
     let draco = gltf.document.extensions_used().any(|e| e == "KHR_draco_mesh_compression");
@@ -174,7 +180,8 @@ pub(crate) fn parse(bytes: &[u8], ctx: Ctx, dir: Option<&Path>) -> Result<Asset,
     }
     layers.finish(&mut raw);
     raw.materials = gltf_material::materials(&gltf.document);
-    raw.images = gltf_material::images(&gltf.document, &buffers, ctx, dir)?;
+    let images = gltf_material::images(&gltf.document, &buffers, ctx, folder, &mut raw.notices)?;
+    raw.images = gltf_material::keep(images, &mut raw.materials);
     Ok(raw)
 }
 
@@ -222,7 +229,7 @@ impl Layers {
 fn load_buffers(
     gltf: &::gltf::Gltf,
     ctx: Ctx,
-    dir: Option<&Path>,
+    folder: Option<Folder>,
 ) -> Result<Vec<Vec<u8>>, LoadError> {
     let mut out = Vec::new();
     for buffer in gltf.document.buffers() {
@@ -234,7 +241,8 @@ fn load_buffers(
                 )
             })?,
             ::gltf::buffer::Source::Uri(uri) => {
-                read_uri(uri, ctx, dir, &format!("buffer {}", buffer.index()))?
+                read_uri(uri, ctx, folder, &format!("buffer {}", buffer.index()))?
+                    .map_err(|refused| ctx.unsupported(refused))?
             }
         };
         if data.len() < buffer.length() {

@@ -9,17 +9,19 @@
 //! read. An image's name is its `name`, else its file name (URI percent-decoded), else
 //! `imageN`.
 //!
-//! An image keeps its encoded bytes, never decoded: from a GLB buffer view (bounds-checked),
-//! a base64 `data:` URI, or a file beside the `.gltf` (a missing file is an error naming it).
-//! The MIME type is the file's `mimeType`, else the data URI's media type, else guessed from
-//! the bytes' signature (PNG, JPEG) or the file extension, else `application/octet-stream`.
-
-use std::path::Path;
+//! An image keeps its encoded bytes: from a GLB buffer view (bounds-checked), a base64
+//! `data:` URI, or a file in the `.gltf`'s folder (a missing file is an error naming it; a
+//! reference outside the folder is dropped with a notice, see `uri`). Its bytes must decode
+//! as a PNG or JPEG within the size limits ([`super::image_check`]), of the type the file
+//! declares (`mimeType`, or the data URI's media type) when it declares one; an image that
+//! does not is dropped with a notice, and materials that used it lose their texture.
 
 use ::gltf::material::AlphaMode;
 
 use super::asset::{Image, Material};
 use super::error::{Ctx, LoadError};
+use super::image_check::decoded_mime;
+use super::reference::Folder;
 use super::uri::{percent_decode, read_uri};
 
 /// The document's materials, in file order.
@@ -48,17 +50,19 @@ pub(crate) fn materials(document: &::gltf::Document) -> Vec<Material> {
         .collect()
 }
 
-/// The document's images, in file order, with their encoded bytes.
+/// The document's images, in file order, with their encoded bytes; `None` for an image that
+/// was refused (its reason pushed to `notices`: a reference outside the folder or with a
+/// scheme, bytes that are not a PNG or JPEG that decodes).
 ///
 /// Errors: a buffer view past its buffer ([`LoadError::Truncated`]), an unreadable or missing
-/// external file or invalid data URI ([`LoadError::Parse`]), an external file when there is no
-/// folder to read it from or a remote URI ([`LoadError::Unsupported`]).
+/// external file or invalid data URI ([`LoadError::Parse`]).
 pub(crate) fn images(
     document: &::gltf::Document,
     buffers: &[Vec<u8>],
     ctx: Ctx,
-    dir: Option<&Path>,
-) -> Result<Vec<Image>, LoadError> {
+    folder: Option<Folder>,
+    notices: &mut Vec<String>,
+) -> Result<Vec<Option<Image>>, LoadError> {
     let mut out = Vec::new();
     for image in document.images() {
         let what = format!("image {}", image.index());
@@ -72,15 +76,27 @@ pub(crate) fn images(
                 (bytes, Some(mime_type.to_string()), None)
             }
             ::gltf::image::Source::Uri { uri, mime_type } => {
-                let bytes = read_uri(uri, ctx, dir, &what)?;
+                let bytes = match read_uri(uri, ctx, folder, &what)? {
+                    Ok(bytes) => bytes,
+                    Err(refused) => {
+                        notices.push(format!("{refused}; loaded without this texture"));
+                        out.push(None);
+                        continue;
+                    }
+                };
                 let given = mime_type.map(str::to_string).or_else(|| data_uri_media_type(uri));
                 (bytes, given, Some(uri))
             }
         };
-        let mime_type = given
-            .or_else(|| sniff_mime(&bytes))
-            .or_else(|| uri.and_then(mime_from_name))
-            .unwrap_or_else(|| "application/octet-stream".to_string());
+        let mime_type = match decoded_mime(&bytes, given.as_deref()) {
+            Ok(mime) => mime.to_string(),
+            Err(why) => {
+                let source = uri.filter(|u| !u.starts_with("data:")).unwrap_or("embedded");
+                notices.push(format!("{what} ({source}): {why}; loaded without this texture"));
+                out.push(None);
+                continue;
+            }
+        };
         let name = match (image.name(), uri) {
             (Some(n), _) => n.to_string(),
             (None, Some(u)) if !u.starts_with("data:") => {
@@ -88,9 +104,24 @@ pub(crate) fn images(
             }
             _ => what.replace(' ', ""),
         };
-        out.push(Image { name, mime_type, bytes });
+        out.push(Some(Image { name, mime_type, bytes }));
     }
     Ok(out)
+}
+
+/// The images that were kept, in order; `materials`' texture indices renumbered onto them,
+/// and cleared where their image was refused.
+pub(crate) fn keep(images: Vec<Option<Image>>, materials: &mut [Material]) -> Vec<Image> {
+    let mut index = Vec::with_capacity(images.len());
+    let mut kept = Vec::new();
+    for image in images {
+        index.push(image.is_some().then_some(kept.len()));
+        kept.extend(image);
+    }
+    for m in materials {
+        m.base_color_texture = m.base_color_texture.and_then(|i| index.get(i).copied().flatten());
+    }
+    kept
 }
 
 /// `image/png` from `data:image/png;base64,...`.
@@ -98,27 +129,6 @@ fn data_uri_media_type(uri: &str) -> Option<String> {
     let rest = uri.strip_prefix("data:")?;
     let media = rest.split([';', ',']).next()?;
     media.starts_with("image/").then(|| media.to_string())
-}
-
-/// The MIME type from a PNG or JPEG signature.
-pub(crate) fn sniff_mime(bytes: &[u8]) -> Option<String> {
-    if bytes.starts_with(b"\x89PNG\r\n\x1a\n") {
-        Some("image/png".to_string())
-    } else if bytes.starts_with(&[0xFF, 0xD8, 0xFF]) {
-        Some("image/jpeg".to_string())
-    } else {
-        None
-    }
-}
-
-/// The MIME type from a file name's extension (`png`, `jpg`, `jpeg`; case-insensitive).
-pub(crate) fn mime_from_name(name: &str) -> Option<String> {
-    let ext = name.rsplit_once('.')?.1.to_ascii_lowercase();
-    match ext.as_str() {
-        "png" => Some("image/png".to_string()),
-        "jpg" | "jpeg" => Some("image/jpeg".to_string()),
-        _ => None,
-    }
 }
 
 #[cfg(test)]
@@ -132,12 +142,21 @@ mod tests {
             Some("image/jpeg")
         );
         assert_eq!(data_uri_media_type("data:application/octet-stream;base64,AA"), None);
-        assert_eq!(sniff_mime(b"\x89PNG\r\n\x1a\nrest").as_deref(), Some("image/png"));
-        assert_eq!(sniff_mime(&[0xFF, 0xD8, 0xFF, 0xE0]).as_deref(), Some("image/jpeg"));
-        assert_eq!(sniff_mime(b"GIF89a"), None);
-        assert_eq!(mime_from_name("dir/a.JPG").as_deref(), Some("image/jpeg"));
-        assert_eq!(mime_from_name("a.png").as_deref(), Some("image/png"));
-        assert_eq!(mime_from_name("a.tga"), None);
-        assert_eq!(mime_from_name("noext"), None);
+    }
+
+    #[test]
+    fn refused_images_renumber_the_materials() {
+        let image =
+            |name: &str| Image { name: name.into(), mime_type: "image/png".into(), bytes: vec![] };
+        let mut materials = vec![
+            Material { base_color_texture: Some(0), ..Material::default() },
+            Material { base_color_texture: Some(1), ..Material::default() },
+            Material { base_color_texture: Some(2), ..Material::default() },
+            Material::default(),
+        ];
+        let kept = keep(vec![None, Some(image("b")), Some(image("c"))], &mut materials);
+        assert_eq!(kept.iter().map(|i| i.name.as_str()).collect::<Vec<_>>(), ["b", "c"]);
+        let textures: Vec<_> = materials.iter().map(|m| m.base_color_texture).collect();
+        assert_eq!(textures, [None, Some(0), Some(1), None]);
     }
 }

@@ -11,7 +11,10 @@
 //! sets, colours, primitives as parts, materials and images, see `gltf`, `gltf_material` and `uri`;
 //! OBJ: `vt`/`vn` per corner, vertex colours, `usemtl` runs, the MTL's `Kd`/`d`/`map_Kd`,
 //! see `obj` and `mtl`; PLY: UVs and colours). What a reader skipped without failing (a
-//! missing MTL or texture) is listed in [`Asset::notices`].
+//! missing MTL or texture) is listed in [`Asset::notices`]. Files a mesh file refers to are
+//! read only from its own folder unless a [`ReferencePolicy`] allows more (`reference`), and
+//! an image is kept only once it decodes as a PNG or JPEG (`image_check`): a downloaded asset
+//! cannot carry another of the user's files into an export.
 //!
 //! Every failure is a [`LoadError`] whose Display is one line, `file:line: what is wrong`. No
 //! input makes a parser panic, and counts read from headers never size an allocation beyond what
@@ -22,11 +25,13 @@ pub mod asset;
 mod error;
 mod gltf;
 mod gltf_material;
+mod image_check;
 mod mtl;
 mod obj;
 mod obj_write;
 mod off;
 mod ply;
+pub(crate) mod reference;
 mod stl;
 mod text;
 mod uri;
@@ -37,13 +42,16 @@ use std::path::Path;
 
 pub use asset::{Asset, Attribute, Image, Material, Part};
 pub use error::LoadError;
+pub use image_check::{MAX_IMAGE_ALLOC, MAX_IMAGE_SIDE};
 pub use obj_write::{write_mtl_asset, write_obj_asset, write_obj_asset_with};
+pub use reference::ReferencePolicy;
 pub use write::{SaveError, write_atomic, write_obj};
 pub use write_plain::{write_off, write_ply};
 
 use crate::geometry::cleanup::{CleanError, CleanReport, clean};
 use crate::geometry::mesh::Mesh;
 use error::Ctx;
+use reference::Folder;
 
 /// A mesh file format.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -97,11 +105,18 @@ impl LoadedMesh {
     }
 }
 
-/// Loads and cleans the mesh file at `path`, choosing the parser by extension.
+/// Loads and cleans the mesh file at `path`, choosing the parser by extension; files it
+/// refers to (glTF buffers and images, MTL files and textures) are read under the default
+/// [`ReferencePolicy`]: only from the file's own folder.
 ///
 /// Output: the mesh (`#V×3 f64`, `#F×3 u32`) and a [`CleanReport`]. Errors: see [`LoadError`];
 /// the error names the file as `path` displays.
 pub fn load_mesh(path: &Path) -> Result<LoadedMesh, LoadError> {
+    load_mesh_with(path, ReferencePolicy::default())
+}
+
+/// [`load_mesh`] with the file's references read under `policy`.
+pub fn load_mesh_with(path: &Path, policy: ReferencePolicy) -> Result<LoadedMesh, LoadError> {
     let file = path.display().to_string();
     let io_error = |e: std::io::Error, what: &str| LoadError::Io {
         file: file.clone(),
@@ -121,7 +136,8 @@ pub fn load_mesh(path: &Path) -> Result<LoadedMesh, LoadError> {
         return Err(LoadError::UnsupportedFormat { file, extension: ext });
     };
     let bytes = std::fs::read(path).map_err(|e| io_error(e, "cannot read the file"))?;
-    parse_and_clean(&bytes, format, &file, path.parent())
+    let root = path.parent().unwrap_or(Path::new(""));
+    parse_and_clean(&bytes, format, &file, Some(Folder { root, policy }))
 }
 
 /// Parses and cleans a mesh held in memory; `name` is used in error messages.
@@ -136,24 +152,24 @@ pub fn load_mesh_from_bytes(
     parse_and_clean(bytes, format, name, None)
 }
 
-/// [`load_mesh_from_bytes`] for a file in `dir`, where a glTF's external buffers are read
+/// [`load_mesh_from_bytes`] for a file in `folder`, where the files it refers to are read
 /// (`None`: they are refused).
 fn parse_and_clean(
     bytes: &[u8],
     format: Format,
     name: &str,
-    dir: Option<&Path>,
+    folder: Option<Folder>,
 ) -> Result<LoadedMesh, LoadError> {
     let ctx = Ctx { file: name };
     if text::is_blank(bytes) {
         return Err(ctx.truncated(None, "the file is empty"));
     }
     let mut raw = match format {
-        Format::Obj => obj::parse(bytes, ctx, dir)?,
+        Format::Obj => obj::parse(bytes, ctx, folder)?,
         Format::Off => off::parse(bytes, ctx)?,
         Format::Ply => ply::parse(bytes, ctx)?,
         Format::Stl => stl::parse(bytes, ctx)?,
-        Format::Gltf => gltf::parse(bytes, ctx, dir)?,
+        Format::Gltf => gltf::parse(bytes, ctx, folder)?,
     };
     if raw.triangles.is_empty() {
         return Err(ctx.no_triangles(format!(

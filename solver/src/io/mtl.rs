@@ -3,25 +3,33 @@
 //!
 //! Kept of each material: `Kd` and `d` as the base colour (RGB, alpha; values as written;
 //! `d < 1` sets alpha mode `BLEND`), `map_Kd` as the base-colour texture (UV set 0), its file's bytes read into
-//! [`Asset::images`] (one image per distinct file; MIME type from the extension `png`, `jpg`
-//! or `jpeg`, else from the bytes' PNG/JPEG signature). Texture options (`-s 1 1 1 file.png`)
-//! are skipped: the last word is the file name (`\` read as `/`). Other MTL statements are ignored.
+//! [`Asset::images`] (one image per distinct file) once they decode as a PNG or JPEG within the
+//! size limits (`image_check`; the MIME type is what they decoded as). Texture options
+//! (`-s 1 1 1 file.png`) are skipped: the last word is the file name (`\` read as `/`). Other
+//! MTL statements are ignored.
 //!
-//! An MTL file or texture that is missing, unreadable, unparsable or of another image type is
-//! not an error: the mesh loads without it and [`Asset::notices`] says what was skipped (one
+//! An MTL file or texture that is missing, unreadable, unparsable or not an image that decodes
+//! is not an error: the mesh loads without it and [`Asset::notices`] says what was skipped (one
 //! line each). MTL files are read relative to the OBJ's folder, textures relative to their MTL
 //! file's folder; an OBJ read from bytes has no folder, so its MTL files are skipped with a
 //! notice. Each word after `mtllib` is one file (names with spaces are not supported).
+//!
+//! **References outside the OBJ's folder** (`reference` module): an `mtllib` outside it is
+//! skipped with a notice unless [`super::ReferencePolicy::allow_outside`] (exporters write the
+//! MTL beside the OBJ); a texture outside it (DCCs often write absolute `map_Kd` paths) is read
+//! when it decodes as an image, with a notice naming the file. A URI scheme is never read.
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use super::asset::{Asset, Image, Material};
-use super::gltf_material::{mime_from_name, sniff_mime};
+use super::image_check::decoded_mime;
+use super::reference::{Folder, resolve};
 
-/// Reads the MTL files `libs` (names as the OBJ's `mtllib` wrote them) from `dir` into `asset`.
-pub(crate) fn attach(asset: &mut Asset, libs: &[String], dir: Option<&Path>) {
-    let Some(dir) = dir else {
+/// Reads the MTL files `libs` (names as the OBJ's `mtllib` wrote them) from `folder` (the
+/// OBJ's) into `asset`.
+pub(crate) fn attach(asset: &mut Asset, libs: &[String], folder: Option<Folder>) {
+    let Some(folder) = folder else {
         for lib in libs {
             asset
                 .notices
@@ -29,9 +37,23 @@ pub(crate) fn attach(asset: &mut Asset, libs: &[String], dir: Option<&Path>) {
         }
         return;
     };
+    let dir = folder.root;
     let mut textures: HashMap<PathBuf, usize> = HashMap::new();
     for lib in libs {
-        let path = dir.join(lib);
+        let path = match resolve(dir, dir, lib) {
+            Ok(r) if r.outside && !folder.policy.allow_outside => {
+                asset.notices.push(format!(
+                    "material library {lib} is outside the OBJ's folder; not read (allowed \
+                     only with --allow-outside-references)"
+                ));
+                continue;
+            }
+            Ok(r) => r.path,
+            Err(why) => {
+                asset.notices.push(format!("material library {why}; loaded without it"));
+                continue;
+            }
+        };
         let bytes = match std::fs::read(&path) {
             Ok(b) => b,
             Err(e) => {
@@ -50,10 +72,12 @@ pub(crate) fn attach(asset: &mut Asset, libs: &[String], dir: Option<&Path>) {
             ));
             continue;
         };
-        let folder = path.parent().unwrap_or(dir);
+        let from = path.parent().unwrap_or(dir);
         for m in materials {
-            let texture =
-                m.diffuse_texture.as_deref().and_then(|t| texture(asset, &mut textures, folder, t));
+            let texture = m
+                .diffuse_texture
+                .as_deref()
+                .and_then(|t| texture(asset, &mut textures, (dir, from), t));
             let index = match asset.materials.iter().position(|x| x.name == m.name) {
                 Some(i) => i,
                 None => {
@@ -77,18 +101,26 @@ pub(crate) fn attach(asset: &mut Asset, libs: &[String], dir: Option<&Path>) {
     }
 }
 
-/// The image index of texture `spec` (a `map_Kd` value) in `folder`, reading it on first use;
-/// `None` (and a notice) when it cannot be read or is not PNG/JPEG.
+/// The image index of texture `spec` (a `map_Kd` value) written in an MTL file in folder
+/// `from` for an OBJ in folder `root` (`(root, from)`), reading it on first use; `None` (and a
+/// notice) when it cannot be read or does not decode as a PNG or JPEG.
 fn texture(
     asset: &mut Asset,
     textures: &mut HashMap<PathBuf, usize>,
-    folder: &Path,
+    (root, from): (&Path, &Path),
     spec: &str,
 ) -> Option<usize> {
     // Windows exporters write `textures\a.png`.
     let file = spec.split_whitespace().last()?.replace('\\', "/");
     let file = file.as_str();
-    let path = folder.join(file);
+    let resolved = match resolve(root, from, file) {
+        Ok(r) => r,
+        Err(why) => {
+            asset.notices.push(format!("texture {why}; loaded without it"));
+            return None;
+        }
+    };
+    let path = resolved.path;
     if let Some(&i) = textures.get(&path) {
         return Some(i);
     }
@@ -102,12 +134,19 @@ fn texture(
             return None;
         }
     };
-    let Some(mime_type) = mime_from_name(file).or_else(|| sniff_mime(&bytes)) else {
-        asset
-            .notices
-            .push(format!("{}: not a PNG or JPEG texture; loaded without it", path.display()));
-        return None;
+    let mime_type = match decoded_mime(&bytes, None) {
+        Ok(mime) => mime.to_string(),
+        Err(why) => {
+            asset.notices.push(format!("{}: texture {why}; loaded without it", path.display()));
+            return None;
+        }
     };
+    if resolved.outside {
+        asset.notices.push(format!(
+            "{}: texture read from outside the OBJ's folder (named by the material library)",
+            path.display()
+        ));
+    }
     let name =
         Path::new(file).file_name().map_or(file.into(), |n| n.to_string_lossy()).into_owned();
     asset.images.push(Image { name, mime_type, bytes });
@@ -119,24 +158,39 @@ fn texture(
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
+    use crate::io::ReferencePolicy;
     use crate::testing::ScratchDir;
+
+    /// A real 2×2 image in `format`.
+    pub(crate) fn encoded(format: image::ImageFormat) -> Vec<u8> {
+        let img = image::RgbImage::from_pixel(2, 2, image::Rgb([10, 200, 30]));
+        let mut out = std::io::Cursor::new(Vec::new());
+        img.write_to(&mut out, format).unwrap();
+        out.into_inner()
+    }
+
+    fn folder(root: &Path) -> Option<Folder<'_>> {
+        Some(Folder { root, policy: ReferencePolicy::default() })
+    }
 
     #[test]
     fn shared_textures_unknown_types_and_unused_materials() {
         let dir = ScratchDir::new("mtl-unit");
-        let mtl = "newmtl a\nmap_Kd t.jpeg\nnewmtl b\nmap_Kd -bm 0.5 t.jpeg\nnewmtl c\nmap_Kd t.tga\nnewmtl d\nmap_Kd sub\\u.PNG\n";
+        let mtl = "newmtl a\nmap_Kd t.jpeg\nnewmtl b\nmap_Kd -bm 0.5 t.jpeg\nnewmtl c\nmap_Kd t.tga\nnewmtl d\nmap_Kd sub\\u.PNG\nnewmtl e\nmap_Kd fake.png\n";
         std::fs::write(dir.join("m.mtl"), mtl).unwrap();
-        std::fs::write(dir.join("t.jpeg"), [0xFF, 0xD8, 0xFF, 0xE0]).unwrap();
+        std::fs::write(dir.join("t.jpeg"), encoded(image::ImageFormat::Jpeg)).unwrap();
         std::fs::write(dir.join("t.tga"), [0u8; 4]).unwrap();
+        std::fs::write(dir.join("fake.png"), b"\x89PNG\r\n\x1a\nnot really a png").unwrap();
         std::fs::create_dir(dir.join("sub")).unwrap();
-        std::fs::write(dir.join("sub/u.PNG"), b"not really a png").unwrap();
+        // A PNG named .PNG; the type is what the bytes decode as.
+        std::fs::write(dir.join("sub/u.PNG"), encoded(image::ImageFormat::Png)).unwrap();
         let mut asset = Asset {
             materials: vec![Material { name: "b".into(), ..Material::default() }],
             ..Asset::default()
         };
-        attach(&mut asset, &["m.mtl".to_string(), "none.mtl".to_string()], Some(&dir.join("")));
+        attach(&mut asset, &["m.mtl".to_string(), "none.mtl".to_string()], folder(&dir));
         let names: Vec<_> = asset.materials.iter().map(|m| m.name.as_str()).collect();
-        assert_eq!(names, ["b", "a", "c", "d"], "used first, then the MTL's others");
+        assert_eq!(names, ["b", "a", "c", "d", "e"], "used first, then the MTL's others");
         assert_eq!(asset.images.len(), 2, "one image for the shared file");
         assert_eq!(asset.images[0].mime_type, "image/jpeg");
         assert_eq!(
@@ -144,8 +198,47 @@ mod tests {
             ("u.PNG", "image/png")
         );
         let textures: Vec<_> = asset.materials.iter().map(|m| m.base_color_texture).collect();
-        assert_eq!(textures, [Some(0), Some(0), None, Some(1)]);
-        assert_eq!(asset.notices.len(), 2, "{:?}", asset.notices);
-        assert!(asset.notices[0].contains("t.tga") && asset.notices[1].contains("none.mtl"));
+        assert_eq!(textures, [Some(0), Some(0), None, Some(1), None]);
+        assert_eq!(asset.notices.len(), 3, "{:?}", asset.notices);
+        assert!(asset.notices[0].contains("t.tga"), "{:?}", asset.notices);
+        assert!(asset.notices[1].contains("fake.png") && asset.notices[1].contains("decode"));
+        assert!(asset.notices[2].contains("none.mtl"));
+    }
+
+    #[test]
+    fn references_outside_the_folder() {
+        let dir = ScratchDir::new("mtl-outside");
+        let root = dir.join("asset");
+        std::fs::create_dir_all(&root).unwrap();
+        std::fs::write(dir.join("outside.mtl"), "newmtl x\nmap_Kd t.png\n").unwrap();
+        std::fs::write(dir.join("picture.png"), encoded(image::ImageFormat::Png)).unwrap();
+        std::fs::write(dir.join("secret.txt"), "password=hunter2\n").unwrap();
+        let absolute = dir.join("picture.png");
+        let mtl = format!(
+            "newmtl abs\nmap_Kd {}\nnewmtl up\nmap_Kd ../secret.txt\nnewmtl win\nmap_Kd ..\\secret.txt\nnewmtl uri\nmap_Kd file:///etc/passwd\n",
+            absolute.display()
+        );
+        std::fs::write(root.join("m.mtl"), mtl).unwrap();
+        let mut asset = Asset::default();
+        let libs = ["m.mtl".to_string(), "../outside.mtl".to_string()];
+        attach(&mut asset, &libs, folder(&root));
+        let texture = |name: &str| {
+            asset.materials.iter().find(|m| m.name == name).unwrap().base_color_texture
+        };
+        assert_eq!(texture("abs"), Some(0), "an absolute path to an image that decodes is read");
+        assert_eq!(asset.images.len(), 1, "nothing else: {:?}", asset.notices);
+        assert!(asset.images[0].bytes.starts_with(b"\x89PNG"));
+        assert_eq!((texture("up"), texture("win"), texture("uri")), (None, None, None));
+        let notes = asset.notices.join("\n");
+        assert!(notes.contains("picture.png: texture read from outside"), "{notes}");
+        assert!(notes.contains("secret.txt: texture not a PNG or JPEG"), "{notes}");
+        assert!(notes.contains("file:///etc/passwd: a file: URI"), "{notes}");
+        assert!(notes.contains("material library ../outside.mtl is outside"), "{notes}");
+        assert!(!asset.materials.iter().any(|m| m.name == "x"), "outside.mtl was not read");
+
+        let mut allowed = Asset::default();
+        let policy = ReferencePolicy { allow_outside: true };
+        attach(&mut allowed, &libs, Some(Folder { root: &root, policy }));
+        assert!(allowed.materials.iter().any(|m| m.name == "x"), "{:?}", allowed.notices);
     }
 }

@@ -26,21 +26,21 @@
 //! geometry (`curv`, `surf`), smoothing groups, lines and points are ignored.
 
 use std::collections::HashMap;
-use std::path::Path;
 
 use super::asset::{Asset, Attribute, Part};
 use super::error::{Ctx, LoadError};
 use super::mtl;
+use super::reference::Folder;
 use super::text::{as_text, coord};
 
-/// Parses OBJ bytes into an [`Asset`]; `dir` is where `mtllib` files are read from (`None`:
+/// Parses OBJ bytes into an [`Asset`]; `folder` is where `mtllib` files are read from (`None`:
 /// MTL files are skipped with a notice).
-pub(crate) fn parse(bytes: &[u8], ctx: Ctx, dir: Option<&Path>) -> Result<Asset, LoadError> {
+pub(crate) fn parse(bytes: &[u8], ctx: Ctx, folder: Option<Folder>) -> Result<Asset, LoadError> {
     let text = as_text(bytes, ctx)?;
     let mut checked = validate(text, ctx)?;
     let libs = std::mem::take(&mut checked.mtl_libs);
     let mut asset = checked.into_asset();
-    mtl::attach(&mut asset, &libs, dir);
+    mtl::attach(&mut asset, &libs, folder);
     Ok(asset)
 }
 

@@ -1,19 +1,24 @@
 //! The URIs of a glTF's buffers and images (glTF 2.0 spec §3.6.1.1 "URIs"): base64 `data:`
-//! URIs, or relative paths (percent-encoded) to files beside the `.gltf`; remote URIs are
-//! refused.
-
-use std::path::Path;
+//! URIs, or relative paths (percent-encoded) to files in the `.gltf`'s folder. Remote and
+//! other schemes are refused; a path is resolved by [`super::reference`] and one outside the
+//! folder is refused unless the policy allows it.
 
 use super::error::{Ctx, LoadError};
+use super::reference::{Folder, resolve};
 
-/// The bytes of a buffer or image URI (`what` names it in errors, e.g. `"buffer 0"`): base64
-/// `data:` URIs, or a file path relative to `dir`.
+/// The bytes of a buffer or image URI (`what` names it in messages, e.g. `"buffer 0"`):
+/// base64 `data:` URIs, or a file path relative to `folder`'s root.
+///
+/// Output: `Ok(Ok(bytes))`; `Ok(Err(message))` when the reference is refused (a scheme, no
+/// folder to read from, outside the folder): the message names the URI, and the caller
+/// decides whether that fails the load (a buffer) or drops the reference (an image).
+/// Errors: an invalid data URI, a file that cannot be read.
 pub(crate) fn read_uri(
     uri: &str,
     ctx: Ctx,
-    dir: Option<&Path>,
+    folder: Option<Folder>,
     what: &str,
-) -> Result<Vec<u8>, LoadError> {
+) -> Result<Result<Vec<u8>, String>, LoadError> {
     use base64::Engine;
     if let Some(rest) = uri.strip_prefix("data:") {
         let Some((_, payload)) = rest.split_once(";base64,") else {
@@ -21,19 +26,27 @@ pub(crate) fn read_uri(
         };
         return base64::engine::general_purpose::STANDARD
             .decode(payload)
+            .map(Ok)
             .map_err(|e| ctx.parse(None, format!("{what}: invalid base64 data ({e})")));
     }
-    if uri.contains("://") {
-        return Err(ctx.unsupported(format!("{what} refers to a remote URI ({uri})")));
-    }
-    let Some(dir) = dir else {
-        return Err(ctx.unsupported(format!(
+    let Some(folder) = folder else {
+        return Ok(Err(format!(
             "{what} is an external file ({uri}), which needs the glTF's folder"
         )));
     };
-    let path = dir.join(percent_decode(uri));
-    std::fs::read(&path)
-        .map_err(|e| ctx.parse(None, format!("{what}: cannot read {}: {e}", path.display())))
+    let resolved = match resolve(folder.root, folder.root, &percent_decode(uri)) {
+        Ok(r) => r,
+        Err(why) => return Ok(Err(format!("{what} refers to {why}"))),
+    };
+    if resolved.outside && !folder.policy.allow_outside {
+        return Ok(Err(format!(
+            "{what} refers to {uri}, outside the glTF's folder; not read (files outside an \
+             asset's folder are read only when allowed: --allow-outside-references)"
+        )));
+    }
+    std::fs::read(&resolved.path).map(Ok).map_err(|e| {
+        ctx.parse(None, format!("{what}: cannot read {}: {e}", resolved.path.display()))
+    })
 }
 
 /// `%XX` escapes in a relative URI decoded (a file name with spaces is written `%20`).
@@ -66,5 +79,6 @@ mod tests {
         assert_eq!(percent_decode("my%20texture.png"), "my texture.png");
         assert_eq!(percent_decode("a%2"), "a%2");
         assert_eq!(percent_decode("%zz%41"), "%zzA");
+        assert_eq!(percent_decode("..%2F..%2fetc%2Fpasswd"), "../../etc/passwd");
     }
 }
