@@ -25,7 +25,7 @@
 //! the drag (on dense meshes the converged references take many minutes).
 //!
 //! `--while-factoring` instead holds the group after the drag, settles on the fairing level
-//! (a dense mesh's, `solver::deform::middle_level`) until the full mesh's factorization has
+//! (a dense mesh's, `solver::deform::coarse::level_settle`) until the full mesh's factorization has
 //! started on its own thread, as the editor does when the handles stop, then drags the circle
 //! again while that factorization runs and reports those frames: what a user dragging again
 //! soon after stopping sees.

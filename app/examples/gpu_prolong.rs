@@ -7,7 +7,7 @@
 //! default) and moves the first group on the benchmark's circle (radius 0.1·diag, FRAMES steps
 //! of one turn, default 30). Per frame it times, after the coarse solve:
 //! - **CPU**: what the solver thread does per frame on the fine mesh today: the prolongation
-//!   (`solver::deform::prolong::prolong`, in parallel), the fixed vertices, and the shape the
+//!   (`solver::deform::coarse::prolong::prolong`, in parallel), the fixed vertices, and the shape the
 //!   renderer takes (`Shape::new`: vertex normals and the f32 copy);
 //! - **GPU**: the same through `app::gpu::prolong` (upload of the coarse pose, rotations and
 //!   fixed vertices; four dispatches; waiting for them), the results left on the GPU as a
@@ -20,7 +20,7 @@
 use app::editor::shape::Shape;
 use app::gpu::{headless, prolong::GpuProlongation};
 use solver::deform::coarse::CoarseBsArap;
-use solver::deform::prolong::prolong;
+use solver::deform::coarse::prolong::prolong;
 use solver::{Acceleration, ArapConfig, BaseConfig, GroupTransform, handle_targets};
 use std::time::Instant;
 

@@ -28,7 +28,7 @@
 //!   display shape (f32 positions and vertex normals of a pose), on the bumpy bar at icosphere
 //!   level 8 (655,362 vertices) turned as in the other benches.
 //!
-//! - `prolong`: [`solver::deform::prolong::prolong`], the coarse variant's per-frame carry of the
+//! - `prolong`: [`solver::deform::coarse::prolong::prolong`], the coarse variant's per-frame carry of the
 //!   coarse pose to every fine vertex (step 4 of its module doc), on the same level-8 bar after
 //!   one solve of its turned cap (automatic coarse size).
 //!
@@ -197,7 +197,7 @@ fn prolong(c: &mut Criterion) {
     let mut out = vec![[0.0; 3]; mesh.n_vertices()];
     let mut g = c.benchmark_group("prolong");
     g.bench_function(BenchmarkId::from_parameter(mesh.n_vertices()), |b| {
-        b.iter(|| solver::deform::prolong::prolong(d.prolongation(), &mut out))
+        b.iter(|| solver::deform::coarse::prolong::prolong(d.prolongation(), &mut out))
     });
     g.finish();
 }

@@ -1,4 +1,4 @@
-//! The coarse base's disk cache (`solver::deform::coarse_cache`; BENCHMARKS.md, "Dense
+//! The coarse base's disk cache (`solver::deform::coarse::cache`; BENCHMARKS.md, "Dense
 //! meshes"): the time to build a mesh's `CoarseBase` (and each of its phases), to write it, and to read it back (what
 //! reopening the mesh in the editor costs instead of the build), and the file's size.
 //!
@@ -7,8 +7,8 @@
 use std::time::Instant;
 
 use solver::BaseConfig;
-use solver::deform::coarse_base::CoarseBase;
-use solver::deform::coarse_cache::{cache_path, load, save};
+use solver::deform::coarse::base::CoarseBase;
+use solver::deform::coarse::cache::{cache_path, load, save};
 
 fn main() -> Result<(), String> {
     let path = std::env::args().nth(1).ok_or("usage: disk_cache MESH")?;

@@ -1,5 +1,5 @@
 //! The faired base of a dense mesh on a decimated level against the whole mesh
-//! (`solver::deform::level_fairing`; BENCHMARKS.md, "Dense meshes"): time and peak memory of
+//! (`solver::deform::coarse::level`; BENCHMARKS.md, "Dense meshes"): time and peak memory of
 //! each, and how far apart the two bases are, as fractions of the bounding-box diagonal.
 //!
 //!     cargo run --release -p solver --example level_fairing -- MESH [SMOOTHING [K]]
@@ -9,7 +9,7 @@
 
 use std::time::Instant;
 
-use solver::deform::level_fairing::{Fairing, LEVEL_EDGES_PER_SMOOTHING_LENGTH, faired_base};
+use solver::deform::coarse::level::{Fairing, LEVEL_EDGES_PER_SMOOTHING_LENGTH, faired_base};
 use solver::io::load_mesh;
 
 /// Peak resident memory of this process in MiB (`VmHWM`).

@@ -1,4 +1,4 @@
-//! The coarse BS-ARAP's split precomputation (`solver::deform::coarse_base`): what depends on
+//! The coarse BS-ARAP's split precomputation (`solver::deform::coarse::base`): what depends on
 //! the mesh only is built once and shared by handle sets, with the same results as building
 //! everything per handle set, and it is never used for another mesh or other settings.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
@@ -6,7 +6,7 @@
 use std::sync::Arc;
 
 use solver::deform::coarse::CoarseBsArap;
-use solver::deform::coarse_base::CoarseBase;
+use solver::deform::coarse::base::CoarseBase;
 use solver::{
     ArapConfig, BaseConfig, Deformer, GroupTransform, Handles, LooseParts, MeshCache, Method,
     SolveError, handle_targets,
@@ -163,9 +163,9 @@ fn a_coarse_level_decimated_from_the_fairing_level_embeds_every_vertex() {
         (fairing, longest, s.positions().to_vec())
     };
     let (how, level_detail, level_pose) = solve(&level);
-    assert!(matches!(how, solver::deform::level_fairing::Fairing::Level(_)), "{how:?}");
+    assert!(matches!(how, solver::deform::coarse::level::Fairing::Level(_)), "{how:?}");
     let (how, direct_detail, direct_pose) = solve(&direct);
-    assert_eq!(how, solver::deform::level_fairing::Fairing::Direct);
+    assert_eq!(how, solver::deform::coarse::level::Fairing::Direct);
     assert!(
         level_detail < 1.5 * direct_detail,
         "longest detail {level_detail:e} through the level, {direct_detail:e} on every vertex"

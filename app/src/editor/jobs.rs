@@ -190,7 +190,7 @@ fn pool_of(name: &'static str, setup: fn()) -> Option<rayon::ThreadPool> {
         .ok()
 }
 
-/// The pool settling's factorizations run on (`solver::deform::fine_level`: the full mesh's
+/// The pool settling's factorizations run on (`solver::deform::coarse::full_mesh`: the full mesh's
 /// takes seconds at 692k vertices and over a minute at 1.5M), at the idle scheduling class:
 /// a thread of it runs only on a core nothing else wants, so a drag started while the full
 /// mesh is still being factored keeps most of its rate (`editor_rate --while-factoring` at
@@ -203,7 +203,7 @@ pub fn factorization_pool() -> Option<&'static rayon::ThreadPool> {
     static POOL: OnceLock<Option<rayon::ThreadPool>> = OnceLock::new();
     let pool = POOL.get_or_init(|| pool_of("factorization", idle_priority)).as_ref();
     if let Some(pool) = pool {
-        solver::deform::fine_level::set_background_pool(pool);
+        solver::deform::coarse::full_mesh::set_background_pool(pool);
     }
     pool
 }
@@ -533,7 +533,7 @@ mod tests {
         assert!(there.iter().all(idle), "{there:?}");
         assert_eq!(class(), here, "the caller's own class is unchanged");
         assert!(
-            !solver::deform::fine_level::set_background_pool(pool),
+            !solver::deform::coarse::full_mesh::set_background_pool(pool),
             "the pool was not registered with the solver"
         );
     }

@@ -1,7 +1,7 @@
 //! The coarse BS-ARAP's per-vertex work as wgpu compute passes (`shaders/prolong.wgsl`, then
 //! [`super::normals`]): the prolongation $p'_i = \sum_k w_{ik} B'_{c,k} + \hat q_i (D_i + C_i)
 //! \hat q_i^{-1}$ (step 4 of `solver::deform::coarse`, whose
-//! [`solver::deform::prolong::prolong`] is the CPU path), the fixed vertices put on their
+//! [`solver::deform::coarse::prolong::prolong`] is the CPU path), the fixed vertices put on their
 //! positions, and smooth area-weighted vertex normals (`solver::geometry::normals`).
 //!
 //! What depends only on the mesh and its coarse base (embedding, triangles, the vertex-to-face
@@ -13,8 +13,8 @@
 //! units in the last place of the coordinates.
 
 use eframe::wgpu;
-use solver::deform::embedding::from_stored;
-use solver::deform::prolong::Prolongation;
+use solver::deform::coarse::embedding::from_stored;
+use solver::deform::coarse::prolong::Prolongation;
 
 use super::normals::{BYTES_PER_VERTEX, GpuNormals, NormalsBinding};
 use super::{Stage, WORKGROUP, compute_pipeline, storage, uniform};

@@ -29,7 +29,7 @@ pub struct BaseConfig {
     #[serde(skip)]
     pub settle_iterations: usize,
     /// Fair the base on a decimated level when the mesh is much denser than the smoothing length
-    /// needs ([`crate::deform::level_fairing`]; the default). Off: always on the whole mesh, the
+    /// needs ([`crate::deform::coarse::level`]; the default). Off: always on the whole mesh, the
     /// comparison `bsarap bench --direct-fairing` measures. Not saved in scenes (read as on).
     #[serde(skip)]
     pub level_fairing: bool,

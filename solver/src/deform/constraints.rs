@@ -90,7 +90,7 @@ impl Constraints {
 
     /// Every one of `n` vertices free (no handle, nothing pinned): for problems whose own
     /// data term makes them well posed, such as the faired base of
-    /// [`crate::deform::coarse_base`].
+    /// [`crate::deform::coarse::base`].
     pub fn all_free(n: usize) -> Constraints {
         Constraints {
             handle_vertices: Vec::new(),

@@ -5,8 +5,8 @@
 use crate::deform::arap::{Arap, ArapConfig, SolveStats};
 use crate::deform::bs_arap::{BaseKind, BsArap};
 use crate::deform::coarse::CoarseBsArap;
-use crate::deform::coarse_base::CoarseBase;
-use crate::deform::coarse_cache;
+use crate::deform::coarse::base::CoarseBase;
+use crate::deform::coarse::cache as coarse_cache;
 use crate::deform::config::BaseConfig;
 use crate::deform::handles::Handles;
 use crate::deform::riders::{LooseParts, Riders};
@@ -88,7 +88,7 @@ impl Solver {
 /// all depends on the handles). Entries are checked against the mesh and settings before
 /// reuse ([`CoarseBase::fits`]); a cache holds one mesh's entry at a time. With a directory
 /// ([`MeshCache::on_disk`]) it also keeps each base in a file there
-/// ([`crate::deform::coarse_cache`]), so that reopening a mesh reads it instead of building it.
+/// ([`crate::deform::coarse::cache`]), so that reopening a mesh reads it instead of building it.
 #[derive(Debug, Clone, Default)]
 pub struct MeshCache {
     coarse: Option<Arc<CoarseBase>>,

@@ -75,7 +75,7 @@ impl Mesh {
 
     /// A 64-bit hash of the positions (bit patterns) and triangles, computed once per mesh
     /// (tens of milliseconds at a million vertices): which mesh a cached precomputation
-    /// belongs to ([`crate::deform::coarse_base::CoarseBase::fits`], the disk cache's key).
+    /// belongs to ([`crate::deform::coarse::base::CoarseBase::fits`], the disk cache's key).
     pub fn fingerprint(&self) -> u64 {
         *self.fingerprint.get_or_init(|| {
             // XXH3 over the little-endian bytes, fed through a small buffer: the same value on

@@ -115,7 +115,7 @@ pub struct SolveStats {
     /// iteration: solving again at the same targets would still change the pose.
     pub fine_unconverged: bool,
     /// The fine iterations ran on the fairing level, not on the full mesh (a settle step of a
-    /// dense mesh, [`crate::deform::middle_level`]): `fine_energy` is the level's.
+    /// dense mesh, [`crate::deform::coarse::level_settle`]): `fine_energy` is the level's.
     pub fine_on_level: bool,
 }
 

@@ -1,7 +1,7 @@
 //! Settling on the fairing level before the full mesh: a third level for the coarse BS-ARAP
 //! on dense meshes ([`crate::deform::coarse`], step 6).
 //!
-//! A mesh faired on a level ([`crate::deform::level_fairing`]) has, beside its coarse level
+//! A mesh faired on a level ([`crate::deform::coarse::level`]) has, beside its coarse level
 //! $B_c$ (a few thousand vertices), the level $M_\ell$ itself: $M$ decimated to a mean edge of
 //! a third of the smoothing length (77,685 of the 691,858 vertices of the armadillo subdivided
 //! twice), each fine vertex $i$ embedded on it as barycentric weights $w_{ik}$ on a level
@@ -30,8 +30,8 @@
 //! the handles stop.
 
 use crate::deform::arap::{ArapConfig, SolveStats};
+use crate::deform::coarse::full_mesh::{FineLevel, Queue};
 use crate::deform::constraints::Constraints;
-use crate::deform::fine_level::{FineLevel, Queue};
 use crate::deform::handles::Handles;
 use crate::deform::rig::Rig;
 use crate::error::SolveError;
@@ -209,7 +209,7 @@ impl LevelSolver {
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
-    use crate::deform::coarse_base::CoarseBase;
+    use crate::deform::coarse::base::CoarseBase;
     use crate::deform::config::BaseConfig;
 
     /// A level vertex that is a fine handle takes the fine target; a group the level kept no

@@ -1,6 +1,6 @@
 //! Embedding points of a fine mesh on a coarser mesh whose vertices are a subset of its own
-//! (the coarse base, [`crate::deform::coarse_base`]; the fairing level,
-//! [`crate::deform::level_fairing`]).
+//! (the coarse base, [`crate::deform::coarse::base`]; the fairing level,
+//! [`crate::deform::coarse::level`]).
 //!
 //! Each point $q_i$ (fine vertex $i$, or its position on a smoothed surface) gets the closest
 //! point of the coarse mesh among the coarse triangles within two rings of its representative
@@ -89,7 +89,7 @@ pub fn embed_from(
 /// the representative of the vertex of the ring before that reached it first and walks from
 /// that vertex's triangle (rings in parallel, each after the one before): its start is an edge
 /// away, where the multi-source Dijkstra and the two-ring search of [`embed`] cost far more on
-/// a mesh much denser than `coarse` (the fairing level, [`crate::deform::level_fairing`]).
+/// a mesh much denser than `coarse` (the fairing level, [`crate::deform::coarse::level`]).
 /// `vf` is `coarse`'s vertex-to-triangle rows.
 pub fn embed_outward(
     positions: &[[f64; 3]],
@@ -271,7 +271,7 @@ impl<'a> Search<'a> {
 }
 
 /// Barycentric weights as the bases keep them: the first two rounded to `f32`, the third
-/// $1 - w_0 - w_1$ in `f64`. The disk cache ([`crate::deform::coarse_cache`]) stores the two
+/// $1 - w_0 - w_1$ in `f64`. The disk cache ([`crate::deform::coarse::cache`]) stores the two
 /// `f32`s, a third of three `f64`s, and gets back exactly these; the sum stays one to the last
 /// bit or two, so a whole-mesh move is still reproduced exactly. Rounding moves an embedded
 /// point by at most about $10^{-7}$ of its triangle's size, and the details take it up.

@@ -119,7 +119,7 @@ fn on_a_level()
     (mesh, handles, c, targets, reference, coarse)
 }
 
-/// Settling a mesh faired on a level ([`crate::deform::middle_level`]) first iterates on the
+/// Settling a mesh faired on a level ([`crate::deform::coarse::level_settle`]) first iterates on the
 /// level, before the full mesh is factored: those steps bring the pose closer to converged
 /// ARAP than the coarse solve, the full mesh's steps closer still; the handles stay on their
 /// targets and the rest pose stays exact.

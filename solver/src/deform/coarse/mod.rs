@@ -4,7 +4,7 @@
 //! Per mesh, whatever the handles ([`CoarseBase`], built once and shared by every handle set):
 //! 1–3. $B$ = the faired base of $M$ with no vertex held, $B_c$ its decimation, the embedding
 //!    of each fine vertex as barycentric weights $w_{ik}$ on a coarse triangle $t_i$, and the
-//!    details $D_i = p_i - \sum_k w_{ik} B_{c,k}$ ([`crate::deform::coarse_base`]).
+//!    details $D_i = p_i - \sum_k w_{ik} B_{c,k}$ ([`crate::deform::coarse::base`]).
 //!
 //! Per handle set ([`CoarseBsArap::with_base`]; milliseconds at a few thousand coarse vertices):
 //! - **Handles on the coarse level**: coarse vertex $k$ joins group $g$ when at least half of
@@ -37,25 +37,53 @@
 //! 6. Optionally ([`BaseConfig::settle_iterations`], [`CoarseBsArap::settle`]), once the
 //!    handles stop, more fine iterations refine the pose step by step, carried the same way,
 //!    until they no longer lower the energy: the pose approaches converged ARAP on $M$. A base
-//!    faired on a level settles on that level first ([`crate::deform::middle_level`]: a ninth
+//!    faired on a level settles on that level first ([`crate::deform::coarse::level_settle`]: a ninth
 //!    of the vertices at 692k, factored far sooner), then on $M$.
 //!
 //! Rest pose is exact (rest targets give $B_c' = B_c$, $R = I$ and clear $C$, so $p' = p$;
 //! they skip the fine iterations) and a rigid motion of all handles moves the result rigidly.
 //! An iteration costs what ARAP on $B_c$ costs; the prolongation is one pass over the fine
 //! vertices per frame, each fine iteration one ARAP iteration on $M$.
+//!
+//! **Three meshes, one word each**: the *full mesh* $M$ (the user's), the *level* $M_\ell$
+//! (the full mesh decimated to resolve the smoothing length, where a dense mesh's base is
+//! faired and a stopped pose settles first) and the *coarse mesh* $B_c$ (a few thousand
+//! vertices, where the per-frame ARAP runs). One file per step:
+//!
+//! | file | step |
+//! |---|---|
+//! | `base.rs` | 1–3: $B$, $B_c$, the embedding and the details, per mesh ([`CoarseBase`]) |
+//! | `level.rs` | 1: fairing $B$ on the level of a dense mesh |
+//! | `embedding.rs` | barycentric embedding of a finer mesh's points on a coarser one |
+//! | `cache.rs` | the per-mesh part on disk |
+//! | `groups.rs` | handle groups on the coarse mesh and their rigid targets |
+//! | `prolong.rs` | 4: the coarse pose carried to the full mesh with its details |
+//! | `full_mesh.rs` | 5–6: ARAP iterations on the full mesh (factored in the background) |
+//! | `level_settle.rs` | 6: settling on the level before the full mesh |
+//! | `mod.rs` | [`CoarseBsArap`]: the steps in order, per frame |
+
+pub mod base;
+pub mod cache;
+pub mod embedding;
+pub mod full_mesh;
+pub mod groups;
+pub mod level;
+pub mod level_settle;
+pub mod prolong;
 
 use crate::deform::arap::{Arap, ArapConfig, SolveStats};
-use crate::deform::coarse_base::{CoarseBase, Phases};
-pub use crate::deform::coarse_groups::MIN_COARSE_GROUP;
-use crate::deform::coarse_groups::{CoarseGroups, coarse_rig};
+use crate::deform::coarse::base::{CoarseBase, Phases};
+use crate::deform::coarse::embedding::{blend, from_stored};
+use crate::deform::coarse::full_mesh::{FineLevel, Queue};
+pub use crate::deform::coarse::groups::MIN_COARSE_GROUP;
+use crate::deform::coarse::groups::{CoarseGroups, coarse_rig};
+use crate::deform::coarse::level_settle::LevelSolver;
+use crate::deform::coarse::prolong::{
+    Prolongation, at, prolong, quaternion_of, rotate, triangle_frames,
+};
 use crate::deform::config::BaseConfig;
 use crate::deform::constraints::Constraints;
-use crate::deform::embedding::{blend, from_stored};
-use crate::deform::fine_level::{FineLevel, Queue};
 use crate::deform::handles::Handles;
-use crate::deform::middle_level::LevelSolver;
-use crate::deform::prolong::{Prolongation, at, prolong, quaternion_of, rotate, triangle_frames};
 use crate::error::SolveError;
 use crate::geometry::mesh::{Mesh, sub};
 use crate::linalg::rigid::Motion;
@@ -428,7 +456,7 @@ impl CoarseBsArap {
     }
 
     /// Starts factoring the ARAP on the full mesh on a thread of its own if it is pending
-    /// ([`crate::deform::fine_level`]: one at a time in the process); a caller that must stay
+    /// ([`crate::deform::coarse::full_mesh`]: one at a time in the process); a caller that must stay
     /// responsive, such as the editor's solver thread, settles only once this says true. True
     /// when fine and settle iterations can run without waiting for a factorization (done,
     /// failed, or none asked for): the next [`CoarseBsArap::settle`] takes the result, or
@@ -553,5 +581,4 @@ impl CoarseBsArap {
 }
 
 #[cfg(test)]
-#[path = "coarse_tests.rs"]
 mod tests;

@@ -14,7 +14,7 @@
 //! 2. $B_\ell$ = the faired surface of $M_\ell$ (same $h$).
 //! 3. Each fine vertex $i$ takes the closest point of $M_\ell$ to $M_i$ found by walking from
 //!    the triangle of a neighbour one edge nearer the level's vertices
-//!    ([`crate::deform::embedding::embed_outward`]: ring by ring outward from the level's
+//!    ([`crate::deform::coarse::embedding::embed_outward`]: ring by ring outward from the level's
 //!    vertices, on to the triangles around the best one's corners while one is closer), as
 //!    barycentric weights $w_{ik}$ on a level triangle $t_i$, and
 //!    $B_i = \sum_k w_{ik} B_{\ell,k}$; its representative is the level vertex the fewest
@@ -34,8 +34,8 @@
 //! whole mesh is faired directly.
 
 use crate::deform::biharmonic::faired_surface;
+use crate::deform::coarse::embedding::{OutwardEmbedding, blend, embed_outward};
 use crate::deform::constraints::Constraints;
-use crate::deform::embedding::{OutwardEmbedding, blend, embed_outward};
 use crate::error::SolveError;
 use crate::geometry::cotan::face_cotangents;
 use crate::geometry::mesh::{Mesh, dot, sub};
@@ -59,7 +59,7 @@ pub enum Fairing {
 }
 
 /// A faired base: $B$ at every vertex of the mesh and, when it was faired on a level, that
-/// level (from which the coarse base decimates further, [`crate::deform::coarse_base`]).
+/// level (from which the coarse base decimates further, [`crate::deform::coarse::base`]).
 #[derive(Debug)]
 pub struct FairedBase {
     pub base: Vec<[f64; 3]>,
@@ -83,7 +83,7 @@ pub struct FairedLevel {
     /// $B_\ell$.
     pub base: Vec<[f64; 3]>,
     /// Per fine vertex, the level vertex the fewest of the mesh's edges away (the first in
-    /// breadth-first order, [`crate::deform::embedding::embed_outward`]).
+    /// breadth-first order, [`crate::deform::coarse::embedding::embed_outward`]).
     pub representative: Vec<u32>,
     /// Per fine vertex, the level triangle (index into `triangles`) its closest point lies on,
     /// and that point's barycentric weights.
@@ -116,7 +116,7 @@ pub struct LevelView<'a> {
 
 /// [`faired_base`], and `then` run on the faired level as soon as it is faired, beside the
 /// embedding of the fine vertices on it (its result `None` when the mesh was faired
-/// directly): the coarse base decimates the level there ([`crate::deform::coarse_base`]).
+/// directly): the coarse base decimates the level there ([`crate::deform::coarse::base`]).
 pub fn faired_base_then<R: Send>(
     mesh: &Mesh,
     smoothing: Option<f64>,

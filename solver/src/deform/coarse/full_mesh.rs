@@ -8,7 +8,7 @@
 //! solver was dropped cannot be stopped (the sparse factorization has no way to be
 //! interrupted), so a new handle set's waits for it instead of adding its own memory and cores
 //! (a full-mesh factorization at 692k vertices holds about 2 GiB, at 1.5M about 6 GiB and 80 s).
-//! The fairing level's ([`crate::deform::middle_level`]), a tenth of the mesh, has a queue of
+//! The fairing level's ([`crate::deform::coarse::level_settle`]), a tenth of the mesh, has a queue of
 //! its own, so that a handle set painted while the previous set's full mesh is still being
 //! factored settles on the level without waiting for it. A failed factorization is kept and
 //! reported every time (it would fail again); a panic of the factoring thread is resumed on the

@@ -2,7 +2,7 @@
 //! follow the fine handles ([`crate::deform::coarse`], "Handles on the coarse level"); the rig
 //! (rigidity, falloffs) carried to the coarse level.
 
-use crate::deform::coarse_base::CoarseBase;
+use crate::deform::coarse::base::CoarseBase;
 use crate::deform::handles::Handles;
 use crate::deform::rig::Rig;
 use crate::geometry::mesh::{add, sub};

@@ -5,7 +5,7 @@
 //! 1. $B$ = the faired surface of $M$ with no vertex held
 //!    ([`crate::deform::biharmonic::faired_surface`], smoothing length $h$):
 //!    $(Q + \lambda A)\,B = \lambda A\,M$, $\lambda = h^{-4}$, on a decimated level of $M$ when
-//!    $M$ is much denser than $h$ needs ([`crate::deform::level_fairing`]). Without handle
+//!    $M$ is much denser than $h$ needs ([`crate::deform::coarse::level`]). Without handle
 //!    constraints the base does not depend on the handle set (the handle regions are smoothed
 //!    like the rest; their vertices are put on their targets exactly after the prolongation
 //!    anyway).
@@ -18,14 +18,14 @@
 //!    representative is then the coarse representative of its level representative. The
 //!    level is decimated (and its vertices embedded, step 3) as soon as it is faired, beside
 //!    the fine vertices' embedding on it
-//!    ([`crate::deform::level_fairing::faired_base_then`]).
-//! 3. Embedding (prolongation $P$, [`crate::deform::embedding`]): each fine vertex $i$ gets
+//!    ([`crate::deform::coarse::level::faired_base_then`]).
+//! 3. Embedding (prolongation $P$, [`crate::deform::coarse::embedding`]): each fine vertex $i$ gets
 //!    the closest point of $B_c$ to $B_i$ among the coarse triangles within two rings of its
 //!    representative, as barycentric weights $w_{ik}$ on a coarse triangle $t_i$; its detail
 //!    is $D_i = p_i - \sum_k w_{ik} B_{c,k}$. When the coarse level came from the faired level,
 //!    the level's vertices are embedded so (walking on from the two rings), and each fine
 //!    vertex walks from its level representative's coarse triangle instead
-//!    ([`crate::deform::embedding::embed_from`]).
+//!    ([`crate::deform::coarse::embedding::embed_from`]).
 //!
 //! Which coarse vertices hold a handle group, and the coarse factorization, depend on the
 //! handles: [`crate::deform::coarse::CoarseBsArap::with_base`].
@@ -34,12 +34,12 @@
 //! triangles ([`Mesh::fingerprint`]) and the settings ([`CoarseBase::fits`]), so that a cache
 //! never hands it to another mesh.
 
-use crate::deform::config::BaseConfig;
-use crate::deform::embedding::{blend, embed, embed_from, from_stored, stored_weights};
-use crate::deform::level_fairing::{
+use crate::deform::coarse::embedding::{blend, embed, embed_from, from_stored, stored_weights};
+use crate::deform::coarse::level::{
     FairedBase, FairedLevel, Fairing, LEVEL_EDGES_PER_SMOOTHING_LENGTH, LevelView, faired_base_then,
 };
-use crate::deform::middle_level::LevelEmbedding;
+use crate::deform::coarse::level_settle::LevelEmbedding;
+use crate::deform::config::BaseConfig;
 use crate::error::SolveError;
 use crate::geometry::mesh::{Mesh, sub};
 use crate::geometry::normals::VertexFaces;
@@ -78,7 +78,7 @@ pub struct CoarseBase {
     pub(crate) floor: f64,
     pub(crate) fairing: Fairing,
     /// The level the base was faired on, with the fine vertices' embedding on it (`None` when
-    /// faired directly): what level iterations run on ([`crate::deform::middle_level`]).
+    /// faired directly): what level iterations run on ([`crate::deform::coarse::level_settle`]).
     pub(crate) level: Option<LevelEmbedding>,
     pub(crate) phases: Vec<(&'static str, f64)>,
 }
@@ -201,7 +201,7 @@ impl CoarseBase {
     }
 }
 
-/// The level as [`crate::deform::middle_level`] needs it: $M$ at its vertices, each fine
+/// The level as [`crate::deform::coarse::level_settle`] needs it: $M$ at its vertices, each fine
 /// vertex's triangle corners and weights on it. `None` when the level is not a valid mesh.
 fn level_embedding(mesh: &Mesh, level: FairedLevel) -> Option<LevelEmbedding> {
     let FairedLevel { kept, triangles, representative, faces, weights, .. } = level;
