@@ -1,16 +1,9 @@
-//! Fuzzes the `.dmat` selection reader. The first two bytes give the mesh's vertex count
-//! (0..=65535); the rest is the file's text.
+//! cargo-fuzz target `dmat`: the body is `solver_fuzz::dmat` (fuzz/src/lib.rs), which
+//! `cargo test -p solver-fuzz` also replays on stable.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use solver::selection::parse_dmat;
 
 fuzz_target!(|bytes: &[u8]| {
-    if bytes.len() < 2 {
-        return;
-    }
-    let n_vertices = usize::from(u16::from_le_bytes([bytes[0], bytes[1]]));
-    if let Ok(text) = std::str::from_utf8(&bytes[2..]) {
-        let _ = parse_dmat(text, n_vertices);
-    }
+    solver_fuzz::dmat(bytes);
 });

@@ -1,10 +1,9 @@
-//! Fuzzes the STL reader and the cleanup that follows it: any bytes must give a mesh or a
-//! typed `LoadError`, never a panic, an abort or an unbounded allocation.
+//! cargo-fuzz target `stl`: the body is `solver_fuzz::stl` (fuzz/src/lib.rs), which
+//! `cargo test -p solver-fuzz` also replays on stable.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use solver::io::{Format, load_mesh_from_bytes};
 
 fuzz_target!(|bytes: &[u8]| {
-    let _ = load_mesh_from_bytes(bytes, Format::Stl, "fuzz");
+    solver_fuzz::stl(bytes);
 });
