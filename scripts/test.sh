@@ -16,3 +16,15 @@ pip=("$venv/bin/pip" install -q --disable-pip-version-check)
   echo "warning: libigl not installed; the libigl comparison tests will be skipped" >&2
 # -rs prints every skip's reason (missing paper meshes, libigl, the bsarap binary).
 "$venv/bin/python" -m pytest -q -rs python/tests
+
+# The Blender extension (blender/, issue 48): its zip built into target/blender-extension
+# (an abi3 release wheel; incremental after the first build), then installed and tested in
+# Blender's Python (bpy from PyPI, tools/blender/.venv). Skipped, with the reason, without bpy.
+blender_py=tools/blender/.venv/bin/python
+if [ -x "$blender_py" ] && "$blender_py" -c "import bpy" >/dev/null 2>&1; then
+  scripts/blender-extension.sh target/blender-extension
+  BSARAP_BLENDER_ZIP=$(ls -t target/blender-extension/bsarap_pose-*.zip | head -n 1) \
+    "$blender_py" blender/tests/test_bsarap_pose.py
+else
+  echo "skipped: the Blender extension tests (no bpy in $blender_py)"
+fi

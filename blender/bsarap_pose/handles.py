@@ -1,0 +1,92 @@
+"""Vertex groups as handle groups: per-vertex labels, rest positions and centroids.
+
+A vertex belongs to a handle group when its weight in the vertex group is above
+``WEIGHT_THRESHOLD`` (so weight painting at full strength selects it). Label ``k`` is the
+``k``-th handle group of the object's list, ``-1`` a free vertex: the ``handles`` argument of
+``bsarap.Deformer``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: A vertex is in a handle group when its weight is above this.
+WEIGHT_THRESHOLD = 0.5
+
+
+class HandleError(Exception):
+    """Bad handle input, with a message for the status bar."""
+
+
+def rest_positions(mesh) -> np.ndarray:
+    """The rest positions ``(n, 3)`` float64: the reference (basis) shape key when the mesh has
+    shape keys, else the vertices. Never the posed shape."""
+    n = len(mesh.vertices)
+    co = np.empty(n * 3, dtype=np.float32)
+    keys = mesh.shape_keys
+    if keys is not None and keys.reference_key is not None:
+        keys.reference_key.data.foreach_get("co", co)
+    else:
+        mesh.vertices.foreach_get("co", co)
+    return co.reshape(n, 3).astype(np.float64)
+
+
+def triangles(mesh) -> np.ndarray:
+    """The mesh's triangles ``(m, 3)`` int64 (Blender's loop triangulation of its faces)."""
+    mesh.calc_loop_triangles()
+    m = len(mesh.loop_triangles)
+    tri = np.empty(m * 3, dtype=np.int32)
+    mesh.loop_triangles.foreach_get("vertices", tri)
+    return tri.reshape(m, 3).astype(np.int64)
+
+
+def topology_fingerprint(mesh) -> tuple:
+    """Counts that change with any edit of the topology (cheap enough for every update)."""
+    return (len(mesh.vertices), len(mesh.edges), len(mesh.loops), len(mesh.polygons))
+
+
+def labels(obj, group_names) -> np.ndarray:
+    """Per-vertex labels from the object's vertex groups ``group_names`` (in order).
+
+    Raises :class:`HandleError` for an unknown group, a group with no vertex above the
+    threshold, or a vertex in two handle groups.
+    """
+    if not group_names:
+        raise HandleError(f"{obj.name}: no handle groups; add vertex groups to the BS-ARAP list first")
+    index_of = {}
+    for k, name in enumerate(group_names):
+        vg = obj.vertex_groups.get(name)
+        if vg is None:
+            raise HandleError(f"{obj.name}: vertex group '{name}' does not exist")
+        if vg.index in index_of:
+            raise HandleError(f"{obj.name}: vertex group '{name}' is listed twice")
+        index_of[vg.index] = k
+    mesh = obj.data
+    out = np.full(len(mesh.vertices), -1, dtype=np.int64)
+    overlap = None
+    for v in mesh.vertices:
+        for g in v.groups:
+            k = index_of.get(g.group)
+            if k is None or g.weight <= WEIGHT_THRESHOLD:
+                continue
+            if out[v.index] >= 0 and out[v.index] != k:
+                overlap = (v.index, group_names[out[v.index]], group_names[k])
+            out[v.index] = k
+    if overlap is not None:
+        i, a, b = overlap
+        raise HandleError(f"{obj.name}: vertex {i} is in two handle groups ('{a}' and '{b}')")
+    counts = np.bincount(out[out >= 0], minlength=len(group_names))
+    for k, name in enumerate(group_names):
+        if counts[k] == 0:
+            raise HandleError(
+                f"{obj.name}: vertex group '{name}' has no vertex with weight above {WEIGHT_THRESHOLD}"
+            )
+    return out
+
+
+def centroids(rest: np.ndarray, lab: np.ndarray, n_groups: int) -> np.ndarray:
+    """The rest centroid ``(n_groups, 3)`` of each handle group, in object space."""
+    out = np.zeros((n_groups, 3))
+    for k in range(n_groups):
+        out[k] = rest[lab == k].mean(axis=0)
+    return out

@@ -1,0 +1,294 @@
+"""The operators, ``bpy.ops.bsarap.*``. Bad input ends in ``self.report({'ERROR'}, ...)`` (the
+status bar; a RuntimeError with the message for scripts), never a traceback."""
+
+from __future__ import annotations
+
+import os
+
+import bpy
+import numpy as np
+from bpy.props import IntProperty, StringProperty
+from mathutils import Matrix
+
+from . import bake, handles, solve
+from .handles import HandleError
+
+
+def _mesh_object(context):
+    obj = context.object
+    return obj if obj is not None and obj.type == "MESH" else None
+
+
+class _MeshOperator:
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        return _mesh_object(context) is not None
+
+
+class BSARAP_OT_add_group(_MeshOperator, bpy.types.Operator):
+    """Use a vertex group (the active one by default) as a handle group"""
+
+    bl_idname = "bsarap.add_group"
+    bl_label = "Add Handle Group"
+
+    group: StringProperty(name="Vertex group", description="Empty: the active vertex group")
+
+    def execute(self, context):
+        obj = _mesh_object(context)
+        name = self.group
+        if not name:
+            vg = obj.vertex_groups.active
+            if vg is None:
+                self.report({"ERROR"}, f"{obj.name}: the mesh has no vertex groups; create or paint one first")
+                return {"CANCELLED"}
+            name = vg.name
+        if obj.vertex_groups.get(name) is None:
+            self.report({"ERROR"}, f"{obj.name}: no vertex group '{name}'")
+            return {"CANCELLED"}
+        if any(g.name == name for g in obj.bsarap.groups):
+            self.report({"WARNING"}, f"'{name}' is already a handle group")
+            return {"CANCELLED"}
+        item = obj.bsarap.groups.add()
+        item.name = name
+        obj.bsarap.active_group = len(obj.bsarap.groups) - 1
+        return {"FINISHED"}
+
+
+class BSARAP_OT_remove_group(_MeshOperator, bpy.types.Operator):
+    """Stop using the selected handle group (its control Empty stays in the scene)"""
+
+    bl_idname = "bsarap.remove_group"
+    bl_label = "Remove Handle Group"
+
+    def execute(self, context):
+        s = _mesh_object(context).bsarap
+        if not 0 <= s.active_group < len(s.groups):
+            self.report({"ERROR"}, "no handle group selected")
+            return {"CANCELLED"}
+        s.groups.remove(s.active_group)
+        s.active_group = max(0, min(s.active_group, len(s.groups) - 1))
+        return {"FINISHED"}
+
+
+class BSARAP_OT_add_controls(_MeshOperator, bpy.types.Operator):
+    """Create one Empty per handle group at its centroid (named after the group, no parent); moving,
+    rotating or keying them poses the mesh"""
+
+    bl_idname = "bsarap.add_controls"
+    bl_label = "Add Controls"
+
+    def execute(self, context):
+        obj = _mesh_object(context)
+        try:
+            if len(obj.vertex_groups) == 0:
+                raise HandleError(f"{obj.name}: the mesh has no vertex groups; create or paint one first")
+            solve.forget(obj.name)  # an explicit rebuild: the rest mesh may have been edited
+            st = solve.state(obj)
+        except HandleError as e:
+            self.report({"ERROR"}, str(e))
+            return {"CANCELLED"}
+        n = len(st.group_names)
+        cent = handles.centroids(st.rest, st.labels, n)
+        size = 0.05 * float(np.linalg.norm(st.rest.max(axis=0) - st.rest.min(axis=0)))
+        coll = obj.users_collection[0] if obj.users_collection else context.scene.collection
+        O = obj.matrix_world.copy()
+        made = 0
+        for k, g in enumerate(obj.bsarap.groups):
+            if g.control is not None and g.control.name in bpy.data.objects:
+                continue
+            e = bpy.data.objects.new(g.name, None)
+            e.empty_display_type = "SPHERE"
+            e.empty_display_size = max(size, 1e-3)
+            e.matrix_world = O @ Matrix.Translation(cent[k])
+            coll.objects.link(e)
+            g.control = e
+            # The control's rest, relative to the object: O^-1 E = the centroid's translation.
+            g.rest_matrix = [x for row in Matrix.Translation(cent[k]) for x in row]
+            made += 1
+        solve.ensure_pose_key(obj)
+        try:
+            solve.update(obj, force=True)
+        except HandleError as e:
+            self.report({"ERROR"}, str(e))
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"{obj.name}: {made} control(s) added, {n} handle group(s), {st.deformer.method}")
+        return {"FINISHED"}
+
+
+class BSARAP_OT_pose(_MeshOperator, bpy.types.Operator):
+    """Solve the pose for the controls' current positions now"""
+
+    bl_idname = "bsarap.pose"
+    bl_label = "Pose Now"
+
+    def execute(self, context):
+        obj = _mesh_object(context)
+        try:
+            solve.update(obj, force=True)
+        except HandleError as e:
+            self.report({"ERROR"}, str(e))
+            return {"CANCELLED"}
+        st = solve.state(obj)
+        stats = st.deformer.stats
+        if stats is not None:
+            self.report({"INFO"}, f"{obj.name}: {stats.iterations} iterations, {st.last_ms:.1f} ms")
+        return {"FINISHED"}
+
+
+class BSARAP_OT_remove_controls(_MeshOperator, bpy.types.Operator):
+    """Delete the control Empties and the pose shape key; the mesh is back at rest"""
+
+    bl_idname = "bsarap.remove_controls"
+    bl_label = "Remove Controls"
+
+    def execute(self, context):
+        obj = _mesh_object(context)
+        for g in obj.bsarap.groups:
+            if g.control is not None:
+                bpy.data.objects.remove(g.control)
+                g.control = None
+        keys = obj.data.shape_keys
+        if keys is not None and keys.key_blocks.get(solve.POSE_KEY) is not None:
+            obj.shape_key_remove(keys.key_blocks[solve.POSE_KEY])
+        solve.forget(obj.name)
+        return {"FINISHED"}
+
+
+class _BakeOperator(_MeshOperator):
+    """Shared by both bakes: ``execute`` bakes in one loop (scripts, background mode);
+    ``invoke`` bakes one frame per timer event with the progress indicator, Esc cancels."""
+
+    frame_start: IntProperty(name="Start", description="0 with End 0: the scene's range", default=0)
+    frame_end: IntProperty(name="End", default=0)
+
+    def frames(self, scene):
+        if self.frame_start == 0 and self.frame_end == 0:
+            return range(scene.frame_start, scene.frame_end + 1, max(1, scene.frame_step))
+        return range(self.frame_start, self.frame_end + 1)
+
+    def start(self, context):
+        obj = _mesh_object(context)
+        frames = self.frames(context.scene)
+        if len(frames) == 0:
+            raise HandleError("the frame range is empty")
+        return bake.Baker(context.scene, obj, frames)
+
+    def finish(self, context, baker) -> str:
+        raise NotImplementedError
+
+    def execute(self, context):
+        wm = context.window_manager
+        try:
+            baker = self.start(context)
+            wm.progress_begin(0, len(baker.frames))
+            try:
+                while not baker.done:
+                    baker.step()
+                    wm.progress_update(len(baker.poses))
+            finally:
+                wm.progress_end()
+                baker.restore_frame()
+            msg = self.finish(context, baker)
+        except (HandleError, OSError) as e:
+            self.report({"ERROR"}, str(e))
+            return {"CANCELLED"}
+        self.report({"INFO"}, msg)
+        return {"FINISHED"}
+
+    def invoke(self, context, _event):
+        if context.window is None:
+            return self.execute(context)
+        try:
+            self._baker = self.start(context)
+        except HandleError as e:
+            self.report({"ERROR"}, str(e))
+            return {"CANCELLED"}
+        wm = context.window_manager
+        wm.progress_begin(0, len(self._baker.frames))
+        self._timer = wm.event_timer_add(0.0, window=context.window)
+        wm.modal_handler_add(self)
+        return {"RUNNING_MODAL"}
+
+    def _stop(self, context):
+        wm = context.window_manager
+        wm.event_timer_remove(self._timer)
+        wm.progress_end()
+        self._baker.restore_frame()
+
+    def modal(self, context, event):
+        if event.type == "ESC":
+            self._stop(context)
+            self.report({"WARNING"}, f"bake cancelled after {len(self._baker.poses)} frame(s); nothing written")
+            return {"CANCELLED"}
+        if event.type != "TIMER":
+            return {"PASS_THROUGH"}
+        try:
+            self._baker.step()
+            context.window_manager.progress_update(len(self._baker.poses))
+            if not self._baker.done:
+                return {"RUNNING_MODAL"}
+            self._stop(context)
+            msg = self.finish(context, self._baker)
+        except (HandleError, OSError) as e:
+            self._stop(context)
+            self.report({"ERROR"}, str(e))
+            return {"CANCELLED"}
+        self.report({"INFO"}, msg)
+        return {"FINISHED"}
+
+
+class BSARAP_OT_bake_shape_keys(_BakeOperator, bpy.types.Operator):
+    """Solve every frame of the scene's range into its own shape key, keyed on at its frame"""
+
+    bl_idname = "bsarap.bake_shape_keys"
+    bl_label = "Bake to Shape Keys"
+
+    def finish(self, context, baker):
+        bake.write_shape_keys(baker.obj, baker.frames, baker.poses)
+        baker.obj.bsarap.live = False
+        return f"{baker.obj.name}: {len(baker.frames)} frames baked to shape keys (Live turned off)"
+
+
+def pc2_path(obj) -> str:
+    p = obj.bsarap.pc2_path
+    if p:
+        return bpy.path.abspath(p)
+    base = os.path.dirname(bpy.data.filepath) if bpy.data.filepath else bpy.app.tempdir
+    return os.path.join(base, f"{bpy.path.clean_name(obj.name)}.bsarap.pc2")
+
+
+class BSARAP_OT_bake_point_cache(_BakeOperator, bpy.types.Operator):
+    """Solve every frame of the scene's range into a PC2 point cache read by a Mesh Cache modifier"""
+
+    bl_idname = "bsarap.bake_point_cache"
+    bl_label = "Bake to Point Cache"
+
+    def finish(self, context, baker):
+        path = pc2_path(baker.obj)
+        bake.write_pc2(path, baker.poses, baker.frames[0], 1.0 if len(baker.frames) < 2 else baker.frames[1] - baker.frames[0])
+        bake.add_cache_modifier(baker.obj, path, baker.frames[0])
+        baker.obj.bsarap.live = False
+        return f"{baker.obj.name}: {len(baker.frames)} frames written to {path} (Live turned off)"
+
+
+classes = (
+    BSARAP_OT_add_group,
+    BSARAP_OT_remove_group,
+    BSARAP_OT_add_controls,
+    BSARAP_OT_pose,
+    BSARAP_OT_remove_controls,
+    BSARAP_OT_bake_shape_keys,
+    BSARAP_OT_bake_point_cache,
+)
+
+
+def register():
+    for c in classes:
+        bpy.utils.register_class(c)
+
+
+def unregister():
+    for c in reversed(classes):
+        bpy.utils.unregister_class(c)

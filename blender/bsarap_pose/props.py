@@ -1,0 +1,117 @@
+"""The extension's data on each object (``Object.bsarap``): the handle groups with their
+controls (Empties) and the solver settings, the CLI's flags."""
+
+from __future__ import annotations
+
+import bpy
+from bpy.props import (
+    BoolProperty,
+    CollectionProperty,
+    EnumProperty,
+    FloatProperty,
+    FloatVectorProperty,
+    IntProperty,
+    PointerProperty,
+    StringProperty,
+)
+
+try:  # The solver's own default; the add-on still registers without the wheel.
+    from bsarap import DEFAULT_MEMBRANE
+except ImportError:  # pragma: no cover - reported by the operators
+    DEFAULT_MEMBRANE = 0.5
+
+#: The methods of ``bsarap.Deformer`` (the CLI's ``--method``), the editor's default first.
+METHOD_ITEMS = [
+    ("bsarap-coarse", "Coarse BS-ARAP", "BS-ARAP on a coarse base with details carried (the editor's default)"),
+    ("bsarap", "BS-ARAP", "The paper's BS-ARAP on the full mesh"),
+    ("bsarap-faired", "Faired BS-ARAP", "BS-ARAP on a faired base surface"),
+    ("arap", "ARAP", "Plain as-rigid-as-possible deformation"),
+]
+ENERGY_ITEMS = [
+    ("spokes-and-rims", "Spokes and rims", "ARAP energy over each vertex's spokes and rims"),
+    ("spokes", "Spokes", "ARAP energy over each vertex's spokes only"),
+]
+
+IDENTITY = (1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0)
+
+
+def _empty_only(_self, obj):
+    return obj.type == "EMPTY"
+
+
+class BSARAP_HandleGroup(bpy.types.PropertyGroup):
+    """One handle group: a vertex group of the mesh, posed by its control Empty."""
+
+    # `name` (the vertex group's name) is PropertyGroup's own.
+    control: PointerProperty(name="Control", type=bpy.types.Object, poll=_empty_only)
+    # The control's matrix relative to the mesh object when controls were added (row-major):
+    # the pose is the control's motion from there.
+    rest_matrix: FloatVectorProperty(size=16, default=IDENTITY, options={"HIDDEN"})
+
+
+class BSARAP_ObjectSettings(bpy.types.PropertyGroup):
+    groups: CollectionProperty(type=BSARAP_HandleGroup)
+    active_group: IntProperty(default=0)
+    live: BoolProperty(
+        name="Live",
+        description="Solve whenever a control moves or the frame changes",
+        default=True,
+    )
+    method: EnumProperty(name="Method", items=METHOD_ITEMS, default="bsarap-coarse")
+    energy: EnumProperty(name="Energy", items=ENERGY_ITEMS, default="spokes-and-rims")
+    tol: FloatProperty(
+        name="Tolerance",
+        description="Relative energy decrease at which a solve stops (0: run Max iterations)",
+        default=1e-4, min=0.0, precision=6,
+    )
+    max_iters: IntProperty(name="Max iterations", default=100, min=1, max=100000)
+    anderson: IntProperty(name="Anderson window", description="0: off", default=0, min=0, max=64)
+    smoothing: FloatProperty(
+        name="Smoothing", description="Faired base's smoothing length, fraction of the diagonal",
+        default=0.01, min=0.0, precision=4,
+    )
+    coarse_vertices: IntProperty(
+        name="Coarse vertices", description="Vertices of the coarse base (0: min(3000, 30 % of the mesh))",
+        default=0, min=0,
+    )
+    fine_iterations: IntProperty(
+        name="Fine iterations", description="ARAP iterations on the full mesh after each coarse solve",
+        default=0, min=0,
+    )
+    membrane: FloatProperty(
+        name="Membrane", description="The coarse level's membrane share",
+        default=DEFAULT_MEMBRANE, min=0.0, max=1.0,
+    )
+    pc2_path: StringProperty(
+        name="Point cache", description="Where Bake to point cache writes (empty: next to the .blend)",
+        subtype="FILE_PATH", default="",
+    )
+
+    def solver_settings(self) -> dict:
+        """The keyword arguments of ``bsarap.Deformer`` (besides V, F, handles)."""
+        return {
+            "method": self.method,
+            "energy": self.energy,
+            "tol": float(self.tol),
+            "max_iters": int(self.max_iters),
+            "anderson": int(self.anderson),
+            "smoothing": float(self.smoothing),
+            "coarse_vertices": int(self.coarse_vertices) or None,
+            "fine_iterations": int(self.fine_iterations),
+            "membrane": float(self.membrane),
+        }
+
+
+classes = (BSARAP_HandleGroup, BSARAP_ObjectSettings)
+
+
+def register():
+    for c in classes:
+        bpy.utils.register_class(c)
+    bpy.types.Object.bsarap = PointerProperty(type=BSARAP_ObjectSettings)
+
+
+def unregister():
+    del bpy.types.Object.bsarap
+    for c in reversed(classes):
+        bpy.utils.unregister_class(c)

@@ -1,0 +1,212 @@
+"""The per-object solver state: one warm-started ``bsarap.Deformer`` per posed object.
+
+The pose of handle group ``k`` is the motion of its control Empty ``E_k`` since controls were
+added, in the mesh object's space ``O``: ``D_k = (O^-1 E_k) (O^-1 E_k)_rest^-1``. The targets
+are the group's rest vertices moved by it, ``t_i = D_k p_i``; ``Deformer.solve_targets`` gives
+the pose, which goes into the shape key ``POSE_KEY`` (value 1) so the base mesh is never
+overwritten. The state is keyed by the object's name, its topology counts and the settings: a
+change of any of them rebuilds the solver (with a message) instead of failing.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from . import handles
+from .handles import HandleError
+
+#: The shape key the live pose goes into.
+POSE_KEY = "BS-ARAP pose"
+#: The name of the Mesh Cache modifier Bake to point cache adds.
+CACHE_MODIFIER = "BS-ARAP cache"
+
+
+class SolverState:
+    """A built solver for one object and what it was built from."""
+
+    def __init__(self, key, deformer, rest, labels, group_names):
+        self.key = key
+        self.deformer = deformer
+        self.rest = rest
+        self.labels = labels
+        self.group_names = group_names
+        self.handle_vertices = np.asarray(deformer.handle_vertices)
+        self.handle_labels = labels[self.handle_vertices]
+        self.last_deltas = None  # the control motions of the last solve (re-entrancy guard)
+        self.last_ms = None  # the last update's time in the handler: solve + shape key write
+        self.solves = 0
+
+
+#: object name -> SolverState
+_states: dict = {}
+#: object name -> the last message about it (shown in the panel; errors of the live handler).
+messages: dict = {}
+
+
+def import_bsarap():
+    try:
+        import bsarap
+    except ImportError as e:  # the wheel missing or built for another platform
+        raise HandleError(f"the bsarap module cannot be imported ({e}); reinstall the extension") from None
+    return bsarap
+
+
+def blocking_modifiers(obj) -> list:
+    """The enabled modifiers that would act on the mesh before (under) the BS-ARAP pose or
+    cache: every one before our Mesh Cache modifier, or every one when there is none (the
+    controls are placed on the base mesh, which such modifiers move or rebuild)."""
+    out = []
+    for m in obj.modifiers:
+        if m.name == CACHE_MODIFIER and m.type == "MESH_CACHE":
+            break
+        if m.show_viewport or m.show_render:
+            out.append(m.name)
+    return out
+
+
+def check_object(obj) -> None:
+    """Raise :class:`HandleError` for an object BS-ARAP cannot pose."""
+    if obj is None or obj.type != "MESH":
+        raise HandleError("select a mesh object")
+    mods = blocking_modifiers(obj)
+    if mods:
+        raise HandleError(
+            f"{obj.name}: modifiers before BS-ARAP ({', '.join(mods)}); the pose is computed on "
+            "the base mesh: apply, remove or disable them first"
+        )
+    if len(obj.data.polygons) == 0:
+        raise HandleError(f"{obj.name}: the mesh has no faces")
+
+
+def non_manifold_edges(tri: np.ndarray) -> int:
+    """The number of edges shared by more than two triangles."""
+    e = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
+    e.sort(axis=1)
+    _, counts = np.unique(e, axis=0, return_counts=True)
+    return int((counts > 2).sum())
+
+
+def state_key(obj) -> tuple:
+    s = obj.bsarap
+    return (
+        obj.name,
+        handles.topology_fingerprint(obj.data),
+        tuple(g.name for g in s.groups),
+        # a handle group's vertex group deleted or renamed: rebuild (and say so)
+        tuple(obj.vertex_groups.get(g.name) is not None for g in s.groups),
+        tuple(sorted(s.solver_settings().items())),
+    )
+
+
+def build(obj) -> SolverState:
+    """Build the solver of ``obj`` from its mesh, vertex groups and settings."""
+    bsarap = import_bsarap()
+    check_object(obj)
+    names = [g.name for g in obj.bsarap.groups]
+    labels = handles.labels(obj, names)
+    rest = handles.rest_positions(obj.data)
+    tri = handles.triangles(obj.data)
+    bad = non_manifold_edges(tri)
+    if bad:
+        raise HandleError(f"{obj.name}: the mesh is not manifold ({bad} edges with more than two faces)")
+    try:
+        d = bsarap.Deformer(rest, tri, labels, **obj.bsarap.solver_settings())
+    except bsarap.BsarapError as e:
+        raise HandleError(f"{obj.name}: {e}") from None
+    return SolverState(state_key(obj), d, rest, labels, names)
+
+
+def state(obj, *, rebuild=True) -> SolverState:
+    """The object's solver, built or rebuilt when its key changed (a message says why)."""
+    key = state_key(obj)
+    st = _states.get(obj.name)
+    if st is not None and st.key == key:
+        return st
+    if not rebuild:
+        raise HandleError(f"{obj.name}: the solver is not built")
+    new = build(obj)
+    if st is not None:
+        if st.key[1] != key[1]:
+            messages[obj.name] = (
+                f"{obj.name}: the topology changed ({st.key[1][0]} -> {key[1][0]} vertices); solver rebuilt"
+            )
+        else:
+            messages[obj.name] = f"{obj.name}: settings or groups changed; solver rebuilt"
+    _states[obj.name] = new
+    return new
+
+
+def forget(name=None) -> None:
+    """Drop the solver of one object (or all)."""
+    if name is None:
+        _states.clear()
+        messages.clear()
+    else:
+        _states.pop(name, None)
+        messages.pop(name, None)
+
+
+def control_deltas(obj) -> np.ndarray:
+    """``(G, 4, 4)``: each handle group's motion in the object's space (see the module doc)."""
+    inv = np.linalg.inv(np.array(obj.matrix_world, dtype=np.float64))
+    out = []
+    for g in obj.bsarap.groups:
+        e = g.control
+        if e is None:
+            raise HandleError(f"{obj.name}: handle group '{g.name}' has no control; use Add controls")
+        rest = np.array(g.rest_matrix, dtype=np.float64).reshape(4, 4)
+        now = inv @ np.array(e.matrix_world, dtype=np.float64)
+        out.append(now @ np.linalg.inv(rest))
+    return np.array(out)
+
+
+def targets(st: SolverState, deltas: np.ndarray) -> np.ndarray:
+    """The handle vertices' targets ``(H, 3)`` (``Deformer.handle_vertices`` order)."""
+    D = deltas[st.handle_labels]
+    p = st.rest[st.handle_vertices]
+    return np.einsum("nij,nj->ni", D[:, :3, :3], p) + D[:, :3, 3]
+
+
+def solve(obj, st: SolverState, deltas: np.ndarray) -> np.ndarray:
+    bsarap = import_bsarap()
+    try:
+        U = st.deformer.solve_targets(targets(st, deltas))
+    except bsarap.BsarapError as e:
+        raise HandleError(f"{obj.name}: {e}") from None
+    st.last_deltas = deltas
+    st.solves += 1
+    return U
+
+
+def ensure_pose_key(obj):
+    """The object's pose shape key (created with a Basis when missing), value 1."""
+    if obj.data.shape_keys is None:
+        obj.shape_key_add(name="Basis", from_mix=False)
+    kb = obj.data.shape_keys.key_blocks.get(POSE_KEY)
+    if kb is None:
+        kb = obj.shape_key_add(name=POSE_KEY, from_mix=False)
+        kb.value = 1.0
+    return kb
+
+
+def write_pose(obj, U: np.ndarray) -> None:
+    kb = ensure_pose_key(obj)
+    kb.data.foreach_set("co", np.ascontiguousarray(U, dtype=np.float32).ravel())
+    obj.data.update()
+
+
+def update(obj, *, force=False) -> bool:
+    """Solve ``obj`` for its controls' current motion and write the pose; skipped (False) when
+    the controls have not moved since the last solve, which also stops the update that writing
+    the shape key triggers from solving again."""
+    t0 = time.perf_counter()
+    st = state(obj)
+    deltas = control_deltas(obj)
+    if not force and st.last_deltas is not None and np.array_equal(deltas, st.last_deltas):
+        return False
+    U = solve(obj, st, deltas)
+    write_pose(obj, U)
+    st.last_ms = (time.perf_counter() - t0) * 1e3
+    return True

@@ -1,0 +1,430 @@
+"""Tests of the Blender extension (blender/bsarap_pose) in bpy, headless.
+
+Run with Blender's Python (bpy from PyPI):
+    tools/blender/.venv/bin/python blender/tests/test_bsarap_pose.py [-v] [Class.test_name]
+The extension zip comes from $BSARAP_BLENDER_ZIP or target/blender-extension/*.zip (made by
+scripts/blender-extension.sh target/blender-extension); it is installed with
+bpy.ops.extensions.package_install_files into a temporary user repository, as a user would.
+Skips (with the reason) when bpy or the zip is missing.
+
+`Creature.test_handler_time` measures the live handler on assets/creature.obj (30k vertices)
+and prints the time per update (BENCHMARKS.md).
+"""
+
+from __future__ import annotations
+
+import glob
+import os
+import statistics
+import sys
+import tempfile
+import time
+import unittest
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+# A private user configuration: the extension is installed there, never into the real one.
+os.environ.setdefault("BLENDER_USER_RESOURCES", tempfile.mkdtemp(prefix="bsarap-blender-"))
+
+try:
+    import bpy
+    import numpy as np
+    from mathutils import Euler, Matrix, Vector
+except ImportError as e:  # no bpy here
+    bpy = None
+    SKIP = f"bpy is not importable ({e})"
+else:
+    SKIP = None
+
+
+def find_zip():
+    env = os.environ.get("BSARAP_BLENDER_ZIP")
+    if env:
+        return env if os.path.isfile(env) else None
+    found = sorted(glob.glob(os.path.join(ROOT, "target", "blender-extension", "bsarap_pose-*.zip")))
+    return found[-1] if found else None
+
+
+ZIP = find_zip() if SKIP is None else None
+if SKIP is None and ZIP is None:
+    SKIP = "no extension zip (run scripts/blender-extension.sh target/blender-extension or set BSARAP_BLENDER_ZIP)"
+
+MODULE = "bl_ext.user_default.bsarap_pose"
+ext = None  # the installed package (bl_ext.user_default.bsarap_pose)
+bsarap = None
+
+
+def setUpModule():
+    global ext, bsarap
+    if SKIP:
+        raise unittest.SkipTest(SKIP)
+    bpy.ops.wm.read_homefile(use_empty=True)
+    r = bpy.ops.extensions.package_install_files(filepath=ZIP, repo="user_default", enable_on_install=True)
+    assert r == {"FINISHED"}, r
+    import importlib
+
+    ext = importlib.import_module(MODULE)
+    import bsarap as b  # the wheel the extension installed
+
+    bsarap = b
+    assert hasattr(bpy.types.Object, "bsarap"), "the extension did not register"
+
+
+def tube(name="tube", rings=24, around=16, radius=0.5, height=4.0):
+    """An open tube along z (a manifold with boundary) with vertex groups bottom and top (the
+    two end rings of each side at weight 1) and one vertex of ring 2 in top at 0.3."""
+    verts, faces = [], []
+    for r in range(rings):
+        z = height * r / (rings - 1)
+        for a in range(around):
+            t = 2 * np.pi * a / around
+            verts.append((radius * np.cos(t), radius * np.sin(t), z))
+    for r in range(rings - 1):
+        for a in range(around):
+            i, j = r * around + a, r * around + (a + 1) % around
+            faces.append((i, j, j + around, i + around))
+    me = bpy.data.meshes.new(name)
+    me.from_pydata(verts, [], faces)
+    me.update()
+    obj = bpy.data.objects.new(name, me)
+    bpy.context.scene.collection.objects.link(obj)
+    bottom = obj.vertex_groups.new(name="bottom")
+    top = obj.vertex_groups.new(name="top")
+    bottom.add(list(range(2 * around)), 1.0, "REPLACE")
+    top.add(list(range((rings - 2) * around, rings * around)), 1.0, "REPLACE")
+    top.add([2 * around], 0.3, "REPLACE")  # below the threshold: stays free
+    activate(obj)
+    obj.location = (1.0, 2.0, 0.5)  # the object's own transform must not matter
+    bpy.context.view_layer.update()
+    return obj
+
+
+def activate(obj):
+    for o in bpy.context.view_layer.objects:
+        o.select_set(False)
+    obj.select_set(True)
+    bpy.context.view_layer.objects.active = obj
+
+
+def pose_of(obj):
+    kb = obj.data.shape_keys.key_blocks[ext.solve.POSE_KEY]
+    a = np.empty(len(kb.data) * 3, dtype=np.float32)
+    kb.data.foreach_get("co", a)
+    return a.reshape(-1, 3).astype(np.float64)
+
+
+def key_co(kb):
+    a = np.empty(len(kb.data) * 3, dtype=np.float32)
+    kb.data.foreach_get("co", a)
+    return a.reshape(-1, 3).astype(np.float64)
+
+
+def evaluated_positions(obj):
+    dg = bpy.context.evaluated_depsgraph_get()
+    me = obj.evaluated_get(dg).to_mesh()
+    a = np.empty(len(me.vertices) * 3, dtype=np.float32)
+    me.vertices.foreach_get("co", a)
+    obj.evaluated_get(dg).to_mesh_clear()
+    return a.reshape(-1, 3).astype(np.float64)
+
+
+def expected_handles(obj, st, group):
+    """Where the rest vertices of handle group ``group`` must be: moved by the control's motion
+    (mathutils, independent of the add-on's numpy code)."""
+    g = obj.bsarap.groups[group]
+    rest = Matrix([g.rest_matrix[4 * i : 4 * i + 4] for i in range(4)])
+    delta = obj.matrix_world.inverted() @ g.control.matrix_world @ rest.inverted()
+    idx = np.nonzero(st.labels == group)[0]
+    return idx, np.array([(delta @ Vector(st.rest[i]))[:] for i in idx])
+
+
+def make_controls(obj, groups):
+    activate(obj)
+    for g in groups:
+        assert bpy.ops.bsarap.add_group(group=g) == {"FINISHED"}
+    assert bpy.ops.bsarap.add_controls() == {"FINISHED"}
+
+
+class Tube(unittest.TestCase):
+    """One scene for the ordered steps: controls, live pose, topology change, bakes."""
+
+    @classmethod
+    def setUpClass(cls):
+        bpy.ops.wm.read_homefile(use_empty=True)
+        cls.obj = tube()
+        cls.ref = None
+
+    def test_1_add_controls(self):
+        obj = self.obj
+        make_controls(obj, ["bottom", "top"])
+        st = ext.solve.state(obj)
+        self.assertEqual(st.deformer.method, "bsarap-coarse")
+        # weight 0.3 is not in the group; 64 handle vertices
+        self.assertEqual(int((st.labels == 1).sum()), 32)
+        self.assertEqual(int((st.labels >= 0).sum()), 64)
+        for k, name in enumerate(["bottom", "top"]):
+            e = bpy.data.objects[name]
+            self.assertEqual(e.type, "EMPTY")
+            self.assertIsNone(e.parent)
+            self.assertIs(obj.bsarap.groups[k].control, e)
+            cent = obj.matrix_world @ Vector(st.rest[st.labels == k].mean(axis=0))
+            self.assertLess((e.matrix_world.translation - cent).length, 1e-6)
+        keys = obj.data.shape_keys.key_blocks
+        self.assertEqual([kb.name for kb in keys], ["Basis", "BS-ARAP pose"])
+        self.assertEqual(keys["BS-ARAP pose"].value, 1.0)
+        # at rest the pose is the rest mesh
+        np.testing.assert_allclose(pose_of(obj), st.rest, atol=1e-5)
+
+    def test_2_live_pose(self):
+        obj = self.obj
+        st = ext.solve.state(obj)
+        basis = key_co(obj.data.shape_keys.key_blocks["Basis"])
+        # The reference: a fresh Deformer solving the same targets in the same order.
+        ref = bsarap.Deformer(st.rest, ext.handles.triangles(obj.data), st.labels)
+        top = bpy.data.objects["top"]
+        ref.solve_targets(ext.solve.targets(st, ext.solve.control_deltas(obj)))
+        for loc, rot in (((0.6, 0.0, -0.2), (0.0, 0.0, 0.0)), ((0.8, -0.3, -0.4), (0.5, 0.2, -0.3))):
+            solves = st.solves
+            top.location = Vector(top.location) + Vector(loc)
+            top.rotation_euler = Euler(rot)
+            bpy.context.view_layer.update()  # fires depsgraph_update_post: the live handler
+            self.assertEqual(st.solves, solves + 1, "one solve per control move")
+            U = pose_of(obj)
+            for k in (0, 1):
+                idx, want = expected_handles(obj, st, k)
+                np.testing.assert_allclose(U[idx], want, atol=1e-5)
+            want = ref.solve_targets(ext.solve.targets(st, ext.solve.control_deltas(obj)))
+            np.testing.assert_allclose(U, want, atol=1e-5)
+            self.assertGreater(np.abs(U - st.rest).max(), 0.1)
+            # writing the shape key updated the depsgraph again: no second solve
+            bpy.context.view_layer.update()
+            self.assertEqual(st.solves, solves + 1)
+        np.testing.assert_array_equal(key_co(obj.data.shape_keys.key_blocks["Basis"]), basis)
+        # the evaluated mesh is the pose (shape key at value 1)
+        np.testing.assert_allclose(evaluated_positions(obj), pose_of(obj), atol=1e-5)
+
+    def test_3_settings_and_topology_change(self):
+        obj = self.obj
+        obj.bsarap.method = "arap"
+        ext.solve.messages.pop(obj.name, None)
+        bpy.data.objects["top"].location.z += 0.1
+        bpy.context.view_layer.update()
+        st = ext.solve.state(obj)
+        self.assertEqual(st.deformer.method, "arap")
+        self.assertIn("settings or groups changed", ext.solve.messages[obj.name])
+        obj.bsarap.method = "bsarap-coarse"
+        # a topology edit: subdivide one face ring with bmesh
+        import bmesh
+
+        n0 = len(obj.data.vertices)
+        bm = bmesh.new()
+        bm.from_mesh(obj.data)
+        bm.edges.ensure_lookup_table()
+        ring = [e for e in bm.edges if all(abs(v.co.z - 2.0) < 0.2 for v in e.verts)]
+        bmesh.ops.subdivide_edges(bm, edges=ring, cuts=1, use_grid_fill=True)
+        bm.to_mesh(obj.data)
+        bm.free()
+        obj.data.update()
+        bpy.data.objects["top"].location.z += 0.1
+        bpy.context.view_layer.update()  # must not raise
+        st = ext.solve.state(obj)
+        self.assertGreater(len(obj.data.vertices), n0)
+        self.assertEqual(len(st.rest), len(obj.data.vertices))
+        self.assertIn("topology changed", ext.solve.messages[obj.name])
+        idx, want = expected_handles(obj, st, 1)
+        np.testing.assert_allclose(pose_of(obj)[idx], want, atol=1e-5)
+
+    def test_4_bake_shape_keys(self):
+        obj, scene = self.obj, bpy.context.scene
+        top = bpy.data.objects["top"]
+        scene.frame_start, scene.frame_end = 1, 12
+        top.keyframe_insert("location", frame=1)
+        top.keyframe_insert("rotation_euler", frame=1)
+        top.location = Vector(top.location) + Vector((-1.0, 0.5, -0.5))
+        top.rotation_euler = Euler((-0.4, 0.3, 0.6))
+        top.keyframe_insert("location", frame=12)
+        top.keyframe_insert("rotation_euler", frame=12)
+        scene.frame_set(1)
+        activate(obj)
+        self.assertEqual(bpy.ops.bsarap.bake_shape_keys(), {"FINISHED"})
+        keys = obj.data.shape_keys.key_blocks
+        names = [f"BS-ARAP frame {f:04d}" for f in range(1, 13)]
+        self.assertEqual([kb.name for kb in keys if kb.name.startswith("BS-ARAP frame")], names)
+        self.assertTrue(keys["BS-ARAP pose"].mute)
+        self.assertFalse(obj.bsarap.live)
+        st = ext.solve.state(obj)
+        baked = {}
+        for f in (1, 5, 12):
+            scene.frame_set(f)
+            kb = keys[f"BS-ARAP frame {f:04d}"]
+            self.assertEqual(kb.value, 1.0)
+            self.assertEqual(sum(k.value for k in keys if k.name.startswith("BS-ARAP frame")), 1.0)
+            U = key_co(kb)
+            baked[f] = U
+            for k in (0, 1):
+                idx, want = expected_handles(obj, st, k)
+                np.testing.assert_allclose(U[idx], want, atol=1e-5)
+            np.testing.assert_allclose(evaluated_positions(obj), U, atol=1e-5)
+        self.assertGreater(np.abs(baked[12] - baked[1]).max(), 0.5)
+        type(self).baked = baked
+        # baking again replaces the keys (no duplicates)
+        self.assertEqual(bpy.ops.bsarap.bake_shape_keys(), {"FINISHED"})
+        self.assertEqual(sum(kb.name.startswith("BS-ARAP frame") for kb in keys), 12)
+
+    def test_5_bake_point_cache(self):
+        obj, scene = self.obj, bpy.context.scene
+        path = os.path.join(tempfile.mkdtemp(), "tube.pc2")
+        obj.bsarap.pc2_path = path
+        activate(obj)
+        self.assertEqual(bpy.ops.bsarap.bake_point_cache(), {"FINISHED"})
+        start, rate, frames = ext.bake.read_pc2(path)
+        self.assertEqual((start, rate, frames.shape), (1.0, 1.0, (12, len(obj.data.vertices), 3)))
+        self.assertEqual(os.path.getsize(path), 32 + 12 * len(obj.data.vertices) * 12)
+        mod = obj.modifiers[0]
+        self.assertEqual((mod.name, mod.type, mod.filepath), ("BS-ARAP cache", "MESH_CACHE", path))
+        st = ext.solve.state(obj)
+        for f in (1, 7, 12):
+            scene.frame_set(f)
+            idx, want = expected_handles(obj, st, 1)
+            np.testing.assert_allclose(frames[f - 1][idx], want, atol=1e-5)
+            # the same frames as the shape-key bake, up to the solver's tolerance
+            if f in self.baked:
+                diag = np.linalg.norm(np.ptp(st.rest, axis=0))
+                self.assertLess(np.abs(frames[f - 1] - self.baked[f]).max(), 1e-2 * diag)
+            np.testing.assert_allclose(evaluated_positions(obj), frames[f - 1], atol=1e-5)
+
+
+class BadInput(unittest.TestCase):
+    """Each bad input ends in an operator error report (a RuntimeError for scripts) with a
+    message, not a Python traceback."""
+
+    def setUp(self):
+        bpy.ops.wm.read_homefile(use_empty=True)
+
+    def assertReports(self, op, pattern):
+        with self.assertRaises(RuntimeError) as cm:
+            op()
+        msg = str(cm.exception)
+        self.assertRegex(msg, pattern)
+        self.assertNotIn("Traceback", msg)
+
+    def test_no_vertex_groups(self):
+        obj = tube()
+        for vg in list(obj.vertex_groups):
+            obj.vertex_groups.remove(vg)
+        self.assertReports(bpy.ops.bsarap.add_group, "no vertex groups")
+        self.assertReports(bpy.ops.bsarap.add_controls, "no vertex groups")
+
+    def test_empty_group(self):
+        obj = tube()
+        obj.vertex_groups.new(name="nothing")
+        bpy.ops.bsarap.add_group(group="top")
+        bpy.ops.bsarap.add_group(group="nothing")
+        self.assertReports(bpy.ops.bsarap.add_controls, "'nothing' has no vertex with weight above 0.5")
+
+    def test_no_handle_groups(self):
+        tube()
+        self.assertReports(bpy.ops.bsarap.add_controls, "no handle groups")
+
+    def test_non_manifold(self):
+        me = bpy.data.meshes.new("fan")
+        # three triangles on one edge
+        me.from_pydata([(0, 0, 0), (1, 0, 0), (0.5, 1, 0), (0.5, -1, 0), (0.5, 0, 1)], [], [(0, 1, 2), (1, 0, 3), (0, 1, 4)])
+        obj = bpy.data.objects.new("fan", me)
+        bpy.context.scene.collection.objects.link(obj)
+        obj.vertex_groups.new(name="a").add([2], 1.0, "REPLACE")
+        activate(obj)
+        bpy.ops.bsarap.add_group(group="a")
+        self.assertReports(bpy.ops.bsarap.add_controls, "not manifold")
+
+    def test_modifier_before(self):
+        obj = tube()
+        obj.modifiers.new("Subdivision", "SUBSURF")
+        bpy.ops.bsarap.add_group(group="top")
+        self.assertReports(bpy.ops.bsarap.add_controls, r"modifiers before BS-ARAP \(Subdivision\)")
+
+    def test_bake_without_controls(self):
+        tube()
+        bpy.ops.bsarap.add_group(group="top")
+        self.assertReports(bpy.ops.bsarap.bake_shape_keys, "has no control")
+
+    def test_live_error_is_a_message(self):
+        obj = tube()
+        make_controls(obj, ["bottom", "top"])
+        obj.vertex_groups.remove(obj.vertex_groups["top"])
+        bpy.data.objects["bottom"].location.x += 0.2
+        bpy.context.view_layer.update()  # the handler must not raise
+        self.assertIn("'top' does not exist", ext.solve.messages[obj.name])
+
+
+class Creature(unittest.TestCase):
+    """assets/creature.obj (30k vertices) with its handle spheres as vertex groups."""
+
+    @classmethod
+    def setUpClass(cls):
+        bpy.ops.wm.read_homefile(use_empty=True)
+        path = os.path.join(ROOT, "assets", "creature.obj")
+        bpy.ops.wm.obj_import(filepath=path, forward_axis="NEGATIVE_Z", up_axis="Y")
+        obj = bpy.context.selected_objects[0]
+        V = ext.handles.rest_positions(obj.data)
+        labels = bsarap.load_selection(os.path.join(ROOT, "assets", "creature.handles.json"), V)
+        cls.groups = []
+        for k in range(int(labels.max()) + 1):
+            vg = obj.vertex_groups.new(name=f"handle{k}")
+            vg.add([int(i) for i in np.nonzero(labels == k)[0]], 1.0, "REPLACE")
+            cls.groups.append(vg.name)
+        cls.obj = obj
+        make_controls(obj, cls.groups)
+
+    def test_handler_time(self):
+        obj = self.obj
+        st = ext.solve.state(obj)
+        e = obj.bsarap.groups[len(self.groups) - 1].control
+        scene = bpy.context.scene
+        times = []
+        # a drag: 40 small steps, each a depsgraph update that runs the live handler
+        for i in range(40):
+            e.location.x += 0.01
+            e.rotation_euler.z += 0.01
+            bpy.context.view_layer.update()
+            t0 = time.perf_counter()
+            ext.handlers.update_scene(scene)  # already solved by the update: must skip
+            skip_ms = (time.perf_counter() - t0) * 1e3
+            times.append(st.last_ms)
+        med = statistics.median(times)
+        print(
+            f"\ncreature: {len(st.rest)} vertices, {len(self.groups)} groups, {st.deformer.method}: "
+            f"live handler {med:.1f} ms per update median ({min(times):.1f} min, {max(times):.1f} max) "
+            f"= {1e3 / med:.0f} updates/s; an update with nothing moved {skip_ms:.2f} ms",
+            file=sys.stderr,
+        )
+        self.assertEqual(st.solves, 41)  # add_controls' solve + one per step
+        idx, want = expected_handles(obj, st, len(self.groups) - 1)
+        np.testing.assert_allclose(pose_of(obj)[idx], want, atol=1e-5)
+
+
+class Unregister(unittest.TestCase):
+    def test_zz_unregister(self):
+        bpy.ops.wm.read_homefile(use_empty=True)
+        handlers = ext.handlers
+        bpy.ops.preferences.addon_disable(module=MODULE)
+        self.assertFalse(hasattr(bpy.types.Object, "bsarap"))
+        self.assertNotIn(handlers.on_depsgraph_update, bpy.app.handlers.depsgraph_update_post)
+        self.assertNotIn(handlers.on_frame_change, bpy.app.handlers.frame_change_post)
+        self.assertFalse(hasattr(bpy.types, "BSARAP_PT_pose"))
+        with self.assertRaises((AttributeError, RuntimeError)):
+            bpy.ops.bsarap.add_controls()
+
+
+def load_tests(loader, standard, _pattern):
+    # Unregister last, whatever the order of the classes' names.
+    suite = unittest.TestSuite()
+    for cls in (Tube, BadInput, Creature, Unregister):
+        suite.addTests(loader.loadTestsFromTestCase(cls))
+    return suite
+
+
+if __name__ == "__main__":
+    if SKIP:
+        print(f"skipped: {SKIP}")
+        sys.exit(0)
+    unittest.main()
