@@ -37,6 +37,7 @@ class SolverState:
         self.last_deltas = None  # the control motions of the last solve (re-entrancy guard)
         self.last_ms = None  # the last update's time in the handler: solve + shape key write
         self.solves = 0
+        self.last_solve_ms = None  # of which in Deformer.solve_targets
 
 
 #: object name -> SolverState
@@ -171,10 +172,13 @@ def targets(st: SolverState, deltas: np.ndarray) -> np.ndarray:
 
 def solve(obj, st: SolverState, deltas: np.ndarray) -> np.ndarray:
     bsarap = import_bsarap()
+    tg = targets(st, deltas)
+    t0 = time.perf_counter()
     try:
-        U = st.deformer.solve_targets(targets(st, deltas))
+        U = st.deformer.solve_targets(tg)
     except bsarap.BsarapError as e:
         raise HandleError(f"{obj.name}: {e}") from None
+    st.last_solve_ms = (time.perf_counter() - t0) * 1e3
     st.last_deltas = deltas
     st.solves += 1
     return U
