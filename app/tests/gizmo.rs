@@ -11,10 +11,11 @@ use eframe::egui::{Event, Key, Modifiers, Pos2, Vec2};
 use egui_kittest::{Harness, kittest::Queryable};
 use support::{SIZE, drag, harness, has_current_frame, press, settled, step_until, test_mesh};
 
-/// The default asset with group 0 active.
+/// The default asset with group 0 active, in the pose tool.
 fn start() -> Harness<'static, EditorApp> {
     let mut h = harness(test_mesh(), None);
     step_until(&mut h, "the default asset", settled);
+    h.state_mut().set_tool(Tool::Pose);
     h.state_mut().set_active_group(Some(0));
     h.step();
     let (c, _) = h.state().gizmo_screen().expect("the gizmo of group 0");
@@ -327,4 +328,61 @@ fn numbers_typed_during_g_or_r_set_the_distance_or_angle() {
     assert!((angle_degrees(pose.rotation) - 30.0).abs() < 1e-9, "{:?}", pose.rotation);
     assert!(pose.rotation[2] < 0.0 && pose.rotation[0] == 0.0 && pose.rotation[1] == 0.0);
     assert_eq!(pose.translation, [0.7, 0.0, 0.0]);
+}
+
+/// Distance from `p` to the closed polyline `ring`.
+fn distance_to_ring(p: Pos2, ring: &[Pos2]) -> f32 {
+    (0..ring.len())
+        .map(|i| {
+            let (a, b) = (ring[i], ring[(i + 1) % ring.len()]);
+            let ab = b - a;
+            let s = ((p - a).dot(ab) / ab.length_sq().max(1e-12)).clamp(0.0, 1.0);
+            p.distance(a + ab * s)
+        })
+        .fold(f32::INFINITY, f32::min)
+}
+
+/// One meaning per key and per drag: G in the paint tool only switches to posing, and a plain
+/// drag on the mesh a few points beside a ring moves the group instead of catching the ring.
+#[test]
+fn g_in_paint_only_switches_and_a_drag_beside_a_ring_moves_the_group() {
+    let mut h = harness(test_mesh(), None);
+    step_until(&mut h, "the default asset", settled);
+    h.state_mut().set_active_group(Some(0));
+    h.step();
+    assert_eq!(h.state().tool(), Tool::Paint);
+    h.key_press(Key::G);
+    h.step();
+    assert_eq!(h.state().tool(), Tool::Pose);
+    assert_eq!(h.state().running_transform(), None, "G in paint started a move");
+
+    // A point over the mesh 4 to 6.5 points from a ring, clear of the arrows and the centre.
+    let (c, tips) = h.state().gizmo_screen().unwrap();
+    let rings: Vec<Vec<Pos2>> = (0..3).map(|a| h.state().gizmo_ring(a)).collect();
+    let arrows = |p: Pos2| {
+        tips.iter()
+            .flatten()
+            .map(|&t| distance_to_ring(p, &[c + (t - c) * 0.25, t]))
+            .fold(f32::INFINITY, f32::min)
+    };
+    let near_ring =
+        |p: Pos2| rings.iter().map(|r| distance_to_ring(p, r)).fold(f32::INFINITY, f32::min);
+    let p = (0..h.state().n_vertices())
+        .filter_map(|v| h.state().vertex_screen_pos(v))
+        .find(|&p| {
+            let d = near_ring(p);
+            (4.0..6.5).contains(&d) && arrows(p) > 10.0 && (p - c).abs().max_elem() > 12.0
+        })
+        .expect("a mesh point beside a ring");
+    let points: Vec<Pos2> = (0..=6).map(|i| p + Vec2::new(6.0 * i as f32, 0.0)).collect();
+    drag(&mut h, &points, Modifiers::NONE);
+    assert_eq!(h.state().running_transform(), None);
+    let poses: Vec<_> = (0..h.state().edit_state().groups.len())
+        .map(|g| h.state().group_pose(g).unwrap())
+        .collect();
+    assert!(
+        poses.iter().all(|q| q.rotation == [0.0, 0.0, 0.0, 1.0]),
+        "the drag turned a group: it caught a ring"
+    );
+    assert!(poses.iter().any(|q| q.translation != [0.0; 3]), "the drag moved no group");
 }

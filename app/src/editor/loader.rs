@@ -124,6 +124,18 @@ pub fn spawn_loaded(
     spawn_loader(path, repaint, move |p| prepare(p, loaded, version, None))
 }
 
+/// "Could not open PATH: why", naming the path once: the mesh readers' errors start with it
+/// already (with a line number: `PATH:12: …`).
+fn open_error(path: &Path, e: &anyhow::Error) -> String {
+    let shown = path.display().to_string();
+    let text = format!("{e:#}");
+    if text.starts_with(&format!("{shown}:")) {
+        format!("Could not open {text}")
+    } else {
+        format!("Could not open {shown}: {text}")
+    }
+}
+
 /// Runs `load` on the loader thread, its panics caught.
 fn spawn_loader(
     path: PathBuf,
@@ -136,7 +148,7 @@ fn spawn_loader(
         // Nothing the load touches outlives a panic: it is all dropped with the thread.
         let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| load(&p)))
             .unwrap_or_else(|_| Err(anyhow!("the loader crashed while reading the file")))
-            .map_err(|e| format!("Could not open {}: {e:#}", p.display()));
+            .map_err(|e| open_error(&p, &e));
         let _ = tx.send(result);
         repaint();
     });

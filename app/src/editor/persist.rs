@@ -5,7 +5,10 @@
 //! `$HOME/.config/bsarap`. Every write is atomic (`solver::io::write_atomic`). The autosave is
 //! a scene file (absolute mesh path) written every [`AUTOSAVE_INTERVAL`] while it changes, and
 //! by the panic hook when the editor crashes; it is removed on a clean exit, so one found at
-//! start means the last session did not end cleanly, and the editor offers it back.
+//! start means the last session did not end cleanly, and the editor offers it back. A clean
+//! exit that keeps unsaved changes on purpose writes it with a marker beside it
+//! (`autosave.kept`), so that the offer does not call that a crash; any other write of the
+//! autosave (the timer, the panic hook) removes the marker.
 
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
@@ -73,11 +76,28 @@ impl Persist {
         Ok(list)
     }
 
-    /// Writes `scene` as the autosave.
+    fn kept_path(&self) -> PathBuf {
+        self.dir.join("autosave.kept")
+    }
+
+    /// Writes `scene` as the autosave (of a running session: not kept on purpose).
     pub fn write_autosave(&self, scene: &Scene) -> Result<PathBuf, String> {
         let path = self.autosave_path();
         self.write(&path, scene.to_json().as_bytes())?;
+        let _ = std::fs::remove_file(self.kept_path());
         Ok(path)
+    }
+
+    /// Writes `scene` as the autosave kept on purpose by a clean exit.
+    pub fn keep_autosave(&self, scene: &Scene) -> Result<PathBuf, String> {
+        let path = self.write_autosave(scene)?;
+        self.write(&self.kept_path(), b"unsaved changes kept at a clean exit\n")?;
+        Ok(path)
+    }
+
+    /// Whether the autosave was kept on purpose by a clean exit (else the session crashed).
+    pub fn autosave_kept(&self) -> bool {
+        self.kept_path().is_file() && self.autosave_path().is_file()
     }
 
     /// The autosave left by a session that did not end cleanly, with when it was written.
@@ -90,6 +110,7 @@ impl Persist {
     /// Removes the autosave (clean exit, or the user declined it).
     pub fn discard_autosave(&self) {
         let _ = std::fs::remove_file(self.autosave_path());
+        let _ = std::fs::remove_file(self.kept_path());
     }
 }
 
@@ -170,7 +191,16 @@ mod tests {
         p.write_autosave(&scene).unwrap();
         let (path, _) = p.pending_autosave().unwrap();
         assert_eq!(Scene::read(&path).unwrap(), scene);
+        assert!(!p.autosave_kept(), "the timer's autosave marks a crash");
         p.discard_autosave();
         assert!(p.pending_autosave().is_none());
+        // Kept at a clean exit: marked; a later write by a running session (or a crash) is not.
+        p.keep_autosave(&scene).unwrap();
+        assert!(p.pending_autosave().is_some() && p.autosave_kept());
+        p.write_autosave(&scene).unwrap();
+        assert!(!p.autosave_kept());
+        p.keep_autosave(&scene).unwrap();
+        p.discard_autosave();
+        assert!(p.pending_autosave().is_none() && !p.autosave_kept());
     }
 }

@@ -1,6 +1,7 @@
 //! User preferences kept between sessions: UI scale, theme, the method new documents start
-//! with, and the brush radius. Stored as `prefs.json` in the editor's configuration folder
-//! ([`super::persist`]), written atomically whenever a preference changes, read at start.
+//! with, the brush radius, and whether file dialogs are always the editor's own. Stored as
+//! `prefs.json` in the editor's configuration folder ([`super::persist`]), written atomically
+//! whenever a preference changes, read at start.
 //!
 //! A missing file means the defaults. A file that cannot be read or parsed, or that holds an
 //! out-of-range value, also gives the defaults (for that value) and a one-line message that
@@ -38,6 +39,9 @@ pub struct Preferences {
     pub default_method: solver::Method,
     /// Handle brush radius, fraction of the bounding-box diagonal ([`BRUSH_RADIUS_RANGE`]).
     pub brush_radius: f32,
+    /// Always use the editor's own file browser, never the system's file dialog (which needs
+    /// a desktop portal or zenity on Linux).
+    pub in_app_file_dialog: bool,
 }
 
 impl Default for Preferences {
@@ -47,6 +51,7 @@ impl Default for Preferences {
             theme: Theme::Dark,
             default_method: solver::Method::BsArapCoarse,
             brush_radius: 0.05,
+            in_app_file_dialog: false,
         }
     }
 }
@@ -127,10 +132,12 @@ mod tests {
             theme: Theme::Light,
             default_method: solver::Method::Arap,
             brush_radius: 0.1,
+            in_app_file_dialog: true,
         };
         p.save(&dir.join("sub")).unwrap();
         assert_eq!(Preferences::load(&dir.join("sub")), (p, None));
         assert!(p.to_json().contains("\"light\"") && p.to_json().contains("\"arap\""));
+        assert!(p.to_json().contains("\"in_app_file_dialog\": true"));
     }
 
     #[test]

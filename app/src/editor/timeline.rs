@@ -294,11 +294,12 @@ fn path_editor(ui: &mut egui::Ui, edit: &mut EditState, k: usize, time: f64, sca
     if new_kind != kind {
         path = match new_kind {
             Kind::Static => Path::Static,
-            Kind::Circular => Path::Circular(CircularPath::new(
-                [0.0, 0.0, 1.0],
-                0.1 * scale,
-                edit.timeline.duration,
-            )),
+            // From the circle's lowest point, forward then up: a foot standing on the ground
+            // stays above it.
+            Kind::Circular => Path::Circular(CircularPath {
+                phase: 1.5 * std::f64::consts::PI,
+                ..CircularPath::new([0.0, 0.0, 1.0], 0.1 * scale, edit.timeline.duration)
+            }),
             Kind::Keyframed => Path::Keyframed(KeyframedPath {
                 keys: vec![edit.groups[k].pose.to_key(time)],
                 interpolation: Interpolation::Smooth,

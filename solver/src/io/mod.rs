@@ -46,7 +46,7 @@ pub use image_check::{MAX_IMAGE_ALLOC, MAX_IMAGE_SIDE};
 pub use obj_write::{write_mtl_asset, write_obj_asset, write_obj_asset_with};
 pub use reference::ReferencePolicy;
 pub use write::{SaveError, write_atomic, write_obj};
-pub use write_plain::{write_off, write_ply};
+pub use write_plain::{write_off, write_off_asset, write_ply, write_ply_asset};
 
 use crate::geometry::cleanup::{CleanError, CleanReport, clean};
 use crate::geometry::mesh::Mesh;
@@ -171,6 +171,12 @@ fn parse_and_clean(
         Format::Stl => stl::parse(bytes, ctx)?,
         Format::Gltf => gltf::parse(bytes, ctx, folder)?,
     };
+    if raw.triangles.is_empty() && raw.positions.is_empty() {
+        return Err(ctx.no_triangles(match format {
+            Format::Obj => "no vertex (v) or face (f) lines: this is not an OBJ mesh",
+            _ => "no vertices and no faces: this is not a mesh in this format",
+        }));
+    }
     if raw.triangles.is_empty() {
         return Err(ctx.no_triangles(format!(
             "the file has {} vertices but no faces (a point cloud cannot be deformed)",

@@ -16,7 +16,15 @@ use crate::editor::undo::EditState;
 impl EditorApp {
     /// The file waiting for the user to save or discard their changes.
     pub fn pending_open(&self) -> Option<&Path> {
-        self.session.pending_open.as_deref()
+        match &self.session.pending {
+            Some(super::session::Pending::Open(p)) => Some(p),
+            _ => None,
+        }
+    }
+
+    /// Whether the unsaved-changes question before quitting is open.
+    pub fn quit_question_open(&self) -> bool {
+        self.session.pending == Some(super::session::Pending::Quit)
     }
 
     pub fn is_loading(&self) -> bool {

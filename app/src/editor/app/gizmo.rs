@@ -27,6 +27,9 @@ const ARROW_POINTS: f32 = 90.0;
 const RING_POINTS: f32 = 60.0;
 /// How close (points) the pointer must be to a handle to grab it.
 const GRAB_POINTS: f32 = 7.0;
+/// The same over the mesh, where a drag otherwise moves the group: on the drawn line only
+/// (rings are 1.5 points wide, arrow shafts 2.5 and their tips 4.5 in radius).
+const GRAB_ON_SURFACE_POINTS: [f32; 2] = [4.5, 2.5];
 const AXES: [Vec3; 3] = [Vec3::X, Vec3::Y, Vec3::Z];
 const AXIS_COLORS: [Color32; 3] = [
     Color32::from_rgb(235, 70, 70),
@@ -140,6 +143,9 @@ impl EditorApp {
         pointer: Pos2,
     ) -> bool {
         let Some(g) = self.active_gizmo_group() else { return false };
+        if !self.posable(g) {
+            return false;
+        }
         let Some((center, pose)) = self.group_center(g) else { return false };
         self.gizmo.transform = Some(Transform {
             kind,
@@ -231,6 +237,10 @@ impl EditorApp {
             return;
         }
         for (k, kind) in [(Key::G, TransformKind::Translate), (Key::R, TransformKind::Rotate)] {
+            // One meaning per key: outside the pose tool G only switches to it (`input.rs`).
+            if k == Key::G && self.interaction.tool != Tool::Pose {
+                continue;
+            }
             if ctx.input(|i| i.key_pressed(k) && i.modifiers.is_none()) {
                 let slot_rects = self.display.viewport_rects.clone();
                 let pointer = ctx.input(|i| i.pointer.latest_pos());
@@ -348,7 +358,11 @@ impl EditorApp {
             && !ctrl
             && response.hovered()
             && let Some(p) = pos
-            && let Some(part) = self.gizmo_part_at(rect, p)
+            && let Some(part) = {
+                // Over the mesh the handles win only where the pointer is on them.
+                let on_surface = self.pick(slot, rect, p).is_some();
+                self.gizmo_part_at(rect, p, on_surface)
+            }
         {
             let (kind, axis) = match part {
                 Part::Arrow(a) => (TransformKind::Translate, Some(a)),
@@ -455,8 +469,11 @@ impl EditorApp {
         Some((c, tips, rings))
     }
 
-    fn gizmo_part_at(&self, rect: Rect, p: Pos2) -> Option<Part> {
+    /// The handle under `p`; `on_surface`: the pointer is over the mesh (tighter reach).
+    fn gizmo_part_at(&self, rect: Rect, p: Pos2, on_surface: bool) -> Option<Part> {
         let (c, tips, rings) = self.gizmo_geometry(rect)?;
+        let [arrow_reach, ring_reach] =
+            if on_surface { GRAB_ON_SURFACE_POINTS } else { [GRAB_POINTS; 2] };
         if (p - c).abs().max_elem() <= 7.0 {
             return Some(Part::Plane);
         }
@@ -465,7 +482,7 @@ impl EditorApp {
             if let Some(tip) = *tip {
                 // The outer part of the arrow, so the centre stays the plane handle.
                 let d = distance_to_segment(p, c + (tip - c) * 0.25, tip);
-                if d <= GRAB_POINTS && best.is_none_or(|(b, _)| d < b) {
+                if d <= arrow_reach && best.is_none_or(|(b, _)| d < b) {
                     best = Some((d, Part::Arrow(a)));
                 }
             }
@@ -475,7 +492,7 @@ impl EditorApp {
         }
         for (a, ring) in rings.iter().enumerate() {
             let d = distance_to_loop(p, ring);
-            if d <= GRAB_POINTS && best.is_none_or(|(b, _)| d < b) {
+            if d <= ring_reach && best.is_none_or(|(b, _)| d < b) {
                 best = Some((d, Part::Ring(a)));
             }
         }

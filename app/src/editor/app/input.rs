@@ -118,7 +118,7 @@ impl EditorApp {
             self.apply_history(state);
         }
         if consume(Modifiers::COMMAND, Key::Q) {
-            ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+            self.request_quit(ctx);
         }
         if consume(Modifiers::COMMAND, Key::O) {
             self.start_dialog(ctx, DialogKind::OpenMesh);
@@ -185,6 +185,17 @@ impl EditorApp {
         if pressed(Key::Escape) {
             self.display.show_shortcuts = false;
         }
+    }
+
+    /// Whether handle group `g` has vertices to pose; when it has none, the status says so.
+    pub(super) fn posable(&mut self, g: usize) -> bool {
+        let k = g as u32;
+        if self.session.edit.labels.contains(&Some(k)) {
+            return true;
+        }
+        let name = self.session.edit.groups.get(g).map_or("the group", |gr| gr.name.as_str());
+        self.info = Some(format!("{name} has no vertices to pose: paint some first (B)"));
+        false
     }
 
     /// Picks the surface under `pos` in viewport `slot`.
@@ -354,6 +365,7 @@ impl EditorApp {
             });
             if let Some(g) = picked_group.or(self.interaction.active_group)
                 && g < self.session.edit.groups.len()
+                && self.posable(g)
             {
                 self.interaction.active_group = Some(g);
                 let eye = self.display.camera.eye();

@@ -11,7 +11,8 @@
 //! state ([`input::Interaction`]), what and how the viewports draw ([`viewport::Display`]) and
 //! the background work ([`Jobs`]).
 //!
-//! Files: `session` (scenes, autosave, open and save, dialogs, undo), `playback` (timeline,
+//! Files: `session` (scenes, autosave, open, save and quit, undo), `file_dialog` (the system's
+//! file dialog or the in-app browser), `playback` (timeline,
 //! recording, export), `solvers` (solver commands and polling), `input` (keys, picking,
 //! painting, posing), `viewport` (vertex colors, the paint callback, overlays), `panels` (menu,
 //! side panels, status bar and the frame loop `ui()`), `parts` (the loose parts' Follow / Pin
@@ -20,6 +21,7 @@
 
 mod accessors;
 mod capture;
+mod file_dialog;
 mod gizmo;
 mod input;
 mod panels;
@@ -34,7 +36,6 @@ mod solvers;
 mod viewport;
 
 use std::path::{Path, PathBuf};
-use std::sync::mpsc::Receiver;
 
 use super::jobs::{Job, Preparing, Recorded};
 use super::loader::LoadJob;
@@ -143,7 +144,8 @@ struct Jobs {
     /// The precomputation a loader started on the mesh it read (`loader::StartPrepare`),
     /// until the loaded scene takes it over.
     early_prepare: std::sync::Arc<std::sync::Mutex<Option<Preparing>>>,
-    dialog: Option<(DialogKind, Receiver<Option<PathBuf>>)>,
+    /// The file dialog in progress (`file_dialog`).
+    dialogs: file_dialog::Dialogs,
     record: Option<Job<Recorded>>,
     /// The kept recording.
     recorded: Option<Recorded>,

@@ -485,10 +485,14 @@ impl EditorApp {
 
     pub(super) fn shortcuts_window(&mut self, ctx: &egui::Context) {
         let mut open = self.display.show_shortcuts;
+        // Scrolls when the list is taller than the window (1280×800 at UI scale 2).
+        let max_height = (ctx.content_rect().height() - 120.0).max(120.0);
         egui::Window::new("Shortcuts").open(&mut open).collapsible(false).resizable(false).show(
             ctx,
             |ui| {
-                super::shortcuts::grid(ui, "shortcuts");
+                egui::ScrollArea::vertical().max_height(max_height).show(ui, |ui| {
+                    super::shortcuts::grid(ui, "shortcuts");
+                });
             },
         );
         self.display.show_shortcuts = open;
@@ -519,7 +523,7 @@ impl eframe::App for EditorApp {
         self.ensure_compare_solver(&ctx);
         self.poll_prepare(&ctx);
         self.poll_solvers();
-        self.poll_dialog(&ctx);
+        self.close_requested(&ctx);
         self.poll_jobs();
         self.poll_compare(&ctx);
         if self.session.playback.tick(now, &self.session.edit.timeline) {
@@ -642,11 +646,14 @@ impl eframe::App for EditorApp {
         });
         if let Some(err) = self.error.clone() {
             egui::Panel::top("error").show(ui, |ui| {
-                ui.horizontal(|ui| {
-                    ui.colored_label(Color32::from_rgb(255, 110, 110), format!("Error: {err}"));
+                // A long message wraps; the whole text is also its tooltip.
+                ui.horizontal_top(|ui| {
                     if ui.small_button("x").clicked() {
                         self.error = None;
                     }
+                    let text = egui::RichText::new(format!("Error: {err}"))
+                        .color(Color32::from_rgb(255, 110, 110));
+                    ui.add(egui::Label::new(text).wrap()).on_hover_text(&err);
                 });
             });
         }
@@ -679,6 +686,7 @@ impl eframe::App for EditorApp {
         self.prefs_frame(&ctx);
         self.restore_window(&ctx);
         self.unsaved_window(&ctx);
+        self.poll_dialog(&ctx);
         let spent = now.elapsed().as_secs_f32() * 1e3;
         self.display.ui_ms =
             if self.display.ui_ms == 0.0 { spent } else { 0.9 * self.display.ui_ms + 0.1 * spent };

@@ -106,6 +106,10 @@ impl EditorApp {
             let (lo, hi) = BRUSH_RADIUS_RANGE;
             ui.add(egui::Slider::new(&mut p.brush_radius, lo..=hi).logarithmic(true));
             ui.end_row();
+            ui.label("file dialogs");
+            ui.checkbox(&mut p.in_app_file_dialog, "always use the in-app file dialog")
+                .on_hover_text("never the system's (which needs a desktop portal or zenity)");
+            ui.end_row();
         });
         ui.weak("The default method applies to new sessions.");
         match &self.options.config_dir {

@@ -390,6 +390,9 @@ impl EditorApp {
                     let err = self.rigging.mirror.as_ref().map_or(0.0, |m| m.error);
                     ui.weak(format!("{} = {:.3}, error {:.1e}", p.axis.name(), p.offset, err))
                 }
+                None if self.mirror_wanted() && self.session.scene.is_none() => {
+                    ui.weak("no mesh to mirror")
+                }
                 None if self.mirror_wanted() => ui.weak("fitting the plane…"),
                 None => ui.weak(""),
             };

@@ -31,8 +31,23 @@ pub(super) struct Session {
     pub(super) document_path: Option<PathBuf>,
     /// The edit state as last opened or saved (to know whether there are unsaved changes).
     pub(super) saved_edit: Option<EditState>,
-    /// A file to open once the user has answered the unsaved-changes question.
-    pub(super) pending_open: Option<PathBuf>,
+    /// What waits for the user's answer to the unsaved-changes question.
+    pub(super) pending: Option<Pending>,
+    /// What to do once the scene is saved ("Save first" with no scene file yet: Save as).
+    pub(super) after_save: Option<Pending>,
+    /// The user chose to quit without saving: the exit discards the autosave.
+    pub(super) discard_on_exit: bool,
+    /// The user chose to quit and keep the changes for the next start.
+    pub(super) keep_on_exit: bool,
+}
+
+/// An action that would drop unsaved changes.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub(super) enum Pending {
+    /// Open another file.
+    Open(PathBuf),
+    /// Quit the editor.
+    Quit,
 }
 
 /// What is kept between sessions: recent files and the autosave, and the crash snapshot.
@@ -64,7 +79,9 @@ impl Store {
         };
         if let Some(p) = &store.persist {
             store.recent = p.recent();
+            let kept = p.autosave_kept();
             store.restore_offer = p.pending_autosave().map(|(path, when)| RestoreOffer {
+                kept,
                 mesh: solver::animation::scene::Scene::read(&path)
                     .map(|s| s.mesh)
                     .map_err(|e| e.to_string()),
@@ -76,11 +93,13 @@ impl Store {
     }
 }
 
-/// An autosave found at start: where, when, and the mesh it names (or why it cannot be read).
+/// An autosave found at start: where, when, whether a clean exit kept it on purpose (else the
+/// session crashed or was killed), and the mesh it names (or why it cannot be read).
 #[derive(Debug, Clone)]
 pub(super) struct RestoreOffer {
     pub(super) path: PathBuf,
     when: SystemTime,
+    pub(super) kept: bool,
     mesh: Result<String, String>,
 }
 
@@ -93,41 +112,106 @@ impl EditorApp {
     /// Opens `path` from the UI (menu, recent files, drop): with unsaved changes, asks first.
     pub fn request_open(&mut self, ctx: &egui::Context, path: PathBuf) {
         if self.has_unsaved_changes() {
-            self.session.pending_open = Some(path);
+            self.session.pending = Some(Pending::Open(path));
         } else {
             self.open(ctx, path);
         }
     }
 
+    /// Quits (Ctrl+Q, the window's close button): with unsaved changes, asks first.
+    pub fn request_quit(&mut self, ctx: &egui::Context) {
+        if self.has_unsaved_changes() && !self.session.discard_on_exit {
+            self.session.pending = Some(Pending::Quit);
+        } else {
+            ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+        }
+    }
+
+    /// A close request from the window: held back while the question is open or due.
+    pub(super) fn close_requested(&mut self, ctx: &egui::Context) {
+        if !ctx.input(|i| i.viewport().close_requested()) {
+            return;
+        }
+        if self.has_unsaved_changes() && !self.session.discard_on_exit && !self.quit_decided() {
+            ctx.send_viewport_cmd(egui::ViewportCommand::CancelClose);
+            self.session.pending = Some(Pending::Quit);
+        }
+    }
+
+    /// The user already answered that quitting may drop or keep the changes.
+    fn quit_decided(&self) -> bool {
+        self.session.keep_on_exit
+    }
+
+    /// After a save: the open or quit that waited for it.
+    pub(super) fn after_save(&mut self, ctx: &egui::Context) {
+        match self.session.after_save.take() {
+            Some(Pending::Open(path)) => self.open(ctx, path),
+            Some(Pending::Quit) => ctx.send_viewport_cmd(egui::ViewportCommand::Close),
+            None => {}
+        }
+    }
+
+    /// The unsaved-changes question, before opening another file or quitting.
     pub(super) fn unsaved_window(&mut self, ctx: &egui::Context) {
-        let Some(path) = self.session.pending_open.clone() else { return };
+        let Some(pending) = self.session.pending.clone() else { return };
+        let question = match &pending {
+            Pending::Open(path) => {
+                format!("The current scene has unsaved changes. Open {} anyway?", file_name(path))
+            }
+            Pending::Quit => "The current scene has unsaved changes. Quit anyway?".to_string(),
+        };
         egui::Window::new("Unsaved changes")
             .collapsible(false)
             .resizable(false)
             .anchor(egui::Align2::CENTER_CENTER, Vec2::ZERO)
             .show(ctx, |ui| {
-                ui.label(format!(
-                    "The current scene has unsaved changes. Open {} anyway?",
-                    file_name(&path)
-                ));
-                ui.horizontal(|ui| {
+                ui.label(question);
+                ui.horizontal_wrapped(|ui| {
                     if ui.button("Save first").clicked() {
-                        self.session.pending_open = None;
+                        self.session.pending = None;
                         match self.session.document_path.clone() {
                             Some(doc) => match self.save_scene(&doc) {
-                                Ok(()) => self.open(ctx, path.clone()),
+                                Ok(()) => {
+                                    self.session.after_save = Some(pending.clone());
+                                    self.after_save(ctx);
+                                }
                                 Err(e) => self.error = Some(format!("scene not saved: {e}")),
                             },
-                            // No scene file yet: Save as, then open again.
-                            None => self.start_dialog(ctx, DialogKind::SaveScene),
+                            // No scene file yet: Save as, then carry on.
+                            None => {
+                                self.session.after_save = Some(pending.clone());
+                                self.start_dialog(ctx, DialogKind::SaveScene);
+                            }
                         }
                     }
-                    if ui.button("Discard changes and open").clicked() {
-                        self.session.pending_open = None;
-                        self.open(ctx, path.clone());
+                    match &pending {
+                        Pending::Open(path) => {
+                            if ui.button("Discard changes and open").clicked() {
+                                self.session.pending = None;
+                                self.open(ctx, path.clone());
+                            }
+                        }
+                        Pending::Quit => {
+                            if ui.button("Quit without saving").clicked() {
+                                self.session.pending = None;
+                                self.session.discard_on_exit = true;
+                                ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+                            }
+                            if ui
+                                .button("Keep for next time")
+                                .on_hover_text("quit; the next start offers the changes back")
+                                .clicked()
+                            {
+                                self.session.pending = None;
+                                self.session.keep_on_exit = true;
+                                ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+                            }
+                        }
                     }
                     if ui.button("Cancel").clicked() {
-                        self.session.pending_open = None;
+                        self.session.pending = None;
+                        self.session.after_save = None;
                     }
                 });
             });
@@ -227,7 +311,7 @@ impl EditorApp {
     }
 
     pub(super) fn restore_window(&mut self, ctx: &egui::Context) {
-        let Some(RestoreOffer { path, when, mesh }) = self.store.restore_offer.clone() else {
+        let Some(RestoreOffer { path, when, kept, mesh }) = self.store.restore_offer.clone() else {
             return;
         };
         egui::Window::new("Restore the last session?")
@@ -236,6 +320,11 @@ impl EditorApp {
             .anchor(egui::Align2::CENTER_CENTER, Vec2::ZERO)
             .show(ctx, |ui| {
                 match &mesh {
+                    Ok(m) if kept => ui.label(format!(
+                        "You quit the last session keeping unsaved changes to {} ({}).",
+                        file_name(Path::new(m)),
+                        persist::ago(when)
+                    )),
                     Ok(m) => ui.label(format!(
                         "The last session did not end cleanly. An autosave of {} from {} is available.",
                         file_name(Path::new(m)),
@@ -258,15 +347,20 @@ impl EditorApp {
             });
     }
 
-    /// What a clean exit does with the autosave (see `on_exit`). Returns whether one was kept.
+    /// What a clean exit does with the autosave (see `on_exit`): unsaved changes are kept and
+    /// marked as kept on purpose, unless the user chose to quit without saving; otherwise the
+    /// autosave (the crash marker) goes. Returns whether one was kept.
     pub fn exit_autosave(&mut self) -> bool {
         let Some(persist) = self.store.persist.clone() else { return false };
         if self.store.restore_offer.is_some() {
             return true; // unanswered: keep it for next time
         }
         let unsaved = self.session.saved_edit.as_ref() != Some(&self.session.edit);
-        if unsaved && let Ok(doc) = self.document(&persist.autosave_path()) {
-            match persist.write_autosave(&doc) {
+        if unsaved
+            && !self.session.discard_on_exit
+            && let Ok(doc) = self.document(&persist.autosave_path())
+        {
+            match persist.keep_autosave(&doc) {
                 Ok(_) => return true,
                 Err(e) => eprintln!("editor: could not keep your unsaved changes: {e}"),
             }
@@ -360,82 +454,6 @@ impl EditorApp {
                 self.display.color_version += 1;
                 self.send_scene();
             }
-        }
-    }
-
-    pub(super) fn poll_dialog(&mut self, ctx: &egui::Context) {
-        let Some((kind, rx)) = &self.jobs.dialog else { return };
-        let kind = *kind;
-        let result = match rx.try_recv() {
-            Err(TryRecvError::Empty) => return,
-            Err(TryRecvError::Disconnected) => None,
-            Ok(r) => r,
-        };
-        self.jobs.dialog = None;
-        let Some(path) = result else { return };
-        match kind {
-            DialogKind::OpenMesh => self.request_open(ctx, path),
-            DialogKind::LoadSelection => self.load_selection(&path),
-            DialogKind::SaveSelection => match loader::write_dmat(&path, &self.session.edit.labels)
-            {
-                Ok(()) => self.info = Some(format!("saved {}", path.display())),
-                Err(e) => self.error = Some(format!("{e:#}")),
-            },
-            DialogKind::OpenScene => self.request_open(ctx, path),
-            DialogKind::SaveScene => {
-                let path =
-                    if path.extension().is_none() { path.with_extension("json") } else { path };
-                if let Err(e) = self.save_scene(&path) {
-                    self.error = Some(format!("scene not saved: {e}"));
-                }
-            }
-            DialogKind::ExportGltf => {
-                let path =
-                    if path.extension().is_none() { path.with_extension("glb") } else { path };
-                self.export_gltf(ctx, path)
-            }
-        }
-    }
-
-    pub(super) fn start_dialog(&mut self, ctx: &egui::Context, kind: DialogKind) {
-        if self.jobs.dialog.is_some() {
-            return;
-        }
-        let (tx, rx) = std::sync::mpsc::channel();
-        let c = ctx.clone();
-        let spawned = std::thread::Builder::new().name("file-dialog".into()).spawn(move || {
-            let d = rfd::FileDialog::new();
-            let r = match kind {
-                DialogKind::OpenMesh => d
-                    .add_filter(
-                        "Meshes and scenes",
-                        &["obj", "off", "ply", "stl", "glb", "gltf", "json"],
-                    )
-                    .pick_file(),
-                DialogKind::OpenScene => d.add_filter("Scenes", &["json"]).pick_file(),
-                DialogKind::SaveScene => {
-                    d.add_filter("Scene", &["json"]).set_file_name("scene.json").save_file()
-                }
-                DialogKind::ExportGltf => d
-                    .add_filter("glTF binary", &["glb"])
-                    .add_filter("glTF JSON", &["gltf"])
-                    .add_filter("PC2 point cache (Blender Mesh Cache, 3ds Max)", &["pc2"])
-                    .set_file_name("animation.glb")
-                    .save_file(),
-                DialogKind::LoadSelection => {
-                    d.add_filter("Selections", &["dmat", "json"]).pick_file()
-                }
-                DialogKind::SaveSelection => d
-                    .add_filter("libigl dmat", &["dmat"])
-                    .set_file_name("selection.dmat")
-                    .save_file(),
-            };
-            let _ = tx.send(r);
-            c.request_repaint();
-        });
-        match spawned {
-            Ok(_) => self.jobs.dialog = Some((kind, rx)),
-            Err(e) => self.error = Some(format!("cannot open a file dialog: {e}")),
         }
     }
 

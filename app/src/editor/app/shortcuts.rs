@@ -27,7 +27,7 @@ pub const SHORTCUTS: &[(&str, &str)] = &[
     ("M / Shift+M", "mirror painting / mirror posing on-off"),
     ("Left drag (pose)", "move a group in the view plane; Ctrl rotates"),
     ("Gizmo arrow / ring / square", "move along an axis / turn about it / move in the view"),
-    ("G", "move the active group with the pointer (pose tool)"),
+    ("G", "pose tool; in the pose tool, move the active group with the pointer"),
     ("R", "rotate the active group with the pointer"),
     ("G or R, then X / Y / Z", "constrain to that world axis (again: free)"),
     (

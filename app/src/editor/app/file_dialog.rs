@@ -1,0 +1,249 @@
+//! File dialogs. The system's dialog (rfd: the desktop portal, else zenity) runs on a worker
+//! thread; the editor's own browser (`egui_file`, drawn in the UI) stands in when the system's
+//! cannot be shown, and always when the preference "always use the in-app file dialog" is on.
+//!
+//! rfd answers `None` both for a cancel and for a dialog that could not be shown, so a failure
+//! is told apart two ways: before asking, a Linux session with neither a D-Bus session bus (for
+//! the portal) nor `zenity` on the `PATH` cannot show one; after asking, a `None` sooner than
+//! [`NATIVE_FAILED_WITHIN`] was not a person's cancel. Either way the status says so and the
+//! in-app browser opens: a failed dialog is never taken as a cancel.
+
+use std::path::{Path, PathBuf};
+use std::sync::mpsc::{Receiver, TryRecvError};
+use std::time::{Duration, Instant};
+
+use eframe::egui;
+
+use super::{DialogKind, EditorApp};
+use crate::editor::loader;
+
+/// A system dialog that answers nothing sooner than this after it was asked for did not show:
+/// no one cancels a file dialog that fast.
+const NATIVE_FAILED_WITHIN: Duration = Duration::from_millis(400);
+
+/// The dialog in progress, if any.
+#[derive(Default)]
+pub(super) struct Dialogs {
+    /// The system's dialog, on its thread, and when it was asked for.
+    native: Option<(DialogKind, Receiver<Option<PathBuf>>, Instant)>,
+    /// The in-app browser.
+    in_app: Option<(DialogKind, egui_file::FileDialog)>,
+}
+
+impl DialogKind {
+    fn saves(self) -> bool {
+        matches!(self, DialogKind::SaveScene | DialogKind::ExportGltf | DialogKind::SaveSelection)
+    }
+
+    fn title(self) -> &'static str {
+        match self {
+            DialogKind::OpenMesh => "Open mesh or scene",
+            DialogKind::OpenScene => "Open scene",
+            DialogKind::SaveScene => "Save scene",
+            DialogKind::ExportGltf => "Export glTF",
+            DialogKind::LoadSelection => "Load selection",
+            DialogKind::SaveSelection => "Save selection",
+        }
+    }
+
+    /// The file types offered, as (name, extensions).
+    fn filters(self) -> &'static [(&'static str, &'static [&'static str])] {
+        match self {
+            DialogKind::OpenMesh => {
+                &[("Meshes and scenes", &["obj", "off", "ply", "stl", "glb", "gltf", "json"])]
+            }
+            DialogKind::OpenScene | DialogKind::SaveScene => &[("Scene", &["json"])],
+            DialogKind::ExportGltf => &[
+                ("glTF binary", &["glb"]),
+                ("glTF JSON", &["gltf"]),
+                ("PC2 point cache (Blender Mesh Cache, 3ds Max)", &["pc2"]),
+            ],
+            DialogKind::LoadSelection => &[("Selections", &["dmat", "json"])],
+            DialogKind::SaveSelection => &[("libigl dmat", &["dmat"])],
+        }
+    }
+
+    fn default_name(self) -> Option<&'static str> {
+        match self {
+            DialogKind::SaveScene => Some("scene.json"),
+            DialogKind::ExportGltf => Some("animation.glb"),
+            DialogKind::SaveSelection => Some("selection.dmat"),
+            _ => None,
+        }
+    }
+
+    /// Whether `path` has one of the offered extensions (the in-app browser's list filter).
+    fn accepts(self, path: &Path) -> bool {
+        let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
+        ext.is_some_and(|e| self.filters().iter().any(|(_, exts)| exts.contains(&e.as_str())))
+    }
+}
+
+/// Why the system's dialog cannot be shown here, found without asking it; `None` when it may.
+fn native_unavailable() -> Option<&'static str> {
+    if !cfg!(target_os = "linux") {
+        return None;
+    }
+    let set = |k: &str| std::env::var_os(k).is_some_and(|v| !v.is_empty());
+    let bus = set("DBUS_SESSION_BUS_ADDRESS")
+        || std::env::var_os("XDG_RUNTIME_DIR").is_some_and(|d| Path::new(&d).join("bus").exists());
+    let zenity = std::env::var_os("PATH")
+        .is_some_and(|p| std::env::split_paths(&p).any(|d| d.join("zenity").is_file()));
+    (!bus && !zenity).then_some("no D-Bus session for a desktop portal and no zenity")
+}
+
+impl EditorApp {
+    /// Asks for a file for `kind`: the system's dialog, or the in-app browser (see the module
+    /// doc).
+    pub(super) fn start_dialog(&mut self, ctx: &egui::Context, kind: DialogKind) {
+        if self.jobs.dialogs.native.is_some() || self.jobs.dialogs.in_app.is_some() {
+            return;
+        }
+        if self.prefs.current.in_app_file_dialog {
+            self.open_in_app_dialog(kind);
+            return;
+        }
+        if let Some(why) = native_unavailable() {
+            self.native_dialog_failed(kind, why);
+            return;
+        }
+        let (tx, rx) = std::sync::mpsc::channel();
+        let c = ctx.clone();
+        let start = self.dialog_folder();
+        let spawned = std::thread::Builder::new().name("file-dialog".into()).spawn(move || {
+            let mut d = rfd::FileDialog::new().set_title(kind.title());
+            if let Some(dir) = start {
+                d = d.set_directory(dir);
+            }
+            for (name, exts) in kind.filters() {
+                d = d.add_filter(*name, exts);
+            }
+            if let Some(n) = kind.default_name() {
+                d = d.set_file_name(n);
+            }
+            let r = if kind.saves() { d.save_file() } else { d.pick_file() };
+            let _ = tx.send(r);
+            c.request_repaint();
+        });
+        match spawned {
+            Ok(_) => self.jobs.dialogs.native = Some((kind, rx, Instant::now())),
+            Err(e) => self.native_dialog_failed(kind, &format!("no thread for it: {e}")),
+        }
+    }
+
+    /// Says why the system's dialog did not show, and opens the in-app browser instead.
+    fn native_dialog_failed(&mut self, kind: DialogKind, why: &str) {
+        self.info = Some(format!(
+            "The system file dialog could not be shown ({why}); using the in-app file browser. \
+             Preferences → \"always use the in-app file dialog\" skips the system's."
+        ));
+        self.open_in_app_dialog(kind);
+    }
+
+    /// Where a dialog starts: the scene's folder, else the mesh's, else the working folder.
+    fn dialog_folder(&self) -> Option<PathBuf> {
+        let doc = self.session.document_path.as_deref();
+        let mesh = self.session.scene.as_ref().map(|s| s.path.as_path());
+        doc.or(mesh)
+            .and_then(Path::parent)
+            .filter(|d| d.is_dir())
+            .map(Path::to_path_buf)
+            .or_else(|| std::env::current_dir().ok())
+    }
+
+    fn open_in_app_dialog(&mut self, kind: DialogKind) {
+        let mut d = if kind.saves() {
+            egui_file::FileDialog::save_file()
+        } else {
+            egui_file::FileDialog::open_file()
+        };
+        d = d
+            .title(kind.title())
+            .default_size([560.0, 420.0])
+            .anchor(egui::Align2::CENTER_CENTER, egui::Vec2::ZERO)
+            .show_files_filter(Box::new(move |p: &Path| kind.accepts(p)));
+        if let Some(dir) = self.dialog_folder() {
+            d = d.initial_path(dir);
+        }
+        if let Some(n) = kind.default_name() {
+            d = d.default_filename(n);
+        }
+        d.open();
+        self.jobs.dialogs.in_app = Some((kind, d));
+    }
+
+    /// Whether a file dialog (either kind) is waiting for the user.
+    pub fn file_dialog_open(&self) -> bool {
+        self.jobs.dialogs.native.is_some() || self.jobs.dialogs.in_app.is_some()
+    }
+
+    /// Polls the system's dialog and draws the in-app one; acts on a chosen file.
+    pub(super) fn poll_dialog(&mut self, ctx: &egui::Context) {
+        if let Some((kind, rx, started)) = &self.jobs.dialogs.native {
+            let (kind, started) = (*kind, *started);
+            let answer = match rx.try_recv() {
+                Err(TryRecvError::Empty) => None,
+                Err(TryRecvError::Disconnected) => Some(Err("its thread stopped".to_string())),
+                Ok(None) if started.elapsed() < NATIVE_FAILED_WITHIN => {
+                    Some(Err("it closed at once; is a desktop portal or zenity installed?".into()))
+                }
+                Ok(r) => Some(Ok(r)),
+            };
+            match answer {
+                None => {}
+                Some(Err(why)) => {
+                    self.jobs.dialogs.native = None;
+                    self.native_dialog_failed(kind, &why);
+                }
+                Some(Ok(r)) => {
+                    self.jobs.dialogs.native = None;
+                    if let Some(path) = r {
+                        self.dialog_chosen(ctx, kind, path);
+                    }
+                }
+            }
+        }
+        let Some((kind, d)) = &mut self.jobs.dialogs.in_app else { return };
+        let kind = *kind;
+        d.show(ctx);
+        match d.state() {
+            egui_file::State::Open => {}
+            egui_file::State::Selected => {
+                let path = d.path().map(Path::to_path_buf);
+                self.jobs.dialogs.in_app = None;
+                if let Some(path) = path {
+                    self.dialog_chosen(ctx, kind, path);
+                }
+            }
+            egui_file::State::Cancelled | egui_file::State::Closed => {
+                self.jobs.dialogs.in_app = None;
+            }
+        }
+    }
+
+    /// Acts on the file chosen in a dialog of `kind`.
+    fn dialog_chosen(&mut self, ctx: &egui::Context, kind: DialogKind, path: PathBuf) {
+        match kind {
+            DialogKind::OpenMesh | DialogKind::OpenScene => self.request_open(ctx, path),
+            DialogKind::LoadSelection => self.load_selection(&path),
+            DialogKind::SaveSelection => match loader::write_dmat(&path, &self.session.edit.labels)
+            {
+                Ok(()) => self.info = Some(format!("saved {}", path.display())),
+                Err(e) => self.error = Some(format!("{e:#}")),
+            },
+            DialogKind::SaveScene => {
+                let path =
+                    if path.extension().is_none() { path.with_extension("json") } else { path };
+                match self.save_scene(&path) {
+                    Ok(()) => self.after_save(ctx),
+                    Err(e) => self.error = Some(format!("scene not saved: {e}")),
+                }
+            }
+            DialogKind::ExportGltf => {
+                let path =
+                    if path.extension().is_none() { path.with_extension("glb") } else { path };
+                self.export_gltf(ctx, path)
+            }
+        }
+    }
+}

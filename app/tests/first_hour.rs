@@ -1,0 +1,353 @@
+//! What a new user meets in the first hour (issue 46): saving, opening, exporting and the
+//! .dmat selections through the in-app file dialog (forced by the preference, so that no
+//! desktop portal is touched), and quitting with unsaved changes.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+mod support;
+
+use std::path::Path;
+
+use app::editor::EditorApp;
+use app::editor::prefs::FILE_NAME;
+use app::editor::undo::EditState;
+use eframe::egui::accesskit::Role;
+use eframe::egui::{Event, Key, Modifiers, Vec2};
+use egui_kittest::{Harness, kittest::Queryable};
+use solver::testing::ScratchDir;
+use support::{settled, step_until, test_mesh};
+
+const WINDOW: Vec2 = Vec2::new(1280.0, 800.0);
+
+/// A configuration folder whose preferences force the in-app file dialog.
+fn config_with_in_app_dialog(dir: &ScratchDir) -> std::path::PathBuf {
+    let config = dir.join("config");
+    std::fs::create_dir_all(&config).unwrap();
+    std::fs::write(config.join(FILE_NAME), r#"{"in_app_file_dialog": true}"#).unwrap();
+    config
+}
+
+/// Types `path` into the open in-app dialog's file name field (the text field that does not
+/// hold the folder) and confirms it with Enter.
+fn choose_in_dialog(h: &mut Harness<'_, EditorApp>, path: &Path) {
+    h.step();
+    h.step(); // a new window is laid out invisibly in its first frame
+    assert!(h.state().file_dialog_open(), "no file dialog");
+    h.get_all_by_role(Role::TextInput)
+        .find(|n| !Path::new(&n.value().unwrap_or_default()).is_absolute())
+        .expect("the file name field")
+        .focus();
+    h.step();
+    h.key_press_modifiers(Modifiers::COMMAND, Key::A);
+    h.event(Event::Text(path.display().to_string()));
+    h.step();
+    h.key_press(Key::Enter);
+    h.step();
+    h.step();
+    assert!(!h.state().file_dialog_open(), "the dialog did not close");
+}
+
+#[test]
+fn save_open_dmat_and_export_go_through_the_in_app_file_dialog() {
+    let dir = ScratchDir::new("first-hour-dialogs");
+    let config = config_with_in_app_dialog(&dir);
+    let mut h = support::harness_sized(test_mesh(), Some(config), WINDOW);
+    step_until(&mut h, "the default asset", settled);
+    assert!(h.state().preferences().in_app_file_dialog);
+
+    // The preference is offered in the preferences window.
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Comma);
+    h.step();
+    h.step();
+    assert!(h.query_by_label("always use the in-app file dialog").is_some());
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Comma);
+    h.step();
+
+    // Pose group 1, then Ctrl+S: no scene file yet, so the dialog asks where.
+    let mut e = h.state().edit_state().clone();
+    e.groups[1].pose.translation = [0.0, 0.05, 0.0];
+    h.state_mut().set_edit_state(e);
+    h.step();
+    assert!(h.state().has_unsaved_changes());
+    h.key_press_modifiers(Modifiers::COMMAND, Key::S);
+    let scene_path = dir.join("posed.json");
+    choose_in_dialog(&mut h, &scene_path);
+    assert!(h.state().error().is_none(), "{:?}", h.state().error());
+    assert_eq!(h.state().document_path(), Some(scene_path.as_path()));
+    assert!(!h.state().has_unsaved_changes());
+    let saved = solver::animation::scene::Scene::read(&scene_path).expect("the scene was written");
+    assert_eq!(saved.mesh, test_mesh().display().to_string());
+
+    // Ctrl+O: the dialog starts in the scene's folder; the typed path opens the scene.
+    let mut e = h.state().edit_state().clone();
+    e.groups[1].pose.translation = [0.0, 0.0, 0.0];
+    h.state_mut().set_edit_state(e.clone());
+    h.state_mut().save_scene(&dir.join("flat.json")).unwrap();
+    h.key_press_modifiers(Modifiers::COMMAND, Key::O);
+    h.step();
+    h.step();
+    let folder = dir.display().to_string();
+    assert!(h.query_by_value(&folder).is_some(), "the dialog is not in the scene's folder");
+    choose_in_dialog(&mut h, &scene_path);
+    step_until(&mut h, "the opened scene", |a| {
+        !a.is_loading() && a.group_pose(1).is_some_and(|p| p.translation[1] > 0.04)
+    });
+    assert_eq!(h.state().document_path(), Some(scene_path.as_path()));
+    step_until(&mut h, "a solved frame", settled);
+
+    // Save .dmat…, then Load .dmat… brings back the labels a change dropped.
+    let labels = h.state().edit_state().labels.clone();
+    h.get_by_label("Save .dmat…").click();
+    let dmat = dir.join("feet.dmat");
+    choose_in_dialog(&mut h, &dmat);
+    assert!(h.state().error().is_none(), "{:?}", h.state().error());
+    let text = std::fs::read_to_string(&dmat).expect("the .dmat was written");
+    assert!(text.lines().count() > labels.len(), "a header and one line per vertex");
+    let only_group0 = labels.iter().map(|l| l.filter(|&g| g == 0)).collect();
+    h.state_mut().set_edit_state(EditState::from_labels(only_group0));
+    h.step();
+    assert_ne!(h.state().edit_state().labels, labels);
+    h.get_by_label("Load .dmat…").click();
+    choose_in_dialog(&mut h, &dmat);
+    assert!(h.state().error().is_none(), "{:?}", h.state().error());
+    assert_eq!(h.state().edit_state().labels, labels);
+    step_until(&mut h, "a solved frame", settled);
+
+    // Record a short timeline, then File → Export glTF… writes a binary glTF.
+    let mut e = h.state().edit_state().clone();
+    e.timeline.duration = 0.2;
+    e.timeline.fps = 10.0;
+    h.state_mut().set_edit_state(e);
+    h.step();
+    h.get_by_label_contains("Record 3 frames").click();
+    h.step();
+    step_until(&mut h, "the recording", |a| !a.is_recording());
+    h.get_by_label("File").click();
+    h.step();
+    h.get_by_label("Export glTF…").click();
+    let glb = dir.join("walk.glb");
+    choose_in_dialog(&mut h, &glb);
+    step_until(&mut h, "the export", |a| !a.is_exporting());
+    assert!(h.state().error().is_none(), "{:?}", h.state().error());
+    let bytes = std::fs::read(&glb).expect("the glb was written");
+    assert_eq!(&bytes[..4], b"glTF");
+}
+
+/// Moves group 1 up by `dy`: an unsaved change.
+fn pose_group1(h: &mut Harness<'_, EditorApp>, dy: f64) {
+    let mut e = h.state().edit_state().clone();
+    e.groups[1].pose.translation = [0.0, dy, 0.0];
+    h.state_mut().set_edit_state(e);
+    h.step();
+    assert!(h.state().has_unsaved_changes());
+}
+
+fn quit(h: &mut Harness<'_, EditorApp>) {
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Q);
+    h.step();
+    h.step(); // a new window is laid out invisibly in its first frame
+}
+
+#[test]
+fn quitting_with_unsaved_changes_asks_and_a_kept_quit_is_not_called_a_crash() {
+    let dir = ScratchDir::new("first-hour-quit");
+    let config = config_with_in_app_dialog(&dir);
+    let autosave = config.join("autosave.json");
+    let mut h = support::harness_sized(test_mesh(), Some(config.clone()), WINDOW);
+    step_until(&mut h, "the default asset", settled);
+
+    // Nothing unsaved: Ctrl+Q asks nothing.
+    quit(&mut h);
+    assert!(!h.state().quit_question_open());
+
+    // Unsaved: Ctrl+Q asks; Cancel keeps working.
+    pose_group1(&mut h, 0.05);
+    quit(&mut h);
+    assert!(h.state().quit_question_open());
+    h.snapshot_options("quit_with_unsaved_changes", &support::snapshot_options());
+    h.get_by_label("Cancel").click();
+    h.step();
+    assert!(!h.state().quit_question_open() && h.state().has_unsaved_changes());
+
+    // "Keep for next time": the exit keeps the changes, and the next start says so, not that
+    // the session crashed.
+    quit(&mut h);
+    h.get_by_label("Keep for next time").click();
+    h.step();
+    assert!(h.state_mut().exit_autosave(), "the changes are kept");
+    drop(h);
+    let mut h = support::harness_sized(test_mesh(), Some(config.clone()), WINDOW);
+    step_until(&mut h, "the default asset", |a| !a.is_loading() && a.n_vertices() > 0);
+    h.step();
+    assert!(h.query_by_label_contains("You quit the last session keeping unsaved").is_some());
+    assert!(h.query_by_label_contains("did not end cleanly").is_none());
+    h.get_by_label("Discard").click();
+    h.step();
+    assert!(!autosave.exists(), "declined: the autosave goes");
+
+    // A crash (an autosave written while running, then no clean exit) is called one.
+    step_until(&mut h, "a solved frame", settled);
+    pose_group1(&mut h, 0.04);
+    h.state_mut().autosave_now().unwrap();
+    drop(h);
+    let mut h = support::harness_sized(test_mesh(), Some(config.clone()), WINDOW);
+    step_until(&mut h, "the default asset", |a| !a.is_loading() && a.n_vertices() > 0);
+    h.step();
+    assert!(h.query_by_label_contains("did not end cleanly").is_some());
+    h.get_by_label("Restore").click();
+    h.step();
+    step_until(&mut h, "the restored scene", |a| {
+        !a.is_loading() && a.group_pose(1).is_some_and(|p| p.translation[1] > 0.03)
+    });
+
+    // "Quit without saving": the exit removes the autosave (the crash marker).
+    quit(&mut h);
+    h.get_by_label("Quit without saving").click();
+    h.step();
+    assert!(!h.state_mut().exit_autosave(), "discarded on purpose");
+    assert!(!autosave.exists());
+    drop(h);
+
+    // "Save first" with no scene file yet: Save as through the dialog, then the quit goes on.
+    let mut h = support::harness_sized(test_mesh(), Some(config.clone()), WINDOW);
+    step_until(&mut h, "the default asset", settled);
+    assert!(h.state().restore_offer().is_none(), "a clean exit leaves nothing to restore");
+    pose_group1(&mut h, 0.03);
+    quit(&mut h);
+    h.get_by_label("Save first").click();
+    let saved = dir.join("kept.json");
+    choose_in_dialog(&mut h, &saved);
+    assert!(saved.exists() && !h.state().has_unsaved_changes());
+    assert!(!h.state_mut().exit_autosave());
+}
+
+/// The `?` window scrolls: its last line can be brought into the 1280×800 window at UI
+/// scales 1 and 2.
+#[test]
+fn the_shortcut_window_scrolls_to_its_last_line_at_ui_scales_1_and_2() {
+    for scale in [1.0, 2.0] {
+        let dir = ScratchDir::new("first-hour-shortcuts");
+        let config = dir.join("config");
+        std::fs::create_dir_all(&config).unwrap();
+        std::fs::write(config.join(FILE_NAME), format!(r#"{{"ui_scale": {scale}}}"#)).unwrap();
+        let mut h = support::harness_sized(test_mesh(), Some(config), WINDOW);
+        step_until(&mut h, "the default asset", |a| !a.is_loading() && a.n_vertices() > 0);
+        h.event(Event::Text("?".into()));
+        h.step();
+        h.step();
+        h.step();
+        let visible = |h: &Harness<'_, EditorApp>, label: &str| {
+            let r = h.get_by_label(label).rect();
+            r.min.y >= 0.0 && r.max.y <= WINDOW.y / scale
+        };
+        assert!(visible(&h, "orbit"), "the first line at scale {scale}");
+        for last in ["this overlay", "quit", "preferences"] {
+            h.get_by_label(last).scroll_to_me();
+            h.step();
+            h.step();
+            assert!(visible(&h, last), "\"{last}\" cannot be reached at scale {scale}");
+        }
+    }
+}
+
+/// A Markdown file renamed .obj: the error names the path once and says what is wrong; a
+/// long error wraps inside the window and keeps its whole text as a tooltip.
+#[test]
+fn a_bad_file_error_names_the_path_once_and_wraps() {
+    let dir = ScratchDir::new("first-hour-bad-file");
+    let deep = dir.join("a folder with a rather long name to make the message long enough");
+    std::fs::create_dir_all(&deep).unwrap();
+    let bad = deep.join("notes-renamed-to-be-a-mesh.obj");
+    std::fs::write(&bad, "# Notes\n\nSome *Markdown* text.\n- a list item\n").unwrap();
+    let mut h = support::harness_sized(test_mesh(), None, WINDOW);
+    step_until(&mut h, "the default asset", settled);
+    let ctx = h.ctx.clone();
+    h.state_mut().open(&ctx, bad.clone());
+    step_until(&mut h, "the load error", |a| !a.is_loading());
+    let err = h.state().error().expect("an error").to_string();
+    let shown = bad.display().to_string();
+    assert_eq!(err.matches(&shown).count(), 1, "{err}");
+    assert!(err.contains("not an OBJ"), "{err}");
+    h.step();
+    let r = h.get_by_label_contains("Error: Could not open").rect();
+    assert!(r.max.x <= WINDOW.x, "the error runs off the window: {r:?}");
+    assert!(r.height() > 20.0, "the long error did not wrap: {r:?}");
+}
+
+/// Mirroring turned on with no mesh says so instead of "fitting the plane…"; posing an
+/// empty group says it has no vertices.
+#[test]
+fn tools_that_cannot_act_say_why() {
+    let builder = Harness::builder().with_size(WINDOW).with_render_cursor(false);
+    let mut h = builder.wgpu().build_eframe(|cc| {
+        app::editor::EditorApp::new(
+            cc,
+            app::editor::EditorOptions {
+                mesh_path: None,
+                deterministic_overlays: true,
+                config_dir: None,
+            },
+        )
+    });
+    h.step();
+    h.key_press(Key::M);
+    h.step();
+    h.step();
+    assert!(h.query_by_label("fitting the plane…").is_none());
+    assert!(h.query_by_label("no mesh to mirror").is_some());
+    drop(h);
+
+    let mut h = support::harness_sized(test_mesh(), None, WINDOW);
+    step_until(&mut h, "the default asset", settled);
+    let mut emptied = h.state().edit_state().clone();
+    for l in emptied.labels.iter_mut().filter(|l| **l == Some(1)) {
+        *l = None;
+    }
+    h.state_mut().set_edit_state(emptied);
+    h.state_mut().set_tool(app::editor::Tool::Pose);
+    h.state_mut().set_active_group(Some(1));
+    h.step();
+    h.key_press(Key::G);
+    h.step();
+    let info = h.state().info().unwrap_or_default().to_string();
+    assert!(info.contains("no vertices to pose"), "{info:?}");
+}
+
+/// Every handle vertex of the example scenes stays above the mesh's lowest point (the ground)
+/// along its path, sampled 200 times over the timeline.
+#[test]
+fn the_example_scenes_paths_stay_above_the_ground() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/scenes");
+    for name in ["creature-circle.json", "creature-keyframes.json"] {
+        let loaded = solver::animation::scene::Scene::load(&dir.join(name)).unwrap();
+        let pos = loaded.mesh.mesh.positions();
+        let ground = pos.iter().map(|p| p[1]).fold(f64::INFINITY, f64::min);
+        let top = pos.iter().map(|p| p[1]).fold(f64::NEG_INFINITY, f64::max);
+        let labels = loaded.handles.labels();
+        let timeline = &loaded.scene.timeline;
+        for gp in &timeline.paths {
+            let verts: Vec<usize> =
+                (0..pos.len()).filter(|&v| labels[v] == Some(gp.group as u32)).collect();
+            let n = verts.len() as f64;
+            let c: [f64; 3] =
+                std::array::from_fn(|d| verts.iter().map(|&v| pos[v][d]).sum::<f64>() / n);
+            for i in 0..=200 {
+                let t = timeline.duration * i as f64 / 200.0;
+                let tr = gp.path.transform_at(t);
+                let lowest = verts
+                    .iter()
+                    .map(|&v| {
+                        let r = tr.rotation[1];
+                        let q = [pos[v][0] - c[0], pos[v][1] - c[1], pos[v][2] - c[2]];
+                        c[1] + r[0] * q[0] + r[1] * q[1] + r[2] * q[2] + tr.translation[1]
+                    })
+                    .fold(f64::INFINITY, f64::min);
+                assert!(
+                    lowest >= ground - 1e-3 * (top - ground),
+                    "{name}: group {} is {} below the ground at t = {t}",
+                    gp.group,
+                    ground - lowest
+                );
+            }
+        }
+    }
+}
