@@ -214,3 +214,88 @@ fn blender_authored_asset_loads() {
         assert_eq!(head["materials"][0]["mapSize"], serde_json::json!([64, 64]));
     }
 }
+
+/// A quad-dominant OBJ as DCC tools write it: a 5×4 grid of quads with UVs and one normal,
+/// one cell merged into its neighbour (a hexagon), a pentagon (a vertex added on an edge), a
+/// cell split into two triangles and one cell left open (a hole).
+fn polygon_obj() -> String {
+    let (nx, ny) = (6, 5);
+    let mut text = String::from("o panel\n");
+    for j in 0..ny {
+        for i in 0..nx {
+            text += &format!("v {} {} 0\n", i as f64 * 0.2, j as f64 * 0.2);
+            text += &format!("vt {} {}\n", i as f64 / 5.0, j as f64 / 4.0);
+        }
+    }
+    text += "v 0.3 0.8 0\nvt 0.3 1\nvn 0 0 1\n";
+    let v = |i: usize, j: usize| i + nx * j + 1;
+    let mut faces: Vec<Vec<usize>> = Vec::new();
+    for j in 0..ny - 1 {
+        for i in 0..nx - 1 {
+            match (i, j) {
+                (0, 0) => faces.push(vec![v(0, 0), v(1, 0), v(2, 0), v(2, 1), v(1, 1), v(0, 1)]),
+                (1, 0) | (2, 2) => {}
+                (3, 1) => {
+                    faces.push(vec![v(3, 1), v(4, 1), v(4, 2)]);
+                    faces.push(vec![v(3, 1), v(4, 2), v(3, 2)]);
+                }
+                (1, 3) => faces.push(vec![v(1, 3), v(2, 3), v(2, 4), nx * ny + 1, v(1, 4)]),
+                _ => faces.push(vec![v(i, j), v(i + 1, j), v(i + 1, j + 1), v(i, j + 1)]),
+            }
+        }
+    }
+    for f in &faces {
+        let corners: Vec<String> = f.iter().map(|c| format!("{c}/{c}/1")).collect();
+        text += &format!("f {}\n", corners.join(" "));
+    }
+    text
+}
+
+#[test]
+fn blender_keeps_the_obj_polygons() {
+    use solver::io::{Format, load_mesh_from_bytes, write_obj_asset};
+    let Some(python) = blender_python() else { return };
+    let dir = ScratchDir::new("clients-obj-polygons");
+    let loaded = load_mesh_from_bytes(polygon_obj().as_bytes(), Format::Obj, "panel.obj").unwrap();
+    let asset = &loaded.asset;
+    let x: Vec<[f64; 3]> =
+        loaded.mesh.positions().iter().map(|p| [p[0], p[1], 0.3 * p[0] * p[1]]).collect();
+    let pose = asset.layout_positions(&loaded.report.vertex_map, &x);
+    let normals = asset.deformed_normals(&pose).unwrap();
+    let path = dir.join("panel.obj");
+    write_obj_asset(&path, asset, &pose, Some(&normals)).unwrap();
+    let report = run_blender(&python, "check_obj.py", &[&path], "REPORT ");
+    let objects = report["objects"].as_array().unwrap();
+    assert_eq!(objects.len(), 1, "{report}");
+    let o = &objects[0];
+    println!(
+        "Blender {}: {} vertices, {} faces (ours: {} faces, {} triangles)",
+        report["blender"].as_str().unwrap_or("?"),
+        o["vertices"],
+        o["faces"],
+        asset.face_count(),
+        asset.triangles.len()
+    );
+    assert_eq!(o["vertices"].as_u64().unwrap() as usize, asset.positions.len());
+    assert_eq!(o["faces"].as_u64().unwrap() as usize, asset.face_count());
+    let corners: Vec<u32> =
+        o["corners"].as_array().unwrap().iter().map(|c| c.as_u64().unwrap() as u32).collect();
+    assert_eq!(corners, asset.polygon_sizes, "the file's corner counts, in its order");
+    assert!(corners.contains(&6) && corners.contains(&5) && corners.contains(&3));
+    // The same corners, in the same order (all vertices are used, so Blender keeps their
+    // numbering).
+    let ours: Vec<Vec<u64>> = asset
+        .polygons()
+        .map(|fan| {
+            solver::io::Asset::polygon_corners(&asset.triangles[fan]).map(u64::from).collect()
+        })
+        .collect();
+    let theirs: Vec<Vec<u64>> = o["loops"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|l| l.as_array().unwrap().iter().map(|i| i.as_u64().unwrap()).collect())
+        .collect();
+    assert_eq!(theirs, ours);
+    assert_eq!(o["uv_layers"].as_array().unwrap().len(), 1, "{o}");
+}

@@ -183,6 +183,7 @@ fn asset() -> (Asset, Vec<Option<u32>>) {
         }],
         positions,
         triangles,
+        polygon_sizes: Vec::new(),
         notices: Vec::new(),
     };
     let mut map: Vec<Option<u32>> = (0..N_MESH as u32).map(Some).collect();

@@ -19,6 +19,21 @@
 //!
 //! **Parts** are runs of triangles with one material and a name (OBJ objects/groups split by
 //! `usemtl`, glTF primitives with their mesh and node names), written back as they came.
+//!
+//! **Polygons.** The solver works on triangles, but OBJ, PLY and OFF files hold polygons
+//! (quads, n-gons). A polygon $(c_0, \dots, c_{n-1})$ is kept as its fan
+//! $(c_0, c_k, c_{k+1})$, $k = 1 \dots n-2$: $n - 2$ consecutive entries of
+//! [`Asset::triangles`], the attributes' corners fanned the same way, and its corner count
+//! $n$ in [`Asset::polygon_sizes`]. The fan gives the corners back in the file's order:
+//! $c_0, c_1$ from the first triangle, then the last corner of each
+//! ([`Asset::polygon_corners`]); writers that hold polygons (OBJ, PLY, OFF) write each face
+//! with the corners the file had. Parts start and end at polygon boundaries.
+//!
+//! Cleaning never edits the asset: a polygon some of whose triangles cleaning dropped (zero
+//! area, or a duplicate of an earlier triangle) is still written as the file had it, its
+//! corners at the positions of the mesh vertices they were welded into ([`Asset::
+//! layout_positions`]), so it stays as degenerate or duplicated in every pose as it was in
+//! the file. Only glTF (triangles by specification) and the solver see the triangles.
 
 use crate::geometry::normals::{NormalsError, corner_normals, vertex_normals};
 
@@ -106,6 +121,10 @@ pub struct Asset {
     pub uvs: Vec<Attribute<2>>,
     /// Linear RGBA vertex colours.
     pub colors: Option<Attribute<4>>,
+    /// The file's polygons in file order: the corner count $n_k \ge 3$ of each, polygon $k$
+    /// being the fan of the next $n_k - 2$ entries of `triangles` (see the module doc).
+    /// Empty: every triangle is a face of its own (glTF, STL, files of triangles only).
+    pub polygon_sizes: Vec<u32>,
     /// Covers `triangles` in order; one part when the file has no grouping.
     pub parts: Vec<Part>,
     pub materials: Vec<Material>,
@@ -126,6 +145,86 @@ impl Asset {
             parts: vec![Part { count, ..Part::default() }],
             ..Asset::default()
         }
+    }
+
+    /// Sets [`Asset::polygon_sizes`] from the corner counts of the polygons a reader fanned,
+    /// in file order; left empty when every polygon is a triangle.
+    pub(crate) fn set_polygon_sizes(&mut self, sizes: Vec<u32>) {
+        self.polygon_sizes = if sizes.iter().all(|&n| n == 3) { Vec::new() } else { sizes };
+    }
+
+    /// The number of faces a polygon writer writes: `polygon_sizes.len()`, or `#F` when
+    /// every triangle is a face of its own.
+    pub fn face_count(&self) -> usize {
+        if self.polygon_sizes.is_empty() { self.triangles.len() } else { self.polygon_sizes.len() }
+    }
+
+    /// The file's faces in order, each as `first..first + n - 2`, the range of its fan's
+    /// triangles in [`Asset::triangles`] (one triangle each when `polygon_sizes` is empty).
+    /// Stops early where `polygon_sizes` asks for more triangles than there are (see
+    /// [`Asset::check_polygons`]).
+    pub fn polygons(&self) -> impl Iterator<Item = std::ops::Range<usize>> + '_ {
+        let f = self.triangles.len();
+        let sizes: Box<dyn Iterator<Item = usize>> = if self.polygon_sizes.is_empty() {
+            Box::new(std::iter::repeat_n(3, f))
+        } else {
+            Box::new(self.polygon_sizes.iter().map(|&n| n as usize))
+        };
+        sizes
+            .scan(0usize, move |next, n| {
+                let first = *next;
+                *next = first.saturating_add(n.saturating_sub(2));
+                (*next <= f && n >= 3).then_some(first..*next)
+            })
+            .fuse()
+    }
+
+    /// The corners of a polygon in the file's order from its fan `fan` (its triangles in
+    /// [`Asset::triangles`], or the same range of an [`Attribute`]'s corners):
+    /// $c_0, c_1$ of the first triangle, then the last corner of each triangle.
+    pub fn polygon_corners(fan: &[[u32; 3]]) -> impl Iterator<Item = u32> + '_ {
+        let head = fan.first().map(|t| [t[0], t[1]]).into_iter().flatten();
+        head.chain(fan.iter().map(|t| t[2]))
+    }
+
+    /// Checks [`Asset::polygon_sizes`] against the triangles: each size at least 3, the sizes'
+    /// fans ($\sum_k (n_k - 2)$ triangles) cover `triangles` exactly, each fan shares its
+    /// first corner and chains its edges ($t_j = (c_0, c_j, c_{j+1})$) in the positions and in
+    /// every attribute's corners, and every part starts at a polygon's first triangle.
+    pub fn check_polygons(&self) -> Result<(), String> {
+        if self.polygon_sizes.is_empty() {
+            return Ok(());
+        }
+        if let Some(k) = self.polygon_sizes.iter().position(|&n| n < 3) {
+            return Err(format!("polygon {k} has {} corners (at least 3)", self.polygon_sizes[k]));
+        }
+        let covered: u64 = self.polygon_sizes.iter().map(|&n| u64::from(n) - 2).sum();
+        let f = self.triangles.len();
+        if covered != f as u64 {
+            return Err(format!("the polygons' fans cover {covered} of {f} triangles"));
+        }
+        let mut layers: Vec<(&str, &[[u32; 3]])> = vec![("positions", &self.triangles)];
+        layers.extend(self.normals.as_ref().map(|a| ("normals", &a.corners[..])));
+        layers.extend(self.uvs.iter().map(|a| ("uvs", &a.corners[..])));
+        layers.extend(self.colors.as_ref().map(|a| ("colors", &a.corners[..])));
+        let mut starts = vec![false; f + 1];
+        starts[f] = true;
+        for (k, range) in self.polygons().enumerate() {
+            starts[range.start] = true;
+            for (what, corners) in &layers {
+                let Some(fan) = corners.get(range.clone()) else {
+                    return Err(format!("{what}: fewer corner triples than triangles"));
+                };
+                let chained = fan.windows(2).all(|w| w[1][0] == w[0][0] && w[1][1] == w[0][2]);
+                if !chained {
+                    return Err(format!("{what}: polygon {k}'s triangles are not one fan"));
+                }
+            }
+        }
+        if let Some(k) = self.parts.iter().position(|p| !starts.get(p.first).is_some_and(|&s| s)) {
+            return Err(format!("part {k} starts inside a polygon"));
+        }
+        Ok(())
     }
 
     /// The pose of the file's vertices for a pose `x` of the cleaned mesh:
@@ -168,7 +267,8 @@ impl Asset {
     /// Checks the invariants every reader guarantees, returning the first one broken: each
     /// triangle's indices are below `#positions`; each attribute has one corner triple per
     /// triangle, indices below its `#values`, finite values; `uvs` has at most two sets; parts
-    /// cover `triangles` in order without gaps; material and image indices are in range.
+    /// cover `triangles` in order without gaps; material and image indices are in range;
+    /// the polygons fit the triangles ([`Asset::check_polygons`]).
     /// Used by tests and fuzz targets; `load_mesh`'s assets always pass.
     pub fn check(&self) -> Result<(), String> {
         let n = self.positions.len();
@@ -222,6 +322,6 @@ impl Asset {
                 return Err(format!("material {k}: image {:?} out of range", m.base_color_texture));
             }
         }
-        Ok(())
+        self.check_polygons()
     }
 }

@@ -4,7 +4,8 @@
 //! Read: `v x y z` (also `v x y z w`, divided by `w`, and `v x y z r g b`, a vertex colour),
 //! `vt u [v [w]]`, `vn x y z`, `f` with `v`, `v/vt`, `v//vn` or `v/vt/vn` corners (absolute
 //! or negative relative indices), `o`/`g` names, `usemtl` and `mtllib`. Polygons are
-//! fan-triangulated as `(c0, c_k, c_k+1)`. Positions keep the file's order and numbering.
+//! fan-triangulated as `(c0, c_k, c_k+1)`, their corner counts kept in
+//! [`Asset::polygon_sizes`]. Positions keep the file's order and numbering.
 //! Tokens are separated by ASCII whitespace (space, tab, form feed; OBJ has no other).
 //!
 //! The [`Asset`]'s attributes are indexed per corner, as the file indexes them: `uvs[0]`
@@ -71,6 +72,8 @@ struct Elements {
     triangles: Vec<[u32; 3]>,
     uv_corners: Vec<[u32; 3]>,
     normal_corners: Vec<[u32; 3]>,
+    /// Each `f` line's corner count.
+    polygon_sizes: Vec<u32>,
 }
 
 impl Elements {
@@ -83,6 +86,7 @@ impl Elements {
         self.triangles.reserve(sum(|e| e.triangles.len()));
         self.uv_corners.reserve(sum(|e| e.uv_corners.len()));
         self.normal_corners.reserve(sum(|e| e.normal_corners.len()));
+        self.polygon_sizes.reserve(sum(|e| e.polygon_sizes.len()));
     }
 
     /// Appends the elements of the lines after these.
@@ -93,6 +97,7 @@ impl Elements {
         self.triangles.extend(later.triangles);
         self.uv_corners.extend(later.uv_corners);
         self.normal_corners.extend(later.normal_corners);
+        self.polygon_sizes.extend(later.polygon_sizes);
     }
 }
 
@@ -109,7 +114,7 @@ impl Checked {
             .into_iter()
             .map(|name| super::asset::Material { name, ..Default::default() })
             .collect();
-        Asset {
+        let mut asset = Asset {
             positions: e.positions,
             triangles,
             normals,
@@ -119,7 +124,9 @@ impl Checked {
             materials,
             notices: self.notices,
             ..Asset::default()
-        }
+        };
+        asset.set_polygon_sizes(e.polygon_sizes);
+        asset
     }
 }
 
@@ -388,6 +395,8 @@ fn read_chunk(
                 for tok in rest {
                     poly.push(face_vertex(tok, totals, &seen, ctx, line)?);
                 }
+                // A line holds fewer than 2^32 tokens (the file is indexed by `u32`).
+                out.elements.polygon_sizes.push(u32::try_from(poly.len()).unwrap_or(u32::MAX));
                 let (c0, rest) = (poly[0], &poly[1..]);
                 for w in rest.windows(2) {
                     let tri = [c0, w[0], w[1]];

@@ -6,8 +6,11 @@
 //! shortest round-tripping formatting), `vt u v` for UV set 0 with $v_{\mathrm{OBJ}} = 1 -
 //! v_{\mathrm{asset}}$ (the asset keeps glTF's v-down convention, OBJ's v points up), `vn x y z`
 //! for the given normals (`f32` precision), then per [`Part`] an `o NAME` line when the name
-//! changes and a `usemtl` line, and `f v/vt/vn` with 1-based corner indices of
-//! [`Asset::triangles`]. Normals are either one per value of [`Asset::normals`] (faces use the
+//! changes and a `usemtl` line, and one `f v/vt/vn ...` line per face of the file with
+//! 1-based corner indices: each polygon of [`Asset::polygon_sizes`] with the corners the
+//! file had, in its order (quads and n-gons stay quads and n-gons, see
+//! [`Asset::polygon_corners`]), or each of [`Asset::triangles`] for a file of triangles.
+//! Normals are either one per value of [`Asset::normals`] (faces use the
 //! file's normal corner indices, so hard edges stay hard; see
 //! [`Asset::deformed_normals`]) or, for a file without normals, one per position.
 //!
@@ -268,10 +271,11 @@ fn obj_text(
         return Err(inconsistent(format!("normal {k} is not finite")));
     }
     let parts = checked_parts(&file, asset)?;
+    asset.check_polygons().map_err(inconsistent)?;
     let names = material_names(asset);
 
     let mut text = String::with_capacity(40 * n + 40 * asset.triangles.len());
-    let _ = writeln!(text, "# {n} vertices, {} triangles", asset.triangles.len());
+    let _ = writeln!(text, "# {n} vertices, {} faces", asset.face_count());
     if let Some(lib) = mtllib {
         let _ = writeln!(text, "mtllib {lib}");
     }
@@ -284,6 +288,7 @@ fn obj_text(
     for v in normals.unwrap_or(&[]) {
         let _ = writeln!(text, "vn {} {} {}", v[0] as f32, v[1] as f32, v[2] as f32);
     }
+    let mut polygons = asset.polygons().peekable();
     let mut object = "";
     for part in parts.iter() {
         let name = if part.name.is_empty() { &part.node } else { &part.name };
@@ -302,12 +307,17 @@ fn obj_text(
                 let _ = writeln!(text, "usemtl {m}");
             }
         }
-        for f in part.first..part.first + part.count {
+        // Parts start at polygon boundaries (checked above).
+        while let Some(fan) = polygons.next_if(|fan| fan.start < part.first + part.count) {
             text.push('f');
-            for c in 0..3 {
-                let _ = write!(text, " {}", asset.triangles[f][c] + 1);
-                let vt = uvs.map(|a| a.corners[f][c] + 1);
-                let vn = normal_corners.map(|k| k[f][c] + 1);
+            let corners = |k: &'_ [[u32; 3]]| Asset::polygon_corners(&k[fan.clone()]).collect();
+            let v: Vec<u32> = corners(&asset.triangles);
+            let vt: Option<Vec<u32>> = uvs.map(|a| corners(&a.corners));
+            let vn: Option<Vec<u32>> = normal_corners.map(corners);
+            for (c, v) in v.iter().enumerate() {
+                let _ = write!(text, " {}", v + 1);
+                let vt = vt.as_ref().map(|k| k[c] + 1);
+                let vn = vn.as_ref().map(|k| k[c] + 1);
                 match (vt, vn) {
                     (Some(t), Some(n)) => _ = write!(text, "/{t}/{n}"),
                     (Some(t), None) => _ = write!(text, "/{t}"),

@@ -63,6 +63,7 @@ fn cube_asset() -> Asset {
             },
             Image { name: "unused".into(), mime_type: "image/jpeg".into(), bytes: vec![1, 2] },
         ],
+        polygon_sizes: Vec::new(),
         notices: Vec::new(),
     }
 }
@@ -248,4 +249,122 @@ fn bad_inputs_write_nothing() {
     let mut bad = asset.clone();
     bad.uvs[0].corners[4][2] = 99;
     check(write_obj_asset(&path, &bad, &asset.positions, None), "texture coordinate 99");
+}
+
+/// A 4×4 grid (0.25 apart) with its centre cell left open (a hole) and open outer edges:
+/// a hexagon over two cells, a pentagon with a vertex added on the bottom edge, quads, two
+/// triangles, and a quad with a repeated corner (vertex 18 welds onto vertex 5: one of its
+/// fan's triangles has no area and cleaning drops it; so do the hexagon's and pentagon's
+/// first triangles, over three collinear corners). One `vt` per `v` (so PLY can hold
+/// them), one `vn`, two `usemtl` runs.
+fn polygon_obj() -> (String, Vec<usize>) {
+    let mut text = String::from("o grid\n");
+    for j in 0..4 {
+        for i in 0..4 {
+            text += &format!("v {} {} 0\n", i as f64 * 0.25, j as f64 * 0.25);
+        }
+    }
+    text += "v 0.625 0 0\nv 0 0.25 0\n";
+    for j in 0..4 {
+        for i in 0..4 {
+            text += &format!("vt {} {}\n", i as f64 * 0.25, j as f64 * 0.25);
+        }
+    }
+    text += "vt 0.625 0\nvt 0 0.5\nvn 0 0 1\nusemtl red\n";
+    let v = |i: usize, j: usize| i + 4 * j + 1;
+    let faces: Vec<Vec<usize>> = vec![
+        vec![v(0, 0), v(1, 0), v(2, 0), v(2, 1), v(1, 1), v(0, 1)],
+        vec![v(2, 0), 17, v(3, 0), v(3, 1), v(2, 1)],
+        vec![v(2, 1), v(3, 1), v(3, 2), v(2, 2)],
+        vec![v(0, 1), v(1, 1), v(1, 2), 18],
+        vec![v(2, 2), v(3, 2), v(3, 3)],
+        vec![v(2, 2), v(3, 3), v(2, 3)],
+        vec![v(0, 2), v(1, 2), v(1, 3), v(0, 3)],
+        vec![v(1, 2), v(2, 2), v(2, 3), v(1, 3)],
+    ];
+    for (k, f) in faces.iter().enumerate() {
+        if k == 4 {
+            text += "usemtl blue\n";
+        }
+        let corners: Vec<String> = f.iter().map(|c| format!("{c}/{c}/1")).collect();
+        text += &format!("f {}\n", corners.join(" "));
+    }
+    (text, faces.iter().map(Vec::len).collect())
+}
+
+#[test]
+fn polygons_and_holes_round_trip_through_obj_ply_and_off() {
+    use crate::io::{Format, load_mesh_from_bytes, write_off_asset, write_ply_asset};
+    let dir = ScratchDir::new("obj-polygons");
+    let (text, sizes) = polygon_obj();
+    let loaded = load_mesh_from_bytes(text.as_bytes(), Format::Obj, "grid.obj").unwrap();
+    let asset = &loaded.asset;
+    asset.check().unwrap();
+    let sizes: Vec<u32> = sizes.iter().map(|&n| n as u32).collect();
+    assert_eq!(asset.polygon_sizes, sizes);
+    assert_eq!(asset.face_count(), 8);
+    assert_eq!(asset.triangles.len(), 17, "the solver's fan: sum of n - 2");
+    // Cleaning welds the repeated corner and drops three fan triangles without area (the
+    // quad's, and the hexagon's and pentagon's over collinear corners); the faces stay.
+    assert!(loaded.report.changed());
+    assert_eq!(loaded.mesh.triangles().len(), 14);
+
+    // A pose of the mesh, on the file's layout, with its deformed normals.
+    let x: Vec<[f64; 3]> =
+        loaded.mesh.positions().iter().map(|p| [p[0], p[1], 0.1 * p[0] * p[1]]).collect();
+    let pose = asset.layout_positions(&loaded.report.vertex_map, &x);
+    let normals = asset.deformed_normals(&pose).unwrap();
+    let path = dir.join("grid.obj");
+    write_obj_asset(&path, asset, &pose, Some(&normals)).unwrap();
+    let written = std::fs::read_to_string(&path).unwrap();
+    assert_eq!(lines(&written, "f"), lines(&text, "f"), "the file's faces, corners and order");
+    assert_eq!(lines(&written, "usemtl"), ["red", "blue"]);
+    let back = load_mesh(&path).unwrap();
+    assert_eq!(back.asset.polygon_sizes, asset.polygon_sizes);
+    assert_eq!(back.asset.triangles, asset.triangles);
+    assert_eq!(back.asset.uvs, asset.uvs);
+    assert_eq!(back.asset.positions, pose);
+    assert_eq!(back.asset.parts.len(), 2);
+
+    // PLY (with the per-vertex UVs) and OFF keep the same polygons.
+    let ply = dir.join("grid.ply");
+    write_ply_asset(&ply, asset, &pose, None).unwrap();
+    let back = load_mesh(&ply).unwrap();
+    assert_eq!(back.asset.polygon_sizes, asset.polygon_sizes);
+    assert_eq!(back.asset.triangles, asset.triangles);
+    assert_eq!(back.asset.positions, pose);
+    assert_eq!(back.asset.uvs[0].values, asset.uvs[0].values);
+    let off = dir.join("grid.off");
+    write_off_asset(&off, asset, &pose).unwrap();
+    let back = load_mesh(&off).unwrap();
+    assert_eq!(back.asset.polygon_sizes, asset.polygon_sizes);
+    assert_eq!(back.asset.triangles, asset.triangles);
+}
+
+#[test]
+fn polygons_that_do_not_fit_the_triangles_are_refused() {
+    use crate::io::{Format, load_mesh_from_bytes, write_ply_asset};
+    let dir = ScratchDir::new("obj-polygons-bad");
+    let (text, _) = polygon_obj();
+    let asset = load_mesh_from_bytes(text.as_bytes(), Format::Obj, "grid.obj").unwrap().asset;
+    let path = dir.join("bad.obj");
+    let check = |r: Result<(), SaveError>, what: &str| {
+        let e = r.unwrap_err().to_string();
+        assert!(e.contains(what), "{e} lacks {what:?}");
+        assert!(!path.exists() && !dir.join("bad.ply").exists());
+    };
+    let mut bad = asset.clone();
+    bad.polygon_sizes[0] = 5;
+    assert!(bad.check().unwrap_err().contains("cover 16 of 17"));
+    check(write_obj_asset(&path, &bad, &asset.positions, None), "cover 16 of 17");
+    let mut bad = asset.clone();
+    bad.polygon_sizes.swap(0, 1);
+    check(write_obj_asset(&path, &bad, &asset.positions, None), "not one fan");
+    let mut bad = asset.clone();
+    bad.uvs[0].corners[1][0] = 7;
+    check(write_obj_asset(&path, &bad, &asset.positions, None), "uvs: polygon 0");
+    let mut bad = asset.clone();
+    bad.parts[1].first -= 1;
+    bad.parts[0].count -= 1;
+    check(write_ply_asset(&dir.join("bad.ply"), &bad, &asset.positions, None), "inside a polygon");
 }

@@ -3,7 +3,8 @@
 //! Layout: a keyword line `OFF` (also `COFF`, `NOFF`, `CNOFF`, `STOFF`...: extra per-vertex
 //! values are ignored), then `nV nF [nE]` (on the keyword line or the next), then `nV` vertex
 //! lines `x y z [extra...]`, then `nF` face lines `n i_1 ... i_n [color...]` with 0-based
-//! indices. `#` starts a comment. Polygons are fan-triangulated.
+//! indices. `#` starts a comment. Polygons are fan-triangulated, their corner counts kept in
+//! [`Asset::polygon_sizes`].
 //!
 //! Known limitations: one vertex or face per line (the common layout, needed for line numbers);
 //! binary OFF and 4D/`nOFF` variants are rejected with a clear error.
@@ -96,6 +97,7 @@ pub(crate) fn parse(bytes: &[u8], ctx: Ctx) -> Result<Asset, LoadError> {
 
     let mut triangles = Vec::with_capacity(capped(n_f, bytes.len(), 8));
     let mut poly = Vec::new();
+    let mut polygon_sizes = Vec::with_capacity(capped(n_f, bytes.len(), 8));
     for face in 0..n_f {
         let Some((line, toks)) = lines.next() else {
             return Err(ctx.truncated(None, format!("the file ends after {face} of {n_f} faces")));
@@ -138,6 +140,7 @@ pub(crate) fn parse(bytes: &[u8], ctx: Ctx) -> Result<Asset, LoadError> {
             poly.push(i as u32);
         }
         super::push_fan(&mut triangles, &poly);
+        polygon_sizes.push(u32::try_from(k).unwrap_or(u32::MAX));
     }
     if let Some((line, _)) = lines.next() {
         return Err(ctx.count(
@@ -145,7 +148,9 @@ pub(crate) fn parse(bytes: &[u8], ctx: Ctx) -> Result<Asset, LoadError> {
             format!("data after the {n_v} vertices and {n_f} faces the header announces"),
         ));
     }
-    Ok(Asset::bare(positions, triangles))
+    let mut asset = Asset::bare(positions, triangles);
+    asset.set_polygon_sizes(polygon_sizes);
+    Ok(asset)
 }
 
 #[cfg(test)]

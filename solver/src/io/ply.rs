@@ -3,7 +3,8 @@
 //! Reads the `vertex` element's `x`, `y`, `z` (any scalar type, converted to `f64`) and the
 //! `face` element's index list (`vertex_indices` or `vertex_index`, else its first list; count
 //! and index of any integer type, e.g. `list uchar int`). Every other property and element is
-//! skipped with its correct size. Polygons are fan-triangulated.
+//! skipped with its correct size. Polygons are fan-triangulated, their corner counts kept in
+//! [`Asset::polygon_sizes`].
 //!
 //! Vertex attributes, when present: texture coordinates `u`/`v` (also `s`/`t`,
 //! `texture_u`/`texture_v`, `texture_s`/`texture_t`), stored in the glTF convention
@@ -419,6 +420,7 @@ fn read_body(
     let mut uvs: Vec<[f32; 2]> = Vec::new();
     let mut colors: Vec<[f32; 4]> = Vec::new();
     let mut triangles = Vec::new();
+    let mut polygon_sizes = Vec::new();
     let mut poly = Vec::new();
     for el in elements {
         if el.props.is_empty() {
@@ -496,6 +498,8 @@ fn read_body(
                         }
                         if is_faces {
                             super::push_fan(&mut triangles, &poly);
+                            // `poly` holds one index per value read, fewer than 2^32.
+                            polygon_sizes.push(u32::try_from(poly.len()).unwrap_or(u32::MAX));
                         }
                     }
                 }
@@ -514,6 +518,7 @@ fn read_body(
     }
     src.finish()?;
     let mut asset = Asset::bare(positions, triangles);
+    asset.set_polygon_sizes(polygon_sizes);
     if has_uv {
         asset.uvs.push(Attribute::per_vertex(uvs, &asset.triangles));
     }
