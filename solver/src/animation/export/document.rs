@@ -128,6 +128,7 @@ impl Builder {
         let (component, normalized) = match values {
             Values::F32(_) => (C::F32, false),
             Values::I16(_) => (C::I16, true),
+            Values::I8(_) => (C::I8, true),
         };
         let bounds = with_bounds.then(|| (e.min.to_vec(), e.max.to_vec()));
         match e.storage {

@@ -42,10 +42,18 @@
 //! value to its slider range, which it widens past $[0, 1]$ only from the weights at the first
 //! key (all 0 here): weights above 1 would play as 1 (measured in `tests/clients_asset.rs`).
 //! Weights are per mesh, hence one scale per mesh and frame; $k_m = 1$ (no node scale) whenever
-//! no frame moves a vertex by more than one unit. `NORMAL` deltas are stored as f32 values
-//! $(n^{(i)} - \tilde n)/w_i$ (0 when $s_{m,i} = 0$), decoded by the same weight (the node's
-//! uniform scale does not change normals). Normal deltas are not quantized: their range is
-//! unrelated to the positions'.
+//! no frame moves a vertex by more than one unit. `NORMAL` deltas $\Delta n = n^{(i)} - \tilde n$
+//! share the weight (the node's uniform scale does not change normals): with
+//! $s^n_{m,i} = \max|\Delta n|$, when $\max(s_{m,i}/k_m, s^n_{m,i}) \le 1$ the weight is raised
+//! to $w_i = \max(s_{m,i}/k_m, s^n_{m,i})$, positions are stored as
+//! $\mathrm{round}(32767\,\Delta/(w_i k_m))$ and normals as normalized BYTE
+//! $\mathrm{round}(127\,\Delta n/w_i)$ (`KHR_mesh_quantization` allows normalized BYTE and SHORT
+//! for morph-target `NORMAL`), so $|e_d| \le w_i k_m / 65534$ for positions (at most
+//! $k_m / 65534$) and $w_i / 254$ per normal component (about 0.5° at most). A frame where a
+//! normal delta component exceeds 1 (a normal turned by more than about 60°; a weight above 1
+//! would play as 1 in Blender) keeps $w_i = s_{m,i}/k_m$ and stores its normals as f32
+//! $(n^{(i)} - \tilde n)/w_i$ (0 when $s_{m,i} = 0$). Each target is dense or sparse, whichever
+//! is smaller (`targets.rs`).
 //!
 //! **Buffer.** One buffer; every view starts on a 4-byte boundary, in this order: images
 //! (`.glb`), each primitive's base attributes, each kept frame's targets (primitive order), the
@@ -131,12 +139,13 @@ const GLB_MAGIC: u32 = 0x4654_6C67; // "glTF"
 const CHUNK_JSON: u32 = 0x4E4F_534A; // "JSON"
 const CHUNK_BIN: u32 = 0x004E_4942; // "BIN\0"
 
-/// How morph-target POSITION deltas are stored (module doc, "Encodings").
+/// How morph-target POSITION and NORMAL deltas are stored (module doc, "Encodings").
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Encoding {
     /// f32 deltas; every animation weight is 0 or 1.
     Float,
-    /// Normalized i16 deltas (`KHR_mesh_quantization`), the scale carried by the weights.
+    /// Normalized i16 position and i8 normal deltas (`KHR_mesh_quantization`), the scale
+    /// carried by the weights.
     #[default]
     Quantized,
 }

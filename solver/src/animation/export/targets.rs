@@ -1,8 +1,8 @@
 //! Morph-target storage: one target attribute (VEC3 per vertex) as dense or sparse data.
 //!
 //! - **Dense**: one buffer view of `count` elements; f32 elements are 12 bytes, normalized
-//!   i16 elements are padded to a stride of 8 (glTF: vertex attribute elements start on
-//!   4-byte boundaries).
+//!   i16 elements are padded to a stride of 8 and normalized i8 elements to a stride of 4
+//!   (glTF: vertex attribute elements start on 4-byte boundaries).
 //! - **Sparse** (glTF 2.0 §3.6.2.3): an accessor without a buffer view (all zeros) whose
 //!   `sparse` lists the `m` vertices with a nonzero delta: indices (u16, or u32 past 65 536
 //!   vertices) and tightly packed values, each view padded to 4 bytes. Chosen when the file
@@ -26,6 +26,8 @@ pub(super) enum Values {
     F32(Vec<[f32; 3]>),
     /// Normalized SHORT: the reader divides by 32767.
     I16(Vec<[i16; 3]>),
+    /// Normalized BYTE: the reader divides by 127.
+    I8(Vec<[i8; 3]>),
 }
 
 /// How an encoded target is stored.
@@ -54,6 +56,7 @@ impl Values {
         match self {
             Values::F32(v) => v.len(),
             Values::I16(v) => v.len(),
+            Values::I8(v) => v.len(),
         }
     }
 
@@ -61,6 +64,7 @@ impl Values {
         match self {
             Values::F32(v) => v[i].iter().all(|&c| c == 0.0),
             Values::I16(v) => v[i].iter().all(|&c| c == 0),
+            Values::I8(v) => v[i].iter().all(|&c| c == 0),
         }
     }
 
@@ -68,6 +72,7 @@ impl Values {
         match self {
             Values::F32(v) => v[i].map(f64::from),
             Values::I16(v) => v[i].map(f64::from),
+            Values::I8(v) => v[i].map(f64::from),
         }
     }
 
@@ -76,6 +81,7 @@ impl Values {
         match self {
             Values::F32(_) => 12,
             Values::I16(_) => 6,
+            Values::I8(_) => 3,
         }
     }
 
@@ -84,6 +90,7 @@ impl Values {
         match self {
             Values::F32(_) => None,
             Values::I16(_) => Some(8),
+            Values::I8(_) => Some(4),
         }
     }
 
@@ -91,6 +98,7 @@ impl Values {
         match self {
             Values::F32(v) => v[i].iter().for_each(|c| out.extend_from_slice(&c.to_le_bytes())),
             Values::I16(v) => v[i].iter().for_each(|c| out.extend_from_slice(&c.to_le_bytes())),
+            Values::I8(v) => v[i].iter().for_each(|c| out.extend_from_slice(&c.to_le_bytes())),
         }
     }
 }
@@ -167,9 +175,12 @@ pub(super) fn quantization_scale(max_abs: f64) -> f32 {
 /// weight and, per primitive, the POSITION values and (when given) the NORMAL values, from the
 /// f64 deltas of every primitive.
 ///
-/// `Float`: weight 1, f32 deltas. `Quantized`: weight $w = s / k$ with $s = \max|\Delta|$ over
-/// the mesh and $k$ its node scale, positions $\mathrm{round}(32767\,\Delta/s)$ as normalized
-/// i16, normals $\Delta n / w$ as f32.
+/// `Float`: weight 1, f32 deltas. `Quantized`: with $s = \max|\Delta|$ and
+/// $s_n = \max|\Delta n|$ over the mesh and $k$ its node scale, weight $w = \max(s / k, s_n)$
+/// when that is at most 1, positions $\mathrm{round}(32767\,\Delta/(w k))$ as normalized i16 and
+/// normals $\mathrm{round}(127\,\Delta n / w)$ as normalized i8; else (a normal delta
+/// component above 1: a normal turned by more than about 60°) $w = s / k$ and normals
+/// $\Delta n / w$ as f32.
 pub(super) fn store_mesh_frame(
     encoding: Encoding,
     node_scale: f32,
@@ -191,22 +202,36 @@ pub(super) fn store_mesh_frame(
             (1.0, stored)
         }
         Encoding::Quantized => {
-            let max_abs = deltas.iter().flatten().flatten().fold(0.0f64, |m, d| m.max(d.abs()));
-            let s = quantization_scale(max_abs);
+            let max_abs = |d: &mut dyn Iterator<Item = &[f64; 3]>| {
+                d.flatten().fold(0.0f64, |m, x| m.max(x.abs()))
+            };
+            let s = quantization_scale(max_abs(&mut deltas.iter().flatten()));
+            let s_n = quantization_scale(max_abs(&mut normal_deltas.iter().flatten().flatten()));
+            // `s / node_scale` is exact (a power of two), so `w * node_scale` ≥ s.
+            let w_p = s / node_scale;
+            let bytes = w_p.max(s_n) <= 1.0;
+            let w = if bytes { w_p.max(s_n) } else { w_p };
+            let scale = w as f64 * node_scale as f64;
             let q = |x: f64| -> i16 {
-                if s == 0.0 {
+                if scale == 0.0 {
                     0
                 } else {
-                    (x / s as f64 * 32767.0).round().clamp(-32767.0, 32767.0) as i16
+                    (x / scale * 32767.0).round().clamp(-32767.0, 32767.0) as i16
                 }
             };
-            let w = s / node_scale;
+            let qn = |x: f64| -> i8 {
+                if w == 0.0 { 0 } else { (x / w as f64 * 127.0).round().clamp(-127.0, 127.0) as i8 }
+            };
             let stored = deltas
                 .iter()
                 .zip(normal_deltas)
                 .map(|(d, n)| {
                     let p = Values::I16(d.iter().map(|v| v.map(q)).collect());
-                    (p, n.as_deref().map(|n| f32s(n, w as f64)))
+                    let n = n.as_deref().map(|n| match bytes {
+                        true => Values::I8(n.iter().map(|v| v.map(qn)).collect()),
+                        false => f32s(n, w as f64),
+                    });
+                    (p, n)
                 })
                 .collect();
             (w, stored)
@@ -254,12 +279,38 @@ mod tests {
                 }
             }
         }
-        let Some(Values::F32(nv)) = &stored[1].1 else { panic!("normals missing") };
-        assert!((nv[0][0] * s - 0.5).abs() < 1e-6);
+        let Some(Values::I8(nv)) = &stored[1].1 else { panic!("normals missing") };
+        assert!((nv[0][0] as f32 / 127.0 * s - 0.5).abs() <= s / 254.0);
         let (s, stored) = store_mesh_frame(Encoding::Quantized, 1.0, &[vec![[0.0; 3]]], &[None]);
         assert_eq!(s, 0.0);
         assert!(matches!(&stored[0].0, Values::I16(q) if q[0] == [0; 3]));
         let (s, _) = store_mesh_frame(Encoding::Float, 1.0, &d, &n);
         assert_eq!(s, 1.0);
+    }
+
+    #[test]
+    fn normals_set_the_weight_and_position_precision_follows_it() {
+        // Positions barely move, a normal turns by 37°: the weight is the normals' scale, the
+        // positions' error stays within w k / 65534, the normals' within w / 254.
+        let d = vec![vec![[1e-3, 0.0, -2e-4], [0.0; 3]]];
+        let n = vec![Some(vec![[0.6, 0.0, -0.2], [0.0; 3]])];
+        let (w, stored) = store_mesh_frame(Encoding::Quantized, 1.0, &d, &n);
+        assert!((w as f64 - 0.6).abs() < 1e-6, "{w}");
+        let (Values::I16(p), Some(Values::I8(nq))) = (&stored[0].0, &stored[0].1) else {
+            panic!("not i16 positions and i8 normals")
+        };
+        for k in 0..3 {
+            let got = w as f64 * p[0][k] as f64 / 32767.0;
+            assert!((got - d[0][0][k]).abs() <= w as f64 / 65534.0 + 1e-12);
+            let got = w as f64 * nq[0][k] as f64 / 127.0;
+            assert!((got - n[0].as_ref().unwrap()[0][k]).abs() <= w as f64 / 254.0 + 1e-9);
+        }
+        assert_eq!(nq[1], [0; 3]);
+        // A normal turned around (delta component 1.6 > 1): f32 normals, weight s / k.
+        let n = vec![Some(vec![[0.6, 0.0, -1.6], [0.0; 3]])];
+        let (w, stored) = store_mesh_frame(Encoding::Quantized, 1.0, &d, &n);
+        assert!((w as f64 - 1e-3).abs() < 1e-9, "{w}");
+        let Some(Values::F32(nf)) = &stored[0].1 else { panic!("not f32 normals") };
+        assert!((nf[0][2] as f64 * w as f64 + 1.6).abs() < 1e-6);
     }
 }
