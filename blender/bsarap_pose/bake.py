@@ -82,7 +82,7 @@ def write_shape_keys(obj, frames, poses) -> None:
     solve.ensure_pose_key(obj).mute = True
     for f, U in zip(frames, poses):
         kb = obj.shape_key_add(name=frame_key_name(f), from_mix=False)
-        kb.data.foreach_set("co", np.ascontiguousarray(U, dtype=np.float32).ravel())
+        kb.points.foreach_set("co", np.ascontiguousarray(U, dtype=np.float32).ravel())
         for frame, value in ((f - 1, 0.0), (f, 1.0), (f + 1, 0.0)):
             kb.value = value
             kb.keyframe_insert("value", frame=frame)

@@ -25,7 +25,7 @@ def rest_positions(mesh) -> np.ndarray:
     co = np.empty(n * 3, dtype=np.float32)
     keys = mesh.shape_keys
     if keys is not None and keys.reference_key is not None:
-        keys.reference_key.data.foreach_get("co", co)
+        keys.reference_key.points.foreach_get("co", co)
     else:
         mesh.vertices.foreach_get("co", co)
     return co.reshape(n, 3).astype(np.float64)
