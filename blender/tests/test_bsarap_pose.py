@@ -243,7 +243,14 @@ class Tube(unittest.TestCase):
         top.rotation_euler = Euler((-0.4, 0.3, 0.6))
         top.keyframe_insert("location", frame=12)
         top.keyframe_insert("rotation_euler", frame=12)
-        scene.frame_set(1)
+        # playing the keyed controls: frame_change_post poses the mesh live
+        st = ext.solve.state(obj)
+        for f in (6, 1):
+            solves = st.solves
+            scene.frame_set(f)
+            self.assertEqual(st.solves, solves + 1)
+            idx, want = expected_handles(obj, st, 1)
+            np.testing.assert_allclose(pose_of(obj)[idx], want, atol=1e-5)
         activate(obj)
         self.assertEqual(bpy.ops.bsarap.bake_shape_keys(), {"FINISHED"})
         keys = obj.data.shape_keys.key_blocks
@@ -251,7 +258,6 @@ class Tube(unittest.TestCase):
         self.assertEqual([kb.name for kb in keys if kb.name.startswith("BS-ARAP frame")], names)
         self.assertTrue(keys["BS-ARAP pose"].mute)
         self.assertFalse(obj.bsarap.live)
-        st = ext.solve.state(obj)
         baked = {}
         for f in (1, 5, 12):
             scene.frame_set(f)
@@ -269,6 +275,13 @@ class Tube(unittest.TestCase):
         # baking again replaces the keys (no duplicates)
         self.assertEqual(bpy.ops.bsarap.bake_shape_keys(), {"FINISHED"})
         self.assertEqual(sum(kb.name.startswith("BS-ARAP frame") for kb in keys), 12)
+        # and their F-curves: one per key, none left behind by the first bake
+        from bpy_extras import anim_utils
+
+        ad = obj.data.shape_keys.animation_data
+        bag = anim_utils.action_get_channelbag_for_slot(ad.action, ad.action_slot)
+        paths = sorted(fc.data_path for fc in bag.fcurves)
+        self.assertEqual(paths, sorted(f'key_blocks["{n}"].value' for n in names))
 
     def test_5_bake_point_cache(self):
         obj, scene = self.obj, bpy.context.scene
