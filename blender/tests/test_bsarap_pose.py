@@ -306,6 +306,17 @@ class Tube(unittest.TestCase):
             np.testing.assert_allclose(evaluated_positions(obj), frames[f - 1], atol=1e-5)
 
 
+class Package(unittest.TestCase):
+    def test_manifest_valid(self):
+        """Blender's own extension validator (the `blender_ext validate` of extensions.blender.org
+        uploads; stricter than installing) accepts the zip."""
+        import subprocess
+
+        cli = os.path.join(bpy.utils.system_resource("SCRIPTS"), "addons_core", "bl_pkg", "cli", "blender_ext.py")
+        r = subprocess.run([sys.executable, cli, "validate", ZIP], capture_output=True, text=True)
+        self.assertEqual(r.returncode, 0, r.stdout + r.stderr)
+
+
 class BadInput(unittest.TestCase):
     """Each bad input ends in an operator error report (a RuntimeError for scripts) with a
     message, not a Python traceback."""
@@ -431,7 +442,7 @@ class Unregister(unittest.TestCase):
 def load_tests(loader, standard, _pattern):
     # Unregister last, whatever the order of the classes' names.
     suite = unittest.TestSuite()
-    for cls in (Tube, BadInput, Creature, Unregister):
+    for cls in (Package, Tube, BadInput, Creature, Unregister):
         suite.addTests(loader.loadTestsFromTestCase(cls))
     return suite
 
