@@ -20,8 +20,9 @@ suspended = False
 
 
 def posed_objects(scene):
+    """The meshes with Live on and controls (a group without one is reported by the solve)."""
     for obj in scene.objects:
-        if obj.type == "MESH" and obj.bsarap.live and len(obj.bsarap.groups) > 0:
+        if obj.type == "MESH" and obj.bsarap.live and any(g.control is not None for g in obj.bsarap.groups):
             yield obj
 
 

@@ -380,6 +380,33 @@ class BadInput(unittest.TestCase):
         self.assertIn("'top' does not exist", ext.solve.messages[obj.name])
 
 
+class Controls(unittest.TestCase):
+    def setUp(self):
+        bpy.ops.wm.read_homefile(use_empty=True)
+
+    def test_remove_controls(self):
+        obj = tube()
+        make_controls(obj, ["bottom", "top"])
+        self.assertEqual(bpy.ops.bsarap.remove_controls(), {"FINISHED"})
+        self.assertNotIn("top", bpy.data.objects)
+        self.assertNotIn("bottom", bpy.data.objects)
+        self.assertNotIn("BS-ARAP pose", obj.data.shape_keys.key_blocks)
+        bpy.context.view_layer.update()
+        # no controls: the live handler leaves the object alone (no solver, no message)
+        self.assertNotIn(obj.name, ext.solve._states)
+        self.assertNotIn(obj.name, ext.solve.messages)
+
+    def test_invoke_bake_without_window(self):
+        """The panel's button invokes the bake (modal, Esc cancels, in a window); with no window
+        (background) it bakes in one go."""
+        obj = tube()
+        make_controls(obj, ["bottom", "top"])
+        scene = bpy.context.scene
+        scene.frame_start, scene.frame_end = 1, 3
+        self.assertEqual(bpy.ops.bsarap.bake_shape_keys("INVOKE_DEFAULT"), {"FINISHED"})
+        self.assertEqual(sum(kb.name.startswith("BS-ARAP frame") for kb in obj.data.shape_keys.key_blocks), 3)
+
+
 class Creature(unittest.TestCase):
     """assets/creature.obj (30k vertices) with its handle spheres as vertex groups."""
 
@@ -442,7 +469,7 @@ class Unregister(unittest.TestCase):
 def load_tests(loader, standard, _pattern):
     # Unregister last, whatever the order of the classes' names.
     suite = unittest.TestSuite()
-    for cls in (Package, Tube, BadInput, Creature, Unregister):
+    for cls in (Package, Tube, BadInput, Controls, Creature, Unregister):
         suite.addTests(loader.loadTestsFromTestCase(cls))
     return suite
 
