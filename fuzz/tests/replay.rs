@@ -186,6 +186,7 @@ fn seeds(name: &str) -> Vec<Vec<u8>> {
         ],
         "stl" => vec![stl_ascii(&icosphere(0)), stl_binary(&icosphere(0))],
         "gltf" => gltf_seeds(),
+        "gltf_folder" => gltf_folder_seeds(),
         "dmat" => vec![dmat(42, true), dmat(42, false)],
         "spheres" => vec![
             br#"[{"group": 0, "center": [0, 0, 1], "radius": 0.6},
@@ -359,6 +360,39 @@ fn dmat(n: u16, column: bool) -> Vec<u8> {
 
 /// glTF and GLB files from the solver's exporter: an icosphere with two morph-target frames
 /// (a bare mesh), and the cube OBJ with its attributes and materials.
+/// `.gltf` files of the tetrahedron in `solver_fuzz::ReferenceFolder`, its buffer `tet.bin`
+/// beside them, textured with an image at each kind of URI: beside, outside by `..`, by a link,
+/// through a linked folder, percent-encoded, Windows-style, absolute, `file:`, a data URI.
+fn gltf_folder_seeds() -> Vec<Vec<u8>> {
+    let images = [
+        "skin.png",
+        "../private/real.png",
+        "link.png",
+        "outside/real.png",
+        "..%2Fprivate%2Fsecret.png",
+        "..\\\\private\\\\secret.png",
+        "/etc/passwd",
+        "file:///etc/passwd",
+        "data:image/png;base64,LS0tLS1CRUdJTg==",
+    ];
+    images
+        .iter()
+        .map(|uri| {
+            format!(
+                r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0]}}],
+"nodes":[{{"mesh":0}}],"meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}},"indices":1,"material":0}}]}}],
+"materials":[{{"pbrMetallicRoughness":{{"baseColorTexture":{{"index":0}}}}}}],
+"textures":[{{"source":0}}],"images":[{{"uri":"{uri}"}}],
+"accessors":[{{"bufferView":0,"componentType":5126,"count":4,"type":"VEC3","min":[0,0,0],"max":[1,1,1]}},
+{{"bufferView":1,"componentType":5125,"count":12,"type":"SCALAR"}}],
+"bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":48}},{{"buffer":0,"byteOffset":48,"byteLength":48}}],
+"buffers":[{{"uri":"tet.bin","byteLength":96}}]}}"#
+            )
+            .into_bytes()
+        })
+        .collect()
+}
+
 fn gltf_seeds() -> Vec<Vec<u8>> {
     let sphere = icosphere(1);
     let lifted = |m: &[[f64; 3]]| -> Vec<[f64; 3]> {
