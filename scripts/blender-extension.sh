@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # scripts/blender-extension.sh OUTDIR: the Blender extension (blender/bsarap_pose) as an
-# installable zip in OUTDIR, with the bsarap wheel for this platform bundled under wheels/.
+# installable zip in OUTDIR, with the bsarap wheel for this platform bundled under wheels/;
+# the wheel itself is left in OUTDIR too (scripts/test.sh installs it for the Python tests).
 #
 # The wheel is abi3 (python/Cargo.toml's `abi3` feature: pyo3's abi3-py39), so one build serves
 # every Blender whose Python is 3.9 or newer (4.2+: 3.11). maturin comes from a venv under
@@ -55,3 +56,5 @@ with zipfile.ZipFile(zpath, "w", zipfile.ZIP_DEFLATED) as z:
             z.write(p, p.relative_to(stage).as_posix())
 print(zpath)
 PY
+rm -f "$out"/bsarap-*.whl
+cp "$stage"/wheels/bsarap-*-abi3-*.whl "$out"/

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The test command (README, .ci/run): the Rust tests of the workspace, then the Python package
-# (python/): built and installed with pip into python/.venv, then its pytest suite.
+# (python/): built as a wheel and installed with pip into python/.venv, then its pytest suite,
+# then the Blender extension's tests.
 # libigl (for the comparison tests) is optional: if it cannot be installed those tests print
 # "skipped: ..."; the package itself failing to build fails this script.
 set -euo pipefail
@@ -8,22 +9,29 @@ cd "$(dirname "$0")/.."
 
 cargo test --workspace
 
+# One release build of the Python package (python/) serves both its tests and the Blender
+# extension (blender/, issue 48): scripts/blender-extension.sh builds the abi3 wheel (pyo3's
+# abi3-py39; incremental after the first build) and the extension zip into
+# target/blender-extension; the wheel is what `pip install ./python` would build, as abi3.
+ext=target/blender-extension
+scripts/blender-extension.sh "$ext"
+wheel=$(ls -t "$ext"/bsarap-*-abi3-*.whl | head -n 1)
+
 venv=python/.venv
 [ -x "$venv/bin/python" ] || python3 -m venv "$venv"
 pip=("$venv/bin/pip" install -q --disable-pip-version-check)
-"${pip[@]}" ./python pytest
+"${pip[@]}" "$wheel" pytest
+"${pip[@]}" --force-reinstall --no-deps "$wheel"
 "${pip[@]}" libigl==2.6.3 ||
   echo "warning: libigl not installed; the libigl comparison tests will be skipped" >&2
 # -rs prints every skip's reason (missing paper meshes, libigl, the bsarap binary).
 "$venv/bin/python" -m pytest -q -rs python/tests
 
-# The Blender extension (blender/, issue 48): its zip built into target/blender-extension
-# (an abi3 release wheel; incremental after the first build), then installed and tested in
-# Blender's Python (bpy from PyPI, tools/blender/.venv). Skipped, with the reason, without bpy.
+# The extension installed and tested in Blender's Python (bpy from PyPI, tools/blender/.venv).
+# Skipped, with the reason, without bpy.
 blender_py=tools/blender/.venv/bin/python
 if [ -x "$blender_py" ] && "$blender_py" -c "import bpy" >/dev/null 2>&1; then
-  scripts/blender-extension.sh target/blender-extension
-  BSARAP_BLENDER_ZIP=$(ls -t target/blender-extension/bsarap_pose-*.zip | head -n 1) \
+  BSARAP_BLENDER_ZIP=$(ls -t "$ext"/bsarap_pose-*.zip | head -n 1) \
     "$blender_py" blender/tests/test_bsarap_pose.py
 else
   echo "skipped: the Blender extension tests (no bpy in $blender_py)"
