@@ -35,6 +35,8 @@ fn component(bytes: &[u8], t: gltf::accessor::DataType, normalized: bool) -> f64
             (i16::from_le_bytes([bytes[0], bytes[1]]) as f64 / 32767.0).max(-1.0)
         }
         D::I16 => i16::from_le_bytes([bytes[0], bytes[1]]) as f64,
+        D::I8 if normalized => (bytes[0] as i8 as f64 / 127.0).max(-1.0),
+        D::I8 => bytes[0] as i8 as f64,
         D::U16 => u16::from_le_bytes([bytes[0], bytes[1]]) as f64,
         D::U32 => u32::from_le_bytes(bytes[..4].try_into().unwrap()) as f64,
         other => panic!("unexpected component type {other:?}"),
