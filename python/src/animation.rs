@@ -76,6 +76,7 @@ impl NativeScene {
             match s.arap.energy {
                 solver::Energy::SpokesAndRims => "spokes-and-rims",
                 solver::Energy::Spokes => "spokes",
+                solver::Energy::SmoothRotations => "smooth-rotations",
             },
         )?;
         d.set_item("tol", s.arap.tolerance)?;

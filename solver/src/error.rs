@@ -30,6 +30,8 @@ pub enum SolveError {
     TargetCount { got: usize, expected: usize },
     #[error("the membrane share must be in [0, 1] (got {0})")]
     MembraneShare(f64),
+    #[error("the bending length must be finite and > 0 (a fraction of the diagonal; got {0})")]
+    BendingLength(f64),
     #[error("handle target {index} is not finite")]
     NonFiniteTarget { index: usize },
     #[error("the selection has {got} labels but the mesh has {expected} vertices")]

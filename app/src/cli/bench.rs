@@ -111,6 +111,10 @@ pub struct BenchArgs {
     pub anderson: usize,
     #[arg(long, value_enum, default_value = "spokes-and-rims")]
     pub energy: EnergyArg,
+    /// Bending length of `--energy smooth-rotations`, as a fraction of the bounding-box
+    /// diagonal (default 0.02); the `--quality` reference uses the same energy and length.
+    #[arg(long, value_name = "F")]
+    pub bending_length: Option<f64>,
     /// Circle radius as a fraction of the bounding-box diagonal.
     #[arg(long, default_value_t = 0.1)]
     pub radius: f64,
@@ -398,8 +402,12 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
         StopRule::Threshold => (0.0, a.threshold),
         StopRule::Fixed => (0.0, 0.0),
     };
+    let bending_length = super::bending_length(a.energy, a.bending_length)?;
+    let reference_energy =
+        solver::deform::quality::ReferenceEnergy { energy: a.energy.into(), bending_length };
     let config = ArapConfig {
         energy: a.energy.into(),
+        bending_length,
         tolerance,
         max_iterations: a.max_iters,
         energy_threshold,
@@ -442,7 +450,7 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
             let targets = frame_targets(&setup, g, f)?;
             Some((
                 f,
-                solver::deform::quality::Reference::new(mesh, &handles, &targets, a.energy.into()),
+                solver::deform::quality::Reference::new(mesh, &handles, &targets, reference_energy),
             ))
         }
         (Some(f), ReferenceStart::Path) => {
@@ -452,7 +460,7 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
                 mesh,
                 &handles,
                 &path,
-                a.energy.into(),
+                reference_energy,
             );
             Some((f, r))
         }
@@ -512,7 +520,7 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
                 }
                 if let (Some((_, targets)), Some(x)) = (&own, &snapshot) {
                     let t = Instant::now();
-                    let energy = a.energy.into();
+                    let energy = reference_energy;
                     // A reference that fails is reported beside the method, not fatal.
                     match solver::deform::quality::Reference::from_pose(
                         mesh, &handles, targets, x, energy,
@@ -575,6 +583,10 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
             "stop": a.stop,
             "start": a.start,
             "tolerance": a.tol,
+            "energy": solver::Energy::from(a.energy),
+            "bending_length": (a.energy == EnergyArg::SmoothRotations).then_some(bending_length),
+            "bending_length_world": (a.energy == EnergyArg::SmoothRotations)
+                .then(|| bending_length * mesh.bbox_diagonal()),
             "smoothing": a.base.smoothing,
             "coarse_vertices": setup.base.coarse_vertices_for(mesh.n_vertices()),
             "coarse_vertices_auto": a.base.coarse_vertices.is_none(),
@@ -626,6 +638,7 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
         a.start,
         rayon::current_num_threads()
     );
+    println!("energy: {}", super::energy_summary(a.energy, bending_length, mesh.bbox_diagonal()));
     if a.repeat > 1 {
         println!("{} runs per method, taking turns: each row is the median run", a.repeat);
     }

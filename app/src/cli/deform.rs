@@ -2,7 +2,8 @@
 //! the pose written on the input file's own vertices by `OUT`'s extension.
 
 use super::{
-    BaseArgs, EnergyArg, MethodArg, PathArg, acceleration, check_stopping, load, load_handles,
+    BaseArgs, EnergyArg, MethodArg, PathArg, acceleration, bending_length, check_stopping,
+    energy_summary, load, load_handles,
 };
 use anyhow::{Context, bail};
 use clap::Args;
@@ -35,6 +36,10 @@ pub struct DeformArgs {
     pub method: MethodArg,
     #[arg(long, value_enum, default_value = "spokes-and-rims")]
     pub energy: EnergyArg,
+    /// Bending length of `--energy smooth-rotations`, as a fraction of the bounding-box
+    /// diagonal (default 0.02); printed in world units too.
+    #[arg(long, value_name = "F")]
+    pub bending_length: Option<f64>,
     /// Stop when the relative energy decrease falls below this; 0 runs exactly --max-iters.
     #[arg(long, default_value_t = solver::deform::arap::DEFAULT_TOLERANCE, allow_negative_numbers = true)]
     pub tol: f64,
@@ -183,8 +188,10 @@ pub fn run(a: &DeformArgs) -> anyhow::Result<()> {
     let handles = load_handles(&a.handles, &loaded)?;
     let targets = handle_targets(mesh.positions(), &handles, &transforms)
         .with_context(|| format!("{}", a.handles.display()))?;
+    let bending_length = bending_length(a.energy, a.bending_length)?;
     let config = ArapConfig {
         energy: a.energy.into(),
+        bending_length,
         tolerance: a.tol,
         max_iterations: a.max_iters,
         acceleration: acceleration(a.anderson)?,
@@ -215,6 +222,10 @@ pub fn run(a: &DeformArgs) -> anyhow::Result<()> {
         let j = serde_json::json!({
             "mesh": a.mesh.display().to_string(),
             "method": solver::Method::from(a.method).name(),
+            "energy": solver::Energy::from(a.energy),
+            "bending_length": (a.energy == EnergyArg::SmoothRotations).then_some(bending_length),
+            "bending_length_world": (a.energy == EnergyArg::SmoothRotations)
+                .then(|| bending_length * mesh.bbox_diagonal()),
             "vertices": mesh.n_vertices(),
             "faces": mesh.n_faces(),
             "iterations": stats.iterations,
@@ -239,6 +250,7 @@ pub fn run(a: &DeformArgs) -> anyhow::Result<()> {
         if let Some(n) = notice {
             eprintln!("note: {n}");
         }
+        println!("energy: {}", energy_summary(a.energy, bending_length, mesh.bbox_diagonal()));
         println!(
             "{}: {} iterations ({}), energy {:.6e} -> {:.6e}, precompute {:.1} ms, solve {:.1} ms; wrote {}",
             solver::Method::from(a.method).name(),

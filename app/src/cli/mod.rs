@@ -87,6 +87,8 @@ impl From<MethodArg> for solver::Method {
 pub enum EnergyArg {
     SpokesAndRims,
     Spokes,
+    /// Spokes plus rotation smoothness (SR-ARAP) with `--bending-length`.
+    SmoothRotations,
 }
 
 impl From<EnergyArg> for solver::Energy {
@@ -94,6 +96,7 @@ impl From<EnergyArg> for solver::Energy {
         match e {
             EnergyArg::SpokesAndRims => solver::Energy::SpokesAndRims,
             EnergyArg::Spokes => solver::Energy::Spokes,
+            EnergyArg::SmoothRotations => solver::Energy::SmoothRotations,
         }
     }
 }
@@ -152,6 +155,37 @@ pub fn acceleration(window: usize) -> anyhow::Result<solver::Acceleration> {
         0 => solver::Acceleration::None,
         window => solver::Acceleration::Anderson { window },
     })
+}
+
+/// The bending length for `--energy` and `--bending-length` (a fraction of the bounding-box
+/// diagonal), shared by deform and bench: checked finite and > 0 for smooth rotations
+/// (default [`solver::deform::arap::DEFAULT_BENDING_LENGTH`]), refused with the other energies.
+pub fn bending_length(energy: EnergyArg, fraction: Option<f64>) -> anyhow::Result<f64> {
+    match (energy, fraction) {
+        (EnergyArg::SmoothRotations, f) => {
+            let f = f.unwrap_or(solver::deform::arap::DEFAULT_BENDING_LENGTH);
+            anyhow::ensure!(
+                f.is_finite() && f > 0.0,
+                "--bending-length must be a finite fraction of the diagonal > 0 (got {f})"
+            );
+            Ok(f)
+        }
+        (_, Some(_)) => anyhow::bail!("--bending-length applies to --energy smooth-rotations only"),
+        (_, None) => Ok(solver::deform::arap::DEFAULT_BENDING_LENGTH),
+    }
+}
+
+/// The `--energy` line of a report: the name, and for smooth rotations the bending length as a
+/// fraction of the diagonal and in world units.
+pub fn energy_summary(energy: EnergyArg, fraction: f64, diagonal: f64) -> String {
+    match energy {
+        EnergyArg::SpokesAndRims => "spokes-and-rims".to_string(),
+        EnergyArg::Spokes => "spokes".to_string(),
+        EnergyArg::SmoothRotations => format!(
+            "smooth-rotations, bending length {fraction} of the diagonal = {:.6} world units",
+            fraction * diagonal
+        ),
+    }
 }
 
 /// Tolerance and cap validation shared by deform and bench.

@@ -25,10 +25,26 @@ pub const REFERENCE_MAX_ITERATIONS: usize = 4000;
 /// Anderson window of the reference.
 pub const REFERENCE_ANDERSON_WINDOW: usize = 6;
 
+/// The energy a [`Reference`] minimizes: the cell type and, for
+/// [`Energy::SmoothRotations`], the bending length as a fraction of the diagonal
+/// ([`ArapConfig::bending_length`]). An [`Energy`] alone takes the default bending length.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ReferenceEnergy {
+    pub energy: Energy,
+    pub bending_length: f64,
+}
+
+impl From<Energy> for ReferenceEnergy {
+    fn from(energy: Energy) -> Self {
+        ReferenceEnergy { energy, bending_length: crate::deform::arap::DEFAULT_BENDING_LENGTH }
+    }
+}
+
 /// The reference's solver settings (see the module doc).
-fn reference_config(energy: Energy) -> ArapConfig {
+fn reference_config(energy: ReferenceEnergy) -> ArapConfig {
     ArapConfig {
-        energy,
+        energy: energy.energy,
+        bending_length: energy.bending_length,
         tolerance: REFERENCE_TOLERANCE,
         max_iterations: REFERENCE_MAX_ITERATIONS,
         acceleration: Acceleration::Anderson { window: REFERENCE_ANDERSON_WINDOW },
@@ -75,13 +91,13 @@ pub struct Reference {
 
 impl Reference {
     /// Solves full ARAP on `mesh` (`#V×3`) for `targets` (`#H×3`, order of
-    /// [`Handles::handle_vertices`]) from rest; `energy` is the cell type. Costs up to
+    /// [`Handles::handle_vertices`]) from rest; `energy` is the cell type (and bending length). Costs up to
     /// [`REFERENCE_MAX_ITERATIONS`] iterations.
     pub fn new(
         mesh: &Mesh,
         handles: &Handles,
         targets: &[[f64; 3]],
-        energy: Energy,
+        energy: impl Into<ReferenceEnergy>,
     ) -> Result<Reference, SolveError> {
         Reference::from_pose(mesh, handles, targets, mesh.positions(), energy)
     }
@@ -95,9 +111,9 @@ impl Reference {
         handles: &Handles,
         targets: &[[f64; 3]],
         start: &[[f64; 3]],
-        energy: Energy,
+        energy: impl Into<ReferenceEnergy>,
     ) -> Result<Reference, SolveError> {
-        let mut arap = Arap::new(mesh, handles, &reference_config(energy))?;
+        let mut arap = Arap::new(mesh, handles, &reference_config(energy.into()))?;
         arap.set_positions(start);
         let stats = arap.solve(targets)?;
         let positions = arap.positions().to_vec();
@@ -112,7 +128,7 @@ impl Reference {
         mesh: &Mesh,
         handles: &Handles,
         path: &[Vec<[f64; 3]>],
-        energy: Energy,
+        energy: impl Into<ReferenceEnergy>,
     ) -> Result<Reference, SolveError> {
         let (first, rest) = path
             .split_first()

@@ -81,6 +81,8 @@ impl Arap {
                 g[3 * r..3 * r + 3].copy_from_slice(&self.rhs_row(r));
             }
             aa.step(x, g, xa);
+            // Smooth rotations are state: the fallback starts from those of x_k.
+            self.save_rotations();
             scatter(xa, &mut self.current);
             let t4 = Instant::now();
             stats.solve_ms += ms(t3, t4);
@@ -93,6 +95,7 @@ impl Arap {
                 // Safeguard: take the plain step instead and restart the history.
                 stats.rejected_steps += 1;
                 aa.reset();
+                self.restore_rotations();
                 scatter(g, &mut self.current);
                 e = self.local_step_energy();
                 stats.local_ms += ms(t6, Instant::now());

@@ -20,7 +20,16 @@ pub enum Energy {
     SpokesAndRims,
     /// The one-ring edges of a vertex (Sorkine & Alexa 2007).
     Spokes,
+    /// Spokes plus a rotation-smoothness term $\beta\sum_i\sum_j w_{ij}\lVert R_i -
+    /// R_j\rVert_F^2$, $\beta = \ell^2$ for the bending length $\ell$
+    /// ([`ArapConfig::bending_length`]): SR-ARAP (Levi & Gotsman 2015), whose minimum does not
+    /// move with the mesh's resolution ([`super::smooth_rotations`]).
+    SmoothRotations,
 }
+
+/// The default bending length of [`Energy::SmoothRotations`], as a fraction of the rest
+/// bounding-box diagonal ([`ArapConfig::bending_length`]).
+pub const DEFAULT_BENDING_LENGTH: f64 = 0.02;
 
 /// How the local-global iteration is accelerated.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
@@ -59,6 +68,16 @@ pub struct ArapConfig {
     /// sets it on its coarse level ([`BaseConfig::membrane`](crate::BaseConfig::membrane)).
     #[serde(default)]
     pub membrane: f64,
+    /// The bending length $\ell$ of [`Energy::SmoothRotations`] as a fraction of the rest
+    /// bounding-box diagonal (unitless; $\ell$ in world units is this times the diagonal).
+    /// Finite and $> 0$, else [`Arap::new`](super::Arap::new) refuses it; ignored by the other
+    /// energies. Default [`DEFAULT_BENDING_LENGTH`].
+    #[serde(default = "default_bending_length")]
+    pub bending_length: f64,
+}
+
+fn default_bending_length() -> f64 {
+    DEFAULT_BENDING_LENGTH
 }
 
 impl Default for ArapConfig {
@@ -70,6 +89,7 @@ impl Default for ArapConfig {
             acceleration: Acceleration::None,
             energy_threshold: 0.0,
             membrane: 0.0,
+            bending_length: DEFAULT_BENDING_LENGTH,
         }
     }
 }

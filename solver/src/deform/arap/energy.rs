@@ -1,6 +1,7 @@
 //! The energy $E(p', R) = \sum_i \sum_{(j,k)\in\mathcal{C}_i} w_{jk}\,\lVert (p'_j-p'_k) -
 //! R_i(p_j-p_k)\rVert^2$ (Sun et al. 2017, Eq. 3): directly ([`Arap::energy`]) and from the
-//! local step's sums ([`Arap::energy_from`]).
+//! local step's sums ([`Arap::energy_from`]); with [`super::Energy::SmoothRotations`] plus
+//! $\beta\sum_i\sum_j w_{ij}\lVert R_i - R_j\rVert_F^2$ (`smooth_rotations`).
 
 use super::{Arap, Cells};
 use crate::geometry::cotan::opposite_edge;
@@ -50,7 +51,7 @@ impl Arap {
             }
             _ => None,
         };
-        self.blend(self.cell_energy(), membrane) + self.soft_energy()
+        self.blend(self.cell_energy(), membrane) + self.soft_energy() + self.smooth_term()
     }
 
     /// The cells' part of [`Arap::energy`].

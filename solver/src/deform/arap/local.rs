@@ -19,6 +19,9 @@ const SCRATCH: usize = 64;
 impl Arap {
     /// The local step, returning $E(x, R(x))$ for the rotations it fitted.
     pub(super) fn local_step_energy(&mut self) -> f64 {
+        if self.smooth.is_some() {
+            return self.smooth_local_step();
+        }
         let sums = self.local_pass();
         let membrane = self.fit_membrane();
         self.energy_from(sums.edges, sums.fitted, membrane)

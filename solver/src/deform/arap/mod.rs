@@ -7,6 +7,9 @@
 //!   per-triangle weight $\tfrac12\cot$ of the opposite angle. Negative weights are kept.
 //! - [`Energy::Spokes`]: the cell of $i$ is its one-ring edges $(i,j)$, weight $w_{ij}$, clamped
 //!   at zero (negative spoke weights can make the local fit meaningless).
+//! - [`Energy::SmoothRotations`]: the spokes cells plus $\beta\sum_i\sum_j w_{ij}\lVert R_i -
+//!   R_j\rVert_F^2$ (SR-ARAP, Levi & Gotsman 2015), whose local step couples the rotations
+//!   (`smooth_rotations`).
 //!
 //! **Local step** (Eq. 5): $S_i = \sum w_{jk} e_{jk} e'^\top_{jk}$, $R_i$ from
 //! [`crate::linalg::rotation::fit_rotations_near`] (quaternion fit started from the previous $R_i$, four
@@ -41,7 +44,8 @@
 //! - `start`: the starting guesses (the rigid start of every solve, the Laplacian fit);
 //! - `energy`: $E(p', R)$, directly and from the local step's sums;
 //! - `avx`: the AVX2 build of the covariance pass;
-//! - `membrane`: triangle cells blended into the energy (the coarse level's membrane share).
+//! - `membrane`: triangle cells blended into the energy (the coarse level's membrane share);
+//! - `smooth_rotations`: the rotation-smoothness term, its local step and energy.
 
 mod accelerated;
 #[cfg(target_arch = "x86_64")]
@@ -53,13 +57,14 @@ mod iterate;
 mod local;
 mod membrane;
 mod precompute;
+mod smooth_rotations;
 mod start;
 #[cfg(test)]
 mod tests;
 
 pub use config::{
-    Acceleration, ArapConfig, DEFAULT_MAX_ITERATIONS, DEFAULT_TOLERANCE, Energy, FrameStats,
-    REFINE_ANDERSON_WINDOW, SolveStats,
+    Acceleration, ArapConfig, DEFAULT_BENDING_LENGTH, DEFAULT_MAX_ITERATIONS, DEFAULT_TOLERANCE,
+    Energy, FrameStats, REFINE_ANDERSON_WINDOW, SolveStats,
 };
 
 use crate::deform::constraints::Constraints;
@@ -178,6 +183,8 @@ pub struct Arap {
     soft: Option<Box<Soft>>,
     /// Triangle cells blended into the energy (`None`: [`ArapConfig::membrane`] is 0).
     membrane: Option<Box<membrane::Membrane>>,
+    /// The rotation-smoothness term (`None` unless [`Energy::SmoothRotations`]).
+    smooth: Option<Box<smooth_rotations::SmoothRotations>>,
 }
 
 /// The soft-handle terms $\lambda_v \lVert x_v - T_g(p_v)\rVert^2$ in the internal numbering.
@@ -269,15 +276,25 @@ impl Arap {
 
     /// The ARAP energy of pose `x` (`#V×3`) against this solver's rest shape with the best
     /// rotations, $\min_R E(x, R)$: a quality figure for results of other methods. The pose is
-    /// kept as the next warm start.
+    /// kept as the next warm start. With [`Energy::SmoothRotations`] the rotations couple: they
+    /// are fitted per vertex, then improved by [`POSE_ENERGY_SWEEPS`] Gauss–Seidel sweeps
+    /// (an upper bound on the minimum, close to it for poses near this energy's minimum).
     pub fn pose_energy(&mut self, x: &[[f64; 3]]) -> f64 {
         self.set_positions(x);
         self.local_pass();
+        if self.smooth.is_some() {
+            let e = self.smooth_pose_energy(POSE_ENERGY_SWEEPS);
+            self.publish();
+            return e;
+        }
         self.fit_membrane();
         self.publish();
         self.energy()
     }
 }
+
+/// Rotation sweeps of [`Arap::pose_energy`] for [`Energy::SmoothRotations`].
+pub const POSE_ENERGY_SWEEPS: usize = 50;
 
 #[inline]
 pub(super) fn ms(a: Instant, b: Instant) -> f64 {

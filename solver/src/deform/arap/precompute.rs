@@ -4,6 +4,7 @@
 //! free block $L_{FF}$ of the cotangent Laplacian (Sun et al. 2017, Eq. 4's matrix).
 
 use super::membrane::Membrane;
+use super::smooth_rotations::SmoothRotations;
 use super::{Arap, ArapConfig, Cells, Csr, Energy, Soft, corner_edges};
 use crate::deform::constraints::Constraints;
 use crate::deform::handles::Handles;
@@ -53,6 +54,10 @@ impl Arap {
         if !(0.0..=1.0).contains(&config.membrane) {
             return Err(SolveError::MembraneShare(config.membrane));
         }
+        let smooth = config.energy == Energy::SmoothRotations;
+        if smooth && !(config.bending_length.is_finite() && config.bending_length > 0.0) {
+            return Err(SolveError::BendingLength(config.bending_length));
+        }
         let n = mesh.n_vertices();
         let order = VertexOrder::reverse_cuthill_mckee(n, mesh.triangles());
         let inner = constraints.renumbered(&order);
@@ -69,7 +74,7 @@ impl Arap {
                 *w = w.map(|c| c * sigma);
             }
         }
-        let clamp = config.energy == Energy::Spokes;
+        let clamp = matches!(config.energy, Energy::Spokes | Energy::SmoothRotations);
         let weights = edge_weights(tris, &cot, clamp);
 
         // Free block L_FF (lower triangle) and the coupling to fixed vertices.
@@ -138,7 +143,7 @@ impl Arap {
                 }
                 Cells::SpokesAndRims { cot, edges, ring, cov_coef, rhs_coef, edge_coef }
             }
-            Energy::Spokes => {
+            Energy::Spokes | Energy::SmoothRotations => {
                 let mut nb = Vec::with_capacity(2 * weights.len());
                 for &(i, j, w) in &weights {
                     nb.push((i, (j, w)));
@@ -171,8 +176,16 @@ impl Arap {
             }
             _ => None,
         };
+        let smooth = match &cells {
+            Cells::Spokes { neighbours } if smooth => {
+                let ell = config.bending_length * mesh.bbox_diagonal();
+                Some(Box::new(SmoothRotations::new(n, neighbours, ell)))
+            }
+            _ => None,
+        };
         Ok(Arap {
             membrane,
+            smooth,
             current: rest.clone(),
             rest,
             triangles: tris.to_vec(),
