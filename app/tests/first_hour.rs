@@ -26,6 +26,27 @@ fn config_with_in_app_dialog(dir: &ScratchDir) -> std::path::PathBuf {
     config
 }
 
+/// The editor on the default asset in a 1280×800 window, keeping its files in `config`.
+/// egui_file's window titles start with an emoji (💾, 📂) that the editor's fonts lack: drawn
+/// as a box, which this harness allows (kittest's default panics on it).
+fn dialog_harness(config: std::path::PathBuf) -> Harness<'static, EditorApp> {
+    let builder = Harness::builder()
+        .with_size(WINDOW)
+        .with_render_cursor(false)
+        .with_step_dt(1.0 / 30.0)
+        .allow_missing_glyphs();
+    builder.wgpu().build_eframe(move |cc| {
+        EditorApp::new(
+            cc,
+            app::editor::EditorOptions {
+                mesh_path: Some(test_mesh()),
+                deterministic_overlays: true,
+                config_dir: Some(config),
+            },
+        )
+    })
+}
+
 /// Types `path` into the open in-app dialog's file name field (the text field that does not
 /// hold the folder) and confirms it with Enter.
 fn choose_in_dialog(h: &mut Harness<'_, EditorApp>, path: &Path) {
@@ -50,7 +71,7 @@ fn choose_in_dialog(h: &mut Harness<'_, EditorApp>, path: &Path) {
 fn save_open_dmat_and_export_go_through_the_in_app_file_dialog() {
     let dir = ScratchDir::new("first-hour-dialogs");
     let config = config_with_in_app_dialog(&dir);
-    let mut h = support::harness_sized(test_mesh(), Some(config), WINDOW);
+    let mut h = dialog_harness(config);
     step_until(&mut h, "the default asset", settled);
     assert!(h.state().preferences().in_app_file_dialog);
 
@@ -75,7 +96,7 @@ fn save_open_dmat_and_export_go_through_the_in_app_file_dialog() {
     assert_eq!(h.state().document_path(), Some(scene_path.as_path()));
     assert!(!h.state().has_unsaved_changes());
     let saved = solver::animation::scene::Scene::read(&scene_path).expect("the scene was written");
-    assert_eq!(saved.mesh, test_mesh().display().to_string());
+    assert!(saved.mesh.ends_with("creature.obj"), "{}", saved.mesh);
 
     // Ctrl+O: the dialog starts in the scene's folder; the typed path opens the scene.
     let mut e = h.state().edit_state().clone();
@@ -86,7 +107,10 @@ fn save_open_dmat_and_export_go_through_the_in_app_file_dialog() {
     h.step();
     h.step();
     let folder = dir.display().to_string();
-    assert!(h.query_by_value(&folder).is_some(), "the dialog is not in the scene's folder");
+    assert!(
+        h.query_all_by_value(&folder).next().is_some(),
+        "the dialog is not in the scene's folder"
+    );
     choose_in_dialog(&mut h, &scene_path);
     step_until(&mut h, "the opened scene", |a| {
         !a.is_loading() && a.group_pose(1).is_some_and(|p| p.translation[1] > 0.04)
@@ -123,7 +147,8 @@ fn save_open_dmat_and_export_go_through_the_in_app_file_dialog() {
     step_until(&mut h, "the recording", |a| !a.is_recording());
     h.get_by_label("File").click();
     h.step();
-    h.get_by_label("Export glTF…").click();
+    h.step();
+    h.get_by_label_contains("Export glTF").click();
     let glb = dir.join("walk.glb");
     choose_in_dialog(&mut h, &glb);
     step_until(&mut h, "the export", |a| !a.is_exporting());
@@ -152,7 +177,7 @@ fn quitting_with_unsaved_changes_asks_and_a_kept_quit_is_not_called_a_crash() {
     let dir = ScratchDir::new("first-hour-quit");
     let config = config_with_in_app_dialog(&dir);
     let autosave = config.join("autosave.json");
-    let mut h = support::harness_sized(test_mesh(), Some(config.clone()), WINDOW);
+    let mut h = dialog_harness(config.clone());
     step_until(&mut h, "the default asset", settled);
 
     // Nothing unsaved: Ctrl+Q asks nothing.
@@ -175,7 +200,7 @@ fn quitting_with_unsaved_changes_asks_and_a_kept_quit_is_not_called_a_crash() {
     h.step();
     assert!(h.state_mut().exit_autosave(), "the changes are kept");
     drop(h);
-    let mut h = support::harness_sized(test_mesh(), Some(config.clone()), WINDOW);
+    let mut h = dialog_harness(config.clone());
     step_until(&mut h, "the default asset", |a| !a.is_loading() && a.n_vertices() > 0);
     h.step();
     assert!(h.query_by_label_contains("You quit the last session keeping unsaved").is_some());
@@ -189,7 +214,7 @@ fn quitting_with_unsaved_changes_asks_and_a_kept_quit_is_not_called_a_crash() {
     pose_group1(&mut h, 0.04);
     h.state_mut().autosave_now().unwrap();
     drop(h);
-    let mut h = support::harness_sized(test_mesh(), Some(config.clone()), WINDOW);
+    let mut h = dialog_harness(config.clone());
     step_until(&mut h, "the default asset", |a| !a.is_loading() && a.n_vertices() > 0);
     h.step();
     assert!(h.query_by_label_contains("did not end cleanly").is_some());
@@ -208,7 +233,7 @@ fn quitting_with_unsaved_changes_asks_and_a_kept_quit_is_not_called_a_crash() {
     drop(h);
 
     // "Save first" with no scene file yet: Save as through the dialog, then the quit goes on.
-    let mut h = support::harness_sized(test_mesh(), Some(config.clone()), WINDOW);
+    let mut h = dialog_harness(config.clone());
     step_until(&mut h, "the default asset", settled);
     assert!(h.state().restore_offer().is_none(), "a clean exit leaves nothing to restore");
     pose_group1(&mut h, 0.03);
@@ -242,8 +267,9 @@ fn the_shortcut_window_scrolls_to_its_last_line_at_ui_scales_1_and_2() {
         assert!(visible(&h, "orbit"), "the first line at scale {scale}");
         for last in ["this overlay", "quit", "preferences"] {
             h.get_by_label(last).scroll_to_me();
-            h.step();
-            h.step();
+            for _ in 0..20 {
+                h.step(); // the scroll animates
+            }
             assert!(visible(&h, last), "\"{last}\" cannot be reached at scale {scale}");
         }
     }

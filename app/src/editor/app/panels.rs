@@ -267,7 +267,6 @@ impl EditorApp {
             .selected_text(match self.session.settings.energy {
                 solver::Energy::SpokesAndRims => "spokes and rims",
                 solver::Energy::Spokes => "spokes",
-                solver::Energy::SmoothRotations => "smooth rotations",
             })
             .show_ui(ui, |ui| {
                 ui.selectable_value(
@@ -487,7 +486,7 @@ impl EditorApp {
     pub(super) fn shortcuts_window(&mut self, ctx: &egui::Context) {
         let mut open = self.display.show_shortcuts;
         // Scrolls when the list is taller than the window (1280×800 at UI scale 2).
-        let max_height = (ctx.content_rect().height() - 120.0).max(120.0);
+        let max_height = (ctx.content_rect().height() * 0.7).max(120.0);
         egui::Window::new("Shortcuts").open(&mut open).collapsible(false).resizable(false).show(
             ctx,
             |ui| {
