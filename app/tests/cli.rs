@@ -593,3 +593,46 @@ fn exports_never_carry_files_from_outside_the_assets_folder() {
         }
     }
 }
+
+/// `--energy smooth-rotations --bending-length F`: deform reports the length in world units
+/// and reaches a higher energy than spokes (the extra term is ≥ 0); bench measures quality
+/// against the same energy; a length ≤ 0 or one given with another energy is refused.
+#[test]
+fn deform_and_bench_with_smooth_rotations() {
+    let out = tmp("smooth-rotations.obj");
+    let o = out.to_str().unwrap();
+    let run = |energy: &[&str]| {
+        let mut args = vec!["--move", "0:0.6,0.3,0", "--method", "arap", "--tol", "1e-9"];
+        args.extend(["--max-iters", "5000", "--anderson", "5", "-o", o]);
+        args.extend_from_slice(energy);
+        on_sphere("deform", &args)
+    };
+    let sr = run(&["--energy", "smooth-rotations", "--bending-length", "0.1"]);
+    let spokes = run(&["--energy", "spokes"]);
+    assert_eq!(sr["energy"], "smooth-rotations");
+    // The icosphere fills [-1, 1]^3: its diagonal is sqrt(12).
+    let world = sr["bending_length_world"].as_f64().unwrap();
+    assert!((world - 0.1 * 12f64.sqrt()).abs() < 1e-9, "{world}");
+    assert!(spokes["bending_length"].is_null());
+    let e = |j: &serde_json::Value| j["final_energy"].as_f64().unwrap();
+    assert!(e(&sr) > e(&spokes), "{} vs {}", e(&sr), e(&spokes));
+    let (obj, sel, _) = sphere();
+    for bad in [
+        &["--energy", "smooth-rotations", "--bending-length", "0"][..],
+        &["--energy", "spokes", "--bending-length", "0.1"],
+    ] {
+        let mut args = vec!["deform", obj.to_str().unwrap(), "--handles", sel.to_str().unwrap()];
+        args.extend(["--move", "0:0.6,0,0", "-o", o]);
+        args.extend_from_slice(bad);
+        let (code, _, stderr) = bsarap(&args);
+        assert_ne!(code, 0, "{bad:?}");
+        assert!(stderr.contains("--bending-length"), "{stderr}");
+    }
+    let args = ["--frames", "3", "--method", "arap", "--quality"];
+    let j = on_sphere(
+        "bench",
+        &[&args[..], &["--energy", "smooth-rotations", "--bending-length", "0.05"]].concat(),
+    );
+    assert_eq!(j["bending_length"], 0.05);
+    assert!(j["methods"]["arap"]["quality"]["max_distance"].as_f64().is_some(), "{j}");
+}
