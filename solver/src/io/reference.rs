@@ -88,6 +88,8 @@ fn drive_letter(text: &str) -> bool {
 /// `path` made absolute (against the working directory) with `.` dropped and each `..`
 /// cancelling the name before it; no file system access.
 fn normalize(path: &Path) -> PathBuf {
+    // The folder of a file named without one (`load_mesh("m.gltf")`) is the empty path.
+    let path = if path.as_os_str().is_empty() { Path::new(".") } else { path };
     let absolute = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
     let mut out = PathBuf::new();
     for c in absolute.components() {

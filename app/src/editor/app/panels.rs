@@ -267,6 +267,7 @@ impl EditorApp {
             .selected_text(match self.session.settings.energy {
                 solver::Energy::SpokesAndRims => "spokes and rims",
                 solver::Energy::Spokes => "spokes",
+                solver::Energy::SmoothRotations => "smooth rotations",
             })
             .show_ui(ui, |ui| {
                 ui.selectable_value(
