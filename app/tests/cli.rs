@@ -636,3 +636,38 @@ fn deform_and_bench_with_smooth_rotations() {
     assert_eq!(j["bending_length"], 0.05);
     assert!(j["methods"]["arap"]["quality"]["max_distance"].as_f64().is_some(), "{j}");
 }
+
+/// `bsarap deform` keeps a quad mesh's quads in OFF and PLY as in OBJ (issue 49): the output
+/// has the input's 6 faces of 4 corners, not 12 triangles; read back, the same mesh.
+#[test]
+fn deform_writes_the_files_own_polygons_to_off_and_ply() {
+    let cube = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n\
+                f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n";
+    let obj = tmp("quad-cube.obj");
+    std::fs::write(&obj, cube).unwrap();
+    let sel = tmp("quad-cube.dmat");
+    std::fs::write(&sel, "1 8\n0\n0\n0\n0\n1\n1\n1\n1\n").unwrap();
+    for ext in ["off", "ply"] {
+        let out = tmp(&format!("quad-cube-posed.{ext}"));
+        let (o, s, t) = (obj.to_str().unwrap(), sel.to_str().unwrap(), out.to_str().unwrap());
+        let args =
+            ["deform", o, "--handles", s, "--move", "1:0,0,0.5", "--method", "arap", "-o", t];
+        let (code, _, stderr) = bsarap(&args);
+        assert_eq!(code, 0, "{stderr}");
+        let bytes = std::fs::read(&out).unwrap();
+        if ext == "off" {
+            let text = String::from_utf8(bytes).unwrap();
+            let lines: Vec<&str> = text.lines().collect();
+            assert_eq!(lines[1], "8 6 0", "{text}");
+            assert!(lines[10..16].iter().all(|l| l.starts_with("4 ")), "{text}");
+        } else {
+            let head = String::from_utf8_lossy(&bytes[..bytes.len().min(400)]).into_owned();
+            assert!(head.contains("element face 6\n"), "{head}");
+        }
+        let back = solver::io::load_mesh(&out).unwrap();
+        assert_eq!(back.asset.polygon_sizes, vec![4; 6], "{ext}");
+        assert_eq!(back.mesh.n_vertices(), 8);
+        let top = back.mesh.positions()[4][2];
+        assert!((top - 1.5).abs() < 1e-6, "{ext}: the moved group is at z = {top}");
+    }
+}

@@ -117,7 +117,8 @@ pub fn parse_transforms(
 
 /// Writes the pose `x` of the cleaned mesh onto the input file's own vertices, in its order, as
 /// `path`'s extension asks: `.obj` with UVs, deformed normals (hard edges kept) and materials;
-/// `.glb`/`.gltf` as a one-frame glTF; `.ply`/`.off` geometry only.
+/// `.glb`/`.gltf` as a one-frame glTF; `.ply`/`.off` the file's own polygons (PLY with its
+/// per-vertex UVs and colours).
 fn write_pose(path: &Path, loaded: &LoadedMesh, x: &[[f64; 3]]) -> anyhow::Result<()> {
     let asset = &loaded.asset;
     let layout = asset.layout_positions(&loaded.report.vertex_map, x);
@@ -128,8 +129,8 @@ fn write_pose(path: &Path, loaded: &LoadedMesh, x: &[[f64; 3]]) -> anyhow::Resul
                 asset.normals.as_ref().map(|_| asset.deformed_normals(&layout)).transpose()?;
             solver::io::write_obj_asset(path, asset, &layout, normals.as_deref())?
         }
-        Some("ply") => solver::io::write_ply(path, &layout, &asset.triangles)?,
-        Some("off") => solver::io::write_off(path, &layout, &asset.triangles)?,
+        Some("ply") => solver::io::write_ply_asset(path, asset, &layout, None)?,
+        Some("off") => solver::io::write_off_asset(path, asset, &layout)?,
         Some("glb" | "gltf") => {
             let format = GltfFormat::from_path(path)?;
             // The posed asset itself (its rest is the pose, with deformed normals), so that a
