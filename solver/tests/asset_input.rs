@@ -488,12 +488,18 @@ fn malformed_attributes_and_images_give_their_errors() {
             }),
             |e| matches!(e, LoadError::Parse { message, .. } if message.contains("accessor 9")),
         ),
-        (
-            "external image without a folder",
-            tet_with("NORMAL", &n4, 5126, "VEC3", |d| d["images"] = json!([{"uri": "t.png"}])),
-            |e| matches!(e, LoadError::Unsupported { message, .. } if message.contains("t.png")),
-        ),
     ];
+    // Not an error: an external image with no folder to read it from (bytes in memory) is
+    // left out with a notice naming it, as every refused image reference is.
+    let external =
+        tet_with("NORMAL", &n4, 5126, "VEC3", |d| d["images"] = json!([{"uri": "t.png"}]));
+    let m = load_mesh_from_bytes(&external, Format::Gltf, "external.gltf").unwrap();
+    assert!(m.asset.images.is_empty());
+    assert!(
+        m.notices().iter().any(|n| n.contains("t.png") && n.contains("without")),
+        "{:?}",
+        m.notices()
+    );
     // Not an error: non-finite attribute values become neutral, with a notice.
     let mut nan = [0.0, 0.0, 1.0].repeat(4);
     nan[4] = f32::NAN;
