@@ -378,3 +378,50 @@ fn the_example_scenes_paths_stay_above_the_ground() {
         }
     }
 }
+
+/// Choosing a circular path for a posed group keeps its pose: the circle starts from it (and
+/// is back there after a period); a keyframed path's first key is the pose too.
+#[test]
+fn a_path_chosen_for_a_posed_group_starts_from_its_pose() {
+    use solver::animation::timeline::Path as AnimPath;
+    let mut h = support::harness_sized(test_mesh(), None, WINDOW);
+    step_until(&mut h, "the default asset", settled);
+    let mut e = h.state().edit_state().clone();
+    e.groups[0].pose.translation = [0.02, 0.08, -0.01];
+    e.groups[0].pose.set_quat(glam::DQuat::from_rotation_y(0.4));
+    let posed = e.groups[0].pose;
+    h.state_mut().set_edit_state(e);
+    h.state_mut().set_active_group(Some(0));
+    h.step();
+    let close = |a: &app::editor::pose::GroupPose, b: &app::editor::pose::GroupPose| {
+        let dq = a.quat().dot(b.quat()).abs();
+        (0..3).all(|d| (a.translation[d] - b.translation[d]).abs() < 1e-9) && dq > 1.0 - 1e-12
+    };
+    for kind in ["circular", "keyframed"] {
+        h.get_by_label(kind).click();
+        h.step();
+        h.step();
+        let pose = h.state().group_pose(0).unwrap();
+        assert!(close(&pose, &posed), "{kind}: the pose was dropped: {pose:?}");
+        let path = h.state().edit_state().path(0).clone();
+        let period = match &path {
+            AnimPath::Circular(c) => {
+                assert!(c.start.is_some(), "no start pose");
+                c.period
+            }
+            AnimPath::Keyframed(k) => {
+                assert_eq!(k.keys.len(), 1);
+                1.0
+            }
+            AnimPath::Static => panic!("{kind}: no path"),
+        };
+        let back = app::editor::pose::GroupPose::from_transform(&path.transform_at(period));
+        assert!(close(&back, &posed), "{kind}: not back at the pose after a period");
+        h.get_by_label("static").click();
+        h.step();
+        let mut e = h.state().edit_state().clone();
+        e.groups[0].pose = posed;
+        h.state_mut().set_edit_state(e);
+        h.step();
+    }
+}

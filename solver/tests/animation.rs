@@ -34,6 +34,7 @@ fn circle(turn: bool, phase: f64) -> CircularPath {
         period: 1.6,
         phase,
         turn_with_path: turn,
+        start: None,
     }
 }
 

@@ -10,7 +10,7 @@ use std::time::Instant;
 
 use eframe::egui;
 use solver::animation::timeline::{
-    CircularPath, GroupPath, Interpolation, KeyframedPath, Path, Timeline,
+    CircularPath, GroupPath, Interpolation, KeyframedPath, Path, StartPose, Timeline,
 };
 
 use super::pose::GroupPose;
@@ -294,10 +294,11 @@ fn path_editor(ui: &mut egui::Ui, edit: &mut EditState, k: usize, time: f64, sca
     if new_kind != kind {
         path = match new_kind {
             Kind::Static => Path::Static,
-            // From the circle's lowest point, forward then up: a foot standing on the ground
-            // stays above it.
+            // From the group's current pose, at the circle's lowest point, forward then up: a
+            // foot standing on the ground stays above it.
             Kind::Circular => Path::Circular(CircularPath {
                 phase: 1.5 * std::f64::consts::PI,
+                start: start_pose(&edit.groups[k].pose),
                 ..CircularPath::new([0.0, 0.0, 1.0], 0.1 * scale, edit.timeline.duration)
             }),
             Kind::Keyframed => Path::Keyframed(KeyframedPath {
@@ -357,6 +358,23 @@ fn path_editor(ui: &mut egui::Ui, edit: &mut EditState, k: usize, time: f64, sca
                 }
                 changed |= ui.checkbox(&mut c.turn_with_path, "turn with path").changed();
             });
+            if let Some(st) = c.start {
+                ui.horizontal(|ui| {
+                    let t = st.translation;
+                    ui.weak(format!(
+                        "starts from its pose: move ({:.3}, {:.3}, {:.3}), turn {:.1}°",
+                        t[0], t[1], t[2], st.rotation.degrees
+                    ));
+                    if ui
+                        .small_button("Start at rest")
+                        .on_hover_text("run the circle from the rest pose instead")
+                        .clicked()
+                    {
+                        c.start = None;
+                        changed = true;
+                    }
+                });
+            }
             if c.axis.iter().all(|&a| a == 0.0) {
                 ui.colored_label(egui::Color32::YELLOW, "the axis must not be zero; using z");
                 c.axis = [0.0, 0.0, 1.0];
@@ -422,6 +440,14 @@ fn path_editor(ui: &mut egui::Ui, edit: &mut EditState, k: usize, time: f64, sca
         edit.set_path(k, path);
     }
     changed
+}
+
+/// The start pose of a circular path chosen for a group posed as `pose` (`None` at rest).
+fn start_pose(pose: &GroupPose) -> Option<StartPose> {
+    (!pose.is_rest()).then(|| {
+        let key = pose.to_key(0.0);
+        StartPose { translation: key.translation, rotation: key.rotation }
+    })
 }
 
 /// Sets a key from group `k`'s current pose at `time`, making its path keyframed if it was

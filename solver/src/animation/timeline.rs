@@ -3,8 +3,9 @@
 //!
 //! Three kinds of [`Path`]:
 //! - [`Path::Static`]: the group stays at rest.
-//! - [`Path::Circular`]: the group's centroid runs around a circle that passes through its rest
-//!   centroid; at $t = 0$ the group is at rest and after one period it is back at rest.
+//! - [`Path::Circular`]: the group's centroid runs around a circle that passes through its
+//!   starting centroid; at $t = 0$ the group is in its start pose (the rest pose, or the pose it
+//!   had when the path was chosen) and after one period it is back there.
 //! - [`Path::Keyframed`]: translation and rotation keys; Catmull-Rom positions, slerp or squad
 //!   rotations (Shoemake 1985).
 //!
@@ -117,7 +118,20 @@ pub enum Interpolation {
     Smooth,
 }
 
-/// A circle through the group's rest centroid $c_g$.
+/// A rigid pose a circular path starts from, in [`GroupTransform`]'s convention: rotated by
+/// `rotation` about the group's rest centroid, then translated by `translation`.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StartPose {
+    /// Translation (mesh units).
+    #[serde(default)]
+    pub translation: [f64; 3],
+    /// Rotation about the group's rest centroid.
+    #[serde(default)]
+    pub rotation: AxisAngle,
+}
+
+/// A circle through the group's starting centroid $c_g + t_0$.
 ///
 /// With unit axis $\hat a$, unit in-plane reference direction $\hat u$ (the component of
 /// `reference` orthogonal to $\hat a$, normalized; a default when that vanishes),
@@ -132,6 +146,12 @@ pub enum Interpolation {
 /// $r$ from the center, and is back at rest at $t = T$. With `turn_with_path`, the group also
 /// rotates about its centroid by $\theta(t) - \varphi$ about $\hat a$, so it keeps its
 /// orientation relative to the path's tangent (the identity again at $t = T$).
+///
+/// With a start pose $(R_0, t_0)$ ([`StartPose`]; none: the rest pose) the circle runs from
+/// that pose instead of from rest: the transform at $t$ is rotation $R_c(t)R_0$ about the rest
+/// centroid and translation $t_0 + \mathrm{translation}(t)$, where $R_c(t)$ is the turn above
+/// (so the circle's center is $c_g + t_0 + o$). At $t = 0$ it is exactly the start pose: a path
+/// chosen for a posed group keeps its pose.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CircularPath {
@@ -150,6 +170,10 @@ pub struct CircularPath {
     /// Whether the group turns with the path (rotation $\theta(t)-\varphi$ about `axis`).
     #[serde(default)]
     pub turn_with_path: bool,
+    /// The pose the path starts from (absent: the rest pose, as in scenes written before the
+    /// field existed).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub start: Option<StartPose>,
 }
 
 fn default_reference() -> [f64; 3] {
@@ -172,6 +196,7 @@ impl CircularPath {
             period,
             phase: 0.0,
             turn_with_path: false,
+            start: None,
         }
     }
 
@@ -189,7 +214,8 @@ impl CircularPath {
         (a, u, cross(a, u))
     }
 
-    /// Circle center minus the group's rest centroid: $o = -r(\cos\varphi\,\hat u + \sin\varphi\,\hat v)$.
+    /// Circle center minus the group's starting centroid:
+    /// $o = -r(\cos\varphi\,\hat u + \sin\varphi\,\hat v)$.
     pub fn center_offset(&self) -> [f64; 3] {
         let (_, u, v) = self.frame();
         let (s, c) = self.phase.sin_cos();
@@ -203,10 +229,18 @@ impl CircularPath {
         let theta = swept + self.phase;
         let (s, c) = theta.sin_cos();
         let (s0, c0) = self.phase.sin_cos();
-        let translation =
+        let circle: [f64; 3] =
             std::array::from_fn(|d| self.radius * ((c - c0) * u[d] + (s - s0) * v[d]));
-        let rotation = if self.turn_with_path { axis_angle(a, swept) } else { IDENTITY };
-        GroupTransform { translation, rotation }
+        let Some(start) = self.start else {
+            let rotation = if self.turn_with_path { axis_angle(a, swept) } else { IDENTITY };
+            return GroupTransform { translation: circle, rotation };
+        };
+        let turn =
+            if self.turn_with_path { quat_from_axis_angle(a, swept) } else { DQuat::IDENTITY };
+        GroupTransform {
+            translation: std::array::from_fn(|d| start.translation[d] + circle[d]),
+            rotation: quat_to_mat3(turn * start.rotation.to_quat()),
+        }
     }
 }
 
@@ -395,6 +429,12 @@ impl Path {
                 if normalize(c.axis).is_none() {
                     return Err(bad("the axis must not be zero".into()));
                 }
+                if let Some(s) = c.start
+                    && (s.translation.iter().chain(&s.rotation.axis).any(|x| !x.is_finite())
+                        || !s.rotation.degrees.is_finite())
+                {
+                    return Err(bad("the start pose must be finite".into()));
+                }
                 Ok(())
             }
             Path::Keyframed(k) => k.validate(group),
@@ -513,6 +553,44 @@ mod tests {
                 assert!((a[i][j] - b[i][j]).abs() < 1e-12);
             }
         }
+    }
+
+    /// A circle with a start pose is that pose at t = 0 and after one period, and otherwise
+    /// the rest-started circle composed with it; a scene without the field reads as before.
+    #[test]
+    fn a_circle_starts_from_its_start_pose() {
+        let start = StartPose {
+            translation: [0.1, 0.2, -0.3],
+            rotation: AxisAngle { axis: [0.0, 1.0, 0.0], degrees: 30.0 },
+        };
+        let rest =
+            CircularPath { turn_with_path: true, ..CircularPath::new([0.0, 0.0, 1.0], 0.5, 2.0) };
+        let posed = CircularPath { start: Some(start), ..rest };
+        let r0 = quat_to_mat3(start.rotation.to_quat());
+        for t in [0.0, 2.0] {
+            let g = posed.transform_at(t);
+            for d in 0..3 {
+                assert!((g.translation[d] - start.translation[d]).abs() < 1e-12);
+                for e in 0..3 {
+                    assert!((g.rotation[d][e] - r0[d][e]).abs() < 1e-12);
+                }
+            }
+        }
+        let (a, b) = (rest.transform_at(0.7), posed.transform_at(0.7));
+        for d in 0..3 {
+            assert!((b.translation[d] - a.translation[d] - start.translation[d]).abs() < 1e-12);
+            for e in 0..3 {
+                let m: f64 = (0..3).map(|k| a.rotation[d][k] * r0[k][e]).sum();
+                assert!((b.rotation[d][e] - m).abs() < 1e-12);
+            }
+        }
+        let old: CircularPath =
+            serde_json::from_str(r#"{"axis": [0, 0, 1], "radius": 1, "period": 1}"#).unwrap();
+        assert_eq!(old.start, None);
+        assert!(!serde_json::to_string(&old).unwrap().contains("start"));
+        let back: CircularPath =
+            serde_json::from_str(&serde_json::to_string(&posed).unwrap()).unwrap();
+        assert_eq!(back, posed);
     }
 
     #[test]
