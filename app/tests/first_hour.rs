@@ -425,3 +425,172 @@ fn a_path_chosen_for_a_posed_group_starts_from_its_pose() {
         h.step();
     }
 }
+
+/// An OBJ strip standing along +Z (x in [0, 1], z in [0, 3], y = 0) with UVs and no MTL, as a
+/// scan exported without its material would be; its bottom row (z = 0) is returned too.
+fn z_up_strip_with_uvs(dir: &ScratchDir) -> (std::path::PathBuf, Vec<Option<u32>>) {
+    let (nx, nz) = (4usize, 10usize);
+    let mut obj = String::from("# a Z-up strip with UVs and no material\n");
+    for j in 0..nz {
+        for i in 0..nx {
+            let (u, v) = (i as f64 / (nx - 1) as f64, j as f64 / (nz - 1) as f64);
+            obj += &format!("v {u} {} {}\nvt {u} {v}\n", 0.05 * (u * 6.0).sin(), 3.0 * v);
+        }
+    }
+    for j in 0..nz - 1 {
+        for i in 0..nx - 1 {
+            let a = j * nx + i + 1;
+            let (b, c, d) = (a + 1, a + nx + 1, a + nx);
+            obj += &format!("f {a}/{a} {b}/{b} {c}/{c}\nf {a}/{a} {c}/{c} {d}/{d}\n");
+        }
+    }
+    let path = dir.join("strip.obj");
+    std::fs::write(&path, obj).unwrap();
+    let labels = (0..nx * nz).map(|v| (v < nx).then_some(0)).collect();
+    (path, labels)
+}
+
+/// The editor on `mesh` with the in-app dialog, once loaded.
+fn open_with_dialog(mesh: &Path, config: std::path::PathBuf) -> Harness<'static, EditorApp> {
+    let mesh = mesh.to_path_buf();
+    let builder = Harness::builder()
+        .with_size(WINDOW)
+        .with_render_cursor(false)
+        .with_step_dt(1.0 / 30.0)
+        .allow_missing_glyphs();
+    let mut h = builder.wgpu().build_eframe(move |cc| {
+        EditorApp::new(
+            cc,
+            app::editor::EditorOptions {
+                mesh_path: Some(mesh),
+                deterministic_overlays: true,
+                config_dir: Some(config),
+            },
+        )
+    });
+    step_until(&mut h, "the mesh", |a| !a.is_loading() && a.n_vertices() > 0);
+    h
+}
+
+/// Records a 3-frame timeline and exports it to `path`; returns the glTF JSON.
+fn record_and_export(h: &mut Harness<'_, EditorApp>, path: &Path) -> serde_json::Value {
+    let mut e = h.state().edit_state().clone();
+    e.timeline.duration = 0.2;
+    e.timeline.fps = 10.0;
+    h.state_mut().set_edit_state(e);
+    h.step();
+    h.get_by_label_contains("Record 3 frames").click();
+    h.step();
+    step_until(h, "the recording", |a| !a.is_recording());
+    let ctx = h.ctx.clone();
+    h.state_mut().export_gltf(&ctx, path.to_path_buf());
+    step_until(h, "the export", |a| !a.is_exporting());
+    assert!(h.state().error().is_none(), "{:?}", h.state().error());
+    let bytes = std::fs::read(path).expect("the glb was written");
+    assert_eq!(&bytes[..4], b"glTF");
+    let len = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+    serde_json::from_slice(&bytes[20..20 + len]).expect("the JSON chunk")
+}
+
+/// A mesh with UVs and no material: the toolbar says why there is no texture and offers
+/// *Load texture…* through the file dialog; a file that is not an image is refused; the image
+/// is shown, saved in the scene, exported in the glTF and back when the scene is reopened.
+#[test]
+fn a_mesh_with_uvs_and_no_material_gets_a_texture_saved_and_exported() {
+    let dir = ScratchDir::new("first-hour-texture");
+    let (mesh, labels) = z_up_strip_with_uvs(&dir);
+    let mut h = open_with_dialog(&mesh, config_with_in_app_dialog(&dir));
+    assert!(!h.state().has_texture_shading());
+    assert!(h.query_by_label("no texture").is_some(), "no hint");
+    assert!(h.state().can_load_texture());
+
+    // Not an image: refused, with the reason.
+    let fake = dir.join("notes.png");
+    std::fs::write(&fake, "# not a picture\n").unwrap();
+    h.get_by_label("Load texture…").click();
+    choose_in_dialog(&mut h, &fake);
+    let err = h.state().error().unwrap_or_default().to_string();
+    assert!(err.contains("notes.png") && err.contains("not a PNG or JPEG"), "{err}");
+    assert!(!h.state().has_texture_shading());
+
+    let png = dir.join("checker.png");
+    image::RgbImage::from_fn(8, 8, |x, y| {
+        if (x + y) % 2 == 0 { image::Rgb([250, 40, 40]) } else { image::Rgb([40, 40, 250]) }
+    })
+    .save(&png)
+    .unwrap();
+    h.get_by_label("Load texture…").click();
+    choose_in_dialog(&mut h, &png);
+    assert!(h.state().error().is_none(), "{:?}", h.state().error());
+    assert!(h.state().has_texture_shading());
+    assert!(h.query_by_label("Load texture…").is_none(), "textured: no longer offered");
+    assert!(h.query_by_label("no texture").is_none());
+    assert!(h.state().has_unsaved_changes());
+
+    h.state_mut().set_edit_state(EditState::from_labels(labels));
+    h.step();
+    let scene = dir.join("textured.json");
+    h.state_mut().save_scene(&scene).unwrap();
+    let saved = solver::animation::scene::Scene::read(&scene).unwrap();
+    assert_eq!(saved.texture.as_deref(), Some("checker.png"));
+
+    let gltf = record_and_export(&mut h, &dir.join("textured.glb"));
+    assert_eq!(gltf["images"].as_array().map(Vec::len), Some(1), "{gltf}");
+    let material = &gltf["materials"][0]["pbrMetallicRoughness"];
+    assert!(material["baseColorTexture"].is_object(), "{gltf}");
+
+    // The headless export of the saved scene carries it too.
+    let loaded = solver::animation::scene::Scene::load(&scene).unwrap();
+    assert!(loaded.mesh.asset.has_texture());
+
+    // Reopened: the texture is back.
+    drop(h);
+    let mut h = open_with_dialog(&scene, dir.join("config"));
+    assert!(h.state().has_texture_shading(), "{:?}", h.state().error());
+    assert_eq!(h.state().loaded_texture(), Some(png.as_path()));
+    assert!(!h.state().has_unsaved_changes());
+    h.step();
+}
+
+/// The up axis: choosing Z stands a Z-up mesh up on screen (its top above its bottom), is
+/// saved in the scene and reopened with it, and a glTF export rotates the nodes by −90° about
+/// X (Z up → glTF's Y up) while a Y-up export has no rotation.
+#[test]
+fn the_up_axis_is_chosen_saved_and_exported_upright() {
+    let dir = ScratchDir::new("first-hour-up-axis");
+    let (mesh, labels) = z_up_strip_with_uvs(&dir);
+    let mut h = open_with_dialog(&mesh, config_with_in_app_dialog(&dir));
+    h.state_mut().set_edit_state(EditState::from_labels(labels));
+    h.step();
+    let n = h.state().n_vertices();
+    let z = |v: usize| h.state().rest_positions().unwrap()[v][2];
+    let (bottom, top) = (0..n).fold((0, 0), |(lo, hi), v| {
+        (if z(v) < z(lo) { v } else { lo }, if z(v) > z(hi) { v } else { hi })
+    });
+    let y_up = record_and_export(&mut h, &dir.join("y.glb"));
+    assert!(y_up["nodes"][0].get("rotation").is_none(), "{}", y_up["nodes"]);
+
+    assert_eq!(h.state().up_axis(), solver::animation::export::UpAxis::Y);
+    h.get_by_label("Z up").click();
+    for _ in 0..3 {
+        h.step();
+    }
+    assert_eq!(h.state().up_axis(), solver::animation::export::UpAxis::Z);
+    let (b, t) =
+        (h.state().vertex_screen_pos(bottom).unwrap(), h.state().vertex_screen_pos(top).unwrap());
+    assert!(b.y - t.y > 100.0, "the strip does not stand up: bottom {b:?}, top {t:?}");
+    assert!(h.state().has_unsaved_changes());
+
+    let z_up = record_and_export(&mut h, &dir.join("z.glb"));
+    let r = z_up["nodes"][0]["rotation"].as_array().expect("a node rotation").clone();
+    let q = glam::DQuat::from_array(std::array::from_fn(|i| r[i].as_f64().unwrap()));
+    assert!((q * glam::DVec3::Z - glam::DVec3::Y).length() < 1e-6, "{q:?}");
+
+    let scene = dir.join("standing.json");
+    h.state_mut().save_scene(&scene).unwrap();
+    assert!(std::fs::read_to_string(&scene).unwrap().contains("\"up_axis\": \"z\""));
+    drop(h);
+    let h = open_with_dialog(&scene, dir.join("config"));
+    assert_eq!(h.state().up_axis(), solver::animation::export::UpAxis::Z);
+    assert!(!h.state().has_unsaved_changes());
+}

@@ -226,7 +226,7 @@ pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
                     every_k: a.every.max(1),
                 },
             };
-            let export = GltfExport::from_asset(&input, format)?;
+            let export = GltfExport::from_asset(&input, format)?.with_up_axis(scene.up_axis);
             let size = export.file_size()?;
             if !a.json {
                 eprintln!(

@@ -1,4 +1,5 @@
-//! An orbit camera with Blender/MeshLab conventions (Y up).
+//! An orbit camera with Blender/MeshLab conventions: it orbits about +Y, or about +Z for a
+//! Z-up file (`up_z`; yaw 0 then looks along +Y, Blender's front view).
 //!
 //! Orbit: middle drag or Alt+left drag. Pan: Shift+middle drag. Zoom: wheel. `F` frames the
 //! mesh; number keys select view presets (1 front, 3 right, 7 top; with Ctrl the opposite).
@@ -15,6 +16,8 @@ pub struct OrbitCamera {
     pub distance: f32,
     /// Vertical field of view, radians.
     pub fov_y: f32,
+    /// Orbit about +Z instead of +Y (the file's up axis; not part of the JSON).
+    pub up_z: bool,
 }
 
 /// Named views.
@@ -30,7 +33,14 @@ pub enum ViewPreset {
 
 impl Default for OrbitCamera {
     fn default() -> Self {
-        OrbitCamera { target: Vec3::ZERO, yaw: 0.5, pitch: 0.3, distance: 3.0, fov_y: 0.8 }
+        OrbitCamera {
+            target: Vec3::ZERO,
+            yaw: 0.5,
+            pitch: 0.3,
+            distance: 3.0,
+            fov_y: 0.8,
+            up_z: false,
+        }
     }
 }
 
@@ -39,11 +49,18 @@ const MAX_PITCH: f32 = 89.0 * std::f32::consts::PI / 180.0;
 impl OrbitCamera {
     /// Unit vector from the target to the eye.
     pub fn back(&self) -> Vec3 {
-        Vec3::new(
+        let (a, b, c) = (
             self.pitch.cos() * self.yaw.sin(),
             self.pitch.sin(),
             self.pitch.cos() * self.yaw.cos(),
-        )
+        );
+        // Z up: the Y-up frame (x, z, −y) turned back, (a, b, c) ↦ (a, −c, b).
+        if self.up_z { Vec3::new(a, -c, b) } else { Vec3::new(a, b, c) }
+    }
+
+    /// The world's up axis: +Y, or +Z with `up_z`.
+    pub fn up(&self) -> Vec3 {
+        if self.up_z { Vec3::Z } else { Vec3::Y }
     }
 
     pub fn eye(&self) -> Vec3 {
@@ -53,13 +70,13 @@ impl OrbitCamera {
     /// Camera right and up axes in world space.
     pub fn axes(&self) -> (Vec3, Vec3) {
         let back = self.back();
-        let right = Vec3::Y.cross(back).normalize_or(Vec3::X);
+        let right = self.up().cross(back).normalize_or(Vec3::X);
         let up = back.cross(right);
         (right, up)
     }
 
     pub fn view(&self) -> Mat4 {
-        glam::camera::rh::view::look_at_mat4(self.eye(), self.target, Vec3::Y)
+        glam::camera::rh::view::look_at_mat4(self.eye(), self.target, self.up())
     }
 
     pub fn projection(&self, aspect: f32) -> Mat4 {
@@ -152,6 +169,7 @@ impl OrbitCamera {
             pitch: f("pitch")?.clamp(-MAX_PITCH, MAX_PITCH),
             distance: f("distance")?.clamp(1e-4, 1e6),
             fov_y: f("fov_y")?.clamp(0.05, 3.0),
+            up_z: false,
         };
         target.is_finite().then_some(cam)
     }

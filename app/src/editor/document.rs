@@ -26,6 +26,9 @@ pub struct DocumentInput<'a> {
     pub settings: &'a MethodSettings,
     pub camera: &'a OrbitCamera,
     pub time: f64,
+    /// The texture the user loaded (saved relative to the scene), if any.
+    pub texture: Option<&'a Path>,
+    pub up_axis: solver::animation::export::UpAxis,
 }
 
 /// An absolute version of `p` (through the current directory; symlinks kept).
@@ -50,6 +53,8 @@ pub fn to_scene(scene_path: &Path, input: &DocumentInput) -> Result<Scene, Strin
     scene.arap = s.arap_config();
     scene.base = s.base;
     scene.camera = Some(input.camera.to_json());
+    scene.texture = input.texture.map(|t| relative_path(&dir, &absolute(t)));
+    scene.up_axis = input.up_axis;
     let groups: Vec<serde_json::Value> = edit
         .groups
         .iter()
@@ -189,6 +194,8 @@ mod tests {
         scene.save(&scene_path).unwrap();
 
         let loaded = solver::animation::scene::Scene::load(&scene_path).unwrap();
+            texture: None,
+            up_axis: Default::default(),
         let back = apply_scene(
             &loaded.scene,
             loaded.handles.labels().to_vec(),
@@ -251,6 +258,8 @@ mod tests {
         scene.save(&scene_path).unwrap();
         let text = std::fs::read_to_string(&scene_path).unwrap();
         assert!(text.contains("\"loose_parts\""), "{text}");
+            texture: None,
+            up_axis: Default::default(),
 
         let loaded = solver::animation::scene::Scene::load(&scene_path).unwrap();
         let labels = loaded.handles.labels().to_vec();
@@ -300,6 +309,8 @@ mod tests {
         assert_eq!(loaded.handles.rig().falloff(1).radius, 0.125);
         let labels = loaded.handles.labels().to_vec();
         let back = apply_scene(&loaded.scene, labels.clone(), &MethodSettings::default());
+            texture: None,
+            up_axis: Default::default(),
         assert_eq!(back.edit.rigidity, edit.rigidity);
         assert_eq!(back.edit.groups[1].falloff, edit.groups[1].falloff);
         assert_eq!(back.edit.groups[0].falloff, Falloff::default());

@@ -342,7 +342,6 @@ pub fn spawn_export(
     path: PathBuf,
     repaint: impl Fn() + Send + Sync + 'static,
 ) -> Job<(PathBuf, u64)> {
-    let layout = recorded.layout.clone();
     let fps = recorded.fps;
     let recording = recorded.recording.clone();
     let repaint = Arc::new(repaint);
@@ -351,8 +350,12 @@ pub fn spawn_export(
         "export",
         move || repaint(),
         move |progress| {
+/// `layout`: the file's layout to write onto (the recorded one, or the same mesh's layout with
+/// a texture loaded since); `up`: the file's up axis (a Z-up glTF's nodes are rotated upright).
             let is_pc2 = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("pc2"));
             if is_pc2 {
+    layout: Arc<FileLayout>,
+    up: solver::animation::export::UpAxis,
                 let pc2 = Pc2::from_recording(&recording, &layout.asset, &layout.vertex_map, fps)
                     .map_err(|e| format!("{}: {e}", path.display()))?;
                 write_pc2(&path, &pc2).map_err(|e| e.to_string())?;
@@ -362,8 +365,9 @@ pub fn spawn_export(
             let fail =
                 |e: solver::animation::export::ExportError| format!("{}: {e}", path.display());
             let format = GltfFormat::from_path(&path).map_err(fail)?;
-            let export =
-                GltfExport::from_asset(&asset_export(&layout, &recording), format).map_err(fail)?;
+            let export = GltfExport::from_asset(&asset_export(&layout, &recording), format)
+                .map_err(fail)?
+                .with_up_axis(up);
             let bytes = export
                 .write(&path, &mut |done, total| {
                     let flow = progress.update(done, total);
@@ -483,14 +487,15 @@ mod tests {
         assert_eq!(job.progress.get(), (11, 11));
         let dir = solver::testing::ScratchDir::new("jobs");
         let out = dir.join("anim.glb");
-        let ex = spawn_export(&rec, out.clone(), || {});
+        let ex = spawn_export(&rec, rec.layout.clone(), Default::default(), out.clone(), || {});
         let (path, bytes) = wait(&ex).unwrap();
         assert_eq!(path, out);
         assert_eq!(bytes, rec.glb_bytes, "the size shown before writing is the size written");
         assert_eq!(std::fs::metadata(&out).unwrap().len(), bytes);
         // A point cache of the same frames, at the timeline's rate.
         let pc2 = dir.join("anim.pc2");
-        wait(&spawn_export(&rec, pc2.clone(), || {})).unwrap();
+        wait(&spawn_export(&rec, rec.layout.clone(), Default::default(), pc2.clone(), || {}))
+            .unwrap();
         let cache = solver::animation::pointcache::read_pc2(&pc2).unwrap();
         assert_eq!(cache.samples.len(), 11);
         assert_eq!(cache.sample_rate, 1.0, "one sample per frame at 10 fps");

@@ -62,6 +62,9 @@ pub struct LoadedFile {
     pub bvh: Bvh,
     pub center: Vec3,
     pub radius: f32,
+    /// The rest bounding-box diagonal ([`Mesh::bbox_diagonal`]): the unit of the settings
+    /// given as fractions of it (the bending length shown in world units).
+    pub diagonal: f64,
     pub grid: Arc<VertexData>,
     /// The asset split at UV seams and material borders, with its decoded textures, for
     /// texture shading; `None` for a bare mesh (no materials, no vertex colours).
@@ -189,6 +192,7 @@ fn prepare(
     // The adjacency is kept with the mesh, where the mesh's own precomputation finds it.
     let (adjacency, bvh) =
         rayon::join(|| mesh.adjacency(), || Bvh::build(rest_f32, mesh.triangles()));
+    let diagonal = mesh.bbox_diagonal();
     let (lo, hi) = mesh.bounding_box();
     let lo = Vec3::new(lo[0] as f32, lo[1] as f32, lo[2] as f32);
     let hi = Vec3::new(hi[0] as f32, hi[1] as f32, hi[2] as f32);
@@ -239,6 +243,7 @@ fn prepare(
         bvh,
         center,
         radius,
+        diagonal,
         grid,
         render,
         default_labels,
@@ -252,7 +257,17 @@ fn prepare(
 pub fn load_scene_file(path: &Path, version: u64) -> anyhow::Result<LoadedFile> {
     let doc = solver::animation::scene::Scene::read(path)?;
     let (mesh_path, _) = solver::animation::scene::Scene::resolve_path(path, &doc.mesh)?;
-    let mut scene = load_scene(&mesh_path, version, None)
+    let mut loaded = solver::io::load_mesh(&mesh_path)
+        .with_context(|| format!("the scene's mesh {}", mesh_path.display()))?;
+    if let Some(t) = &doc.texture {
+        // A texture that cannot be used is a notice: the mesh opens without it.
+        let (texture, _) = solver::animation::scene::Scene::resolve_path(path, t)?;
+        if let Err(e) = solver::animation::scene::Scene::apply_texture(&texture, &mut loaded.asset)
+        {
+            loaded.asset.notices.push(e);
+        }
+    }
+    let mut scene = prepare(&mesh_path, loaded, version, None)
         .with_context(|| format!("the scene's mesh {}", mesh_path.display()))?;
     let handles =
         doc.resolve_handles(path, scene.mesh.positions(), Some(&scene.layout.vertex_map))?;

@@ -41,7 +41,11 @@
 //! [`crate::deform::riders`]). `loose_parts` came after the first version-1 scenes without a
 //! version change: it is optional and omitted when default, so every earlier scene reads as
 //! before and a scene that sets no mode is written as before (a build that predates the field
-//! rejects a scene that sets one as an unknown field).
+//! rejects a scene that sets one as an unknown field). `texture` (a base-colour image for a
+//! mesh with UVs whose file names none, relative to the scene, by the same rule as `mesh`; an
+//! image that does not decode is a notice, [`Scene::apply_texture`]) and `up_axis` (`"y"` or
+//! `"z"`) came the same way: optional, omitted when unset. A circular path's `start` pose
+//! (`crate::animation::timeline::StartPose`) likewise.
 
 use std::path::{Path, PathBuf};
 
@@ -52,6 +56,7 @@ use crate::animation::timeline::{AnimationError, Timeline};
 use crate::deform::arap::{Acceleration, ArapConfig};
 use crate::deform::config::BaseConfig;
 use crate::deform::deformer::Method;
+use crate::animation::export::UpAxis;
 use crate::deform::handles::{Handles, HandlesError};
 use crate::deform::riders::LooseParts;
 use crate::deform::rig::{Falloff, FalloffCurve, Rig};
@@ -249,6 +254,15 @@ pub struct Scene {
 }
 
 /// A scene with its mesh loaded and its handles resolved.
+    /// A base-colour texture for a mesh with UVs whose file names none (an OBJ without its
+    /// MTL), relative to the scene ([`Scene::apply_texture`]; optional, omitted when absent).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub texture: Option<String>,
+    /// The mesh file's up axis: `"y"` (default, omitted) or `"z"`. The editor's camera and
+    /// ground follow it; a glTF export of a Z-up mesh rotates its nodes so that it stands up
+    /// in glTF's Y-up world ([`crate::animation::export::GltfExport::with_up_axis`]).
+    #[serde(default, skip_serializing_if = "UpAxis::is_y")]
+    pub up_axis: UpAxis,
 #[derive(Debug, Clone)]
 pub struct LoadedScene {
     pub scene: Scene,
@@ -290,6 +304,8 @@ impl Scene {
         }
     }
 
+            texture: None,
+            up_axis: UpAxis::Y,
     /// Parses scene text; `file` names it in errors. Checks the version first (a missing or
     /// unknown version is its own error, before any other field is looked at), then the fields
     /// (errors carry line and column), then the timeline and the handles spec.
@@ -405,6 +421,13 @@ impl Scene {
     }
 
     /// [`Scene::resolve`] with the mesh's own references read under `policy`.
+        if let Some(t) = &self.texture {
+            let (texture_path, outside) = Scene::resolve_path(path, t)?;
+            if let Err(e) = Scene::apply_texture(&texture_path, &mut mesh.asset) {
+                mesh.asset.notices.push(e);
+            }
+            named.push(("texture", texture_path, outside));
+        }
     pub fn resolve_with(
         self,
         path: &Path,
@@ -415,6 +438,21 @@ impl Scene {
         let mut mesh = load_mesh_with(&mesh_path, policy)
             .map_err(|source| SceneError::Mesh { file: file.clone(), source })?;
         let handles =
+    /// Reads the image at `texture` (the scene's `texture`, resolved) and gives it to the
+    /// untextured surface of `asset` ([`crate::io::Asset::set_base_color_texture`]: it must
+    /// decode as a PNG or JPEG). Errors: one line naming the file, for a notice (the mesh is
+    /// shown and exported without it).
+    pub fn apply_texture(texture: &Path, asset: &mut crate::io::Asset) -> Result<(), String> {
+        let why = |e: String| format!("texture {} not used: {e}", texture.display());
+        let size = std::fs::metadata(texture).map_err(|e| why(e.to_string()))?.len();
+        if size > crate::io::MAX_IMAGE_ALLOC {
+            return Err(why(format!("{size} bytes is too large for a texture")));
+        }
+        let bytes = std::fs::read(texture).map_err(|e| why(e.to_string()))?;
+        let name = texture.file_name().map(|n| n.to_string_lossy().into_owned());
+        asset.set_base_color_texture(name.as_deref().unwrap_or("texture"), bytes).map_err(why)
+    }
+
             self.resolve_handles(path, mesh.mesh.positions(), Some(&mesh.report.vertex_map))?;
         let mut named = vec![("mesh", mesh_path.clone(), outside)];
         if let Some(f) = &self.handles.file {

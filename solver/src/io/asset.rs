@@ -147,6 +147,45 @@ impl Asset {
         }
     }
 
+    /// Whether any material draws a base-colour texture.
+    pub fn has_texture(&self) -> bool {
+        self.materials.iter().any(|m| m.base_color_texture.is_some())
+    }
+
+    /// Gives the untextured surface a base-colour texture the user chose (a mesh with UVs whose
+    /// file names no material, like an OBJ without its MTL): `bytes`, named `name`, must be a
+    /// PNG or JPEG that decodes whole (`image_check`); it is sampled with UV set 0. Parts
+    /// without a material get a new default material with it; materials without a texture
+    /// get it. Errors (one phrase, the asset unchanged): the asset has no UVs, it is textured
+    /// already, or the bytes are not an image that decodes.
+    pub fn set_base_color_texture(&mut self, name: &str, bytes: Vec<u8>) -> Result<(), String> {
+        if self.uvs.is_empty() {
+            return Err("the mesh has no texture coordinates (UVs) to place a texture".into());
+        }
+        if self.has_texture() {
+            return Err("the mesh already has a texture".into());
+        }
+        let mime = super::image_check::decoded_mime(&bytes, None)?;
+        let image = self.images.len();
+        self.images.push(Image { name: name.to_string(), mime_type: mime.into(), bytes });
+        for m in &mut self.materials {
+            m.base_color_texture = Some(image);
+            m.base_color_uv = 0;
+        }
+        if self.parts.iter().any(|p| p.material.is_none()) {
+            let m = self.materials.len();
+            self.materials.push(Material {
+                name: "texture".into(),
+                base_color_texture: Some(image),
+                ..Material::default()
+            });
+            for p in self.parts.iter_mut().filter(|p| p.material.is_none()) {
+                p.material = Some(m);
+            }
+        }
+        Ok(())
+    }
+
     /// Sets [`Asset::polygon_sizes`] from the corner counts of the polygons a reader fanned,
     /// in file order; left empty when every polygon is a triangle.
     pub(crate) fn set_polygon_sizes(&mut self, sizes: Vec<u32>) {

@@ -43,6 +43,7 @@ impl DialogKind {
             DialogKind::ExportGltf => "Export glTF",
             DialogKind::LoadSelection => "Load selection",
             DialogKind::SaveSelection => "Save selection",
+            DialogKind::LoadTexture => "Load texture",
         }
     }
 
@@ -60,6 +61,7 @@ impl DialogKind {
             ],
             DialogKind::LoadSelection => &[("Selections", &["dmat", "json"])],
             DialogKind::SaveSelection => &[("libigl dmat", &["dmat"])],
+            DialogKind::LoadTexture => &[("PNG or JPEG image", &["png", "jpg", "jpeg"])],
         }
     }
 
@@ -226,6 +228,7 @@ impl EditorApp {
         match kind {
             DialogKind::OpenMesh | DialogKind::OpenScene => self.request_open(ctx, path),
             DialogKind::LoadSelection => self.load_selection(&path),
+            DialogKind::LoadTexture => self.load_texture(&path),
             DialogKind::SaveSelection => match loader::write_dmat(&path, &self.session.edit.labels)
             {
                 Ok(()) => self.info = Some(format!("saved {}", path.display())),

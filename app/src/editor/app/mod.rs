@@ -20,6 +20,7 @@
 //! scripts).
 
 mod accessors;
+mod asset_view;
 mod capture;
 mod file_dialog;
 mod gizmo;
@@ -167,6 +168,7 @@ enum DialogKind {
     OpenScene,
     SaveScene,
     ExportGltf,
+    LoadTexture,
 }
 
 impl EditorApp {

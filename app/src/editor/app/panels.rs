@@ -635,6 +635,7 @@ impl eframe::App for EditorApp {
             let actions = timeline::panel(
                 ui,
                 &mut self.session.edit,
+                self.asset_view_controls(ui, &ctx);
                 &mut self.session.playback,
                 self.interaction.active_group,
                 &view,

@@ -77,8 +77,15 @@ impl EditorApp {
         if self.jobs.export.is_some() {
             return;
         }
+        // The same mesh's layout as it is now: a texture loaded after recording is exported.
+        let layout = match &self.session.scene {
+            Some(s) if std::sync::Arc::ptr_eq(&s.mesh, &rec.mesh) => s.layout.clone(),
+            _ => rec.layout.clone(),
+        };
+        let up = self.session.file_view.up_axis;
         let c = ctx.clone();
-        self.jobs.export = Some(jobs::spawn_export(rec, path, move || c.request_repaint()));
+        self.jobs.export =
+            Some(jobs::spawn_export(rec, layout, up, path, move || c.request_repaint()));
     }
 
     pub(super) fn poll_jobs(&mut self) {

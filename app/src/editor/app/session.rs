@@ -39,6 +39,9 @@ pub(super) struct Session {
     pub(super) discard_on_exit: bool,
     /// The user chose to quit and keep the changes for the next start.
     pub(super) keep_on_exit: bool,
+    /// The texture the user loaded and the file's up axis, and as last opened or saved.
+    pub(super) file_view: super::asset_view::FileView,
+    pub(super) saved_file_view: super::asset_view::FileView,
 }
 
 /// An action that would drop unsaved changes.
@@ -106,7 +109,9 @@ pub(super) struct RestoreOffer {
 impl EditorApp {
     /// Whether the edit state differs from what was last opened or saved.
     pub fn has_unsaved_changes(&self) -> bool {
-        self.session.scene.is_some() && self.session.saved_edit.as_ref() != Some(&self.session.edit)
+        self.session.scene.is_some()
+            && (self.session.saved_edit.as_ref() != Some(&self.session.edit)
+                || self.session.saved_file_view != self.session.file_view)
     }
 
     /// Opens `path` from the UI (menu, recent files, drop): with unsaved changes, asks first.
@@ -241,6 +246,7 @@ impl EditorApp {
         doc.save(path).map_err(|e| e.to_string())?;
         self.session.document_path = Some(path.to_path_buf());
         self.session.saved_edit = Some(self.session.edit.clone());
+        self.session.saved_file_view = self.session.file_view.clone();
         // Saved: a crash from now on has nothing newer to keep than the file.
         if let Ok(mut slot) = self.store.snapshot.try_lock() {
             *slot = None;
@@ -261,6 +267,8 @@ impl EditorApp {
                 settings: &self.session.settings,
                 camera: &self.display.camera,
                 time: self.session.playback.time,
+                texture: self.session.file_view.texture.as_deref(),
+                up_axis: self.session.file_view.up_axis,
             },
         )
         .map(|doc| solver::animation::scene::Scene { capture: self.capture.to_scene(), ..doc })
@@ -405,8 +413,18 @@ impl EditorApp {
                 self.session.playback = Playback::default();
                 self.session.document_path = None;
                 let mut restored = false;
+                let mut file_view = super::asset_view::FileView::default();
+                let mut framed = true;
                 match scene.document.take() {
                     Some((path, doc)) => {
+                        file_view = super::asset_view::FileView {
+                            texture: (doc.texture.as_deref())
+                                .and_then(|t| {
+                                    solver::animation::scene::Scene::resolve_path(&path, t).ok()
+                                })
+                                .map(|(p, _)| p),
+                            up_axis: doc.up_axis,
+                        };
                         let applied = document::apply_scene(&doc, labels, &self.session.settings);
                         self.capture.load(doc.capture.as_ref());
                         self.session.edit = applied.edit;
@@ -414,6 +432,7 @@ impl EditorApp {
                         self.session.playback.time = applied.time;
                         if let Some(c) = applied.camera {
                             self.display.camera = c;
+                            framed = false;
                         }
                         if let Some(n) = applied.notice {
                             self.info = Some(n);
@@ -447,6 +466,7 @@ impl EditorApp {
                 let textured = scene.render.as_ref().is_some_and(|r| r.has_texture_or_colors());
                 self.display.shading = if textured { Shading::Texture } else { Shading::Clay };
                 self.session.scene = Some(scene);
+                self.adopt_file_view(file_view, framed);
                 self.solvers.views = Default::default();
                 self.display.viewports = Default::default();
                 self.display.bvh_fit = None;

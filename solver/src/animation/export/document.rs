@@ -435,6 +435,7 @@ impl GltfExport<'_> {
                     b.data(&one_hot(&weights[mi]), total * total, C::F32, T::Scalar, None, None);
                 samplers.push(json::animation::Sampler {
                     extensions: None,
+                rotation: self.up.node_rotation(),
                     extras: None,
                     input,
                     interpolation: Valid(json::animation::Interpolation::Linear),

@@ -10,7 +10,10 @@
 //! **Document** (vertices, meshes and normals: `layout.rs`):
 //! - one node + one mesh per distinct (`Part::node`, `Part::name`), named after them (a bare
 //!   asset: node `deformed`, mesh `recording`), one triangle primitive per part with its
-//!   material; node transforms are identity (the asset's positions are in world space);
+//!   material; node transforms are identity (the asset's positions are in world space) but
+//!   for a Z-up asset ([`UpAxis::Z`], [`GltfExport::with_up_axis`]), whose nodes carry the
+//!   rotation $-90°$ about $x$, $(x, y, z) \mapsto (x, z, -y)$, so that it stands up in glTF's
+//!   Y-up world while its vertex data keeps the file's coordinates;
 //! - each primitive: `indices` (u32), `POSITION` (rest, f32, min/max), `NORMAL` (unit rest
 //!   normals: the file's, else area-weighted), `TEXCOORD_0/1` and `COLOR_0` (f32) when the asset
 //!   has them; its vertices are the distinct attribute tuples of its corners in file order;
@@ -154,6 +157,31 @@ pub enum Encoding {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct ExportSettings {
     pub encoding: Encoding,
+/// Which axis of a mesh file points up. glTF's is +Y; a Z-up file (scans, CAD, Blender's
+/// own convention) is exported with a node rotation ([`GltfExport::with_up_axis`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum UpAxis {
+    /// +Y up (glTF, OBJ and most tools): nothing is rotated.
+    #[default]
+    Y,
+    /// +Z up.
+    Z,
+}
+
+impl UpAxis {
+    pub fn is_y(&self) -> bool {
+        *self == UpAxis::Y
+    }
+
+    /// The glTF node rotation that brings this axis to +Y: $-90°$ about $x$ for Z,
+    /// $(x, y, z) \mapsto (x, z, -y)$.
+    pub fn node_rotation(self) -> Option<json::scene::UnitQuaternion> {
+        let h = std::f32::consts::FRAC_1_SQRT_2;
+        (self == UpAxis::Z).then_some(json::scene::UnitQuaternion([-h, 0.0, 0.0, h]))
+    }
+}
+
     /// Write NORMAL deltas in the morph targets (recomputed normals in every frame).
     pub normals: bool,
     /// Allow sparse target accessors where they make the file smaller.
@@ -173,6 +201,8 @@ impl Default for ExportSettings {
 /// of the cleaned mesh) and the settings.
 #[derive(Debug, Clone, Copy)]
 pub struct AssetExport<'a> {
+    /// The asset's up axis ([`GltfExport::with_up_axis`]).
+    up: UpAxis,
     pub asset: &'a Asset,
     pub vertex_map: &'a [Option<u32>],
     pub recording: &'a Recording,
@@ -332,6 +362,7 @@ impl<'a> GltfExport<'a> {
             check_finite(format!("frame {frame}"), p)?;
         }
         let mut prev = f32::NEG_INFINITY;
+            up: UpAxis::Y,
         for (frame, &time) in recording.times.iter().enumerate() {
             let t = time as f32;
             if !time.is_finite() || t <= prev || t < 0.0 {
@@ -438,6 +469,17 @@ impl<'a> GltfExport<'a> {
     }
 
     /// Writes the file atomically ([`write_atomic`]); returns its size in bytes.
+    /// Exports an asset whose up axis is `up`: for [`UpAxis::Z`] every mesh node is rotated by
+    /// $-90°$ about $x$ (module doc), so that viewers, which take glTF's +Y as up, show it
+    /// upright; the vertex data is unchanged.
+    pub fn with_up_axis(mut self, up: UpAxis) -> Self {
+        self.up = up;
+        for node in self.root.nodes.iter_mut().filter(|n| n.mesh.is_some()) {
+            node.rotation = up.node_rotation();
+        }
+        self
+    }
+
     pub fn write(
         &self,
         path: &FsPath,

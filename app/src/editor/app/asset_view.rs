@@ -1,0 +1,171 @@
+//! How the open file is shown, beyond what it says itself: a texture the user loads for a mesh
+//! with UVs and no material (*Load texture…*), and the file's up axis (Y or Z). Both are saved
+//! in the scene (`texture`, `up_axis`); the texture goes into glTF exports with the asset, and
+//! a Z-up mesh is exported upright (`solver::animation::export::UpAxis`).
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use eframe::egui;
+use glam::Vec3;
+use solver::animation::export::UpAxis;
+use solver::animation::scene::Scene;
+
+use super::{DialogKind, EditorApp, Shading};
+use crate::editor::draw_data::VertexData;
+use crate::editor::loader::{FileLayout, LoadedFile};
+use crate::editor::render_layout::RenderLayout;
+use crate::editor::renderer::build_grid;
+
+/// The tooltip of the up-axis choice: what it changes, and the export rule.
+pub const UP_AXIS_HINT: &str = "Which axis of the file points up. The camera orbits about it \
+and the ground lies across it; the mesh's coordinates are never changed. A glTF export of a \
+Z-up mesh keeps its coordinates and rotates its nodes by −90° about X, so it stands up in glTF \
+(Y-up) viewers; a Y-up mesh is exported as it is.";
+
+/// The texture and up axis of the open file, as saved in the scene.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub(super) struct FileView {
+    /// The texture the user loaded (absolute path), if any.
+    pub(super) texture: Option<PathBuf>,
+    pub(super) up_axis: UpAxis,
+}
+
+/// The ground grid under `scene`'s mesh for `up`: the plane across the up axis at the mesh's
+/// lowest point.
+fn ground_grid(scene: &LoadedFile, up: UpAxis) -> Vec<crate::editor::draw_data::Vertex> {
+    let (lo, _) = scene.mesh.bounding_box();
+    let c = scene.center;
+    let extent = scene.radius * 1.5;
+    match up {
+        UpAxis::Y => build_grid(c, lo[1] as f32, extent),
+        // Built Y-up in the frame (x, z, −y), then turned back: (a, b, c) ↦ (a, −c, b).
+        UpAxis::Z => {
+            let mut grid = build_grid(Vec3::new(c.x, c.z, -c.y), lo[2] as f32, extent);
+            for v in &mut grid {
+                let [a, b, cc] = v.position;
+                v.position = [a, -cc, b];
+                v.normal = [0.0, 0.0, 1.0];
+            }
+            grid
+        }
+    }
+}
+
+impl EditorApp {
+    /// The texture loaded for the open mesh (absolute path), if any.
+    pub fn loaded_texture(&self) -> Option<&Path> {
+        self.session.file_view.texture.as_deref()
+    }
+
+    /// The open file's up axis.
+    pub fn up_axis(&self) -> UpAxis {
+        self.session.file_view.up_axis
+    }
+
+    /// Whether the open mesh has UVs but nothing textures it: *Load texture…* is offered.
+    pub fn can_load_texture(&self) -> bool {
+        self.session
+            .scene
+            .as_ref()
+            .is_some_and(|s| !s.layout.asset.uvs.is_empty() && !s.layout.asset.has_texture())
+    }
+
+    /// Gives the open mesh the texture at `path` (it must decode as a PNG or JPEG; see
+    /// `Scene::apply_texture`) and shows it; an unsaved change of the scene.
+    pub fn load_texture(&mut self, path: &Path) {
+        let version = self.next_version();
+        let Some(scene) = &mut self.session.scene else {
+            self.error = Some("open a mesh before loading a texture".into());
+            return;
+        };
+        let mut asset = scene.layout.asset.clone();
+        if let Err(e) = Scene::apply_texture(path, &mut asset) {
+            self.error = Some(e);
+            return;
+        }
+        let built = RenderLayout::build(
+            &asset,
+            &scene.layout.vertex_map,
+            scene.mesh.n_vertices(),
+            &scene.topology.edges,
+            version,
+        );
+        let Some(mut render) = built else {
+            self.error = Some("the texture could not be laid out on the mesh".into());
+            return;
+        };
+        let notices = render.decode_images(&asset);
+        if let Some(n) = notices.first() {
+            self.error = Some(n.clone());
+            return;
+        }
+        scene.render = Some(Arc::new(render));
+        let vertex_map = scene.layout.vertex_map.clone();
+        scene.layout = Arc::new(FileLayout { asset, vertex_map });
+        self.session.file_view.texture = Some(std::path::absolute(path).unwrap_or(path.into()));
+        self.display.shading = Shading::Texture;
+        self.display.viewports = Default::default();
+        self.display.color_version += 1;
+        self.error = None;
+        self.info = Some(format!("texture {} loaded", super::file_name(path)));
+    }
+
+    /// Sets the open file's up axis: the camera orbits about it, the ground lies across it.
+    pub fn set_up_axis(&mut self, up: UpAxis) {
+        let version = self.next_version();
+        self.session.file_view.up_axis = up;
+        self.display.camera.up_z = up == UpAxis::Z;
+        if let Some(scene) = &mut self.session.scene {
+            scene.grid = Arc::new(VertexData { version, vertices: ground_grid(scene, up) });
+        }
+    }
+
+    /// After a load: the file view the scene names (or the default for a mesh file).
+    pub(super) fn adopt_file_view(&mut self, view: FileView, reframe: bool) {
+        self.session.file_view = view.clone();
+        self.session.saved_file_view = view.clone();
+        self.set_up_axis(view.up_axis);
+        if reframe && let Some(s) = &self.session.scene {
+            let (c, r) = (s.center, s.radius);
+            self.display.camera.frame(c, r, self.viewport_aspect());
+        }
+    }
+
+    /// The toolbar's texture hint, *Load texture…* and up-axis choice.
+    pub(super) fn asset_view_controls(&mut self, ui: &mut egui::Ui, ctx: &egui::Context) {
+        let Some(scene) = &self.session.scene else { return };
+        let has_uvs = !scene.layout.asset.uvs.is_empty();
+        if !self.has_texture_shading() {
+            let why = if has_uvs {
+                "no texture: the file names no material (an OBJ without its .mtl?); load one"
+            } else {
+                "no texture: the file has no material, vertex colours or texture coordinates"
+            };
+            ui.weak("no texture").on_hover_text(why);
+        }
+        if self.can_load_texture()
+            && ui
+                .button("Load texture…")
+                .on_hover_text(
+                    "the mesh has texture coordinates but no texture: choose a PNG or JPEG; \
+                     it is saved in the scene and exported with the glTF",
+                )
+                .clicked()
+        {
+            self.start_dialog(ctx, DialogKind::LoadTexture);
+        }
+        let up = self.up_axis();
+        for (axis, name) in [(UpAxis::Y, "Y up"), (UpAxis::Z, "Z up")] {
+            if ui.selectable_label(up == axis, name).on_hover_text(UP_AXIS_HINT).clicked()
+                && up != axis
+            {
+                self.set_up_axis(axis);
+                if let Some(s) = &self.session.scene {
+                    let (c, r) = (s.center, s.radius);
+                    self.display.camera.frame(c, r, self.viewport_aspect());
+                }
+            }
+        }
+    }
+}
