@@ -46,6 +46,7 @@
 //! - `avx`: the AVX2 build of the covariance pass;
 //! - `membrane`: triangle cells blended into the energy (the coarse level's membrane share);
 //! - `smooth_rotations`: the rotation-smoothness term, its local step and energy.
+//! - `rotation_solve`: that term's implicit rotation step (one sparse solve per local step).
 
 mod accelerated;
 #[cfg(target_arch = "x86_64")]
@@ -57,6 +58,7 @@ mod iterate;
 mod local;
 mod membrane;
 mod precompute;
+mod rotation_solve;
 mod smooth_rotations;
 mod start;
 #[cfg(test)]

@@ -179,7 +179,13 @@ impl Arap {
         let smooth = match &cells {
             Cells::Spokes { neighbours } if smooth => {
                 let ell = config.bending_length * mesh.bbox_diagonal();
-                Some(Box::new(SmoothRotations::new(n, neighbours, ell)))
+                let sr = SmoothRotations::new(neighbours, &rest, ell).map_err(|source| {
+                    SolveError::Factorization {
+                        matrix: "the rotation-smoothness Laplacian",
+                        source,
+                    }
+                })?;
+                Some(Box::new(sr))
             }
             _ => None,
         };
