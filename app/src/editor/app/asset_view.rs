@@ -103,7 +103,8 @@ impl EditorApp {
         scene.render = Some(Arc::new(render));
         let vertex_map = scene.layout.vertex_map.clone();
         scene.layout = Arc::new(FileLayout { asset, vertex_map });
-        self.session.file_view.texture = Some(std::path::absolute(path).unwrap_or(path.into()));
+        self.session.file_view.texture =
+            Some(std::path::absolute(path).unwrap_or_else(|_| path.into()));
         self.display.shading = Shading::Texture;
         self.display.viewports = Default::default();
         self.display.color_version += 1;

@@ -554,6 +554,7 @@ impl eframe::App for EditorApp {
                     ui.menu_button("Open recent", |ui| {
                         if self.store.recent.is_empty() {
                             ui.weak("nothing yet");
+        self.log_status();
                         }
                         for p in self.store.recent.clone() {
                             if ui.button(p.display().to_string()).clicked() {

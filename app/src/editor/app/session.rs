@@ -42,6 +42,8 @@ pub(super) struct Session {
     /// The texture the user loaded and the file's up axis, and as last opened or saved.
     pub(super) file_view: super::asset_view::FileView,
     pub(super) saved_file_view: super::asset_view::FileView,
+    /// The status and error lines last written to stderr ([`EditorApp::log_status`]).
+    pub(super) logged_status: (Option<String>, Option<String>),
 }
 
 /// An action that would drop unsaved changes.
@@ -518,6 +520,26 @@ impl EditorApp {
                 self.send_loose_parts();
             }
         }
+    }
+
+    /// Writes the status bar's message and error to stderr when they change (`editor: status:
+    /// …`, `editor: error: …`): what a terminal or a script driving the window sees.
+    pub(super) fn log_status(&mut self) {
+        let now = (self.info.clone(), self.error.clone());
+        if now == self.session.logged_status {
+            return;
+        }
+        if let Some(i) =
+            now.0.as_ref().filter(|i| Some(*i) != self.session.logged_status.0.as_ref())
+        {
+            eprintln!("editor: status: {i}");
+        }
+        if let Some(e) =
+            now.1.as_ref().filter(|e| Some(*e) != self.session.logged_status.1.as_ref())
+        {
+            eprintln!("editor: error: {e}");
+        }
+        self.session.logged_status = now;
     }
 
     /// Saves to the current scene file, or asks where.
