@@ -4,7 +4,10 @@
 //! cap 1000), each setting measured at frame 5 against ARAP from rest
 //! (`solver::deform::quality::Reference`, computed once for every setting):
 //!
-//!     cargo run --release -p solver --example coarse_quality -- MESH SELECTION C:S[:F[:L[:M]]]... [--own] [--reference FILE] [--coarser MESH]
+//!     cargo run --release -p solver --example coarse_quality -- MESH SELECTION C:S[:F[:L[:M]]]... [--own] [--reference FILE] [--coarser MESH] [--bending-length F]
+//!
+//! With `--bending-length F` every solve (reference, settings, `--own`, `--coarser`) uses
+//! smooth rotations with $\ell = F\cdot$diag instead of spokes and rims.
 //!
 //! `C:S:F:L:M` = coarse vertices, smoothing (fraction of the diagonal), fine iterations (default
 //! 0), level fairing (`0`: off; default on), membrane share (default 0). Each setting also
@@ -24,7 +27,7 @@
 //! resolution of the same surface alone (BENCHMARKS.md, "Dense held-out sets").
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-use solver::deform::quality::{Reference, distances};
+use solver::deform::quality::{Reference, ReferenceEnergy, distances};
 use solver::{
     Acceleration, ArapConfig, BaseConfig, Deformer, Energy, GroupTransform, Method, handle_targets,
 };
@@ -42,6 +45,14 @@ fn main() {
     };
     let stored = option("--reference");
     let coarser = option("--coarser");
+    // `--bending-length F`: smooth rotations with ℓ = F·diag for the reference and every setting.
+    let energy = match option("--bending-length") {
+        Some(f) => ReferenceEnergy {
+            energy: Energy::SmoothRotations,
+            bending_length: f.to_str().and_then(|f| f.parse().ok()).expect("--bending-length F"),
+        },
+        None => Energy::SpokesAndRims.into(),
+    };
     assert!(
         args.len() >= 2,
         "usage: coarse_quality MESH SELECTION C:S[:F[:L[:M]]]... [--own] [--reference FILE] [--coarser MESH]"
@@ -59,8 +70,7 @@ fn main() {
     let kept = stored.as_ref().filter(|f| f.exists()).map(|f| read_positions(f, mesh.n_vertices()));
     let start = kept.as_deref().unwrap_or(mesh.positions());
     let mut reference =
-        Reference::from_pose(&mesh, &handles, &frame(5), start, Energy::SpokesAndRims)
-            .expect("reference");
+        Reference::from_pose(&mesh, &handles, &frame(5), start, energy).expect("reference");
     if let (Some(file), None) = (&stored, &kept) {
         let bytes: Vec<u8> =
             reference.positions().iter().flatten().flat_map(|c| c.to_le_bytes()).collect();
@@ -77,7 +87,7 @@ fn main() {
         t.elapsed().as_secs_f64()
     );
     if let Some(file) = &coarser {
-        resolution_gap(file, &args[1], mesh.positions(), &reference, diag);
+        resolution_gap(file, &args[1], mesh.positions(), &reference, diag, energy);
     }
     for spec in &args[2..] {
         let v: Vec<&str> = spec.split(':').collect();
@@ -91,6 +101,8 @@ fn main() {
             ..default
         };
         let config = ArapConfig {
+            energy: energy.energy,
+            bending_length: energy.bending_length,
             max_iterations: 1000,
             acceleration: Acceleration::Anderson { window: 5 },
             ..Default::default()
@@ -116,14 +128,8 @@ fn main() {
             q.energy_on_mesh
         );
         if own {
-            let o = Reference::from_pose(
-                &mesh,
-                &handles,
-                &frame(5),
-                d.positions(),
-                Energy::SpokesAndRims,
-            )
-            .expect("own reference");
+            let o = Reference::from_pose(&mesh, &handles, &frame(5), d.positions(), energy)
+                .expect("own reference");
             let apart = distances(o.positions(), reference.positions(), diag);
             let pose = distances(d.positions(), o.positions(), diag);
             println!(
@@ -167,6 +173,7 @@ fn resolution_gap(
     fine_rest: &[[f64; 3]],
     reference: &Reference,
     diag: f64,
+    energy: ReferenceEnergy,
 ) {
     let coarse = solver::io::load_mesh(file).expect("coarser mesh").mesh;
     let n = coarse.n_vertices();
@@ -182,13 +189,8 @@ fn resolution_gap(
         solver::deform::selection::load_selection(std::path::Path::new(selection), rest, None)
             .expect("selection on the coarser mesh");
     let t = std::time::Instant::now();
-    let r = Reference::new(
-        &coarse,
-        &handles,
-        &bench_frame(rest, &handles, diag, 5),
-        Energy::SpokesAndRims,
-    )
-    .expect("coarser reference");
+    let r = Reference::new(&coarse, &handles, &bench_frame(rest, &handles, diag, 5), energy)
+        .expect("coarser reference");
     let gap = distances(r.positions(), &fine[..n], diag);
     println!(
         "converged ARAP on {} ({n} vertices: {} iterations{}, energy {:.5e}, {:.0} s) at the shared vertices: max {:.2} % mean {:.3} %",
