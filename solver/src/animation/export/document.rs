@@ -12,14 +12,15 @@ use json::validation::{Checked::Valid, USize64};
 use super::layout::Layout;
 use super::targets::{Encoded, Storage, Values, encode, store_mesh_frame};
 use super::{Encoding, ExportError, GltfExport, GltfFormat, base64_into};
+use crate::io::asset::Asset;
 
 /// The buffer being laid out: every view starts on a 4-byte boundary; bytes are kept only
 /// when writing.
-struct Builder {
-    root: json::Root,
-    bin: Vec<u8>,
-    len: usize,
-    keep: bool,
+pub(super) struct Builder {
+    pub root: json::Root,
+    pub bin: Vec<u8>,
+    pub len: usize,
+    pub keep: bool,
 }
 
 /// A min/max array in the accessor's component type (f32, or integers as stored).
@@ -31,7 +32,7 @@ fn json_bound(v: &[f64], component: C) -> serde_json::Value {
 }
 
 /// The stored f32 min/max of a VEC3 list (for base POSITION accessors).
-fn bounds(v: &[[f32; 3]]) -> (Vec<f64>, Vec<f64>) {
+pub(super) fn bounds(v: &[[f32; 3]]) -> (Vec<f64>, Vec<f64>) {
     let mut lo = [f64::INFINITY; 3];
     let mut hi = [f64::NEG_INFINITY; 3];
     for p in v {
@@ -43,12 +44,12 @@ fn bounds(v: &[[f32; 3]]) -> (Vec<f64>, Vec<f64>) {
     (lo.into(), hi.into())
 }
 
-fn f32_bytes<const N: usize>(v: &[[f32; N]]) -> Vec<u8> {
+pub(super) fn f32_bytes<const N: usize>(v: &[[f32; N]]) -> Vec<u8> {
     v.iter().flatten().flat_map(|c| c.to_le_bytes()).collect()
 }
 
 impl Builder {
-    fn view(
+    pub(super) fn view(
         &mut self,
         bytes: &[u8],
         stride: Option<usize>,
@@ -73,7 +74,7 @@ impl Builder {
     }
 
     #[allow(clippy::too_many_arguments)]
-    fn accessor(
+    pub(super) fn accessor(
         &mut self,
         view: Option<json::Index<json::buffer::View>>,
         count: usize,
@@ -104,7 +105,7 @@ impl Builder {
     }
 
     /// A simple accessor over a view holding `bytes`.
-    fn data(
+    pub(super) fn data(
         &mut self,
         bytes: &[u8],
         count: usize,
@@ -173,6 +174,82 @@ fn alpha_mode(mode: &str) -> json::material::AlphaMode {
     }
 }
 
+/// Images (buffer views in `.glb`, `data:` URIs in `.gltf`), one linear/repeat sampler,
+/// texture $i$ showing image $i$, and the asset's materials, in the asset's order.
+pub(super) fn push_materials(b: &mut Builder, asset: &Asset, format: GltfFormat) {
+    // Images, textures (texture i shows image i), materials.
+    for image in &asset.images {
+        let (buffer_view, uri) = match format {
+            GltfFormat::Glb => (Some(b.view(&image.bytes, None, None)), None),
+            GltfFormat::Gltf => {
+                let mut uri = format!("data:{};base64,", image.mime_type);
+                base64_into(&image.bytes, &mut uri);
+                (None, Some(uri))
+            }
+        };
+        b.root.push(json::Image {
+            buffer_view,
+            mime_type: buffer_view.map(|_| json::image::MimeType(image.mime_type.clone())),
+            name: (!image.name.is_empty()).then(|| image.name.clone()),
+            uri,
+            extensions: None,
+            extras: None,
+        });
+    }
+    if !asset.images.is_empty() {
+        b.root.push(json::texture::Sampler {
+            mag_filter: Some(Valid(json::texture::MagFilter::Linear)),
+            min_filter: Some(Valid(json::texture::MinFilter::LinearMipmapLinear)),
+            name: None,
+            wrap_s: Valid(json::texture::WrappingMode::Repeat),
+            wrap_t: Valid(json::texture::WrappingMode::Repeat),
+            extensions: None,
+            extras: None,
+        });
+    }
+    for i in 0..asset.images.len() {
+        b.root.push(json::Texture {
+            name: None,
+            sampler: Some(json::Index::new(0)),
+            source: json::Index::new(i as u32),
+            extensions: None,
+            extras: None,
+        });
+    }
+    // A texture whose UV set the asset lacks cannot be sampled: the material keeps its factors.
+    let has_uv = |m: &crate::io::asset::Material| (m.base_color_uv as usize) < asset.uvs.len();
+    for m in &asset.materials {
+        b.root.push(json::Material {
+            alpha_cutoff: None,
+            alpha_mode: Valid(alpha_mode(&m.alpha_mode)),
+            double_sided: m.double_sided,
+            name: (!m.name.is_empty()).then(|| m.name.clone()),
+            pbr_metallic_roughness: json::material::PbrMetallicRoughness {
+                base_color_factor: json::material::PbrBaseColorFactor(m.base_color),
+                base_color_texture: m.base_color_texture.filter(|_| has_uv(m)).map(|t| {
+                    json::texture::Info {
+                        index: json::Index::new(t as u32),
+                        tex_coord: m.base_color_uv,
+                        extensions: None,
+                        extras: None,
+                    }
+                }),
+                metallic_factor: json::material::StrengthFactor(m.metallic),
+                roughness_factor: json::material::StrengthFactor(m.roughness),
+                metallic_roughness_texture: None,
+                extensions: None,
+                extras: None,
+            },
+            normal_texture: None,
+            occlusion_texture: None,
+            emissive_texture: None,
+            emissive_factor: json::material::EmissiveFactor([0.0; 3]),
+            extensions: None,
+            extras: None,
+        });
+    }
+}
+
 impl GltfExport<'_> {
     /// Builds the JSON document and, when `keep` is true, the binary buffer; returns both and
     /// the buffer's length. `progress(done, total)` after each kept frame (`Break` cancels).
@@ -204,77 +281,7 @@ impl GltfExport<'_> {
         });
         let mut b = Builder { root, bin: Vec::new(), len: 0, keep };
 
-        // Images, textures (texture i shows image i), materials.
-        for image in &asset.images {
-            let (buffer_view, uri) = match self.format {
-                GltfFormat::Glb => (Some(b.view(&image.bytes, None, None)), None),
-                GltfFormat::Gltf => {
-                    let mut uri = format!("data:{};base64,", image.mime_type);
-                    base64_into(&image.bytes, &mut uri);
-                    (None, Some(uri))
-                }
-            };
-            b.root.push(json::Image {
-                buffer_view,
-                mime_type: buffer_view.map(|_| json::image::MimeType(image.mime_type.clone())),
-                name: (!image.name.is_empty()).then(|| image.name.clone()),
-                uri,
-                extensions: None,
-                extras: None,
-            });
-        }
-        if !asset.images.is_empty() {
-            b.root.push(json::texture::Sampler {
-                mag_filter: Some(Valid(json::texture::MagFilter::Linear)),
-                min_filter: Some(Valid(json::texture::MinFilter::LinearMipmapLinear)),
-                name: None,
-                wrap_s: Valid(json::texture::WrappingMode::Repeat),
-                wrap_t: Valid(json::texture::WrappingMode::Repeat),
-                extensions: None,
-                extras: None,
-            });
-        }
-        for i in 0..asset.images.len() {
-            b.root.push(json::Texture {
-                name: None,
-                sampler: Some(json::Index::new(0)),
-                source: json::Index::new(i as u32),
-                extensions: None,
-                extras: None,
-            });
-        }
-        // A texture whose UV set the asset lacks cannot be sampled: the material keeps its factors.
-        let has_uv = |m: &crate::io::asset::Material| (m.base_color_uv as usize) < asset.uvs.len();
-        for m in &asset.materials {
-            b.root.push(json::Material {
-                alpha_cutoff: None,
-                alpha_mode: Valid(alpha_mode(&m.alpha_mode)),
-                double_sided: m.double_sided,
-                name: (!m.name.is_empty()).then(|| m.name.clone()),
-                pbr_metallic_roughness: json::material::PbrMetallicRoughness {
-                    base_color_factor: json::material::PbrBaseColorFactor(m.base_color),
-                    base_color_texture: m.base_color_texture.filter(|_| has_uv(m)).map(|t| {
-                        json::texture::Info {
-                            index: json::Index::new(t as u32),
-                            tex_coord: m.base_color_uv,
-                            extensions: None,
-                            extras: None,
-                        }
-                    }),
-                    metallic_factor: json::material::StrengthFactor(m.metallic),
-                    roughness_factor: json::material::StrengthFactor(m.roughness),
-                    metallic_roughness_texture: None,
-                    extensions: None,
-                    extras: None,
-                },
-                normal_texture: None,
-                occlusion_texture: None,
-                emissive_texture: None,
-                emissive_factor: json::material::EmissiveFactor([0.0; 3]),
-                extensions: None,
-                extras: None,
-            });
-        }
+        push_materials(&mut b, asset, self.format);
 
         // Base attributes of every primitive; positions divided by their mesh's node scale.
         let mut prim_scale = vec![1.0f32; layout.primitives.len()];

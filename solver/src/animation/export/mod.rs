@@ -69,6 +69,7 @@
 
 mod document;
 mod layout;
+mod skin;
 mod targets;
 
 use std::borrow::Cow;
@@ -83,6 +84,7 @@ use crate::geometry::mesh::Mesh;
 use crate::io::asset::Asset;
 use crate::io::{SaveError, write_atomic};
 use layout::Layout;
+pub use skin::SkinnedExport;
 
 /// Why a recording could not be exported. One line each, naming the file where there is one.
 #[derive(Debug, Error)]

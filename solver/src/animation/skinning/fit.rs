@@ -1,0 +1,183 @@
+//! The alternation (Le & Deng 2012, §4, Algorithm 1): initialize by rigid-bone clustering
+//! (`init.rs`), then repeat the weight step (`weights.rs`, on the products of
+//! `projections.rs`) and the transform step (`transforms.rs`). Each step minimizes
+//! $\sum_t\sum_v \lVert p^t_v - \sum_j w_{vj} M^t_j \tilde r_v\rVert^2$ over its own unknowns
+//! and never increases it, so the error falls monotonically; the loop stops after
+//! `iterations` alternations or when one lowers it by less than `tolerance` (relative).
+//!
+//! The error report ([`FitError`]): $d^t_v = \lVert p^t_v - \hat p^t_v\rVert$ over all
+//! vertices and frames, its mean and maximum over the rest bounding-box diagonal.
+//!
+//! Inputs: rest positions `#V×3`, frames `#T` × `#V×3` (f64), a [`SkinningConfig`]; outputs a
+//! [`Skinning`] with transforms in the input's coordinates.
+
+use rayon::prelude::*;
+
+use super::projections::{pair_products, projections, trajectory_norms};
+use super::weights::WeightInputs;
+use super::{
+    Affine, Data, FitError, FitProgress, FitStage, Influences, MAX_BONES, MAX_INFLUENCES, Progress,
+    Skinning, SkinningConfig, SkinningError, affine, init, transforms, weights,
+};
+use crate::linalg::rigid::Motion;
+use crate::linalg::rotation::mul_vec;
+
+fn check_finite(what: String, p: &[[f64; 3]]) -> Result<(), SkinningError> {
+    match p.iter().position(|p| p.iter().any(|c| !c.is_finite())) {
+        Some(vertex) => Err(SkinningError::NonFinite { what, vertex }),
+        None => Ok(()),
+    }
+}
+
+/// Fits a rigid-bone skin to `frames` of the rest mesh `rest` (module doc). `progress` is called
+/// after every clustering round and alternation; `Break` cancels.
+///
+/// Errors: no vertices or frames, a frame of another size, non-finite input, bones outside
+/// 1..=[`MAX_BONES`], influences outside 1..=4, cancelled.
+pub fn fit_skinning(
+    rest: &[[f64; 3]],
+    frames: &[Vec<[f64; 3]>],
+    config: &SkinningConfig,
+    progress: Progress,
+) -> Result<Skinning, SkinningError> {
+    let n = rest.len();
+    if n == 0 {
+        return Err(SkinningError::NoVertices);
+    }
+    if frames.is_empty() {
+        return Err(SkinningError::NoFrames);
+    }
+    if !(1..=MAX_BONES).contains(&config.bones) {
+        return Err(SkinningError::Bones { bones: config.bones, max: MAX_BONES });
+    }
+    if !(1..=MAX_INFLUENCES).contains(&config.max_influences) {
+        return Err(SkinningError::Influences(config.max_influences));
+    }
+    if let Some((frame, f)) = frames.iter().enumerate().find(|(_, f)| f.len() != n) {
+        return Err(SkinningError::FrameSize { frame, got: f.len(), expected: n });
+    }
+    check_finite("the rest mesh".into(), rest)?;
+    for (t, f) in frames.iter().enumerate() {
+        check_finite(format!("frame {t}"), f)?;
+    }
+    let n_bones = config.bones.min(n);
+    let center: [f64; 3] =
+        std::array::from_fn(|d| rest.iter().map(|p| p[d]).sum::<f64>() / n as f64);
+    let data = Data {
+        rest: rest.iter().map(|p| std::array::from_fn(|d| p[d] - center[d])).collect(),
+        frames,
+        center,
+    };
+    let (lo, hi) = rest.iter().fold(([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]), |(lo, hi), p| {
+        (std::array::from_fn(|d| lo[d].min(p[d])), std::array::from_fn(|d| hi[d].max(p[d])))
+    });
+    let diagonal = (0..3).map(|d| (hi[d] - lo[d]).powi(2)).sum::<f64>().sqrt();
+    let unit = if diagonal > 0.0 { diagonal } else { 1.0 };
+    let steps = config.init_iterations + config.iterations;
+
+    let (labels, mut transforms) = init::cluster(
+        &data,
+        n_bones,
+        config.init_sample,
+        config.init_iterations,
+        steps,
+        &mut *progress,
+    )?;
+    let mut influences = Influences {
+        bones: labels.iter().map(|&j| [j, 0, 0, 0]).collect(),
+        weights: vec![[1.0, 0.0, 0.0, 0.0]; n],
+    };
+    let mut energy = transforms::update(&data, &influences, &mut transforms);
+    let norms = trajectory_norms(&data);
+    let samples = (n * frames.len()) as f64;
+    let mut done = 0;
+    for step in 0..config.iterations {
+        let m: Vec<Vec<Affine>> =
+            transforms.iter().map(|f| f.iter().map(affine).collect()).collect();
+        let h = projections(&data, None, &m);
+        let q = pair_products(&m);
+        let input = WeightInputs {
+            h: &h,
+            q: &q,
+            norms: &norms,
+            max_influences: config.max_influences,
+            candidates: config.candidates,
+        };
+        let (next, _) = weights::update(&data, &input, &influences);
+        influences = next;
+        let before = energy;
+        energy = transforms::update(&data, &influences, &mut transforms);
+        done = step + 1;
+        let rms = (energy.max(0.0) / samples).sqrt() / unit;
+        let p = FitProgress {
+            stage: FitStage::Alternating,
+            step: config.init_iterations + done,
+            steps,
+            rms,
+        };
+        if progress(p).is_break() {
+            return Err(SkinningError::Cancelled);
+        }
+        if before - energy <= config.tolerance * before {
+            break;
+        }
+    }
+
+    let error = measure(&data, &influences, &transforms, unit, diagonal);
+    // Back to the input's coordinates: p = R (r - c) + T + c = R r + (T + c - R c).
+    for frame in &mut transforms {
+        for m in frame.iter_mut() {
+            let rc = mul_vec(&m.rotation, center);
+            m.translation = std::array::from_fn(|d| m.translation[d] + center[d] - rc[d]);
+        }
+    }
+    let mut sums = vec![([0.0; 3], 0.0); n_bones];
+    for (v, (b, w)) in influences.bones.iter().zip(&influences.weights).enumerate() {
+        for k in 0..MAX_INFLUENCES {
+            let (s, total) = &mut sums[b[k] as usize];
+            for d in 0..3 {
+                s[d] += w[k] * w[k] * rest[v][d];
+            }
+            *total += w[k] * w[k];
+        }
+    }
+    let centers =
+        sums.iter().map(|(s, w)| if *w > 0.0 { s.map(|x| x / w) } else { center }).collect();
+    Ok(Skinning { influences, transforms, centers, error, iterations: done })
+}
+
+/// Mean and largest $\lVert p^t_v - \hat p^t_v\rVert$ over `unit`.
+fn measure(
+    data: &Data,
+    influences: &Influences,
+    transforms: &[Vec<Motion>],
+    unit: f64,
+    diagonal: f64,
+) -> FitError {
+    let (sum, max) = transforms
+        .par_iter()
+        .enumerate()
+        .map(|(t, frame)| {
+            let m: Vec<Affine> = frame.iter().map(affine).collect();
+            let mut acc = (0.0f64, 0.0f64);
+            for v in 0..data.n_vertices() {
+                let (r, p) = (data.rest_h(v), data.p(t, v));
+                let (b, w) = (&influences.bones[v], &influences.weights[v]);
+                let mut e = p;
+                for k in 0..MAX_INFLUENCES {
+                    if w[k] > 0.0 {
+                        let x = super::apply(&m[b[k] as usize], &r);
+                        for d in 0..3 {
+                            e[d] -= w[k] * x[d];
+                        }
+                    }
+                }
+                let dist = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt();
+                acc = (acc.0 + dist, acc.1.max(dist));
+            }
+            acc
+        })
+        .reduce(|| (0.0, 0.0), |a, b| (a.0 + b.0, a.1.max(b.1)));
+    let samples = (data.n_vertices() * data.n_frames()) as f64;
+    FitError { mean: sum / samples / unit, max: max / unit, diagonal }
+}
