@@ -1,4 +1,5 @@
-// Opens a glTF file the way a web viewer does: three.js's GLTFLoader in headless Chromium,
+// Opens a glTF file the way a web viewer does: three.js's GLTFLoader (with three's
+// MeshoptDecoder, for EXT_meshopt_compression) in headless Chromium,
 // then plays its first animation with an AnimationMixer, frame by frame, and prints a JSON
 // report on stdout.
 //

@@ -3,6 +3,7 @@
 // `window.__report` for check.mjs to read. See check.mjs for the report's fields.
 import * as THREE from "three";
 import { GLTFLoader } from "three/addons/loaders/GLTFLoader.js";
+import { MeshoptDecoder } from "three/addons/libs/meshopt_decoder.module.js";
 
 const params = new URLSearchParams(location.search);
 
@@ -47,7 +48,8 @@ function materialReport(m) {
 async function main() {
   const file = params.get("file");
   const wantPositions = params.get("positions") === "1";
-  const gltf = await new GLTFLoader().loadAsync(file);
+  // EXT_meshopt_compression files (bsarap export --meshopt) need the decoder; others ignore it.
+  const gltf = await new GLTFLoader().setMeshoptDecoder(MeshoptDecoder).loadAsync(file);
   const scene = gltf.scene;
   scene.updateMatrixWorld(true);
   const meshes = [];

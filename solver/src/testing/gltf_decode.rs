@@ -1,7 +1,9 @@
 //! An independent decoder of the glTF files our exporter writes, for tests and the export
 //! measurement (`examples/export_sizes.rs`): accessors decoded by hand (f32, normalized i16,
 //! sparse substitution) with the `gltf` crate's JSON only, so that a test of the exporter does
-//! not trust the exporter's own reading of its file. Panics on anything unexpected: test code.
+//! not trust the exporter's own reading of its file. A file with `EXT_meshopt_compression` is
+//! decoded first by meshoptimizer's own decoders into one plain buffer. Panics on anything
+//! unexpected: test code.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 use base64::Engine as _;
@@ -24,7 +26,72 @@ pub fn parse(bytes: &[u8]) -> Doc {
             base64::engine::general_purpose::STANDARD.decode(data).unwrap()
         }
     };
-    Doc { gltf, buffer }
+    decompress(gltf, buffer)
+}
+
+/// The document with every `EXT_meshopt_compression` view decoded (meshoptimizer's decoders:
+/// vertex codec for `ATTRIBUTES`, index codec for `TRIANGLES`; filter `NONE` only) and every
+/// view moved into one buffer; a document without the extension as it is.
+fn decompress(gltf: gltf::Gltf, buffer: Vec<u8>) -> Doc {
+    const EXT: &str = "EXT_meshopt_compression";
+    if !gltf.extensions_used().any(|e| e == EXT) {
+        return Doc { gltf, buffer };
+    }
+    let mut root = gltf.document.into_json();
+    let mut out = Vec::new();
+    for view in &mut root.buffer_views {
+        let ext = view.extensions.as_ref().and_then(|e| e.others.get(EXT)).cloned();
+        let bytes = match ext {
+            Some(e) => {
+                assert_eq!(e["buffer"], 0, "compressed data outside buffer 0: {e}");
+                assert!(e["filter"].is_null() || e["filter"] == "NONE", "filter {e}");
+                let at = |k: &str| e[k].as_u64().unwrap_or(0) as usize;
+                let (stride, count) = (at("byteStride"), at("count"));
+                let src = &buffer[at("byteOffset")..at("byteOffset") + at("byteLength")];
+                let bytes = match (e["mode"].as_str().unwrap(), stride) {
+                    ("ATTRIBUTES", 4) => {
+                        meshopt::decode_vertex_buffer::<[u8; 4]>(src, count).unwrap().concat()
+                    }
+                    ("ATTRIBUTES", 8) => {
+                        meshopt::decode_vertex_buffer::<[u8; 8]>(src, count).unwrap().concat()
+                    }
+                    ("ATTRIBUTES", 12) => {
+                        meshopt::decode_vertex_buffer::<[u8; 12]>(src, count).unwrap().concat()
+                    }
+                    ("ATTRIBUTES", 16) => {
+                        meshopt::decode_vertex_buffer::<[u8; 16]>(src, count).unwrap().concat()
+                    }
+                    ("TRIANGLES", 4) => meshopt::decode_index_buffer::<u32>(src, count)
+                        .unwrap()
+                        .iter()
+                        .flat_map(|i| i.to_le_bytes())
+                        .collect(),
+                    (mode, stride) => panic!("no decoder here for {mode} at stride {stride}"),
+                };
+                assert_eq!(bytes.len(), view.byte_length.0 as usize, "decoded size: {e}");
+                bytes
+            }
+            None => {
+                assert_eq!(view.buffer.value(), 0, "an uncompressed view outside buffer 0");
+                let start = view.byte_offset.map_or(0, |o| o.0 as usize);
+                buffer[start..start + view.byte_length.0 as usize].to_vec()
+            }
+        };
+        out.resize(out.len().next_multiple_of(4), 0);
+        view.buffer = gltf_json::Index::new(0);
+        view.byte_offset = Some(gltf_json::validation::USize64(out.len() as u64));
+        view.extensions = None;
+        out.extend_from_slice(&bytes);
+    }
+    root.buffers.truncate(1);
+    root.buffers[0].byte_length = gltf_json::validation::USize64(out.len() as u64);
+    root.extensions_used.retain(|e| e != EXT);
+    root.extensions_required.retain(|e| e != EXT);
+    let gltf = gltf::Gltf {
+        document: gltf::Document::from_json_without_validation(root),
+        blob: Some(out.clone()),
+    };
+    Doc { gltf, buffer: out }
 }
 
 fn component(bytes: &[u8], t: gltf::accessor::DataType, normalized: bool) -> f64 {
@@ -83,6 +150,19 @@ pub fn read(doc: &Doc, a: &gltf::Accessor) -> Vec<Vec<f64>> {
 /// an export whose first primitive's vertices are the poses' vertices in order (a bare mesh,
 /// or an asset of one part without attributes).
 pub fn played_error(bytes: &[u8], times: &[f64], frames: &[Vec<[f64; 3]>]) -> f64 {
+    played_error_reordered(bytes, times, frames, None)
+}
+
+/// [`played_error`] for an export whose vertices may be in another order (`--meshopt`
+/// reorders them): with `rest` (the poses' rest positions, one per pose vertex), each written
+/// vertex is the pose vertex whose rest position, as f32, is its base position times the node
+/// scale; vertices at one rest position must play alike.
+pub fn played_error_reordered(
+    bytes: &[u8],
+    times: &[f64],
+    frames: &[Vec<[f64; 3]>],
+    rest: Option<&[[f64; 3]]>,
+) -> f64 {
     let doc = parse(bytes);
     let g = &doc.gltf;
     let prim = g.meshes().next().unwrap().primitives().next().unwrap();
@@ -96,12 +176,25 @@ pub fn played_error(bytes: &[u8], times: &[f64], frames: &[Vec<[f64; 3]>]) -> f6
     let keys: Vec<f64> = read(&doc, &sampler.input()).iter().map(|t| t[0]).collect();
     let w: Vec<f64> = read(&doc, &sampler.output()).iter().map(|t| t[0]).collect();
     let n = keys.len();
+    // The pose vertex of every written vertex.
+    let index: Vec<usize> = match rest {
+        None => (0..base.len()).collect(),
+        Some(rest) => {
+            let key = |p: [f32; 3]| p.map(f32::to_bits);
+            let by_rest: std::collections::HashMap<[u32; 3], usize> =
+                rest.iter().enumerate().map(|(i, p)| (key(p.map(|c| c as f32)), i)).collect();
+            base.iter()
+                .map(|b| by_rest[&key(std::array::from_fn(|c| b[c] as f32 * k[c] as f32))])
+                .collect()
+        }
+    };
     let mut err = 0.0f64;
     for (frame, &t) in frames.iter().zip(times) {
         let b = keys.partition_point(|&k| k < t as f32 as f64).min(n - 1);
         let a = b.saturating_sub(1);
         let alpha = if a == b { 1.0 } else { (t - keys[a]) / (keys[b] - keys[a]) }.clamp(0.0, 1.0);
-        for (v, p) in frame.iter().enumerate() {
+        for (v, &i) in index.iter().enumerate() {
+            let p = frame[i];
             for c in 0..3 {
                 let got = k[c]
                     * (base[v][c]

@@ -368,6 +368,7 @@ impl GltfExport<'_> {
                 let (weight, stored) = store_mesh_frame(
                     self.settings.encoding,
                     self.node_scales[mi],
+                    self.position_step,
                     &deltas,
                     &normal_deltas,
                 );

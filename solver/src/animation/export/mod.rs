@@ -65,10 +65,12 @@
 //! third larger than `.glb`; no sidecar file, so the write stays one atomic rename). The size
 //! is known before writing ([`GltfExport::file_size`], [`exported_size`]) because the layout
 //! pass and the writing pass run the same code. Nothing non-finite is ever written: it is an
-//! error.
+//! error. [`GltfExport::with_meshopt`] (opt-in, `meshopt.rs`) reorders the vertices, coarsens
+//! the position grid and compresses the finished views with `EXT_meshopt_compression`.
 
 mod document;
 mod layout;
+mod meshopt;
 mod skin;
 mod targets;
 
@@ -84,6 +86,7 @@ use crate::geometry::mesh::Mesh;
 use crate::io::asset::Asset;
 use crate::io::{SaveError, write_atomic};
 use layout::Layout;
+pub use meshopt::EXT_MESHOPT_COMPRESSION;
 pub use skin::SkinnedExport;
 
 /// Why a recording could not be exported. One line each, naming the file where there is one.
@@ -233,6 +236,11 @@ pub struct GltfExport<'a> {
     rest_normals: Vec<Vec<[f32; 3]>>,
     /// The node scale $k_m$ of every mesh of the layout (1 for `Float`; see the module doc).
     node_scales: Vec<f32>,
+    /// Written with `EXT_meshopt_compression` ([`GltfExport::with_meshopt`]).
+    meshopt: bool,
+    /// The coarsest grid of quantized target positions, world units (0: the 16-bit grid of
+    /// every mesh and frame; `meshopt.rs` sets it).
+    position_step: f64,
     root: json::Root,
     bin_len: usize,
 }
@@ -394,6 +402,8 @@ impl<'a> GltfExport<'a> {
             rest_f32,
             rest_normals,
             node_scales,
+            meshopt: false,
+            position_step: 0.0,
             root: json::Root::default(),
             bin_len: 0,
         };
@@ -439,7 +449,8 @@ impl<'a> GltfExport<'a> {
         &self,
         progress: &mut dyn FnMut(usize, usize) -> ControlFlow<()>,
     ) -> Result<Vec<u8>, ExportError> {
-        let (_, bin, _) = self.assemble(true, progress)?;
+        let (root, bin, _) = self.assemble(true, progress)?;
+        let bin = if self.meshopt { meshopt::compress(root, &bin)?.1 } else { bin };
         debug_assert_eq!(bin.len(), self.bin_len, "buffer layout and accessors disagree");
         match self.format {
             GltfFormat::Glb => {

@@ -181,9 +181,16 @@ pub(super) fn quantization_scale(max_abs: f64) -> f32 {
 /// normals $\mathrm{round}(127\,\Delta n / w)$ as normalized i8; else (a normal delta
 /// component above 1: a normal turned by more than about 60°) $w = s / k$ and normals
 /// $\Delta n / w$ as f32.
+///
+/// `min_step` $h \ge 0$ (world units; 0 for none) coarsens the position grid for a compressor
+/// (`meshopt.rs`): when the mesh moves ($s > 0$) the position weight $s / k$ is raised to
+/// $\min(1, 32767\,h / k)$, so the stored step $w k / 32767$ is $h$ unless that would take $w$
+/// past 1 (the normals' step $w / 127$ never exceeds the default's worst case): smaller
+/// integers, position error at most $\max(h, s / 32767) / 2$.
 pub(super) fn store_mesh_frame(
     encoding: Encoding,
     node_scale: f32,
+    min_step: f64,
     deltas: &[Vec<[f64; 3]>],
     normal_deltas: &[Option<Vec<[f64; 3]>>],
 ) -> (f32, Vec<(Values, Option<Values>)>) {
@@ -209,6 +216,12 @@ pub(super) fn store_mesh_frame(
             let s_n = quantization_scale(max_abs(&mut normal_deltas.iter().flatten().flatten()));
             // `s / node_scale` is exact (a power of two), so `w * node_scale` ≥ s.
             let w_p = s / node_scale;
+            let w_p = match s > 0.0 && min_step > 0.0 {
+                true => {
+                    w_p.max(quantization_scale((32767.0 * min_step / node_scale as f64).min(1.0)))
+                }
+                false => w_p,
+            };
             let bytes = w_p.max(s_n) <= 1.0;
             let w = if bytes { w_p.max(s_n) } else { w_p };
             let scale = w as f64 * node_scale as f64;
@@ -268,7 +281,7 @@ mod tests {
     fn quantized_values_meet_the_error_bound() {
         let d = vec![vec![[0.3, -0.7, 1e-9], [0.0, 0.123_456_789, -0.5]], vec![[0.25, 0.0, 0.0]]];
         let n = vec![None, Some(vec![[0.5; 3], [0.0; 3]])];
-        let (s, stored) = store_mesh_frame(Encoding::Quantized, 1.0, &d, &n);
+        let (s, stored) = store_mesh_frame(Encoding::Quantized, 1.0, 0.0, &d, &n);
         assert!(s as f64 >= 0.7 && (s as f64) < 0.7 * (1.0 + 1e-6));
         for (deltas, (p, _)) in d.iter().zip(&stored) {
             let Values::I16(q) = p else { panic!("not i16") };
@@ -281,10 +294,11 @@ mod tests {
         }
         let Some(Values::I8(nv)) = &stored[1].1 else { panic!("normals missing") };
         assert!((nv[0][0] as f32 / 127.0 * s - 0.5).abs() <= s / 254.0);
-        let (s, stored) = store_mesh_frame(Encoding::Quantized, 1.0, &[vec![[0.0; 3]]], &[None]);
+        let (s, stored) =
+            store_mesh_frame(Encoding::Quantized, 1.0, 0.0, &[vec![[0.0; 3]]], &[None]);
         assert_eq!(s, 0.0);
         assert!(matches!(&stored[0].0, Values::I16(q) if q[0] == [0; 3]));
-        let (s, _) = store_mesh_frame(Encoding::Float, 1.0, &d, &n);
+        let (s, _) = store_mesh_frame(Encoding::Float, 1.0, 0.0, &d, &n);
         assert_eq!(s, 1.0);
     }
 
@@ -294,7 +308,7 @@ mod tests {
         // positions' error stays within w k / 65534, the normals' within w / 254.
         let d = vec![vec![[1e-3, 0.0, -2e-4], [0.0; 3]]];
         let n = vec![Some(vec![[0.6, 0.0, -0.2], [0.0; 3]])];
-        let (w, stored) = store_mesh_frame(Encoding::Quantized, 1.0, &d, &n);
+        let (w, stored) = store_mesh_frame(Encoding::Quantized, 1.0, 0.0, &d, &n);
         assert!((w as f64 - 0.6).abs() < 1e-6, "{w}");
         let (Values::I16(p), Some(Values::I8(nq))) = (&stored[0].0, &stored[0].1) else {
             panic!("not i16 positions and i8 normals")
@@ -308,7 +322,7 @@ mod tests {
         assert_eq!(nq[1], [0; 3]);
         // A normal turned around (delta component 1.6 > 1): f32 normals, weight s / k.
         let n = vec![Some(vec![[0.6, 0.0, -1.6], [0.0; 3]])];
-        let (w, stored) = store_mesh_frame(Encoding::Quantized, 1.0, &d, &n);
+        let (w, stored) = store_mesh_frame(Encoding::Quantized, 1.0, 0.0, &d, &n);
         assert!((w as f64 - 1e-3).abs() < 1e-9, "{w}");
         let Some(Values::F32(nf)) = &stored[0].1 else { panic!("not f32 normals") };
         assert!((nf[0][2] as f64 * w as f64 + 1.6).abs() < 1e-6);
