@@ -80,8 +80,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "{}: {} vertices, {frames} frames, tolerance {}, cap {} iterations per frame, {} threads",
         args[1],
         mesh.n_vertices(),
-        defaults.tolerance,
-        defaults.max_iterations,
+        defaults.arap.tolerance,
+        defaults.arap.max_iterations,
         rayon::current_num_threads()
     );
     println!(
@@ -100,8 +100,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         };
         let label = format!("{}{}", m.name(), if aa { "+aa" } else { "" });
         let (slot, settings) = match m {
-            solver::Method::Arap => (Slot::Compare, MethodSettings { acceleration, ..defaults }),
-            v => (Slot::Main, MethodSettings { bs_variant: v, acceleration, ..defaults }),
+            solver::Method::Arap => {
+                let arap = solver::ArapConfig { acceleration, ..defaults.arap };
+                (Slot::Compare, MethodSettings { arap, ..defaults })
+            }
+            v => {
+                let arap = solver::ArapConfig { acceleration, ..defaults.arap };
+                (Slot::Main, MethodSettings { bs_variant: v, arap, ..defaults })
+            }
         };
         let t = Instant::now();
         let mut d = make(slot, &mesh, &handles, &settings, &solver::LooseParts::default())?;
@@ -197,8 +203,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         println!("|---|---:|---:|---:|---:|---:|---:|---:|");
     }
     for (label, targets, solves, before, after, steps, fine, seconds, timeline) in settling {
-        let mut r =
-            solver::deform::quality::Reference::new(&mesh, &handles, &targets, defaults.energy)?;
+        let mut r = solver::deform::quality::Reference::new(
+            &mesh,
+            &handles,
+            &targets,
+            defaults.reference_energy(),
+        )?;
         let (b, a) = (r.measure(&before), r.measure(&after));
         let during: Vec<String> = timeline
             .iter()
@@ -231,7 +241,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             &handles,
             &targets,
             &after,
-            defaults.energy,
+            defaults.reference_energy(),
         )?;
         let st = from_settled.stats();
         let to_settled = solver::deform::quality::distances(

@@ -108,7 +108,7 @@ fn opens_the_default_asset_and_views_change_the_image() {
 
     // The method panel's Anderson acceleration reaches the solvers' configuration, and off again.
     let anderson = |a: &EditorApp| {
-        a.method_settings().acceleration
+        a.method_settings().arap.acceleration
             == solver::Acceleration::Anderson {
                 window: app::editor::solver_thread::ANDERSON_WINDOW,
             }

@@ -29,10 +29,12 @@ from ._animation import Recording, Scene, Timeline, export_gltf, load_scene, rec
 from ._arap import Arap
 from ._bsarap import BsarapError
 from ._common import (
+    DEFAULT_BENDING_LENGTH,
     DEFAULT_MAX_ITERS,
     DEFAULT_MEMBRANE,
     DEFAULT_TOL,
     ENERGIES,
+    MAX_BENDING_LENGTH,
     METHODS,
     PathLike,
     SolveStats,

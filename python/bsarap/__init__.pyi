@@ -12,7 +12,8 @@ ArrayLike = npt.ArrayLike
 F64 = npt.NDArray[np.float64]
 I64 = npt.NDArray[np.int64]
 Method = Literal["arap", "bsarap", "bsarap-faired", "bsarap-coarse"]
-EnergyName = Literal["spokes-and-rims", "spokes"]
+EnergyName = Literal["spokes-and-rims", "spokes", "smooth-rotations"]
+ArapEnergyName = Literal["spokes-and-rims", "spokes"]
 Transform = Union[
     Sequence[float],
     Tuple[Sequence[float], ArrayLike],
@@ -27,6 +28,8 @@ ENERGIES: Tuple[str, ...]
 DEFAULT_TOL: float
 DEFAULT_MAX_ITERS: int
 DEFAULT_MEMBRANE: float
+DEFAULT_BENDING_LENGTH: float
+MAX_BENDING_LENGTH: float
 
 class SolveStats:
     """What one solve did (solver::SolveStats)."""
@@ -68,7 +71,7 @@ class Arap:
         V: ArrayLike,
         F: ArrayLike,
         b: ArrayLike,
-        energy: EnergyName = ...,
+        energy: ArapEnergyName = ...,
         *,
         max_iters: int = ...,
         tol: float = ...,
@@ -102,6 +105,7 @@ class Deformer:
         method: Method = ...,
         *,
         energy: EnergyName = ...,
+        bending_length: float = ...,
         tol: float = ...,
         max_iters: int = ...,
         anderson: int = ...,
@@ -136,6 +140,12 @@ class Deformer:
     def groups(self) -> List[int]: ...
     @property
     def method(self) -> str: ...
+    @property
+    def energy(self) -> str: ...
+    @property
+    def bending_length(self) -> float: ...
+    @property
+    def bending_length_world(self) -> float: ...
     @property
     def notice(self) -> Optional[str]: ...
 

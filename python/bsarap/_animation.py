@@ -106,8 +106,8 @@ class Scene:
 
     @property
     def settings(self) -> dict:
-        """energy, tol, max_iters, anderson, smoothing, coarse_vertices, fine_iterations,
-        membrane (the keywords of :class:`Deformer`)."""
+        """energy, bending_length, tol, max_iters, anderson, smoothing, coarse_vertices,
+        fine_iterations, membrane (the keywords of :class:`Deformer`)."""
         return self._native.settings
 
     @property

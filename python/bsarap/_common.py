@@ -14,8 +14,8 @@ from ._bsarap import BsarapError
 
 #: The method names of :class:`~bsarap.Deformer` (the CLI's ``--method``).
 METHODS: Tuple[str, ...] = tuple(_bsarap.METHODS)
-#: The ARAP energies (the CLI's ``--energy``).
-ENERGIES: Tuple[str, ...] = ("spokes-and-rims", "spokes")
+#: The ARAP energies (the CLI's ``--energy``), read from the native module.
+ENERGIES: Tuple[str, ...] = tuple(_bsarap.ENERGIES)
 
 #: The solver's defaults (``solver::deform::arap::DEFAULT_TOLERANCE`` / ``DEFAULT_MAX_ITERATIONS``).
 DEFAULT_TOL = 1e-4
@@ -23,6 +23,11 @@ DEFAULT_MAX_ITERS = 100
 #: The coarse level's default membrane share (``solver::BaseConfig::DEFAULT_MEMBRANE``, read from
 #: the native module).
 DEFAULT_MEMBRANE: float = _bsarap.DEFAULT_MEMBRANE
+#: The default bending length of the ``"smooth-rotations"`` energy, a fraction of the rest
+#: bounding-box diagonal (``solver::deform::arap::DEFAULT_BENDING_LENGTH``, read from the native
+#: module); accepted up to ``MAX_BENDING_LENGTH``.
+DEFAULT_BENDING_LENGTH: float = _bsarap.DEFAULT_BENDING_LENGTH
+MAX_BENDING_LENGTH: float = _bsarap.MAX_BENDING_LENGTH
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -56,6 +61,13 @@ def _indices(a: Any, name: str, ndim: int) -> np.ndarray:
         if arr.ndim != 1:
             raise BsarapError(f"{name} must be a 1-d array; got shape {arr.shape}")
     return arr
+
+
+def _number(x: Any, name: str) -> float:
+    """A real number as a float (bools and non-numbers refused; the range is the solver's)."""
+    if isinstance(x, bool) or not isinstance(x, (int, float, np.integer, np.floating)):
+        raise BsarapError(f"{name} must be a number (got {x!r})")
+    return float(x)
 
 
 def _count(x: Any, name: str) -> int:

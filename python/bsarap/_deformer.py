@@ -10,12 +10,14 @@ import numpy as np
 from . import _bsarap
 from ._bsarap import BsarapError
 from ._common import (
+    DEFAULT_BENDING_LENGTH,
     DEFAULT_MAX_ITERS,
     DEFAULT_MEMBRANE,
     DEFAULT_TOL,
     SolveStats,
     _count,
     _indices,
+    _number,
     _positions,
 )
 from ._mesh import load_selection
@@ -68,7 +70,13 @@ class Deformer:
             ``"bsarap-coarse"`` (default, the editor's).
 
     Settings (keywords; the CLI's flags):
-        energy: ``"spokes-and-rims"`` (default) or ``"spokes"``.
+        energy: ``"spokes-and-rims"`` (default), ``"spokes"`` or ``"smooth-rotations"``
+            (SR-ARAP: spokes plus a rotation-smoothness term whose minimum does not move with
+            the mesh's resolution).
+        bending_length: the bending length of ``"smooth-rotations"``, a fraction of the rest
+            bounding-box diagonal in (0, ``MAX_BENDING_LENGTH``] (default
+            ``DEFAULT_BENDING_LENGTH``; :attr:`bending_length_world` gives it in world units).
+            Checked whatever the energy, used by smooth rotations only.
         tol: relative energy decrease at which a solve stops (default 1e-4; 0: run max_iters).
         max_iters: iteration cap (default 100).
         anderson: Anderson acceleration window, 0 (default) to 64.
@@ -93,6 +101,7 @@ class Deformer:
         method: str = "bsarap-coarse",
         *,
         energy: str = "spokes-and-rims",
+        bending_length: float = DEFAULT_BENDING_LENGTH,
         tol: float = DEFAULT_TOL,
         max_iters: int = DEFAULT_MAX_ITERS,
         anderson: int = 0,
@@ -114,6 +123,7 @@ class Deformer:
             None if coarse_vertices is None else _count(coarse_vertices, "coarse_vertices"),
             _count(fine_iterations, "fine_iterations"), _count(settle_iterations, "settle_iterations"),
             float(membrane), [_count(c, "pinned_components") for c in pinned_components],
+            _number(bending_length, "bending_length"),
         )
         self.stats: Optional[SolveStats] = None
 
@@ -214,6 +224,22 @@ class Deformer:
     def method(self) -> str:
         """The method's name."""
         return self._native.method
+
+    @property
+    def energy(self) -> str:
+        """The energy's name (``"spokes-and-rims"``, ``"spokes"`` or ``"smooth-rotations"``)."""
+        return self._native.energy
+
+    @property
+    def bending_length(self) -> float:
+        """The bending length of ``"smooth-rotations"``, a fraction of the rest bounding-box
+        diagonal."""
+        return self._native.bending_length
+
+    @property
+    def bending_length_world(self) -> float:
+        """:attr:`bending_length` in world units (times the rest bounding-box diagonal)."""
+        return self._native.bending_length_world
 
     @property
     def notice(self) -> Optional[str]:

@@ -7,7 +7,9 @@ use std::sync::Arc;
 use numpy::{PyArray1, PyArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use solver::animation::export::{AssetExport, Encoding, ExportSettings, GltfExport, GltfFormat};
+use solver::animation::export::{
+    AssetExport, Encoding, ExportSettings, GltfExport, GltfFormat, SolveSettings,
+};
 use solver::animation::recording::Recording;
 use solver::animation::scene::{LoadedScene, Scene};
 use solver::animation::timeline::Timeline;
@@ -65,20 +67,14 @@ impl NativeScene {
         self.scene.mesh_path.clone()
     }
 
-    /// The scene's settings: energy, tol, max_iters, anderson, smoothing, coarse_vertices,
-    /// fine_iterations, membrane.
+    /// The scene's settings: energy, bending_length, tol, max_iters, anderson, smoothing,
+    /// coarse_vertices, fine_iterations, membrane.
     #[getter]
     fn settings<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let s = &self.scene.scene;
         let d = PyDict::new(py);
-        d.set_item(
-            "energy",
-            match s.arap.energy {
-                solver::Energy::SpokesAndRims => "spokes-and-rims",
-                solver::Energy::Spokes => "spokes",
-                solver::Energy::SmoothRotations => "smooth-rotations",
-            },
-        )?;
+        d.set_item("energy", crate::convert::energy_name(s.arap.energy))?;
+        d.set_item("bending_length", s.arap.bending_length)?;
         d.set_item("tol", s.arap.tolerance)?;
         d.set_item("max_iters", s.arap.max_iterations)?;
         d.set_item(
@@ -194,6 +190,8 @@ pub struct NativeRecording {
     recording: Recording,
     mesh: Mesh,
     layout: Option<Layout>,
+    /// The method and settings it was solved with (recorded in an exported glTF).
+    solved: SolveSettings,
 }
 
 fn frame_stats<'py>(py: Python<'py>, s: &FrameStats) -> PyResult<Bound<'py, PyDict>> {
@@ -268,7 +266,17 @@ pub fn record(
             )
         })
         .map_err(err)?;
-    Ok(NativeRecording { recording, mesh: deformer.mesh.clone(), layout: deformer.layout.clone() })
+    let solved = SolveSettings {
+        method: deformer.method,
+        arap: deformer.config,
+        diagonal: deformer.mesh.bbox_diagonal(),
+    };
+    Ok(NativeRecording {
+        recording,
+        mesh: deformer.mesh.clone(),
+        layout: deformer.layout.clone(),
+        solved,
+    })
 }
 
 /// Writes a recording as glTF 2.0 morph targets (`.glb` or `.gltf` by extension), on the
@@ -307,6 +315,7 @@ pub fn export_gltf(
             AssetExport { asset, vertex_map: map, recording: &recording.recording, settings };
         let format = GltfFormat::from_path(&path).map_err(err)?;
         GltfExport::from_asset(&input, format)
+            .and_then(|e| e.with_solve_settings(&recording.solved))
             .and_then(|e| e.write(&path, &mut |_, _| ControlFlow::Continue(())))
             .map_err(err)
     })

@@ -6,7 +6,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use solver::{Arap, ArapConfig, Handles, Mesh};
 
-use crate::convert::{acceleration, array3, check_stopping, energy, ints, rows3, stats, triangles};
+use crate::convert::{arap_config, array3, ints, rows3, stats, triangles, with_stopping};
 use crate::err;
 
 /// ARAP precomputed for `V`, `F` and the fixed vertices `b` (one factorization).
@@ -37,14 +37,20 @@ impl NativeArap {
         tol: f64,
         anderson: usize,
     ) -> PyResult<NativeArap> {
-        check_stopping(tol, max_iters)?;
-        let config = ArapConfig {
-            energy: energy(energy_name)?,
-            tolerance: tol,
-            max_iterations: max_iters,
-            acceleration: acceleration(anderson)?,
-            ..ArapConfig::default()
-        };
+        let config = arap_config(
+            energy_name,
+            tol,
+            max_iters,
+            anderson,
+            ArapConfig::default().bending_length,
+        )?;
+        if config.energy == solver::Energy::SmoothRotations {
+            // libigl's arap has no rotation-smoothness term: the drop-in stays plain ARAP.
+            return Err(err(
+                "energy must be \"spokes-and-rims\" or \"spokes\" for Arap (libigl's ARAP); \
+                 smooth rotations are Deformer(..., method=\"arap\", energy=\"smooth-rotations\")",
+            ));
+        }
         let positions = rows3(&v, "V")?;
         let n = positions.len();
         let tris = triangles(&f, n)?;
@@ -81,7 +87,7 @@ impl NativeArap {
         tol: Option<f64>,
     ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyDict>)> {
         let (tol, max_iters) = (tol.unwrap_or(self.tol), max_iters.unwrap_or(self.max_iters));
-        check_stopping(tol, max_iters)?;
+        with_stopping(&ArapConfig::default(), tol, max_iters)?;
         let bc = rows3(&bc, "bc")?;
         if bc.len() != self.b.len() {
             return Err(err(format!(

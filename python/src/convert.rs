@@ -4,7 +4,7 @@
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use solver::SolveStats;
+use solver::{ArapConfig, ArapConfigError, Energy, SolveStats};
 
 use crate::err;
 
@@ -88,35 +88,69 @@ pub fn stats<'py>(py: Python<'py>, s: &SolveStats) -> PyResult<Bound<'py, PyDict
     Ok(d)
 }
 
-/// The CLI's checks of a stopping rule (`bsarap deform --tol --max-iters`).
-pub fn check_stopping(tol: f64, max_iters: usize) -> PyResult<()> {
-    if !(tol.is_finite() && tol >= 0.0) {
-        return Err(err(format!("tol must be a finite number ≥ 0 (got {tol})")));
-    }
-    let max = solver::animation::scene::MAX_ITERATIONS;
-    if !(1..=max).contains(&max_iters) {
-        return Err(err(format!("max_iters must be between 1 and {max} (got {max_iters})")));
-    }
-    Ok(())
+/// [`ArapConfig::validate`], the field named by its Python keyword (one message per violation,
+/// the solver's).
+pub fn check_config(config: &ArapConfig) -> PyResult<()> {
+    config.validate().map_err(|e| {
+        let keyword = match e {
+            ArapConfigError::Tolerance(_) => "tol",
+            ArapConfigError::MaxIterations(_) => "max_iters",
+            ArapConfigError::AndersonWindow(_) => "anderson",
+            ArapConfigError::EnergyThreshold(_) => "energy_threshold",
+            ArapConfigError::Membrane(_) => "membrane",
+            ArapConfigError::BendingLength(_) => "bending_length",
+        };
+        err(e.renamed(keyword))
+    })
 }
+
+/// `config` with the stopping rule `tol`, `max_iters`, checked ([`check_config`]).
+pub fn with_stopping(config: &ArapConfig, tol: f64, max_iters: usize) -> PyResult<ArapConfig> {
+    let config = ArapConfig { tolerance: tol, max_iterations: max_iters, ..*config };
+    check_config(&config)?;
+    Ok(config)
+}
+
+/// The energies by their CLI names (`--energy`), in the order Python's `ENERGIES` lists them.
+pub const ENERGIES: [(&str, Energy); 3] = [
+    ("spokes-and-rims", Energy::SpokesAndRims),
+    ("spokes", Energy::Spokes),
+    ("smooth-rotations", Energy::SmoothRotations),
+];
 
 /// The energy named as in the CLI's `--energy`.
-pub fn energy(name: &str) -> PyResult<solver::Energy> {
-    match name {
-        "spokes-and-rims" => Ok(solver::Energy::SpokesAndRims),
-        "spokes" => Ok(solver::Energy::Spokes),
-        _ => Err(err(format!("energy must be \"spokes-and-rims\" or \"spokes\" (got {name:?})"))),
+pub fn energy(name: &str) -> PyResult<Energy> {
+    match ENERGIES.iter().find(|(n, _)| *n == name) {
+        Some(&(_, e)) => Ok(e),
+        None => {
+            let names: Vec<String> = ENERGIES.iter().map(|(n, _)| format!("{n:?}")).collect();
+            Err(err(format!("energy must be one of {} (got {name:?})", names.join(", "))))
+        }
     }
 }
 
-/// The acceleration for an Anderson window (0: none), as the CLI's `--anderson`.
-pub fn acceleration(window: usize) -> PyResult<solver::Acceleration> {
-    let max = solver::animation::scene::MAX_ANDERSON_WINDOW;
-    if window > max {
-        return Err(err(format!("anderson must be between 0 (off) and {max} (got {window})")));
-    }
-    Ok(match window {
-        0 => solver::Acceleration::None,
-        window => solver::Acceleration::Anderson { window },
-    })
+/// The CLI name of an energy.
+pub fn energy_name(e: Energy) -> &'static str {
+    ENERGIES.iter().find(|(_, x)| *x == e).map_or("spokes-and-rims", |(n, _)| n)
+}
+
+/// The solver settings from the keywords Python passes, checked ([`check_config`]); the
+/// Anderson window 0 is off.
+pub fn arap_config(
+    energy_name: &str,
+    tol: f64,
+    max_iters: usize,
+    anderson: usize,
+    bending_length: f64,
+) -> PyResult<ArapConfig> {
+    let config = ArapConfig {
+        energy: energy(energy_name)?,
+        tolerance: tol,
+        max_iterations: max_iters,
+        acceleration: ArapConfig::acceleration_for_window(anderson),
+        bending_length,
+        ..ArapConfig::default()
+    };
+    check_config(&config)?;
+    Ok(config)
 }

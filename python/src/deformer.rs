@@ -14,7 +14,9 @@ use solver::{
     Method, handle_targets,
 };
 
-use crate::convert::{acceleration, array3, check_stopping, energy, ints, rows3, stats, triangles};
+use crate::convert::{
+    arap_config, array3, energy_name, ints, rows3, stats, triangles, with_stopping,
+};
 use crate::err;
 
 /// The file layout a recording is exported on: the asset and cleaning's vertex map (a scene's
@@ -31,7 +33,7 @@ pub struct NativeDeformer {
     /// The targets of the last solve (what `settle` refines at).
     last_targets: Option<Vec<[f64; 3]>>,
     pub layout: Option<Layout>,
-    method: Method,
+    pub method: Method,
 }
 
 impl NativeDeformer {
@@ -82,7 +84,8 @@ fn check_rotation(group: usize, r: &Mat3) -> PyResult<()> {
 impl NativeDeformer {
     #[new]
     #[pyo3(signature = (v, f, labels, method, energy_name, tol, max_iters, anderson, smoothing,
-        coarse_vertices, fine_iterations, settle_iterations, membrane, pinned_components))]
+        coarse_vertices, fine_iterations, settle_iterations, membrane, pinned_components,
+        bending_length))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -100,6 +103,7 @@ impl NativeDeformer {
         settle_iterations: usize,
         membrane: f64,
         pinned_components: Vec<usize>,
+        bending_length: f64,
     ) -> PyResult<NativeDeformer> {
         let Some(method) = Method::from_name(method) else {
             let names: Vec<&str> = Method::ALL.iter().map(|m| m.name()).collect();
@@ -108,14 +112,7 @@ impl NativeDeformer {
                 names.join(", ")
             )));
         };
-        check_stopping(tol, max_iters)?;
-        let config = ArapConfig {
-            energy: energy(energy_name)?,
-            tolerance: tol,
-            max_iterations: max_iters,
-            acceleration: acceleration(anderson)?,
-            ..ArapConfig::default()
-        };
+        let config = arap_config(energy_name, tol, max_iters, anderson, bending_length)?;
         let base = BaseConfig {
             smoothing,
             coarse_vertices,
@@ -204,9 +201,7 @@ impl NativeDeformer {
 
     /// Changes the stopping rule without refactoring.
     fn set_stopping(&mut self, tol: f64, max_iters: usize) -> PyResult<()> {
-        check_stopping(tol, max_iters)?;
-        self.config.tolerance = tol;
-        self.config.max_iterations = max_iters;
+        self.config = with_stopping(&self.config, tol, max_iters)?;
         self.deformer.set_stopping(tol, max_iters);
         Ok(())
     }
@@ -259,6 +254,25 @@ impl NativeDeformer {
     #[getter]
     fn method(&self) -> &'static str {
         self.method.name()
+    }
+
+    /// The energy's name (the CLI's `--energy`).
+    #[getter]
+    fn energy(&self) -> &'static str {
+        energy_name(self.config.energy)
+    }
+
+    /// The bending length of the smooth-rotations energy, a fraction of the rest bounding-box
+    /// diagonal (kept, and unused, with the other energies).
+    #[getter]
+    fn bending_length(&self) -> f64 {
+        self.config.bending_length
+    }
+
+    /// [`Self::bending_length`] in world units: times the rest bounding-box diagonal.
+    #[getter]
+    fn bending_length_world(&self) -> f64 {
+        self.config.bending_length * self.mesh.bbox_diagonal()
     }
 
     /// The rest positions (`#V×3`).

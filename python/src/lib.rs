@@ -45,5 +45,8 @@ fn _bsarap(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(animation::export_gltf, m)?)?;
     m.add("METHODS", solver::Method::ALL.map(|m| m.name()).to_vec())?;
     m.add("DEFAULT_MEMBRANE", solver::BaseConfig::DEFAULT_MEMBRANE)?;
+    m.add("ENERGIES", convert::ENERGIES.map(|(name, _)| name).to_vec())?;
+    m.add("DEFAULT_BENDING_LENGTH", solver::deform::arap::DEFAULT_BENDING_LENGTH)?;
+    m.add("MAX_BENDING_LENGTH", solver::deform::arap::MAX_BENDING_LENGTH)?;
     Ok(())
 }

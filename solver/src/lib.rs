@@ -25,7 +25,9 @@ pub(crate) mod pool;
 pub mod testing;
 
 // The types a user of the crate starts from.
-pub use deform::arap::{Acceleration, Arap, ArapConfig, Energy, FrameStats, SolveStats};
+pub use deform::arap::{
+    Acceleration, Arap, ArapConfig, ArapConfigError, Energy, FrameStats, SolveStats,
+};
 pub use deform::bs_arap::{BaseKind, BsArap};
 pub use deform::config::{BaseConfig, BaseConfigError};
 pub use deform::deformer::{Deformer, MeshCache, Method, Solver, UnwrittenBase};

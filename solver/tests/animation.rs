@@ -283,6 +283,40 @@ fn scene_round_trip_and_load() {
 }
 
 #[test]
+fn scene_saves_the_energy_and_bending_length() {
+    let dir = temp_dir("energy");
+    let n = write_test_mesh(&dir);
+    let mut scene =
+        Scene::new("ball.obj", HandlesSpec { labels: Some(labels(n)), ..Default::default() });
+    scene.timeline = timeline();
+    scene.arap = ArapConfig {
+        energy: solver::Energy::SmoothRotations,
+        bending_length: 0.035,
+        ..Default::default()
+    };
+    let path = dir.join("sr.json");
+    scene.save(&path).unwrap();
+    let text = std::fs::read_to_string(&path).unwrap();
+    assert!(text.contains("\"energy\": \"smooth-rotations\""), "{text}");
+    assert!(text.contains("\"bending_length\": 0.035"), "{text}");
+    let back = Scene::load(&path).unwrap();
+    assert_eq!(back.scene.arap, scene.arap);
+    // Scenes written before the bending length existed load with today's default.
+    let mut old: serde_json::Value = serde_json::from_str(&text).unwrap();
+    old["arap"].as_object_mut().unwrap().remove("bending_length").unwrap();
+    old["arap"]["energy"] = "spokes-and-rims".into();
+    let old = Scene::from_json(&old.to_string(), "old.json").unwrap();
+    assert_eq!(old.arap.bending_length, solver::deform::arap::DEFAULT_BENDING_LENGTH);
+    assert_eq!(old.arap.energy, solver::Energy::SpokesAndRims);
+    // A bending length out of range is refused with ArapConfig::validate's message.
+    for bad in ["0", "-0.1", "2.5"] {
+        let text = text.replace("\"bending_length\": 0.035", &format!("\"bending_length\": {bad}"));
+        let err = Scene::from_json(&text, "bad.json").unwrap_err().to_string();
+        assert!(err.starts_with("bad.json: \"arap\": bending_length must be in (0, 1]"), "{err}");
+    }
+}
+
+#[test]
 fn broken_scene_reports_file_line_and_column() {
     let dir = temp_dir("broken");
     let path = dir.join("broken.json");

@@ -5,7 +5,7 @@
 
 use std::ops::ControlFlow;
 
-use solver::animation::export::{ExportError, GltfExport, GltfFormat, export_gltf};
+use solver::animation::export::{ExportError, GltfExport, GltfFormat, SolveSettings, export_gltf};
 use solver::animation::recording::{RecordError, Recording, record};
 use solver::animation::timeline::{
     CircularPath, GroupPath, Interpolation, Key, KeyframedPath, Path, Timeline,
@@ -266,4 +266,61 @@ fn khronos_validator_finds_no_errors() {
             return;
         }
     }
+}
+
+/// The JSON chunk of a `.glb`.
+fn glb_json(bytes: &[u8]) -> serde_json::Value {
+    assert_eq!(&bytes[..4], b"glTF");
+    let len = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+    assert_eq!(&bytes[16..20], b"JSON");
+    serde_json::from_slice(&bytes[20..20 + len]).unwrap()
+}
+
+#[test]
+fn exported_file_records_the_energy_and_bending_length() {
+    let (mesh, handles) = setup();
+    let arap = ArapConfig {
+        energy: solver::Energy::SmoothRotations,
+        bending_length: 0.035,
+        tolerance: 1e-5,
+        max_iterations: 50,
+        ..Default::default()
+    };
+    let mut d = Deformer::new(Method::Arap, &mesh, &handles, &arap).unwrap();
+    let rec = record(&mut d, &mesh, &handles, &timeline(), 3, &arap, &mut |_, _| {
+        ControlFlow::Continue(())
+    })
+    .unwrap();
+    let diagonal = mesh.bbox_diagonal();
+    let solved = SolveSettings { method: Method::Arap, arap, diagonal };
+    let dir = temp_dir("settings");
+    for (name, settings) in [("sr.glb", Some(solved)), ("none.glb", None)] {
+        let path = dir.join(name);
+        let mut export = GltfExport::new(&mesh, &rec, GltfFormat::Glb).unwrap();
+        if let Some(s) = &settings {
+            export = export.with_solve_settings(s).unwrap();
+        }
+        let predicted = export.file_size().unwrap();
+        let written = export.write(&path, &mut |_, _| ControlFlow::Continue(())).unwrap();
+        assert_eq!(predicted, written, "file_size() counts the recorded settings");
+        let bytes = std::fs::read(&path).unwrap();
+        read_back(&bytes, &mesh, &rec);
+        let json = glb_json(&bytes);
+        let recorded = &json["asset"]["extras"]["bsarap"];
+        if settings.is_none() {
+            assert!(recorded.is_null(), "{json}");
+            continue;
+        }
+        assert_eq!(recorded["method"], "arap");
+        assert_eq!(recorded["energy"], "smooth-rotations");
+        assert_eq!(recorded["bending_length"].as_f64(), Some(0.035));
+        let world = recorded["bending_length_world"].as_f64().unwrap();
+        assert!((world - 0.035 * diagonal).abs() <= 1e-12 * diagonal, "{world}");
+        assert_eq!(recorded["max_iterations"], 50);
+        assert_eq!(recorded["tolerance"].as_f64(), Some(1e-5));
+    }
+    // Without a bending length in the energy, none is recorded.
+    let plain = SolveSettings { arap: ArapConfig::default(), ..solved }.to_json();
+    assert_eq!(plain["energy"], "spokes-and-rims");
+    assert!(plain["bending_length"].is_null() && plain["bending_length_world"].is_null());
 }

@@ -37,7 +37,7 @@
 //! Methods are a list of [`solver::Method`]: adding a method to the solver adds it here, and
 //! per-method metrics go into [`MethodResult`].
 
-use super::{BaseArgs, EnergyArg, PathArg, check_stopping, load, load_handles};
+use super::{BaseArgs, EnergyArg, PathArg, check_config, load, load_handles};
 use anyhow::Context;
 use clap::{Args, ValueEnum};
 use solver::deform::arap::Acceleration;
@@ -380,10 +380,9 @@ fn bench_variant(
 }
 
 pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
-    check_stopping(a.tol, a.max_iters)?;
     anyhow::ensure!((1..=100_000).contains(&a.frames), "--frames must be between 1 and 100000");
     anyhow::ensure!((1..=100).contains(&a.repeat), "--repeat must be between 1 and 100");
-    let anderson = super::acceleration(a.anderson)?;
+    let anderson = ArapConfig::acceleration_for_window(a.anderson);
     anyhow::ensure!(
         a.radius.is_finite() && a.radius >= 0.0,
         "--radius must be a finite number ≥ 0"
@@ -394,9 +393,6 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
         a.threshold
     );
     let methods = parse_methods(&a.method)?;
-    let loaded = load(&a.mesh)?;
-    let mesh = &loaded.mesh;
-    let handles = load_handles(&a.handles, &loaded)?;
     let (tolerance, energy_threshold) = match a.stop {
         StopRule::Relative => (a.tol, 0.0),
         StopRule::Threshold => (0.0, a.threshold),
@@ -413,6 +409,12 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
         energy_threshold,
         ..Default::default()
     };
+    // Every flag is checked, also --tol and --anderson where the stopping rule or the variant
+    // list leaves them unused.
+    check_config(&ArapConfig { tolerance: a.tol, acceleration: anderson, ..config })?;
+    let loaded = load(&a.mesh)?;
+    let mesh = &loaded.mesh;
+    let handles = load_handles(&a.handles, &loaded)?;
     let quality_frame = a.quality.then(|| a.quality_frame.unwrap_or(a.frames.div_ceil(2)));
     anyhow::ensure!(
         a.quality || a.quality_reference.is_none(),

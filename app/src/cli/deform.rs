@@ -2,13 +2,15 @@
 //! the pose written on the input file's own vertices by `OUT`'s extension.
 
 use super::{
-    BaseArgs, EnergyArg, MethodArg, PathArg, acceleration, bending_length, check_stopping,
-    energy_summary, load, load_handles,
+    BaseArgs, EnergyArg, MethodArg, PathArg, bending_length, check_config, energy_summary, load,
+    load_handles,
 };
 use anyhow::{Context, bail};
 use clap::Args;
 use solver::FrameStats;
-use solver::animation::export::{AssetExport, Encoding, ExportSettings, GltfExport, GltfFormat};
+use solver::animation::export::{
+    AssetExport, Encoding, ExportSettings, GltfExport, GltfFormat, SolveSettings,
+};
 use solver::animation::recording::Recording;
 use solver::io::LoadedMesh;
 use solver::linalg::rotation::{axis_angle, mul_mat};
@@ -118,8 +120,14 @@ pub fn parse_transforms(
 /// Writes the pose `x` of the cleaned mesh onto the input file's own vertices, in its order, as
 /// `path`'s extension asks: `.obj` with UVs, deformed normals (hard edges kept) and materials;
 /// `.glb`/`.gltf` as a one-frame glTF; `.ply`/`.off` the file's own polygons (PLY with its
-/// per-vertex UVs and colours).
-fn write_pose(path: &Path, loaded: &LoadedMesh, x: &[[f64; 3]]) -> anyhow::Result<()> {
+/// per-vertex UVs and colours). A glTF records `solved`, the settings of the solve, in its
+/// `asset.extras`.
+fn write_pose(
+    path: &Path,
+    loaded: &LoadedMesh,
+    x: &[[f64; 3]],
+    solved: &SolveSettings,
+) -> anyhow::Result<()> {
     let asset = &loaded.asset;
     let layout = asset.layout_positions(&loaded.report.vertex_map, x);
     let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
@@ -155,6 +163,7 @@ fn write_pose(path: &Path, loaded: &LoadedMesh, x: &[[f64; 3]]) -> anyhow::Resul
                 settings: ExportSettings { encoding: Encoding::Float, ..ExportSettings::default() },
             };
             GltfExport::from_asset(&input, format)?
+                .with_solve_settings(solved)?
                 .write(path, &mut |_, _| std::ops::ControlFlow::Continue(()))?;
         }
         _ => check_output(path)?,
@@ -175,7 +184,16 @@ fn check_output(path: &Path) -> anyhow::Result<()> {
 }
 
 pub fn run(a: &DeformArgs) -> anyhow::Result<()> {
-    check_stopping(a.tol, a.max_iters)?;
+    let bending_length = bending_length(a.energy, a.bending_length)?;
+    let config = ArapConfig {
+        energy: a.energy.into(),
+        bending_length,
+        tolerance: a.tol,
+        max_iterations: a.max_iters,
+        acceleration: ArapConfig::acceleration_for_window(a.anderson),
+        ..Default::default()
+    };
+    check_config(&config)?;
     check_output(&a.output)?;
     let base = a.base.config()?;
     let transforms = parse_transforms(&a.moves, &a.rotates)?;
@@ -189,15 +207,6 @@ pub fn run(a: &DeformArgs) -> anyhow::Result<()> {
     let handles = load_handles(&a.handles, &loaded)?;
     let targets = handle_targets(mesh.positions(), &handles, &transforms)
         .with_context(|| format!("{}", a.handles.display()))?;
-    let bending_length = bending_length(a.energy, a.bending_length)?;
-    let config = ArapConfig {
-        energy: a.energy.into(),
-        bending_length,
-        tolerance: a.tol,
-        max_iterations: a.max_iters,
-        acceleration: acceleration(a.anderson)?,
-        ..Default::default()
-    };
     let mut parts = LooseParts::default();
     let count = mesh.components().count;
     for &c in &a.pin_components {
@@ -217,7 +226,9 @@ pub fn run(a: &DeformArgs) -> anyhow::Result<()> {
     let t1 = Instant::now();
     let stats = deformer.solve(&targets)?;
     let solve_ms = t1.elapsed().as_secs_f64() * 1e3;
-    write_pose(&a.output, &loaded, deformer.positions())
+    let solved =
+        SolveSettings { method: a.method.into(), arap: config, diagonal: mesh.bbox_diagonal() };
+    write_pose(&a.output, &loaded, deformer.positions(), &solved)
         .with_context(|| format!("writing {}", a.output.display()))?;
     if a.json {
         let j = serde_json::json!({

@@ -16,7 +16,9 @@ use anyhow::Context;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use solver::Deformer;
-use solver::animation::export::{AssetExport, Encoding, ExportSettings, GltfExport, GltfFormat};
+use solver::animation::export::{
+    AssetExport, Encoding, ExportSettings, GltfExport, GltfFormat, SolveSettings,
+};
 use solver::animation::pointcache::{Pc2, write_obj_sequence, write_pc2};
 use solver::animation::recording::record;
 use solver::animation::scene::{HandlesSpec, LoadedScene, Scene};
@@ -237,7 +239,14 @@ pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
                     every_k: a.every.max(1),
                 },
             };
-            let export = GltfExport::from_asset(&input, format)?.with_up_axis(scene.up_axis);
+            let solved = SolveSettings {
+                method: scene.method,
+                arap: scene.arap,
+                diagonal: mesh.bbox_diagonal(),
+            };
+            let export = GltfExport::from_asset(&input, format)?
+                .with_up_axis(scene.up_axis)
+                .with_solve_settings(&solved)?;
             let export = if a.meshopt {
                 // The compressed size needs the compressed bytes: one encoding pass first.
                 let pb = bar(export.n_targets() as u64, "compressing", a.json);

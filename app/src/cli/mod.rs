@@ -3,6 +3,7 @@
 mod bench;
 mod deform;
 mod export;
+mod export_bones;
 mod info;
 mod render;
 mod subdivide;
@@ -147,28 +148,14 @@ pub fn load_handles(
     Ok(solver::deform::selection::load_selection(path, loaded.mesh.positions(), map)?)
 }
 
-/// The acceleration for `--anderson W` (0: none), checked against the scene files' limit.
-pub fn acceleration(window: usize) -> anyhow::Result<solver::Acceleration> {
-    let max = solver::animation::scene::MAX_ANDERSON_WINDOW;
-    anyhow::ensure!(window <= max, "--anderson must be between 0 (off) and {max} (got {window})");
-    Ok(match window {
-        0 => solver::Acceleration::None,
-        window => solver::Acceleration::Anderson { window },
-    })
-}
-
 /// The bending length for `--energy` and `--bending-length` (a fraction of the bounding-box
-/// diagonal), shared by deform and bench: checked finite and > 0 for smooth rotations
-/// (default [`solver::deform::arap::DEFAULT_BENDING_LENGTH`]), refused with the other energies.
+/// diagonal), shared by deform and bench: for smooth rotations (default
+/// [`solver::deform::arap::DEFAULT_BENDING_LENGTH`]; its range is [`check_config`]'s), refused
+/// with the other energies.
 pub fn bending_length(energy: EnergyArg, fraction: Option<f64>) -> anyhow::Result<f64> {
     match (energy, fraction) {
         (EnergyArg::SmoothRotations, f) => {
-            let f = f.unwrap_or(solver::deform::arap::DEFAULT_BENDING_LENGTH);
-            anyhow::ensure!(
-                f.is_finite() && f > 0.0,
-                "--bending-length must be a finite fraction of the diagonal > 0 (got {f})"
-            );
-            Ok(f)
+            Ok(f.unwrap_or(solver::deform::arap::DEFAULT_BENDING_LENGTH))
         }
         (_, Some(_)) => anyhow::bail!("--bending-length applies to --energy smooth-rotations only"),
         (_, None) => Ok(solver::deform::arap::DEFAULT_BENDING_LENGTH),
@@ -188,14 +175,19 @@ pub fn energy_summary(energy: EnergyArg, fraction: f64, diagonal: f64) -> String
     }
 }
 
-/// Tolerance and cap validation shared by deform and bench.
-pub fn check_stopping(tol: f64, max_iters: usize) -> anyhow::Result<()> {
-    anyhow::ensure!(tol.is_finite() && tol >= 0.0, "--tol must be a finite number ≥ 0 (got {tol})");
-    anyhow::ensure!(
-        (1..=100_000).contains(&max_iters),
-        "--max-iters must be between 1 and 100000 (got {max_iters})"
-    );
-    Ok(())
+/// [`solver::ArapConfig::validate`] for deform and bench, the field named by its flag.
+pub fn check_config(config: &solver::ArapConfig) -> anyhow::Result<()> {
+    config.validate().map_err(|e| {
+        let flag = match e {
+            solver::ArapConfigError::Tolerance(_) => "--tol",
+            solver::ArapConfigError::MaxIterations(_) => "--max-iters",
+            solver::ArapConfigError::AndersonWindow(_) => "--anderson",
+            solver::ArapConfigError::EnergyThreshold(_) => "--threshold",
+            solver::ArapConfigError::Membrane(_) => "--membrane",
+            solver::ArapConfigError::BendingLength(_) => "--bending-length",
+        };
+        anyhow::anyhow!(e.renamed(flag))
+    })
 }
 
 pub type PathArg = PathBuf;

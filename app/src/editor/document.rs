@@ -132,10 +132,11 @@ pub fn apply_scene(scene: &Scene, labels: Vec<Option<u32>>, settings: &MethodSet
     } else {
         s.bs_variant = scene.method;
     }
-    s.energy = scene.arap.energy;
-    s.tolerance = scene.arap.tolerance;
-    s.max_iterations = scene.arap.max_iterations.clamp(1, MAX_UI_ITERATIONS);
-    s.acceleration = scene.arap.acceleration;
+    // The scene reader checked the settings (`ArapConfig::validate`); the panel's cap is lower.
+    s.arap = solver::ArapConfig {
+        max_iterations: scene.arap.max_iterations.clamp(1, MAX_UI_ITERATIONS),
+        ..scene.arap
+    };
     // Settling is the editor's own setting, not the scene's.
     s.base = solver::BaseConfig { settle_iterations: s.base.settle_iterations, ..scene.base };
     let camera = scene.camera.as_ref().and_then(OrbitCamera::from_json);
@@ -172,10 +173,16 @@ mod tests {
         );
         apply_paths(&mut edit, 0.5);
         let settings = MethodSettings {
-            // Not the default tolerance, on purpose: the round trip must carry it.
-            tolerance: 1e-5,
-            max_iterations: 42,
-            acceleration: solver::Acceleration::Anderson { window: 7 },
+            // Not the default tolerance, energy or bending length, on purpose: the round trip
+            // must carry them.
+            arap: solver::ArapConfig {
+                energy: solver::Energy::SmoothRotations,
+                bending_length: 0.037,
+                tolerance: 1e-5,
+                max_iterations: 42,
+                acceleration: solver::Acceleration::Anderson { window: 7 },
+                ..solver::ArapConfig::default()
+            },
             bs_variant: solver::Method::BsArapFaired,
             ..MethodSettings::default()
         };

@@ -14,7 +14,9 @@ use std::sync::mpsc::{Receiver, TryRecvError, channel};
 use std::sync::{Arc, Mutex, OnceLock};
 use std::time::Instant;
 
-use solver::animation::export::{AssetExport, ExportSettings, GltfExport, GltfFormat};
+use solver::animation::export::{
+    AssetExport, ExportSettings, GltfExport, GltfFormat, SolveSettings,
+};
 use solver::animation::pointcache::{Pc2, write_pc2};
 use solver::animation::recording::{Recording, record};
 use solver::animation::timeline::Timeline;
@@ -40,6 +42,8 @@ pub struct Recorded {
     pub layout: Arc<FileLayout>,
     /// The timeline's frames per second (a point cache's sample rate).
     pub fps: f64,
+    /// The method and settings it was solved with (a glTF export records them).
+    pub solved: SolveSettings,
 }
 
 /// Progress shared between a job thread and the UI.
@@ -311,14 +315,24 @@ pub fn spawn_record(
                 },
             )
             .map_err(|e| format!("recording: {e}"))?;
+            let solved = SolveSettings { method, arap: config, diagonal: mesh.bbox_diagonal() };
             let glb_bytes =
                 GltfExport::from_asset(&asset_export(&layout, &recording), GltfFormat::Glb)
+                    .and_then(|e| e.with_solve_settings(&solved))
                     .and_then(|e| e.file_size())
                     .map_err(|e| format!("recording: {e}"))?;
             let t = mesh.triangles();
             let shapes =
                 recording.frames.iter().map(|f| Shape::with_faces(f, t, &vertex_faces)).collect();
-            Ok(Recorded { recording: Arc::new(recording), shapes, glb_bytes, mesh, layout, fps })
+            Ok(Recorded {
+                recording: Arc::new(recording),
+                shapes,
+                glb_bytes,
+                mesh,
+                layout,
+                fps,
+                solved,
+            })
         },
     )
 }
@@ -344,6 +358,7 @@ pub fn spawn_export(
 ) -> Job<(PathBuf, u64)> {
     let fps = recorded.fps;
     let recording = recorded.recording.clone();
+    let solved = recorded.solved;
     let repaint = Arc::new(repaint);
     let r2 = repaint.clone();
     spawn(
@@ -367,7 +382,9 @@ pub fn spawn_export(
             let format = GltfFormat::from_path(&path).map_err(fail)?;
             let export = GltfExport::from_asset(&asset_export(&layout, &recording), format)
                 .map_err(fail)?
-                .with_up_axis(up);
+                .with_up_axis(up)
+                .with_solve_settings(&solved)
+                .map_err(fail)?;
             let bytes = export
                 .write(&path, &mut |done, total| {
                     let flow = progress.update(done, total);
@@ -385,7 +402,7 @@ pub struct QualityInput {
     pub mesh: Arc<Mesh>,
     pub handles: Handles,
     pub poses: Vec<GroupPose>,
-    pub energy: solver::Energy,
+    pub energy: solver::deform::quality::ReferenceEnergy,
     /// The two side-by-side results (left, right).
     pub results: [Arc<Vec<[f32; 3]>>; 2],
 }

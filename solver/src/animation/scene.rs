@@ -10,7 +10,8 @@
 //!                "paths": [{"group": 0, "path": {"type": "circular", "axis": [0, 0, 1],
 //!                           "radius": 0.3, "period": 2.0}}]},
 //!   "method": "bsarap",
-//!   "arap": {"energy": "spokes-and-rims", "tolerance": 1e-4, "max_iterations": 100},
+//!   "arap": {"energy": "smooth-rotations", "bending_length": 0.02, "tolerance": 1e-4,
+//!            "max_iterations": 100},
 //!   "loose_parts": {"default": "follow", "overrides": [{"component": 1, "mode": "pin"}]},
 //!   "camera": {"any": "JSON the editor stores"},
 //!   "editor": {"groups": [{"name": "left foot", "color": [230, 25, 75]}]},
@@ -36,7 +37,10 @@
 //! (glTF buffers and images, MTL files) follow the mesh folder's rule. `handles` is exactly one of `{"file": PATH}` (a `.dmat`
 //! or sphere `.json`), `{"labels": [-1, 0, …]}` (one per vertex) or `{"spheres": [...]}` (the
 //! sphere format of docs/DESIGN.md, "Handle selections"). Unknown fields are errors (they are usually typos); a missing
-//! `method` is `bsarap`, a missing `arap` is [`ArapConfig::default`], a missing `loose_parts` is
+//! `method` is `bsarap`, a missing `arap` is [`ArapConfig::default`] (a missing
+//! `arap.bending_length`, the smooth-rotations energy's, is
+//! [`crate::deform::arap::DEFAULT_BENDING_LENGTH`]; `arap` is checked by
+//! [`ArapConfig::validate`]), a missing `loose_parts` is
 //! [`LooseParts::default`] (components without handles follow the surface they sit on;
 //! [`crate::deform::riders`]). `loose_parts` came after the first version-1 scenes without a
 //! version change: it is optional and omitted when default, so every earlier scene reads as
@@ -53,7 +57,7 @@ use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use crate::animation::timeline::{AnimationError, Timeline};
-use crate::deform::arap::{Acceleration, ArapConfig};
+use crate::deform::arap::ArapConfig;
 use crate::deform::config::BaseConfig;
 use crate::deform::deformer::Method;
 use crate::animation::export::UpAxis;
@@ -151,12 +155,11 @@ impl RigSpec {
     }
 }
 
-/// The largest `arap.max_iterations` a scene may ask for (the CLI's `--max-iters` cap): with
-/// `tolerance` 0 every solve runs that many iterations, so a larger value would hang playback.
-pub const MAX_ITERATIONS: usize = 100_000;
+/// The largest `arap.max_iterations` a scene may ask for: [`ArapConfig::validate`]'s limit.
+pub use crate::deform::arap::MAX_ITERATIONS_LIMIT as MAX_ITERATIONS;
 
-/// The largest Anderson window a scene may ask for.
-pub const MAX_ANDERSON_WINDOW: usize = 64;
+/// The largest Anderson window a scene may ask for: [`ArapConfig::validate`]'s limit.
+pub use crate::deform::arap::MAX_ANDERSON_WINDOW;
 
 /// Why a scene could not be read, resolved or saved. One line each, naming the file.
 #[derive(Debug, Error)]
@@ -341,33 +344,14 @@ impl Scene {
                     .into(),
             });
         }
-        let non_negative = |x: f64| x.is_finite() && x >= 0.0;
-        let valid = non_negative(self.arap.tolerance)
-            && (1..=MAX_ITERATIONS).contains(&self.arap.max_iterations)
-            && non_negative(self.arap.energy_threshold);
-        if !valid {
-            return Err(SceneError::Invalid {
-                file: file.to_string(),
-                message: format!(
-                    "\"arap\": tolerance and energy_threshold must be finite and ≥ 0, max_iterations between 1 and {MAX_ITERATIONS}"
-                ),
-            });
-        }
+        self.arap.validate().map_err(|e| SceneError::Invalid {
+            file: file.to_string(),
+            message: format!("\"arap\": {e}"),
+        })?;
         self.base.validate().map_err(|e| SceneError::Invalid {
             file: file.to_string(),
             message: format!("\"base\": {e}"),
         })?;
-        if let Acceleration::Anderson { window } = self.arap.acceleration
-            && !(1..=MAX_ANDERSON_WINDOW).contains(&window)
-        {
-            // The window sizes dense window² buffers: an absurd one must not abort the program.
-            return Err(SceneError::Invalid {
-                file: file.to_string(),
-                message: format!(
-                    "\"arap\": the Anderson window must be between 1 and {MAX_ANDERSON_WINDOW} (got {window})"
-                ),
-            });
-        }
         self.rig
             .validate()
             .map_err(|message| SceneError::Invalid { file: file.to_string(), message })?;

@@ -86,7 +86,7 @@ impl EditorApp {
 
     /// Bounding-box diagonal of the open mesh (0 without one).
     pub fn diagonal(&self) -> f64 {
-        self.session.scene.as_ref().map_or(0.0, |s| s.mesh.bbox_diagonal())
+        self.session.scene.as_ref().map_or(0.0, |s| s.diagonal)
     }
 
     pub fn rest_positions(&self) -> Option<&[[f64; 3]]> {

@@ -11,8 +11,17 @@ use super::{DialogKind, EditorApp, Shading, Tool, View};
 use crate::editor::document::MAX_UI_ITERATIONS;
 use crate::editor::pose::{GroupPose, group_centroid};
 use crate::editor::pose_solvers;
+use crate::editor::solver_thread::MethodSettings;
 use crate::editor::solver_thread::{ANDERSON_WINDOW, SolverState};
 use crate::editor::timeline;
+
+/// The energies the method panel offers, in its order.
+const ENERGIES: [solver::Energy; 3] =
+    [solver::Energy::SpokesAndRims, solver::Energy::Spokes, solver::Energy::SmoothRotations];
+
+/// The shortest bending length the method panel's slider offers (a fraction of the diagonal;
+/// scenes and the other interfaces may set any in [`solver::ArapConfig::validate`]'s range).
+const MIN_UI_BENDING_LENGTH: f64 = 1e-3;
 
 impl EditorApp {
     pub(super) fn side_panel(&mut self, ui: &mut egui::Ui, ctx: &egui::Context) {
@@ -263,24 +272,40 @@ impl EditorApp {
     pub(super) fn method_panel(&mut self, ui: &mut egui::Ui) {
         ui.heading("Method");
         let old = self.session.settings;
-        egui::ComboBox::from_label("energy")
-            .selected_text(match self.session.settings.energy {
-                solver::Energy::SpokesAndRims => "spokes and rims",
-                solver::Energy::Spokes => "spokes",
-                solver::Energy::SmoothRotations => "smooth rotations",
-            })
-            .show_ui(ui, |ui| {
-                ui.selectable_value(
-                    &mut self.session.settings.energy,
-                    solver::Energy::SpokesAndRims,
-                    "spokes and rims",
-                );
-                ui.selectable_value(
-                    &mut self.session.settings.energy,
-                    solver::Energy::Spokes,
-                    "spokes",
-                );
-            });
+        let energy_label = |e: solver::Energy| match e {
+            solver::Energy::SpokesAndRims => "spokes and rims",
+            solver::Energy::Spokes => "spokes",
+            solver::Energy::SmoothRotations => "smooth rotations",
+        };
+        let arap = &mut self.session.settings.arap;
+        egui::ComboBox::from_label("energy").selected_text(energy_label(arap.energy)).show_ui(
+            ui,
+            |ui| {
+                for e in ENERGIES {
+                    ui.selectable_value(&mut arap.energy, e, energy_label(e));
+                }
+            },
+        );
+        if arap.energy == solver::Energy::SmoothRotations {
+            let diagonal = self.session.scene.as_ref().map(|s| s.diagonal);
+            ui.add(
+                egui::Slider::new(
+                    &mut arap.bending_length,
+                    MIN_UI_BENDING_LENGTH..=solver::deform::arap::MAX_BENDING_LENGTH,
+                )
+                .logarithmic(true)
+                .fixed_decimals(3)
+                .text("bending length (of diagonal)"),
+            )
+            .on_hover_text(
+                "the length over which the rotations are smoothed (SR-ARAP): longer resists \
+                 bending more; the pose does not move with the mesh's resolution",
+            );
+            if let Some(d) = diagonal {
+                let world = MethodSettings::world_length(arap.bending_length, d);
+                ui.label(format!("bending length = {world:.4} world units"));
+            }
+        }
         egui::ComboBox::from_label("method")
             .selected_text(pose_solvers::label(self.session.settings.bs_variant))
             .show_ui(ui, |ui| {
@@ -304,20 +329,23 @@ impl EditorApp {
                 }
             });
         ui.add(
-            egui::Slider::new(&mut self.session.settings.tolerance, 1e-8..=1e-1)
+            egui::Slider::new(&mut self.session.settings.arap.tolerance, 1e-8..=1e-1)
                 .logarithmic(true)
                 .text("tolerance"),
         );
         ui.add(
-            egui::Slider::new(&mut self.session.settings.max_iterations, 1..=MAX_UI_ITERATIONS)
-                .logarithmic(true)
-                .text("iteration cap"),
+            egui::Slider::new(
+                &mut self.session.settings.arap.max_iterations,
+                1..=MAX_UI_ITERATIONS,
+            )
+            .logarithmic(true)
+            .text("iteration cap"),
         );
-        let window = match self.session.settings.acceleration {
+        let window = match self.session.settings.arap.acceleration {
             solver::Acceleration::Anderson { window } => window,
             solver::Acceleration::None => ANDERSON_WINDOW,
         };
-        let mut anderson = self.session.settings.acceleration != solver::Acceleration::None;
+        let mut anderson = self.session.settings.arap.acceleration != solver::Acceleration::None;
         if ui
             .checkbox(&mut anderson, "Anderson acceleration")
             .on_hover_text(format!(
@@ -326,7 +354,7 @@ impl EditorApp {
             ))
             .changed()
         {
-            self.session.settings.acceleration = if anderson {
+            self.session.settings.arap.acceleration = if anderson {
                 solver::Acceleration::Anderson { window: ANDERSON_WINDOW }
             } else {
                 solver::Acceleration::None

@@ -329,7 +329,7 @@ impl EditorApp {
             mesh: scene.mesh.clone(),
             handles,
             poses: self.poses(),
-            energy: self.session.settings.energy,
+            energy: self.session.settings.reference_energy(),
             results: [left, right],
         };
         let c = ctx.clone();

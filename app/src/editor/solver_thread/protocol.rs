@@ -15,14 +15,11 @@ use crate::editor::shape::Shape;
 /// solver.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MethodSettings {
-    /// ARAP cell type.
-    pub energy: solver::Energy,
-    /// Relative energy decrease below which a frame counts as converged.
-    pub tolerance: f64,
-    /// Iteration cap of one frame.
-    pub max_iterations: usize,
-    /// Acceleration of every solve's local-global loop (plain or Anderson).
-    pub acceleration: solver::Acceleration,
+    /// The local-global iteration of every solve: energy (and the bending length of smooth
+    /// rotations), the stopping rule (the tolerance below which a frame counts as converged,
+    /// the iteration cap of one frame), the acceleration (plain or Anderson). Checked by
+    /// [`solver::ArapConfig::validate`] wherever it comes from (a scene, the panel).
+    pub arap: solver::ArapConfig,
     /// Which BS-ARAP variant the BS-ARAP slot runs.
     pub bs_variant: solver::Method,
     /// Base-surface settings of the BS-ARAP variants (smoothing, coarse vertex count, fine
@@ -39,11 +36,8 @@ pub const ANDERSON_WINDOW: usize = 5;
 impl Default for MethodSettings {
     fn default() -> Self {
         MethodSettings {
-            energy: solver::Energy::SpokesAndRims,
-            tolerance: solver::ArapConfig::default().tolerance,
             // Fewer than the solver's default cap: a frame of a drag should stay short.
-            max_iterations: 30,
-            acceleration: solver::Acceleration::None,
+            arap: solver::ArapConfig { max_iterations: 30, ..solver::ArapConfig::default() },
             // The paper's base is slow to precompute and collapses under small handles on the
             // default creature (see main's scenes); the coarse faired base is interactive.
             bs_variant: solver::Method::BsArapCoarse,
@@ -59,12 +53,21 @@ impl MethodSettings {
     /// The solver's configuration for these settings (the editor's threads, its recording, and
     /// the scenes it saves use the same).
     pub fn arap_config(&self) -> solver::ArapConfig {
-        solver::ArapConfig {
-            energy: self.energy,
-            tolerance: self.tolerance,
-            max_iterations: self.max_iterations,
-            acceleration: self.acceleration,
-            ..solver::ArapConfig::default()
+        self.arap
+    }
+
+    /// A length given as a fraction of the rest bounding-box diagonal (the bending length), in
+    /// world units for a mesh of diagonal `diagonal`.
+    pub fn world_length(fraction: f64, diagonal: f64) -> f64 {
+        fraction * diagonal
+    }
+
+    /// The energy the editor's quality measurement converges to: these settings' energy and
+    /// bending length.
+    pub fn reference_energy(&self) -> solver::deform::quality::ReferenceEnergy {
+        solver::deform::quality::ReferenceEnergy {
+            energy: self.arap.energy,
+            bending_length: self.arap.bending_length,
         }
     }
 }

@@ -430,7 +430,10 @@ fn loose_parts_change_without_a_rebuild() {
         vertex_faces: faces_of(&mesh),
         mesh,
         handles: Some(Handles::from_options(labels).unwrap()),
-        settings: MethodSettings { max_iterations: 200, ..MethodSettings::default() },
+        settings: MethodSettings {
+            arap: solver::ArapConfig { max_iterations: 200, ..MethodSettings::default().arap },
+            ..MethodSettings::default()
+        },
         loose_parts: LooseParts::default(),
         poses: vec![GroupPose::default(), moved],
         pose_generation: 1,

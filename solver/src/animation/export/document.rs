@@ -263,6 +263,7 @@ impl GltfExport<'_> {
         let mut root = json::Root {
             asset: json::Asset {
                 generator: Some(format!("bsarap {}", env!("CARGO_PKG_VERSION"))),
+                extras: self.asset_extras.clone(),
                 ..Default::default()
             },
             ..Default::default()

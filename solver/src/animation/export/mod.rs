@@ -187,6 +187,40 @@ impl UpAxis {
     }
 }
 
+/// The settings a recording was solved with, recorded in the file's `asset.extras.bsarap`
+/// ([`GltfExport::with_solve_settings`]) so that a reader of the file knows what made it:
+/// `{"method", "energy", "bending_length" (fraction of the rest diagonal),
+/// "bending_length_world" (times the diagonal), "tolerance", "max_iterations", "acceleration",
+/// "energy_threshold", "membrane", "diagonal"}`; the bending lengths are `null` for energies
+/// without one.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SolveSettings {
+    pub method: crate::deform::deformer::Method,
+    pub arap: crate::deform::arap::ArapConfig,
+    /// The rest bounding-box diagonal of the mesh solved on: the unit of the bending length.
+    pub diagonal: f64,
+}
+
+impl SolveSettings {
+    /// The JSON written to `asset.extras.bsarap`.
+    pub fn to_json(&self) -> serde_json::Value {
+        let a = &self.arap;
+        let smooth = a.energy == crate::deform::arap::Energy::SmoothRotations;
+        serde_json::json!({
+            "method": self.method,
+            "energy": a.energy,
+            "bending_length": smooth.then_some(a.bending_length),
+            "bending_length_world": smooth.then_some(a.bending_length * self.diagonal),
+            "tolerance": a.tolerance,
+            "max_iterations": a.max_iterations,
+            "acceleration": a.acceleration,
+            "energy_threshold": a.energy_threshold,
+            "membrane": a.membrane,
+            "diagonal": self.diagonal,
+        })
+    }
+}
+
     /// Write NORMAL deltas in the morph targets (recomputed normals in every frame).
     pub normals: bool,
     /// Allow sparse target accessors where they make the file smaller.
@@ -241,6 +275,8 @@ pub struct GltfExport<'a> {
     /// The coarsest grid of quantized target positions, world units (0: the 16-bit grid of
     /// every mesh and frame; `meshopt.rs` sets it).
     position_step: f64,
+    /// `asset.extras` ([`GltfExport::with_solve_settings`]); none without.
+    asset_extras: Option<Box<serde_json::value::RawValue>>,
     root: json::Root,
     bin_len: usize,
 }
@@ -404,6 +440,7 @@ impl<'a> GltfExport<'a> {
             node_scales,
             meshopt: false,
             position_step: 0.0,
+            asset_extras: None,
             root: json::Root::default(),
             bin_len: 0,
         };
@@ -431,6 +468,17 @@ impl<'a> GltfExport<'a> {
                 (j + DATA_URI_PREFIX.len() + self.bin_len.div_ceil(3) * 4) as u64
             }
         })
+    }
+
+    /// Records the settings the recording was solved with in `asset.extras.bsarap`
+    /// ([`SolveSettings`]).
+    pub fn with_solve_settings(mut self, settings: &SolveSettings) -> Result<Self, ExportError> {
+        let value = serde_json::json!({ "bsarap": settings.to_json() });
+        let raw = serde_json::value::to_raw_value(&value)
+            .map_err(|e| ExportError::Json(e.to_string()))?;
+        self.root.asset.extras = Some(raw.clone());
+        self.asset_extras = Some(raw);
+        Ok(self)
     }
 
     /// Number of morph targets per primitive (= kept frames).

@@ -94,6 +94,107 @@ impl Default for ArapConfig {
     }
 }
 
+/// The largest iteration cap a configuration may ask for ([`ArapConfig::validate`]; the CLI's
+/// `--max-iters`, scenes, Python's `max_iters`): with `tolerance` 0 every solve runs that many
+/// iterations, so a larger value would hang playback.
+pub const MAX_ITERATIONS_LIMIT: usize = 100_000;
+
+/// The largest Anderson window a configuration may ask for ([`ArapConfig::validate`]): the
+/// window sizes dense window² buffers, so an absurd one must not abort the program.
+pub const MAX_ANDERSON_WINDOW: usize = 64;
+
+/// The largest bending length a configuration may ask for ([`ArapConfig::validate`]), as a
+/// fraction of the bounding-box diagonal: beyond the whole shape the rotation field is rigid.
+pub const MAX_BENDING_LENGTH: f64 = 1.0;
+
+/// The largest [`ArapConfig::energy_threshold`]: a share of the starting energy.
+pub const MAX_ENERGY_THRESHOLD: f64 = 1.0;
+
+/// An [`ArapConfig`] field out of its range ([`ArapConfig::validate`]). Every message begins
+/// with the field's name ([`ArapConfigError::field`]), so that an interface may put its own
+/// name for it (the CLI its flag, Python its argument, a scene its key).
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub enum ArapConfigError {
+    #[error("tolerance must be a finite number ≥ 0 (got {0})")]
+    Tolerance(f64),
+    #[error("max_iterations must be between 1 and {MAX_ITERATIONS_LIMIT} (got {0})")]
+    MaxIterations(usize),
+    #[error("anderson must be a window between 1 and {MAX_ANDERSON_WINDOW} (got {0}; 0: none)")]
+    AndersonWindow(usize),
+    #[error("energy_threshold must be in [0, {MAX_ENERGY_THRESHOLD}] (got {0})")]
+    EnergyThreshold(f64),
+    #[error("membrane must be in [0, 1] (got {0})")]
+    Membrane(f64),
+    #[error(
+        "bending_length must be in (0, {MAX_BENDING_LENGTH}] (a fraction of the bounding-box \
+         diagonal; got {0})"
+    )]
+    BendingLength(f64),
+}
+
+impl ArapConfigError {
+    /// The name of the field out of range, as in [`ArapConfig`] and scene files (the Anderson
+    /// window: `anderson`).
+    pub fn field(&self) -> &'static str {
+        match self {
+            ArapConfigError::Tolerance(_) => "tolerance",
+            ArapConfigError::MaxIterations(_) => "max_iterations",
+            ArapConfigError::AndersonWindow(_) => "anderson",
+            ArapConfigError::EnergyThreshold(_) => "energy_threshold",
+            ArapConfigError::Membrane(_) => "membrane",
+            ArapConfigError::BendingLength(_) => "bending_length",
+        }
+    }
+
+    /// The message with the field's name replaced by `name` (an interface's name for it).
+    pub fn renamed(&self, name: &str) -> String {
+        let message = self.to_string();
+        format!("{name}{}", &message[self.field().len()..])
+    }
+}
+
+impl ArapConfig {
+    /// Checks the ranges every interface accepts (CLI, scenes, the editor, Python): tolerance
+    /// finite and $\ge 0$; max_iterations in $[1,$ [`MAX_ITERATIONS_LIMIT`]$]$; an Anderson
+    /// window in $[1,$ [`MAX_ANDERSON_WINDOW`]$]$; energy_threshold in $[0,$
+    /// [`MAX_ENERGY_THRESHOLD`]$]$; membrane in $[0, 1]$; bending_length in $(0,$
+    /// [`MAX_BENDING_LENGTH`]$]$ (checked whatever the energy: it is saved with every
+    /// configuration and used once the energy is switched to smooth rotations).
+    pub fn validate(&self) -> Result<(), ArapConfigError> {
+        if !(self.tolerance.is_finite() && self.tolerance >= 0.0) {
+            return Err(ArapConfigError::Tolerance(self.tolerance));
+        }
+        if !(1..=MAX_ITERATIONS_LIMIT).contains(&self.max_iterations) {
+            return Err(ArapConfigError::MaxIterations(self.max_iterations));
+        }
+        if let Acceleration::Anderson { window } = self.acceleration
+            && !(1..=MAX_ANDERSON_WINDOW).contains(&window)
+        {
+            return Err(ArapConfigError::AndersonWindow(window));
+        }
+        if !(0.0..=MAX_ENERGY_THRESHOLD).contains(&self.energy_threshold) {
+            return Err(ArapConfigError::EnergyThreshold(self.energy_threshold));
+        }
+        if !(0.0..=1.0).contains(&self.membrane) {
+            return Err(ArapConfigError::Membrane(self.membrane));
+        }
+        let l = self.bending_length;
+        if !(l.is_finite() && l > 0.0 && l <= MAX_BENDING_LENGTH) {
+            return Err(ArapConfigError::BendingLength(l));
+        }
+        Ok(())
+    }
+
+    /// The acceleration for an Anderson window as the interfaces give it (0: none); checked by
+    /// [`ArapConfig::validate`].
+    pub fn acceleration_for_window(window: usize) -> Acceleration {
+        match window {
+            0 => Acceleration::None,
+            window => Acceleration::Anderson { window },
+        }
+    }
+}
+
 /// What one call of [`Arap::solve`](super::Arap::solve) (or of a BS-ARAP variant's solve, which runs it on the base)
 /// did.
 #[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
@@ -205,4 +306,54 @@ pub struct FrameStats {
     /// The ARAP energy on the full mesh after those iterations (`None` without them; `energy`
     /// is then the only one).
     pub fine_energy: Option<f64>,
+}
+
+#[cfg(test)]
+mod validate_tests {
+    use super::*;
+
+    #[test]
+    fn validate_checks_each_field() {
+        assert_eq!(ArapConfig::default().validate(), Ok(()));
+        let cases = [
+            (ArapConfig { tolerance: -1e-4, ..Default::default() }, "tolerance"),
+            (ArapConfig { tolerance: f64::NAN, ..Default::default() }, "tolerance"),
+            (ArapConfig { max_iterations: 0, ..Default::default() }, "max_iterations"),
+            (
+                ArapConfig { max_iterations: MAX_ITERATIONS_LIMIT + 1, ..Default::default() },
+                "max_iterations",
+            ),
+            (
+                ArapConfig {
+                    acceleration: Acceleration::Anderson { window: MAX_ANDERSON_WINDOW + 1 },
+                    ..Default::default()
+                },
+                "anderson",
+            ),
+            (ArapConfig { energy_threshold: -1.0, ..Default::default() }, "energy_threshold"),
+            (ArapConfig { membrane: 1.5, ..Default::default() }, "membrane"),
+            (ArapConfig { bending_length: 0.0, ..Default::default() }, "bending_length"),
+            (ArapConfig { bending_length: f64::INFINITY, ..Default::default() }, "bending_length"),
+            (
+                ArapConfig { bending_length: MAX_BENDING_LENGTH * 2.0, ..Default::default() },
+                "bending_length",
+            ),
+        ];
+        for (config, field) in cases {
+            let err = config.validate().unwrap_err();
+            assert_eq!(err.field(), field, "{err}");
+            assert!(err.to_string().starts_with(field), "{err}");
+            assert!(err.renamed("--x").starts_with("--x must"), "{}", err.renamed("--x"));
+        }
+        let edge = ArapConfig {
+            tolerance: 0.0,
+            max_iterations: MAX_ITERATIONS_LIMIT,
+            acceleration: Acceleration::Anderson { window: MAX_ANDERSON_WINDOW },
+            energy_threshold: MAX_ENERGY_THRESHOLD,
+            membrane: 1.0,
+            bending_length: MAX_BENDING_LENGTH,
+            ..Default::default()
+        };
+        assert_eq!(edge.validate(), Ok(()));
+    }
 }

@@ -65,8 +65,9 @@ mod start;
 mod tests;
 
 pub use config::{
-    Acceleration, ArapConfig, DEFAULT_BENDING_LENGTH, DEFAULT_MAX_ITERATIONS, DEFAULT_TOLERANCE,
-    Energy, FrameStats, REFINE_ANDERSON_WINDOW, SolveStats,
+    Acceleration, ArapConfig, ArapConfigError, DEFAULT_BENDING_LENGTH, DEFAULT_MAX_ITERATIONS,
+    DEFAULT_TOLERANCE, Energy, FrameStats, MAX_ANDERSON_WINDOW, MAX_BENDING_LENGTH,
+    MAX_ENERGY_THRESHOLD, MAX_ITERATIONS_LIMIT, REFINE_ANDERSON_WINDOW, SolveStats,
 };
 
 use crate::deform::constraints::Constraints;

@@ -1,0 +1,54 @@
+//! The method panel's energy choice and bending length (issue 51): the UI sets the settings,
+//! the solver threads rebuild with them, and the bending length is shown in world units.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+mod support;
+
+use app::editor::EditorApp;
+use eframe::egui;
+use egui_kittest::kittest::Queryable;
+use support::{harness, has_current_frame, settled, step_until, test_mesh};
+
+#[test]
+fn smooth_rotations_and_the_bending_length_in_world_units() {
+    let mut h = harness(test_mesh(), None);
+    step_until(&mut h, "the default asset", settled);
+    let arap = |a: &EditorApp| a.method_settings().arap;
+    assert_eq!(arap(h.state()).energy, solver::Energy::SpokesAndRims);
+    // No bending length control for an energy without one.
+    assert!(h.query_by_label("bending length (of diagonal)").is_none());
+
+    // The panel is below the fold of the side panel's scroll area: click through AccessKit.
+    h.get_by_label("energy").click_accesskit();
+    h.step();
+    h.get_by_label("smooth rotations").click_accesskit();
+    step_until(&mut h, "the smooth-rotations energy", |a| {
+        arap(a).energy == solver::Energy::SmoothRotations
+    });
+    let diagonal = h.state().diagonal();
+    assert!(diagonal > 0.0);
+    let shown = |fraction: f64| format!("bending length = {:.4} world units", fraction * diagonal);
+    let default = solver::deform::arap::DEFAULT_BENDING_LENGTH;
+    assert_eq!(arap(h.state()).bending_length, default);
+    h.get_by_label(&shown(default));
+
+    h.get_by_role_and_label(egui::accesskit::Role::Slider, "bending length (of diagonal)")
+        .set_value_accesskit(0.05);
+    step_until(&mut h, "bending length 0.05", |a| (arap(a).bending_length - 0.05).abs() < 1e-9);
+    h.get_by_label(&shown(0.05));
+    assert!(h.query_by_label(&shown(default)).is_none(), "the world value did not follow");
+    // The solvers rebuild on the new energy and deliver a frame for it.
+    let generation = h.state().scene_generation();
+    step_until(&mut h, "a frame of the smooth-rotations solve", |a| {
+        a.scene_generation() == generation && has_current_frame(a)
+    });
+    assert!(h.state().error().is_none(), "{:?}", h.state().error());
+
+    // Back to spokes and rims: the control goes, the bending length is kept for next time.
+    h.get_by_label("energy").click_accesskit();
+    h.step();
+    h.get_by_label("spokes and rims").click_accesskit();
+    step_until(&mut h, "spokes and rims", |a| arap(a).energy == solver::Energy::SpokesAndRims);
+    assert!(h.query_by_label("bending length (of diagonal)").is_none());
+    assert_eq!(arap(h.state()).bending_length, 0.05);
+}
