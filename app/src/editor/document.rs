@@ -194,6 +194,8 @@ mod tests {
             settings: &settings,
             camera: &camera,
             time: 0.5,
+            texture: None,
+            up_axis: Default::default(),
         };
         let scene_path = dir.join("scenes/pose.json");
         let scene = to_scene(&scene_path, &input).unwrap();
@@ -201,8 +203,6 @@ mod tests {
         scene.save(&scene_path).unwrap();
 
         let loaded = solver::animation::scene::Scene::load(&scene_path).unwrap();
-            texture: None,
-            up_axis: Default::default(),
         let back = apply_scene(
             &loaded.scene,
             loaded.handles.labels().to_vec(),
@@ -258,6 +258,8 @@ mod tests {
             settings: &MethodSettings::default(),
             camera: &camera,
             time: 0.0,
+            texture: None,
+            up_axis: Default::default(),
         };
         let scene_path = dir.join("pinned.json");
         let scene = to_scene(&scene_path, &input).unwrap();
@@ -265,8 +267,6 @@ mod tests {
         scene.save(&scene_path).unwrap();
         let text = std::fs::read_to_string(&scene_path).unwrap();
         assert!(text.contains("\"loose_parts\""), "{text}");
-            texture: None,
-            up_axis: Default::default(),
 
         let loaded = solver::animation::scene::Scene::load(&scene_path).unwrap();
         let labels = loaded.handles.labels().to_vec();
@@ -309,6 +309,8 @@ mod tests {
             settings: &MethodSettings::default(),
             camera: &camera,
             time: 0.0,
+            texture: None,
+            up_axis: Default::default(),
         };
         let scene_path = dir.join("rig.json");
         to_scene(&scene_path, &input).unwrap().save(&scene_path).unwrap();
@@ -316,8 +318,6 @@ mod tests {
         assert_eq!(loaded.handles.rig().falloff(1).radius, 0.125);
         let labels = loaded.handles.labels().to_vec();
         let back = apply_scene(&loaded.scene, labels.clone(), &MethodSettings::default());
-            texture: None,
-            up_axis: Default::default(),
         assert_eq!(back.edit.rigidity, edit.rigidity);
         assert_eq!(back.edit.groups[1].falloff, edit.groups[1].falloff);
         assert_eq!(back.edit.groups[0].falloff, Falloff::default());

@@ -351,8 +351,12 @@ fn asset_export<'a>(layout: &'a FileLayout, recording: &'a Recording) -> AssetEx
 /// Writes `recorded` onto the file's own vertices to `path`, atomically, by its extension:
 /// glTF (`.glb`/`.gltf`, the whole asset with one morph target per frame) or a PC2 point
 /// cache (`.pc2`, at the timeline's rate). Returns the path and the bytes written.
+/// `layout`: the file's layout to write onto (the recorded one, or the same mesh's layout with
+/// a texture loaded since); `up`: the file's up axis (a Z-up glTF's nodes are rotated upright).
 pub fn spawn_export(
     recorded: &Recorded,
+    layout: Arc<FileLayout>,
+    up: solver::animation::export::UpAxis,
     path: PathBuf,
     repaint: impl Fn() + Send + Sync + 'static,
 ) -> Job<(PathBuf, u64)> {
@@ -365,12 +369,8 @@ pub fn spawn_export(
         "export",
         move || repaint(),
         move |progress| {
-/// `layout`: the file's layout to write onto (the recorded one, or the same mesh's layout with
-/// a texture loaded since); `up`: the file's up axis (a Z-up glTF's nodes are rotated upright).
             let is_pc2 = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("pc2"));
             if is_pc2 {
-    layout: Arc<FileLayout>,
-    up: solver::animation::export::UpAxis,
                 let pc2 = Pc2::from_recording(&recording, &layout.asset, &layout.vertex_map, fps)
                     .map_err(|e| format!("{}: {e}", path.display()))?;
                 write_pc2(&path, &pc2).map_err(|e| e.to_string())?;

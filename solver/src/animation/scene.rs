@@ -56,11 +56,11 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
+use crate::animation::export::UpAxis;
 use crate::animation::timeline::{AnimationError, Timeline};
 use crate::deform::arap::ArapConfig;
 use crate::deform::config::BaseConfig;
 use crate::deform::deformer::Method;
-use crate::animation::export::UpAxis;
 use crate::deform::handles::{Handles, HandlesError};
 use crate::deform::riders::LooseParts;
 use crate::deform::rig::{Falloff, FalloffCurve, Rig};
@@ -254,9 +254,6 @@ pub struct Scene {
     /// Stiff regions, soft handles, symmetry (version 2; optional, omitted when empty).
     #[serde(default, skip_serializing_if = "RigSpec::is_empty")]
     pub rig: RigSpec,
-}
-
-/// A scene with its mesh loaded and its handles resolved.
     /// A base-colour texture for a mesh with UVs whose file names none (an OBJ without its
     /// MTL), relative to the scene ([`Scene::apply_texture`]; optional, omitted when absent).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -266,6 +263,9 @@ pub struct Scene {
     /// in glTF's Y-up world ([`crate::animation::export::GltfExport::with_up_axis`]).
     #[serde(default, skip_serializing_if = "UpAxis::is_y")]
     pub up_axis: UpAxis,
+}
+
+/// A scene with its mesh loaded and its handles resolved.
 #[derive(Debug, Clone)]
 pub struct LoadedScene {
     pub scene: Scene,
@@ -304,11 +304,11 @@ impl Scene {
             editor: None,
             capture: None,
             rig: RigSpec::default(),
+            texture: None,
+            up_axis: UpAxis::Y,
         }
     }
 
-            texture: None,
-            up_axis: UpAxis::Y,
     /// Parses scene text; `file` names it in errors. Checks the version first (a missing or
     /// unknown version is its own error, before any other field is looked at), then the fields
     /// (errors carry line and column), then the timeline and the handles spec.
@@ -405,13 +405,6 @@ impl Scene {
     }
 
     /// [`Scene::resolve`] with the mesh's own references read under `policy`.
-        if let Some(t) = &self.texture {
-            let (texture_path, outside) = Scene::resolve_path(path, t)?;
-            if let Err(e) = Scene::apply_texture(&texture_path, &mut mesh.asset) {
-                mesh.asset.notices.push(e);
-            }
-            named.push(("texture", texture_path, outside));
-        }
     pub fn resolve_with(
         self,
         path: &Path,
@@ -422,6 +415,29 @@ impl Scene {
         let mut mesh = load_mesh_with(&mesh_path, policy)
             .map_err(|source| SceneError::Mesh { file: file.clone(), source })?;
         let handles =
+            self.resolve_handles(path, mesh.mesh.positions(), Some(&mesh.report.vertex_map))?;
+        let mut named = vec![("mesh", mesh_path.clone(), outside)];
+        if let Some(f) = &self.handles.file {
+            let (handle_path, outside) = Scene::resolve_path(path, f)?;
+            named.push(("handles", handle_path, outside));
+        }
+        if let Some(t) = &self.texture {
+            let (texture_path, outside) = Scene::resolve_path(path, t)?;
+            if let Err(e) = Scene::apply_texture(&texture_path, &mut mesh.asset) {
+                mesh.asset.notices.push(e);
+            }
+            named.push(("texture", texture_path, outside));
+        }
+        let from_file = path.is_file();
+        for (what, named, _) in named.iter().filter(|(_, _, outside)| *outside && from_file) {
+            mesh.asset.notices.push(format!(
+                "the scene's {what} {} is outside the scene's folder ({file})",
+                named.display()
+            ));
+        }
+        Ok(LoadedScene { scene: self, path: path.to_path_buf(), mesh_path, mesh, handles })
+    }
+
     /// Reads the image at `texture` (the scene's `texture`, resolved) and gives it to the
     /// untextured surface of `asset` ([`crate::io::Asset::set_base_color_texture`]: it must
     /// decode as a PNG or JPEG). Errors: one line naming the file, for a notice (the mesh is
@@ -435,22 +451,6 @@ impl Scene {
         let bytes = std::fs::read(texture).map_err(|e| why(e.to_string()))?;
         let name = texture.file_name().map(|n| n.to_string_lossy().into_owned());
         asset.set_base_color_texture(name.as_deref().unwrap_or("texture"), bytes).map_err(why)
-    }
-
-            self.resolve_handles(path, mesh.mesh.positions(), Some(&mesh.report.vertex_map))?;
-        let mut named = vec![("mesh", mesh_path.clone(), outside)];
-        if let Some(f) = &self.handles.file {
-            let (handle_path, outside) = Scene::resolve_path(path, f)?;
-            named.push(("handles", handle_path, outside));
-        }
-        let from_file = path.is_file();
-        for (what, named, _) in named.iter().filter(|(_, _, outside)| *outside && from_file) {
-            mesh.asset.notices.push(format!(
-                "the scene's {what} {} is outside the scene's folder ({file})",
-                named.display()
-            ));
-        }
-        Ok(LoadedScene { scene: self, path: path.to_path_buf(), mesh_path, mesh, handles })
     }
 
     /// The scene's handle groups for a mesh with rest `positions`, read from wherever

@@ -554,6 +554,7 @@ impl eframe::App for EditorApp {
         self.poll_solvers();
         self.close_requested(&ctx);
         self.poll_jobs();
+        self.log_status();
         self.poll_compare(&ctx);
         if self.session.playback.tick(now, &self.session.edit.timeline) {
             self.time_changed();
@@ -582,7 +583,6 @@ impl eframe::App for EditorApp {
                     ui.menu_button("Open recent", |ui| {
                         if self.store.recent.is_empty() {
                             ui.weak("nothing yet");
-        self.log_status();
                         }
                         for p in self.store.recent.clone() {
                             if ui.button(p.display().to_string()).clicked() {
@@ -636,6 +636,7 @@ impl eframe::App for EditorApp {
                         self.set_shading(s);
                     }
                 }
+                self.asset_view_controls(ui, &ctx);
                 ui.checkbox(&mut self.display.show_grid, "grid");
                 ui.separator();
                 if ui
@@ -664,7 +665,6 @@ impl eframe::App for EditorApp {
             let actions = timeline::panel(
                 ui,
                 &mut self.session.edit,
-                self.asset_view_controls(ui, &ctx);
                 &mut self.session.playback,
                 self.interaction.active_group,
                 &view,

@@ -435,6 +435,7 @@ impl GltfExport<'_> {
                 mesh: Some(gmesh),
                 name: Some(node_name.to_string()),
                 scale: (k != 1.0).then_some([k; 3]),
+                rotation: self.up.node_rotation(),
                 ..Default::default()
             });
             scene_nodes.push(node);
@@ -444,7 +445,6 @@ impl GltfExport<'_> {
                     b.data(&one_hot(&weights[mi]), total * total, C::F32, T::Scalar, None, None);
                 samplers.push(json::animation::Sampler {
                     extensions: None,
-                rotation: self.up.node_rotation(),
                     extras: None,
                     input,
                     interpolation: Valid(json::animation::Interpolation::Linear),

@@ -158,10 +158,6 @@ pub enum Encoding {
     Quantized,
 }
 
-/// What [`export_asset`] writes besides the asset itself.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct ExportSettings {
-    pub encoding: Encoding,
 /// Which axis of a mesh file points up. glTF's is +Y; a Z-up file (scans, CAD, Blender's
 /// own convention) is exported with a node rotation ([`GltfExport::with_up_axis`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
@@ -221,6 +217,10 @@ impl SolveSettings {
     }
 }
 
+/// What [`export_asset`] writes besides the asset itself.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ExportSettings {
+    pub encoding: Encoding,
     /// Write NORMAL deltas in the morph targets (recomputed normals in every frame).
     pub normals: bool,
     /// Allow sparse target accessors where they make the file smaller.
@@ -240,8 +240,6 @@ impl Default for ExportSettings {
 /// of the cleaned mesh) and the settings.
 #[derive(Debug, Clone, Copy)]
 pub struct AssetExport<'a> {
-    /// The asset's up axis ([`GltfExport::with_up_axis`]).
-    up: UpAxis,
     pub asset: &'a Asset,
     pub vertex_map: &'a [Option<u32>],
     pub recording: &'a Recording,
@@ -275,6 +273,8 @@ pub struct GltfExport<'a> {
     /// The coarsest grid of quantized target positions, world units (0: the 16-bit grid of
     /// every mesh and frame; `meshopt.rs` sets it).
     position_step: f64,
+    /// The asset's up axis ([`GltfExport::with_up_axis`]).
+    up: UpAxis,
     /// `asset.extras` ([`GltfExport::with_solve_settings`]); none without.
     asset_extras: Option<Box<serde_json::value::RawValue>>,
     root: json::Root,
@@ -408,7 +408,6 @@ impl<'a> GltfExport<'a> {
             check_finite(format!("frame {frame}"), p)?;
         }
         let mut prev = f32::NEG_INFINITY;
-            up: UpAxis::Y,
         for (frame, &time) in recording.times.iter().enumerate() {
             let t = time as f32;
             if !time.is_finite() || t <= prev || t < 0.0 {
@@ -440,6 +439,7 @@ impl<'a> GltfExport<'a> {
             node_scales,
             meshopt: false,
             position_step: 0.0,
+            up: UpAxis::Y,
             asset_extras: None,
             root: json::Root::default(),
             bin_len: 0,
@@ -468,6 +468,17 @@ impl<'a> GltfExport<'a> {
                 (j + DATA_URI_PREFIX.len() + self.bin_len.div_ceil(3) * 4) as u64
             }
         })
+    }
+
+    /// Exports an asset whose up axis is `up`: for [`UpAxis::Z`] every mesh node is rotated by
+    /// $-90°$ about $x$ (module doc), so that viewers, which take glTF's +Y as up, show it
+    /// upright; the vertex data is unchanged.
+    pub fn with_up_axis(mut self, up: UpAxis) -> Self {
+        self.up = up;
+        for node in self.root.nodes.iter_mut().filter(|n| n.mesh.is_some()) {
+            node.rotation = up.node_rotation();
+        }
+        self
     }
 
     /// Records the settings the recording was solved with in `asset.extras.bsarap`
@@ -530,17 +541,6 @@ impl<'a> GltfExport<'a> {
     }
 
     /// Writes the file atomically ([`write_atomic`]); returns its size in bytes.
-    /// Exports an asset whose up axis is `up`: for [`UpAxis::Z`] every mesh node is rotated by
-    /// $-90°$ about $x$ (module doc), so that viewers, which take glTF's +Y as up, show it
-    /// upright; the vertex data is unchanged.
-    pub fn with_up_axis(mut self, up: UpAxis) -> Self {
-        self.up = up;
-        for node in self.root.nodes.iter_mut().filter(|n| n.mesh.is_some()) {
-            node.rotation = up.node_rotation();
-        }
-        self
-    }
-
     pub fn write(
         &self,
         path: &FsPath,
