@@ -1,0 +1,78 @@
+//! `bsarap export SCENE.json --bones N -o OUT.glb`: the recording baked to `N` rigid bones
+//! (`solver::animation::skinning`, SSDR) and written as a glTF skin
+//! (`solver::animation::export::SkinnedExport`), with the fit's progress and error on stderr.
+
+use std::ops::ControlFlow;
+use std::path::Path;
+use std::time::Instant;
+
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use solver::animation::export::{GltfFormat, SkinnedExport};
+use solver::animation::recording::Recording;
+use solver::animation::skinning::{FitStage, SkinningConfig, fit_skinning};
+use solver::io::asset::Asset;
+
+/// What a bones export reports.
+pub struct BonesReport {
+    pub bytes: u64,
+}
+
+/// Fits `bones` bones to `recording` (poses of `rest`, the cleaned mesh) and writes the skin on
+/// the asset's layout to `path`. `quiet` hides the progress bar and the size line; the fit's
+/// time and error are always printed on stderr.
+#[allow(clippy::too_many_arguments)]
+pub fn write(
+    path: &Path,
+    format: GltfFormat,
+    asset: &Asset,
+    vertex_map: &[Option<u32>],
+    rest: &[[f64; 3]],
+    recording: &Recording,
+    bones: usize,
+    quiet: bool,
+) -> anyhow::Result<BonesReport> {
+    let config = SkinningConfig { bones, ..SkinningConfig::default() };
+    let target = if quiet { ProgressDrawTarget::hidden() } else { ProgressDrawTarget::stderr() };
+    let steps = (config.init_iterations + config.iterations) as u64;
+    let pb = ProgressBar::with_draw_target(Some(steps), target);
+    if let Ok(style) =
+        ProgressStyle::with_template("{prefix:>9} [{bar:40}] {pos}/{len} {msg} {elapsed}")
+    {
+        pb.set_style(style.progress_chars("=> "));
+    }
+    pb.set_prefix("bones");
+    pb.enable_steady_tick(std::time::Duration::from_millis(250));
+    let t0 = Instant::now();
+    let skin = fit_skinning(rest, &recording.frames, &config, &mut |p| {
+        pb.set_position(p.step as u64);
+        let stage = match p.stage {
+            FitStage::Clustering => "clustering",
+            FitStage::Alternating => "fitting",
+        };
+        pb.set_message(format!("{stage}, rms {:.3} % of the diagonal", 100.0 * p.rms));
+        ControlFlow::Continue(())
+    })?;
+    pb.finish_and_clear();
+    let fit_seconds = t0.elapsed().as_secs_f64();
+    let export = SkinnedExport::new(asset, vertex_map, &skin, &recording.times, format)?;
+    let size = export.file_size()?;
+    eprintln!(
+        "{} bones fitted in {fit_seconds:.1} s ({} alternations): error mean {:.3} %, max {:.3} % \
+         of the rest diagonal",
+        skin.n_bones(),
+        skin.iterations,
+        100.0 * skin.error.mean,
+        100.0 * skin.error.max
+    );
+    if !quiet {
+        eprintln!(
+            "writing {} ({:.2} MB, {} joints, {} keys)",
+            path.display(),
+            size as f64 / 1e6,
+            export.n_joints(),
+            recording.times.len()
+        );
+    }
+    let bytes = export.write(path)?;
+    Ok(BonesReport { bytes })
+}
