@@ -112,7 +112,7 @@ fn plan_of(
         return None;
     }
     if triangles.contains(&ai) {
-        return (stride == 4 && count % 3 == 0).then_some(Plan {
+        return (stride == 4 && count.is_multiple_of(3)).then_some(Plan {
             mode: Mode::Triangles,
             stride,
             count,

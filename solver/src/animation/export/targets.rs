@@ -303,6 +303,21 @@ mod tests {
     }
 
     #[test]
+    fn min_step_raises_the_weight_up_to_one() {
+        let d = vec![vec![[1e-3, -2e-4, 0.0], [0.0; 3]]];
+        let n = vec![Some(vec![[0.01, 0.0, 0.0], [0.0; 3]])];
+        // A grid of 1e-6: the weight becomes 32767e-6 (above s = 1e-3), the step 1e-6.
+        let (w, stored) = store_mesh_frame(Encoding::Quantized, 1.0, 1e-6, &d, &n);
+        assert!((w as f64 - 0.032767).abs() < 1e-7, "{w}");
+        let Values::I16(p) = &stored[0].0 else { panic!("not i16") };
+        assert_eq!(p[0], [1000, -200, 0]);
+        // A grid that would need a weight above 1 stops at 1; nothing moving stays at 0.
+        assert_eq!(store_mesh_frame(Encoding::Quantized, 1.0, 1.0, &d, &n).0, 1.0);
+        let still = store_mesh_frame(Encoding::Quantized, 1.0, 1e-6, &[vec![[0.0; 3]]], &[None]);
+        assert_eq!(still.0, 0.0);
+    }
+
+    #[test]
     fn normals_set_the_weight_and_position_precision_follows_it() {
         // Positions barely move, a normal turns by 37°: the weight is the normals' scale, the
         // positions' error stays within w k / 65534, the normals' within w / 254.
