@@ -140,7 +140,7 @@ fn bad_input_is_an_error_and_progress_can_cancel() {
     ));
     let zero = SkinningConfig { bones: 0, ..c };
     assert!(matches!(
-        fit_skinning(&rest, &[rest.clone()], &zero, go),
+        fit_skinning(&rest, std::slice::from_ref(&rest), &zero, go),
         Err(SkinningError::Bones { .. })
     ));
     let mut calls = 0;

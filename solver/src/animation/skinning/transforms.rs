@@ -112,7 +112,7 @@ fn update_frame(
             }
             w2 += w * w;
         }
-        if !(w2 > 0.0) {
+        if w2 <= 0.0 || w2.is_nan() {
             continue;
         }
         let (rb, qb) = (rs.map(|x| x / w2), qs.map(|x| x / w2));

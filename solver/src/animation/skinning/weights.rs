@@ -274,7 +274,7 @@ fn solve_on(support: &[usize], m: usize, h: &[f64], scratch: &mut Scratch) -> Op
     solve_in_place(l, b, Par::Seq, MemStack::new(stack));
     let (a, c) = rhs[..2 * n].split_at(n);
     let (sa, sc): (f64, f64) = (a.iter().sum(), c.iter().sum());
-    if !(sc.abs() > 0.0) || !sa.is_finite() {
+    if sc == 0.0 || !sc.is_finite() || !sa.is_finite() {
         return None;
     }
     let lambda = (sa - 1.0) / sc;
