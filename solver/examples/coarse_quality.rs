@@ -24,7 +24,7 @@
 //! `bsarap subdivide` keeps them, e.g. the mesh MESH was subdivided from), converged ARAP on
 //! COARSE_MESH for the same frame (from rest, its own selection from SELECTION) is measured
 //! against the reference at those shared vertices: how far the minimum moves with the
-//! resolution of the same surface alone (BENCHMARKS.md, "Dense held-out sets").
+//! resolution of the same surface alone (BENCHMARKS.md, "One pose at every resolution").
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use solver::deform::quality::{Reference, ReferenceEnergy, distances};
