@@ -558,6 +558,7 @@ mod tests {
     /// A circle with a start pose is that pose at t = 0 and after one period, and otherwise
     /// the rest-started circle composed with it; a scene without the field reads as before.
     #[test]
+    #[expect(clippy::needless_range_loop, reason = "entries of several matrices at once")]
     fn a_circle_starts_from_its_start_pose() {
         let start = StartPose {
             translation: [0.1, 0.2, -0.3],
