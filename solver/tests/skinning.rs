@@ -3,7 +3,7 @@
 //! added on an animation our solver recorded, valid weights, and the file as the Khronos
 //! validator, three.js (AnimationMixer) and Blender (an armature with its action) read it,
 //! frame by frame against the fit and the recording. Client skip rules: see clients.rs.
-#![allow(clippy::unwrap_used)]
+#![allow(clippy::unwrap_used, clippy::expect_used)]
 
 #[path = "support/clients.rs"]
 mod clients;
@@ -242,5 +242,162 @@ fn blender_imports_an_armature_with_the_animation() {
             assert!(to_fit <= 1e-4 * diag, "{path:?} frame {t}: {to_fit} from the fit");
             assert!(to_rec <= s.error.max * diag + 1e-4 * diag, "frame {t}: {to_rec}");
         }
+    }
+}
+
+/// World positions of every vertex of the single mesh of `bytes` (a `.glb`) at key `t`, as a
+/// glTF viewer computes them: a skinned mesh by $\sum_k w_k\,J_k\,\mathrm{IBM}_k\,x$ with the
+/// joints' world matrices $J_k$ posed by the animation; a morph-target mesh by its node's world
+/// matrix applied to the base plus the target deltas weighted as at key `t`.
+fn world_positions(bytes: &[u8], t: usize) -> Vec<[f64; 3]> {
+    use glam::{DMat4, DQuat, DVec3};
+    use gltf::animation::util::ReadOutputs;
+    let g = gltf::Gltf::from_slice(bytes).unwrap();
+    let blob = g.blob.as_deref().unwrap();
+    let doc = &g.document;
+    let mat = |m: [[f32; 4]; 4]| DMat4::from_cols_array_2d(&m.map(|c| c.map(f64::from)));
+    // Node-local matrices, posed at key t by the animation.
+    let mut local: Vec<DMat4> = doc.nodes().map(|n| mat(n.transform().matrix())).collect();
+    let mut weights_at: Vec<Option<Vec<f32>>> = vec![None; local.len()];
+    let anim = doc.animations().next().expect("one animation");
+    let mut trs: Vec<(Option<DVec3>, Option<DQuat>)> = vec![(None, None); local.len()];
+    for ch in anim.channels() {
+        let node = ch.target().node().index();
+        let r = ch.reader(|_| Some(blob));
+        match r.read_outputs().unwrap() {
+            ReadOutputs::Translations(it) => {
+                trs[node].0 = it.map(|v| DVec3::from_array(v.map(f64::from))).nth(t)
+            }
+            ReadOutputs::Rotations(it) => {
+                trs[node].1 = it.into_f32().map(|q| DQuat::from_array(q.map(f64::from))).nth(t)
+            }
+            ReadOutputs::MorphTargetWeights(w) => {
+                let all: Vec<f32> = w.into_f32().collect();
+                let n = all.len() / r.read_inputs().unwrap().count();
+                weights_at[node] = Some(all[t * n..(t + 1) * n].to_vec());
+            }
+            ReadOutputs::Scales(_) => panic!("no scale channels are written"),
+        }
+    }
+    for (node, (tr, rot)) in trs.into_iter().enumerate() {
+        if tr.is_some() || rot.is_some() {
+            let (s, r0, t0) = local[node].to_scale_rotation_translation();
+            local[node] =
+                DMat4::from_scale_rotation_translation(s, rot.unwrap_or(r0), tr.unwrap_or(t0));
+        }
+    }
+    let mut parent = vec![None; local.len()];
+    for n in doc.nodes() {
+        for c in n.children() {
+            parent[c.index()] = Some(n.index());
+        }
+    }
+    let world = |mut node: usize| {
+        let mut m = local[node];
+        while let Some(p) = parent[node] {
+            m = local[p] * m;
+            node = p;
+        }
+        m
+    };
+    let node = doc.nodes().find(|n| n.mesh().is_some()).expect("a mesh node");
+    let prim = node.mesh().unwrap().primitives().next().unwrap();
+    let reader = prim.reader(|_| Some(blob));
+    let base: Vec<DVec3> =
+        reader.read_positions().unwrap().map(|p| DVec3::from_array(p.map(f64::from))).collect();
+    let out: Vec<DVec3> = match node.skin() {
+        Some(skin) => {
+            let sr = skin.reader(|_| Some(blob));
+            let ibm: Vec<DMat4> = sr.read_inverse_bind_matrices().unwrap().map(mat).collect();
+            let joints: Vec<DMat4> =
+                skin.joints().zip(&ibm).map(|(j, ibm)| world(j.index()) * *ibm).collect();
+            let js = reader.read_joints(0).unwrap().into_u16();
+            let ws = reader.read_weights(0).unwrap().into_f32();
+            base.iter()
+                .zip(js.zip(ws))
+                .map(|(&x, (j, w))| {
+                    (0..4).map(|k| w[k] as f64 * joints[j[k] as usize].transform_point3(x)).sum()
+                })
+                .collect()
+        }
+        None => {
+            let w = weights_at[node.index()].clone().expect("a weights channel");
+            let mut p = base.clone();
+            for (target, &wk) in reader.read_morph_targets().zip(&w) {
+                if wk != 0.0 {
+                    for (p, d) in p.iter_mut().zip(target.0.unwrap()) {
+                        *p += wk as f64 * DVec3::from_array(d.map(f64::from));
+                    }
+                }
+            }
+            let m = world(node.index());
+            p.iter().map(|&x| m.transform_point3(x)).collect()
+        }
+    };
+    out.iter().map(|p| p.to_array()).collect()
+}
+
+/// The largest distance between two lists of points.
+fn max_distance(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
+    assert_eq!(a.len(), b.len());
+    let d = |p: &[f64; 3], q: &[f64; 3]| (0..3).map(|k| (p[k] - q[k]).powi(2)).sum::<f64>().sqrt();
+    a.iter().zip(b).map(|(p, q)| d(p, q)).fold(0.0, f64::max)
+}
+
+/// A Z-up asset baked to bones stands where its morph-target export stands: every skinned
+/// vertex at every key is the fitted frame turned by $-90°$ about $x$, $(x, y, z) \mapsto
+/// (x, z, -y)$, within the fit's error of the morph export's world positions (the recording
+/// turned the same way), as read back and as three.js draws it; the Khronos validator accepts
+/// the file; a Y-up export is not turned.
+#[test]
+fn a_z_up_skin_stands_where_the_morph_export_stands() {
+    use solver::animation::export::{AssetExport, Encoding, ExportSettings, GltfExport, UpAxis};
+    let dir = ScratchDir::new("skin-up-axis");
+    let (mesh, rec) = recording(5);
+    let s = fit(mesh.positions(), &rec.frames, 8);
+    let diag = mesh.bbox_diagonal();
+    let asset = Asset::bare(mesh.positions().to_vec(), mesh.triangles().to_vec());
+    let map: Vec<Option<u32>> = (0..mesh.n_vertices() as u32).map(Some).collect();
+    let up = |p: &[[f64; 3]]| -> Vec<[f64; 3]> { p.iter().map(|&[x, y, z]| [x, z, -y]).collect() };
+    let skin_bytes = |axis: UpAxis| {
+        let export = SkinnedExport::new(&asset, &map, &s, &rec.times, GltfFormat::Glb).unwrap();
+        export.with_up_axis(axis).to_bytes().unwrap()
+    };
+    let (z_skin, y_skin) = (skin_bytes(UpAxis::Z), skin_bytes(UpAxis::Y));
+    let settings = ExportSettings { encoding: Encoding::Float, ..Default::default() };
+    let input = AssetExport { asset: &asset, vertex_map: &map, recording: &rec, settings };
+    let z_morph = GltfExport::from_asset(&input, GltfFormat::Glb)
+        .unwrap()
+        .with_up_axis(UpAxis::Z)
+        .to_bytes(&mut |_, _| ControlFlow::Continue(()))
+        .unwrap();
+    let path = dir.join("z-up.glb");
+    std::fs::write(&path, &z_skin).unwrap();
+    for t in 0..rec.frames.len() {
+        let fitted = skinned(&mesh, &s, t);
+        let (skin, morph) = (world_positions(&z_skin, t), world_positions(&z_morph, t));
+        let to_fit = max_distance(&skin, &up(&fitted));
+        let to_morph = max_distance(&skin, &morph);
+        let morph_to_rec = max_distance(&morph, &up(&rec.frames[t]));
+        println!(
+            "key {t}: skin {to_fit:.1e} from the turned fit, {to_morph:.1e} from the morph \
+             export (fit max {:.1e}); morph {morph_to_rec:.1e} from the turned recording",
+            s.error.max * diag
+        );
+        assert!(to_fit <= 1e-4 * diag, "key {t}: {to_fit}");
+        assert!(morph_to_rec <= 1e-5 * diag, "key {t}: {morph_to_rec}");
+        assert!(to_morph <= s.error.max * diag + 1e-4 * diag, "key {t}: {to_morph}");
+        let y = world_positions(&y_skin, t);
+        assert!(max_distance(&y, &fitted) <= 1e-4 * diag, "key {t}: a Y-up skin moved");
+        assert!(max_distance(&y, &skin) > 0.1 * diag, "key {t}: Z-up was not turned");
+    }
+    solver::testing::khronos_accepts(&path);
+    let Some(report) = threejs_check(&path, &["--positions"]) else { return };
+    let samples = report["samples"].as_array().unwrap();
+    assert_eq!(samples.len(), rec.frames.len());
+    for (t, sample) in samples.iter().enumerate() {
+        let to_fit = max_error(&sample[0]["positions"], &up(&skinned(&mesh, &s, t)));
+        println!("three.js key {t}: {to_fit:.1e} from the turned fit");
+        assert!(to_fit <= 1e-4 * diag, "three.js key {t}: {to_fit}");
     }
 }

@@ -8,10 +8,17 @@
 //! influences of its welded mesh vertex (`vertex_map`); a file vertex outside the solved mesh
 //! (it stays at rest in every frame, [`Asset::layout_positions`]) is bound to an extra joint
 //! `rest` that never moves.
-//! - Node `armature` (identity) with one child joint per bone, `bone_000`, …, translated to the
-//!   bone's rest centre $c_j$ ([`Skinning::centers`]); the mesh nodes (identity, at the scene
-//!   root, as glTF asks of skinned meshes) all use skin 0, whose `inverseBindMatrices` are the
-//!   joints' inverse rest transforms $\mathrm{translate}(-c_j)$ and `skeleton` is `armature`.
+//! - Node `armature` with one child joint per bone, `bone_000`, …, translated to the bone's
+//!   rest centre $c_j$ ([`Skinning::centers`]); the mesh nodes (identity, at the scene root, as
+//!   glTF asks of skinned meshes) all use skin 0, whose `inverseBindMatrices` are the joints'
+//!   inverse rest transforms $\mathrm{translate}(-c_j)$ and `skeleton` is `armature`.
+//!   `armature` is the identity, but for a Z-up asset ([`SkinnedExport::with_up_axis`]) it
+//!   carries the morph-target export's node rotation $U$ ($-90°$ about $x$, [`UpAxis`]): glTF
+//!   ignores a skinned mesh node's own transform, so the rotation goes above the joints, whose
+//!   world matrices become $U G^t_j$, and a viewer draws $U \sum_k w_{vk} (\dots)$, where the
+//!   morph-target export of the same recording draws its frames (three.js, which applies a
+//!   skinned mesh node's transform once more at bind time, agrees because that node is the
+//!   identity).
 //! - One animation `recording`, `LINEAR`, one key per recorded frame at its time: bone $j$ in
 //!   frame $t$ has rotation $R^t_j$ (unit quaternion, sign chosen to follow the previous key so
 //!   that interpolation takes the short way) and translation $R^t_j c_j + T^t_j$, so the
@@ -35,7 +42,7 @@ use json::validation::{Checked::Valid, USize64};
 use super::document::{Builder, bounds, f32_bytes, push_materials};
 use super::layout::{Layout, validate};
 use super::{
-    CHUNK_BIN, CHUNK_JSON, DATA_URI_PREFIX, ExportError, GLB_MAGIC, GltfFormat, base64_into,
+    CHUNK_BIN, CHUNK_JSON, DATA_URI_PREFIX, ExportError, GLB_MAGIC, GltfFormat, UpAxis, base64_into,
 };
 use crate::animation::skinning::{MAX_INFLUENCES, Skinning};
 use crate::io::asset::Asset;
@@ -49,6 +56,8 @@ pub struct SkinnedExport<'a> {
     skinning: &'a Skinning,
     times: &'a [f64],
     format: GltfFormat,
+    /// The asset's up axis ([`SkinnedExport::with_up_axis`]).
+    up: UpAxis,
     layout: Layout,
     rest_normals: Vec<Vec<[f32; 3]>>,
     /// Some file vertex is outside the solved mesh: joint `rest` is written.
@@ -121,6 +130,7 @@ impl<'a> SkinnedExport<'a> {
             skinning,
             times,
             format,
+            up: UpAxis::Y,
             layout,
             rest_normals,
             rest_joint,
@@ -131,6 +141,21 @@ impl<'a> SkinnedExport<'a> {
         export.root = root;
         export.bin_len = len;
         Ok(export)
+    }
+
+    /// Exports an asset whose up axis is `up`: for [`UpAxis::Z`] node `armature`, the parent
+    /// of every joint, is rotated by $-90°$ about $x$ (module doc), so that viewers, which take
+    /// glTF's +Y as up, show the skinned mesh upright where the morph-target export
+    /// ([`super::GltfExport::with_up_axis`]) shows it; the vertex data is unchanged.
+    pub fn with_up_axis(mut self, up: UpAxis) -> Self {
+        self.up = up;
+        if let Some(skin) = self.root.skins.first()
+            && let Some(armature) = skin.skeleton
+            && let Some(node) = self.root.nodes.get_mut(armature.value())
+        {
+            node.rotation = up.node_rotation();
+        }
+        self
     }
 
     fn json_bytes(&self, uri: Option<String>) -> Result<Vec<u8>, ExportError> {
@@ -349,6 +374,7 @@ impl<'a> SkinnedExport<'a> {
         let armature = b.root.push(json::Node {
             name: Some("armature".into()),
             children: Some(joints.clone()),
+            rotation: self.up.node_rotation(),
             ..Default::default()
         });
         let skin = b.root.push(json::Skin {
