@@ -199,3 +199,38 @@ fn deform_writes_the_pose_on_the_file_layout_by_extension() {
     assert_ne!(code, 0);
     assert!(stderr.contains("posed.fbx") && stderr.contains(".ply"), "{stderr}");
 }
+
+/// `--bones N` writes a skin of N joints with one animation; a Z-up scene's armature carries
+/// the morph export's upright rotation (−90° about x), a Y-up one none.
+#[test]
+fn export_bones_writes_a_skin_upright_for_the_scene_up_axis() {
+    let d = dir("bones");
+    let s = scene(&d, 1);
+    let mut z_scene: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&s).unwrap()).unwrap();
+    z_scene["up_axis"] = "z".into();
+    let z = d.join("scenes").join("ball-z.json");
+    std::fs::write(&z, serde_json::to_string(&z_scene).unwrap()).unwrap();
+    for (scene, rotated) in [(&s, false), (&z, true)] {
+        let out = d.join("bones.glb");
+        let args = ["export", scene.to_str().unwrap(), "--bones", "4", "--frames", "3", "-o"];
+        let (code, _, stderr) = bsarap(&[&args[..], &[out.to_str().unwrap()]].concat());
+        assert_eq!(code, 0, "{stderr}");
+        assert!(stderr.contains("4 bones fitted"), "{stderr}");
+        let j = glb_json(&std::fs::read(&out).unwrap());
+        assert_eq!(j["skins"][0]["joints"].as_array().unwrap().len(), 4);
+        assert_eq!(j["animations"].as_array().unwrap().len(), 1);
+        let armature = j["skins"][0]["skeleton"].as_u64().unwrap() as usize;
+        let rotation = &j["nodes"][armature]["rotation"];
+        if rotated {
+            let h = std::f64::consts::FRAC_1_SQRT_2;
+            let q: Vec<f64> =
+                rotation.as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect();
+            assert!(
+                (q[0] + h).abs() < 1e-6 && q[1] == 0.0 && q[2] == 0.0 && (q[3] - h).abs() < 1e-6
+            );
+        } else {
+            assert!(rotation.is_null(), "{rotation}");
+        }
+    }
+}

@@ -243,6 +243,7 @@ pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
             let r = super::export_bones::write(
                 &a.output,
                 format,
+                scene.up_axis,
                 asset,
                 vertex_map,
                 mesh.positions(),

@@ -7,7 +7,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use solver::animation::export::{GltfFormat, SkinnedExport};
+use solver::animation::export::{GltfFormat, SkinnedExport, UpAxis};
 use solver::animation::recording::Recording;
 use solver::animation::skinning::{FitStage, SkinningConfig, fit_skinning};
 use solver::io::asset::Asset;
@@ -18,12 +18,13 @@ pub struct BonesReport {
 }
 
 /// Fits `bones` bones to `recording` (poses of `rest`, the cleaned mesh) and writes the skin on
-/// the asset's layout to `path`. `quiet` hides the progress bar and the size line; the fit's
+/// the asset's layout to `path`, upright for the scene's up axis `up`. `quiet` hides the progress bar and the size line; the fit's
 /// time and error are always printed on stderr.
 #[allow(clippy::too_many_arguments)]
 pub fn write(
     path: &Path,
     format: GltfFormat,
+    up: UpAxis,
     asset: &Asset,
     vertex_map: &[Option<u32>],
     rest: &[[f64; 3]],
@@ -54,7 +55,8 @@ pub fn write(
     })?;
     pb.finish_and_clear();
     let fit_seconds = t0.elapsed().as_secs_f64();
-    let export = SkinnedExport::new(asset, vertex_map, &skin, &recording.times, format)?;
+    let export =
+        SkinnedExport::new(asset, vertex_map, &skin, &recording.times, format)?.with_up_axis(up);
     let size = export.file_size()?;
     eprintln!(
         "{} bones fitted in {fit_seconds:.1} s ({} alternations): error mean {:.3} %, max {:.3} % \
