@@ -63,6 +63,11 @@ class BSARAP_PT_settings(bpy.types.Panel):
         col = self.layout.column()
         col.prop(s, "method")
         col.prop(s, "energy")
+        if s.energy == "smooth-rotations":
+            col.prop(s, "bending_length")
+            # the fraction in the mesh's own units, as the editor shows it
+            world = s.bending_length * solve.rest_diagonal(context.object)
+            col.label(text=f"Bending length = {world:.4g} units (object space)")
         col.prop(s, "tol")
         col.prop(s, "max_iters")
         col.prop(s, "anderson")

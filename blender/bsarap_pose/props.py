@@ -15,10 +15,10 @@ from bpy.props import (
     StringProperty,
 )
 
-try:  # The solver's own default; the add-on still registers without the wheel.
-    from bsarap import DEFAULT_MEMBRANE
+try:  # The solver's own defaults; the add-on still registers without the wheel.
+    from bsarap import DEFAULT_BENDING_LENGTH, DEFAULT_MEMBRANE, MAX_BENDING_LENGTH
 except ImportError:  # pragma: no cover - reported by the operators
-    DEFAULT_MEMBRANE = 0.5
+    DEFAULT_BENDING_LENGTH, DEFAULT_MEMBRANE, MAX_BENDING_LENGTH = 0.02, 0.5, 1.0
 
 #: The methods of ``bsarap.Deformer`` (the CLI's ``--method``), the editor's default first.
 METHOD_ITEMS = [
@@ -30,6 +30,12 @@ METHOD_ITEMS = [
 ENERGY_ITEMS = [
     ("spokes-and-rims", "Spokes and rims", "ARAP energy over each vertex's spokes and rims"),
     ("spokes", "Spokes", "ARAP energy over each vertex's spokes only"),
+    (
+        "smooth-rotations",
+        "Smooth rotations",
+        "Spokes and rims with the rotations smoothed over the bending length (SR-ARAP): "
+        "the pose does not move with the mesh's resolution",
+    ),
 ]
 
 IDENTITY = (1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0)
@@ -59,6 +65,13 @@ class BSARAP_ObjectSettings(bpy.types.PropertyGroup):
     )
     method: EnumProperty(name="Method", items=METHOD_ITEMS, default="bsarap-coarse")
     energy: EnumProperty(name="Energy", items=ENERGY_ITEMS, default="spokes-and-rims")
+    bending_length: FloatProperty(
+        name="Bending length",
+        description="Smooth rotations: the length over which the rotations are smoothed, a fraction "
+        "of the rest bounding-box diagonal (longer resists bending more)",
+        default=DEFAULT_BENDING_LENGTH, min=1e-4, max=MAX_BENDING_LENGTH,
+        soft_min=0.005, soft_max=0.1, step=0.1, precision=3,
+    )
     tol: FloatProperty(
         name="Tolerance",
         description="Relative energy decrease at which a solve stops (0: run Max iterations)",
@@ -92,6 +105,7 @@ class BSARAP_ObjectSettings(bpy.types.PropertyGroup):
         return {
             "method": self.method,
             "energy": self.energy,
+            "bending_length": float(self.bending_length),
             "tol": float(self.tol),
             "max_iters": int(self.max_iters),
             "anderson": int(self.anderson),

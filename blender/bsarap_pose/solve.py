@@ -38,12 +38,35 @@ class SolverState:
         self.last_ms = None  # the last update's time in the handler: solve + shape key write
         self.solves = 0
         self.last_solve_ms = None  # of which in Deformer.solve_targets
+        # the rest bounding-box diagonal: the unit of the fractions (bending length, smoothing)
+        self.diagonal = diagonal(rest)
+
+
+def diagonal(rest: np.ndarray) -> float:
+    """The bounding-box diagonal of positions ``(n, 3)``."""
+    return float(np.linalg.norm(np.ptp(rest, axis=0))) if len(rest) else 0.0
 
 
 #: object name -> SolverState
 _states: dict = {}
 #: object name -> the last message about it (shown in the panel; errors of the live handler).
 messages: dict = {}
+#: object name -> (topology fingerprint, rest diagonal) for objects with no solver yet (panel).
+_diagonals: dict = {}
+
+
+def rest_diagonal(obj) -> float:
+    """The rest bounding-box diagonal of ``obj``'s mesh in object space (the solver's unit of
+    length): the built solver's, else measured once per topology (the panel draws it often)."""
+    st = _states.get(obj.name)
+    fp = handles.topology_fingerprint(obj.data)
+    if st is not None and st.key[1] == fp:
+        return st.diagonal
+    cached = _diagonals.get(obj.name)
+    if cached is None or cached[0] != fp:
+        cached = (fp, diagonal(handles.rest_positions(obj.data)))
+        _diagonals[obj.name] = cached
+    return cached[1]
 
 
 def import_bsarap():
@@ -144,9 +167,11 @@ def forget(name=None) -> None:
     if name is None:
         _states.clear()
         messages.clear()
+        _diagonals.clear()
     else:
         _states.pop(name, None)
         messages.pop(name, None)
+        _diagonals.pop(name, None)
 
 
 def control_deltas(obj) -> np.ndarray:

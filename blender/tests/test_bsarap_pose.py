@@ -453,6 +453,97 @@ class Creature(unittest.TestCase):
         np.testing.assert_allclose(pose_of(obj)[idx], want, atol=1e-5)
 
 
+class SmoothRotations(unittest.TestCase):
+    """The smooth-rotations energy and its bending length, from the object's settings to
+    ``bsarap.Deformer``: the live pose is the direct Deformer's for the same handles, and it is
+    not the spokes-and-rims pose."""
+
+    @classmethod
+    def setUpClass(cls):
+        bpy.ops.wm.read_homefile(use_empty=True)
+        cls.obj = tube()
+        make_controls(cls.obj, ["bottom", "top"])
+        # a bend: the top ring moved sideways and turned, the bottom held
+        top = bpy.data.objects["top"]
+        top.location = Vector(top.location) + Vector((1.2, 0.0, -0.6))
+        top.rotation_euler = Euler((0.0, 0.7, 0.0))
+        bpy.context.view_layer.update()
+
+    def reference(self, **settings):
+        """A fresh Deformer (the Python API, not the extension) solving the extension's handle
+        targets for the controls' current motion."""
+        obj = self.obj
+        st = ext.solve.state(obj)
+        ref = bsarap.Deformer(st.rest, ext.handles.triangles(obj.data), st.labels, **settings)
+        return ref, ref.solve_targets(ext.solve.targets(st, ext.solve.control_deltas(obj)))
+
+    def pose_with(self, energy, bending_length, *, fresh=False):
+        """Switch the settings and run the live handler: one solve, from rest, of a solver
+        rebuilt for them (``fresh``: dropped first, for settings that do not change), as the
+        reference's."""
+        obj = self.obj
+        obj.bsarap.energy = energy
+        obj.bsarap.bending_length = bending_length
+        ext.solve.messages.pop(obj.name, None)
+        if fresh:
+            ext.solve.forget(obj.name)
+        ext.handlers.update_scene(bpy.context.scene)
+        bpy.context.view_layer.update()  # the handler again: nothing moved, no second solve
+        self.assertEqual(ext.solve.state(obj).solves, 1)
+        return pose_of(obj)
+
+    def test_bending_length_setting(self):
+        s = self.obj.bsarap
+        self.assertIn("smooth-rotations", [item.identifier for item in s.bl_rna.properties["energy"].enum_items])
+        prop = s.bl_rna.properties["bending_length"]
+        self.assertAlmostEqual(prop.default, bsarap.DEFAULT_BENDING_LENGTH, places=6)
+        self.assertAlmostEqual(prop.default, 0.02, places=6)
+        self.assertAlmostEqual(prop.soft_min, 0.005, places=6)
+        self.assertAlmostEqual(prop.soft_max, 0.1, places=6)
+        self.assertEqual(prop.hard_max, bsarap.MAX_BENDING_LENGTH)
+        self.assertGreater(prop.hard_min, 0.0)  # the solver refuses 0
+        # the panel's world value: the fraction times the rest diagonal in object space
+        st = ext.solve.state(self.obj)
+        diag = np.linalg.norm(np.ptp(st.rest, axis=0))
+        self.assertAlmostEqual(ext.solve.rest_diagonal(self.obj), diag, places=9)
+        self.assertAlmostEqual(diag, np.sqrt(1.0 + 1.0 + 16.0), places=5)  # the tube's box
+
+    def test_smooth_rotations_pose(self):
+        obj = self.obj
+        sar = self.pose_with("spokes-and-rims", 0.02, fresh=True)
+        _, want = self.reference()
+        np.testing.assert_allclose(sar, want, atol=1e-5)
+
+        sr = self.pose_with("smooth-rotations", 0.05)
+        st = ext.solve.state(obj)
+        self.assertIn("settings or groups changed", ext.solve.messages[obj.name])
+        self.assertEqual(st.deformer.energy, "smooth-rotations")
+        ell = float(obj.bsarap.bending_length)  # 0.05 as Blender's float32 stores it
+        self.assertAlmostEqual(st.deformer.bending_length, ell, places=12)
+        ref, want = self.reference(energy="smooth-rotations", bending_length=ell)
+        self.assertEqual(ref.energy, "smooth-rotations")
+        np.testing.assert_allclose(sr, want, atol=1e-5)
+        self.assertAlmostEqual(st.deformer.bending_length_world, ell * st.diagonal, places=9)
+        # the handles are where the controls put them, whatever the energy
+        for k in (0, 1):
+            idx, at = expected_handles(obj, st, k)
+            np.testing.assert_allclose(sr[idx], at, atol=1e-5)
+        # a different pose than spokes and rims: the free vertices differ by a visible amount
+        free = st.labels < 0
+        gap = np.linalg.norm(sr[free] - sar[free], axis=1).max()
+        self.assertGreater(gap, 1e-2 * st.diagonal, "smooth rotations gave the spokes-and-rims pose")
+
+        # another bending length rebuilds the solver and moves the pose
+        longer = self.pose_with("smooth-rotations", 0.1)
+        st = ext.solve.state(obj)
+        self.assertIn("settings or groups changed", ext.solve.messages[obj.name])
+        ell = float(obj.bsarap.bending_length)
+        self.assertAlmostEqual(st.deformer.bending_length, ell, places=12)
+        _, want = self.reference(energy="smooth-rotations", bending_length=ell)
+        np.testing.assert_allclose(longer, want, atol=1e-5)
+        self.assertGreater(np.abs(longer - sr).max(), 1e-2 * st.diagonal)
+
+
 class Unregister(unittest.TestCase):
     def test_zz_unregister(self):
         bpy.ops.wm.read_homefile(use_empty=True)
@@ -469,7 +560,7 @@ class Unregister(unittest.TestCase):
 def load_tests(loader, standard, _pattern):
     # Unregister last, whatever the order of the classes' names.
     suite = unittest.TestSuite()
-    for cls in (Package, Tube, BadInput, Controls, Creature, Unregister):
+    for cls in (Package, Tube, BadInput, Controls, SmoothRotations, Creature, Unregister):
         suite.addTests(loader.loadTestsFromTestCase(cls))
     return suite
 
