@@ -4,7 +4,7 @@
 //! 4× the vertices a level, the original vertices first), for the same handle motion, compared
 //! at the original vertices (mean and max distance over the bounding-box diagonal).
 //!
-//!     cargo run --release -p solver --example refinement -- MESH SELECTION [--levels K] [--motion bench|turn] [--ell F,F,...] [--cap N] [--tolerance T] [--sweeps-only]
+//!     cargo run --release -p solver --example refinement -- MESH SELECTION [--levels K] [--motion bench|turn] [--ell F,F,...] [--cap N] [--tolerance T] [--sweeps-only] [--write-poses DIR]
 //!
 //! SELECTION: a sphere selection (`bench/handles/*.json`): spheres select the same region of
 //! the surface at every resolution. Motions: `bench` is the benchmark's frame 5 (group 0 moved
@@ -17,7 +17,11 @@
 //! midpoint subdivision (nested iteration: one branch of the minima, module doc of
 //! `solver::deform::arap::rotation_solve` for why that start matters), and its pose is checked
 //! to be converged by its own stopping rule. `--sweeps-only` turns off the implicit rotation
-//! step (`Arap::set_implicit_rotation_step`), to measure what it gains.
+//! step (`Arap::set_implicit_rotation_step`), to measure what it gains. `--write-poses DIR`
+//! writes the converged poses of the coarsest and the finest level as OBJ,
+//! `DIR/STEM_ENERGY_xN.obj` with ENERGY `spokes-rims` or `srELL` (`sr0.02`) and N the vertex
+//! factor (1, 4^levels), and the rest mesh as `DIR/STEM_rest.obj`: the pictures of
+//! `bench/refinement_pictures.sh`.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use solver::deform::quality::distances;
@@ -45,6 +49,7 @@ fn main() {
         .collect();
     let cap: usize = option("--cap").map_or(3000, |v| v.parse().expect("--cap N"));
     let tolerance: f64 = option("--tolerance").map_or(1e-9, |v| v.parse().expect("--tolerance"));
+    let write_poses = option("--write-poses").map(std::path::PathBuf::from);
     assert!(args.len() == 2, "usage: refinement MESH SELECTION [options] (module doc)");
     let coarse = solver::io::load_mesh(std::path::Path::new(&args[0])).expect("mesh").mesh;
     let mut meshes = vec![coarse];
@@ -53,6 +58,15 @@ fn main() {
         meshes.push(finer);
     }
     let diag = meshes[0].bbox_diagonal();
+    let stem = std::path::Path::new(&args[0])
+        .file_stem()
+        .map_or("mesh".into(), |s| s.to_string_lossy().into_owned());
+    if let Some(dir) = &write_poses {
+        std::fs::create_dir_all(dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display()));
+        let path = dir.join(format!("{stem}_rest.obj"));
+        solver::io::write_obj(&path, meshes[0].positions(), meshes[0].triangles())
+            .unwrap_or_else(|e| panic!("{e}"));
+    }
     println!(
         "{}: {} vertices, subdivided {levels}× to {}; motion {motion}; tolerance {tolerance:e}, cap {cap}{}",
         args[0],
@@ -116,6 +130,16 @@ fn main() {
                     100.0 * g.max
                 ))
             );
+            if let Some(dir) = write_poses.as_ref().filter(|_| level == 0 || level == levels) {
+                let tag = match energy {
+                    Energy::SmoothRotations => format!("sr{ell}"),
+                    _ => "spokes-rims".to_string(),
+                };
+                let path = dir.join(format!("{stem}_{tag}_x{}.obj", 4usize.pow(level as u32)));
+                solver::io::write_obj(&path, &pose, mesh.triangles())
+                    .unwrap_or_else(|e| panic!("{e}"));
+                println!("{name}: level {level} written to {}", path.display());
+            }
             poses.push(pose);
         }
         if levels > 1 {
