@@ -19,6 +19,7 @@ import statistics
 import sys
 import tempfile
 import time
+import types
 import unittest
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -507,6 +508,43 @@ class SmoothRotations(unittest.TestCase):
         diag = np.linalg.norm(np.ptp(st.rest, axis=0))
         self.assertAlmostEqual(ext.solve.rest_diagonal(self.obj), diag, places=9)
         self.assertAlmostEqual(diag, np.sqrt(1.0 + 1.0 + 16.0), places=5)  # the tube's box
+
+    def test_panel_shows_bending_length(self):
+        """The Solver panel's draw (with a recording layout: no window headless) offers the
+        bending length only for smooth rotations, with its value in the mesh's units."""
+        obj = self.obj
+
+        class Layout:
+            def __init__(self):
+                self.props, self.labels = [], []
+
+            def column(self, **_kw):
+                return self
+
+            def prop(self, _data, name, **_kw):
+                self.props.append(name)
+
+            def label(self, text="", **_kw):
+                self.labels.append(text)
+
+        def draw():
+            layout = Layout()
+            ext.panel.BSARAP_PT_settings.draw(types.SimpleNamespace(layout=layout), types.SimpleNamespace(object=obj))
+            return layout
+
+        energy, ell = obj.bsarap.energy, obj.bsarap.bending_length
+        try:
+            obj.bsarap.energy = "spokes-and-rims"
+            self.assertNotIn("bending_length", draw().props)
+            obj.bsarap.energy = "smooth-rotations"
+            obj.bsarap.bending_length = 0.03
+            layout = draw()
+            self.assertIn("bending_length", layout.props)
+            diag = np.linalg.norm(np.ptp(ext.solve.state(obj).rest, axis=0))
+            world = f"{obj.bsarap.bending_length * diag:.4g}"
+            self.assertTrue(any(world in t for t in layout.labels), (world, layout.labels))
+        finally:
+            obj.bsarap.energy, obj.bsarap.bending_length = energy, ell
 
     def test_smooth_rotations_pose(self):
         obj = self.obj

@@ -1,5 +1,5 @@
-//! Long jobs off the UI thread: recording a timeline, writing glTF, and the mesh's own
-//! precomputation right after loading.
+//! Long jobs off the UI thread: recording a timeline, writing glTF (or baking it to bones,
+//! `bones.rs`), and the mesh's own precomputation right after loading.
 //!
 //! Each job runs on its own thread (panics caught), publishes its progress through atomics the
 //! UI reads every frame, stops when its cancel flag is set, and hands its result back over a
@@ -28,6 +28,9 @@ use solver::{
 use super::loader::FileLayout;
 use super::pose::{GroupPose, handle_targets};
 use super::shape::Shape;
+
+mod bones;
+pub use bones::{BakeView, Baked, Baking, spawn_bake};
 
 /// A finished recording with what the UI shows about it.
 pub struct Recorded {

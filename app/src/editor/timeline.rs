@@ -123,6 +123,10 @@ pub enum TimelineAction {
     Record,
     CancelRecord,
     ExportGltf,
+    /// The "bake to bones" choice of the next glTF export changed.
+    SetBake(BakeChoice),
+    /// Stop the bake to bones under way (nothing is written).
+    CancelBake,
     /// Show recorded frames instead of the live solve (or back).
     ShowRecording(bool),
     /// A typed value was refused (the edit was reverted); the message names the field.
@@ -139,6 +143,43 @@ pub struct RecordingView {
     pub showing: bool,
     /// An export in progress: `(done, total)` frames written.
     pub exporting: Option<(usize, usize)>,
+    /// Whether a glTF export bakes the recording to bones, and how many.
+    pub bake: BakeChoice,
+    /// A bake to bones in progress.
+    pub baking: Option<super::jobs::BakeView>,
+}
+
+/// "Bake to bones" on a glTF export: fit `bones` rigid bones to the recording
+/// (`solver::animation::skinning`) and write a skin instead of one morph target per frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct BakeChoice {
+    pub on: bool,
+    /// 1 to `solver::animation::skinning::MAX_BONES`.
+    pub bones: usize,
+}
+
+impl Default for BakeChoice {
+    fn default() -> BakeChoice {
+        BakeChoice {
+            on: false,
+            bones: solver::animation::skinning::SkinningConfig::default().bones,
+        }
+    }
+}
+
+/// The progress bar's text of a bake under way.
+fn bake_text(b: &super::jobs::BakeView) -> String {
+    match b.stage {
+        "writing" => format!("{} bones: writing", b.bones),
+        stage if b.steps == 0 => format!("{} bones: {stage}…", b.bones),
+        stage => format!(
+            "{} bones: {stage} {}/{}, rms {:.3} % of the diagonal",
+            b.bones,
+            b.step,
+            b.steps,
+            100.0 * b.rms
+        ),
+    }
 }
 
 /// Draws the timeline panel. `active` is the selected handle group.
@@ -226,8 +267,20 @@ pub fn panel(
             if ui.checkbox(&mut showing, "show recording").changed() {
                 actions.push(TimelineAction::ShowRecording(showing));
             }
-            match recording.exporting {
-                Some((done, total)) => {
+            match (&recording.baking, recording.exporting) {
+                (Some(b), _) => {
+                    let frac = if b.steps == 0 { 0.0 } else { b.step as f32 / b.steps as f32 };
+                    let frac = if b.stage == "writing" { 1.0 } else { frac };
+                    ui.add(egui::ProgressBar::new(frac).text(bake_text(b)).desired_width(320.0));
+                    if ui
+                        .button("Cancel")
+                        .on_hover_text("stop the fit; nothing is written")
+                        .clicked()
+                    {
+                        actions.push(TimelineAction::CancelBake);
+                    }
+                }
+                (None, Some((done, total))) => {
                     let frac = if total == 0 { 0.0 } else { done as f32 / total as f32 };
                     ui.add(
                         egui::ProgressBar::new(frac)
@@ -235,12 +288,34 @@ pub fn panel(
                             .desired_width(160.0),
                     );
                 }
-                None => {
-                    if ui
-                        .button(format!("Export glTF… ({:.1} MB)", bytes as f64 / 1e6))
-                        .on_hover_text("one morph target per frame; size of the .glb")
-                        .clicked()
-                    {
+                (None, None) => {
+                    let mut bake = recording.bake;
+                    let max = solver::animation::skinning::MAX_BONES;
+                    ui.checkbox(&mut bake.on, "bake to bones").on_hover_text(
+                        "Fit rigid bones to the recording (4 per vertex) and write a glTF \
+                         skin with one animation instead of one morph target per frame: far \
+                         smaller, and editable in Blender. The fit's error is reported.",
+                    );
+                    if bake.on {
+                        let l = ui.label("bones").id;
+                        ui.add(egui::DragValue::new(&mut bake.bones).range(1..=max).speed(0.2))
+                            .labelled_by(l);
+                    }
+                    if bake != recording.bake {
+                        actions.push(TimelineAction::SetBake(bake));
+                    }
+                    let (text, hint) = if recording.bake.on {
+                        (
+                            format!("Export glTF… ({} bones)", recording.bake.bones),
+                            "a skin of rigid bones; size and fit error once written",
+                        )
+                    } else {
+                        (
+                            format!("Export glTF… ({:.1} MB)", bytes as f64 / 1e6),
+                            "one morph target per frame; size of the .glb",
+                        )
+                    };
+                    if ui.button(text).on_hover_text(hint).clicked() {
                         actions.push(TimelineAction::ExportGltf);
                     }
                 }

@@ -226,7 +226,13 @@ impl EditorApp {
         self.store.persist.clone().map(|p| (p, self.store.snapshot.clone()))
     }
 
+    /// A glTF or point-cache export, or a bake to bones, is under way.
     pub fn is_exporting(&self) -> bool {
-        self.jobs.export.is_some()
+        self.jobs.export.is_some() || self.jobs.bake.is_some()
+    }
+
+    /// Whether the next glTF export bakes to bones, and how many.
+    pub fn bake_choice(&self) -> crate::editor::timeline::BakeChoice {
+        self.jobs.bake_choice
     }
 }

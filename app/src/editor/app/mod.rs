@@ -38,7 +38,7 @@ mod viewport;
 
 use std::path::{Path, PathBuf};
 
-use super::jobs::{Job, Preparing, Recorded};
+use super::jobs::{Baking, Job, Preparing, Recorded};
 use super::loader::LoadJob;
 use super::renderer;
 use super::solver_thread::Slot;
@@ -151,6 +151,9 @@ struct Jobs {
     /// The kept recording.
     recorded: Option<Recorded>,
     export: Option<Job<(PathBuf, u64)>>,
+    /// A glTF export baked to bones (`jobs::spawn_bake`), and whether the next one bakes.
+    bake: Option<Baking>,
+    bake_choice: crate::editor::timeline::BakeChoice,
     /// Quality of the two side-by-side results against converged ARAP, with the (scene, pose)
     /// generations it was computed for.
     compare: Option<((u64, u64), Job<SideBySideQuality>)>,

@@ -721,7 +721,7 @@ impl eframe::App for EditorApp {
         let spent = now.elapsed().as_secs_f32() * 1e3;
         self.display.ui_ms =
             if self.display.ui_ms == 0.0 { spent } else { 0.9 * self.display.ui_ms + 0.1 * spent };
-        if self.jobs.record.is_some() || self.jobs.export.is_some() {
+        if self.jobs.record.is_some() || self.jobs.export.is_some() || self.jobs.bake.is_some() {
             ctx.request_repaint_after(Duration::from_millis(100));
         }
         if self.jobs.loading.is_some()

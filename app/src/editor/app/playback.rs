@@ -67,14 +67,15 @@ impl EditorApp {
         }
     }
 
-    /// Writes the kept recording to `path` on a worker thread: `.glb`/`.gltf` (the whole asset)
-    /// or `.pc2` (a point cache on the file's vertex order).
+    /// Writes the kept recording to `path` on a worker thread: `.glb`/`.gltf` (the whole asset,
+    /// one morph target per frame, or baked to bones when "bake to bones" is on) or `.pc2` (a
+    /// point cache on the file's vertex order).
     pub fn export_gltf(&mut self, ctx: &egui::Context, path: PathBuf) {
         let Some(rec) = &self.jobs.recorded else {
             self.error = Some("record the timeline before exporting".into());
             return;
         };
-        if self.jobs.export.is_some() {
+        if self.jobs.export.is_some() || self.jobs.bake.is_some() {
             return;
         }
         // The same mesh's layout as it is now: a texture loaded after recording is exported.
@@ -84,8 +85,29 @@ impl EditorApp {
         };
         let up = self.session.file_view.up_axis;
         let c = ctx.clone();
+        let is_pc2 = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("pc2"));
+        let bake = self.jobs.bake_choice;
+        if bake.on && !is_pc2 {
+            let repaint = move || c.request_repaint();
+            self.jobs.bake = Some(jobs::spawn_bake(rec, layout, up, bake.bones, path, repaint));
+            return;
+        }
         self.jobs.export =
             Some(jobs::spawn_export(rec, layout, up, path, move || c.request_repaint()));
+    }
+
+    /// Whether the next glTF export bakes the recording to bones, and how many
+    /// ([`crate::editor::timeline::BakeChoice`]; the bone count is kept to 1..=`MAX_BONES`).
+    pub fn set_bake_choice(&mut self, mut choice: crate::editor::timeline::BakeChoice) {
+        choice.bones = choice.bones.clamp(1, solver::animation::skinning::MAX_BONES);
+        self.jobs.bake_choice = choice;
+    }
+
+    /// Stops the bake to bones under way; it reports "cancelled" and writes nothing.
+    pub fn cancel_bake(&mut self) {
+        if let Some(b) = &self.jobs.bake {
+            b.job.cancel();
+        }
     }
 
     pub(super) fn poll_jobs(&mut self) {
@@ -125,6 +147,18 @@ impl EditorApp {
                 Err(e) => self.error = Some(e),
             }
         }
+        if let Some(r) = self.jobs.bake.as_ref().and_then(|b| b.job.try_finish()) {
+            let cancelled =
+                self.jobs.bake.as_ref().is_some_and(|b| {
+                    b.job.progress.cancel.load(std::sync::atomic::Ordering::Relaxed)
+                });
+            self.jobs.bake = None;
+            match r {
+                Ok(baked) => self.info = Some(baked.summary()),
+                Err(e) if cancelled => self.info = Some(e),
+                Err(e) => self.error = Some(e),
+            }
+        }
     }
 
     pub(super) fn recording_view(&self) -> RecordingView {
@@ -139,6 +173,8 @@ impl EditorApp {
             }),
             showing: self.display.show_recording,
             exporting: self.jobs.export.as_ref().map(|j| j.progress.get()),
+            bake: self.jobs.bake_choice,
+            baking: self.jobs.bake.as_ref().map(jobs::Baking::view),
         }
     }
 
@@ -157,6 +193,8 @@ impl EditorApp {
                 TimelineAction::Record => self.start_recording(ctx),
                 TimelineAction::CancelRecord => self.cancel_recording(),
                 TimelineAction::ExportGltf => self.start_dialog(ctx, DialogKind::ExportGltf),
+                TimelineAction::SetBake(choice) => self.set_bake_choice(choice),
+                TimelineAction::CancelBake => self.cancel_bake(),
                 TimelineAction::Rejected(e) => self.error = Some(format!("value refused: {e}")),
                 TimelineAction::ShowRecording(on) => {
                     self.display.show_recording = on;
