@@ -512,14 +512,13 @@ fn a_timeline_path_drives_the_handles_and_the_recording_matches_the_headless_exp
     h.state_mut().save_scene(&scene_path).unwrap();
     let loaded = solver::animation::scene::Scene::load(&scene_path).unwrap();
     let sc = &loaded.scene;
-    let mut d = solver::Deformer::with_base(
-        sc.method,
-        &loaded.mesh.mesh,
-        &loaded.handles,
-        &sc.arap,
-        &sc.base,
-    )
-    .unwrap();
+    let options = solver::DeformerOptions {
+        method: sc.method,
+        config: sc.arap,
+        base: sc.base,
+        ..Default::default()
+    };
+    let mut d = solver::Deformer::new(&loaded.mesh.mesh, &loaded.handles, options).unwrap();
     let headless = solver::animation::recording::record(
         &mut d,
         &loaded.mesh.mesh,

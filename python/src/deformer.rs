@@ -10,8 +10,8 @@ use solver::deform::config::MAX_FINE_ITERATIONS;
 use solver::io::Asset;
 use solver::linalg::rotation::Mat3;
 use solver::{
-    ArapConfig, BaseConfig, ComponentMode, Deformer, GroupTransform, Handles, LooseParts, Mesh,
-    Method, handle_targets,
+    ArapConfig, BaseConfig, ComponentMode, Deformer, DeformerOptions, GroupTransform, Handles,
+    LooseParts, Mesh, Method, handle_targets,
 };
 
 use crate::convert::{
@@ -51,7 +51,14 @@ impl NativeDeformer {
     ) -> PyResult<NativeDeformer> {
         let deformer = py
             .allow_threads(|| {
-                Deformer::with_loose_parts(method, &mesh, &handles, &config, &base, &parts)
+                let options = DeformerOptions {
+                    method,
+                    config,
+                    base,
+                    loose_parts: Some(&parts),
+                    ..Default::default()
+                };
+                Deformer::new(&mesh, &handles, options)
             })
             .map_err(err)?;
         Ok(NativeDeformer { deformer, mesh, handles, config, last_targets: None, layout, method })

@@ -20,7 +20,7 @@ use std::time::Instant;
 use solver::deform::selection::load_selection;
 use solver::geometry::shapes::subdivide;
 use solver::io::{load_mesh, write_obj};
-use solver::{ArapConfig, BaseConfig, Deformer, GroupTransform, Method, handle_targets};
+use solver::{ArapConfig, Deformer, DeformerOptions, GroupTransform, Method, handle_targets};
 
 /// Peak and current resident memory of this process in MiB (`VmHWM`, `VmRSS`).
 fn memory_mib() -> (f64, f64) {
@@ -116,7 +116,11 @@ fn main() -> Result<(), String> {
         reset_peak();
         let (_, rss_before) = memory_mib();
         let t = Instant::now();
-        let built = Deformer::with_base(method, &mesh, &handles, &config, &BaseConfig::default());
+        let built = Deformer::new(
+            &mesh,
+            &handles,
+            DeformerOptions { method, config, ..Default::default() },
+        );
         let precompute_ms = ms(t);
         let (pre_peak, _) = memory_mib();
         let mut deformer = match built {

@@ -29,7 +29,8 @@
 
 use solver::deform::quality::{Reference, ReferenceEnergy, distances};
 use solver::{
-    Acceleration, ArapConfig, BaseConfig, Deformer, Energy, GroupTransform, Method, handle_targets,
+    Acceleration, ArapConfig, BaseConfig, Deformer, DeformerOptions, Energy, GroupTransform,
+    Method, handle_targets,
 };
 
 fn main() {
@@ -107,8 +108,9 @@ fn main() {
             acceleration: Acceleration::Anderson { window: 5 },
             ..Default::default()
         };
-        let mut d = Deformer::with_base(Method::BsArapCoarse, &mesh, &handles, &config, &base)
-            .expect("precompute");
+        let options =
+            DeformerOptions { method: Method::BsArapCoarse, config, base, ..Default::default() };
+        let mut d = Deformer::new(&mesh, &handles, options).expect("precompute");
         let mut iterations = 0;
         let mut moving = 0.0;
         for f in 1..=5 {

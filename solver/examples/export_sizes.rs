@@ -25,7 +25,7 @@ use solver::deform::selection::load_selection;
 use solver::geometry::shapes::subdivide;
 use solver::io::{Asset, load_mesh};
 use solver::testing::gltf_decode::played_error_reordered;
-use solver::{ArapConfig, BaseConfig, Deformer, Handles, Mesh, Method};
+use solver::{ArapConfig, BaseConfig, Deformer, DeformerOptions, Handles, Mesh, Method};
 
 /// What is recorded: the mesh, its file layout and the animation.
 struct Input {
@@ -113,9 +113,14 @@ fn main() -> Result<(), String> {
         }
     };
     let t = Instant::now();
+    let options = DeformerOptions {
+        method: input.method,
+        config: input.config,
+        base: input.base,
+        ..Default::default()
+    };
     let mut deformer =
-        Deformer::with_base(input.method, &input.mesh, &input.handles, &input.config, &input.base)
-            .map_err(|e| e.to_string())?;
+        Deformer::new(&input.mesh, &input.handles, options).map_err(|e| e.to_string())?;
     let recording = record(
         &mut deformer,
         &input.mesh,

@@ -12,7 +12,9 @@
 //! ARAP energy of its result measured on the mesh.
 
 use solver::deform::quality::Reference;
-use solver::{ArapConfig, BaseConfig, Deformer, Energy, GroupTransform, Method, handle_targets};
+use solver::{
+    BaseConfig, Deformer, DeformerOptions, Energy, GroupTransform, Method, handle_targets,
+};
 use std::time::Instant;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -73,14 +75,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let base =
             BaseConfig { coarse_vertices: Some(cv.max(16)), fine_iterations, ..Default::default() };
         let t = Instant::now();
-        let mut d =
-            match Deformer::with_base(method, &mesh, &handles, &ArapConfig::default(), &base) {
-                Ok(d) => d,
-                Err(e) => {
-                    println!("| {name} | failed: {e} | | | | | |");
-                    continue;
-                }
-            };
+        let mut d = match Deformer::new(
+            &mesh,
+            &handles,
+            DeformerOptions { method, base, ..Default::default() },
+        ) {
+            Ok(d) => d,
+            Err(e) => {
+                println!("| {name} | failed: {e} | | | | | |");
+                continue;
+            }
+        };
         let precompute = t.elapsed().as_secs_f64() * 1e3;
         let t = Instant::now();
         let s = d.solve(&targets)?;

@@ -22,7 +22,7 @@ use solver::animation::export::export_gltf;
 use solver::animation::recording::{Recording, record};
 use solver::animation::timeline::{CircularPath, GroupPath, Path, Timeline};
 use solver::testing::ScratchDir;
-use solver::{ArapConfig, Deformer, Mesh, Method};
+use solver::{ArapConfig, Deformer, DeformerOptions, Mesh, Method};
 
 /// A capped sphere whose top cap circles and whose side patch stays: every frame differs.
 fn recording(n_frames: usize) -> (Mesh, Recording) {
@@ -40,7 +40,12 @@ fn recording(n_frames: usize) -> (Mesh, Recording) {
         }],
     };
     let config = ArapConfig { tolerance: 1e-5, max_iterations: 50, ..Default::default() };
-    let mut d = Deformer::new(Method::BsArap, &mesh, &handles, &config).unwrap();
+    let mut d = Deformer::new(
+        &mesh,
+        &handles,
+        DeformerOptions { method: Method::BsArap, config, ..Default::default() },
+    )
+    .unwrap();
     let rec = record(&mut d, &mesh, &handles, &timeline, n_frames, &config, &mut |_, _| {
         ControlFlow::Continue(())
     })

@@ -28,7 +28,7 @@ use solver::geometry::topology::connected_components;
 use solver::io::LoadedMesh;
 use solver::testing::ScratchDir;
 use solver::testing::gltf_decode::{parse, read};
-use solver::{ArapConfig, BaseConfig, Deformer, Handles, Method};
+use solver::{ArapConfig, Deformer, DeformerOptions, Handles, Method};
 
 /// Recorded frames (times 0, 0.2, …, 1 s).
 const FRAMES: usize = 6;
@@ -101,9 +101,12 @@ fn turn_head(loaded: &LoadedMesh) -> Recording {
     };
     let config = ArapConfig { tolerance: 1e-4, max_iterations: 30, ..Default::default() };
     let mesh = &loaded.mesh;
-    let mut d =
-        Deformer::with_base(Method::BsArapCoarse, mesh, &handles, &config, &BaseConfig::default())
-            .unwrap();
+    let mut d = Deformer::new(
+        mesh,
+        &handles,
+        DeformerOptions { method: Method::BsArapCoarse, config, ..Default::default() },
+    )
+    .unwrap();
     record(
         &mut d,
         mesh,

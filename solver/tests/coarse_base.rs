@@ -8,8 +8,8 @@ use std::sync::Arc;
 use solver::deform::coarse::CoarseBsArap;
 use solver::deform::coarse::base::CoarseBase;
 use solver::{
-    ArapConfig, BaseConfig, Deformer, GroupTransform, Handles, LooseParts, MeshCache, Method,
-    SolveError, handle_targets,
+    ArapConfig, BaseConfig, Deformer, DeformerOptions, GroupTransform, Handles, LooseParts,
+    MeshCache, Method, SolveError, handle_targets,
 };
 
 fn two_handle_sets() -> (solver::Mesh, Handles, Handles) {
@@ -78,16 +78,14 @@ fn the_cache_builds_once_per_mesh_and_settings() {
     let first = cache.prepare(Method::BsArapCoarse, &mesh, &settings).unwrap().unwrap();
     let parts = LooseParts::default();
     for handles in [&a, &b] {
-        Deformer::with_cache(
-            Method::BsArapCoarse,
-            &mesh,
-            handles,
-            &config,
-            &settings,
-            &parts,
-            &mut cache,
-        )
-        .unwrap();
+        let options = DeformerOptions {
+            method: Method::BsArapCoarse,
+            config,
+            base: settings,
+            loose_parts: Some(&parts),
+            cache: Some(&mut cache),
+        };
+        Deformer::new(&mesh, handles, options).unwrap();
         assert!(Arc::ptr_eq(cache.coarse_base().unwrap(), &first), "reused");
     }
     let other = BaseConfig { coarse_vertices: Some(200), ..settings };

@@ -4,7 +4,8 @@
 use solver::geometry::shapes::icosphere;
 use solver::linalg::rotation::{axis_angle, mul_vec};
 use solver::{
-    ArapConfig, BaseConfig, Deformer, Energy, GroupTransform, Handles, Mesh, Method, handle_targets,
+    ArapConfig, BaseConfig, Deformer, DeformerOptions, Energy, GroupTransform, Handles, Mesh,
+    Method, handle_targets,
 };
 
 fn bar(level: u32) -> (Mesh, Handles) {
@@ -35,7 +36,12 @@ fn check(
     for method in Method::ALL {
         for energy in [Energy::SpokesAndRims, Energy::Spokes] {
             let cfg = ArapConfig { energy, ..config };
-            let mut d = Deformer::with_base(method, mesh, handles, &cfg, &base).unwrap();
+            let mut d = Deformer::new(
+                mesh,
+                handles,
+                DeformerOptions { method, config: cfg, base, ..Default::default() },
+            )
+            .unwrap();
             let stats = d.solve(&targets).unwrap();
             f(method, energy, d.positions(), &stats, &targets);
         }
@@ -154,7 +160,9 @@ fn components_without_handles_follow_or_stay_pinned() {
     for method in Method::ALL {
         let config = ArapConfig::default();
         let pin = solver::LooseParts::pin_all();
-        let mut d = Deformer::with_loose_parts(method, &two, &h2, &config, &base, &pin).unwrap();
+        let options =
+            DeformerOptions { method, config, base, loose_parts: Some(&pin), ..Default::default() };
+        let mut d = Deformer::new(&two, &h2, options).unwrap();
         d.solve(&targets).unwrap();
         assert!(d.positions()[copy.clone()] == rest[copy.clone()], "{method:?}: pinned copy moved");
         assert!(d.notice().unwrap().contains("1 pinned"));

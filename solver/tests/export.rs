@@ -11,7 +11,7 @@ use solver::animation::timeline::{
     CircularPath, GroupPath, Interpolation, Key, KeyframedPath, Path, Timeline,
 };
 use solver::testing::ScratchDir;
-use solver::{ArapConfig, Deformer, Handles, Mesh, Method};
+use solver::{ArapConfig, Deformer, DeformerOptions, Handles, Mesh, Method};
 
 fn temp_dir(name: &str) -> ScratchDir {
     ScratchDir::new(&format!("export-{name}"))
@@ -57,7 +57,9 @@ fn timeline() -> Timeline {
 fn recording(method: Method, n_frames: usize) -> (Mesh, Recording) {
     let (mesh, handles) = setup();
     let config = ArapConfig { tolerance: 1e-5, max_iterations: 50, ..Default::default() };
-    let mut d = Deformer::new(method, &mesh, &handles, &config).unwrap();
+    let mut d =
+        Deformer::new(&mesh, &handles, DeformerOptions { method, config, ..Default::default() })
+            .unwrap();
     let mut calls = Vec::new();
     let rec =
         record(&mut d, &mesh, &handles, &timeline(), n_frames, &config, &mut |done, total| {
@@ -92,7 +94,12 @@ fn recording_is_deterministic_and_starts_at_rest() {
 fn recording_can_be_cancelled_and_checks_groups() {
     let (mesh, handles) = setup();
     let config = ArapConfig::default();
-    let mut d = Deformer::new(Method::Arap, &mesh, &handles, &config).unwrap();
+    let mut d = Deformer::new(
+        &mesh,
+        &handles,
+        DeformerOptions { method: Method::Arap, config, ..Default::default() },
+    )
+    .unwrap();
     let err = record(&mut d, &mesh, &handles, &timeline(), 10, &config, &mut |done, _| {
         if done >= 3 { ControlFlow::Break(()) } else { ControlFlow::Continue(()) }
     })
@@ -286,7 +293,12 @@ fn exported_file_records_the_energy_and_bending_length() {
         max_iterations: 50,
         ..Default::default()
     };
-    let mut d = Deformer::new(Method::Arap, &mesh, &handles, &arap).unwrap();
+    let mut d = Deformer::new(
+        &mesh,
+        &handles,
+        DeformerOptions { method: Method::Arap, config: arap, ..Default::default() },
+    )
+    .unwrap();
     let rec = record(&mut d, &mesh, &handles, &timeline(), 3, &arap, &mut |_, _| {
         ControlFlow::Continue(())
     })

@@ -532,10 +532,15 @@ fn khronos_validator_accepts_every_encoding() {
 fn measure_sizes_and_errors() {
     use solver::animation::recording::record;
     use solver::animation::timeline::{CircularPath, GroupPath, Path, Timeline};
-    use solver::{ArapConfig, Deformer, Method};
+    use solver::{ArapConfig, Deformer, DeformerOptions, Method};
     let (mesh, handles) = solver::testing::capped_sphere(3, 2, 0.85, None);
     let config = ArapConfig { tolerance: 1e-5, max_iterations: 30, ..Default::default() };
-    let mut d = Deformer::new(Method::Arap, &mesh, &handles, &config).unwrap();
+    let mut d = Deformer::new(
+        &mesh,
+        &handles,
+        DeformerOptions { method: Method::Arap, config, ..Default::default() },
+    )
+    .unwrap();
     let timeline = Timeline {
         duration: 1.5,
         fps: 16.0,

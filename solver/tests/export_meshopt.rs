@@ -25,7 +25,7 @@ use solver::animation::timeline::{CircularPath, GroupPath, Path, Timeline};
 use solver::io::Asset;
 use solver::testing::ScratchDir;
 use solver::testing::gltf_decode::{parse, played_error_reordered, read};
-use solver::{ArapConfig, Deformer, Mesh, Method};
+use solver::{ArapConfig, Deformer, DeformerOptions, Mesh, Method};
 
 /// Frames recorded (times 0, 0.2, …, 1 s).
 const FRAMES: usize = 6;
@@ -44,7 +44,12 @@ fn recording() -> (Mesh, Recording) {
         }],
     };
     let config = ArapConfig { tolerance: 1e-5, max_iterations: 50, ..Default::default() };
-    let mut d = Deformer::new(Method::BsArap, &mesh, &handles, &config).unwrap();
+    let mut d = Deformer::new(
+        &mesh,
+        &handles,
+        DeformerOptions { method: Method::BsArap, config, ..Default::default() },
+    )
+    .unwrap();
     let rec = record(&mut d, &mesh, &handles, &timeline, FRAMES, &config, &mut |_, _| {
         ControlFlow::Continue(())
     })

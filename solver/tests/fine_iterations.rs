@@ -6,8 +6,8 @@
 use solver::deform::quality::distances;
 use solver::linalg::rotation::axis_angle;
 use solver::{
-    Arap, ArapConfig, BaseConfig, Deformer, Energy, GroupTransform, Handles, Mesh, Method,
-    handle_targets,
+    Arap, ArapConfig, BaseConfig, Deformer, DeformerOptions, Energy, GroupTransform, Handles, Mesh,
+    Method, handle_targets,
 };
 
 /// The test pose: the bumpy bar with its first group moved and turned, and converged full ARAP
@@ -44,7 +44,13 @@ fn coarse(c: &Case, config: &ArapConfig, fine_iterations: usize, settle: usize) 
         settle_iterations: settle,
         ..Default::default()
     };
-    Deformer::with_base(Method::BsArapCoarse, &c.mesh, &c.handles, config, &base).unwrap()
+    let options = DeformerOptions {
+        method: Method::BsArapCoarse,
+        config: *config,
+        base,
+        ..Default::default()
+    };
+    Deformer::new(&c.mesh, &c.handles, options).unwrap()
 }
 
 /// The handle targets of the rest pose.

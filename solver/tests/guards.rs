@@ -8,17 +8,18 @@ use solver::geometry::shapes::icosphere;
 use solver::io::{SaveError, write_obj};
 use solver::testing::sphere_with_caps;
 use solver::{
-    ArapConfig, BaseConfig, Deformer, GroupTransform, Handles, Mesh, Method, SolveError,
-    handle_targets,
+    ArapConfig, BaseConfig, Deformer, DeformerOptions, GroupTransform, Handles, Mesh, Method,
+    SolveError, handle_targets,
 };
 
 /// Every method, built with a coarse base small enough to be exercised on small meshes.
 fn deformers(mesh: &Mesh, handles: &Handles, config: &ArapConfig) -> Vec<(Method, Deformer)> {
     let base =
         BaseConfig { coarse_vertices: Some((mesh.n_vertices() / 4).max(16)), ..Default::default() };
+    let options = |method| DeformerOptions { method, config: *config, base, ..Default::default() };
     Method::ALL
         .into_iter()
-        .map(|m| (m, Deformer::with_base(m, mesh, handles, config, &base).unwrap()))
+        .map(|m| (m, Deformer::new(mesh, handles, options(m)).unwrap()))
         .collect()
 }
 
@@ -59,7 +60,16 @@ fn huge_targets_give_a_finite_pose_or_an_error_never_nan() {
             BaseConfig { coarse_vertices: Some(40), fine_iterations: 2, ..Default::default() };
         let all = || {
             let mut all = deformers(&m, &h, &config);
-            let coarse_fine = Deformer::with_base(Method::BsArapCoarse, &m, &h, &config, &fine);
+            let coarse_fine = Deformer::new(
+                &m,
+                &h,
+                DeformerOptions {
+                    method: Method::BsArapCoarse,
+                    config,
+                    base: fine,
+                    ..Default::default()
+                },
+            );
             all.push((Method::BsArapCoarse, coarse_fine.unwrap()));
             all
         };
@@ -124,7 +134,7 @@ fn every_vertex_a_handle_with_every_method_and_a_rotation() {
     let targets = handle_targets(m.positions(), &all, &[(0, tr)]).unwrap();
     for method in Method::ALL {
         // Nothing is free: the BS-ARAP bases may refuse (typed error), but never panic.
-        match Deformer::new(method, &m, &all, &ArapConfig::default()) {
+        match Deformer::new(&m, &all, DeformerOptions { method, ..Default::default() }) {
             Ok(mut d) => {
                 d.solve(&targets).unwrap_or_else(|e| panic!("{method:?}: {e}"));
                 assert_eq!(d.positions(), &targets[..], "{method:?}");
@@ -144,7 +154,7 @@ fn single_vertex_handle_with_every_method() {
     let targets = handle_targets(m.positions(), &h, &[(0, tr)]).unwrap();
     let base = BaseConfig { coarse_vertices: Some(40), ..Default::default() };
     for method in Method::ALL {
-        match Deformer::with_base(method, &m, &h, &ArapConfig::default(), &base) {
+        match Deformer::new(&m, &h, DeformerOptions { method, base, ..Default::default() }) {
             Ok(mut d) => match d.solve(&targets) {
                 Ok(_) => {
                     assert!(all_finite(d.positions()), "{method:?}");

@@ -13,7 +13,9 @@
 
 use solver::deform::quality::distances;
 use solver::linalg::rotation::axis_angle;
-use solver::{ArapConfig, BaseConfig, Deformer, GroupTransform, Method, handle_targets};
+use solver::{
+    ArapConfig, BaseConfig, Deformer, DeformerOptions, GroupTransform, Method, handle_targets,
+};
 
 #[test]
 fn warm_started_sequence_returns_exactly_to_rest() {
@@ -32,7 +34,12 @@ fn warm_started_sequence_returns_exactly_to_rest() {
             (Method::BsArapCoarse, refined),
         ] {
             let method = (method, base.fine_iterations);
-            let mut d = Deformer::with_base(method.0, &mesh, &handles, &config, &base).unwrap();
+            let mut d = Deformer::new(
+                &mesh,
+                &handles,
+                DeformerOptions { method: method.0, config, base, ..Default::default() },
+            )
+            .unwrap();
             let frames = 8;
             for f in 1..frames {
                 let theta = std::f64::consts::TAU * f as f64 / frames as f64;

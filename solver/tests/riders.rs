@@ -8,8 +8,8 @@ use solver::geometry::shapes::icosphere;
 use solver::linalg::rotation::{axis_angle, mul_vec};
 use solver::testing::capped_sphere;
 use solver::{
-    ArapConfig, BaseConfig, ComponentMode, Deformer, GroupTransform, Handles, LooseParts, Mesh,
-    Method, handle_targets, list_components,
+    ArapConfig, BaseConfig, ComponentMode, Deformer, DeformerOptions, GroupTransform, Handles,
+    LooseParts, Mesh, Method, handle_targets, list_components,
 };
 
 /// The capped sphere of level 3 (groups 0 at x > 0.8 and 1 at x < −0.8; component 0) with a
@@ -48,7 +48,14 @@ fn base_config(mesh: &Mesh) -> BaseConfig {
 
 fn deformer(method: Method, mesh: &Mesh, h: &Handles, parts: &LooseParts) -> Deformer {
     let config = ArapConfig::default();
-    Deformer::with_loose_parts(method, mesh, h, &config, &base_config(mesh), parts).unwrap()
+    let options = DeformerOptions {
+        method,
+        config,
+        base: base_config(mesh),
+        loose_parts: Some(parts),
+        ..Default::default()
+    };
+    Deformer::new(mesh, h, options).unwrap()
 }
 
 fn turn() -> GroupTransform {

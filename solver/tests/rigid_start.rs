@@ -5,7 +5,9 @@
 
 use solver::linalg::rigid::Motion;
 use solver::linalg::rotation::axis_angle;
-use solver::{Arap, ArapConfig, BaseConfig, Deformer, GroupTransform, Method, handle_targets};
+use solver::{
+    Arap, ArapConfig, BaseConfig, Deformer, DeformerOptions, GroupTransform, Method, handle_targets,
+};
 
 fn max_dist(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
     a.iter()
@@ -36,7 +38,8 @@ fn every_method_gives_a_rigid_move_of_all_handles_exactly() {
     let config = ArapConfig { tolerance: 1e-4, max_iterations: 100, ..Default::default() };
     let base = BaseConfig { coarse_vertices: Some(mesh.n_vertices() / 4), ..Default::default() };
     for method in Method::ALL {
-        let mut d = Deformer::with_base(method, &mesh, &handles, &config, &base).unwrap();
+        let options = || DeformerOptions { method, config, base, ..Default::default() };
+        let mut d = Deformer::new(&mesh, &handles, options()).unwrap();
         let stats = d.solve(&targets).unwrap();
         let err = max_dist(d.positions(), &exact) / diag;
         println!(
@@ -66,11 +69,12 @@ fn a_whole_mesh_move_keeps_the_solved_pose() {
     // every handle rigidly before the second solve must give the same pose moved rigidly
     // (the iteration is equivariant under rigid motions), not a solve from scratch.
     for method in [Method::Arap, Method::BsArapFaired, Method::BsArapCoarse] {
-        let mut still = Deformer::with_base(method, &mesh, &handles, &config, &base).unwrap();
+        let options = || DeformerOptions { method, config, base, ..Default::default() };
+        let mut still = Deformer::new(&mesh, &handles, options()).unwrap();
         still.solve(&targets).unwrap();
         let again = still.solve(&targets).unwrap();
         let expected: Vec<[f64; 3]> = still.positions().iter().map(|&p| motion.apply(p)).collect();
-        let mut d = Deformer::with_base(method, &mesh, &handles, &config, &base).unwrap();
+        let mut d = Deformer::new(&mesh, &handles, options()).unwrap();
         d.solve(&targets).unwrap();
         let stats = d.solve(&moved).unwrap();
         let err = max_dist(d.positions(), &expected) / diag;

@@ -4,7 +4,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use integration_tests::{max_dist, shared_meshes};
-use solver::{ArapConfig, Deformer, GroupTransform, Method, handle_targets};
+use solver::{ArapConfig, Deformer, DeformerOptions, GroupTransform, Method, handle_targets};
 
 #[test]
 fn faired_and_coarse_variants_deform_the_dragon() {
@@ -23,13 +23,14 @@ fn faired_and_coarse_variants_deform_the_dragon() {
     let tr = [(0, GroupTransform { translation: [0.0, 0.05 * diag, 0.0], ..Default::default() })];
     let targets = handle_targets(mesh.positions(), &handles, &tr).unwrap();
     let cfg = ArapConfig { tolerance: 1e-4, max_iterations: 60, ..Default::default() };
+    let options = |method| DeformerOptions { method, config: cfg, ..Default::default() };
     // The paper's base still fails there, with a named error (it is kept as written).
-    let Err(err) = Deformer::new(Method::BsArap, &mesh, &handles, &cfg) else {
+    let Err(err) = Deformer::new(&mesh, &handles, options(Method::BsArap)) else {
         panic!("the paper's base of the dragon was expected to collapse")
     };
     assert!(err.to_string().contains("collapsed"), "{err}");
     for method in [Method::BsArapFaired, Method::BsArapCoarse] {
-        let mut d = Deformer::new(method, &mesh, &handles, &cfg).unwrap();
+        let mut d = Deformer::new(&mesh, &handles, options(method)).unwrap();
         let s = d.solve(&targets).unwrap();
         let x = d.positions();
         assert!(x.iter().flatten().all(|c| c.is_finite()), "{method:?}: non-finite result");

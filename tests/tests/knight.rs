@@ -2,7 +2,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use integration_tests::{max_dist, shared_meshes};
-use solver::{ArapConfig, Deformer, GroupTransform, Method, handle_targets};
+use solver::{ArapConfig, Deformer, DeformerOptions, GroupTransform, Method, handle_targets};
 
 #[test]
 fn knight_translated_group_converges_with_handles_on_target() {
@@ -26,7 +26,12 @@ fn knight_translated_group_converges_with_handles_on_target() {
     let targets = handle_targets(mesh.positions(), &handles, &tr).unwrap();
     for method in [Method::Arap, Method::BsArap] {
         let cfg = ArapConfig { tolerance: 1e-6, max_iterations: 2000, ..Default::default() };
-        let mut d = Deformer::new(method, &mesh, &handles, &cfg).unwrap();
+        let mut d = Deformer::new(
+            &mesh,
+            &handles,
+            DeformerOptions { method, config: cfg, ..Default::default() },
+        )
+        .unwrap();
         let s = d.solve(&targets).unwrap();
         assert!(s.converged, "{method:?} did not converge in {} iterations", s.iterations);
         assert!(s.energy() < s.initial_energy, "{method:?}: energy did not decrease");
@@ -80,7 +85,9 @@ fn knight_with_every_group_translated_is_translated_exactly() {
     let exact: Vec<[f64; 3]> =
         mesh.positions().iter().map(|p| std::array::from_fn(|d| p[d] + shift[d])).collect();
     for method in Method::ALL {
-        let mut d = Deformer::new(method, &mesh, &handles, &ArapConfig::default()).unwrap();
+        let mut d =
+            Deformer::new(&mesh, &handles, DeformerOptions { method, ..Default::default() })
+                .unwrap();
         let s = d.solve(&targets).unwrap();
         let err = max_dist(d.positions(), &exact) / diag;
         println!("{}: {} iterations, {err:.1e} of the diagonal", method.name(), s.iterations);

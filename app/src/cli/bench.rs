@@ -41,7 +41,7 @@ use super::{BaseArgs, EnergyArg, PathArg, check_config, load, load_handles};
 use anyhow::Context;
 use clap::{Args, ValueEnum};
 use solver::deform::arap::Acceleration;
-use solver::{ArapConfig, Deformer, GroupTransform, Method, handle_targets};
+use solver::{ArapConfig, Deformer, DeformerOptions, GroupTransform, Method, handle_targets};
 use std::time::Instant;
 
 /// `--quality-reference`: where the converged reference starts (see the module doc).
@@ -292,9 +292,15 @@ fn bench_variant(
         if mesh_part.is_some() { t0.elapsed().as_secs_f64() * 1e3 } else { 0.0 };
     let t0 = Instant::now();
     let parts = solver::LooseParts::default();
-    let mut d =
-        Deformer::with_cache(v.method, s.mesh, s.handles, &config, &s.base, &parts, &mut cache)
-            .with_context(|| format!("precomputing {name}"))?;
+    let options = DeformerOptions {
+        method: v.method,
+        config,
+        base: s.base,
+        loose_parts: Some(&parts),
+        cache: Some(&mut cache),
+    };
+    let mut d = Deformer::new(s.mesh, s.handles, options)
+        .with_context(|| format!("precomputing {name}"))?;
     let precompute_handles_ms = t0.elapsed().as_secs_f64() * 1e3;
     drop(cache);
     let mut first_frame_ms = 0.0;

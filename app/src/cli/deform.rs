@@ -14,7 +14,10 @@ use solver::animation::export::{
 use solver::animation::recording::Recording;
 use solver::io::LoadedMesh;
 use solver::linalg::rotation::{axis_angle, mul_mat};
-use solver::{ArapConfig, ComponentMode, Deformer, GroupTransform, LooseParts, handle_targets};
+use solver::{
+    ArapConfig, ComponentMode, Deformer, DeformerOptions, GroupTransform, LooseParts,
+    handle_targets,
+};
 use std::path::Path;
 use std::time::Instant;
 
@@ -216,8 +219,14 @@ pub fn run(a: &DeformArgs) -> anyhow::Result<()> {
         parts.set(c, ComponentMode::Pin);
     }
     let t0 = Instant::now();
-    let mut deformer =
-        Deformer::with_loose_parts(a.method.into(), mesh, &handles, &config, &base, &parts)?;
+    let options = DeformerOptions {
+        method: a.method.into(),
+        config,
+        base,
+        loose_parts: Some(&parts),
+        ..Default::default()
+    };
+    let mut deformer = Deformer::new(mesh, &handles, options)?;
     let precompute_ms = t0.elapsed().as_secs_f64() * 1e3;
     let loose = deformer.riders().components().iter().filter(|c| !c.has_handles);
     let following = loose.clone().filter(|c| c.follows.is_some()).count();

@@ -15,7 +15,6 @@ use super::{MethodArg, PathArg};
 use anyhow::Context;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use solver::Deformer;
 use solver::animation::export::{
     AssetExport, Encoding, ExportSettings, GltfExport, GltfFormat, SolveSettings,
 };
@@ -23,6 +22,7 @@ use solver::animation::pointcache::{Pc2, write_obj_sequence, write_pc2};
 use solver::animation::recording::record;
 use solver::animation::scene::{HandlesSpec, LoadedScene, Scene};
 use solver::animation::timeline::{CircularPath, GroupPath, Path as AnimPath, Timeline};
+use solver::{Deformer, DeformerOptions};
 
 #[derive(Debug, Args)]
 pub struct ExportArgs {
@@ -206,15 +206,15 @@ pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
     );
 
     let t0 = Instant::now();
-    let mut deformer = Deformer::with_loose_parts(
-        scene.method,
-        mesh,
-        &loaded.handles,
-        &scene.arap,
-        &scene.base,
-        &scene.loose_parts,
-    )
-    .with_context(|| format!("{source}: precomputing {}", scene.method.name()))?;
+    let options = DeformerOptions {
+        method: scene.method,
+        config: scene.arap,
+        base: scene.base,
+        loose_parts: Some(&scene.loose_parts),
+        ..Default::default()
+    };
+    let mut deformer = Deformer::new(mesh, &loaded.handles, options)
+        .with_context(|| format!("{source}: precomputing {}", scene.method.name()))?;
     let precompute_ms = t0.elapsed().as_secs_f64() * 1e3;
 
     let t1 = Instant::now();

@@ -22,7 +22,8 @@ use solver::animation::recording::{Recording, record};
 use solver::animation::timeline::Timeline;
 use solver::geometry::normals::VertexFaces;
 use solver::{
-    ArapConfig, BaseConfig, Deformer, Handles, LooseParts, Mesh, MeshCache, Method, UnwrittenBase,
+    ArapConfig, BaseConfig, Deformer, DeformerOptions, Handles, LooseParts, Mesh, MeshCache,
+    Method, UnwrittenBase,
 };
 
 use super::loader::FileLayout;
@@ -292,15 +293,14 @@ pub fn spawn_record(
             } = input;
             let mut deformer = {
                 let mut cache = cache.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-                Deformer::with_cache(
+                let options = DeformerOptions {
                     method,
-                    &mesh,
-                    &handles,
-                    &config,
-                    &base,
-                    &loose_parts,
-                    &mut cache,
-                )
+                    config,
+                    base,
+                    loose_parts: Some(&loose_parts),
+                    cache: Some(&mut cache),
+                };
+                Deformer::new(&mesh, &handles, options)
             }
             .map_err(|e| format!("recording: precomputing {}: {e}", method.name()))?;
             let fps = timeline.fps;

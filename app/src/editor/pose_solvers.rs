@@ -5,7 +5,7 @@
 
 use std::sync::{Arc, Mutex};
 
-use solver::{FrameStats, Handles, LooseParts, Mesh, MeshCache};
+use solver::{Deformer, DeformerOptions, FrameStats, Handles, LooseParts, Mesh, MeshCache};
 
 use super::solver_thread::{MethodSettings, PoseSolver, PoseSolverFactory, Slot};
 
@@ -28,12 +28,19 @@ pub fn factory(cache: Arc<Mutex<MeshCache>>) -> PoseSolverFactory {
                 Slot::Compare => settings.compare_variant,
                 Slot::Main => settings.bs_variant,
             };
+            let options = DeformerOptions {
+                method: m,
+                config,
+                base: settings.base,
+                loose_parts: Some(parts),
+                cache: None,
+            };
+            // Only the coarse method precomputes per mesh: the others leave the cache unlocked.
             let built = if m == solver::Method::BsArapCoarse {
                 let mut cache = cache.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-                let base = &settings.base;
-                solver::Deformer::with_cache(m, mesh, handles, &config, base, parts, &mut cache)
+                Deformer::new(mesh, handles, DeformerOptions { cache: Some(&mut cache), ..options })
             } else {
-                solver::Deformer::with_loose_parts(m, mesh, handles, &config, &settings.base, parts)
+                Deformer::new(mesh, handles, options)
             };
             let d = built.map_err(|e| e.to_string())?;
             Ok(Box::new(DeformerPoseSolver(d)) as Box<dyn PoseSolver>)

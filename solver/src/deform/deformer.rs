@@ -205,54 +205,46 @@ pub struct Deformer {
     base: Vec<[f64; 3]>,
 }
 
+/// How [`Deformer::new`] builds a deformer, besides the mesh and the handles. Every field
+/// has a default, so a call names only what it sets:
+/// `DeformerOptions { method: Method::Arap, config, ..Default::default() }`. Passed by value,
+/// since it may lend the `&mut` [`MeshCache`].
+#[derive(Debug, Default)]
+pub struct DeformerOptions<'a> {
+    /// The deformation method (default [`Method::BsArap`]).
+    pub method: Method,
+    /// The ARAP iterations' settings, for every method: energy, stopping rule, acceleration
+    /// (default [`ArapConfig::default`]).
+    pub config: ArapConfig,
+    /// The base surface's settings: the smoothing of [`Method::BsArapFaired`], all of them for
+    /// [`Method::BsArapCoarse`]; [`Method::Arap`] and [`Method::BsArap`] ignore it (default
+    /// [`BaseConfig::default`]).
+    pub base: BaseConfig,
+    /// The modes of the components without handles; `None` (the default):
+    /// [`LooseParts::default`], every loose part follows its anchor patch. They can be changed
+    /// later without refactoring ([`Deformer::set_loose_parts`]).
+    pub loose_parts: Option<&'a LooseParts>,
+    /// Where what depends on the mesh only is taken from, or built and kept
+    /// ([`MeshCache::prepare`]): a new handle set of the same mesh then costs only its own
+    /// part. Only [`Method::BsArapCoarse`] precomputes per mesh. `None` (the default): built
+    /// for this deformer alone and not kept.
+    pub cache: Option<&'a mut MeshCache>,
+}
+
 impl Deformer {
-    /// Precomputes `method` for `mesh` and `handles` (factorizations; may take seconds).
-    /// Loose parts follow ([`LooseParts::default`]).
+    /// Precomputes `options.method` for `mesh` and `handles` (factorizations; may take
+    /// seconds), with the settings, loose parts and cache of `options` ([`DeformerOptions`]).
     pub fn new(
-        method: Method,
         mesh: &Mesh,
         handles: &Handles,
-        config: &ArapConfig,
+        options: DeformerOptions<'_>,
     ) -> Result<Deformer, SolveError> {
-        Deformer::with_base(method, mesh, handles, config, &BaseConfig::default())
-    }
-
-    /// As [`Deformer::new`] with explicit base-surface settings.
-    pub fn with_base(
-        method: Method,
-        mesh: &Mesh,
-        handles: &Handles,
-        config: &ArapConfig,
-        base: &BaseConfig,
-    ) -> Result<Deformer, SolveError> {
-        Deformer::with_loose_parts(method, mesh, handles, config, base, &LooseParts::default())
-    }
-
-    /// As [`Deformer::with_base`] with the modes of the components without handles.
-    pub fn with_loose_parts(
-        method: Method,
-        mesh: &Mesh,
-        handles: &Handles,
-        config: &ArapConfig,
-        base: &BaseConfig,
-        parts: &LooseParts,
-    ) -> Result<Deformer, SolveError> {
-        let mut cache = MeshCache::default();
-        Deformer::with_cache(method, mesh, handles, config, base, parts, &mut cache)
-    }
-
-    /// As [`Deformer::with_loose_parts`], taking what depends on the mesh only from `cache`
-    /// (built there first if it holds nothing for this mesh and these settings): a new handle
-    /// set of the same mesh then costs only its own part.
-    pub fn with_cache(
-        method: Method,
-        mesh: &Mesh,
-        handles: &Handles,
-        config: &ArapConfig,
-        base: &BaseConfig,
-        parts: &LooseParts,
-        cache: &mut MeshCache,
-    ) -> Result<Deformer, SolveError> {
+        let DeformerOptions { method, config, base, loose_parts, cache } = options;
+        let (config, base) = (&config, &base);
+        let all_follow = LooseParts::default();
+        let parts = loose_parts.unwrap_or(&all_follow);
+        let mut own_cache = MeshCache::default();
+        let cache = cache.unwrap_or(&mut own_cache);
         let solver = match method {
             Method::Arap => Solver::Arap(Arap::new(mesh, handles, config)?),
             Method::BsArap => Solver::BsArap(BsArap::new(mesh, handles, config)?),

@@ -300,7 +300,7 @@ mod tests {
 
     use crate::deform::arap::ArapConfig;
     use crate::deform::config::BaseConfig;
-    use crate::deform::deformer::{Deformer, Method};
+    use crate::deform::deformer::{Deformer, DeformerOptions, Method};
     use crate::deform::handles::Handles;
     use crate::deform::pose::{GroupTransform, handle_targets};
     use crate::linalg::rotation::axis_angle;
@@ -317,7 +317,8 @@ mod tests {
 
     fn solve(method: Method, mesh: &Mesh, h: &Handles) -> Vec<[f64; 3]> {
         let base = BaseConfig { fine_iterations: 2, ..BaseConfig::default() };
-        let mut d = Deformer::with_base(method, mesh, h, &ArapConfig::default(), &base).unwrap();
+        let mut d =
+            Deformer::new(mesh, h, DeformerOptions { method, base, ..Default::default() }).unwrap();
         d.solve(&targets(mesh, h)).unwrap();
         d.positions().to_vec()
     }
