@@ -232,8 +232,7 @@ fn a_fine_level_factored_in_the_background_settles_as_one_factored_in_place() {
     let mut ready = [false; 2];
     while !(ready[0] && ready[1]) {
         for (k, d) in [&mut there, &mut other].into_iter().enumerate() {
-            let solver::Solver::Coarse(s) = d.solver_mut() else { panic!("not coarse") };
-            ready[k] = s.factor_fine_in_background();
+            ready[k] = d.settle_ready();
         }
         waited += 1;
         std::thread::sleep(std::time::Duration::from_millis(5));

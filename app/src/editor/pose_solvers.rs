@@ -79,10 +79,7 @@ impl PoseSolver for DeformerPoseSolver {
     }
 
     fn settle_ready(&mut self) -> bool {
-        match self.0.solver_mut() {
-            solver::Solver::Coarse(c) => c.factor_fine_in_background(),
-            _ => true,
-        }
+        self.0.settle_ready()
     }
 
     fn settle(&mut self, targets: &[[f64; 3]]) -> Result<Option<FrameStats>, String> {

@@ -352,6 +352,18 @@ impl Deformer {
         }
     }
 
+    /// Whether [`Deformer::settle`] can run now without waiting for a factorization. The coarse
+    /// method first starts factoring what settling needs on a thread of its own
+    /// ([`CoarseBsArap::factor_fine_in_background`]), so a caller that must stay responsive
+    /// (the editor's solver thread) asks again until this says true, then settles; the other
+    /// methods have nothing to factor (true).
+    pub fn settle_ready(&mut self) -> bool {
+        match &mut self.solver {
+            Solver::Coarse(c) => c.factor_fine_in_background(),
+            Solver::Arap(_) | Solver::BsArap(_) => true,
+        }
+    }
+
     /// Refines the last solve's pose once its handles have stopped at `targets`
     /// ([`CoarseBsArap::settle`]); `None` when there is nothing to refine (other methods: their
     /// solve already iterates on the full mesh to the tolerance).
