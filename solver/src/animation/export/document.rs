@@ -9,10 +9,112 @@ use json::accessor::{ComponentType as C, Type as T};
 use json::buffer::Target as B;
 use json::validation::{Checked::Valid, USize64};
 
-use super::layout::Layout;
+use super::layout::{Layout, Primitive};
 use super::targets::{Encoded, Storage, Values, encode, store_mesh_frame};
-use super::{Encoding, ExportError, GltfExport, GltfFormat, base64_into};
+use super::{
+    CHUNK_BIN, CHUNK_JSON, DATA_URI_PREFIX, Encoding, ExportError, GLB_MAGIC, GltfExport,
+    GltfFormat, base64_into,
+};
 use crate::io::asset::Asset;
+
+/// The document's JSON, its buffer's `uri` set to `uri`.
+fn json_bytes(root: &json::Root, uri: Option<String>) -> Result<Vec<u8>, ExportError> {
+    let mut root = root.clone();
+    root.buffers[0].uri = uri;
+    root.to_vec().map_err(|e| ExportError::Json(e.to_string()))
+}
+
+/// The exact size in bytes of the file [`file_bytes`] makes of `root` and a buffer of
+/// `bin_len` bytes.
+pub(super) fn file_size(
+    root: &json::Root,
+    format: GltfFormat,
+    bin_len: usize,
+) -> Result<u64, ExportError> {
+    Ok(match format {
+        GltfFormat::Glb => {
+            let j = json_bytes(root, None)?.len().next_multiple_of(4);
+            (12 + 8 + j + 8 + bin_len) as u64
+        }
+        GltfFormat::Gltf => {
+            let j = json_bytes(root, Some(String::new()))?.len();
+            (j + DATA_URI_PREFIX.len() + bin_len.div_ceil(3) * 4) as u64
+        }
+    })
+}
+
+/// The file of `root` with buffer `bin`: `.glb` (header, JSON chunk padded with spaces to
+/// 4 bytes, BIN chunk; glTF 2.0 §4.4) or `.gltf` (the buffer as a base64 data URI).
+pub(super) fn file_bytes(
+    root: &json::Root,
+    format: GltfFormat,
+    bin: &[u8],
+) -> Result<Vec<u8>, ExportError> {
+    match format {
+        GltfFormat::Glb => {
+            let mut j = json_bytes(root, None)?;
+            while j.len() % 4 != 0 {
+                j.push(b' ');
+            }
+            let total = 12 + 8 + j.len() + 8 + bin.len();
+            let total32 = u32::try_from(total).map_err(|_| ExportError::TooLarge(total))?;
+            let mut out = Vec::with_capacity(total);
+            out.extend_from_slice(&GLB_MAGIC.to_le_bytes());
+            out.extend_from_slice(&2u32.to_le_bytes());
+            out.extend_from_slice(&total32.to_le_bytes());
+            out.extend_from_slice(&(j.len() as u32).to_le_bytes());
+            out.extend_from_slice(&CHUNK_JSON.to_le_bytes());
+            out.extend_from_slice(&j);
+            out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
+            out.extend_from_slice(&CHUNK_BIN.to_le_bytes());
+            out.extend_from_slice(bin);
+            Ok(out)
+        }
+        GltfFormat::Gltf => {
+            let mut uri = String::with_capacity(DATA_URI_PREFIX.len() + bin.len() / 3 * 4 + 4);
+            uri.push_str(DATA_URI_PREFIX);
+            base64_into(bin, &mut uri);
+            json_bytes(root, Some(uri))
+        }
+    }
+}
+
+/// A primitive's attributes, by semantic.
+pub(super) type Attributes =
+    BTreeMap<json::validation::Checked<json::mesh::Semantic>, json::Index<json::Accessor>>;
+
+/// Primitive `p`'s `indices` (u32) and base attributes, in this buffer order: `POSITION`
+/// (`positions`, f32, with min/max), `NORMAL` (`normals`), `TEXCOORD_n` and `COLOR_0` when the
+/// asset has them.
+pub(super) fn base_attributes(
+    b: &mut Builder,
+    asset: &Asset,
+    p: &Primitive,
+    positions: &[[f32; 3]],
+    normals: &[[f32; 3]],
+) -> (json::Index<json::Accessor>, Attributes) {
+    let n = p.vertices.len();
+    let indices: Vec<u8> = p.indices.iter().flat_map(|i| i.to_le_bytes()).collect();
+    let indices =
+        b.data(&indices, p.indices.len(), C::U32, T::Scalar, Some(B::ElementArrayBuffer), None);
+    let mut attributes = BTreeMap::new();
+    let bnd = bounds(positions);
+    let a = b.data(&f32_bytes(positions), n, C::F32, T::Vec3, Some(B::ArrayBuffer), Some(bnd));
+    attributes.insert(Valid(json::mesh::Semantic::Positions), a);
+    let a = b.data(&f32_bytes(normals), n, C::F32, T::Vec3, Some(B::ArrayBuffer), None);
+    attributes.insert(Valid(json::mesh::Semantic::Normals), a);
+    for (k, uv) in asset.uvs.iter().enumerate() {
+        let vals: Vec<[f32; 2]> = p.vertices.iter().map(|v| uv.values[v[2 + k] as usize]).collect();
+        let a = b.data(&f32_bytes(&vals), n, C::F32, T::Vec2, Some(B::ArrayBuffer), None);
+        attributes.insert(Valid(json::mesh::Semantic::TexCoords(k as u32)), a);
+    }
+    if let Some(colors) = &asset.colors {
+        let vals: Vec<[f32; 4]> = p.vertices.iter().map(|v| colors.values[v[4] as usize]).collect();
+        let a = b.data(&f32_bytes(&vals), n, C::F32, T::Vec4, Some(B::ArrayBuffer), None);
+        attributes.insert(Valid(json::mesh::Semantic::Colors(0)), a);
+    }
+    (indices, attributes)
+}
 
 /// The buffer being laid out: every view starts on a 4-byte boundary; bytes are kept only
 /// when writing.
@@ -295,37 +397,9 @@ impl GltfExport<'_> {
         for ((p, rest_normals), &k) in
             layout.primitives.iter().zip(&self.rest_normals).zip(&prim_scale)
         {
-            let indices: Vec<u8> = p.indices.iter().flat_map(|i| i.to_le_bytes()).collect();
-            let n = p.vertices.len();
-            let indices = b.data(
-                &indices,
-                p.indices.len(),
-                C::U32,
-                T::Scalar,
-                Some(B::ElementArrayBuffer),
-                None,
-            );
             let pos: Vec<[f32; 3]> =
                 p.vertices.iter().map(|v| self.rest_f32[v[0] as usize].map(|c| c / k)).collect();
-            let bnd = bounds(&pos);
-            let mut attributes = BTreeMap::new();
-            let a = b.data(&f32_bytes(&pos), n, C::F32, T::Vec3, Some(B::ArrayBuffer), Some(bnd));
-            attributes.insert(Valid(json::mesh::Semantic::Positions), a);
-            let a =
-                b.data(&f32_bytes(rest_normals), n, C::F32, T::Vec3, Some(B::ArrayBuffer), None);
-            attributes.insert(Valid(json::mesh::Semantic::Normals), a);
-            for (k, uv) in asset.uvs.iter().enumerate() {
-                let vals: Vec<[f32; 2]> =
-                    p.vertices.iter().map(|v| uv.values[v[2 + k] as usize]).collect();
-                let a = b.data(&f32_bytes(&vals), n, C::F32, T::Vec2, Some(B::ArrayBuffer), None);
-                attributes.insert(Valid(json::mesh::Semantic::TexCoords(k as u32)), a);
-            }
-            if let Some(colors) = &asset.colors {
-                let vals: Vec<[f32; 4]> =
-                    p.vertices.iter().map(|v| colors.values[v[4] as usize]).collect();
-                let a = b.data(&f32_bytes(&vals), n, C::F32, T::Vec4, Some(B::ArrayBuffer), None);
-                attributes.insert(Valid(json::mesh::Semantic::Colors(0)), a);
-            }
+            let (indices, attributes) = base_attributes(&mut b, asset, p, &pos, rest_normals);
             primitives.push(json::mesh::Primitive {
                 attributes,
                 extensions: None,

@@ -450,24 +450,9 @@ impl<'a> GltfExport<'a> {
         Ok(export)
     }
 
-    fn json_bytes(&self, uri: Option<String>) -> Result<Vec<u8>, ExportError> {
-        let mut root = self.root.clone();
-        root.buffers[0].uri = uri;
-        root.to_vec().map_err(|e| ExportError::Json(e.to_string()))
-    }
-
     /// The exact size in bytes of the file [`GltfExport::write`] will produce.
     pub fn file_size(&self) -> Result<u64, ExportError> {
-        Ok(match self.format {
-            GltfFormat::Glb => {
-                let j = self.json_bytes(None)?.len().next_multiple_of(4);
-                (12 + 8 + j + 8 + self.bin_len) as u64
-            }
-            GltfFormat::Gltf => {
-                let j = self.json_bytes(Some(String::new()))?.len();
-                (j + DATA_URI_PREFIX.len() + self.bin_len.div_ceil(3) * 4) as u64
-            }
-        })
+        document::file_size(&self.root, self.format, self.bin_len)
     }
 
     /// Exports an asset whose up axis is `up`: for [`UpAxis::Z`] every mesh node is rotated by
@@ -511,33 +496,7 @@ impl<'a> GltfExport<'a> {
         let (root, bin, _) = self.assemble(true, progress)?;
         let bin = if self.meshopt { meshopt::compress(root, &bin)?.1 } else { bin };
         debug_assert_eq!(bin.len(), self.bin_len, "buffer layout and accessors disagree");
-        match self.format {
-            GltfFormat::Glb => {
-                let mut j = self.json_bytes(None)?;
-                while j.len() % 4 != 0 {
-                    j.push(b' ');
-                }
-                let total = 12 + 8 + j.len() + 8 + bin.len();
-                let total32 = u32::try_from(total).map_err(|_| ExportError::TooLarge(total))?;
-                let mut out = Vec::with_capacity(total);
-                out.extend_from_slice(&GLB_MAGIC.to_le_bytes());
-                out.extend_from_slice(&2u32.to_le_bytes());
-                out.extend_from_slice(&total32.to_le_bytes());
-                out.extend_from_slice(&(j.len() as u32).to_le_bytes());
-                out.extend_from_slice(&CHUNK_JSON.to_le_bytes());
-                out.extend_from_slice(&j);
-                out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
-                out.extend_from_slice(&CHUNK_BIN.to_le_bytes());
-                out.extend_from_slice(&bin);
-                Ok(out)
-            }
-            GltfFormat::Gltf => {
-                let mut uri = String::with_capacity(DATA_URI_PREFIX.len() + bin.len() / 3 * 4 + 4);
-                uri.push_str(DATA_URI_PREFIX);
-                base64_into(&bin, &mut uri);
-                self.json_bytes(Some(uri))
-            }
-        }
+        document::file_bytes(&self.root, self.format, &bin)
     }
 
     /// Writes the file atomically ([`write_atomic`]); returns its size in bytes.

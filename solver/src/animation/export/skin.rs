@@ -27,10 +27,10 @@
 //!
 //! **Buffer.** One buffer, every view on a 4-byte boundary: images (`.glb`), each primitive's
 //! attributes, the inverse bind matrices, the times, each joint's translations then rotations.
-//! Container as in `mod.rs` (`.glb` chunks, or `.gltf` with a base64 data URI); the size is
-//! known before writing because the same code lays out and writes.
+//! Base attributes and container as in the morph-target export (`document.rs`: `.glb` chunks,
+//! or `.gltf` with a base64 data URI); the size is known before writing because the same code
+//! lays out and writes.
 
-use std::collections::BTreeMap;
 use std::path::Path as FsPath;
 
 use glam::{DMat3, DQuat, DVec3};
@@ -39,11 +39,9 @@ use json::accessor::{ComponentType as C, Type as T};
 use json::buffer::Target as B;
 use json::validation::{Checked::Valid, USize64};
 
-use super::document::{Builder, bounds, f32_bytes, push_materials};
+use super::document::{Builder, base_attributes, f32_bytes, file_bytes, file_size, push_materials};
 use super::layout::{Layout, validate};
-use super::{
-    CHUNK_BIN, CHUNK_JSON, DATA_URI_PREFIX, ExportError, GLB_MAGIC, GltfFormat, UpAxis, base64_into,
-};
+use super::{ExportError, GltfFormat, UpAxis};
 use crate::animation::skinning::{MAX_INFLUENCES, Skinning};
 use crate::io::asset::Asset;
 use crate::io::write_atomic;
@@ -158,24 +156,9 @@ impl<'a> SkinnedExport<'a> {
         self
     }
 
-    fn json_bytes(&self, uri: Option<String>) -> Result<Vec<u8>, ExportError> {
-        let mut root = self.root.clone();
-        root.buffers[0].uri = uri;
-        root.to_vec().map_err(|e| ExportError::Json(e.to_string()))
-    }
-
     /// The exact size in bytes of the file [`SkinnedExport::write`] will produce.
     pub fn file_size(&self) -> Result<u64, ExportError> {
-        Ok(match self.format {
-            GltfFormat::Glb => {
-                let j = self.json_bytes(None)?.len().next_multiple_of(4);
-                (12 + 8 + j + 8 + self.bin_len) as u64
-            }
-            GltfFormat::Gltf => {
-                let j = self.json_bytes(Some(String::new()))?.len();
-                (j + DATA_URI_PREFIX.len() + self.bin_len.div_ceil(3) * 4) as u64
-            }
-        })
+        file_size(&self.root, self.format, self.bin_len)
     }
 
     /// Number of joints written (the bones, plus `rest` when some file vertex is unsolved).
@@ -186,33 +169,7 @@ impl<'a> SkinnedExport<'a> {
     /// The whole file in memory.
     pub fn to_bytes(&self) -> Result<Vec<u8>, ExportError> {
         let (_, bin, _) = self.assemble(true)?;
-        match self.format {
-            GltfFormat::Glb => {
-                let mut j = self.json_bytes(None)?;
-                while j.len() % 4 != 0 {
-                    j.push(b' ');
-                }
-                let total = 12 + 8 + j.len() + 8 + bin.len();
-                let total32 = u32::try_from(total).map_err(|_| ExportError::TooLarge(total))?;
-                let mut out = Vec::with_capacity(total);
-                out.extend_from_slice(&GLB_MAGIC.to_le_bytes());
-                out.extend_from_slice(&2u32.to_le_bytes());
-                out.extend_from_slice(&total32.to_le_bytes());
-                out.extend_from_slice(&(j.len() as u32).to_le_bytes());
-                out.extend_from_slice(&CHUNK_JSON.to_le_bytes());
-                out.extend_from_slice(&j);
-                out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
-                out.extend_from_slice(&CHUNK_BIN.to_le_bytes());
-                out.extend_from_slice(&bin);
-                Ok(out)
-            }
-            GltfFormat::Gltf => {
-                let mut uri = String::with_capacity(DATA_URI_PREFIX.len() + bin.len() / 3 * 4 + 4);
-                uri.push_str(DATA_URI_PREFIX);
-                base64_into(&bin, &mut uri);
-                self.json_bytes(Some(uri))
-            }
-        }
+        file_bytes(&self.root, self.format, &bin)
     }
 
     /// Writes the file atomically ([`write_atomic`]); returns its size in bytes.
@@ -275,39 +232,12 @@ impl<'a> SkinnedExport<'a> {
         let mut primitives = Vec::with_capacity(layout.primitives.len());
         for (p, rest_normals) in layout.primitives.iter().zip(&self.rest_normals) {
             let n = p.vertices.len();
-            let indices: Vec<u8> = p.indices.iter().flat_map(|i| i.to_le_bytes()).collect();
-            let indices = b.data(
-                &indices,
-                p.indices.len(),
-                C::U32,
-                T::Scalar,
-                Some(B::ElementArrayBuffer),
-                None,
-            );
             let pos: Vec<[f32; 3]> = p
                 .vertices
                 .iter()
                 .map(|v| asset.positions[v[0] as usize].map(|c| c as f32))
                 .collect();
-            let mut attributes = BTreeMap::new();
-            let bnd = bounds(&pos);
-            let a = b.data(&f32_bytes(&pos), n, C::F32, T::Vec3, Some(B::ArrayBuffer), Some(bnd));
-            attributes.insert(Valid(json::mesh::Semantic::Positions), a);
-            let a =
-                b.data(&f32_bytes(rest_normals), n, C::F32, T::Vec3, Some(B::ArrayBuffer), None);
-            attributes.insert(Valid(json::mesh::Semantic::Normals), a);
-            for (k, uv) in asset.uvs.iter().enumerate() {
-                let vals: Vec<[f32; 2]> =
-                    p.vertices.iter().map(|v| uv.values[v[2 + k] as usize]).collect();
-                let a = b.data(&f32_bytes(&vals), n, C::F32, T::Vec2, Some(B::ArrayBuffer), None);
-                attributes.insert(Valid(json::mesh::Semantic::TexCoords(k as u32)), a);
-            }
-            if let Some(colors) = &asset.colors {
-                let vals: Vec<[f32; 4]> =
-                    p.vertices.iter().map(|v| colors.values[v[4] as usize]).collect();
-                let a = b.data(&f32_bytes(&vals), n, C::F32, T::Vec4, Some(B::ArrayBuffer), None);
-                attributes.insert(Valid(json::mesh::Semantic::Colors(0)), a);
-            }
+            let (indices, mut attributes) = base_attributes(&mut b, asset, p, &pos, rest_normals);
             let (mut joints, mut weights) = (Vec::new(), Vec::with_capacity(n * 8));
             for v in &p.vertices {
                 let (j, w) = self.influences(v[0]);
