@@ -19,24 +19,25 @@ use rayon::prelude::*;
 
 use super::projections::{pair_products, projections, quadratic, trajectory_norms};
 use super::transforms::kabsch_clusters;
-use super::{Affine, Data, FitProgress, FitStage, Progress, SkinningError, affine};
+use super::{Affine, Data, FitProgress, FitStage, Progress, SkinningError, affine, even_sample};
 use crate::linalg::rigid::Motion;
 
 /// Frames in the seeding features besides the rest pose.
 const FEATURE_FRAMES: usize = 8;
 
-/// The initial bone of every vertex and the bones' transforms `[t][j]` (centred coordinates).
+/// The initial bone of every vertex and the bones' transforms `[t][j]` (centred coordinates);
+/// `diagonal` is the unit of the error the progress reports.
 pub(super) fn cluster(
     data: &Data,
     n_bones: usize,
+    diagonal: f64,
     sample: usize,
     iterations: usize,
     steps: usize,
     progress: Progress,
 ) -> Result<(Vec<u32>, Vec<Vec<Motion>>), SkinningError> {
     let n = data.n_vertices();
-    let stride = n.div_ceil(sample.max(n_bones).max(1)).max(1);
-    let rows: Vec<u32> = (0..n).step_by(stride).map(|v| v as u32).collect();
+    let rows = even_sample(n, sample.max(n_bones));
     let n_t = data.n_frames();
     let frames: Vec<usize> = (0..FEATURE_FRAMES.min(n_t))
         .map(|i| i * (n_t - 1) / (FEATURE_FRAMES.min(n_t) - 1).max(1))
@@ -99,7 +100,7 @@ pub(super) fn cluster(
             }
         }
         transforms = kabsch_clusters(data, &rows, &labels, n_bones);
-        let rms = (total / (rows.len() * n_t) as f64).sqrt();
+        let rms = (total / (rows.len() * n_t) as f64).sqrt() / diagonal;
         let p = FitProgress { stage: FitStage::Clustering, step: step + 1, steps, rms };
         if progress(p).is_break() {
             return Err(SkinningError::Cancelled);

@@ -80,9 +80,19 @@ pub struct SkinningConfig {
     pub init_sample: usize,
     /// Alternations of the weight and transform steps (default 12).
     pub iterations: usize,
+    /// Vertices the initialization and the alternation run on (an even sample, default
+    /// 40,000); on a larger mesh one weight step on every vertex follows (`fit.rs`).
+    pub fit_sample: usize,
     /// Stop when an alternation lowers the squared error by less than this fraction
     /// (default 1e-4).
     pub tolerance: f64,
+}
+
+/// Every ⌈n / count⌉-th of `0..n`: an even sample of at most `count` indices (all when
+/// `count ≥ n`).
+pub(super) fn even_sample(n: usize, count: usize) -> Vec<u32> {
+    let stride = n.div_ceil(count.max(1)).max(1);
+    (0..n).step_by(stride).map(|v| v as u32).collect()
 }
 
 /// Bones a fit may have (glTF joint indices are written as u16).
@@ -97,6 +107,7 @@ impl Default for SkinningConfig {
             init_iterations: 10,
             init_sample: 20_000,
             iterations: 12,
+            fit_sample: 40_000,
             tolerance: 1e-4,
         }
     }

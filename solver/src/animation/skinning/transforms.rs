@@ -5,7 +5,9 @@
 //!   = \sum_v w_{vj}^2 \,\lVert R r_v + T - q_v / w_{vj}\rVert^2,$$
 //! a weighted Procrustes problem: $\bar r = \sum_v w^2_{vj} r_v / \sum_v w^2_{vj}$,
 //! $\bar q = \sum_v w_{vj} q_v / \sum_v w^2_{vj}$,
-//! $S = \sum_v w_{vj}(r_v - \bar r)\,(q_v - w_{vj}\bar q)^\top$,
+//! $S = \sum_v w_{vj}(r_v - \bar r)\,(q_v - w_{vj}\bar q)^\top
+//!   = \sum_v w_{vj} r_v q_v^\top - \bar r \big(\sum_v w_{vj} q_v\big)^\top$ (as
+//! $\sum_v w^2_{vj}(r_v - \bar r) = 0$; one pass over the bone's vertices),
 //! $R$ = [`fit_rotation`]$(S)$ (never a reflection), $T = \bar q - R\bar r$.
 //! Bones are updated one after the other (each sees the others' newest transforms), frames in
 //! parallel (they are independent). Each update is the exact minimizer over one bone, so the
@@ -100,8 +102,10 @@ fn update_frame(
             continue;
         }
         let mj = affine(motion);
-        // q_v = e_v + w M_j r_v, kept in e while the bone is fitted.
+        // q_v = e_v + w M_j r_v, kept in e while the bone is fitted; one pass gathers
+        // Σw², Σw²r, Σw q and Σ w r qᵀ (S below needs no second pass: Σ w²(r - r̄) = 0).
         let (mut w2, mut rs, mut qs) = (0.0, [0.0; 3], [0.0; 3]);
+        let mut s: Mat3 = [[0.0; 3]; 3];
         for &(v, w) in list {
             let x = apply(&mj, &data.rest_h(v as usize));
             let (r, q) = (data.rest[v as usize], &mut e[v as usize]);
@@ -110,19 +114,15 @@ fn update_frame(
                 rs[d] += w * w * r[d];
                 qs[d] += w * q[d];
             }
+            add_outer(&mut s, w, r, *q);
             w2 += w * w;
         }
         if w2 <= 0.0 || w2.is_nan() {
             continue;
         }
         let (rb, qb) = (rs.map(|x| x / w2), qs.map(|x| x / w2));
-        let mut s: Mat3 = [[0.0; 3]; 3];
-        for &(v, w) in list {
-            let (r, q) = (data.rest[v as usize], e[v as usize]);
-            let a: [f64; 3] = std::array::from_fn(|d| w * (r[d] - rb[d]));
-            let b: [f64; 3] = std::array::from_fn(|d| q[d] - w * qb[d]);
-            add_outer(&mut s, 1.0, a, b);
-        }
+        // S = Σ w (r - r̄) qᵀ = Σ w r qᵀ - r̄ (Σ w q)ᵀ.
+        add_outer(&mut s, -1.0, rb, qs);
         let rotation = fit_rotation(&s);
         let rr = mul_vec(&rotation, rb);
         *motion = Motion { rotation, translation: std::array::from_fn(|d| qb[d] - rr[d]) };
