@@ -28,6 +28,8 @@ pub enum SolveError {
     Factorization { matrix: &'static str, source: FactorError },
     #[error("the selection has {expected} handle vertices but {got} targets were given")]
     TargetCount { got: usize, expected: usize },
+    #[error("the handles have {expected} group ids but {got} group motions were given")]
+    GroupCount { got: usize, expected: usize },
     #[error("the membrane share must be in [0, 1] (got {0})")]
     MembraneShare(f64),
     #[error("the bending length must be finite and > 0 (a fraction of the diagonal; got {0})")]

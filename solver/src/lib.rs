@@ -32,7 +32,7 @@ pub use deform::bs_arap::{BaseKind, BsArap};
 pub use deform::config::{BaseConfig, BaseConfigError};
 pub use deform::deformer::{Deformer, DeformerOptions, MeshCache, Method, Solver, UnwrittenBase};
 pub use deform::handles::{Handles, HandlesError};
-pub use deform::pose::{GroupTransform, handle_targets};
+pub use deform::pose::{GroupRest, GroupTransform, handle_targets};
 pub use deform::riders::{ComponentInfo, ComponentMode, LooseParts, list_components};
 pub use error::SolveError;
 pub use geometry::mesh::{Mesh, MeshError};

@@ -9,9 +9,11 @@ use crate::deform::coarse::base::CoarseBase;
 use crate::deform::coarse::cache as coarse_cache;
 use crate::deform::config::BaseConfig;
 use crate::deform::handles::Handles;
+use crate::deform::pose::{GroupRest, GroupTransform};
 use crate::deform::riders::{LooseParts, Riders};
 use crate::error::SolveError;
 use crate::geometry::mesh::Mesh;
+use crate::linalg::rigid::Motion;
 use crate::pool::in_pool;
 use std::sync::Arc;
 
@@ -203,6 +205,12 @@ pub struct Deformer {
     positions: Vec<[f64; 3]>,
     /// The same for the deformed base.
     base: Vec<[f64; 3]>,
+    /// What group motions act on ([`Deformer::solve_groups`]).
+    group_rest: GroupRest,
+    /// The per-vertex targets of the last [`Deformer::solve_groups`] or
+    /// [`Deformer::settle_groups`], and its groups' motions.
+    group_targets: Vec<[f64; 3]>,
+    group_motions: Vec<Motion>,
 }
 
 /// How [`Deformer::new`] builds a deformer, besides the mesh and the handles. Every field
@@ -269,6 +277,9 @@ impl Deformer {
             riders: Riders::new(mesh, Some(handles), parts),
             positions: Vec::new(),
             base: Vec::new(),
+            group_rest: GroupRest::new(mesh.positions(), handles),
+            group_targets: Vec::new(),
+            group_motions: Vec::new(),
         };
         d.ride();
         Ok(d)
@@ -341,6 +352,55 @@ impl Deformer {
         });
         self.ride();
         result
+    }
+
+    /// Solves for the handle groups moved by `transforms` (`(group, transform)` pairs; groups
+    /// not listed stay at rest), warm-started: the group motions as they are, per-vertex
+    /// targets ([`GroupRest::targets`], [`Deformer::group_targets`]) derived here for the
+    /// methods that hold vertices. The coarse BS-ARAP moves its coarse handles by the motions
+    /// themselves ([`CoarseBsArap::solve_groups`]) instead of fitting them back to the targets.
+    /// An unknown group is an error.
+    pub fn solve_groups(
+        &mut self,
+        transforms: &[(usize, GroupTransform)],
+    ) -> Result<SolveStats, SolveError> {
+        self.group_rest.targets(transforms, &mut self.group_targets)?;
+        let targets = &self.group_targets;
+        let result = match &mut self.solver {
+            Solver::Arap(a) => in_pool(|| a.solve(targets)),
+            Solver::BsArap(b) => in_pool(|| b.solve(targets)),
+            Solver::Coarse(c) => {
+                self.group_rest.motions(transforms, &mut self.group_motions)?;
+                let motions = &self.group_motions;
+                in_pool(|| c.solve_groups(targets, motions))
+            }
+        };
+        self.ride();
+        result
+    }
+
+    /// [`Deformer::settle`] at the targets of the group motions `transforms` (those of the
+    /// last [`Deformer::solve_groups`] to refine it).
+    pub fn settle_groups(
+        &mut self,
+        transforms: &[(usize, GroupTransform)],
+    ) -> Result<Option<SolveStats>, SolveError> {
+        let mut targets = std::mem::take(&mut self.group_targets);
+        let result = self.group_rest.targets(transforms, &mut targets).map_err(SolveError::from);
+        let result = result.and_then(|()| self.settle(&targets));
+        self.group_targets = targets;
+        result
+    }
+
+    /// The per-vertex targets (`#H×3`, order of [`Handles::handle_vertices`]) the last
+    /// [`Deformer::solve_groups`] or [`Deformer::settle_groups`] derived; empty before any.
+    pub fn group_targets(&self) -> &[[f64; 3]] {
+        &self.group_targets
+    }
+
+    /// What group motions act on: the groups' rest centroids and the handles' rest positions.
+    pub fn group_rest(&self) -> &GroupRest {
+        &self.group_rest
     }
 
     /// Whether [`Deformer::settle`] has work after the last solve (then the caller should call

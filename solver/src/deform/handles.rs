@@ -132,7 +132,7 @@ impl Handles {
         self.labels[v].is_some()
     }
 
-    fn group_list(&self) -> String {
+    pub(crate) fn group_list(&self) -> String {
         let ids: Vec<String> = self.group_ids().map(|k| k.to_string()).collect();
         ids.join(", ")
     }

@@ -1,9 +1,17 @@
 //! Handle targets from per-group rigid transforms.
 //!
 //! A group $g$ with rest vertices $p_v$ and centroid $c_g = \frac1{|g|}\sum_{v\in g} p_v$ moved by
-//! rotation $R$ (about $c_g$) and translation $t$ has targets $p'_v = c_g + R(p_v - c_g) + t$.
+//! rotation $R$ (about $c_g$) and translation $t$ has targets $p'_v = c_g + R(p_v - c_g) + t$,
+//! the rigid motion $x \mapsto R x + (c_g - R c_g + t)$ ([`GroupTransform::motion`]).
+//!
+//! [`GroupRest`] holds what the transforms act on (each group's centroid, each handle vertex's
+//! group and rest position), computed once per handle set: the [`crate::Deformer`] keeps one,
+//! so that callers hand it the group motions as they are ([`crate::Deformer::solve_groups`])
+//! and it derives the per-vertex targets where a method needs them. [`centroid`] is the one
+//! place centroids of vertex sets are computed (the editor's gizmo uses it too).
 
 use crate::deform::handles::{Handles, HandlesError};
+use crate::linalg::rigid::Motion;
 use crate::linalg::rotation::{IDENTITY, Mat3, mul_vec};
 
 /// A rigid motion of one handle group: rotate about the group's rest centroid, then translate.
@@ -21,53 +29,180 @@ impl Default for GroupTransform {
     }
 }
 
-/// Rest centroid of group `k`.
+impl GroupTransform {
+    /// The motion $x \mapsto R x + (c - R c + t)$ this transform makes of a group with rest
+    /// centroid `centroid`; the identity transform gives [`Motion::IDENTITY`] exactly.
+    pub fn motion(&self, centroid: [f64; 3]) -> Motion {
+        if *self == GroupTransform::default() {
+            return Motion::IDENTITY;
+        }
+        let rc = mul_vec(&self.rotation, centroid);
+        Motion {
+            rotation: self.rotation,
+            translation: std::array::from_fn(|d| centroid[d] - rc[d] + self.translation[d]),
+        }
+    }
+}
+
+/// Centroid $\frac1{|S|}\sum_{v\in S} p_v$ of the vertices `vertices` of `positions` (`#V×3`);
+/// `None` for an empty set. An index out of range is skipped.
+pub fn centroid(positions: &[[f64; 3]], vertices: &[u32]) -> Option<[f64; 3]> {
+    let mut c = [0.0; 3];
+    let mut n = 0usize;
+    for p in vertices.iter().filter_map(|&v| positions.get(v as usize)) {
+        for d in 0..3 {
+            c[d] += p[d];
+        }
+        n += 1;
+    }
+    (n > 0).then(|| c.map(|x| x / n as f64))
+}
+
+/// Rest centroid of group `k` ([`centroid`] of [`Handles::group`]).
 pub fn group_centroid(
     rest: &[[f64; 3]],
     handles: &Handles,
     k: usize,
 ) -> Result<[f64; 3], HandlesError> {
     let g = handles.group(k)?;
-    let mut c = [0.0; 3];
-    for &v in g {
-        for d in 0..3 {
-            c[d] += rest[v as usize][d];
-        }
-    }
-    Ok(c.map(|x| x / g.len() as f64))
+    Ok(centroid(rest, g).unwrap_or([0.0; 3]))
 }
 
 /// A moved group's rotation, rest centroid and translation.
 type Moved = (Mat3, [f64; 3], [f64; 3]);
 
-/// Targets `#H×3` in the order of [`Handles::handle_vertices`] for `(group, transform)` pairs;
-/// groups not listed, and groups with the identity transform, stay exactly at rest. An unknown
-/// group is an error.
+/// What group transforms act on, for one handle set: per group its rest centroid, per handle
+/// vertex (order of [`Handles::handle_vertices`]) its group and rest position. Inputs of
+/// [`GroupRest::targets`] and [`GroupRest::motions`].
+#[derive(Debug, Clone, Default)]
+pub struct GroupRest {
+    /// Per group id, its rest centroid (`None`: no such group).
+    centroids: Vec<Option<[f64; 3]>>,
+    /// Per handle vertex, its group and rest position.
+    vertices: Vec<(u32, [f64; 3])>,
+    /// The groups that exist, for error messages.
+    available: String,
+}
+
+impl GroupRest {
+    /// The centroids and handle rest positions of `handles` on `rest` (`#V×3`).
+    pub fn new(rest: &[[f64; 3]], handles: &Handles) -> GroupRest {
+        let centroids = (0..handles.n_groups())
+            .map(|k| handles.group(k).ok().and_then(|g| centroid(rest, g)))
+            .collect();
+        let labels = handles.labels();
+        let vertices = handles
+            .handle_vertices()
+            .iter()
+            .filter_map(|&v| Some((labels.get(v as usize).copied().flatten()?, rest[v as usize])))
+            .collect();
+        GroupRest { centroids, vertices, available: handles.group_list() }
+    }
+
+    /// Number of handle vertices (the length of [`GroupRest::targets`]).
+    pub fn n_handles(&self) -> usize {
+        self.vertices.len()
+    }
+
+    /// One past the largest group id (the length of [`GroupRest::motions`]).
+    pub fn n_groups(&self) -> usize {
+        self.centroids.len()
+    }
+
+    /// Rest centroid of group `k`, `None` for a group that does not exist.
+    pub fn centroid(&self, k: usize) -> Option<[f64; 3]> {
+        self.centroids.get(k).copied().flatten()
+    }
+
+    fn centroid_or_err(&self, k: usize) -> Result<[f64; 3], HandlesError> {
+        self.centroid(k).ok_or_else(|| HandlesError::UnknownGroup {
+            group: k,
+            available: self.available.clone(),
+        })
+    }
+
+    /// Per group id, the motion of `transforms` ([`GroupTransform::motion`]); groups not
+    /// listed stay ([`Motion::IDENTITY`]). An unknown group is an error.
+    pub fn motions(
+        &self,
+        transforms: &[(usize, GroupTransform)],
+        out: &mut Vec<Motion>,
+    ) -> Result<(), HandlesError> {
+        out.clear();
+        out.resize(self.n_groups(), Motion::IDENTITY);
+        for (k, t) in transforms {
+            out[*k] = t.motion(self.centroid_or_err(*k)?);
+        }
+        Ok(())
+    }
+
+    /// Targets `#H×3` in the order of [`Handles::handle_vertices`] for `(group, transform)`
+    /// pairs, into `out`: $p'_v = c_g + R(p_v - c_g) + t$. Groups not listed, and groups with
+    /// the identity transform, stay exactly at rest. An unknown group is an error.
+    pub fn targets(
+        &self,
+        transforms: &[(usize, GroupTransform)],
+        out: &mut Vec<[f64; 3]>,
+    ) -> Result<(), HandlesError> {
+        // Per group: its motion, or `None` to stay exactly at rest.
+        let mut per_group: Vec<Option<Moved>> = vec![None; self.n_groups()];
+        for &(k, t) in transforms {
+            let c = self.centroid_or_err(k)?;
+            // The identity leaves the group exactly at rest (c + (p − c) may round).
+            per_group[k] =
+                (t != GroupTransform::default()).then_some((t.rotation, c, t.translation));
+        }
+        out.clear();
+        out.extend(self.vertices.iter().map(|&(k, p)| match &per_group[k as usize] {
+            Some((rotation, c, t)) => {
+                let r = mul_vec(rotation, [p[0] - c[0], p[1] - c[1], p[2] - c[2]]);
+                std::array::from_fn(|d| c[d] + r[d] + t[d])
+            }
+            None => p,
+        }));
+        Ok(())
+    }
+}
+
+/// Targets `#H×3` in the order of [`Handles::handle_vertices`] for `(group, transform)` pairs
+/// ([`GroupRest::targets`]); groups not listed, and groups with the identity transform, stay
+/// exactly at rest. An unknown group is an error.
 pub fn handle_targets(
     rest: &[[f64; 3]],
     handles: &Handles,
     transforms: &[(usize, GroupTransform)],
 ) -> Result<Vec<[f64; 3]>, HandlesError> {
-    // Per group: its motion, or `None` to stay exactly at rest.
-    let mut per_group: Vec<Option<Moved>> = vec![None; handles.n_groups()];
-    for &(k, t) in transforms {
-        let c = group_centroid(rest, handles, k)?;
-        // The identity leaves the group exactly at rest (c + (p − c) may round).
-        per_group[k] = (t != GroupTransform::default()).then_some((t.rotation, c, t.translation));
+    let mut out = Vec::new();
+    GroupRest::new(rest, handles).targets(transforms, &mut out)?;
+    Ok(out)
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+    use crate::linalg::rotation::axis_angle;
+
+    #[test]
+    fn motion_moves_like_the_targets() {
+        let rest = [[1.0, 0.0, 0.0], [3.0, 0.5, 0.0], [0.0, 5.0, 1.0], [9.0, 9.0, 9.0]];
+        let h = Handles::from_options(vec![Some(0), Some(0), Some(0), None]).unwrap();
+        let t = GroupTransform {
+            translation: [0.3, -0.2, 1.0],
+            rotation: axis_angle([1.0, 2.0, 0.5], 0.7),
+        };
+        let gr = GroupRest::new(&rest, &h);
+        let targets = handle_targets(&rest, &h, &[(0, t)]).unwrap();
+        let mut motions = Vec::new();
+        gr.motions(&[(0, t)], &mut motions).unwrap();
+        for (v, q) in targets.iter().enumerate() {
+            let m = motions[0].apply(rest[v]);
+            assert!((0..3).all(|d| (m[d] - q[d]).abs() < 1e-12), "{m:?} vs {q:?}");
+        }
+        assert_eq!(gr.centroid(0), Some([4.0 / 3.0, 5.5 / 3.0, 1.0 / 3.0]));
+        assert!(gr.motions(&[(3, t)], &mut motions).is_err());
+        assert!(handle_targets(&rest, &h, &[(1, t)]).is_err());
+        assert_eq!(GroupTransform::default().motion([1.0, 2.0, 3.0]), Motion::IDENTITY);
+        assert_eq!(centroid(&rest, &[]), None);
     }
-    let labels = handles.labels();
-    Ok(handles
-        .handle_vertices()
-        .iter()
-        .map(|&v| {
-            let p = rest[v as usize];
-            match labels[v as usize].and_then(|k| per_group[k as usize].as_ref()) {
-                Some((rotation, c, t)) => {
-                    let r = mul_vec(rotation, [p[0] - c[0], p[1] - c[1], p[2] - c[2]]);
-                    std::array::from_fn(|d| c[d] + r[d] + t[d])
-                }
-                None => p,
-            }
-        })
-        .collect())
 }

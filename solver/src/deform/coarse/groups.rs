@@ -140,22 +140,38 @@ impl CoarseGroups {
         CoarseGroups { labels: coarse_labels, fine, coarse }
     }
 
-    /// The coarse handles' targets for fine `targets`: each group's best rigid motion of its
-    /// fine handles ([`crate::linalg::rigid`]) applied to its coarse vertices' rest positions.
+    /// The coarse handles' targets for fine `targets`: each group's rigid motion applied to
+    /// its coarse vertices' rest positions. The motion is `given[g]` when the caller knows the
+    /// groups' motions ([`crate::deform::pose::GroupTransform::motion`], one per group id),
+    /// else the best rigid motion of the group's fine handles onto their targets
+    /// ([`crate::linalg::rigid`]: exact for rigid targets, their rigid part otherwise).
     pub(crate) fn targets(
         &self,
         targets: &[[f64; 3]],
+        given: Option<&[Motion]>,
         motions: &mut Vec<Motion>,
         out: &mut Vec<[f64; 3]>,
     ) {
         motions.clear();
-        let mut moved = Vec::new();
-        for (indices, rest) in &self.fine {
-            moved.clear();
-            moved.extend(indices.iter().map(|&i| targets[i]));
-            motions.push(fit_motion(rest, &moved, None));
+        match given {
+            Some(given) => motions.extend(
+                (0..self.fine.len()).map(|g| given.get(g).copied().unwrap_or(Motion::IDENTITY)),
+            ),
+            None => {
+                let mut moved = Vec::new();
+                for (indices, rest) in &self.fine {
+                    moved.clear();
+                    moved.extend(indices.iter().map(|&i| targets[i]));
+                    motions.push(fit_motion(rest, &moved, None));
+                }
+            }
         }
         out.clear();
         out.extend(self.coarse.iter().map(|&(g, p)| motions[g as usize].apply(p)));
+    }
+
+    /// Number of group ids (the length the given motions of [`CoarseGroups::targets`] have).
+    pub(crate) fn n_groups(&self) -> usize {
+        self.fine.len()
     }
 }

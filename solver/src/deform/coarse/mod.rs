@@ -11,10 +11,12 @@
 //!   the fine vertices it represents are in $g$; a group left with fewer than
 //!   [`MIN_COARSE_GROUP`] coarse vertices takes those with the largest share of its vertices,
 //!   then their neighbours nearest to its centroid. Each frame, group $g$'s coarse targets
-//!   are $T_g(B_{c,k})$, $T_g$ the best rigid motion of its fine handles from rest to their
-//!   targets ([`crate::linalg::rigid`]): exact for groups that move rigidly (every editor and
-//!   scene pose), the rigid part otherwise; the fine handle vertices get their own targets
-//!   exactly in step 4.
+//!   are $T_g(B_{c,k})$, $T_g$ the group's rigid motion as the caller gives it
+//!   ([`CoarseBsArap::solve_groups`]; the editor, scenes, CLI and Python poses), or for bare
+//!   per-vertex targets ([`CoarseBsArap::solve`]) the best rigid motion of its fine handles
+//!   from rest to their targets ([`crate::linalg::rigid`]: the same motion for rigid targets,
+//!   the rigid part otherwise); the fine handle vertices get their own targets exactly in
+//!   step 4.
 //! - ARAP on $B_c$ with those handles, factored.
 //!
 //! 4. Each frame: ARAP on $B_c$ (the coarse handles on their targets) gives $B_c'$ and $R_k$;
@@ -257,6 +259,31 @@ impl CoarseBsArap {
     }
 
     pub fn solve(&mut self, targets: &[[f64; 3]]) -> Result<SolveStats, SolveError> {
+        self.solve_with(targets, None)
+    }
+
+    /// [`CoarseBsArap::solve`] for `targets` made by the group motions `motions` (one per
+    /// group id, [`crate::deform::pose::GroupRest::motions`]): the coarse handles follow the
+    /// motions as given instead of a rigid fit to the fine targets (module doc, step 3).
+    pub fn solve_groups(
+        &mut self,
+        targets: &[[f64; 3]],
+        motions: &[Motion],
+    ) -> Result<SolveStats, SolveError> {
+        if motions.len() != self.groups.n_groups() {
+            return Err(SolveError::GroupCount {
+                got: motions.len(),
+                expected: self.groups.n_groups(),
+            });
+        }
+        self.solve_with(targets, Some(motions))
+    }
+
+    fn solve_with(
+        &mut self,
+        targets: &[[f64; 3]],
+        motions: Option<&[Motion]>,
+    ) -> Result<SolveStats, SolveError> {
         if targets.len() != self.fine_handles.len() {
             return Err(SolveError::TargetCount {
                 got: targets.len(),
@@ -267,7 +294,7 @@ impl CoarseBsArap {
         if let Some(index) = targets.iter().position(|t| !t.iter().all(|c| c.is_finite())) {
             return Err(SolveError::NonFiniteTarget { index });
         }
-        self.groups.targets(targets, &mut self.motions, &mut self.coarse_target_buf);
+        self.groups.targets(targets, motions, &mut self.motions, &mut self.coarse_target_buf);
         self.coarse_before.clear();
         self.coarse_before.extend_from_slice(self.arap.positions());
         let stats = self.arap.solve(&self.coarse_target_buf)?;

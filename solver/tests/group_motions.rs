@@ -1,0 +1,127 @@
+//! Group motions reach the solver as they are (`Deformer::solve_groups`): every method gives
+//! what the per-vertex targets of the same motions give (the coarse BS-ARAP, which no longer
+//! fits the motions back to the targets, up to rounding), and per-vertex targets keep working.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use solver::deform::coarse::CoarseBsArap;
+use solver::linalg::rigid::Motion;
+use solver::linalg::rotation::axis_angle;
+use solver::{
+    ArapConfig, BaseConfig, Deformer, DeformerOptions, GroupTransform, Handles, Mesh, Method,
+    SolveError, handle_targets,
+};
+
+fn bar() -> (Mesh, Handles) {
+    solver::geometry::shapes::bumpy_bar(3)
+}
+
+fn options(method: Method) -> DeformerOptions<'static> {
+    DeformerOptions {
+        method,
+        base: BaseConfig { coarse_vertices: Some(300), ..Default::default() },
+        ..Default::default()
+    }
+}
+
+/// Both caps moved: one turned and lifted, the other shifted.
+fn bend(diag: f64) -> Vec<(usize, GroupTransform)> {
+    vec![
+        (
+            0,
+            GroupTransform {
+                translation: [0.0, 0.12 * diag, 0.03 * diag],
+                rotation: axis_angle([0.2, 0.1, 1.0], 0.5),
+            },
+        ),
+        (1, GroupTransform { translation: [0.02 * diag, -0.05 * diag, 0.0], ..Default::default() }),
+    ]
+}
+
+fn max_distance(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(p, q)| {
+            ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt()
+        })
+        .fold(0.0, f64::max)
+}
+
+#[test]
+fn group_motions_give_what_their_targets_give() {
+    let (mesh, handles) = bar();
+    assert!(handles.n_groups() >= 2);
+    let diag = mesh.bbox_diagonal();
+    let moves = bend(diag);
+    let targets = handle_targets(mesh.positions(), &handles, &moves).unwrap();
+    for method in Method::ALL {
+        let mut by_targets = Deformer::new(&mesh, &handles, options(method)).unwrap();
+        let mut by_groups = Deformer::new(&mesh, &handles, options(method)).unwrap();
+        let s1 = by_targets.solve(&targets).unwrap();
+        let s2 = by_groups.solve_groups(&moves).unwrap();
+        assert_eq!(by_groups.group_targets(), targets.as_slice(), "{method:?}");
+        let d = max_distance(by_targets.positions(), by_groups.positions());
+        println!(
+            "{}: {} / {} iterations, max difference {:e} diag",
+            method.name(),
+            s1.iterations,
+            s2.iterations,
+            d / diag
+        );
+        assert!(d <= 1e-9 * diag, "{method:?}: {:e} of the diagonal", d / diag);
+        if method != Method::BsArapCoarse {
+            assert_eq!(by_targets.positions(), by_groups.positions(), "{method:?}");
+        }
+        let moved = max_distance(by_groups.positions(), mesh.positions());
+        assert!(moved > 0.01 * diag, "{method:?} did not move");
+        // Settling at the same motions refines the same way.
+        while by_targets.settle_pending() {
+            let a = by_targets.settle(&targets).unwrap();
+            let b = by_groups.settle_groups(&moves).unwrap();
+            assert_eq!(a.is_some(), b.is_some(), "{method:?}");
+            if a.is_none() {
+                break;
+            }
+        }
+        let d = max_distance(by_targets.positions(), by_groups.positions());
+        assert!(d <= 1e-9 * diag, "{method:?} settled: {:e} of the diagonal", d / diag);
+    }
+}
+
+#[test]
+fn rest_motions_give_the_rest_pose_exactly() {
+    let (mesh, handles) = bar();
+    let mut d = Deformer::new(&mesh, &handles, options(Method::BsArapCoarse)).unwrap();
+    d.solve_groups(&bend(mesh.bbox_diagonal())).unwrap();
+    d.solve_groups(&[(0, GroupTransform::default())]).unwrap();
+    assert_eq!(d.positions(), mesh.positions());
+}
+
+#[test]
+fn per_vertex_targets_still_work_on_the_coarse_method() {
+    let (mesh, handles) = bar();
+    let diag = mesh.bbox_diagonal();
+    let mut targets = handle_targets(mesh.positions(), &handles, &bend(diag)).unwrap();
+    // Not rigid: one handle vertex pulled off its group's motion.
+    targets[0][1] += 0.02 * diag;
+    let mut d = Deformer::new(&mesh, &handles, options(Method::BsArapCoarse)).unwrap();
+    d.solve(&targets).unwrap();
+    for (&v, t) in handles.handle_vertices().iter().zip(&targets) {
+        assert_eq!(d.positions()[v as usize], *t, "handle vertex {v} on its target");
+    }
+    assert!(d.positions().iter().all(|p| p.iter().all(|c| c.is_finite())));
+}
+
+#[test]
+fn unknown_groups_and_wrong_motion_counts_are_errors() {
+    let (mesh, handles) = bar();
+    let mut d = Deformer::new(&mesh, &handles, options(Method::BsArapCoarse)).unwrap();
+    let n = handles.n_groups();
+    let err = d.solve_groups(&[(n + 3, GroupTransform::default())]).unwrap_err();
+    assert!(matches!(err, SolveError::Handles(_)), "{err:?}");
+    let config = ArapConfig::default();
+    let settings = BaseConfig { coarse_vertices: Some(300), ..Default::default() };
+    let mut c = CoarseBsArap::new(&mesh, &handles, &config, &settings).unwrap();
+    let targets = handle_targets(mesh.positions(), &handles, &[]).unwrap();
+    let err = c.solve_groups(&targets, &vec![Motion::IDENTITY; n + 1]).unwrap_err();
+    assert_eq!(err, SolveError::GroupCount { got: n + 1, expected: n });
+}
