@@ -21,6 +21,7 @@ use solver::animation::export::{
 use solver::animation::pointcache::{Pc2, write_obj_sequence, write_pc2};
 use solver::animation::recording::record;
 use solver::animation::scene::{HandlesSpec, LoadedScene, Scene};
+use solver::animation::skinning::SkinningConfig;
 use solver::animation::timeline::{CircularPath, GroupPath, Path as AnimPath, Timeline};
 use solver::{Deformer, DeformerOptions};
 
@@ -72,12 +73,12 @@ pub struct ExportArgs {
     /// glTF: keep every K-th frame (and the last), played back by linear blending.
     #[arg(long, value_name = "K", default_value_t = 1)]
     pub every: usize,
-    /// glTF: bake the recording to N rigid bones (4 influences per vertex; N defaults to 32)
-    /// and write a skinned mesh with one joint animation instead of morph targets: far smaller,
-    /// within the fit's error (printed).
-    #[arg(long, value_name = "N", num_args = 0..=1, default_missing_value = "32",
+    /// glTF: bake the recording to N rigid bones (4 influences per vertex; N defaults to 64,
+    /// `SkinningConfig`'s default) and write a skinned mesh with one joint animation instead of
+    /// morph targets: far smaller, within the fit's error (printed).
+    #[arg(long, value_name = "N", num_args = 0..=1,
           conflicts_with_all = ["float", "no_normals", "every", "meshopt"])]
-    pub bones: Option<usize>,
+    pub bones: Option<Option<usize>>,
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
@@ -239,7 +240,7 @@ pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
     let vertex_map = &loaded.mesh.report.vertex_map;
     let written = match output {
         Output::Gltf(format) if a.bones.is_some() => {
-            let bones = a.bones.unwrap_or(32);
+            let bones = a.bones.flatten().unwrap_or(SkinningConfig::default().bones);
             let r = super::export_bones::write(
                 &a.output,
                 format,
