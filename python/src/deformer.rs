@@ -163,14 +163,18 @@ impl NativeDeformer {
     }
 
     /// Solves for per-group transforms `[(group, translation, rotation)]` (rotation about the
-    /// group's rest centroid, then translation), warm-started: `(positions, stats)`.
+    /// group's rest centroid, then translation), warm-started: `(positions, stats)`. The
+    /// motions reach the solver as they are (`Deformer::solve_groups`).
     fn solve<'py>(
         &mut self,
         py: Python<'py>,
         transforms: Vec<(usize, [f64; 3], Mat3)>,
     ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyDict>)> {
-        let targets = self.targets_of(transforms)?;
-        self.solve_at(py, targets)
+        let list = transforms_of(transforms)?;
+        let deformer = &mut self.deformer;
+        let s = py.allow_threads(|| deformer.solve_groups(&list)).map_err(err)?;
+        self.last_targets = Some(self.deformer.group_targets().to_vec());
+        Ok((array3(py, self.deformer.positions().to_vec())?, stats(py, &s)?))
     }
 
     /// Solves for handle targets given directly (`#H×3`, order of `handle_vertices`).
@@ -295,17 +299,26 @@ impl NativeDeformer {
     }
 }
 
+/// Python's `(group, translation, rotation)` triples as group motions, checked: finite
+/// translations, proper rotations.
+fn transforms_of(
+    transforms: Vec<(usize, [f64; 3], Mat3)>,
+) -> PyResult<Vec<(usize, GroupTransform)>> {
+    let mut list = Vec::with_capacity(transforms.len());
+    for (group, translation, rotation) in transforms {
+        if translation.iter().any(|c| !c.is_finite()) {
+            return Err(err(format!("group {group}: the translation is not finite")));
+        }
+        check_rotation(group, &rotation)?;
+        list.push((group, GroupTransform { translation, rotation }));
+    }
+    Ok(list)
+}
+
 impl NativeDeformer {
     fn targets_of(&self, transforms: Vec<(usize, [f64; 3], Mat3)>) -> PyResult<Vec<[f64; 3]>> {
-        let mut list = Vec::with_capacity(transforms.len());
-        for (group, translation, rotation) in transforms {
-            if translation.iter().any(|c| !c.is_finite()) {
-                return Err(err(format!("group {group}: the translation is not finite")));
-            }
-            check_rotation(group, &rotation)?;
-            list.push((group, GroupTransform { translation, rotation }));
-        }
-        handle_targets(self.mesh.positions(), &self.handles, &list).map_err(err)
+        handle_targets(self.mesh.positions(), &self.handles, &transforms_of(transforms)?)
+            .map_err(err)
     }
 
     fn solve_at<'py>(

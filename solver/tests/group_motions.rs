@@ -125,3 +125,43 @@ fn unknown_groups_and_wrong_motion_counts_are_errors() {
     let err = c.solve_groups(&targets, &vec![Motion::IDENTITY; n + 1]).unwrap_err();
     assert_eq!(err, SolveError::GroupCount { got: n + 1, expected: n });
 }
+
+/// A recording hands each frame's motions to the deformer (`Deformer::solve_groups`): its
+/// frames are what solving the same motions' targets frame by frame gives.
+#[test]
+fn a_recording_solves_the_timeline_motions() {
+    use solver::animation::recording::record;
+    use solver::animation::timeline::{CircularPath, GroupPath, Path, Timeline};
+    let (mesh, handles) = bar();
+    let diag = mesh.bbox_diagonal();
+    let n_frames = 4;
+    let timeline = Timeline {
+        duration: 1.0,
+        fps: (n_frames - 1) as f64,
+        looping: false,
+        paths: vec![GroupPath {
+            group: 0,
+            path: Path::Circular(CircularPath {
+                turn_with_path: true,
+                ..CircularPath::new([0.0, 0.0, 1.0], 0.1 * diag, 1.0)
+            }),
+        }],
+    };
+    let config = ArapConfig { tolerance: 1e-6, max_iterations: 40, ..Default::default() };
+    let opts = || DeformerOptions { config, ..options(Method::BsArapCoarse) };
+    let mut d = Deformer::new(&mesh, &handles, opts()).unwrap();
+    let rec = record(&mut d, &mesh, &handles, &timeline, n_frames, &config, &mut |_, _| {
+        std::ops::ControlFlow::Continue(())
+    })
+    .unwrap();
+    let mut by_targets = Deformer::new(&mesh, &handles, opts()).unwrap();
+    by_targets.set_stopping(config.tolerance, config.max_iterations);
+    for (frame, &time) in rec.times.iter().enumerate() {
+        let targets =
+            handle_targets(mesh.positions(), &handles, &timeline.transforms_at(time)).unwrap();
+        by_targets.solve(&targets).unwrap();
+        let dist = max_distance(by_targets.positions(), &rec.frames[frame]);
+        assert!(dist <= 1e-9 * diag, "frame {frame}: {:e} of the diagonal", dist / diag);
+    }
+    assert!(max_distance(&rec.frames[1], mesh.positions()) > 0.01 * diag, "frame 1 moved");
+}

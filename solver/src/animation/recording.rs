@@ -1,11 +1,12 @@
 //! Recording: solve every frame of a [`Timeline`] to the tolerance, warm-started from the previous
 //! frame, and keep the positions.
 //!
-//! Frame $i$ at time $t_i$ ([`Timeline::frame_times`]) gets the handle targets of
-//! [`Timeline::transforms_at`]$(t_i)$ through [`handle_targets`], then one
-//! [`Deformer::solve`] whose starting guess is frame $i-1$'s result (frame 0 starts from rest:
-//! the deformer is reset first). The result depends only on the inputs, not on wall-clock time
-//! or on what the deformer solved before, so the editor's recording and `bsarap export` agree.
+//! Frame $i$ at time $t_i$ ([`Timeline::frame_times`]) hands the group motions of
+//! [`Timeline::transforms_at`]$(t_i)$ as they are to one [`Deformer::solve_groups`] (which
+//! derives the handle targets where its method needs them), whose starting guess is frame
+//! $i-1$'s result (frame 0 starts from rest: the deformer is reset first). The result depends
+//! only on the inputs, not on wall-clock time or on what the deformer solved before, so the
+//! editor's recording and `bsarap export` agree.
 
 use std::ops::ControlFlow;
 
@@ -81,7 +82,7 @@ pub fn record(
         return Err(AnimationError::NoFrames(0).into());
     }
     let times = timeline.frame_times(n_frames);
-    // Check every group before solving anything.
+    // Check every group before solving anything ([`handle_targets`] of the selection).
     handle_targets(mesh.positions(), handles, &timeline.transforms_at(0.0))?;
     deformer.reset();
     deformer.set_stopping(config.tolerance, config.max_iterations);
@@ -91,12 +92,9 @@ pub fn record(
         return Err(RecordError::Cancelled { done: 0, total: n_frames });
     }
     for (frame, &time) in times.iter().enumerate() {
-        let targets = handle_targets(mesh.positions(), handles, &timeline.transforms_at(time))?;
-        let s = deformer.solve(&targets).map_err(|source| RecordError::Solve {
-            frame,
-            time,
-            source,
-        })?;
+        let s = deformer
+            .solve_groups(&timeline.transforms_at(time))
+            .map_err(|source| RecordError::Solve { frame, time, source })?;
         let positions = deformer.positions();
         if let Some(vertex) = positions.iter().position(|p| p.iter().any(|c| !c.is_finite())) {
             return Err(RecordError::Solve {
