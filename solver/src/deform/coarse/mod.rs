@@ -92,57 +92,147 @@ use crate::linalg::rigid::Motion;
 use rayon::prelude::*;
 use std::sync::Arc;
 
-/// Coarse-base BS-ARAP precomputed for one mesh and one handle set.
+/// Coarse-base BS-ARAP precomputed for one mesh and one handle set: what the handles fix
+/// (the base, the factored coarse ARAP, the handle groups, the full-mesh and level solvers,
+/// the iteration counts) and, in [`SolveState`], what each solve changes.
 #[derive(Debug)]
 pub struct CoarseBsArap {
     /// The mesh's handle-independent part: $B_c$, the embedding, the details.
     base: Arc<CoarseBase>,
+    /// ARAP on $B_c$; its positions are the coarse pose of the last successful solve.
     arap: Arap,
-    /// $\sum_k w_{ik} B'_{c,k}$ of the last solve, computed when first asked for
-    /// ([`CoarseBsArap::deformed_base`]): the frames need no copy of it.
-    deformed_base: std::sync::OnceLock<Vec<[f64; 3]>>,
-    result: Vec<[f64; 3]>,
     fine_handles: Vec<u32>,
     /// Fine vertices of components without handles, with their rest positions.
     pinned: Vec<(u32, [f64; 3])>,
     groups: CoarseGroups,
-    /// Per-solve scratch: each group's motion.
-    motions: Vec<Motion>,
-    /// $R_k$ of the last successful solve as unit quaternions; `next_quaternions` is the
-    /// solve in progress, swapped in with the result.
-    quaternions: Vec<[f64; 4]>,
-    next_quaternions: Vec<[f64; 4]>,
-    /// Per fine vertex, what the last fine iterations added to its detail, in the detail's
-    /// frame (zero without fine iterations): carried to the next solve.
-    correction: Vec<[f64; 3]>,
-    /// Whether `correction` holds anything but zeros (else the prolongation skips it).
-    corrected: bool,
     /// ARAP on the full mesh (when fine or settle iterations are asked for), factored when
     /// first needed.
     fine: Option<FineLevel>,
     fine_iterations: usize,
     /// ARAP on the fairing level (step 6), when settle iterations are asked for and the base
-    /// was faired on a level; whether the last solve's pose has settled on it.
+    /// was faired on a level.
     level: Option<LevelSolver>,
-    level_settled: bool,
     settle_iterations: usize,
+    phases: Vec<(&'static str, f64)>,
+    state: SolveState,
+}
+
+/// What a solve changes: the pose, rotations and carried corrections of the last successful
+/// solve, the scratch the next one writes into, and what [`CoarseBsArap::settle`] needs to
+/// know about it.
+///
+/// Invariants between solves: `result`, `quaternions` and the coarse ARAP's positions are
+/// those of one successful solve (the rest pose before any); `next` and `next_quaternions`
+/// hold nothing that is read. A solve writes its pose and rotations into the scratch, swaps
+/// them in ([`SolveState::swap_next`]) and, if the pose is not finite or the fine iterations
+/// fail, swaps them back and puts the coarse pose back to `coarse_before`
+/// ([`SolveState::roll_back`]), so that after an error the pose, the base and the rotations
+/// all stay those of the last successful solve.
+#[derive(Debug)]
+struct SolveState {
+    /// The result of the last successful solve, `#V×3`.
+    result: Vec<[f64; 3]>,
+    /// Scratch for the next result, `#V×3` once a solve has run.
+    next: Vec<[f64; 3]>,
+    /// $R_k$ of the last successful solve as unit quaternions; `next_quaternions` is the
+    /// solve in progress, swapped in with the result.
+    quaternions: Vec<[f64; 4]>,
+    next_quaternions: Vec<[f64; 4]>,
+    /// $\sum_k w_{ik} B'_{c,k}$ of the last solve, computed when first asked for
+    /// ([`CoarseBsArap::deformed_base`]): the frames need no copy of it.
+    deformed_base: std::sync::OnceLock<Vec<[f64; 3]>>,
+    /// Per fine vertex, what the last fine iterations added to its detail, in the detail's
+    /// frame (zero without fine iterations): carried to the next solve.
+    correction: Vec<[f64; 3]>,
+    /// Whether `correction` holds anything but zeros (else the prolongation skips it).
+    corrected: bool,
+    /// Per-solve scratch: each group's motion and the coarse handles' targets (a few thousand
+    /// vertices; reused, not allocated per frame).
+    motions: Vec<Motion>,
+    coarse_targets: Vec<[f64; 3]>,
+    /// The coarse pose to go back to if the prolongation or the fine iterations fail.
+    coarse_before: Vec<[f64; 3]>,
     /// The targets of the last solve, and whether [`CoarseBsArap::settle`] may refine its
     /// result (its coarse solve converged and it is not the rest pose).
     last_targets: Vec<[f64; 3]>,
     settle_ready: bool,
+    /// Whether the last solve's pose has settled on the level (step 6).
+    level_settled: bool,
     /// The coarse energy of the last solve (what a settle step reports).
     last_energy: f64,
-    phases: Vec<(&'static str, f64)>,
-    /// Scratch for the next result: swapped in with the rotations after a finite
-    /// prolongation, and back when the fine iterations fail, so that after an error the pose,
-    /// the base and the rotations all stay those of the last successful solve (the coarse pose
-    /// goes back too, and the deformed base is computed from it).
-    next: Vec<[f64; 3]>,
-    /// Per-solve scratch: the coarse handles' targets, and the coarse pose to go back to if
-    /// the prolongation or the fine iterations fail (a few thousand vertices; reused, not
-    /// allocated per frame).
-    coarse_target_buf: Vec<[f64; 3]>,
-    coarse_before: Vec<[f64; 3]>,
+}
+
+impl SolveState {
+    /// The state before any solve: the rest pose `rest` of the full mesh and identity
+    /// rotations at the `n_coarse` coarse vertices.
+    fn new(rest: &[[f64; 3]], n_coarse: usize) -> SolveState {
+        SolveState {
+            result: rest.to_vec(),
+            next: Vec::new(),
+            quaternions: vec![[1.0, 0.0, 0.0, 0.0]; n_coarse],
+            next_quaternions: vec![[1.0, 0.0, 0.0, 0.0]; n_coarse],
+            deformed_base: std::sync::OnceLock::new(),
+            correction: vec![[0.0; 3]; rest.len()],
+            corrected: false,
+            motions: Vec::new(),
+            coarse_targets: Vec::new(),
+            coarse_before: Vec::new(),
+            last_targets: Vec::new(),
+            settle_ready: false,
+            level_settled: false,
+            last_energy: 0.0,
+        }
+    }
+
+    /// Exchanges the result and the rotations with their scratch buffers.
+    fn swap_next(&mut self) {
+        std::mem::swap(&mut self.result, &mut self.next);
+        std::mem::swap(&mut self.quaternions, &mut self.next_quaternions);
+    }
+
+    /// Undoes a failed solve whose pose and rotations were swapped in: they go back to the
+    /// scratch, the coarse pose of `arap` back to the last successful solve's, and nothing is
+    /// left to settle.
+    fn roll_back(&mut self, arap: &mut Arap) {
+        self.swap_next();
+        arap.set_positions(&self.coarse_before);
+        self.settle_ready = false;
+    }
+
+    /// Forgets the carried corrections.
+    fn clear_correction(&mut self) {
+        self.correction.fill([0.0; 3]);
+        self.corrected = false;
+    }
+
+    /// Keeps what the fine or level iterations changed of `result` in the detail frames of
+    /// the coarse pose `coarse` (with `quaternions`) on `base`, for the next solve's
+    /// prolongation.
+    fn carry(&mut self, coarse: &[[f64; 3]], base: &CoarseBase) {
+        let frames = triangle_frames(coarse, &self.quaternions, base.coarse_mesh.triangles());
+        self.correction
+            .par_iter_mut()
+            .zip(self.result.par_iter().zip(base.faces.par_iter()))
+            .zip(base.weights.par_iter().zip(base.details.par_iter()))
+            .for_each(|((c, (x, &f)), (w, d))| {
+                let frame = &frames[f as usize];
+                let (b, q) = at(&frame.positions, &frame.quaternions, &from_stored(w[0], w[1]));
+                let conj = [q[0], -q[1], -q[2], -q[3]];
+                *c = sub(rotate(conj, sub(*x, b)), *d);
+            });
+        self.corrected = true;
+    }
+
+    /// What [`CoarseBsArap::reset`] forgets: the rotations and corrections the next solve would
+    /// start from, and the last solve's targets (nothing to settle). The result stays until
+    /// the next solve replaces it.
+    fn restart(&mut self) {
+        self.deformed_base = std::sync::OnceLock::new();
+        self.quaternions.fill([1.0, 0.0, 0.0, 0.0]);
+        self.clear_correction();
+        self.last_targets.clear();
+        self.settle_ready = false;
+    }
 }
 
 /// Puts the handle vertices `handles` on their `targets` and the pinned vertices (of
@@ -213,7 +303,6 @@ impl CoarseBsArap {
             other => other,
         })?;
         clock.lap("coarse factorization");
-        let n = mesh.n_vertices();
         let pinned = constraints
             .pinned_vertices
             .iter()
@@ -234,23 +323,10 @@ impl CoarseBsArap {
             fine,
             fine_iterations: coarse.fine_iterations,
             level,
-            level_settled: false,
             settle_iterations: coarse.settle_iterations,
-            last_targets: Vec::new(),
-            settle_ready: false,
-            last_energy: 0.0,
             phases: clock.phases,
-            next: Vec::new(),
-            coarse_target_buf: Vec::new(),
-            coarse_before: Vec::new(),
-            motions: Vec::new(),
             pinned,
-            quaternions: vec![[1.0, 0.0, 0.0, 0.0]; coarse_mesh.n_vertices()],
-            next_quaternions: vec![[1.0, 0.0, 0.0, 0.0]; coarse_mesh.n_vertices()],
-            correction: vec![[0.0; 3]; n],
-            corrected: false,
-            deformed_base: std::sync::OnceLock::new(),
-            result: mesh.positions().to_vec(),
+            state: SolveState::new(mesh.positions(), coarse_mesh.n_vertices()),
             fine_handles: fine_handles.to_vec(),
             groups,
             base,
@@ -294,53 +370,51 @@ impl CoarseBsArap {
         if let Some(index) = targets.iter().position(|t| !t.iter().all(|c| c.is_finite())) {
             return Err(SolveError::NonFiniteTarget { index });
         }
-        self.groups.targets(targets, motions, &mut self.motions, &mut self.coarse_target_buf);
-        self.coarse_before.clear();
-        self.coarse_before.extend_from_slice(self.arap.positions());
-        let stats = self.arap.solve(&self.coarse_target_buf)?;
+        let state = &mut self.state;
+        self.groups.targets(targets, motions, &mut state.motions, &mut state.coarse_targets);
+        state.coarse_before.clear();
+        state.coarse_before.extend_from_slice(self.arap.positions());
+        let stats = self.arap.solve(&state.coarse_targets)?;
         // Rest targets give the rest pose exactly, without iterating: nothing to settle, and
         // no correction may carry over (the rest pose itself is copied below).
-        if stats.iterations == 0 && self.corrected {
-            self.correction.fill([0.0; 3]);
-            self.corrected = false;
+        if stats.iterations == 0 && state.corrected {
+            state.clear_correction();
         }
-        self.deformed_base = std::sync::OnceLock::new();
+        state.deformed_base = std::sync::OnceLock::new();
         let bc = self.arap.positions();
-        for (q, r) in self.next_quaternions.iter_mut().zip(self.arap.rotations()) {
+        for (q, r) in state.next_quaternions.iter_mut().zip(self.arap.rotations()) {
             *q = quaternion_of(r);
         }
         // B'_c is finite (checked by ARAP) but the prolonged p' can still overflow: write into
-        // reused buffers and swap them in only when p' is finite (the previous pose stays).
-        let n = self.result.len();
-        let mut next = std::mem::take(&mut self.next);
-        next.resize(n, [0.0; 3]);
+        // the scratch, swap it in, and swap it back unless p' is finite (the previous pose
+        // stays).
+        let n = state.result.len();
+        state.next.resize(n, [0.0; 3]);
         prolong(
             Prolongation {
                 coarse: bc,
-                quaternions: &self.next_quaternions,
+                quaternions: &state.next_quaternions,
                 triangles: self.base.coarse_mesh.triangles(),
                 faces: &self.base.faces,
                 weights: &self.base.weights,
                 details: &self.base.details,
-                corrections: if self.corrected { &self.correction } else { &[] },
+                corrections: if state.corrected { &state.correction } else { &[] },
             },
-            &mut next,
+            &mut state.next,
         );
         if stats.iterations == 0
             && self.fine_handles.iter().zip(targets).all(|(&v, t)| *t == self.base.rest[v as usize])
         {
             // Rest targets: M exactly (the prolongation B + D may differ in the last bit).
-            next.copy_from_slice(&self.base.rest);
+            state.next.copy_from_slice(&self.base.rest);
         }
-        hold(&mut next, &self.fine_handles, targets, &self.pinned);
-        let bad = next.par_iter().position_any(|p| !p.iter().all(|c| c.is_finite()));
-        self.next = next;
+        hold(&mut state.next, &self.fine_handles, targets, &self.pinned);
+        let bad = state.next.par_iter().position_any(|p| !p.iter().all(|c| c.is_finite()));
+        state.swap_next();
         if let Some(vertex) = bad {
-            self.arap.set_positions(&self.coarse_before);
-            self.settle_ready = false;
+            state.roll_back(&mut self.arap);
             return Err(SolveError::NonFiniteResult { vertex });
         }
-        self.swap_next();
         let mut stats = stats;
         if self.fine_iterations > 0 {
             match self.run_fine(targets, self.fine_iterations) {
@@ -352,25 +426,18 @@ impl CoarseBsArap {
                 }
                 Err(e) => {
                     // The previous pose, base and frames stay, as for a failed coarse solve.
-                    self.swap_next();
-                    self.arap.set_positions(&self.coarse_before);
-                    self.settle_ready = false;
+                    self.state.roll_back(&mut self.arap);
                     return Err(e);
                 }
             }
         }
-        self.last_targets.clear();
-        self.last_targets.extend_from_slice(targets);
-        self.level_settled = false;
-        self.settle_ready = stats.converged && stats.iterations > 0;
-        self.last_energy = stats.energy();
+        let state = &mut self.state;
+        state.last_targets.clear();
+        state.last_targets.extend_from_slice(targets);
+        state.level_settled = false;
+        state.settle_ready = stats.converged && stats.iterations > 0;
+        state.last_energy = stats.energy();
         Ok(stats)
-    }
-
-    /// Exchanges the result and the rotations with their scratch buffers.
-    fn swap_next(&mut self) {
-        std::mem::swap(&mut self.result, &mut self.next);
-        std::mem::swap(&mut self.quaternions, &mut self.next_quaternions);
     }
 
     /// Refines the result of the last solve, whose handles have stopped at `targets`: runs
@@ -382,19 +449,19 @@ impl CoarseBsArap {
     /// solve that did not converge, or the rest pose, which is exact). The statistics have no
     /// coarse iteration and the last solve's coarse energy.
     pub fn settle(&mut self, targets: &[[f64; 3]]) -> Result<Option<SolveStats>, SolveError> {
-        if !self.settle_pending() || self.last_targets != targets {
+        if !self.settle_pending() || self.state.last_targets != targets {
             return Ok(None);
         }
-        if !self.level_settled
+        if !self.state.level_settled
             && let Some(level) = self.level.as_mut().filter(|l| !l.has_failed())
             && let Some(embedding) = self.base.level.as_ref()
         {
             // On the level first (module doc, step 6): its failure leaves the full mesh.
             let st = match level.refine(
                 embedding,
-                &mut self.result,
+                &mut self.state.result,
                 targets,
-                &self.motions,
+                &self.state.motions,
                 self.settle_iterations,
             ) {
                 Ok(st) => st,
@@ -403,15 +470,15 @@ impl CoarseBsArap {
                 }
                 Err(e) => return Err(e),
             };
-            hold(&mut self.result, &self.fine_handles, targets, &self.pinned);
+            hold(&mut self.state.result, &self.fine_handles, targets, &self.pinned);
             if st.iterations > 0 {
-                self.carry();
+                self.state.carry(self.arap.positions(), &self.base);
             }
-            self.level_settled = self.fine_converged(&st);
+            self.state.level_settled = self.fine_converged(&st);
             let full_after = !self.fine.as_ref().is_none_or(FineLevel::has_failed);
             return Ok(Some(SolveStats {
-                converged: self.level_settled && !full_after,
-                initial_energy: self.last_energy,
+                converged: self.state.level_settled && !full_after,
+                initial_energy: self.state.last_energy,
                 fine_iterations: st.iterations,
                 fine_energy: st.energy(),
                 fine_ms: st.total_ms(),
@@ -422,7 +489,7 @@ impl CoarseBsArap {
         let st = self.run_fine(targets, self.settle_iterations)?;
         Ok(Some(SolveStats {
             converged: self.fine_converged(&st),
-            initial_energy: self.last_energy,
+            initial_energy: self.state.last_energy,
             fine_iterations: st.iterations,
             fine_energy: st.energy(),
             fine_ms: st.total_ms(),
@@ -437,9 +504,9 @@ impl CoarseBsArap {
     /// the error, and later poses are not settled).
     pub fn settle_pending(&self) -> bool {
         let level_left =
-            !self.level_settled && self.level.as_ref().is_some_and(|l| !l.has_failed());
+            !self.state.level_settled && self.level.as_ref().is_some_and(|l| !l.has_failed());
         self.settle_iterations > 0
-            && self.settle_ready
+            && self.state.settle_ready
             && (level_left || !self.fine.as_ref().is_some_and(FineLevel::has_failed))
     }
 
@@ -451,31 +518,10 @@ impl CoarseBsArap {
         let Some(fine) = self.fine.as_mut().and_then(FineLevel::arap_mut) else {
             return Ok(SolveStats { converged: true, ..SolveStats::default() });
         };
-        let st = fine.refine(&self.result, targets, n)?;
-        self.result.copy_from_slice(fine.positions());
-        self.carry();
+        let st = fine.refine(&self.state.result, targets, n)?;
+        self.state.result.copy_from_slice(fine.positions());
+        self.state.carry(self.arap.positions(), &self.base);
         Ok(st)
-    }
-
-    /// Keeps what the fine or level iterations changed of the result in the detail frames,
-    /// for the next solve's prolongation.
-    fn carry(&mut self) {
-        let frames = triangle_frames(
-            self.arap.positions(),
-            &self.quaternions,
-            self.base.coarse_mesh.triangles(),
-        );
-        self.correction
-            .par_iter_mut()
-            .zip(self.result.par_iter().zip(self.base.faces.par_iter()))
-            .zip(self.base.weights.par_iter().zip(self.base.details.par_iter()))
-            .for_each(|((c, (x, &f)), (w, d))| {
-                let frame = &frames[f as usize];
-                let (b, q) = at(&frame.positions, &frame.quaternions, &from_stored(w[0], w[1]));
-                let conj = [q[0], -q[1], -q[2], -q[3]];
-                *c = sub(rotate(conj, sub(*x, b)), *d);
-            });
-        self.corrected = true;
     }
 
     /// Factors the ARAP on the full mesh if it is pending, or waits for the thread factoring it
@@ -496,7 +542,7 @@ impl CoarseBsArap {
     /// failed, or none asked for): the next [`CoarseBsArap::settle`] takes the result, or
     /// reports the failure, or resumes a panic of that thread.
     pub fn factor_fine_in_background(&mut self) -> bool {
-        if !self.level_settled
+        if !self.state.level_settled
             && let Some(level) = self.level.as_mut().filter(|l| !l.has_failed())
         {
             return level.factor_in_background();
@@ -521,7 +567,7 @@ impl CoarseBsArap {
 
     /// The result of the last solve, `#V×3`.
     pub fn positions(&self) -> &[[f64; 3]] {
-        &self.result
+        &self.state.result
     }
 
     /// The base at rest as seen by the fine vertices (their points on $B_c$), `#V×3`.
@@ -537,7 +583,7 @@ impl CoarseBsArap {
     /// The deformed base at the fine vertices, `#V×3` (computed on the first call after a
     /// solve: the prolongation itself does not need it).
     pub fn deformed_base(&self) -> &[[f64; 3]] {
-        self.deformed_base.get_or_init(|| {
+        self.state.deformed_base.get_or_init(|| {
             let bc = self.arap.positions();
             (0..self.base.faces.len())
                 .into_par_iter()
@@ -558,12 +604,12 @@ impl CoarseBsArap {
     pub fn prolongation(&self) -> Prolongation<'_> {
         Prolongation {
             coarse: self.arap.positions(),
-            quaternions: &self.quaternions,
+            quaternions: &self.state.quaternions,
             triangles: self.base.coarse_mesh.triangles(),
             faces: &self.base.faces,
             weights: &self.base.weights,
             details: &self.base.details,
-            corrections: &self.correction,
+            corrections: &self.state.correction,
         }
     }
 
@@ -573,7 +619,7 @@ impl CoarseBsArap {
         self.fine_handles
             .iter()
             .copied()
-            .zip(self.last_targets.iter().copied())
+            .zip(self.state.last_targets.iter().copied())
             .chain(self.pinned.iter().copied())
     }
 
@@ -602,12 +648,7 @@ impl CoarseBsArap {
     /// Restarts the next solve from rest.
     pub fn reset(&mut self) {
         self.arap.reset();
-        self.deformed_base = std::sync::OnceLock::new();
-        self.quaternions.fill([1.0, 0.0, 0.0, 0.0]);
-        self.correction.fill([0.0; 3]);
-        self.corrected = false;
-        self.last_targets.clear();
-        self.settle_ready = false;
+        self.state.restart();
         if let Some(fine) = self.fine.as_mut().and_then(FineLevel::arap_mut) {
             fine.reset();
         }
