@@ -66,10 +66,8 @@ pub fn handle_targets(
 impl GroupPose {
     /// From the solver's rigid transform (the inverse of [`GroupPose::transform`]).
     pub fn from_transform(t: &GroupTransform) -> GroupPose {
-        let r = t.rotation;
-        let m = glam::DMat3::from_cols_array_2d(&r).transpose();
         let mut pose = GroupPose { translation: t.translation, ..GroupPose::default() };
-        pose.set_quat(DQuat::from_mat3(&m));
+        pose.set_quat(solver::linalg::rotation::quat_of(&t.rotation));
         pose
     }
 
@@ -89,8 +87,7 @@ impl GroupPose {
 
     /// As the solver's rigid transform (row-major rotation about the rest centroid).
     pub fn transform(&self) -> GroupTransform {
-        let m = glam::DMat3::from_quat(self.quat());
-        let rotation = [m.row(0).to_array(), m.row(1).to_array(), m.row(2).to_array()];
+        let rotation = solver::linalg::rotation::mat3_of(self.quat());
         GroupTransform { translation: self.translation, rotation }
     }
 }

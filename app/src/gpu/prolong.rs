@@ -64,10 +64,10 @@ fn vec4s(v: &[[f64; 3]], w: f32) -> Vec<[f32; 4]> {
     v.iter().map(|p| [p[0] as f32, p[1] as f32, p[2] as f32, w]).collect()
 }
 
-/// Quaternions `[w, x, y, z]` (the solver's order) as WGSL's `(x, y, z, w)`.
-fn quats_xyzw(q: &[[f64; 4]], out: &mut Vec<[f32; 4]>) {
+/// The solver's quaternions in `f32`, `(x, y, z, w)` in glam's order as in WGSL.
+fn quats_xyzw(q: &[glam::DQuat], out: &mut Vec<[f32; 4]>) {
     out.clear();
-    out.extend(q.iter().map(|q| [q[1] as f32, q[2] as f32, q[3] as f32, q[0] as f32]));
+    out.extend(q.iter().map(|q| q.to_array().map(|c| c as f32)));
 }
 
 fn fixed_entries(fixed: impl Iterator<Item = (u32, [f64; 3])>, out: &mut Vec<[f32; 4]>) {

@@ -15,13 +15,13 @@
 
 use std::f64::consts::PI;
 
-use glam::{DMat3, DQuat, DVec3};
+use glam::{DQuat, DVec3};
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use crate::deform::pose::GroupTransform;
 use crate::geometry::mesh::cross;
-use crate::linalg::rotation::{IDENTITY, Mat3, axis_angle};
+use crate::linalg::rotation::{IDENTITY, Mat3, axis_angle, mat3_of};
 
 /// Why a timeline or a path cannot be evaluated. One line each.
 #[derive(Debug, Clone, PartialEq, Error)]
@@ -49,7 +49,7 @@ pub fn quat_from_axis_angle(axis: [f64; 3], radians: f64) -> DQuat {
 
 /// The row-major rotation matrix of the normalized quaternion.
 pub fn quat_to_mat3(q: DQuat) -> Mat3 {
-    DMat3::from_quat(q.normalize()).transpose().to_cols_array_2d()
+    mat3_of(q.normalize())
 }
 
 /// $\log q = (0, \theta\,\hat v)$ for unit $q = (\cos\theta, \sin\theta\,\hat v)$, as the

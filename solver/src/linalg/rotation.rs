@@ -6,7 +6,9 @@
 //! $\det(VU^\top) < 0$ the column of $U$ of the smallest singular value is negated, so $R$ is
 //! always a proper rotation (never a reflection).
 //!
-//! Matrices are row-major `[[f64; 3]; 3]`.
+//! Matrices are row-major `[[f64; 3]; 3]`; quaternions are glam's `DQuat`, stored as arrays in
+//! its order `[x, y, z, w]` (`DQuat::to_array`). [`to_dmat3`], [`from_dmat3`], [`quat_of`] and
+//! [`mat3_of`] are where they meet glam's column-major matrices.
 //!
 //! The fit is hand-written (Horn's quaternion method on `Real` lanes, see `lanes.rs` and
 //! `deform/arap/avx.rs`) rather than built on glam or nalgebra because it measured faster than
@@ -528,6 +530,31 @@ fn mul3<T: Real>(a: &[[T; 3]; 3], b: &[[T; 3]; 3]) -> [[T; 3]; 3] {
     out
 }
 
+/// The row-major `r` as glam's column-major `DMat3` (the same matrix).
+#[inline]
+pub fn to_dmat3(r: &Mat3) -> glam::DMat3 {
+    glam::DMat3::from_cols_array_2d(r).transpose()
+}
+
+/// glam's `m` as a row-major matrix, the inverse of [`to_dmat3`].
+#[inline]
+pub fn from_dmat3(m: glam::DMat3) -> Mat3 {
+    m.transpose().to_cols_array_2d()
+}
+
+/// The quaternion of the rotation `r` (glam's `DQuat::from_mat3`: unit up to rounding, its
+/// sign arbitrary; normalize where a unit quaternion is needed).
+#[inline]
+pub fn quat_of(r: &Mat3) -> glam::DQuat {
+    glam::DQuat::from_mat3(&to_dmat3(r))
+}
+
+/// The rotation matrix of the unit quaternion `q`.
+#[inline]
+pub fn mat3_of(q: glam::DQuat) -> Mat3 {
+    from_dmat3(glam::DMat3::from_quat(q))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -730,5 +757,31 @@ mod tests {
         assert!(fast >= 29_000, "fast path taken {fast} times out of 30000");
         // From a guess 0.01 rad off, three Laguerre steps nearly always suffice.
         assert!(lockstep_near >= 58_000, "lockstep verified {lockstep_near} of 60000");
+    }
+
+    /// The glam conversions agree with the row-major matrices: $R v$ through [`to_dmat3`] and
+    /// through the quaternion [`quat_of`] is [`mul_vec`]'s, and [`mat3_of`] and
+    /// [`from_dmat3`] give the matrix back.
+    #[test]
+    fn glam_conversions_keep_the_rotation() {
+        let v = [0.3, -0.7, 1.1];
+        for (axis, angle) in
+            [([1.0, 0.0, 0.0], 0.3), ([0.2, -1.0, 0.5], 2.9), ([0.0, 0.0, 1.0], 3.1)]
+        {
+            let r = axis_angle(axis, angle);
+            let expected = mul_vec(&r, v);
+            let by_matrix = (to_dmat3(&r) * glam::DVec3::from_array(v)).to_array();
+            let q = quat_of(&r).normalize();
+            let by_quat = (q * glam::DVec3::from_array(v)).to_array();
+            let back = mat3_of(q);
+            for d in 0..3 {
+                assert!((by_matrix[d] - expected[d]).abs() < 1e-15, "{by_matrix:?}");
+                assert!((by_quat[d] - expected[d]).abs() < 1e-12, "{by_quat:?}");
+                for e in 0..3 {
+                    assert!((back[d][e] - r[d][e]).abs() < 1e-12, "{back:?}");
+                }
+            }
+            assert_eq!(from_dmat3(to_dmat3(&r)), r);
+        }
     }
 }

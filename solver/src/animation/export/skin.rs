@@ -33,7 +33,7 @@
 
 use std::path::Path as FsPath;
 
-use glam::{DMat3, DQuat, DVec3};
+use glam::{DQuat, DVec3};
 use gltf_json as json;
 use json::accessor::{ComponentType as C, Type as T};
 use json::buffer::Target as B;
@@ -45,6 +45,7 @@ use super::{ExportError, GltfFormat, UpAxis};
 use crate::animation::skinning::{MAX_INFLUENCES, Skinning};
 use crate::io::asset::Asset;
 use crate::io::write_atomic;
+use crate::linalg::rotation::to_dmat3;
 
 /// A validated skinned export, ready to report its exact size and to be written.
 #[derive(Debug)]
@@ -358,7 +359,7 @@ impl<'a> SkinnedExport<'a> {
             let mut prev = DQuat::IDENTITY;
             for frame in &self.skinning.transforms {
                 let m = &frame[j];
-                let r = DMat3::from_cols_array_2d(&m.rotation).transpose();
+                let r = to_dmat3(&m.rotation);
                 let mut q = DQuat::from_mat3(&r).normalize();
                 if q.dot(prev) < 0.0 {
                     q = -q;

@@ -89,6 +89,7 @@ use crate::deform::handles::Handles;
 use crate::error::SolveError;
 use crate::geometry::mesh::{Mesh, sub};
 use crate::linalg::rigid::Motion;
+use glam::DQuat;
 use rayon::prelude::*;
 use std::sync::Arc;
 
@@ -136,8 +137,8 @@ struct SolveState {
     next: Vec<[f64; 3]>,
     /// $R_k$ of the last successful solve as unit quaternions; `next_quaternions` is the
     /// solve in progress, swapped in with the result.
-    quaternions: Vec<[f64; 4]>,
-    next_quaternions: Vec<[f64; 4]>,
+    quaternions: Vec<DQuat>,
+    next_quaternions: Vec<DQuat>,
     /// $\sum_k w_{ik} B'_{c,k}$ of the last solve, computed when first asked for
     /// ([`CoarseBsArap::deformed_base`]): the frames need no copy of it.
     deformed_base: std::sync::OnceLock<Vec<[f64; 3]>>,
@@ -169,8 +170,8 @@ impl SolveState {
         SolveState {
             result: rest.to_vec(),
             next: Vec::new(),
-            quaternions: vec![[1.0, 0.0, 0.0, 0.0]; n_coarse],
-            next_quaternions: vec![[1.0, 0.0, 0.0, 0.0]; n_coarse],
+            quaternions: vec![DQuat::IDENTITY; n_coarse],
+            next_quaternions: vec![DQuat::IDENTITY; n_coarse],
             deformed_base: std::sync::OnceLock::new(),
             correction: vec![[0.0; 3]; rest.len()],
             corrected: false,
@@ -217,7 +218,7 @@ impl SolveState {
             .for_each(|((c, (x, &f)), (w, d))| {
                 let frame = &frames[f as usize];
                 let (b, q) = at(&frame.positions, &frame.quaternions, &from_stored(w[0], w[1]));
-                let conj = [q[0], -q[1], -q[2], -q[3]];
+                let conj = [-q[0], -q[1], -q[2], q[3]];
                 *c = sub(rotate(conj, sub(*x, b)), *d);
             });
         self.corrected = true;
@@ -228,7 +229,7 @@ impl SolveState {
     /// the next solve replaces it.
     fn restart(&mut self) {
         self.deformed_base = std::sync::OnceLock::new();
-        self.quaternions.fill([1.0, 0.0, 0.0, 0.0]);
+        self.quaternions.fill(DQuat::IDENTITY);
         self.clear_correction();
         self.last_targets.clear();
         self.settle_ready = false;

@@ -3,6 +3,8 @@
 //! $p'_i = b_i + \hat q_i (D_i + C_i) \hat q_i^{-1}$ with $b_i = \sum_k w_{ik} B'_{c,k}$ and
 //! $\hat q_i$ the normalized blend $\sum_k w_{ik} q_{t_k}$ of the corner quaternions, signs
 //! aligned with the first corner's (the identity if the blend vanishes).
+//! Quaternions are glam's `DQuat`, as arrays `[x, y, z, w]` in the lanes
+//! ([`crate::linalg::rotation`]).
 //!
 //! It is the per-frame pass over every fine vertex, so it runs on four vertices at once
 //! ([`crate::linalg::lanes`]: AVX2 where the processor has it, else portable lanes) with the
@@ -12,7 +14,8 @@
 //! shaders/prolong.wgsl) computes the same from the same inputs in f32.
 
 use crate::linalg::lanes::{Avx2, F4, LANES, Lanes, Real};
-use crate::linalg::rotation::Mat3;
+use crate::linalg::rotation::{Mat3, quat_of};
+use glam::DQuat;
 use rayon::prelude::*;
 
 /// What the prolongation reads: the coarse pose and rotations of a solve and the mesh's
@@ -21,8 +24,8 @@ use rayon::prelude::*;
 pub struct Prolongation<'a> {
     /// $B_c'$, `#Vc×3`.
     pub coarse: &'a [[f64; 3]],
-    /// $R_k$ as unit quaternions `[w, x, y, z]`, `#Vc`.
-    pub quaternions: &'a [[f64; 4]],
+    /// $R_k$ as unit quaternions, `#Vc`.
+    pub quaternions: &'a [DQuat],
     /// The coarse triangles, `#Fc×3`.
     pub triangles: &'a [[u32; 3]],
     /// Per fine vertex, the index of its coarse triangle $t_i$.
@@ -156,15 +159,15 @@ fn prolong_lanes<L: Lanes>(
 /// `quats`.
 pub(crate) fn triangle_frames(
     coarse: &[[f64; 3]],
-    quats: &[[f64; 4]],
+    quats: &[DQuat],
     triangles: &[[u32; 3]],
 ) -> Vec<TriangleFrame> {
     triangles.iter().map(|t| TriangleFrame::new(coarse, quats, t)).collect()
 }
 
-/// A coarse triangle's corner positions $B'_{c,k}$ and quaternions $q_k$, the latter with
-/// signs aligned to the first corner's: what [`prolong`] and the fine iterations' corrections
-/// blend at each fine vertex on it ([`at`]).
+/// A coarse triangle's corner positions $B'_{c,k}$ and quaternions $q_k$ (`[x, y, z, w]`, as
+/// `DQuat::to_array`), the latter with signs aligned to the first corner's: what [`prolong`]
+/// and the fine iterations' corrections blend at each fine vertex on it ([`at`]).
 #[derive(Clone, Copy)]
 pub(crate) struct TriangleFrame {
     pub(crate) positions: [[f64; 3]; 3],
@@ -172,22 +175,22 @@ pub(crate) struct TriangleFrame {
 }
 
 impl TriangleFrame {
-    fn new(coarse: &[[f64; 3]], quats: &[[f64; 4]], t: &[u32; 3]) -> TriangleFrame {
-        let q0 = quats[t[0] as usize];
+    fn new(coarse: &[[f64; 3]], quats: &[DQuat], t: &[u32; 3]) -> TriangleFrame {
+        let q0 = quats[t[0] as usize].to_array();
         TriangleFrame {
             positions: t.map(|v| coarse[v as usize]),
             quaternions: t.map(|v| {
-                let q = quats[v as usize];
+                let q = quats[v as usize].to_array();
                 if dot4(q, q0) < 0.0 { q.map(|c| -c) } else { q }
             }),
         }
     }
 }
 
-/// At barycentric weights `w` on a triangle's frame (corner positions and aligned quaternions):
-/// $b = \sum_k w_k B'_{c,k}$ and $\hat q$, the normalized $\sum_k w_k q_k$, or the identity where
-/// its squared norm is below the smallest normal `f64` (zero: the blend vanished). On one vertex
-/// (`f64`) or on lanes of them.
+/// At barycentric weights `w` on a triangle's frame (corner positions and aligned quaternions,
+/// `[x, y, z, w]`): $b = \sum_k w_k B'_{c,k}$ and $\hat q$, the normalized $\sum_k w_k q_k$, or
+/// the identity where its squared norm is below the smallest normal `f64` (zero: the blend
+/// vanished). On one vertex (`f64`) or on lanes of them.
 #[inline(always)]
 pub(crate) fn at<R: Real>(
     positions: &[[R; 3]; 3],
@@ -204,26 +207,28 @@ pub(crate) fn at<R: Real>(
     for k in 0..3 {
         base[k] = w[0] * p[k] + w[1] * r[k] + w[2] * s[k];
     }
-    let n2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
+    // w first: the order of the sum is part of the result (to the bit).
+    let n2 = q[3] * q[3] + q[0] * q[0] + q[1] * q[1] + q[2] * q[2];
     let inv = n2.splat_like(1.0) / n2.sqrt();
     let small = n2.splat_like(f64::MIN_POSITIVE);
     let mut unit = q;
     for k in 0..4 {
-        let identity = n2.splat_like(if k == 0 { 1.0 } else { 0.0 });
+        let identity = n2.splat_like(if k == 3 { 1.0 } else { 0.0 });
         unit[k] = R::pick_ge(n2, small, q[k] * inv, identity);
     }
     (base, unit)
 }
 
-/// $q\,v\,q^{-1}$ for a unit quaternion `[w, x, y, z]`, on one vector or on lanes of them.
+/// $q\,v\,q^{-1}$ for a unit quaternion `[x, y, z, w]`, on one vector or on lanes of them.
 #[inline(always)]
 pub(crate) fn rotate<R: Real>(q: [R; 4], v: [R; 3]) -> [R; 3] {
-    let u = [q[1], q[2], q[3]];
-    let two = q[0].splat_like(2.0);
+    let [x, y, z, w] = q;
+    let u = [x, y, z];
+    let two = w.splat_like(2.0);
     let c = cross(u, v);
     let t = [two * c[0], two * c[1], two * c[2]];
     let ut = cross(u, t);
-    [v[0] + q[0] * t[0] + ut[0], v[1] + q[0] * t[1] + ut[1], v[2] + q[0] * t[2] + ut[2]]
+    [v[0] + w * t[0] + ut[0], v[1] + w * t[1] + ut[1], v[2] + w * t[2] + ut[2]]
 }
 
 #[inline(always)]
@@ -231,17 +236,17 @@ fn cross<R: Real>(a: [R; 3], b: [R; 3]) -> [R; 3] {
     [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 }
 
+/// $a \cdot b$ for `[x, y, z, w]` quaternions, summed from w (the order is part of the sign
+/// test's result near zero).
 #[inline]
 fn dot4(a: [f64; 4], b: [f64; 4]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
+    a[3] * b[3] + a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
-/// Unit quaternion `[w, x, y, z]` of a row-major rotation matrix (glam's `DQuat::from_mat3`,
-/// which takes columns, then normalized). Its sign is arbitrary: blending and [`rotate`] give
-/// the same result for $q$ and $-q$.
-pub fn quaternion_of(r: &Mat3) -> [f64; 4] {
-    let q = glam::DQuat::from_mat3(&glam::DMat3::from_cols_array_2d(r).transpose()).normalize();
-    [q.w, q.x, q.y, q.z]
+/// Unit quaternion of a rotation matrix ([`quat_of`], normalized). Its sign is arbitrary:
+/// blending and [`rotate`] give the same result for $q$ and $-q$.
+pub fn quaternion_of(r: &Mat3) -> DQuat {
+    quat_of(r).normalize()
 }
 
 #[cfg(test)]
@@ -263,15 +268,11 @@ mod tests {
         };
         let n_coarse = 50;
         let coarse: Vec<[f64; 3]> = (0..n_coarse).map(|_| [next(), next(), next()]).collect();
-        let mut quats: Vec<[f64; 4]> = (0..n_coarse)
-            .map(|_| {
-                let q = [next(), next(), next(), next()];
-                let n = dot4(q, q).sqrt();
-                q.map(|c| c / n)
-            })
+        let mut quats: Vec<DQuat> = (0..n_coarse)
+            .map(|_| DQuat::from_xyzw(next(), next(), next(), next()).normalize())
             .collect();
         // Opposite signs for the same rotation at two corners (triangle 0 has both).
-        quats[1] = quats[0].map(|c| -c);
+        quats[1] = -quats[0];
         let triangles: Vec<[u32; 3]> = (0..40)
             .map(|k| [k % n_coarse, (k * 7 + 1) % n_coarse, (k * 13 + 2) % n_coarse])
             .collect();
@@ -291,7 +292,7 @@ mod tests {
         // A vanishing blend: zero quaternions at a triangle's corners.
         let mut zeroed = quats.clone();
         for &v in &triangles[3] {
-            zeroed[v as usize] = [0.0; 4];
+            zeroed[v as usize] = DQuat::from_xyzw(0.0, 0.0, 0.0, 0.0);
         }
         for (quats, corrections) in [(&quats, &corrections[..]), (&zeroed, &[][..])] {
             let input = Prolongation {
@@ -322,7 +323,7 @@ mod tests {
             let f = &frames[3];
             let (_, q) = at(&f.positions, &f.quaternions, &w(on_zeroed));
             if std::ptr::eq(quats, &zeroed) {
-                assert_eq!(q, [1.0, 0.0, 0.0, 0.0]);
+                assert_eq!(q, DQuat::IDENTITY.to_array());
             }
         }
     }

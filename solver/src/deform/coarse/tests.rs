@@ -28,7 +28,7 @@ fn quaternions_round_trip() {
         let r = axis_angle(axis, angle);
         let q = quaternion_of(&r);
         let v = [0.3, -0.7, 1.1];
-        let a = rotate(q, v);
+        let a = rotate(q.to_array(), v);
         let b = crate::linalg::rotation::mul_vec(&r, v);
         for d in 0..3 {
             assert!((a[d] - b[d]).abs() < 1e-12);
