@@ -8,8 +8,8 @@
 //! default method settings (tolerance 1e-4, cap 30 iterations per displayed frame), warm-started
 //! from the previous frame as the solver thread does, with the first group moving on the
 //! benchmark's circle (radius 0.1·diag in the xy plane, FRAMES steps of one turn, default 30),
-//! the others at rest. A frame is what the thread does per published frame: handle targets from
-//! the group poses, the solve, and the pose's shape (f32 positions and vertex normals). Not
+//! the others at rest. A frame is what the thread does per published frame: the group poses'
+//! motions, the solve (handle targets derived in it), and the pose's shape (f32 positions and vertex normals). Not
 //! included: the deformed base (built only while the Base view is open), the UI thread
 //! (rendering, picking) competing for the same cores, and the second thread of the
 //! side-by-side view.
@@ -30,7 +30,7 @@
 //! again while that factorization runs and reports those frames: what a user dragging again
 //! soon after stopping sees.
 
-use app::editor::pose::{GroupPose, handle_targets};
+use app::editor::pose::{GroupPose, group_transforms, handle_targets};
 use app::editor::pose_solvers::factory;
 use app::editor::shape::ShapePool;
 use app::editor::solver_thread::{MethodSettings, Slot};
@@ -119,8 +119,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let mut poses = vec![GroupPose::default(); n_poses];
             poses[group].translation = [radius * (theta.cos() - 1.0), radius * theta.sin(), 0.0];
             let t = Instant::now();
-            let targets = handle_targets(&mesh, &handles, &poses)?;
-            let stats = d.solve(&targets)?;
+            let moves = group_transforms(&handles, &poses);
+            let stats = d.solve(&moves)?;
             // What the thread publishes: the pose's f32 positions and normals (the deformed
             // base only while the Base view is open; the detail magnitudes once per scene).
             // The thread's pool reuses a frame's buffers once the UI has dropped them; the UI
@@ -157,10 +157,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 
         let mut poses = vec![GroupPose::default(); n_poses];
         poses[group].translation = [-2.0 * radius, 0.0, 0.0];
+        let moves = group_transforms(&handles, &poses);
         let targets = handle_targets(&mesh, &handles, &poses)?;
         let mut solves = 1;
         let t = Instant::now();
-        while !d.solve(&targets)?.converged && solves < 1000 {
+        while !d.solve(&moves)?.converged && solves < 1000 {
             solves += 1;
         }
         let solve_seconds = t.elapsed().as_secs_f64();
@@ -168,7 +169,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let t = Instant::now();
         let (mut steps, mut fine) = (0, 0);
         let mut timeline = Vec::new();
-        while let Some(s) = d.settle(&targets)? {
+        while let Some(s) = d.settle(&moves)? {
             steps += 1;
             fine += s.fine_iterations;
             let at = t.elapsed().as_secs_f64();
@@ -282,12 +283,12 @@ fn drag_while_factoring(
         poses[group].translation = [radius * (theta.cos() - 1.0), radius * theta.sin(), 0.0];
         poses
     };
-    let targets = handle_targets(mesh, handles, &pose(frames / 2))?;
-    while !d.solve(&targets)?.converged {}
+    let moves = group_transforms(handles, &pose(frames / 2));
+    while !d.solve(&moves)?.converged {}
     let (t, mut level_steps) = (Instant::now(), 0);
     loop {
         if d.settle_ready() {
-            if d.settle(&targets)?.is_none() {
+            if d.settle(&moves)?.is_none() {
                 return Err("nothing to settle".into());
             }
             level_steps += 1;
@@ -306,8 +307,7 @@ fn drag_while_factoring(
     let (mut times, mut shapes, mut shown) = (Vec::new(), ShapePool::default(), None);
     for f in 1..=frames {
         let t = Instant::now();
-        let targets = handle_targets(mesh, handles, &pose(f))?;
-        d.solve(&targets)?;
+        d.solve(&group_transforms(handles, &pose(f)))?;
         std::hint::black_box(shown.replace(shapes.shape(
             d.positions(),
             mesh.triangles(),

@@ -42,25 +42,28 @@ impl GroupPose {
     }
 }
 
-/// Centroid of the rest positions of `vertices` (`None` when empty), for display.
+/// Centroid of the rest positions of `vertices` (`None` when empty), for display: the
+/// solver's [`solver::deform::pose::centroid`], the one the poses rotate about.
 pub fn group_centroid(positions: &[[f64; 3]], vertices: &[u32]) -> Option<DVec3> {
-    if vertices.is_empty() {
-        return None;
-    }
-    let sum: DVec3 = vertices.iter().map(|&v| DVec3::from_array(positions[v as usize])).sum();
-    Some(sum / vertices.len() as f64)
+    solver::deform::pose::centroid(positions, vertices).map(DVec3::from_array)
 }
 
-/// Targets of `handles.handle_vertices()`, in that order, through `solver::handle_targets`.
-/// `poses[k]` is the pose of group `k`; groups without a pose stay at rest.
+/// The group motions of `poses` as the solver takes them (`solver::Deformer::solve_groups`):
+/// `poses[k]` is the pose of group `k`; groups of `handles` without a pose are not listed
+/// (they stay at rest), nor are poses of groups `handles` lacks.
+pub fn group_transforms(handles: &Handles, poses: &[GroupPose]) -> Vec<(usize, GroupTransform)> {
+    handles.group_ids().filter_map(|k| poses.get(k).map(|p| (k, p.transform()))).collect()
+}
+
+/// Targets of `handles.handle_vertices()`, in that order, through `solver::handle_targets`
+/// of [`group_transforms`], for what needs them per vertex (the quality reference).
 pub fn handle_targets(
     mesh: &Mesh,
     handles: &Handles,
     poses: &[GroupPose],
 ) -> Result<Vec<[f64; 3]>, String> {
-    let transforms: Vec<(usize, GroupTransform)> =
-        handles.group_ids().filter_map(|k| poses.get(k).map(|p| (k, p.transform()))).collect();
-    solver::handle_targets(mesh.positions(), handles, &transforms).map_err(|e| e.to_string())
+    solver::handle_targets(mesh.positions(), handles, &group_transforms(handles, poses))
+        .map_err(|e| e.to_string())
 }
 
 impl GroupPose {

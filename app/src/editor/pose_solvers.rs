@@ -5,7 +5,9 @@
 
 use std::sync::{Arc, Mutex};
 
-use solver::{Deformer, DeformerOptions, FrameStats, Handles, LooseParts, Mesh, MeshCache};
+use solver::{
+    Deformer, DeformerOptions, FrameStats, GroupTransform, Handles, LooseParts, Mesh, MeshCache,
+};
 
 use super::solver_thread::{MethodSettings, PoseSolver, PoseSolverFactory, Slot};
 
@@ -61,8 +63,8 @@ pub fn label(m: solver::Method) -> &'static str {
 struct DeformerPoseSolver(solver::Deformer);
 
 impl PoseSolver for DeformerPoseSolver {
-    fn solve(&mut self, targets: &[[f64; 3]]) -> Result<FrameStats, String> {
-        let stats = self.0.solve(targets).map_err(|e| e.to_string())?;
+    fn solve(&mut self, poses: &[(usize, GroupTransform)]) -> Result<FrameStats, String> {
+        let stats = self.0.solve_groups(poses).map_err(|e| e.to_string())?;
         Ok(stats.frame_stats())
     }
 
@@ -82,8 +84,8 @@ impl PoseSolver for DeformerPoseSolver {
         self.0.settle_ready()
     }
 
-    fn settle(&mut self, targets: &[[f64; 3]]) -> Result<Option<FrameStats>, String> {
-        let stats = self.0.settle(targets).map_err(|e| format!("settling: {e}"))?;
+    fn settle(&mut self, poses: &[(usize, GroupTransform)]) -> Result<Option<FrameStats>, String> {
+        let stats = self.0.settle_groups(poses).map_err(|e| format!("settling: {e}"))?;
         Ok(stats.map(|stats| stats.frame_stats()))
     }
 

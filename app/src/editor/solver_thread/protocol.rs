@@ -6,7 +6,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use solver::geometry::normals::VertexFaces;
-use solver::{ComponentInfo, FrameStats, Handles, LooseParts, Mesh};
+use solver::{ComponentInfo, FrameStats, GroupTransform, Handles, LooseParts, Mesh};
 
 use crate::editor::pose::GroupPose;
 use crate::editor::shape::Shape;
@@ -97,9 +97,11 @@ impl Slot {
 /// own implementation wraps `solver::Deformer` (see `editor::pose_solvers`); tests plug in
 /// trivial ones.
 pub trait PoseSolver: Send {
-    /// Solves for `targets` (positions of `handles.handle_vertices()`, in that order), warm
-    /// started from the pose it holds; the result is [`PoseSolver::positions`].
-    fn solve(&mut self, targets: &[[f64; 3]]) -> Result<FrameStats, String>;
+    /// Solves for the group motions `poses` (`(group, transform)`: rotation about the group's
+    /// rest centroid, then translation; groups not listed at rest), handed on as they are
+    /// (`solver::Deformer::solve_groups`), warm started from the pose it holds; the result is
+    /// [`PoseSolver::positions`].
+    fn solve(&mut self, poses: &[(usize, GroupTransform)]) -> Result<FrameStats, String>;
     /// The pose it holds (`#V×3`): the rest pose until the first solve, then the last solve's
     /// or settle step's result. The thread makes each frame's shape from it without copying
     /// it (36 MB a frame at 1.5M vertices).
@@ -130,10 +132,10 @@ pub trait PoseSolver: Send {
     fn settle_ready(&mut self) -> bool {
         true
     }
-    /// Refines the last solve's converged pose, whose handles have stopped at `targets`, by a
-    /// step (the result in [`PoseSolver::positions`]); the thread calls it until the stats say
-    /// converged. `None`: nothing to refine (the default).
-    fn settle(&mut self, _targets: &[[f64; 3]]) -> Result<Option<FrameStats>, String> {
+    /// Refines the last solve's converged pose, whose handles have stopped at the group
+    /// motions `poses`, by a step (the result in [`PoseSolver::positions`]); the thread calls
+    /// it until the stats say converged. `None`: nothing to refine (the default).
+    fn settle(&mut self, _poses: &[(usize, GroupTransform)]) -> Result<Option<FrameStats>, String> {
         Ok(None)
     }
     /// Changes the loose parts' modes (no refactorization), the current pose with them in

@@ -7,7 +7,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use solver::geometry::normals::VertexFaces;
-use solver::{FrameStats, Handles, Mesh};
+use solver::{FrameStats, GroupRest, GroupTransform, Handles, Mesh};
 
 use super::worker::SETTLE_DELAY;
 use super::*;
@@ -17,13 +17,26 @@ use crate::editor::pose::GroupPose;
 struct Shift {
     rest: Vec<[f64; 3]>,
     handle_vertices: Vec<u32>,
+    group_rest: GroupRest,
     x: Vec<[f64; 3]>,
 }
 
 impl Shift {
     fn new(mesh: &Mesh, handles: &Handles) -> Shift {
         let rest = mesh.positions().to_vec();
-        Shift { x: rest.clone(), rest, handle_vertices: handles.handle_vertices().to_vec() }
+        Shift {
+            x: rest.clone(),
+            rest,
+            handle_vertices: handles.handle_vertices().to_vec(),
+            group_rest: GroupRest::new(mesh.positions(), handles),
+        }
+    }
+
+    /// The handle targets of the group motions `poses`.
+    fn targets(&self, poses: &[(usize, GroupTransform)]) -> Result<Vec<[f64; 3]>, String> {
+        let mut targets = Vec::new();
+        self.group_rest.targets(poses, &mut targets).map_err(|e| e.to_string())?;
+        Ok(targets)
     }
 }
 
@@ -32,7 +45,8 @@ impl PoseSolver for Shift {
         &self.x
     }
 
-    fn solve(&mut self, targets: &[[f64; 3]]) -> Result<FrameStats, String> {
+    fn solve(&mut self, poses: &[(usize, GroupTransform)]) -> Result<FrameStats, String> {
+        let targets = self.targets(poses)?;
         let mut d = [0.0; 3];
         for (t, &v) in targets.iter().zip(&self.handle_vertices) {
             for k in 0..3 {
@@ -136,12 +150,12 @@ impl PoseSolver for Settles {
         self.steps < 3
     }
 
-    fn solve(&mut self, targets: &[[f64; 3]]) -> Result<FrameStats, String> {
+    fn solve(&mut self, poses: &[(usize, GroupTransform)]) -> Result<FrameStats, String> {
         self.steps = 0;
-        self.shift.solve(targets)
+        self.shift.solve(poses)
     }
 
-    fn settle(&mut self, _targets: &[[f64; 3]]) -> Result<Option<FrameStats>, String> {
+    fn settle(&mut self, _poses: &[(usize, GroupTransform)]) -> Result<Option<FrameStats>, String> {
         self.steps += 1;
         self.shift.x[1][0] += 0.5;
         let converged = self.steps == 3;
@@ -212,14 +226,16 @@ impl PoseSolver for EndlessSettle {
         true
     }
 
-    fn solve(&mut self, targets: &[[f64; 3]]) -> Result<FrameStats, String> {
-        self.log.lock().unwrap().push((false, targets[0][2], Instant::now()));
-        self.shift.solve(targets)
+    fn solve(&mut self, poses: &[(usize, GroupTransform)]) -> Result<FrameStats, String> {
+        let z = self.shift.targets(poses)?[0][2];
+        self.log.lock().unwrap().push((false, z, Instant::now()));
+        self.shift.solve(poses)
     }
 
-    fn settle(&mut self, targets: &[[f64; 3]]) -> Result<Option<FrameStats>, String> {
+    fn settle(&mut self, poses: &[(usize, GroupTransform)]) -> Result<Option<FrameStats>, String> {
         std::thread::sleep(Duration::from_millis(5));
-        self.log.lock().unwrap().push((true, targets[0][2], Instant::now()));
+        let z = self.shift.targets(poses)?[0][2];
+        self.log.lock().unwrap().push((true, z, Instant::now()));
         Ok(Some(FrameStats { fine_iterations: 1, ..FrameStats::default() }))
     }
 }
@@ -282,12 +298,12 @@ impl PoseSolver for SlowToSettle {
         self.ready.load(Ordering::Relaxed)
     }
 
-    fn solve(&mut self, targets: &[[f64; 3]]) -> Result<FrameStats, String> {
+    fn solve(&mut self, poses: &[(usize, GroupTransform)]) -> Result<FrameStats, String> {
         self.settled = false;
-        self.shift.solve(targets)
+        self.shift.solve(poses)
     }
 
-    fn settle(&mut self, _targets: &[[f64; 3]]) -> Result<Option<FrameStats>, String> {
+    fn settle(&mut self, _poses: &[(usize, GroupTransform)]) -> Result<Option<FrameStats>, String> {
         assert!(self.ready.load(Ordering::Relaxed), "settled before it was ready");
         self.settled = true;
         self.shift.x[1][0] += 0.5;
@@ -334,8 +350,8 @@ impl PoseSolver for WithBase {
         self.0.positions()
     }
 
-    fn solve(&mut self, targets: &[[f64; 3]]) -> Result<FrameStats, String> {
-        self.0.solve(targets)
+    fn solve(&mut self, poses: &[(usize, GroupTransform)]) -> Result<FrameStats, String> {
+        self.0.solve(poses)
     }
 
     fn deformed_base(&self) -> Option<Vec<[f64; 3]>> {

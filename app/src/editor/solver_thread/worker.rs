@@ -378,12 +378,9 @@ fn rebuild(
 /// One step at the current poses: a solve when they changed (`solving`), else a settle step.
 /// `Ok(None)` from a settle step (nothing more to refine) leaves the current pose standing.
 fn step(a: &mut Active, solving: bool) -> Result<FrameStats, String> {
-    let targets = crate::editor::pose::handle_targets(&a.mesh, &a.handles, &a.poses)?;
-    let stats = if solving {
-        Some(a.pose_solver.solve(&targets)?)
-    } else {
-        a.pose_solver.settle(&targets)?
-    };
+    let poses = crate::editor::pose::group_transforms(&a.handles, &a.poses);
+    let stats =
+        if solving { Some(a.pose_solver.solve(&poses)?) } else { a.pose_solver.settle(&poses)? };
     Ok(stats.unwrap_or(FrameStats { done: true, ..a.last_stats }))
 }
 
