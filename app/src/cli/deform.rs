@@ -208,7 +208,8 @@ pub fn run(a: &DeformArgs) -> anyhow::Result<()> {
         }
     }
     let handles = load_handles(&a.handles, &loaded)?;
-    let targets = handle_targets(mesh.positions(), &handles, &transforms)
+    // Every moved group must exist: said before the precomputation, naming the handle file.
+    handle_targets(mesh.positions(), &handles, &transforms)
         .with_context(|| format!("{}", a.handles.display()))?;
     let mut parts = LooseParts::default();
     let count = mesh.components().count;
@@ -233,7 +234,7 @@ pub fn run(a: &DeformArgs) -> anyhow::Result<()> {
     let pinned = loose.count() - following;
     let notice = deformer.notice();
     let t1 = Instant::now();
-    let stats = deformer.solve(&targets)?;
+    let stats = deformer.solve_groups(&transforms)?;
     let solve_ms = t1.elapsed().as_secs_f64() * 1e3;
     let solved =
         SolveSettings { method: a.method.into(), arap: config, diagonal: mesh.bbox_diagonal() };
