@@ -95,7 +95,7 @@ use std::sync::Arc;
 
 /// Coarse-base BS-ARAP precomputed for one mesh and one handle set: what the handles fix
 /// (the base, the factored coarse ARAP, the handle groups, the full-mesh and level solvers,
-/// the iteration counts) and, in [`SolveState`], what each solve changes.
+/// the iteration counts) and, in its `SolveState`, what each solve changes.
 #[derive(Debug)]
 pub struct CoarseBsArap {
     /// The mesh's handle-independent part: $B_c$, the embedding, the details.
