@@ -83,7 +83,7 @@ pub fn fit_skinning(
     let unit = if diagonal > 0.0 { diagonal } else { 1.0 };
 
     // The alternation runs on an even sample of the vertices (all of them on a small mesh);
-    // the full passes then fit every vertex's weights to the sample's bones.
+    // one weight step then fits every vertex's weights to the sample's bones.
     let sample_size = config.fit_sample.max(n_bones);
     let sample = (n > sample_size).then(|| even_sample(n, sample_size));
     let steps = config.init_iterations + config.iterations + usize::from(sample.is_some());
@@ -118,7 +118,7 @@ pub fn fit_skinning(
     let mut done = 0;
     for step in 0..config.iterations {
         let before = energy;
-        influences = weight_step(on, &norms, &transforms, &influences, config);
+        influences = weight_step(on, &norms, &transforms, &influences, config).0;
         energy = transforms::update(on, &influences, &mut transforms);
         done = step + 1;
         let rms = (energy.max(0.0) / samples).sqrt() / unit;
@@ -142,8 +142,11 @@ pub fn fit_skinning(
             bones: vec![[0; MAX_INFLUENCES]; n],
             weights: vec![[0.0; MAX_INFLUENCES]; n],
         };
-        influences = weight_step(&data, &trajectory_norms(&data), &transforms, &influences, config);
-        let p = FitProgress { stage: FitStage::Alternating, step: steps, steps, rms: 0.0 };
+        let error;
+        (influences, error) =
+            weight_step(&data, &trajectory_norms(&data), &transforms, &influences, config);
+        let rms = (error.max(0.0) / (n * frames.len()) as f64).sqrt() / unit;
+        let p = FitProgress { stage: FitStage::Alternating, step: steps, steps, rms };
         if progress(p).is_break() {
             return Err(SkinningError::Cancelled);
         }
@@ -172,14 +175,15 @@ pub fn fit_skinning(
     Ok(Skinning { influences, transforms, centers, error, iterations: done })
 }
 
-/// The weight step (`weights.rs`) on the products of `transforms` (`projections.rs`).
+/// The weight step (`weights.rs`) on the products of `transforms` (`projections.rs`): the new
+/// influences and the squared error they leave.
 fn weight_step(
     data: &Data,
     norms: &[f64],
     transforms: &[Vec<Motion>],
     current: &Influences,
     config: &SkinningConfig,
-) -> Influences {
+) -> (Influences, f64) {
     let m: Vec<Vec<Affine>> = transforms.iter().map(|f| f.iter().map(affine).collect()).collect();
     let h = projections(data, None, &m);
     let q = pair_products(&m);
@@ -190,7 +194,7 @@ fn weight_step(
         max_influences: config.max_influences,
         candidates: config.candidates,
     };
-    weights::update(data, &input, current).0
+    weights::update(data, &input, current)
 }
 
 /// Mean and largest $\lVert p^t_v - \hat p^t_v\rVert$ over `unit`.
