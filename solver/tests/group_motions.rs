@@ -131,22 +131,10 @@ fn unknown_groups_and_wrong_motion_counts_are_errors() {
 #[test]
 fn a_recording_solves_the_timeline_motions() {
     use solver::animation::recording::record;
-    use solver::animation::timeline::{CircularPath, GroupPath, Path, Timeline};
     let (mesh, handles) = bar();
     let diag = mesh.bbox_diagonal();
     let n_frames = 4;
-    let timeline = Timeline {
-        duration: 1.0,
-        fps: (n_frames - 1) as f64,
-        looping: false,
-        paths: vec![GroupPath {
-            group: 0,
-            path: Path::Circular(CircularPath {
-                turn_with_path: true,
-                ..CircularPath::new([0.0, 0.0, 1.0], 0.1 * diag, 1.0)
-            }),
-        }],
-    };
+    let timeline = solver::testing::circling_timeline(0.1 * diag, n_frames);
     let config = ArapConfig { tolerance: 1e-6, max_iterations: 40, ..Default::default() };
     let opts = || DeformerOptions { config, ..options(Method::BsArapCoarse) };
     let mut d = Deformer::new(&mesh, &handles, opts()).unwrap();

@@ -17,7 +17,6 @@ use solver::animation::recording::{Recording, record};
 use solver::animation::skinning::{
     FitProgress, MAX_INFLUENCES, Skinning, SkinningConfig, SkinningError, fit_skinning,
 };
-use solver::animation::timeline::{CircularPath, GroupPath, Path, Timeline};
 use solver::io::asset::Asset;
 use solver::linalg::rotation::{axis_angle, mul_vec};
 use solver::testing::ScratchDir;
@@ -27,18 +26,7 @@ use solver::{ArapConfig, Deformer, DeformerOptions, Mesh, Method};
 /// recorded by our solver: a smooth bend, not rigid parts.
 fn recording(n_frames: usize) -> (Mesh, Recording) {
     let (mesh, handles) = solver::testing::capped_sphere(3, 2, 0.85, Some(0.9));
-    let timeline = Timeline {
-        duration: 1.0,
-        fps: (n_frames - 1) as f64,
-        looping: false,
-        paths: vec![GroupPath {
-            group: 0,
-            path: Path::Circular(CircularPath {
-                turn_with_path: true,
-                ..CircularPath::new([0.0, 0.0, 1.0], 0.4, 1.0)
-            }),
-        }],
-    };
+    let timeline = solver::testing::circling_timeline(0.4, n_frames);
     let config = ArapConfig { tolerance: 1e-5, max_iterations: 50, ..Default::default() };
     let mut d = Deformer::new(
         &mesh,

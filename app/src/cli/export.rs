@@ -15,6 +15,7 @@ use super::{MethodArg, PathArg};
 use anyhow::Context;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use solver::Deformer;
 use solver::animation::export::{
     AssetExport, Encoding, ExportSettings, GltfExport, GltfFormat, SolveSettings,
 };
@@ -23,7 +24,6 @@ use solver::animation::recording::record;
 use solver::animation::scene::{HandlesSpec, LoadedScene, Scene};
 use solver::animation::skinning::SkinningConfig;
 use solver::animation::timeline::{CircularPath, GroupPath, Path as AnimPath, Timeline};
-use solver::{Deformer, DeformerOptions};
 
 #[derive(Debug, Args)]
 pub struct ExportArgs {
@@ -207,13 +207,7 @@ pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
     );
 
     let t0 = Instant::now();
-    let options = DeformerOptions {
-        method: scene.method,
-        config: scene.arap,
-        base: scene.base,
-        loose_parts: Some(&scene.loose_parts),
-        ..Default::default()
-    };
+    let options = scene.deformer_options();
     let mut deformer = Deformer::new(mesh, &loaded.handles, options)
         .with_context(|| format!("{source}: precomputing {}", scene.method.name()))?;
     let precompute_ms = t0.elapsed().as_secs_f64() * 1e3;

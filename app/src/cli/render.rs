@@ -20,9 +20,9 @@ use app::editor::shape::Shape;
 use app::editor::solver_thread::MethodSettings;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use solver::Deformer;
 use solver::animation::recording::record;
 use solver::animation::scene::CaptureSettings;
-use solver::{Deformer, DeformerOptions};
 
 #[derive(Debug, Args)]
 pub struct RenderArgs {
@@ -117,13 +117,7 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
     // Poses: the recording `bsarap export` writes, or the rest pose.
     let t1 = Instant::now();
     let shapes: Vec<Shape> = if moving {
-        let options = DeformerOptions {
-            method: doc.method,
-            config: doc.arap,
-            base: doc.base,
-            loose_parts: Some(&doc.loose_parts),
-            ..Default::default()
-        };
+        let options = doc.deformer_options();
         let mut deformer = Deformer::new(mesh, &handles, options)
             .with_context(|| format!("{source}: precomputing {}", doc.method.name()))?;
         let pb = bar(n_frames as u64, "solving", a.json);

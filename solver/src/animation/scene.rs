@@ -60,7 +60,7 @@ use crate::animation::export::UpAxis;
 use crate::animation::timeline::{AnimationError, Timeline};
 use crate::deform::arap::ArapConfig;
 use crate::deform::config::BaseConfig;
-use crate::deform::deformer::Method;
+use crate::deform::deformer::{DeformerOptions, Method};
 use crate::deform::handles::{Handles, HandlesError};
 use crate::deform::riders::LooseParts;
 use crate::deform::rig::{Falloff, FalloffCurve, Rig};
@@ -288,6 +288,17 @@ fn parse_error(file: &str, e: &serde_json::Error) -> SceneError {
 }
 
 impl Scene {
+    /// The scene's method, settings and loose parts as [`DeformerOptions`] (a cache of its own).
+    pub fn deformer_options(&self) -> DeformerOptions<'_> {
+        DeformerOptions {
+            method: self.method,
+            config: self.arap,
+            base: self.base,
+            loose_parts: Some(&self.loose_parts),
+            ..Default::default()
+        }
+    }
+
     /// A scene for `mesh` (relative to the scene) with handles from `handles`, an empty timeline
     /// and default settings.
     pub fn new(mesh: impl Into<String>, handles: HandlesSpec) -> Scene {

@@ -114,6 +114,24 @@ pub fn sphere_with_caps() -> (crate::geometry::mesh::Mesh, crate::deform::handle
     capped_sphere(2, 0, 0.8, None)
 }
 
+/// A timeline of `n_frames` frames over one second in which group 0 circles about +z with
+/// radius `radius`, turning with its path, and the other groups stay.
+pub fn circling_timeline(radius: f64, n_frames: usize) -> crate::animation::timeline::Timeline {
+    use crate::animation::timeline::{CircularPath, GroupPath, Path, Timeline};
+    Timeline {
+        duration: 1.0,
+        fps: n_frames.saturating_sub(1).max(1) as f64,
+        looping: false,
+        paths: vec![GroupPath {
+            group: 0,
+            path: Path::Circular(CircularPath {
+                turn_with_path: true,
+                ..CircularPath::new([0.0, 0.0, 1.0], radius, 1.0)
+            }),
+        }],
+    }
+}
+
 /// Runs the Khronos glTF validator (`node tools/gltf-validate/validate.mjs FILE`) and asserts
 /// that it reports no error and no warning (its report is printed). Returns false, with a
 /// printed "skipped: ...", when node or the npm package is missing, so that the caller can
