@@ -1,11 +1,13 @@
 //! Solver frames per second as the editor's solver thread produces them (BENCHMARKS.md, "Editor rate").
 //!
-//! Usage: `cargo run --release -p app --example editor_rate -- [--no-settle] [--gpu-normals] MESH SELECTION [FRAMES [METHOD...]]`
+//! Usage: `cargo run --release -p app --example editor_rate -- [--no-settle] [--gpu-normals]
+//! [--energy spokes-and-rims|spokes|smooth-rotations] [--bending-length F] MESH SELECTION [FRAMES [METHOD...]]`
 //! (methods: `arap`, `bsarap`, `bsarap-faired`, `bsarap-coarse`, each optionally with `+aa` for
 //! the method panel's Anderson acceleration; default `arap bsarap bsarap-coarse`).
 //!
 //! Drives the editor's own deformer factory (`app::editor::pose_solvers::factory`) with the editor's
-//! default method settings (tolerance 1e-4, cap 30 iterations per displayed frame), warm-started
+//! default method settings (tolerance 1e-4, cap 30 iterations per displayed frame; `--energy` and
+//! `--bending-length`, a fraction of the diagonal, as the method panel sets them), warm-started
 //! from the previous frame as the solver thread does, with the first group moving on the
 //! benchmark's circle (radius 0.1·diag in the xy plane, FRAMES steps of one turn, default 30),
 //! the others at rest. A frame is what the thread does per published frame: the group poses'
@@ -17,7 +19,8 @@
 //! Then settling, for the methods that do it (the coarse BS-ARAP with the editor's default
 //! settle iterations): the group is dragged to the far point of the circle (0.2·diag from rest)
 //! and left there; the thread solves until converged, then settles until converged. Reported:
-//! settle steps and fine iterations, seconds, and the distance to converged ARAP on the mesh
+//! settle steps and fine iterations, seconds, how far settling moves the displayed pose (the
+//! settle shift), and the distance to converged ARAP of the same energy on the mesh
 //! ([`solver::deform::quality::Reference`]) before and after settling, and while settling (at
 //! the first step after each of [`SNAPSHOTS`] seconds). `--gpu-normals` makes the
 //! shape as the thread does when the viewport computes the normals on the GPU (positions only).
@@ -45,7 +48,26 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let no_settle = all.iter().any(|a| a == "--no-settle");
     let gpu_normals = all.iter().any(|a| a == "--gpu-normals");
     let while_factoring = all.iter().any(|a| a == "--while-factoring");
-    let args: Vec<String> = all.into_iter().filter(|a| !flags.contains(&a.as_str())).collect();
+    let mut args: Vec<String> = all.into_iter().filter(|a| !flags.contains(&a.as_str())).collect();
+    let mut option = |name: &str| -> Result<Option<String>, String> {
+        let Some(i) = args.iter().position(|a| a == name) else { return Ok(None) };
+        let v = args.get(i + 1).cloned().ok_or(format!("{name} needs a value"))?;
+        args.drain(i..i + 2);
+        Ok(Some(v))
+    };
+    let mut defaults = MethodSettings::default();
+    if let Some(e) = option("--energy")? {
+        defaults.arap.energy = match e.as_str() {
+            "spokes-and-rims" => solver::Energy::SpokesAndRims,
+            "spokes" => solver::Energy::Spokes,
+            "smooth-rotations" => solver::Energy::SmoothRotations,
+            _ => return Err(format!("unknown energy {e}").into()),
+        };
+    }
+    if let Some(l) = option("--bending-length")? {
+        defaults.arap.bending_length = l.parse()?;
+    }
+    defaults.arap.validate()?;
     if args.len() < 3 {
         return Err("usage: editor_rate MESH SELECTION [FRAMES [METHOD...]]".into());
     }
@@ -75,11 +97,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let group = handles.group_ids().next().ok_or("empty selection")?;
     let n_poses = handles.group_ids().max().map_or(0, |k| k + 1);
     let radius = 0.1 * mesh.bbox_diagonal();
-    let defaults = MethodSettings::default();
     println!(
-        "{}: {} vertices, {frames} frames, tolerance {}, cap {} iterations per frame, {} threads",
+        "{}: {} vertices, {frames} frames, energy {:?} (bending length {}·diag), tolerance {}, cap {} iterations per frame, {} threads",
         args[1],
         mesh.n_vertices(),
+        defaults.arap.energy,
+        defaults.arap.bending_length,
         defaults.arap.tolerance,
         defaults.arap.max_iterations,
         rayon::current_num_threads()
@@ -199,9 +222,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if !settling.is_empty() {
         println!();
         println!(
-            "| method | solves to converge (s) | settle steps | fine iterations | settle s | before: max / mean / energy | after: max / mean / energy | reference energy |"
+            "| method | solves to converge (s) | settle steps | fine iterations | settle s | settle shift: max / mean | before: max / mean / energy | after: max / mean / energy | reference energy |"
         );
-        println!("|---|---:|---:|---:|---:|---:|---:|---:|");
+        println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|");
     }
     for (label, targets, solves, before, after, steps, fine, seconds, timeline) in settling {
         let mut r = solver::deform::quality::Reference::new(
@@ -223,11 +246,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             })
             .collect();
         println!("  {label} while settling (max / mean): {}", during.join("; "));
+        let shift = solver::deform::quality::distances(&before, &after, mesh.bbox_diagonal());
         println!(
-            "| {} | {} ({:.2}) | {steps} | {fine} | {seconds:.2} | {:.2}% / {:.3}% / {:.3e} | {:.2}% / {:.3}% / {:.3e} | {:.3e} |",
+            "| {} | {} ({:.2}) | {steps} | {fine} | {seconds:.2} | {:.2}% / {:.3}% | {:.2}% / {:.3}% / {:.3e} | {:.2}% / {:.3}% / {:.3e} | {:.3e} |",
             label,
             solves.0,
             solves.1,
+            100.0 * shift.max,
+            100.0 * shift.mean,
             100.0 * b.max_distance,
             100.0 * b.mean_distance,
             b.energy_on_mesh,
@@ -252,7 +278,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         );
         let to_reference = r.measure(from_settled.positions());
         println!(
-            "  ARAP converged from the settled pose: {} iterations, energy {:.4e}; from the settled \
+            "  converged from the settled pose: {} iterations, energy {:.4e}; from the settled \
              pose {:.2}% / {:.3}%, from the reference {:.2}% / {:.3}% (max / mean)",
             st.iterations,
             st.energy(),

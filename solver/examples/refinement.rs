@@ -4,7 +4,7 @@
 //! 4× the vertices a level, the original vertices first), for the same handle motion, compared
 //! at the original vertices (mean and max distance over the bounding-box diagonal).
 //!
-//!     cargo run --release -p solver --example refinement -- MESH SELECTION [--levels K] [--motion bench|turn] [--ell F,F,...] [--cap N] [--tolerance T] [--sweeps-only] [--write-poses DIR]
+//!     cargo run --release -p solver --example refinement -- MESH SELECTION [--levels K] [--motion bench|turn] [--ell F,F,...] [--cap N] [--plain-cap N] [--tolerance T] [--sweeps-only] [--write-poses DIR]
 //!
 //! SELECTION: a sphere selection (`bench/handles/*.json`): spheres select the same region of
 //! the surface at every resolution. Motions: `bench` is the benchmark's frame 5 (group 0 moved
@@ -12,7 +12,8 @@
 //! turns it 40° about x through its centroid. Energies: spokes and rims (today's default),
 //! then smooth rotations at each bending length of `--ell` (fractions of the diagonal,
 //! default 0.01,0.02,0.04). Each solve: Anderson (window 5) to a relative decrease of
-//! `--tolerance` (default 1e-9) or `--cap` iterations (default 3000). The coarse mesh is solved
+//! `--tolerance` (default 1e-9) or `--cap` iterations (default 3000; `--plain-cap` for spokes and
+//! rims at the finest level, whose convergence slows with the edge length). The coarse mesh is solved
 //! from rest; each finer level starts from the level below's converged pose prolonged by
 //! midpoint subdivision (nested iteration: one branch of the minima, module doc of
 //! `solver::deform::arap::rotation_solve` for why that start matters), and its pose is checked
@@ -48,6 +49,7 @@ fn main() {
         .map(|v| v.parse().expect("--ell F,F,..."))
         .collect();
     let cap: usize = option("--cap").map_or(3000, |v| v.parse().expect("--cap N"));
+    let plain_cap: usize = option("--plain-cap").map_or(cap, |v| v.parse().expect("--plain-cap N"));
     let tolerance: f64 = option("--tolerance").map_or(1e-9, |v| v.parse().expect("--tolerance"));
     let write_poses = option("--write-poses").map(std::path::PathBuf::from);
     assert!(args.len() == 2, "usage: refinement MESH SELECTION [options] (module doc)");
@@ -103,6 +105,10 @@ fn main() {
             .expect("selection");
             let targets = targets(mesh, &handles, diag, &motion);
             let t = std::time::Instant::now();
+            // Plain ARAP's finest level may have a cap of its own (`--plain-cap`).
+            let finest_plain = level == levels && energy == Energy::SpokesAndRims;
+            let config =
+                ArapConfig { max_iterations: if finest_plain { plain_cap } else { cap }, ..config };
             let mut arap = Arap::new(mesh, &handles, &config).expect("solver");
             arap.set_implicit_rotation_step(!sweeps_only);
             if let Some(below) = poses.last() {
