@@ -33,10 +33,11 @@
 //! again while that factorization runs and reports those frames: what a user dragging again
 //! soon after stopping sees.
 
-use app::editor::pose::{GroupPose, group_transforms, handle_targets};
+use app::editor::pose::{group_transforms, handle_targets};
 use app::editor::pose_solvers::factory;
 use app::editor::shape::ShapePool;
 use app::editor::solver_thread::{MethodSettings, Slot};
+use solver::GroupTransform;
 use std::time::Instant;
 
 /// Seconds into settling at which the pose is kept and measured (at the first step after each).
@@ -139,8 +140,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let (mut shapes, mut shown) = (ShapePool::default(), None);
         for f in 1..=frames {
             let theta = std::f64::consts::TAU * f as f64 / frames as f64;
-            let mut poses = vec![GroupPose::default(); n_poses];
-            poses[group].translation = [radius * (theta.cos() - 1.0), radius * theta.sin(), 0.0];
+            let mut poses = vec![GroupTransform::default(); n_poses];
+            poses[group].translation =
+                glam::DVec3::new(radius * (theta.cos() - 1.0), radius * theta.sin(), 0.0);
             let t = Instant::now();
             let moves = group_transforms(&handles, &poses);
             let stats = d.solve(&moves)?;
@@ -178,8 +180,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             continue;
         }
 
-        let mut poses = vec![GroupPose::default(); n_poses];
-        poses[group].translation = [-2.0 * radius, 0.0, 0.0];
+        let mut poses = vec![GroupTransform::default(); n_poses];
+        poses[group].translation = glam::DVec3::new(-2.0 * radius, 0.0, 0.0);
         let moves = group_transforms(&handles, &poses);
         let targets = handle_targets(&mesh, &handles, &poses)?;
         let mut solves = 1;
@@ -305,8 +307,9 @@ fn drag_while_factoring(
     let radius = 0.1 * mesh.bbox_diagonal();
     let pose = |f: usize| {
         let theta = std::f64::consts::TAU * f as f64 / frames as f64;
-        let mut poses = vec![GroupPose::default(); n_poses];
-        poses[group].translation = [radius * (theta.cos() - 1.0), radius * theta.sin(), 0.0];
+        let mut poses = vec![GroupTransform::default(); n_poses];
+        poses[group].translation =
+            glam::DVec3::new(radius * (theta.cos() - 1.0), radius * theta.sin(), 0.0);
         poses
     };
     let moves = group_transforms(handles, &pose(frames / 2));

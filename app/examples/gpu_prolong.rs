@@ -19,6 +19,7 @@
 
 use app::editor::shape::Shape;
 use app::gpu::{headless, prolong::GpuProlongation};
+use glam::DVec3;
 use solver::deform::coarse::CoarseBsArap;
 use solver::deform::coarse::prolong::prolong;
 use solver::{Acceleration, ArapConfig, BaseConfig, GroupTransform, handle_targets};
@@ -59,10 +60,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (mut cpu_ms, mut gpu_ms, mut read_ms, mut max_err) = (0.0, 0.0, 0.0, 0.0f64);
     for k in 1..=frames {
         let a = std::f64::consts::TAU * k as f64 / frames as f64;
-        let tr = GroupTransform {
-            translation: [0.1 * diag * (a.cos() - 1.0), 0.1 * diag * a.sin(), 0.0],
-            ..Default::default()
-        };
+        let tr = GroupTransform::from_translation(DVec3::new(
+            0.1 * diag * (a.cos() - 1.0),
+            0.1 * diag * a.sin(),
+            0.0,
+        ));
         let targets = handle_targets(mesh.positions(), &handles, &[(group, tr)])?;
         cpu.solve(&targets)?;
 

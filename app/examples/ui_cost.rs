@@ -230,7 +230,8 @@ fn main() {
     for i in 0..300 {
         let mut pose = start_pose;
         let a = i as f64 * 0.02;
-        pose.translation = [0.05 * scale * a.sin(), 0.05 * scale * (1.0 - a.cos()), 0.0];
+        pose.translation =
+            glam::DVec3::new(0.05 * scale * a.sin(), 0.05 * scale * (1.0 - a.cos()), 0.0);
         h.state_mut().drag_group(0, pose);
         let s = Instant::now();
         h.step();

@@ -29,7 +29,7 @@ struct Driver {
     /// Frames rendered before the first solved frame, and their CPU seconds (eframe's).
     opening_frames: usize,
     opening_cpu: f64,
-    start_pose: Option<app::editor::pose::GroupPose>,
+    start_pose: Option<solver::GroupTransform>,
     scale: f64,
     step: usize,
     /// The editor's `ui` per dragged frame, ms.
@@ -133,8 +133,11 @@ impl eframe::App for Driver {
             }
             let mut pose = start_pose;
             let a = self.step as f64 * 0.02;
-            pose.translation =
-                [0.05 * self.scale * a.sin(), 0.05 * self.scale * (1.0 - a.cos()), 0.0];
+            pose.translation = glam::DVec3::new(
+                0.05 * self.scale * a.sin(),
+                0.05 * self.scale * (1.0 - a.cos()),
+                0.0,
+            );
             self.editor.drag_group(0, pose);
             self.step += 1;
         }

@@ -9,11 +9,12 @@ mod support;
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use app::editor::pose::GroupPose;
 use app::editor::solver_thread::{Slot, SolverState};
 use app::editor::{EditorApp, EditorOptions, Shading, Tool, View};
 use eframe::egui::{self, Event, Modifiers, Pos2, Vec2};
 use egui_kittest::{Harness, kittest::Queryable};
+use glam::{DQuat, DVec3};
+use solver::GroupTransform;
 use solver::testing::ScratchDir;
 use support::{
     SIZE, dist, has_current_frame, press, settled, snapshot_options, step_until, test_mesh,
@@ -81,7 +82,7 @@ fn opens_the_default_asset_and_views_change_the_image() {
 
     // Posed: the quality figures of ARAP (left) and BS-ARAP coarse (right) against converged ARAP.
     let mut e = h.state().edit_state().clone();
-    e.groups[0].pose.translation = [0.0, 0.15, 0.0];
+    e.groups[0].pose.translation = DVec3::new(0.0, 0.15, 0.0);
     h.state_mut().set_edit_state(e);
     let posed = |a: &EditorApp| {
         let current = |m| {
@@ -254,7 +255,7 @@ fn gpu_normals_draw_what_cpu_normals_draw() {
     // y), so every normal changes.
     let (s, c) = (0.35f64.sin(), 0.35f64.cos());
     for k in 0..h.state().edit_state().groups.len() {
-        let pose = GroupPose { translation: [0.0; 3], rotation: [0.0, s, 0.0, c] };
+        let pose = GroupTransform::new(DVec3::ZERO, DQuat::from_xyzw(0.0, s, 0.0, c));
         assert!(h.state_mut().drag_group(k, pose));
     }
     let generation = h.state().pose_generation();
@@ -377,7 +378,7 @@ fn painting_then_dragging_a_group_deforms_the_mesh() {
     h.event(Event::ModifiersChanged(Modifiers::NONE));
     h.step();
     let q = h.state().group_pose(group).expect("pose").rotation;
-    assert!(q[3].abs() < 1.0 - 1e-6, "Ctrl+drag did not rotate the group: {q:?}");
+    assert!(q.w.abs() < 1.0 - 1e-6, "Ctrl+drag did not rotate the group: {q:?}");
     step_until(&mut h, "a frame for the rotated pose", has_current_frame);
     let rotated = h.state().latest_frame(Slot::Main).expect("frame").clone();
     let dist = |p: [f64; 3], q: [f64; 3]| {
@@ -486,7 +487,7 @@ fn a_timeline_path_drives_the_handles_and_the_recording_matches_the_headless_exp
     h.state_mut().set_playback_time(0.1);
     step_until(&mut h, "a frame for the scrubbed time", has_current_frame);
     let t = h.state().group_pose(0).unwrap().translation;
-    assert!((dist(t, [0.0; 3]) - c.radius * 2f64.sqrt()).abs() < 1e-9 * diag, "{t:?}");
+    assert!((dist(t.to_array(), [0.0; 3]) - c.radius * 2f64.sqrt()).abs() < 1e-9 * diag, "{t:?}");
     let frame = h.state().latest_frame(Slot::Main).unwrap().clone();
     let group0: Vec<usize> =
         (0..rest.len()).filter(|&v| h.state().labels()[v] == Some(0)).collect();
@@ -582,7 +583,7 @@ fn scenes_recent_files_rename_and_autosave_restore() {
 
     // Pose group 1, autosave, then "crash" (drop the editor without a clean exit).
     let mut e = h.state().edit_state().clone();
-    e.groups[1].pose.translation = [0.0, 0.05, 0.0];
+    e.groups[1].pose.translation = DVec3::new(0.0, 0.05, 0.0);
     h.state_mut().set_edit_state(e.clone());
     let autosave = h.state_mut().autosave_now().unwrap();
     assert!(autosave.starts_with(&config));
@@ -621,7 +622,7 @@ fn scenes_recent_files_rename_and_autosave_restore() {
     let t = h.state().group_pose(1).unwrap().translation;
     assert!((t[1] - 0.05).abs() < 1e-12, "{t:?}");
     let mut e = h.state().edit_state().clone();
-    e.groups[0].pose.translation = [0.01, 0.0, 0.0];
+    e.groups[0].pose.translation = DVec3::new(0.01, 0.0, 0.0);
     h.state_mut().set_edit_state(e);
     assert!(h.state_mut().exit_autosave(), "unsaved changes are kept for the next start");
     assert!(autosave.exists());
@@ -635,7 +636,7 @@ fn scenes_recent_files_rename_and_autosave_restore() {
     h.get_by_label("Cancel").click();
     h.step();
     assert!(h.state().pending_open().is_none() && !h.state().is_loading());
-    assert_eq!(h.state().edit_state().groups[0].pose.translation, [0.01, 0.0, 0.0]);
+    assert_eq!(h.state().edit_state().groups[0].pose.translation.to_array(), [0.01, 0.0, 0.0]);
     h.state_mut().request_open(&ctx, test_mesh());
     h.step();
     h.step();

@@ -8,11 +8,12 @@ mod support;
 
 use std::path::PathBuf;
 
-use app::editor::pose::GroupPose;
 use app::editor::solver_thread::Slot;
 use app::editor::{EditorApp, EditorOptions, Shading};
 use eframe::egui::{self, Modifiers, Pos2, Vec2};
 use egui_kittest::{Harness, kittest::Queryable};
+use glam::{DQuat, DVec3};
+use solver::GroupTransform;
 use solver::testing::ScratchDir;
 use support::{SIZE, dist, settled, snapshot_options, step_until};
 
@@ -157,7 +158,7 @@ fn texture_shading_draws_the_same_with_gpu_normals() {
     // 40 degrees about (0, 1, 1): every face's normal changes.
     let (s, c) = (0.35f64.sin() * std::f64::consts::FRAC_1_SQRT_2, 0.35f64.cos());
     for k in 0..h.state().edit_state().groups.len() {
-        let pose = GroupPose { translation: [0.0; 3], rotation: [0.0, s, s, c] };
+        let pose = GroupTransform::new(DVec3::ZERO, DQuat::from_xyzw(0.0, s, s, c));
         assert!(h.state_mut().drag_group(k, pose));
     }
     let generation = h.state().pose_generation();
@@ -246,7 +247,7 @@ fn a_loose_part_follows_the_handles_and_can_be_pinned_from_the_parts_panel() {
         })
         .collect();
     let mut e = app::editor::undo::EditState::from_labels(labels);
-    e.groups[1].pose.translation = [0.3, 0.0, 0.0];
+    e.groups[1].pose.translation = DVec3::new(0.3, 0.0, 0.0);
     h.state_mut().set_edit_state(e);
     step_until(&mut h, "the posed spheres", settled);
     assert!(h.query_by_label("handles").is_some());

@@ -85,7 +85,7 @@ fn save_open_dmat_and_export_go_through_the_in_app_file_dialog() {
 
     // Pose group 1, then Ctrl+S: no scene file yet, so the dialog asks where.
     let mut e = h.state().edit_state().clone();
-    e.groups[1].pose.translation = [0.0, 0.05, 0.0];
+    e.groups[1].pose.translation = glam::DVec3::new(0.0, 0.05, 0.0);
     h.state_mut().set_edit_state(e);
     h.step();
     assert!(h.state().has_unsaved_changes());
@@ -100,7 +100,7 @@ fn save_open_dmat_and_export_go_through_the_in_app_file_dialog() {
 
     // Ctrl+O: the dialog starts in the scene's folder; the typed path opens the scene.
     let mut e = h.state().edit_state().clone();
-    e.groups[1].pose.translation = [0.0, 0.0, 0.0];
+    e.groups[1].pose.translation = glam::DVec3::new(0.0, 0.0, 0.0);
     h.state_mut().set_edit_state(e.clone());
     h.state_mut().save_scene(&dir.join("flat.json")).unwrap();
     h.key_press_modifiers(Modifiers::COMMAND, Key::O);
@@ -161,7 +161,7 @@ fn save_open_dmat_and_export_go_through_the_in_app_file_dialog() {
 /// Moves group 1 up by `dy`: an unsaved change.
 fn pose_group1(h: &mut Harness<'_, EditorApp>, dy: f64) {
     let mut e = h.state().edit_state().clone();
-    e.groups[1].pose.translation = [0.0, dy, 0.0];
+    e.groups[1].pose.translation = glam::DVec3::new(0.0, dy, 0.0);
     h.state_mut().set_edit_state(e);
     h.step();
     assert!(h.state().has_unsaved_changes());
@@ -363,7 +363,7 @@ fn the_example_scenes_paths_stay_above_the_ground() {
                 let lowest = verts
                     .iter()
                     .map(|&v| {
-                        let r = tr.rotation[1];
+                        let r = tr.rotation_matrix()[1];
                         let q = [pos[v][0] - c[0], pos[v][1] - c[1], pos[v][2] - c[2]];
                         c[1] + r[0] * q[0] + r[1] * q[1] + r[2] * q[2] + tr.translation[1]
                     })
@@ -387,14 +387,14 @@ fn a_path_chosen_for_a_posed_group_starts_from_its_pose() {
     let mut h = support::harness_sized(test_mesh(), None, WINDOW);
     step_until(&mut h, "the default asset", settled);
     let mut e = h.state().edit_state().clone();
-    e.groups[0].pose.translation = [0.02, 0.08, -0.01];
-    e.groups[0].pose.set_quat(glam::DQuat::from_rotation_y(0.4));
+    e.groups[0].pose.translation = glam::DVec3::new(0.02, 0.08, -0.01);
+    e.groups[0].pose.rotation = glam::DQuat::from_rotation_y(0.4);
     let posed = e.groups[0].pose;
     h.state_mut().set_edit_state(e);
     h.state_mut().set_active_group(Some(0));
     h.step();
-    let close = |a: &app::editor::pose::GroupPose, b: &app::editor::pose::GroupPose| {
-        let dq = a.quat().dot(b.quat()).abs();
+    let close = |a: &solver::GroupTransform, b: &solver::GroupTransform| {
+        let dq = a.rotation.dot(b.rotation).abs();
         (0..3).all(|d| (a.translation[d] - b.translation[d]).abs() < 1e-9) && dq > 1.0 - 1e-12
     };
     for kind in ["circular", "keyframed"] {
@@ -415,7 +415,7 @@ fn a_path_chosen_for_a_posed_group_starts_from_its_pose() {
             }
             AnimPath::Static => panic!("{kind}: no path"),
         };
-        let back = app::editor::pose::GroupPose::from_transform(&path.transform_at(period));
+        let back = path.transform_at(period);
         assert!(close(&back, &posed), "{kind}: not back at the pose after a period");
         h.get_by_label("static").click();
         h.step();

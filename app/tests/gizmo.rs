@@ -68,7 +68,7 @@ fn g_then_x_moves_the_group_along_x_only_and_the_handles_follow() {
     // moves depends on which intermediate poses the solver thread happened to solve).
     h.snapshot_options("gizmo_move_x", &support::snapshot_options());
     move_pointer(&mut h, (1..=6).map(|i| p0 + Vec2::new(12.0 * i as f32, 5.0 * i as f32)));
-    let t = h.state().group_pose(0).unwrap().translation;
+    let t = h.state().group_pose(0).unwrap().translation.to_array();
     assert!(t[0] > 1e-3 * diag, "no move along X: {t:?}");
     assert_eq!((t[1], t[2]), (0.0, 0.0), "moved off the X axis: {t:?}");
     // Ctrl+Z during the transform cancels it, and undoes nothing else.
@@ -76,7 +76,7 @@ fn g_then_x_moves_the_group_along_x_only_and_the_handles_follow() {
     h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
     h.step();
     assert_eq!(h.state().running_transform(), None);
-    assert_eq!(h.state().group_pose(0).unwrap().translation, [0.0; 3]);
+    assert_eq!(h.state().group_pose(0).unwrap().translation.to_array(), [0.0; 3]);
     assert_eq!(h.state().labels(), &edits_before.labels[..]);
     // Again, confirmed this time.
     move_pointer(&mut h, [p0]);
@@ -85,11 +85,11 @@ fn g_then_x_moves_the_group_along_x_only_and_the_handles_follow() {
     h.key_press(Key::X);
     h.step();
     move_pointer(&mut h, (1..=6).map(|i| p0 + Vec2::new(12.0 * i as f32, 5.0 * i as f32)));
-    assert_eq!(h.state().group_pose(0).unwrap().translation, t);
+    assert_eq!(h.state().group_pose(0).unwrap().translation.to_array(), t);
     h.key_press(Key::Enter);
     h.step();
     assert_eq!(h.state().running_transform(), None, "Enter confirms");
-    assert_eq!(h.state().group_pose(0).unwrap().translation, t);
+    assert_eq!(h.state().group_pose(0).unwrap().translation.to_array(), t);
 
     // The solver puts every handle vertex of the group at rest + t.
     step_until(&mut h, "a frame for the moved group", has_current_frame);
@@ -102,7 +102,7 @@ fn g_then_x_moves_the_group_along_x_only_and_the_handles_follow() {
     // One undo step for the whole transform.
     h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
     h.step();
-    assert_eq!(h.state().group_pose(0).unwrap().translation, [0.0; 3]);
+    assert_eq!(h.state().group_pose(0).unwrap().translation.to_array(), [0.0; 3]);
 }
 
 #[test]
@@ -118,16 +118,20 @@ fn r_then_z_rotates_about_z_esc_cancels_and_ctrl_snaps() {
     assert_eq!(h.state().running_transform(), Some((TransformKind::Rotate, Some(2))));
     move_pointer(&mut h, path[1..].iter().copied());
     let pose = h.state().group_pose(0).unwrap();
-    let q = pose.rotation;
+    let q = pose.rotation.to_array();
     assert!(q[0].abs() < 1e-9 && q[1].abs() < 1e-9, "not about Z: {q:?}");
     let deg = angle_degrees(q);
     assert!((deg - 50.0).abs() < 15.0, "turned {deg}° for a 50° arc");
-    assert_eq!(pose.translation, [0.0; 3], "a rotation about the centre moves no centre");
+    assert_eq!(
+        pose.translation.to_array(),
+        [0.0; 3],
+        "a rotation about the centre moves no centre"
+    );
     // Esc cancels: back to rest, nothing to undo.
     h.key_press(Key::Escape);
     h.step();
     assert_eq!(h.state().running_transform(), None);
-    assert_eq!(h.state().group_pose(0).unwrap().rotation, [0.0, 0.0, 0.0, 1.0]);
+    assert_eq!(h.state().group_pose(0).unwrap().rotation.to_array(), [0.0, 0.0, 0.0, 1.0]);
 
     // Ctrl held: multiples of 15°, confirmed by a click (Ctrl still held).
     move_pointer(&mut h, [path[0]]);
@@ -145,7 +149,7 @@ fn r_then_z_rotates_about_z_esc_cancels_and_ctrl_snaps() {
     h.event(Event::ModifiersChanged(Modifiers::NONE));
     h.step();
     assert_eq!(h.state().running_transform(), None, "the click confirms");
-    let q = h.state().group_pose(0).unwrap().rotation;
+    let q = h.state().group_pose(0).unwrap().rotation.to_array();
     let deg = angle_degrees(q);
     assert!(deg > 1.0 && (deg / 15.0 - (deg / 15.0).round()).abs() < 1e-4, "not snapped: {deg}°");
     assert!(q[0].abs() < 1e-9 && q[1].abs() < 1e-9, "not about Z: {q:?}");
@@ -160,7 +164,7 @@ fn r_then_z_rotates_about_z_esc_cancels_and_ctrl_snaps() {
     h.step();
     h.event(Event::ModifiersChanged(Modifiers::COMMAND));
     move_pointer(&mut h, (1..=10).map(|i| p0 + Vec2::new(16.0 * i as f32, 0.0)));
-    let t = h.state().group_pose(0).unwrap().translation;
+    let t = h.state().group_pose(0).unwrap().translation.to_array();
     let k = t[0] / step;
     assert!(
         k.round() >= 1.0 && (k - k.round()).abs() < 1e-3,
@@ -176,8 +180,16 @@ fn r_then_z_rotates_about_z_esc_cancels_and_ctrl_snaps() {
     });
     h.step();
     assert_eq!(h.state().running_transform(), None);
-    assert_eq!(h.state().group_pose(0).unwrap().translation, [0.0; 3], "right click cancels");
-    assert_eq!(h.state().group_pose(0).unwrap().rotation, q, "the confirmed rotation stays");
+    assert_eq!(
+        h.state().group_pose(0).unwrap().translation.to_array(),
+        [0.0; 3],
+        "right click cancels"
+    );
+    assert_eq!(
+        h.state().group_pose(0).unwrap().rotation.to_array(),
+        q,
+        "the confirmed rotation stays"
+    );
 }
 
 #[test]
@@ -193,18 +205,18 @@ fn dragging_an_arrow_or_the_plane_square_moves_the_group() {
     let points: Vec<Pos2> = (0..=6).map(|i| grab + dir * (8.0 * i as f32)).collect();
     drag(&mut h, &points, Modifiers::NONE);
     assert_eq!(h.state().running_transform(), None, "released: done");
-    let t = h.state().group_pose(0).unwrap().translation;
+    let t = h.state().group_pose(0).unwrap().translation.to_array();
     assert!(t[1] > 0.0, "the Y arrow dragged outwards moves +Y: {t:?}");
     assert_eq!((t[0], t[2]), (0.0, 0.0), "moved off the Y axis: {t:?}");
     h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
     h.step();
-    assert_eq!(h.state().group_pose(0).unwrap().translation, [0.0; 3], "undo");
+    assert_eq!(h.state().group_pose(0).unwrap().translation.to_array(), [0.0; 3], "undo");
 
     // The centre square moves in the view plane: to the right on screen.
     let (c, tips) = h.state().gizmo_screen().unwrap();
     let points: Vec<Pos2> = (0..=5).map(|i| c + Vec2::new(10.0 * i as f32, 0.0)).collect();
     drag(&mut h, &points, Modifiers::NONE);
-    let t = h.state().group_pose(0).unwrap().translation;
+    let t = h.state().group_pose(0).unwrap().translation.to_array();
     assert!(t.iter().any(|x| x.abs() > 0.0), "the square did not move the group");
     // Screen right is the direction of the X tip's horizontal component here (X points right).
     let x_tip = tips[0].unwrap();
@@ -237,10 +249,10 @@ fn dragging_a_ring_turns_the_group_about_its_axis() {
     drag(&mut h, &points, Modifiers::NONE);
     assert_eq!(h.state().running_transform(), None);
     let pose = h.state().group_pose(0).unwrap();
-    let q = pose.rotation;
+    let q = pose.rotation.to_array();
     assert!(angle_degrees(q) > 5.0, "the ring drag turned {}°", angle_degrees(q));
     assert!(q[0].abs() < 1e-9 && q[1].abs() < 1e-9, "not about Z: {q:?}");
-    assert_eq!(pose.translation, [0.0; 3]);
+    assert_eq!(pose.translation.to_array(), [0.0; 3]);
 }
 
 /// Types `text` into the drag value labelled `label` of the pose panel and confirms it.
@@ -268,15 +280,15 @@ fn typed_values_still_set_the_pose_after_a_gizmo_move() {
     move_pointer(&mut h, (1..=4).map(|i| p0 + Vec2::new(0.0, -10.0 * i as f32)));
     h.key_press(Key::Enter);
     h.step();
-    let t = h.state().group_pose(0).unwrap().translation;
+    let t = h.state().group_pose(0).unwrap().translation.to_array();
     assert!(t[1] > 0.0 && t[0] == 0.0 && t[2] == 0.0, "{t:?}");
     // The typed x joins the gizmo's y.
     type_value(&mut h, "x", "0.25");
-    let t2 = h.state().group_pose(0).unwrap().translation;
+    let t2 = h.state().group_pose(0).unwrap().translation.to_array();
     assert_eq!(t2[0], 0.25, "typed x: {t2:?}");
     assert_eq!((t2[1], t2[2]), (t[1], t[2]));
     type_value(&mut h, "rz", "30");
-    let q = h.state().group_pose(0).unwrap().rotation;
+    let q = h.state().group_pose(0).unwrap().rotation.to_array();
     assert!(
         (angle_degrees(q) - 30.0).abs() < 1e-6 && q[0] == 0.0 && q[1] == 0.0,
         "typed rz: {q:?}"
@@ -285,7 +297,7 @@ fn typed_values_still_set_the_pose_after_a_gizmo_move() {
     h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
     h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
     h.step();
-    assert_eq!(h.state().group_pose(0).unwrap().translation, t);
+    assert_eq!(h.state().group_pose(0).unwrap().translation.to_array(), t);
 }
 
 #[test]
@@ -308,10 +320,10 @@ fn numbers_typed_during_g_or_r_set_the_distance_or_angle() {
     h.event(Event::Text("7".into()));
     h.step();
     // "0.5", Backspace, "7": 0.7.
-    assert_eq!(h.state().group_pose(0).unwrap().translation, [0.7, 0.0, 0.0]);
+    assert_eq!(h.state().group_pose(0).unwrap().translation.to_array(), [0.7, 0.0, 0.0]);
     // The pointer no longer moves it while a number is typed.
     move_pointer(&mut h, [c + Vec2::new(90.0, 10.0)]);
-    assert_eq!(h.state().group_pose(0).unwrap().translation, [0.7, 0.0, 0.0]);
+    assert_eq!(h.state().group_pose(0).unwrap().translation.to_array(), [0.7, 0.0, 0.0]);
     h.key_press(Key::Enter);
     h.step();
     assert_eq!(h.state().running_transform(), None);
@@ -325,9 +337,10 @@ fn numbers_typed_during_g_or_r_set_the_distance_or_angle() {
     h.key_press(Key::Enter);
     h.step();
     let pose = h.state().group_pose(0).unwrap();
-    assert!((angle_degrees(pose.rotation) - 30.0).abs() < 1e-9, "{:?}", pose.rotation);
-    assert!(pose.rotation[2] < 0.0 && pose.rotation[0] == 0.0 && pose.rotation[1] == 0.0);
-    assert_eq!(pose.translation, [0.7, 0.0, 0.0]);
+    let q = pose.rotation;
+    assert!((angle_degrees(q.to_array()) - 30.0).abs() < 1e-9, "{q:?}");
+    assert!(q.z < 0.0 && q.x == 0.0 && q.y == 0.0);
+    assert_eq!(pose.translation.to_array(), [0.7, 0.0, 0.0]);
 }
 
 /// Distance from `p` to the closed polyline `ring`.
@@ -381,8 +394,8 @@ fn g_in_paint_only_switches_and_a_drag_beside_a_ring_moves_the_group() {
         .map(|g| h.state().group_pose(g).unwrap())
         .collect();
     assert!(
-        poses.iter().all(|q| q.rotation == [0.0, 0.0, 0.0, 1.0]),
+        poses.iter().all(|q| q.rotation == glam::DQuat::IDENTITY),
         "the drag turned a group: it caught a ring"
     );
-    assert!(poses.iter().any(|q| q.translation != [0.0; 3]), "the drag moved no group");
+    assert!(poses.iter().any(|q| q.translation != glam::DVec3::ZERO), "the drag moved no group");
 }

@@ -4,9 +4,9 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use app::gpu::{headless, prolong::GpuProlongation};
+use glam::{DQuat, DVec3};
 use solver::deform::coarse::CoarseBsArap;
 use solver::geometry::normals::vertex_normals_or_up;
-use solver::linalg::rotation::axis_angle;
 use solver::{ArapConfig, BaseConfig, GroupTransform, handle_targets};
 
 fn max_abs(v: &[f64]) -> f64 {
@@ -56,10 +56,10 @@ fn the_gpu_prolongation_gives_the_cpu_pose_and_normals() {
                 .unwrap();
         // Two frames: a bend, then a larger one (the second reuses the uploaded mesh part).
         for angle in [0.4, 1.1] {
-            let tr = GroupTransform {
-                translation: [0.1 * diag, 0.2 * diag, 0.0],
-                rotation: axis_angle([0.0, 0.0, 1.0], angle),
-            };
+            let tr = GroupTransform::new(
+                DVec3::new(0.1 * diag, 0.2 * diag, 0.0),
+                DQuat::from_rotation_z(angle),
+            );
             let targets = handle_targets(mesh.positions(), &handles, &[(1, tr)]).unwrap();
             cpu.solve(&targets).unwrap();
             pass.run(&gpu.device, &gpu.queue, cpu.prolongation(), cpu.fixed_vertices(), true)

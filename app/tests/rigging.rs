@@ -128,7 +128,7 @@ fn a_group_falloff_gives_the_solver_soft_constraints() {
     h.step();
     h.key_press(Key::Enter);
     h.step();
-    assert_eq!(h.state().group_pose(5).unwrap().translation, [0.3, 0.0, 0.0]);
+    assert_eq!(h.state().group_pose(5).unwrap().translation.to_array(), [0.3, 0.0, 0.0]);
     step_until(&mut h, "the soft group posed", settled);
     h.snapshot_options("rigging_falloff", &support::snapshot_options());
     // The curve buttons change it too, and undo restores the hard handle.
@@ -190,7 +190,7 @@ fn mirrored_painting_and_posing() {
     let keep = |v: usize| labels[v] == Some(0) && rest[v][2] > 0.3;
     let (_, pos) = visible_vertex(h.state(), Pos2::new(SIZE.x * 0.5, SIZE.y * 0.5), keep);
     drag(&mut h, pos, Vec2::new(40.0, -30.0), Modifiers::NONE);
-    let t = h.state().group_pose(0).unwrap().translation;
+    let t = h.state().group_pose(0).unwrap().translation.to_array();
     let m = h.state().group_pose(partner_group as usize).unwrap().translation;
     assert!(t.iter().map(|x| x * x).sum::<f64>() > 0.0, "the drag did not move group 0");
     assert_eq!([m[0], m[1], -m[2]], t, "group {partner_group} not mirrored");

@@ -174,7 +174,7 @@ impl NativeTimeline {
             .timeline
             .transforms_at(t)
             .into_iter()
-            .map(|(g, x)| (g, x.translation, x.rotation))
+            .map(|(g, x)| (g, x.translation.to_array(), x.rotation_matrix()))
             .collect())
     }
 

@@ -7,6 +7,7 @@ use numpy::{PyArray1, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use solver::deform::config::MAX_FINE_ITERATIONS;
+use solver::glam::DVec3;
 use solver::io::Asset;
 use solver::linalg::rotation::Mat3;
 use solver::{
@@ -299,8 +300,8 @@ impl NativeDeformer {
     }
 }
 
-/// Python's `(group, translation, rotation)` triples as group motions, checked: finite
-/// translations, proper rotations.
+/// Python's `(group, translation, rotation)` triples (rotation: a row-major 3×3 matrix) as
+/// group motions, checked: finite translations, proper rotations.
 fn transforms_of(
     transforms: Vec<(usize, [f64; 3], Mat3)>,
 ) -> PyResult<Vec<(usize, GroupTransform)>> {
@@ -310,7 +311,7 @@ fn transforms_of(
             return Err(err(format!("group {group}: the translation is not finite")));
         }
         check_rotation(group, &rotation)?;
-        list.push((group, GroupTransform { translation, rotation }));
+        list.push((group, GroupTransform::from_matrix(DVec3::from_array(translation), &rotation)));
     }
     Ok(list)
 }

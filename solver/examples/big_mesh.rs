@@ -19,6 +19,7 @@ use std::time::Instant;
 
 use solver::deform::selection::load_selection;
 use solver::geometry::shapes::subdivide;
+use solver::glam::DVec3;
 use solver::io::{load_mesh, write_obj};
 use solver::{ArapConfig, Deformer, DeformerOptions, GroupTransform, Method, handle_targets};
 
@@ -99,10 +100,8 @@ fn main() -> Result<(), String> {
 
     let handles = load_selection(selection, mesh.positions(), Some(&loaded.report.vertex_map))
         .map_err(|e| e.to_string())?;
-    let transform = GroupTransform {
-        translation: [0.1 * mesh.bbox_diagonal(), 0.0, 0.0],
-        ..GroupTransform::default()
-    };
+    let transform =
+        GroupTransform::from_translation(DVec3::new(0.1 * mesh.bbox_diagonal(), 0.0, 0.0));
     let targets =
         handle_targets(mesh.positions(), &handles, &[(0, transform)]).map_err(|e| e.to_string())?;
     eprintln!("{} handle vertices in {} groups", targets.len(), handles.n_groups());

@@ -28,6 +28,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use solver::deform::quality::{Reference, ReferenceEnergy, distances};
+use solver::glam::DVec3;
 use solver::{
     Acceleration, ArapConfig, BaseConfig, Deformer, DeformerOptions, Energy, GroupTransform,
     Method, handle_targets,
@@ -158,10 +159,8 @@ fn bench_frame(
     let group = handles.group_ids().next().expect("a handle group");
     let theta = std::f64::consts::TAU * f as f64 / 10.0;
     let r = 0.1 * diag;
-    let moved = GroupTransform {
-        translation: [r * (theta.cos() - 1.0), r * theta.sin(), 0.0],
-        ..Default::default()
-    };
+    let moved =
+        GroupTransform::from_translation(DVec3::new(r * (theta.cos() - 1.0), r * theta.sin(), 0.0));
     handle_targets(positions, handles, &[(group, moved)]).expect("targets")
 }
 

@@ -12,6 +12,7 @@
 //! ARAP energy of its result measured on the mesh.
 
 use solver::deform::quality::Reference;
+use solver::glam::DVec3;
 use solver::{
     BaseConfig, Deformer, DeformerOptions, Energy, GroupTransform, Method, handle_targets,
 };
@@ -42,7 +43,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let diag = mesh.bbox_diagonal();
     let r = 0.1 * diag;
     let group = handles.group_ids().next().ok_or("empty selection")?;
-    let moved = [(group, GroupTransform { translation: [-r, r, 0.0], ..Default::default() })];
+    let moved = [(group, GroupTransform::from_translation(DVec3::new(-r, r, 0.0)))];
     let targets = handle_targets(mesh.positions(), &handles, &moved)?;
 
     let t = Instant::now();

@@ -28,6 +28,7 @@
 use solver::deform::quality::distances;
 use solver::geometry::mesh::Mesh;
 use solver::geometry::shapes::subdivide;
+use solver::glam::{DQuat, DVec3};
 use solver::{Acceleration, Arap, ArapConfig, Energy, GroupTransform, handle_targets};
 
 fn main() {
@@ -167,15 +168,16 @@ fn targets(mesh: &Mesh, handles: &solver::Handles, diag: f64, motion: &str) -> V
         "bench" => {
             let theta = std::f64::consts::TAU * 5.0 / 10.0;
             let r = 0.1 * diag;
-            GroupTransform {
-                translation: [r * (theta.cos() - 1.0), r * theta.sin(), 0.0],
-                ..Default::default()
-            }
+            GroupTransform::from_translation(DVec3::new(
+                r * (theta.cos() - 1.0),
+                r * theta.sin(),
+                0.0,
+            ))
         }
-        "turn" => GroupTransform {
-            translation: [0.0, 0.15 * diag, 0.0],
-            rotation: solver::linalg::rotation::axis_angle([1.0, 0.0, 0.0], 40f64.to_radians()),
-        },
+        "turn" => GroupTransform::new(
+            DVec3::new(0.0, 0.15 * diag, 0.0),
+            DQuat::from_rotation_x(40f64.to_radians()),
+        ),
         other => panic!("unknown motion {other}: bench or turn"),
     };
     handle_targets(mesh.positions(), handles, &[(group, moved)]).expect("targets")

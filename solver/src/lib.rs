@@ -24,6 +24,10 @@ pub(crate) mod pool;
 #[doc(hidden)]
 pub mod testing;
 
+// The vector types of the public API ([`GroupTransform`]: `DVec3`, `DQuat`), so that users
+// name the very version the solver is built with.
+pub use glam;
+
 // The types a user of the crate starts from.
 pub use deform::arap::{
     Acceleration, Arap, ArapConfig, ArapConfigError, Energy, FrameStats, SolveStats,

@@ -7,6 +7,7 @@ use solver::animation::scene::{HandlesSpec, SCENE_VERSION, Scene, SceneError};
 use solver::animation::timeline::{
     AxisAngle, CircularPath, GroupPath, Interpolation, Key, KeyframedPath, Path, Timeline,
 };
+use solver::glam::DVec3;
 use solver::linalg::rotation::{IDENTITY, Mat3};
 use solver::testing::ScratchDir;
 use solver::{ArapConfig, GroupTransform, Method};
@@ -15,8 +16,8 @@ fn temp_dir(name: &str) -> ScratchDir {
     ScratchDir::new(&format!("anim-{name}"))
 }
 
-fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
-    (0..3).map(|d| (a[d] - b[d]).powi(2)).sum::<f64>().sqrt()
+fn dist(a: impl Into<DVec3>, b: impl Into<DVec3>) -> f64 {
+    a.into().distance(b.into())
 }
 
 fn mat_dist(a: &Mat3, b: &Mat3) -> f64 {
@@ -45,10 +46,10 @@ fn circular_path_starts_at_rest_stays_on_the_circle_and_returns() {
         let path = Path::Circular(c);
         let start = path.transform_at(0.0);
         assert!(dist(start.translation, [0.0; 3]) < 1e-14);
-        assert!(mat_dist(&start.rotation, &IDENTITY) < 1e-14);
+        assert!(mat_dist(&start.rotation_matrix(), &IDENTITY) < 1e-14);
         let end = path.transform_at(c.period);
         assert!(dist(end.translation, [0.0; 3]) < 1e-12, "{:?}", end.translation);
-        assert!(mat_dist(&end.rotation, &IDENTITY) < 1e-12);
+        assert!(mat_dist(&end.rotation_matrix(), &IDENTITY) < 1e-12);
         // Two periods too.
         assert!(dist(path.transform_at(2.0 * c.period).translation, [0.0; 3]) < 1e-12);
         let center = c.center_offset();
@@ -72,7 +73,7 @@ fn circular_path_starts_at_rest_stays_on_the_circle_and_returns() {
 #[test]
 fn circular_path_turns_by_the_swept_angle() {
     let c = circle(true, 0.4);
-    let q = c.transform_at(c.period / 4.0).rotation;
+    let q = c.transform_at(c.period / 4.0).rotation_matrix();
     let expected = solver::linalg::rotation::axis_angle(c.axis, std::f64::consts::FRAC_PI_2);
     assert!(mat_dist(&q, &expected) < 1e-12);
 }
@@ -98,14 +99,10 @@ fn keys() -> Vec<Key> {
     ]
 }
 
+/// The key's pose by Rodrigues' formula (independent of the timeline's quaternions).
 fn key_transform(k: &Key) -> GroupTransform {
-    GroupTransform {
-        translation: k.translation,
-        rotation: solver::linalg::rotation::axis_angle(
-            k.rotation.axis,
-            k.rotation.degrees.to_radians(),
-        ),
-    }
+    let r = solver::linalg::rotation::axis_angle(k.rotation.axis, k.rotation.degrees.to_radians());
+    GroupTransform::from_matrix(DVec3::from_array(k.translation), &r)
 }
 
 #[test]
@@ -121,7 +118,7 @@ fn keyframes_are_hit_exactly_and_interpolation_is_continuous() {
                 k.time
             );
             assert!(
-                mat_dist(&got.rotation, &want.rotation) < 1e-12,
+                mat_dist(&got.rotation_matrix(), &want.rotation_matrix()) < 1e-12,
                 "{interpolation:?} t={}",
                 k.time
             );
@@ -130,7 +127,9 @@ fn keyframes_are_hit_exactly_and_interpolation_is_continuous() {
         let first = key_transform(&keys()[0]);
         assert!(dist(path.transform_at(-1.0).translation, first.translation) < 1e-12);
         let last = key_transform(&keys()[3]);
-        assert!(mat_dist(&path.transform_at(5.0).rotation, &last.rotation) < 1e-12);
+        assert!(
+            mat_dist(&path.transform_at(5.0).rotation_matrix(), &last.rotation_matrix()) < 1e-12
+        );
         // Continuity: a step of dt moves by at most C·dt everywhere, across the keys as well.
         let dt = 1e-6;
         let mut t = -0.1;
@@ -138,7 +137,10 @@ fn keyframes_are_hit_exactly_and_interpolation_is_continuous() {
             let a = path.transform_at(t);
             let b = path.transform_at(t + dt);
             assert!(dist(a.translation, b.translation) < 10.0 * dt, "{interpolation:?} at t={t}");
-            assert!(mat_dist(&a.rotation, &b.rotation) < 20.0 * dt, "{interpolation:?} at t={t}");
+            assert!(
+                mat_dist(&a.rotation_matrix(), &b.rotation_matrix()) < 20.0 * dt,
+                "{interpolation:?} at t={t}"
+            );
             t += 0.0037;
         }
         // Straddling each key exactly.
@@ -146,7 +148,7 @@ fn keyframes_are_hit_exactly_and_interpolation_is_continuous() {
             let a = path.transform_at(k.time - dt);
             let b = path.transform_at(k.time + dt);
             assert!(dist(a.translation, b.translation) < 20.0 * dt);
-            assert!(mat_dist(&a.rotation, &b.rotation) < 40.0 * dt);
+            assert!(mat_dist(&a.rotation_matrix(), &b.rotation_matrix()) < 40.0 * dt);
         }
     }
 }

@@ -7,6 +7,7 @@ use std::sync::Arc;
 
 use solver::deform::coarse::CoarseBsArap;
 use solver::deform::coarse::base::CoarseBase;
+use solver::glam::DVec3;
 use solver::{
     ArapConfig, BaseConfig, Deformer, DeformerOptions, GroupTransform, Handles, LooseParts,
     MeshCache, Method, SolveError, handle_targets,
@@ -36,8 +37,7 @@ fn a_shared_base_gives_what_a_base_per_handle_set_gives() {
     let shared = Arc::new(CoarseBase::new(&mesh, &settings).unwrap());
     let diag = mesh.bbox_diagonal();
     for handles in [&a, &b] {
-        let tr =
-            GroupTransform { translation: [0.0, 0.1 * diag, 0.05 * diag], ..Default::default() };
+        let tr = GroupTransform::from_translation(DVec3::new(0.0, 0.1 * diag, 0.05 * diag));
         let targets = handle_targets(mesh.positions(), handles, &[(0, tr)]).unwrap();
         let mut fresh = CoarseBsArap::new(&mesh, handles, &config, &settings).unwrap();
         let mut reused =
@@ -115,7 +115,7 @@ fn a_cache_on_disk_is_read_back_and_a_damaged_file_rebuilt() {
     assert!(reopened.disk_note().is_none(), "{:?}", reopened.disk_note());
     let targets = {
         let g = a.group_ids().next().unwrap();
-        let tr = GroupTransform { translation: [0.3, 0.2, 0.0], ..Default::default() };
+        let tr = GroupTransform::from_translation(DVec3::new(0.3, 0.2, 0.0));
         handle_targets(mesh.positions(), &a, &[(g, tr)]).unwrap()
     };
     let mut x = CoarseBsArap::with_base(built, &mesh, &a, &config, &settings).unwrap();
@@ -150,7 +150,7 @@ fn a_coarse_level_decimated_from_the_fairing_level_embeds_every_vertex() {
     let config = ArapConfig::default();
     let level = BaseConfig { smoothing: 0.03, coarse_vertices: Some(800), ..Default::default() };
     let direct = BaseConfig { level_fairing: false, ..level };
-    let tr = GroupTransform { translation: [0.0, 0.15 * diag, 0.0], ..Default::default() };
+    let tr = GroupTransform::from_translation(DVec3::new(0.0, 0.15 * diag, 0.0));
     let targets = handle_targets(mesh.positions(), &handles, &[(0, tr)]).unwrap();
     let solve = |settings: &BaseConfig| {
         let base = Arc::new(CoarseBase::new(&mesh, settings).unwrap());

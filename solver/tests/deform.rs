@@ -2,6 +2,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use solver::geometry::shapes::icosphere;
+use solver::glam::{DQuat, DVec3};
 use solver::linalg::rotation::{axis_angle, mul_vec};
 use solver::{
     ArapConfig, BaseConfig, Deformer, DeformerOptions, Energy, GroupTransform, Handles, Mesh,
@@ -72,13 +73,8 @@ fn rigid_motion_of_all_handles_moves_the_mesh_rigidly() {
         .map(|k| {
             let c = solver::deform::pose::group_centroid(m.positions(), &h, k).unwrap();
             let rc = mul_vec(&r, c);
-            (
-                k,
-                GroupTransform {
-                    rotation: r,
-                    translation: std::array::from_fn(|d| t[d] + rc[d] - c[d]),
-                },
-            )
+            let translation = std::array::from_fn(|d| t[d] + rc[d] - c[d]);
+            (k, GroupTransform::from_matrix(DVec3::from_array(translation), &r))
         })
         .collect();
     let expected: Vec<[f64; 3]> = m
@@ -104,10 +100,8 @@ fn rigid_motion_of_all_handles_moves_the_mesh_rigidly() {
 fn energy_never_increases_and_handles_hit_targets() {
     let (m, h) = bar(3);
     let diag = m.bbox_diagonal();
-    let transforms = [(
-        0,
-        GroupTransform { translation: [0.0, 0.8, 0.3], rotation: axis_angle([0.0, 0.0, 1.0], 0.9) },
-    )];
+    let transforms =
+        [(0, GroupTransform::new(DVec3::new(0.0, 0.8, 0.3), DQuat::from_rotation_z(0.9)))];
     let cfg = ArapConfig { tolerance: 1e-7, max_iterations: 200, ..Default::default() };
     check(&m, &h, &transforms, cfg, |method, energy, x, stats, targets| {
         let mut prev = stats.initial_energy;
@@ -141,7 +135,7 @@ fn components_without_handles_follow_or_stay_pinned() {
     let mut labels: Vec<Option<u32>> = h.labels().to_vec();
     labels.extend(std::iter::repeat_n(None, n as usize));
     let h2 = Handles::from_options(labels).unwrap();
-    let transforms = [(0, GroupTransform { translation: [0.0, 0.5, 0.0], ..Default::default() })];
+    let transforms = [(0, GroupTransform::from_translation(DVec3::new(0.0, 0.5, 0.0)))];
     let rest = two.positions();
     let copy = n as usize..rest.len();
     let edge = |x: &[[f64; 3]], a: usize, b: usize| max_dist(&[x[a]], &[x[b]]);
@@ -176,7 +170,7 @@ fn components_without_handles_follow_or_stay_pinned() {
 fn every_vertex_a_handle_and_single_vertex_handle() {
     let m = icosphere(1);
     let all = Handles::from_labels(&vec![0; m.n_vertices()], m.n_vertices()).unwrap();
-    let tr = [(0, GroupTransform { translation: [1.0, 2.0, 3.0], ..Default::default() })];
+    let tr = [(0, GroupTransform::from_translation(DVec3::new(1.0, 2.0, 3.0)))];
     check(&m, &all, &tr, ArapConfig::default(), |_, _, x, _, targets| {
         assert_eq!(x, targets);
     });

@@ -4,7 +4,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use solver::deform::quality::distances;
-use solver::linalg::rotation::axis_angle;
+use solver::glam::{DQuat, DVec3};
 use solver::{
     Arap, ArapConfig, BaseConfig, Deformer, DeformerOptions, Energy, GroupTransform, Handles, Mesh,
     Method, handle_targets,
@@ -23,10 +23,8 @@ struct Case {
 fn case() -> Case {
     let (mesh, handles) = solver::geometry::shapes::bumpy_bar(4);
     let diag = mesh.bbox_diagonal();
-    let t = GroupTransform {
-        translation: [0.0, 0.2 * diag, 0.1 * diag],
-        rotation: axis_angle([0.0, 0.0, 1.0], 0.6),
-    };
+    let t =
+        GroupTransform::new(DVec3::new(0.0, 0.2 * diag, 0.1 * diag), DQuat::from_rotation_z(0.6));
     let targets = handle_targets(mesh.positions(), &handles, &[(0, t)]).unwrap();
     let r =
         solver::deform::quality::Reference::new(&mesh, &handles, &targets, Energy::SpokesAndRims)

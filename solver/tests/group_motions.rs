@@ -4,8 +4,8 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use solver::deform::coarse::CoarseBsArap;
+use solver::glam::{DQuat, DVec3};
 use solver::linalg::rigid::Motion;
-use solver::linalg::rotation::axis_angle;
 use solver::{
     ArapConfig, BaseConfig, Deformer, DeformerOptions, GroupTransform, Handles, Mesh, Method,
     SolveError, handle_targets,
@@ -28,12 +28,12 @@ fn bend(diag: f64) -> Vec<(usize, GroupTransform)> {
     vec![
         (
             0,
-            GroupTransform {
-                translation: [0.0, 0.12 * diag, 0.03 * diag],
-                rotation: axis_angle([0.2, 0.1, 1.0], 0.5),
-            },
+            GroupTransform::new(
+                DVec3::new(0.0, 0.12 * diag, 0.03 * diag),
+                DQuat::from_axis_angle(DVec3::new(0.2, 0.1, 1.0).normalize(), 0.5),
+            ),
         ),
-        (1, GroupTransform { translation: [0.02 * diag, -0.05 * diag, 0.0], ..Default::default() }),
+        (1, GroupTransform::from_translation(DVec3::new(0.02 * diag, -0.05 * diag, 0.0))),
     ]
 }
 

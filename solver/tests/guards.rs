@@ -5,6 +5,7 @@
 
 use solver::animation::scene::{MAX_ANDERSON_WINDOW, MAX_ITERATIONS, Scene, SceneError};
 use solver::geometry::shapes::icosphere;
+use solver::glam::{DQuat, DVec3};
 use solver::io::{SaveError, write_obj};
 use solver::testing::sphere_with_caps;
 use solver::{
@@ -52,7 +53,7 @@ fn non_finite_targets_are_rejected_and_the_pose_kept() {
 fn huge_targets_give_a_finite_pose_or_an_error_never_nan() {
     let (m, h) = sphere_with_caps();
     let config = ArapConfig::default();
-    let good_tr = GroupTransform { translation: [0.3, 0.2, 0.0], ..Default::default() };
+    let good_tr = GroupTransform::from_translation(DVec3::new(0.3, 0.2, 0.0));
     let good = handle_targets(m.positions(), &h, &[(0, good_tr)]).unwrap();
     let snapshot = |d: &Deformer| (d.positions().to_vec(), d.deformed_base().map(<[_]>::to_vec));
     for scale in [1e150, 1e300, f64::MAX / 4.0, f64::MAX] {
@@ -78,7 +79,7 @@ fn huge_targets_give_a_finite_pose_or_an_error_never_nan() {
             twin.solve(&good).unwrap();
             twin.solve(&good).unwrap();
             let before = snapshot(&d);
-            let tr = GroupTransform { translation: [scale, -scale, 0.0], ..Default::default() };
+            let tr = GroupTransform::from_translation(DVec3::new(scale, -scale, 0.0));
             let targets = handle_targets(m.positions(), &h, &[(0, tr)]).unwrap();
             match d.solve(&targets) {
                 Ok(_) => {}
@@ -115,7 +116,7 @@ fn coincident_handle_targets_give_a_finite_pose() {
         }
     }
     // Two groups moved onto each other (group 1 translated onto group 0's rest place).
-    let tr = GroupTransform { translation: [1.8, 0.0, 0.0], ..Default::default() };
+    let tr = GroupTransform::from_translation(DVec3::new(1.8, 0.0, 0.0));
     let targets = handle_targets(m.positions(), &h, &[(1, tr)]).unwrap();
     for (method, mut d) in deformers(&m, &h, &ArapConfig::default()) {
         d.solve(&targets).unwrap_or_else(|e| panic!("{method:?}: {e}"));
@@ -127,10 +128,7 @@ fn coincident_handle_targets_give_a_finite_pose() {
 fn every_vertex_a_handle_with_every_method_and_a_rotation() {
     let m = icosphere(1);
     let all = Handles::from_labels(&vec![0; m.n_vertices()], m.n_vertices()).unwrap();
-    let tr = GroupTransform {
-        translation: [0.5, 0.0, -1.0],
-        rotation: solver::linalg::rotation::axis_angle([0.0, 0.0, 1.0], 0.7),
-    };
+    let tr = GroupTransform::new(DVec3::new(0.5, 0.0, -1.0), DQuat::from_rotation_z(0.7));
     let targets = handle_targets(m.positions(), &all, &[(0, tr)]).unwrap();
     for method in Method::ALL {
         // Nothing is free: the BS-ARAP bases may refuse (typed error), but never panic.
@@ -150,7 +148,7 @@ fn single_vertex_handle_with_every_method() {
     let mut labels = vec![-1; m.n_vertices()];
     labels[7] = 0;
     let h = Handles::from_labels(&labels, m.n_vertices()).unwrap();
-    let tr = GroupTransform { translation: [0.3, 0.2, 0.1], ..Default::default() };
+    let tr = GroupTransform::from_translation(DVec3::new(0.3, 0.2, 0.1));
     let targets = handle_targets(m.positions(), &h, &[(0, tr)]).unwrap();
     let base = BaseConfig { coarse_vertices: Some(40), ..Default::default() };
     for method in Method::ALL {
@@ -175,7 +173,7 @@ fn single_vertex_handle_with_every_method() {
 #[test]
 fn iteration_caps_hold_for_every_method() {
     let (m, h) = sphere_with_caps();
-    let tr = GroupTransform { translation: [0.0, 0.5, 0.0], ..Default::default() };
+    let tr = GroupTransform::from_translation(DVec3::new(0.0, 0.5, 0.0));
     let targets = handle_targets(m.positions(), &h, &[(0, tr)]).unwrap();
     let config = ArapConfig { tolerance: 0.0, max_iterations: 7, ..Default::default() };
     for (method, mut d) in deformers(&m, &h, &config) {

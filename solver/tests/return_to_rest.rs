@@ -12,7 +12,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use solver::deform::quality::distances;
-use solver::linalg::rotation::axis_angle;
+use solver::glam::{DQuat, DVec3};
 use solver::{
     ArapConfig, BaseConfig, Deformer, DeformerOptions, GroupTransform, Method, handle_targets,
 };
@@ -44,10 +44,10 @@ fn warm_started_sequence_returns_exactly_to_rest() {
             for f in 1..frames {
                 let theta = std::f64::consts::TAU * f as f64 / frames as f64;
                 let r = 0.15 * diag;
-                let t = GroupTransform {
-                    translation: [0.0, r * theta.sin(), r * (1.0 - theta.cos())],
-                    rotation: axis_angle([0.0, 0.0, 1.0], 0.5 * theta.sin()),
-                };
+                let t = GroupTransform::new(
+                    DVec3::new(0.0, r * theta.sin(), r * (1.0 - theta.cos())),
+                    DQuat::from_rotation_z(0.5 * theta.sin()),
+                );
                 let targets = handle_targets(mesh.positions(), &handles, &[(0, t)]).unwrap();
                 d.solve(&targets).unwrap();
                 if f == frames / 2 {

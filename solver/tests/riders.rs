@@ -5,7 +5,8 @@
 use solver::animation::scene::{HandlesSpec, Scene};
 use solver::deform::pose::group_centroid;
 use solver::geometry::shapes::icosphere;
-use solver::linalg::rotation::{axis_angle, mul_vec};
+use solver::glam::{DQuat, DVec3};
+use solver::linalg::rotation::mul_vec;
 use solver::testing::capped_sphere;
 use solver::{
     ArapConfig, BaseConfig, ComponentMode, Deformer, DeformerOptions, GroupTransform, Handles,
@@ -59,7 +60,10 @@ fn deformer(method: Method, mesh: &Mesh, h: &Handles, parts: &LooseParts) -> Def
 }
 
 fn turn() -> GroupTransform {
-    GroupTransform { translation: [0.2, 0.3, -0.1], rotation: axis_angle([0.3, 0.2, 1.0], 0.6) }
+    GroupTransform::new(
+        DVec3::new(0.2, 0.3, -0.1),
+        DQuat::from_axis_angle(DVec3::new(0.3, 0.2, 1.0).normalize(), 0.6),
+    )
 }
 
 /// An eye beside the moving cap rides with it: its vertices move by the cap's own rigid
@@ -76,7 +80,7 @@ fn loose_part_on_a_handle_moves_with_it() {
         d.solve(&targets).unwrap();
         let x = d.positions();
         for v in n..m.n_vertices() {
-            let r = mul_vec(&turn().rotation, std::array::from_fn(|k| rest[v][k] - c[k]));
+            let r = mul_vec(&turn().rotation_matrix(), std::array::from_fn(|k| rest[v][k] - c[k]));
             let want: [f64; 3] = std::array::from_fn(|k| c[k] + r[k] + turn().translation[k]);
             assert!(dist(x[v], want) < 1e-9, "{method:?}: vertex {v} off by {}", dist(x[v], want));
         }
@@ -93,7 +97,8 @@ fn loose_part_on_a_handle_moves_with_it() {
 fn loose_part_follows_a_bending_surface_or_stays_pinned() {
     let (m, h, n) = sphere_and_eye([0.0, 1.12, 0.0], 0.1);
     let rest = m.positions();
-    let moves = [(0, turn()), (1, GroupTransform { translation: [0.0, 0.4, 0.0], ..turn() })];
+    let moves =
+        [(0, turn()), (1, GroupTransform { translation: DVec3::new(0.0, 0.4, 0.0), ..turn() })];
     let targets = handle_targets(rest, &h, &moves).unwrap();
     let mut pinned = LooseParts::default();
     pinned.set(1, ComponentMode::Pin);

@@ -3,6 +3,7 @@
 //! method; a large move needs fewer iterations than a start from rest.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+use solver::glam::{DQuat, DVec3};
 use solver::linalg::rigid::Motion;
 use solver::linalg::rotation::axis_angle;
 use solver::{
@@ -56,10 +57,7 @@ fn every_method_gives_a_rigid_move_of_all_handles_exactly() {
 fn a_whole_mesh_move_keeps_the_solved_pose() {
     let (mesh, handles) = solver::geometry::shapes::bumpy_bar(3);
     let diag = mesh.bbox_diagonal();
-    let bend = GroupTransform {
-        translation: [0.0, 0.2 * diag, 0.0],
-        rotation: axis_angle([0.0, 0.0, 1.0], 0.5),
-    };
+    let bend = GroupTransform::new(DVec3::new(0.0, 0.2 * diag, 0.0), DQuat::from_rotation_z(0.5));
     let targets = handle_targets(mesh.positions(), &handles, &[(0, bend)]).unwrap();
     let motion = big_motion(diag);
     let moved: Vec<[f64; 3]> = targets.iter().map(|&t| motion.apply(t)).collect();
@@ -95,7 +93,7 @@ fn a_large_move_needs_fewer_iterations_than_a_start_from_rest() {
     let diag = mesh.bbox_diagonal();
     let motion = big_motion(diag);
     // The rigid move plus a bend of group 0: not rigid, so the solve must iterate.
-    let bend = GroupTransform { translation: [0.0, 0.1 * diag, 0.0], ..Default::default() };
+    let bend = GroupTransform::from_translation(DVec3::new(0.0, 0.1 * diag, 0.0));
     let bent = handle_targets(mesh.positions(), &handles, &[(0, bend)]).unwrap();
     let targets: Vec<[f64; 3]> = bent.iter().map(|&t| motion.apply(t)).collect();
     let config = ArapConfig { tolerance: 1e-6, max_iterations: 2000, ..Default::default() };

@@ -4,6 +4,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use integration_tests::{max_dist, shared_meshes};
+use solver::glam::DVec3;
 use solver::{ArapConfig, Deformer, DeformerOptions, GroupTransform, Method, handle_targets};
 
 #[test]
@@ -20,7 +21,7 @@ fn faired_and_coarse_variants_deform_the_dragon() {
     .unwrap();
     let handles = solver::deform::selection::parse_spheres(&spheres, mesh.positions()).unwrap();
     let diag = mesh.bbox_diagonal();
-    let tr = [(0, GroupTransform { translation: [0.0, 0.05 * diag, 0.0], ..Default::default() })];
+    let tr = [(0, GroupTransform::from_translation(DVec3::new(0.0, 0.05 * diag, 0.0)))];
     let targets = handle_targets(mesh.positions(), &handles, &tr).unwrap();
     let cfg = ArapConfig { tolerance: 1e-4, max_iterations: 60, ..Default::default() };
     let options = |method| DeformerOptions { method, config: cfg, ..Default::default() };

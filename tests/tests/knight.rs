@@ -2,6 +2,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use integration_tests::{max_dist, shared_meshes};
+use solver::glam::DVec3;
 use solver::{ArapConfig, Deformer, DeformerOptions, GroupTransform, Method, handle_targets};
 
 #[test]
@@ -21,8 +22,7 @@ fn knight_translated_group_converges_with_handles_on_target() {
     .unwrap();
     assert_eq!(handles.group_ids().collect::<Vec<_>>(), vec![0, 1, 2]);
     let diag = mesh.bbox_diagonal();
-    let tr =
-        [(0, GroupTransform { translation: [0.0, 0.1 * diag, 0.05 * diag], ..Default::default() })];
+    let tr = [(0, GroupTransform::from_translation(DVec3::new(0.0, 0.1 * diag, 0.05 * diag)))];
     let targets = handle_targets(mesh.positions(), &handles, &tr).unwrap();
     for method in [Method::Arap, Method::BsArap] {
         let cfg = ArapConfig { tolerance: 1e-6, max_iterations: 2000, ..Default::default() };
@@ -79,7 +79,7 @@ fn knight_with_every_group_translated_is_translated_exactly() {
     let diag = mesh.bbox_diagonal();
     let shift = [0.3 * diag, -0.1 * diag, 0.2 * diag];
     let moves: Vec<(usize, GroupTransform)> = (0..handles.n_groups())
-        .map(|g| (g, GroupTransform { translation: shift, ..Default::default() }))
+        .map(|g| (g, GroupTransform::from_translation(DVec3::from_array(shift))))
         .collect();
     let targets = handle_targets(mesh.positions(), &handles, &moves).unwrap();
     let exact: Vec<[f64; 3]> =

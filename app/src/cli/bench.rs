@@ -247,8 +247,8 @@ struct Setup<'a> {
 /// floating point), which every method returns exactly and without iterating.
 fn frame_moves(s: &Setup<'_>, g: usize, f: usize) -> [(usize, GroupTransform); 1] {
     let theta = std::f64::consts::TAU * (f % s.frames) as f64 / s.frames as f64;
-    let t = [s.radius * (theta.cos() - 1.0), s.radius * theta.sin(), 0.0];
-    [(g, GroupTransform { translation: t, ..Default::default() })]
+    let t = glam::DVec3::new(s.radius * (theta.cos() - 1.0), s.radius * theta.sin(), 0.0);
+    [(g, GroupTransform::from_translation(t))]
 }
 
 /// Handle targets of frame `f` ([`frame_moves`]), for what needs them per vertex (the

@@ -7,13 +7,13 @@ use super::{
 };
 use anyhow::{Context, bail};
 use clap::Args;
+use glam::{DQuat, DVec3};
 use solver::FrameStats;
 use solver::animation::export::{
     AssetExport, Encoding, ExportSettings, GltfExport, GltfFormat, SolveSettings,
 };
 use solver::animation::recording::Recording;
 use solver::io::LoadedMesh;
-use solver::linalg::rotation::{axis_angle, mul_mat};
 use solver::{
     ArapConfig, ComponentMode, Deformer, DeformerOptions, GroupTransform, LooseParts,
     handle_targets,
@@ -104,9 +104,7 @@ pub fn parse_transforms(
     for m in moves {
         let (g, v) = parse_group_values(m, 3, "--move")?;
         let i = entry(g, &mut out);
-        for (t, dv) in out[i].1.translation.iter_mut().zip(&v) {
-            *t += dv;
-        }
+        out[i].1.translation += DVec3::new(v[0], v[1], v[2]);
     }
     for r in rotates {
         let (g, v) = parse_group_values(r, 4, "--rotate")?;
@@ -114,8 +112,9 @@ pub fn parse_transforms(
             bail!("--rotate {r}: the axis must not be zero");
         }
         let i = entry(g, &mut out);
-        let rot = axis_angle([v[0], v[1], v[2]], v[3].to_radians());
-        out[i].1.rotation = mul_mat(&rot, &out[i].1.rotation);
+        let axis = DVec3::new(v[0], v[1], v[2]).normalize();
+        let rot = DQuat::from_axis_angle(axis, v[3].to_radians());
+        out[i].1.rotation = (rot * out[i].1.rotation).normalize();
     }
     Ok(out)
 }

@@ -163,7 +163,7 @@ mod tests {
         let mut edit = EditState::from_labels(handles.labels().to_vec());
         edit.groups[0].name = "left cap".into();
         edit.groups[1].color = Color32::from_rgb(1, 2, 3);
-        edit.groups[1].pose.translation = [0.0, 0.25, 0.0];
+        edit.groups[1].pose.translation = glam::DVec3::new(0.0, 0.25, 0.0);
         edit.set_path(
             0,
             AnimPath::Circular(CircularPath {
@@ -215,13 +215,8 @@ mod tests {
         assert_eq!(back.settings, settings);
         assert_eq!(back.camera, Some(camera));
         for (a, b) in back.edit.groups.iter().zip(&edit.groups) {
-            assert!(
-                (glam::DVec3::from_array(a.pose.translation)
-                    - glam::DVec3::from_array(b.pose.translation))
-                .length()
-                    < 1e-12
-            );
-            assert!(a.pose.quat().dot(b.pose.quat()).abs() > 1.0 - 1e-12);
+            assert!((a.pose.translation - b.pose.translation).length() < 1e-12);
+            assert!(a.pose.rotation.dot(b.pose.rotation).abs() > 1.0 - 1e-12);
         }
         // The static pose of group 1 came back as a one-key path.
         assert!(matches!(back.edit.path(1), AnimPath::Keyframed(k) if k.keys.len() == 1));

@@ -22,12 +22,12 @@ use solver::animation::recording::{Recording, record};
 use solver::animation::timeline::Timeline;
 use solver::geometry::normals::VertexFaces;
 use solver::{
-    ArapConfig, BaseConfig, Deformer, DeformerOptions, Handles, LooseParts, Mesh, MeshCache,
-    Method, UnwrittenBase,
+    ArapConfig, BaseConfig, Deformer, DeformerOptions, GroupTransform, Handles, LooseParts, Mesh,
+    MeshCache, Method, UnwrittenBase,
 };
 
 use super::loader::FileLayout;
-use super::pose::{GroupPose, handle_targets};
+use super::pose::handle_targets;
 use super::shape::Shape;
 
 mod bones;
@@ -404,7 +404,7 @@ pub fn spawn_export(
 pub struct QualityInput {
     pub mesh: Arc<Mesh>,
     pub handles: Handles,
-    pub poses: Vec<GroupPose>,
+    pub poses: Vec<GroupTransform>,
     pub energy: solver::deform::quality::ReferenceEnergy,
     /// The two side-by-side results (left, right).
     pub results: [Arc<Vec<[f32; 3]>>; 2],

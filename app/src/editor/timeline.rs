@@ -2,18 +2,18 @@
 //! panel (duration, frame rate, loop, play/pause, scrub, path and keyframe editing).
 //!
 //! The paths themselves are `solver::animation::timeline`'s ([`Timeline`], [`Path`]); this module only
-//! evaluates them at the current time into [`GroupPose`]s (what the solver threads take) and
+//! evaluates them at the current time into poses ([`GroupTransform`]s, what the solver threads take) and
 //! edits them. The panel returns [`TimelineAction`]s; the app applies them (undo, solver
 //! commands, recording jobs).
 
 use std::time::Instant;
 
 use eframe::egui;
+use solver::GroupTransform;
 use solver::animation::timeline::{
-    CircularPath, GroupPath, Interpolation, KeyframedPath, Path, StartPose, Timeline,
+    CircularPath, GroupPath, Interpolation, Key, KeyframedPath, Path, StartPose, Timeline,
 };
 
-use super::pose::GroupPose;
 use super::undo::EditState;
 
 /// Longest timeline the UI accepts (seconds).
@@ -68,7 +68,7 @@ pub fn apply_paths(edit: &mut EditState, t: f64) -> bool {
     let mut changed = false;
     for p in &edit.timeline.paths {
         let Some(g) = edit.groups.get_mut(p.group) else { continue };
-        let pose = GroupPose::from_transform(&p.path.transform_at(t));
+        let pose = p.path.transform_at(t);
         if g.pose != pose {
             g.pose = pose;
             changed = true;
@@ -92,11 +92,11 @@ pub fn effective_timeline(edit: &EditState) -> Timeline {
     let mut t = edit.timeline.clone();
     t.paths.retain(|p| painted(p.group));
     for (k, g) in edit.groups.iter().enumerate() {
-        if painted(k) && !g.pose.is_rest() && !t.paths.iter().any(|p| p.group == k) {
+        if painted(k) && !g.pose.is_identity() && !t.paths.iter().any(|p| p.group == k) {
             t.paths.push(GroupPath {
                 group: k,
                 path: Path::Keyframed(KeyframedPath {
-                    keys: vec![g.pose.to_key(0.0)],
+                    keys: vec![Key::from_transform(0.0, &g.pose)],
                     interpolation: Interpolation::Linear,
                 }),
             });
@@ -377,7 +377,7 @@ fn path_editor(ui: &mut egui::Ui, edit: &mut EditState, k: usize, time: f64, sca
                 ..CircularPath::new([0.0, 0.0, 1.0], 0.1 * scale, edit.timeline.duration)
             }),
             Kind::Keyframed => Path::Keyframed(KeyframedPath {
-                keys: vec![edit.groups[k].pose.to_key(time)],
+                keys: vec![Key::from_transform(time, &edit.groups[k].pose)],
                 interpolation: Interpolation::Smooth,
             }),
         };
@@ -462,7 +462,7 @@ fn path_editor(ui: &mut egui::Ui, edit: &mut EditState, k: usize, time: f64, sca
                     .on_hover_text("key the current pose at this time")
                     .clicked()
                 {
-                    kp.set_key(edit.groups[k].pose.to_key(time));
+                    kp.set_key(Key::from_transform(time, &edit.groups[k].pose));
                     changed = true;
                 }
                 ui.label("interpolation");
@@ -518,9 +518,9 @@ fn path_editor(ui: &mut egui::Ui, edit: &mut EditState, k: usize, time: f64, sca
 }
 
 /// The start pose of a circular path chosen for a group posed as `pose` (`None` at rest).
-fn start_pose(pose: &GroupPose) -> Option<StartPose> {
-    (!pose.is_rest()).then(|| {
-        let key = pose.to_key(0.0);
+fn start_pose(pose: &GroupTransform) -> Option<StartPose> {
+    (!pose.is_identity()).then(|| {
+        let key = Key::from_transform(0.0, pose);
         StartPose { translation: key.translation, rotation: key.rotation }
     })
 }
@@ -529,7 +529,7 @@ fn start_pose(pose: &GroupPose) -> Option<StartPose> {
 /// static (the K shortcut). Returns whether anything changed.
 pub fn key_current_pose(edit: &mut EditState, k: usize, time: f64) -> bool {
     let Some(g) = edit.groups.get(k) else { return false };
-    let key = g.pose.to_key(time);
+    let key = Key::from_transform(time, &g.pose);
     let path = match edit.path(k).clone() {
         Path::Keyframed(mut kp) => {
             kp.set_key(key);
@@ -549,6 +549,7 @@ pub fn key_current_pose(edit: &mut EditState, k: usize, time: f64) -> bool {
 #[allow(clippy::unwrap_used, clippy::expect_used)]
 mod tests {
     use super::*;
+    use glam::DVec3;
 
     fn state() -> EditState {
         EditState::from_labels(vec![Some(0), Some(1), None])
@@ -558,33 +559,33 @@ mod tests {
     fn paths_drive_poses_and_static_poses_are_kept_in_the_effective_timeline() {
         let mut e = state();
         e.set_path(0, Path::Circular(CircularPath::new([0.0, 0.0, 1.0], 2.0, 2.0)));
-        e.groups[1].pose.translation = [0.0, 3.0, 0.0];
+        e.groups[1].pose.translation = DVec3::new(0.0, 3.0, 0.0);
         assert!(apply_paths(&mut e, 1.0));
         // Half a turn of radius 2 from angle 0: the centroid moved by (-4, 0, 0).
         let t = e.groups[0].pose.translation;
         assert!((t[0] + 4.0).abs() < 1e-12 && t[1].abs() < 1e-12, "{t:?}");
-        assert_eq!(e.groups[1].pose.translation, [0.0, 3.0, 0.0], "no path: pose kept");
+        assert_eq!(e.groups[1].pose.translation.to_array(), [0.0, 3.0, 0.0], "no path: pose kept");
         assert!(!apply_paths(&mut e, 1.0), "same time: nothing changes");
 
         let eff = effective_timeline(&e);
         assert_eq!(eff.paths.len(), 2);
         let held = eff.paths[1].path.transform_at(1.7);
-        assert_eq!(held.translation, [0.0, 3.0, 0.0]);
+        assert_eq!(held.translation.to_array(), [0.0, 3.0, 0.0]);
         eff.validate().unwrap();
     }
 
     #[test]
     fn keys_set_from_poses_are_hit() {
         let mut e = state();
-        e.groups[0].pose.translation = [1.0, 0.0, 0.0];
+        e.groups[0].pose.translation = DVec3::new(1.0, 0.0, 0.0);
         assert!(key_current_pose(&mut e, 0, 0.0));
-        e.groups[0].pose.translation = [0.0, 2.0, 0.0];
+        e.groups[0].pose.translation = DVec3::new(0.0, 2.0, 0.0);
         assert!(key_current_pose(&mut e, 0, 1.0));
         assert!(!key_current_pose(&mut e, 0, 1.0), "the same key again changes nothing");
         apply_paths(&mut e, 0.0);
-        assert_eq!(e.groups[0].pose.translation, [1.0, 0.0, 0.0]);
+        assert_eq!(e.groups[0].pose.translation.to_array(), [1.0, 0.0, 0.0]);
         apply_paths(&mut e, 1.0);
-        assert_eq!(e.groups[0].pose.translation, [0.0, 2.0, 0.0]);
+        assert_eq!(e.groups[0].pose.translation.to_array(), [0.0, 2.0, 0.0]);
     }
 
     #[test]

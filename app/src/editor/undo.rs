@@ -6,19 +6,17 @@
 //! `#V` bytes-ish and the history is capped, so this stays small and obviously correct.
 
 use eframe::egui::Color32;
-use solver::LooseParts;
 use solver::animation::scene::SymmetrySpec;
 use solver::animation::timeline::{Path, Timeline};
 use solver::deform::rig::Falloff;
-
-use super::pose::GroupPose;
+use solver::{GroupTransform, LooseParts};
 
 /// One handle group as the UI knows it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Group {
     pub name: String,
     pub color: Color32,
-    pub pose: GroupPose,
+    pub pose: GroupTransform,
     /// Soft-handle falloff (radius 0: a hard handle; `solver::deform::rig`).
     pub falloff: Falloff,
 }
@@ -141,7 +139,7 @@ fn new_group(k: usize) -> Group {
     Group {
         name: format!("Group {k}"),
         color: PALETTE[k % PALETTE.len()],
-        pose: GroupPose::default(),
+        pose: GroupTransform::default(),
         falloff: Falloff::default(),
     }
 }

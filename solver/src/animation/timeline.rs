@@ -21,7 +21,6 @@ use thiserror::Error;
 
 use crate::deform::pose::GroupTransform;
 use crate::geometry::mesh::cross;
-use crate::linalg::rotation::{IDENTITY, Mat3, axis_angle, mat3_of};
 
 /// Why a timeline or a path cannot be evaluated. One line each.
 #[derive(Debug, Clone, PartialEq, Error)]
@@ -45,11 +44,6 @@ pub fn quat_from_axis_angle(axis: [f64; 3], radians: f64) -> DQuat {
         Some(a) => DQuat::from_axis_angle(a, radians),
         None => DQuat::IDENTITY,
     }
-}
-
-/// The row-major rotation matrix of the normalized quaternion.
-pub fn quat_to_mat3(q: DQuat) -> Mat3 {
-    mat3_of(q.normalize())
 }
 
 /// $\log q = (0, \theta\,\hat v)$ for unit $q = (\cos\theta, \sin\theta\,\hat v)$, as the
@@ -105,6 +99,23 @@ pub struct Key {
     /// Rotation about the group's rest centroid.
     #[serde(default)]
     pub rotation: AxisAngle,
+}
+
+impl Key {
+    /// A key at `time` holding the pose `t` (its rotation as a unit axis and degrees; no
+    /// rotation is written as 0° about +z): [`KeyframedPath::transform_at`] gives `t` back at
+    /// the key, up to rounding.
+    pub fn from_transform(time: f64, t: &GroupTransform) -> Key {
+        let q = t.rotation;
+        let q = if q.length_squared() > 0.0 { q.normalize() } else { DQuat::IDENTITY };
+        let (axis, angle) = q.to_axis_angle();
+        let axis = if axis.is_finite() && angle.abs() > 0.0 { axis } else { DVec3::Z };
+        Key {
+            time,
+            translation: t.translation.to_array(),
+            rotation: AxisAngle { axis: axis.to_array(), degrees: angle.to_degrees() },
+        }
+    }
 }
 
 /// How keyframes are interpolated.
@@ -231,16 +242,16 @@ impl CircularPath {
         let (s0, c0) = self.phase.sin_cos();
         let circle: [f64; 3] =
             std::array::from_fn(|d| self.radius * ((c - c0) * u[d] + (s - s0) * v[d]));
-        let Some(start) = self.start else {
-            let rotation = if self.turn_with_path { axis_angle(a, swept) } else { IDENTITY };
-            return GroupTransform { translation: circle, rotation };
-        };
         let turn =
             if self.turn_with_path { quat_from_axis_angle(a, swept) } else { DQuat::IDENTITY };
-        GroupTransform {
-            translation: std::array::from_fn(|d| start.translation[d] + circle[d]),
-            rotation: quat_to_mat3(turn * start.rotation.to_quat()),
-        }
+        let circle = DVec3::from_array(circle);
+        let Some(start) = self.start else {
+            return GroupTransform::new(circle, turn);
+        };
+        GroupTransform::new(
+            DVec3::from_array(start.translation) + circle,
+            turn * start.rotation.to_quat(),
+        )
     }
 }
 
@@ -301,10 +312,8 @@ impl KeyframedPath {
         let (Some(first), Some(last)) = (keys.first(), keys.last()) else {
             return GroupTransform::default();
         };
-        let at_key = |k: &Key| GroupTransform {
-            translation: k.translation,
-            rotation: quat_to_mat3(k.rotation.to_quat()),
-        };
+        let at_key =
+            |k: &Key| GroupTransform::new(DVec3::from_array(k.translation), k.rotation.to_quat());
         if t <= first.time || keys.len() == 1 {
             return at_key(first);
         }
@@ -318,13 +327,13 @@ impl KeyframedPath {
         let h = ((t - k0.time) / dt).clamp(0.0, 1.0);
         let qs = self.quats();
         match self.interpolation {
-            Interpolation::Linear => GroupTransform {
-                translation: std::array::from_fn(|d| {
+            Interpolation::Linear => GroupTransform::new(
+                DVec3::from_array(std::array::from_fn(|d| {
                     (1.0 - h) * k0.translation[d] + h * k1.translation[d]
-                }),
+                })),
                 // Shorter arc: glam's slerp negates the end when the dot product is negative.
-                rotation: quat_to_mat3(qs[i].slerp(qs[i + 1], h)),
-            },
+                qs[i].slerp(qs[i + 1], h),
+            ),
             Interpolation::Smooth => {
                 let tangent = |j: usize| -> [f64; 3] {
                     let (a, b) = (j.saturating_sub(1), (j + 1).min(keys.len() - 1));
@@ -359,7 +368,7 @@ impl KeyframedPath {
                 let outer = qs[i].slerp_long(qs[i + 1], h);
                 let inner = s0.slerp_long(s1, h);
                 let q = outer.slerp_long(inner, 2.0 * h * (1.0 - h));
-                GroupTransform { translation, rotation: quat_to_mat3(q) }
+                GroupTransform::new(DVec3::from_array(translation), q)
             }
         }
     }
@@ -542,11 +551,12 @@ impl Timeline {
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
+    use crate::linalg::rotation::axis_angle;
 
     #[test]
     fn quaternion_matches_rodrigues() {
         let q = quat_from_axis_angle([1.0, -2.0, 0.5], 1.3);
-        let a = quat_to_mat3(q);
+        let a = GroupTransform::new(DVec3::ZERO, q).rotation_matrix();
         let b = axis_angle([1.0, -2.0, 0.5], 1.3);
         for i in 0..3 {
             for j in 0..3 {
@@ -558,7 +568,6 @@ mod tests {
     /// A circle with a start pose is that pose at t = 0 and after one period, and otherwise
     /// the rest-started circle composed with it; a scene without the field reads as before.
     #[test]
-    #[expect(clippy::needless_range_loop, reason = "entries of several matrices at once")]
     fn a_circle_starts_from_its_start_pose() {
         let start = StartPose {
             translation: [0.1, 0.2, -0.3],
@@ -567,22 +576,24 @@ mod tests {
         let rest =
             CircularPath { turn_with_path: true, ..CircularPath::new([0.0, 0.0, 1.0], 0.5, 2.0) };
         let posed = CircularPath { start: Some(start), ..rest };
-        let r0 = quat_to_mat3(start.rotation.to_quat());
+        let r0 = GroupTransform::new(DVec3::ZERO, start.rotation.to_quat()).rotation_matrix();
         for t in [0.0, 2.0] {
             let g = posed.transform_at(t);
+            let r = g.rotation_matrix();
             for d in 0..3 {
                 assert!((g.translation[d] - start.translation[d]).abs() < 1e-12);
                 for e in 0..3 {
-                    assert!((g.rotation[d][e] - r0[d][e]).abs() < 1e-12);
+                    assert!((r[d][e] - r0[d][e]).abs() < 1e-12);
                 }
             }
         }
         let (a, b) = (rest.transform_at(0.7), posed.transform_at(0.7));
+        let (ra, rb) = (a.rotation_matrix(), b.rotation_matrix());
         for d in 0..3 {
             assert!((b.translation[d] - a.translation[d] - start.translation[d]).abs() < 1e-12);
             for e in 0..3 {
-                let m: f64 = (0..3).map(|k| a.rotation[d][k] * r0[k][e]).sum();
-                assert!((b.rotation[d][e] - m).abs() < 1e-12);
+                let m: f64 = (0..3).map(|k| ra[d][k] * r0[k][e]).sum();
+                assert!((rb[d][e] - m).abs() < 1e-12);
             }
         }
         let old: CircularPath =
@@ -592,6 +603,29 @@ mod tests {
         let back: CircularPath =
             serde_json::from_str(&serde_json::to_string(&posed).unwrap()).unwrap();
         assert_eq!(back, posed);
+    }
+
+    /// A pose written as a key reads back (through the scene JSON) as that pose; the rest pose
+    /// is written as 0° about +z, as the editor always wrote it.
+    #[test]
+    fn a_key_from_a_transform_round_trips_through_json() {
+        let t = GroupTransform::new(
+            DVec3::new(0.1, -0.2, 0.3),
+            quat_from_axis_angle([1.0, 2.0, -0.5], 0.9),
+        );
+        let key = Key::from_transform(0.25, &t);
+        let back: Key = serde_json::from_str(&serde_json::to_string(&key).unwrap()).unwrap();
+        assert_eq!(back, key);
+        let got = KeyframedPath { keys: vec![back], interpolation: Interpolation::Smooth }
+            .transform_at(0.25);
+        assert_eq!(got.translation, t.translation);
+        assert!(got.rotation.dot(t.rotation).abs() > 1.0 - 1e-15, "{got:?} vs {t:?}");
+        let rest = serde_json::to_value(Key::from_transform(0.0, &GroupTransform::IDENTITY));
+        let want = serde_json::json!({
+            "time": 0.0, "translation": [0.0, 0.0, 0.0],
+            "rotation": {"axis": [0.0, 0.0, 1.0], "degrees": 0.0}
+        });
+        assert_eq!(rest.unwrap(), want);
     }
 
     #[test]

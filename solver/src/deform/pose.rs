@@ -4,43 +4,95 @@
 //! rotation $R$ (about $c_g$) and translation $t$ has targets $p'_v = c_g + R(p_v - c_g) + t$,
 //! the rigid motion $x \mapsto R x + (c_g - R c_g + t)$ ([`GroupTransform::motion`]).
 //!
+//! A [`GroupTransform`] holds glam types (`DVec3`, `DQuat`), as the editor, the timeline, the
+//! CLI and the Python package give it; the row-major [`Mat3`] the solver's hot paths use
+//! ([`Motion`], the targets) is made from it only here ([`GroupTransform::rotation_matrix`],
+//! and back, [`GroupTransform::from_matrix`]).
+//!
 //! [`GroupRest`] holds what the transforms act on (each group's centroid, each handle vertex's
 //! group and rest position), computed once per handle set: the [`crate::Deformer`] keeps one,
 //! so that callers hand it the group motions as they are ([`crate::Deformer::solve_groups`])
 //! and it derives the per-vertex targets where a method needs them. [`centroid`] is the one
 //! place centroids of vertex sets are computed (the editor's gizmo uses it too).
 
+use glam::{DQuat, DVec3};
+
 use crate::deform::handles::{Handles, HandlesError};
 use crate::linalg::rigid::Motion;
-use crate::linalg::rotation::{IDENTITY, Mat3, mul_vec};
+use crate::linalg::rotation::{IDENTITY, Mat3, mat3_of, mul_vec, quat_of};
 
-/// A rigid motion of one handle group: rotate about the group's rest centroid, then translate.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// A rigid motion of one handle group, $p' = c + R(q)(p - c) + t$: rotate by `rotation` about
+/// the group's rest centroid $c$, then translate by `translation`. The default (zero
+/// translation, identity rotation) is the rest pose.
+///
+/// Convention: glam's `DQuat`, a unit quaternion, written as an array in glam's order
+/// `[x, y, z, w]` (`DQuat::to_array`). The solver normalizes it where it becomes a matrix
+/// ([`GroupTransform::rotation_matrix`]), so a quaternion off unit length by rounding is
+/// harmless; `q` and `−q` are the same rotation.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct GroupTransform {
-    /// Translation (mesh units).
-    pub translation: [f64; 3],
-    /// Rotation about the group's rest centroid (row-major, proper rotation).
-    pub rotation: Mat3,
-}
-
-impl Default for GroupTransform {
-    fn default() -> Self {
-        GroupTransform { translation: [0.0; 3], rotation: IDENTITY }
-    }
+    /// Translation $t$ (mesh units).
+    pub translation: DVec3,
+    /// Rotation $q$ about the group's rest centroid (unit quaternion).
+    pub rotation: DQuat,
 }
 
 impl GroupTransform {
+    /// The rest pose: no translation, no rotation.
+    pub const IDENTITY: GroupTransform =
+        GroupTransform { translation: DVec3::ZERO, rotation: DQuat::IDENTITY };
+
+    /// Rotation `rotation` about the rest centroid, then translation `translation`.
+    pub fn new(translation: DVec3, rotation: DQuat) -> GroupTransform {
+        GroupTransform { translation, rotation }
+    }
+
+    /// A translation alone.
+    pub fn from_translation(translation: DVec3) -> GroupTransform {
+        GroupTransform { translation, rotation: DQuat::IDENTITY }
+    }
+
+    /// From a row-major rotation matrix (a proper rotation; [`quat_of`], normalized) and a
+    /// translation: the inverse of [`GroupTransform::rotation_matrix`] up to rounding.
+    pub fn from_matrix(translation: DVec3, rotation: &Mat3) -> GroupTransform {
+        GroupTransform { translation, rotation: quat_of(rotation).normalize() }
+    }
+
+    /// The rotation as a row-major matrix ([`mat3_of`] of the normalized quaternion); a zero
+    /// quaternion (no rotation given) is the identity. The one place a group's quaternion
+    /// becomes the solver's matrix.
+    pub fn rotation_matrix(&self) -> Mat3 {
+        let q = self.rotation;
+        if q.length_squared() == 0.0 { IDENTITY } else { mat3_of(q.normalize()) }
+    }
+
+    /// Whether this is the rest pose: zero translation and a rotation whose matrix is exactly
+    /// the identity (`q` or `−q` of the identity).
+    pub fn is_identity(&self) -> bool {
+        self.moving_rotation().is_none()
+    }
+
+    /// The rotation matrix, `None` at the rest pose (which leaves a group exactly at rest:
+    /// `c + (p − c)` may round).
+    fn moving_rotation(&self) -> Option<Mat3> {
+        let rotation = self.rotation_matrix();
+        (self.translation != DVec3::ZERO || rotation != IDENTITY).then_some(rotation)
+    }
+
+    /// Whether every component is a finite number.
+    pub fn is_finite(&self) -> bool {
+        self.translation.is_finite() && self.rotation.is_finite()
+    }
+
     /// The motion $x \mapsto R x + (c - R c + t)$ this transform makes of a group with rest
     /// centroid `centroid`; the identity transform gives [`Motion::IDENTITY`] exactly.
     pub fn motion(&self, centroid: [f64; 3]) -> Motion {
-        if *self == GroupTransform::default() {
+        let Some(rotation) = self.moving_rotation() else {
             return Motion::IDENTITY;
-        }
-        let rc = mul_vec(&self.rotation, centroid);
-        Motion {
-            rotation: self.rotation,
-            translation: std::array::from_fn(|d| centroid[d] - rc[d] + self.translation[d]),
-        }
+        };
+        let rc = mul_vec(&rotation, centroid);
+        let t = self.translation.to_array();
+        Motion { rotation, translation: std::array::from_fn(|d| centroid[d] - rc[d] + t[d]) }
     }
 }
 
@@ -148,9 +200,7 @@ impl GroupRest {
         let mut per_group: Vec<Option<Moved>> = vec![None; self.n_groups()];
         for &(k, t) in transforms {
             let c = self.centroid_or_err(k)?;
-            // The identity leaves the group exactly at rest (c + (p − c) may round).
-            per_group[k] =
-                (t != GroupTransform::default()).then_some((t.rotation, c, t.translation));
+            per_group[k] = t.moving_rotation().map(|r| (r, c, t.translation.to_array()));
         }
         out.clear();
         out.extend(self.vertices.iter().map(|&(k, p)| match &per_group[k as usize] {
@@ -187,10 +237,10 @@ mod tests {
     fn motion_moves_like_the_targets() {
         let rest = [[1.0, 0.0, 0.0], [3.0, 0.5, 0.0], [0.0, 5.0, 1.0], [9.0, 9.0, 9.0]];
         let h = Handles::from_options(vec![Some(0), Some(0), Some(0), None]).unwrap();
-        let t = GroupTransform {
-            translation: [0.3, -0.2, 1.0],
-            rotation: axis_angle([1.0, 2.0, 0.5], 0.7),
-        };
+        let t = GroupTransform::new(
+            DVec3::new(0.3, -0.2, 1.0),
+            DQuat::from_axis_angle(DVec3::new(1.0, 2.0, 0.5).normalize(), 0.7),
+        );
         let gr = GroupRest::new(&rest, &h);
         let targets = handle_targets(&rest, &h, &[(0, t)]).unwrap();
         let mut motions = Vec::new();
@@ -204,5 +254,34 @@ mod tests {
         assert!(handle_targets(&rest, &h, &[(1, t)]).is_err());
         assert_eq!(GroupTransform::default().motion([1.0, 2.0, 3.0]), Motion::IDENTITY);
         assert_eq!(centroid(&rest, &[]), None);
+    }
+
+    /// The quaternion becomes the same matrix as Rodrigues' formula (to rounding), `q` and
+    /// `−q` are one rotation, the identity (either sign) leaves the group exactly at rest, and
+    /// [`GroupTransform::from_matrix`] gives the quaternion back.
+    #[test]
+    fn quaternion_and_matrix_agree() {
+        let axis = [1.0, 2.0, 0.5];
+        let t = GroupTransform::new(
+            DVec3::new(0.3, -0.2, 1.0),
+            DQuat::from_axis_angle(DVec3::from_array(axis).normalize(), 0.7),
+        );
+        let r = t.rotation_matrix();
+        let rodrigues = axis_angle(axis, 0.7);
+        let err = r.iter().flatten().zip(rodrigues.iter().flatten()).map(|(a, b)| (a - b).abs());
+        assert!(err.fold(0.0, f64::max) < 1e-15, "{r:?} vs {rodrigues:?}");
+        let negated = GroupTransform { rotation: -t.rotation, ..t };
+        assert_eq!(negated.rotation_matrix(), r);
+        let back = GroupTransform::from_matrix(t.translation, &r);
+        assert!(back.rotation.dot(t.rotation).abs() > 1.0 - 1e-15, "{back:?}");
+        assert_eq!(back.translation, t.translation);
+        let flipped = GroupTransform { rotation: -DQuat::IDENTITY, ..GroupTransform::IDENTITY };
+        assert!(flipped.is_identity() && GroupTransform::default().is_identity());
+        assert_eq!(flipped.motion([1.0, 2.0, 3.0]), Motion::IDENTITY);
+        let rest = [[1.0, 0.1, 0.0], [3.0, 0.5, 0.3]];
+        let h = Handles::from_options(vec![Some(0), Some(0)]).unwrap();
+        assert_eq!(handle_targets(&rest, &h, &[(0, flipped)]).unwrap(), rest);
+        assert!(!t.is_identity() && t.is_finite());
+        assert!(!GroupTransform::from_translation(DVec3::new(0.0, f64::NAN, 0.0)).is_finite());
     }
 }

@@ -179,10 +179,8 @@ mod tests {
     #[allow(clippy::unwrap_used)]
     fn reference_measures_itself_as_exact() {
         let (m, h) = crate::geometry::shapes::bumpy_bar(2);
-        let moved = crate::deform::pose::GroupTransform {
-            translation: [0.0, 0.5, 0.0],
-            ..Default::default()
-        };
+        let moved =
+            crate::deform::pose::GroupTransform::from_translation(glam::DVec3::new(0.0, 0.5, 0.0));
         let targets =
             crate::deform::pose::handle_targets(m.positions(), &h, &[(0, moved)]).unwrap();
         let mut r = Reference::new(&m, &h, &targets, Energy::SpokesAndRims).unwrap();
@@ -210,10 +208,9 @@ mod tests {
         let (m, h) = crate::geometry::shapes::bumpy_bar(2);
         let path: Vec<Vec<[f64; 3]>> = (1..=3)
             .map(|k| {
-                let moved = crate::deform::pose::GroupTransform {
-                    translation: [0.0, 0.2 * k as f64, 0.0],
-                    ..Default::default()
-                };
+                let moved = crate::deform::pose::GroupTransform::from_translation(
+                    glam::DVec3::new(0.0, 0.2 * k as f64, 0.0),
+                );
                 crate::deform::pose::handle_targets(m.positions(), &h, &[(0, moved)]).unwrap()
             })
             .collect();

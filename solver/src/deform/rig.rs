@@ -303,15 +303,12 @@ mod tests {
     use crate::deform::deformer::{Deformer, DeformerOptions, Method};
     use crate::deform::handles::Handles;
     use crate::deform::pose::{GroupTransform, handle_targets};
-    use crate::linalg::rotation::axis_angle;
+    use glam::{DQuat, DVec3};
 
     /// Group 0 (the `x > 1.7` cap of [`crate::geometry::shapes::bumpy_bar`]) turned by 60°
     /// about z around its centroid and lifted; group 1 held.
     fn targets(mesh: &Mesh, h: &Handles) -> Vec<[f64; 3]> {
-        let t = GroupTransform {
-            translation: [0.0, 0.4, 0.1],
-            rotation: axis_angle([0.0, 0.0, 1.0], 1.0),
-        };
+        let t = GroupTransform::new(DVec3::new(0.0, 0.4, 0.1), DQuat::from_rotation_z(1.0));
         handle_targets(mesh.positions(), h, &[(0, t)]).unwrap()
     }
 
@@ -376,7 +373,7 @@ mod tests {
     }
 
     fn shift(mesh: &Mesh, h: &Handles) -> Vec<[f64; 3]> {
-        let t = GroupTransform { translation: [0.0, 0.5, 0.0], ..GroupTransform::default() };
+        let t = GroupTransform::from_translation(DVec3::new(0.0, 0.5, 0.0));
         handle_targets(mesh.positions(), h, &[(0, t)]).unwrap()
     }
 

@@ -16,15 +16,17 @@
 //! symmetric meshes and is not forced to be an involution there.
 //! **Mirrored transform** ([`mirror_transform`]): a group pose $x \mapsto R(x - c_g) + c_g +
 //! t$ becomes $x \mapsto (HRH)(x - H c_g) + H c_g + H t$ for the partner, with $H$ the linear
-//! part ($HRH$ is a proper rotation).
+//! part ($HRH$ is a proper rotation). On the quaternion $q = (v, w)$ of $R$ that is
+//! $(-Hv, w)$: the axis $v$ is a pseudovector, reflected with a change of sign.
 //!
 //! Known limitation: only axis-aligned planes; a model tilted against its axes fits badly (the
 //! score says so).
 
+use glam::{DQuat, DVec3};
+
 use crate::deform::pose::GroupTransform;
 use crate::geometry::kdtree::KdTree;
 use crate::geometry::mesh::bounding_box;
-use crate::linalg::rotation::{Mat3, mul_mat};
 
 /// A coordinate axis.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
@@ -74,13 +76,6 @@ impl SymmetryPlane {
     pub fn reflect_vector(&self, mut v: [f64; 3]) -> [f64; 3] {
         v[self.axis.index()] = -v[self.axis.index()];
         v
-    }
-
-    fn matrix(&self) -> Mat3 {
-        let mut h = crate::linalg::rotation::IDENTITY;
-        let a = self.axis.index();
-        h[a][a] = -1.0;
-        h
     }
 }
 
@@ -174,17 +169,17 @@ pub fn partner_group(labels: &[Option<u32>], map: &MirrorMap, group: u32) -> Opt
 
 /// `t` mirrored across `plane`: the pose of the partner group (module doc).
 pub fn mirror_transform(plane: &SymmetryPlane, t: &GroupTransform) -> GroupTransform {
-    let h = plane.matrix();
+    let axis = -DVec3::from_array(plane.reflect_vector(t.rotation.xyz().to_array()));
     GroupTransform {
-        translation: plane.reflect_vector(t.translation),
-        rotation: mul_mat(&h, &mul_mat(&t.rotation, &h)),
+        translation: DVec3::from_array(plane.reflect_vector(t.translation.to_array())),
+        rotation: DQuat::from_vec4(axis.extend(t.rotation.w)),
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::linalg::rotation::{axis_angle, mul_vec};
+    use crate::linalg::rotation::{IDENTITY, Mat3, mul_mat, mul_vec};
 
     /// A lopsided but mirror-symmetric point set about x = 0.3 (plus a ragged y/z).
     fn points() -> Vec<[f64; 3]> {
@@ -242,15 +237,15 @@ mod tests {
     #[test]
     fn mirrored_transform_commutes_with_reflection() {
         let plane = SymmetryPlane { axis: Axis::Y, offset: -0.7 };
-        let t = GroupTransform {
-            translation: [0.3, -0.2, 0.5],
-            rotation: axis_angle([1.0, 2.0, 0.5], 0.8),
-        };
+        let t = GroupTransform::new(
+            DVec3::new(0.3, -0.2, 0.5),
+            DQuat::from_axis_angle(DVec3::new(1.0, 2.0, 0.5).normalize(), 0.8),
+        );
         let m = mirror_transform(&plane, &t);
         let c = [0.4, 1.0, -0.3];
         let mc = plane.reflect(c);
         let pose = |t: &GroupTransform, c: [f64; 3], x: [f64; 3]| {
-            let r = mul_vec(&t.rotation, [x[0] - c[0], x[1] - c[1], x[2] - c[2]]);
+            let r = mul_vec(&t.rotation_matrix(), [x[0] - c[0], x[1] - c[1], x[2] - c[2]]);
             [
                 r[0] + c[0] + t.translation[0],
                 r[1] + c[1] + t.translation[1],
@@ -269,6 +264,14 @@ mod tests {
                 - r[0][1] * (r[1][0] * r[2][2] - r[1][2] * r[2][0])
                 + r[0][2] * (r[1][0] * r[2][1] - r[1][1] * r[2][0])
         };
-        assert!((det(&m.rotation) - 1.0).abs() < 1e-12);
+        let r = m.rotation_matrix();
+        assert!((det(&r) - 1.0).abs() < 1e-12);
+        // The quaternion form is the matrix form H R H.
+        let mut h = IDENTITY;
+        h[1][1] = -1.0;
+        let hrh = mul_mat(&h, &mul_mat(&t.rotation_matrix(), &h));
+        let err = r.iter().flatten().zip(hrh.iter().flatten()).map(|(a, b)| (a - b).abs());
+        assert!(err.fold(0.0, f64::max) < 1e-15, "{r:?} vs {hrh:?}");
+        assert_eq!(mirror_transform(&plane, &m), t);
     }
 }

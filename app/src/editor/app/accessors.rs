@@ -6,10 +6,10 @@ use std::sync::Arc;
 
 use eframe::egui::Pos2;
 use glam::Vec3;
+use solver::GroupTransform;
 
 use super::{EditorApp, Shading, Tool, View};
 use crate::editor::persist::{Persist, Snapshot};
-use crate::editor::pose::GroupPose;
 use crate::editor::solver_thread::{MethodSettings, Slot, SolvedFrame, SolverCommand, SolverState};
 use crate::editor::undo::EditState;
 
@@ -103,7 +103,7 @@ impl EditorApp {
     }
 
     /// The pose of handle group `k`.
-    pub fn group_pose(&self, k: usize) -> Option<GroupPose> {
+    pub fn group_pose(&self, k: usize) -> Option<GroupTransform> {
         self.session.edit.groups.get(k).map(|g| g.pose)
     }
 

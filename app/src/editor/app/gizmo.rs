@@ -12,14 +12,15 @@
 //! the pose drag and the typed move/rotate fields do, one undo step per confirmed transform.
 
 use eframe::egui::{self, Color32, Key, Modifiers, PointerButton, Pos2, Rect, Stroke};
-use glam::{DQuat, DVec3, Vec3};
+use glam::{DQuat, Vec3};
+use solver::GroupTransform;
 
 use super::{EditorApp, Tool};
 use crate::editor::gizmo::{
     ROTATION_SNAP, angle_about_axis, axis_displacement, distance_to_loop, distance_to_segment,
     ring, screen_angle, snap,
 };
-use crate::editor::pose::{GroupPose, group_centroid};
+use crate::editor::pose::group_centroid;
 use crate::editor::undo::EditState;
 
 /// Arrow length and ring radius on screen, points.
@@ -56,7 +57,7 @@ pub(super) struct Transform {
     group: usize,
     slot: usize,
     before: EditState,
-    start_pose: GroupPose,
+    start_pose: GroupTransform,
     /// The group's centre (rest centroid + translation) at the start, world.
     center: Vec3,
     start_pointer: Pos2,
@@ -96,14 +97,14 @@ pub fn snap_step(radius: f32) -> f32 {
 
 impl EditorApp {
     /// The active group's centre (rest centroid moved by its translation), with its pose.
-    fn group_center(&self, g: usize) -> Option<(Vec3, GroupPose)> {
+    fn group_center(&self, g: usize) -> Option<(Vec3, GroupTransform)> {
         let scene = self.session.scene.as_ref()?;
         let group = self.session.edit.groups.get(g)?;
         let verts: Vec<u32> = (0..self.session.edit.labels.len() as u32)
             .filter(|&v| self.session.edit.labels[v as usize] == Some(g as u32))
             .collect();
         let c = group_centroid(scene.mesh.positions(), &verts)?;
-        let center = c + DVec3::from_array(group.pose.translation);
+        let center = c + group.pose.translation;
         Some((center.as_vec3(), group.pose))
     }
 
@@ -389,12 +390,13 @@ impl EditorApp {
         match (t.kind, typed) {
             (TransformKind::Translate, Some(v)) => {
                 let axis = AXES[t.axis.unwrap_or(0)].as_dvec3();
-                let tr = DVec3::from_array(t.start_pose.translation) + axis * v;
-                pose.translation = tr.to_array();
+                pose.translation = t.start_pose.translation + axis * v;
             }
             (TransformKind::Rotate, Some(v)) => {
                 let axis = t.axis.map_or(back, |a| AXES[a]).as_dvec3();
-                pose.set_quat(DQuat::from_axis_angle(axis, v.to_radians()) * t.start_pose.quat());
+                pose.rotation = (DQuat::from_axis_angle(axis, v.to_radians())
+                    * t.start_pose.rotation)
+                    .normalize();
             }
             (TransformKind::Translate, None) => {
                 let mut delta = match t.axis {
@@ -419,8 +421,7 @@ impl EditorApp {
                 if !delta.is_finite() {
                     delta = Vec3::ZERO;
                 }
-                let tr = DVec3::from_array(t.start_pose.translation) + delta.as_dvec3();
-                pose.translation = tr.to_array();
+                pose.translation = t.start_pose.translation + delta.as_dvec3();
             }
             (TransformKind::Rotate, None) => {
                 let axis = t.axis.map_or(back, |a| AXES[a]);
@@ -429,7 +430,7 @@ impl EditorApp {
                     angle = snap(angle, ROTATION_SNAP);
                 }
                 let q = DQuat::from_axis_angle(axis.as_dvec3(), angle as f64);
-                pose.set_quat(q * t.start_pose.quat());
+                pose.rotation = (q * t.start_pose.rotation).normalize();
             }
         }
         let group = t.group;
@@ -441,7 +442,7 @@ impl EditorApp {
     /// that measure a drag): mirrored to its symmetric group and sent to the solver, with no
     /// undo entry (a drag pushes one when it ends) and no change of colours. False when the
     /// group does not exist, the pose is not finite or is the group's already.
-    pub fn drag_group(&mut self, group: usize, pose: GroupPose) -> bool {
+    pub fn drag_group(&mut self, group: usize, pose: GroupTransform) -> bool {
         let Some(g) = self.session.edit.groups.get_mut(group) else { return false };
         if !pose.is_finite() || g.pose == pose {
             return false;
@@ -554,12 +555,11 @@ impl EditorApp {
         {
             let text = match t.kind {
                 TransformKind::Translate => {
-                    let d = DVec3::from_array(g.translation)
-                        - DVec3::from_array(t.start_pose.translation);
+                    let d = g.translation - t.start_pose.translation;
                     format!("move {:.4} {:.4} {:.4}", d.x, d.y, d.z)
                 }
                 TransformKind::Rotate => {
-                    let (_, angle) = (g.quat() * t.start_pose.quat().inverse()).to_axis_angle();
+                    let (_, angle) = (g.rotation * t.start_pose.rotation.inverse()).to_axis_angle();
                     format!("rotate {:.1}°", angle.to_degrees())
                 }
             };

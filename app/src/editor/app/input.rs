@@ -2,12 +2,12 @@
 //! handle groups by dragging.
 
 use eframe::egui::{self, Key, Modifiers, PointerButton, Pos2, Rect, Vec2};
-use glam::{DQuat, DVec3};
+use glam::DQuat;
+use solver::GroupTransform;
 
 use super::{DialogKind, EditorApp, Shading, Tool, View};
 use crate::editor::brush::footprint;
 use crate::editor::camera::ViewPreset;
-use crate::editor::pose::GroupPose;
 use crate::editor::timeline;
 use solver::geometry::bvh::Hit;
 
@@ -69,7 +69,7 @@ pub(super) struct HoverKey {
 #[derive(Debug, Clone, Copy)]
 pub(super) struct PoseDrag {
     group: usize,
-    start: GroupPose,
+    start: GroupTransform,
     /// Depth of the grabbed point along the view axis (world units).
     depth: f32,
     rotate: bool,
@@ -390,13 +390,13 @@ impl EditorApp {
                 if d.rotate {
                     let axis = self.display.camera.back().as_dvec3();
                     let angle = d.accumulated.x as f64 * 0.01;
-                    pose.set_quat(DQuat::from_axis_angle(axis, angle) * d.start.quat());
+                    pose.rotation =
+                        (DQuat::from_axis_angle(axis, angle) * d.start.rotation).normalize();
                 } else {
                     let (right, up) = self.display.camera.axes();
                     let s = self.display.camera.world_per_point(d.depth, rect.height());
                     let w = (right * d.accumulated.x - up * d.accumulated.y) * s;
-                    let t = DVec3::from_array(d.start.translation) + w.as_dvec3();
-                    pose.translation = t.to_array();
+                    pose.translation = d.start.translation + w.as_dvec3();
                 }
                 self.session.edit.groups[d.group].pose = pose;
                 self.mirror_pose(d.group);

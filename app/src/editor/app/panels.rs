@@ -6,10 +6,11 @@ use std::time::{Duration, Instant};
 
 use eframe::egui::{self, Color32, Key, Rect, Vec2};
 use glam::{DQuat, EulerRot};
+use solver::GroupTransform;
 
 use super::{DialogKind, EditorApp, Shading, Tool, View};
 use crate::editor::document::MAX_UI_ITERATIONS;
-use crate::editor::pose::{GroupPose, group_centroid};
+use crate::editor::pose::group_centroid;
 use crate::editor::pose_solvers;
 use crate::editor::solver_thread::MethodSettings;
 use crate::editor::solver_thread::{ANDERSON_WINDOW, SolverState};
@@ -192,13 +193,13 @@ impl EditorApp {
         let step = self.session.scene.as_ref().map_or(0.01, |s| s.radius as f64 * 0.005);
         ui.horizontal(|ui| {
             ui.label("move");
-            for (c, axis) in pose.translation.iter_mut().zip(["x", "y", "z"]) {
+            for (c, axis) in pose.translation.as_mut().iter_mut().zip(["x", "y", "z"]) {
                 let l = ui.label(axis).id;
                 let r = ui.add(egui::DragValue::new(c).speed(step).max_decimals(4));
                 changed |= r.labelled_by(l).changed();
             }
         });
-        let (ex, ey, ez) = pose.quat().to_euler(EulerRot::XYZ);
+        let (ex, ey, ez) = pose.rotation.to_euler(EulerRot::XYZ);
         // `+ 0.0` shows -0 as 0.
         let mut e = [ex.to_degrees() + 0.0, ey.to_degrees() + 0.0, ez.to_degrees() + 0.0];
         let mut rot_changed = false;
@@ -211,23 +212,24 @@ impl EditorApp {
             }
         });
         if rot_changed {
-            pose.set_quat(DQuat::from_euler(
+            pose.rotation = DQuat::from_euler(
                 EulerRot::XYZ,
                 e[0].to_radians(),
                 e[1].to_radians(),
                 e[2].to_radians(),
-            ));
+            )
+            .normalize();
             changed = true;
         }
         ui.horizontal(|ui| {
             if ui.button("Reset group").clicked() {
-                pose = GroupPose::default();
+                pose = GroupTransform::default();
                 changed = true;
             }
             if ui.button("Reset all").clicked() {
                 self.session.history.push(self.session.edit.clone());
                 for g in &mut self.session.edit.groups {
-                    g.pose = GroupPose::default();
+                    g.pose = GroupTransform::default();
                 }
                 self.send_poses();
             }

@@ -16,7 +16,6 @@ use solver::deform::symmetry::{
 };
 
 use super::{EditorApp, Tool};
-use crate::editor::pose::GroupPose;
 use crate::editor::undo::EditState;
 
 /// Which plane the mirror map is for.
@@ -248,7 +247,7 @@ impl EditorApp {
         let Some((plane, map)) = self.mirror_shared() else { return };
         let Some(p) = partner_group(&self.session.edit.labels, &map, group as u32) else { return };
         let pose = self.session.edit.groups[group].pose;
-        let mirrored = GroupPose::from_transform(&mirror_transform(&plane, &pose.transform()));
+        let mirrored = mirror_transform(&plane, &pose);
         if let Some(g) = self.session.edit.groups.get_mut(p as usize) {
             g.pose = mirrored;
         }

@@ -6,10 +6,9 @@ use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 use eframe::egui;
-use solver::Handles;
+use solver::{GroupTransform, Handles};
 
 use super::{EditorApp, View};
-use crate::editor::pose::GroupPose;
 use crate::editor::pose_solvers;
 use crate::editor::solver_thread::{NewScene, Slot, SolvedFrame, SolverCommand, SolverHandle};
 use crate::editor::{jobs, loader};
@@ -125,7 +124,7 @@ impl EditorApp {
         Handles::from_options(self.session.edit.labels.clone()).ok().map(|h| h.with_rig(self.rig()))
     }
 
-    pub(super) fn poses(&self) -> Vec<GroupPose> {
+    pub(super) fn poses(&self) -> Vec<GroupTransform> {
         self.session.edit.groups.iter().map(|g| g.pose).collect()
     }
 

@@ -8,7 +8,6 @@ use std::time::Instant;
 use solver::geometry::normals::VertexFaces;
 use solver::{ComponentInfo, FrameStats, GroupTransform, Handles, LooseParts, Mesh};
 
-use crate::editor::pose::GroupPose;
 use crate::editor::shape::Shape;
 
 /// Method settings shown in the UI; sent whole to the solver thread, which rebuilds its pose
@@ -177,7 +176,7 @@ pub struct NewScene {
     pub settings: MethodSettings,
     /// Follow or pin per component without handles.
     pub loose_parts: LooseParts,
-    pub poses: Vec<GroupPose>,
+    pub poses: Vec<GroupTransform>,
     /// The pose generation `poses` belong to.
     pub pose_generation: u64,
 }
@@ -196,7 +195,7 @@ pub enum SolverCommand {
     /// New group poses (no refactorization).
     SetPoses {
         pose_generation: u64,
-        poses: Vec<GroupPose>,
+        poses: Vec<GroupTransform>,
     },
     /// Publish the current pose again (the deformed base was asked for while the thread was
     /// idle; see [`SolverHandle::show_base`]).

@@ -11,7 +11,6 @@ use solver::{FrameStats, GroupRest, GroupTransform, Handles, Mesh};
 
 use super::worker::SETTLE_DELAY;
 use super::*;
-use crate::editor::pose::GroupPose;
 
 /// Moves every vertex by the mean handle displacement: enough to test the plumbing.
 struct Shift {
@@ -96,7 +95,7 @@ fn faces_of(mesh: &Mesh) -> Arc<VertexFaces> {
     Arc::new(VertexFaces::new(mesh.n_vertices(), mesh.triangles()))
 }
 
-fn scene(generation: u64, poses: Vec<GroupPose>) -> SolverCommand {
+fn scene(generation: u64, poses: Vec<GroupTransform>) -> SolverCommand {
     SolverCommand::SetScene(Box::new(NewScene {
         scene_generation: generation,
         vertex_faces: faces_of(&tri()),
@@ -112,11 +111,11 @@ fn scene(generation: u64, poses: Vec<GroupPose>) -> SolverCommand {
 #[test]
 fn frames_follow_poses_and_survive_a_panic() {
     let h = SolverHandle::spawn(Slot::Compare, factory(), Arc::new(|| {})).unwrap();
-    h.send(scene(1, vec![GroupPose::default()]));
+    h.send(scene(1, vec![GroupTransform::default()]));
     let f = wait_frame(&h, |f| f.scene_generation == 1);
     assert_eq!(f.positions[1], [1.0, 0.0, 0.0]);
 
-    let moved = GroupPose { translation: [0.0, 0.0, 2.0], ..Default::default() };
+    let moved = GroupTransform::from_translation(glam::DVec3::new(0.0, 0.0, 2.0));
     h.send(SolverCommand::SetPoses { pose_generation: 5, poses: vec![moved] });
     let f = wait_frame(&h, |f| f.pose_generation == 5);
     assert_eq!(f.positions[2], [0.0, 1.0, 2.0]);
@@ -176,7 +175,7 @@ fn converged_poses_are_settled_until_converged() {
         Ok(Box::new(Settles { shift, steps: 0 }) as Box<dyn PoseSolver>)
     });
     let h = SolverHandle::spawn(Slot::Main, factory, Arc::new(|| {})).unwrap();
-    h.send(scene(1, vec![GroupPose::default()]));
+    h.send(scene(1, vec![GroupTransform::default()]));
     let f = wait_frame(&h, |f| f.stats.fine_iterations == 3);
     assert_eq!(f.positions[1], [2.5, 0.0, 0.0]);
     assert!(f.stats.done, "the last settle step's frame is the converged one");
@@ -189,7 +188,7 @@ fn converged_poses_are_settled_until_converged() {
     std::thread::sleep(Duration::from_millis(50));
     assert!(h.try_take_frame().is_none());
 
-    let moved = GroupPose { translation: [0.0, 0.0, 2.0], ..Default::default() };
+    let moved = GroupTransform::from_translation(glam::DVec3::new(0.0, 0.0, 2.0));
     h.send(SolverCommand::SetPoses { pose_generation: 7, poses: vec![moved] });
     let f = wait_frame(&h, |f| f.pose_generation == 7 && f.stats.fine_iterations == 3);
     assert_eq!(f.positions[1], [2.5, 0.0, 2.0]);
@@ -247,10 +246,10 @@ impl PoseSolver for EndlessSettle {
 fn a_new_pose_interrupts_settling() {
     let (log, factory) = endless_settle_factory();
     let h = SolverHandle::spawn(Slot::Main, factory, Arc::new(|| {})).unwrap();
-    h.send(scene(1, vec![GroupPose::default()]));
+    h.send(scene(1, vec![GroupTransform::default()]));
     wait_frame(&h, |f| f.stats.fine_iterations == 1);
 
-    let moved = GroupPose { translation: [0.0, 0.0, 2.0], ..Default::default() };
+    let moved = GroupTransform::from_translation(glam::DVec3::new(0.0, 0.0, 2.0));
     // Hold the log while sending: the thread then blocks on its next entry, so at most the
     // step in progress is logged between the send and the command's arrival.
     let guard = log.lock().unwrap();
@@ -326,13 +325,13 @@ fn settling_waits_for_its_preparation_without_holding_up_new_poses() {
                 as Box<dyn PoseSolver>)
         });
     let h = SolverHandle::spawn(Slot::Main, factory, Arc::new(|| {})).unwrap();
-    h.send(scene(1, vec![GroupPose::default()]));
+    h.send(scene(1, vec![GroupTransform::default()]));
     wait_frame(&h, |f| f.scene_generation == 1);
     std::thread::sleep(SETTLE_DELAY * 3);
     assert!(asked.load(Ordering::Relaxed) >= 2, "asked {} times", asked.load(Ordering::Relaxed));
     assert!(h.try_take_frame().is_none(), "a frame while settling could not start");
 
-    let moved = GroupPose { translation: [0.0, 0.0, 2.0], ..Default::default() };
+    let moved = GroupTransform::from_translation(glam::DVec3::new(0.0, 0.0, 2.0));
     h.send(SolverCommand::SetPoses { pose_generation: 7, poses: vec![moved] });
     let f = wait_frame(&h, |f| f.pose_generation == 7);
     assert_eq!(f.positions[1], [1.0, 0.0, 2.0], "solved, not settled");
@@ -368,7 +367,7 @@ fn the_base_is_built_only_while_shown() {
         Ok(Box::new(WithBase(shift)) as Box<dyn PoseSolver>)
     });
     let h = SolverHandle::spawn(Slot::Main, factory, Arc::new(|| {})).unwrap();
-    h.send(scene(1, vec![GroupPose::default()]));
+    h.send(scene(1, vec![GroupTransform::default()]));
     let f = wait_frame(&h, |f| f.scene_generation == 1);
     assert!(f.deformed_base.is_none(), "built while not shown");
     let start = Instant::now();
@@ -380,12 +379,12 @@ fn the_base_is_built_only_while_shown() {
     let f = wait_frame(&h, |f| f.deformed_base.is_some());
     assert_eq!(f.pose_generation, 0, "the idle pose, republished");
     assert_eq!(f.deformed_base.unwrap().positions[2], [0.0, 2.0, 0.0]);
-    let moved = GroupPose { translation: [0.0, 0.0, 2.0], ..Default::default() };
+    let moved = GroupTransform::from_translation(glam::DVec3::new(0.0, 0.0, 2.0));
     h.send(SolverCommand::SetPoses { pose_generation: 3, poses: vec![moved] });
     let f = wait_frame(&h, |f| f.pose_generation == 3);
     assert!(f.deformed_base.is_some(), "solved frames carry it while shown");
     h.show_base(false);
-    h.send(SolverCommand::SetPoses { pose_generation: 4, poses: vec![GroupPose::default()] });
+    h.send(SolverCommand::SetPoses { pose_generation: 4, poses: vec![GroupTransform::default()] });
     let f = wait_frame(&h, |f| f.pose_generation == 4);
     assert!(f.deformed_base.is_none(), "built after the view closed");
 }
@@ -440,7 +439,7 @@ fn loose_parts_change_without_a_rebuild() {
             inner(slot, mesh, handles, s, l)
         });
     let h = SolverHandle::spawn(Slot::Compare, factory, Arc::new(|| {})).unwrap();
-    let moved = GroupPose { translation: [0.3, 0.0, 0.0], ..Default::default() };
+    let moved = GroupTransform::from_translation(glam::DVec3::new(0.3, 0.0, 0.0));
     h.send(SolverCommand::SetScene(Box::new(NewScene {
         scene_generation: 1,
         vertex_faces: faces_of(&mesh),
@@ -451,7 +450,7 @@ fn loose_parts_change_without_a_rebuild() {
             ..MethodSettings::default()
         },
         loose_parts: LooseParts::default(),
-        poses: vec![GroupPose::default(), moved],
+        poses: vec![GroupTransform::default(), moved],
         pose_generation: 1,
     })));
     let small_vertices = n as usize..p.len();
@@ -490,11 +489,11 @@ fn slow_drag(
     if let Some(d) = min_settle {
         h.set_min_settle_delay(d);
     }
-    h.send(scene(1, vec![GroupPose::default()]));
+    h.send(scene(1, vec![GroupTransform::default()]));
     let mut last = Instant::now();
     for k in 1..=poses {
         std::thread::sleep(every);
-        let moved = GroupPose { translation: [0.0, 0.0, k as f64], ..Default::default() };
+        let moved = GroupTransform::from_translation(glam::DVec3::new(0.0, 0.0, k as f64));
         h.send(SolverCommand::SetPoses { pose_generation: k as u64, poses: vec![moved] });
         last = Instant::now();
     }

@@ -11,14 +11,13 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use solver::geometry::normals::VertexFaces;
-use solver::{FrameStats, Handles, LooseParts, Mesh};
+use solver::{FrameStats, GroupTransform, Handles, LooseParts, Mesh};
 
 use super::mailbox::Mailbox;
 use super::protocol::{
     NewScene, PoseSolver, PoseSolverFactory, Slot, SolvedFrame, SolverCommand, SolverState,
     SolverStatus,
 };
-use crate::editor::pose::GroupPose;
 use crate::editor::shape::{Shape, ShapePool};
 
 /// The next [`SolvedFrame::sequence`], shared by every solver thread.
@@ -104,7 +103,7 @@ struct Active {
     pose_generation: u64,
     mesh: Arc<Mesh>,
     handles: Handles,
-    poses: Vec<GroupPose>,
+    poses: Vec<GroupTransform>,
     pose_solver: Box<dyn PoseSolver>,
     /// |D_i| as f32, shared by every frame of this scene.
     details: Option<Arc<Vec<f32>>>,
@@ -157,7 +156,7 @@ impl Active {
     }
 
     /// New poses: solve again, and settle again only once they have rested.
-    fn set_poses(&mut self, generation: u64, poses: Vec<GroupPose>) {
+    fn set_poses(&mut self, generation: u64, poses: Vec<GroupTransform>) {
         let now = Instant::now();
         let interval = now.duration_since(self.poses_changed);
         let decayed = self.pose_cadence.mul_f64(0.9);
@@ -250,7 +249,7 @@ const MAX_SETTLE_STEPS: usize = 2000;
 #[derive(Default)]
 struct Inbox {
     scene: Option<NewScene>,
-    poses: Option<(u64, Vec<GroupPose>)>,
+    poses: Option<(u64, Vec<GroupTransform>)>,
     loose_parts: Option<(u64, LooseParts)>,
     /// The current pose is asked for again ([`SolverCommand::Republish`]).
     republish: bool,
