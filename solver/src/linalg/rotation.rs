@@ -328,18 +328,7 @@ fn lockstep_avx2(avx2: Avx2, s: &[Mat3; LANES], rots: &mut [Mat3; LANES]) -> Fit
 #[inline(always)]
 fn lockstep<L: Lanes>(t: L::Token, s: &[Mat3; LANES], rots: &mut [Mat3; LANES]) -> Fitted {
     // One cell per lane: the scalar fit's formulas, run on four cells at once.
-    // Index loops rather than `array::from_fn`/`map`, whose closures were not always inlined
-    // into the AVX2 build.
-    let lanes = |m: &[Mat3; LANES]| -> [[L; 3]; 3] {
-        let mut out = [[L::splat(t, 0.0); 3]; 3];
-        for (i, row) in out.iter_mut().enumerate() {
-            for (j, v) in row.iter_mut().enumerate() {
-                *v = L::from_lanes(t, [m[0][i][j], m[1][i][j], m[2][i][j], m[3][i][j]]);
-            }
-        }
-        out
-    };
-    let (s4, g4) = (lanes(s), lanes(rots));
+    let (s4, g4) = (to_lanes3::<L>(t, s), to_lanes3::<L>(t, rots));
     // `normalized`, lane by lane: lanes with a zero or non-finite largest entry are unusable
     // (their arithmetic continues on whatever it holds and is discarded at the end).
     let m = largest_entry(&s4);
@@ -398,6 +387,23 @@ fn lockstep<L: Lanes>(t: L::Token, s: &[Mat3; LANES], rots: &mut [Mat3; LANES]) 
         }
     }
     (fitted, traces)
+}
+
+/// Four matrices as one matrix of lanes, lane $l$ holding `m[l]`. A function, not a closure in
+/// [`lockstep`]: a closure is compiled on its own, without the caller's AVX2 (it was, once it
+/// captured the token: each of its loads became a call, and the local step took 3.4–4.1 ms an
+/// iteration on armadillo instead of 2.3–2.7); `#[inline(always)]` into a `target_feature`
+/// function compiles it with the feature. Index loops rather than `array::from_fn`/`map` for
+/// the same reason.
+#[inline(always)]
+fn to_lanes3<L: Lanes>(t: L::Token, m: &[Mat3; LANES]) -> [[L; 3]; 3] {
+    let mut out = [[L::splat(t, 0.0); 3]; 3];
+    for (i, row) in out.iter_mut().enumerate() {
+        for (j, v) in row.iter_mut().enumerate() {
+            *v = L::from_lanes(t, [m[0][i][j], m[1][i][j], m[2][i][j], m[3][i][j]]);
+        }
+    }
+    out
 }
 
 /// `s` scaled to unit Frobenius norm ($R$ is scale-invariant, and the thresholds of the fit are
