@@ -5,7 +5,8 @@
 # root, after `cargo build --release -p app` and `pip install libigl==2.6.3`:
 #     bash bench/run_all.sh            # writes bench/results/*.json
 #     bash bench/run_all.sh pairs      # armadillo: ours (plain ARAP) and libigl alternated
-#                                      # PAIRS times (default 3), bench/results/pairs/
+#                                      # PAIRS times (default 3), bench/results/pairs/;
+#                                      # OLD=BINARY alternates an older build too
 # BSARAP overrides the binary (default target/release/bsarap).
 set -euo pipefail
 B=${BSARAP:-target/release/bsarap}
@@ -39,11 +40,16 @@ fi
 if [[ $only == pairs ]]; then
   # The per-iteration ratio to libigl on armadillo (docs/DESIGN.md, "Performance targets") as pairs measured back to
   # back, alternated so that a change in the machine's load shows as a spread between pairs.
+  # OLD=path/to/an/older/bsarap adds that binary to each round (ours then, old, libigl), to
+  # tell a regression from the machine's speed.
   mkdir -p "$R/pairs"
   for k in $(seq 1 "${PAIRS:-3}"); do
     echo "== pair $k" >&2
-    "$B" bench "$M/armadillo.obj" --handles bench/handles/armadillo.json --frames 10 \
-      --tol 1e-4 --max-iters 100 --method arap --json > "$R/pairs/armadillo.$k.json"
+    for b in "$B" ${OLD:+"$OLD"}; do
+      tag=$([[ $b == "$B" ]] && echo new || echo old)
+      "$b" bench "$M/armadillo.obj" --handles bench/handles/armadillo.json --frames 10 \
+        --tol 1e-4 --max-iters 100 --method arap --json > "$R/pairs/armadillo.$k.$tag.json"
+    done
     python3 bench/libigl_reference.py "$M/armadillo.obj" --handles bench/handles/armadillo.json \
       --frames 10 --tol 1e-4 --max-iters 100 > "$R/pairs/armadillo.$k.libigl.json"
   done
