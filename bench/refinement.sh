@@ -21,3 +21,14 @@ run bunny-bench $M/bunny.off bench/handles/bunny.json 1 bench
 run bunny-b-turn $M/bunny.off bench/handles/bunny-b.json 1 turn
 run armadillo-bench $M/armadillo.obj bench/handles/armadillo.json 1 bench
 run armadillo-b-turn $M/armadillo.obj bench/handles/armadillo-b.json 1 turn
+# ×16 on the larger meshes, the default bending length only (plain ARAP capped at its finest
+# level: 300 iterations of 692k take minutes and it does not converge): bench/results/refinement/x16/
+x16() { # NAME MESH SELECTION MOTION
+  mkdir -p "$out/x16"
+  echo "\$ refinement $2 $3 --levels 2 --motion $4 --ell 0.02 --cap 1000 --plain-cap 300" > "$out/x16/$1.txt"
+  target/release/examples/refinement "$2" "$3" --levels 2 --motion "$4" --ell 0.02 --cap 1000 \
+    --plain-cap 300 >> "$out/x16/$1.txt"
+}
+x16 armadillo-b-turn $M/armadillo.obj bench/handles/armadillo-b.json turn
+x16 bunny-bench $M/bunny.off bench/handles/bunny.json bench
+x16 creature-turn assets/creature.obj assets/creature.handles.json turn
