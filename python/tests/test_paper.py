@@ -73,7 +73,10 @@ def test_equal_to_rust_cli(tmp_path, name, method, settings):
     U = d.solve({0: (move, bsarap.rotation([0, 0, 1], 20))})
     np.testing.assert_array_equal(F_cli, F)
     err = np.abs(U - U_cli).max() / diag
-    assert err <= 1e-12, f"{method} on {name}: {err:.3e} of the diagonal from the CLI"
+    # The CLI makes the rotation a quaternion from its axis and angle; Python hands a 3x3 matrix,
+    # made a quaternion at the boundary (GroupTransform::from_matrix). The two differ in their
+    # last bits, which the iterations carry to a few 1e-11 of the diagonal (measured 2.5e-11).
+    assert err <= 1e-10, f"{method} on {name}: {err:.3e} of the diagonal from the CLI"
 
 
 @pytest.fixture(scope="module")
