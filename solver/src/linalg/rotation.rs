@@ -390,11 +390,10 @@ fn lockstep<L: Lanes>(t: L::Token, s: &[Mat3; LANES], rots: &mut [Mat3; LANES]) 
 }
 
 /// Four matrices as one matrix of lanes, lane $l$ holding `m[l]`. A function, not a closure in
-/// [`lockstep`]: a closure is compiled on its own, without the caller's AVX2 (it was, once it
-/// captured the token: each of its loads became a call, and the local step took 3.4–4.1 ms an
-/// iteration on armadillo instead of 2.3–2.7); `#[inline(always)]` into a `target_feature`
-/// function compiles it with the feature. Index loops rather than `array::from_fn`/`map` for
-/// the same reason.
+/// [`lockstep`]: a closure is compiled on its own and can lose the caller's AVX2 (this one did:
+/// each of its loads became a call, and the local step took half as long again; BENCHMARKS.md,
+/// "Against libigl's ARAP"); `#[inline(always)]` into a `target_feature` function compiles it
+/// with the feature. Index loops rather than `array::from_fn`/`map` for the same reason.
 #[inline(always)]
 fn to_lanes3<L: Lanes>(t: L::Token, m: &[Mat3; LANES]) -> [[L; 3]; 3] {
     let mut out = [[L::splat(t, 0.0); 3]; 3];
