@@ -58,10 +58,32 @@ fn vee(a: &Mat3) -> [f64; 3] {
     [a[2][1] - a[1][2], a[0][2] - a[2][0], a[1][0] - a[0][1]]
 }
 
-/// $A B^\top$.
+/// $\operatorname{v}(AB^\top)$ from the six entries of $AB^\top$ it needs,
+/// $(AB^\top)_{rc} = a_r\cdot b_c$ for the rows $a_r$, $b_c$.
 #[inline]
-fn mul_transposed(a: &Mat3, b: &Mat3) -> Mat3 {
-    std::array::from_fn(|r| std::array::from_fn(|c| (0..3).map(|k| a[r][k] * b[c][k]).sum()))
+fn vee_of_transposed_product(a: &Mat3, b: &Mat3) -> [f64; 3] {
+    let dot = |r: usize, c: usize| a[r][0] * b[c][0] + a[r][1] * b[c][1] + a[r][2] * b[c][2];
+    [dot(2, 1) - dot(1, 2), dot(0, 2) - dot(2, 0), dot(1, 0) - dot(0, 1)]
+}
+
+/// $-g_i$ (module doc) for the rotation `r` $= R_i$ with covariance `s` $= S_i$, the spokes
+/// `row` $(j, w_{ij})$ of vertex $i$, all `rotations` and $\beta$.
+#[inline]
+pub(super) fn minus_gradient(
+    r: &Mat3,
+    s: &Mat3,
+    row: &[(u32, f64)],
+    rotations: &[Mat3],
+    beta: f64,
+) -> [f64; 3] {
+    let mut v = vee(&mul_mat(r, s)).map(|c| 2.0 * c);
+    for &(j, w) in row {
+        let b = vee_of_transposed_product(r, &rotations[j as usize]);
+        for k in 0..3 {
+            v[k] += 4.0 * beta * w * b[k];
+        }
+    }
+    v.map(|c| -c)
 }
 
 impl RotationSolve {
@@ -93,28 +115,16 @@ impl RotationSolve {
         Ok(RotationSolve { factor, rhs: vec![0.0; 3 * n], gradient: vec![[0.0; 3]; n] })
     }
 
-    /// The step (module doc) from the covariances `covs` and the rotations `rotations`, with
-    /// the spokes `neighbours` and $\beta$: writes $\exp([\omega_i]_\times)R_i$ into `out`.
-    pub(super) fn step(
-        &mut self,
-        neighbours: &Csr<(u32, f64)>,
-        beta: f64,
-        covs: &[Mat3],
-        rotations: &[Mat3],
-        out: &mut [Mat3],
-    ) {
+    /// The buffer of $-g$, one entry per vertex, that [`RotationSolve::step`] reads: the
+    /// caller fills it with [`minus_gradient`] (in its own pass over the covariances).
+    pub(super) fn gradient_mut(&mut self) -> &mut [[f64; 3]] {
+        &mut self.gradient
+    }
+
+    /// The step (module doc) from the gradient in [`RotationSolve::gradient_mut`] at the
+    /// rotations `rotations`: writes $\exp([\omega_i]_\times)R_i$ into `out`.
+    pub(super) fn step(&mut self, rotations: &[Mat3], out: &mut [Mat3]) {
         let n = rotations.len();
-        self.gradient.par_iter_mut().enumerate().for_each(|(i, g)| {
-            let r = &rotations[i];
-            let mut v = vee(&mul_mat(r, &covs[i])).map(|c| 2.0 * c);
-            for &(j, w) in neighbours.row(i) {
-                let b = vee(&mul_transposed(r, &rotations[j as usize]));
-                for k in 0..3 {
-                    v[k] += 4.0 * beta * w * b[k];
-                }
-            }
-            *g = v.map(|c| -c);
-        });
         for (k, col) in self.rhs.chunks_mut(n).enumerate() {
             for (x, g) in col.iter_mut().zip(&self.gradient) {
                 *x = g[k];

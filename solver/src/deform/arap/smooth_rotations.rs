@@ -68,11 +68,13 @@
 //! from 1,702 to 165 iterations, and 151 and 146 at 4× and 16× its vertices
 //! (`examples/refinement.rs`): iterations no longer grow with the resolution.
 
-use super::rotation_solve::RotationSolve;
+use super::rotation_solve::{self, RotationSolve};
 use super::{Arap, Cells, Csr};
 use crate::geometry::mesh::norm2;
 use crate::linalg::linsolve::FactorError;
-use crate::linalg::rotation::{Mat3, fit_rotation_near, trace_of_product};
+use crate::linalg::rotation::{
+    LANES, Mat3, fit_rotation_near, fit_rotations_near, trace_of_product,
+};
 use rayon::prelude::*;
 
 /// The state of the rotation term: $\beta$, the colour classes and the buffers of one local
@@ -83,6 +85,8 @@ pub(super) struct SmoothRotations {
     pub(super) beta: f64,
     /// The vertices of each colour (internal numbering, ascending).
     colours: Vec<Vec<u32>>,
+    /// The colour of each vertex (the index of its class in `colours`).
+    colour: Vec<u32>,
     /// $S_i$ of the current pose (the spokes covariances).
     covs: Vec<Mat3>,
     /// New rotations of one colour class, aligned with it.
@@ -107,11 +111,16 @@ impl SmoothRotations {
     ) -> Result<SmoothRotations, FactorError> {
         let n = rest.len();
         let colours = colour_classes(n, neighbours);
+        let mut colour = vec![0; n];
+        for (c, class) in colours.iter().enumerate() {
+            class.iter().for_each(|&i| colour[i as usize] = c as u32);
+        }
         let largest = colours.iter().map(Vec::len).max().unwrap_or(0);
         let beta = ell * ell;
         Ok(SmoothRotations {
             beta,
             colours,
+            colour,
             covs: vec![[[0.0; 3]; 3]; n],
             fitted: vec![[[0.0; 3]; 3]; largest],
             saved: Vec::new(),
@@ -164,108 +173,147 @@ impl Arap {
         }
     }
 
-    /// The smooth-rotation local step: the covariances of the current pose, one Gauss–Seidel
-    /// sweep of the rotations over the colour classes, and $E(x, R)$ for the new rotations.
+    /// The smooth-rotation local step: the covariances of the current pose, the implicit step,
+    /// one Gauss–Seidel sweep of the rotations over the colour classes, and $E(x, R)$ for the
+    /// new rotations. Passes over the mesh: one for the covariances with the rotation
+    /// objective and the implicit step's gradient, one for the implicit step's rotations, one
+    /// per colour; the sweep sums the energy of the rotations it leaves.
+    ///
+    /// The safeguard: when the implicit step and the sweep together raise the rotation
+    /// objective ([`RotationSums::objective`]) above its value at the start (by more than
+    /// rounding, [`RotationSums::rounding`], so that a converged solve does not sweep twice),
+    /// the rotations of the start come back and are swept alone, which never raises it; so the
+    /// local step never raises $E$. Checking after the sweep, not between the step and the
+    /// sweep, saves a pass.
     pub(super) fn smooth_local_step(&mut self) -> f64 {
         let Some(mut sr) = self.smooth.take() else { return self.local_step_energy() };
-        let edges = self.smooth_covariances(&mut sr);
-        self.implicit_rotation_step(&mut sr);
-        let classes = std::mem::take(&mut sr.colours);
-        for class in &classes {
-            self.update_rotations(&mut sr, class);
-        }
-        sr.colours = classes;
-        let e = self.smooth_energy_from(&sr, edges);
+        let start = self.smooth_covariances(&mut sr);
+        let mut swept = if sr.use_implicit {
+            // The rotations of the start wait in `sr.proposed`.
+            sr.implicit.step(&self.rotations, &mut sr.proposed);
+            std::mem::swap(&mut self.rotations, &mut sr.proposed);
+            let swept = self.sweep(&mut sr);
+            if swept.objective(sr.beta) <= start.objective(sr.beta) + start.rounding(sr.beta) {
+                Some(swept)
+            } else {
+                std::mem::swap(&mut self.rotations, &mut sr.proposed);
+                None
+            }
+        } else {
+            None
+        };
+        let swept = swept.get_or_insert_with(|| self.sweep(&mut sr));
+        let e = self.energy_from(start.edges, swept.traces, None) + sr.beta * swept.term;
         self.smooth = Some(sr);
         e
     }
 
-    /// The implicit step of [`super::rotation_solve`], kept only when it lowers
-    /// $-2\sum_i\operatorname{tr}(R_iS_i) + \beta\sum_i\sum_j w_{ij}\lVert R_i-R_j\rVert_F^2$.
-    fn implicit_rotation_step(&mut self, sr: &mut SmoothRotations) {
-        if !sr.use_implicit {
-            return;
+    /// One Gauss–Seidel sweep over the colour classes ([`Arap::update_rotations`]); returns the
+    /// sums of the rotations it leaves, over all ordered pairs.
+    fn sweep(&mut self, sr: &mut SmoothRotations) -> RotationSums {
+        let classes = std::mem::take(&mut sr.colours);
+        let mut swept = RotationSums::default();
+        for class in &classes {
+            swept.add(self.update_rotations(sr, class));
         }
-        let before = self.rotation_objective(sr);
-        let Cells::Spokes { neighbours } = &self.cells else { return };
-        sr.implicit.step(neighbours, sr.beta, &sr.covs, &self.rotations, &mut sr.proposed);
-        std::mem::swap(&mut self.rotations, &mut sr.proposed);
-        if self.rotation_objective(sr) >= before {
-            std::mem::swap(&mut self.rotations, &mut sr.proposed);
-        }
+        sr.colours = classes;
+        // Each unordered pair was counted once, at the later colour; the energy counts both.
+        swept.term *= 2.0;
+        swept
     }
 
-    /// The rotations' part of $E$ at the current pose: $-2\sum_i\operatorname{tr}(R_iS_i) +
-    /// \beta\sum_i\sum_j w_{ij}\lVert R_i-R_j\rVert_F^2$.
-    fn rotation_objective(&self, sr: &SmoothRotations) -> f64 {
-        let task = self.task;
-        let parts: Vec<f64> = self
-            .rotations
-            .par_chunks(task)
-            .zip(sr.covs.par_chunks(task))
-            .map(|(r, s)| r.iter().zip(s).map(|(r, s)| trace_of_product(r, s)).sum::<f64>())
-            .collect();
-        -2.0 * parts.iter().sum::<f64>() + sr.beta * self.rotation_term()
-    }
-
-    /// $S_i$ for every vertex into `sr.covs`; returns $\sum_i\sum_j w_{ij}\lVert x_i -
-    /// x_j\rVert^2$, summed per task block and then in block order.
-    fn smooth_covariances(&self, sr: &mut SmoothRotations) -> f64 {
-        let task = self.task;
-        let parts: Vec<f64> = sr
+    /// $S_i$ for every vertex into `sr.covs`, with $\sum_i\operatorname{tr}(R_iS_i)$ and
+    /// $\sum_i\sum_j w_{ij}\lVert R_i-R_j\rVert_F^2$ for the current rotations and, when the implicit step runs, its gradient
+    /// ([`rotation_solve::minus_gradient`]), in one pass; `edges` is $\sum_i\sum_j
+    /// w_{ij}\lVert x_i - x_j\rVert^2$. Summed per task block and then in block order.
+    fn smooth_covariances(&self, sr: &mut SmoothRotations) -> RotationSums {
+        let Cells::Spokes { neighbours } = &self.cells else { return RotationSums::default() };
+        let (task, rot, beta, implicit) = (self.task, &self.rotations, sr.beta, sr.use_implicit);
+        let parts: Vec<RotationSums> = sr
             .covs
             .par_chunks_mut(task)
+            .zip(sr.implicit.gradient_mut().par_chunks_mut(task))
             .enumerate()
-            .map(|(c, out)| self.covariances(c * task, out, 0.0))
+            .map(|(c, (covs, gradient))| {
+                let first = c * task;
+                let mut sums = RotationSums {
+                    edges: self.covariances(first, covs, 0.0),
+                    ..RotationSums::default()
+                };
+                for (k, (s, g)) in covs.iter().zip(gradient).enumerate() {
+                    let (i, row) = (first + k, neighbours.row(first + k));
+                    sums.traces += trace_of_product(&rot[i], s);
+                    sums.term += spread(&rot[i], row, rot, |_| true);
+                    if implicit {
+                        *g = rotation_solve::minus_gradient(&rot[i], s, row, rot, beta);
+                    }
+                }
+                sums
+            })
             .collect();
-        parts.iter().sum()
+        RotationSums::total(&parts)
     }
 
     /// Fits $R_i$ to $X_i = S_i + 2\beta\sum_j w_{ij}R_j^\top$ for the vertices `class` at once
-    /// (from the rotations before the call), keeping $R_i$ where the fit does not raise
-    /// $\operatorname{tr}(R_i X_i)$. Gauss–Seidel when `class` holds no two neighbours, Jacobi
-    /// when it holds all vertices.
-    pub(super) fn update_rotations(&mut self, sr: &mut SmoothRotations, class: &[u32]) {
-        let Cells::Spokes { neighbours } = &self.cells else { return };
+    /// (from the rotations before the call; [`fit_rotations_near`], [`LANES`] vertices per
+    /// call), keeping $R_i$ where the fit does not raise $\operatorname{tr}(R_i X_i)$.
+    /// Gauss–Seidel when `class` holds no two neighbours, Jacobi when it holds all vertices.
+    ///
+    /// Returns, for the rotations it leaves, $\sum_{i}\operatorname{tr}(R_iS_i)$ over `class`
+    /// and $\sum_i\sum_{j:\,c(j)<c(i)} w_{ij}\lVert R_i-R_j\rVert_F^2$ over the neighbours of an
+    /// earlier colour $c$: summed over the classes of a sweep in colour order, every pair is
+    /// counted once, with both rotations final. Summed per block of `class` and then in order.
+    pub(super) fn update_rotations(
+        &mut self,
+        sr: &mut SmoothRotations,
+        class: &[u32],
+    ) -> RotationSums {
+        let Cells::Spokes { neighbours } = &self.cells else { return RotationSums::default() };
         if sr.fitted.len() < class.len() {
             sr.fitted.resize(class.len(), [[0.0; 3]; 3]);
         }
-        let (rot, covs, beta) = (&self.rotations, &sr.covs, sr.beta);
+        let (rot, covs, beta, colour) = (&self.rotations, &sr.covs, sr.beta, &sr.colour);
+        let block = (self.task / 4).max(LANES);
         let fitted = &mut sr.fitted[..class.len()];
-        fitted.par_iter_mut().zip(class.par_iter()).with_min_len(self.task / 4).for_each(
-            |(out, &i)| {
-                let i = i as usize;
-                let mut x = covs[i];
-                for &(j, w) in neighbours.row(i) {
-                    add_transposed(&mut x, 2.0 * beta * w, &rot[j as usize]);
+        let parts: Vec<RotationSums> = fitted
+            .par_chunks_mut(block)
+            .zip(class.par_chunks(block))
+            .map(|(out, class)| {
+                let mut sums = RotationSums::default();
+                for (out, class) in out.chunks_mut(LANES).zip(class.chunks(LANES)) {
+                    let mut x = [[[0.0; 3]; 3]; LANES];
+                    let mut new = [IDENTITY; LANES];
+                    for ((x, new), &i) in x.iter_mut().zip(&mut new).zip(class) {
+                        let i = i as usize;
+                        *x = covs[i];
+                        for &(j, w) in neighbours.row(i) {
+                            add_transposed(x, 2.0 * beta * w, &rot[j as usize]);
+                        }
+                        *new = rot[i];
+                    }
+                    if class.len() == LANES {
+                        fit_rotations_near(&x, &mut new);
+                    } else {
+                        for (new, x) in new.iter_mut().zip(&x).take(class.len()) {
+                            *new = fit_rotation_near(x, new);
+                        }
+                    }
+                    for (((out, new), x), &i) in out.iter_mut().zip(&new).zip(&x).zip(class) {
+                        let i = i as usize;
+                        let old = &rot[i];
+                        let keep = trace_of_product(new, x) >= trace_of_product(old, x);
+                        *out = if keep { *new } else { *old };
+                        sums.traces += trace_of_product(out, &covs[i]);
+                        sums.term += spread(out, neighbours.row(i), rot, |j| colour[j] < colour[i]);
+                    }
                 }
-                let old = &rot[i];
-                let new = fit_rotation_near(&x, old);
-                *out = if trace_of_product(&new, &x) >= trace_of_product(old, &x) {
-                    new
-                } else {
-                    *old
-                };
-            },
-        );
+                sums
+            })
+            .collect();
         for (&i, r) in class.iter().zip(fitted.iter()) {
             self.rotations[i as usize] = *r;
         }
-    }
-
-    /// $E(x, R)$ for the current rotations, from the covariances in `sr` and the spokes' edge
-    /// sum `edges`: $A + \sum w\lVert e\rVert^2 - 2\sum_i\operatorname{tr}(R_iS_i)$ (at least
-    /// 0) plus $\beta\sum_i\sum_j w_{ij}\lVert R_i - R_j\rVert_F^2$ and the soft handles.
-    fn smooth_energy_from(&self, sr: &SmoothRotations, edges: f64) -> f64 {
-        let task = self.task;
-        let rot = &self.rotations;
-        let parts: Vec<f64> = rot
-            .par_chunks(task)
-            .zip(sr.covs.par_chunks(task))
-            .map(|(r, s)| r.iter().zip(s).map(|(r, s)| trace_of_product(r, s)).sum::<f64>())
-            .collect();
-        let fitted: f64 = parts.iter().sum();
-        self.energy_from(edges, fitted, None) + sr.beta * self.rotation_term()
+        RotationSums::total(&parts)
     }
 
     /// $\sum_i\sum_j w_{ij}\lVert R_i - R_j\rVert_F^2$ over the spokes for the current
@@ -277,13 +325,9 @@ impl Arap {
         let parts: Vec<f64> = (0..rot.len().div_ceil(task))
             .into_par_iter()
             .map(|c| {
-                let mut sum = 0.0;
-                for i in c * task..((c + 1) * task).min(rot.len()) {
-                    for &(j, w) in neighbours.row(i) {
-                        sum += w * frobenius2_of_difference(&rot[i], &rot[j as usize]);
-                    }
-                }
-                sum
+                (c * task..((c + 1) * task).min(rot.len()))
+                    .map(|i| spread(&rot[i], neighbours.row(i), rot, |_| true))
+                    .sum()
             })
             .collect();
         parts.iter().sum()
@@ -318,6 +362,60 @@ impl Arap {
         }
         e
     }
+}
+
+/// Sums of one pass over the rotations: the spokes' $\sum w\lVert x_i-x_j\rVert^2$ (`edges`,
+/// where the pass computes covariances), $\sum\operatorname{tr}(R_iS_i)$ (`traces`) and the
+/// rotation term's $\sum w_{ij}\lVert R_i-R_j\rVert_F^2$ over the pairs the pass counts (`term`).
+#[derive(Debug, Clone, Copy, Default)]
+pub(super) struct RotationSums {
+    edges: f64,
+    traces: f64,
+    term: f64,
+}
+
+impl RotationSums {
+    /// Adds `other` into `self`.
+    fn add(&mut self, other: RotationSums) {
+        self.edges += other.edges;
+        self.traces += other.traces;
+        self.term += other.term;
+    }
+
+    /// The sums of the blocks `parts`, added in order.
+    fn total(parts: &[RotationSums]) -> RotationSums {
+        let mut sum = RotationSums::default();
+        parts.iter().for_each(|p| sum.add(*p));
+        sum
+    }
+
+    /// The rotations' part of $E$ at a fixed pose: $-2\sum_i\operatorname{tr}(R_iS_i) +
+    /// \beta\sum_i\sum_j w_{ij}\lVert R_i-R_j\rVert_F^2$ (for sums over all ordered pairs).
+    fn objective(&self, beta: f64) -> f64 {
+        -2.0 * self.traces + beta * self.term
+    }
+
+    /// The rounding error of [`RotationSums::objective`], taken as $10^{-13}$ of the sum of its
+    /// terms' sizes.
+    fn rounding(&self, beta: f64) -> f64 {
+        1e-13 * (2.0 * self.traces.abs() + beta * self.term)
+    }
+}
+
+const IDENTITY: Mat3 = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+
+/// $\sum_j w_{ij}\lVert R - R_j\rVert_F^2$ over the neighbours $(j, w_{ij})$ in `row` for which
+/// `counts(j)` holds.
+#[inline]
+fn spread(r: &Mat3, row: &[(u32, f64)], rot: &[Mat3], counts: impl Fn(usize) -> bool) -> f64 {
+    let mut sum = 0.0;
+    for &(j, w) in row {
+        let j = j as usize;
+        if counts(j) {
+            sum += w * frobenius2_of_difference(r, &rot[j]);
+        }
+    }
+    sum
 }
 
 /// `x += s * r^T`.
