@@ -6,8 +6,9 @@
 //! the method panel's Anderson acceleration; default `arap bsarap bsarap-coarse`).
 //!
 //! Drives the editor's own deformer factory (`app::editor::pose_solvers::factory`) with the editor's
-//! default method settings (tolerance 1e-4, cap 30 iterations per displayed frame; `--energy` and
-//! `--bending-length`, a fraction of the diagonal, as the method panel sets them), warm-started
+//! default method settings (smooth rotations at bending length 0.02, tolerance 1e-4, cap 30
+//! iterations per displayed frame; `--energy` and `--bending-length`, a fraction of the diagonal,
+//! as the method panel sets them), warm-started
 //! from the previous frame as the solver thread does, with the first group moving on the
 //! benchmark's circle (radius 0.1·diag in the xy plane, FRAMES steps of one turn, default 30),
 //! the others at rest. A frame is what the thread does per published frame: the group poses'

@@ -30,17 +30,9 @@ fn smooth_rotations_and_the_bending_length_in_world_units() {
     let mut h = harness(test_mesh(), None);
     step_until(&mut h, "the default asset", settled);
     let arap = |a: &EditorApp| a.method_settings().arap;
-    assert_eq!(arap(h.state()).energy, solver::Energy::SpokesAndRims);
-    // No bending length control for an energy without one.
-    assert!(h.query_by_label("bending length (of diagonal)").is_none());
-
-    // The panel is below the fold of the side panel's scroll area: click through AccessKit.
-    // The energy box is named by its selected text.
-    open_energy_box(&mut h, "spokes and rims");
-    h.get_by_label("smooth rotations").click_accesskit();
-    step_until(&mut h, "the smooth-rotations energy", |a| {
-        arap(a).energy == solver::Energy::SmoothRotations
-    });
+    // The editor's default: smooth rotations at the default bending length, shown in world
+    // units.
+    assert_eq!(arap(h.state()).energy, solver::Energy::SmoothRotations);
     let diagonal = h.state().diagonal();
     assert!(diagonal > 0.0);
     let shown = |fraction: f64| format!("bending length = {:.4} world units", fraction * diagonal);
@@ -48,6 +40,24 @@ fn smooth_rotations_and_the_bending_length_in_world_units() {
     assert_eq!(arap(h.state()).bending_length, default);
     h.get_by_label(&shown(default));
 
+    // Plain ARAP: no bending length control for an energy without one. The panel is below the
+    // fold of the side panel's scroll area: click through AccessKit. The energy box is named by
+    // its selected text.
+    open_energy_box(&mut h, "smooth rotations");
+    h.get_by_label("spokes and rims").click_accesskit();
+    step_until(&mut h, "the spokes-and-rims energy", |a| {
+        arap(a).energy == solver::Energy::SpokesAndRims
+    });
+    assert!(h.query_by_label("bending length (of diagonal)").is_none());
+
+    // The box's list stays open after a choice made through AccessKit; open it if it closed.
+    if h.query_by_label("smooth rotations").is_none() {
+        open_energy_box(&mut h, "spokes and rims");
+    }
+    h.get_by_label("smooth rotations").click_accesskit();
+    step_until(&mut h, "the smooth-rotations energy", |a| {
+        arap(a).energy == solver::Energy::SmoothRotations
+    });
     h.get_by_role_and_label(egui::accesskit::Role::Slider, "bending length (of diagonal)")
         .set_value_accesskit(0.05);
     step_until(&mut h, "bending length 0.05", |a| (arap(a).bending_length - 0.05).abs() < 1e-9);

@@ -35,8 +35,15 @@ pub const ANDERSON_WINDOW: usize = 5;
 impl Default for MethodSettings {
     fn default() -> Self {
         MethodSettings {
-            // Fewer than the solver's default cap: a frame of a drag should stay short.
-            arap: solver::ArapConfig { max_iterations: 30, ..solver::ArapConfig::default() },
+            // Smooth rotations (ℓ = 0.02 of the diagonal): one pose at every resolution, so the
+            // coarse pose while dragging and the settled pose agree (docs/DESIGN.md, "Smooth
+            // rotations"). Fewer iterations than the solver's default cap: a frame of a drag
+            // should stay short.
+            arap: solver::ArapConfig {
+                energy: solver::Energy::SmoothRotations,
+                max_iterations: 30,
+                ..solver::ArapConfig::default()
+            },
             // The paper's base is slow to precompute and collapses under small handles on the
             // default creature (see main's scenes); the coarse faired base is interactive.
             bs_variant: solver::Method::BsArapCoarse,
