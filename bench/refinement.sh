@@ -32,3 +32,12 @@ x16() { # NAME MESH SELECTION MOTION
 x16 armadillo-b-turn $M/armadillo.obj bench/handles/armadillo-b.json turn
 x16 bunny-bench $M/bunny.off bench/handles/bunny.json bench
 x16 creature-turn assets/creature.obj assets/creature.handles.json turn
+# The other two bending lengths at ×16 (the plain rows above): bench/results/refinement/x16/*-ell.txt
+x16ell() { # NAME MESH SELECTION MOTION
+  echo "\$ refinement $2 $3 --levels 2 --motion $4 --ell 0.01,0.04 --cap 1000 --no-plain" > "$out/x16/$1-ell.txt"
+  target/release/examples/refinement "$2" "$3" --levels 2 --motion "$4" --ell 0.01,0.04 --cap 1000 \
+    --no-plain >> "$out/x16/$1-ell.txt"
+}
+x16ell creature-turn assets/creature.obj assets/creature.handles.json turn
+x16ell bunny-bench $M/bunny.off bench/handles/bunny.json bench
+x16ell armadillo-b-turn $M/armadillo.obj bench/handles/armadillo-b.json turn

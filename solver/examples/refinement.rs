@@ -4,12 +4,12 @@
 //! 4× the vertices a level, the original vertices first), for the same handle motion, compared
 //! at the original vertices (mean and max distance over the bounding-box diagonal).
 //!
-//!     cargo run --release -p solver --example refinement -- MESH SELECTION [--levels K] [--motion bench|turn] [--ell F,F,...] [--cap N] [--plain-cap N] [--tolerance T] [--sweeps-only] [--write-poses DIR]
+//!     cargo run --release -p solver --example refinement -- MESH SELECTION [--levels K] [--motion bench|turn] [--ell F,F,...] [--cap N] [--plain-cap N] [--tolerance T] [--sweeps-only] [--no-plain] [--write-poses DIR]
 //!
 //! SELECTION: a sphere selection (`bench/handles/*.json`): spheres select the same region of
 //! the surface at every resolution. Motions: `bench` is the benchmark's frame 5 (group 0 moved
 //! 0.1·diag along a circle, the others fixed); `turn` moves group 0 by 0.15·diag along +y and
-//! turns it 40° about x through its centroid. Energies: spokes and rims (today's default),
+//! turns it 40° about x through its centroid. Energies: spokes and rims (the batch default),
 //! then smooth rotations at each bending length of `--ell` (fractions of the diagonal,
 //! default 0.01,0.02,0.04). Each solve: Anderson (window 5) to a relative decrease of
 //! `--tolerance` (default 1e-9) or `--cap` iterations (default 3000; `--plain-cap` for spokes and
@@ -18,7 +18,8 @@
 //! midpoint subdivision (nested iteration: one branch of the minima, module doc of
 //! `solver::deform::arap::rotation_solve` for why that start matters), and its pose is checked
 //! to be converged by its own stopping rule. `--sweeps-only` turns off the implicit rotation
-//! step (`Arap::set_implicit_rotation_step`), to measure what it gains. `--write-poses DIR`
+//! step (`Arap::set_implicit_rotation_step`), to measure what it gains; `--no-plain` skips
+//! spokes and rims (for more bending lengths of a study whose plain rows exist). `--write-poses DIR`
 //! writes the converged poses of the coarsest and the finest level as OBJ,
 //! `DIR/STEM_ENERGY_xN.obj` with ENERGY `spokes-rims` or `srELL` (`sr0.02`) and N the vertex
 //! factor (1, 4^levels), and the rest mesh as `DIR/STEM_rest.obj`: the pictures of
@@ -34,7 +35,8 @@ use solver::{Acceleration, Arap, ArapConfig, Energy, GroupTransform, handle_targ
 fn main() {
     let mut args: Vec<String> = std::env::args().skip(1).collect();
     let sweeps_only = args.iter().any(|a| a == "--sweeps-only");
-    args.retain(|a| a != "--sweeps-only");
+    let no_plain = args.iter().any(|a| a == "--no-plain");
+    args.retain(|a| a != "--sweeps-only" && a != "--no-plain");
     let mut option = |name: &str| {
         args.iter().position(|a| a == name).map(|i| {
             let v = args.get(i + 1).unwrap_or_else(|| panic!("{name} VALUE")).clone();
@@ -77,7 +79,7 @@ fn main() {
         meshes.last().unwrap().n_vertices(),
         if sweeps_only { "; sweeps only" } else { "" }
     );
-    let mut energies = vec![(Energy::SpokesAndRims, 0.0)];
+    let mut energies = if no_plain { vec![] } else { vec![(Energy::SpokesAndRims, 0.0)] };
     energies.extend(ells.iter().map(|&l| (Energy::SmoothRotations, l)));
     for (energy, ell) in energies {
         let name = match energy {
