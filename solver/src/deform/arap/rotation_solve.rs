@@ -25,9 +25,10 @@
 //! $$(8\beta L + \operatorname{diag} h)\,\omega = -g,$$
 //! one matrix for every pose (factorized once, [`SpdFactor`]) and three right-hand sides.
 //!
-//! **Safeguard.** The step is kept only when $F$ falls (it is a model, not the function); the
-//! Gauss–Seidel sweep that follows it in each local step never raises $F$, so the local step
-//! still descends. The construction (a Laplacian-preconditioned Riemannian gradient step on
+//! **Safeguard.** The step is a model, not the function, so it may raise $F$: the local step
+//! keeps it only when the step and the Gauss–Seidel sweep after it together end below the
+//! starting $F$, and otherwise sweeps from the starting rotations, which never raises $F$; so
+//! the local step still descends. The construction (a Laplacian-preconditioned Riemannian gradient step on
 //! $SO(3)^n$) is ours.
 
 use super::Csr;
