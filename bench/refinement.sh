@@ -21,23 +21,21 @@ run bunny-bench $M/bunny.off bench/handles/bunny.json 1 bench
 run bunny-b-turn $M/bunny.off bench/handles/bunny-b.json 1 turn
 run armadillo-bench $M/armadillo.obj bench/handles/armadillo.json 1 bench
 run armadillo-b-turn $M/armadillo.obj bench/handles/armadillo-b.json 1 turn
-# ×16 on the larger meshes, the default bending length only (plain ARAP capped at its finest
-# level: 300 iterations of 692k take minutes and it does not converge): bench/results/refinement/x16/
-x16() { # NAME MESH SELECTION MOTION
+# ×16 on the larger meshes (plain ARAP capped at its finest level: 300 iterations of 692k take
+# minutes and it does not converge), the default bending length, then the other two without
+# plain ARAP: bench/results/refinement/x16/NAME.txt and NAME-ell.txt
+x16() { # NAME MESH SELECTION MOTION SUFFIX ARGS...
   mkdir -p "$out/x16"
-  echo "\$ refinement $2 $3 --levels 2 --motion $4 --ell 0.02 --cap 1000 --plain-cap 300" > "$out/x16/$1.txt"
-  target/release/examples/refinement "$2" "$3" --levels 2 --motion "$4" --ell 0.02 --cap 1000 \
-    --plain-cap 300 >> "$out/x16/$1.txt"
+  local mesh=$2 sel=$3 motion=$4 file="$out/x16/$1$5.txt"
+  shift 5
+  echo "\$ refinement $mesh $sel --levels 2 --motion $motion $* --cap 1000" > "$file"
+  target/release/examples/refinement "$mesh" "$sel" --levels 2 --motion "$motion" "$@" \
+    --cap 1000 >> "$file"
 }
-x16 armadillo-b-turn $M/armadillo.obj bench/handles/armadillo-b.json turn
-x16 bunny-bench $M/bunny.off bench/handles/bunny.json bench
-x16 creature-turn assets/creature.obj assets/creature.handles.json turn
-# The other two bending lengths at ×16 (the plain rows above): bench/results/refinement/x16/*-ell.txt
-x16ell() { # NAME MESH SELECTION MOTION
-  echo "\$ refinement $2 $3 --levels 2 --motion $4 --ell 0.01,0.04 --cap 1000 --no-plain" > "$out/x16/$1-ell.txt"
-  target/release/examples/refinement "$2" "$3" --levels 2 --motion "$4" --ell 0.01,0.04 --cap 1000 \
-    --no-plain >> "$out/x16/$1-ell.txt"
+x16sets() { # SUFFIX ARGS...
+  x16 armadillo-b-turn $M/armadillo.obj bench/handles/armadillo-b.json turn "$@"
+  x16 bunny-bench $M/bunny.off bench/handles/bunny.json bench "$@"
+  x16 creature-turn assets/creature.obj assets/creature.handles.json turn "$@"
 }
-x16ell creature-turn assets/creature.obj assets/creature.handles.json turn
-x16ell bunny-bench $M/bunny.off bench/handles/bunny.json bench
-x16ell armadillo-b-turn $M/armadillo.obj bench/handles/armadillo-b.json turn
+x16sets "" --ell 0.02 --plain-cap 300
+x16sets -ell --ell 0.01,0.04 --no-plain

@@ -74,7 +74,7 @@ use super::{Arap, Cells, Csr};
 use crate::geometry::mesh::norm2;
 use crate::linalg::linsolve::FactorError;
 use crate::linalg::rotation::{
-    LANES, Mat3, fit_rotation_near, fit_rotations_near, trace_of_product,
+    IDENTITY, LANES, Mat3, fit_rotation_near, fit_rotations_near, trace_of_product,
 };
 use rayon::prelude::*;
 
@@ -402,8 +402,6 @@ impl RotationSums {
         1e-13 * (2.0 * self.traces.abs() + beta * self.term)
     }
 }
-
-const IDENTITY: Mat3 = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
 
 /// $\sum_j w_{ij}\lVert R - R_j\rVert_F^2$ over the neighbours $(j, w_{ij})$ in `row` for which
 /// `counts(j)` holds.
