@@ -99,15 +99,18 @@ fn the_mesh_precomputation_is_kept_on_disk_for_the_next_session() {
     let files = || -> Vec<std::path::PathBuf> {
         std::fs::read_dir(&cache).map_or(Vec::new(), |d| d.map(|e| e.unwrap().path()).collect())
     };
+    // The file is written after the first frames may arrive (at the background pool's lower
+    // priority): wait for the precomputation itself.
+    let done = |a: &app::editor::EditorApp| support::settled(a) && !a.is_precomputing();
     let mut h = harness(test_mesh(), Some(dir.to_path_buf()));
-    step_until(&mut h, "a solved frame", support::settled);
+    step_until(&mut h, "a solved frame and the precomputation", done);
     let written = files();
     assert_eq!(written.len(), 1, "{written:?}");
     let modified = std::fs::metadata(&written[0]).unwrap().modified().unwrap();
     drop(h);
 
     let mut h = harness(test_mesh(), Some(dir.to_path_buf()));
-    step_until(&mut h, "a solved frame after reopening", support::settled);
+    step_until(&mut h, "a solved frame and the precomputation after reopening", done);
     assert_eq!(files(), written);
     assert_eq!(std::fs::metadata(&written[0]).unwrap().modified().unwrap(), modified);
 }

@@ -31,6 +31,12 @@ impl EditorApp {
         self.jobs.loading.is_some()
     }
 
+    /// Whether the mesh's own precomputation (`jobs::spawn_prepare`, which also writes its disk
+    /// cache) is still running; the first frames may arrive before it ends.
+    pub fn is_precomputing(&self) -> bool {
+        self.jobs.prepare.is_some() || self.jobs.early_prepare.lock().is_ok_and(|p| p.is_some())
+    }
+
     pub fn mesh_path(&self) -> Option<&Path> {
         self.session.scene.as_ref().map(|s| s.path.as_path())
     }
