@@ -90,11 +90,11 @@ impl BsArap {
         // length flatten by design, takes M's cotangents for those triangles instead.
         let floor = 2.0 * crate::geometry::cleanup::AREA_EPS * mesh.bbox_diagonal().powi(2);
         let fallback = smoothing.is_some().then_some(mesh.positions());
-        let arap = Arap::with_constraints(&base_mesh, constraints, config, floor, fallback)
+        let arap = Arap::with_constraints(&base_mesh, constraints, config, floor, fallback, None)
             .map_err(|e| match e {
-                SolveError::DegenerateFace { face } => SolveError::DegenerateBase { face },
-                other => other,
-            })?;
+            SolveError::DegenerateFace { face } => SolveError::DegenerateBase { face },
+            other => other,
+        })?;
         let deformed_base = base.clone();
         Ok(BsArap { base, details, arap, result: mesh.positions().to_vec(), deformed_base })
     }

@@ -70,6 +70,8 @@ pub use config::{
     MAX_ENERGY_THRESHOLD, MAX_ITERATIONS_LIMIT, REFINE_ANDERSON_WINDOW, SolveStats,
 };
 
+pub(crate) use rotation_solve::RotationLevel;
+
 use crate::deform::constraints::Constraints;
 use crate::geometry::reorder::VertexOrder;
 use crate::linalg::lanes::Avx2;

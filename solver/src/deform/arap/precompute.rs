@@ -4,6 +4,7 @@
 //! free block $L_{FF}$ of the cotangent Laplacian (Sun et al. 2017, Eq. 4's matrix).
 
 use super::membrane::Membrane;
+use super::rotation_solve::RotationLevel;
 use super::smooth_rotations::SmoothRotations;
 use super::{Arap, ArapConfig, Cells, Csr, Energy, Soft, corner_edges};
 use crate::deform::constraints::Constraints;
@@ -38,18 +39,21 @@ impl Arap {
             });
         }
         let constraints = Constraints::new(mesh, handles);
-        Arap::with_constraints(mesh, constraints, config, 0.0, None)
+        Arap::with_constraints(mesh, constraints, config, 0.0, None, None)
     }
 
     /// As [`Arap::new`] with a precomputed partition (shared with the bi-harmonic base), an
-    /// absolute floor on doubled triangle areas, and optional fallback positions whose
-    /// cotangents a degenerate triangle takes (see [`face_cotangents_or`]).
+    /// absolute floor on doubled triangle areas, optional fallback positions whose
+    /// cotangents a degenerate triangle takes (see [`face_cotangents_or`]), and optionally a
+    /// coarser mesh of the same surface for [`Energy::SmoothRotations`]' implicit rotation
+    /// step to solve on ([`RotationLevel`]; other energies ignore it).
     pub(crate) fn with_constraints(
         mesh: &Mesh,
         constraints: Constraints,
         config: &ArapConfig,
         min_double_area: f64,
         fallback: Option<&[[f64; 3]]>,
+        level: Option<RotationLevel<'_>>,
     ) -> Result<Arap, SolveError> {
         if !(0.0..=1.0).contains(&config.membrane) {
             return Err(SolveError::MembraneShare(config.membrane));
@@ -179,7 +183,8 @@ impl Arap {
         let smooth = match &cells {
             Cells::Spokes { neighbours } if smooth => {
                 let ell = config.bending_length * mesh.bbox_diagonal();
-                let sr = SmoothRotations::new(neighbours, &rest, ell).map_err(|source| {
+                let level = level.map(|l| (l, &order.to_mesh[..]));
+                let sr = SmoothRotations::new(neighbours, &rest, ell, level).map_err(|source| {
                     SolveError::Factorization {
                         matrix: "the rotation-smoothness Laplacian",
                         source,

@@ -25,6 +25,16 @@
 //! $$(8\beta L + \operatorname{diag} h)\,\omega = -g,$$
 //! one matrix for every pose (factorized once, [`SpdFactor`]) and three right-hand sides.
 //!
+//! **On a level** ([`RotationLevel`]). On a dense mesh the matrix's factor is as large as the
+//! global step's (at 1.5M vertices, 3 GiB beside its 6). Where a coarser mesh $M_\ell$ of the
+//! same surface is at hand (the coarse BS-ARAP's fairing level, a ninth of the vertices), the
+//! step solves on it instead, as a two-grid coarse correction: with the interpolation $P$
+//! ($n\times n_\ell$, row $i$ the barycentric weights of vertex $i$ on a level triangle),
+//! $$\omega = P\,(P^\top A P)^{-1} P^\top(-g),\qquad A = 8\beta L + \operatorname{diag} h,$$
+//! the Galerkin matrix $P^\top AP$ factored once. It corrects the long wavelengths that the
+//! sweep cannot; the sweep after it removes the short ones the level cannot represent (Briggs,
+//! Henson & McCormick, *A Multigrid Tutorial*, ch. 3: smoothing and coarse-grid correction).
+//!
 //! **Safeguard.** The step is a model, not the function, so it may raise $F$: the local step
 //! keeps it only when the step and the Gauss–Seidel sweep after it together end below the
 //! starting $F$, and otherwise sweeps from the starting rotations, which never raises $F$; so
@@ -38,18 +48,44 @@ use crate::linalg::rotation::{Mat3, axis_angle, mul_mat};
 use faer::sparse::Triplet;
 use rayon::prelude::*;
 
-/// The factorized matrix $8\beta L + \operatorname{diag} h$ and the step's buffers.
+/// A coarser mesh of the same surface for the implicit step to solve on (module doc, "On a
+/// level"): its vertex count and, per vertex of this mesh (in the mesh's order), the three
+/// level vertices it is interpolated from and their weights (summing to one). Every level
+/// vertex should carry weight somewhere (a level vertex that is a mesh vertex: weight 1 at
+/// itself), or that level vertex's correction is zero.
+#[derive(Clone, Copy)]
+pub(crate) struct RotationLevel<'a> {
+    pub n_vertices: usize,
+    pub interpolate: &'a (dyn Fn(usize) -> ([u32; 3], [f64; 3]) + Sync),
+}
+
+/// The factorized matrix $8\beta L + \operatorname{diag} h$ (or its Galerkin product on a
+/// level) and the step's buffers.
 pub(super) struct RotationSolve {
     factor: SpdFactor,
-    /// The three right-hand sides, column-major `n×3`: $-g$, then in place $\omega$.
+    /// The three right-hand sides, column-major `m×3` ($m$ the factor's size): $-g$ (or
+    /// $-P^\top g$), then in place the solution.
     rhs: Vec<f64>,
     /// $-g_i$ per vertex before it is copied into `rhs`.
     gradient: Vec<[f64; 3]>,
+    /// The interpolation from the level, when the step solves on one.
+    level: Option<Interpolation>,
+}
+
+/// $P$ of the module doc by rows and by columns (internal numbering).
+struct Interpolation {
+    /// Per vertex: its level vertices and weights.
+    rows: Vec<([u32; 3], [f64; 3])>,
+    /// Per level vertex: the (vertex, weight) pairs of its column, for the restriction.
+    columns: Csr<(u32, f64)>,
 }
 
 impl std::fmt::Debug for RotationSolve {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("RotationSolve").field("n", &self.gradient.len()).finish()
+        f.debug_struct("RotationSolve")
+            .field("n", &self.gradient.len())
+            .field("factored", &self.factor.n())
+            .finish()
     }
 }
 
@@ -88,32 +124,56 @@ pub(super) fn minus_gradient(
 }
 
 impl RotationSolve {
-    /// For the spokes `neighbours` (weights $w_{ij}$), rest positions `rest` and $\beta$.
+    /// For the spokes `neighbours` (weights $w_{ij}$), rest positions `rest` and $\beta$; on
+    /// `level` when given, with `to_mesh` the mesh vertex of each internal one.
     pub(super) fn new(
         neighbours: &Csr<(u32, f64)>,
         rest: &[[f64; 3]],
         beta: f64,
+        level: Option<(RotationLevel<'_>, &[u32])>,
     ) -> Result<RotationSolve, FactorError> {
         let n = rest.len();
-        let mut triplets = Vec::with_capacity(n + neighbours.items.len());
-        let mut diagonal = vec![0.0; n];
-        let mut scale = 0.0f64;
-        for (i, d) in diagonal.iter_mut().enumerate() {
-            let (mut degree, mut m) = (0.0, 0.0);
-            for &(j, w) in neighbours.row(i) {
-                m += w * norm2(sub(rest[i], rest[j as usize]));
-                degree += w;
-                triplets.push(Triplet::new(i, j as usize, -8.0 * beta * w));
-            }
-            *d = 8.0 * beta * degree + 4.0 / 3.0 * m;
-            scale = scale.max(*d);
-        }
+        let diagonal: Vec<f64> = (0..n)
+            .map(|i| {
+                let (mut degree, mut m) = (0.0, 0.0);
+                for &(j, w) in neighbours.row(i) {
+                    m += w * norm2(sub(rest[i], rest[j as usize]));
+                    degree += w;
+                }
+                8.0 * beta * degree + 4.0 / 3.0 * m
+            })
+            .collect();
         // An isolated or zero-weight vertex still needs a positive diagonal.
+        let scale = diagonal.iter().fold(0.0f64, |a, &d| a.max(d));
         let floor = 1e-12 * scale.max(f64::MIN_POSITIVE);
-        triplets
-            .extend(diagonal.iter().enumerate().map(|(i, &d)| Triplet::new(i, i, d.max(floor))));
-        let factor = SpdFactor::from_triplets(n, &triplets, Layout::Simplicial)?;
-        Ok(RotationSolve { factor, rhs: vec![0.0; 3 * n], gradient: vec![[0.0; 3]; n] })
+        let (m, triplets, level) = match level {
+            None => {
+                let mut triplets = Vec::with_capacity(n + neighbours.items.len());
+                for (i, &d) in diagonal.iter().enumerate() {
+                    triplets.extend(
+                        neighbours
+                            .row(i)
+                            .iter()
+                            .map(|&(j, w)| Triplet::new(i, j as usize, -8.0 * beta * w)),
+                    );
+                    triplets.push(Triplet::new(i, i, d.max(floor)));
+                }
+                (n, triplets, None)
+            }
+            Some((level, to_mesh)) => {
+                let p = Interpolation::new(level, to_mesh);
+                let mut triplets = p.galerkin(neighbours, &diagonal, beta);
+                triplets.extend((0..level.n_vertices).map(|k| Triplet::new(k, k, floor)));
+                (level.n_vertices, triplets, Some(p))
+            }
+        };
+        let factor = SpdFactor::from_triplets(m, &triplets, Layout::Simplicial)?;
+        Ok(RotationSolve { factor, rhs: vec![0.0; 3 * m], gradient: vec![[0.0; 3]; n], level })
+    }
+
+    /// The size of the factored matrix (the vertices, or the level's).
+    pub(super) fn unknowns(&self) -> usize {
+        self.factor.n()
     }
 
     /// The buffer of $-g$, one entry per vertex, that [`RotationSolve::step`] reads: the
@@ -125,19 +185,121 @@ impl RotationSolve {
     /// The step (module doc) from the gradient in [`RotationSolve::gradient_mut`] at the
     /// rotations `rotations`: writes $\exp([\omega_i]_\times)R_i$ into `out`.
     pub(super) fn step(&mut self, rotations: &[Mat3], out: &mut [Mat3]) {
-        let n = rotations.len();
-        for (k, col) in self.rhs.chunks_mut(n).enumerate() {
-            for (x, g) in col.iter_mut().zip(&self.gradient) {
-                *x = g[k];
+        let m = self.factor.n();
+        let gradient = &self.gradient;
+        match &self.level {
+            None => {
+                for (k, col) in self.rhs.chunks_mut(m).enumerate() {
+                    for (x, g) in col.iter_mut().zip(gradient) {
+                        *x = g[k];
+                    }
+                }
+            }
+            Some(p) => {
+                // -Pᵀg, one level vertex at a time from its column.
+                let restricted: Vec<[f64; 3]> = (0..m)
+                    .into_par_iter()
+                    .map(|k| {
+                        let mut r = [0.0; 3];
+                        for &(i, w) in p.columns.row(k) {
+                            let g = gradient[i as usize];
+                            for c in 0..3 {
+                                r[c] += w * g[c];
+                            }
+                        }
+                        r
+                    })
+                    .collect();
+                for (c, col) in self.rhs.chunks_mut(m).enumerate() {
+                    for (x, r) in col.iter_mut().zip(&restricted) {
+                        *x = r[c];
+                    }
+                }
             }
         }
-        let rhs = faer::MatMut::from_column_major_slice_mut(&mut self.rhs, n, 3);
+        let rhs = faer::MatMut::from_column_major_slice_mut(&mut self.rhs, m, 3);
         self.factor.solve_in_place(rhs);
-        let (x, y, z) = (&self.rhs[..n], &self.rhs[n..2 * n], &self.rhs[2 * n..]);
+        let (x, y, z) = (&self.rhs[..m], &self.rhs[m..2 * m], &self.rhs[2 * m..]);
+        let level = self.level.as_ref();
         out.par_iter_mut().enumerate().for_each(|(i, o)| {
-            let w = [x[i], y[i], z[i]];
+            let w = match level {
+                None => [x[i], y[i], z[i]],
+                Some(p) => {
+                    let (corners, weights) = &p.rows[i];
+                    let mut w = [0.0; 3];
+                    for (&k, &a) in corners.iter().zip(weights) {
+                        let k = k as usize;
+                        w = [w[0] + a * x[k], w[1] + a * y[k], w[2] + a * z[k]];
+                    }
+                    w
+                }
+            };
             let angle = norm2(w).sqrt();
             *o = mul_mat(&axis_angle(w, angle), &rotations[i]);
         });
+    }
+}
+
+impl Interpolation {
+    /// $P$ from `level`, rows in the internal numbering (`to_mesh`); zero weights dropped.
+    fn new(level: RotationLevel<'_>, to_mesh: &[u32]) -> Interpolation {
+        let rows: Vec<([u32; 3], [f64; 3])> =
+            to_mesh.par_iter().map(|&v| (level.interpolate)(v as usize)).collect();
+        let pairs: Vec<(u32, (u32, f64))> = rows
+            .iter()
+            .enumerate()
+            .flat_map(|(i, (corners, weights))| {
+                corners
+                    .iter()
+                    .zip(weights)
+                    .filter(|&(_, &w)| w != 0.0)
+                    .map(move |(&k, &w)| (k, (i as u32, w)))
+            })
+            .collect();
+        let columns = Csr::from_pairs(level.n_vertices, &pairs);
+        Interpolation { rows, columns }
+    }
+
+    /// The lower triangle of $P^\top A P$ (module doc) for $A$ with off-diagonal entries
+    /// $-8\beta w_{ij}$ over the spokes `neighbours` and the diagonal `diagonal`: per level
+    /// vertex $k$, $\sum_i P_{ik} \sum_j A_{ij} P_{jl}$ over its column's vertices $i$.
+    fn galerkin(
+        &self,
+        neighbours: &Csr<(u32, f64)>,
+        diagonal: &[f64],
+        beta: f64,
+    ) -> Vec<Triplet<usize, usize, f64>> {
+        let n_level = self.columns.offsets.len() - 1;
+        let rows: Vec<Vec<Triplet<usize, usize, f64>>> = (0..n_level)
+            .into_par_iter()
+            .map_init(Vec::new, |scratch: &mut Vec<(u32, f64)>, k| {
+                scratch.clear();
+                let mut add = |j: usize, a: f64| {
+                    let (corners, weights) = &self.rows[j];
+                    for (&l, &w) in corners.iter().zip(weights) {
+                        if w != 0.0 && l as usize <= k {
+                            scratch.push((l, a * w));
+                        }
+                    }
+                };
+                for &(i, p) in self.columns.row(k) {
+                    let i = i as usize;
+                    add(i, p * diagonal[i]);
+                    for &(j, w) in neighbours.row(i) {
+                        add(j as usize, -8.0 * beta * p * w);
+                    }
+                }
+                scratch.sort_unstable_by_key(|&(l, _)| l);
+                let mut out: Vec<Triplet<usize, usize, f64>> = Vec::new();
+                for &(l, a) in scratch.iter() {
+                    match out.last_mut() {
+                        Some(t) if t.col == l as usize => t.val += a,
+                        _ => out.push(Triplet::new(k, l as usize, a)),
+                    }
+                }
+                out
+            })
+            .collect();
+        rows.concat()
     }
 }

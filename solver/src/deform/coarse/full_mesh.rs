@@ -8,6 +8,9 @@
 //! solver was dropped cannot be stopped (the sparse factorization has no way to be
 //! interrupted), so a new handle set's waits for it instead of adding its own memory and cores
 //! (a full-mesh factorization at 692k vertices holds about 2 GiB, at 1.5M about 6 GiB and 80 s).
+//! On smooth rotations the full mesh's implicit rotation step solves on the fairing level where
+//! the base has one ([`FineLevel::full_mesh`]), so
+//! that the full mesh is factored once, not twice.
 //! The fairing level's ([`crate::deform::coarse::level_settle`]), a tenth of the mesh, has a queue of
 //! its own, so that a handle set painted while the previous set's full mesh is still being
 //! factored settles on the level without waiting for it. A failed factorization is kept and
@@ -19,11 +22,13 @@
 //! rayon's global pool with whatever the application does meanwhile, such as the next drag's
 //! solves, whose parallel passes then queue behind the factorization's tasks.
 
-use crate::deform::arap::{Arap, ArapConfig};
+use crate::deform::arap::{Arap, ArapConfig, RotationLevel};
+use crate::deform::coarse::base::CoarseBase;
 use crate::deform::constraints::Constraints;
 use crate::error::SolveError;
 use crate::geometry::mesh::Mesh;
 use crate::linalg::linsolve::FactorError;
+use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::thread::JoinHandle;
 
@@ -62,11 +67,22 @@ impl Queue {
 
 #[derive(Debug)]
 enum State {
-    Pending(Box<(Mesh, Constraints, ArapConfig)>),
+    Pending(Box<Inputs>),
     /// The thread factoring it; it returns the factorization and the milliseconds it took.
     Factoring(JoinHandle<(Result<Arap, SolveError>, f64)>),
     Ready(Box<Arap>),
     Failed(SolveError),
+}
+
+/// What a [`FineLevel`] is built from.
+#[derive(Debug)]
+struct Inputs {
+    mesh: Mesh,
+    constraints: Constraints,
+    config: ArapConfig,
+    /// The coarse base whose level (if it has one) the smooth-rotation energy's implicit step
+    /// solves on ([`RotationLevel`]).
+    base: Option<Arc<CoarseBase>>,
 }
 
 /// Where background factorizations run their parallel work ([`set_background_pool`]).
@@ -91,10 +107,17 @@ impl Drop for BackgroundSlot {
 }
 
 /// Factors the ARAP on the full mesh from `inputs`; with the milliseconds it took.
-fn factor(inputs: &(Mesh, Constraints, ArapConfig)) -> (Result<Arap, SolveError>, f64) {
-    let (mesh, constraints, config) = inputs;
+fn factor(inputs: &Inputs) -> (Result<Arap, SolveError>, f64) {
+    let Inputs { mesh, constraints, config, base } = inputs;
     let t = std::time::Instant::now();
-    let arap = Arap::with_constraints(mesh, constraints.clone(), config, 0.0, None);
+    let level = base.as_ref().and_then(|b| b.level.as_ref());
+    let interpolate = |i: usize| match level {
+        Some(l) => (l.mesh.triangles()[l.faces[i] as usize], l.weights[i]),
+        None => ([0; 3], [0.0; 3]),
+    };
+    let level =
+        level.map(|l| RotationLevel { n_vertices: l.mesh.n_vertices(), interpolate: &interpolate });
+    let arap = Arap::with_constraints(mesh, constraints.clone(), config, 0.0, None, level);
     (arap, t.elapsed().as_secs_f64() * 1e3)
 }
 
@@ -108,8 +131,26 @@ impl FineLevel {
         config: &ArapConfig,
         queue: Queue,
     ) -> FineLevel {
-        let inputs = (mesh.copy_geometry(), constraints, *config);
+        let inputs =
+            Inputs { mesh: mesh.copy_geometry(), constraints, config: *config, base: None };
         FineLevel { state: State::Pending(Box::new(inputs)), queue }
+    }
+
+    /// As [`FineLevel::new`] for the full mesh (in [`Queue::FullMesh`]'s line) of the coarse
+    /// `base`: with [`crate::deform::arap::Energy::SmoothRotations`], its implicit rotation
+    /// step solves on the base's fairing level when there is one (a dense mesh's), so that the
+    /// full mesh needs one factorization of its own size, not two.
+    pub fn full_mesh(
+        mesh: &Mesh,
+        constraints: Constraints,
+        config: &ArapConfig,
+        base: Arc<CoarseBase>,
+    ) -> FineLevel {
+        let mut fine = FineLevel::new(mesh, constraints, config, Queue::FullMesh);
+        if let State::Pending(inputs) = &mut fine.state {
+            inputs.base = Some(base);
+        }
+        fine
     }
 
     /// Factors it now, or waits for the thread factoring it. `Some(ms)`: this call finished

@@ -76,7 +76,7 @@ pub mod prolong;
 use crate::deform::arap::{Arap, ArapConfig, SolveStats};
 use crate::deform::coarse::base::{CoarseBase, Phases};
 use crate::deform::coarse::embedding::{blend, from_stored};
-use crate::deform::coarse::full_mesh::{FineLevel, Queue};
+use crate::deform::coarse::full_mesh::FineLevel;
 pub use crate::deform::coarse::groups::MIN_COARSE_GROUP;
 use crate::deform::coarse::groups::{CoarseGroups, coarse_rig};
 use crate::deform::coarse::level_settle::LevelSolver;
@@ -298,6 +298,7 @@ impl CoarseBsArap {
             &coarse_config,
             base.floor,
             Some(&base.rest_kept),
+            None,
         )
         .map_err(|e| match e {
             SolveError::DegenerateFace { face } => SolveError::DegenerateBase { face },
@@ -310,7 +311,7 @@ impl CoarseBsArap {
             .map(|&v| (v, mesh.positions()[v as usize]))
             .collect();
         let fine = (coarse.fine_iterations > 0 || coarse.settle_iterations > 0)
-            .then(|| FineLevel::new(mesh, constraints, config, Queue::FullMesh));
+            .then(|| FineLevel::full_mesh(mesh, constraints, config, Arc::clone(&base)));
         let fine_handles = handles.handle_vertices();
         let level = match (&base.level, coarse.settle_iterations) {
             (Some(l), 1..) => {
