@@ -36,6 +36,8 @@ x16sets() { # SUFFIX ARGS...
   x16 armadillo-b-turn $M/armadillo.obj bench/handles/armadillo-b.json turn "$@"
   x16 bunny-bench $M/bunny.off bench/handles/bunny.json bench "$@"
   x16 creature-turn assets/creature.obj assets/creature.handles.json turn "$@"
+  x16 bunny-b-turn $M/bunny.off bench/handles/bunny-b.json turn "$@"
+  x16 armadillo-bench $M/armadillo.obj bench/handles/armadillo.json bench "$@"
 }
 x16sets "" --ell 0.02 --plain-cap 300
 x16sets -ell --ell 0.01,0.04 --no-plain

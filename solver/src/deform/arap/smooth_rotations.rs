@@ -459,15 +459,19 @@ mod tests {
     fn setup(bending_length: f64, cfg: ArapConfig) -> (Mesh, Arap, Vec<[f64; 3]>) {
         let (m, h) = crate::geometry::shapes::bumpy_bar(3);
         let a = Arap::new(&m, &h, &ArapConfig { bending_length, ..cfg }).unwrap();
-        let targets = h
-            .handle_vertices()
+        let targets = cap_turned(&m, &h);
+        (m, a, targets)
+    }
+
+    /// Targets of `h`'s handles on `m` with the cap at $x > 0$ turned by 0.9 rad about $z$.
+    fn cap_turned(m: &Mesh, h: &crate::deform::handles::Handles) -> Vec<[f64; 3]> {
+        h.handle_vertices()
             .iter()
             .map(|&v| {
                 let q = m.positions()[v as usize];
                 if q[0] > 0.0 { mul_vec(&axis_angle([0.0, 0.0, 1.0], 0.9), q) } else { q }
             })
-            .collect();
-        (m, a, targets)
+            .collect()
     }
 
     /// A deterministic pseudo-random rotation per index (angle up to `amplitude`).
@@ -691,14 +695,7 @@ mod tests {
             .map(|p| (p[0].abs() > 1.7).then_some(u32::from(p[0] < 0.0)))
             .collect();
         let h = crate::deform::handles::Handles::from_options(labels).unwrap();
-        let targets: Vec<[f64; 3]> = h
-            .handle_vertices()
-            .iter()
-            .map(|&v| {
-                let q = fine.positions()[v as usize];
-                if q[0] > 0.0 { mul_vec(&axis_angle([0.0, 0.0, 1.0], 0.9), q) } else { q }
-            })
-            .collect();
+        let targets = cap_turned(&fine, &h);
         let interpolate = |i: usize| rows[i];
         let level = RotationLevel { n_vertices: coarse.n_vertices(), interpolate: &interpolate };
         let run = |level: Option<RotationLevel<'_>>, implicit: bool| {
