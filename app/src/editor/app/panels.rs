@@ -352,7 +352,8 @@ impl EditorApp {
             .checkbox(&mut anderson, "Anderson acceleration")
             .on_hover_text(format!(
                 "safeguarded Anderson acceleration (window {window}) of every solve: fewer \
-                 iterations to the tolerance, each a little dearer"
+                 iterations to the tolerance, each a little dearer; on spokes and rims it can \
+                 carry thin parts into another configuration along a drag"
             ))
             .changed()
         {
