@@ -9,8 +9,8 @@
 //! interrupted), so a new handle set's waits for it instead of adding its own memory and cores
 //! (a full-mesh factorization at 692k vertices holds about 2 GiB, at 1.5M about 6 GiB and 80 s).
 //! On smooth rotations the full mesh's implicit rotation step solves on the fairing level where
-//! the base has one ([`FineLevel::full_mesh`]), so
-//! that the full mesh is factored once, not twice.
+//! the base has one ([`FineLevel::full_mesh`]), so that the full mesh is factored once, not
+//! twice.
 //! The fairing level's ([`crate::deform::coarse::level_settle`]), a tenth of the mesh, has a queue of
 //! its own, so that a handle set painted while the previous set's full mesh is still being
 //! factored settles on the level without waiting for it. A failed factorization is kept and
