@@ -3,8 +3,7 @@
 //! Usage: `cargo run --release -p app --example editor_rate -- [--no-settle] [--gpu-normals]
 //! [--energy spokes-and-rims|spokes|smooth-rotations] [--bending-length F] MESH SELECTION [FRAMES [METHOD...]]`
 //! (methods: `arap`, `bsarap`, `bsarap-faired`, `bsarap-coarse`, each optionally with `+aa` for
-//! the method panel's Anderson acceleration, the editor's default; without it, plain iterations;
-//! default `arap bsarap bsarap-coarse`).
+//! the method panel's Anderson acceleration; default `arap bsarap bsarap-coarse`).
 //!
 //! Drives the editor's own deformer factory (`app::editor::pose_solvers::factory`) with the editor's
 //! default method settings (smooth rotations at bending length 0.02, tolerance 1e-4, cap 30

@@ -38,13 +38,10 @@ impl Default for MethodSettings {
             // Smooth rotations (ℓ = 0.02 of the diagonal): one pose at every resolution, so the
             // coarse pose while dragging and the settled pose agree (docs/DESIGN.md, "Smooth
             // rotations"). Fewer iterations than the solver's default cap: a frame of a drag
-            // should stay short. Anderson acceleration: on smooth rotations it reaches the same
-            // minimum as plain iterations on every measured drag, in about two thirds of the
-            // iterations (BENCHMARKS.md, "Editor rate").
+            // should stay short.
             arap: solver::ArapConfig {
                 energy: solver::Energy::SmoothRotations,
                 max_iterations: 30,
-                acceleration: solver::Acceleration::Anderson { window: ANDERSON_WINDOW },
                 ..solver::ArapConfig::default()
             },
             // The paper's base is slow to precompute and collapses under small handles on the
