@@ -38,8 +38,8 @@
 //! **Safeguard.** The step is a model, not the function, so it may raise $F$: the local step
 //! keeps it only when the step and the Gauss–Seidel sweep after it together end below the
 //! starting $F$, and otherwise sweeps from the starting rotations, which never raises $F$; so
-//! the local step still descends. The construction (a Laplacian-preconditioned Riemannian gradient step on
-//! $SO(3)^n$) is ours.
+//! the local step still descends. The construction (a Laplacian-preconditioned Riemannian
+//! gradient step on $SO(3)^n$) is ours.
 
 use super::Csr;
 use crate::geometry::mesh::{norm2, sub};
@@ -78,6 +78,8 @@ struct Interpolation {
     rows: Vec<([u32; 3], [f64; 3])>,
     /// Per level vertex: the (vertex, weight) pairs of its column, for the restriction.
     columns: Csr<(u32, f64)>,
+    /// $-P^\top g$ per level vertex (kept to reuse its memory).
+    restricted: Vec<[f64; 3]>,
 }
 
 impl std::fmt::Debug for RotationSolve {
@@ -187,7 +189,7 @@ impl RotationSolve {
     pub(super) fn step(&mut self, rotations: &[Mat3], out: &mut [Mat3]) {
         let m = self.factor.n();
         let gradient = &self.gradient;
-        match &self.level {
+        match &mut self.level {
             None => {
                 for (k, col) in self.rhs.chunks_mut(m).enumerate() {
                     for (x, g) in col.iter_mut().zip(gradient) {
@@ -197,21 +199,18 @@ impl RotationSolve {
             }
             Some(p) => {
                 // -Pᵀg, one level vertex at a time from its column.
-                let restricted: Vec<[f64; 3]> = (0..m)
-                    .into_par_iter()
-                    .map(|k| {
-                        let mut r = [0.0; 3];
-                        for &(i, w) in p.columns.row(k) {
-                            let g = gradient[i as usize];
-                            for c in 0..3 {
-                                r[c] += w * g[c];
-                            }
+                let columns = &p.columns;
+                p.restricted.par_iter_mut().enumerate().for_each(|(k, r)| {
+                    *r = [0.0; 3];
+                    for &(i, w) in columns.row(k) {
+                        let g = gradient[i as usize];
+                        for c in 0..3 {
+                            r[c] += w * g[c];
                         }
-                        r
-                    })
-                    .collect();
+                    }
+                });
                 for (c, col) in self.rhs.chunks_mut(m).enumerate() {
-                    for (x, r) in col.iter_mut().zip(&restricted) {
+                    for (x, r) in col.iter_mut().zip(&p.restricted) {
                         *x = r[c];
                     }
                 }
@@ -257,7 +256,7 @@ impl Interpolation {
             })
             .collect();
         let columns = Csr::from_pairs(level.n_vertices, &pairs);
-        Interpolation { rows, columns }
+        Interpolation { rows, columns, restricted: vec![[0.0; 3]; level.n_vertices] }
     }
 
     /// The lower triangle of $P^\top A P$ (module doc) for $A$ with off-diagonal entries
