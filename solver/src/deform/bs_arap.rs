@@ -15,7 +15,7 @@
 //! reported as [`SolveError::DegenerateBase`]). [`BaseKind::Faired`] adds a data term that keeps
 //! $B$ close to $M$ away from the handles ([`crate::deform::biharmonic::faired_surface`]).
 
-use crate::deform::arap::{Arap, ArapConfig, SolveStats};
+use crate::deform::arap::{Arap, ArapConfig, RotationStep, SolveStats};
 use crate::deform::biharmonic::faired_surface;
 use crate::deform::constraints::Constraints;
 use crate::deform::handles::Handles;
@@ -90,8 +90,15 @@ impl BsArap {
         // length flatten by design, takes M's cotangents for those triangles instead.
         let floor = 2.0 * crate::geometry::cleanup::AREA_EPS * mesh.bbox_diagonal().powi(2);
         let fallback = smoothing.is_some().then_some(mesh.positions());
-        let arap = Arap::with_constraints(&base_mesh, constraints, config, floor, fallback, None)
-            .map_err(|e| match e {
+        let arap = Arap::with_constraints(
+            &base_mesh,
+            constraints,
+            config,
+            floor,
+            fallback,
+            RotationStep::Auto,
+        )
+        .map_err(|e| match e {
             SolveError::DegenerateFace { face } => SolveError::DegenerateBase { face },
             other => other,
         })?;

@@ -70,7 +70,7 @@ pub use config::{
     MAX_ENERGY_THRESHOLD, MAX_ITERATIONS_LIMIT, REFINE_ANDERSON_WINDOW, SolveStats,
 };
 
-pub(crate) use rotation_solve::RotationLevel;
+pub(crate) use rotation_solve::RotationStep;
 
 use crate::deform::constraints::Constraints;
 use crate::geometry::reorder::VertexOrder;

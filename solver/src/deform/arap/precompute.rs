@@ -4,9 +4,11 @@
 //! free block $L_{FF}$ of the cotangent Laplacian (Sun et al. 2017, Eq. 4's matrix).
 
 use super::membrane::Membrane;
-use super::rotation_solve::RotationLevel;
+use super::rotation_solve::RotationStep;
 use super::smooth_rotations::SmoothRotations;
 use super::{Arap, ArapConfig, Cells, Csr, Energy, Soft, corner_edges};
+use crate::deform::coarse::level::{embedded_level, level_vertices};
+use crate::deform::coarse::level_settle::LevelEmbedding;
 use crate::deform::constraints::Constraints;
 use crate::deform::handles::Handles;
 use crate::deform::rig::soft_penalty;
@@ -29,8 +31,40 @@ fn vertices_per_task(n: usize) -> usize {
     n.div_ceil(16).clamp(256, 2048).next_multiple_of(LANES)
 }
 
+/// $k$ of [`rotation_level`]: the level's mean edge is the bending length over $k$. At the
+/// default bending length (0.02 of the diagonal) that is the coarse variant's fairing level at
+/// its default smoothing (0.01 of the diagonal over
+/// [`crate::deform::coarse::level::LEVEL_EDGES_PER_SMOOTHING_LENGTH`] = 3), on which the
+/// rotation step was measured to take as many iterations as on every vertex.
+pub const ROTATION_LEVEL_EDGES_PER_BENDING_LENGTH: f64 = 6.0;
+
+/// The level that [`Energy::SmoothRotations`]' implicit rotation step solves on
+/// ([`RotationStep::Auto`]) for a dense mesh: `mesh` decimated until its mean edge is the
+/// bending length $\ell$ over [`ROTATION_LEVEL_EDGES_PER_BENDING_LENGTH`]
+/// ([`level_vertices`]), with every vertex embedded on it ([`embedded_level`]). `None` for the
+/// other energies, when that level would keep half the vertices or more (every paper mesh at
+/// the default $\ell$: the step then factors every vertex, as before), has under 16, or
+/// cannot be built. Keeps the second factorization of the mesh's size off dense meshes: at
+/// 1.5M vertices the rotation matrix's factor is about 3 GiB beside the global step's 6.
+fn rotation_level(mesh: &Mesh, config: &ArapConfig) -> Option<LevelEmbedding> {
+    if config.energy != Energy::SmoothRotations {
+        return None;
+    }
+    let ell = config.bending_length * mesh.bbox_diagonal();
+    if !(ell.is_finite() && ell > 0.0) {
+        return None;
+    }
+    let n_level = level_vertices(mesh, ell, ROTATION_LEVEL_EDGES_PER_BENDING_LENGTH);
+    if n_level >= mesh.n_vertices() / 2 || n_level < 16 {
+        return None;
+    }
+    embedded_level(mesh, n_level)
+}
+
 impl Arap {
-    /// Precomputes cells and weights and factors $L_{FF}$ (once per handle set).
+    /// Precomputes cells and weights and factors $L_{FF}$ (once per handle set); on smooth
+    /// rotations, the rotation step solves on a decimated level of a dense mesh
+    /// ([`RotationStep::Auto`]).
     pub fn new(mesh: &Mesh, handles: &Handles, config: &ArapConfig) -> Result<Arap, SolveError> {
         if handles.n_vertices() != mesh.n_vertices() {
             return Err(SolveError::HandleCount {
@@ -39,21 +73,21 @@ impl Arap {
             });
         }
         let constraints = Constraints::new(mesh, handles);
-        Arap::with_constraints(mesh, constraints, config, 0.0, None, None)
+        Arap::with_constraints(mesh, constraints, config, 0.0, None, RotationStep::Auto)
     }
 
     /// As [`Arap::new`] with a precomputed partition (shared with the bi-harmonic base), an
     /// absolute floor on doubled triangle areas, optional fallback positions whose
-    /// cotangents a degenerate triangle takes (see [`face_cotangents_or`]), and optionally a
-    /// coarser mesh of the same surface for [`Energy::SmoothRotations`]' implicit rotation
-    /// step to solve on ([`RotationLevel`]; other energies ignore it).
+    /// cotangents a degenerate triangle takes (see [`face_cotangents_or`]), and where
+    /// [`Energy::SmoothRotations`]' implicit rotation step solves ([`RotationStep`]; other
+    /// energies ignore it).
     pub(crate) fn with_constraints(
         mesh: &Mesh,
         constraints: Constraints,
         config: &ArapConfig,
         min_double_area: f64,
         fallback: Option<&[[f64; 3]]>,
-        level: Option<RotationLevel<'_>>,
+        step: RotationStep<'_>,
     ) -> Result<Arap, SolveError> {
         if !(0.0..=1.0).contains(&config.membrane) {
             return Err(SolveError::MembraneShare(config.membrane));
@@ -113,49 +147,52 @@ impl Arap {
         });
         ff.extend(diag.iter().enumerate().map(|(r, &d)| Triplet::new(r, r, d)));
         let n_free = inner.free_vertices.len();
-        let factor = if n_free == 0 {
-            None
-        } else {
-            Some(SpdFactor::from_triplets(n_free, &ff, Layout::Simplicial).map_err(|source| {
+        let factor_free_block = || {
+            if n_free == 0 {
+                return Ok(None);
+            }
+            SpdFactor::from_triplets(n_free, &ff, Layout::Simplicial).map(Some).map_err(|source| {
                 SolveError::Factorization {
                     matrix: "the free block of the cotangent Laplacian",
                     source,
                 }
-            })?)
+            })
         };
+        let cells_and_rotations =
+            || -> Result<(Cells, Option<Box<SmoothRotations>>), SolveError> {
+                let cells = cells(config, &rest, tris, cot, &weights);
+                let smooth = match &cells {
+                    Cells::Spokes { neighbours } if smooth => {
+                        let ell = config.bending_length * mesh.bbox_diagonal();
+                        let decimated;
+                        let level = match step {
+                            RotationStep::Level(level) => Some(level),
+                            RotationStep::Auto => {
+                                decimated = rotation_level(mesh, config);
+                                decimated.as_ref()
+                            }
+                            RotationStep::EveryVertex => None,
+                        };
+                        let level = level.map(|l| (l, &order.to_mesh[..]));
+                        let sr = SmoothRotations::new(neighbours, &rest, ell, level).map_err(
+                            |source| SolveError::Factorization {
+                                matrix: "the rotation-smoothness Laplacian",
+                                source,
+                            },
+                        )?;
+                        Some(Box::new(sr))
+                    }
+                    _ => None,
+                };
+                Ok((cells, smooth))
+            };
+        // The global factorization (simplicial Cholesky) runs on one core: the cells and the
+        // rotation step's level and factorization run beside it.
+        let (factor, cells) = rayon::join(factor_free_block, cells_and_rotations);
+        let factor = factor?;
+        let (cells, smooth) = cells?;
         let coupling = Csr::from_pairs(n_free, &coupling);
 
-        let cells = match config.energy {
-            Energy::SpokesAndRims => {
-                let p = &rest;
-                let edges: Vec<[[f64; 3]; 3]> = tris
-                    .iter()
-                    .map(|t| {
-                        std::array::from_fn(|k| {
-                            let (a, b) = opposite_edge(*t, k);
-                            sub(p[a as usize], p[b as usize])
-                        })
-                    })
-                    .collect();
-                let (ring, cov_coef, mut rhs_coef, edge_coef) =
-                    ring_coefficients(n, tris, &cot, &edges);
-                if config.membrane > 0.0 {
-                    // The vertex cells' share of the rhs (membrane::Membrane adds the rest).
-                    for u in &mut rhs_coef {
-                        *u = scale(*u, 1.0 - config.membrane);
-                    }
-                }
-                Cells::SpokesAndRims { cot, edges, ring, cov_coef, rhs_coef, edge_coef }
-            }
-            Energy::Spokes | Energy::SmoothRotations => {
-                let mut nb = Vec::with_capacity(2 * weights.len());
-                for &(i, j, w) in &weights {
-                    nb.push((i, (j, w)));
-                    nb.push((j, (i, w)));
-                }
-                Cells::Spokes { neighbours: Csr::from_pairs(n, &nb) }
-            }
-        };
         let rest_term = {
             let p = &rest;
             match &cells {
@@ -177,20 +214,6 @@ impl Arap {
         let membrane = match &cells {
             Cells::SpokesAndRims { cot, edges, .. } if config.membrane > 0.0 => {
                 Some(Box::new(Membrane::new(n, tris, cot, edges, config.membrane)))
-            }
-            _ => None,
-        };
-        let smooth = match &cells {
-            Cells::Spokes { neighbours } if smooth => {
-                let ell = config.bending_length * mesh.bbox_diagonal();
-                let level = level.map(|l| (l, &order.to_mesh[..]));
-                let sr = SmoothRotations::new(neighbours, &rest, ell, level).map_err(|source| {
-                    SolveError::Factorization {
-                        matrix: "the rotation-smoothness Laplacian",
-                        source,
-                    }
-                })?;
-                Some(Box::new(sr))
             }
             _ => None,
         };
@@ -222,6 +245,49 @@ impl Arap {
             rest_diagonal: mesh.bbox_diagonal(),
             soft,
         })
+    }
+}
+
+/// The cells of `config`'s energy from the rest positions `rest`, triangles `tris`, their
+/// cotangents `cot` and the edge weights `weights` (internal numbering).
+fn cells(
+    config: &ArapConfig,
+    rest: &[[f64; 3]],
+    tris: &[[u32; 3]],
+    cot: Vec<[f64; 3]>,
+    weights: &[(u32, u32, f64)],
+) -> Cells {
+    let n = rest.len();
+    match config.energy {
+        Energy::SpokesAndRims => {
+            let p = rest;
+            let edges: Vec<[[f64; 3]; 3]> = tris
+                .iter()
+                .map(|t| {
+                    std::array::from_fn(|k| {
+                        let (a, b) = opposite_edge(*t, k);
+                        sub(p[a as usize], p[b as usize])
+                    })
+                })
+                .collect();
+            let (ring, cov_coef, mut rhs_coef, edge_coef) =
+                ring_coefficients(n, tris, &cot, &edges);
+            if config.membrane > 0.0 {
+                // The vertex cells' share of the rhs (membrane::Membrane adds the rest).
+                for u in &mut rhs_coef {
+                    *u = scale(*u, 1.0 - config.membrane);
+                }
+            }
+            Cells::SpokesAndRims { cot, edges, ring, cov_coef, rhs_coef, edge_coef }
+        }
+        Energy::Spokes | Energy::SmoothRotations => {
+            let mut nb = Vec::with_capacity(2 * weights.len());
+            for &(i, j, w) in weights {
+                nb.push((i, (j, w)));
+                nb.push((j, (i, w)));
+            }
+            Cells::Spokes { neighbours: Csr::from_pairs(n, &nb) }
+        }
     }
 }
 

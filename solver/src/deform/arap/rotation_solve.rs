@@ -25,10 +25,12 @@
 //! $$(8\beta L + \operatorname{diag} h)\,\omega = -g,$$
 //! one matrix for every pose (factorized once, [`SpdFactor`]) and three right-hand sides.
 //!
-//! **On a level** ([`RotationLevel`]). On a dense mesh the matrix's factor is as large as the
+//! **On a level** ([`RotationStep`]). On a dense mesh the matrix's factor is as large as the
 //! global step's (at 1.5M vertices, 3 GiB beside its 6). Where a coarser mesh $M_\ell$ of the
-//! same surface is at hand (the coarse BS-ARAP's fairing level, a ninth of the vertices), the
-//! step solves on it instead, as a two-grid coarse correction: with the interpolation $P$
+//! same surface is at hand (the coarse BS-ARAP's fairing level, a ninth of the vertices; or a
+//! decimation of the mesh with edges of a sixth of $\ell$ where the mesh is dense for $\ell$,
+//! `precompute.rs`' `rotation_level`), the step solves on it instead, as a two-grid coarse
+//! correction: with the interpolation $P$
 //! ($n\times n_\ell$, row $i$ the barycentric weights of vertex $i$ on a level triangle),
 //! $$\omega = P\,(P^\top A P)^{-1} P^\top(-g),\qquad A = 8\beta L + \operatorname{diag} h,$$
 //! the Galerkin matrix $P^\top AP$ factored once. It corrects the long wavelengths that the
@@ -42,21 +44,28 @@
 //! gradient step on $SO(3)^n$) is ours.
 
 use super::Csr;
+use crate::deform::coarse::level_settle::LevelEmbedding;
 use crate::geometry::mesh::{norm2, sub};
 use crate::linalg::linsolve::{FactorError, Layout, SpdFactor};
 use crate::linalg::rotation::{Mat3, axis_angle, mul_mat};
 use faer::sparse::Triplet;
 use rayon::prelude::*;
 
-/// A coarser mesh of the same surface for the implicit step to solve on (module doc, "On a
-/// level"): its vertex count and, per vertex of this mesh (in the mesh's order), the three
-/// level vertices it is interpolated from and their weights (summing to one). Every level
-/// vertex should carry weight somewhere (a level vertex that is a mesh vertex: weight 1 at
-/// itself), or that level vertex's correction is zero.
-#[derive(Clone, Copy)]
-pub(crate) struct RotationLevel<'a> {
-    pub n_vertices: usize,
-    pub interpolate: &'a (dyn Fn(usize) -> ([u32; 3], [f64; 3]) + Sync),
+/// Where the implicit step solves ([`super::Arap::with_constraints`]; ignored by the other
+/// energies).
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum RotationStep<'a> {
+    /// On every vertex, whatever the mesh (the tests' comparison for the levels).
+    #[cfg_attr(not(test), allow(dead_code))]
+    EveryVertex,
+    /// On this coarser mesh of the same surface (module doc, "On a level"), every vertex of the
+    /// mesh embedded on one of its triangles. Every level vertex should carry weight somewhere
+    /// (a level vertex that is a mesh vertex: weight 1 at itself), or that level vertex's
+    /// correction is zero.
+    Level(&'a LevelEmbedding),
+    /// On a decimated level of the mesh where the mesh is dense for its bending length, else
+    /// on every vertex (`precompute.rs`, `rotation_level`).
+    Auto,
 }
 
 /// The factorized matrix $8\beta L + \operatorname{diag} h$ (or its Galerkin product on a
@@ -132,7 +141,7 @@ impl RotationSolve {
         neighbours: &Csr<(u32, f64)>,
         rest: &[[f64; 3]],
         beta: f64,
-        level: Option<(RotationLevel<'_>, &[u32])>,
+        level: Option<(&LevelEmbedding, &[u32])>,
     ) -> Result<RotationSolve, FactorError> {
         let n = rest.len();
         let diagonal: Vec<f64> = (0..n)
@@ -164,9 +173,10 @@ impl RotationSolve {
             }
             Some((level, to_mesh)) => {
                 let p = Interpolation::new(level, to_mesh);
+                let m = level.mesh.n_vertices();
                 let mut triplets = p.galerkin(neighbours, &diagonal, beta);
-                triplets.extend((0..level.n_vertices).map(|k| Triplet::new(k, k, floor)));
-                (level.n_vertices, triplets, Some(p))
+                triplets.extend((0..m).map(|k| Triplet::new(k, k, floor)));
+                (m, triplets, Some(p))
             }
         };
         let factor = SpdFactor::from_triplets(m, &triplets, Layout::Simplicial)?;
@@ -241,9 +251,9 @@ impl RotationSolve {
 
 impl Interpolation {
     /// $P$ from `level`, rows in the internal numbering (`to_mesh`); zero weights dropped.
-    fn new(level: RotationLevel<'_>, to_mesh: &[u32]) -> Interpolation {
+    fn new(level: &LevelEmbedding, to_mesh: &[u32]) -> Interpolation {
         let rows: Vec<([u32; 3], [f64; 3])> =
-            to_mesh.par_iter().map(|&v| (level.interpolate)(v as usize)).collect();
+            to_mesh.par_iter().map(|&v| level.interpolate(v as usize)).collect();
         let pairs: Vec<(u32, (u32, f64))> = rows
             .iter()
             .enumerate()
@@ -255,8 +265,9 @@ impl Interpolation {
                     .map(move |(&k, &w)| (k, (i as u32, w)))
             })
             .collect();
-        let columns = Csr::from_pairs(level.n_vertices, &pairs);
-        Interpolation { rows, columns, restricted: vec![[0.0; 3]; level.n_vertices] }
+        let m = level.mesh.n_vertices();
+        let columns = Csr::from_pairs(m, &pairs);
+        Interpolation { rows, columns, restricted: vec![[0.0; 3]; m] }
     }
 
     /// The lower triangle of $P^\top A P$ (module doc) for $A$ with off-diagonal entries

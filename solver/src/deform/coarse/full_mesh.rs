@@ -22,7 +22,7 @@
 //! rayon's global pool with whatever the application does meanwhile, such as the next drag's
 //! solves, whose parallel passes then queue behind the factorization's tasks.
 
-use crate::deform::arap::{Arap, ArapConfig, RotationLevel};
+use crate::deform::arap::{Arap, ArapConfig, RotationStep};
 use crate::deform::coarse::base::CoarseBase;
 use crate::deform::constraints::Constraints;
 use crate::error::SolveError;
@@ -81,7 +81,7 @@ struct Inputs {
     constraints: Constraints,
     config: ArapConfig,
     /// The coarse base whose level (if it has one) the smooth-rotation energy's implicit step
-    /// solves on ([`RotationLevel`]).
+    /// solves on ([`RotationStep::Level`]).
     base: Option<Arc<CoarseBase>>,
 }
 
@@ -110,14 +110,11 @@ impl Drop for BackgroundSlot {
 fn factor(inputs: &Inputs) -> (Result<Arap, SolveError>, f64) {
     let Inputs { mesh, constraints, config, base } = inputs;
     let t = std::time::Instant::now();
-    let level = base.as_ref().and_then(|b| b.level.as_ref());
-    let interpolate = |i: usize| match level {
-        Some(l) => (l.mesh.triangles()[l.faces[i] as usize], l.weights[i]),
-        None => ([0; 3], [0.0; 3]),
+    let step = match base.as_ref().and_then(|b| b.level.as_ref()) {
+        Some(level) => RotationStep::Level(level),
+        None => RotationStep::Auto,
     };
-    let level =
-        level.map(|l| RotationLevel { n_vertices: l.mesh.n_vertices(), interpolate: &interpolate });
-    let arap = Arap::with_constraints(mesh, constraints.clone(), config, 0.0, None, level);
+    let arap = Arap::with_constraints(mesh, constraints.clone(), config, 0.0, None, step);
     (arap, t.elapsed().as_secs_f64() * 1e3)
 }
 

@@ -35,6 +35,7 @@
 
 use crate::deform::biharmonic::faired_surface;
 use crate::deform::coarse::embedding::{OutwardEmbedding, blend, embed_outward};
+use crate::deform::coarse::level_settle::LevelEmbedding;
 use crate::deform::constraints::Constraints;
 use crate::error::SolveError;
 use crate::geometry::cotan::face_cotangents;
@@ -134,26 +135,7 @@ pub fn faired_base_then<R: Send>(
     if level >= n / 2 || level < 16 {
         return direct();
     }
-    let Some((kept, level_triangles)) = collapse(mesh.positions(), mesh.triangles(), level, true)
-    else {
-        return direct();
-    };
-    let level_positions: Vec<[f64; 3]> =
-        kept.iter().map(|&v| mesh.positions()[v as usize]).collect();
-    // The simplifier can leave nearly flat triangles (an angle near 0° or 180°), whose cotangent
-    // weights overwhelm the level's Laplacian: they cover almost no area, so the level goes
-    // without them.
-    let triangles: Vec<[u32; 3]> = level_triangles
-        .iter()
-        .filter(|t| {
-            face_cotangents(&level_positions, std::slice::from_ref(t), 0.0)
-                .is_ok_and(|c| c[0].iter().all(|w| w.abs() <= LEVEL_MAX_HALF_COTANGENT))
-        })
-        .copied()
-        .collect();
-    let (kept, triangles) = without_unused(kept, triangles);
-    let level_positions = kept.iter().map(|&v| mesh.positions()[v as usize]).collect();
-    let Ok(level_mesh) = Mesh::new(level_positions, triangles) else { return direct() };
+    let Some((kept, level_mesh)) = decimated_level(mesh, level) else { return direct() };
     // The fairing (one sparse factorization) needs only the level, the embedding of the fine
     // vertices on it only the level's rest positions: side by side.
     let (level_base, embedded) = rayon::join(
@@ -192,6 +174,44 @@ pub fn faired_base_then<R: Send>(
         weights,
     };
     Ok((FairedBase { base, level: Some(level) }, Some(after)))
+}
+
+/// $M_\ell$ of the module doc, step 1: `mesh` decimated to about `n_level` vertices, with
+/// the nearly flat triangles and the level vertices left in no triangle dropped. Returns the
+/// fine index of each level vertex (ascending) and the level as a mesh; `None` when it cannot
+/// be built.
+fn decimated_level(mesh: &Mesh, n_level: usize) -> Option<(Vec<u32>, Mesh)> {
+    let (kept, level_triangles) = collapse(mesh.positions(), mesh.triangles(), n_level, true)?;
+    let level_positions: Vec<[f64; 3]> =
+        kept.iter().map(|&v| mesh.positions()[v as usize]).collect();
+    // The simplifier can leave nearly flat triangles (an angle near 0° or 180°), whose cotangent
+    // weights overwhelm the level's Laplacian: they cover almost no area, so the level goes
+    // without them.
+    let triangles: Vec<[u32; 3]> = level_triangles
+        .iter()
+        .filter(|t| {
+            face_cotangents(&level_positions, std::slice::from_ref(t), 0.0)
+                .is_ok_and(|c| c[0].iter().all(|w| w.abs() <= LEVEL_MAX_HALF_COTANGENT))
+        })
+        .copied()
+        .collect();
+    let (kept, triangles) = without_unused(kept, triangles);
+    let level_positions = kept.iter().map(|&v| mesh.positions()[v as usize]).collect();
+    let level_mesh = Mesh::new(level_positions, triangles).ok()?;
+    Some((kept, level_mesh))
+}
+
+/// A decimated level of `mesh` of about `n_level` vertices with every vertex of `mesh`
+/// embedded on it (steps 1 and 3 of the module doc, without the fairing): what the implicit
+/// rotation step of smooth rotations solves on when the mesh is dense for its bending length
+/// ([`crate::deform::arap::RotationStep`]). `None` when the level cannot be built or the
+/// embedding fails.
+pub(crate) fn embedded_level(mesh: &Mesh, n_level: usize) -> Option<LevelEmbedding> {
+    let (kept, level) = decimated_level(mesh, n_level)?;
+    let vf = VertexFaces::new(level.n_vertices(), level.triangles());
+    let OutwardEmbedding { representative, faces, weights } =
+        embed_outward(mesh.positions(), mesh.adjacency(), &level, &vf, &kept)?;
+    Some(LevelEmbedding { mesh: level, kept, representative, faces, weights })
 }
 
 /// `kept` (ascending fine indices) without the level vertices that no triangle of `triangles`

@@ -54,6 +54,13 @@ pub struct LevelEmbedding {
     pub(crate) weights: Vec<[f64; 3]>,
 }
 
+impl LevelEmbedding {
+    /// Fine vertex `i`'s three level vertices and their barycentric weights.
+    pub(crate) fn interpolate(&self, i: usize) -> ([u32; 3], [f64; 3]) {
+        (self.mesh.triangles()[self.faces[i] as usize], self.weights[i])
+    }
+}
+
 /// Where a level handle's target comes from.
 #[derive(Debug, Clone, Copy)]
 enum LevelTarget {

@@ -73,7 +73,7 @@ pub mod level;
 pub mod level_settle;
 pub mod prolong;
 
-use crate::deform::arap::{Arap, ArapConfig, SolveStats};
+use crate::deform::arap::{Arap, ArapConfig, RotationStep, SolveStats};
 use crate::deform::coarse::base::{CoarseBase, Phases};
 use crate::deform::coarse::embedding::{blend, from_stored};
 use crate::deform::coarse::full_mesh::FineLevel;
@@ -298,7 +298,7 @@ impl CoarseBsArap {
             &coarse_config,
             base.floor,
             Some(&base.rest_kept),
-            None,
+            RotationStep::Auto,
         )
         .map_err(|e| match e {
             SolveError::DegenerateFace { face } => SolveError::DegenerateBase { face },
