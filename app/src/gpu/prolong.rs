@@ -13,8 +13,8 @@
 //! units in the last place of the coordinates.
 
 use eframe::wgpu;
-use solver::deform::coarse::embedding::from_stored;
 use solver::deform::coarse::prolong::Prolongation;
+use solver::geometry::embedding::from_stored;
 
 use super::normals::{BYTES_PER_VERTEX, GpuNormals, NormalsBinding};
 use super::{Stage, WORKGROUP, compute_pipeline, storage, uniform};

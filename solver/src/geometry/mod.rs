@@ -1,5 +1,6 @@
 //! Triangle meshes and what is computed from their geometry alone: the [`mesh::Mesh`] type,
-//! topology, cleaning on load, vertex reordering, decimation (meshoptimizer's), nearest-neighbour search, ray picking (BVH),
+//! topology, cleaning on load, vertex reordering, decimation (meshoptimizer's), embedding on a
+//! coarser mesh and decimated levels, nearest-neighbour search, ray picking (BVH),
 //! procedural shapes, deformed normals on a file's layout, and the discrete operators
 //! (cotangent Laplacian, lumped mass matrix).
 //!
@@ -9,7 +10,9 @@
 pub mod bvh;
 pub mod cleanup;
 pub mod cotan;
+pub mod embedding;
 pub mod kdtree;
+pub mod level;
 pub mod mass;
 pub mod mesh;
 pub mod normals;

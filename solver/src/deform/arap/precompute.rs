@@ -7,13 +7,12 @@ use super::membrane::Membrane;
 use super::rotation_solve::RotationStep;
 use super::smooth_rotations::SmoothRotations;
 use super::{Arap, ArapConfig, Cells, Csr, Energy, Soft, corner_edges};
-use crate::deform::coarse::level::{embedded_level, level_vertices};
-use crate::deform::coarse::level_settle::LevelEmbedding;
 use crate::deform::constraints::Constraints;
 use crate::deform::handles::Handles;
 use crate::deform::rig::soft_penalty;
 use crate::error::SolveError;
 use crate::geometry::cotan::{edge_weights, face_cotangents_or, laplacian_triplets, opposite_edge};
+use crate::geometry::level::{LevelEmbedding, embedded_level, level_vertices};
 use crate::geometry::mesh::{Mesh, add, norm2, scale, sub};
 use crate::geometry::reorder::VertexOrder;
 use crate::linalg::lanes::Avx2;
@@ -63,8 +62,7 @@ fn rotation_level(mesh: &Mesh, config: &ArapConfig) -> Option<LevelEmbedding> {
 
 impl Arap {
     /// Precomputes cells and weights and factors $L_{FF}$ (once per handle set); on smooth
-    /// rotations, the rotation step solves on a decimated level of a dense mesh
-    /// ([`RotationStep::Auto`]).
+    /// rotations, the rotation step of a dense mesh solves on a decimated level of it.
     pub fn new(mesh: &Mesh, handles: &Handles, config: &ArapConfig) -> Result<Arap, SolveError> {
         if handles.n_vertices() != mesh.n_vertices() {
             return Err(SolveError::HandleCount {

@@ -19,13 +19,13 @@
 //!    level is decimated (and its vertices embedded, step 3) as soon as it is faired, beside
 //!    the fine vertices' embedding on it
 //!    ([`crate::deform::coarse::level::faired_base_then`]).
-//! 3. Embedding (prolongation $P$, [`crate::deform::coarse::embedding`]): each fine vertex $i$ gets
+//! 3. Embedding (prolongation $P$, [`crate::geometry::embedding`]): each fine vertex $i$ gets
 //!    the closest point of $B_c$ to $B_i$ among the coarse triangles within two rings of its
 //!    representative, as barycentric weights $w_{ik}$ on a coarse triangle $t_i$; its detail
 //!    is $D_i = p_i - \sum_k w_{ik} B_{c,k}$. When the coarse level came from the faired level,
 //!    the level's vertices are embedded so (walking on from the two rings), and each fine
 //!    vertex walks from its level representative's coarse triangle instead
-//!    ([`crate::deform::coarse::embedding::embed_from`]).
+//!    ([`crate::geometry::embedding::embed_from`]).
 //!
 //! Which coarse vertices hold a handle group, and the coarse factorization, depend on the
 //! handles: [`crate::deform::coarse::CoarseBsArap::with_base`].
@@ -34,13 +34,13 @@
 //! triangles ([`Mesh::fingerprint`]) and the settings ([`CoarseBase::fits`]), so that a cache
 //! never hands it to another mesh.
 
-use crate::deform::coarse::embedding::{blend, embed, embed_from, from_stored, stored_weights};
 use crate::deform::coarse::level::{
     FairedBase, FairedLevel, Fairing, LEVEL_EDGES_PER_SMOOTHING_LENGTH, LevelView, faired_base_then,
 };
-use crate::deform::coarse::level_settle::LevelEmbedding;
 use crate::deform::config::BaseConfig;
 use crate::error::SolveError;
+use crate::geometry::embedding::{blend, embed, embed_from, from_stored, stored_weights};
+use crate::geometry::level::LevelEmbedding;
 use crate::geometry::mesh::{Mesh, sub};
 use crate::geometry::normals::VertexFaces;
 use crate::geometry::simplify::{Decimation, simplify};

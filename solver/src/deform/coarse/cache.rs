@@ -2,7 +2,7 @@
 //!
 //! The file holds what cannot be recomputed cheaply: the coarse mesh $B_c$ (positions and
 //! triangles), the fine index of each coarse vertex, each fine vertex's representative, coarse
-//! triangle and barycentric weights (two `f32`s, [`crate::deform::coarse::embedding::stored_weights`]),
+//! triangle and barycentric weights (two `f32`s, [`crate::geometry::embedding::stored_weights`]),
 //! and the settings and mesh fingerprint it was built for;
 //! for a base faired on a level, the level's triangles and vertices and each fine vertex's
 //! level representative, level triangle and weights ([`crate::deform::coarse::level_settle`]).
@@ -18,10 +18,10 @@
 //! file.
 
 use crate::deform::coarse::base::{CoarseBase, on_coarse};
-use crate::deform::coarse::embedding::from_stored;
 use crate::deform::coarse::level::Fairing;
-use crate::deform::coarse::level_settle::LevelEmbedding;
 use crate::deform::config::BaseConfig;
+use crate::geometry::embedding::from_stored;
+use crate::geometry::level::LevelEmbedding;
 use crate::geometry::mesh::{Mesh, sub};
 use std::path::{Path, PathBuf};
 use std::time::Instant;

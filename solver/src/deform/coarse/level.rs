@@ -7,25 +7,21 @@
 //! feature shorter than the smoothing length $h$, so it needs no more vertices than resolve
 //! $h$. For a mesh much denser than that:
 //!
-//! 1. $M_\ell$ = [`crate::geometry::simplify::simplify`] of $M$ to $n_\ell$ vertices, the count
-//!    at which a mesh of $M$'s area has a mean edge of $h / k$
-//!    ([`LEVEL_EDGES_PER_SMOOTHING_LENGTH`] $= k$): $n_\ell = n\,(\bar e\,k / h)^2$ for $M$'s
-//!    mean edge length $\bar e$ (vertex density scales as the inverse square of the edge).
+//! 1. $M_\ell$ = a decimated level of $M$ ([`crate::geometry::level`]) of $n_\ell$ vertices,
+//!    the count at which a mesh of $M$'s area has a mean edge of $h / k$
+//!    ([`LEVEL_EDGES_PER_SMOOTHING_LENGTH`] $= k$; [`level_vertices`]).
 //! 2. $B_\ell$ = the faired surface of $M_\ell$ (same $h$).
 //! 3. Each fine vertex $i$ takes the closest point of $M_\ell$ to $M_i$ found by walking from
 //!    the triangle of a neighbour one edge nearer the level's vertices
-//!    ([`crate::deform::coarse::embedding::embed_outward`]: ring by ring outward from the level's
+//!    ([`crate::geometry::embedding::embed_outward`]: ring by ring outward from the level's
 //!    vertices, on to the triangles around the best one's corners while one is closer), as
 //!    barycentric weights $w_{ik}$ on a level triangle $t_i$, and
 //!    $B_i = \sum_k w_{ik} B_{\ell,k}$; its representative is the level vertex the fewest
 //!    edges away. A vertex the level kept gets $B_{\ell}$ at itself.
 //!
 //! The offset of $M_i$ from $M_\ell$ is shorter than the level's edges, below $h$: the fairing
-//! would have removed it. The simplifier can leave nearly flat triangles (corners almost on a
-//! line); the level drops them ([`LEVEL_MAX_HALF_COTANGENT`]: they cover almost no area, and
-//! their weights would make the level's bi-Laplacian numerically indefinite), and with them
-//! any level vertex left in no triangle. The level is
-//! decimated with meshoptimizer's `Regularize` option (rounder triangles). The level's
+//! would have removed it. The level leaves out nearly flat triangles, whose weights would make
+//! its bi-Laplacian numerically indefinite. The level's
 //! fairing and the embedding of the fine vertices on it (with their representatives) need
 //! only the level and run side by side; the level is returned with the base
 //! ([`FairedBase`]) for the coarse base to decimate further, or handed over as soon as it is
@@ -34,21 +30,15 @@
 //! whole mesh is faired directly.
 
 use crate::deform::biharmonic::faired_surface;
-use crate::deform::coarse::embedding::{OutwardEmbedding, blend, embed_outward};
-use crate::deform::coarse::level_settle::LevelEmbedding;
 use crate::deform::constraints::Constraints;
 use crate::error::SolveError;
-use crate::geometry::cotan::face_cotangents;
-use crate::geometry::mesh::{Mesh, dot, sub};
+use crate::geometry::embedding::{OutwardEmbedding, blend, embed_outward};
+use crate::geometry::level::{decimated_level, level_vertices};
+use crate::geometry::mesh::Mesh;
 use crate::geometry::normals::VertexFaces;
-use crate::geometry::simplify::collapse;
 
 /// $k$ of the module doc: the level's mean edge is the smoothing length over $k$.
 pub const LEVEL_EDGES_PER_SMOOTHING_LENGTH: f64 = 3.0;
-
-/// Level triangles with a half-cotangent above this (an angle below about 0.06° or above
-/// 179.94°) are left out of the level (module doc).
-pub const LEVEL_MAX_HALF_COTANGENT: f64 = 1e6;
 
 /// Which way [`faired_base`] went.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -84,7 +74,7 @@ pub struct FairedLevel {
     /// $B_\ell$.
     pub base: Vec<[f64; 3]>,
     /// Per fine vertex, the level vertex the fewest of the mesh's edges away (the first in
-    /// breadth-first order, [`crate::deform::coarse::embedding::embed_outward`]).
+    /// breadth-first order, [`crate::geometry::embedding::embed_outward`]).
     pub representative: Vec<u32>,
     /// Per fine vertex, the level triangle (index into `triangles`) its closest point lies on,
     /// and that point's barycentric weights.
@@ -176,101 +166,10 @@ pub fn faired_base_then<R: Send>(
     Ok((FairedBase { base, level: Some(level) }, Some(after)))
 }
 
-/// $M_\ell$ of the module doc, step 1: `mesh` decimated to about `n_level` vertices, with
-/// the nearly flat triangles and the level vertices left in no triangle dropped. Returns the
-/// fine index of each level vertex (ascending) and the level as a mesh; `None` when it cannot
-/// be built.
-fn decimated_level(mesh: &Mesh, n_level: usize) -> Option<(Vec<u32>, Mesh)> {
-    let (kept, level_triangles) = collapse(mesh.positions(), mesh.triangles(), n_level, true)?;
-    let level_positions: Vec<[f64; 3]> =
-        kept.iter().map(|&v| mesh.positions()[v as usize]).collect();
-    // The simplifier can leave nearly flat triangles (an angle near 0° or 180°), whose cotangent
-    // weights overwhelm the level's Laplacian: they cover almost no area, so the level goes
-    // without them.
-    let triangles: Vec<[u32; 3]> = level_triangles
-        .iter()
-        .filter(|t| {
-            face_cotangents(&level_positions, std::slice::from_ref(t), 0.0)
-                .is_ok_and(|c| c[0].iter().all(|w| w.abs() <= LEVEL_MAX_HALF_COTANGENT))
-        })
-        .copied()
-        .collect();
-    let (kept, triangles) = without_unused(kept, triangles);
-    let level_positions = kept.iter().map(|&v| mesh.positions()[v as usize]).collect();
-    let level_mesh = Mesh::new(level_positions, triangles).ok()?;
-    Some((kept, level_mesh))
-}
-
-/// A decimated level of `mesh` of about `n_level` vertices with every vertex of `mesh`
-/// embedded on it (steps 1 and 3 of the module doc, without the fairing): what the implicit
-/// rotation step of smooth rotations solves on when the mesh is dense for its bending length
-/// ([`crate::deform::arap::RotationStep`]). `None` when the level cannot be built or the
-/// embedding fails.
-pub(crate) fn embedded_level(mesh: &Mesh, n_level: usize) -> Option<LevelEmbedding> {
-    let (kept, level) = decimated_level(mesh, n_level)?;
-    let vf = VertexFaces::new(level.n_vertices(), level.triangles());
-    let OutwardEmbedding { representative, faces, weights } =
-        embed_outward(mesh.positions(), mesh.adjacency(), &level, &vf, &kept)?;
-    Some(LevelEmbedding { mesh: level, kept, representative, faces, weights })
-}
-
-/// `kept` (ascending fine indices) without the level vertices that no triangle of `triangles`
-/// (indices into `kept`) uses, and `triangles` renumbered. Leaving out flat triangles can leave
-/// a vertex with none: it would have no area for the fairing (a zero mass makes the
-/// bi-Laplacian indefinite) and no triangle for the embedding, and the whole mesh would be
-/// faired instead; dropped, its fine vertex is embedded on the level as any other.
-fn without_unused(kept: Vec<u32>, triangles: Vec<[u32; 3]>) -> (Vec<u32>, Vec<[u32; 3]>) {
-    let mut index = vec![u32::MAX; kept.len()];
-    for &c in triangles.iter().flatten() {
-        index[c as usize] = 0;
-    }
-    if !index.contains(&u32::MAX) {
-        return (kept, triangles);
-    }
-    let mut used = Vec::with_capacity(kept.len());
-    for (j, &v) in kept.iter().enumerate() {
-        if index[j] == 0 {
-            index[j] = used.len() as u32;
-            used.push(v);
-        }
-    }
-    let triangles = triangles.into_iter().map(|t| t.map(|c| index[c as usize])).collect();
-    (used, triangles)
-}
-
-/// $n_\ell$ of the module doc for smoothing length `h` and $k$ = `level_edges`.
-pub fn level_vertices(mesh: &Mesh, h: f64, level_edges: f64) -> usize {
-    use rayon::prelude::*;
-    let p = mesh.positions();
-    // Summed in fixed chunks, side by side, then in order: the same sum on any thread count.
-    let chunk_sums: Vec<f64> = mesh
-        .triangles()
-        .par_chunks(1 << 14)
-        .map(|chunk| {
-            let mut sum = 0.0;
-            for t in chunk {
-                for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
-                    let d = sub(p[a as usize], p[b as usize]);
-                    sum += dot(d, d).sqrt();
-                }
-            }
-            sum
-        })
-        .collect();
-    let sum: f64 = chunk_sums.iter().sum();
-    let count = 3 * mesh.n_faces();
-    if count == 0 || h.is_nan() || h <= 0.0 {
-        return mesh.n_vertices();
-    }
-    let mean_edge = sum / count as f64;
-    let ratio = mean_edge * level_edges / h;
-    let level = mesh.n_vertices() as f64 * ratio * ratio;
-    if level.is_finite() { level.ceil().min(mesh.n_vertices() as f64) as usize } else { usize::MAX }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::mesh::{dot, sub};
     use crate::geometry::shapes::bumpy_bar;
 
     /// A dense mesh (the bumpy bar at 41k vertices) faired on a level of a third of its
@@ -321,16 +220,6 @@ mod tests {
 
     /// A level vertex in no triangle (left by the flat-triangle filter) is dropped and the
     /// triangles renumbered; a level without one is returned as it is.
-    #[test]
-    fn level_vertices_in_no_triangle_are_dropped() {
-        let kept = vec![2, 5, 7, 9, 11];
-        let (k, t) = without_unused(kept.clone(), vec![[0, 2, 3], [2, 4, 3]]);
-        assert_eq!(k, [2, 7, 9, 11]);
-        assert_eq!(t, [[0, 1, 2], [1, 3, 2]]);
-        let all = vec![[0, 1, 2], [1, 3, 2], [3, 4, 2]];
-        assert_eq!(without_unused(kept.clone(), all.clone()), (kept, all));
-    }
-
     /// The bunny subdivided twice (556k vertices, open at its base): its level lost 127 flat
     /// triangles and with them every triangle of 34 level vertices, whose zero mass made the
     /// level's bi-Laplacian indefinite, so the whole mesh was faired (12 s instead of about

@@ -35,31 +35,10 @@ use crate::deform::constraints::Constraints;
 use crate::deform::handles::Handles;
 use crate::deform::rig::Rig;
 use crate::error::SolveError;
+use crate::geometry::level::LevelEmbedding;
 use crate::geometry::mesh::{Mesh, add, sub};
 use crate::linalg::rigid::Motion;
 use rayon::prelude::*;
-
-/// The handle-independent part: the level and the fine vertices' embedding on it.
-#[derive(Debug)]
-pub struct LevelEmbedding {
-    /// $M_\ell$: $M$ at the level's vertices, the level's triangles.
-    pub(crate) mesh: Mesh,
-    /// Fine index of each level vertex (ascending).
-    pub(crate) kept: Vec<u32>,
-    /// Per fine vertex, its level representative (the level vertex the fewest edges away).
-    pub(crate) representative: Vec<u32>,
-    /// Per fine vertex, its level triangle (index into the level's triangles) and barycentric
-    /// weights.
-    pub(crate) faces: Vec<u32>,
-    pub(crate) weights: Vec<[f64; 3]>,
-}
-
-impl LevelEmbedding {
-    /// Fine vertex `i`'s three level vertices and their barycentric weights.
-    pub(crate) fn interpolate(&self, i: usize) -> ([u32; 3], [f64; 3]) {
-        (self.mesh.triangles()[self.faces[i] as usize], self.weights[i])
-    }
-}
 
 /// Where a level handle's target comes from.
 #[derive(Debug, Clone, Copy)]

@@ -56,7 +56,6 @@
 //! |---|---|
 //! | `base.rs` | 1–3: $B$, $B_c$, the embedding and the details, per mesh ([`CoarseBase`]) |
 //! | `level.rs` | 1: fairing $B$ on the level of a dense mesh |
-//! | `embedding.rs` | barycentric embedding of a finer mesh's points on a coarser one |
 //! | `cache.rs` | the per-mesh part on disk |
 //! | `groups.rs` | handle groups on the coarse mesh and their rigid targets |
 //! | `prolong.rs` | 4: the coarse pose carried to the full mesh with its details |
@@ -66,7 +65,6 @@
 
 pub mod base;
 pub mod cache;
-pub mod embedding;
 pub mod full_mesh;
 pub mod groups;
 pub mod level;
@@ -75,7 +73,6 @@ pub mod prolong;
 
 use crate::deform::arap::{Arap, ArapConfig, RotationStep, SolveStats};
 use crate::deform::coarse::base::{CoarseBase, Phases};
-use crate::deform::coarse::embedding::{blend, from_stored};
 use crate::deform::coarse::full_mesh::FineLevel;
 pub use crate::deform::coarse::groups::MIN_COARSE_GROUP;
 use crate::deform::coarse::groups::{CoarseGroups, coarse_rig};
@@ -87,6 +84,7 @@ use crate::deform::config::BaseConfig;
 use crate::deform::constraints::Constraints;
 use crate::deform::handles::Handles;
 use crate::error::SolveError;
+use crate::geometry::embedding::{blend, from_stored};
 use crate::geometry::mesh::{Mesh, sub};
 use crate::linalg::rigid::Motion;
 use glam::DQuat;

@@ -31,7 +31,7 @@ pub struct Prolongation<'a> {
     /// Per fine vertex, the index of its coarse triangle $t_i$.
     pub faces: &'a [u32],
     /// Per fine vertex, its weights $w_{i0}, w_{i1}$ on that triangle as `f32`s; the third is
-    /// $1 - w_{i0} - w_{i1}$ in `f64` ([`crate::deform::coarse::embedding::from_stored`]).
+    /// $1 - w_{i0} - w_{i1}$ in `f64` ([`crate::geometry::embedding::from_stored`]).
     pub weights: &'a [[f32; 2]],
     /// $D_i$, `#V×3`.
     pub details: &'a [[f64; 3]],
@@ -285,8 +285,7 @@ mod tests {
                 [a as f32, b as f32]
             })
             .collect();
-        let w =
-            |i: usize| crate::deform::coarse::embedding::from_stored(weights[i][0], weights[i][1]);
+        let w = |i: usize| crate::geometry::embedding::from_stored(weights[i][0], weights[i][1]);
         let details: Vec<[f64; 3]> = (0..n).map(|_| [next(), next(), next()]).collect();
         let corrections: Vec<[f64; 3]> = (0..n).map(|_| [next(), next(), next()]).collect();
         // A vanishing blend: zero quaternions at a triangle's corners.

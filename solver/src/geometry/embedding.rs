@@ -1,6 +1,5 @@
 //! Embedding points of a fine mesh on a coarser mesh whose vertices are a subset of its own
-//! (the coarse base, [`crate::deform::coarse::base`]; the fairing level,
-//! [`crate::deform::coarse::level`]).
+//! (the coarse variant's base and fairing level, [`crate::geometry::level`]).
 //!
 //! Each point $q_i$ (fine vertex $i$, or its position on a smoothed surface) gets the closest
 //! point of the coarse mesh among the coarse triangles within two rings of its representative
