@@ -161,6 +161,38 @@ pub(crate) trait Lanes: Real {
     fn splat(t: Self::Token, v: f64) -> Self;
     fn from_lanes(t: Self::Token, v: [f64; LANES]) -> Self;
     fn to_lanes(self) -> [f64; LANES];
+
+    /// Four rows of four values as their four columns: lane `j` of column `k` is `rows[j][k]`.
+    #[inline(always)]
+    fn transpose(t: Self::Token, rows: [&[f64; 4]; LANES]) -> [Self; 4] {
+        let column = |k: usize| [rows[0][k], rows[1][k], rows[2][k], rows[3][k]];
+        [0, 1, 2, 3].map(|k| Self::from_lanes(t, column(k)))
+    }
+
+    /// The x, y and z of [`LANES`] consecutive points as lanes (lane `j`: point `j`).
+    #[inline(always)]
+    fn from_points(t: Self::Token, points: &[[f64; 3]; LANES]) -> [Self; 3] {
+        let p = points;
+        [0, 1, 2].map(|k| Self::from_lanes(t, [p[0][k], p[1][k], p[2][k], p[3][k]]))
+    }
+
+    /// Lanes of x, y and z written as [`LANES`] consecutive points (the inverse of
+    /// [`Lanes::from_points`]).
+    #[inline(always)]
+    fn to_points(xyz: [Self; 3], out: &mut [[f64; 3]; LANES]) {
+        let [x, y, z] = xyz.map(Self::to_lanes);
+        for (j, o) in out.iter_mut().enumerate() {
+            *o = [x[j], y[j], z[j]];
+        }
+    }
+
+    /// [`LANES`] pairs of `f32`s as two lanes of `f64`s, the first and the second of each pair
+    /// (converted exactly, as `f64::from`).
+    #[inline(always)]
+    fn from_f32_pairs(t: Self::Token, pairs: &[[f32; 2]; LANES]) -> [Self; 2] {
+        let p = pairs;
+        [0, 1].map(|k| Self::from_lanes(t, [p[0][k], p[1][k], p[2][k], p[3][k]].map(f64::from)))
+    }
 }
 
 impl Lanes for F4 {
@@ -290,6 +322,78 @@ mod avx {
             // four values of `out`.
             unsafe { _mm256_storeu_pd(out.as_mut_ptr(), self.0) };
             out
+        }
+
+        /// Two unpacks and two lane swaps instead of sixteen scalar loads.
+        #[inline(always)]
+        fn transpose(_: Avx2, rows: [&[f64; 4]; LANES]) -> [Avx4; 4] {
+            // SAFETY: the token proves that AVX was detected; each load reads the four values
+            // of one row.
+            unsafe {
+                let [a, b, c, d] = rows.map(|r| _mm256_loadu_pd(r.as_ptr()));
+                // (a0 b0 a2 b2), (a1 b1 a3 b3), (c0 d0 c2 d2), (c1 d1 c3 d3)
+                let (ab02, ab13) = (_mm256_unpacklo_pd(a, b), _mm256_unpackhi_pd(a, b));
+                let (cd02, cd13) = (_mm256_unpacklo_pd(c, d), _mm256_unpackhi_pd(c, d));
+                [
+                    Avx4(_mm256_permute2f128_pd::<0x20>(ab02, cd02)),
+                    Avx4(_mm256_permute2f128_pd::<0x20>(ab13, cd13)),
+                    Avx4(_mm256_permute2f128_pd::<0x31>(ab02, cd02)),
+                    Avx4(_mm256_permute2f128_pd::<0x31>(ab13, cd13)),
+                ]
+            }
+        }
+
+        #[inline(always)]
+        fn from_points(_: Avx2, points: &[[f64; 3]; LANES]) -> [Avx4; 3] {
+            // SAFETY: the token proves that AVX was detected; each 128-bit load reads the x
+            // and y of one point, each scalar read its z.
+            unsafe {
+                let xy = |j: usize| _mm_loadu_pd(points[j].as_ptr());
+                // (x0 y0 x2 y2) and (x1 y1 x3 y3)
+                let even = _mm256_insertf128_pd::<1>(_mm256_castpd128_pd256(xy(0)), xy(2));
+                let odd = _mm256_insertf128_pd::<1>(_mm256_castpd128_pd256(xy(1)), xy(3));
+                let p = points;
+                [
+                    Avx4(_mm256_unpacklo_pd(even, odd)),
+                    Avx4(_mm256_unpackhi_pd(even, odd)),
+                    Avx4(_mm256_setr_pd(p[0][2], p[1][2], p[2][2], p[3][2])),
+                ]
+            }
+        }
+
+        #[inline(always)]
+        fn to_points(xyz: [Avx4; 3], out: &mut [[f64; 3]; LANES]) {
+            let [x, y, z] = xyz;
+            let z = z.to_lanes();
+            // SAFETY: `x` exists, so AVX was detected (module doc); each 128-bit store writes
+            // the x and y of one point.
+            unsafe {
+                // (x0 y0 x2 y2) and (x1 y1 x3 y3)
+                let even = _mm256_unpacklo_pd(x.0, y.0);
+                let odd = _mm256_unpackhi_pd(x.0, y.0);
+                _mm_storeu_pd(out[0].as_mut_ptr(), _mm256_castpd256_pd128(even));
+                _mm_storeu_pd(out[1].as_mut_ptr(), _mm256_castpd256_pd128(odd));
+                _mm_storeu_pd(out[2].as_mut_ptr(), _mm256_extractf128_pd::<1>(even));
+                _mm_storeu_pd(out[3].as_mut_ptr(), _mm256_extractf128_pd::<1>(odd));
+            }
+            for (o, z) in out.iter_mut().zip(z) {
+                o[2] = z;
+            }
+        }
+
+        #[inline(always)]
+        fn from_f32_pairs(_: Avx2, pairs: &[[f32; 2]; LANES]) -> [Avx4; 2] {
+            // SAFETY: the token proves that AVX2 was detected; the load reads the eight `f32`s
+            // of `pairs` (an array of arrays has no padding).
+            unsafe {
+                let v = _mm256_loadu_ps(pairs.as_ptr().cast::<f32>());
+                // (p0.0 p1.0 p2.0 p3.0 | p0.1 p1.1 p2.1 p3.1)
+                let split = _mm256_permutevar8x32_ps(v, _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7));
+                [
+                    Avx4(_mm256_cvtps_pd(_mm256_castps256_ps128(split))),
+                    Avx4(_mm256_cvtps_pd(_mm256_extractf128_ps::<1>(split))),
+                ]
+            }
         }
     }
 }

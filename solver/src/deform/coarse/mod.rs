@@ -215,7 +215,7 @@ impl SolveState {
             .zip(base.weights.par_iter().zip(base.details.par_iter()))
             .for_each(|((c, (x, &f)), (w, d))| {
                 let frame = &frames[f as usize];
-                let (b, q) = at(&frame.positions, &frame.quaternions, &from_stored(w[0], w[1]));
+                let (b, q) = at(&frame.corners(), &frame.quaternions, &from_stored(w[0], w[1]));
                 let conj = [-q[0], -q[1], -q[2], q[3]];
                 *c = sub(rotate(conj, sub(*x, b)), *d);
             });

@@ -47,7 +47,11 @@ const CHUNK: usize = 4096;
 /// and pinned vertices are not special here (the solve overwrites them). The corners' positions
 /// and sign-aligned quaternions are gathered per coarse triangle first ([`TriangleFrame`]), so
 /// that the pass over the fine vertices reads one small record per vertex and branches nowhere;
-/// it skips the corrections when they are empty (all zero).
+/// it skips the corrections when they are empty (all zero). Four consecutive vertices' inputs
+/// are moved into lanes as whole rows ([`Lanes::transpose`], [`Lanes::from_points`],
+/// [`Lanes::from_f32_pairs`]) rather than one value at a time: the pass is bound by its
+/// instruction count, not by memory (two threads run it 2.1× as fast as one), and the gathers
+/// were most of its instructions.
 pub fn prolong(input: Prolongation<'_>, out: &mut [[f64; 3]]) {
     let frames = triangle_frames(input.coarse, input.quaternions, input.triangles);
     let avx2 = Avx2::detect();
@@ -79,7 +83,6 @@ fn prolong_avx2(
 /// [`prolong`] on the fine vertices `start..start + out.len()`, [`LANES`] at a time (the last
 /// group padded with copies of its last vertex, not written).
 #[inline(always)]
-#[allow(clippy::needless_range_loop)] // `c` and `k` index several arrays at once
 fn prolong_lanes<L: Lanes>(
     t: L::Token,
     frames: &[TriangleFrame],
@@ -87,72 +90,126 @@ fn prolong_lanes<L: Lanes>(
     start: usize,
     out: &mut [[f64; 3]],
 ) {
-    let corrected = !input.corrections.is_empty();
     for (g, out) in out.chunks_mut(LANES).enumerate() {
         let first = start + g * LANES;
-        let mut lane = [0usize; LANES];
-        for (j, v) in lane.iter_mut().enumerate() {
-            *v = first + j.min(out.len() - 1);
-        }
-        let mut frame = [&frames[0]; LANES];
-        for j in 0..LANES {
-            frame[j] = &frames[input.faces[lane[j]] as usize];
-        }
-        // Lane j of the value `$e` reads with `$j` = j (a macro, not a closure: closures were
-        // not always inlined into the AVX2 build, `crate::linalg::rotation`).
-        macro_rules! gather {
-            ($j:ident => $e:expr) => {
-                L::from_lanes(
-                    t,
-                    [
-                        {
-                            let $j = 0;
-                            $e
-                        },
-                        {
-                            let $j = 1;
-                            $e
-                        },
-                        {
-                            let $j = 2;
-                            $e
-                        },
-                        {
-                            let $j = 3;
-                            $e
-                        },
-                    ],
-                )
-            };
-        }
-        let zero = L::splat(t, 0.0);
-        let mut positions = [[zero; 3]; 3];
-        let mut quaternions = [[zero; 4]; 3];
-        let mut w = [zero; 3];
-        let mut d = [zero; 3];
-        for c in 0..3 {
-            for k in 0..3 {
-                positions[c][k] = gather!(j => frame[j].positions[c][k]);
-            }
-            for k in 0..4 {
-                quaternions[c][k] = gather!(j => frame[j].quaternions[c][k]);
-            }
-            d[c] = if corrected {
-                gather!(j => input.details[lane[j]][c] + input.corrections[lane[j]][c])
-            } else {
-                gather!(j => input.details[lane[j]][c])
-            };
-        }
-        w[0] = gather!(j => f64::from(input.weights[lane[j]][0]));
-        w[1] = gather!(j => f64::from(input.weights[lane[j]][1]));
-        w[2] = L::splat(t, 1.0) - w[0] - w[1];
+        let (positions, quaternions, w, d) = if out.len() == LANES {
+            rows::<L>(t, frames, input, first)
+        } else {
+            gathered::<L>(t, frames, input, first, out.len())
+        };
         let (b, q) = at(&positions, &quaternions, &w);
         let r = rotate(q, d);
-        let p = [(b[0] + r[0]).to_lanes(), (b[1] + r[1]).to_lanes(), (b[2] + r[2]).to_lanes()];
-        for (j, o) in out.iter_mut().enumerate() {
-            *o = [p[0][j], p[1][j], p[2][j]];
+        let p = [b[0] + r[0], b[1] + r[1], b[2] + r[2]];
+        if let Ok(out) = <&mut [[f64; 3]; LANES]>::try_from(&mut *out) {
+            L::to_points(p, out);
+        } else {
+            let mut points = [[0.0; 3]; LANES];
+            L::to_points(p, &mut points);
+            out.copy_from_slice(&points[..out.len()]);
         }
     }
+}
+
+/// What [`at`] and [`rotate`] take for one group of [`LANES`] fine vertices: the corners'
+/// positions and quaternions, the barycentric weights and $D_i + C_i$.
+type GroupInputs<L> = ([[L; 3]; 3], [[L; 4]; 3], [L; 3], [L; 3]);
+
+/// [`GroupInputs`] of the [`LANES`] vertices from `first`, each input read as whole rows.
+#[inline(always)]
+fn rows<L: Lanes>(
+    t: L::Token,
+    frames: &[TriangleFrame],
+    input: &Prolongation<'_>,
+    first: usize,
+) -> GroupInputs<L> {
+    let faces = four(input.faces, first);
+    let frame = [0, 1, 2, 3].map(|j| &frames[faces[j] as usize]);
+    let zero = L::splat(t, 0.0);
+    let (mut positions, mut quaternions) = ([[zero; 3]; 3], [[zero; 4]; 3]);
+    for c in 0..3 {
+        let [x, y, z, _] = L::transpose(t, [0, 1, 2, 3].map(|j| &frame[j].positions[c]));
+        positions[c] = [x, y, z];
+        quaternions[c] = L::transpose(t, [0, 1, 2, 3].map(|j| &frame[j].quaternions[c]));
+    }
+    let mut d = L::from_points(t, four(input.details, first));
+    if !input.corrections.is_empty() {
+        let c = L::from_points(t, four(input.corrections, first));
+        d = [d[0] + c[0], d[1] + c[1], d[2] + c[2]];
+    }
+    let pairs = four(input.weights, first);
+    let [w0, w1] = L::from_f32_pairs(t, pairs);
+    (positions, quaternions, [w0, w1, L::splat(t, 1.0) - w0 - w1], d)
+}
+
+/// The [`LANES`] entries of `v` from `first` (a function, not a closure: closures were not
+/// always inlined into the AVX2 build).
+#[inline(always)]
+fn four<T>(v: &[T], first: usize) -> &[T; LANES] {
+    match <&[T; LANES]>::try_from(&v[first..first + LANES]) {
+        Ok(four) => four,
+        Err(_) => unreachable!("a range of LANES entries"),
+    }
+}
+
+/// [`GroupInputs`] of the `len` < [`LANES`] vertices from `first` (a chunk's last group),
+/// gathered one value at a time, the lanes padded with copies of the last vertex.
+#[inline(always)]
+#[allow(clippy::needless_range_loop)] // `c` and `k` index several arrays at once
+fn gathered<L: Lanes>(
+    t: L::Token,
+    frames: &[TriangleFrame],
+    input: &Prolongation<'_>,
+    first: usize,
+    len: usize,
+) -> GroupInputs<L> {
+    let lane: [usize; LANES] = [0, 1, 2, 3].map(|j| first + j.min(len - 1));
+    let frame = lane.map(|v| &frames[input.faces[v] as usize]);
+    // Lane j of the value `$e` reads with `$j` = j (a macro, not a closure: closures were
+    // not always inlined into the AVX2 build, `crate::linalg::rotation`).
+    macro_rules! gather {
+        ($j:ident => $e:expr) => {
+            L::from_lanes(
+                t,
+                [
+                    {
+                        let $j = 0;
+                        $e
+                    },
+                    {
+                        let $j = 1;
+                        $e
+                    },
+                    {
+                        let $j = 2;
+                        $e
+                    },
+                    {
+                        let $j = 3;
+                        $e
+                    },
+                ],
+            )
+        };
+    }
+    let zero = L::splat(t, 0.0);
+    let (mut positions, mut quaternions, mut d) = ([[zero; 3]; 3], [[zero; 4]; 3], [zero; 3]);
+    let corrected = !input.corrections.is_empty();
+    for c in 0..3 {
+        for k in 0..3 {
+            positions[c][k] = gather!(j => frame[j].positions[c][k]);
+        }
+        for k in 0..4 {
+            quaternions[c][k] = gather!(j => frame[j].quaternions[c][k]);
+        }
+        d[c] = if corrected {
+            gather!(j => input.details[lane[j]][c] + input.corrections[lane[j]][c])
+        } else {
+            gather!(j => input.details[lane[j]][c])
+        };
+    }
+    let w0 = gather!(j => f64::from(input.weights[lane[j]][0]));
+    let w1 = gather!(j => f64::from(input.weights[lane[j]][1]));
+    (positions, quaternions, [w0, w1, L::splat(t, 1.0) - w0 - w1], d)
 }
 
 /// Every coarse triangle's [`TriangleFrame`] for the coarse pose `coarse` and rotations
@@ -168,9 +225,12 @@ pub(crate) fn triangle_frames(
 /// A coarse triangle's corner positions $B'_{c,k}$ and quaternions $q_k$ (`[x, y, z, w]`, as
 /// `DQuat::to_array`), the latter with signs aligned to the first corner's: what [`prolong`]
 /// and the fine iterations' corrections blend at each fine vertex on it ([`at`]).
+/// Each position carries a fourth entry, zero, so that a frame's rows are four values each,
+/// read into lanes by [`Lanes::transpose`]; 192 bytes, three cache lines.
 #[derive(Clone, Copy)]
+#[repr(C, align(64))]
 pub(crate) struct TriangleFrame {
-    pub(crate) positions: [[f64; 3]; 3],
+    pub(crate) positions: [[f64; 4]; 3],
     pub(crate) quaternions: [[f64; 4]; 3],
 }
 
@@ -178,12 +238,20 @@ impl TriangleFrame {
     fn new(coarse: &[[f64; 3]], quats: &[DQuat], t: &[u32; 3]) -> TriangleFrame {
         let q0 = quats[t[0] as usize].to_array();
         TriangleFrame {
-            positions: t.map(|v| coarse[v as usize]),
+            positions: t.map(|v| {
+                let [x, y, z] = coarse[v as usize];
+                [x, y, z, 0.0]
+            }),
             quaternions: t.map(|v| {
                 let q = quats[v as usize].to_array();
                 if dot4(q, q0) < 0.0 { q.map(|c| -c) } else { q }
             }),
         }
+    }
+
+    /// The corner positions without their padding, as [`at`] takes them.
+    pub(crate) fn corners(&self) -> [[f64; 3]; 3] {
+        self.positions.map(|[x, y, z, _]| [x, y, z])
     }
 }
 
@@ -253,10 +321,10 @@ pub fn quaternion_of(r: &Mat3) -> DQuat {
 mod tests {
     use super::*;
 
-    /// The lanes (AVX2 here where the processor has it) give, to the bit, the one-vertex
-    /// formulas at every vertex: over several chunks and a last group of fewer than four
-    /// vertices, with and without corrections, with corner quaternions of opposite signs and a
-    /// blend that vanishes (the identity).
+    /// The lanes (AVX2 here where the processor has it, and the portable ones) give, to the
+    /// bit, the one-vertex formulas at every vertex: over several chunks and a last group of
+    /// fewer than four vertices, with and without corrections, with corner quaternions of
+    /// opposite signs and a blend that vanishes (the identity).
     #[test]
     fn lanes_match_one_vertex_at_a_time() {
         let mut seed = 0x9e37_79b9_7f4a_7c15_u64;
@@ -306,9 +374,16 @@ mod tests {
             let mut out = vec![[f64::NAN; 3]; n];
             prolong(input, &mut out);
             let frames = triangle_frames(&coarse, quats, &triangles);
+            // The portable lanes, over the whole range at once, give the same bits.
+            let mut portable = vec![[f64::NAN; 3]; n];
+            prolong_lanes::<F4>((), &frames, &input, 0, &mut portable);
+            assert_eq!(portable.as_flattened().len(), out.as_flattened().len());
+            for (a, b) in portable.as_flattened().iter().zip(out.as_flattened()) {
+                assert_eq!(a.to_bits(), b.to_bits());
+            }
             for i in 0..n {
                 let f = &frames[faces[i] as usize];
-                let (b, q) = at(&f.positions, &f.quaternions, &w(i));
+                let (b, q) = at(&f.corners(), &f.quaternions, &w(i));
                 let d = if corrections.is_empty() {
                     details[i]
                 } else {
@@ -320,7 +395,7 @@ mod tests {
             }
             let on_zeroed = faces.iter().position(|&f| f == 3).unwrap();
             let f = &frames[3];
-            let (_, q) = at(&f.positions, &f.quaternions, &w(on_zeroed));
+            let (_, q) = at(&f.corners(), &f.quaternions, &w(on_zeroed));
             if std::ptr::eq(quats, &zeroed) {
                 assert_eq!(q, DQuat::IDENTITY.to_array());
             }
