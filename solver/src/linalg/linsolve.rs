@@ -46,7 +46,8 @@ pub enum FactorError {
     )]
     NotPositiveDefinite { pivot: usize },
     /// The factor and its workspace would take more than [`MEMORY_SHARE`] of the memory
-    /// the system has available ([`check_memory`]): refused before the numeric factorization.
+    /// the system has available ([`check_memory`]), less what factorizations running beside it
+    /// reserved: refused before the numeric factorization.
     #[error(
         "the factorization would need {needed_mib} MiB, more than {share:.0} % of the \
          {available_mib} MiB of memory available",
@@ -75,6 +76,49 @@ pub fn check_memory(needed: u64, available: Option<u64>) -> Result<(), FactorErr
             Err(FactorError::TooLarge { needed_mib: needed >> 20, available_mib: available >> 20 })
         }
         _ => Ok(()),
+    }
+}
+
+/// The memory that numeric factorizations in progress in this process were allowed and may
+/// not have touched yet (so `MemAvailable` does not show it): factorizations that run side by
+/// side (`Arap::with_constraints` builds the rotation step's beside the global one) are checked
+/// against what the others left, not each against the same `MemAvailable`.
+#[derive(Debug, Default)]
+pub(crate) struct Reservations(std::sync::Mutex<u64>);
+
+/// The process's [`Reservations`], which [`SpdFactor::new`] reserves from.
+static RESERVATIONS: Reservations = Reservations(std::sync::Mutex::new(0));
+
+/// A factorization's claim on [`Reservations`], given back when dropped.
+#[derive(Debug)]
+pub(crate) struct Reservation<'a> {
+    pool: &'a Reservations,
+    bytes: u64,
+}
+
+impl Reservations {
+    fn lock(&self) -> std::sync::MutexGuard<'_, u64> {
+        self.0.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
+
+    /// Reserves `needed` bytes when [`check_memory`] allows them out of `available` less what
+    /// is reserved already.
+    pub(crate) fn reserve(
+        &self,
+        needed: u64,
+        available: Option<u64>,
+    ) -> Result<Reservation<'_>, FactorError> {
+        let mut reserved = self.lock();
+        check_memory(needed, available.map(|a| a.saturating_sub(*reserved)))?;
+        *reserved = reserved.saturating_add(needed);
+        Ok(Reservation { pool: self, bytes: needed })
+    }
+}
+
+impl Drop for Reservation<'_> {
+    fn drop(&mut self) {
+        let mut reserved = self.pool.lock();
+        *reserved = reserved.saturating_sub(self.bytes);
     }
 }
 
@@ -152,7 +196,9 @@ impl SpdFactor {
         let par = faer::get_global_parallelism();
         let workspace = symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default());
         let values = symbolic.len_val().saturating_mul(std::mem::size_of::<f64>());
-        check_memory(values.saturating_add(workspace.size_bytes()) as u64, available_memory())?;
+        let needed = values.saturating_add(workspace.size_bytes()) as u64;
+        // Held until the factor's values are written (then `MemAvailable` shows them).
+        let _reservation = RESERVATIONS.reserve(needed, available_memory())?;
         let mut this = SpdFactor {
             values: Vec::new(),
             symbolic,
@@ -309,6 +355,21 @@ mod tests {
         let text = e.to_string();
         assert!(text.contains("7168 MiB") && text.contains("8192 MiB") && text.contains("75 %"));
         assert_eq!(check_memory(u64::MAX, None), Ok(()));
+    }
+
+    /// Two factorizations that each fit the available memory but not together: the second is
+    /// refused while the first holds its reservation, allowed once it is given back.
+    #[test]
+    fn side_by_side_factorizations_share_the_memory() {
+        let gib = 1u64 << 30;
+        let pool = Reservations::default();
+        let first = pool.reserve(5 * gib, Some(8 * gib)).unwrap();
+        let e = pool.reserve(5 * gib, Some(8 * gib)).unwrap_err();
+        assert_eq!(e, FactorError::TooLarge { needed_mib: 5 << 10, available_mib: 3 << 10 });
+        assert!(pool.reserve(gib, Some(8 * gib)).is_ok(), "one that fits what is left");
+        drop(first);
+        assert!(pool.reserve(5 * gib, Some(8 * gib)).is_ok());
+        assert_eq!(*pool.lock(), 0, "every reservation given back");
         // This machine's figure, where there is one, is positive.
         assert!(available_memory().is_none_or(|m| m > 0));
     }
