@@ -187,7 +187,7 @@ pub fn representatives(
 }
 
 /// Meshes of at least this many vertices find their representatives in two halves side by
-/// side ([`nearest_along_edges`]).
+/// side (`nearest_along_edges`).
 pub const SPLIT_VERTICES: usize = 200_000;
 
 /// Per vertex, the index in `sources` of the source nearest along the mesh's edges

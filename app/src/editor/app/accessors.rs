@@ -227,7 +227,7 @@ impl EditorApp {
         self.store.restore_offer.as_ref().map(|o| o.path.as_path())
     }
 
-    /// What the crash hook needs (see [`persist::install_crash_autosave`]).
+    /// What the crash hook needs (see [`crate::editor::persist::install_crash_autosave`]).
     pub fn crash_autosave(&self) -> Option<(Persist, Snapshot)> {
         self.store.persist.clone().map(|p| (p, self.store.snapshot.clone()))
     }

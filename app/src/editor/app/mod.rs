@@ -6,10 +6,10 @@
 //! input handling, picking (BVH) and building vertex colors and normals for the GPU.
 //!
 //! [`EditorApp`]'s state comes in groups, each defined beside the code that mostly uses it:
-//! the document ([`session::Session`]) and what persists between sessions
-//! ([`session::Store`]), the solver slots ([`solvers::Solvers`]), the pointer and keyboard
-//! state ([`input::Interaction`]), what and how the viewports draw ([`viewport::Display`]) and
-//! the background work ([`Jobs`]).
+//! the document (`session::Session`) and what persists between sessions
+//! (`session::Store`), the solver slots (`solvers::Solvers`), the pointer and keyboard
+//! state (`input::Interaction`), what and how the viewports draw (`viewport::Display`) and
+//! the background work (`Jobs`).
 //!
 //! Files: `session` (scenes, autosave, open, save and quit, undo), `file_dialog` (the system's
 //! file dialog or the in-app browser), `playback` (timeline,

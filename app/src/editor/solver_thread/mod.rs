@@ -10,8 +10,8 @@
 //! [`SolverStatus::panics`] / [`SolverState::Panicked`], and the worker starts over with an
 //! empty state, waiting for the next scene.
 //!
-//! Files: [`protocol`] (settings, slots, the [`PoseSolver`] trait, commands, frames, status),
-//! [`mailbox`] (the newest frame) and `worker` (the thread's loop, step by step).
+//! Files: `protocol` (settings, slots, the [`PoseSolver`] trait, commands, frames, status),
+//! `mailbox` (the newest frame) and `worker` (the thread's loop, step by step).
 
 mod mailbox;
 mod protocol;

@@ -205,7 +205,7 @@ pub enum SolverCommand {
         poses: Vec<GroupTransform>,
     },
     /// Publish the current pose again (the deformed base was asked for while the thread was
-    /// idle; see [`SolverHandle::show_base`]).
+    /// idle; see [`super::SolverHandle::show_base`]).
     Republish,
     /// Test hook: make the worker panic, to exercise the recovery path.
     InjectPanic,
@@ -225,7 +225,7 @@ pub struct SolvedFrame {
     /// Vertex normals of `positions` (computed here, not on the UI thread), or none when the
     /// viewport computes them on the GPU ([`super::SolverHandle::normals_on_gpu`]).
     pub normals: Arc<Vec<[f32; 3]>>,
-    /// The deformed base surface, while [`SolverHandle::show_base`] is on (BS-ARAP only).
+    /// The deformed base surface, while [`super::SolverHandle::show_base`] is on (BS-ARAP only).
     pub deformed_base: Option<Shape>,
     pub detail_magnitudes: Option<Arc<Vec<f32>>>,
     /// [`PoseSolver::components`] as of this frame (shared by the frames until the scene or

@@ -23,7 +23,7 @@ pub enum Energy {
     /// Spokes plus a rotation-smoothness term $\beta\sum_i\sum_j w_{ij}\lVert R_i -
     /// R_j\rVert_F^2$, $\beta = \ell^2$ for the bending length $\ell$
     /// ([`ArapConfig::bending_length`]): SR-ARAP (Levi & Gotsman 2015), whose minimum does not
-    /// move with the mesh's resolution ([`super::smooth_rotations`]).
+    /// move with the mesh's resolution (module `arap::smooth_rotations`).
     SmoothRotations,
 }
 
@@ -63,7 +63,7 @@ pub struct ArapConfig {
     #[serde(default)]
     pub energy_threshold: f64,
     /// The share $\mu \in [0, 1]$ of the energy in cells of single triangles, which resist no
-    /// bending ([`super::membrane`]); spokes and rims only. `0` (the default): vertex cells
+    /// bending (module `arap::membrane`); spokes and rims only. `0` (the default): vertex cells
     /// alone; outside $[0, 1]$ [`Arap::new`](super::Arap::new) refuses it. The coarse BS-ARAP
     /// sets it on its coarse level ([`BaseConfig::membrane`](crate::BaseConfig::membrane)).
     #[serde(default)]

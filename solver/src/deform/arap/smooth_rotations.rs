@@ -168,7 +168,7 @@ pub(super) fn colour_classes(n: usize, neighbours: &Csr<(u32, f64)>) -> Vec<Vec<
 }
 
 impl Arap {
-    /// Turns the implicit rotation step ([`super::rotation_solve`]) of
+    /// Turns the implicit rotation step (module `arap::rotation_solve`) of
     /// [`Energy::SmoothRotations`](super::Energy::SmoothRotations) on (the default) or off (sweeps
     /// only), for measuring what it gains; no effect on the other energies.
     pub fn set_implicit_rotation_step(&mut self, on: bool) {

@@ -7,9 +7,9 @@
 //! ([`crate::linalg::rotation`]).
 //!
 //! It is the per-frame pass over every fine vertex, so it runs on four vertices at once
-//! ([`crate::linalg::lanes`]: AVX2 where the processor has it, else portable lanes) with the
+//! (`linalg::lanes`: AVX2 where the processor has it, else portable lanes) with the
 //! scalar formulas (no fused multiply-add): the lanes give the scalar path's result to the bit,
-//! and the fine iterations' carried corrections ([`at`], [`rotate`]) invert exactly what the
+//! and the fine iterations' carried corrections (`at`, `rotate`) invert exactly what the
 //! prolongation applies. The GPU prolongation in the editor (`app/src/gpu/prolong.rs`,
 //! shaders/prolong.wgsl) computes the same from the same inputs in f32.
 
@@ -45,11 +45,11 @@ const CHUNK: usize = 4096;
 
 /// The module doc's $p'_i$ at every fine vertex, in parallel, into `out` (`#V` long). Handle
 /// and pinned vertices are not special here (the solve overwrites them). The corners' positions
-/// and sign-aligned quaternions are gathered per coarse triangle first ([`TriangleFrame`]), so
+/// and sign-aligned quaternions are gathered per coarse triangle first (`TriangleFrame`), so
 /// that the pass over the fine vertices reads one small record per vertex and branches nowhere;
 /// it skips the corrections when they are empty (all zero). Four consecutive vertices' inputs
-/// are moved into lanes as whole rows ([`Lanes::transpose`], [`Lanes::from_points`],
-/// [`Lanes::from_f32_pairs`]) rather than one value at a time: the pass is bound by its
+/// are moved into lanes as whole rows (`Lanes::transpose`, `from_points`,
+/// `from_f32_pairs`) rather than one value at a time: the pass is bound by its
 /// instruction count, not by memory (two threads run it 2.1× as fast as one), and the gathers
 /// were most of its instructions.
 pub fn prolong(input: Prolongation<'_>, out: &mut [[f64; 3]]) {
@@ -312,7 +312,7 @@ fn dot4(a: [f64; 4], b: [f64; 4]) -> f64 {
 }
 
 /// Unit quaternion of a rotation matrix ([`quat_of`], normalized). Its sign is arbitrary:
-/// blending and [`rotate`] give the same result for $q$ and $-q$.
+/// blending and `rotate` give the same result for $q$ and $-q$.
 pub fn quaternion_of(r: &Mat3) -> DQuat {
     quat_of(r).normalize()
 }
