@@ -48,10 +48,9 @@ const CHUNK: usize = 4096;
 /// and sign-aligned quaternions are gathered per coarse triangle first (`TriangleFrame`), so
 /// that the pass over the fine vertices reads one small record per vertex and branches nowhere;
 /// it skips the corrections when they are empty (all zero). Four consecutive vertices' inputs
-/// are moved into lanes as whole rows (`Lanes::transpose`, `from_points`,
-/// `from_f32_pairs`) rather than one value at a time: the pass is bound by its
-/// instruction count, not by memory (two threads run it 2.1× as fast as one), and the gathers
-/// were most of its instructions.
+/// are moved into lanes as whole rows (`Lanes::transpose`, `from_points`, `from_f32_pairs`)
+/// rather than one value at a time: the pass is bound by its instruction count, not by memory
+/// (two threads run it 2.1× as fast as one), and the gathers were most of its instructions.
 pub fn prolong(input: Prolongation<'_>, out: &mut [[f64; 3]]) {
     let frames = triangle_frames(input.coarse, input.quaternions, input.triangles);
     let avx2 = Avx2::detect();
