@@ -158,10 +158,8 @@ impl LevelSolver {
         self.change.clear();
         self.change.extend(y.iter().zip(&self.start).map(|(&a, &b)| sub(a, b)));
         let change = &self.change;
-        let triangles = level.mesh.triangles();
-        let embedding = level.faces.par_iter().zip(&level.weights);
-        result.par_iter_mut().zip(embedding).for_each(|(x, (&f, w))| {
-            let t = triangles[f as usize];
+        result.par_iter_mut().enumerate().for_each(|(i, x)| {
+            let (t, w) = level.interpolate(i);
             let mut d = [0.0; 3];
             for k in 0..3 {
                 let c = change[t[k] as usize];
