@@ -1,4 +1,4 @@
-//! Big meshes (BENCHMARKS.md, "Other measurements"): subdivides the armadillo 1-to-4 `LEVELS` times (1: ~170k vertices,
+//! Big meshes (BENCHMARKS.md, "Dense meshes"): subdivides the armadillo 1-to-4 `LEVELS` times (1: ~170k vertices,
 //! 2: ~690k), writes it to a temporary OBJ and loads it back through `solver::io::load_mesh`
 //! (parse + clean), then builds each method with the sphere handles of
 //! `bench/handles/armadillo.json` (midpoint subdivision keeps every original position, so the

@@ -8,8 +8,10 @@
 //!   `--tol`, default 1e-4), `threshold` (the energy normalized by the frame's starting energy
 //!   falls below `--threshold`, the paper's Fig. 10 rule), `fixed` (exactly `--max-iters`);
 //!   every rule is capped at `--max-iters` (default 100);
-//! - starting guess `--start`: `previous` (the previous frame's result), `rest`, or `laplacian`
-//!   (the paper's step 4: a Laplacian-editing fit with the new handle positions);
+//! - starting guess `--start`: `previous` (the previous frame's result, as the editor starts),
+//!   `predicted` (that result moved along its own step:
+//!   [`solver::deform::arap::Arap::set_prediction`]), `rest`, or `laplacian` (the paper's step
+//!   4: a Laplacian-editing fit with the new handle positions);
 //! - `--anderson W` also runs each method with Anderson acceleration (window W), reported as
 //!   `NAME+aa` beside the plain loop.
 //!
@@ -80,6 +82,7 @@ pub enum StopRule {
 #[serde(rename_all = "kebab-case")]
 pub enum StartGuess {
     Previous,
+    Predicted,
     Rest,
     Laplacian,
 }
@@ -305,6 +308,7 @@ fn bench_variant(
         .with_context(|| format!("precomputing {name}"))?;
     let precompute_handles_ms = t0.elapsed().as_secs_f64() * 1e3;
     drop(cache);
+    d.arap_mut().set_prediction(s.start == StartGuess::Predicted);
     let mut first_frame_ms = 0.0;
     let g = moving_group(s.handles)?;
     let (mut total_ms, mut local, mut rhs, mut solve, mut energy) = (0.0, 0.0, 0.0, 0.0, 0.0);
@@ -317,7 +321,7 @@ fn bench_variant(
         let moves = frame_moves(s, g, f);
         let laplacian_targets = match s.start {
             StartGuess::Laplacian => Some(frame_targets(s, g, f)?),
-            StartGuess::Previous | StartGuess::Rest => None,
+            StartGuess::Previous | StartGuess::Predicted | StartGuess::Rest => None,
         };
         let t1 = Instant::now();
         match (s.start, &laplacian_targets) {

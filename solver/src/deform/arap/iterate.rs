@@ -3,7 +3,7 @@
 //! the Anderson loop (`accelerated`) under the stopping rule
 //! $(E_{k-1}-E_k)/E_{k-1} <$ tolerance.
 
-use super::{Acceleration, Arap, REFINE_ANDERSON_WINDOW, SolveStats, ms};
+use super::{Acceleration, Arap, REFINE_ANDERSON_WINDOW, SolveStats, ms, start};
 use crate::error::SolveError;
 use crate::pool::in_pool;
 use std::time::Instant;
@@ -73,6 +73,11 @@ impl Arap {
             return Ok(SolveStats { converged: true, ..SolveStats::default() });
         }
         let previous = self.current.clone();
+        // A solve that continues from the last one records its step for the next (`start`).
+        let continued_from = match fixed {
+            None if self.predict => self.solved_at.clone(),
+            _ => None,
+        };
         let exact = if fixed.is_none() {
             self.rigid_start(targets)
         } else {
@@ -100,6 +105,8 @@ impl Arap {
             return Err(SolveError::NonFiniteResult { vertex });
         }
         self.at_rest = false;
+        self.trend =
+            continued_from.map(|from| start::Trend::new(&from, targets, &previous, &self.current));
         self.solved_at = Some(targets.to_vec());
         self.publish();
         Ok(stats)

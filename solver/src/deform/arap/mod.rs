@@ -41,7 +41,8 @@
 //! - `accelerated`: the safeguarded Anderson loop;
 //! - `local`: the local step (covariances and rotation fits, Eq. 5);
 //! - `global`: the right-hand side and the back-substitution (Eq. 4);
-//! - `start`: the starting guesses (the rigid start of every solve, the Laplacian fit);
+//! - `start`: the starting guesses (the rigid start of every solve, the predicted start of a
+//!   drag, the Laplacian fit);
 //! - `energy`: $E(p', R)$, directly and from the local step's sums;
 //! - `avx`: the AVX2 build of the covariance pass;
 //! - `membrane`: triangle cells blended into the energy (the coarse level's membrane share);
@@ -182,6 +183,12 @@ pub struct Arap {
     /// The targets of the last solve, while the pose is still its result: the next solve
     /// moves the pose along when the handles moved rigidly from them (`start`).
     solved_at: Option<Vec<[f64; 3]>>,
+    /// The last solve's step, when it continued from the solve before it and prediction is on:
+    /// the next solve starts along it (`start`, "Predicted start").
+    trend: Option<Box<start::Trend>>,
+    /// Whether solves that continue a drag start from the predicted pose ([`Arap::set_prediction`];
+    /// off by default).
+    predict: bool,
     /// The rest bounding-box diagonal (the scale of the rigid-motion test).
     rest_diagonal: f64,
     /// Soft-handle penalties (`None`: hard handles only; [`crate::deform::rig`]).
@@ -252,6 +259,7 @@ impl Arap {
     pub fn reset(&mut self) {
         self.refined_at = None;
         self.solved_at = None;
+        self.trend = None;
         self.at_rest = true;
         self.current.copy_from_slice(&self.rest);
         self.rotations.fill(IDENTITY);
@@ -272,6 +280,7 @@ impl Arap {
     pub fn set_positions(&mut self, x: &[[f64; 3]]) {
         self.refined_at = None;
         self.solved_at = None;
+        self.trend = None;
         if x.len() == self.current.len() && x.iter().flatten().all(|c| c.is_finite()) {
             self.order.gather_into(x, &mut self.current);
             self.mesh_current.copy_from_slice(x);

@@ -240,6 +240,8 @@ impl Arap {
             refined_at: None,
             at_rest: true,
             solved_at: None,
+            trend: None,
+            predict: false,
             rest_diagonal: mesh.bbox_diagonal(),
             soft,
         })

@@ -5,7 +5,7 @@ use super::*;
 use crate::deform::handles::Handles;
 use crate::error::SolveError;
 use crate::geometry::cotan::opposite_edge;
-use crate::geometry::mesh::{Mesh, sub};
+use crate::geometry::mesh::{Mesh, add, norm2, sub};
 use crate::linalg::rotation::{add_mat, add_outer, mul_vec, scale_mat};
 use crate::linalg::rotation::{axis_angle, fit_rotation_svd};
 
@@ -312,4 +312,73 @@ fn triangle_fits_in_closed_form_match_the_general_fit() {
     assert!(worst < 1e-9, "closed-form rotations off by {worst}");
     let rel = (sums.fitted - fitted).abs() / fitted;
     assert!(rel < 1e-12, "fitted sum {} against {fitted}", sums.fitted);
+}
+
+/// Targets moving the cap at $x > 0$ by `dy` along $y$ and the other by `dz` along $z$.
+fn shifted_caps(m: &Mesh, h: &Handles, dy: f64, dz: f64) -> Vec<[f64; 3]> {
+    h.handle_vertices()
+        .iter()
+        .map(|&v| {
+            let q = m.positions()[v as usize];
+            if q[0] > 0.0 { [q[0], q[1] + dy, q[2]] } else { [q[0], q[1], q[2] + dz] }
+        })
+        .collect()
+}
+
+/// The predicted start (`start`, "Predicted start"): a drag at a steady pace starts one whole
+/// previous step ahead ($\alpha = 1$); a move of the other group, orthogonal to the last
+/// change of the targets, starts from the previous pose as it is ($\alpha = 0$); with
+/// prediction off the start is the previous pose.
+#[test]
+fn predicted_start_follows_the_drag_and_only_the_drag() {
+    let (m, h) = setup();
+    let start_after = |predict: bool, second: &[[f64; 3]], third: &[[f64; 3]]| {
+        let mut a = Arap::new(&m, &h, &ArapConfig::default()).unwrap();
+        a.set_prediction(predict);
+        a.solve(&shifted_caps(&m, &h, 0.1, 0.0)).unwrap();
+        let first = a.current.clone();
+        a.solve(second).unwrap();
+        let previous = a.current.clone();
+        assert!(a.rigid_start(third).is_none());
+        (first, previous, a.current.clone(), a.inner.free_vertices.clone())
+    };
+    let steady = (shifted_caps(&m, &h, 0.2, 0.0), shifted_caps(&m, &h, 0.3, 0.0));
+    let (first, previous, start, free) = start_after(true, &steady.0, &steady.1);
+    let moved = free.iter().filter(|&&v| first[v as usize] != previous[v as usize]).count();
+    assert!(moved > free.len() / 2, "the drag moved {moved} of {} free vertices", free.len());
+    for &v in &free {
+        let v = v as usize;
+        let expected = add(previous[v], sub(previous[v], first[v]));
+        assert!(norm2(sub(start[v], expected)) < 1e-24, "vertex {v}: {:?} {expected:?}", start[v]);
+    }
+    let (_, previous, start, free) = start_after(false, &steady.0, &steady.1);
+    assert!(free.iter().all(|&v| start[v as usize] == previous[v as usize]), "prediction off");
+    let other = (shifted_caps(&m, &h, 0.2, 0.0), shifted_caps(&m, &h, 0.2, 0.1));
+    let (_, previous, start, free) = start_after(true, &other.0, &other.1);
+    assert!(free.iter().all(|&v| start[v as usize] == previous[v as usize]), "other group");
+}
+
+/// Converged along a drag, the predicted start reaches the same poses as the previous pose
+/// does, in fewer iterations.
+#[test]
+fn predicted_start_reaches_the_same_minimum_sooner() {
+    let (m, h) = setup();
+    let cfg = ArapConfig { tolerance: 1e-9, max_iterations: 5000, ..Default::default() };
+    let run = |predict: bool| {
+        let mut a = Arap::new(&m, &h, &cfg).unwrap();
+        a.set_prediction(predict);
+        let mut iterations = 0;
+        for k in 1..=6 {
+            let st = a.solve(&turned_cap(&m, &h, 0.12 * k as f64)).unwrap();
+            assert!(st.converged, "step {k}");
+            iterations += st.iterations;
+        }
+        (a.positions().to_vec(), iterations)
+    };
+    let ((predicted, fewer), (previous, more)) = (run(true), run(false));
+    let diag = m.bbox_diagonal();
+    let apart =
+        predicted.iter().zip(&previous).map(|(&a, &b)| norm2(sub(a, b)).sqrt()).fold(0.0, f64::max);
+    assert!(apart < 1e-4 * diag, "{apart} of a diagonal {diag}");
+    assert!(fewer < more, "{fewer} iterations predicted, {more} from the previous pose");
 }
