@@ -3,7 +3,7 @@
 //! the Anderson loop (`accelerated`) under the stopping rule
 //! $(E_{k-1}-E_k)/E_{k-1} <$ tolerance.
 
-use super::{Acceleration, Arap, REFINE_ANDERSON_WINDOW, SolveStats, ms, start};
+use super::{Acceleration, Arap, REFINE_ANDERSON_WINDOW, SolveStats, ms};
 use crate::error::SolveError;
 use crate::pool::in_pool;
 use std::time::Instant;
@@ -105,8 +105,15 @@ impl Arap {
             return Err(SolveError::NonFiniteResult { vertex });
         }
         self.at_rest = false;
-        self.trend =
-            continued_from.map(|from| start::Trend::new(&from, targets, &previous, &self.current));
+        match continued_from {
+            Some(from) => self.trend.get_or_insert_with(Box::default).record(
+                &from,
+                targets,
+                &previous,
+                &self.current,
+            ),
+            None => self.trend = None,
+        }
         self.solved_at = Some(targets.to_vec());
         self.publish();
         Ok(stats)

@@ -127,7 +127,7 @@ impl Arap {
             let tolerance = RIGID_RESIDUAL * self.rest_diagonal;
             if motion != Motion::IDENTITY && motion.max_residual(&previous, targets) <= tolerance {
                 self.move_free(&motion, false);
-            } else if let Some(trend) = self.trend.take() {
+            } else if let Some(trend) = self.trend.as_deref() {
                 trend.predict(&previous, targets, &self.inner.free_vertices, &mut self.current);
             }
             self.place_handles(targets);
@@ -200,7 +200,7 @@ impl Arap {
 }
 
 /// A solve's step: its targets' change and its pose's change (module doc, "Predicted start").
-#[derive(Debug)]
+#[derive(Debug, Default)]
 pub(super) struct Trend {
     /// $\Delta t'$, per handle.
     targets: Vec<[f64; 3]>,
@@ -209,18 +209,19 @@ pub(super) struct Trend {
 }
 
 impl Trend {
-    /// The step of a solve from targets `from` to `to` that moved the pose from `before` to
-    /// `after`.
-    pub(super) fn new(
+    /// Records the step of a solve from targets `from` to `to` that moved the pose from
+    /// `before` to `after`, in the buffers of the step before.
+    pub(super) fn record(
+        &mut self,
         from: &[[f64; 3]],
         to: &[[f64; 3]],
         before: &[[f64; 3]],
         after: &[[f64; 3]],
-    ) -> Box<Trend> {
-        Box::new(Trend {
-            targets: to.iter().zip(from).map(|(&a, &b)| sub(a, b)).collect(),
-            pose: after.iter().zip(before).map(|(&a, &b)| sub(a, b)).collect(),
-        })
+    ) {
+        self.targets.clear();
+        self.targets.extend(to.iter().zip(from).map(|(&a, &b)| sub(a, b)));
+        self.pose.clear();
+        self.pose.extend(after.iter().zip(before).map(|(&a, &b)| sub(a, b)));
     }
 
     /// Moves the `free` vertices of `pose` by $\alpha\,\Delta x'$ (module doc) for targets
