@@ -9,7 +9,8 @@ decimated-max use libigl's own .dmat selections from ../shared/meshes instead.
 
 `*-b.json` are held-out sets for armadillo, Cheburashka and the bunny: other regions, other
 sizes and another moving group, on which no default was tuned (the defaults are checked on
-them, BENCHMARKS.md "Defaults on held-out handle sets").
+them, BENCHMARKS.md "Defaults on held-out handle sets"). `*-c.json` are held out the same way
+from the comparison of base smoothing lengths (BENCHMARKS.md, "One pose at every resolution").
 """
 import json
 import sys
@@ -106,6 +107,39 @@ def main():
         ("tail", extreme(v, [-1, 0, 0])),
         ("nose", extreme(v, [1, 0.3, 0])),
     ], 0.03)
+    # Held-out sets (`-c`), written for the base smoothing of smooth rotations (BENCHMARKS.md,
+    # "One pose at every resolution") after it was compared on the others: another moving
+    # group and radius again, and a set for the dragon.
+    v = read(MESHES + "armadillo.obj")
+    lowy = v[:, 1] < np.quantile(v[:, 1], 0.05)
+    sets["armadillo-c"] = (v, [
+        ("left hand", extreme(v, [-1, 0, 0])),
+        ("right foot", extreme(v, [0.3, -1, 0], lowy & (v[:, 0] > 0))),
+        ("left foot", extreme(v, [-0.3, -1, 0], lowy & (v[:, 0] < 0))),
+    ], 0.035)
+    v = read(MESHES + "cheburashka.off")
+    mid = v[:, 0].mean()
+    sets["cheburashka-c"] = (v, [
+        ("left ear", extreme(v, [-1, 0, 0])),
+        ("left foot", extreme(v, [0, -1, 0], v[:, 0] < mid)),
+        ("right foot", extreme(v, [0, -1, 0], v[:, 0] > mid)),
+    ], 0.035)
+    v = read(MESHES + "bunny.off")
+    tip = extreme(v, [0, 1, 0])
+    far = np.linalg.norm(v - tip, axis=1) > 0.15 * np.linalg.norm(v.max(0) - v.min(0))
+    lowy = v[:, 1] < np.quantile(v[:, 1], 0.03)
+    sets["bunny-c"] = (v, [
+        ("other ear", extreme(v, [0, 1, -1], far & (v[:, 1] > np.quantile(v[:, 1], 0.8)))),
+        ("front feet", extreme(v, [1, -0.2, 0], lowy)),
+        ("hind feet", extreme(v, [-1, -0.2, 0], lowy)),
+    ], 0.035)
+    v = read(MESHES + "dragon.obj")
+    lowy = v[:, 1] < np.quantile(v[:, 1], 0.03)
+    sets["dragon-c"] = (v, [
+        ("tail", extreme(v, [0, -0.2, 1], lowy)),
+        ("head", extreme(v, [0, 1, 0])),
+        ("front foot", extreme(v, [0, -0.2, -1], lowy)),
+    ], 0.04)
     for name, (v, regions, r) in sets.items():
         print(name, file=sys.stderr)
         with open(f"bench/handles/{name}.json", "w") as f:

@@ -5,7 +5,7 @@
 //! at the default tolerance, each frame's pose measured against the same variant converged along
 //! the same animation (tolerance `--tight T`, default 1e-8, cap 5000, previous-pose starts):
 //!
-//!     cargo run --release -p solver --example start_study -- MESH SELECTION [--frames N] [--bending-length F] [--tight T] [--dense] [--per-frame]
+//!     cargo run --release -p solver --example start_study -- MESH SELECTION [--frames N] [--bending-length F] [--tight T] [--dense] [--per-frame] [--smoothing S] [--coarse-vertices C]
 //!
 //! Per start: iterations a frame, and the mean and max distance over the diagonal from the
 //! converged coarse pose, averaged over the moving frames (2 to N−1; frame N is rest) and at the
@@ -16,7 +16,8 @@
 //! coarse one included: the figure `bsarap bench --quality` reports.
 //!
 //! `--bending-length F`: smooth rotations with ℓ = F·diag (default: spokes and rims).
-//! `--per-frame`: each frame's iterations, coarse energy (and the converged path's) and distance.
+//! `--smoothing S`, `--coarse-vertices C`: the coarse variant's base settings (default: the
+//! defaults). `--per-frame`: each frame's iterations, coarse energy (and the converged path's) and distance.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use solver::deform::quality::{Reference, ReferenceEnergy, distances};
@@ -48,6 +49,13 @@ fn main() {
     };
     let frames: usize = option("--frames").map_or(20, |v| v.parse().expect("--frames N"));
     let tight: f64 = option("--tight").map_or(1e-8, |v| v.parse().expect("--tight T"));
+    let mut base = BaseConfig::default();
+    if let Some(h) = option("--smoothing") {
+        base.smoothing = h.parse().expect("--smoothing S");
+    }
+    if let Some(c) = option("--coarse-vertices") {
+        base.coarse_vertices = Some(c.parse().expect("--coarse-vertices C"));
+    }
     let energy = match option("--bending-length") {
         Some(f) => ReferenceEnergy {
             energy: Energy::SmoothRotations,
@@ -58,7 +66,7 @@ fn main() {
     assert!(frames >= 3, "--frames must be at least 3");
     assert!(
         args.len() == 2,
-        "usage: start_study MESH SELECTION [--frames N] [--bending-length F] [--tight T] [--dense] [--per-frame]"
+        "usage: start_study MESH SELECTION [--frames N] [--bending-length F] [--tight T] [--dense] [--per-frame] [--smoothing S] [--coarse-vertices C]"
     );
     let mesh = solver::io::load_mesh(std::path::Path::new(&args[0])).expect("mesh").mesh;
     let handles = solver::deform::selection::load_selection(
@@ -83,12 +91,8 @@ fn main() {
             max_iterations,
             ..Default::default()
         };
-        let options = DeformerOptions {
-            method: Method::BsArapCoarse,
-            config,
-            base: BaseConfig::default(),
-            ..Default::default()
-        };
+        let options =
+            DeformerOptions { method: Method::BsArapCoarse, config, base, ..Default::default() };
         let mut d = Deformer::new(&mesh, &handles, options).expect("precompute");
         d.arap_mut().set_prediction(predicted);
         let mut r = Run { iterations: Vec::new(), energies: Vec::new(), poses: Vec::new() };
