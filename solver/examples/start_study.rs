@@ -5,7 +5,7 @@
 //! at the default tolerance, each frame's pose measured against the same variant converged along
 //! the same animation (tolerance `--tight T`, default 1e-8, cap 5000, previous-pose starts):
 //!
-//!     cargo run --release -p solver --example start_study -- MESH SELECTION [--frames N] [--bending-length F] [--tight T] [--dense] [--per-frame] [--smoothing S] [--coarse-vertices C]
+//!     cargo run --release -p solver --example start_study -- MESH SELECTION [--frames N] [--bending-length F] [--tight T] [--dense] [--per-frame] [--smoothing S] [--coarse-vertices C] [--method M]
 //!
 //! Per start: iterations a frame, and the mean and max distance over the diagonal from the
 //! converged coarse pose, averaged over the moving frames (2 to N−1; frame N is rest) and at the
@@ -17,7 +17,10 @@
 //!
 //! `--bending-length F`: smooth rotations with ℓ = F·diag (default: spokes and rims).
 //! `--smoothing S`, `--coarse-vertices C`: the coarse variant's base settings (default: the
-//! defaults). `--per-frame`: each frame's iterations, coarse energy (and the converged path's) and distance.
+//! defaults). `--method M`: another method in its place (`bsarap-faired`: ARAP on the faired
+//! base with the details riding on it, what the coarse variant tends to as its level reaches
+//! every vertex). `--per-frame`: each frame's iterations, energy (and the converged path's) and
+//! distance.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use solver::deform::quality::{Reference, ReferenceEnergy, distances};
@@ -49,6 +52,8 @@ fn main() {
     };
     let frames: usize = option("--frames").map_or(20, |v| v.parse().expect("--frames N"));
     let tight: f64 = option("--tight").map_or(1e-8, |v| v.parse().expect("--tight T"));
+    let method = option("--method")
+        .map_or(Method::BsArapCoarse, |m| Method::from_name(&m).expect("--method NAME"));
     let mut base = BaseConfig::default();
     if let Some(h) = option("--smoothing") {
         base.smoothing = h.parse().expect("--smoothing S");
@@ -66,7 +71,7 @@ fn main() {
     assert!(frames >= 3, "--frames must be at least 3");
     assert!(
         args.len() == 2,
-        "usage: start_study MESH SELECTION [--frames N] [--bending-length F] [--tight T] [--dense] [--per-frame] [--smoothing S] [--coarse-vertices C]"
+        "usage: start_study MESH SELECTION [--frames N] [--bending-length F] [--tight T] [--dense] [--per-frame] [--smoothing S] [--coarse-vertices C] [--method M]"
     );
     let mesh = solver::io::load_mesh(std::path::Path::new(&args[0])).expect("mesh").mesh;
     let handles = solver::deform::selection::load_selection(
@@ -91,8 +96,7 @@ fn main() {
             max_iterations,
             ..Default::default()
         };
-        let options =
-            DeformerOptions { method: Method::BsArapCoarse, config, base, ..Default::default() };
+        let options = DeformerOptions { method, config, base, ..Default::default() };
         let mut d = Deformer::new(&mesh, &handles, options).expect("precompute");
         d.arap_mut().set_prediction(predicted);
         let mut r = Run { iterations: Vec::new(), energies: Vec::new(), poses: Vec::new() };
