@@ -160,6 +160,14 @@ fn main() {
             m.mean * 100.0,
             m.max * 100.0
         );
+        if let Some(reference) = reference.as_mut() {
+            let q = reference.measure(&r.poses[middle - 1]);
+            print!(
+                "; from converged ARAP: mean {:.3} % max {:.2} %",
+                q.mean_distance * 100.0,
+                q.max_distance * 100.0
+            );
+        }
         if per_frame {
             for f in 0..frames {
                 let d = distances(&r.poses[f], &converged.poses[f], diag);
@@ -174,14 +182,6 @@ fn main() {
                 );
             }
             println!();
-        }
-        if let Some(reference) = reference.as_mut() {
-            let q = reference.measure(&r.poses[middle - 1]);
-            print!(
-                "; from converged ARAP: mean {:.3} % max {:.2} %",
-                q.mean_distance * 100.0,
-                q.max_distance * 100.0
-            );
         }
         println!();
     }
