@@ -28,7 +28,6 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use solver::deform::quality::{Reference, ReferenceEnergy, distances};
-use solver::glam::DVec3;
 use solver::{
     Acceleration, ArapConfig, BaseConfig, Deformer, DeformerOptions, Energy, GroupTransform,
     Method, handle_targets,
@@ -157,10 +156,7 @@ fn bench_frame(
     f: usize,
 ) -> Vec<[f64; 3]> {
     let group = handles.group_ids().next().expect("a handle group");
-    let theta = std::f64::consts::TAU * f as f64 / 10.0;
-    let r = 0.1 * diag;
-    let moved =
-        GroupTransform::from_translation(DVec3::new(r * (theta.cos() - 1.0), r * theta.sin(), 0.0));
+    let moved = GroupTransform::on_bench_circle(0.1 * diag, 10, f);
     handle_targets(positions, handles, &[(group, moved)]).expect("targets")
 }
 

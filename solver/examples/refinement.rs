@@ -167,15 +167,7 @@ fn main() {
 fn targets(mesh: &Mesh, handles: &solver::Handles, diag: f64, motion: &str) -> Vec<[f64; 3]> {
     let group = handles.group_ids().next().expect("a handle group");
     let moved = match motion {
-        "bench" => {
-            let theta = std::f64::consts::TAU * 5.0 / 10.0;
-            let r = 0.1 * diag;
-            GroupTransform::from_translation(DVec3::new(
-                r * (theta.cos() - 1.0),
-                r * theta.sin(),
-                0.0,
-            ))
-        }
+        "bench" => GroupTransform::on_bench_circle(0.1 * diag, 10, 5),
         "turn" => GroupTransform::new(
             DVec3::new(0.0, 0.15 * diag, 0.0),
             DQuat::from_rotation_x(40f64.to_radians()),

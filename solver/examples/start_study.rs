@@ -24,7 +24,6 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use solver::deform::quality::{Reference, ReferenceEnergy, distances};
-use solver::glam::DVec3;
 use solver::{
     ArapConfig, BaseConfig, Deformer, DeformerOptions, Energy, GroupTransform, Method,
     handle_targets,
@@ -82,12 +81,7 @@ fn main() {
     .expect("selection");
     let diag = mesh.bbox_diagonal();
     let group = handles.group_ids().next().expect("a handle group");
-    let moves = |f: usize| {
-        let theta = std::f64::consts::TAU * (f % frames) as f64 / frames as f64;
-        let r = 0.1 * diag;
-        let t = DVec3::new(r * (theta.cos() - 1.0), r * theta.sin(), 0.0);
-        [(group, GroupTransform::from_translation(t))]
-    };
+    let moves = |f: usize| [(group, GroupTransform::on_bench_circle(0.1 * diag, frames, f))];
     let run = |tolerance: f64, max_iterations: usize, predicted: bool| {
         let config = ArapConfig {
             energy: energy.energy,

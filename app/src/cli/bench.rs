@@ -245,13 +245,11 @@ struct Setup<'a> {
     base: solver::BaseConfig,
 }
 
-/// The group motion of frame `f` (1..=frames): group `g` on the circle, the others at rest.
-/// The last frame is exactly the rest pose (θ = 0 rather than 2π, whose sine is not 0 in
-/// floating point), which every method returns exactly and without iterating.
+/// The group motion of frame `f` (1..=frames): group `g` on the circle
+/// ([`GroupTransform::on_bench_circle`]), the others at rest. The last frame is exactly the
+/// rest pose, which every method returns exactly and without iterating.
 fn frame_moves(s: &Setup<'_>, g: usize, f: usize) -> [(usize, GroupTransform); 1] {
-    let theta = std::f64::consts::TAU * (f % s.frames) as f64 / s.frames as f64;
-    let t = glam::DVec3::new(s.radius * (theta.cos() - 1.0), s.radius * theta.sin(), 0.0);
-    [(g, GroupTransform::from_translation(t))]
+    [(g, GroupTransform::on_bench_circle(s.radius, s.frames, f))]
 }
 
 /// Handle targets of frame `f` ([`frame_moves`]), for what needs them per vertex (the

@@ -52,6 +52,20 @@ impl GroupTransform {
         GroupTransform { translation, rotation: DQuat::IDENTITY }
     }
 
+    /// The animation benchmark's motion (BENCHMARKS.md, "The animation benchmark"; `bsarap
+    /// bench`): frame `frame` of `frames` on a circle of `radius` through rest in the plane of
+    /// the first two axes, $\theta = 2\pi\,(\text{frame} \bmod \text{frames})/\text{frames}$,
+    /// $t = r\,(\cos\theta - 1,\ \sin\theta,\ 0)$. Frame `frames` is exactly the rest pose
+    /// ($\theta = 0$ rather than $2\pi$, whose sine is not 0 in floating point).
+    pub fn on_bench_circle(radius: f64, frames: usize, frame: usize) -> GroupTransform {
+        let theta = std::f64::consts::TAU * (frame % frames.max(1)) as f64 / frames.max(1) as f64;
+        GroupTransform::from_translation(DVec3::new(
+            radius * (theta.cos() - 1.0),
+            radius * theta.sin(),
+            0.0,
+        ))
+    }
+
     /// From a row-major rotation matrix (a proper rotation; [`quat_of`], normalized) and a
     /// translation: the inverse of [`GroupTransform::rotation_matrix`] up to rounding.
     pub fn from_matrix(translation: DVec3, rotation: &Mat3) -> GroupTransform {
@@ -232,6 +246,17 @@ pub fn handle_targets(
 mod tests {
     use super::*;
     use crate::linalg::rotation::axis_angle;
+
+    #[test]
+    fn the_bench_circle_starts_and_ends_at_rest() {
+        let r = 0.5;
+        assert!(GroupTransform::on_bench_circle(r, 20, 20).is_identity());
+        assert!(GroupTransform::on_bench_circle(r, 20, 0).is_identity());
+        let half = GroupTransform::on_bench_circle(r, 20, 10).translation;
+        assert!((half - DVec3::new(-2.0 * r, 0.0, 0.0)).length() < 1e-12, "{half}");
+        let quarter = GroupTransform::on_bench_circle(r, 20, 5).translation;
+        assert!((quarter - DVec3::new(-r, r, 0.0)).length() < 1e-12, "{quarter}");
+    }
 
     #[test]
     fn motion_moves_like_the_targets() {
