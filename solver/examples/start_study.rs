@@ -103,17 +103,22 @@ fn main() {
         r
     };
     println!(
-        "{}: {} vertices, {} frames, energy {:?} (ℓ = {}·diag)",
+        "{}: {} vertices, {} frames, energy {:?}{}",
         args[0],
         mesh.n_vertices(),
         frames,
         energy.energy,
-        energy.bending_length
+        match energy.energy {
+            Energy::SmoothRotations => format!(" (ℓ = {}·diag)", energy.bending_length),
+            _ => String::new(),
+        }
     );
+    // What the converged path is called: the coarse variant's, or the method's in its place.
+    let own = if method == Method::BsArapCoarse { "coarse" } else { method.name() };
     let converged = run(tight, 5000, false);
     let at_cap = converged.iterations.iter().filter(|&&i| i >= 5000).count();
     println!(
-        "converged coarse path (tolerance {tight:e}): {:.1} iterations a frame, {at_cap} frames at the cap",
+        "converged {own} path (tolerance {tight:e}): {:.1} iterations a frame, {at_cap} frames at the cap",
         mean_iterations(&converged)
     );
     let middle = frames.div_ceil(2);
@@ -130,7 +135,7 @@ fn main() {
     if let Some(r) = reference.as_mut() {
         let q = r.measure(&converged.poses[middle - 1]);
         println!(
-            "  the converged coarse pose from it: mean {:.3} % max {:.2} %",
+            "  the converged {own} pose from it: mean {:.3} % max {:.2} %",
             q.mean_distance * 100.0,
             q.max_distance * 100.0
         );
@@ -146,7 +151,7 @@ fn main() {
         let max = moving.iter().map(|d| d.max).sum::<f64>() / moving.len() as f64;
         let m = &apart[middle - 1];
         print!(
-            "{name}: {:.1} iterations a frame; from the converged coarse path: frames 2–{} mean {:.3} % max {:.2} %, frame {middle} mean {:.3} % max {:.2} %",
+            "{name}: {:.1} iterations a frame; from the converged {own} path: frames 2–{} mean {:.3} % max {:.2} %, frame {middle} mean {:.3} % max {:.2} %",
             mean_iterations(&r),
             frames - 1,
             mean * 100.0,

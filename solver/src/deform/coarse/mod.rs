@@ -62,9 +62,11 @@
 //! | `full_mesh.rs` | 5–6: ARAP iterations on the full mesh (factored in the background) |
 //! | `level_settle.rs` | 6: settling on the level before the full mesh |
 //! | `mod.rs` | [`CoarseBsArap`]: the steps in order, per frame |
+//! | `fit.rs` | the pose of the coarse space nearest a given one (a measurement) |
 
 pub mod base;
 pub mod cache;
+pub mod fit;
 pub mod full_mesh;
 pub mod groups;
 pub mod level;

@@ -1,0 +1,116 @@
+//! How far converged ARAP on the mesh lies from the coarse variant's space, against how far the
+//! coarse variant's own converged answer lies from it (BENCHMARKS.md, "One pose at every
+//! resolution"): whether a better coarse energy could bring the coarse variant nearer, or only
+//! a finer coarse mesh.
+//!
+//!     cargo run --release -p solver --example coarse_space -- MESH SELECTION [--bending-length F] [--frames N] [--coarse-vertices C[,C…]]
+//!
+//! At the middle frame ⌈N/2⌉ of the bench's circle (group 0 on a circle of 0.1·diag, N = 20 by
+//! default): converged ARAP on the mesh ([`solver::deform::quality::Reference`]) and, for each
+//! coarse size (default: the default size), three distances from it as mean / max % of the
+//! diagonal: the coarse variant converged along the animation (tolerance 1e-8, cap 5000: the
+//! figure `start_study --dense` prints), and the nearest pose of the coarse space
+//! ([`solver::deform::coarse::fit::nearest_pose`]) with the details turned by each fine
+//! vertex's own rotation and by the prolongation's coarse rotations (10 sweeps).
+//! `--bending-length F`: smooth rotations with ℓ = F·diag (default: spokes and rims).
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use solver::deform::coarse::base::CoarseBase;
+use solver::deform::coarse::fit::{DetailRotations, nearest_pose};
+use solver::deform::quality::{Reference, ReferenceEnergy};
+use solver::{
+    ArapConfig, BaseConfig, Deformer, DeformerOptions, Energy, GroupTransform, Method,
+    handle_targets,
+};
+
+fn main() {
+    let mut args: Vec<String> = std::env::args().skip(1).collect();
+    let mut option = |name: &str| {
+        args.iter().position(|a| a == name).map(|i| {
+            let value = args.get(i + 1).unwrap_or_else(|| panic!("{name} VALUE")).clone();
+            args.drain(i..i + 2);
+            value
+        })
+    };
+    let frames: usize = option("--frames").map_or(20, |v| v.parse().expect("--frames N"));
+    let sizes: Vec<Option<usize>> = option("--coarse-vertices").map_or(vec![None], |v| {
+        v.split(',').map(|c| Some(c.parse().expect("--coarse-vertices C[,C…]"))).collect()
+    });
+    let energy = match option("--bending-length") {
+        Some(f) => ReferenceEnergy {
+            energy: Energy::SmoothRotations,
+            bending_length: f.parse().expect("--bending-length F"),
+        },
+        None => Energy::SpokesAndRims.into(),
+    };
+    assert!(frames >= 3, "--frames must be at least 3");
+    assert!(
+        args.len() == 2,
+        "usage: coarse_space MESH SELECTION [--bending-length F] [--frames N] [--coarse-vertices C[,C…]]"
+    );
+    let mesh = solver::io::load_mesh(std::path::Path::new(&args[0])).expect("mesh").mesh;
+    let handles = solver::deform::selection::load_selection(
+        std::path::Path::new(&args[1]),
+        mesh.positions(),
+        None,
+    )
+    .expect("selection");
+    let diag = mesh.bbox_diagonal();
+    let group = handles.group_ids().next().expect("a handle group");
+    let moves = |f: usize| [(group, GroupTransform::on_bench_circle(0.1 * diag, frames, f))];
+    let middle = frames.div_ceil(2);
+    println!(
+        "{}: {} vertices, energy {:?}{}, frame {middle} of {frames}",
+        args[0],
+        mesh.n_vertices(),
+        energy.energy,
+        match energy.energy {
+            Energy::SmoothRotations => format!(" (ℓ = {}·diag)", energy.bending_length),
+            _ => String::new(),
+        }
+    );
+    let targets = handle_targets(mesh.positions(), &handles, &moves(middle)).expect("targets");
+    let mut reference = Reference::new(&mesh, &handles, &targets, energy).expect("dense reference");
+    println!(
+        "converged ARAP on the mesh: {} iterations{}",
+        reference.stats().iterations,
+        if reference.stats().converged { "" } else { " (the cap: not converged)" }
+    );
+    let dense = reference.positions().to_vec();
+    for coarse_vertices in sizes {
+        let base = BaseConfig { coarse_vertices, ..Default::default() };
+        let config = ArapConfig {
+            energy: energy.energy,
+            bending_length: energy.bending_length,
+            tolerance: 1e-8,
+            max_iterations: 5000,
+            ..Default::default()
+        };
+        let options =
+            DeformerOptions { method: Method::BsArapCoarse, config, base, ..Default::default() };
+        let mut d = Deformer::new(&mesh, &handles, options).expect("precompute");
+        for f in 1..=middle {
+            d.solve_groups(&moves(f)).expect("solve");
+        }
+        let own = reference.measure(d.positions());
+        let coarse = CoarseBase::new(&mesh, &base).expect("coarse base");
+        print!(
+            "{} coarse vertices: converged coarse variant mean {:.3} % max {:.2} %",
+            coarse.coarse_vertices(),
+            own.mean_distance * 100.0,
+            own.max_distance * 100.0
+        );
+        for (name, kind) in
+            [("fine", DetailRotations::Fine), ("coarse", DetailRotations::Coarse { sweeps: 10 })]
+        {
+            let fit = nearest_pose(&mesh, &coarse, &handles, &dense, kind).expect("fit");
+            let q = reference.measure(&fit);
+            print!(
+                "; nearest, {name} rotations: mean {:.3} % max {:.2} %",
+                q.mean_distance * 100.0,
+                q.max_distance * 100.0
+            );
+        }
+        println!();
+    }
+}
