@@ -1,22 +1,32 @@
 //! How far converged ARAP on the mesh lies from the coarse variant's space, against how far the
-//! coarse variant's own converged answer lies from it (BENCHMARKS.md, "One pose at every
-//! resolution"): whether a better coarse energy could bring the coarse variant nearer, or only
-//! a finer coarse mesh.
+//! coarse variant's own converged answer and a Galerkin coarse energy's lie from it
+//! (BENCHMARKS.md, "One pose at every resolution"): whether a better coarse energy can bring
+//! the coarse variant nearer, or only a finer coarse mesh.
 //!
-//!     cargo run --release -p solver --example coarse_space -- MESH SELECTION [--bending-length F] [--frames N] [--coarse-vertices C[,C…]]
+//!     cargo run --release -p solver --example coarse_space -- MESH SELECTION [--bending-length F] [--frames N] [--coarse-vertices C[,C…]] [--penalty W[,W…]]
 //!
 //! At the middle frame ⌈N/2⌉ of the bench's circle (group 0 on a circle of 0.1·diag, N = 20 by
 //! default): converged ARAP on the mesh ([`solver::deform::quality::Reference`]) and, for each
-//! coarse size (default: the default size), three distances from it as mean / max % of the
-//! diagonal: the coarse variant converged along the animation (tolerance 1e-8, cap 5000: the
-//! figure `start_study --dense` prints), and the nearest pose of the coarse space
-//! ([`solver::deform::coarse::fit::nearest_pose`]) with the details turned by each fine
-//! vertex's own rotation and by the prolongation's coarse rotations (10 sweeps).
+//! coarse size (default: the default size), distances from it as mean / max % of the diagonal,
+//! with each pose's energy on the mesh over the converged one's, minus 1 (`E +`):
+//! - the coarse variant converged along the animation (tolerance 1e-8, cap 5000: the figure
+//!   `start_study --dense` prints);
+//! - the nearest pose of the coarse space ([`solver::deform::coarse::fit::nearest_pose`]) with
+//!   the details turned by each fine vertex's own rotation and by the prolongation's coarse
+//!   rotations (10 sweeps);
+//! - with smooth rotations, the Galerkin coarse energy
+//!   ([`solver::deform::coarse::galerkin`]) solved from rest, as the reference is (coarse
+//!   positions moving less than 1e-10·diag an iteration, cap 50,000), with the coarse
+//!   variant's coarse handles and with the penalty of weight W on every handle vertex
+//!   (`--penalty`, default 0.1); the handle gap is the largest distance the pose closes
+//!   between a handle vertex's prolonged position and its target.
+//!
 //! `--bending-length F`: smooth rotations with ℓ = F·diag (default: spokes and rims).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use solver::deform::coarse::base::CoarseBase;
 use solver::deform::coarse::fit::{DetailRotations, nearest_pose};
+use solver::deform::coarse::galerkin::{GalerkinCoarse, HandleRule};
 use solver::deform::quality::{Reference, ReferenceEnergy};
 use solver::{
     ArapConfig, BaseConfig, Deformer, DeformerOptions, Energy, GroupTransform, Method,
@@ -36,6 +46,9 @@ fn main() {
     let sizes: Vec<Option<usize>> = option("--coarse-vertices").map_or(vec![None], |v| {
         v.split(',').map(|c| Some(c.parse().expect("--coarse-vertices C[,C…]"))).collect()
     });
+    let penalties: Vec<f64> = option("--penalty").map_or(vec![0.1], |v| {
+        v.split(',').map(|w| w.parse().expect("--penalty W[,W…]")).collect()
+    });
     let energy = match option("--bending-length") {
         Some(f) => ReferenceEnergy {
             energy: Energy::SmoothRotations,
@@ -46,7 +59,7 @@ fn main() {
     assert!(frames >= 3, "--frames must be at least 3");
     assert!(
         args.len() == 2,
-        "usage: coarse_space MESH SELECTION [--bending-length F] [--frames N] [--coarse-vertices C[,C…]]"
+        "usage: coarse_space MESH SELECTION [--bending-length F] [--frames N] [--coarse-vertices C[,C…]] [--penalty W[,W…]]"
     );
     let mesh = solver::io::load_mesh(std::path::Path::new(&args[0])).expect("mesh").mesh;
     let handles = solver::deform::selection::load_selection(
@@ -77,6 +90,8 @@ fn main() {
         if reference.stats().converged { "" } else { " (the cap: not converged)" }
     );
     let dense = reference.positions().to_vec();
+    // Energies are given as E_M(pose) / E_M(converged ARAP) − 1.
+    let e_min = reference.measure(&dense).energy_on_mesh;
     for coarse_vertices in sizes {
         let base = BaseConfig { coarse_vertices, ..Default::default() };
         let config = ArapConfig {
@@ -95,10 +110,11 @@ fn main() {
         let own = reference.measure(d.positions());
         let coarse = CoarseBase::new(&mesh, &base).expect("coarse base");
         print!(
-            "{} coarse vertices: converged coarse variant mean {:.3} % max {:.2} %",
+            "{} coarse vertices: converged coarse variant mean {:.3} % max {:.2} % (E +{:.2e})",
             coarse.coarse_vertices(),
             own.mean_distance * 100.0,
-            own.max_distance * 100.0
+            own.max_distance * 100.0,
+            own.energy_on_mesh / e_min - 1.0
         );
         for (name, kind) in
             [("fine", DetailRotations::Fine), ("coarse", DetailRotations::Coarse { sweeps: 10 })]
@@ -106,10 +122,40 @@ fn main() {
             let fit = nearest_pose(&mesh, &coarse, &handles, &dense, kind).expect("fit");
             let q = reference.measure(&fit);
             print!(
-                "; nearest, {name} rotations: mean {:.3} % max {:.2} %",
+                "; nearest, {name} rotations: mean {:.3} % max {:.2} % (E +{:.2e})",
                 q.mean_distance * 100.0,
-                q.max_distance * 100.0
+                q.max_distance * 100.0,
+                q.energy_on_mesh / e_min - 1.0
             );
+        }
+        if energy.energy == Energy::SmoothRotations {
+            let rules =
+                std::iter::once((", coarse handles".to_string(), HandleRule::CoarseVertices))
+                    .chain(penalties.iter().map(|&weight| {
+                        (format!(", penalty {weight}"), HandleRule::Penalty { weight })
+                    }));
+            for (name, rule) in rules {
+                let clock = std::time::Instant::now();
+                let mut galerkin =
+                    GalerkinCoarse::new(&mesh, &coarse, &handles, energy.bending_length, rule)
+                        .expect("Galerkin coarse energy");
+                let built = clock.elapsed().as_secs_f64();
+                let clock = std::time::Instant::now();
+                // From rest, as the reference is solved.
+                let iterations = galerkin.solve(&mesh, &targets, 1e-10, diag, 50_000);
+                let per_iteration = clock.elapsed().as_secs_f64() / iterations as f64;
+                assert!(iterations < 50_000, "the Galerkin solve did not converge");
+                let q = reference.measure(&galerkin.pose(&mesh, &coarse, &targets));
+                let gap = galerkin.handle_gap(&coarse, &targets) / diag;
+                print!(
+                    "; Galerkin{name} (built in {built:.2} s, {iterations} iterations at {:.2} ms, handle gap {:.2} %): mean {:.3} % max {:.2} % (E +{:.2e})",
+                    per_iteration * 1e3,
+                    gap * 100.0,
+                    q.mean_distance * 100.0,
+                    q.max_distance * 100.0,
+                    q.energy_on_mesh / e_min - 1.0
+                );
+            }
         }
         println!();
     }

@@ -63,11 +63,13 @@
 //! | `level_settle.rs` | 6: settling on the level before the full mesh |
 //! | `mod.rs` | [`CoarseBsArap`]: the steps in order, per frame |
 //! | `fit.rs` | the pose of the coarse space nearest a given one (a measurement) |
+//! | `galerkin.rs` | the full mesh's energy restricted to the coarse space (an experiment) |
 
 pub mod base;
 pub mod cache;
 pub mod fit;
 pub mod full_mesh;
+pub mod galerkin;
 pub mod groups;
 pub mod level;
 pub mod level_settle;

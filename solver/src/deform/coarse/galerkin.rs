@@ -1,0 +1,468 @@
+//! An experiment, not yet a method: the smooth-rotations energy of the full mesh restricted to
+//! the coarse variant's space (a Galerkin coarse energy), solved at the coarse level's cost per
+//! iteration. [`crate::deform::coarse::fit`] showed that the space holds converged ARAP within
+//! hundredths of a percent of the diagonal while the coarse variant's own energy (ARAP on the
+//! decimated base) has its minimum tenths of a percent away; this is the coarse energy that
+//! aims at the dense one (BENCHMARKS.md, "One pose at every resolution").
+//!
+//! **The restriction.** Fine positions $p_i = P_i c + R_{k(i)} D_i$: coarse positions $c$
+//! (`#Vc×3`), the embedding's row $P_i$, the detail $D_i$ turned by the rotation of the
+//! cluster $k(i)$ (the fine vertex's representative coarse vertex), and one rotation per
+//! cluster for the cells of its fine vertices. The rest edge is
+//! $e_{ij} = \delta_{ij} B_c + D_i - D_j$ with $\delta_{ij} = P_i - P_j$, so the spoke residual
+//! of the ordered pair $(i,j)$, $i$ in cluster $k$, $j$ in $l$, is
+//! $$\delta_{ij} c - R_k\,\delta_{ij} B_c + (R_k - R_l) D_j,$$
+//! and the last term, nonzero only across clusters and second order where the rotations vary
+//! smoothly, is dropped (kept with the other cluster's rotation lagged, it moved the armadillo's
+//! pose by 0.004 % of the diagonal in an experiment, at a fine edge's cost per crossing pair). What is left is quadratic in $c$ with coefficients gathered once per
+//! handle set through the prolongation. With the spokes weights $w_{ij}$ of the full mesh (the
+//! smooth-rotations energy's, [`crate::deform::arap::smooth_rotations`]):
+//! - the global matrix $G = \sum_{(i,j)} w_{ij}\,\delta_{ij}^\top\delta_{ij} = P^\top L P$;
+//! - per cluster $k$ and coarse vertex $b$ a vector
+//!   $g_{kb} = \sum_{(i,j),\,i\in k} w_{ij}\,(\delta_{ij})_b\,(\beta_i - \beta_j)$,
+//!   $\beta = P B_c$, from which the covariance is $S_k = \sum_b g_{kb}\,c_b^\top$ and the
+//!   global right-hand side $r_b = \sum_k R_k g_{kb}$: both cost the number of pairs $(k, b)$,
+//!   a few dozen per coarse vertex, whatever the full mesh's size.
+//! - The rotation term is the coarse mesh's: $\beta_\ell \sum_k\sum_{l} w^c_{kl}\lVert R_k -
+//!   R_l\rVert_F^2$ with $B_c$'s clamped cotangent weights and $\beta_\ell = \ell^2$ (a linear
+//!   rotation field's Dirichlet energy on any triangulation; the full mesh's weights summed
+//!   across cluster borders would grow with its resolution).
+//! - Handles ([`HandleRule`]): either the coarse variant's coarse handles held exactly on their
+//!   group's rigid motion (the free block of the matrix factored), so that only the energy
+//!   differs from the coarse variant, or every fine handle vertex on its target $t_i$ by a
+//!   penalty $\mu\sum_i \lVert P_i c + R_{k(i)} D_i - t_i\rVert^2$, $\mu$ a weight times
+//!   $\max_a G_{aa}$, which adds $\mu P_H^\top P_H$ to the matrix, its part to each $g_{kb}$
+//!   and a per-frame term to $S_k$ and $r$. Vertices of components without handles are held at
+//!   rest by the same penalty (weight $10^3$).
+//!
+//! **Iterations**: a local step (the clusters' covariances, then one Gauss–Seidel sweep of
+//! fits of $X_k = S_k + 2\beta_\ell\sum_l w^c_{kl} R_l^\top$ in index order, each an exact block
+//! minimization) and a global step (the matrix factored once) until the coarse
+//! positions move less than a tolerance. The rotation field converges slowly (thousands of
+//! iterations on the paper's meshes): four sweeps per local step took the armadillo's bench
+//! set from 2,945 to 919 iterations to the same pose, at 2.6× the cost of one; an implicit
+//! rotation step as in [`crate::deform::arap::rotation_solve`] and Anderson acceleration are
+//! what a method built on this would need. The pose shown is the prolongation of
+//! [`crate::deform::coarse::prolong`] (details on the blend of the corner rotations), with
+//! constrained vertices on their targets.
+
+use crate::deform::coarse::base::CoarseBase;
+use crate::deform::coarse::groups::CoarseGroups;
+use crate::deform::coarse::prolong::{Prolongation, prolong, quaternion_of};
+use crate::deform::constraints::Constraints;
+use crate::deform::handles::Handles;
+use crate::error::SolveError;
+use crate::geometry::cotan::{edge_weights, face_cotangents, face_cotangents_or};
+use crate::geometry::embedding::from_stored;
+use crate::geometry::mesh::{Mesh, norm2, sub};
+use crate::linalg::linsolve::{Layout, SpdFactor};
+use crate::linalg::rotation::{IDENTITY, Mat3, add_outer, fit_rotation_near, mul_vec};
+use faer::MatMut;
+use faer::sparse::Triplet;
+use glam::DQuat;
+use std::collections::HashMap;
+
+/// A constrained fine vertex: its cluster, its embedding, its detail.
+#[derive(Debug, Clone, Copy)]
+struct Held {
+    vertex: u32,
+    /// Its index in the handle targets, or `None` for a vertex held at rest.
+    target: Option<usize>,
+    cluster: u32,
+    corners: [u32; 3],
+    weights: [f64; 3],
+    detail: [f64; 3],
+}
+
+/// The penalty weight of vertices of components without handles (held at rest), times the
+/// largest diagonal entry of $G$.
+const PINNED_WEIGHT: f64 = 1e3;
+
+/// How the handles hold the Galerkin coarse energy's pose (module doc).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum HandleRule {
+    /// Every fine handle vertex by a penalty of `weight` times the largest diagonal entry of
+    /// $G$.
+    Penalty { weight: f64 },
+    /// The coarse variant's coarse handles ([`crate::deform::coarse`], "Handles on the coarse
+    /// level") held exactly on their group's rigid motion.
+    CoarseVertices,
+}
+
+/// The Galerkin coarse energy for one mesh, coarse base and handle set (module doc).
+#[derive(Debug)]
+pub struct GalerkinCoarse {
+    /// Per cluster $k$, its pairs $(b, g_{kb})$: `pairs[start[k]..start[k + 1]]`.
+    start: Vec<usize>,
+    pairs: Vec<(u32, [f64; 3])>,
+    /// The coarse mesh's clamped cotangent edges $(k, l, w^c_{kl})$, both orders.
+    edge_start: Vec<usize>,
+    edges: Vec<(u32, f64)>,
+    beta: f64,
+    mu: f64,
+    held: Vec<Held>,
+    /// The fine handle vertices (order of their targets).
+    handle_vertices: Vec<u32>,
+    factor: SpdFactor,
+    /// Per coarse vertex, its row in the factored (free) block, or `None` when a coarse
+    /// handle ([`HandleRule::CoarseVertices`]).
+    free: Vec<Option<u32>>,
+    /// The matrix's entries coupling free rows to coarse handles: (free row, coarse vertex, value).
+    coupling: Vec<(u32, u32, f64)>,
+    /// The coarse handles' groups and their targets' rule, with [`HandleRule::CoarseVertices`].
+    groups: Option<CoarseGroups>,
+    c: Vec<[f64; 3]>,
+    rotations: Vec<Mat3>,
+}
+
+impl GalerkinCoarse {
+    /// Gathers the energy's coefficients through `base`'s prolongation (module doc) for the
+    /// handles of `handles` and the bending length `bending_length`·diag of `mesh`.
+    pub fn new(
+        mesh: &Mesh,
+        base: &CoarseBase,
+        handles: &Handles,
+        bending_length: f64,
+        rule: HandleRule,
+    ) -> Result<GalerkinCoarse, SolveError> {
+        let n = mesh.n_vertices();
+        let coarse = &base.coarse_mesh;
+        let m = coarse.n_vertices();
+        let tris = coarse.triangles();
+        let row = |i: usize| -> ([u32; 3], [f64; 3]) {
+            let [w0, w1] = base.weights[i];
+            (tris[base.faces[i] as usize], from_stored(w0, w1))
+        };
+        let cot = face_cotangents(mesh.positions(), mesh.triangles(), 0.0)
+            .map_err(|e| SolveError::DegenerateFace { face: e.face })?;
+        let fine_edges = edge_weights(mesh.triangles(), &cot, true);
+        let beta_of = &base.base_on_coarse;
+        let mut g: HashMap<u64, f64> = HashMap::new();
+        let mut pair: HashMap<u64, [f64; 3]> = HashMap::new();
+        let key = |a: u32, b: u32| (u64::from(a) << 32) | u64::from(b);
+        let mut delta: Vec<(u32, f64)> = Vec::with_capacity(6);
+        for &(i, j, w) in &fine_edges {
+            if w == 0.0 {
+                continue;
+            }
+            let ((ti, wi), (tj, wj)) = (row(i as usize), row(j as usize));
+            delta.clear();
+            for (t, ws, sign) in [(ti, wi, 1.0), (tj, wj, -1.0)] {
+                for a in 0..3 {
+                    match delta.iter_mut().find(|(v, _)| *v == t[a]) {
+                        Some(d) => d.1 += sign * ws[a],
+                        None => delta.push((t[a], sign * ws[a])),
+                    }
+                }
+            }
+            // Both orders: G gains 2w δᵀδ; each end's cluster gains w δ_b (β_i − β_j).
+            for &(a, da) in &delta {
+                for &(b, db) in &delta {
+                    if a >= b {
+                        *g.entry(key(a, b)).or_default() += 2.0 * w * da * db;
+                    }
+                }
+            }
+            let rest = sub(beta_of[i as usize], beta_of[j as usize]);
+            for k in [base.representative[i as usize], base.representative[j as usize]] {
+                for &(b, db) in &delta {
+                    let e = pair.entry(key(k, b)).or_default();
+                    for d in 0..3 {
+                        e[d] += w * db * rest[d];
+                    }
+                }
+            }
+        }
+        let g_max = g
+            .iter()
+            .filter(|(k, _)| (*k >> 32) == (*k & 0xffff_ffff))
+            .fold(0.0f64, |s, (_, &v)| s.max(v));
+        let constraints = Constraints::new(mesh, handles);
+        let (mu, penalized, groups) = match rule {
+            HandleRule::Penalty { weight } => {
+                (weight * g_max, constraints.handle_vertices.len(), None)
+            }
+            HandleRule::CoarseVertices => {
+                (PINNED_WEIGHT * g_max, 0, Some(CoarseGroups::new(base, handles, mesh.positions())))
+            }
+        };
+        // Handle vertices under the penalty (all or none), then pinned vertices (always).
+        let held: Vec<Held> = constraints.handle_vertices[..penalized]
+            .iter()
+            .enumerate()
+            .map(|(t, &v)| (Some(t), v))
+            .chain(constraints.pinned_vertices.iter().map(|&v| (None, v)))
+            .map(|(target, v)| {
+                let (corners, weights) = row(v as usize);
+                Held {
+                    vertex: v,
+                    target,
+                    cluster: base.representative[v as usize],
+                    corners,
+                    weights,
+                    detail: base.details[v as usize],
+                }
+            })
+            .collect();
+        for h in &held {
+            for a in 0..3 {
+                for b in 0..3 {
+                    if h.corners[a] >= h.corners[b] {
+                        *g.entry(key(h.corners[a], h.corners[b])).or_default() +=
+                            mu * h.weights[a] * h.weights[b];
+                    }
+                }
+                let e = pair.entry(key(h.cluster, h.corners[a])).or_default();
+                for (ed, dd) in e.iter_mut().zip(h.detail) {
+                    *ed -= mu * h.weights[a] * dd;
+                }
+            }
+        }
+        let eps = 1e-12 * g_max;
+        // The free block: every coarse vertex but the coarse handles.
+        let mut free = vec![None; m];
+        let mut n_free = 0u32;
+        for (k, f) in free.iter_mut().enumerate() {
+            if groups.as_ref().is_none_or(|g| g.labels[k].is_none()) {
+                *f = Some(n_free);
+                n_free += 1;
+            }
+        }
+        let mut triplets: Vec<_> = (0..n_free as usize).map(|a| Triplet::new(a, a, eps)).collect();
+        let mut coupling = Vec::new();
+        for (&key, &v) in &g {
+            let (a, b) = ((key >> 32) as u32, (key & 0xffff_ffff) as u32);
+            match (free[a as usize], free[b as usize]) {
+                (Some(fa), Some(fb)) => triplets.push(Triplet::new(fa as usize, fb as usize, v)),
+                (Some(fa), None) => coupling.push((fa, b, v)),
+                (None, Some(fb)) => coupling.push((fb, a, v)),
+                (None, None) => {}
+            }
+        }
+        let factor = SpdFactor::from_triplets(n_free as usize, &triplets, Layout::Auto)
+            .map_err(|source| SolveError::Factorization { matrix: "PᵀLP (Galerkin)", source })?;
+        let (start, pairs) = by_first(
+            m,
+            pair.into_iter().map(|(k, v)| ((k >> 32) as u32, ((k & 0xffff_ffff) as u32, v))),
+        );
+        let (coarse_cot, _) =
+            face_cotangents_or(coarse.positions(), Some(&base.rest_kept), tris, base.floor)
+                .map_err(|e| SolveError::DegenerateBase { face: e.face })?;
+        let coarse_edges = edge_weights(tris, &coarse_cot, true);
+        let (edge_start, edges) =
+            by_first(m, coarse_edges.iter().flat_map(|&(k, l, w)| [(k, (l, w)), (l, (k, w))]));
+        let ell = bending_length * mesh.bbox_diagonal();
+        debug_assert_eq!(n, base.details.len());
+        Ok(GalerkinCoarse {
+            start,
+            pairs,
+            edge_start,
+            edges,
+            beta: ell * ell,
+            mu,
+            held,
+            handle_vertices: constraints.handle_vertices.clone(),
+            factor,
+            free,
+            coupling,
+            groups,
+            c: coarse.positions().to_vec(),
+            rotations: vec![IDENTITY; m],
+        })
+    }
+
+    /// Iterates from the last solve's coarse pose and rotations (rest at first) until the coarse
+    /// positions move less than `tolerance`·`length` in an iteration, or `max_iterations`;
+    /// returns the iterations taken. `targets` are the handle vertices' (order of
+    /// [`Handles::handle_vertices`]); components without handles stay at rest.
+    pub fn solve(
+        &mut self,
+        mesh: &Mesh,
+        targets: &[[f64; 3]],
+        tolerance: f64,
+        length: f64,
+        max_iterations: usize,
+    ) -> usize {
+        let m = self.c.len();
+        // Per frame: τ = μ P_Cᵀ t and σ_k = μ Σ_{i∈C∩k} D_i t_iᵀ.
+        let mut tau = vec![[0.0; 3]; m];
+        let mut sigma = vec![[[0.0; 3]; 3]; m];
+        for h in &self.held {
+            let t = h.target.map_or(mesh.positions()[h.vertex as usize], |t| targets[t]);
+            for a in 0..3 {
+                let e = &mut tau[h.corners[a] as usize];
+                for d in 0..3 {
+                    e[d] += self.mu * h.weights[a] * t[d];
+                }
+            }
+            add_outer(&mut sigma[h.cluster as usize], self.mu, h.detail, t);
+        }
+        // Coarse handles on their group's rigid motion (the coarse variant's rule).
+        if let Some(groups) = &self.groups {
+            let (mut motions, mut coarse_targets) = (Vec::new(), Vec::new());
+            groups.targets(targets, None, &mut motions, &mut coarse_targets);
+            // The coarse handles in ascending order, as their targets come.
+            let held = self.c.iter_mut().zip(&self.free).filter(|(_, f)| f.is_none());
+            for ((c, _), t) in held.zip(&coarse_targets) {
+                *c = *t;
+            }
+        }
+        let nf = self.factor.n();
+        let mut rhs = vec![0.0; 3 * nf];
+        for iteration in 1..=max_iterations {
+            // Local step: covariances, then one Gauss–Seidel sweep of the rotation fits.
+            for (k, s) in sigma.iter().enumerate() {
+                let mut x = *s;
+                for &(b, gv) in &self.pairs[self.start[k]..self.start[k + 1]] {
+                    add_outer(&mut x, 1.0, gv, self.c[b as usize]);
+                }
+                for &(l, w) in &self.edges[self.edge_start[k]..self.edge_start[k + 1]] {
+                    let r = &self.rotations[l as usize];
+                    for (p, xp) in x.iter_mut().enumerate() {
+                        for (q, xq) in xp.iter_mut().enumerate() {
+                            *xq += 2.0 * self.beta * w * r[q][p];
+                        }
+                    }
+                }
+                self.rotations[k] = fit_rotation_near(&x, &self.rotations[k]);
+            }
+            // Global step on the free block: r = τ + Σ_k R_k g_k − A_FH c_H.
+            rhs.fill(0.0);
+            let mut add = |b: usize, v: [f64; 3]| {
+                if let Some(f) = self.free[b] {
+                    for d in 0..3 {
+                        rhs[d * nf + f as usize] += v[d];
+                    }
+                }
+            };
+            for (b, t) in tau.iter().enumerate() {
+                add(b, *t);
+            }
+            for k in 0..m {
+                let r = &self.rotations[k];
+                for &(b, gv) in &self.pairs[self.start[k]..self.start[k + 1]] {
+                    add(b as usize, mul_vec(r, gv));
+                }
+            }
+            for &(f, h, v) in &self.coupling {
+                let c = self.c[h as usize];
+                for d in 0..3 {
+                    rhs[d * nf + f as usize] -= v * c[d];
+                }
+            }
+            self.factor.solve_in_place(MatMut::from_column_major_slice_mut(&mut rhs, nf, 3));
+            let mut moved = 0.0f64;
+            for (k, c) in self.c.iter_mut().enumerate() {
+                if let Some(f) = self.free[k] {
+                    let f = f as usize;
+                    let new = [rhs[f], rhs[nf + f], rhs[2 * nf + f]];
+                    moved = moved.max(norm2(sub(new, *c)).sqrt());
+                    *c = new;
+                }
+            }
+            if moved < tolerance * length {
+                return iteration;
+            }
+        }
+        max_iterations
+    }
+
+    /// The pose of the full mesh: the prolongation of the coarse pose and rotations, constrained
+    /// vertices on `targets` and at rest.
+    pub fn pose(&self, mesh: &Mesh, base: &CoarseBase, targets: &[[f64; 3]]) -> Vec<[f64; 3]> {
+        let mut out = self.prolonged(base);
+        for h in &self.held {
+            out[h.vertex as usize] = mesh.positions()[h.vertex as usize];
+        }
+        for (&v, t) in self.handle_vertices.iter().zip(targets) {
+            out[v as usize] = *t;
+        }
+        out
+    }
+
+    /// The largest distance between a handle vertex's prolonged position and its target: the
+    /// step [`GalerkinCoarse::pose`] closes at the handle's border.
+    pub fn handle_gap(&self, base: &CoarseBase, targets: &[[f64; 3]]) -> f64 {
+        let out = self.prolonged(base);
+        self.handle_vertices
+            .iter()
+            .zip(targets)
+            .map(|(&v, t)| norm2(sub(out[v as usize], *t)).sqrt())
+            .fold(0.0, f64::max)
+    }
+
+    /// The prolongation of the coarse pose and rotations, every vertex.
+    fn prolonged(&self, base: &CoarseBase) -> Vec<[f64; 3]> {
+        let q: Vec<DQuat> = self.rotations.iter().map(quaternion_of).collect();
+        let mut out = vec![[0.0; 3]; base.details.len()];
+        prolong(
+            Prolongation {
+                coarse: &self.c,
+                quaternions: &q,
+                triangles: base.coarse_mesh.triangles(),
+                faces: &base.faces,
+                weights: &base.weights,
+                details: &base.details,
+                corrections: &[],
+            },
+            &mut out,
+        );
+        out
+    }
+}
+
+/// Entries `(first, value)` grouped by `first < n` as offsets and values (any order within a
+/// group).
+fn by_first<T>(n: usize, entries: impl Iterator<Item = (u32, T)>) -> (Vec<usize>, Vec<T>) {
+    let mut all: Vec<(u32, T)> = entries.collect();
+    all.sort_by_key(|e| e.0);
+    let mut start = vec![0usize; n + 1];
+    for (k, _) in &all {
+        start[*k as usize + 1] += 1;
+    }
+    for k in 0..n {
+        start[k + 1] += start[k];
+    }
+    (start, all.into_iter().map(|(_, v)| v).collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::deform::config::BaseConfig;
+    use crate::deform::quality::distances;
+    use crate::linalg::rotation::axis_angle;
+
+    /// Rest targets leave the rest pose, and one rigid motion of every handle moves the whole
+    /// mesh by it, under both handle rules: both poses are minima of the restricted energy
+    /// (zero energy), so the iterations must find them.
+    #[test]
+    fn rest_and_rigid_motions_are_reproduced() {
+        let (mesh, handles) = crate::geometry::shapes::bumpy_bar(3);
+        let base = CoarseBase::new(&mesh, &BaseConfig::default()).unwrap();
+        let diag = mesh.bbox_diagonal();
+        let r = axis_angle([0.2, 1.0, -0.3], 0.7);
+        let moved: Vec<_> = mesh
+            .positions()
+            .iter()
+            .map(|&p| {
+                let q = mul_vec(&r, p);
+                [q[0] - 0.3, q[1] + 0.1, q[2] + 0.2]
+            })
+            .collect();
+        let at = |x: &[[f64; 3]]| -> Vec<[f64; 3]> {
+            handles.handle_vertices().iter().map(|&v| x[v as usize]).collect()
+        };
+        for rule in [HandleRule::CoarseVertices, HandleRule::Penalty { weight: 1.0 }] {
+            let mut g = GalerkinCoarse::new(&mesh, &base, &handles, 0.02, rule).unwrap();
+            g.solve(&mesh, &at(mesh.positions()), 1e-12, diag, 1000);
+            let rest =
+                distances(&g.pose(&mesh, &base, &at(mesh.positions())), mesh.positions(), diag);
+            assert!(rest.max < 1e-9, "{rule:?}: {rest:?}");
+            let iterations = g.solve(&mesh, &at(&moved), 1e-11, diag, 20_000);
+            assert!(iterations < 20_000, "{rule:?}");
+            let rigid = distances(&g.pose(&mesh, &base, &at(&moved)), &moved, diag);
+            assert!(rigid.max < 1e-6, "{rule:?}: {rigid:?}");
+        }
+    }
+}
