@@ -179,6 +179,7 @@ mod tests {
     use super::*;
     use crate::deform::config::BaseConfig;
     use crate::deform::quality::distances;
+    use crate::linalg::rigid::Motion;
     use crate::linalg::rotation::axis_angle;
 
     /// A rigid motion of the rest pose lies in the space (coarse pose $T(B_c)$, every rotation
@@ -189,15 +190,9 @@ mod tests {
         let (mesh, handles) = crate::geometry::shapes::bumpy_bar(3);
         let base = CoarseBase::new(&mesh, &BaseConfig::default()).unwrap();
         let diag = mesh.bbox_diagonal();
-        let r = axis_angle([0.3, -1.0, 0.4], 0.9);
-        let moved: Vec<_> = mesh
-            .positions()
-            .iter()
-            .map(|&p| {
-                let q = mul_vec(&r, p);
-                [q[0] + 0.2, q[1] - 0.1, q[2] + 0.05]
-            })
-            .collect();
+        let motion =
+            Motion { rotation: axis_angle([0.3, -1.0, 0.4], 0.9), translation: [0.2, -0.1, 0.05] };
+        let moved: Vec<_> = mesh.positions().iter().map(|&p| motion.apply(p)).collect();
         for kind in [DetailRotations::Fine, DetailRotations::Coarse { sweeps: 3 }] {
             let fit = nearest_pose(&mesh, &base, &handles, &moved, kind).unwrap();
             let d = distances(&fit, &moved, diag);

@@ -431,6 +431,7 @@ mod tests {
     use super::*;
     use crate::deform::config::BaseConfig;
     use crate::deform::quality::distances;
+    use crate::linalg::rigid::Motion;
     use crate::linalg::rotation::axis_angle;
 
     /// Rest targets leave the rest pose, and one rigid motion of every handle moves the whole
@@ -441,15 +442,9 @@ mod tests {
         let (mesh, handles) = crate::geometry::shapes::bumpy_bar(3);
         let base = CoarseBase::new(&mesh, &BaseConfig::default()).unwrap();
         let diag = mesh.bbox_diagonal();
-        let r = axis_angle([0.2, 1.0, -0.3], 0.7);
-        let moved: Vec<_> = mesh
-            .positions()
-            .iter()
-            .map(|&p| {
-                let q = mul_vec(&r, p);
-                [q[0] - 0.3, q[1] + 0.1, q[2] + 0.2]
-            })
-            .collect();
+        let motion =
+            Motion { rotation: axis_angle([0.2, 1.0, -0.3], 0.7), translation: [-0.3, 0.1, 0.2] };
+        let moved: Vec<_> = mesh.positions().iter().map(|&p| motion.apply(p)).collect();
         let at = |x: &[[f64; 3]]| -> Vec<[f64; 3]> {
             handles.handle_vertices().iter().map(|&v| x[v as usize]).collect()
         };
