@@ -3,7 +3,7 @@
 //! (BENCHMARKS.md, "One pose at every resolution"): whether a better coarse energy can bring
 //! the coarse variant nearer, or only a finer coarse mesh.
 //!
-//!     cargo run --release -p solver --example coarse_space -- MESH SELECTION [--bending-length F] [--frames N] [--coarse-vertices C[,C…]] [--penalty W[,W…]]
+//!     cargo run --release -p solver --example coarse_space -- MESH SELECTION [--bending-length F] [--frames N] [--coarse-vertices C[,C…]] [--penalty W[,W…]] [--path-tolerance T[,T…]]
 //!
 //! At the middle frame ⌈N/2⌉ of the bench's circle (group 0 on a circle of 0.1·diag, N = 20 by
 //! default): converged ARAP on the mesh ([`solver::deform::quality::Reference`]) and, for each
@@ -19,7 +19,9 @@
 //!   positions moving less than 1e-10·diag an iteration, cap 50,000), with the coarse
 //!   variant's coarse handles and with the penalty of weight W on every handle vertex
 //!   (`--penalty`, default 0.1); the handle gap is the largest distance the pose closes
-//!   between a handle vertex's prolonged position and its target.
+//!   between a handle vertex's prolonged position and its target. `--path-tolerance T`: also
+//!   solved along frames 1 to ⌈N/2⌉, each started from the last (cap 1000 a frame), stopping
+//!   when the positions move less than T·diag an iteration: iterations a frame and distances.
 //!
 //! `--bending-length F`: smooth rotations with ℓ = F·diag (default: spokes and rims).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
@@ -49,6 +51,9 @@ fn main() {
     let penalties: Vec<f64> = option("--penalty").map_or(vec![0.1], |v| {
         v.split(',').map(|w| w.parse().expect("--penalty W[,W…]")).collect()
     });
+    let path_tolerances: Vec<f64> = option("--path-tolerance").map_or(Vec::new(), |v| {
+        v.split(',').map(|t| t.parse().expect("--path-tolerance T[,T…]")).collect()
+    });
     let energy = match option("--bending-length") {
         Some(f) => ReferenceEnergy {
             energy: Energy::SmoothRotations,
@@ -59,7 +64,7 @@ fn main() {
     assert!(frames >= 3, "--frames must be at least 3");
     assert!(
         args.len() == 2,
-        "usage: coarse_space MESH SELECTION [--bending-length F] [--frames N] [--coarse-vertices C[,C…]] [--penalty W[,W…]]"
+        "usage: coarse_space MESH SELECTION [--bending-length F] [--frames N] [--coarse-vertices C[,C…]] [--penalty W[,W…]] [--path-tolerance T[,T…]]"
     );
     let mesh = solver::io::load_mesh(std::path::Path::new(&args[0])).expect("mesh").mesh;
     let handles = solver::deform::selection::load_selection(
@@ -155,6 +160,26 @@ fn main() {
                     q.max_distance * 100.0,
                     q.energy_on_mesh / e_min - 1.0
                 );
+                // Along the animation as the editor solves it: warm starts, a looser stop.
+                for &tolerance in &path_tolerances {
+                    let mut g =
+                        GalerkinCoarse::new(&mesh, &coarse, &handles, energy.bending_length, rule)
+                            .expect("Galerkin coarse energy");
+                    let mut iterations = 0;
+                    let mut frame_targets = Vec::new();
+                    for f in 1..=middle {
+                        frame_targets =
+                            handle_targets(mesh.positions(), &handles, &moves(f)).expect("targets");
+                        iterations += g.solve(&mesh, &frame_targets, tolerance, diag, 1000);
+                    }
+                    let q = reference.measure(&g.pose(&mesh, &coarse, &frame_targets));
+                    print!(
+                        "; along frames 1–{middle} to {tolerance:e}: {:.1} iterations a frame, mean {:.3} % max {:.2} %",
+                        iterations as f64 / middle as f64,
+                        q.mean_distance * 100.0,
+                        q.max_distance * 100.0
+                    );
+                }
             }
         }
         println!();
