@@ -16,7 +16,7 @@
 //! smoothly, is dropped (kept with the other cluster's rotation lagged, it moved the armadillo's
 //! pose by 0.004 % of the diagonal in an experiment, at a fine edge's cost per crossing pair). What is left is quadratic in $c$ with coefficients gathered once per
 //! handle set through the prolongation. With the spokes weights $w_{ij}$ of the full mesh (the
-//! smooth-rotations energy's, [`crate::deform::arap::smooth_rotations`]):
+//! smooth-rotations energy's, `deform::arap::smooth_rotations`):
 //! - the global matrix $G = \sum_{(i,j)} w_{ij}\,\delta_{ij}^\top\delta_{ij} = P^\top L P$;
 //! - per cluster $k$ and coarse vertex $b$ a vector
 //!   $g_{kb} = \sum_{(i,j),\,i\in k} w_{ij}\,(\delta_{ij})_b\,(\beta_i - \beta_j)$,
@@ -37,7 +37,7 @@
 //!
 //! **Iterations**: a local step and a global step (the matrix factored once) until the coarse
 //! positions move less than a tolerance. The local step forms the clusters' covariances, takes
-//! the implicit rotation step of [`crate::deform::arap::rotation_solve`] on the clusters
+//! the implicit rotation step of `deform::arap::rotation_solve` on the clusters
 //! ($R_k \leftarrow \exp([\omega_k]_\times) R_k$, $(8\beta_\ell L^c + \operatorname{diag} h)\,
 //! \omega = -g$ with $L^c$ the coarse mesh's weighted graph Laplacian, $h_k = \tfrac43
 //! \operatorname{tr} S_k$ at rest, factored once), then one Gauss–Seidel sweep of the fits of
@@ -46,7 +46,7 @@
 //! objective, else the sweep starts from the rotations before it. Without the step the rotation
 //! field took thousands of iterations (armadillo's bench set from rest: 2,762 against 361 with
 //! it, to the same pose). The pose shown is the prolongation of
-//! [`crate::deform::coarse::prolong`] (details on the blend of the corner rotations), with
+//! [`mod@crate::deform::coarse::prolong`] (details on the blend of the corner rotations), with
 //! constrained vertices on their targets.
 
 use crate::deform::coarse::base::CoarseBase;
@@ -442,7 +442,7 @@ impl GalerkinCoarse {
         f
     }
 
-    /// The implicit rotation step of [`crate::deform::arap::rotation_solve`] on the clusters:
+    /// The implicit rotation step of `deform::arap::rotation_solve` on the clusters:
     /// $R_k \leftarrow \exp([\omega_k]_\times) R_k$ with $(8\beta_\ell L^c + \operatorname{diag}
     /// h)\,\omega = -g$, $g_k = 2\operatorname{v}(R_k S_k) + 4\beta_\ell\sum_l w^c_{kl}
     /// \operatorname{v}(R_k R_l^\top)$, $h_k = \tfrac43\operatorname{tr} S_k$ at rest.
