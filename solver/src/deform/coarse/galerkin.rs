@@ -44,7 +44,7 @@
 //! $X_k = S_k + 2\beta_\ell\sum_l w^c_{kl} R_l^\top$ in index order (each an exact block
 //! minimization); the step is kept only when step and sweep together lower the rotations'
 //! objective, else the sweep starts from the rotations before it. Without the step the rotation
-//! field took thousands of iterations (armadillo's bench set from rest: 2,762 against 361 with
+//! field took thousands of iterations (armadillo's bench set from rest: 2,762 against 367 with
 //! it, to the same pose). The pose shown is the prolongation of
 //! [`mod@crate::deform::coarse::prolong`] (details on the blend of the corner rotations), with
 //! constrained vertices on their targets.
@@ -66,6 +66,12 @@ use faer::MatMut;
 use faer::sparse::Triplet;
 use glam::DQuat;
 use std::collections::HashMap;
+use std::collections::hash_map::DefaultHasher;
+use std::hash::BuildHasherDefault;
+
+/// A map whose iteration order depends only on what was inserted (fixed hash keys), so that the
+/// sums gathered from it, and so the iterations, are the same from run to run.
+type FixedMap<K, V> = HashMap<K, V, BuildHasherDefault<DefaultHasher>>;
 
 /// A constrained fine vertex: its cluster, its embedding, its detail.
 #[derive(Debug, Clone, Copy)]
@@ -146,8 +152,8 @@ impl GalerkinCoarse {
             .map_err(|e| SolveError::DegenerateFace { face: e.face })?;
         let fine_edges = edge_weights(mesh.triangles(), &cot, true);
         let beta_of = &base.base_on_coarse;
-        let mut g: HashMap<u64, f64> = HashMap::new();
-        let mut pair: HashMap<u64, [f64; 3]> = HashMap::new();
+        let mut g: FixedMap<u64, f64> = FixedMap::default();
+        let mut pair: FixedMap<u64, [f64; 3]> = FixedMap::default();
         let key = |a: u32, b: u32| (u64::from(a) << 32) | u64::from(b);
         let mut delta: Vec<(u32, f64)> = Vec::with_capacity(6);
         for &(i, j, w) in &fine_edges {
