@@ -151,7 +151,8 @@ fn main() {
                 let built = clock.elapsed().as_secs_f64();
                 let clock = std::time::Instant::now();
                 // From rest, as the reference is solved.
-                let iterations = galerkin.solve(&mesh, &targets, 1e-10, diag, 50_000);
+                let iterations =
+                    galerkin.solve(&mesh, &targets, 1e-10, diag, 50_000).expect("Galerkin solve");
                 let per_iteration = clock.elapsed().as_secs_f64() / iterations as f64;
                 assert!(iterations < 50_000, "the Galerkin solve did not converge");
                 let q = reference.measure(&galerkin.pose(&mesh, &coarse, &targets));
@@ -174,7 +175,8 @@ fn main() {
                     for f in 1..=middle {
                         frame_targets =
                             handle_targets(mesh.positions(), &handles, &moves(f)).expect("targets");
-                        iterations += g.solve(&mesh, &frame_targets, tolerance, diag, 1000);
+                        iterations +=
+                            g.solve(&mesh, &frame_targets, tolerance, diag, 1000).expect("solve");
                     }
                     let q = reference.measure(&g.pose(&mesh, &coarse, &frame_targets));
                     print!(

@@ -140,6 +140,9 @@ impl GalerkinCoarse {
         bending_length: f64,
         rule: HandleRule,
     ) -> Result<GalerkinCoarse, SolveError> {
+        if !(bending_length.is_finite() && bending_length > 0.0) {
+            return Err(SolveError::BendingLength(bending_length));
+        }
         let n = mesh.n_vertices();
         let coarse = &base.coarse_mesh;
         let m = coarse.n_vertices();
@@ -318,7 +321,8 @@ impl GalerkinCoarse {
     /// Iterates from the last solve's coarse pose and rotations (rest at first) until the coarse
     /// positions move less than `tolerance`·`length` in an iteration, or `max_iterations`;
     /// returns the iterations taken. `targets` are the handle vertices' (order of
-    /// [`Handles::handle_vertices`]); components without handles stay at rest.
+    /// [`Handles::handle_vertices`]); components without handles stay at rest. A wrong number
+    /// of targets or a non-finite one is an error.
     pub fn solve(
         &mut self,
         mesh: &Mesh,
@@ -326,7 +330,16 @@ impl GalerkinCoarse {
         tolerance: f64,
         length: f64,
         max_iterations: usize,
-    ) -> usize {
+    ) -> Result<usize, SolveError> {
+        if targets.len() != self.handle_vertices.len() {
+            return Err(SolveError::TargetCount {
+                got: targets.len(),
+                expected: self.handle_vertices.len(),
+            });
+        }
+        if let Some(index) = targets.iter().position(|t| !t.iter().all(|c| c.is_finite())) {
+            return Err(SolveError::NonFiniteTarget { index });
+        }
         let m = self.c.len();
         // Per frame: τ = μ P_Cᵀ t and σ_k = μ Σ_{i∈C∩k} D_i t_iᵀ.
         let mut tau = vec![[0.0; 3]; m];
@@ -409,10 +422,10 @@ impl GalerkinCoarse {
                 }
             }
             if moved < tolerance * length {
-                return iteration;
+                return Ok(iteration);
             }
         }
-        max_iterations
+        Ok(max_iterations)
     }
 
     /// One Gauss–Seidel sweep of the rotation fits for the covariances $S_k$, in index order.
@@ -566,14 +579,37 @@ mod tests {
         };
         for rule in [HandleRule::CoarseVertices, HandleRule::Penalty { weight: 1.0 }] {
             let mut g = GalerkinCoarse::new(&mesh, &base, &handles, 0.02, rule).unwrap();
-            g.solve(&mesh, &at(mesh.positions()), 1e-12, diag, 1000);
+            g.solve(&mesh, &at(mesh.positions()), 1e-12, diag, 1000).unwrap();
             let rest =
                 distances(&g.pose(&mesh, &base, &at(mesh.positions())), mesh.positions(), diag);
             assert!(rest.max < 1e-9, "{rule:?}: {rest:?}");
-            let iterations = g.solve(&mesh, &at(&moved), 1e-11, diag, 20_000);
+            let iterations = g.solve(&mesh, &at(&moved), 1e-11, diag, 20_000).unwrap();
             assert!(iterations < 20_000, "{rule:?}");
             let rigid = distances(&g.pose(&mesh, &base, &at(&moved)), &moved, diag);
             assert!(rigid.max < 1e-6, "{rule:?}: {rigid:?}");
         }
+    }
+
+    /// Bad input is an error, not a panic: a bending length that is not positive, and targets
+    /// of the wrong number or not finite.
+    #[test]
+    fn bad_input_is_an_error() {
+        let (mesh, handles) = crate::geometry::shapes::bumpy_bar(2);
+        let base = CoarseBase::new(&mesh, &BaseConfig::default()).unwrap();
+        let rule = HandleRule::Penalty { weight: 0.1 };
+        for ell in [0.0, -1.0, f64::NAN] {
+            let e = GalerkinCoarse::new(&mesh, &base, &handles, ell, rule).unwrap_err();
+            assert!(matches!(e, SolveError::BendingLength(_)), "{e}");
+        }
+        let mut g = GalerkinCoarse::new(&mesh, &base, &handles, 0.02, rule).unwrap();
+        let diag = mesh.bbox_diagonal();
+        let mut targets: Vec<_> =
+            handles.handle_vertices().iter().map(|&v| mesh.positions()[v as usize]).collect();
+        let short = &targets[1..];
+        let e = g.solve(&mesh, short, 1e-9, diag, 10).unwrap_err();
+        assert!(matches!(e, SolveError::TargetCount { .. }), "{e}");
+        targets[3][1] = f64::INFINITY;
+        let e = g.solve(&mesh, &targets, 1e-9, diag, 10).unwrap_err();
+        assert_eq!(e, SolveError::NonFiniteTarget { index: 3 });
     }
 }
