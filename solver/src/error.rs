@@ -45,3 +45,24 @@ pub enum SolveError {
     )]
     NonFiniteResult { vertex: usize },
 }
+
+/// The bending length a smooth-rotations solve accepts (a fraction of the diagonal): finite and
+/// positive.
+pub(crate) fn check_bending_length(bending_length: f64) -> Result<(), SolveError> {
+    if bending_length.is_finite() && bending_length > 0.0 {
+        Ok(())
+    } else {
+        Err(SolveError::BendingLength(bending_length))
+    }
+}
+
+/// The handle targets a solve accepts: `expected` of them (`#H×3`), every coordinate finite.
+pub(crate) fn check_targets(targets: &[[f64; 3]], expected: usize) -> Result<(), SolveError> {
+    if targets.len() != expected {
+        return Err(SolveError::TargetCount { got: targets.len(), expected });
+    }
+    match targets.iter().position(|t| !t.iter().all(|c| c.is_finite())) {
+        Some(index) => Err(SolveError::NonFiniteTarget { index }),
+        None => Ok(()),
+    }
+}

@@ -4,7 +4,7 @@
 //! $(E_{k-1}-E_k)/E_{k-1} <$ tolerance.
 
 use super::{Acceleration, Arap, REFINE_ANDERSON_WINDOW, SolveStats, ms};
-use crate::error::SolveError;
+use crate::error::{SolveError, check_targets};
 use crate::pool::in_pool;
 use std::time::Instant;
 
@@ -58,12 +58,7 @@ impl Arap {
         continues: bool,
     ) -> Result<SolveStats, SolveError> {
         let hv = &self.inner.handle_vertices;
-        if targets.len() != hv.len() {
-            return Err(SolveError::TargetCount { got: targets.len(), expected: hv.len() });
-        }
-        if let Some(index) = targets.iter().position(|t| !t.iter().all(|c| c.is_finite())) {
-            return Err(SolveError::NonFiniteTarget { index });
-        }
+        check_targets(targets, hv.len())?;
         if hv.iter().zip(targets).all(|(&v, t)| *t == self.rest[v as usize]) {
             // Every handle at rest: the rest pose has $E = 0$ and $E \ge 0$ (per triangle the
             // cotangent form is the Dirichlet energy of an affine map; spokes weights are

@@ -10,7 +10,7 @@ use super::{Arap, ArapConfig, Cells, Csr, Energy, Soft, corner_edges};
 use crate::deform::constraints::Constraints;
 use crate::deform::handles::Handles;
 use crate::deform::rig::soft_penalty;
-use crate::error::SolveError;
+use crate::error::{SolveError, check_bending_length};
 use crate::geometry::cotan::{edge_weights, face_cotangents_or, laplacian_triplets, opposite_edge};
 use crate::geometry::level::{LevelEmbedding, embedded_level, level_vertices};
 use crate::geometry::mesh::{Mesh, add, norm2, scale, sub};
@@ -91,8 +91,8 @@ impl Arap {
             return Err(SolveError::MembraneShare(config.membrane));
         }
         let smooth = config.energy == Energy::SmoothRotations;
-        if smooth && !(config.bending_length.is_finite() && config.bending_length > 0.0) {
-            return Err(SolveError::BendingLength(config.bending_length));
+        if smooth {
+            check_bending_length(config.bending_length)?;
         }
         let n = mesh.n_vertices();
         let order = VertexOrder::reverse_cuthill_mckee(n, mesh.triangles());

@@ -55,7 +55,7 @@ use crate::deform::coarse::groups::CoarseGroups;
 use crate::deform::coarse::prolong::{Prolongation, prolong, quaternion_of};
 use crate::deform::constraints::Constraints;
 use crate::deform::handles::Handles;
-use crate::error::SolveError;
+use crate::error::{SolveError, check_bending_length, check_targets};
 use crate::geometry::cotan::{edge_weights, face_cotangents, face_cotangents_or};
 use crate::geometry::embedding::from_stored;
 use crate::geometry::mesh::{Mesh, norm2, sub};
@@ -127,8 +127,11 @@ pub struct GalerkinCoarse {
     rotations: Vec<Mat3>,
     /// $8\beta_\ell L^c + \operatorname{diag} h$ of the implicit rotation step, factored.
     rotation_factor: SpdFactor,
-    /// The clusters' covariances $S_k$ of the iteration.
+    /// Scratch reused by every iteration: the clusters' covariances $S_k$, the rotations before
+    /// the implicit step (restored when its safeguard rejects it), the step's right-hand side.
     covariances: Vec<Mat3>,
+    saved_rotations: Vec<Mat3>,
+    step_rhs: Vec<f64>,
 }
 
 impl GalerkinCoarse {
@@ -141,10 +144,7 @@ impl GalerkinCoarse {
         bending_length: f64,
         rule: HandleRule,
     ) -> Result<GalerkinCoarse, SolveError> {
-        if !(bending_length.is_finite() && bending_length > 0.0) {
-            return Err(SolveError::BendingLength(bending_length));
-        }
-        let n = mesh.n_vertices();
+        check_bending_length(bending_length)?;
         let coarse = &base.coarse_mesh;
         let m = coarse.n_vertices();
         let tris = coarse.triangles();
@@ -298,7 +298,6 @@ impl GalerkinCoarse {
             SpdFactor::from_triplets(m, &rotation_triplets, Layout::Auto).map_err(|source| {
                 SolveError::Factorization { matrix: "rotation step (Galerkin)", source }
             })?;
-        debug_assert_eq!(n, base.details.len());
         Ok(GalerkinCoarse {
             start,
             pairs,
@@ -316,6 +315,8 @@ impl GalerkinCoarse {
             rotations: vec![IDENTITY; m],
             rotation_factor,
             covariances: Vec::new(),
+            saved_rotations: Vec::new(),
+            step_rhs: Vec::new(),
         })
     }
 
@@ -332,15 +333,7 @@ impl GalerkinCoarse {
         length: f64,
         max_iterations: usize,
     ) -> Result<usize, SolveError> {
-        if targets.len() != self.handle_vertices.len() {
-            return Err(SolveError::TargetCount {
-                got: targets.len(),
-                expected: self.handle_vertices.len(),
-            });
-        }
-        if let Some(index) = targets.iter().position(|t| !t.iter().all(|c| c.is_finite())) {
-            return Err(SolveError::NonFiniteTarget { index });
-        }
+        check_targets(targets, self.handle_vertices.len())?;
         let m = self.c.len();
         // Per frame: τ = μ P_Cᵀ t and σ_k = μ Σ_{i∈C∩k} D_i t_iᵀ.
         let mut tau = vec![[0.0; 3]; m];
@@ -379,14 +372,17 @@ impl GalerkinCoarse {
                 }
                 x
             }));
-            let before = self.rotations.clone();
+            let mut before = std::mem::take(&mut self.saved_rotations);
+            before.clear();
+            before.extend_from_slice(&self.rotations);
             let f0 = self.rotation_objective(&covariances);
             self.implicit_step(&covariances);
             self.sweep(&covariances);
             if self.rotation_objective(&covariances) > f0 {
-                self.rotations = before;
+                self.rotations.copy_from_slice(&before);
                 self.sweep(&covariances);
             }
+            self.saved_rotations = before;
             self.covariances = covariances;
             // Global step on the free block: r = τ + Σ_k R_k g_k − A_FH c_H.
             rhs.fill(0.0);
@@ -469,7 +465,9 @@ impl GalerkinCoarse {
     fn implicit_step(&mut self, covariances: &[Mat3]) {
         let m = self.rotations.len();
         let v = |a: &Mat3| [a[2][1] - a[1][2], a[0][2] - a[2][0], a[1][0] - a[0][1]];
-        let mut rhs = vec![0.0; 3 * m];
+        let mut rhs = std::mem::take(&mut self.step_rhs);
+        rhs.clear();
+        rhs.resize(3 * m, 0.0);
         for (k, s) in covariances.iter().enumerate() {
             let r = &self.rotations[k];
             let mut g = v(&mul_mat(r, s)).map(|x| 2.0 * x);
@@ -495,6 +493,7 @@ impl GalerkinCoarse {
             let angle = norm2(omega).sqrt();
             *r = mul_mat(&axis_angle(omega, angle), r);
         }
+        self.step_rhs = rhs;
     }
 
     /// The pose of the full mesh: the prolongation of the coarse pose and rotations, constrained

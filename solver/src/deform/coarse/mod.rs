@@ -87,7 +87,7 @@ use crate::deform::coarse::prolong::{
 use crate::deform::config::BaseConfig;
 use crate::deform::constraints::Constraints;
 use crate::deform::handles::Handles;
-use crate::error::SolveError;
+use crate::error::{SolveError, check_targets};
 use crate::geometry::embedding::{blend, from_stored};
 use crate::geometry::mesh::{Mesh, sub};
 use crate::linalg::rigid::Motion;
@@ -364,16 +364,8 @@ impl CoarseBsArap {
         targets: &[[f64; 3]],
         motions: Option<&[Motion]>,
     ) -> Result<SolveStats, SolveError> {
-        if targets.len() != self.fine_handles.len() {
-            return Err(SolveError::TargetCount {
-                got: targets.len(),
-                expected: self.fine_handles.len(),
-            });
-        }
         // Only some targets reach the coarse ARAP (which checks them); all are copied to p'.
-        if let Some(index) = targets.iter().position(|t| !t.iter().all(|c| c.is_finite())) {
-            return Err(SolveError::NonFiniteTarget { index });
-        }
+        check_targets(targets, self.fine_handles.len())?;
         let state = &mut self.state;
         self.groups.targets(targets, motions, &mut state.motions, &mut state.coarse_targets);
         state.coarse_before.clear();
