@@ -71,7 +71,9 @@ pub use config::{
     MAX_ENERGY_THRESHOLD, MAX_ITERATIONS_LIMIT, REFINE_ANDERSON_WINDOW, SolveStats,
 };
 
+pub(crate) use precompute::vertices_per_task;
 pub(crate) use rotation_solve::RotationStep;
+pub(crate) use smooth_rotations::SmoothRotations;
 
 use crate::deform::constraints::Constraints;
 use crate::geometry::reorder::VertexOrder;
@@ -83,13 +85,13 @@ use std::time::Instant;
 
 /// Compressed adjacency lists: `items[offsets[i]..offsets[i+1]]` belong to `i`.
 #[derive(Debug, Clone)]
-struct Csr<T> {
+pub(crate) struct Csr<T> {
     offsets: Vec<usize>,
     items: Vec<T>,
 }
 
 impl<T: Copy> Csr<T> {
-    fn from_pairs(n: usize, pairs: &[(u32, T)]) -> Csr<T> {
+    pub(crate) fn from_pairs(n: usize, pairs: &[(u32, T)]) -> Csr<T> {
         let mut offsets = vec![0usize; n + 1];
         for &(i, _) in pairs {
             offsets[i as usize + 1] += 1;
@@ -106,7 +108,7 @@ impl<T: Copy> Csr<T> {
         Csr { offsets, items: items.into_iter().flatten().collect() }
     }
     #[inline]
-    fn row(&self, i: usize) -> &[T] {
+    pub(crate) fn row(&self, i: usize) -> &[T] {
         &self.items[self.offsets[i]..self.offsets[i + 1]]
     }
 }

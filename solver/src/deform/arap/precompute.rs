@@ -26,7 +26,7 @@ use faer::sparse::Triplet;
 /// 420-vertex tasks); tasks of at least 256 vertices (about 0.05 ms of work) keep the wake-ups
 /// and joins a small share. The task size also fixes the blocks of the energy's sums, so
 /// results do not depend on the number of threads.
-fn vertices_per_task(n: usize) -> usize {
+pub(crate) fn vertices_per_task(n: usize) -> usize {
     n.div_ceil(16).clamp(256, 2048).next_multiple_of(LANES)
 }
 

@@ -45,7 +45,7 @@
 
 use super::Csr;
 use crate::geometry::level::LevelEmbedding;
-use crate::geometry::mesh::{norm2, sub};
+use crate::geometry::mesh::norm2;
 use crate::linalg::linsolve::{FactorError, Layout, SpdFactor};
 use crate::linalg::rotation::{Mat3, axis_angle, mul_mat};
 use faer::sparse::Triplet;
@@ -135,22 +135,21 @@ pub(super) fn minus_gradient(
 }
 
 impl RotationSolve {
-    /// For the spokes `neighbours` (weights $w_{ij}$), rest positions `rest` and $\beta$; on
-    /// `level` when given, with `to_mesh` the mesh vertex of each internal one.
+    /// For the spokes `neighbours` (weights $w_{ij}$), the rest values `masses` $m_i$ of
+    /// $\operatorname{tr}(R_iS_i)$ (module doc) and $\beta$; on `level` when given, with
+    /// `to_mesh` the mesh vertex of each internal one.
     pub(super) fn new(
         neighbours: &Csr<(u32, f64)>,
-        rest: &[[f64; 3]],
+        masses: &[f64],
         beta: f64,
         level: Option<(&LevelEmbedding, &[u32])>,
     ) -> Result<RotationSolve, FactorError> {
-        let n = rest.len();
-        let diagonal: Vec<f64> = (0..n)
-            .map(|i| {
-                let (mut degree, mut m) = (0.0, 0.0);
-                for &(j, w) in neighbours.row(i) {
-                    m += w * norm2(sub(rest[i], rest[j as usize]));
-                    degree += w;
-                }
+        let n = masses.len();
+        let diagonal: Vec<f64> = masses
+            .iter()
+            .enumerate()
+            .map(|(i, &m)| {
+                let degree: f64 = neighbours.row(i).iter().map(|&(_, w)| w).sum();
                 8.0 * beta * degree + 4.0 / 3.0 * m
             })
             .collect();

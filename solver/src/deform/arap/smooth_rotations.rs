@@ -72,7 +72,7 @@
 use super::rotation_solve::{self, RotationSolve};
 use super::{Arap, Cells, Csr};
 use crate::geometry::level::LevelEmbedding;
-use crate::geometry::mesh::norm2;
+use crate::geometry::mesh::{norm2, sub};
 use crate::linalg::linsolve::FactorError;
 use crate::linalg::rotation::{
     IDENTITY, LANES, Mat3, fit_rotation_near, fit_rotations_near, trace_of_product,
@@ -82,7 +82,7 @@ use rayon::prelude::*;
 /// The state of the rotation term: $\beta$, the colour classes and the buffers of one local
 /// step.
 #[derive(Debug)]
-pub(super) struct SmoothRotations {
+pub(crate) struct SmoothRotations {
     /// $\beta = \ell^2$ in world units squared.
     pub(super) beta: f64,
     /// The vertices of each colour (internal numbering, ascending).
@@ -113,7 +113,26 @@ impl SmoothRotations {
         ell: f64,
         level: Option<(&LevelEmbedding, &[u32])>,
     ) -> Result<SmoothRotations, FactorError> {
-        let n = rest.len();
+        let masses: Vec<f64> = (0..rest.len())
+            .map(|i| {
+                let row = neighbours.row(i);
+                row.iter().map(|&(j, w)| w * norm2(sub(rest[i], rest[j as usize]))).sum()
+            })
+            .collect();
+        SmoothRotations::with_masses(neighbours, &masses, ell, level)
+    }
+
+    /// For the `neighbours` and bending length `ell` in world units, with `masses` $m_i$ the
+    /// rest values of $\operatorname{tr}(R_iS_i)$ for the implicit step's diagonal
+    /// ([`super::rotation_solve`]): the cells of a mesh ([`SmoothRotations::new`]) or the
+    /// clusters of the Galerkin coarse energy (`deform::coarse::galerkin`).
+    pub(crate) fn with_masses(
+        neighbours: &Csr<(u32, f64)>,
+        masses: &[f64],
+        ell: f64,
+        level: Option<(&LevelEmbedding, &[u32])>,
+    ) -> Result<SmoothRotations, FactorError> {
+        let n = masses.len();
         let colours = colour_classes(n, neighbours);
         let mut colour = vec![0; n];
         for (c, class) in colours.iter().enumerate() {
@@ -128,7 +147,7 @@ impl SmoothRotations {
             covs: vec![[[0.0; 3]; 3]; n],
             fitted: vec![[[0.0; 3]; 3]; largest],
             saved: Vec::new(),
-            implicit: RotationSolve::new(neighbours, rest, beta, level)?,
+            implicit: RotationSolve::new(neighbours, masses, beta, level)?,
             proposed: vec![[[0.0; 3]; 3]; n],
             use_implicit: true,
         })
@@ -138,6 +157,154 @@ impl SmoothRotations {
     #[cfg(test)]
     pub(super) fn n_colours(&self) -> usize {
         self.colours.len()
+    }
+
+    /// The covariances $S_i$ a caller's pass fills before [`SmoothRotations::start_sums`].
+    pub(crate) fn covariances_mut(&mut self) -> &mut [Mat3] {
+        &mut self.covs
+    }
+
+    /// For the covariances in [`SmoothRotations::covariances_mut`] and the current
+    /// `rotations`: $\sum_i\operatorname{tr}(R_iS_i)$ and $\sum_i\sum_j w_{ij}\lVert
+    /// R_i-R_j\rVert_F^2$ over all ordered pairs, and the implicit step's gradient when it runs;
+    /// summed per `block` of vertices and then in order. (`Arap` folds the same into its
+    /// covariance pass.)
+    pub(crate) fn start_sums(
+        &mut self,
+        neighbours: &Csr<(u32, f64)>,
+        rotations: &[Mat3],
+        block: usize,
+    ) -> RotationSums {
+        let (covs, beta, implicit) = (&self.covs, self.beta, self.use_implicit);
+        let parts: Vec<RotationSums> = covs
+            .par_chunks(block)
+            .zip(self.implicit.gradient_mut().par_chunks_mut(block))
+            .enumerate()
+            .map(|(c, (covs, gradient))| {
+                let mut sums = RotationSums::default();
+                for (k, (s, g)) in covs.iter().zip(gradient).enumerate() {
+                    let (i, row) = (c * block + k, neighbours.row(c * block + k));
+                    sums.traces += trace_of_product(&rotations[i], s);
+                    sums.term += spread(&rotations[i], row, rotations, |_| true);
+                    if implicit {
+                        *g = rotation_solve::minus_gradient(&rotations[i], s, row, rotations, beta);
+                    }
+                }
+                sums
+            })
+            .collect();
+        RotationSums::total(&parts)
+    }
+
+    /// The rotations' half of a local step, from the sums `start` of the current `rotations`
+    /// (with the covariances and the gradient in place): the implicit step, then one
+    /// Gauss–Seidel sweep over the colour classes ([`SmoothRotations::sweep`]). The safeguard:
+    /// when the step and the sweep together raise the rotation objective
+    /// ([`RotationSums::objective`]) above its value at the start (by more than rounding,
+    /// [`RotationSums::rounding`], so that a converged solve does not sweep twice), the
+    /// rotations of the start come back and are swept alone, which never raises it. Checking
+    /// after the sweep, not between the step and the sweep, saves a pass. Returns the sums of
+    /// the rotations it leaves.
+    pub(crate) fn rotation_step(
+        &mut self,
+        neighbours: &Csr<(u32, f64)>,
+        rotations: &mut Vec<Mat3>,
+        start: &RotationSums,
+        block: usize,
+    ) -> RotationSums {
+        if self.use_implicit {
+            // The rotations of the start wait in `proposed`.
+            self.implicit.step(rotations, &mut self.proposed);
+            std::mem::swap(rotations, &mut self.proposed);
+            let swept = self.sweep(neighbours, rotations, block);
+            if swept.objective(self.beta) <= start.objective(self.beta) + start.rounding(self.beta)
+            {
+                return swept;
+            }
+            std::mem::swap(rotations, &mut self.proposed);
+        }
+        self.sweep(neighbours, rotations, block)
+    }
+
+    /// One Gauss–Seidel sweep over the colour classes ([`SmoothRotations::update_class`]);
+    /// returns the sums of the rotations it leaves, over all ordered pairs.
+    fn sweep(
+        &mut self,
+        neighbours: &Csr<(u32, f64)>,
+        rotations: &mut [Mat3],
+        block: usize,
+    ) -> RotationSums {
+        let classes = std::mem::take(&mut self.colours);
+        let mut swept = RotationSums::default();
+        for class in &classes {
+            swept.add(self.update_class(neighbours, rotations, class, block));
+        }
+        self.colours = classes;
+        // Each unordered pair was counted once, at the later colour; the energy counts both.
+        swept.term *= 2.0;
+        swept
+    }
+
+    /// Fits $R_i$ to $X_i = S_i + 2\beta\sum_j w_{ij}R_j^\top$ for the vertices `class` at once
+    /// (from the rotations before the call; [`fit_rotations_near`], [`LANES`] vertices per
+    /// call), keeping $R_i$ where the fit does not raise $\operatorname{tr}(R_i X_i)$.
+    /// Gauss–Seidel when `class` holds no two neighbours, Jacobi when it holds all vertices.
+    ///
+    /// Returns, for the rotations it leaves, $\sum_{i}\operatorname{tr}(R_iS_i)$ over `class`
+    /// and $\sum_i\sum_{j:\,c(j)<c(i)} w_{ij}\lVert R_i-R_j\rVert_F^2$ over the neighbours of an
+    /// earlier colour $c$: summed over the classes of a sweep in colour order, every pair is
+    /// counted once, with both rotations final. Summed per `block` of `class` and then in order.
+    pub(super) fn update_class(
+        &mut self,
+        neighbours: &Csr<(u32, f64)>,
+        rotations: &mut [Mat3],
+        class: &[u32],
+        block: usize,
+    ) -> RotationSums {
+        if self.fitted.len() < class.len() {
+            self.fitted.resize(class.len(), [[0.0; 3]; 3]);
+        }
+        let (rot, covs, beta, colour) = (&*rotations, &self.covs, self.beta, &self.colour);
+        let fitted = &mut self.fitted[..class.len()];
+        let parts: Vec<RotationSums> = fitted
+            .par_chunks_mut(block)
+            .zip(class.par_chunks(block))
+            .map(|(out, class)| {
+                let mut sums = RotationSums::default();
+                for (out, class) in out.chunks_mut(LANES).zip(class.chunks(LANES)) {
+                    let mut x = [[[0.0; 3]; 3]; LANES];
+                    let mut new = [IDENTITY; LANES];
+                    for ((x, new), &i) in x.iter_mut().zip(&mut new).zip(class) {
+                        let i = i as usize;
+                        *x = covs[i];
+                        for &(j, w) in neighbours.row(i) {
+                            add_transposed(x, 2.0 * beta * w, &rot[j as usize]);
+                        }
+                        *new = rot[i];
+                    }
+                    if class.len() == LANES {
+                        fit_rotations_near(&x, &mut new);
+                    } else {
+                        for (new, x) in new.iter_mut().zip(&x).take(class.len()) {
+                            *new = fit_rotation_near(x, new);
+                        }
+                    }
+                    for (((out, new), x), &i) in out.iter_mut().zip(&new).zip(&x).zip(class) {
+                        let i = i as usize;
+                        let old = &rot[i];
+                        let keep = trace_of_product(new, x) >= trace_of_product(old, x);
+                        *out = if keep { *new } else { *old };
+                        sums.traces += trace_of_product(out, &covs[i]);
+                        sums.term += spread(out, neighbours.row(i), rot, |j| colour[j] < colour[i]);
+                    }
+                }
+                sums
+            })
+            .collect();
+        for (&i, r) in class.iter().zip(fitted.iter()) {
+            rotations[i as usize] = *r;
+        }
+        RotationSums::total(&parts)
     }
 }
 
@@ -199,38 +366,18 @@ impl Arap {
     pub(super) fn smooth_local_step(&mut self) -> f64 {
         let Some(mut sr) = self.smooth.take() else { return self.local_step_energy() };
         let start = self.smooth_covariances(&mut sr);
-        let mut swept = if sr.use_implicit {
-            // The rotations of the start wait in `sr.proposed`.
-            sr.implicit.step(&self.rotations, &mut sr.proposed);
-            std::mem::swap(&mut self.rotations, &mut sr.proposed);
-            let swept = self.sweep(&mut sr);
-            if swept.objective(sr.beta) <= start.objective(sr.beta) + start.rounding(sr.beta) {
-                Some(swept)
-            } else {
-                std::mem::swap(&mut self.rotations, &mut sr.proposed);
-                None
-            }
-        } else {
-            None
+        let swept = match &self.cells {
+            Cells::Spokes { neighbours } => sr.rotation_step(
+                neighbours,
+                &mut self.rotations,
+                &start,
+                (self.task / 4).max(LANES),
+            ),
+            Cells::SpokesAndRims { .. } => RotationSums::default(),
         };
-        let swept = swept.get_or_insert_with(|| self.sweep(&mut sr));
         let e = self.energy_from(start.edges, swept.traces, None) + sr.beta * swept.term;
         self.smooth = Some(sr);
         e
-    }
-
-    /// One Gauss–Seidel sweep over the colour classes ([`Arap::update_rotations`]); returns the
-    /// sums of the rotations it leaves, over all ordered pairs.
-    fn sweep(&mut self, sr: &mut SmoothRotations) -> RotationSums {
-        let classes = std::mem::take(&mut sr.colours);
-        let mut swept = RotationSums::default();
-        for class in &classes {
-            swept.add(self.update_rotations(sr, class));
-        }
-        sr.colours = classes;
-        // Each unordered pair was counted once, at the later colour; the energy counts both.
-        swept.term *= 2.0;
-        swept
     }
 
     /// $S_i$ for every vertex into `sr.covs`, with $\sum_i\operatorname{tr}(R_iS_i)$ and
@@ -262,68 +409,6 @@ impl Arap {
                 sums
             })
             .collect();
-        RotationSums::total(&parts)
-    }
-
-    /// Fits $R_i$ to $X_i = S_i + 2\beta\sum_j w_{ij}R_j^\top$ for the vertices `class` at once
-    /// (from the rotations before the call; [`fit_rotations_near`], [`LANES`] vertices per
-    /// call), keeping $R_i$ where the fit does not raise $\operatorname{tr}(R_i X_i)$.
-    /// Gauss–Seidel when `class` holds no two neighbours, Jacobi when it holds all vertices.
-    ///
-    /// Returns, for the rotations it leaves, $\sum_{i}\operatorname{tr}(R_iS_i)$ over `class`
-    /// and $\sum_i\sum_{j:\,c(j)<c(i)} w_{ij}\lVert R_i-R_j\rVert_F^2$ over the neighbours of an
-    /// earlier colour $c$: summed over the classes of a sweep in colour order, every pair is
-    /// counted once, with both rotations final. Summed per block of `class` and then in order.
-    pub(super) fn update_rotations(
-        &mut self,
-        sr: &mut SmoothRotations,
-        class: &[u32],
-    ) -> RotationSums {
-        let Cells::Spokes { neighbours } = &self.cells else { return RotationSums::default() };
-        if sr.fitted.len() < class.len() {
-            sr.fitted.resize(class.len(), [[0.0; 3]; 3]);
-        }
-        let (rot, covs, beta, colour) = (&self.rotations, &sr.covs, sr.beta, &sr.colour);
-        let block = (self.task / 4).max(LANES);
-        let fitted = &mut sr.fitted[..class.len()];
-        let parts: Vec<RotationSums> = fitted
-            .par_chunks_mut(block)
-            .zip(class.par_chunks(block))
-            .map(|(out, class)| {
-                let mut sums = RotationSums::default();
-                for (out, class) in out.chunks_mut(LANES).zip(class.chunks(LANES)) {
-                    let mut x = [[[0.0; 3]; 3]; LANES];
-                    let mut new = [IDENTITY; LANES];
-                    for ((x, new), &i) in x.iter_mut().zip(&mut new).zip(class) {
-                        let i = i as usize;
-                        *x = covs[i];
-                        for &(j, w) in neighbours.row(i) {
-                            add_transposed(x, 2.0 * beta * w, &rot[j as usize]);
-                        }
-                        *new = rot[i];
-                    }
-                    if class.len() == LANES {
-                        fit_rotations_near(&x, &mut new);
-                    } else {
-                        for (new, x) in new.iter_mut().zip(&x).take(class.len()) {
-                            *new = fit_rotation_near(x, new);
-                        }
-                    }
-                    for (((out, new), x), &i) in out.iter_mut().zip(&new).zip(&x).zip(class) {
-                        let i = i as usize;
-                        let old = &rot[i];
-                        let keep = trace_of_product(new, x) >= trace_of_product(old, x);
-                        *out = if keep { *new } else { *old };
-                        sums.traces += trace_of_product(out, &covs[i]);
-                        sums.term += spread(out, neighbours.row(i), rot, |j| colour[j] < colour[i]);
-                    }
-                }
-                sums
-            })
-            .collect();
-        for (&i, r) in class.iter().zip(fitted.iter()) {
-            self.rotations[i as usize] = *r;
-        }
         RotationSums::total(&parts)
     }
 
@@ -379,10 +464,10 @@ impl Arap {
 /// where the pass computes covariances), $\sum\operatorname{tr}(R_iS_i)$ (`traces`) and the
 /// rotation term's $\sum w_{ij}\lVert R_i-R_j\rVert_F^2$ over the pairs the pass counts (`term`).
 #[derive(Debug, Clone, Copy, Default)]
-pub(super) struct RotationSums {
-    edges: f64,
-    traces: f64,
-    term: f64,
+pub(crate) struct RotationSums {
+    pub(crate) edges: f64,
+    pub(crate) traces: f64,
+    pub(crate) term: f64,
 }
 
 impl RotationSums {
@@ -402,7 +487,7 @@ impl RotationSums {
 
     /// The rotations' part of $E$ at a fixed pose: $-2\sum_i\operatorname{tr}(R_iS_i) +
     /// \beta\sum_i\sum_j w_{ij}\lVert R_i-R_j\rVert_F^2$ (for sums over all ordered pairs).
-    fn objective(&self, beta: f64) -> f64 {
+    pub(crate) fn objective(&self, beta: f64) -> f64 {
         -2.0 * self.traces + beta * self.term
     }
 
@@ -571,8 +656,10 @@ pub(super) mod tests {
         for k in 0..a.current.len() {
             a.rotations[k] = mul_mat(&scrambled(k + 7, 1.5), &a.rotations[k]);
         }
+        let block = (a.task / 4).max(LANES);
         for i in [0usize, 17, 101, 333] {
-            a.update_rotations(&mut sr, &[i as u32]);
+            let Cells::Spokes { neighbours } = &a.cells else { unreachable!("spokes") };
+            sr.update_class(neighbours, &mut a.rotations, &[i as u32], block);
             a.smooth = Some(sr);
             let best = direct(&a);
             let fitted = a.rotations[i];
@@ -678,7 +765,8 @@ pub(super) mod tests {
             let before = direct(&a);
             let mut sr = a.smooth.take().unwrap();
             let all: Vec<u32> = (0..a.current.len() as u32).collect();
-            a.update_rotations(&mut sr, &all);
+            let Cells::Spokes { neighbours } = &a.cells else { unreachable!("spokes") };
+            sr.update_class(neighbours, &mut a.rotations, &all, (a.task / 4).max(LANES));
             a.smooth = Some(sr);
             let jacobi = direct(&a);
             a.rotations = scrambled_rotations;

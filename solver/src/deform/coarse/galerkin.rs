@@ -37,19 +37,23 @@
 //!   rest by the same penalty (weight $10^3$).
 //!
 //! **Iterations**: a local step and a global step (the matrix factored once) until the coarse
-//! positions move less than a tolerance. The local step forms the clusters' covariances, takes
-//! the implicit rotation step of `deform::arap::rotation_solve` on the clusters
+//! positions move less than a tolerance. The local step forms the clusters' covariances and
+//! hands them to the rotation field of `deform::arap::smooth_rotations`, the same code as the
+//! full mesh's smooth rotations with the clusters for vertices and the coarse mesh's weights
+//! $w^c$: the implicit rotation step of `deform::arap::rotation_solve`
 //! ($R_k \leftarrow \exp([\omega_k]_\times) R_k$, $(8\beta_\ell L^c + \operatorname{diag} h)\,
 //! \omega = -g$ with $L^c$ the coarse mesh's weighted graph Laplacian, $h_k = \tfrac43
-//! \operatorname{tr} S_k$ at rest, factored once), then one Gauss–Seidel sweep of the fits of
-//! $X_k = S_k + 2\beta_\ell\sum_l w^c_{kl} R_l^\top$ in index order (each an exact block
-//! minimization); the step is kept only when step and sweep together lower the rotations'
-//! objective, else the sweep starts from the rotations before it. Without the step the rotation
-//! field took thousands of iterations (armadillo's bench set from rest: 2,762 against 367 with
-//! it, to the same pose). The pose shown is the prolongation of
+//! \operatorname{tr} S_k$ at rest, factored once), then one Gauss–Seidel sweep by colours of the
+//! fits of $X_k = S_k + 2\beta_\ell\sum_l w^c_{kl} R_l^\top$ (each an exact block
+//! minimization, a colour's clusters in parallel), the step kept only when step and sweep
+//! together lower the rotations' objective. Without the step the rotation field took thousands
+//! of iterations (armadillo's bench set from rest: 2,762 against 367 with it, sweeping in index
+//! order, to the same pose). The covariances and the global step's right-hand side are gathered
+//! per cluster and per coarse vertex in parallel. The pose shown is the prolongation of
 //! [`mod@crate::deform::coarse::prolong`] (details on the blend of the corner rotations), with
 //! constrained vertices on their targets.
 
+use crate::deform::arap::{Csr, SmoothRotations, vertices_per_task};
 use crate::deform::coarse::base::CoarseBase;
 use crate::deform::coarse::groups::CoarseGroups;
 use crate::deform::coarse::prolong::{Prolongation, prolong, quaternion_of};
@@ -60,12 +64,11 @@ use crate::geometry::cotan::{edge_weights, face_cotangents, face_cotangents_or};
 use crate::geometry::embedding::from_stored;
 use crate::geometry::mesh::{Mesh, norm2, sub};
 use crate::linalg::linsolve::{Layout, SpdFactor};
-use crate::linalg::rotation::{
-    IDENTITY, Mat3, add_outer, axis_angle, fit_rotation_near, mul_mat, mul_vec, trace_of_product,
-};
+use crate::linalg::rotation::{IDENTITY, Mat3, add_outer, mul_vec};
 use faer::MatMut;
 use faer::sparse::Triplet;
 use glam::DQuat;
+use rayon::prelude::*;
 use std::collections::HashMap;
 use std::collections::hash_map::DefaultHasher;
 use std::hash::BuildHasherDefault;
@@ -104,13 +107,13 @@ pub enum HandleRule {
 /// The Galerkin coarse energy for one mesh, coarse base and handle set (module doc).
 #[derive(Debug)]
 pub struct GalerkinCoarse {
-    /// Per cluster $k$, its pairs $(b, g_{kb})$: `pairs[start[k]..start[k + 1]]`.
-    start: Vec<usize>,
-    pairs: Vec<(u32, [f64; 3])>,
-    /// The coarse mesh's clamped cotangent edges $(k, l, w^c_{kl})$, both orders.
-    edge_start: Vec<usize>,
-    edges: Vec<(u32, f64)>,
-    beta: f64,
+    /// Per cluster $k$, its pairs $(b, g_{kb})$.
+    pairs: Csr<(u32, [f64; 3])>,
+    /// Per coarse vertex $b$, its pairs $(k, g_{kb})$ (the same values by coarse vertex, for
+    /// the global step's right-hand side).
+    by_coarse: Csr<(u32, [f64; 3])>,
+    /// The coarse mesh's clamped cotangent edges: per cluster $k$, its $(l, w^c_{kl})$.
+    neighbours: Csr<(u32, f64)>,
     mu: f64,
     held: Vec<Held>,
     /// The fine handle vertices (order of their targets).
@@ -125,13 +128,13 @@ pub struct GalerkinCoarse {
     groups: Option<CoarseGroups>,
     c: Vec<[f64; 3]>,
     rotations: Vec<Mat3>,
-    /// $8\beta_\ell L^c + \operatorname{diag} h$ of the implicit rotation step, factored.
-    rotation_factor: SpdFactor,
-    /// Scratch reused by every iteration: the clusters' covariances $S_k$, the rotations before
-    /// the implicit step (restored when its safeguard rejects it), the step's right-hand side.
-    covariances: Vec<Mat3>,
-    saved_rotations: Vec<Mat3>,
-    step_rhs: Vec<f64>,
+    /// The rotation field's local step on the clusters (`deform::arap`'s smooth rotations:
+    /// the implicit step, the sweep by colours, the safeguard) with its buffers.
+    field: SmoothRotations,
+    /// Clusters per parallel task.
+    block: usize,
+    /// $\sum_k R_k g_{kb}$ per coarse vertex (scratch of the global step).
+    gathered: Vec<[f64; 3]>,
 }
 
 impl GalerkinCoarse {
@@ -260,50 +263,46 @@ impl GalerkinCoarse {
         }
         let factor = SpdFactor::from_triplets(n_free as usize, &triplets, Layout::Auto)
             .map_err(|source| SolveError::Factorization { matrix: "PᵀLP (Galerkin)", source })?;
-        let (start, pairs) = by_first(
-            m,
-            pair.into_iter().map(|(k, v)| ((k >> 32) as u32, ((k & 0xffff_ffff) as u32, v))),
-        );
+        let pairs: Vec<_> = pair
+            .into_iter()
+            .map(|(k, v)| ((k >> 32) as u32, ((k & 0xffff_ffff) as u32, v)))
+            .collect();
+        let pairs = Csr::from_pairs(m, &pairs);
         let (coarse_cot, _) =
             face_cotangents_or(coarse.positions(), Some(&base.rest_kept), tris, base.floor)
                 .map_err(|e| SolveError::DegenerateBase { face: e.face })?;
         let coarse_edges = edge_weights(tris, &coarse_cot, true);
-        let (edge_start, edges) =
-            by_first(m, coarse_edges.iter().flat_map(|&(k, l, w)| [(k, (l, w)), (l, (k, w))]));
-        let ell = bending_length * mesh.bbox_diagonal();
-        // h_k = 4/3 tr S_k at rest: Σ_b g_kb·B_c,b, and the penalty's μ‖D_i‖² (its −d part is
-        // in g already, its σ part at rest targets is μ D_i·M_i).
+        let both_orders: Vec<_> =
+            coarse_edges.iter().flat_map(|&(k, l, w)| [(k, (l, w)), (l, (k, w))]).collect();
+        let neighbours = Csr::from_pairs(m, &both_orders);
+        let by_coarse: Vec<_> = (0..m)
+            .flat_map(|k| pairs.row(k).iter().map(move |&(b, g)| (b, (k as u32, g))))
+            .collect();
+        let by_coarse = Csr::from_pairs(m, &by_coarse);
+        // The masses m_k = tr S_k at rest: Σ_b g_kb·B_c,b, and the penalty's μ‖D_i‖² (its −d
+        // part is in g already, its σ part at rest targets is μ D_i·M_i).
         let rest_c = coarse.positions();
-        let mut h = vec![0.0; m];
-        for (k, hk) in h.iter_mut().enumerate() {
-            for &(b, gv) in &pairs[start[k]..start[k + 1]] {
+        let mut masses = vec![0.0; m];
+        for (k, mk) in masses.iter_mut().enumerate() {
+            for &(b, gv) in pairs.row(k) {
                 let p = rest_c[b as usize];
-                *hk += gv[0] * p[0] + gv[1] * p[1] + gv[2] * p[2];
+                *mk += gv[0] * p[0] + gv[1] * p[1] + gv[2] * p[2];
             }
         }
         for hd in &held {
             let p = mesh.positions()[hd.vertex as usize];
             let d = hd.detail;
-            h[hd.cluster as usize] += mu * (d[0] * p[0] + d[1] * p[1] + d[2] * p[2]);
+            masses[hd.cluster as usize] += mu * (d[0] * p[0] + d[1] * p[1] + d[2] * p[2]);
         }
-        let mut rotation_triplets: Vec<_> =
-            (0..m).map(|k| Triplet::new(k, k, 4.0 / 3.0 * h[k].max(eps))).collect();
-        for k in 0..m {
-            for &(l, w) in &edges[edge_start[k]..edge_start[k + 1]] {
-                rotation_triplets.push(Triplet::new(k, k, 8.0 * ell * ell * w));
-                rotation_triplets.push(Triplet::new(k, l as usize, -8.0 * ell * ell * w));
-            }
-        }
-        let rotation_factor =
-            SpdFactor::from_triplets(m, &rotation_triplets, Layout::Auto).map_err(|source| {
+        let ell = bending_length * mesh.bbox_diagonal();
+        let field =
+            SmoothRotations::with_masses(&neighbours, &masses, ell, None).map_err(|source| {
                 SolveError::Factorization { matrix: "rotation step (Galerkin)", source }
             })?;
         Ok(GalerkinCoarse {
-            start,
             pairs,
-            edge_start,
-            edges,
-            beta: ell * ell,
+            by_coarse,
+            neighbours,
             mu,
             held,
             handle_vertices: constraints.handle_vertices.clone(),
@@ -313,10 +312,9 @@ impl GalerkinCoarse {
             groups,
             c: coarse.positions().to_vec(),
             rotations: vec![IDENTITY; m],
-            rotation_factor,
-            covariances: Vec::new(),
-            saved_rotations: Vec::new(),
-            step_rhs: Vec::new(),
+            field,
+            block: vertices_per_task(m),
+            gathered: vec![[0.0; 3]; m],
         })
     }
 
@@ -361,45 +359,34 @@ impl GalerkinCoarse {
         let nf = self.factor.n();
         let mut rhs = vec![0.0; 3 * nf];
         for iteration in 1..=max_iterations {
-            // Local step: covariances, the implicit step (kept when it and the sweep after it
-            // lower the rotations' objective), one Gauss–Seidel sweep.
-            let mut covariances = std::mem::take(&mut self.covariances);
-            covariances.clear();
-            covariances.extend(sigma.iter().enumerate().map(|(k, s)| {
-                let mut x = *s;
-                for &(b, gv) in &self.pairs[self.start[k]..self.start[k + 1]] {
-                    add_outer(&mut x, 1.0, gv, self.c[b as usize]);
+            // Local step: the clusters' covariances S_k = σ_k + Σ_b g_kb c_bᵀ, then the
+            // rotation field's step (implicit step, sweep by colours, safeguard).
+            let (pairs, c) = (&self.pairs, &self.c);
+            let covariances = self.field.covariances_mut();
+            covariances.par_iter_mut().zip(&sigma).enumerate().for_each(|(k, (x, s))| {
+                *x = *s;
+                for &(b, gv) in pairs.row(k) {
+                    add_outer(x, 1.0, gv, c[b as usize]);
                 }
-                x
-            }));
-            let mut before = std::mem::take(&mut self.saved_rotations);
-            before.clear();
-            before.extend_from_slice(&self.rotations);
-            let f0 = self.rotation_objective(&covariances);
-            self.implicit_step(&covariances);
-            self.sweep(&covariances);
-            if self.rotation_objective(&covariances) > f0 {
-                self.rotations.copy_from_slice(&before);
-                self.sweep(&covariances);
-            }
-            self.saved_rotations = before;
-            self.covariances = covariances;
+            });
+            let start = self.field.start_sums(&self.neighbours, &self.rotations, self.block);
+            self.field.rotation_step(&self.neighbours, &mut self.rotations, &start, self.block);
             // Global step on the free block: r = τ + Σ_k R_k g_k − A_FH c_H.
-            rhs.fill(0.0);
-            let mut add = |b: usize, v: [f64; 3]| {
-                if let Some(f) = self.free[b] {
+            let (by_coarse, rotations) = (&self.by_coarse, &self.rotations);
+            self.gathered.par_iter_mut().zip(&tau).enumerate().for_each(|(b, (r, t))| {
+                *r = *t;
+                for &(k, gv) in by_coarse.row(b) {
+                    let v = mul_vec(&rotations[k as usize], gv);
                     for d in 0..3 {
-                        rhs[d * nf + f as usize] += v[d];
+                        r[d] += v[d];
                     }
                 }
-            };
-            for (b, t) in tau.iter().enumerate() {
-                add(b, *t);
-            }
-            for k in 0..m {
-                let r = &self.rotations[k];
-                for &(b, gv) in &self.pairs[self.start[k]..self.start[k + 1]] {
-                    add(b as usize, mul_vec(r, gv));
+            });
+            for (r, f) in self.gathered.iter().zip(&self.free) {
+                if let Some(f) = f {
+                    for d in 0..3 {
+                        rhs[d * nf + *f as usize] = r[d];
+                    }
                 }
             }
             for &(f, h, v) in &self.coupling {
@@ -423,77 +410,6 @@ impl GalerkinCoarse {
             }
         }
         Ok(max_iterations)
-    }
-
-    /// One Gauss–Seidel sweep of the rotation fits for the covariances $S_k$, in index order.
-    fn sweep(&mut self, covariances: &[Mat3]) {
-        for (k, s) in covariances.iter().enumerate() {
-            let mut x = *s;
-            for &(l, w) in &self.edges[self.edge_start[k]..self.edge_start[k + 1]] {
-                let r = &self.rotations[l as usize];
-                for (p, xp) in x.iter_mut().enumerate() {
-                    for (q, xq) in xp.iter_mut().enumerate() {
-                        *xq += 2.0 * self.beta * w * r[q][p];
-                    }
-                }
-            }
-            self.rotations[k] = fit_rotation_near(&x, &self.rotations[k]);
-        }
-    }
-
-    /// The rotations' part of the energy with the positions fixed:
-    /// $-2\sum_k \operatorname{tr}(R_k S_k) - 2\beta_\ell\sum_k\sum_l w^c_{kl}\operatorname{tr}(R_k R_l^\top)$.
-    fn rotation_objective(&self, covariances: &[Mat3]) -> f64 {
-        let mut f = 0.0;
-        for (k, s) in covariances.iter().enumerate() {
-            let r = &self.rotations[k];
-            f -= 2.0 * trace_of_product(r, s);
-            for &(l, w) in &self.edges[self.edge_start[k]..self.edge_start[k + 1]] {
-                let rl = &self.rotations[l as usize];
-                // tr(R_k R_lᵀ) = Σ_pq R_k[p][q] R_l[p][q].
-                let t: f64 = (0..3).map(|p| (0..3).map(|q| r[p][q] * rl[p][q]).sum::<f64>()).sum();
-                f -= 2.0 * self.beta * w * t;
-            }
-        }
-        f
-    }
-
-    /// The implicit rotation step of `deform::arap::rotation_solve` on the clusters:
-    /// $R_k \leftarrow \exp([\omega_k]_\times) R_k$ with $(8\beta_\ell L^c + \operatorname{diag}
-    /// h)\,\omega = -g$, $g_k = 2\operatorname{v}(R_k S_k) + 4\beta_\ell\sum_l w^c_{kl}
-    /// \operatorname{v}(R_k R_l^\top)$, $h_k = \tfrac43\operatorname{tr} S_k$ at rest.
-    fn implicit_step(&mut self, covariances: &[Mat3]) {
-        let m = self.rotations.len();
-        let v = |a: &Mat3| [a[2][1] - a[1][2], a[0][2] - a[2][0], a[1][0] - a[0][1]];
-        let mut rhs = std::mem::take(&mut self.step_rhs);
-        rhs.clear();
-        rhs.resize(3 * m, 0.0);
-        for (k, s) in covariances.iter().enumerate() {
-            let r = &self.rotations[k];
-            let mut g = v(&mul_mat(r, s)).map(|x| 2.0 * x);
-            for &(l, w) in &self.edges[self.edge_start[k]..self.edge_start[k + 1]] {
-                let rl = &self.rotations[l as usize];
-                let rlt = [
-                    [rl[0][0], rl[1][0], rl[2][0]],
-                    [rl[0][1], rl[1][1], rl[2][1]],
-                    [rl[0][2], rl[1][2], rl[2][2]],
-                ];
-                let b = v(&mul_mat(r, &rlt));
-                for d in 0..3 {
-                    g[d] += 4.0 * self.beta * w * b[d];
-                }
-            }
-            for d in 0..3 {
-                rhs[d * m + k] = -g[d];
-            }
-        }
-        self.rotation_factor.solve_in_place(MatMut::from_column_major_slice_mut(&mut rhs, m, 3));
-        for (k, r) in self.rotations.iter_mut().enumerate() {
-            let omega = [rhs[k], rhs[m + k], rhs[2 * m + k]];
-            let angle = norm2(omega).sqrt();
-            *r = mul_mat(&axis_angle(omega, angle), r);
-        }
-        self.step_rhs = rhs;
     }
 
     /// The pose of the full mesh: the prolongation of the coarse pose and rotations, constrained
@@ -538,21 +454,6 @@ impl GalerkinCoarse {
         );
         out
     }
-}
-
-/// Entries `(first, value)` grouped by `first < n` as offsets and values (any order within a
-/// group).
-fn by_first<T>(n: usize, entries: impl Iterator<Item = (u32, T)>) -> (Vec<usize>, Vec<T>) {
-    let mut all: Vec<(u32, T)> = entries.collect();
-    all.sort_by_key(|e| e.0);
-    let mut start = vec![0usize; n + 1];
-    for (k, _) in &all {
-        start[*k as usize + 1] += 1;
-    }
-    for k in 0..n {
-        start[k + 1] += start[k];
-    }
-    (start, all.into_iter().map(|(_, v)| v).collect())
 }
 
 #[cfg(test)]
