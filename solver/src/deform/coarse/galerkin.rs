@@ -16,14 +16,16 @@
 //! smoothly, is dropped (kept with the other cluster's rotation lagged, at a fine edge's cost per
 //! crossing pair, it changed the armadillo's distance from converged ARAP from 0.607 to 0.611 %
 //! of the diagonal in an experiment with a stiffer handle penalty). What is left is quadratic in
-//! $c$ with coefficients gathered once per handle set through the prolongation. With the spokes weights $w_{ij}$ of the full mesh (the
+//! $c$ with coefficients gathered through the prolongation: the full mesh's edges once per mesh
+//! and coarse base ([`GalerkinMesh`]), the handles' terms once per handle set
+//! ([`GalerkinCoarse::new`]). With the spokes weights $w_{ij}$ of the full mesh (the
 //! smooth-rotations energy's, `deform::arap::smooth_rotations`):
 //! - the global matrix $G = \sum_{(i,j)} w_{ij}\,\delta_{ij}^\top\delta_{ij} = P^\top L P$;
 //! - per cluster $k$ and coarse vertex $b$ a vector
 //!   $g_{kb} = \sum_{(i,j),\,i\in k} w_{ij}\,(\delta_{ij})_b\,(\beta_i - \beta_j)$,
 //!   $\beta = P B_c$, from which the covariance is $S_k = \sum_b g_{kb}\,c_b^\top$ and the
 //!   global right-hand side $r_b = \sum_k R_k g_{kb}$: both cost the number of pairs $(k, b)$,
-//!   a few dozen per coarse vertex, whatever the full mesh's size.
+//!   about ten per coarse vertex, whatever the full mesh's size.
 //! - The rotation term is the coarse mesh's: $\beta_\ell \sum_k\sum_{l} w^c_{kl}\lVert R_k -
 //!   R_l\rVert_F^2$ with $B_c$'s clamped cotangent weights and $\beta_\ell = \ell^2$ (a linear
 //!   rotation field's Dirichlet energy on any triangulation; the full mesh's weights summed
@@ -137,31 +139,45 @@ pub struct GalerkinCoarse {
     gathered: Vec<[f64; 3]>,
 }
 
-impl GalerkinCoarse {
-    /// Gathers the energy's coefficients through `base`'s prolongation (module doc) for the
-    /// handles of `handles` and the bending length `bending_length`·diag of `mesh`.
-    pub fn new(
-        mesh: &Mesh,
-        base: &CoarseBase,
-        handles: &Handles,
-        bending_length: f64,
-        rule: HandleRule,
-    ) -> Result<GalerkinCoarse, SolveError> {
-        check_bending_length(bending_length)?;
+/// The mesh's part of the Galerkin coarse energy's coefficients for one coarse base: the sums
+/// over the full mesh's edges of $G$ and of the $g_{kb}$ (module doc), and the coarse mesh's
+/// weights; everything but the handles' terms, so gathered once per mesh and coarse base and
+/// shared by every handle set ([`GalerkinCoarse::new`]).
+#[derive(Debug, Clone)]
+pub struct GalerkinMesh {
+    /// The entries $G_{ab}$, $a \ge b$, by key $(a, b)$.
+    g: FixedMap<u64, f64>,
+    /// The $g_{kb}$ by key $(k, b)$.
+    pair: FixedMap<u64, [f64; 3]>,
+    /// $\max_a G_{aa}$, the scale of the handles' penalty.
+    g_max: f64,
+    /// The coarse mesh's clamped cotangent edges: per cluster $k$, its $(l, w^c_{kl})$.
+    neighbours: Csr<(u32, f64)>,
+}
+
+/// The key of the pair $(a, b)$ in the gathering maps.
+fn key(a: u32, b: u32) -> u64 {
+    (u64::from(a) << 32) | u64::from(b)
+}
+
+/// The embedding of fine vertex `i` on `base`'s coarse mesh: its triangle's corners and weights.
+fn embedding_row(base: &CoarseBase, i: usize) -> ([u32; 3], [f64; 3]) {
+    let [w0, w1] = base.weights[i];
+    (base.coarse_mesh.triangles()[base.faces[i] as usize], from_stored(w0, w1))
+}
+
+impl GalerkinMesh {
+    /// Gathers the sums over `mesh`'s edges through `base`'s prolongation (module doc).
+    pub fn new(mesh: &Mesh, base: &CoarseBase) -> Result<GalerkinMesh, SolveError> {
         let coarse = &base.coarse_mesh;
-        let m = coarse.n_vertices();
-        let tris = coarse.triangles();
-        let row = |i: usize| -> ([u32; 3], [f64; 3]) {
-            let [w0, w1] = base.weights[i];
-            (tris[base.faces[i] as usize], from_stored(w0, w1))
-        };
+        let (m, tris) = (coarse.n_vertices(), coarse.triangles());
+        let row = |i: usize| embedding_row(base, i);
         let cot = face_cotangents(mesh.positions(), mesh.triangles(), 0.0)
             .map_err(|e| SolveError::DegenerateFace { face: e.face })?;
         let fine_edges = edge_weights(mesh.triangles(), &cot, true);
         let beta_of = &base.base_on_coarse;
         let mut g: FixedMap<u64, f64> = FixedMap::default();
         let mut pair: FixedMap<u64, [f64; 3]> = FixedMap::default();
-        let key = |a: u32, b: u32| (u64::from(a) << 32) | u64::from(b);
         let mut delta: Vec<(u32, f64)> = Vec::with_capacity(6);
         for &(i, j, w) in &fine_edges {
             if w == 0.0 {
@@ -199,6 +215,34 @@ impl GalerkinCoarse {
             .iter()
             .filter(|(k, _)| (*k >> 32) == (*k & 0xffff_ffff))
             .fold(0.0f64, |s, (_, &v)| s.max(v));
+        let (coarse_cot, _) =
+            face_cotangents_or(coarse.positions(), Some(&base.rest_kept), tris, base.floor)
+                .map_err(|e| SolveError::DegenerateBase { face: e.face })?;
+        let coarse_edges = edge_weights(tris, &coarse_cot, true);
+        let both_orders: Vec<_> =
+            coarse_edges.iter().flat_map(|&(k, l, w)| [(k, (l, w)), (l, (k, w))]).collect();
+        let neighbours = Csr::from_pairs(m, &both_orders);
+        Ok(GalerkinMesh { g, pair, g_max, neighbours })
+    }
+}
+
+impl GalerkinCoarse {
+    /// The energy for the handles of `handles` and the bending length `bending_length`·diag of
+    /// `mesh`: the handles' terms added to `gathered`, the mesh's part for `mesh` and `base`
+    /// ([`GalerkinMesh::new`]).
+    pub fn new(
+        mesh: &Mesh,
+        base: &CoarseBase,
+        gathered: &GalerkinMesh,
+        handles: &Handles,
+        bending_length: f64,
+        rule: HandleRule,
+    ) -> Result<GalerkinCoarse, SolveError> {
+        check_bending_length(bending_length)?;
+        let coarse = &base.coarse_mesh;
+        let m = coarse.n_vertices();
+        let (mut g, mut pair, g_max) = (gathered.g.clone(), gathered.pair.clone(), gathered.g_max);
+        let neighbours = gathered.neighbours.clone();
         let constraints = Constraints::new(mesh, handles);
         let (mu, penalized, groups) = match rule {
             HandleRule::Penalty { weight } => {
@@ -215,7 +259,7 @@ impl GalerkinCoarse {
             .map(|(t, &v)| (Some(t), v))
             .chain(constraints.pinned_vertices.iter().map(|&v| (None, v)))
             .map(|(target, v)| {
-                let (corners, weights) = row(v as usize);
+                let (corners, weights) = embedding_row(base, v as usize);
                 Held {
                     vertex: v,
                     target,
@@ -268,13 +312,6 @@ impl GalerkinCoarse {
             .map(|(k, v)| ((k >> 32) as u32, ((k & 0xffff_ffff) as u32, v)))
             .collect();
         let pairs = Csr::from_pairs(m, &pairs);
-        let (coarse_cot, _) =
-            face_cotangents_or(coarse.positions(), Some(&base.rest_kept), tris, base.floor)
-                .map_err(|e| SolveError::DegenerateBase { face: e.face })?;
-        let coarse_edges = edge_weights(tris, &coarse_cot, true);
-        let both_orders: Vec<_> =
-            coarse_edges.iter().flat_map(|&(k, l, w)| [(k, (l, w)), (l, (k, w))]).collect();
-        let neighbours = Csr::from_pairs(m, &both_orders);
         let by_coarse: Vec<_> = (0..m)
             .flat_map(|k| pairs.row(k).iter().map(move |&(b, g)| (b, (k as u32, g))))
             .collect();
@@ -479,7 +516,8 @@ mod tests {
             handles.handle_vertices().iter().map(|&v| x[v as usize]).collect()
         };
         for rule in [HandleRule::CoarseVertices, HandleRule::Penalty { weight: 1.0 }] {
-            let mut g = GalerkinCoarse::new(&mesh, &base, &handles, 0.02, rule).unwrap();
+            let gathered = GalerkinMesh::new(&mesh, &base).unwrap();
+            let mut g = GalerkinCoarse::new(&mesh, &base, &gathered, &handles, 0.02, rule).unwrap();
             g.solve(&mesh, &at(mesh.positions()), 1e-12, diag, 1000).unwrap();
             let rest =
                 distances(&g.pose(&mesh, &base, &at(mesh.positions())), mesh.positions(), diag);
@@ -498,11 +536,12 @@ mod tests {
         let (mesh, handles) = crate::geometry::shapes::bumpy_bar(2);
         let base = CoarseBase::new(&mesh, &BaseConfig::default()).unwrap();
         let rule = HandleRule::Penalty { weight: 0.1 };
+        let gathered = GalerkinMesh::new(&mesh, &base).unwrap();
         for ell in [0.0, -1.0, f64::NAN] {
-            let e = GalerkinCoarse::new(&mesh, &base, &handles, ell, rule).unwrap_err();
+            let e = GalerkinCoarse::new(&mesh, &base, &gathered, &handles, ell, rule).unwrap_err();
             assert!(matches!(e, SolveError::BendingLength(_)), "{e}");
         }
-        let mut g = GalerkinCoarse::new(&mesh, &base, &handles, 0.02, rule).unwrap();
+        let mut g = GalerkinCoarse::new(&mesh, &base, &gathered, &handles, 0.02, rule).unwrap();
         let diag = mesh.bbox_diagonal();
         let mut targets: Vec<_> =
             handles.handle_vertices().iter().map(|&v| mesh.positions()[v as usize]).collect();
