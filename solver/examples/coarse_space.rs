@@ -3,7 +3,7 @@
 //! (BENCHMARKS.md, "One pose at every resolution"): whether a better coarse energy can bring
 //! the coarse variant nearer, or only a finer coarse mesh.
 //!
-//!     cargo run --release -p solver --example coarse_space -- MESH SELECTION [--bending-length F] [--frames N] [--coarse-vertices C[,C…]] [--penalty W[,W…]] [--path-tolerance T[,T…]]
+//!     cargo run --release -p solver --example coarse_space -- MESH SELECTION [--bending-length F] [--frames N] [--coarse-vertices C[,C…]] [--penalty W[,W…]] [--path-tolerance T[,T…]] [--path-decrease T[,T…]]
 //!
 //! At the middle frame ⌈N/2⌉ of the bench's circle (group 0 on a circle of 0.1·diag, N = 20 by
 //! default): converged ARAP on the mesh ([`solver::deform::quality::Reference`]) and, for each
@@ -19,17 +19,21 @@
 //!   ([`solver::deform::coarse::galerkin`]) solved from rest, as the reference is (coarse
 //!   positions moving less than 1e-10·diag an iteration, cap 50,000), with the coarse
 //!   variant's coarse handles and with the penalty of weight W on every handle vertex
-//!   (`--penalty`, default 0.1), the mesh's part of its coefficients gathered once per coarse
+//!   (`--penalty`, default [`DEFAULT_PENALTY`]), the mesh's part of its coefficients gathered once per coarse
 //!   size and "built in" the time of the handle set's part; the handle gap is the largest distance the pose closes
 //!   between a handle vertex's prolonged position and its target. `--path-tolerance T`: also
 //!   solved along frames 1 to ⌈N/2⌉, each started from the last (cap 1000 a frame), stopping
-//!   when the positions move less than T·diag an iteration: iterations a frame and distances.
+//!   when the positions move less than T·diag an iteration: iterations a frame and distances;
+//!   `--path-decrease T` the same, stopping when an iteration lowers the energy by less than T
+//!   of it (the rule of the coarse variant's solves, whose default T is 1e-4).
 //!
 //! `--bending-length F`: smooth rotations with ℓ = F·diag (default: spokes and rims).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use solver::deform::coarse::fit::{DetailRotations, nearest_pose};
-use solver::deform::coarse::galerkin::{GalerkinCoarse, GalerkinMesh, HandleRule};
+use solver::deform::coarse::galerkin::{
+    DEFAULT_PENALTY, GalerkinCoarse, GalerkinMesh, HandleRule, Stop,
+};
 use solver::deform::quality::{Reference, ReferenceEnergy};
 use solver::{
     ArapConfig, BaseConfig, Deformer, DeformerOptions, Energy, GroupTransform, MeshCache, Method,
@@ -49,12 +53,23 @@ fn main() {
     let sizes: Vec<Option<usize>> = option("--coarse-vertices").map_or(vec![None], |v| {
         v.split(',').map(|c| Some(c.parse().expect("--coarse-vertices C[,C…]"))).collect()
     });
-    let penalties: Vec<f64> = option("--penalty").map_or(vec![0.1], |v| {
+    let penalties: Vec<f64> = option("--penalty").map_or(vec![DEFAULT_PENALTY], |v| {
         v.split(',').map(|w| w.parse().expect("--penalty W[,W…]")).collect()
     });
-    let path_tolerances: Vec<f64> = option("--path-tolerance").map_or(Vec::new(), |v| {
-        v.split(',').map(|t| t.parse().expect("--path-tolerance T[,T…]")).collect()
+    // The path's stops: (positions moving less than T·diag, or the energy falling by less
+    // than T of itself, T).
+    let list = |v: String, name: &str| -> Vec<f64> {
+        v.split(',').map(|t| t.parse().unwrap_or_else(|_| panic!("{name} T[,T…]"))).collect()
+    };
+    let mut path_stops: Vec<(bool, f64)> = option("--path-tolerance").map_or(Vec::new(), |v| {
+        list(v, "--path-tolerance").into_iter().map(|t| (false, t)).collect()
     });
+    path_stops.extend(
+        option("--path-decrease")
+            .map_or(Vec::new(), |v| list(v, "--path-decrease"))
+            .into_iter()
+            .map(|t| (true, t)),
+    );
     let energy = match option("--bending-length") {
         Some(f) => ReferenceEnergy {
             energy: Energy::SmoothRotations,
@@ -65,7 +80,7 @@ fn main() {
     assert!(frames >= 3, "--frames must be at least 3");
     assert!(
         args.len() == 2,
-        "usage: coarse_space MESH SELECTION [--bending-length F] [--frames N] [--coarse-vertices C[,C…]] [--penalty W[,W…]] [--path-tolerance T[,T…]]"
+        "usage: coarse_space MESH SELECTION [--bending-length F] [--frames N] [--coarse-vertices C[,C…]] [--penalty W[,W…]] [--path-tolerance T[,T…]] [--path-decrease T[,T…]]"
     );
     let mesh = solver::io::load_mesh(std::path::Path::new(&args[0])).expect("mesh").mesh;
     let handles = solver::deform::selection::load_selection(
@@ -167,8 +182,9 @@ fn main() {
                 let built = clock.elapsed().as_secs_f64();
                 let clock = std::time::Instant::now();
                 // From rest, as the reference is solved.
-                let iterations =
-                    galerkin.solve(&mesh, &targets, 1e-10, diag, 50_000).expect("Galerkin solve");
+                let iterations = galerkin
+                    .solve(&mesh, &targets, Stop::Moved { distance: 1e-10 * diag }, 50_000)
+                    .expect("Galerkin solve");
                 let per_iteration = clock.elapsed().as_secs_f64() / iterations as f64;
                 assert!(iterations < 50_000, "the Galerkin solve did not converge");
                 let q = reference.measure(&galerkin.pose(&mesh, &coarse, &targets));
@@ -182,7 +198,12 @@ fn main() {
                     q.energy_on_mesh / e_min - 1.0
                 );
                 // Along the animation as the editor solves it: warm starts, a looser stop.
-                for &tolerance in &path_tolerances {
+                for &(decrease, t) in &path_stops {
+                    let (stop, stop_name) = if decrease {
+                        (Stop::Decrease { tolerance: t }, format!("at decrease {t:e}"))
+                    } else {
+                        (Stop::Moved { distance: t * diag }, format!("to {t:e}"))
+                    };
                     let mut g = GalerkinCoarse::new(
                         &mesh,
                         &coarse,
@@ -197,12 +218,11 @@ fn main() {
                     for f in 1..=middle {
                         frame_targets =
                             handle_targets(mesh.positions(), &handles, &moves(f)).expect("targets");
-                        iterations +=
-                            g.solve(&mesh, &frame_targets, tolerance, diag, 1000).expect("solve");
+                        iterations += g.solve(&mesh, &frame_targets, stop, 1000).expect("solve");
                     }
                     let q = reference.measure(&g.pose(&mesh, &coarse, &frame_targets));
                     print!(
-                        "; along frames 1–{middle} to {tolerance:e}: {:.1} iterations a frame, mean {:.3} % max {:.2} %",
+                        "; along frames 1–{middle} {stop_name}: {:.1} iterations a frame, mean {:.3} % max {:.2} %",
                         iterations as f64 / middle as f64,
                         q.mean_distance * 100.0,
                         q.max_distance * 100.0

@@ -159,6 +159,11 @@ impl SmoothRotations {
         self.colours.len()
     }
 
+    /// $\beta = \ell^2$.
+    pub(crate) fn beta(&self) -> f64 {
+        self.beta
+    }
+
     /// The covariances $S_i$ a caller's pass fills before [`SmoothRotations::start_sums`].
     pub(crate) fn covariances_mut(&mut self) -> &mut [Mat3] {
         &mut self.covs
