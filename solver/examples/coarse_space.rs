@@ -3,7 +3,7 @@
 //! (BENCHMARKS.md, "One pose at every resolution"): whether a better coarse energy can bring
 //! the coarse variant nearer, or only a finer coarse mesh.
 //!
-//!     cargo run --release -p solver --example coarse_space -- MESH SELECTION [--bending-length F] [--frames N] [--coarse-vertices C[,C…]] [--penalty W[,W…]] [--path-tolerance T[,T…]] [--path-decrease T[,T…]]
+//!     cargo run --release -p solver --example coarse_space -- MESH SELECTION [--bending-length F] [--frames N] [--coarse-vertices C[,C…]] [--penalty W[,W…]] [--path-tolerance T[,T…]] [--path-decrease T[,T…]] [--anderson W]
 //!
 //! At the middle frame ⌈N/2⌉ of the bench's circle (group 0 on a circle of 0.1·diag, N = 20 by
 //! default): converged ARAP on the mesh ([`solver::deform::quality::Reference`]) and, for each
@@ -27,6 +27,8 @@
 //!   `--path-decrease T` the same, stopping when an iteration lowers the energy by less than T
 //!   of it (the rule of the coarse variant's solves, whose default T is 1e-4).
 //!
+//! `--anderson W`: the Galerkin solves with Anderson acceleration of window W.
+//!
 //! `--bending-length F`: smooth rotations with ℓ = F·diag (default: spokes and rims).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
@@ -36,8 +38,8 @@ use solver::deform::coarse::galerkin::{
 };
 use solver::deform::quality::{Reference, ReferenceEnergy};
 use solver::{
-    ArapConfig, BaseConfig, Deformer, DeformerOptions, Energy, GroupTransform, MeshCache, Method,
-    handle_targets,
+    Acceleration, ArapConfig, BaseConfig, Deformer, DeformerOptions, Energy, GroupTransform,
+    MeshCache, Method, handle_targets,
 };
 
 fn main() {
@@ -49,6 +51,9 @@ fn main() {
             value
         })
     };
+    let acceleration = option("--anderson").map_or(Acceleration::None, |w| {
+        Acceleration::Anderson { window: w.parse().expect("--anderson W") }
+    });
     let frames: usize = option("--frames").map_or(20, |v| v.parse().expect("--frames N"));
     let sizes: Vec<Option<usize>> = option("--coarse-vertices").map_or(vec![None], |v| {
         v.split(',').map(|c| Some(c.parse().expect("--coarse-vertices C[,C…]"))).collect()
@@ -80,7 +85,7 @@ fn main() {
     assert!(frames >= 3, "--frames must be at least 3");
     assert!(
         args.len() == 2,
-        "usage: coarse_space MESH SELECTION [--bending-length F] [--frames N] [--coarse-vertices C[,C…]] [--penalty W[,W…]] [--path-tolerance T[,T…]] [--path-decrease T[,T…]]"
+        "usage: coarse_space MESH SELECTION [--bending-length F] [--frames N] [--coarse-vertices C[,C…]] [--penalty W[,W…]] [--path-tolerance T[,T…]] [--path-decrease T[,T…]] [--anderson W]"
     );
     let mesh = solver::io::load_mesh(std::path::Path::new(&args[0])).expect("mesh").mesh;
     let handles = solver::deform::selection::load_selection(
@@ -179,6 +184,7 @@ fn main() {
                     rule,
                 )
                 .expect("Galerkin coarse energy");
+                galerkin.set_acceleration(acceleration);
                 let built = clock.elapsed().as_secs_f64();
                 let clock = std::time::Instant::now();
                 // From rest, as the reference is solved.
@@ -213,6 +219,7 @@ fn main() {
                         rule,
                     )
                     .expect("Galerkin coarse energy");
+                    g.set_acceleration(acceleration);
                     let mut iterations = 0;
                     let mut frame_targets = Vec::new();
                     for f in 1..=middle {
