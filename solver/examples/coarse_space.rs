@@ -11,7 +11,8 @@
 //! with each pose's energy on the mesh over the converged one's, minus 1 (`E +`):
 //! - the coarse variant converged along the animation (tolerance 1e-8, cap 5000: the figure
 //!   `start_study --dense` prints), with its iterations over frames 1 to ⌈N/2⌉ and their mean
-//!   time (each frame's prolongation included);
+//!   time (each frame's prolongation included), and at its defaults (the editor's tolerance)
+//!   along the same frames: iterations and milliseconds a frame, distances;
 //! - the nearest pose of the coarse space ([`solver::deform::coarse::fit::nearest_pose`]) with
 //!   the details turned by each fine vertex's own rotation and by the prolongation's coarse
 //!   rotations (10 sweeps);
@@ -23,7 +24,8 @@
 //!   size and "built in" the time of the handle set's part; the handle gap is the largest distance the pose closes
 //!   between a handle vertex's prolonged position and its target. `--path-tolerance T`: also
 //!   solved along frames 1 to ⌈N/2⌉, each started from the last (cap 1000 a frame), stopping
-//!   when the positions move less than T·diag an iteration: iterations a frame and distances;
+//!   when the positions move less than T·diag an iteration: iterations and milliseconds a frame
+//!   (each frame's solve and pose on the full mesh), distances;
 //!   `--path-decrease T` the same, stopping when an iteration lowers the energy by less than T
 //!   of it (the rule of the coarse variant's solves, whose default T is 1e-4).
 //!
@@ -152,6 +154,33 @@ fn main() {
             own.max_distance * 100.0,
             own.energy_on_mesh / e_min - 1.0
         );
+        // The coarse variant as the editor runs it: its default tolerance, frame after frame.
+        let config = ArapConfig {
+            energy: energy.energy,
+            bending_length: energy.bending_length,
+            ..Default::default()
+        };
+        let options = DeformerOptions {
+            method: Method::BsArapCoarse,
+            config,
+            base,
+            cache: Some(&mut cache),
+            ..Default::default()
+        };
+        let mut d = Deformer::new(&mesh, &handles, options).expect("precompute");
+        let clock = std::time::Instant::now();
+        let mut iterations = 0;
+        for f in 1..=middle {
+            iterations += d.solve_groups(&moves(f)).expect("solve").iterations;
+        }
+        let frame_ms = clock.elapsed().as_secs_f64() * 1e3 / middle as f64;
+        let q = reference.measure(d.positions());
+        print!(
+            "; coarse variant at its defaults along frames 1–{middle}: {:.1} iterations a frame, {frame_ms:.1} ms a frame, mean {:.3} % max {:.2} %",
+            iterations as f64 / middle as f64,
+            q.mean_distance * 100.0,
+            q.max_distance * 100.0
+        );
         for (name, kind) in
             [("fine", DetailRotations::Fine), ("coarse", DetailRotations::Coarse { sweeps: 10 })]
         {
@@ -221,15 +250,18 @@ fn main() {
                     .expect("Galerkin coarse energy");
                     g.set_acceleration(acceleration);
                     let mut iterations = 0;
-                    let mut frame_targets = Vec::new();
+                    let mut pose = Vec::new();
+                    let clock = std::time::Instant::now();
                     for f in 1..=middle {
-                        frame_targets =
+                        let frame_targets =
                             handle_targets(mesh.positions(), &handles, &moves(f)).expect("targets");
                         iterations += g.solve(&mesh, &frame_targets, stop, 1000).expect("solve");
+                        pose = g.pose(&mesh, &coarse, &frame_targets);
                     }
-                    let q = reference.measure(&g.pose(&mesh, &coarse, &frame_targets));
+                    let frame_ms = clock.elapsed().as_secs_f64() * 1e3 / middle as f64;
+                    let q = reference.measure(&pose);
                     print!(
-                        "; along frames 1–{middle} {stop_name}: {:.1} iterations a frame, mean {:.3} % max {:.2} %",
+                        "; along frames 1–{middle} {stop_name}: {:.1} iterations a frame, {frame_ms:.1} ms a frame, mean {:.3} % max {:.2} %",
                         iterations as f64 / middle as f64,
                         q.mean_distance * 100.0,
                         q.max_distance * 100.0

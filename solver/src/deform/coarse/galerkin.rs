@@ -51,9 +51,13 @@
 //! together lower the rotations' objective. Without the step the rotation field took thousands
 //! of iterations (armadillo's bench set from rest: 2,762 against 367 with it, sweeping in index
 //! order, to the same pose). The covariances and the global step's right-hand side are gathered
-//! per cluster and per coarse vertex in parallel. The pose shown is the prolongation of
-//! [`mod@crate::deform::coarse::prolong`] (details on the blend of the corner rotations), with
-//! constrained vertices on their targets.
+//! per cluster and per coarse vertex in parallel. The energy after each local step is read from
+//! its sums (the quadratic in $c$, the rotation objective, constants), so a solve stops either
+//! when the positions stop moving or when an iteration lowers the energy by less than a
+//! tolerance of it ([`Stop`], the rule of ARAP's solves), and Anderson acceleration of the coarse
+//! positions is safeguarded by it ([`GalerkinCoarse::set_acceleration`]). The pose shown is the
+//! prolongation of [`mod@crate::deform::coarse::prolong`] (details on the blend of the corner
+//! rotations), with constrained vertices on their targets.
 
 use crate::deform::arap::{Acceleration, Csr, SmoothRotations, vertices_per_task};
 use crate::deform::coarse::base::CoarseBase;
