@@ -131,20 +131,26 @@ fn main() {
         };
         // The deformer's per-mesh base, kept in the cache, is the one measured below.
         let mut cache = MeshCache::default();
-        let options = DeformerOptions {
-            method: Method::BsArapCoarse,
-            config,
-            base,
-            cache: Some(&mut cache),
-            ..Default::default()
+        // The coarse variant along frames 1 to the middle one: its iterations, the time and the
+        // deformer.
+        let along = |config: ArapConfig, cache: &mut MeshCache| {
+            let options = DeformerOptions {
+                method: Method::BsArapCoarse,
+                config,
+                base,
+                cache: Some(cache),
+                ..Default::default()
+            };
+            let mut d = Deformer::new(&mesh, &handles, options).expect("precompute");
+            let clock = std::time::Instant::now();
+            let mut iterations = 0;
+            for f in 1..=middle {
+                iterations += d.solve_groups(&moves(f)).expect("solve").iterations;
+            }
+            (iterations, clock.elapsed().as_secs_f64() * 1e3, d)
         };
-        let mut d = Deformer::new(&mesh, &handles, options).expect("precompute");
-        let clock = std::time::Instant::now();
-        let mut coarse_iterations = 0;
-        for f in 1..=middle {
-            coarse_iterations += d.solve_groups(&moves(f)).expect("solve").iterations;
-        }
-        let coarse_ms = clock.elapsed().as_secs_f64() * 1e3 / coarse_iterations as f64;
+        let (coarse_iterations, elapsed_ms, d) = along(config, &mut cache);
+        let coarse_ms = elapsed_ms / coarse_iterations as f64;
         let own = reference.measure(d.positions());
         let coarse = cache.coarse_base().expect("the coarse variant's base").clone();
         print!(
@@ -160,20 +166,8 @@ fn main() {
             bending_length: energy.bending_length,
             ..Default::default()
         };
-        let options = DeformerOptions {
-            method: Method::BsArapCoarse,
-            config,
-            base,
-            cache: Some(&mut cache),
-            ..Default::default()
-        };
-        let mut d = Deformer::new(&mesh, &handles, options).expect("precompute");
-        let clock = std::time::Instant::now();
-        let mut iterations = 0;
-        for f in 1..=middle {
-            iterations += d.solve_groups(&moves(f)).expect("solve").iterations;
-        }
-        let frame_ms = clock.elapsed().as_secs_f64() * 1e3 / middle as f64;
+        let (iterations, elapsed_ms, d) = along(config, &mut cache);
+        let frame_ms = elapsed_ms / middle as f64;
         let q = reference.measure(d.positions());
         print!(
             "; coarse variant at its defaults along frames 1–{middle}: {:.1} iterations a frame, {frame_ms:.1} ms a frame, mean {:.3} % max {:.2} %",

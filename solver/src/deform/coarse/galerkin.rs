@@ -718,6 +718,17 @@ mod tests {
         }
     }
 
+    /// Handle targets that bend the bar: the cap at $x > 0$ turned by `angle` about `axis`
+    /// through the origin, the other at rest.
+    fn bent(mesh: &Mesh, handles: &Handles, axis: [f64; 3], angle: f64) -> Vec<[f64; 3]> {
+        let turn = axis_angle(axis, angle);
+        let at = |&v: &u32| {
+            let p = mesh.positions()[v as usize];
+            if p[0] > 0.0 { mul_vec(&turn, p) } else { p }
+        };
+        handles.handle_vertices().iter().map(at).collect()
+    }
+
     /// The energy the solve reports is the restricted energy summed directly over the full
     /// mesh's edges (module doc: spoke residuals $\delta_{ij}c - R_k\delta_{ij}B_c$, the
     /// handles' penalty, the coarse rotation term), and no iteration raises it.
@@ -728,15 +739,7 @@ mod tests {
         let gathered = GalerkinMesh::new(&mesh, &base).unwrap();
         let rule = HandleRule::Penalty { weight: 0.3 };
         let mut g = GalerkinCoarse::new(&mesh, &base, &gathered, &handles, 0.05, rule).unwrap();
-        let turn = axis_angle([0.0, 0.0, 1.0], 0.8);
-        let targets: Vec<_> = handles
-            .handle_vertices()
-            .iter()
-            .map(|&v| {
-                let p = mesh.positions()[v as usize];
-                if p[0] > 0.0 { mul_vec(&turn, p) } else { p }
-            })
-            .collect();
+        let targets = bent(&mesh, &handles, [0.0, 0.0, 1.0], 0.8);
         let mut energies = Vec::new();
         for _ in 0..30 {
             g.solve(&mesh, &targets, Stop::Decrease { tolerance: 0.0 }, 1).unwrap();
@@ -803,15 +806,7 @@ mod tests {
         let base = CoarseBase::new(&mesh, &BaseConfig::default()).unwrap();
         let gathered = GalerkinMesh::new(&mesh, &base).unwrap();
         let diag = mesh.bbox_diagonal();
-        let turn = axis_angle([0.0, 0.3, 1.0], 0.9);
-        let targets: Vec<_> = handles
-            .handle_vertices()
-            .iter()
-            .map(|&v| {
-                let p = mesh.positions()[v as usize];
-                if p[0] > 0.0 { mul_vec(&turn, p) } else { p }
-            })
-            .collect();
+        let targets = bent(&mesh, &handles, [0.0, 0.3, 1.0], 0.9);
         let rule = HandleRule::Penalty { weight: DEFAULT_PENALTY };
         // One iteration, then on to the minimum: the iterations and both energies.
         let run = |acceleration| {
