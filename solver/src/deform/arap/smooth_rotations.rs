@@ -60,7 +60,9 @@
 //! fallback step, since here the rotations are state, not a function of the pose.
 //!
 //! Inputs: the spokes cells' neighbour lists with their weights, the current pose and
-//! rotations of the [`Arap`]. A sweep smooths the rotation field like one step of heat flow, so
+//! rotations of the [`Arap`]. [`SmoothRotations`] takes the neighbour lists and the rotations
+//! as arguments, so the Galerkin coarse energy (`deform::coarse::galerkin`) runs the same
+//! sweep, implicit step and safeguard on its clusters. A sweep smooths the rotation field like one step of heat flow, so
 //! on its own it needs $\sim(\ell/h)^2$ local steps for a field $\ell$ many edge lengths
 //! stiff; each local step therefore first takes the implicit step of [`super::rotation_solve`]
 //! (one prefactored three-column solve), kept when it and the sweep after it lower $E$
