@@ -196,9 +196,8 @@ fn main() {
                     .chain(penalties.iter().map(|&weight| {
                         (format!(", penalty {weight}"), HandleRule::Penalty { weight })
                     }));
-            for (name, rule) in rules {
-                let clock = std::time::Instant::now();
-                let mut galerkin = GalerkinCoarse::new(
+            let build = |rule| {
+                let mut g = GalerkinCoarse::new(
                     &mesh,
                     &coarse,
                     &gathered,
@@ -207,7 +206,12 @@ fn main() {
                     rule,
                 )
                 .expect("Galerkin coarse energy");
-                galerkin.set_acceleration(acceleration);
+                g.set_acceleration(acceleration);
+                g
+            };
+            for (name, rule) in rules {
+                let clock = std::time::Instant::now();
+                let mut galerkin = build(rule);
                 let built = clock.elapsed().as_secs_f64();
                 let clock = std::time::Instant::now();
                 // From rest, as the reference is solved.
@@ -233,16 +237,7 @@ fn main() {
                     } else {
                         (Stop::Moved { distance: t * diag }, format!("to {t:e}"))
                     };
-                    let mut g = GalerkinCoarse::new(
-                        &mesh,
-                        &coarse,
-                        &gathered,
-                        &handles,
-                        energy.bending_length,
-                        rule,
-                    )
-                    .expect("Galerkin coarse energy");
-                    g.set_acceleration(acceleration);
+                    let mut g = build(rule);
                     let mut iterations = 0;
                     let mut pose = Vec::new();
                     let clock = std::time::Instant::now();
