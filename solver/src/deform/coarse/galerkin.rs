@@ -197,6 +197,8 @@ pub struct GalerkinMesh {
     rest_term: f64,
     /// The coarse mesh's clamped cotangent edges: per cluster $k$, its $(l, w^c_{kl})$.
     neighbours: Csr<(u32, f64)>,
+    /// The full and the coarse mesh's vertex counts it was gathered for.
+    sizes: (usize, usize),
 }
 
 /// The key of the pair $(a, b)$ in the gathering maps.
@@ -268,14 +270,16 @@ impl GalerkinMesh {
         let both_orders: Vec<_> =
             coarse_edges.iter().flat_map(|&(k, l, w)| [(k, (l, w)), (l, (k, w))]).collect();
         let neighbours = Csr::from_pairs(m, &both_orders);
-        Ok(GalerkinMesh { g, pair, g_max, rest_term, neighbours })
+        let sizes = (mesh.n_vertices(), m);
+        Ok(GalerkinMesh { g, pair, g_max, rest_term, neighbours, sizes })
     }
 }
 
 impl GalerkinCoarse {
     /// The energy for the handles of `handles` and the bending length `bending_length`·diag of
     /// `mesh`: the handles' terms added to `gathered`, the mesh's part for `mesh` and `base`
-    /// ([`GalerkinMesh::new`]).
+    /// ([`GalerkinMesh::new`]); [`SolveError::StaleBase`] when `gathered` was gathered for
+    /// another mesh or base.
     pub fn new(
         mesh: &Mesh,
         base: &CoarseBase,
@@ -287,6 +291,9 @@ impl GalerkinCoarse {
         check_bending_length(bending_length)?;
         let coarse = &base.coarse_mesh;
         let m = coarse.n_vertices();
+        if gathered.sizes != (mesh.n_vertices(), m) || base.details.len() != mesh.n_vertices() {
+            return Err(SolveError::StaleBase);
+        }
         let (mut g, mut pair, g_max) = (gathered.g.clone(), gathered.pair.clone(), gathered.g_max);
         let neighbours = gathered.neighbours.clone();
         let constraints = Constraints::new(mesh, handles);
@@ -830,8 +837,8 @@ mod tests {
         assert!(apart.max < 1e-4, "{apart:?}");
     }
 
-    /// Bad input is an error, not a panic: a bending length that is not positive, and targets
-    /// of the wrong number or not finite.
+    /// Bad input is an error, not a panic: a bending length that is not positive, a mesh part
+    /// gathered for another mesh, and targets of the wrong number or not finite.
     #[test]
     fn bad_input_is_an_error() {
         let (mesh, handles) = crate::geometry::shapes::bumpy_bar(2);
@@ -842,6 +849,11 @@ mod tests {
             let e = GalerkinCoarse::new(&mesh, &base, &gathered, &handles, ell, rule).unwrap_err();
             assert!(matches!(e, SolveError::BendingLength(_)), "{e}");
         }
+        let (other, _) = crate::geometry::shapes::bumpy_bar(3);
+        let other_base = CoarseBase::new(&other, &BaseConfig::default()).unwrap();
+        let stale = GalerkinMesh::new(&other, &other_base).unwrap();
+        let e = GalerkinCoarse::new(&mesh, &base, &stale, &handles, 0.02, rule).unwrap_err();
+        assert_eq!(e, SolveError::StaleBase);
         let mut g = GalerkinCoarse::new(&mesh, &base, &gathered, &handles, 0.02, rule).unwrap();
         let diag = mesh.bbox_diagonal();
         let mut targets: Vec<_> =
