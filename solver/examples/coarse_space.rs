@@ -3,7 +3,7 @@
 //! (BENCHMARKS.md, "One pose at every resolution"): whether a better coarse energy can bring
 //! the coarse variant nearer, or only a finer coarse mesh.
 //!
-//!     cargo run --release -p solver --example coarse_space -- MESH SELECTION [--bending-length F] [--frames N] [--coarse-vertices C[,C…]] [--penalty W[,W…]] [--path-tolerance T[,T…]] [--path-decrease T[,T…]] [--anderson W]
+//!     cargo run --release -p solver --example coarse_space -- MESH SELECTION [--bending-length F] [--frames N] [--coarse-vertices C[,C…]] [--penalty W[,W…]] [--path-tolerance T[,T…]] [--path-decrease T[,T…]] [--anderson W] [--interior]
 //!
 //! At the middle frame ⌈N/2⌉ of the bench's circle (group 0 on a circle of 0.1·diag, N = 20 by
 //! default): converged ARAP on the mesh ([`solver::deform::quality::Reference`]) and, for each
@@ -29,7 +29,9 @@
 //!   `--path-decrease T` the same, stopping when an iteration lowers the energy by less than T
 //!   of it (the rule of the coarse variant's solves, whose default T is 1e-4).
 //!
-//! `--anderson W`: the Galerkin solves with Anderson acceleration of window W.
+//! `--anderson W`: the Galerkin solves with Anderson acceleration of window W. `--interior`: also
+//! each penalty with the coarse vertices inside a handle held exactly
+//! (`HandleRule::PenaltyAndInterior`).
 //!
 //! `--bending-length F`: smooth rotations with ℓ = F·diag (default: spokes and rims).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
@@ -46,6 +48,7 @@ use solver::{
 
 fn main() {
     let mut args: Vec<String> = std::env::args().skip(1).collect();
+    let interior = args.iter().position(|a| a == "--interior").map(|i| args.remove(i)).is_some();
     let mut option = |name: &str| {
         args.iter().position(|a| a == name).map(|i| {
             let value = args.get(i + 1).unwrap_or_else(|| panic!("{name} VALUE")).clone();
@@ -87,7 +90,7 @@ fn main() {
     assert!(frames >= 3, "--frames must be at least 3");
     assert!(
         args.len() == 2,
-        "usage: coarse_space MESH SELECTION [--bending-length F] [--frames N] [--coarse-vertices C[,C…]] [--penalty W[,W…]] [--path-tolerance T[,T…]] [--path-decrease T[,T…]] [--anderson W]"
+        "usage: coarse_space MESH SELECTION [--bending-length F] [--frames N] [--coarse-vertices C[,C…]] [--penalty W[,W…]] [--path-tolerance T[,T…]] [--path-decrease T[,T…]] [--anderson W] [--interior]"
     );
     let mesh = solver::io::load_mesh(std::path::Path::new(&args[0])).expect("mesh").mesh;
     let handles = solver::deform::selection::load_selection(
@@ -195,6 +198,12 @@ fn main() {
                 std::iter::once((", coarse handles".to_string(), HandleRule::CoarseVertices))
                     .chain(penalties.iter().map(|&weight| {
                         (format!(", penalty {weight}"), HandleRule::Penalty { weight })
+                    }))
+                    .chain(penalties.iter().filter(|_| interior).map(|&weight| {
+                        (
+                            format!(", penalty {weight} and interior"),
+                            HandleRule::PenaltyAndInterior { weight },
+                        )
                     }));
             let build = |rule| {
                 let mut g = GalerkinCoarse::new(

@@ -115,6 +115,10 @@ pub enum HandleRule {
     /// The coarse variant's coarse handles ([`crate::deform::coarse`], "Handles on the coarse
     /// level") held exactly on their group's rigid motion.
     CoarseVertices,
+    /// The penalty of [`HandleRule::Penalty`], and the coarse vertices inside a handle (all
+    /// the fine vertices they represent in one group) held exactly on its rigid motion: exact
+    /// where a handle covers whole clusters, a penalty only at its border.
+    PenaltyAndInterior { weight: f64 },
 }
 
 /// Anderson acceleration of the free coarse positions (as `deform::arap`'s Anderson loop):
@@ -304,6 +308,11 @@ impl GalerkinCoarse {
             HandleRule::CoarseVertices => {
                 (PINNED_WEIGHT * g_max, 0, Some(CoarseGroups::new(base, handles, mesh.positions())))
             }
+            HandleRule::PenaltyAndInterior { weight } => (
+                weight * g_max,
+                constraints.handle_vertices.len(),
+                Some(CoarseGroups::inside(base, handles, mesh.positions())),
+            ),
         };
         // Handle vertices under the penalty (all or none), then pinned vertices (always).
         let held: Vec<Held> = constraints.handle_vertices[..penalized]
@@ -707,7 +716,12 @@ mod tests {
         let at = |x: &[[f64; 3]]| -> Vec<[f64; 3]> {
             handles.handle_vertices().iter().map(|&v| x[v as usize]).collect()
         };
-        for rule in [HandleRule::CoarseVertices, HandleRule::Penalty { weight: 1.0 }] {
+        let rules = [
+            HandleRule::CoarseVertices,
+            HandleRule::Penalty { weight: 1.0 },
+            HandleRule::PenaltyAndInterior { weight: 0.1 },
+        ];
+        for rule in rules {
             let gathered = GalerkinMesh::new(&mesh, &base).unwrap();
             let mut g = GalerkinCoarse::new(&mesh, &base, &gathered, &handles, 0.02, rule).unwrap();
             g.solve(&mesh, &at(mesh.positions()), Stop::Moved { distance: 1e-12 * diag }, 1000)

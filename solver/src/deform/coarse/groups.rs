@@ -127,8 +127,43 @@ impl CoarseGroups {
                 ring = next;
             }
         }
+        CoarseGroups::from_labels(coarse_labels, base, handles, rest)
+    }
+
+    /// Only the coarse vertices all of whose represented fine vertices are in one group
+    /// (none for a group smaller than a cluster): the coarse vertices inside a handle, for a
+    /// rule that holds the handle's border otherwise (`deform::coarse::galerkin`).
+    pub(crate) fn inside(base: &CoarseBase, handles: &Handles, rest: &[[f64; 3]]) -> CoarseGroups {
+        let nc = base.kept.len();
+        let labels = handles.labels();
+        // Per coarse vertex: its group while all its fine vertices so far share one, and
+        // whether they still do.
+        let mut group: Vec<(Option<u32>, bool)> = vec![(None, true); nc];
+        for (v, &k) in base.representative.iter().enumerate() {
+            let entry = &mut group[k as usize];
+            match (labels[v], entry.0) {
+                (Some(g), None) if entry.1 => entry.0 = Some(g),
+                (Some(g), Some(h)) if g == h => {}
+                _ => *entry = (None, false),
+            }
+        }
+        let coarse_labels = group.iter().map(|&(g, all)| if all { g } else { None }).collect();
+        CoarseGroups::from_labels(coarse_labels, base, handles, rest)
+    }
+
+    /// The groups for the coarse vertices' `coarse_labels`: each group's fine handles (their
+    /// places in the targets, their rest positions) and its coarse vertices.
+    fn from_labels(
+        coarse_labels: Vec<Option<u32>>,
+        base: &CoarseBase,
+        handles: &Handles,
+        rest: &[[f64; 3]],
+    ) -> CoarseGroups {
+        let labels = handles.labels();
+        let cp = base.coarse_mesh.positions();
         let handle_vertices = handles.handle_vertices();
-        let mut fine: Vec<(Vec<usize>, Vec<[f64; 3]>)> = vec![Default::default(); n_groups];
+        let mut fine: Vec<(Vec<usize>, Vec<[f64; 3]>)> =
+            vec![Default::default(); handles.n_groups()];
         for (i, &v) in handle_vertices.iter().enumerate() {
             if let Some(g) = labels[v as usize] {
                 fine[g as usize].0.push(i);
@@ -173,5 +208,45 @@ impl CoarseGroups {
     /// Number of group ids (the length the given motions of [`CoarseGroups::targets`] have).
     pub(crate) fn n_groups(&self) -> usize {
         self.fine.len()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::deform::config::BaseConfig;
+
+    /// `inside` labels exactly the coarse vertices all of whose represented fine vertices are
+    /// in one group, with that group; the bar's end caps cover some whole clusters.
+    #[test]
+    fn inside_holds_the_whole_clusters_of_a_group() {
+        let (mesh, handles) = crate::geometry::shapes::bumpy_bar(4);
+        let base = CoarseBase::new(&mesh, &BaseConfig::default()).unwrap();
+        let groups = CoarseGroups::inside(&base, &handles, mesh.positions());
+        let labels = handles.labels();
+        let mut members: Vec<Vec<Option<u32>>> = vec![Vec::new(); base.kept.len()];
+        for (v, &k) in base.representative.iter().enumerate() {
+            members[k as usize].push(labels[v]);
+        }
+        let mut held = 0;
+        for (k, m) in members.iter().enumerate() {
+            let whole = !m.is_empty() && m[0].is_some() && m.iter().all(|&l| l == m[0]);
+            let expected = if whole { m[0] } else { None };
+            assert_eq!(groups.labels[k], expected, "coarse vertex {k}: {m:?}");
+            held += usize::from(whole);
+        }
+        assert!(held >= 2 * MIN_COARSE_GROUP, "{held} coarse vertices inside the caps");
+        // Rest targets give the coarse handles their rest positions.
+        let rest: Vec<_> =
+            handles.handle_vertices().iter().map(|&v| mesh.positions()[v as usize]).collect();
+        let (mut motions, mut out) = (Vec::new(), Vec::new());
+        groups.targets(&rest, None, &mut motions, &mut out);
+        assert_eq!(out.len(), held);
+        let cp = base.coarse_mesh.positions();
+        let inside = groups.labels.iter().enumerate().filter(|(_, l)| l.is_some());
+        for ((k, _), t) in inside.zip(&out) {
+            let d = crate::geometry::mesh::norm2(sub(*t, cp[k])).sqrt();
+            assert!(d < 1e-9, "coarse vertex {k} moved by {d}");
+        }
     }
 }
