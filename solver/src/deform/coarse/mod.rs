@@ -63,7 +63,7 @@
 //! | `level_settle.rs` | 6: settling on the level before the full mesh |
 //! | `mod.rs` | [`CoarseBsArap`]: the steps in order, per frame |
 //! | `fit.rs` | the pose of the coarse space nearest a given one (a measurement) |
-//! | `galerkin.rs` | the full mesh's energy restricted to the coarse space (an experiment) |
+//! | `galerkin/` | the full mesh's energy restricted to the coarse space (an experiment; its mesh part, tests) |
 
 pub mod base;
 pub mod cache;

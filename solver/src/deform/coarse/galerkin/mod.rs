@@ -59,6 +59,11 @@
 //! prolongation of [`mod@crate::deform::coarse::prolong`] (details on the blend of the corner
 //! rotations), with constrained vertices on their targets.
 
+mod mesh_part;
+
+pub use mesh_part::GalerkinMesh;
+use mesh_part::{embedding_row, key};
+
 use crate::deform::arap::{Acceleration, Csr, SmoothRotations, vertices_per_task};
 use crate::deform::coarse::base::CoarseBase;
 use crate::deform::coarse::groups::CoarseGroups;
@@ -66,8 +71,6 @@ use crate::deform::coarse::prolong::{Prolongation, prolong, quaternion_of};
 use crate::deform::constraints::Constraints;
 use crate::deform::handles::Handles;
 use crate::error::{SolveError, check_bending_length, check_targets};
-use crate::geometry::cotan::{edge_weights, face_cotangents, face_cotangents_or};
-use crate::geometry::embedding::from_stored;
 use crate::geometry::mesh::{Mesh, norm2, sub};
 use crate::linalg::anderson::Anderson;
 use crate::linalg::linsolve::{Layout, SpdFactor};
@@ -76,13 +79,6 @@ use faer::MatMut;
 use faer::sparse::Triplet;
 use glam::DQuat;
 use rayon::prelude::*;
-use std::collections::HashMap;
-use std::collections::hash_map::DefaultHasher;
-use std::hash::BuildHasherDefault;
-
-/// A map whose iteration order depends only on what was inserted (fixed hash keys), so that the
-/// sums gathered from it, and so the iterations, are the same from run to run.
-type FixedMap<K, V> = HashMap<K, V, BuildHasherDefault<DefaultHasher>>;
 
 /// A constrained fine vertex: its cluster, its embedding, its detail.
 #[derive(Debug, Clone, Copy)]
@@ -182,101 +178,6 @@ pub struct GalerkinCoarse {
     /// Anderson acceleration's state and scratch, when on
     /// ([`GalerkinCoarse::set_acceleration`]).
     anderson: Option<AndersonWork>,
-}
-
-/// The mesh's part of the Galerkin coarse energy's coefficients for one coarse base: the sums
-/// over the full mesh's edges of $G$ and of the $g_{kb}$ (module doc), and the coarse mesh's
-/// weights; everything but the handles' terms, so gathered once per mesh and coarse base and
-/// shared by every handle set ([`GalerkinCoarse::new`]).
-#[derive(Debug, Clone)]
-pub struct GalerkinMesh {
-    /// The entries $G_{ab}$, $a \ge b$, by key $(a, b)$.
-    g: FixedMap<u64, f64>,
-    /// The $g_{kb}$ by key $(k, b)$.
-    pair: FixedMap<u64, [f64; 3]>,
-    /// $\max_a G_{aa}$, the scale of the handles' penalty.
-    g_max: f64,
-    /// $\sum_{(i,j)} w_{ij}\lVert\beta_i - \beta_j\rVert^2$ over ordered pairs: the energy's
-    /// constant from the edges.
-    rest_term: f64,
-    /// The coarse mesh's clamped cotangent edges: per cluster $k$, its $(l, w^c_{kl})$.
-    neighbours: Csr<(u32, f64)>,
-    /// The full and the coarse mesh's vertex counts it was gathered for.
-    sizes: (usize, usize),
-}
-
-/// The key of the pair $(a, b)$ in the gathering maps.
-fn key(a: u32, b: u32) -> u64 {
-    (u64::from(a) << 32) | u64::from(b)
-}
-
-/// The embedding of fine vertex `i` on `base`'s coarse mesh: its triangle's corners and weights.
-fn embedding_row(base: &CoarseBase, i: usize) -> ([u32; 3], [f64; 3]) {
-    let [w0, w1] = base.weights[i];
-    (base.coarse_mesh.triangles()[base.faces[i] as usize], from_stored(w0, w1))
-}
-
-impl GalerkinMesh {
-    /// Gathers the sums over `mesh`'s edges through `base`'s prolongation (module doc).
-    pub fn new(mesh: &Mesh, base: &CoarseBase) -> Result<GalerkinMesh, SolveError> {
-        let coarse = &base.coarse_mesh;
-        let (m, tris) = (coarse.n_vertices(), coarse.triangles());
-        let row = |i: usize| embedding_row(base, i);
-        let cot = face_cotangents(mesh.positions(), mesh.triangles(), 0.0)
-            .map_err(|e| SolveError::DegenerateFace { face: e.face })?;
-        let fine_edges = edge_weights(mesh.triangles(), &cot, true);
-        let beta_of = &base.base_on_coarse;
-        let mut g: FixedMap<u64, f64> = FixedMap::default();
-        let mut pair: FixedMap<u64, [f64; 3]> = FixedMap::default();
-        let mut delta: Vec<(u32, f64)> = Vec::with_capacity(6);
-        let mut rest_term = 0.0;
-        for &(i, j, w) in &fine_edges {
-            if w == 0.0 {
-                continue;
-            }
-            let ((ti, wi), (tj, wj)) = (row(i as usize), row(j as usize));
-            delta.clear();
-            for (t, ws, sign) in [(ti, wi, 1.0), (tj, wj, -1.0)] {
-                for a in 0..3 {
-                    match delta.iter_mut().find(|(v, _)| *v == t[a]) {
-                        Some(d) => d.1 += sign * ws[a],
-                        None => delta.push((t[a], sign * ws[a])),
-                    }
-                }
-            }
-            // Both orders: G gains 2w δᵀδ; each end's cluster gains w δ_b (β_i − β_j).
-            for &(a, da) in &delta {
-                for &(b, db) in &delta {
-                    if a >= b {
-                        *g.entry(key(a, b)).or_default() += 2.0 * w * da * db;
-                    }
-                }
-            }
-            let rest = sub(beta_of[i as usize], beta_of[j as usize]);
-            rest_term += 2.0 * w * norm2(rest);
-            for k in [base.representative[i as usize], base.representative[j as usize]] {
-                for &(b, db) in &delta {
-                    let e = pair.entry(key(k, b)).or_default();
-                    for d in 0..3 {
-                        e[d] += w * db * rest[d];
-                    }
-                }
-            }
-        }
-        let g_max = g
-            .iter()
-            .filter(|(k, _)| (*k >> 32) == (*k & 0xffff_ffff))
-            .fold(0.0f64, |s, (_, &v)| s.max(v));
-        let (coarse_cot, _) =
-            face_cotangents_or(coarse.positions(), Some(&base.rest_kept), tris, base.floor)
-                .map_err(|e| SolveError::DegenerateBase { face: e.face })?;
-        let coarse_edges = edge_weights(tris, &coarse_cot, true);
-        let both_orders: Vec<_> =
-            coarse_edges.iter().flat_map(|&(k, l, w)| [(k, (l, w)), (l, (k, w))]).collect();
-        let neighbours = Csr::from_pairs(m, &both_orders);
-        let sizes = (mesh.n_vertices(), m);
-        Ok(GalerkinMesh { g, pair, g_max, rest_term, neighbours, sizes })
-    }
 }
 
 impl GalerkinCoarse {
@@ -694,190 +595,4 @@ fn largest_move(a: &[f64], b: &[f64], nf: usize) -> f64 {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::deform::config::BaseConfig;
-    use crate::deform::quality::distances;
-    use crate::geometry::cotan::face_cotangents;
-    use crate::linalg::rigid::Motion;
-    use crate::linalg::rotation::axis_angle;
-
-    /// Rest targets leave the rest pose, and one rigid motion of every handle moves the whole
-    /// mesh by it, under both handle rules: both poses are minima of the restricted energy
-    /// (zero energy), so the iterations must find them.
-    #[test]
-    fn rest_and_rigid_motions_are_reproduced() {
-        let (mesh, handles) = crate::geometry::shapes::bumpy_bar(3);
-        let base = CoarseBase::new(&mesh, &BaseConfig::default()).unwrap();
-        let diag = mesh.bbox_diagonal();
-        let motion =
-            Motion { rotation: axis_angle([0.2, 1.0, -0.3], 0.7), translation: [-0.3, 0.1, 0.2] };
-        let moved: Vec<_> = mesh.positions().iter().map(|&p| motion.apply(p)).collect();
-        let at = |x: &[[f64; 3]]| -> Vec<[f64; 3]> {
-            handles.handle_vertices().iter().map(|&v| x[v as usize]).collect()
-        };
-        let rules = [
-            HandleRule::CoarseVertices,
-            HandleRule::Penalty { weight: 1.0 },
-            HandleRule::PenaltyAndInterior { weight: 0.1 },
-        ];
-        for rule in rules {
-            let gathered = GalerkinMesh::new(&mesh, &base).unwrap();
-            let mut g = GalerkinCoarse::new(&mesh, &base, &gathered, &handles, 0.02, rule).unwrap();
-            g.solve(&mesh, &at(mesh.positions()), Stop::Moved { distance: 1e-12 * diag }, 1000)
-                .unwrap();
-            assert!(g.energy().abs() < 1e-12 * g.constant, "{rule:?}: {}", g.energy());
-            let rest =
-                distances(&g.pose(&mesh, &base, &at(mesh.positions())), mesh.positions(), diag);
-            assert!(rest.max < 1e-9, "{rule:?}: {rest:?}");
-            let stop = Stop::Moved { distance: 1e-11 * diag };
-            let iterations = g.solve(&mesh, &at(&moved), stop, 20_000).unwrap();
-            assert!(iterations < 20_000, "{rule:?}");
-            let rigid = distances(&g.pose(&mesh, &base, &at(&moved)), &moved, diag);
-            assert!(rigid.max < 1e-6, "{rule:?}: {rigid:?}");
-            assert!(g.energy().abs() < 1e-9 * g.constant, "{rule:?}: {}", g.energy());
-        }
-    }
-
-    /// Handle targets that bend the bar: the cap at $x > 0$ turned by `angle` about `axis`
-    /// through the origin, the other at rest.
-    fn bent(mesh: &Mesh, handles: &Handles, axis: [f64; 3], angle: f64) -> Vec<[f64; 3]> {
-        let turn = axis_angle(axis, angle);
-        let at = |&v: &u32| {
-            let p = mesh.positions()[v as usize];
-            if p[0] > 0.0 { mul_vec(&turn, p) } else { p }
-        };
-        handles.handle_vertices().iter().map(at).collect()
-    }
-
-    /// The energy the solve reports is the restricted energy summed directly over the full
-    /// mesh's edges (module doc: spoke residuals $\delta_{ij}c - R_k\delta_{ij}B_c$, the
-    /// handles' penalty, the coarse rotation term), and no iteration raises it.
-    #[test]
-    fn the_energy_is_the_restricted_one_and_descends() {
-        let (mesh, handles) = crate::geometry::shapes::bumpy_bar(3);
-        let base = CoarseBase::new(&mesh, &BaseConfig::default()).unwrap();
-        let gathered = GalerkinMesh::new(&mesh, &base).unwrap();
-        let rule = HandleRule::Penalty { weight: 0.3 };
-        let mut g = GalerkinCoarse::new(&mesh, &base, &gathered, &handles, 0.05, rule).unwrap();
-        let targets = bent(&mesh, &handles, [0.0, 0.0, 1.0], 0.8);
-        let mut energies = Vec::new();
-        for _ in 0..30 {
-            g.solve(&mesh, &targets, Stop::Decrease { tolerance: 0.0 }, 1).unwrap();
-            energies.push(g.energy());
-        }
-        for (k, e) in energies.windows(2).enumerate() {
-            assert!(e[1] <= e[0] * (1.0 + 1e-12), "iteration {k}: {} → {}", e[0], e[1]);
-        }
-        assert!(energies[29] < 0.9 * energies[0], "{energies:?}");
-        // The direct sum.
-        let cot = face_cotangents(mesh.positions(), mesh.triangles(), 0.0).unwrap();
-        let tris = base.coarse_mesh.triangles();
-        let on_coarse = |i: usize, x: &[[f64; 3]]| {
-            let (t, w) = embedding_row(&base, i);
-            let mut p = [0.0; 3];
-            for a in 0..3 {
-                for d in 0..3 {
-                    p[d] += w[a] * x[t[a] as usize][d];
-                }
-            }
-            p
-        };
-        let rest_c = base.coarse_mesh.positions().to_vec();
-        let mut direct = 0.0;
-        for (i, j, w) in edge_weights(mesh.triangles(), &cot, true) {
-            for (i, j) in [(i as usize, j as usize), (j as usize, i as usize)] {
-                let r = &g.rotations[base.representative[i] as usize];
-                let moved = sub(on_coarse(i, &g.c), on_coarse(j, &g.c));
-                let rest = mul_vec(r, sub(on_coarse(i, &rest_c), on_coarse(j, &rest_c)));
-                direct += w * norm2(sub(moved, rest));
-            }
-        }
-        for h in &g.held {
-            let v = h.vertex as usize;
-            let target = h.target.map_or(mesh.positions()[v], |t| targets[t]);
-            let turned = mul_vec(&g.rotations[h.cluster as usize], h.detail);
-            let p = on_coarse(v, &g.c);
-            let p = [p[0] + turned[0], p[1] + turned[1], p[2] + turned[2]];
-            direct += g.mu * norm2(sub(p, target));
-        }
-        let coarse_cot = face_cotangents_or(
-            base.coarse_mesh.positions(),
-            Some(&base.rest_kept),
-            tris,
-            base.floor,
-        )
-        .unwrap()
-        .0;
-        for (k, l, w) in edge_weights(tris, &coarse_cot, true) {
-            let (rk, rl) = (&g.rotations[k as usize], &g.rotations[l as usize]);
-            let d: f64 =
-                (0..3).flat_map(|p| (0..3).map(move |q| (rk[p][q] - rl[p][q]).powi(2))).sum();
-            direct += 2.0 * g.field.beta() * w * d;
-        }
-        let e = g.energy();
-        assert!((e - direct).abs() < 1e-9 * direct, "reported {e}, direct {direct}");
-    }
-
-    /// Anderson acceleration reaches the plain iterations' minimum (the same pose and energy)
-    /// in fewer iterations, and its safeguard keeps each solve's energy from rising.
-    #[test]
-    fn anderson_reaches_the_same_minimum_in_fewer_iterations() {
-        let (mesh, handles) = crate::geometry::shapes::bumpy_bar(3);
-        let base = CoarseBase::new(&mesh, &BaseConfig::default()).unwrap();
-        let gathered = GalerkinMesh::new(&mesh, &base).unwrap();
-        let diag = mesh.bbox_diagonal();
-        let targets = bent(&mesh, &handles, [0.0, 0.3, 1.0], 0.9);
-        let rule = HandleRule::Penalty { weight: DEFAULT_PENALTY };
-        // One iteration, then on to the minimum: the iterations and both energies.
-        let run = |acceleration| {
-            let mut g = GalerkinCoarse::new(&mesh, &base, &gathered, &handles, 0.05, rule).unwrap();
-            g.set_acceleration(acceleration);
-            let stop = Stop::Decrease { tolerance: 1e-12 };
-            let mut iterations = g.solve(&mesh, &targets, stop, 1).unwrap();
-            let first = g.energy();
-            iterations += g.solve(&mesh, &targets, stop, 20_000).unwrap();
-            (iterations, [first, g.energy()], g.pose(&mesh, &base, &targets))
-        };
-        let (plain, plain_energies, plain_pose) = run(Acceleration::None);
-        let (fast, fast_energies, fast_pose) = run(Acceleration::Anderson { window: 5 });
-        for e in [&plain_energies, &fast_energies] {
-            assert!(e[1] <= e[0] * (1.0 + 1e-12), "{e:?}");
-        }
-        assert!(2 * fast < plain, "{fast} iterations with Anderson, {plain} without");
-        let (ep, ef) = (plain_energies[1], fast_energies[1]);
-        assert!((ep - ef).abs() < 1e-6 * ep, "energies {ep} and {ef}");
-        let apart = distances(&fast_pose, &plain_pose, diag);
-        assert!(apart.max < 1e-4, "{apart:?}");
-    }
-
-    /// Bad input is an error, not a panic: a bending length that is not positive, a mesh part
-    /// gathered for another mesh, and targets of the wrong number or not finite.
-    #[test]
-    fn bad_input_is_an_error() {
-        let (mesh, handles) = crate::geometry::shapes::bumpy_bar(2);
-        let base = CoarseBase::new(&mesh, &BaseConfig::default()).unwrap();
-        let rule = HandleRule::Penalty { weight: 0.1 };
-        let gathered = GalerkinMesh::new(&mesh, &base).unwrap();
-        for ell in [0.0, -1.0, f64::NAN] {
-            let e = GalerkinCoarse::new(&mesh, &base, &gathered, &handles, ell, rule).unwrap_err();
-            assert!(matches!(e, SolveError::BendingLength(_)), "{e}");
-        }
-        let (other, _) = crate::geometry::shapes::bumpy_bar(3);
-        let other_base = CoarseBase::new(&other, &BaseConfig::default()).unwrap();
-        let stale = GalerkinMesh::new(&other, &other_base).unwrap();
-        let e = GalerkinCoarse::new(&mesh, &base, &stale, &handles, 0.02, rule).unwrap_err();
-        assert_eq!(e, SolveError::StaleBase);
-        let mut g = GalerkinCoarse::new(&mesh, &base, &gathered, &handles, 0.02, rule).unwrap();
-        let diag = mesh.bbox_diagonal();
-        let mut targets: Vec<_> =
-            handles.handle_vertices().iter().map(|&v| mesh.positions()[v as usize]).collect();
-        let short = &targets[1..];
-        let stop = Stop::Moved { distance: 1e-9 * diag };
-        let e = g.solve(&mesh, short, stop, 10).unwrap_err();
-        assert!(matches!(e, SolveError::TargetCount { .. }), "{e}");
-        targets[3][1] = f64::INFINITY;
-        let e = g.solve(&mesh, &targets, stop, 10).unwrap_err();
-        assert_eq!(e, SolveError::NonFiniteTarget { index: 3 });
-    }
-}
+mod tests;

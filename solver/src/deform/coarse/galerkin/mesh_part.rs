@@ -1,0 +1,112 @@
+//! The mesh's part of the Galerkin coarse energy's coefficients ([`GalerkinMesh`]): the sums
+//! over the full mesh's edges, gathered once per mesh and coarse base (module doc of
+//! `galerkin/mod.rs`, "The restriction").
+
+use crate::deform::arap::Csr;
+use crate::deform::coarse::base::CoarseBase;
+use crate::error::SolveError;
+use crate::geometry::cotan::{edge_weights, face_cotangents, face_cotangents_or};
+use crate::geometry::embedding::from_stored;
+use crate::geometry::mesh::{Mesh, norm2, sub};
+use std::collections::HashMap;
+use std::collections::hash_map::DefaultHasher;
+use std::hash::BuildHasherDefault;
+
+/// A map whose iteration order depends only on what was inserted (fixed hash keys), so that the
+/// sums gathered from it, and so the iterations, are the same from run to run.
+pub(super) type FixedMap<K, V> = HashMap<K, V, BuildHasherDefault<DefaultHasher>>;
+
+/// The mesh's part of the Galerkin coarse energy's coefficients for one coarse base: the sums
+/// over the full mesh's edges of $G$ and of the $g_{kb}$ (module doc), and the coarse mesh's
+/// weights; everything but the handles' terms, so gathered once per mesh and coarse base and
+/// shared by every handle set ([`super::GalerkinCoarse::new`]).
+#[derive(Debug, Clone)]
+pub struct GalerkinMesh {
+    /// The entries $G_{ab}$, $a \ge b$, by key $(a, b)$.
+    pub(super) g: FixedMap<u64, f64>,
+    /// The $g_{kb}$ by key $(k, b)$.
+    pub(super) pair: FixedMap<u64, [f64; 3]>,
+    /// $\max_a G_{aa}$, the scale of the handles' penalty.
+    pub(super) g_max: f64,
+    /// $\sum_{(i,j)} w_{ij}\lVert\beta_i - \beta_j\rVert^2$ over ordered pairs: the energy's
+    /// constant from the edges.
+    pub(super) rest_term: f64,
+    /// The coarse mesh's clamped cotangent edges: per cluster $k$, its $(l, w^c_{kl})$.
+    pub(super) neighbours: Csr<(u32, f64)>,
+    /// The full and the coarse mesh's vertex counts it was gathered for.
+    pub(super) sizes: (usize, usize),
+}
+
+/// The key of the pair $(a, b)$ in the gathering maps.
+pub(super) fn key(a: u32, b: u32) -> u64 {
+    (u64::from(a) << 32) | u64::from(b)
+}
+
+/// The embedding of fine vertex `i` on `base`'s coarse mesh: its triangle's corners and weights.
+pub(super) fn embedding_row(base: &CoarseBase, i: usize) -> ([u32; 3], [f64; 3]) {
+    let [w0, w1] = base.weights[i];
+    (base.coarse_mesh.triangles()[base.faces[i] as usize], from_stored(w0, w1))
+}
+
+impl GalerkinMesh {
+    /// Gathers the sums over `mesh`'s edges through `base`'s prolongation (module doc).
+    pub fn new(mesh: &Mesh, base: &CoarseBase) -> Result<GalerkinMesh, SolveError> {
+        let coarse = &base.coarse_mesh;
+        let (m, tris) = (coarse.n_vertices(), coarse.triangles());
+        let row = |i: usize| embedding_row(base, i);
+        let cot = face_cotangents(mesh.positions(), mesh.triangles(), 0.0)
+            .map_err(|e| SolveError::DegenerateFace { face: e.face })?;
+        let fine_edges = edge_weights(mesh.triangles(), &cot, true);
+        let beta_of = &base.base_on_coarse;
+        let mut g: FixedMap<u64, f64> = FixedMap::default();
+        let mut pair: FixedMap<u64, [f64; 3]> = FixedMap::default();
+        let mut delta: Vec<(u32, f64)> = Vec::with_capacity(6);
+        let mut rest_term = 0.0;
+        for &(i, j, w) in &fine_edges {
+            if w == 0.0 {
+                continue;
+            }
+            let ((ti, wi), (tj, wj)) = (row(i as usize), row(j as usize));
+            delta.clear();
+            for (t, ws, sign) in [(ti, wi, 1.0), (tj, wj, -1.0)] {
+                for a in 0..3 {
+                    match delta.iter_mut().find(|(v, _)| *v == t[a]) {
+                        Some(d) => d.1 += sign * ws[a],
+                        None => delta.push((t[a], sign * ws[a])),
+                    }
+                }
+            }
+            // Both orders: G gains 2w δᵀδ; each end's cluster gains w δ_b (β_i − β_j).
+            for &(a, da) in &delta {
+                for &(b, db) in &delta {
+                    if a >= b {
+                        *g.entry(key(a, b)).or_default() += 2.0 * w * da * db;
+                    }
+                }
+            }
+            let rest = sub(beta_of[i as usize], beta_of[j as usize]);
+            rest_term += 2.0 * w * norm2(rest);
+            for k in [base.representative[i as usize], base.representative[j as usize]] {
+                for &(b, db) in &delta {
+                    let e = pair.entry(key(k, b)).or_default();
+                    for d in 0..3 {
+                        e[d] += w * db * rest[d];
+                    }
+                }
+            }
+        }
+        let g_max = g
+            .iter()
+            .filter(|(k, _)| (*k >> 32) == (*k & 0xffff_ffff))
+            .fold(0.0f64, |s, (_, &v)| s.max(v));
+        let (coarse_cot, _) =
+            face_cotangents_or(coarse.positions(), Some(&base.rest_kept), tris, base.floor)
+                .map_err(|e| SolveError::DegenerateBase { face: e.face })?;
+        let coarse_edges = edge_weights(tris, &coarse_cot, true);
+        let both_orders: Vec<_> =
+            coarse_edges.iter().flat_map(|&(k, l, w)| [(k, (l, w)), (l, (k, w))]).collect();
+        let neighbours = Csr::from_pairs(m, &both_orders);
+        let sizes = (mesh.n_vertices(), m);
+        Ok(GalerkinMesh { g, pair, g_max, rest_term, neighbours, sizes })
+    }
+}
