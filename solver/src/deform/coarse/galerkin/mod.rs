@@ -126,6 +126,15 @@ struct AndersonWork {
     rotations: Vec<Mat3>,
 }
 
+/// The buffers of one [`GalerkinCoarse::solve`], kept between solves.
+#[derive(Debug, Default)]
+struct FrameScratch {
+    tau: Vec<[f64; 3]>,
+    sigma: Vec<Mat3>,
+    rhs: Vec<f64>,
+    x: Vec<f64>,
+}
+
 /// When [`GalerkinCoarse::solve`] stops.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Stop {
@@ -175,6 +184,9 @@ pub struct GalerkinCoarse {
     block: usize,
     /// $\sum_k R_k g_{kb}$ per coarse vertex (scratch of the global step).
     gathered: Vec<[f64; 3]>,
+    /// Per solve, reused: τ, σ (module doc) and the global step's right-hand side and iterate
+    /// (as [`gather`] writes them).
+    frame: FrameScratch,
     /// Anderson acceleration's state and scratch, when on
     /// ([`GalerkinCoarse::set_acceleration`]).
     anderson: Option<AndersonWork>,
@@ -328,6 +340,7 @@ impl GalerkinCoarse {
             field,
             block: vertices_per_task(m),
             gathered: vec![[0.0; 3]; m],
+            frame: FrameScratch::default(),
             anderson: None,
         })
     }
@@ -349,8 +362,11 @@ impl GalerkinCoarse {
         check_targets(targets, self.handle_vertices.len())?;
         let m = self.c.len();
         // Per frame: τ = μ P_Cᵀ t, σ_k = μ Σ_{i∈C∩k} D_i t_iᵀ and the constant μ Σ ‖t_i‖².
-        let mut tau = vec![[0.0; 3]; m];
-        let mut sigma = vec![[[0.0; 3]; 3]; m];
+        let FrameScratch { mut tau, mut sigma, mut rhs, mut x } = std::mem::take(&mut self.frame);
+        tau.clear();
+        tau.resize(m, [0.0; 3]);
+        sigma.clear();
+        sigma.resize(m, [[0.0; 3]; 3]);
         let mut constant = self.constant;
         for h in &self.held {
             let t = h.target.map_or(mesh.positions()[h.vertex as usize], |t| targets[t]);
@@ -374,8 +390,8 @@ impl GalerkinCoarse {
             }
         }
         let nf = self.factor.n();
-        let mut rhs = vec![0.0; 3 * nf];
-        let mut x = vec![0.0; 3 * nf];
+        rhs.resize(3 * nf, 0.0);
+        x.resize(3 * nf, 0.0);
         gather(&self.free, &self.c, &mut x);
         let mut accelerated = self.anderson.take();
         if let Some(work) = &mut accelerated {
@@ -452,6 +468,7 @@ impl GalerkinCoarse {
             }
         }
         self.anderson = accelerated;
+        self.frame = FrameScratch { tau, sigma, rhs, x };
         result
     }
 
