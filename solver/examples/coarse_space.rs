@@ -225,11 +225,12 @@ fn main() {
                 let clock = std::time::Instant::now();
                 // From rest, as the reference is solved.
                 let iterations = galerkin
-                    .solve(&mesh, &targets, Stop::Moved { distance: 1e-10 * diag }, 50_000)
-                    .expect("Galerkin solve");
+                    .solve(&targets, Stop::Moved { distance: 1e-10 * diag }, 50_000)
+                    .expect("Galerkin solve")
+                    .iterations;
                 let per_iteration = clock.elapsed().as_secs_f64() / iterations as f64;
                 assert!(iterations < 50_000, "the Galerkin solve did not converge");
-                let q = reference.measure(&galerkin.pose(&mesh, &coarse, &targets));
+                let q = reference.measure(&galerkin.pose(&coarse, &targets));
                 let gap = galerkin.handle_gap(&coarse, &targets) / diag;
                 print!(
                     "; Galerkin{name} (built in {built:.2} s, {iterations} iterations at {:.2} ms, handle gap {:.2} %): mean {:.3} % max {:.2} % (E +{:.2e})",
@@ -253,8 +254,9 @@ fn main() {
                     for f in 1..=middle {
                         let frame_targets =
                             handle_targets(mesh.positions(), &handles, &moves(f)).expect("targets");
-                        iterations += g.solve(&mesh, &frame_targets, stop, 1000).expect("solve");
-                        pose = g.pose(&mesh, &coarse, &frame_targets);
+                        iterations +=
+                            g.solve(&frame_targets, stop, 1000).expect("solve").iterations;
+                        pose = g.pose(&coarse, &frame_targets);
                     }
                     let frame_ms = clock.elapsed().as_secs_f64() * 1e3 / middle as f64;
                     let q = reference.measure(&pose);

@@ -92,7 +92,7 @@ fn main() {
         };
         let options = DeformerOptions { method, config, base, ..Default::default() };
         let mut d = Deformer::new(&mesh, &handles, options).expect("precompute");
-        d.arap_mut().set_prediction(predicted);
+        d.arap_mut().expect("an ARAP solver").set_prediction(predicted);
         let mut r = Run { iterations: Vec::new(), energies: Vec::new(), poses: Vec::new() };
         for f in 1..=frames {
             let st = d.solve_groups(&moves(f)).expect("solve");

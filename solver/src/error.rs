@@ -34,6 +34,10 @@ pub enum SolveError {
     MembraneShare(f64),
     #[error("the bending length must be finite and > 0 (a fraction of the diagonal; got {0})")]
     BendingLength(f64),
+    #[error(
+        "the Galerkin coarse energy restricts the smooth-rotations energy: choose the energy smooth-rotations, or the decimated coarse energy"
+    )]
+    GalerkinEnergy,
     #[error("handle target {index} is not finite")]
     NonFiniteTarget { index: usize },
     #[error("the selection has {got} labels but the mesh has {expected} vertices")]

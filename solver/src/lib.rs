@@ -33,7 +33,7 @@ pub use deform::arap::{
     Acceleration, Arap, ArapConfig, ArapConfigError, Energy, FrameStats, SolveStats,
 };
 pub use deform::bs_arap::{BaseKind, BsArap};
-pub use deform::config::{BaseConfig, BaseConfigError};
+pub use deform::config::{BaseConfig, BaseConfigError, CoarseEnergy};
 pub use deform::deformer::{Deformer, DeformerOptions, MeshCache, Method, Solver, UnwrittenBase};
 pub use deform::handles::{Handles, HandlesError};
 pub use deform::pose::{GroupRest, GroupTransform, handle_targets};

@@ -306,7 +306,9 @@ fn bench_variant(
         .with_context(|| format!("precomputing {name}"))?;
     let precompute_handles_ms = t0.elapsed().as_secs_f64() * 1e3;
     drop(cache);
-    d.arap_mut().set_prediction(s.start == StartGuess::Predicted);
+    if let Some(arap) = d.arap_mut() {
+        arap.set_prediction(s.start == StartGuess::Predicted);
+    }
     let mut first_frame_ms = 0.0;
     let g = moving_group(s.handles)?;
     let (mut total_ms, mut local, mut rhs, mut solve, mut energy) = (0.0, 0.0, 0.0, 0.0, 0.0);
@@ -324,9 +326,10 @@ fn bench_variant(
         let t1 = Instant::now();
         match (s.start, &laplacian_targets) {
             (StartGuess::Rest, _) => d.reset(),
-            (StartGuess::Laplacian, Some(targets)) => {
-                d.arap_mut().start_from_laplacian_fit(targets)?
-            }
+            (StartGuess::Laplacian, Some(targets)) => d
+                .arap_mut()
+                .context("--start laplacian needs an ARAP solver (not the Galerkin coarse energy)")?
+                .start_from_laplacian_fit(targets)?,
             _ => {}
         }
         let st = d.solve_groups(&moves).with_context(|| format!("{name} frame {f}"))?;
@@ -386,7 +389,7 @@ fn bench_variant(
         frames_at_cap: at_cap,
         frames_fine_unconverged: fine_open,
         rejected_steps: rejected,
-        factor_nonzeros: d.arap().factor_nonzeros(),
+        factor_nonzeros: d.arap().map_or(0, solver::Arap::factor_nonzeros),
         iterations,
         first_frame_normalized_energies: first,
         quality: None,

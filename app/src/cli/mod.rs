@@ -102,6 +102,25 @@ impl From<EnergyArg> for solver::Energy {
     }
 }
 
+/// `--coarse-energy`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, ValueEnum)]
+pub enum CoarseEnergyArg {
+    /// ARAP on the decimated base (the default).
+    #[default]
+    Decimated,
+    /// The full mesh's energy restricted to the coarse space (needs --energy smooth-rotations).
+    Galerkin,
+}
+
+impl From<CoarseEnergyArg> for solver::CoarseEnergy {
+    fn from(e: CoarseEnergyArg) -> Self {
+        match e {
+            CoarseEnergyArg::Decimated => solver::CoarseEnergy::Decimated,
+            CoarseEnergyArg::Galerkin => solver::CoarseEnergy::Galerkin,
+        }
+    }
+}
+
 /// Runs one subcommand.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     if !matches!(cli.command, None | Some(Command::Edit(_))) {
@@ -213,6 +232,9 @@ pub struct BaseArgs {
     /// single triangles, which resist no bending, in [0, 1].
     #[arg(long, default_value_t = solver::BaseConfig::default().membrane)]
     pub membrane: f64,
+    /// The energy the coarse level minimizes (bsarap-coarse).
+    #[arg(long, value_enum, default_value_t = CoarseEnergyArg::default())]
+    pub coarse_energy: CoarseEnergyArg,
 }
 
 impl BaseArgs {
@@ -226,6 +248,7 @@ impl BaseArgs {
             settle_iterations: 0,
             level_fairing: !self.direct_fairing,
             membrane: self.membrane,
+            coarse_energy: self.coarse_energy.into(),
         };
         config.validate().map_err(|e| {
             // The message begins with the field's name: name the flag instead.

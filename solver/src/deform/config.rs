@@ -36,6 +36,41 @@ pub struct BaseConfig {
     /// The coarse level's membrane share: the part of its ARAP energy in cells of single
     /// triangles, which resist no bending ([`crate::ArapConfig::membrane`]), in $[0, 1]$.
     pub membrane: f64,
+    /// The energy the coarse level minimizes each frame ([`CoarseEnergy`]).
+    pub coarse_energy: CoarseEnergy,
+}
+
+/// The energy the coarse BS-ARAP minimizes on its coarse level
+/// ([`crate::deform::coarse::CoarseBsArap`]). Serialized as [`CoarseEnergy::name`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum CoarseEnergy {
+    /// ARAP on the decimated base $B_c$ itself, with handles on chosen coarse vertices (the
+    /// default; any [`crate::Energy`]).
+    #[default]
+    Decimated,
+    /// The full mesh's energy restricted to the coarse space
+    /// ([`crate::deform::coarse::galerkin`]): aims at the full mesh's minimum. Needs the
+    /// smooth-rotations energy ([`crate::Energy::SmoothRotations`]).
+    Galerkin,
+}
+
+impl CoarseEnergy {
+    /// Every coarse energy, in the order interfaces list them.
+    pub const ALL: [CoarseEnergy; 2] = [CoarseEnergy::Decimated, CoarseEnergy::Galerkin];
+
+    /// Its name in the CLI, scenes and Python (`decimated`, `galerkin`).
+    pub fn name(self) -> &'static str {
+        match self {
+            CoarseEnergy::Decimated => "decimated",
+            CoarseEnergy::Galerkin => "galerkin",
+        }
+    }
+
+    /// Parses a [`CoarseEnergy::name`].
+    pub fn from_name(name: &str) -> Option<CoarseEnergy> {
+        CoarseEnergy::ALL.into_iter().find(|e| e.name() == name)
+    }
 }
 
 impl Default for BaseConfig {
@@ -47,6 +82,7 @@ impl Default for BaseConfig {
             settle_iterations: 0,
             level_fairing: true,
             membrane: BaseConfig::DEFAULT_MEMBRANE,
+            coarse_energy: CoarseEnergy::Decimated,
         }
     }
 }

@@ -130,7 +130,8 @@ impl MeshCache {
     }
 
     /// Builds (or finds) what `method` precomputes per mesh for `mesh` and `base`: the
-    /// [`CoarseBase`] for [`Method::BsArapCoarse`], `None` for the other methods. Call it
+    /// [`CoarseBase`] for [`Method::BsArapCoarse`] (with the Galerkin coarse energy's mesh part
+    /// when `base` asks for that energy), `None` for the other methods. Call it
     /// right after loading, in the background, so that the first handle set waits only for
     /// its own part. A base built anew is written to the cache directory before it returns.
     pub fn prepare(
@@ -163,6 +164,7 @@ impl MeshCache {
         if let Some(c) = &self.coarse
             && c.fits(mesh, base)
         {
+            gather_galerkin(c, mesh, base)?;
             return Ok((Some(c.clone()), None));
         }
         self.coarse = None;
@@ -183,6 +185,7 @@ impl MeshCache {
         };
         self.coarse = Some(c.clone());
         let unwritten = path.map(|path| UnwrittenBase { base: c.clone(), path });
+        gather_galerkin(&c, mesh, base)?;
         Ok((Some(c), unwritten))
     }
 
@@ -190,6 +193,15 @@ impl MeshCache {
     pub fn coarse_base(&self) -> Option<&Arc<CoarseBase>> {
         self.coarse.as_ref()
     }
+}
+
+/// Gathers the Galerkin coarse energy's mesh part of `coarse` when `base` asks for that
+/// energy ([`CoarseBase::galerkin_mesh`]; nothing when gathered already).
+fn gather_galerkin(coarse: &CoarseBase, mesh: &Mesh, base: &BaseConfig) -> Result<(), SolveError> {
+    if base.coarse_energy == crate::CoarseEnergy::Galerkin {
+        in_pool(|| coarse.galerkin_mesh(mesh))?;
+    }
+    Ok(())
 }
 
 /// A precomputed deformer of any method, with the loose parts riding along
@@ -460,28 +472,34 @@ impl Deformer {
         }
     }
 
-    /// The ARAP solver doing the iterations (on $M$ or on $B$).
-    pub fn arap(&self) -> &Arap {
+    /// The ARAP solver doing the iterations (on $M$ or on $B$); `None` for the coarse variant
+    /// with the Galerkin coarse energy ([`crate::CoarseEnergy::Galerkin`]), which iterates on
+    /// no mesh of its own.
+    pub fn arap(&self) -> Option<&Arap> {
         match &self.solver {
-            Solver::Arap(a) => a,
-            Solver::BsArap(b) => b.base_arap(),
+            Solver::Arap(a) => Some(a),
+            Solver::BsArap(b) => Some(b.base_arap()),
             Solver::Coarse(c) => c.base_arap(),
         }
     }
 
     /// The ARAP solver doing the iterations, mutably (starting guesses, benchmarks); see
-    /// [`Deformer::solver_mut`].
-    pub fn arap_mut(&mut self) -> &mut Arap {
+    /// [`Deformer::solver_mut`] and [`Deformer::arap`].
+    pub fn arap_mut(&mut self) -> Option<&mut Arap> {
         match &mut self.solver {
-            Solver::Arap(a) => a,
-            Solver::BsArap(b) => b.base_arap_mut(),
+            Solver::Arap(a) => Some(a),
+            Solver::BsArap(b) => Some(b.base_arap_mut()),
             Solver::Coarse(c) => c.base_arap_mut(),
         }
     }
 
     /// Changes the stopping rule without refactoring.
     pub fn set_stopping(&mut self, tolerance: f64, max_iterations: usize) {
-        self.arap_mut().set_stopping(tolerance, max_iterations);
+        match &mut self.solver {
+            Solver::Arap(a) => a.set_stopping(tolerance, max_iterations),
+            Solver::BsArap(b) => b.base_arap_mut().set_stopping(tolerance, max_iterations),
+            Solver::Coarse(c) => c.set_stopping(tolerance, max_iterations),
+        }
     }
 
     /// Restarts the next solve from rest.

@@ -34,6 +34,7 @@
 //! triangles ([`Mesh::fingerprint`]) and the settings ([`CoarseBase::fits`]), so that a cache
 //! never hands it to another mesh.
 
+use crate::deform::coarse::galerkin::GalerkinMesh;
 use crate::deform::coarse::level::{
     FairedBase, FairedLevel, Fairing, LEVEL_EDGES_PER_SMOOTHING_LENGTH, LevelView, faired_base_then,
 };
@@ -45,6 +46,7 @@ use crate::geometry::mesh::{Mesh, sub};
 use crate::geometry::normals::VertexFaces;
 use crate::geometry::simplify::{Decimation, simplify};
 use crate::geometry::topology::Adjacency;
+use std::sync::{Arc, OnceLock};
 use std::time::Instant;
 
 /// The handle-independent precomputation of the coarse BS-ARAP for one mesh (module doc).
@@ -81,6 +83,9 @@ pub struct CoarseBase {
     /// faired directly): what level iterations run on ([`crate::deform::coarse::level_settle`]).
     pub(crate) level: Option<LevelEmbedding>,
     pub(crate) phases: Vec<(&'static str, f64)>,
+    /// The Galerkin coarse energy's part for this mesh and base, gathered when first asked
+    /// for ([`CoarseBase::galerkin_mesh`]; not in the disk cache).
+    pub(crate) galerkin: OnceLock<Arc<GalerkinMesh>>,
 }
 
 impl CoarseBase {
@@ -159,6 +164,7 @@ impl CoarseBase {
             fairing,
             level,
             phases: clock.phases,
+            galerkin: OnceLock::new(),
         })
     }
 
@@ -177,6 +183,16 @@ impl CoarseBase {
             && self.target_vertices == config.coarse_vertices_for(mesh.n_vertices())
             && self.representative.len() == mesh.n_vertices()
             && self.fingerprint == mesh.fingerprint()
+    }
+
+    /// The Galerkin coarse energy's part for `mesh` (the mesh this base was built for) and
+    /// this base ([`GalerkinMesh::new`]): gathered on the first call, shared afterwards.
+    pub fn galerkin_mesh(&self, mesh: &Mesh) -> Result<Arc<GalerkinMesh>, SolveError> {
+        if let Some(g) = self.galerkin.get() {
+            return Ok(Arc::clone(g));
+        }
+        let gathered = Arc::new(GalerkinMesh::new(mesh, self)?);
+        Ok(Arc::clone(self.galerkin.get_or_init(|| gathered)))
     }
 
     /// The number of coarse vertices.

@@ -229,6 +229,7 @@ pub fn load(path: &Path, mesh: &Mesh, config: &BaseConfig) -> Result<CoarseBase,
         fairing: if level == 0 { Fairing::Direct } else { Fairing::Level(level as usize - 1) },
         level: level_mesh,
         phases: vec![("read from the disk cache", started.elapsed().as_secs_f64() * 1e3)],
+        galerkin: std::sync::OnceLock::new(),
     };
     if !base.fits(mesh, config) {
         return Err(stale());

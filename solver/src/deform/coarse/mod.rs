@@ -67,6 +67,7 @@
 
 pub mod base;
 pub mod cache;
+pub mod energy;
 pub mod fit;
 pub mod full_mesh;
 pub mod galerkin;
@@ -75,16 +76,18 @@ pub mod level;
 pub mod level_settle;
 pub mod prolong;
 
-use crate::deform::arap::{Arap, ArapConfig, RotationStep, SolveStats};
+use crate::deform::arap::{Arap, ArapConfig, Energy, RotationStep, SolveStats};
 use crate::deform::coarse::base::{CoarseBase, Phases};
+use crate::deform::coarse::energy::CoarseSolver;
 use crate::deform::coarse::full_mesh::FineLevel;
+use crate::deform::coarse::galerkin::{DEFAULT_PENALTY, GalerkinCoarse, HandleRule};
 pub use crate::deform::coarse::groups::MIN_COARSE_GROUP;
 use crate::deform::coarse::groups::{CoarseGroups, coarse_rig};
 use crate::deform::coarse::level_settle::LevelSolver;
 use crate::deform::coarse::prolong::{
     Prolongation, at, prolong, quaternion_of, rotate, triangle_frames,
 };
-use crate::deform::config::BaseConfig;
+use crate::deform::config::{BaseConfig, CoarseEnergy};
 use crate::deform::constraints::Constraints;
 use crate::deform::handles::Handles;
 use crate::error::{SolveError, check_targets};
@@ -102,8 +105,9 @@ use std::sync::Arc;
 pub struct CoarseBsArap {
     /// The mesh's handle-independent part: $B_c$, the embedding, the details.
     base: Arc<CoarseBase>,
-    /// ARAP on $B_c$; its positions are the coarse pose of the last successful solve.
-    arap: Arap,
+    /// The coarse level's solver ([`BaseConfig::coarse_energy`]); its positions are the coarse
+    /// pose of the last successful solve.
+    coarse: CoarseSolver,
     fine_handles: Vec<u32>,
     /// Fine vertices of components without handles, with their rest positions.
     pinned: Vec<(u32, [f64; 3])>,
@@ -196,9 +200,9 @@ impl SolveState {
     /// Undoes a failed solve whose pose and rotations were swapped in: they go back to the
     /// scratch, the coarse pose of `arap` back to the last successful solve's, and nothing is
     /// left to settle.
-    fn roll_back(&mut self, arap: &mut Arap) {
+    fn roll_back(&mut self, coarse: &mut CoarseSolver) {
         self.swap_next();
-        arap.set_positions(&self.coarse_before);
+        coarse.set_positions(&self.coarse_before);
         self.settle_ready = false;
     }
 
@@ -294,18 +298,40 @@ impl CoarseBsArap {
             membrane: coarse.membrane,
             ..same_bending_length(config, full_diagonal, coarse_mesh)
         };
-        let arap = Arap::with_constraints(
-            coarse_mesh,
-            Constraints::new(coarse_mesh, &coarse_handles),
-            &coarse_config,
-            base.floor,
-            Some(&base.rest_kept),
-            RotationStep::Auto,
-        )
-        .map_err(|e| match e {
-            SolveError::DegenerateFace { face } => SolveError::DegenerateBase { face },
-            other => other,
-        })?;
+        let solver = match coarse.coarse_energy {
+            CoarseEnergy::Decimated => {
+                let arap = Arap::with_constraints(
+                    coarse_mesh,
+                    Constraints::new(coarse_mesh, &coarse_handles),
+                    &coarse_config,
+                    base.floor,
+                    Some(&base.rest_kept),
+                    RotationStep::Auto,
+                )
+                .map_err(|e| match e {
+                    SolveError::DegenerateFace { face } => SolveError::DegenerateBase { face },
+                    other => other,
+                })?;
+                CoarseSolver::Decimated(Box::new(arap))
+            }
+            CoarseEnergy::Galerkin => {
+                if config.energy != Energy::SmoothRotations {
+                    return Err(SolveError::GalerkinEnergy);
+                }
+                let gathered = base.galerkin_mesh(mesh)?;
+                clock.lap("Galerkin mesh part");
+                let rule = HandleRule::Penalty { weight: DEFAULT_PENALTY };
+                let energy = GalerkinCoarse::new(
+                    mesh,
+                    &base,
+                    &gathered,
+                    handles,
+                    config.bending_length,
+                    rule,
+                )?;
+                CoarseSolver::galerkin(energy, config)
+            }
+        };
         clock.lap("coarse factorization");
         let pinned = constraints
             .pinned_vertices
@@ -334,7 +360,7 @@ impl CoarseBsArap {
             fine_handles: fine_handles.to_vec(),
             groups,
             base,
-            arap,
+            coarse: solver,
         })
     }
 
@@ -369,16 +395,16 @@ impl CoarseBsArap {
         let state = &mut self.state;
         self.groups.targets(targets, motions, &mut state.motions, &mut state.coarse_targets);
         state.coarse_before.clear();
-        state.coarse_before.extend_from_slice(self.arap.positions());
-        let stats = self.arap.solve(&state.coarse_targets)?;
+        state.coarse_before.extend_from_slice(self.coarse.positions());
+        let stats = self.coarse.solve(targets, &state.coarse_targets, &state.coarse_before)?;
         // Rest targets give the rest pose exactly, without iterating: nothing to settle, and
         // no correction may carry over (the rest pose itself is copied below).
         if stats.iterations == 0 && state.corrected {
             state.clear_correction();
         }
         state.deformed_base = std::sync::OnceLock::new();
-        let bc = self.arap.positions();
-        for (q, r) in state.next_quaternions.iter_mut().zip(self.arap.rotations()) {
+        let bc = self.coarse.positions();
+        for (q, r) in state.next_quaternions.iter_mut().zip(self.coarse.rotations()) {
             *q = quaternion_of(r);
         }
         // B'_c is finite (checked by ARAP) but the prolonged p' can still overflow: write into
@@ -408,7 +434,7 @@ impl CoarseBsArap {
         let bad = state.next.par_iter().position_any(|p| !p.iter().all(|c| c.is_finite()));
         state.swap_next();
         if let Some(vertex) = bad {
-            state.roll_back(&mut self.arap);
+            state.roll_back(&mut self.coarse);
             return Err(SolveError::NonFiniteResult { vertex });
         }
         let mut stats = stats;
@@ -422,7 +448,7 @@ impl CoarseBsArap {
                 }
                 Err(e) => {
                     // The previous pose, base and frames stay, as for a failed coarse solve.
-                    self.state.roll_back(&mut self.arap);
+                    self.state.roll_back(&mut self.coarse);
                     return Err(e);
                 }
             }
@@ -468,7 +494,7 @@ impl CoarseBsArap {
             };
             hold(&mut self.state.result, &self.fine_handles, targets, &self.pinned);
             if st.iterations > 0 {
-                self.state.carry(self.arap.positions(), &self.base);
+                self.state.carry(self.coarse.positions(), &self.base);
             }
             self.state.level_settled = self.fine_converged(&st);
             let full_after = !self.fine.as_ref().is_none_or(FineLevel::has_failed);
@@ -516,7 +542,7 @@ impl CoarseBsArap {
         };
         let st = fine.refine(&self.state.result, targets, n)?;
         self.state.result.copy_from_slice(fine.positions());
-        self.state.carry(self.arap.positions(), &self.base);
+        self.state.carry(self.coarse.positions(), &self.base);
         Ok(st)
     }
 
@@ -555,7 +581,7 @@ impl CoarseBsArap {
     /// running them again at the same targets would change nothing). Without a tolerance
     /// (other stopping rules) or with a non-finite energy there is nothing to wait for: true.
     fn fine_converged(&self, st: &SolveStats) -> bool {
-        let tol = self.arap.config().tolerance;
+        let tol = self.coarse.config().tolerance;
         let (e0, e1) = (st.initial_energy, st.energy());
         let per_iteration = (e0 - e1) / (e0 * st.iterations.max(1) as f64);
         tol <= 0.0 || e0 <= f64::MIN_POSITIVE || per_iteration.is_nan() || per_iteration < tol
@@ -580,7 +606,7 @@ impl CoarseBsArap {
     /// solve: the prolongation itself does not need it).
     pub fn deformed_base(&self) -> &[[f64; 3]] {
         self.state.deformed_base.get_or_init(|| {
-            let bc = self.arap.positions();
+            let bc = self.coarse.positions();
             (0..self.base.faces.len())
                 .into_par_iter()
                 .map(|i| {
@@ -599,7 +625,7 @@ impl CoarseBsArap {
     /// The inputs of the last solve's prolongation (step 4 of the module doc).
     pub fn prolongation(&self) -> Prolongation<'_> {
         Prolongation {
-            coarse: self.arap.positions(),
+            coarse: self.coarse.positions(),
             quaternions: &self.state.quaternions,
             triangles: self.base.coarse_mesh.triangles(),
             faces: &self.base.faces,
@@ -628,22 +654,29 @@ impl CoarseBsArap {
 
     /// Vertices of the coarse base.
     pub fn coarse_vertices(&self) -> usize {
-        self.arap.rest().len()
+        self.coarse.positions().len()
     }
 
-    /// The ARAP solver on the coarse base.
-    pub fn base_arap(&self) -> &Arap {
-        &self.arap
+    /// The ARAP solver on the coarse base ([`CoarseEnergy::Decimated`]; `None` for the
+    /// Galerkin energy, which is not an ARAP on a mesh).
+    pub fn base_arap(&self) -> Option<&Arap> {
+        self.coarse.arap()
     }
 
-    /// Mutable access to the coarse solver (stopping rule).
-    pub fn base_arap_mut(&mut self) -> &mut Arap {
-        &mut self.arap
+    /// Mutable access to the ARAP solver on the coarse base (starting guesses); `None` for
+    /// the Galerkin energy.
+    pub fn base_arap_mut(&mut self) -> Option<&mut Arap> {
+        self.coarse.arap_mut()
+    }
+
+    /// Changes the coarse solve's stopping rule without refactoring.
+    pub fn set_stopping(&mut self, tolerance: f64, max_iterations: usize) {
+        self.coarse.set_stopping(tolerance, max_iterations);
     }
 
     /// Restarts the next solve from rest.
     pub fn reset(&mut self) {
-        self.arap.reset();
+        self.coarse.reset();
         self.state.restart();
         if let Some(fine) = self.fine.as_mut().and_then(FineLevel::arap_mut) {
             fine.reset();

@@ -64,7 +64,7 @@ mod mesh_part;
 pub use mesh_part::GalerkinMesh;
 use mesh_part::{embedding_row, key};
 
-use crate::deform::arap::{Acceleration, Csr, SmoothRotations, vertices_per_task};
+use crate::deform::arap::{Acceleration, Csr, SmoothRotations, SolveStats, vertices_per_task};
 use crate::deform::coarse::base::CoarseBase;
 use crate::deform::coarse::groups::CoarseGroups;
 use crate::deform::coarse::prolong::{Prolongation, prolong, quaternion_of};
@@ -79,6 +79,7 @@ use faer::MatMut;
 use faer::sparse::Triplet;
 use glam::DQuat;
 use rayon::prelude::*;
+use std::time::Instant;
 
 /// A constrained fine vertex: its cluster, its embedding, its detail.
 #[derive(Debug, Clone, Copy)]
@@ -86,6 +87,8 @@ struct Held {
     vertex: u32,
     /// Its index in the handle targets, or `None` for a vertex held at rest.
     target: Option<usize>,
+    /// Its rest position.
+    rest: [f64; 3],
     cluster: u32,
     corners: [u32; 3],
     weights: [f64; 3],
@@ -157,8 +160,9 @@ pub struct GalerkinCoarse {
     neighbours: Csr<(u32, f64)>,
     mu: f64,
     held: Vec<Held>,
-    /// The fine handle vertices (order of their targets).
+    /// The fine handle vertices (order of their targets) and their rest positions.
     handle_vertices: Vec<u32>,
+    handle_rest: Vec<[f64; 3]>,
     factor: SpdFactor,
     /// $G$ with the handles' terms, every coarse vertex, both orders (for the energy).
     matrix: Csr<(u32, f64)>,
@@ -176,6 +180,8 @@ pub struct GalerkinCoarse {
     /// The coarse handles' groups and their targets' rule, with [`HandleRule::CoarseVertices`].
     groups: Option<CoarseGroups>,
     c: Vec<[f64; 3]>,
+    /// The coarse mesh's rest positions.
+    rest_c: Vec<[f64; 3]>,
     rotations: Vec<Mat3>,
     /// The rotation field's local step on the clusters (`deform::arap`'s smooth rotations:
     /// the implicit step, the sweep by colours, the safeguard) with its buffers.
@@ -238,6 +244,7 @@ impl GalerkinCoarse {
                 Held {
                     vertex: v,
                     target,
+                    rest: mesh.positions()[v as usize],
                     cluster: base.representative[v as usize],
                     corners,
                     weights,
@@ -327,6 +334,11 @@ impl GalerkinCoarse {
             neighbours,
             mu,
             held,
+            handle_rest: constraints
+                .handle_vertices
+                .iter()
+                .map(|&v| mesh.positions()[v as usize])
+                .collect(),
             handle_vertices: constraints.handle_vertices.clone(),
             factor,
             matrix,
@@ -336,6 +348,7 @@ impl GalerkinCoarse {
             coupling,
             groups,
             c: coarse.positions().to_vec(),
+            rest_c: coarse.positions().to_vec(),
             rotations: vec![IDENTITY; m],
             field,
             block: vertices_per_task(m),
@@ -346,20 +359,27 @@ impl GalerkinCoarse {
     }
 
     /// Iterates from the last solve's coarse pose and rotations (rest at first) until `stop`
-    /// holds or `max_iterations`; returns the iterations taken. An iteration is a global step
-    /// and a local step, after one local step for the new targets, so that the energy
-    /// ([`GalerkinCoarse::energy`]) is read from the local step's sums at no extra pass and the
-    /// rotations end fitted to the result. `targets` are the handle vertices' (order of
-    /// [`Handles::handle_vertices`]); components without handles stay at rest. A wrong number
-    /// of targets or a non-finite one is an error.
+    /// holds or `max_iterations`. An iteration is a global step and a local step, after one
+    /// local step for the new targets, so that the energy ([`GalerkinCoarse::energy`]) is read
+    /// from the local step's sums at no extra pass and the rotations end fitted to the result.
+    /// `targets` are the handle vertices' (order of [`Handles::handle_vertices`]); components
+    /// without handles stay at rest. Every target at its rest position gives the rest pose
+    /// (the minimizer, energy 0) without iterating. A wrong number of targets or a non-finite
+    /// one is an error. The statistics: the iterations, whether `stop` held, the energy of the
+    /// start and after each iteration, the milliseconds (all counted as local steps) and the
+    /// rejected Anderson steps.
     pub fn solve(
         &mut self,
-        mesh: &Mesh,
         targets: &[[f64; 3]],
         stop: Stop,
         max_iterations: usize,
-    ) -> Result<usize, SolveError> {
+    ) -> Result<SolveStats, SolveError> {
         check_targets(targets, self.handle_vertices.len())?;
+        if self.handle_rest.iter().zip(targets).all(|(r, t)| r == t) {
+            self.reset();
+            return Ok(SolveStats { converged: true, ..SolveStats::default() });
+        }
+        let started = Instant::now();
         let m = self.c.len();
         // Per frame: τ = μ P_Cᵀ t, σ_k = μ Σ_{i∈C∩k} D_i t_iᵀ and the constant μ Σ ‖t_i‖².
         let FrameScratch { mut tau, mut sigma, mut rhs, mut x } = std::mem::take(&mut self.frame);
@@ -369,7 +389,7 @@ impl GalerkinCoarse {
         sigma.resize(m, [[0.0; 3]; 3]);
         let mut constant = self.constant;
         for h in &self.held {
-            let t = h.target.map_or(mesh.positions()[h.vertex as usize], |t| targets[t]);
+            let t = h.target.map_or(h.rest, |t| targets[t]);
             for a in 0..3 {
                 let e = &mut tau[h.corners[a] as usize];
                 for d in 0..3 {
@@ -398,7 +418,7 @@ impl GalerkinCoarse {
             work.aa.reset();
         }
         self.energy = self.local_step(&sigma, &tau, constant);
-        let mut result = Ok(max_iterations);
+        let mut stats = SolveStats { initial_energy: self.energy, ..SolveStats::default() };
         for iteration in 1..=max_iterations {
             // Global step on the free block: r = τ + Σ_k R_k g_k − A_FH c_H.
             let (by_coarse, rotations) = (&self.by_coarse, &self.rotations);
@@ -444,6 +464,7 @@ impl GalerkinCoarse {
                         false
                     } else {
                         // Safeguard: the plain step instead, and the history restarts.
+                        stats.rejected_steps += 1;
                         work.aa.reset();
                         self.rotations.clone_from(&work.rotations);
                         true
@@ -456,6 +477,8 @@ impl GalerkinCoarse {
                 scatter(&self.free, &x, &mut self.c);
                 self.energy = self.local_step(&sigma, &tau, constant);
             }
+            stats.iterations = iteration;
+            stats.energies.push(self.energy);
             let done = match stop {
                 Stop::Moved { distance } => moved < distance,
                 Stop::Decrease { tolerance } => {
@@ -463,13 +486,37 @@ impl GalerkinCoarse {
                 }
             };
             if done {
-                result = Ok(iteration);
+                stats.converged = true;
                 break;
             }
         }
         self.anderson = accelerated;
         self.frame = FrameScratch { tau, sigma, rhs, x };
-        result
+        stats.local_ms = started.elapsed().as_secs_f64() * 1e3;
+        Ok(stats)
+    }
+
+    /// The coarse positions of the last solve (rest before any), `#Vc×3`.
+    pub fn positions(&self) -> &[[f64; 3]] {
+        &self.c
+    }
+
+    /// The clusters' rotations of the last solve, fitted to its positions.
+    pub fn rotations(&self) -> &[Mat3] {
+        &self.rotations
+    }
+
+    /// Puts the coarse positions back to `c` (`#Vc×3`; a caller's roll-back after a failed
+    /// step); the rotations are fitted to them by the next solve's first local step.
+    pub fn set_positions(&mut self, c: &[[f64; 3]]) {
+        self.c.copy_from_slice(c);
+    }
+
+    /// Restarts from rest: the coarse rest positions, identity rotations, energy 0.
+    pub fn reset(&mut self) {
+        self.c.copy_from_slice(&self.rest_c);
+        self.rotations.fill(IDENTITY);
+        self.energy = 0.0;
     }
 
     /// The local step at the current coarse pose: the clusters' covariances
@@ -540,10 +587,10 @@ impl GalerkinCoarse {
 
     /// The pose of the full mesh: the prolongation of the coarse pose and rotations, constrained
     /// vertices on `targets` and at rest.
-    pub fn pose(&self, mesh: &Mesh, base: &CoarseBase, targets: &[[f64; 3]]) -> Vec<[f64; 3]> {
+    pub fn pose(&self, base: &CoarseBase, targets: &[[f64; 3]]) -> Vec<[f64; 3]> {
         let mut out = self.prolonged(base);
         for h in &self.held {
-            out[h.vertex as usize] = mesh.positions()[h.vertex as usize];
+            out[h.vertex as usize] = h.rest;
         }
         for (&v, t) in self.handle_vertices.iter().zip(targets) {
             out[v as usize] = *t;

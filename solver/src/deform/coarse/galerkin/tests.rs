@@ -29,15 +29,14 @@ fn rest_and_rigid_motions_are_reproduced() {
     for rule in rules {
         let gathered = GalerkinMesh::new(&mesh, &base).unwrap();
         let mut g = GalerkinCoarse::new(&mesh, &base, &gathered, &handles, 0.02, rule).unwrap();
-        g.solve(&mesh, &at(mesh.positions()), Stop::Moved { distance: 1e-12 * diag }, 1000)
-            .unwrap();
+        g.solve(&at(mesh.positions()), Stop::Moved { distance: 1e-12 * diag }, 1000).unwrap();
         assert!(g.energy().abs() < 1e-12 * g.constant, "{rule:?}: {}", g.energy());
-        let rest = distances(&g.pose(&mesh, &base, &at(mesh.positions())), mesh.positions(), diag);
+        let rest = distances(&g.pose(&base, &at(mesh.positions())), mesh.positions(), diag);
         assert!(rest.max < 1e-9, "{rule:?}: {rest:?}");
         let stop = Stop::Moved { distance: 1e-11 * diag };
-        let iterations = g.solve(&mesh, &at(&moved), stop, 20_000).unwrap();
+        let iterations = g.solve(&at(&moved), stop, 20_000).unwrap().iterations;
         assert!(iterations < 20_000, "{rule:?}");
-        let rigid = distances(&g.pose(&mesh, &base, &at(&moved)), &moved, diag);
+        let rigid = distances(&g.pose(&base, &at(&moved)), &moved, diag);
         assert!(rigid.max < 1e-6, "{rule:?}: {rigid:?}");
         assert!(g.energy().abs() < 1e-9 * g.constant, "{rule:?}: {}", g.energy());
     }
@@ -67,7 +66,7 @@ fn the_energy_is_the_restricted_one_and_descends() {
     let targets = bent(&mesh, &handles, [0.0, 0.0, 1.0], 0.8);
     let mut energies = Vec::new();
     for _ in 0..30 {
-        g.solve(&mesh, &targets, Stop::Decrease { tolerance: 0.0 }, 1).unwrap();
+        g.solve(&targets, Stop::Decrease { tolerance: 0.0 }, 1).unwrap();
         energies.push(g.energy());
     }
     for (k, e) in energies.windows(2).enumerate() {
@@ -133,10 +132,10 @@ fn anderson_reaches_the_same_minimum_in_fewer_iterations() {
         let mut g = GalerkinCoarse::new(&mesh, &base, &gathered, &handles, 0.05, rule).unwrap();
         g.set_acceleration(acceleration);
         let stop = Stop::Decrease { tolerance: 1e-12 };
-        let mut iterations = g.solve(&mesh, &targets, stop, 1).unwrap();
+        let mut iterations = g.solve(&targets, stop, 1).unwrap().iterations;
         let first = g.energy();
-        iterations += g.solve(&mesh, &targets, stop, 20_000).unwrap();
-        (iterations, [first, g.energy()], g.pose(&mesh, &base, &targets))
+        iterations += g.solve(&targets, stop, 20_000).unwrap().iterations;
+        (iterations, [first, g.energy()], g.pose(&base, &targets))
     };
     let (plain, plain_energies, plain_pose) = run(Acceleration::None);
     let (fast, fast_energies, fast_pose) = run(Acceleration::Anderson { window: 5 });
@@ -173,9 +172,9 @@ fn bad_input_is_an_error() {
         handles.handle_vertices().iter().map(|&v| mesh.positions()[v as usize]).collect();
     let short = &targets[1..];
     let stop = Stop::Moved { distance: 1e-9 * diag };
-    let e = g.solve(&mesh, short, stop, 10).unwrap_err();
+    let e = g.solve(short, stop, 10).unwrap_err();
     assert!(matches!(e, SolveError::TargetCount { .. }), "{e}");
     targets[3][1] = f64::INFINITY;
-    let e = g.solve(&mesh, &targets, stop, 10).unwrap_err();
+    let e = g.solve(&targets, stop, 10).unwrap_err();
     assert_eq!(e, SolveError::NonFiniteTarget { index: 3 });
 }
