@@ -1,5 +1,6 @@
-//! The method panel's energy choice and bending length (issue 51): the UI sets the settings,
-//! the solver threads rebuild with them, and the bending length is shown in world units.
+//! The method panel's energy choice, bending length and coarse energy (issue 51): the UI sets
+//! the settings, the solver threads rebuild with them, and the bending length is shown in world
+//! units.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 mod support;
@@ -11,15 +12,20 @@ use support::{harness, has_current_frame, settled, step_until, test_mesh};
 
 /// Opens the method panel's energy box, which shows `selected`.
 fn open_energy_box(h: &mut egui_kittest::Harness<'static, EditorApp>, selected: &str) {
-    // The box's name is its label, its value the selected energy.
-    let energy = h
+    open_box(h, "energy", selected);
+}
+
+/// Opens the method panel's box named `label`, which shows `selected`.
+fn open_box(h: &mut egui_kittest::Harness<'static, EditorApp>, label: &str, selected: &str) {
+    // The box's name is its label, its value the selected entry.
+    let found = h
         .query_all_by_role(egui::accesskit::Role::ComboBox)
         .find(|b| {
             let n = b.accesskit_node();
-            n.label() == Some("energy".into()) && n.value() == Some(selected.into())
+            n.label() == Some(label.into()) && n.value() == Some(selected.into())
         })
-        .expect("the energy box");
-    energy.click_accesskit();
+        .unwrap_or_else(|| panic!("the {label} box"));
+    found.click_accesskit();
     for _ in 0..3 {
         h.step();
     }
@@ -67,6 +73,37 @@ fn smooth_rotations_and_the_bending_length_in_world_units() {
     let generation = h.state().scene_generation();
     step_until(&mut h, "a frame of the smooth-rotations solve", |a| {
         a.scene_generation() == generation && has_current_frame(a)
+    });
+    assert!(h.state().error().is_none(), "{:?}", h.state().error());
+}
+
+/// The coarse energy box: the Galerkin coarse energy is chosen on smooth rotations, the solvers
+/// rebuild with it and deliver a frame; choosing an energy it does not restrict takes the
+/// decimated coarse energy back.
+#[test]
+fn the_galerkin_coarse_energy_from_the_method_panel() {
+    let mut h = harness(test_mesh(), None);
+    step_until(&mut h, "the default asset", settled);
+    let settings = |a: &EditorApp| a.method_settings();
+    assert_eq!(settings(h.state()).bs_variant, solver::Method::BsArapCoarse);
+    assert_eq!(settings(h.state()).base.coarse_energy, solver::CoarseEnergy::Decimated);
+    open_box(&mut h, "coarse energy", "decimated");
+    h.get_by_label("galerkin").click_accesskit();
+    step_until(&mut h, "the Galerkin coarse energy", |a| {
+        settings(a).base.coarse_energy == solver::CoarseEnergy::Galerkin
+    });
+    let generation = h.state().scene_generation();
+    step_until(&mut h, "a frame of the Galerkin coarse solve", |a| {
+        a.scene_generation() == generation && has_current_frame(a)
+    });
+    assert!(h.state().error().is_none(), "{:?}", h.state().error());
+
+    open_energy_box(&mut h, "smooth rotations");
+    h.get_by_label("spokes and rims").click_accesskit();
+    step_until(&mut h, "spokes and rims on the decimated coarse energy", |a| {
+        let s = settings(a);
+        s.arap.energy == solver::Energy::SpokesAndRims
+            && s.base.coarse_energy == solver::CoarseEnergy::Decimated
     });
     assert!(h.state().error().is_none(), "{:?}", h.state().error());
 }

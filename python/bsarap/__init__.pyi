@@ -13,6 +13,7 @@ F64 = npt.NDArray[np.float64]
 I64 = npt.NDArray[np.int64]
 Method = Literal["arap", "bsarap", "bsarap-faired", "bsarap-coarse"]
 EnergyName = Literal["spokes-and-rims", "spokes", "smooth-rotations"]
+CoarseEnergyName = Literal["decimated", "galerkin"]
 ArapEnergyName = Literal["spokes-and-rims", "spokes"]
 Transform = Union[
     Sequence[float],
@@ -114,6 +115,7 @@ class Deformer:
         fine_iterations: int = ...,
         settle_iterations: int = ...,
         membrane: float = ...,
+        coarse_energy: CoarseEnergyName = ...,
         pinned_components: Sequence[int] = ...,
     ) -> None: ...
     def solve(self, group_transforms: Mapping[int, Transform]) -> F64: ...

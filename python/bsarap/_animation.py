@@ -107,7 +107,7 @@ class Scene:
     @property
     def settings(self) -> dict:
         """energy, bending_length, tol, max_iters, anderson, smoothing, coarse_vertices,
-        fine_iterations, membrane (the keywords of :class:`Deformer`)."""
+        fine_iterations, membrane, coarse_energy (the keywords of :class:`Deformer`)."""
         return self._native.settings
 
     @property

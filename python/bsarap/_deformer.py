@@ -87,6 +87,10 @@ class Deformer:
         membrane: the coarse level's membrane share, in [0, 1]: the part of its ARAP energy in
             cells of single triangles, which resist no bending (``bsarap-coarse`` with the
             spokes-and-rims energy; default ``DEFAULT_MEMBRANE``, 0: vertex cells alone).
+        coarse_energy: what ``bsarap-coarse`` minimizes on its coarse level: ``"decimated"``
+            (default: ARAP on the decimated base) or ``"galerkin"`` (the full mesh's energy
+            restricted to the coarse level, nearer the full mesh's minimum; needs
+            ``energy="smooth-rotations"``).
         pinned_components: components without handles kept at rest instead of following.
 
     ``positions``, ``base`` (the deformed base surface B') and ``details`` (D = M - B at rest)
@@ -110,6 +114,7 @@ class Deformer:
         fine_iterations: int = 0,
         settle_iterations: int = 0,
         membrane: float = DEFAULT_MEMBRANE,
+        coarse_energy: str = "decimated",
         pinned_components: Sequence[int] = (),
     ) -> None:
         V = _positions(V, "V")
@@ -123,7 +128,7 @@ class Deformer:
             None if coarse_vertices is None else _count(coarse_vertices, "coarse_vertices"),
             _count(fine_iterations, "fine_iterations"), _count(settle_iterations, "settle_iterations"),
             float(membrane), [_count(c, "pinned_components") for c in pinned_components],
-            _number(bending_length, "bending_length"),
+            _number(bending_length, "bending_length"), str(coarse_energy),
         )
         self.stats: Optional[SolveStats] = None
 

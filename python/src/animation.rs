@@ -68,7 +68,7 @@ impl NativeScene {
     }
 
     /// The scene's settings: energy, bending_length, tol, max_iters, anderson, smoothing,
-    /// coarse_vertices, fine_iterations, membrane.
+    /// coarse_vertices, fine_iterations, membrane, coarse_energy.
     #[getter]
     fn settings<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let s = &self.scene.scene;
@@ -88,6 +88,7 @@ impl NativeScene {
         d.set_item("coarse_vertices", s.base.coarse_vertices)?;
         d.set_item("fine_iterations", s.base.fine_iterations)?;
         d.set_item("membrane", s.base.membrane)?;
+        d.set_item("coarse_energy", s.base.coarse_energy.name())?;
         Ok(d)
     }
 
@@ -269,6 +270,7 @@ pub fn record(
     let solved = SolveSettings {
         method: deformer.method,
         arap: deformer.config,
+        coarse_energy: deformer.coarse_energy,
         diagonal: deformer.mesh.bbox_diagonal(),
     };
     Ok(NativeRecording {

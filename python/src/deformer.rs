@@ -11,8 +11,8 @@ use solver::glam::DVec3;
 use solver::io::Asset;
 use solver::linalg::rotation::Mat3;
 use solver::{
-    ArapConfig, BaseConfig, ComponentMode, Deformer, DeformerOptions, GroupTransform, Handles,
-    LooseParts, Mesh, Method, handle_targets,
+    ArapConfig, BaseConfig, CoarseEnergy, ComponentMode, Deformer, DeformerOptions, GroupTransform,
+    Handles, LooseParts, Mesh, Method, handle_targets,
 };
 
 use crate::convert::{
@@ -35,6 +35,8 @@ pub struct NativeDeformer {
     last_targets: Option<Vec<[f64; 3]>>,
     pub layout: Option<Layout>,
     pub method: Method,
+    /// The coarse variant's coarse energy (recorded with an export).
+    pub coarse_energy: CoarseEnergy,
 }
 
 impl NativeDeformer {
@@ -62,7 +64,17 @@ impl NativeDeformer {
                 Deformer::new(&mesh, &handles, options)
             })
             .map_err(err)?;
-        Ok(NativeDeformer { deformer, mesh, handles, config, last_targets: None, layout, method })
+        let coarse_energy = base.coarse_energy;
+        Ok(NativeDeformer {
+            deformer,
+            mesh,
+            handles,
+            config,
+            last_targets: None,
+            layout,
+            method,
+            coarse_energy,
+        })
     }
 }
 
@@ -93,7 +105,7 @@ impl NativeDeformer {
     #[new]
     #[pyo3(signature = (v, f, labels, method, energy_name, tol, max_iters, anderson, smoothing,
         coarse_vertices, fine_iterations, settle_iterations, membrane, pinned_components,
-        bending_length))]
+        bending_length, coarse_energy_name))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -112,7 +124,15 @@ impl NativeDeformer {
         membrane: f64,
         pinned_components: Vec<usize>,
         bending_length: f64,
+        coarse_energy_name: &str,
     ) -> PyResult<NativeDeformer> {
+        let Some(coarse_energy) = CoarseEnergy::from_name(coarse_energy_name) else {
+            let names: Vec<&str> = CoarseEnergy::ALL.iter().map(|e| e.name()).collect();
+            return Err(err(format!(
+                "coarse_energy must be one of {} (got {coarse_energy_name:?})",
+                names.join(", ")
+            )));
+        };
         let Some(method) = Method::from_name(method) else {
             let names: Vec<&str> = Method::ALL.iter().map(|m| m.name()).collect();
             return Err(err(format!(
@@ -127,6 +147,7 @@ impl NativeDeformer {
             fine_iterations,
             settle_iterations,
             membrane,
+            coarse_energy,
             ..BaseConfig::default()
         };
         base.validate().map_err(err)?;

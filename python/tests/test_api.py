@@ -222,3 +222,35 @@ def test_no_copies_where_the_layout_fits():
     assert U.flags.c_contiguous and U.flags.writeable
     # A view of the 1-d array made from the solver's Vec (rust-numpy keeps the Vec as its base).
     assert U.base is not None and not isinstance(U.base.base, np.ndarray)
+
+
+def test_galerkin_coarse_energy(tmp_path):
+    """The coarse variant's Galerkin coarse energy: with smooth rotations it puts the handles on
+    their targets and poses the rest nearer converged ARAP than the decimated energy; a scene
+    carries it; it refuses other energies and unknown names."""
+    V, F, labels = tube(16, 24)
+    pose = {1: ([0.3, 0.0, 0.2], bsarap.rotation([0, 0, 1], 30))}
+    kw = dict(coarse_vertices=200, energy="smooth-rotations", tol=1e-8, max_iters=5000)
+    d = bsarap.Deformer(V, F, labels, coarse_energy="galerkin", **kw)
+    U = d.solve(pose)
+    assert np.isfinite(U).all()
+    np.testing.assert_allclose(U[d.handle_vertices], d.targets(pose), atol=1e-12)
+    U0 = bsarap.Deformer(V, F, labels, **kw).solve(pose)
+    ref = bsarap.Deformer(V, F, labels, method="arap", **kw).solve(pose)
+    near, far = (np.linalg.norm(X - ref, axis=1).mean() for X in (U, U0))
+    # Measured: 0.053 against 0.064 (the tube is 4 high; 200 of its 384 vertices coarse).
+    assert near < 0.9 * far, (near, far)
+    bsarap.save_mesh(tmp_path / "tube.off", V, F)
+    path = tmp_path / "scene.json"
+    path.write_text(json.dumps({
+        "version": 2, "mesh": "tube.off", "handles": {"labels": labels.tolist()},
+        "timeline": {"duration": 1.0, "fps": 2}, "method": "bsarap-coarse",
+        "arap": {"energy": "smooth-rotations", "tolerance": 1e-8, "max_iterations": 5000},
+        "base": {"coarse_vertices": 200, "coarse_energy": "galerkin"}}))
+    scene = bsarap.load_scene(path)
+    assert scene.settings["coarse_energy"] == "galerkin"
+    np.testing.assert_allclose(scene.deformer().solve(pose), U, atol=1e-12)
+    with pytest.raises(ValueError, match="smooth-rotations"):
+        bsarap.Deformer(V, F, labels, coarse_vertices=200, coarse_energy="galerkin")
+    with pytest.raises(ValueError, match="coarse_energy must be one of"):
+        bsarap.Deformer(V, F, labels, coarse_energy="fine")

@@ -296,18 +296,28 @@ fn scene_saves_the_energy_and_bending_length() {
         bending_length: 0.035,
         ..Default::default()
     };
+    scene.base.coarse_energy = solver::CoarseEnergy::Galerkin;
     let path = dir.join("sr.json");
     scene.save(&path).unwrap();
     let text = std::fs::read_to_string(&path).unwrap();
     assert!(text.contains("\"energy\": \"smooth-rotations\""), "{text}");
     assert!(text.contains("\"bending_length\": 0.035"), "{text}");
+    assert!(text.contains("\"coarse_energy\": \"galerkin\""), "{text}");
     let back = Scene::load(&path).unwrap();
     assert_eq!(back.scene.arap, scene.arap);
-    // Scenes written before the bending length existed load with today's default.
+    assert_eq!(back.scene.base, scene.base);
+    // The Galerkin coarse energy restricts smooth rotations only.
+    let spokes = text.replace("\"smooth-rotations\"", "\"spokes-and-rims\"");
+    let err = Scene::from_json(&spokes, "g.json").unwrap_err().to_string();
+    assert!(err.contains("coarse_energy galerkin"), "{err}");
+    // Scenes written before the bending length and the coarse energy existed load with today's
+    // defaults.
     let mut old: serde_json::Value = serde_json::from_str(&text).unwrap();
     old["arap"].as_object_mut().unwrap().remove("bending_length").unwrap();
     old["arap"]["energy"] = "spokes-and-rims".into();
+    old["base"].as_object_mut().unwrap().remove("coarse_energy").unwrap();
     let old = Scene::from_json(&old.to_string(), "old.json").unwrap();
+    assert_eq!(old.base.coarse_energy, solver::CoarseEnergy::Decimated);
     assert_eq!(old.arap.bending_length, solver::deform::arap::DEFAULT_BENDING_LENGTH);
     assert_eq!(old.arap.energy, solver::Energy::SpokesAndRims);
     // A bending length out of range is refused with ArapConfig::validate's message.

@@ -304,7 +304,8 @@ fn exported_file_records_the_energy_and_bending_length() {
     })
     .unwrap();
     let diagonal = mesh.bbox_diagonal();
-    let solved = SolveSettings { method: Method::Arap, arap, diagonal };
+    let coarse_energy = solver::CoarseEnergy::Galerkin;
+    let solved = SolveSettings { method: Method::Arap, arap, coarse_energy, diagonal };
     let dir = temp_dir("settings");
     for (name, settings) in [("sr.glb", Some(solved)), ("none.glb", None)] {
         let path = dir.join(name);
@@ -331,6 +332,10 @@ fn exported_file_records_the_energy_and_bending_length() {
         assert_eq!(recorded["max_iterations"], 50);
         assert_eq!(recorded["tolerance"].as_f64(), Some(1e-5));
     }
+    // The coarse energy is the coarse variant's.
+    assert!(solved.to_json()["coarse_energy"].is_null());
+    let coarse = SolveSettings { method: Method::BsArapCoarse, ..solved }.to_json();
+    assert_eq!(coarse["coarse_energy"], "galerkin");
     // Without a bending length in the energy, none is recorded.
     let plain = SolveSettings { arap: ArapConfig::default(), ..solved }.to_json();
     assert_eq!(plain["energy"], "spokes-and-rims");

@@ -235,8 +235,12 @@ pub fn run(a: &DeformArgs) -> anyhow::Result<()> {
     let t1 = Instant::now();
     let stats = deformer.solve_groups(&transforms)?;
     let solve_ms = t1.elapsed().as_secs_f64() * 1e3;
-    let solved =
-        SolveSettings { method: a.method.into(), arap: config, diagonal: mesh.bbox_diagonal() };
+    let solved = SolveSettings {
+        method: a.method.into(),
+        arap: config,
+        coarse_energy: base.coarse_energy,
+        diagonal: mesh.bbox_diagonal(),
+    };
     write_pose(&a.output, &loaded, deformer.positions(), &solved)
         .with_context(|| format!("writing {}", a.output.display()))?;
     if a.json {

@@ -263,6 +263,7 @@ pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
             let solved = SolveSettings {
                 method: scene.method,
                 arap: scene.arap,
+                coarse_energy: scene.base.coarse_energy,
                 diagonal: mesh.bbox_diagonal(),
             };
             let export = GltfExport::from_asset(&input, format)?

@@ -318,7 +318,12 @@ pub fn spawn_record(
                 },
             )
             .map_err(|e| format!("recording: {e}"))?;
-            let solved = SolveSettings { method, arap: config, diagonal: mesh.bbox_diagonal() };
+            let solved = SolveSettings {
+                method,
+                arap: config,
+                coarse_energy: base.coarse_energy,
+                diagonal: mesh.bbox_diagonal(),
+            };
             let glb_bytes =
                 GltfExport::from_asset(&asset_export(&layout, &recording), GltfFormat::Glb)
                     .and_then(|e| e.with_solve_settings(&solved))

@@ -59,7 +59,7 @@ use thiserror::Error;
 use crate::animation::export::UpAxis;
 use crate::animation::timeline::{AnimationError, Timeline};
 use crate::deform::arap::ArapConfig;
-use crate::deform::config::BaseConfig;
+use crate::deform::config::{BaseConfig, CoarseEnergy};
 use crate::deform::deformer::{DeformerOptions, Method};
 use crate::deform::handles::{Handles, HandlesError};
 use crate::deform::riders::LooseParts;
@@ -363,6 +363,16 @@ impl Scene {
             file: file.to_string(),
             message: format!("\"base\": {e}"),
         })?;
+        if self.base.coarse_energy == CoarseEnergy::Galerkin
+            && self.arap.energy != crate::deform::arap::Energy::SmoothRotations
+        {
+            return Err(SceneError::Invalid {
+                file: file.to_string(),
+                message: "\"base\": coarse_energy galerkin restricts the smooth-rotations \
+                          energy: set \"arap\": {\"energy\": \"smooth-rotations\"}"
+                    .into(),
+            });
+        }
         self.rig
             .validate()
             .map_err(|message| SceneError::Invalid { file: file.to_string(), message })?;

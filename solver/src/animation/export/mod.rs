@@ -187,12 +187,15 @@ impl UpAxis {
 /// ([`GltfExport::with_solve_settings`]) so that a reader of the file knows what made it:
 /// `{"method", "energy", "bending_length" (fraction of the rest diagonal),
 /// "bending_length_world" (times the diagonal), "tolerance", "max_iterations", "acceleration",
-/// "energy_threshold", "membrane", "diagonal"}`; the bending lengths are `null` for energies
-/// without one.
+/// "energy_threshold", "membrane", "coarse_energy", "diagonal"}`; the bending lengths are
+/// `null` for energies without one, the coarse energy for methods other than the coarse
+/// variant.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SolveSettings {
     pub method: crate::deform::deformer::Method,
     pub arap: crate::deform::arap::ArapConfig,
+    /// The coarse variant's coarse energy ([`crate::BaseConfig::coarse_energy`]).
+    pub coarse_energy: crate::CoarseEnergy,
     /// The rest bounding-box diagonal of the mesh solved on: the unit of the bending length.
     pub diagonal: f64,
 }
@@ -212,6 +215,8 @@ impl SolveSettings {
             "acceleration": a.acceleration,
             "energy_threshold": a.energy_threshold,
             "membrane": a.membrane,
+            "coarse_energy": (self.method == crate::Method::BsArapCoarse)
+                .then_some(self.coarse_energy.name()),
             "diagonal": self.diagonal,
         })
     }
