@@ -1,14 +1,15 @@
 //! Solver frames per second as the editor's solver thread produces them (BENCHMARKS.md, "Editor rate").
 //!
 //! Usage: `cargo run --release -p app --example editor_rate -- [--no-settle] [--gpu-normals]
-//! [--energy spokes-and-rims|spokes|smooth-rotations] [--bending-length F] MESH SELECTION [FRAMES [METHOD...]]`
+//! [--energy spokes-and-rims|spokes|smooth-rotations] [--bending-length F]
+//! [--coarse-energy decimated|galerkin] MESH SELECTION [FRAMES [METHOD...]]`
 //! (methods: `arap`, `bsarap`, `bsarap-faired`, `bsarap-coarse`, each optionally with `+aa` for
 //! the method panel's Anderson acceleration; default `arap bsarap bsarap-coarse`).
 //!
 //! Drives the editor's own deformer factory (`app::editor::pose_solvers::factory`) with the editor's
 //! default method settings (smooth rotations at bending length 0.02, tolerance 1e-4, cap 30
-//! iterations per displayed frame; `--energy` and `--bending-length`, a fraction of the diagonal,
-//! as the method panel sets them), warm-started
+//! iterations per displayed frame; `--energy`, `--bending-length` (a fraction of the diagonal)
+//! and `--coarse-energy` as the method panel sets them), warm-started
 //! from the previous frame as the solver thread does, with the first group moving on the
 //! benchmark's circle (radius 0.1·diag in the xy plane, FRAMES steps of one turn, default 30),
 //! the others at rest. A frame is what the thread does per published frame: the group poses'
@@ -69,6 +70,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if let Some(l) = option("--bending-length")? {
         defaults.arap.bending_length = l.parse()?;
     }
+    if let Some(e) = option("--coarse-energy")? {
+        defaults.base.coarse_energy = solver::CoarseEnergy::from_name(&e)
+            .ok_or_else(|| format!("unknown coarse energy {e}"))?;
+    }
     defaults.arap.validate()?;
     if args.len() < 3 {
         return Err("usage: editor_rate MESH SELECTION [FRAMES [METHOD...]]".into());
@@ -100,11 +105,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let n_poses = handles.group_ids().max().map_or(0, |k| k + 1);
     let radius = 0.1 * mesh.bbox_diagonal();
     println!(
-        "{}: {} vertices, {frames} frames, energy {:?} (bending length {}·diag), tolerance {}, cap {} iterations per frame, {} threads",
+        "{}: {} vertices, {frames} frames, energy {:?} (bending length {}·diag), coarse energy {}, tolerance {}, cap {} iterations per frame, {} threads",
         args[1],
         mesh.n_vertices(),
         defaults.arap.energy,
         defaults.arap.bending_length,
+        defaults.base.coarse_energy.name(),
         defaults.arap.tolerance,
         defaults.arap.max_iterations,
         rayon::current_num_threads()

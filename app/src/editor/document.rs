@@ -51,7 +51,7 @@ pub fn to_scene(scene_path: &Path, input: &DocumentInput) -> Result<Scene, Strin
     let s = input.settings;
     scene.method = s.bs_variant;
     scene.arap = s.arap_config();
-    scene.base = s.base;
+    scene.base = s.base_config();
     scene.camera = Some(input.camera.to_json());
     scene.texture = input.texture.map(|t| relative_path(&dir, &absolute(t)));
     scene.up_axis = input.up_axis;
@@ -213,7 +213,11 @@ mod tests {
         assert_eq!(back.edit.groups[0].name, "left cap");
         assert_eq!(back.edit.groups[1].color, Color32::from_rgb(1, 2, 3));
         assert_eq!(back.time, 0.5);
-        assert_eq!(back.settings, settings);
+        // The editor's default Galerkin coarse energy does not restrict spokes and rims: the
+        // scene says decimated.
+        assert_eq!(settings.base.coarse_energy, solver::CoarseEnergy::Galerkin);
+        assert_eq!(back.settings, MethodSettings { base: settings.base_config(), ..settings });
+        assert_eq!(back.settings.base.coarse_energy, solver::CoarseEnergy::Decimated);
         assert_eq!(back.camera, Some(camera));
         for (a, b) in back.edit.groups.iter().zip(&edit.groups) {
             assert!((a.pose.translation - b.pose.translation).length() < 1e-12);

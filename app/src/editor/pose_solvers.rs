@@ -33,7 +33,7 @@ pub fn factory(cache: Arc<Mutex<MeshCache>>) -> PoseSolverFactory {
             let options = DeformerOptions {
                 method: m,
                 config,
-                base: settings.base,
+                base: settings.base_config(),
                 loose_parts: Some(parts),
                 cache: None,
             };

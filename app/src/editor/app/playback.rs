@@ -51,7 +51,7 @@ impl EditorApp {
             method: s.bs_variant,
             config,
             // A recording solves each frame once: nothing settles.
-            base: solver::BaseConfig { settle_iterations: 0, ..s.base },
+            base: solver::BaseConfig { settle_iterations: 0, ..s.base_config() },
             loose_parts: self.session.edit.loose_parts.clone(),
             cache: self.solvers.mesh_cache.clone(),
             vertex_faces: scene.vertex_faces.clone(),

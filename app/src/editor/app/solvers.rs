@@ -189,7 +189,7 @@ impl EditorApp {
         let c = ctx.clone();
         Box::new(move |mesh| {
             let repaint = move || c.request_repaint();
-            let (method, base) = (settings.bs_variant, settings.base);
+            let (method, base) = (settings.bs_variant, settings.base_config());
             let p = jobs::spawn_prepare(cache, mesh, method, base, repaint);
             *slot.lock().unwrap_or_else(std::sync::PoisonError::into_inner) = Some(p);
         })
@@ -224,7 +224,7 @@ impl EditorApp {
         }
         let Some(scene) = &self.session.scene else { return };
         let settings = self.session.settings;
-        let key = (Arc::as_ptr(&scene.mesh) as usize, settings.bs_variant, settings.base);
+        let key = (Arc::as_ptr(&scene.mesh) as usize, settings.bs_variant, settings.base_config());
         if self.jobs.prepare.is_none() && self.solvers.prepared_for != Some(key) {
             self.solvers.prepared_for = Some(key);
             let c = ctx.clone();
@@ -232,7 +232,7 @@ impl EditorApp {
                 self.solvers.mesh_cache.clone(),
                 scene.mesh.clone(),
                 settings.bs_variant,
-                settings.base,
+                settings.base_config(),
                 move || c.request_repaint(),
             ));
         }

@@ -49,7 +49,14 @@ impl Default for MethodSettings {
             bs_variant: solver::Method::BsArapCoarse,
             // Once the handles stop, the coarse variant's pose is refined on the full mesh in
             // steps of 5 Anderson-accelerated ARAP iterations until they stop lowering the energy.
-            base: solver::BaseConfig { settle_iterations: 5, ..solver::BaseConfig::default() },
+            // Its coarse level minimizes the full mesh's energy restricted to it (the Galerkin
+            // coarse energy), so that the pose while dragging aims where settling ends
+            // (docs/DESIGN.md, "The coarse energy").
+            base: solver::BaseConfig {
+                settle_iterations: 5,
+                coarse_energy: solver::CoarseEnergy::Galerkin,
+                ..solver::BaseConfig::default()
+            },
             compare_variant: solver::Method::Arap,
         }
     }
@@ -60,6 +67,17 @@ impl MethodSettings {
     /// the scenes it saves use the same).
     pub fn arap_config(&self) -> solver::ArapConfig {
         self.arap
+    }
+
+    /// The base settings the solvers, recordings and saved scenes use: [`MethodSettings::base`],
+    /// with the decimated coarse energy under an energy the Galerkin one does not restrict
+    /// (the method panel switches it so; settings made otherwise, by code, get it here).
+    pub fn base_config(&self) -> solver::BaseConfig {
+        let mut base = self.base;
+        if self.arap.energy != solver::Energy::SmoothRotations {
+            base.coarse_energy = solver::CoarseEnergy::Decimated;
+        }
+        base
     }
 
     /// A length given as a fraction of the rest bounding-box diagonal (the bending length), in

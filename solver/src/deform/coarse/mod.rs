@@ -17,9 +17,12 @@
 //!   from rest to their targets ([`crate::linalg::rigid`]: the same motion for rigid targets,
 //!   the rigid part otherwise); the fine handle vertices get their own targets exactly in
 //!   step 4.
-//! - ARAP on $B_c$ with those handles, factored.
+//! - ARAP on $B_c$ with those handles, factored; or, with the Galerkin coarse energy
+//!   ([`BaseConfig::coarse_energy`], [`crate::deform::coarse::energy`]), the full mesh's
+//!   energy restricted to the coarse space, its handles' terms added to the mesh's part.
 //!
-//! 4. Each frame: ARAP on $B_c$ (the coarse handles on their targets) gives $B_c'$ and $R_k$;
+//! 4. Each frame: ARAP on $B_c$ (the coarse handles on their targets), or the Galerkin energy
+//!    (the fine handles on theirs, by a penalty), gives $B_c'$ and $R_k$;
 //!    $p'_i = \sum_k w_{ik} B'_{c,k} + \hat R_i (D_i + C_i)$ where $\hat R_i$ is the normalized
 //!    blend of the corner rotations as quaternions (signs aligned) and $C_i$ the carried fine
 //!    correction (step 5; zero without it). Handle vertices are set to their targets exactly,
@@ -62,8 +65,9 @@
 //! | `full_mesh.rs` | 5–6: ARAP iterations on the full mesh (factored in the background) |
 //! | `level_settle.rs` | 6: settling on the level before the full mesh |
 //! | `mod.rs` | [`CoarseBsArap`]: the steps in order, per frame |
+//! | `energy.rs` | 4: the coarse level's energy, decimated ARAP or Galerkin, behind one interface |
+//! | `galerkin/` | the full mesh's energy restricted to the coarse space (its mesh part, tests) |
 //! | `fit.rs` | the pose of the coarse space nearest a given one (a measurement) |
-//! | `galerkin/` | the full mesh's energy restricted to the coarse space (an experiment; its mesh part, tests) |
 
 pub mod base;
 pub mod cache;

@@ -1,6 +1,7 @@
-//! An experiment, not yet a method: the smooth-rotations energy of the full mesh restricted to
-//! the coarse variant's space (a Galerkin coarse energy), solved at the coarse level's cost per
-//! iteration. [`crate::deform::coarse::fit`] showed that the space holds converged ARAP within
+//! The smooth-rotations energy of the full mesh restricted to the coarse variant's space (a
+//! Galerkin coarse energy), solved at the coarse level's cost per iteration: the coarse
+//! variant's coarse energy when [`crate::BaseConfig::coarse_energy`] asks for it
+//! ([`crate::deform::coarse::energy`]). [`crate::deform::coarse::fit`] showed that the space holds converged ARAP within
 //! hundredths of a percent of the diagonal while the coarse variant's own energy (ARAP on the
 //! decimated base) has its minimum tenths of a percent away; this is the coarse energy that
 //! aims at the dense one (BENCHMARKS.md, "One pose at every resolution").
