@@ -77,6 +77,8 @@ class BSARAP_PT_settings(bpy.types.Panel):
             col.prop(s, "coarse_vertices")
             col.prop(s, "fine_iterations")
             col.prop(s, "membrane")
+            if s.energy == "smooth-rotations":
+                col.prop(s, "coarse_energy")
 
 
 class BSARAP_PT_bake(bpy.types.Panel):

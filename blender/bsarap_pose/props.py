@@ -37,6 +37,16 @@ ENERGY_ITEMS = [
         "the pose does not move with the mesh's resolution",
     ),
 ]
+#: The coarse variant's coarse energies (``bsarap.Deformer(coarse_energy=...)``).
+COARSE_ENERGY_ITEMS = [
+    ("decimated", "Decimated", "ARAP on the decimated base"),
+    (
+        "galerkin",
+        "Galerkin",
+        "The full mesh's energy restricted to the coarse level: nearer the full mesh's pose "
+        "(smooth rotations only; the editor's default there)",
+    ),
+]
 
 IDENTITY = (1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0)
 
@@ -95,6 +105,10 @@ class BSARAP_ObjectSettings(bpy.types.PropertyGroup):
         name="Membrane", description="The coarse level's membrane share",
         default=DEFAULT_MEMBRANE, min=0.0, max=1.0,
     )
+    coarse_energy: EnumProperty(
+        name="Coarse energy", items=COARSE_ENERGY_ITEMS, default="decimated",
+        description="What the coarse level minimizes (Galerkin: with smooth rotations only)",
+    )
     pc2_path: StringProperty(
         name="Point cache", description="Where Bake to point cache writes (empty: next to the .blend)",
         subtype="FILE_PATH", default="",
@@ -113,6 +127,8 @@ class BSARAP_ObjectSettings(bpy.types.PropertyGroup):
             "coarse_vertices": int(self.coarse_vertices) or None,
             "fine_iterations": int(self.fine_iterations),
             "membrane": float(self.membrane),
+            # the Galerkin energy restricts smooth rotations only
+            "coarse_energy": self.coarse_energy if self.energy == "smooth-rotations" else "decimated",
         }
 
 

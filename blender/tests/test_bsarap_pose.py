@@ -536,10 +536,12 @@ class SmoothRotations(unittest.TestCase):
         try:
             obj.bsarap.energy = "spokes-and-rims"
             self.assertNotIn("bending_length", draw().props)
+            self.assertNotIn("coarse_energy", draw().props)
             obj.bsarap.energy = "smooth-rotations"
             obj.bsarap.bending_length = 0.03
             layout = draw()
             self.assertIn("bending_length", layout.props)
+            self.assertIn("coarse_energy", layout.props)
             diag = np.linalg.norm(np.ptp(ext.solve.state(obj).rest, axis=0))
             world = f"{obj.bsarap.bending_length * diag:.4g}"
             self.assertTrue(any(world in t for t in layout.labels), (world, layout.labels))
@@ -580,6 +582,29 @@ class SmoothRotations(unittest.TestCase):
         _, want = self.reference(energy="smooth-rotations", bending_length=ell)
         np.testing.assert_allclose(longer, want, atol=1e-5)
         self.assertGreater(np.abs(longer - sr).max(), 1e-2 * st.diagonal)
+
+    def test_galerkin_coarse_energy_pose(self):
+        """The coarse energy setting reaches the solver: the Galerkin pose is the direct
+        Deformer's for it, and not the decimated one's; under spokes and rims the setting is
+        left out (the Galerkin energy restricts smooth rotations only)."""
+        obj = self.obj
+        try:
+            obj.bsarap.coarse_energy = "decimated"
+            decimated = self.pose_with("smooth-rotations", 0.02, fresh=True)
+            obj.bsarap.coarse_energy = "galerkin"
+            galerkin = self.pose_with("smooth-rotations", 0.02, fresh=True)
+            # every setting as the extension passes it (its float32 tolerance decides where
+            # the solve stops)
+            _, want = self.reference(**obj.bsarap.solver_settings())
+            np.testing.assert_allclose(galerkin, want, atol=1e-5)
+            st = ext.solve.state(obj)
+            self.assertGreater(np.abs(galerkin - decimated).max(), 1e-3 * st.diagonal)
+            self.assertEqual(obj.bsarap.solver_settings()["coarse_energy"], "galerkin")
+            obj.bsarap.energy = "spokes-and-rims"
+            self.assertEqual(obj.bsarap.solver_settings()["coarse_energy"], "decimated")
+        finally:
+            obj.bsarap.coarse_energy = "decimated"
+            obj.bsarap.energy = "spokes-and-rims"
 
 
 class Unregister(unittest.TestCase):

@@ -130,6 +130,11 @@ fn on_a_level_with(
     (mesh, handles, c, targets, reference, coarse)
 }
 
+/// Settles `c` at `targets` step by step: whether it converged within 2000 steps.
+fn settles(c: &mut CoarseBsArap, targets: &[[f64; 3]]) -> bool {
+    (0..2000).any(|_| c.settle(targets).unwrap().expect("a pose to settle").converged)
+}
+
 /// Settling a mesh faired on a level ([`crate::deform::coarse::level_settle`]) first iterates on the
 /// level, before the full mesh is factored: those steps bring the pose closer to converged
 /// ARAP than the coarse solve, the full mesh's steps closer still; the handles stay on their
@@ -175,14 +180,7 @@ fn smooth_rotations_settle_with_the_rotation_step_on_the_level() {
     let config = ArapConfig { energy: Energy::SmoothRotations, ..ArapConfig::default() };
     let (_, handles, mut c, targets, mut reference, coarse) =
         on_a_level_with(config, CoarseEnergy::Decimated);
-    let mut converged = false;
-    for _ in 0..2000 {
-        if c.settle(&targets).unwrap().expect("a pose to settle").converged {
-            converged = true;
-            break;
-        }
-    }
-    assert!(converged, "settling did not converge");
+    assert!(settles(&mut c, &targets), "settling did not converge");
     let level = c.base.level.as_ref().unwrap().mesh.n_vertices();
     let fine = c.fine.as_mut().and_then(|f| f.arap_mut()).expect("the full mesh factored");
     assert_eq!(fine.rotation_unknowns(), Some(level));
@@ -242,14 +240,7 @@ fn the_galerkin_coarse_energy_runs_the_frame() {
     for (&v, t) in handles.handle_vertices().iter().zip(&targets) {
         assert_eq!(c.positions()[v as usize], *t);
     }
-    let mut converged = false;
-    for _ in 0..2000 {
-        if c.settle(&targets).unwrap().expect("a pose to settle").converged {
-            converged = true;
-            break;
-        }
-    }
-    assert!(converged, "settling did not converge");
+    assert!(settles(&mut c, &targets), "settling did not converge");
     let settled = reference.measure(c.positions()).mean_distance;
     assert!(settled < 0.05 * coarse, "settled {settled:e}, coarse {coarse:e}");
     let rest: Vec<[f64; 3]> =
