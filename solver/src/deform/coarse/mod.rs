@@ -202,7 +202,7 @@ impl SolveState {
     }
 
     /// Undoes a failed solve whose pose and rotations were swapped in: they go back to the
-    /// scratch, the coarse pose of `arap` back to the last successful solve's, and nothing is
+    /// scratch, the coarse pose of `coarse` back to the last successful solve's, and nothing is
     /// left to settle.
     fn roll_back(&mut self, coarse: &mut CoarseSolver) {
         self.swap_next();
@@ -293,17 +293,17 @@ impl CoarseBsArap {
         let mut clock = Phases::default();
         let constraints = Constraints::new(mesh, handles);
         let groups = CoarseGroups::new(&base, handles, mesh.positions());
-        let coarse_handles =
-            Handles::from_options(groups.labels.clone())?.with_rig(coarse_rig(&base, handles));
         clock.lap("coarse handles");
         let coarse_mesh = &base.coarse_mesh;
         let full_diagonal = mesh.bbox_diagonal();
-        let coarse_config = ArapConfig {
-            membrane: coarse.membrane,
-            ..same_bending_length(config, full_diagonal, coarse_mesh)
-        };
         let solver = match coarse.coarse_energy {
             CoarseEnergy::Decimated => {
+                let coarse_handles = Handles::from_options(groups.labels.clone())?
+                    .with_rig(coarse_rig(&base, handles));
+                let coarse_config = ArapConfig {
+                    membrane: coarse.membrane,
+                    ..same_bending_length(config, full_diagonal, coarse_mesh)
+                };
                 let arap = Arap::with_constraints(
                     coarse_mesh,
                     Constraints::new(coarse_mesh, &coarse_handles),
