@@ -1,10 +1,11 @@
 //! The smooth-rotations energy of the full mesh restricted to the coarse variant's space (a
 //! Galerkin coarse energy), solved at the coarse level's cost per iteration: the coarse
 //! variant's coarse energy when [`crate::BaseConfig::coarse_energy`] asks for it
-//! ([`crate::deform::coarse::energy`]). [`crate::deform::coarse::fit`] showed that the space holds converged ARAP within
-//! hundredths of a percent of the diagonal while the coarse variant's own energy (ARAP on the
-//! decimated base) has its minimum tenths of a percent away; this is the coarse energy that
-//! aims at the dense one (BENCHMARKS.md, "One pose at every resolution").
+//! ([`crate::deform::coarse::energy`]). [`crate::deform::coarse::fit`] showed that the space
+//! holds converged ARAP within hundredths of a percent of the diagonal while ARAP on the
+//! decimated base has its minimum tenths of a percent away; this is the coarse energy that
+//! aims at the dense one (BENCHMARKS.md, "One pose at every resolution", "The coarse
+//! energy").
 //!
 //! **The restriction.** Fine positions $p_i = P_i c + R_{k(i)} D_i$: coarse positions $c$
 //! (`#Vc×3`), the embedding's row $P_i$, the detail $D_i$ turned by the rotation of the
