@@ -321,6 +321,33 @@ fn bench_reports_the_automatic_or_set_coarse_size() {
     );
 }
 
+/// `--coarse-energy galerkin` runs the coarse variant on the Galerkin coarse energy (reported in
+/// both outputs) with smooth rotations, and is refused in one line with another energy.
+#[test]
+fn coarse_energy_flag() {
+    let sr = ["--energy", "smooth-rotations", "--coarse-energy", "galerkin"];
+    let mut args = vec!["--frames", "2", "--method", "bsarap-coarse"];
+    args.extend(sr);
+    let j = on_sphere("bench", &args);
+    assert_eq!(j["coarse_energy"], "galerkin", "{j}");
+    let default = on_sphere("bench", &["--frames", "2", "--method", "bsarap-coarse"]);
+    assert_eq!(default["coarse_energy"], "decimated");
+    let (obj, sel, _) = sphere();
+    let out = tmp("galerkin.obj");
+    let deform = |extra: &[&str]| {
+        let mut all = vec!["deform", obj.to_str().unwrap(), "--handles", sel.to_str().unwrap()];
+        all.extend(["--move", "0:0,0.2,0", "-o", out.to_str().unwrap()]);
+        all.extend_from_slice(extra);
+        bsarap(&all)
+    };
+    let (code, _, stderr) = deform(&sr);
+    assert_eq!(code, 0, "{stderr}");
+    let (code, _, stderr) = deform(&["--coarse-energy", "galerkin"]);
+    assert_ne!(code, 0);
+    assert!(stderr.contains("smooth-rotations"), "{stderr}");
+    assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+}
+
 /// The readable table says when frames stopped at the cap instead of the stopping rule, and
 /// stays silent when every frame reached it.
 #[test]

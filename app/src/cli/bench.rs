@@ -613,6 +613,7 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
             "coarse_vertices_auto": a.base.coarse_vertices.is_none(),
             "fine_iterations": a.base.fine_iterations,
             "membrane": a.base.membrane,
+            "coarse_energy": setup.base.coarse_energy.name(),
             "threshold": a.threshold,
             "max_iterations": a.max_iters,
             "radius": setup.radius,
@@ -666,7 +667,7 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
     if methods.contains(&Method::BsArapCoarse) {
         let c = &setup.base;
         println!(
-            "bsarap-coarse: base decimated to about {} vertices ({}), smoothing {}, {} fine iterations, membrane share {}",
+            "bsarap-coarse: base decimated to about {} vertices ({}), smoothing {}, {} fine iterations, membrane share {}, coarse energy {}",
             c.coarse_vertices_for(mesh.n_vertices()),
             if c.coarse_vertices.is_some() {
                 "--coarse-vertices".to_string()
@@ -675,7 +676,8 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
             },
             c.smoothing,
             c.fine_iterations,
-            c.membrane
+            c.membrane,
+            c.coarse_energy.name()
         );
     }
     println!(
