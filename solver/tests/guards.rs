@@ -9,18 +9,26 @@ use solver::glam::{DQuat, DVec3};
 use solver::io::{SaveError, write_obj};
 use solver::testing::sphere_with_caps;
 use solver::{
-    ArapConfig, BaseConfig, Deformer, DeformerOptions, GroupTransform, Handles, Mesh, Method,
-    SolveError, handle_targets,
+    ArapConfig, BaseConfig, CoarseEnergy, Deformer, DeformerOptions, Energy, GroupTransform,
+    Handles, Mesh, Method, SolveError, handle_targets,
 };
 
-/// Every method, built with a coarse base small enough to be exercised on small meshes.
+/// Every method, built with a coarse base small enough to be exercised on small meshes, and
+/// last the coarse variant on the Galerkin coarse energy (with `config` on smooth rotations).
 fn deformers(mesh: &Mesh, handles: &Handles, config: &ArapConfig) -> Vec<(Method, Deformer)> {
     let base =
         BaseConfig { coarse_vertices: Some((mesh.n_vertices() / 4).max(16)), ..Default::default() };
     let options = |method| DeformerOptions { method, config: *config, base, ..Default::default() };
+    let galerkin = DeformerOptions {
+        method: Method::BsArapCoarse,
+        config: ArapConfig { energy: Energy::SmoothRotations, ..*config },
+        base: BaseConfig { coarse_energy: CoarseEnergy::Galerkin, ..base },
+        ..Default::default()
+    };
     Method::ALL
         .into_iter()
         .map(|m| (m, Deformer::new(mesh, handles, options(m)).unwrap()))
+        .chain([(Method::BsArapCoarse, Deformer::new(mesh, handles, galerkin).unwrap())])
         .collect()
 }
 
