@@ -3,7 +3,7 @@
 //! (BENCHMARKS.md, "One pose at every resolution"): whether a better coarse energy can bring
 //! the coarse variant nearer, or only a finer coarse mesh.
 //!
-//!     cargo run --release -p solver --example coarse_space -- MESH SELECTION [--bending-length F] [--frames N] [--coarse-vertices C[,C…]] [--penalty W[,W…]] [--path-tolerance T[,T…]] [--path-decrease T[,T…]] [--anderson W] [--interior]
+//!     cargo run --release -p solver --example coarse_space -- MESH SELECTION [--bending-length F] [--frames N] [--coarse-vertices C[,C…]] [--penalty W[,W…]] [--path-tolerance T[,T…]] [--path-decrease T[,T…]] [--anderson W] [--interior] [--median]
 //!
 //! At the middle frame ⌈N/2⌉ of the bench's circle (group 0 on a circle of 0.1·diag, N = 20 by
 //! default): converged ARAP on the mesh ([`solver::deform::quality::Reference`]) and, for each
@@ -31,7 +31,8 @@
 //!
 //! `--anderson W`: the Galerkin solves with Anderson acceleration of window W. `--interior`: also
 //! each penalty with the coarse vertices inside a handle held exactly
-//! (`HandleRule::PenaltyAndInterior`).
+//! (`HandleRule::PenaltyAndInterior`). `--median`: the penalties' weights in units of the median
+//! diagonal entry of the matrix instead of the largest (`HandleRule::PenaltyOfMedian`).
 //!
 //! `--bending-length F`: smooth rotations with ℓ = F·diag (default: spokes and rims).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
@@ -49,6 +50,7 @@ use solver::{
 fn main() {
     let mut args: Vec<String> = std::env::args().skip(1).collect();
     let interior = args.iter().position(|a| a == "--interior").map(|i| args.remove(i)).is_some();
+    let median = args.iter().position(|a| a == "--median").map(|i| args.remove(i)).is_some();
     let mut option = |name: &str| {
         args.iter().position(|a| a == name).map(|i| {
             let value = args.get(i + 1).unwrap_or_else(|| panic!("{name} VALUE")).clone();
@@ -90,7 +92,7 @@ fn main() {
     assert!(frames >= 3, "--frames must be at least 3");
     assert!(
         args.len() == 2,
-        "usage: coarse_space MESH SELECTION [--bending-length F] [--frames N] [--coarse-vertices C[,C…]] [--penalty W[,W…]] [--path-tolerance T[,T…]] [--path-decrease T[,T…]] [--anderson W] [--interior]"
+        "usage: coarse_space MESH SELECTION [--bending-length F] [--frames N] [--coarse-vertices C[,C…]] [--penalty W[,W…]] [--path-tolerance T[,T…]] [--path-decrease T[,T…]] [--anderson W] [--interior] [--median]"
     );
     let mesh = solver::io::load_mesh(std::path::Path::new(&args[0])).expect("mesh").mesh;
     let handles = solver::deform::selection::load_selection(
@@ -197,7 +199,12 @@ fn main() {
             let rules =
                 std::iter::once((", coarse handles".to_string(), HandleRule::CoarseVertices))
                     .chain(penalties.iter().map(|&weight| {
-                        (format!(", penalty {weight}"), HandleRule::Penalty { weight })
+                        if median {
+                            let rule = HandleRule::PenaltyOfMedian { weight };
+                            (format!(", median penalty {weight}"), rule)
+                        } else {
+                            (format!(", penalty {weight}"), HandleRule::Penalty { weight })
+                        }
                     }))
                     .chain(penalties.iter().filter(|_| interior).map(|&weight| {
                         (

@@ -28,6 +28,8 @@ pub struct GalerkinMesh {
     pub(super) pair: FixedMap<u64, [f64; 3]>,
     /// $\max_a G_{aa}$, the scale of the handles' penalty.
     pub(super) g_max: f64,
+    /// The median of the $G_{aa}$, the scale of [`super::HandleRule::PenaltyOfMedian`].
+    pub(super) g_median: f64,
     /// $\sum_{(i,j)} w_{ij}\lVert\beta_i - \beta_j\rVert^2$ over ordered pairs: the energy's
     /// constant from the edges.
     pub(super) rest_term: f64,
@@ -95,10 +97,15 @@ impl GalerkinMesh {
                 }
             }
         }
-        let g_max = g
-            .iter()
-            .filter(|(k, _)| (*k >> 32) == (*k & 0xffff_ffff))
-            .fold(0.0f64, |s, (_, &v)| s.max(v));
+        let mut diagonal: Vec<f64> =
+            g.iter().filter(|(k, _)| (*k >> 32) == (*k & 0xffff_ffff)).map(|(_, &v)| v).collect();
+        let g_max = diagonal.iter().fold(0.0f64, |s, &v| s.max(v));
+        let middle = diagonal.len() / 2;
+        let g_median = if diagonal.is_empty() {
+            0.0
+        } else {
+            *diagonal.select_nth_unstable_by(middle, f64::total_cmp).1
+        };
         let (coarse_cot, _) =
             face_cotangents_or(coarse.positions(), Some(&base.rest_kept), tris, base.floor)
                 .map_err(|e| SolveError::DegenerateBase { face: e.face })?;
@@ -107,6 +114,6 @@ impl GalerkinMesh {
             coarse_edges.iter().flat_map(|&(k, l, w)| [(k, (l, w)), (l, (k, w))]).collect();
         let neighbours = Csr::from_pairs(m, &both_orders);
         let sizes = (mesh.n_vertices(), m);
-        Ok(GalerkinMesh { g, pair, g_max, rest_term, neighbours, sizes })
+        Ok(GalerkinMesh { g, pair, g_max, g_median, rest_term, neighbours, sizes })
     }
 }

@@ -120,6 +120,10 @@ pub enum HandleRule {
     /// the fine vertices they represent in one group) held exactly on its rigid motion: exact
     /// where a handle covers whole clusters, a penalty only at its border.
     PenaltyAndInterior { weight: f64 },
+    /// The penalty of [`HandleRule::Penalty`] with the median diagonal entry of $G$ for its unit
+    /// instead of the largest, which is an outlier (an experiment: the weight's unit
+    /// without a free scale that grows with the mesh).
+    PenaltyOfMedian { weight: f64 },
 }
 
 /// Anderson acceleration of the free coarse positions (as `deform::arap`'s Anderson loop):
@@ -220,11 +224,15 @@ impl GalerkinCoarse {
             return Err(SolveError::StaleBase);
         }
         let (mut g, mut pair, g_max) = (gathered.g.clone(), gathered.pair.clone(), gathered.g_max);
+        let g_median = gathered.g_median;
         let neighbours = gathered.neighbours.clone();
         let constraints = Constraints::new(mesh, handles);
         let (mu, penalized, groups) = match rule {
             HandleRule::Penalty { weight } => {
                 (weight * g_max, constraints.handle_vertices.len(), None)
+            }
+            HandleRule::PenaltyOfMedian { weight } => {
+                (weight * g_median, constraints.handle_vertices.len(), None)
             }
             HandleRule::CoarseVertices => {
                 (PINNED_WEIGHT * g_max, 0, Some(CoarseGroups::new(base, handles, mesh.positions())))

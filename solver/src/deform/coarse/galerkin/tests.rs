@@ -25,6 +25,7 @@ fn rest_and_rigid_motions_are_reproduced() {
         HandleRule::CoarseVertices,
         HandleRule::Penalty { weight: 1.0 },
         HandleRule::PenaltyAndInterior { weight: 0.1 },
+        HandleRule::PenaltyOfMedian { weight: 0.3 },
     ];
     for rule in rules {
         let gathered = GalerkinMesh::new(&mesh, &base).unwrap();
