@@ -121,8 +121,8 @@ pub enum HandleRule {
     /// where a handle covers whole clusters, a penalty only at its border.
     PenaltyAndInterior { weight: f64 },
     /// The penalty of [`HandleRule::Penalty`] with the median diagonal entry of $G$ for its unit
-    /// instead of the largest, which is an outlier (an experiment: the weight's unit
-    /// without a free scale that grows with the mesh).
+    /// instead of the largest, which is an outlier. Measured, not better on the paper's sets
+    /// held out (`bench/results/coarse_space/README.md`, "The penalty's unit").
     PenaltyOfMedian { weight: f64 },
 }
 
