@@ -91,6 +91,9 @@ struct Held {
     target: Option<usize>,
     /// Its rest position.
     rest: [f64; 3],
+    /// Its penalty weight $\mu$: the handles' rule's, or [`PINNED_WEIGHT`] (times the unit)
+    /// for a vertex held at rest.
+    mu: f64,
     cluster: u32,
     corners: [u32; 3],
     weights: [f64; 3],
@@ -164,7 +167,6 @@ pub struct GalerkinCoarse {
     by_coarse: Csr<(u32, [f64; 3])>,
     /// The coarse mesh's clamped cotangent edges: per cluster $k$, its $(l, w^c_{kl})$.
     neighbours: Csr<(u32, f64)>,
-    mu: f64,
     held: Vec<Held>,
     /// The fine handle vertices (order of their targets) and their rest positions.
     handle_vertices: Vec<u32>,
@@ -227,6 +229,7 @@ impl GalerkinCoarse {
         let g_median = gathered.g_median;
         let neighbours = gathered.neighbours.clone();
         let constraints = Constraints::new(mesh, handles);
+        let pinned_mu = PINNED_WEIGHT * g_max;
         let (mu, penalized, groups) = match rule {
             HandleRule::Penalty { weight } => {
                 (weight * g_max, constraints.handle_vertices.len(), None)
@@ -235,7 +238,7 @@ impl GalerkinCoarse {
                 (weight * g_median, constraints.handle_vertices.len(), None)
             }
             HandleRule::CoarseVertices => {
-                (PINNED_WEIGHT * g_max, 0, Some(CoarseGroups::new(base, handles, mesh.positions())))
+                (pinned_mu, 0, Some(CoarseGroups::new(base, handles, mesh.positions())))
             }
             HandleRule::PenaltyAndInterior { weight } => (
                 weight * g_max,
@@ -247,14 +250,15 @@ impl GalerkinCoarse {
         let held: Vec<Held> = constraints.handle_vertices[..penalized]
             .iter()
             .enumerate()
-            .map(|(t, &v)| (Some(t), v))
-            .chain(constraints.pinned_vertices.iter().map(|&v| (None, v)))
-            .map(|(target, v)| {
+            .map(|(t, &v)| (Some(t), v, mu))
+            .chain(constraints.pinned_vertices.iter().map(|&v| (None, v, pinned_mu)))
+            .map(|(target, v, mu)| {
                 let (corners, weights) = embedding_row(base, v as usize);
                 Held {
                     vertex: v,
                     target,
                     rest: mesh.positions()[v as usize],
+                    mu,
                     cluster: base.representative[v as usize],
                     corners,
                     weights,
@@ -267,12 +271,12 @@ impl GalerkinCoarse {
                 for b in 0..3 {
                     if h.corners[a] >= h.corners[b] {
                         *g.entry(key(h.corners[a], h.corners[b])).or_default() +=
-                            mu * h.weights[a] * h.weights[b];
+                            h.mu * h.weights[a] * h.weights[b];
                     }
                 }
                 let e = pair.entry(key(h.cluster, h.corners[a])).or_default();
                 for (ed, dd) in e.iter_mut().zip(h.detail) {
-                    *ed -= mu * h.weights[a] * dd;
+                    *ed -= h.mu * h.weights[a] * dd;
                 }
             }
         }
@@ -308,7 +312,8 @@ impl GalerkinCoarse {
             })
             .collect();
         let matrix = Csr::from_pairs(m, &entries);
-        let constant = gathered.rest_term + held.iter().map(|h| mu * norm2(h.detail)).sum::<f64>();
+        let constant =
+            gathered.rest_term + held.iter().map(|h| h.mu * norm2(h.detail)).sum::<f64>();
         let pairs: Vec<_> = pair
             .into_iter()
             .map(|(k, v)| ((k >> 32) as u32, ((k & 0xffff_ffff) as u32, v)))
@@ -331,7 +336,7 @@ impl GalerkinCoarse {
         for hd in &held {
             let p = mesh.positions()[hd.vertex as usize];
             let d = hd.detail;
-            masses[hd.cluster as usize] += mu * (d[0] * p[0] + d[1] * p[1] + d[2] * p[2]);
+            masses[hd.cluster as usize] += hd.mu * (d[0] * p[0] + d[1] * p[1] + d[2] * p[2]);
         }
         let ell = bending_length * mesh.bbox_diagonal();
         let field =
@@ -342,7 +347,6 @@ impl GalerkinCoarse {
             pairs,
             by_coarse,
             neighbours,
-            mu,
             held,
             handle_rest: constraints
                 .handle_vertices
@@ -403,11 +407,11 @@ impl GalerkinCoarse {
             for a in 0..3 {
                 let e = &mut tau[h.corners[a] as usize];
                 for d in 0..3 {
-                    e[d] += self.mu * h.weights[a] * t[d];
+                    e[d] += h.mu * h.weights[a] * t[d];
                 }
             }
-            add_outer(&mut sigma[h.cluster as usize], self.mu, h.detail, t);
-            constant += self.mu * norm2(t);
+            add_outer(&mut sigma[h.cluster as usize], h.mu, h.detail, t);
+            constant += h.mu * norm2(t);
         }
         // Coarse handles on their group's rigid motion (the coarse variant's rule).
         if let Some(groups) = &self.groups {

@@ -103,7 +103,7 @@ fn the_energy_is_the_restricted_one_and_descends() {
         let turned = mul_vec(&g.rotations[h.cluster as usize], h.detail);
         let p = on_coarse(v, &g.c);
         let p = [p[0] + turned[0], p[1] + turned[1], p[2] + turned[2]];
-        direct += g.mu * norm2(sub(p, target));
+        direct += h.mu * norm2(sub(p, target));
     }
     let coarse_cot =
         face_cotangents_or(base.coarse_mesh.positions(), Some(&base.rest_kept), tris, base.floor)
