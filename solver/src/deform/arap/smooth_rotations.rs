@@ -189,14 +189,8 @@ impl SmoothRotations {
             .enumerate()
             .map(|(c, (covs, gradient))| {
                 let mut sums = RotationSums::default();
-                for (k, (s, g)) in covs.iter().zip(gradient).enumerate() {
-                    let (i, row) = (c * block + k, neighbours.row(c * block + k));
-                    sums.traces += trace_of_product(&rotations[i], s);
-                    sums.term += spread(&rotations[i], row, rotations, |_| true);
-                    if implicit {
-                        *g = rotation_solve::minus_gradient(&rotations[i], s, row, rotations, beta);
-                    }
-                }
+                let first = c * block;
+                sums.add_starts(first, covs, gradient, neighbours, rotations, beta, implicit);
                 sums
             })
             .collect();
@@ -405,14 +399,7 @@ impl Arap {
                     edges: self.covariances(first, covs, 0.0),
                     ..RotationSums::default()
                 };
-                for (k, (s, g)) in covs.iter().zip(gradient).enumerate() {
-                    let (i, row) = (first + k, neighbours.row(first + k));
-                    sums.traces += trace_of_product(&rot[i], s);
-                    sums.term += spread(&rot[i], row, rot, |_| true);
-                    if implicit {
-                        *g = rotation_solve::minus_gradient(&rot[i], s, row, rot, beta);
-                    }
-                }
+                sums.add_starts(first, covs, gradient, neighbours, rot, beta, implicit);
                 sums
             })
             .collect();
@@ -479,6 +466,31 @@ pub(crate) struct RotationSums {
 
 impl RotationSums {
     /// Adds `other` into `self`.
+    /// Adds, for the vertices `first..` with the covariances `covs`, $\operatorname{tr}(R_iS_i)$
+    /// and $\sum_j w_{ij}\lVert R_i-R_j\rVert_F^2$ for the current `rotations`, and writes the
+    /// implicit step's gradient into `gradient` when it runs: the per-vertex start of a local
+    /// step ([`SmoothRotations::start_sums`], and `Arap`'s folded covariance pass).
+    #[expect(clippy::too_many_arguments, reason = "one vertex block's inputs, each used")]
+    fn add_starts(
+        &mut self,
+        first: usize,
+        covs: &[Mat3],
+        gradient: &mut [[f64; 3]],
+        neighbours: &Csr<(u32, f64)>,
+        rotations: &[Mat3],
+        beta: f64,
+        implicit: bool,
+    ) {
+        for (k, (s, g)) in covs.iter().zip(gradient).enumerate() {
+            let (i, row) = (first + k, neighbours.row(first + k));
+            self.traces += trace_of_product(&rotations[i], s);
+            self.term += spread(&rotations[i], row, rotations, |_| true);
+            if implicit {
+                *g = rotation_solve::minus_gradient(&rotations[i], s, row, rotations, beta);
+            }
+        }
+    }
+
     fn add(&mut self, other: RotationSums) {
         self.edges += other.edges;
         self.traces += other.traces;
