@@ -211,7 +211,8 @@ fn main() {
                             format!(", penalty {weight} and interior"),
                             HandleRule::PenaltyAndInterior { weight },
                         )
-                    }));
+                    }))
+                    .chain(std::iter::once((", exact handles".to_string(), HandleRule::Exact)));
             let build = |rule| {
                 let mut g = GalerkinCoarse::new(
                     &mesh,

@@ -4,10 +4,11 @@
 //! - [`crate::CoarseEnergy::Decimated`]: ARAP on the decimated base $B_c$ with the handle groups on
 //!   chosen coarse vertices, which follow their group's rigid motion;
 //! - [`crate::CoarseEnergy::Galerkin`]: the full mesh's smooth-rotations energy restricted to the
-//!   coarse space ([`crate::deform::coarse::galerkin`]), the fine handle vertices held by its
-//!   penalty ([`crate::deform::coarse::galerkin::DEFAULT_PENALTY`]). Its minimum is the full mesh's minimum within the coarse
-//!   space, so the pose while dragging and the pose settled on the full mesh aim at the same
-//!   energy.
+//!   coarse space ([`crate::deform::coarse::galerkin`]), the fine handle vertices on their
+//!   targets in it as in the pose shown ([`crate::deform::coarse::galerkin::HandleRule::Exact`]).
+//!   Its minimum is the full mesh's minimum among the poses of the coarse space with the handles
+//!   on their targets, so the pose while dragging and the pose settled on the full mesh aim at
+//!   the same energy.
 //!
 //! Both stop by the configuration's rule (relative energy decrease below
 //! [`ArapConfig::tolerance`], at most [`ArapConfig::max_iterations`]) and take its Anderson

@@ -22,7 +22,7 @@
 //!   energy restricted to the coarse space, its handles' terms added to the mesh's part.
 //!
 //! 4. Each frame: ARAP on $B_c$ (the coarse handles on their targets), or the Galerkin energy
-//!    (the fine handles on theirs, by a penalty), gives $B_c'$ and $R_k$;
+//!    (the fine handles on theirs, exactly), gives $B_c'$ and $R_k$;
 //!    $p'_i = \sum_k w_{ik} B'_{c,k} + \hat R_i (D_i + C_i)$ where $\hat R_i$ is the normalized
 //!    blend of the corner rotations as quaternions (signs aligned) and $C_i$ the carried fine
 //!    correction (step 5; zero without it). Handle vertices are set to their targets exactly,
@@ -84,7 +84,7 @@ use crate::deform::arap::{Arap, ArapConfig, Energy, RotationStep, SolveStats};
 use crate::deform::coarse::base::{CoarseBase, Phases};
 use crate::deform::coarse::energy::CoarseSolver;
 use crate::deform::coarse::full_mesh::FineLevel;
-use crate::deform::coarse::galerkin::{DEFAULT_PENALTY, GalerkinCoarse, HandleRule};
+use crate::deform::coarse::galerkin::{GalerkinCoarse, HandleRule};
 pub use crate::deform::coarse::groups::MIN_COARSE_GROUP;
 use crate::deform::coarse::groups::{CoarseGroups, coarse_rig};
 use crate::deform::coarse::level_settle::LevelSolver;
@@ -324,7 +324,7 @@ impl CoarseBsArap {
                 }
                 let gathered = base.galerkin_mesh(mesh)?;
                 clock.lap("Galerkin mesh part");
-                let rule = HandleRule::Penalty { weight: DEFAULT_PENALTY };
+                let rule = HandleRule::Exact;
                 let energy = GalerkinCoarse::new(
                     mesh,
                     &base,

@@ -50,6 +50,54 @@ pub(super) fn embedding_row(base: &CoarseBase, i: usize) -> ([u32; 3], [f64; 3])
     (base.coarse_mesh.triangles()[base.faces[i] as usize], from_stored(w0, w1))
 }
 
+/// The coarse differences $\delta'$ of a fine edge $(i, j)$ into `delta`: $P_i - P_j$ (entries
+/// merged by coarse vertex), an end given as `None` (a vertex held at its target,
+/// `galerkin/exact.rs`) contributing nothing.
+pub(super) fn edge_difference(
+    ends: [Option<([u32; 3], [f64; 3])>; 2],
+    delta: &mut Vec<(u32, f64)>,
+) {
+    delta.clear();
+    for ((t, ws), sign) in ends.into_iter().zip([1.0, -1.0]).filter_map(|(e, s)| Some((e?, s))) {
+        for a in 0..3 {
+            match delta.iter_mut().find(|(v, _)| *v == t[a]) {
+                Some(d) => d.1 += sign * ws[a],
+                None => delta.push((t[a], sign * ws[a])),
+            }
+        }
+    }
+}
+
+/// Adds the terms of a fine edge with weight `w` (negative to take them away), in both orders,
+/// to the sums: $G$ gains $2w\,\delta'^\top\delta'$, the clusters of both ends each
+/// $w\,\delta'_b\,\rho$ for every coarse vertex $b$ of `delta`, $\rho$ the edge's rest vector
+/// `rest`. Returns the energy's constant from the edge, $2w\lVert\rho\rVert^2$.
+pub(super) fn add_edge(
+    g: &mut FixedMap<u64, f64>,
+    pair: &mut FixedMap<u64, [f64; 3]>,
+    clusters: [u32; 2],
+    delta: &[(u32, f64)],
+    rest: [f64; 3],
+    w: f64,
+) -> f64 {
+    for &(a, da) in delta {
+        for &(b, db) in delta {
+            if a >= b {
+                *g.entry(key(a, b)).or_default() += 2.0 * w * da * db;
+            }
+        }
+    }
+    for k in clusters {
+        for &(b, db) in delta {
+            let e = pair.entry(key(k, b)).or_default();
+            for d in 0..3 {
+                e[d] += w * db * rest[d];
+            }
+        }
+    }
+    2.0 * w * norm2(rest)
+}
+
 impl GalerkinMesh {
     /// Gathers the sums over `mesh`'s edges through `base`'s prolongation (module doc).
     pub fn new(mesh: &Mesh, base: &CoarseBase) -> Result<GalerkinMesh, SolveError> {
@@ -68,34 +116,11 @@ impl GalerkinMesh {
             if w == 0.0 {
                 continue;
             }
-            let ((ti, wi), (tj, wj)) = (row(i as usize), row(j as usize));
-            delta.clear();
-            for (t, ws, sign) in [(ti, wi, 1.0), (tj, wj, -1.0)] {
-                for a in 0..3 {
-                    match delta.iter_mut().find(|(v, _)| *v == t[a]) {
-                        Some(d) => d.1 += sign * ws[a],
-                        None => delta.push((t[a], sign * ws[a])),
-                    }
-                }
-            }
-            // Both orders: G gains 2w δᵀδ; each end's cluster gains w δ_b (β_i − β_j).
-            for &(a, da) in &delta {
-                for &(b, db) in &delta {
-                    if a >= b {
-                        *g.entry(key(a, b)).or_default() += 2.0 * w * da * db;
-                    }
-                }
-            }
-            let rest = sub(beta_of[i as usize], beta_of[j as usize]);
-            rest_term += 2.0 * w * norm2(rest);
-            for k in [base.representative[i as usize], base.representative[j as usize]] {
-                for &(b, db) in &delta {
-                    let e = pair.entry(key(k, b)).or_default();
-                    for d in 0..3 {
-                        e[d] += w * db * rest[d];
-                    }
-                }
-            }
+            let (i, j) = (i as usize, j as usize);
+            edge_difference([Some(row(i)), Some(row(j))], &mut delta);
+            let rest = sub(beta_of[i], beta_of[j]);
+            let clusters = [base.representative[i], base.representative[j]];
+            rest_term += add_edge(&mut g, &mut pair, clusters, &delta, rest, w);
         }
         let mut diagonal: Vec<f64> =
             g.iter().filter(|(k, _)| (*k >> 32) == (*k & 0xffff_ffff)).map(|(_, &v)| v).collect();

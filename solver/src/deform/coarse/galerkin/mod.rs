@@ -32,13 +32,18 @@
 //!   R_l\rVert_F^2$ with $B_c$'s clamped cotangent weights and $\beta_\ell = \ell^2$ (a linear
 //!   rotation field's Dirichlet energy on any triangulation; the full mesh's weights summed
 //!   across cluster borders would grow with its resolution).
-//! - Handles ([`HandleRule`]): either the coarse variant's coarse handles held exactly on their
-//!   group's rigid motion (the free block of the matrix factored), so that only the energy
-//!   differs from the coarse variant, or every fine handle vertex on its target $t_i$ by a
-//!   penalty $\mu\sum_i \lVert P_i c + R_{k(i)} D_i - t_i\rVert^2$, $\mu$ a weight times
-//!   $\max_a G_{aa}$, which adds $\mu P_H^\top P_H$ to the matrix, its part to each $g_{kb}$
-//!   and a per-frame term to $S_k$ and $r$. Vertices of components without handles are held at
-//!   rest by the same penalty (weight $10^3$).
+//! - Handles ([`HandleRule`]): the coarse variant's rule ([`HandleRule::Exact`],
+//!   `galerkin/exact.rs`) puts every fine handle vertex on its target in the energy, as in the
+//!   pose shown, so that the terms of the edges at a handle change and nothing is to be chosen.
+//!   Measured beside it: the coarse variant's coarse handles held exactly on their group's rigid
+//!   motion (the free block of the matrix factored), or every fine handle vertex on its target
+//!   $t_i$ by a penalty $\mu\sum_i \lVert P_i c + R_{k(i)} D_i - t_i\rVert^2$, $\mu$ a weight
+//!   times $\max_a G_{aa}$, which adds $\mu P_H^\top P_H$ to the matrix, its part to each
+//!   $g_{kb}$ and a per-frame term to $S_k$ and $r$ (the coarse variant's rule before the exact
+//!   one: its pose lies as near converged ARAP on average on the paper's sets, with two to three
+//!   times the exact rule's excess energy, and its weight is a free scale; BENCHMARKS.md, "The
+//!   coarse energy"). Vertices of components without handles are held at rest by the same
+//!   penalty (weight $10^3$).
 //!
 //! **Iterations**: a local step and a global step (the matrix factored once) until the coarse
 //! positions move less than a tolerance. The local step forms the clusters' covariances and
@@ -61,6 +66,7 @@
 //! prolongation of [`mod@crate::deform::coarse::prolong`] (details on the blend of the corner
 //! rotations), with constrained vertices on their targets.
 
+mod exact;
 mod mesh_part;
 
 pub use mesh_part::GalerkinMesh;
@@ -100,9 +106,9 @@ struct Held {
     detail: [f64; 3],
 }
 
-/// The handles' penalty weight of [`HandleRule::Penalty`] to use, times the largest diagonal
-/// entry of $G$: on each of the eleven bench sets, the weight (of 1, 0.3, 0.1, 0.03, 0.01) with
-/// the least mean distance from converged ARAP over the other ten sets
+/// The handles' penalty weight of [`HandleRule::Penalty`] where one is measured, times the
+/// largest diagonal entry of $G$: on each of the eleven bench sets, the weight (of 1, 0.3, 0.1,
+/// 0.03, 0.01) with the least mean distance from converged ARAP over the other ten sets
 /// (`bench/results/coarse_space/penalty.txt`).
 pub const DEFAULT_PENALTY: f64 = 0.03;
 
@@ -127,6 +133,9 @@ pub enum HandleRule {
     /// instead of the largest, which is an outlier. Measured, not better on the paper's sets
     /// held out (`bench/results/coarse_space/README.md`, "The penalty's unit").
     PenaltyOfMedian { weight: f64 },
+    /// Every fine handle vertex on its target in the energy, as in the pose shown
+    /// (`galerkin/exact.rs`): no weight.
+    Exact,
 }
 
 /// Anderson acceleration of the free coarse positions (as `deform::arap`'s Anderson loop):
@@ -168,15 +177,18 @@ pub struct GalerkinCoarse {
     /// The coarse mesh's clamped cotangent edges: per cluster $k$, its $(l, w^c_{kl})$.
     neighbours: Csr<(u32, f64)>,
     held: Vec<Held>,
+    /// The per-frame terms of the edges with a handle end under [`HandleRule::Exact`] (none
+    /// under the other rules).
+    exact_terms: exact::FrameTerms,
     /// The fine handle vertices (order of their targets) and their rest positions.
     handle_vertices: Vec<u32>,
     handle_rest: Vec<[f64; 3]>,
     factor: SpdFactor,
     /// $G$ with the handles' terms, every coarse vertex, both orders (for the energy).
     matrix: Csr<(u32, f64)>,
-    /// The energy's constants: the edges' ([`GalerkinMesh`]) and the held vertices'
-    /// $\mu\sum_i\lVert D_i\rVert^2$ (the targets' $\mu\sum_i\lVert t_i\rVert^2$ is added per
-    /// solve).
+    /// The energy's constants: the edges' ([`GalerkinMesh`], changed at the handles by the
+    /// exact rule) and the held vertices' $\mu\sum_i\lVert D_i\rVert^2$ (the targets'
+    /// $\mu\sum_i\lVert t_i\rVert^2$ and the exact rule's are added per solve).
     constant: f64,
     /// The energy after the last iteration ([`GalerkinCoarse::energy`]).
     energy: f64,
@@ -231,6 +243,7 @@ impl GalerkinCoarse {
         let constraints = Constraints::new(mesh, handles);
         let pinned_mu = PINNED_WEIGHT * g_max;
         let (mu, penalized, groups) = match rule {
+            HandleRule::Exact => (exact::HOLD * g_max, constraints.handle_vertices.len(), None),
             HandleRule::Penalty { weight } => {
                 (weight * g_max, constraints.handle_vertices.len(), None)
             }
@@ -280,6 +293,15 @@ impl GalerkinCoarse {
                 }
             }
         }
+        let (exact_terms, exact_constant) = if rule == HandleRule::Exact {
+            let mut target_of = vec![None; mesh.n_vertices()];
+            for (t, &v) in constraints.handle_vertices.iter().enumerate() {
+                target_of[v as usize] = Some(t as u32);
+            }
+            exact::hold_exactly(mesh, base, &target_of, &mut g, &mut pair)?
+        } else {
+            (exact::FrameTerms::none(m), 0.0)
+        };
         let eps = 1e-12 * g_max;
         // The free block: every coarse vertex but the coarse handles.
         let mut free = vec![None; m];
@@ -312,8 +334,9 @@ impl GalerkinCoarse {
             })
             .collect();
         let matrix = Csr::from_pairs(m, &entries);
-        let constant =
-            gathered.rest_term + held.iter().map(|h| h.mu * norm2(h.detail)).sum::<f64>();
+        let constant = gathered.rest_term
+            + exact_constant
+            + held.iter().map(|h| h.mu * norm2(h.detail)).sum::<f64>();
         let pairs: Vec<_> = pair
             .into_iter()
             .map(|(k, v)| ((k >> 32) as u32, ((k & 0xffff_ffff) as u32, v)))
@@ -338,6 +361,14 @@ impl GalerkinCoarse {
             let d = hd.detail;
             masses[hd.cluster as usize] += hd.mu * (d[0] * p[0] + d[1] * p[1] + d[2] * p[2]);
         }
+        // The exact rule's σ_k at rest targets.
+        let rest_targets: Vec<_> =
+            constraints.handle_vertices.iter().map(|&v| mesh.positions()[v as usize]).collect();
+        let mut rest_sigma = vec![[[0.0; 3]; 3]; m];
+        exact_terms.add(&rest_targets, &mut vec![[0.0; 3]; m], &mut rest_sigma);
+        for (mk, s) in masses.iter_mut().zip(&rest_sigma) {
+            *mk += s[0][0] + s[1][1] + s[2][2];
+        }
         let ell = bending_length * mesh.bbox_diagonal();
         let field =
             SmoothRotations::with_masses(&neighbours, &masses, ell, None).map_err(|source| {
@@ -348,11 +379,8 @@ impl GalerkinCoarse {
             by_coarse,
             neighbours,
             held,
-            handle_rest: constraints
-                .handle_vertices
-                .iter()
-                .map(|&v| mesh.positions()[v as usize])
-                .collect(),
+            handle_rest: rest_targets,
+            exact_terms,
             handle_vertices: constraints.handle_vertices.clone(),
             factor,
             matrix,
@@ -413,6 +441,7 @@ impl GalerkinCoarse {
             add_outer(&mut sigma[h.cluster as usize], h.mu, h.detail, t);
             constant += h.mu * norm2(t);
         }
+        constant += self.exact_terms.add(targets, &mut tau, &mut sigma);
         // Coarse handles on their group's rigid motion (the coarse variant's rule).
         if let Some(groups) = &self.groups {
             let (mut motions, mut coarse_targets) = (Vec::new(), Vec::new());
