@@ -209,3 +209,29 @@ fn an_unwritten_base_is_written_when_asked() {
     assert_eq!(read.unwrap().precompute_phases()[0].0, "read from the disk cache");
     assert!(unwritten.is_none());
 }
+
+/// The Galerkin coarse energy's mesh part travels with the file: a base written for the
+/// decimated energy is rewritten once the Galerkin part is gathered for it, and then read back
+/// with it (nothing left to write).
+#[test]
+fn the_galerkin_part_is_written_once_gathered() {
+    let (mesh, _, _) = two_handle_sets();
+    let decimated = BaseConfig { coarse_vertices: Some(300), ..Default::default() };
+    let galerkin = BaseConfig { coarse_energy: solver::CoarseEnergy::Galerkin, ..decimated };
+    let scratch = solver::testing::ScratchDir::new("disk-cache-galerkin");
+    let dir = scratch.to_path_buf();
+    let open = |settings: &BaseConfig| {
+        let (c, unwritten) = MeshCache::on_disk(dir.clone())
+            .prepare_unwritten(Method::BsArapCoarse, &mesh, settings)
+            .unwrap();
+        (c.unwrap().precompute_phases()[0].0, unwritten)
+    };
+    let (_, unwritten) = open(&decimated);
+    unwritten.expect("a new base").write().unwrap();
+    let (phase, unwritten) = open(&galerkin);
+    assert_eq!(phase, "read from the disk cache");
+    unwritten.expect("the Galerkin part gathered now, to write").write().unwrap();
+    let (phase, unwritten) = open(&galerkin);
+    assert_eq!(phase, "read from the disk cache");
+    assert!(unwritten.is_none(), "the Galerkin part was read with the base");
+}

@@ -133,7 +133,8 @@ impl MeshCache {
     /// [`CoarseBase`] for [`Method::BsArapCoarse`] (with the Galerkin coarse energy's mesh part
     /// when `base` asks for that energy), `None` for the other methods. Call it
     /// right after loading, in the background, so that the first handle set waits only for
-    /// its own part. A base built anew is written to the cache directory before it returns.
+    /// its own part. A base built anew, or one that gained its Galerkin part, is written to
+    /// the cache directory before it returns.
     pub fn prepare(
         &mut self,
         method: Method,
@@ -161,11 +162,15 @@ impl MeshCache {
         if method != Method::BsArapCoarse {
             return Ok((None, None));
         }
-        if let Some(c) = &self.coarse
+        if let Some(c) = self.coarse.clone()
             && c.fits(mesh, base)
         {
-            gather_galerkin(c, mesh, base)?;
-            return Ok((Some(c.clone()), None));
+            // A Galerkin part gathered now goes to the file too.
+            let gathered = gather_galerkin(&c, mesh, base)?;
+            let path = self.disk.as_ref().filter(|_| gathered);
+            let path = path.map(|dir| coarse_cache::cache_path(dir, mesh, base));
+            let unwritten = path.map(|path| UnwrittenBase { base: c.clone(), path });
+            return Ok((Some(c), unwritten));
         }
         self.coarse = None;
         self.disk_note = None;
@@ -184,8 +189,13 @@ impl MeshCache {
             }
         };
         self.coarse = Some(c.clone());
+        // Written when built anew, or read without the Galerkin part it has now.
+        let gathered = gather_galerkin(&c, mesh, base)?;
+        let path = path.or_else(|| {
+            let dir = self.disk.as_ref().filter(|_| gathered)?;
+            Some(coarse_cache::cache_path(dir, mesh, base))
+        });
         let unwritten = path.map(|path| UnwrittenBase { base: c.clone(), path });
-        gather_galerkin(&c, mesh, base)?;
         Ok((Some(c), unwritten))
     }
 
@@ -196,12 +206,19 @@ impl MeshCache {
 }
 
 /// Gathers the Galerkin coarse energy's mesh part of `coarse` when `base` asks for that
-/// energy ([`CoarseBase::galerkin_mesh`]; nothing when gathered already).
-fn gather_galerkin(coarse: &CoarseBase, mesh: &Mesh, base: &BaseConfig) -> Result<(), SolveError> {
-    if base.coarse_energy == crate::CoarseEnergy::Galerkin {
-        in_pool(|| coarse.galerkin_mesh(mesh))?;
+/// energy ([`CoarseBase::galerkin_mesh`]; nothing when gathered already, or read from the
+/// disk cache). Whether it gathered it now.
+fn gather_galerkin(
+    coarse: &CoarseBase,
+    mesh: &Mesh,
+    base: &BaseConfig,
+) -> Result<bool, SolveError> {
+    let wanted = base.coarse_energy == crate::CoarseEnergy::Galerkin;
+    if !wanted || coarse.galerkin.get().is_some() {
+        return Ok(false);
     }
-    Ok(())
+    in_pool(|| coarse.galerkin_mesh(mesh))?;
+    Ok(true)
 }
 
 /// A precomputed deformer of any method, with the loose parts riding along

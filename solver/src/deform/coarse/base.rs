@@ -84,7 +84,7 @@ pub struct CoarseBase {
     pub(crate) level: Option<LevelEmbedding>,
     pub(crate) phases: Vec<(&'static str, f64)>,
     /// The Galerkin coarse energy's part for this mesh and base, gathered when first asked
-    /// for ([`CoarseBase::galerkin_mesh`]; not in the disk cache).
+    /// for ([`CoarseBase::galerkin_mesh`]; in the disk cache when gathered before writing).
     pub(crate) galerkin: OnceLock<Arc<GalerkinMesh>>,
 }
 

@@ -5,7 +5,9 @@
 //! triangle and barycentric weights (two `f32`s, [`crate::geometry::embedding::stored_weights`]),
 //! and the settings and mesh fingerprint it was built for;
 //! for a base faired on a level, the level's triangles and vertices and each fine vertex's
-//! level representative, level triangle and weights ([`crate::deform::coarse::level_settle`]).
+//! level representative, level triangle and weights ([`crate::deform::coarse::level_settle`]);
+//! the Galerkin coarse energy's mesh part when it was gathered before the file was written
+//! ([`CoarseBase::galerkin_mesh`]; a few MiB, about a second to gather at 1.5M vertices).
 //! The rest is recomputed on reading: the embedded points $P B_c$, the details
 //! $D = M - P B_c$ and $M$ itself from the mesh.
 //!
@@ -18,6 +20,7 @@
 //! file.
 
 use crate::deform::coarse::base::{CoarseBase, on_coarse};
+use crate::deform::coarse::galerkin::GalerkinMesh;
 use crate::deform::coarse::level::Fairing;
 use crate::deform::config::BaseConfig;
 use crate::geometry::embedding::from_stored;
@@ -32,7 +35,7 @@ const MAGIC: &[u8; 8] = b"BSARAPCB";
 /// 1.5M-vertex mesh faired on a level is about 50 MiB (its level included).
 pub const MAX_FILES: usize = 8;
 /// The file format and the construction it stores: a file of another version is rebuilt.
-const VERSION: u32 = 8;
+const VERSION: u32 = 9;
 
 /// Why a cache file was not used.
 #[derive(Debug, thiserror::Error)]
@@ -108,6 +111,14 @@ pub fn save(base: &CoarseBase, path: &Path) -> std::io::Result<()> {
             u32s(&mut body, &l.representative);
             u32s(&mut body, &l.faces);
             l.weights.iter().for_each(|w| weights(&mut body, w));
+        }
+    }
+    match base.galerkin.get() {
+        None => body.extend(0u64.to_le_bytes()),
+        Some(g) => {
+            let part = g.encode();
+            body.extend((part.len() as u64 + 1).to_le_bytes());
+            body.extend(part);
         }
     }
     let mut file = Vec::with_capacity(body.len() + 20);
@@ -189,6 +200,16 @@ pub fn load(path: &Path, mesh: &Mesh, config: &BaseConfig) -> Result<CoarseBase,
     let faces = r.u32s(n).ok_or_else(|| invalid("short arrays"))?;
     let weights = r.weights(n).ok_or_else(|| invalid("short arrays"))?;
     let level_mesh = read_level(&mut r, mesh).map_err(invalid)?;
+    // The Galerkin part: 0, or its length plus one and its bytes.
+    let galerkin_len = r.u64().ok_or_else(|| invalid("short Galerkin header"))?;
+    let galerkin = match galerkin_len.checked_sub(1) {
+        None => None,
+        Some(len) => {
+            let len = usize::try_from(len).map_err(|_| invalid("Galerkin length"))?;
+            let part = r.take(len).ok_or_else(|| invalid("short Galerkin part"))?;
+            Some(GalerkinMesh::decode(part, n, nc).map_err(invalid)?)
+        }
+    };
     if !r.bytes.is_empty() {
         return Err(invalid("trailing bytes"));
     }
@@ -231,6 +252,9 @@ pub fn load(path: &Path, mesh: &Mesh, config: &BaseConfig) -> Result<CoarseBase,
         phases: vec![("read from the disk cache", started.elapsed().as_secs_f64() * 1e3)],
         galerkin: std::sync::OnceLock::new(),
     };
+    if let Some(g) = galerkin {
+        let _ = base.galerkin.set(std::sync::Arc::new(g));
+    }
     if !base.fits(mesh, config) {
         return Err(stale());
     }
@@ -376,6 +400,47 @@ mod tests {
         assert_eq!(back.rest_kept, base.rest_kept);
         assert_eq!(back.fairing(), base.fairing());
         assert!(back.fits(&mesh, &config));
+    }
+
+    /// The Galerkin coarse energy's mesh part, gathered before saving, reads back and gives
+    /// the same solve to the last bit; a part out of range is refused; a base saved without it
+    /// reads back without it.
+    #[test]
+    fn round_trip_with_the_galerkin_part() {
+        use crate::deform::coarse::galerkin::{GalerkinCoarse, HandleRule, Stop};
+        let (mesh, handles) = bumpy_bar(3);
+        let config = BaseConfig { coarse_vertices: Some(100), ..BaseConfig::default() };
+        let dir = ScratchDir::new("cache-round-trip-galerkin");
+        let path = cache_path(&dir, &mesh, &config);
+        let base = CoarseBase::new(&mesh, &config).unwrap();
+        save(&base, &path).unwrap();
+        assert!(load(&path, &mesh, &config).unwrap().galerkin.get().is_none());
+        let gathered = base.galerkin_mesh(&mesh).unwrap();
+        save(&base, &path).unwrap();
+        let back = load(&path, &mesh, &config).unwrap();
+        let read = back.galerkin.get().expect("the Galerkin part read back").clone();
+        assert_eq!(read.encode(), gathered.encode());
+        let targets: Vec<[f64; 3]> = handles
+            .handle_vertices()
+            .iter()
+            .map(|&v| {
+                let p = mesh.positions()[v as usize];
+                if p[0] > 0.0 { [p[0] + 0.1, p[1] + 0.2, p[2]] } else { p }
+            })
+            .collect();
+        let solve = |b: &CoarseBase, g: &GalerkinMesh| {
+            let mut e =
+                GalerkinCoarse::new(&mesh, b, g, &handles, 0.05, HandleRule::Exact).unwrap();
+            e.solve(&targets, Stop::Decrease { tolerance: 1e-6 }, 200).unwrap();
+            e.positions().to_vec()
+        };
+        assert_eq!(solve(&back, &read), solve(&base, &gathered));
+        let m = base.coarse_mesh.n_vertices();
+        let mut bad = gathered.encode();
+        bad[8..16].copy_from_slice(&((m as u64) << 32).to_le_bytes());
+        assert!(GalerkinMesh::decode(&bad, mesh.n_vertices(), m).is_err());
+        let short = gathered.encode();
+        assert!(GalerkinMesh::decode(&short[..short.len() - 1], mesh.n_vertices(), m).is_err());
     }
 
     /// Saving keeps the directory to the newest [`MAX_FILES`] cache files, the new one

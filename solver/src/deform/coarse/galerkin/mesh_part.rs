@@ -142,3 +142,110 @@ impl GalerkinMesh {
         Ok(GalerkinMesh { g, pair, g_max, g_median, rest_term, neighbours, sizes })
     }
 }
+
+impl GalerkinMesh {
+    /// The part as bytes for the disk cache (`coarse/cache.rs`), little-endian: $G$'s entries
+    /// and the $g_{kb}$ as (key, values) sorted by key, $\max G_{aa}$, the median, the rest
+    /// term, and the coarse mesh's edges as (cluster, cluster, weight) in row order.
+    pub(crate) fn encode(&self) -> Vec<u8> {
+        let mut out = Vec::new();
+        let mut g: Vec<_> = self.g.iter().map(|(&k, &v)| (k, v)).collect();
+        g.sort_unstable_by_key(|e| e.0);
+        out.extend((g.len() as u64).to_le_bytes());
+        for (k, v) in g {
+            out.extend(k.to_le_bytes());
+            out.extend(v.to_le_bytes());
+        }
+        let mut pair: Vec<_> = self.pair.iter().map(|(&k, &v)| (k, v)).collect();
+        pair.sort_unstable_by_key(|e| e.0);
+        out.extend((pair.len() as u64).to_le_bytes());
+        for (k, v) in pair {
+            out.extend(k.to_le_bytes());
+            v.iter().for_each(|x| out.extend(x.to_le_bytes()));
+        }
+        for x in [self.g_max, self.g_median, self.rest_term] {
+            out.extend(x.to_le_bytes());
+        }
+        let m = self.sizes.1;
+        let edges: Vec<(u32, u32, f64)> = (0..m)
+            .flat_map(|k| self.neighbours.row(k).iter().map(move |&(l, w)| (k as u32, l, w)))
+            .collect();
+        out.extend((edges.len() as u64).to_le_bytes());
+        for (k, l, w) in edges {
+            out.extend(k.to_le_bytes());
+            out.extend(l.to_le_bytes());
+            out.extend(w.to_le_bytes());
+        }
+        out
+    }
+
+    /// The part [`GalerkinMesh::encode`] wrote, for a mesh of `n` vertices and a coarse mesh
+    /// of `m`; every count, index and number checked, the reason when one is wrong.
+    pub(crate) fn decode(bytes: &[u8], n: usize, m: usize) -> Result<GalerkinMesh, &'static str> {
+        let mut r = bytes;
+        let mut take = |k: usize| -> Result<&[u8], &'static str> {
+            if r.len() < k {
+                return Err("short Galerkin part");
+            }
+            let (head, rest) = r.split_at(k);
+            r = rest;
+            Ok(head)
+        };
+        let u64_at = |b: &[u8]| u64::from_le_bytes(b.try_into().unwrap_or_default());
+        let f64_at = |b: &[u8]| f64::from_bits(u64_at(b));
+        let in_range = |key: u64| ((key >> 32) as usize) < m && ((key & 0xffff_ffff) as usize) < m;
+        let count = |c: u64, size: usize, left: usize| -> Result<usize, &'static str> {
+            let c = usize::try_from(c).map_err(|_| "Galerkin count")?;
+            if c.checked_mul(size).is_none_or(|b| b > left) {
+                return Err("Galerkin count out of range");
+            }
+            Ok(c)
+        };
+        let ng = u64_at(take(8)?);
+        let ng = count(ng, 16, bytes.len())?;
+        let mut g = FixedMap::default();
+        for _ in 0..ng {
+            let e = take(16)?;
+            let (k, v) = (u64_at(&e[..8]), f64_at(&e[8..]));
+            if !in_range(k) || (k >> 32) < (k & 0xffff_ffff) || !v.is_finite() {
+                return Err("a Galerkin entry out of range");
+            }
+            g.insert(k, v);
+        }
+        let np = u64_at(take(8)?);
+        let np = count(np, 32, bytes.len())?;
+        let mut pair = FixedMap::default();
+        for _ in 0..np {
+            let e = take(32)?;
+            let k = u64_at(&e[..8]);
+            let v = [f64_at(&e[8..16]), f64_at(&e[16..24]), f64_at(&e[24..])];
+            if !in_range(k) || !v.iter().all(|x| x.is_finite()) {
+                return Err("a Galerkin pair out of range");
+            }
+            pair.insert(k, v);
+        }
+        let s = take(24)?;
+        let (g_max, g_median, rest_term) = (f64_at(&s[..8]), f64_at(&s[8..16]), f64_at(&s[16..]));
+        if ![g_max, g_median, rest_term].iter().all(|x| x.is_finite() && *x >= 0.0) {
+            return Err("a Galerkin scale that is not finite");
+        }
+        let ne = u64_at(take(8)?);
+        let ne = count(ne, 16, bytes.len())?;
+        let mut edges = Vec::with_capacity(ne);
+        for _ in 0..ne {
+            let e = take(16)?;
+            let k = u32::from_le_bytes([e[0], e[1], e[2], e[3]]);
+            let l = u32::from_le_bytes([e[4], e[5], e[6], e[7]]);
+            let w = f64_at(&e[8..]);
+            if k as usize >= m || l as usize >= m || !w.is_finite() {
+                return Err("a coarse edge out of range");
+            }
+            edges.push((k, (l, w)));
+        }
+        if !r.is_empty() {
+            return Err("trailing Galerkin bytes");
+        }
+        let neighbours = Csr::from_pairs(m, &edges);
+        Ok(GalerkinMesh { g, pair, g_max, g_median, rest_term, neighbours, sizes: (n, m) })
+    }
+}

@@ -314,7 +314,13 @@ impl GalerkinCoarse {
         }
         let mut triplets: Vec<_> = (0..n_free as usize).map(|a| Triplet::new(a, a, eps)).collect();
         let mut coupling = Vec::new();
-        for (&key, &v) in &g {
+        // By key, so that the sums do not depend on the maps' history (gathered here, or read
+        // from the disk cache).
+        let mut g: Vec<(u64, f64)> = g.into_iter().collect();
+        g.sort_unstable_by_key(|e| e.0);
+        let mut pair: Vec<(u64, [f64; 3])> = pair.into_iter().collect();
+        pair.sort_unstable_by_key(|e| e.0);
+        for &(key, v) in &g {
             let (a, b) = ((key >> 32) as u32, (key & 0xffff_ffff) as u32);
             match (free[a as usize], free[b as usize]) {
                 (Some(fa), Some(fb)) => triplets.push(Triplet::new(fa as usize, fb as usize, v)),
@@ -327,7 +333,7 @@ impl GalerkinCoarse {
             .map_err(|source| SolveError::Factorization { matrix: "PᵀLP (Galerkin)", source })?;
         let entries: Vec<_> = g
             .iter()
-            .flat_map(|(&key, &v)| {
+            .flat_map(|&(key, v)| {
                 let (a, b) = ((key >> 32) as u32, (key & 0xffff_ffff) as u32);
                 let mirrored = (a != b).then_some((b, (a, v)));
                 std::iter::once((a, (b, v))).chain(mirrored)
