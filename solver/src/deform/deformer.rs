@@ -162,39 +162,32 @@ impl MeshCache {
         if method != Method::BsArapCoarse {
             return Ok((None, None));
         }
-        if let Some(c) = self.coarse.clone()
-            && c.fits(mesh, base)
-        {
-            // A Galerkin part gathered now goes to the file too.
-            let gathered = gather_galerkin(&c, mesh, base)?;
-            let path = self.disk.as_ref().filter(|_| gathered);
-            let path = path.map(|dir| coarse_cache::cache_path(dir, mesh, base));
-            let unwritten = path.map(|path| UnwrittenBase { base: c.clone(), path });
-            return Ok((Some(c), unwritten));
-        }
-        self.coarse = None;
-        self.disk_note = None;
         let path = self.disk.as_ref().map(|dir| coarse_cache::cache_path(dir, mesh, base));
-        let read = path.as_ref().map(|p| coarse_cache::load(p, mesh, base));
-        let (c, path) = match read {
-            Some(Ok(c)) => (Arc::new(c), None),
-            other => {
-                // A mesh opened for the first time has no file yet: nothing to say.
-                if let Some(Err(e)) = other
-                    && !e.is_missing()
-                {
-                    self.disk_note = Some(e.to_string());
-                }
-                (Arc::new(in_pool(|| CoarseBase::new(mesh, base))?), path)
+        let (c, built) = match self.coarse.clone().filter(|c| c.fits(mesh, base)) {
+            Some(c) => (c, false),
+            None => {
+                self.coarse = None;
+                self.disk_note = None;
+                let (c, built) = match path.as_ref().map(|p| coarse_cache::load(p, mesh, base)) {
+                    Some(Ok(c)) => (c, false),
+                    other => {
+                        // A mesh opened for the first time has no file yet: nothing to say.
+                        if let Some(Err(e)) = other
+                            && !e.is_missing()
+                        {
+                            self.disk_note = Some(e.to_string());
+                        }
+                        (in_pool(|| CoarseBase::new(mesh, base))?, true)
+                    }
+                };
+                let c = Arc::new(c);
+                self.coarse = Some(c.clone());
+                (c, built)
             }
         };
-        self.coarse = Some(c.clone());
-        // Written when built anew, or read without the Galerkin part it has now.
+        // Written when built anew, or when it gained its Galerkin part now.
         let gathered = gather_galerkin(&c, mesh, base)?;
-        let path = path.or_else(|| {
-            let dir = self.disk.as_ref().filter(|_| gathered)?;
-            Some(coarse_cache::cache_path(dir, mesh, base))
-        });
+        let path = path.filter(|_| built || gathered);
         let unwritten = path.map(|path| UnwrittenBase { base: c.clone(), path });
         Ok((Some(c), unwritten))
     }

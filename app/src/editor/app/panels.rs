@@ -393,22 +393,21 @@ impl EditorApp {
                 "vertices of the decimated base ARAP runs on; more is closer to ARAP, slower",
             );
             self.session.settings.base.coarse_vertices = (!automatic).then_some(count);
+            // The Galerkin energy restricts smooth rotations only: under another energy the box
+            // shows what runs (`base_config`) and keeps the choice for smooth rotations.
             let smooth = self.session.settings.arap.energy == solver::Energy::SmoothRotations;
+            let runs = self.session.settings.base_config().coarse_energy;
             let coarse_energy = &mut self.session.settings.base.coarse_energy;
-            if !smooth {
-                // The Galerkin energy restricts smooth rotations only.
-                *coarse_energy = solver::CoarseEnergy::Decimated;
-            }
-            egui::ComboBox::from_label("coarse energy")
-                .selected_text(coarse_energy.name())
-                .show_ui(ui, |ui| {
-                    ui.selectable_value(
-                        coarse_energy,
-                        solver::CoarseEnergy::Decimated,
-                        solver::CoarseEnergy::Decimated.name(),
-                    )
-                    .on_hover_text("ARAP on the decimated base");
-                    ui.add_enabled_ui(smooth, |ui| {
+            ui.add_enabled_ui(smooth, |ui| {
+                egui::ComboBox::from_label("coarse energy").selected_text(runs.name()).show_ui(
+                    ui,
+                    |ui| {
+                        ui.selectable_value(
+                            coarse_energy,
+                            solver::CoarseEnergy::Decimated,
+                            solver::CoarseEnergy::Decimated.name(),
+                        )
+                        .on_hover_text("ARAP on the decimated base");
                         ui.selectable_value(
                             coarse_energy,
                             solver::CoarseEnergy::Galerkin,
@@ -417,10 +416,12 @@ impl EditorApp {
                         .on_hover_text(
                             "the full mesh's energy restricted to the coarse level: the pose \
                              while dragging nearer the settled one, each iteration dearer",
-                        )
-                        .on_disabled_hover_text("needs the smooth-rotations energy");
-                    });
-                });
+                        );
+                    },
+                )
+            })
+            .response
+            .on_disabled_hover_text("the Galerkin coarse energy needs the smooth-rotations energy");
             ui.add(
                 egui::Slider::new(
                     &mut self.session.settings.base.fine_iterations,

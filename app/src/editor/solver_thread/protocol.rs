@@ -71,7 +71,7 @@ impl MethodSettings {
 
     /// The base settings the solvers, recordings and saved scenes use: [`MethodSettings::base`],
     /// with the decimated coarse energy under an energy the Galerkin one does not restrict
-    /// (the method panel switches it so; settings made otherwise, by code, get it here).
+    /// (the method panel shows this and keeps the choice for smooth rotations).
     pub fn base_config(&self) -> solver::BaseConfig {
         let mut base = self.base;
         if self.arap.energy != solver::Energy::SmoothRotations {

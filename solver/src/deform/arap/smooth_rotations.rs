@@ -465,7 +465,6 @@ pub(crate) struct RotationSums {
 }
 
 impl RotationSums {
-    /// Adds `other` into `self`.
     /// Adds, for the vertices `first..` with the covariances `covs`, $\operatorname{tr}(R_iS_i)$
     /// and $\sum_j w_{ij}\lVert R_i-R_j\rVert_F^2$ for the current `rotations`, and writes the
     /// implicit step's gradient into `gradient` when it runs: the per-vertex start of a local
@@ -491,6 +490,7 @@ impl RotationSums {
         }
     }
 
+    /// Adds `other` into `self`.
     fn add(&mut self, other: RotationSums) {
         self.edges += other.edges;
         self.traces += other.traces;

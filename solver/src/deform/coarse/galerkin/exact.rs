@@ -54,16 +54,20 @@ pub(super) struct FrameTerms {
 }
 
 /// Replaces, in the sums `g` and `pair` gathered with every vertex free, the terms of the edges
-/// with a handle end (`target_of`: per fine vertex its handle's index in the targets) by those
-/// of the exact rule (module doc). Returns the per-frame terms and the change of the energy's
-/// constant.
+/// with a handle end (`handle_vertices`, in the order of their targets) by those of the exact
+/// rule (module doc). Returns the per-frame terms and the change of the energy's constant.
 pub(super) fn hold_exactly(
     mesh: &Mesh,
     base: &CoarseBase,
-    target_of: &[Option<u32>],
+    handle_vertices: &[u32],
     g: &mut FixedMap<u64, f64>,
     pair: &mut FixedMap<u64, [f64; 3]>,
 ) -> Result<(FrameTerms, f64), SolveError> {
+    // Per fine vertex, its handle's index in the targets.
+    let mut target_of = vec![None; mesh.n_vertices()];
+    for (t, &v) in handle_vertices.iter().enumerate() {
+        target_of[v as usize] = Some(t as u32);
+    }
     let is_handle = |v: &u32| target_of[*v as usize].is_some();
     let (indices, faces): (Vec<usize>, Vec<[u32; 3]>) = (mesh.triangles().iter().enumerate())
         .filter(|(_, t)| t.iter().any(is_handle))
@@ -73,12 +77,11 @@ pub(super) fn hold_exactly(
     let cot = face_cotangents(mesh.positions(), &faces, 0.0)
         .map_err(|e| SolveError::DegenerateFace { face: indices[e.face] })?;
     let (beta, x) = (&base.base_on_coarse, mesh.positions());
-    let n_handles = target_of.iter().flatten().count();
     let mut delta = Vec::with_capacity(6);
     let mut constant = 0.0;
     let (mut tau, mut sigma) = (FixedMap::<u64, f64>::default(), FixedMap::default());
     let m = base.coarse_mesh.n_vertices();
-    let mut terms = FrameTerms { squares: vec![0.0; n_handles], ..FrameTerms::none(m) };
+    let mut terms = FrameTerms { squares: vec![0.0; handle_vertices.len()], ..FrameTerms::none(m) };
     for (i, j, w) in edge_weights(&faces, &cot, true) {
         let (i, j) = (i as usize, j as usize);
         let targets = [target_of[i], target_of[j]];

@@ -294,11 +294,7 @@ impl GalerkinCoarse {
             }
         }
         let (exact_terms, exact_constant) = if rule == HandleRule::Exact {
-            let mut target_of = vec![None; mesh.n_vertices()];
-            for (t, &v) in constraints.handle_vertices.iter().enumerate() {
-                target_of[v as usize] = Some(t as u32);
-            }
-            exact::hold_exactly(mesh, base, &target_of, &mut g, &mut pair)?
+            exact::hold_exactly(mesh, base, &constraints.handle_vertices, &mut g, &mut pair)?
         } else {
             (exact::FrameTerms::none(m), 0.0)
         };
