@@ -22,7 +22,7 @@
 //! keeps a penalty of [`HOLD`] times the largest diagonal entry of $G$, which places them on
 //! the handle's motion and changes nothing else measurably.
 
-use super::mesh_part::{FixedMap, add_edge, edge_difference, embedding_row, key};
+use super::mesh_part::{Combiner, FixedMap, add_edge, edge_difference, embedding_row, key};
 use crate::deform::arap::Csr;
 use crate::deform::coarse::base::CoarseBase;
 use crate::error::SolveError;
@@ -80,8 +80,13 @@ pub(super) fn hold_exactly(
     let mut delta = Vec::with_capacity(6);
     let mut constant = 0.0;
     let (mut tau, mut sigma) = (FixedMap::<u64, f64>::default(), FixedMap::default());
+    // σ's terms at a handle's own cluster (most of them), per handle; the others in `sigma`.
+    let mut own = vec![[0.0; 3]; handle_vertices.len()];
+    let cluster_of = |h: u32| base.representative[handle_vertices[h as usize] as usize];
     let m = base.coarse_mesh.n_vertices();
     let mut terms = FrameTerms { squares: vec![0.0; handle_vertices.len()], ..FrameTerms::none(m) };
+    let (mut g, mut pair) = (Combiner::new(g), Combiner::new(pair));
+    let (mut tau_sums, mut sigma_sums) = (Combiner::new(&mut tau), Combiner::new(&mut sigma));
     for (i, j, w) in edge_weights(&faces, &cot, true) {
         let (i, j) = (i as usize, j as usize);
         let targets = [target_of[i], target_of[j]];
@@ -91,20 +96,24 @@ pub(super) fn hold_exactly(
         let clusters = [base.representative[i], base.representative[j]];
         // Away with the terms gathered for both ends free, in with the exact rule's.
         edge_difference([Some(embedding_row(base, i)), Some(embedding_row(base, j))], &mut delta);
-        constant += add_edge(g, pair, clusters, &delta, sub(beta[i], beta[j]), -w);
+        constant += add_edge(&mut g, &mut pair, clusters, &delta, sub(beta[i], beta[j]), -w);
         let free = |v: usize, t: Option<u32>| t.is_none().then(|| embedding_row(base, v));
         edge_difference([free(i, targets[0]), free(j, targets[1])], &mut delta);
         let at = |v: usize, t: Option<u32>| if t.is_some() { x[v] } else { beta[v] };
         let rest = sub(at(i, targets[0]), at(j, targets[1]));
-        constant += add_edge(g, pair, clusters, &delta, rest, w);
+        constant += add_edge(&mut g, &mut pair, clusters, &delta, rest, w);
         // s = t_i (a handle end i) − t_j (a handle end j).
         let ends = [(targets[0], 1.0), (targets[1], -1.0)];
         for (h, sign) in ends.into_iter().filter_map(|(t, sign)| Some((t?, sign))) {
             for &(b, db) in &delta {
-                *tau.entry(key(b, h)).or_default() -= 2.0 * w * db * sign;
+                *tau_sums.entry(key(b, h)) -= 2.0 * w * db * sign;
             }
             for k in clusters {
-                let v: &mut [f64; 3] = sigma.entry(key(k, h)).or_default();
+                let v = if k == cluster_of(h) {
+                    &mut own[h as usize]
+                } else {
+                    sigma_sums.entry(key(k, h))
+                };
                 for d in 0..3 {
                     v[d] += w * sign * rest[d];
                 }
@@ -116,10 +125,13 @@ pub(super) fn hold_exactly(
             [None, None] => {}
         }
     }
+    drop((g, pair, tau_sums, sigma_sums));
     let rows = |k: u64| ((k >> 32) as u32, (k & 0xffff_ffff) as u32);
     let tau: Vec<_> = tau.into_iter().map(|(k, a)| (rows(k).0, (rows(k).1, a))).collect();
     terms.tau = Csr::from_pairs(m, &tau);
-    let sigma: Vec<_> = sigma.into_iter().map(|(k, v)| (rows(k).0, (rows(k).1, v))).collect();
+    let own = (own.into_iter().enumerate()).map(|(h, v)| (cluster_of(h as u32), (h as u32, v)));
+    let sigma: Vec<_> =
+        own.chain(sigma.into_iter().map(|(k, v)| (rows(k).0, (rows(k).1, v)))).collect();
     terms.sigma = Csr::from_pairs(m, &sigma);
     Ok((terms, constant))
 }

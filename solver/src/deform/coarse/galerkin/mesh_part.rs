@@ -39,6 +39,74 @@ pub struct GalerkinMesh {
     pub(super) sizes: (usize, usize),
 }
 
+/// Sums by key added to a [`FixedMap`] through a small direct-mapped table of the keys touched
+/// last: the edges of one neighbourhood come together in a mesh's face order and share their
+/// coarse keys, so each key reaches the map once per run of edges instead of once per term (the
+/// map outgrows the core's caches on dense meshes; a probe costs a miss). Every sum lands in the
+/// map when the combiner is dropped. Sums are grouped by run before they reach the map, in an
+/// order fixed by the edges' order alone.
+pub(super) struct Combiner<'a, V: Sum> {
+    map: &'a mut FixedMap<u64, V>,
+    keys: Box<[u64; SLOTS]>,
+    values: Box<[V; SLOTS]>,
+}
+
+/// The combiner's slots (a power of two; its table stays in the first-level cache).
+const SLOTS: usize = 1024;
+
+/// A slot no key uses (keys are pairs of `u32` vertex indices below `u32::MAX`).
+const EMPTY: u64 = u64::MAX;
+
+/// A value summed by key: `f64` or a vector.
+pub(super) trait Sum: Copy + Default {
+    fn add(&mut self, other: &Self);
+}
+
+impl Sum for f64 {
+    fn add(&mut self, other: &f64) {
+        *self += other;
+    }
+}
+
+impl Sum for [f64; 3] {
+    fn add(&mut self, other: &[f64; 3]) {
+        for d in 0..3 {
+            self[d] += other[d];
+        }
+    }
+}
+
+impl<'a, V: Sum> Combiner<'a, V> {
+    /// A combiner in front of `map`.
+    pub(super) fn new(map: &'a mut FixedMap<u64, V>) -> Combiner<'a, V> {
+        Combiner { map, keys: Box::new([EMPTY; SLOTS]), values: Box::new([V::default(); SLOTS]) }
+    }
+
+    /// The running sum of `key`, to add to (its slot's earlier key goes to the map).
+    pub(super) fn entry(&mut self, key: u64) -> &mut V {
+        let slot =
+            (key.wrapping_mul(0x9e37_79b9_7f4a_7c15) >> (64 - SLOTS.trailing_zeros())) as usize;
+        if self.keys[slot] != key {
+            if self.keys[slot] != EMPTY {
+                self.map.entry(self.keys[slot]).or_default().add(&self.values[slot]);
+            }
+            self.keys[slot] = key;
+            self.values[slot] = V::default();
+        }
+        &mut self.values[slot]
+    }
+}
+
+impl<V: Sum> Drop for Combiner<'_, V> {
+    fn drop(&mut self) {
+        for (&k, v) in self.keys.iter().zip(self.values.iter()) {
+            if k != EMPTY {
+                self.map.entry(k).or_default().add(v);
+            }
+        }
+    }
+}
+
 /// The key of the pair $(a, b)$ in the gathering maps.
 pub(super) fn key(a: u32, b: u32) -> u64 {
     (u64::from(a) << 32) | u64::from(b)
@@ -73,8 +141,8 @@ pub(super) fn edge_difference(
 /// $w\,\delta'_b\,\rho$ for every coarse vertex $b$ of `delta`, $\rho$ the edge's rest vector
 /// `rest`. Returns the energy's constant from the edge, $2w\lVert\rho\rVert^2$.
 pub(super) fn add_edge(
-    g: &mut FixedMap<u64, f64>,
-    pair: &mut FixedMap<u64, [f64; 3]>,
+    g: &mut Combiner<f64>,
+    pair: &mut Combiner<[f64; 3]>,
     clusters: [u32; 2],
     delta: &[(u32, f64)],
     rest: [f64; 3],
@@ -83,13 +151,13 @@ pub(super) fn add_edge(
     for &(a, da) in delta {
         for &(b, db) in delta {
             if a >= b {
-                *g.entry(key(a, b)).or_default() += 2.0 * w * da * db;
+                *g.entry(key(a, b)) += 2.0 * w * da * db;
             }
         }
     }
     for k in clusters {
         for &(b, db) in delta {
-            let e = pair.entry(key(k, b)).or_default();
+            let e = pair.entry(key(k, b));
             for d in 0..3 {
                 e[d] += w * db * rest[d];
             }
@@ -112,15 +180,18 @@ impl GalerkinMesh {
         let mut pair: FixedMap<u64, [f64; 3]> = FixedMap::default();
         let mut delta: Vec<(u32, f64)> = Vec::with_capacity(6);
         let mut rest_term = 0.0;
-        for &(i, j, w) in &fine_edges {
-            if w == 0.0 {
-                continue;
+        {
+            let (mut g, mut pair) = (Combiner::new(&mut g), Combiner::new(&mut pair));
+            for &(i, j, w) in &fine_edges {
+                if w == 0.0 {
+                    continue;
+                }
+                let (i, j) = (i as usize, j as usize);
+                edge_difference([Some(row(i)), Some(row(j))], &mut delta);
+                let rest = sub(beta_of[i], beta_of[j]);
+                let clusters = [base.representative[i], base.representative[j]];
+                rest_term += add_edge(&mut g, &mut pair, clusters, &delta, rest, w);
             }
-            let (i, j) = (i as usize, j as usize);
-            edge_difference([Some(row(i)), Some(row(j))], &mut delta);
-            let rest = sub(beta_of[i], beta_of[j]);
-            let clusters = [base.representative[i], base.representative[j]];
-            rest_term += add_edge(&mut g, &mut pair, clusters, &delta, rest, w);
         }
         let mut diagonal: Vec<f64> =
             g.iter().filter(|(k, _)| (*k >> 32) == (*k & 0xffff_ffff)).map(|(_, &v)| v).collect();

@@ -70,7 +70,7 @@ mod exact;
 mod mesh_part;
 
 pub use mesh_part::GalerkinMesh;
-use mesh_part::{embedding_row, key};
+use mesh_part::{Combiner, embedding_row, key};
 
 use crate::deform::arap::{Acceleration, Csr, SmoothRotations, SolveStats, vertices_per_task};
 use crate::deform::coarse::base::CoarseBase;
@@ -279,17 +279,20 @@ impl GalerkinCoarse {
                 }
             })
             .collect();
-        for h in &held {
-            for a in 0..3 {
-                for b in 0..3 {
-                    if h.corners[a] >= h.corners[b] {
-                        *g.entry(key(h.corners[a], h.corners[b])).or_default() +=
-                            h.mu * h.weights[a] * h.weights[b];
+        {
+            let (mut g, mut pair) = (Combiner::new(&mut g), Combiner::new(&mut pair));
+            for h in &held {
+                for a in 0..3 {
+                    for b in 0..3 {
+                        if h.corners[a] >= h.corners[b] {
+                            *g.entry(key(h.corners[a], h.corners[b])) +=
+                                h.mu * h.weights[a] * h.weights[b];
+                        }
                     }
-                }
-                let e = pair.entry(key(h.cluster, h.corners[a])).or_default();
-                for (ed, dd) in e.iter_mut().zip(h.detail) {
-                    *ed -= h.mu * h.weights[a] * dd;
+                    let e = pair.entry(key(h.cluster, h.corners[a]));
+                    for (ed, dd) in e.iter_mut().zip(h.detail) {
+                        *ed -= h.mu * h.weights[a] * dd;
+                    }
                 }
             }
         }

@@ -197,3 +197,37 @@ fn bad_input_is_an_error() {
     let e = g.solve(&targets, stop, 10).unwrap_err();
     assert_eq!(e, SolveError::NonFiniteTarget { index: 3 });
 }
+
+/// The combiner in front of the gathering maps sums as the map alone does, through evictions
+/// (more keys than slots, revisited out of order) and for vector values.
+#[test]
+fn the_combiner_sums_as_the_map() {
+    use mesh_part::{Combiner, FixedMap};
+    let mut direct = FixedMap::<u64, f64>::default();
+    let mut combined = FixedMap::<u64, f64>::default();
+    let mut direct3 = FixedMap::<u64, [f64; 3]>::default();
+    let mut combined3 = FixedMap::<u64, [f64; 3]>::default();
+    {
+        let (mut c, mut c3) = (Combiner::new(&mut combined), Combiner::new(&mut combined3));
+        // 5,000 keys in runs, each key revisited from far apart in the sequence.
+        for n in 0..40_000u64 {
+            let k = key((n * 7_919 % 5_000) as u32, (n % 3) as u32);
+            let v = 1.0 / (n + 1) as f64;
+            *direct.entry(k).or_default() += v;
+            *c.entry(k) += v;
+            let e = direct3.entry(k).or_default();
+            let f = c3.entry(k);
+            for d in 0..3 {
+                e[d] += v * d as f64;
+                f[d] += v * d as f64;
+            }
+        }
+    }
+    assert_eq!(direct.len(), combined.len());
+    for (k, v) in &direct {
+        assert!((v - combined[k]).abs() <= 1e-12 * v.abs(), "{k}: {v} {}", combined[k]);
+        for d in 0..3 {
+            assert!((direct3[k][d] - combined3[k][d]).abs() <= 1e-12 * direct3[k][d].abs());
+        }
+    }
+}
