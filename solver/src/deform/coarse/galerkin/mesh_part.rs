@@ -45,30 +45,30 @@ pub struct GalerkinMesh {
 /// map outgrows the core's caches on dense meshes; a probe costs a miss). Every sum lands in the
 /// map when the combiner is dropped. Sums are grouped by run before they reach the map, in an
 /// order fixed by the edges' order alone.
-pub(super) struct Combiner<'a, V: Sum> {
+pub(super) struct Combiner<'a, V: Accumulate> {
     map: &'a mut FixedMap<u64, V>,
     keys: Box<[u64; SLOTS]>,
     values: Box<[V; SLOTS]>,
 }
 
-/// The combiner's slots (a power of two; its table stays in the first-level cache).
+/// The combiner's slots (a power of two; 16–32 KiB a table, which stays in the core's caches).
 const SLOTS: usize = 1024;
 
 /// A slot no key uses (keys are pairs of `u32` vertex indices below `u32::MAX`).
 const EMPTY: u64 = u64::MAX;
 
 /// A value summed by key: `f64` or a vector.
-pub(super) trait Sum: Copy + Default {
+pub(super) trait Accumulate: Copy + Default {
     fn add(&mut self, other: &Self);
 }
 
-impl Sum for f64 {
+impl Accumulate for f64 {
     fn add(&mut self, other: &f64) {
         *self += other;
     }
 }
 
-impl Sum for [f64; 3] {
+impl Accumulate for [f64; 3] {
     fn add(&mut self, other: &[f64; 3]) {
         for d in 0..3 {
             self[d] += other[d];
@@ -76,7 +76,7 @@ impl Sum for [f64; 3] {
     }
 }
 
-impl<'a, V: Sum> Combiner<'a, V> {
+impl<'a, V: Accumulate> Combiner<'a, V> {
     /// A combiner in front of `map`.
     pub(super) fn new(map: &'a mut FixedMap<u64, V>) -> Combiner<'a, V> {
         Combiner { map, keys: Box::new([EMPTY; SLOTS]), values: Box::new([V::default(); SLOTS]) }
@@ -97,7 +97,7 @@ impl<'a, V: Sum> Combiner<'a, V> {
     }
 }
 
-impl<V: Sum> Drop for Combiner<'_, V> {
+impl<V: Accumulate> Drop for Combiner<'_, V> {
     fn drop(&mut self) {
         for (&k, v) in self.keys.iter().zip(self.values.iter()) {
             if k != EMPTY {
