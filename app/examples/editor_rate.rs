@@ -2,14 +2,15 @@
 //!
 //! Usage: `cargo run --release -p app --example editor_rate -- [--no-settle] [--gpu-normals]
 //! [--energy spokes-and-rims|spokes|smooth-rotations] [--bending-length F]
-//! [--coarse-energy decimated|galerkin] MESH SELECTION [FRAMES [METHOD...]]`
+//! [--coarse-energy decimated|galerkin] [--tolerance T] [--cap N] MESH SELECTION [FRAMES [METHOD...]]`
 //! (methods: `arap`, `bsarap`, `bsarap-faired`, `bsarap-coarse`, each optionally with `+aa` for
 //! the method panel's Anderson acceleration; default `arap bsarap bsarap-coarse`).
 //!
 //! Drives the editor's own deformer factory (`app::editor::pose_solvers::factory`) with the editor's
 //! default method settings (smooth rotations at bending length 0.02, tolerance 1e-4, cap 30
 //! iterations per displayed frame; `--energy`, `--bending-length` (a fraction of the diagonal)
-//! and `--coarse-energy` as the method panel sets them), warm-started
+//! and `--coarse-energy` as the method panel sets them; `--tolerance` and `--cap` the stopping
+//! rule of every solve, the editor's 1e-4 and 30 by default), warm-started
 //! from the previous frame as the solver thread does, with the first group moving on the
 //! benchmark's circle (radius 0.1·diag in the xy plane, FRAMES steps of one turn, default 30),
 //! the others at rest. A frame is what the thread does per published frame: the group poses'
@@ -73,6 +74,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if let Some(e) = option("--coarse-energy")? {
         defaults.base.coarse_energy = solver::CoarseEnergy::from_name(&e)
             .ok_or_else(|| format!("unknown coarse energy {e}"))?;
+    }
+    if let Some(t) = option("--tolerance")? {
+        defaults.arap.tolerance = t.parse()?;
+    }
+    if let Some(n) = option("--cap")? {
+        defaults.arap.max_iterations = n.parse()?;
     }
     defaults.arap.validate()?;
     if args.len() < 3 {
