@@ -41,6 +41,7 @@ use solver::deform::coarse::fit::{DetailRotations, nearest_pose};
 use solver::deform::coarse::galerkin::{
     DEFAULT_PENALTY, GalerkinCoarse, GalerkinMesh, HandleRule, Stop,
 };
+use solver::deform::constraints::Constraints;
 use solver::deform::quality::{Reference, ReferenceEnergy};
 use solver::{
     Acceleration, ArapConfig, BaseConfig, Deformer, DeformerOptions, Energy, GroupTransform,
@@ -213,12 +214,14 @@ fn main() {
                         )
                     }))
                     .chain(std::iter::once((", exact handles".to_string(), HandleRule::Exact)));
+            let constraints = Constraints::new(&mesh, &handles);
             let build = |rule| {
                 let mut g = GalerkinCoarse::new(
                     &mesh,
                     &coarse,
                     &gathered,
                     &handles,
+                    &constraints,
                     energy.bending_length,
                     rule,
                 )

@@ -349,6 +349,7 @@ impl Reader<'_> {
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
+    use crate::deform::constraints::Constraints;
     use crate::geometry::shapes::bumpy_bar;
     use crate::testing::ScratchDir;
 
@@ -428,9 +429,11 @@ mod tests {
                 if p[0] > 0.0 { [p[0] + 0.1, p[1] + 0.2, p[2]] } else { p }
             })
             .collect();
+        let constraints = Constraints::new(&mesh, &handles);
         let solve = |b: &CoarseBase, g: &GalerkinMesh| {
             let mut e =
-                GalerkinCoarse::new(&mesh, b, g, &handles, 0.05, HandleRule::Exact).unwrap();
+                GalerkinCoarse::new(&mesh, b, g, &handles, &constraints, 0.05, HandleRule::Exact)
+                    .unwrap();
             e.solve(&targets, Stop::Decrease { tolerance: 1e-6 }, 200).unwrap();
             e.positions().to_vec()
         };

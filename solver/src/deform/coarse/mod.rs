@@ -330,6 +330,7 @@ impl CoarseBsArap {
                     &base,
                     &gathered,
                     handles,
+                    &constraints,
                     config.bending_length,
                     rule,
                 )?;

@@ -20,9 +20,14 @@
 //! $2w\lVert s\rVert^2$ to the constant. There is no weight to choose. Coarse vertices whose
 //! fine vertices are all handles would not appear in the energy: every handle vertex also
 //! keeps a penalty of [`HOLD`] times the largest diagonal entry of $G$, which places them on
-//! the handle's motion and changes nothing else measurably.
+//! the handle's motion and changes nothing else measurably. Its terms in the target, $\mu P_i^\top
+//! t_i$ to $\tau$, $\mu D_i t_i^\top$ to its cluster's $\sigma_k$ and $\mu\lVert t_i\rVert^2$ to
+//! the constant, are per-frame terms like the edges', so that a frame adds every handle's
+//! terms in one pass.
 
-use super::mesh_part::{Combiner, FixedMap, add_edge, edge_difference, embedding_row, key};
+use super::mesh_part::{
+    Combiner, FixedMap, add_edge, add_penalty, edge_difference, embedding_row, key,
+};
 use crate::deform::arap::Csr;
 use crate::deform::coarse::base::CoarseBase;
 use crate::error::SolveError;
@@ -55,11 +60,13 @@ pub(super) struct FrameTerms {
 
 /// Replaces, in the sums `g` and `pair` gathered with every vertex free, the terms of the edges
 /// with a handle end (`handle_vertices`, in the order of their targets) by those of the exact
-/// rule (module doc). Returns the per-frame terms and the change of the energy's constant.
+/// rule, and adds the handles' penalty of weight `hold` (module doc). Returns the per-frame
+/// terms and the change of the energy's constant.
 pub(super) fn hold_exactly(
     mesh: &Mesh,
     base: &CoarseBase,
     handle_vertices: &[u32],
+    hold: f64,
     g: &mut FixedMap<u64, f64>,
     pair: &mut FixedMap<u64, [f64; 3]>,
 ) -> Result<(FrameTerms, f64), SolveError> {
@@ -125,9 +132,22 @@ pub(super) fn hold_exactly(
             [None, None] => {}
         }
     }
+    // The handles' penalty: its τ terms straight into the rows (a row may hold a handle twice).
+    let mut hold_tau = Vec::with_capacity(3 * handle_vertices.len());
+    for (h, &v) in handle_vertices.iter().enumerate() {
+        let (v, row) = (v as usize, embedding_row(base, v as usize));
+        let detail = base.details[v];
+        constant += add_penalty(&mut g, &mut pair, row, cluster_of(h as u32), hold, detail);
+        hold_tau.extend((0..3).map(|a| (row.0[a], (h as u32, hold * row.1[a]))));
+        for d in 0..3 {
+            own[h][d] += hold * detail[d];
+        }
+        terms.squares[h] += hold;
+    }
     drop((g, pair, tau_sums, sigma_sums));
     let rows = |k: u64| ((k >> 32) as u32, (k & 0xffff_ffff) as u32);
-    let tau: Vec<_> = tau.into_iter().map(|(k, a)| (rows(k).0, (rows(k).1, a))).collect();
+    let tau: Vec<_> =
+        tau.into_iter().map(|(k, a)| (rows(k).0, (rows(k).1, a))).chain(hold_tau).collect();
     terms.tau = Csr::from_pairs(m, &tau);
     let own = (own.into_iter().enumerate()).map(|(h, v)| (cluster_of(h as u32), (h as u32, v)));
     let sigma: Vec<_> =

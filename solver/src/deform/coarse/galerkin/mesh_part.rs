@@ -166,6 +166,32 @@ pub(super) fn add_edge(
     2.0 * w * norm2(rest)
 }
 
+/// Adds the target-independent terms of a penalty $\mu\lVert P_i c + R_k D_i - t_i\rVert^2$
+/// on fine vertex $i$ (embedding `corners`, `weights`; cluster $k$, detail $D_i$) to the sums:
+/// $G$ gains $\mu P_i^\top P_i$ and $g_{kb}$ gains $-\mu P_{ib} D_i$. Returns its constant,
+/// $\mu\lVert D_i\rVert^2$; the terms in $t_i$ are the caller's, per frame.
+pub(super) fn add_penalty(
+    g: &mut Combiner<f64>,
+    pair: &mut Combiner<[f64; 3]>,
+    (corners, weights): ([u32; 3], [f64; 3]),
+    cluster: u32,
+    mu: f64,
+    detail: [f64; 3],
+) -> f64 {
+    for a in 0..3 {
+        for b in 0..3 {
+            if corners[a] >= corners[b] {
+                *g.entry(key(corners[a], corners[b])) += mu * weights[a] * weights[b];
+            }
+        }
+        let e = pair.entry(key(cluster, corners[a]));
+        for (ed, dd) in e.iter_mut().zip(detail) {
+            *ed -= mu * weights[a] * dd;
+        }
+    }
+    mu * norm2(detail)
+}
+
 impl GalerkinMesh {
     /// Gathers the sums over `mesh`'s edges through `base`'s prolongation (module doc).
     pub fn new(mesh: &Mesh, base: &CoarseBase) -> Result<GalerkinMesh, SolveError> {

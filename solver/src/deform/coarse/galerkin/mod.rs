@@ -70,7 +70,7 @@ mod exact;
 mod mesh_part;
 
 pub use mesh_part::GalerkinMesh;
-use mesh_part::{Combiner, embedding_row, key};
+use mesh_part::{Combiner, add_penalty, embedding_row};
 
 use crate::deform::arap::{Acceleration, Csr, SmoothRotations, SolveStats, vertices_per_task};
 use crate::deform::coarse::base::CoarseBase;
@@ -176,6 +176,8 @@ pub struct GalerkinCoarse {
     by_coarse: Csr<(u32, [f64; 3])>,
     /// The coarse mesh's clamped cotangent edges: per cluster $k$, its $(l, w^c_{kl})$.
     neighbours: Csr<(u32, f64)>,
+    /// The penalized vertices: the handle vertices under the penalty rules (under the exact
+    /// rule their tiny penalty is in `exact_terms`), then the vertices held at rest.
     held: Vec<Held>,
     /// The per-frame terms of the edges with a handle end under [`HandleRule::Exact`] (none
     /// under the other rules).
@@ -219,15 +221,17 @@ pub struct GalerkinCoarse {
 }
 
 impl GalerkinCoarse {
-    /// The energy for the handles of `handles` and the bending length `bending_length`·diag of
-    /// `mesh`: the handles' terms added to `gathered`, the mesh's part for `mesh` and `base`
-    /// ([`GalerkinMesh::new`]); [`SolveError::StaleBase`] when `gathered` was gathered for
-    /// another mesh or base.
+    /// The energy for the handles of `handles` (their partition `constraints`,
+    /// [`Constraints::new`] of `mesh` and `handles`, which the caller has made for its own
+    /// use) and the bending length `bending_length`·diag of `mesh`: the handles' terms added
+    /// to `gathered`, the mesh's part for `mesh` and `base` ([`GalerkinMesh::new`]);
+    /// [`SolveError::StaleBase`] when `gathered` was gathered for another mesh or base.
     pub fn new(
         mesh: &Mesh,
         base: &CoarseBase,
         gathered: &GalerkinMesh,
         handles: &Handles,
+        constraints: &Constraints,
         bending_length: f64,
         rule: HandleRule,
     ) -> Result<GalerkinCoarse, SolveError> {
@@ -240,10 +244,11 @@ impl GalerkinCoarse {
         let (mut g, mut pair, g_max) = (gathered.g.clone(), gathered.pair.clone(), gathered.g_max);
         let g_median = gathered.g_median;
         let neighbours = gathered.neighbours.clone();
-        let constraints = Constraints::new(mesh, handles);
         let pinned_mu = PINNED_WEIGHT * g_max;
+        // The exact rule's handles keep their tiny penalty in its per-frame terms (`exact.rs`).
+        let hold = exact::HOLD * g_max;
         let (mu, penalized, groups) = match rule {
-            HandleRule::Exact => (exact::HOLD * g_max, constraints.handle_vertices.len(), None),
+            HandleRule::Exact => (hold, 0, None),
             HandleRule::Penalty { weight } => {
                 (weight * g_max, constraints.handle_vertices.len(), None)
             }
@@ -279,27 +284,22 @@ impl GalerkinCoarse {
                 }
             })
             .collect();
+        let mut constant = gathered.rest_term;
         {
             let (mut g, mut pair) = (Combiner::new(&mut g), Combiner::new(&mut pair));
             for h in &held {
-                for a in 0..3 {
-                    for b in 0..3 {
-                        if h.corners[a] >= h.corners[b] {
-                            *g.entry(key(h.corners[a], h.corners[b])) +=
-                                h.mu * h.weights[a] * h.weights[b];
-                        }
-                    }
-                    let e = pair.entry(key(h.cluster, h.corners[a]));
-                    for (ed, dd) in e.iter_mut().zip(h.detail) {
-                        *ed -= h.mu * h.weights[a] * dd;
-                    }
-                }
+                let row = (h.corners, h.weights);
+                constant += add_penalty(&mut g, &mut pair, row, h.cluster, h.mu, h.detail);
             }
         }
-        let (exact_terms, exact_constant) = if rule == HandleRule::Exact {
-            exact::hold_exactly(mesh, base, &constraints.handle_vertices, &mut g, &mut pair)?
+        let exact_terms = if rule == HandleRule::Exact {
+            let handles = &constraints.handle_vertices;
+            let (terms, change) =
+                exact::hold_exactly(mesh, base, handles, hold, &mut g, &mut pair)?;
+            constant += change;
+            terms
         } else {
-            (exact::FrameTerms::none(m), 0.0)
+            exact::FrameTerms::none(m)
         };
         let eps = 1e-12 * g_max;
         // The free block: every coarse vertex but the coarse handles.
@@ -339,9 +339,6 @@ impl GalerkinCoarse {
             })
             .collect();
         let matrix = Csr::from_pairs(m, &entries);
-        let constant = gathered.rest_term
-            + exact_constant
-            + held.iter().map(|h| h.mu * norm2(h.detail)).sum::<f64>();
         let pairs: Vec<_> = pair
             .into_iter()
             .map(|(k, v)| ((k >> 32) as u32, ((k & 0xffff_ffff) as u32, v)))

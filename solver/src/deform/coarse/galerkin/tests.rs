@@ -1,5 +1,6 @@
 //! Tests of the Galerkin coarse energy (`galerkin/mod.rs`).
 
+use super::mesh_part::key;
 use super::*;
 use crate::deform::config::BaseConfig;
 use crate::deform::quality::distances;
@@ -31,7 +32,7 @@ fn rest_and_rigid_motions_are_reproduced() {
     ];
     for rule in rules {
         let gathered = GalerkinMesh::new(&mesh, &base).unwrap();
-        let mut g = GalerkinCoarse::new(&mesh, &base, &gathered, &handles, 0.02, rule).unwrap();
+        let mut g = energy_for(&mesh, &base, &gathered, &handles, 0.02, rule).unwrap();
         let stop = Stop::Moved { distance: 1e-11 * diag };
         let iterations = g.solve(&at(&moved), stop, 20_000).unwrap().iterations;
         assert!(iterations < 20_000, "{rule:?}");
@@ -44,6 +45,19 @@ fn rest_and_rigid_motions_are_reproduced() {
         assert!(rest.max < 1e-9, "{rule:?}: {rest:?}");
         assert_eq!(g.rotations(), &vec![IDENTITY; g.rotations().len()][..], "{rule:?}");
     }
+}
+
+/// [`GalerkinCoarse::new`] with the handles' partition made here.
+fn energy_for(
+    mesh: &Mesh,
+    base: &CoarseBase,
+    gathered: &GalerkinMesh,
+    handles: &Handles,
+    bending_length: f64,
+    rule: HandleRule,
+) -> Result<GalerkinCoarse, SolveError> {
+    let constraints = Constraints::new(mesh, handles);
+    GalerkinCoarse::new(mesh, base, gathered, handles, &constraints, bending_length, rule)
 }
 
 /// Handle targets that bend the bar: the cap at $x > 0$ turned by `angle` about `axis`
@@ -72,7 +86,7 @@ fn restricted_energy_descends(rule: HandleRule) {
     let (mesh, handles) = crate::geometry::shapes::bumpy_bar(3);
     let base = CoarseBase::new(&mesh, &BaseConfig::default()).unwrap();
     let gathered = GalerkinMesh::new(&mesh, &base).unwrap();
-    let mut g = GalerkinCoarse::new(&mesh, &base, &gathered, &handles, 0.05, rule).unwrap();
+    let mut g = energy_for(&mesh, &base, &gathered, &handles, 0.05, rule).unwrap();
     let targets = bent(&mesh, &handles, [0.0, 0.0, 1.0], 0.8);
     let mut energies = Vec::new();
     for _ in 0..30 {
@@ -115,13 +129,23 @@ fn restricted_energy_descends(rule: HandleRule) {
             direct += w * norm2(sub(sub(moved(i), moved(j)), turned));
         }
     }
+    // The penalties: the held vertices', and the exact rule's tiny one on every handle vertex.
+    let penalty = |v: usize, target: [f64; 3], mu: f64| {
+        let (k, d) = (base.representative[v] as usize, base.details[v]);
+        let turned = mul_vec(&g.rotations[k], d);
+        let p = on_coarse(v, &g.c);
+        mu * norm2(sub([p[0] + turned[0], p[1] + turned[1], p[2] + turned[2]], target))
+    };
     for h in &g.held {
         let v = h.vertex as usize;
-        let target = h.target.map_or(mesh.positions()[v], |t| targets[t]);
-        let turned = mul_vec(&g.rotations[h.cluster as usize], h.detail);
-        let p = on_coarse(v, &g.c);
-        let p = [p[0] + turned[0], p[1] + turned[1], p[2] + turned[2]];
-        direct += h.mu * norm2(sub(p, target));
+        direct += penalty(v, h.target.map_or(mesh.positions()[v], |t| targets[t]), h.mu);
+    }
+    if rule == HandleRule::Exact {
+        assert!(g.held.iter().all(|h| h.target.is_none()), "handles in the held list");
+        let hold = super::exact::HOLD * gathered.g_max;
+        for (&v, &t) in g.handle_vertices.iter().zip(&targets) {
+            direct += penalty(v as usize, t, hold);
+        }
     }
     let coarse_cot =
         face_cotangents_or(base.coarse_mesh.positions(), Some(&base.rest_kept), tris, base.floor)
@@ -148,7 +172,7 @@ fn anderson_reaches_the_same_minimum_in_fewer_iterations() {
     let rule = HandleRule::Penalty { weight: DEFAULT_PENALTY };
     // One iteration, then on to the minimum: the iterations and both energies.
     let run = |acceleration| {
-        let mut g = GalerkinCoarse::new(&mesh, &base, &gathered, &handles, 0.05, rule).unwrap();
+        let mut g = energy_for(&mesh, &base, &gathered, &handles, 0.05, rule).unwrap();
         g.set_acceleration(acceleration);
         let stop = Stop::Decrease { tolerance: 1e-12 };
         let mut iterations = g.solve(&targets, stop, 1).unwrap().iterations;
@@ -177,15 +201,15 @@ fn bad_input_is_an_error() {
     let rule = HandleRule::Penalty { weight: 0.1 };
     let gathered = GalerkinMesh::new(&mesh, &base).unwrap();
     for ell in [0.0, -1.0, f64::NAN] {
-        let e = GalerkinCoarse::new(&mesh, &base, &gathered, &handles, ell, rule).unwrap_err();
+        let e = energy_for(&mesh, &base, &gathered, &handles, ell, rule).unwrap_err();
         assert!(matches!(e, SolveError::BendingLength(_)), "{e}");
     }
     let (other, _) = crate::geometry::shapes::bumpy_bar(3);
     let other_base = CoarseBase::new(&other, &BaseConfig::default()).unwrap();
     let stale = GalerkinMesh::new(&other, &other_base).unwrap();
-    let e = GalerkinCoarse::new(&mesh, &base, &stale, &handles, 0.02, rule).unwrap_err();
+    let e = energy_for(&mesh, &base, &stale, &handles, 0.02, rule).unwrap_err();
     assert_eq!(e, SolveError::StaleBase);
-    let mut g = GalerkinCoarse::new(&mesh, &base, &gathered, &handles, 0.02, rule).unwrap();
+    let mut g = energy_for(&mesh, &base, &gathered, &handles, 0.02, rule).unwrap();
     let diag = mesh.bbox_diagonal();
     let mut targets: Vec<_> =
         handles.handle_vertices().iter().map(|&v| mesh.positions()[v as usize]).collect();
