@@ -200,14 +200,13 @@ pub fn load(path: &Path, mesh: &Mesh, config: &BaseConfig) -> Result<CoarseBase,
     let faces = r.u32s(n).ok_or_else(|| invalid("short arrays"))?;
     let weights = r.weights(n).ok_or_else(|| invalid("short arrays"))?;
     let level_mesh = read_level(&mut r, mesh).map_err(invalid)?;
-    // The Galerkin part: 0, or its length plus one and its bytes.
+    // The Galerkin part: 0, or its length plus one and its bytes (decoded once the base fits).
     let galerkin_len = r.u64().ok_or_else(|| invalid("short Galerkin header"))?;
     let galerkin = match galerkin_len.checked_sub(1) {
         None => None,
         Some(len) => {
             let len = usize::try_from(len).map_err(|_| invalid("Galerkin length"))?;
-            let part = r.take(len).ok_or_else(|| invalid("short Galerkin part"))?;
-            Some(GalerkinMesh::decode(part, n, nc).map_err(invalid)?)
+            Some(r.take(len).ok_or_else(|| invalid("short Galerkin part"))?)
         }
     };
     if !r.bytes.is_empty() {
@@ -252,11 +251,12 @@ pub fn load(path: &Path, mesh: &Mesh, config: &BaseConfig) -> Result<CoarseBase,
         phases: vec![("read from the disk cache", started.elapsed().as_secs_f64() * 1e3)],
         galerkin: std::sync::OnceLock::new(),
     };
-    if let Some(g) = galerkin {
-        let _ = base.galerkin.set(std::sync::Arc::new(g));
-    }
     if !base.fits(mesh, config) {
         return Err(stale());
+    }
+    if let Some(part) = galerkin {
+        let g = GalerkinMesh::decode(part, n, nc).map_err(invalid)?;
+        let _ = base.galerkin.set(std::sync::Arc::new(g));
     }
     Ok(base)
 }
@@ -305,8 +305,8 @@ struct Reader<'a> {
     bytes: &'a [u8],
 }
 
-impl Reader<'_> {
-    fn take(&mut self, n: usize) -> Option<&[u8]> {
+impl<'a> Reader<'a> {
+    fn take(&mut self, n: usize) -> Option<&'a [u8]> {
         if self.bytes.len() < n {
             return None;
         }
