@@ -2,7 +2,8 @@
 //!
 //! Usage: `cargo run --release -p app --example editor_rate -- [--no-settle] [--gpu-normals]
 //! [--energy spokes-and-rims|spokes|smooth-rotations] [--bending-length F]
-//! [--coarse-energy decimated|galerkin] [--tolerance T] [--cap N] MESH SELECTION [FRAMES [METHOD...]]`
+//! [--coarse-energy decimated|galerkin] [--tolerance T] [--cap N] [--coarse-vertices C] MESH SELECTION
+//! [FRAMES [METHOD...]]`
 //! (methods: `arap`, `bsarap`, `bsarap-faired`, `bsarap-coarse`, each optionally with `+aa` for
 //! the method panel's Anderson acceleration; default `arap bsarap bsarap-coarse`).
 //!
@@ -10,7 +11,8 @@
 //! default method settings (smooth rotations at bending length 0.02, tolerance 1e-4, cap 30
 //! iterations per displayed frame; `--energy`, `--bending-length` (a fraction of the diagonal)
 //! and `--coarse-energy` as the method panel sets them; `--tolerance` and `--cap` the stopping
-//! rule of every solve, the editor's 1e-4 and 30 by default), warm-started
+//! rule of every solve, the editor's 1e-4 and 30 by default; `--coarse-vertices` the coarse
+//! BS-ARAP's coarse size, automatic by default), warm-started
 //! from the previous frame as the solver thread does, with the first group moving on the
 //! benchmark's circle (radius 0.1·diag in the xy plane, FRAMES steps of one turn, default 30),
 //! the others at rest. A frame is what the thread does per published frame: the group poses'
@@ -81,6 +83,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if let Some(n) = option("--cap")? {
         defaults.arap.max_iterations = n.parse()?;
     }
+    if let Some(n) = option("--coarse-vertices")? {
+        defaults.base.coarse_vertices = Some(n.parse()?);
+    }
     defaults.arap.validate()?;
     if args.len() < 3 {
         return Err("usage: editor_rate MESH SELECTION [FRAMES [METHOD...]]".into());
@@ -112,12 +117,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let n_poses = handles.group_ids().max().map_or(0, |k| k + 1);
     let radius = 0.1 * mesh.bbox_diagonal();
     println!(
-        "{}: {} vertices, {frames} frames, energy {:?} (bending length {}·diag), coarse energy {}, tolerance {}, cap {} iterations per frame, {} threads",
+        "{}: {} vertices, {frames} frames, energy {:?} (bending length {}·diag), coarse energy {} at {} coarse vertices, tolerance {}, cap {} iterations per frame, {} threads",
         args[1],
         mesh.n_vertices(),
         defaults.arap.energy,
         defaults.arap.bending_length,
         defaults.base.coarse_energy.name(),
+        defaults.base.coarse_vertices_for(mesh.n_vertices()),
         defaults.arap.tolerance,
         defaults.arap.max_iterations,
         rayon::current_num_threads()
