@@ -236,6 +236,11 @@ impl GalerkinCoarse {
         rule: HandleRule,
     ) -> Result<GalerkinCoarse, SolveError> {
         check_bending_length(bending_length)?;
+        debug_assert_eq!(
+            constraints.handle_vertices,
+            handles.handle_vertices(),
+            "another handle set"
+        );
         let coarse = &base.coarse_mesh;
         let m = coarse.n_vertices();
         if gathered.sizes != (mesh.n_vertices(), m) || base.details.len() != mesh.n_vertices() {
