@@ -2,8 +2,8 @@
 //!
 //! Usage: `cargo run --release -p app --example editor_rate -- [--no-settle] [--gpu-normals]
 //! [--energy spokes-and-rims|spokes|smooth-rotations] [--bending-length F]
-//! [--coarse-energy decimated|galerkin] [--tolerance T] [--cap N] [--coarse-vertices C] MESH SELECTION
-//! [FRAMES [METHOD...]]`
+//! [--coarse-energy decimated|galerkin] [--tolerance T] [--cap N] [--coarse-vertices C] [--regrab D]
+//! MESH SELECTION [FRAMES [METHOD...]]`
 //! (methods: `arap`, `bsarap`, `bsarap-faired`, `bsarap-coarse`, each optionally with `+aa` for
 //! the method panel's Anderson acceleration; default `arap bsarap bsarap-coarse`).
 //!
@@ -29,6 +29,8 @@
 //! ([`solver::deform::quality::Reference`]) before and after settling, and while settling (at
 //! the first step after each of [`SNAPSHOTS`] seconds). `--gpu-normals` makes the
 //! shape as the thread does when the viewport computes the normals on the GPU (positions only).
+//! `--regrab D`: after settling, the group moves on by D·diag (along y) and is held and settled
+//! again, reported as a second row: what releasing shows when a settled pose is adjusted.
 //! `--no-settle` stops after
 //! the drag (on dense meshes the converged references take many minutes).
 //!
@@ -86,6 +88,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if let Some(n) = option("--coarse-vertices")? {
         defaults.base.coarse_vertices = Some(n.parse()?);
     }
+    let regrab: Option<f64> = option("--regrab")?.map(|d| d.parse()).transpose()?;
     defaults.arap.validate()?;
     if args.len() < 3 {
         return Err("usage: editor_rate MESH SELECTION [FRAMES [METHOD...]]".into());
@@ -202,43 +205,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 
         let mut poses = vec![GroupTransform::default(); n_poses];
         poses[group].translation = glam::DVec3::new(-2.0 * radius, 0.0, 0.0);
-        let moves = group_transforms(&handles, &poses);
-        let targets = handle_targets(&mesh, &handles, &poses)?;
-        let mut solves = 1;
-        let t = Instant::now();
-        while !d.solve(&moves)?.converged && solves < 1000 {
-            solves += 1;
-        }
-        let solve_seconds = t.elapsed().as_secs_f64();
-        let before = d.positions().to_vec();
-        let t = Instant::now();
-        let (mut steps, mut fine) = (0, 0);
-        let mut timeline = Vec::new();
-        while let Some(s) = d.settle(&moves)? {
-            steps += 1;
-            fine += s.fine_iterations;
-            let at = t.elapsed().as_secs_f64();
-            if SNAPSHOTS.get(timeline.len()).is_some_and(|&due| at >= due) {
-                timeline.push((at, d.positions().to_vec()));
-            }
-            if s.converged || steps >= 1000 {
-                break;
-            }
-        }
-        if steps > 0 {
-            let seconds = t.elapsed().as_secs_f64();
-            let solves = (solves, solve_seconds);
-            settling.push((
-                label.clone(),
-                targets,
-                solves,
-                before,
-                d.positions().to_vec(),
-                steps,
-                fine,
-                seconds,
-                timeline,
-            ));
+        let Some(first) = hold_and_settle(&mut *d, &mesh, &handles, &poses, label.clone())? else {
+            continue;
+        };
+        settling.push(first);
+        if let Some(step) = regrab {
+            poses[group].translation.y += step * mesh.bbox_diagonal();
+            let label = format!("{label}, regrabbed");
+            settling.extend(hold_and_settle(&mut *d, &mesh, &handles, &poses, label)?);
         }
     }
     if !settling.is_empty() {
@@ -248,7 +222,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         );
         println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|");
     }
-    for (label, targets, solves, before, after, steps, fine, seconds, timeline) in settling {
+    for Settled { label, targets, solves, before, after, steps, fine, seconds, timeline } in
+        settling
+    {
         let mut r = solver::deform::quality::Reference::new(
             &mesh,
             &handles,
@@ -311,6 +287,66 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         );
     }
     Ok(())
+}
+
+/// One hold and settle: the handle targets, the solves until the coarse solve converged (count,
+/// seconds), the pose then (`before`) and after settling, the settle steps, fine iterations and
+/// seconds, and the poses kept at [`SNAPSHOTS`].
+struct Settled {
+    label: String,
+    targets: Vec<[f64; 3]>,
+    solves: (usize, f64),
+    before: Vec<[f64; 3]>,
+    after: Vec<[f64; 3]>,
+    steps: usize,
+    fine: usize,
+    seconds: f64,
+    timeline: Vec<(f64, Vec<[f64; 3]>)>,
+}
+
+/// Holds the groups at `poses`: solves until the coarse solve converges, then settles until
+/// converged; `None` for a method that does not settle.
+fn hold_and_settle(
+    d: &mut dyn app::editor::solver_thread::PoseSolver,
+    mesh: &solver::Mesh,
+    handles: &solver::Handles,
+    poses: &[GroupTransform],
+    label: String,
+) -> Result<Option<Settled>, Box<dyn std::error::Error>> {
+    let moves = group_transforms(handles, poses);
+    let targets = handle_targets(mesh, handles, poses)?;
+    let mut solves = 1;
+    let t = Instant::now();
+    while !d.solve(&moves)?.converged && solves < 1000 {
+        solves += 1;
+    }
+    let solve_seconds = t.elapsed().as_secs_f64();
+    let before = d.positions().to_vec();
+    let t = Instant::now();
+    let (mut steps, mut fine) = (0, 0);
+    let mut timeline = Vec::new();
+    while let Some(s) = d.settle(&moves)? {
+        steps += 1;
+        fine += s.fine_iterations;
+        let at = t.elapsed().as_secs_f64();
+        if SNAPSHOTS.get(timeline.len()).is_some_and(|&due| at >= due) {
+            timeline.push((at, d.positions().to_vec()));
+        }
+        if s.converged || steps >= 1000 {
+            break;
+        }
+    }
+    Ok((steps > 0).then(|| Settled {
+        label,
+        targets,
+        solves: (solves, solve_seconds),
+        before,
+        after: d.positions().to_vec(),
+        steps,
+        fine,
+        seconds: t.elapsed().as_secs_f64(),
+        timeline,
+    }))
 }
 
 /// `--while-factoring` (module doc): settles at the drag's last pose until the full mesh's
