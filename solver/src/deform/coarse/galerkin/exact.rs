@@ -26,7 +26,7 @@
 //! terms in one pass.
 
 use super::mesh_part::{
-    Combiner, FixedMap, add_edge, add_penalty, edge_difference, embedding_row, key,
+    Combiner, FixedMap, add_edge, add_penalty, edge_difference, embedding_row, key, pair_of,
 };
 use crate::deform::arap::Csr;
 use crate::deform::coarse::base::CoarseBase;
@@ -145,13 +145,12 @@ pub(super) fn hold_exactly(
         terms.squares[h] += hold;
     }
     drop((g, pair, tau_sums, sigma_sums));
-    let rows = |k: u64| ((k >> 32) as u32, (k & 0xffff_ffff) as u32);
     let tau: Vec<_> =
-        tau.into_iter().map(|(k, a)| (rows(k).0, (rows(k).1, a))).chain(hold_tau).collect();
+        tau.into_iter().map(|(k, a)| (pair_of(k).0, (pair_of(k).1, a))).chain(hold_tau).collect();
     terms.tau = Csr::from_pairs(m, &tau);
     let own = (own.into_iter().enumerate()).map(|(h, v)| (cluster_of(h as u32), (h as u32, v)));
     let sigma: Vec<_> =
-        own.chain(sigma.into_iter().map(|(k, v)| (rows(k).0, (rows(k).1, v)))).collect();
+        own.chain(sigma.into_iter().map(|(k, v)| (pair_of(k).0, (pair_of(k).1, v)))).collect();
     terms.sigma = Csr::from_pairs(m, &sigma);
     Ok((terms, constant))
 }

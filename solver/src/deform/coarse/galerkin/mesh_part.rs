@@ -112,6 +112,11 @@ pub(super) fn key(a: u32, b: u32) -> u64 {
     (u64::from(a) << 32) | u64::from(b)
 }
 
+/// The pair $(a, b)$ of a key of the gathering maps ([`key`]'s inverse).
+pub(super) fn pair_of(key: u64) -> (u32, u32) {
+    ((key >> 32) as u32, key as u32)
+}
+
 /// The embedding of fine vertex `i` on `base`'s coarse mesh: its triangle's corners and weights.
 pub(super) fn embedding_row(base: &CoarseBase, i: usize) -> ([u32; 3], [f64; 3]) {
     let [w0, w1] = base.weights[i];
@@ -220,7 +225,7 @@ impl GalerkinMesh {
             }
         }
         let mut diagonal: Vec<f64> =
-            g.iter().filter(|(k, _)| (*k >> 32) == (*k & 0xffff_ffff)).map(|(_, &v)| v).collect();
+            g.iter().filter(|(k, _)| pair_of(**k).0 == pair_of(**k).1).map(|(_, &v)| v).collect();
         let g_max = diagonal.iter().fold(0.0f64, |s, &v| s.max(v));
         let middle = diagonal.len() / 2;
         let g_median = if diagonal.is_empty() {
@@ -290,7 +295,7 @@ impl GalerkinMesh {
         };
         let u64_at = |b: &[u8]| u64::from_le_bytes(b.try_into().unwrap_or_default());
         let f64_at = |b: &[u8]| f64::from_bits(u64_at(b));
-        let in_range = |key: u64| ((key >> 32) as usize) < m && ((key & 0xffff_ffff) as usize) < m;
+        let in_range = |key: u64| (pair_of(key).0 as usize) < m && (pair_of(key).1 as usize) < m;
         let count = |c: u64, size: usize, left: usize| -> Result<usize, &'static str> {
             let c = usize::try_from(c).map_err(|_| "Galerkin count")?;
             if c.checked_mul(size).is_none_or(|b| b > left) {
@@ -304,7 +309,7 @@ impl GalerkinMesh {
         for _ in 0..ng {
             let e = take(16)?;
             let (k, v) = (u64_at(&e[..8]), f64_at(&e[8..]));
-            if !in_range(k) || (k >> 32) < (k & 0xffff_ffff) || !v.is_finite() {
+            if !in_range(k) || pair_of(k).0 < pair_of(k).1 || !v.is_finite() {
                 return Err("a Galerkin entry out of range");
             }
             g.insert(k, v);

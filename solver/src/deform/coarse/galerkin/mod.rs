@@ -70,7 +70,7 @@ mod exact;
 mod mesh_part;
 
 pub use mesh_part::GalerkinMesh;
-use mesh_part::{Combiner, add_penalty, embedding_row};
+use mesh_part::{Combiner, add_penalty, embedding_row, pair_of};
 
 use crate::deform::arap::{Acceleration, Csr, SmoothRotations, SolveStats, vertices_per_task};
 use crate::deform::coarse::base::CoarseBase;
@@ -253,7 +253,8 @@ impl GalerkinCoarse {
         // The exact rule's handles keep their tiny penalty in its per-frame terms (`exact.rs`).
         let hold = exact::HOLD * g_max;
         let (mu, penalized, groups) = match rule {
-            HandleRule::Exact => (hold, 0, None),
+            // No handle vertex in `held`: its penalty is the exact rule's (`hold`).
+            HandleRule::Exact => (0.0, 0, None),
             HandleRule::Penalty { weight } => {
                 (weight * g_max, constraints.handle_vertices.len(), None)
             }
@@ -325,7 +326,7 @@ impl GalerkinCoarse {
         let mut pair: Vec<(u64, [f64; 3])> = pair.into_iter().collect();
         pair.sort_unstable_by_key(|e| e.0);
         for &(key, v) in &g {
-            let (a, b) = ((key >> 32) as u32, (key & 0xffff_ffff) as u32);
+            let (a, b) = pair_of(key);
             match (free[a as usize], free[b as usize]) {
                 (Some(fa), Some(fb)) => triplets.push(Triplet::new(fa as usize, fb as usize, v)),
                 (Some(fa), None) => coupling.push((fa, b, v)),
@@ -338,16 +339,14 @@ impl GalerkinCoarse {
         let entries: Vec<_> = g
             .iter()
             .flat_map(|&(key, v)| {
-                let (a, b) = ((key >> 32) as u32, (key & 0xffff_ffff) as u32);
+                let (a, b) = pair_of(key);
                 let mirrored = (a != b).then_some((b, (a, v)));
                 std::iter::once((a, (b, v))).chain(mirrored)
             })
             .collect();
         let matrix = Csr::from_pairs(m, &entries);
-        let pairs: Vec<_> = pair
-            .into_iter()
-            .map(|(k, v)| ((k >> 32) as u32, ((k & 0xffff_ffff) as u32, v)))
-            .collect();
+        let pairs: Vec<_> =
+            pair.into_iter().map(|(k, v)| (pair_of(k).0, (pair_of(k).1, v))).collect();
         let pairs = Csr::from_pairs(m, &pairs);
         let by_coarse: Vec<_> = (0..m)
             .flat_map(|k| pairs.row(k).iter().map(move |&(b, g)| (b, (k as u32, g))))

@@ -233,7 +233,7 @@ fn the_combiner_sums_as_the_map() {
     let mut combined3 = FixedMap::<u64, [f64; 3]>::default();
     {
         let (mut c, mut c3) = (Combiner::new(&mut combined), Combiner::new(&mut combined3));
-        // 5,000 keys in runs, each key revisited from far apart in the sequence.
+        // 15,000 keys (5,000 × 3), each revisited from far apart in the sequence.
         for n in 0..40_000u64 {
             let k = key((n * 7_919 % 5_000) as u32, (n % 3) as u32);
             let v = 1.0 / (n + 1) as f64;
