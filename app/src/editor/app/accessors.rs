@@ -1,4 +1,4 @@
-//! Accessors for tests and scripts (`tests/editor.rs`, `examples/ui_cost.rs`): what the
+//! Accessors for tests and scripts (`tests/integration/editor.rs`, `examples/ui_cost.rs`): what the
 //! editor shows and holds, and a few setters that act as the UI would.
 
 use std::path::{Path, PathBuf};

@@ -4,7 +4,7 @@
 //! gets (the handle set and its rig) or on the pose.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod support;
+use crate::support;
 
 use std::path::PathBuf;
 

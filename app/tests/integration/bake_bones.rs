@@ -4,7 +4,7 @@
 //! (egui_kittest and lavapipe as in `editor.rs`).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod support;
+use crate::support;
 
 use std::path::{Path, PathBuf};
 

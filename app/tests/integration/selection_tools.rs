@@ -3,7 +3,7 @@
 //! labels the solver's handle set is built from.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod support;
+use crate::support;
 
 use app::editor::{EditorApp, SelectMode, Tool};
 use eframe::egui::{Event, Key, Modifiers, Pos2, Rect, Vec2};

@@ -4,7 +4,7 @@
 //! message.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod support;
+use crate::support;
 
 use app::editor::prefs::{FILE_NAME, Preferences, Theme};
 use eframe::egui::{self, Event, Key, Modifiers};

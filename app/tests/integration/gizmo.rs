@@ -3,7 +3,7 @@
 //! square; checked on the group's pose and on the solver's result for its handles.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod support;
+use crate::support;
 
 use app::editor::solver_thread::Slot;
 use app::editor::{EditorApp, Tool, TransformKind};

@@ -527,7 +527,7 @@ fn khronos_validator_accepts_every_encoding() {
 // ---------------------------------------------------------------- measurement (BENCHMARKS.md)
 
 /// Prints size and played error per encoding for a recorded icosphere (642 vertices, 24
-/// frames); `cargo test -p solver --test export_asset measure -- --nocapture`.
+/// frames); `cargo test -p solver --test integration export_asset::measure -- --nocapture`.
 #[test]
 fn measure_sizes_and_errors() {
     use solver::animation::recording::record;

@@ -8,8 +8,7 @@
 //! cannot start fails under CI=true.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-#[path = "support/clients.rs"]
-mod clients;
+use crate::support::clients;
 
 use std::ops::ControlFlow;
 use std::path::{Path as FsPath, PathBuf};

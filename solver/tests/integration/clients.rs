@@ -9,8 +9,7 @@
 //! and is skipped elsewhere; a client that runs and rejects our file always fails the test.
 #![allow(clippy::unwrap_used)]
 
-#[path = "support/clients.rs"]
-mod clients;
+use crate::support::clients;
 
 use std::ops::ControlFlow;
 use std::path::{Path as FsPath, PathBuf};

@@ -11,8 +11,7 @@
 //! bpy to author the asset); a tool that cannot start fails under CI=true.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-#[path = "support/clients.rs"]
-mod clients;
+use crate::support::clients;
 
 use std::collections::{BTreeSet, HashMap};
 use std::ops::ControlFlow;

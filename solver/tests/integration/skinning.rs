@@ -5,8 +5,7 @@
 //! frame by frame against the fit and the recording. Client skip rules: see clients.rs.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-#[path = "support/clients.rs"]
-mod clients;
+use crate::support::clients;
 
 use std::ops::ControlFlow;
 use std::path::{Path as FsPath, PathBuf};

@@ -3,7 +3,7 @@
 //! units.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod support;
+use crate::support;
 
 use app::editor::EditorApp;
 use eframe::egui;

@@ -3,8 +3,7 @@
 //! winding. The malformed cases are in `malformed_input.rs`.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-#[path = "support/gltf_files.rs"]
-mod gltf_files;
+use crate::support::gltf_files;
 
 use gltf_files::{TET_P, tet_bin, tet_doc, to_glb, to_gltf};
 use serde_json::json;

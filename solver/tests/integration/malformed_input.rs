@@ -6,8 +6,7 @@
 
 use std::path::Path;
 
-#[path = "support/gltf_files.rs"]
-mod gltf_files;
+use crate::support::gltf_files;
 use gltf_files::{tet_bin, tet_doc, tet_gltf_with, to_glb};
 use serde_json::json;
 

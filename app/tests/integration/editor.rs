@@ -4,7 +4,7 @@
 //! Snapshots live in `app/tests/snapshots/`; regenerate them with `UPDATE_SNAPSHOTS=1`.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod support;
+use crate::support;
 
 use std::path::PathBuf;
 use std::sync::Arc;

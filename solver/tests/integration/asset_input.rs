@@ -4,8 +4,7 @@
 //! refused with their specific error (table at the end).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-#[path = "support/gltf_files.rs"]
-mod gltf_files;
+use crate::support::gltf_files;
 
 use base64::Engine;
 use gltf_files::{tet_bin, tet_doc, to_glb, to_gltf};

@@ -2,7 +2,7 @@
 //! the scene's optional `capture` object. Rendering runs on lavapipe where there is no GPU.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod support;
+use crate::support;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;

@@ -4,8 +4,7 @@
 //! folder that must never be read into the asset.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-#[path = "support/gltf_files.rs"]
-mod gltf_files;
+use crate::support::gltf_files;
 
 use std::path::{Path, PathBuf};
 

@@ -3,7 +3,7 @@
 //! desktop portal is touched), and quitting with unsaved changes.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod support;
+use crate::support;
 
 use std::path::Path;
 
