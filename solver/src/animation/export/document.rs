@@ -146,6 +146,34 @@ pub(super) fn bounds(v: &[[f32; 3]]) -> (Vec<f64>, Vec<f64>) {
     (lo.into(), hi.into())
 }
 
+/// A sampler of keys `input` and values `output`, interpolated linearly.
+pub(super) fn linear_sampler(
+    input: json::Index<json::Accessor>,
+    output: json::Index<json::Accessor>,
+) -> json::animation::Sampler {
+    json::animation::Sampler {
+        extensions: None,
+        extras: None,
+        input,
+        interpolation: Valid(json::animation::Interpolation::Linear),
+        output,
+    }
+}
+
+/// A channel that drives `path` of `node` with the last of `samplers`.
+pub(super) fn channel(
+    samplers: &[json::animation::Sampler],
+    node: json::Index<json::Node>,
+    path: json::animation::Property,
+) -> json::animation::Channel {
+    json::animation::Channel {
+        sampler: json::Index::new(samplers.len() as u32 - 1),
+        target: json::animation::Target { extensions: None, extras: None, node, path: Valid(path) },
+        extensions: None,
+        extras: None,
+    }
+}
+
 pub(super) fn f32_bytes<const N: usize>(v: &[[f32; N]]) -> Vec<u8> {
     v.iter().flatten().flat_map(|c| c.to_le_bytes()).collect()
 }
@@ -517,25 +545,9 @@ impl GltfExport<'_> {
             if quantized || samplers.is_empty() {
                 let output =
                     b.data(&one_hot(&weights[mi]), total * total, C::F32, T::Scalar, None, None);
-                samplers.push(json::animation::Sampler {
-                    extensions: None,
-                    extras: None,
-                    input,
-                    interpolation: Valid(json::animation::Interpolation::Linear),
-                    output,
-                });
+                samplers.push(linear_sampler(input, output));
             }
-            channels.push(json::animation::Channel {
-                sampler: json::Index::new(samplers.len() as u32 - 1),
-                target: json::animation::Target {
-                    extensions: None,
-                    extras: None,
-                    node,
-                    path: Valid(json::animation::Property::MorphTargetWeights),
-                },
-                extensions: None,
-                extras: None,
-            });
+            channels.push(channel(&samplers, node, json::animation::Property::MorphTargetWeights));
         }
         let scene = b.root.push(json::Scene {
             extensions: None,

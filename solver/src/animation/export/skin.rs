@@ -39,7 +39,10 @@ use json::accessor::{ComponentType as C, Type as T};
 use json::buffer::Target as B;
 use json::validation::{Checked::Valid, USize64};
 
-use super::document::{Builder, base_attributes, f32_bytes, file_bytes, file_size, push_materials};
+use super::document::{
+    Builder, base_attributes, channel, f32_bytes, file_bytes, file_size, linear_sampler,
+    push_materials,
+};
 use super::layout::{Layout, validate};
 use super::{ExportError, GltfFormat, UpAxis};
 use crate::animation::skinning::{MAX_INFLUENCES, Skinning};
@@ -376,24 +379,8 @@ impl<'a> SkinnedExport<'a> {
                 let ty =
                     if path == json::animation::Property::Rotation { T::Vec4 } else { T::Vec3 };
                 let output = b.data(&values, n_t, C::F32, ty, None, None);
-                samplers.push(json::animation::Sampler {
-                    extensions: None,
-                    extras: None,
-                    input,
-                    interpolation: Valid(json::animation::Interpolation::Linear),
-                    output,
-                });
-                channels.push(json::animation::Channel {
-                    sampler: json::Index::new(samplers.len() as u32 - 1),
-                    target: json::animation::Target {
-                        extensions: None,
-                        extras: None,
-                        node,
-                        path: Valid(path),
-                    },
-                    extensions: None,
-                    extras: None,
-                });
+                samplers.push(linear_sampler(input, output));
+                channels.push(channel(&samplers, node, path));
             }
         }
         b.root.push(json::Animation {
