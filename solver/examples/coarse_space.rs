@@ -39,7 +39,7 @@
 
 use solver::deform::coarse::fit::{DetailRotations, nearest_pose};
 use solver::deform::coarse::galerkin::{
-    DEFAULT_PENALTY, GalerkinCoarse, GalerkinMesh, HandleRule, Stop,
+    DEFAULT_PENALTY, GalerkinCoarse, HandleRule, Stop, gather_mesh_part,
 };
 use solver::deform::constraints::Constraints;
 use solver::deform::quality::{Reference, ReferenceEnergy};
@@ -195,7 +195,7 @@ fn main() {
         }
         if energy.energy == Energy::SmoothRotations {
             let clock = std::time::Instant::now();
-            let gathered = GalerkinMesh::new(&mesh, &coarse).expect("Galerkin gathering");
+            let gathered = gather_mesh_part(&mesh, &coarse).expect("Galerkin gathering");
             print!("; Galerkin's mesh part gathered in {:.2} s", clock.elapsed().as_secs_f64());
             let rules =
                 std::iter::once((", coarse handles".to_string(), HandleRule::CoarseVertices))

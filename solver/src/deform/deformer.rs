@@ -7,6 +7,7 @@ use crate::deform::bs_arap::{BaseKind, BsArap};
 use crate::deform::coarse::CoarseBsArap;
 use crate::deform::coarse::base::CoarseBase;
 use crate::deform::coarse::cache as coarse_cache;
+use crate::deform::coarse::galerkin::galerkin_mesh;
 use crate::deform::config::BaseConfig;
 use crate::deform::handles::Handles;
 use crate::deform::pose::{GroupRest, GroupTransform};
@@ -199,7 +200,7 @@ impl MeshCache {
 }
 
 /// Gathers the Galerkin coarse energy's mesh part of `coarse` when `base` asks for that
-/// energy ([`CoarseBase::galerkin_mesh`]; nothing when gathered already, or read from the
+/// energy ([`galerkin_mesh`]; nothing when gathered already, or read from the
 /// disk cache). Whether it gathered it now.
 fn gather_galerkin(
     coarse: &CoarseBase,
@@ -210,7 +211,7 @@ fn gather_galerkin(
     if !wanted || coarse.galerkin.get().is_some() {
         return Ok(false);
     }
-    in_pool(|| coarse.galerkin_mesh(mesh))?;
+    in_pool(|| galerkin_mesh(coarse, mesh))?;
     Ok(true)
 }
 

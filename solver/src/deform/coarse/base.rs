@@ -34,7 +34,7 @@
 //! triangles ([`Mesh::fingerprint`]) and the settings ([`CoarseBase::fits`]), so that a cache
 //! never hands it to another mesh.
 
-use crate::deform::coarse::galerkin::GalerkinMesh;
+use crate::deform::coarse::galerkin::mesh_part::GalerkinMesh;
 use crate::deform::coarse::level::{
     FairedBase, FairedLevel, Fairing, LEVEL_EDGES_PER_SMOOTHING_LENGTH, LevelView, faired_base_then,
 };
@@ -84,7 +84,8 @@ pub struct CoarseBase {
     pub(crate) level: Option<LevelEmbedding>,
     pub(crate) phases: Vec<(&'static str, f64)>,
     /// The Galerkin coarse energy's part for this mesh and base, gathered when first asked
-    /// for ([`CoarseBase::galerkin_mesh`]; in the disk cache when gathered before writing).
+    /// for ([`galerkin_mesh`](crate::deform::coarse::galerkin::galerkin_mesh); in the disk
+    /// cache when gathered before writing).
     pub(crate) galerkin: OnceLock<Arc<GalerkinMesh>>,
 }
 
@@ -183,16 +184,6 @@ impl CoarseBase {
             && self.target_vertices == config.coarse_vertices_for(mesh.n_vertices())
             && self.representative.len() == mesh.n_vertices()
             && self.fingerprint == mesh.fingerprint()
-    }
-
-    /// The Galerkin coarse energy's part for `mesh` (the mesh this base was built for) and
-    /// this base ([`GalerkinMesh::new`]): gathered on the first call, shared afterwards.
-    pub fn galerkin_mesh(&self, mesh: &Mesh) -> Result<Arc<GalerkinMesh>, SolveError> {
-        if let Some(g) = self.galerkin.get() {
-            return Ok(Arc::clone(g));
-        }
-        let gathered = Arc::new(GalerkinMesh::new(mesh, self)?);
-        Ok(Arc::clone(self.galerkin.get_or_init(|| gathered)))
     }
 
     /// The number of coarse vertices.

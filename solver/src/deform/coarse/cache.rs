@@ -7,7 +7,7 @@
 //! for a base faired on a level, the level's triangles and vertices and each fine vertex's
 //! level representative, level triangle and weights ([`crate::deform::coarse::level_settle`]);
 //! the Galerkin coarse energy's mesh part when it was gathered before the file was written
-//! ([`CoarseBase::galerkin_mesh`]; a few MiB, about a second to gather at 1.5M vertices).
+//! ([`galerkin_mesh`](crate::deform::coarse::galerkin::galerkin_mesh); a few MiB, about a second to gather at 1.5M vertices).
 //! The rest is recomputed on reading: the embedded points $P B_c$, the details
 //! $D = M - P B_c$ and $M$ itself from the mesh.
 //!
@@ -416,7 +416,7 @@ mod tests {
         let base = CoarseBase::new(&mesh, &config).unwrap();
         save(&base, &path).unwrap();
         assert!(load(&path, &mesh, &config).unwrap().galerkin.get().is_none());
-        let gathered = base.galerkin_mesh(&mesh).unwrap();
+        let gathered = crate::deform::coarse::galerkin::galerkin_mesh(&base, &mesh).unwrap();
         save(&base, &path).unwrap();
         let back = load(&path, &mesh, &config).unwrap();
         let read = back.galerkin.get().expect("the Galerkin part read back").clone();

@@ -84,7 +84,7 @@ use crate::deform::arap::{Arap, ArapConfig, Energy, RotationStep, SolveStats};
 use crate::deform::coarse::base::{CoarseBase, Phases};
 use crate::deform::coarse::energy::CoarseSolver;
 use crate::deform::coarse::full_mesh::FineLevel;
-use crate::deform::coarse::galerkin::{GalerkinCoarse, HandleRule};
+use crate::deform::coarse::galerkin::{GalerkinCoarse, HandleRule, galerkin_mesh};
 pub use crate::deform::coarse::groups::MIN_COARSE_GROUP;
 use crate::deform::coarse::groups::{CoarseGroups, coarse_rig};
 use crate::deform::coarse::level_settle::LevelSolver;
@@ -322,7 +322,7 @@ impl CoarseBsArap {
                 if config.energy != Energy::SmoothRotations {
                     return Err(SolveError::GalerkinEnergy);
                 }
-                let gathered = base.galerkin_mesh(mesh)?;
+                let gathered = galerkin_mesh(&base, mesh)?;
                 clock.lap("Galerkin mesh part");
                 let rule = HandleRule::Exact;
                 let energy = GalerkinCoarse::new(

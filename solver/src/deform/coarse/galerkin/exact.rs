@@ -25,9 +25,8 @@
 //! the constant, are per-frame terms like the edges', so that a frame adds every handle's
 //! terms in one pass.
 
-use super::mesh_part::{
-    Combiner, FixedMap, add_edge, add_penalty, edge_difference, embedding_row, key, pair_of,
-};
+use super::gathering::{Combiner, add_edge, add_penalty, edge_difference, embedding_row};
+use super::mesh_part::{FixedMap, key, pair_of};
 use crate::deform::arap::Csr;
 use crate::deform::coarse::base::CoarseBase;
 use crate::error::SolveError;

@@ -67,10 +67,13 @@
 //! rotations), with constrained vertices on their targets.
 
 mod exact;
-mod mesh_part;
+mod gathering;
+pub(crate) mod mesh_part;
 
+use gathering::{Combiner, add_penalty, embedding_row};
+pub use gathering::{galerkin_mesh, gather_mesh_part};
 pub use mesh_part::GalerkinMesh;
-use mesh_part::{Combiner, add_penalty, embedding_row, pair_of};
+use mesh_part::pair_of;
 
 use crate::deform::arap::{Acceleration, Csr, SmoothRotations, SolveStats, vertices_per_task};
 use crate::deform::coarse::base::CoarseBase;
@@ -224,7 +227,7 @@ impl GalerkinCoarse {
     /// The energy for the handles of `handles` (their partition `constraints`,
     /// [`Constraints::new`] of `mesh` and `handles`, which the caller has made for its own
     /// use) and the bending length `bending_length`·diag of `mesh`: the handles' terms added
-    /// to `gathered`, the mesh's part for `mesh` and `base` ([`GalerkinMesh::new`]);
+    /// to `gathered`, the mesh's part for `mesh` and `base` ([`gather_mesh_part`]);
     /// [`SolveError::StaleBase`] when `gathered` was gathered for another mesh or base.
     pub fn new(
         mesh: &Mesh,

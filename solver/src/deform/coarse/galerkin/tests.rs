@@ -31,7 +31,7 @@ fn rest_and_rigid_motions_are_reproduced() {
         HandleRule::Exact,
     ];
     for rule in rules {
-        let gathered = GalerkinMesh::new(&mesh, &base).unwrap();
+        let gathered = gather_mesh_part(&mesh, &base).unwrap();
         let mut g = energy_for(&mesh, &base, &gathered, &handles, 0.02, rule).unwrap();
         let stop = Stop::Moved { distance: 1e-11 * diag };
         let iterations = g.solve(&at(&moved), stop, 20_000).unwrap().iterations;
@@ -85,7 +85,7 @@ fn the_energy_is_the_restricted_one_and_descends() {
 fn restricted_energy_descends(rule: HandleRule) {
     let (mesh, handles) = crate::geometry::shapes::bumpy_bar(3);
     let base = CoarseBase::new(&mesh, &BaseConfig::default()).unwrap();
-    let gathered = GalerkinMesh::new(&mesh, &base).unwrap();
+    let gathered = gather_mesh_part(&mesh, &base).unwrap();
     let mut g = energy_for(&mesh, &base, &gathered, &handles, 0.05, rule).unwrap();
     let targets = bent(&mesh, &handles, [0.0, 0.0, 1.0], 0.8);
     let mut energies = Vec::new();
@@ -166,7 +166,7 @@ fn restricted_energy_descends(rule: HandleRule) {
 fn anderson_reaches_the_same_minimum_in_fewer_iterations() {
     let (mesh, handles) = crate::geometry::shapes::bumpy_bar(3);
     let base = CoarseBase::new(&mesh, &BaseConfig::default()).unwrap();
-    let gathered = GalerkinMesh::new(&mesh, &base).unwrap();
+    let gathered = gather_mesh_part(&mesh, &base).unwrap();
     let diag = mesh.bbox_diagonal();
     let targets = bent(&mesh, &handles, [0.0, 0.3, 1.0], 0.9);
     let rule = HandleRule::Penalty { weight: DEFAULT_PENALTY };
@@ -199,14 +199,14 @@ fn bad_input_is_an_error() {
     let (mesh, handles) = crate::geometry::shapes::bumpy_bar(2);
     let base = CoarseBase::new(&mesh, &BaseConfig::default()).unwrap();
     let rule = HandleRule::Penalty { weight: 0.1 };
-    let gathered = GalerkinMesh::new(&mesh, &base).unwrap();
+    let gathered = gather_mesh_part(&mesh, &base).unwrap();
     for ell in [0.0, -1.0, f64::NAN] {
         let e = energy_for(&mesh, &base, &gathered, &handles, ell, rule).unwrap_err();
         assert!(matches!(e, SolveError::BendingLength(_)), "{e}");
     }
     let (other, _) = crate::geometry::shapes::bumpy_bar(3);
     let other_base = CoarseBase::new(&other, &BaseConfig::default()).unwrap();
-    let stale = GalerkinMesh::new(&other, &other_base).unwrap();
+    let stale = gather_mesh_part(&other, &other_base).unwrap();
     let e = energy_for(&mesh, &base, &stale, &handles, 0.02, rule).unwrap_err();
     assert_eq!(e, SolveError::StaleBase);
     let mut g = energy_for(&mesh, &base, &gathered, &handles, 0.02, rule).unwrap();
@@ -226,7 +226,8 @@ fn bad_input_is_an_error() {
 /// (more keys than slots, revisited out of order) and for vector values.
 #[test]
 fn the_combiner_sums_as_the_map() {
-    use mesh_part::{Combiner, FixedMap};
+    use gathering::Combiner;
+    use mesh_part::FixedMap;
     let mut direct = FixedMap::<u64, f64>::default();
     let mut combined = FixedMap::<u64, f64>::default();
     let mut direct3 = FixedMap::<u64, [f64; 3]>::default();
