@@ -12,19 +12,10 @@ use eframe::egui::{self, Vec2};
 use egui_kittest::{Harness, kittest::Queryable};
 use solver::animation::scene::{CaptureSettings, Scene};
 use solver::testing::ScratchDir;
-use support::step_until;
+use support::{bsarap, step_until};
 
 /// The viewport's background, sRGB (`app::editor::capture::BACKGROUND`).
 const BACKGROUND: [u8; 3] = [38, 40, 46];
-
-fn bsarap(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_bsarap")).args(args).output().expect("run bsarap");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
 
 /// An icosphere (162 vertices) with its two x-caps as handle groups 0 and 1, and a scene
 /// whose group 0 moves on a circle over one second at `fps` (no path when `fps` is None).

@@ -2,16 +2,8 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use std::path::PathBuf;
-use std::process::Command;
 
-fn bsarap(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_bsarap")).args(args).output().expect("run bsarap");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
+use crate::support::bsarap;
 
 fn dir(name: &str) -> solver::testing::ScratchDir {
     let d = solver::testing::ScratchDir::new(&format!("export-cli-{name}"));

@@ -9,7 +9,7 @@
 //! and is skipped elsewhere; a client that runs and rejects our file always fails the test.
 #![allow(clippy::unwrap_used)]
 
-use crate::support::clients;
+use crate::support::{clients, record_bsarap};
 
 use std::ops::ControlFlow;
 use std::path::{Path as FsPath, PathBuf};
@@ -17,11 +17,11 @@ use std::path::{Path as FsPath, PathBuf};
 use clients::{
     bbox_change, blender_python, max_error, run_blender, textures_have_pixels, threejs_check,
 };
+use solver::Mesh;
 use solver::animation::export::export_gltf;
-use solver::animation::recording::{Recording, record};
+use solver::animation::recording::Recording;
 use solver::animation::timeline::{CircularPath, GroupPath, Path, Timeline};
 use solver::testing::ScratchDir;
-use solver::{ArapConfig, Deformer, DeformerOptions, Mesh, Method};
 
 /// A capped sphere whose top cap circles and whose side patch stays: every frame differs.
 fn recording(n_frames: usize) -> (Mesh, Recording) {
@@ -38,17 +38,7 @@ fn recording(n_frames: usize) -> (Mesh, Recording) {
             }),
         }],
     };
-    let config = ArapConfig { tolerance: 1e-5, max_iterations: 50, ..Default::default() };
-    let mut d = Deformer::new(
-        &mesh,
-        &handles,
-        DeformerOptions { method: Method::BsArap, config, ..Default::default() },
-    )
-    .unwrap();
-    let rec = record(&mut d, &mesh, &handles, &timeline, n_frames, &config, &mut |_, _| {
-        ControlFlow::Continue(())
-    })
-    .unwrap();
+    let rec = record_bsarap(&mesh, &handles, &timeline, n_frames);
     (mesh, rec)
 }
 

@@ -8,7 +8,7 @@
 //! cannot start fails under CI=true.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-use crate::support::clients;
+use crate::support::{clients, record_bsarap};
 
 use std::ops::ControlFlow;
 use std::path::{Path as FsPath, PathBuf};
@@ -16,15 +16,15 @@ use std::process::Command;
 
 use clients::{blender_python, max_error, root, threejs_check, vec3};
 use serde_json::Value;
+use solver::Mesh;
 use solver::animation::export::{
     AssetExport, EXT_MESHOPT_COMPRESSION, ExportSettings, GltfExport, GltfFormat,
 };
-use solver::animation::recording::{Recording, record};
+use solver::animation::recording::Recording;
 use solver::animation::timeline::{CircularPath, GroupPath, Path, Timeline};
 use solver::io::Asset;
 use solver::testing::ScratchDir;
 use solver::testing::gltf_decode::{parse, played_error_reordered, read};
-use solver::{ArapConfig, Deformer, DeformerOptions, Mesh, Method};
 
 /// Frames recorded (times 0, 0.2, …, 1 s).
 const FRAMES: usize = 6;
@@ -42,17 +42,7 @@ fn recording() -> (Mesh, Recording) {
             path: Path::Circular(CircularPath::new([0.0, 0.0, 1.0], 0.4, 1.0)),
         }],
     };
-    let config = ArapConfig { tolerance: 1e-5, max_iterations: 50, ..Default::default() };
-    let mut d = Deformer::new(
-        &mesh,
-        &handles,
-        DeformerOptions { method: Method::BsArap, config, ..Default::default() },
-    )
-    .unwrap();
-    let rec = record(&mut d, &mesh, &handles, &timeline, FRAMES, &config, &mut |_, _| {
-        ControlFlow::Continue(())
-    })
-    .unwrap();
+    let rec = record_bsarap(&mesh, &handles, &timeline, FRAMES);
     (mesh, rec)
 }
 

@@ -5,38 +5,28 @@
 //! frame by frame against the fit and the recording. Client skip rules: see clients.rs.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-use crate::support::clients;
+use crate::support::{clients, record_bsarap};
 
 use std::ops::ControlFlow;
 use std::path::{Path as FsPath, PathBuf};
 
 use clients::{blender_python, max_error, run_blender, threejs_check};
+use solver::Mesh;
 use solver::animation::export::{GltfFormat, SkinnedExport};
-use solver::animation::recording::{Recording, record};
+use solver::animation::recording::Recording;
 use solver::animation::skinning::{
     FitProgress, MAX_INFLUENCES, Skinning, SkinningConfig, SkinningError, fit_skinning,
 };
 use solver::io::asset::Asset;
 use solver::linalg::rotation::{axis_angle, mul_vec};
 use solver::testing::ScratchDir;
-use solver::{ArapConfig, Deformer, DeformerOptions, Mesh, Method};
 
 /// A capped sphere whose top cap circles (turning with the path) and whose side patch stays,
 /// recorded by our solver: a smooth bend, not rigid parts.
 fn recording(n_frames: usize) -> (Mesh, Recording) {
     let (mesh, handles) = solver::testing::capped_sphere(3, 2, 0.85, Some(0.9));
     let timeline = solver::testing::circling_timeline(0.4, n_frames);
-    let config = ArapConfig { tolerance: 1e-5, max_iterations: 50, ..Default::default() };
-    let mut d = Deformer::new(
-        &mesh,
-        &handles,
-        DeformerOptions { method: Method::BsArap, config, ..Default::default() },
-    )
-    .unwrap();
-    let rec = record(&mut d, &mesh, &handles, &timeline, n_frames, &config, &mut |_, _| {
-        ControlFlow::Continue(())
-    })
-    .unwrap();
+    let rec = record_bsarap(&mesh, &handles, &timeline, n_frames);
     (mesh, rec)
 }
 

@@ -1,6 +1,7 @@
 //! The harness shared by the editor's UI tests (`editor.rs`, `selection_tools.rs`, `gizmo.rs`,
 //! `preferences.rs`, `rigging.rs`, `capture.rs`): the real `EditorApp` under egui_kittest with
-//! wgpu (software Vulkan, lavapipe, on machines without a GPU).
+//! wgpu (software Vulkan, lavapipe, on machines without a GPU); and [`bsarap`], the real binary
+//! run by the command-line tests.
 #![allow(dead_code, clippy::unwrap_used, clippy::expect_used)]
 
 use std::path::PathBuf;
@@ -10,6 +11,19 @@ use app::editor::solver_thread::{Slot, SolverState};
 use app::editor::{EditorApp, EditorOptions, default_mesh_path};
 use eframe::egui::{Event, Modifiers, PointerButton, Pos2, Vec2};
 use egui_kittest::Harness;
+
+/// Runs the real `bsarap` binary with `args`: its exit code (-1 when killed), stdout, stderr.
+pub fn bsarap(args: &[&str]) -> (i32, String, String) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_bsarap"))
+        .args(args)
+        .output()
+        .expect("run bsarap");
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
 
 pub const SIZE: Vec2 = Vec2::new(1000.0, 640.0);
 

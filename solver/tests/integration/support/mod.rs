@@ -2,3 +2,33 @@
 
 pub mod clients;
 pub mod gltf_files;
+
+use std::ops::ControlFlow;
+
+use solver::animation::recording::{Recording, record};
+use solver::animation::timeline::Timeline;
+use solver::{ArapConfig, Deformer, DeformerOptions, Handles, Mesh, Method};
+
+/// `timeline` recorded over `n_frames` frames by the paper's BS-ARAP (tolerance 1e-5, at most
+/// 50 iterations a frame): the recordings the export and client tests write.
+#[allow(clippy::unwrap_used)]
+pub fn record_bsarap(
+    mesh: &Mesh,
+    handles: &Handles,
+    timeline: &Timeline,
+    n_frames: usize,
+) -> Recording {
+    let config = ArapConfig { tolerance: 1e-5, max_iterations: 50, ..Default::default() };
+    let options = DeformerOptions { method: Method::BsArap, config, ..Default::default() };
+    let mut d = Deformer::new(mesh, handles, options).unwrap();
+    record(
+        &mut d,
+        mesh,
+        handles,
+        timeline,
+        n_frames,
+        &config,
+        &mut |_, _| ControlFlow::Continue(()),
+    )
+    .unwrap()
+}
