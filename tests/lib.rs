@@ -10,10 +10,5 @@ pub fn shared_meshes() -> Option<PathBuf> {
 
 /// Maximum Euclidean distance between corresponding points.
 pub fn max_dist(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
-    a.iter()
-        .zip(b)
-        .map(|(p, q)| {
-            ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt()
-        })
-        .fold(0.0, f64::max)
+    solver::deform::quality::distances(a, b, 1.0).max
 }

@@ -1,6 +1,7 @@
 //! Numerical properties of ARAP and BS-ARAP on procedural meshes, through one `check` helper.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+use crate::support::max_dist;
 use solver::geometry::shapes::icosphere;
 use solver::glam::{DQuat, DVec3};
 use solver::linalg::rotation::{axis_angle, mul_vec};
@@ -11,15 +12,6 @@ use solver::{
 
 fn bar(level: u32) -> (Mesh, Handles) {
     solver::geometry::shapes::bumpy_bar(level)
-}
-
-fn max_dist(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
-    a.iter()
-        .zip(b)
-        .map(|(p, q)| {
-            ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt()
-        })
-        .fold(0.0, f64::max)
 }
 
 /// Solves one pose with every method and energy, returning (method, energy, positions, stats).

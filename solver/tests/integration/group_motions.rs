@@ -3,6 +3,7 @@
 //! fits the motions back to the targets, up to rounding), and per-vertex targets keep working.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+use crate::support::max_dist;
 use solver::deform::coarse::CoarseBsArap;
 use solver::glam::{DQuat, DVec3};
 use solver::linalg::rigid::Motion;
@@ -37,15 +38,6 @@ fn bend(diag: f64) -> Vec<(usize, GroupTransform)> {
     ]
 }
 
-fn max_distance(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
-    a.iter()
-        .zip(b)
-        .map(|(p, q)| {
-            ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt()
-        })
-        .fold(0.0, f64::max)
-}
-
 #[test]
 fn group_motions_give_what_their_targets_give() {
     let (mesh, handles) = bar();
@@ -59,7 +51,7 @@ fn group_motions_give_what_their_targets_give() {
         let s1 = by_targets.solve(&targets).unwrap();
         let s2 = by_groups.solve_groups(&moves).unwrap();
         assert_eq!(by_groups.group_targets(), targets.as_slice(), "{method:?}");
-        let d = max_distance(by_targets.positions(), by_groups.positions());
+        let d = max_dist(by_targets.positions(), by_groups.positions());
         println!(
             "{}: {} / {} iterations, max difference {:e} diag",
             method.name(),
@@ -71,7 +63,7 @@ fn group_motions_give_what_their_targets_give() {
         if method != Method::BsArapCoarse {
             assert_eq!(by_targets.positions(), by_groups.positions(), "{method:?}");
         }
-        let moved = max_distance(by_groups.positions(), mesh.positions());
+        let moved = max_dist(by_groups.positions(), mesh.positions());
         assert!(moved > 0.01 * diag, "{method:?} did not move");
         // Settling at the same motions refines the same way.
         while by_targets.settle_pending() {
@@ -82,7 +74,7 @@ fn group_motions_give_what_their_targets_give() {
                 break;
             }
         }
-        let d = max_distance(by_targets.positions(), by_groups.positions());
+        let d = max_dist(by_targets.positions(), by_groups.positions());
         assert!(d <= 1e-9 * diag, "{method:?} settled: {:e} of the diagonal", d / diag);
     }
 }
@@ -148,8 +140,8 @@ fn a_recording_solves_the_timeline_motions() {
         let targets =
             handle_targets(mesh.positions(), &handles, &timeline.transforms_at(time)).unwrap();
         by_targets.solve(&targets).unwrap();
-        let dist = max_distance(by_targets.positions(), &rec.frames[frame]);
+        let dist = max_dist(by_targets.positions(), &rec.frames[frame]);
         assert!(dist <= 1e-9 * diag, "frame {frame}: {:e} of the diagonal", dist / diag);
     }
-    assert!(max_distance(&rec.frames[1], mesh.positions()) > 0.01 * diag, "frame 1 moved");
+    assert!(max_dist(&rec.frames[1], mesh.positions()) > 0.01 * diag, "frame 1 moved");
 }

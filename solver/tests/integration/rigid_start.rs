@@ -3,21 +3,13 @@
 //! method; a large move needs fewer iterations than a start from rest.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+use crate::support::max_dist;
 use solver::glam::{DQuat, DVec3};
 use solver::linalg::rigid::Motion;
 use solver::linalg::rotation::axis_angle;
 use solver::{
     Arap, ArapConfig, BaseConfig, Deformer, DeformerOptions, GroupTransform, Method, handle_targets,
 };
-
-fn max_dist(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
-    a.iter()
-        .zip(b)
-        .map(|(p, q)| {
-            ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt()
-        })
-        .fold(0.0, f64::max)
-}
 
 /// A large motion: 100° about a tilted axis and a translation of 0.7 of the diagonal.
 fn big_motion(diag: f64) -> Motion {

@@ -5,7 +5,7 @@
 //! frame by frame against the fit and the recording. Client skip rules: see clients.rs.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-use crate::support::{clients, record_bsarap};
+use crate::support::{clients, max_dist, record_bsarap};
 
 use std::ops::ControlFlow;
 use std::path::{Path as FsPath, PathBuf};
@@ -319,13 +319,6 @@ fn world_positions(bytes: &[u8], t: usize) -> Vec<[f64; 3]> {
     out.iter().map(|p| p.to_array()).collect()
 }
 
-/// The largest distance between two lists of points.
-fn max_distance(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
-    assert_eq!(a.len(), b.len());
-    let d = |p: &[f64; 3], q: &[f64; 3]| (0..3).map(|k| (p[k] - q[k]).powi(2)).sum::<f64>().sqrt();
-    a.iter().zip(b).map(|(p, q)| d(p, q)).fold(0.0, f64::max)
-}
-
 /// A Z-up asset baked to bones stands where its morph-target export stands: every skinned
 /// vertex at every key is the fitted frame turned by $-90°$ about $x$, $(x, y, z) \mapsto
 /// (x, z, -y)$, within the fit's error of the morph export's world positions (the recording
@@ -358,9 +351,9 @@ fn a_z_up_skin_stands_where_the_morph_export_stands() {
     for t in 0..rec.frames.len() {
         let fitted = skinned(&mesh, &s, t);
         let (skin, morph) = (world_positions(&z_skin, t), world_positions(&z_morph, t));
-        let to_fit = max_distance(&skin, &up(&fitted));
-        let to_morph = max_distance(&skin, &morph);
-        let morph_to_rec = max_distance(&morph, &up(&rec.frames[t]));
+        let to_fit = max_dist(&skin, &up(&fitted));
+        let to_morph = max_dist(&skin, &morph);
+        let morph_to_rec = max_dist(&morph, &up(&rec.frames[t]));
         println!(
             "key {t}: skin {to_fit:.1e} from the turned fit, {to_morph:.1e} from the morph \
              export (fit max {:.1e}); morph {morph_to_rec:.1e} from the turned recording",
@@ -370,8 +363,8 @@ fn a_z_up_skin_stands_where_the_morph_export_stands() {
         assert!(morph_to_rec <= 1e-5 * diag, "key {t}: {morph_to_rec}");
         assert!(to_morph <= s.error.max * diag + 1e-4 * diag, "key {t}: {to_morph}");
         let y = world_positions(&y_skin, t);
-        assert!(max_distance(&y, &fitted) <= 1e-4 * diag, "key {t}: a Y-up skin moved");
-        assert!(max_distance(&y, &skin) > 0.1 * diag, "key {t}: Z-up was not turned");
+        assert!(max_dist(&y, &fitted) <= 1e-4 * diag, "key {t}: a Y-up skin moved");
+        assert!(max_dist(&y, &skin) > 0.1 * diag, "key {t}: Z-up was not turned");
     }
     solver::testing::khronos_accepts(&path);
     let Some(report) = threejs_check(&path, &["--positions"]) else { return };
