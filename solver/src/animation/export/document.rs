@@ -179,6 +179,28 @@ pub(super) fn f32_bytes<const N: usize>(v: &[[f32; N]]) -> Vec<u8> {
 }
 
 impl Builder {
+    /// The document with its one animation ("recording": `channels` over `samplers`), and the
+    /// binary buffer (when kept) and its length, both padded to four bytes.
+    pub(super) fn finish(
+        mut self,
+        channels: Vec<json::animation::Channel>,
+        samplers: Vec<json::animation::Sampler>,
+    ) -> (json::Root, Vec<u8>, usize) {
+        self.root.push(json::Animation {
+            extensions: None,
+            extras: None,
+            channels,
+            name: Some("recording".into()),
+            samplers,
+        });
+        let len = self.len.next_multiple_of(4);
+        if self.keep {
+            self.bin.resize(len, 0);
+        }
+        self.root.buffers[0].byte_length = USize64(len as u64);
+        (self.root, self.bin, len)
+    }
+
     pub(super) fn view(
         &mut self,
         bytes: &[u8],
@@ -556,18 +578,6 @@ impl GltfExport<'_> {
             nodes: scene_nodes,
         });
         b.root.scene = Some(scene);
-        b.root.push(json::Animation {
-            extensions: None,
-            extras: None,
-            channels,
-            name: Some("recording".into()),
-            samplers,
-        });
-        let len = b.len.next_multiple_of(4);
-        if keep {
-            b.bin.resize(len, 0);
-        }
-        b.root.buffers[0].byte_length = USize64(len as u64);
-        Ok((b.root, b.bin, len))
+        Ok(b.finish(channels, samplers))
     }
 }

@@ -383,18 +383,6 @@ impl<'a> SkinnedExport<'a> {
                 channels.push(channel(&samplers, node, path));
             }
         }
-        b.root.push(json::Animation {
-            extensions: None,
-            extras: None,
-            channels,
-            name: Some("recording".into()),
-            samplers,
-        });
-        let len = b.len.next_multiple_of(4);
-        if keep {
-            b.bin.resize(len, 0);
-        }
-        b.root.buffers[0].byte_length = USize64(len as u64);
-        Ok((b.root, b.bin, len))
+        Ok(b.finish(channels, samplers))
     }
 }
