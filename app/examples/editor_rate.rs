@@ -93,12 +93,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if args.len() < 3 {
         return Err("usage: editor_rate MESH SELECTION [FRAMES [METHOD...]]".into());
     }
-    let mesh = solver::io::load_mesh(std::path::Path::new(&args[1]))?.mesh;
-    let handles = solver::deform::selection::load_selection(
-        std::path::Path::new(&args[2]),
-        mesh.positions(),
-        None,
-    )?;
+    let loaded = solver::io::load_mesh(std::path::Path::new(&args[1]))?;
+    let handles =
+        solver::deform::selection::load_selection_for(std::path::Path::new(&args[2]), &loaded)?;
+    let mesh = loaded.mesh;
     let frames: usize = args.get(3).map(|s| s.parse()).transpose()?.unwrap_or(30).max(1);
     // A method name may end in `+aa`: the method panel's Anderson acceleration on.
     let methods: Vec<(solver::Method, bool)> = if args.len() > 4 {

@@ -30,12 +30,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if args.len() < 3 {
         return Err("usage: gpu_prolong MESH SELECTION [FRAMES]".into());
     }
-    let mesh = solver::io::load_mesh(std::path::Path::new(&args[1]))?.mesh;
-    let handles = solver::deform::selection::load_selection(
-        std::path::Path::new(&args[2]),
-        mesh.positions(),
-        None,
-    )?;
+    let loaded = solver::io::load_mesh(std::path::Path::new(&args[1]))?;
+    let handles =
+        solver::deform::selection::load_selection_for(std::path::Path::new(&args[2]), &loaded)?;
+    let mesh = loaded.mesh;
     let frames: usize = args.get(3).map(|s| s.parse()).transpose()?.unwrap_or(30).max(1);
     let n = mesh.n_vertices();
     println!("{}: {} vertices, {} faces", args[1], n, mesh.n_faces());

@@ -190,13 +190,10 @@ fn main() {
         threads / rate * 1e6
     );
     if let [mesh, sel] = &args[..] {
-        let m = solver::io::load_mesh(std::path::Path::new(mesh)).unwrap().mesh;
-        let h = solver::deform::selection::load_selection(
-            std::path::Path::new(sel),
-            m.positions(),
-            None,
-        )
-        .unwrap();
+        let loaded = solver::io::load_mesh(std::path::Path::new(mesh)).unwrap();
+        let h = solver::deform::selection::load_selection_for(std::path::Path::new(sel), &loaded)
+            .unwrap();
+        let m = loaded.mesh;
         report(mesh, &m, &h, bw, rate);
     } else {
         for level in 2..=6 {

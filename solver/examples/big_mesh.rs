@@ -17,7 +17,7 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use solver::deform::selection::load_selection;
+use solver::deform::selection::load_selection_for;
 use solver::geometry::shapes::subdivide;
 use solver::glam::DVec3;
 use solver::io::{load_mesh, write_obj};
@@ -88,7 +88,7 @@ fn main() -> Result<(), String> {
     let _ = std::fs::remove_file(&tmp);
     let loaded = loaded.map_err(|e| e.to_string())?;
     let (load_peak, _) = memory_mib();
-    let mesh = loaded.mesh;
+    let mesh = &loaded.mesh;
     eprintln!(
         "armadillo ×{levels} subdivisions: {} vertices, {} faces (subdivide {subdivide_ms:.0} ms, \
          write {write_ms:.0} ms, {file_mib:.0} MiB OBJ); load+clean {load_ms:.0} ms, peak {load_peak:.0} MiB; \
@@ -98,8 +98,7 @@ fn main() -> Result<(), String> {
         loaded.report.changed()
     );
 
-    let handles = load_selection(selection, mesh.positions(), Some(&loaded.report.vertex_map))
-        .map_err(|e| e.to_string())?;
+    let handles = load_selection_for(selection, &loaded).map_err(|e| e.to_string())?;
     let transform =
         GroupTransform::from_translation(DVec3::new(0.1 * mesh.bbox_diagonal(), 0.0, 0.0));
     let targets =
@@ -116,7 +115,7 @@ fn main() -> Result<(), String> {
         let (_, rss_before) = memory_mib();
         let t = Instant::now();
         let built = Deformer::new(
-            &mesh,
+            mesh,
             &handles,
             DeformerOptions { method, config, ..Default::default() },
         );

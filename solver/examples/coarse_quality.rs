@@ -58,13 +58,11 @@ fn main() {
         args.len() >= 2,
         "usage: coarse_quality MESH SELECTION C:S[:F[:L[:M]]]... [--own] [--reference FILE] [--coarser MESH]"
     );
-    let mesh = solver::io::load_mesh(std::path::Path::new(&args[0])).expect("mesh").mesh;
-    let handles = solver::deform::selection::load_selection(
-        std::path::Path::new(&args[1]),
-        mesh.positions(),
-        None,
-    )
-    .expect("selection");
+    let loaded = solver::io::load_mesh(std::path::Path::new(&args[0])).expect("mesh");
+    let handles =
+        solver::deform::selection::load_selection_for(std::path::Path::new(&args[1]), &loaded)
+            .expect("selection");
+    let mesh = loaded.mesh;
     let diag = mesh.bbox_diagonal();
     let frame = |f: usize| bench_frame(mesh.positions(), &handles, diag, f);
     let t = std::time::Instant::now();

@@ -95,13 +95,11 @@ fn main() {
         args.len() == 2,
         "usage: coarse_space MESH SELECTION [--bending-length F] [--frames N] [--coarse-vertices C[,C…]] [--penalty W[,W…]] [--path-tolerance T[,T…]] [--path-decrease T[,T…]] [--anderson W] [--interior] [--median]"
     );
-    let mesh = solver::io::load_mesh(std::path::Path::new(&args[0])).expect("mesh").mesh;
-    let handles = solver::deform::selection::load_selection(
-        std::path::Path::new(&args[1]),
-        mesh.positions(),
-        None,
-    )
-    .expect("selection");
+    let loaded = solver::io::load_mesh(std::path::Path::new(&args[0])).expect("mesh");
+    let handles =
+        solver::deform::selection::load_selection_for(std::path::Path::new(&args[1]), &loaded)
+            .expect("selection");
+    let mesh = loaded.mesh;
     let diag = mesh.bbox_diagonal();
     let group = handles.group_ids().next().expect("a handle group");
     let moves = |f: usize| [(group, GroupTransform::on_bench_circle(0.1 * diag, frames, f))];

@@ -45,12 +45,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if args.len() < 3 {
         return Err("usage: detail_frames MESH SELECTION".into());
     }
-    let mesh = solver::io::load_mesh(std::path::Path::new(&args[1]))?.mesh;
-    let handles = solver::deform::selection::load_selection(
-        std::path::Path::new(&args[2]),
-        mesh.positions(),
-        None,
-    )?;
+    let loaded = solver::io::load_mesh(std::path::Path::new(&args[1]))?;
+    let handles =
+        solver::deform::selection::load_selection_for(std::path::Path::new(&args[2]), &loaded)?;
+    let mesh = loaded.mesh;
     let diag = mesh.bbox_diagonal();
     let r = 0.1 * diag;
     let group = handles.group_ids().next().ok_or("empty selection")?;

@@ -21,7 +21,7 @@ use solver::animation::export::{AssetExport, Encoding, ExportSettings, GltfExpor
 use solver::animation::recording::{Recording, record};
 use solver::animation::scene::Scene;
 use solver::animation::timeline::{CircularPath, GroupPath, Path as AnimPath, Timeline};
-use solver::deform::selection::load_selection;
+use solver::deform::selection::{load_selection, load_selection_for};
 use solver::geometry::shapes::subdivide;
 use solver::io::{Asset, load_mesh};
 use solver::testing::gltf_decode::played_error_reordered;
@@ -61,8 +61,7 @@ fn from_scene(path: &Path) -> Result<Input, String> {
 fn from_mesh(mesh: &Path, handles: &Path, levels: u32, frames: usize) -> Result<Input, String> {
     let loaded = load_mesh(mesh).map_err(|e| e.to_string())?;
     let (mesh_out, asset, vertex_map, handles) = if levels == 0 {
-        let h = load_selection(handles, loaded.mesh.positions(), Some(&loaded.report.vertex_map))
-            .map_err(|e| e.to_string())?;
+        let h = load_selection_for(handles, &loaded).map_err(|e| e.to_string())?;
         (loaded.mesh, loaded.asset, loaded.report.vertex_map, h)
     } else {
         let mut m = loaded.mesh;

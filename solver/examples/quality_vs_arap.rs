@@ -23,12 +23,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if args.len() < 3 {
         return Err("usage: quality_vs_arap MESH SELECTION [COARSE_VERTICES...]".into());
     }
-    let mesh = solver::io::load_mesh(std::path::Path::new(&args[1]))?.mesh;
-    let handles = solver::deform::selection::load_selection(
-        std::path::Path::new(&args[2]),
-        mesh.positions(),
-        None,
-    )?;
+    let loaded = solver::io::load_mesh(std::path::Path::new(&args[1]))?;
+    let handles =
+        solver::deform::selection::load_selection_for(std::path::Path::new(&args[2]), &loaded)?;
+    let mesh = loaded.mesh;
     let coarse: Vec<(usize, usize)> = if args.len() > 3 {
         let parse = |s: &String| -> Result<(usize, usize), std::num::ParseIntError> {
             match s.split_once('+') {

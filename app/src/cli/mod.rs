@@ -163,8 +163,7 @@ pub fn load_handles(
     path: &std::path::Path,
     loaded: &solver::io::LoadedMesh,
 ) -> anyhow::Result<solver::Handles> {
-    let map = Some(loaded.report.vertex_map.as_slice());
-    Ok(solver::deform::selection::load_selection(path, loaded.mesh.positions(), map)?)
+    Ok(solver::deform::selection::load_selection_for(path, loaded)?)
 }
 
 /// The bending length for `--energy` and `--bending-length` (a fraction of the bounding-box

@@ -15,7 +15,7 @@ use serde::Deserialize;
 use thiserror::Error;
 
 use crate::deform::handles::{Handles, HandlesError};
-use crate::io::{SaveError, write_atomic};
+use crate::io::{LoadedMesh, SaveError, write_atomic};
 
 /// Why a selection could not be read. Display is one line naming the file and the problem.
 #[derive(Debug, Clone, PartialEq, Error)]
@@ -286,6 +286,12 @@ pub fn parse_spheres(text: &str, positions: &[[f64; 3]]) -> Result<Handles, Sele
     }
     Handles::from_options(labels)
         .map_err(|source| SelectionError::Handles { file: JSON.to_string(), source })
+}
+
+/// [`load_selection`] for a mesh as [`crate::io::load_mesh`] read it: a `.dmat` with a label
+/// per vertex of the file is carried to the cleaned mesh through the load's vertex map.
+pub fn load_selection_for(path: &Path, loaded: &LoadedMesh) -> Result<Handles, SelectionError> {
+    load_selection(path, loaded.mesh.positions(), Some(&loaded.report.vertex_map))
 }
 
 /// Reads a selection file for a mesh with rest positions `positions` (`#V×3`), choosing the
