@@ -2,7 +2,7 @@
 //! `preferences.rs`, `rigging.rs`, `capture.rs`): the real `EditorApp` under egui_kittest with
 //! wgpu (software Vulkan, lavapipe, on machines without a GPU); and [`bsarap`], the real binary
 //! run by the command-line tests.
-#![allow(dead_code, clippy::unwrap_used, clippy::expect_used)]
+#![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -123,7 +123,6 @@ pub fn dist(p: [f64; 3], q: [f64; 3]) -> f64 {
 }
 
 /// As in `editor.rs`: software rasterizers differ slightly in edge coverage.
-#[allow(dead_code)]
 pub fn snapshot_options() -> egui_kittest::SnapshotOptions {
     egui_kittest::SnapshotOptions::new().threshold(2.0).max_failed_pixels(2000)
 }

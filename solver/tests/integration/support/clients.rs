@@ -1,7 +1,7 @@
 //! Shared by the tests with real clients (clients.rs, clients_asset.rs): finding and running
 //! Blender's `bpy` (tools/blender) and the three.js checker (tools/threejs-check), and comparing
 //! what they report with our frames. Skip rules: see clients.rs's doc.
-#![allow(dead_code, clippy::unwrap_used)]
+#![allow(clippy::unwrap_used)]
 
 use std::path::{Path as FsPath, PathBuf};
 use std::process::Command;

@@ -1,6 +1,5 @@
 //! glTF test files made here: a tetrahedron as `.gltf` (buffer in a data URI, or beside it) and
 //! `.glb`, as JSON the tests can break one field at a time.
-#![allow(dead_code)]
 
 use base64::Engine;
 use serde_json::{Value, json};
