@@ -114,11 +114,8 @@ fn main() -> Result<(), String> {
         reset_peak();
         let (_, rss_before) = memory_mib();
         let t = Instant::now();
-        let built = Deformer::new(
-            mesh,
-            &handles,
-            DeformerOptions { method, config, ..Default::default() },
-        );
+        let built =
+            Deformer::new(mesh, &handles, DeformerOptions { method, config, ..Default::default() });
         let precompute_ms = ms(t);
         let (pre_peak, _) = memory_mib();
         let mut deformer = match built {

@@ -137,14 +137,7 @@ fn save_open_dmat_and_export_go_through_the_in_app_file_dialog() {
     step_until(&mut h, "a solved frame", settled);
 
     // Record a short timeline, then File → Export glTF… writes a binary glTF.
-    let mut e = h.state().edit_state().clone();
-    e.timeline.duration = 0.2;
-    e.timeline.fps = 10.0;
-    h.state_mut().set_edit_state(e);
-    h.step();
-    h.get_by_label_contains("Record 3 frames").click();
-    h.step();
-    step_until(&mut h, "the recording", |a| !a.is_recording());
+    record_three_frames(&mut h);
     h.get_by_label("File").click();
     h.step();
     h.step();
@@ -472,8 +465,8 @@ fn open_with_dialog(mesh: &Path, config: std::path::PathBuf) -> Harness<'static,
     h
 }
 
-/// Records a 3-frame timeline and exports it to `path`; returns the glTF JSON.
-fn record_and_export(h: &mut Harness<'_, EditorApp>, path: &Path) -> serde_json::Value {
+/// Sets a 0.2 s timeline at 10 frames a second and records it with the timeline panel's button.
+fn record_three_frames(h: &mut Harness<'_, EditorApp>) {
     let mut e = h.state().edit_state().clone();
     e.timeline.duration = 0.2;
     e.timeline.fps = 10.0;
@@ -482,6 +475,11 @@ fn record_and_export(h: &mut Harness<'_, EditorApp>, path: &Path) -> serde_json:
     h.get_by_label_contains("Record 3 frames").click();
     h.step();
     step_until(h, "the recording", |a| !a.is_recording());
+}
+
+/// Records a 3-frame timeline and exports it to `path`; returns the glTF JSON.
+fn record_and_export(h: &mut Harness<'_, EditorApp>, path: &Path) -> serde_json::Value {
+    record_three_frames(h);
     let ctx = h.ctx.clone();
     h.state_mut().export_gltf(&ctx, path.to_path_buf());
     step_until(h, "the export", |a| !a.is_exporting());
