@@ -391,6 +391,26 @@ mod tests {
         assert!(load_selection(&path, &positions, None).is_err());
     }
 
+    /// Through a real load: a tetrahedron whose file repeats a corner (welded) and has a vertex
+    /// no face uses (removed); a `.dmat` with a label per vertex of the file lands on the cleaned
+    /// mesh's vertices.
+    #[test]
+    fn a_selection_for_a_loaded_mesh_follows_its_cleaning() {
+        let dir = crate::testing::ScratchDir::new("selection-for");
+        let obj = dir.join("tet.obj");
+        let vertices = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nv 1 0 0\nv 5 5 5\n";
+        let faces = "f 1 3 2\nf 1 2 4\nf 1 4 3\nf 5 3 4\n";
+        std::fs::write(&obj, format!("{vertices}{faces}")).unwrap();
+        let loaded = crate::io::load_mesh(&obj).unwrap();
+        assert_eq!(loaded.mesh.n_vertices(), 4, "welded and removed on load");
+        // File vertices 2 and 5 (the same corner) in group 0, the unused one in group 1.
+        let dmat = dir.join("tet.dmat");
+        std::fs::write(&dmat, "1 6\n-1\n0\n-1\n-1\n0\n1\n").unwrap();
+        let h = load_selection_for(&dmat, &loaded).unwrap();
+        assert_eq!(h.labels(), &[None, Some(0), None, None]);
+        assert!(load_selection(&dmat, loaded.mesh.positions(), None).is_err());
+    }
+
     #[test]
     fn dmat_values() {
         let h = parse_dmat("1 4\n-1.0\n2.000000e+00\n0\n-1\n", 4).unwrap();
