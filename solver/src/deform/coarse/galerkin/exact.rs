@@ -26,7 +26,7 @@
 //! terms in one pass.
 
 use super::gathering::{Combiner, add_edge, add_penalty, edge_difference, embedding_row};
-use super::mesh_part::{FixedMap, key, pair_of};
+use super::mesh_part::{FixedMap, key, row_entry};
 use crate::deform::arap::Csr;
 use crate::deform::coarse::base::CoarseBase;
 use crate::error::SolveError;
@@ -144,12 +144,10 @@ pub(super) fn hold_exactly(
         terms.squares[h] += hold;
     }
     drop((g, pair, tau_sums, sigma_sums));
-    let tau: Vec<_> =
-        tau.into_iter().map(|(k, a)| (pair_of(k).0, (pair_of(k).1, a))).chain(hold_tau).collect();
+    let tau: Vec<_> = tau.into_iter().map(row_entry).chain(hold_tau).collect();
     terms.tau = Csr::from_pairs(m, &tau);
     let own = (own.into_iter().enumerate()).map(|(h, v)| (cluster_of(h as u32), (h as u32, v)));
-    let sigma: Vec<_> =
-        own.chain(sigma.into_iter().map(|(k, v)| (pair_of(k).0, (pair_of(k).1, v)))).collect();
+    let sigma: Vec<_> = own.chain(sigma.into_iter().map(row_entry)).collect();
     terms.sigma = Csr::from_pairs(m, &sigma);
     Ok((terms, constant))
 }

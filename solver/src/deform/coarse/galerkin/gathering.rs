@@ -51,7 +51,7 @@ pub fn gather_mesh_part(mesh: &Mesh, base: &CoarseBase) -> Result<GalerkinMesh, 
         }
     }
     let mut diagonal: Vec<f64> =
-        g.iter().filter(|(k, _)| pair_of(**k).0 == pair_of(**k).1).map(|(_, &v)| v).collect();
+        g.iter().filter(|&(&k, _)| pair_of(k).0 == pair_of(k).1).map(|(_, &v)| v).collect();
     let g_max = diagonal.iter().fold(0.0f64, |s, &v| s.max(v));
     let middle = diagonal.len() / 2;
     let g_median = if diagonal.is_empty() {

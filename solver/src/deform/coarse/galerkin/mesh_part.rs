@@ -44,6 +44,12 @@ pub(crate) fn pair_of(key: u64) -> (u32, u32) {
     ((key >> 32) as u32, key as u32)
 }
 
+/// A keyed sum as a `(row, (column, value))` entry for [`Csr::from_pairs`].
+pub(crate) fn row_entry<V>((key, value): (u64, V)) -> (u32, (u32, V)) {
+    let (row, column) = pair_of(key);
+    (row, (column, value))
+}
+
 impl GalerkinMesh {
     /// The part as bytes for the disk cache (`coarse/cache.rs`), little-endian: $G$'s entries
     /// and the $g_{kb}$ as (key, values) sorted by key, $\max G_{aa}$, the median, the rest
@@ -94,7 +100,10 @@ impl GalerkinMesh {
         };
         let u64_at = |b: &[u8]| u64::from_le_bytes(b.try_into().unwrap_or_default());
         let f64_at = |b: &[u8]| f64::from_bits(u64_at(b));
-        let in_range = |key: u64| (pair_of(key).0 as usize) < m && (pair_of(key).1 as usize) < m;
+        let in_range = |key: u64| {
+            let (a, b) = pair_of(key);
+            (a as usize) < m && (b as usize) < m
+        };
         let count = |c: u64, size: usize, left: usize| -> Result<usize, &'static str> {
             let c = usize::try_from(c).map_err(|_| "Galerkin count")?;
             if c.checked_mul(size).is_none_or(|b| b > left) {
@@ -108,7 +117,8 @@ impl GalerkinMesh {
         for _ in 0..ng {
             let e = take(16)?;
             let (k, v) = (u64_at(&e[..8]), f64_at(&e[8..]));
-            if !in_range(k) || pair_of(k).0 < pair_of(k).1 || !v.is_finite() {
+            let (a, b) = pair_of(k);
+            if !in_range(k) || a < b || !v.is_finite() {
                 return Err("a Galerkin entry out of range");
             }
             g.insert(k, v);

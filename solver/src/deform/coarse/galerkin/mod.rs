@@ -73,7 +73,7 @@ pub(crate) mod mesh_part;
 use gathering::{Combiner, add_penalty, embedding_row};
 pub use gathering::{galerkin_mesh, gather_mesh_part};
 pub use mesh_part::GalerkinMesh;
-use mesh_part::pair_of;
+use mesh_part::{pair_of, row_entry};
 
 use crate::deform::arap::{Acceleration, Csr, SmoothRotations, SolveStats, vertices_per_task};
 use crate::deform::coarse::base::CoarseBase;
@@ -348,8 +348,7 @@ impl GalerkinCoarse {
             })
             .collect();
         let matrix = Csr::from_pairs(m, &entries);
-        let pairs: Vec<_> =
-            pair.into_iter().map(|(k, v)| (pair_of(k).0, (pair_of(k).1, v))).collect();
+        let pairs: Vec<_> = pair.into_iter().map(row_entry).collect();
         let pairs = Csr::from_pairs(m, &pairs);
         let by_coarse: Vec<_> = (0..m)
             .flat_map(|k| pairs.row(k).iter().map(move |&(b, g)| (b, (k as u32, g))))
