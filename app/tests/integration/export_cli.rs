@@ -4,6 +4,7 @@
 use std::path::PathBuf;
 
 use crate::support::bsarap;
+use solver::testing::gltf_decode::json_of;
 
 fn dir(name: &str) -> solver::testing::ScratchDir {
     let d = solver::testing::ScratchDir::new(&format!("export-cli-{name}"));
@@ -31,14 +32,6 @@ fn scene(d: &std::path::Path, version: u32) -> PathBuf {
     p
 }
 
-/// The JSON chunk of a .glb.
-fn glb_json(bytes: &[u8]) -> serde_json::Value {
-    assert_eq!(&bytes[..4], b"glTF");
-    let len = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
-    assert_eq!(&bytes[16..20], b"JSON");
-    serde_json::from_slice(&bytes[20..20 + len]).unwrap()
-}
-
 #[test]
 fn export_writes_one_morph_target_per_frame() {
     let d = dir("ok");
@@ -51,7 +44,7 @@ fn export_writes_one_morph_target_per_frame() {
     assert_eq!(report["frames"], 7, "default: duration·fps + 1");
     let bytes = std::fs::read(&out).unwrap();
     assert_eq!(report["bytes"], bytes.len());
-    let j = glb_json(&bytes);
+    let j = json_of(&bytes);
     assert_eq!(j["meshes"][0]["primitives"][0]["targets"].as_array().unwrap().len(), 7);
     // --frames overrides the scene; .gltf works too.
     let out = d.join("out.gltf");
@@ -209,7 +202,7 @@ fn export_bones_writes_a_skin_upright_for_the_scene_up_axis() {
         let (code, _, stderr) = bsarap(&[&args[..], &[out.to_str().unwrap()]].concat());
         assert_eq!(code, 0, "{stderr}");
         assert!(stderr.contains("4 bones fitted"), "{stderr}");
-        let j = glb_json(&std::fs::read(&out).unwrap());
+        let j = json_of(&std::fs::read(&out).unwrap());
         assert_eq!(j["skins"][0]["joints"].as_array().unwrap().len(), 4);
         assert_eq!(j["animations"].as_array().unwrap().len(), 1);
         let armature = j["skins"][0]["skeleton"].as_u64().unwrap() as usize;

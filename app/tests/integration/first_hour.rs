@@ -486,8 +486,7 @@ fn record_and_export(h: &mut Harness<'_, EditorApp>, path: &Path) -> serde_json:
     assert!(h.state().error().is_none(), "{:?}", h.state().error());
     let bytes = std::fs::read(path).expect("the glb was written");
     assert_eq!(&bytes[..4], b"glTF");
-    let len = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
-    serde_json::from_slice(&bytes[20..20 + len]).expect("the JSON chunk")
+    solver::testing::gltf_decode::json_of(&bytes)
 }
 
 /// A mesh with UVs and no material: the toolbar says why there is no texture and offers

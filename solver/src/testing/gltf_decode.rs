@@ -14,6 +14,16 @@ pub struct Doc {
     pub buffer: Vec<u8>,
 }
 
+/// The JSON chunk of a `.glb` (the header and the chunk's type checked), or a whole `.gltf`.
+pub fn json_of(bytes: &[u8]) -> serde_json::Value {
+    if !bytes.starts_with(b"glTF") {
+        return serde_json::from_slice(bytes).unwrap();
+    }
+    let len = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+    assert_eq!(&bytes[16..20], b"JSON", "the first chunk of a .glb is its JSON");
+    serde_json::from_slice(&bytes[20..20 + len]).unwrap()
+}
+
 /// Parses a `.glb` or a `.gltf` whose buffer is an embedded base64 data URI.
 pub fn parse(bytes: &[u8]) -> Doc {
     let gltf = gltf::Gltf::from_slice_without_validation(bytes).unwrap();

@@ -11,6 +11,7 @@ use solver::animation::timeline::{
     CircularPath, GroupPath, Interpolation, Key, KeyframedPath, Path, Timeline,
 };
 use solver::testing::ScratchDir;
+use solver::testing::gltf_decode::json_of;
 use solver::{ArapConfig, Deformer, DeformerOptions, Handles, Mesh, Method};
 
 fn temp_dir(name: &str) -> ScratchDir {
@@ -275,14 +276,6 @@ fn khronos_validator_finds_no_errors() {
     }
 }
 
-/// The JSON chunk of a `.glb`.
-fn glb_json(bytes: &[u8]) -> serde_json::Value {
-    assert_eq!(&bytes[..4], b"glTF");
-    let len = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
-    assert_eq!(&bytes[16..20], b"JSON");
-    serde_json::from_slice(&bytes[20..20 + len]).unwrap()
-}
-
 #[test]
 fn exported_file_records_the_energy_and_bending_length() {
     let (mesh, handles) = setup();
@@ -318,7 +311,7 @@ fn exported_file_records_the_energy_and_bending_length() {
         assert_eq!(predicted, written, "file_size() counts the recorded settings");
         let bytes = std::fs::read(&path).unwrap();
         read_back(&bytes, &mesh, &rec);
-        let json = glb_json(&bytes);
+        let json = json_of(&bytes);
         let recorded = &json["asset"]["extras"]["bsarap"];
         if settings.is_none() {
             assert!(recorded.is_null(), "{json}");

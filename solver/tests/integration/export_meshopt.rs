@@ -79,13 +79,7 @@ fn export(dir: &FsPath, name: &str, mesh: &Mesh, rec: &Recording, meshopt: bool)
 
 /// The JSON chunk of a `.glb` or the whole `.gltf`.
 fn json_of(path: &FsPath) -> Value {
-    let bytes = std::fs::read(path).unwrap();
-    if bytes.starts_with(b"glTF") {
-        let len = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
-        serde_json::from_slice(&bytes[20..20 + len]).unwrap()
-    } else {
-        serde_json::from_slice(&bytes).unwrap()
-    }
+    solver::testing::gltf_decode::json_of(&std::fs::read(path).unwrap())
 }
 
 fn names(v: &Value) -> Vec<&str> {

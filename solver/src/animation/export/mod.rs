@@ -43,7 +43,8 @@
 //! $$k_m\Big(\frac{\tilde p_v}{k_m} + w_i \frac{q_v}{32767}\Big) = p^{(i)}_v + e, \qquad |e_d| \le \frac{s_{m,i}}{2 \cdot 32767}$$
 //! per component. Weights stay in $[0, 1]$ because Blender's glTF importer clamps a shape key's
 //! value to its slider range, which it widens past $[0, 1]$ only from the weights at the first
-//! key (all 0 here): weights above 1 would play as 1 (measured in `tests/integration/clients_asset.rs`).
+//! key (all 0 here): weights above 1 would play as 1 (measured in
+//! `tests/integration/clients_asset.rs`).
 //! Weights are per mesh, hence one scale per mesh and frame; $k_m = 1$ (no node scale) whenever
 //! no frame moves a vertex by more than one unit. `NORMAL` deltas $\Delta n = n^{(i)} - \tilde n$
 //! share the weight (the node's uniform scale does not change normals): with
