@@ -14,6 +14,7 @@
 
 use crate::geometry::mesh::{cross, dot, norm, sub};
 use faer::sparse::{SparseColMat, Triplet};
+use rayon::prelude::*;
 use thiserror::Error;
 
 /// A triangle too thin for cotangent weights.
@@ -47,22 +48,37 @@ pub fn face_cotangents_or(
     triangles: &[[u32; 3]],
     min_double_area: f64,
 ) -> Result<(Vec<[f64; 3]>, usize), DegenerateFace> {
-    let mut replaced = 0;
-    let cot = triangles
-        .iter()
+    let mut cot = vec![[0.0; 3]; triangles.len()];
+    // In parallel by fixed blocks; per block, how many took the fallback and its first
+    // triangle with none, so that the error names the first such triangle of the mesh.
+    let blocks: Vec<(usize, Option<usize>)> = (cot.par_chunks_mut(FACES_PER_TASK))
+        .zip(triangles.par_chunks(FACES_PER_TASK))
         .enumerate()
-        .map(|(face, t)| {
-            if let Some(w) = triangle_cotangents(t.map(|v| positions[v as usize]), min_double_area)
-            {
-                return Ok(w);
+        .map(|(block, (cot, triangles))| {
+            let mut replaced = 0;
+            for (f, (w, t)) in cot.iter_mut().zip(triangles).enumerate() {
+                let corners = |p: &[[f64; 3]]| t.map(|v| p[v as usize]);
+                if let Some(c) = triangle_cotangents(corners(positions), min_double_area) {
+                    *w = c;
+                    continue;
+                }
+                replaced += 1;
+                match fallback.and_then(|p| triangle_cotangents(corners(p), 0.0)) {
+                    Some(c) => *w = c,
+                    None => return (replaced, Some(block * FACES_PER_TASK + f)),
+                }
             }
-            let w = fallback.and_then(|f| triangle_cotangents(t.map(|v| f[v as usize]), 0.0));
-            replaced += 1;
-            w.ok_or(DegenerateFace { face })
+            (replaced, None)
         })
-        .collect::<Result<Vec<_>, _>>()?;
-    Ok((cot, replaced))
+        .collect();
+    if let Some(face) = blocks.iter().find_map(|b| b.1) {
+        return Err(DegenerateFace { face });
+    }
+    Ok((cot, blocks.iter().map(|b| b.0).sum()))
 }
+
+/// Triangles per parallel task of [`face_cotangents_or`].
+const FACES_PER_TASK: usize = 16_384;
 
 /// `[½cot∠a, ½cot∠b, ½cot∠c]` of one triangle, `None` when it is degenerate (see
 /// [`face_cotangents`]).
@@ -116,19 +132,42 @@ pub fn edge_weights(
     cot: &[[f64; 3]],
     clamp_negative: bool,
 ) -> Vec<(u32, u32, f64)> {
-    let mut e: Vec<(u32, u32, f64)> = Vec::with_capacity(3 * triangles.len());
-    for (t, w) in triangles.iter().zip(cot) {
-        for (k, &wk) in w.iter().enumerate() {
-            let (a, b) = opposite_edge(*t, k);
-            e.push((a.min(b), a.max(b), wk));
+    // A counting sort of the half-edges by their smaller end, then each bucket (a vertex's few
+    // edges) by the other end: linear where sorting every half-edge was most of the time.
+    let n = triangles.iter().flatten().max().map_or(0, |&v| v as usize + 1);
+    let smaller = |t: [u32; 3], k: usize| {
+        let (a, b) = opposite_edge(t, k);
+        (a.min(b), a.max(b))
+    };
+    // `end[a]`: first the start of bucket a, then (once filled) its end.
+    let mut end = vec![0u32; n + 1];
+    for &t in triangles {
+        for k in 0..3 {
+            end[smaller(t, k).0 as usize + 1] += 1;
         }
     }
-    e.sort_unstable_by_key(|&(a, b, _)| (a, b));
-    let mut out: Vec<(u32, u32, f64)> = Vec::with_capacity(e.len() / 2 + 1);
-    for (a, b, w) in e {
-        match out.last_mut() {
-            Some(last) if last.0 == a && last.1 == b => last.2 += w,
-            _ => out.push((a, b, w)),
+    for a in 0..n {
+        end[a + 1] += end[a];
+    }
+    let mut others = vec![(0u32, 0.0); 3 * triangles.len()];
+    for (&t, w) in triangles.iter().zip(cot) {
+        for (k, &wk) in w.iter().enumerate() {
+            let (a, b) = smaller(t, k);
+            others[end[a as usize] as usize] = (b, wk);
+            end[a as usize] += 1;
+        }
+    }
+    let mut out: Vec<(u32, u32, f64)> = Vec::with_capacity(others.len() / 2 + 1);
+    let mut begin = 0;
+    for (a, &end) in end[..n].iter().enumerate() {
+        let bucket = &mut others[begin..end as usize];
+        begin = end as usize;
+        bucket.sort_unstable_by_key(|e| e.0);
+        for &(b, w) in bucket.iter() {
+            match out.last_mut() {
+                Some(last) if last.0 == a as u32 && last.1 == b => last.2 += w,
+                _ => out.push((a as u32, b, w)),
+            }
         }
     }
     if clamp_negative {
@@ -238,5 +277,64 @@ mod tests {
             face_cotangents_or(&flat, Some(&flat), &[[0, 1, 2]], 0.0),
             Err(DegenerateFace { face: 0 })
         );
+    }
+
+    /// Across the parallel tasks: the first degenerate triangle of the mesh is named (not the
+    /// first a thread found), and the fallback count adds every task's.
+    #[test]
+    fn the_first_degenerate_face_is_named_and_fallbacks_counted_across_tasks() {
+        let n = 3 * FACES_PER_TASK + 10;
+        let mut p = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [2.0, 0.0, 0.0]];
+        let whole = p.clone();
+        let mut t = vec![[0, 1, 2]; n];
+        // Collapsed in `p`, whole in the fallback: faces in three tasks.
+        p[2] = [0.5, 0.0, 0.0];
+        let collapsed = [5, FACES_PER_TASK + 3, 2 * FACES_PER_TASK + 7];
+        for f in 0..n {
+            t[f] = if collapsed.contains(&f) { [0, 1, 2] } else { [0, 3, 1] };
+        }
+        // [0, 3, 1] is flat in both: make it whole.
+        p[3] = [0.5, 0.0, 1.0];
+        let (w, replaced) = face_cotangents_or(&p, Some(&whole), &t, 0.0).unwrap();
+        assert_eq!(replaced, 3);
+        assert_eq!(w[FACES_PER_TASK + 3], face_cotangents(&whole, &[[0, 1, 2]], 0.0).unwrap()[0]);
+        // Degenerate in both from the second task on: the earliest is named.
+        let (late, early) = (2 * FACES_PER_TASK + 1, FACES_PER_TASK + 2);
+        t[late] = [0, 1, 2];
+        t[early] = [0, 1, 2];
+        assert_eq!(face_cotangents_or(&p, Some(&p), &t, 0.0), Err(DegenerateFace { face: 5 }));
+        t[5] = [0, 3, 1];
+        assert_eq!(face_cotangents(&p, &t, 0.0), Err(DegenerateFace { face: early }));
+    }
+
+    /// The counting sort gives what sorting every half-edge gives: each undirected edge once,
+    /// in `(i, j)` order, its triangles' half-cotangents summed (three at a non-manifold edge),
+    /// vertices in no triangle skipped, negative sums clamped on request.
+    #[test]
+    fn edge_weights_sum_each_edges_triangles() {
+        let t = [[4u32, 9, 2], [2, 9, 7], [9, 4, 11], [2, 4, 9], [7, 11, 2]];
+        let cot: Vec<[f64; 3]> = (0..t.len())
+            .map(|f| [0.1 * f as f64 - 0.25, 0.3 + f as f64, -0.05 * (f * f) as f64])
+            .collect();
+        let mut all: Vec<(u32, u32, f64)> = Vec::new();
+        for (tri, w) in t.iter().zip(&cot) {
+            for (k, &wk) in w.iter().enumerate() {
+                let (a, b) = opposite_edge(*tri, k);
+                all.push((a.min(b), a.max(b), wk));
+            }
+        }
+        for clamp in [false, true] {
+            let got = edge_weights(&t, &cot, clamp);
+            let mut keys: Vec<(u32, u32)> = all.iter().map(|e| (e.0, e.1)).collect();
+            keys.sort_unstable();
+            keys.dedup();
+            assert_eq!(got.iter().map(|e| (e.0, e.1)).collect::<Vec<_>>(), keys);
+            for (a, b, w) in got {
+                let sum: f64 = all.iter().filter(|e| (e.0, e.1) == (a, b)).map(|e| e.2).sum();
+                let want = if clamp { sum.max(0.0) } else { sum };
+                assert!((w - want).abs() < 1e-15, "({a}, {b}): {w} against {want}");
+            }
+        }
+        assert!(edge_weights(&[], &[], true).is_empty());
     }
 }

@@ -25,8 +25,10 @@
 //! the constant, are per-frame terms like the edges', so that a frame adds every handle's
 //! terms in one pass.
 
-use super::gathering::{Combiner, add_edge, add_penalty, edge_difference, embedding_row};
-use super::mesh_part::{FixedMap, key, row_entry};
+use super::gathering::{
+    Accumulate, Combiner, add_edge, add_penalty, edge_difference, embedding_row,
+};
+use super::mesh_part::{FixedMap, key, pair_of, row_entry};
 use crate::deform::arap::Csr;
 use crate::deform::coarse::base::CoarseBase;
 use crate::error::SolveError;
@@ -69,87 +71,201 @@ pub(super) fn hold_exactly(
     g: &mut FixedMap<u64, f64>,
     pair: &mut FixedMap<u64, [f64; 3]>,
 ) -> Result<(FrameTerms, f64), SolveError> {
-    // Per fine vertex, its handle's index in the targets.
-    let mut target_of = vec![None; mesh.n_vertices()];
+    hold_exactly_in(mesh, base, handle_vertices, hold, g, pair, Blocks::PARALLEL)
+}
+
+/// The sizes of [`hold_exactly`]'s parallel tasks: edges with a handle end, and handles.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Blocks {
+    pub(super) edges: usize,
+    pub(super) handles: usize,
+}
+
+impl Blocks {
+    const PARALLEL: Blocks = Blocks { edges: 32_768, handles: 16_384 };
+}
+
+/// [`hold_exactly`] in tasks of the sizes `blocks`: the sums are gathered per task and added
+/// in the tasks' order, so they depend on the sizes (by rounding) but not on the threads.
+pub(super) fn hold_exactly_in(
+    mesh: &Mesh,
+    base: &CoarseBase,
+    handle_vertices: &[u32],
+    hold: f64,
+    g: &mut FixedMap<u64, f64>,
+    pair: &mut FixedMap<u64, [f64; 3]>,
+    blocks: Blocks,
+) -> Result<(FrameTerms, f64), SolveError> {
+    // Per fine vertex, its handle's index in the targets (`NONE`: free).
+    let mut target_of = vec![NONE; mesh.n_vertices()];
     for (t, &v) in handle_vertices.iter().enumerate() {
-        target_of[v as usize] = Some(t as u32);
+        target_of[v as usize] = t as u32;
     }
-    let is_handle = |v: &u32| target_of[*v as usize].is_some();
-    let (indices, faces): (Vec<usize>, Vec<[u32; 3]>) = (mesh.triangles().iter().enumerate())
-        .filter(|(_, t)| t.iter().any(is_handle))
-        .map(|(f, t)| (f, *t))
-        .unzip();
+    let triangles = mesh.triangles();
+    let at_handle = |f: &usize| triangles[*f].iter().any(|&v| target_of[v as usize] != NONE);
+    let indices: Vec<usize> = (0..triangles.len()).into_par_iter().filter(at_handle).collect();
+    let faces: Vec<[u32; 3]> = indices.iter().map(|&f| triangles[f]).collect();
     // Every face at an edge with a handle end has that end: the weights are the mesh's.
     let cot = face_cotangents(mesh.positions(), &faces, 0.0)
         .map_err(|e| SolveError::DegenerateFace { face: indices[e.face] })?;
-    let (beta, x) = (&base.base_on_coarse, mesh.positions());
-    let mut delta = Vec::with_capacity(6);
+    let edges = edge_weights(&faces, &cot, true);
+    // The sums per fixed block of edges and of handles in parallel, then added in block order.
+    let edge_sums: Vec<EdgeSums> = (edges.par_chunks(blocks.edges))
+        .map(|edges| EdgeSums::gather(edges, base, mesh.positions(), &target_of))
+        .collect();
+    let cluster_of = |h: u32| base.representative[handle_vertices[h as usize] as usize];
+    let penalties: Vec<Changes> = (handle_vertices.par_chunks(blocks.handles))
+        .enumerate()
+        .map(|(block, vertices)| {
+            let (mut changes, mut constant) = (Changes::default(), 0.0);
+            let (mut g, mut pair) = changes.combiners();
+            for (h, &v) in (block * blocks.handles..).zip(vertices) {
+                let (row, detail) = (embedding_row(base, v as usize), base.details[v as usize]);
+                let k = cluster_of(h as u32);
+                constant += add_penalty(&mut g, &mut pair, row, k, hold, detail);
+            }
+            drop((g, pair));
+            changes.constant = constant;
+            changes
+        })
+        .collect();
     let mut constant = 0.0;
     let (mut tau, mut sigma) = (FixedMap::<u64, f64>::default(), FixedMap::default());
     // σ's terms at a handle's own cluster (most of them), per handle; the others in `sigma`.
     let mut own = vec![[0.0; 3]; handle_vertices.len()];
-    let cluster_of = |h: u32| base.representative[handle_vertices[h as usize] as usize];
     let m = base.coarse_mesh.n_vertices();
     let mut terms = FrameTerms { squares: vec![0.0; handle_vertices.len()], ..FrameTerms::none(m) };
-    let (mut g, mut pair) = (Combiner::new(g), Combiner::new(pair));
-    let (mut tau_sums, mut sigma_sums) = (Combiner::new(&mut tau), Combiner::new(&mut sigma));
-    for (i, j, w) in edge_weights(&faces, &cot, true) {
-        let (i, j) = (i as usize, j as usize);
-        let targets = [target_of[i], target_of[j]];
-        if w == 0.0 || targets == [None, None] {
-            continue;
+    for block in edge_sums {
+        constant += block.changes.add_to(g, pair);
+        add_all(&mut tau, block.tau);
+        for (k, v) in block.sigma {
+            let (cluster, h) = pair_of(k);
+            let at_own = cluster == cluster_of(h);
+            let sum = if at_own { &mut own[h as usize] } else { sigma.entry(k).or_default() };
+            sum.add(&v);
         }
-        let clusters = [base.representative[i], base.representative[j]];
-        // Away with the terms gathered for both ends free, in with the exact rule's.
-        edge_difference([Some(embedding_row(base, i)), Some(embedding_row(base, j))], &mut delta);
-        constant += add_edge(&mut g, &mut pair, clusters, &delta, sub(beta[i], beta[j]), -w);
-        let free = |v: usize, t: Option<u32>| t.is_none().then(|| embedding_row(base, v));
-        edge_difference([free(i, targets[0]), free(j, targets[1])], &mut delta);
-        let at = |v: usize, t: Option<u32>| if t.is_some() { x[v] } else { beta[v] };
-        let rest = sub(at(i, targets[0]), at(j, targets[1]));
-        constant += add_edge(&mut g, &mut pair, clusters, &delta, rest, w);
-        // s = t_i (a handle end i) − t_j (a handle end j).
-        let ends = [(targets[0], 1.0), (targets[1], -1.0)];
-        for (h, sign) in ends.into_iter().filter_map(|(t, sign)| Some((t?, sign))) {
-            for &(b, db) in &delta {
-                *tau_sums.entry(key(b, h)) -= 2.0 * w * db * sign;
-            }
-            for k in clusters {
-                let v = if k == cluster_of(h) {
-                    &mut own[h as usize]
-                } else {
-                    sigma_sums.entry(key(k, h))
-                };
-                for d in 0..3 {
-                    v[d] += w * sign * rest[d];
-                }
-            }
+        for (h, a) in block.squares {
+            terms.squares[h as usize] += a;
         }
-        match targets {
-            [Some(h), Some(l)] => terms.between.push((h, l, 2.0 * w)),
-            [Some(h), None] | [None, Some(h)] => terms.squares[h as usize] += 2.0 * w,
-            [None, None] => {}
-        }
+        terms.between.extend(block.between);
     }
-    // The handles' penalty: its τ terms straight into the rows (a row may hold a handle twice).
+    for changes in penalties {
+        constant += changes.add_to(g, pair);
+    }
+    // The penalty's per-frame terms; its τ terms straight into the rows (a row may hold a
+    // handle twice).
     let mut hold_tau = Vec::with_capacity(3 * handle_vertices.len());
     for (h, &v) in handle_vertices.iter().enumerate() {
-        let (v, row) = (v as usize, embedding_row(base, v as usize));
-        let detail = base.details[v];
-        constant += add_penalty(&mut g, &mut pair, row, cluster_of(h as u32), hold, detail);
-        hold_tau.extend((0..3).map(|a| (row.0[a], (h as u32, hold * row.1[a]))));
-        for d in 0..3 {
-            own[h][d] += hold * detail[d];
-        }
+        let (corners, weights) = embedding_row(base, v as usize);
+        hold_tau.extend((0..3).map(|a| (corners[a], (h as u32, hold * weights[a]))));
+        own[h].add(&base.details[v as usize].map(|d| hold * d));
         terms.squares[h] += hold;
     }
-    drop((g, pair, tau_sums, sigma_sums));
     let tau: Vec<_> = tau.into_iter().map(row_entry).chain(hold_tau).collect();
     terms.tau = Csr::from_pairs(m, &tau);
     let own = (own.into_iter().enumerate()).map(|(h, v)| (cluster_of(h as u32), (h as u32, v)));
     let sigma: Vec<_> = own.chain(sigma.into_iter().map(row_entry)).collect();
     terms.sigma = Csr::from_pairs(m, &sigma);
     Ok((terms, constant))
+}
+
+/// A free vertex in `hold_exactly`'s per-vertex target indices.
+const NONE: u32 = u32::MAX;
+
+/// What one block adds to the mesh part's sums: to $G$, to the $g_{kb}$ and to the constant.
+#[derive(Default)]
+struct Changes {
+    g: FixedMap<u64, f64>,
+    pair: FixedMap<u64, [f64; 3]>,
+    constant: f64,
+}
+
+impl Changes {
+    /// Combiners in front of the block's own sums.
+    fn combiners(&mut self) -> (Combiner<'_, f64>, Combiner<'_, [f64; 3]>) {
+        (Combiner::new(&mut self.g), Combiner::new(&mut self.pair))
+    }
+
+    /// Adds the block's sums to `g` and `pair`, key by key; returns its constant.
+    fn add_to(self, g: &mut FixedMap<u64, f64>, pair: &mut FixedMap<u64, [f64; 3]>) -> f64 {
+        add_all(g, self.g);
+        add_all(pair, self.pair);
+        self.constant
+    }
+}
+
+/// The sums of one block of edges with a handle end (module doc): the changes of $G$, of the
+/// $g_{kb}$ and of the constant, and the per-frame terms ($\tau$ by key $(b, h)$, $\sigma$ by
+/// key $(k, h)$, the squares' weights by handle, the edges between two handles).
+#[derive(Default)]
+struct EdgeSums {
+    changes: Changes,
+    tau: FixedMap<u64, f64>,
+    sigma: FixedMap<u64, [f64; 3]>,
+    squares: Vec<(u32, f64)>,
+    between: Vec<(u32, u32, f64)>,
+}
+
+impl EdgeSums {
+    /// The sums of `edges` (`(i, j, w)`), each with at least one end that has a target
+    /// index in `target_of`; `x` the rest positions.
+    fn gather(
+        edges: &[(u32, u32, f64)],
+        base: &CoarseBase,
+        x: &[[f64; 3]],
+        target_of: &[u32],
+    ) -> EdgeSums {
+        let mut sums = EdgeSums::default();
+        let EdgeSums { changes, tau, sigma, squares, between } = &mut sums;
+        let beta = &base.base_on_coarse;
+        let mut delta = Vec::with_capacity(6);
+        let mut constant = 0.0;
+        let (mut g, mut pair) = changes.combiners();
+        let (mut tau, mut sigma) = (Combiner::new(tau), Combiner::new(sigma));
+        for &(i, j, w) in edges {
+            let (i, j) = (i as usize, j as usize);
+            let targets = [target_of[i], target_of[j]].map(|t| (t != NONE).then_some(t));
+            if w == 0.0 || targets == [None, None] {
+                continue;
+            }
+            let clusters = [base.representative[i], base.representative[j]];
+            // Away with the terms gathered for both ends free, in with the exact rule's.
+            let both = [Some(embedding_row(base, i)), Some(embedding_row(base, j))];
+            edge_difference(both, &mut delta);
+            let removed = sub(beta[i], beta[j]);
+            constant += add_edge(&mut g, &mut pair, clusters, &delta, removed, -w);
+            let free = |v: usize, t: Option<u32>| t.is_none().then(|| embedding_row(base, v));
+            edge_difference([free(i, targets[0]), free(j, targets[1])], &mut delta);
+            let at = |v: usize, t: Option<u32>| if t.is_some() { x[v] } else { beta[v] };
+            let rest = sub(at(i, targets[0]), at(j, targets[1]));
+            constant += add_edge(&mut g, &mut pair, clusters, &delta, rest, w);
+            // s = t_i (a handle end i) − t_j (a handle end j).
+            let ends = [(targets[0], 1.0), (targets[1], -1.0)];
+            for (h, sign) in ends.into_iter().filter_map(|(t, sign)| Some((t?, sign))) {
+                for &(b, db) in &delta {
+                    *tau.entry(key(b, h)) -= 2.0 * w * db * sign;
+                }
+                for k in clusters {
+                    sigma.entry(key(k, h)).add(&rest.map(|r| w * sign * r));
+                }
+            }
+            match targets {
+                [Some(h), Some(l)] => between.push((h, l, 2.0 * w)),
+                [Some(h), None] | [None, Some(h)] => squares.push((h, 2.0 * w)),
+                [None, None] => {}
+            }
+        }
+        drop((g, pair, tau, sigma));
+        sums.changes.constant = constant;
+        sums
+    }
+}
+
+/// Adds every sum of `from` to `to`'s, key by key.
+fn add_all<V: Accumulate>(to: &mut FixedMap<u64, V>, from: FixedMap<u64, V>) {
+    for (k, v) in from {
+        to.entry(k).or_default().add(&v);
+    }
 }
 
 impl FrameTerms {

@@ -256,3 +256,51 @@ fn the_combiner_sums_as_the_map() {
         }
     }
 }
+
+/// The exact rule's handle terms (`exact.rs`) are gathered in parallel tasks and added in the
+/// tasks' order: tiny tasks (many blocks to add, a handle's edges and σ terms split between
+/// them) give what one task gives, but for rounding.
+#[test]
+fn the_exact_rules_terms_do_not_depend_on_the_tasks() {
+    let (mesh, handles) = crate::geometry::shapes::bumpy_bar(3);
+    let base = CoarseBase::new(&mesh, &BaseConfig::default()).unwrap();
+    let gathered = gather_mesh_part(&mesh, &base).unwrap();
+    let hold = 1e-6 * gathered.g_max;
+    let run = |blocks| {
+        let (mut g, mut pair) = (gathered.g.clone(), gathered.pair.clone());
+        let vertices = handles.handle_vertices();
+        let (terms, constant) =
+            exact::hold_exactly_in(&mesh, &base, vertices, hold, &mut g, &mut pair, blocks)
+                .unwrap();
+        (g, pair, terms, constant)
+    };
+    let (g1, pair1, terms1, constant1) =
+        run(exact::Blocks { edges: usize::MAX, handles: usize::MAX });
+    let (g7, pair7, terms7, constant7) = run(exact::Blocks { edges: 7, handles: 5 });
+    let near = |a: f64, b: f64, scale: f64| (a - b).abs() <= 1e-12 * scale;
+    assert!(near(constant1, constant7, constant1.abs()), "{constant1} {constant7}");
+    let scale = gathered.g_max;
+    assert_eq!(g1.len(), g7.len());
+    for (k, v) in &g1 {
+        assert!(near(*v, g7[k], scale), "G at {:?}: {v} {}", pair_of(*k), g7[k]);
+    }
+    assert_eq!(pair1.len(), pair7.len());
+    for (k, v) in &pair1 {
+        assert!((0..3).all(|d| near(v[d], pair7[k][d], scale)), "g_kb at {:?}", pair_of(*k));
+    }
+    // The per-frame terms, read through what a frame adds for bent targets.
+    let targets = bent(&mesh, &handles, [0.0, 0.3, 1.0], 0.8);
+    let m = base.coarse_mesh.n_vertices();
+    let frame = |terms: &exact::FrameTerms| {
+        let (mut tau, mut sigma) = (vec![[0.0; 3]; m], vec![[[0.0; 3]; 3]; m]);
+        let constant = terms.add(&targets, &mut tau, &mut sigma);
+        (tau, sigma, constant)
+    };
+    let ((tau1, sigma1, c1), (tau7, sigma7, c7)) = (frame(&terms1), frame(&terms7));
+    assert!(near(c1, c7, c1.abs()), "{c1} {c7}");
+    let size = tau1.iter().flatten().fold(0.0f64, |s, x| s.max(x.abs()));
+    assert!(tau1.iter().flatten().zip(tau7.iter().flatten()).all(|(a, b)| near(*a, *b, size)));
+    let size = sigma1.iter().flatten().flatten().fold(0.0f64, |s, x| s.max(x.abs()));
+    let (s1, s7) = (sigma1.iter().flatten().flatten(), sigma7.iter().flatten().flatten());
+    assert!(s1.zip(s7).all(|(a, b)| near(*a, *b, size)));
+}
