@@ -4,6 +4,7 @@
 //! invariants every solver relies on (indices in range, finite coordinates, at least one
 //! triangle), so code that receives a `Mesh` never re-checks them.
 
+use std::sync::Arc;
 use thiserror::Error;
 
 use crate::geometry::topology::{Adjacency, Components, connected_components};
@@ -24,10 +25,11 @@ pub enum MeshError {
 }
 
 /// A triangle mesh: positions (`#V×3 f64`) and triangles (`#F×3 u32`, counter-clockwise).
+/// A mesh never changes, so its copies share the two arrays.
 #[derive(Debug, Clone)]
 pub struct Mesh {
-    positions: Vec<[f64; 3]>,
-    triangles: Vec<[u32; 3]>,
+    positions: Arc<Vec<[f64; 3]>>,
+    triangles: Arc<Vec<[u32; 3]>>,
     /// [`Mesh::fingerprint`], computed when first asked for (a mesh never changes).
     fingerprint: std::sync::OnceLock<u64>,
     /// [`Mesh::adjacency`], built when first asked for.
@@ -50,11 +52,7 @@ impl Mesh {
         if triangles.is_empty() {
             return Err(MeshError::NoTriangles);
         }
-        for (vertex, p) in positions.iter().enumerate() {
-            if let Some(&value) = p.iter().find(|c| !c.is_finite()) {
-                return Err(MeshError::NonFinite { vertex, value });
-            }
-        }
+        check_finite(&positions)?;
         let n_vertices = positions.len();
         for (face, t) in triangles.iter().enumerate() {
             if let Some(&index) = t.iter().find(|&&i| i as usize >= n_vertices) {
@@ -64,13 +62,18 @@ impl Mesh {
                 return Err(MeshError::RepeatedVertex { face, a: t[0], b: t[1], c: t[2] });
             }
         }
-        Ok(Mesh {
+        Ok(Mesh::from_checked(positions.into(), triangles.into()))
+    }
+
+    /// A mesh of arrays that passed [`Mesh::new`]'s checks.
+    fn from_checked(positions: Arc<Vec<[f64; 3]>>, triangles: Arc<Vec<[u32; 3]>>) -> Mesh {
+        Mesh {
             positions,
             triangles,
             fingerprint: std::sync::OnceLock::new(),
             adjacency: std::sync::OnceLock::new(),
             components: std::sync::OnceLock::new(),
-        })
+        }
     }
 
     /// A 64-bit hash of the positions (bit patterns) and triangles, computed once per mesh
@@ -98,14 +101,13 @@ impl Mesh {
         })
     }
 
-    /// A copy of the positions, triangles and fingerprint, without the adjacency and components
-    /// found for this mesh (found again if the copy is asked for them): what a factorization
-    /// made later on another thread needs, for a fraction of a clone's copying at a million
-    /// vertices.
+    /// The positions, triangles and fingerprint (shared, not copied), without the adjacency
+    /// and components found for this mesh (found again if the copy is asked for them): what a
+    /// factorization made later on another thread needs, at no copying.
     pub fn copy_geometry(&self) -> Mesh {
         Mesh {
-            positions: self.positions.clone(),
-            triangles: self.triangles.clone(),
+            positions: Arc::clone(&self.positions),
+            triangles: Arc::clone(&self.triangles),
             fingerprint: self.fingerprint.clone(),
             adjacency: std::sync::OnceLock::new(),
             components: std::sync::OnceLock::new(),
@@ -163,8 +165,19 @@ impl Mesh {
                 n_vertices: self.positions.len(),
             });
         }
-        Mesh::new(positions, self.triangles.clone())
+        check_finite(&positions)?;
+        Ok(Mesh::from_checked(positions.into(), Arc::clone(&self.triangles)))
     }
+}
+
+/// [`MeshError::NonFinite`] for the first coordinate of `positions` that is not finite.
+fn check_finite(positions: &[[f64; 3]]) -> Result<(), MeshError> {
+    for (vertex, p) in positions.iter().enumerate() {
+        if let Some(&value) = p.iter().find(|c| !c.is_finite()) {
+            return Err(MeshError::NonFinite { vertex, value });
+        }
+    }
+    Ok(())
 }
 
 /// Axis-aligned bounding box of a point set; `([0;3],[0;3])` when empty.
@@ -266,6 +279,24 @@ mod tests {
         for v in 0..m.n_vertices() as u32 {
             assert_eq!(m.adjacency().neighbors(v), own.neighbors(v));
         }
+    }
+
+    /// Copies share the arrays (a handle set's background factorization keeps one): the
+    /// geometry's copy both, another pose the triangles; another pose is still checked.
+    #[test]
+    fn copies_share_the_arrays() {
+        let m = crate::geometry::shapes::icosphere(2);
+        let copy = m.copy_geometry();
+        assert!(std::ptr::eq(copy.positions(), m.positions()));
+        assert!(std::ptr::eq(copy.triangles(), m.triangles()));
+        assert_eq!((copy.fingerprint(), &copy), (m.fingerprint(), &m));
+        let moved: Vec<_> = m.positions().iter().map(|p| p.map(|c| 2.0 * c)).collect();
+        let posed = m.with_positions(moved.clone()).unwrap();
+        assert!(std::ptr::eq(posed.triangles(), m.triangles()));
+        assert_eq!(posed.positions(), &moved[..]);
+        let mut bad = moved;
+        bad[3][1] = f64::NAN;
+        assert!(matches!(m.with_positions(bad), Err(MeshError::NonFinite { vertex: 3, .. })));
     }
 
     #[test]
