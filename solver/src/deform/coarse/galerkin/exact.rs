@@ -59,21 +59,6 @@ pub(super) struct FrameTerms {
     between: Vec<(u32, u32, f64)>,
 }
 
-/// Replaces, in the sums `g` and `pair` gathered with every vertex free, the terms of the edges
-/// with a handle end (`handle_vertices`, in the order of their targets) by those of the exact
-/// rule, and adds the handles' penalty of weight `hold` (module doc). Returns the per-frame
-/// terms and the change of the energy's constant.
-pub(super) fn hold_exactly(
-    mesh: &Mesh,
-    base: &CoarseBase,
-    handle_vertices: &[u32],
-    hold: f64,
-    g: &mut FixedMap<u64, f64>,
-    pair: &mut FixedMap<u64, [f64; 3]>,
-) -> Result<(FrameTerms, f64), SolveError> {
-    hold_exactly_in(mesh, base, handle_vertices, hold, g, pair, Blocks::PARALLEL)
-}
-
 /// The sizes of [`hold_exactly`]'s parallel tasks: edges with a handle end, and handles.
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Blocks {
@@ -82,12 +67,17 @@ pub(super) struct Blocks {
 }
 
 impl Blocks {
-    const PARALLEL: Blocks = Blocks { edges: 32_768, handles: 16_384 };
+    /// The sizes [`super::GalerkinCoarse::new`] uses.
+    pub(super) const PARALLEL: Blocks = Blocks { edges: 32_768, handles: 16_384 };
 }
 
-/// [`hold_exactly`] in tasks of the sizes `blocks`: the sums are gathered per task and added
-/// in the tasks' order, so they depend on the sizes (by rounding) but not on the threads.
-pub(super) fn hold_exactly_in(
+/// Replaces, in the sums `g` and `pair` gathered with every vertex free, the terms of the edges
+/// with a handle end (`handle_vertices`, in the order of their targets) by those of the exact
+/// rule, and adds the handles' penalty of weight `hold` (module doc). Returns the per-frame
+/// terms and the change of the energy's constant. The sums are gathered in parallel tasks of
+/// the sizes `blocks` and added in the tasks' order, so they depend on the sizes (by rounding)
+/// but not on the threads.
+pub(super) fn hold_exactly(
     mesh: &Mesh,
     base: &CoarseBase,
     handle_vertices: &[u32],

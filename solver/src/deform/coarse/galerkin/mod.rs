@@ -302,9 +302,9 @@ impl GalerkinCoarse {
             }
         }
         let exact_terms = if rule == HandleRule::Exact {
-            let handles = &constraints.handle_vertices;
+            let (handles, blocks) = (&constraints.handle_vertices, exact::Blocks::PARALLEL);
             let (terms, change) =
-                exact::hold_exactly(mesh, base, handles, hold, &mut g, &mut pair)?;
+                exact::hold_exactly(mesh, base, handles, hold, &mut g, &mut pair, blocks)?;
             constant += change;
             terms
         } else {

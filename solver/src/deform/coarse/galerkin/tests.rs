@@ -270,8 +270,7 @@ fn the_exact_rules_terms_do_not_depend_on_the_tasks() {
         let (mut g, mut pair) = (gathered.g.clone(), gathered.pair.clone());
         let vertices = handles.handle_vertices();
         let (terms, constant) =
-            exact::hold_exactly_in(&mesh, &base, vertices, hold, &mut g, &mut pair, blocks)
-                .unwrap();
+            exact::hold_exactly(&mesh, &base, vertices, hold, &mut g, &mut pair, blocks).unwrap();
         (g, pair, terms, constant)
     };
     let (g1, pair1, terms1, constant1) =
