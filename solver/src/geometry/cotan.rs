@@ -293,12 +293,13 @@ mod tests {
         for f in 0..n {
             t[f] = if collapsed.contains(&f) { [0, 1, 2] } else { [0, 3, 1] };
         }
-        // [0, 3, 1] is flat in both: make it whole.
+        // The other faces, [0, 3, 1], whole in `p` (the fallback is never asked for them).
         p[3] = [0.5, 0.0, 1.0];
         let (w, replaced) = face_cotangents_or(&p, Some(&whole), &t, 0.0).unwrap();
         assert_eq!(replaced, 3);
         assert_eq!(w[FACES_PER_TASK + 3], face_cotangents(&whole, &[[0, 1, 2]], 0.0).unwrap()[0]);
-        // Degenerate in both from the second task on: the earliest is named.
+        // Degenerate in both (the fallback is `p` itself) in three tasks: the earliest is named,
+        // then, with face 5 whole again, the earliest of the second task.
         let (late, early) = (2 * FACES_PER_TASK + 1, FACES_PER_TASK + 2);
         t[late] = [0, 1, 2];
         t[early] = [0, 1, 2];
