@@ -82,7 +82,7 @@ const FACES_PER_TASK: usize = 16_384;
 
 /// `[½cot∠a, ½cot∠b, ½cot∠c]` of one triangle, `None` when it is degenerate (see
 /// [`face_cotangents`]).
-fn triangle_cotangents(p: [[f64; 3]; 3], min_double_area: f64) -> Option<[f64; 3]> {
+pub fn triangle_cotangents(p: [[f64; 3]; 3], min_double_area: f64) -> Option<[f64; 3]> {
     let mut w = [0.0; 3];
     for k in 0..3 {
         let u = sub(p[(k + 1) % 3], p[k]);

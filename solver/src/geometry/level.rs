@@ -15,7 +15,7 @@
 //! settles on it first; the implicit rotation step of smooth rotations solves on one on dense
 //! meshes (a two-grid correction, `arap::rotation_solve`).
 
-use crate::geometry::cotan::face_cotangents;
+use crate::geometry::cotan::triangle_cotangents;
 use crate::geometry::embedding::{OutwardEmbedding, embed_outward};
 use crate::geometry::mesh::{Mesh, dot, sub};
 use crate::geometry::normals::VertexFaces;
@@ -62,8 +62,8 @@ pub(crate) fn decimated_level(mesh: &Mesh, n_level: usize) -> Option<(Vec<u32>, 
     let triangles: Vec<[u32; 3]> = level_triangles
         .iter()
         .filter(|t| {
-            face_cotangents(&level_positions, std::slice::from_ref(t), 0.0)
-                .is_ok_and(|c| c[0].iter().all(|w| w.abs() <= LEVEL_MAX_HALF_COTANGENT))
+            triangle_cotangents(t.map(|v| level_positions[v as usize]), 0.0)
+                .is_some_and(|c| c.iter().all(|w| w.abs() <= LEVEL_MAX_HALF_COTANGENT))
         })
         .copied()
         .collect();
