@@ -13,6 +13,7 @@
 //! above `1e-15·(longest edge)²` has no finite cotangents: [`face_cotangents`] names it.
 
 use crate::geometry::mesh::{cross, dot, norm, sub};
+use crate::geometry::topology::bucketed;
 use faer::sparse::{SparseColMat, Triplet};
 use rayon::prelude::*;
 use thiserror::Error;
@@ -132,36 +133,22 @@ pub fn edge_weights(
     cot: &[[f64; 3]],
     clamp_negative: bool,
 ) -> Vec<(u32, u32, f64)> {
-    // A counting sort of the half-edges by their smaller end, then each bucket (a vertex's few
-    // edges) by the other end: linear where sorting every half-edge was most of the time.
+    // The half-edges bucketed by their smaller end (a counting sort), then each bucket (a
+    // vertex's few edges) sorted by the other end: linear where sorting every half-edge was
+    // most of the time.
     let n = triangles.iter().flatten().max().map_or(0, |&v| v as usize + 1);
-    let smaller = |t: [u32; 3], k: usize| {
-        let (a, b) = opposite_edge(t, k);
-        (a.min(b), a.max(b))
+    let half_edges = || {
+        triangles.iter().zip(cot).flat_map(|(&t, w)| {
+            (0..3).map(move |k| {
+                let (a, b) = opposite_edge(t, k);
+                (a.min(b), (a.max(b), w[k]))
+            })
+        })
     };
-    // `end[a]`: first the start of bucket a, then (once filled) its end.
-    let mut end = vec![0u32; n + 1];
-    for &t in triangles {
-        for k in 0..3 {
-            end[smaller(t, k).0 as usize + 1] += 1;
-        }
-    }
-    for a in 0..n {
-        end[a + 1] += end[a];
-    }
-    let mut others = vec![(0u32, 0.0); 3 * triangles.len()];
-    for (&t, w) in triangles.iter().zip(cot) {
-        for (k, &wk) in w.iter().enumerate() {
-            let (a, b) = smaller(t, k);
-            others[end[a as usize] as usize] = (b, wk);
-            end[a as usize] += 1;
-        }
-    }
+    let (starts, mut others) = bucketed(n, half_edges);
     let mut out: Vec<(u32, u32, f64)> = Vec::with_capacity(others.len() / 2 + 1);
-    let mut begin = 0;
-    for (a, &end) in end[..n].iter().enumerate() {
-        let bucket = &mut others[begin..end as usize];
-        begin = end as usize;
+    for a in 0..n {
+        let bucket = &mut others[starts[a]..starts[a + 1]];
         bucket.sort_unstable_by_key(|e| e.0);
         for &(b, w) in bucket.iter() {
             match out.last_mut() {

@@ -140,6 +140,32 @@ pub fn non_manifold_edges(triangles: &[[u32; 3]]) -> usize {
     edge_counts(triangles).non_manifold
 }
 
+/// A counting sort: the items of `items()` (each with its bucket, below `n`) grouped by bucket,
+/// in their order within a bucket, and where each bucket starts (`n + 1` entries; bucket `b` is
+/// `items[starts[b]..starts[b + 1]]`). `items` is asked twice: once to count, once to place.
+/// Compressed rows with no sort of all the items together: the mesh's adjacency, its edges'
+/// weights ([`crate::geometry::cotan::edge_weights`]) and the solver's compressed rows.
+pub(crate) fn bucketed<T: Copy + Default, I: Iterator<Item = (u32, T)>>(
+    n: usize,
+    items: impl Fn() -> I,
+) -> (Vec<usize>, Vec<T>) {
+    // `next[b]`: first the start of bucket b, then where its next item goes.
+    let mut next = vec![0usize; n + 1];
+    for (b, _) in items() {
+        next[b as usize + 1] += 1;
+    }
+    for b in 0..n {
+        next[b + 1] += next[b];
+    }
+    let starts = next.clone();
+    let mut placed = vec![T::default(); next[n]];
+    for (b, item) in items() {
+        placed[next[b as usize]] = item;
+        next[b as usize] += 1;
+    }
+    (starts, placed)
+}
+
 /// Vertex adjacency in compressed rows: the neighbours of `v` are
 /// `neighbors[offsets[v]..offsets[v + 1]]`, sorted, without duplicates.
 #[derive(Debug, Clone)]
@@ -154,29 +180,16 @@ impl Adjacency {
     /// neighbours twice), then sorted and deduplicated on its own: no sort of all the
     /// mesh's half-edges together.
     pub fn new(n_vertices: usize, triangles: &[[u32; 3]]) -> Adjacency {
-        let mut start = vec![0usize; n_vertices + 1];
-        for t in triangles {
-            for &v in t {
-                start[v as usize + 1] += 2;
-            }
-        }
-        for v in 0..n_vertices {
-            start[v + 1] += start[v];
-        }
-        let mut fill = start.clone();
-        let mut rows = vec![0u32; start[n_vertices]];
-        for t in triangles {
-            for k in 0..3 {
-                let a = t[k] as usize;
-                rows[fill[a]] = t[(k + 1) % 3];
-                rows[fill[a] + 1] = t[(k + 2) % 3];
-                fill[a] += 2;
-            }
-        }
+        let corners = || {
+            triangles.iter().flat_map(|t| {
+                (0..3).flat_map(move |k| [(t[k], t[(k + 1) % 3]), (t[k], t[(k + 2) % 3])])
+            })
+        };
+        let (starts, mut rows) = bucketed(n_vertices, corners);
         let mut offsets = vec![0u32; n_vertices + 1];
         let mut neighbors = Vec::with_capacity(rows.len() / 2 + n_vertices);
         for v in 0..n_vertices {
-            let row = &mut rows[start[v]..start[v + 1]];
+            let row = &mut rows[starts[v]..starts[v + 1]];
             row.sort_unstable();
             for (i, &w) in row.iter().enumerate() {
                 if i == 0 || w != row[i - 1] {
@@ -209,6 +222,18 @@ impl Adjacency {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Items grouped by bucket, each bucket in input order, empty buckets (the first, the
+    /// last, one between) with equal starts.
+    #[test]
+    fn bucketed_groups_in_order() {
+        let items = [(3u32, 'a'), (1, 'b'), (3, 'c'), (1, 'd'), (4, 'e'), (3, 'f')];
+        let (starts, placed) = bucketed(6, || items.iter().copied());
+        assert_eq!(starts, [0, 0, 2, 2, 5, 6, 6]);
+        assert_eq!(placed, ['b', 'd', 'a', 'c', 'f', 'e']);
+        let (starts, placed) = bucketed::<char, _>(2, std::iter::empty);
+        assert_eq!((starts, placed), (vec![0, 0, 0], vec![]));
+    }
 
     #[test]
     fn components_and_isolated_vertices() {

@@ -77,6 +77,7 @@ pub(crate) use smooth_rotations::SmoothRotations;
 
 use crate::deform::constraints::Constraints;
 use crate::geometry::reorder::VertexOrder;
+use crate::geometry::topology::bucketed;
 use crate::linalg::lanes::Avx2;
 use crate::linalg::linsolve::SpdFactor;
 use crate::linalg::rotation::{IDENTITY, Mat3};
@@ -90,22 +91,11 @@ pub(crate) struct Csr<T> {
     items: Vec<T>,
 }
 
-impl<T: Copy> Csr<T> {
+impl<T: Copy + Default> Csr<T> {
+    /// Rows `0..n` from `(row, item)` pairs, each row's items in their order in `pairs`.
     pub(crate) fn from_pairs(n: usize, pairs: &[(u32, T)]) -> Csr<T> {
-        let mut offsets = vec![0usize; n + 1];
-        for &(i, _) in pairs {
-            offsets[i as usize + 1] += 1;
-        }
-        for i in 0..n {
-            offsets[i + 1] += offsets[i];
-        }
-        let mut fill = offsets.clone();
-        let mut items: Vec<Option<T>> = vec![None; pairs.len()];
-        for &(i, x) in pairs {
-            items[fill[i as usize]] = Some(x);
-            fill[i as usize] += 1;
-        }
-        Csr { offsets, items: items.into_iter().flatten().collect() }
+        let (starts, items) = bucketed(n, || pairs.iter().copied());
+        Csr { offsets: starts, items }
     }
     #[inline]
     pub(crate) fn row(&self, i: usize) -> &[T] {
