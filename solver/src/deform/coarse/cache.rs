@@ -7,7 +7,7 @@
 //! for a base faired on a level, the level's triangles and vertices and each fine vertex's
 //! level representative, level triangle and weights ([`crate::deform::coarse::level_settle`]);
 //! the Galerkin coarse energy's mesh part when it was gathered before the file was written
-//! ([`galerkin_mesh`](crate::deform::coarse::galerkin::galerkin_mesh); a few MiB, about a
+//! ([`galerkin_mesh`](crate::deform::coarse::galerkin::galerkin_mesh); a few MiB, about half a
 //! second to gather at 1.5M vertices).
 //! The rest is recomputed on reading: the embedded points $P B_c$, the details
 //! $D = M - P B_c$ and $M$ itself from the mesh.
