@@ -43,16 +43,17 @@ impl Constraints {
     pub fn new(mesh: &Mesh, handles: &Handles) -> Constraints {
         let n = mesh.n_vertices();
         let comps = mesh.components();
-        let mut has_handle = vec![false; comps.count];
-        for v in 0..n {
-            if handles.is_handle(v) {
-                has_handle[comps.label[v] as usize] = true;
-            }
-        }
         let handle_vertices = handles.handle_vertices();
-        let pinned_vertices: Vec<u32> =
-            (0..n as u32).filter(|&v| !has_handle[comps.label[v as usize] as usize]).collect();
+        let mut has_handle = vec![false; comps.count];
+        for &v in handle_vertices {
+            has_handle[comps.label[v as usize] as usize] = true;
+        }
         let pinned_components = has_handle.iter().filter(|&&h| !h).count();
+        let pinned_vertices: Vec<u32> = if pinned_components == 0 {
+            Vec::new()
+        } else {
+            (0..n as u32).filter(|&v| !has_handle[comps.label[v as usize] as usize]).collect()
+        };
         let mut free_index = vec![None; n];
         let mut free_vertices = Vec::with_capacity(n);
         for v in 0..n {

@@ -194,11 +194,13 @@ impl Riders {
                 }
             }
         }
+        if !components.iter().any(|c| c.mode == Some(ComponentMode::Follow)) {
+            return Riders { components, riders: Vec::new() };
+        }
         let handled: Vec<u32> = (0..n as u32)
             .filter(|&v| components[comps.label[v as usize] as usize].has_handles)
             .collect();
-        let following = components.iter().any(|c| c.mode == Some(ComponentMode::Follow));
-        if handled.is_empty() || !following {
+        if handled.is_empty() {
             return Riders { components, riders: Vec::new() };
         }
         for (v, &c) in comps.label.iter().enumerate() {

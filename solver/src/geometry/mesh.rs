@@ -32,6 +32,9 @@ pub struct Mesh {
     triangles: Arc<Vec<[u32; 3]>>,
     /// [`Mesh::fingerprint`], computed when first asked for (a mesh never changes).
     fingerprint: std::sync::OnceLock<u64>,
+    /// [`Mesh::bounding_box`], found when first asked for: each handle set reads the
+    /// diagonal several times, a pass over the positions each.
+    bounds: std::sync::OnceLock<([f64; 3], [f64; 3])>,
     /// [`Mesh::adjacency`], built when first asked for.
     adjacency: std::sync::OnceLock<Adjacency>,
     /// [`Mesh::components`], found when first asked for.
@@ -71,6 +74,7 @@ impl Mesh {
             positions,
             triangles,
             fingerprint: std::sync::OnceLock::new(),
+            bounds: std::sync::OnceLock::new(),
             adjacency: std::sync::OnceLock::new(),
             components: std::sync::OnceLock::new(),
         }
@@ -101,14 +105,15 @@ impl Mesh {
         })
     }
 
-    /// The positions, triangles and fingerprint (shared, not copied), without the adjacency
-    /// and components found for this mesh (found again if the copy is asked for them): what a
-    /// factorization made later on another thread needs, at no copying.
+    /// The positions, triangles, fingerprint and bounding box (shared, not copied), without
+    /// the adjacency and components found for this mesh (found again if the copy is asked for
+    /// them): what a factorization made later on another thread needs, at no copying.
     pub fn copy_geometry(&self) -> Mesh {
         Mesh {
             positions: Arc::clone(&self.positions),
             triangles: Arc::clone(&self.triangles),
             fingerprint: self.fingerprint.clone(),
+            bounds: self.bounds.clone(),
             adjacency: std::sync::OnceLock::new(),
             components: std::sync::OnceLock::new(),
         }
@@ -132,6 +137,12 @@ impl Mesh {
         &self.positions
     }
 
+    /// The rest positions themselves, shared: for what keeps the rest pose as long as the
+    /// mesh (a coarse base), at no copying.
+    pub(crate) fn shared_positions(&self) -> Arc<Vec<[f64; 3]>> {
+        Arc::clone(&self.positions)
+    }
+
     /// Triangles, `#F×3`, indices into [`Mesh::positions`].
     pub fn triangles(&self) -> &[[u32; 3]] {
         &self.triangles
@@ -147,7 +158,7 @@ impl Mesh {
 
     /// Axis-aligned bounding box `(min, max)`.
     pub fn bounding_box(&self) -> ([f64; 3], [f64; 3]) {
-        bounding_box(self.positions.iter().copied())
+        *self.bounds.get_or_init(|| bounding_box(self.positions.iter().copied()))
     }
 
     /// Length of the bounding-box diagonal: the length unit of tolerances and error figures.

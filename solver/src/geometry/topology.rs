@@ -149,21 +149,23 @@ pub(crate) fn bucketed<T: Copy + Default, I: Iterator<Item = (u32, T)>>(
     n: usize,
     items: impl Fn() -> I,
 ) -> (Vec<usize>, Vec<T>) {
-    // `next[b]`: first the start of bucket b, then where its next item goes.
-    let mut next = vec![0usize; n + 1];
+    // `next[b + 1]`: first the start of bucket b, then where its next item goes, and at the
+    // end the start of bucket b + 1; so `next[..=n]` ends as the starts, with no copy.
+    let mut next = vec![0usize; n + 2];
     for (b, _) in items() {
-        next[b as usize + 1] += 1;
+        next[b as usize + 2] += 1;
     }
     for b in 0..n {
-        next[b + 1] += next[b];
+        next[b + 2] += next[b + 1];
     }
-    let starts = next.clone();
-    let mut placed = vec![T::default(); next[n]];
+    let mut placed = vec![T::default(); next[n + 1]];
     for (b, item) in items() {
-        placed[next[b as usize]] = item;
-        next[b as usize] += 1;
+        let at = &mut next[b as usize + 1];
+        placed[*at] = item;
+        *at += 1;
     }
-    (starts, placed)
+    next.truncate(n + 1);
+    (next, placed)
 }
 
 /// Vertex adjacency in compressed rows: the neighbours of `v` are

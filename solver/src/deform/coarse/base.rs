@@ -75,7 +75,7 @@ pub struct CoarseBase {
     pub(crate) base_on_coarse: Vec<[f64; 3]>,
     pub(crate) details: Vec<[f64; 3]>,
     /// $M$ itself: the result of rest targets, exactly ($P B_c + D$ can differ in the last bit).
-    pub(crate) rest: Vec<[f64; 3]>,
+    pub(crate) rest: Arc<Vec<[f64; 3]>>,
     /// Area below which a coarse triangle counts as collapsed.
     pub(crate) floor: f64,
     pub(crate) fairing: Fairing,
@@ -158,7 +158,7 @@ impl CoarseBase {
             weights,
             base_on_coarse,
             details,
-            rest: mesh.positions().to_vec(),
+            rest: mesh.shared_positions(),
             // A coarse triangle below the area at which cleaning drops a triangle of M as
             // degenerate has collapsed (features thinner than the smoothing length flatten).
             floor: 2.0 * crate::geometry::cleanup::AREA_EPS * diag * diag,

@@ -133,15 +133,16 @@ pub struct CoarseBsArap {
 /// know about it.
 ///
 /// Invariants between solves: `result`, `quaternions` and the coarse ARAP's positions are
-/// those of one successful solve (the rest pose before any); `next` and `next_quaternions`
-/// hold nothing that is read. A solve writes its pose and rotations into the scratch, swaps
-/// them in ([`SolveState::swap_next`]) and, if the pose is not finite or the fine iterations
-/// fail, swaps them back and puts the coarse pose back to `coarse_before`
+/// those of one successful solve (the rest pose before any, `result` then empty); `next` and
+/// `next_quaternions` hold nothing that is read. A solve writes its pose and rotations into
+/// the scratch, swaps them in ([`SolveState::swap_next`]) and, if the pose is not finite or
+/// the fine iterations fail, swaps them back and puts the coarse pose back to `coarse_before`
 /// ([`SolveState::roll_back`]), so that after an error the pose, the base and the rotations
 /// all stay those of the last successful solve.
 #[derive(Debug)]
 struct SolveState {
-    /// The result of the last successful solve, `#V×3`.
+    /// The result of the last successful solve, `#V×3`; empty before the first (the rest
+    /// pose is then the mesh's own, [`CoarseBsArap::positions`], not a copy).
     result: Vec<[f64; 3]>,
     /// Scratch for the next result, `#V×3` once a solve has run.
     next: Vec<[f64; 3]>,
@@ -174,16 +175,16 @@ struct SolveState {
 }
 
 impl SolveState {
-    /// The state before any solve: the rest pose `rest` of the full mesh and identity
-    /// rotations at the `n_coarse` coarse vertices.
-    fn new(rest: &[[f64; 3]], n_coarse: usize) -> SolveState {
+    /// The state before any solve, of a full mesh of `n` vertices: the rest pose (no result
+    /// yet) and identity rotations at the `n_coarse` coarse vertices.
+    fn new(n: usize, n_coarse: usize) -> SolveState {
         SolveState {
-            result: rest.to_vec(),
+            result: Vec::new(),
             next: Vec::new(),
             quaternions: vec![DQuat::IDENTITY; n_coarse],
             next_quaternions: vec![DQuat::IDENTITY; n_coarse],
             deformed_base: std::sync::OnceLock::new(),
-            correction: vec![[0.0; 3]; rest.len()],
+            correction: vec![[0.0; 3]; n],
             corrected: false,
             motions: Vec::new(),
             coarse_targets: Vec::new(),
@@ -361,7 +362,7 @@ impl CoarseBsArap {
             settle_iterations: coarse.settle_iterations,
             phases: clock.phases,
             pinned,
-            state: SolveState::new(mesh.positions(), coarse_mesh.n_vertices()),
+            state: SolveState::new(mesh.n_vertices(), coarse_mesh.n_vertices()),
             fine_handles: fine_handles.to_vec(),
             groups,
             base,
@@ -415,8 +416,11 @@ impl CoarseBsArap {
         // B'_c is finite (checked by ARAP) but the prolonged p' can still overflow: write into
         // the scratch, swap it in, and swap it back unless p' is finite (the previous pose
         // stays).
-        let n = state.result.len();
-        state.next.resize(n, [0.0; 3]);
+        if state.next.len() != self.base.rest.len() {
+            // Zeroed pages from the system (no pass to fill them), first written by the
+            // parallel prolongation.
+            state.next = vec![[0.0; 3]; self.base.rest.len()];
+        }
         prolong(
             Prolongation {
                 coarse: bc,
@@ -592,9 +596,9 @@ impl CoarseBsArap {
         tol <= 0.0 || e0 <= f64::MIN_POSITIVE || per_iteration.is_nan() || per_iteration < tol
     }
 
-    /// The result of the last solve, `#V×3`.
+    /// The result of the last solve, `#V×3` (the rest pose before any).
     pub fn positions(&self) -> &[[f64; 3]] {
-        &self.state.result
+        if self.state.result.is_empty() { &self.base.rest } else { &self.state.result }
     }
 
     /// The base at rest as seen by the fine vertices (their points on $B_c$), `#V×3`.

@@ -252,3 +252,44 @@ fn the_galerkin_coarse_energy_runs_the_frame() {
     let e = CoarseBsArap::new(&mesh, &handles, &spokes, &galerkin).unwrap_err();
     assert_eq!(e, SolveError::GalerkinEnergy);
 }
+
+/// Before any solve the pose is the mesh's rest pose (shared, not copied), and a first solve
+/// whose fine iterations fail (their factorization, as in
+/// [`a_failed_fine_factorization_stops_settling_not_solving`]) leaves it there: the pose it
+/// prolonged is swapped back out. The next solve, with the fine level working, goes on near
+/// where a solver that never failed goes.
+#[test]
+fn a_failed_first_solve_leaves_the_rest_pose() {
+    let (mesh, handles) = crate::geometry::shapes::bumpy_bar(3);
+    let config = ArapConfig::default();
+    let base = BaseConfig { fine_iterations: 2, ..Default::default() };
+    let g0 = handles.group(0).unwrap();
+    let diag = mesh.bbox_diagonal();
+    let targets: Vec<[f64; 3]> = handles
+        .handle_vertices()
+        .iter()
+        .map(|v| {
+            let p = mesh.positions()[*v as usize];
+            if g0.contains(v) { [p[0], p[1] + 0.1 * diag, p[2]] } else { p }
+        })
+        .collect();
+    let mut c = CoarseBsArap::new(&mesh, &handles, &config, &base).unwrap();
+    assert_eq!(c.positions(), mesh.positions());
+    let working = c.fine.replace(failing(Queue::FullMesh));
+    assert!(c.solve(&targets).is_err());
+    assert_eq!(c.positions(), mesh.positions());
+    assert!(!c.settle_pending());
+    c.fine = working;
+    c.solve(&targets).unwrap();
+    let mut fresh = CoarseBsArap::new(&mesh, &handles, &config, &base).unwrap();
+    fresh.solve(&targets).unwrap();
+    let gap = c
+        .positions()
+        .iter()
+        .zip(fresh.positions())
+        .map(|(a, b)| crate::geometry::mesh::norm(sub(*a, *b)));
+    let gap = gap.fold(0.0, f64::max);
+    // Near, not bitwise: the coarse solve's warm start keeps what the failed solve left, as
+    // after any failed solve (`huge_targets_give_a_finite_pose_or_an_error_never_nan`).
+    assert!(gap < 1e-3 * diag, "{gap:e}");
+}
