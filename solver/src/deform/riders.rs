@@ -194,12 +194,15 @@ impl Riders {
                 }
             }
         }
-        if !components.iter().any(|c| c.mode == Some(ComponentMode::Follow)) {
-            return Riders { components, riders: Vec::new() };
-        }
-        let handled: Vec<u32> = (0..n as u32)
-            .filter(|&v| components[comps.label[v as usize] as usize].has_handles)
-            .collect();
+        // The handled vertices (anchors) only when a loose part follows one.
+        let handled: Vec<u32> = if components.iter().any(|c| c.mode == Some(ComponentMode::Follow))
+        {
+            (0..n as u32)
+                .filter(|&v| components[comps.label[v as usize] as usize].has_handles)
+                .collect()
+        } else {
+            Vec::new()
+        };
         if handled.is_empty() {
             return Riders { components, riders: Vec::new() };
         }
