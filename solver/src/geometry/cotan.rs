@@ -106,17 +106,14 @@ pub fn opposite_edge(t: [u32; 3], k: usize) -> (u32, u32) {
     (t[(k + 1) % 3], t[(k + 2) % 3])
 }
 
-/// Triplets of the PSD cotangent Laplacian (duplicates to be summed), from per-face half
-/// cotangents. With `clamp_negative`, negative per-edge sums are set to zero (plain-spokes ARAP).
+/// Triplets of the PSD cotangent Laplacian (duplicates to be summed) from the unique edges'
+/// weights `(i, j, w_ij)` of [`edge_weights`].
 pub fn laplacian_triplets(
     n_vertices: usize,
-    triangles: &[[u32; 3]],
-    cot: &[[f64; 3]],
-    clamp_negative: bool,
+    weights: &[(u32, u32, f64)],
 ) -> Vec<Triplet<usize, usize, f64>> {
-    let mut out = Vec::with_capacity(n_vertices + 4 * 3 * triangles.len());
-    let weights = edge_weights(triangles, cot, clamp_negative);
-    for &(i, j, w) in &weights {
+    let mut out = Vec::with_capacity(n_vertices + 4 * weights.len());
+    for &(i, j, w) in weights {
         let (i, j) = (i as usize, j as usize);
         out.push(Triplet::new(i, j, -w));
         out.push(Triplet::new(j, i, -w));
@@ -127,43 +124,84 @@ pub fn laplacian_triplets(
 }
 
 /// Unique undirected edges `(i < j, w_ij)` with $w_{ij} = \tfrac12(\cot\alpha+\cot\beta)$ summed
-/// over the triangles sharing the edge, sorted by `(i, j)`.
+/// over the triangles sharing the edge (per-face half cotangents `cot`), sorted by `(i, j)`.
+/// With `clamp_negative`, negative sums are set to zero (plain-spokes ARAP).
 pub fn edge_weights(
     triangles: &[[u32; 3]],
     cot: &[[f64; 3]],
     clamp_negative: bool,
 ) -> Vec<(u32, u32, f64)> {
-    // The half-edges bucketed by their smaller end (a counting sort), then each bucket (a
-    // vertex's few edges) sorted by the other end: linear where sorting every half-edge was
-    // most of the time.
-    let n = triangles.iter().flatten().max().map_or(0, |&v| v as usize + 1);
-    let half_edges = || {
-        triangles.iter().zip(cot).flat_map(|(&t, w)| {
-            (0..3).map(move |k| {
-                let (a, b) = opposite_edge(t, k);
-                (a.min(b), (a.max(b), w[k]))
-            })
-        })
+    let n = triangles.iter().flatten().max().map_or(0, |&v| v + 1);
+    edge_weights_keyed(triangles, cot, clamp_negative, n, Some)
+}
+
+/// [`edge_weights`] for the edges with a keyed end: `key` numbers some vertices (distinct keys
+/// below `n_keys`); each edge with at least one keyed end comes once as `(i, j, w_ij)`, `i` the
+/// end of smaller key, sorted by `(key(i), j)`. Keyed by the vertex itself, that is every edge,
+/// in `(i < j)` order; keyed by a handle region's own numbering, the work is proportional to
+/// the region's faces, not to the mesh.
+///
+/// The half-edges are bucketed by their owning end (a counting sort), then each bucket (a
+/// vertex's few edges) sorted by the other end: linear where sorting every half-edge was most of
+/// the time. Large inputs are split into ranges of keys, one task each (every task reads all
+/// the triangles and keeps its range's half-edges); the output does not depend on the split.
+pub fn edge_weights_keyed(
+    triangles: &[[u32; 3]],
+    cot: &[[f64; 3]],
+    clamp_negative: bool,
+    n_keys: u32,
+    key: impl Fn(u32) -> Option<u32> + Sync,
+) -> Vec<(u32, u32, f64)> {
+    // The owning end's key and the half-edge `(owner, other, half cotangent)`.
+    let owned = |a: u32, b: u32, w: f64| match (key(a), key(b)) {
+        (Some(ka), Some(kb)) if kb < ka => Some((kb, (b, a, w))),
+        (Some(ka), _) => Some((ka, (a, b, w))),
+        (None, Some(kb)) => Some((kb, (b, a, w))),
+        (None, None) => None,
     };
-    let (starts, mut others) = bucketed(n, half_edges);
-    let mut out: Vec<(u32, u32, f64)> = Vec::with_capacity(others.len() / 2 + 1);
-    for a in 0..n {
-        let bucket = &mut others[starts[a]..starts[a + 1]];
-        bucket.sort_unstable_by_key(|e| e.0);
-        for &(b, w) in bucket.iter() {
-            match out.last_mut() {
-                Some(last) if last.0 == a as u32 && last.1 == b => last.2 += w,
-                _ => out.push((a as u32, b, w)),
+    let range_edges = |keys: std::ops::Range<u32>| {
+        let (lo, hi) = (keys.start, keys.end);
+        let half_edges = || {
+            triangles.iter().zip(cot).flat_map(|(&t, w)| {
+                (0..3).filter_map(move |k| {
+                    let (a, b) = opposite_edge(t, k);
+                    let (at, edge) = owned(a, b, w[k])?;
+                    (lo..hi).contains(&at).then_some((at - lo, edge))
+                })
+            })
+        };
+        let (starts, mut placed) = bucketed((hi - lo) as usize, half_edges);
+        let mut out: Vec<(u32, u32, f64)> = Vec::with_capacity(placed.len() / 2 + 1);
+        for bucket in starts.windows(2) {
+            let bucket = &mut placed[bucket[0]..bucket[1]];
+            bucket.sort_unstable_by_key(|e| e.1);
+            for &(a, b, w) in bucket.iter() {
+                match out.last_mut() {
+                    Some(last) if last.0 == a && last.1 == b => last.2 += w,
+                    _ => out.push((a, b, w)),
+                }
             }
         }
-    }
-    if clamp_negative {
-        for x in &mut out {
-            x.2 = x.2.max(0.0);
+        if clamp_negative {
+            for x in &mut out {
+                x.2 = x.2.max(0.0);
+            }
         }
+        out
+    };
+    let tasks = if triangles.len() < PARALLEL_FACES { 1 } else { rayon::current_num_threads() };
+    let step = n_keys.div_ceil(tasks.max(1) as u32).max(1);
+    let ranges: Vec<_> =
+        (0..n_keys).step_by(step as usize).map(|s| s..n_keys.min(s + step)).collect();
+    match ranges.len() {
+        0 => Vec::new(),
+        1 => range_edges(0..n_keys),
+        _ => ranges.into_par_iter().map(range_edges).collect::<Vec<_>>().concat(),
     }
-    out
 }
+
+/// Triangles from which [`edge_weights_keyed`] splits its work into parallel tasks.
+const PARALLEL_FACES: usize = 32_768;
 
 /// The PSD cotangent Laplacian `#V×#V` (see the module doc for the convention).
 pub fn cotan_laplacian(
@@ -172,7 +210,7 @@ pub fn cotan_laplacian(
 ) -> Result<SparseColMat<usize, f64>, DegenerateFace> {
     let cot = face_cotangents(positions, triangles, 0.0)?;
     let n = positions.len();
-    let t = laplacian_triplets(n, triangles, &cot, false);
+    let t = laplacian_triplets(n, &edge_weights(triangles, &cot, false));
     // Indices are in range by construction (Mesh invariants), so this cannot fail.
     SparseColMat::try_new_from_triplets(n, n, &t).map_err(|_| DegenerateFace { face: 0 })
 }
@@ -324,5 +362,50 @@ mod tests {
             }
         }
         assert!(edge_weights(&[], &[], true).is_empty());
+    }
+
+    /// Keyed by a region's own numbering: exactly the edges with a keyed end, each once with
+    /// the end of smaller key first and its full weight; split into tasks over key ranges
+    /// (three threads on a grid above the split's size), the same edges, bit for bit.
+    #[test]
+    fn keyed_edges_are_the_regions_and_do_not_depend_on_the_split() {
+        let (w, h) = (200u32, 100u32);
+        let at = |x: u32, y: u32| y * (w + 1) + x;
+        let mut t = Vec::new();
+        for y in 0..h {
+            for x in 0..w {
+                t.push([at(x, y), at(x + 1, y), at(x + 1, y + 1)]);
+                t.push([at(x, y), at(x + 1, y + 1), at(x, y + 1)]);
+            }
+        }
+        assert!(t.len() >= PARALLEL_FACES);
+        let cot: Vec<[f64; 3]> =
+            (0..t.len()).map(|f| [(f % 7) as f64 * 0.1 - 0.2, 0.5, (f % 3) as f64 * 0.3]).collect();
+        let all = edge_weights(&t, &cot, true);
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(3).build().unwrap();
+        let split = pool.install(|| edge_weights(&t, &cot, true));
+        assert_eq!(all, split);
+        // Keys for every fifth vertex, numbered backwards.
+        let n = at(w, h) + 1;
+        let keyed: Vec<u32> = (0..n).filter(|v| v.is_multiple_of(5)).collect();
+        let key = |v: u32| v.is_multiple_of(5).then(|| (keyed.len() - 1 - (v / 5) as usize) as u32);
+        let got = pool.install(|| edge_weights_keyed(&t, &cot, true, keyed.len() as u32, key));
+        let mut want: Vec<(u32, u32, f64)> = all
+            .iter()
+            .filter(|e| key(e.0).is_some() || key(e.1).is_some())
+            .map(|&(i, j, w)| {
+                if key(j).is_some_and(|kj| key(i).is_none_or(|ki| kj < ki)) {
+                    (j, i, w)
+                } else {
+                    (i, j, w)
+                }
+            })
+            .collect();
+        want.sort_by_key(|e| (key(e.0), e.1));
+        assert_eq!(got.len(), want.len());
+        for (g, e) in got.iter().zip(&want) {
+            assert_eq!((g.0, g.1), (e.0, e.1));
+            assert!((g.2 - e.2).abs() < 1e-14, "{g:?} against {e:?}");
+        }
     }
 }

@@ -2,7 +2,8 @@
 //!
 //! $A = P^\top L L^\top P$ (faer's sparse Cholesky with its fill-reducing AMD ordering).
 //! [`SpdFactor::new`] runs the symbolic analysis and the numeric factorization once;
-//! [`SpdFactor::refactor`] redoes only the numeric part for a matrix with the same pattern;
+//! [`SpdFactor::refactor`] redoes only the numeric part for a matrix with the same pattern, and
+//! [`SpdFactor::with_pattern`] makes a new factor on a kept analysis ([`SpdPattern`]);
 //! [`SpdFactor::solve_in_place`] is a forward and a backward substitution on a `#rows×k` block.
 //!
 //! Triangular solves run sequentially (`Par::Seq`): faer's rayon parallelism made them more than
@@ -22,6 +23,7 @@ use faer::sparse::linalg::cholesky::{
 };
 use faer::sparse::{SparseColMat, Triplet};
 use faer::{Conj, MatMut, Par, Side};
+use std::sync::Arc;
 use thiserror::Error;
 
 #[cfg(target_arch = "x86_64")]
@@ -142,9 +144,78 @@ pub enum Layout {
     Simplicial,
 }
 
+/// The symbolic analysis of one sparsity pattern (the AMD ordering and the elimination tree,
+/// [`SpdFactor::new`]'s first half) with the pattern itself, kept to factor other matrices of
+/// that pattern ([`SpdFactor::with_pattern`]).
+#[derive(Clone)]
+pub struct SpdPattern {
+    symbolic: Arc<SymbolicCholesky<usize>>,
+    col_ptr: Vec<usize>,
+    row_idx: Vec<usize>,
+}
+
+impl std::fmt::Debug for SpdPattern {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SpdPattern")
+            .field("n", &self.symbolic.nrows())
+            .field("nonzeros", &self.row_idx.len())
+            .finish()
+    }
+}
+
+impl SpdPattern {
+    /// The analysis of `a`'s pattern.
+    pub fn new(a: &SparseColMat<usize, f64>, layout: Layout) -> Result<SpdPattern, FactorError> {
+        Ok(SpdPattern {
+            symbolic: Arc::new(analyze(a, layout)?),
+            col_ptr: a.symbolic().col_ptr().to_vec(),
+            row_idx: a.symbolic().row_idx().to_vec(),
+        })
+    }
+
+    /// Whether `a` has exactly this pattern (square, the same columns' rows).
+    pub fn fits(&self, a: &SparseColMat<usize, f64>) -> bool {
+        let s = a.symbolic();
+        s.nrows() == s.ncols()
+            && s.col_nnz().is_none()
+            && s.col_ptr() == self.col_ptr.as_slice()
+            && s.row_idx() == self.row_idx.as_slice()
+    }
+}
+
+/// The symbolic analysis of `a`'s pattern (lower triangle).
+fn analyze(
+    a: &SparseColMat<usize, f64>,
+    layout: Layout,
+) -> Result<SymbolicCholesky<usize>, FactorError> {
+    factorize_symbolic_cholesky(
+        a.symbolic(),
+        Side::Lower,
+        Default::default(),
+        CholeskySymbolicParams {
+            supernodal_flop_ratio_threshold: match layout {
+                Layout::Auto => SupernodalThreshold::AUTO,
+                Layout::Simplicial => SupernodalThreshold::FORCE_SIMPLICIAL,
+            },
+            ..Default::default()
+        },
+    )
+    .map_err(|e| FactorError::Other(format!("{e:?}")))
+}
+
+/// The `n×n` matrix of `triplets` (duplicates summed).
+pub fn matrix_of(
+    n: usize,
+    triplets: &[Triplet<usize, usize, f64>],
+) -> Result<SparseColMat<usize, f64>, FactorError> {
+    SparseColMat::<usize, f64>::try_new_from_triplets(n, n, triplets)
+        .map_err(|e| FactorError::Other(format!("{e:?}")))
+}
+
 /// A Cholesky factorization of a sparse SPD matrix, reusable for many right-hand sides.
 pub struct SpdFactor {
-    symbolic: SymbolicCholesky<usize>,
+    /// The analysis, shared with an [`SpdPattern`] where the factor was made from one.
+    symbolic: Arc<SymbolicCholesky<usize>>,
     values: Vec<f64>,
     solve_buffer: MemBuffer,
     solve_split_buffer: MemBuffer,
@@ -172,26 +243,31 @@ impl SpdFactor {
         triplets: &[Triplet<usize, usize, f64>],
         layout: Layout,
     ) -> Result<Self, FactorError> {
-        let a = SparseColMat::<usize, f64>::try_new_from_triplets(n, n, triplets)
-            .map_err(|e| FactorError::Other(format!("{e:?}")))?;
-        Self::new(&a, layout)
+        Self::new(&matrix_of(n, triplets)?, layout)
     }
 
     /// Symbolic analysis (AMD ordering, elimination tree) and numeric factorization of `a`.
     pub fn new(a: &SparseColMat<usize, f64>, layout: Layout) -> Result<Self, FactorError> {
-        let symbolic = factorize_symbolic_cholesky(
-            a.symbolic(),
-            Side::Lower,
-            Default::default(),
-            CholeskySymbolicParams {
-                supernodal_flop_ratio_threshold: match layout {
-                    Layout::Auto => SupernodalThreshold::AUTO,
-                    Layout::Simplicial => SupernodalThreshold::FORCE_SIMPLICIAL,
-                },
-                ..Default::default()
-            },
-        )
-        .map_err(|e| FactorError::Other(format!("{e:?}")))?;
+        Self::factor(Arc::new(analyze(a, layout)?), a)
+    }
+
+    /// The numeric factorization of `a` on `pattern`'s analysis, which is not redone; refused
+    /// ([`FactorError::Other`]) when `a` has another pattern.
+    pub fn with_pattern(
+        pattern: &SpdPattern,
+        a: &SparseColMat<usize, f64>,
+    ) -> Result<Self, FactorError> {
+        if !pattern.fits(a) {
+            return Err(FactorError::Other("the matrix has another sparsity pattern".into()));
+        }
+        Self::factor(Arc::clone(&pattern.symbolic), a)
+    }
+
+    /// The numeric factorization of `a` on the analysis `symbolic` of its pattern.
+    fn factor(
+        symbolic: Arc<SymbolicCholesky<usize>>,
+        a: &SparseColMat<usize, f64>,
+    ) -> Result<Self, FactorError> {
         // Values and the numeric workspace (the symbolic part is allocated already).
         let par = faer::get_global_parallelism();
         let workspace = symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default());
@@ -260,6 +336,12 @@ impl SpdFactor {
             t.set_values(&self.values);
         }
         Ok(())
+    }
+
+    /// Whether this factor was made on `pattern`'s analysis ([`SpdFactor::with_pattern`]).
+    #[cfg(test)]
+    pub(crate) fn is_shared_with(&self, pattern: &SpdPattern) -> bool {
+        Arc::ptr_eq(&self.symbolic, &pattern.symbolic)
     }
 
     /// Number of rows of the factored matrix.
@@ -372,6 +454,36 @@ mod tests {
         assert_eq!(*pool.lock(), 0, "every reservation given back");
         // This machine's figure, where there is one, is positive.
         assert!(available_memory().is_none_or(|m| m > 0));
+    }
+
+    /// A kept analysis factors another matrix of the same pattern as a new factor does, bit for
+    /// bit, and refuses a matrix with another pattern.
+    #[test]
+    fn a_kept_pattern_factors_other_values_and_refuses_other_patterns() {
+        let n = 300;
+        let path = |diagonal: f64, extra: bool| {
+            let mut t = Vec::new();
+            for i in 0..n {
+                t.push(Triplet::new(i, i, diagonal + (i % 7) as f64));
+                if i + 1 < n {
+                    t.push(Triplet::new(i + 1, i, -1.0));
+                }
+            }
+            if extra {
+                t.push(Triplet::new(n - 1, 0, -0.5));
+            }
+            matrix_of(n, &t).unwrap()
+        };
+        let pattern = SpdPattern::new(&path(3.0, false), Layout::Auto).unwrap();
+        let other = path(5.0, false);
+        assert!(pattern.fits(&other) && !pattern.fits(&path(5.0, true)));
+        let b = Mat::<f64>::from_fn(n, 3, |i, j| ((i * 5 + j) % 11) as f64);
+        let (mut kept, mut fresh) = (b.clone(), b.clone());
+        SpdFactor::with_pattern(&pattern, &other).unwrap().solve_in_place(kept.as_mut());
+        SpdFactor::new(&other, Layout::Auto).unwrap().solve_in_place(fresh.as_mut());
+        assert_eq!(kept, fresh);
+        let refused = SpdFactor::with_pattern(&pattern, &path(5.0, true));
+        assert!(matches!(refused, Err(FactorError::Other(m)) if m.contains("pattern")));
     }
 
     fn solve_and_check(n: usize) {

@@ -117,7 +117,7 @@ impl Arap {
         let mut ff = Vec::with_capacity(n + weights.len());
         let mut coupling = Vec::new();
         let mut diag = vec![0.0; inner.free_vertices.len()];
-        for t in laplacian_triplets(n, tris, &cot, clamp) {
+        for t in laplacian_triplets(n, &weights) {
             let (fi, fj) = (inner.free_index[t.row], inner.free_index[t.col]);
             match (fi, fj) {
                 (Some(r), Some(_)) if t.row == t.col => diag[r as usize] += t.val,

@@ -50,24 +50,31 @@ impl CoarseGroups {
     /// then their coarse neighbours nearest to its centroid.
     pub(crate) fn new(base: &CoarseBase, handles: &Handles, rest: &[[f64; 3]]) -> CoarseGroups {
         let nc = base.kept.len();
-        let labels = handles.labels();
         let n_groups = handles.n_groups();
         let mut total = vec![0u32; nc];
         for &r in &base.representative {
             total[r as usize] += 1;
         }
-        // Per group, (coarse vertex, fine vertices of the group it represents).
-        let mut share: Vec<std::collections::HashMap<u32, u32>> =
-            vec![Default::default(); n_groups];
-        for (v, l) in labels.iter().enumerate() {
-            if let Some(g) = l {
-                *share[*g as usize].entry(base.representative[v]).or_default() += 1;
-            }
-        }
+        // Per group, (coarse vertex, fine vertices of the group it represents), counted in
+        // one array that each group leaves zeroed.
+        let mut count = vec![0u32; nc];
+        let share: Vec<Vec<(u32, u32)>> = (0..n_groups)
+            .map(|g| {
+                let mut touched = Vec::new();
+                for &v in handles.group(g).unwrap_or(&[]) {
+                    let k = base.representative[v as usize];
+                    if count[k as usize] == 0 {
+                        touched.push(k);
+                    }
+                    count[k as usize] += 1;
+                }
+                touched.into_iter().map(|k| (k, std::mem::take(&mut count[k as usize]))).collect()
+            })
+            .collect();
         let mut coarse_labels: Vec<Option<u32>> = vec![None; nc];
         let mut counts = vec![0usize; n_groups];
         for (g, map) in share.iter().enumerate() {
-            for (&k, &c) in map {
+            for &(k, c) in map {
                 if 2 * c >= total[k as usize] && coarse_labels[k as usize].is_none() {
                     coarse_labels[k as usize] = Some(g as u32);
                     counts[g] += 1;
@@ -96,7 +103,7 @@ impl CoarseGroups {
                 let d = sub(cp[k as usize], centroid);
                 d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
             };
-            let mut by_share: Vec<(u32, u32)> = map.iter().map(|(&k, &c)| (k, c)).collect();
+            let mut by_share = map.clone();
             by_share.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
             let mut ring: Vec<u32> = Vec::new();
             for (k, _) in by_share {

@@ -32,7 +32,7 @@ use super::mesh_part::{FixedMap, key, pair_of, row_entry};
 use crate::deform::arap::Csr;
 use crate::deform::coarse::base::CoarseBase;
 use crate::error::SolveError;
-use crate::geometry::cotan::{edge_weights, face_cotangents};
+use crate::geometry::cotan::{edge_weights_keyed, face_cotangents};
 use crate::geometry::mesh::{Mesh, norm2, sub};
 use crate::linalg::rotation::{Mat3, add_outer};
 use rayon::prelude::*;
@@ -98,7 +98,10 @@ pub(super) fn hold_exactly(
     // Every face at an edge with a handle end has that end: the weights are the mesh's.
     let cot = face_cotangents(mesh.positions(), &faces, 0.0)
         .map_err(|e| SolveError::DegenerateFace { face: indices[e.face] })?;
-    let edges = edge_weights(&faces, &cot, true);
+    // The edges with a handle end, keyed by the handles' own numbering (edges between two
+    // free vertices are left out: their terms stay as gathered).
+    let key = |v: u32| Some(target_of[v as usize]).filter(|&t| t != NONE);
+    let edges = edge_weights_keyed(&faces, &cot, true, handle_vertices.len() as u32, key);
     // The sums per fixed block of edges and of handles in parallel, then added in block order.
     let edge_sums: Vec<EdgeSums> = (edges.par_chunks(blocks.edges))
         .map(|edges| EdgeSums::gather(edges, base, mesh.positions(), &target_of))

@@ -10,7 +10,7 @@ use crate::error::SolveError;
 use crate::geometry::cotan::{edge_weights, face_cotangents, face_cotangents_or};
 use crate::geometry::embedding::from_stored;
 use crate::geometry::mesh::{Mesh, norm2, sub};
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 /// The Galerkin coarse energy's part for `mesh` (the mesh `base` was built for) and `base`
 /// ([`gather_mesh_part`]): gathered on the first call, then kept in the base and shared (also
@@ -67,7 +67,8 @@ pub fn gather_mesh_part(mesh: &Mesh, base: &CoarseBase) -> Result<GalerkinMesh, 
         coarse_edges.iter().flat_map(|&(k, l, w)| [(k, (l, w)), (l, (k, w))]).collect();
     let neighbours = Csr::from_pairs(m, &both_orders);
     let sizes = (mesh.n_vertices(), m);
-    Ok(GalerkinMesh { g, pair, g_max, g_median, rest_term, neighbours, sizes })
+    let pattern = OnceLock::new();
+    Ok(GalerkinMesh { g, pair, g_max, g_median, rest_term, neighbours, sizes, pattern })
 }
 
 /// Sums by key added to a [`FixedMap`] through a small direct-mapped table of the keys touched

@@ -3,9 +3,11 @@
 //! module doc of `galerkin/mod.rs`, "The restriction"), and their bytes in the disk cache.
 
 use crate::deform::arap::Csr;
+use crate::linalg::linsolve::SpdPattern;
 use std::collections::HashMap;
 use std::collections::hash_map::DefaultHasher;
 use std::hash::BuildHasherDefault;
+use std::sync::OnceLock;
 
 /// A map whose iteration order depends only on what was inserted (fixed hash keys), so that the
 /// sums gathered from it, and so the iterations, are the same from run to run.
@@ -32,6 +34,10 @@ pub struct GalerkinMesh {
     pub(super) neighbours: Csr<(u32, f64)>,
     /// The full and the coarse mesh's vertex counts it was gathered for.
     pub(super) sizes: (usize, usize),
+    /// The analysis of the coarse matrix's pattern, from the first handle set whose free block
+    /// is every coarse vertex (the exact rule): the pattern of $G$, which the handles' terms
+    /// change only in value, so later handle sets factor on it without a new ordering.
+    pub(super) pattern: OnceLock<SpdPattern>,
 }
 
 /// The key of the pair $(a, b)$ in the gathering maps.
@@ -157,6 +163,7 @@ impl GalerkinMesh {
             return Err("trailing Galerkin bytes");
         }
         let neighbours = Csr::from_pairs(m, &edges);
-        Ok(GalerkinMesh { g, pair, g_max, g_median, rest_term, neighbours, sizes: (n, m) })
+        let pattern = OnceLock::new();
+        Ok(GalerkinMesh { g, pair, g_max, g_median, rest_term, neighbours, sizes: (n, m), pattern })
     }
 }

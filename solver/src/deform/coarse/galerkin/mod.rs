@@ -84,7 +84,7 @@ use crate::deform::handles::Handles;
 use crate::error::{SolveError, check_bending_length, check_targets};
 use crate::geometry::mesh::{Mesh, norm2, sub};
 use crate::linalg::anderson::Anderson;
-use crate::linalg::linsolve::{Layout, SpdFactor};
+use crate::linalg::linsolve::{FactorError, Layout, SpdFactor, SpdPattern, matrix_of};
 use crate::linalg::rotation::{IDENTITY, Mat3, add_outer, mul_vec};
 use faer::MatMut;
 use faer::sparse::Triplet;
@@ -337,7 +337,7 @@ impl GalerkinCoarse {
                 (None, None) => {}
             }
         }
-        let factor = SpdFactor::from_triplets(n_free as usize, &triplets, Layout::Auto)
+        let factor = coarse_factor(gathered, n_free as usize, &triplets, groups.is_none())
             .map_err(|source| SolveError::Factorization { matrix: "PᵀLP (Galerkin)", source })?;
         let entries: Vec<_> = g
             .iter()
@@ -677,6 +677,33 @@ impl GalerkinCoarse {
             &mut out,
         );
         out
+    }
+}
+
+/// The factor of the free block (`n` rows, `triplets`); with every coarse vertex free
+/// (`all_free`), on the mesh part's kept analysis of that pattern, made by the first such
+/// handle set ([`GalerkinMesh`]'s `pattern`), unless this matrix's pattern is another.
+fn coarse_factor(
+    gathered: &GalerkinMesh,
+    n: usize,
+    triplets: &[Triplet<usize, usize, f64>],
+    all_free: bool,
+) -> Result<SpdFactor, FactorError> {
+    let a = matrix_of(n, triplets)?;
+    if !all_free {
+        return SpdFactor::new(&a, Layout::Auto);
+    }
+    let pattern = match gathered.pattern.get() {
+        Some(pattern) => pattern,
+        None => {
+            let pattern = SpdPattern::new(&a, Layout::Auto)?;
+            gathered.pattern.get_or_init(|| pattern)
+        }
+    };
+    if pattern.fits(&a) {
+        SpdFactor::with_pattern(pattern, &a)
+    } else {
+        SpdFactor::new(&a, Layout::Auto)
     }
 }
 

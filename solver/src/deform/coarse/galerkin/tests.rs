@@ -222,6 +222,37 @@ fn bad_input_is_an_error() {
     assert_eq!(e, SolveError::NonFiniteTarget { index: 3 });
 }
 
+/// Under the exact rule the first handle set keeps its factor's analysis with the mesh part
+/// and a second, different handle set factors on it, with the same pose as on a mesh part
+/// that never saw a handle set (bit for bit); a rule with coarse handle vertices (another
+/// pattern) leaves the kept analysis alone.
+#[test]
+fn handle_sets_share_the_coarse_analysis() {
+    let (mesh, handles) = crate::geometry::shapes::bumpy_bar(3);
+    let base = CoarseBase::new(&mesh, &BaseConfig::default()).unwrap();
+    let gathered = gather_mesh_part(&mesh, &base).unwrap();
+    energy_for(&mesh, &base, &gathered, &handles, 0.05, HandleRule::Exact).unwrap();
+    let kept = gathered.pattern.get().expect("kept by the first handle set");
+    // The second set: the handle vertices of the cap at x > 0 nearest its end.
+    let x_max = mesh.positions().iter().fold(f64::MIN, |m, p| m.max(p[0]));
+    let labels: Vec<Option<u32>> = (handles.labels().iter().zip(mesh.positions()))
+        .map(|(&l, p)| l.filter(|_| p[0] > 0.9 * x_max))
+        .collect();
+    let fewer = Handles::from_options(labels).unwrap();
+    assert!(fewer.handle_vertices().len() < handles.handle_vertices().len());
+    let fresh = gather_mesh_part(&mesh, &base).unwrap();
+    let mut on_kept = energy_for(&mesh, &base, &gathered, &fewer, 0.05, HandleRule::Exact).unwrap();
+    assert!(on_kept.factor.is_shared_with(kept));
+    let mut on_fresh = energy_for(&mesh, &base, &fresh, &fewer, 0.05, HandleRule::Exact).unwrap();
+    let targets = bent(&mesh, &fewer, [0.0, 0.0, 1.0], 0.6);
+    let stop = Stop::Decrease { tolerance: 0.0 };
+    on_kept.solve(&targets, stop, 10).unwrap();
+    on_fresh.solve(&targets, stop, 10).unwrap();
+    assert_eq!(on_kept.pose(&base, &targets), on_fresh.pose(&base, &targets));
+    let other = energy_for(&mesh, &base, &gathered, &fewer, 0.05, HandleRule::CoarseVertices);
+    assert!(!other.unwrap().factor.is_shared_with(kept));
+}
+
 /// The combiner in front of the gathering maps sums as the map alone does, through evictions
 /// (more keys than slots, revisited out of order) and for vector values.
 #[test]
