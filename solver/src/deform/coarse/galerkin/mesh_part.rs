@@ -5,13 +5,39 @@
 use crate::deform::arap::Csr;
 use crate::linalg::linsolve::SpdPattern;
 use std::collections::HashMap;
-use std::collections::hash_map::DefaultHasher;
-use std::hash::BuildHasherDefault;
+use std::hash::{BuildHasherDefault, Hasher};
 use std::sync::OnceLock;
 
 /// A map whose iteration order depends only on what was inserted (fixed hash keys), so that the
 /// sums gathered from it, and so the iterations, are the same from run to run.
-pub(crate) type FixedMap<K, V> = HashMap<K, V, BuildHasherDefault<DefaultHasher>>;
+pub(crate) type FixedMap<K, V> = HashMap<K, V, BuildHasherDefault<KeyHasher>>;
+
+/// The gathering maps' hash of a [`key`]: MurmurHash3's 64-bit finalizer (Appleby), which mixes
+/// both packed indices into every bit of the hash in a few multiplications, where std's keyed
+/// SipHash does several rounds; fixed, so the maps' order stays the same from run to run.
+#[derive(Debug, Default, Clone, Copy)]
+pub(crate) struct KeyHasher(u64);
+
+impl Hasher for KeyHasher {
+    fn write_u64(&mut self, k: u64) {
+        let mut h = self.0 ^ k;
+        h ^= h >> 33;
+        h = h.wrapping_mul(0xff51_afd7_ed55_8ccd);
+        h ^= h >> 33;
+        h = h.wrapping_mul(0xc4ce_b9fe_1a85_ec53);
+        self.0 = h ^ (h >> 33);
+    }
+
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.write_u64(u64::from(b));
+        }
+    }
+
+    fn finish(&self) -> u64 {
+        self.0
+    }
+}
 
 /// The mesh's part of the Galerkin coarse energy's coefficients for one coarse base: the sums
 /// over the full mesh's edges of $G$ and of the $g_{kb}$ (module doc), and the coarse mesh's

@@ -253,6 +253,22 @@ fn handle_sets_share_the_coarse_analysis() {
     assert!(!other.unwrap().factor.is_shared_with(kept));
 }
 
+/// The gathering maps' hash spreads pairs that differ in either index over the low bits the
+/// map's buckets use (as many distinct buckets as random hashes give), and is fixed.
+#[test]
+fn the_key_hash_mixes_both_indices() {
+    use std::hash::BuildHasher;
+    let hasher = std::hash::BuildHasherDefault::<mesh_part::KeyHasher>::default();
+    let buckets: std::collections::HashSet<u64> = (0..64u32)
+        .flat_map(|a| (0..64u32).map(move |b| key(a, b)))
+        .map(|k| hasher.hash_one(k) & 4095)
+        .collect();
+    // 4096 keys into 4096 buckets at random: about 4096·(1 − 1/e) ≈ 2589 distinct.
+    assert!(buckets.len() > 2400, "{} buckets", buckets.len());
+    assert_eq!(hasher.hash_one(key(3, 7)), hasher.hash_one(key(3, 7)));
+    assert_ne!(hasher.hash_one(key(3, 7)), hasher.hash_one(key(7, 3)));
+}
+
 /// The combiner in front of the gathering maps sums as the map alone does, through evictions
 /// (more keys than slots, revisited out of order) and for vector values.
 #[test]
