@@ -166,7 +166,7 @@ pub fn edge_weights_keyed(
                 (0..3).filter_map(move |k| {
                     let (a, b) = opposite_edge(t, k);
                     let (at, edge) = owned(a, b, w[k])?;
-                    (lo..hi).contains(&at).then_some((at - lo, edge))
+                    if (lo..hi).contains(&at) { Some((at - lo, edge)) } else { None }
                 })
             })
         };
