@@ -303,8 +303,9 @@ impl SpdFactor {
         Ok(this)
     }
 
-    /// Numeric refactorization of a matrix with the same sparsity pattern as the one given to
-    /// [`SpdFactor::new`]; the symbolic analysis is reused.
+    /// Numeric refactorization of a matrix with the same sparsity pattern as the one this
+    /// factor was made for ([`SpdFactor::new`], [`SpdFactor::with_pattern`]); the symbolic
+    /// analysis is reused. The pattern is not checked here (see [`SpdPattern::fits`]).
     pub fn refactor(&mut self, a: &SparseColMat<usize, f64>) -> Result<(), FactorError> {
         let par = faer::get_global_parallelism();
         self.values.clear();
