@@ -26,7 +26,7 @@
 //! terms in one pass.
 
 use super::gathering::{
-    Accumulate, Combiner, add_edge, add_penalty, edge_difference, embedding_row,
+    Accumulate, Combiner, EdgeTerms, add_penalty, edge_difference, embedding_of, embedding_row,
 };
 use super::mesh_part::{FixedMap, key, pair_of, row_entry};
 use crate::deform::arap::Csr;
@@ -211,9 +211,9 @@ impl EdgeSums {
         let mut sums = EdgeSums::default();
         let EdgeSums { changes, tau, sigma, squares, between } = &mut sums;
         let beta = &base.base_on_coarse;
-        let mut delta = Vec::with_capacity(6);
+        let mut delta = Vec::with_capacity(3);
         let mut constant = 0.0;
-        let (mut g, mut pair) = changes.combiners();
+        let mut terms = EdgeTerms::new(&mut changes.g, &mut changes.pair, base);
         let (mut tau, mut sigma) = (Combiner::new(tau), Combiner::new(sigma));
         for &(i, j, w) in edges {
             let (i, j) = (i as usize, j as usize);
@@ -223,16 +223,16 @@ impl EdgeSums {
             }
             let clusters = [base.representative[i], base.representative[j]];
             // Away with the terms gathered for both ends free, in with the exact rule's.
-            let both = [Some(embedding_row(base, i)), Some(embedding_row(base, j))];
-            edge_difference(both, &mut delta);
+            let both = [Some(embedding_of(base, i)), Some(embedding_of(base, j))];
             let removed = sub(beta[i], beta[j]);
-            constant += add_edge(&mut g, &mut pair, clusters, &delta, removed, -w);
-            let free = |v: usize, t: Option<u32>| t.is_none().then(|| embedding_row(base, v));
-            edge_difference([free(i, targets[0]), free(j, targets[1])], &mut delta);
+            constant += terms.add(both, clusters, removed, -w);
+            let free = |v: usize, t: Option<u32>| t.is_none().then(|| embedding_of(base, v));
             let at = |v: usize, t: Option<u32>| if t.is_some() { x[v] } else { beta[v] };
             let rest = sub(at(i, targets[0]), at(j, targets[1]));
-            constant += add_edge(&mut g, &mut pair, clusters, &delta, rest, w);
-            // s = t_i (a handle end i) − t_j (a handle end j).
+            constant += terms.add([free(i, targets[0]), free(j, targets[1])], clusters, rest, w);
+            // s = t_i (a handle end i) − t_j (a handle end j); δ′ is the free end's row, if any.
+            let row = |v: usize, t: Option<u32>| t.is_none().then(|| embedding_row(base, v));
+            edge_difference([row(i, targets[0]), row(j, targets[1])], &mut delta);
             let ends = [(targets[0], 1.0), (targets[1], -1.0)];
             for (h, sign) in ends.into_iter().filter_map(|(t, sign)| Some((t?, sign))) {
                 for &(b, db) in &delta {
@@ -248,7 +248,7 @@ impl EdgeSums {
                 [None, None] => {}
             }
         }
-        drop((g, pair, tau, sigma));
+        drop((terms, tau, sigma));
         sums.changes.constant = constant;
         sums
     }

@@ -28,26 +28,24 @@ pub fn galerkin_mesh(base: &CoarseBase, mesh: &Mesh) -> Result<Arc<GalerkinMesh>
 pub fn gather_mesh_part(mesh: &Mesh, base: &CoarseBase) -> Result<GalerkinMesh, SolveError> {
     let coarse = &base.coarse_mesh;
     let (m, tris) = (coarse.n_vertices(), coarse.triangles());
-    let row = |i: usize| embedding_row(base, i);
     let cot = face_cotangents(mesh.positions(), mesh.triangles(), 0.0)
         .map_err(|e| SolveError::DegenerateFace { face: e.face })?;
     let fine_edges = edge_weights(mesh.triangles(), &cot, true);
     let beta_of = &base.base_on_coarse;
     let mut g: FixedMap<u64, f64> = FixedMap::default();
     let mut pair: FixedMap<u64, [f64; 3]> = FixedMap::default();
-    let mut delta: Vec<(u32, f64)> = Vec::with_capacity(6);
     let mut rest_term = 0.0;
     {
-        let (mut g, mut pair) = (Combiner::new(&mut g), Combiner::new(&mut pair));
+        let mut terms = EdgeTerms::new(&mut g, &mut pair, base);
         for &(i, j, w) in &fine_edges {
             if w == 0.0 {
                 continue;
             }
             let (i, j) = (i as usize, j as usize);
-            edge_difference([Some(row(i)), Some(row(j))], &mut delta);
+            let ends = [Some(embedding_of(base, i)), Some(embedding_of(base, j))];
             let rest = sub(beta_of[i], beta_of[j]);
             let clusters = [base.representative[i], base.representative[j]];
-            rest_term += add_edge(&mut g, &mut pair, clusters, &delta, rest, w);
+            rest_term += terms.add(ends, clusters, rest, w);
         }
     }
     let mut diagonal: Vec<f64> =
@@ -163,34 +161,170 @@ pub(super) fn edge_difference(
     }
 }
 
-/// Adds the terms of a fine edge with weight `w` (negative to take them away), in both orders,
-/// to the sums: $G$ gains $2w\,\delta'^\top\delta'$, the clusters of both ends each
-/// $w\,\delta'_b\,\rho$ for every coarse vertex $b$ of `delta`, $\rho$ the edge's rest vector
-/// `rest`. Returns the energy's constant from the edge, $2w\lVert\rho\rVert^2$.
-pub(super) fn add_edge(
-    g: &mut Combiner<f64>,
-    pair: &mut Combiner<[f64; 3]>,
-    clusters: [u32; 2],
-    delta: &[(u32, f64)],
-    rest: [f64; 3],
-    w: f64,
-) -> f64 {
-    for &(a, da) in delta {
-        for &(b, db) in delta {
-            if a >= b {
-                *g.entry(key(a, b)) += 2.0 * w * da * db;
+/// The terms of fine edges (`add`: $2w\,\delta'^\top\delta'$ to $G$, $w\,\delta'_b\,\rho$ to
+/// $g_{kb}$ of both ends' clusters) summed per *element* before they reach the combiners
+/// `g` and `pair`: the edges whose ends lie in the same two coarse triangles and clusters
+/// share the coarse vertices of their $\delta'$ (at most six) and their two clusters, so their
+/// terms sum in a small dense block, $M \mathrel{+}= 2w\,dd^\top$ and $Q \mathrel{+}= w\,d\rho^\top$
+/// for the edge's differences $d$ on the element's vertices, and reach the combiners once per
+/// run of edges (a block's entries, $G_{ab}$ from $M_{st}$ and $g_{kb}$ from $Q_s$ for both
+/// clusters) instead of once per term. Elements live in a small direct-mapped table like the
+/// combiner's keys; every block lands in the combiners when the sums are dropped, in an
+/// order fixed by the edges' order alone.
+pub(super) struct EdgeTerms<'a> {
+    pub(super) g: Combiner<'a, f64>,
+    pub(super) pair: Combiner<'a, [f64; 3]>,
+    triangles: &'a [[u32; 3]],
+    elements: Vec<Element>,
+}
+
+/// One element of [`EdgeTerms`]: its key (both ends' coarse triangles, [`NO_FACE`] for an end
+/// held at its target, and both clusters), its coarse vertices, where each triangle's corners
+/// sit among them, and its sums.
+#[derive(Clone, Copy)]
+struct Element {
+    key: [u32; 4],
+    vertices: [u32; 6],
+    n: usize,
+    corners: [[u8; 3]; 2],
+    m: [[f64; 6]; 6],
+    q: [[f64; 3]; 6],
+}
+
+/// [`EdgeTerms`]' elements (a power of two; about 60 KiB a table).
+const ELEMENTS: usize = 128;
+
+/// An end held at its target in an [`Element`]'s key (coarse triangle indices are below it).
+const NO_FACE: u32 = u32::MAX;
+
+impl Element {
+    const EMPTY: Element = Element {
+        key: [NO_FACE; 4],
+        vertices: [0; 6],
+        n: 0,
+        corners: [[0; 3]; 2],
+        m: [[0.0; 6]; 6],
+        q: [[0.0; 3]; 6],
+    };
+}
+
+impl<'a> EdgeTerms<'a> {
+    /// Sums in front of `g` and `pair` for the coarse mesh of `base`.
+    pub(super) fn new(
+        g: &'a mut FixedMap<u64, f64>,
+        pair: &'a mut FixedMap<u64, [f64; 3]>,
+        base: &'a CoarseBase,
+    ) -> EdgeTerms<'a> {
+        EdgeTerms {
+            g: Combiner::new(g),
+            pair: Combiner::new(pair),
+            triangles: base.coarse_mesh.triangles(),
+            elements: vec![Element::EMPTY; ELEMENTS],
+        }
+    }
+
+    /// Adds the terms of a fine edge with weight `w` (negative to take them away), in both
+    /// orders: `ends` the embeddings ([`embedding_of`]) of its ends, `None` for an end held at
+    /// its target (contributing nothing to $\delta'$, `galerkin/exact.rs`), `clusters` its ends'
+    /// clusters, `rest` its rest vector $\rho$. Returns the energy's constant from the edge,
+    /// $2w\lVert\rho\rVert^2$.
+    pub(super) fn add(
+        &mut self,
+        ends: [Option<(u32, [f64; 3])>; 2],
+        clusters: [u32; 2],
+        rest: [f64; 3],
+        w: f64,
+    ) -> f64 {
+        // Either order of the ends gives the same terms (d and ρ change sign): the ends in the
+        // order of their keys, so that both orders of an edge share an element.
+        let faces = ends.map(|e| e.map_or(NO_FACE, |(f, _)| f));
+        if (faces[1], clusters[1]) < (faces[0], clusters[0]) {
+            let [a, b] = ends;
+            return self.add([b, a], [clusters[1], clusters[0]], rest.map(|r| -r), w);
+        }
+        if faces != [NO_FACE; 2] {
+            let key = [faces[0], faces[1], clusters[0], clusters[1]];
+            let packed = [(faces[0], faces[1]), (clusters[0], clusters[1])]
+                .map(|(a, b)| (u64::from(a) << 32) | u64::from(b));
+            let mixed = packed[0].wrapping_mul(0x9e37_79b9_7f4a_7c15)
+                ^ packed[1].wrapping_mul(0xc2b2_ae3d_27d4_eb4f);
+            let slot = (mixed >> (64 - ELEMENTS.trailing_zeros())) as usize;
+            if self.elements[slot].key != key {
+                self.flush(slot);
+                self.start(slot, key);
+            }
+            let e = &mut self.elements[slot];
+            let mut d = [0.0; 6];
+            for ((end, corners), sign) in ends.iter().zip(e.corners).zip([1.0, -1.0]) {
+                if let Some((_, weights)) = end {
+                    for c in 0..3 {
+                        d[usize::from(corners[c])] += sign * weights[c];
+                    }
+                }
+            }
+            for s in 0..e.n {
+                let (ws, row) = (2.0 * w * d[s], &mut e.m[s]);
+                for t in s..e.n {
+                    row[t] += ws * d[t];
+                }
+                for (q, r) in e.q[s].iter_mut().zip(rest) {
+                    *q += w * d[s] * r;
+                }
+            }
+        }
+        2.0 * w * norm2(rest)
+    }
+
+    /// Starts element `slot` for `key`: the first triangle's corners, then the second's not
+    /// among them.
+    fn start(&mut self, slot: usize, key: [u32; 4]) {
+        let e = &mut self.elements[slot];
+        *e = Element { key, ..Element::EMPTY };
+        for (end, &face) in key[..2].iter().enumerate() {
+            if face == NO_FACE {
+                continue;
+            }
+            for (c, &v) in self.triangles[face as usize].iter().enumerate() {
+                let at = e.vertices[..e.n].iter().position(|&u| u == v);
+                e.corners[end][c] = at.unwrap_or_else(|| {
+                    e.vertices[e.n] = v;
+                    e.n += 1;
+                    e.n - 1
+                }) as u8;
             }
         }
     }
-    for k in clusters {
-        for &(b, db) in delta {
-            let e = pair.entry(key(k, b));
-            for d in 0..3 {
-                e[d] += w * db * rest[d];
+
+    /// Element `slot`'s sums into the combiners (nothing for an unused slot).
+    fn flush(&mut self, slot: usize) {
+        let e = &self.elements[slot];
+        let v = &e.vertices[..e.n];
+        for (s, (&a, row)) in v.iter().zip(&e.m).enumerate() {
+            for (&b, m) in v[s..].iter().zip(&row[s..]) {
+                *self.g.entry(key(a.max(b), a.min(b))) += m;
+            }
+        }
+        for k in [e.key[2], e.key[3]] {
+            for (&b, q) in v.iter().zip(&e.q) {
+                self.pair.entry(key(k, b)).add(q);
             }
         }
     }
-    2.0 * w * norm2(rest)
+}
+
+impl Drop for EdgeTerms<'_> {
+    fn drop(&mut self) {
+        for slot in 0..ELEMENTS {
+            self.flush(slot);
+        }
+    }
+}
+
+/// The embedding of fine vertex `i` on `base`'s coarse mesh as [`EdgeTerms::add`] takes it: its
+/// triangle and weights.
+pub(super) fn embedding_of(base: &CoarseBase, i: usize) -> (u32, [f64; 3]) {
+    let [w0, w1] = base.weights[i];
+    (base.faces[i], from_stored(w0, w1))
 }
 
 /// Adds the target-independent terms of a penalty $\mu\lVert P_i c + R_k D_i - t_i\rVert^2$

@@ -304,6 +304,84 @@ fn the_combiner_sums_as_the_map() {
     }
 }
 
+/// The edge terms summed per element (`gathering::EdgeTerms`) are the terms edge by edge
+/// (`2w δ′ᵀδ′` to G, `w δ′_b ρ` to both clusters' g_kb): through evictions (more elements
+/// than slots, revisited out of order), either order of an edge, ends in one triangle and ends
+/// held at their targets.
+#[test]
+fn edge_terms_sum_per_element_as_edge_by_edge() {
+    use gathering::{EdgeTerms, edge_difference, embedding_of, embedding_row};
+    use mesh_part::FixedMap;
+    let (mesh, _) = crate::geometry::shapes::bumpy_bar(3);
+    let base = CoarseBase::new(&mesh, &BaseConfig::default()).unwrap();
+    let n = mesh.n_vertices() as u64;
+    // Ends far apart and near (i + 1), some held, both orders, weights of both signs.
+    let edges: Vec<(usize, usize, [bool; 2], f64)> = (0..20_000u64)
+        .map(|e| {
+            let i = (e * 7_919 % n) as usize;
+            let j = if e % 3 == 0 { (e * 104_729 % n) as usize } else { (i + 1) % n as usize };
+            let held = [e % 5 == 0, e % 7 == 0];
+            let (i, j) = if e % 2 == 0 { (i, j) } else { (j, i) };
+            (i, j, held, if e % 11 == 0 { -0.3 } else { 1.0 + (e % 13) as f64 })
+        })
+        .collect();
+    let rest = |i: usize, j: usize| {
+        let x = mesh.positions();
+        [0, 1, 2].map(|d| x[i][d] - 2.0 * x[j][d])
+    };
+    let (mut g, mut pair) = (FixedMap::<u64, f64>::default(), FixedMap::default());
+    let (mut g_direct, mut pair_direct) = (FixedMap::<u64, f64>::default(), FixedMap::default());
+    let (mut constant, mut constant_direct) = (0.0, 0.0);
+    {
+        let mut terms = EdgeTerms::new(&mut g, &mut pair, &base);
+        let mut delta = Vec::new();
+        for &(i, j, held, w) in &edges {
+            let clusters = [base.representative[i], base.representative[j]];
+            let (rest, ends) = (rest(i, j), [(i, held[0]), (j, held[1])]);
+            constant += terms.add(
+                ends.map(|(v, h)| (!h).then(|| embedding_of(&base, v))),
+                clusters,
+                rest,
+                w,
+            );
+            edge_difference(ends.map(|(v, h)| (!h).then(|| embedding_row(&base, v))), &mut delta);
+            for &(a, da) in &delta {
+                for &(b, db) in &delta {
+                    if a >= b {
+                        *g_direct.entry(key(a, b)).or_default() += 2.0 * w * da * db;
+                    }
+                }
+            }
+            for k in clusters {
+                for &(b, db) in &delta {
+                    let e: &mut [f64; 3] = pair_direct.entry(key(k, b)).or_default();
+                    (0..3).for_each(|d| e[d] += w * db * rest[d]);
+                }
+            }
+            constant_direct += 2.0 * w * (0..3).map(|d| rest[d] * rest[d]).sum::<f64>();
+        }
+    }
+    assert!((constant - constant_direct).abs() <= 1e-12 * constant_direct.abs());
+    let scale = g_direct.values().fold(0.0f64, |s, v| s.max(v.abs()));
+    let near = |a: f64, b: f64| (a - b).abs() <= 1e-12 * scale;
+    // Keys with a zero sum (terms that cancel exactly) may be missing from one side.
+    for (k, v) in &g_direct {
+        assert!(near(*v, g.get(k).copied().unwrap_or(0.0)), "G at {:?}", mesh_part::pair_of(*k));
+    }
+    for (k, v) in &g {
+        assert!(near(*v, g_direct.get(k).copied().unwrap_or(0.0)));
+    }
+    assert!(g.len() > 100, "{} entries", g.len());
+    for (k, v) in &pair_direct {
+        let got = pair.get(k).copied().unwrap_or_default();
+        assert!((0..3).all(|d| near(v[d], got[d])), "g_kb at {:?}", mesh_part::pair_of(*k));
+    }
+    for (k, v) in &pair {
+        let want = pair_direct.get(k).copied().unwrap_or_default();
+        assert!((0..3).all(|d| near(v[d], want[d])));
+    }
+}
+
 /// The exact rule's handle terms (`exact.rs`) are gathered in parallel tasks and added in the
 /// tasks' order: tiny tasks (many blocks to add, a handle's edges and σ terms split between
 /// them) give what one task gives, but for rounding.
