@@ -167,22 +167,19 @@ impl Riders {
         let n = mesh.n_vertices();
         let p = mesh.positions();
         let comps = mesh.components();
-        let labels = handles.map(|h| h.labels()).filter(|l| l.len() == n).unwrap_or(&[]);
         let mut components: Vec<ComponentInfo> = (0..comps.count)
             .map(|index| ComponentInfo {
                 index,
-                vertices: 0,
-                first_vertex: u32::MAX,
+                vertices: comps.sizes[index],
+                first_vertex: comps.first[index],
                 has_handles: false,
                 mode: None,
                 follows: None,
             })
             .collect();
-        for (v, &c) in comps.label.iter().enumerate() {
-            let info = &mut components[c as usize];
-            info.vertices += 1;
-            info.first_vertex = info.first_vertex.min(v as u32);
-            info.has_handles |= labels.get(v).is_some_and(|l| l.is_some());
+        let handles = handles.filter(|h| h.labels().len() == n);
+        for &v in handles.map_or(&[][..], |h| h.handle_vertices()) {
+            components[comps.label[v as usize] as usize].has_handles = true;
         }
         let mut members: Vec<Vec<u32>> = vec![Vec::new(); comps.count];
         for info in &mut components {

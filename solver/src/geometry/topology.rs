@@ -11,19 +11,10 @@ pub struct Components {
     pub count: usize,
     /// `#V` labels in `0..count`, numbered in order of each component's smallest vertex.
     pub label: Vec<u32>,
-}
-
-impl Components {
     /// The number of vertices of each component, `count` entries.
-    pub fn sizes(&self) -> Vec<usize> {
-        let mut sizes = vec![0; self.count];
-        for &l in &self.label {
-            if let Some(s) = sizes.get_mut(l as usize) {
-                *s += 1;
-            }
-        }
-        sizes
-    }
+    pub sizes: Vec<usize>,
+    /// The smallest vertex of each component, `count` entries (increasing).
+    pub first: Vec<u32>,
 }
 
 /// Connected components by union-find (union by size, path halving).
@@ -63,16 +54,18 @@ pub fn connected_components(n_vertices: usize, triangles: &[[u32; 3]]) -> Compon
     }
     let mut root_label = vec![u32::MAX; n_vertices];
     let mut label = vec![0u32; n_vertices];
-    let mut count = 0u32;
+    let (mut sizes, mut first) = (Vec::new(), Vec::new());
     for (v, l) in label.iter_mut().enumerate() {
         let r = find(&mut parent, v as u32) as usize;
         if root_label[r] == u32::MAX {
-            root_label[r] = count;
-            count += 1;
+            root_label[r] = first.len() as u32;
+            first.push(v as u32);
+            sizes.push(0);
         }
         *l = root_label[r];
+        sizes[*l as usize] += 1;
     }
-    Components { count: count as usize, label }
+    Components { count: first.len(), label, sizes, first }
 }
 
 /// How the undirected edges of a triangle list are used.
@@ -244,7 +237,8 @@ mod tests {
         assert_eq!(c.label, vec![0, 0, 0, 0, 1, 1, 1]);
         let c = connected_components(4, &[[1, 2, 3], [9, 0, 1]]);
         assert_eq!(c.count, 2, "vertex 0 is isolated; the bad triangle is ignored");
-        assert_eq!(c.sizes(), vec![1, 3]);
+        assert_eq!(c.sizes, vec![1, 3]);
+        assert_eq!(c.first, vec![0, 1]);
     }
 
     #[test]

@@ -58,7 +58,7 @@ fn authored(dir: &FsPath) -> Option<PathBuf> {
 fn head_handles(loaded: &LoadedMesh) -> Handles {
     let mesh = &loaded.mesh;
     let c = connected_components(mesh.n_vertices(), mesh.triangles());
-    let sizes = c.sizes();
+    let sizes = &c.sizes;
     assert_eq!(sizes.len(), 3, "head and two eyes");
     let head = (0..sizes.len()).max_by_key(|&k| sizes[k]).unwrap() as u32;
     let ys =
