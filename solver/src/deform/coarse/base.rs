@@ -63,6 +63,8 @@ pub struct CoarseBase {
     /// Per fine vertex, its representative coarse vertex (nearest along the edges; on a level,
     /// its level representative's).
     pub(crate) representative: Vec<u32>,
+    /// Per coarse vertex, how many fine vertices it represents ([`cluster_sizes`]).
+    pub(crate) cluster_sizes: Vec<u32>,
     /// $M$ at the kept vertices: the cotangent weights of coarse triangles that collapsed.
     pub(crate) rest_kept: Vec<[f64; 3]>,
     /// Per fine vertex: the index of its coarse triangle.
@@ -151,6 +153,7 @@ impl CoarseBase {
             level_fairing: config.level_fairing,
             target_vertices,
             rest_kept: kept.iter().map(|&v| mesh.positions()[v as usize]).collect(),
+            cluster_sizes: cluster_sizes(&representative, kept.len()),
             kept,
             representative,
             coarse_mesh,
@@ -263,6 +266,15 @@ impl Phases {
         self.phases.push((name, (now - self.last).as_secs_f64() * 1e3));
         self.last = now;
     }
+}
+
+/// Per coarse vertex of `nc`, how many fine vertices have it as their `representative`.
+pub(crate) fn cluster_sizes(representative: &[u32], nc: usize) -> Vec<u32> {
+    let mut sizes = vec![0u32; nc];
+    for &r in representative {
+        sizes[r as usize] += 1;
+    }
+    sizes
 }
 
 /// $P B_c$: each fine vertex's point on the coarse mesh at rest, from its triangle and weights.

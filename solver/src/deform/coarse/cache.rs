@@ -239,6 +239,7 @@ pub fn load(path: &Path, mesh: &Mesh, config: &BaseConfig) -> Result<CoarseBase,
         target_vertices,
         rest_kept: kept.iter().map(|&v| mesh.positions()[v as usize]).collect(),
         coarse_mesh,
+        cluster_sizes: super::base::cluster_sizes(&representative, kept.len()),
         kept,
         representative,
         faces,
@@ -395,6 +396,10 @@ mod tests {
         assert_eq!(back.coarse_mesh.triangles(), base.coarse_mesh.triangles());
         assert_eq!(back.kept, base.kept);
         assert_eq!(back.representative, base.representative);
+        assert_eq!(back.cluster_sizes, base.cluster_sizes);
+        let sizes = base.cluster_sizes.iter().map(|&s| s as usize);
+        assert_eq!(sizes.sum::<usize>(), mesh.n_vertices());
+        assert!(base.cluster_sizes.iter().all(|&s| s > 0), "every coarse vertex represents itself");
         assert_eq!(back.faces, base.faces);
         assert_eq!(back.weights, base.weights);
         assert_eq!(back.base_on_coarse, base.base_on_coarse);

@@ -51,10 +51,7 @@ impl CoarseGroups {
     pub(crate) fn new(base: &CoarseBase, handles: &Handles, rest: &[[f64; 3]]) -> CoarseGroups {
         let nc = base.kept.len();
         let n_groups = handles.n_groups();
-        let mut total = vec![0u32; nc];
-        for &r in &base.representative {
-            total[r as usize] += 1;
-        }
+        let total = &base.cluster_sizes;
         // Per group, (coarse vertex, fine vertices of the group it represents), counted in
         // one array that each group leaves zeroed.
         let mut count = vec![0u32; nc];
