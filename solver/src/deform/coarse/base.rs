@@ -175,8 +175,15 @@ impl CoarseBase {
     /// Fine vertex `i`'s coarse triangle corners and barycentric weights.
     #[inline]
     pub(crate) fn embedding(&self, i: usize) -> ([u32; 3], [f64; 3]) {
+        let (face, weights) = self.embedding_face(i);
+        (self.coarse_mesh.triangles()[face as usize], weights)
+    }
+
+    /// Fine vertex `i`'s coarse triangle (its index) and barycentric weights.
+    #[inline]
+    pub(crate) fn embedding_face(&self, i: usize) -> (u32, [f64; 3]) {
         let w = self.weights[i];
-        (self.coarse_mesh.triangles()[self.faces[i] as usize], from_stored(w[0], w[1]))
+        (self.faces[i], from_stored(w[0], w[1]))
     }
 
     /// Whether this base was built for `mesh` (same fingerprint) with `config`'s smoothing and

@@ -399,7 +399,10 @@ mod tests {
         assert_eq!(back.cluster_sizes, base.cluster_sizes);
         let sizes = base.cluster_sizes.iter().map(|&s| s as usize);
         assert_eq!(sizes.sum::<usize>(), mesh.n_vertices());
-        assert!(base.cluster_sizes.iter().all(|&s| s > 0), "every coarse vertex represents itself");
+        assert!(
+            base.cluster_sizes.iter().all(|&s| s > 0),
+            "every coarse vertex represents a fine vertex"
+        );
         assert_eq!(back.faces, base.faces);
         assert_eq!(back.weights, base.weights);
         assert_eq!(back.base_on_coarse, base.base_on_coarse);

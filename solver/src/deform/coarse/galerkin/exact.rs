@@ -25,9 +25,7 @@
 //! the constant, are per-frame terms like the edges', so that a frame adds every handle's
 //! terms in one pass.
 
-use super::gathering::{
-    Accumulate, Combiner, EdgeTerms, add_penalty, edge_difference, embedding_of, embedding_row,
-};
+use super::gathering::{Accumulate, Combiner, EdgeTerms, add_penalty, edge_difference};
 use super::mesh_part::{FixedMap, key, pair_of, row_entry};
 use crate::deform::arap::Csr;
 use crate::deform::coarse::base::CoarseBase;
@@ -113,7 +111,7 @@ pub(super) fn hold_exactly(
             let (mut changes, mut constant) = (Changes::default(), 0.0);
             let (mut g, mut pair) = changes.combiners();
             for (h, &v) in (block * blocks.handles..).zip(vertices) {
-                let (row, detail) = (embedding_row(base, v as usize), base.details[v as usize]);
+                let (row, detail) = (base.embedding(v as usize), base.details[v as usize]);
                 let k = cluster_of(h as u32);
                 constant += add_penalty(&mut g, &mut pair, row, k, hold, detail);
             }
@@ -149,7 +147,7 @@ pub(super) fn hold_exactly(
     // handle twice).
     let mut hold_tau = Vec::with_capacity(3 * handle_vertices.len());
     for (h, &v) in handle_vertices.iter().enumerate() {
-        let (corners, weights) = embedding_row(base, v as usize);
+        let (corners, weights) = base.embedding(v as usize);
         hold_tau.extend((0..3).map(|a| (corners[a], (h as u32, hold * weights[a]))));
         own[h].add(&base.details[v as usize].map(|d| hold * d));
         terms.squares[h] += hold;
@@ -223,15 +221,15 @@ impl EdgeSums {
             }
             let clusters = [base.representative[i], base.representative[j]];
             // Away with the terms gathered for both ends free, in with the exact rule's.
-            let both = [Some(embedding_of(base, i)), Some(embedding_of(base, j))];
+            let both = [Some(base.embedding_face(i)), Some(base.embedding_face(j))];
             let removed = sub(beta[i], beta[j]);
             constant += terms.add(both, clusters, removed, -w);
-            let free = |v: usize, t: Option<u32>| t.is_none().then(|| embedding_of(base, v));
+            let free = |v: usize, t: Option<u32>| t.is_none().then(|| base.embedding_face(v));
             let at = |v: usize, t: Option<u32>| if t.is_some() { x[v] } else { beta[v] };
             let rest = sub(at(i, targets[0]), at(j, targets[1]));
             constant += terms.add([free(i, targets[0]), free(j, targets[1])], clusters, rest, w);
             // s = t_i (a handle end i) − t_j (a handle end j); δ′ is the free end's row, if any.
-            let row = |v: usize, t: Option<u32>| t.is_none().then(|| embedding_row(base, v));
+            let row = |v: usize, t: Option<u32>| t.is_none().then(|| base.embedding(v));
             edge_difference([row(i, targets[0]), row(j, targets[1])], &mut delta);
             let ends = [(targets[0], 1.0), (targets[1], -1.0)];
             for (h, sign) in ends.into_iter().filter_map(|(t, sign)| Some((t?, sign))) {

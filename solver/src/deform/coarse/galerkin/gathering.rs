@@ -8,7 +8,6 @@ use crate::deform::arap::Csr;
 use crate::deform::coarse::base::CoarseBase;
 use crate::error::SolveError;
 use crate::geometry::cotan::{edge_weights, face_cotangents, face_cotangents_or};
-use crate::geometry::embedding::from_stored;
 use crate::geometry::mesh::{Mesh, norm2, sub};
 use std::sync::{Arc, OnceLock};
 
@@ -42,7 +41,7 @@ pub fn gather_mesh_part(mesh: &Mesh, base: &CoarseBase) -> Result<GalerkinMesh, 
                 continue;
             }
             let (i, j) = (i as usize, j as usize);
-            let ends = [Some(embedding_of(base, i)), Some(embedding_of(base, j))];
+            let ends = [Some(base.embedding_face(i)), Some(base.embedding_face(j))];
             let rest = sub(beta_of[i], beta_of[j]);
             let clusters = [base.representative[i], base.representative[j]];
             rest_term += terms.add(ends, clusters, rest, w);
@@ -137,12 +136,6 @@ impl<V: Accumulate> Drop for Combiner<'_, V> {
     }
 }
 
-/// The embedding of fine vertex `i` on `base`'s coarse mesh: its triangle's corners and weights.
-pub(super) fn embedding_row(base: &CoarseBase, i: usize) -> ([u32; 3], [f64; 3]) {
-    let [w0, w1] = base.weights[i];
-    (base.coarse_mesh.triangles()[base.faces[i] as usize], from_stored(w0, w1))
-}
-
 /// The coarse differences $\delta'$ of a fine edge $(i, j)$ into `delta`: $P_i - P_j$ (entries
 /// merged by coarse vertex), an end given as `None` (a vertex held at its target,
 /// `galerkin/exact.rs`) contributing nothing.
@@ -172,8 +165,8 @@ pub(super) fn edge_difference(
 /// combiner's keys; every block lands in the combiners when the sums are dropped, in an
 /// order fixed by the edges' order alone.
 pub(super) struct EdgeTerms<'a> {
-    pub(super) g: Combiner<'a, f64>,
-    pub(super) pair: Combiner<'a, [f64; 3]>,
+    g: Combiner<'a, f64>,
+    pair: Combiner<'a, [f64; 3]>,
     triangles: &'a [[u32; 3]],
     elements: Vec<Element>,
 }
@@ -224,7 +217,7 @@ impl<'a> EdgeTerms<'a> {
     }
 
     /// Adds the terms of a fine edge with weight `w` (negative to take them away), in both
-    /// orders: `ends` the embeddings ([`embedding_of`]) of its ends, `None` for an end held at
+    /// orders: `ends` the embeddings ([`CoarseBase::embedding_face`]) of its ends, `None` for an end held at
     /// its target (contributing nothing to $\delta'$, `galerkin/exact.rs`), `clusters` its ends'
     /// clusters, `rest` its rest vector $\rho$. Returns the energy's constant from the edge,
     /// $2w\lVert\rho\rVert^2$.
@@ -318,13 +311,6 @@ impl Drop for EdgeTerms<'_> {
             self.flush(slot);
         }
     }
-}
-
-/// The embedding of fine vertex `i` on `base`'s coarse mesh as [`EdgeTerms::add`] takes it: its
-/// triangle and weights.
-pub(super) fn embedding_of(base: &CoarseBase, i: usize) -> (u32, [f64; 3]) {
-    let [w0, w1] = base.weights[i];
-    (base.faces[i], from_stored(w0, w1))
 }
 
 /// Adds the target-independent terms of a penalty $\mu\lVert P_i c + R_k D_i - t_i\rVert^2$

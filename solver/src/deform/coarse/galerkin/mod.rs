@@ -70,7 +70,7 @@ mod exact;
 mod gathering;
 pub(crate) mod mesh_part;
 
-use gathering::{Combiner, add_penalty, embedding_row};
+use gathering::{Combiner, add_penalty};
 pub use gathering::{galerkin_mesh, gather_mesh_part};
 pub use mesh_part::GalerkinMesh;
 use mesh_part::{pair_of, row_entry};
@@ -280,7 +280,7 @@ impl GalerkinCoarse {
             .map(|(t, &v)| (Some(t), v, mu))
             .chain(constraints.pinned_vertices.iter().map(|&v| (None, v, pinned_mu)))
             .map(|(target, v, mu)| {
-                let (corners, weights) = embedding_row(base, v as usize);
+                let (corners, weights) = base.embedding(v as usize);
                 Held {
                     vertex: v,
                     target,

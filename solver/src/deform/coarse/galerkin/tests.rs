@@ -101,7 +101,7 @@ fn restricted_energy_descends(rule: HandleRule) {
     let cot = face_cotangents(mesh.positions(), mesh.triangles(), 0.0).unwrap();
     let tris = base.coarse_mesh.triangles();
     let on_coarse = |i: usize, x: &[[f64; 3]]| {
-        let (t, w) = embedding_row(&base, i);
+        let (t, w) = base.embedding(i);
         let mut p = [0.0; 3];
         for a in 0..3 {
             for d in 0..3 {
@@ -310,7 +310,7 @@ fn the_combiner_sums_as_the_map() {
 /// held at their targets.
 #[test]
 fn edge_terms_sum_per_element_as_edge_by_edge() {
-    use gathering::{EdgeTerms, edge_difference, embedding_of, embedding_row};
+    use gathering::{EdgeTerms, edge_difference};
     use mesh_part::FixedMap;
     let (mesh, _) = crate::geometry::shapes::bumpy_bar(3);
     let base = CoarseBase::new(&mesh, &BaseConfig::default()).unwrap();
@@ -339,12 +339,12 @@ fn edge_terms_sum_per_element_as_edge_by_edge() {
             let clusters = [base.representative[i], base.representative[j]];
             let (rest, ends) = (rest(i, j), [(i, held[0]), (j, held[1])]);
             constant += terms.add(
-                ends.map(|(v, h)| (!h).then(|| embedding_of(&base, v))),
+                ends.map(|(v, h)| (!h).then(|| base.embedding_face(v))),
                 clusters,
                 rest,
                 w,
             );
-            edge_difference(ends.map(|(v, h)| (!h).then(|| embedding_row(&base, v))), &mut delta);
+            edge_difference(ends.map(|(v, h)| (!h).then(|| base.embedding(v))), &mut delta);
             for &(a, da) in &delta {
                 for &(b, db) in &delta {
                     if a >= b {
