@@ -165,7 +165,7 @@ fn number(tok: &str, ctx: Ctx, line: usize, what: &str) -> Result<f32, LoadError
         .map_err(|_| ctx.parse(Some(line), format!("{tok:?} is not a number ({what})")))
 }
 
-/// `vt`/`vn` lines with a non-finite number: how many, and the first one's line.
+/// `vt`/`vn` lines, or `v` colours, with a non-finite number: how many, and the first line.
 #[derive(Default)]
 struct NonFinite {
     count: usize,
@@ -295,6 +295,8 @@ struct Chunk {
     mtl_libs: Vec<String>,
     bad_vt: NonFinite,
     bad_vn: NonFinite,
+    /// `v` lines whose colour is not finite in `f32` (a number beyond its range).
+    bad_color: NonFinite,
 }
 
 /// Reads one chunk whose first line is the file's line `line + 1`, after `seen` elements;
@@ -344,7 +346,7 @@ fn read_chunk(
                     return Err(ctx.non_finite(Some(line), vertex, bad));
                 }
                 if let Some(c) = color {
-                    out.colors.push((vertex, c));
+                    out.colors.push((vertex, out.bad_color.check(c, [1.0; 4], line)));
                 }
                 out.elements.positions.push(p);
                 seen.v += 1;
@@ -441,6 +443,7 @@ fn join(chunks: Vec<Chunk>, totals: &Totals, ctx: Ctx) -> Checked {
     let mut material: Option<usize> = None;
     let mut material_index: HashMap<String, usize> = HashMap::new();
     let (mut bad_vt, mut bad_vn) = (NonFinite::default(), NonFinite::default());
+    let mut bad_color = NonFinite::default();
     let coloured = chunks.iter().any(|c| !c.colors.is_empty());
     if coloured {
         out.colors = vec![[1.0; 4]; totals.v];
@@ -485,6 +488,7 @@ fn join(chunks: Vec<Chunk>, totals: &Totals, ctx: Ctx) -> Checked {
         out.mtl_libs.extend(chunk.mtl_libs);
         bad_vt.add(&chunk.bad_vt);
         bad_vn.add(&chunk.bad_vn);
+        bad_color.add(&chunk.bad_color);
     }
     let total = out.elements.triangles.len();
     let firsts: Vec<usize> = out.parts.iter().skip(1).map(|p| p.first).chain([total]).collect();
@@ -493,6 +497,7 @@ fn join(chunks: Vec<Chunk>, totals: &Totals, ctx: Ctx) -> Checked {
     }
     out.notices.extend(bad_vt.notice(ctx, "vt", "[0, 0]"));
     out.notices.extend(bad_vn.notice(ctx, "vn", "[0, 0, 0] (no normal)"));
+    out.notices.extend(bad_color.notice(ctx, "v colour", "white"));
     out
 }
 
@@ -666,6 +671,22 @@ mod tests {
         assert!(a.notices[1].starts_with("t.obj:6: 2 vn lines"), "{:?}", a.notices);
         let e = parse_str("vt\n").unwrap_err();
         assert!(matches!(e, LoadError::Parse { line: Some(1), .. }), "{e}");
+    }
+
+    /// A vertex colour beyond `f32`'s range (finite in the file's `f64`, as the fuzzer found)
+    /// is read as white with a notice naming the first such line; the file loads, and its asset
+    /// passes its own check. (A colour written as `nan` or `inf` is refused like a coordinate.)
+    #[test]
+    fn colours_beyond_f32_read_as_white() {
+        let text = "v 0 0 0 0.5 0.5 0.5\nv 1 0 0 1e50 0 0\nv 0 1 0 0 -1e39 1\nf 1 2 3\n";
+        let a = parse_str(text).unwrap();
+        let c = a.colors.as_ref().unwrap();
+        assert_eq!(c.values, [[0.5, 0.5, 0.5, 1.0], [1.0; 4], [1.0; 4]]);
+        assert_eq!(a.notices.len(), 1, "{:?}", a.notices);
+        assert!(a.notices[0].starts_with("t.obj:2: 2 v colour lines"), "{:?}", a.notices);
+        a.check().unwrap();
+        let e = parse_str("v 0 0 0 0 nan 1\n").unwrap_err();
+        assert!(matches!(e, LoadError::NonFinite { line: Some(1), vertex: 0, .. }), "{e}");
     }
 
     /// The file read in any number of chunks is the file read in one: relative indices,

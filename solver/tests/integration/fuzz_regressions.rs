@@ -196,3 +196,17 @@ fn gltf_crate_panics_are_refused_first() {
         );
     }
 }
+
+/// Found by `cargo fuzz run obj`: a vertex colour of 5.6e50 is finite in the file's `f64` but
+/// not in the asset's `f32` colours, and the loaded asset failed its own check. Such a colour is
+/// read as white, with a notice naming its line.
+#[test]
+fn obj_colour_beyond_f32() {
+    let mut bytes = b"v 0 0 0\nv 1 0 0\nv 0 1 0 ".to_vec();
+    bytes.extend(std::iter::repeat_n(b'5', 50));
+    bytes.extend_from_slice(b"0 1 0\nv 0 0 2\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n");
+    let m = load_mesh_from_bytes(&bytes, Format::Obj, "fuzz").unwrap();
+    m.asset.check().unwrap();
+    assert!(m.asset.colors.as_ref().unwrap().values.iter().all(|c| *c == [1.0; 4]));
+    assert!(m.notices().iter().any(|n| n.contains("1 v colour lines")), "{:?}", m.notices());
+}
