@@ -162,7 +162,7 @@ impl NativeDeformer {
         let mesh = Mesh::new(positions, tris).map_err(err)?;
         let handles = Handles::from_labels(&ints(&labels), mesh.n_vertices()).map_err(err)?;
         let mut parts = LooseParts::default();
-        let count = mesh.components().count;
+        let count = mesh.components().count();
         for &c in &pinned_components {
             if c >= count {
                 return Err(err(format!(

@@ -211,7 +211,7 @@ pub fn run(a: &DeformArgs) -> anyhow::Result<()> {
     handle_targets(mesh.positions(), &handles, &transforms)
         .with_context(|| format!("{}", a.handles.display()))?;
     let mut parts = LooseParts::default();
-    let count = mesh.components().count;
+    let count = mesh.components().count();
     for &c in &a.pin_components {
         if c >= count {
             bail!("--pin-component {c}: the mesh has components 0..{count}");

@@ -67,7 +67,7 @@ pub fn check(positions: &[DVec3], triangles: &[[u32; 3]]) -> Report {
     let edges = edge_counts(triangles);
     Report {
         // Each unreferenced vertex is a component of its own there.
-        components: connected_components(n, triangles).count - unreferenced_vertices,
+        components: connected_components(n, triangles).count() - unreferenced_vertices,
         boundary_edges: edges.boundary,
         non_manifold_edges: edges.non_manifold + misoriented_edges(triangles),
         non_manifold_vertices: non_manifold_vertices(triangles),

@@ -44,7 +44,7 @@ impl Constraints {
         let n = mesh.n_vertices();
         let comps = mesh.components();
         let handle_vertices = handles.handle_vertices();
-        let mut has_handle = vec![false; comps.count];
+        let mut has_handle = vec![false; comps.count()];
         for &v in handle_vertices {
             has_handle[comps.label[v as usize] as usize] = true;
         }

@@ -167,7 +167,7 @@ impl Riders {
         let n = mesh.n_vertices();
         let p = mesh.positions();
         let comps = mesh.components();
-        let mut components: Vec<ComponentInfo> = (0..comps.count)
+        let mut components: Vec<ComponentInfo> = (0..comps.count())
             .map(|index| ComponentInfo {
                 index,
                 vertices: comps.sizes[index],
@@ -181,7 +181,7 @@ impl Riders {
         for &v in handles.map_or(&[][..], |h| h.handle_vertices()) {
             components[comps.label[v as usize] as usize].has_handles = true;
         }
-        let mut members: Vec<Vec<u32>> = vec![Vec::new(); comps.count];
+        let mut members: Vec<Vec<u32>> = vec![Vec::new(); comps.count()];
         for info in &mut components {
             if !info.has_handles {
                 let mode = parts.mode(info.index);

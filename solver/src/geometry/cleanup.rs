@@ -228,7 +228,7 @@ pub fn clean(
         _ => CleanError::NoTriangles { faces_in: triangles.len(), degenerate, duplicates },
     })?;
     let (components, edges) =
-        rayon::join(|| mesh.components().count, || edge_counts(mesh.triangles()));
+        rayon::join(|| mesh.components().count(), || edge_counts(mesh.triangles()));
     let report = CleanReport {
         vertices_in: n,
         faces_in: triangles.len(),

@@ -7,14 +7,19 @@
 /// Connected components of the vertex graph.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Components {
-    /// Number of components; an isolated vertex is a component of its own.
-    pub count: usize,
-    /// `#V` labels in `0..count`, numbered in order of each component's smallest vertex.
+    /// `#V` labels in `0..count()`, numbered in order of each component's smallest vertex.
     pub label: Vec<u32>,
-    /// The number of vertices of each component, `count` entries.
+    /// The number of vertices of each component, one entry per component.
     pub sizes: Vec<usize>,
-    /// The smallest vertex of each component, `count` entries (increasing).
+    /// The smallest vertex of each component, one entry per component (increasing).
     pub first: Vec<u32>,
+}
+
+impl Components {
+    /// Number of components; an isolated vertex is a component of its own.
+    pub fn count(&self) -> usize {
+        self.first.len()
+    }
 }
 
 /// Connected components by union-find (union by size, path halving).
@@ -65,7 +70,7 @@ pub fn connected_components(n_vertices: usize, triangles: &[[u32; 3]]) -> Compon
         *l = root_label[r];
         sizes[*l as usize] += 1;
     }
-    Components { count: first.len(), label, sizes, first }
+    Components { label, sizes, first }
 }
 
 /// How the undirected edges of a triangle list are used.
@@ -233,10 +238,10 @@ mod tests {
     #[test]
     fn components_and_isolated_vertices() {
         let c = connected_components(7, &[[0, 1, 2], [4, 5, 6], [2, 3, 0]]);
-        assert_eq!(c.count, 2);
+        assert_eq!(c.count(), 2);
         assert_eq!(c.label, vec![0, 0, 0, 0, 1, 1, 1]);
         let c = connected_components(4, &[[1, 2, 3], [9, 0, 1]]);
-        assert_eq!(c.count, 2, "vertex 0 is isolated; the bad triangle is ignored");
+        assert_eq!(c.count(), 2, "vertex 0 is isolated; the bad triangle is ignored");
         assert_eq!(c.sizes, vec![1, 3]);
         assert_eq!(c.first, vec![0, 1]);
     }

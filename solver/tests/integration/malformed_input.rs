@@ -718,7 +718,7 @@ fn topology_counts() {
     assert_eq!(non_manifold_edges(&fin), 1);
     assert_eq!(boundary_edges(&fin), 6);
     let two = connected_components(6, &[[0, 1, 2], [3, 4, 5]]);
-    assert_eq!(two.count, 2);
+    assert_eq!(two.count(), 2);
     assert_eq!(two.label, vec![0, 0, 0, 1, 1, 1]);
 }
 
