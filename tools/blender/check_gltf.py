@@ -89,13 +89,9 @@ def set_frame(scene, frame):
     scene.frame_set(whole, subframe=frame - whole)
 
 
-def main():
-    args = [a for a in sys.argv[1:] if not a.startswith("--")]
-    want_positions = "--positions" in sys.argv
-    if not args:
-        print("usage: check_gltf.py FILE.glb|FILE.gltf [--positions]", file=sys.stderr)
-        sys.exit(2)
-    path = args[-1]
+def import_or_exit(path):
+    """Imports the glTF file `path` into an empty scene with Blender's own importer and
+    returns the scene; exits with status 2 (the message on stderr) when the import fails."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     try:
         result = bpy.ops.import_scene.gltf(filepath=path)
@@ -105,7 +101,17 @@ def main():
     if "FINISHED" not in result:
         print(f"{path}: import returned {result}", file=sys.stderr)
         sys.exit(2)
-    scene = bpy.context.scene
+    return bpy.context.scene
+
+
+def main():
+    args = [a for a in sys.argv[1:] if not a.startswith("--")]
+    want_positions = "--positions" in sys.argv
+    if not args:
+        print("usage: check_gltf.py FILE.glb|FILE.gltf [--positions]", file=sys.stderr)
+        sys.exit(2)
+    path = args[-1]
+    scene = import_or_exit(path)
     meshes = []
     for obj in sorted((o for o in scene.objects if o.type == "MESH"), key=lambda o: o.name):
         data = obj.data

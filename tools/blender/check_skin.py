@@ -20,7 +20,7 @@ import sys
 
 import bpy
 
-from check_gltf import channelbag_fcurves, evaluated_positions, set_frame
+from check_gltf import channelbag_fcurves, evaluated_positions, import_or_exit, set_frame
 
 
 def main():
@@ -29,16 +29,7 @@ def main():
         print("usage: check_skin.py FILE.glb|FILE.gltf", file=sys.stderr)
         sys.exit(2)
     path = args[-1]
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    try:
-        result = bpy.ops.import_scene.gltf(filepath=path)
-    except RuntimeError as e:
-        print(f"{path}: import failed: {e}", file=sys.stderr)
-        sys.exit(2)
-    if "FINISHED" not in result:
-        print(f"{path}: import returned {result}", file=sys.stderr)
-        sys.exit(2)
-    scene = bpy.context.scene
+    scene = import_or_exit(path)
     armatures = []
     frames = []
     for obj in sorted((o for o in scene.objects if o.type == "ARMATURE"), key=lambda o: o.name):
