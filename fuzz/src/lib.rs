@@ -14,11 +14,15 @@ use std::sync::OnceLock;
 use solver::animation::scene::Scene;
 use solver::deform::selection::{parse_dmat, parse_spheres};
 use solver::geometry::shapes::icosphere;
+use solver::glam::DVec3;
 use solver::io::{Format, load_mesh_from_bytes};
+use solver::{
+    ArapConfig, Deformer, DeformerOptions, Energy, GroupTransform, Handles, Method, handle_targets,
+};
 
 /// The fuzz targets, by the name of their `fuzz_targets/NAME.rs` file and cargo-fuzz binary.
-pub const TARGETS: [&str; 9] =
-    ["obj", "off", "ply", "stl", "gltf", "gltf_folder", "dmat", "spheres", "scene"];
+pub const TARGETS: [&str; 10] =
+    ["obj", "off", "ply", "stl", "gltf", "gltf_folder", "dmat", "spheres", "scene", "deform"];
 
 /// Runs target `name`'s body on `bytes`; `None` when no target has that name.
 pub fn run(name: &str, bytes: &[u8]) -> Option<bool> {
@@ -32,6 +36,7 @@ pub fn run(name: &str, bytes: &[u8]) -> Option<bool> {
         "dmat" => dmat(bytes),
         "spheres" => spheres(bytes),
         "scene" => scene(bytes),
+        "deform" => deform(bytes),
         _ => return None,
     })
 }
@@ -219,4 +224,74 @@ pub fn scene(bytes: &[u8]) -> bool {
         panic!("an accepted scene does not read back: {e}\n{written}");
     }
     true
+}
+
+/// Meshes larger than this are passed over by [`deform`] (the target is about the solvers'
+/// handling of odd meshes, not their speed).
+pub const DEFORM_MAX_VERTICES: usize = 600;
+
+/// The deformers on any mesh the OFF reader accepts (up to [`DEFORM_MAX_VERTICES`] vertices):
+/// the first byte picks the method (bits 0–1: ARAP, BS-ARAP, faired, coarse) and the energy
+/// (bits 2–3: spokes and rims, spokes, smooth rotations), the rest is the OFF file. Group 0 is
+/// the first quarter of the bounding box along x, moved by 0.3 of the diagonal; group 1 the
+/// last quarter, held (a flat mesh has only group 0). Two solves and, for
+/// the coarse variant, a settle step. Any error is typed; a solve that succeeds gives finite
+/// positions (a panic or a non-finite pose is a finding). Returns whether the first solve
+/// succeeded.
+pub fn deform(bytes: &[u8]) -> bool {
+    let [choice, off @ ..] = bytes else {
+        return false;
+    };
+    let Ok(loaded) = load_mesh_from_bytes(off, Format::Off, "fuzz") else {
+        return false;
+    };
+    let mesh = &loaded.mesh;
+    let n = mesh.n_vertices();
+    if n > DEFORM_MAX_VERTICES {
+        return false;
+    }
+    let method = [Method::Arap, Method::BsArap, Method::BsArapFaired, Method::BsArapCoarse]
+        [usize::from(choice & 3)];
+    let energy = [Energy::SpokesAndRims, Energy::Spokes, Energy::SmoothRotations]
+        [usize::from((choice >> 2) & 3) % 3];
+    // The caps of the mesh along x: its first and last quarter of the bounding box.
+    let xs = || mesh.positions().iter().map(|p| p[0]);
+    let (lo, hi) = (xs().fold(f64::INFINITY, f64::min), xs().fold(f64::NEG_INFINITY, f64::max));
+    let quarter = 0.25 * (hi - lo);
+    let labels: Vec<i64> = xs()
+        .map(|x| {
+            if x <= lo + quarter {
+                0
+            } else if x >= hi - quarter {
+                1
+            } else {
+                -1
+            }
+        })
+        .collect();
+    let Ok(handles) = Handles::from_labels(&labels, n) else {
+        return false;
+    };
+    let config = ArapConfig { energy, max_iterations: 20, ..ArapConfig::default() };
+    let options = DeformerOptions { method, config, ..DeformerOptions::default() };
+    let Ok(mut deformer) = Deformer::new(mesh, &handles, options) else {
+        return false;
+    };
+    let shift = DVec3::new(0.3 * mesh.bbox_diagonal(), 0.0, 0.0);
+    let moved = [(0, GroupTransform::from_translation(shift))];
+    let Ok(targets) = handle_targets(mesh.positions(), &handles, &moved) else {
+        return false;
+    };
+    let finite = |d: &Deformer| d.positions().iter().flatten().all(|c| c.is_finite());
+    let solved = deformer.solve(&targets).is_ok();
+    if solved {
+        assert!(finite(&deformer), "{method:?} {energy:?}: a solve gave a non-finite pose");
+        if deformer.solve(&targets).is_ok() {
+            assert!(finite(&deformer), "{method:?} {energy:?}: a second solve did");
+        }
+        if matches!(deformer.settle(&targets), Ok(Some(_))) {
+            assert!(finite(&deformer), "{method:?} {energy:?}: a settle step did");
+        }
+    }
+    solved
 }

@@ -210,6 +210,34 @@ fn seeds(name: &str) -> Vec<Vec<u8>> {
             }
             scenes
         }
+        "deform" => {
+            // A sphere, a cube of quads, and a small cube above a sphere's middle (a part
+            // without handles): every method and energy on each.
+            let cube_and_sphere = format!(
+                "OFF\n50 92 0\n{}\n{}\n{}\n",
+                ["0 0 0", "1 0 0", "1 1 0", "0 1 0", "0 0 1", "1 0 1", "1 1 1", "0 1 1"]
+                    .map(|c| {
+                        let c: Vec<f64> = c.split(' ').map(|x| x.parse().unwrap()).collect();
+                        format!("{} {} {}", 0.5 * c[0] - 0.25, 0.5 * c[1], 0.5 * c[2] + 3.0)
+                    })
+                    .join("\n"),
+                icosphere(1)
+                    .positions()
+                    .iter()
+                    .map(|p| format!("{} {} {}", p[0], p[1], p[2]))
+                    .collect::<Vec<_>>()
+                    .join("\n"),
+                [[0, 3, 2], [0, 2, 1], [4, 5, 6], [4, 6, 7], [0, 1, 5], [0, 5, 4]]
+                    .into_iter()
+                    .chain([[3, 7, 6], [3, 6, 2], [0, 4, 7], [0, 7, 3], [1, 2, 6], [1, 6, 5]])
+                    .chain(icosphere(1).triangles().iter().map(|t| t.map(|v| v + 8)))
+                    .map(|t| format!("3 {} {} {}", t[0], t[1], t[2]))
+                    .collect::<Vec<_>>()
+                    .join("\n"),
+            );
+            let meshes = [off(&icosphere(1)), CUBE_OFF.into(), cube_and_sphere.into_bytes()];
+            (0u8..12).flat_map(|c| meshes.iter().map(move |m| [&[c][..], m].concat())).collect()
+        }
         _ => Vec::new(),
     }
 }
