@@ -234,10 +234,9 @@ pub const DEFORM_MAX_VERTICES: usize = 600;
 /// the first byte picks the method (bits 0–1: ARAP, BS-ARAP, faired, coarse) and the energy
 /// (bits 2–3: spokes and rims, spokes, smooth rotations), the rest is the OFF file. Group 0 is
 /// the first quarter of the bounding box along x, moved by 0.3 of the diagonal; group 1 the
-/// last quarter, held (a flat mesh has only group 0). Two solves and, for
-/// the coarse variant, a settle step. Any error is typed; a solve that succeeds gives finite
-/// positions (a panic or a non-finite pose is a finding). Returns whether the first solve
-/// succeeded.
+/// last quarter, held (a mesh flat in x has only group 0). Two solves and, for the coarse
+/// variant, a settle step. Any error is typed; a solve that succeeds gives finite positions (a
+/// panic or a non-finite pose is a finding). Returns whether the first solve succeeded.
 pub fn deform(bytes: &[u8]) -> bool {
     let [choice, off @ ..] = bytes else {
         return false;
