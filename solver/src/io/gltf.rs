@@ -9,8 +9,13 @@
 //! outward. Triangle strips and fans are converted to triangles; points and lines are refused.
 //!
 //! Accessors are decoded here, with every byte range checked against its buffer, so that no
-//! file makes the reader panic. Refused clearly, naming what is missing: points/lines
-//! primitives, sparse accessors, quantized positions (`KHR_mesh_quantization`), Draco
+//! file makes the reader panic. Quantized attributes (`KHR_mesh_quantization`, in a file that
+//! lists it: positions and texture coordinates as 8- or 16-bit integers, normalized or not,
+//! normals as normalized ones; what gltfpack and our own quantized export write) are decoded
+//! by the glTF rules, $\max(c/(2^{b-1}-1), -1)$ for a normalized signed $b$-bit $c$ and
+//! $c/(2^b-1)$ for an unsigned one; the node transforms then undo the quantization's scale
+//! and offset. Refused
+//! clearly, naming what is missing: points/lines primitives, sparse accessors, Draco
 //! (`KHR_draco_mesh_compression`) and meshopt (`EXT_meshopt_compression`) compressed data, and
 //! any other extension the file lists as required.
 //!
@@ -46,14 +51,15 @@ use super::reference::Folder;
 use super::uri::read_uri;
 
 /// Extensions whose data this reader cannot decode, with what a user can do about each.
-const UNDECODABLE: [(&str, &str); 3] = [
+const UNDECODABLE: [(&str, &str); 2] = [
     ("KHR_draco_mesh_compression", "Draco-compressed geometry"),
     ("EXT_meshopt_compression", "meshopt-compressed buffers"),
-    ("KHR_mesh_quantization", "quantized vertex attributes"),
 ];
 
-/// Extensions that change nothing this reader uses (materials, lights, texture transforms...).
-const HARMLESS: [&str; 12] = [
+/// Extensions that change nothing this reader uses (materials, lights, texture transforms...),
+/// and `KHR_mesh_quantization`, which it decodes.
+const HARMLESS: [&str; 13] = [
+    "KHR_mesh_quantization",
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
     "KHR_materials_pbrSpecularGlossiness",
@@ -94,7 +100,7 @@ pub(crate) fn parse(bytes: &[u8], ctx: Ctx, folder: Option<Folder>) -> Result<As
         if let Some((_, what)) = UNDECODABLE.iter().find(|(name, _)| *name == ext) {
             return Err(ctx.unsupported(format!(
                 "the file requires the glTF extension {ext} ({what}), which this reader does not \
-                 decode; export it again without compression/quantization"
+                 decode; export it again without compression"
             )));
         }
         if !HARMLESS.contains(&ext) {
@@ -104,7 +110,10 @@ pub(crate) fn parse(bytes: &[u8], ctx: Ctx, folder: Option<Folder>) -> Result<As
         }
     }
     let ::gltf::Gltf { document, blob } = unchecked;
-    let json = document.into_json();
+    let mut json = document.into_json();
+    // Every required extension was checked above; the crate's validation knows only those its
+    // features name (not KHR_mesh_quantization) and would refuse the others.
+    json.extensions_required.clear();
     // gltf-json 1.4.1's validation indexes `accessors` with each POSITION index unchecked
     // (mesh.rs, `primitive_validate_hook`), so an out-of-range one would panic there.
     for (m, mesh) in json.meshes.iter().enumerate() {
@@ -137,14 +146,27 @@ pub(crate) fn parse(bytes: &[u8], ctx: Ctx, folder: Option<Folder>) -> Result<As
     let buffers = load_buffers(&gltf, ctx, folder)?;
     // Draco listed as used but not required: primitives carry an uncompressed fallback, unless
     // an accessor has no buffer view (then its data exists only compressed).
-    let draco = gltf.document.extensions_used().any(|e| e == "KHR_draco_mesh_compression");
+    let used = |name| gltf.document.extensions_used().any(|e| e == name);
+    let extensions = Extensions {
+        draco: used("KHR_draco_mesh_compression"),
+        quantization: used("KHR_mesh_quantization"),
+    };
 
     let mut raw = Asset::default();
     let mut layers = Layers::default();
     let mut visit = |node: &str, mesh: ::gltf::Mesh, world: &Matrix4<f64>| {
         for prim in mesh.primitives() {
             let names = (mesh.name().unwrap_or_default(), node);
-            append_primitive(&mut raw, &mut layers, &prim, names, world, &buffers, ctx, draco)?;
+            append_primitive(
+                &mut raw,
+                &mut layers,
+                &prim,
+                names,
+                world,
+                &buffers,
+                ctx,
+                extensions,
+            )?;
         }
         Ok::<(), LoadError>(())
     };
@@ -261,6 +283,15 @@ fn load_buffers(
     Ok(out)
 }
 
+/// The extensions the file uses that change how a primitive is read.
+#[derive(Debug, Clone, Copy)]
+struct Extensions {
+    /// `KHR_draco_mesh_compression`: primitives may carry only compressed data.
+    draco: bool,
+    /// `KHR_mesh_quantization`: positions, normals and texture coordinates may be integers.
+    quantization: bool,
+}
+
 /// Appends one primitive's transformed positions, its triangles, its vertex attributes and
 /// its [`Part`] (`names`: the mesh's and the node's) to `raw`.
 #[allow(clippy::too_many_arguments)]
@@ -272,7 +303,7 @@ fn append_primitive(
     world: &Matrix4<f64>,
     buffers: &[Vec<u8>],
     ctx: Ctx,
-    draco: bool,
+    extensions: Extensions,
 ) -> Result<(), LoadError> {
     let mesh_name = |p: &::gltf::Primitive| format!("primitive {}", p.index());
     let mode = prim.mode();
@@ -285,19 +316,21 @@ fn append_primitive(
     let Some(pos) = prim.get(&::gltf::Semantic::Positions) else {
         return Err(ctx.parse(None, format!("{} has no POSITION attribute", mesh_name(prim))));
     };
-    if draco && pos.view().is_none() {
+    if extensions.draco && pos.view().is_none() {
         return Err(ctx.unsupported(format!(
             "{} is compressed with KHR_draco_mesh_compression, which this reader does not \
              decode; export it again without compression",
             mesh_name(prim)
         )));
     }
-    if pos.data_type() != DataType::F32 || pos.dimensions() != Dimensions::Vec3 {
+    let integers = [DataType::I8, DataType::U8, DataType::I16, DataType::U16];
+    let (dt, normalized) = (pos.data_type(), pos.normalized());
+    let quantized = extensions.quantization && integers.contains(&dt);
+    if !(dt == DataType::F32 || quantized) || pos.dimensions() != Dimensions::Vec3 {
         return Err(ctx.unsupported(format!(
-            "POSITION accessor {} is {:?} {:?}; quantized positions (KHR_mesh_quantization) are \
-             not supported, only float VEC3",
+            "POSITION accessor {} is {dt:?} {:?}; only VEC3 of floats, or of 8- or 16-bit \
+             integers in a file that uses KHR_mesh_quantization, is supported",
             pos.index(),
-            pos.data_type(),
             pos.dimensions()
         )));
     }
@@ -305,6 +338,7 @@ fn append_primitive(
     let flip = world.fixed_view::<3, 3>(0, 0).determinant() < 0.0;
     let mut bad = None;
     read_accessor(&pos, buffers, ctx, |c| {
+        let c = c.map(|x| component(dt, normalized, x));
         let p = world * Vector4::new(c[0], c[1], c[2], 1.0);
         if bad.is_none() && !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()) {
             bad = Some((raw.positions.len(), format!("{:?}", [p.x, p.y, p.z])));
@@ -315,7 +349,8 @@ fn append_primitive(
         return Err(ctx.non_finite(None, vertex, value));
     }
     let n = raw.positions.len() - base;
-    read_layers(layers, &mut raw.notices, prim, (base, n), world, buffers, ctx)?;
+    let span = (base, n);
+    read_layers(layers, &mut raw.notices, prim, span, world, buffers, ctx, extensions)?;
     let mut indices = Vec::new();
     match prim.indices() {
         Some(acc) => {
@@ -387,19 +422,63 @@ fn append_layer<T: Copy>(
 }
 
 /// What [`attribute`] reads: the semantic, its name in messages, the allowed dimensions,
-/// whether normalized u8/u16 is allowed, and the neutral value (RGBA-padded).
+/// the allowed component types (with whether each is normalized; floats as `false`), and the
+/// neutral value (RGBA-padded).
 struct Spec<'a> {
     semantic: ::gltf::Semantic,
     name: &'a str,
     dims: &'a [Dimensions],
-    normalized_ok: bool,
+    types: &'a [(DataType, bool)],
     neutral: [f32; 4],
+}
+
+/// Component types of normals: float, then (`KHR_mesh_quantization`) normalized 8/16-bit
+/// signed.
+const NORMAL_TYPES: [(DataType, bool); 3] =
+    [(DataType::F32, false), (DataType::I8, true), (DataType::I16, true)];
+
+/// Component types of texture coordinates: float and normalized unsigned 8/16-bit, then (with
+/// `KHR_mesh_quantization`) 8/16-bit integers signed or not, normalized or not.
+const UV_TYPES: [(DataType, bool); 9] = [
+    (DataType::F32, false),
+    (DataType::U8, true),
+    (DataType::U16, true),
+    (DataType::I8, true),
+    (DataType::I16, true),
+    (DataType::U8, false),
+    (DataType::U16, false),
+    (DataType::I8, false),
+    (DataType::I16, false),
+];
+
+/// Component types of colours: float or normalized unsigned 8/16-bit.
+const COLOR_TYPES: [(DataType, bool); 3] =
+    [(DataType::F32, false), (DataType::U8, true), (DataType::U16, true)];
+
+/// The value of a stored component `c` (its integer value for integer types) of type `dt`:
+/// itself for floats and unnormalized integers; for a normalized one, $c/(2^b-1)$ unsigned and
+/// $\max(c/(2^{b-1}-1), -1)$ signed (the glTF 2.0 specification's rule for normalized
+/// integers).
+fn component(dt: DataType, normalized: bool, c: f64) -> f64 {
+    if !normalized {
+        return c;
+    }
+    match dt {
+        DataType::U8 => c / 255.0,
+        DataType::U16 => c / 65535.0,
+        DataType::U32 => c / 4294967295.0,
+        DataType::I8 => (c / 127.0).max(-1.0),
+        DataType::I16 => (c / 32767.0).max(-1.0),
+        DataType::F32 => c,
+    }
 }
 
 /// Appends the primitive's `n` vertices' NORMAL, TEXCOORD_0/1 and COLOR_0 to `layers`
 /// (neutral values where it lacks one). Normals are transformed by the inverse transpose of
 /// the node's linear part, $n' = M^{-\top} n / \lVert M^{-\top} n \rVert$, which also
 /// turns them correctly under a mirror (no extra flip; a singular $M$ gives `[0, 0, 0]`).
+/// Integer normals and texture coordinates only with `extensions.quantization`.
+#[allow(clippy::too_many_arguments)]
 fn read_layers(
     layers: &mut Layers,
     notices: &mut Vec<String>,
@@ -408,7 +487,9 @@ fn read_layers(
     world: &Matrix4<f64>,
     buffers: &[Vec<u8>],
     ctx: Ctx,
+    extensions: Extensions,
 ) -> Result<(), LoadError> {
+    let q = extensions.quantization;
     use ::gltf::Semantic;
     let mut read = |spec: Spec| attribute(prim, &spec, n, buffers, ctx, notices);
     let normal_matrix: Option<Matrix3<f64>> =
@@ -417,7 +498,7 @@ fn read_layers(
         semantic: Semantic::Normals,
         name: "NORMAL",
         dims: &[Dimensions::Vec3],
-        normalized_ok: false,
+        types: &NORMAL_TYPES[..if q { 3 } else { 1 }],
         neutral: [0.0; 4],
     };
     let span = (before, n);
@@ -441,7 +522,7 @@ fn read_layers(
             semantic: Semantic::TexCoords(set as u32),
             name: &name,
             dims: &[Dimensions::Vec2],
-            normalized_ok: true,
+            types: &UV_TYPES[..if q { 9 } else { 3 }],
             neutral: [0.0; 4],
         };
         let values = read(uv)?;
@@ -452,7 +533,7 @@ fn read_layers(
         semantic: Semantic::Colors(0),
         name: "COLOR_0",
         dims: &[Dimensions::Vec3, Dimensions::Vec4],
-        normalized_ok: true,
+        types: &COLOR_TYPES,
         neutral: WHITE,
     };
     let values = read(color)?;
@@ -469,9 +550,8 @@ fn read_layers(
 /// One vertex attribute of a primitive as RGBA-padded `f32` (missing components: 0, except
 /// alpha 1 for an RGB colour), or `None` when the primitive has none.
 ///
-/// Checks: dimensions among `spec.dims`; component type float, or (when
-/// `spec.normalized_ok`) a normalized unsigned byte/short, divided by 255 or 65535; exactly
-/// `n` elements, like POSITION. Any failure is a one-line error naming the accessor. An
+/// Checks: dimensions among `spec.dims`; component type and normalization among
+/// `spec.types`, decoded by [`component`]; exactly `n` elements, like POSITION. Any failure is a one-line error naming the accessor. An
 /// element with a non-finite value (exporters write NaN normals for degenerate triangles) is
 /// replaced by `spec.neutral`, with a line in `notices`.
 fn attribute(
@@ -484,24 +564,20 @@ fn attribute(
 ) -> Result<Option<Vec<[f32; 4]>>, LoadError> {
     let Some(acc) = prim.get(&spec.semantic) else { return Ok(None) };
     let name = spec.name;
-    let (dt, dim) = (acc.data_type(), acc.dimensions());
-    let scale = match dt {
-        DataType::F32 => 1.0,
-        DataType::U8 if spec.normalized_ok && acc.normalized() => 1.0 / 255.0,
-        DataType::U16 if spec.normalized_ok && acc.normalized() => 1.0 / 65535.0,
-        _ => {
-            let allowed = if spec.normalized_ok {
-                "float or normalized unsigned byte/short"
-            } else {
-                "float"
-            };
-            return Err(ctx.unsupported(format!(
-                "{name} accessor {} is {dt:?}{}; only {allowed} is supported",
-                acc.index(),
-                if acc.normalized() { " normalized" } else { "" }
-            )));
-        }
-    };
+    let (dt, dim, normalized) = (acc.data_type(), acc.dimensions(), acc.normalized());
+    if !spec.types.contains(&(dt, normalized && dt != DataType::F32)) {
+        let allowed: Vec<String> = spec
+            .types
+            .iter()
+            .map(|(t, n)| format!("{t:?}{}", if *n { " normalized" } else { "" }))
+            .collect();
+        return Err(ctx.unsupported(format!(
+            "{name} accessor {} is {dt:?}{}; supported: {}",
+            acc.index(),
+            if normalized { " normalized" } else { "" },
+            allowed.join(", ")
+        )));
+    }
     if !spec.dims.contains(&dim) {
         return Err(ctx.parse(
             None,
@@ -522,7 +598,7 @@ fn attribute(
     let mut out = Vec::with_capacity(n);
     let mut bad = 0;
     read_accessor(&acc, buffers, ctx, |c| {
-        let mut v = c.map(|x| (x * scale) as f32);
+        let mut v = c.map(|x| component(dt, normalized, x) as f32);
         if dim == Dimensions::Vec3 && spec.semantic == ::gltf::Semantic::Colors(0) {
             v[3] = 1.0;
         }

@@ -13,7 +13,7 @@ use solver::animation::export::{
     AssetExport, Encoding, ExportSettings, GltfExport, GltfFormat, export_asset, exported_size,
 };
 use solver::animation::recording::Recording;
-use solver::io::{Asset, Attribute, Image, Material, Part};
+use solver::io::{Asset, Attribute, Format, Image, Material, Part, load_mesh_from_bytes};
 use solver::testing::ScratchDir;
 use solver::testing::gltf_decode::{parse, played_error, read};
 
@@ -480,6 +480,32 @@ fn quantized_file_requires_the_extension() {
     assert!(doc.gltf.extensions_required().any(|e| e == "KHR_mesh_quantization"));
     let (_, bytes, _) = write(&dir, "f.glb", settings(Encoding::Float, true, 1));
     assert_eq!(parse(&bytes).gltf.extensions_used().count(), 0);
+}
+
+/// Our own quantized export opens in our own reader (the editor's File ▸ Open): the file's
+/// vertices at their rest positions within the i16 quantization (1/65534 of each mesh's
+/// extent, times its node scale), as the float export's are to f32 rounding.
+#[test]
+fn quantized_export_reads_back() {
+    let dir = ScratchDir::new("export-asset-read-back");
+    let (asset, _) = asset();
+    for (name, s, tolerance) in [
+        ("q.glb", ExportSettings::default(), 1e-4),
+        ("f.glb", settings(Encoding::Float, true, 1), 1e-6),
+    ] {
+        let (_, bytes, _) = write(&dir, name, s);
+        let back = load_mesh_from_bytes(&bytes, Format::Gltf, name).unwrap();
+        assert!(!back.asset.positions.is_empty(), "{name}");
+        // Each read-back vertex lies on a file vertex (the export drops unreferenced ones).
+        for p in &back.asset.positions {
+            let nearest = asset
+                .positions
+                .iter()
+                .map(|q| (0..3).map(|d| (p[d] - q[d]).abs()).fold(0.0, f64::max))
+                .fold(f64::INFINITY, f64::min);
+            assert!(nearest < tolerance, "{name}: {p:?} is {nearest} from every file vertex");
+        }
+    }
 }
 
 #[test]

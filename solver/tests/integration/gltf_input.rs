@@ -81,3 +81,51 @@ fn strips_and_unindexed_triangles_are_read() {
     let m = load_mesh_from_bytes(&to_gltf(doc, &tet_bin()), Format::Gltf, "s.gltf").unwrap();
     assert_eq!(m.mesh.triangles(), &[[0, 1, 2], [2, 1, 3]]);
 }
+
+/// `KHR_mesh_quantization` as gltfpack writes it: positions as normalized i16 under a node
+/// that scales and offsets them back, normals as normalized i8, texture coordinates as
+/// unnormalized u16. The reader decodes each by the glTF rules (-32768 clamps to -1).
+#[test]
+fn quantized_attributes_are_decoded() {
+    let q: [[i16; 3]; 4] = [[-32768, 0, 0], [32767, 0, 0], [0, 32767, 0], [0, 0, 32767]];
+    let mut bin = Vec::new();
+    q.iter().flatten().for_each(|c| bin.extend_from_slice(&c.to_le_bytes()));
+    let normals: [[i8; 4]; 4] = [[0, 0, -127, 0], [127, 0, 0, 0], [0, 127, 0, 0], [0, 0, 127, 0]];
+    normals.iter().flatten().for_each(|&c| bin.push(c as u8));
+    let uv: [[u16; 2]; 4] = [[0, 0], [4, 0], [0, 4], [4, 4]];
+    uv.iter().flatten().for_each(|c| bin.extend_from_slice(&c.to_le_bytes()));
+    for i in gltf_files::TET_T.iter().flatten() {
+        bin.extend_from_slice(&(*i as u16).to_le_bytes());
+    }
+    let doc = json!({
+        "asset": {"version": "2.0"},
+        "extensionsUsed": ["KHR_mesh_quantization"],
+        "extensionsRequired": ["KHR_mesh_quantization"],
+        "scene": 0, "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0, "scale": [2.0, 2.0, 2.0], "translation": [1.0, 0.0, 0.0]}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2},
+                                    "indices": 3}]}],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5122, "normalized": true, "count": 4,
+             "type": "VEC3", "min": [-32768, 0, 0], "max": [32767, 32767, 32767]},
+            {"bufferView": 1, "componentType": 5120, "normalized": true, "count": 4,
+             "type": "VEC3"},
+            {"bufferView": 2, "componentType": 5123, "count": 4, "type": "VEC2"},
+            {"bufferView": 3, "componentType": 5123, "count": 12, "type": "SCALAR"}
+        ],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": 24},
+            {"buffer": 0, "byteOffset": 24, "byteLength": 16, "byteStride": 4},
+            {"buffer": 0, "byteOffset": 40, "byteLength": 16},
+            {"buffer": 0, "byteOffset": 56, "byteLength": 24}
+        ],
+        "buffers": [{"byteLength": 80}]
+    });
+    let m = load_mesh_from_bytes(&to_glb(&doc, &bin), Format::Gltf, "q.glb").unwrap();
+    let expected = [[-1.0, 0.0, 0.0], [3.0, 0.0, 0.0], [1.0, 2.0, 0.0], [1.0, 0.0, 2.0]];
+    assert_eq!(m.asset.positions, expected, "clamped, scaled by 2, moved by 1 in x");
+    let n = &m.asset.normals.as_ref().unwrap().values;
+    assert_eq!(n[0], [0.0, 0.0, -1.0]);
+    assert_eq!(n[1], [1.0, 0.0, 0.0]);
+    assert_eq!(m.asset.uvs[0].values[3], [4.0, 4.0], "unnormalized: the integers as they are");
+}
