@@ -9,8 +9,13 @@
 //! whether the reader accepted its input, which the replay test uses to check that its inputs
 //! reach both the accepting and the refusing paths.
 
+use std::ops::ControlFlow;
 use std::sync::OnceLock;
 
+use solver::animation::export::{
+    AssetExport, Encoding, ExportError, ExportSettings, GltfExport, GltfFormat, MAX_COORDINATE,
+};
+use solver::animation::recording::Recording;
 use solver::animation::scene::Scene;
 use solver::deform::selection::{parse_dmat, parse_spheres};
 use solver::geometry::shapes::icosphere;
@@ -21,8 +26,19 @@ use solver::{
 };
 
 /// The fuzz targets, by the name of their `fuzz_targets/NAME.rs` file and cargo-fuzz binary.
-pub const TARGETS: [&str; 10] =
-    ["obj", "off", "ply", "stl", "gltf", "gltf_folder", "dmat", "spheres", "scene", "deform"];
+pub const TARGETS: [&str; 11] = [
+    "obj",
+    "off",
+    "ply",
+    "stl",
+    "gltf",
+    "gltf_folder",
+    "dmat",
+    "spheres",
+    "scene",
+    "deform",
+    "export",
+];
 
 /// Runs target `name`'s body on `bytes`; `None` when no target has that name.
 pub fn run(name: &str, bytes: &[u8]) -> Option<bool> {
@@ -37,6 +53,7 @@ pub fn run(name: &str, bytes: &[u8]) -> Option<bool> {
         "spheres" => spheres(bytes),
         "scene" => scene(bytes),
         "deform" => deform(bytes),
+        "export" => export(bytes),
         _ => return None,
     })
 }
@@ -293,4 +310,67 @@ pub fn deform(bytes: &[u8]) -> bool {
         }
     }
     solved
+}
+
+/// The glTF export of any OBJ file the reader accepts (its polygons, parts, materials, texture
+/// coordinates, normals and colours as the file has them), animated by two frames: the rest
+/// pose and a bend along x of 0.1 of the diagonal. The first byte picks the settings (bit 0:
+/// float or quantized deltas, bit 1: sparse targets, bit 2: normals, bit 3: `.glb` or `.gltf`,
+/// bit 4: meshopt compression), the rest is the OBJ file. The export must succeed (or, for
+/// coordinates beyond its `MAX_COORDINATE`, refuse them), its size must be the one predicted,
+/// and our own reader must read it back, finite (meshopt-compressed files, which it refuses by
+/// design, only to the size). Returns whether the OBJ reader accepted the file.
+pub fn export(bytes: &[u8]) -> bool {
+    let [choice, obj @ ..] = bytes else {
+        return false;
+    };
+    let Ok(loaded) = load_mesh_from_bytes(obj, Format::Obj, "fuzz") else {
+        return false;
+    };
+    let rest = loaded.mesh.positions();
+    let xs = || rest.iter().map(|p| p[0]);
+    let (lo, hi) = (xs().fold(f64::INFINITY, f64::min), xs().fold(f64::NEG_INFINITY, f64::max));
+    let (bend, width) = (0.1 * loaded.mesh.bbox_diagonal(), (hi - lo).max(f64::MIN_POSITIVE));
+    let bent = rest.iter().map(|p| [p[0], p[1] + bend * ((p[0] - lo) / width).powi(2), p[2]]);
+    let recording = Recording {
+        times: vec![0.0, 1.0],
+        frames: vec![rest.to_vec(), bent.collect()],
+        stats: Vec::new(),
+    };
+    let settings = ExportSettings {
+        encoding: if choice & 1 == 0 { Encoding::Float } else { Encoding::Quantized },
+        sparse: choice & 2 != 0,
+        normals: choice & 4 != 0,
+        every_k: 1,
+    };
+    let format = if choice & 8 == 0 { GltfFormat::Glb } else { GltfFormat::Gltf };
+    let input = AssetExport {
+        asset: &loaded.asset,
+        vertex_map: &loaded.report.vertex_map,
+        recording: &recording,
+        settings,
+    };
+    let exported = GltfExport::from_asset(&input, format).and_then(|e| {
+        if choice & 16 == 0 { Ok(e) } else { e.with_meshopt(&mut |_, _| ControlFlow::Continue(())) }
+    });
+    // glTF stores f32: coordinates beyond the export's bound (finite in the OBJ's f64) are
+    // refused as not finite, and nothing else is.
+    let inside = |p: &[f64; 3]| p.iter().all(|c| c.abs() <= MAX_COORDINATE);
+    let fits = loaded.asset.positions.iter().chain(recording.frames.iter().flatten()).all(inside);
+    let export = match exported {
+        Ok(export) => export,
+        Err(ExportError::NonFinite { .. }) if !fits => return true,
+        Err(e) => panic!("an accepted OBJ file does not export: {e}"),
+    };
+    let predicted = export.file_size().unwrap_or_else(|e| panic!("no file size: {e}"));
+    let file = export
+        .to_bytes(&mut |_, _| ControlFlow::Continue(()))
+        .unwrap_or_else(|e| panic!("an accepted OBJ file does not export: {e}"));
+    assert_eq!(predicted, file.len() as u64, "the predicted size is not the file's");
+    if choice & 16 == 0 {
+        let back = load_mesh_from_bytes(&file, Format::Gltf, "fuzz-export")
+            .unwrap_or_else(|e| panic!("our export does not read back: {e}"));
+        assert!(back.mesh.positions().iter().flatten().all(|c| c.is_finite()));
+    }
+    true
 }

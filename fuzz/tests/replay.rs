@@ -238,6 +238,10 @@ fn seeds(name: &str) -> Vec<Vec<u8>> {
             let meshes = [off(&icosphere(1)), CUBE_OFF.into(), cube_and_sphere.into_bytes()];
             (0u8..12).flat_map(|c| meshes.iter().map(move |m| [&[c][..], m].concat())).collect()
         }
+        // Every setting on the cube of quads with its materials and attributes, and on a fan.
+        "export" => (0u8..32)
+            .flat_map(|c| [CUBE_OBJ, FAN_OBJ].map(|m| [&[c][..], m.as_bytes()].concat()))
+            .collect(),
         _ => Vec::new(),
     }
 }

@@ -101,7 +101,7 @@ pub enum ExportError {
     Inconsistent { times: usize, frames: usize },
     #[error("frame {frame} has {got} vertices but the mesh has {expected}")]
     FrameSize { frame: usize, got: usize, expected: usize },
-    #[error("{what} is not finite at vertex {vertex}: nothing was written")]
+    #[error("{what} is not finite, or beyond ±1e30, at vertex {vertex}: nothing was written")]
     NonFinite { what: String, vertex: usize },
     #[error(
         "frame times must be finite and strictly increasing in single precision (frame {frame} at {time} s)"
@@ -328,8 +328,12 @@ fn kept_frames(n: usize, k: usize) -> Vec<usize> {
     kept
 }
 
+/// The largest coordinate an export takes: far inside `f32`'s range, so that the deltas, normals
+/// and quantization scales computed from the stored `f32` positions stay finite.
+pub const MAX_COORDINATE: f64 = 1e30;
+
 fn check_finite(what: String, p: &[[f64; 3]]) -> Result<(), ExportError> {
-    match p.iter().position(|p| p.iter().any(|c| !c.is_finite() || c.abs() > 1e30)) {
+    match p.iter().position(|p| p.iter().any(|c| !c.is_finite() || c.abs() > MAX_COORDINATE)) {
         Some(vertex) => Err(ExportError::NonFinite { what, vertex }),
         None => Ok(()),
     }
