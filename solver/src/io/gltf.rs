@@ -14,10 +14,9 @@
 //! normals as normalized ones; what gltfpack and our own quantized export write) are decoded
 //! by the glTF rules, $\max(c/(2^{b-1}-1), -1)$ for a normalized signed $b$-bit $c$ and
 //! $c/(2^b-1)$ for an unsigned one; the node transforms then undo the quantization's scale
-//! and offset. Refused
-//! clearly, naming what is missing: points/lines primitives, sparse accessors, Draco
-//! (`KHR_draco_mesh_compression`) and meshopt (`EXT_meshopt_compression`) compressed data, and
-//! any other extension the file lists as required.
+//! and offset. Refused clearly, naming what is missing: points/lines primitives, sparse
+//! accessors, Draco (`KHR_draco_mesh_compression`) and meshopt (`EXT_meshopt_compression`)
+//! compressed data, and any other extension the file lists as required.
 //!
 //! **Asset** ([`Asset`]): besides positions and triangles, each primitive's NORMAL (turned
 //! by the node's inverse transpose, renormalized), TEXCOORD_0 and TEXCOORD_1 (float or
@@ -489,8 +488,8 @@ fn read_layers(
     ctx: Ctx,
     extensions: Extensions,
 ) -> Result<(), LoadError> {
-    let q = extensions.quantization;
     use ::gltf::Semantic;
+    let q = extensions.quantization;
     let mut read = |spec: Spec| attribute(prim, &spec, n, buffers, ctx, notices);
     let normal_matrix: Option<Matrix3<f64>> =
         world.fixed_view::<3, 3>(0, 0).into_owned().try_inverse().map(|m| m.transpose());
@@ -551,9 +550,10 @@ fn read_layers(
 /// alpha 1 for an RGB colour), or `None` when the primitive has none.
 ///
 /// Checks: dimensions among `spec.dims`; component type and normalization among
-/// `spec.types`, decoded by [`component`]; exactly `n` elements, like POSITION. Any failure is a one-line error naming the accessor. An
-/// element with a non-finite value (exporters write NaN normals for degenerate triangles) is
-/// replaced by `spec.neutral`, with a line in `notices`.
+/// `spec.types`, decoded by [`component`]; exactly `n` elements, like POSITION. Any failure is
+/// a one-line error naming the accessor. An element with a non-finite value (exporters write
+/// NaN normals for degenerate triangles) is replaced by `spec.neutral`, with a line in
+/// `notices`.
 fn attribute(
     prim: &::gltf::Primitive,
     spec: &Spec,
