@@ -271,11 +271,10 @@ pub fn deform(bytes: &[u8]) -> bool {
     let energy = [Energy::SpokesAndRims, Energy::Spokes, Energy::SmoothRotations]
         [usize::from((choice >> 2) & 3) % 3];
     // The caps of the mesh along x: its first and last quarter of the bounding box.
-    let xs = || mesh.positions().iter().map(|p| p[0]);
-    let (lo, hi) = (xs().fold(f64::INFINITY, f64::min), xs().fold(f64::NEG_INFINITY, f64::max));
+    let ([lo, ..], [hi, ..]) = mesh.bounding_box();
     let quarter = 0.25 * (hi - lo);
-    let labels: Vec<i64> = xs()
-        .map(|x| {
+    let labels: Vec<i64> = (mesh.positions().iter())
+        .map(|&[x, _, _]| {
             if x <= lo + quarter {
                 0
             } else if x >= hi - quarter {
@@ -328,8 +327,7 @@ pub fn export(bytes: &[u8]) -> bool {
         return false;
     };
     let rest = loaded.mesh.positions();
-    let xs = || rest.iter().map(|p| p[0]);
-    let (lo, hi) = (xs().fold(f64::INFINITY, f64::min), xs().fold(f64::NEG_INFINITY, f64::max));
+    let ([lo, ..], [hi, ..]) = loaded.mesh.bounding_box();
     let (bend, width) = (0.1 * loaded.mesh.bbox_diagonal(), (hi - lo).max(f64::MIN_POSITIVE));
     let bent = rest.iter().map(|p| [p[0], p[1] + bend * ((p[0] - lo) / width).powi(2), p[2]]);
     let recording = Recording {

@@ -10,7 +10,8 @@ use std::path::{Path as FsPath, PathBuf};
 
 use base64::Engine as _;
 use solver::animation::export::{
-    AssetExport, Encoding, ExportSettings, GltfExport, GltfFormat, export_asset, exported_size,
+    AssetExport, Encoding, ExportError, ExportSettings, GltfExport, GltfFormat, MAX_COORDINATE,
+    export_asset, exported_size,
 };
 use solver::animation::recording::Recording;
 use solver::io::{Asset, Attribute, Format, Image, Material, Part, load_mesh_from_bytes};
@@ -529,6 +530,14 @@ fn inconsistent_assets_are_errors_not_panics() {
     map[3] = Some(500);
     let input = AssetExport { asset: &asset, vertex_map: &map, recording: &rec, settings: s };
     assert!(GltfExport::from_asset(&input, GltfFormat::Glb).is_err());
+    // A coordinate beyond MAX_COORDINATE (finite in f64, as an OBJ can hold it; the `export`
+    // fuzz target's finding) is refused, and the message names the bound.
+    let (mut asset, map) = self::asset();
+    asset.positions[2][1] = 2.0 * MAX_COORDINATE;
+    let input = AssetExport { asset: &asset, vertex_map: &map, recording: &rec, settings: s };
+    let err = GltfExport::from_asset(&input, GltfFormat::Glb).unwrap_err();
+    assert!(matches!(err, ExportError::NonFinite { vertex: 2, .. }), "{err}");
+    assert!(err.to_string().contains("beyond ±1e30, at vertex 2"), "{err}");
 }
 
 #[test]

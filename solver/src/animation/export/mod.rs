@@ -101,7 +101,10 @@ pub enum ExportError {
     Inconsistent { times: usize, frames: usize },
     #[error("frame {frame} has {got} vertices but the mesh has {expected}")]
     FrameSize { frame: usize, got: usize, expected: usize },
-    #[error("{what} is not finite, or beyond ±1e30, at vertex {vertex}: nothing was written")]
+    #[error(
+        "{what} is not finite, or beyond ±{MAX_COORDINATE:e}, at vertex {vertex}: nothing was \
+         written"
+    )]
     NonFinite { what: String, vertex: usize },
     #[error(
         "frame times must be finite and strictly increasing in single precision (frame {frame} at {time} s)"

@@ -158,12 +158,12 @@ pub(super) fn edge_difference(
 /// $g_{kb}$ of both ends' clusters) summed per *element* before they reach the combiners
 /// `g` and `pair`: the edges whose ends lie in the same two coarse triangles and clusters
 /// share the coarse vertices of their $\delta'$ (at most six) and their two clusters, so their
-/// terms sum in a small dense block, $M \mathrel{+}= 2w\,dd^\top$ and $Q \mathrel{+}= w\,d\rho^\top$
-/// for the edge's differences $d$ on the element's vertices, and reach the combiners once per
-/// run of edges (a block's entries, $G_{ab}$ from $M_{st}$ and $g_{kb}$ from $Q_s$ for both
-/// clusters) instead of once per term. Elements live in a small direct-mapped table like the
-/// combiner's keys; every block lands in the combiners when the sums are dropped, in an
-/// order fixed by the edges' order alone.
+/// terms sum in a small dense block, $M \mathrel{+}= 2w\,dd^\top$ and
+/// $Q \mathrel{+}= w\,d\rho^\top$ for the edge's differences $d$ on the element's vertices,
+/// and reach the combiners once per run of edges (a block's entries, $G_{ab}$ from $M_{st}$ and
+/// $g_{kb}$ from $Q_s$ for both clusters) instead of once per term. Elements live in a small
+/// direct-mapped table like the combiner's keys; every block lands in the combiners when the
+/// sums are dropped, in an order fixed by the edges' order alone.
 pub(super) struct EdgeTerms<'a> {
     g: Combiner<'a, f64>,
     pair: Combiner<'a, [f64; 3]>,
@@ -217,10 +217,10 @@ impl<'a> EdgeTerms<'a> {
     }
 
     /// Adds the terms of a fine edge with weight `w` (negative to take them away), in both
-    /// orders: `ends` the embeddings ([`CoarseBase::embedding_face`]) of its ends, `None` for an end held at
-    /// its target (contributing nothing to $\delta'$, `galerkin/exact.rs`), `clusters` its ends'
-    /// clusters, `rest` its rest vector $\rho$. Returns the energy's constant from the edge,
-    /// $2w\lVert\rho\rVert^2$.
+    /// orders: `ends` the embeddings ([`CoarseBase::embedding_face`]) of its ends, `None` for
+    /// an end held at its target (contributing nothing to $\delta'$, `galerkin/exact.rs`),
+    /// `clusters` its ends' clusters, `rest` its rest vector $\rho$. Returns the energy's
+    /// constant from the edge, $2w\lVert\rho\rVert^2$.
     pub(super) fn add(
         &mut self,
         ends: [Option<(u32, [f64; 3])>; 2],
