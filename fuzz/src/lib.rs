@@ -12,8 +12,9 @@
 use std::ops::ControlFlow;
 use std::sync::OnceLock;
 
+use solver::MAX_COORDINATE;
 use solver::animation::export::{
-    AssetExport, Encoding, ExportError, ExportSettings, GltfExport, GltfFormat, MAX_COORDINATE,
+    AssetExport, Encoding, ExportError, ExportSettings, GltfExport, GltfFormat,
 };
 use solver::animation::recording::Recording;
 use solver::animation::scene::Scene;
@@ -315,8 +316,9 @@ pub fn deform(bytes: &[u8]) -> bool {
 /// coordinates, normals and colours as the file has them), animated by two frames: the rest
 /// pose and a bend along x of 0.1 of the diagonal. The first byte picks the settings (bit 0:
 /// float or quantized deltas, bit 1: sparse targets, bit 2: normals, bit 3: `.glb` or `.gltf`,
-/// bit 4: meshopt compression), the rest is the OBJ file. The export must succeed (or, for
-/// coordinates beyond its `MAX_COORDINATE`, refuse them), its size must be the one predicted,
+/// bit 4: meshopt compression), the rest is the OBJ file. The export must succeed (or, where
+/// the bend carries a coordinate beyond `MAX_COORDINATE`, which the reader refuses in the file,
+/// refuse it), its size must be the one predicted,
 /// and our own reader must read it back, finite (meshopt-compressed files, which it refuses by
 /// design, only to the size). Returns whether the OBJ reader accepted the file.
 pub fn export(bytes: &[u8]) -> bool {
@@ -351,8 +353,8 @@ pub fn export(bytes: &[u8]) -> bool {
     let exported = GltfExport::from_asset(&input, format).and_then(|e| {
         if choice & 16 == 0 { Ok(e) } else { e.with_meshopt(&mut |_, _| ControlFlow::Continue(())) }
     });
-    // glTF stores f32: coordinates beyond the export's bound (finite in the OBJ's f64) are
-    // refused as not finite, and nothing else is.
+    // glTF stores f32: coordinates beyond the bound (the reader refuses them in the file, the
+    // bend can reach them) are refused as not finite, and nothing else is.
     let inside = |p: &[f64; 3]| p.iter().all(|c| c.abs() <= MAX_COORDINATE);
     let fits = loaded.asset.positions.iter().chain(recording.frames.iter().flatten()).all(inside);
     let export = match exported {

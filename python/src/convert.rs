@@ -4,11 +4,13 @@
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use solver::{ArapConfig, ArapConfigError, Energy, SolveStats};
+use solver::geometry::mesh::in_range;
+use solver::{ArapConfig, ArapConfigError, Energy, MAX_COORDINATE, SolveStats};
 
 use crate::err;
 
-/// `#N×3` float64 rows; `what` names the argument in errors. Non-finite values are refused.
+/// `#N×3` float64 rows; `what` names the argument in errors. Values that are not finite or
+/// beyond ±[`MAX_COORDINATE`] are refused, as the mesh readers refuse them.
 pub fn rows3(a: &PyReadonlyArray2<'_, f64>, what: &str) -> PyResult<Vec<[f64; 3]>> {
     let shape = a.shape();
     if shape[1] != 3 {
@@ -18,8 +20,11 @@ pub fn rows3(a: &PyReadonlyArray2<'_, f64>, what: &str) -> PyResult<Vec<[f64; 3]
     let mut out = Vec::with_capacity(shape[0]);
     for (i, row) in view.rows().into_iter().enumerate() {
         let p = [row[0], row[1], row[2]];
-        if let Some(c) = p.iter().find(|c| !c.is_finite()) {
-            return Err(err(format!("{what}: row {i} has a non-finite coordinate ({c})")));
+        if let Some(c) = p.iter().find(|&&c| !in_range(c)) {
+            return Err(err(format!(
+                "{what}: row {i} has a non-finite or out-of-range coordinate ({c:e}; the limit is \
+                 ±{MAX_COORDINATE:e})"
+            )));
         }
         out.push(p);
     }

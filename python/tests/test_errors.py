@@ -74,6 +74,11 @@ def test_solve_errors():
         s.solve(V[b], V[:-1])
     with pytest.raises(BsarapError, match="non-finite"):
         s.solve(V[b], np.full_like(V, np.nan))
+    # Finite, but beyond what the f32 views and the export hold: refused, the limit named.
+    with pytest.raises(BsarapError, match=r"out-of-range coordinate \(2e30; the limit is ±1e30\)"):
+        s.solve(V[b] + 2e30)
+    with pytest.raises(BsarapError, match="out-of-range"):
+        bsarap.Arap(V * 1e31, F, b)
     with pytest.raises(BsarapError, match="max_iters"):
         s.solve(V[b], max_iters=0)
     with pytest.raises(BsarapError, match="U has"):

@@ -39,4 +39,4 @@ pub use deform::handles::{Handles, HandlesError};
 pub use deform::pose::{GroupRest, GroupTransform, handle_targets};
 pub use deform::riders::{ComponentInfo, ComponentMode, LooseParts, list_components};
 pub use error::SolveError;
-pub use geometry::mesh::{Mesh, MeshError};
+pub use geometry::mesh::{MAX_COORDINATE, Mesh, MeshError};

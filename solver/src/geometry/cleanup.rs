@@ -21,7 +21,7 @@ use rustc_hash::FxHashMap;
 use serde::Serialize;
 use thiserror::Error;
 
-use crate::geometry::mesh::{Mesh, bounding_box};
+use crate::geometry::mesh::{MAX_COORDINATE, Mesh, bounding_box, in_range};
 use crate::geometry::mesh::{cross, norm, sub};
 use crate::geometry::topology::edge_counts;
 
@@ -130,7 +130,10 @@ pub enum CleanError {
         "no usable triangle: {faces_in} in, {degenerate} degenerate (zero area or a repeated vertex), {duplicates} duplicated"
     )]
     NoTriangles { faces_in: usize, degenerate: usize, duplicates: usize },
-    #[error("vertex {vertex} has a non-finite coordinate ({value})")]
+    #[error(
+        "vertex {vertex} has a non-finite or out-of-range coordinate ({value:e}; the limit is \
+         ±{MAX_COORDINATE:e})"
+    )]
     NonFinite { vertex: usize, value: f64 },
     #[error("triangle {face} refers to vertex {index}, but there are only {n_vertices} vertices")]
     IndexOutOfRange { face: usize, index: u32, n_vertices: usize },
@@ -140,10 +143,10 @@ pub enum CleanError {
 
 /// Cleans raw arrays into a valid [`Mesh`] (see the module documentation for the steps).
 ///
-/// Inputs: positions `#V×3 f64` (finite), triangles `#F×3 u32` (0-based, `< #V`).
+/// Inputs: positions `#V×3 f64` (finite, within ±[`MAX_COORDINATE`]), triangles `#F×3 u32` (0-based, `< #V`).
 /// Output: the mesh (`#V'×3`, `#F'×3`, `V' ≤ V`, `F' ≤ F`) and a [`CleanReport`] whose
 /// `vertex_map` sends input vertices to output vertices.
-/// Errors: a non-finite coordinate or bad index ([`CleanError`]), or no triangle left.
+/// Errors: a coordinate out of range or a bad index ([`CleanError`]), or no triangle left.
 pub fn clean(
     positions: &[[f64; 3]],
     triangles: &[[u32; 3]],
@@ -152,9 +155,8 @@ pub fn clean(
     if n > u32::MAX as usize {
         return Err(CleanError::TooManyVertices { n_vertices: n });
     }
-    if let Some(vertex) = positions.par_iter().position_first(|p| !p.iter().all(|c| c.is_finite()))
-    {
-        let value = positions[vertex].iter().copied().find(|c| !c.is_finite()).unwrap_or(f64::NAN);
+    if let Some(vertex) = positions.par_iter().position_first(|p| !p.iter().all(|&c| in_range(c))) {
+        let value = positions[vertex].iter().copied().find(|&c| !in_range(c)).unwrap_or(f64::NAN);
         return Err(CleanError::NonFinite { vertex, value });
     }
     if let Some(face) = triangles.par_iter().position_first(|t| t.iter().any(|&i| i as usize >= n))

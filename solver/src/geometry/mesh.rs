@@ -1,8 +1,9 @@
 //! The triangle mesh type shared by every algorithm in this crate.
 //!
 //! A [`Mesh`] owns `#V×3 f64` positions and `#F×3 u32` triangles. Its constructor checks the
-//! invariants every solver relies on (indices in range, finite coordinates, at least one
-//! triangle), so code that receives a `Mesh` never re-checks them.
+//! invariants every solver relies on (indices in range, finite coordinates within
+//! ±[`MAX_COORDINATE`], at least one triangle), so code that receives a `Mesh` never re-checks
+//! them.
 
 use std::sync::Arc;
 use thiserror::Error;
@@ -18,7 +19,10 @@ pub enum MeshError {
         "triangle {face} refers to vertex {index}, but the mesh has only {n_vertices} vertices"
     )]
     IndexOutOfRange { face: usize, index: u32, n_vertices: usize },
-    #[error("vertex {vertex} has a non-finite coordinate ({value})")]
+    #[error(
+        "vertex {vertex} has a non-finite or out-of-range coordinate ({value:e}; the limit is \
+         ±{MAX_COORDINATE:e})"
+    )]
     NonFinite { vertex: usize, value: f64 },
     #[error("triangle {face} repeats a vertex ({a}, {b}, {c})")]
     RepeatedVertex { face: usize, a: u32, b: u32, c: u32 },
@@ -50,7 +54,8 @@ impl PartialEq for Mesh {
 
 impl Mesh {
     /// Builds a mesh, checking that every index is in range, no triangle repeats a vertex,
-    /// every coordinate is finite and there is at least one triangle.
+    /// every coordinate is finite and within ±[`MAX_COORDINATE`] and there is at least one
+    /// triangle.
     pub fn new(positions: Vec<[f64; 3]>, triangles: Vec<[u32; 3]>) -> Result<Mesh, MeshError> {
         if triangles.is_empty() {
             return Err(MeshError::NoTriangles);
@@ -167,7 +172,8 @@ impl Mesh {
         norm(sub(hi, lo))
     }
 
-    /// The same connectivity with other positions (`#V×3`, finite), e.g. a deformed pose.
+    /// The same connectivity with other positions (`#V×3`, finite, within ±[`MAX_COORDINATE`]),
+    /// e.g. a deformed pose.
     pub fn with_positions(&self, positions: Vec<[f64; 3]>) -> Result<Mesh, MeshError> {
         if positions.len() != self.positions.len() {
             return Err(MeshError::IndexOutOfRange {
@@ -181,14 +187,32 @@ impl Mesh {
     }
 }
 
-/// [`MeshError::NonFinite`] for the first coordinate of `positions` that is not finite.
+/// The largest coordinate magnitude the product holds, in any unit: far inside `f32`'s range,
+/// so that the viewport's and the glTF export's `f32` copies, and the squared lengths, normals
+/// and quantization scales computed from them, stay finite. Every mesh reader and [`Mesh::new`]
+/// refuse larger coordinates, as they refuse NaN and infinities.
+pub const MAX_COORDINATE: f64 = 1e30;
+
+/// The first vertex of `positions` with a coordinate that is not finite or beyond
+/// ±[`MAX_COORDINATE`], and that coordinate.
+pub fn first_out_of_range(positions: &[[f64; 3]]) -> Option<(usize, f64)> {
+    positions
+        .iter()
+        .enumerate()
+        .find_map(|(vertex, p)| p.iter().find(|c| !in_range(**c)).map(|&value| (vertex, value)))
+}
+
+/// True when `c` is finite and within ±[`MAX_COORDINATE`] (false for NaN).
+pub fn in_range(c: f64) -> bool {
+    c.abs() <= MAX_COORDINATE
+}
+
+/// [`MeshError::NonFinite`] for the first coordinate of `positions` out of range.
 fn check_finite(positions: &[[f64; 3]]) -> Result<(), MeshError> {
-    for (vertex, p) in positions.iter().enumerate() {
-        if let Some(&value) = p.iter().find(|c| !c.is_finite()) {
-            return Err(MeshError::NonFinite { vertex, value });
-        }
+    match first_out_of_range(positions) {
+        Some((vertex, value)) => Err(MeshError::NonFinite { vertex, value }),
+        None => Ok(()),
     }
-    Ok(())
 }
 
 /// Axis-aligned bounding box of a point set; `([0;3],[0;3])` when empty.
@@ -328,6 +352,18 @@ mod tests {
             Mesh::new(q, vec![[0, 1, 2]]),
             Err(MeshError::NonFinite { vertex: 2, .. })
         ));
+        // Finite in f64 but beyond what the f32 views hold: refused, the limit named.
+        let mut q = p.clone();
+        q[1][0] = -2.0 * MAX_COORDINATE;
+        let e = Mesh::new(q, vec![[0, 1, 2]]).unwrap_err();
+        assert_eq!(e, MeshError::NonFinite { vertex: 1, value: -2e30 });
+        assert!(
+            e.to_string().contains("out-of-range coordinate (-2e30; the limit is ±1e30)"),
+            "{e}"
+        );
+        let mut q = p.clone();
+        q[2] = [MAX_COORDINATE, -MAX_COORDINATE, 0.0];
+        assert!(Mesh::new(q, vec![[0, 1, 2]]).is_ok(), "the limit itself is in range");
         let m = Mesh::new(p, vec![[0, 1, 2]]).unwrap();
         assert!((m.bbox_diagonal() - 2f64.sqrt()).abs() < 1e-15);
     }

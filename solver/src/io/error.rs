@@ -2,6 +2,8 @@
 
 use thiserror::Error;
 
+use crate::geometry::mesh::MAX_COORDINATE;
+
 /// Why a mesh file could not be loaded.
 ///
 /// Display is one line: `FILE:LINE: what is wrong` (or `FILE: ...` where no line applies, e.g.
@@ -25,8 +27,13 @@ pub enum LoadError {
     /// A malformed token or line: a bad number, a wrong token count, an unknown keyword.
     #[error("{}: {message}", at(.file, .line))]
     Parse { file: String, line: Option<usize>, message: String },
-    /// A vertex coordinate is NaN or infinite (`vertex` is the 0-based index in the file).
-    #[error("{}: vertex {vertex} has a non-finite coordinate ({value})", at(.file, .line))]
+    /// A vertex coordinate is NaN, infinite or beyond ±[`MAX_COORDINATE`] (`vertex` is the
+    /// 0-based index in the file).
+    #[error(
+        "{}: vertex {vertex} has a non-finite or out-of-range coordinate ({value}; the limit is \
+         ±{MAX_COORDINATE:e})",
+        at(.file, .line)
+    )]
     NonFinite { file: String, line: Option<usize>, vertex: usize, value: String },
     /// A face refers to a vertex that does not exist (including OBJ index 0).
     #[error("{}: face index {index} is invalid ({reason})", at(.file, .line))]

@@ -48,6 +48,7 @@ use super::error::LoadError;
 use super::gltf_material;
 use super::reference::Folder;
 use super::uri::read_uri;
+use crate::geometry::mesh::in_range;
 
 /// Extensions whose data this reader cannot decode, with what a user can do about each.
 const UNDECODABLE: [(&str, &str); 2] = [
@@ -339,7 +340,7 @@ fn append_primitive(
     read_accessor(&pos, buffers, ctx, |c| {
         let c = c.map(|x| component(dt, normalized, x));
         let p = world * Vector4::new(c[0], c[1], c[2], 1.0);
-        if bad.is_none() && !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()) {
+        if bad.is_none() && !(in_range(p.x) && in_range(p.y) && in_range(p.z)) {
             bad = Some((raw.positions.len(), format!("{:?}", [p.x, p.y, p.z])));
         }
         raw.positions.push([p.x, p.y, p.z]);

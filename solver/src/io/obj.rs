@@ -15,9 +15,11 @@
 //! triangle corner's `vt`/`vn` index. A corner without one in a file whose other corners have
 //! them points at an appended neutral value (`[0, 0]`, normal `[0, 0, 0]` meaning "none").
 //! Vertex colours are per position (corners = position indices), white where a `v` line has
-//! none, alpha 1, values as written. A [`Part`] is a run of faces with one `usemtl` material
-//! and one `o`/`g` name (the last seen). Materials are listed in order of first `usemtl`, then
-//! the MTL's unused ones; a `usemtl` name no MTL defines is a default material of that name.
+//! none, alpha 1, values as written (one not finite in `f32` reads as white, with a notice).
+//! Coordinates are refused when not finite or beyond ±[`crate::MAX_COORDINATE`]. A [`Part`] is
+//! a run of faces with one `usemtl` material and one `o`/`g` name (the last seen). Materials are
+//! listed in order of first `usemtl`, then the MTL's unused ones; a `usemtl` name no MTL defines
+//! is a default material of that name.
 //!
 //! Why not `tobj` for the geometry: it reports no line numbers, accepts `nan`/`inf`
 //! coordinates, renumbers each object's vertices in order of first use (the asset needs the
@@ -32,7 +34,8 @@ use super::asset::{Asset, Attribute, Part};
 use super::error::{Ctx, LoadError};
 use super::mtl;
 use super::reference::Folder;
-use super::text::{as_text, coord};
+use super::text::{Replaced, as_text, coord};
+use crate::geometry::mesh::in_range;
 
 /// Parses OBJ bytes into an [`Asset`]; `folder` is where `mtllib` files are read from (`None`:
 /// MTL files are skipped with a notice).
@@ -165,49 +168,6 @@ fn number(tok: &str, ctx: Ctx, line: usize, what: &str) -> Result<f32, LoadError
         .map_err(|_| ctx.parse(Some(line), format!("{tok:?} is not a number ({what})")))
 }
 
-/// `vt`/`vn` lines, or `v` colours, with a non-finite number: how many, and the first line.
-#[derive(Default)]
-struct NonFinite {
-    count: usize,
-    first_line: usize,
-}
-
-impl NonFinite {
-    /// `value`, or `neutral` (counted) when a component is not finite.
-    fn check<const N: usize>(
-        &mut self,
-        value: [f32; N],
-        neutral: [f32; N],
-        line: usize,
-    ) -> [f32; N] {
-        if value.iter().all(|x| x.is_finite()) {
-            return value;
-        }
-        if self.count == 0 {
-            self.first_line = line;
-        }
-        self.count += 1;
-        neutral
-    }
-
-    /// Adds a later chunk's lines.
-    fn add(&mut self, later: &NonFinite) {
-        if self.count == 0 {
-            self.first_line = later.first_line;
-        }
-        self.count += later.count;
-    }
-
-    fn notice(&self, ctx: Ctx, what: &str, neutral: &str) -> Option<String> {
-        (self.count > 0).then(|| {
-            format!(
-                "{}:{}: {} {what} lines have a non-finite value (the first here); read as {neutral}",
-                ctx.file, self.first_line, self.count
-            )
-        })
-    }
-}
-
 /// Files of at least this many bytes are read in chunks side by side ([`validate`]).
 const CHUNK_BYTES: usize = 4 << 20;
 
@@ -293,10 +253,10 @@ struct Chunk {
     colors: Vec<(usize, [f32; 4])>,
     events: Vec<Event>,
     mtl_libs: Vec<String>,
-    bad_vt: NonFinite,
-    bad_vn: NonFinite,
+    bad_vt: Replaced,
+    bad_vn: Replaced,
     /// `v` lines whose colour is not finite in `f32` (a number beyond its range).
-    bad_color: NonFinite,
+    bad_color: Replaced,
 }
 
 /// Reads one chunk whose first line is the file's line `line + 1`, after `seen` elements;
@@ -321,32 +281,39 @@ fn read_chunk(
         match key {
             "v" => {
                 let vertex = seen.v;
+                // A colour is an attribute, read leniently (below); the coordinates are not.
+                let (coords, rgb) = rest.split_at(if rest.len() == 6 { 3 } else { rest.len() });
                 nums.clear();
-                for t in rest {
+                for t in coords {
                     nums.push(coord(t, ctx, line, vertex)?);
                 }
-                let (p, color) = match nums.as_slice() {
-                    [x, y, z] => ([*x, *y, *z], None),
-                    [x, y, z, r, g, b] => {
-                        ([*x, *y, *z], Some([*r as f32, *g as f32, *b as f32, 1.0]))
-                    }
-                    [x, y, z, w] if *w != 0.0 => ([x / w, y / w, z / w], None),
+                let p = match nums.as_slice() {
+                    [x, y, z] => [*x, *y, *z],
+                    [x, y, z, w] if *w != 0.0 => [x / w, y / w, z / w],
                     [_, _, _, _] => return Err(ctx.parse(Some(line), "vertex weight w is 0")),
                     _ => {
                         return Err(ctx.parse(
                             Some(line),
                             format!(
                                 "a vertex needs 3 numbers (x y z), 4 (x y z w) or 6 (x y z r g b), found {}",
-                                nums.len()
+                                rest.len()
                             ),
                         ));
                     }
                 };
-                if let Some(bad) = p.iter().find(|c| !c.is_finite()) {
-                    return Err(ctx.non_finite(Some(line), vertex, bad));
+                let color = match rgb {
+                    [r, g, b] => {
+                        let what = "vertex colour";
+                        let c = |t| number(t, ctx, line, what);
+                        Some([c(r)?, c(g)?, c(b)?, 1.0])
+                    }
+                    _ => None,
+                };
+                if let Some(bad) = p.iter().find(|&&c| !in_range(c)) {
+                    return Err(ctx.non_finite(Some(line), vertex, format!("{bad:e}")));
                 }
                 if let Some(c) = color {
-                    out.colors.push((vertex, out.bad_color.check(c, [1.0; 4], line)));
+                    out.colors.push((vertex, out.bad_color.check(c, [1.0; 4], Some(line), vertex)));
                 }
                 out.elements.positions.push(p);
                 seen.v += 1;
@@ -367,7 +334,12 @@ fn read_chunk(
                 if let Some(t) = rest.get(2) {
                     number(t, ctx, line, what)?;
                 }
-                out.elements.uv_values.push(out.bad_vt.check([u, 1.0 - v], [0.0; 2], line));
+                out.elements.uv_values.push(out.bad_vt.check(
+                    [u, 1.0 - v],
+                    [0.0; 2],
+                    Some(line),
+                    seen.vt,
+                ));
                 seen.vt += 1;
             }
             "vn" => {
@@ -383,7 +355,7 @@ fn read_chunk(
                     number(y, ctx, line, what)?,
                     number(z, ctx, line, what)?,
                 ];
-                out.elements.normal_values.push(out.bad_vn.check(n, [0.0; 3], line));
+                out.elements.normal_values.push(out.bad_vn.check(n, [0.0; 3], Some(line), seen.vn));
                 seen.vn += 1;
             }
             "f" => {
@@ -442,8 +414,8 @@ fn join(chunks: Vec<Chunk>, totals: &Totals, ctx: Ctx) -> Checked {
     let mut name = String::new();
     let mut material: Option<usize> = None;
     let mut material_index: HashMap<String, usize> = HashMap::new();
-    let (mut bad_vt, mut bad_vn) = (NonFinite::default(), NonFinite::default());
-    let mut bad_color = NonFinite::default();
+    let (mut bad_vt, mut bad_vn) = (Replaced::default(), Replaced::default());
+    let mut bad_color = Replaced::default();
     let coloured = chunks.iter().any(|c| !c.colors.is_empty());
     if coloured {
         out.colors = vec![[1.0; 4]; totals.v];
@@ -495,9 +467,9 @@ fn join(chunks: Vec<Chunk>, totals: &Totals, ctx: Ctx) -> Checked {
     for (p, end) in out.parts.iter_mut().zip(firsts) {
         p.count = end - p.first;
     }
-    out.notices.extend(bad_vt.notice(ctx, "vt", "[0, 0]"));
-    out.notices.extend(bad_vn.notice(ctx, "vn", "[0, 0, 0] (no normal)"));
-    out.notices.extend(bad_color.notice(ctx, "v colour", "white"));
+    out.notices.extend(bad_vt.notice(ctx, "vt lines", "[0, 0]"));
+    out.notices.extend(bad_vn.notice(ctx, "vn lines", "[0, 0, 0] (no normal)"));
+    out.notices.extend(bad_color.notice(ctx, "v colour lines", "white"));
     out
 }
 
@@ -673,20 +645,38 @@ mod tests {
         assert!(matches!(e, LoadError::Parse { line: Some(1), .. }), "{e}");
     }
 
-    /// A vertex colour beyond `f32`'s range (finite in the file's `f64`, as the fuzzer found)
-    /// is read as white with a notice naming the first such line; the file loads, and its asset
-    /// passes its own check. (A colour written as `nan` or `inf` is refused like a coordinate.)
+    /// A vertex colour that is not finite in `f32` (written `nan` or `inf`, or beyond `f32`'s
+    /// range though finite in the file's `f64`, as the fuzzer found) is read as white with a
+    /// notice naming the first such line: one rule for every bad colour; the file loads, and its
+    /// asset passes its own check. A coordinate beside it is still checked.
     #[test]
-    fn colours_beyond_f32_read_as_white() {
-        let text = "v 0 0 0 0.5 0.5 0.5\nv 1 0 0 1e50 0 0\nv 0 1 0 0 -1e39 1\nf 1 2 3\n";
+    fn bad_colours_read_as_white() {
+        let text = "v 0 0 0 0.5 0.5 0.5\nv 1 0 0 1e50 0 0\nv 0 1 0 0 -1e39 1\nv 0 0 1 0 nan INF\n\
+                    f 1 2 3\nf 1 2 4\n";
         let a = parse_str(text).unwrap();
         let c = a.colors.as_ref().unwrap();
-        assert_eq!(c.values, [[0.5, 0.5, 0.5, 1.0], [1.0; 4], [1.0; 4]]);
+        assert_eq!(c.values, [[0.5, 0.5, 0.5, 1.0], [1.0; 4], [1.0; 4], [1.0; 4]]);
         assert_eq!(a.notices.len(), 1, "{:?}", a.notices);
-        assert!(a.notices[0].starts_with("t.obj:2: 2 v colour lines"), "{:?}", a.notices);
+        assert!(a.notices[0].starts_with("t.obj:2: 3 v colour lines"), "{:?}", a.notices);
         a.check().unwrap();
-        let e = parse_str("v 0 0 0 0 nan 1\n").unwrap_err();
+        let e = parse_str("v 0 0 0 0 0 1\nv 0 nan 0 0 0 1\n").unwrap_err();
+        assert!(matches!(e, LoadError::NonFinite { line: Some(2), vertex: 1, .. }), "{e}");
+        let e = parse_str("v 0 0 0 0 x 1\n").unwrap_err();
+        assert!(matches!(e, LoadError::Parse { line: Some(1), .. }), "{e}");
+    }
+
+    /// A coordinate beyond ±1e30 (finite in `f64`, but more than the `f32` views and the export
+    /// hold) is refused like a non-finite one, naming the line and the limit; so is one that a
+    /// `w` below 1 pushes beyond it. The limit itself loads.
+    #[test]
+    fn coordinates_beyond_the_limit_are_refused() {
+        let e = parse_str("v 0 0 0\nv 1 2e30 0\n").unwrap_err();
+        assert!(matches!(e, LoadError::NonFinite { line: Some(2), vertex: 1, .. }), "{e}");
+        assert!(e.to_string().starts_with("t.obj:2: vertex 1 has a non-finite or out-of-range"));
+        assert!(e.to_string().contains("(2e30; the limit is ±1e30)"), "{e}");
+        let e = parse_str("v 1e30 0 0 1e-3\n").unwrap_err();
         assert!(matches!(e, LoadError::NonFinite { line: Some(1), vertex: 0, .. }), "{e}");
+        parse_str("v 1e30 -1e30 0\n").unwrap();
     }
 
     /// The file read in any number of chunks is the file read in one: relative indices,

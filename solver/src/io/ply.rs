@@ -18,7 +18,8 @@
 
 use super::asset::{Asset, Attribute};
 use super::error::{Ctx, LoadError};
-use super::text::{capped, integer, is_blank};
+use super::text::{Replaced, capped, integer, is_blank};
+use crate::geometry::mesh::in_range;
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Scalar {
@@ -419,6 +420,7 @@ fn read_body(
     let mut positions = Vec::with_capacity(capped(n_v, body_len, 3));
     let mut uvs: Vec<[f32; 2]> = Vec::new();
     let mut colors: Vec<[f32; 4]> = Vec::new();
+    let (mut bad_uv, mut bad_color) = (Replaced::default(), Replaced::default());
     let mut triangles = Vec::new();
     let mut polygon_sizes = Vec::new();
     let mut poly = Vec::new();
@@ -446,8 +448,12 @@ fn read_body(
                         let slot = if is_vertex { slots.get(k) } else { None };
                         match slot {
                             Some(Slot::Coord(c)) => {
-                                if !v.is_finite() {
-                                    return Err(ctx.non_finite(src.line(), index as usize, v));
+                                if !in_range(v) {
+                                    return Err(ctx.non_finite(
+                                        src.line(),
+                                        index as usize,
+                                        format!("{v:e}"),
+                                    ));
                                 }
                                 if let Some(slot) = p.get_mut(*c) {
                                     *slot = v;
@@ -507,11 +513,12 @@ fn read_body(
             src.end()?;
             if is_vertex {
                 positions.push(p);
+                let vertex = positions.len() - 1;
                 if has_uv {
-                    uvs.push(finite_or([uv[0], 1.0 - uv[1]], [0.0; 2]));
+                    uvs.push(bad_uv.check([uv[0], 1.0 - uv[1]], [0.0; 2], src.line(), vertex));
                 }
                 if has_color {
-                    colors.push(finite_or(color, [1.0; 4]));
+                    colors.push(bad_color.check(color, [1.0; 4], src.line(), vertex));
                 }
             }
         }
@@ -525,13 +532,9 @@ fn read_body(
     if has_color {
         asset.colors = Some(Attribute::per_vertex(colors, &asset.triangles));
     }
+    asset.notices.extend(bad_uv.notice(ctx, "vertex texture coordinates", "[0, 0]"));
+    asset.notices.extend(bad_color.notice(ctx, "vertex colours", "white"));
     Ok(asset)
-}
-
-/// `v`, or `fallback` when a component is not finite (attributes are not worth refusing a
-/// file over; positions are).
-fn finite_or<const N: usize>(v: [f32; N], fallback: [f32; N]) -> [f32; N] {
-    if v.iter().all(|x| x.is_finite()) { v } else { fallback }
 }
 
 /// What a vertex property holds: a coordinate (0..3), a UV component (0: u, 1: v), a colour
@@ -658,5 +661,50 @@ mod tests {
         let a = parse_bytes(format!("{HEAD}0 0 0 9\n1 0 0 9\n0 1 0.5 9\n3 0 1 2 7\n").as_bytes())
             .unwrap();
         assert!(a.uvs.is_empty() && a.colors.is_none());
+    }
+
+    /// A texture coordinate or colour not finite in `f32` reads as the neutral value with a
+    /// notice naming the first (its line in an ASCII file, its vertex in a binary one), as in
+    /// OBJ files; a coordinate beyond ±1e30 is refused like a non-finite one.
+    #[test]
+    fn bad_attributes_read_as_neutral_with_a_notice() {
+        let head = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nproperty float s\nproperty float t\nproperty double red\nproperty float green\nproperty float blue\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
+        let ply =
+            format!("{head}0 0 0 0 0 1 1 1\n1 0 0 nan 0 1e50 0 0\n0 1 0 0 1 0 inf 1\n3 0 1 2\n");
+        let a = parse_bytes(ply.as_bytes()).unwrap();
+        assert_eq!(a.uvs[0].values, [[0.0, 1.0], [0.0, 0.0], [0.0, 0.0]]);
+        assert_eq!(a.colors.as_ref().unwrap().values, [[1.0; 4]; 3]);
+        assert_eq!(a.notices.len(), 2, "{:?}", a.notices);
+        assert!(
+            a.notices[0].starts_with("t.ply:16: 1 vertex texture coordinates"),
+            "{:?}",
+            a.notices
+        );
+        assert!(a.notices[1].starts_with("t.ply:16: 2 vertex colours"), "{:?}", a.notices);
+        a.check().unwrap();
+        // Binary: no lines, the first vertex named.
+        let mut b = b"ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nproperty float red\nproperty float green\nproperty float blue\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n".to_vec();
+        for v in [
+            [0.0, 0.0, 0.0, 1.0, 1.0, 1.0],
+            [1.0, 0.0, 0.0, 0.5, 0.5, 0.5],
+            [0.0, 1.0, 0.0, 0.0, f32::NAN, 0.0],
+        ] {
+            b.extend(v.iter().flat_map(|x: &f32| x.to_le_bytes()));
+        }
+        b.push(3);
+        b.extend([0i32, 1, 2].iter().flat_map(|i| i.to_le_bytes()));
+        let a = parse_bytes(&b).unwrap();
+        assert_eq!(a.colors.as_ref().unwrap().values[2], [1.0; 4]);
+        assert_eq!(
+            a.notices,
+            [
+                "t.ply: 1 vertex colours have a non-finite value (the first: vertex 2); read as white"
+            ]
+        );
+        // A coordinate beyond the limit is refused, naming its line.
+        let ply = format!("{HEAD}0 0 0 9\n1 -3e30 0 9\n0 1 0.5 9\n3 0 1 2 7\n");
+        let e = parse_bytes(ply.as_bytes()).unwrap_err();
+        assert!(matches!(e, LoadError::NonFinite { line: Some(14), vertex: 1, .. }), "{e}");
+        assert!(e.to_string().contains("e30; the limit is ±1e30)"), "{e}");
     }
 }

@@ -14,6 +14,7 @@
 use super::asset::Asset;
 use super::error::{Ctx, LoadError};
 use super::text::{as_text, coord, token_lines};
+use crate::geometry::mesh::in_range;
 
 /// Parses STL bytes into soup positions (`3·#F×3`) and triangles (`#F×3`).
 pub(crate) fn parse(bytes: &[u8], ctx: Ctx) -> Result<Asset, LoadError> {
@@ -58,13 +59,14 @@ fn binary(bytes: &[u8], n: u64, ctx: Ctx) -> Result<Asset, LoadError> {
             for (c, slot) in p.iter_mut().enumerate() {
                 let at = 12 + 12 * k + 4 * c;
                 let b = rec.get(at..at + 4).and_then(|b| <[u8; 4]>::try_from(b).ok());
-                let x = f64::from(f32::from_le_bytes(b.unwrap_or_default()));
-                if !x.is_finite() {
+                let stored = f32::from_le_bytes(b.unwrap_or_default());
+                let x = f64::from(stored);
+                if !in_range(x) {
                     return Err(LoadError::NonFinite {
                         file: ctx.file.to_string(),
                         line: None,
                         vertex,
-                        value: format!("{x}, in triangle {t}"),
+                        value: format!("{stored:e}, in triangle {t}"),
                     });
                 }
                 *slot = x;
@@ -203,6 +205,11 @@ mod tests {
         assert_eq!(raw.triangles, vec![[0, 1, 2], [3, 4, 5]]);
         let e = parse_bytes(&b[..b.len() - 10]).unwrap_err();
         assert!(matches!(e, LoadError::Truncated { .. }), "{e}");
+        // An f32 coordinate beyond ±1e30 (finite, but its square is not) is refused.
+        let far = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, -1e35]];
+        let e = parse_bytes(&binary_stl(&[tri, far], b"far")).unwrap_err();
+        assert!(matches!(e, LoadError::NonFinite { line: None, vertex: 5, .. }), "{e}");
+        assert!(e.to_string().contains("(-1e35, in triangle 1; the limit is ±1e30)"), "{e}");
     }
 
     #[test]

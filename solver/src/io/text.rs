@@ -1,6 +1,63 @@
 //! Helpers shared by the text formats (OBJ, OFF, ASCII PLY, ASCII STL).
 
 use super::error::{Ctx, LoadError};
+use crate::geometry::mesh::in_range;
+
+/// Attribute values (texture coordinates, normals, colours) not finite in `f32`, each read as a
+/// neutral value rather than refusing the file (attributes are not worth refusing a file over;
+/// positions are): how many, and where the first was (its line in a text file, or its vertex in a
+/// binary one), for one notice.
+#[derive(Default)]
+pub(crate) struct Replaced {
+    count: usize,
+    /// The first replaced value's line, if the file has lines, and its vertex.
+    first: Option<(Option<usize>, usize)>,
+}
+
+impl Replaced {
+    /// `value`, or `neutral` (counted) when a component is not finite; `line` and `index` say
+    /// where `value` was read.
+    pub(crate) fn check<const N: usize>(
+        &mut self,
+        value: [f32; N],
+        neutral: [f32; N],
+        line: Option<usize>,
+        index: usize,
+    ) -> [f32; N] {
+        if value.iter().all(|x| x.is_finite()) {
+            return value;
+        }
+        self.first.get_or_insert((line, index));
+        self.count += 1;
+        neutral
+    }
+
+    /// Adds the values replaced in a later part of the file.
+    pub(crate) fn add(&mut self, later: &Replaced) {
+        if self.first.is_none() {
+            self.first = later.first;
+        }
+        self.count += later.count;
+    }
+
+    /// The notice, if any value was replaced: `FILE:LINE: N WHAT have a non-finite value (the
+    /// first here); read as NEUTRAL`, or without lines `FILE: N WHAT have a non-finite value (the
+    /// first: vertex I); read as NEUTRAL`. `what` is plural ("vt lines", "vertex colours").
+    pub(crate) fn notice(&self, ctx: Ctx, what: &str, neutral: &str) -> Option<String> {
+        let (line, index) = self.first?;
+        let (file, count) = (ctx.file, self.count);
+        Some(match line {
+            Some(line) => format!(
+                "{file}:{line}: {count} {what} have a non-finite value (the first here); read as \
+                 {neutral}"
+            ),
+            None => format!(
+                "{file}: {count} {what} have a non-finite value (the first: vertex {index}); read \
+                 as {neutral}"
+            ),
+        })
+    }
+}
 
 /// The bytes as text, without a UTF-8 byte-order mark.
 ///
@@ -31,12 +88,13 @@ pub(crate) fn is_blank(bytes: &[u8]) -> bool {
 /// Parses one coordinate of vertex `vertex` (0-based) on `line`.
 ///
 /// Errors: [`LoadError::Parse`] for a token that is not a number, [`LoadError::NonFinite`] for
-/// `nan`, `inf` or a number that overflows `f64` (such as `1e400`).
+/// `nan`, `inf`, a number that overflows `f64` (such as `1e400`) or one beyond
+/// ±[`crate::MAX_COORDINATE`] (such as `1e31`, which the `f32` views cannot hold).
 pub(crate) fn coord(tok: &str, ctx: Ctx, line: usize, vertex: usize) -> Result<f64, LoadError> {
     let x: f64 = tok
         .parse()
         .map_err(|_| ctx.parse(Some(line), format!("{tok:?} is not a number (vertex {vertex})")))?;
-    if x.is_finite() { Ok(x) } else { Err(ctx.non_finite(Some(line), vertex, tok)) }
+    if in_range(x) { Ok(x) } else { Err(ctx.non_finite(Some(line), vertex, tok)) }
 }
 
 /// Parses a signed integer token (a face index or count) on `line`.

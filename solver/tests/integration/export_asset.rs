@@ -9,9 +9,10 @@ use std::ops::ControlFlow;
 use std::path::{Path as FsPath, PathBuf};
 
 use base64::Engine as _;
+use solver::MAX_COORDINATE;
 use solver::animation::export::{
-    AssetExport, Encoding, ExportError, ExportSettings, GltfExport, GltfFormat, MAX_COORDINATE,
-    export_asset, exported_size,
+    AssetExport, Encoding, ExportError, ExportSettings, GltfExport, GltfFormat, export_asset,
+    exported_size,
 };
 use solver::animation::recording::Recording;
 use solver::io::{Asset, Attribute, Format, Image, Material, Part, load_mesh_from_bytes};

@@ -83,7 +83,7 @@ use gltf_json as json;
 use thiserror::Error;
 
 use crate::animation::recording::Recording;
-use crate::geometry::mesh::Mesh;
+use crate::geometry::mesh::{MAX_COORDINATE, Mesh, first_out_of_range};
 use crate::io::asset::Asset;
 use crate::io::{SaveError, write_atomic};
 use layout::Layout;
@@ -331,13 +331,11 @@ fn kept_frames(n: usize, k: usize) -> Vec<usize> {
     kept
 }
 
-/// The largest coordinate an export takes: far inside `f32`'s range, so that the deltas, normals
-/// and quantization scales computed from the stored `f32` positions stay finite.
-pub const MAX_COORDINATE: f64 = 1e30;
-
+/// [`ExportError::NonFinite`] for the first vertex of `p` out of the range the stored `f32`
+/// positions, their deltas, normals and quantization scales hold ([`MAX_COORDINATE`]).
 fn check_finite(what: String, p: &[[f64; 3]]) -> Result<(), ExportError> {
-    match p.iter().position(|p| p.iter().any(|c| !c.is_finite() || c.abs() > MAX_COORDINATE)) {
-        Some(vertex) => Err(ExportError::NonFinite { what, vertex }),
+    match first_out_of_range(p) {
+        Some((vertex, _)) => Err(ExportError::NonFinite { what, vertex }),
         None => Ok(()),
     }
 }

@@ -27,12 +27,13 @@ use super::{
     Affine, Data, FitError, FitProgress, FitStage, Influences, MAX_BONES, MAX_INFLUENCES, Progress,
     Skinning, SkinningConfig, SkinningError, affine, even_sample, init, transforms, weights,
 };
+use crate::geometry::mesh::first_out_of_range;
 use crate::linalg::rigid::Motion;
 use crate::linalg::rotation::mul_vec;
 
 fn check_finite(what: String, p: &[[f64; 3]]) -> Result<(), SkinningError> {
-    match p.iter().position(|p| p.iter().any(|c| !c.is_finite())) {
-        Some(vertex) => Err(SkinningError::NonFinite { what, vertex }),
+    match first_out_of_range(p) {
+        Some((vertex, _)) => Err(SkinningError::NonFinite { what, vertex }),
         None => Ok(()),
     }
 }

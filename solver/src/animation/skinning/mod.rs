@@ -36,6 +36,7 @@ use std::ops::ControlFlow;
 
 use thiserror::Error;
 
+use crate::geometry::mesh::MAX_COORDINATE;
 use crate::linalg::rigid::Motion;
 
 pub use fit::fit_skinning;
@@ -56,7 +57,7 @@ pub enum SkinningError {
     Bones { bones: usize, max: usize },
     #[error("{0} influences per vertex: give 1 to 4")]
     Influences(usize),
-    #[error("{what} is not finite at vertex {vertex}")]
+    #[error("{what} is not finite, or beyond ±{MAX_COORDINATE:e}, at vertex {vertex}")]
     NonFinite { what: String, vertex: usize },
     #[error("bone fitting cancelled")]
     Cancelled,
