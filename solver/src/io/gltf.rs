@@ -151,22 +151,14 @@ pub(crate) fn parse(bytes: &[u8], ctx: Ctx, folder: Option<Folder>) -> Result<As
         draco: used("KHR_draco_mesh_compression"),
         quantization: used("KHR_mesh_quantization"),
     };
+    let source = Source { buffers: &buffers, ctx, extensions };
 
     let mut raw = Asset::default();
     let mut layers = Layers::default();
     let mut visit = |node: &str, mesh: ::gltf::Mesh, world: &Matrix4<f64>| {
         for prim in mesh.primitives() {
             let names = (mesh.name().unwrap_or_default(), node);
-            append_primitive(
-                &mut raw,
-                &mut layers,
-                &prim,
-                names,
-                world,
-                &buffers,
-                ctx,
-                extensions,
-            )?;
+            append_primitive(&mut raw, &mut layers, &prim, names, world, source)?;
         }
         Ok::<(), LoadError>(())
     };
@@ -292,19 +284,26 @@ struct Extensions {
     quantization: bool,
 }
 
+/// What every primitive of one file is read with: the file's buffers, its name for errors and
+/// the extensions it uses.
+#[derive(Clone, Copy)]
+struct Source<'a> {
+    buffers: &'a [Vec<u8>],
+    ctx: Ctx<'a>,
+    extensions: Extensions,
+}
+
 /// Appends one primitive's transformed positions, its triangles, its vertex attributes and
 /// its [`Part`] (`names`: the mesh's and the node's) to `raw`.
-#[allow(clippy::too_many_arguments)]
 fn append_primitive(
     raw: &mut Asset,
     layers: &mut Layers,
     prim: &::gltf::Primitive,
     names: (&str, &str),
     world: &Matrix4<f64>,
-    buffers: &[Vec<u8>],
-    ctx: Ctx,
-    extensions: Extensions,
+    source: Source,
 ) -> Result<(), LoadError> {
+    let Source { buffers, ctx, extensions } = source;
     let mesh_name = |p: &::gltf::Primitive| format!("primitive {}", p.index());
     let mode = prim.mode();
     if !matches!(mode, Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan) {
@@ -350,7 +349,7 @@ fn append_primitive(
     }
     let n = raw.positions.len() - base;
     let span = (base, n);
-    read_layers(layers, &mut raw.notices, prim, span, world, buffers, ctx, extensions)?;
+    read_layers(layers, &mut raw.notices, prim, span, world, source)?;
     let mut indices = Vec::new();
     match prim.indices() {
         Some(acc) => {
@@ -477,21 +476,18 @@ fn component(dt: DataType, normalized: bool, c: f64) -> f64 {
 /// (neutral values where it lacks one). Normals are transformed by the inverse transpose of
 /// the node's linear part, $n' = M^{-\top} n / \lVert M^{-\top} n \rVert$, which also
 /// turns them correctly under a mirror (no extra flip; a singular $M$ gives `[0, 0, 0]`).
-/// Integer normals and texture coordinates only with `extensions.quantization`.
-#[allow(clippy::too_many_arguments)]
+/// Integer normals and texture coordinates only with the file's `KHR_mesh_quantization`.
 fn read_layers(
     layers: &mut Layers,
     notices: &mut Vec<String>,
     prim: &::gltf::Primitive,
     (before, n): (usize, usize),
     world: &Matrix4<f64>,
-    buffers: &[Vec<u8>],
-    ctx: Ctx,
-    extensions: Extensions,
+    source: Source,
 ) -> Result<(), LoadError> {
     use ::gltf::Semantic;
-    let q = extensions.quantization;
-    let mut read = |spec: Spec| attribute(prim, &spec, n, buffers, ctx, notices);
+    let q = source.extensions.quantization;
+    let mut read = |spec: Spec| attribute(prim, &spec, n, source, notices);
     let normal_matrix: Option<Matrix3<f64>> =
         world.fixed_view::<3, 3>(0, 0).into_owned().try_inverse().map(|m| m.transpose());
     let normal = Spec {
@@ -559,10 +555,10 @@ fn attribute(
     prim: &::gltf::Primitive,
     spec: &Spec,
     n: usize,
-    buffers: &[Vec<u8>],
-    ctx: Ctx,
+    source: Source,
     notices: &mut Vec<String>,
 ) -> Result<Option<Vec<[f32; 4]>>, LoadError> {
+    let Source { buffers, ctx, .. } = source;
     let Some(acc) = prim.get(&spec.semantic) else { return Ok(None) };
     let name = spec.name;
     let (dt, dim, normalized) = (acc.data_type(), acc.dimensions(), acc.normalized());
