@@ -42,7 +42,7 @@
 
 use app::editor::pose::{group_transforms, handle_targets};
 use app::editor::pose_solvers::factory;
-use app::editor::shape::ShapePool;
+use app::editor::shape::{ShapePool, display_origin};
 use app::editor::solver_thread::{MethodSettings, Slot};
 use solver::GroupTransform;
 use std::time::Instant;
@@ -136,6 +136,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let make = factory(Default::default());
     let vertex_faces =
         solver::geometry::normals::VertexFaces::new(mesh.n_vertices(), mesh.triangles());
+    let origin = display_origin(&mesh);
     let mut settling = Vec::new();
     for (m, aa) in methods {
         let acceleration = if aa {
@@ -174,6 +175,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let ts = Instant::now();
             let shape = shapes.shape(
                 d.positions(),
+                origin,
                 mesh.triangles(),
                 (!gpu_normals).then_some(&vertex_faces),
             );
@@ -388,11 +390,13 @@ fn drag_while_factoring(
         t.elapsed().as_secs_f64()
     );
     let (mut times, mut shapes, mut shown) = (Vec::new(), ShapePool::default(), None);
+    let origin = display_origin(mesh);
     for f in 1..=frames {
         let t = Instant::now();
         d.solve(&group_transforms(handles, &pose(f)))?;
         std::hint::black_box(shown.replace(shapes.shape(
             d.positions(),
+            origin,
             mesh.triangles(),
             Some(vertex_faces),
         )));

@@ -71,7 +71,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         for (v, p) in cpu.fixed_vertices() {
             out[v as usize] = p;
         }
-        let shape = Shape::new(&out, mesh.triangles());
+        let shape = Shape::new(&out, [0.0; 3], mesh.triangles());
         cpu_ms += t.elapsed().as_secs_f64() * 1e3;
 
         let t = Instant::now();

@@ -173,7 +173,7 @@ fn shape_f32(c: &mut Criterion) {
     let (mut positions, mut normals) = (Vec::new(), Vec::new());
     let mut g = c.benchmark_group("shape_f32");
     g.bench_function(BenchmarkId::from_parameter(mesh.n_vertices()), |b| {
-        b.iter(|| faces.shape_f32(&pose, mesh.triangles(), &mut positions, &mut normals))
+        b.iter(|| faces.shape_f32(&pose, [0.0; 3], mesh.triangles(), &mut positions, &mut normals))
     });
     g.finish();
 }

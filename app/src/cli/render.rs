@@ -137,13 +137,14 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
         pb.finish_and_clear();
         let t = mesh.triangles();
         let faces = solver::geometry::normals::VertexFaces::new(mesh.n_vertices(), t);
-        recording.frames.iter().map(|f| Shape::with_faces(f, t, &faces)).collect()
+        recording.frames.iter().map(|f| Shape::with_faces(f, file.origin, t, &faces)).collect()
     } else {
         vec![file.rest.clone()]
     };
     let solve_s = t1.elapsed().as_secs_f64();
 
-    let applied = apply_scene(&doc, handles.labels().to_vec(), &MethodSettings::default());
+    let labels = handles.labels().to_vec();
+    let applied = apply_scene(&doc, labels, &MethodSettings::default(), file.origin);
     let group_colors: Vec<_> = applied.edit.groups.iter().map(|g| g.color).collect();
     let render = file.render.clone().filter(|r| r.has_texture_or_colors());
     let colors = capture::vertex_colors(
@@ -153,7 +154,7 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
         render.is_some(),
     );
     let aspect = settings.width as f32 / settings.height as f32;
-    let camera = doc.camera.as_ref().and_then(OrbitCamera::from_json).unwrap_or_else(|| {
+    let camera = applied.camera.unwrap_or_else(|| {
         let mut c = OrbitCamera::default();
         c.frame(file.center, file.radius, aspect);
         c

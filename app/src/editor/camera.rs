@@ -6,6 +6,8 @@
 
 use glam::{Mat4, Vec3, Vec4};
 
+use super::shape::to_f32_from;
+
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct OrbitCamera {
     pub target: Vec3,
@@ -145,10 +147,13 @@ impl OrbitCamera {
         (near, (far - near).normalize_or(-self.back()))
     }
 
-    /// The camera as scene-file JSON: `{"target": [x, y, z], "yaw", "pitch", "distance", "fov_y"}`.
-    pub fn to_json(&self) -> serde_json::Value {
+    /// The camera as scene-file JSON: `{"target": [x, y, z], "yaw", "pitch", "distance", "fov_y"}`,
+    /// the target in the mesh's coordinates (the camera's own is in the display space of
+    /// `origin`, `crate::editor::shape`), so that a scene does not depend on the origin.
+    pub fn to_json(&self, origin: [f64; 3]) -> serde_json::Value {
+        let target: [f64; 3] = std::array::from_fn(|k| f64::from(self.target[k]) + origin[k]);
         serde_json::json!({
-            "target": self.target.to_array(),
+            "target": target,
             "yaw": self.yaw,
             "pitch": self.pitch,
             "distance": self.distance,
@@ -156,13 +161,13 @@ impl OrbitCamera {
         })
     }
 
-    /// Reads [`OrbitCamera::to_json`]'s format; `None` when a field is missing or out of range
-    /// (the caller then frames the mesh instead).
-    pub fn from_json(v: &serde_json::Value) -> Option<OrbitCamera> {
+    /// Reads [`OrbitCamera::to_json`]'s format into the display space of `origin`; `None` when
+    /// a field is missing or out of range (the caller then frames the mesh instead).
+    pub fn from_json(v: &serde_json::Value, origin: [f64; 3]) -> Option<OrbitCamera> {
         let f = |k: &str| v.get(k)?.as_f64().map(|x| x as f32).filter(|x| x.is_finite());
         let t = v.get("target")?.as_array()?;
-        let t: Vec<f32> = t.iter().filter_map(|x| x.as_f64()).map(|x| x as f32).collect();
-        let target = Vec3::from_slice(t.get(..3)?);
+        let t: Vec<f64> = t.iter().filter_map(|x| x.as_f64()).collect();
+        let target = Vec3::from(to_f32_from(origin, t.get(..3)?.try_into().ok()?));
         let cam = OrbitCamera {
             target,
             yaw: f("yaw")?,
@@ -202,10 +207,22 @@ mod tests {
         let mut cam = OrbitCamera::default();
         cam.frame(Vec3::new(1.0, -2.0, 0.5), 3.0, 1.2);
         cam.orbit(40.0, -10.0);
-        assert_eq!(OrbitCamera::from_json(&cam.to_json()), Some(cam));
-        assert_eq!(OrbitCamera::from_json(&serde_json::json!({"yaw": 1})), None);
-        let mut bad = cam.to_json();
+        assert_eq!(OrbitCamera::from_json(&cam.to_json([0.0; 3]), [0.0; 3]), Some(cam));
+        assert_eq!(OrbitCamera::from_json(&serde_json::json!({"yaw": 1}), [0.0; 3]), None);
+        let mut bad = cam.to_json([0.0; 3]);
         bad["target"] = serde_json::json!([1, "x", 2]);
-        assert_eq!(OrbitCamera::from_json(&bad), None);
+        assert_eq!(OrbitCamera::from_json(&bad, [0.0; 3]), None);
+    }
+
+    /// The file holds the target in the mesh's coordinates, the camera in its display space:
+    /// a mesh five million units out keeps its camera to the millimetre through a save.
+    #[test]
+    fn json_target_is_in_the_mesh_coordinates() {
+        let origin = [5.0e5, 5.0e6, -3.0];
+        let mut cam = OrbitCamera::default();
+        cam.frame(Vec3::new(0.25, -0.5, 0.125), 3.0, 1.2);
+        let json = cam.to_json(origin);
+        assert_eq!(json["target"], serde_json::json!([500000.25, 4999999.5, -2.875]));
+        assert_eq!(OrbitCamera::from_json(&json, origin), Some(cam));
     }
 }

@@ -343,7 +343,7 @@ mod tests {
                 size: [64, 64],
                 camera,
                 topology: topology.clone(),
-                shape: Shape::new(&x, triangles),
+                shape: Shape::new(&x, [0.0; 3], triangles),
                 colors: vec![[0.8, 0.5, 0.3, 1.0]; x.len()],
                 render: None,
                 grid: None,

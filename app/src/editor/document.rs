@@ -25,6 +25,8 @@ pub struct DocumentInput<'a> {
     pub edit: &'a EditState,
     pub settings: &'a MethodSettings,
     pub camera: &'a OrbitCamera,
+    /// The origin of the mesh's display space, where `camera` is (`crate::editor::shape`).
+    pub origin: [f64; 3],
     pub time: f64,
     /// The texture the user loaded (saved relative to the scene), if any.
     pub texture: Option<&'a Path>,
@@ -52,7 +54,7 @@ pub fn to_scene(scene_path: &Path, input: &DocumentInput) -> Result<Scene, Strin
     scene.method = s.bs_variant;
     scene.arap = s.arap_config();
     scene.base = s.base_config();
-    scene.camera = Some(input.camera.to_json());
+    scene.camera = Some(input.camera.to_json(input.origin));
     scene.texture = input.texture.map(|t| relative_path(&dir, &absolute(t)));
     scene.up_axis = input.up_axis;
     let groups: Vec<serde_json::Value> = edit
@@ -91,8 +93,13 @@ pub struct Applied {
 }
 
 /// The editor state of `scene` whose handles resolved to `labels`; `settings` are the current
-/// ones (kept where the scene says nothing).
-pub fn apply_scene(scene: &Scene, labels: Vec<Option<u32>>, settings: &MethodSettings) -> Applied {
+/// ones (kept where the scene says nothing); the camera in the display space of `origin`.
+pub fn apply_scene(
+    scene: &Scene,
+    labels: Vec<Option<u32>>,
+    settings: &MethodSettings,
+    origin: [f64; 3],
+) -> Applied {
     let mut edit = EditState::from_labels(labels);
     let extra = scene.editor.as_ref();
     if let Some(groups) = extra.and_then(|e| e.get("groups")).and_then(|g| g.as_array()) {
@@ -139,7 +146,7 @@ pub fn apply_scene(scene: &Scene, labels: Vec<Option<u32>>, settings: &MethodSet
     };
     // Settling is the editor's own setting, not the scene's.
     s.base = solver::BaseConfig { settle_iterations: s.base.settle_iterations, ..scene.base };
-    let camera = scene.camera.as_ref().and_then(OrbitCamera::from_json);
+    let camera = scene.camera.as_ref().and_then(|c| OrbitCamera::from_json(c, origin));
     Applied { edit, settings: s, camera, time, notice }
 }
 
@@ -194,6 +201,7 @@ mod tests {
             edit: &edit,
             settings: &settings,
             camera: &camera,
+            origin: [10.0, -3.0, 0.5],
             time: 0.5,
             texture: None,
             up_axis: Default::default(),
@@ -208,6 +216,7 @@ mod tests {
             &loaded.scene,
             loaded.handles.labels().to_vec(),
             &MethodSettings::default(),
+            input.origin,
         );
         assert_eq!(back.edit.labels, edit.labels);
         assert_eq!(back.edit.groups[0].name, "left cap");
@@ -257,6 +266,7 @@ mod tests {
             edit: &edit,
             settings: &MethodSettings::default(),
             camera: &camera,
+            origin: [0.0; 3],
             time: 0.0,
             texture: None,
             up_axis: Default::default(),
@@ -270,7 +280,7 @@ mod tests {
 
         let loaded = solver::animation::scene::Scene::load(&scene_path).unwrap();
         let labels = loaded.handles.labels().to_vec();
-        let back = apply_scene(&loaded.scene, labels.clone(), &MethodSettings::default());
+        let back = apply_scene(&loaded.scene, labels.clone(), &MethodSettings::default(), [0.0; 3]);
         assert_eq!(back.edit.loose_parts, edit.loose_parts);
         assert_eq!(back.edit.loose_parts.mode(2), ComponentMode::Pin);
         assert_eq!(back.edit.loose_parts.mode(1), ComponentMode::Follow);
@@ -281,7 +291,7 @@ mod tests {
         let old_path = dir.join("old.json");
         std::fs::write(&old_path, serde_json::to_string(&value).unwrap()).unwrap();
         let old = solver::animation::scene::Scene::load(&old_path).unwrap();
-        let back = apply_scene(&old.scene, labels, &MethodSettings::default());
+        let back = apply_scene(&old.scene, labels, &MethodSettings::default(), [0.0; 3]);
         assert_eq!(back.edit.loose_parts, LooseParts::default());
     }
 
@@ -308,6 +318,7 @@ mod tests {
             edit: &edit,
             settings: &MethodSettings::default(),
             camera: &camera,
+            origin: [0.0; 3],
             time: 0.0,
             texture: None,
             up_axis: Default::default(),
@@ -317,7 +328,7 @@ mod tests {
         let loaded = solver::animation::scene::Scene::load(&scene_path).unwrap();
         assert_eq!(loaded.handles.rig().falloff(1).radius, 0.125);
         let labels = loaded.handles.labels().to_vec();
-        let back = apply_scene(&loaded.scene, labels.clone(), &MethodSettings::default());
+        let back = apply_scene(&loaded.scene, labels.clone(), &MethodSettings::default(), [0.0; 3]);
         assert_eq!(back.edit.rigidity, edit.rigidity);
         assert_eq!(back.edit.groups[1].falloff, edit.groups[1].falloff);
         assert_eq!(back.edit.groups[0].falloff, Falloff::default());
@@ -332,7 +343,7 @@ mod tests {
         std::fs::write(&old_path, serde_json::to_string(&value).unwrap()).unwrap();
         let old = solver::animation::scene::Scene::load(&old_path).unwrap();
         assert!(old.handles.rig().is_plain());
-        let back = apply_scene(&old.scene, labels, &MethodSettings::default());
+        let back = apply_scene(&old.scene, labels, &MethodSettings::default(), [0.0; 3]);
         assert_eq!(back.edit.rigidity, None);
         assert_eq!(back.edit.symmetry, SymmetrySpec::default());
     }

@@ -28,7 +28,7 @@ use solver::{
 
 use super::loader::FileLayout;
 use super::pose::handle_targets;
-use super::shape::Shape;
+use super::shape::{Shape, display_origin};
 
 mod bones;
 pub use bones::{BakeView, Baked, Baking, spawn_bake};
@@ -330,8 +330,10 @@ pub fn spawn_record(
                     .and_then(|e| e.file_size())
                     .map_err(|e| format!("recording: {e}"))?;
             let t = mesh.triangles();
-            let shapes =
-                recording.frames.iter().map(|f| Shape::with_faces(f, t, &vertex_faces)).collect();
+            let origin = display_origin(&mesh);
+            let shapes = (recording.frames.iter())
+                .map(|f| Shape::with_faces(f, origin, t, &vertex_faces))
+                .collect();
             Ok(Recorded {
                 recording: Arc::new(recording),
                 shapes,
@@ -411,7 +413,8 @@ pub struct QualityInput {
     pub handles: Handles,
     pub poses: Vec<GroupTransform>,
     pub energy: solver::deform::quality::ReferenceEnergy,
-    /// The two side-by-side results (left, right).
+    /// The two side-by-side results (left, right), as drawn: in the mesh's display space
+    /// (`crate::editor::shape`).
     pub results: [Arc<Vec<[f32; 3]>>; 2],
 }
 
@@ -429,8 +432,10 @@ pub fn spawn_quality(
         let mut reference =
             solver::deform::quality::Reference::new(&mesh, &handles, &targets, energy)
                 .map_err(|e| format!("quality reference: {e}"))?;
-        let f64s =
-            |x: &[[f32; 3]]| -> Vec<[f64; 3]> { x.iter().map(|p| p.map(f64::from)).collect() };
+        let origin = display_origin(&mesh);
+        let f64s = |x: &[[f32; 3]]| -> Vec<[f64; 3]> {
+            x.iter().map(|p| [0, 1, 2].map(|k| f64::from(p[k]) + origin[k])).collect()
+        };
         if results.iter().any(|r| r.len() != mesh.n_vertices()) {
             return Err("a result does not match the mesh".into());
         }

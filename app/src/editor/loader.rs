@@ -22,7 +22,7 @@ use solver::{Handles, Mesh};
 use super::draw_data::{Topology, VertexData};
 use super::render_layout::RenderLayout;
 use super::renderer::build_grid;
-use super::shape::Shape;
+use super::shape::{Shape, display_origin, to_f32_from};
 use solver::geometry::bvh::Bvh;
 
 /// A mesh file's own layout ([`solver::io::Asset`]) and cleaning's map from its vertices to the
@@ -54,6 +54,9 @@ pub struct LoadedFile {
     /// textures, with cleaning's map from its vertices to the mesh's (selections of the file as
     /// read, and exports onto the file's vertices, go through it).
     pub layout: Arc<FileLayout>,
+    /// The origin of the mesh's display space ([`crate::editor::shape::display_origin`]):
+    /// `rest`, `center`, the grid, the camera and picking are relative to it.
+    pub origin: [f64; 3],
     pub rest: Shape,
     /// Each vertex's triangles: the solver threads' per-frame normals and the viewport's GPU
     /// normals read them (built once here, off the UI thread).
@@ -186,7 +189,8 @@ fn prepare(
         start(mesh.clone());
     }
     let vertex_faces = Arc::new(VertexFaces::new(mesh.n_vertices(), mesh.triangles()));
-    let rest = Shape::with_faces(mesh.positions(), mesh.triangles(), &vertex_faces);
+    let origin = display_origin(&mesh);
+    let rest = Shape::with_faces(mesh.positions(), origin, mesh.triangles(), &vertex_faces);
     let rest_f32: &[[f32; 3]] = &rest.positions;
     // Independent, and each a second or so on a dense mesh: side by side.
     // The adjacency is kept with the mesh, where the mesh's own precomputation finds it.
@@ -194,8 +198,7 @@ fn prepare(
         rayon::join(|| mesh.adjacency(), || Bvh::build(rest_f32, mesh.triangles()));
     let diagonal = mesh.bbox_diagonal();
     let (lo, hi) = mesh.bounding_box();
-    let lo = Vec3::new(lo[0] as f32, lo[1] as f32, lo[2] as f32);
-    let hi = Vec3::new(hi[0] as f32, hi[1] as f32, hi[2] as f32);
+    let (lo, hi) = (Vec3::from(to_f32_from(origin, lo)), Vec3::from(to_f32_from(origin, hi)));
     let center = (lo + hi) * 0.5;
     let radius = ((hi - lo).length() * 0.5).max(1e-6);
     let grid = Arc::new(VertexData { version, vertices: build_grid(center, lo.y, radius * 1.5) });
@@ -237,6 +240,7 @@ fn prepare(
         mesh,
         notices,
         layout: Arc::new(FileLayout { asset: loaded.asset, vertex_map: loaded.report.vertex_map }),
+        origin,
         rest,
         vertex_faces,
         topology,

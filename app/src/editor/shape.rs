@@ -2,10 +2,24 @@
 //! positions are made (the solver thread, the loader, the recording job), and shared with the
 //! renderer and picking as `Arc`s. A frame may come without normals when the viewport
 //! computes them on the GPU (`gpu::normals`, in clay and texture shading alike).
+//!
+//! **Display space.** Every `f32` position the viewport draws or picks (shapes, the camera, the
+//! gizmo, the grid) is relative to the mesh's [`display_origin`], the centre of its rest
+//! bounding box, the difference taken in `f64` ([`to_f32_from`]); the solver, scenes and exports
+//! keep the file's coordinates. A mesh far from the world's origin (a georeferenced scan at
+//! 5·10⁶ m) so keeps its detail on screen.
 
 use std::sync::Arc;
 
+use solver::Mesh;
 use solver::geometry::normals::VertexFaces;
+pub use solver::geometry::normals::to_f32_from;
+
+/// The origin of `mesh`'s display space (module doc): the centre of its rest bounding box.
+pub fn display_origin(mesh: &Mesh) -> [f64; 3] {
+    let (lo, hi) = mesh.bounding_box();
+    [0, 1, 2].map(|k| 0.5 * (lo[k] + hi[k]))
+}
 
 /// Positions to draw with their vertex normals (module doc: where each is computed).
 #[derive(Debug, Clone)]
@@ -17,16 +31,21 @@ pub struct Shape {
 impl Shape {
     /// One pose of a mesh (`triangles` index `x`): [`Shape::with_faces`] with the vertices'
     /// triangles found for it alone.
-    pub fn new(x: &[[f64; 3]], triangles: &[[u32; 3]]) -> Shape {
-        Shape::with_faces(x, triangles, &VertexFaces::new(x.len(), triangles))
+    pub fn new(x: &[[f64; 3]], origin: [f64; 3], triangles: &[[u32; 3]]) -> Shape {
+        Shape::with_faces(x, origin, triangles, &VertexFaces::new(x.len(), triangles))
     }
 
-    /// A pose of the mesh `faces` was built for: f32 positions and area-weighted vertex
-    /// normals ([`VertexFaces::shape_f32`], in parallel; the solver thread's per-frame path,
-    /// and every frame of a recording).
-    pub fn with_faces(x: &[[f64; 3]], triangles: &[[u32; 3]], faces: &VertexFaces) -> Shape {
+    /// A pose of the mesh `faces` was built for, in the display space of `origin`: f32
+    /// positions and area-weighted vertex normals ([`VertexFaces::shape_f32`], in parallel; the
+    /// solver thread's per-frame path, and every frame of a recording).
+    pub fn with_faces(
+        x: &[[f64; 3]],
+        origin: [f64; 3],
+        triangles: &[[u32; 3]],
+        faces: &VertexFaces,
+    ) -> Shape {
         let (mut positions, mut normals) = (Vec::new(), Vec::new());
-        faces.shape_f32(x, triangles, &mut positions, &mut normals);
+        faces.shape_f32(x, origin, triangles, &mut positions, &mut normals);
         Shape { positions: Arc::new(positions), normals: Arc::new(normals) }
     }
 }
@@ -56,17 +75,18 @@ impl ShapePool {
     pub fn shape(
         &mut self,
         x: &[[f64; 3]],
+        origin: [f64; 3],
         triangles: &[[u32; 3]],
         faces: Option<&VertexFaces>,
     ) -> Shape {
         let (mut positions, mut normals) = self.take_free().unwrap_or_default();
         match faces {
-            Some(faces) => faces.shape_f32(x, triangles, &mut positions, &mut normals),
+            Some(faces) => faces.shape_f32(x, origin, triangles, &mut positions, &mut normals),
             None => {
                 use rayon::prelude::*;
                 positions.resize(x.len(), [0.0; 3]);
                 positions.par_iter_mut().zip(x.par_iter()).for_each(|(o, p)| {
-                    *o = p.map(|c| c as f32);
+                    *o = to_f32_from(origin, *p);
                 });
                 normals.clear();
             }
@@ -104,14 +124,14 @@ mod tests {
         let faces = VertexFaces::new(3, &t);
         let x = |s: f64| [[0.0; 3], [s, 0.0, 0.0], [0.0, s, 0.0]];
         let mut pool = ShapePool::default();
-        let held = pool.shape(&x(1.0), &t, Some(&faces));
-        let dropped = pool.shape(&x(2.0), &t, Some(&faces));
+        let held = pool.shape(&x(1.0), [0.0; 3], &t, Some(&faces));
+        let dropped = pool.shape(&x(2.0), [0.0; 3], &t, Some(&faces));
         let freed = dropped.positions.as_ptr();
         drop(dropped);
-        let next = pool.shape(&x(3.0), &t, Some(&faces));
+        let next = pool.shape(&x(3.0), [0.0; 3], &t, Some(&faces));
         assert_eq!(next.positions.as_ptr(), freed, "the dropped shape's buffer was not reused");
         assert_eq!(held.positions[1], [1.0, 0.0, 0.0], "a held shape was overwritten");
-        let fresh = Shape::with_faces(&x(3.0), &t, &faces);
+        let fresh = Shape::with_faces(&x(3.0), [0.0; 3], &t, &faces);
         assert_eq!(*next.positions, *fresh.positions);
         assert_eq!(*next.normals, *fresh.normals);
     }
@@ -124,18 +144,39 @@ mod tests {
         let faces = VertexFaces::new(3, &t);
         let x = [[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
         let mut pool = ShapePool::default();
-        let bare = pool.shape(&x, &t, None);
+        let bare = pool.shape(&x, [0.0; 3], &t, None);
         assert_eq!(bare.positions[1], [1.0, 0.0, 0.0]);
         assert!(bare.normals.is_empty());
         drop(bare);
-        let full = pool.shape(&x, &t, Some(&faces));
+        let full = pool.shape(&x, [0.0; 3], &t, Some(&faces));
         assert_eq!(*full.normals, vec![[0.0, 0.0, 1.0]; 3]);
     }
 
     #[test]
     fn shape_normals_of_a_flat_triangle() {
-        let s = Shape::new(&[[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], &[[0, 1, 2]]);
+        let s = Shape::new(&[[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], [0.0; 3], &[[0, 1, 2]]);
         assert_eq!(*s.normals, vec![[0.0, 0.0, 1.0]; 3]);
         assert_eq!(s.positions[1], [1.0, 0.0, 0.0]);
+    }
+
+    /// A small triangle five million units from the world's origin (a georeferenced scan's
+    /// millimetres): in its display space it keeps its shape and normal; converted as it is,
+    /// `f32` (a step of 0.5 there) would collapse it to a point.
+    #[test]
+    fn a_mesh_far_from_the_origin_keeps_its_detail() {
+        let far = [5.0e5, 5.0e6, 10.0];
+        let x = [[0.0; 3], [1e-3, 0.0, 0.0], [0.0, 1e-3, 0.0]]
+            .map(|p| [0, 1, 2].map(|k| p[k] + far[k]));
+        let t = [[0, 1, 2]];
+        let mesh = Mesh::new(x.to_vec(), t.to_vec()).unwrap();
+        let origin = display_origin(&mesh);
+        let s = Shape::new(&x, origin, &t);
+        assert_eq!(*s.normals, vec![[0.0, 0.0, 1.0]; 3]);
+        let edge = |a: usize, b: usize| {
+            let (p, q) = (s.positions[a], s.positions[b]);
+            ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt()
+        };
+        assert!((edge(0, 1) - 1e-3).abs() < 1e-9 && (edge(0, 2) - 1e-3).abs() < 1e-9);
+        assert_eq!(x.map(|p| p.map(|c| c as f32))[1], x.map(|p| p.map(|c| c as f32))[2]);
     }
 }

@@ -99,6 +99,44 @@ fn render_writes_one_png_per_frame_of_the_moving_timeline() {
     assert!(d > 100, "frames 0 and 1 of a moving timeline differ in {d} pixels only");
 }
 
+/// A mesh five million units from the world's origin (a georeferenced scan) draws as it does
+/// at the origin: the viewport's f32 positions are relative to the mesh's display origin. Drawn
+/// as the file's coordinates in f32 (a step of 0.5 there), the unit sphere fell apart into
+/// slabs (without the origin: 3,414 differing pixels against 2,983 drawn).
+#[test]
+fn render_of_a_mesh_far_from_the_origin_matches_the_mesh_at_it() {
+    let render = |name: &str, offset: [f64; 3]| {
+        let dir = ScratchDir::new(name);
+        let scene = scene(&dir, Some(2.0), "");
+        let m = solver::geometry::shapes::icosphere(2);
+        let moved: Vec<[f64; 3]> =
+            m.positions().iter().map(|p| [0, 1, 2].map(|k| p[k] + offset[k])).collect();
+        solver::io::write_obj(&dir.join("sphere.obj"), &moved, m.triangles()).unwrap();
+        let out = dir.join("frames");
+        let (code, _, stderr) = bsarap(&[
+            "render",
+            scene.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--frames",
+            "2",
+            "--width",
+            "160",
+            "--height",
+            "120",
+        ]);
+        assert_eq!(code, 0, "{stderr}");
+        pngs_in(&out).iter().map(|f| png(f)).collect::<Vec<_>>()
+    };
+    let near = render("render-near", [0.0; 3]);
+    let far = render("render-far", [5.0e5, 5.0e6, -2.0e5]);
+    for (a, b) in near.iter().zip(&far) {
+        let (drawn, d) = (drawn_pixels(a), differing_pixels(a, b));
+        assert!(drawn > 160 * 120 / 20, "only {drawn} mesh pixels");
+        assert!(d * 50 < drawn, "{d} of {drawn} pixels differ far from the origin");
+    }
+}
+
 #[test]
 fn render_turntable_orbits_the_rest_mesh_with_overlays() {
     let dir = ScratchDir::new("render-turntable");

@@ -256,7 +256,7 @@ fn a_loose_part_follows_the_handles_and_can_be_pinned_from_the_parts_panel() {
     // Following: the small sphere moved, rigidly.
     let frame = |h: &Harness<'_, EditorApp>| -> Vec<[f64; 3]> {
         let f = h.state().latest_frame(Slot::Main).unwrap();
-        f.positions.iter().map(|p| p.map(f64::from)).collect()
+        f.positions.iter().map(|&p| support::world(h.state(), p)).collect()
     };
     let followed = frame(&h);
     let moved = small.iter().map(|&v| dist(followed[v], rest[v])).fold(0.0, f64::max);
@@ -296,4 +296,42 @@ fn a_loose_part_follows_the_handles_and_can_be_pinned_from_the_parts_panel() {
         assert!(dist(again[v], followed[v]) < 1e-3 * diag, "vertex {v} not back on its ride");
     }
     assert!(h.query_by_label("follows part 0").is_some());
+}
+
+/// A mesh five million units from the world's origin (a georeferenced scan) is drawn and
+/// painted as one at the origin: the viewport works relative to the mesh's display origin, so
+/// its vertices stay apart in f32 (they collapsed onto a 0.5-unit lattice before) and the brush
+/// finds the surface under the pointer.
+#[test]
+fn a_mesh_far_from_the_origin_is_drawn_and_painted() {
+    let dir = ScratchDir::new("far-mesh");
+    let m = solver::geometry::shapes::icosphere(3);
+    let far = [5.0e5, 5.0e6, -2.0e5];
+    let p: Vec<[f64; 3]> = m.positions().iter().map(|q| [0, 1, 2].map(|k| q[k] + far[k])).collect();
+    let path = dir.join("far.obj");
+    solver::io::write_obj(&path, &p, m.triangles()).unwrap();
+    let mut h = support::harness(path, Some(dir.join("config")));
+    step_until(&mut h, "the far mesh drawn", |a| {
+        !a.is_loading() && a.n_vertices() == p.len() && a.vertex_screen_pos(0).is_some()
+    });
+    let drawn = h.state().drawn_positions(0).unwrap().clone();
+    for (d, q) in drawn.iter().zip(&p) {
+        assert!(dist(support::world(h.state(), *d), *q) < 1e-6, "{d:?} is not {q:?}");
+    }
+    // Paint at the sphere's middle on screen.
+    h.state_mut().set_tool(app::editor::Tool::Paint);
+    let screen: Vec<Pos2> = (0..p.len()).filter_map(|v| h.state().vertex_screen_pos(v)).collect();
+    let mid = screen.iter().fold(Vec2::ZERO, |s, q| s + q.to_vec2()) / screen.len() as f32;
+    let pos = mid.to_pos2();
+    h.event(egui::Event::PointerMoved(pos));
+    h.step();
+    assert!(h.state().hover_footprint().is_some_and(|f| !f.is_empty()), "no surface under {pos:?}");
+    support::press(&h, pos, true, Modifiers::NONE);
+    h.step();
+    h.event(egui::Event::PointerMoved(pos + Vec2::new(1.0, 0.0)));
+    h.step();
+    support::press(&h, pos + Vec2::new(1.0, 0.0), false, Modifiers::NONE);
+    h.step();
+    let painted = h.state().labels().iter().filter(|l| l.is_some()).count();
+    assert!(painted > 0 && painted < p.len(), "{painted} of {} vertices painted", p.len());
 }

@@ -95,7 +95,8 @@ fn g_then_x_moves_the_group_along_x_only_and_the_handles_follow() {
     step_until(&mut h, "a frame for the moved group", has_current_frame);
     let frame = h.state().latest_frame(Slot::Main).unwrap().clone();
     for v in group_vertices(h.state(), 0) {
-        let moved: Vec<f64> = (0..3).map(|k| frame.positions[v][k] as f64 - rest[v][k]).collect();
+        let p = support::world(h.state(), frame.positions[v]);
+        let moved: Vec<f64> = (0..3).map(|k| p[k] - rest[v][k]).collect();
         let err = support::dist([moved[0], moved[1], moved[2]], t);
         assert!(err < 1e-4 * diag, "handle vertex {v} is {err} off its target");
     }

@@ -200,11 +200,12 @@ fn mirrored_painting_and_posing() {
     let a = (0..labels.len())
         .find(|&a| labels[a] == Some(0) && labels[map.partner[a] as usize] == Some(partner_group))
         .expect("a paired handle vertex");
-    let (pa, pb) = (f.positions[a], f.positions[map.partner[a] as usize]);
+    let world = |p| support::world(h.state(), p);
+    let (pa, pb) = (world(f.positions[a]), world(f.positions[map.partner[a] as usize]));
     let (ra, rb) = (rest[a], rest[map.partner[a] as usize]);
     let tol = 1e-4 * h.state().diagonal();
     let mirrored_rest = [ra[0] - rb[0], ra[1] - rb[1], ra[2] + rb[2]];
-    let mirrored_now = [pa[0] - pb[0], pa[1] - pb[1], pa[2] + pb[2]].map(f64::from);
+    let mirrored_now = [pa[0] - pb[0], pa[1] - pb[1], pa[2] + pb[2]];
     for k in 0..3 {
         assert!(
             (mirrored_now[k] - mirrored_rest[k]).abs() < tol + 1e-5,

@@ -152,15 +152,16 @@ impl VertexFaces {
         &self.faces[self.offsets[v] as usize..self.offsets[v + 1] as usize]
     }
 
-    /// The display shape of a pose, in `f32` and in parallel: `positions` converted into
-    /// `out_positions`, and their vertex normals into `out_normals`, as
-    /// [`vertex_normals_or_up`] computes them but in `f32` arithmetic from the converted
-    /// positions (the triangles' area normals first, then per vertex the sum of its
+    /// The display shape of a pose, in `f32` and in parallel: `positions` relative to `origin`
+    /// converted into `out_positions` ([`to_f32_from`]), and their vertex normals into
+    /// `out_normals`, as [`vertex_normals_or_up`] computes them but in `f32` arithmetic from the
+    /// converted positions (the triangles' area normals first, then per vertex the sum of its
     /// triangles'): half the memory traffic of `f64`, and display needs no more.
     /// `positions` and `triangles` are a pose and the triangles of the mesh this was built for.
     pub fn shape_f32(
         &self,
         positions: &[[f64; 3]],
+        origin: [f64; 3],
         triangles: &[[u32; 3]],
         out_positions: &mut Vec<[f32; 3]>,
         out_normals: &mut Vec<[f32; 3]>,
@@ -170,7 +171,7 @@ impl VertexFaces {
         out_positions
             .par_iter_mut()
             .zip(positions.par_iter())
-            .for_each(|(o, p)| *o = p.map(|c| c as f32));
+            .for_each(|(o, p)| *o = to_f32_from(origin, *p));
         let positions = &*out_positions;
         let mut area_normals = match self.area_normals.lock() {
             Ok(guard) => guard,
@@ -195,6 +196,14 @@ impl VertexFaces {
     }
 }
 
+/// `p - origin` in `f32`, the difference taken in `f64`: a position in the display space of a
+/// mesh whose display origin is `origin`. Taken near the mesh (its bounding box's centre), the
+/// origin keeps a mesh far from the world's own origin in detail: `f32` has a 24-bit
+/// significand, a step of 0.5 at 5·10⁶ (a georeferenced scan in metres) but of 10⁻⁶ at 10.
+pub fn to_f32_from(origin: [f64; 3], p: [f64; 3]) -> [f32; 3] {
+    [(p[0] - origin[0]) as f32, (p[1] - origin[1]) as f32, (p[2] - origin[2]) as f32]
+}
+
 #[cfg(test)]
 #[allow(clippy::unwrap_used)]
 mod tests {
@@ -208,8 +217,10 @@ mod tests {
             mesh.positions().iter().map(|&[x, y, z]| [2.0 * x + 0.3 * y * y, y, 0.5 * z]).collect();
         let expected = vertex_normals_or_up(&p, mesh.triangles());
         let (mut positions, mut got) = (Vec::new(), Vec::new());
+        let origin = [0.25, -0.5, 2.0];
         VertexFaces::new(mesh.n_vertices(), mesh.triangles()).shape_f32(
             &p,
+            origin,
             mesh.triangles(),
             &mut positions,
             &mut got,
@@ -220,7 +231,7 @@ mod tests {
                 assert!((g[k] as f64 - e[k]).abs() < 1e-5, "{g:?} against {e:?}");
             }
         }
-        assert!(positions.iter().zip(&p).all(|(a, b)| *a == b.map(|c| c as f32)));
+        assert!(positions.iter().zip(&p).all(|(a, b)| *a == to_f32_from(origin, *b)));
     }
     use crate::geometry::shapes::icosphere;
     use glam::{DMat3, DVec3};

@@ -95,6 +95,12 @@ impl EditorApp {
         self.session.scene.as_ref().map_or(0.0, |s| s.diagonal)
     }
 
+    /// The origin of the open mesh's display space: what the frames' and drawn positions are
+    /// relative to (`crate::editor::shape`).
+    pub fn display_origin(&self) -> Option<[f64; 3]> {
+        self.session.scene.as_ref().map(|s| s.origin)
+    }
+
     pub fn rest_positions(&self) -> Option<&[[f64; 3]]> {
         self.session.scene.as_ref().map(|s| s.mesh.positions())
     }

@@ -16,6 +16,7 @@ use crate::editor::draw_data::VertexData;
 use crate::editor::loader::{FileLayout, LoadedFile};
 use crate::editor::render_layout::RenderLayout;
 use crate::editor::renderer::build_grid;
+use crate::editor::shape::to_f32_from;
 
 /// The tooltip of the up-axis choice: what it changes, and the export rule.
 pub const UP_AXIS_HINT: &str = "Which axis of the file points up. The camera orbits about it \
@@ -35,13 +36,14 @@ pub(super) struct FileView {
 /// lowest point.
 fn ground_grid(scene: &LoadedFile, up: UpAxis) -> Vec<crate::editor::draw_data::Vertex> {
     let (lo, _) = scene.mesh.bounding_box();
+    let lo = to_f32_from(scene.origin, lo);
     let c = scene.center;
     let extent = scene.radius * 1.5;
     match up {
-        UpAxis::Y => build_grid(c, lo[1] as f32, extent),
+        UpAxis::Y => build_grid(c, lo[1], extent),
         // Built Y-up in the frame (x, z, −y), then turned back: (a, b, c) ↦ (a, −c, b).
         UpAxis::Z => {
-            let mut grid = build_grid(Vec3::new(c.x, c.z, -c.y), lo[2] as f32, extent);
+            let mut grid = build_grid(Vec3::new(c.x, c.z, -c.y), lo[2], extent);
             for v in &mut grid {
                 let [a, b, cc] = v.position;
                 v.position = [a, -cc, b];

@@ -21,6 +21,7 @@ use crate::editor::gizmo::{
     ring, screen_angle, snap,
 };
 use crate::editor::pose::group_centroid;
+use crate::editor::shape::to_f32_from;
 use crate::editor::undo::EditState;
 
 /// Arrow length and ring radius on screen, points.
@@ -58,7 +59,7 @@ pub(super) struct Transform {
     slot: usize,
     before: EditState,
     start_pose: GroupTransform,
-    /// The group's centre (rest centroid + translation) at the start, world.
+    /// The group's centre (rest centroid + translation) at the start, in display space.
     center: Vec3,
     start_pointer: Pos2,
     last_pointer: Pos2,
@@ -104,8 +105,8 @@ impl EditorApp {
             .filter(|&v| self.session.edit.labels[v as usize] == Some(g as u32))
             .collect();
         let c = group_centroid(scene.mesh.positions(), &verts)?;
-        let center = c + group.pose.translation;
-        Some((center.as_vec3(), group.pose))
+        let center = (c + group.pose.translation).to_array();
+        Some((Vec3::from(to_f32_from(scene.origin, center)), group.pose))
     }
 
     fn screen_of(&self, rect: Rect, p: Vec3) -> Option<Pos2> {

@@ -268,6 +268,7 @@ impl EditorApp {
                 edit: &self.session.edit,
                 settings: &self.session.settings,
                 camera: &self.display.camera,
+                origin: scene.origin,
                 time: self.session.playback.time,
                 texture: self.session.file_view.texture.as_deref(),
                 up_axis: self.session.file_view.up_axis,
@@ -427,7 +428,8 @@ impl EditorApp {
                                 .map(|(p, _)| p),
                             up_axis: doc.up_axis,
                         };
-                        let applied = document::apply_scene(&doc, labels, &self.session.settings);
+                        let settings = &self.session.settings;
+                        let applied = document::apply_scene(&doc, labels, settings, scene.origin);
                         self.capture.load(doc.capture.as_ref());
                         self.session.edit = applied.edit;
                         self.session.settings = applied.settings;

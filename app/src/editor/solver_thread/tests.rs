@@ -11,6 +11,7 @@ use solver::{FrameStats, GroupRest, GroupTransform, Handles, Mesh};
 
 use super::worker::SETTLE_DELAY;
 use super::*;
+use crate::editor::shape::{display_origin, to_f32_from};
 
 /// Moves every vertex by the mean handle displacement: enough to test the plumbing.
 struct Shift {
@@ -78,6 +79,11 @@ fn tri() -> Arc<Mesh> {
     Arc::new(Mesh::new(vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], vec![[0, 1, 2]]).unwrap())
 }
 
+/// Where `tri()`'s point `p` is drawn: in its display space (`crate::editor::shape`).
+fn drawn(p: [f64; 3]) -> [f32; 3] {
+    to_f32_from(display_origin(&tri()), p)
+}
+
 fn wait_frame(h: &SolverHandle, pred: impl Fn(&SolvedFrame) -> bool) -> SolvedFrame {
     let start = Instant::now();
     while start.elapsed() < Duration::from_secs(10) {
@@ -113,12 +119,12 @@ fn frames_follow_poses_and_survive_a_panic() {
     let h = SolverHandle::spawn(Slot::Compare, factory(), Arc::new(|| {})).unwrap();
     h.send(scene(1, vec![GroupTransform::default()]));
     let f = wait_frame(&h, |f| f.scene_generation == 1);
-    assert_eq!(f.positions[1], [1.0, 0.0, 0.0]);
+    assert_eq!(f.positions[1], drawn([1.0, 0.0, 0.0]));
 
     let moved = GroupTransform::from_translation(glam::DVec3::new(0.0, 0.0, 2.0));
     h.send(SolverCommand::SetPoses { pose_generation: 5, poses: vec![moved] });
     let f = wait_frame(&h, |f| f.pose_generation == 5);
-    assert_eq!(f.positions[2], [0.0, 1.0, 2.0]);
+    assert_eq!(f.positions[2], drawn([0.0, 1.0, 2.0]));
 
     h.send(SolverCommand::InjectPanic);
     let start = Instant::now();
@@ -130,7 +136,7 @@ fn frames_follow_poses_and_survive_a_panic() {
     // The restarted worker serves a new scene.
     h.send(scene(2, vec![moved]));
     let f = wait_frame(&h, |f| f.scene_generation == 2);
-    assert_eq!(f.positions[0], [0.0, 0.0, 2.0]);
+    assert_eq!(f.positions[0], drawn([0.0, 0.0, 2.0]));
 }
 
 /// Solves like [`Shift`], then refines: each settle step moves vertex 1 by 0.5 along x and
@@ -177,7 +183,7 @@ fn converged_poses_are_settled_until_converged() {
     let h = SolverHandle::spawn(Slot::Main, factory, Arc::new(|| {})).unwrap();
     h.send(scene(1, vec![GroupTransform::default()]));
     let f = wait_frame(&h, |f| f.stats.fine_iterations == 3);
-    assert_eq!(f.positions[1], [2.5, 0.0, 0.0]);
+    assert_eq!(f.positions[1], drawn([2.5, 0.0, 0.0]));
     assert!(f.stats.done, "the last settle step's frame is the converged one");
     let start = Instant::now();
     while h.try_status().is_none_or(|s| s.state != SolverState::Converged) {
@@ -191,7 +197,7 @@ fn converged_poses_are_settled_until_converged() {
     let moved = GroupTransform::from_translation(glam::DVec3::new(0.0, 0.0, 2.0));
     h.send(SolverCommand::SetPoses { pose_generation: 7, poses: vec![moved] });
     let f = wait_frame(&h, |f| f.pose_generation == 7 && f.stats.fine_iterations == 3);
-    assert_eq!(f.positions[1], [2.5, 0.0, 2.0]);
+    assert_eq!(f.positions[1], drawn([2.5, 0.0, 2.0]));
 }
 
 /// A factory of [`EndlessSettle`] pose solvers sharing one log.
@@ -258,7 +264,7 @@ fn a_new_pose_interrupts_settling() {
     h.send(SolverCommand::SetPoses { pose_generation: 7, poses: vec![moved] });
     drop(guard);
     let f = wait_frame(&h, |f| f.pose_generation == 7 && f.stats.fine_iterations == 1);
-    assert_eq!(f.positions[1], [1.0, 0.0, 2.0]);
+    assert_eq!(f.positions[1], drawn([1.0, 0.0, 2.0]));
 
     let log = log.lock().unwrap().clone();
     let solve = (at_send..log.len())
@@ -334,11 +340,11 @@ fn settling_waits_for_its_preparation_without_holding_up_new_poses() {
     let moved = GroupTransform::from_translation(glam::DVec3::new(0.0, 0.0, 2.0));
     h.send(SolverCommand::SetPoses { pose_generation: 7, poses: vec![moved] });
     let f = wait_frame(&h, |f| f.pose_generation == 7);
-    assert_eq!(f.positions[1], [1.0, 0.0, 2.0], "solved, not settled");
+    assert_eq!(f.positions[1], drawn([1.0, 0.0, 2.0]), "solved, not settled");
 
     ready.store(true, Ordering::Relaxed);
     let f = wait_frame(&h, |f| f.pose_generation == 7 && f.stats.fine_iterations == 1);
-    assert_eq!(f.positions[1], [1.5, 0.0, 2.0]);
+    assert_eq!(f.positions[1], drawn([1.5, 0.0, 2.0]));
 }
 
 /// [`Shift`] with a base: the rest shape lifted by one along y.
@@ -378,7 +384,7 @@ fn the_base_is_built_only_while_shown() {
     h.show_base(true);
     let f = wait_frame(&h, |f| f.deformed_base.is_some());
     assert_eq!(f.pose_generation, 0, "the idle pose, republished");
-    assert_eq!(f.deformed_base.unwrap().positions[2], [0.0, 2.0, 0.0]);
+    assert_eq!(f.deformed_base.unwrap().positions[2], drawn([0.0, 2.0, 0.0]));
     let moved = GroupTransform::from_translation(glam::DVec3::new(0.0, 0.0, 2.0));
     h.send(SolverCommand::SetPoses { pose_generation: 3, poses: vec![moved] });
     let f = wait_frame(&h, |f| f.pose_generation == 3);
@@ -422,6 +428,7 @@ fn loose_parts_change_without_a_rebuild() {
     let mut t = big.triangles().to_vec();
     t.extend(small.triangles().iter().map(|f| f.map(|v| v + n)));
     let mesh = Arc::new(Mesh::new(p.clone(), t).unwrap());
+    let origin = display_origin(&mesh);
     let labels = (0..p.len())
         .map(|v| match p[v][1] {
             _ if v >= n as usize => None,
@@ -457,7 +464,7 @@ fn loose_parts_change_without_a_rebuild() {
     let shift = |f: &SolvedFrame| {
         small_vertices
             .clone()
-            .map(|v| (f.positions[v][0] as f64 - p[v][0]).abs())
+            .map(|v| (f64::from(f.positions[v][0]) + origin[0] - p[v][0]).abs())
             .fold(0.0, f64::max)
     };
     let f = wait_frame(&h, |f| f.pose_generation == 1 && f.stats.done);

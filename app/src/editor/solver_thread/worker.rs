@@ -18,7 +18,7 @@ use super::protocol::{
     NewScene, PoseSolver, PoseSolverFactory, Slot, SolvedFrame, SolverCommand, SolverState,
     SolverStatus,
 };
-use crate::editor::shape::{Shape, ShapePool};
+use crate::editor::shape::{Shape, ShapePool, display_origin};
 
 /// The next [`SolvedFrame::sequence`], shared by every solver thread.
 static NEXT_FRAME: AtomicU64 = AtomicU64::new(1);
@@ -113,6 +113,8 @@ struct Active {
     vertex_faces: Arc<VertexFaces>,
     /// The buffers of the frames' shapes, reused once the UI has dropped them.
     shapes: ShapePool,
+    /// The origin of the mesh's display space, where the frames' shapes are.
+    origin: [f64; 3],
     /// Targets changed since the last converged solve.
     dirty: bool,
     /// The last solve converged and its pose is being refined ([`PoseSolver::settle`]).
@@ -139,7 +141,7 @@ impl Active {
     fn frame(&mut self, stats: FrameStats, with_base: bool, normals_on_gpu: bool) -> SolvedFrame {
         let triangles = self.mesh.triangles();
         let faces = (!normals_on_gpu).then_some(&*self.vertex_faces);
-        let shape = self.shapes.shape(self.pose_solver.positions(), triangles, faces);
+        let shape = self.shapes.shape(self.pose_solver.positions(), self.origin, triangles, faces);
         let base = with_base.then(|| self.pose_solver.deformed_base()).flatten();
         SolvedFrame {
             sequence: NEXT_FRAME.fetch_add(1, Ordering::Relaxed),
@@ -147,7 +149,8 @@ impl Active {
             pose_generation: self.pose_generation,
             positions: shape.positions,
             normals: shape.normals,
-            deformed_base: base.map(|b| Shape::with_faces(&b, triangles, &self.vertex_faces)),
+            deformed_base: base
+                .map(|b| Shape::with_faces(&b, self.origin, triangles, &self.vertex_faces)),
             detail_magnitudes: self.details.clone(),
             components: self.components.clone(),
             stats,
@@ -346,6 +349,7 @@ fn rebuild(
             Some(Active {
                 vertex_faces,
                 shapes: ShapePool::default(),
+                origin: display_origin(&mesh),
                 scene_generation,
                 pose_generation,
                 mesh,

@@ -118,6 +118,13 @@ pub fn path(corners: &[Pos2], step: f32, close: bool) -> Vec<Pos2> {
     out
 }
 
+/// A drawn position (a frame's, or the viewport's) in the mesh's coordinates: the editor draws
+/// relative to the mesh's display origin (`app::editor::shape`).
+pub fn world(app: &EditorApp, p: [f32; 3]) -> [f64; 3] {
+    let o = app.display_origin().expect("an open mesh");
+    [0, 1, 2].map(|k| f64::from(p[k]) + o[k])
+}
+
 pub fn dist(p: [f64; 3], q: [f64; 3]) -> f64 {
     ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt()
 }
