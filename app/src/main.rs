@@ -32,9 +32,56 @@ fn main() -> ExitCode {
     match cli::run(args) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            // `{:#}` joins the context chain on one line.
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", one_line(&e));
             ExitCode::FAILURE
         }
+    }
+}
+
+/// The error and its causes on one line, `: ` between them, as anyhow's `{:#}` writes them, but
+/// each cause once: a message that already quotes its cause (the solver's errors do, so that a
+/// status bar showing one message says everything) does not repeat it.
+fn one_line(e: &anyhow::Error) -> String {
+    let mut out = String::new();
+    for cause in e.chain() {
+        let message = cause.to_string();
+        if !out.contains(&message) {
+            if !out.is_empty() {
+                out.push_str(": ");
+            }
+            out.push_str(&message);
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::one_line;
+
+    /// An error that quotes its cause, as the solver's do.
+    #[derive(Debug)]
+    struct Quoting(std::io::Error);
+
+    impl std::fmt::Display for Quoting {
+        fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+            write!(f, "scene s.json: handles: {}", self.0)
+        }
+    }
+
+    impl std::error::Error for Quoting {
+        fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+            Some(&self.0)
+        }
+    }
+
+    /// A cause its error already quotes is written once; context and other causes are kept.
+    #[test]
+    fn causes_are_written_once() {
+        let io = std::io::Error::other("sphere 0 contains no vertex");
+        let e = anyhow::Error::new(Quoting(io)).context("render");
+        assert_eq!(one_line(&e), "render: scene s.json: handles: sphere 0 contains no vertex");
+        let e = anyhow::Error::new(std::io::Error::other("no such file")).context("reading m.obj");
+        assert_eq!(one_line(&e), "reading m.obj: no such file");
     }
 }

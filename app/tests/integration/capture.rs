@@ -229,6 +229,24 @@ fn render_errors_are_one_line_and_name_the_problem() {
     std::fs::write(&lost, text).unwrap();
     check(&["render", lost.to_str().unwrap(), "-o", out], &[], &["gone.obj"]);
 
+    // A handle sphere that holds no vertex: the selection's error, written once.
+    let empty = dir.join("empty-handle.json");
+    let spheres = r#"[{"group": 0, "center": [9, 9, 9], "radius": 0.1}]"#;
+    std::fs::write(dir.join("far.handles.json"), spheres).unwrap();
+    let text = std::fs::read_to_string(&scene_path).unwrap();
+    let (head, _) = text.split_once(r#""handles""#).unwrap();
+    let (_, tail) = text.split_once(r#""timeline""#).unwrap();
+    let text = format!(r#"{head}"handles": {{"file": "far.handles.json"}}, "timeline"{tail}"#);
+    std::fs::write(&empty, text).unwrap();
+    let what = "sphere 0 (group 0) contains no vertex";
+    check(&["render", empty.to_str().unwrap(), "-o", out], &[], &["far.handles.json", what]);
+    let o = Command::new(env!("CARGO_BIN_EXE_bsarap"))
+        .args(["render", empty.to_str().unwrap(), "-o", out])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(stderr.matches(what).count(), 1, "{stderr}");
+
     // A bad capture object.
     let bad = dir.join("bad.json");
     let text = std::fs::read_to_string(&scene_path)
