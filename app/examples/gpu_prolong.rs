@@ -17,7 +17,7 @@
 //! Prints the adapter, the mean milliseconds of each, and the largest position difference
 //! between the two (relative to the bounding-box diagonal).
 
-use app::editor::shape::Shape;
+use app::editor::shape::{Shape, display_origin};
 use app::gpu::{headless, prolong::GpuProlongation};
 use glam::DVec3;
 use solver::deform::coarse::CoarseBsArap;
@@ -47,8 +47,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // Before a solve the fixed vertices are the pinned ones only; the handles come on top.
     let n_fixed = handles.handle_vertices().len() + cpu.fixed_vertices().count();
     let t = Instant::now();
+    let origin = display_origin(&mesh);
     let mut pass =
-        GpuProlongation::new(&gpu.device, cpu.prolongation(), mesh.triangles(), n_fixed)?;
+        GpuProlongation::new(&gpu.device, cpu.prolongation(), mesh.triangles(), n_fixed, origin)?;
     pass.wait(&gpu.device)?;
     println!("GPU upload of the mesh part: {:.0} ms", t.elapsed().as_secs_f64() * 1e3);
 
@@ -71,7 +72,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         for (v, p) in cpu.fixed_vertices() {
             out[v as usize] = p;
         }
-        let shape = Shape::new(&out, [0.0; 3], mesh.triangles());
+        let shape = Shape::new(&out, origin, mesh.triangles());
         cpu_ms += t.elapsed().as_secs_f64() * 1e3;
 
         let t = Instant::now();

@@ -9,12 +9,15 @@
 //! each), the fixed vertices, and the details only when the carried corrections changed. The
 //! results stay on the GPU in `positions` and `normals` (packed xyz `f32` per vertex, the
 //! viewport's vertex layout); [`GpuProlongation::read_back`] copies them out for tests and
-//! benchmarks. Everything is in f32: the result is the CPU path's (f64) rounded, within a few
-//! units in the last place of the coordinates.
+//! benchmarks. Everything is in f32, in the mesh's display space (positions relative to the
+//! `origin` given, as the viewport draws them: `crate::editor::shape`): the result is the CPU
+//! path's (f64) moved by the origin and rounded, within a few units in the last place of the
+//! coordinates relative to it.
 
 use eframe::wgpu;
 use solver::deform::coarse::prolong::Prolongation;
 use solver::geometry::embedding::from_stored;
+use solver::geometry::normals::to_f32_from;
 
 use super::normals::{BYTES_PER_VERTEX, GpuNormals, NormalsBinding};
 use super::{Stage, WORKGROUP, compute_pipeline, storage, uniform};
@@ -41,6 +44,9 @@ pub type ReadBack = (Vec<[f32; 3]>, Vec<[f32; 3]>);
 
 /// The compute pass for one mesh, its coarse base and its fixed-vertex set.
 pub struct GpuProlongation {
+    /// The display space's origin: the coarse pose and the fixed vertices are uploaded
+    /// relative to it.
+    origin: [f64; 3],
     n_vertices: usize,
     n_coarse: usize,
     n_fixed: usize,
@@ -60,8 +66,10 @@ pub struct GpuProlongation {
     staging: Vec<[f32; 4]>,
 }
 
-fn vec4s(v: &[[f64; 3]], w: f32) -> Vec<[f32; 4]> {
-    v.iter().map(|p| [p[0] as f32, p[1] as f32, p[2] as f32, w]).collect()
+/// `p - origin` in f32 (the difference in f64), with `w` as the fourth component.
+fn vec4(origin: [f64; 3], p: [f64; 3], w: f32) -> [f32; 4] {
+    let [x, y, z] = to_f32_from(origin, p);
+    [x, y, z, w]
 }
 
 /// The solver's quaternions in `f32`, `(x, y, z, w)` in glam's order as in WGSL.
@@ -70,9 +78,13 @@ fn quats_xyzw(q: &[glam::DQuat], out: &mut Vec<[f32; 4]>) {
     out.extend(q.iter().map(|q| q.to_array().map(|c| c as f32)));
 }
 
-fn fixed_entries(fixed: impl Iterator<Item = (u32, [f64; 3])>, out: &mut Vec<[f32; 4]>) {
+fn fixed_entries(
+    origin: [f64; 3],
+    fixed: impl Iterator<Item = (u32, [f64; 3])>,
+    out: &mut Vec<[f32; 4]>,
+) {
     out.clear();
-    out.extend(fixed.map(|(v, p)| [p[0] as f32, p[1] as f32, p[2] as f32, f32::from_bits(v)]));
+    out.extend(fixed.map(|(v, p)| vec4(origin, p, f32::from_bits(v))));
 }
 
 /// $D_i + C_i$, added in f64 as the CPU path does.
@@ -87,13 +99,15 @@ fn detail_entries(input: &Prolongation<'_>) -> Vec<[f32; 4]> {
 
 impl GpuProlongation {
     /// Uploads the mesh's part: `input`'s embedding and details (its coarse pose is uploaded
-    /// by [`GpuProlongation::run`]), the triangles, and room for `max_fixed` fixed vertices.
-    /// Errors when a buffer exceeds the device's limits.
+    /// by [`GpuProlongation::run`]), the triangles, and room for `max_fixed` fixed vertices;
+    /// positions in the display space of `origin`. Errors when a buffer exceeds the device's
+    /// limits.
     pub fn new(
         device: &wgpu::Device,
         input: Prolongation<'_>,
         triangles: &[[u32; 3]],
         max_fixed: usize,
+        origin: [f64; 3],
     ) -> anyhow::Result<GpuProlongation> {
         let n = input.weights.len();
         let nc = input.coarse.len();
@@ -132,8 +146,9 @@ impl GpuProlongation {
             bytemuck::bytes_of(&params),
             wgpu::BufferUsages::COPY_DST,
         );
-        let coarse =
-            storage(device, "coarse pose", bytemuck::cast_slice(&vec4s(input.coarse, 0.0)), none);
+        let coarse_pose: Vec<[f32; 4]> =
+            input.coarse.iter().map(|&p| vec4(origin, p, 0.0)).collect();
+        let coarse = storage(device, "coarse pose", bytemuck::cast_slice(&coarse_pose), none);
         let mut q = Vec::new();
         quats_xyzw(input.quaternions, &mut q);
         let quats = storage(device, "coarse rotations", bytemuck::cast_slice(&q), none);
@@ -175,6 +190,7 @@ impl GpuProlongation {
             anyhow::bail!("the prolongation's compute pass could not be built: {e}");
         }
         Ok(GpuProlongation {
+            origin,
             n_vertices: n,
             n_coarse: nc,
             n_fixed: max_fixed,
@@ -220,11 +236,11 @@ impl GpuProlongation {
         }
         let staging = &mut self.staging;
         staging.clear();
-        staging.extend(input.coarse.iter().map(|p| [p[0] as f32, p[1] as f32, p[2] as f32, 0.0]));
+        staging.extend(input.coarse.iter().map(|&p| vec4(self.origin, p, 0.0)));
         queue.write_buffer(&self.coarse, 0, bytemuck::cast_slice(staging));
         quats_xyzw(input.quaternions, staging);
         queue.write_buffer(&self.quats, 0, bytemuck::cast_slice(staging));
-        fixed_entries(fixed, staging);
+        fixed_entries(self.origin, fixed, staging);
         if staging.len() > self.n_fixed {
             anyhow::bail!("{} fixed vertices; room for {}", staging.len(), self.n_fixed);
         }

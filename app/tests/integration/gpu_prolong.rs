@@ -3,6 +3,7 @@
 //! precision, on whatever adapter the machine has (lavapipe without a GPU).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+use app::editor::shape::display_origin;
 use app::gpu::{headless, prolong::GpuProlongation};
 use glam::{DQuat, DVec3};
 use solver::deform::coarse::CoarseBsArap;
@@ -13,15 +14,21 @@ fn max_abs(v: &[f64]) -> f64 {
     v.iter().fold(0.0, |m, x| m.max(x.abs()))
 }
 
-/// Positions within a few f32 ulps of the coordinates' size; normals within 1e-4 (unit).
-fn assert_matches(cpu: &CoarseBsArap, triangles: &[[u32; 3]], gpu: &app::gpu::prolong::ReadBack) {
+/// Positions within a few f32 ulps of the coordinates' size in the display space of `origin`;
+/// normals within 1e-4 (unit).
+fn assert_matches(
+    cpu: &CoarseBsArap,
+    triangles: &[[u32; 3]],
+    gpu: &app::gpu::prolong::ReadBack,
+    origin: [f64; 3],
+) {
     let x = cpu.positions();
-    let scale = max_abs(&x.iter().flatten().copied().collect::<Vec<_>>());
-    let tol = 8.0 * f32::EPSILON as f64 * scale;
+    let local: Vec<f64> = x.iter().flat_map(|p| [0, 1, 2].map(|d| p[d] - origin[d])).collect();
+    let tol = 8.0 * f32::EPSILON as f64 * max_abs(&local);
     let pos_err = x
         .iter()
         .zip(&gpu.0)
-        .map(|(a, b)| (0..3).map(|d| (a[d] - b[d] as f64).abs()).fold(0.0, f64::max))
+        .map(|(a, b)| (0..3).map(|d| (a[d] - origin[d] - b[d] as f64).abs()).fold(0.0, f64::max))
         .fold(0.0, f64::max);
     assert!(pos_err <= tol, "positions differ by {pos_err:e} (tolerance {tol:e})");
     let n = vertex_normals_or_up(x, triangles);
@@ -33,9 +40,13 @@ fn assert_matches(cpu: &CoarseBsArap, triangles: &[[u32; 3]], gpu: &app::gpu::pr
     assert!(normal_err <= 1e-4, "normals differ by {normal_err:e}");
 }
 
+/// On the bar at the origin and on the bar moved five million units out (a georeferenced scan):
+/// in its display space the far bar keeps the near one's precision.
 #[test]
 fn the_gpu_prolongation_gives_the_cpu_pose_and_normals() {
-    let (mesh, handles) = solver::geometry::shapes::bumpy_bar(4);
+    let (near, handles) = solver::geometry::shapes::bumpy_bar(4);
+    let moved = near.positions().iter().map(|p| [p[0] + 5.0e5, p[1] + 5.0e6, p[2] - 2.0e5]);
+    let far = solver::Mesh::new(moved.collect(), near.triangles().to_vec()).unwrap();
     let gpu = match headless() {
         Ok(g) => g,
         Err(e) => {
@@ -44,16 +55,21 @@ fn the_gpu_prolongation_gives_the_cpu_pose_and_normals() {
         }
     };
     eprintln!("adapter: {}", gpu.adapter);
-    let diag = mesh.bbox_diagonal();
-    for fine_iterations in [0, 3] {
+    for (mesh, fine_iterations) in [(&near, 0), (&near, 3), (&far, 0)] {
+        let diag = mesh.bbox_diagonal();
+        let origin = display_origin(mesh);
         let settings =
             BaseConfig { coarse_vertices: Some(400), fine_iterations, ..Default::default() };
-        let mut cpu =
-            CoarseBsArap::new(&mesh, &handles, &ArapConfig::default(), &settings).unwrap();
+        let mut cpu = CoarseBsArap::new(mesh, &handles, &ArapConfig::default(), &settings).unwrap();
         let n_fixed = handles.handle_vertices().len();
-        let mut pass =
-            GpuProlongation::new(&gpu.device, cpu.prolongation(), mesh.triangles(), n_fixed)
-                .unwrap();
+        let mut pass = GpuProlongation::new(
+            &gpu.device,
+            cpu.prolongation(),
+            mesh.triangles(),
+            n_fixed,
+            origin,
+        )
+        .unwrap();
         // Two frames: a bend, then a larger one (the second reuses the uploaded mesh part).
         for angle in [0.4, 1.1] {
             let tr = GroupTransform::new(
@@ -66,7 +82,7 @@ fn the_gpu_prolongation_gives_the_cpu_pose_and_normals() {
                 .unwrap();
             let out = pass.read_back(&gpu.device, &gpu.queue).unwrap();
             assert_eq!(out.0.len(), mesh.n_vertices());
-            assert_matches(&cpu, mesh.triangles(), &out);
+            assert_matches(&cpu, mesh.triangles(), &out, origin);
             let moved = cpu.positions().iter().zip(mesh.positions()).any(|(a, b)| a != b);
             assert!(moved, "the test pose must move the mesh");
         }
@@ -86,7 +102,7 @@ fn the_gpu_prolongation_refuses_another_coarse_base_or_too_many_fixed_vertices()
     };
     let (a, b) = (make(200), make(100));
     let mut pass =
-        GpuProlongation::new(&gpu.device, a.prolongation(), mesh.triangles(), 1).unwrap();
+        GpuProlongation::new(&gpu.device, a.prolongation(), mesh.triangles(), 1, [0.0; 3]).unwrap();
     let err =
         pass.run(&gpu.device, &gpu.queue, b.prolongation(), std::iter::empty(), false).unwrap_err();
     assert!(err.to_string().contains("coarse"), "{err}");
