@@ -12,8 +12,8 @@
 use std::sync::Arc;
 
 use solver::Mesh;
+pub use solver::geometry::mesh::to_f32_from;
 use solver::geometry::normals::VertexFaces;
-pub use solver::geometry::normals::to_f32_from;
 
 /// The origin of `mesh`'s display space (module doc): the centre of its rest bounding box.
 pub fn display_origin(mesh: &Mesh) -> [f64; 3] {

@@ -17,7 +17,7 @@
 use eframe::wgpu;
 use solver::deform::coarse::prolong::Prolongation;
 use solver::geometry::embedding::from_stored;
-use solver::geometry::normals::to_f32_from;
+use solver::geometry::mesh::to_f32_from;
 
 use super::normals::{BYTES_PER_VERTEX, GpuNormals, NormalsBinding};
 use super::{Stage, WORKGROUP, compute_pipeline, storage, uniform};

@@ -207,6 +207,14 @@ pub fn in_range(c: f64) -> bool {
     c.abs() <= MAX_COORDINATE
 }
 
+/// `p - origin` in `f32`, the difference taken in `f64`. With the origin near the mesh (its
+/// bounding box's centre) a mesh far from the world's own origin keeps its detail in `f32`, which
+/// has a 24-bit significand: a step of 0.5 at 5·10⁶ (a georeferenced scan in metres), 10⁻⁶ at
+/// 10. For the viewport's copies of a pose and the simplifier's input.
+pub fn to_f32_from(origin: [f64; 3], p: [f64; 3]) -> [f32; 3] {
+    [(p[0] - origin[0]) as f32, (p[1] - origin[1]) as f32, (p[2] - origin[2]) as f32]
+}
+
 /// [`MeshError::NonFinite`] for the first coordinate of `positions` out of range.
 fn check_finite(positions: &[[f64; 3]]) -> Result<(), MeshError> {
     match first_out_of_range(positions) {

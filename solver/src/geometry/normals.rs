@@ -21,6 +21,8 @@
 
 use thiserror::Error;
 
+use crate::geometry::mesh::to_f32_from;
+
 /// Why normals could not be computed: the corner indices do not fit the inputs.
 #[derive(Debug, Clone, PartialEq, Eq, Error)]
 pub enum NormalsError {
@@ -194,14 +196,6 @@ impl VertexFaces {
                 if u.is_finite() && u != glam::Vec3::ZERO { u.to_array() } else { [0.0, 0.0, 1.0] };
         });
     }
-}
-
-/// `p - origin` in `f32`, the difference taken in `f64`: a position in the display space of a
-/// mesh whose display origin is `origin`. Taken near the mesh (its bounding box's centre), the
-/// origin keeps a mesh far from the world's own origin in detail: `f32` has a 24-bit
-/// significand, a step of 0.5 at 5·10⁶ (a georeferenced scan in metres) but of 10⁻⁶ at 10.
-pub fn to_f32_from(origin: [f64; 3], p: [f64; 3]) -> [f32; 3] {
-    [(p[0] - origin[0]) as f32, (p[1] - origin[1]) as f32, (p[2] - origin[2]) as f32]
 }
 
 #[cfg(test)]

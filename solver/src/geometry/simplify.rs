@@ -20,10 +20,11 @@
 //!    component the simplifier removed entirely (it does not remove components: it keeps
 //!    topology) would keep `u32::MAX`; [`simplify`] refuses that.
 //!
-//! Positions go to the simplifier as `f32` (it works in single precision); the coarse
-//! vertices keep their `f64` positions, being fine vertices.
+//! Positions go to the simplifier as `f32` (it works in single precision), relative to their
+//! bounding box's centre ([`to_f32_from`]) so that a mesh far from the origin decimates as it
+//! does at the origin; the coarse vertices keep their `f64` positions, being fine vertices.
 
-use crate::geometry::mesh::{bounding_box, norm, sub};
+use crate::geometry::mesh::{bounding_box, norm, sub, to_f32_from};
 use crate::geometry::topology::Adjacency;
 use rayon::prelude::*;
 
@@ -89,7 +90,9 @@ fn collapse_with(
     halves: bool,
 ) -> Option<(Vec<u32>, Vec<[u32; 3]>)> {
     let n = positions.len();
-    let points: Vec<[f32; 3]> = positions.iter().map(|p| p.map(|c| c as f32)).collect();
+    let (lo, hi) = bounding_box(positions.iter().copied());
+    let centre = [0, 1, 2].map(|k| 0.5 * (lo[k] + hi[k]));
+    let points: Vec<[f32; 3]> = positions.iter().map(|&p| to_f32_from(centre, p)).collect();
     // The simplifier asserts (aborting the process) that the target is at most the input.
     let target_faces = (triangles.len() * target_vertices).div_ceil(n.max(1)).min(triangles.len());
     let mut options = meshopt::SimplifyOptions::LockBorder;
@@ -387,6 +390,24 @@ mod tests {
         for (v, &r) in d.representative.iter().enumerate() {
             let gap = norm(sub(m.positions()[v], m.positions()[d.kept[r as usize] as usize]));
             assert!(gap < 2.0 * spacing, "vertex {v} is {gap} from its representative");
+        }
+    }
+
+    /// A mesh moved far from the origin (a georeferenced scan: millions of units) decimates as
+    /// it does at the origin. The positions are multiples of 2⁻²⁰ and the offset a power of two,
+    /// so the moved copy is exact in `f64`; cast to `f32` as they are (a step of 0.5 at 5·10⁶),
+    /// its vertices collapsed onto a lattice and the simplifier kept others.
+    #[test]
+    fn a_mesh_far_from_the_origin_decimates_as_at_it() {
+        let m = crate::geometry::shapes::icosphere(4);
+        let grid = |c: f64| (c * 1048576.0).round() / 1048576.0;
+        let near: Vec<[f64; 3]> = m.positions().iter().map(|p| p.map(grid)).collect();
+        let offset = [4194304.0, 8388608.0, -2097152.0];
+        let far: Vec<[f64; 3]> = near.iter().map(|p| [0, 1, 2].map(|k| p[k] + offset[k])).collect();
+        for regular in [false, true] {
+            let a = collapse(&near, m.triangles(), 300, regular).expect("near");
+            let b = collapse(&far, m.triangles(), 300, regular).expect("far");
+            assert_eq!(a, b, "regular: {regular}");
         }
     }
 

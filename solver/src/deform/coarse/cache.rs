@@ -36,7 +36,7 @@ const MAGIC: &[u8; 8] = b"BSARAPCB";
 /// 1.5M-vertex mesh faired on a level is about 50 MiB (its level included).
 pub const MAX_FILES: usize = 8;
 /// The file format and the construction it stores: a file of another version is rebuilt.
-const VERSION: u32 = 10;
+const VERSION: u32 = 11;
 
 /// Why a cache file was not used.
 #[derive(Debug, thiserror::Error)]
