@@ -176,9 +176,17 @@ pub fn played_error_reordered(
     let doc = parse(bytes);
     let g = &doc.gltf;
     let prim = g.meshes().next().unwrap().primitives().next().unwrap();
-    // The mesh's node scale (the quantized encoding's k_m), applied to base and deltas alike.
+    // The mesh's node scale (the quantized encoding's k_m), applied to base and deltas alike,
+    // and its translation (a far asset's centre, turned by the node's rotation): in the file's
+    // coordinates, before the rotation, a vertex is o + k·x with o the translation turned back.
     let node = g.nodes().find(|n| n.mesh().is_some_and(|m| m.index() == 0)).unwrap();
-    let k = node.transform().decomposed().2.map(f64::from);
+    let (t, r, k) = node.transform().decomposed();
+    let k = k.map(f64::from);
+    // The f32 quaternion is unit only to f32's precision: normalized in f64 first, or turning
+    // the far translation back would be off by its length times 1e-7.
+    let r = glam::DQuat::from_array(r.map(f64::from)).normalize();
+    let o = r.inverse() * glam::DVec3::from_array(t.map(f64::from));
+    let o = o.to_array();
     let base = read(&doc, &prim.get(&gltf::Semantic::Positions).unwrap());
     let deltas: Vec<Vec<Vec<f64>>> =
         prim.morph_targets().map(|t| read(&doc, &t.positions().unwrap())).collect();
@@ -191,8 +199,9 @@ pub fn played_error_reordered(
         None => (0..base.len()).collect(),
         Some(rest) => {
             let key = |p: [f32; 3]| p.map(f32::to_bits);
-            let by_rest: std::collections::HashMap<[u32; 3], usize> =
-                rest.iter().enumerate().map(|(i, p)| (key(p.map(|c| c as f32)), i)).collect();
+            let by_rest: std::collections::HashMap<[u32; 3], usize> = (rest.iter().enumerate())
+                .map(|(i, p)| (key(std::array::from_fn(|c| (p[c] - o[c]) as f32)), i))
+                .collect();
             base.iter()
                 .map(|b| by_rest[&key(std::array::from_fn(|c| b[c] as f32 * k[c] as f32))])
                 .collect()
@@ -206,10 +215,11 @@ pub fn played_error_reordered(
         for (v, &i) in index.iter().enumerate() {
             let p = frame[i];
             for c in 0..3 {
-                let got = k[c]
-                    * (base[v][c]
-                        + (1.0 - alpha) * w[a * n + a] * deltas[a][v][c]
-                        + alpha * w[b * n + b] * deltas[b][v][c]);
+                let got = o[c]
+                    + k[c]
+                        * (base[v][c]
+                            + (1.0 - alpha) * w[a * n + a] * deltas[a][v][c]
+                            + alpha * w[b * n + b] * deltas[b][v][c]);
                 err = err.max((got - p[c]).abs());
             }
         }

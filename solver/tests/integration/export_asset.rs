@@ -11,13 +11,13 @@ use std::path::{Path as FsPath, PathBuf};
 use base64::Engine as _;
 use solver::MAX_COORDINATE;
 use solver::animation::export::{
-    AssetExport, Encoding, ExportError, ExportSettings, GltfExport, GltfFormat, export_asset,
-    exported_size,
+    AssetExport, Encoding, ExportError, ExportSettings, GltfExport, GltfFormat, UpAxis,
+    export_asset, exported_size,
 };
 use solver::animation::recording::Recording;
 use solver::io::{Asset, Attribute, Format, Image, Material, Part, load_mesh_from_bytes};
 use solver::testing::ScratchDir;
-use solver::testing::gltf_decode::{parse, played_error, read};
+use solver::testing::gltf_decode::{json_of, parse, played_error, read};
 
 // ---------------------------------------------------------------- a tiny PNG, by hand
 
@@ -690,4 +690,67 @@ fn reloaded_export_keeps_its_vertex_order() {
         }
     }
     assert_eq!(k, asset.positions.len());
+}
+
+/// An asset far from the origin (a georeferenced scan, five million units out, where f32's step
+/// is 0.5) is stored relative to its centre, which its node carries as a translation: every
+/// frame plays back within f32 precision of the asset's own size, float and quantized, Y-up and
+/// Z-up, and our reader reads the rest mesh back onto the file's vertices. Stored as they were,
+/// absolute in f32, the positions were off by up to a quarter of a unit (an eighth of this
+/// asset's diagonal); an asset near the origin is stored as before, with no translation.
+#[test]
+fn a_far_asset_is_stored_relative_to_its_centre() {
+    // A bare sphere (the decoder plays the first primitive's vertices in order), bent.
+    let m = solver::geometry::shapes::icosphere(2);
+    let bend = |a: f64| -> Vec<[f64; 3]> {
+        m.positions().iter().map(|p| [p[0], p[1] + a * p[0] * p[0], p[2]]).collect()
+    };
+    let (times, frames) = (vec![0.0, 0.5, 1.0], vec![bend(0.0), bend(0.2), bend(0.4)]);
+    let near = Asset::bare(frames[0].clone(), m.triangles().to_vec());
+    let map: Vec<Option<u32>> = (0..m.n_vertices() as u32).map(Some).collect();
+    let rec = Recording { times: times.clone(), frames: frames.clone(), stats: Vec::new() };
+    let far_off = [5.0e5, 5.0e6, -2.0e5];
+    let shift = |p: &[[f64; 3]]| -> Vec<[f64; 3]> {
+        p.iter().map(|q| [0, 1, 2].map(|k| q[k] + far_off[k])).collect()
+    };
+    let far = Asset::bare(shift(&near.positions), m.triangles().to_vec());
+    let far_rec =
+        Recording { times, frames: frames.iter().map(|f| shift(f)).collect(), stats: Vec::new() };
+    let (lo, hi) = solver::geometry::mesh::bounding_box(far.positions.iter().copied());
+    let diag = (0..3).map(|k| (hi[k] - lo[k]).powi(2)).sum::<f64>().sqrt();
+    for (encoding, tolerance) in [(Encoding::Float, 1e-6), (Encoding::Quantized, 1e-4)] {
+        for up in [UpAxis::Y, UpAxis::Z] {
+            let settings = ExportSettings { encoding, normals: true, sparse: false, every_k: 1 };
+            let input =
+                AssetExport { asset: &far, vertex_map: &map, recording: &far_rec, settings };
+            let export = GltfExport::from_asset(&input, GltfFormat::Glb).unwrap().with_up_axis(up);
+            let bytes = export.to_bytes(&mut |_, _| ControlFlow::Continue(())).unwrap();
+            assert_eq!(bytes.len() as u64, export.file_size().unwrap());
+            let json = json_of(&bytes);
+            let t = &json["nodes"][0]["translation"];
+            let o = solver::animation::export::position_origin(&far.positions);
+            let want = up.rotate(o).map(f64::from);
+            assert_eq!(t.as_array().map(|t| t.len()), Some(3), "{encoding:?} {up:?}: {t}");
+            assert!((0..3).all(|k| t[k].as_f64() == Some(want[k])), "{t} against {want:?}");
+            let err = played_error(&bytes, &far_rec.times, &far_rec.frames) / diag;
+            assert!(err < tolerance, "{encoding:?} {up:?}: played {err:e} of the diagonal off");
+            if up == UpAxis::Y {
+                let back = load_mesh_from_bytes(&bytes, Format::Gltf, "far.glb").unwrap();
+                for p in &back.asset.positions {
+                    let nearest = (far.positions.iter())
+                        .map(|q| (0..3).map(|d| (p[d] - q[d]).abs()).fold(0.0, f64::max))
+                        .fold(f64::INFINITY, f64::min);
+                    assert!(nearest < 1e-6 * diag, "{encoding:?}: read back {nearest} off");
+                }
+            }
+        }
+    }
+    // Near the origin: no translation, as before.
+    let settings = ExportSettings::default();
+    let input = AssetExport { asset: &near, vertex_map: &map, recording: &rec, settings };
+    let bytes = (GltfExport::from_asset(&input, GltfFormat::Glb).unwrap())
+        .to_bytes(&mut |_, _| ControlFlow::Continue(()))
+        .unwrap();
+    let json = json_of(&bytes);
+    assert!(json["nodes"].as_array().unwrap().iter().all(|n| n.get("translation").is_none()));
 }

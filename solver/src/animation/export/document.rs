@@ -478,7 +478,7 @@ impl GltfExport<'_> {
                         .iter()
                         .map(|v| {
                             let (p, r) = (pose[v[0] as usize], rest[v[0] as usize]);
-                            std::array::from_fn(|d| p[d] - r[d] as f64)
+                            std::array::from_fn(|d| p[d] - self.origin[d] - r[d] as f64)
                         })
                         .collect()
                 };
@@ -560,6 +560,7 @@ impl GltfExport<'_> {
                 name: Some(node_name.to_string()),
                 scale: (k != 1.0).then_some([k; 3]),
                 rotation: self.up.node_rotation(),
+                translation: (self.origin != [0.0; 3]).then(|| self.up.rotate(self.origin)),
                 ..Default::default()
             });
             scene_nodes.push(node);

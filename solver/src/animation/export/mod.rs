@@ -13,7 +13,10 @@
 //!   material; node transforms are identity (the asset's positions are in world space) but
 //!   for a Z-up asset ([`UpAxis::Z`], [`GltfExport::with_up_axis`]), whose nodes carry the
 //!   rotation $-90°$ about $x$, $(x, y, z) \mapsto (x, z, -y)$, so that it stands up in glTF's
-//!   Y-up world while its vertex data keeps the file's coordinates;
+//!   Y-up world while its vertex data keeps the file's coordinates, and for an asset far from
+//!   the origin ([`position_origin`]: a georeferenced scan), whose positions are stored relative
+//!   to its centre $o$ and whose nodes carry the translation $R\,o$ ($R$ the up-axis rotation), so
+//!   that f32 keeps its detail;
 //! - each primitive: `indices` (u32), `POSITION` (rest, f32, min/max), `NORMAL` (unit rest
 //!   normals: the file's, else area-weighted), `TEXCOORD_0/1` and `COLOR_0` (f32) when the asset
 //!   has them; its vertices are the distinct attribute tuples of its corners in file order;
@@ -83,7 +86,9 @@ use gltf_json as json;
 use thiserror::Error;
 
 use crate::animation::recording::Recording;
-use crate::geometry::mesh::{MAX_COORDINATE, Mesh, first_out_of_range};
+use crate::geometry::mesh::{
+    MAX_COORDINATE, Mesh, bounding_box, first_out_of_range, norm, sub, to_f32_from,
+};
 use crate::io::asset::Asset;
 use crate::io::{SaveError, write_atomic};
 use layout::Layout;
@@ -185,6 +190,15 @@ impl UpAxis {
         let h = std::f32::consts::FRAC_1_SQRT_2;
         (self == UpAxis::Z).then_some(json::scene::UnitQuaternion([-h, 0.0, 0.0, h]))
     }
+
+    /// `p` turned by [`UpAxis::node_rotation`], in f32 (exact for a point that is f32 already).
+    pub fn rotate(self, p: [f64; 3]) -> [f32; 3] {
+        let [x, y, z] = p.map(|c| c as f32);
+        match self {
+            UpAxis::Y => [x, y, z],
+            UpAxis::Z => [x, z, -y],
+        }
+    }
 }
 
 /// The settings a recording was solved with, recorded in the file's `asset.extras.bsarap`
@@ -272,7 +286,10 @@ pub struct GltfExport<'a> {
     /// Indices of the recorded frames that become targets.
     kept: Vec<usize>,
     /// File positions as stored (f32): the base every delta is taken against.
+    /// The rest positions as stored: relative to `origin`, in f32.
     rest_f32: Vec<[f32; 3]>,
+    /// What the stored positions are relative to ([`position_origin`]).
+    origin: [f64; 3],
     /// Stored unit rest normals of every primitive's vertices.
     rest_normals: Vec<Vec<[f32; 3]>>,
     /// The node scale $k_m$ of every mesh of the layout (1 for `Float`; see the module doc).
@@ -296,7 +313,7 @@ fn node_scales<'f>(
     layout: &Layout,
     asset: &Asset,
     vertex_map: &[Option<u32>],
-    rest_f32: &[[f32; 3]],
+    (rest_f32, origin): (&[[f32; 3]], [f64; 3]),
     frames: impl Iterator<Item = &'f Vec<[f64; 3]>>,
 ) -> Vec<f32> {
     let mut largest = vec![0.0f64; layout.meshes.len()];
@@ -307,7 +324,7 @@ fn node_scales<'f>(
                 for v in &layout.primitives[pi].vertices {
                     let (p, r) = (pose[v[0] as usize], rest_f32[v[0] as usize]);
                     for d in 0..3 {
-                        *largest = largest.max((p[d] - r[d] as f64).abs());
+                        *largest = largest.max((p[d] - origin[d] - r[d] as f64).abs());
                     }
                 }
             }
@@ -320,6 +337,25 @@ fn node_scales<'f>(
             (s.max(1.0).log2().ceil().exp2()) as f32
         })
         .collect()
+}
+
+/// How far out, in bounding-box diagonals, an asset's farthest coordinate must lie for its
+/// positions to be stored relative to its centre ([`position_origin`]).
+pub const FAR_FROM_ORIGIN: f64 = 4.0;
+
+/// The point the stored positions are relative to: the origin, or, for an asset whose farthest
+/// coordinate is more than [`FAR_FROM_ORIGIN`] diagonals out (a georeferenced scan: f32's step
+/// is 0.5 at 5·10⁶), its bounding box's centre rounded to f32, which the mesh nodes' f32
+/// translation holds exactly. Assets near the origin are stored as before, node for node.
+pub fn position_origin(positions: &[[f64; 3]]) -> [f64; 3] {
+    let (lo, hi) = bounding_box(positions.iter().copied());
+    let diagonal = norm(sub(hi, lo));
+    let reach = lo.iter().chain(&hi).fold(0.0f64, |m, c| m.max(c.abs()));
+    if reach > FAR_FROM_ORIGIN * diagonal {
+        std::array::from_fn(|k| (0.5 * (lo[k] + hi[k])) as f32 as f64)
+    } else {
+        [0.0; 3]
+    }
 }
 
 /// The kept frame indices of `n` frames with step `k` (the last always kept).
@@ -427,14 +463,16 @@ impl<'a> GltfExport<'a> {
             prev = t;
         }
         let layout = Layout::new(&asset, &vertex_map);
-        let rest_f32: Vec<[f32; 3]> = asset.positions.iter().map(|p| p.map(|c| c as f32)).collect();
+        let origin = position_origin(&asset.positions);
+        let rest_f32: Vec<[f32; 3]> =
+            asset.positions.iter().map(|&p| to_f32_from(origin, p)).collect();
         let rest_normals = layout.rest_normals(&asset);
         let kept = kept_frames(n, settings.every_k);
         let node_scales = match settings.encoding {
             Encoding::Float => vec![1.0; layout.meshes.len()],
             Encoding::Quantized => {
                 let frames = kept.iter().map(|&i| &recording.frames[i]);
-                node_scales(&layout, &asset, &vertex_map, &rest_f32, frames)
+                node_scales(&layout, &asset, &vertex_map, (&rest_f32, origin), frames)
             }
         };
         let mut export = GltfExport {
@@ -446,6 +484,7 @@ impl<'a> GltfExport<'a> {
             format,
             layout,
             rest_f32,
+            origin,
             rest_normals,
             node_scales,
             meshopt: false,
@@ -471,8 +510,10 @@ impl<'a> GltfExport<'a> {
     /// upright; the vertex data is unchanged.
     pub fn with_up_axis(mut self, up: UpAxis) -> Self {
         self.up = up;
+        let translation = (self.origin != [0.0; 3]).then(|| up.rotate(self.origin));
         for node in self.root.nodes.iter_mut().filter(|n| n.mesh.is_some()) {
             node.rotation = up.node_rotation();
+            node.translation = translation;
         }
         self
     }
