@@ -745,6 +745,13 @@ fn a_far_asset_is_stored_relative_to_its_centre() {
             }
         }
     }
+    // The translation is written in decimals that f64 readers take exactly (three.js does).
+    for c in [499_999.873, 5_000_000.0, -200_000.03, 1.234_567_891e7, 0.75] {
+        let o = solver::animation::export::exact_in_json(c);
+        let text = serde_json::to_string(&(o as f32)).unwrap();
+        assert_eq!(text.parse::<f64>().unwrap(), o, "{c} as {text}");
+        assert!((o - c).abs() <= 1e-6 * c.abs().max(1.0), "{c} rounded to {o}");
+    }
     // Near the origin: no translation, as before.
     let settings = ExportSettings::default();
     let input = AssetExport { asset: &near, vertex_map: &map, recording: &rec, settings };

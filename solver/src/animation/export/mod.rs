@@ -345,17 +345,37 @@ pub const FAR_FROM_ORIGIN: f64 = 4.0;
 
 /// The point the stored positions are relative to: the origin, or, for an asset whose farthest
 /// coordinate is more than [`FAR_FROM_ORIGIN`] diagonals out (a georeferenced scan: f32's step
-/// is 0.5 at 5·10⁶), its bounding box's centre rounded to f32, which the mesh nodes' f32
-/// translation holds exactly. Assets near the origin are stored as before, node for node.
+/// is 0.5 at 5·10⁶), its bounding box's centre, rounded ([`exact_in_json`]) so that the mesh
+/// nodes' f32 translation holds it and every reader of the JSON, f32 or f64, reads it exactly.
+/// Assets near the origin are stored as before, node for node.
 pub fn position_origin(positions: &[[f64; 3]]) -> [f64; 3] {
     let (lo, hi) = bounding_box(positions.iter().copied());
     let diagonal = norm(sub(hi, lo));
     let reach = lo.iter().chain(&hi).fold(0.0f64, |m, c| m.max(c.abs()));
     if reach > FAR_FROM_ORIGIN * diagonal {
-        std::array::from_fn(|k| (0.5 * (lo[k] + hi[k])) as f32 as f64)
+        std::array::from_fn(|k| exact_in_json(0.5 * (lo[k] + hi[k])))
     } else {
         [0.0; 3]
     }
+}
+
+/// `c` rounded to an f32 whose shortest decimal, as the JSON writes an f32, is its exact value:
+/// f32's own rounding first, then to coarser multiples of two until it is. The f32 of
+/// 499 999.873 is 499 999.875, written "499999.88", which a reader parsing in f64 (three.js)
+/// takes 0.005 away; 499 999.75 is written as it is.
+pub fn exact_in_json(c: f64) -> f64 {
+    let exact = |x: f32| format!("{x}").parse::<f64>() == Ok(f64::from(x));
+    let mut x = c as f32;
+    if x == 0.0 || !x.is_finite() {
+        return f64::from(x);
+    }
+    // f32's step at `x`, a power of two: its multiples near `x` are f32s.
+    let mut step = 2f64.powi(f64::from(x.abs()).log2().floor() as i32 - 23);
+    while !exact(x) {
+        step *= 2.0;
+        x = ((c / step).round() * step) as f32;
+    }
+    f64::from(x)
 }
 
 /// The kept frame indices of `n` frames with step `k` (the last always kept).
