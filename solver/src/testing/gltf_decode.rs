@@ -165,8 +165,9 @@ pub fn played_error(bytes: &[u8], times: &[f64], frames: &[Vec<[f64; 3]>]) -> f6
 
 /// [`played_error`] for an export whose vertices may be in another order (`--meshopt`
 /// reorders them): with `rest` (the poses' rest positions, one per pose vertex), each written
-/// vertex is the pose vertex whose rest position, as f32, is its base position times the node
-/// scale; vertices at one rest position must play alike.
+/// vertex is the pose vertex whose rest position less the node's translation (turned back), as
+/// f32, is its base position times the node scale; vertices at one rest position must play
+/// alike.
 pub fn played_error_reordered(
     bytes: &[u8],
     times: &[f64],

@@ -285,8 +285,8 @@ pub struct GltfExport<'a> {
     layout: Layout,
     /// Indices of the recorded frames that become targets.
     kept: Vec<usize>,
-    /// File positions as stored (f32): the base every delta is taken against.
-    /// The rest positions as stored: relative to `origin`, in f32.
+    /// File positions as stored (f32, relative to `origin`): the base every delta is taken
+    /// against.
     rest_f32: Vec<[f32; 3]>,
     /// What the stored positions are relative to ([`position_origin`]).
     origin: [f64; 3],
