@@ -21,7 +21,7 @@ use rustc_hash::FxHashMap;
 use serde::Serialize;
 use thiserror::Error;
 
-use crate::geometry::mesh::{MAX_COORDINATE, Mesh, bounding_box, in_range};
+use crate::geometry::mesh::{MAX_COORDINATE, Mesh, bounding_box, first_out_of_range};
 use crate::geometry::mesh::{cross, norm, sub};
 use crate::geometry::topology::edge_counts;
 
@@ -155,8 +155,7 @@ pub fn clean(
     if n > u32::MAX as usize {
         return Err(CleanError::TooManyVertices { n_vertices: n });
     }
-    if let Some(vertex) = positions.par_iter().position_first(|p| !p.iter().all(|&c| in_range(c))) {
-        let value = positions[vertex].iter().copied().find(|&c| !in_range(c)).unwrap_or(f64::NAN);
+    if let Some((vertex, value)) = first_out_of_range(positions) {
         return Err(CleanError::NonFinite { vertex, value });
     }
     if let Some(face) = triangles.par_iter().position_first(|t| t.iter().any(|&i| i as usize >= n))

@@ -696,8 +696,10 @@ fn reloaded_export_keeps_its_vertex_order() {
 /// is 0.5) is stored relative to its centre, which its node carries as a translation: every
 /// frame plays back within f32 precision of the asset's own size, float and quantized, Y-up and
 /// Z-up, and our reader reads the rest mesh back onto the file's vertices. Stored as they were,
-/// absolute in f32, the positions were off by up to a quarter of a unit (an eighth of this
-/// asset's diagonal); an asset near the origin is stored as before, with no translation.
+/// absolute in f32, the rest mesh was off by up to a quarter of a unit (a fourteenth of this
+/// sphere's diagonal; the played frames were right even so, their deltas taken against the
+/// stored rest, so that bound holds either way); an asset near the origin is stored as before,
+/// with no translation.
 #[test]
 fn a_far_asset_is_stored_relative_to_its_centre() {
     // A bare sphere (the decoder plays the first primitive's vertices in order), bent.
