@@ -294,11 +294,15 @@ fn world_positions(bytes: &[u8], t: usize) -> Vec<[f64; 3]> {
             let joints: Vec<DMat4> =
                 skin.joints().zip(&ibm).map(|(j, ibm)| world(j.index()) * *ibm).collect();
             let js = reader.read_joints(0).unwrap().into_u16();
-            let ws = reader.read_weights(0).unwrap().into_f32();
+            // The written weights sum to 65535 exactly: divided in f64 they sum to one, as
+            // they must for a far asset (f32 weights are 1 ± 1e-7, times five million).
+            let ws = reader.read_weights(0).unwrap().into_u16();
             base.iter()
                 .zip(js.zip(ws))
                 .map(|(&x, (j, w))| {
-                    (0..4).map(|k| w[k] as f64 * joints[j[k] as usize].transform_point3(x)).sum()
+                    (0..4)
+                        .map(|k| w[k] as f64 / 65535.0 * joints[j[k] as usize].transform_point3(x))
+                        .sum()
                 })
                 .collect()
         }
@@ -375,4 +379,62 @@ fn a_z_up_skin_stands_where_the_morph_export_stands() {
         println!("three.js key {t}: {to_fit:.1e} from the turned fit");
         assert!(to_fit <= 1e-4 * diag, "three.js key {t}: {to_fit}");
     }
+}
+
+/// A recording far from the origin (a georeferenced scan, five million units out, where f32's
+/// step is 0.5) bakes to bones as well as at the origin, and its skin is stored relative to
+/// the asset's centre, which node `armature` carries: every key, Y-up and Z-up, is drawn within
+/// f32 precision of the asset's own size from the fit. Stored as before (absolute f32 vertices
+/// and joints) the drawn keys were up to a quarter of a unit, a fourteenth of this sphere's
+/// diagonal, off; a skin near the origin keeps an untranslated armature.
+#[test]
+fn a_far_skin_is_stored_relative_to_its_centre() {
+    use solver::animation::export::{UpAxis, position_origin};
+    let dir = ScratchDir::new("skin-far");
+    let (mesh, rec) = recording(5);
+    let far_off = [5.0e5, 5.0e6, -2.0e5];
+    let shift = |p: &[[f64; 3]]| -> Vec<[f64; 3]> {
+        p.iter().map(|q| [0, 1, 2].map(|k| q[k] + far_off[k])).collect()
+    };
+    let rest = shift(mesh.positions());
+    let frames: Vec<Vec<[f64; 3]>> = rec.frames.iter().map(|f| shift(f)).collect();
+    let (near, far) = (fit(mesh.positions(), &rec.frames, 8), fit(&rest, &frames, 8));
+    println!("fit near: {:?}\nfit far: {:?}", near.error, far.error);
+    assert!(far.error.mean <= 1.5 * near.error.mean + 1e-6, "{:?}", far.error);
+    let diag = mesh.bbox_diagonal();
+    let asset = Asset::bare(rest.clone(), mesh.triangles().to_vec());
+    let map: Vec<Option<u32>> = (0..mesh.n_vertices() as u32).map(Some).collect();
+    let o = position_origin(&rest);
+    for up in [UpAxis::Y, UpAxis::Z] {
+        let export = SkinnedExport::new(&asset, &map, &far, &rec.times, GltfFormat::Glb).unwrap();
+        let bytes = export.with_up_axis(up).to_bytes().unwrap();
+        let path = dir.join(format!("far-{up:?}.glb"));
+        std::fs::write(&path, &bytes).unwrap();
+        solver::testing::khronos_accepts(&path);
+        let g = gltf::Gltf::from_slice(&bytes).unwrap();
+        let armature = g.document.nodes().find(|n| n.name() == Some("armature")).unwrap();
+        let (t, _, _) = armature.transform().decomposed();
+        assert_eq!(t, up.rotate(o), "{up:?}: the armature's translation");
+        let turn = |p: [f64; 3]| if up == UpAxis::Z { [p[0], p[2], -p[1]] } else { p };
+        for key in 0..rec.frames.len() {
+            let want: Vec<[f64; 3]> =
+                (0..rest.len()).map(|v| turn(far.skin(key, v, rest[v]))).collect();
+            let err = max_dist(&world_positions(&bytes, key), &want);
+            println!("{up:?} key {key}: drawn {err:.1e} from the fit");
+            assert!(err <= 1e-4 * diag, "{up:?} key {key}: drawn {err} from the fit");
+        }
+    }
+    let near_skin = SkinnedExport::new(
+        &Asset::bare(mesh.positions().to_vec(), mesh.triangles().to_vec()),
+        &map,
+        &near,
+        &rec.times,
+        GltfFormat::Glb,
+    )
+    .unwrap()
+    .to_bytes()
+    .unwrap();
+    let g = gltf::Gltf::from_slice(&near_skin).unwrap();
+    let armature = g.document.nodes().find(|n| n.name() == Some("armature")).unwrap();
+    assert_eq!(armature.transform().decomposed().0, [0.0; 3], "a translated armature near 0");
 }

@@ -18,12 +18,16 @@
 //!   world matrices become $U G^t_j$, and a viewer draws $U \sum_k w_{vk} (\dots)$, where the
 //!   morph-target export of the same recording draws its frames (three.js, which applies a
 //!   skinned mesh node's transform once more at bind time, agrees because that node is the
-//!   identity).
+//!   identity). An asset far from the origin (a georeferenced scan, [`position_origin`]) is
+//!   stored relative to its centre $o$ as in the morph-target export: vertex positions
+//!   $r_v - o$, joint centres $c_j - o$, and `armature` carries the translation $U o$ above its
+//!   rotation, so that a viewer's $U(\,\cdot + o)$ puts the file's coordinates back.
 //! - One animation `recording`, `LINEAR`, one key per recorded frame at its time: bone $j$ in
 //!   frame $t$ has rotation $R^t_j$ (unit quaternion, sign chosen to follow the previous key so
-//!   that interpolation takes the short way) and translation $R^t_j c_j + T^t_j$, so the
-//!   skinning matrix $G^t_j\,\mathrm{IBM}_j$ is $x \mapsto R^t_j (x - c_j) + R^t_j c_j + T^t_j
-//!   = R^t_j x + T^t_j$: a viewer draws $\sum_k w_{vk} (R^t_{j_k} r_v + T^t_{j_k})$, the fit.
+//!   that interpolation takes the short way) and translation $R^t_j c_j + T^t_j - o$, so the
+//!   skinning matrix $G^t_j\,\mathrm{IBM}_j$ is $y \mapsto R^t_j (y - c_j + o) + R^t_j c_j +
+//!   T^t_j - o = R^t_j (y + o) + T^t_j - o$: a viewer draws, with $y = r_v - o$ and the
+//!   armature's $o$ added back, $\sum_k w_{vk} (R^t_{j_k} r_v + T^t_{j_k})$, the fit.
 //!
 //! **Buffer.** One buffer, every view on a 4-byte boundary: images (`.glb`), each primitive's
 //! attributes, the inverse bind matrices, the times, each joint's translations then rotations.
@@ -44,8 +48,9 @@ use super::document::{
     push_materials,
 };
 use super::layout::{Layout, validate};
-use super::{ExportError, GltfFormat, UpAxis};
+use super::{ExportError, GltfFormat, UpAxis, position_origin};
 use crate::animation::skinning::{MAX_INFLUENCES, Skinning};
+use crate::geometry::mesh::to_f32_from;
 use crate::io::asset::Asset;
 use crate::io::write_atomic;
 use crate::linalg::rotation::to_dmat3;
@@ -60,6 +65,9 @@ pub struct SkinnedExport<'a> {
     format: GltfFormat,
     /// The asset's up axis ([`SkinnedExport::with_up_axis`]).
     up: UpAxis,
+    /// What the stored positions, joint centres and translations are relative to
+    /// ([`position_origin`]).
+    origin: [f64; 3],
     layout: Layout,
     rest_normals: Vec<Vec<[f32; 3]>>,
     /// Some file vertex is outside the solved mesh: joint `rest` is written.
@@ -133,6 +141,7 @@ impl<'a> SkinnedExport<'a> {
             times,
             format,
             up: UpAxis::Y,
+            origin: position_origin(&asset.positions),
             layout,
             rest_normals,
             rest_joint,
@@ -151,13 +160,21 @@ impl<'a> SkinnedExport<'a> {
     /// ([`super::GltfExport::with_up_axis`]) shows it; the vertex data is unchanged.
     pub fn with_up_axis(mut self, up: UpAxis) -> Self {
         self.up = up;
+        let translation = self.armature_translation();
         if let Some(skin) = self.root.skins.first()
             && let Some(armature) = skin.skeleton
             && let Some(node) = self.root.nodes.get_mut(armature.value())
         {
             node.rotation = up.node_rotation();
+            node.translation = translation;
         }
         self
+    }
+
+    /// Node `armature`'s translation: the origin turned by the up axis's rotation, none near
+    /// the origin.
+    fn armature_translation(&self) -> Option<[f32; 3]> {
+        (self.origin != [0.0; 3]).then(|| self.up.rotate(self.origin))
     }
 
     /// The exact size in bytes of the file [`SkinnedExport::write`] will produce.
@@ -239,7 +256,7 @@ impl<'a> SkinnedExport<'a> {
             let pos: Vec<[f32; 3]> = p
                 .vertices
                 .iter()
-                .map(|v| asset.positions[v[0] as usize].map(|c| c as f32))
+                .map(|v| to_f32_from(self.origin, asset.positions[v[0] as usize]))
                 .collect();
             let (indices, mut attributes) = base_attributes(&mut b, asset, p, &pos, rest_normals);
             let (mut joints, mut weights) = (Vec::new(), Vec::with_capacity(n * 8));
@@ -273,7 +290,7 @@ impl<'a> SkinnedExport<'a> {
 
         // Joints: bones at their rest centres, and `rest` at the origin when needed.
         let mut centers: Vec<[f32; 3]> =
-            self.skinning.centers.iter().map(|c| c.map(|x| x as f32)).collect();
+            self.skinning.centers.iter().map(|&c| to_f32_from(self.origin, c)).collect();
         if self.rest_joint {
             centers.push([0.0; 3]);
         }
@@ -309,6 +326,7 @@ impl<'a> SkinnedExport<'a> {
             name: Some("armature".into()),
             children: Some(joints.clone()),
             rotation: self.up.node_rotation(),
+            translation: self.armature_translation(),
             ..Default::default()
         });
         let skin = b.root.push(json::Skin {
@@ -355,6 +373,7 @@ impl<'a> SkinnedExport<'a> {
         let range = Some((vec![times[0][0] as f64], vec![times[n_t - 1][0] as f64]));
         let input = b.data(&f32_bytes(&times), n_t, C::F32, T::Scalar, None, range);
         let (mut samplers, mut channels) = (Vec::new(), Vec::new());
+        let origin = DVec3::from_array(self.origin);
         for (j, &node) in joints.iter().enumerate().take(self.skinning.n_bones()) {
             let c = DVec3::from_array(self.skinning.centers[j]);
             let mut translations = Vec::with_capacity(n_t);
@@ -368,7 +387,7 @@ impl<'a> SkinnedExport<'a> {
                     q = -q;
                 }
                 prev = q;
-                let t = r * c + DVec3::from_array(m.translation);
+                let t = r * c + DVec3::from_array(m.translation) - origin;
                 translations.push(t.to_array().map(|x| x as f32));
                 rotations.push(q.to_array().map(|x| x as f32));
             }
