@@ -29,6 +29,7 @@ Exit status: 0 on success, 2 when the file cannot be imported.
 
 import json
 import sys
+from array import array
 
 import bpy
 
@@ -70,10 +71,18 @@ def material_report(mat):
 
 
 def evaluated_positions(obj, depsgraph):
+    """The evaluated mesh's vertices in world space and glTF axes: Blender's object matrix
+    (f32) applied to its vertex coordinates (f32) in Python's doubles, as Blender holds them;
+    mathutils' `matrix_world @ co` would round the sum to f32, half a unit at five million."""
     ev = obj.evaluated_get(depsgraph)
     mesh = ev.to_mesh()
-    mw = ev.matrix_world
-    pts = [to_gltf_axes(mw @ v.co) for v in mesh.vertices]
+    m = [[float(ev.matrix_world[i][j]) for j in range(4)] for i in range(3)]
+    co = array("f", bytes(12 * len(mesh.vertices)))
+    mesh.vertices.foreach_get("co", co)
+    pts = []
+    for k in range(0, len(co), 3):
+        x, y, z = co[k], co[k + 1], co[k + 2]
+        pts.append(to_gltf_axes([r[0] * x + r[1] * y + r[2] * z + r[3] for r in m]))
     ev.to_mesh_clear()
     return pts
 

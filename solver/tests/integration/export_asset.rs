@@ -8,6 +8,7 @@
 use std::ops::ControlFlow;
 use std::path::{Path as FsPath, PathBuf};
 
+use crate::support::clients;
 use base64::Engine as _;
 use solver::MAX_COORDINATE;
 use solver::animation::export::{
@@ -695,7 +696,7 @@ fn reloaded_export_keeps_its_vertex_order() {
 /// An asset far from the origin (a georeferenced scan, five million units out, where f32's step
 /// is 0.5) is stored relative to its centre, which its node carries as a translation: every
 /// frame plays back within f32 precision of the asset's own size, float and quantized, Y-up and
-/// Z-up, the Khronos validator accepts the files, and our reader reads the rest mesh back onto
+/// Z-up, as decoded and as three.js and Blender draw it, the Khronos validator accepts the files, and our reader reads the rest mesh back onto
 /// the file's vertices. Stored as they were, absolute in f32, the rest mesh was off by up to a
 /// quarter of a unit (a fourteenth of this sphere's diagonal; the played frames were right even
 /// so, their deltas taken against the stored rest, so that bound holds either way); an asset
@@ -740,6 +741,32 @@ fn a_far_asset_is_stored_relative_to_its_centre() {
             assert!((0..3).all(|k| t[k].as_f64() == Some(want[k])), "{t} against {want:?}");
             let err = played_error(&bytes, &far_rec.times, &far_rec.frames) / diag;
             assert!(err < tolerance, "{encoding:?} {up:?}: played {err:e} of the diagonal off");
+            // three.js (its CPU path is in f64) and Blender (its f32 object location and
+            // vertices, summed in f64) draw each key where it was recorded.
+            let turn = |[x, y, z]: [f64; 3]| if up == UpAxis::Z { [x, z, -y] } else { [x, y, z] };
+            let want = |key: usize| -> Vec<[f64; 3]> {
+                far_rec.frames[key].iter().map(|&p| turn(p)).collect()
+            };
+            if let Some(report) = clients::threejs_check(&path, &["--positions"]) {
+                let samples = report["samples"].as_array().unwrap();
+                assert_eq!(samples.len(), far_rec.frames.len());
+                for (key, sample) in samples.iter().enumerate() {
+                    let err = clients::max_error(&sample[0]["positions"], &want(key)) / diag;
+                    println!("three.js {encoding:?} {up:?} key {key}: {err:.1e} of the diagonal");
+                    assert!(err < tolerance, "three.js {encoding:?} {up:?} key {key}: {err:e}");
+                }
+            }
+            if let (Encoding::Quantized, Some(python)) = (encoding, clients::blender_python()) {
+                let args = [path.as_path(), FsPath::new("--positions")];
+                let report = clients::run_blender(&python, "check_gltf.py", &args, "REPORT ");
+                let positions = report["meshes"][0]["positions"].as_array().unwrap();
+                assert_eq!(positions.len(), far_rec.frames.len(), "{report}");
+                for (key, got) in positions.iter().enumerate() {
+                    let err = clients::max_error(got, &want(key)) / diag;
+                    println!("Blender {up:?} key {key}: {err:.1e} of the diagonal");
+                    assert!(err < tolerance, "Blender {up:?} key {key}: {err:e}");
+                }
+            }
             if up == UpAxis::Y {
                 let back = load_mesh_from_bytes(&bytes, Format::Gltf, "far.glb").unwrap();
                 for p in &back.asset.positions {
