@@ -26,7 +26,7 @@ pub struct NativeArap {
 impl NativeArap {
     #[new]
     #[pyo3(signature = (v, f, b, energy_name, max_iters, tol, anderson))]
-    #[allow(clippy::too_many_arguments)]
+    #[expect(clippy::too_many_arguments, reason = "igl.ARAP's constructor arguments")]
     fn new(
         py: Python<'_>,
         v: PyReadonlyArray2<'_, f64>,

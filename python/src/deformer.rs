@@ -106,7 +106,7 @@ impl NativeDeformer {
     #[pyo3(signature = (v, f, labels, method, energy_name, tol, max_iters, anderson, smoothing,
         coarse_vertices, fine_iterations, settle_iterations, membrane, pinned_components,
         bending_length, coarse_energy_name))]
-    #[allow(clippy::too_many_arguments)]
+    #[expect(clippy::too_many_arguments, reason = "the Python constructor's keyword arguments")]
     fn new(
         py: Python<'_>,
         v: PyReadonlyArray2<'_, f64>,

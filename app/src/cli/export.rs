@@ -235,14 +235,17 @@ pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
     let written = match output {
         Output::Gltf(format) if a.bones.is_some() => {
             let bones = a.bones.flatten().unwrap_or(SkinningConfig::default().bones);
+            let baked = super::export_bones::Baked {
+                asset,
+                vertex_map,
+                rest: mesh.positions(),
+                recording: &recording,
+            };
             let r = super::export_bones::write(
                 &a.output,
                 format,
                 scene.up_axis,
-                asset,
-                vertex_map,
-                mesh.positions(),
-                &recording,
+                &baked,
                 bones,
                 a.json,
             )?;

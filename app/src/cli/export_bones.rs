@@ -17,21 +17,29 @@ pub struct BonesReport {
     pub bytes: u64,
 }
 
-/// Fits `bones` bones to `recording` (poses of `rest`, the cleaned mesh) and writes the skin on
-/// the asset's layout to `path`, upright for the scene's up axis `up`. `quiet` hides the progress bar and the size line; the fit's
-/// time and error are always printed on stderr.
-#[allow(clippy::too_many_arguments)]
+/// What is baked: a recording of the cleaned mesh and the file layout it is written on.
+pub struct Baked<'a> {
+    pub asset: &'a Asset,
+    /// File vertex → cleaned mesh vertex (`CleanReport::vertex_map`).
+    pub vertex_map: &'a [Option<u32>],
+    /// The cleaned mesh's rest positions.
+    pub rest: &'a [[f64; 3]],
+    /// Poses of `rest`.
+    pub recording: &'a Recording,
+}
+
+/// Fits `bones` bones to the recording and writes the skin on the asset's layout to `path`,
+/// upright for the scene's up axis `up`. `quiet` hides the progress bar and the size line; the
+/// fit's time and error are always printed on stderr.
 pub fn write(
     path: &Path,
     format: GltfFormat,
     up: UpAxis,
-    asset: &Asset,
-    vertex_map: &[Option<u32>],
-    rest: &[[f64; 3]],
-    recording: &Recording,
+    baked: &Baked,
     bones: usize,
     quiet: bool,
 ) -> anyhow::Result<BonesReport> {
+    let Baked { asset, vertex_map, rest, recording } = *baked;
     let config = SkinningConfig { bones, ..SkinningConfig::default() };
     let target = if quiet { ProgressDrawTarget::hidden() } else { ProgressDrawTarget::stderr() };
     let steps = (config.init_iterations + config.iterations) as u64;

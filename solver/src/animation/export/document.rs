@@ -116,6 +116,16 @@ pub(super) fn base_attributes(
     (indices, attributes)
 }
 
+/// What an accessor holds: `count` elements of `type_` made of `component`s, `normalized`
+/// integers read as $[-1, 1]$ or $[0, 1]$.
+#[derive(Clone, Copy)]
+pub(super) struct Elements {
+    pub count: usize,
+    pub component: C,
+    pub normalized: bool,
+    pub type_: T,
+}
+
 /// The buffer being laid out: every view starts on a 4-byte boundary; bytes are kept only
 /// when writing.
 pub(super) struct Builder {
@@ -225,17 +235,15 @@ impl Builder {
         })
     }
 
-    #[allow(clippy::too_many_arguments)]
+    /// An accessor of `elements` over `view` (none for a sparse accessor without a base).
     pub(super) fn accessor(
         &mut self,
         view: Option<json::Index<json::buffer::View>>,
-        count: usize,
-        component: C,
-        normalized: bool,
-        type_: T,
+        elements: Elements,
         bounds: Option<(Vec<f64>, Vec<f64>)>,
         sparse: Option<json::accessor::sparse::Sparse>,
     ) -> json::Index<json::Accessor> {
+        let Elements { count, component, normalized, type_ } = elements;
         let (min, max) = match bounds {
             Some((lo, hi)) => (Some(json_bound(&lo, component)), Some(json_bound(&hi, component))),
             None => (None, None),
@@ -267,7 +275,8 @@ impl Builder {
         bounds: Option<(Vec<f64>, Vec<f64>)>,
     ) -> json::Index<json::Accessor> {
         let view = self.view(bytes, None, target);
-        self.accessor(Some(view), count, component, false, type_, bounds, None)
+        let elements = Elements { count, component, normalized: false, type_ };
+        self.accessor(Some(view), elements, bounds, None)
     }
 
     /// The accessor of one encoded morph-target attribute over `count` vertices.
@@ -284,10 +293,11 @@ impl Builder {
             Values::I8(_) => (C::I8, true),
         };
         let bounds = with_bounds.then(|| (e.min.to_vec(), e.max.to_vec()));
+        let elements = Elements { count, component, normalized, type_: T::Vec3 };
         match e.storage {
             Storage::Dense => {
                 let view = self.view(&e.views[0], values.dense_stride(), Some(B::ArrayBuffer));
-                self.accessor(Some(view), count, component, normalized, T::Vec3, bounds, None)
+                self.accessor(Some(view), elements, bounds, None)
             }
             Storage::Sparse { count: m, index_bytes } => {
                 let indices = self.view(&e.views[0], None, None);
@@ -312,7 +322,7 @@ impl Builder {
                     extensions: None,
                     extras: None,
                 };
-                self.accessor(None, count, component, normalized, T::Vec3, bounds, Some(sparse))
+                self.accessor(None, elements, bounds, Some(sparse))
             }
         }
     }

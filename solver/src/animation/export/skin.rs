@@ -44,7 +44,7 @@ use json::buffer::Target as B;
 use json::validation::{Checked::Valid, USize64};
 
 use super::document::{
-    Builder, base_attributes, channel, f32_bytes, file_bytes, file_size, linear_sampler,
+    Builder, Elements, base_attributes, channel, f32_bytes, file_bytes, file_size, linear_sampler,
     push_materials,
 };
 use super::layout::{Layout, validate};
@@ -275,7 +275,9 @@ impl<'a> SkinnedExport<'a> {
             let a = b.data(&joints, n, jc, T::Vec4, Some(B::ArrayBuffer), None);
             attributes.insert(Valid(json::mesh::Semantic::Joints(0)), a);
             let view = b.view(&weights, None, Some(B::ArrayBuffer));
-            let a = b.accessor(Some(view), n, C::U16, true, T::Vec4, None, None);
+            let elements =
+                Elements { count: n, component: C::U16, normalized: true, type_: T::Vec4 };
+            let a = b.accessor(Some(view), elements, None, None);
             attributes.insert(Valid(json::mesh::Semantic::Weights(0)), a);
             primitives.push(json::mesh::Primitive {
                 attributes,

@@ -46,16 +46,12 @@ pub(super) struct WeightInputs<'a> {
 pub(super) fn update(data: &Data, input: &WeightInputs, current: &Influences) -> (Influences, f64) {
     let nb = input.q.len().isqrt();
     let k = input.max_influences.clamp(1, MAX_INFLUENCES).min(nb.max(1));
-    let c = input.candidates.max(k).min(nb.max(1));
-    let dim = c + MAX_INFLUENCES;
+    let size =
+        Size { bones: nb, influences: k, candidates: input.candidates.max(k).min(nb.max(1)) };
+    let dim = size.candidates + MAX_INFLUENCES;
     let results: Vec<([u32; MAX_INFLUENCES], [f64; MAX_INFLUENCES], f64)> = (0..data.n_vertices())
         .into_par_iter()
-        .map_init(
-            || Scratch::new(dim),
-            |scratch, v| {
-                vertex(data, input, nb, k, c, v, &current.bones[v], &current.weights[v], scratch)
-            },
-        )
+        .map_init(|| Scratch::new(dim), |scratch, v| vertex(data, input, size, v, current, scratch))
         .collect();
     let mut out = Influences {
         bones: Vec::with_capacity(results.len()),
@@ -93,18 +89,28 @@ impl Scratch {
     }
 }
 
-#[allow(clippy::too_many_arguments)]
+/// The sizes of one vertex's problem.
+#[derive(Clone, Copy)]
+struct Size {
+    /// $B$, the number of bones.
+    bones: usize,
+    /// $K$, the most bones with a non-zero weight.
+    influences: usize,
+    /// Candidate bones besides the current ones.
+    candidates: usize,
+}
+
+/// Vertex `v`'s new bones, weights and error, from its `current` influences.
 fn vertex(
     data: &Data,
     input: &WeightInputs,
-    nb: usize,
-    k: usize,
-    c: usize,
+    size: Size,
     v: usize,
-    bones: &[u32; MAX_INFLUENCES],
-    weights: &[f64; MAX_INFLUENCES],
+    current: &Influences,
     scratch: &mut Scratch,
 ) -> ([u32; MAX_INFLUENCES], [f64; MAX_INFLUENCES], f64) {
+    let Size { bones: nb, influences: k, candidates: c } = size;
+    let (bones, weights) = (&current.bones[v], &current.weights[v]);
     let r = data.rest_h(v);
     let hv = &input.h[v * nb..(v + 1) * nb];
     let s = input.norms[v];
