@@ -36,7 +36,8 @@
 //! why, unless [`super::ReferencePolicy::allow_outside`].
 //!
 //! Known limitations: TEXCOORD_2 and above, COLOR_1 and above, tangents, skins and morph
-//! targets of the input are ignored; so is `KHR_texture_transform` (UVs are kept as stored).
+//! targets of the input are ignored (a notice names the skins, morph targets and animations);
+//! so is `KHR_texture_transform` (UVs are kept as stored).
 
 use ::gltf::accessor::{DataType, Dimensions};
 use ::gltf::mesh::Mode;
@@ -196,7 +197,36 @@ pub(crate) fn parse(bytes: &[u8], ctx: Ctx, folder: Option<Folder>) -> Result<As
     raw.materials = gltf_material::materials(&gltf.document);
     let images = gltf_material::images(&gltf.document, &buffers, ctx, folder, &mut raw.notices)?;
     raw.images = gltf_material::keep(images, &mut raw.materials);
+    raw.notices.extend(unread_motion(&gltf.document));
     Ok(raw)
+}
+
+/// A notice naming the file's morph targets, skins and animations, which are not read (the
+/// mesh opens in its rest or bind pose); none when it has none.
+fn unread_motion(doc: &::gltf::Document) -> Option<String> {
+    let targets: usize = doc
+        .meshes()
+        .map(|m| m.primitives().map(|p| p.morph_targets().len()).max().unwrap_or(0))
+        .sum();
+    let count = |n: usize, one: &str, many: &str| match n {
+        0 => None,
+        1 => Some(format!("1 {one}")),
+        n => Some(format!("{n} {many}")),
+    };
+    let parts: Vec<String> = [
+        count(targets, "morph target", "morph targets"),
+        count(doc.skins().len(), "skin", "skins"),
+        count(doc.animations().len(), "animation", "animations"),
+    ]
+    .into_iter()
+    .flatten()
+    .collect();
+    let list = match parts.as_slice() {
+        [] => return None,
+        [one] => one.clone(),
+        [rest @ .., last] => format!("{} and {last}", rest.join(", ")),
+    };
+    Some(format!("not read: the file's {list} (the mesh opens in its rest pose)"))
 }
 
 /// Per-vertex attribute values of all primitives read so far, and whether any primitive had

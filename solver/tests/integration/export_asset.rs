@@ -487,7 +487,8 @@ fn quantized_file_requires_the_extension() {
 
 /// Our own quantized export opens in our own reader (the editor's File ▸ Open): the file's
 /// vertices at their rest positions within the i16 quantization (1/65534 of each mesh's
-/// extent, times its node scale), as the float export's are to f32 rounding.
+/// extent, times its node scale), as the float export's are to f32 rounding, with a notice
+/// that the morph targets and the animation are not read.
 #[test]
 fn quantized_export_reads_back() {
     let dir = ScratchDir::new("export-asset-read-back");
@@ -499,6 +500,10 @@ fn quantized_export_reads_back() {
         let (_, bytes, _) = write(&dir, name, s);
         let back = load_mesh_from_bytes(&bytes, Format::Gltf, name).unwrap();
         assert!(!back.asset.positions.is_empty(), "{name}");
+        // The animation is not read, and a notice says so.
+        let said = back.asset.notices.join("\n");
+        assert!(said.contains("morph targets and 1 animation"), "{name}: {said}");
+        assert!(said.contains("rest pose"), "{name}: {said}");
         // Each read-back vertex lies on a file vertex (the export drops unreferenced ones).
         for p in &back.asset.positions {
             let nearest = asset

@@ -46,7 +46,9 @@ fn glb_embedded_and_external_buffers_give_the_same_mesh() {
     external["buffers"][0]["uri"] = json!("tet%20data.bin");
     std::fs::write(dir.join("tet data.bin"), tet_bin()).unwrap();
     std::fs::write(dir.join("c.gltf"), serde_json::to_vec(&external).unwrap()).unwrap();
-    let a = load_mesh(&dir.join("a.glb")).unwrap().mesh;
+    let a = load_mesh(&dir.join("a.glb")).unwrap();
+    assert!(a.asset.notices.is_empty(), "{:?}", a.asset.notices);
+    let a = a.mesh;
     let b = load_mesh(&dir.join("b.gltf")).unwrap().mesh;
     let c = load_mesh(&dir.join("c.gltf")).unwrap().mesh;
     assert_eq!(a.positions(), b.positions());
