@@ -570,7 +570,7 @@ impl GltfExport<'_> {
                 name: Some(node_name.to_string()),
                 scale: (k != 1.0).then_some([k; 3]),
                 rotation: self.up.node_rotation(),
-                translation: (self.origin != [0.0; 3]).then(|| self.up.rotate(self.origin)),
+                translation: self.up.node_translation(self.origin),
                 ..Default::default()
             });
             scene_nodes.push(node);

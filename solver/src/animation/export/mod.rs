@@ -191,6 +191,12 @@ impl UpAxis {
         (self == UpAxis::Z).then_some(json::scene::UnitQuaternion([-h, 0.0, 0.0, h]))
     }
 
+    /// The translation of a node that holds positions stored relative to `origin`
+    /// ([`position_origin`]): `origin` turned by [`UpAxis::node_rotation`]; none at the origin.
+    pub fn node_translation(self, origin: [f64; 3]) -> Option<[f32; 3]> {
+        (origin != [0.0; 3]).then(|| self.rotate(origin))
+    }
+
     /// `p` turned by [`UpAxis::node_rotation`], in f32 (exact for a point that is f32 already).
     pub fn rotate(self, p: [f64; 3]) -> [f32; 3] {
         let [x, y, z] = p.map(|c| c as f32);
@@ -530,7 +536,7 @@ impl<'a> GltfExport<'a> {
     /// upright; the vertex data is unchanged.
     pub fn with_up_axis(mut self, up: UpAxis) -> Self {
         self.up = up;
-        let translation = (self.origin != [0.0; 3]).then(|| up.rotate(self.origin));
+        let translation = up.node_translation(self.origin);
         for node in self.root.nodes.iter_mut().filter(|n| n.mesh.is_some()) {
             node.rotation = up.node_rotation();
             node.translation = translation;

@@ -160,7 +160,7 @@ impl<'a> SkinnedExport<'a> {
     /// ([`super::GltfExport::with_up_axis`]) shows it; the vertex data is unchanged.
     pub fn with_up_axis(mut self, up: UpAxis) -> Self {
         self.up = up;
-        let translation = self.armature_translation();
+        let translation = up.node_translation(self.origin);
         if let Some(skin) = self.root.skins.first()
             && let Some(armature) = skin.skeleton
             && let Some(node) = self.root.nodes.get_mut(armature.value())
@@ -169,12 +169,6 @@ impl<'a> SkinnedExport<'a> {
             node.translation = translation;
         }
         self
-    }
-
-    /// Node `armature`'s translation: the origin turned by the up axis's rotation, none near
-    /// the origin.
-    fn armature_translation(&self) -> Option<[f32; 3]> {
-        (self.origin != [0.0; 3]).then(|| self.up.rotate(self.origin))
     }
 
     /// The exact size in bytes of the file [`SkinnedExport::write`] will produce.
@@ -328,7 +322,7 @@ impl<'a> SkinnedExport<'a> {
             name: Some("armature".into()),
             children: Some(joints.clone()),
             rotation: self.up.node_rotation(),
-            translation: self.armature_translation(),
+            translation: self.up.node_translation(self.origin),
             ..Default::default()
         });
         let skin = b.root.push(json::Skin {
