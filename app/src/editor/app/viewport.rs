@@ -388,6 +388,12 @@ impl EditorApp {
                     "{:.3} ms/it  E = {:.4e}{on_mesh}",
                     s.ms_per_iteration, s.energy
                 ));
+                if let Some(left) = s.settle_left.filter(|_| solving) {
+                    lines.push(format!(
+                        "refining: about {:.3}% of the diagonal to go",
+                        100.0 * left
+                    ));
+                }
             }
         }
         if self.display.view == View::Compare

@@ -65,6 +65,7 @@ impl PoseSolver for Shift {
             done: true,
             fine_iterations: 0,
             fine_energy: None,
+            settle_left: None,
         })
     }
 }

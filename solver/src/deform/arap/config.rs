@@ -238,6 +238,9 @@ pub struct SolveStats {
     /// The fine iterations ran on the fairing level, not on the full mesh (a settle step of a
     /// dense mesh, [`crate::deform::coarse::level_settle`]): `fine_energy` is the level's.
     pub fine_on_level: bool,
+    /// A settle step's estimate of the distance the pose still has to go, over the bounding-box
+    /// diagonal (`None` before the steps can tell; [`crate::deform::coarse::settle_rule`]).
+    pub settle_left: Option<f64>,
 }
 
 impl SolveStats {
@@ -279,6 +282,7 @@ impl SolveStats {
             // The level's energy is not the mesh's: a settle step on the level has none.
             fine_energy: (self.fine_iterations > 0 && !self.fine_on_level)
                 .then_some(self.fine_energy),
+            settle_left: self.settle_left,
         }
     }
 }
@@ -306,6 +310,9 @@ pub struct FrameStats {
     /// The ARAP energy on the full mesh after those iterations (`None` without them; `energy`
     /// is then the only one).
     pub fine_energy: Option<f64>,
+    /// [`SolveStats::settle_left`] (a recording, which does not settle, writes none).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub settle_left: Option<f64>,
 }
 
 #[cfg(test)]

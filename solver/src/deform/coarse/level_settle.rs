@@ -22,8 +22,9 @@
 //!
 //! This is a coarse-grid correction in the multigrid sense: the level's change, interpolated
 //! linearly, corrects the positions at the level's resolution; the details keep the coarse
-//! rotations. Steps repeat until they no longer lower the level's energy, then settling goes
-//! on with the full mesh (which is factored meanwhile). Measured on the armadillo subdivided
+//! rotations. Steps repeat until the pose has settled on the level
+//! ([`crate::deform::coarse::settle_rule`]), then settling goes on with the full mesh (which is
+//! factored meanwhile). Measured on the armadillo subdivided
 //! twice (BENCHMARKS.md, "Settling in the editor"), the level alone brings the coarse pose from
 //! 1.32 % to about 0.6 % of the diagonal from converged ARAP; as fine iterations on every
 //! frame it cost more than a larger coarse level for the same distance, so it runs only when
@@ -36,7 +37,7 @@ use crate::deform::handles::Handles;
 use crate::deform::rig::Rig;
 use crate::error::SolveError;
 use crate::geometry::level::LevelEmbedding;
-use crate::geometry::mesh::{Mesh, add, sub};
+use crate::geometry::mesh::{Mesh, add, norm, sub};
 use crate::linalg::rigid::Motion;
 use rayon::prelude::*;
 
@@ -132,8 +133,9 @@ impl LevelSolver {
 
     /// Steps 1–3 of the module doc on `result` (the pose, every fine vertex), the fine handles
     /// at `targets`, the groups' rigid motions `motions`: `iterations` level iterations
-    /// (factoring the level first if needed), their change interpolated to every fine vertex.
-    /// On error `result` is unchanged.
+    /// (factoring the level first if needed), their change interpolated to every fine vertex,
+    /// with the mean distance that moved the fine vertices (the settle rule's step length,
+    /// [`crate::deform::coarse::settle_rule`]). On error `result` is unchanged.
     pub fn refine(
         &mut self,
         level: &LevelEmbedding,
@@ -141,7 +143,7 @@ impl LevelSolver {
         targets: &[[f64; 3]],
         motions: &[Motion],
         iterations: usize,
-    ) -> Result<SolveStats, SolveError> {
+    ) -> Result<(SolveStats, f64), SolveError> {
         self.target_buf.clear();
         self.target_buf.extend(self.targets.iter().map(|t| match *t {
             LevelTarget::Fine(i) => targets[i],
@@ -151,28 +153,33 @@ impl LevelSolver {
         self.start.extend(level.kept.iter().map(|&v| result[v as usize]));
         self.arap.factor()?;
         let Some(arap) = self.arap.arap_mut() else {
-            return Ok(SolveStats { converged: true, ..SolveStats::default() });
+            return Ok((SolveStats { converged: true, ..SolveStats::default() }, 0.0));
         };
         let st = arap.refine(&self.start, &self.target_buf, iterations)?;
         let y = arap.positions();
         self.change.clear();
         self.change.extend(y.iter().zip(&self.start).map(|(&a, &b)| sub(a, b)));
         let change = &self.change;
-        result.par_iter_mut().enumerate().for_each(|(i, x)| {
-            let (t, w) = level.interpolate(i);
-            let mut d = [0.0; 3];
-            for k in 0..3 {
-                let c = change[t[k] as usize];
-                for a in 0..3 {
-                    d[a] += w[k] * c[a];
+        let moved: f64 = result
+            .par_iter_mut()
+            .enumerate()
+            .map(|(i, x)| {
+                let (t, w) = level.interpolate(i);
+                let mut d = [0.0; 3];
+                for k in 0..3 {
+                    let c = change[t[k] as usize];
+                    for a in 0..3 {
+                        d[a] += w[k] * c[a];
+                    }
                 }
-            }
-            *x = add(*x, d);
-        });
+                *x = add(*x, d);
+                norm(d)
+            })
+            .sum();
         for (&v, &p) in level.kept.iter().zip(y) {
             result[v as usize] = p;
         }
-        Ok(st)
+        Ok((st, moved / result.len().max(1) as f64))
     }
 }
 

@@ -41,7 +41,8 @@
 //!
 //! 6. Optionally ([`BaseConfig::settle_iterations`], [`CoarseBsArap::settle`]), once the
 //!    handles stop, more fine iterations refine the pose step by step, carried the same way,
-//!    until they no longer lower the energy: the pose approaches converged ARAP on $M$. A base
+//!    until the steps' lengths say the pose is within a hundredth of a percent of the diagonal
+//!    of where they lead (`settle_rule.rs`): the pose approaches converged ARAP on $M$. A base
 //!    faired on a level settles on that level first ([`crate::deform::coarse::level_settle`]: a ninth
 //!    of the vertices at 692k, factored far sooner), then on $M$.
 //!
@@ -64,6 +65,7 @@
 //! | `prolong.rs` | 4: the coarse pose carried to the full mesh with its details |
 //! | `full_mesh.rs` | 5–6: ARAP iterations on the full mesh (factored in the background) |
 //! | `level_settle.rs` | 6: settling on the level before the full mesh |
+//! | `settle_rule.rs` | 6: when settling stops (the distance still to go, from the steps) |
 //! | `mod.rs` | [`CoarseBsArap`]: the steps in order, per frame |
 //! | `energy.rs` | 4: the coarse level's energy, decimated ARAP or Galerkin, behind one interface |
 //! | `galerkin/` | the full mesh's energy restricted to the coarse space (its mesh part, tests) |
@@ -79,6 +81,7 @@ pub mod groups;
 pub mod level;
 pub mod level_settle;
 pub mod prolong;
+pub mod settle_rule;
 
 use crate::deform::arap::{Arap, ArapConfig, Energy, RotationStep, SolveStats};
 use crate::deform::coarse::base::{CoarseBase, Phases};
@@ -91,6 +94,7 @@ use crate::deform::coarse::level_settle::LevelSolver;
 use crate::deform::coarse::prolong::{
     Prolongation, at, prolong, quaternion_of, rotate, triangle_frames,
 };
+use crate::deform::coarse::settle_rule::SettleRule;
 use crate::deform::config::{BaseConfig, CoarseEnergy};
 use crate::deform::constraints::Constraints;
 use crate::deform::handles::Handles;
@@ -124,6 +128,8 @@ pub struct CoarseBsArap {
     /// was faired on a level.
     level: Option<LevelSolver>,
     settle_iterations: usize,
+    /// The full mesh's bounding-box diagonal, the settle rule's unit.
+    diagonal: f64,
     phases: Vec<(&'static str, f64)>,
     state: SolveState,
 }
@@ -172,6 +178,8 @@ struct SolveState {
     level_settled: bool,
     /// The coarse energy of the last solve (what a settle step reports).
     last_energy: f64,
+    /// The current settle phase's steps ([`settle_rule`]).
+    settling: SettleRule,
 }
 
 impl SolveState {
@@ -193,6 +201,7 @@ impl SolveState {
             settle_ready: false,
             level_settled: false,
             last_energy: 0.0,
+            settling: SettleRule::default(),
         }
     }
 
@@ -360,6 +369,7 @@ impl CoarseBsArap {
             fine_iterations: coarse.fine_iterations,
             level,
             settle_iterations: coarse.settle_iterations,
+            diagonal: full_diagonal,
             phases: clock.phases,
             pinned,
             state: SolveState::new(mesh.n_vertices(), coarse_mesh.n_vertices()),
@@ -449,7 +459,7 @@ impl CoarseBsArap {
         let mut stats = stats;
         if self.fine_iterations > 0 {
             match self.run_fine(targets, self.fine_iterations) {
-                Ok(st) => {
+                Ok((st, _)) => {
                     stats.fine_iterations = st.iterations;
                     stats.fine_energy = st.energy();
                     stats.fine_ms = st.total_ms();
@@ -466,6 +476,7 @@ impl CoarseBsArap {
         state.last_targets.clear();
         state.last_targets.extend_from_slice(targets);
         state.level_settled = false;
+        state.settling.reset();
         state.settle_ready = stats.converged && stats.iterations > 0;
         state.last_energy = stats.energy();
         Ok(stats)
@@ -474,8 +485,9 @@ impl CoarseBsArap {
     /// Refines the result of the last solve, whose handles have stopped at `targets`: runs
     /// [`BaseConfig::settle_iterations`] fine iterations from it, carried like the fine
     /// iterations of a solve. Call it again until the returned statistics say converged (the
-    /// fine iterations no longer lower the energy by the tolerance per iteration): the pose
-    /// approaches converged ARAP on the full mesh, the next solve goes on from it. `None`:
+    /// steps' lengths say the pose is within [`settle_rule::SETTLED`] of the diagonal of where
+    /// they lead, [`settle_rule`]): the pose approaches converged ARAP on the full mesh, the
+    /// next solve goes on from it. `None`:
     /// nothing to settle (no settle iterations, other targets than the last solve's, a coarse
     /// solve that did not converge, or the rest pose, which is exact). The statistics have no
     /// coarse iteration and the last solve's coarse energy.
@@ -488,24 +500,27 @@ impl CoarseBsArap {
             && let Some(embedding) = self.base.level.as_ref()
         {
             // On the level first (module doc, step 6): its failure leaves the full mesh.
-            let st = match level.refine(
+            let (st, moved) = match level.refine(
                 embedding,
                 &mut self.state.result,
                 targets,
                 &self.state.motions,
                 self.settle_iterations,
             ) {
-                Ok(st) => st,
-                Err(_) if level.has_failed() => {
-                    SolveStats { converged: true, ..Default::default() }
-                }
+                Ok(step) => step,
+                Err(_) if level.has_failed() => (SolveStats::default(), 0.0),
                 Err(e) => return Err(e),
             };
             hold(&mut self.state.result, &self.fine_handles, targets, &self.pinned);
             if st.iterations > 0 {
                 self.state.carry(self.coarse.positions(), &self.base);
             }
-            self.state.level_settled = self.fine_converged(&st);
+            let settled = self.state.settling.step(moved / self.diagonal, st.iterations);
+            let settle_left = self.state.settling.left();
+            if settled {
+                self.state.settling.reset();
+            }
+            self.state.level_settled = settled;
             let full_after = !self.fine.as_ref().is_none_or(FineLevel::has_failed);
             return Ok(Some(SolveStats {
                 converged: self.state.level_settled && !full_after,
@@ -514,12 +529,14 @@ impl CoarseBsArap {
                 fine_energy: st.energy(),
                 fine_ms: st.total_ms(),
                 fine_on_level: true,
+                settle_left,
                 ..SolveStats::default()
             }));
         }
-        let st = self.run_fine(targets, self.settle_iterations)?;
+        let (st, moved) = self.run_fine(targets, self.settle_iterations)?;
         Ok(Some(SolveStats {
-            converged: self.fine_converged(&st),
+            converged: self.state.settling.step(moved, st.iterations),
+            settle_left: self.state.settling.left(),
             initial_energy: self.state.last_energy,
             fine_iterations: st.iterations,
             fine_energy: st.energy(),
@@ -543,16 +560,22 @@ impl CoarseBsArap {
 
     /// `n` fine iterations ([`Arap::refine`]) from the current result, which they replace; what
     /// they changed is kept in the detail frames for the next solve (zero again when the result
-    /// is the rest pose). On error the result is unchanged.
-    fn run_fine(&mut self, targets: &[[f64; 3]], n: usize) -> Result<SolveStats, SolveError> {
+    /// is the rest pose); with how far they moved the vertices on average, over the diagonal
+    /// ([`settle_rule::mean_move`]). On error the result is unchanged.
+    fn run_fine(
+        &mut self,
+        targets: &[[f64; 3]],
+        n: usize,
+    ) -> Result<(SolveStats, f64), SolveError> {
         self.factor_fine()?;
         let Some(fine) = self.fine.as_mut().and_then(FineLevel::arap_mut) else {
-            return Ok(SolveStats { converged: true, ..SolveStats::default() });
+            return Ok((SolveStats { converged: true, ..SolveStats::default() }, 0.0));
         };
         let st = fine.refine(&self.state.result, targets, n)?;
+        let moved = settle_rule::mean_move(&self.state.result, fine.positions(), self.diagonal);
         self.state.result.copy_from_slice(fine.positions());
         self.state.carry(self.coarse.positions(), &self.base);
-        Ok(st)
+        Ok((st, moved))
     }
 
     /// Factors the ARAP on the full mesh if it is pending, or waits for the thread factoring it
