@@ -98,6 +98,7 @@ use crate::deform::coarse::settle_rule::SettleRule;
 use crate::deform::config::{BaseConfig, CoarseEnergy};
 use crate::deform::constraints::Constraints;
 use crate::deform::handles::Handles;
+use crate::deform::quality::distances;
 use crate::error::{SolveError, check_targets};
 use crate::geometry::embedding::{blend, from_stored};
 use crate::geometry::mesh::{Mesh, sub};
@@ -487,9 +488,9 @@ impl CoarseBsArap {
     /// iterations of a solve. Call it again until the returned statistics say converged (the
     /// steps' lengths say the pose is within [`settle_rule::SETTLED`] of the diagonal of where
     /// they lead, [`settle_rule`]): the pose approaches converged ARAP on the full mesh, the
-    /// next solve goes on from it. `None`:
-    /// nothing to settle (no settle iterations, other targets than the last solve's, a coarse
-    /// solve that did not converge, or the rest pose, which is exact). The statistics have no
+    /// next solve goes on from it. `None`: nothing to settle (no settle iterations, other
+    /// targets than the last solve's, a coarse solve that did not converge, or the rest pose,
+    /// which is exact). The statistics have no
     /// coarse iteration and the last solve's coarse energy.
     pub fn settle(&mut self, targets: &[[f64; 3]]) -> Result<Option<SolveStats>, SolveError> {
         if !self.settle_pending() || self.state.last_targets != targets {
@@ -560,8 +561,8 @@ impl CoarseBsArap {
 
     /// `n` fine iterations ([`Arap::refine`]) from the current result, which they replace; what
     /// they changed is kept in the detail frames for the next solve (zero again when the result
-    /// is the rest pose); with how far they moved the vertices on average, over the diagonal
-    /// ([`settle_rule::mean_move`]). On error the result is unchanged.
+    /// is the rest pose); with how far they moved the vertices on average, over the diagonal.
+    /// On error the result is unchanged.
     fn run_fine(
         &mut self,
         targets: &[[f64; 3]],
@@ -572,7 +573,7 @@ impl CoarseBsArap {
             return Ok((SolveStats { converged: true, ..SolveStats::default() }, 0.0));
         };
         let st = fine.refine(&self.state.result, targets, n)?;
-        let moved = settle_rule::mean_move(&self.state.result, fine.positions(), self.diagonal);
+        let moved = distances(&self.state.result, fine.positions(), self.diagonal).mean;
         self.state.result.copy_from_slice(fine.positions());
         self.state.carry(self.coarse.positions(), &self.base);
         Ok((st, moved))

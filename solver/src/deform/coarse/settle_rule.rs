@@ -70,24 +70,11 @@ impl SettleRule {
         if self.len < WINDOWS * WINDOW {
             return None;
         }
-        let sums: Vec<f64> = self.lengths.chunks(WINDOW).map(|w| w.iter().sum()).collect();
+        let sums: [f64; WINDOWS] =
+            std::array::from_fn(|j| self.lengths[j * WINDOW..][..WINDOW].iter().sum());
         let rho = sums.windows(2).map(|p| p[0] / p[1]).fold(0.0, f64::max);
         (rho < 1.0).then(|| sums[0] * rho / (1.0 - rho))
     }
-}
-
-/// The mean distance between two poses of the same vertices, over `diagonal`.
-pub fn mean_move(before: &[[f64; 3]], after: &[[f64; 3]], diagonal: f64) -> f64 {
-    use rayon::prelude::*;
-    if before.is_empty() {
-        return 0.0;
-    }
-    let sum: f64 = before
-        .par_iter()
-        .zip(after)
-        .map(|(a, b)| glam::DVec3::from_array(*a).distance(glam::DVec3::from_array(*b)))
-        .sum();
-    sum / (before.len() as f64 * diagonal)
 }
 
 #[cfg(test)]
@@ -144,13 +131,5 @@ mod tests {
         rule.reset();
         assert!((0..5).all(|_| !rule.step(1e-5, 5)));
         assert!(rule.step(STILL / 2.0, 5));
-    }
-
-    #[test]
-    fn mean_move_is_the_mean_distance_over_the_diagonal() {
-        let a = [[0.0; 3], [1.0, 0.0, 0.0]];
-        let b = [[0.0, 3.0, 4.0], [1.0, 0.0, 0.0]];
-        assert_eq!(mean_move(&a, &b, 2.0), 1.25);
-        assert_eq!(mean_move(&[], &[], 2.0), 0.0);
     }
 }
