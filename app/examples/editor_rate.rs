@@ -3,6 +3,7 @@
 //! Usage: `cargo run --release -p app --example editor_rate -- [--no-settle] [--gpu-normals]
 //! [--energy spokes-and-rims|spokes|smooth-rotations] [--bending-length F]
 //! [--coarse-energy decimated|galerkin] [--tolerance T] [--cap N] [--coarse-vertices C] [--regrab D]
+//! [--no-check]
 //! MESH SELECTION [FRAMES [METHOD...]]`
 //! (methods: `arap`, `bsarap`, `bsarap-faired`, `bsarap-coarse`, each optionally with `+aa` for
 //! the method panel's Anderson acceleration; default `arap bsarap bsarap-coarse`).
@@ -27,12 +28,14 @@
 //! settle steps and fine iterations, seconds, how far settling moves the displayed pose (the
 //! settle shift), and the distance to converged ARAP of the same energy on the mesh
 //! ([`solver::deform::quality::Reference`]) before and after settling, and while settling (at
-//! the first step after each of [`SNAPSHOTS`] seconds). `--gpu-normals` makes the
+//! the first step after each of [`SNAPSHOTS`] seconds, and where each settle phase but the last
+//! left the pose). `--gpu-normals` makes the
 //! shape as the thread does when the viewport computes the normals on the GPU (positions only).
 //! `--regrab D`: after settling, the group moves on by D·diag (along y) and is held and settled
 //! again, reported as a second row: what releasing shows when a settled pose is adjusted.
 //! `--no-settle` stops after
-//! the drag (on dense meshes the converged references take many minutes).
+//! the drag (on dense meshes the converged references take many minutes); `--no-check` leaves
+//! out the check that ARAP run on from the settled pose reaches the reference (minutes more).
 //!
 //! `--while-factoring` instead holds the group after the drag, settles on the fairing level
 //! (a dense mesh's, `solver::deform::coarse::level_settle`) until the full mesh's factorization has
@@ -52,8 +55,9 @@ const SNAPSHOTS: [f64; 6] = [0.25, 0.5, 1.0, 2.0, 5.0, 10.0];
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let all: Vec<String> = std::env::args().collect();
-    let flags = ["--no-settle", "--gpu-normals", "--while-factoring"];
+    let flags = ["--no-settle", "--gpu-normals", "--while-factoring", "--no-check"];
     let no_settle = all.iter().any(|a| a == "--no-settle");
+    let no_check = all.iter().any(|a| a == "--no-check");
     let gpu_normals = all.iter().any(|a| a == "--gpu-normals");
     let while_factoring = all.iter().any(|a| a == "--while-factoring");
     let mut args: Vec<String> = all.into_iter().filter(|a| !flags.contains(&a.as_str())).collect();
@@ -222,8 +226,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         );
         println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|");
     }
-    for Settled { label, targets, solves, before, after, steps, fine, seconds, timeline } in
-        settling
+    for Settled {
+        label,
+        targets,
+        solves,
+        before,
+        after,
+        steps,
+        fine,
+        seconds,
+        timeline,
+        phase_ends,
+    } in settling
     {
         let mut r = solver::deform::quality::Reference::new(
             &mesh,
@@ -244,6 +258,20 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             })
             .collect();
         println!("  {label} while settling (max / mean): {}", during.join("; "));
+        let ends: Vec<String> = phase_ends
+            .iter()
+            .map(|(name, at, x)| {
+                let q = r.measure(x);
+                format!(
+                    "{name} at {at:.2} s: {:.2}% / {:.3}%",
+                    100.0 * q.max_distance,
+                    100.0 * q.mean_distance
+                )
+            })
+            .collect();
+        if !ends.is_empty() {
+            println!("  {label} phases settled (max / mean): {}", ends.join("; "));
+        }
         let shift = solver::deform::quality::distances(&before, &after, mesh.bbox_diagonal());
         println!(
             "| {} | {} ({:.2}) | {steps} | {fine} | {seconds:.2} | {:.2}% / {:.3}% | {:.2}% / {:.3}% / {:.3e} | {:.2}% / {:.3}% / {:.3e} | {:.3e} |",
@@ -260,6 +288,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             a.energy_on_mesh,
             r.stats().energy()
         );
+        if no_check {
+            continue;
+        }
         // Full ARAP converged from the settled pose: which minimum the settled pose is near.
         let from_settled = solver::deform::quality::Reference::from_pose(
             &mesh,
@@ -302,6 +333,9 @@ struct Settled {
     fine: usize,
     seconds: f64,
     timeline: Vec<(f64, Vec<[f64; 3]>)>,
+    /// Each settle phase but the last (coarse level, level, full mesh): its name, the seconds
+    /// into settling at which the next began, and the pose it left.
+    phase_ends: Vec<(&'static str, f64, Vec<[f64; 3]>)>,
 }
 
 /// Holds the groups at `poses`: solves until the coarse solve converges, then settles until
@@ -324,11 +358,21 @@ fn hold_and_settle(
     let before = d.positions().to_vec();
     let t = Instant::now();
     let (mut steps, mut fine) = (0, 0);
-    let mut timeline = Vec::new();
+    let (mut timeline, mut phase_ends) = (Vec::new(), Vec::new());
+    let (mut phase, mut previous) = (None, before.clone());
     while let Some(s) = d.settle(&moves)? {
         steps += 1;
         fine += s.fine_iterations;
         let at = t.elapsed().as_secs_f64();
+        let now = match (s.fine_iterations, s.fine_energy) {
+            (0, _) => "coarse level",
+            (_, None) => "level",
+            (_, Some(_)) => "full mesh",
+        };
+        if let Some(last) = phase.replace(now).filter(|&p| p != now) {
+            phase_ends.push((last, at, previous.clone()));
+        }
+        previous.copy_from_slice(d.positions());
         if SNAPSHOTS.get(timeline.len()).is_some_and(|&due| at >= due) {
             timeline.push((at, d.positions().to_vec()));
         }
@@ -346,6 +390,7 @@ fn hold_and_settle(
         fine,
         seconds: t.elapsed().as_secs_f64(),
         timeline,
+        phase_ends,
     }))
 }
 

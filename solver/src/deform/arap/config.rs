@@ -250,6 +250,29 @@ impl SolveStats {
         self.converged && !self.fine_unconverged
     }
 
+    /// These statistics and those of a solve that went on from where they ended, as one solve:
+    /// the first's initial energy, the second's convergence, the iterations, energies and
+    /// times of both.
+    pub fn followed_by(mut self, next: SolveStats) -> SolveStats {
+        self.iterations += next.iterations;
+        self.converged = next.converged;
+        self.energies.extend(next.energies);
+        self.local_ms += next.local_ms;
+        self.rhs_ms += next.rhs_ms;
+        self.solve_ms += next.solve_ms;
+        self.energy_ms += next.energy_ms;
+        self.rejected_steps += next.rejected_steps;
+        if next.fine_iterations > 0 {
+            self.fine_energy = next.fine_energy;
+            self.fine_unconverged = next.fine_unconverged;
+            self.fine_on_level = next.fine_on_level;
+        }
+        self.fine_iterations += next.fine_iterations;
+        self.fine_ms += next.fine_ms;
+        self.settle_left = next.settle_left;
+        self
+    }
+
     /// Final energy (the initial one when no iteration ran).
     pub fn energy(&self) -> f64 {
         self.energies.last().copied().unwrap_or(self.initial_energy)

@@ -114,6 +114,12 @@ impl CoarseSolver {
         }
     }
 
+    /// Whether this is the Galerkin energy, whose minimum is the full mesh's among the poses
+    /// of the coarse space.
+    pub(crate) fn is_galerkin(&self) -> bool {
+        matches!(self, CoarseSolver::Galerkin { .. })
+    }
+
     /// The ARAP solver on $B_c$, for [`crate::CoarseEnergy::Decimated`].
     pub(crate) fn arap(&self) -> Option<&Arap> {
         match self {

@@ -42,9 +42,12 @@
 //! 6. Optionally ([`BaseConfig::settle_iterations`], [`CoarseBsArap::settle`]), once the
 //!    handles stop, more fine iterations refine the pose step by step, carried the same way,
 //!    until the steps' lengths say the pose is within a hundredth of a percent of the diagonal
-//!    of where they lead (`settle_rule.rs`): the pose approaches converged ARAP on $M$. A base
-//!    faired on a level settles on that level first ([`crate::deform::coarse::level_settle`]: a ninth
-//!    of the vertices at 692k, factored far sooner), then on $M$.
+//!    of where they lead (`settle_rule.rs`): the pose approaches converged ARAP on $M$. With
+//!    the Galerkin coarse energy the coarse solve first runs on until its own steps say the
+//!    same (its minimum is $M$'s in the coarse space; a frame's stopping rule, a decrease of the
+//!    energy, leaves the soft modes unfinished). A base faired on a level then settles on that
+//!    level ([`crate::deform::coarse::level_settle`]: a ninth of the vertices at 692k, factored
+//!    far sooner), then on $M$.
 //!
 //! Rest pose is exact (rest targets give $B_c' = B_c$, $R = I$ and clear $C$, so $p' = p$;
 //! they skip the fine iterations) and a rigid motion of all handles moves the result rigidly.
@@ -64,6 +67,7 @@
 //! | `groups.rs` | handle groups on the coarse mesh and their rigid targets |
 //! | `prolong.rs` | 4: the coarse pose carried to the full mesh with its details |
 //! | `full_mesh.rs` | 5–6: ARAP iterations on the full mesh (factored in the background) |
+//! | `settle.rs` | 6: settling in phases, the coarse level's steps ([`CoarseBsArap::settle`]) |
 //! | `level_settle.rs` | 6: settling on the level before the full mesh |
 //! | `settle_rule.rs` | 6: when settling stops (the distance still to go, from the steps) |
 //! | `mod.rs` | [`CoarseBsArap`]: the steps in order, per frame |
@@ -81,6 +85,7 @@ pub mod groups;
 pub mod level;
 pub mod level_settle;
 pub mod prolong;
+mod settle;
 pub mod settle_rule;
 
 use crate::deform::arap::{Arap, ArapConfig, Energy, RotationStep, SolveStats};
@@ -175,7 +180,9 @@ struct SolveState {
     /// result (its coarse solve converged and it is not the rest pose).
     last_targets: Vec<[f64; 3]>,
     settle_ready: bool,
-    /// Whether the last solve's pose has settled on the level (step 6).
+    /// Whether the last solve's pose has settled on the coarse level, and on the level
+    /// (step 6).
+    coarse_settled: bool,
     level_settled: bool,
     /// The coarse energy of the last solve (what a settle step reports).
     last_energy: f64,
@@ -200,6 +207,7 @@ impl SolveState {
             coarse_before: Vec::new(),
             last_targets: Vec::new(),
             settle_ready: false,
+            coarse_settled: true,
             level_settled: false,
             last_energy: 0.0,
             settling: SettleRule::default(),
@@ -411,12 +419,56 @@ impl CoarseBsArap {
         check_targets(targets, self.fine_handles.len())?;
         let state = &mut self.state;
         self.groups.targets(targets, motions, &mut state.motions, &mut state.coarse_targets);
+        let stats = self.coarse_frame(targets)?;
+        let mut stats = stats;
+        if self.fine_iterations > 0 {
+            match self.run_fine(targets, self.fine_iterations) {
+                Ok((st, _)) => {
+                    stats.fine_iterations = st.iterations;
+                    stats.fine_energy = st.energy();
+                    stats.fine_ms = st.total_ms();
+                    stats.fine_unconverged = !self.fine_converged(&st);
+                }
+                Err(e) => {
+                    // The previous pose, base and frames stay, as for a failed coarse solve.
+                    self.state.roll_back(&mut self.coarse);
+                    return Err(e);
+                }
+            }
+        }
+        let state = &mut self.state;
+        state.last_targets.clear();
+        state.last_targets.extend_from_slice(targets);
+        // Only a coarse energy whose minimum is the full mesh's in the coarse space is worth
+        // settling on (the decimated ARAP's lies tenths of a percent away).
+        state.coarse_settled = !self.coarse.is_galerkin();
+        state.level_settled = false;
+        state.settling.reset();
+        state.settle_ready = stats.converged && stats.iterations > 0;
+        state.last_energy = stats.energy();
+        Ok(stats)
+    }
+
+    /// Step 4 at `targets`, the coarse handles' targets already in the state: the coarse
+    /// solve from its last pose under its stopping rule, then [`CoarseBsArap::prolong_result`].
+    fn coarse_frame(&mut self, targets: &[[f64; 3]]) -> Result<SolveStats, SolveError> {
+        let state = &mut self.state;
         state.coarse_before.clear();
         state.coarse_before.extend_from_slice(self.coarse.positions());
         let stats = self.coarse.solve(targets, &state.coarse_targets, &state.coarse_before)?;
+        self.prolong_result(targets, stats.iterations == 0)?;
+        Ok(stats)
+    }
+
+    /// The coarse pose prolonged into the result, the handles held; `at_rest`: the coarse
+    /// solve ran no iteration (rest targets). On error (a pose that is not finite) the pose,
+    /// rotations and coarse pose of the last successful solve stay; otherwise the pose before
+    /// is in `state.next`.
+    fn prolong_result(&mut self, targets: &[[f64; 3]], at_rest: bool) -> Result<(), SolveError> {
+        let state = &mut self.state;
         // Rest targets give the rest pose exactly, without iterating: nothing to settle, and
         // no correction may carry over (the rest pose itself is copied below).
-        if stats.iterations == 0 && state.corrected {
+        if at_rest && state.corrected {
             state.clear_correction();
         }
         state.deformed_base = std::sync::OnceLock::new();
@@ -444,7 +496,7 @@ impl CoarseBsArap {
             },
             &mut state.next,
         );
-        if stats.iterations == 0
+        if at_rest
             && self.fine_handles.iter().zip(targets).all(|(&v, t)| *t == self.base.rest[v as usize])
         {
             // Rest targets: M exactly (the prolongation B + D may differ in the last bit).
@@ -457,106 +509,7 @@ impl CoarseBsArap {
             state.roll_back(&mut self.coarse);
             return Err(SolveError::NonFiniteResult { vertex });
         }
-        let mut stats = stats;
-        if self.fine_iterations > 0 {
-            match self.run_fine(targets, self.fine_iterations) {
-                Ok((st, _)) => {
-                    stats.fine_iterations = st.iterations;
-                    stats.fine_energy = st.energy();
-                    stats.fine_ms = st.total_ms();
-                    stats.fine_unconverged = !self.fine_converged(&st);
-                }
-                Err(e) => {
-                    // The previous pose, base and frames stay, as for a failed coarse solve.
-                    self.state.roll_back(&mut self.coarse);
-                    return Err(e);
-                }
-            }
-        }
-        let state = &mut self.state;
-        state.last_targets.clear();
-        state.last_targets.extend_from_slice(targets);
-        state.level_settled = false;
-        state.settling.reset();
-        state.settle_ready = stats.converged && stats.iterations > 0;
-        state.last_energy = stats.energy();
-        Ok(stats)
-    }
-
-    /// Refines the result of the last solve, whose handles have stopped at `targets`: runs
-    /// [`BaseConfig::settle_iterations`] fine iterations from it, carried like the fine
-    /// iterations of a solve. Call it again until the returned statistics say converged (the
-    /// steps' lengths say the pose is within [`settle_rule::SETTLED`] of the diagonal of where
-    /// they lead, [`settle_rule`]): the pose approaches converged ARAP on the full mesh, the
-    /// next solve goes on from it. `None`: nothing to settle (no settle iterations, other
-    /// targets than the last solve's, a coarse solve that did not converge, or the rest pose,
-    /// which is exact). The statistics have no
-    /// coarse iteration and the last solve's coarse energy.
-    pub fn settle(&mut self, targets: &[[f64; 3]]) -> Result<Option<SolveStats>, SolveError> {
-        if !self.settle_pending() || self.state.last_targets != targets {
-            return Ok(None);
-        }
-        if !self.state.level_settled
-            && let Some(level) = self.level.as_mut().filter(|l| !l.has_failed())
-            && let Some(embedding) = self.base.level.as_ref()
-        {
-            // On the level first (module doc, step 6): its failure leaves the full mesh.
-            let (st, moved) = match level.refine(
-                embedding,
-                &mut self.state.result,
-                targets,
-                &self.state.motions,
-                self.settle_iterations,
-            ) {
-                Ok(step) => step,
-                Err(_) if level.has_failed() => (SolveStats::default(), 0.0),
-                Err(e) => return Err(e),
-            };
-            hold(&mut self.state.result, &self.fine_handles, targets, &self.pinned);
-            if st.iterations > 0 {
-                self.state.carry(self.coarse.positions(), &self.base);
-            }
-            let settled = self.state.settling.step(moved / self.diagonal, st.iterations);
-            let settle_left = self.state.settling.left();
-            if settled {
-                self.state.settling.reset();
-            }
-            self.state.level_settled = settled;
-            let full_after = !self.fine.as_ref().is_none_or(FineLevel::has_failed);
-            return Ok(Some(SolveStats {
-                converged: self.state.level_settled && !full_after,
-                initial_energy: self.state.last_energy,
-                fine_iterations: st.iterations,
-                fine_energy: st.energy(),
-                fine_ms: st.total_ms(),
-                fine_on_level: true,
-                settle_left,
-                ..SolveStats::default()
-            }));
-        }
-        let (st, moved) = self.run_fine(targets, self.settle_iterations)?;
-        Ok(Some(SolveStats {
-            converged: self.state.settling.step(moved, st.iterations),
-            settle_left: self.state.settling.left(),
-            initial_energy: self.state.last_energy,
-            fine_iterations: st.iterations,
-            fine_energy: st.energy(),
-            fine_ms: st.total_ms(),
-            ..SolveStats::default()
-        }))
-    }
-
-    /// Whether [`CoarseBsArap::settle`] at the last solve's targets would refine: settle
-    /// iterations are set, the last solve converged away from rest, and the full mesh's
-    /// factorization has not failed (a mesh too large for this machine's memory, for one:
-    /// [`crate::linalg::linsolve::MEMORY_SHARE`]; the settle step that found it out returned
-    /// the error, and later poses are not settled).
-    pub fn settle_pending(&self) -> bool {
-        let level_left =
-            !self.state.level_settled && self.level.as_ref().is_some_and(|l| !l.has_failed());
-        self.settle_iterations > 0
-            && self.state.settle_ready
-            && (level_left || !self.fine.as_ref().is_some_and(FineLevel::has_failed))
+        Ok(())
     }
 
     /// `n` fine iterations ([`Arap::refine`]) from the current result, which they replace; what
@@ -590,19 +543,24 @@ impl CoarseBsArap {
         Ok(())
     }
 
-    /// Starts factoring the ARAP on the full mesh on a thread of its own if it is pending
-    /// ([`crate::deform::coarse::full_mesh`]: one at a time in the process); a caller that must stay
-    /// responsive, such as the editor's solver thread, settles only once this says true. True
-    /// when fine and settle iterations can run without waiting for a factorization (done,
-    /// failed, or none asked for): the next [`CoarseBsArap::settle`] takes the result, or
-    /// reports the failure, or resumes a panic of that thread.
+    /// Starts factoring what settling needs next (the level's ARAP until it has settled, then
+    /// the full mesh's) on a thread of its own if it is pending
+    /// ([`crate::deform::coarse::full_mesh`]: one at a time in the process); a caller that must
+    /// stay responsive, such as the editor's solver thread, settles only once this says true.
+    /// True when the next settle step can run without waiting for a factorization (done,
+    /// failed, none asked for, or a step on the coarse level, which needs none while the
+    /// factorization goes on): the next [`CoarseBsArap::settle`] takes the result, or reports
+    /// the failure, or resumes a panic of that thread.
     pub fn factor_fine_in_background(&mut self) -> bool {
-        if !self.state.level_settled
+        let ready = if !self.state.level_settled
             && let Some(level) = self.level.as_mut().filter(|l| !l.has_failed())
         {
-            return level.factor_in_background();
-        }
-        self.fine.as_mut().is_none_or(FineLevel::factor_in_background)
+            level.factor_in_background()
+        } else {
+            self.fine.as_mut().is_none_or(FineLevel::factor_in_background)
+        };
+        // Settling on the coarse level needs no factorization but its own.
+        ready || !self.state.coarse_settled
     }
 
     /// Whether the ARAP on the full mesh is factored (fine and settle iterations run at once).
