@@ -253,7 +253,7 @@ impl SolveStats {
     /// These statistics and those of a solve that went on from where they ended, as one solve:
     /// the first's initial energy, the second's convergence, the iterations, energies and
     /// times of both.
-    pub fn followed_by(mut self, next: SolveStats) -> SolveStats {
+    pub(crate) fn followed_by(mut self, next: SolveStats) -> SolveStats {
         self.iterations += next.iterations;
         self.converged = next.converged;
         self.energies.extend(next.energies);

@@ -136,10 +136,11 @@ impl CoarseBsArap {
     }
 
     /// Whether [`CoarseBsArap::settle`] at the last solve's targets would refine: settle
-    /// iterations are set, the last solve converged away from rest, and the full mesh's
-    /// factorization has not failed (a mesh too large for this machine's memory, for one:
+    /// iterations are set, the last solve converged away from rest, and a phase is left: the
+    /// coarse level's, the level's, or the full mesh's, whose factorization has not failed (a
+    /// mesh too large for this machine's memory, for one:
     /// [`crate::linalg::linsolve::MEMORY_SHARE`]; the settle step that found it out returned
-    /// the error, and later poses are not settled).
+    /// the error, and later poses are only settled on the coarse level and the level).
     pub fn settle_pending(&self) -> bool {
         let level_left =
             !self.state.level_settled && self.level.as_ref().is_some_and(|l| !l.has_failed());
