@@ -6,7 +6,6 @@
 //! ([`crate::deform::coarse::settle_rule`]).
 
 use crate::deform::arap::SolveStats;
-use crate::deform::coarse::full_mesh::FineLevel;
 use crate::deform::coarse::settle_rule::WINDOW;
 use crate::deform::coarse::{CoarseBsArap, hold};
 use crate::deform::quality::distances;
@@ -68,21 +67,14 @@ impl CoarseBsArap {
         if !self.settle_pending() || self.state.last_targets != targets {
             return Ok(None);
         }
-        let level_left =
-            !self.state.level_settled && self.level.as_ref().is_some_and(|l| !l.has_failed());
-        let full_after = !self.fine.as_ref().is_none_or(FineLevel::has_failed);
         if !self.state.coarse_settled {
             // On the coarse level first (module doc, step 6).
             let (st, settled) = self.settle_coarse(targets)?;
-            let settle_left = self.state.settling.left();
-            if settled {
-                self.state.settling.reset();
-            }
             self.state.coarse_settled = settled;
             self.state.last_energy = st.energy();
             return Ok(Some(SolveStats {
-                converged: settled && !level_left && !full_after,
-                settle_left,
+                converged: settled && !self.level_left() && !self.full_mesh_left(),
+                settle_left: self.state.settling.left(),
                 ..st
             }));
         }
@@ -106,20 +98,16 @@ impl CoarseBsArap {
             if st.iterations > 0 {
                 self.state.carry(self.coarse.positions(), &self.base);
             }
-            let settled = self.state.settling.step(moved / self.diagonal, st.iterations);
-            let settle_left = self.state.settling.left();
-            if settled {
-                self.state.settling.reset();
-            }
-            self.state.level_settled = settled;
+            self.state.level_settled =
+                self.state.settling.step(moved / self.diagonal, st.iterations);
             return Ok(Some(SolveStats {
-                converged: self.state.level_settled && !full_after,
+                converged: self.state.level_settled && !self.full_mesh_left(),
                 initial_energy: self.state.last_energy,
                 fine_iterations: st.iterations,
                 fine_energy: st.energy(),
                 fine_ms: st.total_ms(),
                 fine_on_level: true,
-                settle_left,
+                settle_left: self.state.settling.left(),
                 ..SolveStats::default()
             }));
         }
@@ -142,12 +130,18 @@ impl CoarseBsArap {
     /// [`crate::linalg::linsolve::MEMORY_SHARE`]; the settle step that found it out returned
     /// the error, and later poses are only settled on the coarse level and the level).
     pub fn settle_pending(&self) -> bool {
-        let level_left =
-            !self.state.level_settled && self.level.as_ref().is_some_and(|l| !l.has_failed());
         self.settle_iterations > 0
             && self.state.settle_ready
-            && (!self.state.coarse_settled
-                || level_left
-                || !self.fine.as_ref().is_some_and(FineLevel::has_failed))
+            && (!self.state.coarse_settled || self.level_left() || self.full_mesh_left())
+    }
+
+    /// Whether the level's phase is still to come or under way (not settled, not failed).
+    fn level_left(&self) -> bool {
+        !self.state.level_settled && self.level.as_ref().is_some_and(|l| !l.has_failed())
+    }
+
+    /// Whether the full mesh's phase can run (its solver is there and has not failed).
+    fn full_mesh_left(&self) -> bool {
+        self.fine.as_ref().is_some_and(|f| !f.has_failed())
     }
 }

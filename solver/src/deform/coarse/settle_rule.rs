@@ -7,7 +7,8 @@
 //! the diagonal to go (BENCHMARKS.md, "Settling in the editor": 0.47 % on average on one
 //! armadillo set at 692k vertices, which converged ARAP reached from there).
 //! This rule measures the pose instead. With $d_k$ the mean distance the $k$-th step of a
-//! phase (the level's or the full mesh's) moved the vertices, over the bounding-box diagonal,
+//! phase (the coarse level's, measured at its vertices, the level's or the full mesh's) moved the
+//! vertices, over the bounding-box diagonal,
 //! the last [`WINDOWS`] windows of [`WINDOW`] steps each, their lengths summed newest first
 //! $S_0, S_1, \dots$, and the slowest contraction among them, $\rho = \max_j S_j / S_{j+1}$, a
 //! contraction that holds leaves at most
@@ -47,26 +48,40 @@ pub struct SettleRule {
     /// them set.
     lengths: [f64; WINDOWS * WINDOW],
     len: usize,
+    /// $r_k$ after the last step.
+    left: Option<f64>,
 }
 
 impl SettleRule {
-    /// A new phase: the steps before it say nothing about this one's contraction.
+    /// New targets: the steps before say nothing about the next phase's contraction.
     pub fn reset(&mut self) {
         self.len = 0;
+        self.left = None;
     }
 
     /// Records a step that moved the vertices by `moved` on average (over the diagonal) in
-    /// `iterations` iterations: whether the phase has settled (module doc).
+    /// `iterations` iterations: whether the phase has settled (module doc). The step after a
+    /// settled one begins the next phase.
     pub fn step(&mut self, moved: f64, iterations: usize) -> bool {
         self.lengths.copy_within(..WINDOWS * WINDOW - 1, 1);
         self.lengths[0] = moved;
         self.len = (self.len + 1).min(WINDOWS * WINDOW);
-        iterations == 0 || moved < STILL || self.left().is_some_and(|r| r < SETTLED)
+        self.left = self.tail();
+        let settled = iterations == 0 || moved < STILL || self.left.is_some_and(|r| r < SETTLED);
+        if settled {
+            self.len = 0;
+        }
+        settled
     }
 
-    /// $r_k$ after the last step, over the diagonal: `None` before [`WINDOWS`] windows or
-    /// while they do not shrink.
+    /// $r_k$ after the last step, over the diagonal: `None` before [`WINDOWS`] windows of its
+    /// phase or while they do not shrink.
     pub fn left(&self) -> Option<f64> {
+        self.left
+    }
+
+    /// $r_k$ of the steps recorded (module doc).
+    fn tail(&self) -> Option<f64> {
         if self.len < WINDOWS * WINDOW {
             return None;
         }
