@@ -27,9 +27,10 @@
 //! and left there; the thread solves until converged, then settles until converged. Reported:
 //! settle steps and fine iterations, seconds, how far settling moves the displayed pose (the
 //! settle shift), and the distance to converged ARAP of the same energy on the mesh
-//! ([`solver::deform::quality::Reference`]) before and after settling, and while settling (at
-//! the first step after each of [`SNAPSHOTS`] seconds, and where each settle phase but the last
-//! left the pose). `--gpu-normals` makes the
+//! ([`solver::deform::quality::Reference`], solved before the drag) before and after settling,
+//! and after every settle step: printed at the first step after each of [`SNAPSHOTS`] seconds,
+//! at each phase's first and last step, and the farthest the pose got while settling (the
+//! seconds exclude measuring it). `--gpu-normals` makes the
 //! shape as the thread does when the viewport computes the normals on the GPU (positions only).
 //! `--regrab D`: after settling, the group moves on by D·diag (along y) and is held and settled
 //! again, reported as a second row: what releasing shows when a settled pose is adjusted.
@@ -48,6 +49,7 @@ use app::editor::pose_solvers::factory;
 use app::editor::shape::{ShapePool, display_origin};
 use app::editor::solver_thread::{MethodSettings, Slot};
 use solver::GroupTransform;
+use solver::deform::quality::{Distances, Quality, Reference, distances};
 use std::time::Instant;
 
 /// Seconds into settling at which the pose is kept and measured (at the first step after each).
@@ -137,6 +139,26 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "| method | precompute ms | iterations/frame | frames at cap | ms/frame (mean) | ms/frame (median) | of which shape ms | solver frames/s |"
     );
     println!("|---|---:|---:|---:|---:|---:|---:|---:|");
+    // The converged references of the held poses, solved before any method runs so that their
+    // minutes do not fall between a drag and its settling.
+    let hold = {
+        let mut poses = vec![GroupTransform::default(); n_poses];
+        poses[group].translation = glam::DVec3::new(-2.0 * radius, 0.0, 0.0);
+        poses
+    };
+    let regrabbed = regrab.map(|step| {
+        let mut poses = hold.clone();
+        poses[group].translation.y += step * mesh.bbox_diagonal();
+        poses
+    });
+    let mut references = Vec::new();
+    if !no_settle && !while_factoring {
+        for poses in std::iter::once(&hold).chain(&regrabbed) {
+            let targets = handle_targets(&mesh, &handles, poses)?;
+            let energy = defaults.reference_energy();
+            references.push(Reference::new(&mesh, &handles, &targets, energy)?);
+        }
+    }
     let make = factory(Default::default());
     let vertex_faces =
         solver::geometry::normals::VertexFaces::new(mesh.n_vertices(), mesh.triangles());
@@ -207,16 +229,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             continue;
         }
 
-        let mut poses = vec![GroupTransform::default(); n_poses];
-        poses[group].translation = glam::DVec3::new(-2.0 * radius, 0.0, 0.0);
-        let Some(first) = hold_and_settle(&mut *d, &mesh, &handles, &poses, label.clone())? else {
-            continue;
-        };
+        let held =
+            hold_and_settle(&mut *d, &mesh, &handles, &hold, &mut references[0], 0, label.clone())?;
+        let Some(first) = held else { continue };
         settling.push(first);
-        if let Some(step) = regrab {
-            poses[group].translation.y += step * mesh.bbox_diagonal();
+        if let Some(poses) = &regrabbed {
             let label = format!("{label}, regrabbed");
-            settling.extend(hold_and_settle(&mut *d, &mesh, &handles, &poses, label)?);
+            let r = &mut references[1];
+            settling.extend(hold_and_settle(&mut *d, &mesh, &handles, poses, r, 1, label)?);
         }
     }
     if !settling.is_empty() {
@@ -228,51 +248,83 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     for Settled {
         label,
+        reference,
         targets,
         solves,
         before,
         after,
+        quality: (b, a),
         steps,
         fine,
         seconds,
-        timeline,
-        phase_ends,
+        path,
     } in settling
     {
-        let mut r = solver::deform::quality::Reference::new(
-            &mesh,
-            &handles,
-            &targets,
-            defaults.reference_energy(),
-        )?;
-        let (b, a) = (r.measure(&before), r.measure(&after));
-        let during: Vec<String> = timeline
+        let r = &mut references[reference];
+        let percent = |d: &Distances| format!("{:.2}% / {:.3}%", 100.0 * d.max, 100.0 * d.mean);
+        let mut due = SNAPSHOTS.iter().peekable();
+        let during: Vec<String> = path
             .iter()
-            .map(|(at, x)| {
-                let q = r.measure(x);
-                format!(
-                    "{at:.2} s: {:.2}% / {:.3}%",
-                    100.0 * q.max_distance,
-                    100.0 * q.mean_distance
-                )
+            .filter(|p| {
+                // A step taken after several snapshot times stands for all of them.
+                let mut passed = false;
+                while due.next_if(|&&s| p.at >= s).is_some() {
+                    passed = true;
+                }
+                passed
             })
+            .map(|p| format!("{:.2} s: {}", p.at, percent(&p.distance)))
             .collect();
         println!("  {label} while settling (max / mean): {}", during.join("; "));
-        let ends: Vec<String> = phase_ends
-            .iter()
-            .map(|(name, at, x)| {
-                let q = r.measure(x);
+        // Each phase's first and last step: what taking over and settling each level show.
+        let phases: Vec<String> = path
+            .chunk_by(|p, q| p.phase == q.phase)
+            .map(|run| {
+                let (first, last) = (&run[0], &run[run.len() - 1]);
                 format!(
-                    "{name} at {at:.2} s: {:.2}% / {:.3}%",
-                    100.0 * q.max_distance,
-                    100.0 * q.mean_distance
+                    "{} ({} steps) first at {:.2} s: {}, last at {:.2} s: {}",
+                    first.phase,
+                    run.len(),
+                    first.at,
+                    percent(&first.distance),
+                    last.at,
+                    percent(&last.distance)
                 )
             })
             .collect();
-        if !ends.is_empty() {
-            println!("  {label} phases settled (max / mean): {}", ends.join("; "));
+        println!("  {label} phases (max / mean): {}", phases.join("; "));
+        if let Some(far) = path.iter().max_by(|p, q| p.distance.mean.total_cmp(&q.distance.mean)) {
+            println!(
+                "  {label} farthest while settling: {} at {:.2} s ({}); at release {:.2}% / {:.3}%",
+                percent(&far.distance),
+                far.at,
+                far.phase,
+                100.0 * b.max_distance,
+                100.0 * b.mean_distance
+            );
         }
-        let shift = solver::deform::quality::distances(&before, &after, mesh.bbox_diagonal());
+        // The largest move away from converged after having been nearer (from release on): a
+        // jump back the user would see.
+        let (mut nearest, mut back) = (b.mean_distance, None::<(f64, &Step)>);
+        for p in &path {
+            let rise = p.distance.mean - nearest;
+            if rise > back.map_or(0.0, |(r, _)| r) {
+                back = Some((rise, p));
+            }
+            nearest = nearest.min(p.distance.mean);
+        }
+        match back {
+            Some((rise, p)) => println!(
+                "  {label} largest move back: {:.4}% (mean) at {:.2} s ({})",
+                100.0 * rise,
+                p.at,
+                p.phase
+            ),
+            None => println!(
+                "  {label} largest move back: none (no step farther than the nearest before it)"
+            ),
+        }
+        let shift = distances(&before, &after, mesh.bbox_diagonal());
         println!(
             "| {} | {} ({:.2}) | {steps} | {fine} | {seconds:.2} | {:.2}% / {:.3}% | {:.2}% / {:.3}% / {:.3e} | {:.2}% / {:.3}% / {:.3e} | {:.3e} |",
             label,
@@ -292,19 +344,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             continue;
         }
         // Full ARAP converged from the settled pose: which minimum the settled pose is near.
-        let from_settled = solver::deform::quality::Reference::from_pose(
-            &mesh,
-            &handles,
-            &targets,
-            &after,
-            defaults.reference_energy(),
-        )?;
+        let from_settled =
+            Reference::from_pose(&mesh, &handles, &targets, &after, defaults.reference_energy())?;
         let st = from_settled.stats();
-        let to_settled = solver::deform::quality::distances(
-            from_settled.positions(),
-            &after,
-            mesh.bbox_diagonal(),
-        );
+        let to_settled = distances(from_settled.positions(), &after, mesh.bbox_diagonal());
         let to_reference = r.measure(from_settled.positions());
         println!(
             "  converged from the settled pose: {} iterations, energy {:.4e}; from the settled \
@@ -320,35 +363,46 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     Ok(())
 }
 
-/// One hold and settle: the handle targets, the solves until the coarse solve converged (count,
-/// seconds), the pose then (`before`) and after settling, the settle steps, fine iterations and
-/// seconds, and the poses kept at [`SNAPSHOTS`].
+/// One hold and settle: which reference measures it, the handle targets, the solves until the
+/// coarse solve converged (count, seconds), the pose then (`before`) and after settling and their
+/// quality, the settle steps, fine iterations and seconds, and the pose's distance after every step.
 struct Settled {
     label: String,
+    reference: usize,
     targets: Vec<[f64; 3]>,
     solves: (usize, f64),
     before: Vec<[f64; 3]>,
     after: Vec<[f64; 3]>,
+    quality: (Quality, Quality),
     steps: usize,
     fine: usize,
     seconds: f64,
-    timeline: Vec<(f64, Vec<[f64; 3]>)>,
-    /// Each settle phase but the last (coarse level, level, full mesh): its name, the seconds
-    /// into settling at which the next began, and the pose it left.
-    phase_ends: Vec<(&'static str, f64, Vec<[f64; 3]>)>,
+    path: Vec<Step>,
+}
+
+/// One settle step as measured: seconds into settling (measuring excluded), the phase that took
+/// it, and the pose's distance from the reference after it.
+struct Step {
+    at: f64,
+    phase: &'static str,
+    distance: Distances,
 }
 
 /// Holds the groups at `poses`: solves until the coarse solve converges, then settles until
-/// converged; `None` for a method that does not settle.
+/// converged, measuring each step against `reference` (index `which`); `None` for a method that
+/// does not settle.
 fn hold_and_settle(
     d: &mut dyn app::editor::solver_thread::PoseSolver,
     mesh: &solver::Mesh,
     handles: &solver::Handles,
     poses: &[GroupTransform],
+    reference: &mut Reference,
+    which: usize,
     label: String,
 ) -> Result<Option<Settled>, Box<dyn std::error::Error>> {
     let moves = group_transforms(handles, poses);
     let targets = handle_targets(mesh, handles, poses)?;
+    let diagonal = mesh.bbox_diagonal();
     let mut solves = 1;
     let t = Instant::now();
     while !d.solve(&moves)?.converged && solves < 1000 {
@@ -357,40 +411,39 @@ fn hold_and_settle(
     let solve_seconds = t.elapsed().as_secs_f64();
     let before = d.positions().to_vec();
     let t = Instant::now();
-    let (mut steps, mut fine) = (0, 0);
-    let (mut timeline, mut phase_ends) = (Vec::new(), Vec::new());
-    let (mut phase, mut previous) = (None, before.clone());
+    let (mut steps, mut fine, mut measuring) = (0, 0, 0.0);
+    let mut path = Vec::new();
     while let Some(s) = d.settle(&moves)? {
         steps += 1;
         fine += s.fine_iterations;
-        let at = t.elapsed().as_secs_f64();
-        let now = match (s.fine_iterations, s.fine_energy) {
+        let at = t.elapsed().as_secs_f64() - measuring;
+        let phase = match (s.fine_iterations, s.fine_energy) {
             (0, _) => "coarse level",
             (_, None) => "level",
             (_, Some(_)) => "full mesh",
         };
-        if let Some(last) = phase.replace(now).filter(|&p| p != now) {
-            phase_ends.push((last, at, previous.clone()));
-        }
-        previous.copy_from_slice(d.positions());
-        if SNAPSHOTS.get(timeline.len()).is_some_and(|&due| at >= due) {
-            timeline.push((at, d.positions().to_vec()));
-        }
+        let distance = distances(d.positions(), reference.positions(), diagonal);
+        path.push(Step { at, phase, distance });
+        measuring = t.elapsed().as_secs_f64() - at;
         if s.converged || steps >= 1000 {
             break;
         }
     }
-    Ok((steps > 0).then(|| Settled {
+    let seconds = t.elapsed().as_secs_f64() - measuring;
+    let after = d.positions().to_vec();
+    let quality = (reference.measure(&before), reference.measure(&after));
+    Ok((steps > 0).then_some(Settled {
         label,
+        reference: which,
         targets,
         solves: (solves, solve_seconds),
         before,
-        after: d.positions().to_vec(),
+        after,
+        quality,
         steps,
         fine,
-        seconds: t.elapsed().as_secs_f64(),
-        timeline,
-        phase_ends,
+        seconds,
+        path,
     }))
 }
 

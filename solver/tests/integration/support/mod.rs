@@ -1,6 +1,7 @@
 //! Helpers shared by several test modules.
 
 pub mod clients;
+pub mod export_fixture;
 pub mod gltf_files;
 
 use std::ops::ControlFlow;
