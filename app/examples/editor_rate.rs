@@ -27,10 +27,11 @@
 //! and left there; the thread solves until converged, then settles until converged. Reported:
 //! settle steps and fine iterations, seconds, how far settling moves the displayed pose (the
 //! settle shift), and the distance to converged ARAP of the same energy on the mesh
-//! ([`solver::deform::quality::Reference`], solved before the drag) before and after settling,
-//! and after every settle step: printed at the first step after each of [`SNAPSHOTS`] seconds,
-//! at each phase's first and last step, and the farthest the pose got while settling (the
-//! seconds exclude measuring it). `--gpu-normals` makes the
+//! ([`solver::deform::quality::Reference`], solved before the first method's drag, minutes on a
+//! dense mesh) before and after settling, and after every settle step: printed at the first step
+//! after each of [`SNAPSHOTS`] seconds, at each phase's first and last step, the farthest the
+//! pose got while settling and its largest move back (the most a step's distance exceeded the
+//! nearest since release); the seconds exclude measuring. `--gpu-normals` makes the
 //! shape as the thread does when the viewport computes the normals on the GPU (positions only).
 //! `--regrab D`: after settling, the group moves on by D·diag (along y) and is held and settled
 //! again, reported as a second row: what releasing shows when a settled pose is adjusted.
@@ -52,7 +53,7 @@ use solver::GroupTransform;
 use solver::deform::quality::{Distances, Quality, Reference, distances};
 use std::time::Instant;
 
-/// Seconds into settling at which the pose is kept and measured (at the first step after each).
+/// Seconds into settling at which the pose's distance is printed (at the first step after each).
 const SNAPSHOTS: [f64; 6] = [0.25, 0.5, 1.0, 2.0, 5.0, 10.0];
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
