@@ -15,7 +15,9 @@
 //!    configured), the level's handles on their targets: a level vertex that is a fine handle
 //!    takes its target; a group's part of a connected component in which the level kept none
 //!    of its vertices is held by the level representatives of those vertices, moved by the
-//!    group's rigid motion (components without handles stay at rest, as on the mesh);
+//!    group's rigid motion (components without handles stay at rest, as on the mesh; a level
+//!    component without handles that the decimation split off a mesh component with handles
+//!    stays where the pose has it);
 //! 3. every fine vertex moves by the interpolated change,
 //!    $x_i = p'_i + \sum_k w_{ik}\,(y_{t_{ik}} - y^0_{t_{ik}})$, the level's vertices to $y$
 //!    exactly.
@@ -48,6 +50,9 @@ enum LevelTarget {
     Fine(usize),
     /// The group's rigid motion applied to the level vertex's rest position.
     Moved(u32, [f64; 3]),
+    /// Where the pose has this level vertex when the step starts (a vertex of a level
+    /// component split off a handled one: [`LevelSolver::new`]).
+    InPlace(u32),
 }
 
 /// The level's ARAP for one handle set (step 2 of the module doc), factored when first
@@ -99,6 +104,31 @@ impl LevelSolver {
                 }
             }
         }
+        // A level component that the decimation split off a mesh component with handles (the
+        // dragon subdivided twice: three of 3–5 vertices beside one of 108,642) may hold none:
+        // pinned at rest, as the mesh's components without handles are, it would pull the
+        // fine vertices on it back to rest (measured there: 18.6 % of the diagonal at the
+        // level's first step). It is held in place, where the pose has it: the level's change
+        // there is zero, and the full mesh's phase settles those vertices.
+        let level_components = level.mesh.components();
+        let mut level_handled = vec![false; level_components.count()];
+        for (l, &c) in labels.iter().zip(&level_components.label) {
+            level_handled[c as usize] |= l.is_some();
+        }
+        let mut mesh_handled = vec![false; mesh.components().count()];
+        for (l, &c) in fine_labels.iter().zip(component) {
+            mesh_handled[c as usize] |= l.is_some();
+        }
+        let in_place_group = fine_labels.iter().flatten().max().map_or(0, |g| g + 1);
+        let mut in_place = vec![false; labels.len()];
+        for (k, &v) in level.kept.iter().enumerate() {
+            if !level_handled[level_components.label[k] as usize]
+                && mesh_handled[component[v as usize] as usize]
+            {
+                labels[k] = Some(in_place_group);
+                in_place[k] = true;
+            }
+        }
         let rig = handles.rig();
         let level_rig = Rig {
             rigidity: rig
@@ -114,6 +144,9 @@ impl LevelSolver {
             .iter()
             .map(|&k| {
                 let v = level.kept[k as usize];
+                if in_place[k as usize] {
+                    return LevelTarget::InPlace(k);
+                }
                 match fine_handles.binary_search(&v) {
                     Ok(i) if !moved[k as usize] => LevelTarget::Fine(i),
                     _ => LevelTarget::Moved(labels[k as usize].unwrap_or(0), rest[k as usize]),
@@ -144,13 +177,15 @@ impl LevelSolver {
         motions: &[Motion],
         iterations: usize,
     ) -> Result<(SolveStats, f64), SolveError> {
+        self.start.clear();
+        self.start.extend(level.kept.iter().map(|&v| result[v as usize]));
+        let start = &self.start;
         self.target_buf.clear();
         self.target_buf.extend(self.targets.iter().map(|t| match *t {
             LevelTarget::Fine(i) => targets[i],
             LevelTarget::Moved(g, p) => motions.get(g as usize).map_or(p, |m| m.apply(p)),
+            LevelTarget::InPlace(k) => start[k as usize],
         }));
-        self.start.clear();
-        self.start.extend(level.kept.iter().map(|&v| result[v as usize]));
         self.arap.factor()?;
         let Some(arap) = self.arap.arap_mut() else {
             return Ok((SolveStats { converged: true, ..SolveStats::default() }, 0.0));
@@ -234,5 +269,67 @@ mod tests {
             "{:?}",
             solver.targets
         );
+    }
+
+    /// A level component without handles that the decimation split off a handled mesh
+    /// component (here by hand: a strip of 12 vertices, its level two triangles apart) stays
+    /// where the pose has it; pinned at rest, it pulled its fine vertices back by the whole
+    /// move.
+    #[test]
+    fn a_level_piece_split_off_a_handled_part_stays_in_place() {
+        // Two rows of six vertices, x = 0..5, y = 0 and 1: one component.
+        let rest: Vec<[f64; 3]> = (0..12).map(|v| [(v % 6) as f64, (v / 6) as f64, 0.0]).collect();
+        let triangles: Vec<[u32; 3]> =
+            (0..5).flat_map(|i| [[i, i + 1, i + 7], [i, i + 7, i + 6]]).collect();
+        let mesh = Mesh::new(rest.clone(), triangles).unwrap();
+        assert_eq!(mesh.components().count(), 1);
+        // The level: the triangles (0, 1, 6) and (4, 5, 11), apart; each fine vertex on the
+        // nearer one, at its nearest corner.
+        let kept = vec![0, 1, 4, 5, 6, 11];
+        let level_mesh =
+            Mesh::new(kept.iter().map(|&v| rest[v as usize]).collect(), vec![[0, 1, 4], [2, 3, 5]])
+                .unwrap();
+        assert_eq!(level_mesh.components().count(), 2);
+        let corner = |v: usize| -> (u32, usize) {
+            let (x, y) = (v % 6, v / 6);
+            match (x < 3, y) {
+                (true, 0) => (0, if x == 0 { 0 } else { 1 }),
+                (true, _) => (0, 2),
+                (false, 0) => (1, if x == 5 { 1 } else { 0 }),
+                (false, _) => (1, 2),
+            }
+        };
+        let (faces, weights) = (0..12)
+            .map(|v| {
+                let (f, c) = corner(v);
+                let mut w = [0.0; 3];
+                w[c] = 1.0;
+                (f, w)
+            })
+            .unzip();
+        let representative = (0..12)
+            .map(|v| {
+                let (f, c) = corner(v);
+                level_mesh.triangles()[f as usize][c]
+            })
+            .collect();
+        let level = LevelEmbedding { mesh: level_mesh, kept, representative, faces, weights };
+        // Group 0 at the left end; the whole strip already lifted by 1 along z, the handles
+        // on their targets.
+        let mut labels = vec![None; 12];
+        labels[0] = Some(0);
+        labels[6] = Some(0);
+        let handles = Handles::from_options(labels).unwrap();
+        let fine_handles = handles.handle_vertices();
+        let lifted: Vec<[f64; 3]> = rest.iter().map(|p| [p[0], p[1], 1.0]).collect();
+        let targets: Vec<[f64; 3]> = fine_handles.iter().map(|&v| lifted[v as usize]).collect();
+        let config = ArapConfig::default();
+        let mut solver = LevelSolver::new(&mesh, &level, &handles, fine_handles, &config).unwrap();
+        let mut pose = lifted.clone();
+        let (_, moved) = solver.refine(&level, &mut pose, &targets, &[], 5).unwrap();
+        for (v, (p, q)) in pose.iter().zip(&lifted).enumerate() {
+            assert!(norm(sub(*p, *q)) < 1e-9, "vertex {v} moved from {q:?} to {p:?}");
+        }
+        assert!(moved < 1e-9, "moved {moved}");
     }
 }
