@@ -15,6 +15,7 @@ use crate::editor::render_layout::RenderLayout;
 use crate::editor::renderer::{ClayDraw, TexturedDraw, Uniforms, ViewportCallback};
 use crate::editor::shape::Shape;
 use crate::editor::solver_thread::{SolvedFrame, SolverState};
+use solver::deform::coarse::settle_rule;
 
 /// What the viewports show and how, and what was built for them.
 pub(super) struct Display {
@@ -347,8 +348,10 @@ impl EditorApp {
         self.draw_tool_overlays(&painter, slot, rect);
     }
 
-    pub(super) fn draw_overlays(&self, painter: &egui::Painter, slot: usize, rect: Rect) {
-        let font = egui::FontId::monospace(12.0);
+    /// The text lines over viewport `slot` (top left): the method, the solver's rate,
+    /// iterations and energies, what settling has left, the side-by-side distance, and what
+    /// is being prepared; read from the state the UI holds.
+    pub fn overlay_lines(&self, slot: usize) -> Vec<String> {
         let mut lines = Vec::new();
         let (method, view_index, handle) = match (self.display.view, slot) {
             (View::Compare, 0) => {
@@ -370,9 +373,9 @@ impl EditorApp {
             if self.options.deterministic_overlays {
                 lines.push(format!("iterations/frame {}", s.iterations));
             } else {
-                let solving = handle.and_then(|h| h.try_status()).is_some_and(|st| {
-                    matches!(st.state, SolverState::Solving | SolverState::Settling)
-                });
+                let state = handle.and_then(|h| h.try_status()).map(|st| st.state);
+                let settling = matches!(state, Some(SolverState::Settling));
+                let solving = settling || matches!(state, Some(SolverState::Solving));
                 let fine = if s.fine_iterations > 0 {
                     format!(" + {} on the full mesh", s.fine_iterations)
                 } else {
@@ -388,11 +391,8 @@ impl EditorApp {
                     "{:.3} ms/it  E = {:.4e}{on_mesh}",
                     s.ms_per_iteration, s.energy
                 ));
-                if let Some(left) = s.settle_left.filter(|_| solving) {
-                    lines.push(format!(
-                        "refining: about {:.3}% of the diagonal to go",
-                        100.0 * left
-                    ));
+                if settling {
+                    lines.push(settle_line(&s));
                 }
             }
         }
@@ -433,6 +433,17 @@ impl EditorApp {
                 _ => {}
             }
         }
+        if slot == 0 && self.display.show_render_fps && !self.options.deterministic_overlays {
+            lines.push(format!(
+                "render {:.0} fps, UI thread {:.1} ms/frame",
+                self.display.render_fps, self.display.ui_ms
+            ));
+        }
+        lines
+    }
+
+    pub(super) fn draw_overlays(&self, painter: &egui::Painter, slot: usize, rect: Rect) {
+        let font = egui::FontId::monospace(12.0);
         if let Some(h) = self.interaction.hover.as_ref().filter(|h| h.slot == slot) {
             let depth = (h.hit.point - self.display.camera.eye())
                 .dot(-self.display.camera.back())
@@ -451,12 +462,7 @@ impl EditorApp {
                 );
             }
         }
-        if slot == 0 && self.display.show_render_fps && !self.options.deterministic_overlays {
-            lines.push(format!(
-                "render {:.0} fps, UI thread {:.1} ms/frame",
-                self.display.render_fps, self.display.ui_ms
-            ));
-        }
+        let lines = self.overlay_lines(slot);
         let mut y = rect.top() + 6.0;
         for l in lines {
             painter.text(
@@ -482,6 +488,28 @@ impl EditorApp {
                 Color32::YELLOW,
             );
         }
+    }
+}
+
+/// The overlay's line while the solver settles a pose (`solver::deform::coarse::settle`): the
+/// phase the last frame's step ran on (a step on the fairing level names no energy of the
+/// mesh: [`solver::FrameStats::fine_energy`]) and, once that phase's steps tell
+/// ([`settle_rule`]), about how far the pose has still to go in it; a phase that has settled
+/// hands over to a finer one (the pose then still moves).
+fn settle_line(s: &solver::FrameStats) -> String {
+    let phase = match (s.fine_iterations, s.fine_energy) {
+        (0, _) => "the coarse level",
+        (_, None) => "the fairing level",
+        (_, Some(_)) => "the full mesh",
+    };
+    match s.settle_left {
+        Some(left) if left < settle_rule::SETTLED => {
+            format!("refining: settled on {phase}, going on finer")
+        }
+        Some(left) => {
+            format!("refining on {phase}: about {:.3}% of the diagonal to go", 100.0 * left)
+        }
+        None => format!("refining on {phase}…"),
     }
 }
 
