@@ -152,8 +152,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         poses[group].translation.y += step * mesh.bbox_diagonal();
         poses
     });
+    // Only the coarse BS-ARAP settles (module doc): without it no reference is needed.
+    let settles = defaults.base.settle_iterations > 0
+        && methods.iter().any(|&(m, _)| m == solver::Method::BsArapCoarse);
     let mut references = Vec::new();
-    if !no_settle && !while_factoring {
+    if settles && !no_settle && !while_factoring {
         for poses in std::iter::once(&hold).chain(&regrabbed) {
             let targets = handle_targets(&mesh, &handles, poses)?;
             let energy = defaults.reference_energy();
@@ -226,7 +229,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             drag_while_factoring(&mut *d, &mesh, &handles, group, n_poses, frames, &vertex_faces)?;
             continue;
         }
-        if no_settle {
+        if no_settle || references.is_empty() {
             continue;
         }
 
