@@ -4,8 +4,8 @@
 //! Local–global iterations converge linearly near a minimum, slowest along the soft modes that
 //! cost the energy least (a limb turning a little about its joint). A rule on the energy's
 //! decrease per iteration stops on those modes while the pose still has tenths of a percent of
-//! the diagonal to go (BENCHMARKS.md, "Settling in the editor": 0.47 % on average on one
-//! armadillo set at 692k vertices, which converged ARAP reached from there).
+//! the diagonal to go (raw `bench/results/settle/settle_rule.txt`: 0.47 % on average on
+//! armadillo-c at 692k vertices, which converged ARAP reached from there).
 //! This rule measures the pose instead. With $d_k$ the mean distance the $k$-th step of a
 //! phase (the coarse level's, measured at its vertices, the level's or the full mesh's) moved the
 //! vertices, over the bounding-box diagonal,
