@@ -488,11 +488,15 @@ impl EditorApp {
                 ui.separator();
             }
             for h in self.solvers.iter() {
-                let state = h.try_status().map(|s| s.state);
-                let text = match state {
+                let status = h.try_status();
+                let waiting = status.as_ref().is_some_and(|s| s.settle_waiting_since.is_some());
+                let text = match status.map(|s| s.state) {
                     Some(SolverState::Idle) => "idle (no handles)".to_string(),
                     Some(SolverState::Factorizing { .. }) => "factorizing…".to_string(),
                     Some(SolverState::Solving) => "solving".to_string(),
+                    Some(SolverState::Settling) if waiting => {
+                        "refining the pose (factoring a finer level)".to_string()
+                    }
                     Some(SolverState::Settling) => "refining the pose".to_string(),
                     Some(SolverState::Converged) => "converged".to_string(),
                     Some(SolverState::Failed(e)) => format!("failed: {e}"),
@@ -757,12 +761,10 @@ impl eframe::App for EditorApp {
             ctx.request_repaint_after(Duration::from_millis(100));
         }
         if self.jobs.loading.is_some()
-            || self
-                .solvers
-                .main
-                .as_ref()
-                .and_then(|s| s.try_status())
-                .is_some_and(|s| matches!(s.state, SolverState::Factorizing { .. }))
+            || self.solvers.main.as_ref().and_then(|s| s.try_status()).is_some_and(|s| {
+                matches!(s.state, SolverState::Factorizing { .. })
+                    || s.settle_waiting_since.is_some()
+            })
         {
             ctx.request_repaint_after(self.display.progress_repaint());
         }

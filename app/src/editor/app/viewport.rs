@@ -373,7 +373,9 @@ impl EditorApp {
             if self.options.deterministic_overlays {
                 lines.push(format!("iterations/frame {}", s.iterations));
             } else {
-                let state = handle.and_then(|h| h.try_status()).map(|st| st.state);
+                let status = handle.and_then(|h| h.try_status());
+                let waiting = status.as_ref().and_then(|st| st.settle_waiting_since);
+                let state = status.map(|st| st.state);
                 let settling = matches!(state, Some(SolverState::Settling));
                 let solving = settling || matches!(state, Some(SolverState::Solving));
                 let fine = if s.fine_iterations > 0 {
@@ -392,7 +394,8 @@ impl EditorApp {
                     s.ms_per_iteration, s.energy
                 ));
                 if settling {
-                    lines.push(settle_line(&s));
+                    let waited = waiting.map(|t| t.elapsed().as_secs_f32());
+                    lines.push(settle_line(&s, waited));
                 }
             }
         }
@@ -495,17 +498,21 @@ impl EditorApp {
 /// phase the last frame's step ran on (a step on the fairing level names no energy of the
 /// mesh: [`solver::FrameStats::fine_energy`]) and, once that phase's steps tell
 /// ([`settle_rule`]), about how far the pose has still to go in it; a phase that has settled
-/// hands over to a finer one (the pose then still moves).
-fn settle_line(s: &solver::FrameStats) -> String {
+/// hands over to a finer one (the pose then still moves), after `waited` seconds so far of
+/// waiting for that one's factorization when the thread waits for it.
+fn settle_line(s: &solver::FrameStats, waited: Option<f32>) -> String {
     let phase = match (s.fine_iterations, s.fine_energy) {
         (0, _) => "the coarse level",
         (_, None) => "the fairing level",
         (_, Some(_)) => "the full mesh",
     };
     match s.settle_left {
-        Some(left) if left < settle_rule::SETTLED => {
-            format!("refining: settled on {phase}, going on finer")
-        }
+        Some(left) if left < settle_rule::SETTLED => match waited {
+            Some(secs) => {
+                format!("refining: settled on {phase}; factoring a finer level… {secs:.0} s")
+            }
+            None => format!("refining: settled on {phase}, going on finer"),
+        },
         Some(left) => {
             format!("refining on {phase}: about {:.3}% of the diagonal to go", 100.0 * left)
         }
@@ -534,4 +541,34 @@ pub(super) struct GroupStats {
     pub(super) key: (u64, usize, usize, Option<usize>),
     pub(super) sizes: Vec<usize>,
     pub(super) centroid: Option<glam::DVec3>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The settle line names the phase from the frame's statistics, gives an estimate only
+    /// above the settled threshold, and says when the thread waits for a finer level.
+    #[test]
+    fn the_settle_line_names_the_phase_and_the_wait() {
+        let coarse = solver::FrameStats { iterations: 10, ..Default::default() };
+        let level = solver::FrameStats { fine_iterations: 5, ..Default::default() };
+        let mesh = solver::FrameStats { fine_energy: Some(1.0), ..level };
+        assert_eq!(settle_line(&coarse, None), "refining on the coarse level…");
+        let left = solver::FrameStats { settle_left: Some(2e-3), ..level };
+        assert_eq!(
+            settle_line(&left, None),
+            "refining on the fairing level: about 0.200% of the diagonal to go"
+        );
+        let settled = solver::FrameStats { settle_left: Some(1e-6), ..mesh };
+        assert_eq!(
+            settle_line(&settled, None),
+            "refining: settled on the full mesh, going on finer"
+        );
+        let settled = solver::FrameStats { settle_left: Some(1e-6), ..coarse };
+        assert_eq!(
+            settle_line(&settled, Some(12.4)),
+            "refining: settled on the coarse level; factoring a finer level… 12 s"
+        );
+    }
 }

@@ -54,7 +54,11 @@ impl SolverHandle {
     ) -> anyhow::Result<SolverHandle> {
         let (tx, rx) = channel();
         let mailbox = Arc::new(Mailbox::default());
-        let status = Arc::new(Mutex::new(SolverStatus { state: SolverState::Idle, panics: 0 }));
+        let status = Arc::new(Mutex::new(SolverStatus {
+            state: SolverState::Idle,
+            settle_waiting_since: None,
+            panics: 0,
+        }));
         let show_base = Arc::new(AtomicBool::new(false));
         let normals_on_gpu = Arc::new(AtomicBool::new(false));
         let min_settle_ms = Arc::new(AtomicU64::new(worker::SETTLE_DELAY.as_millis() as u64));

@@ -276,6 +276,9 @@ pub enum SolverState {
 #[derive(Debug, Clone)]
 pub struct SolverStatus {
     pub state: SolverState,
+    /// While settling is due but waits for the pose solver to prepare it (a finer level's
+    /// factorization, [`PoseSolver::settle_ready`]), since when; `None` otherwise.
+    pub settle_waiting_since: Option<Instant>,
     /// How many times the worker panicked and restarted.
     pub panics: usize,
 }

@@ -317,8 +317,19 @@ impl PoseSolver for SlowToSettle {
     }
 }
 
-/// While what settling needs is still being prepared, the thread asks again now and then
-/// and meanwhile solves new poses at once; it settles once it is ready.
+/// The thread's status, waiting out a moment's lock by the thread.
+fn status(h: &SolverHandle) -> crate::editor::solver_thread::SolverStatus {
+    loop {
+        if let Some(s) = h.try_status() {
+            return s;
+        }
+        std::thread::sleep(Duration::from_millis(1));
+    }
+}
+
+/// While what settling needs is still being prepared, the thread asks again now and then,
+/// its status says since when it waits, and meanwhile it solves new poses at once; it settles
+/// once it is ready, and the wait ends.
 #[test]
 fn settling_waits_for_its_preparation_without_holding_up_new_poses() {
     let ready = Arc::new(AtomicBool::new(false));
@@ -337,6 +348,10 @@ fn settling_waits_for_its_preparation_without_holding_up_new_poses() {
     std::thread::sleep(SETTLE_DELAY * 3);
     assert!(asked.load(Ordering::Relaxed) >= 2, "asked {} times", asked.load(Ordering::Relaxed));
     assert!(h.try_take_frame().is_none(), "a frame while settling could not start");
+    let st = status(&h);
+    assert_eq!(st.state, SolverState::Settling);
+    let since = st.settle_waiting_since.expect("the status says settling waits");
+    assert!(since.elapsed() < SETTLE_DELAY * 3, "waiting since before the pose rested");
 
     let moved = GroupTransform::from_translation(glam::DVec3::new(0.0, 0.0, 2.0));
     h.send(SolverCommand::SetPoses { pose_generation: 7, poses: vec![moved] });
@@ -346,6 +361,14 @@ fn settling_waits_for_its_preparation_without_holding_up_new_poses() {
     ready.store(true, Ordering::Relaxed);
     let f = wait_frame(&h, |f| f.pose_generation == 7 && f.stats.fine_iterations == 1);
     assert_eq!(f.positions[1], drawn([1.5, 0.0, 2.0]));
+    // The status follows the frame into the mailbox.
+    let start = Instant::now();
+    let mut st = status(&h);
+    while st.state != SolverState::Converged && start.elapsed() < Duration::from_secs(10) {
+        std::thread::sleep(Duration::from_millis(1));
+        st = status(&h);
+    }
+    assert_eq!((st.state, st.settle_waiting_since), (SolverState::Converged, None));
 }
 
 /// [`Shift`] with a base: the rest shape lifted by one along y.

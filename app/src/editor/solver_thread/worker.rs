@@ -49,11 +49,18 @@ impl Shared {
     }
 }
 
+/// Sets the state; any other than settling ends a wait for settling's preparation.
 pub(super) fn set_status(status: &Mutex<SolverStatus>, state: SolverState) {
-    match status.lock() {
-        Ok(mut s) => s.state = state,
-        Err(poisoned) => poisoned.into_inner().state = state,
+    let mut s = status.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+    if state != SolverState::Settling {
+        s.settle_waiting_since = None;
     }
+    s.state = state;
+}
+
+/// Sets since when settling has waited for its preparation (`None`: it does not wait).
+fn set_settle_waiting(status: &Mutex<SolverStatus>, since: Option<Instant>) {
+    status.lock().unwrap_or_else(|poisoned| poisoned.into_inner()).settle_waiting_since = since;
 }
 
 /// Runs the worker, restarting it after a panic.
@@ -119,8 +126,9 @@ struct Active {
     dirty: bool,
     /// The last solve converged and its pose is being refined ([`PoseSolver::settle`]).
     settling: bool,
-    /// Settling is due but waits for the pose solver ([`PoseSolver::settle_ready`]).
-    settle_waiting: bool,
+    /// Settling is due but waits for the pose solver ([`PoseSolver::settle_ready`]), since
+    /// when.
+    settle_waiting: Option<Instant>,
     /// When the poses last changed, and the settle steps taken since.
     poses_changed: Instant,
     /// How far apart the poses have been changing while they came in a stream (a drag): the
@@ -264,7 +272,7 @@ struct Inbox {
 fn wait_time(active: Option<&Active>, floor: Duration) -> Option<Duration> {
     match active {
         Some(a) if a.dirty => Some(Duration::ZERO),
-        Some(a) if a.settle_waiting => Some(SETTLE_POLL),
+        Some(a) if a.settle_waiting.is_some() => Some(SETTLE_POLL),
         Some(a) if a.settling => {
             Some(a.settle_delay(floor).saturating_sub(a.poses_changed.elapsed()))
         }
@@ -363,7 +371,7 @@ fn rebuild(
                 poses_changed: Instant::now(),
                 pose_cadence: Duration::ZERO,
                 settle_steps: 0,
-                settle_waiting: false,
+                settle_waiting: None,
                 last_stats: FrameStats::default(),
                 last_frame: None,
                 fps: 0.0,
@@ -432,7 +440,11 @@ fn worker_loop(
         // can wake the thread before that).
         let rested = a.settling && !a.dirty && a.poses_changed.elapsed() >= a.settle_delay(floor);
         let settle_due = rested && a.pose_solver.settle_ready();
-        a.settle_waiting = rested && !settle_due;
+        if (rested && !settle_due) != a.settle_waiting.is_some() {
+            a.settle_waiting = (rested && !settle_due).then(Instant::now);
+            set_settle_waiting(&shared.status, a.settle_waiting);
+            (shared.repaint)();
+        }
         if !a.dirty && !settle_due {
             if inbox.republish && a.last_frame_published {
                 shared.mailbox.put(a.frame(
