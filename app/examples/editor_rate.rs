@@ -46,7 +46,7 @@
 //! soon after stopping sees.
 
 use app::editor::pose::{group_transforms, handle_targets};
-use app::editor::pose_solvers::factory;
+use app::editor::pose_solvers::{factory, settle_phase};
 use app::editor::shape::{ShapePool, display_origin};
 use app::editor::solver_thread::{MethodSettings, Slot};
 use solver::GroupTransform;
@@ -421,11 +421,7 @@ fn hold_and_settle(
         steps += 1;
         fine += s.fine_iterations;
         let at = t.elapsed().as_secs_f64() - measuring;
-        let phase = match (s.fine_iterations, s.fine_energy) {
-            (0, _) => "coarse level",
-            (_, None) => "level",
-            (_, Some(_)) => "full mesh",
-        };
+        let phase = settle_phase(&s);
         let distance = distances(d.positions(), reference.positions(), diagonal);
         path.push(Step { at, phase, distance });
         measuring = t.elapsed().as_secs_f64() - at;

@@ -50,6 +50,17 @@ pub fn factory(cache: Arc<Mutex<MeshCache>>) -> PoseSolverFactory {
     )
 }
 
+/// Where a settle step of the coarse BS-ARAP ran (`solver::deform::coarse::settle`), from its
+/// frame's statistics: no fine iteration, the coarse level; fine iterations without an energy
+/// of the mesh, the fairing level ([`FrameStats::fine_energy`]); else the full mesh.
+pub fn settle_phase(stats: &FrameStats) -> &'static str {
+    match (stats.fine_iterations, stats.fine_energy) {
+        (0, _) => "coarse level",
+        (_, None) => "fairing level",
+        (_, Some(_)) => "full mesh",
+    }
+}
+
 /// How the UI names a method.
 pub fn label(m: solver::Method) -> &'static str {
     match m {

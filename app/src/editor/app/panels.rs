@@ -490,7 +490,7 @@ impl EditorApp {
             for h in self.solvers.iter() {
                 let status = h.try_status();
                 let waiting = status.as_ref().is_some_and(|s| s.settle_waiting_since.is_some());
-                let text = match status.map(|s| s.state) {
+                let text = match status.as_ref().map(|s| &s.state) {
                     Some(SolverState::Idle) => "idle (no handles)".to_string(),
                     Some(SolverState::Factorizing { .. }) => "factorizing…".to_string(),
                     Some(SolverState::Solving) => "solving".to_string(),
@@ -505,7 +505,7 @@ impl EditorApp {
                 };
                 if animate
                     && matches!(
-                        h.try_status().map(|s| s.state),
+                        status.as_ref().map(|s| &s.state),
                         Some(SolverState::Factorizing { .. })
                     )
                 {

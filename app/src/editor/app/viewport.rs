@@ -359,6 +359,7 @@ impl EditorApp {
             }
             _ => (self.session.settings.bs_variant, 0, self.solvers.main.as_ref()),
         };
+        let status = handle.and_then(|h| h.try_status());
         lines.push(format!(
             "{}{}",
             pose_solvers::label(method),
@@ -373,9 +374,8 @@ impl EditorApp {
             if self.options.deterministic_overlays {
                 lines.push(format!("iterations/frame {}", s.iterations));
             } else {
-                let status = handle.and_then(|h| h.try_status());
                 let waiting = status.as_ref().and_then(|st| st.settle_waiting_since);
-                let state = status.map(|st| st.state);
+                let state = status.as_ref().map(|st| &st.state);
                 let settling = matches!(state, Some(SolverState::Settling));
                 let solving = settling || matches!(state, Some(SolverState::Solving));
                 let fine = if s.fine_iterations > 0 {
@@ -421,8 +421,8 @@ impl EditorApp {
             };
             lines.push(format!("precomputing the mesh for posing… {secs:.1} s"));
         }
-        if let Some(status) = handle.and_then(|h| h.try_status()) {
-            match status.state {
+        if let Some(status) = &status {
+            match &status.state {
                 SolverState::Factorizing { since } => {
                     let secs = if self.options.deterministic_overlays {
                         0.0
@@ -494,18 +494,13 @@ impl EditorApp {
     }
 }
 
-/// The overlay's line while the solver settles a pose (`solver::deform::coarse::settle`): the
-/// phase the last frame's step ran on (a step on the fairing level names no energy of the
-/// mesh: [`solver::FrameStats::fine_energy`]) and, once that phase's steps tell
+/// The overlay's line while the solver settles a pose: the phase the last frame's step ran on
+/// ([`pose_solvers::settle_phase`]) and, once that phase's steps tell
 /// ([`settle_rule`]), about how far the pose has still to go in it; a phase that has settled
 /// hands over to a finer one (the pose then still moves), after `waited` seconds so far of
 /// waiting for that one's factorization when the thread waits for it.
 fn settle_line(s: &solver::FrameStats, waited: Option<f32>) -> String {
-    let phase = match (s.fine_iterations, s.fine_energy) {
-        (0, _) => "the coarse level",
-        (_, None) => "the fairing level",
-        (_, Some(_)) => "the full mesh",
-    };
+    let phase = format!("the {}", pose_solvers::settle_phase(s));
     match s.settle_left {
         Some(left) if left < settle_rule::SETTLED => match waited {
             Some(secs) => {
