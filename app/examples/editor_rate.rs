@@ -3,7 +3,7 @@
 //! Usage: `cargo run --release -p app --example editor_rate -- [--no-settle] [--gpu-normals]
 //! [--energy spokes-and-rims|spokes|smooth-rotations] [--bending-length F]
 //! [--coarse-energy decimated|galerkin] [--tolerance T] [--cap N] [--coarse-vertices C] [--regrab D]
-//! [--no-check]
+//! [--no-check] [--steps]
 //! MESH SELECTION [FRAMES [METHOD...]]`
 //! (methods: `arap`, `bsarap`, `bsarap-faired`, `bsarap-coarse`, each optionally with `+aa` for
 //! the method panel's Anderson acceleration; default `arap bsarap bsarap-coarse`).
@@ -35,6 +35,8 @@
 //! shape as the thread does when the viewport computes the normals on the GPU (positions only).
 //! `--regrab D`: after settling, the group moves on by D·diag (along y) and is held and settled
 //! again, reported as a second row: what releasing shows when a settled pose is adjusted.
+//! `--steps` prints every settle step: seconds, phase, distance from converged, the step's move of
+//! the displayed pose (mean over the diagonal) and the settle rule's estimate of what is left.
 //! `--no-settle` stops after
 //! the drag (on dense meshes the converged references take many minutes); `--no-check` leaves
 //! out the check that ARAP run on from the settled pose reaches the reference (minutes more).
@@ -58,7 +60,8 @@ const SNAPSHOTS: [f64; 6] = [0.25, 0.5, 1.0, 2.0, 5.0, 10.0];
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let all: Vec<String> = std::env::args().collect();
-    let flags = ["--no-settle", "--gpu-normals", "--while-factoring", "--no-check"];
+    let flags = ["--no-settle", "--gpu-normals", "--while-factoring", "--no-check", "--steps"];
+    let every_step = all.iter().any(|a| a == "--steps");
     let no_settle = all.iter().any(|a| a == "--no-settle");
     let no_check = all.iter().any(|a| a == "--no-check");
     let gpu_normals = all.iter().any(|a| a == "--gpu-normals");
@@ -297,6 +300,21 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             })
             .collect();
         println!("  {label} phases (max / mean): {}", phases.join("; "));
+        if every_step {
+            println!(
+                "  {label} every step: seconds, phase, mean % from converged, move %, rule's estimate %"
+            );
+            for p in &path {
+                let left = p.left.map_or("-".to_string(), |l| format!("{:.5}", 100.0 * l));
+                println!(
+                    "    {:.2} {} {:.5} {:.6} {left}",
+                    p.at,
+                    p.phase,
+                    100.0 * p.distance.mean,
+                    100.0 * p.moved
+                );
+            }
+        }
         if let Some(far) = path.iter().max_by(|p, q| p.distance.mean.total_cmp(&q.distance.mean)) {
             println!(
                 "  {label} farthest while settling: {} at {:.2} s ({}); at release {:.2}% / {:.3}%",
@@ -385,11 +403,14 @@ struct Settled {
 }
 
 /// One settle step as measured: seconds into settling (measuring excluded), the phase that took
-/// it, and the pose's distance from the reference after it.
+/// it, the pose's distance from the reference after it, how far it moved the displayed pose
+/// (mean over the diagonal) and the settle rule's estimate after it.
 struct Step {
     at: f64,
     phase: &'static str,
     distance: Distances,
+    moved: f64,
+    left: Option<f64>,
 }
 
 /// Holds the groups at `poses`: solves until the coarse solve converges, then settles until
@@ -414,6 +435,7 @@ fn hold_and_settle(
     }
     let solve_seconds = t.elapsed().as_secs_f64();
     let before = d.positions().to_vec();
+    let mut shown = before.clone();
     let t = Instant::now();
     let (mut steps, mut fine, mut measuring) = (0, 0, 0.0);
     let mut path = Vec::new();
@@ -423,7 +445,9 @@ fn hold_and_settle(
         let at = t.elapsed().as_secs_f64() - measuring;
         let phase = settle_phase(&s);
         let distance = distances(d.positions(), reference.positions(), diagonal);
-        path.push(Step { at, phase, distance });
+        let moved = distances(&shown, d.positions(), diagonal).mean;
+        shown.copy_from_slice(d.positions());
+        path.push(Step { at, phase, distance, moved, left: s.settle_left });
         measuring = t.elapsed().as_secs_f64() - at;
         if s.converged || steps >= 1000 {
             break;
