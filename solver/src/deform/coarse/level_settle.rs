@@ -17,10 +17,12 @@
 //!    of its vertices is held by the level representatives of those vertices, moved by the
 //!    group's rigid motion (components without handles stay at rest, as on the mesh; a level
 //!    component without handles that the decimation split off a mesh component with handles
-//!    stays where the pose has it);
+//!    is held where the pose has it);
 //! 3. every fine vertex moves by the interpolated change,
-//!    $x_i = p'_i + \sum_k w_{ik}\,(y_{t_{ik}} - y^0_{t_{ik}})$, the level's vertices to $y$
-//!    exactly.
+//!    $x_i = p'_i + \sum_k w_{ik}\,c_{t_{ik}}$ with $c_k = y_k - y^0_k$, the level's vertices to
+//!    $y^0 + c$; on a level piece held in place, $c_k$ is instead the mean interpolated change
+//!    of the fine vertices just outside it (its fine vertices' fine-mesh neighbours embedded
+//!    elsewhere): the piece moves with its surroundings, not against them.
 //!
 //! This is a coarse-grid correction in the multigrid sense: the level's change, interpolated
 //! linearly, corrects the positions at the level's resolution; the details keep the coarse
@@ -67,6 +69,19 @@ pub struct LevelSolver {
     start: Vec<[f64; 3]>,
     /// Per level vertex, the last step's change (kept to reuse its memory).
     change: Vec<[f64; 3]>,
+    /// Per level piece held in place ([`LevelTarget::InPlace`]): its level vertices and the
+    /// fine vertices just outside it, whose mean change it takes (step 3 of the module doc).
+    pieces: Vec<Piece>,
+}
+
+/// A level piece held in place (step 3 of the module doc).
+#[derive(Debug)]
+struct Piece {
+    /// Its level vertices.
+    level: Vec<u32>,
+    /// The fine vertices embedded elsewhere that neighbour, on the mesh, fine vertices
+    /// embedded on it.
+    outside: Vec<u32>,
 }
 
 impl LevelSolver {
@@ -129,6 +144,7 @@ impl LevelSolver {
                 in_place[k] = true;
             }
         }
+        let pieces = pieces(mesh, level, &in_place);
         let rig = handles.rig();
         let level_rig = Rig {
             rigidity: rig
@@ -161,6 +177,7 @@ impl LevelSolver {
             target_buf: Vec::new(),
             start: Vec::new(),
             change: Vec::new(),
+            pieces,
         })
     }
 
@@ -194,28 +211,80 @@ impl LevelSolver {
         let y = arap.positions();
         self.change.clear();
         self.change.extend(y.iter().zip(&self.start).map(|(&a, &b)| sub(a, b)));
+        for piece in &self.pieces {
+            let mut sum = [0.0; 3];
+            for &i in &piece.outside {
+                sum = add(sum, interpolated(level, &self.change, i as usize));
+            }
+            let mean = sum.map(|c| c / piece.outside.len().max(1) as f64);
+            for &k in &piece.level {
+                self.change[k as usize] = mean;
+            }
+        }
         let change = &self.change;
         let moved: f64 = result
             .par_iter_mut()
             .enumerate()
             .map(|(i, x)| {
-                let (t, w) = level.interpolate(i);
-                let mut d = [0.0; 3];
-                for k in 0..3 {
-                    let c = change[t[k] as usize];
-                    for a in 0..3 {
-                        d[a] += w[k] * c[a];
-                    }
-                }
+                let d = interpolated(level, change, i);
                 *x = add(*x, d);
                 norm(d)
             })
             .sum();
-        for (&v, &p) in level.kept.iter().zip(y) {
-            result[v as usize] = p;
+        for ((&v, &p), &c) in level.kept.iter().zip(&self.start).zip(change) {
+            result[v as usize] = add(p, c);
         }
         Ok((st, moved / result.len().max(1) as f64))
     }
+}
+
+/// The level's `change` interpolated at fine vertex `i` (step 3 of the module doc).
+fn interpolated(level: &LevelEmbedding, change: &[[f64; 3]], i: usize) -> [f64; 3] {
+    let (t, w) = level.interpolate(i);
+    let mut d = [0.0; 3];
+    for k in 0..3 {
+        let c = change[t[k] as usize];
+        for a in 0..3 {
+            d[a] += w[k] * c[a];
+        }
+    }
+    d
+}
+
+/// The level pieces whose vertices are `in_place` (step 3 of the module doc), each with the
+/// fine vertices just outside it.
+fn pieces(mesh: &Mesh, level: &LevelEmbedding, in_place: &[bool]) -> Vec<Piece> {
+    if !in_place.contains(&true) {
+        return Vec::new();
+    }
+    let components = level.mesh.components();
+    let mut index = vec![None; components.count()];
+    let mut pieces: Vec<Piece> = Vec::new();
+    for (k, _) in in_place.iter().enumerate().filter(|(_, held)| **held) {
+        let c = components.label[k] as usize;
+        let p = *index[c].get_or_insert_with(|| {
+            pieces.push(Piece { level: Vec::new(), outside: Vec::new() });
+            pieces.len() - 1
+        });
+        pieces[p].level.push(k as u32);
+    }
+    // The piece a fine vertex is embedded on, if any.
+    let on_piece = |i: u32| {
+        let t = level.mesh.triangles()[level.faces[i as usize] as usize];
+        index[components.label[t[0] as usize] as usize]
+    };
+    let adjacency = mesh.adjacency();
+    for i in 0..mesh.n_vertices() as u32 {
+        if let Some(p) = on_piece(i) {
+            let outside = adjacency.neighbors(i).iter().filter(|&&j| on_piece(j).is_none());
+            pieces[p].outside.extend(outside);
+        }
+    }
+    for piece in &mut pieces {
+        piece.outside.sort_unstable();
+        piece.outside.dedup();
+    }
+    pieces
 }
 
 impl LevelSolver {
@@ -273,8 +342,9 @@ mod tests {
 
     /// A level component without handles that the decimation split off a handled mesh
     /// component (here by hand: a strip of 12 vertices, its level two triangles apart) stays
-    /// where the pose has it; pinned at rest, it pulled its fine vertices back by the whole
-    /// move.
+    /// where the pose has it (pinned at rest, it pulled its fine vertices back by the whole
+    /// move), and moves with its surroundings when the level changes them (held still, it
+    /// left a kink of the level's change).
     #[test]
     fn a_level_piece_split_off_a_handled_part_stays_in_place() {
         // Two rows of six vertices, x = 0..5, y = 0 and 1: one component.
@@ -314,11 +384,12 @@ mod tests {
             })
             .collect();
         let level = LevelEmbedding { mesh: level_mesh, kept, representative, faces, weights };
-        // Group 0 at the left end; the whole strip already lifted by 1 along z, the handles
-        // on their targets.
+        // Group 0 at the left end (the left piece's three vertices); the whole strip already
+        // lifted by 1 along z, the handles on their targets.
         let mut labels = vec![None; 12];
-        labels[0] = Some(0);
-        labels[6] = Some(0);
+        for v in [0, 1, 6] {
+            labels[v] = Some(0);
+        }
         let handles = Handles::from_options(labels).unwrap();
         let fine_handles = handles.handle_vertices();
         let lifted: Vec<[f64; 3]> = rest.iter().map(|p| [p[0], p[1], 1.0]).collect();
@@ -331,5 +402,18 @@ mod tests {
             assert!(norm(sub(*p, *q)) < 1e-9, "vertex {v} moved from {q:?} to {p:?}");
         }
         assert!(moved < 1e-9, "moved {moved}");
+        // The handles' targets 0.5 further along z: the left piece goes there, and the right
+        // one, held, takes the change of the fine vertices beside it (x = 2, on the left
+        // piece's corners), 0.5.
+        let raised: Vec<[f64; 3]> = targets.iter().map(|p| [p[0], p[1], 1.5]).collect();
+        let (_, moved) = solver.refine(&level, &mut pose, &raised, &[], 5).unwrap();
+        for (v, (p, q)) in pose.iter().zip(&lifted).enumerate() {
+            let expected = [q[0], q[1], 1.5];
+            assert!(norm(sub(*p, expected)) < 1e-6, "vertex {v} at {p:?}, not {expected:?}");
+        }
+        assert!((moved - 0.5).abs() < 1e-6, "moved {moved}");
+        assert_eq!(solver.pieces.len(), 1);
+        assert_eq!(solver.pieces[0].level, [2, 3, 5]);
+        assert_eq!(solver.pieces[0].outside, [2, 8]);
     }
 }
