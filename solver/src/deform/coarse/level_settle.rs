@@ -252,32 +252,63 @@ fn interpolated(level: &LevelEmbedding, change: &[[f64; 3]], i: usize) -> [f64; 
 }
 
 /// The level pieces whose vertices are `in_place` (step 3 of the module doc), each with the
-/// fine vertices just outside it.
+/// fine vertices just outside it. Pieces whose fine vertices touch on the mesh are one piece:
+/// one enclosed by another has no fine vertex outside both.
 fn pieces(mesh: &Mesh, level: &LevelEmbedding, in_place: &[bool]) -> Vec<Piece> {
     if !in_place.contains(&true) {
         return Vec::new();
     }
+    // Each held level component, numbered.
     let components = level.mesh.components();
     let mut index = vec![None; components.count()];
-    let mut pieces: Vec<Piece> = Vec::new();
+    let mut count = 0;
     for (k, _) in in_place.iter().enumerate().filter(|(_, held)| **held) {
-        let c = components.label[k] as usize;
-        let p = *index[c].get_or_insert_with(|| {
-            pieces.push(Piece { level: Vec::new(), outside: Vec::new() });
-            pieces.len() - 1
+        index[components.label[k] as usize].get_or_insert_with(|| {
+            count += 1;
+            count - 1
         });
-        pieces[p].level.push(k as u32);
     }
-    // The piece a fine vertex is embedded on, if any.
+    // The held component a fine vertex is embedded on, if any.
     let on_piece = |i: u32| {
         let t = level.mesh.triangles()[level.faces[i as usize] as usize];
         index[components.label[t[0] as usize] as usize]
     };
+    // Components whose fine vertices touch, joined (each points towards its piece's root).
+    let mut parent: Vec<usize> = (0..count).collect();
+    fn root(parent: &mut [usize], mut p: usize) -> usize {
+        while parent[p] != p {
+            parent[p] = parent[parent[p]];
+            p = parent[p];
+        }
+        p
+    }
     let adjacency = mesh.adjacency();
     for i in 0..mesh.n_vertices() as u32 {
         if let Some(p) = on_piece(i) {
+            for q in adjacency.neighbors(i).iter().filter_map(|&j| on_piece(j)) {
+                let (a, b) = (root(&mut parent, p), root(&mut parent, q));
+                parent[a.max(b)] = a.min(b);
+            }
+        }
+    }
+    let mut piece_of = vec![usize::MAX; count];
+    let mut pieces: Vec<Piece> = Vec::new();
+    for c in 0..count {
+        let r = root(&mut parent, c);
+        if piece_of[r] == usize::MAX {
+            piece_of[r] = pieces.len();
+            pieces.push(Piece { level: Vec::new(), outside: Vec::new() });
+        }
+        piece_of[c] = piece_of[r];
+    }
+    for (k, _) in in_place.iter().enumerate().filter(|(_, held)| **held) {
+        let c = index[components.label[k] as usize].unwrap_or_default();
+        pieces[piece_of[c]].level.push(k as u32);
+    }
+    for i in 0..mesh.n_vertices() as u32 {
+        if let Some(p) = on_piece(i) {
             let outside = adjacency.neighbors(i).iter().filter(|&&j| on_piece(j).is_none());
-            pieces[p].outside.extend(outside);
+            pieces[piece_of[p]].outside.extend(outside);
         }
     }
     for piece in &mut pieces {
@@ -340,35 +371,25 @@ mod tests {
         );
     }
 
-    /// A level component without handles that the decimation split off a handled mesh
-    /// component (here by hand: a strip of 12 vertices, its level two triangles apart) stays
-    /// where the pose has it (pinned at rest, it pulled its fine vertices back by the whole
-    /// move), and moves with its surroundings when the level changes them (held still, it
-    /// left a kink of the level's change).
-    #[test]
-    fn a_level_piece_split_off_a_handled_part_stays_in_place() {
-        // Two rows of six vertices, x = 0..5, y = 0 and 1: one component.
+    /// A strip of two rows of six vertices (x = 0..5, y = 0 and 1; one component) on a level
+    /// of the hand-made `level_triangles` (indices into `kept`), fine vertex `v` at corner
+    /// `corner(v).1` of level triangle `corner(v).0`; group 0 on the left end's vertices 0, 1
+    /// and 6, and the whole strip lifted by 1 along z with the handles on their targets. Two
+    /// level steps: the first, at those targets, moves nothing; the second, the targets 0.5
+    /// further along z, must move every vertex there (the left end by the level's ARAP, the
+    /// held pieces with the fine vertices beside them). Returns the level's solver.
+    fn lift_a_strip(
+        kept: Vec<u32>,
+        level_triangles: Vec<[u32; 3]>,
+        corner: impl Fn(usize) -> (u32, usize),
+    ) -> LevelSolver {
         let rest: Vec<[f64; 3]> = (0..12).map(|v| [(v % 6) as f64, (v / 6) as f64, 0.0]).collect();
         let triangles: Vec<[u32; 3]> =
             (0..5).flat_map(|i| [[i, i + 1, i + 7], [i, i + 7, i + 6]]).collect();
         let mesh = Mesh::new(rest.clone(), triangles).unwrap();
         assert_eq!(mesh.components().count(), 1);
-        // The level: the triangles (0, 1, 6) and (4, 5, 11), apart; each fine vertex on the
-        // nearer one, at its nearest corner.
-        let kept = vec![0, 1, 4, 5, 6, 11];
-        let level_mesh =
-            Mesh::new(kept.iter().map(|&v| rest[v as usize]).collect(), vec![[0, 1, 4], [2, 3, 5]])
-                .unwrap();
-        assert_eq!(level_mesh.components().count(), 2);
-        let corner = |v: usize| -> (u32, usize) {
-            let (x, y) = (v % 6, v / 6);
-            match (x < 3, y) {
-                (true, 0) => (0, if x == 0 { 0 } else { 1 }),
-                (true, _) => (0, 2),
-                (false, 0) => (1, if x == 5 { 1 } else { 0 }),
-                (false, _) => (1, 2),
-            }
-        };
+        let level_rest = kept.iter().map(|&v| rest[v as usize]).collect();
+        let level_mesh = Mesh::new(level_rest, level_triangles).unwrap();
         let (faces, weights) = (0..12)
             .map(|v| {
                 let (f, c) = corner(v);
@@ -384,8 +405,6 @@ mod tests {
             })
             .collect();
         let level = LevelEmbedding { mesh: level_mesh, kept, representative, faces, weights };
-        // Group 0 at the left end (the left piece's three vertices); the whole strip already
-        // lifted by 1 along z, the handles on their targets.
         let mut labels = vec![None; 12];
         for v in [0, 1, 6] {
             labels[v] = Some(0);
@@ -402,9 +421,6 @@ mod tests {
             assert!(norm(sub(*p, *q)) < 1e-9, "vertex {v} moved from {q:?} to {p:?}");
         }
         assert!(moved < 1e-9, "moved {moved}");
-        // The handles' targets 0.5 further along z: the left piece goes there, and the right
-        // one, held, takes the change of the fine vertices beside it (x = 2, on the left
-        // piece's corners), 0.5.
         let raised: Vec<[f64; 3]> = targets.iter().map(|p| [p[0], p[1], 1.5]).collect();
         let (_, moved) = solver.refine(&level, &mut pose, &raised, &[], 5).unwrap();
         for (v, (p, q)) in pose.iter().zip(&lifted).enumerate() {
@@ -412,8 +428,50 @@ mod tests {
             assert!(norm(sub(*p, expected)) < 1e-6, "vertex {v} at {p:?}, not {expected:?}");
         }
         assert!((moved - 0.5).abs() < 1e-6, "moved {moved}");
+        solver
+    }
+
+    /// A level component without handles that the decimation split off a handled mesh
+    /// component (here the strip's level: the triangles (0, 1, 6) and (4, 5, 11), apart, each
+    /// fine vertex on the nearer one) stays where the pose has it (pinned at rest, it pulled
+    /// its fine vertices back by the whole move), and moves with its surroundings when the
+    /// level changes them (held still, it left a kink of the level's change).
+    #[test]
+    fn a_level_piece_split_off_a_handled_part_stays_in_place() {
+        let corner = |v: usize| -> (u32, usize) {
+            let (x, y) = (v % 6, v / 6);
+            match (x < 3, y) {
+                (true, 0) => (0, if x == 0 { 0 } else { 1 }),
+                (true, _) => (0, 2),
+                (false, 0) => (1, if x == 5 { 1 } else { 0 }),
+                (false, _) => (1, 2),
+            }
+        };
+        let kept = vec![0, 1, 4, 5, 6, 11];
+        let solver = lift_a_strip(kept, vec![[0, 1, 4], [2, 3, 5]], corner);
         assert_eq!(solver.pieces.len(), 1);
         assert_eq!(solver.pieces[0].level, [2, 3, 5]);
+        assert_eq!(solver.pieces[0].outside, [2, 8]);
+    }
+
+    /// Two held pieces, the right end's (5, 10, 11) enclosed by its neighbour's (3, 4, 9):
+    /// no fine vertex beside the first is outside both, so they move as one piece (alone, the
+    /// enclosed one had nothing to follow and stayed).
+    #[test]
+    fn a_held_piece_enclosed_by_another_moves_with_it() {
+        let kept = vec![0, 1, 3, 4, 5, 6, 9, 10, 11];
+        let corner = |v: usize| -> (u32, usize) {
+            match v {
+                0 | 2 => (0, if v == 0 { 0 } else { 1 }),
+                1 => (0, 1),
+                6..=8 => (0, 2),
+                3 | 4 | 9 => (1, [3, 4, 9].iter().position(|&w| w == v).unwrap()),
+                _ => (2, [5, 10, 11].iter().position(|&w| w == v).unwrap()),
+            }
+        };
+        let solver = lift_a_strip(kept, vec![[0, 1, 5], [2, 3, 6], [4, 7, 8]], corner);
+        assert_eq!(solver.pieces.len(), 1);
+        assert_eq!(solver.pieces[0].level, [2, 3, 4, 6, 7, 8]);
         assert_eq!(solver.pieces[0].outside, [2, 8]);
     }
 }
