@@ -22,7 +22,8 @@
 //!    $x_i = p'_i + \sum_k w_{ik}\,c_{t_{ik}}$ with $c_k = y_k - y^0_k$, the level's vertices to
 //!    $y^0 + c$; on a level piece held in place, $c_k$ is instead the mean interpolated change
 //!    of the fine vertices just outside it (its fine vertices' fine-mesh neighbours embedded
-//!    elsewhere): the piece moves with its surroundings, not against them.
+//!    elsewhere; held pieces whose fine vertices touch count as one): the piece moves with its
+//!    surroundings, not against them.
 //!
 //! This is a coarse-grid correction in the multigrid sense: the level's change, interpolated
 //! linearly, corrects the positions at the level's resolution; the details keep the coarse
