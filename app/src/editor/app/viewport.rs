@@ -498,16 +498,19 @@ impl EditorApp {
 /// ([`pose_solvers::settle_phase`]) and, once that phase's steps tell
 /// ([`settle_rule`]), about how far the pose has still to go in it; a phase that has settled
 /// hands over to a finer one (the pose then still moves), after `waited` seconds so far of
-/// waiting for that one's factorization when the thread waits for it.
+/// waiting for that one's factorization when the thread waits for it (whatever ended the
+/// phase: the wait itself says it has settled).
 fn settle_line(s: &solver::FrameStats, waited: Option<f32>) -> String {
     let phase = format!("the {}", pose_solvers::settle_phase(s));
+    // The thread waits only once the phase it last stepped has settled (the coarse BS-ARAP's
+    // `factor_fine_in_background`), whatever ended it.
+    if let Some(secs) = waited {
+        return format!("refining: settled on {phase}; factoring a finer level… {secs:.0} s");
+    }
     match s.settle_left {
-        Some(left) if left < settle_rule::SETTLED => match waited {
-            Some(secs) => {
-                format!("refining: settled on {phase}; factoring a finer level… {secs:.0} s")
-            }
-            None => format!("refining: settled on {phase}, going on finer"),
-        },
+        Some(left) if left < settle_rule::SETTLED => {
+            format!("refining: settled on {phase}, going on finer")
+        }
         Some(left) => {
             format!("refining on {phase}: about {:.3}% of the diagonal to go", 100.0 * left)
         }
@@ -564,6 +567,12 @@ mod tests {
         assert_eq!(
             settle_line(&settled, Some(12.4)),
             "refining: settled on the coarse level; factoring a finer level… 12 s"
+        );
+        // A phase the rule ended without an estimate (a step that moved nothing): the wait
+        // still shows.
+        assert_eq!(
+            settle_line(&coarse, Some(3.0)),
+            "refining: settled on the coarse level; factoring a finer level… 3 s"
         );
     }
 }

@@ -19,8 +19,8 @@
 //!    component without handles that the decimation split off a mesh component with handles
 //!    is held where the pose has it);
 //! 3. every fine vertex moves by the interpolated change,
-//!    $x_i = p'_i + \sum_k w_{ik}\,c_{t_{ik}}$ with $c_k = y_k - y^0_k$, the level's vertices to
-//!    $y^0 + c$; on a level piece held in place, $c_k$ is instead the mean interpolated change
+//!    $x_i = p'_i + \sum_k w_{ik}\,c_{t_{ik}}$ with $c_k = y_k - y^0_k$ (a level vertex,
+//!    embedded on itself with weight 1, by its own $c_k$); on a level piece held in place, $c_k$ is instead the mean interpolated change
 //!    of the fine vertices just outside it (its fine vertices' fine-mesh neighbours embedded
 //!    elsewhere; held pieces whose fine vertices touch count as one): the piece moves with its
 //!    surroundings, not against them.
@@ -232,9 +232,6 @@ impl LevelSolver {
                 norm(d)
             })
             .sum();
-        for ((&v, &p), &c) in level.kept.iter().zip(&self.start).zip(change) {
-            result[v as usize] = add(p, c);
-        }
         Ok((st, moved / result.len().max(1) as f64))
     }
 }
