@@ -11,6 +11,11 @@ pub const DEFAULT_MAX_ITERATIONS: usize = 100;
 /// Anderson window of [`Arap::refine`](super::Arap::refine).
 pub const REFINE_ANDERSON_WINDOW: usize = 5;
 
+/// Local steps an accelerated iterate of [`Arap::refine`](super::Arap::refine) takes on smooth
+/// rotations before the safeguard weighs it (module `accelerated`, "Smooth rotations lag an
+/// extrapolated pose"); a solve's take one.
+pub const REFINE_ROTATION_STEPS: usize = 2;
+
 /// The ARAP cell type.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]

@@ -3,7 +3,7 @@
 //! the Anderson loop (`accelerated`) under the stopping rule
 //! $(E_{k-1}-E_k)/E_{k-1} <$ tolerance.
 
-use super::{Acceleration, Arap, REFINE_ANDERSON_WINDOW, SolveStats, ms};
+use super::{Acceleration, Arap, REFINE_ANDERSON_WINDOW, REFINE_ROTATION_STEPS, SolveStats, ms};
 use crate::error::{SolveError, check_targets};
 use crate::pool::in_pool;
 use std::time::Instant;
@@ -22,7 +22,8 @@ impl Arap {
     }
 
     /// Exactly `iterations` local-global iterations with safeguarded Anderson acceleration
-    /// (window [`REFINE_ANDERSON_WINDOW`], whatever the configuration says; no stopping rule)
+    /// (window [`REFINE_ANDERSON_WINDOW`], whatever the configuration says; on smooth rotations
+    /// [`REFINE_ROTATION_STEPS`] local steps an accelerated iterate; no stopping rule)
     /// from the pose `start` (`#V×3`) with the handles moved to `targets`: the fine pass that
     /// follows a coarse solve ([`crate::deform::coarse`]). Anderson because what is left after the
     /// coarse solve is smooth, the slow part for plain local-global. Rest targets give the rest
@@ -96,13 +97,23 @@ impl Arap {
                 stats.initial_energy = exact.unwrap_or(0.0);
                 stats.converged = true;
             }
-            (Some(n), _) => {
-                self.iterate_anderson(&mut stats, REFINE_ANDERSON_WINDOW, n, false, continues)
-            }
+            (Some(n), _) => self.iterate_anderson(
+                &mut stats,
+                REFINE_ANDERSON_WINDOW,
+                n,
+                false,
+                continues,
+                REFINE_ROTATION_STEPS,
+            ),
             (None, Acceleration::None) => self.iterate_plain(&mut stats),
-            (None, Acceleration::Anderson { window }) => {
-                self.iterate_anderson(&mut stats, window, self.config.max_iterations, true, false)
-            }
+            (None, Acceleration::Anderson { window }) => self.iterate_anderson(
+                &mut stats,
+                window,
+                self.config.max_iterations,
+                true,
+                false,
+                1,
+            ),
         });
         if let Some(vertex) = self.current.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
             self.current = previous;

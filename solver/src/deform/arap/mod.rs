@@ -68,7 +68,8 @@ mod tests;
 pub use config::{
     Acceleration, ArapConfig, ArapConfigError, DEFAULT_BENDING_LENGTH, DEFAULT_MAX_ITERATIONS,
     DEFAULT_TOLERANCE, Energy, FrameStats, MAX_ANDERSON_WINDOW, MAX_BENDING_LENGTH,
-    MAX_ENERGY_THRESHOLD, MAX_ITERATIONS_LIMIT, REFINE_ANDERSON_WINDOW, SolveStats,
+    MAX_ENERGY_THRESHOLD, MAX_ITERATIONS_LIMIT, REFINE_ANDERSON_WINDOW, REFINE_ROTATION_STEPS,
+    SolveStats,
 };
 
 pub(crate) use precompute::vertices_per_task;
