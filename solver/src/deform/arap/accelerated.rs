@@ -13,7 +13,8 @@
 //! `dragon-d`: 2–3 refusals in every 5 iterations, 81 settle steps on the full mesh; plain
 //! iterations alone took 87). There every accelerated iterate takes
 //! [`REFINE_ROTATION_STEPS`](super::REFINE_ROTATION_STEPS) local steps before the safeguard
-//! weighs it (fallbacks still one): the same run took 29 steps, 4.0 s instead of 9.5. A second
+//! weighs it (fallbacks still one): the same run took 29 steps, 4.0 s instead of 9.5 (denser
+//! meshes: BENCHMARKS.md, "Settling in the editor"; slower on one of four). A second
 //! step only for an iterate the first left above (72 steps) was not enough: the map must be
 //! nearer a function of the positions for every iterate, not only the refused ones. A solve
 //! far from its minimum takes one (a second cost more per frame than it saved on the bunny
