@@ -1,6 +1,8 @@
 //! The 50k dragon with the benchmark's handle spheres (from ../shared/meshes when present): its
 //! faired base flattens features thinner than the smoothing length into zero-area triangles,
-//! which made the faired and coarse variants fail; they now take M's cotangents there.
+//! which made the faired and coarse variants fail; they now take M's cotangents there. And its
+//! settling on smooth rotations, where Anderson's accelerated iterates were refused every other
+//! iteration.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use integration_tests::{max_dist, shared_meshes};

@@ -13,8 +13,12 @@ pub const REFINE_ANDERSON_WINDOW: usize = 5;
 
 /// Local steps an accelerated iterate of [`Arap::refine`](super::Arap::refine) takes on smooth
 /// rotations before the safeguard weighs it (module `accelerated`, "Smooth rotations lag an
-/// extrapolated pose"); a solve's take one.
+/// extrapolated pose").
 pub const REFINE_ROTATION_STEPS: usize = 2;
+
+/// The same for a solve's accelerated iterates, far from the minimum: a second step cost more
+/// per frame than it saved there.
+pub(super) const SOLVE_ROTATION_STEPS: usize = 1;
 
 /// The ARAP cell type.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]

@@ -3,6 +3,7 @@
 //! the Anderson loop (`accelerated`) under the stopping rule
 //! $(E_{k-1}-E_k)/E_{k-1} <$ tolerance.
 
+use super::config::SOLVE_ROTATION_STEPS;
 use super::{Acceleration, Arap, REFINE_ANDERSON_WINDOW, REFINE_ROTATION_STEPS, SolveStats, ms};
 use crate::error::{SolveError, check_targets};
 use crate::pool::in_pool;
@@ -112,7 +113,7 @@ impl Arap {
                 self.config.max_iterations,
                 true,
                 false,
-                1,
+                SOLVE_ROTATION_STEPS,
             ),
         });
         if let Some(vertex) = self.current.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
