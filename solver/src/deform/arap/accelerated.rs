@@ -135,10 +135,10 @@ impl Arap {
     }
 
     /// $E$ of an accelerated iterate for the safeguard: one local step, or on smooth rotations
-    /// `rotation_steps` of them ([`Arap::smooth_pose_energy`]).
+    /// `rotation_steps` of them ([`Arap::smooth_local_steps`]).
     fn accelerated_energy(&mut self, rotation_steps: usize) -> f64 {
         if self.smooth.is_some() {
-            self.smooth_pose_energy(rotation_steps)
+            self.smooth_local_steps(rotation_steps)
         } else {
             self.local_step_energy()
         }

@@ -290,7 +290,7 @@ impl Arap {
         self.set_positions(x);
         self.local_pass();
         if self.smooth.is_some() {
-            let e = self.smooth_pose_energy(POSE_ENERGY_SWEEPS);
+            let e = self.smooth_local_steps(POSE_ENERGY_SWEEPS);
             self.publish();
             return e;
         }

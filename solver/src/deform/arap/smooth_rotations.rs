@@ -354,29 +354,42 @@ impl Arap {
 
     /// The smooth-rotation local step: the covariances of the current pose, the implicit step,
     /// one Gauss–Seidel sweep of the rotations over the colour classes, and $E(x, R)$ for the
-    /// new rotations. Passes over the mesh: one for the covariances with the rotation
-    /// objective and the implicit step's gradient, one for the implicit step's rotations, one
-    /// per colour; the sweep sums the energy of the rotations it leaves.
+    /// new rotations ([`Arap::smooth_local_steps`] with one step).
+    pub(super) fn smooth_local_step(&mut self) -> f64 {
+        self.smooth_local_steps(1)
+    }
+
+    /// `steps` (at least one) smooth-rotation local steps at the current pose, each the
+    /// implicit step and one Gauss–Seidel sweep of the rotations over the colour classes;
+    /// returns $E(x, R)$ for the rotations of the last. The pose does not change between them,
+    /// so neither do its covariances $S_i$ nor the spokes' edge sum: the first step's pass
+    /// computes them with the rotation objective and the implicit step's gradient, each later
+    /// step's pass only the objective and the gradient for the rotations it starts from
+    /// ([`SmoothRotations::start_sums`]). Passes over the mesh per step: that one, one for the
+    /// implicit step's rotations, one per colour; the sweep sums the energy of the rotations
+    /// it leaves.
     ///
     /// The safeguard: when the implicit step and the sweep together raise the rotation
     /// objective ([`RotationSums::objective`]) above its value at the start (by more than
     /// rounding, [`RotationSums::rounding`], so that a converged solve does not sweep twice),
-    /// the rotations of the start come back and are swept alone, which never raises it; so the
-    /// local step never raises $E$. Checking after the sweep, not between the step and the
-    /// sweep, saves a pass.
-    pub(super) fn smooth_local_step(&mut self) -> f64 {
+    /// the rotations of the start come back and are swept alone, which never raises it; so no
+    /// local step raises $E$. Checking after the sweep, not between the step and the sweep,
+    /// saves a pass.
+    pub(super) fn smooth_local_steps(&mut self, steps: usize) -> f64 {
         let Some(mut sr) = self.smooth.take() else { return self.local_step_energy() };
-        let start = self.smooth_covariances(&mut sr);
-        let swept = match &self.cells {
-            Cells::Spokes { neighbours } => sr.rotation_step(
-                neighbours,
-                &mut self.rotations,
-                &start,
-                (self.task / 4).max(LANES),
-            ),
-            Cells::SpokesAndRims { .. } => RotationSums::default(),
-        };
-        let e = self.energy_from(start.edges, swept.traces, None) + sr.beta * swept.term;
+        let mut start = self.smooth_covariances(&mut sr);
+        let mut e = 0.0;
+        for step in 0..steps.max(1) {
+            let Cells::Spokes { neighbours } = &self.cells else { break };
+            if step > 0 {
+                let edges = start.edges;
+                start = sr.start_sums(neighbours, &self.rotations, self.task);
+                start.edges = edges;
+            }
+            let block = (self.task / 4).max(LANES);
+            let swept = sr.rotation_step(neighbours, &mut self.rotations, &start, block);
+            e = self.energy_from(start.edges, swept.traces, None) + sr.beta * swept.term;
+        }
         self.smooth = Some(sr);
         e
     }
@@ -441,16 +454,6 @@ impl Arap {
         if let Some(sr) = self.smooth.as_deref() {
             self.rotations.copy_from_slice(&sr.saved);
         }
-    }
-
-    /// The energy of the current pose with rotations near their best: `sweeps` local steps
-    /// from the current rotations ([`Arap::pose_energy`] for smooth rotations).
-    pub(super) fn smooth_pose_energy(&mut self, sweeps: usize) -> f64 {
-        let mut e = self.smooth_local_step();
-        for _ in 1..sweeps {
-            e = self.smooth_local_step();
-        }
-        e
     }
 }
 

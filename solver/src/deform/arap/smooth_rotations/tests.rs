@@ -244,3 +244,36 @@ fn colour_sweeps_descend_and_beat_jacobi() {
         assert!(colours < jacobi && jacobi < before, "ell {ell}: {colours} {jacobi} {before}");
     }
 }
+
+/// Several local steps at one pose reuse the first step's covariances
+/// ([`Arap::smooth_local_steps`]): the rotations and the energy they leave are those of the
+/// same number of single steps, each of which recomputes them, and the energy is the direct
+/// one. From scrambled rotations, so that each step changes them.
+#[test]
+fn local_steps_at_one_pose_match_single_steps() {
+    let scrambled_solver = || {
+        let (_, mut a, targets) = setup(0.08, config(0.08));
+        a.config.max_iterations = 3;
+        a.solve(&targets).unwrap();
+        for (k, r) in a.rotations.iter_mut().enumerate() {
+            *r = mul_mat(&scrambled(k, 1.0), r);
+        }
+        a
+    };
+    let (mut a, mut b) = (scrambled_solver(), scrambled_solver());
+    assert_eq!(a.current, b.current, "the same solve twice");
+    let together = a.smooth_local_steps(3);
+    let mut single = 0.0;
+    for _ in 0..3 {
+        single = b.smooth_local_step();
+    }
+    let rel = (together - single).abs() / single;
+    assert!(rel < 1e-12, "three steps at once {together}, one at a time {single} ({rel:e})");
+    assert!((together - direct(&a)).abs() <= 1e-10 * together, "{together} vs {}", direct(&a));
+    let far = (a.rotations.iter().zip(&b.rotations))
+        .map(|(p, q)| (0..3).map(|r| (0..3).map(|c| (p[r][c] - q[r][c]).abs()).sum::<f64>()).sum())
+        .fold(0.0f64, f64::max);
+    assert!(far < 1e-12, "rotations differ by {far:e}");
+    let first = b.smooth_local_step();
+    assert!(first <= single * (1.0 + 1e-12), "a fourth step raised the energy");
+}
