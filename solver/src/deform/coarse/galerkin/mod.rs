@@ -683,6 +683,10 @@ impl GalerkinCoarse {
 /// The factor of the free block (`n` rows, `triplets`); with every coarse vertex free
 /// (`all_free`), on the mesh part's kept analysis of that pattern, made by the first such
 /// handle set ([`GalerkinMesh`]'s `pattern`), unless this matrix's pattern is another.
+/// Simplicial, as ARAP's global factor, so that each iteration's three-column solve runs on
+/// the elimination-tree split (`linalg::linsolve`): faer's own choice was supernodal on the
+/// bunny's, solved on one thread, and its coarse iterations took 1.2–1.5× as long
+/// (`bench/results/coarse_energy/layout.txt`).
 fn coarse_factor(
     gathered: &GalerkinMesh,
     n: usize,
@@ -691,19 +695,19 @@ fn coarse_factor(
 ) -> Result<SpdFactor, FactorError> {
     let a = matrix_of(n, triplets)?;
     if !all_free {
-        return SpdFactor::new(&a, Layout::Auto);
+        return SpdFactor::new(&a, Layout::Simplicial);
     }
     let pattern = match gathered.pattern.get() {
         Some(pattern) => pattern,
         None => {
-            let pattern = SpdPattern::new(&a, Layout::Auto)?;
+            let pattern = SpdPattern::new(&a, Layout::Simplicial)?;
             gathered.pattern.get_or_init(|| pattern)
         }
     };
     if pattern.fits(&a) {
         SpdFactor::with_pattern(pattern, &a)
     } else {
-        SpdFactor::new(&a, Layout::Auto)
+        SpdFactor::new(&a, Layout::Simplicial)
     }
 }
 

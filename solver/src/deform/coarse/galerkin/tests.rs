@@ -437,3 +437,20 @@ fn the_exact_rules_terms_do_not_depend_on_the_tasks() {
     let (s1, s7) = (sigma1.iter().flatten().flatten(), sigma7.iter().flatten().flatten());
     assert!(s1.zip(s7).all(|(a, b)| near(*a, *b, size)));
 }
+
+/// The coarse factor is simplicial (`coarse_factor`), so that each iteration's three-column
+/// solve runs on the elimination-tree split from 1024 rows up, under every handle rule and on
+/// the kept analysis as on a fresh one.
+#[cfg(target_arch = "x86_64")]
+#[test]
+fn the_coarse_factor_solves_on_the_tree_split() {
+    let (mesh, handles) = crate::geometry::shapes::bumpy_bar(4);
+    let config = BaseConfig { coarse_vertices: Some(1500), ..BaseConfig::default() };
+    let base = CoarseBase::new(&mesh, &config).unwrap();
+    let gathered = gather_mesh_part(&mesh, &base).unwrap();
+    for rule in [HandleRule::Exact, HandleRule::Exact, HandleRule::CoarseVertices] {
+        let g = energy_for(&mesh, &base, &gathered, &handles, 0.02, rule).unwrap();
+        assert!(g.factor.n() >= 1024, "{rule:?}: {} rows", g.factor.n());
+        assert!(g.factor.split_sizes().is_some(), "{rule:?}: no tree split");
+    }
+}
