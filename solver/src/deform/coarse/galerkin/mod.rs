@@ -685,8 +685,8 @@ impl GalerkinCoarse {
 /// handle set ([`GalerkinMesh`]'s `pattern`), unless this matrix's pattern is another.
 /// Simplicial, as ARAP's global factor, so that each iteration's three-column solve runs on
 /// the elimination-tree split (`linalg::linsolve`): faer's own choice was supernodal on the
-/// bunny's, solved on one thread, and its coarse iterations took 1.2–1.5× as long
-/// (`bench/results/coarse_energy/layout.txt`).
+/// bunny's, solved on one thread, and its coarse iterations took 1.2–1.4× as long (means of
+/// alternated runs, `bench/results/coarse_energy/layout.txt`).
 fn coarse_factor(
     gathered: &GalerkinMesh,
     n: usize,

@@ -439,8 +439,9 @@ fn the_exact_rules_terms_do_not_depend_on_the_tasks() {
 }
 
 /// The coarse factor is simplicial (`coarse_factor`), so that each iteration's three-column
-/// solve runs on the elimination-tree split from 1024 rows up, under every handle rule and on
-/// the kept analysis as on a fresh one.
+/// solve runs on the elimination-tree split from 1024 rows up: on the analysis the first handle
+/// set makes and keeps, on that kept analysis again, and with coarse handles (a factor of its
+/// own). faer's own choice is supernodal on this bar's matrix.
 #[cfg(target_arch = "x86_64")]
 #[test]
 fn the_coarse_factor_solves_on_the_tree_split() {
