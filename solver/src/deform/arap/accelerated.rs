@@ -106,7 +106,7 @@ impl Arap {
             scatter(xa, &mut self.current);
             let t4 = Instant::now();
             stats.solve_ms += ms(t3, t4);
-            let mut e = self.accelerated_energy(rotation_steps);
+            let mut e = self.local_steps_energy(rotation_steps);
             let t6 = Instant::now();
             stats.local_ms += ms(t4, t6);
             if e <= accepted {
@@ -132,15 +132,5 @@ impl Arap {
         }
         *last_energy = Some(accepted);
         self.anderson = Some(work);
-    }
-
-    /// $E$ of an accelerated iterate for the safeguard: one local step, or on smooth rotations
-    /// `rotation_steps` of them ([`Arap::smooth_local_steps`]).
-    fn accelerated_energy(&mut self, rotation_steps: usize) -> f64 {
-        if self.smooth.is_some() {
-            self.smooth_local_steps(rotation_steps)
-        } else {
-            self.local_step_energy()
-        }
     }
 }

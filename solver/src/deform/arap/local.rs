@@ -19,8 +19,16 @@ const SCRATCH: usize = 64;
 impl Arap {
     /// The local step, returning $E(x, R(x))$ for the rotations it fitted.
     pub(super) fn local_step_energy(&mut self) -> f64 {
+        self.local_steps_energy(1)
+    }
+
+    /// `steps` local steps at the current pose on smooth rotations, whose rotations are state
+    /// that each step moves on ([`Arap::smooth_local_steps`]); the other energies' rotations are
+    /// a function of the pose, fitted by one step, which they take whatever `steps`. Returns
+    /// $E(x, R)$ for the rotations it leaves.
+    pub(super) fn local_steps_energy(&mut self, steps: usize) -> f64 {
         if self.smooth.is_some() {
-            return self.smooth_local_step();
+            return self.smooth_local_steps(steps);
         }
         let sums = self.local_pass();
         let membrane = self.fit_membrane();

@@ -66,7 +66,7 @@
 //! on its own it needs $\sim(\ell/h)^2$ local steps for a field $\ell$ many edge lengths
 //! stiff; each local step therefore first takes the implicit step of [`super::rotation_solve`]
 //! (one prefactored three-column solve), kept when it and the sweep after it lower $E$
-//! ([`Arap::smooth_local_step`]). On Cheburashka (bench set
+//! ([`Arap::smooth_local_steps`]). On Cheburashka (bench set
 //! `cheburashka-b`, ℓ = 0.02·diag, tolerance $10^{-9}$, Anderson 5) that took converged solves
 //! from 1,702 to 165 iterations, and 151 and 146 at 4× and 16× its vertices
 //! (`examples/refinement.rs`): iterations no longer grow with the resolution.
@@ -352,13 +352,6 @@ impl Arap {
         self.smooth.as_deref().map(|sr| sr.implicit.unknowns())
     }
 
-    /// The smooth-rotation local step: the covariances of the current pose, the implicit step,
-    /// one Gauss–Seidel sweep of the rotations over the colour classes, and $E(x, R)$ for the
-    /// new rotations ([`Arap::smooth_local_steps`] with one step).
-    pub(super) fn smooth_local_step(&mut self) -> f64 {
-        self.smooth_local_steps(1)
-    }
-
     /// `steps` (at least one) smooth-rotation local steps at the current pose, each the
     /// implicit step and one Gauss–Seidel sweep of the rotations over the colour classes;
     /// returns $E(x, R)$ for the rotations of the last. The pose does not change between them,
@@ -378,17 +371,19 @@ impl Arap {
     pub(super) fn smooth_local_steps(&mut self, steps: usize) -> f64 {
         let Some(mut sr) = self.smooth.take() else { return self.local_step_energy() };
         let mut start = self.smooth_covariances(&mut sr);
-        let mut e = 0.0;
-        for step in 0..steps.max(1) {
-            let Cells::Spokes { neighbours } = &self.cells else { break };
-            if step > 0 {
-                let edges = start.edges;
-                start = sr.start_sums(neighbours, &self.rotations, self.task);
-                start.edges = edges;
-            }
+        let mut e = self.energy_from(start.edges, start.traces, None) + sr.beta * start.term;
+        // Smooth rotations are built on spokes cells only (`precompute`).
+        if let Cells::Spokes { neighbours } = &self.cells {
             let block = (self.task / 4).max(LANES);
-            let swept = sr.rotation_step(neighbours, &mut self.rotations, &start, block);
-            e = self.energy_from(start.edges, swept.traces, None) + sr.beta * swept.term;
+            for step in 0..steps.max(1) {
+                if step > 0 {
+                    let edges = start.edges;
+                    start = sr.start_sums(neighbours, &self.rotations, self.task);
+                    start.edges = edges;
+                }
+                let swept = sr.rotation_step(neighbours, &mut self.rotations, &start, block);
+                e = self.energy_from(start.edges, swept.traces, None) + sr.beta * swept.term;
+            }
         }
         self.smooth = Some(sr);
         e

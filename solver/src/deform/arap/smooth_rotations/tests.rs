@@ -118,7 +118,7 @@ fn one_vertex_update_minimizes_the_direct_energy() {
     for (k, r) in a.rotations.iter_mut().enumerate() {
         *r = mul_mat(&scrambled(k, 1.0), r);
     }
-    let e = a.smooth_local_step();
+    let e = a.smooth_local_steps(1);
     let rel = (e - direct(&a)).abs() / e;
     assert!(rel < 1e-10, "local step's energy {e} vs direct {} ({rel:e})", direct(&a));
     assert!((a.energy() - direct(&a)).abs() <= 1e-10 * e);
@@ -239,7 +239,7 @@ fn colour_sweeps_descend_and_beat_jacobi() {
         a.smooth = Some(sr);
         let jacobi = direct(&a);
         a.rotations = scrambled_rotations;
-        a.smooth_local_step();
+        a.smooth_local_steps(1);
         let colours = direct(&a);
         assert!(colours < jacobi && jacobi < before, "ell {ell}: {colours} {jacobi} {before}");
     }
@@ -247,7 +247,7 @@ fn colour_sweeps_descend_and_beat_jacobi() {
 
 /// Several local steps at one pose reuse the first step's covariances
 /// ([`Arap::smooth_local_steps`]): the rotations and the energy they leave are those of the
-/// same number of single steps, each of which recomputes them, and the energy is the direct
+/// same number of single steps, each of which computes them, and the energy is the direct
 /// one. From scrambled rotations, so that each step changes them.
 #[test]
 fn local_steps_at_one_pose_match_single_steps() {
@@ -265,7 +265,7 @@ fn local_steps_at_one_pose_match_single_steps() {
     let together = a.smooth_local_steps(3);
     let mut single = 0.0;
     for _ in 0..3 {
-        single = b.smooth_local_step();
+        single = b.smooth_local_steps(1);
     }
     let rel = (together - single).abs() / single;
     assert!(rel < 1e-12, "three steps at once {together}, one at a time {single} ({rel:e})");
@@ -274,6 +274,6 @@ fn local_steps_at_one_pose_match_single_steps() {
         .map(|(p, q)| (0..3).map(|r| (0..3).map(|c| (p[r][c] - q[r][c]).abs()).sum::<f64>()).sum())
         .fold(0.0f64, f64::max);
     assert!(far < 1e-12, "rotations differ by {far:e}");
-    let first = b.smooth_local_step();
-    assert!(first <= single * (1.0 + 1e-12), "a fourth step raised the energy");
+    let fourth = b.smooth_local_steps(1);
+    assert!(fourth <= single * (1.0 + 1e-12), "a fourth step raised the energy");
 }
