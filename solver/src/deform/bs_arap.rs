@@ -15,7 +15,7 @@
 //! reported as [`SolveError::DegenerateBase`]). [`BaseKind::Faired`] adds a data term that keeps
 //! $B$ close to $M$ away from the handles ([`crate::deform::biharmonic::faired_surface`]).
 
-use crate::deform::arap::{Arap, ArapConfig, RotationStep, SolveStats};
+use crate::deform::arap::{Arap, ArapConfig, GlobalStep, RotationStep, SolveStats};
 use crate::deform::biharmonic::faired_surface;
 use crate::deform::constraints::Constraints;
 use crate::deform::handles::Handles;
@@ -97,6 +97,7 @@ impl BsArap {
             floor,
             fallback,
             RotationStep::Auto,
+            GlobalStep::Factor,
         )
         .map_err(|e| match e {
             SolveError::DegenerateFace { face } => SolveError::DegenerateBase { face },

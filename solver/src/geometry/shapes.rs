@@ -114,8 +114,7 @@ pub fn subdivide(mesh: &Mesh) -> Mesh {
 }
 
 /// A bumpy ellipsoid (2 × 0.6 × 0.5 with ripples, from [`icosphere`]`(level)`) and its two
-/// end caps as handle groups (`x > 1.7`: group 0, `x < −1.7`: group 1): the fixture of the ARAP
-/// tests and benches.
+/// end caps as handle groups ([`cap_handles`]): the fixture of the ARAP tests and benches.
 pub fn bumpy_bar(level: u32) -> (Mesh, crate::deform::handles::Handles) {
     let s = icosphere(level);
     let p: Vec<[f64; 3]> = s
@@ -126,25 +125,69 @@ pub fn bumpy_bar(level: u32) -> (Mesh, crate::deform::handles::Handles) {
             [2.0 * x * bump, 0.6 * y * bump, 0.5 * z * bump]
         })
         .collect();
-    let labels: Vec<Option<u32>> = p
+    // Same connectivity and finite positions: the mesh is valid.
+    match Mesh::new(p, s.triangles().to_vec()) {
+        Ok(m) => {
+            let h = cap_handles(&m);
+            (m, h)
+        }
+        Err(e) => unreachable!("bumpy_bar construction is valid: {e}"),
+    }
+}
+
+/// The end caps of a [`bumpy_bar`] (or of its subdivisions) as handle groups: `x > 1.7` group 0,
+/// `x < −1.7` group 1.
+pub fn cap_handles(mesh: &Mesh) -> crate::deform::handles::Handles {
+    let labels: Vec<Option<u32>> = mesh
+        .positions()
         .iter()
-        .map(|p| {
-            if p[0] > 1.7 {
-                Some(0)
-            } else if p[0] < -1.7 {
-                Some(1)
-            } else {
-                None
-            }
-        })
+        .map(|p| (p[0].abs() > 1.7).then_some(u32::from(p[0] < 0.0)))
         .collect();
-    // Same connectivity, finite positions, both caps non-empty: neither call can fail.
-    match (
-        Mesh::new(p, s.triangles().to_vec()),
-        crate::deform::handles::Handles::from_options(labels),
-    ) {
-        (Ok(m), Ok(h)) => (m, h),
-        _ => unreachable!("bumpy_bar construction is valid"),
+    // Both caps of the bar are non-empty.
+    match crate::deform::handles::Handles::from_options(labels) {
+        Ok(h) => h,
+        Err(e) => unreachable!("the bar's caps are valid handles: {e}"),
+    }
+}
+
+#[cfg(test)]
+/// The bumpy bar before one midpoint subdivision as a level of the bar after it: per fine
+/// vertex, a level triangle and weights on it (a kept vertex: 1 at itself; a midpoint: a
+/// half at each end of its edge), in the order [`crate::geometry::shapes::subdivide`]
+/// numbers them.
+pub(crate) fn midpoint_level(coarse: &Mesh) -> crate::geometry::level::LevelEmbedding {
+    let tris = coarse.triangles();
+    let at = |f: usize, v: u32, w: f64, weights: &mut [f64; 3]| {
+        weights[tris[f].iter().position(|&c| c == v).unwrap()] = w;
+    };
+    let (mut faces, mut weights) = (Vec::new(), Vec::new());
+    for v in 0..coarse.n_vertices() as u32 {
+        let f = tris.iter().position(|t| t.contains(&v)).unwrap();
+        let mut w = [0.0; 3];
+        at(f, v, 1.0, &mut w);
+        faces.push(f as u32);
+        weights.push(w);
+    }
+    let mut seen = std::collections::HashSet::new();
+    for (f, t) in tris.iter().enumerate() {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            if seen.insert((a.min(b), a.max(b))) {
+                let mut w = [0.0; 3];
+                at(f, a, 0.5, &mut w);
+                at(f, b, 0.5, &mut w);
+                faces.push(f as u32);
+                weights.push(w);
+            }
+        }
+    }
+    let n = faces.len();
+    crate::geometry::level::LevelEmbedding {
+        mesh: coarse.copy_geometry(),
+        kept: (0..coarse.n_vertices() as u32).collect(),
+        representative: vec![0; n],
+        faces,
+        weights,
     }
 }
 

@@ -40,7 +40,8 @@
 //!   plain local-global loop;
 //! - `accelerated`: the safeguarded Anderson loop;
 //! - `local`: the local step (covariances and rotation fits, Eq. 5);
-//! - `global`: the right-hand side and the back-substitution (Eq. 4);
+//! - `global`: the right-hand side and the solve (Eq. 4): back-substitution, or two-grid
+//!   conjugate gradients on a level;
 //! - `start`: the starting guesses (the rigid start of every solve, the predicted start of a
 //!   drag, the Laplacian fit);
 //! - `energy`: $E(p', R)$, directly and from the local step's sums;
@@ -72,6 +73,7 @@ pub use config::{
     SolveStats,
 };
 
+pub(crate) use global::GlobalStep;
 pub(crate) use precompute::vertices_per_task;
 pub(crate) use rotation_solve::RotationStep;
 pub(crate) use smooth_rotations::SmoothRotations;
@@ -155,8 +157,8 @@ pub struct Arap {
     avx2: Option<Avx2>,
     /// Per free row: (fixed vertex h, w_ih) so that rhs_i += Σ w_ih x_h.
     coupling: Csr<(u32, f64)>,
-    /// `None` when every vertex is fixed.
-    factor: Option<SpdFactor>,
+    /// The global step's solver (`global`); `None` when every vertex is fixed.
+    global: Option<global::GlobalSolve>,
     rotations: Vec<Mat3>,
     /// The energy's rest term $\sum w\lVert e\rVert^2$ over all cells (constant).
     rest_term: f64,
@@ -237,15 +239,33 @@ impl Arap {
         &self.mesh_rest
     }
 
-    /// Nonzeros of the Cholesky factor of $L_{FF}$ (0 when every vertex is fixed).
+    /// Nonzeros of the Cholesky factor of $L_{FF}$, or of the level's Galerkin matrix where
+    /// the global step solves on a level (0 when every vertex is fixed).
     pub fn factor_nonzeros(&self) -> usize {
-        self.factor.as_ref().map_or(0, |f| f.factor_nonzeros())
+        match &self.global {
+            None => 0,
+            Some(global::GlobalSolve::Factor(f)) => f.factor_nonzeros(),
+            Some(global::GlobalSolve::TwoGrid { solver, .. }) => solver.coarse_factor_nonzeros(),
+        }
     }
 
-    /// The prefactored free block $L_{FF}$ (`None` when every vertex is fixed), for benchmarks
-    /// of the global solve; solving with it leaves the deformation untouched.
+    /// The prefactored free block $L_{FF}$ (`None` when every vertex is fixed or the global
+    /// step solves on a level), for benchmarks of the global solve; solving with it leaves
+    /// the deformation untouched.
     pub fn global_factor(&mut self) -> Option<&mut SpdFactor> {
-        self.factor.as_mut()
+        match self.global.as_mut() {
+            Some(global::GlobalSolve::Factor(f)) => Some(f),
+            _ => None,
+        }
+    }
+
+    /// The conjugate-gradient iterations the global steps took since this solver was made,
+    /// where they solve on a level (`None`: with the factor).
+    pub fn two_grid_iterations(&self) -> Option<usize> {
+        match &self.global {
+            Some(global::GlobalSolve::TwoGrid { iterations, .. }) => Some(*iterations),
+            _ => None,
+        }
     }
 
     /// Restarts the next solve from the rest pose.

@@ -1,8 +1,10 @@
 //! Precomputation, once per mesh and handle set: the vertex order, the cotangent weights of
 //! the cells, the coefficients of the local step and rhs over each one-ring
 //! ([`ring_coefficients`]), the energy's constant rest term, and the factorization of the
-//! free block $L_{FF}$ of the cotangent Laplacian (Sun et al. 2017, Eq. 4's matrix).
+//! free block $L_{FF}$ of the cotangent Laplacian (Sun et al. 2017, Eq. 4's matrix), or of its
+//! Galerkin product on a level (`global.rs`).
 
+use super::global::{GlobalSolve, GlobalStep};
 use super::membrane::Membrane;
 use super::rotation_solve::RotationStep;
 use super::smooth_rotations::SmoothRotations;
@@ -18,7 +20,9 @@ use crate::geometry::reorder::VertexOrder;
 use crate::linalg::lanes::Avx2;
 use crate::linalg::linsolve::{Layout, SpdFactor};
 use crate::linalg::rotation::{IDENTITY, LANES};
+use crate::linalg::two_grid::{Interpolation, SymmetricRows, TwoGridCg};
 use faer::sparse::Triplet;
+use rayon::prelude::*;
 
 /// Vertices per parallel task for a mesh of `n` vertices: a sixteenth of the mesh, between
 /// 256 and 2048, a multiple of [`LANES`]. Sixteen tasks balance two threads (a 6,669-vertex mesh
@@ -71,14 +75,15 @@ impl Arap {
             });
         }
         let constraints = Constraints::new(mesh, handles);
-        Arap::with_constraints(mesh, constraints, config, 0.0, None, RotationStep::Auto)
+        let (rotation, global) = (RotationStep::Auto, GlobalStep::Factor);
+        Arap::with_constraints(mesh, constraints, config, 0.0, None, rotation, global)
     }
 
     /// As [`Arap::new`] with a precomputed partition (shared with the bi-harmonic base), an
     /// absolute floor on doubled triangle areas, optional fallback positions whose
     /// cotangents a degenerate triangle takes (see [`face_cotangents_or`]), and where
     /// [`Energy::SmoothRotations`]' implicit rotation step solves ([`RotationStep`]; other
-    /// energies ignore it).
+    /// energies ignore it), and how the global step solves ([`GlobalStep`]).
     pub(crate) fn with_constraints(
         mesh: &Mesh,
         constraints: Constraints,
@@ -86,6 +91,7 @@ impl Arap {
         min_double_area: f64,
         fallback: Option<&[[f64; 3]]>,
         step: RotationStep<'_>,
+        global: GlobalStep<'_>,
     ) -> Result<Arap, SolveError> {
         if !(0.0..=1.0).contains(&config.membrane) {
             return Err(SolveError::MembraneShare(config.membrane));
@@ -149,11 +155,25 @@ impl Arap {
             if n_free == 0 {
                 return Ok(None);
             }
-            SpdFactor::from_triplets(n_free, &ff, Layout::Simplicial).map(Some).map_err(|source| {
-                SolveError::Factorization {
-                    matrix: "the free block of the cotangent Laplacian",
-                    source,
+            let solve = match global {
+                GlobalStep::Factor => SpdFactor::from_triplets(n_free, &ff, Layout::Simplicial)
+                    .map(|f| GlobalSolve::Factor(Box::new(f))),
+                GlobalStep::TwoGrid(level) => {
+                    let rows = inner.free_vertices.par_iter();
+                    let rows = rows.map(|&v| level.interpolate(order.to_mesh[v as usize] as usize));
+                    let p = Interpolation::new(rows.collect(), level.mesh.n_vertices());
+                    let a = SymmetricRows::from_lower(n_free, &ff);
+                    TwoGridCg::new(a, p).map(|solver| GlobalSolve::TwoGrid {
+                        solver: Box::new(solver),
+                        b: vec![[0.0; 3]; n_free],
+                        x: vec![[0.0; 3]; n_free],
+                        iterations: 0,
+                    })
                 }
+            };
+            solve.map(Some).map_err(|source| SolveError::Factorization {
+                matrix: "the free block of the cotangent Laplacian",
+                source,
             })
         };
         let cells_and_rotations =
@@ -186,8 +206,8 @@ impl Arap {
             };
         // The global factorization (simplicial Cholesky) runs on one core: the cells and the
         // rotation step's level and factorization run beside it.
-        let (factor, cells) = rayon::join(factor_free_block, cells_and_rotations);
-        let factor = factor?;
+        let (global, cells) = rayon::join(factor_free_block, cells_and_rotations);
+        let global = global?;
         let (cells, smooth) = cells?;
         let coupling = Csr::from_pairs(n_free, &coupling);
 
@@ -224,7 +244,7 @@ impl Arap {
             config: *config,
             cells,
             coupling,
-            factor,
+            global,
             rotations: vec![IDENTITY; n],
             rest_term,
             rhs: vec![0.0; 3 * n_free],

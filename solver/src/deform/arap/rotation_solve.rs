@@ -48,6 +48,7 @@ use crate::geometry::level::LevelEmbedding;
 use crate::geometry::mesh::norm2;
 use crate::linalg::linsolve::{FactorError, Layout, SpdFactor};
 use crate::linalg::rotation::{Mat3, axis_angle, mul_mat};
+use crate::linalg::two_grid;
 use faer::sparse::Triplet;
 use rayon::prelude::*;
 
@@ -78,15 +79,12 @@ pub(super) struct RotationSolve {
     /// $-g_i$ per vertex before it is copied into `rhs`.
     gradient: Vec<[f64; 3]>,
     /// The interpolation from the level, when the step solves on one.
-    level: Option<Interpolation>,
+    level: Option<Level>,
 }
 
-/// $P$ of the module doc by rows and by columns (internal numbering).
-struct Interpolation {
-    /// Per vertex: its level vertices and weights.
-    rows: Vec<([u32; 3], [f64; 3])>,
-    /// Per level vertex: the (vertex, weight) pairs of its column, for the restriction.
-    columns: Csr<(u32, f64)>,
+/// $P$ of the module doc (rows in the internal numbering) and the restriction's buffer.
+struct Level {
+    p: two_grid::Interpolation,
     /// $-P^\top g$ per level vertex (kept to reuse its memory).
     restricted: Vec<[f64; 3]>,
 }
@@ -171,11 +169,17 @@ impl RotationSolve {
                 (n, triplets, None)
             }
             Some((level, to_mesh)) => {
-                let p = Interpolation::new(level, to_mesh);
+                let rows = to_mesh.par_iter().map(|&v| level.interpolate(v as usize)).collect();
                 let m = level.mesh.n_vertices();
-                let mut triplets = p.galerkin(neighbours, &diagonal, beta);
+                let p = two_grid::Interpolation::new(rows, m);
+                let mut triplets = p.galerkin(|i, add| {
+                    add(i, diagonal[i]);
+                    for &(j, w) in neighbours.row(i) {
+                        add(j as usize, -8.0 * beta * w);
+                    }
+                });
                 triplets.extend((0..m).map(|k| Triplet::new(k, k, floor)));
-                (m, triplets, Some(p))
+                (m, triplets, Some(Level { p, restricted: vec![[0.0; 3]; m] }))
             }
         };
         let factor = SpdFactor::from_triplets(m, &triplets, Layout::Simplicial)?;
@@ -207,17 +211,7 @@ impl RotationSolve {
                 }
             }
             Some(p) => {
-                // -Pᵀg, one level vertex at a time from its column.
-                let columns = &p.columns;
-                p.restricted.par_iter_mut().enumerate().for_each(|(k, r)| {
-                    *r = [0.0; 3];
-                    for &(i, w) in columns.row(k) {
-                        let g = gradient[i as usize];
-                        for c in 0..3 {
-                            r[c] += w * g[c];
-                        }
-                    }
-                });
+                p.p.restrict(gradient, &mut p.restricted);
                 for (c, col) in self.rhs.chunks_mut(m).enumerate() {
                     for (x, r) in col.iter_mut().zip(&p.restricted) {
                         *x = r[c];
@@ -232,15 +226,7 @@ impl RotationSolve {
         out.par_iter_mut().enumerate().for_each(|(i, o)| {
             let w = match level {
                 None => [x[i], y[i], z[i]],
-                Some(p) => {
-                    let (corners, weights) = &p.rows[i];
-                    let mut w = [0.0; 3];
-                    for (&k, &a) in corners.iter().zip(weights) {
-                        let k = k as usize;
-                        w = [w[0] + a * x[k], w[1] + a * y[k], w[2] + a * z[k]];
-                    }
-                    w
-                }
+                Some(p) => p.p.prolong_row(i, (x, y, z)),
             };
             let angle = norm2(w).sqrt();
             *o = mul_mat(&axis_angle(w, angle), &rotations[i]);
@@ -248,117 +234,11 @@ impl RotationSolve {
     }
 }
 
-impl Interpolation {
-    /// $P$ from `level`, rows in the internal numbering (`to_mesh`); zero weights dropped.
-    fn new(level: &LevelEmbedding, to_mesh: &[u32]) -> Interpolation {
-        let rows: Vec<([u32; 3], [f64; 3])> =
-            to_mesh.par_iter().map(|&v| level.interpolate(v as usize)).collect();
-        let pairs: Vec<(u32, (u32, f64))> = rows
-            .iter()
-            .enumerate()
-            .flat_map(|(i, (corners, weights))| {
-                corners
-                    .iter()
-                    .zip(weights)
-                    .filter(|&(_, &w)| w != 0.0)
-                    .map(move |(&k, &w)| (k, (i as u32, w)))
-            })
-            .collect();
-        let m = level.mesh.n_vertices();
-        let columns = Csr::from_pairs(m, &pairs);
-        Interpolation { rows, columns, restricted: vec![[0.0; 3]; m] }
-    }
-
-    /// The lower triangle of $P^\top A P$ (module doc) for $A$ with off-diagonal entries
-    /// $-8\beta w_{ij}$ over the spokes `neighbours` and the diagonal `diagonal`: per level
-    /// vertex $k$, $\sum_i P_{ik} \sum_j A_{ij} P_{jl}$ over its column's vertices $i$.
-    fn galerkin(
-        &self,
-        neighbours: &Csr<(u32, f64)>,
-        diagonal: &[f64],
-        beta: f64,
-    ) -> Vec<Triplet<usize, usize, f64>> {
-        let n_level = self.columns.offsets.len() - 1;
-        let rows: Vec<Vec<Triplet<usize, usize, f64>>> = (0..n_level)
-            .into_par_iter()
-            .map_init(Vec::new, |scratch: &mut Vec<(u32, f64)>, k| {
-                scratch.clear();
-                let mut add = |j: usize, a: f64| {
-                    let (corners, weights) = &self.rows[j];
-                    for (&l, &w) in corners.iter().zip(weights) {
-                        if w != 0.0 && l as usize <= k {
-                            scratch.push((l, a * w));
-                        }
-                    }
-                };
-                for &(i, p) in self.columns.row(k) {
-                    let i = i as usize;
-                    add(i, p * diagonal[i]);
-                    for &(j, w) in neighbours.row(i) {
-                        add(j as usize, -8.0 * beta * p * w);
-                    }
-                }
-                scratch.sort_unstable_by_key(|&(l, _)| l);
-                let mut out: Vec<Triplet<usize, usize, f64>> = Vec::new();
-                for &(l, a) in scratch.iter() {
-                    match out.last_mut() {
-                        Some(t) if t.col == l as usize => t.val += a,
-                        _ => out.push(Triplet::new(k, l as usize, a)),
-                    }
-                }
-                out
-            })
-            .collect();
-        rows.concat()
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::deform::arap::smooth_rotations::tests::{assert_descends, cap_turned, config};
-    use crate::deform::arap::{Arap, ArapConfig};
-    use crate::geometry::mesh::Mesh;
-
-    /// The bumpy bar before one midpoint subdivision as a level of the bar after it: per fine
-    /// vertex, a level triangle and weights on it (a kept vertex: 1 at itself; a midpoint: a
-    /// half at each end of its edge), in the order [`crate::geometry::shapes::subdivide`]
-    /// numbers them.
-    fn midpoint_level(coarse: &Mesh) -> LevelEmbedding {
-        let tris = coarse.triangles();
-        let at = |f: usize, v: u32, w: f64, weights: &mut [f64; 3]| {
-            weights[tris[f].iter().position(|&c| c == v).unwrap()] = w;
-        };
-        let (mut faces, mut weights) = (Vec::new(), Vec::new());
-        for v in 0..coarse.n_vertices() as u32 {
-            let f = tris.iter().position(|t| t.contains(&v)).unwrap();
-            let mut w = [0.0; 3];
-            at(f, v, 1.0, &mut w);
-            faces.push(f as u32);
-            weights.push(w);
-        }
-        let mut seen = std::collections::HashSet::new();
-        for (f, t) in tris.iter().enumerate() {
-            for k in 0..3 {
-                let (a, b) = (t[k], t[(k + 1) % 3]);
-                if seen.insert((a.min(b), a.max(b))) {
-                    let mut w = [0.0; 3];
-                    at(f, a, 0.5, &mut w);
-                    at(f, b, 0.5, &mut w);
-                    faces.push(f as u32);
-                    weights.push(w);
-                }
-            }
-        }
-        let n = faces.len();
-        LevelEmbedding {
-            mesh: coarse.copy_geometry(),
-            kept: (0..coarse.n_vertices() as u32).collect(),
-            representative: vec![0; n],
-            faces,
-            weights,
-        }
-    }
+    use crate::deform::arap::{Arap, ArapConfig, GlobalStep};
 
     /// On a level (the bar before one midpoint subdivision), the implicit step still descends
     /// monotonically and reaches the minimum of the step on every vertex in about as many
@@ -367,7 +247,7 @@ mod tests {
     fn implicit_step_on_a_level_reaches_the_same_minimum() {
         let (coarse, _) = crate::geometry::shapes::bumpy_bar(2);
         let fine = crate::geometry::shapes::subdivide(&coarse);
-        let level = midpoint_level(&coarse);
+        let level = crate::geometry::shapes::midpoint_level(&coarse);
         assert_eq!(level.faces.len(), fine.n_vertices());
         for i in 0..fine.n_vertices() {
             let (c, w) = level.interpolate(i);
@@ -376,17 +256,21 @@ mod tests {
             let blend: Vec<f64> = (0..3).map(|d| (0..3).map(|k| w[k] * p(k)[d]).sum()).collect();
             assert!((0..3).all(|d| (blend[d] - q[d]).abs() < 1e-12), "vertex {i}");
         }
-        let labels: Vec<Option<u32>> = fine
-            .positions()
-            .iter()
-            .map(|p| (p[0].abs() > 1.7).then_some(u32::from(p[0] < 0.0)))
-            .collect();
-        let h = crate::deform::handles::Handles::from_options(labels).unwrap();
+        let h = crate::geometry::shapes::cap_handles(&fine);
         let targets = cap_turned(&fine, &h);
         let run = |step: RotationStep<'_>, implicit: bool| {
             let cfg = ArapConfig { tolerance: 1e-9, max_iterations: 3000, ..config(0.05) };
             let constraints = crate::deform::constraints::Constraints::new(&fine, &h);
-            let mut a = Arap::with_constraints(&fine, constraints, &cfg, 0.0, None, step).unwrap();
+            let a = Arap::with_constraints(
+                &fine,
+                constraints,
+                &cfg,
+                0.0,
+                None,
+                step,
+                GlobalStep::Factor,
+            );
+            let mut a = a.unwrap();
             a.set_implicit_rotation_step(implicit);
             let stats = a.solve(&targets).unwrap();
             assert_descends(&stats, &format!("{step:?}"));
@@ -415,8 +299,15 @@ mod tests {
         let m = with_level.rotation_unknowns().unwrap();
         assert!((16..n / 2).contains(&m), "{m} level vertices of {n}");
         let constraints = crate::deform::constraints::Constraints::new(&mesh, &h);
-        let every =
-            Arap::with_constraints(&mesh, constraints, &cfg, 0.0, None, RotationStep::EveryVertex);
+        let every = Arap::with_constraints(
+            &mesh,
+            constraints,
+            &cfg,
+            0.0,
+            None,
+            RotationStep::EveryVertex,
+            GlobalStep::Factor,
+        );
         let every = every.unwrap();
         assert_eq!(every.rotation_unknowns(), Some(n));
         let run = |mut a: Arap| {

@@ -1,16 +1,17 @@
 //! The ARAP on the full mesh that the coarse BS-ARAP's fine and settle iterations run
-//! ([`crate::deform::coarse`], steps 5–6): one sparse factorization of the whole mesh, made
-//! when first needed, on the caller's thread ([`FineLevel::factor`]) or on a thread of its own
-//! ([`FineLevel::factor_in_background`]) so that a caller that must stay responsive (the
-//! editor's solver thread: about 10 s at 692k vertices) goes on solving meanwhile.
+//! ([`crate::deform::coarse`], steps 5–6), made when first needed, on the caller's thread
+//! ([`FineLevel::factor`]) or on a thread of its own ([`FineLevel::factor_in_background`]) so
+//! that a caller that must stay responsive (the editor's solver thread) goes on solving
+//! meanwhile. Where the base has a fairing level (a dense mesh's, [`FineLevel::full_mesh`]),
+//! the full mesh's global step and, on smooth rotations, its implicit rotation step solve on
+//! that level (`GlobalStep::TwoGrid` in `arap/global.rs`): nothing of the full mesh's size
+//! is factored (at 1.5M vertices its factor held about 6 GiB and took 2 minutes), only two
+//! Galerkin matrices of the level's; elsewhere the whole mesh is factored.
 //!
 //! One background factorization of each [`Queue`] runs at a time in the process: one whose
 //! solver was dropped cannot be stopped (the sparse factorization has no way to be
-//! interrupted), so a new handle set's waits for it instead of adding its own memory and cores
-//! (a full-mesh factorization at 692k vertices holds about 2 GiB, at 1.5M about 6 GiB and 80 s).
-//! On smooth rotations the full mesh's implicit rotation step solves on the fairing level where
-//! the base has one ([`FineLevel::full_mesh`]), so that the full mesh is factored once, not
-//! twice.
+//! interrupted), so a new handle set's waits for it instead of adding its own memory and
+//! cores.
 //! The fairing level's ([`crate::deform::coarse::level_settle`]), a tenth of the mesh, has a queue of
 //! its own, so that a handle set painted while the previous set's full mesh is still being
 //! factored settles on the level without waiting for it. A failed factorization is kept and
@@ -22,7 +23,7 @@
 //! rayon's global pool with whatever the application does meanwhile, such as the next drag's
 //! solves, whose parallel passes then queue behind the factorization's tasks.
 
-use crate::deform::arap::{Arap, ArapConfig, RotationStep};
+use crate::deform::arap::{Arap, ArapConfig, GlobalStep, RotationStep};
 use crate::deform::coarse::base::CoarseBase;
 use crate::deform::constraints::Constraints;
 use crate::error::SolveError;
@@ -110,11 +111,12 @@ impl Drop for BackgroundSlot {
 fn factor(inputs: &Inputs) -> (Result<Arap, SolveError>, f64) {
     let Inputs { mesh, constraints, config, base } = inputs;
     let t = std::time::Instant::now();
-    let step = match base.as_ref().and_then(|b| b.level.as_ref()) {
-        Some(level) => RotationStep::Level(level),
-        None => RotationStep::Auto,
+    let (rotation, global) = match base.as_ref().and_then(|b| b.level.as_ref()) {
+        Some(level) => (RotationStep::Level(level), GlobalStep::TwoGrid(level)),
+        None => (RotationStep::Auto, GlobalStep::Factor),
     };
-    let arap = Arap::with_constraints(mesh, constraints.clone(), config, 0.0, None, step);
+    let arap =
+        Arap::with_constraints(mesh, constraints.clone(), config, 0.0, None, rotation, global);
     (arap, t.elapsed().as_secs_f64() * 1e3)
 }
 
@@ -134,9 +136,9 @@ impl FineLevel {
     }
 
     /// As [`FineLevel::new`] for the full mesh (in [`Queue::FullMesh`]'s line) of the coarse
-    /// `base`: with [`crate::deform::arap::Energy::SmoothRotations`], its implicit rotation
-    /// step solves on the base's fairing level when there is one (a dense mesh's), so that the
-    /// full mesh needs one factorization of its own size, not two.
+    /// `base`: its global step and, with [`crate::deform::arap::Energy::SmoothRotations`], its
+    /// implicit rotation step solve on the base's fairing level when there is one (a dense
+    /// mesh's; module doc).
     pub fn full_mesh(
         mesh: &Mesh,
         constraints: Constraints,

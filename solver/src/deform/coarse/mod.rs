@@ -88,7 +88,7 @@ pub mod prolong;
 mod settle;
 pub mod settle_rule;
 
-use crate::deform::arap::{Arap, ArapConfig, Energy, RotationStep, SolveStats};
+use crate::deform::arap::{Arap, ArapConfig, Energy, GlobalStep, RotationStep, SolveStats};
 use crate::deform::coarse::base::{CoarseBase, Phases};
 use crate::deform::coarse::energy::CoarseSolver;
 use crate::deform::coarse::full_mesh::FineLevel;
@@ -330,6 +330,7 @@ impl CoarseBsArap {
                     base.floor,
                     Some(&base.rest_kept),
                     RotationStep::Auto,
+                    GlobalStep::Factor,
                 )
                 .map_err(|e| match e {
                     SolveError::DegenerateFace { face } => SolveError::DegenerateBase { face },
