@@ -155,26 +155,27 @@ impl Arap {
             if n_free == 0 {
                 return Ok(None);
             }
-            let solve = match global {
-                GlobalStep::Factor => SpdFactor::from_triplets(n_free, &ff, Layout::Simplicial)
-                    .map(|f| GlobalSolve::Factor(Box::new(f))),
+            let (solve, matrix) = match global {
+                GlobalStep::Factor => (
+                    SpdFactor::from_triplets(n_free, &ff, Layout::Simplicial)
+                        .map(|f| GlobalSolve::Factor(Box::new(f))),
+                    "the free block of the cotangent Laplacian",
+                ),
                 GlobalStep::TwoGrid(level) => {
                     let rows = inner.free_vertices.par_iter();
                     let rows = rows.map(|&v| level.interpolate(order.to_mesh[v as usize] as usize));
                     let p = Interpolation::new(rows.collect(), level.mesh.n_vertices());
                     let a = SymmetricRows::from_lower(n_free, &ff);
-                    TwoGridCg::new(a, p).map(|solver| GlobalSolve::TwoGrid {
+                    let solve = TwoGridCg::new(a, p).map(|solver| GlobalSolve::TwoGrid {
                         solver: Box::new(solver),
                         b: vec![[0.0; 3]; n_free],
                         x: vec![[0.0; 3]; n_free],
                         iterations: 0,
-                    })
+                    });
+                    (solve, "the cotangent Laplacian's Galerkin matrix on the level")
                 }
             };
-            solve.map(Some).map_err(|source| SolveError::Factorization {
-                matrix: "the free block of the cotangent Laplacian",
-                source,
-            })
+            solve.map(Some).map_err(|source| SolveError::Factorization { matrix, source })
         };
         let cells_and_rotations =
             || -> Result<(Cells, Option<Box<SmoothRotations>>), SolveError> {
@@ -204,8 +205,9 @@ impl Arap {
                 };
                 Ok((cells, smooth))
             };
-        // The global factorization (simplicial Cholesky) runs on one core: the cells and the
-        // rotation step's level and factorization run beside it.
+        // The global factorization (simplicial Cholesky, of L_FF or of its Galerkin matrix on a
+        // level) runs on one core: the cells and the rotation step's level and factorization
+        // run beside it.
         let (global, cells) = rayon::join(factor_free_block, cells_and_rotations);
         let global = global?;
         let (cells, smooth) = cells?;
