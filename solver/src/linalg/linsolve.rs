@@ -411,6 +411,25 @@ impl SpdFactor {
             );
         }
     }
+
+    /// Solves $AX = B$ for the three columns of the rows `b` (`n` of them) in `columns`
+    /// (column-major `n×3`, its length `3n`), and returns the solution's three columns.
+    pub fn solve_rows<'a>(
+        &mut self,
+        b: &[[f64; 3]],
+        columns: &'a mut [f64],
+    ) -> (&'a [f64], &'a [f64], &'a [f64]) {
+        let n = b.len();
+        for (c, col) in columns.chunks_mut(n).enumerate() {
+            for (x, r) in col.iter_mut().zip(b) {
+                *x = r[c];
+            }
+        }
+        self.solve_in_place(MatMut::from_column_major_slice_mut(columns, n, 3));
+        let (x, rest) = columns.split_at(n);
+        let (y, z) = rest.split_at(n);
+        (x, y, z)
+    }
 }
 
 #[cfg(test)]

@@ -204,9 +204,6 @@ impl Interpolation {
 pub struct CgStats {
     /// Conjugate-gradient iterations (each one preconditioner cycle).
     pub iterations: usize,
-    /// The largest over the columns of the end residual's norm over the start's (0 when
-    /// every start residual was zero).
-    pub residual_ratio: f64,
 }
 
 /// The solver of the module doc for one matrix and interpolation: the Galerkin matrix's
@@ -281,15 +278,15 @@ impl TwoGridCg {
         self.coarse.factor_nonzeros()
     }
 
-    /// Solves $AX = B$ for the three columns of `b` from the start `x`, which it replaces by
-    /// the result (module doc).
-    pub fn solve(&mut self, b: &[[f64; 3]], x: &mut [[f64; 3]]) -> CgStats {
+    /// Solves $AX = B$ for the three columns of $B$, whose row `i` is `b(i)`, from the start
+    /// `x`, which it replaces by the result (module doc).
+    pub fn solve(&mut self, b: impl Fn(usize) -> [f64; 3] + Sync, x: &mut [[f64; 3]]) -> CgStats {
         let a = &self.a;
         rows_mut(&mut self.residual).for_each(|(c, block)| {
             for (l, r) in block.iter_mut().enumerate() {
                 let i = c * BLOCK + l;
-                let ax = a.row_times(i, x);
-                *r = [b[i][0] - ax[0], b[i][1] - ax[1], b[i][2] - ax[2]];
+                let (ax, bi) = (a.row_times(i, x), b(i));
+                *r = [bi[0] - ax[0], bi[1] - ax[1], bi[2] - ax[2]];
             }
         });
         let start = dot(&self.residual, &self.residual).map(f64::sqrt);
@@ -335,9 +332,6 @@ impl TwoGridCg {
                 }
             });
         }
-        stats.residual_ratio = (0..3)
-            .map(|c| if start[c] > 0.0 { norm[c] / start[c] } else { 0.0 })
-            .fold(0.0, f64::max);
         stats
     }
 
@@ -390,16 +384,7 @@ impl TwoGridCg {
     fn coarse_correction(&mut self) {
         self.smoothing_residual();
         self.p.restrict(&self.smoothing, &mut self.restricted);
-        let m = self.p.coarse_len();
-        for (c, col) in self.coarse_rhs.chunks_mut(m).enumerate() {
-            for (v, r) in col.iter_mut().zip(&self.restricted) {
-                *v = r[c];
-            }
-        }
-        let rhs = faer::MatMut::from_column_major_slice_mut(&mut self.coarse_rhs, m, 3);
-        self.coarse.solve_in_place(rhs);
-        let columns =
-            (&self.coarse_rhs[..m], &self.coarse_rhs[m..2 * m], &self.coarse_rhs[2 * m..]);
+        let columns = self.coarse.solve_rows(&self.restricted, &mut self.coarse_rhs);
         let p = &self.p;
         rows_mut(&mut self.preconditioned).for_each(|(c, block)| {
             for (l, z) in block.iter_mut().enumerate() {
@@ -493,7 +478,7 @@ mod tests {
         let mut total = 0;
         let mut before = [0.0f64; 3];
         for _ in 0..4 {
-            let stats = solver.solve(&b, &mut x);
+            let stats = solver.solve(|i| b[i], &mut x);
             total += stats.iterations;
             for (c, before) in before.iter_mut().enumerate() {
                 let e = quadratic(&x, c);

@@ -31,8 +31,7 @@ pub(super) enum GlobalSolve {
     Factor(Box<SpdFactor>),
     TwoGrid {
         solver: Box<TwoGridCg>,
-        /// The right-hand side and the start, then the solution, by free row.
-        b: Vec<[f64; 3]>,
+        /// The start, then the solution, by free row.
         x: Vec<[f64; 3]>,
         /// Conjugate-gradient iterations since it was made.
         iterations: usize,
@@ -121,14 +120,12 @@ impl Arap {
             Some(GlobalSolve::Factor(f)) => {
                 f.solve_in_place(MatMut::from_column_major_slice_mut(&mut self.rhs, n, 3));
             }
-            Some(GlobalSolve::TwoGrid { solver, b, x, iterations }) => {
+            Some(GlobalSolve::TwoGrid { solver, x, iterations }) => {
+                let (free, current) = (&self.inner.free_vertices, &self.current);
+                x.par_iter_mut().zip(free).for_each(|(x, &v)| *x = current[v as usize]);
                 let (bx, rest) = self.rhs.split_at_mut(n);
                 let (by, bz) = rest.split_at_mut(n);
-                let (free, current) = (&self.inner.free_vertices, &self.current);
-                b.par_iter_mut().zip(x.par_iter_mut()).enumerate().for_each(|(r, (b, x))| {
-                    *b = [bx[r], by[r], bz[r]];
-                    *x = current[free[r] as usize];
-                });
+                let b = |r: usize| [bx[r], by[r], bz[r]];
                 *iterations += solver.solve(b, x).iterations;
                 let blocks = bx.par_iter_mut().zip(by.par_iter_mut()).zip(bz.par_iter_mut());
                 blocks.zip(x.par_iter()).for_each(|(((bx, by), bz), x)| {

@@ -42,13 +42,13 @@ pub(crate) fn vertices_per_task(n: usize) -> usize {
 pub const ROTATION_LEVEL_EDGES_PER_BENDING_LENGTH: f64 = 6.0;
 
 /// The level that [`Energy::SmoothRotations`]' implicit rotation step solves on
-/// ([`RotationStep::Auto`]) for a dense mesh: `mesh` decimated until its mean edge is the
-/// bending length $\ell$ over [`ROTATION_LEVEL_EDGES_PER_BENDING_LENGTH`]
-/// ([`level_vertices`]), with every vertex embedded on it ([`embedded_level`]). `None` for the
-/// other energies, when that level would keep half the vertices or more (every paper mesh at
-/// the default $\ell$: the step then factors every vertex, as before), has under 16, or
-/// cannot be built. Keeps the second factorization of the mesh's size off dense meshes: at
-/// 1.5M vertices the rotation matrix's factor is about 3 GiB beside the global step's 6.
+/// ([`RotationStep::Auto`]; in [`Arap::new`] the global step's two-grid cycle too) for a dense
+/// mesh: `mesh` decimated until its mean edge is the bending length $\ell$ over
+/// [`ROTATION_LEVEL_EDGES_PER_BENDING_LENGTH`] ([`level_vertices`]), with every vertex
+/// embedded on it ([`embedded_level`]). `None` for the other energies, when that level would
+/// keep half the vertices or more (every paper mesh at the default $\ell$: both steps then
+/// factor every vertex, as before), has under 16, or cannot be built. Keeps factorizations of
+/// the mesh's size off dense meshes (docs/DESIGN.md, "Plain ARAP on a dense mesh").
 fn rotation_level(mesh: &Mesh, config: &ArapConfig) -> Option<LevelEmbedding> {
     if config.energy != Energy::SmoothRotations {
         return None;
@@ -66,7 +66,9 @@ fn rotation_level(mesh: &Mesh, config: &ArapConfig) -> Option<LevelEmbedding> {
 
 impl Arap {
     /// Precomputes cells and weights and factors $L_{FF}$ (once per handle set); on smooth
-    /// rotations, the rotation step of a dense mesh solves on a decimated level of it.
+    /// rotations, a dense mesh factors nothing of its size: its rotation step solves on a
+    /// decimated level of it and its global step by two-grid conjugate gradients on the same
+    /// level ([`crate::linalg::two_grid`]; docs/DESIGN.md, "Plain ARAP on a dense mesh").
     pub fn new(mesh: &Mesh, handles: &Handles, config: &ArapConfig) -> Result<Arap, SolveError> {
         if handles.n_vertices() != mesh.n_vertices() {
             return Err(SolveError::HandleCount {
@@ -75,7 +77,11 @@ impl Arap {
             });
         }
         let constraints = Constraints::new(mesh, handles);
-        let (rotation, global) = (RotationStep::Auto, GlobalStep::Factor);
+        let level = rotation_level(mesh, config);
+        let (rotation, global) = match &level {
+            Some(level) => (RotationStep::Level(level), GlobalStep::TwoGrid(level)),
+            None => (RotationStep::EveryVertex, GlobalStep::Factor),
+        };
         Arap::with_constraints(mesh, constraints, config, 0.0, None, rotation, global)
     }
 
@@ -168,7 +174,6 @@ impl Arap {
                     let a = SymmetricRows::from_lower(n_free, &ff);
                     let solve = TwoGridCg::new(a, p).map(|solver| GlobalSolve::TwoGrid {
                         solver: Box::new(solver),
-                        b: vec![[0.0; 3]; n_free],
                         x: vec![[0.0; 3]; n_free],
                         iterations: 0,
                     });

@@ -56,8 +56,7 @@ use rayon::prelude::*;
 /// energies).
 #[derive(Clone, Copy, Debug)]
 pub(crate) enum RotationStep<'a> {
-    /// On every vertex, whatever the mesh (the tests' comparison for the levels).
-    #[cfg_attr(not(test), allow(dead_code))]
+    /// On every vertex, whatever the mesh.
     EveryVertex,
     /// On this coarser mesh of the same surface (module doc, "On a level"), every vertex of the
     /// mesh embedded on one of its triangles. Every level vertex should carry weight somewhere
@@ -200,28 +199,14 @@ impl RotationSolve {
     /// The step (module doc) from the gradient in [`RotationSolve::gradient_mut`] at the
     /// rotations `rotations`: writes $\exp([\omega_i]_\times)R_i$ into `out`.
     pub(super) fn step(&mut self, rotations: &[Mat3], out: &mut [Mat3]) {
-        let m = self.factor.n();
-        let gradient = &self.gradient;
-        match &mut self.level {
-            None => {
-                for (k, col) in self.rhs.chunks_mut(m).enumerate() {
-                    for (x, g) in col.iter_mut().zip(gradient) {
-                        *x = g[k];
-                    }
-                }
-            }
+        let b = match &mut self.level {
+            None => &self.gradient,
             Some(p) => {
-                p.p.restrict(gradient, &mut p.restricted);
-                for (c, col) in self.rhs.chunks_mut(m).enumerate() {
-                    for (x, r) in col.iter_mut().zip(&p.restricted) {
-                        *x = r[c];
-                    }
-                }
+                p.p.restrict(&self.gradient, &mut p.restricted);
+                &p.restricted
             }
-        }
-        let rhs = faer::MatMut::from_column_major_slice_mut(&mut self.rhs, m, 3);
-        self.factor.solve_in_place(rhs);
-        let (x, y, z) = (&self.rhs[..m], &self.rhs[m..2 * m], &self.rhs[2 * m..]);
+        };
+        let (x, y, z) = self.factor.solve_rows(b, &mut self.rhs);
         let level = self.level.as_ref();
         out.par_iter_mut().enumerate().for_each(|(i, o)| {
             let w = match level {
@@ -286,9 +271,10 @@ mod tests {
     }
 
     /// [`Arap::new`] on a mesh dense for its bending length builds a decimated level for the
-    /// rotation step (a sixth of ℓ per level edge) and reaches the minimum of the step on every
-    /// vertex, in about as many iterations, descending monotonically; at a bending length the
-    /// mesh barely resolves it factors every vertex.
+    /// rotation step (a sixth of ℓ per level edge) and the global step's two-grid cycle, and
+    /// reaches the minimum of both steps on every vertex, in about as many iterations,
+    /// descending monotonically; at a bending length the mesh barely resolves it factors every
+    /// vertex for both.
     #[test]
     fn arap_new_solves_the_rotation_step_on_a_decimated_level() {
         let (mesh, h) = crate::geometry::shapes::bumpy_bar(4);
@@ -298,6 +284,7 @@ mod tests {
         let with_level = Arap::new(&mesh, &h, &cfg).unwrap();
         let m = with_level.rotation_unknowns().unwrap();
         assert!((16..n / 2).contains(&m), "{m} level vertices of {n}");
+        assert_eq!(with_level.two_grid_iterations(), Some(0));
         let constraints = crate::deform::constraints::Constraints::new(&mesh, &h);
         let every = Arap::with_constraints(
             &mesh,
@@ -326,5 +313,6 @@ mod tests {
         assert!(3 * on_level < sweeps, "{on_level} on the level, {sweeps} with sweeps alone");
         let fine = Arap::new(&mesh, &h, &config(0.02)).unwrap();
         assert_eq!(fine.rotation_unknowns(), Some(n));
+        assert_eq!(fine.two_grid_iterations(), None);
     }
 }
