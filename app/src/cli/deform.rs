@@ -235,6 +235,12 @@ pub fn run(a: &DeformArgs) -> anyhow::Result<()> {
     let t1 = Instant::now();
     let stats = deformer.solve_groups(&transforms)?;
     let solve_ms = t1.elapsed().as_secs_f64() * 1e3;
+    // Conjugate-gradient iterations where ARAP's global step solves on a level (a dense mesh
+    // on smooth rotations).
+    let two_grid = match deformer.solver() {
+        solver::Solver::Arap(arap) => arap.two_grid_iterations(),
+        _ => None,
+    };
     let solved = SolveSettings {
         method: a.method.into(),
         arap: config,
@@ -262,6 +268,7 @@ pub fn run(a: &DeformArgs) -> anyhow::Result<()> {
             "ms_per_iteration": (solve_ms - stats.fine_ms) / stats.iterations.max(1) as f64,
             "fine_iterations": stats.fine_iterations,
             "fine_ms": stats.fine_ms,
+            "two_grid_iterations": two_grid,
             "pinned_components": pinned,
             "following_components": following,
             "precompute_phases_ms": match deformer.solver() {
@@ -287,6 +294,12 @@ pub fn run(a: &DeformArgs) -> anyhow::Result<()> {
             solve_ms,
             a.output.display()
         );
+        if let Some(cg) = two_grid {
+            println!(
+                "global step: two-grid conjugate gradients on a level, {cg} iterations ({:.1} a step)",
+                cg as f64 / stats.iterations.max(1) as f64
+            );
+        }
     }
     Ok(())
 }

@@ -615,8 +615,10 @@ fn exports_never_carry_files_from_outside_the_assets_folder() {
 }
 
 /// `--energy smooth-rotations --bending-length F`: deform reports the length in world units
-/// and reaches a higher energy than spokes (the extra term is ≥ 0); bench measures quality
-/// against the same energy; a length ≤ 0 or one given with another energy is refused.
+/// and reaches a higher energy than spokes (the extra term is ≥ 0), and the global step's
+/// two-grid iterations where the mesh is dense for its bending length (only there); bench
+/// measures quality against the same energy; a length ≤ 0 or one given with another energy is
+/// refused.
 #[test]
 fn deform_and_bench_with_smooth_rotations() {
     let out = tmp("smooth-rotations.obj");
@@ -636,6 +638,12 @@ fn deform_and_bench_with_smooth_rotations() {
     assert!(spokes["bending_length"].is_null());
     let e = |j: &serde_json::Value| j["final_energy"].as_f64().unwrap();
     assert!(e(&sr) > e(&spokes), "{} vs {}", e(&sr), e(&spokes));
+    assert!(sr["two_grid_iterations"].is_null() && spokes["two_grid_iterations"].is_null());
+    // At a bending length of the whole sphere the 162 vertices are dense: a level of about a
+    // quarter of them.
+    let long = run(&["--energy", "smooth-rotations", "--bending-length", "1"]);
+    let cg = long["two_grid_iterations"].as_u64().unwrap();
+    assert!(cg >= long["iterations"].as_u64().unwrap(), "{long}");
     let (obj, sel, _) = sphere();
     for bad in [
         &["--energy", "smooth-rotations", "--bending-length", "0"][..],
