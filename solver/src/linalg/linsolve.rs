@@ -420,6 +420,10 @@ impl SpdFactor {
         columns: &'a mut [f64],
     ) -> (&'a [f64], &'a [f64], &'a [f64]) {
         let n = b.len();
+        assert_eq!(columns.len(), 3 * n, "three columns of the rows' length");
+        if n == 0 {
+            return (&[], &[], &[]);
+        }
         for (c, col) in columns.chunks_mut(n).enumerate() {
             for (x, r) in col.iter_mut().zip(b) {
                 *x = r[c];
@@ -504,6 +508,31 @@ mod tests {
         assert_eq!(kept, fresh);
         let refused = SpdFactor::with_pattern(&pattern, &path(5.0, true));
         assert!(matches!(refused, Err(FactorError::Other(m)) if m.contains("pattern")));
+    }
+
+    /// `solve_rows` gives the rows' three columns solved, as `solve_in_place` does on the
+    /// same columns, and nothing for no rows.
+    #[test]
+    fn solve_rows_solves_the_rows_three_columns() {
+        let n = 40;
+        let mut t = Vec::new();
+        for i in 0..n {
+            t.push(Triplet::new(i, i, 3.0 + (i % 5) as f64));
+            if i > 0 {
+                t.push(Triplet::new(i, i - 1, -1.0));
+            }
+        }
+        let mut f = SpdFactor::from_triplets(n, &t, Layout::Simplicial).unwrap();
+        let rows: Vec<[f64; 3]> = (0..n).map(|i| [i as f64, 1.0, (i % 3) as f64 - 1.0]).collect();
+        let mut want = Mat::<f64>::from_fn(n, 3, |i, c| rows[i][c]);
+        f.solve_in_place(want.as_mut());
+        let mut columns = vec![0.0; 3 * n];
+        let (x, y, z) = f.solve_rows(&rows, &mut columns);
+        for (c, col) in [x, y, z].into_iter().enumerate() {
+            assert!(col.iter().enumerate().all(|(i, &v)| v == want[(i, c)]), "column {c}");
+        }
+        let mut empty = SpdFactor::from_triplets(0, &[], Layout::Simplicial).unwrap();
+        assert_eq!(empty.solve_rows(&[], &mut []), (&[][..], &[][..], &[][..]));
     }
 
     fn solve_and_check(n: usize) {
