@@ -235,11 +235,12 @@ pub fn run(a: &DeformArgs) -> anyhow::Result<()> {
     let t1 = Instant::now();
     let stats = deformer.solve_groups(&transforms)?;
     let solve_ms = t1.elapsed().as_secs_f64() * 1e3;
-    // Conjugate-gradient iterations where ARAP's global step solves on a level (a dense mesh
-    // on smooth rotations).
+    // Conjugate-gradient iterations where ARAP's global step (on the mesh, or on BS-ARAP's
+    // base) solves on a level (a dense mesh on smooth rotations).
     let two_grid = match deformer.solver() {
         solver::Solver::Arap(arap) => arap.two_grid_iterations(),
-        _ => None,
+        solver::Solver::BsArap(b) => b.base_arap().two_grid_iterations(),
+        solver::Solver::Coarse(_) => None,
     };
     let solved = SolveSettings {
         method: a.method.into(),

@@ -3,7 +3,8 @@
 //!
 //! 1. $B$ = [`crate::deform::biharmonic::biharmonic_surface`] of $M$ with the handle regions (and pinned
 //!    components) fixed at rest; details $D_i = p_i - B_i$.
-//! 2. Each frame, ARAP on $B$ (rest shape $B$, same handles, same targets): $B'$ and $R_i$.
+//! 2. Each frame, ARAP on $B$ (rest shape $B$, same handles, same targets, the bending length
+//!    of [`crate::Energy::SmoothRotations`] the same in world units): $B'$ and $R_i$.
 //! 3. Result $p'_i = B'_i + R_i D_i$.
 //!
 //! Rest pose is reproduced exactly: with the handles at rest, $B'=B$, $R_i=I$, $p'=p$. On handle
@@ -93,11 +94,11 @@ impl BsArap {
         let arap = Arap::with_constraints(
             &base_mesh,
             constraints,
-            config,
+            &config.same_bending_length(mesh.bbox_diagonal(), &base_mesh),
             floor,
             fallback,
             RotationStep::Auto,
-            GlobalStep::Factor,
+            GlobalStep::Auto,
         )
         .map_err(|e| match e {
             SolveError::DegenerateFace { face } => SolveError::DegenerateBase { face },

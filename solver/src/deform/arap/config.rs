@@ -163,6 +163,22 @@ impl ArapConfigError {
 }
 
 impl ArapConfig {
+    /// This configuration for ARAP on `mesh`, a surface standing in for one whose rest diagonal
+    /// is `diagonal` (the coarse variant's coarse mesh and level, BS-ARAP's base): the bending
+    /// length of [`Energy::SmoothRotations`] is a fraction of the diagonal of the mesh it is
+    /// built on, and those surfaces have diagonals of their own, so the fraction is rescaled to
+    /// keep $\ell$ the same in world units: every one of them then approximates the same
+    /// continuous energy (module `arap::smooth_rotations`).
+    pub(crate) fn same_bending_length(
+        &self,
+        diagonal: f64,
+        mesh: &crate::geometry::mesh::Mesh,
+    ) -> ArapConfig {
+        let own = mesh.bbox_diagonal();
+        let scale = if own > 0.0 { diagonal / own } else { 1.0 };
+        ArapConfig { bending_length: self.bending_length * scale, ..*self }
+    }
+
     /// Checks the ranges every interface accepts (CLI, scenes, the editor, Python): tolerance
     /// finite and $\ge 0$; max_iterations in $[1,$ [`MAX_ITERATIONS_LIMIT`]$]$; an Anderson
     /// window in $[1,$ [`MAX_ANDERSON_WINDOW`]$]$; energy_threshold in $[0,$

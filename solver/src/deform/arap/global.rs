@@ -23,6 +23,9 @@ pub(crate) enum GlobalStep<'a> {
     /// With two-grid conjugate gradients on this coarser mesh of the same surface, every
     /// vertex of the mesh embedded on one of its triangles (module doc).
     TwoGrid(&'a LevelEmbedding),
+    /// Two-grid on the level that [`super::RotationStep::Auto`] would build (one level for
+    /// both steps), with the factor where there is none (`precompute.rs`, `rotation_level`).
+    Auto,
 }
 
 /// The global step's solver of $L_{FF}X = B$ (module doc).

@@ -41,8 +41,8 @@ pub(crate) fn vertices_per_task(n: usize) -> usize {
 /// rotation step was measured to take as many iterations as on every vertex.
 pub const ROTATION_LEVEL_EDGES_PER_BENDING_LENGTH: f64 = 6.0;
 
-/// The level that [`Energy::SmoothRotations`]' implicit rotation step solves on
-/// ([`RotationStep::Auto`]; in [`Arap::new`] the global step's two-grid cycle too) for a dense
+/// The level that [`Energy::SmoothRotations`]' implicit rotation step and the global step's
+/// two-grid cycle solve on ([`RotationStep::Auto`], [`GlobalStep::Auto`]) for a dense
 /// mesh: `mesh` decimated until its mean edge is the bending length $\ell$ over
 /// [`ROTATION_LEVEL_EDGES_PER_BENDING_LENGTH`] ([`level_vertices`]), with every vertex
 /// embedded on it ([`embedded_level`]). `None` for the other energies, when that level would
@@ -77,11 +77,7 @@ impl Arap {
             });
         }
         let constraints = Constraints::new(mesh, handles);
-        let level = rotation_level(mesh, config);
-        let (rotation, global) = match &level {
-            Some(level) => (RotationStep::Level(level), GlobalStep::TwoGrid(level)),
-            None => (RotationStep::EveryVertex, GlobalStep::Factor),
-        };
+        let (rotation, global) = (RotationStep::Auto, GlobalStep::Auto);
         Arap::with_constraints(mesh, constraints, config, 0.0, None, rotation, global)
     }
 
@@ -89,7 +85,8 @@ impl Arap {
     /// absolute floor on doubled triangle areas, optional fallback positions whose
     /// cotangents a degenerate triangle takes (see [`face_cotangents_or`]), and where
     /// [`Energy::SmoothRotations`]' implicit rotation step solves ([`RotationStep`]; other
-    /// energies ignore it), and how the global step solves ([`GlobalStep`]).
+    /// energies ignore it), and how the global step solves ([`GlobalStep`]). Where either is
+    /// `Auto`, both `Auto`s take the one level `rotation_level` builds.
     pub(crate) fn with_constraints(
         mesh: &Mesh,
         constraints: Constraints,
@@ -106,6 +103,20 @@ impl Arap {
         if smooth {
             check_bending_length(config.bending_length)?;
         }
+        // One level for both steps where either is `Auto`, built before the global step's
+        // factorization: where it is built, nothing of the mesh's size is factored beside it.
+        let auto = matches!(step, RotationStep::Auto) || matches!(global, GlobalStep::Auto);
+        let auto_level = if auto { rotation_level(mesh, config) } else { None };
+        let step_level = match step {
+            RotationStep::Level(level) => Some(level),
+            RotationStep::Auto => auto_level.as_ref(),
+            RotationStep::EveryVertex => None,
+        };
+        let global_level = match global {
+            GlobalStep::TwoGrid(level) => Some(level),
+            GlobalStep::Auto => auto_level.as_ref(),
+            GlobalStep::Factor => None,
+        };
         let n = mesh.n_vertices();
         let order = VertexOrder::reverse_cuthill_mckee(n, mesh.triangles());
         let inner = constraints.renumbered(&order);
@@ -161,13 +172,13 @@ impl Arap {
             if n_free == 0 {
                 return Ok(None);
             }
-            let (solve, matrix) = match global {
-                GlobalStep::Factor => (
+            let (solve, matrix) = match global_level {
+                None => (
                     SpdFactor::from_triplets(n_free, &ff, Layout::Simplicial)
                         .map(|f| GlobalSolve::Factor(Box::new(f))),
                     "the free block of the cotangent Laplacian",
                 ),
-                GlobalStep::TwoGrid(level) => {
+                Some(level) => {
                     let rows = inner.free_vertices.par_iter();
                     let rows = rows.map(|&v| level.interpolate(order.to_mesh[v as usize] as usize));
                     let p = Interpolation::new(rows.collect(), level.mesh.n_vertices());
@@ -188,16 +199,7 @@ impl Arap {
                 let smooth = match &cells {
                     Cells::Spokes { neighbours } if smooth => {
                         let ell = config.bending_length * mesh.bbox_diagonal();
-                        let decimated;
-                        let level = match step {
-                            RotationStep::Level(level) => Some(level),
-                            RotationStep::Auto => {
-                                decimated = rotation_level(mesh, config);
-                                decimated.as_ref()
-                            }
-                            RotationStep::EveryVertex => None,
-                        };
-                        let level = level.map(|l| (l, &order.to_mesh[..]));
+                        let level = step_level.map(|l| (l, &order.to_mesh[..]));
                         let sr = SmoothRotations::new(neighbours, &rest, ell, level).map_err(
                             |source| SolveError::Factorization {
                                 matrix: "the rotation-smoothness Laplacian",

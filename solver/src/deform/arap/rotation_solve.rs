@@ -56,7 +56,8 @@ use rayon::prelude::*;
 /// energies).
 #[derive(Clone, Copy, Debug)]
 pub(crate) enum RotationStep<'a> {
-    /// On every vertex, whatever the mesh.
+    /// On every vertex, whatever the mesh (the tests' comparison for the levels).
+    #[cfg_attr(not(test), expect(dead_code, reason = "the tests' comparison"))]
     EveryVertex,
     /// On this coarser mesh of the same surface (module doc, "On a level"), every vertex of the
     /// mesh embedded on one of its triangles. Every level vertex should carry weight somewhere
@@ -64,7 +65,8 @@ pub(crate) enum RotationStep<'a> {
     /// correction is zero.
     Level(&'a LevelEmbedding),
     /// On a decimated level of the mesh where the mesh is dense for its bending length, else
-    /// on every vertex (`precompute.rs`, `rotation_level`).
+    /// on every vertex (`precompute.rs`, `rotation_level`; the same level as
+    /// [`super::GlobalStep::Auto`]'s).
     Auto,
 }
 
@@ -314,5 +316,36 @@ mod tests {
         let fine = Arap::new(&mesh, &h, &config(0.02)).unwrap();
         assert_eq!(fine.rotation_unknowns(), Some(n));
         assert_eq!(fine.two_grid_iterations(), None);
+    }
+
+    /// The paper's and the faired BS-ARAP take [`Arap::new`]'s decision for ARAP on their
+    /// base: on a mesh dense for its bending length both steps solve on a decimated level of
+    /// the base (the global step by two-grid conjugate gradients, which run), at a bending
+    /// length the mesh barely resolves both factor every vertex.
+    #[test]
+    fn bs_arap_solves_its_base_on_a_level_as_arap_new_does() {
+        use crate::deform::bs_arap::{BaseKind, BsArap};
+        let (mesh, h) = crate::geometry::shapes::bumpy_bar(4);
+        let n = mesh.n_vertices();
+        let targets = cap_turned(&mesh, &h);
+        let faired = BaseKind::Faired { smoothing: 0.01 };
+        for kind in [BaseKind::Paper, faired] {
+            let cfg = ArapConfig { tolerance: 1e-6, max_iterations: 500, ..config(0.2) };
+            let mut b = BsArap::with_base(&mesh, &h, &cfg, kind).unwrap();
+            let m = b.base_arap().rotation_unknowns().unwrap();
+            assert!((16..n / 2).contains(&m), "{kind:?}: {m} level vertices of {n}");
+            // The bending length is the mesh's in world units, not a fraction of the base's
+            // diagonal (the paper's base is a smaller surface).
+            let base = mesh.with_positions(b.base().to_vec()).unwrap();
+            let ell = b.base_arap().config().bending_length * base.bbox_diagonal();
+            let want = cfg.bending_length * mesh.bbox_diagonal();
+            assert!((ell - want).abs() <= 1e-12 * want, "{kind:?}: ℓ {ell} against {want}");
+            let stats = b.solve(&targets).unwrap();
+            assert_descends(&stats, &format!("{kind:?}"));
+            assert!(b.base_arap().two_grid_iterations().unwrap() >= stats.iterations, "{kind:?}");
+            let fine = BsArap::with_base(&mesh, &h, &config(0.02), kind).unwrap();
+            assert_eq!(fine.base_arap().rotation_unknowns(), Some(n), "{kind:?}");
+            assert_eq!(fine.base_arap().two_grid_iterations(), None, "{kind:?}");
+        }
     }
 }

@@ -7,7 +7,7 @@
 //! that level (`GlobalStep::TwoGrid` in `arap/global.rs`): nothing of the full mesh's size
 //! is factored (at 1.5M vertices settling peaked at 5959 MiB with its factor against 3292
 //! without, and the factorization took two minutes), only two Galerkin matrices of the
-//! level's; elsewhere the whole mesh is factored.
+//! level's; elsewhere both steps solve as in [`Arap::new`].
 //!
 //! One background factorization of each [`Queue`] runs at a time in the process: one whose
 //! solver was dropped cannot be stopped (the sparse factorization has no way to be
@@ -114,7 +114,7 @@ fn factor(inputs: &Inputs) -> (Result<Arap, SolveError>, f64) {
     let t = std::time::Instant::now();
     let (rotation, global) = match base.as_ref().and_then(|b| b.level.as_ref()) {
         Some(level) => (RotationStep::Level(level), GlobalStep::TwoGrid(level)),
-        None => (RotationStep::Auto, GlobalStep::Factor),
+        None => (RotationStep::Auto, GlobalStep::Auto),
     };
     let arap =
         Arap::with_constraints(mesh, constraints.clone(), config, 0.0, None, rotation, global);

@@ -321,7 +321,7 @@ impl CoarseBsArap {
                     .with_rig(coarse_rig(&base, handles));
                 let coarse_config = ArapConfig {
                     membrane: coarse.membrane,
-                    ..same_bending_length(config, full_diagonal, coarse_mesh)
+                    ..config.same_bending_length(full_diagonal, coarse_mesh)
                 };
                 let arap = Arap::with_constraints(
                     coarse_mesh,
@@ -368,7 +368,7 @@ impl CoarseBsArap {
         let fine_handles = handles.handle_vertices();
         let level = match (&base.level, coarse.settle_iterations) {
             (Some(l), 1..) => {
-                let level_config = same_bending_length(config, full_diagonal, &l.mesh);
+                let level_config = config.same_bending_length(full_diagonal, &l.mesh);
                 Some(LevelSolver::new(mesh, l, handles, fine_handles, &level_config)?)
             }
             _ => None,
@@ -678,15 +678,3 @@ impl CoarseBsArap {
 
 #[cfg(test)]
 mod tests;
-
-/// `config` for ARAP on `mesh`, a coarser mesh of the full mesh whose rest diagonal is
-/// `full_diagonal`: the bending length of [`Energy::SmoothRotations`](crate::Energy) is a
-/// fraction of the diagonal of the mesh it is built on, and the coarse mesh and the level (a
-/// faired, decimated surface) have diagonals of their own, so the fraction is rescaled to keep
-/// $\ell$ the same in world units: every mesh of the coarse variant then approximates the same
-/// continuous energy ([`crate::deform::arap`], `smooth_rotations`).
-fn same_bending_length(config: &ArapConfig, full_diagonal: f64, mesh: &Mesh) -> ArapConfig {
-    let diagonal = mesh.bbox_diagonal();
-    let scale = if diagonal > 0.0 { full_diagonal / diagonal } else { 1.0 };
-    ArapConfig { bending_length: config.bending_length * scale, ..*config }
-}
