@@ -120,7 +120,7 @@ impl BsArap {
         let p = |i: usize| add(b[i], mul_vec(&r[i], self.details[i]));
         if let Some(vertex) = (0..self.result.len()).find(|&i| !p(i).iter().all(|c| c.is_finite()))
         {
-            self.arap.set_positions(&self.deformed_base);
+            self.arap.roll_back(&self.deformed_base);
             return Err(SolveError::NonFiniteResult { vertex });
         }
         for (i, out) in self.result.iter_mut().enumerate() {

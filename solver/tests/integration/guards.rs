@@ -96,6 +96,9 @@ fn huge_targets_give_a_finite_pose_or_an_error_never_nan() {
                         before == snapshot(&d),
                         "{method:?} at {scale:e}: a failed solve showed"
                     );
+                    let rotations = d.arap().map_or(&[][..], |a| a.rotations());
+                    let finite = rotations.iter().flatten().flatten().all(|c| c.is_finite());
+                    assert!(finite, "{method:?} at {scale:e}: a failed solve's rotations");
                     d.solve(&good).unwrap();
                     let moved = d.positions().iter().zip(twin.positions());
                     let gap = moved.map(|(a, b)| (0..3).map(|k| (a[k] - b[k]).abs()).sum::<f64>());

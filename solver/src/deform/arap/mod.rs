@@ -145,9 +145,11 @@ pub struct Arap {
     /// in memory. Everything but the public pose, rotations and rest is kept in this order.
     order: VertexOrder,
     /// [`Arap::positions`], [`Arap::rotations`] and [`Arap::rest`] in mesh order, written when a
-    /// call changes the pose ([`Arap::publish`]).
+    /// call changes the pose ([`Arap::publish`]). The rotations' copy is made by the first
+    /// [`Arap::rotations`] and kept up from then on: a solver nobody asks for its rotations
+    /// (the coarse variant's full mesh, `deform`) keeps none (72 bytes a vertex).
     mesh_current: Vec<[f64; 3]>,
-    mesh_rotations: Vec<Mat3>,
+    mesh_rotations: std::sync::OnceLock<Vec<Mat3>>,
     mesh_rest: Vec<[f64; 3]>,
     /// Vertices per parallel task (`precompute::vertices_per_task`).
     task: usize,
@@ -227,10 +229,14 @@ impl Arap {
         &self.mesh_current
     }
 
-    /// Per-vertex rotations $R_i$ of the last local step.
-    #[expect(clippy::misnamed_getters, reason = "the mesh-order copy, not the internal one")]
+    /// Per-vertex rotations $R_i$ of the last local step, in mesh order (the first call makes
+    /// the copy, kept up from then on).
     pub fn rotations(&self) -> &[Mat3] {
-        &self.mesh_rotations
+        self.mesh_rotations.get_or_init(|| {
+            let mut r = vec![IDENTITY; self.rotations.len()];
+            self.order.scatter(&self.rotations, &mut r);
+            r
+        })
     }
 
     /// Rest positions `#V×3`.
@@ -286,7 +292,9 @@ impl Arap {
     /// [`Arap::rotations`].
     fn publish(&mut self) {
         self.order.scatter(&self.current, &mut self.mesh_current);
-        self.order.scatter(&self.rotations, &mut self.mesh_rotations);
+        if let Some(r) = self.mesh_rotations.get_mut() {
+            self.order.scatter(&self.rotations, r);
+        }
     }
 
     /// Sets the starting guess of the next solve (`#V×3`, finite; other lengths are ignored).
@@ -299,6 +307,15 @@ impl Arap {
             self.mesh_current.copy_from_slice(x);
             self.at_rest = false;
         }
+    }
+
+    /// Puts the pose back to `x` (`#V×3`, finite) after a caller's failed step (BS-ARAP's
+    /// overflowing details, the coarse variant's failed frame), with the rotations fitted to
+    /// it: [`Arap::rotations`] then belong to [`Arap::positions`], not to the failed solve.
+    pub(crate) fn roll_back(&mut self, x: &[[f64; 3]]) {
+        self.set_positions(x);
+        self.local_pass();
+        self.publish();
     }
 
     /// The ARAP energy of pose `x` (`#V×3`) against this solver's rest shape with the best

@@ -263,7 +263,7 @@ impl Arap {
             task: vertices_per_task(n),
             avx2: Avx2::detect(),
             mesh_current: mesh.positions().to_vec(),
-            mesh_rotations: vec![IDENTITY; n],
+            mesh_rotations: std::sync::OnceLock::new(),
             mesh_rest: mesh.positions().to_vec(),
             anderson: None,
             refined_at: None,

@@ -82,7 +82,7 @@ impl CoarseSolver {
     /// Puts the coarse positions back to `c` (a failed frame's roll-back).
     pub(crate) fn set_positions(&mut self, c: &[[f64; 3]]) {
         match self {
-            CoarseSolver::Decimated(arap) => arap.set_positions(c),
+            CoarseSolver::Decimated(arap) => arap.roll_back(c),
             CoarseSolver::Galerkin { energy, .. } => energy.set_positions(c),
         }
     }
