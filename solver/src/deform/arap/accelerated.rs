@@ -20,8 +20,44 @@
 //! far from its minimum takes one (a second cost more per frame than it saved on the bunny
 //! and the armadillo). The accepted energies still never rise: each is compared with the last.
 
-use super::{Arap, SolveStats, ms};
+use super::config::SOLVE_ROTATION_STEPS;
+use super::{Arap, REFINE_ANDERSON_WINDOW, REFINE_ROTATION_STEPS, SolveStats, ms};
 use std::time::Instant;
+
+/// How one call of [`Arap::iterate_anderson`] runs: a solve's or a refine's.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct AndersonRun {
+    window: usize,
+    max_iterations: usize,
+    /// Whether the stopping rule applies (else exactly `max_iterations` run).
+    stopping: bool,
+    /// Whether the previous call's history is kept (same map, same starting iterate).
+    keep_history: bool,
+    /// Local steps an accelerated iterate takes on smooth rotations before the safeguard
+    /// weighs it (module doc).
+    rotation_steps: usize,
+}
+
+impl AndersonRun {
+    /// A solve's: `window` and at most `max_iterations` (the configuration's), the stopping
+    /// rule, a new history, [`SOLVE_ROTATION_STEPS`].
+    pub(super) fn solve(window: usize, max_iterations: usize) -> AndersonRun {
+        let rotation_steps = SOLVE_ROTATION_STEPS;
+        AndersonRun { window, max_iterations, stopping: true, keep_history: false, rotation_steps }
+    }
+
+    /// A refine's ([`Arap::refine`]): exactly `iterations` with [`REFINE_ANDERSON_WINDOW`], the
+    /// history kept when it `continues` the last, [`REFINE_ROTATION_STEPS`].
+    pub(super) fn refine(iterations: usize, continues: bool) -> AndersonRun {
+        AndersonRun {
+            window: REFINE_ANDERSON_WINDOW,
+            max_iterations: iterations,
+            stopping: false,
+            keep_history: continues,
+            rotation_steps: REFINE_ROTATION_STEPS,
+        }
+    }
+}
 
 /// What [`Arap::iterate_anderson`] needs besides the solver: the acceleration state and the
 /// flattened free positions $x_k$, $G(x_k)$ and the accelerated iterate.
@@ -40,19 +76,9 @@ impl Arap {
     /// $E(x_k, R(x_k))$: each iterate gets its own local step, which the next global step reuses.
     /// An accelerated iterate with a higher energy than the last accepted one is replaced by the
     /// plain step $G(x_k)$, for which $E(G(x), R(G(x))) \le E(G(x), R(x)) \le E(x, R(x))$.
-    /// At most `max_iterations`; the stopping rule applies only when `stopping`. The history
-    /// of the previous call is kept when `keep_history` (same map, same starting iterate). On
-    /// smooth rotations an accelerated iterate's energy is taken after `rotation_steps` local
-    /// steps (module doc).
-    pub(super) fn iterate_anderson(
-        &mut self,
-        stats: &mut SolveStats,
-        window: usize,
-        max_iterations: usize,
-        stopping: bool,
-        keep_history: bool,
-        rotation_steps: usize,
-    ) {
+    /// Window, cap, stopping rule, history and rotation steps as `run` says.
+    pub(super) fn iterate_anderson(&mut self, stats: &mut SolveStats, run: AndersonRun) {
+        let AndersonRun { window, max_iterations, stopping, keep_history, rotation_steps } = run;
         let tol = self.config.tolerance;
         let free = self.inner.free_vertices.clone();
         let dim = 3 * free.len();

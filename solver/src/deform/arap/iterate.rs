@@ -3,8 +3,8 @@
 //! the Anderson loop (`accelerated`) under the stopping rule
 //! $(E_{k-1}-E_k)/E_{k-1} <$ tolerance.
 
-use super::config::SOLVE_ROTATION_STEPS;
-use super::{Acceleration, Arap, REFINE_ANDERSON_WINDOW, REFINE_ROTATION_STEPS, SolveStats, ms};
+use super::accelerated::AndersonRun;
+use super::{Acceleration, Arap, SolveStats, ms};
 use crate::error::{SolveError, check_targets};
 use crate::pool::in_pool;
 use std::time::Instant;
@@ -23,9 +23,10 @@ impl Arap {
     }
 
     /// Exactly `iterations` local-global iterations with safeguarded Anderson acceleration
-    /// (window [`REFINE_ANDERSON_WINDOW`], whatever the configuration says; on smooth rotations
-    /// [`REFINE_ROTATION_STEPS`] local steps an accelerated iterate; no stopping rule)
-    /// from the pose `start` (`#V×3`) with the handles moved to `targets`: the fine pass that
+    /// (window [`REFINE_ANDERSON_WINDOW`](super::REFINE_ANDERSON_WINDOW), whatever the
+    /// configuration says; on smooth rotations
+    /// [`REFINE_ROTATION_STEPS`](super::REFINE_ROTATION_STEPS) local steps an accelerated
+    /// iterate; no stopping rule) from the pose `start` (`#V×3`) with the handles moved to `targets`: the fine pass that
     /// follows a coarse solve ([`crate::deform::coarse`]). Anderson because what is left after the
     /// coarse solve is smooth, the slow part for plain local-global. Rest targets give the rest
     /// pose exactly, as in [`Arap::solve`]; a `start` of another length or with non-finite
@@ -98,23 +99,12 @@ impl Arap {
                 stats.initial_energy = exact.unwrap_or(0.0);
                 stats.converged = true;
             }
-            (Some(n), _) => self.iterate_anderson(
-                &mut stats,
-                REFINE_ANDERSON_WINDOW,
-                n,
-                false,
-                continues,
-                REFINE_ROTATION_STEPS,
-            ),
+            (Some(n), _) => self.iterate_anderson(&mut stats, AndersonRun::refine(n, continues)),
             (None, Acceleration::None) => self.iterate_plain(&mut stats),
-            (None, Acceleration::Anderson { window }) => self.iterate_anderson(
-                &mut stats,
-                window,
-                self.config.max_iterations,
-                true,
-                false,
-                SOLVE_ROTATION_STEPS,
-            ),
+            (None, Acceleration::Anderson { window }) => {
+                let run = AndersonRun::solve(window, self.config.max_iterations);
+                self.iterate_anderson(&mut stats, run);
+            }
         });
         if let Some(vertex) = self.current.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
             self.current = previous;
