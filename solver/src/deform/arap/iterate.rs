@@ -26,11 +26,11 @@ impl Arap {
     /// (window [`REFINE_ANDERSON_WINDOW`](super::REFINE_ANDERSON_WINDOW), whatever the
     /// configuration says; on smooth rotations
     /// [`REFINE_ROTATION_STEPS`](super::REFINE_ROTATION_STEPS) local steps an accelerated
-    /// iterate; no stopping rule) from the pose `start` (`#V×3`) with the handles moved to `targets`: the fine pass that
-    /// follows a coarse solve ([`crate::deform::coarse`]). Anderson because what is left after the
-    /// coarse solve is smooth, the slow part for plain local-global. Rest targets give the rest
-    /// pose exactly, as in [`Arap::solve`]; a `start` of another length or with non-finite
-    /// values is ignored (the current pose is the start).
+    /// iterate; no stopping rule) from the pose `start` (`#V×3`) with the handles moved to
+    /// `targets`: the fine pass that follows a coarse solve ([`crate::deform::coarse`]).
+    /// Anderson because what is left after the coarse solve is smooth, the slow part for plain
+    /// local-global. Rest targets give the rest pose exactly, as in [`Arap::solve`]; a `start`
+    /// of another length or with non-finite values is ignored (the current pose is the start).
     ///
     /// A refine that goes on from the previous one's result at the same targets (nothing else
     /// touched the pose in between) continues its Anderson history instead of restarting it:

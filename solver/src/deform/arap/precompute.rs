@@ -103,8 +103,10 @@ impl Arap {
         if smooth {
             check_bending_length(config.bending_length)?;
         }
-        // One level for both steps where either is `Auto`, built before the global step's
-        // factorization: where it is built, nothing of the mesh's size is factored beside it.
+        // One level for both steps where either is `Auto`, built before the join below: with
+        // both `Auto` and a level built, nothing of the mesh's size is left to factor beside it
+        // (the coarse solver asks `Auto` and `Factor`: its mesh is small, and its factorization
+        // waits for a level only at bending lengths long for it).
         let auto = matches!(step, RotationStep::Auto) || matches!(global, GlobalStep::Auto);
         let auto_level = if auto { rotation_level(mesh, config) } else { None };
         let step_level = match step {
