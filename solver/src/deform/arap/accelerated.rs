@@ -124,7 +124,7 @@ impl Arap {
             stats.rhs_ms += ms(t2, t3);
             self.solve_rhs();
             for r in 0..free.len() {
-                g[3 * r..3 * r + 3].copy_from_slice(&self.rhs_row(r));
+                g[3 * r..3 * r + 3].copy_from_slice(&self.solved_row(r));
             }
             aa.step(x, g, xa);
             // Smooth rotations are state: the fallback starts from those of x_k.

@@ -50,7 +50,7 @@ impl Arap {
         stats.rhs_ms += ms(t2, t3);
         self.solve_rhs();
         for (r, &v) in self.inner.free_vertices.iter().enumerate() {
-            self.current[v as usize] = self.rhs_row(r);
+            self.current[v as usize] = self.solved_row(r);
         }
         stats.solve_ms += ms(t3, Instant::now());
         stats.iterations += 1;
@@ -114,8 +114,9 @@ impl Arap {
         }
     }
 
-    /// Solves $L_{FF} X = $ `rhs` in place (the global step's solve, module doc); two-grid
-    /// conjugate gradients start from the current pose.
+    /// Solves $L_{FF} X = $ `rhs` (the global step's solve, module doc): the factor in place,
+    /// two-grid conjugate gradients from the current pose into their `x` ([`Arap::solved_row`]
+    /// reads either).
     pub(super) fn solve_rhs(&mut self) {
         let n = self.inner.free_vertices.len();
         match self.global.as_mut() {
@@ -130,18 +131,19 @@ impl Arap {
                 let (by, bz) = rest.split_at_mut(n);
                 let b = |r: usize| [bx[r], by[r], bz[r]];
                 *iterations += solver.solve(b, x).iterations;
-                let blocks = bx.par_iter_mut().zip(by.par_iter_mut()).zip(bz.par_iter_mut());
-                blocks.zip(x.par_iter()).for_each(|(((bx, by), bz), x)| {
-                    [*bx, *by, *bz] = *x;
-                });
             }
         }
     }
 
-    /// Row `r` of `rhs`: after [`Arap::solve_rhs`], free vertex `r`'s new position.
-    pub(super) fn rhs_row(&self, r: usize) -> [f64; 3] {
-        let n = self.inner.free_vertices.len();
-        [self.rhs[r], self.rhs[n + r], self.rhs[2 * n + r]]
+    /// After [`Arap::solve_rhs`], free row `r`'s new position.
+    pub(super) fn solved_row(&self, r: usize) -> [f64; 3] {
+        match &self.global {
+            Some(GlobalSolve::TwoGrid { x, .. }) => x[r],
+            _ => {
+                let n = self.inner.free_vertices.len();
+                [self.rhs[r], self.rhs[n + r], self.rhs[2 * n + r]]
+            }
+        }
     }
 }
 

@@ -109,9 +109,7 @@ impl Arap {
         if let Some(vertex) = self.current.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
             self.current = previous;
             self.solved_at = None;
-            // The rotations of the kept pose, not the failed iterate's (as `roll_back`).
-            self.local_pass();
-            self.publish();
+            self.refit_rotations();
             let vertex = self.order.to_mesh[vertex] as usize;
             return Err(SolveError::NonFiniteResult { vertex });
         }

@@ -166,7 +166,7 @@ pub struct Arap {
     rest_term: f64,
     current: Vec<[f64; 3]>,
     /// The global step's three columns (x, then y, then z) over the free rows: the rhs, then
-    /// in place the solution.
+    /// in place the factor's solution (the two-grid solve's is its own `x`: `solved_row`).
     rhs: Vec<f64>,
     /// Anderson state and its iterate buffers, kept between solves (13 MB on a 43k-vertex
     /// mesh: allocating them per call cost milliseconds per frame).
@@ -314,6 +314,12 @@ impl Arap {
     /// it: [`Arap::rotations`] then belong to [`Arap::positions`], not to the failed solve.
     pub(crate) fn roll_back(&mut self, x: &[[f64; 3]]) {
         self.set_positions(x);
+        self.refit_rotations();
+    }
+
+    /// Fits the rotations to the current pose and publishes both: after a roll-back, so that
+    /// the rotations are not a failed solve's ([`Arap::roll_back`], a failed `solve`).
+    fn refit_rotations(&mut self) {
         self.local_pass();
         self.publish();
     }

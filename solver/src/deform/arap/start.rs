@@ -189,7 +189,7 @@ impl Arap {
         self.assemble_rhs();
         self.solve_rhs();
         for (r, &v) in self.inner.free_vertices.iter().enumerate() {
-            let p = self.rhs_row(r);
+            let p = self.solved_row(r);
             if p.iter().all(|c| c.is_finite()) {
                 self.current[v as usize] = p;
             }
