@@ -111,10 +111,11 @@ impl Anderson {
         self.has_prev = false;
     }
 
-    /// Given the iterate `x` and its image `g = G(x)`, writes the accelerated iterate to `out`
-    /// (`g` itself while there is no history, or when the small system is singular).
-    pub fn step(&mut self, x: &[f64], g: &[f64], out: &mut [f64]) {
-        assert!(x.len() == self.dim && g.len() == self.dim && out.len() == self.dim);
+    /// Given the iterate `x` and its image `g = G(x)`, replaces `x` by the accelerated iterate
+    /// (`g` itself while there is no history, or when the small system is singular): the
+    /// caller needs no third vector, and $x_k$ is not read after the first pass.
+    pub fn step(&mut self, x: &mut [f64], g: &[f64]) {
+        assert!(x.len() == self.dim && g.len() == self.dim);
         let block = block_len(self.dim);
         if !self.has_prev {
             // First step: only remember $f$ and $G(x)$.
@@ -129,7 +130,7 @@ impl Anderson {
                     }
                 });
             self.has_prev = true;
-            out.copy_from_slice(g);
+            x.copy_from_slice(g);
             return;
         }
         let s = self.next;
@@ -181,7 +182,7 @@ impl Anderson {
         }
         let max_diag = (0..k).map(|j| self.gram[j * self.m + j]).fold(0.0, f64::max);
         if max_diag.is_nan() || max_diag <= 0.0 || !max_diag.is_finite() {
-            out.copy_from_slice(g);
+            x.copy_from_slice(g);
             return;
         }
         for i in 0..k {
@@ -191,13 +192,13 @@ impl Anderson {
             self.a[i * k + i] += 1e-10 * max_diag;
         }
         if !solve_small(&mut self.a[..k * k], &mut self.rhs[..k], k) {
-            out.copy_from_slice(g);
+            x.copy_from_slice(g);
             return;
         }
         // Pass 2: $x_{k+1} = G(x_k) - \Delta G\,\theta$.
         let theta = &self.rhs[..k];
         let dg = &self.dg[..k];
-        let finite = out
+        let finite = x
             .par_chunks_mut(block)
             .zip(g.par_chunks(block))
             .enumerate()
@@ -213,7 +214,7 @@ impl Anderson {
             })
             .reduce(|| true, |a, b| a && b);
         if !finite {
-            out.copy_from_slice(g);
+            x.copy_from_slice(g);
         }
     }
 }
@@ -282,7 +283,8 @@ mod tests {
             }
             let x: Vec<f64> = (0..dim).map(|_| next()).collect();
             let g: Vec<f64> = x.iter().map(|v| 0.5 * v + next()).collect();
-            aa.step(&x, &g, &mut out);
+            out.copy_from_slice(&x);
+            aa.step(&mut out, &g);
             history.push((x, g));
             let expected = direct(&history, window);
             let scale = expected.iter().fold(0.0f64, |a, v| a.max(v.abs()));
@@ -297,15 +299,16 @@ mod tests {
     #[test]
     fn an_overflowing_step_falls_back_to_g() {
         let mut aa = Anderson::new(5, 2);
-        let mut out = [0.0; 2];
-        aa.step(&[0.0, 0.0], &[1.0, 0.0], &mut out);
+        aa.step(&mut [0.0, 0.0], &[1.0, 0.0]);
         let g = [1.0 + 1e-12, 1e300];
-        aa.step(&[0.0, 1e300], &g, &mut out);
+        let mut out = [0.0, 1e300];
+        aa.step(&mut out, &g);
         assert_eq!(out, g);
         // The same history with a harmless second entry is accelerated (θ·ΔG finite).
         let mut aa = Anderson::new(5, 2);
-        aa.step(&[0.0, 0.0], &[1.0, 0.0], &mut out);
-        aa.step(&[0.0, 1.0], &[1.0 + 1e-12, 1.0], &mut out);
+        aa.step(&mut [0.0, 0.0], &[1.0, 0.0]);
+        let mut out = [0.0, 1.0];
+        aa.step(&mut out, &[1.0 + 1e-12, 1.0]);
         assert!(out.iter().all(|v| v.is_finite()) && out[1] != 1.0, "{out:?}");
     }
 
@@ -373,7 +376,7 @@ mod tests {
                     return (it, x);
                 }
                 match window {
-                    Some(_) => aa.step(&x.clone(), &gx, &mut x),
+                    Some(_) => aa.step(&mut x, &gx),
                     None => x.copy_from_slice(&gx),
                 }
             }

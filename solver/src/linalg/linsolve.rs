@@ -10,11 +10,11 @@
 //! an order of magnitude slower on two-core machines (docs/DESIGN.md, "Sparse solves").
 //! Instead, a block of k ≥ 2 columns with at least 4096 rows is split into two halves solved at
 //! once on two rayon tasks, each sequential, which measured faster for three columns on the
-//! armadillo and the bunny (commit dbb542c). Three columns (ARAP's global step) on a simplicial
-//! factor whose elimination tree cuts into two halves with a small top, on processors with
-//! AVX2, go through `tree.rs` instead (at least 1024 rows): the two halves of the tree on two
-//! threads, the three columns in one vector register per row. The factorization itself may use
-//! rayon.
+//! armadillo and the bunny (commit dbb542c). A simplicial factor whose elimination tree cuts
+//! into two halves with a small top, on processors with AVX2, solves through `tree.rs` instead
+//! (at least 1024 rows): the two halves of the tree on two threads, three columns (ARAP's global
+//! step) in one vector register per row, other blocks three columns at a time. It keeps only
+//! the split's copy of the factor's values. The factorization itself may use rayon.
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::sparse::linalg::SupernodalThreshold;
@@ -216,21 +216,27 @@ pub fn matrix_of(
 pub struct SpdFactor {
     /// The analysis, shared with an [`SpdPattern`] where the factor was made from one.
     symbolic: Arc<SymbolicCholesky<usize>>,
+    /// faer's values of $L$; empty where `tree` holds them (a copy would be 8 bytes a stored
+    /// entry of memory no solve reads).
     values: Vec<f64>,
     solve_buffer: MemBuffer,
     solve_split_buffer: MemBuffer,
     solve_columns: usize,
-    /// Three-column solves split along the elimination tree (simplicial factors of at least
-    /// 1024 rows whose tree cuts in halves, on processors with AVX2); `None`: faer's solve.
+    /// Solves split along the elimination tree, three columns at a time (simplicial factors
+    /// of at least 1024 rows whose tree cuts in halves, on processors with AVX2); `None`:
+    /// faer's solve.
     #[cfg(target_arch = "x86_64")]
     tree: Option<tree::TreeSplit>,
+    /// Contiguous columns for a solve through `tree` of other than three contiguous columns.
+    #[cfg(target_arch = "x86_64")]
+    tree_columns: Vec<f64>,
 }
 
 impl std::fmt::Debug for SpdFactor {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("SpdFactor")
             .field("n", &self.symbolic.nrows())
-            .field("factor_nonzeros", &self.values.len())
+            .field("factor_nonzeros", &self.factor_nonzeros())
             .finish()
     }
 }
@@ -283,6 +289,8 @@ impl SpdFactor {
             solve_columns: 0,
             #[cfg(target_arch = "x86_64")]
             tree: None,
+            #[cfg(target_arch = "x86_64")]
+            tree_columns: Vec::new(),
         };
         #[cfg(target_arch = "x86_64")]
         if let Some(avx2) = crate::linalg::lanes::Avx2::detect()
@@ -308,18 +316,19 @@ impl SpdFactor {
     /// analysis is reused. The pattern is not checked here (see [`SpdPattern::fits`]).
     pub fn refactor(&mut self, a: &SparseColMat<usize, f64>) -> Result<(), FactorError> {
         let par = faer::get_global_parallelism();
-        self.values.clear();
-        self.values
+        let mut values = std::mem::take(&mut self.values);
+        values.clear();
+        values
             .try_reserve_exact(self.symbolic.len_val())
             .map_err(|_| FactorError::Other("out of memory for the Cholesky factor".into()))?;
-        self.values.resize(self.symbolic.len_val(), 0.0);
+        values.resize(self.symbolic.len_val(), 0.0);
         let req = self.symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default());
         let mut buf = MemBuffer::try_new(req).map_err(|_| {
             FactorError::Other("out of memory for the factorization workspace".into())
         })?;
         self.symbolic
             .factorize_numeric_llt(
-                &mut self.values,
+                &mut values,
                 a.as_ref(),
                 Side::Lower,
                 Default::default(),
@@ -334,8 +343,11 @@ impl SpdFactor {
             })?;
         #[cfg(target_arch = "x86_64")]
         if let Some(t) = &mut self.tree {
-            t.set_values(&self.values);
+            // The split holds the values it solves with: faer's are dropped.
+            t.set_values(&values);
+            return Ok(());
         }
+        self.values = values;
         Ok(())
     }
 
@@ -352,7 +364,7 @@ impl SpdFactor {
 
     /// Stored nonzeros of the Cholesky factor $L$ (a measure of the memory read per solve).
     pub fn factor_nonzeros(&self) -> usize {
-        self.values.len()
+        self.symbolic.len_val()
     }
 
     /// The elimination-tree split the three-column solve runs on, if this factor has one
@@ -369,23 +381,46 @@ impl SpdFactor {
     }
 
     /// Solves $A X = B$ in place: `rhs` is `n×k` on entry ($B$) and on exit ($X$).
-    /// The workspace is allocated on the first call for a given `k` and then reused. Three
-    /// contiguous columns go through the elimination-tree split when the factor has one (module
-    /// doc); the result agrees with faer's to rounding, not bit for bit.
-    pub fn solve_in_place(&mut self, rhs: MatMut<'_, f64>) {
+    /// The workspace is allocated on the first call for a given `k` and then reused. Where the
+    /// factor has an elimination-tree split (module doc), every solve goes through it, three
+    /// columns at a time (three contiguous columns in place, others through a copy); the result
+    /// agrees with faer's to rounding, not bit for bit.
+    pub fn solve_in_place(&mut self, mut rhs: MatMut<'_, f64>) {
         let k = rhs.ncols();
         #[cfg(target_arch = "x86_64")]
-        if let (3, 1, Some(t)) = (k, rhs.row_stride(), self.tree.as_mut()) {
-            let (a, rest) = rhs.split_at_col_mut(1);
-            let (b, c) = rest.split_at_col_mut(1);
+        if let Some(t) = self.tree.as_mut() {
             fn col(m: MatMut<'_, f64>) -> Option<&mut [f64]> {
                 m.col_mut(0).try_as_col_major_mut().map(|c| c.as_slice_mut())
             }
-            if let (Some(a), Some(b), Some(c)) = (col(a), col(b), col(c)) {
-                t.solve3([a, b, c]);
-                return;
+            if (k, rhs.row_stride()) == (3, 1) {
+                let (a, rest) = rhs.split_at_col_mut(1);
+                let (b, c) = rest.split_at_col_mut(1);
+                if let (Some(a), Some(b), Some(c)) = (col(a), col(b), col(c)) {
+                    t.solve3([a, b, c]);
+                    return;
+                }
+                unreachable!("a row stride of 1 makes every column contiguous");
             }
-            unreachable!("a row stride of 1 makes every column contiguous");
+            let n = rhs.nrows();
+            self.tree_columns.resize(3 * n, 0.0);
+            for first in (0..k).step_by(3) {
+                let cols = (first..k.min(first + 3)).collect::<Vec<_>>();
+                let (a, rest) = self.tree_columns.split_at_mut(n);
+                let (b, c) = rest.split_at_mut(n);
+                let mut three = [a, b, c];
+                for (l, x) in three.iter_mut().enumerate() {
+                    match cols.get(l) {
+                        Some(&j) => x.iter_mut().enumerate().for_each(|(i, x)| *x = rhs[(i, j)]),
+                        None => x.fill(0.0),
+                    }
+                }
+                t.solve3(three);
+                for (l, &j) in cols.iter().enumerate() {
+                    let x = &self.tree_columns[l * n..(l + 1) * n];
+                    x.iter().enumerate().for_each(|(i, &x)| rhs[(i, j)] = x);
+                }
+            }
+            return;
         }
         if k != self.solve_columns {
             self.solve_buffer =
@@ -602,18 +637,36 @@ mod tests {
         // Every stored entry of the factor is in exactly one of the three parts.
         let s = f.split_sizes().unwrap();
         assert_eq!(s.forest_entries[0] + s.forest_entries[1] + s.top_entries, f.factor_nonzeros());
-        let b = Mat::<f64>::from_fn(n, 3, |i, j| ((i * 7 + 3 * j) % 11) as f64 - 5.0);
+        assert!(f.values.is_empty(), "faer's copy of the values is dropped");
+        // Three contiguous columns in place; five, and three columns of a row-major block,
+        // three at a time through a copy.
+        let b = Mat::<f64>::from_fn(n, 5, |i, j| ((i * 7 + 3 * j) % 11) as f64 - 5.0);
+        let row_major = b.transpose().to_owned();
         for shift in [0.01, 0.5] {
             f.refactor(&laplacian(shift)).unwrap();
-            let mut split = b.clone();
-            f.solve_in_place(split.as_mut());
-            let tree = f.tree.take();
+            assert!(f.values.is_empty());
+            // The reference: faer's solve, on a factor made without a split.
+            let mut faer_only = SpdFactor::new(&laplacian(shift), Layout::Simplicial).unwrap();
+            faer_only.tree = None;
+            faer_only.refactor(&laplacian(shift)).unwrap();
             let mut reference = b.clone();
-            f.solve_in_place(reference.as_mut());
-            f.tree = tree;
+            faer_only.solve_in_place(reference.as_mut());
             let scale = reference.norm_max();
-            let err = (&split - &reference).norm_max();
-            assert!(scale > 1.0 && err <= 1e-12 * scale, "{err} against {scale}");
+            let mut three = b.subcols(0, 3).to_owned();
+            f.solve_in_place(three.as_mut());
+            let mut five = b.clone();
+            f.solve_in_place(five.as_mut());
+            let mut strided = row_major.clone();
+            f.solve_in_place(strided.as_mut().transpose_mut().subcols_mut(1, 3));
+            let strided = strided.transpose().subcols(1, 3).to_owned();
+            for (split, reference) in [
+                (three.as_ref(), reference.subcols(0, 3)),
+                (five.as_ref(), reference.as_ref()),
+                (strided.as_ref(), reference.subcols(1, 3)),
+            ] {
+                let err = (split - reference).norm_max();
+                assert!(scale > 1.0 && err <= 1e-12 * scale, "{err} against {scale}");
+            }
         }
     }
 

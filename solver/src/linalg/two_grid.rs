@@ -42,12 +42,13 @@ pub const MAX_ITERATIONS: usize = 50;
 const BLOCK: usize = 4096;
 
 /// A symmetric sparse matrix by rows: its diagonal, and every off-diagonal entry in both its
-/// rows.
+/// rows (columns and values apart: 12 bytes an entry, not a padded pair's 16).
 #[derive(Debug, Clone)]
 pub struct SymmetricRows {
     diagonal: Vec<f64>,
     offsets: Vec<usize>,
-    entries: Vec<(u32, f64)>,
+    columns: Vec<u32>,
+    values: Vec<f64>,
 }
 
 impl SymmetricRows {
@@ -68,14 +69,14 @@ impl SymmetricRows {
         }
         let offsets = count.clone();
         let mut next = count;
-        let mut entries = vec![(0u32, 0.0); offsets[n]];
+        let (mut columns, mut values) = (vec![0u32; offsets[n]], vec![0.0; offsets[n]]);
         for t in triplets.iter().filter(|t| t.row != t.col) {
-            entries[next[t.row]] = (t.col as u32, t.val);
-            next[t.row] += 1;
-            entries[next[t.col]] = (t.row as u32, t.val);
-            next[t.col] += 1;
+            for (i, j) in [(t.row, t.col), (t.col, t.row)] {
+                (columns[next[i]], values[next[i]]) = (j as u32, t.val);
+                next[i] += 1;
+            }
         }
-        SymmetricRows { diagonal, offsets, entries }
+        SymmetricRows { diagonal, offsets, columns, values }
     }
 
     /// The size $n$.
@@ -85,8 +86,9 @@ impl SymmetricRows {
 
     /// Row `i`'s off-diagonal entries (column, value).
     #[inline]
-    pub fn row(&self, i: usize) -> &[(u32, f64)] {
-        &self.entries[self.offsets[i]..self.offsets[i + 1]]
+    pub fn row(&self, i: usize) -> impl Iterator<Item = (u32, f64)> + '_ {
+        let range = self.offsets[i]..self.offsets[i + 1];
+        self.columns[range.clone()].iter().copied().zip(self.values[range].iter().copied())
     }
 
     /// $(Ax)_i$ for the three columns of `x`.
@@ -94,7 +96,7 @@ impl SymmetricRows {
     fn row_times(&self, i: usize, x: &[[f64; 3]]) -> [f64; 3] {
         let d = self.diagonal[i];
         let mut y = x[i].map(|c| d * c);
-        for &(j, a) in self.row(i) {
+        for (j, a) in self.row(i) {
             let xj = x[j as usize];
             y = [y[0] + a * xj[0], y[1] + a * xj[1], y[2] + a * xj[2]];
         }
@@ -220,9 +222,9 @@ pub struct TwoGridCg {
     residual: Vec<[f64; 3]>,
     preconditioned: Vec<[f64; 3]>,
     direction: Vec<[f64; 3]>,
+    /// $Aq$ of the search direction $q$ in a conjugate-gradient step; in the preconditioner
+    /// cycle, which runs after the step is done with it, the smoother's residual $r - Az$.
     product: Vec<[f64; 3]>,
-    /// The smoother's residual $r - Az$.
-    smoothing: Vec<[f64; 3]>,
 }
 
 impl std::fmt::Debug for TwoGridCg {
@@ -243,7 +245,7 @@ impl TwoGridCg {
         let m = p.coarse_len();
         let mut triplets = p.galerkin(|i, add| {
             add(i, a.diagonal[i]);
-            for &(j, v) in a.row(i) {
+            for (j, v) in a.row(i) {
                 add(j as usize, v);
             }
         });
@@ -253,7 +255,7 @@ impl TwoGridCg {
         let coarse = SpdFactor::from_triplets(m, &triplets, Layout::Simplicial)?;
         let inverse_l1 = (0..n)
             .map(|i| {
-                let l1 = a.diagonal[i] + a.row(i).iter().map(|&(_, v)| v.abs()).sum::<f64>();
+                let l1 = a.diagonal[i] + a.row(i).map(|(_, v)| v.abs()).sum::<f64>();
                 if l1 > 0.0 { 1.0 / l1 } else { 0.0 }
             })
             .collect();
@@ -268,8 +270,7 @@ impl TwoGridCg {
             residual: zeros.clone(),
             preconditioned: zeros.clone(),
             direction: zeros.clone(),
-            product: zeros.clone(),
-            smoothing: zeros,
+            product: zeros,
         })
     }
 
@@ -356,10 +357,10 @@ impl TwoGridCg {
         }
     }
 
-    /// `smoothing` ← `residual` − A·`preconditioned`.
+    /// `product` ← `residual` − A·`preconditioned` (the smoother's residual).
     fn smoothing_residual(&mut self) {
         let (a, r, z) = (&self.a, &self.residual, &self.preconditioned);
-        rows_mut(&mut self.smoothing).for_each(|(c, block)| {
+        rows_mut(&mut self.product).for_each(|(c, block)| {
             for (l, s) in block.iter_mut().enumerate() {
                 let i = c * BLOCK + l;
                 let az = a.row_times(i, z);
@@ -371,7 +372,7 @@ impl TwoGridCg {
     /// One ℓ1-Jacobi sweep on `preconditioned`.
     fn smooth(&mut self) {
         self.smoothing_residual();
-        let (s, inv) = (&self.smoothing, &self.inverse_l1);
+        let (s, inv) = (&self.product, &self.inverse_l1);
         rows_mut(&mut self.preconditioned).for_each(|(c, block)| {
             for (l, z) in block.iter_mut().enumerate() {
                 let i = c * BLOCK + l;
@@ -383,7 +384,7 @@ impl TwoGridCg {
     /// `preconditioned` += $P(P^\top AP)^{-1}P^\top$(`residual` − A·`preconditioned`).
     fn coarse_correction(&mut self) {
         self.smoothing_residual();
-        self.p.restrict(&self.smoothing, &mut self.restricted);
+        self.p.restrict(&self.product, &mut self.restricted);
         let columns = self.coarse.solve_rows(&self.restricted, &mut self.coarse_rhs);
         let p = &self.p;
         rows_mut(&mut self.preconditioned).for_each(|(c, block)| {

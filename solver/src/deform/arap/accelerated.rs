@@ -60,13 +60,12 @@ impl AndersonRun {
 }
 
 /// What [`Arap::iterate_anderson`] needs besides the solver: the acceleration state and the
-/// flattened free positions $x_k$, $G(x_k)$ and the accelerated iterate.
+/// flattened free positions $x_k$ (replaced by the accelerated iterate) and $G(x_k)$.
 #[derive(Debug)]
 pub(super) struct AndersonWork {
     aa: crate::linalg::anderson::Anderson,
     x: Vec<f64>,
     g: Vec<f64>,
-    xa: Vec<f64>,
     /// $E(x, R(x))$ of the pose the last call ended on (its rotations are the current ones).
     energy: Option<f64>,
 }
@@ -88,7 +87,6 @@ impl Arap {
                 aa: crate::linalg::anderson::Anderson::new(window, dim),
                 x: vec![0.0; dim],
                 g: vec![0.0; dim],
-                xa: vec![0.0; dim],
                 energy: None,
             }),
         };
@@ -96,7 +94,7 @@ impl Arap {
             work.aa.reset();
             work.energy = None;
         }
-        let AndersonWork { aa, x, g, xa, energy: last_energy } = &mut *work;
+        let AndersonWork { aa, x, g, energy: last_energy } = &mut *work;
         let gather = |cur: &[[f64; 3]], out: &mut [f64]| {
             for (r, &v) in free.iter().enumerate() {
                 out[3 * r..3 * r + 3].copy_from_slice(&cur[v as usize]);
@@ -126,18 +124,18 @@ impl Arap {
             for r in 0..free.len() {
                 g[3 * r..3 * r + 3].copy_from_slice(&self.solved_row(r));
             }
-            aa.step(x, g, xa);
+            aa.step(x, g);
             // Smooth rotations are state: the fallback starts from those of x_k.
             self.save_rotations();
-            scatter(xa, &mut self.current);
+            scatter(x, &mut self.current);
             let t4 = Instant::now();
             stats.solve_ms += ms(t3, t4);
             let mut e = self.local_steps_energy(rotation_steps);
             let t6 = Instant::now();
             stats.local_ms += ms(t4, t6);
-            if e <= accepted {
-                std::mem::swap(x, xa);
-            } else {
+            // (A NaN energy is not accepted.)
+            let accept = e <= accepted;
+            if !accept {
                 // Safeguard: take the plain step instead and restart the history.
                 stats.rejected_steps += 1;
                 aa.reset();

@@ -146,11 +146,12 @@ pub struct Arap {
     order: VertexOrder,
     /// [`Arap::positions`], [`Arap::rotations`] and [`Arap::rest`] in mesh order, written when a
     /// call changes the pose ([`Arap::publish`]). The rotations' copy is made by the first
-    /// [`Arap::rotations`] and kept up from then on: a solver nobody asks for its rotations
-    /// (the coarse variant's full mesh, `deform`) keeps none (72 bytes a vertex).
+    /// [`Arap::rotations`] and kept up from then on, the rest's by the first [`Arap::rest`]: a
+    /// solver nobody asks for them (the coarse variant's full mesh, `deform`) keeps neither
+    /// (96 bytes a vertex).
     mesh_current: Vec<[f64; 3]>,
     mesh_rotations: std::sync::OnceLock<Vec<Mat3>>,
-    mesh_rest: Vec<[f64; 3]>,
+    mesh_rest: std::sync::OnceLock<Vec<[f64; 3]>>,
     /// Vertices per parallel task (`precompute::vertices_per_task`).
     task: usize,
     /// The token of the covariance pass's AVX2 build (`avx`), where detected (once); `None`:
@@ -240,9 +241,12 @@ impl Arap {
     }
 
     /// Rest positions `#V×3`.
-    #[expect(clippy::misnamed_getters, reason = "the mesh-order copy, not the internal one")]
     pub fn rest(&self) -> &[[f64; 3]] {
-        &self.mesh_rest
+        self.mesh_rest.get_or_init(|| {
+            let mut r = vec![[0.0; 3]; self.rest.len()];
+            self.order.scatter(&self.rest, &mut r);
+            r
+        })
     }
 
     /// Nonzeros of the Cholesky factor of $L_{FF}$, or of the level's Galerkin matrix where

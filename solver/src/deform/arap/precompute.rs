@@ -266,7 +266,7 @@ impl Arap {
             avx2: Avx2::detect(),
             mesh_current: mesh.positions().to_vec(),
             mesh_rotations: std::sync::OnceLock::new(),
-            mesh_rest: mesh.positions().to_vec(),
+            mesh_rest: std::sync::OnceLock::new(),
             anderson: None,
             refined_at: None,
             at_rest: true,

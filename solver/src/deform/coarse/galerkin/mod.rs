@@ -503,7 +503,9 @@ impl GalerkinCoarse {
             let plain = match &mut accelerated {
                 None => true,
                 Some(work) => {
-                    work.aa.step(&x, &rhs, &mut work.xa);
+                    // x stays for the move's size: the step extrapolates a copy.
+                    work.xa.copy_from_slice(&x);
+                    work.aa.step(&mut work.xa, &rhs);
                     // The rotations are state: the fallback starts from those of x.
                     work.rotations.clone_from(&self.rotations);
                     scatter(&self.free, &work.xa, &mut self.c);
