@@ -591,3 +591,49 @@ fn the_up_axis_is_chosen_saved_and_exported_upright() {
     assert_eq!(h.state().up_axis(), solver::animation::export::UpAxis::Z);
     assert!(!h.state().has_unsaved_changes());
 }
+
+/// In narrow windows the status bar stays one line (a second line would move the viewport):
+/// at 700 pixels the memory readout gives way and the last message is cut where the line ends,
+/// on the mesh's row, its whole text on hover; at 1000 all of it fits. The top bar wraps
+/// instead of cutting off Undo, Redo and `?`.
+#[test]
+fn a_narrow_window_keeps_the_status_bar_one_line_and_every_button() {
+    let narrow = Vec2::new(700.0, 640.0);
+    let builder = Harness::builder().with_size(narrow).with_render_cursor(false);
+    let mut h = builder.wgpu().build_eframe(|cc| {
+        let mesh_path = Some(test_mesh());
+        let options = app::editor::EditorOptions {
+            mesh_path,
+            deterministic_overlays: false,
+            config_dir: None,
+        };
+        EditorApp::new(cc, options)
+    });
+    step_until(&mut h, "the default asset", settled);
+    let info = h.state().info().expect("the load's message").to_owned();
+    let on_one_line = |h: &Harness<'_, EditorApp>, size: Vec2| {
+        let mesh = h.get_by_label_contains(" vertices, ").rect();
+        let r = h.get_by_label_contains(&info).rect();
+        assert!((r.center().y - mesh.center().y).abs() < 1.0, "\"{info}\" at {r:?}, {mesh:?}");
+        assert!(r.max.x <= size.x, "the message runs off the window: {r:?}");
+        for button in ["Undo", "Redo", "?"] {
+            let r = h.get_by_label(button).rect();
+            assert!(r.min.x >= 0.0 && r.max.x <= size.x, "{button} is cut off: {r:?}");
+        }
+    };
+    on_one_line(&h, narrow);
+    assert!(h.query_by_label_contains("MiB (peak").is_none(), "the memory took the line");
+    h.get_by_label_contains(&info).hover();
+    for _ in 0..10 {
+        h.step(); // the tooltip waits for the pointer to rest
+    }
+    let shown = h.get_all_by_label_contains(&info).count();
+    assert!(shown >= 2, "no tooltip with the whole message ({shown} labels)");
+    let wide = Vec2::new(1000.0, 640.0);
+    h.set_size(wide);
+    for _ in 0..3 {
+        h.step();
+    }
+    on_one_line(&h, wide);
+    assert!(h.query_by_label_contains("MiB (peak").is_some(), "no memory at 1000 pixels");
+}

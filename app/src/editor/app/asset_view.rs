@@ -136,15 +136,28 @@ impl EditorApp {
     }
 
     /// The toolbar's texture hint, *Load texture…* and up-axis choice.
+    /// Why the mesh shows no texture, where it shows none.
+    pub(super) fn no_texture_reason(&self) -> Option<&'static str> {
+        let scene = self.session.scene.as_ref()?;
+        if self.has_texture_shading() {
+            return None;
+        }
+        Some(if scene.layout.asset.uvs.is_empty() {
+            "no texture: the file has no material, vertex colours or texture coordinates"
+        } else {
+            "no texture: the file names no material (an OBJ without its .mtl?); load one"
+        })
+    }
+
     pub(super) fn asset_view_controls(&mut self, ui: &mut egui::Ui, ctx: &egui::Context) {
-        let Some(scene) = &self.session.scene else { return };
-        let has_uvs = !scene.layout.asset.uvs.is_empty();
-        if !self.has_texture_shading() {
-            let why = if has_uvs {
-                "no texture: the file names no material (an OBJ without its .mtl?); load one"
-            } else {
-                "no texture: the file has no material, vertex colours or texture coordinates"
-            };
+        if self.session.scene.is_none() {
+            return;
+        }
+        // Said where a texture can be loaded; a mesh without texture coordinates says why on
+        // its greyed Texture button only (a label there would say it in every frame).
+        if self.can_load_texture()
+            && let Some(why) = self.no_texture_reason()
+        {
             ui.weak("no texture").on_hover_text(why);
         }
         if self.can_load_texture()

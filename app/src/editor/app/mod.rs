@@ -34,6 +34,7 @@ mod selection;
 mod session;
 mod shortcuts;
 mod solvers;
+mod status_bar;
 mod viewport;
 
 use std::path::{Path, PathBuf};

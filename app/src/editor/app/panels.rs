@@ -1,5 +1,5 @@
 //! The panels around the viewports (menu, side panel with tool, groups, parts, pose, method
-//! and plot, status bar, timeline, windows) and the frame loop [`eframe::App::ui`] that polls the
+//! and plot, timeline, windows; the status bar is `status_bar.rs`) and the frame loop [`eframe::App::ui`] that polls the
 //! background work and lays them out.
 
 use std::time::{Duration, Instant};
@@ -457,97 +457,6 @@ impl EditorApp {
         }
     }
 
-    pub(super) fn status_bar(&mut self, ui: &mut egui::Ui) {
-        ui.horizontal_wrapped(|ui| {
-            if let Some(s) = &self.session.scene {
-                ui.label(format!(
-                    "{}: {} vertices, {} faces",
-                    s.path.file_name().map_or_else(
-                        || s.path.display().to_string(),
-                        |n| n.to_string_lossy().into_owned()
-                    ),
-                    s.mesh.n_vertices(),
-                    s.mesh.n_faces()
-                ));
-                for n in &s.notices {
-                    ui.separator();
-                    ui.colored_label(Color32::YELLOW, n);
-                }
-            } else {
-                ui.label("no mesh");
-            }
-            ui.separator();
-            // A spinner repaints every frame: not on a software adapter, where each frame of a
-            // dense mesh takes the cores the loading and the precomputation run on.
-            let animate = self.display.software_rendering.is_none();
-            if self.jobs.loading.is_some() {
-                if animate {
-                    ui.spinner();
-                }
-                ui.label("loading…");
-                ui.separator();
-            }
-            for h in self.solvers.iter() {
-                let status = h.try_status();
-                let waiting = status.as_ref().is_some_and(|s| s.settle_waiting_since.is_some());
-                let text = match status.as_ref().map(|s| &s.state) {
-                    Some(SolverState::Idle) => "idle (no handles)".to_string(),
-                    Some(SolverState::Factorizing { .. }) => "factorizing…".to_string(),
-                    Some(SolverState::Solving) => "solving".to_string(),
-                    Some(SolverState::Settling) if waiting => {
-                        "refining the pose (factoring a finer level)".to_string()
-                    }
-                    Some(SolverState::Settling) => "refining the pose".to_string(),
-                    Some(SolverState::Converged) => "converged".to_string(),
-                    Some(SolverState::Failed(e)) => format!("failed: {e}"),
-                    Some(SolverState::Panicked(e)) => format!("panicked, restarted: {e}"),
-                    None => "busy".to_string(),
-                };
-                if animate
-                    && matches!(
-                        status.as_ref().map(|s| &s.state),
-                        Some(SolverState::Factorizing { .. })
-                    )
-                {
-                    ui.spinner();
-                }
-                ui.label(format!("{}: {text}", h.slot.label()));
-                ui.separator();
-            }
-            let dropped: usize = self.solvers.views.iter().map(|v| v.dropped).sum();
-            if dropped > 0 {
-                ui.weak(format!("{dropped} stale frames dropped"));
-                ui.separator();
-            }
-            if !self.options.deterministic_overlays {
-                let stale =
-                    self.display.memory.is_none_or(|(t, _)| t.elapsed().as_secs_f32() >= 1.0);
-                if stale {
-                    self.display.memory = Some((Instant::now(), crate::memory::process_memory()));
-                }
-                if let Some((_, Some(m))) = self.display.memory {
-                    let text =
-                        format!("memory {:.0} MiB (peak {:.0} MiB)", m.resident_mib, m.peak_mib);
-                    ui.weak(text).on_hover_text("resident memory of the editor's process");
-                    ui.separator();
-                }
-            }
-            if let Some(name) = self.display.software_rendering.as_ref()
-                && !self.options.deterministic_overlays
-            {
-                ui.colored_label(Color32::YELLOW, "software rendering").on_hover_text(format!(
-                    "The window renders on {name}, on the CPU cores the solver needs: a dense \
-                     mesh draws a few frames a second. A GPU driver (Vulkan, Metal, DirectX 12 \
-                     or OpenGL) makes the viewport real-time."
-                ));
-                ui.separator();
-            }
-            if let Some(i) = &self.info {
-                ui.weak(i);
-            }
-        });
-    }
-
     pub(super) fn shortcuts_window(&mut self, ctx: &egui::Context) {
         let mut open = self.display.show_shortcuts;
         // Scrolls when the list is taller than the window (1280×800 at UI scale 2).
@@ -608,7 +517,8 @@ impl eframe::App for EditorApp {
         self.capture_tick(&ctx, frame);
 
         egui::Panel::top("menu").show(ui, |ui| {
-            ui.horizontal(|ui| {
+            // Wraps onto a second row in a narrow window rather than cut off Undo, Redo and `?`.
+            ui.horizontal_wrapped(|ui| {
                 ui.menu_button("File", |ui| {
                     if ui.button("Open mesh or scene…  Ctrl+O").clicked() {
                         self.start_dialog(&ctx, DialogKind::OpenMesh);
@@ -668,7 +578,8 @@ impl eframe::App for EditorApp {
                 ] {
                     let selected = self.display.shading == s && (textured || s == Shading::Clay);
                     let r = ui.add_enabled(textured, egui::Button::selectable(selected, label));
-                    if r.on_hover_text(hint).clicked() {
+                    let why = self.no_texture_reason().unwrap_or(hint);
+                    if r.on_hover_text(hint).on_disabled_hover_text(why).clicked() {
                         self.set_shading(s);
                     }
                 }
