@@ -46,8 +46,8 @@ impl Arap {
     /// $E(p', R)$ for the current pose and rotations.
     pub fn energy(&self) -> f64 {
         let membrane = match (&self.cells, self.membrane.as_deref()) {
-            (Cells::SpokesAndRims { cot, edges, .. }, Some(m)) => {
-                Some(m.energy(&self.current, &self.triangles, cot, edges))
+            (Cells::SpokesAndRims { tris, cot, edges, .. }, Some(m)) => {
+                Some(m.energy(&self.current, tris, cot, edges))
             }
             _ => None,
         };
@@ -60,8 +60,7 @@ impl Arap {
         let p = &self.rest;
         let rot = &self.rotations;
         match &self.cells {
-            Cells::SpokesAndRims { cot, edges, .. } => self
-                .triangles
+            Cells::SpokesAndRims { tris, cot, edges, .. } => tris
                 .par_iter()
                 .zip(cot.par_iter().zip(edges.par_iter()))
                 .with_min_len(2 * self.task)

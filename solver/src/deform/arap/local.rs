@@ -38,9 +38,9 @@ impl Arap {
     /// The triangle cells' local step ([`super::membrane`]), when the energy has them:
     /// returns their energy $E_T$ for the fitted rotations.
     pub(super) fn fit_membrane(&mut self) -> Option<f64> {
-        let Cells::SpokesAndRims { cot, edges, .. } = &self.cells else { return None };
+        let Cells::SpokesAndRims { tris, cot, edges, .. } = &self.cells else { return None };
         let m = self.membrane.as_deref_mut()?;
-        let sums = m.fit(&self.current, &self.triangles, cot, edges);
+        let sums = m.fit(&self.current, tris, cot, edges);
         Some(m.energy_from(sums))
     }
 

@@ -109,13 +109,15 @@ impl<T: Copy + Default> Csr<T> {
 /// The cells of the energy, with their weights.
 #[derive(Debug, Clone)]
 enum Cells {
-    /// Per face: half cotangents per corner and the rest edge opposite each corner
-    /// ($p_a - p_b$ for [`opposite_edge`](crate::geometry::cotan::opposite_edge)), for the energy. Per
-    /// vertex $i$, over $j \in$
-    /// one-ring$(i) \cup \{i\}$ (`ring`, sorted): the covariance coefficient $k_{ij}$ with
+    /// Per face (`tris`, internal numbering; the spokes cells keep no faces): half cotangents
+    /// per corner and the rest edge opposite each corner ($p_a - p_b$ for
+    /// [`opposite_edge`](crate::geometry::cotan::opposite_edge)), for the energy. Per vertex
+    /// $i$, over $j \in$ one-ring$(i) \cup \{i\}$ (`ring`, sorted): the covariance coefficient
+    /// $k_{ij}$ with
     /// $S_i = \sum_j k_{ij}\,(x_j - x_i)^\top$ and the rhs coefficient $u_{ij}$ with
     /// $b_i = \sum_j R_j\,u_{ij}$ (see `precompute::ring_coefficients`).
     SpokesAndRims {
+        tris: Vec<[u32; 3]>,
         cot: Vec<[f64; 3]>,
         edges: Vec<[[f64; 3]; 3]>,
         ring: Csr<u32>,
@@ -134,7 +136,6 @@ enum Cells {
 #[derive(Debug)]
 pub struct Arap {
     rest: Vec<[f64; 3]>,
-    triangles: Vec<[u32; 3]>,
     config: ArapConfig,
     cells: Cells,
     constraints: Constraints,

@@ -251,7 +251,6 @@ impl Arap {
             smooth,
             current: rest.clone(),
             rest,
-            triangles: tris.to_vec(),
             config: *config,
             cells,
             coupling,
@@ -309,7 +308,15 @@ fn cells(
                     *u = scale(*u, 1.0 - config.membrane);
                 }
             }
-            Cells::SpokesAndRims { cot, edges, ring, cov_coef, rhs_coef, edge_coef }
+            Cells::SpokesAndRims {
+                tris: tris.to_vec(),
+                cot,
+                edges,
+                ring,
+                cov_coef,
+                rhs_coef,
+                edge_coef,
+            }
         }
         Energy::Spokes | Energy::SmoothRotations => {
             let mut nb = Vec::with_capacity(2 * weights.len());

@@ -284,8 +284,8 @@ fn triangle_fits_in_closed_form_match_the_general_fit() {
         x[v as usize] = x[t0[0] as usize];
     }
     a.set_positions(&x);
-    let Cells::SpokesAndRims { cot, edges, .. } = &a.cells else { panic!("spokes and rims") };
-    let (tris, cur) = (&a.triangles, &a.current);
+    let Cells::SpokesAndRims { tris, cot, edges, .. } = &a.cells else { panic!("spokes and rims") };
+    let cur = &a.current;
     let mut fitted = 0.0;
     let expected: Vec<Mat3> = tris
         .iter()
