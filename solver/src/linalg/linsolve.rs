@@ -385,10 +385,11 @@ impl SpdFactor {
     /// factor has an elimination-tree split (module doc), every solve goes through it, three
     /// columns at a time (three contiguous columns in place, others through a copy); the result
     /// agrees with faer's to rounding, not bit for bit.
-    pub fn solve_in_place(&mut self, mut rhs: MatMut<'_, f64>) {
+    pub fn solve_in_place(&mut self, rhs: MatMut<'_, f64>) {
         let k = rhs.ncols();
         #[cfg(target_arch = "x86_64")]
         if let Some(t) = self.tree.as_mut() {
+            let mut rhs = rhs;
             fn col(m: MatMut<'_, f64>) -> Option<&mut [f64]> {
                 m.col_mut(0).try_as_col_major_mut().map(|c| c.as_slice_mut())
             }
@@ -404,20 +405,20 @@ impl SpdFactor {
             let n = rhs.nrows();
             self.tree_columns.resize(3 * n, 0.0);
             for first in (0..k).step_by(3) {
-                let cols = (first..k.min(first + 3)).collect::<Vec<_>>();
+                let width = (k - first).min(3);
                 let (a, rest) = self.tree_columns.split_at_mut(n);
                 let (b, c) = rest.split_at_mut(n);
                 let mut three = [a, b, c];
                 for (l, x) in three.iter_mut().enumerate() {
-                    match cols.get(l) {
-                        Some(&j) => x.iter_mut().enumerate().for_each(|(i, x)| *x = rhs[(i, j)]),
-                        None => x.fill(0.0),
+                    if l < width {
+                        x.iter_mut().enumerate().for_each(|(i, x)| *x = rhs[(i, first + l)]);
+                    } else {
+                        x.fill(0.0);
                     }
                 }
                 t.solve3(three);
-                for (l, &j) in cols.iter().enumerate() {
-                    let x = &self.tree_columns[l * n..(l + 1) * n];
-                    x.iter().enumerate().for_each(|(i, &x)| rhs[(i, j)] = x);
+                for (l, x) in self.tree_columns.chunks_exact(n).take(width).enumerate() {
+                    x.iter().enumerate().for_each(|(i, &x)| rhs[(i, first + l)] = x);
                 }
             }
             return;
