@@ -106,13 +106,15 @@ impl SymmetricRows {
 
 /// An interpolation $P$ from $m$ coarse unknowns to $n$ fine ones, each fine row a blend of at
 /// most three coarse ones (a fine vertex's barycentric weights on a level triangle), by rows
-/// and by columns.
+/// and by columns (indices and weights apart: no padding beside a `u32`).
 #[derive(Debug, Clone)]
 pub struct Interpolation {
-    rows: Vec<([u32; 3], [f64; 3])>,
-    /// Per coarse unknown, the (fine row, weight) pairs of its column.
+    corners: Vec<[u32; 3]>,
+    weights: Vec<[f64; 3]>,
+    /// Per coarse unknown, its column's fine rows and weights.
     column_offsets: Vec<usize>,
-    columns: Vec<(u32, f64)>,
+    column_rows: Vec<u32>,
+    column_weights: Vec<f64>,
 }
 
 impl Interpolation {
@@ -129,7 +131,9 @@ impl Interpolation {
             })
         };
         let (column_offsets, columns) = crate::geometry::topology::bucketed(m, pairs);
-        Interpolation { rows, column_offsets, columns }
+        let (column_rows, column_weights) = columns.into_iter().unzip();
+        let (corners, weights) = rows.into_iter().unzip();
+        Interpolation { corners, weights, column_offsets, column_rows, column_weights }
     }
 
     /// The coarse unknowns $m$.
@@ -138,15 +142,17 @@ impl Interpolation {
     }
 
     /// Coarse unknown `k`'s column: (fine row, weight).
-    fn column(&self, k: usize) -> &[(u32, f64)] {
-        &self.columns[self.column_offsets[k]..self.column_offsets[k + 1]]
+    fn column(&self, k: usize) -> impl Iterator<Item = (u32, f64)> + '_ {
+        let range = self.column_offsets[k]..self.column_offsets[k + 1];
+        let rows = self.column_rows[range.clone()].iter().copied();
+        rows.zip(self.column_weights[range].iter().copied())
     }
 
     /// $P^\top f$ into `out` (one entry per coarse unknown).
     pub fn restrict(&self, fine: &[[f64; 3]], out: &mut [[f64; 3]]) {
         out.par_iter_mut().enumerate().for_each(|(k, r)| {
             *r = [0.0; 3];
-            for &(i, w) in self.column(k) {
+            for (i, w) in self.column(k) {
                 let f = fine[i as usize];
                 *r = [r[0] + w * f[0], r[1] + w * f[1], r[2] + w * f[2]];
             }
@@ -156,7 +162,7 @@ impl Interpolation {
     /// $(Pc)_i$ for the coarse values `coarse` given as three columns `(x, y, z)`.
     #[inline]
     pub fn prolong_row(&self, i: usize, (x, y, z): (&[f64], &[f64], &[f64])) -> [f64; 3] {
-        let (corners, weights) = &self.rows[i];
+        let (corners, weights) = (&self.corners[i], &self.weights[i]);
         let mut v = [0.0; 3];
         for (&k, &a) in corners.iter().zip(weights) {
             let k = k as usize;
@@ -176,9 +182,9 @@ impl Interpolation {
             .into_par_iter()
             .map_init(Vec::new, |scratch: &mut Vec<(u32, f64)>, k| {
                 scratch.clear();
-                for &(i, p) in self.column(k) {
+                for (i, p) in self.column(k) {
                     row(i as usize, &mut |j, a| {
-                        let (corners, weights) = &self.rows[j];
+                        let (corners, weights) = (&self.corners[j], &self.weights[j]);
                         for (&l, &w) in corners.iter().zip(weights) {
                             if w != 0.0 && l as usize <= k {
                                 scratch.push((l, p * a * w));
