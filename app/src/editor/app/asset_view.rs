@@ -135,7 +135,6 @@ impl EditorApp {
         }
     }
 
-    /// The toolbar's texture hint, *Load texture…* and up-axis choice.
     /// Why the mesh shows no texture, where it shows none.
     pub(super) fn no_texture_reason(&self) -> Option<&'static str> {
         let scene = self.session.scene.as_ref()?;
@@ -149,6 +148,7 @@ impl EditorApp {
         })
     }
 
+    /// The toolbar's texture hint, *Load texture…* and up-axis choice.
     pub(super) fn asset_view_controls(&mut self, ui: &mut egui::Ui, ctx: &egui::Context) {
         if self.session.scene.is_none() {
             return;

@@ -1,6 +1,6 @@
 //! The panels around the viewports (menu, side panel with tool, groups, parts, pose, method
-//! and plot, timeline, windows; the status bar is `status_bar.rs`) and the frame loop [`eframe::App::ui`] that polls the
-//! background work and lays them out.
+//! and plot, timeline, windows; the status bar is `status_bar.rs`) and the frame loop
+//! [`eframe::App::ui`] that polls the background work and lays them out.
 
 use std::time::{Duration, Instant};
 

@@ -11,7 +11,8 @@ use crate::editor::solver_thread::SolverState;
 impl EditorApp {
     /// One line whatever the window's width (a status bar that wraps moves the viewport): the
     /// mesh, the solvers' states and the diagnostics first, then the load notices and the last
-    /// message, elided where the line ends, their whole text on hover.
+    /// message, elided where the line ends, their whole text on hover. Where the line is too
+    /// short for all of it, the memory readout is left out first.
     pub(super) fn status_bar(&mut self, ui: &mut egui::Ui) {
         ui.horizontal(|ui| {
             let notices: &[String] = match &self.session.scene {
