@@ -106,6 +106,12 @@ impl VertexOrder {
         }
     }
 
+    /// [`VertexOrder::scatter`] into a new vector: `values[to_internal[v]]` for each mesh
+    /// vertex `v`.
+    pub fn scattered<T: Copy>(&self, values: &[T]) -> Vec<T> {
+        self.to_internal.iter().map(|&i| values[i as usize]).collect()
+    }
+
     /// Internal per-vertex values back in mesh order: `out[to_mesh[i]] = values[i]`.
     pub fn scatter<T: Copy>(&self, values: &[T], out: &mut [T]) {
         for (&v, &x) in self.to_mesh.iter().zip(values) {
@@ -150,6 +156,7 @@ mod tests {
         let values: Vec<u32> = (0..n as u32).map(|v| v * 3).collect();
         let mut back = vec![0; n];
         order.scatter(&order.gather(&values), &mut back);
+        assert_eq!(order.scattered(&order.gather(&values)), values);
         assert_eq!(back, values);
         let mut internal = vec![0; n];
         order.gather_into(&values, &mut internal);

@@ -234,20 +234,12 @@ impl Arap {
     /// Per-vertex rotations $R_i$ of the last local step, in mesh order (the first call makes
     /// the copy, kept up from then on).
     pub fn rotations(&self) -> &[Mat3] {
-        self.mesh_rotations.get_or_init(|| {
-            let mut r = vec![IDENTITY; self.rotations.len()];
-            self.order.scatter(&self.rotations, &mut r);
-            r
-        })
+        self.mesh_rotations.get_or_init(|| self.order.scattered(&self.rotations))
     }
 
     /// Rest positions `#V×3`.
     pub fn rest(&self) -> &[[f64; 3]] {
-        self.mesh_rest.get_or_init(|| {
-            let mut r = vec![[0.0; 3]; self.rest.len()];
-            self.order.scatter(&self.rest, &mut r);
-            r
-        })
+        self.mesh_rest.get_or_init(|| self.order.scattered(&self.rest))
     }
 
     /// Nonzeros of the Cholesky factor of $L_{FF}$, or of the level's Galerkin matrix where
