@@ -2,7 +2,6 @@
 //!
 //! $A = P^\top L L^\top P$ (faer's sparse Cholesky with its fill-reducing AMD ordering).
 //! [`SpdFactor::new`] runs the symbolic analysis and the numeric factorization once;
-//! [`SpdFactor::refactor`] redoes only the numeric part for a matrix with the same pattern, and
 //! [`SpdFactor::with_pattern`] makes a new factor on a kept analysis ([`SpdPattern`]);
 //! [`SpdFactor::solve_in_place`] is a forward and a backward substitution on a `#rows×k` block.
 //!
@@ -14,7 +13,8 @@
 //! into two halves with a small top, on processors with AVX2, solves through `tree.rs` instead
 //! (at least 1024 rows): the two halves of the tree on two threads, three columns (ARAP's global
 //! step) in one vector register per row, other blocks three columns at a time. It keeps only
-//! the split's copy of the factor's values. The factorization itself may use rayon.
+//! the split's copy of the factor: faer's values and analysis are dropped. The factorization
+//! itself may use rayon.
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::sparse::linalg::SupernodalThreshold;
@@ -214,29 +214,40 @@ pub fn matrix_of(
 
 /// A Cholesky factorization of a sparse SPD matrix, reusable for many right-hand sides.
 pub struct SpdFactor {
-    /// The analysis, shared with an [`SpdPattern`] where the factor was made from one.
-    symbolic: Arc<SymbolicCholesky<usize>>,
-    /// faer's values of $L$; empty where `tree` holds them (a copy would be 8 bytes a stored
-    /// entry of memory no solve reads).
-    values: Vec<f64>,
-    solve_buffer: MemBuffer,
-    solve_split_buffer: MemBuffer,
-    solve_columns: usize,
-    /// Solves split along the elimination tree, three columns at a time (simplicial factors
-    /// of at least 1024 rows whose tree cuts in halves, on processors with AVX2); `None`:
-    /// faer's solve.
+    n: usize,
+    factor_nonzeros: usize,
+    solve: Solve,
+}
+
+/// What a factor's solves read.
+enum Solve {
+    /// faer's factor: its analysis, the values of $L$, and the two halves' workspaces for
+    /// `columns` right-hand sides.
+    Faer {
+        symbolic: Arc<SymbolicCholesky<usize>>,
+        values: Vec<f64>,
+        buffers: [MemBuffer; 2],
+        columns: usize,
+    },
+    /// Solves split along the elimination tree, three columns at a time (module doc), with
+    /// contiguous columns for a solve of other than three contiguous columns. faer's analysis
+    /// and values are dropped once the split holds its copy (12 bytes a stored entry no solve
+    /// reads): a factor is never refactored.
     #[cfg(target_arch = "x86_64")]
-    tree: Option<tree::TreeSplit>,
-    /// Contiguous columns for a solve through `tree` of other than three contiguous columns.
-    #[cfg(target_arch = "x86_64")]
-    tree_columns: Vec<f64>,
+    Split {
+        tree: Box<tree::TreeSplit>,
+        columns: Vec<f64>,
+        /// The analysis, kept in tests to tell a factor made on a kept pattern.
+        #[cfg(test)]
+        symbolic: Arc<SymbolicCholesky<usize>>,
+    },
 }
 
 impl std::fmt::Debug for SpdFactor {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("SpdFactor")
-            .field("n", &self.symbolic.nrows())
-            .field("factor_nonzeros", &self.factor_nonzeros())
+            .field("n", &self.n)
+            .field("factor_nonzeros", &self.factor_nonzeros)
             .finish()
     }
 }
@@ -254,7 +265,7 @@ impl SpdFactor {
 
     /// Symbolic analysis (AMD ordering, elimination tree) and numeric factorization of `a`.
     pub fn new(a: &SparseColMat<usize, f64>, layout: Layout) -> Result<Self, FactorError> {
-        Self::factor(Arc::new(analyze(a, layout)?), a)
+        Self::factor(Arc::new(analyze(a, layout)?), a, true)
     }
 
     /// The numeric factorization of `a` on `pattern`'s analysis, which is not redone; refused
@@ -266,67 +277,31 @@ impl SpdFactor {
         if !pattern.fits(a) {
             return Err(FactorError::Other("the matrix has another sparsity pattern".into()));
         }
-        Self::factor(Arc::clone(&pattern.symbolic), a)
+        Self::factor(Arc::clone(&pattern.symbolic), a, true)
     }
 
-    /// The numeric factorization of `a` on the analysis `symbolic` of its pattern.
+    /// The numeric factorization of `a` on the analysis `symbolic` of its pattern; split along
+    /// its elimination tree where `split` and the tree cuts (module doc).
     fn factor(
         symbolic: Arc<SymbolicCholesky<usize>>,
         a: &SparseColMat<usize, f64>,
+        split: bool,
     ) -> Result<Self, FactorError> {
-        // Values and the numeric workspace (the symbolic part is allocated already).
         let par = faer::get_global_parallelism();
-        let workspace = symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default());
-        let values = symbolic.len_val().saturating_mul(std::mem::size_of::<f64>());
-        let needed = values.saturating_add(workspace.size_bytes()) as u64;
+        let req = symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default());
+        let bytes = symbolic.len_val().saturating_mul(std::mem::size_of::<f64>());
+        let needed = bytes.saturating_add(req.size_bytes()) as u64;
         // Held until the factor's values are written (then `MemAvailable` shows them).
         let _reservation = RESERVATIONS.reserve(needed, available_memory())?;
-        let mut this = SpdFactor {
-            values: Vec::new(),
-            symbolic,
-            solve_buffer: MemBuffer::new(faer::dyn_stack::StackReq::EMPTY),
-            solve_split_buffer: MemBuffer::new(faer::dyn_stack::StackReq::EMPTY),
-            solve_columns: 0,
-            #[cfg(target_arch = "x86_64")]
-            tree: None,
-            #[cfg(target_arch = "x86_64")]
-            tree_columns: Vec::new(),
-        };
-        #[cfg(target_arch = "x86_64")]
-        if let Some(avx2) = crate::linalg::lanes::Avx2::detect()
-            && let faer::sparse::linalg::cholesky::SymbolicCholeskyRaw::Simplicial(l) =
-                this.symbolic.raw()
-        {
-            let identity: Vec<usize>;
-            let fwd = match this.symbolic.perm() {
-                Some(p) => p.arrays().0,
-                None => {
-                    identity = (0..l.nrows()).collect();
-                    &identity
-                }
-            };
-            this.tree = tree::TreeSplit::new(avx2, l.col_ptr(), l.row_idx(), fwd);
-        }
-        this.refactor(a)?;
-        Ok(this)
-    }
-
-    /// Numeric refactorization of a matrix with the same sparsity pattern as the one this
-    /// factor was made for ([`SpdFactor::new`], [`SpdFactor::with_pattern`]); the symbolic
-    /// analysis is reused. The pattern is not checked here (see [`SpdPattern::fits`]).
-    pub fn refactor(&mut self, a: &SparseColMat<usize, f64>) -> Result<(), FactorError> {
-        let par = faer::get_global_parallelism();
-        let mut values = std::mem::take(&mut self.values);
-        values.clear();
+        let mut values = Vec::new();
         values
-            .try_reserve_exact(self.symbolic.len_val())
+            .try_reserve_exact(symbolic.len_val())
             .map_err(|_| FactorError::Other("out of memory for the Cholesky factor".into()))?;
-        values.resize(self.symbolic.len_val(), 0.0);
-        let req = self.symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default());
+        values.resize(symbolic.len_val(), 0.0);
         let mut buf = MemBuffer::try_new(req).map_err(|_| {
             FactorError::Other("out of memory for the factorization workspace".into())
         })?;
-        self.symbolic
+        symbolic
             .factorize_numeric_llt(
                 &mut values,
                 a.as_ref(),
@@ -341,42 +316,67 @@ impl SpdFactor {
                     FactorError::NotPositiveDefinite { pivot: index }
                 }
             })?;
+        drop(buf);
+        let (n, factor_nonzeros) = (symbolic.nrows(), symbolic.len_val());
         #[cfg(target_arch = "x86_64")]
-        if let Some(t) = &mut self.tree {
-            // The split holds the values it solves with: faer's are dropped.
-            t.set_values(&values);
-            return Ok(());
+        if split
+            && let Some(avx2) = crate::linalg::lanes::Avx2::detect()
+            && let faer::sparse::linalg::cholesky::SymbolicCholeskyRaw::Simplicial(l) =
+                symbolic.raw()
+        {
+            let identity: Vec<usize>;
+            let fwd = match symbolic.perm() {
+                Some(p) => p.arrays().0,
+                None => {
+                    identity = (0..n).collect();
+                    &identity
+                }
+            };
+            if let Some(tree) = tree::TreeSplit::new(avx2, l.col_ptr(), l.row_idx(), fwd, &values) {
+                let solve = Solve::Split {
+                    tree: Box::new(tree),
+                    columns: Vec::new(),
+                    #[cfg(test)]
+                    symbolic,
+                };
+                return Ok(SpdFactor { n, factor_nonzeros, solve });
+            }
         }
-        self.values = values;
-        Ok(())
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = split;
+        let empty = || MemBuffer::new(faer::dyn_stack::StackReq::EMPTY);
+        let buffers = [empty(), empty()];
+        let solve = Solve::Faer { symbolic, values, buffers, columns: 0 };
+        Ok(SpdFactor { n, factor_nonzeros, solve })
     }
 
     /// Whether this factor was made on `pattern`'s analysis ([`SpdFactor::with_pattern`]).
     #[cfg(test)]
     pub(crate) fn is_shared_with(&self, pattern: &SpdPattern) -> bool {
-        Arc::ptr_eq(&self.symbolic, &pattern.symbolic)
+        match &self.solve {
+            Solve::Faer { symbolic, .. } | Solve::Split { symbolic, .. } => {
+                Arc::ptr_eq(symbolic, &pattern.symbolic)
+            }
+        }
     }
 
     /// Number of rows of the factored matrix.
     pub fn n(&self) -> usize {
-        self.symbolic.nrows()
+        self.n
     }
 
     /// Stored nonzeros of the Cholesky factor $L$ (a measure of the memory read per solve).
     pub fn factor_nonzeros(&self) -> usize {
-        self.symbolic.len_val()
+        self.factor_nonzeros
     }
 
     /// The elimination-tree split the three-column solve runs on, if this factor has one
     /// (module doc).
     pub fn split_sizes(&self) -> Option<SplitSizes> {
-        #[cfg(target_arch = "x86_64")]
-        {
-            self.tree.as_ref().map(|t| t.sizes())
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        {
-            None
+        match &self.solve {
+            #[cfg(target_arch = "x86_64")]
+            Solve::Split { tree, .. } => Some(tree.sizes()),
+            Solve::Faer { .. } => None,
         }
     }
 
@@ -387,64 +387,28 @@ impl SpdFactor {
     /// agrees with faer's to rounding, not bit for bit.
     pub fn solve_in_place(&mut self, rhs: MatMut<'_, f64>) {
         let k = rhs.ncols();
-        #[cfg(target_arch = "x86_64")]
-        if let Some(t) = self.tree.as_mut() {
-            let mut rhs = rhs;
-            fn col(m: MatMut<'_, f64>) -> Option<&mut [f64]> {
-                m.col_mut(0).try_as_col_major_mut().map(|c| c.as_slice_mut())
+        let (symbolic, values, buffers, columns) = match &mut self.solve {
+            #[cfg(target_arch = "x86_64")]
+            Solve::Split { tree, columns, .. } => return split_solve(tree, columns, rhs),
+            Solve::Faer { symbolic, values, buffers, columns } => {
+                (symbolic, values, buffers, columns)
             }
-            if (k, rhs.row_stride()) == (3, 1) {
-                let (a, rest) = rhs.split_at_col_mut(1);
-                let (b, c) = rest.split_at_col_mut(1);
-                if let (Some(a), Some(b), Some(c)) = (col(a), col(b), col(c)) {
-                    t.solve3([a, b, c]);
-                    return;
-                }
-                unreachable!("a row stride of 1 makes every column contiguous");
-            }
-            let n = rhs.nrows();
-            self.tree_columns.resize(3 * n, 0.0);
-            for first in (0..k).step_by(3) {
-                let width = (k - first).min(3);
-                let (a, rest) = self.tree_columns.split_at_mut(n);
-                let (b, c) = rest.split_at_mut(n);
-                let mut three = [a, b, c];
-                for (l, x) in three.iter_mut().enumerate() {
-                    if l < width {
-                        x.iter_mut().enumerate().for_each(|(i, x)| *x = rhs[(i, first + l)]);
-                    } else {
-                        x.fill(0.0);
-                    }
-                }
-                t.solve3(three);
-                for (l, x) in self.tree_columns.chunks_exact(n).take(width).enumerate() {
-                    x.iter().enumerate().for_each(|(i, &x)| rhs[(i, first + l)] = x);
-                }
-            }
-            return;
+        };
+        if k != *columns {
+            let req = || MemBuffer::new(symbolic.solve_in_place_scratch::<f64>(k, Par::Seq));
+            *buffers = [req(), req()];
+            *columns = k;
         }
-        if k != self.solve_columns {
-            self.solve_buffer =
-                MemBuffer::new(self.symbolic.solve_in_place_scratch::<f64>(k, Par::Seq));
-            self.solve_split_buffer =
-                MemBuffer::new(self.symbolic.solve_in_place_scratch::<f64>(k, Par::Seq));
-            self.solve_columns = k;
-        }
-        let llt = LltRef::<'_, usize, f64>::new(&self.symbolic, &self.values);
-        if k >= 2 && self.symbolic.nrows() >= 4096 && rayon::current_num_threads() > 1 {
+        let llt = LltRef::<'_, usize, f64>::new(symbolic, values);
+        let [ba, bb] = buffers;
+        if k >= 2 && self.n >= 4096 && rayon::current_num_threads() > 1 {
             let (a, b) = rhs.split_at_col_mut(k / 2 + k % 2);
-            let (ba, bb) = (&mut self.solve_buffer, &mut self.solve_split_buffer);
             rayon::join(
                 || llt.solve_in_place_with_conj(Conj::No, a, Par::Seq, MemStack::new(ba)),
                 || llt.solve_in_place_with_conj(Conj::No, b, Par::Seq, MemStack::new(bb)),
             );
         } else {
-            llt.solve_in_place_with_conj(
-                Conj::No,
-                rhs,
-                Par::Seq,
-                MemStack::new(&mut self.solve_buffer),
-            );
+            llt.solve_in_place_with_conj(Conj::No, rhs, Par::Seq, MemStack::new(ba));
         }
     }
 
@@ -469,6 +433,43 @@ impl SpdFactor {
         let (x, rest) = columns.split_at(n);
         let (y, z) = rest.split_at(n);
         (x, y, z)
+    }
+}
+
+/// [`SpdFactor::solve_in_place`] through the split `tree`: three contiguous columns in place,
+/// others three at a time through `columns`.
+#[cfg(target_arch = "x86_64")]
+fn split_solve(tree: &mut tree::TreeSplit, columns: &mut Vec<f64>, mut rhs: MatMut<'_, f64>) {
+    fn col(m: MatMut<'_, f64>) -> Option<&mut [f64]> {
+        m.col_mut(0).try_as_col_major_mut().map(|c| c.as_slice_mut())
+    }
+    let (n, k) = (rhs.nrows(), rhs.ncols());
+    if (k, rhs.row_stride()) == (3, 1) {
+        let (a, rest) = rhs.split_at_col_mut(1);
+        let (b, c) = rest.split_at_col_mut(1);
+        if let (Some(a), Some(b), Some(c)) = (col(a), col(b), col(c)) {
+            tree.solve3([a, b, c]);
+            return;
+        }
+        unreachable!("a row stride of 1 makes every column contiguous");
+    }
+    columns.resize(3 * n, 0.0);
+    for first in (0..k).step_by(3) {
+        let width = (k - first).min(3);
+        let (a, rest) = columns.split_at_mut(n);
+        let (b, c) = rest.split_at_mut(n);
+        let mut three = [a, b, c];
+        for (l, x) in three.iter_mut().enumerate() {
+            if l < width {
+                x.iter_mut().enumerate().for_each(|(i, x)| *x = rhs[(i, first + l)]);
+            } else {
+                x.fill(0.0);
+            }
+        }
+        tree.solve3(three);
+        for (l, x) in columns.chunks_exact(n).take(width).enumerate() {
+            x.iter().enumerate().for_each(|(i, &x)| rhs[(i, first + l)] = x);
+        }
     }
 }
 
@@ -599,9 +600,9 @@ mod tests {
     }
 
     /// The elimination-tree split (the global step's three columns on two threads) solves a
-    /// graph Laplacian plus a mass term as faer's solve does, to rounding, and also after a
-    /// numeric refactorization with other values. The graph is a triangulated 12 × 800 strip:
-    /// faer factors it simplicially (as it does the paper's meshes), and its tree cuts in halves.
+    /// graph Laplacian plus a mass term as faer's solve does, to rounding, for two mass terms.
+    /// The graph is a triangulated 12 × 800 strip: faer factors it simplicially (as it does the
+    /// paper's meshes), and its tree cuts in halves.
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn tree_split_matches_faer() {
@@ -633,23 +634,23 @@ mod tests {
             t.extend((0..n).map(|i| Triplet::new(i, i, shift * (1.0 + (i % 3) as f64))));
             SparseColMat::<usize, f64>::try_new_from_triplets(n, n, &t).unwrap()
         };
-        let mut f = SpdFactor::new(&laplacian(0.01), Layout::Simplicial).unwrap();
-        assert!(f.tree.as_ref().is_some_and(|t| t.rows_in_range()), "the strip's tree cuts");
-        // Every stored entry of the factor is in exactly one of the three parts.
-        let s = f.split_sizes().unwrap();
-        assert_eq!(s.forest_entries[0] + s.forest_entries[1] + s.top_entries, f.factor_nonzeros());
-        assert!(f.values.is_empty(), "faer's copy of the values is dropped");
-        // Three contiguous columns in place; five, and three columns of a row-major block,
-        // three at a time through a copy.
         let b = Mat::<f64>::from_fn(n, 5, |i, j| ((i * 7 + 3 * j) % 11) as f64 - 5.0);
         let row_major = b.transpose().to_owned();
         for shift in [0.01, 0.5] {
-            f.refactor(&laplacian(shift)).unwrap();
-            assert!(f.values.is_empty());
-            // The reference: faer's solve, on a factor made without a split.
-            let mut faer_only = SpdFactor::new(&laplacian(shift), Layout::Simplicial).unwrap();
-            faer_only.tree = None;
-            faer_only.refactor(&laplacian(shift)).unwrap();
+            let a = laplacian(shift);
+            let mut f = SpdFactor::new(&a, Layout::Simplicial).unwrap();
+            let Solve::Split { tree, .. } = &f.solve else { panic!("the strip's tree cuts") };
+            assert!(tree.rows_in_range());
+            // Every stored entry of the factor is in exactly one of the three parts.
+            let s = f.split_sizes().unwrap();
+            let entries = s.forest_entries[0] + s.forest_entries[1] + s.top_entries;
+            assert_eq!(entries, f.factor_nonzeros());
+            // Three contiguous columns in place; five, and three columns of a row-major block,
+            // three at a time through a copy. The reference: faer's solve, on a factor made
+            // without a split.
+            let analysis = Arc::new(analyze(&a, Layout::Simplicial).unwrap());
+            let mut faer_only = SpdFactor::factor(analysis, &a, false).unwrap();
+            assert!(matches!(faer_only.solve, Solve::Faer { .. }));
             let mut reference = b.clone();
             faer_only.solve_in_place(reference.as_mut());
             let scale = reference.norm_max();

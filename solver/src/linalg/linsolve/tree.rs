@@ -44,9 +44,6 @@ pub(super) struct TreeSplit {
     to_top: Vec<u32>,
     na: usize,
     nb: usize,
-    /// Where each stored entry of faer's factor goes in `values` (or the diagonal), so that a
-    /// numeric refactorization updates the copy without redoing the split.
-    value_map: Vec<u32>,
     x: Vec<[f64; 4]>,
     acc: [Vec<[f64; 4]>; 2],
 }
@@ -59,22 +56,21 @@ pub(super) struct TreeSplit {
 /// was 4096. Below 1024 rows it was not measured.
 const MIN_ROWS: usize = 1024;
 
-/// A stored entry of faer's factor that is a diagonal: `value_map` marks it with this bit.
-const DIAGONAL: u32 = 1 << 31;
-
 impl TreeSplit {
     /// The split of the factor with columns `col_ptr`/`row_idx` (faer's simplicial layout,
-    /// diagonal first, rows ascending) and fill-reducing permutation `fwd` (row `i` of the
-    /// factored system is row `fwd[i]` of the original), or `None` when the tree does not cut
-    /// into two halves with a small top, or the layout is not the expected one.
+    /// diagonal first, rows ascending), `values` and fill-reducing permutation `fwd` (row `i`
+    /// of the factored system is row `fwd[i]` of the original), or `None` when the tree does
+    /// not cut into two halves with a small top, or the layout is not the expected one.
     pub(super) fn new(
         avx2: Avx2,
         col_ptr: &[usize],
         row_idx: &[usize],
         fwd: &[usize],
+        values: &[f64],
     ) -> Option<TreeSplit> {
         let n = col_ptr.len().checked_sub(1)?;
-        if n < MIN_ROWS || n >= (DIAGONAL as usize) || row_idx.len() >= (DIAGONAL as usize) {
+        let fits = |len: usize| u32::try_from(len).is_ok();
+        if n < MIN_ROWS || !fits(n) || !fits(row_idx.len()) || values.len() != row_idx.len() {
             return None;
         }
         const NONE: usize = usize::MAX;
@@ -181,13 +177,14 @@ impl TreeSplit {
         let top_start = na + nb;
         let mut new_col_ptr = Vec::with_capacity(n + 1);
         let mut new_rows = Vec::with_capacity(row_idx.len() - n);
-        let mut value_map = vec![0u32; row_idx.len()];
+        let mut new_values = Vec::with_capacity(row_idx.len() - n);
+        let mut inv_diag = vec![0.0; n];
         let mut to_top = Vec::with_capacity(top_start);
         new_col_ptr.push(0u32);
         let mut entries: Vec<(u32, usize)> = Vec::new();
         for (k, &j) in order.iter().enumerate() {
             let (lo, hi) = (col_ptr[j], col_ptr[j + 1]);
-            value_map[lo] = DIAGONAL | k as u32;
+            inv_diag[k] = 1.0 / values[lo];
             entries.clear();
             entries.extend((lo + 1..hi).map(|p| (new_of[row_idx[p]] as u32, p)));
             entries.sort_unstable();
@@ -196,8 +193,8 @@ impl TreeSplit {
             }
             let base = new_rows.len();
             for &(r, p) in &entries {
-                value_map[p] = new_rows.len() as u32;
                 new_rows.push(r);
+                new_values.push(values[p]);
             }
             if k < top_start {
                 let own = if k < na { 0..na } else { na..top_start };
@@ -214,13 +211,12 @@ impl TreeSplit {
             avx2,
             src,
             col_ptr: new_col_ptr,
-            values: vec![0.0; new_rows.len()],
+            values: new_values,
             row_idx: new_rows,
-            inv_diag: vec![0.0; n],
+            inv_diag,
             to_top,
             na,
             nb,
-            value_map,
             x: vec![[0.0; 4]; n],
             acc: [vec![[0.0; 4]; n - top_start], vec![[0.0; 4]; n - top_start]],
         };
@@ -258,17 +254,6 @@ impl TreeSplit {
                 && self.row_idx[lo..mid].iter().all(|&r| own.contains(&(r as usize)))
                 && self.row_idx[mid..hi].iter().all(|&r| (top..n).contains(&(r as usize)))
         }) && self.values.len() == self.row_idx.len()
-    }
-
-    /// Copies the numeric values of faer's factor (same layout as given to [`TreeSplit::new`]).
-    pub(super) fn set_values(&mut self, values: &[f64]) {
-        for (&m, &v) in self.value_map.iter().zip(values) {
-            if m & DIAGONAL != 0 {
-                self.inv_diag[(m & !DIAGONAL) as usize] = 1.0 / v;
-            } else {
-                self.values[m as usize] = v;
-            }
-        }
     }
 
     /// Solves for the three columns of `rhs` (`n×3`, column-major, each column contiguous),
