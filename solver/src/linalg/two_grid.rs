@@ -27,6 +27,7 @@
 use crate::linalg::linsolve::{FactorError, Layout, SpdFactor};
 use faer::sparse::Triplet;
 use rayon::prelude::*;
+use std::sync::Arc;
 
 /// ℓ1-Jacobi sweeps before and after the coarse correction (module doc).
 pub const SMOOTHING_SWEEPS: usize = 1;
@@ -141,6 +142,11 @@ impl Interpolation {
         self.column_offsets.len() - 1
     }
 
+    /// The fine rows $n$.
+    pub fn fine_len(&self) -> usize {
+        self.corners.len()
+    }
+
     /// Coarse unknown `k`'s column: (fine row, weight).
     fn column(&self, k: usize) -> impl Iterator<Item = (u32, f64)> + '_ {
         let range = self.column_offsets[k]..self.column_offsets[k + 1];
@@ -150,9 +156,21 @@ impl Interpolation {
 
     /// $P^\top f$ into `out` (one entry per coarse unknown).
     pub fn restrict(&self, fine: &[[f64; 3]], out: &mut [[f64; 3]]) {
+        self.restrict_rows(fine, out, Some);
+    }
+
+    /// $P^\top f$ over the rows of $P$ that `fine` has: fine row $i$ of $P$ is `fine[at(i)]`,
+    /// or not in `fine` (`None`).
+    fn restrict_rows(
+        &self,
+        fine: &[[f64; 3]],
+        out: &mut [[f64; 3]],
+        at: impl Fn(u32) -> Option<u32> + Sync,
+    ) {
         out.par_iter_mut().enumerate().for_each(|(k, r)| {
             *r = [0.0; 3];
             for (i, w) in self.column(k) {
+                let Some(i) = at(i) else { continue };
                 let f = fine[i as usize];
                 *r = [r[0] + w * f[0], r[1] + w * f[1], r[2] + w * f[2]];
             }
@@ -220,7 +238,11 @@ pub struct TwoGridCg {
     a: SymmetricRows,
     /// $1/(D_1)_{ii}$ (module doc).
     inverse_l1: Vec<f64>,
-    p: Interpolation,
+    /// $P$, perhaps on more rows than $A$'s and shared (an interpolation onto every vertex
+    /// whose free ones are $A$'s rows).
+    p: Arc<Interpolation>,
+    /// $A$'s rows among $P$'s, where $P$ has more.
+    rows: Option<Rows>,
     coarse: SpdFactor,
     /// The coarse right-hand sides, column-major `m×3`, then in place the solution.
     coarse_rhs: Vec<f64>,
@@ -242,17 +264,53 @@ impl std::fmt::Debug for TwoGridCg {
     }
 }
 
+/// Where $A$'s rows are among $P$'s: $A$'s row $r$ is $P$'s row `of_a[r]`, and $P$'s row $i$
+/// is $A$'s row `of_p[i]` ([`Rows::NONE`]: not one of $A$'s).
+struct Rows {
+    of_a: Vec<u32>,
+    of_p: Vec<u32>,
+}
+
+impl Rows {
+    const NONE: u32 = u32::MAX;
+}
+
 impl TwoGridCg {
     /// For the matrix `a` and the interpolation `p` onto its rows; factors the Galerkin
     /// matrix (a coarse unknown whose column is empty gets a tiny diagonal, and a zero
     /// correction).
     pub fn new(a: SymmetricRows, p: Interpolation) -> Result<TwoGridCg, FactorError> {
+        let rows: Vec<u32> = (0..a.n() as u32).collect();
+        TwoGridCg::on_rows(a, Arc::new(p), &rows)
+    }
+
+    /// As [`TwoGridCg::new`] with `p` on more rows than `a`'s: row $r$ of `a` is row
+    /// `rows[r]` of `p` (ascending). The same iterates as [`TwoGridCg::new`] with $P$'s rows
+    /// `rows` alone, bit for bit, and `p` may be shared.
+    pub fn on_rows(
+        a: SymmetricRows,
+        p: Arc<Interpolation>,
+        rows: &[u32],
+    ) -> Result<TwoGridCg, FactorError> {
         let n = a.n();
         let m = p.coarse_len();
+        assert!(rows.len() == n && rows.windows(2).all(|w| w[0] < w[1]), "ascending rows of P");
+        assert!(rows.last().is_none_or(|&i| (i as usize) < p.fine_len()), "rows of P");
+        let rows = (p.fine_len() != n).then(|| {
+            let mut of_p = vec![Rows::NONE; p.fine_len()];
+            rows.iter().enumerate().for_each(|(r, &i)| of_p[i as usize] = r as u32);
+            Rows { of_a: rows.to_vec(), of_p }
+        });
+        let of_a = |r: u32| rows.as_ref().map_or(r, |m| m.of_a[r as usize]);
+        let of_p = |i: usize| match &rows {
+            None => Some(i),
+            Some(m) => Some(m.of_p[i]).filter(|&r| r != Rows::NONE).map(|r| r as usize),
+        };
         let mut triplets = p.galerkin(|i, add| {
-            add(i, a.diagonal[i]);
-            for (j, v) in a.row(i) {
-                add(j as usize, v);
+            let Some(r) = of_p(i) else { return };
+            add(i, a.diagonal[r]);
+            for (j, v) in a.row(r) {
+                add(of_a(j) as usize, v);
             }
         });
         let scale = a.diagonal.iter().fold(0.0f64, |s, &d| s.max(d.abs()));
@@ -270,6 +328,7 @@ impl TwoGridCg {
             a,
             inverse_l1,
             p,
+            rows,
             coarse,
             coarse_rhs: vec![0.0; 3 * m],
             restricted: vec![[0.0; 3]; m],
@@ -390,12 +449,20 @@ impl TwoGridCg {
     /// `preconditioned` += $P(P^\top AP)^{-1}P^\top$(`residual` − A·`preconditioned`).
     fn coarse_correction(&mut self) {
         self.smoothing_residual();
-        self.p.restrict(&self.product, &mut self.restricted);
+        match &self.rows {
+            None => self.p.restrict(&self.product, &mut self.restricted),
+            Some(rows) => {
+                let at = |i: u32| Some(rows.of_p[i as usize]).filter(|&r| r != Rows::NONE);
+                self.p.restrict_rows(&self.product, &mut self.restricted, at);
+            }
+        }
         let columns = self.coarse.solve_rows(&self.restricted, &mut self.coarse_rhs);
-        let p = &self.p;
+        let (p, rows) = (&self.p, &self.rows);
         rows_mut(&mut self.preconditioned).for_each(|(c, block)| {
             for (l, z) in block.iter_mut().enumerate() {
-                let e = p.prolong_row(c * BLOCK + l, columns);
+                let r = c * BLOCK + l;
+                let i = rows.as_ref().map_or(r, |m| m.of_a[r] as usize);
+                let e = p.prolong_row(i, columns);
                 *z = [z[0] + e[0], z[1] + e[1], z[2] + e[2]];
             }
         });
@@ -503,5 +570,44 @@ mod tests {
         let scale = want.iter().fold(0.0f64, |s, v| s.max(v.abs()));
         assert!(err <= 1e-6 * scale, "{err} against {scale}");
         assert!(total < 40, "{total} iterations for {n} unknowns");
+    }
+
+    /// A solver on some rows of a shared interpolation ([`TwoGridCg::on_rows`]: the free rows
+    /// of one made for every vertex) takes the same iterates, bit for bit, as one made on
+    /// those rows of it alone ([`TwoGridCg::new`]).
+    #[test]
+    fn a_solver_on_rows_of_a_shared_interpolation_is_the_same_solver() {
+        let n = 300;
+        let m = n / 3;
+        let row = |i: usize| {
+            let t = (i as f64 - 1.0) / 3.0;
+            let k = t.floor().clamp(0.0, (m - 2) as f64);
+            let w = (t - k).clamp(0.0, 1.0);
+            ([k as u32, k as u32 + 1, 0], [1.0 - w, w, 0.0])
+        };
+        // Every seventh row and the two ends held: the 1-D Laplacian on the others.
+        let rows: Vec<u32> = (0..n as u32).filter(|&i| i % 7 != 3 && i != 0).collect();
+        let index = |i: u32| rows.binary_search(&i).ok();
+        let mut lower = Vec::new();
+        for (r, &i) in rows.iter().enumerate() {
+            lower.push(Triplet::new(r, r, 2.0 + 0.01 * (i % 5) as f64));
+            if let Some(q) = i.checked_sub(1).and_then(index) {
+                lower.push(Triplet::new(r, q, -1.0));
+            }
+        }
+        let a = SymmetricRows::from_lower(rows.len(), &lower);
+        let alone = Interpolation::new(rows.iter().map(|&i| row(i as usize)).collect(), m);
+        let shared = Arc::new(Interpolation::new((0..n).map(row).collect(), m));
+        let b: Vec<[f64; 3]> = (0..rows.len())
+            .map(|r| [1.0, (r as f64 * 0.1).sin(), if r == 40 { 5.0 } else { 0.0 }])
+            .collect();
+        let mut new = TwoGridCg::new(a.clone(), alone).unwrap();
+        let mut on_rows = TwoGridCg::on_rows(a, Arc::clone(&shared), &rows).unwrap();
+        let (mut x, mut y) = (vec![[0.0; 3]; rows.len()], vec![[0.0; 3]; rows.len()]);
+        for _ in 0..3 {
+            let (s, t) = (new.solve(|r| b[r], &mut x), on_rows.solve(|r| b[r], &mut y));
+            assert!(s.iterations > 0 && s == t);
+            assert_eq!(x, y);
+        }
     }
 }

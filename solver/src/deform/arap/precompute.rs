@@ -6,7 +6,7 @@
 
 use super::global::{GlobalSolve, GlobalStep};
 use super::membrane::Membrane;
-use super::rotation_solve::RotationStep;
+use super::rotation_solve::{RotationStep, level_interpolation};
 use super::smooth_rotations::SmoothRotations;
 use super::{Arap, ArapConfig, Cells, Csr, Energy, Soft, corner_edges};
 use crate::deform::constraints::Constraints;
@@ -20,9 +20,9 @@ use crate::geometry::reorder::VertexOrder;
 use crate::linalg::lanes::Avx2;
 use crate::linalg::linsolve::{Layout, SpdFactor};
 use crate::linalg::rotation::{IDENTITY, LANES};
-use crate::linalg::two_grid::{Interpolation, SymmetricRows, TwoGridCg};
+use crate::linalg::two_grid::{SymmetricRows, TwoGridCg};
 use faer::sparse::Triplet;
-use rayon::prelude::*;
+use std::sync::Arc;
 
 /// Vertices per parallel task for a mesh of `n` vertices: a sixteenth of the mesh, between
 /// 256 and 2048, a multiple of [`LANES`]. Sixteen tasks balance two threads (a 6,669-vertex mesh
@@ -170,22 +170,27 @@ impl Arap {
         });
         ff.extend(diag.iter().enumerate().map(|(r, &d)| Triplet::new(r, r, d)));
         let n_free = inner.free_vertices.len();
+        // One interpolation from the level onto every vertex where both steps solve on it (the
+        // global step's rows its free ones).
+        let step_p = step_level.map(|l| level_interpolation(l, &order.to_mesh));
+        let global_p = global_level.map(|l| match (step_level, &step_p) {
+            (Some(s), Some(p)) if std::ptr::eq(s, l) => Arc::clone(p),
+            _ => level_interpolation(l, &order.to_mesh),
+        });
         let factor_free_block = || {
             if n_free == 0 {
                 return Ok(None);
             }
-            let (solve, matrix) = match global_level {
+            let (solve, matrix) = match global_p {
                 None => (
                     SpdFactor::from_triplets(n_free, &ff, Layout::Simplicial)
                         .map(|f| GlobalSolve::Factor(Box::new(f))),
                     "the free block of the cotangent Laplacian",
                 ),
-                Some(level) => {
-                    let rows = inner.free_vertices.par_iter();
-                    let rows = rows.map(|&v| level.interpolate(order.to_mesh[v as usize] as usize));
-                    let p = Interpolation::new(rows.collect(), level.mesh.n_vertices());
+                Some(p) => {
                     let a = SymmetricRows::from_lower(n_free, &ff);
-                    let solve = TwoGridCg::new(a, p).map(|solver| GlobalSolve::TwoGrid {
+                    let solve = TwoGridCg::on_rows(a, p, &inner.free_vertices);
+                    let solve = solve.map(|solver| GlobalSolve::TwoGrid {
                         solver: Box::new(solver),
                         x: vec![[0.0; 3]; n_free],
                         iterations: 0,
@@ -201,8 +206,7 @@ impl Arap {
                 let smooth = match &cells {
                     Cells::Spokes { neighbours } if smooth => {
                         let ell = config.bending_length * mesh.bbox_diagonal();
-                        let level = step_level.map(|l| (l, &order.to_mesh[..]));
-                        let sr = SmoothRotations::new(neighbours, &rest, ell, level).map_err(
+                        let sr = SmoothRotations::new(neighbours, &rest, ell, step_p).map_err(
                             |source| SolveError::Factorization {
                                 matrix: "the rotation-smoothness Laplacian",
                                 source,

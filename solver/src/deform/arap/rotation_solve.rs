@@ -51,6 +51,7 @@ use crate::linalg::rotation::{Mat3, axis_angle, mul_mat};
 use crate::linalg::two_grid;
 use faer::sparse::Triplet;
 use rayon::prelude::*;
+use std::sync::Arc;
 
 /// Where the implicit step solves ([`super::Arap::with_constraints`]; ignored by the other
 /// energies).
@@ -85,7 +86,7 @@ pub(super) struct RotationSolve {
 
 /// $P$ of the module doc (rows in the internal numbering) and the restriction's buffer.
 struct Level {
-    p: two_grid::Interpolation,
+    p: Arc<two_grid::Interpolation>,
     /// $-P^\top g$ per level vertex (kept to reuse its memory).
     restricted: Vec<[f64; 3]>,
 }
@@ -133,15 +134,27 @@ pub(super) fn minus_gradient(
     v.map(|c| -c)
 }
 
+/// $P$ of the module doc: every vertex of the mesh (internal numbering, `to_mesh` the mesh
+/// vertex of each) interpolated from `level`'s vertices. The global step's two-grid solver
+/// shares it where it solves on the same level (its rows the free vertices).
+pub(super) fn level_interpolation(
+    level: &LevelEmbedding,
+    to_mesh: &[u32],
+) -> Arc<two_grid::Interpolation> {
+    let rows = to_mesh.par_iter().map(|&v| level.interpolate(v as usize)).collect();
+    Arc::new(two_grid::Interpolation::new(rows, level.mesh.n_vertices()))
+}
+
 impl RotationSolve {
     /// For the spokes `neighbours` (weights $w_{ij}$), the rest values `masses` $m_i$ of
-    /// $\operatorname{tr}(R_iS_i)$ (module doc) and $\beta$; on `level` when given, with
-    /// `to_mesh` the mesh vertex of each internal one.
+    /// $\operatorname{tr}(R_iS_i)$ (module doc) and $\beta$; on a level when given its
+    /// interpolation `level` onto every vertex (internal numbering,
+    /// [`level_interpolation`]).
     pub(super) fn new(
         neighbours: &Csr<(u32, f64)>,
         masses: &[f64],
         beta: f64,
-        level: Option<(&LevelEmbedding, &[u32])>,
+        level: Option<Arc<two_grid::Interpolation>>,
     ) -> Result<RotationSolve, FactorError> {
         let n = masses.len();
         let diagonal: Vec<f64> = masses
@@ -169,10 +182,8 @@ impl RotationSolve {
                 }
                 (n, triplets, None)
             }
-            Some((level, to_mesh)) => {
-                let rows = to_mesh.par_iter().map(|&v| level.interpolate(v as usize)).collect();
-                let m = level.mesh.n_vertices();
-                let p = two_grid::Interpolation::new(rows, m);
+            Some(p) => {
+                let m = p.coarse_len();
                 let mut triplets = p.galerkin(|i, add| {
                     add(i, diagonal[i]);
                     for &(j, w) in neighbours.row(i) {

@@ -73,13 +73,14 @@
 
 use super::rotation_solve::{self, RotationSolve};
 use super::{Arap, Cells, Csr};
-use crate::geometry::level::LevelEmbedding;
 use crate::geometry::mesh::{norm2, sub};
 use crate::linalg::linsolve::FactorError;
 use crate::linalg::rotation::{
     IDENTITY, LANES, Mat3, fit_rotation_near, fit_rotations_near, trace_of_product,
 };
+use crate::linalg::two_grid::Interpolation;
 use rayon::prelude::*;
+use std::sync::Arc;
 
 /// The state of the rotation term: $\beta$, the colour classes and the buffers of one local
 /// step.
@@ -107,13 +108,13 @@ pub(crate) struct SmoothRotations {
 
 impl SmoothRotations {
     /// For `n` vertices with the spokes `neighbours` and bending length `ell` in world units.
-    /// `rest` holds the rest positions (internal numbering); the implicit step solves on
-    /// `level` when given ([`RotationSolve::new`]).
+    /// `rest` holds the rest positions (internal numbering); the implicit step solves on a
+    /// level when given its interpolation `level` ([`RotationSolve::new`]).
     pub(super) fn new(
         neighbours: &Csr<(u32, f64)>,
         rest: &[[f64; 3]],
         ell: f64,
-        level: Option<(&LevelEmbedding, &[u32])>,
+        level: Option<Arc<Interpolation>>,
     ) -> Result<SmoothRotations, FactorError> {
         let masses: Vec<f64> = (0..rest.len())
             .map(|i| {
@@ -132,7 +133,7 @@ impl SmoothRotations {
         neighbours: &Csr<(u32, f64)>,
         masses: &[f64],
         ell: f64,
-        level: Option<(&LevelEmbedding, &[u32])>,
+        level: Option<Arc<Interpolation>>,
     ) -> Result<SmoothRotations, FactorError> {
         let n = masses.len();
         let colours = colour_classes(n, neighbours);
