@@ -285,8 +285,9 @@ impl TwoGridCg {
     }
 
     /// As [`TwoGridCg::new`] with `p` on more rows than `a`'s: row $r$ of `a` is row
-    /// `rows[r]` of `p` (ascending). The same iterates as [`TwoGridCg::new`] with $P$'s rows
-    /// `rows` alone, bit for bit, and `p` may be shared.
+    /// `rows[r]` of `p`. The same iterates as [`TwoGridCg::new`] with $P$'s rows `rows` alone,
+    /// bit for bit, and `p` may be shared. Panics unless `rows` has `a`'s length and ascends
+    /// within `p`'s rows.
     pub fn on_rows(
         a: SymmetricRows,
         p: Arc<Interpolation>,
