@@ -353,11 +353,12 @@ impl SpdFactor {
     /// Whether this factor was made on `pattern`'s analysis ([`SpdFactor::with_pattern`]).
     #[cfg(test)]
     pub(crate) fn is_shared_with(&self, pattern: &SpdPattern) -> bool {
-        match &self.solve {
-            Solve::Faer { symbolic, .. } | Solve::Split { symbolic, .. } => {
-                Arc::ptr_eq(symbolic, &pattern.symbolic)
-            }
-        }
+        let symbolic = match &self.solve {
+            Solve::Faer { symbolic, .. } => symbolic,
+            #[cfg(target_arch = "x86_64")]
+            Solve::Split { symbolic, .. } => symbolic,
+        };
+        Arc::ptr_eq(symbolic, &pattern.symbolic)
     }
 
     /// Number of rows of the factored matrix.

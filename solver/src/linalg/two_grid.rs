@@ -273,6 +273,11 @@ struct Rows {
 
 impl Rows {
     const NONE: u32 = u32::MAX;
+
+    /// $A$'s row of $P$'s row `i`, if it is one of $A$'s.
+    fn of_p(&self, i: u32) -> Option<u32> {
+        Some(self.of_p[i as usize]).filter(|&r| r != Rows::NONE)
+    }
 }
 
 impl TwoGridCg {
@@ -305,7 +310,7 @@ impl TwoGridCg {
         let of_a = |r: u32| rows.as_ref().map_or(r, |m| m.of_a[r as usize]);
         let of_p = |i: usize| match &rows {
             None => Some(i),
-            Some(m) => Some(m.of_p[i]).filter(|&r| r != Rows::NONE).map(|r| r as usize),
+            Some(m) => m.of_p(i as u32).map(|r| r as usize),
         };
         let mut triplets = p.galerkin(|i, add| {
             let Some(r) = of_p(i) else { return };
@@ -453,8 +458,7 @@ impl TwoGridCg {
         match &self.rows {
             None => self.p.restrict(&self.product, &mut self.restricted),
             Some(rows) => {
-                let at = |i: u32| Some(rows.of_p[i as usize]).filter(|&r| r != Rows::NONE);
-                self.p.restrict_rows(&self.product, &mut self.restricted, at);
+                self.p.restrict_rows(&self.product, &mut self.restricted, |i| rows.of_p(i))
             }
         }
         let columns = self.coarse.solve_rows(&self.restricted, &mut self.coarse_rhs);
