@@ -9,6 +9,8 @@
 //! whether the reader accepted its input, which the replay test uses to check that its inputs
 //! reach both the accepting and the refusing paths.
 
+pub mod seeds;
+
 use std::ops::ControlFlow;
 use std::sync::OnceLock;
 
