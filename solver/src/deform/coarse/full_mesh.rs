@@ -5,7 +5,7 @@
 //! meanwhile. Where the base has a fairing level (a dense mesh's, [`FineLevel::full_mesh`]),
 //! the full mesh's global step and, on smooth rotations, its implicit rotation step solve on
 //! that level (`GlobalStep::TwoGrid` in `arap/global.rs`): nothing of the full mesh's size
-//! is factored (at 1.5M vertices settling peaked at 5959 MiB with its factor against 2501–2508
+//! is factored (at 1.5M vertices settling peaked at 5959 MiB with its factor against 2434–2459
 //! without, and the factorization took two minutes), only two Galerkin matrices of the
 //! level's; elsewhere both steps solve as in [`Arap::new`].
 //!
