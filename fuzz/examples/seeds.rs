@@ -2,7 +2,7 @@
 //! fuzzing run starts from real files:
 //!
 //!     cargo run -p solver-fuzz --example seeds     # fills fuzz/corpus/NAME/
-//!     cd fuzz && cargo +nightly fuzz run gltf -- -max_total_time=300
+//!     cd fuzz && cargo +nightly fuzz run -O gltf -- -max_total_time=300
 //!
 //! An optional argument names another corpus root.
 
