@@ -281,33 +281,33 @@ impl Rows {
 }
 
 impl TwoGridCg {
-    /// For the matrix `a` and the interpolation `p` onto its rows; factors the Galerkin
-    /// matrix (a coarse unknown whose column is empty gets a tiny diagonal, and a zero
-    /// correction).
-    pub fn new(a: SymmetricRows, p: Interpolation) -> Result<TwoGridCg, FactorError> {
-        let rows: Vec<u32> = (0..a.n() as u32).collect();
-        TwoGridCg::on_rows(a, Arc::new(p), &rows)
-    }
-
-    /// As [`TwoGridCg::new`] with `p` on more rows than `a`'s: row $r$ of `a` is row
-    /// `rows[r]` of `p`. The same iterates as [`TwoGridCg::new`] with $P$'s rows `rows` alone,
-    /// bit for bit, and `p` may be shared. Panics unless `rows` has `a`'s length and ascends
-    /// within `p`'s rows.
-    pub fn on_rows(
+    /// For the matrix `a` and the interpolation `p`, perhaps shared, whose rows are `a`'s
+    /// (`rows` `None`) or more: with `rows`, row $r$ of `a` is row `rows[r]` of `p`, and the
+    /// iterates are those of `p`'s rows `rows` alone, bit for bit. Factors the Galerkin matrix
+    /// (a coarse unknown whose column is empty gets a tiny diagonal, and a zero correction).
+    /// Panics unless `p` has `a`'s rows, or `rows` has `a`'s length and ascends within `p`'s.
+    pub fn new(
         a: SymmetricRows,
         p: Arc<Interpolation>,
-        rows: &[u32],
+        rows: Option<&[u32]>,
     ) -> Result<TwoGridCg, FactorError> {
         let n = a.n();
         let m = p.coarse_len();
-        assert!(rows.len() == n && rows.windows(2).all(|w| w[0] < w[1]), "ascending rows of P");
-        assert!(rows.last().is_none_or(|&i| (i as usize) < p.fine_len()), "rows of P");
-        let rows = (p.fine_len() != n).then(|| {
-            let mut of_p = vec![Rows::NONE; p.fine_len()];
-            rows.iter().enumerate().for_each(|(r, &i)| of_p[i as usize] = r as u32);
-            Rows { of_a: rows.to_vec(), of_p }
-        });
-        let of_a = |r: u32| rows.as_ref().map_or(r, |m| m.of_a[r as usize]);
+        let rows = match rows {
+            None => {
+                assert_eq!(p.fine_len(), n, "rows of P");
+                None
+            }
+            Some(rows) => {
+                assert!(rows.len() == n && rows.windows(2).all(|w| w[0] < w[1]), "rows of P");
+                assert!(rows.last().is_none_or(|&i| (i as usize) < p.fine_len()), "rows of P");
+                (p.fine_len() != n).then(|| {
+                    let mut of_p = vec![Rows::NONE; p.fine_len()];
+                    rows.iter().enumerate().for_each(|(r, &i)| of_p[i as usize] = r as u32);
+                    Rows { of_a: rows.to_vec(), of_p }
+                })
+            }
+        };
         let of_p = |i: usize| match &rows {
             None => Some(i),
             Some(m) => m.of_p(i as u32).map(|r| r as usize),
@@ -316,7 +316,7 @@ impl TwoGridCg {
             let Some(r) = of_p(i) else { return };
             add(i, a.diagonal[r]);
             for (j, v) in a.row(r) {
-                add(of_a(j) as usize, v);
+                add(p_row(&rows, j as usize), v);
             }
         });
         let scale = a.diagonal.iter().fold(0.0f64, |s, &d| s.max(d.abs()));
@@ -465,13 +465,16 @@ impl TwoGridCg {
         let (p, rows) = (&self.p, &self.rows);
         rows_mut(&mut self.preconditioned).for_each(|(c, block)| {
             for (l, z) in block.iter_mut().enumerate() {
-                let r = c * BLOCK + l;
-                let i = rows.as_ref().map_or(r, |m| m.of_a[r] as usize);
-                let e = p.prolong_row(i, columns);
+                let e = p.prolong_row(p_row(rows, c * BLOCK + l), columns);
                 *z = [z[0] + e[0], z[1] + e[1], z[2] + e[2]];
             }
         });
     }
+}
+
+/// $P$'s row of $A$'s row `r`.
+fn p_row(rows: &Option<Rows>, r: usize) -> usize {
+    rows.as_ref().map_or(r, |m| m.of_a[r] as usize)
 }
 
 /// The rows of `v` in parallel blocks of [`BLOCK`].
@@ -549,7 +552,7 @@ mod tests {
         let mut direct = SpdFactor::from_triplets(n, &lower, Layout::Simplicial).unwrap();
         let mut want: Vec<f64> = (0..3).flat_map(|c| b.iter().map(move |r| r[c])).collect();
         direct.solve_in_place(faer::MatMut::from_column_major_slice_mut(&mut want, n, 3));
-        let mut solver = TwoGridCg::new(a.clone(), p).unwrap();
+        let mut solver = TwoGridCg::new(a.clone(), Arc::new(p), None).unwrap();
         let quadratic = |x: &[[f64; 3]], c: usize| -> f64 {
             (0..n).map(|i| 0.5 * x[i][c] * a.row_times(i, x)[c] - b[i][c] * x[i][c]).sum()
         };
@@ -577,9 +580,9 @@ mod tests {
         assert!(total < 40, "{total} iterations for {n} unknowns");
     }
 
-    /// A solver on some rows of a shared interpolation ([`TwoGridCg::on_rows`]: the free rows
-    /// of one made for every vertex) takes the same iterates, bit for bit, as one made on
-    /// those rows of it alone ([`TwoGridCg::new`]).
+    /// A solver on some rows of a shared interpolation (`rows`: the free rows of one made for
+    /// every vertex) takes the same iterates, bit for bit, as one made on those rows of it
+    /// alone.
     #[test]
     fn a_solver_on_rows_of_a_shared_interpolation_is_the_same_solver() {
         let n = 300;
@@ -606,8 +609,8 @@ mod tests {
         let b: Vec<[f64; 3]> = (0..rows.len())
             .map(|r| [1.0, (r as f64 * 0.1).sin(), if r == 40 { 5.0 } else { 0.0 }])
             .collect();
-        let mut new = TwoGridCg::new(a.clone(), alone).unwrap();
-        let mut on_rows = TwoGridCg::on_rows(a, Arc::clone(&shared), &rows).unwrap();
+        let mut new = TwoGridCg::new(a.clone(), Arc::new(alone), None).unwrap();
+        let mut on_rows = TwoGridCg::new(a, shared, Some(&rows)).unwrap();
         let (mut x, mut y) = (vec![[0.0; 3]; rows.len()], vec![[0.0; 3]; rows.len()]);
         for _ in 0..3 {
             let (s, t) = (new.solve(|r| b[r], &mut x), on_rows.solve(|r| b[r], &mut y));

@@ -170,12 +170,16 @@ impl Arap {
         });
         ff.extend(diag.iter().enumerate().map(|(r, &d)| Triplet::new(r, r, d)));
         let n_free = inner.free_vertices.len();
-        // One interpolation from the level onto every vertex where both steps solve on it (the
-        // global step's rows its free ones).
-        let step_p = step_level.map(|l| level_interpolation(l, &order.to_mesh));
+        // The implicit rotation step's interpolation onto every vertex (smooth rotations
+        // only); the global step reads it on its free rows where it solves on the same level,
+        // and otherwise interpolates onto the free vertices alone.
+        let step_p = step_level.filter(|_| smooth).map(|l| level_interpolation(l, &order.to_mesh));
         let global_p = global_level.map(|l| match (step_level, &step_p) {
-            (Some(s), Some(p)) if std::ptr::eq(s, l) => Arc::clone(p),
-            _ => level_interpolation(l, &order.to_mesh),
+            (Some(s), Some(p)) if std::ptr::eq(s, l) => (Arc::clone(p), true),
+            _ => {
+                let free = inner.free_vertices.iter().map(|&v| order.to_mesh[v as usize]);
+                (level_interpolation(l, &free.collect::<Vec<u32>>()), false)
+            }
         });
         let factor_free_block = || {
             if n_free == 0 {
@@ -187,9 +191,10 @@ impl Arap {
                         .map(|f| GlobalSolve::Factor(Box::new(f))),
                     "the free block of the cotangent Laplacian",
                 ),
-                Some(p) => {
+                Some((p, shared)) => {
                     let a = SymmetricRows::from_lower(n_free, &ff);
-                    let solve = TwoGridCg::on_rows(a, p, &inner.free_vertices);
+                    let rows = shared.then_some(&inner.free_vertices[..]);
+                    let solve = TwoGridCg::new(a, p, rows);
                     let solve = solve.map(|solver| GlobalSolve::TwoGrid {
                         solver: Box::new(solver),
                         x: vec![[0.0; 3]; n_free],

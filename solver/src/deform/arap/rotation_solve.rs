@@ -134,9 +134,10 @@ pub(super) fn minus_gradient(
     v.map(|c| -c)
 }
 
-/// $P$ of the module doc: every vertex of the mesh (internal numbering, `to_mesh` the mesh
-/// vertex of each) interpolated from `level`'s vertices. The global step's two-grid solver
-/// shares it where it solves on the same level (its rows the free vertices).
+/// $P$ of the module doc: the mesh vertices `to_mesh` (each internal vertex's, for the
+/// implicit step) interpolated from `level`'s vertices. The global step's two-grid solver
+/// shares it where it solves on the same level (its rows the free vertices), and otherwise
+/// makes its own on the free vertices.
 pub(super) fn level_interpolation(
     level: &LevelEmbedding,
     to_mesh: &[u32],
