@@ -12,6 +12,7 @@ use crate::deform::handles::Handles;
 use crate::deform::rig::{SoftTerm, soft_terms};
 use crate::geometry::mesh::Mesh;
 use crate::geometry::reorder::VertexOrder;
+use std::sync::Arc;
 
 /// The fixed/free partition of a mesh's vertices for one handle set.
 #[derive(Debug, Clone, PartialEq)]
@@ -26,8 +27,9 @@ pub struct Constraints {
     pub pinned_components: usize,
     /// Per vertex: its row in the free block, or `None` when fixed.
     pub free_index: Vec<Option<u32>>,
-    /// Free vertices, ascending (row `r` of the free block is vertex `free_vertices[r]`).
-    pub free_vertices: Vec<u32>,
+    /// Free vertices, ascending (row `r` of the free block is vertex `free_vertices[r]`);
+    /// shared with the solvers that iterate over them (`Arc`: no copy of a dense mesh's list).
+    pub free_vertices: Arc<[u32]>,
     /// Per-vertex stiffness $s_i$ of the rig's rigidity ([`crate::deform::rig`]); `None`:
     /// 1 everywhere (nothing is scaled).
     pub stiffness: Option<Vec<f64>>,
@@ -82,7 +84,7 @@ impl Constraints {
             pinned_vertices,
             pinned_components,
             free_index,
-            free_vertices,
+            free_vertices: free_vertices.into(),
             stiffness: rig.stiffness(),
             soft,
             soft_groups,
@@ -128,7 +130,7 @@ impl Constraints {
             pinned_vertices,
             pinned_components: self.pinned_components,
             free_index,
-            free_vertices,
+            free_vertices: free_vertices.into(),
             stiffness: self.stiffness.as_ref().map(|s| order.gather(s)),
             soft,
             soft_groups: self.soft_groups.clone(),

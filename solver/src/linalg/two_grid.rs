@@ -267,7 +267,7 @@ impl std::fmt::Debug for TwoGridCg {
 /// Where $A$'s rows are among $P$'s: $A$'s row $r$ is $P$'s row `of_a[r]`, and $P$'s row $i$
 /// is $A$'s row `of_p[i]` ([`Rows::NONE`]: not one of $A$'s).
 struct Rows {
-    of_a: Vec<u32>,
+    of_a: Arc<[u32]>,
     of_p: Vec<u32>,
 }
 
@@ -282,14 +282,14 @@ impl Rows {
 
 impl TwoGridCg {
     /// For the matrix `a` and the interpolation `p`, perhaps shared, whose rows are `a`'s
-    /// (`rows` `None`) or more: with `rows`, row $r$ of `a` is row `rows[r]` of `p`, and the
-    /// iterates are those of `p`'s rows `rows` alone, bit for bit. Factors the Galerkin matrix
-    /// (a coarse unknown whose column is empty gets a tiny diagonal, and a zero correction).
-    /// Panics unless `p` has `a`'s rows, or `rows` has `a`'s length and ascends within `p`'s.
+    /// (`rows` `None`) or more: with `rows` (kept, not copied), row $r$ of `a` is row `rows[r]`
+    /// of `p`, and the iterates are those of `p`'s rows `rows` alone, bit for bit. Factors the
+    /// Galerkin matrix (a coarse unknown whose column is empty gets a tiny diagonal, and a zero
+    /// correction). Panics unless `p` has `a`'s rows, or `rows` has `a`'s length and ascends within `p`'s.
     pub fn new(
         a: SymmetricRows,
         p: Arc<Interpolation>,
-        rows: Option<&[u32]>,
+        rows: Option<Arc<[u32]>>,
     ) -> Result<TwoGridCg, FactorError> {
         let n = a.n();
         let m = p.coarse_len();
@@ -304,7 +304,7 @@ impl TwoGridCg {
                 (p.fine_len() != n).then(|| {
                     let mut of_p = vec![Rows::NONE; p.fine_len()];
                     rows.iter().enumerate().for_each(|(r, &i)| of_p[i as usize] = r as u32);
-                    Rows { of_a: rows.to_vec(), of_p }
+                    Rows { of_a: rows, of_p }
                 })
             }
         };
@@ -610,7 +610,7 @@ mod tests {
             .map(|r| [1.0, (r as f64 * 0.1).sin(), if r == 40 { 5.0 } else { 0.0 }])
             .collect();
         let mut new = TwoGridCg::new(a.clone(), Arc::new(alone), None).unwrap();
-        let mut on_rows = TwoGridCg::new(a, shared, Some(&rows)).unwrap();
+        let mut on_rows = TwoGridCg::new(a, shared, Some(rows.clone().into())).unwrap();
         let (mut x, mut y) = (vec![[0.0; 3]; rows.len()], vec![[0.0; 3]; rows.len()]);
         for _ in 0..3 {
             let (s, t) = (new.solve(|r| b[r], &mut x), on_rows.solve(|r| b[r], &mut y));

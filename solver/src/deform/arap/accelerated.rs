@@ -22,6 +22,7 @@
 
 use super::config::SOLVE_ROTATION_STEPS;
 use super::{Arap, REFINE_ANDERSON_WINDOW, REFINE_ROTATION_STEPS, SolveStats, ms};
+use std::sync::Arc;
 use std::time::Instant;
 
 /// How one call of [`Arap::iterate_anderson`] runs: a solve's or a refine's.
@@ -79,7 +80,7 @@ impl Arap {
     pub(super) fn iterate_anderson(&mut self, stats: &mut SolveStats, run: AndersonRun) {
         let AndersonRun { window, max_iterations, stopping, keep_history, rotation_steps } = run;
         let tol = self.config.tolerance;
-        let free = self.inner.free_vertices.clone();
+        let free = Arc::clone(&self.inner.free_vertices);
         let dim = 3 * free.len();
         let mut work = match self.anderson.take() {
             Some(w) if w.aa.shape() == (window.max(1), dim) => w,

@@ -126,7 +126,7 @@ impl Arap {
             }
             Some(GlobalSolve::TwoGrid { solver, x, iterations }) => {
                 let (free, current) = (&self.inner.free_vertices, &self.current);
-                x.par_iter_mut().zip(free).for_each(|(x, &v)| *x = current[v as usize]);
+                x.par_iter_mut().zip(&free[..]).for_each(|(x, &v)| *x = current[v as usize]);
                 let (bx, rest) = self.rhs.split_at_mut(n);
                 let (by, bz) = rest.split_at_mut(n);
                 let b = |r: usize| [bx[r], by[r], bz[r]];

@@ -193,7 +193,7 @@ impl Arap {
                 ),
                 Some((p, shared)) => {
                     let a = SymmetricRows::from_lower(n_free, &ff);
-                    let rows = shared.then_some(&inner.free_vertices[..]);
+                    let rows = shared.then(|| Arc::clone(&inner.free_vertices));
                     let solve = TwoGridCg::new(a, p, rows);
                     let solve = solve.map(|solver| GlobalSolve::TwoGrid {
                         solver: Box::new(solver),

@@ -114,7 +114,7 @@ impl Arap {
             if rigid < at_rest {
                 return None;
             }
-            for &v in &self.inner.free_vertices {
+            for &v in self.inner.free_vertices.iter() {
                 self.current[v as usize] = self.rest[v as usize];
             }
             self.rotations = rotations;
@@ -150,7 +150,7 @@ impl Arap {
     /// Moves the free vertices by `motion`: from rest (`from_rest`) or from the current pose,
     /// and the rotations with them.
     fn move_free(&mut self, motion: &Motion, from_rest: bool) {
-        for &v in &self.inner.free_vertices {
+        for &v in self.inner.free_vertices.iter() {
             let x = if from_rest { self.rest[v as usize] } else { self.current[v as usize] };
             self.current[v as usize] = motion.apply(x);
         }

@@ -347,7 +347,7 @@ fn predicted_start_follows_the_drag_and_only_the_drag() {
     let (first, previous, start, free) = start_after(true, &steady.0, &steady.1);
     let moved = free.iter().filter(|&&v| first[v as usize] != previous[v as usize]).count();
     assert!(moved > free.len() / 2, "the drag moved {moved} of {} free vertices", free.len());
-    for &v in &free {
+    for &v in free.iter() {
         let v = v as usize;
         let expected = add(previous[v], sub(previous[v], first[v]));
         assert!(norm2(sub(start[v], expected)) < 1e-24, "vertex {v}: {:?} {expected:?}", start[v]);
