@@ -285,7 +285,8 @@ impl TwoGridCg {
     /// (`rows` `None`) or more: with `rows` (kept, not copied), row $r$ of `a` is row `rows[r]`
     /// of `p`, and the iterates are those of `p`'s rows `rows` alone, bit for bit. Factors the
     /// Galerkin matrix (a coarse unknown whose column is empty gets a tiny diagonal, and a zero
-    /// correction). Panics unless `p` has `a`'s rows, or `rows` has `a`'s length and ascends within `p`'s.
+    /// correction). Panics unless `p` has `a`'s rows, or `rows` has `a`'s length and ascends
+    /// within `p`'s.
     pub fn new(
         a: SymmetricRows,
         p: Arc<Interpolation>,
