@@ -33,6 +33,12 @@
 //!   coarse pose to every fine vertex (step 4 of its module doc), on the same level-8 bar after
 //!   one solve of its turned cap (automatic coarse size).
 //!
+//! - `coarse_iteration`: one iteration of the coarse BS-ARAP's coarse solve on the editor's
+//!   defaults (smooth rotations, the Galerkin coarse energy: [`solver::deform::coarse::galerkin`]),
+//!   on the level-6 bar (40,962 vertices, 3,000 coarse), timed by the solve's own timer over
+//!   10-iteration solves from rest to the turned cap, in rayon pools of 1 and 2 threads: what a
+//!   second core buys a coarse level, where a parallel pass is tens of microseconds.
+//!
 //! `benches/iteration.rs` is the other harness: phase timings of a 10-iteration solve against an
 //! estimate of the machine's limit (bandwidth and rotation-fit rate), on these meshes or a file.
 
@@ -43,7 +49,7 @@ use solver::deform::constraints::Constraints;
 use solver::geometry::shapes::bumpy_bar;
 use solver::linalg::linsolve::{Layout, SpdFactor, SpdPattern};
 use solver::linalg::rotation::{axis_angle, mul_vec};
-use solver::{Arap, ArapConfig, BaseConfig, Handles, Mesh};
+use solver::{Arap, ArapConfig, BaseConfig, CoarseEnergy, Energy, Handles, Mesh};
 use std::time::Duration;
 
 const LEVELS: std::ops::RangeInclusive<u32> = 2..=6;
@@ -210,11 +216,58 @@ fn prolong(c: &mut Criterion) {
     g.finish();
 }
 
+fn coarse_iteration(c: &mut Criterion) {
+    let (mesh, handles) = bumpy_bar(6);
+    let config = ArapConfig {
+        energy: Energy::SmoothRotations,
+        tolerance: 0.0,
+        max_iterations: 10,
+        ..Default::default()
+    };
+    let base = BaseConfig { coarse_energy: CoarseEnergy::Galerkin, ..Default::default() };
+    let Ok(mut d) = CoarseBsArap::new(&mesh, &handles, &config, &base) else {
+        unreachable!("the bumpy bar has a coarse base")
+    };
+    let q = axis_angle([0.0, 0.0, 1.0], 0.8);
+    let targets: Vec<[f64; 3]> = handles
+        .handle_vertices()
+        .iter()
+        .map(|&v| mesh.positions()[v as usize])
+        .map(|p| if p[0] > 0.0 { mul_vec(&q, p) } else { p })
+        .collect();
+    let mut g = c.benchmark_group("coarse_iteration");
+    g.sample_size(20);
+    for threads in [1, 2] {
+        let Ok(pool) = rayon::ThreadPoolBuilder::new().num_threads(threads).build() else {
+            unreachable!("a rayon pool")
+        };
+        g.bench_function(BenchmarkId::new("threads", threads), |b| {
+            b.iter_custom(|iters| {
+                // The coarse solve's own time per iteration (its timer excludes the
+                // prolongation), times the iterations criterion asks for.
+                let (mut ms, mut done) = (0.0, 0usize);
+                while done < iters as usize {
+                    d.reset();
+                    match pool.install(|| d.solve(&targets)) {
+                        Ok(s) if s.iterations > 0 => {
+                            ms += s.local_ms;
+                            done += s.iterations;
+                        }
+                        _ => unreachable!("the turned bar solves"),
+                    }
+                }
+                Duration::from_secs_f64(ms / 1e3 * iters as f64 / done as f64)
+            })
+        });
+    }
+    g.finish();
+}
+
 fn config() -> Criterion {
     Criterion::default()
         .warm_up_time(Duration::from_secs(1))
         .measurement_time(Duration::from_secs(3))
 }
 
-criterion_group! { name = benches; config = config(); targets = factorization, iteration_phases, anderson_step, shape_f32, prolong }
+criterion_group! { name = benches; config = config(); targets = factorization, iteration_phases, anderson_step, shape_f32, prolong, coarse_iteration }
 criterion_main!(benches);
