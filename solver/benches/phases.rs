@@ -33,11 +33,13 @@
 //!   coarse pose to every fine vertex (step 4 of its module doc), on the same level-8 bar after
 //!   one solve of its turned cap (automatic coarse size).
 //!
-//! - `coarse_iteration`: one iteration of the coarse BS-ARAP's coarse solve on the editor's
-//!   defaults (smooth rotations, the Galerkin coarse energy: [`solver::deform::coarse::galerkin`]),
-//!   on the level-6 bar (40,962 vertices, 3,000 coarse), timed by the solve's own timer over
-//!   10-iteration solves from rest to the turned cap, in rayon pools of 1 and 2 threads: what a
-//!   second core buys a coarse level, where a parallel pass is tens of microseconds.
+//! - `coarse_iteration`: an iteration of the coarse BS-ARAP's coarse solve on the editor's
+//!   defaults (smooth rotations, the Galerkin coarse energy, [`solver::deform::coarse::galerkin`])
+//!   on the level-6 bar (40,962 vertices, about 3,000 coarse): the coarse solve's own timer over
+//!   10-iteration solves from rest to the turned cap (each solve's setup and first local step
+//!   shared among its iterations; the prolongation not timed), in rayon pools of 1 and 2
+//!   threads: what a second core buys a coarse level, where a parallel pass is tens of
+//!   microseconds.
 //!
 //! `benches/iteration.rs` is the other harness: phase timings of a 10-iteration solve against an
 //! estimate of the machine's limit (bandwidth and rotation-fit rate), on these meshes or a file.
@@ -243,8 +245,8 @@ fn coarse_iteration(c: &mut Criterion) {
         };
         g.bench_function(BenchmarkId::new("threads", threads), |b| {
             b.iter_custom(|iters| {
-                // The coarse solve's own time per iteration (its timer excludes the
-                // prolongation), times the iterations criterion asks for.
+                // The coarse solve's own time per iteration, times the iterations criterion
+                // asks for.
                 let (mut ms, mut done) = (0.0, 0usize);
                 while done < iters as usize {
                     d.reset();
