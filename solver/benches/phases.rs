@@ -60,6 +60,17 @@ fn meshes() -> Vec<(Mesh, Handles)> {
     LEVELS.map(bumpy_bar).collect()
 }
 
+/// The bar's handle targets: the `x > 0` cap turned by 0.8 rad about z, the other at rest.
+fn turned_cap(mesh: &Mesh, handles: &Handles) -> Vec<[f64; 3]> {
+    let q = axis_angle([0.0, 0.0, 1.0], 0.8);
+    handles
+        .handle_vertices()
+        .iter()
+        .map(|&v| mesh.positions()[v as usize])
+        .map(|p| if p[0] > 0.0 { mul_vec(&q, p) } else { p })
+        .collect()
+}
+
 /// The free block $L_{FF}$ of the cotangent Laplacian (lower and upper triangle).
 fn free_block(mesh: &Mesh, handles: &Handles) -> (usize, Vec<Triplet<usize, usize, f64>>) {
     let Ok(l) = solver::geometry::cotan::cotan_laplacian(mesh.positions(), mesh.triangles()) else {
@@ -112,15 +123,7 @@ fn iteration_phases(c: &mut Criterion) {
     let mut setups: Vec<(usize, Arap, Vec<[f64; 3]>)> = meshes()
         .into_iter()
         .map(|(mesh, handles)| {
-            let q = axis_angle([0.0, 0.0, 1.0], 0.8);
-            let targets = handles
-                .handle_vertices()
-                .iter()
-                .map(|&v| {
-                    let p = mesh.positions()[v as usize];
-                    if p[0] > 0.0 { mul_vec(&q, p) } else { p }
-                })
-                .collect();
+            let targets = turned_cap(&mesh, &handles);
             let Ok(arap) = Arap::new(&mesh, &handles, &config) else {
                 unreachable!("bumpy_bar is a valid ARAP problem")
             };
@@ -200,13 +203,7 @@ fn prolong(c: &mut Criterion) {
     let Ok(mut d) = CoarseBsArap::new(&mesh, &handles, &config, &BaseConfig::default()) else {
         unreachable!("the bumpy bar has a coarse base")
     };
-    let q = axis_angle([0.0, 0.0, 1.0], 0.8);
-    let targets: Vec<[f64; 3]> = handles
-        .handle_vertices()
-        .iter()
-        .map(|&v| mesh.positions()[v as usize])
-        .map(|p| if p[0] > 0.0 { mul_vec(&q, p) } else { p })
-        .collect();
+    let targets = turned_cap(&mesh, &handles);
     if let Err(e) = d.solve(&targets) {
         unreachable!("the turned bar solves: {e}")
     }
@@ -230,13 +227,7 @@ fn coarse_iteration(c: &mut Criterion) {
     let Ok(mut d) = CoarseBsArap::new(&mesh, &handles, &config, &base) else {
         unreachable!("the bumpy bar has a coarse base")
     };
-    let q = axis_angle([0.0, 0.0, 1.0], 0.8);
-    let targets: Vec<[f64; 3]> = handles
-        .handle_vertices()
-        .iter()
-        .map(|&v| mesh.positions()[v as usize])
-        .map(|p| if p[0] > 0.0 { mul_vec(&q, p) } else { p })
-        .collect();
+    let targets = turned_cap(&mesh, &handles);
     let mut g = c.benchmark_group("coarse_iteration");
     g.sample_size(20);
     for threads in [1, 2] {
