@@ -479,13 +479,14 @@ impl CoarseBsArap {
         }
         // B'_c is finite (checked by ARAP) but the prolonged p' can still overflow: write into
         // the scratch, swap it in, and swap it back unless p' is finite (the previous pose
-        // stays).
+        // stays). The prolongation checks what it writes; only when that finds a point that
+        // is not finite is the held pose searched (a handle may have replaced the point).
         if state.next.len() != self.base.rest.len() {
             // Zeroed pages from the system (no pass to fill them), first written by the
             // parallel prolongation.
             state.next = vec![[0.0; 3]; self.base.rest.len()];
         }
-        prolong(
+        let finite = prolong(
             Prolongation {
                 coarse: bc,
                 quaternions: &state.next_quaternions,
@@ -504,7 +505,11 @@ impl CoarseBsArap {
             state.next.copy_from_slice(&self.base.rest);
         }
         hold(&mut state.next, &self.fine_handles, targets, &self.pinned);
-        let bad = state.next.par_iter().position_any(|p| !p.iter().all(|c| c.is_finite()));
+        let bad = if finite {
+            None
+        } else {
+            state.next.par_iter().position_any(|p| !p.iter().all(|c| c.is_finite()))
+        };
         state.swap_next();
         if let Some(vertex) = bad {
             state.roll_back(&mut self.coarse);
