@@ -477,6 +477,26 @@ fn record_three_frames(h: &mut Harness<'_, EditorApp>) {
     step_until(h, "the recording", |a| !a.is_recording());
 }
 
+/// On a mesh with UVs and no texture the top bar, with *Texture…* and the up axis in it, keeps
+/// to one row in a window 1000 pixels wide.
+#[test]
+fn the_top_bar_of_an_untextured_mesh_with_uvs_is_one_row_at_1000_pixels() {
+    let dir = ScratchDir::new("first-hour-top-bar");
+    let (mesh, _) = z_up_strip_with_uvs(&dir);
+    let mut h = open_with_dialog(&mesh, config_with_in_app_dialog(&dir));
+    h.set_size(Vec2::new(1000.0, 640.0));
+    for _ in 0..3 {
+        h.step();
+    }
+    assert!(h.state().can_load_texture());
+    let file = h.get_by_label("File").rect();
+    for label in ["Texture…", "Z up", "grid", "Undo", "?"] {
+        let r = h.get_by_label(label).rect();
+        assert!((r.center().y - file.center().y).abs() < 1.0, "{label} on another row: {r:?}");
+        assert!(r.max.x <= 1000.0, "{label} runs off the window: {r:?}");
+    }
+}
+
 /// Records a 3-frame timeline and exports it to `path`; returns the glTF JSON.
 fn record_and_export(h: &mut Harness<'_, EditorApp>, path: &Path) -> serde_json::Value {
     record_three_frames(h);
@@ -489,8 +509,8 @@ fn record_and_export(h: &mut Harness<'_, EditorApp>, path: &Path) -> serde_json:
     solver::testing::gltf_decode::json_of(&bytes)
 }
 
-/// A mesh with UVs and no material: the toolbar says why there is no texture and offers
-/// *Load texture…* through the file dialog; a file that is not an image is refused; the image
+/// A mesh with UVs and no material: the toolbar's *Texture…* says why there is no texture and
+/// loads one through the file dialog; a file that is not an image is refused; the image
 /// is shown, saved in the scene, exported in the glTF and back when the scene is reopened.
 #[test]
 fn a_mesh_with_uvs_and_no_material_gets_a_texture_saved_and_exported() {
@@ -498,13 +518,19 @@ fn a_mesh_with_uvs_and_no_material_gets_a_texture_saved_and_exported() {
     let (mesh, labels) = z_up_strip_with_uvs(&dir);
     let mut h = open_with_dialog(&mesh, config_with_in_app_dialog(&dir));
     assert!(!h.state().has_texture_shading());
-    assert!(h.query_by_label("no texture").is_some(), "no hint");
     assert!(h.state().can_load_texture());
+    // In place of the greyed Texture button, saying why there is none when hovered.
+    assert!(h.query_by_label("Texture").is_none());
+    h.get_by_label("Texture…").hover();
+    for _ in 0..30 {
+        h.step(); // the tooltip waits for the pointer to rest
+    }
+    assert!(h.query_by_label_contains("names no material").is_some(), "no hint");
 
     // Not an image: refused, with the reason.
     let fake = dir.join("notes.png");
     std::fs::write(&fake, "# not a picture\n").unwrap();
-    h.get_by_label("Load texture…").click();
+    h.get_by_label("Texture…").click();
     choose_in_dialog(&mut h, &fake);
     let err = h.state().error().unwrap_or_default().to_string();
     assert!(err.contains("notes.png") && err.contains("not a PNG or JPEG"), "{err}");
@@ -516,12 +542,12 @@ fn a_mesh_with_uvs_and_no_material_gets_a_texture_saved_and_exported() {
     })
     .save(&png)
     .unwrap();
-    h.get_by_label("Load texture…").click();
+    h.get_by_label("Texture…").click();
     choose_in_dialog(&mut h, &png);
     assert!(h.state().error().is_none(), "{:?}", h.state().error());
     assert!(h.state().has_texture_shading());
-    assert!(h.query_by_label("Load texture…").is_none(), "textured: no longer offered");
-    assert!(h.query_by_label("no texture").is_none());
+    assert!(h.query_by_label("Texture…").is_none(), "textured: no longer offered");
+    assert!(h.query_by_label("Texture").is_some(), "the shading button is back");
     assert!(h.state().has_unsaved_changes());
 
     h.state_mut().set_edit_state(EditState::from_labels(labels));

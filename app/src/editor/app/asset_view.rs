@@ -1,5 +1,5 @@
 //! How the open file is shown, beyond what it says itself: a texture the user loads for a mesh
-//! with UVs and no material (*Load texture…*), and the file's up axis (Y or Z). Both are saved
+//! with UVs and no material (the toolbar's *Texture…*), and the file's up axis (Y or Z). Both are saved
 //! in the scene (`texture`, `up_axis`); the texture goes into glTF exports with the asset, and
 //! a Z-up mesh is exported upright (`solver::animation::export::UpAxis`).
 
@@ -65,7 +65,7 @@ impl EditorApp {
         self.session.file_view.up_axis
     }
 
-    /// Whether the open mesh has UVs but nothing textures it: *Load texture…* is offered.
+    /// Whether the open mesh has UVs but nothing textures it: *Texture…* loads one.
     pub fn can_load_texture(&self) -> bool {
         self.session
             .scene
@@ -144,32 +144,32 @@ impl EditorApp {
         Some(if scene.layout.asset.uvs.is_empty() {
             "no texture: the file has no material, vertex colours or texture coordinates"
         } else {
-            "no texture: the file names no material (an OBJ without its .mtl?); load one"
+            "no texture: the file names no material (an OBJ without its .mtl?)"
         })
     }
 
-    /// The toolbar's texture hint, *Load texture…* and up-axis choice.
-    pub(super) fn asset_view_controls(&mut self, ui: &mut egui::Ui, ctx: &egui::Context) {
+    /// The toolbar's *Texture…* in place of the Texture shading button, on a mesh with
+    /// texture coordinates and no texture: it asks for an image (its hover says why there is
+    /// none). `false`, drawing nothing, on any other mesh.
+    pub(super) fn load_texture_button(&mut self, ui: &mut egui::Ui, ctx: &egui::Context) -> bool {
+        if !self.can_load_texture() {
+            return false;
+        }
+        let why = self.no_texture_reason().unwrap_or_default();
+        let hint = format!(
+            "{why}; choose a PNG or JPEG for its texture coordinates: it is saved in the scene \
+             and exported with the glTF"
+        );
+        if ui.button("Texture…").on_hover_text(hint).clicked() {
+            self.start_dialog(ctx, DialogKind::LoadTexture);
+        }
+        true
+    }
+
+    /// The toolbar's up-axis choice.
+    pub(super) fn up_axis_controls(&mut self, ui: &mut egui::Ui) {
         if self.session.scene.is_none() {
             return;
-        }
-        // Said where a texture can be loaded; a mesh without texture coordinates says why on
-        // its greyed Texture button only (a label there would say it in every frame).
-        if self.can_load_texture()
-            && let Some(why) = self.no_texture_reason()
-        {
-            ui.weak("no texture").on_hover_text(why);
-        }
-        if self.can_load_texture()
-            && ui
-                .button("Load texture…")
-                .on_hover_text(
-                    "the mesh has texture coordinates but no texture: choose a PNG or JPEG; \
-                     it is saved in the scene and exported with the glTF",
-                )
-                .clicked()
-        {
-            self.start_dialog(ctx, DialogKind::LoadTexture);
         }
         let up = self.up_axis();
         for (axis, name) in [(UpAxis::Y, "Y up"), (UpAxis::Z, "Z up")] {

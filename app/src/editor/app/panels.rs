@@ -576,6 +576,9 @@ impl eframe::App for EditorApp {
                     (Shading::Texture, "Texture", "the asset's colours and texture (T)"),
                     (Shading::Clay, "Clay", "uniform grey, to judge the deformation (T)"),
                 ] {
+                    if s == Shading::Texture && self.load_texture_button(ui, &ctx) {
+                        continue;
+                    }
                     let selected = self.display.shading == s && (textured || s == Shading::Clay);
                     let r = ui.add_enabled(textured, egui::Button::selectable(selected, label));
                     let why = self.no_texture_reason().unwrap_or(hint);
@@ -583,7 +586,7 @@ impl eframe::App for EditorApp {
                         self.set_shading(s);
                     }
                 }
-                self.asset_view_controls(ui, &ctx);
+                self.up_axis_controls(ui);
                 ui.checkbox(&mut self.display.show_grid, "grid");
                 ui.separator();
                 if ui
