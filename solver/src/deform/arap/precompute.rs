@@ -171,14 +171,16 @@ impl Arap {
         ff.extend(diag.iter().enumerate().map(|(r, &d)| Triplet::new(r, r, d)));
         let n_free = inner.free_vertices.len();
         // The implicit rotation step's interpolation onto every vertex (smooth rotations
-        // only); the global step reads it on its free rows where it solves on the same level,
-        // and otherwise interpolates onto the free vertices alone.
+        // only); the global step reads it on its free rows (the rows given with it) where it
+        // solves on the same level, and otherwise interpolates onto the free vertices alone.
         let step_p = step_level.filter(|_| smooth).map(|l| level_interpolation(l, &order.to_mesh));
         let global_p = global_level.map(|l| match (step_level, &step_p) {
-            (Some(s), Some(p)) if std::ptr::eq(s, l) => (Arc::clone(p), true),
+            (Some(s), Some(p)) if std::ptr::eq(s, l) => {
+                (Arc::clone(p), Some(Arc::clone(&inner.free_vertices)))
+            }
             _ => {
                 let free = inner.free_vertices.iter().map(|&v| order.to_mesh[v as usize]);
-                (level_interpolation(l, &free.collect::<Vec<u32>>()), false)
+                (level_interpolation(l, &free.collect::<Vec<u32>>()), None)
             }
         });
         let factor_free_block = || {
@@ -191,9 +193,8 @@ impl Arap {
                         .map(|f| GlobalSolve::Factor(Box::new(f))),
                     "the free block of the cotangent Laplacian",
                 ),
-                Some((p, shared)) => {
+                Some((p, rows)) => {
                     let a = SymmetricRows::from_lower(n_free, &ff);
-                    let rows = shared.then(|| Arc::clone(&inner.free_vertices));
                     let solve = TwoGridCg::new(a, p, rows);
                     let solve = solve.map(|solver| GlobalSolve::TwoGrid {
                         solver: Box::new(solver),
