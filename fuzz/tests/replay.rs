@@ -1,6 +1,7 @@
 //! Replays every fuzz target's body (`solver_fuzz::run`) on stable, as an ordinary test, within
-//! a fixed budget: the files of the target's cargo-fuzz corpus and crash artifacts when there
-//! are any (`fuzz/corpus/NAME/`, `fuzz/artifacts/NAME/`, not in git), its valid seed files
+//! a fixed budget: the target's cargo-fuzz crash artifacts and at most [`CORPUS_CAP`] files of
+//! its corpus when there are any (`fuzz/corpus/NAME/`, `fuzz/artifacts/NAME/`, not in git;
+//! `BSARAP_FUZZ_CORPUS=all` replays the whole corpus), its valid seed files
 //! (`solver_fuzz::seeds`, each of which its reader must accept), and `MUTANTS` seeded mutations
 //! of them (bytes changed, inserted, deleted, duplicated, truncated, and two seeds spliced).
 //!
@@ -19,6 +20,10 @@ use solver_fuzz::{TARGETS, run};
 /// Mutated inputs per target: about 0.1 s per target in the test profile.
 const MUTANTS: usize = 3000;
 
+/// Corpus files replayed per target: a long cargo-fuzz run leaves thousands, which would make
+/// the test command as long as the run. Crash artifacts are all replayed.
+const CORPUS_CAP: usize = 500;
+
 #[test]
 fn every_target_survives_its_corpus_seeds_and_mutants() {
     for name in TARGETS {
@@ -31,7 +36,12 @@ fn every_target_survives_its_corpus_seeds_and_mutants() {
                 why(name, seed)
             );
         }
-        for file in corpus(name) {
+        let all = std::env::var("BSARAP_FUZZ_CORPUS").is_ok_and(|v| v == "all");
+        let (files, left) = replayed(corpus(name), artifacts(name), (!all).then_some(CORPUS_CAP));
+        if left > 0 {
+            eprintln!("{name}: {left} corpus files not replayed (BSARAP_FUZZ_CORPUS=all)");
+        }
+        for file in files {
             let bytes = std::fs::read(&file).unwrap_or_else(|e| panic!("{}: {e}", file.display()));
             check(name, &bytes, &file.display().to_string());
         }
@@ -100,18 +110,60 @@ fn why(name: &str, bytes: &[u8]) -> String {
     }
 }
 
-/// The files of `fuzz/corpus/NAME/` and `fuzz/artifacts/NAME/`, where present.
+/// The files of `fuzz/corpus/NAME/`, where present, in name order.
 fn corpus(name: &str) -> Vec<PathBuf> {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let mut files: Vec<PathBuf> = ["corpus", "artifacts"]
-        .iter()
-        .filter_map(|d| std::fs::read_dir(root.join(d).join(name)).ok())
+    files_in(&Path::new(env!("CARGO_MANIFEST_DIR")).join("corpus").join(name))
+}
+
+/// The files of `fuzz/artifacts/NAME/` (what cargo-fuzz saved of its crashes), where present,
+/// in name order.
+fn artifacts(name: &str) -> Vec<PathBuf> {
+    files_in(&Path::new(env!("CARGO_MANIFEST_DIR")).join("artifacts").join(name))
+}
+
+fn files_in(dir: &Path) -> Vec<PathBuf> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .into_iter()
         .flatten()
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| p.is_file())
         .collect();
     files.sort();
     files
+}
+
+/// What to replay: every artifact, then the corpus up to `cap` files (`None`: all of it),
+/// taken evenly over it (libFuzzer names files by their hash, so name order is no order of
+/// age or size); with how many corpus files are left out.
+fn replayed(
+    corpus: Vec<PathBuf>,
+    artifacts: Vec<PathBuf>,
+    cap: Option<usize>,
+) -> (Vec<PathBuf>, usize) {
+    let n = corpus.len();
+    let keep = cap.map_or(n, |c| c.min(n));
+    let mut files = artifacts;
+    files.extend((0..keep).map(|k| corpus[k * n / keep.max(1)].clone()));
+    (files, n - keep)
+}
+
+#[test]
+fn the_replay_keeps_every_artifact_and_caps_the_corpus() {
+    let paths = |prefix: &str, n: usize| -> Vec<PathBuf> {
+        (0..n).map(|i| PathBuf::from(format!("{prefix}-{i:04}"))).collect()
+    };
+    let (files, left) = replayed(paths("c", 1200), paths("crash", 3), Some(500));
+    assert_eq!((files.len(), left), (503, 700));
+    assert_eq!(files[..3], paths("crash", 3)[..]);
+    let mut sampled = files[3..].to_vec();
+    sampled.dedup();
+    assert_eq!(sampled.len(), 500, "a corpus file taken twice");
+    assert_eq!(sampled[0], PathBuf::from("c-0000"));
+    assert!(sampled[499].as_path() >= Path::new("c-1190"), "not spread over the corpus");
+    let (files, left) = replayed(paths("c", 40), Vec::new(), Some(500));
+    assert_eq!((files, left), (paths("c", 40), 0));
+    let (files, left) = replayed(paths("c", 1200), Vec::new(), None);
+    assert_eq!((files.len(), left), (1200, 0));
 }
 
 /// A xorshift64 generator: the same inputs on every run.
