@@ -1,7 +1,7 @@
 //! How the open file is shown, beyond what it says itself: a texture the user loads for a mesh
-//! with UVs and no material (the toolbar's *Texture…*), and the file's up axis (Y or Z). Both are saved
-//! in the scene (`texture`, `up_axis`); the texture goes into glTF exports with the asset, and
-//! a Z-up mesh is exported upright (`solver::animation::export::UpAxis`).
+//! with UVs and no material (the toolbar's *Texture…*), and the file's up axis (Y or Z). Both
+//! are saved in the scene (`texture`, `up_axis`); the texture goes into glTF exports with the
+//! asset, and a Z-up mesh is exported upright (`solver::animation::export::UpAxis`).
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
