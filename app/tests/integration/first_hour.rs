@@ -337,7 +337,7 @@ fn tools_that_cannot_act_say_why() {
 #[test]
 fn the_example_scenes_paths_stay_above_the_ground() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/scenes");
-    for name in ["creature-circle.json", "creature-keyframes.json"] {
+    for name in ["creature-circle.json", "creature-keyframes.json", "creature-posed.json"] {
         let loaded = solver::animation::scene::Scene::load(&dir.join(name)).unwrap();
         let pos = loaded.mesh.mesh.positions();
         let ground = pos.iter().map(|p| p[1]).fold(f64::INFINITY, f64::min);
