@@ -37,7 +37,9 @@ fn every_target_survives_its_corpus_seeds_and_mutants() {
             );
         }
         let all = std::env::var("BSARAP_FUZZ_CORPUS").is_ok_and(|v| v == "all");
-        let (files, left) = replayed(corpus(name), artifacts(name), (!all).then_some(CORPUS_CAP));
+        let corpus = local_files("corpus", name);
+        let (files, left) =
+            replayed(corpus, local_files("artifacts", name), (!all).then_some(CORPUS_CAP));
         if left > 0 {
             eprintln!("{name}: {left} corpus files not replayed (BSARAP_FUZZ_CORPUS=all)");
         }
@@ -110,18 +112,10 @@ fn why(name: &str, bytes: &[u8]) -> String {
     }
 }
 
-/// The files of `fuzz/corpus/NAME/`, where present, in name order.
-fn corpus(name: &str) -> Vec<PathBuf> {
-    files_in(&Path::new(env!("CARGO_MANIFEST_DIR")).join("corpus").join(name))
-}
-
-/// The files of `fuzz/artifacts/NAME/` (what cargo-fuzz saved of its crashes), where present,
-/// in name order.
-fn artifacts(name: &str) -> Vec<PathBuf> {
-    files_in(&Path::new(env!("CARGO_MANIFEST_DIR")).join("artifacts").join(name))
-}
-
-fn files_in(dir: &Path) -> Vec<PathBuf> {
+/// The files of `fuzz/KIND/NAME/` (`corpus`, or `artifacts`: what cargo-fuzz saved of its
+/// crashes), where present, in name order.
+fn local_files(kind: &str, name: &str) -> Vec<PathBuf> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join(kind).join(name);
     let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
         .into_iter()
         .flatten()
