@@ -3,7 +3,7 @@
 //! Usage: `cargo run --release -p app --example editor_rate -- [--no-settle] [--gpu-normals]
 //! [--energy spokes-and-rims|spokes|smooth-rotations] [--bending-length F]
 //! [--coarse-energy decimated|galerkin] [--tolerance T] [--cap N] [--coarse-vertices C] [--regrab D]
-//! [--no-check] [--steps]
+//! [--no-check] [--steps] [--whole]
 //! MESH SELECTION [FRAMES [METHOD...]]`
 //! (methods: `arap`, `bsarap`, `bsarap-faired`, `bsarap-coarse`, each optionally with `+aa` for
 //! the method panel's Anderson acceleration; default `arap bsarap bsarap-coarse`).
@@ -17,7 +17,10 @@
 //! from the previous frame as the solver thread does, with the first group moving on the
 //! benchmark's circle (radius 0.1·diag in the xy plane, FRAMES steps of one turn, default 30),
 //! the others at rest. A frame is what the thread does per published frame: the group poses'
-//! motions, the solve (handle targets derived in it), and the pose's shape (f32 positions and vertex normals). Not
+//! motions, the solve (handle targets derived in it), and the pose's shape (f32 positions and vertex normals),
+//! each frame's pose published while the next one begins as the thread does
+//! (`PoseSolver::finish_beside`: the coarse BS-ARAP prolongs a frame beside the next frame's
+//! coarse solve); `--whole` solves and publishes one frame after the other instead. Not
 //! included: the deformed base (built only while the Base view is open), the UI thread
 //! (rendering, picking) competing for the same cores, and the second thread of the
 //! side-by-side view.
@@ -60,7 +63,9 @@ const SNAPSHOTS: [f64; 6] = [0.25, 0.5, 1.0, 2.0, 5.0, 10.0];
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let all: Vec<String> = std::env::args().collect();
-    let flags = ["--no-settle", "--gpu-normals", "--while-factoring", "--no-check", "--steps"];
+    let flags =
+        ["--no-settle", "--gpu-normals", "--while-factoring", "--no-check", "--steps", "--whole"];
+    let whole = all.iter().any(|a| a == "--whole");
     let every_step = all.iter().any(|a| a == "--steps");
     let no_settle = all.iter().any(|a| a == "--no-settle");
     let no_check = all.iter().any(|a| a == "--no-check");
@@ -193,30 +198,46 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let precompute = t.elapsed().as_secs_f64() * 1e3;
         let (mut times, mut iterations, mut at_cap, mut shape_ms) = (Vec::new(), 0, 0, 0.0);
         let (mut shapes, mut shown) = (ShapePool::default(), None);
-        for f in 1..=frames {
+        let moves = |f: usize| {
             let theta = std::f64::consts::TAU * f as f64 / frames as f64;
             let mut poses = vec![GroupTransform::default(); n_poses];
             poses[group].translation =
                 glam::DVec3::new(radius * (theta.cos() - 1.0), radius * theta.sin(), 0.0);
-            let t = Instant::now();
-            let moves = group_transforms(&handles, &poses);
-            let stats = d.solve(&moves)?;
-            // What the thread publishes: the pose's f32 positions and normals (the deformed
-            // base only while the Base view is open; the detail magnitudes once per scene).
-            // The thread's pool reuses a frame's buffers once the UI has dropped them; the UI
-            // holds the shape it draws until the next one comes.
+            group_transforms(&handles, &poses)
+        };
+        // What the thread publishes: the pose's f32 positions and normals (the deformed base
+        // only while the Base view is open; the detail magnitudes once per scene). The thread's
+        // pool reuses a frame's buffers once the UI has dropped them; the UI holds the shape it
+        // draws until the next one comes. A frame's time runs from the last frame's publishing
+        // to its own.
+        let mut last = Instant::now();
+        let mut put = |pose: &[[f64; 3]]| {
             let ts = Instant::now();
-            let shape = shapes.shape(
-                d.positions(),
-                origin,
-                mesh.triangles(),
-                (!gpu_normals).then_some(&vertex_faces),
-            );
+            let faces = (!gpu_normals).then_some(&vertex_faces);
+            let shape = shapes.shape(pose, origin, mesh.triangles(), faces);
             shape_ms += ts.elapsed().as_secs_f64() * 1e3;
             std::hint::black_box(shown.replace(shape));
-            times.push(t.elapsed().as_secs_f64() * 1e3);
+            times.push(last.elapsed().as_secs_f64() * 1e3);
+            last = Instant::now();
+        };
+        let mut count = |stats: &solver::FrameStats| {
             iterations += stats.iterations;
             at_cap += usize::from(!stats.converged);
+        };
+        if whole {
+            for f in 1..=frames {
+                count(&d.solve(&moves(f))?);
+                put(d.positions());
+            }
+        } else {
+            // As the thread drags: each frame published while the next one begins.
+            count(&d.begin(&moves(1))?);
+            for f in 2..=frames + 1 {
+                let next = (f <= frames).then(|| moves(f));
+                if let Some(stats) = d.finish_beside(next.as_deref(), &mut put)? {
+                    count(&stats);
+                }
+            }
         }
         let mean = times.iter().sum::<f64>() / frames as f64;
         times.sort_by(f64::total_cmp);

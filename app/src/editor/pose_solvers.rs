@@ -79,6 +79,20 @@ impl PoseSolver for DeformerPoseSolver {
         Ok(stats.frame_stats())
     }
 
+    fn begin(&mut self, poses: &[(usize, GroupTransform)]) -> Result<FrameStats, String> {
+        let stats = self.0.begin_groups(poses).map_err(|e| e.to_string())?;
+        Ok(stats.frame_stats())
+    }
+
+    fn finish_beside(
+        &mut self,
+        next: Option<&[(usize, GroupTransform)]>,
+        publish: &mut (dyn FnMut(&[[f64; 3]]) + Send),
+    ) -> Result<Option<FrameStats>, String> {
+        let stats = self.0.finish_beside(next, publish).map_err(|e| e.to_string())?;
+        Ok(stats.map(|s| s.frame_stats()))
+    }
+
     fn positions(&self) -> &[[f64; 3]] {
         self.0.positions()
     }

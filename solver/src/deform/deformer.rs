@@ -236,6 +236,16 @@ pub struct Deformer {
     group_motions: Vec<Motion>,
 }
 
+/// `pose` with the following loose parts moved with their anchor patches, into `out`; returns
+/// the riders' motions.
+fn ride_pose(riders: &Riders, pose: &[[f64; 3]], out: &mut Vec<[f64; 3]>) -> Vec<Motion> {
+    out.clear();
+    out.extend_from_slice(pose);
+    let motions = riders.motions(out);
+    riders.apply(&motions, out);
+    motions
+}
+
 /// How [`Deformer::new`] builds a deformer, besides the mesh and the handles. Every field
 /// has a default, so a call names only what it sets:
 /// `DeformerOptions { method: Method::Arap, config, ..Default::default() }`. Passed by value,
@@ -349,14 +359,16 @@ impl Deformer {
         if self.riders.is_empty() {
             return;
         }
-        self.positions.clear();
-        self.positions.extend_from_slice(self.solver.positions());
-        let motions = self.riders.motions(&self.positions);
-        self.riders.apply(&motions, &mut self.positions);
+        let motions = ride_pose(&self.riders, self.solver.positions(), &mut self.positions);
+        self.ride_base(&motions);
+    }
+
+    /// Moves the following loose parts of the deformed base by the riders' `motions`.
+    fn ride_base(&mut self, motions: &[Motion]) {
         self.base.clear();
         if let Some(b) = self.solver.deformed_base() {
             self.base.extend_from_slice(b);
-            self.riders.apply(&motions, &mut self.base);
+            self.riders.apply(motions, &mut self.base);
         }
     }
 
@@ -399,6 +411,62 @@ impl Deformer {
             }
         };
         self.ride();
+        result
+    }
+
+    /// The first half of [`Deformer::solve_groups`] for the coarse BS-ARAP
+    /// ([`CoarseBsArap::begin_groups`]): its coarse solve, whose pose the next
+    /// [`Deformer::finish_beside`] prolongs and publishes. The other methods, and the coarse
+    /// one with fine iterations, solve the whole frame here.
+    pub fn begin_groups(
+        &mut self,
+        transforms: &[(usize, GroupTransform)],
+    ) -> Result<SolveStats, SolveError> {
+        let Solver::Coarse(c) = &mut self.solver else { return self.solve_groups(transforms) };
+        if !c.pipelines() {
+            return self.solve_groups(transforms);
+        }
+        self.group_rest.targets(transforms, &mut self.group_targets)?;
+        self.group_rest.motions(transforms, &mut self.group_motions)?;
+        let (targets, motions) = (&self.group_targets, &self.group_motions);
+        in_pool(|| c.begin_groups(targets, motions))
+    }
+
+    /// The second half: `publish` gets the begun frame's pose (loose parts moved) as soon as it
+    /// is there, and the group motions `next` begin beside it ([`CoarseBsArap::finish_beside`];
+    /// their statistics returned). Without a begun frame, `publish` gets the current pose and
+    /// `next` begins ([`Deformer::begin_groups`]).
+    pub fn finish_beside(
+        &mut self,
+        next: Option<&[(usize, GroupTransform)]>,
+        publish: &mut (dyn FnMut(&[[f64; 3]]) + Send),
+    ) -> Result<Option<SolveStats>, SolveError> {
+        let c = match &mut self.solver {
+            Solver::Coarse(c) if c.pending() => c,
+            _ => {
+                publish(self.positions());
+                return next.map(|t| self.begin_groups(t)).transpose();
+            }
+        };
+        if let Some(t) = next {
+            self.group_rest.targets(t, &mut self.group_targets)?;
+            self.group_rest.motions(t, &mut self.group_motions)?;
+        }
+        let next = next.map(|_| (self.group_targets.as_slice(), self.group_motions.as_slice()));
+        let (riders, positions) = (&self.riders, &mut self.positions);
+        let mut rode = None;
+        let mut ride_and_publish = |p: &[[f64; 3]]| {
+            if riders.is_empty() {
+                publish(p);
+            } else {
+                rode = Some(ride_pose(riders, p, positions));
+                publish(positions);
+            }
+        };
+        let result = in_pool(|| c.finish_beside(next, &mut ride_and_publish));
+        if let Some(motions) = rode {
+            self.ride_base(&motions);
+        }
         result
     }
 

@@ -21,6 +21,7 @@ mod gltf_input;
 mod group_motions;
 mod guards;
 mod malformed_input;
+mod pipeline;
 mod return_to_rest;
 mod riders;
 mod rigid_start;

@@ -126,6 +126,23 @@ pub trait PoseSolver: Send {
     /// (`solver::Deformer::solve_groups`), warm started from the pose it holds; the result is
     /// [`PoseSolver::positions`].
     fn solve(&mut self, poses: &[(usize, GroupTransform)]) -> Result<FrameStats, String>;
+    /// The first half of [`PoseSolver::solve`] where the solver splits a frame
+    /// (`solver::Deformer::begin_groups`): [`PoseSolver::positions`] stays the last frame's
+    /// until [`PoseSolver::finish_beside`]. The default solves the whole frame.
+    fn begin(&mut self, poses: &[(usize, GroupTransform)]) -> Result<FrameStats, String> {
+        self.solve(poses)
+    }
+    /// The second half: `publish` gets the begun frame's pose as soon as it is there, and
+    /// `next` begins beside it ([`PoseSolver::begin`]; its statistics returned). The default
+    /// publishes the current pose, then begins `next`.
+    fn finish_beside(
+        &mut self,
+        next: Option<&[(usize, GroupTransform)]>,
+        publish: &mut (dyn FnMut(&[[f64; 3]]) + Send),
+    ) -> Result<Option<FrameStats>, String> {
+        publish(self.positions());
+        next.map(|poses| self.begin(poses)).transpose()
+    }
     /// The pose it holds (`#V×3`): the rest pose until the first solve, then the last solve's
     /// or settle step's result. The thread makes each frame's shape from it without copying
     /// it (36 MB a frame at 1.5M vertices).

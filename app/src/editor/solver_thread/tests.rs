@@ -554,3 +554,76 @@ fn a_slow_drag_does_not_settle_between_its_poses() {
     assert!(settled.iter().all(|e| e.1 == 4.0), "settled mid-drag: {log:?}");
     assert!(settled[0].2.duration_since(last) >= Duration::from_secs(1));
 }
+
+/// A pose solver that splits its frames as the coarse BS-ARAP does: `begin` solves into a
+/// begun pose (slowly, so that poses queue up meanwhile), `finish_beside` publishes it and
+/// begins the next; it logs which calls came.
+struct Split {
+    shift: Shift,
+    begun: Option<Vec<[f64; 3]>>,
+    log: Arc<Mutex<Vec<&'static str>>>,
+}
+
+impl PoseSolver for Split {
+    fn positions(&self) -> &[[f64; 3]] {
+        &self.shift.x
+    }
+
+    fn solve(&mut self, _: &[(usize, GroupTransform)]) -> Result<FrameStats, String> {
+        Err("Split solves in halves only".into())
+    }
+
+    fn begin(&mut self, poses: &[(usize, GroupTransform)]) -> Result<FrameStats, String> {
+        std::thread::sleep(Duration::from_millis(4));
+        let before = self.shift.x.clone();
+        let stats = self.shift.solve(poses)?;
+        self.begun = Some(std::mem::replace(&mut self.shift.x, before));
+        self.log.lock().unwrap().push("begin");
+        Ok(stats)
+    }
+
+    fn finish_beside(
+        &mut self,
+        next: Option<&[(usize, GroupTransform)]>,
+        publish: &mut (dyn FnMut(&[[f64; 3]]) + Send),
+    ) -> Result<Option<FrameStats>, String> {
+        self.shift.x = self.begun.take().ok_or("nothing begun")?;
+        self.log.lock().unwrap().push(if next.is_some() { "finish beside" } else { "finish" });
+        publish(&self.shift.x);
+        next.map(|poses| self.begin(poses)).transpose()
+    }
+}
+
+/// With a pose solver that splits its frames, poses coming in a stream are begun beside the
+/// frame before them: every frame shows the poses of the generation it carries (not newer
+/// ones that came while it was finished), the frames come in order, and the last one, finished
+/// alone, is done.
+#[test]
+fn split_frames_publish_each_pose_with_its_own_generation() {
+    let log = Arc::new(Mutex::new(Vec::new()));
+    let calls = log.clone();
+    let factory: PoseSolverFactory =
+        Arc::new(move |_, mesh: &Mesh, handles: &Handles, _: &_, _: &_| {
+            let split = Split { shift: Shift::new(mesh, handles), begun: None, log: calls.clone() };
+            Ok(Box::new(split) as Box<dyn PoseSolver>)
+        });
+    let h = SolverHandle::spawn(Slot::Main, factory, Arc::new(|| {})).unwrap();
+    h.send(scene(1, vec![GroupTransform::default()]));
+    wait_frame(&h, |f| f.scene_generation == 1 && f.stats.done);
+    let mut frames = Vec::new();
+    for g in 2..=40u64 {
+        let moved = GroupTransform::from_translation(glam::DVec3::new(0.0, 0.0, g as f64));
+        h.send(SolverCommand::SetPoses { pose_generation: g, poses: vec![moved] });
+        std::thread::sleep(Duration::from_millis(1));
+        frames.extend(h.try_take_frame());
+    }
+    frames.push(wait_frame(&h, |f| f.pose_generation == 40 && f.stats.done));
+    for f in &frames {
+        assert_eq!(f.positions[2], drawn([0.0, 1.0, f.pose_generation as f64]));
+    }
+    assert!(frames.windows(2).all(|w| w[0].pose_generation < w[1].pose_generation));
+    assert!(frames[..frames.len() - 1].iter().all(|f| !f.stats.done));
+    let log = log.lock().unwrap();
+    assert!(log.contains(&"finish beside"), "{log:?}");
+    assert_eq!(log.last(), Some(&"finish"));
+}

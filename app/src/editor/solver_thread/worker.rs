@@ -1,8 +1,11 @@
 //! The solver thread's loop. Each turn: wait for and [drain the commands](drain_commands)
 //! (only the newest scene, poses and loose parts matter), [rebuild](rebuild) the pose solver on
-//! a new scene, take the new poses and [loose parts](Active::set_loose_parts), then [step](step) (solve a changed pose, or settle a converged one
-//! whose handles have rested), [do the settling's bookkeeping](Active::settle_bookkeeping) and
-//! [publish](publish) the frame.
+//! a new scene, take the new poses and [loose parts](Active::set_loose_parts), then one of:
+//! [publish](advance) a begun solve's frame, beginning the next beside it while the poses
+//! still change; [begin](begin) a solve of changed poses; or [settle](settle_step) a converged
+//! pose whose handles have rested, [do the settling's bookkeeping](Active::settle_bookkeeping)
+//! and [publish](publish) the frame. A solve is begun in one turn and published in the next,
+//! so that the newest poses drained between the two begin beside its prolongation.
 
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -106,24 +109,16 @@ fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
 /// The scene a worker serves: its pose solver, the current poses and result, and where the
 /// solving and settling stand.
 struct Active {
-    scene_generation: u64,
     pose_generation: u64,
-    mesh: Arc<Mesh>,
     handles: Handles,
     poses: Vec<GroupTransform>,
     pose_solver: Box<dyn PoseSolver>,
-    /// |D_i| as f32, shared by every frame of this scene.
-    details: Option<Arc<Vec<f32>>>,
-    /// [`PoseSolver::components`], refreshed when the loose parts change.
-    components: Arc<Vec<solver::ComponentInfo>>,
-    /// Each vertex's triangles, for the per-frame normals (kept while the mesh stays).
-    vertex_faces: Arc<VertexFaces>,
-    /// The buffers of the frames' shapes, reused once the UI has dropped them.
-    shapes: ShapePool,
-    /// The origin of the mesh's display space, where the frames' shapes are.
-    origin: [f64; 3],
+    /// What the frames are made with.
+    frames: Frames,
     /// Targets changed since the last converged solve.
     dirty: bool,
+    /// A solve has begun ([`PoseSolver::begin`]) and its frame is not published yet.
+    begun: Option<Begun>,
     /// The last solve converged and its pose is being refined ([`PoseSolver::settle`]).
     settling: bool,
     /// Settling is due but waits for the pose solver ([`PoseSolver::settle_ready`]), since
@@ -137,24 +132,54 @@ struct Active {
     settle_steps: usize,
     /// The statistics of the last published frame.
     last_stats: FrameStats,
-    last_frame: Option<Instant>,
-    fps: f64,
     /// A frame of this scene has been published (so there is a pose to republish).
     last_frame_published: bool,
 }
 
-impl Active {
-    /// The frame of the current pose, with the deformed base when `with_base` and the vertex
-    /// normals unless `normals_on_gpu`.
-    fn frame(&mut self, stats: FrameStats, with_base: bool, normals_on_gpu: bool) -> SolvedFrame {
+/// A begun solve: its statistics and the poses' generation it solves.
+#[derive(Clone, Copy)]
+struct Begun {
+    stats: FrameStats,
+    pose_generation: u64,
+}
+
+/// What every frame of a scene is made with: the mesh and its shared parts, the buffers of the
+/// frames' shapes, and the rate at which frames are published.
+struct Frames {
+    scene_generation: u64,
+    mesh: Arc<Mesh>,
+    /// |D_i| as f32, shared by every frame of this scene.
+    details: Option<Arc<Vec<f32>>>,
+    /// [`PoseSolver::components`], refreshed when the loose parts change.
+    components: Arc<Vec<solver::ComponentInfo>>,
+    /// Each vertex's triangles, for the per-frame normals (kept while the mesh stays).
+    vertex_faces: Arc<VertexFaces>,
+    /// The buffers of the frames' shapes, reused once the UI has dropped them.
+    shapes: ShapePool,
+    /// The origin of the mesh's display space, where the frames' shapes are.
+    origin: [f64; 3],
+    last_frame: Option<Instant>,
+    fps: f64,
+}
+
+impl Frames {
+    /// The frame of the pose `positions` (of the poses `pose_generation`) with `stats`, with the
+    /// deformed base `base` if given and the vertex normals unless `normals_on_gpu`.
+    fn make(
+        &mut self,
+        positions: &[[f64; 3]],
+        base: Option<Vec<[f64; 3]>>,
+        stats: FrameStats,
+        pose_generation: u64,
+        normals_on_gpu: bool,
+    ) -> SolvedFrame {
         let triangles = self.mesh.triangles();
         let faces = (!normals_on_gpu).then_some(&*self.vertex_faces);
-        let shape = self.shapes.shape(self.pose_solver.positions(), self.origin, triangles, faces);
-        let base = with_base.then(|| self.pose_solver.deformed_base()).flatten();
+        let shape = self.shapes.shape(positions, self.origin, triangles, faces);
         SolvedFrame {
             sequence: NEXT_FRAME.fetch_add(1, Ordering::Relaxed),
             scene_generation: self.scene_generation,
-            pose_generation: self.pose_generation,
+            pose_generation,
             positions: shape.positions,
             normals: shape.normals,
             deformed_base: base
@@ -164,6 +189,39 @@ impl Active {
             stats,
             fps: self.fps,
         }
+    }
+
+    /// A frame is published now: updates the frame rate.
+    fn tick(&mut self) {
+        let now = Instant::now();
+        if let Some(prev) = self.last_frame {
+            let dt = now.duration_since(prev).as_secs_f64().max(1e-6);
+            self.fps = if self.fps == 0.0 { 1.0 / dt } else { 0.8 * self.fps + 0.2 / dt };
+        }
+        self.last_frame = Some(now);
+    }
+}
+
+impl Active {
+    /// The frame of the current pose (of the poses `pose_generation`), with the deformed base
+    /// when `with_base` and the vertex normals unless `normals_on_gpu`.
+    fn frame(
+        &mut self,
+        stats: FrameStats,
+        pose_generation: u64,
+        with_base: bool,
+        normals_on_gpu: bool,
+    ) -> SolvedFrame {
+        let base = with_base.then(|| self.pose_solver.deformed_base()).flatten();
+        let positions = self.pose_solver.positions();
+        self.frames.make(positions, base, stats, pose_generation, normals_on_gpu)
+    }
+
+    /// A solve begun with `stats` at the current poses: they are solved again unless it
+    /// converged or ran no iteration.
+    fn begun(&mut self, stats: FrameStats) {
+        self.begun = Some(Begun { stats, pose_generation: self.pose_generation });
+        self.dirty = !(stats.done || stats.iterations == 0);
     }
 
     /// New poses: solve again, and settle again only once they have rested.
@@ -193,23 +251,18 @@ impl Active {
     /// published at once unless a solve is due anyway.
     fn set_loose_parts(&mut self, generation: u64, parts: &LooseParts) -> Result<(), String> {
         self.pose_generation = generation;
-        self.pose_solver.set_loose_parts(&self.mesh, &self.handles, parts)?;
-        self.components = Arc::new(self.pose_solver.components());
+        self.pose_solver.set_loose_parts(&self.frames.mesh, &self.handles, parts)?;
+        self.frames.components = Arc::new(self.pose_solver.components());
         Ok(())
     }
 
     /// After a step (`solving`: a solve, else a settle step) that returned `stats`: updates the
-    /// frame rate and whether the pose still needs solving or settling, and returns the stats
-    /// to publish, converged only when nothing more will be done at this pose.
+    /// frame rate and whether the pose still needs settling, and returns the stats to publish,
+    /// converged only when nothing more will be done at this pose. Whether the poses need
+    /// solving again was decided when the solve began ([`Active::begun`]).
     fn settle_bookkeeping(&mut self, solving: bool, stats: FrameStats) -> FrameStats {
-        let now = Instant::now();
-        if let Some(prev) = self.last_frame {
-            let dt = now.duration_since(prev).as_secs_f64().max(1e-6);
-            self.fps = if self.fps == 0.0 { 1.0 / dt } else { 0.8 * self.fps + 0.2 / dt };
-        }
-        self.last_frame = Some(now);
-        if solving && (stats.done || stats.iterations == 0) {
-            self.dirty = false;
+        self.frames.tick();
+        if solving && !self.dirty {
             self.settling = self.pose_solver.settle_pending();
             self.settle_steps = 0;
         } else if !solving {
@@ -222,7 +275,7 @@ impl Active {
         let stats = FrameStats { done: stats.done && !self.dirty && !self.settling, ..stats };
         self.last_stats = stats;
         if !self.dirty && !self.settling {
-            self.last_frame = None;
+            self.frames.last_frame = None;
         }
         stats
     }
@@ -271,7 +324,7 @@ struct Inbox {
 /// ([`Active::settle_delay`] above `floor`).
 fn wait_time(active: Option<&Active>, floor: Duration) -> Option<Duration> {
     match active {
-        Some(a) if a.dirty => Some(Duration::ZERO),
+        Some(a) if a.dirty || a.begun.is_some() => Some(Duration::ZERO),
         Some(a) if a.settle_waiting.is_some() => Some(SETTLE_POLL),
         Some(a) if a.settling => {
             Some(a.settle_delay(floor).saturating_sub(a.poses_changed.elapsed()))
@@ -355,26 +408,29 @@ fn rebuild(
             let components = Arc::new(pose_solver.components());
             set_status(&shared.status, SolverState::Solving);
             Some(Active {
-                vertex_faces,
-                shapes: ShapePool::default(),
-                origin: display_origin(&mesh),
-                scene_generation,
+                frames: Frames {
+                    vertex_faces,
+                    shapes: ShapePool::default(),
+                    origin: display_origin(&mesh),
+                    scene_generation,
+                    mesh,
+                    details,
+                    components,
+                    last_frame: None,
+                    fps: 0.0,
+                },
                 pose_generation,
-                mesh,
                 handles,
                 poses,
                 pose_solver,
-                details,
-                components,
                 dirty: true,
+                begun: None,
                 settling: false,
                 poses_changed: Instant::now(),
                 pose_cadence: Duration::ZERO,
                 settle_steps: 0,
                 settle_waiting: None,
                 last_stats: FrameStats::default(),
-                last_frame: None,
-                fps: 0.0,
                 last_frame_published: false,
             })
         }
@@ -386,19 +442,83 @@ fn rebuild(
     }
 }
 
-/// One step at the current poses: a solve when they changed (`solving`), else a settle step.
-/// `Ok(None)` from a settle step (nothing more to refine) leaves the current pose standing.
-fn step(a: &mut Active, solving: bool) -> Result<FrameStats, String> {
+/// A settle step at the current poses; `Ok(None)` (nothing more to refine) leaves the current
+/// pose standing.
+fn settle_step(a: &mut Active) -> Result<FrameStats, String> {
     let poses = crate::editor::pose::group_transforms(&a.handles, &a.poses);
-    let stats =
-        if solving { Some(a.pose_solver.solve(&poses)?) } else { a.pose_solver.settle(&poses)? };
+    let stats = a.pose_solver.settle(&poses)?;
     Ok(stats.unwrap_or(FrameStats { done: true, ..a.last_stats }))
 }
 
-/// Puts the frame of the current pose in the mailbox, updates the status and asks for a
-/// repaint.
-fn publish(a: &mut Active, stats: FrameStats, shared: &Shared) {
-    shared.mailbox.put(a.frame(stats, shared.show_base(), shared.normals_on_gpu()));
+/// Begins a solve at the current poses ([`PoseSolver::begin`]); the next turn publishes it
+/// ([`advance`]).
+fn begin(a: &mut Active, shared: &Shared) {
+    let poses = crate::editor::pose::group_transforms(&a.handles, &a.poses);
+    match a.pose_solver.begin(&poses) {
+        Ok(stats) => a.begun(stats),
+        Err(e) => fail(a, e, shared),
+    }
+}
+
+/// Publishes the begun solve's frame and, with `beside` while the poses still need solving,
+/// begins the next solve beside it ([`PoseSolver::finish_beside`]: the coarse BS-ARAP prolongs
+/// one frame while it solves the next on the coarse level). Alone when nothing follows, and
+/// when the view shows the deformed base, which is the published pose's only once nothing is
+/// begun.
+fn advance(a: &mut Active, beside: bool, shared: &Shared) {
+    let Some(begun) = a.begun.take() else { return };
+    if !beside || !a.dirty || shared.show_base() {
+        match a.pose_solver.finish_beside(None, &mut |_| {}) {
+            Ok(_) => {
+                let stats = a.settle_bookkeeping(true, begun.stats);
+                publish(a, stats, begun.pose_generation, shared);
+            }
+            Err(e) => fail(a, e, shared),
+        }
+        return;
+    }
+    let poses = crate::editor::pose::group_transforms(&a.handles, &a.poses);
+    // The poses are solved again beside this frame: it is not the last at them.
+    let stats = FrameStats { done: false, ..begun.stats };
+    let normals_on_gpu = shared.normals_on_gpu();
+    let (frames, last_stats, published) =
+        (&mut a.frames, &mut a.last_stats, &mut a.last_frame_published);
+    let mut put = |positions: &[[f64; 3]]| {
+        frames.tick();
+        *last_stats = stats;
+        *published = true;
+        shared.mailbox.put(frames.make(
+            positions,
+            None,
+            stats,
+            begun.pose_generation,
+            normals_on_gpu,
+        ));
+        set_status(&shared.status, SolverState::Solving);
+        (shared.repaint)();
+    };
+    match a.pose_solver.finish_beside(Some(&poses), &mut put) {
+        Ok(Some(next)) => a.begun(next),
+        // Nothing begun: the next turn begins the poses.
+        Ok(None) => {}
+        Err(e) => fail(a, e, shared),
+    }
+}
+
+/// A solve or settle step failed: the status says why, and nothing more is done at these poses.
+fn fail(a: &mut Active, e: String, shared: &Shared) {
+    set_status(&shared.status, SolverState::Failed(e));
+    a.dirty = false;
+    a.settling = false;
+    a.begun = None;
+    (shared.repaint)();
+}
+
+/// Puts the frame of the current pose (of the poses `pose_generation`) in the mailbox, updates
+/// the status and asks for a repaint.
+fn publish(a: &mut Active, stats: FrameStats, pose_generation: u64, shared: &Shared) {
+    let frame = a.frame(stats, pose_generation, shared.show_base(), shared.normals_on_gpu());
+    shared.mailbox.put(frame);
     a.last_frame_published = true;
     set_status(&shared.status, a.state());
     (shared.repaint)();
@@ -426,15 +546,23 @@ fn worker_loop(
             set_status(&shared.status, SolverState::Solving);
         }
         if let Some((generation, parts)) = inbox.loose_parts {
+            // The begun frame first, alone: the parts then move in its pose.
+            advance(a, false, shared);
             match a.set_loose_parts(generation, &parts) {
                 // Nothing else to do at this pose: show the parts moved now.
-                Ok(()) if !a.dirty && a.last_frame_published => publish(a, a.last_stats, shared),
+                Ok(()) if !a.dirty && a.last_frame_published => {
+                    publish(a, a.last_stats, a.pose_generation, shared)
+                }
                 Ok(()) => {}
                 Err(e) => {
                     set_status(&shared.status, SolverState::Failed(e));
                     (shared.repaint)();
                 }
             }
+        }
+        if a.begun.is_some() {
+            advance(a, true, shared);
+            continue;
         }
         // Settle only once the poses have rested for the delay (a command such as Republish
         // can wake the thread before that).
@@ -447,27 +575,22 @@ fn worker_loop(
         }
         if !a.dirty && !settle_due {
             if inbox.republish && a.last_frame_published {
-                shared.mailbox.put(a.frame(
-                    a.last_stats,
-                    shared.show_base(),
-                    shared.normals_on_gpu(),
-                ));
+                let (base, normals) = (shared.show_base(), shared.normals_on_gpu());
+                shared.mailbox.put(a.frame(a.last_stats, a.pose_generation, base, normals));
                 (shared.repaint)();
             }
             continue;
         }
-        let solving = a.dirty;
-        match step(a, solving) {
+        if a.dirty {
+            begin(a, shared);
+            continue;
+        }
+        match settle_step(a) {
             Ok(stats) => {
-                let stats = a.settle_bookkeeping(solving, stats);
-                publish(a, stats, shared);
+                let stats = a.settle_bookkeeping(false, stats);
+                publish(a, stats, a.pose_generation, shared);
             }
-            Err(e) => {
-                set_status(&shared.status, SolverState::Failed(e));
-                a.dirty = false;
-                a.settling = false;
-                (shared.repaint)();
-            }
+            Err(e) => fail(a, e, shared),
         }
     }
 }

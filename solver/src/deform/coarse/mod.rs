@@ -71,6 +71,7 @@
 //! | `level_settle.rs` | 6: settling on the level before the full mesh |
 //! | `settle_rule.rs` | 6: when settling stops (the distance still to go, from the steps) |
 //! | `mod.rs` | [`CoarseBsArap`]: the steps in order, per frame |
+//! | `pipeline.rs` | 4: a frame's prolongation beside the next frame's coarse solve (the editor) |
 //! | `energy.rs` | 4: the coarse level's energy, decimated ARAP or Galerkin, behind one interface |
 //! | `galerkin/` | the full mesh's energy restricted to the coarse space (its mesh part, tests) |
 //! | `fit.rs` | the pose of the coarse space nearest a given one (a measurement) |
@@ -84,6 +85,7 @@ pub mod galerkin;
 pub mod groups;
 pub mod level;
 pub mod level_settle;
+mod pipeline;
 pub mod prolong;
 mod settle;
 pub mod settle_rule;
@@ -174,8 +176,15 @@ struct SolveState {
     /// vertices; reused, not allocated per frame).
     motions: Vec<Motion>,
     coarse_targets: Vec<[f64; 3]>,
-    /// The coarse pose to go back to if the prolongation or the fine iterations fail.
+    /// The coarse pose to go back to if the prolongation or the fine iterations fail: that of
+    /// the last successful solve, whose pose is `result` (also while a frame is pending).
     coarse_before: Vec<[f64; 3]>,
+    /// A frame whose coarse solve has run and whose prolongation has not
+    /// ([`CoarseBsArap::begin_groups`]); its coarse pose is the coarse solver's.
+    pending: Option<Pending>,
+    /// Scratch: the pending frame's coarse pose while the next frame's coarse solve moves on
+    /// (`pipeline.rs`).
+    coarse_pose: Vec<[f64; 3]>,
     /// The targets of the last solve, and whether [`CoarseBsArap::settle`] may refine its
     /// result (its coarse solve converged and it is not the rest pose).
     last_targets: Vec<[f64; 3]>,
@@ -205,6 +214,8 @@ impl SolveState {
             motions: Vec::new(),
             coarse_targets: Vec::new(),
             coarse_before: Vec::new(),
+            pending: None,
+            coarse_pose: Vec::new(),
             last_targets: Vec::new(),
             settle_ready: false,
             coarse_settled: true,
@@ -227,6 +238,27 @@ impl SolveState {
         self.swap_next();
         coarse.set_positions(&self.coarse_before);
         self.settle_ready = false;
+    }
+
+    /// The coarse solver's rotations as the next pose's quaternions.
+    fn take_rotations(&mut self, coarse: &CoarseSolver) {
+        for (q, r) in self.next_quaternions.iter_mut().zip(coarse.rotations()) {
+            *q = quaternion_of(r);
+        }
+    }
+
+    /// Keeps what settling needs to know of a successful solve at `targets` with `stats`
+    /// (`galerkin`: its coarse energy is the Galerkin one).
+    fn solved(&mut self, targets: &[[f64; 3]], stats: &SolveStats, galerkin: bool) {
+        self.last_targets.clear();
+        self.last_targets.extend_from_slice(targets);
+        // Only a coarse energy whose minimum is the full mesh's in the coarse space is worth
+        // settling on (the decimated ARAP's lies tenths of a percent away).
+        self.coarse_settled = !galerkin;
+        self.level_settled = false;
+        self.settling.reset();
+        self.settle_ready = stats.converged && stats.iterations > 0;
+        self.last_energy = stats.energy();
     }
 
     /// Forgets the carried corrections.
@@ -257,12 +289,21 @@ impl SolveState {
     /// start from, and the last solve's targets (nothing to settle). The result stays until
     /// the next solve replaces it.
     fn restart(&mut self) {
+        self.pending = None;
         self.deformed_base = std::sync::OnceLock::new();
         self.quaternions.fill(DQuat::IDENTITY);
         self.clear_correction();
         self.last_targets.clear();
         self.settle_ready = false;
     }
+}
+
+/// A frame whose coarse solve has run and whose prolongation waits: its statistics and its fine
+/// targets.
+#[derive(Debug)]
+struct Pending {
+    stats: SolveStats,
+    targets: Vec<[f64; 3]>,
 }
 
 /// Puts the handle vertices `handles` on their `targets` and the pinned vertices (of
@@ -274,6 +315,68 @@ fn hold(x: &mut [[f64; 3]], handles: &[u32], targets: &[[f64; 3]], pinned: &[(u3
     for &(v, p) in pinned {
         x[v as usize] = p;
     }
+}
+
+/// The vertices a prolonged pose puts on given positions: the handles on their targets, the
+/// vertices of components without handles at rest.
+#[derive(Clone, Copy)]
+struct Held<'a> {
+    handles: &'a [u32],
+    targets: &'a [[f64; 3]],
+    pinned: &'a [(u32, [f64; 3])],
+}
+
+/// Step 4 into `state`: the coarse pose `coarse` (its rotations already in
+/// `state.next_quaternions`) prolonged on `base` into the scratch, `held` put on their
+/// positions, and swapped in as the result (the pose before in `state.next`). `at_rest`: the
+/// coarse solve ran no iteration (rest targets). Returns a vertex whose point is not finite,
+/// if any: the caller then rolls back ([`SolveState::roll_back`]).
+fn prolong_state(
+    state: &mut SolveState,
+    base: &CoarseBase,
+    coarse: &[[f64; 3]],
+    held: Held<'_>,
+    at_rest: bool,
+) -> Option<usize> {
+    // Rest targets give the rest pose exactly, without iterating: nothing to settle, and no
+    // correction may carry over (the rest pose itself is copied below).
+    if at_rest && state.corrected {
+        state.clear_correction();
+    }
+    state.deformed_base = std::sync::OnceLock::new();
+    // B'_c is finite (checked by ARAP) but the prolonged p' can still overflow: write into the
+    // scratch, swap it in, and have the caller swap it back unless p' is finite (the previous
+    // pose stays). The prolongation checks what it writes; only when that finds a point that
+    // is not finite is the held pose searched (a handle may have replaced the point).
+    if state.next.len() != base.rest.len() {
+        // Zeroed pages from the system (no pass to fill them), first written by the parallel
+        // prolongation.
+        state.next = vec![[0.0; 3]; base.rest.len()];
+    }
+    let finite = prolong(
+        Prolongation {
+            coarse,
+            quaternions: &state.next_quaternions,
+            triangles: base.coarse_mesh.triangles(),
+            faces: &base.faces,
+            weights: &base.weights,
+            details: &base.details,
+            corrections: if state.corrected { &state.correction } else { &[] },
+        },
+        &mut state.next,
+    );
+    if at_rest && held.handles.iter().zip(held.targets).all(|(&v, t)| *t == base.rest[v as usize]) {
+        // Rest targets: M exactly (the prolongation B + D may differ in the last bit).
+        state.next.copy_from_slice(&base.rest);
+    }
+    hold(&mut state.next, held.handles, held.targets, held.pinned);
+    let bad = if finite {
+        None
+    } else {
+        state.next.par_iter().position_any(|p| !p.iter().all(|c| c.is_finite()))
+    };
+    state.swap_next();
+    bad
 }
 
 impl CoarseBsArap {
@@ -402,13 +505,19 @@ impl CoarseBsArap {
         targets: &[[f64; 3]],
         motions: &[Motion],
     ) -> Result<SolveStats, SolveError> {
+        self.check_motions(motions)?;
+        self.solve_with(targets, Some(motions))
+    }
+
+    /// One motion per group, else [`SolveError::GroupCount`].
+    fn check_motions(&self, motions: &[Motion]) -> Result<(), SolveError> {
         if motions.len() != self.groups.n_groups() {
             return Err(SolveError::GroupCount {
                 got: motions.len(),
                 expected: self.groups.n_groups(),
             });
         }
-        self.solve_with(targets, Some(motions))
+        Ok(())
     }
 
     fn solve_with(
@@ -416,12 +525,9 @@ impl CoarseBsArap {
         targets: &[[f64; 3]],
         motions: Option<&[Motion]>,
     ) -> Result<SolveStats, SolveError> {
-        // Only some targets reach the coarse ARAP (which checks them); all are copied to p'.
-        check_targets(targets, self.fine_handles.len())?;
-        let state = &mut self.state;
-        self.groups.targets(targets, motions, &mut state.motions, &mut state.coarse_targets);
-        let stats = self.coarse_frame(targets)?;
-        let mut stats = stats;
+        self.finish_pending()?;
+        let mut stats = self.coarse_half(targets, motions)?;
+        self.prolong_result(targets, stats.iterations == 0)?;
         if self.fine_iterations > 0 {
             match self.run_fine(targets, self.fine_iterations) {
                 Ok((st, _)) => {
@@ -437,28 +543,33 @@ impl CoarseBsArap {
                 }
             }
         }
-        let state = &mut self.state;
-        state.last_targets.clear();
-        state.last_targets.extend_from_slice(targets);
-        // Only a coarse energy whose minimum is the full mesh's in the coarse space is worth
-        // settling on (the decimated ARAP's lies tenths of a percent away).
-        state.coarse_settled = !self.coarse.is_galerkin();
-        state.level_settled = false;
-        state.settling.reset();
-        state.settle_ready = stats.converged && stats.iterations > 0;
-        state.last_energy = stats.energy();
+        self.state.solved(targets, &stats, self.coarse.is_galerkin());
         Ok(stats)
     }
 
-    /// Step 4 at `targets`, the coarse handles' targets already in the state: the coarse
-    /// solve from its last pose under its stopping rule, then [`CoarseBsArap::prolong_result`].
-    fn coarse_frame(&mut self, targets: &[[f64; 3]]) -> Result<SolveStats, SolveError> {
+    /// Step 4's coarse solve at `targets` (and `motions`): the coarse handles' targets, then
+    /// the coarse solve from its last pose under its stopping rule, that pose kept to go back
+    /// to. The result is not touched.
+    fn coarse_half(
+        &mut self,
+        targets: &[[f64; 3]],
+        motions: Option<&[Motion]>,
+    ) -> Result<SolveStats, SolveError> {
+        // Only some targets reach the coarse ARAP (which checks them); all are copied to p'.
+        check_targets(targets, self.fine_handles.len())?;
         let state = &mut self.state;
+        self.groups.targets(targets, motions, &mut state.motions, &mut state.coarse_targets);
         state.coarse_before.clear();
         state.coarse_before.extend_from_slice(self.coarse.positions());
-        let stats = self.coarse.solve(targets, &state.coarse_targets, &state.coarse_before)?;
-        self.prolong_result(targets, stats.iterations == 0)?;
-        Ok(stats)
+        self.coarse.solve(targets, &state.coarse_targets, &state.coarse_before)
+    }
+
+    /// The pending frame's prolongation, if a frame is pending ([`CoarseBsArap::begin_groups`]).
+    fn finish_pending(&mut self) -> Result<(), SolveError> {
+        let Some(p) = self.state.pending.take() else { return Ok(()) };
+        self.prolong_result(&p.targets, p.stats.iterations == 0)?;
+        self.state.solved(&p.targets, &p.stats, self.coarse.is_galerkin());
+        Ok(())
     }
 
     /// The coarse pose prolonged into the result, the handles held; `at_rest`: the coarse
@@ -466,53 +577,12 @@ impl CoarseBsArap {
     /// rotations and coarse pose of the last successful solve stay; otherwise the pose before
     /// is in `state.next`.
     fn prolong_result(&mut self, targets: &[[f64; 3]], at_rest: bool) -> Result<(), SolveError> {
-        let state = &mut self.state;
-        // Rest targets give the rest pose exactly, without iterating: nothing to settle, and
-        // no correction may carry over (the rest pose itself is copied below).
-        if at_rest && state.corrected {
-            state.clear_correction();
-        }
-        state.deformed_base = std::sync::OnceLock::new();
-        let bc = self.coarse.positions();
-        for (q, r) in state.next_quaternions.iter_mut().zip(self.coarse.rotations()) {
-            *q = quaternion_of(r);
-        }
-        // B'_c is finite (checked by ARAP) but the prolonged p' can still overflow: write into
-        // the scratch, swap it in, and swap it back unless p' is finite (the previous pose
-        // stays). The prolongation checks what it writes; only when that finds a point that
-        // is not finite is the held pose searched (a handle may have replaced the point).
-        if state.next.len() != self.base.rest.len() {
-            // Zeroed pages from the system (no pass to fill them), first written by the
-            // parallel prolongation.
-            state.next = vec![[0.0; 3]; self.base.rest.len()];
-        }
-        let finite = prolong(
-            Prolongation {
-                coarse: bc,
-                quaternions: &state.next_quaternions,
-                triangles: self.base.coarse_mesh.triangles(),
-                faces: &self.base.faces,
-                weights: &self.base.weights,
-                details: &self.base.details,
-                corrections: if state.corrected { &state.correction } else { &[] },
-            },
-            &mut state.next,
-        );
-        if at_rest
-            && self.fine_handles.iter().zip(targets).all(|(&v, t)| *t == self.base.rest[v as usize])
-        {
-            // Rest targets: M exactly (the prolongation B + D may differ in the last bit).
-            state.next.copy_from_slice(&self.base.rest);
-        }
-        hold(&mut state.next, &self.fine_handles, targets, &self.pinned);
-        let bad = if finite {
-            None
-        } else {
-            state.next.par_iter().position_any(|p| !p.iter().all(|c| c.is_finite()))
-        };
-        state.swap_next();
+        self.state.take_rotations(&self.coarse);
+        let held = Held { handles: &self.fine_handles, targets, pinned: &self.pinned };
+        let bad =
+            prolong_state(&mut self.state, &self.base, self.coarse.positions(), held, at_rest);
         if let Some(vertex) = bad {
-            state.roll_back(&mut self.coarse);
+            self.state.roll_back(&mut self.coarse);
             return Err(SolveError::NonFiniteResult { vertex });
         }
         Ok(())
@@ -603,7 +673,7 @@ impl CoarseBsArap {
     /// solve: the prolongation itself does not need it).
     pub fn deformed_base(&self) -> &[[f64; 3]] {
         self.state.deformed_base.get_or_init(|| {
-            let bc = self.coarse.positions();
+            let bc = self.published_coarse();
             (0..self.base.faces.len())
                 .into_par_iter()
                 .map(|i| {
@@ -614,6 +684,16 @@ impl CoarseBsArap {
         })
     }
 
+    /// The coarse pose of the result ([`CoarseBsArap::positions`]): the coarse solver's, or
+    /// while a frame is pending the one it started from.
+    fn published_coarse(&self) -> &[[f64; 3]] {
+        if self.state.pending.is_some() {
+            &self.state.coarse_before
+        } else {
+            self.coarse.positions()
+        }
+    }
+
     /// Details $D_i$, `#V×3`.
     pub fn details(&self) -> &[[f64; 3]] {
         &self.base.details
@@ -622,7 +702,7 @@ impl CoarseBsArap {
     /// The inputs of the last solve's prolongation (step 4 of the module doc).
     pub fn prolongation(&self) -> Prolongation<'_> {
         Prolongation {
-            coarse: self.coarse.positions(),
+            coarse: self.published_coarse(),
             quaternions: &self.state.quaternions,
             triangles: self.base.coarse_mesh.triangles(),
             faces: &self.base.faces,

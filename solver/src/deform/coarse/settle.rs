@@ -124,13 +124,15 @@ impl CoarseBsArap {
     }
 
     /// Whether [`CoarseBsArap::settle`] at the last solve's targets would refine: settle
-    /// iterations are set, the last solve converged away from rest, and a phase is left: the
+    /// iterations are set, no frame is pending ([`CoarseBsArap::begin_groups`]), the last solve
+    /// converged away from rest, and a phase is left: the
     /// coarse level's, the level's, or the full mesh's, whose factorization has not failed (a
     /// mesh too large for this machine's memory, for one:
     /// [`crate::linalg::linsolve::MEMORY_SHARE`]; the settle step that found it out returned
     /// the error, and later poses are only settled on the coarse level and the level).
     pub fn settle_pending(&self) -> bool {
         self.settle_iterations > 0
+            && self.state.pending.is_none()
             && self.state.settle_ready
             && (!self.state.coarse_settled || self.level_left() || self.full_mesh_left())
     }

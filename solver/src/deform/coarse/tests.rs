@@ -387,3 +387,50 @@ fn a_failed_first_solve_leaves_the_rest_pose() {
     // after any failed solve (`huge_targets_give_a_finite_pose_or_an_error_never_nan`).
     assert!(gap < 1e-3 * diag, "{gap:e}");
 }
+
+/// A begun frame whose prolongation is not finite (a carried correction made to overflow) fails
+/// beside the next frame's coarse solve: the error names a vertex, the pose stays the last
+/// published one (here the rest pose), the coarse pose goes back past both frames, nothing is
+/// pending, and the stream then goes on as a fresh solver goes.
+#[test]
+fn a_failed_prolongation_beside_the_next_solve_rolls_both_back() {
+    let (mesh, handles) = crate::geometry::shapes::bumpy_bar(3);
+    let config = ArapConfig::default();
+    let base = BaseConfig::default();
+    let rest = crate::deform::pose::GroupRest::new(mesh.positions(), &handles);
+    let frame = |y: f64| {
+        let t = [(0, crate::GroupTransform::from_translation(glam::DVec3::new(0.0, y, 0.0)))];
+        let (mut targets, mut motions) = (Vec::new(), Vec::new());
+        rest.targets(&t, &mut targets).unwrap();
+        rest.motions(&t, &mut motions).unwrap();
+        (targets, motions)
+    };
+    let (first, second) = (frame(0.1), frame(0.2));
+    let mut c = CoarseBsArap::new(&mesh, &handles, &config, &base).unwrap();
+    assert!(c.pipelines());
+    let coarse_start = c.coarse.positions().to_vec();
+    c.begin_groups(&first.0, &first.1).unwrap();
+    assert_ne!(c.coarse.positions(), &coarse_start[..]);
+    let free = handles.labels().iter().position(Option::is_none).unwrap();
+    c.state.correction[free] = [f64::MAX; 3];
+    c.state.corrected = true;
+    let mut shown = 0;
+    let e = c.finish_beside(Some((&second.0, &second.1)), &mut |_| shown += 1).unwrap_err();
+    assert!(matches!(e, SolveError::NonFiniteResult { .. }), "{e}");
+    assert_eq!(shown, 0);
+    assert_eq!(c.positions(), mesh.positions());
+    assert!(!c.pending());
+    assert!(!c.settle_pending());
+    assert_eq!(
+        c.coarse.positions(),
+        &coarse_start[..],
+        "a coarse pose of the failed frames stayed"
+    );
+    c.state.clear_correction();
+    c.solve_groups(&second.0, &second.1).unwrap();
+    let mut fresh = CoarseBsArap::new(&mesh, &handles, &config, &base).unwrap();
+    fresh.solve_groups(&second.0, &second.1).unwrap();
+    let gap = c.positions().iter().zip(fresh.positions());
+    let gap = gap.map(|(a, b)| crate::geometry::mesh::norm(sub(*a, *b))).fold(0.0, f64::max);
+    assert!(gap < 1e-3 * mesh.bbox_diagonal(), "{gap:e}");
+}
