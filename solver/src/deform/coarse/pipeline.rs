@@ -10,9 +10,10 @@
 //!
 //! The coarse iteration gains little from a second core (its parallel passes are short on a
 //! few thousand vertices) and the prolongation is a pass over every fine vertex, so on two
-//! cores a frame takes about the longer of the two instead of their sum; a pose is published as
-//! soon as its own prolongation is written, not after the next solve (BENCHMARKS.md, "The
-//! editor's frame"). The results are those of [`CoarseBsArap::solve_groups`] frame by frame:
+//! cores a frame takes about the longer of the two instead of their sum (less well than that:
+//! the two share the memory, BENCHMARKS.md, "Editor rate"); a pose is published as soon as its
+//! own prolongation is written, not after the next solve. The results are those of
+//! [`CoarseBsArap::solve_groups`] frame by frame:
 //! frame $k+1$'s coarse solve starts from frame $k$'s coarse pose either way, and the
 //! prolongation reads a copy of that pose and frame $k$'s rotations, taken before the next solve
 //! moves them. Fine iterations (step 5) need the prolonged pose before the next frame, so with
