@@ -555,12 +555,45 @@ fn a_slow_drag_does_not_settle_between_its_poses() {
     assert!(settled[0].2.duration_since(last) >= Duration::from_secs(1));
 }
 
+/// Counts the begun solves and lets each one return only when the test allows it.
+#[derive(Default)]
+struct Gate {
+    state: Mutex<(usize, usize)>,
+    changed: std::sync::Condvar,
+}
+
+impl Gate {
+    /// A solve begins: counted, then held until a permit is there.
+    fn pass(&self) {
+        let mut s = self.state.lock().unwrap();
+        s.0 += 1;
+        self.changed.notify_all();
+        while s.1 == 0 {
+            s = self.changed.wait(s).unwrap();
+        }
+        s.1 -= 1;
+    }
+
+    fn wait_entered(&self, n: usize) {
+        let s = self.state.lock().unwrap();
+        let timeout = Duration::from_secs(10);
+        let (s, r) = self.changed.wait_timeout_while(s, timeout, |s| s.0 < n).unwrap();
+        assert!(!r.timed_out(), "{} solves begun, waited for {n}", s.0);
+    }
+
+    fn permit(&self) {
+        self.state.lock().unwrap().1 += 1;
+        self.changed.notify_all();
+    }
+}
+
 /// A pose solver that splits its frames as the coarse BS-ARAP does: `begin` solves into a
-/// begun pose (slowly, so that poses queue up meanwhile), `finish_beside` publishes it and
-/// begins the next; it logs which calls came.
+/// begun pose once the gate lets it, `finish_beside` publishes it and begins the next; it logs
+/// which calls came.
 struct Split {
     shift: Shift,
     begun: Option<Vec<[f64; 3]>>,
+    gate: Arc<Gate>,
     log: Arc<Mutex<Vec<&'static str>>>,
 }
 
@@ -574,7 +607,7 @@ impl PoseSolver for Split {
     }
 
     fn begin(&mut self, poses: &[(usize, GroupTransform)]) -> Result<FrameStats, String> {
-        std::thread::sleep(Duration::from_millis(4));
+        self.gate.pass();
         let before = self.shift.x.clone();
         let stats = self.shift.solve(poses)?;
         self.begun = Some(std::mem::replace(&mut self.shift.x, before));
@@ -594,36 +627,47 @@ impl PoseSolver for Split {
     }
 }
 
-/// With a pose solver that splits its frames, poses coming in a stream are begun beside the
-/// frame before them: every frame shows the poses of the generation it carries (not newer
-/// ones that came while it was finished), the frames come in order, and the last one, finished
+/// With a pose solver that splits its frames, poses that come while a solve is begun are
+/// begun beside its frame's publishing: each frame shows the poses of the generation it
+/// carries (not the newer ones it was published beside), not done; the last one, finished
 /// alone, is done.
 #[test]
 fn split_frames_publish_each_pose_with_its_own_generation() {
     let log = Arc::new(Mutex::new(Vec::new()));
-    let calls = log.clone();
+    let gate = Arc::new(Gate::default());
+    let (calls, g) = (log.clone(), gate.clone());
     let factory: PoseSolverFactory =
         Arc::new(move |_, mesh: &Mesh, handles: &Handles, _: &_, _: &_| {
-            let split = Split { shift: Shift::new(mesh, handles), begun: None, log: calls.clone() };
+            let shift = Shift::new(mesh, handles);
+            let split = Split { shift, begun: None, gate: g.clone(), log: calls.clone() };
             Ok(Box::new(split) as Box<dyn PoseSolver>)
         });
     let h = SolverHandle::spawn(Slot::Main, factory, Arc::new(|| {})).unwrap();
     h.send(scene(1, vec![GroupTransform::default()]));
+    gate.wait_entered(1);
+    gate.permit();
     wait_frame(&h, |f| f.scene_generation == 1 && f.stats.done);
-    let mut frames = Vec::new();
-    for g in 2..=40u64 {
+    let poses = |g: u64| {
         let moved = GroupTransform::from_translation(glam::DVec3::new(0.0, 0.0, g as f64));
-        h.send(SolverCommand::SetPoses { pose_generation: g, poses: vec![moved] });
-        std::thread::sleep(Duration::from_millis(1));
-        frames.extend(h.try_take_frame());
+        SolverCommand::SetPoses { pose_generation: g, poses: vec![moved] }
+    };
+    h.send(poses(2));
+    gate.wait_entered(2);
+    for g in 3..=6u64 {
+        // The next poses come while generation g − 1 is begun.
+        h.send(poses(g));
+        gate.permit();
+        gate.wait_entered(g as usize);
+        let f = wait_frame(&h, |f| f.pose_generation == g - 1);
+        assert_eq!(f.positions[2], drawn([0.0, 1.0, (g - 1) as f64]));
+        assert!(!f.stats.done);
     }
-    frames.push(wait_frame(&h, |f| f.pose_generation == 40 && f.stats.done));
-    for f in &frames {
-        assert_eq!(f.positions[2], drawn([0.0, 1.0, f.pose_generation as f64]));
-    }
-    assert!(frames.windows(2).all(|w| w[0].pose_generation < w[1].pose_generation));
-    assert!(frames[..frames.len() - 1].iter().all(|f| !f.stats.done));
+    gate.permit();
+    let f = wait_frame(&h, |f| f.pose_generation == 6);
+    assert_eq!(f.positions[2], drawn([0.0, 1.0, 6.0]));
+    assert!(f.stats.done);
     let log = log.lock().unwrap();
-    assert!(log.contains(&"finish beside"), "{log:?}");
+    let beside = log.iter().filter(|c| **c == "finish beside").count();
+    assert_eq!(beside, 4, "{log:?}");
     assert_eq!(log.last(), Some(&"finish"));
 }
