@@ -230,8 +230,8 @@ pub struct Deformer {
     base: Vec<[f64; 3]>,
     /// What group motions act on ([`Deformer::solve_groups`]).
     group_rest: GroupRest,
-    /// The per-vertex targets of the last [`Deformer::solve_groups`] or
-    /// [`Deformer::settle_groups`], and its groups' motions.
+    /// The per-vertex targets of the last group motions solved, begun or settled, and the
+    /// groups' motions.
     group_targets: Vec<[f64; 3]>,
     group_motions: Vec<Motion>,
 }
@@ -484,7 +484,9 @@ impl Deformer {
     }
 
     /// The per-vertex targets (`#H×3`, order of [`Handles::handle_vertices`]) the last
-    /// [`Deformer::solve_groups`] or [`Deformer::settle_groups`] derived; empty before any.
+    /// [`Deformer::solve_groups`], [`Deformer::settle_groups`], [`Deformer::begin_groups`] or
+    /// next frame of [`Deformer::finish_beside`] derived (a begun frame's, while its pose is not
+    /// yet [`Deformer::positions`]); empty before any.
     pub fn group_targets(&self) -> &[[f64; 3]] {
         &self.group_targets
     }
