@@ -189,10 +189,11 @@ fn shape_f32(c: &mut Criterion) {
     let pose: Vec<[f64; 3]> =
         mesh.positions().iter().map(|&p| if p[0] > 0.0 { mul_vec(&q, p) } else { p }).collect();
     let faces = solver::geometry::normals::VertexFaces::new(mesh.n_vertices(), mesh.triangles());
-    let (mut positions, mut normals) = (Vec::new(), Vec::new());
+    let (mut positions, mut normals, mut area) = (Vec::new(), Vec::new(), Vec::new());
     let mut g = c.benchmark_group("shape_f32");
+    let t = mesh.triangles();
     g.bench_function(BenchmarkId::from_parameter(mesh.n_vertices()), |b| {
-        b.iter(|| faces.shape_f32(&pose, [0.0; 3], mesh.triangles(), &mut positions, &mut normals))
+        b.iter(|| faces.shape_f32(&pose, [0.0; 3], t, &mut positions, &mut normals, &mut area))
     });
     g.finish();
 }

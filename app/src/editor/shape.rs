@@ -45,7 +45,7 @@ impl Shape {
         faces: &VertexFaces,
     ) -> Shape {
         let (mut positions, mut normals) = (Vec::new(), Vec::new());
-        faces.shape_f32(x, origin, triangles, &mut positions, &mut normals);
+        faces.shape_f32(x, origin, triangles, &mut positions, &mut normals, &mut Vec::new());
         Shape { positions: Arc::new(positions), normals: Arc::new(normals) }
     }
 }
@@ -66,6 +66,8 @@ type F32Buffers = (Vec<[f32; 3]>, Vec<[f32; 3]>);
 #[derive(Default)]
 pub struct ShapePool {
     handed_out: Vec<Shape>,
+    /// The triangles' area normals of the last shape ([`VertexFaces::shape_f32`]'s scratch).
+    area_normals: Vec<[f32; 3]>,
 }
 
 impl ShapePool {
@@ -81,7 +83,10 @@ impl ShapePool {
     ) -> Shape {
         let (mut positions, mut normals) = self.take_free().unwrap_or_default();
         match faces {
-            Some(faces) => faces.shape_f32(x, origin, triangles, &mut positions, &mut normals),
+            Some(faces) => {
+                let scratch = &mut self.area_normals;
+                faces.shape_f32(x, origin, triangles, &mut positions, &mut normals, scratch);
+            }
             None => {
                 use rayon::prelude::*;
                 positions.resize(x.len(), [0.0; 3]);

@@ -105,13 +105,13 @@ pub fn vertex_normals_or_up(positions: &[[f64; 3]], triangles: &[[u32; 3]]) -> V
 /// Each vertex's triangles (compressed rows), built once per topology so that the vertex
 /// normals of many poses ([`VertexFaces::shape_f32`]) run in parallel over the vertices,
 /// each summing its own triangles' area normals: no scattered writes, no per-pose allocation
-/// but the output.
+/// when the caller keeps its buffers. Immutable once built, so that threads share it without
+/// waiting on each other (a lock held across the parallel work once let a pool worker wait
+/// for its holder, whose work it carried: a deadlock).
 #[derive(Debug)]
 pub struct VertexFaces {
     offsets: Vec<u32>,
     faces: Vec<u32>,
-    /// Per triangle, its area normal in the last pose: scratch reused between poses.
-    area_normals: std::sync::Mutex<Vec<[f32; 3]>>,
 }
 
 impl VertexFaces {
@@ -135,7 +135,7 @@ impl VertexFaces {
                 next[v as usize] += 1;
             }
         }
-        VertexFaces { offsets, faces, area_normals: Default::default() }
+        VertexFaces { offsets, faces }
     }
 
     /// Where each vertex's triangles start in [`VertexFaces::faces`] (`#V + 1`, compressed
@@ -159,7 +159,8 @@ impl VertexFaces {
     /// `out_normals`, as [`vertex_normals_or_up`] computes them but in `f32` arithmetic from the
     /// converted positions (the triangles' area normals first, then per vertex the sum of its
     /// triangles'): half the memory traffic of `f64`, and display needs no more.
-    /// `positions` and `triangles` are a pose and the triangles of the mesh this was built for.
+    /// `positions` and `triangles` are a pose and the triangles of the mesh this was built for;
+    /// `area_normals` is the caller's scratch for the triangles' normals, kept between poses.
     pub fn shape_f32(
         &self,
         positions: &[[f64; 3]],
@@ -167,6 +168,7 @@ impl VertexFaces {
         triangles: &[[u32; 3]],
         out_positions: &mut Vec<[f32; 3]>,
         out_normals: &mut Vec<[f32; 3]>,
+        area_normals: &mut Vec<[f32; 3]>,
     ) {
         use rayon::prelude::*;
         out_positions.resize(positions.len(), [0.0; 3]);
@@ -175,10 +177,6 @@ impl VertexFaces {
             .zip(positions.par_iter())
             .for_each(|(o, p)| *o = to_f32_from(origin, *p));
         let positions = &*out_positions;
-        let mut area_normals = match self.area_normals.lock() {
-            Ok(guard) => guard,
-            Err(poisoned) => poisoned.into_inner(),
-        };
         area_normals.resize(triangles.len(), [0.0; 3]);
         area_normals.par_iter_mut().zip(triangles.par_iter()).for_each(|(n, t)| {
             let [a, b, d] = t.map(|i| glam::Vec3::from(positions[i as usize]));
@@ -218,6 +216,7 @@ mod tests {
             mesh.triangles(),
             &mut positions,
             &mut got,
+            &mut Vec::new(),
         );
         assert_eq!(got.len(), expected.len());
         for (g, e) in got.iter().zip(&expected) {
@@ -226,6 +225,44 @@ mod tests {
             }
         }
         assert!(positions.iter().zip(&p).all(|(a, b)| *a == to_f32_from(origin, *b)));
+    }
+
+    /// One `VertexFaces` shared by threads that shape poses at once, some from inside the
+    /// rayon pool's jobs (as the editor's split frame publishes from a `rayon::join`, beside the
+    /// other solver thread of the side-by-side view): nothing may be held across parallel work,
+    /// or a pool worker that waits for it, with the holder's work below it on its stack, never
+    /// returns (a deadlock the side-by-side view met).
+    #[test]
+    fn shapes_made_at_once_from_pool_jobs_and_threads_finish() {
+        let mesh = &icosphere(4);
+        let n = mesh.n_vertices();
+        let faces = std::sync::Arc::new(VertexFaces::new(n, mesh.triangles()));
+        let shape = move |faces: &VertexFaces| {
+            let (mut positions, mut normals, mut area) = (Vec::new(), Vec::new(), Vec::new());
+            let (x, t) = (mesh.positions(), mesh.triangles());
+            faces.shape_f32(x, [0.0; 3], t, &mut positions, &mut normals, &mut area);
+            normals.len()
+        };
+        let (done, finished) = std::sync::mpsc::channel();
+        std::thread::scope(|s| {
+            for _ in 0..3 {
+                let (faces, done) = (faces.clone(), done.clone());
+                s.spawn(move || {
+                    for _ in 0..300 {
+                        let (a, b) = rayon::join(|| shape(&faces), || shape(&faces));
+                        assert_eq!((a, b), (n, n));
+                    }
+                    let _ = done.send(());
+                });
+            }
+            for k in 0..3 {
+                let waited = finished.recv_timeout(std::time::Duration::from_secs(120));
+                if waited.is_err() {
+                    eprintln!("thread {k} of 3 is stuck shaping poses: a deadlock");
+                    std::process::abort();
+                }
+            }
+        });
     }
     use crate::geometry::shapes::icosphere;
     use glam::{DMat3, DVec3};
