@@ -652,14 +652,15 @@ impl GalerkinCoarse {
     }
 
     /// The largest distance between a handle vertex's prolonged position and its target: the
-    /// step [`GalerkinCoarse::pose`] closes at the handle's border.
+    /// step [`GalerkinCoarse::pose`] closes at the handle's border; NaN when a prolonged handle
+    /// vertex is not finite (`f64::max` would drop it and report a small gap).
     pub fn handle_gap(&self, base: &CoarseBase, targets: &[[f64; 3]]) -> f64 {
         let out = self.prolonged(base);
         self.handle_vertices
             .iter()
             .zip(targets)
             .map(|(&v, t)| norm2(sub(out[v as usize], *t)).sqrt())
-            .fold(0.0, f64::max)
+            .fold(0.0, |m, d| if d > m || d.is_nan() { d } else { m })
     }
 
     /// The prolongation of the coarse pose and rotations, every vertex.

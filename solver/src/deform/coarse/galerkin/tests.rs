@@ -455,3 +455,24 @@ fn the_coarse_factor_solves_on_the_tree_split() {
         assert!(g.factor.split_sizes().is_some(), "{rule:?}: no tree split");
     }
 }
+
+/// The handle gap is the largest distance from a handle vertex's prolonged position to its
+/// target, and NaN when one of them is not finite (not the largest of the finite ones).
+#[test]
+fn the_handle_gap_reports_a_non_finite_distance() {
+    let (mesh, handles) = crate::geometry::shapes::bumpy_bar(3);
+    let base = CoarseBase::new(&mesh, &BaseConfig::default()).unwrap();
+    let gathered = gather_mesh_part(&mesh, &base).unwrap();
+    let rule = HandleRule::Penalty { weight: 1.0 };
+    let mut g = energy_for(&mesh, &base, &gathered, &handles, 0.02, rule).unwrap();
+    let mut targets = bent(&mesh, &handles, [0.0, 0.0, 1.0], 0.5);
+    g.solve(&targets, Stop::Moved { distance: 1e-9 }, 200).unwrap();
+    let gap = g.handle_gap(&base, &targets);
+    assert!(gap.is_finite() && gap >= 0.0, "{gap}");
+    let last = targets.len() - 1;
+    targets[last][1] = f64::NAN;
+    assert!(g.handle_gap(&base, &targets).is_nan());
+    targets[last][1] = 0.0;
+    targets[0][0] = f64::NAN;
+    assert!(g.handle_gap(&base, &targets).is_nan());
+}
