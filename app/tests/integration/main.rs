@@ -16,5 +16,6 @@ mod gizmo;
 mod gpu_prolong;
 mod method_panel;
 mod preferences;
+mod readme_pictures;
 mod rigging;
 mod selection_tools;
