@@ -155,8 +155,8 @@ fn editor_compare_live() {
     save(&mut h, "editor-compare-live.png");
 }
 
-/// The paper's knight in wireframe, ARAP beside BS-ARAP, its head moved up by a tenth of the
-/// height (as the README's `deform` example), the shortcuts overlay open.
+/// The paper's knight in wireframe, ARAP beside BS-ARAP, its head (group 0) moved up by 0.1
+/// (as the README's `deform` example, `--move 0:0,0.1,0`), the shortcuts overlay open.
 #[test]
 #[ignore = "writes docs/editor-knight-compare.png"]
 fn editor_knight_compare() {

@@ -653,7 +653,7 @@ impl GalerkinCoarse {
 
     /// The largest distance between a handle vertex's prolonged position and its target: the
     /// step [`GalerkinCoarse::pose`] closes at the handle's border; NaN when a prolonged handle
-    /// vertex is not finite (`f64::max` would drop it and report a small gap).
+    /// vertex or its target is not finite (`f64::max` would drop it and report a small gap).
     pub fn handle_gap(&self, base: &CoarseBase, targets: &[[f64; 3]]) -> f64 {
         let out = self.prolonged(base);
         self.handle_vertices
