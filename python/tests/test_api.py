@@ -176,8 +176,10 @@ def test_scene_record_export(tmp_path, repo):
     assert bsarap.Timeline.from_json(tl.to_json()).to_json() == tl.to_json()
     path = repo / "assets" / "scenes" / "creature-circle.json"
     assert bsarap.Timeline.from_scene(path).to_json() == tl.to_json()
-    assert scene.settings["coarse_vertices"] == 2000 and scene.settings["energy"] == "spokes-and-rims"
-    assert scene.settings["membrane"] == bsarap.DEFAULT_MEMBRANE  # not in the file: the default
+    settings = scene.settings  # the editor's defaults, written out in the file
+    assert settings["energy"] == "smooth-rotations" and settings["bending_length"] == 0.02
+    assert settings["coarse_energy"] == "galerkin" and settings["max_iters"] == 30
+    assert settings["membrane"] == bsarap.DEFAULT_MEMBRANE  # not in the file: the default
     assert scene.mesh_path.endswith("creature.obj") and (scene.labels >= 0).any()
     d = scene.deformer()
     rec = bsarap.record(d, tl, n_frames=4)

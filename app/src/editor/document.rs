@@ -295,6 +295,35 @@ mod tests {
         assert_eq!(back.edit.loose_parts, LooseParts::default());
     }
 
+    /// The example scenes in `assets/scenes/` open on exactly the editor's default method
+    /// settings, whatever the editor had before: a newcomer's first scene shows the defaults.
+    #[test]
+    fn the_example_scenes_open_on_the_editors_defaults() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/scenes");
+        let defaults = MethodSettings::default();
+        let before = MethodSettings {
+            arap: solver::ArapConfig {
+                energy: solver::Energy::SpokesAndRims,
+                max_iterations: 100,
+                ..defaults.arap
+            },
+            bs_variant: solver::Method::BsArapFaired,
+            base: solver::BaseConfig {
+                coarse_vertices: Some(999),
+                coarse_energy: solver::CoarseEnergy::Decimated,
+                ..defaults.base
+            },
+            ..defaults
+        };
+        for name in ["creature-circle.json", "creature-keyframes.json", "creature-posed.json"] {
+            let loaded = solver::animation::scene::Scene::load(&dir.join(name)).unwrap();
+            let labels = loaded.handles.labels().to_vec();
+            let applied = apply_scene(&loaded.scene, labels, &before, [0.0; 3]);
+            assert_eq!(applied.settings, defaults, "{name}");
+            assert!(applied.notice.is_none(), "{name}: {:?}", applied.notice);
+        }
+    }
+
     /// The rig (rigidity map, a group's falloff, symmetry settings) survives a scene round
     /// trip; the same scene as version 1 (no `rig`) reads with none.
     #[test]

@@ -106,29 +106,16 @@ fn editor_timeline() {
     save(&mut h, "editor-timeline.png");
 }
 
-/// Side by side on the circular example scene with the editor's defaults (the method and
-/// energy settings of `creature-posed.json`; the circle's own are the older spokes and rims):
-/// played for a few seconds (the overlays' rates while playing are printed), then paused,
-/// taken back to the start and stepped along the path a frame (1/15 s) at a time to t = 4/3 s,
-/// each method starting each frame from its last (as playing slowly would), until both have
-/// converged there and their distances to converged ARAP are shown.
+/// Side by side on the circular example scene (on the editor's defaults): played for a few
+/// seconds (the overlays' rates while playing are printed), then paused, taken back to the start
+/// and stepped along the path a frame (1/15 s) at a time to t = 4/3 s, each method starting
+/// each frame from its last (as playing slowly would), until both have converged there and
+/// their distances to converged ARAP are shown.
 #[test]
 #[ignore = "writes docs/editor-compare-live.png"]
 fn editor_compare_live() {
     let config = ScratchDir::new("picture-compare");
-    let scenes = repo().join("assets/scenes");
-    let read = |name: &str| -> serde_json::Value {
-        serde_json::from_str(&std::fs::read_to_string(scenes.join(name)).unwrap()).unwrap()
-    };
-    let (mut circle, defaults) = (read("creature-circle.json"), read("creature-posed.json"));
-    for key in ["method", "base", "arap"] {
-        circle[key] = defaults[key].clone();
-    }
-    let assets = repo().join("assets");
-    circle["mesh"] = assets.join("creature.obj").to_str().unwrap().into();
-    circle["handles"]["file"] = assets.join("creature.handles.json").to_str().unwrap().into();
-    let scene = config.join("creature-circle.json");
-    std::fs::write(&scene, serde_json::to_string_pretty(&circle).unwrap()).unwrap();
+    let scene = repo().join("assets/scenes/creature-circle.json");
     let mut h = editor(scene, &config);
     step_until(&mut h, "the scene, settled", settled);
     h.get_by_label("Side by side").click();
