@@ -232,6 +232,12 @@ pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
 
     let asset = &loaded.mesh.asset;
     let vertex_map = &loaded.mesh.report.vertex_map;
+    let solved = SolveSettings {
+        method: scene.method,
+        arap: scene.arap,
+        coarse_energy: scene.base.coarse_energy,
+        diagonal: mesh.bbox_diagonal(),
+    };
     let written = match output {
         Output::Gltf(format) if a.bones.is_some() => {
             let bones = a.bones.flatten().unwrap_or(SkinningConfig::default().bones);
@@ -240,6 +246,7 @@ pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
                 vertex_map,
                 rest: mesh.positions(),
                 recording: &recording,
+                solved,
             };
             let r = super::export_bones::write(
                 &a.output,
@@ -262,12 +269,6 @@ pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
                     sparse: true,
                     every_k: a.every.max(1),
                 },
-            };
-            let solved = SolveSettings {
-                method: scene.method,
-                arap: scene.arap,
-                coarse_energy: scene.base.coarse_energy,
-                diagonal: mesh.bbox_diagonal(),
             };
             let export = GltfExport::from_asset(&input, format)?
                 .with_up_axis(scene.up_axis)

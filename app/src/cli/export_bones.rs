@@ -7,7 +7,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use solver::animation::export::{GltfFormat, SkinnedExport, UpAxis};
+use solver::animation::export::{GltfFormat, SkinnedExport, SolveSettings, UpAxis};
 use solver::animation::recording::Recording;
 use solver::animation::skinning::{FitStage, SkinningConfig, fit_skinning};
 use solver::io::asset::Asset;
@@ -26,6 +26,8 @@ pub struct Baked<'a> {
     pub rest: &'a [[f64; 3]],
     /// Poses of `rest`.
     pub recording: &'a Recording,
+    /// What the recording was solved with (recorded in the file's `asset.extras.bsarap`).
+    pub solved: SolveSettings,
 }
 
 /// Fits `bones` bones to the recording and writes the skin on the asset's layout to `path`,
@@ -39,7 +41,7 @@ pub fn write(
     bones: usize,
     quiet: bool,
 ) -> anyhow::Result<BonesReport> {
-    let Baked { asset, vertex_map, rest, recording } = *baked;
+    let Baked { asset, vertex_map, rest, recording, solved } = *baked;
     let config = SkinningConfig { bones, ..SkinningConfig::default() };
     let target = if quiet { ProgressDrawTarget::hidden() } else { ProgressDrawTarget::stderr() };
     let steps = (config.init_iterations + config.iterations) as u64;
@@ -63,8 +65,9 @@ pub fn write(
     })?;
     pb.finish_and_clear();
     let fit_seconds = t0.elapsed().as_secs_f64();
-    let export =
-        SkinnedExport::new(asset, vertex_map, &skin, &recording.times, format)?.with_up_axis(up);
+    let export = SkinnedExport::new(asset, vertex_map, &skin, &recording.times, format)?
+        .with_up_axis(up)
+        .with_solve_settings(&solved)?;
     let size = export.file_size()?;
     eprintln!(
         "{} bones fitted in {fit_seconds:.1} s ({} alternations): error mean {:.3} %, max {:.3} % \

@@ -83,6 +83,12 @@ fn bake_to_bones_writes_a_skin_and_cancel_writes_nothing() {
     use gltf::Semantic;
     assert!(prim.get(&Semantic::Joints(0)).is_some(), "no JOINTS_0");
     assert!(prim.get(&Semantic::Weights(0)).is_some(), "no WEIGHTS_0");
+    // The settings the recording was solved with, as in a morph-target export.
+    let json = solver::testing::gltf_decode::json_of(&bytes);
+    let solved = &json["asset"]["extras"]["bsarap"];
+    assert_eq!(solved["method"], "bsarap", "{}", json["asset"]);
+    assert_eq!(solved["energy"], "spokes-and-rims");
+    assert_eq!(solved["max_iterations"], 50);
     // The scene is Z-up: the armature carries the upright rotation (−90° about x).
     let armature = skin.skeleton().unwrap();
     let [x, y, z, w] = armature.transform().decomposed().1;

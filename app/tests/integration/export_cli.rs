@@ -185,8 +185,9 @@ fn deform_writes_the_pose_on_the_file_layout_by_extension() {
     assert!(stderr.contains("posed.fbx") && stderr.contains(".ply"), "{stderr}");
 }
 
-/// `--bones N` writes a skin of N joints with one animation; a Z-up scene's armature carries
-/// the morph export's upright rotation (−90° about x), a Y-up one none.
+/// `--bones N` writes a skin of N joints with one animation and the scene's solve settings in
+/// `asset.extras.bsarap`, as the morph export does; a Z-up scene's armature carries the morph
+/// export's upright rotation (−90° about x), a Y-up one none.
 #[test]
 fn export_bones_writes_a_skin_upright_for_the_scene_up_axis() {
     let d = dir("bones");
@@ -205,6 +206,10 @@ fn export_bones_writes_a_skin_upright_for_the_scene_up_axis() {
         let j = json_of(&std::fs::read(&out).unwrap());
         assert_eq!(j["skins"][0]["joints"].as_array().unwrap().len(), 4);
         assert_eq!(j["animations"].as_array().unwrap().len(), 1);
+        let solved = &j["asset"]["extras"]["bsarap"];
+        assert_eq!(solved["method"], "bsarap", "{}", j["asset"]);
+        assert_eq!(solved["energy"], "spokes-and-rims");
+        assert_eq!(solved["max_iterations"], 50);
         let armature = j["skins"][0]["skeleton"].as_u64().unwrap() as usize;
         let rotation = &j["nodes"][armature]["rotation"];
         if rotated {

@@ -12,7 +12,7 @@ use std::path::{Path as FsPath, PathBuf};
 
 use clients::{blender_python, max_error, run_blender, threejs_check};
 use solver::Mesh;
-use solver::animation::export::{GltfFormat, SkinnedExport};
+use solver::animation::export::{GltfFormat, SkinnedExport, SolveSettings};
 use solver::animation::recording::Recording;
 use solver::animation::skinning::{
     FitProgress, MAX_INFLUENCES, Skinning, SkinningConfig, SkinningError, fit_skinning,
@@ -135,20 +135,32 @@ fn bad_input_is_an_error_and_progress_can_cancel() {
     assert_eq!((err, calls), (SkinningError::Cancelled, 1));
 }
 
-/// The recording fitted with 12 bones and written as `.glb` and `.gltf`.
+/// The recording fitted with 12 bones and written as `.glb` and `.gltf`, with the settings it
+/// was solved with in `asset.extras.bsarap` (counted by `file_size`).
 fn skinned_files(dir: &FsPath) -> (Mesh, Recording, Skinning, Vec<PathBuf>) {
     let (mesh, rec) = recording(7);
     let s = fit(mesh.positions(), &rec.frames, 12);
     let asset = Asset::bare(mesh.positions().to_vec(), mesh.triangles().to_vec());
     let map: Vec<Option<u32>> = (0..mesh.n_vertices() as u32).map(Some).collect();
+    let solved = SolveSettings {
+        method: solver::Method::BsArap,
+        arap: solver::ArapConfig { max_iterations: 37, ..Default::default() },
+        coarse_energy: solver::CoarseEnergy::default(),
+        diagonal: mesh.bbox_diagonal(),
+    };
     let mut paths = Vec::new();
     for name in ["skin.glb", "skin.gltf"] {
         let path = dir.join(name);
         let format = GltfFormat::from_path(&path).unwrap();
         let export = SkinnedExport::new(&asset, &map, &s, &rec.times, format).unwrap();
+        let bare = export.file_size().unwrap();
+        let export = export.with_solve_settings(&solved).unwrap();
         let size = export.file_size().unwrap();
+        assert!(size > bare, "the settings are counted: {size} against {bare}");
         assert_eq!(export.write(&path).unwrap(), size);
         assert_eq!(std::fs::metadata(&path).unwrap().len(), size);
+        let json = solver::testing::gltf_decode::json_of(&std::fs::read(&path).unwrap());
+        assert_eq!(json["asset"]["extras"]["bsarap"], solved.to_json(), "{}", json["asset"]);
         paths.push(path);
     }
     (mesh, rec, s, paths)

@@ -93,6 +93,7 @@ pub fn spawn_bake(
 ) -> Baking {
     let recording = recorded.recording.clone();
     let mesh = recorded.mesh.clone();
+    let solved = recorded.solved;
     let status = Arc::new(BakeStatus::default());
     let s = status.clone();
     let repaint = Arc::new(repaint);
@@ -135,7 +136,9 @@ pub fn spawn_bake(
                 format,
             )
             .map_err(|e| fail(&e))?
-            .with_up_axis(up);
+            .with_up_axis(up)
+            .with_solve_settings(&solved)
+            .map_err(|e| fail(&e))?;
             let bytes = export.write(&path).map_err(|e| fail(&e))?;
             Ok(Baked { path, bytes, bones: skin.n_bones(), error: skin.error, seconds })
         },

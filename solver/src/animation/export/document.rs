@@ -126,6 +126,28 @@ pub(super) struct Elements {
     pub type_: T,
 }
 
+/// A document's root before its contents: the asset (generator, version 2.0, `extras`) and
+/// buffer 0, the binary chunk, whose length is set when the document is done.
+pub(super) fn new_root(extras: Option<Box<serde_json::value::RawValue>>) -> json::Root {
+    let mut root = json::Root {
+        asset: json::Asset {
+            generator: Some(format!("bsarap {}", env!("CARGO_PKG_VERSION"))),
+            extras,
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    root.asset.version = "2.0".into();
+    root.push(json::Buffer {
+        byte_length: USize64(0),
+        name: None,
+        uri: None,
+        extensions: None,
+        extras: None,
+    });
+    root
+}
+
 /// The buffer being laid out: every view starts on a 4-byte boundary; bytes are kept only
 /// when writing.
 pub(super) struct Builder {
@@ -422,26 +444,11 @@ impl GltfExport<'_> {
     ) -> Result<(json::Root, Vec<u8>, usize), ExportError> {
         let asset = &*self.asset;
         let layout: &Layout = &self.layout;
-        let mut root = json::Root {
-            asset: json::Asset {
-                generator: Some(format!("bsarap {}", env!("CARGO_PKG_VERSION"))),
-                extras: self.asset_extras.clone(),
-                ..Default::default()
-            },
-            ..Default::default()
-        };
-        root.asset.version = "2.0".into();
+        let mut root = new_root(self.asset_extras.clone());
         if self.settings.encoding == Encoding::Quantized {
             root.extensions_used.push("KHR_mesh_quantization".into());
             root.extensions_required.push("KHR_mesh_quantization".into());
         }
-        root.push(json::Buffer {
-            byte_length: USize64(0),
-            name: None,
-            uri: None,
-            extensions: None,
-            extras: None,
-        });
         let mut b = Builder { root, bin: Vec::new(), len: 0, keep };
 
         push_materials(&mut b, asset, self.format);

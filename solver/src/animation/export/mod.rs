@@ -208,12 +208,12 @@ impl UpAxis {
 }
 
 /// The settings a recording was solved with, recorded in the file's `asset.extras.bsarap`
-/// ([`GltfExport::with_solve_settings`]) so that a reader of the file knows what made it:
-/// `{"method", "energy", "bending_length" (fraction of the rest diagonal),
-/// "bending_length_world" (times the diagonal), "tolerance", "max_iterations", "acceleration",
-/// "energy_threshold", "membrane", "coarse_energy", "diagonal"}`; the bending lengths are
-/// `null` for energies without one, the coarse energy for methods other than the coarse
-/// variant.
+/// ([`GltfExport::with_solve_settings`], [`SkinnedExport::with_solve_settings`]) so that a
+/// reader of the file knows what made it: `{"method", "energy", "bending_length" (fraction of
+/// the rest diagonal), "bending_length_world" (times the diagonal), "tolerance",
+/// "max_iterations", "acceleration", "energy_threshold", "membrane", "coarse_energy",
+/// "diagonal"}`; the bending lengths are `null` for energies without one, the coarse energy for
+/// methods other than the coarse variant.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SolveSettings {
     pub method: crate::deform::deformer::Method,
@@ -243,6 +243,12 @@ impl SolveSettings {
                 .then_some(self.coarse_energy.name()),
             "diagonal": self.diagonal,
         })
+    }
+
+    /// A file's `asset.extras` recording these settings: `{"bsarap": `[`Self::to_json`]`}`.
+    fn asset_extras(&self) -> Result<Box<serde_json::value::RawValue>, ExportError> {
+        let value = serde_json::json!({ "bsarap": self.to_json() });
+        serde_json::value::to_raw_value(&value).map_err(|e| ExportError::Json(e.to_string()))
     }
 }
 
@@ -547,9 +553,7 @@ impl<'a> GltfExport<'a> {
     /// Records the settings the recording was solved with in `asset.extras.bsarap`
     /// ([`SolveSettings`]).
     pub fn with_solve_settings(mut self, settings: &SolveSettings) -> Result<Self, ExportError> {
-        let value = serde_json::json!({ "bsarap": settings.to_json() });
-        let raw = serde_json::value::to_raw_value(&value)
-            .map_err(|e| ExportError::Json(e.to_string()))?;
+        let raw = settings.asset_extras()?;
         self.root.asset.extras = Some(raw.clone());
         self.asset_extras = Some(raw);
         Ok(self)

@@ -41,14 +41,14 @@ use glam::{DQuat, DVec3};
 use gltf_json as json;
 use json::accessor::{ComponentType as C, Type as T};
 use json::buffer::Target as B;
-use json::validation::{Checked::Valid, USize64};
+use json::validation::Checked::Valid;
 
 use super::document::{
     Builder, Elements, base_attributes, channel, f32_bytes, file_bytes, file_size, linear_sampler,
-    push_materials,
+    new_root, push_materials,
 };
 use super::layout::{Layout, validate};
-use super::{ExportError, GltfFormat, UpAxis, position_origin};
+use super::{ExportError, GltfFormat, SolveSettings, UpAxis, position_origin};
 use crate::animation::skinning::{MAX_INFLUENCES, Skinning};
 use crate::geometry::mesh::to_f32_from;
 use crate::io::asset::Asset;
@@ -171,6 +171,13 @@ impl<'a> SkinnedExport<'a> {
         self
     }
 
+    /// Records the settings the recording was solved with in `asset.extras.bsarap`, as the
+    /// morph-target export does ([`super::GltfExport::with_solve_settings`]).
+    pub fn with_solve_settings(mut self, settings: &SolveSettings) -> Result<Self, ExportError> {
+        self.root.asset.extras = Some(settings.asset_extras()?);
+        Ok(self)
+    }
+
     /// The exact size in bytes of the file [`SkinnedExport::write`] will produce.
     pub fn file_size(&self) -> Result<u64, ExportError> {
         file_size(&self.root, self.format, self.bin_len)
@@ -224,21 +231,7 @@ impl<'a> SkinnedExport<'a> {
     fn assemble(&self, keep: bool) -> Result<(json::Root, Vec<u8>, usize), ExportError> {
         let asset = self.asset;
         let layout = &self.layout;
-        let mut root = json::Root {
-            asset: json::Asset {
-                generator: Some(format!("bsarap {}", env!("CARGO_PKG_VERSION"))),
-                ..Default::default()
-            },
-            ..Default::default()
-        };
-        root.asset.version = "2.0".into();
-        root.push(json::Buffer {
-            byte_length: USize64(0),
-            name: None,
-            uri: None,
-            extensions: None,
-            extras: None,
-        });
+        let root = new_root(self.root.asset.extras.clone());
         let mut b = Builder { root, bin: Vec::new(), len: 0, keep };
         push_materials(&mut b, asset, self.format);
 
