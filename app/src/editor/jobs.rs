@@ -418,14 +418,26 @@ pub struct QualityInput {
     pub results: [Arc<Vec<[f32; 3]>>; 2],
 }
 
+/// The side-by-side results' quality against converged ARAP, and that reference's own.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SideBySideQuality {
+    /// Left and right: distances to the reference and energies on the mesh.
+    pub results: [solver::deform::quality::Quality; 2],
+    /// The reference measured as a result (distance 0): its energy on the mesh. The reference
+    /// is solved from rest, so where the pose has two minima a result in the other can be far
+    /// from it at a lower energy; beside the results' energies this says which.
+    pub reference: solver::deform::quality::Quality,
+}
+
 /// The quality figures (docs/DESIGN.md, "Quality targets") of both side-by-side results: distance to converged full ARAP
 /// for the same handle targets (max and mean over the diagonal) and the ARAP energy measured on
-/// the mesh (`solver::deform::quality::Reference`). The reference solve costs seconds on a dense mesh,
-/// so the editor runs this when a pose has settled, never on the UI thread.
+/// the mesh (`solver::deform::quality::Reference`), with the reference's own energy. The reference
+/// solve costs seconds on a dense mesh, so the editor runs this when a pose has settled, never on
+/// the UI thread.
 pub fn spawn_quality(
     input: QualityInput,
     repaint: impl Fn() + Send + 'static,
-) -> Job<[solver::deform::quality::Quality; 2]> {
+) -> Job<SideBySideQuality> {
     spawn("quality", repaint, move |_| {
         let QualityInput { mesh, handles, poses, energy, results } = input;
         let targets = handle_targets(&mesh, &handles, &poses)?;
@@ -439,7 +451,10 @@ pub fn spawn_quality(
         if results.iter().any(|r| r.len() != mesh.n_vertices()) {
             return Err("a result does not match the mesh".into());
         }
-        Ok([reference.measure(&f64s(&results[0])), reference.measure(&f64s(&results[1]))])
+        let results =
+            [reference.measure(&f64s(&results[0])), reference.measure(&f64s(&results[1]))];
+        let own = reference.positions().to_vec();
+        Ok(SideBySideQuality { results, reference: reference.measure(&own) })
     })
 }
 

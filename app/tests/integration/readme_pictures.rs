@@ -138,7 +138,7 @@ fn editor_compare_live() {
     }
     step_until(&mut h, "both methods converged on the paused pose", both_converged);
     let (q, _) = h.state().side_by_side_quality().unwrap();
-    println!("quality (left, right): {q:?}");
+    println!("quality (left, right) and reference: {q:?}");
     save(&mut h, "editor-compare-live.png");
 }
 

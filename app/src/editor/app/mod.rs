@@ -39,13 +39,13 @@ mod viewport;
 
 use std::path::{Path, PathBuf};
 
-use super::jobs::{Baking, Job, Preparing, Recorded};
+use super::jobs::{Baking, Job, Preparing, Recorded, SideBySideQuality};
 use super::loader::LoadJob;
 use super::renderer;
 use super::solver_thread::Slot;
 use input::Interaction;
 use session::{Session, Store};
-use solvers::{SideBySideQuality, Solvers};
+use solvers::Solvers;
 use viewport::Display;
 
 pub use gizmo::TransformKind;

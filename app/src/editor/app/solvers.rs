@@ -14,9 +14,6 @@ use crate::editor::solver_thread::{NewScene, Slot, SolvedFrame, SolverCommand, S
 use crate::editor::{jobs, loader};
 use crate::gpu::normals::GpuNormals;
 
-/// Quality of the left and right side-by-side results against converged ARAP.
-pub(super) type SideBySideQuality = [solver::deform::quality::Quality; 2];
-
 /// Seconds of solver history the plot shows.
 pub(super) const PLOT_SECONDS: f64 = 10.0;
 
@@ -335,9 +332,9 @@ impl EditorApp {
         self.jobs.compare = Some((key, jobs::spawn_quality(input, move || c.request_repaint())));
     }
 
-    /// Quality of the side-by-side results (left, right) against converged ARAP, and whether it
-    /// is for the current pose.
-    pub fn side_by_side_quality(&self) -> Option<([solver::deform::quality::Quality; 2], bool)> {
+    /// Quality of the side-by-side results (left, right) against converged ARAP, with the
+    /// reference's own energy, and whether it is for the current pose.
+    pub fn side_by_side_quality(&self) -> Option<(jobs::SideBySideQuality, bool)> {
         let key = (self.solvers.scene_generation, self.solvers.pose_generation);
         self.jobs.compared.as_ref().map(|(k, q)| (*q, *k == key))
     }

@@ -400,9 +400,9 @@ impl EditorApp {
             }
         }
         if self.display.view == View::Compare
-            && let Some((q, current)) = self.side_by_side_quality()
+            && let Some((quality, current)) = self.side_by_side_quality()
         {
-            let q = q[slot.min(1)];
+            let q = quality.results[slot.min(1)];
             lines.push(format!(
                 "vs converged ARAP{}: max {:.2}% mean {:.3}%",
                 if current { "" } else { " (old pose)" },
@@ -410,6 +410,9 @@ impl EditorApp {
                 100.0 * q.mean_distance
             ));
             lines.push(format!("ARAP energy on the mesh {:.3e}", q.energy_on_mesh));
+            // The reference starts from rest: a result far from it at a lower energy is in
+            // another minimum, not a worse answer.
+            lines.push(format!("converged from rest: E {:.3e}", quality.reference.energy_on_mesh));
         } else if self.display.view == View::Compare && self.jobs.compare.is_some() {
             lines.push("vs converged ARAP: computing…".into());
         }
