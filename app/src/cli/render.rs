@@ -137,7 +137,7 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
         pb.finish_and_clear();
         let t = mesh.triangles();
         let faces = solver::geometry::normals::VertexFaces::new(mesh.n_vertices(), t);
-        recording.frames.iter().map(|f| Shape::with_faces(f, file.origin, t, &faces)).collect()
+        Shape::all_with_faces(&recording.frames, file.origin, t, &faces)
     } else {
         vec![file.rest.clone()]
     };

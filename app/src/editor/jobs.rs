@@ -331,9 +331,7 @@ pub fn spawn_record(
                     .map_err(|e| format!("recording: {e}"))?;
             let t = mesh.triangles();
             let origin = display_origin(&mesh);
-            let shapes = (recording.frames.iter())
-                .map(|f| Shape::with_faces(f, origin, t, &vertex_faces))
-                .collect();
+            let shapes = Shape::all_with_faces(&recording.frames, origin, t, &vertex_faces);
             Ok(Recorded {
                 recording: Arc::new(recording),
                 shapes,

@@ -44,8 +44,32 @@ impl Shape {
         triangles: &[[u32; 3]],
         faces: &VertexFaces,
     ) -> Shape {
+        Shape::with_scratch(x, origin, triangles, faces, &mut Vec::new())
+    }
+
+    /// [`Shape::with_faces`] of every pose in `frames` (a recording's), one scratch for all.
+    pub fn all_with_faces(
+        frames: &[Vec<[f64; 3]>],
+        origin: [f64; 3],
+        triangles: &[[u32; 3]],
+        faces: &VertexFaces,
+    ) -> Vec<Shape> {
+        let mut area_normals = Vec::new();
+        let shape =
+            |x: &Vec<[f64; 3]>| Shape::with_scratch(x, origin, triangles, faces, &mut area_normals);
+        frames.iter().map(shape).collect()
+    }
+
+    /// [`Shape::with_faces`] with the caller's scratch for the triangles' area normals.
+    fn with_scratch(
+        x: &[[f64; 3]],
+        origin: [f64; 3],
+        triangles: &[[u32; 3]],
+        faces: &VertexFaces,
+        area_normals: &mut Vec<[f32; 3]>,
+    ) -> Shape {
         let (mut positions, mut normals) = (Vec::new(), Vec::new());
-        faces.shape_f32(x, origin, triangles, &mut positions, &mut normals, &mut Vec::new());
+        faces.shape_f32(x, origin, triangles, &mut positions, &mut normals, area_normals);
         Shape { positions: Arc::new(positions), normals: Arc::new(normals) }
     }
 }
@@ -155,6 +179,25 @@ mod tests {
         drop(bare);
         let full = pool.shape(&x, [0.0; 3], &t, Some(&faces));
         assert_eq!(*full.normals, vec![[0.0, 0.0, 1.0]; 3]);
+    }
+
+    /// A recording's shapes, made with one scratch, are each pose's own shape (the scratch
+    /// carries nothing from one pose to the next: the second triangle faces the other way).
+    #[test]
+    fn all_with_faces_is_each_pose_with_faces() {
+        let t = [[0, 1, 2]];
+        let faces = VertexFaces::new(3, &t);
+        let frames = vec![
+            vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+            vec![[0.0; 3], [0.0, 2.0, 0.0], [3.0, 0.0, 0.0]],
+        ];
+        let all = Shape::all_with_faces(&frames, [0.0; 3], &t, &faces);
+        assert_eq!(all.len(), 2);
+        for (shape, x) in all.iter().zip(&frames) {
+            let own = Shape::with_faces(x, [0.0; 3], &t, &faces);
+            assert_eq!((&*shape.positions, &*shape.normals), (&*own.positions, &*own.normals));
+        }
+        assert_eq!(*all[1].normals, vec![[0.0, 0.0, -1.0]; 3]);
     }
 
     #[test]

@@ -61,7 +61,7 @@ pub const EXT_MESHOPT_COMPRESSION: &str = "EXT_meshopt_compression";
 
 /// The grid of target positions as a fraction of the asset's bounding-box diagonal (module
 /// doc, "Quantization"). On creature-circle the weight's cap of 1 binds first (grid
-/// $k / 32767$); BENCHMARKS.md gives the sizes with and without the grid.
+/// $k / 32767$).
 const POSITION_STEP: f64 = 2e-5;
 
 /// The bounding-box diagonal of `positions` (0 for none).
