@@ -57,8 +57,8 @@ pub fn seeds(name: &str) -> Vec<Vec<u8>> {
         ],
         "scene" => {
             let mut scenes: Vec<Vec<u8>> = vec![
-                include_bytes!("../../assets/scenes/creature-circle.json").to_vec(),
-                include_bytes!("../../assets/scenes/creature-keyframes.json").to_vec(),
+                include_bytes!("../../assets/creature-circle.json").to_vec(),
+                include_bytes!("../../assets/creature-keyframes.json").to_vec(),
                 LABELS_SCENE.into(),
             ];
             // Each as the writer makes it (version 2).

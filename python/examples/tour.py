@@ -106,7 +106,7 @@ print(f"coarse BS-ARAP after {steps} settle steps: mean distance to ARAP {dist.m
 # (warm-started), `export_gltf` writes morph targets on the asset's own layout.
 
 # %%
-scene = bsarap.load_scene(ROOT / "assets" / "scenes" / "creature-circle.json")
+scene = bsarap.load_scene(ROOT / "assets" / "creature-circle.json")
 timeline = scene.timeline
 deformer = scene.deformer()
 t = time.perf_counter()

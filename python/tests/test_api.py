@@ -167,14 +167,14 @@ def test_gil_released_during_solves():
 
 
 def test_scene_record_export(tmp_path, repo):
-    scene = bsarap.load_scene(repo / "assets" / "scenes" / "creature-circle.json")
+    scene = bsarap.load_scene(repo / "assets" / "creature-circle.json")
     assert scene.method == "bsarap-coarse" and scene.V.shape[1] == 3
     tl = scene.timeline
     assert tl.groups == [0] and tl.default_frame_count() == round(tl.duration * tl.fps) + 1
     tr, R = tl.transforms_at(0.5 * tl.duration)[0]
     assert tr.shape == (3,) and R.shape == (3, 3)
     assert bsarap.Timeline.from_json(tl.to_json()).to_json() == tl.to_json()
-    path = repo / "assets" / "scenes" / "creature-circle.json"
+    path = repo / "assets" / "creature-circle.json"
     assert bsarap.Timeline.from_scene(path).to_json() == tl.to_json()
     settings = scene.settings  # the editor's defaults, written out in the file
     assert settings["energy"] == "smooth-rotations" and settings["bending_length"] == 0.02

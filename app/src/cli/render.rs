@@ -78,6 +78,9 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
 
     let t0 = Instant::now();
     let file = load_scene_file(&a.scene, 1)?;
+    for n in &file.notices {
+        eprintln!("note: {n}");
+    }
     let source = a.scene.display().to_string();
     let (_, doc) = file.document.clone().context("not a scene")?;
     let mut settings = doc.capture.clone().unwrap_or_default();

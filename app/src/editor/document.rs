@@ -295,11 +295,11 @@ mod tests {
         assert_eq!(back.edit.loose_parts, LooseParts::default());
     }
 
-    /// The example scenes in `assets/scenes/` open on exactly the editor's default method
+    /// The example scenes in `assets/` open on exactly the editor's default method
     /// settings, whatever the editor had before: a newcomer's first scene shows the defaults.
     #[test]
     fn the_example_scenes_open_on_the_editors_defaults() {
-        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/scenes");
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets");
         let defaults = MethodSettings::default();
         let before = MethodSettings {
             arap: solver::ArapConfig {

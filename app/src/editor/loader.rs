@@ -257,27 +257,18 @@ fn prepare(
     })
 }
 
-/// Reads a scene file, loads its mesh and resolves its handles (runs on the loader thread).
+/// Reads a scene file, loads its mesh and resolves its handles (runs on the loader thread),
+/// as [`solver::animation::scene::Scene::load`] does for every interface: a file the scene
+/// names outside its folder is a notice in the status bar.
 pub fn load_scene_file(path: &Path, version: u64) -> anyhow::Result<LoadedFile> {
-    let doc = solver::animation::scene::Scene::read(path)?;
-    let (mesh_path, _) = solver::animation::scene::Scene::resolve_path(path, &doc.mesh)?;
-    let mut loaded = solver::io::load_mesh(&mesh_path)
+    let loaded = solver::animation::scene::Scene::load(path)?;
+    let labels = loaded.handles.labels().to_vec();
+    let mesh_path = loaded.mesh_path;
+    let mut scene = prepare(&mesh_path, loaded.mesh, version, None)
         .with_context(|| format!("the scene's mesh {}", mesh_path.display()))?;
-    if let Some(t) = &doc.texture {
-        // A texture that cannot be used is a notice: the mesh opens without it.
-        let (texture, _) = solver::animation::scene::Scene::resolve_path(path, t)?;
-        if let Err(e) = solver::animation::scene::Scene::apply_texture(&texture, &mut loaded.asset)
-        {
-            loaded.asset.notices.push(e);
-        }
-    }
-    let mut scene = prepare(&mesh_path, loaded, version, None)
-        .with_context(|| format!("the scene's mesh {}", mesh_path.display()))?;
-    let handles =
-        doc.resolve_handles(path, scene.mesh.positions(), Some(&scene.layout.vertex_map))?;
-    scene.default_labels = Some(handles.labels().to_vec());
+    scene.default_labels = Some(labels);
     scene.selection_path = Some(path.to_path_buf());
-    scene.document = Some((path.to_path_buf(), doc));
+    scene.document = Some((path.to_path_buf(), loaded.scene));
     Ok(scene)
 }
 
@@ -378,5 +369,30 @@ mod tests {
         let start: StartPrepare = Box::new(|_| panic!("a scene file started a precomputation"));
         let job = spawn_load(scene_file, 2, || {}, Some(start));
         job.rx.recv().unwrap().unwrap();
+    }
+
+    /// A scene naming a mesh outside its own folder opens with a notice naming the file, as
+    /// `bsarap` prints it; a scene beside its mesh opens with none.
+    #[test]
+    fn a_scene_naming_a_mesh_outside_its_folder_opens_with_a_notice() {
+        let dir = solver::testing::ScratchDir::new("loader-outside");
+        let (bar, _) = solver::geometry::shapes::bumpy_bar(3);
+        solver::io::write_obj(&dir.join("bar.obj"), bar.positions(), bar.triangles()).unwrap();
+        std::fs::create_dir_all(dir.join("scenes")).unwrap();
+        let labels: Vec<i64> = (0..bar.n_vertices()).map(|v| if v < 3 { 0 } else { -1 }).collect();
+        let spec = |labels: &Vec<i64>| solver::animation::scene::HandlesSpec {
+            labels: Some(labels.clone()),
+            ..Default::default()
+        };
+        let outside = dir.join("scenes/bar.json");
+        solver::animation::scene::Scene::new("../bar.obj", spec(&labels)).save(&outside).unwrap();
+        let scene = load_scene_file(&outside, 1).unwrap();
+        let notice = scene.notices.iter().find(|n| n.contains("outside the scene's folder"));
+        assert!(notice.is_some_and(|n| n.contains("bar.obj")), "{:?}", scene.notices);
+        assert_eq!(scene.default_labels.as_ref().map(|l| l[0]), Some(Some(0)));
+        let beside = dir.join("bar.json");
+        solver::animation::scene::Scene::new("bar.obj", spec(&labels)).save(&beside).unwrap();
+        let scene = load_scene_file(&beside, 2).unwrap();
+        assert!(scene.notices.iter().all(|n| !n.contains("outside")), "{:?}", scene.notices);
     }
 }

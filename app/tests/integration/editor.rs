@@ -614,6 +614,9 @@ fn scenes_recent_files_rename_and_autosave_restore() {
     assert_eq!(h.state().edit_state().groups[0].name, "left foot");
     assert_eq!(h.state().edit_state().labels, e.labels);
     assert_eq!(h.state().document_path(), None, "an autosave is not the document");
+    // The autosave names the user's mesh wherever it is: no notice that it lies elsewhere.
+    let notices = h.state().load_notices();
+    assert!(notices.iter().all(|n| !n.contains("outside")), "{notices:?}");
 
     // Save as a scene: it becomes the document and a recent file; nothing is unsaved, so a
     // clean exit removes the autosave.
@@ -630,6 +633,11 @@ fn scenes_recent_files_rename_and_autosave_restore() {
     step_until(&mut h, "the scene", settled);
     assert!(h.state().restore_offer().is_none());
     assert_eq!(h.state().document_path(), Some(scene_path.as_path()));
+    // A scene of the user's names the mesh outside its folder: the notice says so.
+    let notices = h.state().load_notices();
+    let name = test_mesh().file_name().unwrap().to_string_lossy().into_owned();
+    let outside = notices.iter().find(|n| n.contains("outside the scene's folder"));
+    assert!(outside.is_some_and(|n| n.contains(&name)), "{notices:?}");
     assert_eq!(h.state().edit_state().groups[0].name, "left foot");
     let t = h.state().group_pose(1).unwrap().translation;
     assert!((t[1] - 0.05).abs() < 1e-12, "{t:?}");

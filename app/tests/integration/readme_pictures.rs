@@ -83,7 +83,7 @@ fn save(h: &mut Harness<'_, EditorApp>, name: &str) {
 #[ignore = "writes docs/editor-posed.png"]
 fn editor_posed() {
     let config = ScratchDir::new("picture-posed");
-    let scene = repo().join("assets/scenes/creature-posed.json");
+    let scene = repo().join("assets/creature-posed.json");
     let mut h = editor(scene, &config);
     step_until(&mut h, "the scene, settled", settled);
     h.state_mut().set_tool(Tool::Pose);
@@ -97,7 +97,7 @@ fn editor_posed() {
 #[ignore = "writes docs/editor-timeline.png"]
 fn editor_timeline() {
     let config = ScratchDir::new("picture-timeline");
-    let scene = repo().join("assets/scenes/creature-circle.json");
+    let scene = repo().join("assets/creature-circle.json");
     let mut h = editor(scene, &config);
     step_until(&mut h, "the scene, settled", settled);
     h.state_mut().set_active_group(Some(0));
@@ -115,7 +115,7 @@ fn editor_timeline() {
 #[ignore = "writes docs/editor-compare-live.png"]
 fn editor_compare_live() {
     let config = ScratchDir::new("picture-compare");
-    let scene = repo().join("assets/scenes/creature-circle.json");
+    let scene = repo().join("assets/creature-circle.json");
     let mut h = editor(scene, &config);
     step_until(&mut h, "the scene, settled", settled);
     h.get_by_label("Side by side").click();

@@ -29,11 +29,12 @@
 //!
 //! Paths inside a scene (`mesh`, `handles.file`) are relative to the scene file's folder
 //! (absolute paths are kept as they are; `\` is read as `/`). A scene is a project file that
-//! names files the user keeps elsewhere (the editor's autosave names the mesh the user opened;
-//! `assets/scenes/` name `../creature.obj`), so its references may leave its folder, by the
-//! rule an MTL's textures follow (`crate::io::reference`): what they name must parse as a mesh
-//! or a handle file, [`Scene::resolve`] adds a notice naming each file read from outside the
-//! scene's folder, and a URI scheme (`file:`, `http:`) is refused. The mesh's own references
+//! names files the user keeps elsewhere (the editor's autosave names the mesh the user opened),
+//! so its references may leave its folder, by the rule an MTL's textures follow
+//! (`crate::io::reference`): what they name must parse as a mesh or a handle file,
+//! [`Scene::resolve`] adds a notice naming each file read from outside the scene's folder (the
+//! example scenes lie beside their mesh in `assets/`), and a URI scheme (`file:`, `http:`) is
+//! refused. The mesh's own references
 //! (glTF buffers and images, MTL files) follow the mesh folder's rule. `handles` is exactly one of `{"file": PATH}` (a `.dmat`
 //! or sphere `.json`), `{"labels": [-1, 0, …]}` (one per vertex) or `{"spheres": [...]}` (the
 //! sphere format of docs/DESIGN.md, "Handle selections"). Unknown fields are errors (they are usually typos); a missing
@@ -265,6 +266,11 @@ pub struct Scene {
     pub up_axis: UpAxis,
 }
 
+/// The words of [`Scene::resolve`]'s notice for a file read from outside the scene's folder
+/// (the editor leaves it out for its own autosave, which names the user's files wherever
+/// they are).
+pub const OUTSIDE_THE_FOLDER: &str = "is outside the scene's folder";
+
 /// A scene with its mesh loaded and its handles resolved.
 #[derive(Debug, Clone)]
 pub struct LoadedScene {
@@ -452,7 +458,7 @@ impl Scene {
         let from_file = path.is_file();
         for (what, named, _) in named.iter().filter(|(_, _, outside)| *outside && from_file) {
             mesh.asset.notices.push(format!(
-                "the scene's {what} {} is outside the scene's folder ({file})",
+                "the scene's {what} {} {OUTSIDE_THE_FOLDER} ({file})",
                 named.display()
             ));
         }

@@ -215,6 +215,11 @@ impl EditorApp {
         self.info.as_deref()
     }
 
+    /// The open file's load notices (the status bar's yellow text).
+    pub fn load_notices(&self) -> &[String] {
+        self.session.scene.as_ref().map_or(&[], |s| &s.notices)
+    }
+
     pub fn method_settings(&self) -> MethodSettings {
         self.session.settings
     }

@@ -447,6 +447,9 @@ impl EditorApp {
                             // the restored work counts as unsaved.
                             self.info = Some("restored the autosaved session".into());
                             restored = true;
+                            // The autosave names the user's own files wherever they are.
+                            let outside = solver::animation::scene::OUTSIDE_THE_FOLDER;
+                            scene.notices.retain(|n| !n.contains(outside));
                         } else {
                             self.remember(&path);
                             self.session.document_path = Some(path);

@@ -21,7 +21,7 @@ use super::protocol::{
     NewScene, PoseSolver, PoseSolverFactory, Slot, SolvedFrame, SolverCommand, SolverState,
     SolverStatus,
 };
-use crate::editor::shape::{Shape, ShapePool, display_origin};
+use crate::editor::shape::{ShapePool, display_origin};
 
 /// The next [`SolvedFrame::sequence`], shared by every solver thread.
 static NEXT_FRAME: AtomicU64 = AtomicU64::new(1);
@@ -156,6 +156,8 @@ struct Frames {
     vertex_faces: Arc<VertexFaces>,
     /// The buffers of the frames' shapes, reused once the UI has dropped them.
     shapes: ShapePool,
+    /// The same for the deformed base's shapes (the Base surface view's).
+    base_shapes: ShapePool,
     /// The origin of the mesh's display space, where the frames' shapes are.
     origin: [f64; 3],
     last_frame: Option<Instant>,
@@ -182,8 +184,9 @@ impl Frames {
             pose_generation,
             positions: shape.positions,
             normals: shape.normals,
-            deformed_base: base
-                .map(|b| Shape::with_faces(&b, self.origin, triangles, &self.vertex_faces)),
+            deformed_base: base.map(|b| {
+                self.base_shapes.shape(&b, self.origin, triangles, Some(&self.vertex_faces))
+            }),
             detail_magnitudes: self.details.clone(),
             components: self.components.clone(),
             stats,
@@ -411,6 +414,7 @@ fn rebuild(
                 frames: Frames {
                     vertex_faces,
                     shapes: ShapePool::default(),
+                    base_shapes: ShapePool::default(),
                     origin: display_origin(&mesh),
                     scene_generation,
                     mesh,
