@@ -38,7 +38,8 @@ pub fn reference_policy() -> solver::io::ReferencePolicy {
 pub enum Command {
     /// Open the interactive editor (on the default mesh in assets/ when MESH is omitted).
     Edit(EditArgs),
-    /// Mesh statistics after loading and cleaning.
+    /// Mesh statistics after loading and cleaning (for a scene: its method, handles and timeline,
+    /// then its mesh).
     Info(info::InfoArgs),
     /// Solve one pose from rest and write it as OBJ.
     Deform(deform::DeformArgs),

@@ -429,6 +429,36 @@ fn bench_quality_against_converged_arap() {
     );
 }
 
+/// `info` on a scene says what it poses and how (the example scene's method, energy with its
+/// bending length in world units, groups, timeline), then its mesh's statistics.
+#[test]
+fn info_describes_a_scene_and_its_mesh() {
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/creature-circle.json");
+    let (code, stdout, stderr) = bsarap(&["info", scene.to_str().unwrap()]);
+    assert_eq!(code, 0, "{stderr}");
+    for line in [
+        "method                    bsarap-coarse",
+        "energy                    smooth-rotations, bending length 0.02 of the diagonal (0.0892)",
+        "handle groups             6 (1 on paths)",
+        "timeline                  2.0 s at 15.0 fps, 31 frames, looping",
+        "vertices                  30276",
+    ] {
+        assert!(stdout.contains(line), "no {line:?} in\n{stdout}");
+    }
+    assert!(!stdout.contains("note:"), "the example names nothing outside its folder: {stdout}");
+    let (code, stdout, _) = bsarap(&["info", scene.to_str().unwrap(), "--json"]);
+    assert_eq!(code, 0);
+    let j: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
+    assert!(j["mesh"].as_str().is_some_and(|m| m.ends_with("creature.obj")), "{j}");
+    assert_eq!(j["scene"]["frames"], 31);
+    assert_eq!(j["scene"]["solve"]["coarse_energy"], "galerkin");
+    // A JSON that is not a scene (the handle spheres beside it) is a clear error.
+    let spheres = scene.with_file_name("creature.handles.json");
+    let (code, _, stderr) = bsarap(&["info", spheres.to_str().unwrap()]);
+    assert_ne!(code, 0);
+    assert!(stderr.contains("not a bsarap scene"), "{stderr}");
+}
+
 /// What the reader skipped reaches the user: a missing material library is a note, and the
 /// asset's layout is summarized.
 #[test]
