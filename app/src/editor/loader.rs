@@ -272,6 +272,23 @@ pub fn load_scene_file(path: &Path, version: u64) -> anyhow::Result<LoadedFile> 
     Ok(scene)
 }
 
+/// Whether `path` is a handle selection rather than a mesh or a scene: a `.dmat`, or a `.json`
+/// whose first value is a list (the sphere format; a scene is an object). Reads at most the
+/// first 4 KiB.
+pub fn is_selection_file(path: &Path) -> bool {
+    use std::io::Read;
+    let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
+    match ext.as_deref() {
+        Some("dmat") => true,
+        Some("json") => {
+            let mut head = Vec::new();
+            let read = std::fs::File::open(path).and_then(|f| f.take(4096).read_to_end(&mut head));
+            read.is_ok() && head.iter().find(|b| !b.is_ascii_whitespace()) == Some(&b'[')
+        }
+        _ => false,
+    }
+}
+
 /// Selection files looked for next to `mesh.ext`, in order.
 fn selection_candidates(mesh: &Path) -> Vec<PathBuf> {
     let Some(stem) = mesh.file_stem().and_then(|s| s.to_str()) else { return Vec::new() };

@@ -451,18 +451,7 @@ fn a_bad_file_shows_an_error_and_keeps_the_mesh() {
     let (mesh, _) = solver::geometry::shapes::bumpy_bar(1);
     let dropped = dir.join("dropped.obj");
     solver::io::write_obj(&dropped, mesh.positions(), mesh.triangles()).unwrap();
-    #[derive(Debug)]
-    struct Dropped(PathBuf);
-    impl egui::DroppedFile for Dropped {
-        fn path(&self) -> &std::path::Path {
-            &self.0
-        }
-        fn bytes(&self) -> Result<Vec<u8>, String> {
-            std::fs::read(&self.0).map_err(|e| e.to_string())
-        }
-    }
-    h.input_mut().dropped_files.push(std::sync::Arc::new(Dropped(dropped.clone())));
-    h.step();
+    support::drop_file(&mut h, dropped.clone());
     step_until(&mut h, "the dropped mesh", |a| !a.is_loading());
     assert_eq!(h.state().mesh_path(), Some(dropped.as_path()));
     assert_eq!(h.state().n_vertices(), mesh.n_vertices());

@@ -665,3 +665,36 @@ fn a_narrow_window_keeps_the_status_bar_one_line_and_every_button() {
     on_one_line(&h, wide);
     assert!(h.query_by_label_contains("MiB (peak").is_some(), "no memory at 1000 pixels");
 }
+
+/// A selection dropped on the window (or chosen in File → Open) becomes the open mesh's
+/// selection, undoably, as *Load .dmat…* makes it: a `.dmat`, then a list of spheres. It is not
+/// a file opened in the mesh's place (that failed: "unsupported mesh format").
+#[test]
+fn a_dropped_selection_is_the_open_meshs_new_selection() {
+    let dir = ScratchDir::new("dropped-selection");
+    let (mesh, _) = solver::geometry::shapes::bumpy_bar(1);
+    let bar = dir.join("bar.obj");
+    solver::io::write_obj(&bar, mesh.positions(), mesh.triangles()).unwrap();
+    let mut h = support::harness(bar.clone(), None);
+    step_until(&mut h, "the bar", |a| !a.is_loading() && a.n_vertices() > 0);
+    let n = mesh.n_vertices();
+    let dmat = dir.join("sel.dmat");
+    let rows: String = (0..n).map(|v| if v < 4 { "0\n" } else { "-1\n" }).collect();
+    std::fs::write(&dmat, format!("1 {n}\n{rows}")).unwrap();
+    support::drop_file(&mut h, dmat);
+    assert!(!h.state().is_loading() && h.state().error().is_none(), "{:?}", h.state().error());
+    assert_eq!(h.state().mesh_path(), Some(bar.as_path()));
+    let from_dmat: Vec<Option<u32>> = (0..n).map(|v| (v < 4).then_some(0)).collect();
+    assert_eq!(h.state().labels(), from_dmat.as_slice());
+    let p = mesh.positions()[n - 1];
+    let spheres = dir.join("sel.json");
+    let text = format!("\n [{{\"group\": 0, \"center\": {p:?}, \"radius\": 1e-6}}]");
+    std::fs::write(&spheres, text).unwrap();
+    support::drop_file(&mut h, spheres);
+    assert!(!h.state().is_loading() && h.state().error().is_none(), "{:?}", h.state().error());
+    let labels = h.state().labels();
+    assert_eq!((labels[0], labels[n - 1]), (None, Some(0)), "{labels:?}");
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    assert_eq!(h.state().labels(), from_dmat.as_slice(), "undo brings the .dmat's back");
+}

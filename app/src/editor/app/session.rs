@@ -117,7 +117,22 @@ impl EditorApp {
     }
 
     /// Opens `path` from the UI (menu, recent files, drop): with unsaved changes, asks first.
+    /// A handle selection (a `.dmat`, a list of spheres) is the open mesh's new selection, as
+    /// *Load .dmat…* makes it (undoable), not a file to open in its place.
     pub fn request_open(&mut self, ctx: &egui::Context, path: PathBuf) {
+        if loader::is_selection_file(&path) {
+            match self.session.scene {
+                Some(_) => self.load_selection(&path),
+                None => {
+                    self.error = Some(format!(
+                        "{} is a handle selection: open its mesh first, then drop it on the \
+                         window or use Load .dmat…",
+                        file_name(&path)
+                    ))
+                }
+            }
+            return;
+        }
         if self.has_unsaved_changes() {
             self.session.pending = Some(Pending::Open(path));
         } else {

@@ -32,6 +32,22 @@ pub fn test_mesh() -> PathBuf {
     std::env::var_os("BSARAP_TEST_MESH").map(PathBuf::from).unwrap_or_else(default_mesh_path)
 }
 
+/// Drops the file at `path` on the editor's window, as a file manager does.
+pub fn drop_file(h: &mut Harness<'_, EditorApp>, path: PathBuf) {
+    #[derive(Debug)]
+    struct Dropped(PathBuf);
+    impl eframe::egui::DroppedFile for Dropped {
+        fn path(&self) -> &std::path::Path {
+            &self.0
+        }
+        fn bytes(&self) -> Result<Vec<u8>, String> {
+            std::fs::read(&self.0).map_err(|e| e.to_string())
+        }
+    }
+    h.input_mut().dropped_files.push(std::sync::Arc::new(Dropped(path)));
+    h.step();
+}
+
 /// An editor on `path`, keeping its files in `config_dir`.
 pub fn harness(path: PathBuf, config_dir: Option<PathBuf>) -> Harness<'static, EditorApp> {
     harness_sized(path, config_dir, SIZE)
