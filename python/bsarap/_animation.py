@@ -105,6 +105,13 @@ class Scene:
         return str(self._native.mesh_path)
 
     @property
+    def notices(self) -> list:
+        """The loader's notices (sentences): what cleaning changed, what the reader left out,
+        each file the scene names outside its own folder (a downloaded scene can name any of
+        your files; look before exporting it)."""
+        return self._native.notices
+
+    @property
     def settings(self) -> dict:
         """energy, bending_length, tol, max_iters, anderson, smoothing, coarse_vertices,
         fine_iterations, membrane, coarse_energy (the keywords of :class:`Deformer`)."""

@@ -67,6 +67,13 @@ impl NativeScene {
         self.scene.mesh_path.clone()
     }
 
+    /// The loader's notices: what cleaning changed, what the reader left out, each file the
+    /// scene names outside its folder.
+    #[getter]
+    fn notices(&self) -> Vec<String> {
+        self.scene.mesh.notices()
+    }
+
     /// The scene's settings: energy, bending_length, tol, max_iters, anderson, smoothing,
     /// coarse_vertices, fine_iterations, membrane, coarse_energy.
     #[getter]

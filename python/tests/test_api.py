@@ -130,10 +130,19 @@ def test_membrane_in_scene_settings(tmp_path):
             "base": {"coarse_vertices": 200, "membrane": mu}}))
         scene = bsarap.load_scene(path)
         assert scene.settings["membrane"] == mu
+        assert not any("outside" in n for n in scene.notices), scene.notices
         poses[mu] = scene.deformer().solve(pose)
         direct = bsarap.Deformer(V, F, labels, coarse_vertices=200, membrane=mu).solve(pose)
         np.testing.assert_allclose(poses[mu], direct, atol=1e-12)
     assert np.abs(poses[0.7] - poses[0.0]).max() > 1e-3
+    # A scene naming a mesh outside its folder says so (a downloaded scene may name any file).
+    (tmp_path / "scenes").mkdir()
+    outside = tmp_path / "scenes" / "outside.json"
+    outside.write_text(json.dumps({
+        "version": 1, "mesh": "../tube.off", "handles": {"labels": labels.tolist()},
+        "timeline": {"duration": 1.0, "fps": 2}}))
+    notices = bsarap.load_scene(outside).notices
+    assert any("tube.off" in n and "outside the scene's folder" in n for n in notices), notices
 
 
 def test_handles_from_file(tmp_path, small):
@@ -181,6 +190,7 @@ def test_scene_record_export(tmp_path, repo):
     assert settings["coarse_energy"] == "galerkin" and settings["max_iters"] == 30
     assert settings["membrane"] == bsarap.DEFAULT_MEMBRANE  # not in the file: the default
     assert scene.mesh_path.endswith("creature.obj") and (scene.labels >= 0).any()
+    assert scene.notices == []  # the example lies beside its mesh
     d = scene.deformer()
     rec = bsarap.record(d, tl, n_frames=4)
     assert len(rec) == 4 and rec.frames.shape == (4, len(scene.V), 3)

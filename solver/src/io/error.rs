@@ -16,7 +16,9 @@ pub enum LoadError {
     Io { file: String, kind: std::io::ErrorKind, message: String },
     /// The extension names no supported format.
     #[error(
-        "{file}: unsupported mesh format {extension:?} (expected .obj, .off, .ply, .stl, .glb or .gltf)"
+        "{file}: unsupported mesh format {extension:?} (expected .obj, .off, .ply, .stl, .glb or \
+         .gltf){}",
+        format_hint(.extension)
     )]
     UnsupportedFormat { file: String, extension: String },
     /// The format is known but the file uses a feature of it that is not supported (a glTF
@@ -82,6 +84,16 @@ impl LoadError {
             LoadError::NotText { line, .. } => Some(*line),
             _ => None,
         }
+    }
+}
+
+/// What a file of a known other kind is, for [`LoadError::UnsupportedFormat`]: a scene or a
+/// handle selection given where a mesh goes.
+fn format_hint(extension: &str) -> &'static str {
+    match extension.to_ascii_lowercase().as_str() {
+        "json" => "; a .json is a scene or a handle selection, not a mesh",
+        "dmat" => "; a .dmat is a handle selection, not a mesh",
+        _ => "",
     }
 }
 

@@ -345,6 +345,16 @@ fn corpus() -> Vec<Case> {
             Load(|e| matches!(e, LoadError::UnsupportedFormat { .. })),
         ),
         case(
+            "a scene given as a mesh",
+            "scene.JSON",
+            "{\"version\": 2}",
+            Load(|e| {
+                matches!(e, LoadError::UnsupportedFormat { .. })
+                    && e.to_string()
+                        .ends_with("a .json is a scene or a handle selection, not a mesh")
+            }),
+        ),
+        case(
             "dmat wrong length",
             "short.dmat",
             "1 3\n-1\n0\n-1\n",
