@@ -456,7 +456,7 @@ fn info_describes_a_scene_and_its_mesh() {
     let spheres = scene.with_file_name("creature.handles.json");
     let (code, _, stderr) = bsarap(&["info", spheres.to_str().unwrap()]);
     assert_ne!(code, 0);
-    assert!(stderr.contains("not a bsarap scene"), "{stderr}");
+    assert!(stderr.contains("sphere handle selection"), "{stderr}");
 }
 
 /// What the reader skipped reaches the user: a missing material library is a note, and the

@@ -333,6 +333,14 @@ impl Scene {
         let value: serde_json::Value =
             serde_json::from_str(text).map_err(|e| parse_error(file, &e))?;
         let Some(version) = value.get("version") else {
+            if value.is_array() {
+                let message = "a list, as a sphere handle selection is, not a bsarap scene (an \
+                               object with a \"version\")";
+                return Err(SceneError::Invalid {
+                    file: file.to_string(),
+                    message: message.into(),
+                });
+            }
             return Err(SceneError::MissingVersion { file: file.to_string() });
         };
         if !version

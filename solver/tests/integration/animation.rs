@@ -369,6 +369,10 @@ fn unknown_or_missing_version_is_its_own_error() {
     assert!(err.to_string().starts_with("new.json: scene version 7"));
     let err = Scene::from_json("{\"mesh\": \"m.obj\"}", "old.json").unwrap_err();
     assert!(matches!(err, SceneError::MissingVersion { .. }));
+    // A sphere selection given as a scene says what it is.
+    let spheres = "[{\"group\": 0, \"center\": [0, 0, 0], \"radius\": 1}]";
+    let err = Scene::from_json(spheres, "sel.json").unwrap_err().to_string();
+    assert!(err.starts_with("sel.json: a list, as a sphere handle selection is"), "{err}");
 }
 
 #[test]
