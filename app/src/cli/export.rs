@@ -16,9 +16,7 @@ use anyhow::Context;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use solver::Deformer;
-use solver::animation::export::{
-    AssetExport, Encoding, ExportSettings, GltfExport, GltfFormat, SolveSettings,
-};
+use solver::animation::export::{AssetExport, Encoding, ExportSettings, GltfExport, GltfFormat};
 use solver::animation::pointcache::{Pc2, write_obj_sequence, write_pc2};
 use solver::animation::recording::record;
 use solver::animation::scene::{HandlesSpec, LoadedScene, Scene};
@@ -232,12 +230,7 @@ pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
 
     let asset = &loaded.mesh.asset;
     let vertex_map = &loaded.mesh.report.vertex_map;
-    let solved = SolveSettings {
-        method: scene.method,
-        arap: scene.arap,
-        coarse_energy: scene.base.coarse_energy,
-        diagonal: mesh.bbox_diagonal(),
-    };
+    let solved = scene.solve_settings(mesh.bbox_diagonal());
     let written = match output {
         Output::Gltf(format) if a.bones.is_some() => {
             let bones = a.bones.flatten().unwrap_or(SkinningConfig::default().bones);

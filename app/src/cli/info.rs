@@ -3,7 +3,6 @@
 
 use super::{PathArg, load, reference_policy};
 use clap::Args;
-use solver::animation::export::SolveSettings;
 use solver::animation::scene::{LoadedScene, Scene};
 
 #[derive(Debug, Args)]
@@ -19,12 +18,6 @@ pub struct InfoArgs {
 fn scene_json(s: &LoadedScene, diagonal: f64) -> serde_json::Value {
     let scene = &s.scene;
     let tl = &scene.timeline;
-    let solved = SolveSettings {
-        method: scene.method,
-        arap: scene.arap,
-        coarse_energy: scene.base.coarse_energy,
-        diagonal,
-    };
     serde_json::json!({
         "file": s.path.display().to_string(),
         "handle_groups": s.handles.n_groups(),
@@ -33,7 +26,7 @@ fn scene_json(s: &LoadedScene, diagonal: f64) -> serde_json::Value {
         "fps": tl.fps,
         "frames": tl.default_frame_count(),
         "looping": tl.looping,
-        "solve": solved.to_json(),
+        "solve": scene.solve_settings(diagonal).to_json(),
     })
 }
 

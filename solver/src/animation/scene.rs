@@ -407,6 +407,17 @@ impl Scene {
         Scene::from_json(text, &file)
     }
 
+    /// The settings the scene solves with, as exports record them, for its mesh's rest
+    /// bounding-box `diagonal` (the unit of the bending length).
+    pub fn solve_settings(&self, diagonal: f64) -> crate::animation::export::SolveSettings {
+        crate::animation::export::SolveSettings {
+            method: self.method,
+            arap: self.arap,
+            coarse_energy: self.base.coarse_energy,
+            diagonal,
+        }
+    }
+
     /// `relative` resolved against the folder of the scene file `scene_path` (absolute paths
     /// unchanged, `..` resolved lexically), and whether it is outside that folder.
     ///
