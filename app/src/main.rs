@@ -1,15 +1,18 @@
-//! `bsarap`: the BS-ARAP editor and its headless subcommands (info, deform, bench).
+//! `bsarap`: the BS-ARAP editor and its headless subcommands (info, deform, bench, export, render, subdivide).
 //!
 //! This file is glue: argument parsing (clap) and error reporting. The work is in `solver`
 //! (numerics, IO) and in the modules below.
 
 mod cli;
 
-use clap::Parser;
+use clap::{CommandFactory, FromArgMatches};
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
-    let args = match cli::Cli::try_parse() {
+    let parsed = cli::Cli::command()
+        .try_get_matches()
+        .and_then(|m| cli::Cli::from_arg_matches(&m).map(|args| (args, m)));
+    let (args, matches) = match parsed {
         Ok(a) => a,
         Err(e) => {
             use clap::error::ErrorKind;
@@ -29,7 +32,7 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    match cli::run(args) {
+    match cli::run(args, &matches) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {}", one_line(&e));

@@ -34,7 +34,9 @@ pub use deform::arap::{
 };
 pub use deform::bs_arap::{BaseKind, BsArap};
 pub use deform::config::{BaseConfig, BaseConfigError, CoarseEnergy};
-pub use deform::deformer::{Deformer, DeformerOptions, MeshCache, Method, Solver, UnwrittenBase};
+pub use deform::deformer::{
+    AtRest, Deformer, DeformerOptions, MeshCache, Method, Solver, UnwrittenBase,
+};
 pub use deform::handles::{Handles, HandlesError};
 pub use deform::pose::{GroupRest, GroupTransform, handle_targets};
 pub use deform::riders::{ComponentInfo, ComponentMode, LooseParts, list_components};

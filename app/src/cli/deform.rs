@@ -1,18 +1,24 @@
 //! `bsarap deform MESH --handles SEL --move G:dx,dy,dz [--rotate G:ax,ay,az,deg] ... -o OUT`,
 //! the pose written on the input file's own vertices by `OUT`'s extension.
+//!
+//! `bsarap deform SCENE.json [--time T] -o OUT`: the scene's mesh at time `T` of its timeline
+//! (default: the time it was saved at) with its handles and settings, solved from rest and
+//! settled as the editor shows it once the handles stop ([`solver::Deformer::solve_to_rest`]).
 
 use super::{
     BaseArgs, EnergyArg, MethodArg, PathArg, bending_length, check_config, energy_summary, load,
     load_handles,
 };
 use anyhow::{Context, bail};
-use clap::Args;
+use clap::parser::ValueSource;
+use clap::{ArgMatches, Args};
 use glam::{DQuat, DVec3};
 use solver::FrameStats;
 use solver::animation::export::{
     AssetExport, Encoding, ExportSettings, GltfExport, GltfFormat, SolveSettings,
 };
 use solver::animation::recording::Recording;
+use solver::animation::scene::Scene;
 use solver::io::LoadedMesh;
 use solver::{
     ArapConfig, ComponentMode, Deformer, DeformerOptions, GroupTransform, LooseParts,
@@ -26,11 +32,15 @@ const OUTPUTS: [&str; 5] = ["obj", "glb", "gltf", "ply", "off"];
 
 #[derive(Debug, Args)]
 pub struct DeformArgs {
-    /// Mesh file (OBJ, OFF, PLY, STL, glTF).
+    /// Mesh file (OBJ, OFF, PLY, STL, glTF), or a scene (.json): its mesh posed at --time by
+    /// its handles, paths and settings (the other solve flags are then refused).
     pub mesh: PathArg,
-    /// Handle selection: libigl .dmat or a JSON list of spheres.
+    /// Handle selection: libigl .dmat or a JSON list of spheres (needed with a mesh).
     #[arg(long)]
-    pub handles: PathArg,
+    pub handles: Option<PathArg>,
+    /// With a scene: the time on its timeline in seconds (default: the time it was saved at).
+    #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
+    pub time: Option<f64>,
     /// Translate group G by (dx,dy,dz); repeat once per group.
     #[arg(long = "move", value_name = "G:DX,DY,DZ")]
     pub moves: Vec<String>,
@@ -185,7 +195,43 @@ fn check_output(path: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
-pub fn run(a: &DeformArgs) -> anyhow::Result<()> {
+/// The arguments a scene leaves to the command line; the others are the scene's to set.
+const SCENE_ARGS: [&str; 4] = ["mesh", "time", "output", "json"];
+
+/// The most solves, and settle steps, at a scene's pose (the editor's cap on settle steps).
+const MAX_STEPS: usize = 2000;
+
+/// A solved pose and what to say about it.
+struct Posed {
+    loaded: LoadedMesh,
+    deformer: Deformer,
+    solved: SolveSettings,
+    precompute_ms: f64,
+    /// The solve's own fields of the JSON report.
+    fields: serde_json::Map<String, serde_json::Value>,
+    /// The solve's sentence in the text report: what ran and how it ended.
+    sentence: String,
+}
+
+pub fn run(a: &DeformArgs, given: &ArgMatches) -> anyhow::Result<()> {
+    check_output(&a.output)?;
+    let is_scene = a.mesh.extension().is_some_and(|e| e.eq_ignore_ascii_case("json"));
+    let posed = if is_scene { pose_scene(a, given)? } else { pose_mesh(a)? };
+    write_pose(&a.output, &posed.loaded, posed.deformer.positions(), &posed.solved)
+        .with_context(|| format!("writing {}", a.output.display()))?;
+    report(a, &posed);
+    Ok(())
+}
+
+/// The mesh's pose from `--move` and `--rotate`, solved once from rest.
+fn pose_mesh(a: &DeformArgs) -> anyhow::Result<Posed> {
+    anyhow::ensure!(
+        a.time.is_none(),
+        "--time poses a scene (.json); a mesh takes --move and --rotate"
+    );
+    let Some(handles_path) = &a.handles else {
+        bail!("{}: a mesh needs --handles (or give a scene, .json)", a.mesh.display())
+    };
     let bending_length = bending_length(a.energy, a.bending_length)?;
     let config = ArapConfig {
         energy: a.energy.into(),
@@ -196,20 +242,19 @@ pub fn run(a: &DeformArgs) -> anyhow::Result<()> {
         ..Default::default()
     };
     check_config(&config)?;
-    check_output(&a.output)?;
     let base = a.base.config()?;
     let transforms = parse_transforms(&a.moves, &a.rotates)?;
     let loaded = load(&a.mesh)?;
-    let mesh = &loaded.mesh;
     if !a.json {
         for n in loaded.notices() {
             eprintln!("note: {n}");
         }
     }
-    let handles = load_handles(&a.handles, &loaded)?;
+    let mesh = &loaded.mesh;
+    let handles = load_handles(handles_path, &loaded)?;
     // Every moved group must exist: said before the precomputation, naming the handle file.
     handle_targets(mesh.positions(), &handles, &transforms)
-        .with_context(|| format!("{}", a.handles.display()))?;
+        .with_context(|| format!("{}", handles_path.display()))?;
     let mut parts = LooseParts::default();
     let count = mesh.components().count();
     for &c in &a.pin_components {
@@ -228,13 +273,128 @@ pub fn run(a: &DeformArgs) -> anyhow::Result<()> {
     };
     let mut deformer = Deformer::new(mesh, &handles, options)?;
     let precompute_ms = t0.elapsed().as_secs_f64() * 1e3;
-    let loose = deformer.riders().components().iter().filter(|c| !c.has_handles);
-    let following = loose.clone().filter(|c| c.follows.is_some()).count();
-    let pinned = loose.count() - following;
-    let notice = deformer.notice();
     let t1 = Instant::now();
     let stats = deformer.solve_groups(&transforms)?;
     let solve_ms = t1.elapsed().as_secs_f64() * 1e3;
+    let solved = SolveSettings {
+        method: a.method.into(),
+        arap: config,
+        coarse_energy: base.coarse_energy,
+        diagonal: mesh.bbox_diagonal(),
+    };
+    let fields = serde_json::json!({
+        "iterations": stats.iterations,
+        "converged": stats.converged,
+        "initial_energy": stats.initial_energy,
+        "final_energy": stats.energy(),
+        "solve_ms": solve_ms,
+        "ms_per_iteration": (solve_ms - stats.fine_ms) / stats.iterations.max(1) as f64,
+        "fine_iterations": stats.fine_iterations,
+        "fine_ms": stats.fine_ms,
+    });
+    let sentence = format!(
+        "{} iterations ({}), energy {:.6e} -> {:.6e}, precompute {precompute_ms:.1} ms, solve \
+         {solve_ms:.1} ms",
+        stats.iterations,
+        if stats.converged { "converged" } else { "iteration cap" },
+        stats.initial_energy,
+        stats.energy(),
+    );
+    let fields = fields.as_object().cloned().unwrap_or_default();
+    Ok(Posed { loaded, deformer, solved, precompute_ms, fields, sentence })
+}
+
+/// A scene's pose at `--time`: solved from rest at the group motions of that time until a
+/// solve converges, then settled as the editor settles.
+fn pose_scene(a: &DeformArgs, given: &ArgMatches) -> anyhow::Result<Posed> {
+    if let Some(flag) = given.ids().map(|id| id.as_str()).find(|id| {
+        !SCENE_ARGS.contains(id) && given.value_source(id) == Some(ValueSource::CommandLine)
+    }) {
+        let flag = match flag {
+            "moves" => "move".to_string(),
+            "rotates" => "rotate".to_string(),
+            "pin_components" => "pin-component".to_string(),
+            f => f.replace('_', "-"),
+        };
+        bail!(
+            "--{flag}: {} is a scene, which sets its handles, motions and solver settings; edit \
+             the scene, or give its mesh with --handles",
+            a.mesh.display()
+        );
+    }
+    let loaded = Scene::load_with(&a.mesh, super::reference_policy())?;
+    if !a.json {
+        for n in loaded.mesh.notices() {
+            eprintln!("note: {n}");
+        }
+    }
+    let scene = &loaded.scene;
+    let timeline = &scene.timeline;
+    timeline.validate().with_context(|| format!("{}", a.mesh.display()))?;
+    let time = a.time.unwrap_or_else(|| app::editor::document::saved_time(scene));
+    anyhow::ensure!(
+        time.is_finite() && (0.0..=timeline.duration).contains(&time),
+        "--time {time}: the scene's timeline runs from 0 to {} s",
+        timeline.duration
+    );
+    let transforms = timeline.transforms_at(time);
+    let mesh = &loaded.mesh.mesh;
+    handle_targets(mesh.positions(), &loaded.handles, &transforms)
+        .with_context(|| format!("{}", a.mesh.display()))?;
+    let mut options = scene.deformer_options();
+    // What the editor settles with: the pose it shows once the handles stop.
+    options.base.settle_iterations =
+        app::editor::solver_thread::MethodSettings::default().base.settle_iterations;
+    let t0 = Instant::now();
+    let mut deformer = Deformer::new(mesh, &loaded.handles, options)
+        .with_context(|| format!("{}: precomputing {}", a.mesh.display(), scene.method.name()))?;
+    let precompute_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let t1 = Instant::now();
+    let rest = deformer.solve_to_rest(&transforms, MAX_STEPS)?;
+    let solve_ms = t1.elapsed().as_secs_f64() * 1e3;
+    let fields = serde_json::json!({
+        "scene": a.mesh.display().to_string(),
+        "mesh": loaded.mesh_path.display().to_string(),
+        "time": time,
+        "solves": rest.solves,
+        "settle_steps": rest.settle_steps,
+        "iterations": rest.iterations,
+        "converged": rest.converged,
+        "settled": rest.settled,
+        "final_energy": rest.energy,
+        "solve_ms": solve_ms,
+    });
+    let sentence = format!(
+        "t = {time} s, {} solve{} and {} settle step{}, {} iterations ({}), energy {:.6e}, \
+         precompute {precompute_ms:.1} ms, solve {solve_ms:.1} ms",
+        rest.solves,
+        if rest.solves == 1 { "" } else { "s" },
+        rest.settle_steps,
+        if rest.settle_steps == 1 { "" } else { "s" },
+        rest.iterations,
+        match (rest.converged, rest.settled) {
+            (true, true) => "settled",
+            (true, false) => "converged, settling stopped at its step cap",
+            (false, _) => "solve cap",
+        },
+        rest.energy,
+    );
+    let solved = scene.solve_settings(mesh.bbox_diagonal());
+    let fields = fields.as_object().cloned().unwrap_or_default();
+    Ok(Posed { loaded: loaded.mesh, deformer, solved, precompute_ms, fields, sentence })
+}
+
+/// Prints the report: one JSON object with `--json`, else the notice, the energy and the
+/// solve's sentence.
+fn report(a: &DeformArgs, posed: &Posed) {
+    let mesh = &posed.loaded.mesh;
+    let deformer = &posed.deformer;
+    let energy = posed.solved.arap.energy;
+    let smooth = energy == solver::Energy::SmoothRotations;
+    let fraction = posed.solved.arap.bending_length;
+    let loose = deformer.riders().components().iter().filter(|c| !c.has_handles);
+    let following = loose.clone().filter(|c| c.follows.is_some()).count();
+    let pinned = loose.count() - following;
     // Conjugate-gradient iterations where ARAP's global step (on the mesh, or on BS-ARAP's
     // base) solves on a level (a dense mesh on smooth rotations).
     let two_grid = match deformer.solver() {
@@ -242,33 +402,17 @@ pub fn run(a: &DeformArgs) -> anyhow::Result<()> {
         solver::Solver::BsArap(b) => b.base_arap().two_grid_iterations(),
         solver::Solver::Coarse(_) => None,
     };
-    let solved = SolveSettings {
-        method: a.method.into(),
-        arap: config,
-        coarse_energy: base.coarse_energy,
-        diagonal: mesh.bbox_diagonal(),
-    };
-    write_pose(&a.output, &loaded, deformer.positions(), &solved)
-        .with_context(|| format!("writing {}", a.output.display()))?;
+    let iterations = posed.fields.get("iterations").and_then(|i| i.as_u64()).unwrap_or(0);
     if a.json {
-        let j = serde_json::json!({
+        let mut j = serde_json::json!({
             "mesh": a.mesh.display().to_string(),
-            "method": solver::Method::from(a.method).name(),
-            "energy": solver::Energy::from(a.energy),
-            "bending_length": (a.energy == EnergyArg::SmoothRotations).then_some(bending_length),
-            "bending_length_world": (a.energy == EnergyArg::SmoothRotations)
-                .then(|| bending_length * mesh.bbox_diagonal()),
+            "method": posed.solved.method.name(),
+            "energy": energy,
+            "bending_length": smooth.then_some(fraction),
+            "bending_length_world": smooth.then(|| fraction * mesh.bbox_diagonal()),
             "vertices": mesh.n_vertices(),
             "faces": mesh.n_faces(),
-            "iterations": stats.iterations,
-            "converged": stats.converged,
-            "initial_energy": stats.initial_energy,
-            "final_energy": stats.energy(),
-            "precompute_ms": precompute_ms,
-            "solve_ms": solve_ms,
-            "ms_per_iteration": (solve_ms - stats.fine_ms) / stats.iterations.max(1) as f64,
-            "fine_iterations": stats.fine_iterations,
-            "fine_ms": stats.fine_ms,
+            "precompute_ms": posed.precompute_ms,
             "two_grid_iterations": two_grid,
             "pinned_components": pinned,
             "following_components": following,
@@ -278,29 +422,26 @@ pub fn run(a: &DeformArgs) -> anyhow::Result<()> {
             },
             "output": a.output.display().to_string(),
         });
+        if let Some(o) = j.as_object_mut() {
+            o.extend(posed.fields.clone());
+        }
         println!("{j}");
     } else {
-        if let Some(n) = notice {
+        if let Some(n) = deformer.notice() {
             eprintln!("note: {n}");
         }
-        println!("energy: {}", energy_summary(a.energy, bending_length, mesh.bbox_diagonal()));
+        println!("energy: {}", energy_summary(energy, fraction, mesh.bbox_diagonal()));
         println!(
-            "{}: {} iterations ({}), energy {:.6e} -> {:.6e}, precompute {:.1} ms, solve {:.1} ms; wrote {}",
-            solver::Method::from(a.method).name(),
-            stats.iterations,
-            if stats.converged { "converged" } else { "iteration cap" },
-            stats.initial_energy,
-            stats.energy(),
-            precompute_ms,
-            solve_ms,
+            "{}: {}; wrote {}",
+            posed.solved.method.name(),
+            posed.sentence,
             a.output.display()
         );
         if let Some(cg) = two_grid {
             println!(
                 "global step: two-grid conjugate gradients on a level, {cg} iterations ({:.1} a step)",
-                cg as f64 / stats.iterations.max(1) as f64
+                cg as f64 / iterations.max(1) as f64
             );
         }
     }
-    Ok(())
 }

@@ -41,7 +41,8 @@ pub enum Command {
     /// Mesh statistics after loading and cleaning (for a scene: its method, handles and timeline,
     /// then its mesh).
     Info(info::InfoArgs),
-    /// Solve one pose from rest and write it as OBJ.
+    /// Solve one pose from rest (a mesh's from --move and --rotate, or a scene's at a time) and
+    /// write it as OBJ, glTF, PLY or OFF.
     Deform(deform::DeformArgs),
     /// The paper's animation benchmark: the first handle group moves on a circle.
     Bench(bench::BenchArgs),
@@ -122,8 +123,8 @@ impl From<CoarseEnergyArg> for solver::CoarseEnergy {
     }
 }
 
-/// Runs one subcommand.
-pub fn run(cli: Cli) -> anyhow::Result<()> {
+/// Runs one subcommand; `matches` are the arguments as parsed (which flags were given).
+pub fn run(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<()> {
     if !matches!(cli.command, None | Some(Command::Edit(_))) {
         end_quietly_on_closed_pipe();
     }
@@ -132,7 +133,10 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         None => app::editor::run(None),
         Some(Command::Edit(a)) => app::editor::run(a.mesh),
         Some(Command::Info(a)) => info::run(&a),
-        Some(Command::Deform(a)) => deform::run(&a),
+        Some(Command::Deform(a)) => {
+            let given = matches.subcommand_matches("deform").unwrap_or(matches);
+            deform::run(&a, given)
+        }
         Some(Command::Bench(a)) => bench::run(&a),
         Some(Command::Export(a)) => export::run(&a),
         Some(Command::Subdivide(a)) => subdivide::run(&a),
@@ -183,11 +187,11 @@ pub fn bending_length(energy: EnergyArg, fraction: Option<f64>) -> anyhow::Resul
 
 /// The `--energy` line of a report: the name, and for smooth rotations the bending length as a
 /// fraction of the diagonal and in world units.
-pub fn energy_summary(energy: EnergyArg, fraction: f64, diagonal: f64) -> String {
+pub fn energy_summary(energy: solver::Energy, fraction: f64, diagonal: f64) -> String {
     match energy {
-        EnergyArg::SpokesAndRims => "spokes-and-rims".to_string(),
-        EnergyArg::Spokes => "spokes".to_string(),
-        EnergyArg::SmoothRotations => format!(
+        solver::Energy::SpokesAndRims => "spokes-and-rims".to_string(),
+        solver::Energy::Spokes => "spokes".to_string(),
+        solver::Energy::SmoothRotations => format!(
             "smooth-rotations, bending length {fraction} of the diagonal = {:.6} world units",
             fraction * diagonal
         ),

@@ -82,6 +82,13 @@ pub fn to_scene(scene_path: &Path, input: &DocumentInput) -> Result<Scene, Strin
     Ok(scene)
 }
 
+/// The time on `scene`'s timeline the editor saved it at (0 when it says none), within the
+/// timeline.
+pub fn saved_time(scene: &Scene) -> f64 {
+    let time = scene.editor.as_ref().and_then(|e| e.get("time")).and_then(|t| t.as_f64());
+    time.filter(|t| t.is_finite()).map_or(0.0, |t| t.clamp(0.0, scene.timeline.duration.max(0.0)))
+}
+
 /// What a loaded scene sets in the editor.
 pub struct Applied {
     pub edit: EditState,
@@ -125,11 +132,7 @@ pub fn apply_scene(
         }
     }
     edit.symmetry = scene.rig.symmetry.unwrap_or_default();
-    let time = extra
-        .and_then(|e| e.get("time"))
-        .and_then(|t| t.as_f64())
-        .filter(|t| t.is_finite())
-        .map_or(0.0, |t| t.clamp(0.0, edit.timeline.duration));
+    let time = saved_time(scene);
     apply_paths(&mut edit, time);
     let mut s = *settings;
     let mut notice = None;

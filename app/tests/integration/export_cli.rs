@@ -224,3 +224,100 @@ fn export_bones_writes_a_skin_upright_for_the_scene_up_axis() {
         }
     }
 }
+
+/// The vertices of an OBJ (its `v` lines), as our reader keeps them in the file's order.
+fn obj_positions(path: &std::path::Path) -> Vec<[f64; 3]> {
+    solver::io::load_mesh(path).unwrap().asset.positions
+}
+
+/// `bsarap deform SCENE --time T` writes the scene's pose at T: its moved cap where the
+/// export's frame at T has it and the rest near that frame (both solved to the tolerance, one
+/// from rest, one warm-started); without --time, the time the scene was saved at; the coarse
+/// method settles. Flags the scene sets, times off its timeline, and a mesh without
+/// --handles are refused with what to do.
+#[test]
+fn deform_poses_a_scene_at_a_time() {
+    let d = dir("deform-scene");
+    let s = scene(&d, 1);
+    let sp = s.to_str().unwrap();
+    let out = d.join("at-half.obj");
+    let (code, stdout, stderr) =
+        bsarap(&["deform", sp, "--time", "0.5", "-o", out.to_str().unwrap(), "--json"]);
+    assert_eq!(code, 0, "{stderr}");
+    let report: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
+    assert_eq!(report["time"], 0.5);
+    assert_eq!(report["method"], "bsarap");
+    assert!(report["mesh"].as_str().unwrap().ends_with("ball.obj"), "{report}");
+    assert_eq!(
+        (report["converged"].as_bool(), report["settled"].as_bool()),
+        (Some(true), Some(true))
+    );
+    let posed = obj_positions(&out);
+
+    // The export's frame 3 of 7 is t = 0.5.
+    let seq = d.join("seq.obj");
+    let (code, _, stderr) = bsarap(&["export", sp, "-o", seq.to_str().unwrap()]);
+    assert_eq!(code, 0, "{stderr}");
+    let mut frames: Vec<_> = std::fs::read_dir(&*d)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.file_name().unwrap().to_string_lossy().starts_with("seq_"))
+        .filter(|p| p.extension().is_some_and(|e| e == "obj"))
+        .collect();
+    frames.sort();
+    assert_eq!(frames.len(), 7);
+    let frame = obj_positions(&frames[3]);
+    let ball = d.join("ball.obj");
+    let rest = obj_positions(&ball);
+    let diag = solver::io::load_mesh(&ball).unwrap().mesh.bbox_diagonal();
+    let top = (0..rest.len()).max_by(|&a, &b| rest[a][2].total_cmp(&rest[b][2])).unwrap();
+    let moved =
+        |p: &[[f64; 3]]| (0..3).map(|k| (p[top][k] - rest[top][k]).powi(2)).sum::<f64>().sqrt();
+    assert!(moved(&posed) > 0.1 * diag, "the cap moved");
+    assert!(
+        (0..3).all(|k| (posed[top][k] - frame[top][k]).abs() < 1e-6 * diag),
+        "the cap on its path"
+    );
+    let apart = posed
+        .iter()
+        .zip(&frame)
+        .map(|(p, q)| (0..3).map(|k| (p[k] - q[k]).powi(2)).sum::<f64>().sqrt());
+    let apart = apart.fold(0.0, f64::max);
+    assert!(apart < 0.02 * diag, "{:e} of the diagonal from the export's frame", apart / diag);
+
+    // Saved at t = 0.5: the default time; the coarse method settles.
+    let mut j: serde_json::Value = serde_json::from_slice(&std::fs::read(&s).unwrap()).unwrap();
+    j["editor"] = serde_json::json!({"time": 0.5});
+    let saved = d.join("scenes").join("saved.json");
+    std::fs::write(&saved, j.to_string()).unwrap();
+    let again = d.join("saved.obj");
+    let (code, _, stderr) =
+        bsarap(&["deform", saved.to_str().unwrap(), "-o", again.to_str().unwrap()]);
+    assert_eq!(code, 0, "{stderr}");
+    assert_eq!(obj_positions(&again), posed, "the saved time is the default");
+    j["method"] = "bsarap-coarse".into();
+    j["base"] = serde_json::json!({"coarse_vertices": 100});
+    let coarse = d.join("scenes").join("coarse.json");
+    std::fs::write(&coarse, j.to_string()).unwrap();
+    let (code, stdout, stderr) =
+        bsarap(&["deform", coarse.to_str().unwrap(), "-o", again.to_str().unwrap(), "--json"]);
+    assert_eq!(code, 0, "{stderr}");
+    let report: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
+    assert!(report["settle_steps"].as_u64().unwrap() > 0 && report["settled"] == true, "{report}");
+
+    let (o, b) = (out.to_str().unwrap(), ball.to_str().unwrap());
+    let refused = [
+        (vec!["deform", sp, "--method", "arap", "-o", o], "--method"),
+        (vec!["deform", sp, "--handles", "x.dmat", "-o", o], "--handles"),
+        (vec!["deform", sp, "--move", "0:1,0,0", "-o", o], "--move"),
+        (vec!["deform", sp, "--time", "1.5", "-o", o], "0 to 1 s"),
+        (vec!["deform", sp, "--time", "-1", "-o", o], "0 to 1 s"),
+        (vec!["deform", b, "-o", o], "--handles"),
+        (vec!["deform", b, "--time", "0", "-o", o], "scene"),
+    ];
+    for (args, needle) in refused {
+        let (code, _, stderr) = bsarap(&args);
+        assert_ne!(code, 0, "{args:?}");
+        assert!(stderr.contains(needle), "{args:?}: {stderr}");
+    }
+}

@@ -18,6 +18,24 @@ use crate::linalg::rigid::Motion;
 use crate::pool::in_pool;
 use std::sync::Arc;
 
+/// What [`Deformer::solve_to_rest`] did.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct AtRest {
+    /// Solves run (each up to the stopping rule's iterations).
+    pub solves: usize,
+    /// Whether the last solve met the tolerance.
+    pub converged: bool,
+    /// Settle steps run after it.
+    pub settle_steps: usize,
+    /// Whether nothing is left to settle (a converged solve, and a settle step that said
+    /// converged, or nothing to settle).
+    pub settled: bool,
+    /// Local-global iterations of all solves and steps, fine iterations included.
+    pub iterations: usize,
+    /// The energy of the last solve or settle step.
+    pub energy: f64,
+}
+
 /// The deformation method.
 /// Serialized as [`Method::name`] (scenes, JSON reports).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
@@ -481,6 +499,43 @@ impl Deformer {
         let result = result.and_then(|()| self.settle(&targets));
         self.group_targets = targets;
         result
+    }
+
+    /// Solves at the group motions `transforms` as an editor does once its handles stop:
+    /// [`Deformer::solve_groups`] again, warm-started, until a solve converges, then
+    /// [`Deformer::settle_groups`] until a step says converged (the methods without settling,
+    /// or a deformer without settle iterations, have no steps). At most `max_steps` solves and
+    /// as many settle steps.
+    pub fn solve_to_rest(
+        &mut self,
+        transforms: &[(usize, GroupTransform)],
+        max_steps: usize,
+    ) -> Result<AtRest, SolveError> {
+        let mut rest = AtRest::default();
+        while rest.solves < max_steps.max(1) {
+            let stats = self.solve_groups(transforms)?;
+            rest.solves += 1;
+            rest.iterations += stats.iterations + stats.fine_iterations;
+            rest.converged = stats.converged;
+            rest.energy = stats.energy();
+            if stats.converged || stats.iterations == 0 {
+                break;
+            }
+        }
+        // Settled unless a step left more to do (`None`: nothing to settle).
+        let mut settled = true;
+        while rest.converged && rest.settle_steps < max_steps {
+            let Some(stats) = self.settle_groups(transforms)? else { break };
+            rest.settle_steps += 1;
+            rest.iterations += stats.iterations + stats.fine_iterations;
+            rest.energy = stats.energy();
+            settled = stats.converged;
+            if settled {
+                break;
+            }
+        }
+        rest.settled = rest.converged && settled;
+        Ok(rest)
     }
 
     /// The per-vertex targets (`#H×3`, order of [`Handles::handle_vertices`]) the last

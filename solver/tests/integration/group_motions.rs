@@ -145,3 +145,51 @@ fn a_recording_solves_the_timeline_motions() {
     }
     assert!(max_dist(&rec.frames[1], mesh.positions()) > 0.01 * diag, "frame 1 moved");
 }
+
+/// Converged ARAP on the bar at `moves`, tight: what solving to rest approaches.
+fn converged_arap(mesh: &Mesh, handles: &Handles, moves: &[(usize, GroupTransform)]) -> Deformer {
+    let config = ArapConfig { tolerance: 1e-10, max_iterations: 5000, ..Default::default() };
+    let options = DeformerOptions { method: Method::Arap, config, ..Default::default() };
+    let mut d = Deformer::new(mesh, handles, options).unwrap();
+    assert!(d.solve_groups(moves).unwrap().converged);
+    d
+}
+
+/// `solve_to_rest` solves again until a solve converges (ARAP capped at 3 iterations a solve
+/// reaches what one long solve reaches), then settles the coarse method until it says settled,
+/// which brings it nearer converged ARAP than its coarse solve.
+#[test]
+fn solving_to_rest_converges_then_settles() {
+    let (mesh, handles) = bar();
+    let diag = mesh.bbox_diagonal();
+    let moves = bend(diag);
+    let reference = converged_arap(&mesh, &handles, &moves);
+
+    let config = ArapConfig { tolerance: 1e-10, max_iterations: 3, ..Default::default() };
+    let capped = DeformerOptions { method: Method::Arap, config, ..Default::default() };
+    let mut arap = Deformer::new(&mesh, &handles, capped).unwrap();
+    let rest = arap.solve_to_rest(&moves, 5000).unwrap();
+    assert!(rest.converged && rest.settled && rest.solves > 1, "{rest:?}");
+    assert_eq!(rest.settle_steps, 0, "ARAP has nothing to settle");
+    let d = max_dist(arap.positions(), reference.positions());
+    assert!(d <= 1e-6 * diag, "ARAP at rest: {:e} of the diagonal from converged", d / diag);
+
+    let settling = || {
+        let mut o = options(Method::BsArapCoarse);
+        o.base.settle_iterations = 5;
+        o
+    };
+    let mut coarse = Deformer::new(&mesh, &handles, settling()).unwrap();
+    coarse.solve_groups(&moves).unwrap();
+    let solved = max_dist(coarse.positions(), reference.positions());
+    let mut coarse = Deformer::new(&mesh, &handles, settling()).unwrap();
+    let rest = coarse.solve_to_rest(&moves, 2000).unwrap();
+    let settled = max_dist(coarse.positions(), reference.positions());
+    println!(
+        "coarse: {rest:?}; solved {:e}, at rest {:e} of the diagonal",
+        solved / diag,
+        settled / diag
+    );
+    assert!(rest.converged && rest.settled && rest.settle_steps > 0, "{rest:?}");
+    assert!(settled < 0.1 * solved, "settling did not approach converged ARAP");
+}

@@ -124,7 +124,7 @@ impl Report<'_> {
         );
         println!(
             "energy: {}",
-            crate::cli::energy_summary(a.energy, bending_length, mesh.bbox_diagonal())
+            crate::cli::energy_summary(a.energy.into(), bending_length, mesh.bbox_diagonal())
         );
         if a.repeat > 1 {
             println!("{} runs per method, taking turns: each row is the median run", a.repeat);
