@@ -169,7 +169,8 @@ class Deformer:
         ``settle_iterations > 0``, after a solve whose coarse iterations converged; solve
         again at the same targets until ``stats.converged``): the new positions, or ``None``
         when there is nothing to refine. Call while :attr:`settle_pending` is true, as the
-        editor does after a drag."""
+        editor does after a drag: the last step's ``stats.converged`` is true, and nothing is
+        pending after it until the next solve."""
         r = self._native.settle()
         if r is None:
             return None

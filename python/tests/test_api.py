@@ -98,6 +98,9 @@ def test_anderson_and_settle():
         assert coarse.settle() is not None
         steps += 1
     assert steps >= 1 and coarse.stats.fine_iterations == 5
+    # Settling ends: the last step says converged, and nothing is pending after it.
+    assert coarse.stats.converged and not coarse.settle_pending, steps
+    assert coarse.settle() is None
     assert bsarap.Deformer(V, F, labels, method="arap").settle_pending is False
 
 

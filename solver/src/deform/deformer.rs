@@ -534,7 +534,7 @@ impl Deformer {
                 break;
             }
         }
-        rest.settled = rest.converged && settled;
+        rest.settled = rest.converged && settled && !self.settle_pending();
         Ok(rest)
     }
 

@@ -189,10 +189,11 @@ struct SolveState {
     /// result (its coarse solve converged and it is not the rest pose).
     last_targets: Vec<[f64; 3]>,
     settle_ready: bool,
-    /// Whether the last solve's pose has settled on the coarse level, and on the level
-    /// (step 6).
+    /// Whether the last solve's pose has settled on the coarse level, on the level, and on
+    /// the full mesh (step 6).
     coarse_settled: bool,
     level_settled: bool,
+    full_settled: bool,
     /// The coarse energy of the last solve (what a settle step reports).
     last_energy: f64,
     /// The current settle phase's steps ([`settle_rule`]).
@@ -220,6 +221,7 @@ impl SolveState {
             settle_ready: false,
             coarse_settled: true,
             level_settled: false,
+            full_settled: false,
             last_energy: 0.0,
             settling: SettleRule::default(),
         }
@@ -256,6 +258,7 @@ impl SolveState {
         // settling on (the decimated ARAP's lies tenths of a percent away).
         self.coarse_settled = !galerkin;
         self.level_settled = false;
+        self.full_settled = false;
         self.settling.reset();
         self.settle_ready = stats.converged && stats.iterations > 0;
         self.last_energy = stats.energy();

@@ -112,8 +112,9 @@ impl CoarseBsArap {
             }));
         }
         let (st, moved) = self.run_fine(targets, self.settle_iterations)?;
+        self.state.full_settled = self.state.settling.step(moved, st.iterations);
         Ok(Some(SolveStats {
-            converged: self.state.settling.step(moved, st.iterations),
+            converged: self.state.full_settled,
             settle_left: self.state.settling.left(),
             initial_energy: self.state.last_energy,
             fine_iterations: st.iterations,
@@ -125,8 +126,8 @@ impl CoarseBsArap {
 
     /// Whether [`CoarseBsArap::settle`] at the last solve's targets would refine: settle
     /// iterations are set, no frame is pending ([`CoarseBsArap::begin_groups`]), the last solve
-    /// converged away from rest, and a phase is left: the
-    /// coarse level's, the level's, or the full mesh's, whose factorization has not failed (a
+    /// converged away from rest, and a phase has not settled yet: the coarse level's, the
+    /// level's, or the full mesh's, whose factorization has not failed (a
     /// mesh too large for this machine's memory, for one:
     /// [`crate::linalg::linsolve::MEMORY_SHARE`]; the settle step that found it out returned
     /// the error, and later poses are only settled on the coarse level and the level).
@@ -142,8 +143,9 @@ impl CoarseBsArap {
         !self.state.level_settled && self.level.as_ref().is_some_and(|l| !l.has_failed())
     }
 
-    /// Whether the full mesh's phase can run (its solver is there and has not failed).
+    /// Whether the full mesh's phase is still to come or under way (not settled; its solver is
+    /// there and has not failed).
     fn full_mesh_left(&self) -> bool {
-        self.fine.as_ref().is_some_and(|f| !f.has_failed())
+        !self.state.full_settled && self.fine.as_ref().is_some_and(|f| !f.has_failed())
     }
 }

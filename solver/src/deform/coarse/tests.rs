@@ -166,6 +166,9 @@ fn settling_goes_through_the_level_first() {
     // stopped settling).
     assert!(on_level < 0.95 * coarse, "on the level {on_level:e}, coarse {coarse:e}");
     assert!(settled < SETTLED, "settled {settled:e}, on the level {on_level:e}");
+    // Nothing is left to settle once the full mesh has (a caller may loop on `settle_pending`).
+    assert!(!c.settle_pending(), "settling offered again after it converged");
+    assert!(c.settle(&targets).unwrap().is_none());
     for (&v, t) in handles.handle_vertices().iter().zip(&targets) {
         assert_eq!(c.positions()[v as usize], *t);
     }
