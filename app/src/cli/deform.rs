@@ -195,8 +195,9 @@ fn check_output(path: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The arguments a scene leaves to the command line; the others are the scene's to set.
-const SCENE_ARGS: [&str; 4] = ["mesh", "time", "output", "json"];
+/// The arguments a scene leaves to the command line (the global ones included); the others
+/// are the scene's to set.
+const SCENE_ARGS: [&str; 5] = ["mesh", "time", "output", "json", "allow_outside_references"];
 
 /// The most solves, and settle steps, at a scene's pose (the editor's cap on settle steps).
 const MAX_STEPS: usize = 2000;

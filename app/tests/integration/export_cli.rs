@@ -291,8 +291,14 @@ fn deform_poses_a_scene_at_a_time() {
     let saved = d.join("scenes").join("saved.json");
     std::fs::write(&saved, j.to_string()).unwrap();
     let again = d.join("saved.obj");
-    let (code, _, stderr) =
-        bsarap(&["deform", saved.to_str().unwrap(), "-o", again.to_str().unwrap()]);
+    // The global flag is the command line's to give, not the scene's.
+    let (code, _, stderr) = bsarap(&[
+        "deform",
+        saved.to_str().unwrap(),
+        "--allow-outside-references",
+        "-o",
+        again.to_str().unwrap(),
+    ]);
     assert_eq!(code, 0, "{stderr}");
     assert_eq!(obj_positions(&again), posed, "the saved time is the default");
     j["method"] = "bsarap-coarse".into();
