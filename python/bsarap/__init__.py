@@ -16,7 +16,7 @@ dtype or layout are converted (no copy when they already are C-contiguous float6
 outputs are new arrays that own the solver's buffers. Solves release the GIL. Every error is a
 :class:`BsarapError` (a ``ValueError``) carrying the solver's message.
 
-The modules: ``_common`` (defaults, array coercion, :class:`SolveStats`), ``_mesh``,
+The modules: ``_common`` (defaults, array coercion, :class:`SolveStats`, :class:`AtRest`), ``_mesh``,
 ``_arap``, ``_deformer``, ``_animation``; ``_bsarap`` is the native half. Import everything
 from ``bsarap`` itself.
 """
@@ -29,12 +29,14 @@ from ._animation import Recording, Scene, Timeline, export_gltf, load_scene, rec
 from ._arap import Arap
 from ._bsarap import BsarapError
 from ._common import (
+    AtRest,
     DEFAULT_BENDING_LENGTH,
     DEFAULT_MAX_ITERS,
     DEFAULT_MEMBRANE,
     DEFAULT_TOL,
     ENERGIES,
     MAX_BENDING_LENGTH,
+    MAX_SETTLE_STEPS,
     METHODS,
     PathLike,
     SolveStats,
@@ -50,6 +52,7 @@ __all__ = [
     "METHODS",
     "ENERGIES",
     "SolveStats",
+    "AtRest",
     "load_mesh",
     "clean",
     "save_mesh",

@@ -31,6 +31,7 @@ DEFAULT_MAX_ITERS: int
 DEFAULT_MEMBRANE: float
 DEFAULT_BENDING_LENGTH: float
 MAX_BENDING_LENGTH: float
+MAX_SETTLE_STEPS: int
 
 class SolveStats:
     """What one solve did (solver::SolveStats)."""
@@ -52,6 +53,16 @@ class SolveStats:
     fine_ms: float
     fine_energy: float
     fine_unconverged: bool
+
+class AtRest:
+    """What Deformer.solve_to_rest did (solver::AtRest)."""
+
+    solves: int
+    converged: bool
+    settle_steps: int
+    settled: bool
+    iterations: int
+    energy: float
 
 @overload
 def load_mesh(path: PathLike, *, with_report: Literal[False] = ...) -> Tuple[F64, I64]: ...
@@ -98,6 +109,7 @@ class Deformer:
     """Every method of the bsarap CLI: Deformer(V, F, handles, method).solve({group: transform})."""
 
     stats: Optional[SolveStats]
+    at_rest: Optional[AtRest]
     def __init__(
         self,
         V: ArrayLike,
@@ -122,6 +134,9 @@ class Deformer:
     def solve_targets(self, targets: ArrayLike) -> F64: ...
     def targets(self, group_transforms: Mapping[int, Transform]) -> F64: ...
     def settle(self) -> Optional[F64]: ...
+    def solve_to_rest(
+        self, group_transforms: Mapping[int, Transform], max_steps: int = ...
+    ) -> F64: ...
     @property
     def settle_pending(self) -> bool: ...
     def set_stopping(self, tol: float, max_iters: int) -> None: ...

@@ -28,6 +28,9 @@ DEFAULT_MEMBRANE: float = _bsarap.DEFAULT_MEMBRANE
 #: module); accepted up to ``MAX_BENDING_LENGTH``.
 DEFAULT_BENDING_LENGTH: float = _bsarap.DEFAULT_BENDING_LENGTH
 MAX_BENDING_LENGTH: float = _bsarap.MAX_BENDING_LENGTH
+#: The most solves, and settle steps, of :meth:`~bsarap.Deformer.solve_to_rest` by default
+#: (``solver::MAX_SETTLE_STEPS``, the editor's cap on settle steps; read from the native module).
+MAX_SETTLE_STEPS: int = _bsarap.MAX_SETTLE_STEPS
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -108,4 +111,26 @@ class SolveStats:
 
     @classmethod
     def _from(cls, d: Mapping[str, Any]) -> "SolveStats":
+        return cls(**d)
+
+
+@dataclass(frozen=True)
+class AtRest:
+    """What :meth:`~bsarap.Deformer.solve_to_rest` did (``solver::AtRest``).
+
+    ``solves`` warm-started solves ran until one ``converged``; then ``settle_steps`` settle
+    steps (``bsarap-coarse`` with ``settle_iterations > 0``). ``settled``: nothing is left to
+    settle. ``iterations`` counts every local-global iteration, fine ones included; ``energy``
+    is the last solve's or step's.
+    """
+
+    solves: int
+    converged: bool
+    settle_steps: int
+    settled: bool
+    iterations: int
+    energy: float
+
+    @classmethod
+    def _from(cls, d: Mapping[str, Any]) -> "AtRest":
         return cls(**d)

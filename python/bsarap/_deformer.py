@@ -14,6 +14,8 @@ from ._common import (
     DEFAULT_MAX_ITERS,
     DEFAULT_MEMBRANE,
     DEFAULT_TOL,
+    MAX_SETTLE_STEPS,
+    AtRest,
     SolveStats,
     _count,
     _indices,
@@ -131,12 +133,14 @@ class Deformer:
             _number(bending_length, "bending_length"), str(coarse_energy),
         )
         self.stats: Optional[SolveStats] = None
+        self.at_rest: Optional[AtRest] = None
 
     @classmethod
     def _wrap(cls, native: Any) -> "Deformer":
         d = cls.__new__(cls)
         d._native = native
         d.stats = None
+        d.at_rest = None
         return d
 
     def solve(self, group_transforms: Mapping[int, Transform]) -> np.ndarray:
@@ -176,6 +180,21 @@ class Deformer:
             return None
         U, stats = r
         self.stats = SolveStats._from(stats)
+        return U
+
+    def solve_to_rest(
+        self, group_transforms: Mapping[int, Transform], max_steps: int = MAX_SETTLE_STEPS
+    ) -> np.ndarray:
+        """The pose an editor shows once its handles stop at ``group_transforms`` (as in
+        :meth:`solve`): solves again, warm-started, until one converges, then :meth:`settle`
+        steps until one says converged; at most ``max_steps`` of each (at least one solve).
+        Returns the positions ``(#V, 3)``; what it did in ``self.at_rest`` (:class:`AtRest`),
+        ``self.stats`` is cleared. The CLI's ``bsarap deform SCENE`` poses a scene this way."""
+        U, at_rest = self._native.solve_to_rest(
+            _transforms(group_transforms), _count(max_steps, "max_steps")
+        )
+        self.stats = None
+        self.at_rest = AtRest._from(at_rest)
         return U
 
     @property

@@ -88,15 +88,8 @@ fast = bsarap.Deformer(V, F, labels, method="arap", anderson=5)
 fast.solve(pose)
 print("ARAP + Anderson:", fast.stats.iterations, "iterations")
 coarse = bsarap.Deformer(V, F, labels, method="bsarap-coarse", settle_iterations=10)
-coarse.solve(pose)
-for _ in range(10):  # settling starts once the coarse solve has converged at these targets
-    if coarse.stats.converged:
-        break
-    coarse.solve(pose)
-steps = 0
-while coarse.settle_pending and steps < 20:
-    coarse.settle()
-    steps += 1
+coarse.solve_to_rest(pose)  # solve until converged, then settle until done
+steps = coarse.at_rest.settle_steps
 dist = np.linalg.norm(coarse.positions - results["arap"], axis=1) / diag
 print(f"coarse BS-ARAP after {steps} settle steps: mean distance to ARAP {dist.mean():.4f}")
 

@@ -12,7 +12,7 @@ use solver::io::Asset;
 use solver::linalg::rotation::Mat3;
 use solver::{
     ArapConfig, BaseConfig, CoarseEnergy, ComponentMode, Deformer, DeformerOptions, GroupTransform,
-    Handles, LooseParts, Mesh, Method, handle_targets,
+    Handles, LooseParts, MAX_SETTLE_STEPS, Mesh, Method, handle_targets,
 };
 
 use crate::convert::{
@@ -224,6 +224,30 @@ impl NativeDeformer {
             None => Ok(None),
             Some(s) => Ok(Some((array3(py, self.deformer.positions().to_vec())?, stats(py, &s)?))),
         }
+    }
+
+    /// Solves at per-group transforms as an editor does once its handles stop
+    /// (`Deformer::solve_to_rest`: solves until one converges, then settle steps until one
+    /// says converged; at most `max_steps` of each): `(positions, at_rest)`.
+    #[pyo3(signature = (transforms, max_steps=MAX_SETTLE_STEPS))]
+    fn solve_to_rest<'py>(
+        &mut self,
+        py: Python<'py>,
+        transforms: Vec<(usize, [f64; 3], Mat3)>,
+        max_steps: usize,
+    ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyDict>)> {
+        let list = transforms_of(transforms)?;
+        let deformer = &mut self.deformer;
+        let r = py.allow_threads(|| deformer.solve_to_rest(&list, max_steps)).map_err(err)?;
+        self.last_targets = Some(self.deformer.group_targets().to_vec());
+        let d = PyDict::new(py);
+        d.set_item("solves", r.solves)?;
+        d.set_item("converged", r.converged)?;
+        d.set_item("settle_steps", r.settle_steps)?;
+        d.set_item("settled", r.settled)?;
+        d.set_item("iterations", r.iterations)?;
+        d.set_item("energy", r.energy)?;
+        Ok((array3(py, self.deformer.positions().to_vec())?, d))
     }
 
     /// Whether `settle` has work after the last solve.

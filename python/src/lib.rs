@@ -48,5 +48,6 @@ fn _bsarap(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("ENERGIES", convert::ENERGIES.map(|(name, _)| name).to_vec())?;
     m.add("DEFAULT_BENDING_LENGTH", solver::deform::arap::DEFAULT_BENDING_LENGTH)?;
     m.add("MAX_BENDING_LENGTH", solver::deform::arap::MAX_BENDING_LENGTH)?;
+    m.add("MAX_SETTLE_STEPS", solver::MAX_SETTLE_STEPS)?;
     Ok(())
 }

@@ -104,6 +104,44 @@ def test_anderson_and_settle():
     assert bsarap.Deformer(V, F, labels, method="arap").settle_pending is False
 
 
+def test_solve_to_rest_is_the_hand_loop():
+    """solve_to_rest gives the pose of solving until converged then settling until done, and
+    says what it ran; a cap of one step stops there unsettled."""
+    V, F, labels = tube(16, 24)
+    move = {1: ([0.6, 0.0, 0.3], bsarap.rotation([0, 0, 1], 25))}
+    settings = dict(coarse_vertices=150, settle_iterations=5)
+    by_hand = bsarap.Deformer(V, F, labels, **settings)
+    solves, steps, iterations = 0, 0, 0
+    while True:
+        by_hand.solve(move)
+        solves += 1
+        iterations += by_hand.stats.iterations + by_hand.stats.fine_iterations
+        if by_hand.stats.converged:
+            break
+    while by_hand.settle_pending:
+        by_hand.settle()
+        steps += 1
+        iterations += by_hand.stats.iterations + by_hand.stats.fine_iterations
+    d = bsarap.Deformer(V, F, labels, **settings)
+    U = d.solve_to_rest(move)
+    np.testing.assert_array_equal(U, by_hand.positions)
+    r = d.at_rest
+    assert (r.solves, r.settle_steps, r.iterations) == (solves, steps, iterations)
+    assert steps >= 1 and r.converged and r.settled and d.stats is None
+    assert not d.settle_pending and d.settle() is None
+    # The energy is the full mesh's (the settle steps ran on it), near converged ARAP's.
+    arap = bsarap.Deformer(V, F, labels, method="arap", tol=1e-9, max_iters=5000)
+    arap.solve_to_rest(move)
+    assert arap.at_rest.energy * (1 - 1e-6) <= r.energy <= 1.05 * arap.at_rest.energy
+    capped = bsarap.Deformer(V, F, labels, **settings)
+    capped.solve_to_rest(move, max_steps=1)
+    assert capped.at_rest.solves == 1 and capped.at_rest.settle_steps <= 1
+    if steps > 1:
+        assert not capped.at_rest.settled and capped.settle_pending
+    with pytest.raises(bsarap.BsarapError):
+        d.solve_to_rest(move, max_steps=-1)
+
+
 def test_membrane_share():
     """The coarse level's membrane share changes the coarse variant's pose; 0 is the default."""
     V, F, labels = tube(16, 24)

@@ -35,7 +35,7 @@ pub use deform::arap::{
 pub use deform::bs_arap::{BaseKind, BsArap};
 pub use deform::config::{BaseConfig, BaseConfigError, CoarseEnergy};
 pub use deform::deformer::{
-    AtRest, Deformer, DeformerOptions, MeshCache, Method, Solver, UnwrittenBase,
+    AtRest, Deformer, DeformerOptions, MAX_SETTLE_STEPS, MeshCache, Method, Solver, UnwrittenBase,
 };
 pub use deform::handles::{Handles, HandlesError};
 pub use deform::pose::{GroupRest, GroupTransform, handle_targets};

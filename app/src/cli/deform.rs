@@ -199,9 +199,6 @@ fn check_output(path: &Path) -> anyhow::Result<()> {
 /// are the scene's to set.
 const SCENE_ARGS: [&str; 5] = ["mesh", "time", "output", "json", "allow_outside_references"];
 
-/// The most solves, and settle steps, at a scene's pose (the editor's cap on settle steps).
-const MAX_STEPS: usize = 2000;
-
 /// A solved pose and what to say about it.
 struct Posed {
     loaded: LoadedMesh,
@@ -351,7 +348,7 @@ fn pose_scene(a: &DeformArgs, given: &ArgMatches) -> anyhow::Result<Posed> {
         .with_context(|| format!("{}: precomputing {}", a.mesh.display(), scene.method.name()))?;
     let precompute_ms = t0.elapsed().as_secs_f64() * 1e3;
     let t1 = Instant::now();
-    let rest = deformer.solve_to_rest(&transforms, MAX_STEPS)?;
+    let rest = deformer.solve_to_rest(&transforms, solver::MAX_SETTLE_STEPS)?;
     let solve_ms = t1.elapsed().as_secs_f64() * 1e3;
     let fields = serde_json::json!({
         "scene": a.mesh.display().to_string(),

@@ -18,6 +18,11 @@ use crate::linalg::rigid::Motion;
 use crate::pool::in_pool;
 use std::sync::Arc;
 
+/// The most settle steps at one pose, and the most solves [`Deformer::solve_to_rest`] runs
+/// before them: a method whose steps never say converged stops here (the editor, the CLI and
+/// Python share it).
+pub const MAX_SETTLE_STEPS: usize = 2000;
+
 /// What [`Deformer::solve_to_rest`] did.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct AtRest {
@@ -32,8 +37,15 @@ pub struct AtRest {
     pub settled: bool,
     /// Local-global iterations of all solves and steps, fine iterations included.
     pub iterations: usize,
-    /// The energy of the last solve or settle step.
+    /// The energy of the last solve or settle step: the full mesh's after iterations on it,
+    /// else what its method minimizes (the coarse level's, the base's).
     pub energy: f64,
+}
+
+/// The energy a solve's statistics give of the full mesh where its fine or settle iterations
+/// ran on it ([`crate::FrameStats::fine_energy`]), else its own ([`SolveStats::energy`]).
+fn mesh_energy(stats: &SolveStats) -> f64 {
+    stats.frame_stats().fine_energy.unwrap_or_else(|| stats.energy())
 }
 
 /// The deformation method.
@@ -517,7 +529,7 @@ impl Deformer {
             rest.solves += 1;
             rest.iterations += stats.iterations + stats.fine_iterations;
             rest.converged = stats.converged;
-            rest.energy = stats.energy();
+            rest.energy = mesh_energy(&stats);
             if stats.converged || stats.iterations == 0 {
                 break;
             }
@@ -528,7 +540,7 @@ impl Deformer {
             let Some(stats) = self.settle_groups(transforms)? else { break };
             rest.settle_steps += 1;
             rest.iterations += stats.iterations + stats.fine_iterations;
-            rest.energy = stats.energy();
+            rest.energy = mesh_energy(&stats);
             settled = stats.converged;
             if settled {
                 break;

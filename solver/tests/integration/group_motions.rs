@@ -192,4 +192,11 @@ fn solving_to_rest_converges_then_settles() {
     );
     assert!(rest.converged && rest.settled && rest.settle_steps > 0, "{rest:?}");
     assert!(settled < 0.1 * solved, "settling did not approach converged ARAP");
+    // The energy is the full mesh's, just above converged ARAP's (not the coarse level's).
+    let minimum = arap.solve_to_rest(&moves, 5000).unwrap().energy;
+    assert!(
+        rest.energy >= minimum * (1.0 - 1e-6) && rest.energy <= 1.05 * minimum,
+        "settled energy {:e}, ARAP's minimum {minimum:e}",
+        rest.energy
+    );
 }

@@ -14,7 +14,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use solver::geometry::normals::VertexFaces;
-use solver::{FrameStats, GroupTransform, Handles, LooseParts, Mesh};
+use solver::{FrameStats, GroupTransform, Handles, LooseParts, MAX_SETTLE_STEPS, Mesh};
 
 use super::mailbox::Mailbox;
 use super::protocol::{
@@ -308,9 +308,6 @@ const DRAG_GAP: Duration = Duration::from_secs(1);
 
 /// How often the thread asks whether settling can start while the pose solver prepares it.
 const SETTLE_POLL: Duration = Duration::from_millis(50);
-
-/// The most settle steps per pose (a pose solver whose steps never say converged stops here).
-const MAX_SETTLE_STEPS: usize = 2000;
 
 /// The newest scene and poses among the commands of one turn (older ones do not matter).
 #[derive(Default)]
