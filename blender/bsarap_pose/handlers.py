@@ -1,6 +1,9 @@
 """Live posing: after every depsgraph update and frame change, each object with controls (and
 Live on) is solved again when one of its controls moved.
 
+Once the controls stop, a timer (``finish_timer``) takes each pose the rest of the way
+(``solve.finish_step``): solved until converged, then settled, as the editor does after a drag.
+
 Re-entrancy: writing the pose shape key triggers another depsgraph update. ``_busy`` stops a
 nested call, and ``solve.update`` skips objects whose controls have not moved since their last
 solve, so the update that follows our own write solves nothing.
@@ -31,17 +34,46 @@ def update_scene(scene) -> None:
     if _busy or suspended:
         return
     _busy = True
+    solved = False
     try:
         for obj in posed_objects(scene):
             try:
-                solve.update(obj)
+                solved |= solve.update(obj)
             except HandleError as e:
-                msg = str(e)
-                if solve.messages.get(obj.name) != msg:  # say it once, not on every update
-                    solve.messages[obj.name] = msg
-                    print(f"BS-ARAP: {msg}")
+                report(obj, e)
     finally:
         _busy = False
+    if solved and not bpy.app.timers.is_registered(finish_timer):
+        bpy.app.timers.register(finish_timer, first_interval=solve.REST_DELAY)
+
+
+def report(obj, e: HandleError) -> None:
+    """Keep ``e`` as the object's message (the panel shows it) and print it, once."""
+    msg = str(e)
+    if solve.messages.get(obj.name) != msg:  # say it once, not on every update
+        solve.messages[obj.name] = msg
+        print(f"BS-ARAP: {msg}")
+
+
+def finish_timer():
+    """``bpy.app.timers``: one ``solve.finish_step`` for each posed object whose controls
+    rest; runs again when the next step is due, and ends when no pose has anything left (the
+    next solve registers it again)."""
+    global _busy
+    if _busy or suspended:
+        return solve.REST_DELAY
+    _busy = True
+    due = []
+    try:
+        for obj in posed_objects(bpy.context.scene):
+            try:
+                due.append(solve.finish_step(obj))
+            except HandleError as e:
+                report(obj, e)
+    finally:
+        _busy = False
+    due = [d for d in due if d is not None]
+    return min(due) if due else None
 
 
 @persistent
@@ -73,6 +105,8 @@ def register():
 
 
 def unregister():
+    if bpy.app.timers.is_registered(finish_timer):
+        bpy.app.timers.unregister(finish_timer)
     for name, fn in _handlers:
         lst = getattr(bpy.app.handlers, name)
         while fn in lst:

@@ -76,6 +76,7 @@ class BSARAP_PT_settings(bpy.types.Panel):
         if s.method == "bsarap-coarse":
             col.prop(s, "coarse_vertices")
             col.prop(s, "fine_iterations")
+            col.prop(s, "settle_iterations")
             col.prop(s, "membrane")
             if s.energy == "smooth-rotations":
                 col.prop(s, "coarse_energy")

@@ -101,6 +101,12 @@ class BSARAP_ObjectSettings(bpy.types.PropertyGroup):
         name="Fine iterations", description="ARAP iterations on the full mesh after each coarse solve",
         default=0, min=0,
     )
+    settle_iterations: IntProperty(
+        name="Settle iterations",
+        description="Once the controls stop: ARAP iterations on the full mesh per settle step, "
+        "until the pose is the full mesh's (0: off; the editor's default is 5)",
+        default=5, min=0, max=1000,
+    )
     membrane: FloatProperty(
         name="Membrane", description="The coarse level's membrane share",
         default=DEFAULT_MEMBRANE, min=0.0, max=1.0,
@@ -126,6 +132,7 @@ class BSARAP_ObjectSettings(bpy.types.PropertyGroup):
             "smoothing": float(self.smoothing),
             "coarse_vertices": int(self.coarse_vertices) or None,
             "fine_iterations": int(self.fine_iterations),
+            "settle_iterations": int(self.settle_iterations),
             "membrane": float(self.membrane),
             # the Galerkin energy restricts smooth rotations only
             "coarse_energy": self.coarse_energy if self.energy == "smooth-rotations" else "decimated",

@@ -4,7 +4,9 @@ The pose of handle group ``k`` is the motion of its control Empty ``E_k`` since 
 added, in the mesh object's space ``O``: ``D_k = (O^-1 E_k) (O^-1 E_k)_rest^-1``. The targets
 are the group's rest vertices moved by it, ``t_i = D_k p_i``; ``Deformer.solve_targets`` gives
 the pose, which goes into the shape key ``POSE_KEY`` (value 1) so the base mesh is never
-overwritten. The state is keyed by the object's name, its topology counts and the settings: a
+overwritten. Once the controls have rested ``REST_DELAY`` seconds, :func:`finish_step` takes
+the pose the rest of the way, as the editor does after a drag: the same targets solved again
+until a solve converges, then settle steps (``bsarap-coarse`` with settle iterations). The state is keyed by the object's name, its topology counts and the settings: a
 change of any of them rebuilds the solver (with a message) instead of failing.
 """
 
@@ -21,6 +23,8 @@ from .handles import HandleError
 POSE_KEY = "BS-ARAP pose"
 #: The name of the Mesh Cache modifier Bake to point cache adds.
 CACHE_MODIFIER = "BS-ARAP cache"
+#: Seconds the controls rest before :func:`finish_step` goes on (the editor's settle delay).
+REST_DELAY = 0.15
 
 
 class SolverState:
@@ -38,6 +42,10 @@ class SolverState:
         self.last_ms = None  # the last update's time in the handler: solve + shape key write
         self.solves = 0
         self.last_solve_ms = None  # of which in Deformer.solve_targets
+        self.moved_at = None  # time.monotonic() of the last solve after a control moved
+        self.converged = False  # the last solve met the tolerance
+        self.finish_steps = 0  # finish_step's solves and settle steps since the last move
+        self.at_rest = False  # finish_step has nothing left at the last motion
         # the rest bounding-box diagonal: the unit of the fractions (bending length, smoothing)
         self.diagonal = diagonal(rest)
 
@@ -206,6 +214,7 @@ def solve(obj, st: SolverState, deltas: np.ndarray) -> np.ndarray:
     st.last_solve_ms = (time.perf_counter() - t0) * 1e3
     st.last_deltas = deltas
     st.solves += 1
+    st.converged = st.deformer.stats.converged
     return U
 
 
@@ -240,4 +249,43 @@ def update(obj, *, force=False) -> bool:
     U = solve(obj, st, deltas)
     write_pose(obj, U)
     st.last_ms = (time.perf_counter() - t0) * 1e3
+    st.moved_at = time.monotonic()
+    st.finish_steps = 0
+    st.at_rest = False
     return True
+
+
+def finish_step(obj):
+    """One step of the pose toward what it is at rest, for controls that have stopped: the last
+    solve again at the same targets while it had not converged, else one settle step while one
+    is pending; written into the pose key. Returns ``None`` when there is nothing to do (no
+    solve yet, the controls moved since it, which the live handler solves, or the pose at rest),
+    else the seconds until the next step is due (0 after a step). At most
+    ``bsarap.MAX_SETTLE_STEPS`` steps per motion, as the editor."""
+    st = _states.get(obj.name)
+    if st is None or st.last_deltas is None or st.at_rest or st.key != state_key(obj):
+        return None
+    deltas = control_deltas(obj)
+    if not np.array_equal(deltas, st.last_deltas):
+        return None
+    wait = REST_DELAY - (time.monotonic() - (st.moved_at or 0.0))
+    if wait > 0:
+        return wait
+    bsarap = import_bsarap()
+    if st.finish_steps >= bsarap.MAX_SETTLE_STEPS:
+        st.at_rest = True
+        return None
+    if not st.converged:
+        U = solve(obj, st, deltas)
+    else:
+        try:
+            U = st.deformer.settle() if st.deformer.settle_pending else None
+        except bsarap.BsarapError as e:
+            st.at_rest = True
+            raise HandleError(f"{obj.name}: {e}") from None
+        if U is None:
+            st.at_rest = True
+            return None
+    st.finish_steps += 1
+    write_pose(obj, U)
+    return 0.0

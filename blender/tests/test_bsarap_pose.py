@@ -607,6 +607,110 @@ class SmoothRotations(unittest.TestCase):
             obj.bsarap.energy = "spokes-and-rims"
 
 
+class Finishing(unittest.TestCase):
+    """Once the controls rest, the timer's steps take the live pose to what it is at rest:
+    solved again until a solve converges, then settled (``bsarap-coarse``'s settle
+    iterations), the pose of the same loop run on a Deformer directly. (Timers do not run in
+    background mode: the test calls the timer's function as Blender would.)"""
+
+    @classmethod
+    def setUpClass(cls):
+        bpy.ops.wm.read_homefile(use_empty=True)
+        cls.obj = tube()
+        cls.obj.bsarap.max_iters = 3  # the live solve stops short of converged
+        make_controls(cls.obj, ["bottom", "top"])
+
+    def test_1_rest_pose(self):
+        obj = self.obj
+        st = ext.solve.state(obj)
+        self.assertEqual(obj.bsarap.solver_settings()["settle_iterations"], 5)
+        top = bpy.data.objects["top"]
+        top.location = Vector(top.location) + Vector((1.0, 0.0, -0.5))
+        top.rotation_euler = Euler((0.0, 0.6, 0.0))
+        before = st.solves
+        bpy.context.view_layer.update()  # the live handler: one solve, and the timer
+        self.assertEqual(st.solves, before + 1)
+        self.assertFalse(st.converged)
+        self.assertTrue(bpy.app.timers.is_registered(ext.handlers.finish_timer))
+        live = pose_of(obj)
+        # The controls have not rested yet: the timer waits.
+        self.assertGreater(ext.handlers.finish_timer(), 0.0)
+        self.assertEqual(st.solves, before + 1)
+
+        # The reference: the same settings on a Deformer, solved until converged and settled
+        # (from rest: the extension's solver started elsewhere; measured 1.2e-7 apart, float32
+        # rounding of the shape key).
+        ref = bsarap.Deformer(
+            st.rest, ext.handles.triangles(obj.data), st.labels, **obj.bsarap.solver_settings()
+        )
+        tg = ext.solve.targets(st, ext.solve.control_deltas(obj))
+        for _ in range(5000):
+            ref.solve_targets(tg)
+            if ref.stats.converged:
+                break
+        settles = 0
+        while ref.settle_pending:
+            ref.settle()
+            settles += 1
+        self.assertGreater(settles, 0)
+
+        st.moved_at -= 1.0  # rested
+        calls = 0
+        while ext.handlers.finish_timer() is not None:
+            calls += 1
+            self.assertLess(calls, 5000)
+        solves = st.solves - before
+        self.assertGreater(solves, 1, "solved again until converged")
+        self.assertTrue(st.converged and st.at_rest)
+        self.assertGreater(st.finish_steps, solves - 1, "then settled")
+        self.assertFalse(st.deformer.settle_pending)
+        U = pose_of(obj)
+        far = np.abs(live - ref.positions).max()
+        near = np.abs(U - ref.positions).max()
+        self.assertGreater(far, 0.05, "the live solve stopped short")
+        self.assertLess(near, 1e-4, f"finished {near:.2e} from the reference, live {far:.2e}")
+        # The update that the last write triggers solves nothing; nothing is left to do.
+        bpy.context.view_layer.update()
+        self.assertEqual(st.solves, before + solves)
+        self.assertIsNone(ext.solve.finish_step(obj))
+
+    def test_2_a_move_restarts_the_wait(self):
+        obj = self.obj
+        st = ext.solve.state(obj)
+        top = bpy.data.objects["top"]
+        top.location.x += 0.2
+        bpy.context.view_layer.update()  # solved by the live handler
+        self.assertFalse(st.at_rest)
+        self.assertEqual(st.finish_steps, 0)
+        self.assertGreater(ext.handlers.finish_timer(), 0.0)
+        st.moved_at -= 1.0
+        solves = st.solves
+        self.assertEqual(ext.handlers.finish_timer(), 0.0)  # one step
+        self.assertEqual(st.finish_steps, 1)
+        # Controls that moved since the last solve are the live handler's: no step on stale
+        # targets.
+        st.last_deltas = st.last_deltas.copy()
+        st.last_deltas[1, 0, 3] += 0.1
+        self.assertIsNone(ext.solve.finish_step(obj))
+        self.assertEqual(st.finish_steps, 1)
+        self.assertLessEqual(st.solves, solves + 1)
+
+    def test_3_off_without_settle_iterations(self):
+        """Settle iterations 0: the steps only solve until converged."""
+        obj = self.obj
+        obj.bsarap.settle_iterations = 0  # a rebuilt solver (the settings changed)
+        top = bpy.data.objects["top"]
+        top.location.x -= 0.3
+        bpy.context.view_layer.update()
+        st = ext.solve.state(obj)
+        st.moved_at -= 1.0
+        while ext.handlers.finish_timer() is not None:
+            pass
+        self.assertTrue(st.converged and st.at_rest)
+        self.assertFalse(st.deformer.settle_pending)
+        self.assertEqual(st.finish_steps, st.solves - 1)
+
+
 class Unregister(unittest.TestCase):
     def test_zz_unregister(self):
         bpy.ops.wm.read_homefile(use_empty=True)
@@ -615,6 +719,7 @@ class Unregister(unittest.TestCase):
         self.assertFalse(hasattr(bpy.types.Object, "bsarap"))
         self.assertNotIn(handlers.on_depsgraph_update, bpy.app.handlers.depsgraph_update_post)
         self.assertNotIn(handlers.on_frame_change, bpy.app.handlers.frame_change_post)
+        self.assertFalse(bpy.app.timers.is_registered(handlers.finish_timer))
         self.assertFalse(hasattr(bpy.types, "BSARAP_PT_pose"))
         with self.assertRaises((AttributeError, RuntimeError)):
             bpy.ops.bsarap.add_controls()
@@ -623,7 +728,7 @@ class Unregister(unittest.TestCase):
 def load_tests(loader, standard, _pattern):
     # Unregister last, whatever the order of the classes' names.
     suite = unittest.TestSuite()
-    for cls in (Package, Tube, BadInput, Controls, SmoothRotations, Creature, Unregister):
+    for cls in (Package, Tube, BadInput, Controls, SmoothRotations, Finishing, Creature, Unregister):
         suite.addTests(loader.loadTestsFromTestCase(cls))
     return suite
 
