@@ -31,6 +31,7 @@ class Baker:
     def __init__(self, scene, obj, frames):
         self.scene, self.obj, self.frames = scene, obj, list(frames)
         self.st = solve.state(obj)
+        self.st.baking = True  # until restore_frame: the live pose's finishing steps wait
         self.poses = []
         self.frame_before = scene.frame_current
 
@@ -48,11 +49,13 @@ class Baker:
         self.poses.append(solve.solve(self.obj, self.st, solve.control_deltas(self.obj)))
 
     def restore_frame(self) -> None:
+        """The frame the bake started at, without a live solve; ends the bake."""
         handlers.suspended = True
         try:
             self.scene.frame_set(self.frame_before)
         finally:
             handlers.suspended = False
+            self.st.baking = False
 
 
 def remove_frame_keys(obj) -> None:

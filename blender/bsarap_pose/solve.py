@@ -4,10 +4,12 @@ The pose of handle group ``k`` is the motion of its control Empty ``E_k`` since 
 added, in the mesh object's space ``O``: ``D_k = (O^-1 E_k) (O^-1 E_k)_rest^-1``. The targets
 are the group's rest vertices moved by it, ``t_i = D_k p_i``; ``Deformer.solve_targets`` gives
 the pose, which goes into the shape key ``POSE_KEY`` (value 1) so the base mesh is never
-overwritten. Once the controls have rested ``REST_DELAY`` seconds, :func:`finish_step` takes
-the pose the rest of the way, as the editor does after a drag: the same targets solved again
-until a solve converges, then settle steps (``bsarap-coarse`` with settle iterations). The state is keyed by the object's name, its topology counts and the settings: a
+overwritten. The state is keyed by the object's name, its topology counts and the settings: a
 change of any of them rebuilds the solver (with a message) instead of failing.
+
+Once the controls have rested ``REST_DELAY`` seconds, :func:`finish_step` takes the pose the
+rest of the way, as the editor does after a drag: the same targets solved again until a solve
+converges, then settle steps (``bsarap-coarse`` with settle iterations); not while a bake runs.
 """
 
 from __future__ import annotations
@@ -46,6 +48,7 @@ class SolverState:
         self.converged = False  # the last solve met the tolerance
         self.finish_steps = 0  # finish_step's solves and settle steps since the last move
         self.at_rest = False  # finish_step has nothing left at the last motion
+        self.baking = False  # a bake solves the frames: finish_step waits
         # the rest bounding-box diagonal: the unit of the fractions (bending length, smoothing)
         self.diagonal = diagonal(rest)
 
@@ -268,6 +271,8 @@ def finish_step(obj):
     deltas = control_deltas(obj)
     if not np.array_equal(deltas, st.last_deltas):
         return None
+    if st.baking:
+        return REST_DELAY
     wait = REST_DELAY - (time.monotonic() - (st.moved_at or 0.0))
     if wait > 0:
         return wait

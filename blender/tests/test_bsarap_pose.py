@@ -710,6 +710,21 @@ class Finishing(unittest.TestCase):
         self.assertFalse(st.deformer.settle_pending)
         self.assertEqual(st.finish_steps, st.solves - 1)
 
+    def test_4_no_steps_while_baking(self):
+        """A bake solves its frames itself: the finishing steps wait until it ends."""
+        obj = self.obj
+        scene = bpy.context.scene
+        baker = ext.bake.Baker(scene, obj, [scene.frame_current])
+        st = baker.st
+        baker.step()  # a solve at the current controls, as a live one would be
+        st.converged, st.at_rest, st.moved_at = False, False, 0.0
+        solves = st.solves
+        self.assertEqual(ext.solve.finish_step(obj), ext.solve.REST_DELAY)
+        self.assertEqual(st.solves, solves)
+        baker.restore_frame()
+        self.assertEqual(ext.solve.finish_step(obj), 0.0)
+        self.assertEqual(st.solves, solves + 1)
+
 
 class Unregister(unittest.TestCase):
     def test_zz_unregister(self):
