@@ -48,7 +48,7 @@ class SolverState:
         self.converged = False  # the last solve met the tolerance
         self.finish_steps = 0  # finish_step's solves and settle steps since the last move
         self.at_rest = False  # finish_step has nothing left at the last motion
-        self.baking = False  # a bake solves the frames: finish_step waits
+        self.baking = False  # a bake solves the frames: no live solve, finish_step waits
         # the rest bounding-box diagonal: the unit of the fractions (bending length, smoothing)
         self.diagonal = diagonal(rest)
 
@@ -243,9 +243,11 @@ def write_pose(obj, U: np.ndarray) -> None:
 def update(obj, *, force=False) -> bool:
     """Solve ``obj`` for its controls' current motion and write the pose; skipped (False) when
     the controls have not moved since the last solve, which also stops the update that writing
-    the shape key triggers from solving again."""
+    the shape key triggers from solving again; and while a bake solves the frames."""
     t0 = time.perf_counter()
     st = state(obj)
+    if st.baking and not force:
+        return False
     deltas = control_deltas(obj)
     if not force and st.last_deltas is not None and np.array_equal(deltas, st.last_deltas):
         return False

@@ -711,7 +711,7 @@ class Finishing(unittest.TestCase):
         self.assertEqual(st.finish_steps, st.solves - 1)
 
     def test_4_no_steps_while_baking(self):
-        """A bake solves its frames itself: the finishing steps wait until it ends."""
+        """A bake solves its frames itself: no live solve or finishing step until it ends."""
         obj = self.obj
         scene = bpy.context.scene
         baker = ext.bake.Baker(scene, obj, [scene.frame_current])
@@ -721,6 +721,14 @@ class Finishing(unittest.TestCase):
         solves = st.solves
         self.assertEqual(ext.solve.finish_step(obj), ext.solve.REST_DELAY)
         self.assertEqual(st.solves, solves)
+        # A control moved meanwhile is not solved live either (the bake's warm starts stay its own).
+        top = bpy.data.objects["top"]
+        y = top.location.y
+        top.location.y = y + 0.1
+        bpy.context.view_layer.update()
+        self.assertEqual(st.solves, solves)
+        top.location.y = y
+        bpy.context.view_layer.update()
         baker.restore_frame()
         self.assertEqual(ext.solve.finish_step(obj), 0.0)
         self.assertEqual(st.solves, solves + 1)
