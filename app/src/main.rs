@@ -1,4 +1,5 @@
-//! `bsarap`: the BS-ARAP editor and its headless subcommands (info, deform, bench, export, render, subdivide).
+//! `bsarap`: the BS-ARAP editor and its headless subcommands (info, deform, bench, export,
+//! render, subdivide).
 //!
 //! This file is glue: argument parsing (clap) and error reporting. The work is in `solver`
 //! (numerics, IO) and in the modules below.

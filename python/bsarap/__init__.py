@@ -16,9 +16,9 @@ dtype or layout are converted (no copy when they already are C-contiguous float6
 outputs are new arrays that own the solver's buffers. Solves release the GIL. Every error is a
 :class:`BsarapError` (a ``ValueError``) carrying the solver's message.
 
-The modules: ``_common`` (defaults, array coercion, :class:`SolveStats`, :class:`AtRest`), ``_mesh``,
-``_arap``, ``_deformer``, ``_animation``; ``_bsarap`` is the native half. Import everything
-from ``bsarap`` itself.
+The modules: ``_common`` (defaults, array coercion, :class:`SolveStats`, :class:`AtRest`),
+``_mesh``, ``_arap``, ``_deformer``, ``_animation``; ``_bsarap`` is the native half. Import
+everything from ``bsarap`` itself.
 """
 
 from __future__ import annotations
