@@ -185,11 +185,12 @@ class Deformer:
     def solve_to_rest(
         self, group_transforms: Mapping[int, Transform], max_steps: int = MAX_SETTLE_STEPS
     ) -> np.ndarray:
-        """The pose an editor shows once its handles stop at ``group_transforms`` (as in
-        :meth:`solve`): solves again, warm-started, until one converges, then :meth:`settle`
-        steps until one says converged; at most ``max_steps`` of each (at least one solve).
-        Returns the positions ``(#V, 3)``; what it did in ``self.at_rest`` (:class:`AtRest`),
-        ``self.stats`` is cleared. The CLI's ``bsarap deform SCENE`` poses a scene this way."""
+        """The pose at rest at ``group_transforms`` (as in :meth:`solve`): solves again,
+        warm-started, until one converges, then :meth:`settle` steps until one says converged;
+        at most ``max_steps`` of each (at least one solve). Returns the positions ``(#V, 3)``;
+        what it did in ``self.at_rest`` (:class:`AtRest`), ``self.stats`` is cleared. With
+        ``settle_iterations=5`` (the editor's) this is the pose the editor shows once the
+        handles stop, as ``bsarap deform SCENE`` writes it."""
         U, at_rest = self._native.solve_to_rest(
             _transforms(group_transforms), _count(max_steps, "max_steps")
         )
