@@ -195,9 +195,24 @@ fn check_output(path: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The arguments a scene leaves to the command line (the global ones included); the others
-/// are the scene's to set.
-const SCENE_ARGS: [&str; 5] = ["mesh", "time", "output", "json", "allow_outside_references"];
+/// The arguments of `deform` a scene leaves to the command line; the others are the scene's to
+/// set. The global ones (`bsarap --help`) are not `deform`'s and stay the command line's.
+const SCENE_ARGS: [&str; 4] = ["mesh", "time", "output", "json"];
+
+/// The first flag of `deform`'s own that the command line gave and a scene sets, as typed
+/// (`--move`).
+fn scene_set_flag(given: &ArgMatches) -> Option<String> {
+    let cli = <super::Cli as clap::CommandFactory>::command();
+    let deform = cli.find_subcommand("deform")?;
+    deform
+        .get_arguments()
+        .filter(|arg| !SCENE_ARGS.contains(&arg.get_id().as_str()))
+        .find(|arg| given.value_source(arg.get_id().as_str()) == Some(ValueSource::CommandLine))
+        .map(|arg| match arg.get_long() {
+            Some(long) => format!("--{long}"),
+            None => arg.get_id().to_string(),
+        })
+}
 
 /// A solved pose and what to say about it.
 struct Posed {
@@ -305,17 +320,9 @@ fn pose_mesh(a: &DeformArgs) -> anyhow::Result<Posed> {
 /// A scene's pose at `--time`: solved from rest at the group motions of that time until a
 /// solve converges, then settled as the editor settles.
 fn pose_scene(a: &DeformArgs, given: &ArgMatches) -> anyhow::Result<Posed> {
-    if let Some(flag) = given.ids().map(|id| id.as_str()).find(|id| {
-        !SCENE_ARGS.contains(id) && given.value_source(id) == Some(ValueSource::CommandLine)
-    }) {
-        let flag = match flag {
-            "moves" => "move".to_string(),
-            "rotates" => "rotate".to_string(),
-            "pin_components" => "pin-component".to_string(),
-            f => f.replace('_', "-"),
-        };
+    if let Some(flag) = scene_set_flag(given) {
         bail!(
-            "--{flag}: {} is a scene, which sets its handles, motions and solver settings; edit \
+            "{flag}: {} is a scene, which sets its handles, motions and solver settings; edit \
              the scene, or give its mesh with --handles",
             a.mesh.display()
         );
@@ -441,5 +448,42 @@ fn report(a: &DeformArgs, posed: &Posed) {
                 cg as f64 / iterations.max(1) as f64
             );
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+
+    /// Every flag of `deform` but the scene's four is refused by its name as typed; the
+    /// global flags and the four are not.
+    #[test]
+    fn a_scene_refuses_the_flags_it_sets() {
+        let cli = crate::cli::Cli::command();
+        let deform = cli.find_subcommand("deform").expect("deform");
+        let parse = |extra: &[String]| {
+            let mut line = vec!["bsarap", "deform", "s.json", "-o", "p.obj"];
+            line.extend(extra.iter().map(String::as_str));
+            let matches = crate::cli::Cli::command().try_get_matches_from(line).expect("parses");
+            scene_set_flag(matches.subcommand_matches("deform").expect("deform"))
+        };
+        let left = ["--time", "2", "--json", "--allow-outside-references"].map(String::from);
+        assert_eq!(parse(&left), None);
+        let mut refused = 0;
+        for arg in deform.get_arguments() {
+            let Some(long) = arg.get_long() else { continue };
+            if SCENE_ARGS.contains(&arg.get_id().as_str()) {
+                continue;
+            }
+            let mut extra = vec![format!("--{long}")];
+            if arg.get_action().takes_values() {
+                let value = arg.get_possible_values().first().map(|v| v.get_name().to_string());
+                extra.push(value.unwrap_or_else(|| "1".into()));
+            }
+            assert_eq!(parse(&extra), Some(format!("--{long}")), "{long}");
+            refused += 1;
+        }
+        assert!(refused >= 10, "only {refused} flags refused");
     }
 }
