@@ -72,8 +72,19 @@ def finish_timer():
                 report(obj, e)
     finally:
         _busy = False
+    if any(d == 0.0 for d in due) or None in due:
+        redraw_sidebars()  # a step ran, or a pose came to rest: the panel's status changed
     due = [d for d in due if d is not None]
     return min(due) if due else None
+
+
+def redraw_sidebars() -> None:
+    """Redraw the 3D viewports (their sidebars show the status): the sidebar redraws on
+    events only, and a timer's step is not one."""
+    for window in bpy.context.window_manager.windows:
+        for area in window.screen.areas:
+            if area.type == "VIEW_3D":
+                area.tag_redraw()
 
 
 @persistent

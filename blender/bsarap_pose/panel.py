@@ -46,6 +46,9 @@ class BSARAP_PT_pose(bpy.types.Panel):
         msg = solve.messages.get(obj.name)
         if msg:
             layout.label(text=msg, icon="INFO")
+        status = solve.status(obj)
+        if status:
+            layout.label(text=status, icon="CHECKMARK" if "At rest" in status else "TIME")
         st = solve._states.get(obj.name)
         if st is not None and st.last_ms is not None:
             layout.label(text=f"Last update: {st.last_ms:.1f} ms")

@@ -48,6 +48,7 @@ class SolverState:
         self.converged = False  # the last solve met the tolerance
         self.finish_steps = 0  # finish_step's solves and settle steps since the last move
         self.at_rest = False  # finish_step has nothing left at the last motion
+        self.stopped = None  # why finish_step ended short of rest: "cap" or "error"
         self.baking = False  # a bake solves the frames: no live solve, finish_step waits
         # the rest bounding-box diagonal: the unit of the fractions (bending length, smoothing)
         self.diagonal = diagonal(rest)
@@ -257,6 +258,7 @@ def update(obj, *, force=False) -> bool:
     st.moved_at = time.monotonic()
     st.finish_steps = 0
     st.at_rest = False
+    st.stopped = None
     return True
 
 
@@ -280,7 +282,7 @@ def finish_step(obj):
         return wait
     bsarap = import_bsarap()
     if st.finish_steps >= bsarap.MAX_SETTLE_STEPS:
-        st.at_rest = True
+        st.at_rest, st.stopped = True, "cap"
         return None
     if not st.converged:
         U = solve(obj, st, deltas)
@@ -288,7 +290,7 @@ def finish_step(obj):
         try:
             U = st.deformer.settle() if st.deformer.settle_pending else None
         except bsarap.BsarapError as e:
-            st.at_rest = True
+            st.at_rest, st.stopped = True, "error"
             raise HandleError(f"{obj.name}: {e}") from None
         if U is None:
             st.at_rest = True
@@ -296,3 +298,24 @@ def finish_step(obj):
     st.finish_steps += 1
     write_pose(obj, U)
     return 0.0
+
+
+def status(obj):
+    """Where the pose of ``obj`` stands, in a line for the panel (the editor's status bar says
+    the same of its pose); ``None`` before its first solve."""
+    st = _states.get(obj.name)
+    if st is None or st.last_deltas is None:
+        return None
+    if st.baking:
+        return "Baking: the bake solves the frames"
+    if st.stopped == "cap":
+        return f"Stopped after {st.finish_steps} steps (the cap), short of rest"
+    if st.stopped == "error":
+        return "Stopped settling: see the message"
+    if st.at_rest:
+        return f"At rest ({st.finish_steps} steps after the last move)"
+    if not obj.bsarap.live:
+        return "Posed once (Live off: no settling)"
+    if st.finish_steps:
+        return f"Settling: {st.finish_steps} steps"
+    return "Live: settles once the controls rest"

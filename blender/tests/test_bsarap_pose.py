@@ -636,6 +636,7 @@ class Finishing(unittest.TestCase):
         # The controls have not rested yet: the timer waits.
         self.assertGreater(ext.handlers.finish_timer(), 0.0)
         self.assertEqual(st.solves, before + 1)
+        self.assertEqual(ext.solve.status(obj), "Live: settles once the controls rest")
 
         # The reference: the same settings on a Deformer, solved until converged and settled
         # (from rest: the extension's solver started elsewhere; measured 1.2e-7 apart, float32
@@ -659,6 +660,7 @@ class Finishing(unittest.TestCase):
         while ext.handlers.finish_timer() is not None:
             calls += 1
             self.assertLess(calls, 5000)
+            self.assertEqual(ext.solve.status(obj), f"Settling: {st.finish_steps} steps")
         solves = st.solves - before
         self.assertGreater(solves, 1, "solved again until converged")
         self.assertTrue(st.converged and st.at_rest)
@@ -673,6 +675,27 @@ class Finishing(unittest.TestCase):
         bpy.context.view_layer.update()
         self.assertEqual(st.solves, before + solves)
         self.assertIsNone(ext.solve.finish_step(obj))
+        status = f"At rest ({st.finish_steps} steps after the last move)"
+        self.assertEqual(ext.solve.status(obj), status)
+        self.assertIn(status, self.pose_panel_labels())
+        obj.bsarap.live = False
+        self.assertEqual(ext.solve.status(obj), status, "at rest whatever Live says")
+        obj.bsarap.live = True
+
+    def pose_panel_labels(self):
+        """The pose panel's labels, drawn with a recording layout (no window headless)."""
+        labels = []
+
+        class Layout:
+            def __getattr__(self, _name):  # row, column, template_list, operator, prop
+                return lambda *_a, **_kw: self
+
+            def label(self, text="", **_kw):
+                labels.append(text)
+
+        ctx = types.SimpleNamespace(object=self.obj)
+        ext.panel.BSARAP_PT_pose.draw(types.SimpleNamespace(layout=Layout()), ctx)
+        return labels
 
     def test_2_a_move_restarts_the_wait(self):
         obj = self.obj
@@ -689,11 +712,17 @@ class Finishing(unittest.TestCase):
         self.assertEqual(st.finish_steps, 1)
         # Controls that moved since the last solve are the live handler's: no step on stale
         # targets.
-        st.last_deltas = st.last_deltas.copy()
+        kept, st.last_deltas = st.last_deltas, st.last_deltas.copy()
         st.last_deltas[1, 0, 3] += 0.1
         self.assertIsNone(ext.solve.finish_step(obj))
         self.assertEqual(st.finish_steps, 1)
         self.assertLessEqual(st.solves, solves + 1)
+        st.last_deltas = kept
+        # The cap: no step past it, and the panel says the pose stopped short.
+        st.finish_steps = bsarap.MAX_SETTLE_STEPS
+        self.assertIsNone(ext.solve.finish_step(obj))
+        self.assertTrue(st.at_rest)
+        self.assertIn("the cap", ext.solve.status(obj))
 
     def test_3_off_without_settle_iterations(self):
         """Settle iterations 0: the steps only solve until converged."""
@@ -721,6 +750,7 @@ class Finishing(unittest.TestCase):
         solves = st.solves
         self.assertEqual(ext.solve.finish_step(obj), ext.solve.REST_DELAY)
         self.assertEqual(st.solves, solves)
+        self.assertTrue(ext.solve.status(obj).startswith("Baking"))
         # A control moved meanwhile is not solved live either (the bake's warm starts stay its own).
         top = bpy.data.objects["top"]
         y = top.location.y
