@@ -72,8 +72,8 @@ def finish_timer():
                 report(obj, e)
     finally:
         _busy = False
-    if any(d == 0.0 for d in due) or None in due:
-        redraw_sidebars()  # a step ran, or a pose came to rest: the panel's status changed
+    if not due or any(d is None or d == 0.0 for d in due):
+        redraw_sidebars()  # a step ran, failed or ended: the panel's status changed
     due = [d for d in due if d is not None]
     return min(due) if due else None
 

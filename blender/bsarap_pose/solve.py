@@ -285,7 +285,11 @@ def finish_step(obj):
         st.at_rest, st.stopped = True, "cap"
         return None
     if not st.converged:
-        U = solve(obj, st, deltas)
+        try:
+            U = solve(obj, st, deltas)
+        except HandleError:
+            st.at_rest, st.stopped = True, "error"
+            raise
     else:
         try:
             U = st.deformer.settle() if st.deformer.settle_pending else None

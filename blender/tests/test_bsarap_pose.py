@@ -21,6 +21,7 @@ import tempfile
 import time
 import types
 import unittest
+from unittest import mock
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 # A private user configuration: the extension is installed there, never into the real one.
@@ -723,6 +724,13 @@ class Finishing(unittest.TestCase):
         self.assertIsNone(ext.solve.finish_step(obj))
         self.assertTrue(st.at_rest)
         self.assertIn("the cap", ext.solve.status(obj))
+        # A failed solve stops the steps, said in the message and the status.
+        st.finish_steps, st.at_rest, st.stopped, st.converged = 0, False, None, False
+        with mock.patch.object(ext.solve, "solve", side_effect=ext.handles.HandleError("tube: refused")):
+            self.assertIsNone(ext.handlers.finish_timer())
+        self.assertEqual(ext.solve.messages[obj.name], "tube: refused")
+        self.assertEqual(ext.solve.status(obj), "Stopped settling: see the message")
+        self.assertIsNone(ext.solve.finish_step(obj))
 
     def test_3_off_without_settle_iterations(self):
         """Settle iterations 0: the steps only solve until converged."""
