@@ -47,8 +47,9 @@ class BSARAP_PT_pose(bpy.types.Panel):
         if msg:
             layout.label(text=msg, icon="INFO")
         status = solve.status(obj)
-        if status:
-            layout.label(text=status, icon="CHECKMARK" if "At rest" in status else "TIME")
+        if status is not None:
+            text, icon = status
+            layout.label(text=text, icon=icon)
         st = solve._states.get(obj.name)
         if st is not None and st.last_ms is not None:
             layout.label(text=f"Last update: {st.last_ms:.1f} ms")

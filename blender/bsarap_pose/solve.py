@@ -47,8 +47,9 @@ class SolverState:
         self.moved_at = None  # time.monotonic() of the last solve after a control moved
         self.converged = False  # the last solve met the tolerance
         self.finish_steps = 0  # finish_step's solves and settle steps since the last move
-        self.at_rest = False  # finish_step has nothing left at the last motion
-        self.stopped = None  # why finish_step ended short of rest: "cap" or "error"
+        # why finish_step has nothing left at the last motion: "rest", or short of it "cap"
+        # (MAX_SETTLE_STEPS) or "error"; None while it has
+        self.ended = None
         self.baking = False  # a bake solves the frames: no live solve, finish_step waits
         # the rest bounding-box diagonal: the unit of the fractions (bending length, smoothing)
         self.diagonal = diagonal(rest)
@@ -257,8 +258,7 @@ def update(obj, *, force=False) -> bool:
     st.last_ms = (time.perf_counter() - t0) * 1e3
     st.moved_at = time.monotonic()
     st.finish_steps = 0
-    st.at_rest = False
-    st.stopped = None
+    st.ended = None
     return True
 
 
@@ -270,7 +270,7 @@ def finish_step(obj):
     else the seconds until the next step is due (0 after a step). At most
     ``bsarap.MAX_SETTLE_STEPS`` steps per motion, as the editor."""
     st = _states.get(obj.name)
-    if st is None or st.last_deltas is None or st.at_rest or st.key != state_key(obj):
+    if st is None or st.last_deltas is None or st.ended or st.key != state_key(obj):
         return None
     deltas = control_deltas(obj)
     if not np.array_equal(deltas, st.last_deltas):
@@ -282,22 +282,22 @@ def finish_step(obj):
         return wait
     bsarap = import_bsarap()
     if st.finish_steps >= bsarap.MAX_SETTLE_STEPS:
-        st.at_rest, st.stopped = True, "cap"
+        st.ended = "cap"
         return None
     if not st.converged:
         try:
             U = solve(obj, st, deltas)
         except HandleError:
-            st.at_rest, st.stopped = True, "error"
+            st.ended = "error"
             raise
     else:
         try:
             U = st.deformer.settle() if st.deformer.settle_pending else None
         except bsarap.BsarapError as e:
-            st.at_rest, st.stopped = True, "error"
+            st.ended = "error"
             raise HandleError(f"{obj.name}: {e}") from None
         if U is None:
-            st.at_rest = True
+            st.ended = "rest"
             return None
     st.finish_steps += 1
     write_pose(obj, U)
@@ -305,21 +305,21 @@ def finish_step(obj):
 
 
 def status(obj):
-    """Where the pose of ``obj`` stands, in a line for the panel (the editor's status bar says
-    the same of its pose); ``None`` before its first solve."""
+    """Where the pose of ``obj`` stands, for the panel (the editor's status bar says the same of
+    its pose): ``(text, icon)``, or ``None`` before its first solve."""
     st = _states.get(obj.name)
     if st is None or st.last_deltas is None:
         return None
     if st.baking:
-        return "Baking: the bake solves the frames"
-    if st.stopped == "cap":
-        return f"Stopped after {st.finish_steps} steps (the cap), short of rest"
-    if st.stopped == "error":
-        return "Stopped settling: see the message"
-    if st.at_rest:
-        return f"At rest ({st.finish_steps} steps after the last move)"
+        return "Baking: the bake solves the frames", "TIME"
+    if st.ended == "cap":
+        return f"Stopped after {st.finish_steps} steps (the cap), short of rest", "ERROR"
+    if st.ended == "error":
+        return "Stopped settling: see the message", "ERROR"
+    if st.ended == "rest":
+        return f"At rest ({st.finish_steps} steps after the last move)", "CHECKMARK"
     if not obj.bsarap.live:
-        return "Posed once (Live off: no settling)"
+        return "Posed once (Live off: no settling)", "INFO"
     if st.finish_steps:
-        return f"Settling: {st.finish_steps} steps"
-    return "Live: settles once the controls rest"
+        return f"Settling: {st.finish_steps} steps", "TIME"
+    return "Live: settles once the controls rest", "TIME"
