@@ -17,7 +17,7 @@ import sys
 import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "tests"))
-import test_bsarap_pose as t  # noqa: E402  (sets BLENDER_USER_RESOURCES before bpy)
+import common as t  # noqa: E402  (sets BLENDER_USER_RESOURCES before bpy)
 
 import bpy  # noqa: E402
 import numpy as np  # noqa: E402
@@ -31,8 +31,7 @@ def main():
     args = ap.parse_args()
     if t.SKIP:
         sys.exit(f"cannot run: {t.SKIP}")
-    t.setUpModule()
-    ext, bsarap = t.ext, t.bsarap
+    ext, bsarap = t.install()
     bpy.ops.wm.obj_import(filepath=os.path.join(t.ROOT, "assets", "creature.obj"), forward_axis="NEGATIVE_Z", up_axis="Y")
     obj = bpy.context.selected_objects[0]
     if args.cuts:

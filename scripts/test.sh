@@ -31,8 +31,10 @@ pip=("$venv/bin/pip" install -q --disable-pip-version-check)
 # Skipped, with the reason, without bpy.
 blender_py=tools/blender/.venv/bin/python
 if [ -x "$blender_py" ] && "$blender_py" -c "import bpy" >/dev/null 2>&1; then
-  BSARAP_BLENDER_ZIP=$(ls -t "$ext"/bsarap_pose-*.zip | head -n 1) \
-    "$blender_py" blender/tests/test_bsarap_pose.py
+  zip=$(ls -t "$ext"/bsarap_pose-*.zip | head -n 1)
+  for t in blender/tests/test_bsarap_pose.py blender/tests/test_solving.py; do
+    BSARAP_BLENDER_ZIP=$zip "$blender_py" "$t"
+  done
 else
   echo "skipped: the Blender extension tests (no bpy in $blender_py)"
 fi
