@@ -18,7 +18,8 @@
 //! length$^2$, so $h^{-4}$ makes the two terms commensurate and the result scale-invariant.
 //!
 //! Inputs: a [`Mesh`] `#V×3`/`#F×3`, a [`Constraints`] partition, fixed values `#V×3` (read on
-//! fixed vertices only). Output `#V×3`. Known limitation: with small, sparse handles the pure
+//! fixed vertices only). Output `#V×3`. A free vertex that no triangle uses (no row in $L$ or
+//! $A$) stays at its rest position. Known limitation: with small, sparse handles the pure
 //! bi-harmonic minimizer shrinks the free regions (docs/DESIGN.md, "The reference run"), which can collapse triangles
 //! of $B$; a finite smoothing length prevents it.
 
@@ -55,11 +56,16 @@ pub fn faired_surface(
     let n = mesh.n_vertices();
     let cols = laplacian_columns(mesh)?;
     let mass = lumped_mass(mesh.positions(), mesh.triangles(), MassKind::Voronoi);
+    let (given, held) = (&constraints.free_index, hold_unreferenced(constraints, &mass));
+    let constraints = match &held {
+        Some(c) => c,
+        None => constraints,
+    };
     let free = &constraints.free_index;
     let n_free = constraints.free_vertices.len();
     let mut out = mesh.positions().to_vec();
     for v in 0..n {
-        if free[v].is_none() {
+        if given[v].is_none() {
             out[v] = fixed_values[v];
         }
     }
@@ -104,6 +110,25 @@ pub fn faired_surface(
         return Err(SolveError::NonFiniteResult { vertex });
     }
     Ok(out)
+}
+
+/// `constraints` with the free vertices that no triangle uses (zero mass: no row in $L$ or $A$,
+/// so $(Q+\lambda A)_{FF}$ would be singular there) held at their rest positions; `None`
+/// when there are none. A lone point has no surface to fair: the base is the point itself, as
+/// for the loose parts the deformer keeps at rest or moves rigidly ([`crate::deform::riders`]).
+fn hold_unreferenced(constraints: &Constraints, mass: &[f64]) -> Option<Constraints> {
+    let lone = |v: &u32| mass[*v as usize] <= 0.0;
+    if !constraints.free_vertices.iter().any(lone) {
+        return None;
+    }
+    let mut held = constraints.clone();
+    let free: Vec<u32> = constraints.free_vertices.iter().copied().filter(|v| !lone(v)).collect();
+    held.free_index.fill(None);
+    for (r, &v) in free.iter().enumerate() {
+        held.free_index[v as usize] = Some(r as u32);
+    }
+    held.free_vertices = free.into();
+    Some(held)
 }
 
 /// Column k of the cotangent Laplacian $L$: (row, value) for k (first) and its neighbours.

@@ -9,7 +9,8 @@
 //!    vertices locked, no error bound; with `regular`, its `Regularize` option too (rounder
 //!    triangles at some cost to geometric fidelity: better-conditioned cotangent weights, what the
 //!    level fairing needs; the coarse base goes without it, which measured closer to converged
-//!    ARAP). Coarse vertices are the fine vertices its triangles still use. A mesh of
+//!    ARAP). Coarse vertices are the fine vertices its triangles still use, and every vertex
+//!    that no triangle uses (a lone point is a part of its own: it stays). A mesh of
 //!    [`SPLIT_TRIANGLES`] or more is simplified in two halves side by side, then once more
 //!    across their cut ([`collapse`]).
 //! 2. Each fine vertex's *representative* is the coarse vertex nearest to it along the fine
@@ -108,6 +109,14 @@ fn collapse_with(
     let mut index = vec![u32::MAX; n];
     for &v in &out {
         index[v as usize] = 0;
+    }
+    // A vertex that no triangle uses is a part of its own: it stays, a coarse point.
+    let mut used = vec![false; n];
+    for &v in triangles.iter().flatten() {
+        used[v as usize] = true;
+    }
+    for (slot, _) in index.iter_mut().zip(&used).filter(|(_, u)| !**u) {
+        *slot = 0;
     }
     let mut kept = Vec::new();
     for (v, slot) in index.iter_mut().enumerate() {
