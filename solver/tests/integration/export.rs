@@ -237,6 +237,27 @@ fn gltf_text_form_embeds_the_buffer() {
     assert_eq!(g.meshes().next().unwrap().primitives().next().unwrap().morph_targets().count(), 4);
 }
 
+/// The animation holds one weight per target and frame: 33,000 frames would need 4.1 GiB of
+/// them, more than a glTF file holds. Refused before any of it is built (building it aborted
+/// the process on the allocation), with the numbers; nothing is written.
+#[test]
+fn too_many_frames_for_morph_targets_are_refused_up_front() {
+    let rest = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    let mesh = Mesh::new(rest.clone(), vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]).unwrap();
+    let n = 33_000;
+    let rec = Recording {
+        times: (0..n).map(|i| i as f64 / 30.0).collect(),
+        frames: vec![rest; n],
+        stats: vec![Default::default(); n],
+    };
+    let dir = temp_dir("frames");
+    let path = dir.join("long.glb");
+    let err = export_gltf(&path, &mesh, &rec, &mut |_, _| ControlFlow::Continue(())).unwrap_err();
+    assert!(matches!(err, ExportError::TooManyFrames { frames: 33_000, .. }), "{err}");
+    assert!(err.to_string().contains("4.1 GiB"), "{err}");
+    assert!(!path.exists());
+}
+
 #[test]
 fn nothing_non_finite_is_written() {
     let (mesh, mut rec) = recording(Method::Arap, 3);

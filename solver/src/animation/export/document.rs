@@ -57,7 +57,8 @@ pub(super) fn file_bytes(
                 j.push(b' ');
             }
             let total = 12 + 8 + j.len() + 8 + bin.len();
-            let total32 = u32::try_from(total).map_err(|_| ExportError::TooLarge(total))?;
+            let total32 = u32::try_from(total)
+                .map_err(|_| ExportError::FileTooLarge { bytes: total as u64 })?;
             let mut out = Vec::with_capacity(total);
             out.extend_from_slice(&GLB_MAGIC.to_le_bytes());
             out.extend_from_slice(&2u32.to_le_bytes());

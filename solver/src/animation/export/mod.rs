@@ -117,6 +117,19 @@ pub enum ExportError {
     Times { frame: usize, time: f64 },
     #[error("the mesh has {0} vertices or indices, more than glTF's u32 indices allow")]
     TooLarge(usize),
+    #[error(
+        "{frames} frames as morph targets need {:.1} GiB of animation weights (one per target \
+         and frame), more than a glTF file holds (4 GiB): keep fewer frames, or export \
+         skinned bones or a point cache (.pc2); nothing was written",
+        *bytes as f64 / GIB
+    )]
+    TooManyFrames { frames: usize, bytes: u64 },
+    #[error(
+        "the file would be {:.1} GiB, more than a .glb holds (4 GiB): keep fewer frames, or \
+         write .gltf; nothing was written",
+        *bytes as f64 / GIB
+    )]
+    FileTooLarge { bytes: u64 },
     #[error("export cancelled after {done} of {total} frames; nothing was written")]
     Cancelled { done: usize, total: usize },
     #[error("building the glTF JSON failed: {0}")]
@@ -126,6 +139,9 @@ pub enum ExportError {
     #[error("{0}")]
     Save(#[from] SaveError),
 }
+
+/// Bytes in a GiB (for messages).
+const GIB: f64 = (1u64 << 30) as f64;
 
 /// The container.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -500,6 +516,12 @@ impl<'a> GltfExport<'a> {
             asset.positions.iter().map(|&p| to_f32_from(origin, p)).collect();
         let rest_normals = layout.rest_normals(&asset);
         let kept = kept_frames(n, settings.every_k);
+        // One weight per target per key and mesh: the animation grows with the square of the
+        // frames kept, and must fit the container before anything is built.
+        let weights = (kept.len() as u64).pow(2) * 4 * layout.meshes.len() as u64;
+        if weights > u64::from(u32::MAX) {
+            return Err(ExportError::TooManyFrames { frames: kept.len(), bytes: weights });
+        }
         let node_scales = match settings.encoding {
             Encoding::Float => vec![1.0; layout.meshes.len()],
             Encoding::Quantized => {
