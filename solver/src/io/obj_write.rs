@@ -77,9 +77,9 @@ pub fn write_mtl_asset(path: &Path, asset: &Asset) -> Result<Option<String>, Sav
     if asset.materials.is_empty() {
         return Ok(None);
     }
-    let file = path.display().to_string();
     let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    let textures = texture_files(&file, asset, &name)?;
+    let dir = path.parent().unwrap_or(Path::new(""));
+    let textures = texture_files(path, asset, &name)?;
     let names = material_names(asset);
     let mut text = String::new();
     let _ = writeln!(text, "# {} materials", asset.materials.len());
@@ -90,9 +90,8 @@ pub fn write_mtl_asset(path: &Path, asset: &Asset) -> Result<Option<String>, Sav
     if let Some(default) = &names.default {
         push_material(&mut text, default, &Material::default(), None);
     }
-    let dir = path.parent().unwrap_or(Path::new(""));
     for (image, file_name) in asset.images.iter().zip(&textures) {
-        if let Some(file_name) = file_name {
+        if let Some(file_name) = file_name.as_ref().filter(|f| !holds(&dir.join(f), &image.bytes)) {
             write_atomic(&dir.join(file_name), &image.bytes)?;
         }
     }
@@ -139,37 +138,58 @@ fn material_names(asset: &Asset) -> MaterialNames {
                 .chars()
                 .map(|c| if c.is_whitespace() || c.is_control() { '_' } else { c })
                 .collect();
-            unique(if clean.is_empty() { "material".to_string() } else { clean }, "", &mut used)
+            unique(
+                if clean.is_empty() { "material".to_string() } else { clean },
+                "",
+                &mut used,
+                |_| true,
+            )
         })
         .collect();
     let needs_default = asset.parts.iter().any(|p| p.material.is_none());
-    let default = needs_default.then(|| unique("default".to_string(), "", &mut used));
+    let default = needs_default.then(|| unique("default".to_string(), "", &mut used, |_| true));
     MaterialNames { materials, default }
 }
 
 /// `stem + ext`, or `stem_2 + ext`, ... : the first not in `used` (compared case-insensitively,
-/// as file systems may), which is added to it.
-fn unique(stem: String, ext: &str, used: &mut HashSet<String>) -> String {
+/// as file systems may) for which `free` holds, which is added to `used`.
+fn unique(
+    stem: String,
+    ext: &str,
+    used: &mut HashSet<String>,
+    free: impl Fn(&str) -> bool,
+) -> String {
     let mut name = format!("{stem}{ext}");
     let mut n = 2;
-    while !used.insert(name.to_lowercase()) {
+    while used.contains(&name.to_lowercase()) || !free(&name) {
         name = format!("{stem}_{n}{ext}");
         n += 1;
     }
+    used.insert(name.to_lowercase());
     name
+}
+
+/// Whether the file at `path` exists and holds exactly `bytes`.
+fn holds(path: &Path, bytes: &[u8]) -> bool {
+    std::fs::metadata(path).is_ok_and(|m| m.len() == bytes.len() as u64)
+        && std::fs::read(path).is_ok_and(|b| b == bytes)
 }
 
 /// For each image, the file name it is written as when a material uses it (`None` otherwise):
 /// the last component of [`super::asset::Image::name`], characters other than ASCII letters,
 /// digits, `-`, `_` and `.` replaced by `_`, the extension of its MIME type added when missing,
-/// unique in the folder among the textures and the MTL itself (`mtl`).
-fn texture_files(file: &str, asset: &Asset, mtl: &str) -> Result<Vec<Option<String>>, SaveError> {
+/// unique in the folder among the textures and the MTL itself (`mtl`). A file of that name
+/// already beside the MTL (`path`) is never replaced: unless it holds the same bytes (an
+/// earlier export's), the texture takes the next free name (`_2`, ...).
+fn texture_files(path: &Path, asset: &Asset, mtl: &str) -> Result<Vec<Option<String>>, SaveError> {
+    let file = path.display().to_string();
+    let dir = path.parent().unwrap_or(Path::new(""));
     let mut wanted = vec![false; asset.images.len()];
     for (i, m) in asset.materials.iter().enumerate() {
         if let Some(t) = m.base_color_texture {
             let Some(w) = wanted.get_mut(t) else {
                 return Err(SaveError::Inconsistent {
-                    file: file.to_string(),
+                    file: file.clone(),
                     what: format!(
                         "material {i} uses texture {t}, but there are only {} images",
                         asset.images.len()
@@ -202,7 +222,11 @@ fn texture_files(file: &str, asset: &Asset, mtl: &str) -> Result<Vec<Option<Stri
                     _ => (clean, ext),
                 };
                 let stem = if stem.is_empty() { format!("texture_{i}") } else { stem.to_string() };
-                unique(stem, ext, &mut used)
+                let free = |name: &str| {
+                    let at = dir.join(name);
+                    !at.exists() || holds(&at, &image.bytes)
+                };
+                unique(stem, ext, &mut used, free)
             })
         })
         .collect();

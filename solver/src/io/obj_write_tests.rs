@@ -224,6 +224,27 @@ fn names_are_sanitized_and_unique() {
     }
 }
 
+/// A texture name already taken beside the MTL by another file (the user's, or the input's own
+/// texture under that name) is never replaced: the texture takes the next free name; a file
+/// with the same bytes (an earlier export's) is used again as it is.
+#[test]
+fn a_different_file_beside_is_never_replaced() {
+    let dir = ScratchDir::new("obj-keep");
+    let asset = cube_asset();
+    std::fs::write(dir.join("skin_tone.png"), b"the user's own picture").unwrap();
+    let path = dir.join("pose.mtl");
+    for _ in 0..2 {
+        write_mtl_asset(&path, &asset).unwrap();
+        let mtl = std::fs::read_to_string(&path).unwrap();
+        assert_eq!(lines(&mtl, "map_Kd"), ["skin_tone_2.png"]);
+        assert_eq!(std::fs::read(dir.join("skin_tone.png")).unwrap(), b"the user's own picture");
+        assert_eq!(std::fs::read(dir.join("skin_tone_2.png")).unwrap(), asset.images[0].bytes);
+    }
+    std::fs::write(dir.join("skin_tone.png"), &asset.images[0].bytes).unwrap();
+    write_mtl_asset(&path, &asset).unwrap();
+    assert_eq!(lines(&std::fs::read_to_string(&path).unwrap(), "map_Kd"), ["skin_tone.png"]);
+}
+
 #[test]
 fn bad_inputs_write_nothing() {
     let dir = ScratchDir::new("obj-bad");
