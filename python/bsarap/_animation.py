@@ -10,7 +10,7 @@ import numpy as np
 
 from . import _bsarap
 from ._bsarap import BsarapError
-from ._common import PathLike, _count
+from ._common import PathLike, _count, _flag
 from ._deformer import Deformer
 
 
@@ -192,5 +192,5 @@ def export_gltf(
     """
     if not isinstance(recording, Recording):
         raise BsarapError("export_gltf: recording must be a Recording")
-    return _bsarap.export_gltf(os.fspath(path), recording._native, bool(quantized), bool(normals),
+    return _bsarap.export_gltf(os.fspath(path), recording._native, _flag(quantized, "quantized"), _flag(normals, "normals"),
                                _count(every, "every"))

@@ -7,7 +7,7 @@ from typing import Any, Optional
 import numpy as np
 
 from . import _bsarap
-from ._common import DEFAULT_MAX_ITERS, DEFAULT_TOL, SolveStats, _count, _indices, _positions
+from ._common import DEFAULT_MAX_ITERS, DEFAULT_TOL, SolveStats, _count, _indices, _number, _positions
 
 
 class Arap:
@@ -49,7 +49,7 @@ class Arap:
         V = _positions(V, "V")
         self._native = _bsarap.NativeArap(
             V, _indices(F, "F", 2), _indices(b, "b", 1), str(energy), _count(max_iters, "max_iters"),
-            float(tol), _count(anderson, "anderson"),
+            _number(tol, "tol"), _count(anderson, "anderson"),
         )
         self.n_vertices = V.shape[0]
         self.stats: Optional[SolveStats] = None
@@ -77,13 +77,14 @@ class Arap:
             _positions(bc, "bc"),
             u0,
             None if max_iters is None else _count(max_iters, "max_iters"),
-            None if tol is None else float(tol),
+            None if tol is None else _number(tol, "tol"),
         )
         self.stats = SolveStats._from(stats)
         return U
 
     def energy(self, U: Any) -> float:
-        """The ARAP energy of pose ``U`` with rotations fitted to it, min_R E(U, R)."""
+        """The ARAP energy of pose ``U`` with rotations fitted to it, min_R E(U, R). ``U``
+        becomes the pose: :attr:`positions` and the next solve's start without ``U0``."""
         return self._native.energy(_positions(U, "U"))
 
     @property

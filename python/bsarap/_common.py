@@ -73,6 +73,13 @@ def _number(x: Any, name: str) -> float:
     return float(x)
 
 
+def _flag(x: Any, name: str) -> bool:
+    """A bool (numpy's too); anything else refused (``"no"`` is not false)."""
+    if not isinstance(x, (bool, np.bool_)):
+        raise BsarapError(f"{name} must be True or False (got {x!r})")
+    return bool(x)
+
+
 def _count(x: Any, name: str) -> int:
     """A non-negative int (bools and negative numbers refused)."""
     if isinstance(x, bool) or not isinstance(x, (int, np.integer)) or int(x) < 0:

@@ -125,11 +125,11 @@ class Deformer:
         else:
             labels = _indices(handles, "handles", 1)
         self._native = _bsarap.NativeDeformer(
-            V, _indices(F, "F", 2), labels, str(method), str(energy), float(tol),
-            _count(max_iters, "max_iters"), _count(anderson, "anderson"), float(smoothing),
+            V, _indices(F, "F", 2), labels, str(method), str(energy), _number(tol, "tol"),
+            _count(max_iters, "max_iters"), _count(anderson, "anderson"), _number(smoothing, "smoothing"),
             None if coarse_vertices is None else _count(coarse_vertices, "coarse_vertices"),
             _count(fine_iterations, "fine_iterations"), _count(settle_iterations, "settle_iterations"),
-            float(membrane), [_count(c, "pinned_components") for c in pinned_components],
+            _number(membrane, "membrane"), [_count(c, "pinned_components") for c in pinned_components],
             _number(bending_length, "bending_length"), str(coarse_energy),
         )
         self.stats: Optional[SolveStats] = None
@@ -205,7 +205,7 @@ class Deformer:
 
     def set_stopping(self, tol: float, max_iters: int) -> None:
         """Change the stopping rule without precomputing again."""
-        self._native.set_stopping(float(tol), _count(max_iters, "max_iters"))
+        self._native.set_stopping(_number(tol, "tol"), _count(max_iters, "max_iters"))
 
     def reset(self) -> None:
         """Restart the next solve from rest."""

@@ -21,6 +21,9 @@ use crate::convert::{array_triangles, array3};
 use crate::deformer::{Layout, NativeDeformer};
 use crate::err;
 
+/// The most frames of a recording (and of `frame_times`), as the editor's and the CLI's.
+const MAX_FRAMES: usize = solver::animation::scene::CaptureSettings::MAX_FRAMES;
+
 /// A scene file with its mesh loaded and cleaned and its handles resolved.
 #[pyclass(module = "bsarap._bsarap", frozen)]
 pub struct NativeScene {
@@ -168,9 +171,13 @@ impl NativeTimeline {
         self.timeline.default_frame_count()
     }
 
-    /// `n` evenly spaced times over [0, duration], both ends included.
-    fn frame_times<'py>(&self, py: Python<'py>, n: usize) -> Bound<'py, PyArray1<f64>> {
-        PyArray1::from_vec(py, self.timeline.frame_times(n))
+    /// `n` evenly spaced times over [0, duration], both ends included (`n` at most
+    /// [`MAX_FRAMES`], as a recording).
+    fn frame_times<'py>(&self, py: Python<'py>, n: usize) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        if n > MAX_FRAMES {
+            return Err(err(format!("n must be at most {MAX_FRAMES} (got {n})")));
+        }
+        Ok(PyArray1::from_vec(py, self.timeline.frame_times(n)))
     }
 
     /// `[(group, translation, rotation)]` of every path at time `t`.
@@ -257,8 +264,8 @@ pub fn record(
     n_frames: Option<usize>,
 ) -> PyResult<NativeRecording> {
     let n = n_frames.unwrap_or_else(|| timeline.timeline.default_frame_count());
-    if !(1..=100_000).contains(&n) {
-        return Err(err(format!("n_frames must be between 1 and 100000 (got {n})")));
+    if !(1..=MAX_FRAMES).contains(&n) {
+        return Err(err(format!("n_frames must be between 1 and {MAX_FRAMES} (got {n})")));
     }
     let NativeDeformer { deformer: d, mesh, handles, config, .. } = deformer;
     let recording = py
@@ -274,6 +281,8 @@ pub fn record(
             )
         })
         .map_err(err)?;
+    // What `settle` refines at: the last frame's targets.
+    deformer.last_targets = Some(deformer.deformer.group_targets().to_vec());
     let solved = SolveSettings {
         method: deformer.method,
         arap: deformer.config,

@@ -7,12 +7,13 @@ use numpy::{PyArray1, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use solver::deform::config::MAX_FINE_ITERATIONS;
+use solver::geometry::mesh::in_range;
 use solver::glam::DVec3;
 use solver::io::Asset;
 use solver::linalg::rotation::Mat3;
 use solver::{
     ArapConfig, BaseConfig, CoarseEnergy, ComponentMode, Deformer, DeformerOptions, GroupTransform,
-    Handles, LooseParts, MAX_SETTLE_STEPS, Mesh, Method, handle_targets,
+    Handles, LooseParts, MAX_COORDINATE, MAX_SETTLE_STEPS, Mesh, Method, handle_targets,
 };
 
 use crate::convert::{
@@ -31,8 +32,8 @@ pub struct NativeDeformer {
     pub mesh: Mesh,
     pub handles: Handles,
     pub config: ArapConfig,
-    /// The targets of the last solve (what `settle` refines at).
-    last_targets: Option<Vec<[f64; 3]>>,
+    /// The targets of the last solve or recorded frame (what `settle` refines at).
+    pub last_targets: Option<Vec<[f64; 3]>>,
     pub layout: Option<Layout>,
     pub method: Method,
     /// The coarse variant's coarse energy (recorded with an export).
@@ -162,11 +163,22 @@ impl NativeDeformer {
         let mesh = Mesh::new(positions, tris).map_err(err)?;
         let handles = Handles::from_labels(&ints(&labels), mesh.n_vertices()).map_err(err)?;
         let mut parts = LooseParts::default();
-        let count = mesh.components().count();
+        let components = mesh.components();
+        let count = components.count();
         for &c in &pinned_components {
             if c >= count {
                 return Err(err(format!(
                     "pinned component {c}: the mesh has components 0..{count}"
+                )));
+            }
+            if let Some(v) = handles
+                .handle_vertices()
+                .iter()
+                .find(|&&v| components.label[v as usize] as usize == c)
+            {
+                return Err(err(format!(
+                    "pinned component {c} has handles (vertex {v}): only parts without handles \
+                     are pinned or follow"
                 )));
             }
             parts.set(c, ComponentMode::Pin);
@@ -193,6 +205,9 @@ impl NativeDeformer {
         transforms: Vec<(usize, [f64; 3], Mat3)>,
     ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyDict>)> {
         let list = transforms_of(transforms)?;
+        in_range_targets(
+            &handle_targets(self.mesh.positions(), &self.handles, &list).map_err(err)?,
+        )?;
         let deformer = &mut self.deformer;
         let s = py.allow_threads(|| deformer.solve_groups(&list)).map_err(err)?;
         self.last_targets = Some(self.deformer.group_targets().to_vec());
@@ -237,6 +252,9 @@ impl NativeDeformer {
         max_steps: usize,
     ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyDict>)> {
         let list = transforms_of(transforms)?;
+        in_range_targets(
+            &handle_targets(self.mesh.positions(), &self.handles, &list).map_err(err)?,
+        )?;
         let deformer = &mut self.deformer;
         let r = py.allow_threads(|| deformer.solve_to_rest(&list, max_steps)).map_err(err)?;
         self.last_targets = Some(self.deformer.group_targets().to_vec());
@@ -361,10 +379,24 @@ fn transforms_of(
     Ok(list)
 }
 
+/// Refuses targets that a solve would refuse if given directly (`solve_targets`): a
+/// coordinate non-finite or beyond the solver's range.
+fn in_range_targets(targets: &[[f64; 3]]) -> PyResult<()> {
+    match targets.iter().enumerate().find(|(_, p)| p.iter().any(|&c| !in_range(c))) {
+        Some((i, p)) => Err(err(format!(
+            "the motions put handle {i} at {p:?}, beyond the solver's range (±{MAX_COORDINATE:e})"
+        ))),
+        None => Ok(()),
+    }
+}
+
 impl NativeDeformer {
     fn targets_of(&self, transforms: Vec<(usize, [f64; 3], Mat3)>) -> PyResult<Vec<[f64; 3]>> {
-        handle_targets(self.mesh.positions(), &self.handles, &transforms_of(transforms)?)
-            .map_err(err)
+        let targets =
+            handle_targets(self.mesh.positions(), &self.handles, &transforms_of(transforms)?)
+                .map_err(err)?;
+        in_range_targets(&targets)?;
+        Ok(targets)
     }
 
     fn solve_at<'py>(

@@ -108,5 +108,9 @@ pub fn rotation(axis: [f64; 3], degrees: f64) -> PyResult<[[f64; 3]; 3]> {
     if axis == [0.0; 3] {
         return Err(err("rotation: the axis must not be zero"));
     }
+    // Scaled by its largest component first: the length of a very long or very short axis
+    // would overflow or underflow when squared.
+    let big = axis.iter().fold(0.0f64, |m, c| m.max(c.abs()));
+    let axis = axis.map(|c| c / big);
     Ok(solver::linalg::rotation::axis_angle(axis, degrees.to_radians()))
 }

@@ -165,3 +165,77 @@ def test_animation_errors(tmp_path):
         bsarap.export_gltf(tmp_path / "a.glb", None)
     with pytest.raises(BsarapError, match="unsupported output"):
         bsarap.save_mesh(tmp_path / "a.stl", V, F)
+
+
+def test_audit_findings():
+    """Bad input found by an audit: each once crashed, hung, poisoned the solver or was taken
+    silently."""
+    V, F, labels = tube()
+    tl = bsarap.Timeline.from_json('{"duration": 1, "fps": 2}')
+    # frame_times asked for 2**36 frames aborted the interpreter on the allocation.
+    with pytest.raises(BsarapError, match="at most 100000"):
+        tl.frame_times(2**36)
+    assert len(tl.frame_times(100000)) == 100000
+    # A translation beyond the solver's range was solved, and its pose poisoned every later solve.
+    d = bsarap.Deformer(V, F, labels, method="arap")
+    with pytest.raises(BsarapError, match="beyond the solver's range"):
+        d.solve({1: (1e200, 0, 0)})
+    with pytest.raises(BsarapError, match="beyond the solver's range"):
+        d.targets({1: (1e31, 0, 0)})
+    assert np.isfinite(d.solve({1: (0.3, 0, 0)})).all()
+    # Pinning a component that has handles did nothing, silently.
+    with pytest.raises(BsarapError, match="has handles"):
+        bsarap.Deformer(V, F, labels, pinned_components=[0])
+    # Strings and other non-numbers were taken by float(); "no" was True.
+    with pytest.raises(BsarapError, match="tol must be a number"):
+        bsarap.Deformer(V, F, labels, method="arap", tol="1e-3")
+    with pytest.raises(BsarapError, match="membrane must be a number"):
+        bsarap.Deformer(V, F, labels, membrane="0.1")
+    with pytest.raises(BsarapError, match="tol must be a number"):
+        bsarap.Arap(V, F, np.nonzero(labels >= 0)[0], tol="1e-3")
+    # A very long or very short axis overflowed or underflowed to a non-rotation.
+    for axis in ([1e160, 0, 0], [1e308, 1e308, 0], [1e-170, 0, 0]):
+        R = bsarap.rotation(axis, 90)
+        assert np.allclose(R @ R.T, np.eye(3)) and np.isclose(np.linalg.det(R), 1.0), axis
+        assert np.isclose(np.trace(R), 1.0), axis  # 90°: 1 + 2 cos 90°
+    assert np.allclose(bsarap.rotation([1e-170, 0, 0], 90) @ [0, 1, 0], [0, 0, 1])
+    # A keyframe turning about a zero axis was taken as no turn.
+    bad = ('{"duration": 1, "fps": 4, "paths": [{"group": 1, "path": {"type": "keyframed", '
+           '"interpolation": "linear", "keys": [{"time": 0}, {"time": 1, "rotation": '
+           '{"axis": [0, 0, 0], "degrees": 90}}]}}]}')
+    with pytest.raises(BsarapError, match="zero axis"):
+        bsarap.Timeline.from_json(bad)
+
+
+def test_settle_after_record_ends(tmp_path):
+    """After record, settle() refines the last frame and settle_pending ends (it stayed true
+    while settle() did nothing: an endless loop)."""
+    V, F, labels = tube()
+    d = bsarap.Deformer(V, F, labels, settle_iterations=5)
+    tl = bsarap.Timeline.from_json(
+        '{"duration": 1, "fps": 4, "paths": [{"group": 1, "path": {"type": "keyframed", '
+        '"interpolation": "linear", "keys": [{"time": 0, "translation": [0, 0, 0]}, '
+        '{"time": 1, "translation": [0.3, 0, 0]}]}}]}'
+    )
+    rec = bsarap.record(d, tl)
+    steps = 0
+    while d.settle_pending and steps < 1000:
+        d.settle()
+        steps += 1
+    assert not d.settle_pending and steps < 1000, steps
+    assert np.abs(d.positions - rec.frames[-1]).max() < 0.05
+
+
+def test_unreferenced_vertex_every_method():
+    """A vertex that no triangle uses (an uncleaned mesh) is a loose point for every method:
+    bsarap-coarse refused the mesh ("pivot N is not positive")."""
+    V, F, labels = tube()
+    V1 = np.r_[V, [[0.0, 0.0, 2.0]]]
+    L1 = np.r_[labels, -1]
+    for method in bsarap.METHODS:
+        for pinned in ([], [1]):
+            d = bsarap.Deformer(V1, F, L1, method=method, pinned_components=pinned)
+            U = d.solve({1: (0.3, 0, 0)})
+            assert np.isfinite(U).all(), method
+            if pinned:
+                assert np.array_equal(U[-1], V1[-1]), method

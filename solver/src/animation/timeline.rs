@@ -383,6 +383,12 @@ impl KeyframedPath {
             {
                 return Err(bad(format!("key {i} has a non-finite value")));
             }
+            if k.rotation.axis == [0.0; 3] && k.rotation.degrees != 0.0 {
+                return Err(bad(format!(
+                    "key {i} turns {}° about a zero axis (give the axis, or 0°)",
+                    k.rotation.degrees
+                )));
+            }
             if i > 0 && k.time <= self.keys[i - 1].time {
                 return Err(bad(format!(
                     "key times must increase strictly (key {i} at {} s follows {} s)",
@@ -522,8 +528,9 @@ impl Timeline {
     /// Frames of a recording at the timeline's rate, both ends included:
     /// $\mathrm{round}(\mathrm{duration}\cdot\mathrm{fps}) + 1$.
     pub fn default_frame_count(&self) -> usize {
+        // Saturating: a duration too long for any recording gives a count that callers refuse.
         let n = (self.duration * self.fps).round();
-        if n.is_finite() && n >= 0.0 { n as usize + 1 } else { 1 }
+        if n >= 0.0 { (n as usize).saturating_add(1) } else { 1 }
     }
 
     /// `n_frames` evenly spaced times covering `[0, duration]`, both ends included:
