@@ -1,6 +1,7 @@
 """Baking the controls' animation over the scene's frame range: into shape keys (one per frame,
-keyed on at its frame and off at the neighbours) or into a PC2 point cache read by a Mesh Cache
-modifier.
+keyed on at its frame and off at the neighbouring baked frames, linearly in between) or into a
+PC2 point cache read by a Mesh Cache modifier. With a frame step (``scene.frame_step``) only
+every step-th frame is solved; the frames in between blend the two nearest baked ones.
 
 PC2 (little-endian; the format of the solver's ``animation::pointcache`` writer, which the
 Python module does not expose, so it is written here): a 32-byte header ``"POINTCACHE2\\0"``,
@@ -15,6 +16,7 @@ import struct
 import numpy as np
 
 from . import handlers, solve
+from .handles import HandleError
 
 FRAME_KEY_PREFIX = "BS-ARAP frame "
 PC2_MAGIC = b"POINTCACHE2\0"
@@ -30,6 +32,7 @@ class Baker:
 
     def __init__(self, scene, obj, frames):
         self.scene, self.obj, self.frames = scene, obj, list(frames)
+        self.name = obj.name
         self.st = solve.state(obj)
         self.st.baking = True  # until restore_frame: the live pose's finishing steps wait
         self.poses = []
@@ -39,7 +42,26 @@ class Baker:
     def done(self) -> bool:
         return len(self.poses) == len(self.frames)
 
+    @property
+    def step_frames(self) -> int:
+        """Frames between two baked frames (the scene's frame step)."""
+        return self.frames[1] - self.frames[0] if len(self.frames) > 1 else 1
+
+    def check(self) -> None:
+        """Raise :class:`HandleError` when the bake cannot go on: its object or scene is gone
+        (an undo while it ran) or the object is in Edit Mode."""
+        try:
+            self.scene.frame_current
+            mode = self.obj.mode
+        except ReferenceError:
+            raise HandleError(
+                f"{self.name}: the object or its scene changed while baking (undo?); bake stopped, nothing written"
+            ) from None
+        if mode == "EDIT":
+            raise HandleError(f"{self.name}: in Edit Mode; bake stopped, nothing written")
+
     def step(self) -> None:
+        self.check()
         f = self.frames[len(self.poses)]
         handlers.suspended = True
         try:
@@ -49,46 +71,67 @@ class Baker:
         self.poses.append(solve.solve(self.obj, self.st, solve.control_deltas(self.obj)))
 
     def restore_frame(self) -> None:
-        """The frame the bake started at, without a live solve; ends the bake."""
+        """The frame the bake started at, without a live solve; ends the bake (also when the
+        scene is gone)."""
         handlers.suspended = True
         try:
             self.scene.frame_set(self.frame_before)
+        except ReferenceError:  # the scene went with an undo: nothing to restore
+            pass
         finally:
             handlers.suspended = False
             self.st.baking = False
 
 
+def _fcurves(keys):
+    """The F-curves animating the shape keys ``keys`` (a ``Key``), or ``None``: the action's
+    channelbag for its slot (Blender 4.4+), else the action's own list."""
+    ad = keys.animation_data
+    if ad is None or ad.action is None:
+        return None
+    try:
+        from bpy_extras.anim_utils import action_get_channelbag_for_slot
+    except ImportError:  # Blender before 4.4: one F-curve list per action
+        return ad.action.fcurves
+    bag = action_get_channelbag_for_slot(ad.action, ad.action_slot)
+    return None if bag is None else bag.fcurves
+
+
+def _value_path(kb) -> str:
+    return f'key_blocks["{kb.name}"].value'
+
+
 def remove_frame_keys(obj) -> None:
-    """Remove the keys of an earlier bake with their keyframes (an F-curve left without
-    keyframes goes with them)."""
+    """Remove the keys of an earlier bake with their F-curves (whatever its frame step)."""
     keys = obj.data.shape_keys
     if keys is None:
         return
     for kb in [kb for kb in keys.key_blocks if kb.name.startswith(FRAME_KEY_PREFIX)]:
-        try:
-            f = int(kb.name[len(FRAME_KEY_PREFIX):])
-        except ValueError:
-            f = None
-        if f is not None and keys.animation_data is not None:
-            for frame in (f - 1, f, f + 1):
-                try:
-                    kb.keyframe_delete("value", frame=frame)
-                except RuntimeError:  # no keyframe there
-                    pass
+        fcurves = _fcurves(keys)
+        fc = fcurves.find(_value_path(kb)) if fcurves is not None else None
+        if fc is not None:
+            fcurves.remove(fc)
         obj.shape_key_remove(kb)
 
 
 def write_shape_keys(obj, frames, poses) -> None:
-    """One shape key per frame, its value keyed 1 at its frame and 0 at the neighbours; the live
-    pose key is muted (the bake replaces it)."""
+    """One shape key per frame, its value keyed 1 at its frame and 0 at the neighbouring baked
+    frames (``frames`` evenly spaced), linear in between: a frame between two baked ones (a
+    frame step above 1) blends them. The live pose key is muted (the bake replaces it)."""
     remove_frame_keys(obj)
     solve.ensure_pose_key(obj).mute = True
+    step = frames[1] - frames[0] if len(frames) > 1 else 1
     for f, U in zip(frames, poses):
         kb = obj.shape_key_add(name=frame_key_name(f), from_mix=False)
         kb.points.foreach_set("co", np.ascontiguousarray(U, dtype=np.float32).ravel())
-        for frame, value in ((f - 1, 0.0), (f, 1.0), (f + 1, 0.0)):
+        for frame, value in ((f - step, 0.0), (f, 1.0), (f + step, 0.0)):
             kb.value = value
             kb.keyframe_insert("value", frame=frame)
+        fcurves = _fcurves(obj.data.shape_keys)
+        fc = fcurves.find(_value_path(kb)) if fcurves is not None else None
+        if fc is not None:
+            for kp in fc.keyframe_points:
+                kp.interpolation = "LINEAR"
     obj.data.update()
 
 
@@ -113,9 +156,10 @@ def read_pc2(path: str):
     return start, rate, arr
 
 
-def add_cache_modifier(obj, path: str, start_frame: int):
-    """The Mesh Cache modifier reading ``path``, first in the stack; the live pose key is
-    muted (the cache overwrites the positions)."""
+def add_cache_modifier(obj, path: str, start_frame: int, step: int = 1):
+    """The Mesh Cache modifier reading ``path`` (one sample per ``step`` frames from
+    ``start_frame``; linear in between), first in the stack; the live pose key is muted (the
+    cache overwrites the positions)."""
     mod = obj.modifiers.get(solve.CACHE_MODIFIER)
     if mod is None or mod.type != "MESH_CACHE":
         mod = obj.modifiers.new(solve.CACHE_MODIFIER, "MESH_CACHE")
@@ -123,12 +167,13 @@ def add_cache_modifier(obj, path: str, start_frame: int):
     mod.filepath = path
     mod.time_mode = "FRAME"
     mod.play_mode = "SCENE"
-    # Blender's reader takes sample (scene frame - frame_start) in FRAME mode, whatever the
-    # file's startFrame says (measured in bpy 5.0.1: with 0 here, frame 1 showed sample 1).
-    mod.frame_start = float(start_frame)
-    mod.frame_scale = 1.0
+    # Blender's reader takes sample scene frame * frame_scale - frame_start in FRAME mode,
+    # whatever the file's startFrame and sampleRate say (MOD_meshcache.cc; measured in bpy
+    # 5.0.1: with 0 here, frame 1 showed sample 1).
+    mod.frame_scale = 1.0 / step
+    mod.frame_start = float(start_frame) / step
     mod.deform_mode = "OVERWRITE"
-    mod.interpolation = "NONE"
+    mod.interpolation = "LINEAR"
     idx = list(obj.modifiers).index(mod)
     if idx != 0:
         obj.modifiers.move(idx, 0)

@@ -7,6 +7,12 @@ Once the controls stop, a timer (``finish_timer``) takes each pose the rest of t
 Re-entrancy: writing the pose shape key triggers another depsgraph update. ``_busy`` stops a
 nested call, and ``solve.update`` skips objects whose controls have not moved since their last
 solve, so the update that follows our own write solves nothing.
+
+Objects in Edit Mode are skipped (``solve.editing``). While Blender renders (``render_init`` /
+``render_pre`` to ``render_complete`` / ``render_cancel``) nothing is solved: handlers that change
+data during a render can crash Blender, so an animation is baked before it is rendered. An error
+is kept as the object's message (the panel shows it) and printed once, never a traceback per
+update.
 """
 
 from __future__ import annotations
@@ -20,18 +26,26 @@ from .handles import HandleError
 _busy = False
 #: Set while a bake runs: it drives the frames and solves itself.
 suspended = False
+#: Set while Blender renders: no data may change then.
+rendering = False
 
 
 def posed_objects(scene):
-    """The meshes with Live on and controls (a group without one is reported by the solve)."""
+    """The meshes with Live on and controls in the scene (a group without one is reported by
+    the solve), not in Edit Mode."""
     for obj in scene.objects:
-        if obj.type == "MESH" and obj.bsarap.live and any(g.control is not None for g in obj.bsarap.groups):
+        if (
+            obj.type == "MESH"
+            and obj.bsarap.live
+            and any(solve.linked(g.control) for g in obj.bsarap.groups)
+            and not solve.editing(obj)
+        ):
             yield obj
 
 
 def update_scene(scene) -> None:
     global _busy
-    if _busy or suspended:
+    if _busy or suspended or rendering:
         return
     _busy = True
     solved = False
@@ -39,7 +53,7 @@ def update_scene(scene) -> None:
         for obj in posed_objects(scene):
             try:
                 solved |= solve.update(obj)
-            except HandleError as e:
+            except Exception as e:  # noqa: BLE001 - a message, not a traceback per update
                 report(obj, e)
     finally:
         _busy = False
@@ -47,9 +61,10 @@ def update_scene(scene) -> None:
         bpy.app.timers.register(finish_timer, first_interval=solve.REST_DELAY)
 
 
-def report(obj, e: HandleError) -> None:
-    """Keep ``e`` as the object's message (the panel shows it) and print it, once."""
-    msg = str(e)
+def report(obj, e: Exception) -> None:
+    """Keep ``e`` as the object's message (the panel shows it) and print it, once; an exception
+    other than :class:`HandleError` (a bug) is named as unexpected."""
+    msg = str(e) if isinstance(e, HandleError) else f"{obj.name}: unexpected error ({type(e).__name__}: {e})"
     if solve.messages.get(obj.name) != msg:  # say it once, not on every update
         solve.messages[obj.name] = msg
         print(f"BS-ARAP: {msg}")
@@ -60,7 +75,7 @@ def finish_timer():
     rest; runs again when the next step is due, and ends when no pose has anything left (the
     next solve registers it again)."""
     global _busy
-    if _busy or suspended:
+    if _busy or suspended or rendering:
         return solve.REST_DELAY
     _busy = True
     due = []
@@ -68,7 +83,10 @@ def finish_timer():
         for obj in posed_objects(bpy.context.scene):
             try:
                 due.append(solve.finish_step(obj))
-            except HandleError as e:
+            except Exception as e:  # noqa: BLE001 - a message, not a traceback per step
+                st = solve._states.get(obj.name)
+                if st is not None:
+                    st.ended = "error"
                 report(obj, e)
     finally:
         _busy = False
@@ -103,10 +121,26 @@ def on_load(_filepath=None, _unused=None):
     solve.forget()
 
 
+@persistent
+def on_render_start(_scene=None, _unused=None):
+    global rendering
+    rendering = True
+
+
+@persistent
+def on_render_end(_scene=None, _unused=None):
+    global rendering
+    rendering = False
+
+
 _handlers = (
     ("depsgraph_update_post", on_depsgraph_update),
     ("frame_change_post", on_frame_change),
     ("load_post", on_load),
+    ("render_init", on_render_start),
+    ("render_pre", on_render_start),
+    ("render_complete", on_render_end),
+    ("render_cancel", on_render_end),
 )
 
 
@@ -116,10 +150,12 @@ def register():
 
 
 def unregister():
+    global rendering
     if bpy.app.timers.is_registered(finish_timer):
         bpy.app.timers.unregister(finish_timer)
     for name, fn in _handlers:
         lst = getattr(bpy.app.handlers, name)
         while fn in lst:
             lst.remove(fn)
+    rendering = False
     solve.forget()

@@ -8,6 +8,8 @@ A vertex belongs to a handle group when its weight in the vertex group is above
 
 from __future__ import annotations
 
+import zlib
+
 import numpy as np
 
 #: A vertex is in a handle group when its weight is above this.
@@ -18,17 +20,28 @@ class HandleError(Exception):
     """Bad handle input, with a message for the status bar."""
 
 
-def rest_positions(mesh) -> np.ndarray:
-    """The rest positions ``(n, 3)`` float64: the reference (basis) shape key when the mesh has
-    shape keys, else the vertices. Never the posed shape."""
-    n = len(mesh.vertices)
-    co = np.empty(n * 3, dtype=np.float32)
+def _rest_co(mesh) -> np.ndarray:
+    """The rest coordinates as Blender stores them, ``(3n,)`` float32: the reference (basis)
+    shape key when the mesh has shape keys, else the vertices."""
+    co = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
     keys = mesh.shape_keys
     if keys is not None and keys.reference_key is not None:
         keys.reference_key.points.foreach_get("co", co)
     else:
         mesh.vertices.foreach_get("co", co)
-    return co.reshape(n, 3).astype(np.float64)
+    return co
+
+
+def rest_positions(mesh) -> np.ndarray:
+    """The rest positions ``(n, 3)`` float64: the reference (basis) shape key when the mesh has
+    shape keys, else the vertices. Never the posed shape."""
+    return _rest_co(mesh).reshape(-1, 3).astype(np.float64)
+
+
+def rest_fingerprint(mesh) -> int:
+    """A checksum of the rest coordinates (CRC-32 of their bytes): changes when the basis is
+    edited (about 1 ms per 100k vertices, cheap enough for every update)."""
+    return zlib.crc32(_rest_co(mesh))
 
 
 def triangles(mesh) -> np.ndarray:

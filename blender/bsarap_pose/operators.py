@@ -1,5 +1,6 @@
 """The operators, ``bpy.ops.bsarap.*``. Bad input ends in ``self.report({'ERROR'}, ...)`` (the
-status bar; a RuntimeError with the message for scripts), never a traceback."""
+status bar; a RuntimeError with the message for scripts), never a traceback. Those that read the
+mesh refuse Edit Mode (its data is stale there): their poll fails with a message."""
 
 from __future__ import annotations
 
@@ -21,10 +22,18 @@ def _mesh_object(context):
 
 class _MeshOperator:
     bl_options = {"REGISTER", "UNDO"}
+    #: Whether the operator runs in Edit Mode (it does not read the mesh's data).
+    in_edit_mode = False
 
     @classmethod
     def poll(cls, context):
-        return _mesh_object(context) is not None
+        obj = _mesh_object(context)
+        if obj is None:
+            return False
+        if obj.mode == "EDIT" and not cls.in_edit_mode:
+            cls.poll_message_set("BS-ARAP works in Object Mode: leave Edit Mode first")
+            return False
+        return True
 
 
 class BSARAP_OT_add_group(_MeshOperator, bpy.types.Operator):
@@ -32,6 +41,7 @@ class BSARAP_OT_add_group(_MeshOperator, bpy.types.Operator):
 
     bl_idname = "bsarap.add_group"
     bl_label = "Add Handle Group"
+    in_edit_mode = True
 
     group: StringProperty(name="Vertex group", description="Empty: the active vertex group")
 
@@ -61,6 +71,7 @@ class BSARAP_OT_remove_group(_MeshOperator, bpy.types.Operator):
 
     bl_idname = "bsarap.remove_group"
     bl_label = "Remove Handle Group"
+    in_edit_mode = True
 
     def execute(self, context):
         s = _mesh_object(context).bsarap
@@ -74,7 +85,7 @@ class BSARAP_OT_remove_group(_MeshOperator, bpy.types.Operator):
 
 class BSARAP_OT_add_controls(_MeshOperator, bpy.types.Operator):
     """Create one Empty per handle group at its centroid (named after the group, no parent); moving,
-    rotating or keying them poses the mesh"""
+    rotating or keying them poses the mesh. A control deleted from the scene is re-created"""
 
     bl_idname = "bsarap.add_controls"
     bl_label = "Add Controls"
@@ -94,10 +105,16 @@ class BSARAP_OT_add_controls(_MeshOperator, bpy.types.Operator):
         size = 0.05 * float(np.linalg.norm(st.rest.max(axis=0) - st.rest.min(axis=0)))
         coll = obj.users_collection[0] if obj.users_collection else context.scene.collection
         O = obj.matrix_world.copy()
-        made = 0
+        made, recreated = 0, []
         for k, g in enumerate(obj.bsarap.groups):
-            if g.control is not None and g.control.name in bpy.data.objects:
+            if solve.linked(g.control):
                 continue
+            if g.control is not None:
+                # deleted in the viewport: in no scene, kept only by this pointer
+                recreated.append(g.name)
+                old, g.control = g.control, None
+                if old.users == 0:
+                    bpy.data.objects.remove(old)
             e = bpy.data.objects.new(g.name, None)
             e.empty_display_type = "SPHERE"
             e.empty_display_size = max(size, 1e-3)
@@ -113,7 +130,13 @@ class BSARAP_OT_add_controls(_MeshOperator, bpy.types.Operator):
         except HandleError as e:
             self.report({"ERROR"}, str(e))
             return {"CANCELLED"}
-        self.report({"INFO"}, f"{obj.name}: {made} control(s) added, {n} handle group(s), {st.deformer.method}")
+        again = f" (re-created, deleted from the scene: {', '.join(recreated)})" if recreated else ""
+        self.report(
+            {"INFO"}, f"{obj.name}: {made} control(s) added{again}, {n} handle group(s), {st.deformer.method}"
+        )
+        warning = solve.scale_warning(obj)
+        if warning:
+            self.report({"WARNING"}, warning)
         return {"FINISHED"}
 
 
@@ -173,7 +196,11 @@ class _BakeOperator(_MeshOperator):
         frames = self.frames(context.scene)
         if len(frames) == 0:
             raise HandleError("the frame range is empty")
+        self.check_output(obj)
         return bake.Baker(context.scene, obj, frames)
+
+    def check_output(self, obj) -> None:
+        """Raise :class:`HandleError` when the bake could not be written (before solving)."""
 
     def finish(self, context, baker) -> str:
         raise NotImplementedError
@@ -191,8 +218,8 @@ class _BakeOperator(_MeshOperator):
                 wm.progress_end()
                 baker.restore_frame()
             msg = self.finish(context, baker)
-        except (HandleError, OSError) as e:
-            self.report({"ERROR"}, str(e))
+        except Exception as e:  # noqa: BLE001 - a message, not a traceback
+            self.report({"ERROR"}, _bake_error(e))
             return {"CANCELLED"}
         self.report({"INFO"}, msg)
         return {"FINISHED"}
@@ -202,8 +229,8 @@ class _BakeOperator(_MeshOperator):
             return self.execute(context)
         try:
             self._baker = self.start(context)
-        except HandleError as e:
-            self.report({"ERROR"}, str(e))
+        except Exception as e:  # noqa: BLE001 - a message, not a traceback
+            self.report({"ERROR"}, _bake_error(e))
             return {"CANCELLED"}
         wm = context.window_manager
         wm.progress_begin(0, len(self._baker.frames))
@@ -212,10 +239,16 @@ class _BakeOperator(_MeshOperator):
         return {"RUNNING_MODAL"}
 
     def _stop(self, context):
+        """End the modal bake: the timer, the progress indicator and the bake's state (each
+        even when another fails)."""
         wm = context.window_manager
-        wm.event_timer_remove(self._timer)
-        wm.progress_end()
-        self._baker.restore_frame()
+        try:
+            wm.event_timer_remove(self._timer)
+        finally:
+            try:
+                wm.progress_end()
+            finally:
+                self._baker.restore_frame()
 
     def modal(self, context, event):
         if event.type == "ESC":
@@ -231,9 +264,10 @@ class _BakeOperator(_MeshOperator):
                 return {"RUNNING_MODAL"}
             self._stop(context)
             msg = self.finish(context, self._baker)
-        except (HandleError, OSError) as e:
-            self._stop(context)
-            self.report({"ERROR"}, str(e))
+        except Exception as e:  # noqa: BLE001 - a message, not a traceback; never left baking
+            if self._baker.st.baking:
+                self._stop(context)
+            self.report({"ERROR"}, _bake_error(e))
             return {"CANCELLED"}
         self.report({"INFO"}, msg)
         return {"FINISHED"}
@@ -251,12 +285,39 @@ class BSARAP_OT_bake_shape_keys(_BakeOperator, bpy.types.Operator):
         return f"{baker.obj.name}: {len(baker.frames)} frames baked to shape keys (Live turned off)"
 
 
+def _bake_error(e: Exception) -> str:
+    """The status bar's message for a bake that failed with ``e``."""
+    if isinstance(e, (HandleError, OSError)):
+        return str(e)
+    if isinstance(e, ReferenceError):  # an undo removed what the bake held
+        return "the object or its scene changed while baking (undo?); bake stopped, nothing written"
+    return f"bake stopped by an unexpected error ({type(e).__name__}: {e}); nothing written"
+
+
 def pc2_path(obj) -> str:
+    """The absolute path of the object's point cache: its *Point cache* setting, else next to
+    the .blend. Raises :class:`HandleError` when that needs a saved .blend and there is none
+    (Blender's temporary folder is deleted when it quits)."""
     p = obj.bsarap.pc2_path
+    if not bpy.data.filepath and (not p or p.startswith("//")):
+        raise HandleError(
+            f"{obj.name}: save the .blend file first (the point cache goes next to it), "
+            "or set the Point cache path to an absolute one"
+        )
     if p:
         return bpy.path.abspath(p)
-    base = os.path.dirname(bpy.data.filepath) if bpy.data.filepath else bpy.app.tempdir
-    return os.path.join(base, f"{bpy.path.clean_name(obj.name)}.bsarap.pc2")
+    return os.path.join(os.path.dirname(bpy.data.filepath), f"{bpy.path.clean_name(obj.name)}.bsarap.pc2")
+
+
+def stored_path(path: str) -> str:
+    """``path`` as the modifier keeps it: relative to the .blend (``//...``) once it is saved,
+    so the file and its cache move together."""
+    if not bpy.data.filepath:
+        return path
+    try:
+        return bpy.path.relpath(path)
+    except ValueError:  # another drive (Windows): no relative path
+        return path
 
 
 class BSARAP_OT_bake_point_cache(_BakeOperator, bpy.types.Operator):
@@ -265,10 +326,13 @@ class BSARAP_OT_bake_point_cache(_BakeOperator, bpy.types.Operator):
     bl_idname = "bsarap.bake_point_cache"
     bl_label = "Bake to Point Cache"
 
+    def check_output(self, obj):
+        pc2_path(obj)
+
     def finish(self, context, baker):
         path = pc2_path(baker.obj)
-        bake.write_pc2(path, baker.poses, baker.frames[0], 1.0 if len(baker.frames) < 2 else baker.frames[1] - baker.frames[0])
-        bake.add_cache_modifier(baker.obj, path, baker.frames[0])
+        bake.write_pc2(path, baker.poses, baker.frames[0], baker.step_frames)
+        bake.add_cache_modifier(baker.obj, stored_path(path), baker.frames[0], baker.step_frames)
         baker.obj.bsarap.live = False
         return f"{baker.obj.name}: {len(baker.frames)} frames written to {path} (Live turned off)"
 

@@ -43,6 +43,11 @@ class BSARAP_PT_pose(bpy.types.Panel):
         row.operator("bsarap.remove_controls", icon="X", text="")
         layout.prop(s, "live")
         layout.operator("bsarap.pose", icon="FILE_REFRESH")
+        if obj.mode == "EDIT":
+            layout.label(text="Edit Mode: posing waits until you leave it", icon="INFO")
+        warning = solve.scale_warning(obj)
+        if warning:
+            layout.label(text=warning, icon="ERROR")
         msg = solve.messages.get(obj.name)
         if msg:
             layout.label(text=msg, icon="INFO")

@@ -48,6 +48,13 @@ COARSE_ENERGY_ITEMS = [
     ),
 ]
 
+#: The path option that lets a file path be relative to the .blend ("//"), where Blender has it.
+_BLEND_RELATIVE = (
+    {"PATH_SUPPORTS_BLEND_RELATIVE"}
+    if "is_path_supports_blend_relative" in bpy.types.Property.bl_rna.properties
+    else set()
+)
+
 IDENTITY = (1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0)
 
 
@@ -118,6 +125,8 @@ class BSARAP_ObjectSettings(bpy.types.PropertyGroup):
     pc2_path: StringProperty(
         name="Point cache", description="Where Bake to point cache writes (empty: next to the .blend)",
         subtype="FILE_PATH", default="",
+        # "//" (relative to the .blend): a Blender that knows the option warns without it
+        options=_BLEND_RELATIVE,
     )
 
     def solver_settings(self) -> dict:

@@ -4,8 +4,14 @@ The pose of handle group ``k`` is the motion of its control Empty ``E_k`` since 
 added, in the mesh object's space ``O``: ``D_k = (O^-1 E_k) (O^-1 E_k)_rest^-1``. The targets
 are the group's rest vertices moved by it, ``t_i = D_k p_i``; ``Deformer.solve_targets`` gives
 the pose, which goes into the shape key ``POSE_KEY`` (value 1) so the base mesh is never
-overwritten. The state is keyed by the object's name, its topology counts and the settings: a
-change of any of them rebuilds the solver (with a message) instead of failing.
+overwritten. The state is keyed by the object's name, its topology counts, a checksum of its
+rest coordinates and the settings: a change of any of them rebuilds the solver (with a message)
+instead of failing. A build that failed is not tried again until its key changes (or *Add
+Controls*): the depsgraph updates that follow get its message at once.
+
+Objects in Edit Mode are left alone (their mesh data is stale until Edit Mode ends); on leaving
+it the pose is solved again (:func:`editing`), since Blender writes the edit mesh's copy of the
+shape keys back over it.
 
 Once the controls have rested ``REST_DELAY`` seconds, :func:`finish_step` takes the pose the
 rest of the way, as the editor does after a drag: the same targets solved again until a solve
@@ -51,6 +57,7 @@ class SolverState:
         # (MAX_SETTLE_STEPS) or "error"; None while it has
         self.ended = None
         self.baking = False  # a bake solves the frames: no live solve, finish_step waits
+        self.editing = False  # the object was in Edit Mode at the last live update
         # the rest bounding-box diagonal: the unit of the fractions (bending length, smoothing)
         self.diagonal = diagonal(rest)
 
@@ -66,6 +73,8 @@ _states: dict = {}
 messages: dict = {}
 #: object name -> (topology fingerprint, rest diagonal) for objects with no solver yet (panel).
 _diagonals: dict = {}
+#: object name -> (state key, HandleError) of the last failed build: not retried for that key.
+_failures: dict = {}
 
 
 def rest_diagonal(obj) -> float:
@@ -130,6 +139,8 @@ def state_key(obj) -> tuple:
     return (
         obj.name,
         handles.topology_fingerprint(obj.data),
+        # the basis edited (its vertices moved): the rest shape changed
+        handles.rest_fingerprint(obj.data),
         tuple(g.name for g in s.groups),
         # a handle group's vertex group deleted or renamed: rebuild (and say so)
         tuple(obj.vertex_groups.get(g.name) is not None for g in s.groups),
@@ -163,12 +174,22 @@ def state(obj, *, rebuild=True) -> SolverState:
         return st
     if not rebuild:
         raise HandleError(f"{obj.name}: the solver is not built")
-    new = build(obj)
+    failed = _failures.get(obj.name)
+    if failed is not None and failed[0] == key:
+        raise failed[1]  # the same input failed already: say so without building again
+    try:
+        new = build(obj)
+    except HandleError as e:
+        _failures[obj.name] = (key, e)
+        raise
+    _failures.pop(obj.name, None)
     if st is not None:
         if st.key[1] != key[1]:
             messages[obj.name] = (
                 f"{obj.name}: the topology changed ({st.key[1][0]} -> {key[1][0]} vertices); solver rebuilt"
             )
+        elif st.key[2] != key[2]:
+            messages[obj.name] = f"{obj.name}: the rest mesh (basis) changed; solver rebuilt"
         else:
             messages[obj.name] = f"{obj.name}: settings or groups changed; solver rebuilt"
     _states[obj.name] = new
@@ -181,20 +202,71 @@ def forget(name=None) -> None:
         _states.clear()
         messages.clear()
         _diagonals.clear()
+        _failures.clear()
     else:
         _states.pop(name, None)
         messages.pop(name, None)
         _diagonals.pop(name, None)
+        _failures.pop(name, None)
+
+
+def linked(control) -> bool:
+    """Whether a control Empty is in a scene: one deleted in the viewport stays in
+    ``bpy.data`` while the handle group's pointer holds it, but in no scene."""
+    return control is not None and len(control.users_scene) > 0
+
+
+def editing(obj) -> bool:
+    """Whether ``obj`` is in Edit Mode (the live update leaves it alone). The first call after
+    Edit Mode ended forgets the last solve's motion, so the next update solves the pose again:
+    leaving Edit Mode wrote the edit mesh's copy of the pose key back over it."""
+    st = _states.get(obj.name)
+    if obj.mode == "EDIT":
+        if st is not None:
+            st.editing = True
+        return True
+    if st is not None and st.editing:
+        st.editing = False
+        st.last_deltas = None
+    return False
+
+
+def scale_warning(obj):
+    """A warning when ``obj`` has a non-uniform scale (the pose is solved in object space, so a
+    control's world motion is distorted in it), else ``None``."""
+    sc = [abs(x) for x in obj.matrix_world.to_scale()]
+    if min(sc) > 0 and max(sc) <= min(sc) * (1 + 1e-4):
+        return None
+    s = ", ".join(f"{x:.3g}" for x in sc)
+    return f"{obj.name}: non-uniform scale ({s}) distorts the pose; apply scale first (Ctrl+A, Scale)"
+
+
+def _object_matrix_inverse(obj) -> np.ndarray:
+    M = np.array(obj.matrix_world, dtype=np.float64)
+    try:
+        inv = np.linalg.inv(M)
+    except np.linalg.LinAlgError:
+        inv = None
+    if inv is None or not np.isfinite(inv).all():
+        raise HandleError(
+            f"{obj.name}: the object's transform is singular (a scale of 0 on an axis); "
+            "give it a non-zero scale to pose it"
+        )
+    return inv
 
 
 def control_deltas(obj) -> np.ndarray:
     """``(G, 4, 4)``: each handle group's motion in the object's space (see the module doc)."""
-    inv = np.linalg.inv(np.array(obj.matrix_world, dtype=np.float64))
+    inv = _object_matrix_inverse(obj)
     out = []
     for g in obj.bsarap.groups:
         e = g.control
         if e is None:
             raise HandleError(f"{obj.name}: handle group '{g.name}' has no control; use Add controls")
+        if not linked(e):
+            raise HandleError(
+                f"{obj.name}: the control of handle group '{g.name}' was deleted; Add Controls re-creates it"
+            )
         rest = np.array(g.rest_matrix, dtype=np.float64).reshape(4, 4)
         now = inv @ np.array(e.matrix_world, dtype=np.float64)
         out.append(now @ np.linalg.inv(rest))

@@ -367,6 +367,8 @@ class Unregister(unittest.TestCase):
         self.assertFalse(hasattr(bpy.types.Object, "bsarap"))
         self.assertNotIn(handlers.on_depsgraph_update, bpy.app.handlers.depsgraph_update_post)
         self.assertNotIn(handlers.on_frame_change, bpy.app.handlers.frame_change_post)
+        self.assertNotIn(handlers.on_render_start, bpy.app.handlers.render_init)
+        self.assertNotIn(handlers.on_render_end, bpy.app.handlers.render_complete)
         self.assertFalse(bpy.app.timers.is_registered(handlers.finish_timer))
         self.assertFalse(hasattr(bpy.types, "BSARAP_PT_pose"))
         with self.assertRaises((AttributeError, RuntimeError)):

@@ -1,0 +1,431 @@
+"""Tests of the Blender extension's robustness in bpy, headless: bakes with a frame step, the
+point cache's path, deleted controls, Edit Mode, a bake stopped by an error or an undo, failed
+builds, a singular object transform, an edited basis, non-uniform scale and rendering.
+
+Run with Blender's Python (bpy from PyPI):
+    tools/blender/.venv/bin/python blender/tests/test_robustness.py [-v] [Class.test_name]
+The extension zip is found as common.py says. Skips (with the reason) when bpy or the zip is
+missing.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import os
+import sys
+import tempfile
+import types
+import unittest
+from unittest import mock
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from common import (  # noqa: E402  (sets BLENDER_USER_RESOURCES before bpy)
+    SKIP,
+    activate,
+    bpy,
+    draw_panel,
+    evaluated_positions,
+    expected_handles,
+    install,
+    key_co,
+    make_controls,
+    np,
+    pose_of,
+    tube,
+)
+
+ext = None
+bsarap = None
+
+
+def setUpModule():
+    global ext, bsarap
+    ext, bsarap = install()
+
+
+def posed_tube(name="tube"):
+    """A fresh scene with the test tube, its two controls added."""
+    bpy.ops.wm.read_homefile(use_empty=True)
+    obj = tube(name)
+    make_controls(obj, ["bottom", "top"])
+    return obj
+
+
+def key_top(frames_x):
+    """Key the top control's x offset at each ``(frame, x)``, linearly."""
+    top = bpy.data.objects["top"]
+    x0 = top.location.x
+    for f, x in frames_x:
+        top.location.x = x0 + x
+        top.keyframe_insert("location", frame=f)
+    from bpy_extras import anim_utils
+
+    ad = top.animation_data
+    for fc in anim_utils.action_get_channelbag_for_slot(ad.action, ad.action_slot).fcurves:
+        for kp in fc.keyframe_points:
+            kp.interpolation = "LINEAR"
+    return top
+
+
+def assert_pose_follows(test, obj):
+    """The live pose's handle vertices are where the controls put them."""
+    st = ext.solve.state(obj)
+    for k in (0, 1):
+        idx, want = expected_handles(obj, st, k)
+        np.testing.assert_allclose(pose_of(obj)[idx], want, atol=1e-5)
+
+
+class FrameStep(unittest.TestCase):
+    """scene.frame_step 2: only every other frame is solved, and every frame plays (the frames
+    in between blend their two baked neighbours), from shape keys or the point cache."""
+
+    def setUp(self):
+        self.obj = posed_tube()
+        key_top([(1, 0.0), (9, 2.0)])
+        sc = bpy.context.scene
+        sc.frame_start, sc.frame_end, sc.frame_step = 1, 9, 2
+        activate(self.obj)
+
+    def test_shape_keys(self):
+        obj, sc = self.obj, bpy.context.scene
+        self.assertEqual(bpy.ops.bsarap.bake_shape_keys(), {"FINISHED"})
+        keys = obj.data.shape_keys.key_blocks
+        baked = {f: key_co(keys[f"BS-ARAP frame {f:04d}"]) for f in (1, 3, 5, 7, 9)}
+        self.assertEqual(sum(kb.name.startswith("BS-ARAP frame") for kb in keys), 5)
+        for f in range(1, 10):
+            sc.frame_set(f)
+            total = sum(kb.value for kb in keys if kb.name.startswith("BS-ARAP frame"))
+            self.assertAlmostEqual(total, 1.0, places=5, msg=f"frame {f}")
+            want = baked[f] if f % 2 else 0.5 * (baked[f - 1] + baked[f + 1])
+            np.testing.assert_allclose(evaluated_positions(obj), want, atol=1e-5, err_msg=f"frame {f}")
+        # baking again with step 1 replaces them all (their F-curves too)
+        sc.frame_step = 1
+        self.assertEqual(bpy.ops.bsarap.bake_shape_keys(), {"FINISHED"})
+        self.assertEqual(sum(kb.name.startswith("BS-ARAP frame") for kb in keys), 9)
+        fcurves = ext.bake._fcurves(obj.data.shape_keys)
+        self.assertEqual(len(fcurves), 9)
+
+    def test_point_cache(self):
+        obj, sc = self.obj, bpy.context.scene
+        path = os.path.join(tempfile.mkdtemp(), "tube.pc2")
+        obj.bsarap.pc2_path = path
+        self.assertEqual(bpy.ops.bsarap.bake_point_cache(), {"FINISHED"})
+        start, rate, samples = ext.bake.read_pc2(path)
+        self.assertEqual((start, rate, len(samples)), (1.0, 2.0, 5))
+        for f in range(1, 10):
+            sc.frame_set(f)
+            k = (f - 1) // 2
+            want = samples[k] if f % 2 else 0.5 * (samples[k] + samples[k + 1])
+            np.testing.assert_allclose(evaluated_positions(obj), want, atol=1e-5, err_msg=f"frame {f}")
+
+
+class PointCachePath(unittest.TestCase):
+    def setUp(self):
+        self.obj = posed_tube()
+        bpy.context.scene.frame_start, bpy.context.scene.frame_end = 1, 2
+
+    def test_unsaved_file_refused(self):
+        """Blender's temporary folder goes when it quits: no cache there."""
+        for p in ("", "//tube.pc2"):
+            self.obj.bsarap.pc2_path = p
+            with self.assertRaises(RuntimeError) as cm:
+                bpy.ops.bsarap.bake_point_cache()
+            self.assertIn("save the .blend file first", str(cm.exception))
+            self.assertNotIn(ext.solve.CACHE_MODIFIER, self.obj.modifiers)
+        self.assertFalse(ext.solve.state(self.obj).baking)
+
+    def test_saved_file_relative_path(self):
+        folder = tempfile.mkdtemp()
+        bpy.ops.wm.save_as_mainfile(filepath=os.path.join(folder, "scene.blend"))
+        obj = bpy.data.objects["tube"]
+        activate(obj)
+        self.assertEqual(bpy.ops.bsarap.bake_point_cache(), {"FINISHED"})
+        mod = obj.modifiers[ext.solve.CACHE_MODIFIER]
+        self.assertEqual(mod.filepath, "//tube.bsarap.pc2")
+        self.assertTrue(os.path.isfile(os.path.join(folder, "tube.bsarap.pc2")))
+        _, _, samples = ext.bake.read_pc2(bpy.path.abspath(mod.filepath))
+        bpy.context.scene.frame_set(2)
+        np.testing.assert_allclose(evaluated_positions(obj), samples[1], atol=1e-5)
+
+
+class DeletedControl(unittest.TestCase):
+    def test_deleted_control_is_missing_and_recreated(self):
+        obj = posed_tube()
+        top = bpy.data.objects["top"]
+        activate(top)
+        self.assertEqual(bpy.ops.object.delete(), {"FINISHED"})
+        # still held by the handle group's pointer, in no scene: no longer posing
+        self.assertIs(obj.bsarap.groups[1].control, top)
+        bpy.data.objects["bottom"].location.x += 0.2
+        bpy.context.view_layer.update()
+        self.assertIn("'top' was deleted", ext.solve.messages[obj.name])
+        activate(obj)
+        self.assertEqual(bpy.ops.bsarap.add_controls(), {"FINISHED"})
+        new = obj.bsarap.groups[1].control
+        self.assertEqual(new.name, "top")  # the orphan removed, its name free again
+        self.assertIn(new.name, bpy.context.scene.objects)
+        new.location.x += 0.5
+        bpy.context.view_layer.update()
+        assert_pose_follows(self, obj)
+
+
+class EditMode(unittest.TestCase):
+    def setUp(self):
+        self.obj = posed_tube()
+
+    def test_operators_refuse_edit_mode(self):
+        bpy.ops.object.mode_set(mode="EDIT")
+        for op in (bpy.ops.bsarap.add_controls, bpy.ops.bsarap.pose, bpy.ops.bsarap.bake_shape_keys):
+            with self.assertRaises(RuntimeError) as cm:
+                op()
+            self.assertIn("leave Edit Mode first", str(cm.exception))
+        self.assertTrue(bpy.ops.bsarap.add_group.poll())  # the list does not read the mesh
+        self.assertIn("Edit Mode", " ".join(draw_panel(ext.panel.BSARAP_PT_pose, self.obj).labels))
+
+    def test_frame_change_in_edit_mode(self):
+        """Controls animated, frames changed in Edit Mode: nothing solved there; the pose of the
+        current frame once Edit Mode ends."""
+        obj, sc = self.obj, bpy.context.scene
+        key_top([(1, 0.0), (10, 1.0)])
+        sc.frame_set(1)
+        st = ext.solve.state(obj)
+        bpy.ops.object.mode_set(mode="EDIT")
+        solves = st.solves
+        sc.frame_set(10)
+        bpy.context.view_layer.update()
+        self.assertEqual(st.solves, solves)
+        bpy.ops.object.mode_set(mode="OBJECT")
+        bpy.context.view_layer.update()
+        assert_pose_follows(self, obj)
+
+    def test_pose_key_edited_is_solved_again(self):
+        """Leaving Edit Mode writes the edit mesh's copy of the pose key back: solved again."""
+        import bmesh
+
+        obj = self.obj
+        bpy.data.objects["top"].location.x += 0.5
+        bpy.context.view_layer.update()
+        bpy.ops.object.mode_set(mode="EDIT")
+        bm = bmesh.from_edit_mesh(obj.data)
+        layer = bm.verts.layers.shape[ext.solve.POSE_KEY]
+        for v in bm.verts:
+            v[layer] = v.co  # the pose key back at rest
+        bmesh.update_edit_mesh(obj.data)
+        bpy.ops.object.mode_set(mode="OBJECT")
+        bpy.context.view_layer.update()
+        assert_pose_follows(self, obj)
+
+
+def fake_modal_bake(obj, op_class, frames):
+    """The modal bake operator's state without a window: ``(op, context, calls)``, the window
+    manager's calls recorded."""
+    calls = []
+    wm = types.SimpleNamespace(
+        event_timer_remove=lambda _t: calls.append("timer removed"),
+        progress_end=lambda: calls.append("progress end"),
+        progress_update=lambda _n: None,
+    )
+    op = types.SimpleNamespace(reports=[])
+    op.report = lambda level, msg: op.reports.append((level, msg))
+    op._baker = ext.bake.Baker(bpy.context.scene, obj, frames)
+    op._timer = object()
+    op._stop = lambda ctx: op_class._stop(op, ctx)
+    op.finish = lambda ctx, b: op_class.finish(op, ctx, b)
+    return op, types.SimpleNamespace(window_manager=wm), calls
+
+
+class BakeStops(unittest.TestCase):
+    """A bake that fails is never left running: live posing resumes, the timer and progress
+    end, the frame is restored, and the status bar says why."""
+
+    TIMER = types.SimpleNamespace(type="TIMER")
+
+    def setUp(self):
+        self.obj = posed_tube("m")
+        key_top([(1, 0.0), (5, 1.0)])
+        sc = bpy.context.scene
+        sc.frame_start, sc.frame_end = 1, 5
+        sc.frame_set(3)
+        activate(self.obj)
+
+    def assert_stopped(self, result, op, calls, pattern):
+        self.assertEqual(result, {"CANCELLED"})
+        self.assertEqual(calls, ["timer removed", "progress end"])
+        self.assertEqual(len(op.reports), 1)
+        self.assertEqual(op.reports[0][0], {"ERROR"})
+        self.assertRegex(op.reports[0][1], pattern)
+        self.assertFalse(ext.solve._states["m"].baking)
+
+    def test_unexpected_error(self):
+        Op = ext.operators.BSARAP_OT_bake_shape_keys
+        op, ctx, calls = fake_modal_bake(self.obj, Op, range(1, 6))
+        self.assertEqual(Op.modal(op, ctx, self.TIMER), {"RUNNING_MODAL"})
+        with mock.patch.object(ext.solve, "solve", side_effect=ValueError("boom")):
+            result = Op.modal(op, ctx, self.TIMER)
+        self.assert_stopped(result, op, calls, r"unexpected error \(ValueError: boom\)")
+        self.assertEqual(bpy.context.scene.frame_current, 3)
+        # live posing goes on
+        st = ext.solve.state(self.obj)
+        solves = st.solves
+        bpy.data.objects["top"].location.y += 0.3
+        bpy.context.view_layer.update()
+        self.assertEqual(st.solves, solves + 1)
+
+    def test_unexpected_error_in_one_go(self):
+        self.obj.bsarap.pc2_path = os.path.join(tempfile.mkdtemp(), "m.pc2")
+        with mock.patch.object(ext.solve, "solve", side_effect=ValueError("boom")):
+            with self.assertRaises(RuntimeError) as cm:
+                bpy.ops.bsarap.bake_point_cache()
+        self.assertIn("unexpected error (ValueError: boom)", str(cm.exception))
+        self.assertNotIn("Traceback", str(cm.exception))
+        self.assertFalse(ext.solve._states["m"].baking)
+
+    def test_undo_during_bake(self):
+        bpy.ops.ed.undo_push(message="controls")
+        self.obj.bsarap.tol = 1e-5
+        bpy.ops.ed.undo_push(message="edit")
+        Op = ext.operators.BSARAP_OT_bake_shape_keys
+        op, ctx, calls = fake_modal_bake(self.obj, Op, range(1, 6))
+        self.assertEqual(Op.modal(op, ctx, self.TIMER), {"RUNNING_MODAL"})
+        bpy.ops.ed.undo()  # Ctrl+Z passes through the modal bake: its object and scene go
+        result = Op.modal(op, ctx, self.TIMER)
+        self.assert_stopped(result, op, calls, "changed while baking")
+        # live posing goes on with the undone file's objects
+        obj = bpy.data.objects["m"]
+        bpy.data.objects["top"].location.y += 0.3
+        bpy.context.view_layer.update()
+        assert_pose_follows(self, obj)
+
+
+class Errors(unittest.TestCase):
+    def setUp(self):
+        self.obj = posed_tube()
+
+    def test_failed_build_not_retried(self):
+        """A build that failed fails again at once for the same input (no 0.7 s per update on
+        30k vertices); a changed input or Add Controls tries again."""
+        obj = self.obj
+        obj.vertex_groups["top"].remove(list(range(len(obj.data.vertices))))
+        obj.bsarap.tol = 1e-5  # a new key: rebuilt, and failing
+        bottom = bpy.data.objects["bottom"]
+        with mock.patch.object(ext.solve, "build", wraps=ext.solve.build) as build:
+            for _ in range(4):
+                bottom.location.x += 0.05
+                bpy.context.view_layer.update()
+            self.assertEqual(build.call_count, 1)
+            self.assertIn("'top' has no vertex", ext.solve.messages[obj.name])
+            obj.bsarap.tol = 1e-3  # another new key (1e-4 is the built solver's: no build)
+            bottom.location.x += 0.05
+            bpy.context.view_layer.update()
+            self.assertEqual(build.call_count, 2)
+            activate(obj)
+            with self.assertRaises(RuntimeError):
+                bpy.ops.bsarap.add_controls()
+            self.assertEqual(build.call_count, 3)
+
+    def test_singular_object_matrix(self):
+        obj, sc = self.obj, bpy.context.scene
+        bpy.data.objects["top"].location.x += 0.3
+        obj.scale = (1.0, 1.0, 0.0)
+        bpy.context.view_layer.update()
+        ext.handlers.update_scene(sc)  # must not raise
+        self.assertIn("singular (a scale of 0 on an axis)", ext.solve.messages[obj.name])
+        with self.assertRaises(ext.handles.HandleError):
+            ext.solve.control_deltas(obj)
+        obj.scale = (1.0, 1.0, 1.0)
+        bpy.context.view_layer.update()
+        assert_pose_follows(self, obj)
+
+    def test_unexpected_error_reported_once(self):
+        obj, sc = self.obj, bpy.context.scene
+        out = io.StringIO()
+        with mock.patch.object(ext.solve, "update", side_effect=ValueError("boom")):
+            with contextlib.redirect_stdout(out):
+                for _ in range(3):
+                    ext.handlers.update_scene(sc)
+        self.assertEqual(ext.solve.messages[obj.name], "tube: unexpected error (ValueError: boom)")
+        self.assertEqual(out.getvalue().count("boom"), 1)
+        st = ext.solve.state(obj)
+        st.converged = False
+        st.moved_at = 0.0
+        with mock.patch.object(ext.solve, "finish_step", side_effect=KeyError("k")):
+            ext.handlers.finish_timer()  # must not raise
+        self.assertIn("unexpected error (KeyError", ext.solve.messages[obj.name])
+
+    def test_basis_edit_rebuilds(self):
+        obj = self.obj
+        st = ext.solve.state(obj)
+        basis = obj.data.shape_keys.reference_key
+        co = key_co(basis)
+        co[:, 0] *= 1.5
+        basis.points.foreach_set("co", co.astype(np.float32).ravel())
+        obj.data.update()
+        bpy.data.objects["top"].location.x += 0.3
+        bpy.context.view_layer.update()
+        new = ext.solve.state(obj)
+        self.assertIsNot(new, st)
+        np.testing.assert_allclose(new.rest, co, atol=1e-6)
+        self.assertIn("rest mesh (basis) changed", ext.solve.messages[obj.name])
+
+    def test_non_uniform_scale_warned(self):
+        obj = self.obj
+        self.assertIsNone(ext.solve.scale_warning(obj))
+        obj.scale = (2.0, 2.0, 2.0)
+        bpy.context.view_layer.update()
+        self.assertIsNone(ext.solve.scale_warning(obj))
+        obj.scale = (1.0, 1.0, 3.0)
+        bpy.context.view_layer.update()
+        labels = draw_panel(ext.panel.BSARAP_PT_pose, obj).labels
+        self.assertTrue(any("apply scale first" in t for t in labels), labels)
+
+
+class Render(unittest.TestCase):
+    def test_live_suspended_while_rendering(self):
+        """Blender: handlers that change data during a render can crash it. From render_init /
+        render_pre to render_complete / render_cancel nothing is solved."""
+        obj, sc = posed_tube(), bpy.context.scene
+        h = ext.handlers
+        for name, fn in (
+            ("render_init", h.on_render_start),
+            ("render_pre", h.on_render_start),
+            ("render_complete", h.on_render_end),
+            ("render_cancel", h.on_render_end),
+        ):
+            self.assertIn(fn, getattr(bpy.app.handlers, name))
+        # a real render (Workbench, 16 px): the flag is up during it, down after
+        cam = bpy.data.objects.new("cam", bpy.data.cameras.new("cam"))
+        sc.collection.objects.link(cam)
+        sc.camera, cam.location = cam, (0.0, -10.0, 2.0)
+        sc.render.engine = "BLENDER_WORKBENCH"
+        sc.render.resolution_x = sc.render.resolution_y = 16
+        seen = []
+
+        def record(_scene, *_):
+            seen.append(h.rendering)
+
+        bpy.app.handlers.render_post.append(record)
+        try:
+            bpy.ops.render.render()
+        finally:
+            bpy.app.handlers.render_post.remove(record)
+        self.assertEqual(seen, [True])
+        self.assertFalse(h.rendering)
+        # while the flag is up, a moved control is not solved; once down, it is
+        st = ext.solve.state(obj)
+        solves = st.solves
+        h.on_render_start(sc)
+        bpy.data.objects["top"].location.x += 0.3
+        bpy.context.view_layer.update()
+        self.assertEqual(st.solves, solves)
+        h.on_render_end(sc)
+        h.update_scene(sc)  # the next depsgraph update
+        self.assertEqual(st.solves, solves + 1)
+        assert_pose_follows(self, obj)
+
+
+if __name__ == "__main__":
+    if SKIP:
+        print(f"skipped: {SKIP}")
+        sys.exit(0)
+    unittest.main()
