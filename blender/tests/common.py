@@ -42,30 +42,49 @@ if SKIP is None and ZIP is None:
     SKIP = "no extension zip (run scripts/blender-extension.sh target/blender-extension or set BSARAP_BLENDER_ZIP)"
 
 MODULE = "bl_ext.user_default.bsarap_pose"
-ext = None  # the installed package (bl_ext.user_default.bsarap_pose), once `install` ran
-bsarap = None  # the wheel the extension installed
+_installed = {}  # "ext": the installed package, "bsarap": the wheel it installed
+
+
+class _Installed:
+    """Stands for a module that exists once :func:`install` ran (a test file imports it before
+    that): attribute access goes to the module."""
+
+    def __init__(self, key):
+        self._key = key
+
+    def __getattr__(self, name):
+        return getattr(_installed[self._key], name)
+
+
+#: The installed extension's package (bl_ext.user_default.bsarap_pose) and its `bsarap` wheel.
+ext = _Installed("ext")
+bsarap = _Installed("bsarap")
 
 
 def install():
     """Installs and enables the extension in an empty scene (once a process); returns the
     extension's package and the `bsarap` module it installed. Raises SkipTest with `SKIP`."""
-    global ext, bsarap
     import unittest
 
     if SKIP:
         raise unittest.SkipTest(SKIP)
     bpy.ops.wm.read_homefile(use_empty=True)
-    if ext is None:
+    if not _installed:
         r = bpy.ops.extensions.package_install_files(filepath=ZIP, repo="user_default", enable_on_install=True)
         assert r == {"FINISHED"}, r
         import importlib
 
-        ext = importlib.import_module(MODULE)
+        _installed["ext"] = importlib.import_module(MODULE)
         import bsarap as b
 
-        bsarap = b
+        _installed["bsarap"] = b
     assert hasattr(bpy.types.Object, "bsarap"), "the extension did not register"
-    return ext, bsarap
+    return _installed["ext"], _installed["bsarap"]
+
+
+def setUpModule():
+    """unittest's module set-up for the test files that import it."""
+    install()
 
 
 def tube(name="tube", rings=24, around=16, radius=0.5, height=4.0):

@@ -22,32 +22,12 @@ import unittest
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from common import (  # noqa: E402  (sets BLENDER_USER_RESOURCES before bpy)
-    MODULE,
-    ROOT,
-    SKIP,
-    ZIP,
-    activate,
-    bpy,
-    evaluated_positions,
-    expected_handles,
-    install,
-    key_co,
-    make_controls,
-    np,
-    pose_of,
-    tube,
+    MODULE, ROOT, SKIP, ZIP, activate, bpy, bsarap, evaluated_positions, expected_handles,
+    ext, key_co, make_controls, np, pose_of, setUpModule, tube
 )
 
 if SKIP is None:
     from mathutils import Euler, Vector
-
-ext = None
-bsarap = None
-
-
-def setUpModule():
-    global ext, bsarap
-    ext, bsarap = install()
 
 
 class Tube(unittest.TestCase):

@@ -21,27 +21,9 @@ from unittest import mock
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from common import (  # noqa: E402  (sets BLENDER_USER_RESOURCES before bpy)
-    SKIP,
-    activate,
-    bpy,
-    draw_panel,
-    evaluated_positions,
-    expected_handles,
-    install,
-    key_co,
-    make_controls,
-    np,
-    pose_of,
-    tube,
+    SKIP, activate, bpy, bsarap, draw_panel, evaluated_positions, expected_handles, ext,
+    key_co, make_controls, np, pose_of, setUpModule, tube
 )
-
-ext = None
-bsarap = None
-
-
-def setUpModule():
-    global ext, bsarap
-    ext, bsarap = install()
 
 
 def posed_tube(name="tube"):

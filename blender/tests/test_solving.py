@@ -17,27 +17,12 @@ from unittest import mock
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from common import (  # noqa: E402  (sets BLENDER_USER_RESOURCES before bpy)
-    SKIP,
-    bpy,
-    draw_panel,
-    expected_handles,
-    install,
-    make_controls,
-    np,
-    pose_of,
-    tube,
+    SKIP, bpy, bsarap, draw_panel, expected_handles, ext, make_controls, np, pose_of,
+    setUpModule, tube
 )
 
 if SKIP is None:
     from mathutils import Euler, Vector
-
-ext = None
-bsarap = None
-
-
-def setUpModule():
-    global ext, bsarap
-    ext, bsarap = install()
 
 
 class SmoothRotations(unittest.TestCase):
