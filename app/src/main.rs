@@ -36,7 +36,12 @@ fn main() -> ExitCode {
     match cli::run(args, &matches) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {}", one_line(&e));
+            // A solve that went non-finite stopped the command before it wrote anything.
+            let non_finite = e.chain().any(|c| {
+                matches!(c.downcast_ref(), Some(solver::SolveError::NonFiniteResult { .. }))
+            });
+            let written = if non_finite { "; nothing was written" } else { "" };
+            eprintln!("error: {}{written}", one_line(&e));
             ExitCode::FAILURE
         }
     }

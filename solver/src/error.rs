@@ -44,9 +44,7 @@ pub enum SolveError {
     HandleCount { got: usize, expected: usize },
     #[error("{0}")]
     Handles(#[from] HandlesError),
-    #[error(
-        "the solve produced non-finite positions (at vertex {vertex}); the previous pose is kept"
-    )]
+    #[error("the solve produced non-finite positions (at vertex {vertex})")]
     NonFiniteResult { vertex: usize },
 }
 

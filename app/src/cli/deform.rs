@@ -5,6 +5,7 @@
 //! (default: the time it was saved at) with its handles and settings, solved from rest and
 //! settled as the editor shows it once the handles stop ([`solver::Deformer::solve_to_rest`]).
 
+use super::outputs::{self, Input};
 use super::{
     BaseArgs, EnergyArg, MethodArg, PathArg, bending_length, check_config, energy_summary, load,
     load_handles,
@@ -42,10 +43,10 @@ pub struct DeformArgs {
     #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
     pub time: Option<f64>,
     /// Translate group G by (dx,dy,dz); repeat once per group.
-    #[arg(long = "move", value_name = "G:DX,DY,DZ")]
+    #[arg(long = "move", value_name = "G:DX,DY,DZ", allow_hyphen_values = true)]
     pub moves: Vec<String>,
     /// Rotate group G about its centroid by DEG degrees about axis (ax,ay,az); repeatable.
-    #[arg(long = "rotate", value_name = "G:AX,AY,AZ,DEG")]
+    #[arg(long = "rotate", value_name = "G:AX,AY,AZ,DEG", allow_hyphen_values = true)]
     pub rotates: Vec<String>,
     #[arg(long, value_enum, default_value = "bsarap-coarse")]
     pub method: MethodArg,
@@ -53,15 +54,16 @@ pub struct DeformArgs {
     pub energy: EnergyArg,
     /// Bending length of `--energy smooth-rotations`, as a fraction of the bounding-box
     /// diagonal (default 0.02); printed in world units too.
-    #[arg(long, value_name = "F")]
+    #[arg(long, value_name = "F", allow_negative_numbers = true)]
     pub bending_length: Option<f64>,
     /// Stop when the relative energy decrease falls below this; 0 runs exactly --max-iters.
     #[arg(long, default_value_t = solver::deform::arap::DEFAULT_TOLERANCE, allow_negative_numbers = true)]
     pub tol: f64,
-    #[arg(long, default_value_t = solver::deform::arap::DEFAULT_MAX_ITERATIONS)]
+    #[arg(long, default_value_t = solver::deform::arap::DEFAULT_MAX_ITERATIONS,
+          value_parser = super::count::<usize>, allow_negative_numbers = true)]
     pub max_iters: usize,
     /// Anderson acceleration of the local-global iterations with this window (0: off).
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, value_parser = super::count::<usize>, allow_negative_numbers = true)]
     pub anderson: usize,
     #[command(flatten)]
     pub base: BaseArgs,
@@ -71,8 +73,8 @@ pub struct DeformArgs {
     pub output: PathArg,
     /// Pin component N (a loose part without handles) at rest instead of letting it follow
     /// the surface it sits on; repeatable. Components are numbered by their smallest vertex.
-    #[arg(long = "pin-component", value_name = "N")]
-    pub pin_components: Vec<usize>,
+    #[arg(long = "pin-component", value_name = "N", allow_negative_numbers = true)]
+    pub pin_components: Vec<i64>,
     /// Print one JSON object.
     #[arg(long)]
     pub json: bool,
@@ -83,8 +85,10 @@ fn parse_group_values(s: &str, n: usize, flag: &str) -> anyhow::Result<(usize, V
     let (g, rest) = s
         .split_once(':')
         .with_context(|| format!("{flag} {s}: expected G:{}", ["x"; 4][..n].join(",")))?;
-    let g: usize =
+    let g: i64 =
         g.trim().parse().with_context(|| format!("{flag} {s}: group '{g}' is not a number"))?;
+    let g = usize::try_from(g)
+        .map_err(|_| anyhow::anyhow!("{flag} {s}: group {g}: groups are numbered from 0"))?;
     let v: Vec<f64> = rest
         .split(',')
         .map(|x| x.trim().parse::<f64>())
@@ -229,6 +233,11 @@ struct Posed {
 pub fn run(a: &DeformArgs, given: &ArgMatches) -> anyhow::Result<()> {
     check_output(&a.output)?;
     let is_scene = a.mesh.extension().is_some_and(|e| e.eq_ignore_ascii_case("json"));
+    let mut inputs = vec![Input::new(if is_scene { "scene" } else { "input mesh" }, &a.mesh)];
+    if let Some(h) = &a.handles {
+        inputs.push(Input::new("handle selection", h));
+    }
+    outputs::check(std::slice::from_ref(&a.output), &inputs)?;
     let posed = if is_scene { pose_scene(a, given)? } else { pose_mesh(a)? };
     write_pose(&a.output, &posed.loaded, posed.deformer.positions(), &posed.solved)
         .with_context(|| format!("writing {}", a.output.display()))?;
@@ -246,6 +255,7 @@ fn pose_mesh(a: &DeformArgs) -> anyhow::Result<Posed> {
         bail!("{}: a mesh needs --handles (or give a scene, .json)", a.mesh.display())
     };
     let bending_length = bending_length(a.energy, a.bending_length)?;
+    super::check_coarse_energy(a.energy, a.base.coarse_energy)?;
     let config = ArapConfig {
         energy: a.energy.into(),
         bending_length,
@@ -271,9 +281,10 @@ fn pose_mesh(a: &DeformArgs) -> anyhow::Result<Posed> {
     let mut parts = LooseParts::default();
     let count = mesh.components().count();
     for &c in &a.pin_components {
-        if c >= count {
-            bail!("--pin-component {c}: the mesh has components 0..{count}");
-        }
+        let Some(c) = usize::try_from(c).ok().filter(|&c| c < count) else {
+            let ids: Vec<String> = (0..count).map(|k| k.to_string()).collect();
+            bail!("--pin-component {c}: the mesh has components {}", ids.join(", "));
+        };
         parts.set(c, ComponentMode::Pin);
     }
     let t0 = Instant::now();
@@ -327,7 +338,10 @@ fn pose_scene(a: &DeformArgs, given: &ArgMatches) -> anyhow::Result<Posed> {
             a.mesh.display()
         );
     }
-    let loaded = Scene::load_with(&a.mesh, super::reference_policy())?;
+    let loaded = Scene::load_with(&a.mesh, super::reference_policy())
+        .map_err(|e| super::scene_error(e.into(), &a.mesh, "deform"))?;
+    // The scene's mesh and selection are inputs too: not to be overwritten by its pose.
+    outputs::check(std::slice::from_ref(&a.output), &Input::scene(&a.mesh, &loaded))?;
     if !a.json {
         for n in loaded.mesh.notices() {
             eprintln!("note: {n}");

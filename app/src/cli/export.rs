@@ -11,6 +11,7 @@ use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use super::outputs::{self, Input};
 use super::{MethodArg, PathArg};
 use anyhow::Context;
 use clap::Args;
@@ -36,10 +37,10 @@ pub struct ExportArgs {
     #[arg(long, requires = "mesh")]
     pub handles: Option<PathArg>,
     /// The handle group that moves on the circle (with --mesh).
-    #[arg(long, value_name = "G")]
+    #[arg(long, value_name = "G", value_parser = super::count::<usize>, allow_negative_numbers = true)]
     pub circle: Option<usize>,
     /// Circle radius as a fraction of the bounding-box diagonal (with --mesh; default 0.1).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub radius: Option<f64>,
     /// Method (with --mesh; default: the editor's, bsarap-coarse).
     #[arg(long, value_enum)]
@@ -52,7 +53,7 @@ pub struct ExportArgs {
     pub output: PathArg,
     /// Number of frames, both ends included (default: the scene's duration·fps + 1; with
     /// --mesh, 24).
-    #[arg(long)]
+    #[arg(long, value_parser = super::count::<usize>, allow_negative_numbers = true)]
     pub frames: Option<usize>,
     /// glTF: full-precision f32 morph targets instead of 16-bit quantized ones
     /// (KHR_mesh_quantization, error at most 1/65534 of the largest move per frame).
@@ -69,18 +70,21 @@ pub struct ExportArgs {
     #[arg(long)]
     pub meshopt: bool,
     /// glTF: keep every K-th frame (and the last), played back by linear blending.
-    #[arg(long, value_name = "K", default_value_t = 1)]
+    #[arg(long, value_name = "K", default_value_t = 1, value_parser = super::count::<usize>, allow_negative_numbers = true)]
     pub every: usize,
     /// glTF: bake the recording to N rigid bones (4 influences per vertex; N defaults to 64,
     /// `SkinningConfig`'s default) and write a skinned mesh with one joint animation instead of
     /// morph targets: far smaller, within the fit's error (printed).
-    #[arg(long, value_name = "N", num_args = 0..=1,
+    #[arg(long, value_name = "N", num_args = 0..=1, value_parser = super::count::<usize>, allow_negative_numbers = true,
           conflicts_with_all = ["float", "no_normals", "every", "meshopt"])]
     pub bones: Option<Option<usize>>,
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
 }
+
+/// The frames an export may have: as many as a capture (the editor's recording too).
+const MAX_FRAMES: usize = solver::animation::scene::CaptureSettings::MAX_FRAMES;
 
 /// The morph targets every WebGL 2 viewer can hold: three.js keeps one layer of a 2D array
 /// texture per target, and WebGL 2 guarantees at least 256 layers (`MAX_ARRAY_TEXTURE_LAYERS`).
@@ -107,24 +111,17 @@ fn circle_scene(a: &ExportArgs, mesh: &Path, handles: &Path) -> anyhow::Result<L
         Scene::new(abs(mesh)?, HandlesSpec { file: Some(abs(handles)?), ..HandlesSpec::default() });
     scene.method = a.method.map_or(solver::Method::BsArapCoarse, Into::into);
     // Both ends included: `frames` samples over one second; the circle turns once in it.
-    scene.timeline = Timeline {
-        duration: 1.0,
-        fps: (frames - 1) as f64,
-        looping: true,
-        paths: vec![GroupPath {
-            group: a.circle.unwrap_or(0),
-            path: AnimPath::Circular(CircularPath::new([0.0, 0.0, 1.0], radius, 1.0)),
-        }],
-    };
+    scene.timeline =
+        Timeline { duration: 1.0, fps: (frames - 1) as f64, looping: true, paths: Vec::new() };
     let name = PathBuf::from("(command line)");
     let mut loaded = scene.resolve_with(&name, super::reference_policy())?;
+    // The group is checked here, named by its flag, before its path is added.
+    let group = a.circle.unwrap_or(0);
+    loaded.handles.group(group).with_context(|| format!("--circle {group}"))?;
     // The radius is relative to the cleaned mesh's diagonal.
-    let diag = loaded.mesh.mesh.bbox_diagonal();
-    if let Some(GroupPath { path: AnimPath::Circular(c), .. }) =
-        loaded.scene.timeline.paths.first_mut()
-    {
-        c.radius = radius * diag;
-    }
+    let radius = radius * loaded.mesh.mesh.bbox_diagonal();
+    let path = AnimPath::Circular(CircularPath::new([0.0, 0.0, 1.0], radius, 1.0));
+    loaded.scene.timeline.paths.push(GroupPath { group, path });
     Ok(loaded)
 }
 
@@ -165,6 +162,44 @@ impl Output {
     }
 }
 
+/// The folder and stem of an OBJ sequence `-o DIR/STEM.obj` (the folder empty for the
+/// current one).
+fn sequence_name(path: &Path) -> (&Path, String) {
+    let dir = path.parent().unwrap_or(Path::new(""));
+    let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned());
+    (dir, stem.unwrap_or_else(|| "frame".into()))
+}
+
+/// The files `-o path` writes for `n_frames` frames: the file itself, or an OBJ sequence's
+/// frames `STEM_0001.obj`, ... (as [`write_obj_sequence`] numbers them: at least 4 digits) and
+/// its `STEM.mtl` when the asset has materials.
+fn output_files(path: &Path, output: &Output, n_frames: usize, materials: bool) -> Vec<PathBuf> {
+    let Output::ObjSequence = output else { return vec![path.to_path_buf()] };
+    let (dir, stem) = sequence_name(path);
+    let digits = n_frames.to_string().len().max(4);
+    let mut files: Vec<PathBuf> =
+        (1..=n_frames).map(|i| dir.join(format!("{stem}_{i:0digits$}.obj"))).collect();
+    if materials {
+        files.push(dir.join(format!("{stem}.mtl")));
+    }
+    files
+}
+
+/// What an export wrote, for its last line: the file, or a sequence's first and last frame,
+/// their count and its MTL.
+fn describe(files: &[PathBuf]) -> String {
+    let (frames, mtl): (Vec<&PathBuf>, Vec<&PathBuf>) =
+        files.iter().partition(|f| f.extension().is_none_or(|e| e != "mtl"));
+    let mtl = mtl.first().map(|m| format!(" and {}", m.display())).unwrap_or_default();
+    match frames.as_slice() {
+        [] => String::new(),
+        [one] => format!("{}{mtl}", one.display()),
+        [first, .., last] => {
+            format!("{} files {} to {}{mtl}", frames.len(), first.display(), last.display())
+        }
+    }
+}
+
 pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
     let output = Output::of(&a.output)?;
     anyhow::ensure!(
@@ -177,12 +212,20 @@ pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
         "--bones writes a glTF skin; {} is not .glb or .gltf",
         a.output.display()
     );
-    let (loaded, source) = match (&a.scene, &a.mesh, &a.handles) {
+    let (loaded, source, inputs) = match (&a.scene, &a.mesh, &a.handles) {
         (Some(path), _, _) => {
-            (Scene::load_with(path, super::reference_policy())?, path.display().to_string())
+            let hint = format!(
+                "; `bsarap export --mesh {} --handles SEL -o OUT` exports a mesh",
+                path.display()
+            );
+            let loaded = super::load_scene(path, "export", &hint)?;
+            let inputs = Input::scene(path, &loaded);
+            (loaded, path.display().to_string(), inputs)
         }
         (None, Some(mesh), Some(handles)) => {
-            (circle_scene(a, mesh, handles)?, mesh.display().to_string())
+            let inputs =
+                vec![Input::new("input mesh", mesh), Input::new("handle selection", handles)];
+            (circle_scene(a, mesh, handles)?, mesh.display().to_string(), inputs)
         }
         _ => anyhow::bail!("give a scene file, or --mesh and --handles"),
     };
@@ -193,16 +236,27 @@ pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
     }
     let scene = &loaded.scene;
     let mesh = &loaded.mesh.mesh;
-    let n_frames = a.frames.unwrap_or_else(|| scene.timeline.default_frame_count());
+    let n_frames = match a.frames {
+        Some(n) => Ok(n),
+        None => super::timeline_frames(&scene.timeline, MAX_FRAMES).map_err(|count| {
+            anyhow::anyhow!(
+                "{source} (duration × fps + 1): {count}; the limit is 1 to {MAX_FRAMES}"
+            )
+        }),
+    }?;
     anyhow::ensure!(
-        (1..=100_000).contains(&n_frames),
-        "{}: {n_frames} frames; the limit is 1 to 100000",
+        (1..=MAX_FRAMES).contains(&n_frames),
+        "{}: {n_frames} frames; the limit is 1 to {MAX_FRAMES}",
         if a.frames.is_some() {
             "--frames".to_string()
         } else {
             format!("{source} (duration × fps + 1)")
         }
     );
+    // Every file to be written, checked before the solve: none is an input, a folder or in a
+    // missing folder, so that an error cannot leave part of a sequence behind.
+    let files = output_files(&a.output, &output, n_frames, !loaded.mesh.asset.materials.is_empty());
+    outputs::check(&files, &inputs)?;
 
     let t0 = Instant::now();
     let options = scene.deformer_options();
@@ -309,16 +363,9 @@ pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
             std::fs::metadata(&a.output).map(|m| m.len()).unwrap_or(0)
         }
         Output::ObjSequence => {
-            let dir = a.output.parent().filter(|d| !d.as_os_str().is_empty());
-            let dir = dir.unwrap_or(Path::new("."));
-            let stem = a.output.file_stem().map(|s| s.to_string_lossy().into_owned());
-            let files = write_obj_sequence(
-                dir,
-                stem.as_deref().unwrap_or("frame"),
-                asset,
-                vertex_map,
-                &recording,
-            )?;
+            let (dir, stem) = sequence_name(&a.output);
+            let written = write_obj_sequence(dir, &stem, asset, vertex_map, &recording)?;
+            debug_assert!(written.iter().all(|f| files.contains(f)), "{written:?} not checked");
             files.iter().filter_map(|f| std::fs::metadata(f).ok()).map(|m| m.len()).sum()
         }
     };
@@ -330,6 +377,7 @@ pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
             "scene": source.to_string(),
             "mesh": loaded.mesh_path.display().to_string(),
             "output": a.output.display().to_string(),
+            "files": files.iter().map(|f| f.display().to_string()).collect::<Vec<_>>(),
             "method": scene.method.name(),
             "vertices": mesh.n_vertices(),
             "faces": mesh.n_faces(),
@@ -356,7 +404,7 @@ pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
             } else {
                 String::new()
             },
-            a.output.display(),
+            describe(&files),
             written
         );
     }

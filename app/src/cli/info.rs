@@ -64,7 +64,8 @@ fn print_scene(j: &serde_json::Value) {
 pub fn run(a: &InfoArgs) -> anyhow::Result<()> {
     let is_scene = a.mesh.extension().is_some_and(|e| e.eq_ignore_ascii_case("json"));
     let (loaded, mesh_path, scene) = if is_scene {
-        let s = Scene::load_with(&a.mesh, reference_policy())?;
+        let s = Scene::load_with(&a.mesh, reference_policy())
+            .map_err(|e| super::scene_error(e.into(), &a.mesh, "info"))?;
         let j = scene_json(&s, s.mesh.mesh.bbox_diagonal());
         (s.mesh, s.mesh_path, Some(j))
     } else {

@@ -5,11 +5,13 @@ mod deform;
 mod export;
 mod export_bones;
 mod info;
+mod outputs;
 mod render;
 mod subdivide;
 
 use clap::{Parser, Subcommand, ValueEnum};
-use std::path::PathBuf;
+use solver::animation::scene::{LoadedScene, SceneError};
+use std::path::{Path, PathBuf};
 
 /// BS-ARAP mesh deformation: editor and headless tools.
 #[derive(Debug, Parser)]
@@ -215,18 +217,27 @@ pub fn check_config(config: &solver::ArapConfig) -> anyhow::Result<()> {
 
 pub type PathArg = PathBuf;
 
+/// The value parser of the flags that count (frames, iterations, vertices, pixels): a whole
+/// number ≥ 0. With `allow_negative_numbers` on the flag, `-1` reaches it (instead of being
+/// taken for a flag) and is refused by this message, not by the integer parser's "invalid
+/// digit found in string".
+pub fn count<T: std::str::FromStr>(s: &str) -> Result<T, String> {
+    s.trim().parse().map_err(|_| "expected a whole number ≥ 0".to_string())
+}
+
 /// Base-surface options shared by deform and bench.
 #[derive(Debug, Clone, clap::Args)]
 pub struct BaseArgs {
     /// Smoothing length of the faired base (bsarap-faired, bsarap-coarse), as a fraction of the
     /// bounding-box diagonal.
-    #[arg(long, default_value_t = solver::BaseConfig::default().smoothing)]
+    #[arg(long, default_value_t = solver::BaseConfig::default().smoothing, allow_negative_numbers = true)]
     pub smoothing: f64,
     /// Vertices of the coarse base (bsarap-coarse). Default: min(3000, 30 % of the mesh).
-    #[arg(long)]
+    #[arg(long, value_parser = count::<usize>, allow_negative_numbers = true)]
     pub coarse_vertices: Option<usize>,
     /// ARAP iterations on the full mesh after each coarse solve (bsarap-coarse; 0: none).
-    #[arg(long, default_value_t = solver::BaseConfig::default().fine_iterations)]
+    #[arg(long, default_value_t = solver::BaseConfig::default().fine_iterations,
+          value_parser = count::<usize>, allow_negative_numbers = true)]
     pub fine_iterations: usize,
     /// Fair the coarse base on the whole mesh even where a decimated level would do
     /// (bsarap-coarse on dense meshes): the comparison for the level fairing.
@@ -234,7 +245,7 @@ pub struct BaseArgs {
     pub direct_fairing: bool,
     /// The coarse level's membrane share (bsarap-coarse): the part of its energy in cells of
     /// single triangles, which resist no bending, in [0, 1].
-    #[arg(long, default_value_t = solver::BaseConfig::default().membrane)]
+    #[arg(long, default_value_t = solver::BaseConfig::default().membrane, allow_negative_numbers = true)]
     pub membrane: f64,
     /// The energy the coarse level minimizes (bsarap-coarse).
     #[arg(long, value_enum, default_value_t = CoarseEnergyArg::default())]
@@ -262,4 +273,66 @@ impl BaseArgs {
         })?;
         Ok(config)
     }
+}
+
+/// Refuses `--coarse-energy galerkin` without `--energy smooth-rotations` before anything is
+/// loaded, for deform and bench alike (the coarse solver refuses it only once built, and the
+/// other methods ignore it).
+pub fn check_coarse_energy(energy: EnergyArg, coarse: CoarseEnergyArg) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        coarse != CoarseEnergyArg::Galerkin || energy == EnergyArg::SmoothRotations,
+        "--coarse-energy galerkin restricts the smooth-rotations energy: add --energy \
+         smooth-rotations, or use --coarse-energy decimated"
+    );
+    Ok(())
+}
+
+/// Refuses a mesh given where `command` (export, render) takes a scene: by its extension, before
+/// the JSON parser calls it malformed. `hint` says what the subcommand does with a mesh.
+pub fn refuse_mesh_as_scene(path: &Path, command: &str, hint: &str) -> anyhow::Result<()> {
+    let ext = path.extension().map(|e| e.to_string_lossy().into_owned());
+    if ext.as_deref().and_then(solver::io::Format::from_extension).is_some() {
+        anyhow::bail!("{}: a mesh; {command} takes a scene (.json){hint}", path.display());
+    }
+    Ok(())
+}
+
+/// A scene's load error as the command line says it: a file that is no JSON at all and not
+/// named .json says that `command` takes a scene.
+pub fn scene_error(e: anyhow::Error, path: &Path, command: &str) -> anyhow::Error {
+    match e.downcast::<SceneError>() {
+        Ok(parse @ SceneError::Parse { .. })
+            if !path.extension().is_some_and(|e| e.eq_ignore_ascii_case("json")) =>
+        {
+            anyhow::anyhow!("{parse}: {command} takes a scene (.json)")
+        }
+        Ok(other) => other.into(),
+        Err(e) => e,
+    }
+}
+
+/// Reads a scene for `command` ([`refuse_mesh_as_scene`], [`scene_error`]), its mesh's
+/// references under [`reference_policy`].
+pub fn load_scene(path: &Path, command: &str, hint: &str) -> anyhow::Result<LoadedScene> {
+    refuse_mesh_as_scene(path, command, hint)?;
+    solver::animation::scene::Scene::load_with(path, reference_policy())
+        .map_err(|e| scene_error(e.into(), path, command))
+}
+
+/// The timeline's own frame count, duration × fps + 1 (both ends), when it is within
+/// `1..=limit`; else the count as a sentence ("more than 100000 frames (1.5e301)"), which
+/// [`solver::animation::timeline::Timeline::default_frame_count`] cannot give beyond `usize`.
+pub fn timeline_frames(
+    timeline: &solver::animation::timeline::Timeline,
+    limit: usize,
+) -> Result<usize, String> {
+    let n = (timeline.duration * timeline.fps).round() + 1.0;
+    if n.is_finite() && n <= limit as f64 {
+        return Ok(timeline.default_frame_count());
+    }
+    Err(if n.is_finite() && n < 1e15 {
+        format!("{n} frames")
+    } else {
+        format!("more than {limit} frames ({n:e})")
+    })
 }

@@ -11,6 +11,7 @@ use std::ops::ControlFlow;
 use std::time::Instant;
 
 use super::PathArg;
+use super::outputs::{self, Input};
 use anyhow::Context;
 use app::editor::camera::OrbitCamera;
 use app::editor::capture::{self, Offscreen, Picture};
@@ -33,13 +34,13 @@ pub struct RenderArgs {
     pub output: PathArg,
     /// Number of frames (default: the scene's capture.frames, else its duration·fps + 1 when
     /// the timeline moves; a still scene: 1, its turntable 36).
-    #[arg(long)]
+    #[arg(long, value_parser = super::count::<usize>, allow_negative_numbers = true)]
     pub frames: Option<usize>,
     /// Image width in pixels (default: the scene's capture.width, else 1280).
-    #[arg(long)]
+    #[arg(long, value_parser = super::count::<u32>, allow_negative_numbers = true)]
     pub width: Option<u32>,
     /// Image height in pixels (default: the scene's capture.height, else 720).
-    #[arg(long)]
+    #[arg(long, value_parser = super::count::<u32>, allow_negative_numbers = true)]
     pub height: Option<u32>,
     /// Orbit the camera once around the mesh over the frames (posed along the timeline when
     /// it moves, else at rest).
@@ -77,7 +78,9 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
     flags.validate().map_err(|e| anyhow::anyhow!("--{e}"))?;
 
     let t0 = Instant::now();
-    let file = load_scene_file(&a.scene, 1)?;
+    super::refuse_mesh_as_scene(&a.scene, "render", ", as the editor saves it")?;
+    let file =
+        load_scene_file(&a.scene, 1).map_err(|e| super::scene_error(e, &a.scene, "render"))?;
     for n in &file.notices {
         eprintln!("note: {n}");
     }
@@ -94,16 +97,26 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
     let mesh = &file.mesh;
     let handles = doc.resolve_handles(&a.scene, mesh.positions(), Some(&file.layout.vertex_map))?;
     let moving = !doc.timeline.paths.is_empty() && handles.n_groups() > 0;
-    let n_frames = settings.frames.unwrap_or(match (moving, settings.turntable) {
-        (true, _) => doc.timeline.default_frame_count(),
-        (false, true) => STILL_TURNTABLE_FRAMES,
-        (false, false) => 1,
-    });
+    let max_frames = CaptureSettings::MAX_FRAMES;
+    let n_frames = match (settings.frames, moving, settings.turntable) {
+        (Some(n), ..) => n,
+        (None, true, _) => super::timeline_frames(&doc.timeline, max_frames).map_err(|count| {
+            anyhow::anyhow!(
+                "{source} (duration × fps + 1): {count}; the limit is 1 to {max_frames}"
+            )
+        })?,
+        (None, false, true) => STILL_TURNTABLE_FRAMES,
+        (None, false, false) => 1,
+    };
     anyhow::ensure!(
-        (1..=CaptureSettings::MAX_FRAMES).contains(&n_frames),
-        "{source}: {n_frames} frames (duration × fps + 1); the limit is 1 to {}",
-        CaptureSettings::MAX_FRAMES
+        (1..=max_frames).contains(&n_frames),
+        "{source}: {n_frames} frames (duration × fps + 1); the limit is 1 to {max_frames}"
     );
+    // Every frame's file, before any is rendered: none a folder or an input.
+    if a.output.is_dir() {
+        let frames: Vec<_> = (0..n_frames).map(|i| capture::frame_path(&a.output, i)).collect();
+        outputs::check(&frames, &Input::scene_files(&a.scene, &file.path, &doc))?;
+    }
     capture::ensure_dir(&a.output)?;
     // The device before the solve: no adapter fails at once.
     let mut offscreen = Offscreen::headless()?;
@@ -223,7 +236,12 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
             offscreen.adapter,
             render_s,
             solve_s,
-            capture::frame_path(&a.output, 0).display()
+            match written.as_slice() {
+                [] => "nothing".to_string(),
+                [one] => one.display().to_string(),
+                [first, .., last] =>
+                    format!("{} files {} to {}", written.len(), first.display(), last.display()),
+            }
         );
     }
     Ok(())

@@ -5,6 +5,7 @@
 //! faces by 4 and the vertices by about 4: the paper's armadillo (43,243 vertices) gives
 //! 172,966 at one level and 691,858 at two.
 
+use super::outputs::{self, Input};
 use super::{PathArg, load};
 use anyhow::bail;
 use clap::Args;
@@ -17,24 +18,31 @@ pub struct SubdivideArgs {
     #[arg(short = 'o', long = "output")]
     pub output: PathArg,
     /// Subdivision levels (1 to 4).
-    #[arg(long, default_value_t = 1)]
-    pub levels: u32,
+    #[arg(long, default_value_t = 1, allow_negative_numbers = true)]
+    pub levels: i64,
 }
 
 pub fn run(a: &SubdivideArgs) -> anyhow::Result<()> {
-    if !(1..=4).contains(&a.levels) {
-        bail!("--levels must be between 1 and 4 (got {})", a.levels);
-    }
+    let levels = match u32::try_from(a.levels) {
+        Ok(l @ 1..=4) => l,
+        _ => bail!("--levels must be between 1 and 4 (got {})", a.levels),
+    };
     let ext = a.output.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
     if !matches!(ext.as_deref(), Some("obj" | "ply" | "off")) {
         bail!("{}: unsupported output extension; use .obj, .ply or .off", a.output.display());
     }
-    let mut mesh = load(&a.mesh)?.mesh;
-    let faces = mesh.n_faces() as u64 * 4u64.pow(a.levels);
-    if faces > u32::MAX as u64 / 3 {
-        bail!("{} levels would give {faces} faces, more than 32-bit indices address", a.levels);
+    outputs::check(std::slice::from_ref(&a.output), &[Input::new("input mesh", &a.mesh)])?;
+    let loaded = load(&a.mesh)?;
+    // What cleaning changed, as `info` and `deform` say it.
+    for n in loaded.notices() {
+        eprintln!("note: {n}");
     }
-    for _ in 0..a.levels {
+    let mut mesh = loaded.mesh;
+    let faces = mesh.n_faces() as u64 * 4u64.pow(levels);
+    if faces > u32::MAX as u64 / 3 {
+        bail!("{levels} levels would give {faces} faces, more than 32-bit indices address");
+    }
+    for _ in 0..levels {
         mesh = solver::geometry::shapes::subdivide(&mesh);
     }
     let (p, t) = (mesh.positions(), mesh.triangles());

@@ -8,6 +8,7 @@ mod support;
 mod bake_bones;
 mod capture;
 mod cli;
+mod cli_guards;
 mod editor;
 mod editor_assets;
 mod export_cli;

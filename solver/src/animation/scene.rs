@@ -172,9 +172,11 @@ pub enum SceneError {
     #[error("{file}: no \"version\" field: not a bsarap scene")]
     MissingVersion { file: String },
     #[error(
-        "{file}: scene version {found} is not supported (this build reads version {supported}; a newer bsarap wrote it?)"
+        "{file}: scene version {found} is not supported (this build reads versions \
+         {OLDEST_SCENE_VERSION} to {SCENE_VERSION}{})",
+        if *newer { "; a newer bsarap wrote it?" } else { "" }
     )]
-    UnsupportedVersion { file: String, found: String, supported: u32 },
+    UnsupportedVersion { file: String, found: String, newer: bool },
     #[error("{file}: {message}")]
     Invalid { file: String, message: String },
     #[error("{file}: timeline: {source}")]
@@ -350,7 +352,7 @@ impl Scene {
             return Err(SceneError::UnsupportedVersion {
                 file: file.to_string(),
                 found: version.to_string(),
-                supported: SCENE_VERSION,
+                newer: version.as_f64().is_some_and(|v| v > f64::from(SCENE_VERSION)),
             });
         }
         let mut scene: Scene = serde_json::from_str(text).map_err(|e| parse_error(file, &e))?;
@@ -540,9 +542,9 @@ impl Scene {
             return Err(SceneError::Invalid {
                 file,
                 message: format!(
-                    "the timeline animates handle group {} but the selection has groups 0..{}",
+                    "the timeline animates handle group {} but the selection has groups {}",
                     p.group,
-                    handles.n_groups()
+                    handles.group_list()
                 ),
             });
         }

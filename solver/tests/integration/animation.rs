@@ -364,9 +364,15 @@ fn unknown_or_missing_version_is_its_own_error() {
     let text = "{\"version\": 7, \"mesh\": \"m.obj\", \"future\": true}";
     let err = Scene::from_json(text, "new.json").unwrap_err();
     assert!(
-        matches!(&err, SceneError::UnsupportedVersion { found, supported, .. } if found == "7" && *supported == SCENE_VERSION)
+        matches!(&err, SceneError::UnsupportedVersion { found, newer: true, .. } if found == "7")
     );
-    assert!(err.to_string().starts_with("new.json: scene version 7"));
+    let message = err.to_string();
+    assert!(message.starts_with("new.json: scene version 7"), "{message}");
+    assert!(message.contains(&format!("versions 1 to {SCENE_VERSION}; a newer")), "{message}");
+    // An older version than any build wrote is not from a newer bsarap.
+    let err = Scene::from_json("{\"version\": 0, \"mesh\": \"m.obj\"}", "old.json").unwrap_err();
+    assert!(matches!(&err, SceneError::UnsupportedVersion { newer: false, .. }), "{err}");
+    assert!(!err.to_string().contains("newer"), "{err}");
     let err = Scene::from_json("{\"mesh\": \"m.obj\"}", "old.json").unwrap_err();
     assert!(matches!(err, SceneError::MissingVersion { .. }));
     // A sphere selection given as a scene says what it is.

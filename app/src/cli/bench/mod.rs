@@ -97,15 +97,16 @@ pub struct BenchArgs {
     pub mesh: PathArg,
     #[arg(long)]
     pub handles: PathArg,
-    #[arg(long, default_value_t = 20)]
+    #[arg(long, default_value_t = 20, value_parser = super::count::<usize>, allow_negative_numbers = true)]
     pub frames: usize,
     /// Relative-decrease tolerance (`--stop relative`).
-    #[arg(long, default_value_t = solver::deform::arap::DEFAULT_TOLERANCE)]
+    #[arg(long, default_value_t = solver::deform::arap::DEFAULT_TOLERANCE, allow_negative_numbers = true)]
     pub tol: f64,
     /// Normalized-energy threshold in (0, 1) (`--stop threshold`).
-    #[arg(long, default_value_t = 0.01)]
+    #[arg(long, default_value_t = 0.01, allow_negative_numbers = true)]
     pub threshold: f64,
-    #[arg(long, default_value_t = solver::deform::arap::DEFAULT_MAX_ITERATIONS)]
+    #[arg(long, default_value_t = solver::deform::arap::DEFAULT_MAX_ITERATIONS,
+          value_parser = super::count::<usize>, allow_negative_numbers = true)]
     pub max_iters: usize,
     #[arg(long, value_enum, default_value = "relative")]
     pub stop: StopRule,
@@ -115,22 +116,22 @@ pub struct BenchArgs {
     #[arg(long, default_value = "both")]
     pub method: String,
     /// Also run every method with Anderson acceleration of this window (0: off).
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, value_parser = super::count::<usize>, allow_negative_numbers = true)]
     pub anderson: usize,
     #[arg(long, value_enum, default_value = "spokes-and-rims")]
     pub energy: EnergyArg,
     /// Bending length of `--energy smooth-rotations`, as a fraction of the bounding-box
     /// diagonal (default 0.02); the `--quality` reference uses the same energy and length.
-    #[arg(long, value_name = "F")]
+    #[arg(long, value_name = "F", allow_negative_numbers = true)]
     pub bending_length: Option<f64>,
     /// Circle radius as a fraction of the bounding-box diagonal.
-    #[arg(long, default_value_t = 0.1)]
+    #[arg(long, default_value_t = 0.1, allow_negative_numbers = true)]
     pub radius: f64,
     /// Measure each method's pose against converged full ARAP (see the module doc).
     #[arg(long)]
     pub quality: bool,
     /// The frame `--quality` measures, 1..=frames (default: the middle one, ⌈frames/2⌉).
-    #[arg(long)]
+    #[arg(long, value_parser = super::count::<usize>, allow_negative_numbers = true)]
     pub quality_frame: Option<usize>,
     /// Where the converged reference of `--quality` starts: `rest`, `path` (along the
     /// animation's frames up to the measured one) or `own` (each method's own pose).
@@ -138,7 +139,7 @@ pub struct BenchArgs {
     #[arg(long, value_enum)]
     pub quality_reference: Option<ReferenceStart>,
     /// Runs of the animation per method, taking turns; the median run is reported.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, value_parser = super::count::<usize>, allow_negative_numbers = true)]
     pub repeat: usize,
     #[command(flatten)]
     pub base: BaseArgs,
@@ -221,6 +222,7 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
         StopRule::Fixed => (0.0, 0.0),
     };
     let bending_length = super::bending_length(a.energy, a.bending_length)?;
+    super::check_coarse_energy(a.energy, a.base.coarse_energy)?;
     let reference_energy = ReferenceEnergy { energy: a.energy.into(), bending_length };
     let config = ArapConfig {
         energy: a.energy.into(),
@@ -330,9 +332,16 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
         measured: &measured,
     };
     if a.json {
-        report.print_json()
+        report.print_json()?;
     } else {
         report.print_text();
-        Ok(())
     }
+    // The others ran and are reported; the run as a whole failed.
+    let failed: Vec<&str> = measured.failures.iter().map(|(m, _)| m.as_str()).collect();
+    anyhow::ensure!(
+        failed.is_empty(),
+        "{} failed (the other methods are reported above)",
+        failed.join(", ")
+    );
+    Ok(())
 }

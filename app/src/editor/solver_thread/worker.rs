@@ -506,9 +506,10 @@ fn advance(a: &mut Active, beside: bool, shared: &Shared) {
     }
 }
 
-/// A solve or settle step failed: the status says why, and nothing more is done at these poses.
+/// A solve or settle step failed: the status says why, and nothing more is done at these poses
+/// (the last published pose stays shown).
 fn fail(a: &mut Active, e: String, shared: &Shared) {
-    set_status(&shared.status, SolverState::Failed(e));
+    set_status(&shared.status, SolverState::Failed(format!("{e}; the previous pose is kept")));
     a.dirty = false;
     a.settling = false;
     a.begun = None;
