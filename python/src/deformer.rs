@@ -14,6 +14,7 @@ use solver::linalg::rotation::Mat3;
 use solver::{
     ArapConfig, BaseConfig, CoarseEnergy, ComponentMode, Deformer, DeformerOptions, GroupTransform,
     Handles, LooseParts, MAX_COORDINATE, MAX_SETTLE_STEPS, Mesh, Method, handle_targets,
+    loose_part_error,
 };
 
 use crate::convert::{
@@ -163,23 +164,9 @@ impl NativeDeformer {
         let mesh = Mesh::new(positions, tris).map_err(err)?;
         let handles = Handles::from_labels(&ints(&labels), mesh.n_vertices()).map_err(err)?;
         let mut parts = LooseParts::default();
-        let components = mesh.components();
-        let count = components.count();
         for &c in &pinned_components {
-            if c >= count {
-                return Err(err(format!(
-                    "pinned component {c}: the mesh has components 0..{count}"
-                )));
-            }
-            if let Some(v) = handles
-                .handle_vertices()
-                .iter()
-                .find(|&&v| components.label[v as usize] as usize == c)
-            {
-                return Err(err(format!(
-                    "pinned component {c} has handles (vertex {v}): only parts without handles \
-                     are pinned or follow"
-                )));
+            if let Some(why) = loose_part_error(&mesh, &handles, c) {
+                return Err(err(format!("pinned component {c}: {why}")));
             }
             parts.set(c, ComponentMode::Pin);
         }

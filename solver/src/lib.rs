@@ -39,6 +39,8 @@ pub use deform::deformer::{
 };
 pub use deform::handles::{Handles, HandlesError};
 pub use deform::pose::{GroupRest, GroupTransform, handle_targets};
-pub use deform::riders::{ComponentInfo, ComponentMode, LooseParts, list_components};
+pub use deform::riders::{
+    ComponentInfo, ComponentMode, LooseParts, list_components, loose_part_error,
+};
 pub use error::SolveError;
 pub use geometry::mesh::{MAX_COORDINATE, Mesh, MeshError};

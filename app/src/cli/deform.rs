@@ -279,13 +279,12 @@ fn pose_mesh(a: &DeformArgs) -> anyhow::Result<Posed> {
     handle_targets(mesh.positions(), &handles, &transforms)
         .with_context(|| format!("{}", handles_path.display()))?;
     let mut parts = LooseParts::default();
-    let count = mesh.components().count();
     for &c in &a.pin_components {
-        let Some(c) = usize::try_from(c).ok().filter(|&c| c < count) else {
-            let ids: Vec<String> = (0..count).map(|k| k.to_string()).collect();
-            bail!("--pin-component {c}: the mesh has components {}", ids.join(", "));
-        };
-        parts.set(c, ComponentMode::Pin);
+        let component = usize::try_from(c).unwrap_or(usize::MAX);
+        if let Some(why) = solver::loose_part_error(mesh, &handles, component) {
+            bail!("--pin-component {c}: {why}");
+        }
+        parts.set(component, ComponentMode::Pin);
     }
     let t0 = Instant::now();
     let options = DeformerOptions {

@@ -189,6 +189,9 @@ fn ranges_of_groups_and_components_name_their_members() {
     let deform = ["deform", s(&mesh), "--handles", s(&sel), "--move", "0:0,0,0.1"];
     let pin = [&deform[..], &["--pin-component", "2", "-o", s(&out)]].concat();
     refused(&pin, &["components 0"], &["0..1", "0..2"]);
+    // A component with handles takes no mode: pinning it was ignored, silently.
+    let handled = [&deform[..], &["--pin-component", "0", "-o", s(&out)]].concat();
+    refused(&handled, &["component 0 has handles"], &[]);
     let glb = d.join("x.glb");
     let circle = ["export", "--mesh", s(&mesh), "--handles", s(&sel), "--circle", "5"];
     refused(&[&circle[..], &["-o", s(&glb)]].concat(), &["groups 0, 1"], &["0..2"]);

@@ -348,6 +348,23 @@ pub fn list_components(
     Riders::new(mesh, handles, parts).components
 }
 
+/// Why `component` of `mesh` takes no mode (pin or follow), for a user who named it: it does
+/// not exist, or it has handles, which move it; `None` for a loose part.
+pub fn loose_part_error(mesh: &Mesh, handles: &Handles, component: usize) -> Option<String> {
+    let components = mesh.components();
+    let count = components.count();
+    if component >= count {
+        let ids: Vec<String> = (0..count).map(|k| k.to_string()).collect();
+        return Some(format!("the mesh has components {}", ids.join(", ")));
+    }
+    let label = |v: u32| components.label[v as usize] as usize;
+    let v = handles.handle_vertices().iter().find(|&&v| label(v) == component)?;
+    Some(format!(
+        "component {component} has handles (vertex {v}): only parts without handles are pinned \
+         or follow"
+    ))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
