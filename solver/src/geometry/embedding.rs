@@ -81,7 +81,9 @@ pub fn embed_from(
 /// the kept vertices, each fine vertex walking from a neighbour's triangle: per fine vertex its
 /// representative (the coarse vertex the fewest edges away, the first in breadth-first order
 /// from the kept vertices in their order), its coarse triangle and its barycentric weights.
-/// `None` when a fine vertex has no kept vertex in its component.
+/// `None` when a fine vertex has no kept vertex in its component, unless it has no edge at
+/// all (a vertex in no triangle, of a mesh not cleaned): that one walks from the first kept
+/// vertex's triangle to its closest point there, its representative the corner weighted most.
 ///
 /// A kept vertex lies on the coarse mesh: a triangle around it, weight 1 at its corner. The
 /// next ring of a breadth-first search over `graph` from the kept vertices takes, per vertex,
@@ -134,6 +136,19 @@ pub fn embed_outward(
         }
         ring.clear();
         ring.extend(reached.iter().map(|&(w, _)| w));
+    }
+    let lone: Vec<u32> = (0..n as u32)
+        .filter(|&v| representative[v as usize] == u32::MAX && graph.neighbors(v).is_empty())
+        .collect();
+    if let Some(&first) = kept.first() {
+        let mut scratch = Scratch::default();
+        for v in lone {
+            let (f, w) =
+                search.walk_from(positions[v as usize], faces[first as usize], &mut scratch);
+            let corner = (0..3).max_by(|&a, &b| w[a].total_cmp(&w[b])).unwrap_or(0);
+            (faces[v as usize], weights[v as usize]) = (f, w);
+            representative[v as usize] = ct[f as usize][corner];
+        }
     }
     (!representative.contains(&u32::MAX)).then_some(OutwardEmbedding {
         representative,
