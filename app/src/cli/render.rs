@@ -79,8 +79,8 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
 
     let t0 = Instant::now();
     super::refuse_mesh_as_scene(&a.scene, "render", ", as the editor saves it")?;
-    let file =
-        load_scene_file(&a.scene, 1).map_err(|e| super::scene_error(e, &a.scene, "render"))?;
+    let file = load_scene_file(&a.scene, 1, super::reference_policy())
+        .map_err(|e| super::scene_error(e, &a.scene, "render"))?;
     for n in &file.notices {
         eprintln!("note: {n}");
     }

@@ -112,7 +112,7 @@ pub fn spawn_load(
 ) -> LoadJob {
     spawn_loader(path, repaint, move |p| {
         if is_scene_file(p) {
-            load_scene_file(p, version)
+            load_scene_file(p, version, solver::io::ReferencePolicy::default())
         } else {
             load_scene(p, version, start_prepare)
         }
@@ -258,10 +258,15 @@ fn prepare(
 }
 
 /// Reads a scene file, loads its mesh and resolves its handles (runs on the loader thread),
-/// as [`solver::animation::scene::Scene::load`] does for every interface: a file the scene
-/// names outside its folder is a notice in the status bar.
-pub fn load_scene_file(path: &Path, version: u64) -> anyhow::Result<LoadedFile> {
-    let loaded = solver::animation::scene::Scene::load(path)?;
+/// as [`solver::animation::scene::Scene::load_with`] does for every interface, the mesh's own
+/// references read under `policy`: a file the scene names outside its folder is a notice in
+/// the status bar.
+pub fn load_scene_file(
+    path: &Path,
+    version: u64,
+    policy: solver::io::ReferencePolicy,
+) -> anyhow::Result<LoadedFile> {
+    let loaded = solver::animation::scene::Scene::load_with(path, policy)?;
     let labels = loaded.handles.labels().to_vec();
     let mesh_path = loaded.mesh_path;
     let mut scene = prepare(&mesh_path, loaded.mesh, version, None)
@@ -403,13 +408,28 @@ mod tests {
         };
         let outside = dir.join("scenes/bar.json");
         solver::animation::scene::Scene::new("../bar.obj", spec(&labels)).save(&outside).unwrap();
-        let scene = load_scene_file(&outside, 1).unwrap();
+        let scene = load_scene_file(&outside, 1, Default::default()).unwrap();
         let notice = scene.notices.iter().find(|n| n.contains("outside the scene's folder"));
         assert!(notice.is_some_and(|n| n.contains("bar.obj")), "{:?}", scene.notices);
         assert_eq!(scene.default_labels.as_ref().map(|l| l[0]), Some(Some(0)));
         let beside = dir.join("bar.json");
         solver::animation::scene::Scene::new("bar.obj", spec(&labels)).save(&beside).unwrap();
-        let scene = load_scene_file(&beside, 2).unwrap();
+        let scene = load_scene_file(&beside, 2, Default::default()).unwrap();
         assert!(scene.notices.iter().all(|n| !n.contains("outside")), "{:?}", scene.notices);
+
+        // The mesh's own references follow the policy given (`bsarap render` passes
+        // `--allow-outside-references` so): an `mtllib` outside the OBJ's folder is read only
+        // when allowed.
+        std::fs::create_dir_all(dir.join("mesh")).unwrap();
+        let obj = std::fs::read_to_string(dir.join("bar.obj")).unwrap();
+        std::fs::write(dir.join("mesh/bar.obj"), format!("mtllib ../skin.mtl\n{obj}")).unwrap();
+        std::fs::write(dir.join("skin.mtl"), "newmtl skin\nKd 0.8 0.5 0.4\n").unwrap();
+        let scene_file = dir.join("mesh/bar.json");
+        solver::animation::scene::Scene::new("bar.obj", spec(&labels)).save(&scene_file).unwrap();
+        let refused = load_scene_file(&scene_file, 3, Default::default()).unwrap();
+        assert!(refused.notices.iter().any(|n| n.contains("skin.mtl")), "{:?}", refused.notices);
+        let allow = solver::io::ReferencePolicy { allow_outside: true };
+        let read = load_scene_file(&scene_file, 4, allow).unwrap();
+        assert!(read.notices.iter().all(|n| !n.contains("skin.mtl")), "{:?}", read.notices);
     }
 }
