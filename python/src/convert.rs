@@ -16,19 +16,23 @@ pub fn rows3(a: &PyReadonlyArray2<'_, f64>, what: &str) -> PyResult<Vec<[f64; 3]
     if shape[1] != 3 {
         return Err(err(format!("{what} must have shape (n, 3); got {shape:?}")));
     }
-    let view = a.as_array();
-    let mut out = Vec::with_capacity(shape[0]);
-    for (i, row) in view.rows().into_iter().enumerate() {
-        let p = [row[0], row[1], row[2]];
+    let out: Vec<[f64; 3]> = a.as_array().rows().into_iter().map(|r| [r[0], r[1], r[2]]).collect();
+    check_in_range(&out, what)?;
+    Ok(out)
+}
+
+/// Refuses rows with a coordinate non-finite or beyond ±[`MAX_COORDINATE`] (what the solver
+/// takes), naming the first.
+pub fn check_in_range(rows: &[[f64; 3]], what: &str) -> PyResult<()> {
+    for (i, p) in rows.iter().enumerate() {
         if let Some(c) = p.iter().find(|&&c| !in_range(c)) {
             return Err(err(format!(
                 "{what}: row {i} has a non-finite or out-of-range coordinate ({c:e}; the limit is \
                  ±{MAX_COORDINATE:e})"
             )));
         }
-        out.push(p);
     }
-    Ok(out)
+    Ok(())
 }
 
 /// `#F×3` vertex indices, each in `0..n_vertices`.

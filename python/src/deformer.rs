@@ -7,18 +7,16 @@ use numpy::{PyArray1, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use solver::deform::config::MAX_FINE_ITERATIONS;
-use solver::geometry::mesh::in_range;
 use solver::glam::DVec3;
 use solver::io::Asset;
 use solver::linalg::rotation::Mat3;
 use solver::{
     ArapConfig, BaseConfig, CoarseEnergy, ComponentMode, Deformer, DeformerOptions, GroupTransform,
-    Handles, LooseParts, MAX_COORDINATE, MAX_SETTLE_STEPS, Mesh, Method, handle_targets,
-    loose_part_error,
+    Handles, LooseParts, MAX_SETTLE_STEPS, Mesh, Method, handle_targets, loose_part_error,
 };
 
 use crate::convert::{
-    arap_config, array3, energy_name, ints, rows3, stats, triangles, with_stopping,
+    arap_config, array3, check_in_range, energy_name, ints, rows3, stats, triangles, with_stopping,
 };
 use crate::err;
 
@@ -192,9 +190,8 @@ impl NativeDeformer {
         transforms: Vec<(usize, [f64; 3], Mat3)>,
     ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyDict>)> {
         let list = transforms_of(transforms)?;
-        in_range_targets(
-            &handle_targets(self.mesh.positions(), &self.handles, &list).map_err(err)?,
-        )?;
+        let targets = handle_targets(self.mesh.positions(), &self.handles, &list).map_err(err)?;
+        check_in_range(&targets, "the motions' handle targets")?;
         let deformer = &mut self.deformer;
         let s = py.allow_threads(|| deformer.solve_groups(&list)).map_err(err)?;
         self.last_targets = Some(self.deformer.group_targets().to_vec());
@@ -239,9 +236,8 @@ impl NativeDeformer {
         max_steps: usize,
     ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyDict>)> {
         let list = transforms_of(transforms)?;
-        in_range_targets(
-            &handle_targets(self.mesh.positions(), &self.handles, &list).map_err(err)?,
-        )?;
+        let targets = handle_targets(self.mesh.positions(), &self.handles, &list).map_err(err)?;
+        check_in_range(&targets, "the motions' handle targets")?;
         let deformer = &mut self.deformer;
         let r = py.allow_threads(|| deformer.solve_to_rest(&list, max_steps)).map_err(err)?;
         self.last_targets = Some(self.deformer.group_targets().to_vec());
@@ -366,23 +362,12 @@ fn transforms_of(
     Ok(list)
 }
 
-/// Refuses targets that a solve would refuse if given directly (`solve_targets`): a
-/// coordinate non-finite or beyond the solver's range.
-fn in_range_targets(targets: &[[f64; 3]]) -> PyResult<()> {
-    match targets.iter().enumerate().find(|(_, p)| p.iter().any(|&c| !in_range(c))) {
-        Some((i, p)) => Err(err(format!(
-            "the motions put handle {i} at {p:?}, beyond the solver's range (±{MAX_COORDINATE:e})"
-        ))),
-        None => Ok(()),
-    }
-}
-
 impl NativeDeformer {
     fn targets_of(&self, transforms: Vec<(usize, [f64; 3], Mat3)>) -> PyResult<Vec<[f64; 3]>> {
         let targets =
             handle_targets(self.mesh.positions(), &self.handles, &transforms_of(transforms)?)
                 .map_err(err)?;
-        in_range_targets(&targets)?;
+        check_in_range(&targets, "the motions' handle targets")?;
         Ok(targets)
     }
 

@@ -229,6 +229,43 @@ fn scenes_store_loose_part_modes() {
     assert!(Scene::from_json(&bad, "x").is_err());
 }
 
+/// The capped sphere of `level` (`big`, `h`) and the same with one vertex that no triangle
+/// uses, inside it (so the bounding box and the lengths stay): `(big, h, m, h1)`.
+fn sphere_and_lone_point(level: u32) -> (Mesh, Handles, Mesh, Handles) {
+    let (big, h) = capped_sphere(level, 0, 0.8, None);
+    let mut p = big.positions().to_vec();
+    p.push([0.0, 0.2, 0.1]);
+    let m = Mesh::new(p, big.triangles().to_vec()).unwrap();
+    let mut labels = h.labels().to_vec();
+    labels.push(None);
+    (big, h, m, Handles::from_options(labels).unwrap())
+}
+
+/// The lone point (the last vertex of `m`) as `parts` says, and the surface of `x` that of
+/// `without` (the mesh without the point) within 1e-9.
+fn check_lone_point(
+    what: &str,
+    x: &[[f64; 3]],
+    without: &[[f64; 3]],
+    m: &Mesh,
+    parts: &LooseParts,
+) {
+    let n = without.len();
+    let off = (0..n).map(|v| dist(x[v], without[v])).fold(0.0, f64::max);
+    assert!(off < 1e-9, "{what}: the surface differs by {off}");
+    assert!(x[n].iter().all(|c| c.is_finite()), "{what}: {:?}", x[n]);
+    if parts.mode(1) == ComponentMode::Pin {
+        assert_eq!(x[n], m.positions()[n], "{what}: the pinned point moved");
+    }
+}
+
+/// Following, and pinned as component 1.
+fn follow_and_pin() -> [LooseParts; 2] {
+    let mut pinned = LooseParts::default();
+    pinned.set(1, ComponentMode::Pin);
+    [LooseParts::default(), pinned]
+}
+
 /// A vertex that no triangle uses (a mesh not cleaned, as the Python API takes it) is a loose
 /// part of one point: every method builds and solves, the point follows or stays pinned, and
 /// the rest of the pose is that of the mesh without it. The level-3 and level-5 spheres are
@@ -237,40 +274,23 @@ fn scenes_store_loose_part_modes() {
 #[test]
 fn an_unreferenced_vertex_is_a_loose_point() {
     for level in [3, 5] {
-        let (big, h) = capped_sphere(level, 0, 0.8, None);
-        let n = big.n_vertices();
-        let mut p = big.positions().to_vec();
-        p.push([0.0, 0.2, 0.1]); // inside: the bounding box (and the lengths) stay
-        let m = Mesh::new(p, big.triangles().to_vec()).unwrap();
-        let mut labels = h.labels().to_vec();
-        labels.push(None);
-        let h1 = Handles::from_options(labels).unwrap();
+        let (big, h, m, h1) = sphere_and_lone_point(level);
         let targets = handle_targets(m.positions(), &h1, &[(0, turn())]).unwrap();
-        let mut pinned = LooseParts::default();
-        pinned.set(1, ComponentMode::Pin);
         for method in Method::ALL {
             let mut without = deformer(method, &big, &h, &LooseParts::default());
             without.solve(&targets).unwrap();
-            for parts in [LooseParts::default(), pinned.clone()] {
-                let mut d = Deformer::new(
-                    &m,
-                    &h1,
-                    DeformerOptions {
-                        method,
-                        base: base_config(&big),
-                        loose_parts: Some(&parts),
-                        ..Default::default()
-                    },
-                )
-                .unwrap_or_else(|e| panic!("level {level}, {method:?}: {e}"));
+            for parts in follow_and_pin() {
+                let options = DeformerOptions {
+                    method,
+                    base: base_config(&big),
+                    loose_parts: Some(&parts),
+                    ..Default::default()
+                };
+                let mut d = Deformer::new(&m, &h1, options)
+                    .unwrap_or_else(|e| panic!("level {level}, {method:?}: {e}"));
                 d.solve(&targets).unwrap();
-                let x = d.positions();
-                let off = (0..n).map(|v| dist(x[v], without.positions()[v])).fold(0.0, f64::max);
-                assert!(off < 1e-9, "level {level}, {method:?}: the surface differs by {off}");
-                assert!(x[n].iter().all(|c| c.is_finite()), "{method:?}: {:?}", x[n]);
-                if parts.mode(1) == ComponentMode::Pin {
-                    assert_eq!(x[n], m.positions()[n], "{method:?}: the pinned point moved");
-                }
+                let what = format!("level {level}, {method:?}, {parts:?}");
+                check_lone_point(&what, d.positions(), without.positions(), &m, &parts);
             }
         }
     }
@@ -281,14 +301,7 @@ fn an_unreferenced_vertex_is_a_loose_point() {
 /// the one without the point, and the pose is the same whether the point follows or is pinned.
 #[test]
 fn an_unreferenced_vertex_keeps_the_level() {
-    let (big, h) = capped_sphere(6, 0, 0.8, None);
-    let n = big.n_vertices();
-    let mut p = big.positions().to_vec();
-    p.push([0.0, 0.2, 0.1]);
-    let m = Mesh::new(p, big.triangles().to_vec()).unwrap();
-    let mut labels = h.labels().to_vec();
-    labels.push(None);
-    let h1 = Handles::from_options(labels).unwrap();
+    let (big, h, m, h1) = sphere_and_lone_point(6);
     let targets = handle_targets(m.positions(), &h1, &[(0, turn())]).unwrap();
     let base = BaseConfig { smoothing: 0.05, ..base_config(&big) };
     let build = |mesh: &Mesh, h: &Handles, parts: &LooseParts| {
@@ -307,18 +320,10 @@ fn an_unreferenced_vertex_keeps_the_level() {
     let mut without = build(&big, &h, &LooseParts::default());
     assert!(on_level(&without), "not on a level");
     without.solve(&targets).unwrap();
-    let mut pinned = LooseParts::default();
-    pinned.set(1, ComponentMode::Pin);
-    for parts in [LooseParts::default(), pinned] {
+    for parts in follow_and_pin() {
         let mut d = build(&m, &h1, &parts);
         assert!(on_level(&d), "{parts:?}: faired directly");
         d.solve(&targets).unwrap();
-        let x = d.positions();
-        let off = (0..n).map(|v| dist(x[v], without.positions()[v])).fold(0.0, f64::max);
-        assert!(off < 1e-9, "{parts:?}: the surface differs by {off}");
-        assert!(x[n].iter().all(|c| c.is_finite()), "{:?}", x[n]);
-        if parts.mode(1) == ComponentMode::Pin {
-            assert_eq!(x[n], m.positions()[n], "the pinned point moved");
-        }
+        check_lone_point(&format!("{parts:?}"), d.positions(), without.positions(), &m, &parts);
     }
 }
