@@ -20,9 +20,7 @@ use solver::{FrameStats, Mesh};
 use crate::convert::{array_triangles, array3};
 use crate::deformer::{Layout, NativeDeformer};
 use crate::err;
-
-/// The most frames of a recording (and of `frame_times`), as the editor's and the CLI's.
-const MAX_FRAMES: usize = solver::animation::scene::CaptureSettings::MAX_FRAMES;
+use solver::animation::recording::MAX_FRAMES;
 
 /// A scene file with its mesh loaded and cleaned and its handles resolved.
 #[pyclass(module = "bsarap._bsarap", frozen)]

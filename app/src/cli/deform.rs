@@ -349,10 +349,20 @@ fn pose_scene(a: &DeformArgs, given: &ArgMatches) -> anyhow::Result<Posed> {
     let scene = &loaded.scene;
     let timeline = &scene.timeline;
     timeline.validate().with_context(|| format!("{}", a.mesh.display()))?;
-    let time = a.time.unwrap_or_else(|| app::editor::document::saved_time(scene));
+    let time = match a.time {
+        Some(time) => time,
+        None => {
+            let (time, notice) = app::editor::document::saved_time(scene);
+            if let Some(n) = notice.filter(|_| !a.json) {
+                eprintln!("note: {n}");
+            }
+            time
+        }
+    };
+    // `{:?}`: 1e300 in short form, not its 301 digits.
     anyhow::ensure!(
         time.is_finite() && (0.0..=timeline.duration).contains(&time),
-        "--time {time}: the scene's timeline runs from 0 to {} s",
+        "--time {time:?}: the scene's timeline runs from 0 to {} s",
         timeline.duration
     );
     let transforms = timeline.transforms_at(time);

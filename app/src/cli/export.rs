@@ -19,7 +19,7 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use solver::Deformer;
 use solver::animation::export::{AssetExport, Encoding, ExportSettings, GltfExport, GltfFormat};
 use solver::animation::pointcache::{Pc2, write_obj_sequence, write_pc2};
-use solver::animation::recording::record;
+use solver::animation::recording::{MAX_FRAMES, record};
 use solver::animation::scene::{HandlesSpec, LoadedScene, Scene};
 use solver::animation::skinning::SkinningConfig;
 use solver::animation::timeline::{CircularPath, GroupPath, Path as AnimPath, Timeline};
@@ -82,9 +82,6 @@ pub struct ExportArgs {
     #[arg(long)]
     pub json: bool,
 }
-
-/// The frames an export may have: as many as a capture (the editor's recording too).
-const MAX_FRAMES: usize = solver::animation::scene::CaptureSettings::MAX_FRAMES;
 
 /// The morph targets every WebGL 2 viewer can hold: three.js keeps one layer of a 2D array
 /// texture per target, and WebGL 2 guarantees at least 256 layers (`MAX_ARRAY_TEXTURE_LAYERS`).

@@ -206,6 +206,17 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
     )?;
     pb.finish_and_clear();
     let render_s = t2.elapsed().as_secs_f64();
+    // Not deleted: they are the user's files; said, since a player would show them next.
+    let later = capture::later_frames(&a.output, written.len());
+    if later > 0 && !a.json {
+        eprintln!(
+            "note: {} still holds {later} later frame{} of an earlier render ({} on); they were \
+             not written by this one",
+            a.output.display(),
+            if later == 1 { "" } else { "s" },
+            capture::frame_path(&a.output, written.len()).display()
+        );
+    }
 
     if a.json {
         let j = serde_json::json!({
@@ -214,6 +225,7 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
             "output": a.output.display().to_string(),
             "files": written.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
             "frames": written.len(),
+            "earlier_frames_left": later,
             "width": settings.width,
             "height": settings.height,
             "turntable": settings.turntable,

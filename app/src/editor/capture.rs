@@ -247,6 +247,13 @@ pub fn frame_path(dir: &Path, i: usize) -> PathBuf {
     dir.join(format!("frame_{i:04}.png"))
 }
 
+/// How many frames of an earlier, longer sequence follow frame `n - 1` in `dir`
+/// (`frame_{n}.png`, `frame_{n+1}.png`, … while they exist): a sequence of `n` frames leaves
+/// them, and a player of `frame_%04d.png` would show them after it.
+pub fn later_frames(dir: &Path, n: usize) -> usize {
+    (n..).take_while(|&i| frame_path(dir, i).is_file()).count()
+}
+
 /// Renders `n` pictures (`picture(i)` for i in 0..n) to `dir/frame_NNNN.png`; `progress(done)`
 /// after each, which may stop early by returning false. The PNGs are encoded on a writer
 /// thread while the next frame renders. Returns the files written.

@@ -66,10 +66,17 @@ pub fn to_scene(scene_path: &Path, input: &DocumentInput) -> Result<Scene, Strin
         })
         .collect();
     scene.editor = Some(serde_json::json!({"groups": groups, "time": input.time}));
+    // A group with no vertex left has no falloff to keep (the reader would note it as unused).
+    let mut painted = vec![false; edit.groups.len()];
+    for &k in edit.labels.iter().flatten() {
+        if let Some(p) = painted.get_mut(k as usize) {
+            *p = true;
+        }
+    }
     scene.rig = RigSpec {
         rigidity: edit.rigidity.clone(),
         falloff: (edit.groups.iter().enumerate())
-            .filter(|(_, g)| g.falloff.is_soft())
+            .filter(|&(k, g)| g.falloff.is_soft() && painted[k])
             .map(|(group, g)| GroupFalloff {
                 group,
                 radius: g.falloff.radius,
@@ -83,10 +90,22 @@ pub fn to_scene(scene_path: &Path, input: &DocumentInput) -> Result<Scene, Strin
 }
 
 /// The time on `scene`'s timeline the editor saved it at (0 when it says none), within the
-/// timeline.
-pub fn saved_time(scene: &Scene) -> f64 {
-    let time = scene.editor.as_ref().and_then(|e| e.get("time")).and_then(|t| t.as_f64());
-    time.filter(|t| t.is_finite()).map_or(0.0, |t| t.clamp(0.0, scene.timeline.duration.max(0.0)))
+/// timeline, and a notice when the scene's `editor.time` is not a number of seconds on it (the
+/// time used instead).
+pub fn saved_time(scene: &Scene) -> (f64, Option<String>) {
+    let Some(value) = scene.editor.as_ref().and_then(|e| e.get("time")) else {
+        return (0.0, None);
+    };
+    let duration = scene.timeline.duration.max(0.0);
+    let time = value.as_f64().filter(|t| t.is_finite());
+    let used = time.map_or(0.0, |t| t.clamp(0.0, duration));
+    let notice = (time != Some(used)).then(|| {
+        format!(
+            "the scene's saved time {value} is not a time on its timeline (0 to {duration} s): \
+             t = {used} s is used instead"
+        )
+    });
+    (used, notice)
 }
 
 /// What a loaded scene sets in the editor.
@@ -132,13 +151,12 @@ pub fn apply_scene(
         }
     }
     edit.symmetry = scene.rig.symmetry.unwrap_or_default();
-    let time = saved_time(scene);
+    let (time, mut notice) = saved_time(scene);
     apply_paths(&mut edit, time);
     let mut s = *settings;
-    let mut notice = None;
     if scene.method == solver::Method::Arap {
-        notice =
-            Some("the scene's method is ARAP: it is shown in the ARAP | BS-ARAP view".to_string());
+        let arap = "the scene's method is ARAP: it is shown in the ARAP | BS-ARAP view";
+        notice = Some(notice.map_or(arap.to_string(), |n| format!("{n}; {arap}")));
     } else {
         s.bs_variant = scene.method;
     }
@@ -329,6 +347,42 @@ mod tests {
 
     /// The rig (rigidity map, a group's falloff, symmetry settings) survives a scene round
     /// trip; the same scene as version 1 (no `rig`) reads with none.
+    /// A group whose vertices were all repainted keeps no falloff in the file (the reader would
+    /// note it as unused); a saved time off the timeline is the start, with a notice.
+    #[test]
+    fn an_empty_groups_falloff_is_dropped_and_a_bad_saved_time_is_noted() {
+        use solver::deform::rig::{Falloff, FalloffCurve};
+        let (dir, mesh_path, _, mut edit) = bar_document("doc-empty-group");
+        edit.groups[1].falloff = Falloff { radius: 0.125, curve: FalloffCurve::Linear };
+        for l in edit.labels.iter_mut().filter(|l| **l == Some(1)) {
+            *l = Some(0);
+        }
+        let camera = OrbitCamera::default();
+        let input = DocumentInput {
+            mesh_path: &mesh_path,
+            edit: &edit,
+            settings: &MethodSettings::default(),
+            camera: &camera,
+            origin: [0.0; 3],
+            time: 0.0,
+            texture: None,
+            up_axis: Default::default(),
+        };
+        let scene_path = dir.join("empty.json");
+        let mut scene = to_scene(&scene_path, &input).unwrap();
+        assert!(scene.rig.falloff.is_empty(), "{:?}", scene.rig.falloff);
+        scene.save(&scene_path).unwrap();
+        let loaded = solver::animation::scene::Scene::load(&scene_path).unwrap();
+        assert!(loaded.mesh.asset.notices.is_empty(), "{:?}", loaded.mesh.asset.notices);
+
+        scene.editor = Some(serde_json::json!({"time": "abc"}));
+        let labels = loaded.handles.labels().to_vec();
+        let back = apply_scene(&scene, labels, &MethodSettings::default(), [0.0; 3]);
+        assert_eq!(back.time, 0.0);
+        let notice = back.notice.unwrap_or_default();
+        assert!(notice.starts_with("the scene's saved time \"abc\" is not a time"), "{notice}");
+    }
+
     #[test]
     fn the_rig_survives_a_scene_round_trip_and_version_1_scenes_have_none() {
         use solver::animation::scene::SymmetrySpec;

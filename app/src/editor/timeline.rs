@@ -20,8 +20,7 @@ use super::undo::EditState;
 pub const MAX_DURATION: f64 = 3600.0;
 /// Highest frame rate the UI accepts.
 pub const MAX_FPS: f64 = 240.0;
-/// Most frames one recording may have (the CLI's `--frames` limit).
-pub const MAX_FRAMES: usize = 100_000;
+pub use solver::animation::recording::MAX_FRAMES;
 
 /// The playback clock.
 #[derive(Debug, Clone, Default)]

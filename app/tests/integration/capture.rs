@@ -97,6 +97,14 @@ fn render_writes_one_png_per_frame_of_the_moving_timeline() {
     // t = 0 and t = 0.5 s: the cap is half a turn apart on its circle.
     let d = differing_pixels(&imgs[0], &imgs[1]);
     assert!(d > 100, "frames 0 and 1 of a moving timeline differ in {d} pixels only");
+    assert_eq!(j["earlier_frames_left"], 0);
+    // A shorter render into the same folder leaves the third frame, and says so.
+    let o = out.to_str().unwrap();
+    let args = ["render", scene.to_str().unwrap(), "-o", o, "--frames", "2", "--width", "32"];
+    let (code, _, stderr) = bsarap(&[&args[..], &["--height", "24"]].concat());
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stderr.contains("still holds 1 later frame of an earlier render"), "{stderr}");
+    assert_eq!(pngs_in(&out).len(), 3);
 }
 
 /// A mesh five million units from the world's origin (a georeferenced scan) draws as it does

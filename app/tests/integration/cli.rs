@@ -540,6 +540,23 @@ fn bench_splits_the_precomputation_and_reports_memory() {
     assert!(num("bsarap-coarse", "precompute_mesh_ms") > 0.0);
 }
 
+/// One frame has no moving frames: `moving_fps` is `null` in the JSON and `-` in the table,
+/// not NaN.
+#[test]
+fn bench_of_one_frame_has_no_moving_rate() {
+    let j = on_sphere("bench", &["--frames", "1", "--method", "arap"]);
+    assert!(j["methods"]["arap"]["moving_fps"].is_null(), "{j}");
+    let (obj, sel, _) = sphere();
+    let args = ["bench", obj.to_str().unwrap(), "--handles", sel.to_str().unwrap()];
+    let (code, stdout, stderr) =
+        bsarap(&[&args[..], &["--frames", "1", "--method", "arap"]].concat());
+    assert_eq!(code, 0, "{stderr}");
+    assert!(!stdout.contains("NaN"), "{stdout}");
+    let header = stdout.lines().position(|l| l.contains("moving fps")).expect("the header");
+    let row = stdout.lines().nth(header + 1).expect("a row");
+    assert_eq!(row.split_whitespace().last(), Some("-"), "{row}");
+}
+
 /// `subdivide` writes a 1-to-4 subdivision (V' = V + E, F' = 4F per level) that loads back,
 /// and refuses bad levels and extensions before any work.
 #[test]

@@ -230,6 +230,29 @@ fn obj_positions(path: &std::path::Path) -> Vec<[f64; 3]> {
     solver::io::load_mesh(path).unwrap().asset.positions
 }
 
+/// A saved time that is not a time on the timeline is a note naming it and the time used (the
+/// start); a huge `--time` is refused in its short form.
+#[test]
+fn deform_notes_a_saved_time_off_the_timeline() {
+    let d = dir("deform-saved-time");
+    let s = scene(&d, 1);
+    let mut j: serde_json::Value = serde_json::from_slice(&std::fs::read(&s).unwrap()).unwrap();
+    j["editor"] = serde_json::json!({"time": "abc"});
+    std::fs::write(&s, j.to_string()).unwrap();
+    let (sp, out) = (s.to_str().unwrap(), d.join("pose.obj"));
+    let (code, _, stderr) = bsarap(&["deform", sp, "-o", out.to_str().unwrap()]);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(
+        stderr.contains(r#"note: the scene's saved time "abc" is not a time on its timeline"#)
+            && stderr.contains("t = 0 s is used instead"),
+        "{stderr}"
+    );
+    let (code, _, stderr) = bsarap(&["deform", sp, "--time", "1e300", "-o", "x.obj"]);
+    assert_eq!(code, 1);
+    let error = stderr.lines().find(|l| l.starts_with("error:")).unwrap_or_default();
+    assert!(error.contains("--time 1e300: ") && error.len() < 100, "{stderr}");
+}
+
 /// `bsarap deform SCENE --time T` writes the scene's pose at T: its moved cap where the
 /// export's frame at T has it and the rest near that frame (both solved to the tolerance, one
 /// from rest, one warm-started); without --time, the time the scene was saved at; the coarse

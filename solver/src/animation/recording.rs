@@ -20,6 +20,10 @@ use crate::deform::pose::handle_targets;
 use crate::error::SolveError;
 use crate::geometry::mesh::Mesh;
 
+/// The most frames one recording may have: the editor's, and the command line's and the Python
+/// package's frame counts (export, render, bench, timelines).
+pub const MAX_FRAMES: usize = 100_000;
+
 /// Why a recording stopped.
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum RecordError {

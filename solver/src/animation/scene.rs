@@ -476,6 +476,7 @@ impl Scene {
             }
             named.push(("texture", texture_path, outside));
         }
+        mesh.asset.notices.extend(self.unused_entries(mesh.mesh.components().count(), &handles));
         let from_file = path.is_file();
         for (what, named, _) in named.iter().filter(|(_, _, outside)| *outside && from_file) {
             mesh.asset.notices.push(format!(
@@ -484,6 +485,32 @@ impl Scene {
             ));
         }
         Ok(LoadedScene { scene: self, path: path.to_path_buf(), mesh_path, mesh, handles })
+    }
+
+    /// Notices for the entries that name a component or group the mesh or selection lacks
+    /// (kept in the file, with no effect): `loose_parts` overrides beyond `components`, rig
+    /// falloffs of groups `handles` does not have.
+    fn unused_entries(&self, components: usize, handles: &Handles) -> Vec<String> {
+        let mut out = Vec::new();
+        let beyond = self.loose_parts.overrides.iter().filter(|o| o.component >= components);
+        for o in beyond {
+            out.push(format!(
+                "\"loose_parts\": the override for component {} has no effect: the mesh has {} \
+                 component{} (0 to {})",
+                o.component,
+                components,
+                if components == 1 { "" } else { "s" },
+                components.saturating_sub(1)
+            ));
+        }
+        for f in self.rig.falloff.iter().filter(|f| handles.group(f.group).is_err()) {
+            out.push(format!(
+                "\"rig\": the falloff of handle group {} has no effect: the selection has groups {}",
+                f.group,
+                handles.group_list()
+            ));
+        }
+        out
     }
 
     /// Reads the image at `texture` (the scene's `texture`, resolved) and gives it to the
@@ -625,8 +652,8 @@ impl Default for CaptureSettings {
 impl CaptureSettings {
     /// The largest image side: the wgpu default limit on 2D textures.
     pub const MAX_SIDE: u32 = 8192;
-    /// The most frames one capture may ask for.
-    pub const MAX_FRAMES: usize = 100_000;
+    /// The most frames one capture may ask for: a recording's.
+    pub const MAX_FRAMES: usize = crate::animation::recording::MAX_FRAMES;
 
     /// Sides between 1 and [`Self::MAX_SIDE`], frames between 1 and [`Self::MAX_FRAMES`].
     pub fn validate(&self) -> Result<(), String> {
@@ -688,6 +715,33 @@ mod tests {
             Scene::from_json(&v3, "v3.json"),
             Err(SceneError::UnsupportedVersion { .. })
         ));
+    }
+
+    /// Overrides of components the mesh lacks and falloffs of groups the selection lacks are
+    /// kept in the file and noted when the scene loads; the others are not.
+    #[test]
+    fn unused_entries_are_noted() {
+        let d = crate::testing::ScratchDir::new("scene-unused");
+        std::fs::write(d.join("m.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+        let mut scene = Scene::from_json(V1, "v1.json").unwrap();
+        let parts = r#"{"overrides": [{"component": 0, "mode": "pin"},
+                                       {"component": 4, "mode": "pin"}]}"#;
+        scene.loose_parts = serde_json::from_str(parts).unwrap();
+        scene.rig.falloff = [0, 3]
+            .map(|group| GroupFalloff { group, radius: 0.1, curve: FalloffCurve::Linear })
+            .to_vec();
+        let path = d.join("s.json");
+        std::fs::write(&path, scene.to_json()).unwrap();
+        let notices = Scene::load(&path).unwrap().mesh.asset.notices;
+        assert_eq!(
+            notices,
+            [
+                "\"loose_parts\": the override for component 4 has no effect: the mesh has 1 \
+                 component (0 to 0)",
+                "\"rig\": the falloff of handle group 3 has no effect: the selection has groups 0",
+            ],
+        );
+        assert_eq!(Scene::load(&path).unwrap().scene, scene, "kept as they are");
     }
 
     #[test]

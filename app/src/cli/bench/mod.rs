@@ -46,6 +46,7 @@ use super::{BaseArgs, EnergyArg, PathArg, check_config, load, load_handles};
 use anyhow::Context;
 use clap::{Args, ValueEnum};
 use solver::ArapConfig;
+use solver::animation::recording::MAX_FRAMES;
 use solver::deform::arap::Acceleration;
 use solver::deform::quality::{Reference, ReferenceEnergy};
 use std::time::Instant;
@@ -163,8 +164,8 @@ pub struct MethodResult {
     /// solve (from rest).
     pub first_frame_ms: f64,
     /// Solver frames per second while the handle moves along the circle (frames 2 to N, each
-    /// warm-started from the previous one).
-    pub moving_fps: f64,
+    /// warm-started from the previous one); `None` (JSON `null`) with a single frame.
+    pub moving_fps: Option<f64>,
     pub ms_per_iteration: f64,
     pub local_ms_per_iteration: f64,
     pub rhs_ms_per_iteration: f64,
@@ -203,7 +204,10 @@ pub struct MethodResult {
 /// `bsarap bench`: checks every flag, solves the `--quality` reference first, runs the variants
 /// ([`variant::measure`]) and prints their report ([`report::Report`]).
 pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
-    anyhow::ensure!((1..=100_000).contains(&a.frames), "--frames must be between 1 and 100000");
+    anyhow::ensure!(
+        (1..=MAX_FRAMES).contains(&a.frames),
+        "--frames must be between 1 and {MAX_FRAMES}"
+    );
     anyhow::ensure!((1..=100).contains(&a.repeat), "--repeat must be between 1 and 100");
     let anderson = ArapConfig::acceleration_for_window(a.anderson);
     anyhow::ensure!(

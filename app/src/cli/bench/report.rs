@@ -188,12 +188,13 @@ impl Report<'_> {
         );
         for r in table {
             println!(
-                "{:<14} {:>11.1}ms {:>14.1}ms {:>10.1}ms {:>11.2}",
+                "{:<14} {:>11.1}ms {:>14.1}ms {:>10.1}ms {:>11}",
                 r.method,
                 r.precompute_mesh_ms,
                 r.precompute_handles_ms,
                 r.first_frame_ms,
-                r.moving_fps
+                // One frame has no moving frames.
+                r.moving_fps.map_or("-".to_string(), |f| format!("{f:.2}"))
             );
         }
         if let Some(mib) = app::memory::process_memory().map(|m| m.peak_mib) {

@@ -183,11 +183,8 @@ fn bench_variant(
         precompute_mesh_ms,
         precompute_handles_ms,
         first_frame_ms: precompute_handles_ms + first_frame_ms,
-        moving_fps: if s.frames > 1 {
-            (s.frames - 1) as f64 / ((total_ms - first_frame_ms) / 1e3).max(1e-9)
-        } else {
-            f64::NAN
-        },
+        moving_fps: (s.frames > 1)
+            .then(|| (s.frames - 1) as f64 / ((total_ms - first_frame_ms) / 1e3).max(1e-9)),
         // Per coarse iteration: the fine iterations' time is reported on its own.
         ms_per_iteration: (total_ms - fine_ms) / it,
         local_ms_per_iteration: local / it,
