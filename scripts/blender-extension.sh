@@ -7,6 +7,11 @@
 # every Blender whose Python is 3.9 or newer (4.2+: 3.11). maturin comes from a venv under
 # target/ (pip-installed once); the Rust build uses target/blender-wheel ($CARGO_TARGET_DIR
 # overrides). Install the zip with Blender's Get Extensions > Install from Disk.
+#
+# On Linux the wheel is linked by zig (the `ziglang` package in the same venv) against glibc
+# 2.28's symbols and tagged manylinux_2_28: linked by the system's linker it took the symbol
+# versions of the build machine's glibc (2.35 here: hypot, pthread_*), and Blender on an older
+# one (RHEL 9, Debian 11, Ubuntu 20.04) could not import it. maturin checks the tag.
 set -euo pipefail
 out=${1:?usage: scripts/blender-extension.sh OUTDIR}
 cd "$(dirname "$0")/.."
@@ -19,12 +24,21 @@ venv=target/blender-extension-venv
   python3 -m venv "$venv"
   "$venv/bin/pip" install -q --disable-pip-version-check "maturin>=1.16,<2"
 }
+portable=()
+if [ "$(uname -s)" = Linux ]; then
+  "$venv/bin/python" -c "import ziglang" 2>/dev/null ||
+    "$venv/bin/pip" install -q --disable-pip-version-check "ziglang==0.17.1"
+  portable=(--zig --compatibility manylinux_2_28)
+fi
 
 stage=$(mktemp -d)
 trap 'rm -rf "$stage"' EXIT
 mkdir -p "$stage/wheels"
-(cd python && CARGO_TARGET_DIR=${CARGO_TARGET_DIR:-$root/target/blender-wheel} \
-  "$root/$venv/bin/maturin" build --release --features abi3 -i python3 --out "$stage/wheels")
+# maturin finds zig through the venv's python (`python -m ziglang`): the venv first on PATH.
+(cd python && PATH="$root/$venv/bin:$PATH" \
+  CARGO_TARGET_DIR=${CARGO_TARGET_DIR:-$root/target/blender-wheel} \
+  "$root/$venv/bin/maturin" build --release --features abi3 -i python3 ${portable[@]+"${portable[@]}"} \
+  --out "$stage/wheels")
 
 # The extension's files (no caches), and the manifest's `wheels` / `platforms` set to the wheel
 # just built.
@@ -37,7 +51,7 @@ wheels = sorted((stage / "wheels").glob("bsarap-*-abi3-*.whl"))
 if len(wheels) != 1:
     sys.exit(f"expected one abi3 bsarap wheel, found {[w.name for w in wheels]}")
 wheel = wheels[0]
-# manylinux_2_34_x86_64 -> linux-x64, macosx_11_0_arm64 -> macos-arm64, win_amd64 -> windows-x64
+# manylinux_2_28_x86_64 -> linux-x64, macosx_11_0_arm64 -> macos-arm64, win_amd64 -> windows-x64
 tag = wheel.stem.split("-")[-1]
 system = {"manylinux": "linux", "musllinux": "linux", "linux": "linux", "macosx": "macos", "win": "windows"}
 machine = {"x86_64": "x64", "amd64": "x64", "aarch64": "arm64", "arm64": "arm64"}

@@ -16,6 +16,23 @@ cargo test --workspace
 ext=target/blender-extension
 scripts/blender-extension.sh "$ext"
 wheel=$(ls -t "$ext"/bsarap-*-abi3-*.whl | head -n 1)
+# On Linux the wheel must load on glibc 2.28 (scripts/blender-extension.sh): no symbol of a
+# newer glibc in the module, read from the wheel itself.
+if [ "$(uname -s)" = Linux ]; then
+  python3 - "$wheel" <<'PY'
+import re, subprocess, sys, tempfile, zipfile
+with tempfile.TemporaryDirectory() as d:
+    z = zipfile.ZipFile(sys.argv[1])
+    so = next(n for n in z.namelist() if n.endswith(".so"))
+    syms = subprocess.run(["objdump", "-T", z.extract(so, d)], check=True,
+                          capture_output=True, text=True).stdout
+found = {tuple(map(int, v.split("."))) for v in re.findall(r"GLIBC_(\d+\.\d+)", syms)}
+newer = sorted(v for v in found if v > (2, 28))
+if newer:
+    sys.exit(f"{sys.argv[1]}: needs glibc {'.'.join(map(str, newer[-1]))} (symbols past 2.28)")
+print(f"{so}: glibc symbols up to {'.'.join(map(str, max(found)))}")
+PY
+fi
 
 venv=python/.venv
 [ -x "$venv/bin/python" ] || python3 -m venv "$venv"
