@@ -268,6 +268,10 @@ fn pose_mesh(a: &DeformArgs) -> anyhow::Result<Posed> {
     let base = a.base.config()?;
     let transforms = parse_transforms(&a.moves, &a.rotates)?;
     let loaded = load(&a.mesh)?;
+    outputs::check(
+        &outputs::pose_files(&a.output, &loaded.asset),
+        &Input::libraries(&loaded.asset),
+    )?;
     if !a.json {
         for n in loaded.notices() {
             eprintln!("note: {n}");
@@ -339,8 +343,11 @@ fn pose_scene(a: &DeformArgs, given: &ArgMatches) -> anyhow::Result<Posed> {
     }
     let loaded = Scene::load_with(&a.mesh, super::reference_policy())
         .map_err(|e| super::scene_error(e.into(), &a.mesh, "deform"))?;
-    // The scene's mesh and selection are inputs too: not to be overwritten by its pose.
-    outputs::check(std::slice::from_ref(&a.output), &Input::scene(&a.mesh, &loaded))?;
+    // The scene's mesh, selection and material libraries are inputs too: not to be
+    // overwritten by its pose (or its MTL).
+    let mut inputs = Input::scene(&a.mesh, &loaded);
+    inputs.extend(Input::libraries(&loaded.mesh.asset));
+    outputs::check(&outputs::pose_files(&a.output, &loaded.mesh.asset), &inputs)?;
     if !a.json {
         for n in loaded.mesh.notices() {
             eprintln!("note: {n}");

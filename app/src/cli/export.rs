@@ -209,7 +209,7 @@ pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
         "--bones writes a glTF skin; {} is not .glb or .gltf",
         a.output.display()
     );
-    let (loaded, source, inputs) = match (&a.scene, &a.mesh, &a.handles) {
+    let (loaded, source, mut inputs) = match (&a.scene, &a.mesh, &a.handles) {
         (Some(path), _, _) => {
             let hint = format!(
                 "; `bsarap export --mesh {} --handles SEL -o OUT` exports a mesh",
@@ -253,6 +253,7 @@ pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
     // Every file to be written, checked before the solve: none is an input, a folder or in a
     // missing folder, so that an error cannot leave part of a sequence behind.
     let files = output_files(&a.output, &output, n_frames, !loaded.mesh.asset.materials.is_empty());
+    inputs.extend(Input::libraries(&loaded.mesh.asset));
     outputs::check(&files, &inputs)?;
 
     let t0 = Instant::now();

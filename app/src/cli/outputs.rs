@@ -4,6 +4,7 @@
 //! leave a partial sequence behind.
 
 use solver::animation::scene::{LoadedScene, Scene};
+use solver::io::Asset;
 use std::path::{Path, PathBuf};
 
 /// `path` absolute with its links resolved; for a file that does not exist yet, its folder's
@@ -34,6 +35,12 @@ impl Input {
         Input::scene_files(path, &loaded.mesh_path, &loaded.scene)
     }
 
+    /// The material libraries the mesh `asset` was read with (an OBJ's `mtllib` files).
+    pub fn libraries(asset: &Asset) -> Vec<Input> {
+        let libraries = asset.material_libraries.iter();
+        libraries.map(|p| Input::new("input mesh's material library", p)).collect()
+    }
+
     /// [`Input::scene`] of a scene read at `path` whose mesh was read at `mesh`.
     pub fn scene_files(path: &Path, mesh: &Path, scene: &Scene) -> Vec<Input> {
         let mut inputs = vec![Input::new("scene", path), Input::new("scene's mesh", mesh)];
@@ -43,6 +50,17 @@ impl Input {
         }
         inputs
     }
+}
+
+/// The files writing a pose of `asset` as `output` writes: the file, and for an OBJ of an
+/// asset with materials its sibling MTL ([`solver::io::write_obj_asset`]).
+pub fn pose_files(output: &Path, asset: &Asset) -> Vec<PathBuf> {
+    let obj = output.extension().is_some_and(|e| e.eq_ignore_ascii_case("obj"));
+    let mut files = vec![output.to_path_buf()];
+    if obj && !asset.materials.is_empty() {
+        files.push(output.with_extension("mtl"));
+    }
+    files
 }
 
 /// Refuses `outputs` (the files a subcommand is about to write) when one of them is one of the

@@ -95,6 +95,35 @@ fn an_output_that_is_an_input_is_refused_and_nothing_is_written() {
     assert!(!sd.join("seq_0002.obj").exists());
 }
 
+/// An OBJ output writes its materials beside it as `NAME.mtl`: refused when that is the input's
+/// own material library (`mtllib lib.mtl` read with `m.obj`, output `lib.obj`).
+#[test]
+fn an_outputs_mtl_that_is_the_inputs_library_is_refused() {
+    let d = ScratchDir::new("guards-mtl");
+    let (mesh, sel) = grid(&d, "m.obj");
+    let obj = std::fs::read_to_string(&mesh).unwrap();
+    std::fs::write(&mesh, format!("mtllib lib.mtl\nusemtl red\n{obj}")).unwrap();
+    let lib = d.join("lib.mtl");
+    std::fs::write(&lib, "newmtl red\nKd 1 0 0\n").unwrap();
+    let out = d.join("lib.obj");
+    let deform = ["deform", s(&mesh), "--handles", s(&sel), "--move", "0:0,0,0.1", "-o", s(&out)];
+    refused(&deform, &["lib.mtl", "input mesh's material library", "nothing was written"], &[]);
+    let sc = d.join("scene.json");
+    let text = r#"{"version": 2, "mesh": "m.obj", "handles": {"file": "grid.handles.json"},
+        "timeline": {"duration": 1.0, "fps": 2, "looping": false, "paths": []}}"#;
+    std::fs::write(&sc, text).unwrap();
+    refused(&["deform", s(&sc), "-o", s(&out)], &["material library"], &[]);
+    refused(&["export", s(&sc), "-o", s(&out), "--frames", "2"], &["material library"], &[]);
+    assert!(!out.exists() && !d.join("lib_0001.obj").exists());
+    assert_eq!(std::fs::read_to_string(&lib).unwrap(), "newmtl red\nKd 1 0 0\n");
+    // Another name writes its own MTL beside it.
+    let other = d.join("posed.obj");
+    let deform = ["deform", s(&mesh), "--handles", s(&sel), "--move", "0:0,0,0.1", "-o", s(&other)];
+    let (code, _, stderr) = bsarap(&deform);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(d.join("posed.mtl").is_file());
+}
+
 #[test]
 fn every_destination_is_checked_before_any_is_written() {
     let d = ScratchDir::new("guards-partial");

@@ -133,6 +133,9 @@ pub struct Asset {
     /// missing MTL file or texture, non-finite normals/UVs/colours read as neutral values),
     /// for the caller to show; empty when everything was read as written.
     pub notices: Vec<String>,
+    /// The material libraries read besides the mesh file (an OBJ's `mtllib` files), as read:
+    /// inputs too, for a writer that must not replace them.
+    pub material_libraries: Vec<std::path::PathBuf>,
 }
 
 impl Asset {

@@ -72,6 +72,7 @@ pub(crate) fn attach(asset: &mut Asset, libs: &[String], folder: Option<Folder>)
             ));
             continue;
         };
+        asset.material_libraries.push(path.clone());
         let from = path.parent().unwrap_or(dir);
         for m in materials {
             let texture = m
@@ -200,6 +201,7 @@ mod tests {
         let textures: Vec<_> = asset.materials.iter().map(|m| m.base_color_texture).collect();
         assert_eq!(textures, [Some(0), Some(0), None, Some(1), None]);
         assert_eq!(asset.notices.len(), 3, "{:?}", asset.notices);
+        assert_eq!(asset.material_libraries, [dir.join("m.mtl")], "the one read");
         assert!(asset.notices[0].contains("t.tga"), "{:?}", asset.notices);
         assert!(asset.notices[1].contains("fake.png") && asset.notices[1].contains("decode"));
         assert!(asset.notices[2].contains("none.mtl"));

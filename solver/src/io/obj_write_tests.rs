@@ -65,6 +65,7 @@ fn cube_asset() -> Asset {
         ],
         polygon_sizes: Vec::new(),
         notices: Vec::new(),
+        material_libraries: Vec::new(),
     }
 }
 

@@ -172,6 +172,7 @@ pub fn asset() -> (Asset, Vec<Option<u32>>) {
         triangles,
         polygon_sizes: Vec::new(),
         notices: Vec::new(),
+        material_libraries: Vec::new(),
     };
     let mut map: Vec<Option<u32>> = (0..N_MESH as u32).map(Some).collect();
     map.push(None);
