@@ -18,7 +18,7 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use solver::Deformer;
 use solver::animation::export::{AssetExport, Encoding, ExportSettings, GltfExport, GltfFormat};
-use solver::animation::pointcache::{Pc2, write_obj_sequence, write_pc2};
+use solver::animation::pointcache::{Pc2, obj_sequence_files, write_obj_sequence, write_pc2};
 use solver::animation::recording::{MAX_FRAMES, record};
 use solver::animation::scene::{HandlesSpec, LoadedScene, Scene};
 use solver::animation::skinning::SkinningConfig;
@@ -168,18 +168,11 @@ fn sequence_name(path: &Path) -> (&Path, String) {
 }
 
 /// The files `-o path` writes for `n_frames` frames: the file itself, or an OBJ sequence's
-/// frames `STEM_0001.obj`, ... (as [`write_obj_sequence`] numbers them: at least 4 digits) and
-/// its `STEM.mtl` when the asset has materials.
+/// ([`obj_sequence_files`]).
 fn output_files(path: &Path, output: &Output, n_frames: usize, materials: bool) -> Vec<PathBuf> {
     let Output::ObjSequence = output else { return vec![path.to_path_buf()] };
     let (dir, stem) = sequence_name(path);
-    let digits = n_frames.to_string().len().max(4);
-    let mut files: Vec<PathBuf> =
-        (1..=n_frames).map(|i| dir.join(format!("{stem}_{i:0digits$}.obj"))).collect();
-    if materials {
-        files.push(dir.join(format!("{stem}.mtl")));
-    }
-    files
+    obj_sequence_files(dir, &stem, n_frames, materials)
 }
 
 /// What an export wrote, for its last line: the file, or a sequence's first and last frame,

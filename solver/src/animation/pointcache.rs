@@ -201,6 +201,24 @@ pub fn read_pc2(path: &Path) -> Result<Pc2, PointCacheError> {
     Pc2::from_bytes(&bytes, &file)
 }
 
+/// The files [`write_obj_sequence`] writes for `n_frames` frames named `name` in `dir`: the
+/// frames `NAME_0001.obj`, ... (at least four digits, as many as `n_frames` has), then
+/// `NAME.mtl` when the asset has `materials`.
+pub fn obj_sequence_files(
+    dir: &Path,
+    name: &str,
+    n_frames: usize,
+    materials: bool,
+) -> Vec<PathBuf> {
+    let digits = n_frames.to_string().len().max(4);
+    let mut files: Vec<PathBuf> =
+        (1..=n_frames).map(|i| dir.join(format!("{name}_{i:0digits$}.obj"))).collect();
+    if materials {
+        files.push(dir.join(format!("{name}.mtl")));
+    }
+    files
+}
+
 /// Writes every frame of `recording` as `dir/NAME_0001.obj`, ... on `asset`'s layout, sharing
 /// `dir/NAME.mtl` (module doc); returns the OBJ paths in frame order.
 ///
@@ -215,17 +233,15 @@ pub fn write_obj_sequence(
     recording: &Recording,
 ) -> Result<Vec<PathBuf>, PointCacheError> {
     let frames = layout_frames(recording, asset, vertex_map)?;
-    let digits = recording.frames.len().to_string().len().max(4);
-    let mtllib = write_mtl_asset(&dir.join(format!("{name}.mtl")), asset)?;
-    let mut paths = Vec::with_capacity(recording.frames.len());
-    for (i, positions) in frames.enumerate() {
-        let path = dir.join(format!("{name}_{:0digits$}.obj", i + 1));
+    let mut paths = obj_sequence_files(dir, name, recording.frames.len(), true);
+    let mtl = paths.pop().unwrap_or_default();
+    let mtllib = write_mtl_asset(&mtl, asset)?;
+    for (path, positions) in paths.iter().zip(frames) {
         let normals = match asset.normals {
             Some(_) => Some(asset.deformed_normals(&positions)?),
             None => None,
         };
-        write_obj_asset_with(&path, asset, &positions, normals.as_deref(), mtllib.as_deref())?;
-        paths.push(path);
+        write_obj_asset_with(path, asset, &positions, normals.as_deref(), mtllib.as_deref())?;
     }
     Ok(paths)
 }
