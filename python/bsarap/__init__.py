@@ -13,8 +13,11 @@ A thin binding over the Rust ``solver`` crate of the BS-ARAP editor (all numeric
 
 Arrays: positions are ``(n, 3)`` float64, triangles ``(m, 3)`` integer. Inputs of another
 dtype or layout are converted (no copy when they already are C-contiguous float64 / int64);
-outputs are new arrays that own the solver's buffers. Solves release the GIL. Every error is a
-:class:`BsarapError` (a ``ValueError``) carrying the solver's message.
+outputs are new arrays that own the solver's buffers. Every error is a :class:`BsarapError` (a
+``ValueError``) carrying the solver's message. Solves release the GIL: an object serves one
+thread at a time (a call while another thread solves with it raises :class:`BsarapError`), and
+Ctrl-C stops the calls of many solves or frames (:meth:`Deformer.solve_to_rest`, :func:`record`,
+:func:`export_gltf`) between two of them; one solve runs to its end.
 
 The modules: ``_common`` (defaults, array coercion, :class:`SolveStats`, :class:`AtRest`),
 ``_mesh``, ``_arap``, ``_deformer``, ``_animation``; ``_bsarap`` is the native half. Import

@@ -167,7 +167,11 @@ class Recording:
 def record(deformer: Deformer, timeline: Timeline, n_frames: Optional[int] = None) -> Recording:
     """Solve ``n_frames`` frames of ``timeline`` (default round(duration*fps)+1) with
     ``deformer``: reset first, each frame warm-started from the previous one, to the
-    deformer's stopping rule; the same frames as the editor's Record and ``bsarap export``."""
+    deformer's stopping rule; the same frames as the editor's Record and ``bsarap export``.
+
+    Ctrl-C (``KeyboardInterrupt``) stops it between two frames (a frame's solve runs to its
+    end): no recording is returned, and ``deformer`` is left at the last frame solved (at rest
+    if none), from which :meth:`Deformer.settle` refines and solves carry on."""
     if not isinstance(deformer, Deformer) or not isinstance(timeline, Timeline):
         raise BsarapError("record(deformer, timeline): expected a Deformer and a Timeline")
     n = None if n_frames is None else _count(n_frames, "n_frames")
@@ -189,6 +193,7 @@ def export_gltf(
     UVs, normals, materials, textures), as ``bsarap export``; otherwise on the bare mesh.
     ``quantized``: 16-bit morph targets (``KHR_mesh_quantization``), else float32;
     ``normals``: include normal deltas; ``every``: keep every k-th frame (and the last).
+    Ctrl-C (``KeyboardInterrupt``) stops it between two frames, before anything is written.
     """
     if not isinstance(recording, Recording):
         raise BsarapError("export_gltf: recording must be a Recording")

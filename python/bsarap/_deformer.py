@@ -97,6 +97,10 @@ class Deformer:
 
     ``positions``, ``base`` (the deformed base surface B') and ``details`` (D = M - B at rest)
     are readable after each solve; ``base``/``details`` are ``None`` for ARAP.
+
+    Solves release the GIL, and a deformer serves one thread at a time: any call on it while
+    another thread solves with it raises :class:`BsarapError` ("busy"); give each thread its
+    own deformer, or wait for the solve to return.
     """
 
     def __init__(
@@ -190,10 +194,20 @@ class Deformer:
         at most ``max_steps`` of each (at least one solve). Returns the positions ``(#V, 3)``;
         what it did in ``self.at_rest`` (:class:`AtRest`), ``self.stats`` is cleared. With
         ``settle_iterations=5`` (the editor's) this is the pose the editor shows once the
-        handles stop, as ``bsarap deform SCENE`` writes it."""
-        U, at_rest = self._native.solve_to_rest(
-            _transforms(group_transforms), _count(max_steps, "max_steps")
-        )
+        handles stop, as ``bsarap deform SCENE`` writes it.
+
+        Ctrl-C (``KeyboardInterrupt``) stops it between two steps; a step (one solve or settle
+        step) runs to its end. The deformer is then as after the last step that ran: its
+        :attr:`positions`, its targets and :attr:`settle_pending`, from which :meth:`settle`,
+        :meth:`solve` or another ``solve_to_rest`` carry on; ``stats`` and ``at_rest`` are
+        ``None``."""
+        try:
+            U, at_rest = self._native.solve_to_rest(
+                _transforms(group_transforms), _count(max_steps, "max_steps")
+            )
+        except KeyboardInterrupt:
+            self.stats = self.at_rest = None
+            raise
         self.stats = None
         self.at_rest = AtRest._from(at_rest)
         return U

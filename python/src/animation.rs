@@ -1,6 +1,5 @@
 //! Scenes, timelines, recordings and glTF export: `load_scene`, `record`, `export_gltf`.
 
-use std::ops::ControlFlow;
 use std::path::PathBuf;
 use std::sync::Arc;
 
@@ -10,7 +9,7 @@ use pyo3::types::PyDict;
 use solver::animation::export::{
     AssetExport, Encoding, ExportSettings, GltfExport, GltfFormat, SolveSettings,
 };
-use solver::animation::recording::Recording;
+use solver::animation::recording::{RecordError, Recording};
 use solver::animation::scene::{LoadedScene, Scene};
 use solver::animation::timeline::Timeline;
 use solver::io::Asset;
@@ -19,7 +18,7 @@ use solver::{FrameStats, Mesh};
 
 use crate::convert::{array_triangles, array3};
 use crate::deformer::{Layout, NativeDeformer};
-use crate::err;
+use crate::{Interrupt, borrow_mut, err};
 use solver::animation::recording::MAX_FRAMES;
 
 /// A scene file with its mesh loaded and cleaned and its handles resolved.
@@ -252,12 +251,14 @@ impl NativeRecording {
 }
 
 /// Solves `n_frames` frames of `timeline` with `deformer` (reset first, warm-started frame to
-/// frame, to the deformer's stopping rule), as the editor's Record and `bsarap export`.
+/// frame, to the deformer's stopping rule), as the editor's Record and `bsarap export`. Ctrl-C
+/// stops it between two frames ([`Interrupt`]): the deformer is left at the last frame solved
+/// (at rest if none), as `settle` sees it, and the call raises `KeyboardInterrupt`.
 #[pyfunction]
 #[pyo3(signature = (deformer, timeline, n_frames=None))]
 pub fn record(
     py: Python<'_>,
-    deformer: &mut NativeDeformer,
+    deformer: &Bound<'_, NativeDeformer>,
     timeline: &NativeTimeline,
     n_frames: Option<usize>,
 ) -> PyResult<NativeRecording> {
@@ -265,22 +266,34 @@ pub fn record(
     if !(1..=MAX_FRAMES).contains(&n) {
         return Err(err(format!("n_frames must be between 1 and {MAX_FRAMES} (got {n})")));
     }
+    let mut deformer = borrow_mut(deformer)?;
+    let deformer = &mut *deformer;
     let NativeDeformer { deformer: d, mesh, handles, config, .. } = deformer;
-    let recording = py
-        .allow_threads(|| {
-            solver::animation::recording::record(
-                d,
-                mesh,
-                handles,
-                &timeline.timeline,
-                n,
-                config,
-                &mut |_, _| ControlFlow::Continue(()),
-            )
-        })
-        .map_err(err)?;
-    // What `settle` refines at: the last frame's targets.
-    deformer.last_targets = Some(deformer.deformer.group_targets().to_vec());
+    let mut interrupt = Interrupt::new();
+    let result = py.allow_threads(|| {
+        solver::animation::recording::record(
+            d,
+            mesh,
+            handles,
+            &timeline.timeline,
+            n,
+            config,
+            &mut |done, total| interrupt.progress(done, total),
+        )
+    });
+    // What `settle` refines at: the last frame's targets (none when stopped before the first,
+    // the deformer reset).
+    match &result {
+        Err(RecordError::Cancelled { done: 0, .. }) => deformer.last_targets = None,
+        Ok(_) | Err(RecordError::Cancelled { .. }) => {
+            deformer.last_targets = Some(deformer.deformer.group_targets().to_vec());
+        }
+        Err(_) => {}
+    }
+    if let Some(e) = interrupt.raised() {
+        return Err(e);
+    }
+    let recording = result.map_err(err)?;
     let solved = SolveSettings {
         method: deformer.method,
         arap: deformer.config,
@@ -297,6 +310,8 @@ pub fn record(
 
 /// Writes a recording as glTF 2.0 morph targets (`.glb` or `.gltf` by extension), on the
 /// scene file's own layout for a scene's deformer, else on the mesh; returns the bytes written.
+/// Ctrl-C stops it between two frames ([`Interrupt`]), before anything is written (the file is
+/// written whole at the end).
 #[pyfunction]
 #[pyo3(signature = (path, recording, quantized=true, normals=true, every=1))]
 pub fn export_gltf(
@@ -316,7 +331,8 @@ pub fn export_gltf(
         sparse: true,
         every_k: every,
     };
-    py.allow_threads(|| {
+    let mut interrupt = Interrupt::new();
+    let written = py.allow_threads(|| {
         let bare;
         let (asset, map): (&Asset, &[Option<u32>]) = match &recording.layout {
             Some(l) => (&l.0, &l.1),
@@ -332,7 +348,11 @@ pub fn export_gltf(
         let format = GltfFormat::from_path(&path).map_err(err)?;
         GltfExport::from_asset(&input, format)
             .and_then(|e| e.with_solve_settings(&recording.solved))
-            .and_then(|e| e.write(&path, &mut |_, _| ControlFlow::Continue(())))
+            .and_then(|e| e.write(&path, &mut |done, total| interrupt.progress(done, total)))
             .map_err(err)
-    })
+    });
+    if let Some(e) = interrupt.raised() {
+        return Err(e);
+    }
+    written
 }

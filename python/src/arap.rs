@@ -7,7 +7,7 @@ use pyo3::types::PyDict;
 use solver::{Arap, ArapConfig, Handles, Mesh};
 
 use crate::convert::{arap_config, array3, ints, rows3, stats, triangles, with_stopping};
-use crate::err;
+use crate::{borrow, borrow_mut, err};
 
 /// ARAP precomputed for `V`, `F` and the fixed vertices `b` (one factorization).
 #[pyclass(module = "bsarap._bsarap")]
@@ -79,27 +79,29 @@ impl NativeArap {
     /// given (else the last result, rest at first): `(U, stats)`.
     #[pyo3(signature = (bc, u0=None, max_iters=None, tol=None))]
     fn solve<'py>(
-        &mut self,
-        py: Python<'py>,
+        slf: &Bound<'py, Self>,
         bc: PyReadonlyArray2<'py, f64>,
         u0: Option<PyReadonlyArray2<'py, f64>>,
         max_iters: Option<usize>,
         tol: Option<f64>,
     ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyDict>)> {
-        let (tol, max_iters) = (tol.unwrap_or(self.tol), max_iters.unwrap_or(self.max_iters));
+        let py = slf.py();
+        let mut this = borrow_mut(slf)?;
+        let this = &mut *this;
+        let (tol, max_iters) = (tol.unwrap_or(this.tol), max_iters.unwrap_or(this.max_iters));
         with_stopping(&ArapConfig::default(), tol, max_iters)?;
         let bc = rows3(&bc, "bc")?;
-        if bc.len() != self.b.len() {
+        if bc.len() != this.b.len() {
             return Err(err(format!(
                 "bc has {} rows but b has {} fixed vertices",
                 bc.len(),
-                self.b.len()
+                this.b.len()
             )));
         }
         let start = match u0 {
             Some(u0) => {
                 let u0 = rows3(&u0, "U0")?;
-                let n = self.arap.rest().len();
+                let n = this.arap.rest().len();
                 if u0.len() != n {
                     return Err(err(format!("U0 has {} rows but V has {n}", u0.len())));
                 }
@@ -107,8 +109,8 @@ impl NativeArap {
             }
             None => None,
         };
-        let targets: Vec<[f64; 3]> = self.order.iter().map(|&k| bc[k]).collect();
-        let arap = &mut self.arap;
+        let targets: Vec<[f64; 3]> = this.order.iter().map(|&k| bc[k]).collect();
+        let arap = &mut this.arap;
         let result = py.allow_threads(|| {
             if let Some(u0) = &start {
                 arap.set_positions(u0);
@@ -117,47 +119,50 @@ impl NativeArap {
             arap.solve(&targets)
         });
         let s = result.map_err(err)?;
-        Ok((array3(py, self.arap.positions().to_vec())?, stats(py, &s)?))
+        Ok((array3(py, this.arap.positions().to_vec())?, stats(py, &s)?))
     }
 
     /// The ARAP energy of `u` with rotations fitted to it, $\min_R E(u, R)$ (`u` becomes the
     /// next solve's starting guess).
-    fn energy(&mut self, py: Python<'_>, u: PyReadonlyArray2<'_, f64>) -> PyResult<f64> {
+    fn energy(slf: &Bound<'_, Self>, u: PyReadonlyArray2<'_, f64>) -> PyResult<f64> {
+        let mut this = borrow_mut(slf)?;
         let u = rows3(&u, "U")?;
-        if u.len() != self.arap.rest().len() {
+        if u.len() != this.arap.rest().len() {
             return Err(err(format!(
                 "U has {} rows but V has {}",
                 u.len(),
-                self.arap.rest().len()
+                this.arap.rest().len()
             )));
         }
-        let arap = &mut self.arap;
-        Ok(py.allow_threads(|| arap.pose_energy(&u)))
+        let arap = &mut this.arap;
+        Ok(slf.py().allow_threads(|| arap.pose_energy(&u)))
     }
 
     /// The current pose (`#V×3`).
     #[getter]
-    fn positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        array3(py, self.arap.positions().to_vec())
+    fn positions<'py>(slf: &Bound<'py, Self>) -> PyResult<Bound<'py, PyAny>> {
+        array3(slf.py(), borrow(slf)?.arap.positions().to_vec())
     }
 
     /// The per-vertex rotations of the last local step (`#V×3×3`).
     #[getter]
-    fn rotations<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let r = self.arap.rotations();
+    fn rotations<'py>(slf: &Bound<'py, Self>) -> PyResult<Bound<'py, PyAny>> {
+        let this = borrow(slf)?;
+        let r = this.arap.rotations();
         let flat: Vec<f64> = r.iter().flatten().flatten().copied().collect();
         use numpy::PyArrayMethods;
-        Ok(PyArray1::from_vec(py, flat).reshape([r.len(), 3, 3])?.into_any())
+        Ok(PyArray1::from_vec(slf.py(), flat).reshape([r.len(), 3, 3])?.into_any())
     }
 
     /// The fixed vertex indices, in the order given.
     #[getter]
-    fn b<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<i64>> {
-        PyArray1::from_slice(py, &self.b)
+    fn b<'py>(slf: &Bound<'py, Self>) -> PyResult<Bound<'py, PyArray1<i64>>> {
+        Ok(PyArray1::from_slice(slf.py(), &borrow(slf)?.b))
     }
 
     /// Restarts the next solve without `U0` from rest.
-    fn reset(&mut self) {
-        self.arap.reset();
+    fn reset(slf: &Bound<'_, Self>) -> PyResult<()> {
+        borrow_mut(slf)?.arap.reset();
+        Ok(())
     }
 }

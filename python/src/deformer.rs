@@ -11,14 +11,15 @@ use solver::glam::DVec3;
 use solver::io::Asset;
 use solver::linalg::rotation::Mat3;
 use solver::{
-    ArapConfig, BaseConfig, CoarseEnergy, ComponentMode, Deformer, DeformerOptions, GroupTransform,
-    Handles, LooseParts, MAX_SETTLE_STEPS, Mesh, Method, handle_targets, loose_part_error,
+    ArapConfig, AtRest, BaseConfig, CoarseEnergy, ComponentMode, Deformer, DeformerOptions,
+    GroupTransform, Handles, LooseParts, MAX_SETTLE_STEPS, Mesh, Method, handle_targets,
+    loose_part_error,
 };
 
 use crate::convert::{
     arap_config, array3, check_in_range, energy_name, ints, rows3, stats, triangles, with_stopping,
 };
-use crate::err;
+use crate::{Interrupt, borrow, borrow_mut, err};
 
 /// The file layout a recording is exported on: the asset and cleaning's vertex map (a scene's
 /// mesh), shared with the recordings made from this deformer.
@@ -174,73 +175,89 @@ impl NativeDeformer {
     /// The handle targets (`#H×3`, order of `handle_vertices`) of per-group transforms
     /// `[(group, translation, rotation)]`; unlisted groups stay at rest.
     fn targets<'py>(
-        &self,
-        py: Python<'py>,
+        slf: &Bound<'py, Self>,
         transforms: Vec<(usize, [f64; 3], Mat3)>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        array3(py, self.targets_of(transforms)?)
+        array3(slf.py(), borrow(slf)?.targets_of(transforms)?)
     }
 
     /// Solves for per-group transforms `[(group, translation, rotation)]` (rotation about the
     /// group's rest centroid, then translation), warm-started: `(positions, stats)`. The
     /// motions reach the solver as they are (`Deformer::solve_groups`).
     fn solve<'py>(
-        &mut self,
-        py: Python<'py>,
+        slf: &Bound<'py, Self>,
         transforms: Vec<(usize, [f64; 3], Mat3)>,
     ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyDict>)> {
+        let py = slf.py();
+        let mut this = borrow_mut(slf)?;
+        let this = &mut *this;
         let list = transforms_of(transforms)?;
-        let targets = handle_targets(self.mesh.positions(), &self.handles, &list).map_err(err)?;
+        let targets = handle_targets(this.mesh.positions(), &this.handles, &list).map_err(err)?;
         check_in_range(&targets, "the motions' handle targets")?;
-        let deformer = &mut self.deformer;
+        let deformer = &mut this.deformer;
         let s = py.allow_threads(|| deformer.solve_groups(&list)).map_err(err)?;
-        self.last_targets = Some(self.deformer.group_targets().to_vec());
-        Ok((array3(py, self.deformer.positions().to_vec())?, stats(py, &s)?))
+        this.last_targets = Some(this.deformer.group_targets().to_vec());
+        Ok((array3(py, this.deformer.positions().to_vec())?, stats(py, &s)?))
     }
 
     /// Solves for handle targets given directly (`#H×3`, order of `handle_vertices`).
     fn solve_targets<'py>(
-        &mut self,
-        py: Python<'py>,
+        slf: &Bound<'py, Self>,
         targets: PyReadonlyArray2<'py, f64>,
     ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyDict>)> {
         let targets = rows3(&targets, "targets")?;
-        self.solve_at(py, targets)
+        borrow_mut(slf)?.solve_at(slf.py(), targets)
     }
 
     /// Refines the last solve's pose at the same targets (the coarse BS-ARAP with
     /// `settle_iterations > 0`): `(positions, stats)`, or `None` when there is nothing to do.
     fn settle<'py>(
-        &mut self,
-        py: Python<'py>,
+        slf: &Bound<'py, Self>,
     ) -> PyResult<Option<(Bound<'py, PyAny>, Bound<'py, PyDict>)>> {
-        let Some(targets) = &self.last_targets else {
+        let py = slf.py();
+        let mut this = borrow_mut(slf)?;
+        let this = &mut *this;
+        let Some(targets) = &this.last_targets else {
             return Err(err("settle: nothing was solved yet"));
         };
-        let deformer = &mut self.deformer;
+        let deformer = &mut this.deformer;
         let result = py.allow_threads(|| deformer.settle(targets)).map_err(err)?;
         match result {
             None => Ok(None),
-            Some(s) => Ok(Some((array3(py, self.deformer.positions().to_vec())?, stats(py, &s)?))),
+            Some(s) => Ok(Some((array3(py, this.deformer.positions().to_vec())?, stats(py, &s)?))),
         }
     }
 
     /// Solves at per-group transforms as an editor does once its handles stop
     /// (`Deformer::solve_to_rest`: solves until one converges, then settle steps until one
-    /// says converged; at most `max_steps` of each): `(positions, at_rest)`.
+    /// says converged; at most `max_steps` of each): `(positions, at_rest)`. Ctrl-C stops it
+    /// between two steps ([`Interrupt`]); the deformer is then as after the last step that
+    /// ran (its pose, targets and pending settling), and the call raises `KeyboardInterrupt`.
     #[pyo3(signature = (transforms, max_steps=MAX_SETTLE_STEPS))]
     fn solve_to_rest<'py>(
-        &mut self,
-        py: Python<'py>,
+        slf: &Bound<'py, Self>,
         transforms: Vec<(usize, [f64; 3], Mat3)>,
         max_steps: usize,
     ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyDict>)> {
+        let py = slf.py();
+        let mut this = borrow_mut(slf)?;
+        let this = &mut *this;
         let list = transforms_of(transforms)?;
-        let targets = handle_targets(self.mesh.positions(), &self.handles, &list).map_err(err)?;
+        let targets = handle_targets(this.mesh.positions(), &this.handles, &list).map_err(err)?;
         check_in_range(&targets, "the motions' handle targets")?;
-        let deformer = &mut self.deformer;
-        let r = py.allow_threads(|| deformer.solve_to_rest(&list, max_steps)).map_err(err)?;
-        self.last_targets = Some(self.deformer.group_targets().to_vec());
+        let deformer = &mut this.deformer;
+        let mut r = AtRest::default();
+        let mut interrupt = Interrupt::new();
+        let result = py.allow_threads(|| {
+            deformer.solve_to_rest_with(&list, max_steps, &mut r, &mut || interrupt.poll())
+        });
+        if r.solves > 0 {
+            this.last_targets = Some(this.deformer.group_targets().to_vec());
+        }
+        result.map_err(err)?;
+        if let Some(e) = interrupt.raised() {
+            return Err(e);
+        }
         let d = PyDict::new(py);
         d.set_item("solves", r.solves)?;
         d.set_item("converged", r.converged)?;
@@ -248,101 +265,107 @@ impl NativeDeformer {
         d.set_item("settled", r.settled)?;
         d.set_item("iterations", r.iterations)?;
         d.set_item("energy", r.energy)?;
-        Ok((array3(py, self.deformer.positions().to_vec())?, d))
+        Ok((array3(py, this.deformer.positions().to_vec())?, d))
     }
 
     /// Whether `settle` has work after the last solve.
     #[getter]
-    fn settle_pending(&self) -> bool {
-        self.deformer.settle_pending()
+    fn settle_pending(slf: &Bound<'_, Self>) -> PyResult<bool> {
+        Ok(borrow(slf)?.deformer.settle_pending())
     }
 
     /// Changes the stopping rule without refactoring.
-    fn set_stopping(&mut self, tol: f64, max_iters: usize) -> PyResult<()> {
-        self.config = with_stopping(&self.config, tol, max_iters)?;
-        self.deformer.set_stopping(tol, max_iters);
+    fn set_stopping(slf: &Bound<'_, Self>, tol: f64, max_iters: usize) -> PyResult<()> {
+        let mut this = borrow_mut(slf)?;
+        this.config = with_stopping(&this.config, tol, max_iters)?;
+        this.deformer.set_stopping(tol, max_iters);
         Ok(())
     }
 
     /// Restarts the next solve from rest.
-    fn reset(&mut self) {
-        self.last_targets = None;
-        self.deformer.reset();
+    fn reset(slf: &Bound<'_, Self>) -> PyResult<()> {
+        let mut this = borrow_mut(slf)?;
+        this.last_targets = None;
+        this.deformer.reset();
+        Ok(())
     }
 
     /// The pose of the last solve (rest before any), `#V×3`.
     #[getter]
-    fn positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        array3(py, self.deformer.positions().to_vec())
+    fn positions<'py>(slf: &Bound<'py, Self>) -> PyResult<Bound<'py, PyAny>> {
+        array3(slf.py(), borrow(slf)?.deformer.positions().to_vec())
     }
 
     /// The deformed base surface B' (`#V×3`); `None` for ARAP.
     #[getter]
-    fn base<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
-        self.deformer.deformed_base().map(|b| array3(py, b.to_vec())).transpose()
+    fn base<'py>(slf: &Bound<'py, Self>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        borrow(slf)?.deformer.deformed_base().map(|b| array3(slf.py(), b.to_vec())).transpose()
     }
 
     /// The details D = M − B at rest (`#V×3`); `None` for ARAP.
     #[getter]
-    fn details<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
-        self.deformer.details().map(|d| array3(py, d.to_vec())).transpose()
+    fn details<'py>(slf: &Bound<'py, Self>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        borrow(slf)?.deformer.details().map(|d| array3(slf.py(), d.to_vec())).transpose()
     }
 
     /// The handle vertices, ascending (the row order of targets).
     #[getter]
-    fn handle_vertices<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<i64>> {
-        let h: Vec<i64> = self.handles.handle_vertices().iter().map(|&v| i64::from(v)).collect();
-        PyArray1::from_vec(py, h)
+    fn handle_vertices<'py>(slf: &Bound<'py, Self>) -> PyResult<Bound<'py, PyArray1<i64>>> {
+        let this = borrow(slf)?;
+        let h: Vec<i64> = this.handles.handle_vertices().iter().map(|&v| i64::from(v)).collect();
+        Ok(PyArray1::from_vec(slf.py(), h))
     }
 
     /// Per-vertex labels (-1 free, k group k).
     #[getter]
-    fn labels<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<i64>> {
-        let l: Vec<i64> = self.handles.labels().iter().map(|l| l.map_or(-1, i64::from)).collect();
-        PyArray1::from_vec(py, l)
+    fn labels<'py>(slf: &Bound<'py, Self>) -> PyResult<Bound<'py, PyArray1<i64>>> {
+        let this = borrow(slf)?;
+        let l: Vec<i64> = this.handles.labels().iter().map(|l| l.map_or(-1, i64::from)).collect();
+        Ok(PyArray1::from_vec(slf.py(), l))
     }
 
     /// The ids of the non-empty handle groups.
     #[getter]
-    fn groups(&self) -> Vec<usize> {
-        self.handles.group_ids().collect()
+    fn groups(slf: &Bound<'_, Self>) -> PyResult<Vec<usize>> {
+        Ok(borrow(slf)?.handles.group_ids().collect())
     }
 
     /// The method's name.
     #[getter]
-    fn method(&self) -> &'static str {
-        self.method.name()
+    fn method(slf: &Bound<'_, Self>) -> PyResult<&'static str> {
+        Ok(borrow(slf)?.method.name())
     }
 
     /// The energy's name (the CLI's `--energy`).
     #[getter]
-    fn energy(&self) -> &'static str {
-        energy_name(self.config.energy)
+    fn energy(slf: &Bound<'_, Self>) -> PyResult<&'static str> {
+        Ok(energy_name(borrow(slf)?.config.energy))
     }
 
     /// The bending length of the smooth-rotations energy, a fraction of the rest bounding-box
     /// diagonal (kept, and unused, with the other energies).
     #[getter]
-    fn bending_length(&self) -> f64 {
-        self.config.bending_length
+    fn bending_length(slf: &Bound<'_, Self>) -> PyResult<f64> {
+        Ok(borrow(slf)?.config.bending_length)
     }
 
     /// [`Self::bending_length`] in world units: times the rest bounding-box diagonal.
     #[getter]
-    fn bending_length_world(&self) -> f64 {
-        self.config.bending_length * self.mesh.bbox_diagonal()
+    fn bending_length_world(slf: &Bound<'_, Self>) -> PyResult<f64> {
+        let this = borrow(slf)?;
+        Ok(this.config.bending_length * this.mesh.bbox_diagonal())
     }
 
     /// The rest positions (`#V×3`).
     #[getter]
-    fn rest<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        array3(py, self.mesh.positions().to_vec())
+    fn rest<'py>(slf: &Bound<'py, Self>) -> PyResult<Bound<'py, PyAny>> {
+        array3(slf.py(), borrow(slf)?.mesh.positions().to_vec())
     }
 
     /// A sentence about the loose parts (components without handles), if any.
     #[getter]
-    fn notice(&self) -> Option<String> {
-        self.deformer.notice()
+    fn notice(slf: &Bound<'_, Self>) -> PyResult<Option<String>> {
+        Ok(borrow(slf)?.deformer.notice())
     }
 }
 

@@ -1,5 +1,6 @@
 """Shared fixtures: the paper's meshes (../shared/meshes beside the repository, skipped with a
-note when absent), a small procedural tube, and the repository's own assets."""
+note when absent), a small procedural tube, a subdivided sphere big enough for long solves, and
+the repository's own assets."""
 import os
 from pathlib import Path
 
@@ -41,6 +42,38 @@ def tube(nu=12, nv=10, radius=1.0, height=4.0):
     labels = np.full(len(V), -1, dtype=np.int64)
     labels[:nu] = 0
     labels[-nu:] = 1
+    return V, np.array(F, dtype=np.int64), labels
+
+
+def sphere(level):
+    """A unit icosphere subdivided `level` times (10·4^level + 2 vertices): (V, F, labels) with
+    the cap z < -0.8 group 0 and the cap z > 0.8 group 1."""
+    t = (1 + 5 ** 0.5) / 2
+    V = [[-1, t, 0], [1, t, 0], [-1, -t, 0], [1, -t, 0], [0, -1, t], [0, 1, t], [0, -1, -t],
+         [0, 1, -t], [t, 0, -1], [t, 0, 1], [-t, 0, -1], [-t, 0, 1]]
+    F = [[0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11], [1, 5, 9], [5, 11, 4],
+         [11, 10, 2], [10, 7, 6], [7, 1, 8], [3, 9, 4], [3, 4, 2], [3, 2, 6], [3, 6, 8],
+         [3, 8, 9], [4, 9, 5], [2, 4, 11], [6, 2, 10], [8, 6, 7], [9, 8, 1]]
+    V = [np.array(v, dtype=float) / np.linalg.norm(v) for v in V]
+    for _ in range(level):
+        midpoints, finer = {}, []
+
+        def midpoint(a, b):
+            key = (min(a, b), max(a, b))
+            if key not in midpoints:
+                p = V[a] + V[b]
+                V.append(p / np.linalg.norm(p))
+                midpoints[key] = len(V) - 1
+            return midpoints[key]
+
+        for a, b, c in F:
+            ab, bc, ca = midpoint(a, b), midpoint(b, c), midpoint(c, a)
+            finer += [[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]
+        F = finer
+    V = np.array(V)
+    labels = np.full(len(V), -1, dtype=np.int64)
+    labels[V[:, 2] < -0.8] = 0
+    labels[V[:, 2] > 0.8] = 1
     return V, np.array(F, dtype=np.int64), labels
 
 

@@ -16,6 +16,7 @@ use crate::error::SolveError;
 use crate::geometry::mesh::Mesh;
 use crate::linalg::rigid::Motion;
 use crate::pool::in_pool;
+use std::ops::ControlFlow;
 use std::sync::Arc;
 
 /// The most settle steps at one pose, and the most solves [`Deformer::solve_to_rest`] runs
@@ -524,7 +525,28 @@ impl Deformer {
         max_steps: usize,
     ) -> Result<AtRest, SolveError> {
         let mut rest = AtRest::default();
+        self.solve_to_rest_with(transforms, max_steps, &mut rest, &mut || {
+            ControlFlow::Continue(())
+        })?;
+        Ok(rest)
+    }
+
+    /// [`Deformer::solve_to_rest`] for a caller that may stop it (Python's Ctrl-C): `between()`
+    /// is asked before every step but the first, and `Break` stops there, the deformer as
+    /// after the last step that ran (`rest.settled` false). `rest` counts what ran as it goes,
+    /// also before an error.
+    pub fn solve_to_rest_with(
+        &mut self,
+        transforms: &[(usize, GroupTransform)],
+        max_steps: usize,
+        rest: &mut AtRest,
+        between: &mut dyn FnMut() -> ControlFlow<()>,
+    ) -> Result<(), SolveError> {
+        *rest = AtRest::default();
         while rest.solves < max_steps.max(1) {
+            if rest.solves > 0 && between().is_break() {
+                return Ok(());
+            }
             let stats = self.solve_groups(transforms)?;
             rest.solves += 1;
             rest.iterations += stats.iterations + stats.fine_iterations;
@@ -537,6 +559,9 @@ impl Deformer {
         // Settled unless a step left more to do (`None`: nothing to settle).
         let mut settled = true;
         while rest.converged && rest.settle_steps < max_steps {
+            if between().is_break() {
+                return Ok(());
+            }
             let Some(stats) = self.settle_groups(transforms)? else { break };
             rest.settle_steps += 1;
             rest.iterations += stats.iterations + stats.fine_iterations;
@@ -547,7 +572,7 @@ impl Deformer {
             }
         }
         rest.settled = rest.converged && settled && !self.settle_pending();
-        Ok(rest)
+        Ok(())
     }
 
     /// The per-vertex targets (`#H×3`, order of [`Handles::handle_vertices`]) the last
