@@ -4,7 +4,8 @@ Vertex groups are handle groups (weight > 0.5); *Add controls* makes one Empty p
 or keying the Empties poses the mesh live into the shape key "BS-ARAP pose"; the scene's frame
 range bakes to shape keys or a PC2 point cache. Operators: ``bpy.ops.bsarap.*``; panel: 3D
 viewport sidebar, tab "BS-ARAP". Modules: handles (vertex groups -> labels), solve (the
-per-object solver cache), handlers (live updates), bake, props, operators, panel.
+per-object solver cache), modifiers (those a posed mesh may keep), handlers (live updates), bake,
+props, operators, panel.
 """
 
 from . import handlers, operators, panel, props

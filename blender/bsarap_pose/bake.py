@@ -15,7 +15,7 @@ import struct
 
 import numpy as np
 
-from . import handlers, solve
+from . import handlers, modifiers, solve
 from .handles import HandleError
 
 FRAME_KEY_PREFIX = "BS-ARAP frame "
@@ -33,6 +33,7 @@ class Baker:
     def __init__(self, scene, obj, frames):
         self.scene, self.obj, self.frames = scene, obj, list(frames)
         self.name = obj.name
+        solve.check_controls(obj)  # a copy's controls pose its original: no bake
         self.st = solve.state(obj)
         self.st.baking = True  # until restore_frame: the live pose's finishing steps wait
         self.poses = []
@@ -160,9 +161,9 @@ def add_cache_modifier(obj, path: str, start_frame: int, step: int = 1):
     """The Mesh Cache modifier reading ``path`` (one sample per ``step`` frames from
     ``start_frame``; linear in between), first in the stack; the live pose key is muted (the
     cache overwrites the positions)."""
-    mod = obj.modifiers.get(solve.CACHE_MODIFIER)
+    mod = obj.modifiers.get(modifiers.CACHE_MODIFIER)
     if mod is None or mod.type != "MESH_CACHE":
-        mod = obj.modifiers.new(solve.CACHE_MODIFIER, "MESH_CACHE")
+        mod = obj.modifiers.new(modifiers.CACHE_MODIFIER, "MESH_CACHE")
     mod.cache_format = "PC2"
     mod.filepath = path
     mod.time_mode = "FRAME"

@@ -13,6 +13,10 @@ Objects in Edit Mode are skipped (``solve.editing``). While Blender renders (``r
 data during a render can crash Blender, so an animation is baked before it is rendered. An error
 is kept as the object's message (the panel shows it) and printed once, never a traceback per
 update.
+
+Each update first drops what is kept for objects deleted since (``solve.prune``). A loaded file
+starts the caches again, and its meshes claim their controls in name order (``on_load``), so a
+file saved with a copy that shares its original's controls keeps them with the original.
 """
 
 from __future__ import annotations
@@ -43,6 +47,11 @@ def posed_objects(scene):
             yield obj
 
 
+def alive_objects() -> set:
+    """The session uids of the objects in the scenes (a deleted one is in none)."""
+    return {o.session_uid for sc in bpy.data.scenes for o in sc.objects}
+
+
 def update_scene(scene) -> None:
     global _busy
     if _busy or suspended or rendering:
@@ -50,6 +59,8 @@ def update_scene(scene) -> None:
     _busy = True
     solved = False
     try:
+        if solve.tracked():
+            solve.prune(alive_objects())
         for obj in posed_objects(scene):
             try:
                 solved |= solve.update(obj)
@@ -65,8 +76,8 @@ def report(obj, e: Exception) -> None:
     """Keep ``e`` as the object's message (the panel shows it) and print it, once; an exception
     other than :class:`HandleError` (a bug) is named as unexpected."""
     msg = str(e) if isinstance(e, HandleError) else f"{obj.name}: unexpected error ({type(e).__name__}: {e})"
-    if solve.messages.get(obj.name) != msg:  # say it once, not on every update
-        solve.messages[obj.name] = msg
+    if solve.message(obj) != msg:  # say it once, not on every update
+        solve.messages[solve.uid(obj)] = msg
         print(f"BS-ARAP: {msg}")
 
 
@@ -84,7 +95,7 @@ def finish_timer():
             try:
                 due.append(solve.finish_step(obj))
             except Exception as e:  # noqa: BLE001 - a message, not a traceback per step
-                st = solve._states.get(obj.name)
+                st = solve.built(obj)
                 if st is not None:
                     st.ended = "error"
                 report(obj, e)
@@ -117,8 +128,13 @@ def on_frame_change(scene, _depsgraph=None):
 
 @persistent
 def on_load(_filepath=None, _unused=None):
-    """Another file: its objects are not those the cached solvers were built for."""
+    """Another file: its objects are not those the cached solvers were built for. Its meshes
+    claim their controls, in name order (``bpy.data.objects``): of an original and a copy that
+    shares its controls ("tube", "tube.001") the original keeps them, whichever solves first."""
     solve.forget()
+    for obj in bpy.data.objects:
+        if obj.type == "MESH":
+            solve.claim_free_controls(obj)
 
 
 @persistent

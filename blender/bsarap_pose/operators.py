@@ -83,9 +83,22 @@ class BSARAP_OT_remove_group(_MeshOperator, bpy.types.Operator):
         return {"FINISHED"}
 
 
+def _copied_control(obj, control):
+    """Where a copy's own control goes: placed on ``obj`` as ``control`` is on the object that
+    claimed it (so the copy keeps that pose); ``None`` when that object is gone or singular."""
+    other = solve.object_of(solve.owner(control))
+    if other is None:
+        return None
+    try:
+        return obj.matrix_world @ other.matrix_world.inverted() @ control.matrix_world
+    except ValueError:  # a scale of 0: no inverse
+        return None
+
+
 class BSARAP_OT_add_controls(_MeshOperator, bpy.types.Operator):
     """Create one Empty per handle group at its centroid (named after the group, no parent); moving,
-    rotating or keying them poses the mesh. A control deleted from the scene is re-created"""
+    rotating or keying them poses the mesh. A control deleted from the scene is re-created; a copy
+    of a posed object gets its own, placed as the original's"""
 
     bl_idname = "bsarap.add_controls"
     bl_label = "Add Controls"
@@ -95,21 +108,32 @@ class BSARAP_OT_add_controls(_MeshOperator, bpy.types.Operator):
         try:
             if len(obj.vertex_groups) == 0:
                 raise HandleError(f"{obj.name}: the mesh has no vertex groups; create or paint one first")
-            solve.forget(obj.name)  # an explicit rebuild: the rest mesh may have been edited
+            foreign = solve.foreign_groups(obj)
+            if any(getattr(solve.object_of(o), "data", None) == obj.data for _, o in foreign):
+                # a linked duplicate: its own controls would fight over the shared pose key
+                raise HandleError(solve.foreign_message(obj, foreign))
+            solve.forget(obj)  # an explicit rebuild: the rest mesh may have been edited
             st = solve.state(obj)
         except HandleError as e:
             self.report({"ERROR"}, str(e))
             return {"CANCELLED"}
+        foreign = dict(foreign)
         n = len(st.group_names)
         cent = handles.centroids(st.rest, st.labels, n)
         size = 0.05 * float(np.linalg.norm(st.rest.max(axis=0) - st.rest.min(axis=0)))
         coll = obj.users_collection[0] if obj.users_collection else context.scene.collection
         O = obj.matrix_world.copy()
-        made, recreated = 0, []
+        made, recreated, copied = 0, [], []
         for k, g in enumerate(obj.bsarap.groups):
-            if solve.linked(g.control):
+            place = None
+            if g.name in foreign:
+                # another object's (this is a copy of it): that one keeps it
+                place = _copied_control(obj, g.control)
+                copied.append(g.name)
+                g.control = None
+            elif solve.linked(g.control):
                 continue
-            if g.control is not None:
+            elif g.control is not None:
                 # deleted in the viewport: in no scene, kept only by this pointer
                 recreated.append(g.name)
                 old, g.control = g.control, None
@@ -118,11 +142,15 @@ class BSARAP_OT_add_controls(_MeshOperator, bpy.types.Operator):
             e = bpy.data.objects.new(g.name, None)
             e.empty_display_type = "SPHERE"
             e.empty_display_size = max(size, 1e-3)
-            e.matrix_world = O @ Matrix.Translation(cent[k])
             coll.objects.link(e)
             g.control = e
-            # The control's rest, relative to the object: O^-1 E = the centroid's translation.
-            g.rest_matrix = [x for row in Matrix.Translation(cent[k]) for x in row]
+            if place is not None:
+                # the original's motion since its rest (the copied rest_matrix): the same pose
+                e.matrix_world = place
+            else:
+                e.matrix_world = O @ Matrix.Translation(cent[k])
+                # The control's rest, relative to the object: O^-1 E = the centroid's translation.
+                g.rest_matrix = [x for row in Matrix.Translation(cent[k]) for x in row]
             made += 1
         solve.ensure_pose_key(obj)
         try:
@@ -131,6 +159,8 @@ class BSARAP_OT_add_controls(_MeshOperator, bpy.types.Operator):
             self.report({"ERROR"}, str(e))
             return {"CANCELLED"}
         again = f" (re-created, deleted from the scene: {', '.join(recreated)})" if recreated else ""
+        if copied:
+            again += f" (its own for {', '.join(copied)}, whose controls posed another object; the pose kept)"
         self.report(
             {"INFO"}, f"{obj.name}: {made} control(s) added{again}, {n} handle group(s), {st.deformer.method}"
         )
@@ -161,21 +191,28 @@ class BSARAP_OT_pose(_MeshOperator, bpy.types.Operator):
 
 
 class BSARAP_OT_remove_controls(_MeshOperator, bpy.types.Operator):
-    """Delete the control Empties and the pose shape key; the mesh is back at rest"""
+    """Delete the control Empties and the pose shape key; the mesh is back at rest. A copy lets go
+    of the controls it shares with its original without deleting them"""
 
     bl_idname = "bsarap.remove_controls"
     bl_label = "Remove Controls"
 
     def execute(self, context):
         obj = _mesh_object(context)
+        foreign = dict(solve.foreign_groups(obj))
+        # a linked duplicate's pose key is its original's too
+        shared = any(getattr(solve.object_of(o), "data", None) == obj.data for o in foreign.values())
         for g in obj.bsarap.groups:
             if g.control is not None:
-                bpy.data.objects.remove(g.control)
+                if g.name not in foreign:
+                    bpy.data.objects.remove(g.control)
                 g.control = None
         keys = obj.data.shape_keys
-        if keys is not None and keys.key_blocks.get(solve.POSE_KEY) is not None:
+        if not shared and keys is not None and keys.key_blocks.get(solve.POSE_KEY) is not None:
             obj.shape_key_remove(keys.key_blocks[solve.POSE_KEY])
-        solve.forget(obj.name)
+        solve.forget(obj)
+        if foreign:
+            self.report({"INFO"}, f"{obj.name}: let go of another object's controls ({', '.join(foreign)}), kept")
         return {"FINISHED"}
 
 

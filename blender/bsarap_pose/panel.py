@@ -13,7 +13,10 @@ class BSARAP_UL_groups(bpy.types.UIList):
         row = layout.row(align=True)
         ok = obj is not None and obj.vertex_groups.get(item.name) is not None
         row.label(text=item.name, icon="GROUP_VERTEX" if ok else "ERROR")
-        row.label(text=item.control.name if item.control else "no control", icon="EMPTY_AXIS")
+        c = item.control
+        # another object's control (this one is a copy of it): the message says which
+        own = c is None or obj is None or solve.owner(c) in (None, solve.uid(obj))
+        row.label(text=c.name if c else "no control", icon="EMPTY_AXIS" if own else "ERROR")
 
 
 class BSARAP_PT_pose(bpy.types.Panel):
@@ -48,14 +51,14 @@ class BSARAP_PT_pose(bpy.types.Panel):
         warning = solve.scale_warning(obj)
         if warning:
             layout.label(text=warning, icon="ERROR")
-        msg = solve.messages.get(obj.name)
+        msg = solve.message(obj)
         if msg:
             layout.label(text=msg, icon="INFO")
         status = solve.status(obj)
         if status is not None:
             text, icon = status
             layout.label(text=text, icon=icon)
-        st = solve._states.get(obj.name)
+        st = solve.built(obj)
         if st is not None and st.last_ms is not None:
             layout.label(text=f"Last update: {st.last_ms:.1f} ms")
 

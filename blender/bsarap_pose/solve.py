@@ -4,10 +4,16 @@ The pose of handle group ``k`` is the motion of its control Empty ``E_k`` since 
 added, in the mesh object's space ``O``: ``D_k = (O^-1 E_k) (O^-1 E_k)_rest^-1``. The targets
 are the group's rest vertices moved by it, ``t_i = D_k p_i``; ``Deformer.solve_targets`` gives
 the pose, which goes into the shape key ``POSE_KEY`` (value 1) so the base mesh is never
-overwritten. The state is keyed by the object's name, its topology counts, a checksum of its
-rest coordinates and the settings: a change of any of them rebuilds the solver (with a message)
-instead of failing. A build that failed is not tried again until its key changes (or *Add
-Controls*): the depsgraph updates that follow get its message at once.
+overwritten. The state is kept under the object's ``session_uid`` (:func:`uid`) and built for
+a key (:class:`StateKey`): its topology counts, a checksum of its rest coordinates, its handle
+groups, the settings and the modifiers that block posing; a change of any of them rebuilds the
+solver (with a message) instead of failing, while a rename keeps it. A build that failed is not
+tried again until its key changes (or *Add Controls*): the depsgraph updates that follow get its
+message at once. What is kept for an object no longer in any scene is dropped (:func:`prune`).
+
+Each control Empty poses one object: the first to use it claims it (:func:`check_controls`). A
+copy of a posed object (Shift+D, ``Object.copy``) points to the same Empties; it is refused with
+a message until *Add Controls* gives it its own, so one Empty never drives two meshes.
 
 Objects in Edit Mode are left alone (their mesh data is stale until Edit Mode ends); on leaving
 it the pose is solved again (:func:`editing`), since Blender writes the edit mesh's copy of the
@@ -21,16 +27,16 @@ converges, then settle steps (``bsarap-coarse`` with settle iterations); not whi
 from __future__ import annotations
 
 import time
+from typing import NamedTuple
 
+import bpy
 import numpy as np
 
-from . import handles
+from . import handles, modifiers
 from .handles import HandleError
 
 #: The shape key the live pose goes into.
 POSE_KEY = "BS-ARAP pose"
-#: The name of the Mesh Cache modifier Bake to point cache adds.
-CACHE_MODIFIER = "BS-ARAP cache"
 #: Seconds the controls rest before :func:`finish_step` goes on (the editor's settle delay).
 REST_DELAY = 0.15
 
@@ -67,27 +73,54 @@ def diagonal(rest: np.ndarray) -> float:
     return float(np.linalg.norm(np.ptp(rest, axis=0))) if len(rest) else 0.0
 
 
-#: object name -> SolverState
+# Each object's entries are kept under its session uid (:func:`uid`).
+#: session uid -> SolverState
 _states: dict = {}
-#: object name -> the last message about it (shown in the panel; errors of the live handler).
+#: session uid -> the last message about the object (the panel shows it; the live handler's
+#: errors).
 messages: dict = {}
-#: object name -> (topology fingerprint, rest diagonal) for objects with no solver yet (panel).
+#: session uid -> (topology fingerprint, rest diagonal) for objects with no solver yet (panel).
 _diagonals: dict = {}
-#: object name -> (state key, HandleError) of the last failed build: not retried for that key.
+#: session uid -> (state key, HandleError) of the last failed build: not retried for that key.
 _failures: dict = {}
+#: session uid -> the message of the last refusal of another object's controls (it goes once
+#: the controls are the object's own again).
+_refused: dict = {}
+#: The entries kept per object.
+_PER_OBJECT = (_states, messages, _diagonals, _failures, _refused)
+#: a control Empty's session uid -> the session uid of the mesh object it poses (its claim).
+_owners: dict = {}
+
+
+def uid(obj) -> int:
+    """The key of ``obj``'s entries: ``ID.session_uid``, which stays with the object through
+    renames and undo steps and is never reused within a session. It is not saved in the .blend
+    (the entries are this session's caches; a loaded file starts them again)."""
+    return obj.session_uid
+
+
+def built(obj):
+    """The object's built :class:`SolverState`, or ``None`` (never builds)."""
+    return _states.get(uid(obj))
+
+
+def message(obj):
+    """The last message about ``obj`` (the panel shows it), or ``None``."""
+    return messages.get(uid(obj))
 
 
 def rest_diagonal(obj) -> float:
     """The rest bounding-box diagonal of ``obj``'s mesh in object space (the solver's unit of
     length): the built solver's, else measured once per topology (the panel draws it often)."""
-    st = _states.get(obj.name)
+    k = uid(obj)
+    st = _states.get(k)
     fp = handles.topology_fingerprint(obj.data)
-    if st is not None and st.key[1] == fp:
+    if st is not None and st.key.topology == fp:
         return st.diagonal
-    cached = _diagonals.get(obj.name)
+    cached = _diagonals.get(k)
     if cached is None or cached[0] != fp:
         cached = (fp, diagonal(handles.rest_positions(obj.data)))
-        _diagonals[obj.name] = cached
+        _diagonals[k] = cached
     return cached[1]
 
 
@@ -99,29 +132,14 @@ def import_bsarap():
     return bsarap
 
 
-def blocking_modifiers(obj) -> list:
-    """The enabled modifiers that would act on the mesh before (under) the BS-ARAP pose or
-    cache: every one before our Mesh Cache modifier, or every one when there is none (the
-    controls are placed on the base mesh, which such modifiers move or rebuild)."""
-    out = []
-    for m in obj.modifiers:
-        if m.name == CACHE_MODIFIER and m.type == "MESH_CACHE":
-            break
-        if m.show_viewport or m.show_render:
-            out.append(m.name)
-    return out
-
-
 def check_object(obj) -> None:
-    """Raise :class:`HandleError` for an object BS-ARAP cannot pose."""
+    """Raise :class:`HandleError` for an object BS-ARAP cannot pose (see :mod:`.modifiers` for
+    the modifiers that block it)."""
     if obj is None or obj.type != "MESH":
         raise HandleError("select a mesh object")
-    mods = blocking_modifiers(obj)
-    if mods:
-        raise HandleError(
-            f"{obj.name}: modifiers before BS-ARAP ({', '.join(mods)}); the pose is computed on "
-            "the base mesh: apply, remove or disable them first"
-        )
+    why = modifiers.refusal(obj)
+    if why:
+        raise HandleError(why)
     if len(obj.data.polygons) == 0:
         raise HandleError(f"{obj.name}: the mesh has no faces")
 
@@ -134,17 +152,31 @@ def non_manifold_edges(tri: np.ndarray) -> int:
     return int((counts > 2).sum())
 
 
-def state_key(obj) -> tuple:
+class StateKey(NamedTuple):
+    """What a solver is built from: a change of any field rebuilds it. Not the object's name
+    (the entries are under its session uid: a rename keeps the solver), nor the modifiers that
+    keep the vertices in place (they act after the pose)."""
+
+    topology: tuple
+    #: the basis edited (its vertices moved): the rest shape changed
+    rest: int
+    groups: tuple
+    #: a handle group's vertex group deleted or renamed: rebuild (and say so)
+    groups_exist: tuple
+    settings: tuple
+    #: the modifiers that block posing (added after the controls: refused until they go)
+    blocking: tuple
+
+
+def state_key(obj) -> StateKey:
     s = obj.bsarap
-    return (
-        obj.name,
-        handles.topology_fingerprint(obj.data),
-        # the basis edited (its vertices moved): the rest shape changed
-        handles.rest_fingerprint(obj.data),
-        tuple(g.name for g in s.groups),
-        # a handle group's vertex group deleted or renamed: rebuild (and say so)
-        tuple(obj.vertex_groups.get(g.name) is not None for g in s.groups),
-        tuple(sorted(s.solver_settings().items())),
+    return StateKey(
+        topology=handles.topology_fingerprint(obj.data),
+        rest=handles.rest_fingerprint(obj.data),
+        groups=tuple(g.name for g in s.groups),
+        groups_exist=tuple(obj.vertex_groups.get(g.name) is not None for g in s.groups),
+        settings=tuple(sorted(s.solver_settings().items())),
+        blocking=tuple(tuple(labels) for labels in modifiers.blocking(obj)),
     )
 
 
@@ -167,47 +199,67 @@ def build(obj) -> SolverState:
 
 
 def state(obj, *, rebuild=True) -> SolverState:
-    """The object's solver, built or rebuilt when its key changed (a message says why)."""
+    """The object's solver, built or rebuilt when its key changed (a message says why). Back at
+    the built solver's key after a failed build (a blocking modifier removed again), the
+    failure's message goes."""
+    k = uid(obj)
     key = state_key(obj)
-    st = _states.get(obj.name)
+    st = _states.get(k)
     if st is not None and st.key == key:
+        failed = _failures.pop(k, None)
+        if failed is not None and messages.get(k) == str(failed[1]):
+            del messages[k]
         return st
     if not rebuild:
         raise HandleError(f"{obj.name}: the solver is not built")
-    failed = _failures.get(obj.name)
+    failed = _failures.get(k)
     if failed is not None and failed[0] == key:
         raise failed[1]  # the same input failed already: say so without building again
     try:
         new = build(obj)
     except HandleError as e:
-        _failures[obj.name] = (key, e)
+        _failures[k] = (key, e)
         raise
-    _failures.pop(obj.name, None)
+    _failures.pop(k, None)
     if st is not None:
-        if st.key[1] != key[1]:
-            messages[obj.name] = (
-                f"{obj.name}: the topology changed ({st.key[1][0]} -> {key[1][0]} vertices); solver rebuilt"
+        if st.key.topology != key.topology:
+            messages[k] = (
+                f"{obj.name}: the topology changed ({st.key.topology[0]} -> {key.topology[0]} "
+                "vertices); solver rebuilt"
             )
-        elif st.key[2] != key[2]:
-            messages[obj.name] = f"{obj.name}: the rest mesh (basis) changed; solver rebuilt"
+        elif st.key.rest != key.rest:
+            messages[k] = f"{obj.name}: the rest mesh (basis) changed; solver rebuilt"
         else:
-            messages[obj.name] = f"{obj.name}: settings or groups changed; solver rebuilt"
-    _states[obj.name] = new
+            messages[k] = f"{obj.name}: settings or groups changed; solver rebuilt"
+    _states[k] = new
     return new
 
 
-def forget(name=None) -> None:
-    """Drop the solver of one object (or all)."""
-    if name is None:
-        _states.clear()
-        messages.clear()
-        _diagonals.clear()
-        _failures.clear()
+def forget(obj=None) -> None:
+    """Drop the solver and the messages of one object (or everything, claims included)."""
+    if obj is None:
+        for d in (*_PER_OBJECT, _owners):
+            d.clear()
     else:
-        _states.pop(name, None)
-        messages.pop(name, None)
-        _diagonals.pop(name, None)
-        _failures.pop(name, None)
+        k = uid(obj)
+        for d in _PER_OBJECT:
+            d.pop(k, None)
+
+
+def tracked() -> bool:
+    """Whether anything is kept (else :func:`prune` has nothing to do)."""
+    return any(_PER_OBJECT) or bool(_owners)
+
+
+def prune(alive) -> None:
+    """Drop what is kept for objects not in ``alive`` (the session uids of the objects in the
+    scenes: the others were deleted), and the claims of controls or meshes gone: a deleted
+    object's solver (a dense mesh's factorization) is freed at the next update."""
+    for d in _PER_OBJECT:
+        for k in [k for k in d if k not in alive]:
+            del d[k]
+    for c in [c for c, o in _owners.items() if c not in alive or o not in alive]:
+        del _owners[c]
 
 
 def linked(control) -> bool:
@@ -216,11 +268,75 @@ def linked(control) -> bool:
     return control is not None and len(control.users_scene) > 0
 
 
+def owner(control):
+    """The session uid of the object that claimed ``control``, or ``None``."""
+    return _owners.get(control.session_uid)
+
+
+def object_of(session_uid):
+    """The object with that session uid, or ``None``."""
+    return next((o for o in bpy.data.objects if o.session_uid == session_uid), None)
+
+
+def foreign_groups(obj) -> list:
+    """``[(group name, owner's session uid)]``: the handle groups of ``obj`` whose control
+    another object claimed (``obj`` is a copy of it: Shift+D and ``Object.copy`` copy the
+    pointers to the controls; duplicated with its controls, it points to the copies)."""
+    me = uid(obj)
+    out = []
+    for g in obj.bsarap.groups:
+        if linked(g.control):
+            o = _owners.get(g.control.session_uid)
+            if o is not None and o != me:
+                out.append((g.name, o))
+    return out
+
+
+def foreign_message(obj, foreign) -> str:
+    """What the panel says of an object whose controls ``foreign`` pose another one."""
+    names = ", ".join(f"'{n}'" for n, _ in foreign)
+    other = object_of(foreign[0][1])
+    who = f"'{other.name}'" if other is not None else "another object"
+    if other is not None and other.data == obj.data:
+        return (
+            f"{obj.name}: shares its mesh with {who} (a linked duplicate, Alt+D), posed with the "
+            f"controls of {names}; for a pose of its own make the mesh single-user (Object > "
+            "Relations > Make Single User > Object & Data), then Add Controls"
+        )
+    return (
+        f"{obj.name}: the controls of {names} pose {who} (is this a copy of it? Shift+D shares "
+        f"its controls); Add Controls gives {obj.name} its own"
+    )
+
+
+def claim_free_controls(obj) -> None:
+    """Claim the controls of ``obj`` that no object claimed yet."""
+    me = uid(obj)
+    for g in obj.bsarap.groups:
+        if linked(g.control):
+            _owners.setdefault(g.control.session_uid, me)
+
+
+def check_controls(obj) -> None:
+    """Claim the free controls of ``obj``; raise :class:`HandleError` when another object
+    claimed some (one Empty never drives two meshes). Once they are its own again (its original
+    deleted), the refusal's message goes."""
+    k = uid(obj)
+    foreign = foreign_groups(obj)
+    if foreign:
+        msg = _refused[k] = foreign_message(obj, foreign)
+        raise HandleError(msg)
+    refused = _refused.pop(k, None)
+    if refused is not None and messages.get(k) == refused:
+        del messages[k]
+    claim_free_controls(obj)
+
+
 def editing(obj) -> bool:
     """Whether ``obj`` is in Edit Mode (the live update leaves it alone). The first call after
     Edit Mode ended forgets the last solve's motion, so the next update solves the pose again:
     leaving Edit Mode wrote the edit mesh's copy of the pose key back over it."""
-    st = _states.get(obj.name)
+    st = built(obj)
     if obj.mode == "EDIT":
         if st is not None:
             st.editing = True
@@ -257,6 +373,7 @@ def _object_matrix_inverse(obj) -> np.ndarray:
 
 def control_deltas(obj) -> np.ndarray:
     """``(G, 4, 4)``: each handle group's motion in the object's space (see the module doc)."""
+    check_controls(obj)
     inv = _object_matrix_inverse(obj)
     out = []
     for g in obj.bsarap.groups:
@@ -319,6 +436,7 @@ def update(obj, *, force=False) -> bool:
     the controls have not moved since the last solve, which also stops the update that writing
     the shape key triggers from solving again; and while a bake solves the frames."""
     t0 = time.perf_counter()
+    check_controls(obj)  # before building: no solver for a copy that cannot use the controls
     st = state(obj)
     if st.baking and not force:
         return False
@@ -341,7 +459,7 @@ def finish_step(obj):
     solve yet, the controls moved since it, which the live handler solves, or the pose at rest),
     else the seconds until the next step is due (0 after a step). At most
     ``bsarap.MAX_SETTLE_STEPS`` steps per motion, as the editor."""
-    st = _states.get(obj.name)
+    st = built(obj)
     if st is None or st.last_deltas is None or st.ended or st.key != state_key(obj):
         return None
     deltas = control_deltas(obj)
@@ -379,7 +497,7 @@ def finish_step(obj):
 def status(obj):
     """Where the pose of ``obj`` stands, for the panel (the editor's status bar says the same of
     its pose): ``(text, icon)``, or ``None`` before its first solve."""
-    st = _states.get(obj.name)
+    st = built(obj)
     if st is None or st.last_deltas is None:
         return None
     if st.baking:

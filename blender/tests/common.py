@@ -166,7 +166,7 @@ class RecordingLayout:
     """A panel layout that records the properties and labels drawn (no window headless)."""
 
     def __init__(self):
-        self.props, self.labels = [], []
+        self.props, self.labels, self.icons = [], [], []
 
     def __getattr__(self, _name):  # row, column, template_list, operator: the same layout
         return lambda *_a, **_kw: self
@@ -174,12 +174,22 @@ class RecordingLayout:
     def prop(self, _data, name, **_kw):
         self.props.append(name)
 
-    def label(self, text="", **_kw):
+    def label(self, text="", icon="NONE", **_kw):
         self.labels.append(text)
+        self.icons.append(icon)
 
 
 def draw_panel(panel, obj) -> RecordingLayout:
     layout = RecordingLayout()
     panel.draw(types.SimpleNamespace(layout=layout), types.SimpleNamespace(object=obj))
+    return layout
+
+
+def draw_group_rows(obj) -> RecordingLayout:
+    """The handle-group list's rows of ``obj`` (``BSARAP_UL_groups.draw_item``), recorded."""
+    layout = RecordingLayout()
+    ctx = types.SimpleNamespace(object=obj)
+    for i, item in enumerate(obj.bsarap.groups):
+        ext.panel.BSARAP_UL_groups.draw_item(None, ctx, layout, obj.bsarap, item, 0, None, "", i)
     return layout
 

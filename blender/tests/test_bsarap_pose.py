@@ -91,12 +91,12 @@ class Tube(unittest.TestCase):
     def test_3_settings_and_topology_change(self):
         obj = self.obj
         obj.bsarap.method = "arap"
-        ext.solve.messages.pop(obj.name, None)
+        ext.solve.messages.pop(ext.solve.uid(obj), None)
         bpy.data.objects["top"].location.z += 0.1
         bpy.context.view_layer.update()
         st = ext.solve.state(obj)
         self.assertEqual(st.deformer.method, "arap")
-        self.assertIn("settings or groups changed", ext.solve.messages[obj.name])
+        self.assertIn("settings or groups changed", ext.solve.message(obj))
         obj.bsarap.method = "bsarap-coarse"
         # a topology edit: subdivide one face ring with bmesh
         import bmesh
@@ -115,7 +115,7 @@ class Tube(unittest.TestCase):
         st = ext.solve.state(obj)
         self.assertGreater(len(obj.data.vertices), n0)
         self.assertEqual(len(st.rest), len(obj.data.vertices))
-        self.assertIn("topology changed", ext.solve.messages[obj.name])
+        self.assertIn("topology changed", ext.solve.message(obj))
         idx, want = expected_handles(obj, st, 1)
         np.testing.assert_allclose(pose_of(obj)[idx], want, atol=1e-5)
 
@@ -246,11 +246,20 @@ class BadInput(unittest.TestCase):
         bpy.ops.bsarap.add_group(group="a")
         self.assertReports(bpy.ops.bsarap.add_controls, "not manifold")
 
-    def test_modifier_before(self):
-        obj = tube()
-        obj.modifiers.new("Subdivision", "SUBSURF")
-        bpy.ops.bsarap.add_group(group="top")
-        self.assertReports(bpy.ops.bsarap.add_controls, r"modifiers before BS-ARAP \(Subdivision\)")
+    def test_deforming_modifier(self):
+        """A modifier that moves the vertices (here with a harmless one) blocks posing: the
+        message names it, and says what kinds are fine."""
+        for kind, label in (("ARMATURE", "Armature"), ("DISPLACE", r"Bumps \(Displace\)")):
+            bpy.ops.wm.read_homefile(use_empty=True)
+            obj = tube()
+            obj.modifiers.new("Subdivision", "SUBSURF")
+            obj.modifiers.new("Armature" if kind == "ARMATURE" else "Bumps", kind)
+            bpy.ops.bsarap.add_group(group="top")
+            self.assertReports(
+                bpy.ops.bsarap.add_controls,
+                rf"tube: modifiers that move the vertices \({label}\): .* apply, remove or disable them "
+                r"\(modifiers that keep the vertices in place are fine: Subdivision Surface, Multires, Mirror",
+            )
 
     def test_bake_without_controls(self):
         tube()
@@ -263,7 +272,145 @@ class BadInput(unittest.TestCase):
         obj.vertex_groups.remove(obj.vertex_groups["top"])
         bpy.data.objects["bottom"].location.x += 0.2
         bpy.context.view_layer.update()  # the handler must not raise
-        self.assertIn("'top' does not exist", ext.solve.messages[obj.name])
+        self.assertIn("'top' does not exist", ext.solve.message(obj))
+
+
+def stand_in(obj, V, setup):
+    """A mesh object with the faces of ``obj`` and the vertices ``V``, no shape keys, its
+    modifiers made by ``setup``: what the evaluated posed mesh must be."""
+    me = bpy.data.meshes.new("stand-in")
+    me.from_pydata(V.tolist(), [], [tuple(p.vertices) for p in obj.data.polygons])
+    ref = bpy.data.objects.new("stand-in", me)
+    bpy.context.scene.collection.objects.link(ref)
+    setup(ref)
+    bpy.context.view_layer.update()
+    return ref
+
+
+def subdivided_and_mirrored(obj):
+    obj.modifiers.new("Subdivision", "SUBSURF").levels = 1
+    obj.modifiers.new("Mirror", "MIRROR").use_axis = (False, True, False)
+
+
+class Modifiers(unittest.TestCase):
+    """The pose is a shape key, evaluated before the modifier stack: modifiers that keep the
+    vertices in place act on the posed mesh; those that move them block posing."""
+
+    def setUp(self):
+        bpy.ops.wm.read_homefile(use_empty=True)
+
+    def bend(self, obj):
+        top = bpy.data.objects["top"]
+        top.location = Vector(top.location) + Vector((0.8, 0.0, -0.3))
+        top.rotation_euler = Euler((0.0, 0.5, 0.0))
+        bpy.context.view_layer.update()
+
+    def test_subdivision_and_mirror(self):
+        obj = tube()
+        subdivided_and_mirrored(obj)
+        make_controls(obj, ["bottom", "top"])
+        self.bend(obj)
+        st = ext.solve.state(obj)
+        U = pose_of(obj)
+        for k in (0, 1):  # the shape key holds the pose
+            idx, want = expected_handles(obj, st, k)
+            np.testing.assert_allclose(U[idx], want, atol=1e-5)
+        # the evaluated mesh is the posed surface, subdivided and mirrored
+        ev = evaluated_positions(obj)
+        self.assertGreater(len(ev), 4 * len(U))
+        np.testing.assert_allclose(ev, evaluated_positions(stand_in(obj, U, subdivided_and_mirrored)), atol=1e-5)
+        self.assertGreater(ev[:, 0].max(), st.rest[:, 0].max() + 0.3)  # bent, not at rest
+
+    def test_type_lists(self):
+        """The harmless types are Blender's own names, and none of them deforms."""
+        types = {i.identifier for i in bpy.types.Modifier.bl_rna.properties["type"].enum_items}
+        keeps = ext.modifiers.KEEPS_VERTICES
+        self.assertLessEqual(keeps, types)
+        deforming = {
+            "ARMATURE", "CAST", "CURVE", "DISPLACE", "HOOK", "LAPLACIANDEFORM", "LATTICE",
+            "MESH_DEFORM", "SHRINKWRAP", "SIMPLE_DEFORM", "SMOOTH", "CORRECTIVE_SMOOTH",
+            "LAPLACIANSMOOTH", "SURFACE_DEFORM", "WARP", "WAVE", "CLOTH", "SOFT_BODY",
+            "MESH_CACHE", "MESH_SEQUENCE_CACHE", "NODES", "EXPLODE", "OCEAN", "DYNAMIC_PAINT",
+            "PARTICLE_INSTANCE", "FLUID", "VOLUME_TO_MESH",
+        }
+        self.assertLessEqual(deforming, types)
+        self.assertFalse(keeps & deforming)
+
+    def test_added_after_controls(self):
+        """A deforming modifier added to a posed mesh stops the live pose with the message;
+        disabled again, the same solver goes on and the message goes."""
+        obj = tube()
+        make_controls(obj, ["bottom", "top"])
+        st = ext.solve.state(obj)
+        solves = st.solves
+        disp = obj.modifiers.new("Displace", "DISPLACE")
+        self.bend(obj)
+        self.assertEqual(st.solves, solves)
+        self.assertRegex(ext.solve.message(obj), r"modifiers that move the vertices \(Displace\)")
+        disp.show_viewport = disp.show_render = False
+        bpy.context.view_layer.update()
+        self.assertIs(ext.solve.state(obj), st)
+        self.assertEqual(st.solves, solves + 1)
+        self.assertIsNone(ext.solve.message(obj))
+        idx, want = expected_handles(obj, st, 1)
+        np.testing.assert_allclose(pose_of(obj)[idx], want, atol=1e-5)
+
+    def test_geometry_nodes(self):
+        """Smooth by Angle (Shade Auto Smooth, a Geometry Nodes group that only shades) is fine;
+        a group that moves the vertices (Set Position) blocks."""
+        obj = tube()
+        self.assertEqual(bpy.ops.object.shade_auto_smooth(), {"FINISHED"})
+        self.assertEqual([m.type for m in obj.modifiers], ["NODES"])
+        make_controls(obj, ["bottom", "top"])
+        self.bend(obj)
+        idx, want = expected_handles(obj, ext.solve.state(obj), 1)
+        np.testing.assert_allclose(evaluated_positions(obj)[idx], want, atol=1e-5)
+        tree = bpy.data.node_groups.new("Move", "GeometryNodeTree")
+        for t in ("NodeGroupInput", "GeometryNodeSetPosition", "NodeGroupOutput"):
+            tree.nodes.new(t)
+        obj.modifiers.new("Move", "NODES").node_group = tree
+        activate(obj)
+        with self.assertRaises(RuntimeError) as cm:
+            bpy.ops.bsarap.pose()
+        self.assertIn("modifiers that move the vertices (Move (Geometry Nodes))", str(cm.exception))
+
+    def test_bake_with_subdivision(self):
+        """Both bakes with a Subdivision Surface: the shape keys and the point cache (first in the
+        stack, the Subdivision after it) play subdivided; a modifier moved before the cache
+        blocks."""
+        obj = tube()
+        obj.modifiers.new("Subdivision", "SUBSURF").levels = 1
+
+        def subdivided(o):
+            o.modifiers.new("Subdivision", "SUBSURF").levels = 1
+
+        make_controls(obj, ["bottom", "top"])
+        scene = bpy.context.scene
+        scene.frame_start, scene.frame_end = 1, 3
+        top = bpy.data.objects["top"]
+        top.keyframe_insert("location", frame=1)
+        top.location.x += 1.0
+        top.keyframe_insert("location", frame=3)
+        activate(obj)
+        self.assertEqual(bpy.ops.bsarap.bake_shape_keys(), {"FINISHED"})
+        scene.frame_set(3)
+        U = key_co(obj.data.shape_keys.key_blocks["BS-ARAP frame 0003"])
+        np.testing.assert_allclose(evaluated_positions(obj), evaluated_positions(stand_in(obj, U, subdivided)), atol=1e-5)
+        obj.bsarap.pc2_path = os.path.join(tempfile.mkdtemp(), "tube.pc2")
+        activate(obj)
+        self.assertEqual(bpy.ops.bsarap.bake_point_cache(), {"FINISHED"})
+        self.assertEqual([m.name for m in obj.modifiers], ["BS-ARAP cache", "Subdivision"])
+        _, _, samples = ext.bake.read_pc2(obj.bsarap.pc2_path)
+        scene.frame_set(2)
+        np.testing.assert_allclose(
+            evaluated_positions(obj), evaluated_positions(stand_in(obj, samples[1], subdivided)), atol=1e-5
+        )
+        obj.modifiers.move(1, 0)
+        activate(obj)
+        with self.assertRaises(RuntimeError) as cm:
+            bpy.ops.bsarap.pose()
+        self.assertIn("modifiers before the BS-ARAP cache modifier (Subdivision (Subdivision Surface))", str(cm.exception))
+        self.assertIn("must stay first", str(cm.exception))
 
 
 class Controls(unittest.TestCase):
@@ -279,8 +426,8 @@ class Controls(unittest.TestCase):
         self.assertNotIn("BS-ARAP pose", obj.data.shape_keys.key_blocks)
         bpy.context.view_layer.update()
         # no controls: the live handler leaves the object alone (no solver, no message)
-        self.assertNotIn(obj.name, ext.solve._states)
-        self.assertNotIn(obj.name, ext.solve.messages)
+        self.assertIsNone(ext.solve.built(obj))
+        self.assertIsNone(ext.solve.message(obj))
 
     def test_invoke_bake_without_window(self):
         """The panel's button invokes the bake (modal, Esc cancels, in a window); with no window
@@ -358,7 +505,7 @@ class Unregister(unittest.TestCase):
 def load_tests(loader, standard, _pattern):
     # Unregister last, whatever the order of the classes' names.
     suite = unittest.TestSuite()
-    for cls in (Package, Tube, BadInput, Controls, Creature, Unregister):
+    for cls in (Package, Tube, BadInput, Modifiers, Controls, Creature, Unregister):
         suite.addTests(loader.loadTestsFromTestCase(cls))
     return suite
 

@@ -1,6 +1,7 @@
 """Tests of the Blender extension's robustness in bpy, headless: bakes with a frame step, the
 point cache's path, deleted controls, Edit Mode, a bake stopped by an error or an undo, failed
-builds, a singular object transform, an edited basis, non-uniform scale and rendering.
+builds, a singular object transform, an edited basis, non-uniform scale, rendering, renamed and
+deleted objects, and copies of a posed object.
 
 Run with Blender's Python (bpy from PyPI):
     tools/blender/.venv/bin/python blender/tests/test_robustness.py [-v] [Class.test_name]
@@ -21,8 +22,8 @@ from unittest import mock
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from common import (  # noqa: E402  (sets BLENDER_USER_RESOURCES before bpy)
-    SKIP, activate, bpy, bsarap, draw_panel, evaluated_positions, expected_handles, ext,
-    key_co, make_controls, np, pose_of, setUpModule, tube
+    SKIP, activate, bpy, bsarap, draw_group_rows, draw_panel, evaluated_positions,
+    expected_handles, ext, key_co, make_controls, np, pose_of, setUpModule, tube
 )
 
 
@@ -114,7 +115,7 @@ class PointCachePath(unittest.TestCase):
             with self.assertRaises(RuntimeError) as cm:
                 bpy.ops.bsarap.bake_point_cache()
             self.assertIn("save the .blend file first", str(cm.exception))
-            self.assertNotIn(ext.solve.CACHE_MODIFIER, self.obj.modifiers)
+            self.assertNotIn(ext.modifiers.CACHE_MODIFIER, self.obj.modifiers)
         self.assertFalse(ext.solve.state(self.obj).baking)
 
     def test_saved_file_relative_path(self):
@@ -123,7 +124,7 @@ class PointCachePath(unittest.TestCase):
         obj = bpy.data.objects["tube"]
         activate(obj)
         self.assertEqual(bpy.ops.bsarap.bake_point_cache(), {"FINISHED"})
-        mod = obj.modifiers[ext.solve.CACHE_MODIFIER]
+        mod = obj.modifiers[ext.modifiers.CACHE_MODIFIER]
         self.assertEqual(mod.filepath, "//tube.bsarap.pc2")
         self.assertTrue(os.path.isfile(os.path.join(folder, "tube.bsarap.pc2")))
         _, _, samples = ext.bake.read_pc2(bpy.path.abspath(mod.filepath))
@@ -141,7 +142,7 @@ class DeletedControl(unittest.TestCase):
         self.assertIs(obj.bsarap.groups[1].control, top)
         bpy.data.objects["bottom"].location.x += 0.2
         bpy.context.view_layer.update()
-        self.assertIn("'top' was deleted", ext.solve.messages[obj.name])
+        self.assertIn("'top' was deleted", ext.solve.message(obj))
         activate(obj)
         self.assertEqual(bpy.ops.bsarap.add_controls(), {"FINISHED"})
         new = obj.bsarap.groups[1].control
@@ -237,7 +238,7 @@ class BakeStops(unittest.TestCase):
         self.assertEqual(len(op.reports), 1)
         self.assertEqual(op.reports[0][0], {"ERROR"})
         self.assertRegex(op.reports[0][1], pattern)
-        self.assertFalse(ext.solve._states["m"].baking)
+        self.assertFalse(ext.solve.built(bpy.data.objects["m"]).baking)
 
     def test_unexpected_error(self):
         Op = ext.operators.BSARAP_OT_bake_shape_keys
@@ -261,7 +262,7 @@ class BakeStops(unittest.TestCase):
                 bpy.ops.bsarap.bake_point_cache()
         self.assertIn("unexpected error (ValueError: boom)", str(cm.exception))
         self.assertNotIn("Traceback", str(cm.exception))
-        self.assertFalse(ext.solve._states["m"].baking)
+        self.assertFalse(ext.solve.built(bpy.data.objects["m"]).baking)
 
     def test_undo_during_bake(self):
         bpy.ops.ed.undo_push(message="controls")
@@ -296,7 +297,7 @@ class Errors(unittest.TestCase):
                 bottom.location.x += 0.05
                 bpy.context.view_layer.update()
             self.assertEqual(build.call_count, 1)
-            self.assertIn("'top' has no vertex", ext.solve.messages[obj.name])
+            self.assertIn("'top' has no vertex", ext.solve.message(obj))
             obj.bsarap.tol = 1e-3  # another new key (1e-4 is the built solver's: no build)
             bottom.location.x += 0.05
             bpy.context.view_layer.update()
@@ -312,7 +313,7 @@ class Errors(unittest.TestCase):
         obj.scale = (1.0, 1.0, 0.0)
         bpy.context.view_layer.update()
         ext.handlers.update_scene(sc)  # must not raise
-        self.assertIn("singular (a scale of 0 on an axis)", ext.solve.messages[obj.name])
+        self.assertIn("singular (a scale of 0 on an axis)", ext.solve.message(obj))
         with self.assertRaises(ext.handles.HandleError):
             ext.solve.control_deltas(obj)
         obj.scale = (1.0, 1.0, 1.0)
@@ -326,14 +327,14 @@ class Errors(unittest.TestCase):
             with contextlib.redirect_stdout(out):
                 for _ in range(3):
                     ext.handlers.update_scene(sc)
-        self.assertEqual(ext.solve.messages[obj.name], "tube: unexpected error (ValueError: boom)")
+        self.assertEqual(ext.solve.message(obj), "tube: unexpected error (ValueError: boom)")
         self.assertEqual(out.getvalue().count("boom"), 1)
         st = ext.solve.state(obj)
         st.converged = False
         st.moved_at = 0.0
         with mock.patch.object(ext.solve, "finish_step", side_effect=KeyError("k")):
             ext.handlers.finish_timer()  # must not raise
-        self.assertIn("unexpected error (KeyError", ext.solve.messages[obj.name])
+        self.assertIn("unexpected error (KeyError", ext.solve.message(obj))
 
     def test_basis_edit_rebuilds(self):
         obj = self.obj
@@ -348,7 +349,7 @@ class Errors(unittest.TestCase):
         new = ext.solve.state(obj)
         self.assertIsNot(new, st)
         np.testing.assert_allclose(new.rest, co, atol=1e-6)
-        self.assertIn("rest mesh (basis) changed", ext.solve.messages[obj.name])
+        self.assertIn("rest mesh (basis) changed", ext.solve.message(obj))
 
     def test_non_uniform_scale_warned(self):
         obj = self.obj
@@ -360,6 +361,197 @@ class Errors(unittest.TestCase):
         bpy.context.view_layer.update()
         labels = draw_panel(ext.panel.BSARAP_PT_pose, obj).labels
         self.assertTrue(any("apply scale first" in t for t in labels), labels)
+
+
+class SessionKeys(unittest.TestCase):
+    """The solver states are kept under the object's session uid: a rename keeps its solver, a
+    deleted object's goes at the next update."""
+
+    def setUp(self):
+        self.obj = posed_tube()
+
+    def test_rename_keeps_the_solver(self):
+        obj = self.obj
+        st = ext.solve.state(obj)
+        solves = st.solves
+        obj.name = "renamed"
+        bpy.data.objects["top"].location.x += 0.3
+        bpy.context.view_layer.update()
+        self.assertIs(ext.solve.state(obj), st)  # the same Deformer: no rebuild
+        self.assertEqual(st.solves, solves + 1)
+        self.assertEqual(list(ext.solve._states.values()), [st])  # nothing under the old key
+        self.assertFalse([m for m in ext.solve.messages.values() if "rebuilt" in m])
+        assert_pose_follows(self, obj)
+        # a new object given the old name starts from nothing
+        other = tube("tube")
+        self.assertEqual(other.name, "tube")
+        self.assertIsNone(ext.solve.built(other))
+
+    def test_deleted_object_dropped(self):
+        obj = self.obj
+        obj.vertex_groups["top"].remove(list(range(len(obj.data.vertices))))
+        obj.bsarap.tol = 1e-5  # a failed build kept, with its message
+        bpy.context.view_layer.update()
+        self.assertEqual(len(ext.solve._states), 1)
+        self.assertEqual(len(ext.solve._failures), 1)
+        self.assertEqual(len(ext.solve.messages), 1)
+        activate(obj)
+        self.assertEqual(bpy.ops.object.delete(), {"FINISHED"})
+        bpy.context.view_layer.update()
+        self.assertEqual(ext.solve._states, {})
+        self.assertEqual(ext.solve._failures, {})
+        self.assertEqual(ext.solve.messages, {})
+        self.assertEqual(ext.solve._owners, {})  # its controls are free again
+
+
+class Copies(unittest.TestCase):
+    """A copy of a posed object points to its controls: it is refused with a message (one Empty
+    never drives two meshes) until Add Controls gives it its own, placed as the original's."""
+
+    def setUp(self):
+        self.obj = posed_tube()
+        bpy.data.objects["top"].location.x += 0.5
+        bpy.context.view_layer.update()
+
+    def copy(self, *, linked=False):
+        """Shift+D (Alt+D with ``linked``) of the posed mesh alone."""
+        activate(self.obj)
+        self.assertEqual(bpy.ops.object.duplicate(linked=linked), {"FINISHED"})
+        dup = bpy.context.view_layer.objects.active
+        self.assertIsNot(dup, self.obj)
+        dup.location.x += 3.0
+        bpy.context.view_layer.update()
+        return dup
+
+    def test_copy_refused_until_own_controls(self):
+        obj = self.obj
+        dup = self.copy()
+        self.assertIs(dup.bsarap.groups[1].control, obj.bsarap.groups[1].control)
+        frozen = pose_of(dup)
+        top = bpy.data.objects["top"]
+        top.location.y += 0.4
+        bpy.context.view_layer.update()
+        assert_pose_follows(self, obj)  # the original follows its controls
+        np.testing.assert_array_equal(pose_of(dup), frozen)  # the copy does not
+        self.assertIsNone(ext.solve.built(dup))  # no solver built for it
+        msg = ext.solve.message(dup)
+        self.assertIn("the controls of 'bottom', 'top' pose 'tube'", msg)
+        self.assertIn("Add Controls gives tube.001 its own", msg)
+        self.assertEqual(draw_group_rows(dup).icons, ["GROUP_VERTEX", "ERROR"] * 2)
+        self.assertEqual(draw_group_rows(obj).icons, ["GROUP_VERTEX", "EMPTY_AXIS"] * 2)
+        self.assertIn(msg, draw_panel(ext.panel.BSARAP_PT_pose, dup).labels)
+        activate(dup)
+        for op in (bpy.ops.bsarap.pose, bpy.ops.bsarap.bake_shape_keys):
+            with self.assertRaises(RuntimeError) as cm:
+                op()
+            self.assertIn("Add Controls gives tube.001 its own", str(cm.exception))
+        # its own controls, placed on it as the original's are on the original: the same pose
+        self.assertEqual(bpy.ops.bsarap.add_controls(), {"FINISHED"})
+        for g, h in zip(dup.bsarap.groups, obj.bsarap.groups):
+            self.assertIsNot(g.control, h.control)
+            self.assertIn(g.control.name, ("bottom.001", "top.001"))
+        np.testing.assert_allclose(ext.solve.control_deltas(dup), ext.solve.control_deltas(obj), atol=1e-6)
+        st = ext.solve.state(dup)
+        idx, want = expected_handles(dup, st, 1)
+        np.testing.assert_allclose(pose_of(dup)[idx], want, atol=1e-5)
+        np.testing.assert_allclose(pose_of(dup)[idx], pose_of(obj)[idx], atol=1e-5)
+        self.assertEqual(draw_group_rows(dup).icons, ["GROUP_VERTEX", "EMPTY_AXIS"] * 2)
+        # each drives its own mesh
+        before = pose_of(obj)
+        dup.bsarap.groups[1].control.location.z -= 0.5
+        bpy.context.view_layer.update()
+        np.testing.assert_array_equal(pose_of(obj), before)
+        idx, want = expected_handles(dup, st, 1)
+        np.testing.assert_allclose(pose_of(dup)[idx], want, atol=1e-5)
+
+    def test_original_deleted(self):
+        """The original deleted: its controls are free, the copy takes them (the message goes)."""
+        obj = self.obj
+        dup = self.copy()
+        self.assertIn("pose 'tube'", ext.solve.message(dup))
+        activate(obj)
+        self.assertEqual(bpy.ops.object.delete(), {"FINISHED"})
+        bpy.context.view_layer.update()
+        bpy.data.objects["top"].location.y += 0.3
+        bpy.context.view_layer.update()
+        self.assertIsNone(ext.solve.message(dup))
+        idx, want = expected_handles(dup, ext.solve.state(dup), 1)
+        np.testing.assert_allclose(pose_of(dup)[idx], want, atol=1e-5)
+
+    def test_object_copy(self):
+        """``Object.copy`` from a script: the same."""
+        obj = self.obj
+        dup = obj.copy()
+        dup.data = obj.data.copy()
+        bpy.context.scene.collection.objects.link(dup)
+        bpy.data.objects["bottom"].location.x -= 0.2
+        bpy.context.view_layer.update()
+        assert_pose_follows(self, obj)
+        self.assertIn("pose 'tube'", ext.solve.message(dup))
+
+    def test_remove_controls_of_a_copy(self):
+        """Remove Controls on the copy lets go of the original's controls without deleting them."""
+        obj = self.obj
+        dup = self.copy()
+        activate(dup)
+        self.assertEqual(bpy.ops.bsarap.remove_controls(), {"FINISHED"})
+        self.assertIn("top", bpy.context.scene.objects)
+        self.assertIs(obj.bsarap.groups[1].control, bpy.data.objects["top"])
+        self.assertIsNone(dup.bsarap.groups[1].control)
+        bpy.data.objects["top"].location.y += 0.3
+        bpy.context.view_layer.update()
+        assert_pose_follows(self, obj)
+
+    def test_linked_duplicate(self):
+        """Alt+D shares the mesh, so its pose key: it shows the original's pose, and Add Controls
+        is refused (two sets of controls would fight over the key); Remove Controls keeps it."""
+        obj = self.obj
+        dup = self.copy(linked=True)
+        self.assertIs(dup.data, obj.data)
+        msg = ext.solve.message(dup)
+        self.assertIn("shares its mesh with 'tube' (a linked duplicate, Alt+D)", msg)
+        self.assertIn("Make Single User", msg)
+        activate(dup)
+        with self.assertRaises(RuntimeError) as cm:
+            bpy.ops.bsarap.add_controls()
+        self.assertIn("a linked duplicate", str(cm.exception))
+        self.assertEqual(bpy.ops.bsarap.remove_controls(), {"FINISHED"})
+        self.assertIn(ext.solve.POSE_KEY, obj.data.shape_keys.key_blocks)
+        bpy.data.objects["top"].location.y += 0.3
+        bpy.context.view_layer.update()
+        assert_pose_follows(self, obj)
+
+    def test_duplicated_with_its_controls(self):
+        """Shift+D of the mesh with its Empties: Blender points the copy to the copied Empties,
+        which it claims: both pose, each with its own."""
+        obj = self.obj
+        for name in ("bottom", "top"):
+            bpy.data.objects[name].select_set(True)
+        self.assertEqual(bpy.ops.object.duplicate(), {"FINISHED"})
+        dup = bpy.data.objects["tube.001"]
+        self.assertEqual([g.control.name for g in dup.bsarap.groups], ["bottom.001", "top.001"])
+        bpy.data.objects["top.001"].location.z -= 0.5
+        bpy.context.view_layer.update()
+        self.assertIsNone(ext.solve.message(dup))
+        idx, want = expected_handles(dup, ext.solve.state(dup), 1)
+        np.testing.assert_allclose(pose_of(dup)[idx], want, atol=1e-5)
+        assert_pose_follows(self, obj)
+
+    def test_saved_with_a_copy(self):
+        """A file saved with an original and its copy sharing the controls: once reopened, the
+        original keeps them (the claims go by name), whichever is solved first."""
+        self.copy()
+        path = os.path.join(tempfile.mkdtemp(), "copies.blend")
+        bpy.ops.wm.save_as_mainfile(filepath=path)
+        bpy.ops.wm.open_mainfile(filepath=path)
+        obj, dup = bpy.data.objects["tube"], bpy.data.objects["tube.001"]
+        activate(dup)
+        with self.assertRaises(RuntimeError) as cm:
+            bpy.ops.bsarap.pose()
+        self.assertIn("pose 'tube'", str(cm.exception))
+        bpy.data.objects["top"].location.y += 0.3
+        bpy.context.view_layer.update()
+        assert_pose_follows(self, obj)
 
 
 class Render(unittest.TestCase):

@@ -56,9 +56,9 @@ class SmoothRotations(unittest.TestCase):
         obj = self.obj
         obj.bsarap.energy = energy
         obj.bsarap.bending_length = bending_length
-        ext.solve.messages.pop(obj.name, None)
+        ext.solve.messages.pop(ext.solve.uid(obj), None)
         if fresh:
-            ext.solve.forget(obj.name)
+            ext.solve.forget(obj)
         ext.handlers.update_scene(bpy.context.scene)
         bpy.context.view_layer.update()  # the handler again: nothing moved, no second solve
         self.assertEqual(ext.solve.state(obj).solves, 1)
@@ -112,7 +112,7 @@ class SmoothRotations(unittest.TestCase):
 
         sr = self.pose_with("smooth-rotations", 0.05)
         st = ext.solve.state(obj)
-        self.assertIn("settings or groups changed", ext.solve.messages[obj.name])
+        self.assertIn("settings or groups changed", ext.solve.message(obj))
         self.assertEqual(st.deformer.energy, "smooth-rotations")
         ell = float(obj.bsarap.bending_length)  # 0.05 as Blender's float32 stores it
         self.assertAlmostEqual(st.deformer.bending_length, ell, places=12)
@@ -132,7 +132,7 @@ class SmoothRotations(unittest.TestCase):
         # another bending length rebuilds the solver and moves the pose
         longer = self.pose_with("smooth-rotations", 0.1)
         st = ext.solve.state(obj)
-        self.assertIn("settings or groups changed", ext.solve.messages[obj.name])
+        self.assertIn("settings or groups changed", ext.solve.message(obj))
         ell = float(obj.bsarap.bending_length)
         self.assertAlmostEqual(st.deformer.bending_length, ell, places=12)
         _, want = self.reference(energy="smooth-rotations", bending_length=ell)
@@ -268,7 +268,7 @@ class Finishing(unittest.TestCase):
         st.finish_steps, st.ended, st.converged = 0, None, False
         with mock.patch.object(ext.solve, "solve", side_effect=ext.handles.HandleError("tube: refused")):
             self.assertIsNone(ext.handlers.finish_timer())
-        self.assertEqual(ext.solve.messages[obj.name], "tube: refused")
+        self.assertEqual(ext.solve.message(obj), "tube: refused")
         self.assertEqual(ext.solve.status(obj), ("Stopped settling: see the message", "ERROR"))
         self.assertIsNone(ext.solve.finish_step(obj))
 
