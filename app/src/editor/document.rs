@@ -261,6 +261,25 @@ mod tests {
         assert!(err.contains("paint"), "{err}");
     }
 
+    /// The document of `edit` on the mesh at `mesh_path`, at t = 0 with no texture.
+    fn plain_input<'a>(
+        mesh_path: &'a std::path::Path,
+        edit: &'a EditState,
+        settings: &'a MethodSettings,
+        camera: &'a OrbitCamera,
+    ) -> DocumentInput<'a> {
+        DocumentInput {
+            mesh_path,
+            edit,
+            settings,
+            camera,
+            origin: [0.0; 3],
+            time: 0.0,
+            texture: None,
+            up_axis: Default::default(),
+        }
+    }
+
     /// The bumpy bar written as OBJ in a scratch folder named by `tag`, its vertex count, and a
     /// document whose groups are the bar's two end caps.
     fn bar_document(
@@ -281,17 +300,8 @@ mod tests {
         assert!(edit.loose_parts.is_default(), "a new document lets loose parts follow");
         edit.loose_parts.set(2, ComponentMode::Pin);
         edit.loose_parts.set(3, ComponentMode::Pin);
-        let camera = OrbitCamera::default();
-        let input = DocumentInput {
-            mesh_path: &mesh_path,
-            edit: &edit,
-            settings: &MethodSettings::default(),
-            camera: &camera,
-            origin: [0.0; 3],
-            time: 0.0,
-            texture: None,
-            up_axis: Default::default(),
-        };
+        let (settings, camera) = (MethodSettings::default(), OrbitCamera::default());
+        let input = plain_input(&mesh_path, &edit, &settings, &camera);
         let scene_path = dir.join("pinned.json");
         let scene = to_scene(&scene_path, &input).unwrap();
         assert_eq!(scene.loose_parts, edit.loose_parts);
@@ -357,17 +367,8 @@ mod tests {
         for l in edit.labels.iter_mut().filter(|l| **l == Some(1)) {
             *l = Some(0);
         }
-        let camera = OrbitCamera::default();
-        let input = DocumentInput {
-            mesh_path: &mesh_path,
-            edit: &edit,
-            settings: &MethodSettings::default(),
-            camera: &camera,
-            origin: [0.0; 3],
-            time: 0.0,
-            texture: None,
-            up_axis: Default::default(),
-        };
+        let (settings, camera) = (MethodSettings::default(), OrbitCamera::default());
+        let input = plain_input(&mesh_path, &edit, &settings, &camera);
         let scene_path = dir.join("empty.json");
         let mut scene = to_scene(&scene_path, &input).unwrap();
         assert!(scene.rig.falloff.is_empty(), "{:?}", scene.rig.falloff);
@@ -398,17 +399,8 @@ mod tests {
             mirror_painting: true,
             mirror_posing: true,
         };
-        let camera = OrbitCamera::default();
-        let input = DocumentInput {
-            mesh_path: &mesh_path,
-            edit: &edit,
-            settings: &MethodSettings::default(),
-            camera: &camera,
-            origin: [0.0; 3],
-            time: 0.0,
-            texture: None,
-            up_axis: Default::default(),
-        };
+        let (settings, camera) = (MethodSettings::default(), OrbitCamera::default());
+        let input = plain_input(&mesh_path, &edit, &settings, &camera);
         let scene_path = dir.join("rig.json");
         to_scene(&scene_path, &input).unwrap().save(&scene_path).unwrap();
         let loaded = solver::animation::scene::Scene::load(&scene_path).unwrap();
