@@ -167,8 +167,8 @@ fn sequence_name(path: &Path) -> (&Path, String) {
     (dir, stem.unwrap_or_else(|| "frame".into()))
 }
 
-/// The files `-o path` writes for `n_frames` frames: the file itself, or an OBJ sequence's
-/// ([`obj_sequence_files`]).
+/// The files `-o path` writes for `n_frames` frames: the file itself, or the frames and MTL of
+/// an OBJ sequence ([`obj_sequence_files`]).
 fn output_files(path: &Path, output: &Output, n_frames: usize, materials: bool) -> Vec<PathBuf> {
     let Output::ObjSequence = output else { return vec![path.to_path_buf()] };
     let (dir, stem) = sequence_name(path);

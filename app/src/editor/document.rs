@@ -65,18 +65,16 @@ pub fn to_scene(scene_path: &Path, input: &DocumentInput) -> Result<Scene, Strin
             serde_json::json!({"name": g.name, "color": [r, gr, b]})
         })
         .collect();
-    scene.editor = Some(serde_json::json!({"groups": groups, "time": input.time}));
-    // A group with no vertex left has no falloff to keep (the reader would note it as unused).
-    let mut painted = vec![false; edit.groups.len()];
-    for &k in edit.labels.iter().flatten() {
-        if let Some(p) = painted.get_mut(k as usize) {
-            *p = true;
-        }
-    }
+    // The playback time within the timeline (a shortened timeline is clamped where it is drawn).
+    let time = input.time.clamp(0.0, scene.timeline.duration.max(0.0));
+    scene.editor = Some(serde_json::json!({"groups": groups, "time": time}));
+    // Groups after the last painted one do not come back (a reader makes the groups from the
+    // labels): their falloffs are not saved (the reader would note them as unused).
+    let reloaded = edit.labels.iter().flatten().map(|&k| k as usize + 1).max().unwrap_or(0);
     scene.rig = RigSpec {
         rigidity: edit.rigidity.clone(),
         falloff: (edit.groups.iter().enumerate())
-            .filter(|&(k, g)| g.falloff.is_soft() && painted[k])
+            .filter(|&(k, g)| g.falloff.is_soft() && k < reloaded)
             .map(|(group, g)| GroupFalloff {
                 group,
                 radius: g.falloff.radius,
@@ -355,15 +353,15 @@ mod tests {
         }
     }
 
-    /// The rig (rigidity map, a group's falloff, symmetry settings) survives a scene round
-    /// trip; the same scene as version 1 (no `rig`) reads with none.
-    /// A group whose vertices were all repainted keeps no falloff in the file (the reader would
-    /// note it as unused); a saved time off the timeline is the start, with a notice.
+    /// The falloff of a group after the last painted one is not saved (the group does not come
+    /// back: the reader would note it as unused); an empty group before a painted one keeps
+    /// its falloff. A saved time off the timeline is the start, with a notice.
     #[test]
     fn an_empty_groups_falloff_is_dropped_and_a_bad_saved_time_is_noted() {
         use solver::deform::rig::{Falloff, FalloffCurve};
         let (dir, mesh_path, _, mut edit) = bar_document("doc-empty-group");
-        edit.groups[1].falloff = Falloff { radius: 0.125, curve: FalloffCurve::Linear };
+        let soft = Falloff { radius: 0.125, curve: FalloffCurve::Linear };
+        edit.groups[1].falloff = soft;
         for l in edit.labels.iter_mut().filter(|l| **l == Some(1)) {
             *l = Some(0);
         }
@@ -375,6 +373,13 @@ mod tests {
         scene.save(&scene_path).unwrap();
         let loaded = solver::animation::scene::Scene::load(&scene_path).unwrap();
         assert!(loaded.mesh.asset.notices.is_empty(), "{:?}", loaded.mesh.asset.notices);
+        // A third group painted on one vertex: group 1 comes back, empty, with its falloff.
+        let mut middle = edit.clone();
+        middle.add_group();
+        *middle.labels.iter_mut().find(|l| l.is_none()).unwrap() = Some(2);
+        let input = plain_input(&mesh_path, &middle, &settings, &camera);
+        let kept = to_scene(&scene_path, &input).unwrap().rig.falloff;
+        assert_eq!(kept.iter().map(|f| f.group).collect::<Vec<_>>(), [1]);
 
         scene.editor = Some(serde_json::json!({"time": "abc"}));
         let labels = loaded.handles.labels().to_vec();
@@ -384,6 +389,8 @@ mod tests {
         assert!(notice.starts_with("the scene's saved time \"abc\" is not a time"), "{notice}");
     }
 
+    /// The rig (rigidity map, a group's falloff, symmetry settings) survives a scene round
+    /// trip; the same scene as version 1 (no `rig`) reads with none.
     #[test]
     fn the_rig_survives_a_scene_round_trip_and_version_1_scenes_have_none() {
         use solver::animation::scene::SymmetrySpec;

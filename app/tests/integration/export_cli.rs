@@ -247,7 +247,8 @@ fn deform_notes_a_saved_time_off_the_timeline() {
             && stderr.contains("t = 0 s is used instead"),
         "{stderr}"
     );
-    let (code, _, stderr) = bsarap(&["deform", sp, "--time", "1e300", "-o", "x.obj"]);
+    let x = d.join("x.obj");
+    let (code, _, stderr) = bsarap(&["deform", sp, "--time", "1e300", "-o", x.to_str().unwrap()]);
     assert_eq!(code, 1);
     let error = stderr.lines().find(|l| l.starts_with("error:")).unwrap_or_default();
     assert!(error.contains("--time 1e300: ") && error.len() < 100, "{stderr}");

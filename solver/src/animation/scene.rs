@@ -489,7 +489,8 @@ impl Scene {
 
     /// Notices for the entries that name a component or group the mesh or selection lacks
     /// (kept in the file, with no effect): `loose_parts` overrides beyond `components`, rig
-    /// falloffs of groups `handles` does not have.
+    /// falloffs of groups after the last of `handles` (an empty group before it is a group the
+    /// editor keeps, with its falloff).
     fn unused_entries(&self, components: usize, handles: &Handles) -> Vec<String> {
         let mut out = Vec::new();
         let beyond = self.loose_parts.overrides.iter().filter(|o| o.component >= components);
@@ -503,7 +504,8 @@ impl Scene {
                 components.saturating_sub(1)
             ));
         }
-        for f in self.rig.falloff.iter().filter(|f| handles.group(f.group).is_err()) {
+        let last = handles.group_ids().max();
+        for f in self.rig.falloff.iter().filter(|f| last.is_none_or(|last| f.group > last)) {
             out.push(format!(
                 "\"rig\": the falloff of handle group {} has no effect: the selection has groups {}",
                 f.group,
