@@ -20,7 +20,9 @@ wheel=$(ls -t "$ext"/bsarap-*-abi3-*.whl | head -n 1)
 # newer glibc in the module, read from the wheel itself.
 if [ "$(uname -s)" = Linux ]; then
   python3 - "$wheel" <<'PY'
-import re, subprocess, sys, tempfile, zipfile
+import re, shutil, subprocess, sys, tempfile, zipfile
+if not shutil.which("objdump"):
+    sys.exit(print("skipped: the wheel's glibc check (no objdump; install binutils)"))
 with tempfile.TemporaryDirectory() as d:
     z = zipfile.ZipFile(sys.argv[1])
     so = next(n for n in z.namelist() if n.endswith(".so"))
@@ -30,7 +32,7 @@ found = {tuple(map(int, v.split("."))) for v in re.findall(r"GLIBC_(\d+\.\d+)", 
 newer = sorted(v for v in found if v > (2, 28))
 if newer:
     sys.exit(f"{sys.argv[1]}: needs glibc {'.'.join(map(str, newer[-1]))} (symbols past 2.28)")
-print(f"{so}: glibc symbols up to {'.'.join(map(str, max(found)))}")
+print(f"{so}: glibc symbols up to {'.'.join(map(str, max(found, default=(0, 0))))}")
 PY
 fi
 

@@ -15,8 +15,8 @@ is kept as the object's message (the panel shows it) and printed once, never a t
 update.
 
 Each update first drops what is kept for objects deleted since (``solve.prune``). A loaded file
-starts the caches again, and its meshes claim their controls in name order (``on_load``), so a
-file saved with a copy that shares its original's controls keeps them with the original.
+starts the caches again; the claims of controls and meshes are saved in it (``solve.owner``), so
+a file saved with a copy that shares its original's controls keeps them with the original.
 """
 
 from __future__ import annotations
@@ -52,6 +52,33 @@ def alive_objects() -> set:
     return {o.session_uid for sc in bpy.data.scenes for o in sc.objects}
 
 
+#: The object counts (:func:`object_counts`) at the last prune (``None``: prune at the next
+#: update).
+_pruned_at = None
+
+
+def object_counts() -> tuple:
+    """The number of objects in ``bpy.data`` and in each scene (counted in C, no Python object
+    per object): a deletion changes it (the deleted object may stay in ``bpy.data``, held by a
+    pointer such as a control's claim, but leaves its scenes)."""
+    return len(bpy.data.objects), tuple(len(sc.objects) for sc in bpy.data.scenes)
+
+
+def prune() -> None:
+    """Drop what is kept for deleted objects (``solve.prune``), only when the object counts
+    changed since the last prune: walking every scene's objects on every update costs on a big
+    scene. The claims of an object in no scene are ignored anyway (``solve.owner``,
+    ``solve.mesh_owner``)."""
+    global _pruned_at
+    n = object_counts()
+    if n == _pruned_at:
+        return
+    if solve.tracked():
+        solve.prune(alive_objects())
+    solve.drop_dead_claims()
+    _pruned_at = object_counts()  # dropping a claim may free a deleted object
+
+
 def update_scene(scene) -> None:
     global _busy
     if _busy or suspended or rendering:
@@ -59,8 +86,7 @@ def update_scene(scene) -> None:
     _busy = True
     solved = False
     try:
-        if solve.tracked():
-            solve.prune(alive_objects())
+        prune()
         for obj in posed_objects(scene):
             try:
                 solved |= solve.update(obj)
@@ -128,13 +154,11 @@ def on_frame_change(scene, _depsgraph=None):
 
 @persistent
 def on_load(_filepath=None, _unused=None):
-    """Another file: its objects are not those the cached solvers were built for. Its meshes
-    claim their controls, in name order (``bpy.data.objects``): of an original and a copy that
-    shares its controls ("tube", "tube.001") the original keeps them, whichever solves first."""
+    """Another file: its objects are not those the cached solvers were built for (the claims
+    are in the file)."""
+    global _pruned_at
+    _pruned_at = None
     solve.forget()
-    for obj in bpy.data.objects:
-        if obj.type == "MESH":
-            solve.claim_free_controls(obj)
 
 
 @persistent

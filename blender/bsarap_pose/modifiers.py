@@ -102,10 +102,11 @@ def label(m) -> str:
 
 
 def blocking(obj):
-    """``(before_cache, moving)``: the labels of the enabled modifiers before our Mesh Cache
-    modifier, and of those after it (all when there is none) that move the vertices."""
+    """``(before_cache, moving)``: the labels of the enabled modifiers before our (enabled) Mesh
+    Cache modifier, and of those after it (all when there is none) that move the vertices."""
     mods = list(obj.modifiers)
-    cache = next((i for i, m in enumerate(mods) if is_cache(m)), None)
+    # a disabled cache modifier reads nothing: it is not the cache
+    cache = next((i for i, m in enumerate(mods) if is_cache(m) and enabled(m)), None)
     before = [label(m) for m in mods[: cache or 0] if enabled(m)]
     after = mods if cache is None else mods[cache + 1 :]
     moving = [label(m) for m in after if enabled(m) and not keeps_vertices(m)]
@@ -122,9 +123,11 @@ def refusal(obj):
             "move it to the top"
         )
     if moving:
+        # Blender applies no modifier to a mesh with shape keys (a posed mesh has them)
+        verbs = "apply, remove or disable" if obj.data.shape_keys is None else "remove or disable"
         return (
             f"{obj.name}: modifiers that move the vertices ({', '.join(moving)}): the pose is "
-            "solved on the base mesh and they would move it off the controls; apply, remove or "
-            f"disable them ({FINE})"
+            f"solved on the base mesh and they would move it off the controls; {verbs} them "
+            f"(disabled: in the viewport and render) ({FINE})"
         )
     return None

@@ -86,7 +86,7 @@ class BSARAP_OT_remove_group(_MeshOperator, bpy.types.Operator):
 def _copied_control(obj, control):
     """Where a copy's own control goes: placed on ``obj`` as ``control`` is on the object that
     claimed it (so the copy keeps that pose); ``None`` when that object is gone or singular."""
-    other = solve.object_of(solve.owner(control))
+    other = solve.owner(control)
     if other is None:
         return None
     try:
@@ -108,10 +108,11 @@ class BSARAP_OT_add_controls(_MeshOperator, bpy.types.Operator):
         try:
             if len(obj.vertex_groups) == 0:
                 raise HandleError(f"{obj.name}: the mesh has no vertex groups; create or paint one first")
-            foreign = solve.foreign_groups(obj)
-            if any(getattr(solve.object_of(o), "data", None) == obj.data for _, o in foreign):
+            other = solve.mesh_sharer(obj)
+            if other is not None:
                 # a linked duplicate: its own controls would fight over the shared pose key
-                raise HandleError(solve.foreign_message(obj, foreign))
+                raise HandleError(solve.shared_mesh_message(obj, other))
+            foreign = solve.foreign_groups(obj)
             solve.forget(obj)  # an explicit rebuild: the rest mesh may have been edited
             st = solve.state(obj)
         except HandleError as e:
@@ -144,6 +145,7 @@ class BSARAP_OT_add_controls(_MeshOperator, bpy.types.Operator):
             e.empty_display_size = max(size, 1e-3)
             coll.objects.link(e)
             g.control = e
+            e.bsarap_owner = obj  # its claim, saved in the file
             if place is not None:
                 # the original's motion since its rest (the copied rest_matrix): the same pose
                 e.matrix_world = place
@@ -201,7 +203,7 @@ class BSARAP_OT_remove_controls(_MeshOperator, bpy.types.Operator):
         obj = _mesh_object(context)
         foreign = dict(solve.foreign_groups(obj))
         # a linked duplicate's pose key is its original's too
-        shared = any(getattr(solve.object_of(o), "data", None) == obj.data for o in foreign.values())
+        shared = solve.mesh_sharer(obj) is not None
         for g in obj.bsarap.groups:
             if g.control is not None:
                 if g.name not in foreign:
@@ -211,6 +213,7 @@ class BSARAP_OT_remove_controls(_MeshOperator, bpy.types.Operator):
         if not shared and keys is not None and keys.key_blocks.get(solve.POSE_KEY) is not None:
             obj.shape_key_remove(keys.key_blocks[solve.POSE_KEY])
         solve.forget(obj)
+        solve.release_mesh(obj)
         if foreign:
             self.report({"INFO"}, f"{obj.name}: let go of another object's controls ({', '.join(foreign)}), kept")
         return {"FINISHED"}

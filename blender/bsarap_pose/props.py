@@ -155,9 +155,19 @@ def register():
     for c in classes:
         bpy.utils.register_class(c)
     bpy.types.Object.bsarap = PointerProperty(type=BSARAP_ObjectSettings)
+    # The claims, saved in the file (see solve.py): a control Empty's the mesh object it poses,
+    # a posed mesh's the object that poses it (a linked duplicate shares the mesh).
+    bpy.types.Object.bsarap_owner = PointerProperty(
+        name="BS-ARAP owner", type=bpy.types.Object, description="The mesh object this control poses"
+    )
+    bpy.types.Mesh.bsarap_owner = PointerProperty(
+        name="BS-ARAP owner", type=bpy.types.Object, description="The object that poses this mesh"
+    )
 
 
 def unregister():
+    del bpy.types.Mesh.bsarap_owner
+    del bpy.types.Object.bsarap_owner
     del bpy.types.Object.bsarap
     for c in reversed(classes):
         bpy.utils.unregister_class(c)

@@ -13,7 +13,13 @@ message at once. What is kept for an object no longer in any scene is dropped (:
 
 Each control Empty poses one object: the first to use it claims it (:func:`check_controls`). A
 copy of a posed object (Shift+D, ``Object.copy``) points to the same Empties; it is refused with
-a message until *Add Controls* gives it its own, so one Empty never drives two meshes.
+a message until *Add Controls* gives it its own, so one Empty never drives two meshes. The first
+object posed claims its mesh too: a linked duplicate (Alt+D) shares the mesh, so its pose key,
+and is refused (:func:`mesh_sharer`) until it is made single-user. The claims are saved in the
+file (``Object.bsarap_owner`` on the control, ``Mesh.bsarap_owner`` on the mesh), so a reload,
+an undo or the extension enabled again keep them; Blender remaps them when a mesh and its
+controls are duplicated together (measured in bpy 5.0.1), so the copy owns the copies. An owner
+in no scene (deleted), or no longer using the control or the mesh, is no owner.
 
 Objects in Edit Mode are left alone (their mesh data is stale until Edit Mode ends); on leaving
 it the pose is solved again (:func:`editing`), since Blender writes the edit mesh's copy of the
@@ -88,8 +94,6 @@ _failures: dict = {}
 _refused: dict = {}
 #: The entries kept per object.
 _PER_OBJECT = (_states, messages, _diagonals, _failures, _refused)
-#: a control Empty's session uid -> the session uid of the mesh object it poses (its claim).
-_owners: dict = {}
 
 
 def uid(obj) -> int:
@@ -140,6 +144,11 @@ def check_object(obj) -> None:
     why = modifiers.refusal(obj)
     if why:
         raise HandleError(why)
+    if obj.data.library is not None:
+        raise HandleError(
+            f"{obj.name}: the mesh is linked from a library ({obj.data.library.name}) and its shape "
+            "keys cannot be written; make it local first (Object > Relations > Make Local)"
+        )
     if len(obj.data.polygons) == 0:
         raise HandleError(f"{obj.name}: the mesh has no faces")
 
@@ -207,18 +216,19 @@ def state(obj, *, rebuild=True) -> SolverState:
     st = _states.get(k)
     if st is not None and st.key == key:
         failed = _failures.pop(k, None)
-        if failed is not None and messages.get(k) == str(failed[1]):
+        if failed is not None and messages.get(k) in (str(failed[1]), str(_renamed(failed, obj.name))):
             del messages[k]
         return st
     if not rebuild:
         raise HandleError(f"{obj.name}: the solver is not built")
     failed = _failures.get(k)
     if failed is not None and failed[0] == key:
-        raise failed[1]  # the same input failed already: say so without building again
+        # the same input failed already: say so without building again (by its current name)
+        raise _renamed(failed, obj.name)
     try:
         new = build(obj)
     except HandleError as e:
-        _failures[k] = (key, e)
+        _failures[k] = (key, e, obj.name)
         raise
     _failures.pop(k, None)
     if st is not None:
@@ -235,10 +245,20 @@ def state(obj, *, rebuild=True) -> SolverState:
     return new
 
 
+def _renamed(failed, name) -> HandleError:
+    """The stored error of a failed build (``(key, error, name then)``), said of the object's
+    current ``name`` (it may have been renamed since)."""
+    e, old = failed[1], failed[2]
+    msg = str(e)
+    if old == name or not msg.startswith(f"{old}:"):
+        return e
+    return HandleError(name + msg[len(old) :])
+
+
 def forget(obj=None) -> None:
-    """Drop the solver and the messages of one object (or everything, claims included)."""
+    """Drop the solver and the messages of one object (or everything)."""
     if obj is None:
-        for d in (*_PER_OBJECT, _owners):
+        for d in _PER_OBJECT:
             d.clear()
     else:
         k = uid(obj)
@@ -248,18 +268,26 @@ def forget(obj=None) -> None:
 
 def tracked() -> bool:
     """Whether anything is kept (else :func:`prune` has nothing to do)."""
-    return any(_PER_OBJECT) or bool(_owners)
+    return any(_PER_OBJECT)
 
 
 def prune(alive) -> None:
     """Drop what is kept for objects not in ``alive`` (the session uids of the objects in the
-    scenes: the others were deleted), and the claims of controls or meshes gone: a deleted
-    object's solver (a dense mesh's factorization) is freed at the next update."""
+    scenes: the others were deleted): a deleted object's solver (a dense mesh's factorization)
+    is freed at the next update."""
     for d in _PER_OBJECT:
         for k in [k for k in d if k not in alive]:
             del d[k]
-    for c in [c for c, o in _owners.items() if c not in alive or o not in alive]:
-        del _owners[c]
+
+
+def drop_dead_claims() -> None:
+    """Clear the claims held by objects in no scene (deleted): a claim is a pointer, which
+    would keep a deleted object, and its mesh, in the file. Undo brings them back with it."""
+    for ids in (bpy.data.objects, bpy.data.meshes):
+        for i in ids:
+            o = i.bsarap_owner
+            if o is not None and not linked(o) and i.library is None:
+                i.bsarap_owner = None
 
 
 def linked(control) -> bool:
@@ -269,25 +297,52 @@ def linked(control) -> bool:
 
 
 def owner(control):
-    """The session uid of the object that claimed ``control``, or ``None``."""
-    return _owners.get(control.session_uid)
+    """The object that claimed ``control`` (its saved ``bsarap_owner``), or ``None``: also when
+    that object is in no scene (deleted) or none of its handle groups uses the control."""
+    o = control.bsarap_owner
+    if o is None or not linked(o) or not any(g.control == control for g in o.bsarap.groups):
+        return None
+    return o
 
 
-def object_of(session_uid):
-    """The object with that session uid, or ``None``."""
-    return next((o for o in bpy.data.objects if o.session_uid == session_uid), None)
+def mesh_owner(mesh):
+    """The object that claimed ``mesh`` (its saved ``bsarap_owner``), or ``None``: also when
+    that object is in no scene or has another mesh since."""
+    o = mesh.bsarap_owner
+    return o if o is not None and linked(o) and o.data == mesh else None
+
+
+def mesh_sharer(obj):
+    """The other object that claimed the mesh ``obj`` shares with it (a linked duplicate,
+    Alt+D: one pose key for both), or ``None``. The first object posed claims it."""
+    o = mesh_owner(obj.data)
+    return None if o is None or o == obj else o
+
+
+def shared_mesh_message(obj, other) -> str:
+    """What is said of ``obj``, whose mesh ``other`` poses (:func:`mesh_sharer`)."""
+    return (
+        f"{obj.name}: shares its mesh with '{other.name}' (a linked duplicate, Alt+D), which poses "
+        "it: both would write the same pose key; for a pose of its own make the mesh single-user "
+        "(Object > Relations > Make Single User > Object & Data), then Add Controls"
+    )
+
+
+def release_mesh(obj) -> None:
+    """Let go of the claim of ``obj`` on its mesh (Remove Controls)."""
+    if obj.data.bsarap_owner == obj and obj.data.library is None:
+        obj.data.bsarap_owner = None
 
 
 def foreign_groups(obj) -> list:
-    """``[(group name, owner's session uid)]``: the handle groups of ``obj`` whose control
-    another object claimed (``obj`` is a copy of it: Shift+D and ``Object.copy`` copy the
-    pointers to the controls; duplicated with its controls, it points to the copies)."""
-    me = uid(obj)
+    """``[(group name, owner)]``: the handle groups of ``obj`` whose control another object
+    claimed (``obj`` is a copy of it: Shift+D and ``Object.copy`` copy the pointers to the
+    controls; duplicated with its controls, it points to the copies)."""
     out = []
     for g in obj.bsarap.groups:
-        if linked(g.control):
-            o = _owners.get(g.control.session_uid)
-            if o is not None and o != me:
+        if linked(g.control) and g.control.bsarap_owner != obj:
+            o = owner(g.control)
+            if o is not None:
                 out.append((g.name, o))
     return out
 
@@ -295,14 +350,8 @@ def foreign_groups(obj) -> list:
 def foreign_message(obj, foreign) -> str:
     """What the panel says of an object whose controls ``foreign`` pose another one."""
     names = ", ".join(f"'{n}'" for n, _ in foreign)
-    other = object_of(foreign[0][1])
-    who = f"'{other.name}'" if other is not None else "another object"
-    if other is not None and other.data == obj.data:
-        return (
-            f"{obj.name}: shares its mesh with {who} (a linked duplicate, Alt+D), posed with the "
-            f"controls of {names}; for a pose of its own make the mesh single-user (Object > "
-            "Relations > Make Single User > Object & Data), then Add Controls"
-        )
+    other = foreign[0][1]
+    who = f"'{other.name}'"
     return (
         f"{obj.name}: the controls of {names} pose {who} (is this a copy of it? Shift+D shares "
         f"its controls); Add Controls gives {obj.name} its own"
@@ -310,11 +359,15 @@ def foreign_message(obj, foreign) -> str:
 
 
 def claim_free_controls(obj) -> None:
-    """Claim the controls of ``obj`` that no object claimed yet."""
-    me = uid(obj)
-    for g in obj.bsarap.groups:
-        if linked(g.control):
-            _owners.setdefault(g.control.session_uid, me)
+    """Claim the controls of ``obj`` that no object claimed yet, and its mesh when no other
+    object (in a scene, with that mesh) claimed it."""
+    controls = [g.control for g in obj.bsarap.groups if linked(g.control)]
+    me = obj.data
+    if controls and me.bsarap_owner != obj and mesh_owner(me) is None and me.library is None:
+        me.bsarap_owner = obj
+    for c in controls:
+        if c.bsarap_owner != obj and owner(c) is None and c.library is None:
+            c.bsarap_owner = obj
 
 
 def check_controls(obj) -> None:
@@ -322,9 +375,10 @@ def check_controls(obj) -> None:
     claimed some (one Empty never drives two meshes). Once they are its own again (its original
     deleted), the refusal's message goes."""
     k = uid(obj)
-    foreign = foreign_groups(obj)
-    if foreign:
-        msg = _refused[k] = foreign_message(obj, foreign)
+    other = mesh_sharer(obj)
+    foreign = foreign_groups(obj) if other is None else None
+    if other is not None or foreign:
+        msg = _refused[k] = shared_mesh_message(obj, other) if other is not None else foreign_message(obj, foreign)
         raise HandleError(msg)
     refused = _refused.pop(k, None)
     if refused is not None and messages.get(k) == refused:
@@ -371,9 +425,11 @@ def _object_matrix_inverse(obj) -> np.ndarray:
     return inv
 
 
-def control_deltas(obj) -> np.ndarray:
-    """``(G, 4, 4)``: each handle group's motion in the object's space (see the module doc)."""
-    check_controls(obj)
+def control_deltas(obj, *, checked=False) -> np.ndarray:
+    """``(G, 4, 4)``: each handle group's motion in the object's space (see the module doc);
+    ``checked``: :func:`check_controls` passed already."""
+    if not checked:
+        check_controls(obj)
     inv = _object_matrix_inverse(obj)
     out = []
     for g in obj.bsarap.groups:
@@ -440,7 +496,7 @@ def update(obj, *, force=False) -> bool:
     st = state(obj)
     if st.baking and not force:
         return False
-    deltas = control_deltas(obj)
+    deltas = control_deltas(obj, checked=True)
     if not force and st.last_deltas is not None and np.array_equal(deltas, st.last_deltas):
         return False
     U = solve(obj, st, deltas)

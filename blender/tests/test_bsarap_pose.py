@@ -258,7 +258,7 @@ class BadInput(unittest.TestCase):
             self.assertReports(
                 bpy.ops.bsarap.add_controls,
                 rf"tube: modifiers that move the vertices \({label}\): .* apply, remove or disable them "
-                r"\(modifiers that keep the vertices in place are fine: Subdivision Surface, Multires, Mirror",
+                r"\(disabled: in the viewport and render\) \(modifiers that keep the vertices in place are fine: Subdivision Surface, Multires, Mirror",
             )
 
     def test_bake_without_controls(self):
@@ -347,6 +347,8 @@ class Modifiers(unittest.TestCase):
         self.bend(obj)
         self.assertEqual(st.solves, solves)
         self.assertRegex(ext.solve.message(obj), r"modifiers that move the vertices \(Displace\)")
+        # a mesh with shape keys cannot have a modifier applied: not offered
+        self.assertIn("; remove or disable them (disabled: in the viewport and render)", ext.solve.message(obj))
         disp.show_viewport = disp.show_render = False
         bpy.context.view_layer.update()
         self.assertIs(ext.solve.state(obj), st)
@@ -354,6 +356,19 @@ class Modifiers(unittest.TestCase):
         self.assertIsNone(ext.solve.message(obj))
         idx, want = expected_handles(obj, st, 1)
         np.testing.assert_allclose(pose_of(obj)[idx], want, atol=1e-5)
+
+    def test_disabled_cache_modifier(self):
+        """A disabled BS-ARAP cache modifier is no cache: an enabled modifier before it does
+        not block (it keeps the vertices in place)."""
+        obj = tube()
+        obj.modifiers.new("Subdivision", "SUBSURF")
+        cache = obj.modifiers.new(ext.modifiers.CACHE_MODIFIER, "MESH_CACHE")
+        self.assertIn("must stay first", ext.modifiers.refusal(obj))
+        cache.show_viewport = cache.show_render = False
+        self.assertIsNone(ext.modifiers.refusal(obj))
+        make_controls(obj, ["bottom", "top"])
+        self.bend(obj)
+        self.assertIsNone(ext.solve.message(obj))
 
     def test_geometry_nodes(self):
         """Smooth by Angle (Shade Auto Smooth, a Geometry Nodes group that only shades) is fine;
@@ -492,6 +507,8 @@ class Unregister(unittest.TestCase):
         handlers = ext.handlers
         bpy.ops.preferences.addon_disable(module=MODULE)
         self.assertFalse(hasattr(bpy.types.Object, "bsarap"))
+        self.assertFalse(hasattr(bpy.types.Object, "bsarap_owner"))
+        self.assertFalse(hasattr(bpy.types.Mesh, "bsarap_owner"))
         self.assertNotIn(handlers.on_depsgraph_update, bpy.app.handlers.depsgraph_update_post)
         self.assertNotIn(handlers.on_frame_change, bpy.app.handlers.frame_change_post)
         self.assertNotIn(handlers.on_render_start, bpy.app.handlers.render_init)

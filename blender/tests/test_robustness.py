@@ -307,6 +307,40 @@ class Errors(unittest.TestCase):
                 bpy.ops.bsarap.add_controls()
             self.assertEqual(build.call_count, 3)
 
+    def test_failed_build_renamed(self):
+        """The stored error of a failed build is said with the object's current name."""
+        obj = self.obj
+        obj.vertex_groups["top"].remove(list(range(len(obj.data.vertices))))
+        obj.bsarap.tol = 1e-5
+        bpy.context.view_layer.update()
+        self.assertTrue(ext.solve.message(obj).startswith("tube: "))
+        obj.name = "renamed"
+        activate(obj)
+        with mock.patch.object(ext.solve, "build", wraps=ext.solve.build) as build:
+            with self.assertRaises(RuntimeError) as cm:
+                bpy.ops.bsarap.pose()
+            self.assertEqual(build.call_count, 0)  # not built again
+        self.assertIn("renamed: vertex group 'top' has no vertex", str(cm.exception))
+        self.assertNotIn("tube", str(cm.exception))
+
+    def test_linked_library_mesh(self):
+        """A mesh linked from a library cannot take the pose key: refused with a message, not
+        an unexpected error on every update."""
+        path = os.path.join(tempfile.mkdtemp(), "lib.blend")
+        bpy.ops.wm.save_as_mainfile(filepath=path)
+        bpy.ops.wm.read_homefile(use_empty=True)
+        with bpy.data.libraries.load(path, link=True) as (src, dst):
+            dst.objects = ["tube", "bottom", "top"]
+        for o in dst.objects:
+            bpy.context.scene.collection.objects.link(o)
+        obj = dst.objects[0].make_local()  # the object local, its mesh still linked
+        self.assertIsNotNone(obj.data.library)
+        activate(obj)
+        with self.assertRaises(RuntimeError) as cm:
+            bpy.ops.bsarap.pose()
+        self.assertIn("tube: the mesh is linked from a library (lib.blend)", str(cm.exception))
+        self.assertIn("make it local", str(cm.exception))
+
     def test_singular_object_matrix(self):
         obj, sc = self.obj, bpy.context.scene
         bpy.data.objects["top"].location.x += 0.3
@@ -401,7 +435,10 @@ class SessionKeys(unittest.TestCase):
         self.assertEqual(ext.solve._states, {})
         self.assertEqual(ext.solve._failures, {})
         self.assertEqual(ext.solve.messages, {})
-        self.assertEqual(ext.solve._owners, {})  # its controls are free again
+        top = bpy.data.objects["top"]
+        self.assertIsNone(ext.solve.owner(top))  # its controls are free again
+        self.assertIsNone(top.bsarap_owner)  # the claim no longer holds the deleted object
+        self.assertEqual(obj.users, 0)
 
 
 class Copies(unittest.TestCase):
@@ -521,6 +558,70 @@ class Copies(unittest.TestCase):
         bpy.context.view_layer.update()
         assert_pose_follows(self, obj)
 
+    def assert_refused_shared(self, obj, dup):
+        """``dup`` shares the mesh of ``obj``, which poses it: its pose key is the original's,
+        live updates and Add Controls refuse it, and the original keeps posing."""
+        self.assertIs(dup.data, obj.data)
+        activate(dup)
+        with self.assertRaises(RuntimeError) as cm:
+            bpy.ops.bsarap.add_controls()
+        self.assertIn("shares its mesh with 'tube' (a linked duplicate, Alt+D)", str(cm.exception))
+        self.assertIn("Make Single User", str(cm.exception))
+        with self.assertRaises(RuntimeError) as cm:
+            bpy.ops.bsarap.pose()
+        self.assertIn("a linked duplicate", str(cm.exception))
+        for o in bpy.context.scene.objects:
+            if o.type == "EMPTY" and o not in (g.control for g in obj.bsarap.groups):
+                o.location.z -= 0.5  # the duplicate's own controls, if any: they pose nothing
+        bpy.data.objects["top"].location.y += 0.3
+        bpy.context.view_layer.update()
+        assert_pose_follows(self, obj)
+        self.assertIsNone(ext.solve.message(obj))
+
+    def test_linked_duplicate_with_its_controls(self):
+        """Alt+D of the mesh with its Empties: the duplicate points to its own new Empties, but
+        shares the pose key: refused."""
+        obj = self.obj
+        for name in ("bottom", "top"):
+            bpy.data.objects[name].select_set(True)
+        self.assertEqual(bpy.ops.object.duplicate(linked=True), {"FINISHED"})
+        dup = bpy.data.objects["tube.001"]
+        self.assertEqual([g.control.name for g in dup.bsarap.groups], ["bottom.001", "top.001"])
+        bpy.data.objects["top.001"].location.z -= 0.5
+        bpy.context.view_layer.update()
+        self.assertIn("shares its mesh with 'tube'", ext.solve.message(dup))
+        self.assertIsNone(ext.solve.built(dup))
+        self.assert_refused_shared(obj, dup)
+
+    def test_linked_duplicate_controls_removed(self):
+        """Alt+D, Remove Controls on the duplicate (it lets go of the original's), then Add
+        Controls: refused, the mesh is still the original's."""
+        dup = self.copy(linked=True)
+        activate(dup)
+        self.assertEqual(bpy.ops.bsarap.remove_controls(), {"FINISHED"})
+        self.assert_refused_shared(self.obj, dup)
+
+    def test_linked_duplicate_before_controls(self):
+        """Alt+D before any controls, then Add Controls on both: the first posed keeps the mesh;
+        made single-user, the duplicate poses on its own."""
+        bpy.ops.wm.read_homefile(use_empty=True)
+        obj = tube()
+        for g in ("bottom", "top"):
+            self.assertEqual(bpy.ops.bsarap.add_group(group=g), {"FINISHED"})
+        self.assertEqual(bpy.ops.object.duplicate(linked=True), {"FINISHED"})
+        dup = bpy.context.view_layer.objects.active
+        dup.location.x += 3.0
+        activate(obj)
+        self.assertEqual(bpy.ops.bsarap.add_controls(), {"FINISHED"})
+        self.assert_refused_shared(obj, dup)
+        # made single-user (Object & Data): its own mesh, its own controls
+        activate(dup)
+        self.assertEqual(bpy.ops.object.make_single_user(object=True, obdata=True), {"FINISHED"})
+        self.assertIsNot(dup.data, obj.data)
+        self.assertEqual(bpy.ops.bsarap.add_controls(), {"FINISHED"})
+        self.assertIsNone(ext.solve.message(dup))
+        assert_pose_follows(self, dup)
+
     def test_duplicated_with_its_controls(self):
         """Shift+D of the mesh with its Empties: Blender points the copy to the copied Empties,
         which it claims: both pose, each with its own."""
@@ -539,11 +640,37 @@ class Copies(unittest.TestCase):
 
     def test_saved_with_a_copy(self):
         """A file saved with an original and its copy sharing the controls: once reopened, the
-        original keeps them (the claims go by name), whichever is solved first."""
+        original keeps them (the claims are saved in the file), whichever is solved first, its
+        name sorting after the copy's."""
         self.copy()
+        self.obj.name = "z-tube"  # loaded, "tube.001" comes first in bpy.data.objects
         path = os.path.join(tempfile.mkdtemp(), "copies.blend")
         bpy.ops.wm.save_as_mainfile(filepath=path)
         bpy.ops.wm.open_mainfile(filepath=path)
+        obj, dup = bpy.data.objects["z-tube"], bpy.data.objects["tube.001"]
+        self.assertEqual([o.name for o in bpy.data.objects if o.type == "MESH"], ["tube.001", "z-tube"])
+        activate(dup)
+        with self.assertRaises(RuntimeError) as cm:
+            bpy.ops.bsarap.pose()
+        self.assertIn("pose 'z-tube'", str(cm.exception))
+        bpy.data.objects["top"].location.y += 0.3
+        bpy.context.view_layer.update()
+        assert_pose_follows(self, obj)
+
+
+    def test_claims_kept_through_undo(self):
+        """The original deleted, the copy takes its controls, Ctrl+Z: the original is back and
+        keeps them (the claims are undone with the file's data)."""
+        dup = self.copy()
+        bpy.ops.ed.undo_push(message="copied")
+        activate(self.obj)
+        self.assertEqual(bpy.ops.object.delete(), {"FINISHED"})
+        bpy.context.view_layer.update()
+        bpy.data.objects["top"].location.y += 0.3
+        bpy.context.view_layer.update()
+        self.assertIsNone(ext.solve.message(dup))  # the copy poses with them now
+        bpy.ops.ed.undo_push(message="deleted")
+        bpy.ops.ed.undo()
         obj, dup = bpy.data.objects["tube"], bpy.data.objects["tube.001"]
         activate(dup)
         with self.assertRaises(RuntimeError) as cm:
@@ -552,6 +679,18 @@ class Copies(unittest.TestCase):
         bpy.data.objects["top"].location.y += 0.3
         bpy.context.view_layer.update()
         assert_pose_follows(self, obj)
+
+    def test_claims_kept_through_reenabling(self):
+        """The extension disabled and enabled again: the copy, solved first, is still refused."""
+        dup = self.copy()
+        self.obj.bsarap.live = False  # no update solves the original before the copy
+        module = "bl_ext.user_default.bsarap_pose"
+        bpy.ops.preferences.addon_disable(module=module)
+        bpy.ops.preferences.addon_enable(module=module)
+        activate(dup)
+        with self.assertRaises(RuntimeError) as cm:
+            bpy.ops.bsarap.pose()
+        self.assertIn("pose 'tube'", str(cm.exception))
 
 
 class Render(unittest.TestCase):
