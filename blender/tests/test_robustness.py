@@ -460,6 +460,18 @@ class Copies(unittest.TestCase):
         bpy.context.view_layer.update()
         return dup
 
+    def assert_copy_refused(self, dup, original, *, follows=True):
+        """Pose Now on the copy ``dup`` is refused naming ``original``; moving a control then
+        poses the original (with ``follows``)."""
+        activate(dup)
+        with self.assertRaises(RuntimeError) as cm:
+            bpy.ops.bsarap.pose()
+        self.assertIn(f"pose '{original.name}'", str(cm.exception))
+        if follows:
+            bpy.data.objects["top"].location.y += 0.3
+            bpy.context.view_layer.update()
+            assert_pose_follows(self, original)
+
     def test_copy_refused_until_own_controls(self):
         obj = self.obj
         dup = self.copy()
@@ -649,14 +661,7 @@ class Copies(unittest.TestCase):
         bpy.ops.wm.open_mainfile(filepath=path)
         obj, dup = bpy.data.objects["z-tube"], bpy.data.objects["tube.001"]
         self.assertEqual([o.name for o in bpy.data.objects if o.type == "MESH"], ["tube.001", "z-tube"])
-        activate(dup)
-        with self.assertRaises(RuntimeError) as cm:
-            bpy.ops.bsarap.pose()
-        self.assertIn("pose 'z-tube'", str(cm.exception))
-        bpy.data.objects["top"].location.y += 0.3
-        bpy.context.view_layer.update()
-        assert_pose_follows(self, obj)
-
+        self.assert_copy_refused(dup, obj)
 
     def test_claims_kept_through_undo(self):
         """The original deleted, the copy takes its controls, Ctrl+Z: the original is back and
@@ -672,13 +677,7 @@ class Copies(unittest.TestCase):
         bpy.ops.ed.undo_push(message="deleted")
         bpy.ops.ed.undo()
         obj, dup = bpy.data.objects["tube"], bpy.data.objects["tube.001"]
-        activate(dup)
-        with self.assertRaises(RuntimeError) as cm:
-            bpy.ops.bsarap.pose()
-        self.assertIn("pose 'tube'", str(cm.exception))
-        bpy.data.objects["top"].location.y += 0.3
-        bpy.context.view_layer.update()
-        assert_pose_follows(self, obj)
+        self.assert_copy_refused(dup, obj)
 
     def test_claims_kept_through_reenabling(self):
         """The extension disabled and enabled again: the copy, solved first, is still refused."""
@@ -687,10 +686,7 @@ class Copies(unittest.TestCase):
         module = "bl_ext.user_default.bsarap_pose"
         bpy.ops.preferences.addon_disable(module=module)
         bpy.ops.preferences.addon_enable(module=module)
-        activate(dup)
-        with self.assertRaises(RuntimeError) as cm:
-            bpy.ops.bsarap.pose()
-        self.assertIn("pose 'tube'", str(cm.exception))
+        self.assert_copy_refused(dup, self.obj, follows=False)
 
 
 class Render(unittest.TestCase):
