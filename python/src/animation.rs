@@ -281,15 +281,14 @@ pub fn record(
             &mut |done, total| interrupt.progress(done, total),
         )
     });
-    // What `settle` refines at: the last frame's targets (none when stopped before the first,
-    // the deformer reset).
-    match &result {
-        Err(RecordError::Cancelled { done: 0, .. }) => deformer.last_targets = None,
-        Ok(_) | Err(RecordError::Cancelled { .. }) => {
-            deformer.last_targets = Some(deformer.deformer.group_targets().to_vec());
+    // What `settle` refines at: the last frame's targets; none when stopped before the first
+    // (the deformer reset) or when a frame failed (its targets are not the pose's).
+    deformer.last_targets = match &result {
+        Ok(_) | Err(RecordError::Cancelled { done: 1.., .. }) => {
+            Some(deformer.deformer.group_targets().to_vec())
         }
-        Err(_) => {}
-    }
+        Err(_) => None,
+    };
     if let Some(e) = interrupt.raised() {
         return Err(e);
     }
