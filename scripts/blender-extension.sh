@@ -20,16 +20,16 @@ mkdir -p "$out"
 out=$(cd "$out" && pwd)
 
 venv=target/blender-extension-venv
-[ -x "$venv/bin/maturin" ] || {
-  python3 -m venv "$venv"
-  "$venv/bin/pip" install -q --disable-pip-version-check "maturin>=1.16,<2"
-}
+[ -x "$venv/bin/python" ] || python3 -m venv "$venv"
+# The pinned tools, installed on every run: pip is quick when they are already there, and a venv
+# made by an older checkout gets the versions this one names.
+tools=("maturin>=1.16,<2")
 portable=()
 if [ "$(uname -s)" = Linux ]; then
-  "$venv/bin/python" -c "import ziglang" 2>/dev/null ||
-    "$venv/bin/pip" install -q --disable-pip-version-check "ziglang==0.17.1"
+  tools+=("ziglang==0.17.1")
   portable=(--zig --compatibility manylinux_2_28)
 fi
+"$venv/bin/pip" install -q --disable-pip-version-check "${tools[@]}"
 
 stage=$(mktemp -d)
 trap 'rm -rf "$stage"' EXIT

@@ -7,7 +7,7 @@ from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union, o
 import numpy as np
 import numpy.typing as npt
 
-PathLike = Union[str, os.PathLike[str]]
+PathLike = Union[str, bytes, os.PathLike[str], os.PathLike[bytes]]
 ArrayLike = npt.ArrayLike
 F64 = npt.NDArray[np.float64]
 I64 = npt.NDArray[np.int64]

@@ -3,14 +3,13 @@ and :func:`export_gltf`."""
 
 from __future__ import annotations
 
-import os
 from typing import Any, Optional
 
 import numpy as np
 
 from . import _bsarap
 from ._bsarap import BsarapError
-from ._common import PathLike, _count, _flag
+from ._common import PathLike, _count, _flag, _number, _path
 from ._deformer import Deformer
 
 
@@ -65,7 +64,7 @@ class Timeline:
     def transforms_at(self, t: float) -> dict:
         """``{group: (translation, R)}`` of every path at time ``t``, ready for
         :meth:`Deformer.solve`."""
-        return {g: (np.array(tr), np.array(r)) for g, tr, r in self._native.transforms_at(float(t))}
+        return {g: (np.array(tr), np.array(r)) for g, tr, r in self._native.transforms_at(_number(t, "t"))}
 
     def to_json(self) -> str:
         """The timeline as the JSON of a scene's ``"timeline"`` field."""
@@ -130,7 +129,7 @@ class Scene:
 
 def load_scene(path: PathLike) -> Scene:
     """Read a scene file (JSON, versioned), load and clean its mesh, resolve its handles."""
-    return Scene(_bsarap.load_scene(os.fspath(path)))
+    return Scene(_bsarap.load_scene(_path(path)))
 
 
 class Recording:
@@ -197,5 +196,5 @@ def export_gltf(
     """
     if not isinstance(recording, Recording):
         raise BsarapError("export_gltf: recording must be a Recording")
-    return _bsarap.export_gltf(os.fspath(path), recording._native, _flag(quantized, "quantized"), _flag(normals, "normals"),
+    return _bsarap.export_gltf(_path(path), recording._native, _flag(quantized, "quantized"), _flag(normals, "normals"),
                                _count(every, "every"))

@@ -32,15 +32,36 @@ MAX_BENDING_LENGTH: float = _bsarap.MAX_BENDING_LENGTH
 #: (``solver::MAX_SETTLE_STEPS``, the editor's cap on settle steps; read from the native module).
 MAX_SETTLE_STEPS: int = _bsarap.MAX_SETTLE_STEPS
 
-PathLike = Union[str, "os.PathLike[str]"]
+PathLike = Union[str, bytes, "os.PathLike[str]", "os.PathLike[bytes]"]
+
+#: The largest count or index the native layer takes (``i64``, as :func:`_indices` checks).
+_MAX_INT = int(np.iinfo(np.int64).max)
+
+
+def _path(p: Any, name: str = "path") -> str:
+    """A file path as ``str``: ``str``, ``bytes`` (decoded as ``os.fsdecode`` does) or any
+    ``os.PathLike``; anything else refused."""
+    try:
+        return os.fsdecode(os.fspath(p))
+    except TypeError:
+        kind = type(p).__name__
+        raise BsarapError(f"{name} must be a str, bytes or os.PathLike (got {kind})") from None
+
+
+def _real(a: Any, name: str) -> np.ndarray:
+    """``a`` as a float64 array; complex values refused (numpy would drop their imaginary part
+    with a warning only)."""
+    if np.iscomplexobj(a):
+        raise BsarapError(f"{name} must hold real numbers; got complex values")
+    try:
+        return np.asarray(a, dtype=np.float64)
+    except (TypeError, ValueError) as e:
+        raise BsarapError(f"{name} must be an array of numbers: {e}") from None
 
 
 def _positions(a: Any, name: str) -> np.ndarray:
     """``a`` as a C-contiguous ``(n, 3)`` float64 array (no copy when it already is one)."""
-    try:
-        arr = np.ascontiguousarray(a, dtype=np.float64)
-    except (TypeError, ValueError) as e:
-        raise BsarapError(f"{name} must be an (n, 3) array of numbers: {e}") from None
+    arr = np.ascontiguousarray(_real(a, name))
     if arr.ndim != 2 or arr.shape[1] != 3:
         raise BsarapError(f"{name} must have shape (n, 3); got {arr.shape}")
     return arr
@@ -70,7 +91,10 @@ def _number(x: Any, name: str) -> float:
     """A real number as a float (bools and non-numbers refused; the range is the solver's)."""
     if isinstance(x, bool) or not isinstance(x, (int, float, np.integer, np.floating)):
         raise BsarapError(f"{name} must be a number (got {x!r})")
-    return float(x)
+    try:
+        return float(x)
+    except OverflowError:
+        raise BsarapError(f"{name} is too large to be a float (got {x!r})") from None
 
 
 def _flag(x: Any, name: str) -> bool:
@@ -84,6 +108,8 @@ def _count(x: Any, name: str) -> int:
     """A non-negative int (bools and negative numbers refused)."""
     if isinstance(x, bool) or not isinstance(x, (int, np.integer)) or int(x) < 0:
         raise BsarapError(f"{name} must be a non-negative integer (got {x!r})")
+    if int(x) > _MAX_INT:
+        raise BsarapError(f"{name} is too large (got {x!r}; at most 2**63 - 1)")
     return int(x)
 
 

@@ -21,6 +21,7 @@ from ._common import (
     _indices,
     _number,
     _positions,
+    _real,
 )
 from ._mesh import load_selection
 
@@ -34,8 +35,7 @@ def _transforms(group_transforms: Mapping[int, Transform]):
         raise BsarapError("group_transforms must be a dict {group: transform}")
     out = []
     for g, t in group_transforms.items():
-        if isinstance(g, bool) or not isinstance(g, (int, np.integer)) or int(g) < 0:
-            raise BsarapError(f"group ids must be non-negative integers (got {g!r})")
+        g = _count(g, "group ids")
         translation, rot = np.zeros(3), np.eye(3)
         if isinstance(t, Mapping):
             unknown = set(t) - {"translate", "rotate"}
@@ -47,13 +47,13 @@ def _transforms(group_transforms: Mapping[int, Transform]):
             translation, rot = t
         else:
             translation = t
-        translation = np.asarray(translation, dtype=np.float64)
-        rot = np.asarray(rot, dtype=np.float64)
+        translation = _real(translation, f"group {g}: the translation")
+        rot = _real(rot, f"group {g}: the rotation")
         if translation.shape != (3,):
             raise BsarapError(f"group {g}: the translation must have 3 components; got {translation.shape}")
         if rot.shape != (3, 3):
             raise BsarapError(f"group {g}: the rotation must be a 3x3 matrix; got {rot.shape}")
-        out.append((int(g), translation.tolist(), rot.tolist()))
+        out.append((g, translation.tolist(), rot.tolist()))
     return out
 
 
@@ -124,7 +124,7 @@ class Deformer:
         pinned_components: Sequence[int] = (),
     ) -> None:
         V = _positions(V, "V")
-        if isinstance(handles, (str, os.PathLike)):
+        if isinstance(handles, (str, bytes, os.PathLike)):
             labels = load_selection(handles, V)
         else:
             labels = _indices(handles, "handles", 1)

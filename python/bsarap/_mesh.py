@@ -3,13 +3,12 @@
 
 from __future__ import annotations
 
-import os
 from typing import Any, Sequence
 
 import numpy as np
 
 from . import _bsarap
-from ._common import PathLike, _indices, _positions
+from ._common import PathLike, _indices, _number, _path, _positions
 
 
 def load_mesh(path: PathLike, *, with_report: bool = False):
@@ -23,7 +22,7 @@ def load_mesh(path: PathLike, *, with_report: bool = False):
     ``with_report=True``, ``(V, F, report)`` where ``report`` is the dict of :func:`clean` plus
     the reader's notices. Raises :class:`BsarapError` naming the file and line.
     """
-    v, f, report = _bsarap.load_mesh(os.fspath(path))
+    v, f, report = _bsarap.load_mesh(_path(path))
     return (v, f, report) if with_report else (v, f)
 
 
@@ -40,7 +39,7 @@ def clean(V: Any, F: Any):
 
 def save_mesh(path: PathLike, V: Any, F: Any) -> None:
     """Write ``V``, ``F`` as ``.obj``, ``.off`` or ``.ply`` (by extension), atomically."""
-    _bsarap.save_mesh(os.fspath(path), _positions(V, "V"), _indices(F, "F", 2))
+    _bsarap.save_mesh(_path(path), _positions(V, "V"), _indices(F, "F", 2))
 
 
 def load_selection(path: PathLike, V: Any) -> np.ndarray:
@@ -50,9 +49,9 @@ def load_selection(path: PathLike, V: Any) -> np.ndarray:
     of spheres ``[{"group": 0, "center": [x, y, z], "radius": r}]``. Returns the per-vertex
     labels, int64. ``np.nonzero(labels >= 0)[0]`` is libigl's ``b``.
     """
-    return _bsarap.load_selection(os.fspath(path), _positions(V, "V"))
+    return _bsarap.load_selection(_path(path), _positions(V, "V"))
 
 
 def rotation(axis: Sequence[float], degrees: float) -> np.ndarray:
     """The 3x3 rotation by ``degrees`` about ``axis`` (as the CLI's ``--rotate G:ax,ay,az,deg``)."""
-    return np.array(_bsarap.rotation([float(c) for c in axis], float(degrees)))
+    return np.array(_bsarap.rotation([_number(c, "axis") for c in axis], _number(degrees, "degrees")))

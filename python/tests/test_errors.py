@@ -1,5 +1,7 @@
 """Every error path raises bsarap.BsarapError (a ValueError) with the solver's message; none
 crashes the interpreter."""
+import warnings
+
 import numpy as np
 import pytest
 
@@ -205,6 +207,52 @@ def test_audit_findings():
            '{"axis": [0, 0, 0], "degrees": 90}}]}}]}')
     with pytest.raises(BsarapError, match="zero axis"):
         bsarap.Timeline.from_json(bad)
+
+
+def test_python_values_at_the_edges(tmp_path):
+    """Values Python allows and the native layer cannot take: bytes paths are paths, complex
+    arrays, ints past 64 bits and floats past float's range get a BsarapError (each was a
+    TypeError, a ComplexWarning with the imaginary part dropped, or an OverflowError)."""
+    V, F, labels = tube()
+    # bytes paths are accepted wherever str paths are (os.fsdecode).
+    out = tmp_path / "tube.off"
+    bsarap.save_mesh(bytes(out), V, F)
+    V2, F2 = bsarap.load_mesh(bytes(out))
+    assert V2.shape == V.shape and F2.shape == F.shape
+    np.savetxt(tmp_path / "labels.dmat", labels, fmt="%d", header=f"1 {len(labels)}", comments="")
+    assert (bsarap.load_selection(bytes(tmp_path / "labels.dmat"), V) == labels).all()
+    bsarap.Deformer(V, F, bytes(tmp_path / "labels.dmat"), method="arap")
+    with pytest.raises(BsarapError, match="missing.json"):
+        bsarap.load_scene(bytes(tmp_path / "missing.json"))
+    with pytest.raises(BsarapError, match="path must be a str, bytes or os.PathLike"):
+        bsarap.load_mesh(3)
+    d = bsarap.Deformer(V, F, labels, method="arap")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no ComplexWarning: refused before numpy casts
+        for call in (
+            lambda: bsarap.clean(V.astype(complex), F),
+            lambda: bsarap.Deformer(V + 0j, F, labels),
+            lambda: bsarap.Arap(V.tolist()[:-1] + [[0, 0, 1j]], F, [0]),
+            lambda: d.solve({1: (0, 0, 1 + 0j)}),
+            lambda: d.solve({1: ((0, 0, 0), np.eye(3, dtype=complex))}),
+        ):
+            with pytest.raises(BsarapError, match="real numbers; got complex"):
+                call()
+    for call, match in [
+        (lambda: bsarap.Deformer(V, F, labels, max_iters=2**70), "max_iters is too large"),
+        (lambda: bsarap.Deformer(V, F, labels, coarse_vertices=2**64), "coarse_vertices is too"),
+        (lambda: bsarap.Deformer(V, F, labels, tol=10**400), "tol is too large to be a float"),
+        (lambda: bsarap.Arap(V, F, [0], anderson=2**63), "anderson is too large"),
+        (lambda: d.solve({2**70: (0, 0, 0)}), "group ids is too large"),
+        (lambda: d.solve_to_rest({1: (0, 0, 0)}, max_steps=2**80), "max_steps is too large"),
+        (lambda: bsarap.rotation([1, 0, 0], 10**400), "degrees is too large"),
+        (lambda: bsarap.Timeline.from_json('{"duration": 1, "fps": 2}').frame_times(2**70), "n is"),
+    ]:
+        with pytest.raises(BsarapError, match=match):
+            call()
+    # The edge itself is taken: a cap of 2**63 - 1 steps is no cap.
+    d.solve_to_rest({1: (0.1, 0, 0)}, max_steps=2**63 - 1)
+    assert d.at_rest.converged
 
 
 def test_settle_after_record_ends(tmp_path):
