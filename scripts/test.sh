@@ -51,7 +51,8 @@ pip=("$venv/bin/pip" install -q --disable-pip-version-check)
 blender_py=tools/blender/.venv/bin/python
 if [ -x "$blender_py" ] && "$blender_py" -c "import bpy" >/dev/null 2>&1; then
   zip=$(ls -t "$ext"/bsarap_pose-*.zip | head -n 1)
-  for t in blender/tests/test_bsarap_pose.py blender/tests/test_solving.py blender/tests/test_robustness.py; do
+  for t in blender/tests/test_bsarap_pose.py blender/tests/test_solving.py blender/tests/test_robustness.py \
+    blender/tests/test_claims.py; do
     BSARAP_BLENDER_ZIP=$zip "$blender_py" "$t"
   done
 else

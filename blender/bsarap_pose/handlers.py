@@ -14,14 +14,18 @@ data during a render can crash Blender, so an animation is baked before it is re
 is kept as the object's message (the panel shows it) and printed once, never a traceback per
 update.
 
-Each update first drops what is kept for objects deleted since (``solve.prune``). A loaded file
-starts the caches again; the claims of controls and meshes are saved in it (``solve.owner``), so
-a file saved with a copy that shares its original's controls keeps them with the original.
+Each update first drops what is kept for objects deleted since (``solve.prune``): when the objects
+in the scenes changed, by their session uids (an object deleted and another added in one update
+leave the counts as they were). A loaded file starts the caches again; the claims of controls and
+meshes are saved in it (``solve.owner``), so a file saved with a copy that shares its original's
+controls keeps them with the original; a file saved before they were gets them on load, and the
+open file when the extension is enabled (``solve.claim_unclaimed``).
 """
 
 from __future__ import annotations
 
 import bpy
+import numpy as np
 from bpy.app.handlers import persistent
 
 from . import solve
@@ -52,31 +56,39 @@ def alive_objects() -> set:
     return {o.session_uid for sc in bpy.data.scenes for o in sc.objects}
 
 
-#: The object counts (:func:`object_counts`) at the last prune (``None``: prune at the next
-#: update).
+#: The objects (:func:`scene_objects`) at the last prune (``None``: prune at the next update).
 _pruned_at = None
 
 
-def object_counts() -> tuple:
-    """The number of objects in ``bpy.data`` and in each scene (counted in C, no Python object
-    per object): a deletion changes it (the deleted object may stay in ``bpy.data``, held by a
-    pointer such as a control's claim, but leaves its scenes)."""
-    return len(bpy.data.objects), tuple(len(sc.objects) for sc in bpy.data.scenes)
+def _uids(collection) -> bytes:
+    """The session uids of the objects of ``collection`` (read in C with ``foreach_get``, no
+    Python object per object)."""
+    a = np.empty(len(collection), dtype=np.int64)
+    collection.foreach_get("session_uid", a)
+    return a.tobytes()
+
+
+def scene_objects() -> tuple:
+    """The number of objects in ``bpy.data`` and the session uids of each scene's objects: a
+    deletion changes it (the deleted object may stay in ``bpy.data``, held by a pointer such as
+    a control's claim, but leaves its scenes), also with another object added in the same update
+    (uids are never reused in a session)."""
+    return len(bpy.data.objects), tuple(_uids(sc.objects) for sc in bpy.data.scenes)
 
 
 def prune() -> None:
-    """Drop what is kept for deleted objects (``solve.prune``), only when the object counts
-    changed since the last prune: walking every scene's objects on every update costs on a big
-    scene. The claims of an object in no scene are ignored anyway (``solve.owner``,
-    ``solve.mesh_owner``)."""
+    """Drop what is kept for deleted objects (``solve.prune``), only when the objects in the
+    scenes changed since the last prune: walking every scene's objects in Python on every update
+    costs on a big scene. The claims of an object in no scene are ignored anyway
+    (``solve.owner``, ``solve.mesh_owner``)."""
     global _pruned_at
-    n = object_counts()
+    n = scene_objects()
     if n == _pruned_at:
         return
     if solve.tracked():
         solve.prune(alive_objects())
     solve.drop_dead_claims()
-    _pruned_at = object_counts()  # dropping a claim may free a deleted object
+    _pruned_at = scene_objects()  # dropping a claim may free a deleted object
 
 
 def update_scene(scene) -> None:
@@ -103,7 +115,7 @@ def report(obj, e: Exception) -> None:
     other than :class:`HandleError` (a bug) is named as unexpected."""
     msg = str(e) if isinstance(e, HandleError) else f"{obj.name}: unexpected error ({type(e).__name__}: {e})"
     if solve.message(obj) != msg:  # say it once, not on every update
-        solve.messages[solve.uid(obj)] = msg
+        solve.report_error(obj, msg)
         print(f"BS-ARAP: {msg}")
 
 
@@ -155,10 +167,11 @@ def on_frame_change(scene, _depsgraph=None):
 @persistent
 def on_load(_filepath=None, _unused=None):
     """Another file: its objects are not those the cached solvers were built for (the claims
-    are in the file)."""
+    are in the file; one saved before they were gets them now)."""
     global _pruned_at
     _pruned_at = None
     solve.forget()
+    solve.claim_unclaimed()
 
 
 @persistent
@@ -187,6 +200,10 @@ _handlers = (
 def register():
     for name, fn in _handlers:
         getattr(bpy.app.handlers, name).append(fn)
+    # Enabled in an open file (not at startup, where bpy.data is not readable yet and on_load
+    # follows): its unclaimed controls are claimed as on load.
+    if isinstance(bpy.data, bpy.types.BlendData):
+        solve.claim_unclaimed()
 
 
 def unregister():

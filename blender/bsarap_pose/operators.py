@@ -108,6 +108,7 @@ class BSARAP_OT_add_controls(_MeshOperator, bpy.types.Operator):
         try:
             if len(obj.vertex_groups) == 0:
                 raise HandleError(f"{obj.name}: the mesh has no vertex groups; create or paint one first")
+            solve.check_mesh_writable(obj)  # library data: before any claim
             other = solve.mesh_sharer(obj)
             if other is not None:
                 # a linked duplicate: its own controls would fight over the shared pose key
@@ -236,6 +237,7 @@ class _BakeOperator(_MeshOperator):
         frames = self.frames(context.scene)
         if len(frames) == 0:
             raise HandleError("the frame range is empty")
+        solve.check_controls(obj)  # what is wrong with the object first (the Baker checks again)
         self.check_output(obj)
         return bake.Baker(context.scene, obj, frames)
 
@@ -349,6 +351,44 @@ def pc2_path(obj) -> str:
     return os.path.join(os.path.dirname(bpy.data.filepath), f"{bpy.path.clean_name(obj.name)}.bsarap.pc2")
 
 
+def _same_file(path: str) -> str:
+    """``path`` made comparable with another path to the same file."""
+    return os.path.normcase(os.path.realpath(path))
+
+
+def cache_readers(obj, path: str) -> list:
+    """``[(object, modifier)]``: the Mesh Cache modifiers of the objects other than ``obj``
+    that read the file ``path`` (the bake of another object, or a cache of the user's)."""
+    want = _same_file(path)
+    out = []
+    for o in bpy.data.objects:
+        if o == obj:
+            continue
+        for m in o.modifiers:
+            if m.type != "MESH_CACHE" or not m.filepath:
+                continue
+            if _same_file(bpy.path.abspath(m.filepath, library=o.library)) == want:
+                out.append((o, m))
+    return out
+
+
+def pc2_target(obj) -> str:
+    """Where Bake to point cache writes for ``obj`` (:func:`pc2_path`). Raises
+    :class:`HandleError` when another object's Mesh Cache modifier reads that file: a copy of a
+    baked object (Shift+D) has its Point cache path, and baking it would overwrite the
+    original's bake."""
+    path = pc2_path(obj)
+    readers = cache_readers(obj, path)
+    if readers:
+        other, mod = readers[0]
+        raise HandleError(
+            f"{obj.name}: the point cache {path} is read by '{other.name}' (its modifier "
+            f"'{mod.name}'): baking would overwrite that bake (is {obj.name} a copy of it? Shift+D "
+            f"copies the Point cache path); set another Point cache path for {obj.name}"
+        )
+    return path
+
+
 def stored_path(path: str) -> str:
     """``path`` as the modifier keeps it: relative to the .blend (``//...``) once it is saved,
     so the file and its cache move together."""
@@ -367,10 +407,10 @@ class BSARAP_OT_bake_point_cache(_BakeOperator, bpy.types.Operator):
     bl_label = "Bake to Point Cache"
 
     def check_output(self, obj):
-        pc2_path(obj)
+        pc2_target(obj)
 
     def finish(self, context, baker):
-        path = pc2_path(baker.obj)
+        path = pc2_target(baker.obj)  # again: the paths may have changed while it baked
         bake.write_pc2(path, baker.poses, baker.frames[0], baker.step_frames)
         bake.add_cache_modifier(baker.obj, stored_path(path), baker.frames[0], baker.step_frames)
         baker.obj.bsarap.live = False

@@ -19,7 +19,17 @@ and is refused (:func:`mesh_sharer`) until it is made single-user. The claims ar
 file (``Object.bsarap_owner`` on the control, ``Mesh.bsarap_owner`` on the mesh), so a reload,
 an undo or the extension enabled again keep them; Blender remaps them when a mesh and its
 controls are duplicated together (measured in bpy 5.0.1), so the copy owns the copies. An owner
-in no scene (deleted), or no longer using the control or the mesh, is no owner.
+in no scene (deleted), or no longer using the control or the mesh, is no owner. A file saved
+before the claims were stored gets them on load (:func:`claim_unclaimed`), where one object alone
+uses the control or the mesh.
+
+A mesh that is library data, linked or a library override, cannot take the pose key (Blender
+keeps no shape key written to either): it is refused before anything is claimed or built
+(:func:`mesh_refusal`).
+
+The panel's message (:func:`message`) says what is wrong now: an error of the live update goes
+once the object poses again (:func:`report_error`), and a refusal of another object's controls
+or mesh is not shown once it no longer holds, even where no update runs (Live off, no control).
 
 Objects in Edit Mode are left alone (their mesh data is stale until Edit Mode ends); on leaving
 it the pose is solved again (:func:`editing`), since Blender writes the edit mesh's copy of the
@@ -92,8 +102,11 @@ _failures: dict = {}
 #: session uid -> the message of the last refusal of another object's controls (it goes once
 #: the controls are the object's own again).
 _refused: dict = {}
+#: session uid -> the last error the live update or a finishing step reported
+#: (:func:`report_error`): it goes once the object poses again.
+_errors: dict = {}
 #: The entries kept per object.
-_PER_OBJECT = (_states, messages, _diagonals, _failures, _refused)
+_PER_OBJECT = (_states, messages, _diagonals, _failures, _refused, _errors)
 
 
 def uid(obj) -> int:
@@ -109,8 +122,30 @@ def built(obj):
 
 
 def message(obj):
-    """The last message about ``obj`` (the panel shows it), or ``None``."""
-    return messages.get(uid(obj))
+    """The last message about ``obj`` (the panel shows it), or ``None``: also when it is a
+    refusal of another object's controls or mesh that no longer holds (the original deleted,
+    or its controls removed, while no update ran). Reads only (the panel calls it)."""
+    k = uid(obj)
+    msg = messages.get(k)
+    if msg is not None and msg == _refused.get(k) and not refused(obj):
+        return None
+    return msg
+
+
+def report_error(obj, msg: str) -> None:
+    """Keep ``msg``, an error of the live update or of a finishing step, as the message of
+    ``obj``: it goes once ``obj`` poses again (:func:`clear_error`)."""
+    k = uid(obj)
+    messages[k] = _errors[k] = msg
+
+
+def clear_error(obj) -> None:
+    """Drop the error :func:`report_error` kept for ``obj`` (it poses again), unless another
+    message replaced it."""
+    k = uid(obj)
+    msg = _errors.pop(k, None)
+    if msg is not None and messages.get(k) == msg:
+        del messages[k]
 
 
 def rest_diagonal(obj) -> float:
@@ -141,16 +176,48 @@ def check_object(obj) -> None:
     the modifiers that block it)."""
     if obj is None or obj.type != "MESH":
         raise HandleError("select a mesh object")
+    check_mesh_writable(obj)
     why = modifiers.refusal(obj)
     if why:
         raise HandleError(why)
-    if obj.data.library is not None:
-        raise HandleError(
-            f"{obj.name}: the mesh is linked from a library ({obj.data.library.name}) and its shape "
-            "keys cannot be written; make it local first (Object > Relations > Make Local)"
-        )
     if len(obj.data.polygons) == 0:
         raise HandleError(f"{obj.name}: the mesh has no faces")
+
+
+def mesh_refusal(obj):
+    """Why the pose key of ``obj`` cannot be written, or ``None``: its mesh is linked from a
+    library (also under a library override of the object, whose mesh is not overridden), or is
+    a library override itself. Blender keeps no shape key written to either (measured in bpy
+    5.0.1: the override's pose key stays at rest); made local, the mesh takes it."""
+    me = obj.data
+    local = "make the mesh local (Object > Relations > Make Local > Selected Objects and Data)"
+    if me.library is not None:
+        if obj.override_library is not None:
+            return (
+                f"{obj.name}: a library override whose mesh is not overridden: the mesh is still "
+                f"linked from {me.library.name}, where the pose key cannot be written (it would be "
+                f"lost on save); {local}"
+            )
+        return (
+            f"{obj.name}: the mesh is linked from a library ({me.library.name}) and its shape "
+            "keys cannot be written; make it local first (Object > Relations > Make Local)"
+        )
+    if me.override_library is not None:
+        ref = me.override_library.reference
+        lib = ref.library.name if ref is not None and ref.library is not None else "a library"
+        return (
+            f"{obj.name}: the mesh is a library override (from {lib}), whose shape keys Blender "
+            f"does not keep: the pose would not show, nor be saved; {local}"
+        )
+    return None
+
+
+def check_mesh_writable(obj) -> None:
+    """Raise :class:`HandleError` when the pose key of ``obj`` cannot be written
+    (:func:`mesh_refusal`)."""
+    why = mesh_refusal(obj)
+    if why:
+        raise HandleError(why)
 
 
 def non_manifold_edges(tri: np.ndarray) -> int:
@@ -175,6 +242,8 @@ class StateKey(NamedTuple):
     settings: tuple
     #: the modifiers that block posing (added after the controls: refused until they go)
     blocking: tuple
+    #: the mesh is library data (linked or an override): made local, it is built again
+    library: bool
 
 
 def state_key(obj) -> StateKey:
@@ -186,6 +255,7 @@ def state_key(obj) -> StateKey:
         groups_exist=tuple(obj.vertex_groups.get(g.name) is not None for g in s.groups),
         settings=tuple(sorted(s.solver_settings().items())),
         blocking=tuple(tuple(labels) for labels in modifiers.blocking(obj)),
+        library=obj.data.library is not None or obj.data.override_library is not None,
     )
 
 
@@ -370,10 +440,39 @@ def claim_free_controls(obj) -> None:
             c.bsarap_owner = obj
 
 
+def refused(obj) -> bool:
+    """Whether another object claimed the mesh or some controls of ``obj`` (reads only)."""
+    return mesh_sharer(obj) is not None or bool(foreign_groups(obj))
+
+
+def claim_unclaimed() -> None:
+    """Claims for a file saved before they were stored in it: each control that the handle
+    groups of one mesh object alone (in the scenes) use, and each mesh that one object with
+    controls alone uses, is claimed by that object, so a copy made after loading is refused. A
+    control or mesh that two objects use (a file saved with a copy) is left to the first posed."""
+    users, mesh_users = {}, {}
+    objects = {o.session_uid: o for sc in bpy.data.scenes for o in sc.objects if o.type == "MESH"}
+    for o in objects.values():
+        controls = {c.session_uid: c for c in (g.control for g in o.bsarap.groups) if linked(c)}
+        if not controls:
+            continue
+        for c in controls.values():
+            users.setdefault(c.session_uid, (c, []))[1].append(o)
+        mesh_users.setdefault(o.data.session_uid, (o.data, []))[1].append(o)
+    for c, used_by in users.values():
+        if len(used_by) == 1 and c.library is None and owner(c) is None:
+            c.bsarap_owner = used_by[0]
+    for me, used_by in mesh_users.values():
+        if len(used_by) == 1 and me.library is None and mesh_owner(me) is None:
+            me.bsarap_owner = used_by[0]
+
+
 def check_controls(obj) -> None:
     """Claim the free controls of ``obj``; raise :class:`HandleError` when another object
-    claimed some (one Empty never drives two meshes). Once they are its own again (its original
-    deleted), the refusal's message goes."""
+    claimed some (one Empty never drives two meshes), or when its mesh is library data (nothing
+    is claimed then). Once they are its own again (its original deleted), the refusal's message
+    goes."""
+    check_mesh_writable(obj)
     k = uid(obj)
     other = mesh_sharer(obj)
     foreign = foreign_groups(obj) if other is None else None
@@ -490,7 +589,8 @@ def write_pose(obj, U: np.ndarray) -> None:
 def update(obj, *, force=False) -> bool:
     """Solve ``obj`` for its controls' current motion and write the pose; skipped (False) when
     the controls have not moved since the last solve, which also stops the update that writing
-    the shape key triggers from solving again; and while a bake solves the frames."""
+    the shape key triggers from solving again; and while a bake solves the frames. Once it
+    gets past the checks (posed, or its pose up to date), the error reported before goes."""
     t0 = time.perf_counter()
     check_controls(obj)  # before building: no solver for a copy that cannot use the controls
     st = state(obj)
@@ -498,6 +598,8 @@ def update(obj, *, force=False) -> bool:
         return False
     deltas = control_deltas(obj, checked=True)
     if not force and st.last_deltas is not None and np.array_equal(deltas, st.last_deltas):
+        if st.ended != "error":  # a finishing step's error holds until the controls move
+            clear_error(obj)
         return False
     U = solve(obj, st, deltas)
     write_pose(obj, U)
@@ -505,6 +607,7 @@ def update(obj, *, force=False) -> bool:
     st.moved_at = time.monotonic()
     st.finish_steps = 0
     st.ended = None
+    clear_error(obj)
     return True
 
 

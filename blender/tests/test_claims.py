@@ -1,0 +1,436 @@
+"""Tests of the Blender extension in bpy, headless, around what belongs to which object: the
+claims of a file saved before they were stored, the point cache of a copy of a baked object,
+the panel's messages once their cause is gone, the solver of a deleted object, and a library
+override's mesh.
+
+Run with Blender's Python (bpy from PyPI):
+    tools/blender/.venv/bin/python blender/tests/test_claims.py [-v] [Class.test_name]
+The extension zip is found as common.py says. Skips (with the reason) when bpy or the zip is
+missing.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import tempfile
+import unittest
+from unittest import mock
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from common import (  # noqa: E402  (sets BLENDER_USER_RESOURCES before bpy)
+    MODULE, SKIP, activate, bpy, draw_panel, expected_handles, ext, make_controls, np, pose_of,
+    setUpModule, tube
+)
+
+
+def posed_tube(name="tube"):
+    """A fresh scene with the test tube, its two controls added, the top one moved."""
+    bpy.ops.wm.read_homefile(use_empty=True)
+    obj = tube(name)
+    make_controls(obj, ["bottom", "top"])
+    bpy.data.objects["top"].location.x += 0.5
+    bpy.context.view_layer.update()
+    return obj
+
+
+def assert_pose_follows(test, obj):
+    """The live pose's handle vertices are where the controls put them."""
+    st = ext.solve.state(obj)
+    for k in (0, 1):
+        idx, want = expected_handles(obj, st, k)
+        np.testing.assert_allclose(pose_of(obj)[idx], want, atol=1e-5)
+
+
+def duplicate(obj, *, linked=False):
+    """Shift+D (Alt+D with ``linked``) of ``obj`` alone, moved aside."""
+    activate(obj)
+    assert bpy.ops.object.duplicate(linked=linked) == {"FINISHED"}
+    dup = bpy.context.view_layer.objects.active
+    assert dup != obj
+    dup.location.x += 3.0
+    bpy.context.view_layer.update()
+    return dup
+
+
+def save_and_open(name):
+    """Save the file in a new folder as ``name`` and open it again; returns its path."""
+    path = os.path.join(tempfile.mkdtemp(), name)
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    bpy.ops.wm.open_mainfile(filepath=path)
+    return path
+
+
+def claims():
+    """``{name: owner name}`` of every control and mesh with a claim."""
+    ids = (*bpy.data.objects, *bpy.data.meshes)
+    return {i.name: i.bsarap_owner.name for i in ids if i.bsarap_owner is not None}
+
+
+class OldFile(unittest.TestCase):
+    """A file saved before the claims were stored in it (commit 7938d5f), simulated by clearing
+    them before saving: its objects get them on load where one object alone uses the control or
+    the mesh, so a copy made after loading is refused. Live is off, as after a bake: no update
+    claims the controls before the copy is posed."""
+
+    def old_file(self, *, copy=False):
+        obj = posed_tube()
+        obj.bsarap.live = False
+        if copy:
+            duplicate(obj)
+        for i in (*bpy.data.objects, *bpy.data.meshes):
+            i.bsarap_owner = None
+        save_and_open("old.blend")
+        return bpy.data.objects["tube"]
+
+    def test_copy_after_loading_refused(self):
+        obj = self.old_file()
+        self.assertEqual(claims(), {"bottom": "tube", "top": "tube", "tube": "tube"})
+        dup = duplicate(obj)
+        activate(dup)
+        with self.assertRaises(RuntimeError) as cm:
+            bpy.ops.bsarap.pose()
+        self.assertIn("the controls of 'bottom', 'top' pose 'tube'", str(cm.exception))
+        activate(obj)
+        self.assertEqual(bpy.ops.bsarap.pose(), {"FINISHED"})
+        assert_pose_follows(self, obj)
+
+    def test_linked_duplicate_after_loading_refused(self):
+        obj = self.old_file()
+        dup = duplicate(obj, linked=True)
+        activate(dup)
+        self.assertEqual(bpy.ops.bsarap.remove_controls(), {"FINISHED"})  # lets go of tube's
+        with self.assertRaises(RuntimeError) as cm:
+            bpy.ops.bsarap.add_controls()
+        self.assertIn("shares its mesh with 'tube' (a linked duplicate, Alt+D)", str(cm.exception))
+
+    def test_saved_with_a_copy_not_claimed(self):
+        """An original and its copy saved sharing the controls: which is the original is not in
+        the file, so nothing is claimed on load; the first posed takes them, as before."""
+        self.old_file(copy=True)
+        self.assertEqual(claims(), {"tube": "tube", "tube.001": "tube.001"})  # each its own mesh
+        dup = bpy.data.objects["tube.001"]
+        self.assertIs(dup.bsarap.groups[1].control, bpy.data.objects["top"])
+        activate(bpy.data.objects["tube"])
+        self.assertEqual(bpy.ops.bsarap.pose(), {"FINISHED"})
+        activate(dup)
+        with self.assertRaises(RuntimeError):
+            bpy.ops.bsarap.pose()
+
+    def test_claimed_when_enabled(self):
+        """The extension enabled with such a file open: claimed as on load."""
+        obj = self.old_file()
+        for i in (*bpy.data.objects, *bpy.data.meshes):
+            i.bsarap_owner = None  # as opened with the extension disabled
+        bpy.ops.preferences.addon_disable(module=MODULE)
+        bpy.ops.preferences.addon_enable(module=MODULE)
+        self.assertEqual(claims(), {"bottom": "tube", "top": "tube", "tube": "tube"})
+        dup = duplicate(obj)
+        activate(dup)
+        with self.assertRaises(RuntimeError):
+            bpy.ops.bsarap.pose()
+
+
+class CopyPointCache(unittest.TestCase):
+    """A copy of a baked object (Shift+D) has its Point cache path: once it has its own
+    controls, baking it must not overwrite the original's cache file."""
+
+    def setUp(self):
+        self.obj = posed_tube()
+        self.folder = tempfile.mkdtemp()
+        bpy.ops.wm.save_as_mainfile(filepath=os.path.join(self.folder, "scene.blend"))
+        sc = bpy.context.scene
+        sc.frame_start, sc.frame_end = 1, 3
+
+    def bake_copy(self, setting):
+        """Bake the original with Point cache ``setting``, copy it, give the copy its own
+        controls and move one; returns the copy and the original's cache (path, bytes)."""
+        obj = self.obj
+        obj.bsarap.pc2_path = setting
+        activate(obj)
+        self.assertEqual(bpy.ops.bsarap.bake_point_cache(), {"FINISHED"})
+        path = bpy.path.abspath(obj.modifiers[ext.modifiers.CACHE_MODIFIER].filepath)
+        with open(path, "rb") as f:
+            data = f.read()
+        dup = duplicate(obj)
+        self.assertEqual(dup.bsarap.pc2_path, setting)
+        activate(dup)
+        self.assertEqual(bpy.ops.bsarap.add_controls(), {"FINISHED"})
+        dup.bsarap.groups[1].control.location.z -= 0.5
+        bpy.context.view_layer.update()
+        return dup, path, data
+
+    def assert_intact(self, path, data):
+        with open(path, "rb") as f:
+            self.assertEqual(f.read(), data, "the original's bake was overwritten")
+        mod = self.obj.modifiers[ext.modifiers.CACHE_MODIFIER]
+        self.assertEqual(os.path.realpath(bpy.path.abspath(mod.filepath)), os.path.realpath(path))
+
+    def assert_copy_refused(self, setting):
+        """The copy's bake into the original's cache (Point cache ``setting``) is refused,
+        nothing written; given a path of its own, it bakes there."""
+        dup, path, data = self.bake_copy(setting)
+        with self.assertRaises(RuntimeError) as cm:
+            bpy.ops.bsarap.bake_point_cache()
+        msg = str(cm.exception)
+        self.assertIn(f"tube.001: the point cache {path} is read by 'tube'", msg)
+        self.assertIn("set another Point cache path for tube.001", msg)
+        self.assert_intact(path, data)
+        self.assertFalse(ext.solve.state(dup).baking)
+        dup.bsarap.pc2_path = "//copy.pc2"
+        self.assertEqual(bpy.ops.bsarap.bake_point_cache(), {"FINISHED"})
+        self.assertEqual(dup.modifiers[ext.modifiers.CACHE_MODIFIER].filepath, "//copy.pc2")
+        self.assert_intact(path, data)
+
+    def test_absolute_path_refused(self):
+        self.assert_copy_refused(os.path.join(self.folder, "anim.pc2"))
+
+    def test_relative_path_refused(self):
+        self.assert_copy_refused("//anim.pc2")
+
+    def test_default_paths_differ(self):
+        """No path set: each bakes next to the .blend under its own name."""
+        dup, path, data = self.bake_copy("")
+        self.assertEqual(bpy.ops.bsarap.bake_point_cache(), {"FINISHED"})
+        mod = dup.modifiers[ext.modifiers.CACHE_MODIFIER]
+        self.assertEqual(mod.filepath, "//tube_001.bsarap.pc2")
+        self.assert_intact(path, data)
+
+    def test_same_default_name_refused(self):
+        """Two names that make the same file name ("tube.001" and "tube_001"): refused too."""
+        dup, path, data = self.bake_copy("")
+        dup.name = "tube_001"
+        self.assertEqual(bpy.ops.bsarap.bake_point_cache(), {"FINISHED"})
+        dup_path = os.path.join(self.folder, "tube_001.bsarap.pc2")
+        with open(dup_path, "rb") as f:
+            dup_data = f.read()
+        other = duplicate(dup)
+        other.name = "tube.001"
+        activate(other)
+        self.assertEqual(bpy.ops.bsarap.add_controls(), {"FINISHED"})
+        with self.assertRaises(RuntimeError) as cm:
+            bpy.ops.bsarap.bake_point_cache()
+        self.assertIn("is read by 'tube_001'", str(cm.exception))
+        with open(dup_path, "rb") as f:
+            self.assertEqual(f.read(), dup_data)
+        self.assert_intact(path, data)
+
+
+class StaleMessages(unittest.TestCase):
+    """The panel's message says what is wrong now: an error goes once its cause is gone."""
+
+    def setUp(self):
+        self.obj = posed_tube()
+
+    def panel_message(self, obj):
+        msg = ext.solve.message(obj)
+        labels = draw_panel(ext.panel.BSARAP_PT_pose, obj).labels
+        if msg is not None:
+            self.assertIn(msg, labels)
+        return msg
+
+    def test_live_error_goes_once_fixed(self):
+        obj = self.obj
+        obj.scale = (1.0, 1.0, 0.0)
+        bpy.context.view_layer.update()
+        self.assertIn("singular (a scale of 0", self.panel_message(obj))
+        obj.scale = (1.0, 1.0, 1.0)
+        bpy.context.view_layer.update()
+        self.assertIsNone(self.panel_message(obj))
+        assert_pose_follows(self, obj)
+
+    def test_live_error_goes_with_pose_now(self):
+        """Live turned off after the error, the cause fixed: Pose Now poses, the error goes."""
+        obj = self.obj
+        obj.scale = (1.0, 1.0, 0.0)
+        bpy.context.view_layer.update()
+        self.assertIn("singular", ext.solve.message(obj))
+        obj.bsarap.live = False
+        obj.scale = (1.0, 1.0, 1.0)
+        bpy.context.view_layer.update()
+        activate(obj)
+        self.assertEqual(bpy.ops.bsarap.pose(), {"FINISHED"})
+        self.assertIsNone(self.panel_message(obj))
+
+    def test_first_build_error_goes(self):
+        """A build that failed with no solver built before (a file just opened): fixed, the
+        solver is built and its error goes."""
+        obj = self.obj
+        mod = obj.modifiers.new("Displace", "DISPLACE")
+        ext.solve.forget()  # as after opening the file
+        bpy.data.objects["top"].location.y += 0.1
+        bpy.context.view_layer.update()
+        self.assertIn("modifiers that move the vertices (Displace)", self.panel_message(obj))
+        self.assertIsNone(ext.solve.built(obj))
+        obj.modifiers.remove(mod)
+        bpy.data.objects["top"].location.y += 0.1
+        bpy.context.view_layer.update()
+        self.assertIsNotNone(ext.solve.built(obj))
+        self.assertIsNone(self.panel_message(obj))
+        assert_pose_follows(self, obj)
+
+    def test_finishing_error_kept_until_a_move(self):
+        """A finishing step's error stays while the controls rest (the update that follows has
+        nothing to solve), and goes with the next solve."""
+        obj, sc = self.obj, bpy.context.scene
+        st = ext.solve.state(obj)
+        st.converged, st.moved_at, st.ended = False, 0.0, None
+        with mock.patch.object(ext.solve, "finish_step", side_effect=KeyError("k")):
+            ext.handlers.finish_timer()
+        self.assertIn("unexpected error (KeyError", ext.solve.message(obj))
+        ext.handlers.update_scene(sc)  # the controls rest: no solve
+        self.assertIn("unexpected error (KeyError", self.panel_message(obj))
+        bpy.data.objects["top"].location.y += 0.1
+        bpy.context.view_layer.update()
+        self.assertIsNone(self.panel_message(obj))
+
+    def test_refusal_goes_without_an_update(self):
+        """A copy refused: once the original's controls are removed, or the original deleted
+        with the copy's Live off, no update runs for the copy, and its refusal is not shown."""
+        for how in ("remove controls", "delete"):
+            with self.subTest(how=how):
+                obj = self.obj = posed_tube()
+                dup = duplicate(obj)
+                self.assertIn("pose 'tube'", self.panel_message(dup))
+                activate(obj)
+                if how == "delete":
+                    dup.bsarap.live = False
+                    self.assertEqual(bpy.ops.object.delete(), {"FINISHED"})
+                else:
+                    self.assertEqual(bpy.ops.bsarap.remove_controls(), {"FINISHED"})
+                bpy.context.view_layer.update()
+                self.assertIsNone(self.panel_message(dup))
+
+    def test_library_mesh_made_local(self):
+        """A linked mesh refused, then made local: Pose Now poses it (not the stored failure),
+        and the refusal goes."""
+        path = os.path.join(tempfile.mkdtemp(), "lib.blend")
+        bpy.ops.wm.save_as_mainfile(filepath=path)
+        bpy.ops.wm.read_homefile(use_empty=True)
+        with bpy.data.libraries.load(path, link=True) as (_src, dst):
+            dst.objects = ["tube", "bottom", "top"]
+        for o in dst.objects:
+            bpy.context.scene.collection.objects.link(o)
+        obj = dst.objects[0].make_local()  # the object local, its mesh still linked
+        activate(obj)
+        bpy.context.view_layer.update()
+        self.assertIn("the mesh is linked from a library", ext.solve.message(obj))
+        with self.assertRaises(RuntimeError):
+            bpy.ops.bsarap.pose()
+        obj.data = obj.data.make_local()
+        self.assertIsNone(obj.data.library)
+        self.assertEqual(bpy.ops.bsarap.pose(), {"FINISHED"})
+        self.assertIsNone(self.panel_message(obj))
+        assert_pose_follows(self, obj)
+
+
+class DeletedAndAdded(unittest.TestCase):
+    """The solvers are kept under the object's session uid, which Blender never reuses in a
+    session: a new object never gets a deleted one's solver, even deleted and added in one
+    depsgraph update, with its name and mesh; and the deleted one's is dropped then too."""
+
+    def test_in_one_update(self):
+        obj = posed_tube()
+        old, st = obj.session_uid, ext.solve.state(obj)
+        mesh = obj.data
+        bpy.data.objects.remove(obj)  # the object counts stay as they were: one out, one in
+        new = bpy.data.objects.new("tube", mesh)  # its vertex groups are the mesh's
+        bpy.context.scene.collection.objects.link(new)
+        for g in ("bottom", "top"):
+            new.bsarap.groups.add().name = g
+        new.bsarap.method = "arap"
+        bpy.context.view_layer.update()
+        self.assertNotEqual(new.session_uid, old)
+        self.assertNotIn(old, ext.solve._states)  # the deleted object's solver is freed
+        self.assertEqual(ext.solve.messages, {})
+        self.assertIsNone(ext.solve.built(new))
+        activate(new)
+        self.assertEqual(bpy.ops.bsarap.add_controls(), {"FINISHED"})
+        self.assertIsNot(ext.solve.built(new), st)  # its own, for its own settings
+        self.assertEqual(ext.solve.state(new).deformer.method, "arap")
+        self.assertEqual(list(ext.solve._states), [new.session_uid])
+        new.bsarap.groups[1].control.location.z -= 0.4
+        bpy.context.view_layer.update()
+        assert_pose_follows(self, new)
+
+
+def library_file():
+    """A saved library with the posed tube and its controls; returns its path."""
+    posed_tube()
+    path = os.path.join(tempfile.mkdtemp(), "lib.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    return path
+
+
+def link_rig(path):
+    """The tube and its controls linked from ``path`` into a new empty scene."""
+    bpy.ops.wm.read_homefile(use_empty=True)
+    with bpy.data.libraries.load(path, link=True) as (_src, dst):
+        dst.objects = ["tube", "bottom", "top"]
+    for o in dst.objects:
+        bpy.context.scene.collection.objects.link(o)
+    return dst.objects
+
+
+class LibraryOverride(unittest.TestCase):
+    """A library override of the tube: its mesh, linked or overridden, cannot take the pose key
+    (Blender keeps neither's shape keys): refused with a message that says so, before anything
+    is claimed; made local, it poses."""
+
+    @classmethod
+    def setUpClass(cls):
+        cls.lib = library_file()
+
+    def assert_refused(self, obj, text):
+        """Pose Now, Add Controls, the bakes and the live update refuse ``obj`` with ``text``;
+        nothing built."""
+        activate(obj)
+        ops = (bpy.ops.bsarap.pose, bpy.ops.bsarap.add_controls, bpy.ops.bsarap.bake_shape_keys,
+               bpy.ops.bsarap.bake_point_cache)
+        for op in ops:
+            with self.assertRaises(RuntimeError) as cm:
+                op()
+            self.assertIn(text, str(cm.exception))
+        ext.handlers.update_scene(bpy.context.scene)  # the live update
+        self.assertIn(text, ext.solve.message(obj))
+        self.assertIsNone(ext.solve.built(obj))
+
+    def test_mesh_not_overridden(self):
+        """The object overridden, its mesh still linked; the library's tube also in the scene
+        (its claim on the mesh is in the library): refused as an override, not as a copy."""
+        linked = link_rig(self.lib)
+        obj = linked[0].override_create(remap_local_usages=False)
+        bpy.context.scene.collection.objects.link(obj)
+        self.assertIsNotNone(obj.data.library)
+        self.assertIsNotNone(obj.override_library)
+        self.assertEqual(obj.data.bsarap_owner, linked[0])
+        self.assert_refused(
+            obj, "tube: a library override whose mesh is not overridden: the mesh is still linked from lib.blend"
+        )
+        self.assertIn("make the mesh local", ext.solve.message(obj))
+
+    def test_mesh_overridden(self):
+        """The object and its mesh overridden: Blender keeps no pose key written to it (it stayed
+        at rest): refused; made local, it poses."""
+        rig = [o.override_create(remap_local_usages=True) for o in link_rig(self.lib)]
+        obj = rig[0]
+        obj.data.override_create(remap_local_usages=True)
+        self.assertIsNone(obj.data.library)
+        self.assertIsNotNone(obj.data.override_library)
+        self.assert_refused(obj, "tube: the mesh is a library override (from lib.blend)")
+        activate(obj)
+        self.assertEqual(bpy.ops.object.make_local(type="SELECT_OBDATA"), {"FINISHED"})
+        obj = bpy.context.view_layer.objects.active
+        self.assertIsNone(obj.data.override_library)
+        self.assertEqual(bpy.ops.bsarap.pose(), {"FINISHED"})
+        self.assertIsNone(ext.solve.message(obj))
+        rig[2].location.x += 0.3
+        bpy.context.view_layer.update()
+        assert_pose_follows(self, obj)
+
+
+if __name__ == "__main__":
+    if SKIP:
+        print(f"skipped: {SKIP}")
+        sys.exit(0)
+    unittest.main()
