@@ -162,6 +162,36 @@ def make_controls(obj, groups):
     assert bpy.ops.bsarap.add_controls() == {"FINISHED"}
 
 
+def posed_tube(name="tube", top_x=0.0):
+    """A fresh scene with the test tube and its two controls added, the top one moved ``top_x``
+    along x."""
+    bpy.ops.wm.read_homefile(use_empty=True)
+    obj = tube(name)
+    make_controls(obj, ["bottom", "top"])
+    if top_x:
+        bpy.data.objects["top"].location.x += top_x
+        bpy.context.view_layer.update()
+    return obj
+
+
+def assert_pose_follows(obj):
+    """The live pose's handle vertices are where the controls put them."""
+    st = ext.solve.state(obj)
+    for k in (0, 1):
+        idx, want = expected_handles(obj, st, k)
+        np.testing.assert_allclose(pose_of(obj)[idx], want, atol=1e-5)
+
+
+def link_rig(path):
+    """The tube and its controls linked from the .blend ``path`` into a new empty scene."""
+    bpy.ops.wm.read_homefile(use_empty=True)
+    with bpy.data.libraries.load(path, link=True) as (_src, dst):
+        dst.objects = ["tube", "bottom", "top"]
+    for o in dst.objects:
+        bpy.context.scene.collection.objects.link(o)
+    return dst.objects
+
+
 class RecordingLayout:
     """A panel layout that records the properties and labels drawn (no window headless)."""
 

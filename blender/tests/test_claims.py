@@ -19,27 +19,9 @@ from unittest import mock
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from common import (  # noqa: E402  (sets BLENDER_USER_RESOURCES before bpy)
-    MODULE, SKIP, activate, bpy, draw_panel, expected_handles, ext, make_controls, np, pose_of,
-    setUpModule, tube
+    MODULE, SKIP, activate, assert_pose_follows, bpy, draw_panel, ext, link_rig, posed_tube,
+    setUpModule
 )
-
-
-def posed_tube(name="tube"):
-    """A fresh scene with the test tube, its two controls added, the top one moved."""
-    bpy.ops.wm.read_homefile(use_empty=True)
-    obj = tube(name)
-    make_controls(obj, ["bottom", "top"])
-    bpy.data.objects["top"].location.x += 0.5
-    bpy.context.view_layer.update()
-    return obj
-
-
-def assert_pose_follows(test, obj):
-    """The live pose's handle vertices are where the controls put them."""
-    st = ext.solve.state(obj)
-    for k in (0, 1):
-        idx, want = expected_handles(obj, st, k)
-        np.testing.assert_allclose(pose_of(obj)[idx], want, atol=1e-5)
 
 
 def duplicate(obj, *, linked=False):
@@ -74,7 +56,7 @@ class OldFile(unittest.TestCase):
     claims the controls before the copy is posed."""
 
     def old_file(self, *, copy=False):
-        obj = posed_tube()
+        obj = posed_tube(top_x=0.5)
         obj.bsarap.live = False
         if copy:
             duplicate(obj)
@@ -93,7 +75,7 @@ class OldFile(unittest.TestCase):
         self.assertIn("the controls of 'bottom', 'top' pose 'tube'", str(cm.exception))
         activate(obj)
         self.assertEqual(bpy.ops.bsarap.pose(), {"FINISHED"})
-        assert_pose_follows(self, obj)
+        assert_pose_follows(obj)
 
     def test_linked_duplicate_after_loading_refused(self):
         obj = self.old_file()
@@ -136,7 +118,7 @@ class CopyPointCache(unittest.TestCase):
     controls, baking it must not overwrite the original's cache file."""
 
     def setUp(self):
-        self.obj = posed_tube()
+        self.obj = posed_tube(top_x=0.5)
         self.folder = tempfile.mkdtemp()
         bpy.ops.wm.save_as_mainfile(filepath=os.path.join(self.folder, "scene.blend"))
         sc = bpy.context.scene
@@ -220,7 +202,7 @@ class StaleMessages(unittest.TestCase):
     """The panel's message says what is wrong now: an error goes once its cause is gone."""
 
     def setUp(self):
-        self.obj = posed_tube()
+        self.obj = posed_tube(top_x=0.5)
 
     def panel_message(self, obj):
         msg = ext.solve.message(obj)
@@ -237,7 +219,7 @@ class StaleMessages(unittest.TestCase):
         obj.scale = (1.0, 1.0, 1.0)
         bpy.context.view_layer.update()
         self.assertIsNone(self.panel_message(obj))
-        assert_pose_follows(self, obj)
+        assert_pose_follows(obj)
 
     def test_live_error_goes_with_pose_now(self):
         """Live turned off after the error, the cause fixed: Pose Now poses, the error goes."""
@@ -267,7 +249,7 @@ class StaleMessages(unittest.TestCase):
         bpy.context.view_layer.update()
         self.assertIsNotNone(ext.solve.built(obj))
         self.assertIsNone(self.panel_message(obj))
-        assert_pose_follows(self, obj)
+        assert_pose_follows(obj)
 
     def test_finishing_error_kept_until_a_move(self):
         """A finishing step's error stays while the controls rest (the update that follows has
@@ -289,7 +271,7 @@ class StaleMessages(unittest.TestCase):
         with the copy's Live off, no update runs for the copy, and its refusal is not shown."""
         for how in ("remove controls", "delete"):
             with self.subTest(how=how):
-                obj = self.obj = posed_tube()
+                obj = self.obj = posed_tube(top_x=0.5)
                 dup = duplicate(obj)
                 self.assertIn("pose 'tube'", self.panel_message(dup))
                 activate(obj)
@@ -306,12 +288,7 @@ class StaleMessages(unittest.TestCase):
         and the refusal goes."""
         path = os.path.join(tempfile.mkdtemp(), "lib.blend")
         bpy.ops.wm.save_as_mainfile(filepath=path)
-        bpy.ops.wm.read_homefile(use_empty=True)
-        with bpy.data.libraries.load(path, link=True) as (_src, dst):
-            dst.objects = ["tube", "bottom", "top"]
-        for o in dst.objects:
-            bpy.context.scene.collection.objects.link(o)
-        obj = dst.objects[0].make_local()  # the object local, its mesh still linked
+        obj = link_rig(path)[0].make_local()  # the object local, its mesh still linked
         activate(obj)
         bpy.context.view_layer.update()
         self.assertIn("the mesh is linked from a library", ext.solve.message(obj))
@@ -321,7 +298,7 @@ class StaleMessages(unittest.TestCase):
         self.assertIsNone(obj.data.library)
         self.assertEqual(bpy.ops.bsarap.pose(), {"FINISHED"})
         self.assertIsNone(self.panel_message(obj))
-        assert_pose_follows(self, obj)
+        assert_pose_follows(obj)
 
 
 class DeletedAndAdded(unittest.TestCase):
@@ -330,7 +307,7 @@ class DeletedAndAdded(unittest.TestCase):
     depsgraph update, with its name and mesh; and the deleted one's is dropped then too."""
 
     def test_in_one_update(self):
-        obj = posed_tube()
+        obj = posed_tube(top_x=0.5)
         old, st = obj.session_uid, ext.solve.state(obj)
         mesh = obj.data
         bpy.data.objects.remove(obj)  # the object counts stay as they were: one out, one in
@@ -351,25 +328,15 @@ class DeletedAndAdded(unittest.TestCase):
         self.assertEqual(list(ext.solve._states), [new.session_uid])
         new.bsarap.groups[1].control.location.z -= 0.4
         bpy.context.view_layer.update()
-        assert_pose_follows(self, new)
+        assert_pose_follows(new)
 
 
 def library_file():
     """A saved library with the posed tube and its controls; returns its path."""
-    posed_tube()
+    posed_tube(top_x=0.5)
     path = os.path.join(tempfile.mkdtemp(), "lib.blend")
     bpy.ops.wm.save_as_mainfile(filepath=path)
     return path
-
-
-def link_rig(path):
-    """The tube and its controls linked from ``path`` into a new empty scene."""
-    bpy.ops.wm.read_homefile(use_empty=True)
-    with bpy.data.libraries.load(path, link=True) as (_src, dst):
-        dst.objects = ["tube", "bottom", "top"]
-    for o in dst.objects:
-        bpy.context.scene.collection.objects.link(o)
-    return dst.objects
 
 
 class LibraryOverride(unittest.TestCase):
@@ -426,7 +393,7 @@ class LibraryOverride(unittest.TestCase):
         self.assertIsNone(ext.solve.message(obj))
         rig[2].location.x += 0.3
         bpy.context.view_layer.update()
-        assert_pose_follows(self, obj)
+        assert_pose_follows(obj)
 
 
 if __name__ == "__main__":

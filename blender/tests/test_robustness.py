@@ -22,17 +22,10 @@ from unittest import mock
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from common import (  # noqa: E402  (sets BLENDER_USER_RESOURCES before bpy)
-    SKIP, activate, bpy, bsarap, draw_group_rows, draw_panel, evaluated_positions,
-    expected_handles, ext, key_co, make_controls, np, pose_of, setUpModule, tube
+    SKIP, activate, assert_pose_follows, bpy, bsarap, draw_group_rows, draw_panel,
+    evaluated_positions, expected_handles, ext, key_co, link_rig, np, pose_of, posed_tube,
+    setUpModule, tube
 )
-
-
-def posed_tube(name="tube"):
-    """A fresh scene with the test tube, its two controls added."""
-    bpy.ops.wm.read_homefile(use_empty=True)
-    obj = tube(name)
-    make_controls(obj, ["bottom", "top"])
-    return obj
 
 
 def key_top(frames_x):
@@ -49,14 +42,6 @@ def key_top(frames_x):
         for kp in fc.keyframe_points:
             kp.interpolation = "LINEAR"
     return top
-
-
-def assert_pose_follows(test, obj):
-    """The live pose's handle vertices are where the controls put them."""
-    st = ext.solve.state(obj)
-    for k in (0, 1):
-        idx, want = expected_handles(obj, st, k)
-        np.testing.assert_allclose(pose_of(obj)[idx], want, atol=1e-5)
 
 
 class FrameStep(unittest.TestCase):
@@ -150,7 +135,7 @@ class DeletedControl(unittest.TestCase):
         self.assertIn(new.name, bpy.context.scene.objects)
         new.location.x += 0.5
         bpy.context.view_layer.update()
-        assert_pose_follows(self, obj)
+        assert_pose_follows(obj)
 
 
 class EditMode(unittest.TestCase):
@@ -180,7 +165,7 @@ class EditMode(unittest.TestCase):
         self.assertEqual(st.solves, solves)
         bpy.ops.object.mode_set(mode="OBJECT")
         bpy.context.view_layer.update()
-        assert_pose_follows(self, obj)
+        assert_pose_follows(obj)
 
     def test_pose_key_edited_is_solved_again(self):
         """Leaving Edit Mode writes the edit mesh's copy of the pose key back: solved again."""
@@ -197,7 +182,7 @@ class EditMode(unittest.TestCase):
         bmesh.update_edit_mesh(obj.data)
         bpy.ops.object.mode_set(mode="OBJECT")
         bpy.context.view_layer.update()
-        assert_pose_follows(self, obj)
+        assert_pose_follows(obj)
 
 
 def fake_modal_bake(obj, op_class, frames):
@@ -278,7 +263,7 @@ class BakeStops(unittest.TestCase):
         obj = bpy.data.objects["m"]
         bpy.data.objects["top"].location.y += 0.3
         bpy.context.view_layer.update()
-        assert_pose_follows(self, obj)
+        assert_pose_follows(obj)
 
 
 class Errors(unittest.TestCase):
@@ -328,12 +313,7 @@ class Errors(unittest.TestCase):
         an unexpected error on every update."""
         path = os.path.join(tempfile.mkdtemp(), "lib.blend")
         bpy.ops.wm.save_as_mainfile(filepath=path)
-        bpy.ops.wm.read_homefile(use_empty=True)
-        with bpy.data.libraries.load(path, link=True) as (src, dst):
-            dst.objects = ["tube", "bottom", "top"]
-        for o in dst.objects:
-            bpy.context.scene.collection.objects.link(o)
-        obj = dst.objects[0].make_local()  # the object local, its mesh still linked
+        obj = link_rig(path)[0].make_local()  # the object local, its mesh still linked
         self.assertIsNotNone(obj.data.library)
         activate(obj)
         with self.assertRaises(RuntimeError) as cm:
@@ -352,7 +332,7 @@ class Errors(unittest.TestCase):
             ext.solve.control_deltas(obj)
         obj.scale = (1.0, 1.0, 1.0)
         bpy.context.view_layer.update()
-        assert_pose_follows(self, obj)
+        assert_pose_follows(obj)
 
     def test_unexpected_error_reported_once(self):
         obj, sc = self.obj, bpy.context.scene
@@ -415,7 +395,7 @@ class SessionKeys(unittest.TestCase):
         self.assertEqual(st.solves, solves + 1)
         self.assertEqual(list(ext.solve._states.values()), [st])  # nothing under the old key
         self.assertFalse([m for m in ext.solve.messages.values() if "rebuilt" in m])
-        assert_pose_follows(self, obj)
+        assert_pose_follows(obj)
         # a new object given the old name starts from nothing
         other = tube("tube")
         self.assertEqual(other.name, "tube")
@@ -470,7 +450,7 @@ class Copies(unittest.TestCase):
         if follows:
             bpy.data.objects["top"].location.y += 0.3
             bpy.context.view_layer.update()
-            assert_pose_follows(self, original)
+            assert_pose_follows(original)
 
     def test_copy_refused_until_own_controls(self):
         obj = self.obj
@@ -480,7 +460,7 @@ class Copies(unittest.TestCase):
         top = bpy.data.objects["top"]
         top.location.y += 0.4
         bpy.context.view_layer.update()
-        assert_pose_follows(self, obj)  # the original follows its controls
+        assert_pose_follows(obj)  # the original follows its controls
         np.testing.assert_array_equal(pose_of(dup), frozen)  # the copy does not
         self.assertIsNone(ext.solve.built(dup))  # no solver built for it
         msg = ext.solve.message(dup)
@@ -535,7 +515,7 @@ class Copies(unittest.TestCase):
         bpy.context.scene.collection.objects.link(dup)
         bpy.data.objects["bottom"].location.x -= 0.2
         bpy.context.view_layer.update()
-        assert_pose_follows(self, obj)
+        assert_pose_follows(obj)
         self.assertIn("pose 'tube'", ext.solve.message(dup))
 
     def test_remove_controls_of_a_copy(self):
@@ -549,7 +529,7 @@ class Copies(unittest.TestCase):
         self.assertIsNone(dup.bsarap.groups[1].control)
         bpy.data.objects["top"].location.y += 0.3
         bpy.context.view_layer.update()
-        assert_pose_follows(self, obj)
+        assert_pose_follows(obj)
 
     def test_linked_duplicate(self):
         """Alt+D shares the mesh, so its pose key: it shows the original's pose, and Add Controls
@@ -568,7 +548,7 @@ class Copies(unittest.TestCase):
         self.assertIn(ext.solve.POSE_KEY, obj.data.shape_keys.key_blocks)
         bpy.data.objects["top"].location.y += 0.3
         bpy.context.view_layer.update()
-        assert_pose_follows(self, obj)
+        assert_pose_follows(obj)
 
     def assert_refused_shared(self, obj, dup):
         """``dup`` shares the mesh of ``obj``, which poses it: its pose key is the original's,
@@ -587,7 +567,7 @@ class Copies(unittest.TestCase):
                 o.location.z -= 0.5  # the duplicate's own controls, if any: they pose nothing
         bpy.data.objects["top"].location.y += 0.3
         bpy.context.view_layer.update()
-        assert_pose_follows(self, obj)
+        assert_pose_follows(obj)
         self.assertIsNone(ext.solve.message(obj))
 
     def test_linked_duplicate_with_its_controls(self):
@@ -632,7 +612,7 @@ class Copies(unittest.TestCase):
         self.assertIsNot(dup.data, obj.data)
         self.assertEqual(bpy.ops.bsarap.add_controls(), {"FINISHED"})
         self.assertIsNone(ext.solve.message(dup))
-        assert_pose_follows(self, dup)
+        assert_pose_follows(dup)
 
     def test_duplicated_with_its_controls(self):
         """Shift+D of the mesh with its Empties: Blender points the copy to the copied Empties,
@@ -648,7 +628,7 @@ class Copies(unittest.TestCase):
         self.assertIsNone(ext.solve.message(dup))
         idx, want = expected_handles(dup, ext.solve.state(dup), 1)
         np.testing.assert_allclose(pose_of(dup)[idx], want, atol=1e-5)
-        assert_pose_follows(self, obj)
+        assert_pose_follows(obj)
 
     def test_saved_with_a_copy(self):
         """A file saved with an original and its copy sharing the controls: once reopened, the
@@ -730,7 +710,7 @@ class Render(unittest.TestCase):
         h.on_render_end(sc)
         h.update_scene(sc)  # the next depsgraph update
         self.assertEqual(st.solves, solves + 1)
-        assert_pose_follows(self, obj)
+        assert_pose_follows(obj)
 
 
 if __name__ == "__main__":
