@@ -55,7 +55,7 @@ def _real(a: Any, name: str) -> np.ndarray:
         raise BsarapError(f"{name} must hold real numbers; got complex values")
     try:
         return np.asarray(a, dtype=np.float64)
-    except (TypeError, ValueError) as e:
+    except (TypeError, ValueError, OverflowError) as e:
         raise BsarapError(f"{name} must be an array of numbers: {e}") from None
 
 

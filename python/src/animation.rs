@@ -282,13 +282,17 @@ pub fn record(
         )
     });
     // What `settle` refines at: the last frame's targets; none when stopped before the first
-    // (the deformer reset) or when a frame failed (its targets are not the pose's).
-    deformer.last_targets = match &result {
+    // (the deformer reset) or when a frame failed (its targets are not the pose's). A timeline
+    // or selection refused up front left the deformer, and its targets, as they were.
+    match &result {
         Ok(_) | Err(RecordError::Cancelled { done: 1.., .. }) => {
-            Some(deformer.deformer.group_targets().to_vec())
+            deformer.last_targets = Some(deformer.deformer.group_targets().to_vec())
         }
-        Err(_) => None,
-    };
+        Err(RecordError::Timeline(_) | RecordError::Handles(_)) => {}
+        Err(RecordError::Cancelled { .. } | RecordError::Solve { .. }) => {
+            deformer.last_targets = None
+        }
+    }
     if let Some(e) = interrupt.raised() {
         return Err(e);
     }

@@ -268,10 +268,12 @@ impl NativeDeformer {
         Ok((array3(py, this.deformer.positions().to_vec())?, d))
     }
 
-    /// Whether `settle` has work after the last solve.
+    /// Whether `settle` has work after the last solve (never without targets to settle at:
+    /// `settle` would refuse).
     #[getter]
     fn settle_pending(slf: &Bound<'_, Self>) -> PyResult<bool> {
-        Ok(borrow(slf)?.deformer.settle_pending())
+        let this = borrow(slf)?;
+        Ok(this.last_targets.is_some() && this.deformer.settle_pending())
     }
 
     /// Changes the stopping rule without refactoring.

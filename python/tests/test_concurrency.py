@@ -57,8 +57,9 @@ def test_deformer_busy_in_another_thread():
     V, F, labels = sphere(5)
     d = bsarap.Deformer(V, F, labels, method="arap", tol=0, max_iters=500)
     timeline = bsarap.Timeline.from_json(RISE)
+    targets = d.rest[d.handle_vertices]  # read before: a getter in the probe would be refused first
     probes = [
-        lambda: d.solve(POSE), lambda: d.solve_targets(d.rest[d.handle_vertices]),
+        lambda: d.solve(POSE), lambda: d.solve_targets(targets),
         lambda: d.solve_to_rest(POSE), lambda: d.settle(), lambda: d.set_stopping(1e-3, 10),
         lambda: d.reset(), lambda: d.targets(POSE), lambda: d.positions, lambda: d.base,
         lambda: d.details, lambda: d.rest, lambda: d.labels, lambda: d.handle_vertices,

@@ -242,6 +242,8 @@ def test_python_values_at_the_edges(tmp_path):
         (lambda: bsarap.Deformer(V, F, labels, max_iters=2**70), "max_iters is too large"),
         (lambda: bsarap.Deformer(V, F, labels, coarse_vertices=2**64), "coarse_vertices is too"),
         (lambda: bsarap.Deformer(V, F, labels, tol=10**400), "tol is too large to be a float"),
+        (lambda: d.solve({1: (0, 0, 10**400)}), "translation must be an array of numbers"),
+        (lambda: bsarap.clean(V.tolist()[:-1] + [[0, 0, 10**400]], F), "V must be an array of"),
         (lambda: bsarap.Arap(V, F, [0], anderson=2**63), "anderson is too large"),
         (lambda: d.solve({2**70: (0, 0, 0)}), "group ids is too large"),
         (lambda: d.solve_to_rest({1: (0, 0, 0)}, max_steps=2**80), "max_steps is too large"),
@@ -272,6 +274,26 @@ def test_settle_after_record_ends(tmp_path):
         steps += 1
     assert not d.settle_pending and steps < 1000, steps
     assert np.abs(d.positions - rec.frames[-1]).max() < 0.05
+
+
+def test_record_refused_up_front_keeps_the_deformer():
+    """A timeline record() refuses before solving (a group the deformer lacks) leaves the
+    deformer as it was: its pose, and the settling it had pending, which settle() carries out
+    (it said "nothing was solved yet" while settle_pending stayed true)."""
+    V, F, labels = tube()
+    d = bsarap.Deformer(V, F, labels, settle_iterations=5)
+    posed = d.solve({1: (0, 0, 0.3)})
+    assert d.settle_pending
+    tl = bsarap.Timeline.from_json(
+        '{"duration": 1, "fps": 2, "paths": [{"group": 7, "path": {"type": "static"}}]}')
+    with pytest.raises(BsarapError, match="group"):
+        bsarap.record(d, tl, 2)
+    np.testing.assert_array_equal(d.positions, posed)
+    steps = 0
+    while d.settle_pending and steps < 1000:
+        d.settle()
+        steps += 1
+    assert steps > 0 and not d.settle_pending, steps
 
 
 def test_unreferenced_vertex_every_method():

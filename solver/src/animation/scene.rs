@@ -719,17 +719,19 @@ mod tests {
         ));
     }
 
-    /// Overrides of components the mesh lacks and falloffs of groups the selection lacks are
-    /// kept in the file and noted when the scene loads; the others are not.
+    /// Overrides of components the mesh lacks and falloffs of groups after the selection's
+    /// last are kept in the file and noted when the scene loads; the others are not (group 1,
+    /// empty but before group 2, keeps its falloff silently: a reload keeps the group).
     #[test]
     fn unused_entries_are_noted() {
         let d = crate::testing::ScratchDir::new("scene-unused");
         std::fs::write(d.join("m.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
         let mut scene = Scene::from_json(V1, "v1.json").unwrap();
+        scene.handles.labels = Some(vec![0, -1, 2]);
         let parts = r#"{"overrides": [{"component": 0, "mode": "pin"},
                                        {"component": 4, "mode": "pin"}]}"#;
         scene.loose_parts = serde_json::from_str(parts).unwrap();
-        scene.rig.falloff = [0, 3]
+        scene.rig.falloff = [0, 1, 3]
             .map(|group| GroupFalloff { group, radius: 0.1, curve: FalloffCurve::Linear })
             .to_vec();
         let path = d.join("s.json");
@@ -740,7 +742,8 @@ mod tests {
             [
                 "\"loose_parts\": the override for component 4 has no effect: the mesh has 1 \
                  component (0 to 0)",
-                "\"rig\": the falloff of handle group 3 has no effect: the selection has groups 0",
+                "\"rig\": the falloff of handle group 3 has no effect: the selection has \
+                 groups 0, 2",
             ],
         );
         assert_eq!(Scene::load(&path).unwrap().scene, scene, "kept as they are");
