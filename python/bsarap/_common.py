@@ -51,12 +51,13 @@ def _path(p: Any, name: str = "path") -> str:
 def _real(a: Any, name: str) -> np.ndarray:
     """``a`` as a float64 array; complex values refused (numpy would drop their imaginary part
     with a warning only)."""
-    if np.iscomplexobj(a):
-        raise BsarapError(f"{name} must hold real numbers; got complex values")
     try:
-        return np.asarray(a, dtype=np.float64)
+        complex_values = np.iscomplexobj(a)  # may raise too (a ragged list)
+        if not complex_values:
+            return np.asarray(a, dtype=np.float64)
     except (TypeError, ValueError, OverflowError) as e:
         raise BsarapError(f"{name} must be an array of numbers: {e}") from None
+    raise BsarapError(f"{name} must hold real numbers; got complex values")
 
 
 def _positions(a: Any, name: str) -> np.ndarray:

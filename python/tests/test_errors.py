@@ -244,6 +244,8 @@ def test_python_values_at_the_edges(tmp_path):
         (lambda: bsarap.Deformer(V, F, labels, tol=10**400), "tol is too large to be a float"),
         (lambda: d.solve({1: (0, 0, 10**400)}), "translation must be an array of numbers"),
         (lambda: bsarap.clean(V.tolist()[:-1] + [[0, 0, 10**400]], F), "V must be an array of"),
+        (lambda: bsarap.clean(V.tolist()[:-1] + [[0, 0]], F), "V must be an array of numbers"),
+        (lambda: d.solve({1: ((0, 0, 0), [[1, 0, 0], [0, 1], [0, 0, 1]])}), "rotation must be an"),
         (lambda: bsarap.Arap(V, F, [0], anderson=2**63), "anderson is too large"),
         (lambda: d.solve({2**70: (0, 0, 0)}), "group ids is too large"),
         (lambda: d.solve_to_rest({1: (0, 0, 0)}, max_steps=2**80), "max_steps is too large"),
