@@ -191,9 +191,7 @@ impl NativeDeformer {
         let py = slf.py();
         let mut this = borrow_mut(slf)?;
         let this = &mut *this;
-        let list = transforms_of(transforms)?;
-        let targets = handle_targets(this.mesh.positions(), &this.handles, &list).map_err(err)?;
-        check_in_range(&targets, "the motions' handle targets")?;
+        let (list, _) = this.checked_motions(transforms)?;
         let deformer = &mut this.deformer;
         let s = py.allow_threads(|| deformer.solve_groups(&list)).map_err(err)?;
         this.last_targets = Some(this.deformer.group_targets().to_vec());
@@ -242,9 +240,7 @@ impl NativeDeformer {
         let py = slf.py();
         let mut this = borrow_mut(slf)?;
         let this = &mut *this;
-        let list = transforms_of(transforms)?;
-        let targets = handle_targets(this.mesh.positions(), &this.handles, &list).map_err(err)?;
-        check_in_range(&targets, "the motions' handle targets")?;
+        let (list, _) = this.checked_motions(transforms)?;
         let deformer = &mut this.deformer;
         let mut r = AtRest::default();
         let mut interrupt = Interrupt::new();
@@ -371,11 +367,12 @@ impl NativeDeformer {
     }
 }
 
+/// Per-group motions as the solver takes them.
+type Motions = Vec<(usize, GroupTransform)>;
+
 /// Python's `(group, translation, rotation)` triples (rotation: a row-major 3×3 matrix) as
 /// group motions, checked: finite translations, proper rotations.
-fn transforms_of(
-    transforms: Vec<(usize, [f64; 3], Mat3)>,
-) -> PyResult<Vec<(usize, GroupTransform)>> {
+fn transforms_of(transforms: Vec<(usize, [f64; 3], Mat3)>) -> PyResult<Motions> {
     let mut list = Vec::with_capacity(transforms.len());
     for (group, translation, rotation) in transforms {
         if translation.iter().any(|c| !c.is_finite()) {
@@ -389,11 +386,19 @@ fn transforms_of(
 
 impl NativeDeformer {
     fn targets_of(&self, transforms: Vec<(usize, [f64; 3], Mat3)>) -> PyResult<Vec<[f64; 3]>> {
-        let targets =
-            handle_targets(self.mesh.positions(), &self.handles, &transforms_of(transforms)?)
-                .map_err(err)?;
+        Ok(self.checked_motions(transforms)?.1)
+    }
+
+    /// The motions as the solver takes them, and their handle targets: checked (every group
+    /// exists, every target within the solver's range).
+    fn checked_motions(
+        &self,
+        transforms: Vec<(usize, [f64; 3], Mat3)>,
+    ) -> PyResult<(Motions, Vec<[f64; 3]>)> {
+        let list = transforms_of(transforms)?;
+        let targets = handle_targets(self.mesh.positions(), &self.handles, &list).map_err(err)?;
         check_in_range(&targets, "the motions' handle targets")?;
-        Ok(targets)
+        Ok((list, targets))
     }
 
     fn solve_at<'py>(
