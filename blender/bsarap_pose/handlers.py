@@ -62,8 +62,8 @@ _pruned_at = None
 
 def _uids(collection) -> bytes:
     """The session uids of the objects of ``collection`` (read in C with ``foreach_get``, no
-    Python object per object)."""
-    a = np.empty(len(collection), dtype=np.int64)
+    Python object per object): a 32-bit RNA int, read into as many."""
+    a = np.empty(len(collection), dtype=np.int32)
     collection.foreach_get("session_uid", a)
     return a.tobytes()
 
@@ -132,9 +132,14 @@ def finish_timer():
         for obj in posed_objects(bpy.context.scene):
             try:
                 due.append(solve.finish_step(obj))
+            except HandleError as e:
+                # a failed check (a singular transform, a deleted control): the live update
+                # clears it once the object poses (a failed solve or settle step ends in
+                # finish_step itself)
+                report(obj, e)
             except Exception as e:  # noqa: BLE001 - a message, not a traceback per step
                 st = solve.built(obj)
-                if st is not None:
+                if st is not None:  # a bug: it would fail again at each step
                     st.ended = "error"
                 report(obj, e)
     finally:

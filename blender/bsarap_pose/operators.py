@@ -356,35 +356,72 @@ def _same_file(path: str) -> str:
     return os.path.normcase(os.path.realpath(path))
 
 
-def cache_readers(obj, path: str) -> list:
-    """``[(object, modifier)]``: the Mesh Cache modifiers of the objects other than ``obj``
-    that read the file ``path`` (the bake of another object, or a cache of the user's)."""
+def cache_claims(path: str) -> list:
+    """The claims of the point cache file ``path`` (``Scene.bsarap_caches``, in every scene):
+    each names the object whose bake wrote the file. Scene data, which Shift+D does not copy."""
     want = _same_file(path)
-    out = []
-    for o in bpy.data.objects:
-        if o == obj:
-            continue
-        for m in o.modifiers:
-            if m.type != "MESH_CACHE" or not m.filepath:
-                continue
+    return [c for sc in bpy.data.scenes for c in sc.bsarap_caches if c.path == want]
+
+
+def claim_cache(scene, path: str, obj) -> None:
+    """Record that ``obj``'s bake wrote the file ``path`` (its claims before go)."""
+    want = _same_file(path)
+    for sc in bpy.data.scenes:
+        for i in reversed(range(len(sc.bsarap_caches))):
+            if sc.bsarap_caches[i].path == want:
+                sc.bsarap_caches.remove(i)
+    claim = scene.bsarap_caches.add()
+    claim.path, claim.owner = want, obj
+
+
+def _reader(o, want: str):
+    """The Mesh Cache modifier of ``o`` that reads the file ``want`` (:func:`_same_file`), or
+    ``None``."""
+    for m in o.modifiers:
+        if m.type == "MESH_CACHE" and m.filepath:
             if _same_file(bpy.path.abspath(m.filepath, library=o.library)) == want:
-                out.append((o, m))
-    return out
+                return m
+    return None
+
+
+def cache_readers(obj, path: str) -> list:
+    """``[(object, modifier)]``: the Mesh Cache modifiers that read the file ``path``, of the
+    objects in a scene other than ``obj`` (a deleted object, kept in ``bpy.data``, reads
+    nothing)."""
+    want = _same_file(path)
+    found = ((o, _reader(o, want)) for o in bpy.data.objects if o != obj and solve.linked(o))
+    return [(o, m) for o, m in found if m is not None]
+
+
+def _path_taken(obj, path: str):
+    """Why ``obj`` may not bake into ``path``, or ``None``. A file a bake claimed
+    (:func:`claim_cache`) is taken while its object is another one, in a scene, that still
+    reads it. A file no bake claimed (baked before claims were kept, or the user's own cache)
+    is taken when an object in a scene reads it and ``obj`` does not."""
+    want = _same_file(path)
+    claims = cache_claims(path)
+    if claims:
+        other = claims[-1].owner
+        if other is None or other == obj or not solve.linked(other) or _reader(other, want) is None:
+            return None
+        return f"holds the bake of '{other.name}' (a copy made with Shift+D keeps the Point cache path)"
+    readers = cache_readers(obj, path)
+    if not readers or _reader(obj, want) is not None:
+        return None
+    other, mod = readers[0]
+    return f"is read by '{other.name}' (its modifier '{mod.name}')"
 
 
 def pc2_target(obj) -> str:
     """Where Bake to point cache writes for ``obj`` (:func:`pc2_path`). Raises
-    :class:`HandleError` when another object's Mesh Cache modifier reads that file: a copy of a
-    baked object (Shift+D) has its Point cache path, and baking it would overwrite the
-    original's bake."""
+    :class:`HandleError` when that file is another object's (:func:`_path_taken`): baking
+    would overwrite it."""
     path = pc2_path(obj)
-    readers = cache_readers(obj, path)
-    if readers:
-        other, mod = readers[0]
+    taken = _path_taken(obj, path)
+    if taken:
         raise HandleError(
-            f"{obj.name}: the point cache {path} is read by '{other.name}' (its modifier "
-            f"'{mod.name}'): baking would overwrite that bake (is {obj.name} a copy of it? Shift+D "
-            f"copies the Point cache path); set another Point cache path for {obj.name}"
+            f"{obj.name}: the point cache {path} {taken}: baking {obj.name} would overwrite it; "
+            f"set another Point cache path for {obj.name}"
         )
     return path
 
@@ -413,6 +450,7 @@ class BSARAP_OT_bake_point_cache(_BakeOperator, bpy.types.Operator):
         path = pc2_target(baker.obj)  # again: the paths may have changed while it baked
         bake.write_pc2(path, baker.poses, baker.frames[0], baker.step_frames)
         bake.add_cache_modifier(baker.obj, stored_path(path), baker.frames[0], baker.step_frames)
+        claim_cache(baker.scene, path, baker.obj)
         baker.obj.bsarap.live = False
         return f"{baker.obj.name}: {len(baker.frames)} frames written to {path} (Live turned off)"
 

@@ -1,5 +1,6 @@
 """The extension's data on each object (``Object.bsarap``): the handle groups with their
-controls (Empties) and the solver settings, the CLI's flags."""
+controls (Empties) and the solver settings, the CLI's flags; on each scene, the point cache
+files its bakes wrote (``Scene.bsarap_caches``)."""
 
 from __future__ import annotations
 
@@ -70,6 +71,15 @@ class BSARAP_HandleGroup(bpy.types.PropertyGroup):
     # The control's matrix relative to the mesh object when controls were added (row-major):
     # the pose is the control's motion from there.
     rest_matrix: FloatVectorProperty(size=16, default=IDENTITY, options={"HIDDEN"})
+
+
+class BSARAP_CacheClaim(bpy.types.PropertyGroup):
+    """A point cache file that a bake wrote (``Scene.bsarap_caches``): in the scene, which
+    Shift+D does not copy, so a copy of the baked object, which has its Point cache path, is
+    told apart from the object whose bake the file is."""
+
+    path: StringProperty(name="Path", description="The file's absolute, normalized path", options={"HIDDEN"})
+    owner: PointerProperty(name="Owner", type=bpy.types.Object, description="The object baked into it")
 
 
 class BSARAP_ObjectSettings(bpy.types.PropertyGroup):
@@ -148,7 +158,7 @@ class BSARAP_ObjectSettings(bpy.types.PropertyGroup):
         }
 
 
-classes = (BSARAP_HandleGroup, BSARAP_ObjectSettings)
+classes = (BSARAP_HandleGroup, BSARAP_CacheClaim, BSARAP_ObjectSettings)
 
 
 def register():
@@ -163,9 +173,12 @@ def register():
     bpy.types.Mesh.bsarap_owner = PointerProperty(
         name="BS-ARAP owner", type=bpy.types.Object, description="The object that poses this mesh"
     )
+    # The point cache files the bakes wrote, each with its object (see operators.pc2_target).
+    bpy.types.Scene.bsarap_caches = CollectionProperty(type=BSARAP_CacheClaim)
 
 
 def unregister():
+    del bpy.types.Scene.bsarap_caches
     del bpy.types.Mesh.bsarap_owner
     del bpy.types.Object.bsarap_owner
     del bpy.types.Object.bsarap

@@ -139,13 +139,14 @@ def report_error(obj, msg: str) -> None:
     messages[k] = _errors[k] = msg
 
 
-def clear_error(obj) -> None:
+def clear_error(obj) -> bool:
     """Drop the error :func:`report_error` kept for ``obj`` (it poses again), unless another
-    message replaced it."""
+    message replaced it; returns whether there was one."""
     k = uid(obj)
     msg = _errors.pop(k, None)
     if msg is not None and messages.get(k) == msg:
         del messages[k]
+    return msg is not None
 
 
 def rest_diagonal(obj) -> float:
@@ -242,8 +243,6 @@ class StateKey(NamedTuple):
     settings: tuple
     #: the modifiers that block posing (added after the controls: refused until they go)
     blocking: tuple
-    #: the mesh is library data (linked or an override): made local, it is built again
-    library: bool
 
 
 def state_key(obj) -> StateKey:
@@ -255,7 +254,6 @@ def state_key(obj) -> StateKey:
         groups_exist=tuple(obj.vertex_groups.get(g.name) is not None for g in s.groups),
         settings=tuple(sorted(s.solver_settings().items())),
         blocking=tuple(tuple(labels) for labels in modifiers.blocking(obj)),
-        library=obj.data.library is not None or obj.data.override_library is not None,
     )
 
 
@@ -590,7 +588,9 @@ def update(obj, *, force=False) -> bool:
     """Solve ``obj`` for its controls' current motion and write the pose; skipped (False) when
     the controls have not moved since the last solve, which also stops the update that writing
     the shape key triggers from solving again; and while a bake solves the frames. Once it
-    gets past the checks (posed, or its pose up to date), the error reported before goes."""
+    gets past the checks (posed, or its pose up to date), the error reported before goes: then
+    also True while the pose has not ended, so that the finishing steps a failed check stopped
+    resume (the caller starts the finish timer on True)."""
     t0 = time.perf_counter()
     check_controls(obj)  # before building: no solver for a copy that cannot use the controls
     st = state(obj)
@@ -598,9 +598,9 @@ def update(obj, *, force=False) -> bool:
         return False
     deltas = control_deltas(obj, checked=True)
     if not force and st.last_deltas is not None and np.array_equal(deltas, st.last_deltas):
-        if st.ended != "error":  # a finishing step's error holds until the controls move
-            clear_error(obj)
-        return False
+        if st.ended == "error":  # a failed solve or settle step holds until the controls move
+            return False
+        return clear_error(obj) and st.ended is None
     U = solve(obj, st, deltas)
     write_pose(obj, U)
     st.last_ms = (time.perf_counter() - t0) * 1e3

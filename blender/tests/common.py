@@ -174,6 +174,17 @@ def posed_tube(name="tube", top_x=0.0):
     return obj
 
 
+def duplicate(obj, *, linked=False):
+    """Shift+D (Alt+D with ``linked``) of ``obj`` alone, moved aside."""
+    activate(obj)
+    assert bpy.ops.object.duplicate(linked=linked) == {"FINISHED"}
+    dup = bpy.context.view_layer.objects.active
+    assert dup != obj
+    dup.location.x += 3.0
+    bpy.context.view_layer.update()
+    return dup
+
+
 def assert_pose_follows(obj):
     """The live pose's handle vertices are where the controls put them."""
     st = ext.solve.state(obj)
@@ -190,6 +201,24 @@ def link_rig(path):
     for o in dst.objects:
         bpy.context.scene.collection.objects.link(o)
     return dst.objects
+
+
+def fake_modal_bake(obj, op_class, frames):
+    """The modal bake operator's state without a window: ``(op, context, calls)``, the window
+    manager's calls recorded."""
+    calls = []
+    wm = types.SimpleNamespace(
+        event_timer_remove=lambda _t: calls.append("timer removed"),
+        progress_end=lambda: calls.append("progress end"),
+        progress_update=lambda _n: None,
+    )
+    op = types.SimpleNamespace(reports=[])
+    op.report = lambda level, msg: op.reports.append((level, msg))
+    op._baker = ext.bake.Baker(bpy.context.scene, obj, frames)
+    op._timer = object()
+    op._stop = lambda ctx: op_class._stop(op, ctx)
+    op.finish = lambda ctx, b: op_class.finish(op, ctx, b)
+    return op, types.SimpleNamespace(window_manager=wm), calls
 
 
 class RecordingLayout:

@@ -14,25 +14,15 @@ from __future__ import annotations
 import os
 import sys
 import tempfile
+import types
 import unittest
 from unittest import mock
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from common import (  # noqa: E402  (sets BLENDER_USER_RESOURCES before bpy)
-    MODULE, SKIP, activate, assert_pose_follows, bpy, draw_panel, ext, link_rig, posed_tube,
-    setUpModule
+    MODULE, SKIP, activate, assert_pose_follows, bpy, draw_panel, duplicate, ext, fake_modal_bake,
+    link_rig, posed_tube, setUpModule
 )
-
-
-def duplicate(obj, *, linked=False):
-    """Shift+D (Alt+D with ``linked``) of ``obj`` alone, moved aside."""
-    activate(obj)
-    assert bpy.ops.object.duplicate(linked=linked) == {"FINISHED"}
-    dup = bpy.context.view_layer.objects.active
-    assert dup != obj
-    dup.location.x += 3.0
-    bpy.context.view_layer.update()
-    return dup
 
 
 def save_and_open(name):
@@ -152,13 +142,15 @@ class CopyPointCache(unittest.TestCase):
         """The copy's bake into the original's cache (Point cache ``setting``) is refused,
         nothing written; given a path of its own, it bakes there."""
         dup, path, data = self.bake_copy(setting)
+        solves = ext.solve.state(dup).solves
         with self.assertRaises(RuntimeError) as cm:
             bpy.ops.bsarap.bake_point_cache()
         msg = str(cm.exception)
-        self.assertIn(f"tube.001: the point cache {path} is read by 'tube'", msg)
+        self.assertIn(f"tube.001: the point cache {path} holds the bake of 'tube'", msg)
         self.assertIn("set another Point cache path for tube.001", msg)
+        self.assertNotIn("copy of", msg)
         self.assert_intact(path, data)
-        self.assertFalse(ext.solve.state(dup).baking)
+        self.assertEqual(ext.solve.state(dup).solves, solves, "refused only after solving")
         dup.bsarap.pc2_path = "//copy.pc2"
         self.assertEqual(bpy.ops.bsarap.bake_point_cache(), {"FINISHED"})
         self.assertEqual(dup.modifiers[ext.modifiers.CACHE_MODIFIER].filepath, "//copy.pc2")
@@ -192,10 +184,97 @@ class CopyPointCache(unittest.TestCase):
         self.assertEqual(bpy.ops.bsarap.add_controls(), {"FINISHED"})
         with self.assertRaises(RuntimeError) as cm:
             bpy.ops.bsarap.bake_point_cache()
-        self.assertIn("is read by 'tube_001'", str(cm.exception))
+        self.assertIn("holds the bake of 'tube_001'", str(cm.exception))
         with open(dup_path, "rb") as f:
             self.assertEqual(f.read(), dup_data)
         self.assert_intact(path, data)
+
+
+    def bake_modal(self, obj, change=None):
+        """Bake to point cache ``obj`` as the modal operator does, ``change()`` called after
+        its first frame; returns the result and the reports."""
+        Op = ext.operators.BSARAP_OT_bake_point_cache
+        op, ctx, _calls = fake_modal_bake(obj, Op, range(1, 4))
+        timer = types.SimpleNamespace(type="TIMER")
+        self.assertEqual(Op.modal(op, ctx, timer), {"RUNNING_MODAL"})
+        if change is not None:
+            change()
+        result = {"RUNNING_MODAL"}
+        while result == {"RUNNING_MODAL"}:
+            result = Op.modal(op, ctx, timer)
+        return result, op.reports
+
+    def assert_original_rebaked(self, modal):
+        """The original baked again once a copy (which reads its cache) exists: it writes."""
+        dup, path, data = self.bake_copy("//anim.pc2")
+        self.obj.bsarap.groups[1].control.location.z += 0.5
+        bpy.context.view_layer.update()
+        activate(self.obj)
+        if modal:
+            self.assertEqual(self.bake_modal(self.obj)[0], {"FINISHED"})
+        else:
+            self.assertEqual(bpy.ops.bsarap.bake_point_cache(), {"FINISHED"})
+        with open(path, "rb") as f:
+            self.assertNotEqual(f.read(), data, "the original's bake not written")
+
+    def test_original_rebaked_after_a_copy(self):
+        self.assert_original_rebaked(modal=False)
+
+    def test_original_rebaked_after_a_copy_modal(self):
+        self.assert_original_rebaked(modal=True)
+
+    def test_deleted_original_does_not_block(self):
+        """The original deleted (kept in bpy.data by its controls' claims): the copy bakes."""
+        dup, path, data = self.bake_copy("//anim.pc2")
+        activate(self.obj)
+        self.assertEqual(bpy.ops.object.delete(), {"FINISHED"})
+        activate(dup)
+        self.assertEqual(bpy.ops.bsarap.bake_point_cache(), {"FINISHED"})
+        with open(path, "rb") as f:
+            self.assertNotEqual(f.read(), data)
+        self.assertEqual(ext.operators.cache_claims(path)[0].owner, dup)
+
+    def test_path_changed_while_baking(self):
+        """Checked again before writing: the copy's Point cache set to the original's file
+        while it bakes: refused, nothing written."""
+        dup, path, data = self.bake_copy("//anim.pc2")
+        dup.bsarap.pc2_path = "//copy.pc2"
+        result, reports = self.bake_modal(dup, lambda: setattr(dup.bsarap, "pc2_path", "//anim.pc2"))
+        self.assertEqual(result, {"CANCELLED"})
+        self.assertIn("holds the bake of 'tube'", reports[-1][1])
+        self.assert_intact(path, data)
+        self.assertFalse(os.path.exists(os.path.join(self.folder, "copy.pc2")))
+
+    def test_claim_taken_while_baking(self):
+        """Another object's bake claims the file while this one bakes: refused before writing."""
+        dup, path, data = self.bake_copy("//anim.pc2")
+        path_b = os.path.join(self.folder, "b.pc2")
+        dup.bsarap.pc2_path = path_b
+        claim = lambda: ext.operators.claim_cache(bpy.context.scene, path_b, self.obj)  # noqa: E731
+        with open(path_b, "wb") as f:
+            f.write(b"other")
+        self.obj.modifiers[ext.modifiers.CACHE_MODIFIER].filepath = path_b
+        result, reports = self.bake_modal(dup, claim)
+        self.assertEqual(result, {"CANCELLED"})
+        self.assertIn("holds the bake of 'tube'", reports[-1][1])
+        with open(path_b, "rb") as f:
+            self.assertEqual(f.read(), b"other")
+
+    def test_unclaimed_file(self):
+        """A file no bake claimed (an older file's bake, or the user's cache): refused to an
+        object that does not read it, naming the one that does; allowed to one that does."""
+        dup, path, data = self.bake_copy("//anim.pc2")
+        bpy.context.scene.bsarap_caches.clear()
+        dup.modifiers.remove(dup.modifiers[ext.modifiers.CACHE_MODIFIER])
+        activate(dup)
+        with self.assertRaises(RuntimeError) as cm:
+            bpy.ops.bsarap.bake_point_cache()
+        msg = str(cm.exception)
+        self.assertIn(f"the point cache {path} is read by 'tube' (its modifier 'BS-ARAP cache')", msg)
+        self.assertNotIn("Shift+D", msg)
+        self.assert_intact(path, data)
+        activate(self.obj)
+        self.assertEqual(bpy.ops.bsarap.bake_point_cache(), {"FINISHED"})
 
 
 class StaleMessages(unittest.TestCase):
@@ -265,6 +344,30 @@ class StaleMessages(unittest.TestCase):
         bpy.data.objects["top"].location.y += 0.1
         bpy.context.view_layer.update()
         self.assertIsNone(self.panel_message(obj))
+
+    def test_check_error_in_timer_goes(self):
+        """A check that fails in a finishing step (a scale of 0 while settling) is the live
+        update's to clear: the scale fixed, the message goes and settling resumes."""
+        obj, timer = self.obj, ext.handlers.finish_timer
+        st = ext.solve.state(obj)
+        st.converged, st.moved_at, st.ended = False, 0.0, None
+        obj.scale = (1.0, 1.0, 0.0)
+        bpy.context.view_layer.update()  # the live update reports it too
+        with self.assertRaises(ext.handles.HandleError):
+            ext.solve.finish_step(obj)  # the step's check fails
+        timer()
+        self.assertIn("singular (a scale of 0", ext.solve.message(obj))
+        if bpy.app.timers.is_registered(timer):
+            bpy.app.timers.unregister(timer)  # as the timer ends when nothing is due
+        obj.scale = (1.0, 1.0, 1.0)
+        bpy.context.view_layer.update()
+        self.assertIsNone(self.panel_message(obj))
+        self.assertNotIn("Stopped", ext.solve.status(obj)[0])
+        self.assertTrue(bpy.app.timers.is_registered(timer))
+        steps = st.finish_steps
+        st.moved_at = 0.0
+        self.assertEqual(timer(), 0.0)
+        self.assertEqual(st.finish_steps, steps + 1)
 
     def test_refusal_goes_without_an_update(self):
         """A copy refused: once the original's controls are removed, or the original deleted

@@ -22,9 +22,9 @@ from unittest import mock
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from common import (  # noqa: E402  (sets BLENDER_USER_RESOURCES before bpy)
-    SKIP, activate, assert_pose_follows, bpy, bsarap, draw_group_rows, draw_panel,
-    evaluated_positions, expected_handles, ext, key_co, link_rig, np, pose_of, posed_tube,
-    setUpModule, tube
+    SKIP, activate, assert_pose_follows, bpy, bsarap, draw_group_rows, draw_panel, duplicate,
+    evaluated_positions, expected_handles, ext, fake_modal_bake, key_co, link_rig, np, pose_of,
+    posed_tube, setUpModule, tube
 )
 
 
@@ -183,24 +183,6 @@ class EditMode(unittest.TestCase):
         bpy.ops.object.mode_set(mode="OBJECT")
         bpy.context.view_layer.update()
         assert_pose_follows(obj)
-
-
-def fake_modal_bake(obj, op_class, frames):
-    """The modal bake operator's state without a window: ``(op, context, calls)``, the window
-    manager's calls recorded."""
-    calls = []
-    wm = types.SimpleNamespace(
-        event_timer_remove=lambda _t: calls.append("timer removed"),
-        progress_end=lambda: calls.append("progress end"),
-        progress_update=lambda _n: None,
-    )
-    op = types.SimpleNamespace(reports=[])
-    op.report = lambda level, msg: op.reports.append((level, msg))
-    op._baker = ext.bake.Baker(bpy.context.scene, obj, frames)
-    op._timer = object()
-    op._stop = lambda ctx: op_class._stop(op, ctx)
-    op.finish = lambda ctx, b: op_class.finish(op, ctx, b)
-    return op, types.SimpleNamespace(window_manager=wm), calls
 
 
 class BakeStops(unittest.TestCase):
@@ -426,19 +408,7 @@ class Copies(unittest.TestCase):
     never drives two meshes) until Add Controls gives it its own, placed as the original's."""
 
     def setUp(self):
-        self.obj = posed_tube()
-        bpy.data.objects["top"].location.x += 0.5
-        bpy.context.view_layer.update()
-
-    def copy(self, *, linked=False):
-        """Shift+D (Alt+D with ``linked``) of the posed mesh alone."""
-        activate(self.obj)
-        self.assertEqual(bpy.ops.object.duplicate(linked=linked), {"FINISHED"})
-        dup = bpy.context.view_layer.objects.active
-        self.assertIsNot(dup, self.obj)
-        dup.location.x += 3.0
-        bpy.context.view_layer.update()
-        return dup
+        self.obj = posed_tube(top_x=0.5)
 
     def assert_copy_refused(self, dup, original, *, follows=True):
         """Pose Now on the copy ``dup`` is refused naming ``original``; moving a control then
@@ -454,7 +424,7 @@ class Copies(unittest.TestCase):
 
     def test_copy_refused_until_own_controls(self):
         obj = self.obj
-        dup = self.copy()
+        dup = duplicate(self.obj)
         self.assertIs(dup.bsarap.groups[1].control, obj.bsarap.groups[1].control)
         frozen = pose_of(dup)
         top = bpy.data.objects["top"]
@@ -496,7 +466,7 @@ class Copies(unittest.TestCase):
     def test_original_deleted(self):
         """The original deleted: its controls are free, the copy takes them (the message goes)."""
         obj = self.obj
-        dup = self.copy()
+        dup = duplicate(self.obj)
         self.assertIn("pose 'tube'", ext.solve.message(dup))
         activate(obj)
         self.assertEqual(bpy.ops.object.delete(), {"FINISHED"})
@@ -521,7 +491,7 @@ class Copies(unittest.TestCase):
     def test_remove_controls_of_a_copy(self):
         """Remove Controls on the copy lets go of the original's controls without deleting them."""
         obj = self.obj
-        dup = self.copy()
+        dup = duplicate(self.obj)
         activate(dup)
         self.assertEqual(bpy.ops.bsarap.remove_controls(), {"FINISHED"})
         self.assertIn("top", bpy.context.scene.objects)
@@ -535,7 +505,7 @@ class Copies(unittest.TestCase):
         """Alt+D shares the mesh, so its pose key: it shows the original's pose, and Add Controls
         is refused (two sets of controls would fight over the key); Remove Controls keeps it."""
         obj = self.obj
-        dup = self.copy(linked=True)
+        dup = duplicate(self.obj, linked=True)
         self.assertIs(dup.data, obj.data)
         msg = ext.solve.message(dup)
         self.assertIn("shares its mesh with 'tube' (a linked duplicate, Alt+D)", msg)
@@ -588,7 +558,7 @@ class Copies(unittest.TestCase):
     def test_linked_duplicate_controls_removed(self):
         """Alt+D, Remove Controls on the duplicate (it lets go of the original's), then Add
         Controls: refused, the mesh is still the original's."""
-        dup = self.copy(linked=True)
+        dup = duplicate(self.obj, linked=True)
         activate(dup)
         self.assertEqual(bpy.ops.bsarap.remove_controls(), {"FINISHED"})
         self.assert_refused_shared(self.obj, dup)
@@ -634,7 +604,7 @@ class Copies(unittest.TestCase):
         """A file saved with an original and its copy sharing the controls: once reopened, the
         original keeps them (the claims are saved in the file), whichever is solved first, its
         name sorting after the copy's."""
-        self.copy()
+        duplicate(self.obj)
         self.obj.name = "z-tube"  # loaded, "tube.001" comes first in bpy.data.objects
         path = os.path.join(tempfile.mkdtemp(), "copies.blend")
         bpy.ops.wm.save_as_mainfile(filepath=path)
@@ -646,7 +616,7 @@ class Copies(unittest.TestCase):
     def test_claims_kept_through_undo(self):
         """The original deleted, the copy takes its controls, Ctrl+Z: the original is back and
         keeps them (the claims are undone with the file's data)."""
-        dup = self.copy()
+        dup = duplicate(self.obj)
         bpy.ops.ed.undo_push(message="copied")
         activate(self.obj)
         self.assertEqual(bpy.ops.object.delete(), {"FINISHED"})
@@ -661,7 +631,7 @@ class Copies(unittest.TestCase):
 
     def test_claims_kept_through_reenabling(self):
         """The extension disabled and enabled again: the copy, solved first, is still refused."""
-        dup = self.copy()
+        dup = duplicate(self.obj)
         self.obj.bsarap.live = False  # no update solves the original before the copy
         module = "bl_ext.user_default.bsarap_pose"
         bpy.ops.preferences.addon_disable(module=module)
