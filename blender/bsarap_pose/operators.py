@@ -356,22 +356,29 @@ def _same_file(path: str) -> str:
     return os.path.normcase(os.path.realpath(path))
 
 
+def _claimed_file(claim) -> str:
+    """The file a claim names, comparable (:func:`_same_file`): kept as the modifier keeps its
+    path (``//``-relative once the .blend is saved), so a moved project keeps its claims."""
+    return _same_file(bpy.path.abspath(claim.path, library=claim.id_data.library))
+
+
 def cache_claims(path: str) -> list:
     """The claims of the point cache file ``path`` (``Scene.bsarap_caches``, in every scene):
     each names the object whose bake wrote the file. Scene data, which Shift+D does not copy."""
     want = _same_file(path)
-    return [c for sc in bpy.data.scenes for c in sc.bsarap_caches if c.path == want]
+    return [c for sc in bpy.data.scenes for c in sc.bsarap_caches if c.path and _claimed_file(c) == want]
 
 
 def claim_cache(scene, path: str, obj) -> None:
-    """Record that ``obj``'s bake wrote the file ``path`` (its claims before go)."""
+    """Record that ``obj``'s bake wrote the file ``path`` (the file's claims before go)."""
     want = _same_file(path)
     for sc in bpy.data.scenes:
         for i in reversed(range(len(sc.bsarap_caches))):
-            if sc.bsarap_caches[i].path == want:
+            c = sc.bsarap_caches[i]
+            if not c.path or _claimed_file(c) == want:
                 sc.bsarap_caches.remove(i)
     claim = scene.bsarap_caches.add()
-    claim.path, claim.owner = want, obj
+    claim.path, claim.owner = stored_path(path), obj
 
 
 def _reader(o, want: str):
@@ -394,22 +401,24 @@ def cache_readers(obj, path: str) -> list:
 
 
 def _path_taken(obj, path: str):
-    """Why ``obj`` may not bake into ``path``, or ``None``. A file a bake claimed
-    (:func:`claim_cache`) is taken while its object is another one, in a scene, that still
-    reads it. A file no bake claimed (baked before claims were kept, or the user's own cache)
-    is taken when an object in a scene reads it and ``obj`` does not."""
+    """Why ``obj`` may not bake into ``path``, or ``None``. A file is taken when a bake of
+    another object, in a scene and still reading it, claimed it (:func:`claim_cache`; a scene
+    copied whole copies its claims, so two objects may claim one file: neither bakes into it).
+    A file no bake of ``obj`` claimed (one baked before claims were kept, or the user's own
+    cache) is taken when another object in a scene reads it, also when ``obj`` reads it too: a
+    Shift+D copy reads its original's file, and which of them baked it is not known."""
     want = _same_file(path)
-    claims = cache_claims(path)
-    if claims:
-        other = claims[-1].owner
-        if other is None or other == obj or not solve.linked(other) or _reader(other, want) is None:
-            return None
-        return f"holds the bake of '{other.name}' (a copy made with Shift+D keeps the Point cache path)"
-    readers = cache_readers(obj, path)
-    if not readers or _reader(obj, want) is not None:
+    owners = [c.owner for c in cache_claims(path) if c.owner is not None]
+    others = [o for o in owners if o != obj and solve.linked(o) and _reader(o, want) is not None]
+    if others:
+        return f"holds the bake of '{others[0].name}'"
+    if obj in owners:
         return None
-    other, mod = readers[0]
-    return f"is read by '{other.name}' (its modifier '{mod.name}')"
+    readers = cache_readers(obj, path)
+    if readers:
+        other, mod = readers[0]
+        return f"is read by '{other.name}' (its modifier '{mod.name}') and was not baked from {obj.name}"
+    return None
 
 
 def pc2_target(obj) -> str:

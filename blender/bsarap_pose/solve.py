@@ -349,13 +349,20 @@ def prune(alive) -> None:
 
 
 def drop_dead_claims() -> None:
-    """Clear the claims held by objects in no scene (deleted): a claim is a pointer, which
-    would keep a deleted object, and its mesh, in the file. Undo brings them back with it."""
+    """Clear the claims held by objects in no scene (deleted), of controls, meshes and point
+    cache files: a claim is a pointer, which would keep a deleted object, and its mesh, in the
+    file. Undo brings them back with it."""
     for ids in (bpy.data.objects, bpy.data.meshes):
         for i in ids:
             o = i.bsarap_owner
             if o is not None and not linked(o) and i.library is None:
                 i.bsarap_owner = None
+    for sc in bpy.data.scenes:  # the point cache files' claims (operators.claim_cache)
+        if sc.library is None:
+            for k in reversed(range(len(sc.bsarap_caches))):
+                o = sc.bsarap_caches[k].owner
+                if o is not None and not linked(o):
+                    sc.bsarap_caches.remove(k)
 
 
 def linked(control) -> bool:

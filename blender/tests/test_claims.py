@@ -12,6 +12,7 @@ missing.
 from __future__ import annotations
 
 import os
+import shutil
 import sys
 import tempfile
 import types
@@ -261,20 +262,70 @@ class CopyPointCache(unittest.TestCase):
             self.assertEqual(f.read(), b"other")
 
     def test_unclaimed_file(self):
-        """A file no bake claimed (an older file's bake, or the user's cache): refused to an
-        object that does not read it, naming the one that does; allowed to one that does."""
+        """A file no bake claimed (an older file's bake, or the user's cache): refused while
+        another object reads it, also to one that reads it too (a Shift+D copy reads its
+        original's file, and which baked it is not known); allowed to the one reader."""
         dup, path, data = self.bake_copy("//anim.pc2")
         bpy.context.scene.bsarap_caches.clear()
+        for o, other in ((dup, "tube"), (self.obj, "tube.001")):
+            activate(o)
+            with self.assertRaises(RuntimeError) as cm:
+                bpy.ops.bsarap.bake_point_cache()
+            msg = str(cm.exception)
+            self.assertIn(f"the point cache {path} is read by '{other}' (its modifier 'BS-ARAP cache')", msg)
+            self.assertIn(f"was not baked from {o.name}", msg)
+            self.assert_intact(path, data)
         dup.modifiers.remove(dup.modifiers[ext.modifiers.CACHE_MODIFIER])
-        activate(dup)
-        with self.assertRaises(RuntimeError) as cm:
-            bpy.ops.bsarap.bake_point_cache()
-        msg = str(cm.exception)
-        self.assertIn(f"the point cache {path} is read by 'tube' (its modifier 'BS-ARAP cache')", msg)
-        self.assertNotIn("Shift+D", msg)
-        self.assert_intact(path, data)
         activate(self.obj)
         self.assertEqual(bpy.ops.bsarap.bake_point_cache(), {"FINISHED"})
+
+    def test_moved_project(self):
+        """The claim is kept relative to the .blend, as the modifier's path: in a copy of the
+        project's folder the copy's bake is still refused, the copied file intact."""
+        dup, path, data = self.bake_copy("//anim.pc2")
+        self.assertEqual([c.path for c in ext.operators.cache_claims(path)], ["//anim.pc2"])
+        bpy.ops.wm.save_mainfile()
+        moved = os.path.join(tempfile.mkdtemp(), "moved")
+        shutil.copytree(self.folder, moved)
+        bpy.ops.wm.open_mainfile(filepath=os.path.join(moved, "scene.blend"))
+        activate(bpy.data.objects["tube.001"])
+        with self.assertRaises(RuntimeError) as cm:
+            bpy.ops.bsarap.bake_point_cache()
+        self.assertIn("holds the bake of 'tube'", str(cm.exception))
+        with open(os.path.join(moved, "anim.pc2"), "rb") as f:
+            self.assertEqual(f.read(), data)
+
+    def test_scene_full_copy(self):
+        """A scene copied whole copies the claims, each to its scene's object: neither bakes
+        into the shared file."""
+        self.bake_copy("//anim.pc2")  # the original baked
+        activate(bpy.data.objects["tube.001"])
+        self.assertEqual(bpy.ops.object.delete(), {"FINISHED"})
+        path = bpy.path.abspath("//anim.pc2")
+        with open(path, "rb") as f:
+            data = f.read()
+        self.assertEqual(bpy.ops.scene.new(type="FULL_COPY"), {"FINISHED"})
+        owners = sorted(c.owner.name for c in ext.operators.cache_claims(path))
+        self.assertEqual(len(owners), 2, owners)
+        for sc in bpy.data.scenes:
+            bpy.context.window.scene = sc
+            obj = next(o for o in sc.objects if o.name.startswith("tube"))
+            activate(obj)
+            with self.assertRaises(RuntimeError) as cm:
+                bpy.ops.bsarap.bake_point_cache()
+            self.assertIn("holds the bake of", str(cm.exception))
+        with open(path, "rb") as f:
+            self.assertEqual(f.read(), data)
+
+    def test_deleted_owner_claim_dropped(self):
+        """A claim of a deleted object goes at the next update (a pointer would keep the object
+        and its mesh in the file)."""
+        self.bake_copy("//anim.pc2")
+        path = bpy.path.abspath("//anim.pc2")
+        activate(self.obj)
+        self.assertEqual(bpy.ops.object.delete(), {"FINISHED"})
+        bpy.context.view_layer.update()
+        self.assertEqual(ext.operators.cache_claims(path), [])
 
 
 class StaleMessages(unittest.TestCase):
