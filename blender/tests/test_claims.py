@@ -406,8 +406,11 @@ class StaleMessages(unittest.TestCase):
         bpy.context.view_layer.update()  # the live update reports it too
         with self.assertRaises(ext.handles.HandleError):
             ext.solve.finish_step(obj)  # the step's check fails
+        ext.solve.clear_error(obj)  # what follows is the timer's own report
+        self.assertIsNone(ext.solve.message(obj))
         timer()
         self.assertIn("singular (a scale of 0", ext.solve.message(obj))
+        self.assertIsNone(st.ended, "a failed check does not end the pose")
         if bpy.app.timers.is_registered(timer):
             bpy.app.timers.unregister(timer)  # as the timer ends when nothing is due
         obj.scale = (1.0, 1.0, 1.0)
