@@ -82,6 +82,17 @@ class BSARAP_CacheClaim(bpy.types.PropertyGroup):
     owner: PointerProperty(name="Owner", type=bpy.types.Object, description="The object baked into it")
 
 
+class BSARAP_MeshClaim(bpy.types.PropertyGroup):
+    """A posed mesh and the object that poses it (``Scene.bsarap_meshes``): in the scene, which
+    Shift+D does not copy, so a linked duplicate (Alt+D), which shares the mesh, is told apart
+    from the object that posed it. Not a pointer on the mesh: Blender does not clear a mesh's
+    pointer to an object removed with ``bpy.data.objects.remove`` (a mesh cannot use objects, so
+    the removal skips meshes; measured in bpy 5.0.1), and the mesh would point to freed memory."""
+
+    mesh: PointerProperty(name="Mesh", type=bpy.types.Mesh, description="The posed mesh")
+    owner: PointerProperty(name="Owner", type=bpy.types.Object, description="The object that poses it")
+
+
 class BSARAP_ObjectSettings(bpy.types.PropertyGroup):
     groups: CollectionProperty(type=BSARAP_HandleGroup)
     active_group: IntProperty(default=0)
@@ -158,7 +169,7 @@ class BSARAP_ObjectSettings(bpy.types.PropertyGroup):
         }
 
 
-classes = (BSARAP_HandleGroup, BSARAP_CacheClaim, BSARAP_ObjectSettings)
+classes = (BSARAP_HandleGroup, BSARAP_CacheClaim, BSARAP_MeshClaim, BSARAP_ObjectSettings)
 
 
 def register():
@@ -166,20 +177,19 @@ def register():
         bpy.utils.register_class(c)
     bpy.types.Object.bsarap = PointerProperty(type=BSARAP_ObjectSettings)
     # The claims, saved in the file (see solve.py): a control Empty's the mesh object it poses,
-    # a posed mesh's the object that poses it (a linked duplicate shares the mesh).
+    # and, in the scene, each posed mesh's the object that poses it (a linked duplicate shares
+    # the mesh).
     bpy.types.Object.bsarap_owner = PointerProperty(
         name="BS-ARAP owner", type=bpy.types.Object, description="The mesh object this control poses"
     )
-    bpy.types.Mesh.bsarap_owner = PointerProperty(
-        name="BS-ARAP owner", type=bpy.types.Object, description="The object that poses this mesh"
-    )
+    bpy.types.Scene.bsarap_meshes = CollectionProperty(type=BSARAP_MeshClaim)
     # The point cache files the bakes wrote, each with its object (see operators.pc2_target).
     bpy.types.Scene.bsarap_caches = CollectionProperty(type=BSARAP_CacheClaim)
 
 
 def unregister():
     del bpy.types.Scene.bsarap_caches
-    del bpy.types.Mesh.bsarap_owner
+    del bpy.types.Scene.bsarap_meshes
     del bpy.types.Object.bsarap_owner
     del bpy.types.Object.bsarap
     for c in reversed(classes):

@@ -16,12 +16,14 @@ copy of a posed object (Shift+D, ``Object.copy``) points to the same Empties; it
 a message until *Add Controls* gives it its own, so one Empty never drives two meshes. The first
 object posed claims its mesh too: a linked duplicate (Alt+D) shares the mesh, so its pose key,
 and is refused (:func:`mesh_sharer`) until it is made single-user. The claims are saved in the
-file (``Object.bsarap_owner`` on the control, ``Mesh.bsarap_owner`` on the mesh), so a reload,
-an undo or the extension enabled again keep them; Blender remaps them when a mesh and its
-controls are duplicated together (measured in bpy 5.0.1), so the copy owns the copies. An owner
-in no scene (deleted), or no longer using the control or the mesh, is no owner. A file saved
-before the claims were stored gets them on load (:func:`claim_unclaimed`), where one object alone
-uses the control or the mesh.
+file (``Object.bsarap_owner`` on the control; the mesh's in the scene, ``Scene.bsarap_meshes``,
+since a mesh's pointer to a removed object is left dangling), so a reload, an undo or the
+extension enabled again keep them; Blender remaps a control's when a mesh and its controls are
+duplicated together (measured in bpy 5.0.1), so the copy owns the copies. An owner in no scene
+(deleted), or no longer using the control or the mesh, is no owner. A file saved before the
+claims were stored gets them on load (:func:`claim_unclaimed`), where one object alone uses the
+control or the mesh; one saved with a mesh's claim on the mesh has it moved into the scene
+(:func:`adopt_mesh_pointers`).
 
 A mesh that is library data, linked or a library override, cannot take the pose key (Blender
 keeps no shape key written to either): it is refused before anything is claimed or built
@@ -350,19 +352,23 @@ def prune(alive) -> None:
 
 def drop_dead_claims() -> None:
     """Clear the claims held by objects in no scene (deleted), of controls, meshes and point
-    cache files: a claim is a pointer, which would keep a deleted object, and its mesh, in the
-    file. Undo brings them back with it."""
-    for ids in (bpy.data.objects, bpy.data.meshes):
-        for i in ids:
-            o = i.bsarap_owner
-            if o is not None and not linked(o) and i.library is None:
-                i.bsarap_owner = None
-    for sc in bpy.data.scenes:  # the point cache files' claims (operators.claim_cache)
-        if sc.library is None:
-            for k in reversed(range(len(sc.bsarap_caches))):
-                o = sc.bsarap_caches[k].owner
-                if o is not None and not linked(o):
-                    sc.bsarap_caches.remove(k)
+    cache files, and those of meshes their owner no longer uses: a claim is a pointer, which
+    would keep a deleted object, and its mesh, in the file. Undo brings them back with it."""
+    for c in bpy.data.objects:
+        o = c.bsarap_owner
+        if o is not None and not linked(o) and c.library is None:
+            c.bsarap_owner = None
+    for sc in bpy.data.scenes:
+        if sc.library is not None:
+            continue
+        for k in reversed(range(len(sc.bsarap_meshes))):
+            m = sc.bsarap_meshes[k]
+            if m.mesh is None or m.owner is None or not linked(m.owner) or m.owner.data != m.mesh:
+                sc.bsarap_meshes.remove(k)
+        for k in reversed(range(len(sc.bsarap_caches))):  # the point cache files' (operators.claim_cache)
+            o = sc.bsarap_caches[k].owner
+            if o is not None and not linked(o):
+                sc.bsarap_caches.remove(k)
 
 
 def linked(control) -> bool:
@@ -381,10 +387,23 @@ def owner(control):
 
 
 def mesh_owner(mesh):
-    """The object that claimed ``mesh`` (its saved ``bsarap_owner``), or ``None``: also when
+    """The object that claimed ``mesh`` (in a scene's ``bsarap_meshes``), or ``None``: also when
     that object is in no scene or has another mesh since."""
-    o = mesh.bsarap_owner
-    return o if o is not None and linked(o) and o.data == mesh else None
+    for sc in bpy.data.scenes:
+        for m in sc.bsarap_meshes:
+            o = m.owner
+            if m.mesh == mesh and o is not None and linked(o) and o.data == mesh:
+                return o
+    return None
+
+
+def claim_mesh(obj) -> None:
+    """Record that ``obj`` poses its mesh, in the first scene of ``obj`` that is not library
+    data (nowhere if there is none: then nothing is claimed)."""
+    scenes = [sc for sc in obj.users_scene if sc.library is None]
+    if scenes:
+        m = scenes[0].bsarap_meshes.add()
+        m.mesh, m.owner = obj.data, obj
 
 
 def mesh_sharer(obj):
@@ -404,9 +423,12 @@ def shared_mesh_message(obj, other) -> str:
 
 
 def release_mesh(obj) -> None:
-    """Let go of the claim of ``obj`` on its mesh (Remove Controls)."""
-    if obj.data.bsarap_owner == obj and obj.data.library is None:
-        obj.data.bsarap_owner = None
+    """Let go of the claims of ``obj`` on meshes (Remove Controls)."""
+    for sc in bpy.data.scenes:
+        if sc.library is None:
+            for k in reversed(range(len(sc.bsarap_meshes))):
+                if sc.bsarap_meshes[k].owner == obj:
+                    sc.bsarap_meshes.remove(k)
 
 
 def foreign_groups(obj) -> list:
@@ -438,8 +460,8 @@ def claim_free_controls(obj) -> None:
     object (in a scene, with that mesh) claimed it."""
     controls = [g.control for g in obj.bsarap.groups if linked(g.control)]
     me = obj.data
-    if controls and me.bsarap_owner != obj and mesh_owner(me) is None and me.library is None:
-        me.bsarap_owner = obj
+    if controls and mesh_owner(me) is None and me.library is None:
+        claim_mesh(obj)
     for c in controls:
         if c.bsarap_owner != obj and owner(c) is None and c.library is None:
             c.bsarap_owner = obj
@@ -454,7 +476,9 @@ def claim_unclaimed() -> None:
     """Claims for a file saved before they were stored in it: each control that the handle
     groups of one mesh object alone (in the scenes) use, and each mesh that one object with
     controls alone uses, is claimed by that object, so a copy made after loading is refused. A
-    control or mesh that two objects use (a file saved with a copy) is left to the first posed."""
+    control or mesh that two objects use (a file saved with a copy) is left to the first posed.
+    Mesh claims saved as pointers on the meshes are adopted first (:func:`adopt_mesh_pointers`)."""
+    adopt_mesh_pointers()
     users, mesh_users = {}, {}
     objects = {o.session_uid: o for sc in bpy.data.scenes for o in sc.objects if o.type == "MESH"}
     for o in objects.values():
@@ -469,7 +493,25 @@ def claim_unclaimed() -> None:
             c.bsarap_owner = used_by[0]
     for me, used_by in mesh_users.values():
         if len(used_by) == 1 and me.library is None and mesh_owner(me) is None:
-            me.bsarap_owner = used_by[0]
+            claim_mesh(used_by[0])
+
+
+def adopt_mesh_pointers() -> None:
+    """Move the mesh claims of a file saved when they were a pointer on the mesh
+    (``Mesh.bsarap_owner``, before ``Scene.bsarap_meshes``) into the scene, and delete the
+    pointer: Blender leaves it dangling when its object is removed by a script, and frees
+    through it when the mesh goes. Run when a file is loaded (or the extension enabled in it),
+    while the pointer is as read from the file."""
+    for me in bpy.data.meshes:
+        if me.library is not None:
+            continue
+        props = me.bl_system_properties_get() if hasattr(me, "bl_system_properties_get") else me
+        if props is None or "bsarap_owner" not in props:
+            continue  # Blender 5 keeps an add-on's properties apart from the user's
+        o = props["bsarap_owner"]
+        del props["bsarap_owner"]
+        if isinstance(o, bpy.types.Object) and linked(o) and o.data == me and mesh_owner(me) is None:
+            claim_mesh(o)
 
 
 def check_controls(obj) -> None:

@@ -508,7 +508,7 @@ class Unregister(unittest.TestCase):
         bpy.ops.preferences.addon_disable(module=MODULE)
         self.assertFalse(hasattr(bpy.types.Object, "bsarap"))
         self.assertFalse(hasattr(bpy.types.Object, "bsarap_owner"))
-        self.assertFalse(hasattr(bpy.types.Mesh, "bsarap_owner"))
+        self.assertFalse(hasattr(bpy.types.Scene, "bsarap_meshes"))
         self.assertNotIn(handlers.on_depsgraph_update, bpy.app.handlers.depsgraph_update_post)
         self.assertNotIn(handlers.on_frame_change, bpy.app.handlers.frame_change_post)
         self.assertNotIn(handlers.on_render_start, bpy.app.handlers.render_init)

@@ -1,7 +1,7 @@
 """Tests of the Blender extension in bpy, headless, around what belongs to which object: the
 claims of a file saved before they were stored, the point cache of a copy of a baked object,
-the panel's messages once their cause is gone, the solver of a deleted object, and a library
-override's mesh.
+the panel's messages once their cause is gone, the solver of a deleted object, a library
+override's mesh, an object removed by a script, and a mesh's claim saved as a pointer on it.
 
 Run with Blender's Python (bpy from PyPI):
     tools/blender/.venv/bin/python blender/tests/test_claims.py [-v] [Class.test_name]
@@ -36,8 +36,18 @@ def save_and_open(name):
 
 def claims():
     """``{name: owner name}`` of every control and mesh with a claim."""
-    ids = (*bpy.data.objects, *bpy.data.meshes)
-    return {i.name: i.bsarap_owner.name for i in ids if i.bsarap_owner is not None}
+    out = {o.name: o.bsarap_owner.name for o in bpy.data.objects if o.bsarap_owner is not None}
+    for sc in bpy.data.scenes:
+        out.update({m.mesh.name: m.owner.name for m in sc.bsarap_meshes if m.mesh and m.owner})
+    return out
+
+
+def clear_claims():
+    """As in a file saved before the claims were stored."""
+    for o in bpy.data.objects:
+        o.bsarap_owner = None
+    for sc in bpy.data.scenes:
+        sc.bsarap_meshes.clear()
 
 
 class OldFile(unittest.TestCase):
@@ -51,8 +61,7 @@ class OldFile(unittest.TestCase):
         obj.bsarap.live = False
         if copy:
             duplicate(obj)
-        for i in (*bpy.data.objects, *bpy.data.meshes):
-            i.bsarap_owner = None
+        clear_claims()
         save_and_open("old.blend")
         return bpy.data.objects["tube"]
 
@@ -93,8 +102,7 @@ class OldFile(unittest.TestCase):
     def test_claimed_when_enabled(self):
         """The extension enabled with such a file open: claimed as on load."""
         obj = self.old_file()
-        for i in (*bpy.data.objects, *bpy.data.meshes):
-            i.bsarap_owner = None  # as opened with the extension disabled
+        clear_claims()  # as opened with the extension disabled
         bpy.ops.preferences.addon_disable(module=MODULE)
         bpy.ops.preferences.addon_enable(module=MODULE)
         self.assertEqual(claims(), {"bottom": "tube", "top": "tube", "tube": "tube"})
@@ -520,14 +528,13 @@ class LibraryOverride(unittest.TestCase):
         self.assertIsNone(ext.solve.built(obj))
 
     def test_mesh_not_overridden(self):
-        """The object overridden, its mesh still linked; the library's tube also in the scene
-        (its claim on the mesh is in the library): refused as an override, not as a copy."""
+        """The object overridden, its mesh still linked; the library's tube, which posed it,
+        also in the scene: refused as an override, not as a copy."""
         linked = link_rig(self.lib)
         obj = linked[0].override_create(remap_local_usages=False)
         bpy.context.scene.collection.objects.link(obj)
         self.assertIsNotNone(obj.data.library)
         self.assertIsNotNone(obj.override_library)
-        self.assertEqual(obj.data.bsarap_owner, linked[0])
         self.assert_refused(
             obj, "tube: a library override whose mesh is not overridden: the mesh is still linked from lib.blend"
         )
@@ -551,6 +558,79 @@ class LibraryOverride(unittest.TestCase):
         rig[2].location.x += 0.3
         bpy.context.view_layer.update()
         assert_pose_follows(obj)
+
+
+
+class RemovedByScript(unittest.TestCase):
+    """``bpy.data.objects.remove`` (a script's, not the viewport's Delete) frees the object at
+    once; Blender clears the pointers to it that other objects and scenes hold, not a mesh's.
+    A mesh's claim is in the scene, so nothing points to freed memory and the updates go on."""
+
+    def test_posed_copy_removed(self):
+        obj = posed_tube(top_x=0.5)
+        dup = duplicate(obj)
+        activate(dup)
+        self.assertEqual(bpy.ops.bsarap.add_controls(), {"FINISHED"})  # its own controls
+        mesh = dup.data
+        self.assertEqual(ext.solve.mesh_owner(mesh), dup)
+        bpy.data.objects.remove(dup)
+        bpy.context.view_layer.update()
+        ext.handlers.update_scene(bpy.context.scene)  # read freed memory with the pointer
+        self.assertIsNone(ext.solve.mesh_owner(mesh))
+        self.assertNotIn(mesh.name, claims())
+        self.assertEqual(claims()["tube"], "tube")
+        self.assertEqual(mesh.users, 0)  # no claim keeps the removed object's mesh
+        bpy.data.objects["top"].location.x += 0.2
+        bpy.context.view_layer.update()
+        assert_pose_follows(obj)
+        self.assertIsNone(ext.solve.message(obj))
+
+    def test_mesh_reused(self):
+        """The mesh of a removed posed object given to a new one (which takes the freed memory:
+        the pointer on the mesh named it as the owner): no claim until it is posed."""
+        obj = posed_tube(top_x=0.5)
+        mesh = obj.data
+        bpy.data.objects.remove(obj)
+        new = bpy.data.objects.new("other", mesh)
+        bpy.context.scene.collection.objects.link(new)
+        bpy.context.view_layer.update()
+        self.assertIsNone(ext.solve.mesh_owner(mesh))
+        self.assertEqual([m.owner for m in bpy.context.scene.bsarap_meshes], [])
+
+
+class MeshPointerClaims(unittest.TestCase):
+    """A file saved when a mesh's claim was a pointer on the mesh (``Mesh.bsarap_owner``): the
+    claim moves into the scene on load and the pointer goes."""
+
+    def saved_with_pointers(self, *, linked_copy=False):
+        obj = posed_tube(top_x=0.5)
+        obj.bsarap.live = False
+        dup = duplicate(obj, linked=True).name if linked_copy else None
+        bpy.context.scene.bsarap_meshes.clear()
+        bpy.types.Mesh.bsarap_owner = bpy.props.PointerProperty(type=bpy.types.Object)
+        try:
+            obj.data.bsarap_owner = obj
+        finally:
+            del bpy.types.Mesh.bsarap_owner  # its value stays in the mesh, as in such a file
+        save_and_open("pointers.blend")
+        return bpy.data.objects["tube"], dup and bpy.data.objects[dup]
+
+    def stored(self, mesh):
+        props = mesh.bl_system_properties_get() if hasattr(mesh, "bl_system_properties_get") else mesh
+        return props is not None and "bsarap_owner" in props
+
+    def test_adopted(self):
+        obj, _ = self.saved_with_pointers()
+        self.assertFalse(self.stored(obj.data))
+        self.assertEqual(claims(), {"bottom": "tube", "top": "tube", "tube": "tube"})
+
+    def test_linked_copy_keeps_the_original(self):
+        """Saved with a linked duplicate: the pointer says which object poses the mesh (without
+        it neither would be claimed on load)."""
+        obj, dup = self.saved_with_pointers(linked_copy=True)
+        self.assertEqual(ext.solve.mesh_owner(obj.data), obj)
+        self.assertIs(ext.solve.mesh_sharer(dup), obj)
+        self.assertFalse(self.stored(obj.data))
 
 
 if __name__ == "__main__":
