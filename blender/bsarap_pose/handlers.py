@@ -96,17 +96,17 @@ def update_scene(scene) -> None:
     if _busy or suspended or rendering:
         return
     _busy = True
-    solved = False
+    finishing = False  # whether a pose has finishing steps to take (solve.update)
     try:
         prune()
         for obj in posed_objects(scene):
             try:
-                solved |= solve.update(obj)
+                finishing |= solve.update(obj)
             except Exception as e:  # noqa: BLE001 - a message, not a traceback per update
                 report(obj, e)
     finally:
         _busy = False
-    if solved and not bpy.app.timers.is_registered(finish_timer):
+    if finishing and not bpy.app.timers.is_registered(finish_timer):
         bpy.app.timers.register(finish_timer, first_interval=solve.REST_DELAY)
 
 

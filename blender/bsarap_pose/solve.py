@@ -146,9 +146,16 @@ def clear_error(obj) -> bool:
     message replaced it; returns whether there was one."""
     k = uid(obj)
     msg = _errors.pop(k, None)
-    if msg is not None and messages.get(k) == msg:
-        del messages[k]
+    if msg is not None:
+        _drop_message(k, msg)
     return msg is not None
+
+
+def _drop_message(k, *kept) -> None:
+    """Drop the message of the object under ``k`` if it is still one of ``kept`` (a message
+    whose cause is gone), not one that replaced it since."""
+    if k in messages and messages[k] in kept:
+        del messages[k]
 
 
 def rest_diagonal(obj) -> float:
@@ -286,8 +293,8 @@ def state(obj, *, rebuild=True) -> SolverState:
     st = _states.get(k)
     if st is not None and st.key == key:
         failed = _failures.pop(k, None)
-        if failed is not None and messages.get(k) in (str(failed[1]), str(_renamed(failed, obj.name))):
-            del messages[k]
+        if failed is not None:
+            _drop_message(k, str(failed[1]), str(_renamed(failed, obj.name)))
         return st
     if not rebuild:
         raise HandleError(f"{obj.name}: the solver is not built")
@@ -527,8 +534,8 @@ def check_controls(obj) -> None:
         msg = _refused[k] = shared_mesh_message(obj, other) if other is not None else foreign_message(obj, foreign)
         raise HandleError(msg)
     refused = _refused.pop(k, None)
-    if refused is not None and messages.get(k) == refused:
-        del messages[k]
+    if refused is not None:
+        _drop_message(k, refused)
     claim_free_controls(obj)
 
 
