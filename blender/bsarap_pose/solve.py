@@ -81,7 +81,6 @@ class SolverState:
         # (MAX_SETTLE_STEPS) or "error"; None while it has
         self.ended = None
         self.baking = False  # a bake solves the frames: no live solve, finish_step waits
-        self.editing = False  # the object was in Edit Mode at the last live update
         # the rest bounding-box diagonal: the unit of the fractions (bending length, smoothing)
         self.diagonal = diagonal(rest)
 
@@ -107,8 +106,13 @@ _refused: dict = {}
 #: session uid -> the last error the live update or a finishing step reported
 #: (:func:`report_error`): it goes once the object poses again.
 _errors: dict = {}
+#: session uid -> the object's mode at its last live update (:func:`editing`).
+_modes: dict = {}
+#: session uid -> how often the handle groups' weights were found changed on leaving a mode that
+#: edits them (:func:`weights_edited`); in the key, so a change rebuilds.
+_weights: dict = {}
 #: The entries kept per object.
-_PER_OBJECT = (_states, messages, _diagonals, _failures, _refused, _errors)
+_PER_OBJECT = (_states, messages, _diagonals, _failures, _refused, _errors, _modes, _weights)
 
 
 def uid(obj) -> int:
@@ -252,6 +256,8 @@ class StateKey(NamedTuple):
     settings: tuple
     #: the modifiers that block posing (added after the controls: refused until they go)
     blocking: tuple
+    #: the handle groups' vertex weights found changed (:func:`weights_edited`)
+    weights: int
 
 
 def state_key(obj) -> StateKey:
@@ -263,6 +269,7 @@ def state_key(obj) -> StateKey:
         groups_exist=tuple(obj.vertex_groups.get(g.name) is not None for g in s.groups),
         settings=tuple(sorted(s.solver_settings().items())),
         blocking=tuple(tuple(labels) for labels in modifiers.blocking(obj)),
+        weights=_weights.get(uid(obj), 0),
     )
 
 
@@ -316,6 +323,8 @@ def state(obj, *, rebuild=True) -> SolverState:
             )
         elif st.key.rest != key.rest:
             messages[k] = f"{obj.name}: the rest mesh (basis) changed; solver rebuilt"
+        elif st.key.weights != key.weights:
+            messages[k] = f"{obj.name}: the handle groups' vertex weights changed; solver rebuilt"
         else:
             messages[k] = f"{obj.name}: settings or groups changed; solver rebuilt"
     _states[k] = new
@@ -539,19 +548,47 @@ def check_controls(obj) -> None:
     claim_free_controls(obj)
 
 
+#: The modes that edit vertex weights: the handle groups are read again on leaving one.
+WEIGHT_MODES = ("EDIT", "WEIGHT_PAINT")
+
+
 def editing(obj) -> bool:
     """Whether ``obj`` is in Edit Mode (the live update leaves it alone). The first call after
     Edit Mode ended forgets the last solve's motion, so the next update solves the pose again:
-    leaving Edit Mode wrote the edit mesh's copy of the pose key back over it."""
-    st = built(obj)
-    if obj.mode == "EDIT":
-        if st is not None:
-            st.editing = True
+    leaving Edit Mode wrote the edit mesh's copy of the pose key back over it. After Edit Mode
+    or Weight Paint the handle groups are read again (:func:`weights_edited`)."""
+    k = uid(obj)
+    before, mode = _modes.get(k), obj.mode
+    _modes[k] = mode
+    if mode == "EDIT":
         return True
-    if st is not None and st.editing:
-        st.editing = False
+    st = built(obj)
+    if before == "EDIT" and st is not None:
         st.last_deltas = None
+    if before in WEIGHT_MODES and mode != before:
+        weights_edited(obj)
     return False
+
+
+def weights_edited(obj) -> None:
+    """Read the handle groups' vertex weights again (after a mode that edits them): when the
+    labels differ from the built solver's, or no longer make handle groups, or the last build
+    failed, the key changes, so the next update builds again and a fixed failure's message goes
+    (a group with no vertex above the threshold, painted since). Reading the weights costs a
+    pass over the vertices in Python; the build only follows a change."""
+    k = uid(obj)
+    st, failed = _states.get(k), _failures.get(k)
+    if failed is not None and failed[0] == state_key(obj):
+        changed = True
+    elif st is not None:
+        try:
+            changed = not np.array_equal(handles.labels(obj, st.group_names), st.labels)
+        except HandleError:
+            changed = True  # the build says why
+    else:
+        changed = False
+    if changed:
+        _weights[k] = _weights.get(k, 0) + 1
 
 
 def scale_warning(obj):

@@ -1,7 +1,8 @@
 """Tests of the Blender extension in bpy, headless, around what belongs to which object: the
 claims of a file saved before they were stored, the point cache of a copy of a baked object,
 the panel's messages once their cause is gone, the solver of a deleted object, a library
-override's mesh, an object removed by a script, and a mesh's claim saved as a pointer on it.
+override's mesh, an object removed by a script, a mesh's claim saved as a pointer on it, and
+vertex weights edited after the controls were added.
 
 Run with Blender's Python (bpy from PyPI):
     tools/blender/.venv/bin/python blender/tests/test_claims.py [-v] [Class.test_name]
@@ -24,6 +25,9 @@ from common import (  # noqa: E402  (sets BLENDER_USER_RESOURCES before bpy)
     MODULE, SKIP, activate, assert_pose_follows, bpy, draw_panel, duplicate, ext, fake_modal_bake,
     link_rig, posed_tube, setUpModule
 )
+
+if SKIP is None:
+    import bmesh
 
 
 def save_and_open(name):
@@ -559,6 +563,61 @@ class LibraryOverride(unittest.TestCase):
         bpy.context.view_layer.update()
         assert_pose_follows(obj)
 
+
+
+class WeightEdits(unittest.TestCase):
+    """Vertex weights painted (Weight Paint) or assigned (Edit Mode) are read again when the
+    mode ends: the solver is rebuilt when the handle groups changed, and a build that failed on
+    them is tried again, its message gone once fixed."""
+
+    def setUp(self):
+        self.obj = posed_tube(top_x=0.5)
+        self.top = self.obj.vertex_groups["top"]
+        self.ring = list(range(20 * 16, 21 * 16))  # the ring below the top group's two
+
+    def edit(self, mode, weights):
+        """Enter ``mode``, set the top group's weights ``{vertex: weight}`` (in Edit Mode on the
+        edit mesh, as assigning does), go back to Object Mode."""
+        activate(self.obj)
+        bpy.ops.object.mode_set(mode=mode)
+        if mode == "EDIT":
+            bm = bmesh.from_edit_mesh(self.obj.data)
+            layer = bm.verts.layers.deform.verify()
+            bm.verts.ensure_lookup_table()
+            for w, idx in weights.items():
+                for i in idx:
+                    bm.verts[i][layer][self.top.index] = w
+            bmesh.update_edit_mesh(self.obj.data)
+        else:
+            for w, idx in weights.items():
+                self.top.add(idx, w, "REPLACE")
+        bpy.context.view_layer.update()  # an update in the mode
+        bpy.ops.object.mode_set(mode="OBJECT")
+        bpy.context.view_layer.update()
+
+    def test_painted_group_rebuilds(self):
+        before = ext.solve.state(self.obj)
+        self.edit("WEIGHT_PAINT", {1.0: self.ring})
+        st = ext.solve.built(self.obj)
+        self.assertIsNot(st, before)
+        self.assertTrue((st.labels[self.ring] == 1).all())
+        self.assertIn("vertex weights changed", ext.solve.message(self.obj))
+        assert_pose_follows(self.obj)
+
+    def test_unchanged_weights_keep_the_solver(self):
+        before = ext.solve.state(self.obj)
+        self.edit("EDIT", {})
+        self.assertIs(ext.solve.built(self.obj), before)
+
+    def test_failed_build_tried_again(self):
+        top = [v.index for v in self.obj.data.vertices if any(g.group == self.top.index for g in v.groups)]
+        self.edit("WEIGHT_PAINT", {0.3: top})
+        self.assertIn("'top' has no vertex with weight above 0.5", ext.solve.message(self.obj))
+        self.edit("EDIT", {1.0: top[:-1]})  # back as it was (the one vertex at 0.3 stays)
+        self.assertIn("vertex weights changed; solver rebuilt", ext.solve.message(self.obj))
+        bpy.data.objects["top"].location.x += 0.2
+        bpy.context.view_layer.update()
+        assert_pose_follows(self.obj)
 
 
 class RemovedByScript(unittest.TestCase):
