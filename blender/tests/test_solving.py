@@ -22,7 +22,7 @@ from common import (  # noqa: E402  (sets BLENDER_USER_RESOURCES before bpy)
 )
 
 if SKIP is None:
-    from mathutils import Euler, Vector
+    from mathutils import Euler, Matrix, Vector
 
 
 class SmoothRotations(unittest.TestCase):
@@ -161,6 +161,29 @@ class SmoothRotations(unittest.TestCase):
         finally:
             obj.bsarap.coarse_energy = "decimated"
             obj.bsarap.energy = "spokes-and-rims"
+
+
+class PanelUnits(unittest.TestCase):
+    """The Solver panel's bending length in the mesh's units."""
+
+    def test_bending_length_follows_the_rest_mesh(self):
+        """The world-unit bending length of an object never posed follows its base mesh scaled
+        in place (same topology), and so does a posed one's with Live off (no rebuild yet)."""
+        bpy.ops.wm.read_homefile(use_empty=True)
+        never = tube("never")
+        posed = tube("posed")
+        make_controls(posed, ["bottom", "top"])
+        posed.bsarap.live = False
+        for obj in (never, posed):
+            obj.bsarap.energy = "smooth-rotations"
+            obj.bsarap.bending_length = 0.05
+            before = ext.solve.rest_diagonal(obj)
+            obj.data.transform(Matrix.Scale(2.0, 4), shape_keys=True)  # the basis too
+            obj.data.update()
+            self.assertAlmostEqual(ext.solve.rest_diagonal(obj), 2.0 * before, places=5)
+            labels = draw_panel(ext.panel.BSARAP_PT_settings, obj).labels
+            world = f"{0.05 * 2.0 * before:.4g}"
+            self.assertTrue(any(world in t for t in labels), (world, labels))
 
 
 class Finishing(unittest.TestCase):
