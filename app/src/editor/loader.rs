@@ -5,7 +5,9 @@
 //! once (the adjacency, kept with the mesh; BVH, index buffers, grid, the asset's render
 //! layout and decoded textures) beside it, then hand back a
 //! [`LoadedFile`] over a channel that the UI polls without blocking. A failure comes back as an
-//! error string; the UI keeps the current scene. Reading and cleaning are `solver::io`'s;
+//! error string; the UI keeps the current scene. [`spawn_selection`] reads a selection for the
+//! open mesh the same way (the UI drops it if that mesh is no longer open when it arrives).
+//! Reading and cleaning are `solver::io`'s;
 //! selections are `solver::deform::selection`'s; scene files (`.json`) are `solver::animation::scene`'s: the
 //! mesh they name is loaded and their handles resolved here, the rest is applied by the UI.
 
@@ -94,11 +96,12 @@ pub fn is_scene_file(path: &Path) -> bool {
     path.extension().is_some_and(|e| e.eq_ignore_ascii_case("json"))
 }
 
-/// A load running on a worker thread.
-pub struct LoadJob {
+/// A load running on a worker thread: a mesh or a scene ([`LoadedFile`]), or a selection's
+/// labels per vertex ([`spawn_selection`]).
+pub struct LoadJob<T = LoadedFile> {
     pub path: PathBuf,
     pub since: Instant,
-    pub rx: Receiver<Result<LoadedFile, String>>,
+    pub rx: Receiver<Result<T, String>>,
 }
 
 /// Starts loading `path`; `version` tags the topology for the renderer. A mesh file (not a
@@ -110,7 +113,7 @@ pub fn spawn_load(
     repaint: impl Fn() + Send + 'static,
     start_prepare: Option<StartPrepare>,
 ) -> LoadJob {
-    spawn_loader(path, repaint, move |p| {
+    spawn_loader(path, "mesh-loader", repaint, open_error, move |p| {
         if is_scene_file(p) {
             load_scene_file(p, version, solver::io::ReferencePolicy::default())
         } else {
@@ -127,7 +130,23 @@ pub fn spawn_loaded(
     version: u64,
     repaint: impl Fn() + Send + 'static,
 ) -> LoadJob {
-    spawn_loader(path, repaint, move |p| prepare(p, loaded, version, None))
+    spawn_loader(path, "mesh-loader", repaint, open_error, move |p| {
+        prepare(p, loaded, version, None)
+    })
+}
+
+/// Starts reading the selection at `path` for `mesh` (whose file's layout is `layout`), as
+/// [`load_selection`] reads it: the file's read and parse, a sphere list's evaluation against
+/// the rest positions and a `.dmat`'s mapping through `vertex_map` run on the loader thread.
+pub fn spawn_selection(
+    path: PathBuf,
+    mesh: Arc<Mesh>,
+    layout: Arc<FileLayout>,
+    repaint: impl Fn() + Send + 'static,
+) -> LoadJob<Vec<Option<u32>>> {
+    spawn_loader(path, "selection-loader", repaint, load_error, move |p| {
+        load_selection(p, mesh.positions(), &layout.vertex_map)
+    })
 }
 
 /// "Could not open PATH: why", naming the path once: the mesh readers' errors start with it
@@ -142,19 +161,27 @@ fn open_error(path: &Path, e: &anyhow::Error) -> String {
     }
 }
 
-/// Runs `load` on the loader thread, its panics caught.
-fn spawn_loader(
+/// "Could not load PATH: why", for a selection.
+fn load_error(path: &Path, e: &anyhow::Error) -> String {
+    format!("Could not load {}: {e:#}", path.display())
+}
+
+/// Runs `load` on a loader thread named `name`, its panics caught; an error comes back worded
+/// by `error`.
+fn spawn_loader<T: Send + 'static>(
     path: PathBuf,
+    name: &str,
     repaint: impl Fn() + Send + 'static,
-    load: impl FnOnce(&Path) -> anyhow::Result<LoadedFile> + Send + 'static,
-) -> LoadJob {
+    error: fn(&Path, &anyhow::Error) -> String,
+    load: impl FnOnce(&Path) -> anyhow::Result<T> + Send + 'static,
+) -> LoadJob<T> {
     let (tx, rx) = channel();
     let p = path.clone();
-    let spawned = std::thread::Builder::new().name("mesh-loader".into()).spawn(move || {
+    let spawned = std::thread::Builder::new().name(name.into()).spawn(move || {
         // Nothing the load touches outlives a panic: it is all dropped with the thread.
         let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| load(&p)))
             .unwrap_or_else(|_| Err(anyhow!("the loader crashed while reading the file")))
-            .map_err(|e| open_error(&p, &e));
+            .map_err(|e| error(&p, &e));
         let _ = tx.send(result);
         repaint();
     });
@@ -351,6 +378,29 @@ mod tests {
         assert!(scene.default_labels.is_none());
         let notice = scene.notices.iter().find(|n| n.contains("ignored selection"));
         assert!(notice.is_some_and(|n| n.contains("tet.dmat")), "{:?}", scene.notices);
+    }
+
+    /// A selection read on the loader thread gives the labels `load_selection` gives; a file
+    /// that cannot be read comes back as the UI shows it, naming the file, without a panic.
+    #[test]
+    fn a_selection_is_read_on_the_loader_thread() {
+        let dir = solver::testing::ScratchDir::new("loader-selection");
+        let (bar, _) = solver::geometry::shapes::bumpy_bar(1);
+        let n = bar.n_vertices();
+        let (mesh, layout) = (Arc::new(bar), Arc::new(FileLayout::default()));
+        let path = dir.join("sel.dmat");
+        let rows: String = (0..n).map(|v| if v < 3 { "1\n" } else { "-1\n" }).collect();
+        std::fs::write(&path, format!("1 {n}\n{rows}")).unwrap();
+        let job = spawn_selection(path.clone(), mesh.clone(), layout.clone(), || {});
+        let labels = job.rx.recv().unwrap().unwrap();
+        let expected = load_selection(&path, mesh.positions(), &layout.vertex_map).unwrap();
+        assert_eq!(labels, expected);
+        assert_eq!(labels.iter().filter(|l| l.is_some()).count(), 3);
+        let missing = dir.join("nope.dmat");
+        let job = spawn_selection(missing.clone(), mesh, layout, || {});
+        let e = job.rx.recv().unwrap().unwrap_err();
+        let start = format!("Could not load {}: ", missing.display());
+        assert!(e.starts_with(&start), "{e}");
     }
 
     /// A mesh file starts the mesh's own precomputation from the loader thread, on the mesh

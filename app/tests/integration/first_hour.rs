@@ -132,6 +132,7 @@ fn save_open_dmat_and_export_go_through_the_in_app_file_dialog() {
     assert_ne!(h.state().edit_state().labels, labels);
     h.get_by_label("Load .dmat…").click();
     choose_in_dialog(&mut h, &dmat);
+    step_until(&mut h, "the .dmat", |a| !a.is_loading_selection());
     assert!(h.state().error().is_none(), "{:?}", h.state().error());
     assert_eq!(h.state().edit_state().labels, labels);
     step_until(&mut h, "a solved frame", settled);
@@ -682,19 +683,96 @@ fn a_dropped_selection_is_the_open_meshs_new_selection() {
     let rows: String = (0..n).map(|v| if v < 4 { "0\n" } else { "-1\n" }).collect();
     std::fs::write(&dmat, format!("1 {n}\n{rows}")).unwrap();
     support::drop_file(&mut h, dmat);
+    step_until(&mut h, "the .dmat", |a| !a.is_loading_selection());
     assert!(!h.state().is_loading() && h.state().error().is_none(), "{:?}", h.state().error());
     assert_eq!(h.state().mesh_path(), Some(bar.as_path()));
     let from_dmat: Vec<Option<u32>> = (0..n).map(|v| (v < 4).then_some(0)).collect();
     assert_eq!(h.state().labels(), from_dmat.as_slice());
+    assert_eq!(h.state().info(), Some("handles from sel.dmat"));
     let p = mesh.positions()[n - 1];
     let spheres = dir.join("sel.json");
     let text = format!("\n [{{\"group\": 0, \"center\": {p:?}, \"radius\": 1e-6}}]");
     std::fs::write(&spheres, text).unwrap();
     support::drop_file(&mut h, spheres);
+    step_until(&mut h, "the spheres", |a| !a.is_loading_selection());
     assert!(!h.state().is_loading() && h.state().error().is_none(), "{:?}", h.state().error());
     let labels = h.state().labels();
     assert_eq!((labels[0], labels[n - 1]), (None, Some(0)), "{labels:?}");
     h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
     h.step();
     assert_eq!(h.state().labels(), from_dmat.as_slice(), "undo brings the .dmat's back");
+}
+
+/// A FIFO at `dir/name`: reading it waits until [`write_later`] writes it, so that a
+/// selection read from it is still being read whatever the test does meanwhile.
+#[cfg(unix)]
+fn fifo(dir: &ScratchDir, name: &str) -> std::path::PathBuf {
+    use std::os::unix::ffi::OsStrExt;
+    let path = dir.join(name);
+    let c = std::ffi::CString::new(path.as_os_str().as_bytes()).unwrap();
+    // SAFETY: `c` is a valid NUL-terminated path that outlives the call.
+    assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0, "mkfifo {}", path.display());
+    path
+}
+
+/// Writes `text` into the FIFO at `path` on another thread (opening it waits for its reader).
+#[cfg(unix)]
+fn write_later(path: std::path::PathBuf, text: String) -> std::thread::JoinHandle<()> {
+    std::thread::spawn(move || std::fs::write(&path, text).unwrap())
+}
+
+/// A selection is read off the UI thread, the status saying so meanwhile, and applies to the
+/// mesh it was read for only: one whose mesh was opened again before it arrived is dropped
+/// (the same vertex count: only the mesh's version tells them apart), and one read while
+/// another is replaces it. Its files are FIFOs, so each read waits until the test writes it.
+#[cfg(unix)]
+#[test]
+fn a_selection_applies_only_to_the_mesh_it_was_read_for() {
+    let dir = ScratchDir::new("selection-in-background");
+    let (mesh, _) = solver::geometry::shapes::bumpy_bar(1);
+    let bar = dir.join("bar.obj");
+    solver::io::write_obj(&bar, mesh.positions(), mesh.triangles()).unwrap();
+    let mut h = support::harness(bar.clone(), None);
+    step_until(&mut h, "the bar", |a| !a.is_loading() && a.n_vertices() > 0);
+    let n = mesh.n_vertices();
+    let dmat = |k: usize| -> String {
+        let rows: String = (0..n).map(|v| if v < k { "0\n" } else { "-1\n" }).collect();
+        format!("1 {n}\n{rows}")
+    };
+    let first_k = |k: usize| -> Vec<Option<u32>> { (0..n).map(|v| (v < k).then_some(0)).collect() };
+    let none = vec![None; n];
+
+    let slow = fifo(&dir, "slow.dmat");
+    support::drop_file(&mut h, slow.clone());
+    h.step();
+    assert!(h.state().is_loading_selection(), "{:?}", h.state().error());
+    assert!(h.query_by_label("loading…").is_some(), "the status does not say it is loading");
+    let ctx = h.ctx.clone();
+    h.state_mut().request_open(&ctx, bar.clone());
+    step_until(&mut h, "the bar opened again", |a| !a.is_loading());
+    assert!(h.state().is_loading_selection(), "read before its file was written");
+    let writer = write_later(slow, dmat(4));
+    step_until(&mut h, "the selection", |a| !a.is_loading_selection());
+    writer.join().unwrap();
+    assert_eq!(h.state().labels(), none.as_slice(), "applied to the mesh opened since");
+    assert!(h.state().info().is_none_or(|i| !i.contains("slow.dmat")), "{:?}", h.state().info());
+    assert!(h.state().error().is_none(), "{:?}", h.state().error());
+
+    // The later of two reads wins, whichever ends first.
+    let replaced = fifo(&dir, "replaced.dmat");
+    support::drop_file(&mut h, replaced.clone());
+    let later = dir.join("later.dmat");
+    std::fs::write(&later, dmat(2)).unwrap();
+    support::drop_file(&mut h, later);
+    step_until(&mut h, "the later selection", |a| !a.is_loading_selection());
+    assert_eq!(h.state().labels(), first_k(2).as_slice());
+    assert_eq!(h.state().info(), Some("handles from later.dmat"));
+    write_later(replaced, dmat(6)).join().unwrap();
+    for _ in 0..3 {
+        h.step();
+    }
+    assert_eq!(h.state().labels(), first_k(2).as_slice(), "the replaced read applied");
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    assert_eq!(h.state().labels(), none.as_slice(), "undo brings the labels before it back");
 }

@@ -27,8 +27,14 @@ impl EditorApp {
         self.session.pending == Some(super::session::Pending::Quit)
     }
 
+    /// Whether a mesh or a scene is loading.
     pub fn is_loading(&self) -> bool {
         self.jobs.loading.is_some()
+    }
+
+    /// Whether a selection is being read for the open mesh (`loader::spawn_selection`).
+    pub fn is_loading_selection(&self) -> bool {
+        self.jobs.selection.is_some()
     }
 
     /// Whether the mesh's own precomputation (`jobs::spawn_prepare`, which also writes its disk

@@ -227,7 +227,7 @@ impl EditorApp {
     fn dialog_chosen(&mut self, ctx: &egui::Context, kind: DialogKind, path: PathBuf) {
         match kind {
             DialogKind::OpenMesh | DialogKind::OpenScene => self.request_open(ctx, path),
-            DialogKind::LoadSelection => self.load_selection(&path),
+            DialogKind::LoadSelection => self.load_selection(ctx, &path),
             DialogKind::LoadTexture => self.load_texture(&path),
             DialogKind::SaveSelection => match loader::write_dmat(&path, &self.session.edit.labels)
             {

@@ -1,7 +1,7 @@
 //! The editor's UI state and frame loop (`eframe::App`).
 //!
-//! Architecture invariant: this module does no numerics and never waits. Meshes load on a
-//! loader thread ([`super::loader`]), deformations run on solver threads
+//! Architecture invariant: this module does no numerics and never waits. Meshes and selections
+//! load on loader threads ([`super::loader`]), deformations run on solver threads
 //! ([`super::solver_thread`]); each UI frame polls both without blocking. What it does itself is
 //! input handling, picking (BVH) and building vertex colors and normals for the GPU.
 //!
@@ -38,6 +38,7 @@ mod status_bar;
 mod viewport;
 
 use std::path::{Path, PathBuf};
+use std::time::Instant;
 
 use super::jobs::{Baking, Job, Preparing, Recorded, SideBySideQuality};
 use super::loader::LoadJob;
@@ -143,6 +144,10 @@ pub struct EditorApp {
 #[derive(Default)]
 struct Jobs {
     loading: Option<LoadJob>,
+    /// A selection being read for the open mesh (`loader::spawn_selection`), with the version
+    /// of the mesh it is read for (its `Topology::version`): dropped on arrival if another
+    /// mesh, or the same file again, was opened meanwhile.
+    selection: Option<(u64, LoadJob<Vec<Option<u32>>>)>,
     /// The precomputation a loader started on the mesh it read (`loader::StartPrepare`),
     /// until the loaded scene takes it over.
     early_prepare: std::sync::Arc<std::sync::Mutex<Option<Preparing>>>,
@@ -162,6 +167,17 @@ struct Jobs {
     /// The mesh's own precomputation (`jobs::spawn_prepare`), started by the loader as soon
     /// as it has the mesh, or when the method's settings change.
     prepare: Option<Preparing>,
+}
+
+impl Jobs {
+    /// The file being read in the background (a mesh or a scene, else a selection), and since
+    /// when: what the status bar and the viewport show while it loads.
+    fn reading(&self) -> Option<(&Path, Instant)> {
+        if let Some(j) = &self.loading {
+            return Some((&j.path, j.since));
+        }
+        self.selection.as_ref().map(|(_, j)| (j.path.as_path(), j.since))
+    }
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

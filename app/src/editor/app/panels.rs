@@ -494,6 +494,7 @@ impl eframe::App for EditorApp {
         self.display.last_frame = Some(now);
 
         self.poll_loader();
+        self.poll_selection();
         self.ensure_compare_solver(&ctx);
         self.poll_prepare(&ctx);
         self.poll_solvers();
@@ -674,7 +675,7 @@ impl eframe::App for EditorApp {
         if self.jobs.record.is_some() || self.jobs.export.is_some() || self.jobs.bake.is_some() {
             ctx.request_repaint_after(Duration::from_millis(100));
         }
-        if self.jobs.loading.is_some()
+        if self.jobs.reading().is_some()
             || self.solvers.main.as_ref().and_then(|s| s.try_status()).is_some_and(|s| {
                 matches!(s.state, SolverState::Factorizing { .. })
                     || s.settle_waiting_since.is_some()

@@ -122,7 +122,7 @@ impl EditorApp {
     pub fn request_open(&mut self, ctx: &egui::Context, path: PathBuf) {
         if loader::is_selection_file(&path) {
             match self.session.scene {
-                Some(_) => self.load_selection(&path),
+                Some(_) => self.load_selection(ctx, &path),
                 None => {
                     self.error = Some(format!(
                         "{} is a handle selection: open its mesh first, then drop it on the \
@@ -499,9 +499,36 @@ impl EditorApp {
         }
     }
 
-    pub(super) fn load_selection(&mut self, path: &Path) {
+    /// Starts reading the selection at `path` for the open mesh on a loader thread, in place of
+    /// one still being read; [`Self::poll_selection`] applies it.
+    pub(super) fn load_selection(&mut self, ctx: &egui::Context, path: &Path) {
         let Some(scene) = &self.session.scene else { return };
-        match loader::load_selection(path, scene.mesh.positions(), &scene.layout.vertex_map) {
+        let c = ctx.clone();
+        let (mesh, layout) = (scene.mesh.clone(), scene.layout.clone());
+        let job =
+            loader::spawn_selection(path.to_path_buf(), mesh, layout, move || c.request_repaint());
+        self.jobs.selection = Some((scene.topology.version, job));
+    }
+
+    /// Applies the selection read in the background once it arrives, as the open mesh's new
+    /// selection (undoably), or shows why it could not be read; drops it, error included, when
+    /// the mesh it was read for is no longer the one open.
+    pub(super) fn poll_selection(&mut self) {
+        let Some((version, job)) = &self.jobs.selection else { return };
+        let result = match job.rx.try_recv() {
+            Err(TryRecvError::Empty) => return,
+            Err(TryRecvError::Disconnected) => Err(format!(
+                "Could not load {}: the loader stopped without a result",
+                job.path.display()
+            )),
+            Ok(result) => result,
+        };
+        let (version, path) = (*version, job.path.clone());
+        self.jobs.selection = None;
+        if self.session.scene.as_ref().map(|s| s.topology.version) != Some(version) {
+            return;
+        }
+        match result {
             Ok(labels) => {
                 self.session.history.push(self.session.edit.clone());
                 // Component numbers depend on the mesh only: the loose parts' modes stay.
@@ -515,11 +542,11 @@ impl EditorApp {
                     ..EditState::from_labels(labels)
                 };
                 self.interaction.active_group = (!self.session.edit.groups.is_empty()).then_some(0);
-                self.info = Some(format!("handles from {}", file_name(path)));
+                self.info = Some(format!("handles from {}", file_name(&path)));
                 self.display.color_version += 1;
                 self.send_scene();
             }
-            Err(e) => self.error = Some(format!("Could not load {}: {e:#}", path.display())),
+            Err(e) => self.error = Some(e),
         }
     }
 

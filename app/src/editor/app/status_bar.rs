@@ -37,7 +37,7 @@ impl EditorApp {
             // A spinner repaints every frame: not on a software adapter, where each frame of a
             // dense mesh takes the cores the loading and the precomputation run on.
             let animate = self.display.software_rendering.is_none();
-            if self.jobs.loading.is_some() {
+            if self.jobs.reading().is_some() {
                 if animate {
                     ui.spinner();
                 }

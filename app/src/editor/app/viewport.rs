@@ -480,16 +480,16 @@ impl EditorApp {
             );
             y += 15.0;
         }
-        if let Some(job) = &self.jobs.loading {
+        if let Some((path, since)) = self.jobs.reading() {
             let secs = if self.options.deterministic_overlays {
                 0.0
             } else {
-                job.since.elapsed().as_secs_f32()
+                since.elapsed().as_secs_f32()
             };
             painter.text(
                 rect.center_bottom() - Vec2::new(0.0, 30.0),
                 egui::Align2::CENTER_CENTER,
-                format!("loading {} … {secs:.1} s", job.path.display()),
+                format!("loading {} … {secs:.1} s", path.display()),
                 egui::FontId::proportional(15.0),
                 Color32::YELLOW,
             );
