@@ -1,6 +1,7 @@
 """The extension's data on each object (``Object.bsarap``): the handle groups with their
-controls (Empties) and the solver settings, the CLI's flags; on each scene, the point cache
-files its bakes wrote (``Scene.bsarap_caches``)."""
+controls (Empties) and the solver settings, the CLI's flags; on each control, the object it
+poses (``Object.bsarap_owner``); on each scene, the objects that pose their meshes
+(``Scene.bsarap_meshes``) and the point cache files its bakes wrote (``Scene.bsarap_caches``)."""
 
 from __future__ import annotations
 
@@ -83,14 +84,14 @@ class BSARAP_CacheClaim(bpy.types.PropertyGroup):
 
 
 class BSARAP_MeshClaim(bpy.types.PropertyGroup):
-    """A posed mesh and the object that poses it (``Scene.bsarap_meshes``): in the scene, which
-    Shift+D does not copy, so a linked duplicate (Alt+D), which shares the mesh, is told apart
-    from the object that posed it. Not a pointer on the mesh: Blender does not clear a mesh's
-    pointer to an object removed with ``bpy.data.objects.remove`` (a mesh cannot use objects, so
-    the removal skips meshes; measured in bpy 5.0.1), and the mesh would point to freed memory."""
+    """An object that poses its mesh (``Scene.bsarap_meshes``): in the scene, which Shift+D does
+    not copy, so a linked duplicate (Alt+D), which shares the mesh, is told apart from the object
+    that posed it. A pointer to the object alone: Blender clears a scene's or an object's pointer
+    to an object it removes, but not a pointer to an object on a mesh, nor one to a mesh on a
+    scene (measured in bpy 5.0.1: the removal skips the ID types that cannot use the removed one,
+    whatever an add-on stores on them), and such a pointer would read freed memory."""
 
-    mesh: PointerProperty(name="Mesh", type=bpy.types.Mesh, description="The posed mesh")
-    owner: PointerProperty(name="Owner", type=bpy.types.Object, description="The object that poses it")
+    owner: PointerProperty(name="Owner", type=bpy.types.Object, description="The object that poses its mesh")
 
 
 class BSARAP_ObjectSettings(bpy.types.PropertyGroup):
@@ -177,8 +178,7 @@ def register():
         bpy.utils.register_class(c)
     bpy.types.Object.bsarap = PointerProperty(type=BSARAP_ObjectSettings)
     # The claims, saved in the file (see solve.py): a control Empty's the mesh object it poses,
-    # and, in the scene, each posed mesh's the object that poses it (a linked duplicate shares
-    # the mesh).
+    # and, in each of its scenes, an object's that poses its mesh (a linked duplicate shares it).
     bpy.types.Object.bsarap_owner = PointerProperty(
         name="BS-ARAP owner", type=bpy.types.Object, description="The mesh object this control poses"
     )

@@ -16,9 +16,10 @@ copy of a posed object (Shift+D, ``Object.copy``) points to the same Empties; it
 a message until *Add Controls* gives it its own, so one Empty never drives two meshes. The first
 object posed claims its mesh too: a linked duplicate (Alt+D) shares the mesh, so its pose key,
 and is refused (:func:`mesh_sharer`) until it is made single-user. The claims are saved in the
-file (``Object.bsarap_owner`` on the control; the mesh's in the scene, ``Scene.bsarap_meshes``,
-since a mesh's pointer to a removed object is left dangling), so a reload, an undo or the
-extension enabled again keep them; Blender remaps a control's when a mesh and its controls are
+file (``Object.bsarap_owner`` on the control; the mesh's as its owner in each of the owner's
+scenes, ``Scene.bsarap_meshes``, since Blender leaves a mesh's pointer to a removed object, and
+a scene's to a removed mesh, dangling), so a reload, an undo or the extension enabled again keep
+them; Blender remaps a control's when a mesh and its controls are
 duplicated together (measured in bpy 5.0.1), so the copy owns the copies. An owner in no scene
 (deleted), or no longer using the control or the mesh, is no owner. A file saved before the
 claims were stored gets them on load (:func:`claim_unclaimed`), where one object alone uses the
@@ -370,23 +371,29 @@ def prune(alive) -> None:
 
 def drop_dead_claims() -> None:
     """Clear the claims held by objects in no scene (deleted), of controls, meshes and point
-    cache files, and those of meshes their owner no longer uses: a claim is a pointer, which
-    would keep a deleted object, and its mesh, in the file. Undo brings them back with it."""
+    cache files: a claim is a pointer, which would keep a deleted object, and its mesh, in the
+    file. Undo brings them back with it. A mesh's claim is then put in each scene its owner is
+    in (:func:`claim_mesh`), so deleting one of them keeps it."""
     for c in bpy.data.objects:
         o = c.bsarap_owner
         if o is not None and not linked(o) and c.library is None:
             c.bsarap_owner = None
+    owners = {}
     for sc in bpy.data.scenes:
         if sc.library is not None:
             continue
         for k in reversed(range(len(sc.bsarap_meshes))):
-            m = sc.bsarap_meshes[k]
-            if m.mesh is None or m.owner is None or not linked(m.owner) or m.owner.data != m.mesh:
+            o = sc.bsarap_meshes[k].owner
+            if o is None or not linked(o):
                 sc.bsarap_meshes.remove(k)
+            else:
+                owners[o.session_uid] = o
         for k in reversed(range(len(sc.bsarap_caches))):  # the point cache files' (operators.claim_cache)
             o = sc.bsarap_caches[k].owner
             if o is not None and not linked(o):
                 sc.bsarap_caches.remove(k)
+    for o in owners.values():
+        claim_mesh(o)
 
 
 def linked(control) -> bool:
@@ -406,22 +413,23 @@ def owner(control):
 
 def mesh_owner(mesh):
     """The object that claimed ``mesh`` (in a scene's ``bsarap_meshes``), or ``None``: also when
-    that object is in no scene or has another mesh since."""
+    that object is in no scene or has another mesh since. A claim is of the owner's mesh, the
+    one it writes its pose key to; were two claimants given one mesh (a script's
+    ``Object.data`` swap), the first claim in the scenes' order keeps it."""
     for sc in bpy.data.scenes:
         for m in sc.bsarap_meshes:
             o = m.owner
-            if m.mesh == mesh and o is not None and linked(o) and o.data == mesh:
+            if o is not None and o.data == mesh and linked(o):
                 return o
     return None
 
 
 def claim_mesh(obj) -> None:
-    """Record that ``obj`` poses its mesh, in the first scene of ``obj`` that is not library
-    data (nowhere if there is none: then nothing is claimed)."""
-    scenes = [sc for sc in obj.users_scene if sc.library is None]
-    if scenes:
-        m = scenes[0].bsarap_meshes.add()
-        m.mesh, m.owner = obj.data, obj
+    """Record that ``obj`` poses its mesh, in each scene of ``obj`` that is not library data and
+    has no claim of it yet (none if there is no such scene: then nothing is claimed)."""
+    for sc in obj.users_scene:
+        if sc.library is None and not any(m.owner == obj for m in sc.bsarap_meshes):
+            sc.bsarap_meshes.add().owner = obj
 
 
 def mesh_sharer(obj):
@@ -521,15 +529,25 @@ def adopt_mesh_pointers() -> None:
     through it when the mesh goes. Run when a file is loaded (or the extension enabled in it),
     while the pointer is as read from the file."""
     for me in bpy.data.meshes:
-        if me.library is not None:
-            continue
-        props = me.bl_system_properties_get() if hasattr(me, "bl_system_properties_get") else me
-        if props is None or "bsarap_owner" not in props:
-            continue  # Blender 5 keeps an add-on's properties apart from the user's
-        o = props["bsarap_owner"]
-        del props["bsarap_owner"]
-        if isinstance(o, bpy.types.Object) and linked(o) and o.data == me and mesh_owner(me) is None:
-            claim_mesh(o)
+        if me.library is None:
+            for o in _pop_mesh_pointers(me):
+                if isinstance(o, bpy.types.Object) and linked(o) and o.data == me and mesh_owner(me) is None:
+                    claim_mesh(o)
+
+
+def _pop_mesh_pointers(me) -> list:
+    """The values of ``me``'s legacy ``bsarap_owner``, deleted: Blender 5 keeps an add-on's
+    properties apart from the user's (``bl_system_properties_get``), and a file saved by 4.x
+    opened in 5 has the pointer in both."""
+    stores = [me]
+    if hasattr(me, "bl_system_properties_get"):
+        stores.append(me.bl_system_properties_get())
+    found = []
+    for props in stores:
+        if props is not None and "bsarap_owner" in props:
+            found.append(props["bsarap_owner"])
+            del props["bsarap_owner"]
+    return found
 
 
 def check_controls(obj) -> None:
@@ -555,10 +573,11 @@ WEIGHT_MODES = ("EDIT", "WEIGHT_PAINT")
 
 
 def editing(obj) -> bool:
-    """Whether ``obj`` is in Edit Mode (the live update leaves it alone). The first call after
-    Edit Mode ended forgets the last solve's motion, so the next update solves the pose again:
-    leaving Edit Mode wrote the edit mesh's copy of the pose key back over it. After Edit Mode
-    or Weight Paint the handle groups are read again (:func:`weights_edited`)."""
+    """Whether ``obj`` is in Edit Mode (the live update leaves it alone); the depsgraph handler
+    asks it of every mesh with handle groups. The first call after Edit Mode ended forgets the
+    last solve's motion, so the next update solves the pose again: leaving Edit Mode wrote the
+    edit mesh's copy of the pose key back over it. After Edit Mode or Weight Paint the handle
+    groups are read again (:func:`weights_edited`)."""
     k = uid(obj)
     before, mode = _modes.get(k), obj.mode
     _modes[k] = mode

@@ -42,7 +42,7 @@ def claims():
     """``{name: owner name}`` of every control and mesh with a claim."""
     out = {o.name: o.bsarap_owner.name for o in bpy.data.objects if o.bsarap_owner is not None}
     for sc in bpy.data.scenes:
-        out.update({m.mesh.name: m.owner.name for m in sc.bsarap_meshes if m.mesh and m.owner})
+        out.update({m.owner.data.name: m.owner.name for m in sc.bsarap_meshes if m.owner})
     return out
 
 
@@ -609,6 +609,17 @@ class WeightEdits(unittest.TestCase):
         self.edit("EDIT", {})
         self.assertIs(ext.solve.built(self.obj), before)
 
+    def test_live_off(self):
+        """Painted with Live off (no live update poses it): Pose Now builds from the new
+        weights."""
+        self.obj.bsarap.live = False
+        before = ext.solve.state(self.obj)
+        self.edit("WEIGHT_PAINT", {1.0: self.ring})
+        activate(self.obj)
+        self.assertEqual(bpy.ops.bsarap.pose(), {"FINISHED"})
+        self.assertIsNot(ext.solve.built(self.obj), before)
+        self.assertTrue((ext.solve.built(self.obj).labels[self.ring] == 1).all())
+
     def test_failed_build_tried_again(self):
         top = [v.index for v in self.obj.data.vertices if any(g.group == self.top.index for g in v.groups)]
         self.edit("WEIGHT_PAINT", {0.3: top})
@@ -657,6 +668,49 @@ class RemovedByScript(unittest.TestCase):
         self.assertEqual([m.owner for m in bpy.context.scene.bsarap_meshes], [])
 
 
+class ClaimScenes(unittest.TestCase):
+    """A mesh's claim is the owner object alone, in each scene the owner is in: no pointer to
+    the mesh, which Blender leaves dangling on a scene without user properties (Scene > New)
+    when the mesh is removed, and no claim lost with one of the owner's scenes."""
+
+    def test_mesh_removed_in_a_new_scene(self):
+        obj = posed_tube(top_x=0.5)
+        first, new = bpy.context.scene, bpy.data.scenes.new("New")  # New: no user properties
+        for o in first.collection.objects:
+            new.collection.objects.link(o)
+        bpy.context.window.scene = new
+        bpy.data.scenes.remove(first)
+        bpy.context.view_layer.update()
+        self.assertEqual([m.owner for m in new.bsarap_meshes], [obj])
+        bpy.data.meshes.remove(obj.data)  # the object goes with it
+        for i in range(3):  # new meshes may take the freed memory
+            bpy.data.meshes.new(f"n{i}")
+        ext.handlers.update_scene(new)
+        self.assertEqual([m.owner for m in new.bsarap_meshes], [])
+
+    def test_claim_kept_in_the_owners_other_scene(self):
+        """The rig linked into a second scene, a linked duplicate with its controls removed,
+        Live off: deleting the scene that held the claim keeps it, so the duplicate is still
+        refused the shared mesh."""
+        obj = posed_tube(top_x=0.5)
+        obj.bsarap.live = False
+        first = bpy.context.scene
+        second = bpy.data.scenes.new("Second")
+        for o in first.collection.objects:
+            second.collection.objects.link(o)
+        dup = duplicate(obj, linked=True)
+        activate(dup)
+        self.assertEqual(bpy.ops.bsarap.remove_controls(), {"FINISHED"})
+        bpy.context.view_layer.update()  # the scenes' objects changed: the claims follow
+        self.assertEqual([m.owner for m in second.bsarap_meshes], [obj])
+        name = obj.name
+        bpy.context.window.scene = second
+        bpy.data.scenes.remove(first)
+        obj, dup = bpy.data.objects[name], bpy.data.objects[dup.name]
+        self.assertEqual(ext.solve.mesh_owner(obj.data), obj)
+        self.assertIs(ext.solve.mesh_sharer(dup), obj)
+
+
 class MeshPointerClaims(unittest.TestCase):
     """A file saved when a mesh's claim was a pointer on the mesh (``Mesh.bsarap_owner``): the
     claim moves into the scene on load and the pointer goes."""
@@ -675,13 +729,28 @@ class MeshPointerClaims(unittest.TestCase):
         return bpy.data.objects["tube"], dup and bpy.data.objects[dup]
 
     def stored(self, mesh):
-        props = mesh.bl_system_properties_get() if hasattr(mesh, "bl_system_properties_get") else mesh
-        return props is not None and "bsarap_owner" in props
+        """Whether a ``bsarap_owner`` is left on ``mesh``, as the add-on's or as the user's
+        (Blender 5 keeps them apart; a 4.x file opened in 5 has it in both)."""
+        stores = [mesh]
+        if hasattr(mesh, "bl_system_properties_get"):
+            stores.append(mesh.bl_system_properties_get())
+        return any(props is not None and "bsarap_owner" in props for props in stores)
 
     def test_adopted(self):
         obj, _ = self.saved_with_pointers()
         self.assertFalse(self.stored(obj.data))
         self.assertEqual(claims(), {"bottom": "tube", "top": "tube", "tube": "tube"})
+
+    def test_user_property_too(self):
+        """The pointer also among the user's properties (a 4.x file opened in Blender 5): it
+        goes too (it would keep a deleted owner in the file)."""
+        obj = posed_tube(top_x=0.5)
+        bpy.context.scene.bsarap_meshes.clear()
+        obj.data["bsarap_owner"] = obj
+        save_and_open("user.blend")
+        obj = bpy.data.objects["tube"]
+        self.assertFalse(self.stored(obj.data))
+        self.assertEqual(ext.solve.mesh_owner(obj.data), obj)
 
     def test_linked_copy_keeps_the_original(self):
         """Saved with a linked duplicate: the pointer says which object poses the mesh (without
