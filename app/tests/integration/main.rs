@@ -5,6 +5,7 @@
 
 mod support;
 
+mod background_loads;
 mod bake_bones;
 mod capture;
 mod cli;

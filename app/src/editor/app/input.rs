@@ -86,6 +86,16 @@ pub(super) struct Hover {
 }
 
 impl EditorApp {
+    /// Whether a paint stroke, a pose drag, a box or lasso, or a modal transform is in
+    /// progress: a mesh or a selection loaded meanwhile waits for its end, since they index the
+    /// handle groups it replaces.
+    pub(super) fn mid_gesture(&self) -> bool {
+        self.interaction.stroke.is_some()
+            || self.interaction.drag.is_some()
+            || self.selecting.region.is_some()
+            || self.gizmo.transform.is_some()
+    }
+
     pub(super) fn handle_keys(&mut self, ctx: &egui::Context) {
         if ctx.text_edit_focused() {
             return;
@@ -398,9 +408,15 @@ impl EditorApp {
                     let w = (right * d.accumulated.x - up * d.accumulated.y) * s;
                     pose.translation = d.start.translation + w.as_dvec3();
                 }
-                self.session.edit.groups[d.group].pose = pose;
-                self.mirror_pose(d.group);
-                self.send_poses();
+                match self.session.edit.groups.get_mut(d.group) {
+                    Some(g) => {
+                        g.pose = pose;
+                        self.mirror_pose(d.group);
+                        self.send_poses();
+                    }
+                    // its group went meanwhile (an undo to fewer groups): the drag ends
+                    None => self.interaction.drag = None,
+                }
             }
             if !ui.input(|i| i.pointer.primary_down()) {
                 self.interaction.drag = None;

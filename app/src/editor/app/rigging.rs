@@ -246,7 +246,7 @@ impl EditorApp {
         }
         let Some((plane, map)) = self.mirror_shared() else { return };
         let Some(p) = partner_group(&self.session.edit.labels, &map, group as u32) else { return };
-        let pose = self.session.edit.groups[group].pose;
+        let Some(pose) = self.session.edit.groups.get(group).map(|g| g.pose) else { return };
         let mirrored = mirror_transform(&plane, &pose);
         if let Some(g) = self.session.edit.groups.get_mut(p as usize) {
             g.pose = mirrored;

@@ -407,6 +407,9 @@ impl EditorApp {
 
     pub(super) fn poll_loader(&mut self) {
         let Some(job) = &self.jobs.loading else { return };
+        if self.mid_gesture() {
+            return; // the new mesh waits for the end of the drag or stroke (they index groups)
+        }
         match job.rx.try_recv() {
             Err(TryRecvError::Empty) => {}
             Err(TryRecvError::Disconnected) => {
@@ -419,6 +422,9 @@ impl EditorApp {
             }
             Ok(Ok(mut scene)) => {
                 self.jobs.loading = None;
+                // a selection read for the mesh this replaces can no longer apply
+                self.jobs.selection = None;
+                self.interaction.renaming = None;
                 self.error = None;
                 self.adopt_prepare(&scene.mesh);
                 self.display.camera.frame(scene.center, scene.radius, self.viewport_aspect());
@@ -503,6 +509,15 @@ impl EditorApp {
     /// one still being read; [`Self::poll_selection`] applies it.
     pub(super) fn load_selection(&mut self, ctx: &egui::Context, path: &Path) {
         let Some(scene) = &self.session.scene else { return };
+        if let Some(job) = &self.jobs.loading {
+            // it would be read for the mesh being replaced
+            self.error = Some(format!(
+                "{} is loading: load the selection {} once it is open",
+                file_name(&job.path),
+                file_name(path)
+            ));
+            return;
+        }
         let c = ctx.clone();
         let (mesh, layout) = (scene.mesh.clone(), scene.layout.clone());
         let job =
@@ -515,6 +530,9 @@ impl EditorApp {
     /// the mesh it was read for is no longer the one open.
     pub(super) fn poll_selection(&mut self) {
         let Some((version, job)) = &self.jobs.selection else { return };
+        if self.mid_gesture() {
+            return; // applied once the drag or stroke ends: they index the groups it replaces
+        }
         let result = match job.rx.try_recv() {
             Err(TryRecvError::Empty) => return,
             Err(TryRecvError::Disconnected) => Err(format!(
@@ -542,6 +560,7 @@ impl EditorApp {
                     ..EditState::from_labels(labels)
                 };
                 self.interaction.active_group = (!self.session.edit.groups.is_empty()).then_some(0);
+                self.interaction.renaming = None;
                 self.info = Some(format!("handles from {}", file_name(&path)));
                 self.display.color_version += 1;
                 self.send_scene();

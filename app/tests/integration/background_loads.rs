@@ -1,0 +1,245 @@
+//! Meshes and selections read on loader threads (`loader::spawn_load`, `spawn_selection`):
+//! what arrives applies to the mesh it was read for, the later of two selections wins, and
+//! nothing lands in the middle of a drag or stroke, whose handle groups it would replace (nor
+//! does an undo crash a drag). The files are FIFOs, so each read waits until the test writes
+//! it: no timing is involved.
+#![cfg(unix)]
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use crate::support;
+
+use std::io::Write;
+use std::os::unix::io::AsRawFd;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use app::editor::{EditorApp, Tool};
+use eframe::egui::{Event, Key, Modifiers, Pos2, Vec2};
+use egui_kittest::{Harness, kittest::Queryable};
+use solver::testing::ScratchDir;
+use support::step_until;
+
+/// A FIFO at `dir/name`: reading it waits until [`write_later`] writes it, so that a file
+/// read from it is still being read whatever the test does meanwhile.
+fn fifo(dir: &ScratchDir, name: &str) -> PathBuf {
+    use std::os::unix::ffi::OsStrExt;
+    let path = dir.join(name);
+    let c = std::ffi::CString::new(path.as_os_str().as_bytes()).unwrap();
+    // SAFETY: `c` is a valid NUL-terminated path that outlives the call.
+    assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0, "mkfifo {}", path.display());
+    path
+}
+
+/// Writes `text` into the FIFO at `path` on another thread, once a reader opened it: a reader
+/// that does not come within 90 s fails the test (its join) instead of hanging it.
+fn write_later(path: PathBuf, text: String) -> std::thread::JoinHandle<()> {
+    use std::os::unix::fs::OpenOptionsExt;
+    std::thread::spawn(move || {
+        let start = Instant::now();
+        // non-blocking, opening fails (ENXIO) until the reader has its end open
+        let mut file = loop {
+            let open =
+                std::fs::OpenOptions::new().write(true).custom_flags(libc::O_NONBLOCK).open(&path);
+            match open {
+                Ok(f) => break f,
+                Err(e) if e.raw_os_error() == Some(libc::ENXIO) => {
+                    assert!(start.elapsed() < Duration::from_secs(90), "no reader: {e}");
+                    std::thread::sleep(Duration::from_millis(5));
+                }
+                Err(e) => panic!("{}: {e}", path.display()),
+            }
+        };
+        let fd = file.as_raw_fd();
+        // SAFETY: `fd` is the open file's; blocking writes from here (the pipe's buffer may be
+        // smaller than the text).
+        unsafe {
+            libc::fcntl(fd, libc::F_SETFL, libc::fcntl(fd, libc::F_GETFL) & !libc::O_NONBLOCK)
+        };
+        file.write_all(text.as_bytes()).unwrap();
+    })
+}
+
+/// The bumpy bar as an OBJ in `dir` with a .dmat beside it (groups 0, 1 and 2: the first four,
+/// the next four, the last eight vertices), open in the editor; and its vertex count.
+fn bar_with_three_groups(dir: &ScratchDir) -> (Harness<'static, EditorApp>, PathBuf, usize) {
+    let (mesh, _) = solver::geometry::shapes::bumpy_bar(1);
+    let n = mesh.n_vertices();
+    let bar = dir.join("bar.obj");
+    solver::io::write_obj(&bar, mesh.positions(), mesh.triangles()).unwrap();
+    let label = |v: usize| match v {
+        _ if v < 4 => "0\n",
+        _ if v < 8 => "1\n",
+        _ if v >= n - 8 => "2\n",
+        _ => "-1\n",
+    };
+    let rows: String = (0..n).map(label).collect();
+    std::fs::write(dir.join("bar.dmat"), format!("1 {n}\n{rows}")).unwrap();
+    let mut h = support::harness(bar.clone(), None);
+    step_until(&mut h, "the bar", |a| !a.is_loading() && a.n_vertices() > 0);
+    assert_eq!(h.state().edit_state().groups.len(), 3);
+    (h, bar, n)
+}
+
+/// A .dmat of `n` labels: the first `k` vertices in group 0.
+fn dmat(n: usize, k: usize) -> String {
+    let rows: String = (0..n).map(|v| if v < k { "0\n" } else { "-1\n" }).collect();
+    format!("1 {n}\n{rows}")
+}
+
+/// Presses on the last vertex (group 2) with the Pose tool and drags a little; returns where
+/// the pointer is.
+fn start_pose_drag(h: &mut Harness<'static, EditorApp>, n: usize) -> Pos2 {
+    h.state_mut().set_tool(Tool::Pose);
+    h.state_mut().set_active_group(Some(2));
+    h.step();
+    let mut p = h.state().vertex_screen_pos(n - 1).expect("the last vertex on screen");
+    h.event(Event::PointerMoved(p));
+    h.step();
+    support::press(h, p, true, Modifiers::NONE);
+    h.step();
+    for _ in 0..3 {
+        p += Vec2::new(5.0, 0.0);
+        h.event(Event::PointerMoved(p));
+        h.step();
+    }
+    p
+}
+
+/// Keeps dragging for 30 frames (the read, written, arrives meanwhile), then lets go.
+fn drag_on_and_release(
+    h: &mut Harness<'static, EditorApp>,
+    mut p: Pos2,
+    held: impl Fn(&EditorApp),
+) {
+    for i in 0..30 {
+        p += Vec2::new(if i % 2 == 0 { 3.0 } else { -3.0 }, 0.0);
+        h.event(Event::PointerMoved(p));
+        h.step();
+        std::thread::sleep(Duration::from_millis(5));
+        held(h.state());
+    }
+    support::press(h, p, false, Modifiers::NONE);
+    h.step();
+}
+
+/// A selection is read off the UI thread, the status saying so meanwhile, and applies to the
+/// mesh it was read for only: one whose mesh was opened again before it arrived is dropped
+/// (the same vertex count: only the mesh's version tells them apart), and one read while
+/// another is replaces it.
+#[test]
+fn a_selection_applies_only_to_the_mesh_it_was_read_for() {
+    let dir = ScratchDir::new("selection-in-background");
+    let (mut h, bar, n) = bar_with_three_groups(&dir);
+    let first_k = |k: usize| -> Vec<Option<u32>> { (0..n).map(|v| (v < k).then_some(0)).collect() };
+    let opened = h.state().labels().to_vec();
+
+    let slow = fifo(&dir, "slow.dmat");
+    support::drop_file(&mut h, slow.clone());
+    h.step();
+    assert!(h.state().is_loading_selection(), "{:?}", h.state().error());
+    assert!(h.query_by_label("loading…").is_some(), "the status does not say it is loading");
+    let ctx = h.ctx.clone();
+    h.state_mut().request_open(&ctx, bar.clone());
+    step_until(&mut h, "the bar opened again", |a| !a.is_loading());
+    assert!(!h.state().is_loading_selection(), "a read for the mesh replaced is dropped");
+    assert!(h.query_by_label("loading…").is_none(), "still says loading");
+    write_later(slow, dmat(n, 4)).join().unwrap();
+    for _ in 0..3 {
+        h.step();
+    }
+    assert_eq!(h.state().labels(), opened.as_slice(), "applied to the mesh opened since");
+    assert!(h.state().info().is_none_or(|i| !i.contains("slow.dmat")), "{:?}", h.state().info());
+    assert!(h.state().error().is_none(), "{:?}", h.state().error());
+
+    // The later of two reads wins, whichever ends first.
+    let replaced = fifo(&dir, "replaced.dmat");
+    support::drop_file(&mut h, replaced.clone());
+    let later = dir.join("later.dmat");
+    std::fs::write(&later, dmat(n, 2)).unwrap();
+    support::drop_file(&mut h, later);
+    step_until(&mut h, "the later selection", |a| !a.is_loading_selection());
+    assert_eq!(h.state().labels(), first_k(2).as_slice());
+    assert_eq!(h.state().info(), Some("handles from later.dmat"));
+    write_later(replaced, dmat(n, 6)).join().unwrap();
+    for _ in 0..3 {
+        h.step();
+    }
+    assert_eq!(h.state().labels(), first_k(2).as_slice(), "the replaced read applied");
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    assert_eq!(h.state().labels(), opened.as_slice(), "undo brings the labels before it back");
+}
+
+/// A selection that arrives while group 2 is dragged (its one group would leave the drag on a
+/// group that no longer exists: the editor crashed) waits for the release, then applies.
+#[test]
+fn a_selection_waits_for_the_drag_to_end() {
+    let dir = ScratchDir::new("selection-mid-drag");
+    let (mut h, _bar, n) = bar_with_three_groups(&dir);
+    let one = fifo(&dir, "one.dmat");
+    support::drop_file(&mut h, one.clone());
+    assert!(h.state().is_loading_selection());
+    let p = start_pose_drag(&mut h, n);
+    write_later(one, dmat(n, 2)).join().unwrap();
+    drag_on_and_release(&mut h, p, |a| assert_eq!(a.edit_state().groups.len(), 3));
+    step_until(&mut h, "the selection", |a| !a.is_loading_selection());
+    assert_eq!(h.state().edit_state().groups.len(), 1);
+    assert_eq!(h.state().info(), Some("handles from one.dmat"));
+}
+
+/// The same for a mesh opened while a pose drag is held (it has no handle groups).
+#[test]
+fn a_mesh_waits_for_the_drag_to_end() {
+    let dir = ScratchDir::new("mesh-mid-drag");
+    let (mut h, bar, n) = bar_with_three_groups(&dir);
+    let other = fifo(&dir, "other.obj");
+    support::drop_file(&mut h, other.clone());
+    assert!(h.state().is_loading());
+    let p = start_pose_drag(&mut h, n);
+    write_later(other.clone(), std::fs::read_to_string(&bar).unwrap()).join().unwrap();
+    drag_on_and_release(&mut h, p, |a| assert_eq!(a.edit_state().groups.len(), 3));
+    step_until(&mut h, "the other mesh", |a| !a.is_loading());
+    assert_eq!(h.state().mesh_path(), Some(other.as_path()));
+    assert!(h.state().edit_state().groups.is_empty());
+}
+
+/// A selection dropped while another mesh loads would be read for the mesh it replaces: it is
+/// refused with a message naming both.
+#[test]
+fn a_selection_while_a_mesh_loads_is_refused() {
+    let dir = ScratchDir::new("selection-while-loading");
+    let (mut h, bar, n) = bar_with_three_groups(&dir);
+    let other = fifo(&dir, "other.obj");
+    support::drop_file(&mut h, other.clone());
+    let sel = dir.join("sel.dmat");
+    std::fs::write(&sel, dmat(n, 2)).unwrap();
+    support::drop_file(&mut h, sel);
+    assert!(!h.state().is_loading_selection());
+    let error = h.state().error().unwrap_or_default().to_owned();
+    assert!(error.contains("other.obj is loading") && error.contains("sel.dmat"), "{error}");
+    write_later(other, std::fs::read_to_string(Path::new(&bar)).unwrap()).join().unwrap();
+    step_until(&mut h, "the other mesh", |a| !a.is_loading());
+}
+
+/// Undos during a pose drag back to a state with fewer groups than the one dragged end the
+/// drag (it indexed the group that went: the editor crashed).
+#[test]
+fn an_undo_mid_drag_ends_the_drag() {
+    let dir = ScratchDir::new("undo-mid-drag");
+    let (mut h, bar, n) = bar_with_three_groups(&dir);
+    let one = dir.join("one.dmat");
+    std::fs::write(&one, dmat(n, 2)).unwrap();
+    for (sel, groups) in [(one, 1), (bar.with_extension("dmat"), 3)] {
+        support::drop_file(&mut h, sel);
+        step_until(&mut h, "the selection", |a| !a.is_loading_selection());
+        assert_eq!(h.state().edit_state().groups.len(), groups);
+    }
+    let p = start_pose_drag(&mut h, n);
+    for _ in 0..2 {
+        h.key_press_modifiers(Modifiers::COMMAND, Key::Z); // the drag's start, then the .dmat
+        h.step();
+    }
+    assert_eq!(h.state().edit_state().groups.len(), 1);
+    drag_on_and_release(&mut h, p, |_| {});
+    assert_eq!(h.state().edit_state().groups.len(), 1);
+}
