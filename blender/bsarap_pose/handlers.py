@@ -17,7 +17,7 @@ update.
 Each update first drops what is kept for objects deleted since (``solve.prune``): when the objects
 in the scenes changed, by their session uids (an object deleted and another added in one update
 leave the counts as they were). A loaded file starts the caches again; the claims of controls and
-meshes are saved in it (``solve.owner``), so a file saved with a copy that shares its original's
+meshes are saved in it (``solve.owner``, ``solve.mesh_owner``), so a file saved with a copy that shares its original's
 controls keeps them with the original; a file saved before they were gets them on load, and the
 open file when the extension is enabled (``solve.claim_unclaimed``).
 """
@@ -65,11 +65,8 @@ _pruned_at = None
 
 
 def _uids(collection) -> bytes:
-    """The session uids of the objects of ``collection`` (read in C with ``foreach_get``, no
-    Python object per object): a 32-bit RNA int, read into as many."""
-    a = np.empty(len(collection), dtype=np.int32)
-    collection.foreach_get("session_uid", a)
-    return a.tobytes()
+    """The session uids of the objects of ``collection`` (``solve.object_uids``), as bytes."""
+    return solve.object_uids(collection).tobytes()
 
 
 def scene_objects() -> tuple:

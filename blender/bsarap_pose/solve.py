@@ -369,31 +369,50 @@ def prune(alive) -> None:
             del d[k]
 
 
+def object_uids(collection) -> np.ndarray:
+    """The session uids of the objects of ``collection`` (read in C with ``foreach_get``, no
+    Python object per object): a 32-bit RNA int, read into as many."""
+    a = np.empty(len(collection), dtype=np.int32)
+    collection.foreach_get("session_uid", a)
+    return a
+
+
 def drop_dead_claims() -> None:
     """Clear the claims held by objects in no scene (deleted), of controls, meshes and point
     cache files: a claim is a pointer, which would keep a deleted object, and its mesh, in the
     file. Undo brings them back with it. A mesh's claim is then put in each scene its owner is
-    in (:func:`claim_mesh`), so deleting one of them keeps it."""
+    in (:func:`claim_mesh`), so deleting one of them keeps it; and a mesh appended from a file
+    that kept its claim on the mesh has it moved (:func:`adopt_mesh_pointers`). Which objects
+    are in which scene is read once (``users_scene`` walks every scene's objects per call)."""
+    members = {sc.session_uid: set(object_uids(sc.objects).tolist()) for sc in bpy.data.scenes}
+    alive = set().union(*members.values())
+
+    def live(o) -> bool:
+        return o is not None and o.session_uid in alive
+
     for c in bpy.data.objects:
-        o = c.bsarap_owner
-        if o is not None and not linked(o) and c.library is None:
+        if c.library is None and c.bsarap_owner is not None and not live(c.bsarap_owner):
             c.bsarap_owner = None
-    owners = {}
-    for sc in bpy.data.scenes:
-        if sc.library is not None:
-            continue
-        for k in reversed(range(len(sc.bsarap_meshes))):
-            o = sc.bsarap_meshes[k].owner
-            if o is None or not linked(o):
-                sc.bsarap_meshes.remove(k)
-            else:
+    local = [sc for sc in bpy.data.scenes if sc.library is None]
+    owners, claimed = {}, {}
+    for sc in local:
+        claims = sc.bsarap_meshes
+        for k in reversed(range(len(claims))):
+            o = claims[k].owner
+            if live(o):
                 owners[o.session_uid] = o
+            else:
+                claims.remove(k)
+        claimed[sc.session_uid] = {m.owner.session_uid for m in claims}
         for k in reversed(range(len(sc.bsarap_caches))):  # the point cache files' (operators.claim_cache)
             o = sc.bsarap_caches[k].owner
-            if o is not None and not linked(o):
+            if o is not None and not live(o):
                 sc.bsarap_caches.remove(k)
-    for o in owners.values():
-        claim_mesh(o)
+    for u, o in owners.items():
+        for sc in local:
+            if u in members[sc.session_uid] and u not in claimed[sc.session_uid]:
+                sc.bsarap_meshes.add().owner = o
+    adopt_mesh_pointers()
 
 
 def linked(control) -> bool:

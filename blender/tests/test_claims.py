@@ -715,18 +715,25 @@ class MeshPointerClaims(unittest.TestCase):
     """A file saved when a mesh's claim was a pointer on the mesh (``Mesh.bsarap_owner``): the
     claim moves into the scene on load and the pointer goes."""
 
-    def saved_with_pointers(self, *, linked_copy=False):
+    def saved_with_pointers(self, *, linked_copy=False, user_property=False):
+        """The posed tube saved with its mesh's claim as a pointer on the mesh, the add-on's
+        property (or with ``user_property`` the user's, as a 4.x file opened in Blender 5 has
+        it too), and opened again; with ``linked_copy`` an Alt+D copy saved too, so that the
+        pointer alone says which poses the mesh (on load neither would be claimed)."""
         obj = posed_tube(top_x=0.5)
         obj.bsarap.live = False
         dup = duplicate(obj, linked=True).name if linked_copy else None
         bpy.context.scene.bsarap_meshes.clear()
-        bpy.types.Mesh.bsarap_owner = bpy.props.PointerProperty(type=bpy.types.Object)
-        try:
-            obj.data.bsarap_owner = obj
-        finally:
-            del bpy.types.Mesh.bsarap_owner  # its value stays in the mesh, as in such a file
-        save_and_open("pointers.blend")
-        return bpy.data.objects["tube"], dup and bpy.data.objects[dup]
+        if user_property:
+            obj.data["bsarap_owner"] = obj
+        else:
+            bpy.types.Mesh.bsarap_owner = bpy.props.PointerProperty(type=bpy.types.Object)
+            try:
+                obj.data.bsarap_owner = obj
+            finally:
+                del bpy.types.Mesh.bsarap_owner  # its value stays in the mesh, as in such a file
+        path = save_and_open("pointers.blend")
+        return bpy.data.objects["tube"], dup and bpy.data.objects[dup], path
 
     def stored(self, mesh):
         """Whether a ``bsarap_owner`` is left on ``mesh``, as the add-on's or as the user's
@@ -737,28 +744,37 @@ class MeshPointerClaims(unittest.TestCase):
         return any(props is not None and "bsarap_owner" in props for props in stores)
 
     def test_adopted(self):
-        obj, _ = self.saved_with_pointers()
+        obj, dup, _ = self.saved_with_pointers(linked_copy=True)
         self.assertFalse(self.stored(obj.data))
-        self.assertEqual(claims(), {"bottom": "tube", "top": "tube", "tube": "tube"})
-
-    def test_user_property_too(self):
-        """The pointer also among the user's properties (a 4.x file opened in Blender 5): it
-        goes too (it would keep a deleted owner in the file)."""
-        obj = posed_tube(top_x=0.5)
-        bpy.context.scene.bsarap_meshes.clear()
-        obj.data["bsarap_owner"] = obj
-        save_and_open("user.blend")
-        obj = bpy.data.objects["tube"]
-        self.assertFalse(self.stored(obj.data))
-        self.assertEqual(ext.solve.mesh_owner(obj.data), obj)
-
-    def test_linked_copy_keeps_the_original(self):
-        """Saved with a linked duplicate: the pointer says which object poses the mesh (without
-        it neither would be claimed on load)."""
-        obj, dup = self.saved_with_pointers(linked_copy=True)
         self.assertEqual(ext.solve.mesh_owner(obj.data), obj)
         self.assertIs(ext.solve.mesh_sharer(dup), obj)
+
+    def test_user_property_too(self):
+        """The pointer among the user's properties: it goes too (it would keep a deleted owner
+        in the file)."""
+        obj, dup, _ = self.saved_with_pointers(linked_copy=True, user_property=True)
         self.assertFalse(self.stored(obj.data))
+        self.assertIs(ext.solve.mesh_sharer(dup), obj)
+
+    def test_appended(self):
+        """Appended into another file (no load handler runs): the next update adopts it."""
+        _, dup, path = self.saved_with_pointers(linked_copy=True)
+        names = ["tube", dup.name, "bottom", "top"]
+        bpy.ops.wm.read_homefile(use_empty=True)
+        with bpy.data.libraries.load(path, link=False) as (_src, dst):
+            dst.objects = list(names)
+        for o in dst.objects:
+            bpy.context.scene.collection.objects.link(o)
+        bpy.context.view_layer.update()
+        obj, dup = bpy.data.objects["tube"], bpy.data.objects[names[1]]
+        self.assertFalse(self.stored(obj.data))
+        self.assertIs(ext.solve.mesh_sharer(dup), obj)
+
+    def test_claim_holds_no_mesh_pointer(self):
+        """A claim is its owner alone: a pointer to the mesh on a scene is one Blender can leave
+        dangling (see ClaimScenes)."""
+        props = {p.identifier for p in ext.props.BSARAP_MeshClaim.bl_rna.properties}
+        self.assertEqual(props - {"rna_type", "name"}, {"owner"})
 
 
 if __name__ == "__main__":

@@ -186,6 +186,26 @@ class PanelUnits(unittest.TestCase):
             self.assertTrue(any(world in t for t in labels), (world, labels))
 
 
+    def test_empty_mesh(self):
+        """A mesh with no vertices (``meshes.new``: not even a position attribute): the panel
+        says 0 units, and Add Controls that it has no faces."""
+        bpy.ops.wm.read_homefile(use_empty=True)
+        obj = bpy.data.objects.new("empty", bpy.data.meshes.new("empty"))
+        bpy.context.scene.collection.objects.link(obj)
+        obj.vertex_groups.new(name="g")
+        obj.bsarap.groups.add().name = "g"
+        obj.bsarap.energy = "smooth-rotations"
+        labels = draw_panel(ext.panel.BSARAP_PT_settings, obj).labels
+        self.assertTrue(any("= 0 units" in t for t in labels), labels)
+        for o in bpy.context.view_layer.objects:
+            o.select_set(False)
+        obj.select_set(True)
+        bpy.context.view_layer.objects.active = obj
+        with self.assertRaises(RuntimeError) as cm:
+            bpy.ops.bsarap.add_controls()
+        self.assertIn("no faces", str(cm.exception))
+
+
 class Finishing(unittest.TestCase):
     """Once the controls rest, the timer's steps take the live pose to what it is at rest:
     solved again until a solve converges, then settled (``bsarap-coarse``'s settle
