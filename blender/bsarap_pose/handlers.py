@@ -16,10 +16,11 @@ update.
 
 Each update first drops what is kept for objects deleted since (``solve.prune``): when the objects
 in the scenes changed, by their session uids (an object deleted and another added in one update
-leave the counts as they were). A loaded file starts the caches again; the claims of controls and
-meshes are saved in it (``solve.owner``, ``solve.mesh_owner``), so a file saved with a copy that shares its original's
-controls keeps them with the original; a file saved before they were gets them on load, and the
-open file when the extension is enabled (``solve.claim_unclaimed``).
+leave the counts as they were), and tends the claims (``solve.tend_claims``). A loaded file
+starts the caches again; the claims of controls and meshes are saved in it (``solve.owner``,
+``solve.mesh_owner``), so a file saved with a copy that shares its original's controls keeps
+them with the original; a file saved before they were gets them on load, and the open file when
+the extension is enabled (``solve.claim_unclaimed``).
 """
 
 from __future__ import annotations
@@ -88,7 +89,7 @@ def prune() -> None:
         return
     if solve.tracked():
         solve.prune(alive_objects())
-    solve.drop_dead_claims()
+    solve.tend_claims()
     _pruned_at = scene_objects()  # dropping a claim may free a deleted object
 
 

@@ -19,12 +19,12 @@ and is refused (:func:`mesh_sharer`) until it is made single-user. The claims ar
 file (``Object.bsarap_owner`` on the control; the mesh's as its owner in each of the owner's
 scenes, ``Scene.bsarap_meshes``, since Blender leaves a mesh's pointer to a removed object, and
 a scene's to a removed mesh, dangling), so a reload, an undo or the extension enabled again keep
-them; Blender remaps a control's when a mesh and its controls are
-duplicated together (measured in bpy 5.0.1), so the copy owns the copies. An owner in no scene
-(deleted), or no longer using the control or the mesh, is no owner. A file saved before the
-claims were stored gets them on load (:func:`claim_unclaimed`), where one object alone uses the
-control or the mesh; one saved with a mesh's claim on the mesh has it moved into the scene
-(:func:`adopt_mesh_pointers`).
+them; Blender remaps a control's when a mesh and its controls are duplicated together (measured
+in bpy 5.0.1), so the copy owns the copies. An owner in no scene (deleted), or no longer using
+the control or the mesh, is no owner (:func:`tend_claims` drops the claims of the deleted). A
+file saved before the claims were stored gets them on load (:func:`claim_unclaimed`), where one
+object alone uses the control or the mesh; one saved with a mesh's claim on the mesh has it
+moved into the scene (:func:`adopt_mesh_pointers`).
 
 A mesh that is library data, linked or a library override, cannot take the pose key (Blender
 keeps no shape key written to either): it is refused before anything is claimed or built
@@ -108,7 +108,8 @@ _refused: dict = {}
 #: session uid -> the last error the live update or a finishing step reported
 #: (:func:`report_error`): it goes once the object poses again.
 _errors: dict = {}
-#: session uid -> the object's mode at its last live update (:func:`editing`).
+#: session uid -> the mode of a mesh with handle groups at the handler's last update
+#: (:func:`editing`).
 _modes: dict = {}
 #: session uid -> how often the handle groups' weights were found changed on leaving a mode that
 #: edits them (:func:`weights_edited`); in the key, so a change rebuilds.
@@ -377,7 +378,7 @@ def object_uids(collection) -> np.ndarray:
     return a
 
 
-def drop_dead_claims() -> None:
+def tend_claims() -> None:
     """Clear the claims held by objects in no scene (deleted), of controls, meshes and point
     cache files: a claim is a pointer, which would keep a deleted object, and its mesh, in the
     file. Undo brings them back with it. A mesh's claim is then put in each scene its owner is
@@ -546,7 +547,8 @@ def adopt_mesh_pointers() -> None:
     (``Mesh.bsarap_owner``, before ``Scene.bsarap_meshes``) into the scene, and delete the
     pointer: Blender leaves it dangling when its object is removed by a script, and frees
     through it when the mesh goes. Run when a file is loaded (or the extension enabled in it),
-    while the pointer is as read from the file."""
+    while the pointer is as read from the file, and when the scenes' objects changed (an
+    append: :func:`tend_claims`)."""
     for me in bpy.data.meshes:
         if me.library is None:
             for o in _pop_mesh_pointers(me):
