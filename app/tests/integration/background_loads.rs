@@ -1,8 +1,8 @@
 //! Meshes and selections read on loader threads (`loader::spawn_load`, `spawn_selection`):
-//! what arrives applies to the mesh it was read for, the later of two selections wins, and
-//! nothing lands in the middle of a drag or stroke, whose handle groups it would replace (nor
-//! does an undo crash a drag). The files are FIFOs, so each read waits until the test writes
-//! it: no timing is involved.
+//! what arrives applies to the mesh it was read for, the later of two selections wins, and what
+//! lands in the middle of a drag ends it (as an undo does), since it replaces the handle groups
+//! the drag indexes. The files are FIFOs, so each read waits until the test writes it: no
+//! timing is involved.
 #![cfg(unix)]
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
@@ -105,18 +105,23 @@ fn start_pose_drag(h: &mut Harness<'static, EditorApp>, n: usize) -> Pos2 {
     p
 }
 
-/// Keeps dragging for 30 frames (the read, written, arrives meanwhile), then lets go.
-fn drag_on_and_release(
-    h: &mut Harness<'static, EditorApp>,
-    mut p: Pos2,
-    held: impl Fn(&EditorApp),
-) {
-    for i in 0..30 {
+/// Keeps dragging, the button held, until `done` (at most 90 s) and three frames more, then
+/// lets go.
+fn drag_until(h: &mut Harness<'static, EditorApp>, mut p: Pos2, done: impl Fn(&EditorApp) -> bool) {
+    let start = Instant::now();
+    let mut more = 3;
+    for i in 0.. {
+        if done(h.state()) {
+            if more == 0 {
+                break;
+            }
+            more -= 1;
+        }
+        assert!(start.elapsed() < Duration::from_secs(90), "timed out while dragging");
         p += Vec2::new(if i % 2 == 0 { 3.0 } else { -3.0 }, 0.0);
         h.event(Event::PointerMoved(p));
         h.step();
         std::thread::sleep(Duration::from_millis(5));
-        held(h.state());
     }
     support::press(h, p, false, Modifiers::NONE);
     h.step();
@@ -170,26 +175,35 @@ fn a_selection_applies_only_to_the_mesh_it_was_read_for() {
     assert_eq!(h.state().labels(), opened.as_slice(), "undo brings the labels before it back");
 }
 
-/// A selection that arrives while group 2 is dragged (its one group would leave the drag on a
-/// group that no longer exists: the editor crashed) waits for the release, then applies.
+/// A selection that arrives while group 2 is dragged applies and ends the drag: the frames
+/// dragged on after it move none of its groups (they moved its group 2, other vertices; with
+/// fewer groups the drag indexed one that no longer existed and the editor crashed).
 #[test]
-fn a_selection_waits_for_the_drag_to_end() {
+fn a_selection_mid_drag_ends_the_drag() {
     let dir = ScratchDir::new("selection-mid-drag");
     let (mut h, _bar, n) = bar_with_three_groups(&dir);
-    let one = fifo(&dir, "one.dmat");
-    support::drop_file(&mut h, one.clone());
+    let three = fifo(&dir, "three.dmat");
+    support::drop_file(&mut h, three.clone());
     assert!(h.state().is_loading_selection());
     let p = start_pose_drag(&mut h, n);
-    write_later(one, dmat(n, 2)).join().unwrap();
-    drag_on_and_release(&mut h, p, |a| assert_eq!(a.edit_state().groups.len(), 3));
-    step_until(&mut h, "the selection", |a| !a.is_loading_selection());
-    assert_eq!(h.state().edit_state().groups.len(), 1);
-    assert_eq!(h.state().info(), Some("handles from one.dmat"));
+    let label = |v: usize| match v {
+        _ if v < 2 => "0\n",
+        _ if v < 4 => "1\n",
+        _ if v >= n - 2 => "2\n",
+        _ => "-1\n",
+    };
+    let rows: String = (0..n).map(label).collect();
+    write_later(three, format!("1 {n}\n{rows}")).join().unwrap();
+    drag_until(&mut h, p, |a| !a.is_loading_selection());
+    assert_eq!(h.state().info(), Some("handles from three.dmat"));
+    let groups = &h.state().edit_state().groups;
+    assert_eq!(groups.len(), 3);
+    assert!(groups.iter().all(|g| g.pose == Default::default()), "the drag went on");
 }
 
 /// The same for a mesh opened while a pose drag is held (it has no handle groups).
 #[test]
-fn a_mesh_waits_for_the_drag_to_end() {
+fn a_mesh_mid_drag_ends_the_drag() {
     let dir = ScratchDir::new("mesh-mid-drag");
     let (mut h, bar, n) = bar_with_three_groups(&dir);
     let other = fifo(&dir, "other.obj");
@@ -197,8 +211,7 @@ fn a_mesh_waits_for_the_drag_to_end() {
     assert!(h.state().is_loading());
     let p = start_pose_drag(&mut h, n);
     write_later(other.clone(), std::fs::read_to_string(&bar).unwrap()).join().unwrap();
-    drag_on_and_release(&mut h, p, |a| assert_eq!(a.edit_state().groups.len(), 3));
-    step_until(&mut h, "the other mesh", |a| !a.is_loading());
+    drag_until(&mut h, p, |a| !a.is_loading());
     assert_eq!(h.state().mesh_path(), Some(other.as_path()));
     assert!(h.state().edit_state().groups.is_empty());
 }
@@ -222,7 +235,7 @@ fn a_selection_while_a_mesh_loads_is_refused() {
 }
 
 /// Undos during a pose drag back to a state with fewer groups than the one dragged end the
-/// drag (it indexed the group that went: the editor crashed).
+/// drag (it indexed the group that went: the editor crashed), and it moves nothing after.
 #[test]
 fn an_undo_mid_drag_ends_the_drag() {
     let dir = ScratchDir::new("undo-mid-drag");
@@ -240,6 +253,8 @@ fn an_undo_mid_drag_ends_the_drag() {
         h.step();
     }
     assert_eq!(h.state().edit_state().groups.len(), 1);
-    drag_on_and_release(&mut h, p, |_| {});
-    assert_eq!(h.state().edit_state().groups.len(), 1);
+    drag_until(&mut h, p, |_| true);
+    let groups = &h.state().edit_state().groups;
+    assert_eq!(groups.len(), 1);
+    assert_eq!(groups[0].pose, Default::default(), "the drag went on after the undo");
 }

@@ -86,14 +86,17 @@ pub(super) struct Hover {
 }
 
 impl EditorApp {
-    /// Whether a paint stroke, a pose drag, a box or lasso, or a modal transform is in
-    /// progress: a mesh or a selection loaded meanwhile waits for its end, since they index the
-    /// handle groups it replaces.
-    pub(super) fn mid_gesture(&self) -> bool {
-        self.interaction.stroke.is_some()
-            || self.interaction.drag.is_some()
-            || self.selecting.region.is_some()
-            || self.gizmo.transform.is_some()
+    /// Ends what the user is in the middle of (a paint stroke, a pose drag, a box or lasso, a
+    /// modal transform, a rename) where the handle groups are replaced under it: a loaded mesh
+    /// or selection, an undo or redo. Their indices would name other groups, or none (a drag
+    /// of a group that went crashed); a button still held starts a new stroke on the new groups.
+    pub(super) fn end_gestures(&mut self) {
+        self.interaction.stroke = None;
+        self.interaction.drag = None;
+        self.interaction.renaming = None;
+        self.rigging.stroke_partner = None;
+        self.selecting.region = None;
+        self.gizmo.transform = None;
     }
 
     pub(super) fn handle_keys(&mut self, ctx: &egui::Context) {

@@ -407,9 +407,6 @@ impl EditorApp {
 
     pub(super) fn poll_loader(&mut self) {
         let Some(job) = &self.jobs.loading else { return };
-        if self.mid_gesture() {
-            return; // the new mesh waits for the end of the drag or stroke (they index groups)
-        }
         match job.rx.try_recv() {
             Err(TryRecvError::Empty) => {}
             Err(TryRecvError::Disconnected) => {
@@ -424,7 +421,7 @@ impl EditorApp {
                 self.jobs.loading = None;
                 // a selection read for the mesh this replaces can no longer apply
                 self.jobs.selection = None;
-                self.interaction.renaming = None;
+                self.end_gestures();
                 self.error = None;
                 self.adopt_prepare(&scene.mesh);
                 self.display.camera.frame(scene.center, scene.radius, self.viewport_aspect());
@@ -530,9 +527,6 @@ impl EditorApp {
     /// the mesh it was read for is no longer the one open.
     pub(super) fn poll_selection(&mut self) {
         let Some((version, job)) = &self.jobs.selection else { return };
-        if self.mid_gesture() {
-            return; // applied once the drag or stroke ends: they index the groups it replaces
-        }
         let result = match job.rx.try_recv() {
             Err(TryRecvError::Empty) => return,
             Err(TryRecvError::Disconnected) => Err(format!(
@@ -560,7 +554,7 @@ impl EditorApp {
                     ..EditState::from_labels(labels)
                 };
                 self.interaction.active_group = (!self.session.edit.groups.is_empty()).then_some(0);
-                self.interaction.renaming = None;
+                self.end_gestures();
                 self.info = Some(format!("handles from {}", file_name(&path)));
                 self.display.color_version += 1;
                 self.send_scene();
@@ -573,6 +567,7 @@ impl EditorApp {
         let Some(state) = state else { return };
         let labels_changed = state.labels != self.session.edit.labels || self.rig_differs(&state);
         let parts_changed = state.loose_parts != self.session.edit.loose_parts;
+        self.end_gestures();
         self.session.edit = state;
         if self.interaction.active_group.is_some_and(|g| g >= self.session.edit.groups.len()) {
             self.interaction.active_group = self.session.edit.groups.len().checked_sub(1);
