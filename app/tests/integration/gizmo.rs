@@ -400,3 +400,30 @@ fn g_in_paint_only_switches_and_a_drag_beside_a_ring_moves_the_group() {
     );
     assert!(poses.iter().any(|q| q.translation != glam::DVec3::ZERO), "the drag moved no group");
 }
+
+/// Deleting the group a modal transform moves (the panel's Delete, the pointer free) cancels
+/// the transform: the indices shift, and it went on moving the next group, which Esc then set
+/// to the deleted group's start pose.
+#[test]
+fn deleting_the_group_of_a_modal_transform_cancels_it() {
+    let mut h = start();
+    assert!(h.state().edit_state().groups.len() >= 2, "the default asset has two groups");
+    let (c, _) = h.state().gizmo_screen().unwrap();
+    let p0 = c + Vec2::new(40.0, 30.0);
+    move_pointer(&mut h, [p0]);
+    h.key_press(Key::G);
+    h.step();
+    move_pointer(&mut h, (1..=4).map(|i| p0 + Vec2::new(12.0 * i as f32, 5.0 * i as f32)));
+    assert_ne!(h.state().group_pose(0).unwrap().translation.to_array(), [0.0; 3]);
+    let next = h.state().group_pose(1).unwrap();
+    h.get_all_by_label("Delete").next().expect("group 0's Delete").click();
+    h.step();
+    assert_eq!(h.state().running_transform(), None);
+    move_pointer(&mut h, (1..=4).map(|i| p0 + Vec2::new(-12.0 * i as f32, 5.0 * i as f32)));
+    h.key_press(Key::Escape);
+    h.step();
+    assert_eq!(h.state().group_pose(0).unwrap(), next, "the next group, now 0, was moved");
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    assert_eq!(h.state().group_pose(0).unwrap().translation.to_array(), [0.0; 3]);
+}

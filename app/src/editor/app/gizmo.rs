@@ -175,7 +175,7 @@ impl EditorApp {
         }
     }
 
-    fn cancel_transform(&mut self) {
+    pub(super) fn cancel_transform(&mut self) {
         if let Some(t) = self.gizmo.transform.take()
             && let Some(g) = self.session.edit.groups.get_mut(t.group)
             && g.pose != t.start_pose

@@ -114,6 +114,9 @@ impl EditorApp {
             }
         });
         if let Some(k) = delete {
+            // the indices shift under a modal transform or a gesture: they would move another
+            self.cancel_transform();
+            self.end_gestures();
             self.session.history.push(self.session.edit.clone());
             self.session.edit.delete_group(k);
             self.interaction.active_group =
