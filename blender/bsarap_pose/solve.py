@@ -14,17 +14,17 @@ message at once. What is kept for an object no longer in any scene is dropped (:
 Each control Empty poses one object: the first to use it claims it (:func:`check_controls`). A
 copy of a posed object (Shift+D, ``Object.copy``) points to the same Empties; it is refused with
 a message until *Add Controls* gives it its own, so one Empty never drives two meshes. The first
-object posed claims its mesh too: a linked duplicate (Alt+D) shares the mesh, so its pose key,
-and is refused (:func:`mesh_sharer`) until it is made single-user. The claims are saved in the
-file (``Object.bsarap_owner`` on the control; the mesh's as its owner in each of the owner's
-scenes, ``Scene.bsarap_meshes``, since Blender leaves a mesh's pointer to a removed object, and
-a scene's to a removed mesh, dangling), so a reload, an undo or the extension enabled again keep
-them; Blender remaps a control's when a mesh and its controls are duplicated together (measured
-in bpy 5.0.1), so the copy owns the copies. An owner in no scene (deleted), or no longer using
-the control or the mesh, is no owner (:func:`tend_claims` drops the claims of the deleted). A
-file saved before the claims were stored gets them on load (:func:`claim_unclaimed`), where one
-object alone uses the control or the mesh; one saved with a mesh's claim on the mesh has it
-moved into the scene (:func:`adopt_mesh_pointers`).
+object posed claims its mesh too: a linked duplicate (Alt+D, or Link Object Data) shares the
+mesh, so its pose key, and is refused (:func:`mesh_sharer`) until it is made single-user. The
+claims are saved in the file (``Object.bsarap_owner`` on the control; the mesh's as its owner in
+each of the owner's scenes, ``Scene.bsarap_meshes``, since Blender leaves a mesh's pointer to a
+removed object, and a scene's to a removed mesh, dangling), so a reload, an undo or the
+extension enabled again keep them; Blender remaps a control's when a mesh and its controls are
+duplicated together (measured in bpy 5.0.1), so the copy owns the copies. An owner in no scene
+(deleted), or no longer using the control or the mesh, is no owner (:func:`tend_claims` drops
+the claims of the deleted). A file saved before the claims were stored gets them on load
+(:func:`claim_unclaimed`), where one object alone uses the control or the mesh; one saved with a
+mesh's claim on the mesh has it moved into the scene (:func:`adopt_mesh_pointers`).
 
 A mesh that is library data, linked or a library override, cannot take the pose key (Blender
 keeps no shape key written to either): it is refused before anything is claimed or built
@@ -460,11 +460,18 @@ def mesh_sharer(obj):
 
 
 def shared_mesh_message(obj, other) -> str:
-    """What is said of ``obj``, whose mesh ``other`` poses (:func:`mesh_sharer`)."""
+    """What is said of ``obj``, whose mesh ``other`` poses (:func:`mesh_sharer`). Which way the
+    mesh came to be shared is not recorded; where ``obj`` claimed a mesh too, both were posed
+    before they were given one mesh (Link Object Data, a script's ``Object.data``), and a
+    linked duplicate would not be the cause."""
+    if any(m.owner == obj for sc in bpy.data.scenes for m in sc.bsarap_meshes):
+        how = "both were posed, then given one mesh: Link Object Data or a script"
+    else:
+        how = "a linked duplicate, Alt+D, or Link Object Data"
     return (
-        f"{obj.name}: shares its mesh with '{other.name}' (a linked duplicate, Alt+D), which poses "
-        "it: both would write the same pose key; for a pose of its own make the mesh single-user "
-        "(Object > Relations > Make Single User > Object & Data), then Add Controls"
+        f"{obj.name}: shares its mesh with '{other.name}', which poses it ({how}): both would "
+        "write the same pose key; for a pose of its own make the mesh single-user (Object > "
+        "Relations > Make Single User > Object & Data), then Add Controls"
     )
 
 
@@ -496,8 +503,8 @@ def foreign_message(obj, foreign) -> str:
     other = foreign[0][1]
     who = f"'{other.name}'"
     return (
-        f"{obj.name}: the controls of {names} pose {who} (is this a copy of it? Shift+D shares "
-        f"its controls); Add Controls gives {obj.name} its own"
+        f"{obj.name}: the controls of {names} pose {who}, not this object (a copy, Shift+D, "
+        f"shares its original's controls); Add Controls gives {obj.name} its own"
     )
 
 

@@ -88,7 +88,7 @@ class OldFile(unittest.TestCase):
         self.assertEqual(bpy.ops.bsarap.remove_controls(), {"FINISHED"})  # lets go of tube's
         with self.assertRaises(RuntimeError) as cm:
             bpy.ops.bsarap.add_controls()
-        self.assertIn("shares its mesh with 'tube' (a linked duplicate, Alt+D)", str(cm.exception))
+        self.assertIn("shares its mesh with 'tube', which poses it (a linked duplicate, Alt+D", str(cm.exception))
 
     def test_saved_with_a_copy_not_claimed(self):
         """An original and its copy saved sharing the controls: which is the original is not in

@@ -23,8 +23,8 @@ from unittest import mock
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from common import (  # noqa: E402  (sets BLENDER_USER_RESOURCES before bpy)
     SKIP, activate, assert_pose_follows, bpy, bsarap, draw_group_rows, draw_panel, duplicate,
-    evaluated_positions, expected_handles, ext, fake_modal_bake, key_co, link_rig, np, pose_of,
-    posed_tube, setUpModule, tube
+    evaluated_positions, expected_handles, ext, fake_modal_bake, key_co, link_rig, make_controls,
+    np, pose_of, posed_tube, setUpModule, tube
 )
 
 
@@ -508,7 +508,7 @@ class Copies(unittest.TestCase):
         dup = duplicate(self.obj, linked=True)
         self.assertIs(dup.data, obj.data)
         msg = ext.solve.message(dup)
-        self.assertIn("shares its mesh with 'tube' (a linked duplicate, Alt+D)", msg)
+        self.assertIn("shares its mesh with 'tube', which poses it (a linked duplicate, Alt+D", msg)
         self.assertIn("Make Single User", msg)
         activate(dup)
         with self.assertRaises(RuntimeError) as cm:
@@ -527,7 +527,7 @@ class Copies(unittest.TestCase):
         activate(dup)
         with self.assertRaises(RuntimeError) as cm:
             bpy.ops.bsarap.add_controls()
-        self.assertIn("shares its mesh with 'tube' (a linked duplicate, Alt+D)", str(cm.exception))
+        self.assertIn("shares its mesh with 'tube', which poses it (a linked duplicate, Alt+D", str(cm.exception))
         self.assertIn("Make Single User", str(cm.exception))
         with self.assertRaises(RuntimeError) as cm:
             bpy.ops.bsarap.pose()
@@ -583,6 +583,25 @@ class Copies(unittest.TestCase):
         self.assertEqual(bpy.ops.bsarap.add_controls(), {"FINISHED"})
         self.assertIsNone(ext.solve.message(dup))
         assert_pose_follows(dup)
+
+    def test_two_posed_objects_given_one_mesh(self):
+        """Two posed objects given one mesh (Link Object Data): the first claim keeps it, and
+        the other is told that both were posed, not that it is a linked duplicate."""
+        obj = self.obj
+        pipe = tube("pipe")
+        make_controls(pipe, ["bottom", "top"])
+        activate(obj)
+        pipe.select_set(True)
+        self.assertEqual(bpy.ops.object.make_links_data(type="OBDATA"), {"FINISHED"})
+        bpy.context.view_layer.update()
+        self.assertIs(pipe.data, obj.data)
+        msg = ext.solve.message(pipe)
+        self.assertIn("shares its mesh with 'tube', which poses it (both were posed", msg)
+        self.assertNotIn("Alt+D", msg)
+        self.assertIsNone(ext.solve.message(obj))
+        bpy.data.objects["top"].location.y += 0.3
+        bpy.context.view_layer.update()
+        assert_pose_follows(obj)
 
     def test_duplicated_with_its_controls(self):
         """Shift+D of the mesh with its Empties: Blender points the copy to the copied Empties,
