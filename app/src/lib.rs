@@ -3,3 +3,4 @@
 pub mod editor;
 pub mod gpu;
 pub mod memory;
+pub mod outputs;

@@ -1,6 +1,7 @@
 //! The process's resident memory as the kernel reports it (`VmRSS` and `VmHWM` of
-//! `/proc/self/status`, Linux): `bsarap bench`'s peak and the editor's status bar. `None`
-//! where the kernel does not report it.
+//! `/proc/self/status`, Linux): `bsarap bench`'s peak and the editor's status bar; and the
+//! system's available memory, which a recording must fit in. `None` where the kernel does
+//! not report it.
 
 /// Resident memory now and at its peak, in MiB.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -19,6 +20,22 @@ pub fn process_memory() -> Option<Memory> {
     Some(Memory { resident_mib: mib("VmRSS:")?, peak_mib: mib("VmHWM:")? })
 }
 
+/// Memory the system can give without swapping (`MemAvailable` of `/proc/meminfo`), in MiB;
+/// less where this process's control group has a limit closer (cgroup v2 `memory.max` less
+/// `memory.current`: a container).
+pub fn available_mib() -> Option<f64> {
+    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let kb =
+        info.lines().find_map(|l| l.strip_prefix("MemAvailable:"))?.split_whitespace().next()?;
+    let system = kb.parse::<f64>().ok()? / 1024.0;
+    let read = |name: &str| -> Option<f64> {
+        let text = std::fs::read_to_string(format!("/sys/fs/cgroup/{name}")).ok()?;
+        text.trim().parse::<f64>().ok() // "max": no limit
+    };
+    let group = read("memory.max").zip(read("memory.current")).map(|(m, c)| (m - c) / 1048576.0);
+    Some(group.map_or(system, |g| g.clamp(0.0, system)))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -33,5 +50,6 @@ mod tests {
         }
         let m = process_memory().expect("VmRSS and VmHWM in /proc/self/status");
         assert!(m.resident_mib > 1.0 && m.peak_mib >= m.resident_mib, "{m:?}");
+        assert!(available_mib().expect("MemAvailable in /proc/meminfo") > 0.0);
     }
 }

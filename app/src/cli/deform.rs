@@ -5,12 +5,12 @@
 //! (default: the time it was saved at) with its handles and settings, solved from rest and
 //! settled as the editor shows it once the handles stop ([`solver::Deformer::solve_to_rest`]).
 
-use super::outputs::{self, Input};
 use super::{
     BaseArgs, EnergyArg, MethodArg, PathArg, bending_length, check_config, energy_summary, load,
     load_handles,
 };
 use anyhow::{Context, bail};
+use app::outputs::{self, Input};
 use clap::parser::ValueSource;
 use clap::{ArgMatches, Args};
 use glam::{DQuat, DVec3};

@@ -11,9 +11,9 @@ use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use super::outputs::{self, Input};
 use super::{MethodArg, PathArg};
 use anyhow::Context;
+use app::outputs::{self, Input};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use solver::Deformer;

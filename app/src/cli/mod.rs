@@ -5,7 +5,6 @@ mod deform;
 mod export;
 mod export_bones;
 mod info;
-mod outputs;
 mod render;
 mod subdivide;
 

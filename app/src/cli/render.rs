@@ -11,7 +11,6 @@ use std::ops::ControlFlow;
 use std::time::Instant;
 
 use super::PathArg;
-use super::outputs::{self, Input};
 use anyhow::Context;
 use app::editor::camera::OrbitCamera;
 use app::editor::capture::{self, Offscreen, Picture};
@@ -19,6 +18,7 @@ use app::editor::document::apply_scene;
 use app::editor::loader::load_scene_file;
 use app::editor::shape::Shape;
 use app::editor::solver_thread::MethodSettings;
+use app::outputs::{self, Input};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use solver::Deformer;

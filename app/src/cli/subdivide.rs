@@ -5,9 +5,9 @@
 //! faces by 4 and the vertices by about 4: the paper's armadillo (43,243 vertices) gives
 //! 172,966 at one level and 691,858 at two.
 
-use super::outputs::{self, Input};
 use super::{PathArg, load};
 use anyhow::bail;
+use app::outputs::{self, Input};
 use clap::Args;
 
 #[derive(Debug, Args)]

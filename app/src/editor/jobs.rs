@@ -22,13 +22,15 @@ use solver::animation::recording::{Recording, record};
 use solver::animation::timeline::Timeline;
 use solver::geometry::normals::VertexFaces;
 use solver::{
-    ArapConfig, BaseConfig, Deformer, DeformerOptions, GroupTransform, Handles, LooseParts, Mesh,
-    MeshCache, Method, UnwrittenBase,
+    ArapConfig, BaseConfig, DeformerOptions, GroupTransform, Handles, LooseParts, Mesh, MeshCache,
+    Method, UnwrittenBase,
 };
 
 use super::loader::FileLayout;
 use super::pose::handle_targets;
+use super::pose_solvers::build_deformer;
 use super::shape::{Shape, display_origin};
+use crate::outputs::{self, Input};
 
 mod bones;
 pub use bones::{BakeView, Baked, Baking, spawn_bake};
@@ -93,6 +95,11 @@ impl<T> Job<T> {
 
     pub fn cancel(&self) {
         self.progress.cancel.store(true, Ordering::Relaxed);
+    }
+
+    /// Whether [`Job::cancel`] was called.
+    pub fn cancelled(&self) -> bool {
+        self.progress.cancel.load(Ordering::Relaxed)
     }
 }
 
@@ -248,6 +255,30 @@ fn idle_priority() {
 #[cfg(not(target_os = "linux"))]
 fn idle_priority() {}
 
+/// Bytes a recording holds per vertex and frame: the solved frame (f64 positions, 24) and its
+/// display shape (f32 positions and normals, 24).
+pub const RECORDING_BYTES_PER_VERTEX_FRAME: f64 = 48.0;
+
+/// Refuses a recording of `frames` frames of `vertices` vertices that would take more than
+/// 80 % of `available_mib` (the system's available memory, where known): running out of
+/// memory aborts the process, with the user's unsaved work.
+pub fn recording_fits(
+    frames: usize,
+    vertices: usize,
+    available_mib: Option<f64>,
+) -> Result<(), String> {
+    let need = frames as f64 * vertices as f64 * RECORDING_BYTES_PER_VERTEX_FRAME / 1048576.0;
+    match available_mib {
+        Some(free) if need > 0.8 * free => Err(format!(
+            "recording {frames} frames of {vertices} vertices needs about {:.1} GiB, and {:.1} \
+             GiB of memory is available: shorten the timeline or lower its frame rate",
+            need / 1024.0,
+            free / 1024.0
+        )),
+        _ => Ok(()),
+    }
+}
+
 /// What a recording needs: everything is owned, the UI keeps editing meanwhile.
 pub struct RecordInput {
     pub mesh: Arc<Mesh>,
@@ -291,18 +322,17 @@ pub fn spawn_record(
                 cache,
                 vertex_faces,
             } = input;
-            let mut deformer = {
-                let mut cache = cache.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-                let options = DeformerOptions {
-                    method,
-                    config,
-                    base,
-                    loose_parts: Some(&loose_parts),
-                    cache: Some(&mut cache),
-                };
-                Deformer::new(&mesh, &handles, options)
-            }
-            .map_err(|e| format!("recording: precomputing {}: {e}", method.name()))?;
+            let options = DeformerOptions {
+                method,
+                config,
+                base,
+                loose_parts: Some(&loose_parts),
+                cache: None,
+            };
+            let stop = || progress.cancel.load(Ordering::Relaxed);
+            let mut deformer = build_deformer(&cache, &mesh, &handles, options, &stop)
+                .map_err(|e| format!("recording: precomputing {}: {e}", method.name()))?
+                .ok_or("recording cancelled while it waited for the mesh's precomputation")?;
             let fps = timeline.fps;
             let recording = record(
                 &mut deformer,
@@ -366,6 +396,7 @@ pub fn spawn_export(
     layout: Arc<FileLayout>,
     up: solver::animation::export::UpAxis,
     path: PathBuf,
+    inputs: Vec<Input>,
     repaint: impl Fn() + Send + Sync + 'static,
 ) -> Job<(PathBuf, u64)> {
     let fps = recorded.fps;
@@ -377,10 +408,15 @@ pub fn spawn_export(
         "export",
         move || repaint(),
         move |progress| {
+            outputs::check(std::slice::from_ref(&path), &inputs).map_err(|e| e.to_string())?;
             let is_pc2 = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("pc2"));
             if is_pc2 {
                 let pc2 = Pc2::from_recording(&recording, &layout.asset, &layout.vertex_map, fps)
                     .map_err(|e| format!("{}: {e}", path.display()))?;
+                // written at once: a cancel before the write stops it
+                if progress.update(0, 1).is_break() {
+                    return Err("export cancelled; nothing was written".into());
+                }
                 write_pc2(&path, &pc2).map_err(|e| e.to_string())?;
                 let bytes = std::fs::metadata(&path).map(|m| m.len()).unwrap_or(0);
                 return Ok((path, bytes));
@@ -519,6 +555,26 @@ mod tests {
         assert!(Arc::ptr_eq(&built, &kept), "the second recording rebuilt the mesh's part");
         assert_eq!(first.recording.frames, again.recording.frames);
         assert!(first.recording.frames[3] != first.recording.frames[0], "nothing moved");
+
+        // Cancelled while it waits for the cache (another mesh's precomputation holds it):
+        // it ends without building its mesh's part there.
+        let other = Arc::new(Mutex::new(MeshCache::default()));
+        let held = other.lock().unwrap();
+        let job = spawn_record(coarse(&other), || {});
+        job.cancel();
+        drop(held);
+        let err = wait(&job).err().unwrap();
+        assert!(err.contains("cancelled"), "{err}");
+        assert!(other.lock().unwrap().coarse_base().is_none(), "built after its cancel");
+    }
+
+    #[test]
+    fn a_recording_must_fit_in_memory() {
+        // 1000 frames of 100k vertices: 4.47 GiB.
+        assert!(recording_fits(1000, 100_000, None).is_ok(), "unknown: not refused");
+        assert!(recording_fits(1000, 100_000, Some(8192.0)).is_ok());
+        let err = recording_fits(1000, 100_000, Some(4096.0)).unwrap_err();
+        assert!(err.contains("about 4.5 GiB") && err.contains("4.0 GiB"), "{err}");
     }
 
     #[test]
@@ -530,20 +586,35 @@ mod tests {
         assert_eq!(job.progress.get(), (11, 11));
         let dir = solver::testing::ScratchDir::new("jobs");
         let out = dir.join("anim.glb");
-        let ex = spawn_export(&rec, rec.layout.clone(), Default::default(), out.clone(), || {});
-        let (path, bytes) = wait(&ex).unwrap();
+        let export = |path: &PathBuf, inputs| {
+            wait(&spawn_export(
+                &rec,
+                rec.layout.clone(),
+                Default::default(),
+                path.clone(),
+                inputs,
+                || {},
+            ))
+        };
+        let (path, bytes) = export(&out, vec![]).unwrap();
         assert_eq!(path, out);
         assert_eq!(bytes, rec.glb_bytes, "the size shown before writing is the size written");
         assert_eq!(std::fs::metadata(&out).unwrap().len(), bytes);
         // A point cache of the same frames, at the timeline's rate.
         let pc2 = dir.join("anim.pc2");
-        wait(&spawn_export(&rec, rec.layout.clone(), Default::default(), pc2.clone(), || {}))
-            .unwrap();
+        export(&pc2, vec![]).unwrap();
         let cache = solver::animation::pointcache::read_pc2(&pc2).unwrap();
         assert_eq!(cache.samples.len(), 11);
         assert_eq!(cache.sample_rate, 1.0, "one sample per frame at 10 fps");
         let last = rec.recording.frames[10][3].map(|c| c as f32);
         assert_eq!(cache.samples[10][3], last);
+        // Onto a file the document was read from: refused, the file as it was.
+        let mesh = dir.join("mesh.glb");
+        std::fs::write(&mesh, b"the user's asset").unwrap();
+        let err = export(&dir.join(".").join("mesh.glb"), vec![Input::new("open mesh", &mesh)]);
+        let err = err.unwrap_err();
+        assert!(err.contains("is the open mesh") && err.contains("nothing was written"), "{err}");
+        assert_eq!(std::fs::read(&mesh).unwrap(), b"the user's asset");
 
         let job = spawn_record(input(100_000), || {});
         job.cancel();

@@ -6,7 +6,8 @@
 //! layout and decoded textures) beside it, then hand back a
 //! [`LoadedFile`] over a channel that the UI polls without blocking. A failure comes back as an
 //! error string; the UI keeps the current scene. [`spawn_selection`] reads a selection for the
-//! open mesh the same way (the UI drops it if that mesh is no longer open when it arrives).
+//! open mesh the same way (the UI drops it if that mesh is no longer open when it arrives), and
+//! [`spawn_identify`] tells a dropped `.json` selection from a scene.
 //! Reading and cleaning are `solver::io`'s;
 //! selections are `solver::deform::selection`'s; scene files (`.json`) are `solver::animation::scene`'s: the
 //! mesh they name is loaded and their handles resolved here, the rest is applied by the UI.
@@ -91,7 +92,9 @@ pub struct LoadedFile {
 /// layout) instead of after it.
 pub type StartPrepare = Box<dyn FnOnce(Arc<Mesh>) + Send>;
 
-/// Whether `path` names a scene file rather than a mesh.
+/// Whether `path` names a scene file (`.json`) rather than a mesh. A `.json` dropped or
+/// opened from the UI may also be a sphere list, which only reading it tells
+/// ([`spawn_identify`]).
 pub fn is_scene_file(path: &Path) -> bool {
     path.extension().is_some_and(|e| e.eq_ignore_ascii_case("json"))
 }
@@ -147,6 +150,12 @@ pub fn spawn_selection(
     spawn_loader(path, "selection-loader", repaint, load_error, move |p| {
         load_selection(p, mesh.positions(), &layout.vertex_map)
     })
+}
+
+/// Starts telling on a loader thread whether the file at `path` is a selection
+/// ([`is_selection_file`]); a file that cannot be read is not one (opening it says why).
+pub fn spawn_identify(path: PathBuf, repaint: impl Fn() + Send + 'static) -> LoadJob<bool> {
+    spawn_loader(path, "file-identifier", repaint, open_error, |p| Ok(is_selection_file(p)))
 }
 
 /// "Could not open PATH: why", naming the path once: the mesh readers' errors start with it
@@ -306,7 +315,8 @@ pub fn load_scene_file(
 
 /// Whether `path` is a handle selection rather than a mesh or a scene: a `.dmat`, or a `.json`
 /// whose first value is a list (the sphere format; a scene is an object). Reads at most the
-/// first 4 KiB.
+/// first 4 KiB of a `.json`, which may wait (a FIFO, a stalled network mount): the UI asks
+/// [`spawn_identify`] for one.
 pub fn is_selection_file(path: &Path) -> bool {
     use std::io::Read;
     let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());

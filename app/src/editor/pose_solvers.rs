@@ -37,17 +37,43 @@ pub fn factory(cache: Arc<Mutex<MeshCache>>) -> PoseSolverFactory {
                 loose_parts: Some(parts),
                 cache: None,
             };
-            // Only the coarse method precomputes per mesh: the others leave the cache unlocked.
-            let built = if m == solver::Method::BsArapCoarse {
-                let mut cache = cache.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-                Deformer::new(mesh, handles, DeformerOptions { cache: Some(&mut cache), ..options })
-            } else {
-                Deformer::new(mesh, handles, options)
-            };
-            let d = built.map_err(|e| e.to_string())?;
+            let d = build_deformer(&cache, mesh, handles, options, &|| false)
+                .map_err(|e| e.to_string())?
+                .ok_or("the solver's build was cancelled")?;
             Ok(Box::new(DeformerPoseSolver(d)) as Box<dyn PoseSolver>)
         },
     )
+}
+
+/// Builds a deformer with what the method precomputes per mesh from `cache` (built there
+/// first when missing, under its lock, and written to its file after; only the coarse method
+/// has such a part), and the handle set's own part outside the lock: a recording and the live solvers build theirs side by
+/// side, and a new mesh's precomputation does not wait for them. `None` when `cancelled` says
+/// so once the lock is had (a recording cancelled while it waited would otherwise replace the
+/// new mesh's part in the cache with its old mesh's).
+pub fn build_deformer(
+    cache: &Mutex<MeshCache>,
+    mesh: &Mesh,
+    handles: &Handles,
+    options: DeformerOptions<'_>,
+    cancelled: &dyn Fn() -> bool,
+) -> Result<Option<Deformer>, solver::SolveError> {
+    let mut own = None;
+    if options.method == solver::Method::BsArapCoarse {
+        let mut shared = cache.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        if cancelled() {
+            return Ok(None);
+        }
+        let (_, unwritten) = shared.prepare_unwritten(options.method, mesh, &options.base)?;
+        // the mesh's part, shared: the deformer finds it there without the lock
+        own = Some(shared.clone());
+        drop(shared);
+        // a base built anew goes to its file after the cache is let go (50 MB at 1.5M)
+        if let Some(Err(e)) = unwritten.map(|u| u.write()) {
+            eprintln!("editor: mesh cache: {e}");
+        }
+    }
+    Deformer::new(mesh, handles, DeformerOptions { cache: own.as_mut(), ..options }).map(Some)
 }
 
 /// Where a settle step of the coarse BS-ARAP ran (`solver::deform::coarse::settle`), from its

@@ -14,7 +14,7 @@ use solver::animation::timeline::{
     CircularPath, GroupPath, Interpolation, Key, KeyframedPath, Path, StartPose, Timeline,
 };
 
-use super::undo::EditState;
+use super::undo::{EditState, Group};
 
 /// Longest timeline the UI accepts (seconds).
 pub const MAX_DURATION: f64 = 3600.0;
@@ -76,6 +76,22 @@ pub fn apply_paths(edit: &mut EditState, t: f64) -> bool {
     changed
 }
 
+/// Whether `a` and `b` differ other than in the poses of groups with a path, which the
+/// playback time sets (`apply_paths`): playing or scrubbing is not an edit to save.
+pub fn differ_beyond_playback(a: &EditState, b: &EditState) -> bool {
+    let EditState { labels, groups, timeline, loose_parts, rigidity, symmetry } = a;
+    if (labels, timeline, loose_parts, rigidity, symmetry)
+        != (&b.labels, &b.timeline, &b.loose_parts, &b.rigidity, &b.symmetry)
+        || groups.len() != b.groups.len()
+    {
+        return true;
+    }
+    let animated = |k: usize| timeline.paths.iter().any(|p| p.group == k);
+    groups.iter().zip(&b.groups).enumerate().any(|(k, (g, h))| {
+        if animated(k) { Group { pose: h.pose, ..g.clone() } != *h } else { g != h }
+    })
+}
+
 /// The timeline a scene file and a recording use: the edited paths, plus a one-key path for
 /// every group without a path whose pose is not the rest pose (it holds that pose for all
 /// time), so that what is recorded and saved is what the user sees. Groups without vertices
@@ -126,6 +142,8 @@ pub enum TimelineAction {
     SetBake(BakeChoice),
     /// Stop the bake to bones under way (nothing is written).
     CancelBake,
+    /// Stop the export under way (nothing is written).
+    CancelExport,
     /// Show recorded frames instead of the live solve (or back).
     ShowRecording(bool),
     /// A typed value was refused (the edit was reverted); the message names the field.
@@ -259,66 +277,68 @@ pub fn panel(
                 }
             }
         }
-        if let Some((frames, seconds, bytes)) = recording.kept {
+        if let Some((frames, seconds, _)) = recording.kept {
             ui.separator();
             ui.label(format!("recorded {frames} frames ({seconds:.2} s)"));
             let mut showing = recording.showing;
             if ui.checkbox(&mut showing, "show recording").changed() {
                 actions.push(TimelineAction::ShowRecording(showing));
             }
-            match (&recording.baking, recording.exporting) {
-                (Some(b), _) => {
-                    let frac = if b.steps == 0 { 0.0 } else { b.step as f32 / b.steps as f32 };
-                    let frac = if b.stage == "writing" { 1.0 } else { frac };
-                    ui.add(egui::ProgressBar::new(frac).text(bake_text(b)).desired_width(320.0));
-                    if ui
-                        .button("Cancel")
-                        .on_hover_text("stop the fit; nothing is written")
-                        .clicked()
-                    {
-                        actions.push(TimelineAction::CancelBake);
-                    }
-                }
-                (None, Some((done, total))) => {
-                    let frac = if total == 0 { 0.0 } else { done as f32 / total as f32 };
-                    ui.add(
-                        egui::ProgressBar::new(frac)
-                            .text(format!("writing {done}/{total}"))
-                            .desired_width(160.0),
-                    );
-                }
-                (None, None) => {
-                    let mut bake = recording.bake;
-                    let max = solver::animation::skinning::MAX_BONES;
-                    ui.checkbox(&mut bake.on, "bake to bones").on_hover_text(
-                        "Fit rigid bones to the recording (4 per vertex) and write a glTF \
-                         skin with one animation instead of one morph target per frame: far \
-                         smaller, and editable in Blender. The fit's error is reported.",
-                    );
-                    if bake.on {
-                        let l = ui.label("bones").id;
-                        ui.add(egui::DragValue::new(&mut bake.bones).range(1..=max).speed(0.2))
-                            .labelled_by(l);
-                    }
-                    if bake != recording.bake {
-                        actions.push(TimelineAction::SetBake(bake));
-                    }
-                    let (text, hint) = if recording.bake.on {
-                        (
-                            format!("Export glTF… ({} bones)", recording.bake.bones),
-                            "a skin of rigid bones; size and fit error once written",
-                        )
-                    } else {
-                        (
-                            format!("Export glTF… ({:.1} MB)", bytes as f64 / 1e6),
-                            "one morph target per frame; size of the .glb",
-                        )
-                    };
-                    if ui.button(text).on_hover_text(hint).clicked() {
-                        actions.push(TimelineAction::ExportGltf);
-                    }
+        }
+        // A bake or an export runs on, with its Cancel, after its recording went (another
+        // mesh opened).
+        match (&recording.baking, recording.exporting, recording.kept) {
+            (Some(b), _, _) => {
+                let frac = if b.steps == 0 { 0.0 } else { b.step as f32 / b.steps as f32 };
+                let frac = if b.stage == "writing" { 1.0 } else { frac };
+                ui.add(egui::ProgressBar::new(frac).text(bake_text(b)).desired_width(320.0));
+                if ui.button("Cancel").on_hover_text("stop the fit; nothing is written").clicked() {
+                    actions.push(TimelineAction::CancelBake);
                 }
             }
+            (None, Some((done, total)), _) => {
+                let frac = if total == 0 { 0.0 } else { done as f32 / total as f32 };
+                ui.add(
+                    egui::ProgressBar::new(frac)
+                        .text(format!("writing {done}/{total}"))
+                        .desired_width(160.0),
+                );
+                if ui.button("Cancel").on_hover_text("stop writing; nothing is written").clicked() {
+                    actions.push(TimelineAction::CancelExport);
+                }
+            }
+            (None, None, Some((_, _, bytes))) => {
+                let mut bake = recording.bake;
+                let max = solver::animation::skinning::MAX_BONES;
+                ui.checkbox(&mut bake.on, "bake to bones").on_hover_text(
+                    "Fit rigid bones to the recording (4 per vertex) and write a glTF \
+                     skin with one animation instead of one morph target per frame: far \
+                     smaller, and editable in Blender. The fit's error is reported.",
+                );
+                if bake.on {
+                    let l = ui.label("bones").id;
+                    ui.add(egui::DragValue::new(&mut bake.bones).range(1..=max).speed(0.2))
+                        .labelled_by(l);
+                }
+                if bake != recording.bake {
+                    actions.push(TimelineAction::SetBake(bake));
+                }
+                let (text, hint) = if recording.bake.on {
+                    (
+                        format!("Export glTF… ({} bones)", recording.bake.bones),
+                        "a skin of rigid bones; size and fit error once written",
+                    )
+                } else {
+                    (
+                        format!("Export glTF… ({:.1} MB)", bytes as f64 / 1e6),
+                        "one morph target per frame; size of the .glb",
+                    )
+                };
+                if ui.button(text).on_hover_text(hint).clicked() {
+                    actions.push(TimelineAction::ExportGltf);
+                }
+            }
+            (None, None, None) => {}
         }
     });
     if let Some(k) = active.filter(|&k| k < edit.groups.len()) {
@@ -571,6 +591,57 @@ mod tests {
         let held = eff.paths[1].path.transform_at(1.7);
         assert_eq!(held.translation.to_array(), [0.0, 3.0, 0.0]);
         eff.validate().unwrap();
+    }
+
+    #[test]
+    fn playback_is_not_an_edit() {
+        let mut saved = state();
+        saved.set_path(0, Path::Circular(CircularPath::new([0.0, 0.0, 1.0], 2.0, 2.0)));
+        let mut e = saved.clone();
+        assert!(apply_paths(&mut e, 0.5));
+        assert!(e != saved && !differ_beyond_playback(&saved, &e), "scrubbed only");
+        e.groups[1].pose.translation = DVec3::new(0.0, 1.0, 0.0);
+        assert!(differ_beyond_playback(&saved, &e), "a group without a path moved");
+        let mut e = saved.clone();
+        e.groups[0].name = "renamed".into();
+        assert!(differ_beyond_playback(&saved, &e), "a group with a path renamed");
+        let mut e = saved.clone();
+        e.timeline.duration += 1.0;
+        assert!(differ_beyond_playback(&saved, &e));
+    }
+
+    /// An export or a bake shows its progress and its Cancel with no recording kept (it went
+    /// with the mesh another file replaced): they were drawn only beside a kept recording.
+    #[test]
+    fn a_running_export_or_bake_can_be_cancelled_without_its_recording() {
+        use egui_kittest::kittest::Queryable;
+        let baking = crate::editor::jobs::BakeView {
+            bones: 8,
+            stage: "fitting",
+            step: 2,
+            steps: 10,
+            rms: 0.0,
+        };
+        for (view, want) in [
+            (
+                RecordingView { exporting: Some((3, 10)), ..Default::default() },
+                TimelineAction::CancelExport,
+            ),
+            (
+                RecordingView { baking: Some(baking), ..Default::default() },
+                TimelineAction::CancelBake,
+            ),
+        ] {
+            let actions = std::cell::RefCell::new(Vec::new());
+            let mut h = egui_kittest::Harness::new_ui(|ui| {
+                let (mut edit, mut playback) = (state(), Playback::default());
+                let a = panel(ui, &mut edit, &mut playback, None, &view, 1.0);
+                actions.borrow_mut().extend(a);
+            });
+            h.get_by_label("Cancel").click();
+            h.run();
+            assert!(actions.borrow().contains(&want), "{:?}", actions.borrow());
+        }
     }
 
     #[test]

@@ -146,40 +146,63 @@ fn new_group(k: usize) -> Group {
 
 const MAX_HISTORY: usize = 200;
 
+/// Undo and redo stacks of whole states, each with the playback time it was kept at: a group
+/// with a path is posed for that time, so a state brought back at another time takes its
+/// paths' poses there (`EditorApp::apply_history`).
 #[derive(Default)]
 pub struct History {
-    undo: Vec<EditState>,
-    redo: Vec<EditState>,
+    undo: Vec<(EditState, f64)>,
+    redo: Vec<(EditState, f64)>,
+    /// The playback time now, kept with what is pushed.
+    time: f64,
+    /// Changes with every push, undo, redo and clear: a gesture that pushed one step and goes
+    /// on tells by it whether that step is still the last one.
+    generation: u64,
 }
 
 impl History {
     /// Records `before`, the state an edit starts from.
     pub fn push(&mut self, before: EditState) {
-        if self.undo.last() == Some(&before) {
+        if self.undo.last().is_some_and(|(s, _)| *s == before) {
             return;
         }
-        self.undo.push(before);
+        self.undo.push((before, self.time));
         if self.undo.len() > MAX_HISTORY {
             self.undo.remove(0);
         }
         self.redo.clear();
+        self.generation += 1;
     }
 
-    pub fn undo(&mut self, current: &EditState) -> Option<EditState> {
+    /// The state before the last edit and the playback time it was kept at; `current` goes
+    /// on the redo stack.
+    pub fn undo(&mut self, current: &EditState) -> Option<(EditState, f64)> {
         let prev = self.undo.pop()?;
-        self.redo.push(current.clone());
+        self.redo.push((current.clone(), self.time));
+        self.generation += 1;
         Some(prev)
     }
 
-    pub fn redo(&mut self, current: &EditState) -> Option<EditState> {
+    pub fn redo(&mut self, current: &EditState) -> Option<(EditState, f64)> {
         let next = self.redo.pop()?;
-        self.undo.push(current.clone());
+        self.undo.push((current.clone(), self.time));
+        self.generation += 1;
         Some(next)
     }
 
     pub fn clear(&mut self) {
         self.undo.clear();
         self.redo.clear();
+        self.generation += 1;
+    }
+
+    /// The playback time moved to `t`.
+    pub fn set_time(&mut self, t: f64) {
+        self.time = t;
+    }
+
+    pub fn generation(&self) -> u64 {
+        self.generation
     }
 
     pub fn can_undo(&self) -> bool {
@@ -232,10 +255,12 @@ mod tests {
         assert_eq!(s.labels, vec![None, Some(0), None, Some(0)]);
         assert_eq!(s.path(0), &circle, "group 1's path moved down with the group");
         assert_eq!(s.path(1), &Path::Static);
-        let undone = h.undo(&s).unwrap();
+        let (undone, _) = h.undo(&s).unwrap();
         assert_eq!(undone.labels, vec![Some(0), Some(1), None, Some(1)]);
         assert_eq!(undone.path(1), &circle, "undo restores the path");
-        let redone = h.redo(&undone).unwrap();
-        assert_eq!(redone, s);
+        h.set_time(0.5);
+        let (redone, time) = h.redo(&undone).unwrap();
+        assert_eq!((redone, time), (s, 0.0), "kept at time 0");
+        assert_eq!(h.undo(&undone).unwrap().1, 0.5, "kept again at 0.5 by the redo");
     }
 }

@@ -258,3 +258,111 @@ fn an_undo_mid_drag_ends_the_drag() {
     assert_eq!(groups.len(), 1);
     assert_eq!(groups[0].pose, Default::default(), "the drag went on after the undo");
 }
+
+/// A dropped `.json` is read on a loader thread to tell a sphere list from a scene: the UI
+/// thread does not wait for it (it did, in `open`, until the FIFO's writer came), and a file
+/// dropped while it is read wins.
+#[test]
+fn a_dropped_json_is_told_apart_off_the_ui_thread() {
+    let dir = ScratchDir::new("json-in-background");
+    let (mut h, bar, _) = bar_with_three_groups(&dir);
+    let p = h.state().rest_positions().unwrap()[0];
+    let spheres =
+        format!(r#"[{{"group": 0, "center": [{}, {}, {}], "radius": 1e-6}}]"#, p[0], p[1], p[2]);
+    let json = fifo(&dir, "spheres.json");
+    // A UI thread that waits for the file would wait for this writer: it writes after 60 s
+    // unasked, so that such a test fails instead of hanging.
+    let (go, wait) = std::sync::mpsc::channel::<()>();
+    let writer = {
+        let (path, text) = (json.clone(), spheres.clone());
+        std::thread::spawn(move || {
+            let waited = wait.recv_timeout(Duration::from_secs(60)).is_err();
+            write_later(path, text).join().unwrap();
+            waited
+        })
+    };
+    support::drop_file(&mut h, json.clone());
+    assert!(h.state().is_loading(), "{:?}", h.state().error());
+    assert!(h.query_by_label("loading…").is_some(), "the status does not say it is loading");
+    go.send(()).unwrap();
+    assert!(!writer.join().unwrap(), "the UI thread waited for the dropped file");
+    // A list of spheres: a selection, read again for the open mesh.
+    let second = write_later(json, spheres.clone());
+    step_until(&mut h, "the spheres", |a| !a.is_loading() && !a.is_loading_selection());
+    second.join().unwrap();
+    assert_eq!(h.state().info(), Some("handles from spheres.json"), "{:?}", h.state().error());
+    assert_eq!(h.state().edit_state().groups.len(), 1);
+    assert_eq!(h.state().labels()[0], Some(0));
+
+    let replaced = fifo(&dir, "replaced.json");
+    support::drop_file(&mut h, replaced.clone());
+    assert!(h.state().is_loading());
+    support::drop_file(&mut h, bar.with_extension("dmat"));
+    step_until(&mut h, "bar.dmat", |a| !a.is_loading() && !a.is_loading_selection());
+    assert_eq!(h.state().info(), Some("handles from bar.dmat"));
+    write_later(replaced, spheres).join().unwrap();
+    for _ in 0..3 {
+        h.step();
+    }
+    assert!(!h.state().is_loading_selection(), "the replaced .json was read as a selection");
+    assert_eq!(h.state().edit_state().groups.len(), 3);
+}
+
+/// Unsaved changes: a pose moved on group 0.
+fn unsaved(h: &mut Harness<'static, EditorApp>) {
+    let mut e = h.state().edit_state().clone();
+    e.groups[0].pose.translation.x = 0.01;
+    h.state_mut().set_edit_state(e);
+    h.step();
+    assert!(h.state().has_unsaved_changes());
+}
+
+/// A `.json` still being told apart when the user chooses another file in the unsaved-changes
+/// question (as a restore does) is forgotten: once read, it went on to open in that file's
+/// place (a list of spheres: read as a selection for the mesh opened since).
+#[test]
+fn a_json_being_told_apart_yields_to_a_file_opened_since() {
+    let dir = ScratchDir::new("json-then-open");
+    let (mut h, bar, _) = bar_with_three_groups(&dir);
+    unsaved(&mut h);
+    let ctx = h.ctx.clone();
+    h.state_mut().request_open(&ctx, bar.clone());
+    h.step();
+    h.step(); // a new window is laid out invisibly in its first frame
+    assert_eq!(h.state().pending_open(), Some(bar.as_path()));
+    let json = fifo(&dir, "spheres.json");
+    support::drop_file(&mut h, json.clone());
+    h.get_by_label("Discard changes and open").click();
+    h.step();
+    step_until(&mut h, "the bar opened again", |a| !a.is_loading());
+    let p = h.state().rest_positions().unwrap()[0];
+    let spheres =
+        format!(r#"[{{"group": 0, "center": [{}, {}, {}], "radius": 1e-6}}]"#, p[0], p[1], p[2]);
+    write_later(json, spheres).join().unwrap();
+    for _ in 0..3 {
+        h.step();
+    }
+    assert!(!h.state().is_loading_selection(), "the forgotten .json was read as a selection");
+    assert_eq!(h.state().edit_state().groups.len(), 3);
+}
+
+/// Quitting with unsaved changes while a dropped `.json` is told apart: the quit question
+/// stays (the scene's open replaced it with "Open … anyway?").
+#[test]
+fn quitting_forgets_a_json_being_told_apart() {
+    let dir = ScratchDir::new("json-then-quit");
+    let (mut h, _bar, _) = bar_with_three_groups(&dir);
+    unsaved(&mut h);
+    let json = fifo(&dir, "scene.json");
+    support::drop_file(&mut h, json.clone());
+    let ctx = h.ctx.clone();
+    h.state_mut().request_quit(&ctx);
+    h.step();
+    assert!(h.state().quit_question_open());
+    write_later(json, "{}".to_string()).join().unwrap();
+    for _ in 0..3 {
+        h.step();
+    }
+    assert!(h.state().quit_question_open(), "pending: {:?}", h.state().pending_open());
+    assert!(!h.state().is_loading());
+}

@@ -392,9 +392,10 @@ fn the_scene_capture_object_sizes_screenshots_and_is_saved_back() {
     assert_eq!((c.width, c.height, c.turntable), (200, 100, true), "{c:?}");
 }
 
-#[test]
-fn the_recording_renders_to_a_png_sequence_from_the_file_menu() {
-    let dir = ScratchDir::new("capture-sequence-editor");
+/// A scene of three frames in a new folder `name`, recorded in the editor with BS-ARAP,
+/// captures at 120 x 90 with overlays.
+fn recorded(name: &str) -> (ScratchDir, Harness<'static, EditorApp>) {
+    let dir = ScratchDir::new(name);
     let path = scene(&dir, Some(2.0), "");
     let text = std::fs::read_to_string(&path).unwrap().replace(r#""arap""#, r#""bsarap""#);
     std::fs::write(&path, text).unwrap();
@@ -404,6 +405,13 @@ fn the_recording_renders_to_a_png_sequence_from_the_file_menu() {
     let ctx = h.ctx.clone();
     h.state_mut().start_recording(&ctx);
     step_until(&mut h, "the recording", |a| !a.is_recording());
+    assert!(h.state().recorded_frames().is_some(), "{:?}", h.state().error());
+    (dir, h)
+}
+
+#[test]
+fn the_recording_renders_to_a_png_sequence_from_the_file_menu() {
+    let (dir, mut h) = recorded("capture-sequence-editor");
     assert!(h.state().error().is_none(), "{:?}", h.state().error());
     let n = h.state().recorded_frames().expect("a recording").frames.len();
     assert_eq!(n, 3);
@@ -423,4 +431,64 @@ fn the_recording_renders_to_a_png_sequence_from_the_file_menu() {
     assert!(imgs.iter().all(|i| i.dimensions() == (120, 90)));
     let d = differing_pixels(&imgs[0], &imgs[1]);
     assert!(d > 20, "recorded frames 0 and 1 differ in {d} pixels only");
+}
+
+/// A PNG sequence started from the File menu shows its progress and its cancel in the status
+/// bar (they were in the capture settings window only, closed here), and the cancel stops it.
+#[test]
+fn a_png_sequence_shows_and_cancels_in_the_status_bar() {
+    let (dir, mut h) = recorded("capture-sequence-status");
+    let ctx = h.ctx.clone();
+    let renderer = h.state().capture_renderer();
+    let held = renderer.lock().unwrap(); // the sequence waits for it: still running below
+    h.get_by_label("File").click();
+    h.run_steps(2);
+    h.get_by_label("Render the recording to PNGs").click();
+    h.run_steps(2);
+    assert!(h.state().is_capturing());
+    assert!(h.query_by_label("Capture settings").is_none(), "the window is open");
+    h.get_by_label("rendering 0/3");
+    // Quitting now asks first: it would stop the capture (there is nothing to save).
+    h.state_mut().request_quit(&ctx);
+    h.run_steps(2);
+    assert!(h.state().quit_question_open());
+    h.get_by_label("Quitting stops a capture being rendered. Quit anyway?");
+    assert!(h.query_by_label("Save first").is_none());
+    h.get_by_label("Cancel").click();
+    h.run_steps(1);
+    assert!(!h.state().quit_question_open() && h.state().is_capturing());
+    h.get_by_label("cancel").click();
+    h.run_steps(1);
+    drop(held);
+    step_until(&mut h, "the cancelled sequence", |a| !a.is_capturing());
+    let frames = dir.join("config/screenshots/frames_0001");
+    let written = if frames.exists() { pngs_in(&frames).len() } else { 0 };
+    assert!(written < 3, "all {written} frames written after the cancel");
+    h.state_mut().request_quit(&ctx);
+    h.step();
+    assert!(!h.state().quit_question_open(), "nothing under way: no question");
+}
+
+/// Quitting with work under way and nothing unsaved asks first (an F12 capture here; a
+/// recording, an export or a bake the same: an export writes its file at the end, and quitting
+/// stopped it with nothing said). "Quit" goes on, and is not asked again.
+#[test]
+fn quitting_during_a_capture_asks_and_quit_goes_on() {
+    let (_dir, mut h) = recorded("capture-quit");
+    let ctx = h.ctx.clone();
+    let renderer = h.state().capture_renderer();
+    let held = renderer.lock().unwrap();
+    h.key_press(egui::Key::F12);
+    h.run_steps(2);
+    assert!(h.state().is_capturing());
+    h.state_mut().request_quit(&ctx);
+    h.run_steps(2);
+    h.get_by_label("Quit").click();
+    h.step();
+    assert!(!h.state().quit_question_open());
+    h.state_mut().request_quit(&ctx);
+    h.step();
+    assert!(!h.state().quit_question_open(), "asked again after Quit");
+    drop(held);
+    step_until(&mut h, "the screenshot", |a| !a.is_capturing());
 }

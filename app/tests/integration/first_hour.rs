@@ -10,62 +10,14 @@ use std::path::Path;
 use app::editor::EditorApp;
 use app::editor::prefs::FILE_NAME;
 use app::editor::undo::EditState;
-use eframe::egui::accesskit::Role;
 use eframe::egui::{Event, Key, Modifiers, Vec2};
 use egui_kittest::{Harness, kittest::Queryable};
 use solver::testing::ScratchDir;
-use support::{settled, step_until, test_mesh};
+use support::{
+    choose_in_dialog, config_with_in_app_dialog, dialog_harness, settled, step_until, test_mesh,
+};
 
 const WINDOW: Vec2 = Vec2::new(1280.0, 800.0);
-
-/// A configuration folder whose preferences force the in-app file dialog.
-fn config_with_in_app_dialog(dir: &ScratchDir) -> std::path::PathBuf {
-    let config = dir.join("config");
-    std::fs::create_dir_all(&config).unwrap();
-    std::fs::write(config.join(FILE_NAME), r#"{"in_app_file_dialog": true}"#).unwrap();
-    config
-}
-
-/// The editor on the default asset in a 1280×800 window, keeping its files in `config`.
-/// egui_file's window titles start with an emoji (💾, 📂) that the editor's fonts lack: drawn
-/// as a box, which this harness allows (kittest's default panics on it).
-fn dialog_harness(config: std::path::PathBuf) -> Harness<'static, EditorApp> {
-    let builder = Harness::builder()
-        .with_size(WINDOW)
-        .with_render_cursor(false)
-        .with_step_dt(1.0 / 30.0)
-        .allow_missing_glyphs();
-    builder.wgpu().build_eframe(move |cc| {
-        EditorApp::new(
-            cc,
-            app::editor::EditorOptions {
-                mesh_path: Some(test_mesh()),
-                deterministic_overlays: true,
-                config_dir: Some(config),
-            },
-        )
-    })
-}
-
-/// Types `path` into the open in-app dialog's file name field (the text field that does not
-/// hold the folder) and confirms it with Enter.
-fn choose_in_dialog(h: &mut Harness<'_, EditorApp>, path: &Path) {
-    h.step();
-    h.step(); // a new window is laid out invisibly in its first frame
-    assert!(h.state().file_dialog_open(), "no file dialog");
-    h.get_all_by_role(Role::TextInput)
-        .find(|n| !Path::new(&n.value().unwrap_or_default()).is_absolute())
-        .expect("the file name field")
-        .focus();
-    h.step();
-    h.key_press_modifiers(Modifiers::COMMAND, Key::A);
-    h.event(Event::Text(path.display().to_string()));
-    h.step();
-    h.key_press(Key::Enter);
-    h.step();
-    h.step();
-    assert!(!h.state().file_dialog_open(), "the dialog did not close");
-}
 
 #[test]
 fn save_open_dmat_and_export_go_through_the_in_app_file_dialog() {
@@ -694,7 +646,8 @@ fn a_dropped_selection_is_the_open_meshs_new_selection() {
     let text = format!("\n [{{\"group\": 0, \"center\": {p:?}, \"radius\": 1e-6}}]");
     std::fs::write(&spheres, text).unwrap();
     support::drop_file(&mut h, spheres);
-    step_until(&mut h, "the spheres", |a| !a.is_loading_selection());
+    // told apart from a scene, then read as a selection, on loader threads
+    step_until(&mut h, "the spheres", |a| !a.is_loading() && !a.is_loading_selection());
     assert!(!h.state().is_loading() && h.state().error().is_none(), "{:?}", h.state().error());
     let labels = h.state().labels();
     assert_eq!((labels[0], labels[n - 1]), (None, Some(0)), "{labels:?}");

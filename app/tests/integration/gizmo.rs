@@ -9,7 +9,9 @@ use app::editor::solver_thread::Slot;
 use app::editor::{EditorApp, Tool, TransformKind};
 use eframe::egui::{Event, Key, Modifiers, Pos2, Vec2};
 use egui_kittest::{Harness, kittest::Queryable};
-use support::{SIZE, drag, harness, has_current_frame, press, settled, step_until, test_mesh};
+use support::{
+    SIZE, drag, harness, has_current_frame, move_pointer, press, settled, step_until, test_mesh,
+};
 
 /// The default asset with group 0 active, in the pose tool.
 fn start() -> Harness<'static, EditorApp> {
@@ -21,13 +23,6 @@ fn start() -> Harness<'static, EditorApp> {
     let (c, _) = h.state().gizmo_screen().expect("the gizmo of group 0");
     assert!(c.x > 0.0 && c.x < SIZE.x && c.y > 0.0 && c.y < SIZE.y, "gizmo off screen: {c:?}");
     h
-}
-
-fn move_pointer(h: &mut Harness<'_, EditorApp>, points: impl IntoIterator<Item = Pos2>) {
-    for p in points {
-        h.event(Event::PointerMoved(p));
-        h.step();
-    }
 }
 
 /// Points along the arc about `c` of radius `r` from 0 to `degrees` (counter-clockwise on
@@ -401,6 +396,19 @@ fn g_in_paint_only_switches_and_a_drag_beside_a_ring_moves_the_group() {
     assert!(poses.iter().any(|q| q.translation != glam::DVec3::ZERO), "the drag moved no group");
 }
 
+/// G pressed beside group 0's gizmo and the pointer moved four steps: the group moved; where
+/// the pointer started.
+fn g_moved(h: &mut Harness<'static, EditorApp>) -> Pos2 {
+    let (c, _) = h.state().gizmo_screen().unwrap();
+    let p0 = c + Vec2::new(40.0, 30.0);
+    move_pointer(h, [p0]);
+    h.key_press(Key::G);
+    h.step();
+    move_pointer(h, (1..=4).map(|i| p0 + Vec2::new(12.0 * i as f32, 5.0 * i as f32)));
+    assert_ne!(h.state().group_pose(0).unwrap().translation.to_array(), [0.0; 3]);
+    p0
+}
+
 /// Deleting the group a modal transform moves (the panel's Delete, the pointer free) cancels
 /// the transform: the indices shift, and it went on moving the next group, which Esc then set
 /// to the deleted group's start pose.
@@ -408,13 +416,7 @@ fn g_in_paint_only_switches_and_a_drag_beside_a_ring_moves_the_group() {
 fn deleting_the_group_of_a_modal_transform_cancels_it() {
     let mut h = start();
     assert!(h.state().edit_state().groups.len() >= 2, "the default asset has two groups");
-    let (c, _) = h.state().gizmo_screen().unwrap();
-    let p0 = c + Vec2::new(40.0, 30.0);
-    move_pointer(&mut h, [p0]);
-    h.key_press(Key::G);
-    h.step();
-    move_pointer(&mut h, (1..=4).map(|i| p0 + Vec2::new(12.0 * i as f32, 5.0 * i as f32)));
-    assert_ne!(h.state().group_pose(0).unwrap().translation.to_array(), [0.0; 3]);
+    let p0 = g_moved(&mut h);
     let next = h.state().group_pose(1).unwrap();
     h.get_all_by_label("Delete").next().expect("group 0's Delete").click();
     h.step();
@@ -426,4 +428,20 @@ fn deleting_the_group_of_a_modal_transform_cancels_it() {
     h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
     h.step();
     assert_eq!(h.state().group_pose(0).unwrap().translation.to_array(), [0.0; 3]);
+}
+
+/// G, then R (the rotation starts from the pose moved so far), then Esc: the whole transform is
+/// cancelled, the move included (it stayed, with no undo entry of its own).
+#[test]
+fn esc_after_switching_from_g_to_r_cancels_both() {
+    let mut h = start();
+    let p0 = g_moved(&mut h);
+    h.key_press(Key::R);
+    h.step();
+    assert_eq!(h.state().running_transform(), Some((TransformKind::Rotate, None)));
+    move_pointer(&mut h, (1..=4).map(|i| p0 + Vec2::new(48.0, 20.0 + 10.0 * i as f32)));
+    h.key_press(Key::Escape);
+    h.step();
+    assert_eq!(h.state().running_transform(), None);
+    assert_eq!(h.state().group_pose(0).unwrap(), Default::default(), "the move stayed");
 }

@@ -20,4 +20,7 @@ mod method_panel;
 mod preferences;
 mod readme_pictures;
 mod rigging;
+mod saving;
 mod selection_tools;
+mod side_by_side;
+mod timeline;

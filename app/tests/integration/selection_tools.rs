@@ -241,3 +241,31 @@ fn grow_shrink_invert_connected_and_clear_edit_the_active_group() {
     step_until(&mut h, "a frame for the handle set", settled);
     assert!(h.state().error().is_none(), "{:?}", h.state().error());
 }
+
+/// Q (or G, R) pressed during a brush stroke ends the stroke: its labels reach the solver at
+/// once (they waited for the brush to come back, and a press then went on with the old stroke,
+/// without an undo entry of its own).
+#[test]
+fn switching_to_the_box_mid_stroke_ends_the_stroke() {
+    let (mut h, g) = start();
+    let before = h.state().labels().to_vec();
+    let generation = h.state().scene_generation();
+    let p = support::middle_vertex_on_screen(h.state());
+    h.event(Event::PointerMoved(p));
+    h.step();
+    support::press(&h, p, true, Modifiers::NONE);
+    h.step();
+    h.event(Event::PointerMoved(p + Vec2::new(4.0, 0.0)));
+    h.step();
+    assert!(!in_group(h.state(), g).is_empty(), "the stroke painted nothing");
+    h.key_press(Key::Q);
+    h.step();
+    assert_eq!(h.state().select_mode(), SelectMode::Box);
+    assert_eq!(h.state().scene_generation(), generation + 1, "the stroke's labels not sent");
+    support::press(&h, p + Vec2::new(4.0, 0.0), false, Modifiers::NONE);
+    h.step();
+    assert_eq!(h.state().scene_generation(), generation + 1);
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    assert_eq!(h.state().labels(), &before[..], "one undo takes back the stroke");
+}

@@ -27,9 +27,10 @@ impl EditorApp {
         self.session.pending == Some(super::session::Pending::Quit)
     }
 
-    /// Whether a mesh or a scene is loading.
+    /// Whether a mesh or a scene is loading, or a `.json` given to open is being read to tell
+    /// a scene from a selection.
     pub fn is_loading(&self) -> bool {
-        self.jobs.loading.is_some()
+        self.jobs.loading.is_some() || self.jobs.identifying.is_some()
     }
 
     /// Whether a selection is being read for the open mesh (`loader::spawn_selection`).
@@ -80,6 +81,8 @@ impl EditorApp {
         path: PathBuf,
         loaded: solver::io::LoadedMesh,
     ) {
+        self.jobs.identifying = None;
+        self.offer_again();
         let version = self.next_version();
         let c = ctx.clone();
         self.jobs.loading =
@@ -186,7 +189,7 @@ impl EditorApp {
     /// Replaces the editable state as one undoable edit (scripts and tests).
     pub fn set_edit_state(&mut self, state: EditState) {
         self.session.history.push(self.session.edit.clone());
-        self.apply_history(Some(state));
+        self.apply_history(Some((state, self.session.playback.time)));
     }
 
     pub fn playback_time(&self) -> f64 {

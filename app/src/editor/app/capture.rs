@@ -164,6 +164,11 @@ impl EditorApp {
         !self.capture.jobs.is_empty()
     }
 
+    /// The captures' renderer: a capture started while a test holds its lock waits for it.
+    pub fn capture_renderer(&self) -> Arc<Mutex<Option<Offscreen>>> {
+        self.capture.offscreen.clone()
+    }
+
     /// Each frame: F12, a menu request, finished captures and the settings window.
     pub(super) fn capture_tick(&mut self, ctx: &egui::Context, frame: &eframe::Frame) {
         self.poll_captures();
@@ -353,9 +358,19 @@ impl EditorApp {
         let spawned = std::thread::Builder::new().name("bsarap capture".into()).spawn(move || {
             let result = match shared.lock() {
                 Ok(mut guard) => {
-                    let offscreen =
-                        guard.get_or_insert_with(|| Offscreen::with_device(device, queue, adapter));
-                    work(offscreen, &d, &c).map_err(|e| format!("{e:#}"))
+                    let run = std::panic::AssertUnwindSafe(|| {
+                        let new = || Offscreen::with_device(device, queue, adapter);
+                        work(guard.get_or_insert_with(new), &d, &c)
+                    });
+                    match std::panic::catch_unwind(run) {
+                        Ok(r) => r.map_err(|e| format!("{e:#}")),
+                        Err(_) => {
+                            // the renderer may be half-way through a frame: the next capture
+                            // makes a new one
+                            *guard = None;
+                            Err("the capture crashed (a bug; please report it)".to_string())
+                        }
+                    }
                 }
                 Err(_) => Err("an earlier capture failed".to_string()),
             };
@@ -367,6 +382,21 @@ impl EditorApp {
                 self.capture.jobs.push(CaptureJob { rx, done, total, cancel, sequence });
             }
             Err(e) => self.error = Some(format!("capture: cannot start a thread: {e}")),
+        }
+    }
+
+    /// The captures under way, a PNG sequence's with its cancel (the capture window and the
+    /// status bar show them).
+    pub(super) fn capture_progress(&self, ui: &mut egui::Ui) {
+        for j in &self.capture.jobs {
+            if self.display.software_rendering.is_none() {
+                ui.spinner(); // each frame repainted: not on a software adapter
+            }
+            let done = j.done.load(Ordering::Relaxed);
+            ui.label(format!("rendering {done}/{}", j.total));
+            if j.sequence && ui.small_button("cancel").clicked() {
+                j.cancel.store(true, Ordering::Relaxed);
+            }
         }
     }
 
@@ -402,16 +432,7 @@ impl EditorApp {
                     .on_disabled_hover_text("record the timeline first")
                     .clicked();
             });
-            for j in &self.capture.jobs {
-                ui.horizontal(|ui| {
-                    ui.spinner();
-                    let done = j.done.load(Ordering::Relaxed);
-                    ui.label(format!("rendering {done}/{}", j.total));
-                    if j.sequence && ui.small_button("cancel").clicked() {
-                        j.cancel.store(true, Ordering::Relaxed);
-                    }
-                });
-            }
+            ui.horizontal(|ui| self.capture_progress(ui));
             if let Some(p) = &self.capture.last {
                 ui.weak(format!("last: {}", p.display()));
             }

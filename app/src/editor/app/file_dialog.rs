@@ -199,8 +199,9 @@ impl EditorApp {
                 }
                 Some(Ok(r)) => {
                     self.jobs.dialogs.native = None;
-                    if let Some(path) = r {
-                        self.dialog_chosen(ctx, kind, path);
+                    match r {
+                        Some(path) => self.dialog_chosen(ctx, kind, path),
+                        None => self.dialog_cancelled(),
                     }
                 }
             }
@@ -219,8 +220,38 @@ impl EditorApp {
             }
             egui_file::State::Cancelled | egui_file::State::Closed => {
                 self.jobs.dialogs.in_app = None;
+                self.dialog_cancelled();
             }
         }
+    }
+
+    /// Where a save chosen as `path` writes: with the extension `ext` added when it has none;
+    /// refused when it has another (a scene typed as `creature.obj` wrote JSON over the mesh),
+    /// or is a file the document was read from but its own scene (and a `.dmat` selection), a
+    /// loaded texture or the autosave.
+    fn save_path(&self, path: &Path, ext: &str) -> Result<PathBuf, String> {
+        let path = if path.extension().is_none() { path.with_extension(ext) } else { path.into() };
+        if !path.extension().is_some_and(|e| e.eq_ignore_ascii_case(ext)) {
+            return Err(format!("{}: the name must end in .{ext}", path.display()));
+        }
+        let mut protected = self.read_files(false);
+        // A selection is saved back over its own file; a scene only over itself, never over a
+        // sphere list the mesh was opened with (the Save dialog lists `.json` files).
+        let selection = self.session.scene.as_ref().and_then(|s| s.selection_path.as_ref());
+        if let Some(p) = selection.filter(|&p| self.session.document_path.as_ref() != Some(p))
+            && ext == "json"
+        {
+            protected.push(crate::outputs::Input::new("handle selection", p));
+        }
+        crate::outputs::check(std::slice::from_ref(&path), &protected)
+            .map_err(|e| e.to_string())?;
+        Ok(path)
+    }
+
+    /// A dialog closed with no file: an open or quit that waited for a Save as does not go
+    /// on at a later save.
+    fn dialog_cancelled(&mut self) {
+        self.session.after_save = None;
     }
 
     /// Acts on the file chosen in a dialog of `kind`.
@@ -229,17 +260,25 @@ impl EditorApp {
             DialogKind::OpenMesh | DialogKind::OpenScene => self.request_open(ctx, path),
             DialogKind::LoadSelection => self.load_selection(ctx, &path),
             DialogKind::LoadTexture => self.load_texture(&path),
-            DialogKind::SaveSelection => match loader::write_dmat(&path, &self.session.edit.labels)
-            {
-                Ok(()) => self.info = Some(format!("saved {}", path.display())),
-                Err(e) => self.error = Some(format!("{e:#}")),
-            },
+            DialogKind::SaveSelection => {
+                let written = self.save_path(&path, "dmat").and_then(|path| {
+                    loader::write_dmat(&path, &self.session.edit.labels)
+                        .map_err(|e| format!("{e:#}"))
+                        .map(|()| path)
+                });
+                match written {
+                    Ok(path) => self.info = Some(format!("saved {}", path.display())),
+                    Err(e) => self.error = Some(format!("selection not saved: {e}")),
+                }
+            }
             DialogKind::SaveScene => {
-                let path =
-                    if path.extension().is_none() { path.with_extension("json") } else { path };
-                match self.save_scene(&path) {
+                match self.save_path(&path, "json").and_then(|path| self.save_scene(&path)) {
                     Ok(()) => self.after_save(ctx),
-                    Err(e) => self.error = Some(format!("scene not saved: {e}")),
+                    Err(e) => {
+                        // the open or quit that waited for the save does not go on later
+                        self.session.after_save = None;
+                        self.error = Some(format!("scene not saved: {e}"));
+                    }
                 }
             }
             DialogKind::ExportGltf => {

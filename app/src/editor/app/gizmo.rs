@@ -175,12 +175,15 @@ impl EditorApp {
         }
     }
 
+    /// Ends the transform with its group's pose from before it (a switch between G and R
+    /// started another from the pose so far: that is undone too).
     pub(super) fn cancel_transform(&mut self) {
         if let Some(t) = self.gizmo.transform.take()
+            && let Some(start) = t.before.groups.get(t.group).map(|g| g.pose)
             && let Some(g) = self.session.edit.groups.get_mut(t.group)
-            && g.pose != t.start_pose
+            && g.pose != start
         {
-            g.pose = t.start_pose;
+            g.pose = start;
             self.mirror_pose(t.group);
             self.send_poses();
         }

@@ -20,8 +20,7 @@ pub(super) struct Interaction {
     pub(super) hover: Option<Hover>,
     /// What `hover` was found for ([`HoverKey`]); `None` when it is to be found again.
     pub(super) hover_key: Option<HoverKey>,
-    /// A paint stroke in progress (`true`: erasing).
-    pub(super) stroke: Option<bool>,
+    pub(super) stroke: Option<Stroke>,
     pub(super) drag: Option<PoseDrag>,
     /// Group being renamed, with the name typed so far.
     pub(super) renaming: Option<(usize, String)>,
@@ -63,6 +62,15 @@ pub(super) struct HoverKey {
     radius: f32,
     tool: Tool,
     view: View,
+}
+
+/// A paint stroke in progress.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Stroke {
+    pub(super) erase: bool,
+    /// The viewport it started in: only that viewport's input goes on with it or ends it
+    /// (side by side, the other viewport's pointer is up).
+    slot: usize,
 }
 
 /// A drag of a handle group in progress.
@@ -318,6 +326,16 @@ impl EditorApp {
         if response.hovered() && scroll != 0.0 {
             self.display.camera.zoom(scroll);
         }
+        // A stroke whose tool or brush changed under it (G, R or Q with the button held) ends
+        // here: the paint input that would end it no longer runs.
+        let brush = match self.interaction.tool {
+            Tool::Paint => self.selecting.mode == super::SelectMode::Brush,
+            Tool::Rigidity => true,
+            Tool::Pose => false,
+        };
+        if !brush && self.interaction.stroke.is_some_and(|s| s.slot == slot) {
+            self.finish_stroke();
+        }
         if !alt_orbit && self.tool_input(ui, slot, rect, response, modifiers) {
             return;
         }
@@ -334,24 +352,42 @@ impl EditorApp {
             return;
         }
         match self.interaction.tool {
-            Tool::Paint | Tool::Rigidity => self.paint_input(response, modifiers),
+            Tool::Paint | Tool::Rigidity => self.paint_input(slot, response, modifiers),
             Tool::Pose => self.pose_input(ui, slot, rect, response, modifiers, delta),
         }
     }
 
-    pub(super) fn paint_input(&mut self, response: &egui::Response, modifiers: Modifiers) {
+    pub(super) fn paint_input(
+        &mut self,
+        slot: usize,
+        response: &egui::Response,
+        modifiers: Modifiers,
+    ) {
+        if self.interaction.stroke.is_some_and(|s| s.slot != slot) {
+            return;
+        }
         let primary_down = response.is_pointer_button_down_on()
             && response.ctx.input(|i| i.pointer.primary_down());
         if primary_down && self.interaction.hover.is_some() {
-            if self.interaction.stroke.is_none() {
-                self.session.history.push(self.session.edit.clone());
-                self.interaction.stroke = Some(modifiers.command);
-            }
-            self.paint_footprint(self.interaction.stroke.unwrap_or(false));
+            let erase = match self.interaction.stroke {
+                Some(s) => s.erase,
+                None => {
+                    self.session.history.push(self.session.edit.clone());
+                    self.interaction.stroke = Some(Stroke { erase: modifiers.command, slot });
+                    modifiers.command
+                }
+            };
+            self.paint_footprint(erase);
         }
         let released = response.ctx.input(|i| i.pointer.primary_released());
-        if self.interaction.stroke.is_some() && (released || !primary_down) {
-            self.interaction.stroke = None;
+        if released || !primary_down {
+            self.finish_stroke();
+        }
+    }
+
+    /// Ends the paint stroke in progress, if any, and sends the labels it painted.
+    pub(super) fn finish_stroke(&mut self) {
+        if self.interaction.stroke.take().is_some() {
             self.rigging.stroke_partner = None;
             self.send_scene();
         }

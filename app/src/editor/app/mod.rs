@@ -148,6 +148,9 @@ struct Jobs {
     /// of the mesh it is read for (its `Topology::version`): dropped on arrival if another
     /// mesh, or the same file again, was opened meanwhile.
     selection: Option<(u64, LoadJob<Vec<Option<u32>>>)>,
+    /// A `.json` given to open, read on a loader thread to tell a selection from a scene
+    /// (`loader::spawn_identify`); another file given to open meanwhile replaces it.
+    identifying: Option<LoadJob<bool>>,
     /// The precomputation a loader started on the mesh it read (`loader::StartPrepare`),
     /// until the loaded scene takes it over.
     early_prepare: std::sync::Arc<std::sync::Mutex<Option<Preparing>>>,
@@ -170,13 +173,17 @@ struct Jobs {
 }
 
 impl Jobs {
-    /// The file being read in the background (a mesh or a scene, else a selection), and since
-    /// when: what the status bar and the viewport show while it loads.
+    /// The file being read in the background (a mesh or a scene, else a selection, else a
+    /// `.json` being told apart), and since when: what the status bar and the viewport show
+    /// while it loads.
     fn reading(&self) -> Option<(&Path, Instant)> {
         if let Some(j) = &self.loading {
             return Some((&j.path, j.since));
         }
-        self.selection.as_ref().map(|(_, j)| (j.path.as_path(), j.since))
+        if let Some((_, j)) = &self.selection {
+            return Some((&j.path, j.since));
+        }
+        self.identifying.as_ref().map(|j| (j.path.as_path(), j.since))
     }
 }
 

@@ -498,6 +498,7 @@ impl eframe::App for EditorApp {
 
         self.poll_loader();
         self.poll_selection();
+        self.poll_identify(&ctx);
         self.ensure_compare_solver(&ctx);
         self.poll_prepare(&ctx);
         self.poll_solvers();

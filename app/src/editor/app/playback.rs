@@ -8,10 +8,12 @@ use eframe::egui;
 use super::{DialogKind, EditorApp};
 use crate::editor::jobs::{self, Job, RecordInput};
 use crate::editor::timeline::{self, RecordingView, TimelineAction, apply_paths};
+use crate::outputs::Input;
 
 impl EditorApp {
     /// The playback time moved: groups with paths take their pose at that time.
     pub(super) fn time_changed(&mut self) {
+        self.session.history.set_time(self.session.playback.time);
         if apply_paths(&mut self.session.edit, self.session.playback.time) {
             self.send_poses();
         }
@@ -37,6 +39,12 @@ impl EditorApp {
             self.error = Some(format!("cannot record: {e}"));
             return;
         }
+        let n_frames = timeline::frame_count(&timeline);
+        let available = crate::memory::available_mib();
+        if let Err(e) = jobs::recording_fits(n_frames, scene.mesh.n_vertices(), available) {
+            self.error = Some(format!("cannot record: {e}"));
+            return;
+        }
         if timeline.paths.is_empty() {
             self.info = Some("no group moves: every recorded frame is the rest pose".into());
         }
@@ -46,7 +54,7 @@ impl EditorApp {
             mesh: scene.mesh.clone(),
             layout: scene.layout.clone(),
             handles,
-            n_frames: timeline::frame_count(&timeline),
+            n_frames,
             timeline,
             method: s.bs_variant,
             config,
@@ -76,6 +84,7 @@ impl EditorApp {
             return;
         };
         if self.jobs.export.is_some() || self.jobs.bake.is_some() {
+            self.error = Some("an export is under way: wait for it, or cancel it".into());
             return;
         }
         // The same mesh's layout as it is now: a texture loaded after recording is exported.
@@ -84,16 +93,42 @@ impl EditorApp {
             _ => rec.layout.clone(),
         };
         let up = self.session.file_view.up_axis;
+        let inputs = self.read_files(true);
         let c = ctx.clone();
         let is_pc2 = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("pc2"));
         let bake = self.jobs.bake_choice;
         if bake.on && !is_pc2 {
             let repaint = move || c.request_repaint();
-            self.jobs.bake = Some(jobs::spawn_bake(rec, layout, up, bake.bones, path, repaint));
+            let bones = bake.bones;
+            self.jobs.bake = Some(jobs::spawn_bake(rec, layout, up, bones, path, inputs, repaint));
             return;
         }
         self.jobs.export =
-            Some(jobs::spawn_export(rec, layout, up, path, move || c.request_repaint()));
+            Some(jobs::spawn_export(rec, layout, up, path, inputs, move || c.request_repaint()));
+    }
+
+    /// The files a save or an export must not write over: the mesh the document was read
+    /// from, its material libraries, a loaded texture and the autosave; with `document`, also
+    /// the scene file and the selection it was read from (a save may write those again).
+    pub(super) fn read_files(&self, document: bool) -> Vec<Input> {
+        let mut files = Vec::new();
+        if let Some(p) = self.session.document_path.as_ref().filter(|_| document) {
+            files.push(Input::new("scene", p));
+        }
+        if let Some(s) = &self.session.scene {
+            files.push(Input::new("open mesh", &s.path));
+            files.extend(Input::libraries(&s.layout.asset));
+            if let Some(p) = s.selection_path.as_ref().filter(|_| document) {
+                files.push(Input::new("handle selection", p));
+            }
+        }
+        if let Some(p) = &self.session.file_view.texture {
+            files.push(Input::new("texture", p));
+        }
+        if let Some(p) = &self.store.persist {
+            files.push(Input::new("autosave", &p.autosave_path()));
+        }
+        files
     }
 
     /// Whether the next glTF export bakes the recording to bones, and how many
@@ -101,6 +136,13 @@ impl EditorApp {
     pub fn set_bake_choice(&mut self, mut choice: crate::editor::timeline::BakeChoice) {
         choice.bones = choice.bones.clamp(1, solver::animation::skinning::MAX_BONES);
         self.jobs.bake_choice = choice;
+    }
+
+    /// Stops the export under way; it reports "cancelled" and writes nothing.
+    pub fn cancel_export(&mut self) {
+        if let Some(j) = &self.jobs.export {
+            j.cancel();
+        }
     }
 
     /// Stops the bake to bones under way; it reports "cancelled" and writes nothing.
@@ -112,11 +154,7 @@ impl EditorApp {
 
     pub(super) fn poll_jobs(&mut self) {
         if let Some(r) = self.jobs.record.as_ref().and_then(Job::try_finish) {
-            let cancelled = self
-                .jobs
-                .record
-                .as_ref()
-                .is_some_and(|j| j.progress.cancel.load(std::sync::atomic::Ordering::Relaxed));
+            let cancelled = self.jobs.record.as_ref().is_some_and(Job::cancelled);
             self.jobs.record = None;
             match r {
                 Ok(rec) => {
@@ -138,20 +176,20 @@ impl EditorApp {
             }
         }
         if let Some(r) = self.jobs.export.as_ref().and_then(Job::try_finish) {
+            let cancelled = self.jobs.export.as_ref().is_some_and(Job::cancelled);
             self.jobs.export = None;
             match r {
                 Ok((path, bytes)) => {
                     self.info =
                         Some(format!("wrote {} ({:.1} MB)", path.display(), bytes as f64 / 1e6))
                 }
+                // a failure that came before the cancel took effect is still an error
+                Err(e) if cancelled && e.contains("cancelled") => self.info = Some(e),
                 Err(e) => self.error = Some(e),
             }
         }
         if let Some(r) = self.jobs.bake.as_ref().and_then(|b| b.job.try_finish()) {
-            let cancelled =
-                self.jobs.bake.as_ref().is_some_and(|b| {
-                    b.job.progress.cancel.load(std::sync::atomic::Ordering::Relaxed)
-                });
+            let cancelled = self.jobs.bake.as_ref().is_some_and(|b| b.job.cancelled());
             self.jobs.bake = None;
             match r {
                 Ok(baked) => self.info = Some(baked.summary()),
@@ -183,11 +221,24 @@ impl EditorApp {
         ctx: &egui::Context,
         actions: Vec<TimelineAction>,
     ) {
+        let dragged = ctx.dragged_id();
+        if dragged.is_none() {
+            self.session.timeline_drag = None;
+        }
         for a in actions {
             match a {
                 TimelineAction::TimeChanged => self.time_changed(),
                 TimelineAction::Edited { before } => {
-                    self.session.history.push(*before);
+                    // One undo step per drag of a number, not one a frame: the step its first
+                    // change pushed, while it is still the history's last.
+                    let history = &mut self.session.history;
+                    let same = |(id, generation)| {
+                        dragged == Some(id) && generation == history.generation()
+                    };
+                    if !self.session.timeline_drag.is_some_and(same) {
+                        history.push(*before);
+                    }
+                    self.session.timeline_drag = dragged.map(|d| (d, history.generation()));
                     self.display.color_version += 1;
                 }
                 TimelineAction::Record => self.start_recording(ctx),
@@ -195,6 +246,7 @@ impl EditorApp {
                 TimelineAction::ExportGltf => self.start_dialog(ctx, DialogKind::ExportGltf),
                 TimelineAction::SetBake(choice) => self.set_bake_choice(choice),
                 TimelineAction::CancelBake => self.cancel_bake(),
+                TimelineAction::CancelExport => self.cancel_export(),
                 TimelineAction::Rejected(e) => self.error = Some(format!("value refused: {e}")),
                 TimelineAction::ShowRecording(on) => {
                     self.display.show_recording = on;

@@ -13,7 +13,7 @@ use crate::editor::document::{self, DocumentInput};
 use crate::editor::loader::{self, LoadedFile};
 use crate::editor::persist::{self, AUTOSAVE_INTERVAL, Persist, Snapshot};
 use crate::editor::solver_thread::MethodSettings;
-use crate::editor::timeline::Playback;
+use crate::editor::timeline::{Playback, apply_paths, differ_beyond_playback};
 use crate::editor::undo::{EditState, History};
 
 /// How often the crash snapshot is refreshed.
@@ -39,11 +39,16 @@ pub(super) struct Session {
     pub(super) discard_on_exit: bool,
     /// The user chose to quit and keep the changes for the next start.
     pub(super) keep_on_exit: bool,
+    /// The user chose to quit though work was under way ([`EditorApp::work_under_way`]).
+    pub(super) stop_work_on_exit: bool,
     /// The texture the user loaded and the file's up axis, and as last opened or saved.
     pub(super) file_view: super::asset_view::FileView,
     pub(super) saved_file_view: super::asset_view::FileView,
     /// The status and error lines last written to stderr ([`EditorApp::log_status`]).
     pub(super) logged_status: (Option<String>, Option<String>),
+    /// The timeline widget being dragged whose first change went into the history, with the
+    /// history's generation then: the rest of its drag is that one undo step.
+    pub(super) timeline_drag: Option<(egui::Id, u64)>,
 }
 
 /// An action that would drop unsaved changes.
@@ -67,6 +72,16 @@ pub(super) struct Store {
     pub(super) autosaved: Option<solver::animation::scene::Scene>,
     /// An autosave from a session that did not end cleanly, offered back at start.
     pub(super) restore_offer: Option<RestoreOffer>,
+    /// The offer whose autosave is loading after Restore: offered again if it fails.
+    pub(super) restoring: Option<RestoreOffer>,
+}
+
+impl Store {
+    /// Whether the autosave on disk is an offer not settled yet (unanswered, or restoring):
+    /// nothing may write over it or remove it.
+    fn offer_pending(&self) -> bool {
+        self.restore_offer.is_some() || self.restoring.is_some()
+    }
 }
 
 impl Store {
@@ -81,6 +96,7 @@ impl Store {
             last_autosave: Instant::now(),
             autosaved: None,
             restore_offer: None,
+            restoring: None,
         };
         if let Some(p) = &store.persist {
             store.recent = p.recent();
@@ -109,18 +125,46 @@ pub(super) struct RestoreOffer {
 }
 
 impl EditorApp {
-    /// Whether the edit state differs from what was last opened or saved.
+    /// Whether the document differs from what was last opened or saved: its edit state other
+    /// than by the playback time's poses, or its texture and up axis.
     pub fn has_unsaved_changes(&self) -> bool {
+        let edit = &self.session.edit;
         self.session.scene.is_some()
-            && (self.session.saved_edit.as_ref() != Some(&self.session.edit)
+            && (self.session.saved_edit.as_ref().is_none_or(|s| differ_beyond_playback(s, edit))
                 || self.session.saved_file_view != self.session.file_view)
     }
 
     /// Opens `path` from the UI (menu, recent files, drop): with unsaved changes, asks first.
     /// A handle selection (a `.dmat`, a list of spheres) is the open mesh's new selection, as
-    /// *Load .dmat…* makes it (undoable), not a file to open in its place.
+    /// *Load .dmat…* makes it (undoable), not a file to open in its place. A `.json` is read
+    /// on a loader thread first to tell which it is (`poll_identify` goes on).
     pub fn request_open(&mut self, ctx: &egui::Context, path: PathBuf) {
-        if loader::is_selection_file(&path) {
+        if loader::is_scene_file(&path) {
+            let c = ctx.clone();
+            self.jobs.identifying = Some(loader::spawn_identify(path, move || c.request_repaint()));
+            return;
+        }
+        self.jobs.identifying = None; // the later file wins
+        let selection = loader::is_selection_file(&path);
+        self.open_as(ctx, path, selection);
+    }
+
+    /// Goes on with a `.json` given to [`Self::request_open`] once its loader thread told
+    /// whether it is a selection.
+    pub(super) fn poll_identify(&mut self, ctx: &egui::Context) {
+        let Some(job) = &self.jobs.identifying else { return };
+        let selection = match job.rx.try_recv() {
+            Err(TryRecvError::Empty) => return,
+            Err(TryRecvError::Disconnected) => false,
+            Ok(result) => result.unwrap_or(false),
+        };
+        let Some(job) = self.jobs.identifying.take() else { return };
+        self.open_as(ctx, job.path, selection);
+    }
+
+    /// [`Self::request_open`] once it is known whether `path` is a `selection`.
+    fn open_as(&mut self, ctx: &egui::Context, path: PathBuf, selection: bool) {
+        if selection {
             match self.session.scene {
                 Some(_) => self.load_selection(ctx, &path),
                 None => {
@@ -140,10 +184,11 @@ impl EditorApp {
         }
     }
 
-    /// Quits (Ctrl+Q, the window's close button): with unsaved changes, asks first.
+    /// Quits (Ctrl+Q, the window's close button): with unsaved changes or work under way,
+    /// asks first.
     pub fn request_quit(&mut self, ctx: &egui::Context) {
-        if self.has_unsaved_changes() && !self.session.discard_on_exit {
-            self.session.pending = Some(Pending::Quit);
+        if self.must_ask_to_quit() {
+            self.ask_quit();
         } else {
             ctx.send_viewport_cmd(egui::ViewportCommand::Close);
         }
@@ -154,15 +199,37 @@ impl EditorApp {
         if !ctx.input(|i| i.viewport().close_requested()) {
             return;
         }
-        if self.has_unsaved_changes() && !self.session.discard_on_exit && !self.quit_decided() {
+        if self.must_ask_to_quit() {
             ctx.send_viewport_cmd(egui::ViewportCommand::CancelClose);
-            self.session.pending = Some(Pending::Quit);
+            self.ask_quit();
         }
     }
 
-    /// The user already answered that quitting may drop or keep the changes.
-    fn quit_decided(&self) -> bool {
-        self.session.keep_on_exit
+    /// Whether quitting now would lose something the user has not agreed to lose: unsaved
+    /// changes, or work under way.
+    fn must_ask_to_quit(&self) -> bool {
+        let (discard, keep) = (self.session.discard_on_exit, self.session.keep_on_exit);
+        (self.has_unsaved_changes() && !discard && !keep)
+            || (!self.work_under_way().is_empty() && !self.session.stop_work_on_exit)
+    }
+
+    /// The work under way that quitting stops, in words for the quit question: a recording, an
+    /// export or a bake being written (an export killed half-way writes nothing), a capture.
+    pub(super) fn work_under_way(&self) -> Vec<&'static str> {
+        let jobs = [
+            (self.jobs.record.is_some(), "a recording"),
+            (self.jobs.export.is_some(), "an export being written"),
+            (self.jobs.bake.is_some(), "a bake to bones"),
+            (self.is_capturing(), "a capture being rendered"),
+        ];
+        jobs.into_iter().filter(|(on, _)| *on).map(|(_, what)| what).collect()
+    }
+
+    /// Asks whether to quit with unsaved changes. A `.json` still being told apart is
+    /// forgotten: the later request wins, and its open would replace the question.
+    fn ask_quit(&mut self) {
+        self.jobs.identifying = None;
+        self.session.pending = Some(Pending::Quit);
     }
 
     /// After a save: the open or quit that waited for it.
@@ -177,20 +244,39 @@ impl EditorApp {
     /// The unsaved-changes question, before opening another file or quitting.
     pub(super) fn unsaved_window(&mut self, ctx: &egui::Context) {
         let Some(pending) = self.session.pending.clone() else { return };
+        let unsaved = self.has_unsaved_changes();
         let question = match &pending {
             Pending::Open(path) => {
                 format!("The current scene has unsaved changes. Open {} anyway?", file_name(path))
             }
-            Pending::Quit => "The current scene has unsaved changes. Quit anyway?".to_string(),
+            Pending::Quit => {
+                let mut q = String::new();
+                if unsaved {
+                    q += "The current scene has unsaved changes. ";
+                }
+                let work = self.work_under_way();
+                if !work.is_empty() {
+                    q += &format!("Quitting stops {}. ", work.join(" and "));
+                }
+                q + "Quit anyway?"
+            }
         };
-        egui::Window::new("Unsaved changes")
+        let title = if unsaved { "Unsaved changes" } else { "Work under way" };
+        egui::Window::new(title)
             .collapsible(false)
             .resizable(false)
             .anchor(egui::Align2::CENTER_CENTER, Vec2::ZERO)
             .show(ctx, |ui| {
                 ui.label(question);
                 ui.horizontal_wrapped(|ui| {
-                    if ui.button("Save first").clicked() {
+                    if !unsaved {
+                        // nothing to save: the quit question is about the work alone
+                        if pending == Pending::Quit && ui.button("Quit").clicked() {
+                            self.session.pending = None;
+                            self.session.stop_work_on_exit = true;
+                            ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+                        }
+                    } else if ui.button("Save first").clicked() {
                         self.session.pending = None;
                         match self.session.document_path.clone() {
                             Some(doc) => match self.save_scene(&doc) {
@@ -214,9 +300,11 @@ impl EditorApp {
                                 self.open(ctx, path.clone());
                             }
                         }
+                        Pending::Quit if !unsaved => {}
                         Pending::Quit => {
                             if ui.button("Quit without saving").clicked() {
                                 self.session.pending = None;
+                                self.session.stop_work_on_exit = true;
                                 self.session.discard_on_exit = true;
                                 ctx.send_viewport_cmd(egui::ViewportCommand::Close);
                             }
@@ -226,6 +314,7 @@ impl EditorApp {
                                 .clicked()
                             {
                                 self.session.pending = None;
+                                self.session.stop_work_on_exit = true;
                                 self.session.keep_on_exit = true;
                                 ctx.send_viewport_cmd(egui::ViewportCommand::Close);
                             }
@@ -241,6 +330,8 @@ impl EditorApp {
 
     /// Starts loading a mesh in the background; the current scene stays until it succeeds.
     pub fn open(&mut self, ctx: &egui::Context, path: PathBuf) {
+        self.jobs.identifying = None; // the later file wins (a restore, "Discard and open")
+        self.offer_again();
         let version = self.next_version();
         let c = ctx.clone();
         let start = self.start_prepare(ctx);
@@ -264,9 +355,16 @@ impl EditorApp {
         self.session.document_path = Some(path.to_path_buf());
         self.session.saved_edit = Some(self.session.edit.clone());
         self.session.saved_file_view = self.session.file_view.clone();
-        // Saved: a crash from now on has nothing newer to keep than the file.
+        // Saved: a crash from now on has nothing newer to keep than the file, and an autosave
+        // left would be offered after one as newer work (an unanswered offer's stays).
         if let Ok(mut slot) = self.store.snapshot.try_lock() {
             *slot = None;
+        }
+        if let Some(persist) = &self.store.persist
+            && !self.store.offer_pending()
+        {
+            persist.discard_autosave();
+            self.store.autosaved = None;
         }
         self.info = Some(format!("saved {}", path.display()));
         self.remember(path);
@@ -308,7 +406,7 @@ impl EditorApp {
     /// [`AUTOSAVE_INTERVAL`] when the scene changed; the file is written on a worker thread.
     pub(super) fn autosave_tick(&mut self) {
         let Some(persist) = self.store.persist.clone() else { return };
-        if self.store.restore_offer.is_some() || self.jobs.loading.is_some() {
+        if self.store.offer_pending() || self.jobs.loading.is_some() {
             return; // never overwrite an autosave the user has not answered yet
         }
         let now = Instant::now();
@@ -316,8 +414,12 @@ impl EditorApp {
             return;
         }
         self.store.last_snapshot = Some(now);
-        if self.session.saved_edit.as_ref() == Some(&self.session.edit) {
-            return; // nothing unsaved
+        if !self.has_unsaved_changes() {
+            // nothing unsaved (an edit undone): a crash has nothing newer than the file
+            if let Ok(mut slot) = self.store.snapshot.try_lock() {
+                *slot = None;
+            }
+            return;
         }
         let Ok(doc) = self.document(&persist.autosave_path()) else { return };
         if let Ok(mut slot) = self.store.snapshot.try_lock() {
@@ -337,7 +439,7 @@ impl EditorApp {
     }
 
     pub(super) fn restore_window(&mut self, ctx: &egui::Context) {
-        let Some(RestoreOffer { path, when, kept, mesh }) = self.store.restore_offer.clone() else {
+        let Some(RestoreOffer { when, kept, mesh, .. }) = self.store.restore_offer.clone() else {
             return;
         };
         egui::Window::new("Restore the last session?")
@@ -360,8 +462,7 @@ impl EditorApp {
                 };
                 ui.horizontal(|ui| {
                     if mesh.is_ok() && ui.button("Restore").clicked() {
-                        self.store.restore_offer = None;
-                        self.open(ctx, path.clone());
+                        self.restore(ctx);
                     }
                     if ui.button("Discard").clicked() {
                         self.store.restore_offer = None;
@@ -378,17 +479,20 @@ impl EditorApp {
     /// autosave (the crash marker) goes. Returns whether one was kept.
     pub fn exit_autosave(&mut self) -> bool {
         let Some(persist) = self.store.persist.clone() else { return false };
-        if self.store.restore_offer.is_some() {
+        if self.store.offer_pending() {
             return true; // unanswered: keep it for next time
         }
-        let unsaved = self.session.saved_edit.as_ref() != Some(&self.session.edit);
-        if unsaved
+        if self.has_unsaved_changes()
             && !self.session.discard_on_exit
             && let Ok(doc) = self.document(&persist.autosave_path())
         {
             match persist.keep_autosave(&doc) {
                 Ok(_) => return true,
-                Err(e) => eprintln!("editor: could not keep your unsaved changes: {e}"),
+                Err(e) => {
+                    // the last autosave, if any, stays rather than nothing
+                    eprintln!("editor: could not keep your unsaved changes: {e}");
+                    return persist.autosave_path().exists();
+                }
             }
         }
         persist.discard_autosave();
@@ -397,11 +501,28 @@ impl EditorApp {
 
     /// Answers the restore offer (tests): `true` restores, `false` discards.
     pub fn answer_restore(&mut self, ctx: &egui::Context, restore: bool) {
-        let Some(RestoreOffer { path, .. }) = self.store.restore_offer.take() else { return };
         if restore {
-            self.open(ctx, path);
-        } else if let Some(p) = &self.store.persist {
+            self.restore(ctx);
+        } else if self.store.restore_offer.take().is_some()
+            && let Some(p) = &self.store.persist
+        {
             p.discard_autosave();
+        }
+    }
+
+    /// Loads the offered autosave; the offer comes back if it cannot be loaded (its mesh
+    /// moved, a drive not mounted), and the file stays until it is loaded.
+    fn restore(&mut self, ctx: &egui::Context) {
+        let Some(offer) = self.store.restore_offer.take() else { return };
+        self.open(ctx, offer.path.clone());
+        self.store.restoring = Some(offer);
+    }
+
+    /// The autosave's restore did not happen (its load failed, or another file was opened in
+    /// its place): it is offered again.
+    pub(super) fn offer_again(&mut self) {
+        if let Some(offer) = self.store.restoring.take() {
+            self.store.restore_offer = Some(offer);
         }
     }
 
@@ -412,13 +533,16 @@ impl EditorApp {
             Err(TryRecvError::Disconnected) => {
                 self.error = Some("the loader stopped without a result".into());
                 self.jobs.loading = None;
+                self.offer_again();
             }
             Ok(Err(e)) => {
                 self.error = Some(e);
                 self.jobs.loading = None;
+                self.offer_again();
             }
             Ok(Ok(mut scene)) => {
                 self.jobs.loading = None;
+                self.store.restoring = None; // a restore's load, if any, was this one
                 // a selection read for the mesh this replaces can no longer apply
                 self.jobs.selection = None;
                 self.end_gestures();
@@ -483,11 +607,14 @@ impl EditorApp {
                 self.session.saved_edit = (!restored).then(|| self.session.edit.clone());
                 if let Some(j) = self.jobs.record.take() {
                     j.cancel();
+                    let opened = file_name(&scene.path);
+                    self.info = Some(format!("recording stopped: {opened} was opened"));
                 }
                 self.jobs.recorded = None;
                 self.display.show_recording = false;
                 self.interaction.active_group = (!self.session.edit.groups.is_empty()).then_some(0);
                 self.session.history.clear();
+                self.session.history.set_time(self.session.playback.time);
                 let textured = scene.render.as_ref().is_some_and(|r| r.has_texture_or_colors());
                 self.display.shading = if textured { Shading::Texture } else { Shading::Clay };
                 self.session.scene = Some(scene);
@@ -563,12 +690,18 @@ impl EditorApp {
         }
     }
 
-    pub(super) fn apply_history(&mut self, state: Option<EditState>) {
-        let Some(state) = state else { return };
+    /// Brings back a state kept in the history at playback time `kept` (undo, redo, scripts).
+    pub(super) fn apply_history(&mut self, kept: Option<(EditState, f64)>) {
+        let Some((state, kept)) = kept else { return };
         let labels_changed = state.labels != self.session.edit.labels || self.rig_differs(&state);
         let parts_changed = state.loose_parts != self.session.edit.loose_parts;
         self.end_gestures();
         self.session.edit = state;
+        // Kept at another time: a group with a path goes where its path is now (at the same
+        // time its pose stays, as unkeyed posing left it).
+        if kept != self.session.playback.time {
+            apply_paths(&mut self.session.edit, self.session.playback.time);
+        }
         if self.interaction.active_group.is_some_and(|g| g >= self.session.edit.groups.len()) {
             self.interaction.active_group = self.session.edit.groups.len().checked_sub(1);
         }

@@ -44,6 +44,10 @@ impl EditorApp {
                 ui.label("loading…");
                 ui.separator();
             }
+            if self.is_capturing() {
+                self.capture_progress(ui);
+                ui.separator();
+            }
             for h in self.solvers.iter() {
                 let status = h.try_status();
                 let waiting = status.as_ref().is_some_and(|s| s.settle_waiting_since.is_some());

@@ -126,8 +126,16 @@ impl EditorApp {
     }
 
     pub fn set_view(&mut self, view: View) {
-        // Side by side halves the aspect ratio: frame the mesh again.
-        self.display.reframe |= (view == View::Compare) != (self.display.view == View::Compare);
+        // Side by side halves the aspect ratio: frame the mesh again. A gesture bound to a
+        // viewport (a paint stroke, a box or lasso, a gizmo or modal transform) ends: its
+        // viewport goes or changes its size and camera under it.
+        if (view == View::Compare) != (self.display.view == View::Compare) {
+            self.display.reframe = true;
+            self.interaction.clear_hover();
+            self.finish_stroke();
+            self.selecting.region = None;
+            self.cancel_transform();
+        }
         self.display.view = view;
         self.display.color_version += 1;
     }
@@ -188,7 +196,7 @@ impl EditorApp {
             }
         }
         if let Some(h) = self.interaction.hover.as_ref().filter(|h| h.slot == slot) {
-            let erase = self.interaction.stroke.unwrap_or(false);
+            let erase = self.interaction.stroke.is_some_and(|s| s.erase);
             let tint = if erase { [0.9, 0.9, 0.9, 1.0] } else { [1.0, 0.85, 0.1, 1.0] };
             for &v in &h.footprint {
                 let c = &mut colors[v as usize];

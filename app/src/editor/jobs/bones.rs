@@ -20,6 +20,7 @@ use solver::animation::skinning::{
 
 use super::{Job, Recorded, background_pool, spawn};
 use crate::editor::loader::FileLayout;
+use crate::outputs::{self, Input};
 
 /// Where a bake is, shared with the UI: the fit's last progress, then "writing".
 #[derive(Default)]
@@ -89,6 +90,7 @@ pub fn spawn_bake(
     up: UpAxis,
     bones: usize,
     path: PathBuf,
+    inputs: Vec<Input>,
     repaint: impl Fn() + Send + Sync + 'static,
 ) -> Baking {
     let recording = recorded.recording.clone();
@@ -102,6 +104,7 @@ pub fn spawn_bake(
         "bake-bones",
         move || repaint(),
         move |progress| {
+            outputs::check(std::slice::from_ref(&path), &inputs).map_err(|e| e.to_string())?;
             let fail = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
             let format = GltfFormat::from_path(&path).map_err(|e| fail(&e))?;
             let config = SkinningConfig { bones, ..SkinningConfig::default() };

@@ -1,16 +1,20 @@
 //! The harness shared by the editor's UI tests (`editor.rs`, `selection_tools.rs`, `gizmo.rs`,
-//! `preferences.rs`, `rigging.rs`, `capture.rs`): the real `EditorApp` under egui_kittest with
-//! wgpu (software Vulkan, lavapipe, on machines without a GPU); and [`bsarap`], the real binary
-//! run by the command-line tests.
+//! `preferences.rs`, `rigging.rs`, `capture.rs`, ...): the real `EditorApp` under egui_kittest
+//! with wgpu (software Vulkan, lavapipe, on machines without a GPU), the in-app file dialog
+//! driven by name (`first_hour.rs`, `saving.rs`); and [`bsarap`], the real binary run by the
+//! command-line tests.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
+use app::editor::prefs::FILE_NAME;
 use app::editor::solver_thread::{Slot, SolverState};
 use app::editor::{EditorApp, EditorOptions, default_mesh_path};
-use eframe::egui::{Event, Modifiers, PointerButton, Pos2, Vec2};
-use egui_kittest::Harness;
+use eframe::egui::accesskit::Role;
+use eframe::egui::{Event, Key, Modifiers, PointerButton, Pos2, Vec2};
+use egui_kittest::{Harness, kittest::Queryable};
+use solver::testing::ScratchDir;
 
 /// Runs the real `bsarap` binary with `args`: its exit code (-1 when killed), stdout, stderr.
 pub fn bsarap(args: &[&str]) -> (i32, String, String) {
@@ -100,6 +104,26 @@ pub fn press(h: &Harness<'_, EditorApp>, pos: Pos2, pressed: bool, modifiers: Mo
     h.event(Event::PointerButton { pos, button: PointerButton::Primary, pressed, modifiers });
 }
 
+/// Where the vertex drawn nearest the middle of the mesh's drawing in viewport 0 is: a point on
+/// the mesh to paint at.
+pub fn middle_vertex_on_screen(app: &EditorApp) -> Pos2 {
+    let drawn: Vec<Pos2> = (0..app.n_vertices()).filter_map(|v| app.vertex_screen_pos(v)).collect();
+    let middle =
+        (drawn.iter().fold(Vec2::ZERO, |s, p| s + p.to_vec2()) / drawn.len() as f32).to_pos2();
+    *drawn
+        .iter()
+        .min_by(|a, b| a.distance(middle).total_cmp(&b.distance(middle)))
+        .expect("a drawn vertex")
+}
+
+/// Moves the pointer through `points`, one frame per point.
+pub fn move_pointer(h: &mut Harness<'_, EditorApp>, points: impl IntoIterator<Item = Pos2>) {
+    for p in points {
+        h.event(Event::PointerMoved(p));
+        h.step();
+    }
+}
+
 /// A left drag through `points` (pressed at the first, released at the last), one frame
 /// per point.
 pub fn drag(h: &mut Harness<'_, EditorApp>, points: &[Pos2], modifiers: Modifiers) {
@@ -148,4 +172,53 @@ pub fn dist(p: [f64; 3], q: [f64; 3]) -> f64 {
 /// As in `editor.rs`: software rasterizers differ slightly in edge coverage.
 pub fn snapshot_options() -> egui_kittest::SnapshotOptions {
     egui_kittest::SnapshotOptions::new().threshold(2.0).max_failed_pixels(2000)
+}
+
+/// A configuration folder whose preferences force the in-app file dialog.
+pub fn config_with_in_app_dialog(dir: &ScratchDir) -> std::path::PathBuf {
+    let config = dir.join("config");
+    std::fs::create_dir_all(&config).unwrap();
+    std::fs::write(config.join(FILE_NAME), r#"{"in_app_file_dialog": true}"#).unwrap();
+    config
+}
+
+/// The editor on the default asset in a 1280×800 window, keeping its files in `config`.
+/// egui_file's window titles start with an emoji (💾, 📂) that the editor's fonts lack: drawn
+/// as a box, which this harness allows (kittest's default panics on it).
+pub fn dialog_harness(config: std::path::PathBuf) -> Harness<'static, EditorApp> {
+    let builder = Harness::builder()
+        .with_size(Vec2::new(1280.0, 800.0))
+        .with_render_cursor(false)
+        .with_step_dt(1.0 / 30.0)
+        .allow_missing_glyphs();
+    builder.wgpu().build_eframe(move |cc| {
+        EditorApp::new(
+            cc,
+            app::editor::EditorOptions {
+                mesh_path: Some(test_mesh()),
+                deterministic_overlays: true,
+                config_dir: Some(config),
+            },
+        )
+    })
+}
+
+/// Types `path` into the open in-app dialog's file name field (the text field that does not
+/// hold the folder) and confirms it with Enter.
+pub fn choose_in_dialog(h: &mut Harness<'_, EditorApp>, path: &Path) {
+    h.step();
+    h.step(); // a new window is laid out invisibly in its first frame
+    assert!(h.state().file_dialog_open(), "no file dialog");
+    h.get_all_by_role(Role::TextInput)
+        .find(|n| !Path::new(&n.value().unwrap_or_default()).is_absolute())
+        .expect("the file name field")
+        .focus();
+    h.step();
+    h.key_press_modifiers(Modifiers::COMMAND, Key::A);
+    h.event(Event::Text(path.display().to_string()));
+    h.step();
+    h.key_press(Key::Enter);
+    h.step();
+    h.step();
+    assert!(!h.state().file_dialog_open(), "the dialog did not close");
 }

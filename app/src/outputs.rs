@@ -1,7 +1,7 @@
-//! The files a subcommand writes, checked before any of them is written (and before the
-//! solve): none is one of the files it reads, none is a folder, and every one's folder exists.
-//! A refused output leaves every file as it was; one written frame followed by an error would
-//! leave a partial sequence behind.
+//! The files a subcommand or an editor export writes, checked before any of them is written
+//! (and before the solve): none is one of the files it reads, none is a folder, and every
+//! one's folder exists. A refused output leaves every file as it was; one written frame
+//! followed by an error would leave a partial sequence behind.
 
 use solver::animation::scene::{LoadedScene, Scene};
 use solver::io::Asset;
@@ -67,8 +67,9 @@ pub fn pose_files(output: &Path, asset: &Asset) -> Vec<PathBuf> {
 /// `inputs` (compared by canonical path: `./x.obj`, `x.obj` and a link to it are one file), is
 /// a folder, or lies in a folder that does not exist.
 pub fn check(outputs: &[PathBuf], inputs: &[Input]) -> anyhow::Result<()> {
+    // An input not written yet (the editor's autosave) is resolved through its folder too.
     let inputs: Vec<(&Input, PathBuf)> =
-        inputs.iter().filter_map(|i| Some((i, i.path.canonicalize().ok()?))).collect();
+        inputs.iter().filter_map(|i| Some((i, canonical(&i.path)?))).collect();
     for out in outputs {
         anyhow::ensure!(
             !out.is_dir(),

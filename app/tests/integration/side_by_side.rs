@@ -1,0 +1,78 @@
+//! Gestures in the side-by-side view, where each viewport gets its own input every frame: a
+//! paint stroke is one edit whichever viewport it is in, and a gesture bound to a viewport ends
+//! when the layout goes back to one viewport.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use crate::support;
+
+use app::editor::solver_thread::Slot;
+use app::editor::{EditorApp, Tool, View};
+use eframe::egui::{Key, Modifiers, Vec2};
+use egui_kittest::{Harness, kittest::Queryable};
+use support::{SIZE, harness, move_pointer, settled, step_until, test_mesh};
+
+/// The default asset side by side, both viewports drawn.
+fn side_by_side() -> Harness<'static, EditorApp> {
+    let mut h = harness(test_mesh(), None);
+    step_until(&mut h, "the default asset", settled);
+    h.get_by_label("Side by side").click();
+    step_until(&mut h, "both viewports' frames", |a| {
+        a.view() == View::Compare && a.latest_frame(Slot::Compare).is_some() && settled(a)
+    });
+    h
+}
+
+/// A stroke in the left viewport used to end every frame in the right one (whose pointer is
+/// up) and start again in the left: one undo entry and one solver rebuild a frame.
+#[test]
+fn a_paint_stroke_side_by_side_is_one_edit_and_one_rebuild() {
+    let mut h = side_by_side();
+    h.get_by_label("Add group").click();
+    h.step();
+    assert_eq!(h.state().tool(), Tool::Paint);
+    let before = h.state().labels().to_vec();
+    let generation = h.state().scene_generation();
+    let start = support::middle_vertex_on_screen(h.state());
+    assert!(start.x < SIZE.x * 0.7, "not in the left viewport: {start:?}");
+    move_pointer(&mut h, [start]);
+    support::press(&h, start, true, Modifiers::NONE);
+    h.step();
+    move_pointer(&mut h, (1..=8).map(|i| start + Vec2::new(0.0, 4.0 * i as f32)));
+    let end = start + Vec2::new(0.0, 32.0);
+    support::press(&h, end, false, Modifiers::NONE);
+    h.step();
+    h.step();
+    let painted = h.state().labels().iter().zip(&before).filter(|(a, b)| a != b).count();
+    assert!(painted > 0, "the stroke painted nothing");
+    assert_eq!(h.state().scene_generation(), generation + 1, "one rebuild for the stroke");
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    assert_eq!(h.state().labels(), &before[..], "one undo takes back the whole stroke");
+}
+
+/// A modal transform started in the right viewport, when the view goes back to one
+/// viewport, was left running there unseen until Enter or Esc; it is cancelled.
+#[test]
+fn leaving_side_by_side_cancels_a_transform_in_the_right_viewport() {
+    let mut h = side_by_side();
+    h.state_mut().set_tool(Tool::Pose);
+    h.state_mut().set_active_group(Some(0));
+    h.step();
+    // The right viewport draws what the left does, half the width plus the gap further right.
+    let (c, _) = h.state().gizmo_screen().expect("the gizmo of group 0");
+    let p0 = c + Vec2::new(SIZE.x * 0.5 + 1.0 + 30.0, 20.0);
+    assert!(p0.x > SIZE.x * 0.5 && p0.x < SIZE.x, "{p0:?}");
+    move_pointer(&mut h, [p0]);
+    h.key_press(Key::G);
+    h.step();
+    move_pointer(&mut h, (1..=4).map(|i| p0 + Vec2::new(10.0 * i as f32, 4.0 * i as f32)));
+    assert!(h.state().running_transform().is_some());
+    assert_ne!(h.state().group_pose(0).unwrap().translation.to_array(), [0.0; 3]);
+    h.get_all_by_label("BS-ARAP").next().expect("the BS-ARAP view button").click();
+    h.step();
+    assert_eq!(h.state().view(), View::Result);
+    assert_eq!(h.state().running_transform(), None, "the transform outlived its viewport");
+    assert_eq!(h.state().group_pose(0).unwrap().translation.to_array(), [0.0; 3]);
+    move_pointer(&mut h, [p0 + Vec2::new(-60.0, 0.0)]);
+    assert_eq!(h.state().group_pose(0).unwrap().translation.to_array(), [0.0; 3]);
+}

@@ -1,0 +1,242 @@
+//! The timeline panel, undo and unsaved changes: a drag of one of its numbers is one undo step,
+//! an undo puts a group with a path where its path is at the playback time, and playing or
+//! scrubbing is not an edit.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use crate::support;
+
+use app::editor::EditorApp;
+use eframe::egui::{Event, Key, Modifiers, Vec2};
+use egui_kittest::{Harness, kittest::Queryable};
+use solver::animation::timeline::{CircularPath, Path as AnimPath};
+use support::{harness, settled, step_until, test_mesh};
+
+fn start() -> Harness<'static, EditorApp> {
+    let mut h = harness(test_mesh(), None);
+    step_until(&mut h, "the default asset", settled);
+    h
+}
+
+/// Drags the "duration" number right, 6 points a frame: `first` frames, then `between` with
+/// the button held, then `then` frames, and lets go.
+fn drag_duration(
+    h: &mut Harness<'static, EditorApp>,
+    first: usize,
+    between: impl FnOnce(&mut Harness<'static, EditorApp>),
+    then: usize,
+) {
+    let mut p = h.get_by_label("duration").rect().center();
+    h.event(Event::PointerMoved(p));
+    h.step();
+    support::press(h, p, true, Modifiers::NONE);
+    h.step();
+    let mut right = |h: &mut Harness<'static, EditorApp>, frames: usize| {
+        for _ in 0..frames {
+            p += Vec2::new(6.0, 0.0);
+            h.event(Event::PointerMoved(p));
+            h.step();
+        }
+    };
+    right(h, first);
+    between(h);
+    right(h, then);
+    support::press(h, p, false, Modifiers::NONE);
+    h.step();
+}
+
+/// Dragging "duration" over several frames pushed one undo step a frame (the history keeps
+/// 200: a long drag pushed the user's earlier edits out); one Ctrl+Z now takes the drag back.
+#[test]
+fn a_drag_of_a_timeline_number_is_one_undo_step() {
+    let mut h = start();
+    let duration = h.state().edit_state().timeline.duration;
+    drag_duration(&mut h, 8, |_| {}, 0);
+    let dragged = h.state().edit_state().timeline.duration;
+    assert!(dragged > duration, "the drag did not change the duration: {dragged}");
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    assert_eq!(h.state().edit_state().timeline.duration, duration, "one undo, the whole drag");
+    // A second drag of the same number is a step of its own.
+    for _ in 0..2 {
+        drag_duration(&mut h, 4, |_| {}, 0);
+    }
+    let twice = h.state().edit_state().timeline.duration;
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    let once = h.state().edit_state().timeline.duration;
+    assert!(duration < once && once < twice, "{duration} {once} {twice}");
+}
+
+/// An undo at another playback time than the state was kept at puts a group with a path on
+/// its path at the playback time (it showed the kept pose, which K then keyed).
+#[test]
+fn undo_puts_a_group_with_a_path_where_the_path_is_now() {
+    let mut h = start();
+    let mut e = h.state().edit_state().clone();
+    let circle = CircularPath {
+        axis: [0.0, 0.0, 1.0],
+        reference: [1.0, 0.0, 0.0],
+        radius: 0.05 * h.state().diagonal(),
+        period: 1.0,
+        phase: 0.0,
+        turn_with_path: false,
+        start: None,
+    };
+    e.set_path(0, AnimPath::Circular(circle));
+    h.state_mut().set_edit_state(e);
+    h.state_mut().set_playback_time(0.0);
+    h.step();
+    let at_zero = h.state().group_pose(0).unwrap();
+    // an edit kept at t = 0
+    let mut e = h.state().edit_state().clone();
+    e.groups[1].name = "renamed".into();
+    h.state_mut().set_edit_state(e);
+    h.state_mut().set_playback_time(0.25);
+    h.step();
+    let now = h.state().group_pose(0).unwrap();
+    assert_ne!(now, at_zero, "the path does not move the group");
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    assert_ne!(h.state().edit_state().groups[1].name, "renamed", "nothing was undone");
+    assert_eq!(h.state().group_pose(0).unwrap(), now, "the pose kept at t = 0 came back");
+}
+
+/// Playing or scrubbing a saved scene moves its animated groups, and is not an unsaved change
+/// (the quit question asked, and the autosave kept at exit, after only pressing Play).
+#[test]
+fn scrubbing_a_saved_scene_leaves_nothing_unsaved() {
+    let dir = solver::testing::ScratchDir::new("timeline-scrub");
+    let mut h = harness(test_mesh(), Some(dir.join("config")));
+    step_until(&mut h, "the default asset", settled);
+    let mut e = h.state().edit_state().clone();
+    e.set_path(0, AnimPath::Circular(CircularPath::new([0.0, 0.0, 1.0], 0.1, 1.0)));
+    h.state_mut().set_edit_state(e);
+    h.state_mut().save_scene(&dir.join("circle.json")).unwrap();
+    assert!(!h.state().has_unsaved_changes());
+    let before = h.state().group_pose(0).unwrap();
+    h.state_mut().set_playback_time(0.3);
+    h.step();
+    assert_ne!(h.state().group_pose(0).unwrap(), before, "the path does not move the group");
+    assert!(!h.state().has_unsaved_changes(), "scrubbing made an unsaved change");
+    assert!(!h.state_mut().exit_autosave(), "an exit kept the scrub as unsaved work");
+    let mut e = h.state().edit_state().clone();
+    e.groups[0].name = "renamed".into();
+    h.state_mut().set_edit_state(e);
+    assert!(h.state().has_unsaved_changes());
+    assert!(h.state_mut().exit_autosave(), "the rename is kept for the next start");
+}
+
+/// Exporting the recording onto the file the mesh was read from (or the scene, its selection,
+/// a loaded texture) is refused and leaves it as it was: the in-app save dialog does not ask
+/// before overwriting, and an animated `.glb` replaced the `.glb` it was made from.
+#[test]
+fn an_export_onto_the_open_mesh_is_refused() {
+    let dir = solver::testing::ScratchDir::new("export-onto-mesh");
+    let (mesh, _) = solver::geometry::shapes::bumpy_bar(1);
+    let n = mesh.n_vertices();
+    let bar = dir.join("bar.obj");
+    solver::io::write_obj(&bar, mesh.positions(), mesh.triangles()).unwrap();
+    let rows: String = (0..n).map(|v| if v < 4 { "0\n" } else { "-1\n" }).collect();
+    let dmat = format!("1 {n}\n{rows}");
+    std::fs::write(dir.join("bar.dmat"), &dmat).unwrap();
+    let mut h = harness(bar.clone(), None);
+    let ctx = h.ctx.clone();
+    let record = |h: &mut Harness<'static, EditorApp>| {
+        step_until(h, "the mesh", settled);
+        h.state_mut().start_recording(&ctx);
+        step_until(h, "the recording", |a| !a.is_recording());
+        assert!(h.state().recorded_frames().is_some(), "{:?}", h.state().error());
+    };
+    record(&mut h);
+    // The bar as a .glb, with its selection beside it, open in its place.
+    let glb = dir.join("anim.glb");
+    h.state_mut().export_gltf(&ctx, glb.clone());
+    step_until(&mut h, "the export", |a| !a.is_exporting());
+    assert!(h.state().error().is_none(), "{:?}", h.state().error());
+    std::fs::write(dir.join("anim.dmat"), &dmat).unwrap();
+    support::drop_file(&mut h, glb.clone());
+    record(&mut h);
+    assert_eq!(h.state().mesh_path(), Some(glb.as_path()));
+    let original = std::fs::read(&glb).unwrap();
+    for (target, what) in [(glb.clone(), "is the open mesh"), (dir.join("anim.dmat"), "selection")]
+    {
+        h.state_mut().export_gltf(&ctx, target.clone());
+        step_until(&mut h, "the export's end", |a| !a.is_exporting());
+        let error = h.state().error().unwrap_or_default().to_owned();
+        assert!(error.contains(what) && error.contains("nothing was written"), "{error}");
+    }
+    assert_eq!(std::fs::read(&glb).unwrap(), original, "the mesh was written over");
+    assert_eq!(std::fs::read_to_string(dir.join("anim.dmat")).unwrap(), dmat);
+}
+
+/// A recording that would not fit in the memory available is refused with the numbers
+/// (running out of memory aborts the editor, unsaved work and all).
+#[test]
+fn a_recording_larger_than_memory_is_refused() {
+    let mut h = start();
+    let mut e = h.state().edit_state().clone();
+    e.timeline.duration = 3600.0;
+    e.timeline.fps = 30.0;
+    h.state_mut().set_edit_state(e);
+    let frames = app::editor::timeline::MAX_FRAMES.min(3600 * 30);
+    let need = frames as f64 * h.state().n_vertices() as f64 * 48.0 / 1048576.0;
+    match app::memory::available_mib() {
+        Some(free) if need > 0.8 * free => {}
+        free => return eprintln!("skipped: {need:.0} MiB would fit in {free:?} MiB available"),
+    }
+    let ctx = h.ctx.clone();
+    h.state_mut().start_recording(&ctx);
+    h.step();
+    assert!(!h.state().is_recording(), "started");
+    let error = h.state().error().unwrap_or_default();
+    assert!(error.contains(&format!("recording {frames} frames")), "{error}");
+}
+
+/// A group with a path posed by hand and keyed with K: Ctrl+Z at the same time takes the key
+/// back and leaves the pose made by hand (re-reading the paths there threw it away).
+#[test]
+fn undoing_a_key_keeps_the_pose_made_by_hand() {
+    let mut h = start();
+    h.state_mut().set_active_group(Some(0));
+    let key = |h: &mut Harness<'static, EditorApp>| {
+        h.key_press(Key::K);
+        h.step();
+        assert!(
+            h.state().info().is_some_and(|i| i.starts_with("key set")),
+            "{:?}",
+            h.state().info()
+        );
+    };
+    key(&mut h); // at rest, at 0 s: a keyframed path
+    h.state_mut().set_playback_time(0.5);
+    h.step();
+    let mut e = h.state().edit_state().clone();
+    e.groups[0].pose.translation.z += 0.05;
+    let by_hand = e.groups[0].pose;
+    h.state_mut().set_edit_state(e);
+    key(&mut h);
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    assert_eq!(h.state().group_pose(0).unwrap(), by_hand);
+}
+
+/// Ctrl+Z while a timeline number is dragged, the drag then going on: the rest of the drag is
+/// a step of its own (it went into the undone step, and a redo brought back a stale value).
+#[test]
+fn an_undo_during_a_drag_ends_its_undo_step() {
+    let mut h = start();
+    let mut e = h.state().edit_state().clone();
+    e.groups[0].name = "renamed".into();
+    h.state_mut().set_edit_state(e);
+    let duration = h.state().edit_state().timeline.duration;
+    let undo = |h: &mut Harness<'static, EditorApp>| {
+        h.key_press_modifiers(Modifiers::COMMAND, Key::Z); // the drag so far
+        h.step();
+    };
+    drag_duration(&mut h, 3, undo, 3);
+    assert!(h.state().edit_state().timeline.duration > duration);
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    assert_eq!(h.state().edit_state().groups[0].name, "renamed", "the rename was undone too");
+    assert_eq!(h.state().edit_state().timeline.duration, duration);
+}
