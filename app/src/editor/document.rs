@@ -112,7 +112,7 @@ pub struct Applied {
     pub settings: MethodSettings,
     pub camera: Option<OrbitCamera>,
     pub time: f64,
-    /// Something the user should know (e.g. a method the editor's BS-ARAP slot cannot run).
+    /// Something the user should know (a saved time that is not on the timeline).
     pub notice: Option<String>,
 }
 
@@ -149,28 +149,19 @@ pub fn apply_scene(
         }
     }
     edit.symmetry = scene.rig.symmetry.unwrap_or_default();
-    let (time, mut notice) = saved_time(scene);
+    let (time, notice) = saved_time(scene);
     apply_paths(&mut edit, time);
     let mut s = *settings;
-    if scene.method == solver::Method::Arap {
-        let arap = "the scene's method is ARAP: it is shown in the ARAP | BS-ARAP view";
-        notice = Some(notice.map_or(arap.to_string(), |n| format!("{n}; {arap}")));
-    } else {
-        s.bs_variant = scene.method;
-    }
-    // The scene reader checked the settings (`ArapConfig::validate`); the panel's cap is lower.
-    s.arap = solver::ArapConfig {
-        max_iterations: scene.arap.max_iterations.clamp(1, MAX_UI_ITERATIONS),
-        ..scene.arap
-    };
+    // The main viewport runs any method, ARAP included. The scene reader checked the settings
+    // (`ArapConfig::validate`): they are kept as they are, outside the method panel's slider
+    // ranges too (the sliders keep a value they did not set), so a Save writes them back.
+    s.bs_variant = scene.method;
+    s.arap = scene.arap;
     // Settling is the editor's own setting, not the scene's.
     s.base = solver::BaseConfig { settle_iterations: s.base.settle_iterations, ..scene.base };
     let camera = scene.camera.as_ref().and_then(|c| OrbitCamera::from_json(c, origin));
     Applied { edit, settings: s, camera, time, notice }
 }
-
-/// The largest iteration cap the method panel offers.
-pub const MAX_UI_ITERATIONS: usize = 500;
 
 #[cfg(test)]
 #[allow(clippy::unwrap_used, clippy::expect_used)]

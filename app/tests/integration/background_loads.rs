@@ -1,7 +1,8 @@
 //! Meshes and selections read on loader threads (`loader::spawn_load`, `spawn_selection`):
 //! what arrives applies to the mesh it was read for, the later of two selections wins, and what
 //! lands in the middle of a drag ends it (as an undo does), since it replaces the handle groups
-//! the drag indexes. The files are FIFOs, so each read waits until the test writes it: no
+//! the drag indexes; a mesh that arrives after edits made while it loaded waits for the user's
+//! answer. The files are FIFOs, so each read waits until the test writes it: no
 //! timing is involved.
 #![cfg(unix)]
 #![allow(clippy::unwrap_used, clippy::expect_used)]
@@ -107,7 +108,19 @@ fn start_pose_drag(h: &mut Harness<'static, EditorApp>, n: usize) -> Pos2 {
 
 /// Keeps dragging, the button held, until `done` (at most 90 s) and three frames more, then
 /// lets go.
-fn drag_until(h: &mut Harness<'static, EditorApp>, mut p: Pos2, done: impl Fn(&EditorApp) -> bool) {
+fn drag_until(h: &mut Harness<'static, EditorApp>, p: Pos2, done: impl Fn(&EditorApp) -> bool) {
+    let p = keep_dragging(h, p, done);
+    support::press(h, p, false, Modifiers::NONE);
+    h.step();
+}
+
+/// Keeps dragging, the button held, until `done` (at most 90 s) and three frames more;
+/// returns where the pointer is.
+fn keep_dragging(
+    h: &mut Harness<'static, EditorApp>,
+    mut p: Pos2,
+    done: impl Fn(&EditorApp) -> bool,
+) -> Pos2 {
     let start = Instant::now();
     let mut more = 3;
     for i in 0.. {
@@ -123,8 +136,7 @@ fn drag_until(h: &mut Harness<'static, EditorApp>, mut p: Pos2, done: impl Fn(&E
         h.step();
         std::thread::sleep(Duration::from_millis(5));
     }
-    support::press(h, p, false, Modifiers::NONE);
-    h.step();
+    p
 }
 
 /// A selection is read off the UI thread, the status saying so meanwhile, and applies to the
@@ -210,7 +222,16 @@ fn a_mesh_mid_drag_ends_the_drag() {
     support::drop_file(&mut h, other.clone());
     assert!(h.state().is_loading());
     let p = start_pose_drag(&mut h, n);
-    write_later(other.clone(), std::fs::read_to_string(&bar).unwrap()).join().unwrap();
+    let text = std::fs::read_to_string(&bar).unwrap();
+    write_later(other.clone(), text.clone()).join().unwrap();
+    // The drag moved a pose while the mesh loaded: the mesh waits for the user's answer.
+    let p = keep_dragging(&mut h, p, |a| !a.is_loading());
+    assert_eq!(h.state().mesh_path(), Some(bar.as_path()));
+    assert_eq!(h.state().pending_open(), Some(other.as_path()));
+    let writer = write_later(other.clone(), text);
+    h.get_by_label("Discard changes and open").click_accesskit();
+    h.step();
+    writer.join().unwrap();
     drag_until(&mut h, p, |a| !a.is_loading());
     assert_eq!(h.state().mesh_path(), Some(other.as_path()));
     assert!(h.state().edit_state().groups.is_empty());
@@ -365,4 +386,30 @@ fn quitting_forgets_a_json_being_told_apart() {
     }
     assert!(h.state().quit_question_open(), "pending: {:?}", h.state().pending_open());
     assert!(!h.state().is_loading());
+}
+
+/// Work done while another file loads is not replaced unasked: the unsaved-changes question
+/// comes when the file arrives (it replaced the edits), and "Discard changes and open" opens
+/// it, read again.
+#[test]
+fn an_edit_while_a_mesh_loads_is_asked_about() {
+    let dir = ScratchDir::new("edit-while-loading");
+    let (mut h, bar, _) = bar_with_three_groups(&dir);
+    let other = fifo(&dir, "other.obj");
+    support::drop_file(&mut h, other.clone());
+    assert!(h.state().is_loading());
+    unsaved(&mut h);
+    let text = std::fs::read_to_string(&bar).unwrap();
+    write_later(other.clone(), text.clone()).join().unwrap();
+    step_until(&mut h, "the loaded mesh", |a| !a.is_loading());
+    assert_eq!(h.state().mesh_path(), Some(bar.as_path()), "the edits were replaced");
+    assert_eq!(h.state().pending_open(), Some(other.as_path()));
+    assert!(h.state().has_unsaved_changes());
+    h.step();
+    let writer = write_later(other.clone(), text);
+    h.get_by_label("Discard changes and open").click();
+    h.step();
+    writer.join().unwrap();
+    step_until(&mut h, "the other mesh", |a| !a.is_loading());
+    assert_eq!(h.state().mesh_path(), Some(other.as_path()));
 }

@@ -1,13 +1,16 @@
 //! Saving and restoring in the editor: Save as refuses the files the document was read from
-//! and names without `.json`, a cancelled Save as forgets what waited for it, and a failed
-//! restore offers the autosave again.
+//! and names without `.json`, a cancelled Save as forgets what waited for it, "Save first"
+//! with a dialog open keeps the question, a failed restore offers the autosave again and a
+//! restore over unsaved changes asks first, and a scene's method settings come back from a
+//! Save as they were.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use crate::support;
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use app::editor::EditorApp;
+use app::editor::solver_thread::MethodSettings;
 use eframe::egui::{Key, Modifiers};
 use egui_kittest::{Harness, kittest::Queryable};
 use solver::testing::ScratchDir;
@@ -69,18 +72,15 @@ fn save_as_refuses_the_mesh_and_a_cancelled_save_first_is_forgotten() {
     assert_eq!(h.state().mesh_path(), Some(bar.as_path()));
 }
 
-/// Restore of an autosave whose mesh cannot be opened (moved since) fails, says why and offers
-/// the autosave again; it was gone, and the next clean exit deleted the crashed session's work.
-#[test]
-fn a_failed_restore_offers_the_autosave_again() {
-    let dir = ScratchDir::new("first-hour-failed-restore");
-    let config = config_with_in_app_dialog(&dir);
+/// A session with the configuration folder `config` that opened the bumpy bar (`dir/bar.obj`,
+/// a .dmat beside it), moved a group, autosaved and crashed: the bar's path and the autosave.
+fn crashed_with_an_edit_of_a_bar(dir: &ScratchDir, config: &Path) -> (PathBuf, PathBuf) {
     let (mesh, _) = solver::geometry::shapes::bumpy_bar(1);
     let bar = dir.join("bar.obj");
     solver::io::write_obj(&bar, mesh.positions(), mesh.triangles()).unwrap();
     let rows: String = (0..mesh.n_vertices()).map(|v| if v < 4 { "0\n" } else { "-1\n" }).collect();
     std::fs::write(dir.join("bar.dmat"), format!("1 {}\n{rows}", mesh.n_vertices())).unwrap();
-    let mut h = dialog_harness(config.clone());
+    let mut h = dialog_harness(config.to_path_buf());
     step_until(&mut h, "the default asset", settled);
     support::drop_file(&mut h, bar.clone());
     step_until(&mut h, "the bar", |a| !a.is_loading() && a.mesh_path() == Some(bar.as_path()));
@@ -89,6 +89,16 @@ fn a_failed_restore_offers_the_autosave_again() {
     h.state_mut().set_edit_state(e);
     let autosave = h.state_mut().autosave_now().unwrap();
     drop(h); // a crash: no clean exit
+    (bar, autosave)
+}
+
+/// Restore of an autosave whose mesh cannot be opened (moved since) fails, says why and offers
+/// the autosave again; it was gone, and the next clean exit deleted the crashed session's work.
+#[test]
+fn a_failed_restore_offers_the_autosave_again() {
+    let dir = ScratchDir::new("first-hour-failed-restore");
+    let config = config_with_in_app_dialog(&dir);
+    let (bar, autosave) = crashed_with_an_edit_of_a_bar(&dir, &config);
     std::fs::rename(&bar, dir.join("moved.obj")).unwrap();
 
     let mut h = dialog_harness(config);
@@ -100,6 +110,59 @@ fn a_failed_restore_offers_the_autosave_again() {
     assert!(h.state().error().is_some_and(|e| e.contains("bar.obj")), "{:?}", h.state().error());
     assert_eq!(h.state().restore_offer(), Some(autosave.as_path()), "not offered again");
     assert!(h.state_mut().exit_autosave() && autosave.exists(), "the autosave went");
+}
+
+/// Restore with unsaved changes asks first (it replaced them unasked), and "Discard changes
+/// and restore" restores.
+#[test]
+fn restore_over_unsaved_changes_asks_first() {
+    let dir = ScratchDir::new("saving-restore-asks");
+    let config = config_with_in_app_dialog(&dir);
+    let (bar, _) = crashed_with_an_edit_of_a_bar(&dir, &config);
+
+    let mut h = dialog_harness(config);
+    step_until(&mut h, "the default asset", |a| !a.is_loading() && a.n_vertices() > 0);
+    assert!(h.state().restore_offer().is_some());
+    let mut e = h.state().edit_state().clone();
+    e.groups[0].pose.translation.x = 0.2;
+    h.state_mut().set_edit_state(e);
+    let ctx = h.ctx.clone();
+    h.state_mut().answer_restore(&ctx, true);
+    h.step();
+    h.step();
+    assert!(!h.state().is_loading(), "restored over the unsaved changes unasked");
+    h.get_by_label("Discard changes and restore").click();
+    h.step();
+    step_until(&mut h, "the restore", |a| !a.is_loading());
+    assert_eq!(h.state().mesh_path(), Some(bar.as_path()));
+    assert_eq!(h.state().info(), Some("restored the autosaved session"));
+    assert!(h.state().restore_offer().is_none());
+}
+
+/// "Save first" while a file dialog is open cannot ask where to save: the question stays and
+/// the user is told (the quit was left waiting for a later save, which then quit).
+#[test]
+fn save_first_with_a_dialog_open_keeps_the_question() {
+    let dir = ScratchDir::new("saving-dialog-open");
+    let mut h = dialog_harness(config_with_in_app_dialog(&dir));
+    step_until(&mut h, "the default asset", settled);
+    let mut e = h.state().edit_state().clone();
+    e.groups[0].pose.translation.y = 0.1;
+    h.state_mut().set_edit_state(e);
+    assert!(h.state().document_path().is_none(), "a mesh, no scene file: Save asks where");
+    h.key_press_modifiers(Modifiers::COMMAND, Key::O);
+    h.step();
+    assert!(h.state().file_dialog_open());
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Q);
+    h.step();
+    h.step();
+    assert!(h.state().quit_question_open());
+    h.get_by_label("Save first").click_accesskit();
+    h.step();
+    h.step();
+    assert!(h.state().quit_question_open(), "the question went");
+    let error = h.state().error().unwrap_or_default();
+    assert!(error.contains("a file dialog is open, finish it first"), "{error}");
 }
 
 /// A mesh opened with its sphere list (`pipe.handles.json`, listed in the Save dialog among the
@@ -125,4 +188,65 @@ fn save_as_refuses_the_sphere_list_the_mesh_was_opened_with() {
     let error = h.state().error().unwrap_or_default();
     assert!(error.contains("is the handle selection"), "{error}");
     assert_eq!(std::fs::read_to_string(&list).unwrap(), spheres);
+}
+
+/// A scene's method settings come back from a Save as they were, outside the method panel's
+/// slider ranges too (the sliders set the iteration cap to 500 and the tolerance to 1e-8 as
+/// they were drawn) and on ARAP (the editor used to keep its own method); changing one is an
+/// unsaved change, and changing it back is none.
+#[test]
+fn a_scenes_method_settings_survive_the_panel_and_a_save() {
+    let dir = ScratchDir::new("saving-method");
+    let (mesh, handles) = solver::geometry::shapes::bumpy_bar(1);
+    solver::io::write_obj(&dir.join("bar.obj"), mesh.positions(), mesh.triangles()).unwrap();
+    let labels: Vec<i64> = handles.labels().iter().map(|l| l.map_or(-1, i64::from)).collect();
+    let scene = serde_json::json!({
+        "version": 1,
+        "mesh": "bar.obj",
+        "handles": {"labels": labels},
+        "timeline": {"duration": 1.0, "fps": 10, "looping": false, "paths": []},
+        "method": "arap",
+        "arap": {"energy": "smooth-rotations", "bending_length": 0.0005, "tolerance": 1e-10,
+                 "max_iterations": 1000, "acceleration": {"anderson": {"window": 7}}},
+        "base": {"smoothing": 0.5, "fine_iterations": 3}
+    });
+    let path = dir.join("bar.json");
+    std::fs::write(&path, serde_json::to_string_pretty(&scene).unwrap()).unwrap();
+    let mut h = support::harness(path.clone(), None);
+    step_until(&mut h, "the scene", |a| !a.is_loading() && a.n_vertices() > 0);
+    for _ in 0..3 {
+        h.step(); // the method panel drawn
+    }
+    let s = h.state().method_settings();
+    assert_eq!(s.bs_variant, solver::Method::Arap);
+    assert_eq!((s.arap.max_iterations, s.arap.tolerance), (1000, 1e-10));
+    assert_eq!(s.arap.bending_length, 0.0005);
+    assert_eq!(s.arap.acceleration, solver::Acceleration::Anderson { window: 7 });
+    assert_eq!((s.base.smoothing, s.base.fine_iterations), (0.5, 3));
+    assert!(!h.state().has_unsaved_changes());
+    assert!(h.state().error().is_none(), "{:?}", h.state().error());
+
+    h.key_press_modifiers(Modifiers::COMMAND, Key::S);
+    h.step();
+    let saved = solver::animation::scene::Scene::read(&path).unwrap();
+    assert_eq!(saved.method, solver::Method::Arap);
+    assert_eq!(saved.arap, s.arap);
+    assert_eq!((saved.base.smoothing, saved.base.fine_iterations), (0.5, 3));
+
+    // A change of method is unsaved; the side-by-side method and settling are the editor's.
+    let method = |h: &mut Harness<'static, EditorApp>, f: &dyn Fn(&mut MethodSettings)| {
+        let mut s = h.state().method_settings();
+        f(&mut s);
+        h.state_mut().set_method_settings(s);
+        h.step();
+    };
+    method(&mut h, &|s| s.compare_variant = solver::Method::BsArapFaired);
+    method(&mut h, &|s| s.base.settle_iterations = 9);
+    assert!(!h.state().has_unsaved_changes());
+    method(&mut h, &|s| s.arap.tolerance = 1e-6);
+    assert!(h.state().has_unsaved_changes());
+    method(&mut h, &|s| s.arap.tolerance = 1e-10);
+    assert!(!h.state().has_unsaved_changes());
+    method(&mut h, &|s| s.bs_variant = solver::Method::BsArapCoarse);
+    assert!(h.state().has_unsaved_changes());
 }

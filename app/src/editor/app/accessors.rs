@@ -233,6 +233,14 @@ impl EditorApp {
         self.session.settings
     }
 
+    /// Sets the method settings as the method panel does: the solvers rebuild on a change.
+    pub fn set_method_settings(&mut self, settings: MethodSettings) {
+        if settings != self.session.settings {
+            self.session.settings = settings;
+            self.send_scene();
+        }
+    }
+
     /// The scene file Save writes to.
     pub fn document_path(&self) -> Option<&Path> {
         self.session.document_path.as_deref()

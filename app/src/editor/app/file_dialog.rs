@@ -96,18 +96,19 @@ fn native_unavailable() -> Option<&'static str> {
 
 impl EditorApp {
     /// Asks for a file for `kind`: the system's dialog, or the in-app browser (see the module
-    /// doc).
-    pub(super) fn start_dialog(&mut self, ctx: &egui::Context, kind: DialogKind) {
+    /// doc). Returns whether it was shown: not while another is open (the user is told).
+    pub(super) fn start_dialog(&mut self, ctx: &egui::Context, kind: DialogKind) -> bool {
         if self.jobs.dialogs.native.is_some() || self.jobs.dialogs.in_app.is_some() {
-            return;
+            self.error = Some(format!("{}: a file dialog is open, finish it first", kind.title()));
+            return false;
         }
         if self.prefs.current.in_app_file_dialog {
             self.open_in_app_dialog(kind);
-            return;
+            return true;
         }
         if let Some(why) = native_unavailable() {
             self.native_dialog_failed(kind, why);
-            return;
+            return true;
         }
         let (tx, rx) = std::sync::mpsc::channel();
         let c = ctx.clone();
@@ -131,6 +132,7 @@ impl EditorApp {
             Ok(_) => self.jobs.dialogs.native = Some((kind, rx, Instant::now())),
             Err(e) => self.native_dialog_failed(kind, &format!("no thread for it: {e}")),
         }
+        true
     }
 
     /// Says why the system's dialog did not show, and opens the in-app browser instead.

@@ -7,11 +7,12 @@
 //!
 //! [`EditorApp`]'s state comes in groups, each defined beside the code that mostly uses it:
 //! the document (`session::Session`) and what persists between sessions
-//! (`session::Store`), the solver slots (`solvers::Solvers`), the pointer and keyboard
+//! (`autosave::Store`), the solver slots (`solvers::Solvers`), the pointer and keyboard
 //! state (`input::Interaction`), what and how the viewports draw (`viewport::Display`) and
 //! the background work (`Jobs`).
 //!
-//! Files: `session` (scenes, autosave, open, save and quit, undo), `file_dialog` (the system's
+//! Files: `session` (scenes, open, save and quit, undo), `autosave` (autosave, crash snapshot,
+//! restore offer, recent files' store), `file_dialog` (the system's
 //! file dialog or the in-app browser), `playback` (timeline,
 //! recording, export), `solvers` (solver commands and polling), `input` (keys, picking,
 //! painting, posing), `viewport` (vertex colors, the paint callback, overlays), `panels` (menu,
@@ -21,6 +22,7 @@
 
 mod accessors;
 mod asset_view;
+mod autosave;
 mod capture;
 mod file_dialog;
 mod gizmo;
@@ -44,8 +46,9 @@ use super::jobs::{Baking, Job, Preparing, Recorded, SideBySideQuality};
 use super::loader::LoadJob;
 use super::renderer;
 use super::solver_thread::Slot;
+use autosave::Store;
 use input::Interaction;
-use session::{Session, Store};
+use session::Session;
 use solvers::Solvers;
 use viewport::Display;
 
@@ -144,6 +147,9 @@ pub struct EditorApp {
 #[derive(Default)]
 struct Jobs {
     loading: Option<LoadJob>,
+    /// The history's generation when `loading` started: an edit made since is work the loaded
+    /// file would replace, asked about first ([`EditorApp::poll_loader`]).
+    loading_since: u64,
     /// A selection being read for the open mesh (`loader::spawn_selection`), with the version
     /// of the mesh it is read for (its `Topology::version`): dropped on arrival if another
     /// mesh, or the same file again, was opened meanwhile.

@@ -9,7 +9,6 @@ use glam::{DQuat, EulerRot};
 use solver::GroupTransform;
 
 use super::{DialogKind, EditorApp, Shading, Tool, View};
-use crate::editor::document::MAX_UI_ITERATIONS;
 use crate::editor::pose::group_centroid;
 use crate::editor::pose_solvers;
 use crate::editor::solver_thread::MethodSettings;
@@ -19,6 +18,20 @@ use crate::editor::timeline;
 /// The energies the method panel offers, in its order.
 const ENERGIES: [solver::Energy; 3] =
     [solver::Energy::SpokesAndRims, solver::Energy::Spokes, solver::Energy::SmoothRotations];
+
+/// The largest iteration cap the method panel's slider offers (scenes and the other
+/// interfaces may set up to the solver's limit).
+const MAX_UI_ITERATIONS: usize = 500;
+
+/// A slider of the method panel: it keeps a value outside its range that it did not set (a
+/// scene's, valid for the solver), which egui's default clamping would change unasked, and
+/// the next Save would write.
+fn method_slider<'a, N: egui::emath::Numeric>(
+    value: &'a mut N,
+    range: std::ops::RangeInclusive<N>,
+) -> egui::Slider<'a> {
+    egui::Slider::new(value, range).clamping(egui::SliderClamping::Edits)
+}
 
 /// The shortest bending length the method panel's slider offers (a fraction of the diagonal;
 /// scenes and the other interfaces may set any in [`solver::ArapConfig::validate`]'s range).
@@ -294,7 +307,7 @@ impl EditorApp {
         if arap.energy == solver::Energy::SmoothRotations {
             let diagonal = self.session.scene.as_ref().map(|s| s.diagonal);
             ui.add(
-                egui::Slider::new(
+                method_slider(
                     &mut arap.bending_length,
                     MIN_UI_BENDING_LENGTH..=solver::deform::arap::MAX_BENDING_LENGTH,
                 )
@@ -334,17 +347,14 @@ impl EditorApp {
                 }
             });
         ui.add(
-            egui::Slider::new(&mut self.session.settings.arap.tolerance, 1e-8..=1e-1)
+            method_slider(&mut self.session.settings.arap.tolerance, 1e-8..=1e-1)
                 .logarithmic(true)
                 .text("tolerance"),
         );
         ui.add(
-            egui::Slider::new(
-                &mut self.session.settings.arap.max_iterations,
-                1..=MAX_UI_ITERATIONS,
-            )
-            .logarithmic(true)
-            .text("iteration cap"),
+            method_slider(&mut self.session.settings.arap.max_iterations, 1..=MAX_UI_ITERATIONS)
+                .logarithmic(true)
+                .text("iteration cap"),
         );
         let window = match self.session.settings.arap.acceleration {
             solver::Acceleration::Anderson { window } => window,
@@ -368,7 +378,7 @@ impl EditorApp {
         }
         if self.session.settings.bs_variant != solver::Method::BsArap {
             ui.add(
-                egui::Slider::new(&mut self.session.settings.base.smoothing, 0.002..=0.2)
+                method_slider(&mut self.session.settings.base.smoothing, 0.002..=0.2)
                     .logarithmic(true)
                     .fixed_decimals(3)
                     .text("base smoothing (of diagonal)"),
@@ -390,7 +400,7 @@ impl EditorApp {
             let mut count = self.session.settings.base.coarse_vertices.unwrap_or(auto.clamp(64, n));
             ui.add_enabled(
                 !automatic,
-                egui::Slider::new(&mut count, 64..=n).logarithmic(true).text("coarse vertices"),
+                method_slider(&mut count, 64..=n).logarithmic(true).text("coarse vertices"),
             )
             .on_hover_text(
                 "vertices of the decimated base ARAP runs on; more is closer to ARAP, slower",
@@ -426,7 +436,7 @@ impl EditorApp {
             .response
             .on_disabled_hover_text("the Galerkin coarse energy needs the smooth-rotations energy");
             ui.add(
-                egui::Slider::new(
+                method_slider(
                     &mut self.session.settings.base.fine_iterations,
                     0..=solver::deform::config::MAX_FINE_ITERATIONS,
                 )
@@ -438,7 +448,7 @@ impl EditorApp {
                  carried from frame to frame): closer to ARAP, slower",
             );
             ui.add(
-                egui::Slider::new(&mut self.session.settings.base.membrane, 0.0..=1.0)
+                method_slider(&mut self.session.settings.base.membrane, 0.0..=1.0)
                     .fixed_decimals(2)
                     .text("membrane share"),
             )
@@ -447,7 +457,7 @@ impl EditorApp {
                  resist bending: on dense meshes closer to ARAP, each frame dearer (0: off)",
             );
             ui.add(
-                egui::Slider::new(&mut self.session.settings.base.settle_iterations, 0..=20)
+                method_slider(&mut self.session.settings.base.settle_iterations, 0..=20)
                     .text("settle iterations"),
             )
             .on_hover_text(

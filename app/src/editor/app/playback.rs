@@ -243,7 +243,9 @@ impl EditorApp {
                 }
                 TimelineAction::Record => self.start_recording(ctx),
                 TimelineAction::CancelRecord => self.cancel_recording(),
-                TimelineAction::ExportGltf => self.start_dialog(ctx, DialogKind::ExportGltf),
+                TimelineAction::ExportGltf => {
+                    self.start_dialog(ctx, DialogKind::ExportGltf);
+                }
                 TimelineAction::SetBake(choice) => self.set_bake_choice(choice),
                 TimelineAction::CancelBake => self.cancel_bake(),
                 TimelineAction::CancelExport => self.cancel_export(),

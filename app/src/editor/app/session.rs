@@ -1,23 +1,19 @@
 //! The document and its files: opening meshes and scenes (asking first about unsaved
-//! changes), saving, file dialogs, the undo history, recent files, the autosave and the crash
-//! snapshot.
+//! changes), saving, the undo history, recent files (the autosave and the crash snapshot are
+//! `autosave`'s).
 
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::TryRecvError;
-use std::time::{Duration, Instant, SystemTime};
 
 use eframe::egui::{self, Vec2};
 
 use super::{DialogKind, EditorApp, Shading, file_name};
 use crate::editor::document::{self, DocumentInput};
 use crate::editor::loader::{self, LoadedFile};
-use crate::editor::persist::{self, AUTOSAVE_INTERVAL, Persist, Snapshot};
+use crate::editor::persist::Persist;
 use crate::editor::solver_thread::MethodSettings;
 use crate::editor::timeline::{Playback, apply_paths, differ_beyond_playback};
 use crate::editor::undo::{EditState, History};
-
-/// How often the crash snapshot is refreshed.
-const SNAPSHOT_INTERVAL: Duration = Duration::from_secs(5);
 
 /// The open document: what a scene file holds, plus the undo history.
 #[derive(Default)]
@@ -31,6 +27,8 @@ pub(super) struct Session {
     pub(super) document_path: Option<PathBuf>,
     /// The edit state as last opened or saved (to know whether there are unsaved changes).
     pub(super) saved_edit: Option<EditState>,
+    /// The method settings as last opened or saved ([`MethodSettings::saved_part`]).
+    pub(super) saved_settings: MethodSettings,
     /// What waits for the user's answer to the unsaved-changes question.
     pub(super) pending: Option<Pending>,
     /// What to do once the scene is saved ("Save first" with no scene file yet: Save as).
@@ -56,82 +54,24 @@ pub(super) struct Session {
 pub(super) enum Pending {
     /// Open another file.
     Open(PathBuf),
+    /// Restore the autosave offered at start.
+    Restore,
     /// Quit the editor.
     Quit,
 }
 
-/// What is kept between sessions: recent files and the autosave, and the crash snapshot.
-pub(super) struct Store {
-    /// `None`: nothing is kept between sessions.
-    pub(super) persist: Option<Persist>,
-    pub(super) recent: Vec<PathBuf>,
-    /// The newest scene, for the crash hook.
-    pub(super) snapshot: Snapshot,
-    pub(super) last_snapshot: Option<Instant>,
-    pub(super) last_autosave: Instant,
-    pub(super) autosaved: Option<solver::animation::scene::Scene>,
-    /// An autosave from a session that did not end cleanly, offered back at start.
-    pub(super) restore_offer: Option<RestoreOffer>,
-    /// The offer whose autosave is loading after Restore: offered again if it fails.
-    pub(super) restoring: Option<RestoreOffer>,
-}
-
-impl Store {
-    /// Whether the autosave on disk is an offer not settled yet (unanswered, or restoring):
-    /// nothing may write over it or remove it.
-    fn offer_pending(&self) -> bool {
-        self.restore_offer.is_some() || self.restoring.is_some()
-    }
-}
-
-impl Store {
-    /// The store in `config_dir`, with its recent files and any autosave left to offer back.
-    pub(super) fn new(config_dir: Option<PathBuf>) -> Store {
-        let persist = config_dir.map(Persist::new);
-        let mut store = Store {
-            persist,
-            recent: Vec::new(),
-            snapshot: Snapshot::default(),
-            last_snapshot: None,
-            last_autosave: Instant::now(),
-            autosaved: None,
-            restore_offer: None,
-            restoring: None,
-        };
-        if let Some(p) = &store.persist {
-            store.recent = p.recent();
-            let kept = p.autosave_kept();
-            store.restore_offer = p.pending_autosave().map(|(path, when)| RestoreOffer {
-                kept,
-                mesh: solver::animation::scene::Scene::read(&path)
-                    .map(|s| s.mesh)
-                    .map_err(|e| e.to_string()),
-                path,
-                when,
-            });
-        }
-        store
-    }
-}
-
-/// An autosave found at start: where, when, whether a clean exit kept it on purpose (else the
-/// session crashed or was killed), and the mesh it names (or why it cannot be read).
-#[derive(Debug, Clone)]
-pub(super) struct RestoreOffer {
-    pub(super) path: PathBuf,
-    when: SystemTime,
-    pub(super) kept: bool,
-    mesh: Result<String, String>,
-}
-
 impl EditorApp {
     /// Whether the document differs from what was last opened or saved: its edit state other
-    /// than by the playback time's poses, or its texture and up axis.
+    /// than by the playback time's poses, its texture and up axis, or, once it has handles (a
+    /// scene to save), the method settings a scene holds.
     pub fn has_unsaved_changes(&self) -> bool {
-        let edit = &self.session.edit;
-        self.session.scene.is_some()
-            && (self.session.saved_edit.as_ref().is_none_or(|s| differ_beyond_playback(s, edit))
-                || self.session.saved_file_view != self.session.file_view)
+        let session = &self.session;
+        let edit = &session.edit;
+        let settings = session.saved_settings.saved_part() != session.settings.saved_part();
+        session.scene.is_some()
+            && (session.saved_edit.as_ref().is_none_or(|s| differ_beyond_playback(s, edit))
+                || session.saved_file_view != session.file_view
+                || (settings && edit.has_handles()))
     }
 
     /// Opens `path` from the UI (menu, recent files, drop): with unsaved changes, asks first.
@@ -236,6 +176,7 @@ impl EditorApp {
     pub(super) fn after_save(&mut self, ctx: &egui::Context) {
         match self.session.after_save.take() {
             Some(Pending::Open(path)) => self.open(ctx, path),
+            Some(Pending::Restore) => self.restore(ctx),
             Some(Pending::Quit) => ctx.send_viewport_cmd(egui::ViewportCommand::Close),
             None => {}
         }
@@ -249,6 +190,9 @@ impl EditorApp {
             Pending::Open(path) => {
                 format!("The current scene has unsaved changes. Open {} anyway?", file_name(path))
             }
+            Pending::Restore => "The current scene has unsaved changes. Restore the autosaved \
+                                 session in its place?"
+                .to_string(),
             Pending::Quit => {
                 let mut q = String::new();
                 if unsaved {
@@ -286,10 +230,14 @@ impl EditorApp {
                                 }
                                 Err(e) => self.error = Some(format!("scene not saved: {e}")),
                             },
-                            // No scene file yet: Save as, then carry on.
+                            // No scene file yet: Save as, then carry on; while another
+                            // dialog is open, the question stays.
                             None => {
-                                self.session.after_save = Some(pending.clone());
-                                self.start_dialog(ctx, DialogKind::SaveScene);
+                                if self.start_dialog(ctx, DialogKind::SaveScene) {
+                                    self.session.after_save = Some(pending.clone());
+                                } else {
+                                    self.session.pending = Some(pending.clone());
+                                }
                             }
                         }
                     }
@@ -298,6 +246,12 @@ impl EditorApp {
                             if ui.button("Discard changes and open").clicked() {
                                 self.session.pending = None;
                                 self.open(ctx, path.clone());
+                            }
+                        }
+                        Pending::Restore => {
+                            if ui.button("Discard changes and restore").clicked() {
+                                self.session.pending = None;
+                                self.restore(ctx);
                             }
                         }
                         Pending::Quit if !unsaved => {}
@@ -337,15 +291,7 @@ impl EditorApp {
         let start = self.start_prepare(ctx);
         self.jobs.loading =
             Some(loader::spawn_load(path, version, move || c.request_repaint(), Some(start)));
-    }
-
-    /// Writes the autosave now (tests; the editor does it on a timer).
-    pub fn autosave_now(&mut self) -> Result<PathBuf, String> {
-        let persist = self.store.persist.clone().ok_or("no configuration folder")?;
-        let doc = self.document(&persist.autosave_path())?;
-        let path = persist.write_autosave(&doc)?;
-        self.store.autosaved = Some(doc);
-        Ok(path)
+        self.jobs.loading_since = self.session.history.generation();
     }
 
     /// Saves the scene to `path` (atomically); it becomes the document Save writes to.
@@ -354,6 +300,7 @@ impl EditorApp {
         doc.save(path).map_err(|e| e.to_string())?;
         self.session.document_path = Some(path.to_path_buf());
         self.session.saved_edit = Some(self.session.edit.clone());
+        self.session.saved_settings = self.session.settings;
         self.session.saved_file_view = self.session.file_view.clone();
         // Saved: a crash from now on has nothing newer to keep than the file, and an autosave
         // left would be offered after one as newer work (an unanswered offer's stays).
@@ -402,128 +349,12 @@ impl EditorApp {
         }
     }
 
-    /// Refreshes the crash snapshot every few seconds and writes the autosave every
-    /// [`AUTOSAVE_INTERVAL`] when the scene changed; the file is written on a worker thread.
-    pub(super) fn autosave_tick(&mut self) {
-        let Some(persist) = self.store.persist.clone() else { return };
-        if self.store.offer_pending() || self.jobs.loading.is_some() {
-            return; // never overwrite an autosave the user has not answered yet
-        }
-        let now = Instant::now();
-        if self.store.last_snapshot.is_some_and(|t| now.duration_since(t) < SNAPSHOT_INTERVAL) {
-            return;
-        }
-        self.store.last_snapshot = Some(now);
-        if !self.has_unsaved_changes() {
-            // nothing unsaved (an edit undone): a crash has nothing newer than the file
-            if let Ok(mut slot) = self.store.snapshot.try_lock() {
-                *slot = None;
-            }
-            return;
-        }
-        let Ok(doc) = self.document(&persist.autosave_path()) else { return };
-        if let Ok(mut slot) = self.store.snapshot.try_lock() {
-            *slot = Some(doc.clone());
-        }
-        if now.duration_since(self.store.last_autosave) >= AUTOSAVE_INTERVAL
-            && self.store.autosaved.as_ref() != Some(&doc)
-        {
-            self.store.last_autosave = now;
-            self.store.autosaved = Some(doc.clone());
-            let _ = std::thread::Builder::new().name("autosave".into()).spawn(move || {
-                if let Err(e) = persist.write_autosave(&doc) {
-                    eprintln!("editor: autosave failed: {e}");
-                }
-            });
-        }
-    }
-
-    pub(super) fn restore_window(&mut self, ctx: &egui::Context) {
-        let Some(RestoreOffer { when, kept, mesh, .. }) = self.store.restore_offer.clone() else {
-            return;
-        };
-        egui::Window::new("Restore the last session?")
-            .collapsible(false)
-            .resizable(false)
-            .anchor(egui::Align2::CENTER_CENTER, Vec2::ZERO)
-            .show(ctx, |ui| {
-                match &mesh {
-                    Ok(m) if kept => ui.label(format!(
-                        "You quit the last session keeping unsaved changes to {} ({}).",
-                        file_name(Path::new(m)),
-                        persist::ago(when)
-                    )),
-                    Ok(m) => ui.label(format!(
-                        "The last session did not end cleanly. An autosave of {} from {} is available.",
-                        file_name(Path::new(m)),
-                        persist::ago(when)
-                    )),
-                    Err(e) => ui.label(format!("An autosave was found but cannot be read: {e}")),
-                };
-                ui.horizontal(|ui| {
-                    if mesh.is_ok() && ui.button("Restore").clicked() {
-                        self.restore(ctx);
-                    }
-                    if ui.button("Discard").clicked() {
-                        self.store.restore_offer = None;
-                        if let Some(p) = &self.store.persist {
-                            p.discard_autosave();
-                        }
-                    }
-                });
-            });
-    }
-
-    /// What a clean exit does with the autosave (see `on_exit`): unsaved changes are kept and
-    /// marked as kept on purpose, unless the user chose to quit without saving; otherwise the
-    /// autosave (the crash marker) goes. Returns whether one was kept.
-    pub fn exit_autosave(&mut self) -> bool {
-        let Some(persist) = self.store.persist.clone() else { return false };
-        if self.store.offer_pending() {
-            return true; // unanswered: keep it for next time
-        }
-        if self.has_unsaved_changes()
-            && !self.session.discard_on_exit
-            && let Ok(doc) = self.document(&persist.autosave_path())
-        {
-            match persist.keep_autosave(&doc) {
-                Ok(_) => return true,
-                Err(e) => {
-                    // the last autosave, if any, stays rather than nothing
-                    eprintln!("editor: could not keep your unsaved changes: {e}");
-                    return persist.autosave_path().exists();
-                }
-            }
-        }
-        persist.discard_autosave();
-        false
-    }
-
-    /// Answers the restore offer (tests): `true` restores, `false` discards.
-    pub fn answer_restore(&mut self, ctx: &egui::Context, restore: bool) {
-        if restore {
-            self.restore(ctx);
-        } else if self.store.restore_offer.take().is_some()
-            && let Some(p) = &self.store.persist
-        {
-            p.discard_autosave();
-        }
-    }
-
-    /// Loads the offered autosave; the offer comes back if it cannot be loaded (its mesh
-    /// moved, a drive not mounted), and the file stays until it is loaded.
-    fn restore(&mut self, ctx: &egui::Context) {
-        let Some(offer) = self.store.restore_offer.take() else { return };
-        self.open(ctx, offer.path.clone());
-        self.store.restoring = Some(offer);
-    }
-
-    /// The autosave's restore did not happen (its load failed, or another file was opened in
-    /// its place): it is offered again.
-    pub(super) fn offer_again(&mut self) {
-        if let Some(offer) = self.store.restoring.take() {
-            self.store.restore_offer = Some(offer);
-        }
+    /// Whether the document was edited since the load under way started, and has unsaved
+    /// changes.
+    fn edited_while_loading(&self) -> bool {
+        self.jobs.loading.is_some()
+            && self.session.history.generation() != self.jobs.loading_since
+            && self.has_unsaved_changes()
     }
 
     pub(super) fn poll_loader(&mut self) {
@@ -539,6 +370,17 @@ impl EditorApp {
                 self.error = Some(e);
                 self.jobs.loading = None;
                 self.offer_again();
+            }
+            Ok(Ok(_)) if self.edited_while_loading() => {
+                // Work done while the file loaded is not replaced unasked: the question comes
+                // (the file is read again if the answer is to open it).
+                let path = self.jobs.loading.take().map(|j| j.path).unwrap_or_default();
+                self.session.pending = Some(if self.store.restoring.is_some() {
+                    self.offer_again();
+                    Pending::Restore
+                } else {
+                    Pending::Open(path)
+                });
             }
             Ok(Ok(mut scene)) => {
                 self.jobs.loading = None;
@@ -605,6 +447,7 @@ impl EditorApp {
                     }
                 }
                 self.session.saved_edit = (!restored).then(|| self.session.edit.clone());
+                self.session.saved_settings = self.session.settings;
                 if let Some(j) = self.jobs.record.take() {
                     j.cancel();
                     let opened = file_name(&scene.path);
@@ -744,7 +587,9 @@ impl EditorApp {
                     self.error = Some(format!("scene not saved: {e}"));
                 }
             }
-            None => self.start_dialog(ctx, DialogKind::SaveScene),
+            None => {
+                self.start_dialog(ctx, DialogKind::SaveScene);
+            }
         }
     }
 }

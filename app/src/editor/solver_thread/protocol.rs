@@ -80,6 +80,14 @@ impl MethodSettings {
         base
     }
 
+    /// What a saved scene holds of these settings (`editor::document::to_scene`): the method,
+    /// the ARAP and the base configurations, but not settling or the side-by-side method,
+    /// which are the editor's own.
+    pub fn saved_part(&self) -> (solver::Method, solver::ArapConfig, solver::BaseConfig) {
+        let base = solver::BaseConfig { settle_iterations: 0, ..self.base_config() };
+        (self.bs_variant, self.arap_config(), base)
+    }
+
     /// A length given as a fraction of the rest bounding-box diagonal (the bending length), in
     /// world units for a mesh of diagonal `diagonal`.
     pub fn world_length(fraction: f64, diagonal: f64) -> f64 {

@@ -1,0 +1,218 @@
+//! What persists between sessions: the recent files, the autosave written on a timer and kept
+//! or discarded at exit, the crash snapshot, and the offer to restore an autosave left by a
+//! session that did not end cleanly (or kept on purpose).
+
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant, SystemTime};
+
+use eframe::egui::{self, Vec2};
+
+use super::EditorApp;
+use super::file_name;
+use super::session::Pending;
+use crate::editor::persist::{self, AUTOSAVE_INTERVAL, Persist, Snapshot};
+
+/// How often the crash snapshot is refreshed.
+const SNAPSHOT_INTERVAL: Duration = Duration::from_secs(5);
+
+/// What is kept between sessions: recent files and the autosave, and the crash snapshot.
+pub(super) struct Store {
+    /// `None`: nothing is kept between sessions.
+    pub(super) persist: Option<Persist>,
+    pub(super) recent: Vec<PathBuf>,
+    /// The newest scene, for the crash hook.
+    pub(super) snapshot: Snapshot,
+    pub(super) last_snapshot: Option<Instant>,
+    pub(super) last_autosave: Instant,
+    pub(super) autosaved: Option<solver::animation::scene::Scene>,
+    /// An autosave from a session that did not end cleanly, offered back at start.
+    pub(super) restore_offer: Option<RestoreOffer>,
+    /// The offer whose autosave is loading after Restore: offered again if it fails.
+    pub(super) restoring: Option<RestoreOffer>,
+}
+
+impl Store {
+    /// Whether the autosave on disk is an offer not settled yet (unanswered, or restoring):
+    /// nothing may write over it or remove it.
+    pub(super) fn offer_pending(&self) -> bool {
+        self.restore_offer.is_some() || self.restoring.is_some()
+    }
+}
+
+impl Store {
+    /// The store in `config_dir`, with its recent files and any autosave left to offer back.
+    pub(super) fn new(config_dir: Option<PathBuf>) -> Store {
+        let persist = config_dir.map(Persist::new);
+        let mut store = Store {
+            persist,
+            recent: Vec::new(),
+            snapshot: Snapshot::default(),
+            last_snapshot: None,
+            last_autosave: Instant::now(),
+            autosaved: None,
+            restore_offer: None,
+            restoring: None,
+        };
+        if let Some(p) = &store.persist {
+            store.recent = p.recent();
+            let kept = p.autosave_kept();
+            store.restore_offer = p.pending_autosave().map(|(path, when)| RestoreOffer {
+                kept,
+                mesh: solver::animation::scene::Scene::read(&path)
+                    .map(|s| s.mesh)
+                    .map_err(|e| e.to_string()),
+                path,
+                when,
+            });
+        }
+        store
+    }
+}
+
+/// An autosave found at start: where, when, whether a clean exit kept it on purpose (else the
+/// session crashed or was killed), and the mesh it names (or why it cannot be read).
+#[derive(Debug, Clone)]
+pub(super) struct RestoreOffer {
+    pub(super) path: PathBuf,
+    when: SystemTime,
+    pub(super) kept: bool,
+    mesh: Result<String, String>,
+}
+
+impl EditorApp {
+    /// Writes the autosave now (tests; the editor does it on a timer).
+    pub fn autosave_now(&mut self) -> Result<PathBuf, String> {
+        let persist = self.store.persist.clone().ok_or("no configuration folder")?;
+        let doc = self.document(&persist.autosave_path())?;
+        let path = persist.write_autosave(&doc)?;
+        self.store.autosaved = Some(doc);
+        Ok(path)
+    }
+
+    /// Refreshes the crash snapshot every few seconds and writes the autosave every
+    /// [`AUTOSAVE_INTERVAL`] when the scene changed; the file is written on a worker thread.
+    pub(super) fn autosave_tick(&mut self) {
+        let Some(persist) = self.store.persist.clone() else { return };
+        if self.store.offer_pending() || self.jobs.loading.is_some() {
+            return; // never overwrite an autosave the user has not answered yet
+        }
+        let now = Instant::now();
+        if self.store.last_snapshot.is_some_and(|t| now.duration_since(t) < SNAPSHOT_INTERVAL) {
+            return;
+        }
+        self.store.last_snapshot = Some(now);
+        if !self.has_unsaved_changes() {
+            // nothing unsaved (an edit undone): a crash has nothing newer than the file
+            if let Ok(mut slot) = self.store.snapshot.try_lock() {
+                *slot = None;
+            }
+            return;
+        }
+        let Ok(doc) = self.document(&persist.autosave_path()) else { return };
+        if let Ok(mut slot) = self.store.snapshot.try_lock() {
+            *slot = Some(doc.clone());
+        }
+        if now.duration_since(self.store.last_autosave) >= AUTOSAVE_INTERVAL
+            && self.store.autosaved.as_ref() != Some(&doc)
+        {
+            self.store.last_autosave = now;
+            self.store.autosaved = Some(doc.clone());
+            let _ = std::thread::Builder::new().name("autosave".into()).spawn(move || {
+                if let Err(e) = persist.write_autosave(&doc) {
+                    eprintln!("editor: autosave failed: {e}");
+                }
+            });
+        }
+    }
+
+    pub(super) fn restore_window(&mut self, ctx: &egui::Context) {
+        let Some(RestoreOffer { when, kept, mesh, .. }) = self.store.restore_offer.clone() else {
+            return;
+        };
+        egui::Window::new("Restore the last session?")
+            .collapsible(false)
+            .resizable(false)
+            .anchor(egui::Align2::CENTER_CENTER, Vec2::ZERO)
+            .show(ctx, |ui| {
+                match &mesh {
+                    Ok(m) if kept => ui.label(format!(
+                        "You quit the last session keeping unsaved changes to {} ({}).",
+                        file_name(Path::new(m)),
+                        persist::ago(when)
+                    )),
+                    Ok(m) => ui.label(format!(
+                        "The last session did not end cleanly. An autosave of {} from {} is available.",
+                        file_name(Path::new(m)),
+                        persist::ago(when)
+                    )),
+                    Err(e) => ui.label(format!("An autosave was found but cannot be read: {e}")),
+                };
+                ui.horizontal(|ui| {
+                    if mesh.is_ok() && ui.button("Restore").clicked() {
+                        self.answer_restore(ctx, true);
+                    }
+                    if ui.button("Discard").clicked() {
+                        self.store.restore_offer = None;
+                        if let Some(p) = &self.store.persist {
+                            p.discard_autosave();
+                        }
+                    }
+                });
+            });
+    }
+
+    /// What a clean exit does with the autosave (see `on_exit`): unsaved changes are kept and
+    /// marked as kept on purpose, unless the user chose to quit without saving; otherwise the
+    /// autosave (the crash marker) goes. Returns whether one was kept.
+    pub fn exit_autosave(&mut self) -> bool {
+        let Some(persist) = self.store.persist.clone() else { return false };
+        if self.store.offer_pending() {
+            return true; // unanswered: keep it for next time
+        }
+        if self.has_unsaved_changes()
+            && !self.session.discard_on_exit
+            && let Ok(doc) = self.document(&persist.autosave_path())
+        {
+            match persist.keep_autosave(&doc) {
+                Ok(_) => return true,
+                Err(e) => {
+                    // the last autosave, if any, stays rather than nothing
+                    eprintln!("editor: could not keep your unsaved changes: {e}");
+                    return persist.autosave_path().exists();
+                }
+            }
+        }
+        persist.discard_autosave();
+        false
+    }
+
+    /// Answers the restore offer (its buttons, tests): `true` restores, asking first over
+    /// unsaved changes; `false` discards.
+    pub fn answer_restore(&mut self, ctx: &egui::Context, restore: bool) {
+        if restore && self.has_unsaved_changes() {
+            self.session.pending = Some(Pending::Restore);
+        } else if restore {
+            self.restore(ctx);
+        } else if self.store.restore_offer.take().is_some()
+            && let Some(p) = &self.store.persist
+        {
+            p.discard_autosave();
+        }
+    }
+
+    /// Loads the offered autosave; the offer comes back if it cannot be loaded (its mesh
+    /// moved, a drive not mounted), and the file stays until it is loaded.
+    pub(super) fn restore(&mut self, ctx: &egui::Context) {
+        let Some(offer) = self.store.restore_offer.take() else { return };
+        self.open(ctx, offer.path.clone());
+        self.store.restoring = Some(offer);
+    }
+
+    /// The autosave's restore did not happen (its load failed, or another file was opened in
+    /// its place): it is offered again.
+    pub(super) fn offer_again(&mut self) {
+        if let Some(offer) = self.store.restoring.take() {
+            self.store.restore_offer = Some(offer);
+        }
+    }
+}
