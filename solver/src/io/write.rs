@@ -83,12 +83,17 @@ pub(crate) fn check_mesh(
 }
 
 /// Writes `bytes` to `path` atomically: temporary file in the same folder, `fsync`, rename.
+/// A symbolic link at `path` stays a link: the file it leads to is the one replaced. A file
+/// replaced keeps its permissions (a scene shared read-only with a group stays so).
 ///
 /// Known limitation: on failure after the rename started, the operating system decides; the
 /// temporary file is removed on every error path this function sees.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), SaveError> {
     let file = path.display().to_string();
     let io_err = |source| SaveError::Io { file: file.clone(), source };
+    let target = link_target(path);
+    let path = target.as_path();
+    let permissions = std::fs::metadata(path).ok().map(|m| m.permissions());
     let ext = path.extension().map(|e| e.to_string_lossy().into_owned()).unwrap_or_default();
     // Unique per process and per call, so that two threads saving the same file never share
     // a temporary file.
@@ -97,6 +102,9 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), SaveError> {
     let tmp = path.with_extension(format!("{ext}.tmp{}-{n}", std::process::id()));
     let result = (|| -> std::io::Result<()> {
         let mut f = std::fs::File::create(&tmp)?;
+        if let Some(p) = permissions {
+            f.set_permissions(p)?;
+        }
         f.write_all(bytes)?;
         f.sync_all()?;
         drop(f);
@@ -115,6 +123,20 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), SaveError> {
         }
     }
     Ok(())
+}
+
+/// Where the symbolic links at `path` lead (`path` itself when it is no link): the file a
+/// write through `path` replaces. A link that cannot be read, or a chain longer than the
+/// kernel follows (40), stops where it is.
+fn link_target(path: &Path) -> std::path::PathBuf {
+    let mut p = path.to_path_buf();
+    for _ in 0..40 {
+        let is_link = std::fs::symlink_metadata(&p).is_ok_and(|m| m.file_type().is_symlink());
+        let Some(next) = is_link.then(|| std::fs::read_link(&p).ok()).flatten() else { break };
+        // a relative link is relative to the folder holding it
+        p = p.parent().map_or(next.clone(), |dir| dir.join(&next));
+    }
+    p
 }
 
 #[cfg(test)]
@@ -181,6 +203,35 @@ mod tests {
         assert_eq!(std::fs::read(&target).unwrap(), previous, "the previous file was damaged");
         let left = std::fs::metadata(&partial).map_or(0, |m| m.len()) as usize;
         assert!(left < SIZE, "the temporary file is complete: the kill came too late");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// A save through a symbolic link replaces the file it leads to and keeps the link (it
+    /// replaced the link with a file, and the linked file kept its old contents); the file
+    /// keeps its permissions.
+    #[cfg(unix)]
+    #[test]
+    fn a_write_through_a_link_keeps_the_link_and_the_permissions() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = temp_path("link");
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(dir.join("real")).unwrap();
+        let real = dir.join("real/scene.json");
+        std::fs::write(&real, b"old").unwrap();
+        std::fs::set_permissions(&real, std::fs::Permissions::from_mode(0o640)).unwrap();
+        let link = dir.join("scene.json");
+        std::os::unix::fs::symlink("real/scene.json", &link).unwrap();
+        let chained = dir.join("again.json");
+        std::os::unix::fs::symlink(&link, &chained).unwrap();
+
+        write_atomic(&link, b"new").unwrap();
+        assert!(std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink());
+        assert_eq!(std::fs::read(&real).unwrap(), b"new");
+        write_atomic(&chained, b"newer").unwrap();
+        assert!(std::fs::symlink_metadata(&chained).unwrap().file_type().is_symlink());
+        assert_eq!(std::fs::read(&real).unwrap(), b"newer");
+        let mode = std::fs::metadata(&real).unwrap().permissions().mode() & 0o777;
+        assert_eq!(mode, 0o640, "permissions {mode:o}");
         let _ = std::fs::remove_dir_all(&dir);
     }
 
