@@ -8,10 +8,13 @@
 //! start means the last session did not end cleanly, and the editor offers it back. A clean
 //! exit that keeps unsaved changes on purpose writes it with a marker beside it
 //! (`autosave.kept`), so that the offer does not call that a crash; any other write of the
-//! autosave (the timer, the panic hook) removes the marker.
+//! autosave (the timer, the panic hook) removes the marker. Writes and removals of the autosave
+//! happen in the order they were asked for ([`Persist::autosave_ticket`]): a timer's write
+//! that finishes after a Save removed the autosave, or after a newer write, is skipped.
 
 use std::path::{Path, PathBuf};
-use std::sync::{Arc, Mutex};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, SystemTime};
 
 use solver::animation::scene::Scene;
@@ -30,15 +33,41 @@ pub fn default_dir() -> Option<PathBuf> {
         .or_else(|| var("HOME").map(|d| d.join(".config").join("bsarap")))
 }
 
-/// The editor's files in its configuration folder.
+/// The editor's files in its configuration folder. Clones share the order of the autosave's
+/// writes.
 #[derive(Debug, Clone)]
 pub struct Persist {
     dir: PathBuf,
+    tickets: Arc<Tickets>,
+}
+
+/// The order of the autosave's writes and removals: each takes a ticket when it is asked for,
+/// and one whose ticket is older than the last carried out is skipped.
+#[derive(Debug, Default)]
+struct Tickets {
+    issued: AtomicU64,
+    /// The ticket of the last write or removal carried out; held while one is.
+    done: Mutex<u64>,
 }
 
 impl Persist {
     pub fn new(dir: PathBuf) -> Persist {
-        Persist { dir }
+        Persist { dir, tickets: Arc::default() }
+    }
+
+    /// A place in the order of the autosave's writes and removals, for a write asked for now
+    /// and carried out later ([`Persist::write_autosave_in_turn`], on another thread).
+    pub fn autosave_ticket(&self) -> u64 {
+        self.tickets.issued.fetch_add(1, Ordering::Relaxed) + 1
+    }
+
+    /// Runs `f` for `ticket` unless a write or removal asked for later was carried out.
+    fn in_turn<R>(&self, ticket: u64, f: impl FnOnce() -> R) -> Option<R> {
+        let mut done = self.tickets.done.lock().unwrap_or_else(PoisonError::into_inner);
+        (ticket > *done).then(|| {
+            *done = ticket;
+            f()
+        })
     }
 
     fn recent_path(&self) -> PathBuf {
@@ -82,10 +111,25 @@ impl Persist {
 
     /// Writes `scene` as the autosave (of a running session: not kept on purpose).
     pub fn write_autosave(&self, scene: &Scene) -> Result<PathBuf, String> {
+        let ticket = self.autosave_ticket();
+        let written = self.write_autosave_in_turn(scene, ticket)?;
+        written.ok_or_else(|| "a newer autosave was written meanwhile".to_string())
+    }
+
+    /// Writes `scene` as the autosave asked for with `ticket`; `None` (nothing written) when
+    /// the autosave was written or removed since, as asked for later.
+    pub fn write_autosave_in_turn(
+        &self,
+        scene: &Scene,
+        ticket: u64,
+    ) -> Result<Option<PathBuf>, String> {
         let path = self.autosave_path();
-        self.write(&path, scene.to_json().as_bytes())?;
-        let _ = std::fs::remove_file(self.kept_path());
-        Ok(path)
+        let written = self.in_turn(ticket, || {
+            self.write(&path, scene.to_json().as_bytes())?;
+            let _ = std::fs::remove_file(self.kept_path());
+            Ok::<_, String>(())
+        });
+        written.transpose().map(|w| w.map(|()| path))
     }
 
     /// Writes `scene` as the autosave kept on purpose by a clean exit.
@@ -109,8 +153,10 @@ impl Persist {
 
     /// Removes the autosave (clean exit, or the user declined it).
     pub fn discard_autosave(&self) {
-        let _ = std::fs::remove_file(self.autosave_path());
-        let _ = std::fs::remove_file(self.kept_path());
+        self.in_turn(self.autosave_ticket(), || {
+            let _ = std::fs::remove_file(self.autosave_path());
+            let _ = std::fs::remove_file(self.kept_path());
+        });
     }
 }
 
@@ -202,5 +248,33 @@ mod tests {
         p.keep_autosave(&scene).unwrap();
         p.discard_autosave();
         assert!(p.pending_autosave().is_none() && !p.autosave_kept());
+    }
+
+    /// A write asked for before a removal (the timer's thread, before a Save) writes nothing
+    /// when it comes after it: the saved work would be offered back after a crash as newer.
+    /// Of two writes, the later asked for is the one kept.
+    #[test]
+    fn an_autosave_write_overtaken_by_a_removal_or_a_newer_write_is_skipped() {
+        let (_scratch, d) = dir("autosave-order");
+        let p = Persist::new(d);
+        let scene = |mesh: &str| {
+            Scene::new(
+                mesh,
+                solver::animation::scene::HandlesSpec {
+                    labels: Some(vec![0, -1]),
+                    ..Default::default()
+                },
+            )
+        };
+        let ticket = p.clone().autosave_ticket();
+        p.discard_autosave();
+        assert_eq!(p.write_autosave_in_turn(&scene("/a.obj"), ticket), Ok(None));
+        assert!(p.pending_autosave().is_none(), "the removed autosave came back");
+
+        let (older, newer) = (p.autosave_ticket(), p.autosave_ticket());
+        let written = p.write_autosave_in_turn(&scene("/new.obj"), newer).unwrap();
+        assert_eq!(written, Some(p.autosave_path()));
+        assert_eq!(p.write_autosave_in_turn(&scene("/old.obj"), older), Ok(None));
+        assert_eq!(Scene::read(&p.autosave_path()).unwrap().mesh, "/new.obj");
     }
 }

@@ -117,8 +117,10 @@ impl EditorApp {
         {
             self.store.last_autosave = now;
             self.store.autosaved = Some(doc.clone());
+            // asked for now: a Save or an exit carried out before the thread writes wins
+            let ticket = persist.autosave_ticket();
             let _ = std::thread::Builder::new().name("autosave".into()).spawn(move || {
-                if let Err(e) = persist.write_autosave(&doc) {
+                if let Err(e) = persist.write_autosave_in_turn(&doc, ticket) {
                     eprintln!("editor: autosave failed: {e}");
                 }
             });
