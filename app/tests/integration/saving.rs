@@ -113,7 +113,8 @@ fn a_failed_restore_offers_the_autosave_again() {
 }
 
 /// Restore with unsaved changes asks first (it replaced them unasked), and "Discard changes
-/// and restore" restores.
+/// and restore" restores; before it, quitting does not offer to keep the changes in the
+/// autosave the offer holds.
 #[test]
 fn restore_over_unsaved_changes_asks_first() {
     let dir = ScratchDir::new("saving-restore-asks");
@@ -126,6 +127,17 @@ fn restore_over_unsaved_changes_asks_first() {
     let mut e = h.state().edit_state().clone();
     e.groups[0].pose.translation.x = 0.2;
     h.state_mut().set_edit_state(e);
+    // While the offer is unanswered the autosave file is the last session's: quitting cannot
+    // keep these changes in it (it kept the old file and dropped them).
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Q);
+    h.step();
+    h.step();
+    assert!(h.state().quit_question_open());
+    assert!(h.query_by_label("Keep for next time").is_none());
+    h.get_by_label_contains("the last session's autosave is still offered");
+    h.get_by_label("Cancel").click();
+    h.step();
+    assert!(!h.state().quit_question_open());
     let ctx = h.ctx.clone();
     h.state_mut().answer_restore(&ctx, true);
     h.step();

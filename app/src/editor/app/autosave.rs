@@ -154,12 +154,12 @@ impl EditorApp {
                         self.answer_restore(ctx, true);
                     }
                     if ui.button("Discard").clicked() {
-                        self.store.restore_offer = None;
-                        if let Some(p) = &self.store.persist {
-                            p.discard_autosave();
-                        }
+                        self.answer_restore(ctx, false);
                     }
                 });
+                if self.has_unsaved_changes() {
+                    ui.weak("Your changes are not autosaved until you answer.");
+                }
             });
     }
 

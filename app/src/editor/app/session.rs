@@ -262,7 +262,14 @@ impl EditorApp {
                                 self.session.discard_on_exit = true;
                                 ctx.send_viewport_cmd(egui::ViewportCommand::Close);
                             }
-                            if ui
+                            // The autosave file holds the last session's work while it is
+                            // offered: keeping these changes would write over it.
+                            if self.store.offer_pending() {
+                                ui.label(
+                                    "(the last session's autosave is still offered: restore or \
+                                     discard it to keep these changes for next time)",
+                                );
+                            } else if ui
                                 .button("Keep for next time")
                                 .on_hover_text("quit; the next start offers the changes back")
                                 .clicked()
