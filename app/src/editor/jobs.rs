@@ -348,6 +348,12 @@ pub fn spawn_record(
                 },
             )
             .map_err(|e| format!("recording: {e}"))?;
+            // what follows the last frame (the file size, a shape per frame) takes long on a
+            // dense mesh: a cancel there is heard too
+            let cancelled = || Err::<Recorded, String>("recording cancelled".into());
+            if stop() {
+                return cancelled();
+            }
             let solved = SolveSettings {
                 method,
                 arap: config,
@@ -359,6 +365,9 @@ pub fn spawn_record(
                     .and_then(|e| e.with_solve_settings(&solved))
                     .and_then(|e| e.file_size())
                     .map_err(|e| format!("recording: {e}"))?;
+            if stop() {
+                return cancelled();
+            }
             let t = mesh.triangles();
             let origin = display_origin(&mesh);
             let shapes = Shape::all_with_faces(&recording.frames, origin, t, &vertex_faces);

@@ -1,6 +1,6 @@
 //! The timeline panel, undo and unsaved changes: a drag of one of its numbers is one undo step,
 //! an undo puts a group with a path where its path is at the playback time, and playing or
-//! scrubbing is not an edit.
+//! scrubbing is not an edit; a recording cancelled as it ends is not kept.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use crate::support;
@@ -190,6 +190,29 @@ fn a_recording_larger_than_memory_is_refused() {
     assert!(!h.state().is_recording(), "started");
     let error = h.state().error().unwrap_or_default();
     assert!(error.contains(&format!("recording {frames} frames")), "{error}");
+}
+
+/// Cancel pressed once the last frame is solved, before the editor took the recording: the
+/// recording is not kept (it was, cancel or not).
+#[test]
+fn a_recording_cancelled_after_its_last_frame_is_not_kept() {
+    let mut h = start();
+    let mut e = h.state().edit_state().clone();
+    e.timeline.duration = 0.3;
+    e.timeline.fps = 10.0;
+    h.state_mut().set_edit_state(e);
+    let ctx = h.ctx.clone();
+    h.state_mut().start_recording(&ctx);
+    // every frame solved, the editor not polling the job meanwhile
+    let start = std::time::Instant::now();
+    while h.state().recording_progress().is_some_and(|(done, total)| total == 0 || done < total) {
+        assert!(start.elapsed().as_secs() < 90, "the recording did not end");
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    h.state_mut().cancel_recording();
+    step_until(&mut h, "the recording's end", |a| !a.is_recording());
+    assert!(h.state().recorded_frames().is_none(), "a cancelled recording was kept");
+    assert_eq!(h.state().info(), Some("recording cancelled"));
 }
 
 /// A group with a path posed by hand and keyed with K: Ctrl+Z at the same time takes the key

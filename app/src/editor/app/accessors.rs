@@ -211,6 +211,11 @@ impl EditorApp {
     }
 
     /// Frames of the kept recording.
+    /// The recording under way's frames solved and to solve.
+    pub fn recording_progress(&self) -> Option<(usize, usize)> {
+        self.jobs.record.as_ref().map(|j| j.progress.get())
+    }
+
     pub fn recorded_frames(&self) -> Option<&solver::animation::recording::Recording> {
         self.jobs.recorded.as_ref().map(|r| r.recording.as_ref())
     }

@@ -157,6 +157,8 @@ impl EditorApp {
             let cancelled = self.jobs.record.as_ref().is_some_and(Job::cancelled);
             self.jobs.record = None;
             match r {
+                // cancelled as its last frame was solved: not kept
+                Ok(_) | Err(_) if cancelled => self.info = Some("recording cancelled".into()),
                 Ok(rec) => {
                     let n = rec.recording.frames.len();
                     let at_cap = rec.recording.stats.iter().filter(|s| !s.converged).count();
@@ -171,7 +173,6 @@ impl EditorApp {
                     ));
                     self.jobs.recorded = Some(rec);
                 }
-                Err(_) if cancelled => self.info = Some("recording cancelled".into()),
                 Err(e) => self.error = Some(e),
             }
         }
