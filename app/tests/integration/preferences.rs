@@ -46,8 +46,21 @@ fn preferences_are_saved_and_restored_by_the_next_session() {
     assert_eq!(p.brush_radius, radius);
     assert_eq!(h.ctx.zoom_factor(), 1.25, "the UI scale applies at once");
     assert_eq!(h.ctx.theme(), egui::Theme::Light, "the theme applies at once");
-    let text = std::fs::read_to_string(dir.join(FILE_NAME)).expect("prefs.json written");
-    assert_eq!(Preferences::from_json(&text).unwrap(), (p, None));
+    // Written once the changes have stood a moment (not on every step of a drag).
+    let file = dir.join(FILE_NAME);
+    let written = |p: &Preferences| {
+        let text = std::fs::read_to_string(&file).unwrap_or_default();
+        Preferences::from_json(&text).is_ok_and(|(q, _)| q == *p)
+    };
+    step_until(&mut h, "prefs.json written", |_| written(&p));
+    // A change right before quitting is written at exit.
+    h.event(Event::Text("]".into()));
+    h.step();
+    let p = h.state().preferences();
+    assert!(p.brush_radius > radius);
+    eframe::App::on_exit(h.state_mut());
+    assert!(written(&p), "the last change was not written at exit");
+    let radius = p.brush_radius;
     drop(h);
 
     // A new session on the same folder starts from them.

@@ -490,6 +490,7 @@ impl eframe::App for EditorApp {
     /// A clean exit removes the autosave, unless there are unsaved changes: then it is written
     /// now and offered back at the next start.
     fn on_exit(&mut self) {
+        self.save_prefs();
         self.exit_autosave();
     }
 

@@ -1,6 +1,9 @@
 //! The preferences window (Ctrl+,) and applying [`Preferences`]: loaded at start from the
-//! configuration folder, saved there whenever one changes (the brush radius too, however it
-//! was changed). Without a configuration folder they live for the session only.
+//! configuration folder, saved there once a change has stood for [`SAVE_AFTER`] (the brush
+//! radius too, however it was changed) and at exit. Without a configuration folder they live
+//! for the session only.
+
+use std::time::{Duration, Instant};
 
 use eframe::egui::{self, Key, Modifiers};
 
@@ -8,12 +11,19 @@ use super::EditorApp;
 use crate::editor::pose_solvers;
 use crate::editor::prefs::{BRUSH_RADIUS_RANGE, Preferences, Theme, UI_SCALES};
 
+/// How long changed preferences stay as they are before they are written: a brush resized
+/// with a held key or a dragged slider writes once, not every frame (each write syncs the
+/// disk, on the UI thread).
+pub(super) const SAVE_AFTER: Duration = Duration::from_millis(800);
+
 /// The preferences and the window's state.
 #[derive(Debug, Clone, Default)]
 pub(super) struct PrefsState {
     pub(super) current: Preferences,
     /// What the file holds (what was loaded or last saved).
     saved: Preferences,
+    /// Changed preferences not written yet, and since when they are as they are.
+    unsaved_since: Option<(Preferences, Instant)>,
     pub(super) show: bool,
     /// A bad file's message, shown once the first mesh has loaded (a load clears errors).
     message: Option<String>,
@@ -65,18 +75,34 @@ impl EditorApp {
             }
             self.interaction.brush_radius = now.brush_radius;
         }
-        if self.prefs.current != self.prefs.saved
-            && let Some(dir) = &self.options.config_dir
-        {
-            match self.prefs.current.save(dir) {
-                Ok(_) => self.prefs.saved = self.prefs.current,
-                Err(e) => {
-                    self.error = Some(format!("preferences not saved: {e}"));
-                    // Do not retry every frame; the next change tries again.
-                    self.prefs.saved = self.prefs.current;
-                }
-            }
+        let current = self.prefs.current;
+        if current == self.prefs.saved {
+            self.prefs.unsaved_since = None;
+            return;
         }
+        let since = match self.prefs.unsaved_since {
+            Some((p, since)) if p == current => since,
+            _ => self.prefs.unsaved_since.insert((current, Instant::now())).1,
+        };
+        match SAVE_AFTER.checked_sub(since.elapsed()) {
+            Some(left) if !left.is_zero() => ctx.request_repaint_after(left),
+            _ => self.save_prefs(),
+        }
+    }
+
+    /// Writes changed preferences to the configuration folder (after [`SAVE_AFTER`], and at
+    /// exit).
+    pub(super) fn save_prefs(&mut self) {
+        self.prefs.unsaved_since = None;
+        let Some(dir) = &self.options.config_dir else { return };
+        if self.prefs.current == self.prefs.saved {
+            return;
+        }
+        if let Err(e) = self.prefs.current.save(dir) {
+            self.error = Some(format!("preferences not saved: {e}"));
+        }
+        // A failed write is not retried every frame; the next change tries again.
+        self.prefs.saved = self.prefs.current;
     }
 
     fn prefs_ui(&mut self, ui: &mut egui::Ui) {
