@@ -152,6 +152,39 @@ pub fn spawn_selection(
     })
 }
 
+/// A texture read for the open mesh ([`spawn_texture`]): the file's layout with the image as
+/// its material, and the render layout built on it, the image decoded.
+pub struct LoadedTexture {
+    pub asset: solver::io::Asset,
+    pub render: RenderLayout,
+}
+
+/// Starts reading the texture at `path` for the mesh of `n_vertices` vertices whose file's
+/// layout is `layout` and whose edges `topology` holds: the image's read and decode and the
+/// render layout's build (seconds for a large image on a dense mesh) run on a loader thread;
+/// `version` tags the render layout.
+pub fn spawn_texture(
+    path: PathBuf,
+    layout: Arc<FileLayout>,
+    n_vertices: usize,
+    topology: Arc<Topology>,
+    version: u64,
+    repaint: impl Fn() + Send + 'static,
+) -> LoadJob<LoadedTexture> {
+    spawn_loader(path, "texture-loader", repaint, load_error, move |p| {
+        let mut asset = layout.asset.clone();
+        solver::animation::scene::Scene::apply_texture(p, &mut asset).map_err(|e| anyhow!(e))?;
+        let edges = &topology.edges;
+        let mut render =
+            RenderLayout::build(&asset, &layout.vertex_map, n_vertices, edges, version)
+                .ok_or_else(|| anyhow!("the texture could not be laid out on the mesh"))?;
+        if let Some(n) = render.decode_images(&asset).into_iter().next() {
+            return Err(anyhow!(n));
+        }
+        Ok(LoadedTexture { asset, render })
+    })
+}
+
 /// Starts telling on a loader thread whether the file at `path` is a selection
 /// ([`is_selection_file`]); a file that cannot be read is not one (opening it says why).
 pub fn spawn_identify(path: PathBuf, repaint: impl Fn() + Send + 'static) -> LoadJob<bool> {

@@ -1,9 +1,9 @@
-//! Meshes and selections read on loader threads (`loader::spawn_load`, `spawn_selection`):
-//! what arrives applies to the mesh it was read for, the later of two selections wins, and what
-//! lands in the middle of a drag ends it (as an undo does), since it replaces the handle groups
-//! the drag indexes; a mesh that arrives after edits made while it loaded waits for the user's
-//! answer. The files are FIFOs, so each read waits until the test writes it: no
-//! timing is involved.
+//! Meshes, selections and textures read on loader threads (`loader::spawn_load`,
+//! `spawn_selection`, `spawn_texture`): what arrives applies to the mesh it was read for, the
+//! later of two selections wins, and what lands in the middle of a drag ends it (as an undo
+//! does), since it replaces the handle groups the drag indexes; a mesh that arrives after edits
+//! made while it loaded waits for the user's answer. The files are FIFOs, so each read waits
+//! until the test writes it: no timing is involved.
 #![cfg(unix)]
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
@@ -412,4 +412,26 @@ fn an_edit_while_a_mesh_loads_is_asked_about() {
     writer.join().unwrap();
     step_until(&mut h, "the other mesh", |a| !a.is_loading());
     assert_eq!(h.state().mesh_path(), Some(other.as_path()));
+}
+
+/// A texture is read on a loader thread (the UI steps while its file waits), and one read for
+/// a mesh opened again since is dropped on arrival, its error with it.
+#[test]
+fn a_texture_is_read_off_the_ui_thread_for_the_mesh_it_was_read_for() {
+    let dir = ScratchDir::new("texture-loader");
+    let (mut h, bar, _) = bar_with_three_groups(&dir);
+    let tex = fifo(&dir, "tex.png");
+    let ctx = h.ctx.clone();
+    h.state_mut().load_texture(&ctx, &tex);
+    for _ in 0..3 {
+        h.step();
+    }
+    assert!(h.state().is_loading_texture());
+    support::drop_file(&mut h, bar.clone());
+    step_until(&mut h, "the bar again", |a| !a.is_loading());
+    // the bumpy bar has no texture coordinates: had it applied, it would say so
+    write_later(tex, "not a picture".into()).join().unwrap();
+    step_until(&mut h, "the texture's end", |a| !a.is_loading_texture());
+    assert!(h.state().error().is_none(), "{:?}", h.state().error());
+    assert!(!h.state().has_texture_shading());
 }

@@ -487,6 +487,7 @@ fn a_mesh_with_uvs_and_no_material_gets_a_texture_saved_and_exported() {
     std::fs::write(&fake, "# not a picture\n").unwrap();
     h.get_by_label("Texture…").click();
     choose_in_dialog(&mut h, &fake);
+    step_until(&mut h, "the texture's read", |a| !a.is_loading_texture());
     let err = h.state().error().unwrap_or_default().to_string();
     assert!(err.contains("notes.png") && err.contains("not a PNG or JPEG"), "{err}");
     assert!(!h.state().has_texture_shading());
@@ -499,6 +500,7 @@ fn a_mesh_with_uvs_and_no_material_gets_a_texture_saved_and_exported() {
     .unwrap();
     h.get_by_label("Texture…").click();
     choose_in_dialog(&mut h, &png);
+    step_until(&mut h, "the texture's read", |a| !a.is_loading_texture());
     assert!(h.state().error().is_none(), "{:?}", h.state().error());
     assert!(h.state().has_texture_shading());
     assert!(h.query_by_label("Texture…").is_none(), "textured: no longer offered");

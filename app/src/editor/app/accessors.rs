@@ -38,6 +38,11 @@ impl EditorApp {
         self.jobs.selection.is_some()
     }
 
+    /// Whether a texture is being read for the open mesh (`loader::spawn_texture`).
+    pub fn is_loading_texture(&self) -> bool {
+        self.jobs.texture.is_some()
+    }
+
     /// Whether the mesh's own precomputation (`jobs::spawn_prepare`, which also writes its disk
     /// cache) is still running; the first frames may arrive before it ends.
     pub fn is_precomputing(&self) -> bool {

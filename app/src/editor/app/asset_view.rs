@@ -5,16 +5,15 @@
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
+use std::sync::mpsc::TryRecvError;
 
 use eframe::egui;
 use glam::Vec3;
 use solver::animation::export::UpAxis;
-use solver::animation::scene::Scene;
 
 use super::{DialogKind, EditorApp, Shading};
 use crate::editor::draw_data::VertexData;
-use crate::editor::loader::{FileLayout, LoadedFile};
-use crate::editor::render_layout::RenderLayout;
+use crate::editor::loader::{self, FileLayout, LoadedFile, LoadedTexture};
 use crate::editor::renderer::build_grid;
 use crate::editor::shape::to_f32_from;
 
@@ -74,44 +73,61 @@ impl EditorApp {
     }
 
     /// Gives the open mesh the texture at `path` (it must decode as a PNG or JPEG; see
-    /// `Scene::apply_texture`) and shows it; an unsaved change of the scene.
-    pub fn load_texture(&mut self, path: &Path) {
+    /// `Scene::apply_texture`), read on a loader thread ([`Self::poll_texture`] shows it); an
+    /// unsaved change of the scene.
+    pub fn load_texture(&mut self, ctx: &egui::Context, path: &Path) {
         let version = self.next_version();
-        let Some(scene) = &mut self.session.scene else {
+        let Some(scene) = &self.session.scene else {
             self.error = Some("open a mesh before loading a texture".into());
             return;
         };
-        let mut asset = scene.layout.asset.clone();
-        if let Err(e) = Scene::apply_texture(path, &mut asset) {
-            self.error = Some(e);
-            return;
-        }
-        let built = RenderLayout::build(
-            &asset,
-            &scene.layout.vertex_map,
+        let c = ctx.clone();
+        let job = loader::spawn_texture(
+            path.to_path_buf(),
+            scene.layout.clone(),
             scene.mesh.n_vertices(),
-            &scene.topology.edges,
+            scene.topology.clone(),
             version,
+            move || c.request_repaint(),
         );
-        let Some(mut render) = built else {
-            self.error = Some("the texture could not be laid out on the mesh".into());
-            return;
+        // a texture still being read for this mesh is replaced: the later choice wins
+        self.jobs.texture = Some((scene.topology.version, job));
+    }
+
+    /// Shows the texture [`Self::load_texture`] read, when it was read for the open mesh.
+    pub(super) fn poll_texture(&mut self) {
+        let Some((version, job)) = &self.jobs.texture else { return };
+        let result = match job.rx.try_recv() {
+            Err(TryRecvError::Empty) => return,
+            Err(TryRecvError::Disconnected) => Err(format!(
+                "Could not load {}: the loader stopped without a result",
+                job.path.display()
+            )),
+            Ok(result) => result,
         };
-        let notices = render.decode_images(&asset);
-        if let Some(n) = notices.first() {
-            self.error = Some(n.clone());
-            return;
-        }
+        let (version, path) = (*version, job.path.clone());
+        self.jobs.texture = None;
+        let Some(scene) = self.session.scene.as_mut().filter(|s| s.topology.version == version)
+        else {
+            return; // read for a mesh opened since replaced
+        };
+        let LoadedTexture { asset, render } = match result {
+            Ok(t) => t,
+            Err(e) => {
+                self.error = Some(e);
+                return;
+            }
+        };
         scene.render = Some(Arc::new(render));
         let vertex_map = scene.layout.vertex_map.clone();
         scene.layout = Arc::new(FileLayout { asset, vertex_map });
         self.session.file_view.texture =
-            Some(std::path::absolute(path).unwrap_or_else(|_| path.into()));
+            Some(std::path::absolute(&path).unwrap_or_else(|_| path.clone()));
         self.display.shading = Shading::Texture;
         self.display.viewports = Default::default();
         self.display.color_version += 1;
         self.error = None;
-        self.info = Some(format!("texture {} loaded", super::file_name(path)));
+        self.info = Some(format!("texture {} loaded", super::file_name(&path)));
     }
 
     /// Sets the open file's up axis: the camera orbits about it, the ground lies across it.

@@ -261,7 +261,7 @@ impl EditorApp {
         match kind {
             DialogKind::OpenMesh | DialogKind::OpenScene => self.request_open(ctx, path),
             DialogKind::LoadSelection => self.load_selection(ctx, &path),
-            DialogKind::LoadTexture => self.load_texture(&path),
+            DialogKind::LoadTexture => self.load_texture(ctx, &path),
             DialogKind::SaveSelection => {
                 let written = self.save_path(&path, "dmat").and_then(|path| {
                     loader::write_dmat(&path, &self.session.edit.labels)

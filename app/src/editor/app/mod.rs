@@ -43,7 +43,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use super::jobs::{Baking, Job, Preparing, Recorded, SideBySideQuality};
-use super::loader::LoadJob;
+use super::loader::{LoadJob, LoadedTexture};
 use super::renderer;
 use super::solver_thread::Slot;
 use autosave::Store;
@@ -154,6 +154,9 @@ struct Jobs {
     /// of the mesh it is read for (its `Topology::version`): dropped on arrival if another
     /// mesh, or the same file again, was opened meanwhile.
     selection: Option<(u64, LoadJob<Vec<Option<u32>>>)>,
+    /// A texture being read for the open mesh (`loader::spawn_texture`), with the version of
+    /// the mesh it is read for: dropped on arrival if another mesh was opened meanwhile.
+    texture: Option<(u64, LoadJob<LoadedTexture>)>,
     /// A `.json` given to open, read on a loader thread to tell a selection from a scene
     /// (`loader::spawn_identify`); another file given to open meanwhile replaces it.
     identifying: Option<LoadJob<bool>>,
@@ -180,13 +183,16 @@ struct Jobs {
 
 impl Jobs {
     /// The file being read in the background (a mesh or a scene, else a selection, else a
-    /// `.json` being told apart), and since when: what the status bar and the viewport show
+    /// texture, else a `.json` being told apart), and since when: what the status bar and the viewport show
     /// while it loads.
     fn reading(&self) -> Option<(&Path, Instant)> {
         if let Some(j) = &self.loading {
             return Some((&j.path, j.since));
         }
         if let Some((_, j)) = &self.selection {
+            return Some((&j.path, j.since));
+        }
+        if let Some((_, j)) = &self.texture {
             return Some((&j.path, j.since));
         }
         self.identifying.as_ref().map(|j| (j.path.as_path(), j.since))

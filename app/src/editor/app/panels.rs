@@ -509,6 +509,7 @@ impl eframe::App for EditorApp {
 
         self.poll_loader();
         self.poll_selection();
+        self.poll_texture();
         self.poll_identify(&ctx);
         self.ensure_compare_solver(&ctx);
         self.poll_prepare(&ctx);

@@ -392,8 +392,9 @@ impl EditorApp {
             Ok(Ok(mut scene)) => {
                 self.jobs.loading = None;
                 self.store.restoring = None; // a restore's load, if any, was this one
-                // a selection read for the mesh this replaces can no longer apply
+                // a selection or texture read for the mesh this replaces can no longer apply
                 self.jobs.selection = None;
+                self.jobs.texture = None;
                 self.end_gestures();
                 self.error = None;
                 self.adopt_prepare(&scene.mesh);
