@@ -16,11 +16,11 @@ update.
 
 Each update first drops what is kept for objects deleted since (``solve.prune``): when the objects
 in the scenes changed, by their session uids (an object deleted and another added in one update
-leave the counts as they were), and tends the claims (``solve.tend_claims``). A loaded file
-starts the caches again; the claims of controls and meshes are saved in it (``solve.owner``,
-``solve.mesh_owner``), so a file saved with a copy that shares its original's controls keeps
+leave the counts as they were), and tends the claims (``claims.tend_claims``). A loaded file
+starts the caches again; the claims of controls and meshes are saved in it (``claims.owner``,
+``claims.mesh_owner``), so a file saved with a copy that shares its original's controls keeps
 them with the original; a file saved before they were gets them on load, and the open file when
-the extension is enabled (``solve.claim_unclaimed``).
+the extension is enabled (``claims.claim_unclaimed``).
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ import bpy
 import numpy as np
 from bpy.app.handlers import persistent
 
-from . import solve
+from . import claims, solve
 from .handles import HandleError
 
 _busy = False
@@ -52,7 +52,7 @@ def posed_objects(scene):
         except Exception as e:  # noqa: BLE001 - a bug: said, and the other objects go on
             report(obj, e)
             continue
-        if obj.bsarap.live and any(solve.linked(g.control) for g in obj.bsarap.groups):
+        if obj.bsarap.live and any(claims.linked(g.control) for g in obj.bsarap.groups):
             yield obj
 
 
@@ -66,8 +66,8 @@ _pruned_at = None
 
 
 def _uids(collection) -> bytes:
-    """The session uids of the objects of ``collection`` (``solve.object_uids``), as bytes."""
-    return solve.object_uids(collection).tobytes()
+    """The session uids of the objects of ``collection`` (``claims.object_uids``), as bytes."""
+    return claims.object_uids(collection).tobytes()
 
 
 def scene_objects() -> tuple:
@@ -82,14 +82,14 @@ def prune() -> None:
     """Drop what is kept for deleted objects (``solve.prune``), only when the objects in the
     scenes changed since the last prune: walking every scene's objects in Python on every update
     costs on a big scene. The claims of an object in no scene are ignored anyway
-    (``solve.owner``, ``solve.mesh_owner``)."""
+    (``claims.owner``, ``claims.mesh_owner``)."""
     global _pruned_at
     n = scene_objects()
     if n == _pruned_at:
         return
     if solve.tracked():
         solve.prune(alive_objects())
-    solve.tend_claims()
+    claims.tend_claims()
     _pruned_at = scene_objects()  # dropping a claim may free a deleted object
 
 
@@ -178,7 +178,7 @@ def on_load(_filepath=None, _unused=None):
     global _pruned_at
     _pruned_at = None
     solve.forget()
-    solve.claim_unclaimed()
+    claims.claim_unclaimed()
 
 
 @persistent
@@ -210,7 +210,7 @@ def register():
     # Enabled in an open file (not at startup, where bpy.data is not readable yet and on_load
     # follows): its unclaimed controls are claimed as on load.
     if isinstance(bpy.data, bpy.types.BlendData):
-        solve.claim_unclaimed()
+        claims.claim_unclaimed()
 
 
 def unregister():

@@ -11,7 +11,7 @@ import numpy as np
 from bpy.props import IntProperty, StringProperty
 from mathutils import Matrix
 
-from . import bake, handles, solve
+from . import bake, claims, handles, solve
 from .handles import HandleError
 
 
@@ -86,7 +86,7 @@ class BSARAP_OT_remove_group(_MeshOperator, bpy.types.Operator):
 def _copied_control(obj, control):
     """Where a copy's own control goes: placed on ``obj`` as ``control`` is on the object that
     claimed it (so the copy keeps that pose); ``None`` when that object is gone or singular."""
-    other = solve.owner(control)
+    other = claims.owner(control)
     if other is None:
         return None
     try:
@@ -109,11 +109,11 @@ class BSARAP_OT_add_controls(_MeshOperator, bpy.types.Operator):
             if len(obj.vertex_groups) == 0:
                 raise HandleError(f"{obj.name}: the mesh has no vertex groups; create or paint one first")
             solve.check_mesh_writable(obj)  # library data: before any claim
-            other = solve.mesh_sharer(obj)
+            other = claims.mesh_sharer(obj)
             if other is not None:
                 # a linked duplicate: its own controls would fight over the shared pose key
-                raise HandleError(solve.shared_mesh_message(obj, other))
-            foreign = solve.foreign_groups(obj)
+                raise HandleError(claims.shared_mesh_message(obj, other))
+            foreign = claims.foreign_groups(obj)
             solve.forget(obj)  # an explicit rebuild: the rest mesh may have been edited
             st = solve.state(obj)
         except HandleError as e:
@@ -133,7 +133,7 @@ class BSARAP_OT_add_controls(_MeshOperator, bpy.types.Operator):
                 place = _copied_control(obj, g.control)
                 copied.append(g.name)
                 g.control = None
-            elif solve.linked(g.control):
+            elif claims.linked(g.control):
                 continue
             elif g.control is not None:
                 # deleted in the viewport: in no scene, kept only by this pointer
@@ -202,9 +202,9 @@ class BSARAP_OT_remove_controls(_MeshOperator, bpy.types.Operator):
 
     def execute(self, context):
         obj = _mesh_object(context)
-        foreign = dict(solve.foreign_groups(obj))
+        foreign = dict(claims.foreign_groups(obj))
         # a linked duplicate's pose key is its original's too
-        shared = solve.mesh_sharer(obj) is not None
+        shared = claims.mesh_sharer(obj) is not None
         for g in obj.bsarap.groups:
             if g.control is not None:
                 if g.name not in foreign:
@@ -214,7 +214,7 @@ class BSARAP_OT_remove_controls(_MeshOperator, bpy.types.Operator):
         if not shared and keys is not None and keys.key_blocks.get(solve.POSE_KEY) is not None:
             obj.shape_key_remove(keys.key_blocks[solve.POSE_KEY])
         solve.forget(obj)
-        solve.release_mesh(obj)
+        claims.release_mesh(obj)
         if foreign:
             self.report({"INFO"}, f"{obj.name}: let go of another object's controls ({', '.join(foreign)}), kept")
         return {"FINISHED"}
@@ -396,7 +396,7 @@ def cache_readers(obj, path: str) -> list:
     objects in a scene other than ``obj`` (a deleted object, kept in ``bpy.data``, reads
     nothing)."""
     want = _same_file(path)
-    found = ((o, _reader(o, want)) for o in bpy.data.objects if o != obj and solve.linked(o))
+    found = ((o, _reader(o, want)) for o in bpy.data.objects if o != obj and claims.linked(o))
     return [(o, m) for o, m in found if m is not None]
 
 
@@ -409,7 +409,7 @@ def _path_taken(obj, path: str):
     Shift+D copy reads its original's file, and which of them baked it is not known."""
     want = _same_file(path)
     owners = [c.owner for c in cache_claims(path) if c.owner is not None]
-    others = [o for o in owners if o != obj and solve.linked(o) and _reader(o, want) is not None]
+    others = [o for o in owners if o != obj and claims.linked(o) and _reader(o, want) is not None]
     if others:
         return f"holds the bake of '{others[0].name}'"
     if obj in owners:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import bpy
 
-from . import solve
+from . import claims, solve
 
 
 class BSARAP_UL_groups(bpy.types.UIList):
@@ -15,7 +15,7 @@ class BSARAP_UL_groups(bpy.types.UIList):
         row.label(text=item.name, icon="GROUP_VERTEX" if ok else "ERROR")
         c = item.control
         # another object's control (this one is a copy of it): the message says which
-        own = c is None or obj is None or solve.owner(c) in (None, obj)
+        own = c is None or obj is None or claims.owner(c) in (None, obj)
         row.label(text=c.name if c else "no control", icon="EMPTY_AXIS" if own else "ERROR")
 
 

@@ -642,11 +642,11 @@ class RemovedByScript(unittest.TestCase):
         activate(dup)
         self.assertEqual(bpy.ops.bsarap.add_controls(), {"FINISHED"})  # its own controls
         mesh = dup.data
-        self.assertEqual(ext.solve.mesh_owner(mesh), dup)
+        self.assertEqual(ext.claims.mesh_owner(mesh), dup)
         bpy.data.objects.remove(dup)
         bpy.context.view_layer.update()
         ext.handlers.update_scene(bpy.context.scene)  # read freed memory with the pointer
-        self.assertIsNone(ext.solve.mesh_owner(mesh))
+        self.assertIsNone(ext.claims.mesh_owner(mesh))
         self.assertNotIn(mesh.name, claims())
         self.assertEqual(claims()["tube"], "tube")
         self.assertEqual(mesh.users, 0)  # no claim keeps the removed object's mesh
@@ -664,7 +664,7 @@ class RemovedByScript(unittest.TestCase):
         new = bpy.data.objects.new("other", mesh)
         bpy.context.scene.collection.objects.link(new)
         bpy.context.view_layer.update()
-        self.assertIsNone(ext.solve.mesh_owner(mesh))
+        self.assertIsNone(ext.claims.mesh_owner(mesh))
         self.assertEqual([m.owner for m in bpy.context.scene.bsarap_meshes], [])
 
 
@@ -707,8 +707,8 @@ class ClaimScenes(unittest.TestCase):
         bpy.context.window.scene = second
         bpy.data.scenes.remove(first)
         obj, dup = bpy.data.objects[name], bpy.data.objects[dup.name]
-        self.assertEqual(ext.solve.mesh_owner(obj.data), obj)
-        self.assertIs(ext.solve.mesh_sharer(dup), obj)
+        self.assertEqual(ext.claims.mesh_owner(obj.data), obj)
+        self.assertIs(ext.claims.mesh_sharer(dup), obj)
 
 
 class MeshPointerClaims(unittest.TestCase):
@@ -746,15 +746,15 @@ class MeshPointerClaims(unittest.TestCase):
     def test_adopted(self):
         obj, dup, _ = self.saved_with_pointers(linked_copy=True)
         self.assertFalse(self.stored(obj.data))
-        self.assertEqual(ext.solve.mesh_owner(obj.data), obj)
-        self.assertIs(ext.solve.mesh_sharer(dup), obj)
+        self.assertEqual(ext.claims.mesh_owner(obj.data), obj)
+        self.assertIs(ext.claims.mesh_sharer(dup), obj)
 
     def test_user_property_too(self):
         """The pointer among the user's properties: it goes too (it would keep a deleted owner
         in the file)."""
         obj, dup, _ = self.saved_with_pointers(linked_copy=True, user_property=True)
         self.assertFalse(self.stored(obj.data))
-        self.assertIs(ext.solve.mesh_sharer(dup), obj)
+        self.assertIs(ext.claims.mesh_sharer(dup), obj)
 
     def test_appended(self):
         """Appended into another file (no load handler runs): the next update adopts it."""
@@ -768,7 +768,7 @@ class MeshPointerClaims(unittest.TestCase):
         bpy.context.view_layer.update()
         obj, dup = bpy.data.objects["tube"], bpy.data.objects[names[1]]
         self.assertFalse(self.stored(obj.data))
-        self.assertIs(ext.solve.mesh_sharer(dup), obj)
+        self.assertIs(ext.claims.mesh_sharer(dup), obj)
 
     def test_claim_holds_no_mesh_pointer(self):
         """A claim is its owner alone: a pointer to the mesh on a scene is one Blender can leave

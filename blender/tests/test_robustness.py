@@ -398,7 +398,7 @@ class SessionKeys(unittest.TestCase):
         self.assertEqual(ext.solve._failures, {})
         self.assertEqual(ext.solve.messages, {})
         top = bpy.data.objects["top"]
-        self.assertIsNone(ext.solve.owner(top))  # its controls are free again
+        self.assertIsNone(ext.claims.owner(top))  # its controls are free again
         self.assertIsNone(top.bsarap_owner)  # the claim no longer holds the deleted object
         self.assertEqual(obj.users, 0)
 
