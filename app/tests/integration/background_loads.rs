@@ -218,21 +218,19 @@ fn a_selection_mid_drag_ends_the_drag() {
 fn a_mesh_mid_drag_ends_the_drag() {
     let dir = ScratchDir::new("mesh-mid-drag");
     let (mut h, bar, n) = bar_with_three_groups(&dir);
+    let p = start_pose_drag(&mut h, n);
+    // The drag moved a pose: dropping a mesh asks first; the answer opens it, and with the
+    // pointer held still (nothing changed since) it lands in the middle of the drag.
     let other = fifo(&dir, "other.obj");
     support::drop_file(&mut h, other.clone());
-    assert!(h.state().is_loading());
-    let p = start_pose_drag(&mut h, n);
-    let text = std::fs::read_to_string(&bar).unwrap();
-    write_later(other.clone(), text.clone()).join().unwrap();
-    // The drag moved a pose while the mesh loaded: the mesh waits for the user's answer.
-    let p = keep_dragging(&mut h, p, |a| !a.is_loading());
-    assert_eq!(h.state().mesh_path(), Some(bar.as_path()));
+    h.step();
     assert_eq!(h.state().pending_open(), Some(other.as_path()));
-    let writer = write_later(other.clone(), text);
+    let writer = write_later(other.clone(), std::fs::read_to_string(&bar).unwrap());
     h.get_by_label("Discard changes and open").click_accesskit();
     h.step();
     writer.join().unwrap();
-    drag_until(&mut h, p, |a| !a.is_loading());
+    step_until(&mut h, "the other mesh", |a| !a.is_loading());
+    drag_until(&mut h, p, |_| true);
     assert_eq!(h.state().mesh_path(), Some(other.as_path()));
     assert!(h.state().edit_state().groups.is_empty());
 }
@@ -307,7 +305,10 @@ fn a_dropped_json_is_told_apart_off_the_ui_thread() {
     assert!(h.query_by_label("loading…").is_some(), "the status does not say it is loading");
     go.send(()).unwrap();
     assert!(!writer.join().unwrap(), "the UI thread waited for the dropped file");
-    // A list of spheres: a selection, read again for the open mesh.
+    // A list of spheres: a selection, read again for the open mesh. The second write waits
+    // until the first reader is done with the file (a writer opening while it still held the
+    // FIFO open wrote to it, and the selection's read then waited for a writer forever).
+    step_until(&mut h, "the .json told apart", |a| !a.is_loading());
     let second = write_later(json, spheres.clone());
     step_until(&mut h, "the spheres", |a| !a.is_loading() && !a.is_loading_selection());
     second.join().unwrap();
@@ -434,4 +435,41 @@ fn a_texture_is_read_off_the_ui_thread_for_the_mesh_it_was_read_for() {
     step_until(&mut h, "the texture's end", |a| !a.is_loading_texture());
     assert!(h.state().error().is_none(), "{:?}", h.state().error());
     assert!(!h.state().has_texture_shading());
+}
+
+/// What the history does not hold counts too: a method setting changed while a mesh loads is
+/// asked about; and a question already open when the mesh arrives (here: quitting) stays, the
+/// mesh not opened (it replaced the question, then the edits).
+#[test]
+fn a_setting_changed_while_a_mesh_loads_is_asked_about_and_an_open_question_stays() {
+    let dir = ScratchDir::new("setting-while-loading");
+    let (mut h, bar, _) = bar_with_three_groups(&dir);
+    let text = std::fs::read_to_string(&bar).unwrap();
+    let other = fifo(&dir, "other.obj");
+    support::drop_file(&mut h, other.clone());
+    let mut s = h.state().method_settings();
+    s.arap.tolerance *= 0.5;
+    h.state_mut().set_method_settings(s);
+    write_later(other.clone(), text.clone()).join().unwrap();
+    step_until(&mut h, "the loaded mesh", |a| !a.is_loading());
+    assert_eq!(h.state().mesh_path(), Some(bar.as_path()), "the setting was replaced");
+    assert_eq!(h.state().pending_open(), Some(other.as_path()));
+    h.get_by_label("Cancel").click();
+    h.step();
+    s.arap.tolerance *= 2.0; // back: nothing unsaved, the next drop opens at once
+    h.state_mut().set_method_settings(s);
+    assert!(!h.state().has_unsaved_changes());
+
+    let again = fifo(&dir, "again.obj");
+    support::drop_file(&mut h, again.clone());
+    unsaved(&mut h);
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Q);
+    h.step();
+    assert!(h.state().quit_question_open());
+    write_later(again, text).join().unwrap();
+    step_until(&mut h, "the loaded mesh", |a| !a.is_loading());
+    assert!(h.state().quit_question_open(), "the quit question went");
+    assert_eq!(h.state().mesh_path(), Some(bar.as_path()));
+    let info = h.state().info().unwrap_or_default();
+    assert!(info.contains("again.obj was not opened"), "{info}");
 }

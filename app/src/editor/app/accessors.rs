@@ -94,6 +94,7 @@ impl EditorApp {
             Some(crate::editor::loader::spawn_loaded(path, loaded, version, move || {
                 c.request_repaint()
             }));
+        self.session.at_load = Some(Box::new(super::session::DocumentMark::of(&self.session)));
     }
 
     pub fn set_tool(&mut self, tool: Tool) {
@@ -215,12 +216,12 @@ impl EditorApp {
         self.jobs.record.is_some()
     }
 
-    /// Frames of the kept recording.
     /// The recording under way's frames solved and to solve.
     pub fn recording_progress(&self) -> Option<(usize, usize)> {
         self.jobs.record.as_ref().map(|j| j.progress.get())
     }
 
+    /// Frames of the kept recording.
     pub fn recorded_frames(&self) -> Option<&solver::animation::recording::Recording> {
         self.jobs.recorded.as_ref().map(|r| r.recording.as_ref())
     }

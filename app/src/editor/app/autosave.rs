@@ -131,6 +131,9 @@ impl EditorApp {
         let Some(RestoreOffer { when, kept, mesh, .. }) = self.store.restore_offer.clone() else {
             return;
         };
+        if self.session.pending == Some(Pending::Restore) {
+            return; // its unsaved-changes question is open in its place
+        }
         egui::Window::new("Restore the last session?")
             .collapsible(false)
             .resizable(false)

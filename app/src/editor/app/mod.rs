@@ -147,9 +147,6 @@ pub struct EditorApp {
 #[derive(Default)]
 struct Jobs {
     loading: Option<LoadJob>,
-    /// The history's generation when `loading` started: an edit made since is work the loaded
-    /// file would replace, asked about first ([`EditorApp::poll_loader`]).
-    loading_since: u64,
     /// A selection being read for the open mesh (`loader::spawn_selection`), with the version
     /// of the mesh it is read for (its `Topology::version`): dropped on arrival if another
     /// mesh, or the same file again, was opened meanwhile.

@@ -490,8 +490,9 @@ impl eframe::App for EditorApp {
     /// A clean exit removes the autosave, unless there are unsaved changes: then it is written
     /// now and offered back at the next start.
     fn on_exit(&mut self) {
-        self.save_prefs();
+        // the user's work first: a kill between the two keeps it
         self.exit_autosave();
+        self.save_prefs();
     }
 
     fn ui(&mut self, ui: &mut egui::Ui, frame: &mut eframe::Frame) {

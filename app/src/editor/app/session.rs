@@ -44,9 +44,36 @@ pub(super) struct Session {
     pub(super) saved_file_view: super::asset_view::FileView,
     /// The status and error lines last written to stderr ([`EditorApp::log_status`]).
     pub(super) logged_status: (Option<String>, Option<String>),
+    /// The document as it was when the load under way started: what changed since is work the
+    /// loaded file would replace, asked about first ([`EditorApp::poll_loader`]).
+    pub(super) at_load: Option<Box<DocumentMark>>,
     /// The timeline widget being dragged whose first change went into the history, with the
     /// history's generation then: the rest of its drag is that one undo step.
     pub(super) timeline_drag: Option<(egui::Id, u64)>,
+}
+
+/// What a document was at some moment, as far as a scene file holds it.
+pub(super) struct DocumentMark {
+    edit: EditState,
+    settings: MethodSettings,
+    file_view: super::asset_view::FileView,
+}
+
+impl DocumentMark {
+    pub(super) fn of(session: &Session) -> DocumentMark {
+        DocumentMark {
+            edit: session.edit.clone(),
+            settings: session.settings,
+            file_view: session.file_view.clone(),
+        }
+    }
+
+    /// Whether `session` changed since (not by the playback time's poses).
+    fn changed(&self, session: &Session) -> bool {
+        differ_beyond_playback(&self.edit, &session.edit)
+            || self.settings.saved_part() != session.settings.saved_part()
+            || self.file_view != session.file_view
+    }
 }
 
 /// An action that would drop unsaved changes.
@@ -298,7 +325,7 @@ impl EditorApp {
         let start = self.start_prepare(ctx);
         self.jobs.loading =
             Some(loader::spawn_load(path, version, move || c.request_repaint(), Some(start)));
-        self.jobs.loading_since = self.session.history.generation();
+        self.session.at_load = Some(Box::new(DocumentMark::of(&self.session)));
     }
 
     /// Saves the scene to `path` (atomically); it becomes the document Save writes to.
@@ -356,11 +383,11 @@ impl EditorApp {
         }
     }
 
-    /// Whether the document was edited since the load under way started, and has unsaved
+    /// Whether the document was changed since the load under way started, and has unsaved
     /// changes.
     fn edited_while_loading(&self) -> bool {
         self.jobs.loading.is_some()
-            && self.session.history.generation() != self.jobs.loading_since
+            && self.session.at_load.as_ref().is_none_or(|m| m.changed(&self.session))
             && self.has_unsaved_changes()
     }
 
@@ -371,26 +398,34 @@ impl EditorApp {
             Err(TryRecvError::Disconnected) => {
                 self.error = Some("the loader stopped without a result".into());
                 self.jobs.loading = None;
+                self.session.at_load = None;
                 self.offer_again();
             }
             Ok(Err(e)) => {
                 self.error = Some(e);
                 self.jobs.loading = None;
+                self.session.at_load = None;
                 self.offer_again();
             }
             Ok(Ok(_)) if self.edited_while_loading() => {
                 // Work done while the file loaded is not replaced unasked: the question comes
-                // (the file is read again if the answer is to open it).
+                // (the file is read again if the answer is to open it), unless one is open
+                // already (a quit, another file): it stays, and this file is not opened.
                 let path = self.jobs.loading.take().map(|j| j.path).unwrap_or_default();
-                self.session.pending = Some(if self.store.restoring.is_some() {
-                    self.offer_again();
-                    Pending::Restore
+                self.session.at_load = None;
+                let restore = self.store.restoring.is_some();
+                self.offer_again();
+                if self.session.pending.is_some() {
+                    let what = if restore { "the autosave".into() } else { file_name(&path) };
+                    self.info = Some(format!("{what} was not opened: you have unsaved changes"));
                 } else {
-                    Pending::Open(path)
-                });
+                    let ask = if restore { Pending::Restore } else { Pending::Open(path) };
+                    self.session.pending = Some(ask);
+                }
             }
             Ok(Ok(mut scene)) => {
                 self.jobs.loading = None;
+                self.session.at_load = None;
                 self.store.restoring = None; // a restore's load, if any, was this one
                 // a selection or texture read for the mesh this replaces can no longer apply
                 self.jobs.selection = None;
