@@ -14,14 +14,16 @@
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::{Arc, Mutex, PoisonError};
-use std::time::{Duration, SystemTime};
+use std::sync::{Arc, Mutex, PoisonError, TryLockError};
+use std::time::{Duration, Instant, SystemTime};
 
 use solver::animation::scene::Scene;
 use solver::io::write_atomic;
 
 /// How often a changed scene is written to the autosave file.
 pub const AUTOSAVE_INTERVAL: Duration = Duration::from_secs(120);
+/// How long a crash waits for an autosave being written before it writes its own.
+pub const CRASH_WAIT: Duration = Duration::from_secs(2);
 /// How many recent files are kept.
 pub const MAX_RECENT: usize = 10;
 
@@ -61,9 +63,26 @@ impl Persist {
         self.tickets.issued.fetch_add(1, Ordering::Relaxed) + 1
     }
 
-    /// Runs `f` for `ticket` unless a write or removal asked for later was carried out.
-    fn in_turn<R>(&self, ticket: u64, f: impl FnOnce() -> R) -> Option<R> {
-        let mut done = self.tickets.done.lock().unwrap_or_else(PoisonError::into_inner);
+    /// Runs `f` for `ticket` unless a write or removal asked for later was carried out; with
+    /// `wait`, not at all when another is still being carried out after that long.
+    fn in_turn<R>(&self, ticket: u64, wait: Option<Duration>, f: impl FnOnce() -> R) -> Option<R> {
+        let lock = &self.tickets.done;
+        let mut done = match wait {
+            None => lock.lock().unwrap_or_else(PoisonError::into_inner),
+            Some(wait) => {
+                let end = Instant::now() + wait;
+                loop {
+                    match lock.try_lock() {
+                        Ok(guard) => break guard,
+                        Err(TryLockError::Poisoned(p)) => break p.into_inner(),
+                        Err(TryLockError::WouldBlock) if Instant::now() < end => {
+                            std::thread::sleep(Duration::from_millis(5))
+                        }
+                        Err(TryLockError::WouldBlock) => return None,
+                    }
+                }
+            }
+        };
         (ticket > *done).then(|| {
             *done = ticket;
             f()
@@ -112,7 +131,7 @@ impl Persist {
     /// Writes `scene` as the autosave (of a running session: not kept on purpose).
     pub fn write_autosave(&self, scene: &Scene) -> Result<PathBuf, String> {
         let ticket = self.autosave_ticket();
-        let written = self.write_autosave_in_turn(scene, ticket)?;
+        let written = self.write_in_turn(scene, ticket, None)?;
         written.ok_or_else(|| "a newer autosave was written meanwhile".to_string())
     }
 
@@ -123,8 +142,25 @@ impl Persist {
         scene: &Scene,
         ticket: u64,
     ) -> Result<Option<PathBuf>, String> {
+        self.write_in_turn(scene, ticket, None)
+    }
+
+    /// Writes `scene` as the autosave unless another write still runs after `wait` (the panic
+    /// hook: a write stuck on a hung drive must not hang the crash).
+    pub fn write_autosave_within(&self, scene: &Scene, wait: Duration) -> Result<PathBuf, String> {
+        let ticket = self.autosave_ticket();
+        let written = self.write_in_turn(scene, ticket, Some(wait))?;
+        written.ok_or_else(|| format!("another autosave was still being written after {wait:?}"))
+    }
+
+    fn write_in_turn(
+        &self,
+        scene: &Scene,
+        ticket: u64,
+        wait: Option<Duration>,
+    ) -> Result<Option<PathBuf>, String> {
         let path = self.autosave_path();
-        let written = self.in_turn(ticket, || {
+        let written = self.in_turn(ticket, wait, || {
             self.write(&path, scene.to_json().as_bytes())?;
             let _ = std::fs::remove_file(self.kept_path());
             Ok::<_, String>(())
@@ -153,7 +189,7 @@ impl Persist {
 
     /// Removes the autosave (clean exit, or the user declined it).
     pub fn discard_autosave(&self) {
-        self.in_turn(self.autosave_ticket(), || {
+        self.in_turn(self.autosave_ticket(), None, || {
             let _ = std::fs::remove_file(self.autosave_path());
             let _ = std::fs::remove_file(self.kept_path());
         });
@@ -164,7 +200,8 @@ impl Persist {
 pub type Snapshot = Arc<Mutex<Option<Scene>>>;
 
 /// Makes a panic anywhere in the process write `snapshot` to the autosave file before the
-/// default hook runs. Never blocks: a snapshot whose lock is held is skipped.
+/// default hook runs. A snapshot whose lock is held is skipped, and the write waits at most
+/// [`CRASH_WAIT`] for an autosave being written (the timer's thread) to finish.
 pub fn install_crash_autosave(persist: Persist, snapshot: Snapshot) {
     let previous = std::panic::take_hook();
     std::panic::set_hook(Box::new(move |info| {
@@ -173,7 +210,7 @@ pub fn install_crash_autosave(persist: Persist, snapshot: Snapshot) {
             && let Ok(guard) = snapshot.try_lock()
             && let Some(scene) = guard.as_ref()
         {
-            match persist.write_autosave(scene) {
+            match persist.write_autosave_within(scene, CRASH_WAIT) {
                 Ok(p) => eprintln!("editor: crashed; your scene was saved to {}", p.display()),
                 Err(e) => eprintln!("editor: crashed, and the autosave failed: {e}"),
             }
@@ -276,5 +313,13 @@ mod tests {
         assert_eq!(written, Some(p.autosave_path()));
         assert_eq!(p.write_autosave_in_turn(&scene("/old.obj"), older), Ok(None));
         assert_eq!(Scene::read(&p.autosave_path()).unwrap().mesh, "/new.obj");
+
+        // The crash's write waits a bounded time for one being written (here: held forever).
+        let held = p.tickets.done.lock().unwrap();
+        let crash = p.write_autosave_within(&scene("/crash.obj"), Duration::from_millis(30));
+        assert!(crash.unwrap_err().contains("still being written"));
+        drop(held);
+        p.write_autosave_within(&scene("/crash.obj"), Duration::from_millis(30)).unwrap();
+        assert_eq!(Scene::read(&p.autosave_path()).unwrap().mesh, "/crash.obj");
     }
 }

@@ -83,15 +83,16 @@ pub(crate) fn check_mesh(
 }
 
 /// Writes `bytes` to `path` atomically: temporary file in the same folder, `fsync`, rename.
-/// A symbolic link at `path` stays a link: the file it leads to is the one replaced. A file
-/// replaced keeps its permissions (a scene shared read-only with a group stays so).
+/// A symbolic link at `path` stays a link: the file it leads to is the one replaced (a loop of
+/// links is an error). A file replaced keeps its mode bits (not its owner or group: the new
+/// file is the writer's).
 ///
 /// Known limitation: on failure after the rename started, the operating system decides; the
 /// temporary file is removed on every error path this function sees.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), SaveError> {
     let file = path.display().to_string();
     let io_err = |source| SaveError::Io { file: file.clone(), source };
-    let target = link_target(path);
+    let target = link_target(path).map_err(io_err)?;
     let path = target.as_path();
     let permissions = std::fs::metadata(path).ok().map(|m| m.permissions());
     let ext = path.extension().map(|e| e.to_string_lossy().into_owned()).unwrap_or_default();
@@ -126,17 +127,19 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), SaveError> {
 }
 
 /// Where the symbolic links at `path` lead (`path` itself when it is no link): the file a
-/// write through `path` replaces. A link that cannot be read, or a chain longer than the
-/// kernel follows (40), stops where it is.
-fn link_target(path: &Path) -> std::path::PathBuf {
+/// write through `path` replaces. A link that cannot be read stops where it is; a chain longer
+/// than the kernel follows (40 links: a loop) is an error, as opening it would be.
+fn link_target(path: &Path) -> std::io::Result<std::path::PathBuf> {
     let mut p = path.to_path_buf();
-    for _ in 0..40 {
+    for _ in 0..=40 {
         let is_link = std::fs::symlink_metadata(&p).is_ok_and(|m| m.file_type().is_symlink());
-        let Some(next) = is_link.then(|| std::fs::read_link(&p).ok()).flatten() else { break };
+        let Some(next) = is_link.then(|| std::fs::read_link(&p).ok()).flatten() else {
+            return Ok(p);
+        };
         // a relative link is relative to the folder holding it
         p = p.parent().map_or(next.clone(), |dir| dir.join(&next));
     }
-    p
+    Err(std::io::Error::other("too many levels of symbolic links"))
 }
 
 #[cfg(test)]
@@ -208,7 +211,7 @@ mod tests {
 
     /// A save through a symbolic link replaces the file it leads to and keeps the link (it
     /// replaced the link with a file, and the linked file kept its old contents); the file
-    /// keeps its permissions.
+    /// keeps its permissions; a loop of links is an error.
     #[cfg(unix)]
     #[test]
     fn a_write_through_a_link_keeps_the_link_and_the_permissions() {
@@ -232,6 +235,15 @@ mod tests {
         assert_eq!(std::fs::read(&real).unwrap(), b"newer");
         let mode = std::fs::metadata(&real).unwrap().permissions().mode() & 0o777;
         assert_eq!(mode, 0o640, "permissions {mode:o}");
+        // A loop of links is refused, each link kept.
+        let (a, b) = (dir.join("a.json"), dir.join("b.json"));
+        std::os::unix::fs::symlink("b.json", &a).unwrap();
+        std::os::unix::fs::symlink("a.json", &b).unwrap();
+        let err = write_atomic(&a, b"x").unwrap_err().to_string();
+        assert!(err.contains("symbolic links"), "{err}");
+        for l in [&a, &b] {
+            assert!(std::fs::symlink_metadata(l).unwrap().file_type().is_symlink());
+        }
         let _ = std::fs::remove_dir_all(&dir);
     }
 
