@@ -58,6 +58,7 @@ fn preferences_are_saved_and_restored_by_the_next_session() {
     h.step();
     let p = h.state().preferences();
     assert!(p.brush_radius > radius);
+    assert!(!written(&p), "written in the frame that changed it (one write per frame of a drag)");
     eframe::App::on_exit(h.state_mut());
     assert!(written(&p), "the last change was not written at exit");
     let radius = p.brush_radius;
