@@ -5,7 +5,6 @@
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use std::sync::mpsc::TryRecvError;
 
 use eframe::egui;
 use glam::Vec3;
@@ -96,21 +95,12 @@ impl EditorApp {
 
     /// Shows the texture [`Self::load_texture`] read, when it was read for the open mesh.
     pub(super) fn poll_texture(&mut self) {
-        let Some((version, job)) = &self.jobs.texture else { return };
-        let result = match job.rx.try_recv() {
-            Err(TryRecvError::Empty) => return,
-            Err(TryRecvError::Disconnected) => Err(format!(
-                "Could not load {}: the loader stopped without a result",
-                job.path.display()
-            )),
-            Ok(result) => result,
-        };
-        let (version, path) = (*version, job.path.clone());
-        self.jobs.texture = None;
-        let Some(scene) = self.session.scene.as_mut().filter(|s| s.topology.version == version)
+        let open = self.session.scene.as_ref().map(|s| s.topology.version);
+        let Some((path, result)) = super::finished_for_open_mesh(&mut self.jobs.texture, open)
         else {
-            return; // read for a mesh opened since replaced
+            return;
         };
+        let Some(scene) = self.session.scene.as_mut() else { return };
         let LoadedTexture { asset, render } = match result {
             Ok(t) => t,
             Err(e) => {

@@ -196,6 +196,27 @@ impl Jobs {
     }
 }
 
+/// The result of a job read for one mesh (`slot` holds the mesh's topology version and the
+/// job), with the file's path, once the job has finished: taken out of `slot`. `None` while it
+/// runs, and when it was read for another mesh than the one open now (`open`, its version):
+/// dropped then, error and all.
+fn finished_for_open_mesh<T>(
+    slot: &mut Option<(u64, LoadJob<T>)>,
+    open: Option<u64>,
+) -> Option<(PathBuf, Result<T, String>)> {
+    let (_, job) = slot.as_ref()?;
+    let result = match job.rx.try_recv() {
+        Err(std::sync::mpsc::TryRecvError::Empty) => return None,
+        Err(std::sync::mpsc::TryRecvError::Disconnected) => Err(format!(
+            "Could not load {}: the loader stopped without a result",
+            job.path.display()
+        )),
+        Ok(result) => result,
+    };
+    let (version, job) = slot.take()?;
+    (open == Some(version)).then_some((job.path, result))
+}
+
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum DialogKind {
     OpenMesh,

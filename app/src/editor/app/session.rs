@@ -539,20 +539,11 @@ impl EditorApp {
     /// selection (undoably), or shows why it could not be read; drops it, error included, when
     /// the mesh it was read for is no longer the one open.
     pub(super) fn poll_selection(&mut self) {
-        let Some((version, job)) = &self.jobs.selection else { return };
-        let result = match job.rx.try_recv() {
-            Err(TryRecvError::Empty) => return,
-            Err(TryRecvError::Disconnected) => Err(format!(
-                "Could not load {}: the loader stopped without a result",
-                job.path.display()
-            )),
-            Ok(result) => result,
-        };
-        let (version, path) = (*version, job.path.clone());
-        self.jobs.selection = None;
-        if self.session.scene.as_ref().map(|s| s.topology.version) != Some(version) {
+        let open = self.session.scene.as_ref().map(|s| s.topology.version);
+        let Some((path, result)) = super::finished_for_open_mesh(&mut self.jobs.selection, open)
+        else {
             return;
-        }
+        };
         match result {
             Ok(labels) => {
                 self.session.history.push(self.session.edit.clone());
