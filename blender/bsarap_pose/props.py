@@ -177,7 +177,7 @@ def register():
     for c in classes:
         bpy.utils.register_class(c)
     bpy.types.Object.bsarap = PointerProperty(type=BSARAP_ObjectSettings)
-    # The claims, saved in the file (see solve.py): a control Empty's the mesh object it poses,
+    # The claims, saved in the file (see claims.py): a control Empty's the mesh object it poses,
     # and, in each of its scenes, an object's that poses its mesh (a linked duplicate shares it).
     bpy.types.Object.bsarap_owner = PointerProperty(
         name="BS-ARAP owner", type=bpy.types.Object, description="The mesh object this control poses"

@@ -12,8 +12,8 @@ tried again until its key changes (or *Add Controls*): the depsgraph updates tha
 message at once. What is kept for an object no longer in any scene is dropped (:func:`prune`).
 
 Each control Empty poses one object, and so does each mesh: the first object posed claims them,
-and another that uses them is refused with a message (:func:`check_controls`; the claims are
-:mod:`.claims`').
+and another that uses them is refused with a message (:func:`check_controls`; the claims
+themselves are in :mod:`.claims`).
 
 A mesh that is library data, linked or a library override, cannot take the pose key (Blender
 keeps no shape key written to either): it is refused before anything is claimed or built
@@ -37,7 +37,6 @@ from __future__ import annotations
 import time
 from typing import NamedTuple
 
-import bpy
 import numpy as np
 
 from . import claims, handles, modifiers
