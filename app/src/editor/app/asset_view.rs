@@ -72,7 +72,7 @@ impl EditorApp {
     }
 
     /// Gives the open mesh the texture at `path` (it must decode as a PNG or JPEG; see
-    /// `Scene::apply_texture`), read on a loader thread ([`Self::poll_texture`] shows it); an
+    /// `Scene::apply_texture`), read on a loader thread (`poll_texture` shows it); an
     /// unsaved change of the scene.
     pub fn load_texture(&mut self, ctx: &egui::Context, path: &Path) {
         let version = self.next_version();
