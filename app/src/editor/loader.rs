@@ -171,7 +171,7 @@ pub fn spawn_texture(
     version: u64,
     repaint: impl Fn() + Send + 'static,
 ) -> LoadJob<LoadedTexture> {
-    spawn_loader(path, "texture-loader", repaint, load_error, move |p| {
+    spawn_loader(path, "texture-loader", repaint, texture_error, move |p| {
         let mut asset = layout.asset.clone();
         solver::animation::scene::Scene::apply_texture(p, &mut asset).map_err(|e| anyhow!(e))?;
         let edges = &topology.edges;
@@ -206,6 +206,16 @@ fn open_error(path: &Path, e: &anyhow::Error) -> String {
 /// "Could not load PATH: why", for a selection.
 fn load_error(path: &Path, e: &anyhow::Error) -> String {
     format!("Could not load {}: {e:#}", path.display())
+}
+
+/// "Texture PATH not used: why", naming the path once: `Scene::apply_texture`'s errors
+/// name it already.
+fn texture_error(path: &Path, e: &anyhow::Error) -> String {
+    let text = format!("{e:#}");
+    match text.strip_prefix(&format!("texture {} not used: ", path.display())) {
+        Some(why) => format!("Texture {} not used: {why}", path.display()),
+        None => format!("Texture {} not used: {text}", path.display()),
+    }
 }
 
 /// Runs `load` on a loader thread named `name`, its panics caught; an error comes back worded

@@ -235,10 +235,10 @@ fn a_mesh_mid_drag_ends_the_drag() {
     assert!(h.state().edit_state().groups.is_empty());
 }
 
-/// A selection dropped while another mesh loads would be read for the mesh it replaces: it is
-/// refused with a message naming both.
+/// A selection dropped, or a texture chosen, while another mesh loads would be read for the
+/// mesh it replaces: it is refused with a message naming both.
 #[test]
-fn a_selection_while_a_mesh_loads_is_refused() {
+fn a_selection_or_texture_while_a_mesh_loads_is_refused() {
     let dir = ScratchDir::new("selection-while-loading");
     let (mut h, bar, n) = bar_with_three_groups(&dir);
     let other = fifo(&dir, "other.obj");
@@ -249,6 +249,11 @@ fn a_selection_while_a_mesh_loads_is_refused() {
     assert!(!h.state().is_loading_selection());
     let error = h.state().error().unwrap_or_default().to_owned();
     assert!(error.contains("other.obj is loading") && error.contains("sel.dmat"), "{error}");
+    let ctx = h.ctx.clone();
+    h.state_mut().load_texture(&ctx, &dir.join("tex.png"));
+    assert!(!h.state().is_loading_texture());
+    let error = h.state().error().unwrap_or_default().to_owned();
+    assert!(error.contains("other.obj is loading") && error.contains("tex.png"), "{error}");
     write_later(other, std::fs::read_to_string(Path::new(&bar)).unwrap()).join().unwrap();
     step_until(&mut h, "the other mesh", |a| !a.is_loading());
 }
@@ -415,8 +420,8 @@ fn an_edit_while_a_mesh_loads_is_asked_about() {
     assert_eq!(h.state().mesh_path(), Some(other.as_path()));
 }
 
-/// A texture is read on a loader thread (the UI steps while its file waits), and one read for
-/// a mesh opened again since is dropped on arrival, its error with it.
+/// A texture is read on a loader thread (the UI steps while its file waits; quitting then
+/// asks), and one read for a mesh opened again since is dropped on arrival, its error with it.
 #[test]
 fn a_texture_is_read_off_the_ui_thread_for_the_mesh_it_was_read_for() {
     let dir = ScratchDir::new("texture-loader");
@@ -428,6 +433,13 @@ fn a_texture_is_read_off_the_ui_thread_for_the_mesh_it_was_read_for() {
         h.step();
     }
     assert!(h.state().is_loading_texture());
+    // Not in the document yet: quitting asks.
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Q);
+    h.step();
+    h.step(); // a new window is laid out invisibly in its first frame
+    assert!(h.query_by_label_contains("Quitting stops a texture being read").is_some());
+    h.get_by_label("Cancel").click();
+    h.step();
     support::drop_file(&mut h, bar.clone());
     step_until(&mut h, "the bar again", |a| !a.is_loading());
     // the bumpy bar has no texture coordinates: had it applied, it would say so

@@ -7,9 +7,9 @@ use crate::support;
 
 use std::path::Path;
 
-use app::editor::EditorApp;
 use app::editor::prefs::FILE_NAME;
 use app::editor::undo::EditState;
+use app::editor::{EditorApp, Shading};
 use eframe::egui::{Event, Key, Modifiers, Vec2};
 use egui_kittest::{Harness, kittest::Queryable};
 use solver::testing::ScratchDir;
@@ -490,6 +490,7 @@ fn a_mesh_with_uvs_and_no_material_gets_a_texture_saved_and_exported() {
     step_until(&mut h, "the texture's read", |a| !a.is_loading_texture());
     let err = h.state().error().unwrap_or_default().to_string();
     assert!(err.contains("notes.png") && err.contains("not a PNG or JPEG"), "{err}");
+    assert_eq!(err.matches("notes.png").count(), 1, "the file named once: {err}");
     assert!(!h.state().has_texture_shading());
 
     let png = dir.join("checker.png");
@@ -535,6 +536,40 @@ fn a_mesh_with_uvs_and_no_material_gets_a_texture_saved_and_exported() {
 /// The up axis: choosing Z stands a Z-up mesh up on screen (its top above its bottom), is
 /// saved in the scene and reopened with it, and a glTF export rotates the nodes by −90° about
 /// X (Z up → glTF's Y up) while a Y-up export has no rotation.
+/// A texture chosen in a dialog asked for one mesh does nothing to another opened while the
+/// dialog was open; a texture that arrives keeps an error about something else, and a shading
+/// chosen while it was read.
+#[test]
+fn a_texture_applies_to_the_mesh_and_the_view_it_was_asked_for() {
+    let dir = ScratchDir::new("texture-asked-for");
+    let (mesh, _) = z_up_strip_with_uvs(&dir);
+    let mut h = open_with_dialog(&mesh, config_with_in_app_dialog(&dir));
+    let png = dir.join("checker.png");
+    image::RgbImage::from_pixel(4, 4, image::Rgb([250, 40, 40])).save(&png).unwrap();
+
+    h.get_by_label("Texture…").click();
+    h.step();
+    let copy = dir.join("copy.obj");
+    std::fs::copy(&mesh, &copy).unwrap();
+    support::drop_file(&mut h, copy.clone());
+    step_until(&mut h, "the copy", |a| !a.is_loading());
+    assert_eq!(h.state().mesh_path(), Some(copy.as_path()));
+    choose_in_dialog(&mut h, &png);
+    assert!(!h.state().is_loading_texture(), "read for the mesh the dialog was not asked for");
+    let err = h.state().error().unwrap_or_default().to_string();
+    assert!(err.contains("nothing done with checker.png") && err.contains("copy.obj"), "{err}");
+
+    // Asked for in Texture shading (as on a mesh with a material colour), Clay chosen since.
+    h.state_mut().set_shading(Shading::Texture);
+    let ctx = h.ctx.clone();
+    h.state_mut().load_texture(&ctx, &png);
+    h.state_mut().set_shading(Shading::Clay);
+    step_until(&mut h, "the texture's read", |a| !a.is_loading_texture());
+    assert_eq!(h.state().loaded_texture(), Some(png.as_path()));
+    assert_eq!(h.state().shading(), Shading::Clay, "the shading chosen meanwhile stays");
+    assert_eq!(h.state().error(), Some(err.as_str()), "an error about something else stays");
+}
+
 #[test]
 fn the_up_axis_is_chosen_saved_and_exported_upright() {
     let dir = ScratchDir::new("first-hour-up-axis");

@@ -73,13 +73,22 @@ impl EditorApp {
 
     /// Gives the open mesh the texture at `path` (it must decode as a PNG or JPEG; see
     /// `Scene::apply_texture`), read on a loader thread (`poll_texture` shows it); an
-    /// unsaved change of the scene.
+    /// unsaved change of the scene. Refused while another mesh loads: it would be read for
+    /// the mesh being replaced.
     pub fn load_texture(&mut self, ctx: &egui::Context, path: &Path) {
         let version = self.next_version();
         let Some(scene) = &self.session.scene else {
             self.error = Some("open a mesh before loading a texture".into());
             return;
         };
+        if let Some(other) = self.jobs.replacing_mesh() {
+            self.error = Some(format!(
+                "{} is loading: load the texture {} once it is open",
+                super::file_name(other),
+                super::file_name(path)
+            ));
+            return;
+        }
         let c = ctx.clone();
         let job = loader::spawn_texture(
             path.to_path_buf(),
@@ -91,9 +100,12 @@ impl EditorApp {
         );
         // a texture still being read for this mesh is replaced: the later choice wins
         self.jobs.texture = Some((scene.topology.version, job));
+        self.jobs.texture_asked_in = self.display.shading;
     }
 
-    /// Shows the texture [`Self::load_texture`] read, when it was read for the open mesh.
+    /// Shows the texture [`Self::load_texture`] read, when it was read for the open mesh: in
+    /// Texture shading unless another shading was chosen since it was asked for. It clears
+    /// the error an earlier texture read showed, and no other.
     pub(super) fn poll_texture(&mut self) {
         let open = self.session.scene.as_ref().map(|s| s.topology.version);
         let Some((path, result)) = super::finished_for_open_mesh(&mut self.jobs.texture, open)
@@ -104,7 +116,8 @@ impl EditorApp {
         let LoadedTexture { asset, render } = match result {
             Ok(t) => t,
             Err(e) => {
-                self.error = Some(e);
+                self.error = Some(e.clone());
+                self.jobs.texture_error = Some(e);
                 return;
             }
         };
@@ -113,10 +126,14 @@ impl EditorApp {
         scene.layout = Arc::new(FileLayout { asset, vertex_map });
         self.session.file_view.texture =
             Some(std::path::absolute(&path).unwrap_or_else(|_| path.clone()));
-        self.display.shading = Shading::Texture;
+        if self.display.shading == self.jobs.texture_asked_in {
+            self.display.shading = Shading::Texture;
+        }
         self.display.viewports = Default::default();
         self.display.color_version += 1;
-        self.error = None;
+        if self.jobs.texture_error.take().is_some_and(|e| self.error.as_ref() == Some(&e)) {
+            self.error = None;
+        }
         self.info = Some(format!("texture {} loaded", super::file_name(&path)));
     }
 

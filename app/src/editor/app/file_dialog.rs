@@ -14,7 +14,7 @@ use std::time::{Duration, Instant};
 
 use eframe::egui;
 
-use super::{DialogKind, EditorApp};
+use super::{DialogKind, EditorApp, file_name};
 use crate::editor::loader;
 
 /// A system dialog that answers nothing sooner than this after it was asked for did not show:
@@ -28,9 +28,17 @@ pub(super) struct Dialogs {
     native: Option<(DialogKind, Receiver<Option<PathBuf>>, Instant)>,
     /// The in-app browser.
     in_app: Option<(DialogKind, egui_file::FileDialog)>,
+    /// The open mesh's version (`Topology::version`) when the dialog was asked for: a file
+    /// chosen for that mesh does nothing to another opened meanwhile.
+    for_mesh: Option<u64>,
 }
 
 impl DialogKind {
+    /// Whether the file chosen acts on the open mesh or document (everything but an open).
+    fn acts_on_open_mesh(self) -> bool {
+        !matches!(self, DialogKind::OpenMesh | DialogKind::OpenScene)
+    }
+
     fn saves(self) -> bool {
         matches!(self, DialogKind::SaveScene | DialogKind::ExportGltf | DialogKind::SaveSelection)
     }
@@ -102,6 +110,7 @@ impl EditorApp {
             self.error = Some(format!("{}: a file dialog is open, finish it first", kind.title()));
             return false;
         }
+        self.jobs.dialogs.for_mesh = self.session.scene.as_ref().map(|s| s.topology.version);
         if self.prefs.current.in_app_file_dialog {
             self.open_in_app_dialog(kind);
             return true;
@@ -256,8 +265,21 @@ impl EditorApp {
         self.session.after_save = None;
     }
 
-    /// Acts on the file chosen in a dialog of `kind`.
+    /// Acts on the file chosen in a dialog of `kind`; not, when it acts on the open mesh and
+    /// another mesh was opened while the dialog was open (a load that was under way, a drop).
     fn dialog_chosen(&mut self, ctx: &egui::Context, kind: DialogKind, path: PathBuf) {
+        let open = self.session.scene.as_ref().map(|s| s.topology.version);
+        if kind.acts_on_open_mesh() && open != self.jobs.dialogs.for_mesh {
+            self.session.after_save = None;
+            let now = self.session.scene.as_ref().map(|s| file_name(&s.path));
+            self.error = Some(format!(
+                "{}: nothing done with {}: {} was opened while the dialog was open",
+                kind.title(),
+                file_name(&path),
+                now.unwrap_or_else(|| "another mesh".into())
+            ));
+            return;
+        }
         match kind {
             DialogKind::OpenMesh | DialogKind::OpenScene => self.request_open(ctx, path),
             DialogKind::LoadSelection => self.load_selection(ctx, &path),

@@ -98,10 +98,11 @@ impl View {
 }
 
 /// How the mesh is shaded.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Shading {
     /// The asset as it is: material colour, vertex colours and base-colour texture, with the
     /// handle colours blended over it (`super::render_layout`).
+    #[default]
     Texture,
     /// Uniform grey, to judge the deformation; handle groups in their colours.
     Clay,
@@ -154,6 +155,12 @@ struct Jobs {
     /// A texture being read for the open mesh (`loader::spawn_texture`), with the version of
     /// the mesh it is read for: dropped on arrival if another mesh was opened meanwhile.
     texture: Option<(u64, LoadJob<LoadedTexture>)>,
+    /// The shading when that texture was asked for: it turns to Texture shading on arrival
+    /// unless another shading was chosen meanwhile.
+    texture_asked_in: Shading,
+    /// The error the last texture read showed: a texture that loads after it clears it (and
+    /// no other error).
+    texture_error: Option<String>,
     /// A `.json` given to open, read on a loader thread to tell a selection from a scene
     /// (`loader::spawn_identify`); another file given to open meanwhile replaces it.
     identifying: Option<LoadJob<bool>>,
@@ -193,6 +200,14 @@ impl Jobs {
             return Some((&j.path, j.since));
         }
         self.identifying.as_ref().map(|j| (j.path.as_path(), j.since))
+    }
+
+    /// The file that may replace the open mesh once read: a mesh or scene loading, or a
+    /// `.json` being told apart (it may be a scene). What is read for the open mesh meanwhile
+    /// would be dropped with it, so it is refused.
+    fn replacing_mesh(&self) -> Option<&Path> {
+        let loading = self.loading.as_ref().map(|j| j.path.as_path());
+        loading.or(self.identifying.as_ref().map(|j| j.path.as_path()))
     }
 }
 

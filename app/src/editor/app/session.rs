@@ -181,13 +181,16 @@ impl EditorApp {
     }
 
     /// The work under way that quitting stops, in words for the quit question: a recording, an
-    /// export or a bake being written (an export killed half-way writes nothing), a capture.
+    /// export or a bake being written (an export killed half-way writes nothing), a capture, a
+    /// selection or texture chosen and not yet read (it is not in the document yet).
     pub(super) fn work_under_way(&self) -> Vec<&'static str> {
         let jobs = [
             (self.jobs.record.is_some(), "a recording"),
             (self.jobs.export.is_some(), "an export being written"),
             (self.jobs.bake.is_some(), "a bake to bones"),
             (self.is_capturing(), "a capture being rendered"),
+            (self.jobs.selection.is_some(), "a selection being read"),
+            (self.jobs.texture.is_some(), "a texture being read"),
         ];
         jobs.into_iter().filter(|(on, _)| *on).map(|(_, what)| what).collect()
     }
@@ -519,11 +522,11 @@ impl EditorApp {
     /// one still being read; [`Self::poll_selection`] applies it.
     pub(super) fn load_selection(&mut self, ctx: &egui::Context, path: &Path) {
         let Some(scene) = &self.session.scene else { return };
-        if let Some(job) = &self.jobs.loading {
+        if let Some(other) = self.jobs.replacing_mesh() {
             // it would be read for the mesh being replaced
             self.error = Some(format!(
                 "{} is loading: load the selection {} once it is open",
-                file_name(&job.path),
+                file_name(other),
                 file_name(path)
             ));
             return;
