@@ -10,7 +10,10 @@
 //! (`autosave.kept`), so that the offer does not call that a crash; any other write of the
 //! autosave (the timer, the panic hook) removes the marker. Writes and removals of the autosave
 //! happen in the order they were asked for ([`Persist::autosave_ticket`]): a timer's write
-//! that finishes after a Save removed the autosave, or after a newer write, is skipped.
+//! that finishes after a Save removed the autosave, or after a newer write, is skipped. Nothing
+//! waits long for a write stuck on a hung drive: a removal goes on in the background after
+//! [`REMOVAL_WAIT`] (at an exit, the autosave then stays and is offered at the next start), and
+//! the write of an exit or a crash gives up after [`EXIT_WAIT`].
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -22,8 +25,12 @@ use solver::io::write_atomic;
 
 /// How often a changed scene is written to the autosave file.
 pub const AUTOSAVE_INTERVAL: Duration = Duration::from_secs(120);
-/// How long a crash waits for an autosave being written before it writes its own.
-pub const CRASH_WAIT: Duration = Duration::from_secs(2);
+/// How long an exit or a crash waits for an autosave being written before it gives up its
+/// own write.
+pub const EXIT_WAIT: Duration = Duration::from_secs(2);
+/// How long a removal of the autosave (a Save, a declined offer) waits on the UI thread for a
+/// write being carried out before it goes on on a thread of its own.
+pub const REMOVAL_WAIT: Duration = Duration::from_millis(100);
 /// How many recent files are kept.
 pub const MAX_RECENT: usize = 10;
 
@@ -41,6 +48,17 @@ pub fn default_dir() -> Option<PathBuf> {
 pub struct Persist {
     dir: PathBuf,
     tickets: Arc<Tickets>,
+}
+
+/// What became of a write or removal asked for in turn ([`Persist::in_turn`]).
+#[derive(Debug, PartialEq, Eq)]
+enum Turn<R> {
+    /// Carried out, with its result.
+    Ran(R),
+    /// Skipped: one asked for later was carried out first.
+    Overtaken,
+    /// Not carried out: another was still being carried out when the wait ran out.
+    Busy,
 }
 
 /// The order of the autosave's writes and removals: each takes a ticket when it is asked for,
@@ -65,7 +83,7 @@ impl Persist {
 
     /// Runs `f` for `ticket` unless a write or removal asked for later was carried out; with
     /// `wait`, not at all when another is still being carried out after that long.
-    fn in_turn<R>(&self, ticket: u64, wait: Option<Duration>, f: impl FnOnce() -> R) -> Option<R> {
+    fn in_turn<R>(&self, ticket: u64, wait: Option<Duration>, f: impl FnOnce() -> R) -> Turn<R> {
         let lock = &self.tickets.done;
         let mut done = match wait {
             None => lock.lock().unwrap_or_else(PoisonError::into_inner),
@@ -78,15 +96,16 @@ impl Persist {
                         Err(TryLockError::WouldBlock) if Instant::now() < end => {
                             std::thread::sleep(Duration::from_millis(5))
                         }
-                        Err(TryLockError::WouldBlock) => return None,
+                        Err(TryLockError::WouldBlock) => return Turn::Busy,
                     }
                 }
             }
         };
-        (ticket > *done).then(|| {
-            *done = ticket;
-            f()
-        })
+        if ticket <= *done {
+            return Turn::Overtaken;
+        }
+        *done = ticket;
+        Turn::Ran(f())
     }
 
     fn recent_path(&self) -> PathBuf {
@@ -131,8 +150,10 @@ impl Persist {
     /// Writes `scene` as the autosave (of a running session: not kept on purpose).
     pub fn write_autosave(&self, scene: &Scene) -> Result<PathBuf, String> {
         let ticket = self.autosave_ticket();
-        let written = self.write_in_turn(scene, ticket, None)?;
-        written.ok_or_else(|| "a newer autosave was written meanwhile".to_string())
+        match self.write_in_turn(scene, ticket, None) {
+            Turn::Ran(written) => written,
+            Turn::Overtaken | Turn::Busy => Err("a newer autosave was written meanwhile".into()),
+        }
     }
 
     /// Writes `scene` as the autosave asked for with `ticket`; `None` (nothing written) when
@@ -142,15 +163,21 @@ impl Persist {
         scene: &Scene,
         ticket: u64,
     ) -> Result<Option<PathBuf>, String> {
-        self.write_in_turn(scene, ticket, None)
+        match self.write_in_turn(scene, ticket, None) {
+            Turn::Ran(written) => written.map(Some),
+            Turn::Overtaken | Turn::Busy => Ok(None),
+        }
     }
 
-    /// Writes `scene` as the autosave unless another write still runs after `wait` (the panic
-    /// hook: a write stuck on a hung drive must not hang the crash).
+    /// Writes `scene` as the autosave unless another write still runs after `wait` (an exit,
+    /// the panic hook: a write stuck on a hung drive must not hang them).
     pub fn write_autosave_within(&self, scene: &Scene, wait: Duration) -> Result<PathBuf, String> {
         let ticket = self.autosave_ticket();
-        let written = self.write_in_turn(scene, ticket, Some(wait))?;
-        written.ok_or_else(|| format!("another autosave was still being written after {wait:?}"))
+        match self.write_in_turn(scene, ticket, Some(wait)) {
+            Turn::Ran(written) => written,
+            Turn::Overtaken => Err("a newer autosave was written meanwhile".into()),
+            Turn::Busy => Err(format!("another autosave was still being written after {wait:?}")),
+        }
     }
 
     fn write_in_turn(
@@ -158,19 +185,19 @@ impl Persist {
         scene: &Scene,
         ticket: u64,
         wait: Option<Duration>,
-    ) -> Result<Option<PathBuf>, String> {
+    ) -> Turn<Result<PathBuf, String>> {
         let path = self.autosave_path();
-        let written = self.in_turn(ticket, wait, || {
+        self.in_turn(ticket, wait, || {
             self.write(&path, scene.to_json().as_bytes())?;
             let _ = std::fs::remove_file(self.kept_path());
-            Ok::<_, String>(())
-        });
-        written.transpose().map(|w| w.map(|()| path))
+            Ok(path)
+        })
     }
 
-    /// Writes `scene` as the autosave kept on purpose by a clean exit.
+    /// Writes `scene` as the autosave kept on purpose by a clean exit, waiting at most
+    /// [`EXIT_WAIT`] for one being written.
     pub fn keep_autosave(&self, scene: &Scene) -> Result<PathBuf, String> {
-        let path = self.write_autosave(scene)?;
+        let path = self.write_autosave_within(scene, EXIT_WAIT)?;
         self.write(&self.kept_path(), b"unsaved changes kept at a clean exit\n")?;
         Ok(path)
     }
@@ -187,12 +214,28 @@ impl Persist {
         Some((path, modified))
     }
 
-    /// Removes the autosave (clean exit, or the user declined it).
-    pub fn discard_autosave(&self) {
-        self.in_turn(self.autosave_ticket(), None, || {
-            let _ = std::fs::remove_file(self.autosave_path());
-            let _ = std::fs::remove_file(self.kept_path());
-        });
+    /// Removes the autosave (a Save, a clean exit, the user declined it): at once, or, when
+    /// a write is still being carried out after [`REMOVAL_WAIT`], on a thread of its own once
+    /// that write is done (its place in the order taken now). An exit does not wait for that
+    /// thread: the autosave then stays, offered at the next start. Returns whether it was
+    /// removed (or a later write or removal took its place) before returning.
+    pub fn discard_autosave(&self) -> bool {
+        let ticket = self.autosave_ticket();
+        let remove = |p: &Persist| {
+            let _ = std::fs::remove_file(p.autosave_path());
+            let _ = std::fs::remove_file(p.kept_path());
+        };
+        if self.in_turn(ticket, Some(REMOVAL_WAIT), || remove(self)) != Turn::Busy {
+            return true;
+        }
+        let p = self.clone();
+        let spawned = std::thread::Builder::new()
+            .name("autosave-removal".into())
+            .spawn(move || p.in_turn(ticket, None, || remove(&p)));
+        if let Err(e) = spawned {
+            eprintln!("editor: the autosave is not removed (no thread for it: {e})");
+        }
+        false
     }
 }
 
@@ -201,7 +244,7 @@ pub type Snapshot = Arc<Mutex<Option<Scene>>>;
 
 /// Makes a panic anywhere in the process write `snapshot` to the autosave file before the
 /// default hook runs. A snapshot whose lock is held is skipped, and the write waits at most
-/// [`CRASH_WAIT`] for an autosave being written (the timer's thread) to finish.
+/// [`EXIT_WAIT`] for an autosave being written (the timer's thread) to finish.
 pub fn install_crash_autosave(persist: Persist, snapshot: Snapshot) {
     let previous = std::panic::take_hook();
     std::panic::set_hook(Box::new(move |info| {
@@ -210,7 +253,7 @@ pub fn install_crash_autosave(persist: Persist, snapshot: Snapshot) {
             && let Ok(guard) = snapshot.try_lock()
             && let Some(scene) = guard.as_ref()
         {
-            match persist.write_autosave_within(scene, CRASH_WAIT) {
+            match persist.write_autosave_within(scene, EXIT_WAIT) {
                 Ok(p) => eprintln!("editor: crashed; your scene was saved to {}", p.display()),
                 Err(e) => eprintln!("editor: crashed, and the autosave failed: {e}"),
             }
@@ -321,5 +364,33 @@ mod tests {
         drop(held);
         p.write_autosave_within(&scene("/crash.obj"), Duration::from_millis(30)).unwrap();
         assert_eq!(Scene::read(&p.autosave_path()).unwrap().mesh, "/crash.obj");
+    }
+
+    /// A removal behind a write stuck on a hung drive (here: held) returns after
+    /// [`REMOVAL_WAIT`] and is carried out once the write is done, after it: a write asked for
+    /// before it comes to nothing, one asked for after it is kept. An exit's write gives up.
+    #[test]
+    fn a_removal_behind_a_stuck_write_goes_on_in_the_background() {
+        let (_scratch, d) = dir("autosave-stuck");
+        let p = Persist::new(d);
+        let scene = Scene::new("/a.obj", solver::animation::scene::HandlesSpec::default());
+        p.write_autosave(&scene).unwrap();
+        let stuck = p.autosave_ticket(); // the timer's write, asked for before the removal
+        let held = p.tickets.done.lock().unwrap();
+        assert!(!p.discard_autosave(), "it waited for the stuck write");
+        assert!(p.pending_autosave().is_some());
+        // an exit keeping unsaved changes gives up after EXIT_WAIT
+        assert!(p.keep_autosave(&scene).unwrap_err().contains("still being written"));
+        assert!(!p.autosave_kept());
+        drop(held);
+        let start = Instant::now();
+        while p.pending_autosave().is_some() {
+            assert!(start.elapsed() < Duration::from_secs(60), "never removed");
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        assert_eq!(p.write_autosave_in_turn(&scene, stuck), Ok(None), "the older write came back");
+        assert!(p.discard_autosave());
+        p.write_autosave(&scene).unwrap();
+        assert!(p.pending_autosave().is_some(), "a later write is kept");
     }
 }

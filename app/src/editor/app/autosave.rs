@@ -168,7 +168,8 @@ impl EditorApp {
 
     /// What a clean exit does with the autosave (see `on_exit`): unsaved changes are kept and
     /// marked as kept on purpose, unless the user chose to quit without saving; otherwise the
-    /// autosave (the crash marker) goes. Returns whether one was kept.
+    /// autosave (the crash marker) goes, unless a write stuck on a hung drive holds it past
+    /// `persist::EXIT_WAIT`. Returns whether one stays.
     pub fn exit_autosave(&mut self) -> bool {
         let Some(persist) = self.store.persist.clone() else { return false };
         if self.store.offer_pending() {
@@ -187,8 +188,11 @@ impl EditorApp {
                 }
             }
         }
-        persist.discard_autosave();
-        false
+        let removed = persist.discard_autosave();
+        if !removed {
+            eprintln!("editor: an autosave was still being written; it is offered at next start");
+        }
+        !removed
     }
 
     /// Answers the restore offer (its buttons, tests): `true` restores, asking first over
