@@ -161,12 +161,19 @@ pub struct History {
 }
 
 impl History {
-    /// Records `before`, the state an edit starts from.
+    /// Records `before`, the state an edit starts from, now.
     pub fn push(&mut self, before: EditState) {
+        self.push_at(before, self.time);
+    }
+
+    /// Records `before` as kept at playback time `time`: a gesture that pushes when it ends
+    /// (a gizmo transform, a slider drag) keeps the time it started at, which playback may
+    /// have moved on from.
+    pub fn push_at(&mut self, before: EditState, time: f64) {
         if self.undo.last().is_some_and(|(s, _)| *s == before) {
             return;
         }
-        self.undo.push((before, self.time));
+        self.undo.push((before, time));
         if self.undo.len() > MAX_HISTORY {
             self.undo.remove(0);
         }
@@ -199,6 +206,11 @@ impl History {
     /// The playback time moved to `t`.
     pub fn set_time(&mut self, t: f64) {
         self.time = t;
+    }
+
+    /// The playback time now, as [`Self::push`] keeps it.
+    pub fn time(&self) -> f64 {
+        self.time
     }
 
     pub fn generation(&self) -> u64 {
@@ -262,5 +274,17 @@ mod tests {
         let (redone, time) = h.redo(&undone).unwrap();
         assert_eq!((redone, time), (s, 0.0), "kept at time 0");
         assert_eq!(h.undo(&undone).unwrap().1, 0.5, "kept again at 0.5 by the redo");
+    }
+
+    /// A gesture pushed when it ends keeps the time it started at, not the time it ended at.
+    #[test]
+    fn a_gesture_pushed_at_its_end_keeps_its_start_time() {
+        let s = EditState::from_labels(vec![Some(0), None]);
+        let mut h = History::default();
+        h.set_time(0.25);
+        let start = h.time();
+        h.set_time(0.75); // playback moved on during the drag
+        h.push_at(s.clone(), start);
+        assert_eq!(h.undo(&s).unwrap().1, 0.25);
     }
 }

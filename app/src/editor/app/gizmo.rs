@@ -58,6 +58,8 @@ pub(super) struct Transform {
     group: usize,
     slot: usize,
     before: EditState,
+    /// The playback time at the start, kept with `before` in the history.
+    before_time: f64,
     start_pose: GroupTransform,
     /// The group's centre (rest centroid + translation) at the start, in display space.
     center: Vec3,
@@ -156,6 +158,7 @@ impl EditorApp {
             group: g,
             slot,
             before: self.session.edit.clone(),
+            before_time: self.session.history.time(),
             start_pose: pose,
             center,
             start_pointer: pointer,
@@ -171,7 +174,7 @@ impl EditorApp {
         if let Some(t) = self.gizmo.transform.take()
             && t.before != self.session.edit
         {
-            self.session.history.push(t.before);
+            self.session.history.push_at(t.before, t.before_time);
         }
     }
 
@@ -218,7 +221,7 @@ impl EditorApp {
                         if self.begin_transform(kind, t.axis, true, t.slot, pointer)
                             && let Some(n) = &mut self.gizmo.transform
                         {
-                            n.before = before;
+                            (n.before, n.before_time) = (before, t.before_time);
                         }
                     }
                 }

@@ -49,8 +49,8 @@ pub(super) struct Rigging {
     job: Option<((usize, Request), Receiver<Mirror>)>,
     /// The partner group of the stroke in progress (mirrored painting of a handle group).
     pub(super) stroke_partner: Option<u32>,
-    /// The state before a falloff slider drag, pushed when it ends.
-    slider_before: Option<EditState>,
+    /// The state before a falloff slider drag and the playback time then, pushed when it ends.
+    slider_before: Option<(EditState, f64)>,
     /// Whether the last vertex colours showed the rigidity map.
     shown: bool,
 }
@@ -338,13 +338,14 @@ impl EditorApp {
                 // The state before the slider moved, for one undo step per drag (cloned only
                 // on a change: the labels are a word per vertex).
                 if self.rigging.slider_before.is_none() {
-                    self.rigging.slider_before = Some(self.session.edit.clone());
+                    let time = self.session.history.time();
+                    self.rigging.slider_before = Some((self.session.edit.clone(), time));
                 }
                 self.session.edit.groups[k].falloff = f;
             }
             if self.rigging.slider_before.is_some() && (curve_changed || !slider.dragged()) {
-                if let Some(b) = self.rigging.slider_before.take() {
-                    self.session.history.push(b);
+                if let Some((b, time)) = self.rigging.slider_before.take() {
+                    self.session.history.push_at(b, time);
                 }
                 self.send_scene();
             }
