@@ -1,11 +1,14 @@
 //! The editable state (handle labels, groups, poses, the timeline's paths, the loose parts'
-//! modes, the rig: rigidity map, falloffs, symmetry settings) and its undo/redo history.
+//! modes, the rig: rigidity map, falloffs, symmetry settings) and its undo/redo history, which
+//! keeps the method settings too.
 //!
 //! Every user edit (a brush stroke, a drag, a numeric change, a group added or deleted) first
 //! pushes a snapshot of the state it starts from. Snapshots are whole copies: a label array is
 //! `#V` bytes-ish and the history is capped, so this stays small and obviously correct.
 
 use eframe::egui::Color32;
+
+use super::solver_thread::MethodSettings;
 use solver::animation::scene::SymmetrySpec;
 use solver::animation::timeline::{Path, Timeline};
 use solver::deform::rig::Falloff;
@@ -146,13 +149,22 @@ fn new_group(k: usize) -> Group {
 
 const MAX_HISTORY: usize = 200;
 
-/// Undo and redo stacks of whole states, each with the playback time it was kept at: a group
-/// with a path is posed for that time, so a state brought back at another time takes its
-/// paths' poses there (`EditorApp::apply_history`).
+/// What an undo or redo brings back: the editable state and the method settings, with the
+/// playback time they were kept at.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Kept {
+    pub edit: EditState,
+    pub settings: MethodSettings,
+    pub time: f64,
+}
+
+/// Undo and redo stacks of whole states (the edit state and the method settings), each with
+/// the playback time it was kept at: a group with a path is posed for that time, so a state
+/// brought back at another time takes its paths' poses there (`EditorApp::apply_history`).
 #[derive(Default)]
 pub struct History {
-    undo: Vec<(EditState, f64)>,
-    redo: Vec<(EditState, f64)>,
+    undo: Vec<Kept>,
+    redo: Vec<Kept>,
     /// The playback time now, kept with what is pushed.
     time: f64,
     /// Changes with every push, undo, redo and clear: a gesture that pushed one step and goes
@@ -161,19 +173,19 @@ pub struct History {
 }
 
 impl History {
-    /// Records `before`, the state an edit starts from, now.
-    pub fn push(&mut self, before: EditState) {
-        self.push_at(before, self.time);
+    /// Records `before` and `settings`, the state an edit starts from, now.
+    pub fn push(&mut self, before: EditState, settings: MethodSettings) {
+        self.push_at(before, settings, self.time);
     }
 
-    /// Records `before` as kept at playback time `time`: a gesture that pushes when it ends
-    /// (a gizmo transform, a slider drag) keeps the time it started at, which playback may
-    /// have moved on from.
-    pub fn push_at(&mut self, before: EditState, time: f64) {
-        if self.undo.last().is_some_and(|(s, _)| *s == before) {
+    /// Records `before` and `settings` as kept at playback time `time`: a gesture that pushes
+    /// when it ends (a gizmo transform, a slider drag) keeps the time it started at, which
+    /// playback may have moved on from.
+    pub fn push_at(&mut self, before: EditState, settings: MethodSettings, time: f64) {
+        if self.undo.last().is_some_and(|k| k.edit == before && k.settings == settings) {
             return;
         }
-        self.undo.push((before, time));
+        self.undo.push(Kept { edit: before, settings, time });
         if self.undo.len() > MAX_HISTORY {
             self.undo.remove(0);
         }
@@ -181,18 +193,18 @@ impl History {
         self.generation += 1;
     }
 
-    /// The state before the last edit and the playback time it was kept at; `current` goes
-    /// on the redo stack.
-    pub fn undo(&mut self, current: &EditState) -> Option<(EditState, f64)> {
+    /// The state before the last edit, with the playback time it was kept at; the current
+    /// one (`edit`, `settings`) goes on the redo stack.
+    pub fn undo(&mut self, edit: &EditState, settings: MethodSettings) -> Option<Kept> {
         let prev = self.undo.pop()?;
-        self.redo.push((current.clone(), self.time));
+        self.redo.push(Kept { edit: edit.clone(), settings, time: self.time });
         self.generation += 1;
         Some(prev)
     }
 
-    pub fn redo(&mut self, current: &EditState) -> Option<(EditState, f64)> {
+    pub fn redo(&mut self, edit: &EditState, settings: MethodSettings) -> Option<Kept> {
         let next = self.redo.pop()?;
-        self.undo.push((current.clone(), self.time));
+        self.undo.push(Kept { edit: edit.clone(), settings, time: self.time });
         self.generation += 1;
         Some(next)
     }
@@ -262,18 +274,19 @@ mod tests {
         ));
         s.set_path(1, circle.clone());
         let mut h = History::default();
-        h.push(s.clone());
+        h.push(s.clone(), MethodSettings::default());
         s.delete_group(0);
         assert_eq!(s.labels, vec![None, Some(0), None, Some(0)]);
         assert_eq!(s.path(0), &circle, "group 1's path moved down with the group");
         assert_eq!(s.path(1), &Path::Static);
-        let (undone, _) = h.undo(&s).unwrap();
+        let undone = h.undo(&s, MethodSettings::default()).unwrap().edit;
         assert_eq!(undone.labels, vec![Some(0), Some(1), None, Some(1)]);
         assert_eq!(undone.path(1), &circle, "undo restores the path");
         h.set_time(0.5);
-        let (redone, time) = h.redo(&undone).unwrap();
-        assert_eq!((redone, time), (s, 0.0), "kept at time 0");
-        assert_eq!(h.undo(&undone).unwrap().1, 0.5, "kept again at 0.5 by the redo");
+        let redone = h.redo(&undone, MethodSettings::default()).unwrap();
+        assert_eq!((redone.edit, redone.time), (s, 0.0), "kept at time 0");
+        let again = h.undo(&undone, MethodSettings::default()).unwrap();
+        assert_eq!(again.time, 0.5, "kept again at 0.5 by the redo");
     }
 
     /// A gesture pushed when it ends keeps the time it started at, not the time it ended at.
@@ -284,7 +297,23 @@ mod tests {
         h.set_time(0.25);
         let start = h.time();
         h.set_time(0.75); // playback moved on during the drag
-        h.push_at(s.clone(), start);
-        assert_eq!(h.undo(&s).unwrap().1, 0.25);
+        h.push_at(s.clone(), MethodSettings::default(), start);
+        assert_eq!(h.undo(&s, MethodSettings::default()).unwrap().time, 0.25);
+    }
+
+    /// A settings change is an undo step of its own; the edit state's steps keep the settings
+    /// they were made under.
+    #[test]
+    fn method_settings_are_undone_and_redone() {
+        let s = EditState::from_labels(vec![Some(0), None]);
+        let old = MethodSettings::default();
+        let mut new = old;
+        new.arap.max_iterations += 1;
+        let mut h = History::default();
+        h.push(s.clone(), old);
+        h.push(s.clone(), old); // the same state twice: one step
+        assert_eq!(h.undo(&s, new).unwrap().settings, old);
+        assert!(!h.can_undo());
+        assert_eq!(h.redo(&s, old).unwrap().settings, new);
     }
 }

@@ -123,3 +123,42 @@ fn the_coarse_energy_from_the_method_panel() {
     assert_eq!(settings(h.state()).base.coarse_energy, Galerkin);
     assert!(h.state().error().is_none(), "{:?}", h.state().error());
 }
+
+/// Method settings are undone and redone like edits (Ctrl+Z, Ctrl+Shift+Z), each change a step
+/// of its own, the solvers rebuilding with what comes back.
+#[test]
+fn method_settings_are_undone_and_redone() {
+    let mut h = harness(test_mesh(), None);
+    step_until(&mut h, "the default asset", settled);
+    let arap = |a: &EditorApp| a.method_settings().arap;
+    let default = solver::deform::arap::DEFAULT_BENDING_LENGTH;
+    h.get_by_role_and_label(egui::accesskit::Role::Slider, "bending length (of diagonal)")
+        .set_value_accesskit(0.05);
+    step_until(&mut h, "bending length 0.05", |a| (arap(a).bending_length - 0.05).abs() < 1e-9);
+    open_energy_box(&mut h, "smooth rotations");
+    h.get_by_label("spokes and rims").click_accesskit();
+    step_until(&mut h, "spokes and rims", |a| arap(a).energy == solver::Energy::SpokesAndRims);
+    if h.query_by_label("smooth rotations").is_some() {
+        h.key_press(egui::Key::Escape); // the box's list stays open after an AccessKit choice
+        h.step();
+    }
+
+    let undo = egui::Modifiers::COMMAND;
+    h.key_press_modifiers(undo, egui::Key::Z);
+    h.step();
+    assert_eq!(arap(h.state()).energy, solver::Energy::SmoothRotations);
+    assert_eq!(arap(h.state()).bending_length, 0.05);
+    h.key_press_modifiers(undo, egui::Key::Z);
+    h.step();
+    assert_eq!(arap(h.state()).bending_length, default);
+    assert!(!h.state().has_unsaved_changes(), "back to the settings it opened with");
+    h.key_press_modifiers(undo | egui::Modifiers::SHIFT, egui::Key::Z);
+    h.step();
+    assert_eq!(arap(h.state()).bending_length, 0.05);
+    // The solvers rebuild on what came back and deliver a frame for it.
+    let generation = h.state().scene_generation();
+    step_until(&mut h, "a frame of the settings redone", |a| {
+        a.scene_generation() == generation && has_current_frame(a)
+    });
+    assert!(h.state().error().is_none(), "{:?}", h.state().error());
+}

@@ -11,7 +11,7 @@ use solver::GroupTransform;
 use super::{EditorApp, Shading, Tool, View};
 use crate::editor::persist::{Persist, Snapshot};
 use crate::editor::solver_thread::{MethodSettings, Slot, SolvedFrame, SolverCommand, SolverState};
-use crate::editor::undo::EditState;
+use crate::editor::undo::{EditState, Kept};
 
 impl EditorApp {
     /// The file waiting for the user to save or discard their changes.
@@ -194,8 +194,9 @@ impl EditorApp {
 
     /// Replaces the editable state as one undoable edit (scripts and tests).
     pub fn set_edit_state(&mut self, state: EditState) {
-        self.session.history.push(self.session.edit.clone());
-        self.apply_history(Some((state, self.session.playback.time)));
+        self.session.push_undo(self.session.edit.clone());
+        let (settings, time) = (self.session.settings, self.session.playback.time);
+        self.apply_history(Some(Kept { edit: state, settings, time }));
     }
 
     pub fn playback_time(&self) -> f64 {
@@ -244,9 +245,11 @@ impl EditorApp {
         self.session.settings
     }
 
-    /// Sets the method settings as the method panel does: the solvers rebuild on a change.
+    /// Sets the method settings as the method panel does: an undo step; the solvers rebuild
+    /// on a change.
     pub fn set_method_settings(&mut self, settings: MethodSettings) {
         if settings != self.session.settings {
+            self.session.push_undo(self.session.edit.clone());
             self.session.settings = settings;
             self.send_scene();
         }

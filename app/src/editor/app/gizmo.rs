@@ -174,7 +174,8 @@ impl EditorApp {
         if let Some(t) = self.gizmo.transform.take()
             && t.before != self.session.edit
         {
-            self.session.history.push_at(t.before, t.before_time);
+            let settings = self.session.settings;
+            self.session.history.push_at(t.before, settings, t.before_time);
         }
     }
 

@@ -131,11 +131,11 @@ impl EditorApp {
         let consume = |m: Modifiers, k: Key| ctx.input_mut(|i| i.consume_key(m, k));
         let cmd_shift = Modifiers::COMMAND | Modifiers::SHIFT;
         if consume(cmd_shift, Key::Z) || consume(Modifiers::COMMAND, Key::Y) {
-            let state = self.session.history.redo(&self.session.edit);
+            let state = self.session.redo();
             self.apply_history(state);
         }
         if consume(Modifiers::COMMAND, Key::Z) {
-            let state = self.session.history.undo(&self.session.edit);
+            let state = self.session.undo();
             self.apply_history(state);
         }
         if consume(Modifiers::COMMAND, Key::Q) {
@@ -162,7 +162,7 @@ impl EditorApp {
         {
             let before = self.session.edit.clone();
             if timeline::key_current_pose(&mut self.session.edit, k, self.session.playback.time) {
-                self.session.history.push(before);
+                self.session.push_undo(before);
                 self.info = Some(format!("key set at {:.3} s", self.session.playback.time));
             }
         }
@@ -372,7 +372,7 @@ impl EditorApp {
             let erase = match self.interaction.stroke {
                 Some(s) => s.erase,
                 None => {
-                    self.session.history.push(self.session.edit.clone());
+                    self.session.push_undo(self.session.edit.clone());
                     self.interaction.stroke = Some(Stroke { erase: modifiers.command, slot });
                     modifiers.command
                 }
@@ -420,7 +420,7 @@ impl EditorApp {
                 let eye = self.display.camera.eye();
                 let anchor = hit.map_or(self.display.camera.target, |h| h.point);
                 let depth = (anchor - eye).dot(-self.display.camera.back()).max(1e-4);
-                self.session.history.push(self.session.edit.clone());
+                self.session.push_undo(self.session.edit.clone());
                 self.interaction.drag = Some(PoseDrag {
                     group: g,
                     start: self.session.edit.groups[g].pose,

@@ -108,7 +108,7 @@ impl EditorApp {
             if let Some(name) =
                 name.filter(|n| !n.is_empty() && *n != self.session.edit.groups[k].name)
             {
-                self.session.history.push(self.session.edit.clone());
+                self.session.push_undo(self.session.edit.clone());
                 self.session.edit.groups[k].name = name;
             }
         }
@@ -117,12 +117,12 @@ impl EditorApp {
             for (g, c) in before.groups.iter_mut().zip(colors_before) {
                 g.color = c;
             }
-            self.session.history.push(before);
+            self.session.push_undo(before);
             self.display.color_version += 1;
         }
         ui.horizontal(|ui| {
             if ui.button("Add group").clicked() {
-                self.session.history.push(self.session.edit.clone());
+                self.session.push_undo(self.session.edit.clone());
                 self.interaction.active_group = Some(self.session.edit.add_group());
             }
         });
@@ -130,7 +130,7 @@ impl EditorApp {
             // the indices shift under a modal transform or a gesture: they would move another
             self.cancel_transform();
             self.end_gestures();
-            self.session.history.push(self.session.edit.clone());
+            self.session.push_undo(self.session.edit.clone());
             self.session.edit.delete_group(k);
             self.interaction.active_group =
                 self.interaction.active_group.filter(|&a| a < self.session.edit.groups.len());
@@ -243,7 +243,7 @@ impl EditorApp {
                 changed = true;
             }
             if ui.button("Reset all").clicked() {
-                self.session.history.push(self.session.edit.clone());
+                self.session.push_undo(self.session.edit.clone());
                 for g in &mut self.session.edit.groups {
                     g.pose = GroupTransform::default();
                 }
@@ -254,7 +254,7 @@ impl EditorApp {
             self.error =
                 Some("value refused: move and rotate values must be finite numbers".into());
         } else if changed && pose != self.session.edit.groups[k].pose {
-            self.session.history.push(self.session.edit.clone());
+            self.session.push_undo(self.session.edit.clone());
             self.session.edit.groups[k].pose = pose;
             self.mirror_pose(k);
             self.send_poses();
@@ -466,6 +466,9 @@ impl EditorApp {
             );
         }
         if self.session.settings != old {
+            // one undo step per slider drag, one per click
+            let (edit, dragged) = (self.session.edit.clone(), ui.ctx().dragged_id());
+            self.session.push_for_drag(edit, old, dragged);
             self.send_scene();
         }
     }
@@ -507,6 +510,9 @@ impl eframe::App for EditorApp {
             };
         }
         self.display.last_frame = Some(now);
+        if ctx.dragged_id().is_none() {
+            self.session.drag_step = None; // the next drag is a step of its own
+        }
 
         self.poll_loader();
         self.poll_selection();
@@ -611,14 +617,14 @@ impl eframe::App for EditorApp {
                     .add_enabled(self.session.history.can_undo(), egui::Button::new("Undo"))
                     .clicked()
                 {
-                    let s = self.session.history.undo(&self.session.edit);
+                    let s = self.session.undo();
                     self.apply_history(s);
                 }
                 if ui
                     .add_enabled(self.session.history.can_redo(), egui::Button::new("Redo"))
                     .clicked()
                 {
-                    let s = self.session.history.redo(&self.session.edit);
+                    let s = self.session.redo();
                     self.apply_history(s);
                 }
                 if ui.button("?").on_hover_text("shortcuts").clicked() {

@@ -116,7 +116,7 @@ impl EditorApp {
         if self.session.edit.loose_parts.mode(component) == mode {
             return;
         }
-        self.session.history.push(self.session.edit.clone());
+        self.session.push_undo(self.session.edit.clone());
         self.session.edit.loose_parts.set(component, mode);
         self.send_loose_parts();
     }

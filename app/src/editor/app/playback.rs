@@ -223,23 +223,13 @@ impl EditorApp {
         actions: Vec<TimelineAction>,
     ) {
         let dragged = ctx.dragged_id();
-        if dragged.is_none() {
-            self.session.timeline_drag = None;
-        }
         for a in actions {
             match a {
                 TimelineAction::TimeChanged => self.time_changed(),
                 TimelineAction::Edited { before } => {
-                    // One undo step per drag of a number, not one a frame: the step its first
-                    // change pushed, while it is still the history's last.
-                    let history = &mut self.session.history;
-                    let same = |(id, generation)| {
-                        dragged == Some(id) && generation == history.generation()
-                    };
-                    if !self.session.timeline_drag.is_some_and(same) {
-                        history.push(*before);
-                    }
-                    self.session.timeline_drag = dragged.map(|d| (d, history.generation()));
+                    // One undo step per drag of a number, not one a frame.
+                    let settings = self.session.settings;
+                    self.session.push_for_drag(*before, settings, dragged);
                     self.display.color_version += 1;
                 }
                 TimelineAction::Record => self.start_recording(ctx),

@@ -289,7 +289,7 @@ impl EditorApp {
     }
 
     fn toggle_symmetry(&mut self, f: impl FnOnce(&mut solver::animation::scene::SymmetrySpec)) {
-        self.session.history.push(self.session.edit.clone());
+        self.session.push_undo(self.session.edit.clone());
         f(&mut self.session.edit.symmetry);
     }
 
@@ -306,7 +306,7 @@ impl EditorApp {
         ui.add(egui::Slider::new(&mut self.rigging.value, 0.0..=1.0).text("rigidity"));
         ui.label("Left drag paints the rigidity (1 = plain ARAP, 0 = soft); Ctrl resets to 1.");
         if ui.button("Clear rigidity").clicked() && self.session.edit.rigidity.is_some() {
-            self.session.history.push(self.session.edit.clone());
+            self.session.push_undo(self.session.edit.clone());
             self.session.edit.rigidity = None;
             self.display.color_version += 1;
             self.send_scene();
@@ -345,7 +345,7 @@ impl EditorApp {
             }
             if self.rigging.slider_before.is_some() && (curve_changed || !slider.dragged()) {
                 if let Some((b, time)) = self.rigging.slider_before.take() {
-                    self.session.history.push_at(b, time);
+                    self.session.history.push_at(b, self.session.settings, time);
                 }
                 self.send_scene();
             }
@@ -372,7 +372,7 @@ impl EditorApp {
             for a in Axis::ALL {
                 if ui.selectable_label(current == Some(a), a.name()).clicked() && current != Some(a)
                 {
-                    self.session.history.push(self.session.edit.clone());
+                    self.session.push_undo(self.session.edit.clone());
                     self.rigging.fit_axis = Some(a);
                 }
             }

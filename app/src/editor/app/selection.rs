@@ -199,7 +199,7 @@ impl EditorApp {
             }
         }
         if changed {
-            self.session.history.push(before);
+            self.session.push_undo(before);
             self.display.color_version += 1;
             self.send_scene();
         }
@@ -339,7 +339,7 @@ impl EditorApp {
             }
         }
         if changed {
-            self.session.history.push(before);
+            self.session.push_undo(before);
             self.display.color_version += 1;
             self.send_scene();
         }

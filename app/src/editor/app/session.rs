@@ -13,7 +13,7 @@ use crate::editor::loader::{self, LoadedFile};
 use crate::editor::persist::Persist;
 use crate::editor::solver_thread::MethodSettings;
 use crate::editor::timeline::{Playback, apply_paths, differ_beyond_playback};
-use crate::editor::undo::{EditState, History};
+use crate::editor::undo::{EditState, History, Kept};
 
 /// The open document: what a scene file holds, plus the undo history.
 #[derive(Default)]
@@ -47,9 +47,43 @@ pub(super) struct Session {
     /// The document as it was when the load under way started: what changed since is work the
     /// loaded file would replace, asked about first ([`EditorApp::poll_loader`]).
     pub(super) at_load: Option<Box<DocumentMark>>,
-    /// The timeline widget being dragged whose first change went into the history, with the
-    /// history's generation then: the rest of its drag is that one undo step.
-    pub(super) timeline_drag: Option<(egui::Id, u64)>,
+    /// The widget being dragged (a timeline number, a method slider) whose first change went
+    /// into the history, with the history's generation then: the rest of its drag is that one
+    /// undo step ([`Session::push_for_drag`]).
+    pub(super) drag_step: Option<(egui::Id, u64)>,
+}
+
+impl Session {
+    /// Records `before`, the edit state an edit starts from, under the settings now.
+    pub(super) fn push_undo(&mut self, before: EditState) {
+        self.history.push(before, self.settings);
+    }
+
+    /// Records `before` and `settings` as one undo step per drag of the widget `dragged`
+    /// (none: a click, a step of its own): the step its first change pushed stands for the
+    /// whole drag while it is still the history's last.
+    pub(super) fn push_for_drag(
+        &mut self,
+        before: EditState,
+        settings: MethodSettings,
+        dragged: Option<egui::Id>,
+    ) {
+        let generation = self.history.generation();
+        if !self.drag_step.is_some_and(|(id, g)| dragged == Some(id) && g == generation) {
+            self.history.push(before, settings);
+        }
+        self.drag_step = dragged.map(|d| (d, self.history.generation()));
+    }
+
+    /// Takes the last undo step, the state now going on the redo stack.
+    pub(super) fn undo(&mut self) -> Option<Kept> {
+        self.history.undo(&self.edit, self.settings)
+    }
+
+    /// Takes the last redo step, the state now going on the undo stack.
+    pub(super) fn redo(&mut self) -> Option<Kept> {
+        self.history.redo(&self.edit, self.settings)
+    }
 }
 
 /// What a document was at some moment, as far as a scene file holds it.
@@ -549,7 +583,7 @@ impl EditorApp {
         };
         match result {
             Ok(labels) => {
-                self.session.history.push(self.session.edit.clone());
+                self.session.push_undo(self.session.edit.clone());
                 // Component numbers depend on the mesh only: the loose parts' modes stay.
                 let parts = self.session.edit.loose_parts.clone();
                 let (rigidity, symmetry) =
@@ -571,12 +605,14 @@ impl EditorApp {
     }
 
     /// Brings back a state kept in the history at playback time `kept` (undo, redo, scripts).
-    pub(super) fn apply_history(&mut self, kept: Option<(EditState, f64)>) {
-        let Some((state, kept)) = kept else { return };
+    pub(super) fn apply_history(&mut self, kept: Option<Kept>) {
+        let Some(Kept { edit: state, settings, time: kept }) = kept else { return };
         let labels_changed = state.labels != self.session.edit.labels || self.rig_differs(&state);
+        let settings_changed = settings != self.session.settings;
         let parts_changed = state.loose_parts != self.session.edit.loose_parts;
         self.end_gestures();
         self.session.edit = state;
+        self.session.settings = settings;
         // Kept at another time: a group with a path goes where its path is now (at the same
         // time its pose stays, as unkeyed posing left it).
         if kept != self.session.playback.time {
@@ -586,7 +622,7 @@ impl EditorApp {
             self.interaction.active_group = self.session.edit.groups.len().checked_sub(1);
         }
         self.display.color_version += 1;
-        if labels_changed {
+        if labels_changed || settings_changed {
             self.send_scene();
         } else {
             self.send_poses();
