@@ -142,7 +142,10 @@ fn restore_over_unsaved_changes_asks_first() {
     h.state_mut().answer_restore(&ctx, true);
     h.step();
     h.step();
-    assert!(!h.state().is_loading(), "restored over the unsaved changes unasked");
+    // Not read, not restored: the edit stays until the question is answered.
+    assert!(!h.state().is_loading(), "reading the autosave unasked");
+    assert_ne!(h.state().mesh_path(), Some(bar.as_path()), "restored unasked");
+    assert_eq!(h.state().edit_state().groups[0].pose.translation.x, 0.2);
     h.get_by_label("Discard changes and restore").click();
     h.step();
     step_until(&mut h, "the restore", |a| !a.is_loading());
