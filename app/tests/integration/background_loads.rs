@@ -258,6 +258,28 @@ fn a_selection_or_texture_while_a_mesh_loads_is_refused() {
     step_until(&mut h, "the other mesh", |a| !a.is_loading());
 }
 
+/// A mesh given up while it is read (another opened meanwhile) starts no precomputation when
+/// its read ends: it would hold the mesh cache from the mesh opened, and stay in the slot the
+/// loaders hand theirs over in (the editor then said it was precomputing for good).
+#[test]
+fn a_mesh_given_up_while_read_starts_no_precomputation() {
+    let dir = ScratchDir::new("given-up-load");
+    let (mut h, bar, _) = bar_with_three_groups(&dir);
+    let other = fifo(&dir, "other.obj");
+    support::drop_file(&mut h, other.clone());
+    support::drop_file(&mut h, bar.clone());
+    step_until(&mut h, "the bar again", |a| !a.is_loading() && !a.is_precomputing());
+    write_later(other, std::fs::read_to_string(&bar).unwrap()).join().unwrap();
+    // The given-up loader goes on from its read to where it would start the precomputation
+    // (milliseconds for the bar): give it ample time. (Slower, this passes without the fix.)
+    let start = Instant::now();
+    while start.elapsed() < Duration::from_secs(2) {
+        h.step();
+        std::thread::sleep(Duration::from_millis(20));
+        assert!(!h.state().is_precomputing(), "the mesh given up is precomputed");
+    }
+}
+
 /// Undos during a pose drag back to a state with fewer groups than the one dragged end the
 /// drag (it indexed the group that went: the editor crashed), and it moves nothing after.
 #[test]

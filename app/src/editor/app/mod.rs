@@ -167,6 +167,9 @@ struct Jobs {
     /// The precomputation a loader started on the mesh it read (`loader::StartPrepare`),
     /// until the loaded scene takes it over.
     early_prepare: std::sync::Arc<std::sync::Mutex<Option<Preparing>>>,
+    /// The version of the load under way (`EditorApp::open`): a loader starts its mesh's
+    /// precomputation only while its load is still the one wanted.
+    wanted_load: std::sync::Arc<std::sync::atomic::AtomicU64>,
     /// The file dialog in progress (`file_dialog`).
     dialogs: file_dialog::Dialogs,
     record: Option<Job<Recorded>>,

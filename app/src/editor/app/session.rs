@@ -358,8 +358,9 @@ impl EditorApp {
         self.jobs.identifying = None; // the later file wins (a restore, "Discard and open")
         self.offer_again();
         let version = self.next_version();
+        self.jobs.wanted_load.store(version, std::sync::atomic::Ordering::Relaxed);
         let c = ctx.clone();
-        let start = self.start_prepare(ctx);
+        let start = self.start_prepare(ctx, version);
         self.jobs.loading =
             Some(loader::spawn_load(path, version, move || c.request_repaint(), Some(start)));
         self.session.at_load = Some(Box::new(DocumentMark::of(&self.session)));

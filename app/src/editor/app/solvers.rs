@@ -176,19 +176,24 @@ impl EditorApp {
         }
     }
 
-    /// The mesh's own precomputation for the current method settings, for a loader to start
-    /// as soon as it has read the mesh ([`loader::StartPrepare`]); it waits in
-    /// `Jobs::early_prepare` for [`EditorApp::adopt_prepare`].
-    pub(super) fn start_prepare(&self, ctx: &egui::Context) -> loader::StartPrepare {
+    /// The mesh's own precomputation for the current method settings, for the loader of load
+    /// `version` to start as soon as it has read the mesh ([`loader::StartPrepare`]); it waits
+    /// in `Jobs::early_prepare` for [`EditorApp::adopt_prepare`]. Not started when another load
+    /// was asked for meanwhile: the mesh given up would hold the mesh cache (seconds at a
+    /// million vertices) from the one wanted, and take its place in the slot.
+    pub(super) fn start_prepare(&self, ctx: &egui::Context, version: u64) -> loader::StartPrepare {
         let cache = self.solvers.mesh_cache.clone();
         let settings = self.session.settings;
-        let slot = self.jobs.early_prepare.clone();
+        let (slot, wanted) = (self.jobs.early_prepare.clone(), self.jobs.wanted_load.clone());
         let c = ctx.clone();
         Box::new(move |mesh| {
+            let mut slot = slot.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+            if wanted.load(std::sync::atomic::Ordering::Relaxed) != version {
+                return;
+            }
             let repaint = move || c.request_repaint();
             let (method, base) = (settings.bs_variant, settings.base_config());
-            let p = jobs::spawn_prepare(cache, mesh, method, base, repaint);
-            *slot.lock().unwrap_or_else(std::sync::PoisonError::into_inner) = Some(p);
+            *slot = Some(jobs::spawn_prepare(cache, mesh, method, base, repaint));
         })
     }
 
