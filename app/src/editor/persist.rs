@@ -12,8 +12,8 @@
 //! happen in the order they were asked for ([`Persist::autosave_ticket`]): a timer's write
 //! that finishes after a Save removed the autosave, or after a newer write, is skipped. Nothing
 //! waits long for a write stuck on a hung drive: a removal goes on in the background after
-//! [`REMOVAL_WAIT`] (at an exit, the autosave then stays and is offered at the next start), and
-//! the write of an exit or a crash gives up after [`EXIT_WAIT`].
+//! [`REMOVAL_WAIT`], and an exit's removal or write, or a crash's write, gives up after
+//! [`EXIT_WAIT`] (the autosave then stays and is offered at the next start).
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -26,7 +26,7 @@ use solver::io::write_atomic;
 /// How often a changed scene is written to the autosave file.
 pub const AUTOSAVE_INTERVAL: Duration = Duration::from_secs(120);
 /// How long an exit or a crash waits for an autosave being written before it gives up its
-/// own write.
+/// own write or removal.
 pub const EXIT_WAIT: Duration = Duration::from_secs(2);
 /// How long a removal of the autosave (a Save, a declined offer) waits on the UI thread for a
 /// write being carried out before it goes on on a thread of its own.
@@ -220,12 +220,18 @@ impl Persist {
     /// thread: the autosave then stays, offered at the next start. Returns whether it was
     /// removed (or a later write or removal took its place) before returning.
     pub fn discard_autosave(&self) -> bool {
+        self.discard_autosave_within(REMOVAL_WAIT)
+    }
+
+    /// [`Persist::discard_autosave`], waiting up to `wait` before going on in the background
+    /// (an exit waits [`EXIT_WAIT`]: its background thread would not outlive it).
+    pub fn discard_autosave_within(&self, wait: Duration) -> bool {
         let ticket = self.autosave_ticket();
         let remove = |p: &Persist| {
             let _ = std::fs::remove_file(p.autosave_path());
             let _ = std::fs::remove_file(p.kept_path());
         };
-        if self.in_turn(ticket, Some(REMOVAL_WAIT), || remove(self)) != Turn::Busy {
+        if self.in_turn(ticket, Some(wait), || remove(self)) != Turn::Busy {
             return true;
         }
         let p = self.clone();

@@ -533,9 +533,6 @@ fn a_mesh_with_uvs_and_no_material_gets_a_texture_saved_and_exported() {
     h.step();
 }
 
-/// The up axis: choosing Z stands a Z-up mesh up on screen (its top above its bottom), is
-/// saved in the scene and reopened with it, and a glTF export rotates the nodes by −90° about
-/// X (Z up → glTF's Y up) while a Y-up export has no rotation.
 /// A texture chosen in a dialog asked for one mesh does nothing to another opened while the
 /// dialog was open; a texture that arrives keeps an error about something else, and a shading
 /// chosen while it was read.
@@ -570,6 +567,9 @@ fn a_texture_applies_to_the_mesh_and_the_view_it_was_asked_for() {
     assert_eq!(h.state().error(), Some(err.as_str()), "an error about something else stays");
 }
 
+/// The up axis: choosing Z stands a Z-up mesh up on screen (its top above its bottom), is
+/// saved in the scene and reopened with it, and a glTF export rotates the nodes by −90° about
+/// X (Z up → glTF's Y up) while a Y-up export has no rotation.
 #[test]
 fn the_up_axis_is_chosen_saved_and_exported_upright() {
     let dir = ScratchDir::new("first-hour-up-axis");

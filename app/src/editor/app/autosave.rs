@@ -188,7 +188,7 @@ impl EditorApp {
                 }
             }
         }
-        let removed = persist.discard_autosave();
+        let removed = persist.discard_autosave_within(persist::EXIT_WAIT);
         if !removed {
             eprintln!("editor: an autosave was still being written; it is offered at next start");
         }

@@ -467,8 +467,8 @@ impl EditorApp {
         }
         if self.session.settings != old {
             // one undo step per slider drag, one per click
-            let (edit, dragged) = (self.session.edit.clone(), ui.ctx().dragged_id());
-            self.session.push_for_drag(edit, old, dragged);
+            let dragged = ui.ctx().dragged_id();
+            self.session.push_for_drag(|s| s.edit.clone(), old, dragged);
             self.send_scene();
         }
     }

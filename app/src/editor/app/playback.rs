@@ -229,7 +229,7 @@ impl EditorApp {
                 TimelineAction::Edited { before } => {
                     // One undo step per drag of a number, not one a frame.
                     let settings = self.session.settings;
-                    self.session.push_for_drag(*before, settings, dragged);
+                    self.session.push_for_drag(|_| *before, settings, dragged);
                     self.display.color_version += 1;
                 }
                 TimelineAction::Record => self.start_recording(ctx),

@@ -59,17 +59,19 @@ impl Session {
         self.history.push(before, self.settings);
     }
 
-    /// Records `before` and `settings` as one undo step per drag of the widget `dragged`
+    /// Records `before` (made only when pushed: a copy of the edit state is megabytes on a
+    /// dense mesh) and `settings` as one undo step per drag of the widget `dragged`
     /// (none: a click, a step of its own): the step its first change pushed stands for the
     /// whole drag while it is still the history's last.
     pub(super) fn push_for_drag(
         &mut self,
-        before: EditState,
+        before: impl FnOnce(&Self) -> EditState,
         settings: MethodSettings,
         dragged: Option<egui::Id>,
     ) {
         let generation = self.history.generation();
         if !self.drag_step.is_some_and(|(id, g)| dragged == Some(id) && g == generation) {
+            let before = before(self);
             self.history.push(before, settings);
         }
         self.drag_step = dragged.map(|d| (d, self.history.generation()));
@@ -451,6 +453,8 @@ impl EditorApp {
                 // already (a quit, another file): it stays, and this file is not opened.
                 let path = self.jobs.loading.take().map(|j| j.path).unwrap_or_default();
                 self.session.at_load = None;
+                // its precomputation, started by the loader, is not adopted: let it go
+                self.jobs.early_prepare.lock().map(|mut p| p.take()).ok();
                 let restore = self.store.restoring.is_some();
                 self.offer_again();
                 if self.session.pending.is_some() {
