@@ -409,22 +409,29 @@ fn g_moved(h: &mut Harness<'static, EditorApp>) -> Pos2 {
     p0
 }
 
-/// Deleting the group a modal transform moves (the panel's Delete, the pointer free) cancels
-/// the transform: the indices shift, and it went on moving the next group, which Esc then set
-/// to the deleted group's start pose.
+/// Deleting the group a modal transform moves (the panel's Delete) confirms the transform
+/// first, as any press does: the transform ended, and it does not go on moving the next group
+/// (the indices shift), which Esc once set to the deleted group's start pose. Undo brings the
+/// group back moved, and then at rest.
 #[test]
-fn deleting_the_group_of_a_modal_transform_cancels_it() {
+fn deleting_the_group_of_a_modal_transform_ends_it() {
     let mut h = start();
     assert!(h.state().edit_state().groups.len() >= 2, "the default asset has two groups");
     let p0 = g_moved(&mut h);
+    let delete = h.get_all_by_label("Delete").next().expect("group 0's Delete").rect().center();
+    move_pointer(&mut h, [delete]); // the group follows the pointer there
+    let moved = h.state().group_pose(0).unwrap();
     let next = h.state().group_pose(1).unwrap();
-    h.get_all_by_label("Delete").next().expect("group 0's Delete").click();
+    h.get_all_by_label("Delete").next().unwrap().click();
     h.step();
     assert_eq!(h.state().running_transform(), None);
     move_pointer(&mut h, (1..=4).map(|i| p0 + Vec2::new(-12.0 * i as f32, 5.0 * i as f32)));
     h.key_press(Key::Escape);
     h.step();
-    assert_eq!(h.state().group_pose(0).unwrap(), next, "the next group, now 0, was moved");
+    assert_eq!(h.state().group_pose(0).unwrap(), next, "the next group, now 0, is as it was");
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    assert_eq!(h.state().group_pose(0).unwrap(), moved, "the delete undone");
     h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
     h.step();
     assert_eq!(h.state().group_pose(0).unwrap().translation.to_array(), [0.0; 3]);
@@ -444,4 +451,47 @@ fn esc_after_switching_from_g_to_r_cancels_both() {
     h.step();
     assert_eq!(h.state().running_transform(), None);
     assert_eq!(h.state().group_pose(0).unwrap(), Default::default(), "the move stayed");
+}
+
+/// A press on a panel during G confirms the move first (Blender's rule: a click anywhere
+/// confirms): the panel's change is an undo step after the move's, so two undos take back
+/// the change and then the move.
+#[test]
+fn a_press_on_a_panel_during_g_confirms_the_move_first() {
+    use eframe::egui::accesskit::Role;
+    let mut h = start();
+    let label = "bending length (of diagonal)";
+    h.get_by_role_and_label(Role::Slider, label).scroll_to_me();
+    for _ in 0..3 {
+        h.step();
+    }
+    let slider = h.get_by_role_and_label(Role::Slider, label).rect();
+    let length = |a: &EditorApp| a.method_settings().arap.bending_length;
+    let start_length = length(h.state());
+    let (c, _) = h.state().gizmo_screen().unwrap();
+    let p0 = c + Vec2::new(40.0, 30.0);
+    move_pointer(&mut h, [p0]);
+    h.key_press(Key::G);
+    h.step();
+    move_pointer(&mut h, (1..=4).map(|i| p0 + Vec2::new(10.0 * i as f32, 0.0)));
+    let at = Pos2::new(slider.left() + 0.3 * slider.width(), slider.center().y);
+    move_pointer(&mut h, [at]);
+    let moved = h.state().group_pose(0).unwrap();
+    assert_ne!(moved.translation.to_array(), [0.0; 3], "G moved the group");
+    press(&h, at, true, Modifiers::NONE);
+    h.step();
+    assert_eq!(h.state().running_transform(), None, "the press confirmed the move");
+    press(&h, at, false, Modifiers::NONE);
+    h.step();
+    assert_eq!(h.state().group_pose(0).unwrap(), moved, "confirmed where it was");
+    assert_ne!(length(h.state()), start_length, "the press set the slider too");
+
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    assert_eq!(length(h.state()), start_length, "the first undo takes back the slider");
+    assert_eq!(h.state().group_pose(0).unwrap(), moved, "and keeps the move");
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    assert_eq!(h.state().group_pose(0).unwrap().translation.to_array(), [0.0; 3]);
+    assert!(!h.state().has_unsaved_changes());
 }

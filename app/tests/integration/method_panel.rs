@@ -162,3 +162,105 @@ fn method_settings_are_undone_and_redone() {
     });
     assert!(h.state().error().is_none(), "{:?}", h.state().error());
 }
+
+/// The default asset, settled, with the bending length slider scrolled on screen; where the
+/// fraction `f` of its rail is.
+fn on_the_bending_slider() -> (egui_kittest::Harness<'static, EditorApp>, impl Fn(f32) -> egui::Pos2)
+{
+    let mut h = harness(test_mesh(), None);
+    step_until(&mut h, "the default asset", settled);
+    let label = "bending length (of diagonal)";
+    h.get_by_role_and_label(egui::accesskit::Role::Slider, label).scroll_to_me();
+    for _ in 0..3 {
+        h.step();
+    }
+    let rect = h.get_by_role_and_label(egui::accesskit::Role::Slider, label).rect();
+    assert!(h.ctx.content_rect().contains_rect(rect), "the slider is on screen: {rect:?}");
+    (h, move |f| egui::Pos2::new(rect.left() + f * rect.width(), rect.center().y))
+}
+
+fn bending_length(app: &EditorApp) -> f64 {
+    app.method_settings().arap.bending_length
+}
+
+/// Moves the pointer to `p` and presses there (the value jumps there), then moves it through
+/// `then`, a frame each, the button held.
+fn press_and_drag(
+    h: &mut egui_kittest::Harness<'static, EditorApp>,
+    p: egui::Pos2,
+    then: &[egui::Pos2],
+) {
+    h.event(egui::Event::PointerMoved(p));
+    h.step();
+    support::press(h, p, true, egui::Modifiers::NONE);
+    h.step();
+    for &q in then {
+        h.event(egui::Event::PointerMoved(q));
+        h.step();
+    }
+}
+
+/// A pointer drag on a method slider is one undo step however many frames it takes, and a
+/// press that follows its release in the same frame starts a step of its own.
+#[test]
+fn a_slider_drag_is_one_undo_step() {
+    use egui::{Event, Modifiers};
+    use support::press;
+    let (mut h, at) = on_the_bending_slider();
+    let length = bending_length;
+    let start = length(h.state());
+    press_and_drag(&mut h, at(0.2), &[at(0.25), at(0.3), at(0.35), at(0.4)]);
+    let first = length(h.state());
+    assert_ne!(first, start, "the drag moved the bending length");
+    // Released and pressed again in one frame, then dragged on.
+    press(&h, at(0.4), false, Modifiers::NONE);
+    press(&h, at(0.6), true, Modifiers::NONE);
+    h.step();
+    for f in [0.65, 0.7] {
+        h.event(Event::PointerMoved(at(f)));
+        h.step();
+    }
+    press(&h, at(0.7), false, Modifiers::NONE);
+    h.step();
+    let second = length(h.state());
+    assert!(second > first, "the second drag went on: {first} → {second}");
+
+    let undo = Modifiers::COMMAND;
+    h.key_press_modifiers(undo, egui::Key::Z);
+    h.step();
+    assert_eq!(length(h.state()), first, "one undo takes back the second drag");
+    h.key_press_modifiers(undo, egui::Key::Z);
+    h.step();
+    assert_eq!(length(h.state()), start, "and one more the first");
+    assert!(!h.state().has_unsaved_changes());
+}
+
+/// Ctrl+Z while a slider is still held cancels its drag: the value goes back and the rest of
+/// the drag changes nothing; the drag is on the redo stack, nothing earlier is lost.
+#[test]
+fn undo_during_a_slider_drag_cancels_it() {
+    use egui::{Event, Modifiers};
+    use support::press;
+    let (mut h, at) = on_the_bending_slider();
+    let length = bending_length;
+    let start = length(h.state());
+    press_and_drag(&mut h, at(0.3), &[at(0.4)]);
+    let dragged = length(h.state());
+    assert_ne!(dragged, start);
+
+    h.key_press_modifiers(Modifiers::COMMAND, egui::Key::Z);
+    h.step();
+    assert_eq!(length(h.state()), start, "the undo took the drag back");
+    for f in [0.5, 0.6, 0.7] {
+        h.event(Event::PointerMoved(at(f)));
+        h.step();
+        assert_eq!(length(h.state()), start, "the cancelled drag changes nothing");
+    }
+    press(&h, at(0.7), false, Modifiers::NONE);
+    h.step();
+    assert_eq!(length(h.state()), start);
+    assert!(!h.state().has_unsaved_changes());
+    h.key_press_modifiers(Modifiers::COMMAND | Modifiers::SHIFT, egui::Key::Z);
+    h.step();
+    assert_eq!(length(h.state()), dragged, "the drag, as far as it went, is redone");
+}

@@ -243,23 +243,31 @@ fn undoing_a_key_keeps_the_pose_made_by_hand() {
     assert_eq!(h.state().group_pose(0).unwrap(), by_hand);
 }
 
-/// Ctrl+Z while a timeline number is dragged, the drag then going on: the rest of the drag is
-/// a step of its own (it went into the undone step, and a redo brought back a stale value).
+/// Ctrl+Z while a timeline number is dragged cancels the drag, as it cancels a gizmo drag:
+/// the number goes back, the rest of the drag changes nothing (it once went on as a step of
+/// its own, or into the undone step), a redo brings back the drag so far.
 #[test]
-fn an_undo_during_a_drag_ends_its_undo_step() {
+fn an_undo_during_a_drag_cancels_it() {
     let mut h = start();
     let mut e = h.state().edit_state().clone();
     e.groups[0].name = "renamed".into();
     h.state_mut().set_edit_state(e);
     let duration = h.state().edit_state().timeline.duration;
+    let dragged = std::cell::Cell::new(duration);
     let undo = |h: &mut Harness<'static, EditorApp>| {
+        dragged.set(h.state().edit_state().timeline.duration);
         h.key_press_modifiers(Modifiers::COMMAND, Key::Z); // the drag so far
         h.step();
     };
     drag_duration(&mut h, 3, undo, 3);
-    assert!(h.state().edit_state().timeline.duration > duration);
+    assert!(dragged.get() > duration, "the drag moved the duration before the undo");
+    assert_eq!(h.state().edit_state().timeline.duration, duration, "cancelled");
+    assert_eq!(h.state().edit_state().groups[0].name, "renamed", "nothing else undone");
+    h.key_press_modifiers(Modifiers::COMMAND | Modifiers::SHIFT, Key::Z);
+    h.step();
+    assert_eq!(h.state().edit_state().timeline.duration, dragged.get(), "redone");
     h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
     h.step();
-    assert_eq!(h.state().edit_state().groups[0].name, "renamed", "the rename was undone too");
+    assert_eq!(h.state().edit_state().groups[0].name, "renamed");
     assert_eq!(h.state().edit_state().timeline.duration, duration);
 }

@@ -5,7 +5,7 @@
 //! or turns the group along that axis (the square: in the view plane). From the keyboard,
 //! G starts a modal move and R a modal rotation of the active group that follow the pointer;
 //! X, Y or Z then constrains to that world axis (again: free), a typed number sets the
-//! distance or the angle in degrees, a click or Enter confirms, Esc
+//! distance or the angle in degrees, a click (anywhere) or Enter confirms, Esc
 //! or a right click cancels. Ctrl snaps moves to [`snap_step`] and turns to 15°.
 //!
 //! The maths is in `crate::editor::gizmo`; the result is a group pose written and sent as
@@ -193,6 +193,31 @@ impl EditorApp {
         }
     }
 
+    /// A press of the primary button anywhere confirms a modal transform (its pose first
+    /// follows the pointer there when it is over the transform's viewport), before the panels
+    /// see the press: what a panel then changes is a step after the transform's in the
+    /// history. The button's press is swallowed in the viewports until it is released.
+    pub(super) fn confirm_modal_on_press(&mut self, ctx: &egui::Context) {
+        let Some(t) = self.gizmo.transform.as_ref().filter(|t| t.modal) else { return };
+        let (pos, pressed, ctrl) = ctx.input(|i| {
+            (
+                i.pointer.interact_pos(),
+                i.pointer.button_pressed(PointerButton::Primary),
+                i.modifiers.command,
+            )
+        });
+        if !pressed {
+            return;
+        }
+        if let (Some(p), Some(&rect)) = (pos, self.display.viewport_rects.get(t.slot))
+            && rect.contains(p)
+        {
+            self.update_transform(rect, p, ctrl);
+        }
+        self.confirm_transform();
+        self.gizmo.swallow_press = true;
+    }
+
     /// Modal transform keys; run before the other shortcuts so that G, R, X, Y, Z, Enter and
     /// Esc mean the transform's while one runs.
     pub(super) fn gizmo_keys(&mut self, ctx: &egui::Context) {
@@ -350,10 +375,8 @@ impl EditorApp {
             if let Some(p) = pos {
                 self.update_transform(rect, p, ctrl);
             }
-            if modal && primary_pressed && response.hovered() {
-                self.confirm_transform();
-                self.gizmo.swallow_press = true;
-            } else if !modal && !primary_down {
+            // (a press confirms a modal transform before the panels: `confirm_modal_on_press`)
+            if !modal && !primary_down {
                 self.confirm_transform();
             }
             ui.ctx().request_repaint();

@@ -466,10 +466,12 @@ impl EditorApp {
             );
         }
         if self.session.settings != old {
-            // one undo step per slider drag, one per click
-            let dragged = ui.ctx().dragged_id();
-            self.session.push_for_drag(|s| s.edit.clone(), old, dragged);
-            self.send_scene();
+            // one undo step per slider drag, one per click; none after an undo cancelled it
+            if self.session.push_for_drag(|s| s.edit.clone(), old) {
+                self.send_scene();
+            } else {
+                self.session.settings = old;
+            }
         }
     }
 
@@ -510,9 +512,11 @@ impl eframe::App for EditorApp {
             };
         }
         self.display.last_frame = Some(now);
-        if ctx.dragged_id().is_none() {
-            self.session.drag_step = None; // the next drag is a step of its own
-        }
+        let (pressed, down) = ctx.input(|i| {
+            (i.pointer.button_pressed(egui::PointerButton::Primary), i.pointer.primary_down())
+        });
+        self.session.press_step.frame(pressed, down);
+        self.confirm_modal_on_press(&ctx);
 
         self.poll_loader();
         self.poll_selection();

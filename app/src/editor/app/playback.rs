@@ -222,14 +222,18 @@ impl EditorApp {
         ctx: &egui::Context,
         actions: Vec<TimelineAction>,
     ) {
-        let dragged = ctx.dragged_id();
         for a in actions {
             match a {
                 TimelineAction::TimeChanged => self.time_changed(),
                 TimelineAction::Edited { before } => {
-                    // One undo step per drag of a number, not one a frame.
-                    let settings = self.session.settings;
-                    self.session.push_for_drag(|_| *before, settings, dragged);
+                    // One undo step per drag of a number, not one a frame; none after an undo
+                    // cancelled the drag.
+                    if self.session.press_step.cancelled() {
+                        self.session.edit = *before;
+                    } else {
+                        let settings = self.session.settings;
+                        self.session.push_for_drag(|_| *before, settings);
+                    }
                     self.display.color_version += 1;
                 }
                 TimelineAction::Record => self.start_recording(ctx),

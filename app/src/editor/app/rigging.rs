@@ -49,8 +49,9 @@ pub(super) struct Rigging {
     job: Option<((usize, Request), Receiver<Mirror>)>,
     /// The partner group of the stroke in progress (mirrored painting of a handle group).
     pub(super) stroke_partner: Option<u32>,
-    /// The state before a falloff slider drag and the playback time then, pushed when it ends.
-    slider_before: Option<(EditState, f64)>,
+    /// The falloff changed and the solvers have not been sent it yet (a slider drag rebuilds
+    /// them once, when it ends).
+    falloff_unsent: bool,
     /// Whether the last vertex colours showed the rigidity map.
     shown: bool,
 }
@@ -64,7 +65,7 @@ impl Default for Rigging {
             mirror: None,
             job: None,
             stroke_partner: None,
-            slider_before: None,
+            falloff_unsent: false,
             shown: false,
         }
     }
@@ -334,19 +335,15 @@ impl EditorApp {
                     curve_changed |= ui.selectable_value(&mut f.curve, c, c.name()).changed();
                 }
             });
-            if f != self.session.edit.groups[k].falloff {
-                // The state before the slider moved, for one undo step per drag (cloned only
-                // on a change: the labels are a word per vertex).
-                if self.rigging.slider_before.is_none() {
-                    let time = self.session.history.time();
-                    self.rigging.slider_before = Some((self.session.edit.clone(), time));
-                }
+            // One undo step per drag, none after an undo cancelled it.
+            if f != self.session.edit.groups[k].falloff
+                && self.session.push_for_drag(|s| s.edit.clone(), self.session.settings)
+            {
                 self.session.edit.groups[k].falloff = f;
+                self.rigging.falloff_unsent = true;
             }
-            if self.rigging.slider_before.is_some() && (curve_changed || !slider.dragged()) {
-                if let Some((b, time)) = self.rigging.slider_before.take() {
-                    self.session.history.push_at(b, self.session.settings, time);
-                }
+            if self.rigging.falloff_unsent && (curve_changed || !slider.dragged()) {
+                self.rigging.falloff_unsent = false;
                 self.send_scene();
             }
         }

@@ -47,10 +47,8 @@ pub(super) struct Session {
     /// The document as it was when the load under way started: what changed since is work the
     /// loaded file would replace, asked about first ([`EditorApp::poll_loader`]).
     pub(super) at_load: Option<Box<DocumentMark>>,
-    /// The widget being dragged (a timeline number, a method slider) whose first change went
-    /// into the history, with the history's generation then: the rest of its drag is that one
-    /// undo step ([`Session::push_for_drag`]).
-    pub(super) drag_step: Option<(egui::Id, u64)>,
+    /// Which changes to panel widgets (a method slider, a timeline number) make one undo step.
+    pub(super) press_step: PressStep,
 }
 
 impl Session {
@@ -60,31 +58,95 @@ impl Session {
     }
 
     /// Records `before` (made only when pushed: a copy of the edit state is megabytes on a
-    /// dense mesh) and `settings` as one undo step per drag of the widget `dragged`
-    /// (none: a click, a step of its own): the step its first change pushed stands for the
-    /// whole drag while it is still the history's last.
+    /// dense mesh) and `settings` as an undo step, one per press of the pointer: the step the
+    /// press's first change pushed stands for all its changes while it is the history's last.
+    /// Returns false, recording nothing, when an undo took the press's step back while the
+    /// button stayed down: the caller drops the change (the rest of that drag does nothing).
     pub(super) fn push_for_drag(
         &mut self,
         before: impl FnOnce(&Self) -> EditState,
         settings: MethodSettings,
-        dragged: Option<egui::Id>,
-    ) {
+    ) -> bool {
         let generation = self.history.generation();
-        if !self.drag_step.is_some_and(|(id, g)| dragged == Some(id) && g == generation) {
-            let before = before(self);
-            self.history.push(before, settings);
+        match self.press_step.step {
+            Some(s) if Some(s.press) == self.press_step.press && s.cancelled => return false,
+            Some(s) if Some(s.press) == self.press_step.press && s.generation == generation => {}
+            _ => {
+                let before = before(self);
+                self.history.push(before, settings);
+            }
         }
-        self.drag_step = dragged.map(|d| (d, self.history.generation()));
+        self.press_step.step = self.press_step.press.map(|press| Step {
+            press,
+            generation: self.history.generation(),
+            cancelled: false,
+        });
+        true
     }
 
     /// Takes the last undo step, the state now going on the redo stack.
+    /// An undo while the pointer's press still drags the widget whose change is the last step
+    /// cancels that drag: the rest of it changes nothing ([`Session::push_for_drag`]).
     pub(super) fn undo(&mut self) -> Option<Kept> {
-        self.history.undo(&self.edit, self.settings)
+        let generation = self.history.generation();
+        let kept = self.history.undo(&self.edit, self.settings);
+        if let Some(s) = &mut self.press_step.step
+            && Some(s.press) == self.press_step.press
+            && s.generation == generation
+            && kept.is_some()
+        {
+            s.cancelled = true;
+        }
+        kept
     }
 
     /// Takes the last redo step, the state now going on the undo stack.
     pub(super) fn redo(&mut self) -> Option<Kept> {
         self.history.redo(&self.edit, self.settings)
+    }
+}
+
+/// The pointer's presses, for one undo step per drag of a panel widget.
+#[derive(Default)]
+pub(super) struct PressStep {
+    /// Presses of the primary button so far.
+    presses: u64,
+    /// The press under way (its number), `None` while the button is up.
+    press: Option<u64>,
+    /// Whether the button was down at the last frame.
+    was_down: bool,
+    /// The step a press's first change pushed.
+    step: Option<Step>,
+}
+
+#[derive(Clone, Copy)]
+struct Step {
+    press: u64,
+    /// The history's generation after the push: the step is still the last while it holds.
+    generation: u64,
+    /// An undo took the step back while the button stayed down.
+    cancelled: bool,
+}
+
+impl PressStep {
+    /// Called at the start of each frame with whether the primary button went down this frame
+    /// and whether it is down now. A press lasts to the frame after the button went up (a
+    /// widget's last change comes with the release); a new press (even a release and a press
+    /// in one frame) is a step of its own.
+    pub(super) fn frame(&mut self, pressed: bool, down: bool) {
+        if pressed {
+            self.presses += 1;
+        }
+        self.press = (down || self.was_down).then_some(self.presses);
+        self.was_down = down;
+        if self.step.is_some_and(|s| Some(s.press) != self.press) {
+            self.step = None;
+        }
+    }
+
+    /// Whether an undo cancelled the drag under way ([`Session::undo`]).
+    pub(super) fn cancelled(&self) -> bool {
+        self.step.is_some_and(|s| s.cancelled && Some(s.press) == self.press)
     }
 }
 

@@ -35,7 +35,7 @@ pub const SHORTCUTS: &[(&str, &str)] = &[
         "move by that distance (along the axis, X when free) / turn by degrees",
     ),
     ("Ctrl (moving, rotating)", "snap to grid cells / 15°"),
-    ("Click / Enter", "confirm the move or rotation"),
+    ("Click / Enter", "confirm the move or rotation (a click anywhere)"),
     ("Esc / right click", "cancel the move or rotation"),
     ("Ctrl+Z / Ctrl+Shift+Z", "undo / redo"),
     ("W", "wireframe"),
