@@ -93,6 +93,11 @@ impl<T> Job<T> {
         }
     }
 
+    /// Waits for the job's result.
+    pub fn wait(self) -> Result<T, String> {
+        self.rx.recv().unwrap_or_else(|_| Err("the job stopped without a result".into()))
+    }
+
     pub fn cancel(&self) {
         self.progress.cancel.store(true, Ordering::Relaxed);
     }
@@ -124,6 +129,16 @@ fn spawn<T: Send + 'static>(
         return Job { progress, rx: rx2 };
     }
     Job { progress, rx }
+}
+
+/// Writes `scene` to `path` (atomically: `Scene::save`) on a worker thread: serializing and
+/// syncing a dense mesh's labels and rigidity takes long enough to stall frames.
+pub fn spawn_save(
+    scene: solver::animation::scene::Scene,
+    path: PathBuf,
+    repaint: impl Fn() + Send + 'static,
+) -> Job<()> {
+    spawn("save", repaint, move |_| scene.save(&path).map_err(|e| e.to_string()))
 }
 
 /// A mesh precomputation under way ([`spawn_prepare`]), with the mesh and settings it was

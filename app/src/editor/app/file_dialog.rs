@@ -296,10 +296,10 @@ impl EditorApp {
                 }
             }
             DialogKind::SaveScene => {
-                match self.save_path(&path, "json").and_then(|path| self.save_scene(&path)) {
-                    Ok(()) => self.after_save(ctx),
+                // the open or quit that waited for the save goes on once it is written
+                match self.save_path(&path, "json") {
+                    Ok(path) => self.start_save(ctx, &path),
                     Err(e) => {
-                        // the open or quit that waited for the save does not go on later
                         self.session.after_save = None;
                         self.error = Some(format!("scene not saved: {e}"));
                     }

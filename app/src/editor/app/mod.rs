@@ -32,6 +32,7 @@ mod parts;
 mod playback;
 mod prefs;
 mod rigging;
+mod save;
 mod selection;
 mod session;
 mod shortcuts;
@@ -176,6 +177,8 @@ struct Jobs {
     /// The kept recording.
     recorded: Option<Recorded>,
     export: Option<Job<(PathBuf, u64)>>,
+    /// The scene being written (`save`).
+    save: Option<save::Saving>,
     /// A glTF export baked to bones (`jobs::spawn_bake`), and whether the next one bakes.
     bake: Option<Baking>,
     bake_choice: crate::editor::timeline::BakeChoice,

@@ -495,6 +495,10 @@ impl eframe::App for EditorApp {
     /// A clean exit removes the autosave, unless there are unsaved changes: then it is written
     /// now and offered back at the next start.
     fn on_exit(&mut self) {
+        // a save under way is written, and its result counts for what the exit keeps
+        if let Err(e) = self.finish_save() {
+            eprintln!("editor: scene not saved: {e}");
+        }
         // the user's work first: a kill between the two keeps it
         self.exit_autosave();
         self.save_prefs();
@@ -527,6 +531,7 @@ impl eframe::App for EditorApp {
         self.poll_solvers();
         self.close_requested(&ctx);
         self.poll_jobs();
+        self.poll_save(&ctx);
         self.log_status();
         self.poll_compare(&ctx);
         if self.session.playback.tick(now, &self.session.edit.timeline) {

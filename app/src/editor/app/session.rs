@@ -166,8 +166,15 @@ impl DocumentMark {
         }
     }
 
+    /// Makes this the state `session` was last saved in.
+    pub(super) fn set_saved(self, session: &mut Session) {
+        session.saved_edit = Some(self.edit);
+        session.saved_settings = self.settings;
+        session.saved_file_view = self.file_view;
+    }
+
     /// Whether `session` changed since (not by the playback time's poses).
-    fn changed(&self, session: &Session) -> bool {
+    pub(super) fn changed(&self, session: &Session) -> bool {
         differ_beyond_playback(&self.edit, &session.edit)
             || self.settings.saved_part() != session.settings.saved_part()
             || self.file_view != session.file_view
@@ -271,10 +278,10 @@ impl EditorApp {
     }
 
     /// Whether quitting now would lose something the user has not agreed to lose: unsaved
-    /// changes, or work under way.
+    /// changes (not those a save under way writes: the exit waits for it), or work under way.
     fn must_ask_to_quit(&self) -> bool {
         let (discard, keep) = (self.session.discard_on_exit, self.session.keep_on_exit);
-        (self.has_unsaved_changes() && !discard && !keep)
+        (self.has_unsaved_changes() && !self.saving_all_changes() && !discard && !keep)
             || (!self.work_under_way().is_empty() && !self.session.stop_work_on_exit)
     }
 
@@ -298,16 +305,6 @@ impl EditorApp {
     fn ask_quit(&mut self) {
         self.jobs.identifying = None;
         self.session.pending = Some(Pending::Quit);
-    }
-
-    /// After a save: the open or quit that waited for it.
-    pub(super) fn after_save(&mut self, ctx: &egui::Context) {
-        match self.session.after_save.take() {
-            Some(Pending::Open(path)) => self.open(ctx, path),
-            Some(Pending::Restore) => self.restore(ctx),
-            Some(Pending::Quit) => ctx.send_viewport_cmd(egui::ViewportCommand::Close),
-            None => {}
-        }
     }
 
     /// The unsaved-changes question, before opening another file or quitting.
@@ -351,13 +348,11 @@ impl EditorApp {
                     } else if ui.button("Save first").clicked() {
                         self.session.pending = None;
                         match self.session.document_path.clone() {
-                            Some(doc) => match self.save_scene(&doc) {
-                                Ok(()) => {
-                                    self.session.after_save = Some(pending.clone());
-                                    self.after_save(ctx);
-                                }
-                                Err(e) => self.error = Some(format!("scene not saved: {e}")),
-                            },
+                            // the open or quit goes on once the scene is written (`poll_save`)
+                            Some(doc) => {
+                                self.session.after_save = Some(pending.clone());
+                                self.start_save(ctx, &doc);
+                            }
                             // No scene file yet: Save as, then carry on; while another
                             // dialog is open, the question stays.
                             None => {
@@ -428,30 +423,6 @@ impl EditorApp {
         self.jobs.loading =
             Some(loader::spawn_load(path, version, move || c.request_repaint(), Some(start)));
         self.session.at_load = Some(Box::new(DocumentMark::of(&self.session)));
-    }
-
-    /// Saves the scene to `path` (atomically); it becomes the document Save writes to.
-    pub fn save_scene(&mut self, path: &Path) -> Result<(), String> {
-        let doc = self.document(path)?;
-        doc.save(path).map_err(|e| e.to_string())?;
-        self.session.document_path = Some(path.to_path_buf());
-        self.session.saved_edit = Some(self.session.edit.clone());
-        self.session.saved_settings = self.session.settings;
-        self.session.saved_file_view = self.session.file_view.clone();
-        // Saved: a crash from now on has nothing newer to keep than the file, and an autosave
-        // left would be offered after one as newer work (an unanswered offer's stays).
-        if let Ok(mut slot) = self.store.snapshot.try_lock() {
-            *slot = None;
-        }
-        if let Some(persist) = &self.store.persist
-            && !self.store.offer_pending()
-        {
-            persist.discard_autosave();
-            self.store.autosaved = None;
-        }
-        self.info = Some(format!("saved {}", path.display()));
-        self.remember(path);
-        Ok(())
     }
 
     /// The scene that would be written at `path`.
@@ -717,19 +688,5 @@ impl EditorApp {
             eprintln!("editor: error: {e}");
         }
         self.session.logged_status = now;
-    }
-
-    /// Saves to the current scene file, or asks where.
-    pub(super) fn save(&mut self, ctx: &egui::Context) {
-        match self.session.document_path.clone() {
-            Some(p) => {
-                if let Err(e) = self.save_scene(&p) {
-                    self.error = Some(format!("scene not saved: {e}"));
-                }
-            }
-            None => {
-                self.start_dialog(ctx, DialogKind::SaveScene);
-            }
-        }
     }
 }

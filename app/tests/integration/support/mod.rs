@@ -204,7 +204,7 @@ pub fn dialog_harness(config: std::path::PathBuf) -> Harness<'static, EditorApp>
 }
 
 /// Types `path` into the open in-app dialog's file name field (the text field that does not
-/// hold the folder) and confirms it with Enter.
+/// hold the folder) and confirms it with Enter; waits for a save it starts.
 pub fn choose_in_dialog(h: &mut Harness<'_, EditorApp>, path: &Path) {
     h.step();
     h.step(); // a new window is laid out invisibly in its first frame
@@ -221,4 +221,6 @@ pub fn choose_in_dialog(h: &mut Harness<'_, EditorApp>, path: &Path) {
     h.step();
     h.step();
     assert!(!h.state().file_dialog_open(), "the dialog did not close");
+    // a scene chosen to save is written on a worker thread
+    step_until(h, "the save", |a| !a.is_saving());
 }
