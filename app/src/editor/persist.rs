@@ -246,7 +246,7 @@ impl Persist {
 }
 
 /// The newest state, shared with the panic hook.
-pub type Snapshot = Arc<Mutex<Option<Scene>>>;
+pub type Snapshot = Arc<Mutex<Option<Arc<Scene>>>>;
 
 /// Makes a panic anywhere in the process write `snapshot` to the autosave file before the
 /// default hook runs. A snapshot whose lock is held is skipped, and the write waits at most

@@ -3,6 +3,7 @@
 //! session that did not end cleanly (or kept on purpose).
 
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::{Duration, Instant, SystemTime};
 
 use eframe::egui::{self, Vec2};
@@ -24,7 +25,7 @@ pub(super) struct Store {
     pub(super) snapshot: Snapshot,
     pub(super) last_snapshot: Option<Instant>,
     pub(super) last_autosave: Instant,
-    pub(super) autosaved: Option<solver::animation::scene::Scene>,
+    pub(super) autosaved: Option<Arc<solver::animation::scene::Scene>>,
     /// An autosave from a session that did not end cleanly, offered back at start.
     pub(super) restore_offer: Option<RestoreOffer>,
     /// The offer whose autosave is loading after Restore: offered again if it fails.
@@ -85,7 +86,7 @@ impl EditorApp {
         let persist = self.store.persist.clone().ok_or("no configuration folder")?;
         let doc = self.document(&persist.autosave_path())?;
         let path = persist.write_autosave(&doc)?;
-        self.store.autosaved = Some(doc);
+        self.store.autosaved = Some(Arc::new(doc));
         Ok(path)
     }
 
@@ -108,7 +109,9 @@ impl EditorApp {
             }
             return;
         }
-        let Ok(doc) = self.document(&persist.autosave_path()) else { return };
+        // Shared, not copied, by the snapshot, the last autosave and its writer: a dense mesh's
+        // labels and rigidity are tens of megabytes.
+        let Ok(doc) = self.document(&persist.autosave_path()).map(Arc::new) else { return };
         if let Ok(mut slot) = self.store.snapshot.try_lock() {
             *slot = Some(doc.clone());
         }
