@@ -242,6 +242,19 @@ fn grow_shrink_invert_connected_and_clear_edit_the_active_group() {
     assert!(h.state().error().is_none(), "{:?}", h.state().error());
 }
 
+/// Presses at the vertex drawn nearest the mesh's middle and moves 4 points right, the button
+/// held: a brush stroke under way. Where it was pressed.
+fn begin_stroke(h: &mut Harness<'static, EditorApp>) -> Pos2 {
+    let p = support::middle_vertex_on_screen(h.state());
+    h.event(Event::PointerMoved(p));
+    h.step();
+    support::press(h, p, true, Modifiers::NONE);
+    h.step();
+    h.event(Event::PointerMoved(p + Vec2::new(4.0, 0.0)));
+    h.step();
+    p
+}
+
 /// Q (or G, R) pressed during a brush stroke ends the stroke: its labels reach the solver at
 /// once (they waited for the brush to come back, and a press then went on with the old stroke,
 /// without an undo entry of its own).
@@ -250,13 +263,7 @@ fn switching_to_the_box_mid_stroke_ends_the_stroke() {
     let (mut h, g) = start();
     let before = h.state().labels().to_vec();
     let generation = h.state().scene_generation();
-    let p = support::middle_vertex_on_screen(h.state());
-    h.event(Event::PointerMoved(p));
-    h.step();
-    support::press(&h, p, true, Modifiers::NONE);
-    h.step();
-    h.event(Event::PointerMoved(p + Vec2::new(4.0, 0.0)));
-    h.step();
+    let p = begin_stroke(&mut h);
     assert!(!in_group(h.state(), g).is_empty(), "the stroke painted nothing");
     h.key_press(Key::Q);
     h.step();
@@ -268,4 +275,30 @@ fn switching_to_the_box_mid_stroke_ends_the_stroke() {
     h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
     h.step();
     assert_eq!(h.state().labels(), &before[..], "one undo takes back the stroke");
+}
+
+/// Ctrl+Z during a brush stroke, the button still held, cancels the stroke: the labels go
+/// back and the rest of the drag paints nothing (it went on painting with no undo step of its
+/// own); a redo brings back the stroke as far as it went.
+#[test]
+fn undo_during_a_stroke_cancels_it() {
+    let (mut h, g) = start();
+    let before = h.state().labels().to_vec();
+    let p = begin_stroke(&mut h);
+    let painted = h.state().labels().to_vec();
+    assert!(!in_group(h.state(), g).is_empty(), "the stroke painted nothing");
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    assert_eq!(h.state().labels(), &before[..], "the undo took the stroke back");
+    for i in 2..=6 {
+        h.event(Event::PointerMoved(p + Vec2::new(4.0 * i as f32, 3.0 * i as f32)));
+        h.step();
+        assert_eq!(h.state().labels(), &before[..], "the cancelled stroke painted on");
+    }
+    support::press(&h, p + Vec2::new(24.0, 18.0), false, Modifiers::NONE);
+    h.step();
+    assert_eq!(h.state().labels(), &before[..]);
+    h.key_press_modifiers(Modifiers::COMMAND | Modifiers::SHIFT, Key::Z);
+    h.step();
+    assert_eq!(h.state().labels(), &painted[..], "the stroke as far as it went, redone");
 }

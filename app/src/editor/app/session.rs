@@ -60,44 +60,33 @@ impl Session {
     /// Records `before` (made only when pushed: a copy of the edit state is megabytes on a
     /// dense mesh) and `settings` as an undo step, one per press of the pointer: the step the
     /// press's first change pushed stands for all its changes while it is the history's last.
-    /// Returns false, recording nothing, when an undo took the press's step back while the
-    /// button stayed down: the caller drops the change (the rest of that drag does nothing).
+    /// Returns false, recording nothing, when an undo came during the press
+    /// ([`PressStep::cancelled`]): the caller drops the change.
     pub(super) fn push_for_drag(
         &mut self,
         before: impl FnOnce(&Self) -> EditState,
         settings: MethodSettings,
     ) -> bool {
-        let generation = self.history.generation();
-        match self.press_step.step {
-            Some(s) if Some(s.press) == self.press_step.press && s.cancelled => return false,
-            Some(s) if Some(s.press) == self.press_step.press && s.generation == generation => {}
-            _ => {
-                let before = before(self);
-                self.history.push(before, settings);
-            }
+        if self.press_step.cancelled() {
+            return false;
         }
-        self.press_step.step = self.press_step.press.map(|press| Step {
-            press,
-            generation: self.history.generation(),
-            cancelled: false,
-        });
+        let generation = self.history.generation();
+        let ps = &self.press_step;
+        if !ps.step.is_some_and(|s| Some(s.press) == ps.press && s.generation == generation) {
+            let before = before(self);
+            self.history.push(before, settings);
+        }
+        let generation = self.history.generation();
+        self.press_step.step = self.press_step.press.map(|press| Step { press, generation });
         true
     }
 
-    /// Takes the last undo step, the state now going on the redo stack.
-    /// An undo while the pointer's press still drags the widget whose change is the last step
-    /// cancels that drag: the rest of it changes nothing ([`Session::push_for_drag`]).
+    /// Takes the last undo step, the state now going on the redo stack. An undo while the
+    /// pointer's button is held cancels what that press does (a slider or number drag, a brush
+    /// stroke, a pose drag: its step is the one undone): the rest of it changes nothing.
     pub(super) fn undo(&mut self) -> Option<Kept> {
-        let generation = self.history.generation();
-        let kept = self.history.undo(&self.edit, self.settings);
-        if let Some(s) = &mut self.press_step.step
-            && Some(s.press) == self.press_step.press
-            && s.generation == generation
-            && kept.is_some()
-        {
-            s.cancelled = true;
-        }
-        kept
+        self.press_step.cancelled_press = self.press_step.press;
+        self.history.undo(&self.edit, self.settings)
     }
 
     /// Takes the last redo step, the state now going on the undo stack.
@@ -106,7 +95,8 @@ impl Session {
     }
 }
 
-/// The pointer's presses, for one undo step per drag of a panel widget.
+/// The pointer's presses, for one undo step per drag of a panel widget, and an undo during
+/// one cancelling it.
 #[derive(Default)]
 pub(super) struct PressStep {
     /// Presses of the primary button so far.
@@ -117,6 +107,8 @@ pub(super) struct PressStep {
     was_down: bool,
     /// The step a press's first change pushed.
     step: Option<Step>,
+    /// The press an undo came during ([`Session::undo`]).
+    cancelled_press: Option<u64>,
 }
 
 #[derive(Clone, Copy)]
@@ -124,8 +116,6 @@ struct Step {
     press: u64,
     /// The history's generation after the push: the step is still the last while it holds.
     generation: u64,
-    /// An undo took the step back while the button stayed down.
-    cancelled: bool,
 }
 
 impl PressStep {
@@ -144,9 +134,9 @@ impl PressStep {
         }
     }
 
-    /// Whether an undo cancelled the drag under way ([`Session::undo`]).
+    /// Whether an undo came during the press under way: the rest of it changes nothing.
     pub(super) fn cancelled(&self) -> bool {
-        self.step.is_some_and(|s| s.cancelled && Some(s.press) == self.press)
+        self.press.is_some() && self.cancelled_press == self.press
     }
 }
 

@@ -87,6 +87,15 @@ impl EditorApp {
         if self.gizmo_input(ui, slot, rect, response) {
             return true;
         }
+        if self.session.press_step.cancelled() {
+            // an undo during this press cancelled its stroke, drag or region: until the
+            // button is released the pointer does nothing more
+            self.interaction.stroke = None;
+            self.interaction.drag = None;
+            self.rigging.stroke_partner = None;
+            self.selecting.region = None;
+            return true;
+        }
         if self.interaction.tool == super::Tool::Paint
             && self.selecting.mode != super::selection::SelectMode::Brush
             && self.session.scene.is_some()
