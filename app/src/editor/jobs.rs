@@ -98,6 +98,17 @@ impl<T> Job<T> {
         self.rx.recv().unwrap_or_else(|_| Err("the job stopped without a result".into()))
     }
 
+    /// Waits at most `limit` for the job's result (`None`: not finished by then).
+    pub fn wait_within(&self, limit: std::time::Duration) -> Option<Result<T, String>> {
+        match self.rx.recv_timeout(limit) {
+            Ok(r) => Some(r),
+            Err(std::sync::mpsc::RecvTimeoutError::Timeout) => None,
+            Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
+                Some(Err("the job stopped without a result".into()))
+            }
+        }
+    }
+
     pub fn cancel(&self) {
         self.progress.cancel.store(true, Ordering::Relaxed);
     }
@@ -132,13 +143,40 @@ fn spawn<T: Send + 'static>(
 }
 
 /// Writes `scene` to `path` (atomically: `Scene::save`) on a worker thread: serializing and
-/// syncing a dense mesh's labels and rigidity takes long enough to stall frames.
+/// syncing a dense mesh's labels and rigidity takes long enough to stall frames. It waits
+/// while `gate` holds saves back.
 pub fn spawn_save(
     scene: solver::animation::scene::Scene,
     path: PathBuf,
+    gate: Arc<SaveGate>,
     repaint: impl Fn() + Send + 'static,
 ) -> Job<()> {
-    spawn("save", repaint, move |_| scene.save(&path).map_err(|e| e.to_string()))
+    spawn("save", repaint, move |_| {
+        gate.pass();
+        scene.save(&path).map_err(|e| e.to_string())
+    })
+}
+
+/// Holds saves back while set: a test's way to act while a save is still being written.
+#[derive(Default)]
+pub struct SaveGate {
+    held: Mutex<bool>,
+    changed: std::sync::Condvar,
+}
+
+impl SaveGate {
+    pub fn hold(&self, held: bool) {
+        *self.held.lock().unwrap_or_else(std::sync::PoisonError::into_inner) = held;
+        self.changed.notify_all();
+    }
+
+    /// Returns once saves are not held back.
+    fn pass(&self) {
+        let mut held = self.held.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        while *held {
+            held = self.changed.wait(held).unwrap_or_else(std::sync::PoisonError::into_inner);
+        }
+    }
 }
 
 /// A mesh precomputation under way ([`spawn_prepare`]), with the mesh and settings it was

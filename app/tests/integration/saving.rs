@@ -267,34 +267,54 @@ fn a_scenes_method_settings_survive_the_panel_and_a_save() {
     assert!(h.state().has_unsaved_changes());
 }
 
+/// Poses group 1 at `y` up, by hand.
+fn pose(h: &mut Harness<'static, EditorApp>, y: f64) {
+    let mut e = h.state().edit_state().clone();
+    e.groups[1].pose.translation = glam::DVec3::new(0.0, y, 0.0);
+    h.state_mut().set_edit_state(e);
+}
+
+/// Ctrl+S with saves held back: the save under way until [`EditorApp::hold_saves`] lets it go.
+fn ctrl_s_held(h: &mut Harness<'static, EditorApp>) {
+    h.state().hold_saves(true);
+    h.key_press_modifiers(Modifiers::COMMAND, Key::S);
+    h.step();
+    assert!(h.state().is_saving(), "the scene is written on a worker thread");
+}
+
+/// The default asset open, settled, and an empty folder `scenes` for its scene files (kept
+/// while the scratch directory is).
+fn with_a_scene_folder(name: &str) -> (ScratchDir, Harness<'static, EditorApp>, PathBuf) {
+    let dir = ScratchDir::new(name);
+    let mut h = dialog_harness(config_with_in_app_dialog(&dir));
+    step_until(&mut h, "the default asset", settled);
+    let folder = dir.join("scenes");
+    std::fs::create_dir(&folder).unwrap();
+    (dir, h, folder)
+}
+
+/// Lets the saves held back go on, and waits for the one under way.
+fn let_saves_go(h: &mut Harness<'static, EditorApp>) {
+    h.state().hold_saves(false);
+    step_until(h, "the save", |a| !a.is_saving());
+}
+
 /// Ctrl+S writes the scene on a worker thread (a dense mesh's took 0.1–0.5 s on the UI
 /// thread): the file holds the state when Save was pressed, and an edit made while it is
 /// written stays unsaved. A save that fails there (its folder went) says so, and the open that
 /// waited for it ("Save first") does not go on.
 #[test]
 fn a_save_is_written_in_the_background() {
-    let dir = ScratchDir::new("save-background");
-    let config = config_with_in_app_dialog(&dir);
-    let mut h = dialog_harness(config.clone());
-    step_until(&mut h, "the default asset", settled);
-    let pose = |h: &mut Harness<'static, EditorApp>, y: f64| {
-        let mut e = h.state().edit_state().clone();
-        e.groups[1].pose.translation = glam::DVec3::new(0.0, y, 0.0);
-        h.state_mut().set_edit_state(e);
-    };
-    let folder = dir.join("scenes");
-    std::fs::create_dir(&folder).unwrap();
+    let (_dir, mut h, folder) = with_a_scene_folder("save-background");
     let scene = folder.join("posed.json");
     pose(&mut h, 0.05);
     h.state_mut().save_scene(&scene).unwrap();
     assert!(!h.state().has_unsaved_changes());
 
     pose(&mut h, 0.07);
-    h.key_press_modifiers(Modifiers::COMMAND, Key::S);
-    h.step();
-    assert!(h.state().is_saving(), "the scene is written on a worker thread");
+    ctrl_s_held(&mut h);
     pose(&mut h, 0.09); // while it is written
-    step_until(&mut h, "the save", |a| !a.is_saving());
+    let_saves_go(&mut h);
     assert!(h.state().error().is_none(), "{:?}", h.state().error());
     let saved = solver::animation::scene::Scene::read(&scene).unwrap();
     let key = saved.timeline.paths.iter().find(|p| p.group == 1).map(|p| match &p.path {
@@ -324,4 +344,66 @@ fn a_save_is_written_in_the_background() {
     assert_eq!(h.state().mesh_path().map(Path::to_path_buf), opened);
     assert!(h.state().has_unsaved_changes());
     assert!(h.state_mut().exit_autosave(), "the exit keeps the unsaved edit");
+}
+
+/// An open or a quit while a save writes every change waits for it instead of asking: it goes
+/// on once the scene is written; an edit made meanwhile is asked about first; after a failed
+/// write the error shows and nothing is quit.
+#[test]
+fn an_open_or_quit_waits_for_the_save_under_way() {
+    let (_dir, mut h, folder) = with_a_scene_folder("save-then-quit");
+    let scene = folder.join("posed.json");
+    let mesh = test_mesh();
+    let ctx = h.ctx.clone();
+
+    // An open waits for the save, then goes on without asking.
+    pose(&mut h, 0.05);
+    h.state_mut().save_scene(&scene).unwrap();
+    pose(&mut h, 0.07);
+    ctrl_s_held(&mut h);
+    h.state_mut().request_open(&ctx, mesh.clone());
+    h.step();
+    assert_eq!(h.state().pending_open(), None, "asked though the save writes every change");
+    assert!(!h.state().is_loading(), "opened before the save was written");
+    let_saves_go(&mut h);
+    step_until(&mut h, "the mesh opened", |a| !a.is_loading() && a.document_path().is_none());
+
+    // An edit while it is written: the open asks about it after the save.
+    step_until(&mut h, "the mesh", settled);
+    pose(&mut h, 0.05);
+    h.state_mut().save_scene(&scene).unwrap();
+    pose(&mut h, 0.07);
+    ctrl_s_held(&mut h);
+    h.state_mut().request_open(&ctx, mesh.clone());
+    pose(&mut h, 0.09);
+    let_saves_go(&mut h);
+    h.step();
+    assert_eq!(h.state().pending_open(), Some(mesh.as_path()), "the later edit not asked about");
+    assert!(!h.state().is_loading());
+    h.get_by_label("Cancel").click();
+    h.step();
+
+    // A failed write: its error, and no quit.
+    std::fs::remove_dir_all(&folder).unwrap();
+    ctrl_s_held(&mut h);
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Q);
+    h.step();
+    assert!(!h.state().quit_question_open(), "asked though the save writes every change");
+    assert!(!h.state().is_closing(), "quit before the save was written");
+    let_saves_go(&mut h);
+    let error = h.state().error().unwrap_or_default().to_owned();
+    assert!(error.starts_with("scene not saved"), "{error}");
+    h.step();
+    assert!(!h.state().is_closing(), "quit after a failed save");
+    assert!(h.state().has_unsaved_changes());
+
+    // A quit waits for the save: the window closes once the scene is written.
+    std::fs::create_dir(&folder).unwrap();
+    ctrl_s_held(&mut h);
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Q);
+    h.step();
+    assert!(!h.state().is_closing());
+    let_saves_go(&mut h);
+    assert!(h.state().is_closing(), "no quit after the save");
+    assert!(!h.state().has_unsaved_changes());
 }

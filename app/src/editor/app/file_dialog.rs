@@ -212,7 +212,7 @@ impl EditorApp {
                     self.jobs.dialogs.native = None;
                     match r {
                         Some(path) => self.dialog_chosen(ctx, kind, path),
-                        None => self.dialog_cancelled(),
+                        None => self.dialog_cancelled(kind),
                     }
                 }
             }
@@ -231,7 +231,7 @@ impl EditorApp {
             }
             egui_file::State::Cancelled | egui_file::State::Closed => {
                 self.jobs.dialogs.in_app = None;
-                self.dialog_cancelled();
+                self.dialog_cancelled(kind);
             }
         }
     }
@@ -259,10 +259,12 @@ impl EditorApp {
         Ok(path)
     }
 
-    /// A dialog closed with no file: an open or quit that waited for a Save as does not go
-    /// on at a later save.
-    fn dialog_cancelled(&mut self) {
-        self.session.after_save = None;
+    /// A dialog closed with no file: an open or quit that waited for that Save as does not go
+    /// on at a later save (one that waits for a save being written stays).
+    fn dialog_cancelled(&mut self, kind: DialogKind) {
+        if kind == DialogKind::SaveScene && !self.is_saving() {
+            self.session.after_save = None;
+        }
     }
 
     /// Acts on the file chosen in a dialog of `kind`; not, when it acts on the open mesh and

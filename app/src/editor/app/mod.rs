@@ -177,8 +177,9 @@ struct Jobs {
     /// The kept recording.
     recorded: Option<Recorded>,
     export: Option<Job<(PathBuf, u64)>>,
-    /// The scene being written (`save`).
+    /// The scene being written (`save`), and what holds saves back (tests).
     save: Option<save::Saving>,
+    save_gate: std::sync::Arc<super::jobs::SaveGate>,
     /// A glTF export baked to bones (`jobs::spawn_bake`), and whether the next one bakes.
     bake: Option<Baking>,
     bake_choice: crate::editor::timeline::BakeChoice,

@@ -496,9 +496,7 @@ impl eframe::App for EditorApp {
     /// now and offered back at the next start.
     fn on_exit(&mut self) {
         // a save under way is written, and its result counts for what the exit keeps
-        if let Err(e) = self.finish_save() {
-            eprintln!("editor: scene not saved: {e}");
-        }
+        self.finish_save_at_exit();
         // the user's work first: a kill between the two keeps it
         self.exit_autosave();
         self.save_prefs();

@@ -335,12 +335,13 @@ impl EditorApp {
                     curve_changed |= ui.selectable_value(&mut f.curve, c, c.name()).changed();
                 }
             });
-            // One undo step per drag, none after an undo cancelled it.
-            if f != self.session.edit.groups[k].falloff
-                && self.session.push_for_drag(|s| s.edit.clone(), self.session.settings)
-            {
-                self.session.edit.groups[k].falloff = f;
-                self.rigging.falloff_unsent = true;
+            // One undo step per drag, none after an undo cancelled it (which sent the scene).
+            if f != self.session.edit.groups[k].falloff {
+                let pushed = self.session.push_for_drag(|s| s.edit.clone(), self.session.settings);
+                if pushed {
+                    self.session.edit.groups[k].falloff = f;
+                }
+                self.rigging.falloff_unsent = pushed;
             }
             if self.rigging.falloff_unsent && (curve_changed || !slider.dragged()) {
                 self.rigging.falloff_unsent = false;

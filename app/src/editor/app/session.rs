@@ -33,6 +33,8 @@ pub(super) struct Session {
     pub(super) pending: Option<Pending>,
     /// What to do once the scene is saved ("Save first" with no scene file yet: Save as).
     pub(super) after_save: Option<Pending>,
+    /// The editor asked its window to close.
+    pub(super) closing: bool,
     /// The user chose to quit without saving: the exit discards the autosave.
     pub(super) discard_on_exit: bool,
     /// The user chose to quit and keep the changes for the next start.
@@ -85,8 +87,11 @@ impl Session {
     /// pointer's button is held cancels what that press does (a slider or number drag, a brush
     /// stroke, a pose drag: its step is the one undone): the rest of it changes nothing.
     pub(super) fn undo(&mut self) -> Option<Kept> {
-        self.press_step.cancelled_press = self.press_step.press;
-        self.history.undo(&self.edit, self.settings)
+        let kept = self.history.undo(&self.edit, self.settings);
+        if kept.is_some() {
+            self.press_step.cancelled_press = self.press_step.press;
+        }
+        kept
     }
 
     /// Takes the last redo step, the state now going on the undo stack.
@@ -239,7 +244,10 @@ impl EditorApp {
             }
             return;
         }
-        if self.has_unsaved_changes() {
+        if self.has_unsaved_changes() && self.saving_all_changes() {
+            // opened once the scene is written (not after a failed save: nothing is lost)
+            self.session.after_save = Some(Pending::Open(path));
+        } else if self.has_unsaved_changes() {
             self.session.pending = Some(Pending::Open(path));
         } else {
             self.open(ctx, path);
@@ -251,9 +259,32 @@ impl EditorApp {
     pub fn request_quit(&mut self, ctx: &egui::Context) {
         if self.must_ask_to_quit() {
             self.ask_quit();
-        } else {
-            ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+        } else if !self.quit_after_save() {
+            self.close_window(ctx);
         }
+    }
+
+    /// Closes the window: the exit follows (`on_exit`).
+    pub(super) fn close_window(&mut self, ctx: &egui::Context) {
+        self.session.closing = true;
+        ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+    }
+
+    /// Whether the editor asked its window to close (it quits).
+    pub fn is_closing(&self) -> bool {
+        self.session.closing
+    }
+
+    /// With a save under way that writes every unsaved change: quits once it is written (not
+    /// after a failed one: its error shows and nothing is lost). Returns whether it waits.
+    fn quit_after_save(&mut self) -> bool {
+        let (discard, keep) = (self.session.discard_on_exit, self.session.keep_on_exit);
+        let waits = self.has_unsaved_changes() && self.saving_all_changes() && !discard && !keep;
+        if waits {
+            self.session.after_save = Some(Pending::Quit);
+            self.info = Some("quitting once the scene is written".into());
+        }
+        waits
     }
 
     /// A close request from the window: held back while the question is open or due.
@@ -264,11 +295,13 @@ impl EditorApp {
         if self.must_ask_to_quit() {
             ctx.send_viewport_cmd(egui::ViewportCommand::CancelClose);
             self.ask_quit();
+        } else if self.quit_after_save() {
+            ctx.send_viewport_cmd(egui::ViewportCommand::CancelClose);
         }
     }
 
     /// Whether quitting now would lose something the user has not agreed to lose: unsaved
-    /// changes (not those a save under way writes: the exit waits for it), or work under way.
+    /// changes (not those a save under way writes: the quit waits for it), or work under way.
     fn must_ask_to_quit(&self) -> bool {
         let (discard, keep) = (self.session.discard_on_exit, self.session.keep_on_exit);
         (self.has_unsaved_changes() && !self.saving_all_changes() && !discard && !keep)
@@ -333,11 +366,11 @@ impl EditorApp {
                         if pending == Pending::Quit && ui.button("Quit").clicked() {
                             self.session.pending = None;
                             self.session.stop_work_on_exit = true;
-                            ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+                            self.close_window(ctx);
                         }
                     } else if ui.button("Save first").clicked() {
                         self.session.pending = None;
-                        match self.session.document_path.clone() {
+                        match self.save_target() {
                             // the open or quit goes on once the scene is written (`poll_save`)
                             Some(doc) => {
                                 self.session.after_save = Some(pending.clone());
@@ -373,7 +406,7 @@ impl EditorApp {
                                 self.session.pending = None;
                                 self.session.stop_work_on_exit = true;
                                 self.session.discard_on_exit = true;
-                                ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+                                self.close_window(ctx);
                             }
                             // The autosave file holds the last session's work while it is
                             // offered: keeping these changes would write over it.
@@ -390,7 +423,7 @@ impl EditorApp {
                                 self.session.pending = None;
                                 self.session.stop_work_on_exit = true;
                                 self.session.keep_on_exit = true;
-                                ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+                                self.close_window(ctx);
                             }
                         }
                     }
