@@ -274,6 +274,16 @@ fn pose(h: &mut Harness<'static, EditorApp>, y: f64) {
     h.state_mut().set_edit_state(e);
 }
 
+/// How far up group 1 is posed in the scene file at `path`.
+fn saved_y(path: &Path) -> f64 {
+    let saved = solver::animation::scene::Scene::read(path).unwrap();
+    let key = saved.timeline.paths.iter().find(|p| p.group == 1).map(|p| match &p.path {
+        solver::animation::timeline::Path::Keyframed(k) => k.keys[0].translation,
+        other => panic!("group 1 saved as {other:?}"),
+    });
+    key.expect("group 1's pose")[1]
+}
+
 /// Ctrl+S with saves held back: the save under way until [`EditorApp::hold_saves`] lets it go.
 fn ctrl_s_held(h: &mut Harness<'static, EditorApp>) {
     h.state().hold_saves(true);
@@ -301,7 +311,8 @@ fn let_saves_go(h: &mut Harness<'static, EditorApp>) {
 
 /// Ctrl+S writes the scene on a worker thread (a dense mesh's took 0.1–0.5 s on the UI
 /// thread): the file holds the state when Save was pressed, and an edit made while it is
-/// written stays unsaved. A save that fails there (its folder went) says so, and the open that
+/// written stays unsaved. A second Ctrl+S meanwhile is written after it, with the state at
+/// that Ctrl+S. A save that fails there (its folder went) says so, and the open that
 /// waited for it ("Save first") does not go on.
 #[test]
 fn a_save_is_written_in_the_background() {
@@ -316,15 +327,25 @@ fn a_save_is_written_in_the_background() {
     pose(&mut h, 0.09); // while it is written
     let_saves_go(&mut h);
     assert!(h.state().error().is_none(), "{:?}", h.state().error());
-    let saved = solver::animation::scene::Scene::read(&scene).unwrap();
-    let key = saved.timeline.paths.iter().find(|p| p.group == 1).map(|p| match &p.path {
-        solver::animation::timeline::Path::Keyframed(k) => k.keys[0].translation,
-        other => panic!("group 1 saved as {other:?}"),
-    });
-    assert_eq!(key, Some([0.0, 0.07, 0.0]), "the state when Save was pressed");
+    assert_eq!(saved_y(&scene), 0.07, "the state when Save was pressed");
     assert!(h.state().has_unsaved_changes(), "the edit made while it was written");
     pose(&mut h, 0.07);
     assert!(!h.state().has_unsaved_changes(), "what was written is the saved state");
+
+    // Ctrl+S again while a save is written: no wait on the UI thread (it waited for the
+    // first write; with saves held back, this test would hang), the second written after it,
+    // with the state at its Ctrl+S.
+    ctrl_s_held(&mut h);
+    pose(&mut h, 0.08);
+    h.key_press_modifiers(Modifiers::COMMAND, Key::S);
+    h.step();
+    pose(&mut h, 0.085);
+    let_saves_go(&mut h);
+    step_until(&mut h, "the second save", |a| !a.is_saving());
+    assert!(h.state().error().is_none(), "{:?}", h.state().error());
+    assert_eq!(saved_y(&scene), 0.08, "the state at the second Ctrl+S");
+    pose(&mut h, 0.08);
+    assert!(!h.state().has_unsaved_changes());
 
     // The folder goes; an open asks, "Save first" fails on the worker thread.
     pose(&mut h, 0.11);

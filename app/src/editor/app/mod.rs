@@ -179,6 +179,8 @@ struct Jobs {
     export: Option<Job<(PathBuf, u64)>>,
     /// The scene being written (`save`), and what holds saves back (tests).
     save: Option<save::Saving>,
+    /// A save asked for while one was written: started after it.
+    save_next: Option<save::SaveOrder>,
     save_gate: std::sync::Arc<super::jobs::SaveGate>,
     /// A glTF export baked to bones (`jobs::spawn_bake`), and whether the next one bakes.
     bake: Option<Baking>,

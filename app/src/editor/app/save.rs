@@ -15,11 +15,19 @@ use crate::editor::jobs::{self, Job};
 /// How long an exit waits for a save under way.
 const EXIT_SAVE_WAIT: std::time::Duration = std::time::Duration::from_secs(10);
 
+/// A save made on the UI thread: the scene for `path`, the state it holds and the version of
+/// the mesh it belongs to (`Topology::version`).
+pub(super) struct SaveOrder {
+    path: PathBuf,
+    doc: solver::animation::scene::Scene,
+    mark: Box<DocumentMark>,
+    mesh: Option<u64>,
+}
+
 /// A save under way.
 pub(super) struct Saving {
     path: PathBuf,
-    /// The state being written, with the version of the mesh it belongs to
-    /// (`Topology::version`).
+    /// The state being written.
     mark: Box<DocumentMark>,
     mesh: Option<u64>,
     job: Job<()>,
@@ -39,27 +47,42 @@ impl EditorApp {
     /// Where Save writes: the document's scene file, or the one a save of this mesh under
     /// way writes (a first Save as not yet written).
     pub(super) fn save_target(&self) -> Option<PathBuf> {
-        let open = self.session.scene.as_ref().map(|s| s.topology.version);
+        let open = self.open_mesh();
         self.session
             .document_path
             .clone()
             .or_else(|| self.jobs.save.as_ref().filter(|s| s.mesh == open).map(|s| s.path.clone()))
     }
 
-    /// Starts saving the scene to `path` from the UI; an error (nothing to save yet) shows at
-    /// once, and the open or quit that waited for the save does not go on.
+    /// Saves the scene as it is now to `path` from the UI: written at once, or after the save
+    /// under way (the UI thread never waits for a write). An error (nothing to save yet) shows
+    /// at once, and the open or quit that waited for the save does not go on.
     pub(super) fn start_save(&mut self, ctx: &egui::Context, path: &Path) {
-        let c = ctx.clone();
-        if let Err(e) = self.begin_save(path, move || c.request_repaint()) {
-            self.session.after_save = None;
-            self.error = Some(format!("scene not saved: {e}"));
+        match self.save_order(path) {
+            Err(e) => {
+                self.session.after_save = None;
+                self.error = Some(format!("scene not saved: {e}"));
+            }
+            Ok(order) if self.is_saving() => {
+                self.info = Some(format!("saving {} after the write under way…", path.display()));
+                self.jobs.save_next = Some(order);
+            }
+            Ok(order) => {
+                let c = ctx.clone();
+                self.write(order, move || c.request_repaint());
+            }
         }
     }
 
     /// Saves the scene to `path` (atomically) and waits for the write; it becomes the document
     /// Save writes to.
     pub fn save_scene(&mut self, path: &Path) -> Result<(), String> {
-        self.begin_save(path, || {})?;
+        if let Err(e) = self.finish_save() {
+            self.session.after_save = None; // it waited for the save that failed
+            self.error = Some(format!("scene not saved: {e}"));
+        }
+        let order = self.save_order(path)?;
+        self.write(order, || {});
         self.finish_save()
     }
 
@@ -74,32 +97,37 @@ impl EditorApp {
         self.jobs.save_gate.hold(hold);
     }
 
-    /// Whether a save under way writes every change there is.
+    /// Whether the saves under way and asked for write every change there is.
     pub(super) fn saving_all_changes(&self) -> bool {
-        self.jobs.save.as_ref().is_some_and(|s| !s.mark.changed(&self.session))
+        let last = match (&self.jobs.save_next, &self.jobs.save) {
+            (Some(next), _) => &next.mark,
+            (None, Some(saving)) => &saving.mark,
+            (None, None) => return false,
+        };
+        !last.changed(&self.session)
     }
 
-    /// Makes the document for `path` and starts writing it; a save still under way is
-    /// finished first (the later one wins on disk).
-    fn begin_save(
-        &mut self,
-        path: &Path,
-        repaint: impl Fn() + Send + 'static,
-    ) -> Result<(), String> {
-        if let Err(e) = self.finish_save() {
-            self.session.after_save = None; // it waited for the save that failed
-            self.error = Some(format!("scene not saved: {e}"));
-        }
-        let doc = self.document(path)?;
-        let job = jobs::spawn_save(doc, path.to_path_buf(), self.jobs.save_gate.clone(), repaint);
-        self.jobs.save = Some(Saving {
+    fn open_mesh(&self) -> Option<u64> {
+        self.session.scene.as_ref().map(|s| s.topology.version)
+    }
+
+    /// The scene for `path` as the document is now.
+    fn save_order(&self, path: &Path) -> Result<SaveOrder, String> {
+        Ok(SaveOrder {
             path: path.to_path_buf(),
+            doc: self.document(path)?,
             mark: Box::new(DocumentMark::of(&self.session)),
-            mesh: self.session.scene.as_ref().map(|s| s.topology.version),
-            job,
-        });
+            mesh: self.open_mesh(),
+        })
+    }
+
+    /// Starts writing `order` on a worker thread (none may be under way).
+    fn write(&mut self, order: SaveOrder, repaint: impl Fn() + Send + 'static) {
+        let SaveOrder { path, doc, mark, mesh } = order;
+        let gate = self.jobs.save_gate.clone();
+        let job = jobs::spawn_save(doc, path.clone(), gate, repaint);
         self.info = Some(format!("saving {}…", path.display()));
-        Ok(())
+        self.jobs.save = Some(Saving { path, mark, mesh, job });
     }
 
     /// Waits for the save under way, if any (a save after it).
@@ -114,13 +142,21 @@ impl EditorApp {
     /// At exit: waits at most [`EXIT_SAVE_WAIT`] for a save under way (a hung drive does not
     /// hang the exit; what it did not write counts as unsaved, which the exit then keeps).
     pub(super) fn finish_save_at_exit(&mut self) {
-        let Some(saving) = self.jobs.save.take() else { return };
-        let Some(result) = saving.job.wait_within(EXIT_SAVE_WAIT) else {
-            eprintln!("editor: the scene was still being written to {}", saving.path.display());
-            return;
-        };
-        if let Err(e) = self.saved(saving.path, *saving.mark, saving.mesh, result) {
-            eprintln!("editor: scene not saved: {e}");
+        let since = std::time::Instant::now();
+        while let Some(saving) = self.jobs.save.take() {
+            let left = EXIT_SAVE_WAIT.saturating_sub(since.elapsed());
+            let Some(result) = saving.job.wait_within(left) else {
+                eprintln!("editor: the scene was still being written to {}", saving.path.display());
+                return;
+            };
+            if let Err(e) = self.saved(saving.path, *saving.mark, saving.mesh, result) {
+                eprintln!("editor: scene not saved: {e}");
+                return;
+            }
+            let open = self.open_mesh();
+            if let Some(next) = self.jobs.save_next.take().filter(|o| o.mesh == open) {
+                self.write(next, || {});
+            }
         }
     }
 
@@ -131,9 +167,17 @@ impl EditorApp {
             return;
         };
         let Some(Saving { path, mark, mesh, .. }) = self.jobs.save.take() else { return };
-        let same_mesh = self.session.scene.as_ref().map(|s| s.topology.version) == mesh;
+        let open = self.open_mesh();
+        let next = self.jobs.save_next.take().filter(|o| o.mesh == open);
         match self.saved(path, *mark, mesh, result) {
-            Ok(()) if same_mesh => self.after_save(ctx),
+            // a save asked for meanwhile: what waited goes on after it
+            Ok(()) if next.is_some() => {
+                if let Some(order) = next {
+                    let c = ctx.clone();
+                    self.write(order, move || c.request_repaint());
+                }
+            }
+            Ok(()) if mesh == open => self.after_save(ctx),
             Ok(()) => self.session.after_save = None, // another mesh is open: it was for the last
             Err(e) => {
                 self.session.after_save = None;
