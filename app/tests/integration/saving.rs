@@ -428,3 +428,21 @@ fn an_open_or_quit_waits_for_the_save_under_way() {
     assert!(h.state().is_closing(), "no quit after the save");
     assert!(!h.state().has_unsaved_changes());
 }
+
+/// A second quit while the first waits for a write that does not end (a hung drive) does not
+/// wait again: the window closes (the exit waits a while, and keeps what was not written).
+#[test]
+fn a_second_quit_does_not_wait_for_a_stuck_save() {
+    let (_dir, mut h, folder) = with_a_scene_folder("save-stuck");
+    pose(&mut h, 0.05);
+    h.state_mut().save_scene(&folder.join("posed.json")).unwrap();
+    pose(&mut h, 0.07);
+    ctrl_s_held(&mut h);
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Q);
+    h.step();
+    assert!(!h.state().is_closing(), "the first quit waits for the save");
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Q);
+    h.step();
+    assert!(h.state().is_closing(), "no quit with a save stuck");
+    let_saves_go(&mut h);
+}

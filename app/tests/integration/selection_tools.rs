@@ -302,3 +302,32 @@ fn undo_during_a_stroke_cancels_it() {
     h.step();
     assert_eq!(h.state().labels(), &painted[..], "the stroke as far as it went, redone");
 }
+
+/// Ctrl+Z while a box is drawn cancels the box, and nothing else: the box has no undo step
+/// yet, and the step before it (a stroke) stays; the rest of the drag selects nothing.
+#[test]
+fn undo_while_a_box_is_drawn_cancels_only_the_box() {
+    let (mut h, g) = start();
+    let p = begin_stroke(&mut h);
+    support::press(&h, p + Vec2::new(4.0, 0.0), false, Modifiers::NONE);
+    h.step();
+    let stroked = h.state().labels().to_vec();
+    assert!(!in_group(h.state(), g).is_empty(), "the stroke painted nothing");
+    h.key_press(Key::Q);
+    h.step();
+    let centre = Pos2::new(SIZE.x * 0.35, SIZE.y * 0.5);
+    let r = Rect::from_center_size(centre, Vec2::new(80.0, 60.0));
+    h.event(Event::PointerMoved(r.left_top()));
+    h.step();
+    support::press(&h, r.left_top(), true, Modifiers::NONE);
+    h.step();
+    h.event(Event::PointerMoved(r.center()));
+    h.step();
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    h.event(Event::PointerMoved(r.right_bottom()));
+    h.step();
+    support::press(&h, r.right_bottom(), false, Modifiers::NONE);
+    h.step();
+    assert_eq!(h.state().labels(), &stroked[..], "the box selected, or the stroke was undone");
+}

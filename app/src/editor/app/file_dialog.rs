@@ -260,9 +260,9 @@ impl EditorApp {
     }
 
     /// A dialog closed with no file: an open or quit that waited for that Save as does not go
-    /// on at a later save (one that waits for a save being written stays).
+    /// on at a later save (one that waits for a save of this mesh being written stays).
     fn dialog_cancelled(&mut self, kind: DialogKind) {
-        if kind == DialogKind::SaveScene && !self.is_saving() {
+        if kind == DialogKind::SaveScene && !self.saving_open_mesh() {
             self.session.after_save = None;
         }
     }
@@ -302,7 +302,9 @@ impl EditorApp {
                 match self.save_path(&path, "json") {
                     Ok(path) => self.start_save(ctx, &path),
                     Err(e) => {
-                        self.session.after_save = None;
+                        if !self.saving_open_mesh() {
+                            self.session.after_save = None;
+                        }
                         self.error = Some(format!("scene not saved: {e}"));
                     }
                 }

@@ -225,6 +225,7 @@ impl EditorApp {
         // Undo while a transform runs: it cancels the transform (nothing else is undone).
         if self.gizmo.transform.is_some() && consume(Modifiers::COMMAND, Key::Z) {
             self.cancel_transform();
+            self.session.press_step.cancel(); // the press dragging the gizmo does nothing more
             return;
         }
         if self.gizmo.transform.as_ref().is_some_and(|t| t.modal) {

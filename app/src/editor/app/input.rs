@@ -135,8 +135,14 @@ impl EditorApp {
             self.apply_history(state);
         }
         if consume(Modifiers::COMMAND, Key::Z) {
-            let state = self.session.undo();
-            self.apply_history(state);
+            if self.selecting.region.is_some() {
+                // a box or lasso being drawn has no step yet: Ctrl+Z cancels it, nothing else
+                self.selecting.region = None;
+                self.session.press_step.cancel();
+            } else {
+                let state = self.session.undo();
+                self.apply_history(state);
+            }
         }
         if consume(Modifiers::COMMAND, Key::Q) {
             self.request_quit(ctx);

@@ -177,10 +177,11 @@ struct Jobs {
     /// The kept recording.
     recorded: Option<Recorded>,
     export: Option<Job<(PathBuf, u64)>>,
-    /// The scene being written (`save`), and what holds saves back (tests).
+    /// The scene being written (`save`).
     save: Option<save::Saving>,
-    /// A save asked for while one was written: started after it.
-    save_next: Option<save::SaveOrder>,
+    /// Saves asked for while one was written, in order: each started after the one before.
+    save_next: Vec<save::SaveOrder>,
+    /// What holds saves back (a test hook, `EditorApp::hold_saves`).
     save_gate: std::sync::Arc<super::jobs::SaveGate>,
     /// A glTF export baked to bones (`jobs::spawn_bake`), and whether the next one bakes.
     bake: Option<Baking>,

@@ -44,14 +44,14 @@ impl EditorApp {
         }
     }
 
-    /// Where Save writes: the document's scene file, or the one a save of this mesh under
-    /// way writes (a first Save as not yet written).
+    /// Where Save writes: the file of the newest save of this mesh asked for (a Save as under
+    /// way or waiting), else the document's scene file.
     pub(super) fn save_target(&self) -> Option<PathBuf> {
         let open = self.open_mesh();
-        self.session
-            .document_path
-            .clone()
-            .or_else(|| self.jobs.save.as_ref().filter(|s| s.mesh == open).map(|s| s.path.clone()))
+        let queued = self.jobs.save_next.iter().rev().map(|o| (&o.path, o.mesh));
+        let asked = queued.chain(self.jobs.save.iter().map(|s| (&s.path, s.mesh)));
+        let newest = asked.filter(|&(_, mesh)| mesh == open).map(|(path, _)| path.clone()).next();
+        newest.or_else(|| self.session.document_path.clone())
     }
 
     /// Saves the scene as it is now to `path` from the UI: written at once, or after the save
@@ -65,7 +65,12 @@ impl EditorApp {
             }
             Ok(order) if self.is_saving() => {
                 self.info = Some(format!("saving {} after the write under way…", path.display()));
-                self.jobs.save_next = Some(order);
+                // a newer save to the same file replaces the one waiting
+                let next = &mut self.jobs.save_next;
+                match next.last_mut().filter(|o| o.path == order.path && o.mesh == order.mesh) {
+                    Some(waiting) => *waiting = order,
+                    None => next.push(order),
+                }
             }
             Ok(order) => {
                 let c = ctx.clone();
@@ -77,9 +82,12 @@ impl EditorApp {
     /// Saves the scene to `path` (atomically) and waits for the write; it becomes the document
     /// Save writes to.
     pub fn save_scene(&mut self, path: &Path) -> Result<(), String> {
-        if let Err(e) = self.finish_save() {
-            self.session.after_save = None; // it waited for the save that failed
-            self.error = Some(format!("scene not saved: {e}"));
+        // the saves under way and waiting first: the later one wins on disk
+        while self.is_saving() {
+            if let Err(e) = self.finish_save() {
+                self.session.after_save = None; // it waited for the save that failed
+                self.error = Some(format!("scene not saved: {e}"));
+            }
         }
         let order = self.save_order(path)?;
         self.write(order, || {});
@@ -97,14 +105,13 @@ impl EditorApp {
         self.jobs.save_gate.hold(hold);
     }
 
-    /// Whether the saves under way and asked for write every change there is.
+    /// Whether the saves of this mesh under way and asked for write every change there is.
     pub(super) fn saving_all_changes(&self) -> bool {
-        let last = match (&self.jobs.save_next, &self.jobs.save) {
-            (Some(next), _) => &next.mark,
-            (None, Some(saving)) => &saving.mark,
-            (None, None) => return false,
-        };
-        !last.changed(&self.session)
+        let open = self.open_mesh();
+        let queued = self.jobs.save_next.iter().rev().map(|o| (&o.mark, o.mesh));
+        let asked = queued.chain(self.jobs.save.iter().map(|s| (&s.mark, s.mesh)));
+        let newest = asked.filter(|&(_, mesh)| mesh == open).map(|(mark, _)| mark).next();
+        newest.is_some_and(|mark| !mark.changed(&self.session))
     }
 
     fn open_mesh(&self) -> Option<u64> {
@@ -130,17 +137,28 @@ impl EditorApp {
         self.jobs.save = Some(Saving { path, mark, mesh, job });
     }
 
-    /// Waits for the save under way, if any (a save after it).
-    pub(super) fn finish_save(&mut self) -> Result<(), String> {
+    /// Waits for the save under way, if any (`save_scene`), and starts the next waiting.
+    fn finish_save(&mut self) -> Result<(), String> {
         let Some(Saving { path, mark, mesh, job }) = self.jobs.save.take() else {
             return Ok(());
         };
         let result = job.wait();
+        self.write_next(|| {});
         self.saved(path, *mark, mesh, result)
     }
 
-    /// At exit: waits at most [`EXIT_SAVE_WAIT`] for a save under way (a hung drive does not
-    /// hang the exit; what it did not write counts as unsaved, which the exit then keeps).
+    /// Starts the first save waiting, if any: written even after a failed one (it may be a
+    /// Save as elsewhere) or with another mesh open (it holds its own scene).
+    fn write_next(&mut self, repaint: impl Fn() + Send + 'static) {
+        if !self.jobs.save_next.is_empty() {
+            let order = self.jobs.save_next.remove(0);
+            self.write(order, repaint);
+        }
+    }
+
+    /// At exit: waits at most [`EXIT_SAVE_WAIT`] in all for the saves under way and waiting (a
+    /// hung drive does not hang the exit; what was not written counts as unsaved, which the
+    /// exit keeps unless the user chose to quit without saving).
     pub(super) fn finish_save_at_exit(&mut self) {
         let since = std::time::Instant::now();
         while let Some(saving) = self.jobs.save.take() {
@@ -149,41 +167,42 @@ impl EditorApp {
                 eprintln!("editor: the scene was still being written to {}", saving.path.display());
                 return;
             };
+            self.write_next(|| {});
             if let Err(e) = self.saved(saving.path, *saving.mark, saving.mesh, result) {
                 eprintln!("editor: scene not saved: {e}");
-                return;
-            }
-            let open = self.open_mesh();
-            if let Some(next) = self.jobs.save_next.take().filter(|o| o.mesh == open) {
-                self.write(next, || {});
             }
         }
     }
 
-    /// Takes the result of the save under way when it has come: then the open or quit that
-    /// waited for it goes on, or, when it failed, does not.
+    /// Takes the result of the save under way when it has come and starts the next waiting.
+    /// After the last save of the open mesh, the open or quit that waited for it goes on;
+    /// after a failed one, it does not.
     pub(super) fn poll_save(&mut self, ctx: &egui::Context) {
         let Some(result) = self.jobs.save.as_ref().and_then(|s| s.job.try_finish()) else {
             return;
         };
         let Some(Saving { path, mark, mesh, .. }) = self.jobs.save.take() else { return };
-        let open = self.open_mesh();
-        let next = self.jobs.save_next.take().filter(|o| o.mesh == open);
+        let c = ctx.clone();
+        self.write_next(move || c.request_repaint());
+        let for_open_mesh = mesh == self.open_mesh();
         match self.saved(path, *mark, mesh, result) {
-            // a save asked for meanwhile: what waited goes on after it
-            Ok(()) if next.is_some() => {
-                if let Some(order) = next {
-                    let c = ctx.clone();
-                    self.write(order, move || c.request_repaint());
-                }
-            }
-            Ok(()) if mesh == open => self.after_save(ctx),
-            Ok(()) => self.session.after_save = None, // another mesh is open: it was for the last
             Err(e) => {
-                self.session.after_save = None;
+                if for_open_mesh {
+                    self.session.after_save = None;
+                }
                 self.error = Some(format!("scene not saved: {e}"));
             }
+            // what waits is for the open mesh's saves, and goes on after the last
+            Ok(()) if for_open_mesh && !self.saving_open_mesh() => self.after_save(ctx),
+            Ok(()) => {}
         }
+    }
+
+    /// Whether a save of the open mesh is under way or waiting.
+    pub(super) fn saving_open_mesh(&self) -> bool {
+        let open = self.open_mesh();
+        self.jobs.save.iter().any(|s| s.mesh == open)
+            || self.jobs.save_next.iter().any(|o| o.mesh == open)
     }
 
     /// A save's `result`: written, `mark` is the saved state and `path` the document's file,

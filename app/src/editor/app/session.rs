@@ -31,7 +31,8 @@ pub(super) struct Session {
     pub(super) saved_settings: MethodSettings,
     /// What waits for the user's answer to the unsaved-changes question.
     pub(super) pending: Option<Pending>,
-    /// What to do once the scene is saved ("Save first" with no scene file yet: Save as).
+    /// What waits for the open mesh's saves ("Save first", or an open or quit asked for while
+    /// a save writes every change): done after the last is written, dropped if one fails.
     pub(super) after_save: Option<Pending>,
     /// The editor asked its window to close.
     pub(super) closing: bool,
@@ -89,7 +90,7 @@ impl Session {
     pub(super) fn undo(&mut self) -> Option<Kept> {
         let kept = self.history.undo(&self.edit, self.settings);
         if kept.is_some() {
-            self.press_step.cancelled_press = self.press_step.press;
+            self.press_step.cancel();
         }
         kept
     }
@@ -137,6 +138,11 @@ impl PressStep {
         if self.step.is_some_and(|s| Some(s.press) != self.press) {
             self.step = None;
         }
+    }
+
+    /// Cancels what the press under way does: the rest of it changes nothing.
+    pub(super) fn cancel(&mut self) {
+        self.cancelled_press = self.press;
     }
 
     /// Whether an undo came during the press under way: the rest of it changes nothing.
@@ -245,8 +251,12 @@ impl EditorApp {
             return;
         }
         if self.has_unsaved_changes() && self.saving_all_changes() {
-            // opened once the scene is written (not after a failed save: nothing is lost)
-            self.session.after_save = Some(Pending::Open(path));
+            // opened once the scene is written (not after a failed save: nothing is lost); a
+            // quit waiting for it stays
+            if self.session.after_save != Some(Pending::Quit) {
+                self.info = Some(format!("opening {} once the scene is written", file_name(&path)));
+                self.session.after_save = Some(Pending::Open(path));
+            }
         } else if self.has_unsaved_changes() {
             self.session.pending = Some(Pending::Open(path));
         } else {
@@ -264,7 +274,8 @@ impl EditorApp {
         }
     }
 
-    /// Closes the window: the exit follows (`on_exit`).
+    /// Asks the window to close: the exit follows (`on_exit`) unless the close is held back
+    /// (`close_requested`).
     pub(super) fn close_window(&mut self, ctx: &egui::Context) {
         self.session.closing = true;
         ctx.send_viewport_cmd(egui::ViewportCommand::Close);
@@ -276,10 +287,16 @@ impl EditorApp {
     }
 
     /// With a save under way that writes every unsaved change: quits once it is written (not
-    /// after a failed one: its error shows and nothing is lost). Returns whether it waits.
+    /// after a failed one: its error shows and nothing is lost). Returns whether it waits. A
+    /// second quit while it waits does not wait again (a hung drive): the exit waits a while
+    /// for the write and keeps what it did not write.
     fn quit_after_save(&mut self) -> bool {
         let (discard, keep) = (self.session.discard_on_exit, self.session.keep_on_exit);
-        let waits = self.has_unsaved_changes() && self.saving_all_changes() && !discard && !keep;
+        let waits = self.has_unsaved_changes()
+            && self.saving_all_changes()
+            && !discard
+            && !keep
+            && self.session.after_save != Some(Pending::Quit);
         if waits {
             self.session.after_save = Some(Pending::Quit);
             self.info = Some("quitting once the scene is written".into());
@@ -294,9 +311,11 @@ impl EditorApp {
         }
         if self.must_ask_to_quit() {
             ctx.send_viewport_cmd(egui::ViewportCommand::CancelClose);
+            self.session.closing = false;
             self.ask_quit();
         } else if self.quit_after_save() {
             ctx.send_viewport_cmd(egui::ViewportCommand::CancelClose);
+            self.session.closing = false;
         }
     }
 
