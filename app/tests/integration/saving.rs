@@ -446,3 +446,40 @@ fn a_second_quit_does_not_wait_for_a_stuck_save() {
     assert!(h.state().is_closing(), "no quit with a save stuck");
     let_saves_go(&mut h);
 }
+
+/// A quit that waits for a save does not outlive its mesh: after "Discard changes and open"
+/// of another mesh, the first save of that mesh does not quit the editor.
+#[test]
+fn a_quit_waiting_for_a_save_ends_with_its_mesh() {
+    let (_dir, mut h, folder) = with_a_scene_folder("save-quit-other-mesh");
+    pose(&mut h, 0.05);
+    h.state_mut().save_scene(&folder.join("posed.json")).unwrap();
+    pose(&mut h, 0.07);
+    ctrl_s_held(&mut h);
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Q);
+    h.step();
+    assert!(!h.state().is_closing(), "the quit waits for the save");
+
+    // an edit the save does not hold, then another mesh over it
+    pose(&mut h, 0.09);
+    let ctx = h.ctx.clone();
+    h.state_mut().request_open(&ctx, test_mesh());
+    h.step();
+    h.step();
+    h.get_by_label("Discard changes and open").click();
+    h.step();
+    step_until(&mut h, "the other mesh", |a| !a.is_loading() && a.document_path().is_none());
+    step_until(&mut h, "the other mesh", settled);
+    let_saves_go(&mut h);
+    h.step();
+    assert!(!h.state().is_closing(), "quit after the first mesh's save");
+
+    // the new mesh's first save
+    pose(&mut h, 0.03);
+    h.key_press_modifiers(Modifiers::COMMAND, Key::S);
+    choose_in_dialog(&mut h, &folder.join("other.json"));
+    h.step();
+    assert!(h.state().error().is_none(), "{:?}", h.state().error());
+    assert!(!h.state().has_unsaved_changes());
+    assert!(!h.state().is_closing(), "a stale quit fired on the other mesh's save");
+}

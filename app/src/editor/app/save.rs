@@ -34,7 +34,8 @@ pub(super) struct Saving {
 }
 
 impl EditorApp {
-    /// Saves to the current scene file (or the one a save under way writes), or asks where.
+    /// Saves to the current scene file (or the newest file a save of this mesh under way or
+    /// waiting writes), or asks where.
     pub(super) fn save(&mut self, ctx: &egui::Context) {
         match self.save_target() {
             Some(p) => self.start_save(ctx, &p),
@@ -60,7 +61,10 @@ impl EditorApp {
     pub(super) fn start_save(&mut self, ctx: &egui::Context, path: &Path) {
         match self.save_order(path) {
             Err(e) => {
-                self.session.after_save = None;
+                // what waited for this save does not go on; what waits for one under way does
+                if !self.saving_open_mesh() {
+                    self.session.after_save = None;
+                }
                 self.error = Some(format!("scene not saved: {e}"));
             }
             Ok(order) if self.is_saving() => {
@@ -80,12 +84,13 @@ impl EditorApp {
     }
 
     /// Saves the scene to `path` (atomically) and waits for the write; it becomes the document
-    /// Save writes to.
+    /// Save writes to. An open or quit that waited for a save under way is dropped: it has no
+    /// frame to go on in.
     pub fn save_scene(&mut self, path: &Path) -> Result<(), String> {
+        self.session.after_save = None;
         // the saves under way and waiting first: the later one wins on disk
         while self.is_saving() {
             if let Err(e) = self.finish_save() {
-                self.session.after_save = None; // it waited for the save that failed
                 self.error = Some(format!("scene not saved: {e}"));
             }
         }
@@ -157,14 +162,18 @@ impl EditorApp {
     }
 
     /// At exit: waits at most [`EXIT_SAVE_WAIT`] in all for the saves under way and waiting (a
-    /// hung drive does not hang the exit; what was not written counts as unsaved, which the
-    /// exit keeps unless the user chose to quit without saving).
+    /// hung drive does not hang the exit). What the open mesh's saves did not write counts as
+    /// unsaved, which the exit keeps unless the user chose to quit without saving; a save of a
+    /// mesh closed since that is not written by then is lost, and the exit says so.
     pub(super) fn finish_save_at_exit(&mut self) {
         let since = std::time::Instant::now();
         while let Some(saving) = self.jobs.save.take() {
             let left = EXIT_SAVE_WAIT.saturating_sub(since.elapsed());
             let Some(result) = saving.job.wait_within(left) else {
                 eprintln!("editor: the scene was still being written to {}", saving.path.display());
+                for order in &self.jobs.save_next {
+                    eprintln!("editor: scene not saved to {}", order.path.display());
+                }
                 return;
             };
             self.write_next(|| {});

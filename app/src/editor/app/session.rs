@@ -256,6 +256,11 @@ impl EditorApp {
             if self.session.after_save != Some(Pending::Quit) {
                 self.info = Some(format!("opening {} once the scene is written", file_name(&path)));
                 self.session.after_save = Some(Pending::Open(path));
+            } else {
+                self.info = Some(format!(
+                    "{} not opened: quitting once the scene is written",
+                    file_name(&path)
+                ));
             }
         } else if self.has_unsaved_changes() {
             self.session.pending = Some(Pending::Open(path));
@@ -544,6 +549,8 @@ impl EditorApp {
                 self.jobs.loading = None;
                 self.session.at_load = None;
                 self.store.restoring = None; // a restore's load, if any, was this one
+                // an open or quit that waited for a save of the mesh this replaces is moot
+                self.session.after_save = None;
                 // a selection or texture read for the mesh this replaces can no longer apply
                 self.jobs.selection = None;
                 self.jobs.texture = None;
