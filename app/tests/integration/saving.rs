@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 
 use app::editor::EditorApp;
 use app::editor::solver_thread::MethodSettings;
-use eframe::egui::{Key, Modifiers};
+use eframe::egui::{self, Key, Modifiers};
 use egui_kittest::{Harness, kittest::Queryable};
 use solver::testing::ScratchDir;
 use support::{
@@ -482,4 +482,40 @@ fn a_quit_waiting_for_a_save_ends_with_its_mesh() {
     assert!(h.state().error().is_none(), "{:?}", h.state().error());
     assert!(!h.state().has_unsaved_changes());
     assert!(!h.state().is_closing(), "a stale quit fired on the other mesh's save");
+}
+
+/// The window's close request, as the window system delivers it after the editor asked to
+/// close (the harness does not).
+fn deliver_close(h: &mut Harness<'static, EditorApp>) {
+    let root = h.input_mut().viewports.entry(egui::ViewportId::ROOT).or_default();
+    root.events.push(egui::ViewportEvent::Close);
+    h.step();
+}
+
+/// Cancelling another question (an open over an edit) leaves a quit that waits for a save:
+/// once the save is written it goes on, and asks about the edit.
+#[test]
+fn cancelling_another_question_keeps_the_quit_waiting_for_a_save() {
+    let (_dir, mut h, folder) = with_a_scene_folder("save-quit-cancel-open");
+    pose(&mut h, 0.05);
+    h.state_mut().save_scene(&folder.join("posed.json")).unwrap();
+    pose(&mut h, 0.07);
+    ctrl_s_held(&mut h);
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Q);
+    h.step();
+    pose(&mut h, 0.09);
+    let ctx = h.ctx.clone();
+    h.state_mut().request_open(&ctx, test_mesh());
+    h.step();
+    h.step();
+    assert_eq!(h.state().pending_open(), Some(test_mesh().as_path()));
+    h.get_by_label("Cancel").click();
+    h.step();
+    let_saves_go(&mut h);
+    h.step();
+    assert!(h.state().is_closing(), "the quit that waited for the save was dropped");
+    deliver_close(&mut h);
+    assert!(h.state().quit_question_open(), "quit without asking about the edit");
+    assert!(!h.state().is_closing());
+    assert!(h.state().has_unsaved_changes());
 }

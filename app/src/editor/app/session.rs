@@ -451,9 +451,10 @@ impl EditorApp {
                             }
                         }
                     }
+                    // Cancels this question only: an open or quit that waits for a save
+                    // under way still goes on after it, asking about edits made since.
                     if ui.button("Cancel").clicked() {
                         self.session.pending = None;
-                        self.session.after_save = None;
                     }
                 });
             });
