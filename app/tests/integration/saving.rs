@@ -519,3 +519,21 @@ fn cancelling_another_question_keeps_the_quit_waiting_for_a_save() {
     assert!(!h.state().is_closing());
     assert!(h.state().has_unsaved_changes());
 }
+
+/// An edit made while a save is written is autosaved at once after it, not at the next
+/// interval: the autosave on disk held only the state before the save.
+#[test]
+fn an_edit_during_a_save_is_autosaved_after_it() {
+    let (_dir, mut h, folder) = with_a_scene_folder("save-then-autosave");
+    pose(&mut h, 0.05);
+    h.state_mut().save_scene(&folder.join("posed.json")).unwrap();
+    pose(&mut h, 0.07);
+    let autosave = h.state_mut().autosave_now().unwrap();
+    ctrl_s_held(&mut h);
+    pose(&mut h, 0.09); // while it is written
+    let_saves_go(&mut h);
+    assert!(h.state().has_unsaved_changes());
+    step_until(&mut h, "the autosave of the edit", |_| {
+        solver::animation::scene::Scene::read(&autosave).is_ok() && saved_y(&autosave) == 0.09
+    });
+}

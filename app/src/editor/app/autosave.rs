@@ -25,6 +25,9 @@ pub(super) struct Store {
     pub(super) snapshot: Snapshot,
     pub(super) last_snapshot: Option<Instant>,
     pub(super) last_autosave: Instant,
+    /// The autosave is written at the next snapshot, not after the interval: the one on disk
+    /// is older than a save that just ended, and edits made while it was written are in neither.
+    pub(super) autosave_due: bool,
     pub(super) autosaved: Option<Arc<solver::animation::scene::Scene>>,
     /// An autosave from a session that did not end cleanly, offered back at start.
     pub(super) restore_offer: Option<RestoreOffer>,
@@ -50,6 +53,7 @@ impl Store {
             snapshot: Snapshot::default(),
             last_snapshot: None,
             last_autosave: Instant::now(),
+            autosave_due: false,
             autosaved: None,
             restore_offer: None,
             restoring: None,
@@ -115,10 +119,11 @@ impl EditorApp {
         if let Ok(mut slot) = self.store.snapshot.try_lock() {
             *slot = Some(doc.clone());
         }
-        if now.duration_since(self.store.last_autosave) >= AUTOSAVE_INTERVAL
-            && self.store.autosaved.as_ref() != Some(&doc)
-        {
+        let due = self.store.autosave_due
+            || now.duration_since(self.store.last_autosave) >= AUTOSAVE_INTERVAL;
+        if due && self.store.autosaved.as_ref() != Some(&doc) {
             self.store.last_autosave = now;
+            self.store.autosave_due = false;
             self.store.autosaved = Some(doc.clone());
             // asked for now: a Save or an exit carried out before the thread writes wins
             let ticket = persist.autosave_ticket();

@@ -232,7 +232,11 @@ impl EditorApp {
         self.session.document_path = Some(path);
         mark.set_saved(&mut self.session);
         if self.has_unsaved_changes() {
-            return Ok(()); // edited while it was written: the autosave keeps the newer work
+            // Edited while it was written: the autosave keeps the newer work, written now
+            // rather than at the next interval (the one on disk is older than the file).
+            self.store.autosave_due = true;
+            self.store.last_snapshot = None;
+            return Ok(());
         }
         // Saved: a crash from now on has nothing newer to keep than the file, and an autosave
         // left would be offered after one as newer work (an unanswered offer's stays).
