@@ -309,6 +309,28 @@ fn let_saves_go(h: &mut Harness<'static, EditorApp>) {
     step_until(h, "the save", |a| !a.is_saving());
 }
 
+/// A scene saved in `folder`, an edit, Ctrl+S with saves held back, then Ctrl+Q: the quit
+/// waits for the save.
+fn quit_while_saving(h: &mut Harness<'static, EditorApp>, folder: &Path) {
+    pose(h, 0.05);
+    h.state_mut().save_scene(&folder.join("posed.json")).unwrap();
+    pose(h, 0.07);
+    ctrl_s_held(h);
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Q);
+    h.step();
+    assert!(!h.state().is_closing(), "the quit waits for the save");
+}
+
+/// An edit the save under way does not hold, then an open of another mesh: it asks first.
+fn open_over_an_edit(h: &mut Harness<'static, EditorApp>) {
+    pose(h, 0.09);
+    let ctx = h.ctx.clone();
+    h.state_mut().request_open(&ctx, test_mesh());
+    h.step();
+    h.step();
+    assert_eq!(h.state().pending_open(), Some(test_mesh().as_path()));
+}
+
 /// Ctrl+S writes the scene on a worker thread (a dense mesh's took 0.1–0.5 s on the UI
 /// thread): the file holds the state when Save was pressed, and an edit made while it is
 /// written stays unsaved. A second Ctrl+S meanwhile is written after it, with the state at
@@ -434,13 +456,7 @@ fn an_open_or_quit_waits_for_the_save_under_way() {
 #[test]
 fn a_second_quit_does_not_wait_for_a_stuck_save() {
     let (_dir, mut h, folder) = with_a_scene_folder("save-stuck");
-    pose(&mut h, 0.05);
-    h.state_mut().save_scene(&folder.join("posed.json")).unwrap();
-    pose(&mut h, 0.07);
-    ctrl_s_held(&mut h);
-    h.key_press_modifiers(Modifiers::COMMAND, Key::Q);
-    h.step();
-    assert!(!h.state().is_closing(), "the first quit waits for the save");
+    quit_while_saving(&mut h, &folder);
     h.key_press_modifiers(Modifiers::COMMAND, Key::Q);
     h.step();
     assert!(h.state().is_closing(), "no quit with a save stuck");
@@ -452,20 +468,9 @@ fn a_second_quit_does_not_wait_for_a_stuck_save() {
 #[test]
 fn a_quit_waiting_for_a_save_ends_with_its_mesh() {
     let (_dir, mut h, folder) = with_a_scene_folder("save-quit-other-mesh");
-    pose(&mut h, 0.05);
-    h.state_mut().save_scene(&folder.join("posed.json")).unwrap();
-    pose(&mut h, 0.07);
-    ctrl_s_held(&mut h);
-    h.key_press_modifiers(Modifiers::COMMAND, Key::Q);
-    h.step();
-    assert!(!h.state().is_closing(), "the quit waits for the save");
+    quit_while_saving(&mut h, &folder);
 
-    // an edit the save does not hold, then another mesh over it
-    pose(&mut h, 0.09);
-    let ctx = h.ctx.clone();
-    h.state_mut().request_open(&ctx, test_mesh());
-    h.step();
-    h.step();
+    open_over_an_edit(&mut h);
     h.get_by_label("Discard changes and open").click();
     h.step();
     step_until(&mut h, "the other mesh", |a| !a.is_loading() && a.document_path().is_none());
@@ -497,18 +502,8 @@ fn deliver_close(h: &mut Harness<'static, EditorApp>) {
 #[test]
 fn cancelling_another_question_keeps_the_quit_waiting_for_a_save() {
     let (_dir, mut h, folder) = with_a_scene_folder("save-quit-cancel-open");
-    pose(&mut h, 0.05);
-    h.state_mut().save_scene(&folder.join("posed.json")).unwrap();
-    pose(&mut h, 0.07);
-    ctrl_s_held(&mut h);
-    h.key_press_modifiers(Modifiers::COMMAND, Key::Q);
-    h.step();
-    pose(&mut h, 0.09);
-    let ctx = h.ctx.clone();
-    h.state_mut().request_open(&ctx, test_mesh());
-    h.step();
-    h.step();
-    assert_eq!(h.state().pending_open(), Some(test_mesh().as_path()));
+    quit_while_saving(&mut h, &folder);
+    open_over_an_edit(&mut h);
     h.get_by_label("Cancel").click();
     h.step();
     let_saves_go(&mut h);
