@@ -9,8 +9,6 @@
 
 use crate::support;
 
-use std::io::Write;
-use std::os::unix::io::AsRawFd;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -18,47 +16,7 @@ use app::editor::{EditorApp, Tool};
 use eframe::egui::{Event, Key, Modifiers, Pos2, Vec2};
 use egui_kittest::{Harness, kittest::Queryable};
 use solver::testing::ScratchDir;
-use support::step_until;
-
-/// A FIFO at `dir/name`: reading it waits until [`write_later`] writes it, so that a file
-/// read from it is still being read whatever the test does meanwhile.
-fn fifo(dir: &ScratchDir, name: &str) -> PathBuf {
-    use std::os::unix::ffi::OsStrExt;
-    let path = dir.join(name);
-    let c = std::ffi::CString::new(path.as_os_str().as_bytes()).unwrap();
-    // SAFETY: `c` is a valid NUL-terminated path that outlives the call.
-    assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0, "mkfifo {}", path.display());
-    path
-}
-
-/// Writes `text` into the FIFO at `path` on another thread, once a reader opened it: a reader
-/// that does not come within 90 s fails the test (its join) instead of hanging it.
-fn write_later(path: PathBuf, text: String) -> std::thread::JoinHandle<()> {
-    use std::os::unix::fs::OpenOptionsExt;
-    std::thread::spawn(move || {
-        let start = Instant::now();
-        // non-blocking, opening fails (ENXIO) until the reader has its end open
-        let mut file = loop {
-            let open =
-                std::fs::OpenOptions::new().write(true).custom_flags(libc::O_NONBLOCK).open(&path);
-            match open {
-                Ok(f) => break f,
-                Err(e) if e.raw_os_error() == Some(libc::ENXIO) => {
-                    assert!(start.elapsed() < Duration::from_secs(90), "no reader: {e}");
-                    std::thread::sleep(Duration::from_millis(5));
-                }
-                Err(e) => panic!("{}: {e}", path.display()),
-            }
-        };
-        let fd = file.as_raw_fd();
-        // SAFETY: `fd` is the open file's; blocking writes from here (the pipe's buffer may be
-        // smaller than the text).
-        unsafe {
-            libc::fcntl(fd, libc::F_SETFL, libc::fcntl(fd, libc::F_GETFL) & !libc::O_NONBLOCK)
-        };
-        file.write_all(text.as_bytes()).unwrap();
-    })
-}
+use support::{fifo, step_until, write_later};
 
 /// The bumpy bar as an OBJ in `dir` with a .dmat beside it (groups 0, 1 and 2: the first four,
 /// the next four, the last eight vertices), open in the editor; and its vertex count.

@@ -309,13 +309,27 @@ fn let_saves_go(h: &mut Harness<'static, EditorApp>) {
     step_until(h, "the save", |a| !a.is_saving());
 }
 
+/// A scene saved at `scene`, an edit, then Ctrl+S with saves held back.
+fn save_held_after_an_edit(h: &mut Harness<'static, EditorApp>, scene: &Path) {
+    pose(h, 0.05);
+    h.state_mut().save_scene(scene).unwrap();
+    pose(h, 0.07);
+    ctrl_s_held(h);
+}
+
+/// As [`quit_while_saving`], with an open of the default asset in place of the quit.
+fn open_while_saving(h: &mut Harness<'static, EditorApp>, folder: &Path) {
+    save_held_after_an_edit(h, &folder.join("posed.json"));
+    let ctx = h.ctx.clone();
+    h.state_mut().request_open(&ctx, test_mesh());
+    h.step();
+    assert!(!h.state().is_loading(), "the open waits for the save");
+}
+
 /// A scene saved in `folder`, an edit, Ctrl+S with saves held back, then Ctrl+Q: the quit
 /// waits for the save.
 fn quit_while_saving(h: &mut Harness<'static, EditorApp>, folder: &Path) {
-    pose(h, 0.05);
-    h.state_mut().save_scene(&folder.join("posed.json")).unwrap();
-    pose(h, 0.07);
-    ctrl_s_held(h);
+    save_held_after_an_edit(h, &folder.join("posed.json"));
     h.key_press_modifiers(Modifiers::COMMAND, Key::Q);
     h.step();
     assert!(!h.state().is_closing(), "the quit waits for the save");
@@ -531,4 +545,93 @@ fn an_edit_during_a_save_is_autosaved_after_it() {
     step_until(&mut h, "the autosave of the edit", |_| {
         solver::animation::scene::Scene::read(&autosave).is_ok() && saved_y(&autosave) == 0.09
     });
+}
+
+/// Opening the scene file a save is writing ("Discard changes and open" of it) reads it once
+/// it is written: read before, it held the state before that save, which the editor then took
+/// for the saved state.
+#[test]
+fn opening_the_scene_being_written_reads_it_once_written() {
+    let (_dir, mut h, folder) = with_a_scene_folder("save-reopen");
+    let scene = folder.join("posed.json");
+    save_held_after_an_edit(&mut h, &scene);
+    pose(&mut h, 0.09);
+    let ctx = h.ctx.clone();
+    h.state_mut().request_open(&ctx, scene.clone());
+    step_until(&mut h, "the question", |a| a.pending_open().is_some());
+    h.step();
+    h.get_by_label("Discard changes and open").click();
+    h.step();
+    assert!(!h.state().is_loading(), "read before it was written");
+    let_saves_go(&mut h);
+    step_until(&mut h, "the scene", |a| !a.is_loading() && a.document_path() == Some(&*scene));
+    assert_eq!(h.state().edit_state().groups[1].pose.translation.y, 0.07);
+    assert!(!h.state().has_unsaved_changes());
+}
+
+/// A later choice replaces an open that waits for a save: after "Discard changes and open" of
+/// another file, the save's end neither opens the first nor asks about it.
+#[cfg(unix)]
+#[test]
+fn a_later_open_replaces_one_waiting_for_a_save() {
+    let (dir, mut h, folder) = with_a_scene_folder("save-open-then-open");
+    open_while_saving(&mut h, &folder);
+    let ctx = h.ctx.clone();
+
+    // an edit, then another file over it: read from a FIFO, it loads until the test writes it
+    pose(&mut h, 0.09);
+    let other = support::fifo(&dir, "other.obj");
+    h.state_mut().request_open(&ctx, other.clone());
+    h.step();
+    h.step();
+    assert_eq!(h.state().pending_open(), Some(other.as_path()));
+    h.get_by_label("Discard changes and open").click();
+    h.step();
+    assert!(h.state().is_loading());
+    let_saves_go(&mut h);
+    h.step();
+    assert_eq!(h.state().pending_open(), None, "the first open asked about after the save");
+
+    let (bar, _) = solver::geometry::shapes::bumpy_bar(1);
+    let obj = dir.join("bar.obj");
+    solver::io::write_obj(&obj, bar.positions(), bar.triangles()).unwrap();
+    support::write_later(other.clone(), std::fs::read_to_string(&obj).unwrap()).join().unwrap();
+    step_until(&mut h, "the other file", |a| !a.is_loading());
+    assert_eq!(h.state().mesh_path(), Some(other.as_path()));
+}
+
+/// Cancel on the quit's own question (an edit made while the quit waited for a save) cancels
+/// the quit: the save's end does not close the window.
+#[test]
+fn cancelling_the_quit_question_cancels_the_waiting_quit() {
+    let (_dir, mut h, folder) = with_a_scene_folder("save-quit-cancel-quit");
+    quit_while_saving(&mut h, &folder);
+    pose(&mut h, 0.09);
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Q);
+    h.step();
+    h.step();
+    assert!(h.state().quit_question_open());
+    h.get_by_label("Cancel").click();
+    h.step();
+    let_saves_go(&mut h);
+    h.step();
+    assert!(!h.state().is_closing(), "quit after its question was cancelled");
+    assert!(!h.state().quit_question_open());
+}
+
+/// An open that waited for a save, with an edit made meanwhile, does not replace the quit
+/// question open when the save ends: it says it did not open.
+#[test]
+fn a_waiting_open_leaves_an_open_quit_question() {
+    let (_dir, mut h, folder) = with_a_scene_folder("save-open-quit-question");
+    open_while_saving(&mut h, &folder);
+    pose(&mut h, 0.09);
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Q);
+    h.step();
+    assert!(h.state().quit_question_open());
+    let_saves_go(&mut h);
+    h.step();
+    assert!(h.state().quit_question_open(), "the quit question was replaced");
+    let info = h.state().info().unwrap_or_default().to_owned();
+    assert!(info.contains("was not opened"), "{info}");
 }

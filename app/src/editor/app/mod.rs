@@ -181,6 +181,9 @@ struct Jobs {
     save: Option<save::Saving>,
     /// Saves asked for while one was written, in order: each started after the one before.
     save_next: Vec<save::SaveOrder>,
+    /// A scene file to open once the saves writing it are done (`EditorApp::open`), with the
+    /// document's state when it was asked for.
+    open_after_write: Option<(PathBuf, Box<session::DocumentMark>)>,
     /// What holds saves back (a test hook, `EditorApp::hold_saves`).
     save_gate: std::sync::Arc<super::jobs::SaveGate>,
     /// A glTF export baked to bones (`jobs::spawn_bake`), and whether the next one bakes.

@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use eframe::egui;
 
 use super::session::{DocumentMark, Pending};
-use super::{DialogKind, EditorApp};
+use super::{DialogKind, EditorApp, file_name};
 use crate::editor::jobs::{self, Job};
 
 /// How long an exit waits for a save under way.
@@ -205,6 +205,24 @@ impl EditorApp {
             Ok(()) if for_open_mesh && !self.saving_open_mesh() => self.after_save(ctx),
             Ok(()) => {}
         }
+        self.open_after_write(ctx);
+    }
+
+    /// Whether a save under way or waiting writes `path`.
+    pub(super) fn writing_to(&self, path: &Path) -> bool {
+        let real = |p: &Path| std::fs::canonicalize(p).ok();
+        let same = |p: &Path| p == path || real(p).is_some_and(|r| Some(r) == real(path));
+        self.jobs.save.iter().any(|s| same(&s.path))
+            || self.jobs.save_next.iter().any(|o| same(&o.path))
+    }
+
+    /// The open asked for a scene file a save was writing, once no save writes it.
+    fn open_after_write(&mut self, ctx: &egui::Context) {
+        let waits = self.jobs.open_after_write.as_ref().is_some_and(|(p, _)| !self.writing_to(p));
+        if let Some((path, mark)) = waits.then(|| self.jobs.open_after_write.take()).flatten() {
+            let version = self.jobs.wanted_load.load(std::sync::atomic::Ordering::Relaxed);
+            self.start_load(ctx, path, version, mark);
+        }
     }
 
     /// Whether a save of the open mesh is under way or waiting.
@@ -257,7 +275,18 @@ impl EditorApp {
     pub(super) fn after_save(&mut self, ctx: &egui::Context) {
         match self.session.after_save.take() {
             Some(p @ (Pending::Open(_) | Pending::Restore)) if self.has_unsaved_changes() => {
-                self.session.pending = Some(p);
+                match &self.session.pending {
+                    None => self.session.pending = Some(p),
+                    // the question open (a quit's) stays; this one is not asked
+                    Some(_) => {
+                        let what = match p {
+                            Pending::Open(path) => file_name(&path),
+                            _ => "the autosave".into(),
+                        };
+                        self.info =
+                            Some(format!("{what} was not opened: you have unsaved changes"));
+                    }
+                }
             }
             Some(Pending::Open(path)) => self.open(ctx, path),
             Some(Pending::Restore) => self.restore(ctx),

@@ -451,26 +451,57 @@ impl EditorApp {
                             }
                         }
                     }
-                    // Cancels this question only: an open or quit that waits for a save
-                    // under way still goes on after it, asking about edits made since.
+                    // Cancels this question, and a quit that waits for a save if this is
+                    // the quit's question; another open or quit that waits for a save still
+                    // goes on after it, asking about edits made since.
                     if ui.button("Cancel").clicked() {
                         self.session.pending = None;
+                        if pending == Pending::Quit
+                            && self.session.after_save == Some(Pending::Quit)
+                        {
+                            self.session.after_save = None;
+                        }
                     }
                 });
             });
     }
 
-    /// Starts loading a mesh in the background; the current scene stays until it succeeds.
+    /// Starts loading a mesh in the background; the current scene stays until it succeeds. A
+    /// scene file a save under way or waiting writes is read once it is written (it would be
+    /// read as it was before that save).
     pub fn open(&mut self, ctx: &egui::Context, path: PathBuf) {
-        self.jobs.identifying = None; // the later file wins (a restore, "Discard and open")
+        // the later file wins over one being read or told apart (a restore, "Discard and
+        // open"), and over an open or quit that waited for a save
+        self.jobs.identifying = None;
+        self.session.after_save = None;
+        self.jobs.open_after_write = None;
         self.offer_again();
         let version = self.next_version();
         self.jobs.wanted_load.store(version, std::sync::atomic::Ordering::Relaxed);
+        let mark = Box::new(DocumentMark::of(&self.session));
+        if self.writing_to(&path) {
+            self.jobs.loading = None;
+            self.info = Some(format!("opening {} once it is written", file_name(&path)));
+            self.jobs.open_after_write = Some((path, mark));
+            return;
+        }
+        self.start_load(ctx, path, version, mark);
+    }
+
+    /// Starts the load `version` of `path`; `mark` is the document's state when it was asked
+    /// for (changes made since are asked about when it ends).
+    pub(super) fn start_load(
+        &mut self,
+        ctx: &egui::Context,
+        path: PathBuf,
+        version: u64,
+        mark: Box<DocumentMark>,
+    ) {
         let c = ctx.clone();
         let start = self.start_prepare(ctx, version);
         self.jobs.loading =
             Some(loader::spawn_load(path, version, move || c.request_repaint(), Some(start)));
-        self.session.at_load = Some(Box::new(DocumentMark::of(&self.session)));
+        self.session.at_load = Some(mark);
     }
 
     /// The scene that would be written at `path`.

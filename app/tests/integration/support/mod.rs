@@ -224,3 +224,47 @@ pub fn choose_in_dialog(h: &mut Harness<'_, EditorApp>, path: &Path) {
     // a scene chosen to save is written on a worker thread
     step_until(h, "the save", |a| !a.is_saving());
 }
+
+/// A FIFO at `dir/name`: reading it waits until [`write_later`] writes it, so that a file
+/// read from it is still being read whatever the test does meanwhile.
+#[cfg(unix)]
+pub fn fifo(dir: &ScratchDir, name: &str) -> PathBuf {
+    use std::os::unix::ffi::OsStrExt;
+    let path = dir.join(name);
+    let c = std::ffi::CString::new(path.as_os_str().as_bytes()).unwrap();
+    // SAFETY: `c` is a valid NUL-terminated path that outlives the call.
+    assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0, "mkfifo {}", path.display());
+    path
+}
+
+/// Writes `text` into the FIFO at `path` on another thread, once a reader opened it: a reader
+/// that does not come within 90 s fails the test (its join) instead of hanging it.
+#[cfg(unix)]
+pub fn write_later(path: PathBuf, text: String) -> std::thread::JoinHandle<()> {
+    use std::io::Write;
+    use std::os::unix::fs::OpenOptionsExt;
+    use std::os::unix::io::AsRawFd;
+    std::thread::spawn(move || {
+        let start = Instant::now();
+        // non-blocking, opening fails (ENXIO) until the reader has its end open
+        let mut file = loop {
+            let open =
+                std::fs::OpenOptions::new().write(true).custom_flags(libc::O_NONBLOCK).open(&path);
+            match open {
+                Ok(f) => break f,
+                Err(e) if e.raw_os_error() == Some(libc::ENXIO) => {
+                    assert!(start.elapsed() < Duration::from_secs(90), "no reader: {e}");
+                    std::thread::sleep(Duration::from_millis(5));
+                }
+                Err(e) => panic!("{}: {e}", path.display()),
+            }
+        };
+        let fd = file.as_raw_fd();
+        // SAFETY: `fd` is the open file's; blocking writes from here (the pipe's buffer may be
+        // smaller than the text).
+        unsafe {
+            libc::fcntl(fd, libc::F_SETFL, libc::fcntl(fd, libc::F_GETFL) & !libc::O_NONBLOCK)
+        };
+        file.write_all(text.as_bytes()).unwrap();
+    })
+}
