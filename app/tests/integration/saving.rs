@@ -542,9 +542,14 @@ fn an_edit_during_a_save_is_autosaved_after_it() {
     pose(&mut h, 0.09); // while it is written
     let_saves_go(&mut h);
     assert!(h.state().has_unsaved_changes());
-    step_until(&mut h, "the autosave of the edit", |_| {
-        solver::animation::scene::Scene::read(&autosave).is_ok() && saved_y(&autosave) == 0.09
-    });
+    // within a few snapshots (5 s each), not the autosave interval (120 s after autosave_now)
+    let start = std::time::Instant::now();
+    let read = || solver::animation::scene::Scene::read(&autosave).ok();
+    while read().is_none_or(|_| saved_y(&autosave) != 0.09) {
+        assert!(start.elapsed().as_secs() < 20, "the edit was not autosaved after the save");
+        h.step();
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
 }
 
 /// Opening the scene file a save is writing ("Discard changes and open" of it) reads it once
@@ -562,7 +567,8 @@ fn opening_the_scene_being_written_reads_it_once_written() {
     h.step();
     h.get_by_label("Discard changes and open").click();
     h.step();
-    assert!(!h.state().is_loading(), "read before it was written");
+    let info = h.state().info().unwrap_or_default().to_owned();
+    assert!(info.contains("once it is written"), "{info}");
     let_saves_go(&mut h);
     step_until(&mut h, "the scene", |a| !a.is_loading() && a.document_path() == Some(&*scene));
     assert_eq!(h.state().edit_state().groups[1].pose.translation.y, 0.07);
@@ -634,4 +640,28 @@ fn a_waiting_open_leaves_an_open_quit_question() {
     assert!(h.state().quit_question_open(), "the quit question was replaced");
     let info = h.state().info().unwrap_or_default().to_owned();
     assert!(info.contains("was not opened"), "{info}");
+}
+
+/// An open of the scene file a save writes, when that save fails: the file holds what it held
+/// before, so the open is asked about again (the error stays), not read as the saved state.
+#[test]
+fn an_open_waiting_for_a_failed_save_asks_again() {
+    let (_dir, mut h, folder) = with_a_scene_folder("save-reopen-failed");
+    let scene = folder.join("posed.json");
+    save_held_after_an_edit(&mut h, &scene);
+    pose(&mut h, 0.09);
+    let ctx = h.ctx.clone();
+    h.state_mut().request_open(&ctx, scene.clone());
+    step_until(&mut h, "the question", |a| a.pending_open().is_some());
+    h.step();
+    h.get_by_label("Discard changes and open").click();
+    h.step();
+    assert!(h.state().is_loading(), "the open waits for the save");
+    std::fs::remove_dir_all(&folder).unwrap();
+    let_saves_go(&mut h);
+    h.step();
+    let error = h.state().error().unwrap_or_default().to_owned();
+    assert!(error.starts_with("scene not saved"), "{error}");
+    assert_eq!(h.state().pending_open(), Some(scene.as_path()), "not asked again");
+    assert!(!h.state().is_loading(), "read after the failed save");
 }

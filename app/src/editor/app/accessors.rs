@@ -27,10 +27,12 @@ impl EditorApp {
         self.session.pending == Some(super::session::Pending::Quit)
     }
 
-    /// Whether a mesh or a scene is loading, or a `.json` given to open is being read to tell
-    /// a scene from a selection.
+    /// Whether a mesh or a scene is loading, or waits for a save to write it, or a `.json`
+    /// given to open is being read to tell a scene from a selection.
     pub fn is_loading(&self) -> bool {
-        self.jobs.loading.is_some() || self.jobs.identifying.is_some()
+        self.jobs.loading.is_some()
+            || self.jobs.identifying.is_some()
+            || self.jobs.open_after_write.is_some()
     }
 
     /// Whether a selection is being read for the open mesh (`loader::spawn_selection`).

@@ -91,6 +91,7 @@ impl EditorApp {
         let doc = self.document(&persist.autosave_path())?;
         let path = persist.write_autosave(&doc)?;
         self.store.autosaved = Some(Arc::new(doc));
+        self.store.last_autosave = Instant::now();
         Ok(path)
     }
 

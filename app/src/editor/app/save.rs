@@ -85,9 +85,10 @@ impl EditorApp {
 
     /// Saves the scene to `path` (atomically) and waits for the write; it becomes the document
     /// Save writes to. An open or quit that waited for a save under way is dropped: it has no
-    /// frame to go on in.
+    /// frame to go on in (a test hook; the editor saves with [`Self::start_save`]).
     pub fn save_scene(&mut self, path: &Path) -> Result<(), String> {
         self.session.after_save = None;
+        self.jobs.open_after_write = None;
         // the saves under way and waiting first: the later one wins on disk
         while self.is_saving() {
             if let Err(e) = self.finish_save() {
@@ -194,12 +195,22 @@ impl EditorApp {
         let c = ctx.clone();
         self.write_next(move || c.request_repaint());
         let for_open_mesh = mesh == self.open_mesh();
+        let written = path.clone();
         match self.saved(path, *mark, mesh, result) {
             Err(e) => {
                 if for_open_mesh {
                     self.session.after_save = None;
                 }
                 self.error = Some(format!("scene not saved: {e}"));
+                // The file an open waits for was not written: it holds what it held before
+                // the save, so the open is asked about again (the error stays meanwhile).
+                let reopen = self.jobs.open_after_write.as_ref();
+                if reopen.is_some_and(|(p, _)| same_file(p, &written)) {
+                    let path = self.jobs.open_after_write.take().map(|(p, _)| p);
+                    if self.session.pending.is_none() {
+                        self.session.pending = path.map(Pending::Open);
+                    }
+                }
             }
             // what waits is for the open mesh's saves, and goes on after the last
             Ok(()) if for_open_mesh && !self.saving_open_mesh() => self.after_save(ctx),
@@ -210,16 +221,19 @@ impl EditorApp {
 
     /// Whether a save under way or waiting writes `path`.
     pub(super) fn writing_to(&self, path: &Path) -> bool {
-        let real = |p: &Path| std::fs::canonicalize(p).ok();
-        let same = |p: &Path| p == path || real(p).is_some_and(|r| Some(r) == real(path));
-        self.jobs.save.iter().any(|s| same(&s.path))
-            || self.jobs.save_next.iter().any(|o| same(&o.path))
+        self.jobs.save.iter().any(|s| same_file(&s.path, path))
+            || self.jobs.save_next.iter().any(|o| same_file(&o.path, path))
     }
 
-    /// The open asked for a scene file a save was writing, once no save writes it.
+    /// The open asked for a scene file a save was writing, once no save writes it (not while
+    /// the editor quits).
     fn open_after_write(&mut self, ctx: &egui::Context) {
-        let waits = self.jobs.open_after_write.as_ref().is_some_and(|(p, _)| !self.writing_to(p));
-        if let Some((path, mark)) = waits.then(|| self.jobs.open_after_write.take()).flatten() {
+        let Some((path, _)) = &self.jobs.open_after_write else { return };
+        if self.session.closing {
+            self.jobs.open_after_write = None;
+        } else if self.writing_to(path) {
+            self.info = Some(format!("opening {} once it is written", file_name(path)));
+        } else if let Some((path, mark)) = self.jobs.open_after_write.take() {
             let version = self.jobs.wanted_load.load(std::sync::atomic::Ordering::Relaxed);
             self.start_load(ctx, path, version, mark);
         }
@@ -294,4 +308,10 @@ impl EditorApp {
             None => {}
         }
     }
+}
+
+/// Whether `a` and `b` name the same file, as far as can be told without the disk (the UI
+/// thread never waits on a drive): the same path, made absolute.
+fn same_file(a: &Path, b: &Path) -> bool {
+    a == b || std::path::absolute(a).is_ok_and(|a| std::path::absolute(b).is_ok_and(|b| a == b))
 }

@@ -582,7 +582,7 @@ impl EditorApp {
                 self.session.at_load = None;
                 self.store.restoring = None; // a restore's load, if any, was this one
                 // an open or quit that waited for a save of the mesh this replaces is moot
-                self.session.after_save = None;
+                let dropped = self.session.after_save.take();
                 // a selection or texture read for the mesh this replaces can no longer apply
                 self.jobs.selection = None;
                 self.jobs.texture = None;
@@ -596,6 +596,9 @@ impl EditorApp {
                     .selection_path
                     .as_deref()
                     .map(|p| format!("handles from {}", file_name(p)));
+                if let Some(Pending::Open(p)) = dropped {
+                    self.info = Some(format!("{} not opened: another file opened", file_name(&p)));
+                }
                 self.session.playback = Playback::default();
                 self.session.document_path = None;
                 let mut restored = false;
