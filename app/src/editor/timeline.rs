@@ -58,6 +58,18 @@ impl Playback {
         self.playing = playing;
         self.last_tick = None;
     }
+
+    /// Play or pause (the Play button, Space). Play at the end of a timeline that does not
+    /// loop plays it from the start, as players do (it stopped there at once). Returns whether
+    /// the time went back to the start.
+    pub fn play_or_pause(&mut self, timeline: &Timeline) -> bool {
+        let rewind = !self.playing && !timeline.looping && self.time >= timeline.duration;
+        if rewind {
+            self.time = 0.0;
+        }
+        self.set_playing(!self.playing);
+        rewind
+    }
 }
 
 /// Sets the pose of every group that has a path to the path's value at playback time `t`.
@@ -214,9 +226,10 @@ pub fn panel(
     let mut edited = false;
     ui.horizontal(|ui| {
         let play_label = if playback.playing { "Pause" } else { "Play" };
-        if ui.button(play_label).on_hover_text("Space").clicked() {
-            let playing = !playback.playing;
-            playback.set_playing(playing);
+        if ui.button(play_label).on_hover_text("Space").clicked()
+            && playback.play_or_pause(&edit.timeline)
+        {
+            actions.push(TimelineAction::TimeChanged);
         }
         if ui.button("|<").on_hover_text("to the start (Home)").clicked() {
             playback.time = 0.0;
@@ -674,5 +687,21 @@ mod tests {
         p.tick(t0, &tl);
         p.tick(t0 + std::time::Duration::from_millis(1250), &tl);
         assert!((p.time - 0.25).abs() < 1e-9 && p.playing);
+    }
+
+    #[test]
+    fn play_at_the_end_plays_from_the_start() {
+        let tl = Timeline { duration: 1.0, fps: 30.0, looping: false, paths: vec![] };
+        let mut p = Playback { time: 1.0, ..Playback::default() };
+        assert!(p.play_or_pause(&tl), "Play at the end goes back to the start");
+        assert_eq!((p.time, p.playing), (0.0, true));
+        p.time = 0.5;
+        assert!(!p.play_or_pause(&tl));
+        assert_eq!((p.time, p.playing), (0.5, false), "Pause keeps the time");
+        assert!(!p.play_or_pause(&tl));
+        assert_eq!((p.time, p.playing), (0.5, true), "Play mid-way goes on from there");
+        let looping = Timeline { looping: true, ..tl };
+        p = Playback { time: 1.0, ..Playback::default() };
+        assert!(!p.play_or_pause(&looping), "a loop plays on from its end");
     }
 }

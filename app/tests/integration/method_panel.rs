@@ -264,3 +264,33 @@ fn undo_during_a_slider_drag_cancels_it() {
     h.step();
     assert_eq!(length(h.state()), dragged, "the drag, as far as it went, is redone");
 }
+
+/// A pointer drag on a Pose panel number is one undo step however many frames it takes (it
+/// was one a frame: an undo took back one frame's worth).
+#[test]
+fn a_pose_number_drag_is_one_undo_step() {
+    use support::press;
+    let mut h = harness(test_mesh(), None);
+    step_until(&mut h, "the default asset", settled);
+    h.state_mut().set_active_group(Some(0));
+    h.step();
+    let x = |app: &EditorApp| app.edit_state().groups[0].pose.translation.x;
+    let start = x(h.state());
+    let field = h.get_by_role_and_label(egui::accesskit::Role::SpinButton, "x");
+    field.scroll_to_me();
+    for _ in 0..3 {
+        h.step();
+    }
+    let rect = h.get_by_role_and_label(egui::accesskit::Role::SpinButton, "x").rect();
+    assert!(h.ctx.content_rect().contains_rect(rect), "the field is on screen: {rect:?}");
+    let c = rect.center();
+    let then: Vec<_> = (1..=6).map(|i| c + egui::vec2(8.0 * i as f32, 0.0)).collect();
+    press_and_drag(&mut h, c, &then);
+    press(&h, then[5], false, egui::Modifiers::NONE);
+    h.step();
+    h.step();
+    assert!(x(h.state()) > start, "the drag moved the group: {start} → {}", x(h.state()));
+    h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::Z);
+    h.step();
+    assert_eq!(x(h.state()), start, "one undo takes back the whole drag");
+}

@@ -88,9 +88,16 @@ fn a_bad_preferences_file_gives_defaults_and_a_message() {
     h.event(Event::Text("?".into()));
     h.step();
     h.step();
-    for k in
-        ["Q", "Ctrl+I", "Ctrl+L", "Alt+A", "Alt+Z", "+ / -", "G or R, then X / Y / Z", "Ctrl+,"]
-    {
+    for k in [
+        "Q",
+        "Ctrl+I",
+        "Ctrl+L",
+        "Alt+A",
+        "Alt+Z",
+        "+ (or =) / -",
+        "G or R, then X / Y / Z",
+        "Ctrl+,",
+    ] {
         assert!(h.query_by_label(k).is_some(), "the ? window does not list {k}");
     }
     h.event(Event::Text("?".into()));

@@ -271,3 +271,50 @@ fn an_undo_during_a_drag_cancels_it() {
     assert_eq!(h.state().edit_state().groups[0].name, "renamed");
     assert_eq!(h.state().edit_state().timeline.duration, duration);
 }
+
+/// K that sets no key says why: no group selected, a circular path, a key there already
+/// holding the pose (it said nothing).
+#[test]
+fn k_without_a_key_set_says_why() {
+    let mut h = start();
+    let k_says = |h: &mut Harness<'static, EditorApp>| {
+        h.key_press(Key::K);
+        h.step();
+        h.state().info().unwrap_or_default().to_owned()
+    };
+    h.state_mut().set_active_group(None);
+    assert!(k_says(&mut h).contains("select a handle group"));
+    h.state_mut().set_active_group(Some(0));
+    assert!(k_says(&mut h).starts_with("key set"));
+    assert!(k_says(&mut h).contains("holds this pose"));
+    let mut e = h.state().edit_state().clone();
+    let circle = CircularPath {
+        axis: [0.0, 0.0, 1.0],
+        reference: [1.0, 0.0, 0.0],
+        radius: 0.05 * h.state().diagonal(),
+        period: 1.0,
+        phase: 0.0,
+        turn_with_path: false,
+        start: None,
+    };
+    e.set_path(1, AnimPath::Circular(circle));
+    h.state_mut().set_edit_state(e);
+    h.state_mut().set_active_group(Some(1));
+    assert!(k_says(&mut h).contains("path is circular"));
+}
+
+/// Space at the end of a timeline that does not loop plays it from the start (it stopped
+/// again at once).
+#[test]
+fn play_at_the_end_plays_from_the_start() {
+    let mut h = start();
+    let mut e = h.state().edit_state().clone();
+    e.timeline.looping = false;
+    let end = e.timeline.duration;
+    h.state_mut().set_edit_state(e);
+    h.state_mut().set_playback_time(end);
+    h.key_press(Key::Space);
+    h.step();
+    assert!(h.state().is_playing());
+    assert!(h.state().playback_time() < end, "still at the end");
+}

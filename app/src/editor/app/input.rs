@@ -94,6 +94,29 @@ pub(super) struct Hover {
 }
 
 impl EditorApp {
+    /// K: keys the active group's pose at the current time, or says why not.
+    fn key_active_group(&mut self) {
+        let Some(k) = self.interaction.active_group else {
+            self.info = Some("no key set: select a handle group first".into());
+            return;
+        };
+        let (time, before) = (self.session.playback.time, self.session.edit.clone());
+        if timeline::key_current_pose(&mut self.session.edit, k, time) {
+            self.session.push_undo(before);
+            self.info = Some(format!("key set at {time:.3} s"));
+        } else if matches!(
+            self.session.edit.path(k),
+            solver::animation::timeline::Path::Circular(_)
+        ) {
+            self.info = Some(
+                "no key set: the group's path is circular (choose keyframed in the timeline to key it)"
+                    .into(),
+            );
+        } else {
+            self.info = Some(format!("no key set: the key at {time:.3} s holds this pose"));
+        }
+    }
+
     /// Ends what the user is in the middle of (a paint stroke, a pose drag, a box or lasso, a
     /// modal transform, a rename) where the handle groups are replaced under it: a loaded mesh
     /// or selection, an undo or redo. Their indices would name other groups, or none (a drag
@@ -156,21 +179,16 @@ impl EditorApp {
         if consume(Modifiers::COMMAND, Key::S) {
             self.save(ctx);
         }
-        if consume(Modifiers::NONE, Key::Space) {
-            let playing = !self.session.playback.playing;
-            self.session.playback.set_playing(playing);
+        if consume(Modifiers::NONE, Key::Space)
+            && self.session.playback.play_or_pause(&self.session.edit.timeline)
+        {
+            self.time_changed();
         }
         if consume(Modifiers::NONE, Key::Home) {
             self.set_playback_time(0.0);
         }
-        if consume(Modifiers::NONE, Key::K)
-            && let Some(k) = self.interaction.active_group
-        {
-            let before = self.session.edit.clone();
-            if timeline::key_current_pose(&mut self.session.edit, k, self.session.playback.time) {
-                self.session.push_undo(before);
-                self.info = Some(format!("key set at {:.3} s", self.session.playback.time));
-            }
+        if consume(Modifiers::NONE, Key::K) {
+            self.key_active_group();
         }
         for (k, front, back) in [
             (Key::Num1, ViewPreset::Front, ViewPreset::Back),

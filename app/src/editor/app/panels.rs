@@ -52,7 +52,12 @@ impl EditorApp {
                     .logarithmic(true)
                     .text("brush radius"),
             );
-            ui.label("Left drag paints, Ctrl erases; [ and ] resize.");
+            ui.label(match self.selecting.mode {
+                super::selection::SelectMode::Brush => {
+                    "Left drag paints, Ctrl erases; [ and ] resize."
+                }
+                _ => "Left drag adds the enclosed vertices, Ctrl removes.",
+            });
             self.selection_panel(ui);
         } else if self.interaction.tool == Tool::Pose {
             ui.label("Drag a group to move it; Ctrl+drag rotates it.");
@@ -113,11 +118,21 @@ impl EditorApp {
             }
         }
         if edited {
-            let mut before = self.session.edit.clone();
-            for (g, c) in before.groups.iter_mut().zip(colors_before) {
-                g.color = c;
+            // one step per press: a drag in the colour picker changes the colour every frame
+            let before = |s: &super::session::Session| {
+                let mut before = s.edit.clone();
+                for (g, c) in before.groups.iter_mut().zip(&colors_before) {
+                    g.color = *c;
+                }
+                before
+            };
+            let settings = self.session.settings;
+            if !self.session.push_for_drag(before, settings) {
+                // an undo came during the press: its colours stand
+                for (g, c) in self.session.edit.groups.iter_mut().zip(&colors_before) {
+                    g.color = *c;
+                }
             }
-            self.session.push_undo(before);
             self.display.color_version += 1;
         }
         ui.horizontal(|ui| {
@@ -253,8 +268,11 @@ impl EditorApp {
         if changed && !pose.is_finite() {
             self.error =
                 Some("value refused: move and rotate values must be finite numbers".into());
-        } else if changed && pose != self.session.edit.groups[k].pose {
-            self.session.push_undo(self.session.edit.clone());
+        } else if changed
+            && pose != self.session.edit.groups[k].pose
+            // one step per press: a drag on a number changes it every frame
+            && self.session.push_for_drag(|s| s.edit.clone(), self.session.settings)
+        {
             self.session.edit.groups[k].pose = pose;
             self.mirror_pose(k);
             self.send_poses();
@@ -584,6 +602,7 @@ impl eframe::App for EditorApp {
                             self.jobs.recorded.is_some(),
                             egui::Button::new("Export glTF…"),
                         )
+                        .on_disabled_hover_text("record the timeline first")
                         .clicked()
                     {
                         self.start_dialog(&ctx, DialogKind::ExportGltf);

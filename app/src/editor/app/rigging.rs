@@ -352,7 +352,9 @@ impl EditorApp {
             let s = self.session.edit.symmetry;
             let mut paint = s.mirror_painting;
             let mut pose = s.mirror_posing;
-            if ui.checkbox(&mut paint, "Mirror painting (M)").changed() {
+            let hint = "brush strokes paint the mirrored vertices too (box, lasso and the \
+                        group commands are not mirrored)";
+            if ui.checkbox(&mut paint, "Mirror painting (M)").on_hover_text(hint).changed() {
                 self.toggle_symmetry(|s| s.mirror_painting = paint);
             }
             if ui.checkbox(&mut pose, "Mirror posing (Shift+M)").changed() {

@@ -237,7 +237,11 @@ impl EditorApp {
             (View::Base, _) => match frame(0) {
                 Some(f) => match &f.deformed_base {
                     Some(b) => Ok((tag(f) * 2 + 1, b.clone())),
-                    None => Err("this solver provides no base surface yet"),
+                    // ARAP has none; a BS-ARAP variant's comes with its next frame
+                    None if self.session.settings.bs_variant == solver::Method::Arap => {
+                        Err("ARAP has no base surface: choose a BS-ARAP method to see one")
+                    }
+                    None => Err("no base surface yet"),
                 },
                 None => Err("no solved frame yet"),
             },
