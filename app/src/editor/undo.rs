@@ -193,6 +193,19 @@ impl History {
         self.generation += 1;
     }
 
+    /// Drops the last step when it is still the one the history's `generation` followed and
+    /// the edit since changed nothing (`edit`, `settings` are what it kept): a brush stroke
+    /// over vertices already in its group would leave a step whose undo seems to do nothing.
+    pub fn drop_unchanged(&mut self, generation: u64, edit: &EditState, settings: MethodSettings) {
+        let last = self.undo.last();
+        if self.generation == generation
+            && last.is_some_and(|k| k.edit == *edit && k.settings == settings)
+        {
+            self.undo.pop();
+            self.generation += 1;
+        }
+    }
+
     /// The state before the last edit, with the playback time it was kept at; the current
     /// one (`edit`, `settings`) goes on the redo stack.
     pub fn undo(&mut self, edit: &EditState, settings: MethodSettings) -> Option<Kept> {
@@ -315,5 +328,27 @@ mod tests {
         assert_eq!(h.undo(&s, new).unwrap().settings, old);
         assert!(!h.can_undo());
         assert_eq!(h.redo(&s, old).unwrap().settings, new);
+    }
+
+    #[test]
+    fn a_step_that_changed_nothing_is_dropped() {
+        let settings = MethodSettings::default();
+        let mut h = History::default();
+        let a = EditState::from_labels(vec![None, None]);
+        let b = EditState::from_labels(vec![Some(0), None]);
+        h.push(a.clone(), settings);
+        let g = h.generation();
+        h.drop_unchanged(g, &b, settings);
+        assert!(h.can_undo(), "the edit changed the state: its step stays");
+        h.push(b.clone(), settings);
+        let g = h.generation();
+        h.drop_unchanged(g, &b, settings);
+        assert_eq!(h.undo(&b, settings).map(|k| k.edit), Some(a.clone()), "the no-op step went");
+        // a step another edit followed (a later push) is not the gesture's to drop
+        h.push(a.clone(), settings);
+        let g = h.generation();
+        h.push(b.clone(), settings);
+        h.drop_unchanged(g, &b, settings);
+        assert_eq!(h.generation(), g + 1);
     }
 }

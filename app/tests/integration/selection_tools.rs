@@ -331,3 +331,22 @@ fn undo_while_a_box_is_drawn_cancels_only_the_box() {
     h.step();
     assert_eq!(h.state().labels(), &stroked[..], "the box selected, or the stroke was undone");
 }
+
+/// A brush stroke that changes nothing (over vertices already in the group) leaves no undo
+/// step: Ctrl+Z after it takes back the stroke before (it undid the no-op, seeming to do
+/// nothing).
+#[test]
+fn a_stroke_that_changes_nothing_leaves_no_undo_step() {
+    let (mut h, g) = start();
+    let before = h.state().labels().to_vec();
+    for _ in 0..2 {
+        let p = begin_stroke(&mut h);
+        support::press(&h, p + Vec2::new(4.0, 0.0), false, Modifiers::NONE);
+        h.step();
+        h.step();
+    }
+    assert!(!in_group(h.state(), g).is_empty(), "the stroke painted nothing");
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    assert_eq!(h.state().labels(), &before[..], "one undo takes back the painting stroke");
+}

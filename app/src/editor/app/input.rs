@@ -68,6 +68,8 @@ pub(super) struct HoverKey {
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Stroke {
     pub(super) erase: bool,
+    /// The history's generation after the stroke's step (`Session::push_gesture_step`).
+    step: u64,
     /// The viewport it started in: only that viewport's input goes on with it or ends it
     /// (side by side, the other viewport's pointer is up).
     slot: usize,
@@ -77,6 +79,8 @@ pub(super) struct Stroke {
 #[derive(Debug, Clone, Copy)]
 pub(super) struct PoseDrag {
     group: usize,
+    /// The history's generation after the drag's step (`Session::push_gesture_step`).
+    step: u64,
     start: GroupTransform,
     /// Depth of the grabbed point along the view axis (world units).
     depth: f32,
@@ -396,8 +400,9 @@ impl EditorApp {
             let erase = match self.interaction.stroke {
                 Some(s) => s.erase,
                 None => {
-                    self.session.push_undo(self.session.edit.clone());
-                    self.interaction.stroke = Some(Stroke { erase: modifiers.command, slot });
+                    let step = self.session.push_gesture_step(self.session.edit.clone());
+                    let erase = modifiers.command;
+                    self.interaction.stroke = Some(Stroke { erase, step, slot });
                     modifiers.command
                 }
             };
@@ -411,7 +416,8 @@ impl EditorApp {
 
     /// Ends the paint stroke in progress, if any, and sends the labels it painted.
     pub(super) fn finish_stroke(&mut self) {
-        if self.interaction.stroke.take().is_some() {
+        if let Some(stroke) = self.interaction.stroke.take() {
+            self.session.end_gesture_step(stroke.step);
             self.rigging.stroke_partner = None;
             self.send_scene();
         }
@@ -444,9 +450,10 @@ impl EditorApp {
                 let eye = self.display.camera.eye();
                 let anchor = hit.map_or(self.display.camera.target, |h| h.point);
                 let depth = (anchor - eye).dot(-self.display.camera.back()).max(1e-4);
-                self.session.push_undo(self.session.edit.clone());
+                let step = self.session.push_gesture_step(self.session.edit.clone());
                 self.interaction.drag = Some(PoseDrag {
                     group: g,
+                    step,
                     start: self.session.edit.groups[g].pose,
                     depth,
                     rotate: modifiers.command,
@@ -483,6 +490,7 @@ impl EditorApp {
             }
             if !ui.input(|i| i.pointer.primary_down()) {
                 self.interaction.drag = None;
+                self.session.end_gesture_step(d.step);
             }
         }
     }

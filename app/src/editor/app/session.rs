@@ -60,6 +60,18 @@ impl Session {
         self.history.push(before, self.settings);
     }
 
+    /// Records `before` for a gesture that edits until it ends (a brush stroke, a pose drag):
+    /// the history's generation after the push, for [`Self::end_gesture_step`].
+    pub(super) fn push_gesture_step(&mut self, before: EditState) -> u64 {
+        self.push_undo(before);
+        self.history.generation()
+    }
+
+    /// A gesture's end: its step goes when the gesture changed nothing.
+    pub(super) fn end_gesture_step(&mut self, generation: u64) {
+        self.history.drop_unchanged(generation, &self.edit, self.settings);
+    }
+
     /// Records `before` (made only when pushed: a copy of the edit state is megabytes on a
     /// dense mesh) and `settings` as an undo step, one per press of the pointer: the step the
     /// press's first change pushed stands for all its changes while it is the history's last.
