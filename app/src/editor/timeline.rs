@@ -170,6 +170,9 @@ pub struct RecordingView {
     /// Frames, seconds of animation and `.glb` size in bytes of the kept recording.
     pub kept: Option<(usize, f64, u64)>,
     pub showing: bool,
+    /// Whether the view shows a recording (the result and the details views do; the base
+    /// surface and side by side show the solvers).
+    pub view_shows_it: bool,
     /// An export in progress: `(done, total)` frames written.
     pub exporting: Option<(usize, usize)>,
     /// Whether a glTF export bakes the recording to bones, and how many.
@@ -294,7 +297,9 @@ pub fn panel(
             ui.separator();
             ui.label(format!("recorded {frames} frames ({seconds:.2} s)"));
             let mut showing = recording.showing;
-            if ui.checkbox(&mut showing, "show recording").changed() {
+            let show = egui::Checkbox::new(&mut showing, "show recording");
+            let why = "the result and details views show the recording";
+            if ui.add_enabled(recording.view_shows_it, show).on_disabled_hover_text(why).changed() {
                 actions.push(TimelineAction::ShowRecording(showing));
             }
         }

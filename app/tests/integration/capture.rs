@@ -469,6 +469,24 @@ fn a_png_sequence_shows_and_cancels_in_the_status_bar() {
     assert!(!h.state().quit_question_open(), "nothing under way: no question");
 }
 
+/// F12 with the brush over the mesh takes the picture without the brush's footprint (it
+/// showed the yellow circle), as with the pointer away.
+#[test]
+fn a_screenshot_shows_no_brush() {
+    let config = ScratchDir::new("capture-no-brush");
+    let mut h = harness(config.to_path_buf());
+    step_until(&mut h, "the default asset", support::settled);
+    h.state_mut().set_capture_settings(Some([320, 200]), true);
+    let away = png(&f12(&mut h));
+    let p = support::middle_vertex_on_screen(h.state());
+    h.event(egui::Event::PointerMoved(p));
+    h.run_steps(2);
+    assert!(h.state().hover_footprint().is_some_and(|f| !f.is_empty()), "no brush on the mesh");
+    let over = png(&f12(&mut h));
+    let d = differing_pixels(&away, &over);
+    assert!(d < 10, "the brush changed {d} pixels of the picture");
+}
+
 /// Quitting with work under way and nothing unsaved asks first (an F12 capture here; a
 /// recording, an export or a bake the same: an export writes its file at the end, and quitting
 /// stopped it with nothing said). "Quit" goes on, and is not asked again.

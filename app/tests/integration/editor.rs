@@ -12,7 +12,10 @@ use std::sync::Arc;
 use app::editor::solver_thread::{Slot, SolverState};
 use app::editor::{EditorApp, EditorOptions, Shading, Tool, View};
 use eframe::egui::{self, Event, Modifiers, Pos2, Vec2};
-use egui_kittest::{Harness, kittest::Queryable};
+use egui_kittest::{
+    Harness,
+    kittest::{NodeT, Queryable},
+};
 use glam::{DQuat, DVec3};
 use solver::GroupTransform;
 use solver::testing::ScratchDir;
@@ -507,6 +510,17 @@ fn a_timeline_path_drives_the_handles_and_the_recording_matches_the_headless_exp
     let recorded = h.state().recorded_frames().expect("a recording").clone();
     assert_eq!(recorded.frames.len(), 5);
     assert_eq!(recorded.times.last().copied(), Some(0.4));
+    // "show recording" applies in the views that show one: the base surface's is greyed
+    let show_disabled = |h: &Harness<'_, EditorApp>| {
+        h.get_by_label("show recording").accesskit_node().is_disabled()
+    };
+    h.step();
+    assert!(!show_disabled(&h));
+    h.state_mut().set_view(View::Base);
+    h.run_steps(2);
+    assert!(show_disabled(&h), "the base surface view takes no recording");
+    h.state_mut().set_view(View::Result);
+    h.run_steps(2);
 
     // The same scene, saved and recorded headless as `bsarap export` does: the same frames.
     let dir = temp_dir("record");

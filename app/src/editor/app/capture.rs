@@ -243,7 +243,7 @@ impl EditorApp {
         let render = self.texture_layout(n).cloned();
         let overlays = self.capture.overlays;
         let colors = if overlays {
-            self.vertex_colors(0, n, render.is_some())
+            self.vertex_colors(None, n, render.is_some()) // no brush in a picture
         } else {
             capture::vertex_colors(&[], n, None, render.is_some())
         };

@@ -96,6 +96,12 @@ impl View {
             View::Compare => "Side by side",
         }
     }
+
+    /// Whether the view shows a kept recording when asked to (the base surface and side by
+    /// side always show the solvers).
+    pub fn shows_recording(self) -> bool {
+        matches!(self, View::Result | View::Details)
+    }
 }
 
 /// How the mesh is shaded.

@@ -211,6 +211,7 @@ impl EditorApp {
                 )
             }),
             showing: self.display.show_recording,
+            view_shows_it: self.display.view.shows_recording(),
             exporting: self.jobs.export.as_ref().map(|j| j.progress.get()),
             bake: self.jobs.bake_choice,
             baking: self.jobs.bake.as_ref().map(jobs::Baking::view),

@@ -156,9 +156,15 @@ impl EditorApp {
         scene.render.as_ref().filter(|_| on)
     }
 
-    /// Colors per vertex (linear RGBA) for `slot`. Over a texture (`over_texture`) they are
-    /// an overlay whose alpha is its weight: 0 on free vertices, [`GROUP_TINT`] on handles.
-    pub(super) fn vertex_colors(&self, slot: usize, n: usize, over_texture: bool) -> Vec<[f32; 4]> {
+    /// Colors per vertex (linear RGBA), with the brush's footprint where it is in viewport
+    /// `brush_in` (`None`: no brush, as in a screenshot). Over a texture (`over_texture`) they
+    /// are an overlay whose alpha is its weight: 0 on free vertices, [`GROUP_TINT`] on handles.
+    pub(super) fn vertex_colors(
+        &self,
+        brush_in: Option<usize>,
+        n: usize,
+        over_texture: bool,
+    ) -> Vec<[f32; 4]> {
         let base = if over_texture {
             [0.0; 4]
         } else {
@@ -195,7 +201,7 @@ impl EditorApp {
                 *c = rgba;
             }
         }
-        if let Some(h) = self.interaction.hover.as_ref().filter(|h| h.slot == slot) {
+        if let Some(h) = self.interaction.hover.as_ref().filter(|h| Some(h.slot) == brush_in) {
             let erase = self.interaction.stroke.is_some_and(|s| s.erase);
             let tint = if erase { [0.9, 0.9, 0.9, 1.0] } else { [1.0, 0.85, 0.1, 1.0] };
             for &v in &h.footprint {
@@ -221,7 +227,7 @@ impl EditorApp {
         let shape =
             |f: &SolvedFrame| Shape { positions: f.positions.clone(), normals: f.normals.clone() };
         if let Some(rec) = self.jobs.recorded.as_ref().filter(|_| self.display.show_recording)
-            && matches!(self.display.view, View::Result | View::Details)
+            && self.display.view.shows_recording()
         {
             let n = rec.shapes.len();
             let d = rec.recording.times.last().copied().unwrap_or(0.0).max(1e-9);
@@ -263,7 +269,7 @@ impl EditorApp {
                     && matches!(&self.display.viewports[slot].colors,
                         Some((v, c)) if *v == color_version && c.vertices.len() == n);
                 if !fresh {
-                    let vertices = self.vertex_colors(slot, n, textured);
+                    let vertices = self.vertex_colors(Some(slot), n, textured);
                     let version = self.next_version();
                     let colors = Arc::new(VertexData { version, vertices });
                     self.display.viewports[slot].colors = Some((color_version, colors));
