@@ -85,7 +85,7 @@ impl EditorApp {
 
     /// Saves the scene to `path` (atomically) and waits for the write; it becomes the document
     /// Save writes to. An open or quit that waited for a save under way is dropped: it has no
-    /// frame to go on in (a test hook; the editor saves with [`Self::start_save`]).
+    /// frame to go on in (a test hook; the editor saves with `start_save`, off the UI thread).
     pub fn save_scene(&mut self, path: &Path) -> Result<(), String> {
         self.session.after_save = None;
         self.jobs.open_after_write = None;
