@@ -170,6 +170,9 @@ pub struct History {
     /// Changes with every push, undo, redo and clear: a gesture that pushed one step and goes
     /// on tells by it whether that step is still the last one.
     generation: u64,
+    /// What the last push took away, with the generation it made: the redo steps, and the
+    /// oldest step when the history was full. [`Self::drop_unchanged`] puts them back.
+    taken: Option<(u64, Vec<Kept>, Option<Kept>)>,
 }
 
 impl History {
@@ -186,30 +189,38 @@ impl History {
             return;
         }
         self.undo.push(Kept { edit: before, settings, time });
-        if self.undo.len() > MAX_HISTORY {
-            self.undo.remove(0);
-        }
-        self.redo.clear();
+        let evicted = (self.undo.len() > MAX_HISTORY).then(|| self.undo.remove(0));
+        let redo = std::mem::take(&mut self.redo);
         self.generation += 1;
+        self.taken = Some((self.generation, redo, evicted));
     }
 
     /// Drops the last step when it is still the one the history's `generation` followed and
     /// the edit since changed nothing (`edit`, `settings` are what it kept): a brush stroke
     /// over vertices already in its group would leave a step whose undo seems to do nothing.
+    /// What its push took away (the redo steps, the oldest step) comes back.
     pub fn drop_unchanged(&mut self, generation: u64, edit: &EditState, settings: MethodSettings) {
         let last = self.undo.last();
-        if self.generation == generation
-            && last.is_some_and(|k| k.edit == *edit && k.settings == settings)
+        if self.generation != generation
+            || !last.is_some_and(|k| k.edit == *edit && k.settings == settings)
         {
-            self.undo.pop();
-            self.generation += 1;
+            return;
         }
+        self.undo.pop();
+        if let Some((_, redo, evicted)) = self.taken.take().filter(|t| t.0 == generation) {
+            self.redo = redo;
+            if let Some(oldest) = evicted {
+                self.undo.insert(0, oldest);
+            }
+        }
+        self.generation += 1;
     }
 
     /// The state before the last edit, with the playback time it was kept at; the current
     /// one (`edit`, `settings`) goes on the redo stack.
     pub fn undo(&mut self, edit: &EditState, settings: MethodSettings) -> Option<Kept> {
         let prev = self.undo.pop()?;
+        self.taken = None;
         self.redo.push(Kept { edit: edit.clone(), settings, time: self.time });
         self.generation += 1;
         Some(prev)
@@ -217,12 +228,14 @@ impl History {
 
     pub fn redo(&mut self, edit: &EditState, settings: MethodSettings) -> Option<Kept> {
         let next = self.redo.pop()?;
+        self.taken = None;
         self.undo.push(Kept { edit: edit.clone(), settings, time: self.time });
         self.generation += 1;
         Some(next)
     }
 
     pub fn clear(&mut self) {
+        self.taken = None;
         self.undo.clear();
         self.redo.clear();
         self.generation += 1;
@@ -350,5 +363,23 @@ mod tests {
         h.push(b.clone(), settings);
         h.drop_unchanged(g, &b, settings);
         assert_eq!(h.generation(), g + 1);
+    }
+
+    #[test]
+    fn a_dropped_step_gives_back_the_redo_steps() {
+        let settings = MethodSettings::default();
+        let mut h = History::default();
+        let a = EditState::from_labels(vec![None, None]);
+        let b = EditState::from_labels(vec![Some(0), None]);
+        h.push(a.clone(), settings); // a → b
+        let undone = h.undo(&b, settings).unwrap();
+        assert_eq!(undone.edit, a);
+        // a gesture on `a` that changes nothing: the redo to `b` stays
+        h.push(a.clone(), settings);
+        assert!(!h.can_redo());
+        let g = h.generation();
+        h.drop_unchanged(g, &a, settings);
+        assert!(h.can_redo(), "the no-op gesture took the redo away");
+        assert_eq!(h.redo(&a, settings).map(|k| k.edit), Some(b));
     }
 }

@@ -465,3 +465,26 @@ fn a_setting_changed_while_a_mesh_loads_is_asked_about_and_an_open_question_stay
     let info = h.state().info().unwrap_or_default();
     assert!(info.contains("again.obj was not opened"), "{info}");
 }
+
+/// B pressed during a pose drag ends the drag: the brush shows again under the pointer (the
+/// drag stayed under way in the paint tool, hiding the brush until the pose tool came back),
+/// and the drag is one undo step.
+#[test]
+fn switching_to_the_brush_mid_drag_ends_the_drag() {
+    let dir = ScratchDir::new("brush-mid-drag");
+    let (mut h, _, n) = bar_with_three_groups(&dir);
+    let p = start_pose_drag(&mut h, n);
+    assert_ne!(h.state().edit_state().groups[2].pose, Default::default(), "nothing moved");
+    h.key_press(Key::B);
+    h.step();
+    support::press(&h, p, false, Modifiers::NONE);
+    h.step();
+    assert_eq!(h.state().tool(), Tool::Paint);
+    let q = h.state().vertex_screen_pos(n / 2).expect("a vertex on screen");
+    h.event(Event::PointerMoved(q));
+    h.run_steps(2);
+    assert!(h.state().hover_footprint().is_some_and(|f| !f.is_empty()), "no brush");
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    assert_eq!(h.state().edit_state().groups[2].pose, Default::default());
+}

@@ -364,6 +364,12 @@ impl EditorApp {
         if !brush && self.interaction.stroke.is_some_and(|s| s.slot == slot) {
             self.finish_stroke();
         }
+        // a pose drag ends with the pose tool (B, Shift+R mid-drag): the brush shows again
+        if self.interaction.tool != Tool::Pose
+            && let Some(d) = self.interaction.drag.take()
+        {
+            self.session.end_gesture_step(d.step);
+        }
         if !alt_orbit && self.tool_input(ui, slot, rect, response, modifiers) {
             return;
         }
