@@ -552,6 +552,19 @@ fn an_edit_during_a_save_is_autosaved_after_it() {
     }
 }
 
+/// A save of `scene` held back after an edit, another edit, then "Discard changes and open"
+/// of `scene` itself.
+fn reopen_while_saving(h: &mut Harness<'static, EditorApp>, scene: &Path) {
+    save_held_after_an_edit(h, scene);
+    pose(h, 0.09);
+    let ctx = h.ctx.clone();
+    h.state_mut().request_open(&ctx, scene.to_path_buf());
+    step_until(h, "the question", |a| a.pending_open().is_some());
+    h.step();
+    h.get_by_label("Discard changes and open").click();
+    h.step();
+}
+
 /// Opening the scene file a save is writing ("Discard changes and open" of it) reads it once
 /// it is written: read before, it held the state before that save, which the editor then took
 /// for the saved state.
@@ -559,14 +572,7 @@ fn an_edit_during_a_save_is_autosaved_after_it() {
 fn opening_the_scene_being_written_reads_it_once_written() {
     let (_dir, mut h, folder) = with_a_scene_folder("save-reopen");
     let scene = folder.join("posed.json");
-    save_held_after_an_edit(&mut h, &scene);
-    pose(&mut h, 0.09);
-    let ctx = h.ctx.clone();
-    h.state_mut().request_open(&ctx, scene.clone());
-    step_until(&mut h, "the question", |a| a.pending_open().is_some());
-    h.step();
-    h.get_by_label("Discard changes and open").click();
-    h.step();
+    reopen_while_saving(&mut h, &scene);
     let info = h.state().info().unwrap_or_default().to_owned();
     assert!(info.contains("once it is written"), "{info}");
     let_saves_go(&mut h);
@@ -648,14 +654,7 @@ fn a_waiting_open_leaves_an_open_quit_question() {
 fn an_open_waiting_for_a_failed_save_asks_again() {
     let (_dir, mut h, folder) = with_a_scene_folder("save-reopen-failed");
     let scene = folder.join("posed.json");
-    save_held_after_an_edit(&mut h, &scene);
-    pose(&mut h, 0.09);
-    let ctx = h.ctx.clone();
-    h.state_mut().request_open(&ctx, scene.clone());
-    step_until(&mut h, "the question", |a| a.pending_open().is_some());
-    h.step();
-    h.get_by_label("Discard changes and open").click();
-    h.step();
+    reopen_while_saving(&mut h, &scene);
     assert!(h.state().is_loading(), "the open waits for the save");
     std::fs::remove_dir_all(&folder).unwrap();
     let_saves_go(&mut h);

@@ -17,6 +17,19 @@ fn start() -> Harness<'static, EditorApp> {
     h
 }
 
+/// A circle of a twentieth of the diagonal about the z axis, once a second.
+fn small_circle(app: &EditorApp) -> CircularPath {
+    CircularPath {
+        axis: [0.0, 0.0, 1.0],
+        reference: [1.0, 0.0, 0.0],
+        radius: 0.05 * app.diagonal(),
+        period: 1.0,
+        phase: 0.0,
+        turn_with_path: false,
+        start: None,
+    }
+}
+
 /// Drags the "duration" number right, 6 points a frame: `first` frames, then `between` with
 /// the button held, then `then` frames, and lets go.
 fn drag_duration(
@@ -73,15 +86,7 @@ fn a_drag_of_a_timeline_number_is_one_undo_step() {
 fn undo_puts_a_group_with_a_path_where_the_path_is_now() {
     let mut h = start();
     let mut e = h.state().edit_state().clone();
-    let circle = CircularPath {
-        axis: [0.0, 0.0, 1.0],
-        reference: [1.0, 0.0, 0.0],
-        radius: 0.05 * h.state().diagonal(),
-        period: 1.0,
-        phase: 0.0,
-        turn_with_path: false,
-        start: None,
-    };
+    let circle = small_circle(h.state());
     e.set_path(0, AnimPath::Circular(circle));
     h.state_mut().set_edit_state(e);
     h.state_mut().set_playback_time(0.0);
@@ -288,15 +293,7 @@ fn k_without_a_key_set_says_why() {
     assert!(k_says(&mut h).starts_with("key set"));
     assert!(k_says(&mut h).contains("holds this pose"));
     let mut e = h.state().edit_state().clone();
-    let circle = CircularPath {
-        axis: [0.0, 0.0, 1.0],
-        reference: [1.0, 0.0, 0.0],
-        radius: 0.05 * h.state().diagonal(),
-        period: 1.0,
-        phase: 0.0,
-        turn_with_path: false,
-        start: None,
-    };
+    let circle = small_circle(h.state());
     e.set_path(1, AnimPath::Circular(circle));
     h.state_mut().set_edit_state(e);
     h.state_mut().set_active_group(Some(1));
