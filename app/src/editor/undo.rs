@@ -170,8 +170,8 @@ pub struct History {
     /// Changes with every push, undo, redo and clear: a gesture that pushed one step and goes
     /// on tells by it whether that step is still the last one.
     generation: u64,
-    /// What the last push took away, with the generation it made: the redo steps, and the
-    /// oldest step when the history was full. [`Self::drop_unchanged`] puts them back.
+    /// What the push of the gesture under way took away, with the generation it made: the
+    /// redo steps, and the oldest step when the history was full ([`Self::end_gesture`]).
     taken: Option<(u64, Vec<Kept>, Option<Kept>)>,
 }
 
@@ -185,21 +185,43 @@ impl History {
     /// when it ends (a gizmo transform, a slider drag) keeps the time it started at, which
     /// playback may have moved on from.
     pub fn push_at(&mut self, before: EditState, settings: MethodSettings, time: f64) {
+        self.push_taking(before, settings, time);
+    }
+
+    /// [`Self::push_at`], returning what the push took away: the redo steps, and the oldest
+    /// step when the history was full (`None`: nothing pushed, the last step is `before`).
+    fn push_taking(
+        &mut self,
+        before: EditState,
+        settings: MethodSettings,
+        time: f64,
+    ) -> Option<(Vec<Kept>, Option<Kept>)> {
+        self.taken = None;
         if self.undo.last().is_some_and(|k| k.edit == before && k.settings == settings) {
-            return;
+            return None;
         }
         self.undo.push(Kept { edit: before, settings, time });
         let evicted = (self.undo.len() > MAX_HISTORY).then(|| self.undo.remove(0));
-        let redo = std::mem::take(&mut self.redo);
         self.generation += 1;
-        self.taken = Some((self.generation, redo, evicted));
+        Some((std::mem::take(&mut self.redo), evicted))
     }
 
-    /// Drops the last step when it is still the one the history's `generation` followed and
-    /// the edit since changed nothing (`edit`, `settings` are what it kept): a brush stroke
-    /// over vertices already in its group would leave a step whose undo seems to do nothing.
-    /// What its push took away (the redo steps, the oldest step) comes back.
-    pub fn drop_unchanged(&mut self, generation: u64, edit: &EditState, settings: MethodSettings) {
+    /// Records `before` for a gesture that edits until it ends (a brush stroke, a pose drag),
+    /// keeping what the push took away until [`Self::end_gesture`]. Returns the generation
+    /// after the push.
+    pub fn push_gesture(&mut self, before: EditState, settings: MethodSettings) -> u64 {
+        let taken = self.push_taking(before, settings, self.time);
+        self.taken = taken.map(|(redo, evicted)| (self.generation, redo, evicted));
+        self.generation
+    }
+
+    /// The end of the gesture whose push made `generation`: when its step is still the last
+    /// and the gesture changed nothing (`edit`, `settings` are what the step kept), the step
+    /// goes and what its push took away (the redo steps, the oldest step) comes back; a
+    /// brush stroke over vertices already in its group would leave a step whose undo seems
+    /// to do nothing.
+    pub fn end_gesture(&mut self, generation: u64, edit: &EditState, settings: MethodSettings) {
+        let taken = self.taken.take().filter(|t| t.0 == generation);
         let last = self.undo.last();
         if self.generation != generation
             || !last.is_some_and(|k| k.edit == *edit && k.settings == settings)
@@ -207,7 +229,7 @@ impl History {
             return;
         }
         self.undo.pop();
-        if let Some((_, redo, evicted)) = self.taken.take().filter(|t| t.0 == generation) {
+        if let Some((_, redo, evicted)) = taken {
             self.redo = redo;
             if let Some(oldest) = evicted {
                 self.undo.insert(0, oldest);
@@ -349,19 +371,16 @@ mod tests {
         let mut h = History::default();
         let a = EditState::from_labels(vec![None, None]);
         let b = EditState::from_labels(vec![Some(0), None]);
-        h.push(a.clone(), settings);
-        let g = h.generation();
-        h.drop_unchanged(g, &b, settings);
+        let g = h.push_gesture(a.clone(), settings);
+        h.end_gesture(g, &b, settings);
         assert!(h.can_undo(), "the edit changed the state: its step stays");
-        h.push(b.clone(), settings);
-        let g = h.generation();
-        h.drop_unchanged(g, &b, settings);
+        let g = h.push_gesture(b.clone(), settings);
+        h.end_gesture(g, &b, settings);
         assert_eq!(h.undo(&b, settings).map(|k| k.edit), Some(a.clone()), "the no-op step went");
         // a step another edit followed (a later push) is not the gesture's to drop
-        h.push(a.clone(), settings);
-        let g = h.generation();
+        let g = h.push_gesture(a.clone(), settings);
         h.push(b.clone(), settings);
-        h.drop_unchanged(g, &b, settings);
+        h.end_gesture(g, &b, settings);
         assert_eq!(h.generation(), g + 1);
     }
 
@@ -375,10 +394,9 @@ mod tests {
         let undone = h.undo(&b, settings).unwrap();
         assert_eq!(undone.edit, a);
         // a gesture on `a` that changes nothing: the redo to `b` stays
-        h.push(a.clone(), settings);
+        let g = h.push_gesture(a.clone(), settings);
         assert!(!h.can_redo());
-        let g = h.generation();
-        h.drop_unchanged(g, &a, settings);
+        h.end_gesture(g, &a, settings);
         assert!(h.can_redo(), "the no-op gesture took the redo away");
         assert_eq!(h.redo(&a, settings).map(|k| k.edit), Some(b));
     }

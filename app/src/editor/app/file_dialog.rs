@@ -262,8 +262,8 @@ impl EditorApp {
     /// A dialog closed with no file: an open or quit that waited for that Save as does not go
     /// on at a later save (one that waits for a save of this mesh being written stays).
     fn dialog_cancelled(&mut self, kind: DialogKind) {
-        if kind == DialogKind::SaveScene && !self.saving_open_mesh() {
-            self.session.after_save = None;
+        if kind == DialogKind::SaveScene {
+            self.save_not_started();
         }
     }
 
@@ -302,9 +302,7 @@ impl EditorApp {
                 match self.save_path(&path, "json") {
                     Ok(path) => self.start_save(ctx, &path),
                     Err(e) => {
-                        if !self.saving_open_mesh() {
-                            self.session.after_save = None;
-                        }
+                        self.save_not_started();
                         self.error = Some(format!("scene not saved: {e}"));
                     }
                 }

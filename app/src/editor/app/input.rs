@@ -409,7 +409,7 @@ impl EditorApp {
                     let step = self.session.push_gesture_step(self.session.edit.clone());
                     let erase = modifiers.command;
                     self.interaction.stroke = Some(Stroke { erase, step, slot });
-                    modifiers.command
+                    erase
                 }
             };
             self.paint_footprint(erase);

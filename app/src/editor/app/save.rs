@@ -48,11 +48,29 @@ impl EditorApp {
     /// Where Save writes: the file of the newest save of this mesh asked for (a Save as under
     /// way or waiting), else the document's scene file.
     pub(super) fn save_target(&self) -> Option<PathBuf> {
-        let open = self.open_mesh();
-        let queued = self.jobs.save_next.iter().rev().map(|o| (&o.path, o.mesh));
-        let asked = queued.chain(self.jobs.save.iter().map(|s| (&s.path, s.mesh)));
-        let newest = asked.filter(|&(_, mesh)| mesh == open).map(|(path, _)| path.clone()).next();
+        let newest = self.newest_save_of_open_mesh().map(|(path, _)| path.to_path_buf());
         newest.or_else(|| self.session.document_path.clone())
+    }
+
+    /// The saves asked for, newest first (those waiting, then the one under way): the mesh
+    /// version each belongs to, its file and the state it writes.
+    fn saves(&self) -> impl Iterator<Item = (Option<u64>, &Path, &DocumentMark)> {
+        let queued = self.jobs.save_next.iter().rev().map(|o| (o.mesh, &*o.path, &*o.mark));
+        queued.chain(self.jobs.save.iter().map(|s| (s.mesh, &*s.path, &*s.mark)))
+    }
+
+    /// The newest save of the open mesh under way or waiting: its file and the state it writes.
+    fn newest_save_of_open_mesh(&self) -> Option<(&Path, &DocumentMark)> {
+        let open = self.open_mesh();
+        self.saves().find(|&(mesh, ..)| mesh == open).map(|(_, path, mark)| (path, mark))
+    }
+
+    /// A save asked for did not start: what waited for it (a "Save first") does not go on,
+    /// unless it waits for a save of this mesh under way.
+    pub(super) fn save_not_started(&mut self) {
+        if !self.saving_open_mesh() {
+            self.session.after_save = None;
+        }
     }
 
     /// Saves the scene as it is now to `path` from the UI: written at once, or after the save
@@ -61,10 +79,7 @@ impl EditorApp {
     pub(super) fn start_save(&mut self, ctx: &egui::Context, path: &Path) {
         match self.save_order(path) {
             Err(e) => {
-                // what waited for this save does not go on; what waits for one under way does
-                if !self.saving_open_mesh() {
-                    self.session.after_save = None;
-                }
+                self.save_not_started();
                 self.error = Some(format!("scene not saved: {e}"));
             }
             Ok(order) if self.is_saving() => {
@@ -113,11 +128,7 @@ impl EditorApp {
 
     /// Whether the saves of this mesh under way and asked for write every change there is.
     pub(super) fn saving_all_changes(&self) -> bool {
-        let open = self.open_mesh();
-        let queued = self.jobs.save_next.iter().rev().map(|o| (&o.mark, o.mesh));
-        let asked = queued.chain(self.jobs.save.iter().map(|s| (&s.mark, s.mesh)));
-        let newest = asked.filter(|&(_, mesh)| mesh == open).map(|(mark, _)| mark).next();
-        newest.is_some_and(|mark| !mark.changed(&self.session))
+        self.newest_save_of_open_mesh().is_some_and(|(_, mark)| !mark.changed(&self.session))
     }
 
     fn open_mesh(&self) -> Option<u64> {
@@ -221,8 +232,7 @@ impl EditorApp {
 
     /// Whether a save under way or waiting writes `path`.
     pub(super) fn writing_to(&self, path: &Path) -> bool {
-        self.jobs.save.iter().any(|s| same_file(&s.path, path))
-            || self.jobs.save_next.iter().any(|o| same_file(&o.path, path))
+        self.saves().any(|(_, p, _)| same_file(p, path))
     }
 
     /// The open asked for a scene file a save was writing, once no save writes it (not while
@@ -241,9 +251,7 @@ impl EditorApp {
 
     /// Whether a save of the open mesh is under way or waiting.
     pub(super) fn saving_open_mesh(&self) -> bool {
-        let open = self.open_mesh();
-        self.jobs.save.iter().any(|s| s.mesh == open)
-            || self.jobs.save_next.iter().any(|o| o.mesh == open)
+        self.newest_save_of_open_mesh().is_some()
     }
 
     /// A save's `result`: written, `mark` is the saved state and `path` the document's file,

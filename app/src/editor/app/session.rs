@@ -63,13 +63,12 @@ impl Session {
     /// Records `before` for a gesture that edits until it ends (a brush stroke, a pose drag):
     /// the history's generation after the push, for [`Self::end_gesture_step`].
     pub(super) fn push_gesture_step(&mut self, before: EditState) -> u64 {
-        self.push_undo(before);
-        self.history.generation()
+        self.history.push_gesture(before, self.settings)
     }
 
     /// A gesture's end: its step goes when the gesture changed nothing.
     pub(super) fn end_gesture_step(&mut self, generation: u64) {
-        self.history.drop_unchanged(generation, &self.edit, self.settings);
+        self.history.end_gesture(generation, &self.edit, self.settings);
     }
 
     /// Records `before` (made only when pushed: a copy of the edit state is megabytes on a
