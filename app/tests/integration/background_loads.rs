@@ -193,8 +193,9 @@ fn a_mesh_mid_drag_ends_the_drag() {
     assert!(h.state().edit_state().groups.is_empty());
 }
 
-/// A selection dropped, or a texture chosen, while another mesh loads would be read for the
-/// mesh it replaces: it is refused with a message naming both.
+/// A selection dropped, or a texture chosen, while another mesh loads (or a `.json` that may
+/// be a scene is read) would be read for the mesh it replaces: it is refused with a message
+/// naming both.
 #[test]
 fn a_selection_or_texture_while_a_mesh_loads_is_refused() {
     let dir = ScratchDir::new("selection-while-loading");
@@ -214,6 +215,18 @@ fn a_selection_or_texture_while_a_mesh_loads_is_refused() {
     assert!(error.contains("other.obj is loading") && error.contains("tex.png"), "{error}");
     write_later(other, std::fs::read_to_string(Path::new(&bar)).unwrap()).join().unwrap();
     step_until(&mut h, "the other mesh", |a| !a.is_loading());
+    // A `.json` being told apart may be a selection: the message does not call it a mesh.
+    let json = fifo(&dir, "maybe.json");
+    support::drop_file(&mut h, json.clone());
+    h.state_mut().load_texture(&ctx, &dir.join("tex.png"));
+    assert!(!h.state().is_loading_texture());
+    let error = h.state().error().unwrap_or_default().to_owned();
+    let why = "maybe.json is being read to tell a scene from a selection";
+    assert!(error.contains(why) && error.contains("tex.png"), "{error}");
+    // a file dropped since wins; the FIFO's reader is let go
+    support::drop_file(&mut h, bar.with_extension("dmat"));
+    write_later(json, "[]".into()).join().unwrap();
+    step_until(&mut h, "bar.dmat", |a| !a.is_loading() && !a.is_loading_selection());
 }
 
 /// A mesh given up while it is read (another opened meanwhile) starts no precomputation when

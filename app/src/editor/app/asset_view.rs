@@ -81,12 +81,8 @@ impl EditorApp {
             self.error = Some("open a mesh before loading a texture".into());
             return;
         };
-        if let Some(other) = self.jobs.replacing_mesh() {
-            self.error = Some(format!(
-                "{} is loading: load the texture {} once it is open",
-                super::file_name(other),
-                super::file_name(path)
-            ));
+        if let Some(why) = self.jobs.replacing_mesh("texture", path) {
+            self.error = Some(why);
             return;
         }
         let c = ctx.clone();

@@ -221,12 +221,22 @@ impl Jobs {
         self.identifying.as_ref().map(|j| (j.path.as_path(), j.since))
     }
 
-    /// The file that may replace the open mesh once read: a mesh or scene loading, or a
-    /// `.json` being told apart (it may be a scene). What is read for the open mesh meanwhile
-    /// would be dropped with it, so it is refused.
-    fn replacing_mesh(&self) -> Option<&Path> {
-        let loading = self.loading.as_ref().map(|j| j.path.as_path());
-        loading.or(self.identifying.as_ref().map(|j| j.path.as_path()))
+    /// Why `what` (a texture or a selection file, `path`) cannot be read for the open mesh
+    /// now: a mesh or scene loading, or a `.json` being told apart (it may be a scene), may
+    /// replace the mesh, and what is read for it meanwhile would be dropped with it.
+    fn replacing_mesh(&self, what: &str, path: &Path) -> Option<String> {
+        let path = file_name(path);
+        if let Some(j) = &self.loading {
+            let other = file_name(&j.path);
+            return Some(format!("{other} is loading: load the {what} {path} once it is open"));
+        }
+        self.identifying.as_ref().map(|j| {
+            let other = file_name(&j.path);
+            format!(
+                "{other} is being read to tell a scene from a selection: load the {what} {path} \
+                 once it is known"
+            )
+        })
     }
 }
 

@@ -689,13 +689,9 @@ impl EditorApp {
     /// one still being read; [`Self::poll_selection`] applies it.
     pub(super) fn load_selection(&mut self, ctx: &egui::Context, path: &Path) {
         let Some(scene) = &self.session.scene else { return };
-        if let Some(other) = self.jobs.replacing_mesh() {
+        if let Some(why) = self.jobs.replacing_mesh("selection", path) {
             // it would be read for the mesh being replaced
-            self.error = Some(format!(
-                "{} is loading: load the selection {} once it is open",
-                file_name(other),
-                file_name(path)
-            ));
+            self.error = Some(why);
             return;
         }
         let c = ctx.clone();
