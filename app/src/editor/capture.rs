@@ -227,6 +227,21 @@ impl Offscreen {
     }
 }
 
+/// The pictures of the viewports left to right in one image (side by side: the comparison
+/// method, then the main one), their tops aligned, the background below a shorter one.
+pub fn beside(images: &[image::RgbaImage]) -> image::RgbaImage {
+    let width = images.iter().map(image::RgbaImage::width).sum();
+    let height = images.iter().map(image::RgbaImage::height).max().unwrap_or(0);
+    let [r, g, b, a] = BACKGROUND.to_array();
+    let mut out = image::RgbaImage::from_pixel(width, height, image::Rgba([r, g, b, a]));
+    let mut x = 0;
+    for img in images {
+        image::imageops::replace(&mut out, img, x, 0);
+        x += i64::from(img.width());
+    }
+    out
+}
+
 /// Writes `image` as PNG to `path`, naming the file in the error.
 pub fn write_png(path: &Path, image: &image::RgbaImage) -> anyhow::Result<()> {
     image

@@ -7,7 +7,8 @@ use crate::support;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use app::editor::{EditorApp, default_mesh_path};
+use app::editor::solver_thread::Slot;
+use app::editor::{EditorApp, View, default_mesh_path};
 use eframe::egui::{self, Vec2};
 use egui_kittest::{Harness, kittest::Queryable};
 use solver::animation::scene::{CaptureSettings, Scene};
@@ -369,6 +370,35 @@ fn f12_saves_a_png_of_the_viewport_next_to_the_config() {
         !a.is_capturing() && a.last_capture().is_some_and(|p| p.ends_with("screenshot_0004.png"))
     });
     assert!(h.state().error().is_none(), "{:?}", h.state().error());
+}
+
+/// Side by side, F12 pictures both viewports, the comparison method beside the main one (it
+/// pictured the left one only), at the viewports' pixels or sharing a chosen size.
+#[test]
+fn f12_side_by_side_pictures_both_viewports() {
+    let config = ScratchDir::new("capture-f12-compare");
+    let mut h = harness(config.to_path_buf());
+    step_until(&mut h, "the default asset", |a| !a.is_loading() && a.n_vertices() > 0);
+    h.get_by_label("Side by side").click();
+    step_until(&mut h, "both viewports' frames", |a| {
+        a.view() == View::Compare && a.latest_frame(Slot::Compare).is_some()
+    });
+    let one = h.state().viewport_pixels(&h.ctx).unwrap();
+    let halves_drawn = |img: &image::RgbaImage| {
+        let (w, ht) = img.dimensions();
+        [0, w / 2].map(|x| {
+            let half = image::imageops::crop_imm(img, x, 0, w / 2, ht).to_image();
+            drawn_pixels(&half) > (w / 2 * ht / 20) as usize
+        })
+    };
+    let img = png(&f12(&mut h));
+    assert_eq!([img.width(), img.height()], one, "both viewports' pixels");
+    assert_eq!(halves_drawn(&img), [true, true], "a mesh in each half");
+
+    h.state_mut().set_capture_settings(Some([321, 200]), true);
+    let img = png(&f12(&mut h));
+    assert_eq!(img.dimensions(), (321, 200), "the chosen size, shared");
+    assert_eq!(halves_drawn(&img), [true, true], "a mesh in each half");
 }
 
 #[test]

@@ -143,10 +143,12 @@ impl EditorApp {
         self.capture.last.as_deref()
     }
 
-    /// The first viewport's size in physical pixels (what F12 captures by default).
+    /// The size in physical pixels F12 captures by default: the viewport's, or side by side
+    /// both viewports' beside each other.
     pub fn viewport_pixels(&self, ctx: &egui::Context) -> Option<[u32; 2]> {
         self.display.viewport_rects.first()?;
-        Some(self.pixels_of_viewport(ctx))
+        let sizes = (0..self.display.viewport_rects.len()).map(|slot| self.pixels_of(ctx, slot));
+        Some(sizes.fold([0, 0], |[w, h], [a, b]| [w + a, h.max(b)]))
     }
 
     /// The capture settings window's choices: a size (`None`: the viewport's) and overlays.
@@ -235,10 +237,10 @@ impl EditorApp {
         }
     }
 
-    /// The picture of the first viewport at `size`, as it shows now.
-    fn viewport_picture(&self, size: [u32; 2]) -> Result<Picture, String> {
+    /// The picture of viewport `slot` at `size`, as it shows now.
+    fn viewport_picture(&self, slot: usize, size: [u32; 2]) -> Result<Picture, String> {
         let scene = self.session.scene.as_ref().ok_or("open a mesh first")?;
-        let (_, shape) = self.slot_shape(0)?;
+        let (_, shape) = self.slot_shape(slot)?;
         let n = shape.positions.len();
         let render = self.texture_layout(n).cloned();
         let overlays = self.capture.overlays;
@@ -259,26 +261,43 @@ impl EditorApp {
         })
     }
 
-    /// The first viewport's size in physical pixels (a typical one before the first frame).
-    fn pixels_of_viewport(&self, ctx: &egui::Context) -> [u32; 2] {
+    /// Viewport `slot`'s size in physical pixels (a typical one before the first frame).
+    fn pixels_of(&self, ctx: &egui::Context, slot: usize) -> [u32; 2] {
         let ppp = ctx.pixels_per_point();
         let size =
-            self.display.viewport_rects.first().map_or(egui::vec2(1280.0, 720.0), |r| r.size());
+            self.display.viewport_rects.get(slot).map_or(egui::vec2(1280.0, 720.0), |r| r.size());
         [((size.x * ppp).round() as u32).max(1), ((size.y * ppp).round() as u32).max(1)]
     }
 
-    /// The size a capture renders at: the viewport's pixels or the chosen size.
+    /// The size a recording renders at: the first viewport's pixels or the chosen size.
     fn capture_size(&self, ctx: &egui::Context) -> [u32; 2] {
         if self.capture.viewport_size {
-            return self.pixels_of_viewport(ctx);
+            return self.pixels_of(ctx, 0);
         }
         [self.capture.width.max(1), self.capture.height.max(1)]
     }
 
-    /// Starts a screenshot of the first viewport (F12).
+    /// The pictures F12 takes, left to right: each viewport at its own pixels, or the chosen
+    /// size shared among them (side by side: the left one gets half the width, rounded down).
+    fn screenshot_pictures(&self, ctx: &egui::Context) -> Result<Vec<Picture>, String> {
+        let n = self.display.viewport_rects.len().max(1);
+        let sizes: Vec<[u32; 2]> = if self.capture.viewport_size {
+            (0..n).map(|slot| self.pixels_of(ctx, slot)).collect()
+        } else {
+            let [w, h] = [self.capture.width.max(n as u32), self.capture.height.max(1)];
+            let part = w / n as u32;
+            (0..n).map(|k| [if k + 1 < n { part } else { w - part * (n as u32 - 1) }, h]).collect()
+        };
+        sizes
+            .into_iter()
+            .enumerate()
+            .map(|(slot, size)| self.viewport_picture(slot, size))
+            .collect()
+    }
+
+    /// Starts a screenshot of the viewports (F12): side by side, both in one picture.
     pub fn screenshot(&mut self, ctx: &egui::Context, frame: &eframe::Frame) {
-        let size = self.capture_size(ctx);
-        let picture = match self.viewport_picture(size) {
+        let pictures = match self.screenshot_pictures(ctx) {
             Ok(p) => p,
             Err(e) => {
                 self.error = Some(format!("screenshot: {e}"));
@@ -290,8 +309,9 @@ impl EditorApp {
             if let Some(dir) = path.parent() {
                 capture::ensure_dir(dir)?;
             }
-            let image = offscreen.render(&picture)?;
-            capture::write_png(&path, &image)?;
+            let images: Vec<_> =
+                pictures.iter().map(|p| offscreen.render(p)).collect::<anyhow::Result<_>>()?;
+            capture::write_png(&path, &capture::beside(&images))?;
             Ok(path)
         });
     }
@@ -305,7 +325,7 @@ impl EditorApp {
         };
         let shapes = rec.shapes.clone();
         let size = self.capture_size(ctx);
-        let base = match self.viewport_picture(size) {
+        let base = match self.viewport_picture(0, size) {
             Ok(p) => p,
             Err(e) => {
                 self.error = Some(format!("render: {e}"));
