@@ -8,6 +8,7 @@ use crate::support;
 use app::editor::{EditorApp, SelectMode, Tool};
 use eframe::egui::{Event, Key, Modifiers, Pos2, Rect, Vec2};
 use egui_kittest::{Harness, kittest::Queryable};
+use solver::deform::symmetry::MirrorMap;
 use solver::geometry::region;
 use solver::geometry::topology::{Adjacency, connected_components};
 use support::{SIZE, drag, harness, path, settled, step_until, test_mesh};
@@ -349,4 +350,93 @@ fn a_stroke_that_changes_nothing_leaves_no_undo_step() {
     h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
     h.step();
     assert_eq!(h.state().labels(), &before[..], "one undo takes back the painting stroke");
+}
+
+/// `vs`'s mirror partners that are not in `vs`, sorted.
+fn partners_outside(map: &MirrorMap, vs: &[usize]) -> Vec<usize> {
+    let mut out: Vec<usize> = vs.iter().map(|&v| map.partner[v] as usize).collect();
+    out.retain(|p| !vs.contains(p));
+    out.sort_unstable();
+    out.dedup();
+    out
+}
+
+/// With mirrored painting on (M), a box on one side paints the mirror vertices into a new pair
+/// group, as the brush does; Grow, Shrink and Clear reshape the pair as the group's mirror
+/// image; Ctrl+box takes the mirror vertices out of the pair; each is one undo step. A box that
+/// crosses the plane takes its mirror vertices into the group itself. (Box, lasso (the same
+/// code) and the group commands were not mirrored.)
+#[test]
+fn mirrored_painting_mirrors_boxes_and_group_commands() {
+    let (mut h, g) = start();
+    let n = h.state().n_vertices();
+    h.key_press(Key::M);
+    h.step();
+    step_until(&mut h, "the mirror map", |a| a.mirror().is_some());
+    let map = h.state().mirror().map(|(_, m)| m.clone()).unwrap();
+    let n_groups = h.state().edit_state().groups.len();
+    h.key_press(Key::Q);
+    h.step();
+    h.key_press_modifiers(Modifiers::ALT, Key::Z); // visible only: one side of the creature
+    h.step();
+    let centre = Pos2::new(SIZE.x * 0.35, SIZE.y * 0.5);
+    let r = Rect::from_center_size(centre, Vec2::new(40.0, 30.0));
+    drag(&mut h, &path(&[r.left_top(), r.right_bottom()], 10.0, false), Modifiers::NONE);
+    let side = in_group(h.state(), g);
+    assert!(side.len() > 5, "the box took {} vertices", side.len());
+    assert_eq!(h.state().edit_state().groups.len(), n_groups + 1, "no pair group made");
+    let pair = n_groups;
+    assert!(h.state().edit_state().groups[pair].name.ends_with(" mirror"));
+    assert_eq!(in_group(h.state(), pair), partners_outside(&map, &side), "the box's mirror");
+
+    // Grow: the pair becomes the grown group's mirror image (among free vertices and its own).
+    let labels = h.state().labels().to_vec();
+    h.get_by_label("Grow").click();
+    h.step();
+    let grown = in_group(h.state(), g);
+    assert!(grown.len() > side.len());
+    let want: Vec<usize> = (0..n)
+        .filter(|&u| labels[u].is_none_or(|l| l as usize == pair))
+        .filter(|&u| h.state().labels()[u] != Some(g as u32))
+        .filter(|&u| grown.binary_search(&(map.partner[u] as usize)).is_ok())
+        .collect();
+    assert_eq!(in_group(h.state(), pair), want, "Grow reshapes the pair");
+    // Ctrl+box over the same box: the group and the pair lose what it covers and its mirror.
+    drag(&mut h, &path(&[r.left_top(), r.right_bottom()], 10.0, false), Modifiers::COMMAND);
+    let left = in_group(h.state(), g);
+    assert!(side.iter().all(|v| !left.contains(v)), "Ctrl+box did not remove");
+    let pair_now = in_group(h.state(), pair);
+    assert!(partners_outside(&map, &side).iter().all(|v| !pair_now.contains(v)));
+    assert!(!pair_now.is_empty(), "the rest of the grown ring's mirror stays");
+    // Clear empties both.
+    h.key_press_modifiers(Modifiers::ALT, Key::A);
+    h.step();
+    assert!(in_group(h.state(), g).is_empty() && in_group(h.state(), pair).is_empty());
+    // One undo step each: back through Clear, Ctrl+box and Grow to the box.
+    for _ in 0..3 {
+        h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+        h.step();
+    }
+    assert_eq!(in_group(h.state(), g), side);
+    assert_eq!(in_group(h.state(), pair), partners_outside(&map, &side));
+
+    // Through the mesh (visible only off), a box over the back crosses the plane: its mirror
+    // vertices outside it join the group itself, and no group is made.
+    h.key_press_modifiers(Modifiers::ALT, Key::Z);
+    h.step();
+    let k = h.state().edit_state().groups.len();
+    h.get_by_label("Add group").click();
+    h.step();
+    let cross = Rect::from_center_size(Pos2::new(SIZE.x * 0.45, SIZE.y * 0.42), Vec2::splat(50.0));
+    let corners = [cross.left_top(), cross.right_top(), cross.right_bottom(), cross.left_bottom()];
+    let inside: Vec<usize> = (0..n)
+        .filter(|&v| h.state().vertex_screen_pos(v).is_some_and(|p| inside_by_winding(p, &corners)))
+        .collect();
+    drag(&mut h, &path(&[cross.left_top(), cross.right_bottom()], 10.0, false), Modifiers::NONE);
+    assert_eq!(h.state().edit_state().groups.len(), k + 1, "a pair was made for a crossing box");
+    let mut want = inside.clone();
+    want.extend(partners_outside(&map, &inside));
+    want.sort_unstable();
+    assert!(want.len() > inside.len() + 50, "the box hardly crosses the plane");
+    assert_eq!(in_group(h.state(), k), want, "the crossing box's mirror joins the group");
 }

@@ -207,8 +207,7 @@ impl EditorApp {
             return;
         }
         let Some((_, map)) = self.mirror_shared() else { return };
-        let mut partners: Vec<u32> = footprint.iter().map(|&v| map.partner[v as usize]).collect();
-        partners.retain(|v| !footprint.contains(v));
+        let (partners, _) = partners_outside(&map, footprint);
         if partners.is_empty() {
             return;
         }
@@ -217,18 +216,8 @@ impl EditorApp {
             Some(g) => Some(match self.rigging.stroke_partner {
                 Some(p) => p,
                 None => {
-                    let edit = &self.session.edit;
-                    let p = match partner_group(&edit.labels, &map, g) {
-                        Some(p) => p,
-                        None => {
-                            let name = format!("{} mirror", edit.groups[g as usize].name);
-                            let falloff = edit.groups[g as usize].falloff;
-                            let k = self.session.edit.add_group();
-                            self.session.edit.groups[k].name = name;
-                            self.session.edit.groups[k].falloff = falloff;
-                            k as u32
-                        }
-                    };
+                    let found = partner_group(&self.session.edit.labels, &map, g);
+                    let p = found.unwrap_or_else(|| self.new_partner(g));
                     self.rigging.stroke_partner = Some(p);
                     p
                 }
@@ -238,6 +227,97 @@ impl EditorApp {
             self.session.edit.labels[v as usize] = target;
         }
         self.display.color_version += 1;
+    }
+
+    /// A new group paired with group `g`: named after it, with its falloff.
+    fn new_partner(&mut self, g: u32) -> u32 {
+        let edit = &mut self.session.edit;
+        let (name, falloff) =
+            (format!("{} mirror", edit.groups[g as usize].name), edit.groups[g as usize].falloff);
+        let k = edit.add_group();
+        edit.groups[k].name = name;
+        edit.groups[k].falloff = falloff;
+        k as u32
+    }
+
+    /// What mirrored painting does with a box or lasso `region` about to be added to group `g`
+    /// (`remove`: taken out of it), decided before it is: the region's partners outside it,
+    /// and the group they join (or leave). That is `g` itself where the region crosses the
+    /// plane (most of its partners inside it), else `g`'s partner group; a region added with
+    /// no partner group yet makes one (`None` here, [`Self::mirror_region`] creates it).
+    pub(super) fn plan_mirror_region(
+        &self,
+        region: &[u32],
+        g: u32,
+    ) -> Option<(Vec<u32>, Option<u32>)> {
+        if !self.session.edit.symmetry.mirror_painting {
+            return None;
+        }
+        let (_, map) = self.mirror_shared()?;
+        let (partners, inside) = partners_outside(&map, region);
+        if partners.is_empty() {
+            return None;
+        }
+        let target = if 2 * inside >= region.len() {
+            Some(g)
+        } else {
+            partner_group(&self.session.edit.labels, &map, g)
+        };
+        Some((partners, target))
+    }
+
+    /// Carries out [`Self::plan_mirror_region`]'s `plan` for group `g`; whether a label changed.
+    pub(super) fn mirror_region(
+        &mut self,
+        plan: (Vec<u32>, Option<u32>),
+        g: u32,
+        remove: bool,
+    ) -> bool {
+        let (partners, target) = plan;
+        let target = match (target, remove) {
+            (Some(t), _) => t,
+            (None, true) => return false,
+            (None, false) => self.new_partner(g),
+        };
+        let mut changed = false;
+        for v in partners {
+            let l = &mut self.session.edit.labels[v as usize];
+            let new = match remove {
+                true if *l == Some(target) => None,
+                true => *l,
+                false => Some(target),
+            };
+            changed |= new != *l;
+            *l = new;
+        }
+        changed
+    }
+
+    /// Mirrored painting of a group command that made a group the vertices of `mask`: its
+    /// partner group (`partner`, found before the command) becomes `mask`'s mirror image,
+    /// among the vertices free or in it. Whether a label changed.
+    pub(super) fn mirror_group_command(&mut self, partner: u32, mask: &[bool]) -> bool {
+        let Some((_, map)) = self.mirror_shared() else { return false };
+        let mut changed = false;
+        for (v, l) in self.session.edit.labels.iter_mut().enumerate() {
+            if *l != Some(partner) && l.is_some() {
+                continue; // g's own and other groups' vertices stay
+            }
+            let new = mask.get(map.partner[v] as usize).is_some_and(|&m| m).then_some(partner);
+            changed |= new != *l;
+            *l = new;
+        }
+        changed
+    }
+
+    /// `g`'s partner group for a group command, found before it changes `g` (`None`: mirrored
+    /// painting is off, the map is not ready, or `g` has no partner).
+    pub(super) fn command_partner(&self, g: u32) -> Option<u32> {
+        if !self.session.edit.symmetry.mirror_painting {
+            return None;
+        }
+        let (_, map) = self.mirror_shared()?;
+        partner_group(&self.session.edit.labels, &map, g)
     }
 
     /// Mirrored posing: the partner of `group` takes its pose mirrored across the plane.
@@ -352,8 +432,9 @@ impl EditorApp {
             let s = self.session.edit.symmetry;
             let mut paint = s.mirror_painting;
             let mut pose = s.mirror_posing;
-            let hint = "brush strokes paint the mirrored vertices too (box, lasso and the \
-                        group commands are not mirrored)";
+            let hint = "brush strokes, boxes and lassos paint the mirrored vertices too, into \
+                        the group's pair (the group itself where they cross the plane); Grow, \
+                        Shrink, Connected and Clear reshape the pair (Invert does not)";
             if ui.checkbox(&mut paint, "Mirror painting (M)").on_hover_text(hint).changed() {
                 self.toggle_symmetry(|s| s.mirror_painting = paint);
             }
@@ -429,6 +510,25 @@ impl EditorApp {
     pub fn set_rigidity_value(&mut self, value: f64) {
         self.rigging.value = value.clamp(0.0, 1.0);
     }
+}
+
+/// The mirror partners of `region` that are not in it (each once), and how many of the
+/// region's partners are in it.
+fn partners_outside(map: &MirrorMap, region: &[u32]) -> (Vec<u32>, usize) {
+    let set: std::collections::HashSet<u32> = region.iter().copied().collect();
+    let mut inside = 0;
+    let mut outside = Vec::new();
+    for &v in region {
+        let p = map.partner[v as usize];
+        if set.contains(&p) {
+            inside += 1;
+        } else {
+            outside.push(p);
+        }
+    }
+    outside.sort_unstable();
+    outside.dedup();
+    (outside, inside)
 }
 
 #[cfg(test)]

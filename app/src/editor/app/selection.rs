@@ -177,12 +177,15 @@ impl EditorApp {
         };
         // Vertices of other groups are never taken.
         let target: Vec<bool> = target.iter().zip(&allowed).map(|(&t, &a)| t && a).collect();
-        self.set_group_vertices(g, &target);
+        // Mirrored painting: the partner group follows (not Invert: its mirror image is g's
+        // own side, mostly).
+        let partner = (command != SelectCommand::Invert).then(|| self.command_partner(g));
+        self.set_group_vertices(g, &target, partner.flatten());
     }
 
     /// Makes group `g` exactly the vertices of `mask` (among those free or already in `g`),
-    /// as one undoable edit.
-    fn set_group_vertices(&mut self, g: u32, mask: &[bool]) {
+    /// and its `partner` group (if any) `mask`'s mirror image, as one undoable edit.
+    fn set_group_vertices(&mut self, g: u32, mask: &[bool], partner: Option<u32>) {
         let before = self.session.edit.clone();
         let mut changed = false;
         for (l, &m) in self.session.edit.labels.iter_mut().zip(mask) {
@@ -197,6 +200,9 @@ impl EditorApp {
                 *l = new;
                 changed = true;
             }
+        }
+        if let Some(p) = partner {
+            changed |= self.mirror_group_command(p, mask);
         }
         if changed {
             self.session.push_undo(before);
@@ -325,6 +331,7 @@ impl EditorApp {
                 g as u32
             }
         };
+        let mirror = self.plan_mirror_region(vertices, g);
         let mut changed = self.session.edit.groups.len() != before_groups;
         for &v in vertices {
             let l = &mut self.session.edit.labels[v as usize];
@@ -337,6 +344,9 @@ impl EditorApp {
                 *l = new;
                 changed = true;
             }
+        }
+        if let Some(plan) = mirror {
+            changed |= self.mirror_region(plan, g, remove);
         }
         if changed {
             self.session.push_undo(before);

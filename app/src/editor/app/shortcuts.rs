@@ -24,7 +24,7 @@ pub const SHORTCUTS: &[(&str, &str)] = &[
     ("Ctrl+L", "add the free vertices connected to the active group"),
     ("Alt+A", "clear the active group"),
     ("Shift+R", "rigidity brush (shows the rigidity map)"),
-    ("M / Shift+M", "mirror the brush / mirror posing on-off"),
+    ("M / Shift+M", "mirror painting / mirror posing on-off"),
     ("Left drag (pose)", "move a group in the view plane; Ctrl rotates"),
     ("Gizmo arrow / ring / square", "move along an axis / turn about it / move in the view"),
     ("G", "pose tool; in the pose tool, move the active group with the pointer"),
