@@ -239,11 +239,19 @@ pub fn panel(
             actions.push(TimelineAction::TimeChanged);
         }
         let duration = edit.timeline.duration;
+        if playback.time > duration {
+            // a shorter duration: the time goes to the new end
+            playback.time = duration;
+            actions.push(TimelineAction::TimeChanged);
+        }
+        // Clamped and rounded to the millisecond only where the user moves it: rounding the
+        // time on every frame took a stopped playback off a duration such as 10/3 s, so Play
+        // there did not start from the beginning, and sent each playing frame's poses twice.
         let r = ui.add(
             egui::Slider::new(&mut playback.time, 0.0..=duration)
                 .text("s")
                 .max_decimals(3)
-                .clamping(egui::SliderClamping::Always),
+                .clamping(egui::SliderClamping::Edits),
         );
         if r.changed() {
             actions.push(TimelineAction::TimeChanged);
@@ -252,7 +260,7 @@ pub fn panel(
         let l = ui.label("duration").id;
         edited |= ui
             .add(
-                egui::DragValue::new(&mut edit.timeline.duration)
+                number(&mut edit.timeline.duration)
                     .range(0.01..=MAX_DURATION)
                     .speed(0.05)
                     .suffix(" s"),
@@ -261,7 +269,7 @@ pub fn panel(
             .changed();
         let l = ui.label("fps").id;
         edited |= ui
-            .add(egui::DragValue::new(&mut edit.timeline.fps).range(1.0..=MAX_FPS).speed(0.5))
+            .add(number(&mut edit.timeline.fps).range(1.0..=MAX_FPS).speed(0.5))
             .labelled_by(l)
             .changed();
         edited |= ui.checkbox(&mut edit.timeline.looping, "loop").changed();
@@ -390,6 +398,7 @@ enum Kind {
 /// The path editor of group `k`; returns whether anything changed.
 fn path_editor(ui: &mut egui::Ui, edit: &mut EditState, k: usize, time: f64, scale: f64) -> bool {
     let mut path = edit.path(k).clone();
+    let duration = edit.timeline.duration;
     let kind = match path {
         Path::Static => Kind::Static,
         Path::Circular(_) => Kind::Circular,
@@ -429,39 +438,23 @@ fn path_editor(ui: &mut egui::Ui, edit: &mut EditState, k: usize, time: f64, sca
                 ui.label("axis");
                 for (v, n) in c.axis.iter_mut().zip(["x", "y", "z"]) {
                     let l = ui.label(n).id;
-                    changed |= ui
-                        .add(egui::DragValue::new(v).speed(0.01).range(-1.0..=1.0))
-                        .labelled_by(l)
-                        .changed();
+                    changed |=
+                        ui.add(number(v).speed(0.01).range(-1.0..=1.0)).labelled_by(l).changed();
                 }
                 let l = ui.label("radius").id;
                 changed |= ui
-                    .add(
-                        egui::DragValue::new(&mut c.radius)
-                            .speed(0.002 * scale)
-                            .range(0.0..=10.0 * scale),
-                    )
+                    .add(number(&mut c.radius).speed(0.002 * scale).range(0.0..=10.0 * scale))
                     .labelled_by(l)
                     .changed();
                 let l = ui.label("period").id;
                 changed |= ui
-                    .add(
-                        egui::DragValue::new(&mut c.period)
-                            .speed(0.05)
-                            .range(0.01..=MAX_DURATION)
-                            .suffix(" s"),
-                    )
+                    .add(number(&mut c.period).speed(0.05).range(0.01..=MAX_DURATION).suffix(" s"))
                     .labelled_by(l)
                     .changed();
                 let mut phase = c.phase.to_degrees();
                 let l = ui.label("phase").id;
                 if ui
-                    .add(
-                        egui::DragValue::new(&mut phase)
-                            .speed(1.0)
-                            .range(-360.0..=360.0)
-                            .suffix("°"),
-                    )
+                    .add(number(&mut phase).speed(1.0).range(-360.0..=360.0).suffix("°"))
                     .labelled_by(l)
                     .changed()
                 {
@@ -520,12 +513,7 @@ fn path_editor(ui: &mut egui::Ui, edit: &mut EditState, k: usize, time: f64, sca
                     let key = &mut kp.keys[i];
                     let l = ui.label(format!("key {i} at")).id;
                     retimed |= ui
-                        .add(
-                            egui::DragValue::new(&mut key.time)
-                                .range(lo..=hi.max(lo))
-                                .speed(0.01)
-                                .suffix(" s"),
-                        )
+                        .add(number(&mut key.time).range(lo..=hi.max(lo)).speed(0.01).suffix(" s"))
                         .labelled_by(l)
                         .changed();
                     let t = key.translation;
@@ -533,6 +521,9 @@ fn path_editor(ui: &mut egui::Ui, edit: &mut EditState, k: usize, time: f64, sca
                         "move ({:.3}, {:.3}, {:.3}), turn {:.1}°",
                         t[0], t[1], t[2], key.rotation.degrees
                     ));
+                    if key.time > duration {
+                        ui.colored_label(egui::Color32::YELLOW, "after the end: never played");
+                    }
                     if ui.small_button("Delete").on_hover_text("delete this key").clicked() {
                         delete = Some(i);
                     }
@@ -552,6 +543,15 @@ fn path_editor(ui: &mut egui::Ui, edit: &mut EditState, k: usize, time: f64, sca
         edit.set_path(k, path);
     }
     changed
+}
+
+/// A number field of the timeline panel. It keeps a value outside its range that it did not
+/// set (a scene's, valid for the solver: egui would clamp it on every frame, an edit the next
+/// Save writes and an undo cannot keep), and a typed number counts once typing ends (Enter, or
+/// the field left): per keystroke, each partial number was an undo step of its own, and a
+/// duration typed through "1" pulled the playback time back to 1 s.
+fn number(value: &mut f64) -> egui::DragValue<'_> {
+    egui::DragValue::new(value).clamp_existing_to_range(false).update_while_editing(false)
 }
 
 /// The start pose of a circular path chosen for a group posed as `pose` (`None` at rest).

@@ -501,3 +501,32 @@ fn switching_to_the_brush_mid_drag_ends_the_drag() {
     h.step();
     assert_eq!(h.state().edit_state().groups[2].pose, Default::default());
 }
+
+/// A selection loaded keeps the timeline's length, rate and looping; the old groups' paths
+/// go with them, and the status says so (the whole timeline went back to its default,
+/// unsaid).
+#[test]
+fn a_selection_keeps_the_timeline_but_its_old_paths() {
+    let dir = ScratchDir::new("selection-keeps-timeline");
+    let (mut h, _, n) = bar_with_three_groups(&dir);
+    let mut e = h.state().edit_state().clone();
+    e.timeline.duration = 5.0;
+    e.timeline.fps = 24.0;
+    e.timeline.looping = false;
+    e.set_path(
+        0,
+        solver::animation::timeline::Path::Circular(
+            solver::animation::timeline::CircularPath::new([0.0, 0.0, 1.0], 0.1, 1.0),
+        ),
+    );
+    h.state_mut().set_edit_state(e);
+    let sel = dir.join("sel.dmat");
+    std::fs::write(&sel, dmat(n, 2)).unwrap();
+    support::drop_file(&mut h, sel);
+    step_until(&mut h, "the selection", |a| !a.is_loading_selection());
+    let t = &h.state().edit_state().timeline;
+    assert_eq!((t.duration, t.fps, t.looping), (5.0, 24.0, false), "the timeline was reset");
+    assert!(t.paths.is_empty(), "a path left on a group of the new selection");
+    let info = h.state().info().unwrap_or_default();
+    assert!(info.contains("sel.dmat") && info.contains("1 path"), "{info}");
+}

@@ -1,6 +1,7 @@
-//! The timeline panel, undo and unsaved changes: a drag of one of its numbers is one undo step,
-//! an undo puts a group with a path where its path is at the playback time, and playing or
-//! scrubbing is not an edit; a recording cancelled as it ends is not kept.
+//! The timeline panel, undo and unsaved changes: a drag of one of its numbers, or a number
+//! typed, is one undo step, a scene's values outside its ranges stay, an undo puts a group with
+//! a path where its path is at the playback time, and playing or scrubbing is not an edit; K
+//! and Space wait for a transform; a recording cancelled as it ends is not kept.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use crate::support;
@@ -314,4 +315,131 @@ fn play_at_the_end_plays_from_the_start() {
     h.step();
     assert!(h.state().is_playing());
     assert!(h.state().playback_time() < end, "still at the end");
+}
+
+/// A scene with values outside the panels' ranges (a circle's axis not of unit length, a phase
+/// past a turn, 300 frames a second, a falloff radius of 0.8: all valid for the solver) opens
+/// as written. Drawing the timeline and rigging panels clamped them: an unsaved change, and an
+/// undo step whose undo the next frame clamped again.
+#[test]
+fn a_scene_outside_the_panels_ranges_opens_unchanged() {
+    let dir = solver::testing::ScratchDir::new("timeline-out-of-range");
+    let m = solver::geometry::shapes::icosphere(2);
+    solver::io::write_obj(&dir.join("sphere.obj"), m.positions(), m.triangles()).unwrap();
+    let labels = solver::testing::cap_labels(m.positions(), 0, 0.8, None);
+    let text = format!(
+        r#"{{"version": 2, "mesh": "sphere.obj", "handles": {{"labels": {labels:?}}},
+            "timeline": {{"duration": 1.0, "fps": 300, "looping": true, "paths": [{{"group": 0,
+              "path": {{"type": "circular", "axis": [0, 2, 1], "radius": 0.4, "period": 1.0,
+                        "phase": 7.5}}}}]}},
+            "rig": {{"falloff": [{{"group": 0, "radius": 0.8, "curve": "smooth"}}]}},
+            "method": "arap"}}"#
+    );
+    let path = dir.join("scene.json");
+    std::fs::write(&path, text).unwrap();
+    let mut h = harness(path, Some(dir.join("config")));
+    step_until(&mut h, "the scene", settled);
+    h.state_mut().set_active_group(Some(0)); // its path and falloff in the panels
+    let loaded = h.state().edit_state().clone();
+    for _ in 0..4 {
+        h.step();
+    }
+    let now = h.state().edit_state();
+    assert_eq!(now.timeline, loaded.timeline, "the timeline panel changed the scene");
+    assert_eq!(now.groups[0].falloff.radius, 0.8, "the falloff slider clamped the radius");
+    assert!(!h.state().has_unsaved_changes(), "drawing the panels made an unsaved change");
+}
+
+/// A number typed into a timeline field is one undo step once typing ends (Enter): each
+/// keystroke was a step, and "10" typed as the duration went through a duration of 1 s,
+/// which pulled the playback time back to 1 s.
+#[test]
+fn a_typed_number_is_one_undo_step() {
+    let mut h = start();
+    let duration = h.state().edit_state().timeline.duration;
+    h.state_mut().set_playback_time(1.5);
+    h.step();
+    h.get_by_label("duration").click();
+    h.step();
+    h.key_press_modifiers(Modifiers::COMMAND, Key::A);
+    for c in ["1", "0"] {
+        h.event(Event::Text(c.into()));
+        h.step();
+    }
+    assert_eq!(h.state().edit_state().timeline.duration, duration, "changed while typing");
+    h.key_press(Key::Enter);
+    h.step();
+    assert_eq!(h.state().edit_state().timeline.duration, 10.0);
+    assert_eq!(h.state().playback_time(), 1.5, "the typing moved the playback time");
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    assert_eq!(h.state().edit_state().timeline.duration, duration, "one step for the number");
+}
+
+/// Play at the end of a timeline whose length is not a whole number of milliseconds plays
+/// from the start: the time slider rounded the time to the millisecond on every frame, so the
+/// stopped time was just short of the end and Play stopped again at once.
+#[test]
+fn play_at_an_end_between_milliseconds_plays_from_the_start() {
+    let mut h = start();
+    let mut e = h.state().edit_state().clone();
+    e.timeline.looping = false;
+    e.timeline.duration = 10.0 / 3.0;
+    h.state_mut().set_edit_state(e);
+    h.state_mut().set_playback_time(10.0 / 3.0);
+    for _ in 0..2 {
+        h.step();
+    }
+    assert_eq!(h.state().playback_time(), 10.0 / 3.0, "drawing the slider moved the time");
+    h.key_press(Key::Space);
+    h.step();
+    assert!(h.state().is_playing());
+    assert!(h.state().playback_time() < 1.0, "not played from the start");
+}
+
+/// Deleting a group listed before the active one keeps the same group active (the index
+/// stayed, naming the next group: K and the path editor went to it); deleting the active
+/// group leaves none active.
+#[test]
+fn deleting_a_group_keeps_the_active_group() {
+    let mut h = start();
+    let names: Vec<String> = h.state().edit_state().groups.iter().map(|g| g.name.clone()).collect();
+    assert!(names.len() >= 3);
+    h.state_mut().set_active_group(Some(1));
+    h.step();
+    h.get_all_by_label("Delete").next().expect("group 0's Delete").click();
+    h.step();
+    let active = h.state().active_group().map(|k| h.state().edit_state().groups[k].name.clone());
+    assert_eq!(active, Some(names[1].clone()), "another group became active");
+    let k = h.state().active_group().unwrap();
+    h.get_all_by_label("Delete").nth(k).unwrap().click();
+    h.step();
+    assert_eq!(h.state().active_group(), None, "a group still active after its delete");
+}
+
+/// K and Space during a G move wait for its end: K keyed the pose not yet confirmed (Esc then
+/// left the key), and Space played the paths under the move.
+#[test]
+fn k_and_space_wait_for_a_transform_to_end() {
+    let mut h = start();
+    h.state_mut().set_tool(app::editor::Tool::Pose);
+    h.state_mut().set_active_group(Some(0));
+    h.step();
+    let (c, _) = h.state().gizmo_screen().unwrap();
+    support::move_pointer(&mut h, [c + Vec2::new(40.0, 30.0)]);
+    h.key_press(Key::G);
+    h.step();
+    support::move_pointer(&mut h, (1..=4).map(|i| c + Vec2::new(40.0 + 10.0 * i as f32, 30.0)));
+    assert!(h.state().running_transform().is_some());
+    let timeline = h.state().edit_state().timeline.clone();
+    h.key_press(Key::K);
+    h.key_press(Key::Space);
+    h.step();
+    assert!(h.state().running_transform().is_some(), "the move ended");
+    assert_eq!(h.state().edit_state().timeline, timeline, "K keyed the move in progress");
+    assert!(!h.state().is_playing(), "Space played during the move");
+    assert!(h.state().info().is_some_and(|i| i.contains("finish the move")));
+    h.key_press(Key::Escape);
+    h.step();
+    assert_eq!(h.state().edit_state().timeline, timeline);
 }

@@ -228,6 +228,17 @@ impl EditorApp {
             self.session.press_step.cancel(); // the press dragging the gizmo does nothing more
             return;
         }
+        // K and Space while a transform runs: a key of a pose not confirmed (an Esc left it
+        // keyed) and an undo step inside the transform's, or playback moving the group under
+        // it. They wait for its end.
+        if self.gizmo.transform.is_some() {
+            let k = consume(Modifiers::NONE, Key::K);
+            if consume(Modifiers::NONE, Key::Space) || k {
+                self.info = Some(
+                    "finish the move or turn first (Enter or release confirms, Esc cancels)".into(),
+                );
+            }
+        }
         if self.gizmo.transform.as_ref().is_some_and(|t| t.modal) {
             for (k, a) in [(Key::X, 0), (Key::Y, 1), (Key::Z, 2)] {
                 if consume(Modifiers::NONE, k)

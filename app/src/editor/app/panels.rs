@@ -147,8 +147,12 @@ impl EditorApp {
             self.end_gestures();
             self.session.push_undo(self.session.edit.clone());
             self.session.edit.delete_group(k);
-            self.interaction.active_group =
-                self.interaction.active_group.filter(|&a| a < self.session.edit.groups.len());
+            // the active group keeps its group: later ones shift down, the deleted one goes
+            self.interaction.active_group = match self.interaction.active_group {
+                Some(a) if a == k => None,
+                Some(a) if a > k => Some(a - 1),
+                other => other,
+            };
             self.display.color_version += 1;
             self.send_scene();
         }
@@ -226,7 +230,9 @@ impl EditorApp {
             ui.label("move");
             for (c, axis) in pose.translation.as_mut().iter_mut().zip(["x", "y", "z"]) {
                 let l = ui.label(axis).id;
-                let r = ui.add(egui::DragValue::new(c).speed(step).max_decimals(4));
+                let r = ui.add(
+                    egui::DragValue::new(c).speed(step).max_decimals(4).update_while_editing(false),
+                );
                 changed |= r.labelled_by(l).changed();
             }
         });
@@ -238,7 +244,9 @@ impl EditorApp {
             ui.label("rotate°");
             for (c, axis) in e.iter_mut().zip(["rx", "ry", "rz"]) {
                 let l = ui.label(axis).id;
-                let r = ui.add(egui::DragValue::new(c).speed(0.5).max_decimals(2));
+                let r = ui.add(
+                    egui::DragValue::new(c).speed(0.5).max_decimals(2).update_while_editing(false),
+                );
                 rot_changed |= r.labelled_by(l).changed();
             }
         });

@@ -404,6 +404,7 @@ impl EditorApp {
             ui.label(format!("Soft falloff of {}", self.session.edit.groups[k].name));
             let slider = ui.add(
                 egui::Slider::new(&mut f.radius, 0.0..=0.5)
+                    .clamping(egui::SliderClamping::Edits) // a scene's wider radius stays
                     .text("falloff radius")
                     .custom_formatter(
                         |r, _| if r == 0.0 { "hard".into() } else { format!("{r:.3}") },

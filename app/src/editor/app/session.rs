@@ -717,15 +717,27 @@ impl EditorApp {
                 let parts = self.session.edit.loose_parts.clone();
                 let (rigidity, symmetry) =
                     (self.session.edit.rigidity.clone(), self.session.edit.symmetry);
+                // The timeline's length, rate and looping stay; its paths went with the groups
+                // they moved (a selection file numbers its own).
+                let mut timeline = self.session.edit.timeline.clone();
+                let dropped = std::mem::take(&mut timeline.paths).len();
                 self.session.edit = EditState {
                     loose_parts: parts,
                     rigidity,
                     symmetry,
+                    timeline,
                     ..EditState::from_labels(labels)
                 };
                 self.interaction.active_group = (!self.session.edit.groups.is_empty()).then_some(0);
                 self.end_gestures();
-                self.info = Some(format!("handles from {}", file_name(&path)));
+                self.info = Some(match dropped {
+                    0 => format!("handles from {}", file_name(&path)),
+                    n => format!(
+                        "handles from {}; the old groups' {n} path(s) went with them (Ctrl+Z \
+                         brings them back)",
+                        file_name(&path)
+                    ),
+                });
                 self.display.color_version += 1;
                 self.send_scene();
             }
