@@ -33,11 +33,20 @@
 //! glTF's own folder only (`reference` module): a `uri` with a scheme other than `data:`, an
 //! absolute path, a `..` that leaves the folder or a link out of it is refused, naming the
 //! URI; for a buffer the load fails, for an image the mesh loads without it and a notice says
-//! why, unless [`super::ReferencePolicy::allow_outside`].
+//! why, unless [`super::ReferencePolicy::allow_outside`]. Each URI is read once however many
+//! buffers name it, and only buffer 0 may be a GLB's binary chunk.
+//!
+//! **Bounded work**: the node hierarchy is walked once per node (a node reached twice, which
+//! glTF forbids, is read under its first parent, with a notice), and a scene of more than
+//! [`MAX_VERTICES`] vertices, instances counted, is refused, so that no small file asks for
+//! unbounded time or memory.
 //!
 //! Known limitations: TEXCOORD_2 and above, COLOR_1 and above, tangents, skins and morph
 //! targets of the input are ignored (a notice names the skins, morph targets and animations);
 //! so is `KHR_texture_transform` (UVs are kept as stored).
+
+use std::collections::HashMap;
+use std::sync::Arc;
 
 use ::gltf::accessor::{DataType, Dimensions};
 use ::gltf::mesh::Mode;
@@ -50,6 +59,11 @@ use super::gltf_material;
 use super::reference::Folder;
 use super::uri::read_uri;
 use crate::geometry::mesh::in_range;
+
+/// The most vertices a file's scene may hold, its meshes' instances counted: far above any
+/// mesh the solver poses (its largest tested has 1.5M), and below what would exhaust memory
+/// (a small file can instance one mesh from thousands of nodes).
+pub const MAX_VERTICES: usize = 100_000_000;
 
 /// Extensions whose data this reader cannot decode, with what a user can do about each.
 const UNDECODABLE: [(&str, &str); 2] = [
@@ -166,15 +180,19 @@ pub(crate) fn parse(bytes: &[u8], ctx: Ctx, folder: Option<Folder>) -> Result<As
     let scene = gltf.document.default_scene().or_else(|| gltf.document.scenes().next());
     match scene {
         Some(scene) => {
-            // Depth-first over the node tree, with a guard against cycles (invalid in glTF,
-            // but a file can still contain one).
-            let mut stack: Vec<(::gltf::Node, Matrix4<f64>, usize)> =
-                scene.nodes().map(|n| (n, Matrix4::identity(), 0)).collect();
+            // Depth-first over the node tree, each node once. glTF requires a tree (no node
+            // with two parents, no cycle); a file that is not one is read as the tree of each
+            // node's first parent, with a notice: visiting a shared node under each parent
+            // doubled the work per level (40 nodes of 1 KB JSON took 2^39 visits).
+            let mut stack: Vec<(::gltf::Node, Matrix4<f64>)> =
+                scene.nodes().map(|n| (n, Matrix4::identity())).collect();
             stack.reverse();
-            let max_depth = gltf.document.nodes().len();
-            while let Some((node, parent, depth)) = stack.pop() {
-                if depth > max_depth {
-                    return Err(ctx.parse(None, "the node hierarchy contains a cycle".to_string()));
+            let mut seen = vec![false; gltf.document.nodes().len()];
+            let mut shared = None;
+            while let Some((node, parent)) = stack.pop() {
+                if std::mem::replace(&mut seen[node.index()], true) {
+                    shared.get_or_insert(node.index());
+                    continue;
                 }
                 let local = Matrix4::from_fn(|r, c| f64::from(node.transform().matrix()[c][r]));
                 let world = parent * local;
@@ -182,8 +200,15 @@ pub(crate) fn parse(bytes: &[u8], ctx: Ctx, folder: Option<Folder>) -> Result<As
                     visit(node.name().unwrap_or_default(), mesh, &world)?;
                 }
                 let first_child = stack.len();
-                stack.extend(node.children().map(|child| (child, world, depth + 1)));
+                stack.extend(node.children().map(|child| (child, world)));
                 stack[first_child..].reverse();
+            }
+            if let Some(k) = shared {
+                raw.notices.push(format!(
+                    "{}: node {k} (and maybe others) is reached twice in the node hierarchy, \
+                     which glTF requires to be a tree: read once, under its first parent",
+                    ctx.file
+                ));
             }
         }
         None => {
@@ -274,20 +299,43 @@ fn load_buffers(
     gltf: &::gltf::Gltf,
     ctx: Ctx,
     folder: Option<Folder>,
-) -> Result<Vec<Vec<u8>>, LoadError> {
-    let mut out = Vec::new();
+) -> Result<Vec<Arc<[u8]>>, LoadError> {
+    let mut out: Vec<Arc<[u8]>> = Vec::new();
+    // Each file or data URI is read once, however many buffers name it.
+    let mut read: HashMap<&str, Arc<[u8]>> = HashMap::new();
     for buffer in gltf.document.buffers() {
         let data = match buffer.source() {
-            ::gltf::buffer::Source::Bin => gltf.blob.clone().ok_or_else(|| {
-                ctx.parse(
+            // The GLB's chunk is buffer 0's only (glTF 2.0, "GLB-stored Buffer"): a copy of
+            // it for every buffer without a `uri` let a small file ask for gigabytes.
+            ::gltf::buffer::Source::Bin if buffer.index() > 0 => {
+                return Err(ctx.parse(
                     None,
-                    format!("buffer {} refers to a missing GLB binary chunk", buffer.index()),
-                )
-            })?,
-            ::gltf::buffer::Source::Uri(uri) => {
-                read_uri(uri, ctx, folder, &format!("buffer {}", buffer.index()))?
-                    .map_err(|refused| ctx.unsupported(refused))?
+                    format!(
+                        "buffer {} has no uri; only buffer 0 may be the GLB binary chunk",
+                        buffer.index()
+                    ),
+                ));
             }
+            ::gltf::buffer::Source::Bin => match &gltf.blob {
+                Some(blob) => Arc::from(blob.as_slice()),
+                None => {
+                    return Err(ctx.parse(
+                        None,
+                        format!("buffer {} refers to a missing GLB binary chunk", buffer.index()),
+                    ));
+                }
+            },
+            ::gltf::buffer::Source::Uri(uri) => match read.get(uri) {
+                Some(data) => data.clone(),
+                None => {
+                    let data: Arc<[u8]> =
+                        read_uri(uri, ctx, folder, &format!("buffer {}", buffer.index()))?
+                            .map_err(|refused| ctx.unsupported(refused))?
+                            .into();
+                    read.insert(uri, data.clone());
+                    data
+                }
+            },
         };
         if data.len() < buffer.length() {
             return Err(ctx.truncated(
@@ -318,7 +366,7 @@ struct Extensions {
 /// the extensions it uses.
 #[derive(Clone, Copy)]
 struct Source<'a> {
-    buffers: &'a [Vec<u8>],
+    buffers: &'a [Arc<[u8]>],
     ctx: Ctx<'a>,
     extensions: Extensions,
 }
@@ -364,6 +412,11 @@ fn append_primitive(
         )));
     }
     let base = raw.positions.len();
+    if base.saturating_add(pos.count()) > MAX_VERTICES {
+        return Err(ctx.unsupported(format!(
+            "the scene's meshes, with their instances, hold more than {MAX_VERTICES} vertices"
+        )));
+    }
     let flip = world.fixed_view::<3, 3>(0, 0).determinant() < 0.0;
     let mut bad = None;
     read_accessor(&pos, buffers, ctx, |c| {
@@ -402,6 +455,16 @@ fn append_primitive(
             return Err(ctx.index(None, i as i64, format!("{} has {n} vertices", mesh_name(prim))));
         }
         corners.push((base + i) as u32);
+    }
+    if mode == Mode::Triangles && corners.len() % 3 != 0 {
+        raw.notices.push(format!(
+            "{}: {} of mesh {:?}: {} indices are not whole triangles; the last {} left out",
+            ctx.file,
+            mesh_name(prim),
+            names.0,
+            corners.len(),
+            corners.len() % 3
+        ));
     }
     let first = raw.triangles.len();
     let mut push = |t: [u32; 3]| raw.triangles.push(if flip { [t[0], t[2], t[1]] } else { t });
@@ -650,7 +713,7 @@ fn attribute(
 /// up to four), after checking the accessor's byte range against its buffer view and buffer.
 fn read_accessor(
     acc: &::gltf::Accessor,
-    buffers: &[Vec<u8>],
+    buffers: &[Arc<[u8]>],
     ctx: Ctx,
     mut f: impl FnMut([f64; 4]),
 ) -> Result<(), LoadError> {

@@ -9,9 +9,9 @@
 //! read. An image's name is its `name`, else its file name (URI percent-decoded), else
 //! `imageN`.
 //!
-//! An image keeps its encoded bytes: from a GLB buffer view (bounds-checked), a base64
-//! `data:` URI, or a file in the `.gltf`'s folder (a missing file is an error naming it; a
-//! reference outside the folder is dropped with a notice, see `uri`). Its bytes must decode
+//! An image a material's base colour uses keeps its encoded bytes (others are not read): from
+//! a GLB buffer view (bounds-checked), a base64 `data:` URI, or a file in the `.gltf`'s folder
+//! (a missing file, or a reference outside the folder, is dropped with a notice, see `uri`). Its bytes must decode
 //! as a PNG or JPEG within the size limits ([`super::image_check`]), of the type the file
 //! declares (`mimeType`, or the data URI's media type) when it declares one; an image that
 //! does not is dropped with a notice, and materials that used it lose their texture.
@@ -23,6 +23,10 @@ use super::error::{Ctx, LoadError};
 use super::image_check::decoded_mime;
 use super::reference::Folder;
 use super::uri::{percent_decode, read_uri};
+
+/// The most encoded image bytes one file's textures may hold in all: each image is a copy,
+/// and a small file can point many at one large buffer view.
+const MAX_IMAGE_BYTES: usize = 1 << 30;
 
 /// The document's materials, in file order.
 pub(crate) fn materials(document: &::gltf::Document) -> Vec<Material> {
@@ -50,36 +54,61 @@ pub(crate) fn materials(document: &::gltf::Document) -> Vec<Material> {
         .collect()
 }
 
-/// The document's images, in file order, with their encoded bytes; `None` for an image that
-/// was refused (its reason pushed to `notices`: a reference outside the folder or with a
-/// scheme, bytes that are not a PNG or JPEG that decodes).
+/// The document's images, in file order, with their encoded bytes; `None` for an image no
+/// material's base colour uses (not read; an image's buffer view is still checked), and for
+/// one that was refused (its reason pushed to
+/// `notices`: a file missing or unreadable, a reference outside the folder or with a scheme,
+/// an invalid data URI, bytes that are not a PNG or JPEG that decodes, more than
+/// [`MAX_IMAGE_BYTES`] in all).
 ///
-/// Errors: a buffer view past its buffer ([`LoadError::Truncated`]), an unreadable or missing
-/// external file or invalid data URI ([`LoadError::Parse`]).
+/// Errors: a buffer view past its buffer ([`LoadError::Truncated`]).
 pub(crate) fn images(
     document: &::gltf::Document,
-    buffers: &[Vec<u8>],
+    buffers: &[std::sync::Arc<[u8]>],
     ctx: Ctx,
     folder: Option<Folder>,
     notices: &mut Vec<String>,
 ) -> Result<Vec<Option<Image>>, LoadError> {
+    // Only base colour textures are kept: other images are not read at all.
+    let used: std::collections::HashSet<usize> = document
+        .materials()
+        .filter_map(|m| m.pbr_metallic_roughness().base_color_texture())
+        .map(|t| t.texture().source().index())
+        .collect();
+    let mut budget = MAX_IMAGE_BYTES;
     let mut out = Vec::new();
     for image in document.images() {
         let what = format!("image {}", image.index());
+        let used = used.contains(&image.index());
         let (bytes, given, uri) = match image.source() {
             ::gltf::image::Source::View { view, mime_type } => {
                 let past_end =
                     || ctx.truncated(None, format!("{what}: its buffer view is past its buffer"));
                 let buffer = buffers.get(view.buffer().index()).ok_or_else(past_end)?;
                 let end = view.offset().checked_add(view.length()).ok_or_else(past_end)?;
-                let bytes = buffer.get(view.offset()..end).ok_or_else(past_end)?.to_vec();
-                (bytes, Some(mime_type.to_string()), None)
+                let bytes = buffer.get(view.offset()..end).ok_or_else(past_end)?;
+                if !used {
+                    out.push(None);
+                    continue;
+                }
+                (bytes.to_vec(), Some(mime_type.to_string()), None)
+            }
+            ::gltf::image::Source::Uri { .. } if !used => {
+                out.push(None);
+                continue;
             }
             ::gltf::image::Source::Uri { uri, mime_type } => {
-                let bytes = match read_uri(uri, ctx, folder, &what)? {
-                    Ok(bytes) => bytes,
-                    Err(refused) => {
+                // A texture that is missing or refused costs the texture, not the mesh (as
+                // an OBJ's missing texture, and as Blender and three.js read such a file).
+                let bytes = match read_uri(uri, ctx, folder, &what) {
+                    Ok(Ok(bytes)) => bytes,
+                    Ok(Err(refused)) => {
                         notices.push(format!("{refused}; loaded without this texture"));
+                        out.push(None);
+                        continue;
+                    }
+                    Err(e) => {
+                        notices.push(format!("{e}; loaded without this texture"));
                         out.push(None);
                         continue;
                     }
@@ -88,6 +117,15 @@ pub(crate) fn images(
                 (bytes, given, Some(uri))
             }
         };
+        if bytes.len() > budget {
+            notices.push(format!(
+                "{what}: the file's textures pass {} MiB in all; loaded without this texture",
+                MAX_IMAGE_BYTES >> 20
+            ));
+            out.push(None);
+            continue;
+        }
+        budget -= bytes.len();
         let mime_type = match decoded_mime(&bytes, given.as_deref()) {
             Ok(mime) => mime.to_string(),
             Err(why) => {

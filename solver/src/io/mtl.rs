@@ -91,7 +91,15 @@ pub(crate) fn attach(asset: &mut Asset, libs: &[String], folder: Option<Folder>)
             let d = m.dissolve.map_or(1.0, |x| x as f32);
             let color = [kd[0], kd[1], kd[2], d];
             if color.iter().all(|c| c.is_finite()) {
-                target.base_color = color;
+                target.base_color = color.map(|c| c.clamp(0.0, 1.0));
+                if target.base_color != color {
+                    asset.notices.push(format!(
+                        "{}: material {:?}: its colour (Kd, d) {color:?} is outside [0, 1]; \
+                         clamped",
+                        path.display(),
+                        m.name
+                    ));
+                }
             }
             target.base_color_texture = texture;
             target.base_color_uv = 0;

@@ -80,8 +80,15 @@ fn strips_and_unindexed_triangles_are_read() {
     let mut doc = tet_doc(&[[0.0; 3]]);
     doc["meshes"][0]["primitives"][0]["mode"] = json!(5);
     doc["meshes"][0]["primitives"][0].as_object_mut().unwrap().remove("indices");
-    let m = load_mesh_from_bytes(&to_gltf(doc, &tet_bin()), Format::Gltf, "s.gltf").unwrap();
+    let m =
+        load_mesh_from_bytes(&to_gltf(doc.clone(), &tet_bin()), Format::Gltf, "s.gltf").unwrap();
     assert_eq!(m.mesh.triangles(), &[[0, 1, 2], [2, 1, 3]]);
+    assert!(!m.notices().iter().any(|n| n.contains("whole triangles")), "{:?}", m.notices());
+    // Unindexed triangles: four positions are one triangle and one index left over, said.
+    doc["meshes"][0]["primitives"][0]["mode"] = json!(4);
+    let m = load_mesh_from_bytes(&to_gltf(doc, &tet_bin()), Format::Gltf, "t.gltf").unwrap();
+    assert_eq!(m.mesh.n_faces(), 1);
+    assert!(m.notices().iter().any(|n| n.contains("not whole triangles")), "{:?}", m.notices());
 }
 
 /// `KHR_mesh_quantization` as gltfpack writes it: positions as normalized i16 under a node
@@ -130,4 +137,43 @@ fn quantized_attributes_are_decoded() {
     assert_eq!(n[0], [0.0, 0.0, -1.0]);
     assert_eq!(n[1], [1.0, 0.0, 0.0]);
     assert_eq!(m.asset.uvs[0].values[3], [4.0, 4.0], "unnormalized: the integers as they are");
+}
+
+/// A node hierarchy that is not a tree is read once per node, with a notice: one node shared
+/// by two parents at each of 40 levels (a 2 KB file) was visited 2^39 times, and a cycle is
+/// cut where it closes.
+#[test]
+fn a_node_reached_twice_is_read_once() {
+    let n = 40;
+    let nodes: Vec<serde_json::Value> = (0..n)
+        .map(|i| if i + 1 < n { json!({"children": [i + 1, i + 1]}) } else { json!({"mesh": 0}) })
+        .collect();
+    let mut doc = tet_doc(&[[0.0; 3]]);
+    doc["nodes"] = json!(nodes);
+    doc["scenes"] = json!([{"nodes": [0]}]);
+    let m =
+        load_mesh_from_bytes(&to_gltf(doc.clone(), &tet_bin()), Format::Gltf, "dag.gltf").unwrap();
+    assert_eq!(m.mesh.n_vertices(), 4, "the shared node's mesh read more than once");
+    assert!(m.notices().iter().any(|n| n.contains("reached twice")), "{:?}", m.notices());
+    doc["nodes"] = json!([{"children": [1]}, {"mesh": 0, "children": [0]}]);
+    doc["scenes"] = json!([{"nodes": [0]}]);
+    match load_mesh_from_bytes(&to_gltf(doc, &tet_bin()), Format::Gltf, "cycle.gltf") {
+        Ok(m) => {
+            assert_eq!(m.mesh.n_vertices(), 4);
+            assert!(m.notices().iter().any(|n| n.contains("reached twice")));
+        }
+        Err(e) => assert!(e.to_string().starts_with("cycle.gltf"), "{e}"),
+    }
+}
+
+/// Only buffer 0 may be a GLB's binary chunk: every buffer without a `uri` was a copy of the
+/// chunk, so a small file of many such buffers asked for gigabytes.
+#[test]
+fn only_buffer_zero_is_the_glb_chunk() {
+    let mut doc = tet_doc(&[[0.0; 3]]);
+    let extra: Vec<serde_json::Value> = (0..3).map(|_| json!({"byteLength": 1})).collect();
+    doc["buffers"].as_array_mut().unwrap().extend(extra);
+    let e = load_mesh_from_bytes(&to_glb(&doc, &tet_bin()), Format::Gltf, "many.glb").unwrap_err();
+    let msg = e.to_string();
+    assert!(msg.starts_with("many.glb") && msg.contains("only buffer 0"), "{msg}");
 }

@@ -410,7 +410,10 @@ pub(super) fn push_materials(b: &mut Builder, asset: &Asset, format: GltfFormat)
             double_sided: m.double_sided,
             name: (!m.name.is_empty()).then(|| m.name.clone()),
             pbr_metallic_roughness: json::material::PbrMetallicRoughness {
-                base_color_factor: json::material::PbrBaseColorFactor(m.base_color),
+                // glTF's ranges: an MTL's Kd (or a file) may hold values past them
+                base_color_factor: json::material::PbrBaseColorFactor(
+                    m.base_color.map(|c| c.clamp(0.0, 1.0)),
+                ),
                 base_color_texture: m.base_color_texture.filter(|_| has_uv(m)).map(|t| {
                     json::texture::Info {
                         index: json::Index::new(t as u32),
@@ -419,8 +422,8 @@ pub(super) fn push_materials(b: &mut Builder, asset: &Asset, format: GltfFormat)
                         extras: None,
                     }
                 }),
-                metallic_factor: json::material::StrengthFactor(m.metallic),
-                roughness_factor: json::material::StrengthFactor(m.roughness),
+                metallic_factor: json::material::StrengthFactor(m.metallic.clamp(0.0, 1.0)),
+                roughness_factor: json::material::StrengthFactor(m.roughness.clamp(0.0, 1.0)),
                 metallic_roughness_texture: None,
                 extensions: None,
                 extras: None,
