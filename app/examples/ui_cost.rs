@@ -183,7 +183,7 @@ fn main() {
         let _ = a.set(Instant::now());
         EditorApp::new(
             cc,
-            EditorOptions { mesh_path: Some(path), deterministic_overlays: false, config_dir },
+            EditorOptions { mesh_path: Some(path), config_dir, ..Default::default() },
         )
     });
     let start = Instant::now();

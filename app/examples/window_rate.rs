@@ -164,8 +164,7 @@ fn main() -> Result<(), String> {
         "bsarap-window-rate",
         native,
         Box::new(move |cc| {
-            let options =
-                EditorOptions { mesh_path: Some(path), deterministic_overlays: false, config_dir };
+            let options = EditorOptions { mesh_path: Some(path), config_dir, ..Default::default() };
             Ok(Box::new(Driver {
                 editor: EditorApp::new(cc, options),
                 frames,

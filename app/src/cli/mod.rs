@@ -131,8 +131,8 @@ pub fn run(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<()> {
     }
     ALLOW_OUTSIDE.store(cli.allow_outside_references, std::sync::atomic::Ordering::Relaxed);
     match cli.command {
-        None => app::editor::run(None),
-        Some(Command::Edit(a)) => app::editor::run(a.mesh),
+        None => app::editor::run(None, reference_policy()),
+        Some(Command::Edit(a)) => app::editor::run(a.mesh, reference_policy()),
         Some(Command::Info(a)) => info::run(&a),
         Some(Command::Deform(a)) => {
             let given = matches.subcommand_matches("deform").unwrap_or(matches);

@@ -113,14 +113,15 @@ pub struct LoadJob<T = LoadedFile> {
 pub fn spawn_load(
     path: PathBuf,
     version: u64,
+    references: solver::io::ReferencePolicy,
     repaint: impl Fn() + Send + 'static,
     start_prepare: Option<StartPrepare>,
 ) -> LoadJob {
     spawn_loader(path, "mesh-loader", repaint, open_error, move |p| {
         if is_scene_file(p) {
-            load_scene_file(p, version, solver::io::ReferencePolicy::default())
+            load_scene_file(p, version, references)
         } else {
-            load_scene(p, version, start_prepare)
+            load_scene(p, version, references, start_prepare)
         }
     })
 }
@@ -245,13 +246,15 @@ fn spawn_loader<T: Send + 'static>(
     LoadJob { path, since: Instant::now(), rx }
 }
 
-/// Reads and prepares a scene (runs on the loader thread).
+/// Reads and prepares a mesh file, its references where `references` allows (runs on the
+/// loader thread).
 pub fn load_scene(
     path: &Path,
     version: u64,
+    references: solver::io::ReferencePolicy,
     start_prepare: Option<StartPrepare>,
 ) -> anyhow::Result<LoadedFile> {
-    prepare(path, solver::io::load_mesh(path)?, version, start_prepare)
+    prepare(path, solver::io::load_mesh_with(path, references)?, version, start_prepare)
 }
 
 /// Derives everything the editor needs from a mesh read from `path` (runs on the loader thread).
@@ -418,7 +421,7 @@ mod tests {
                    f 1 3 2\nf 5 2 4\nf 1 4 3\nf 2 3 4\n";
         std::fs::write(dir.join("tet.obj"), obj).unwrap();
         std::fs::write(dir.join("tet.dmat"), "1 5\n0\n-1\n1\n-1\n0\n").unwrap();
-        let scene = load_scene(&dir.join("tet.obj"), 1, None).unwrap();
+        let scene = load_scene(&dir.join("tet.obj"), 1, Default::default(), None).unwrap();
         assert_eq!(scene.mesh.n_vertices(), 4);
         assert!(scene.notices.iter().any(|n| n.contains("welded")), "{:?}", scene.notices);
         assert_eq!(scene.selection_path.as_deref(), Some(dir.join("tet.dmat").as_path()));
@@ -427,7 +430,7 @@ mod tests {
         assert_eq!(labels, expected);
         // Welded vertices of two groups: the selection is ignored with a notice naming it.
         std::fs::write(dir.join("tet.dmat"), "1 5\n0\n-1\n1\n-1\n1\n").unwrap();
-        let scene = load_scene(&dir.join("tet.obj"), 2, None).unwrap();
+        let scene = load_scene(&dir.join("tet.obj"), 2, Default::default(), None).unwrap();
         assert!(scene.default_labels.is_none());
         let notice = scene.notices.iter().find(|n| n.contains("ignored selection"));
         assert!(notice.is_some_and(|n| n.contains("tet.dmat")), "{:?}", scene.notices);
@@ -474,7 +477,7 @@ mod tests {
             let p = super::super::jobs::spawn_prepare(c, mesh, method, base, || {});
             *s.lock().unwrap() = Some(p);
         });
-        let scene = load_scene(&path, 1, Some(start)).unwrap();
+        let scene = load_scene(&path, 1, Default::default(), Some(start)).unwrap();
         let preparing = started.lock().unwrap().take().expect("started while loading");
         assert!(Arc::ptr_eq(&preparing.mesh, &scene.mesh), "started on another mesh");
         let ms = loop {
@@ -492,7 +495,7 @@ mod tests {
             solver::animation::scene::HandlesSpec { labels: Some(labels), ..Default::default() };
         solver::animation::scene::Scene::new("bar.obj", spec).save(&scene_file).unwrap();
         let start: StartPrepare = Box::new(|_| panic!("a scene file started a precomputation"));
-        let job = spawn_load(scene_file, 2, || {}, Some(start));
+        let job = spawn_load(scene_file, 2, Default::default(), || {}, Some(start));
         job.rx.recv().unwrap().unwrap();
     }
 

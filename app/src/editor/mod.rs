@@ -40,12 +40,17 @@ pub use app::{
     default_mesh_path,
 };
 
-/// Opens the editor window on `mesh_path`, or on the default asset when `None`.
-pub fn run(mesh_path: Option<PathBuf>) -> anyhow::Result<()> {
+/// Opens the editor window on `mesh_path`, or on the default asset when `None`; the files
+/// opened may name others where `references` allows.
+pub fn run(
+    mesh_path: Option<PathBuf>,
+    references: solver::io::ReferencePolicy,
+) -> anyhow::Result<()> {
     let options = EditorOptions {
         mesh_path: Some(mesh_path.unwrap_or_else(default_mesh_path)),
         deterministic_overlays: false,
         config_dir: persist::default_dir(),
+        references,
     };
     let native = eframe::NativeOptions {
         viewport: eframe::egui::ViewportBuilder::default()

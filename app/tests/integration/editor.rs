@@ -704,10 +704,7 @@ fn the_status_bar_reports_memory() {
     let builder = Harness::builder().with_size(SIZE).with_step_dt(1.0 / 30.0);
     let mut h = builder.wgpu().build_eframe(|cc| {
         let mesh_path = Some(test_mesh());
-        EditorApp::new(
-            cc,
-            EditorOptions { mesh_path, deterministic_overlays: false, config_dir: None },
-        )
+        EditorApp::new(cc, EditorOptions { mesh_path, ..Default::default() })
     });
     step_until(&mut h, "the default asset", |a| !a.is_loading() && a.n_vertices() > 0);
     h.get_by_label_contains("MiB (peak");
@@ -731,11 +728,7 @@ fn the_status_bar_reports_memory() {
 /// level for about 1.2 s, then the full mesh for 2.3 s (no fairing level at 30k vertices).
 #[test]
 fn the_overlay_says_where_settling_refines() {
-    let options = EditorOptions {
-        mesh_path: Some(test_mesh()),
-        deterministic_overlays: false,
-        config_dir: None,
-    };
+    let options = EditorOptions { mesh_path: Some(test_mesh()), ..Default::default() };
     let builder = Harness::builder().with_size(SIZE).with_render_cursor(false);
     let mut h = builder.wgpu().build_eframe(move |cc| EditorApp::new(cc, options));
     step_until(&mut h, "the default asset", settled);

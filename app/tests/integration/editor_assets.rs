@@ -89,10 +89,7 @@ fn empty_editor() -> Harness<'static, EditorApp> {
     let builder =
         Harness::builder().with_size(SIZE).with_render_cursor(false).with_step_dt(1.0 / 30.0);
     let mut h = builder.wgpu().build_eframe(|cc| {
-        EditorApp::new(
-            cc,
-            EditorOptions { mesh_path: None, deterministic_overlays: true, config_dir: None },
-        )
+        EditorApp::new(cc, EditorOptions { deterministic_overlays: true, ..Default::default() })
     });
     h.step();
     h
@@ -334,4 +331,55 @@ fn a_mesh_far_from_the_origin_is_drawn_and_painted() {
     h.step();
     let painted = h.state().labels().iter().filter(|l| l.is_some()).count();
     assert!(painted > 0 && painted < p.len(), "{painted} of {} vertices painted", p.len());
+}
+
+/// `bsarap edit --allow-outside-references` lets the editor read a glTF's buffer from outside
+/// its folder: the flag parsed, and the editor loaded with the default policy all the same,
+/// while its own error told the user to pass the flag.
+#[test]
+fn the_editor_follows_the_outside_references_flag() {
+    let dir = temp_dir("outside-references");
+    let positions: [[f32; 3]; 4] = [[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    let indices: [u32; 12] = [0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3];
+    let mut bin: Vec<u8> = positions.iter().flatten().flat_map(|x| x.to_le_bytes()).collect();
+    bin.extend(indices.iter().flat_map(|i| i.to_le_bytes()));
+    std::fs::write(dir.join("tet.bin"), &bin).unwrap();
+    std::fs::create_dir_all(dir.join("scene")).unwrap();
+    let gltf = r#"{"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3",
+             "min": [0, 0, 0], "max": [1, 1, 1]},
+            {"bufferView": 1, "componentType": 5125, "count": 12, "type": "SCALAR"}],
+        "bufferViews": [{"buffer": 0, "byteLength": 48},
+                        {"buffer": 0, "byteOffset": 48, "byteLength": 48}],
+        "buffers": [{"uri": "../tet.bin", "byteLength": 96}]}"#;
+    let path = dir.join("scene/tet.gltf");
+    std::fs::write(&path, gltf).unwrap();
+    let open = |references| {
+        let builder = Harness::builder().with_size(SIZE).with_step_dt(1.0 / 30.0);
+        let mut h = builder.wgpu().build_eframe(|cc| {
+            let mesh_path = Some(path.clone());
+            let deterministic_overlays = true;
+            EditorApp::new(
+                cc,
+                EditorOptions {
+                    mesh_path,
+                    deterministic_overlays,
+                    references,
+                    ..Default::default()
+                },
+            )
+        });
+        step_until(&mut h, "the glTF", |a| !a.is_loading());
+        h
+    };
+    let refused = open(solver::io::ReferencePolicy::default());
+    let error = refused.state().error().unwrap_or_default().to_owned();
+    assert!(error.contains("--allow-outside-references"), "{error}");
+    assert_eq!(refused.state().n_vertices(), 0);
+    let allowed = open(solver::io::ReferencePolicy { allow_outside: true });
+    assert!(allowed.state().error().is_none(), "{:?}", allowed.state().error());
+    assert_eq!(allowed.state().n_vertices(), 4);
 }

@@ -254,11 +254,7 @@ fn tools_that_cannot_act_say_why() {
     let mut h = builder.wgpu().build_eframe(|cc| {
         app::editor::EditorApp::new(
             cc,
-            app::editor::EditorOptions {
-                mesh_path: None,
-                deterministic_overlays: true,
-                config_dir: None,
-            },
+            app::editor::EditorOptions { deterministic_overlays: true, ..Default::default() },
         )
     });
     h.step();
@@ -413,6 +409,7 @@ fn open_with_dialog(mesh: &Path, config: std::path::PathBuf) -> Harness<'static,
                 mesh_path: Some(mesh),
                 deterministic_overlays: true,
                 config_dir: Some(config),
+                ..Default::default()
             },
         )
     });
@@ -620,11 +617,7 @@ fn a_narrow_window_keeps_the_status_bar_one_line_and_every_button() {
     let builder = Harness::builder().with_size(narrow).with_render_cursor(false);
     let mut h = builder.wgpu().build_eframe(|cc| {
         let mesh_path = Some(test_mesh());
-        let options = app::editor::EditorOptions {
-            mesh_path,
-            deterministic_overlays: false,
-            config_dir: None,
-        };
+        let options = app::editor::EditorOptions { mesh_path, ..Default::default() };
         EditorApp::new(cc, options)
     });
     step_until(&mut h, "the default asset", settled);

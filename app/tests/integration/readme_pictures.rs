@@ -36,7 +36,7 @@ fn editor(path: PathBuf, config: &ScratchDir) -> Harness<'static, EditorApp> {
     builder.wgpu().build_eframe(move |cc| {
         EditorApp::new(
             cc,
-            EditorOptions { mesh_path: Some(path), deterministic_overlays: false, config_dir },
+            EditorOptions { mesh_path: Some(path), config_dir, ..Default::default() },
         )
     })
 }

@@ -62,7 +62,7 @@ pub fn default_mesh_path() -> PathBuf {
 }
 
 /// How the editor starts.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Default)]
 pub struct EditorOptions {
     /// The mesh to open; `None` opens nothing.
     pub mesh_path: Option<PathBuf>,
@@ -70,6 +70,9 @@ pub struct EditorOptions {
     pub deterministic_overlays: bool,
     /// Where recent files and the autosave live (`None`: nothing is kept between sessions).
     pub config_dir: Option<PathBuf>,
+    /// Where the files a mesh or scene names may lie (`--allow-outside-references`: outside
+    /// its folder too).
+    pub references: solver::io::ReferencePolicy,
 }
 
 /// What the viewport shows.

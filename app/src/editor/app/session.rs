@@ -510,8 +510,10 @@ impl EditorApp {
     ) {
         let c = ctx.clone();
         let start = self.start_prepare(ctx, version);
+        let references = self.options.references;
+        let repaint = move || c.request_repaint();
         self.jobs.loading =
-            Some(loader::spawn_load(path, version, move || c.request_repaint(), Some(start)));
+            Some(loader::spawn_load(path, version, references, repaint, Some(start)));
         self.session.at_load = Some(mark);
     }
 

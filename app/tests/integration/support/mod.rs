@@ -69,7 +69,12 @@ pub fn harness_sized(
     builder.wgpu().build_eframe(move |cc| {
         EditorApp::new(
             cc,
-            EditorOptions { mesh_path: Some(path), deterministic_overlays: true, config_dir },
+            EditorOptions {
+                mesh_path: Some(path),
+                deterministic_overlays: true,
+                config_dir,
+                ..Default::default()
+            },
         )
     })
 }
@@ -198,6 +203,7 @@ pub fn dialog_harness(config: std::path::PathBuf) -> Harness<'static, EditorApp>
                 mesh_path: Some(test_mesh()),
                 deterministic_overlays: true,
                 config_dir: Some(config),
+                ..Default::default()
             },
         )
     })
