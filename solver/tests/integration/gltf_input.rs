@@ -137,6 +137,25 @@ fn quantized_attributes_are_decoded() {
     assert_eq!(n[0], [0.0, 0.0, -1.0]);
     assert_eq!(n[1], [1.0, 0.0, 0.0]);
     assert_eq!(m.asset.uvs[0].values[3], [4.0, 4.0], "unnormalized: the integers as they are");
+
+    // gltfpack pairs such coordinates with KHR_texture_transform on the material's texture:
+    // the coordinates are stored as sampled, uv' = offset + R(rotation) (scale * uv).
+    let mut doc = doc;
+    doc["extensionsUsed"] = json!(["KHR_mesh_quantization", "KHR_texture_transform"]);
+    doc["materials"] = json!([{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0,
+        "extensions": {"KHR_texture_transform": {"offset": [0.5, 0.25], "scale": [0.25, 0.125]}}}}}]);
+    doc["textures"] = json!([{"source": 0}]);
+    doc["images"] = json!([{"uri": "missing.png"}]);
+    doc["meshes"][0]["primitives"][0]["material"] = json!(0);
+    let m = load_mesh_from_bytes(&to_glb(&doc, &bin), Format::Gltf, "t.glb").unwrap();
+    assert_eq!(m.asset.uvs[0].values[3], [1.5, 0.75], "0.5 + 0.25 * 4, 0.25 + 0.125 * 4");
+    assert_eq!(m.asset.uvs[0].values[0], [0.5, 0.25]);
+    // A quarter turn: (u, v) = (4, 0) scaled by 1 turns to (0, -4).
+    doc["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"]["extensions"] =
+        json!({"KHR_texture_transform": {"rotation": std::f64::consts::FRAC_PI_2}});
+    let m = load_mesh_from_bytes(&to_glb(&doc, &bin), Format::Gltf, "r.glb").unwrap();
+    let [u, v] = m.asset.uvs[0].values[1];
+    assert!(u.abs() < 1e-6 && (v + 4.0).abs() < 1e-6, "{u} {v}");
 }
 
 /// A node hierarchy that is not a tree is read once per node, with a notice: one node shared
