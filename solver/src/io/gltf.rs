@@ -51,6 +51,7 @@ use std::collections::HashMap;
 use std::sync::Arc;
 
 use ::gltf::accessor::{DataType, Dimensions};
+use ::gltf::json::validation::Checked::Valid;
 use ::gltf::mesh::Mode;
 use nalgebra::{Matrix3, Matrix4, Vector3, Vector4};
 
@@ -145,6 +146,23 @@ pub(crate) fn parse(bytes: &[u8], ctx: Ctx, folder: Option<Folder>) -> Result<As
                         json.accessors.len()
                     ),
                 ));
+            }
+        }
+    }
+    // A POSITION accessor's min and max are required by the spec, and the crate's validation
+    // refuses a file without them; Blender and three.js read it, and this reader does not use
+    // them: stand-ins let it through (they are not read).
+    let positions: Vec<usize> = json
+        .meshes
+        .iter()
+        .flat_map(|m| &m.primitives)
+        .filter_map(|p| p.attributes.get(&Valid(::gltf::json::mesh::Semantic::Positions)))
+        .map(|i| i.value())
+        .collect();
+    for i in positions {
+        if let Some(acc) = json.accessors.get_mut(i) {
+            for bound in [&mut acc.min, &mut acc.max] {
+                bound.get_or_insert_with(|| ::gltf::json::Value::from(vec![0.0; 3]));
             }
         }
     }

@@ -196,3 +196,15 @@ fn only_buffer_zero_is_the_glb_chunk() {
     let msg = e.to_string();
     assert!(msg.starts_with("many.glb") && msg.contains("only buffer 0"), "{msg}");
 }
+
+/// A POSITION accessor without its min and max (the spec requires them) is read, as Blender
+/// and three.js read it: the crate's validation refused the whole file.
+#[test]
+fn positions_without_min_and_max_are_read() {
+    let mut doc = tet_doc(&[[0.0; 3]]);
+    let acc = doc["accessors"][0].as_object_mut().unwrap();
+    acc.remove("min");
+    acc.remove("max");
+    let m = load_mesh_from_bytes(&to_gltf(doc, &tet_bin()), Format::Gltf, "nominmax.gltf").unwrap();
+    assert_eq!(m.mesh.n_vertices(), 4);
+}
