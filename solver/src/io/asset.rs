@@ -76,11 +76,35 @@ pub struct Material {
     /// `map_Kd`), sampled with UV set `base_color_uv` (0 or 1).
     pub base_color_texture: Option<usize>,
     pub base_color_uv: u32,
+    /// How the base-colour texture is sampled (glTF: its texture's sampler).
+    pub base_color_sampling: Sampling,
     pub metallic: f32,
     pub roughness: f32,
+    /// Linear RGB emitted light (glTF `emissiveFactor`).
+    pub emissive: [f32; 3],
     pub double_sided: bool,
     /// glTF `alphaMode` (`"OPAQUE"`, `"MASK"`, `"BLEND"`).
     pub alpha_mode: String,
+    /// The alpha below which a `"MASK"` material is transparent (glTF `alphaCutoff`).
+    pub alpha_cutoff: f32,
+}
+
+/// A texture's sampling, as glTF sampler codes (OpenGL enums: filters 9728 `NEAREST`, 9729
+/// `LINEAR`, 9984–9987 the mipmap ones; wraps 33071 `CLAMP_TO_EDGE`, 33648 `MIRRORED_REPEAT`,
+/// 10497 `REPEAT`). A filter `None` leaves the choice to the viewer.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct Sampling {
+    pub mag_filter: Option<u32>,
+    pub min_filter: Option<u32>,
+    /// S (u) and T (v).
+    pub wrap: [u32; 2],
+}
+
+impl Default for Sampling {
+    /// Linear, trilinear mipmapped, repeating: what a texture without a sampler gets.
+    fn default() -> Sampling {
+        Sampling { mag_filter: Some(9729), min_filter: Some(9987), wrap: [10497, 10497] }
+    }
 }
 
 impl Default for Material {
@@ -90,10 +114,13 @@ impl Default for Material {
             base_color: [1.0; 4],
             base_color_texture: None,
             base_color_uv: 0,
+            base_color_sampling: Sampling::default(),
             metallic: 0.0,
             roughness: 1.0,
+            emissive: [0.0; 3],
             double_sided: false,
             alpha_mode: "OPAQUE".to_string(),
+            alpha_cutoff: 0.5,
         }
     }
 }

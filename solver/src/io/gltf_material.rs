@@ -2,8 +2,9 @@
 //! "Materials" and §3.8 "Textures/Images").
 //!
 //! A material keeps its metallic-roughness core: `baseColorFactor`, `baseColorTexture` (the
-//! texture's image index and its `texCoord` set), `metallicFactor`, `roughnessFactor`,
-//! `doubleSided` and `alphaMode`; its other textures (normal, occlusion, emissive) and
+//! texture's image index, its `texCoord` set and its sampler's filters and wraps),
+//! `metallicFactor`, `roughnessFactor`, `emissiveFactor`, `doubleSided`, `alphaMode` and
+//! `alphaCutoff`; its other textures (normal, occlusion, emissive, metallic-roughness) and
 //! extensions are not kept. `Asset::materials[i]` is the file's material `i`, so a primitive's
 //! material index is used as is. `texCoord` is kept as written, though only sets 0 and 1 are
 //! read. An image's name is its `name`, else its file name (URI percent-decoded), else
@@ -18,7 +19,7 @@
 
 use ::gltf::material::AlphaMode;
 
-use super::asset::{Image, Material};
+use super::asset::{Image, Material, Sampling};
 use super::error::{Ctx, LoadError};
 use super::image_check::decoded_mime;
 use super::reference::Folder;
@@ -35,14 +36,25 @@ pub(crate) fn materials(document: &::gltf::Document) -> Vec<Material> {
         .map(|m| {
             let pbr = m.pbr_metallic_roughness();
             let texture = pbr.base_color_texture();
+            let sampling = texture.as_ref().map_or_else(Sampling::default, |t| {
+                let s = t.texture().sampler();
+                Sampling {
+                    mag_filter: s.mag_filter().map(|f| f.as_gl_enum()),
+                    min_filter: s.min_filter().map(|f| f.as_gl_enum()),
+                    wrap: [s.wrap_s().as_gl_enum(), s.wrap_t().as_gl_enum()],
+                }
+            });
             Material {
                 name: m.name().unwrap_or_default().to_string(),
                 base_color: pbr.base_color_factor(),
                 base_color_texture: texture.as_ref().map(|t| t.texture().source().index()),
                 base_color_uv: texture.as_ref().map_or(0, |t| t.tex_coord()),
+                base_color_sampling: sampling,
                 metallic: pbr.metallic_factor(),
                 roughness: pbr.roughness_factor(),
+                emissive: m.emissive_factor(),
                 double_sided: m.double_sided(),
+                alpha_cutoff: m.alpha_cutoff().unwrap_or(0.5),
                 alpha_mode: match m.alpha_mode() {
                     AlphaMode::Opaque => "OPAQUE",
                     AlphaMode::Mask => "MASK",

@@ -601,3 +601,41 @@ fn a_far_asset_is_stored_relative_to_its_centre() {
     let json = json_of(&bytes);
     assert!(json["nodes"].as_array().unwrap().iter().all(|n| n.get("translation").is_none()));
 }
+
+/// A material's emissive factor, alpha cutoff and texture sampling survive a read and an
+/// export (they were written as black, 0.5 and linear/repeat); one image sampled two ways is
+/// two textures of one image. The Khronos validator accepts the file where it is installed.
+#[test]
+fn emissive_cutoff_and_sampling_are_kept() {
+    use solver::io::asset::Sampling;
+    let (mut asset, map) = asset();
+    let nearest = Sampling { mag_filter: Some(9728), min_filter: Some(9728), wrap: [33071, 33648] };
+    let m = &mut asset.materials[0];
+    (m.emissive, m.alpha_mode, m.alpha_cutoff) = ([0.25, 0.5, 1.0], "MASK".into(), 0.25);
+    m.base_color_sampling = nearest;
+    let again = solver::io::asset::Material {
+        name: "smooth".into(),
+        base_color_texture: Some(0),
+        ..Default::default()
+    };
+    asset.materials.push(again);
+    let rec = recording(&asset);
+    let s = ExportSettings::default();
+    let input = AssetExport { asset: &asset, vertex_map: &map, recording: &rec, settings: s };
+    let dir = ScratchDir::new("export-asset-material");
+    let path = dir.join("m.glb");
+    export_asset(&path, &input, &mut |_, _| ControlFlow::Continue(())).unwrap();
+    let back = solver::io::load_mesh(&path).unwrap().asset;
+    let m = &back.materials[0];
+    assert_eq!(
+        (m.emissive, m.alpha_mode.as_str(), m.alpha_cutoff),
+        ([0.25, 0.5, 1.0], "MASK", 0.25)
+    );
+    assert_eq!(m.base_color_sampling, nearest);
+    assert_eq!(back.materials[2].base_color_sampling, Sampling::default());
+    assert_eq!(back.materials[2].base_color_texture, m.base_color_texture, "one image");
+    let doc = parse(&std::fs::read(&path).unwrap());
+    assert_eq!((doc.gltf.textures().len(), doc.gltf.samplers().len()), (2, 2));
+    assert_eq!(back.materials[1].alpha_cutoff, 0.5, "BLEND: no cutoff written");
+    solver::testing::khronos_accepts(&path);
+}

@@ -1,6 +1,7 @@
 //! Assembles the glTF JSON and its binary buffer in one walk, so that the size computed before
 //! writing and the bytes written come from the same code (the layout is in `mod.rs`'s doc).
 
+use crate::io::asset::Sampling;
 use std::collections::BTreeMap;
 use std::ops::ControlFlow;
 
@@ -359,8 +360,37 @@ fn alpha_mode(mode: &str) -> json::material::AlphaMode {
     }
 }
 
-/// Images (buffer views in `.glb`, `data:` URIs in `.gltf`), one linear/repeat sampler,
-/// texture $i$ showing image $i$, and the asset's materials, in the asset's order.
+/// A glTF sampler of `s`'s codes (an unknown code: the default's).
+fn sampler(s: Sampling) -> json::texture::Sampler {
+    use json::texture::{MagFilter, MinFilter, WrappingMode};
+    let wrap = |w: u32| match w {
+        33071 => WrappingMode::ClampToEdge,
+        33648 => WrappingMode::MirroredRepeat,
+        _ => WrappingMode::Repeat,
+    };
+    let mag = s.mag_filter.map(|f| if f == 9728 { MagFilter::Nearest } else { MagFilter::Linear });
+    let min = s.min_filter.map(|f| match f {
+        9728 => MinFilter::Nearest,
+        9729 => MinFilter::Linear,
+        9984 => MinFilter::NearestMipmapNearest,
+        9985 => MinFilter::LinearMipmapNearest,
+        9986 => MinFilter::NearestMipmapLinear,
+        _ => MinFilter::LinearMipmapLinear,
+    });
+    json::texture::Sampler {
+        mag_filter: mag.map(Valid),
+        min_filter: min.map(Valid),
+        name: None,
+        wrap_s: Valid(wrap(s.wrap[0])),
+        wrap_t: Valid(wrap(s.wrap[1])),
+        extensions: None,
+        extras: None,
+    }
+}
+
+/// Images (buffer views in `.glb`, `data:` URIs in `.gltf`), a sampler per sampling the
+/// materials use, texture $i$ showing image $i$ (then one per further sampling of an image),
+/// and the asset's materials, in the asset's order.
 pub(super) fn push_materials(b: &mut Builder, asset: &Asset, format: GltfFormat) {
     // Images, textures (texture i shows image i), materials.
     for image in &asset.images {
@@ -381,31 +411,46 @@ pub(super) fn push_materials(b: &mut Builder, asset: &Asset, format: GltfFormat)
             extras: None,
         });
     }
-    if !asset.images.is_empty() {
-        b.root.push(json::texture::Sampler {
-            mag_filter: Some(Valid(json::texture::MagFilter::Linear)),
-            min_filter: Some(Valid(json::texture::MinFilter::LinearMipmapLinear)),
-            name: None,
-            wrap_s: Valid(json::texture::WrappingMode::Repeat),
-            wrap_t: Valid(json::texture::WrappingMode::Repeat),
-            extensions: None,
-            extras: None,
-        });
+    // Texture i shows image i with the sampling of the first material that uses it; another
+    // sampling of an image gets a texture of its own after those.
+    let used = |i: usize| asset.materials.iter().find(|m| m.base_color_texture == Some(i));
+    let mut textures: Vec<(usize, Sampling)> = (0..asset.images.len())
+        .map(|i| (i, used(i).map_or_else(Sampling::default, |m| m.base_color_sampling)))
+        .collect();
+    for m in &asset.materials {
+        if let Some(i) = m.base_color_texture.filter(|&i| i < asset.images.len())
+            && !textures.contains(&(i, m.base_color_sampling))
+        {
+            textures.push((i, m.base_color_sampling));
+        }
     }
-    for i in 0..asset.images.len() {
+    let mut samplers: Vec<Sampling> = Vec::new();
+    for &(_, s) in &textures {
+        if !samplers.contains(&s) {
+            samplers.push(s);
+            b.root.push(sampler(s));
+        }
+    }
+    for &(i, s) in &textures {
+        let k = samplers.iter().position(|&x| x == s).unwrap_or(0);
         b.root.push(json::Texture {
             name: None,
-            sampler: Some(json::Index::new(0)),
+            sampler: Some(json::Index::new(k as u32)),
             source: json::Index::new(i as u32),
             extensions: None,
             extras: None,
         });
     }
+    let texture_of = |m: &crate::io::asset::Material| {
+        let i = m.base_color_texture?;
+        textures.iter().position(|&t| t == (i, m.base_color_sampling))
+    };
     // A texture whose UV set the asset lacks cannot be sampled: the material keeps its factors.
     let has_uv = |m: &crate::io::asset::Material| (m.base_color_uv as usize) < asset.uvs.len();
     for m in &asset.materials {
+        let mask = m.alpha_mode == "MASK";
         b.root.push(json::Material {
-            alpha_cutoff: None,
+            alpha_cutoff: mask.then_some(json::material::AlphaCutoff(m.alpha_cutoff.max(0.0))),
             alpha_mode: Valid(alpha_mode(&m.alpha_mode)),
             double_sided: m.double_sided,
             name: (!m.name.is_empty()).then(|| m.name.clone()),
@@ -414,7 +459,7 @@ pub(super) fn push_materials(b: &mut Builder, asset: &Asset, format: GltfFormat)
                 base_color_factor: json::material::PbrBaseColorFactor(
                     m.base_color.map(|c| c.clamp(0.0, 1.0)),
                 ),
-                base_color_texture: m.base_color_texture.filter(|_| has_uv(m)).map(|t| {
+                base_color_texture: texture_of(m).filter(|_| has_uv(m)).map(|t| {
                     json::texture::Info {
                         index: json::Index::new(t as u32),
                         tex_coord: m.base_color_uv,
@@ -431,7 +476,7 @@ pub(super) fn push_materials(b: &mut Builder, asset: &Asset, format: GltfFormat)
             normal_texture: None,
             occlusion_texture: None,
             emissive_texture: None,
-            emissive_factor: json::material::EmissiveFactor([0.0; 3]),
+            emissive_factor: json::material::EmissiveFactor(m.emissive.map(|c| c.clamp(0.0, 1.0))),
             extensions: None,
             extras: None,
         });

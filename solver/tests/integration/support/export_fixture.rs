@@ -155,6 +155,7 @@ pub fn asset() -> (Asset, Vec<Option<u32>>) {
                 roughness: 0.75,
                 double_sided: true,
                 alpha_mode: "OPAQUE".into(),
+                ..Material::default()
             },
             Material {
                 name: "glass".into(),
