@@ -193,6 +193,9 @@ fn embedded_and_local_images_must_decode() {
         .push(json!({"buffer": 0, "byteOffset": offset, "byteLength": SECRET.len()}));
     doc["buffers"][0]["byteLength"] = json!(bin.len());
     doc["images"] = json!([{"bufferView": 2, "mimeType": "image/png"}]);
+    doc["textures"] = json!([{"source": 0}]);
+    doc["materials"] = json!([{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}]);
+    doc["meshes"][0]["primitives"][0]["material"] = json!(0);
     let path = l.asset.join("view.glb");
     std::fs::write(&path, gltf_files::to_glb(&doc, &bin)).unwrap();
     let m = load_mesh(&path).unwrap();
