@@ -20,7 +20,14 @@ pub struct OrbitCamera {
     pub fov_y: f32,
     /// Orbit about +Z instead of +Y (the file's up axis; not part of the JSON).
     pub up_z: bool,
+    /// The radius of what is shown, for the far plane (set by [`Self::frame`]; not part of the
+    /// JSON): zoomed in on a large mesh, a far plane of a multiple of the distance cut off its
+    /// far side.
+    pub reach: f32,
 }
+
+/// The camera's distance to its target stays within these (world units).
+const DISTANCE: std::ops::RangeInclusive<f32> = 1e-6..=1e7;
 
 /// Named views.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -42,6 +49,7 @@ impl Default for OrbitCamera {
             distance: 3.0,
             fov_y: 0.8,
             up_z: false,
+            reach: 0.0,
         }
     }
 }
@@ -82,8 +90,8 @@ impl OrbitCamera {
     }
 
     pub fn projection(&self, aspect: f32) -> Mat4 {
-        let near = (self.distance * 0.01).max(1e-5);
-        let far = self.distance * 100.0 + 10.0;
+        let near = (self.distance * 0.01).max(1e-9);
+        let far = (self.distance * 100.0 + 10.0).max((self.distance + 4.0 * self.reach) * 1.1);
         glam::camera::rh::proj::directx::perspective(self.fov_y, aspect.max(1e-3), near, far)
     }
 
@@ -107,7 +115,8 @@ impl OrbitCamera {
 
     /// Zoom by wheel `scroll` points (positive: closer).
     pub fn zoom(&mut self, scroll: f32) {
-        self.distance = (self.distance * (-scroll * 0.002).exp()).clamp(1e-4, 1e6);
+        self.distance =
+            (self.distance * (-scroll * 0.002).exp()).clamp(*DISTANCE.start(), *DISTANCE.end());
     }
 
     /// World units per screen point at `depth` along the view axis.
@@ -120,7 +129,9 @@ impl OrbitCamera {
         let half_y = self.fov_y * 0.5;
         let half_x = (half_y.tan() * aspect.max(1e-3)).atan();
         self.target = center;
-        self.distance = radius.max(1e-4) / half_y.min(half_x).sin() * 1.05;
+        self.reach = radius;
+        let distance = radius / half_y.min(half_x).sin() * 1.05;
+        self.distance = distance.clamp(*DISTANCE.start(), *DISTANCE.end());
     }
 
     pub fn set_preset(&mut self, preset: ViewPreset) {
@@ -172,9 +183,10 @@ impl OrbitCamera {
             target,
             yaw: f("yaw")?,
             pitch: f("pitch")?.clamp(-MAX_PITCH, MAX_PITCH),
-            distance: f("distance")?.clamp(1e-4, 1e6),
+            distance: f("distance")?.clamp(*DISTANCE.start(), *DISTANCE.end()),
             fov_y: f("fov_y")?.clamp(0.05, 3.0),
             up_z: false,
+            reach: 0.0,
         };
         target.is_finite().then_some(cam)
     }
@@ -190,6 +202,23 @@ impl OrbitCamera {
 #[allow(clippy::unwrap_used, clippy::expect_used)]
 mod tests {
     use super::*;
+
+    /// The far plane reaches past a large mesh the camera is close to (it was a hundred times
+    /// the distance: zoomed to 50 units from a 10,000-unit terrain, most of it was cut off),
+    /// and framing keeps to the distances zooming keeps to.
+    #[test]
+    fn the_far_plane_reaches_past_what_is_framed() {
+        let mut cam = OrbitCamera::default();
+        cam.frame(Vec3::ZERO, 5000.0, 1.0);
+        cam.distance = 50.0;
+        let far_point = cam.target - cam.back() * 5000.0; // 5,050 from the eye
+        let c = cam.view_proj(1.0) * far_point.extend(1.0);
+        assert!(c.z / c.w <= 1.0, "the far side of the mesh is clipped: depth {}", c.z / c.w);
+        cam.frame(Vec3::ZERO, 1e9, 1.0);
+        assert_eq!(cam.distance, *DISTANCE.end());
+        cam.frame(Vec3::ZERO, 1e-6, 1.0);
+        assert!(cam.distance < 1e-5 && cam.distance >= *DISTANCE.start(), "{}", cam.distance);
+    }
 
     #[test]
     fn ray_through_projection_hits_the_point() {
@@ -207,7 +236,10 @@ mod tests {
         let mut cam = OrbitCamera::default();
         cam.frame(Vec3::new(1.0, -2.0, 0.5), 3.0, 1.2);
         cam.orbit(40.0, -10.0);
-        assert_eq!(OrbitCamera::from_json(&cam.to_json([0.0; 3]), [0.0; 3]), Some(cam));
+        assert_eq!(
+            OrbitCamera::from_json(&cam.to_json([0.0; 3]), [0.0; 3]),
+            Some(OrbitCamera { reach: 0.0, ..cam })
+        );
         assert_eq!(OrbitCamera::from_json(&serde_json::json!({"yaw": 1}), [0.0; 3]), None);
         let mut bad = cam.to_json([0.0; 3]);
         bad["target"] = serde_json::json!([1, "x", 2]);
@@ -223,6 +255,6 @@ mod tests {
         cam.frame(Vec3::new(0.25, -0.5, 0.125), 3.0, 1.2);
         let json = cam.to_json(origin);
         assert_eq!(json["target"], serde_json::json!([500000.25, 4999999.5, -2.875]));
-        assert_eq!(OrbitCamera::from_json(&json, origin), Some(cam));
+        assert_eq!(OrbitCamera::from_json(&json, origin), Some(OrbitCamera { reach: 0.0, ..cam }));
     }
 }

@@ -212,6 +212,25 @@ fn a_still_brush_keeps_its_footprint_while_the_mesh_moves() {
     h.step();
     let after = h.state().hover_footprint().expect("a footprint at the moved vertex");
     assert!(after.contains(&(v as u32)), "the footprint did not follow the pointer");
+
+    // A press paints what is under the pointer then, not the footprint kept while it was
+    // still: the group moves back from under the pointer, and the button goes down.
+    let kept = after.to_vec();
+    let mut pose = h.state().group_pose(0).expect("group 0");
+    pose.translation[1] -= 0.3 * h.state().diagonal();
+    assert!(h.state_mut().drag_group(0, pose));
+    let generation = h.state().pose_generation();
+    step_until(&mut h, "a frame of the group moved back", |a| {
+        a.latest_frame(Slot::Main).is_some_and(|f| f.pose_generation == generation)
+    });
+    h.step();
+    assert_eq!(h.state().hover_footprint(), Some(&kept[..]), "kept while still");
+    support::press(&h, moved, true, Modifiers::NONE);
+    h.step();
+    let pressed = h.state().hover_footprint().map(<[u32]>::to_vec);
+    assert_ne!(pressed, Some(kept), "the press used the footprint from before the mesh moved");
+    support::press(&h, moved, false, Modifiers::NONE);
+    h.step();
 }
 
 /// Steps until the solver has published a converged frame of pose `generation` and then no
@@ -767,4 +786,58 @@ fn the_overlay_says_where_settling_refines() {
             assert!(percent >= 0.01, "an estimate under the settled threshold: {l}");
         }
     }
+}
+
+/// A brush stroke carried out of the viewport paints nothing past its edge (egui keeps the
+/// dragged viewport hovered: the stroke painted vertices clipped off screen), and the brush
+/// picks nothing where the mesh is not drawn (the base surface view of ARAP).
+#[test]
+fn the_brush_paints_only_what_the_viewport_shows() {
+    let mut h = harness(test_mesh());
+    step_until(&mut h, "the default asset", settled);
+    h.state_mut().set_tool(Tool::Paint);
+    h.state_mut().set_active_group(Some(0));
+    // Close in, so that the mesh runs past the viewport's left edge.
+    let mut camera = *h.state().camera();
+    camera.distance *= 0.25;
+    h.state_mut().set_camera(camera);
+    h.step();
+    h.step();
+    let rect = h.state().viewport_rect(0).unwrap();
+    let n = h.state().n_vertices();
+    assert!((0..n).any(|v| h.state().vertex_screen_pos(v).is_some_and(|p| p.x < rect.left())));
+    let before = h.state().labels().to_vec();
+    // From a free vertex drawn just inside the left edge, leftwards out of the viewport.
+    let drawn: Vec<Pos2> = (0..n).filter_map(|v| h.state().vertex_screen_pos(v)).collect();
+    let beyond = |y: f32| drawn.iter().any(|p| (p.y - y).abs() < 3.0 && p.x < rect.left() - 60.0);
+    let start = (0..n)
+        .filter(|&v| before[v].is_none())
+        .filter_map(|v| h.state().vertex_screen_pos(v))
+        .filter(|p| p.x > rect.left() + 10.0 && p.x < rect.left() + 40.0)
+        .filter(|p| p.y > rect.top() + 40.0 && p.y < rect.bottom() - 40.0 && beyond(p.y))
+        .min_by(|a, b| (a.y - rect.center().y).abs().total_cmp(&(b.y - rect.center().y).abs()))
+        .expect("a free vertex near the left edge, the mesh going on past it");
+    let points: Vec<Pos2> = (0..12).map(|i| start - Vec2::new(15.0 * i as f32, 0.0)).collect();
+    support::drag(&mut h, &points, Modifiers::NONE);
+    let painted: Vec<usize> = (0..n).filter(|&v| h.state().labels()[v] != before[v]).collect();
+    assert!(!painted.is_empty(), "the stroke painted nothing inside the viewport");
+    // Only the brush's own reach (about 40 points at this zoom) past the edge: the stroke went
+    // on to 165 points past it, and painted there (to 95 points past it: 521 of 1160).
+    let farthest = painted
+        .iter()
+        .filter_map(|&v| h.state().vertex_screen_pos(v))
+        .map(|p| rect.left() - p.x)
+        .fold(f32::MIN, f32::max);
+    assert!(farthest < 60.0, "a vertex {farthest} points past the edge was painted");
+
+    // ARAP's base surface view draws no mesh: nothing to pick.
+    let mut settings = h.state().method_settings();
+    settings.bs_variant = solver::Method::Arap;
+    h.state_mut().set_method_settings(settings);
+    h.state_mut().set_view(View::Base);
+    h.step();
+    h.event(Event::PointerMoved(rect.center()));
+    h.step();
+    h.step();
+    assert_eq!(h.state().hover_footprint(), None, "the brush picked a mesh not drawn");
 }

@@ -272,7 +272,9 @@ fn ray_triangle(positions: &[[f32; 3]], t: [u32; 3], origin: Vec3, dir: Vec3) ->
     let e2 = c - a;
     let p = dir.cross(e2);
     let det = e1.dot(p);
-    if det.abs() < 1e-12 {
+    // Parallel to the triangle (or a degenerate one), relative to its size: a fixed 1e-12
+    // missed every triangle of a mesh a ten-thousandth of a unit across.
+    if det.abs() <= 1e-7 * e1.length() * e2.length() {
         return None;
     }
     let inv_det = 1.0 / det;
@@ -324,6 +326,21 @@ mod tests {
             }
         }
         best
+    }
+
+    /// A mesh a hundred-thousandth of a unit across is picked like a unit one: the parallel-ray
+    /// test was a fixed 1e-12 on the determinant (twice a triangle's area), which missed
+    /// every triangle of it.
+    #[test]
+    fn a_tiny_mesh_is_picked() {
+        let (mut p, t) = grid(100);
+        for q in &mut p {
+            *q = q.map(|x| x * 1e-7);
+        }
+        let o = Vec3::new(50.5e-7, 30.25e-7, 1e-5);
+        let d = Vec3::new(0.1, 0.05, -1.0).normalize();
+        let hit = brute(&p, &t, o, d);
+        assert!(hit.is_some(), "the ray missed the tiny grid");
     }
 
     /// A tree large enough to be built side by side makes the same splits as one builder

@@ -4,11 +4,12 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use eframe::egui::Pos2;
+use eframe::egui::{Pos2, Rect};
 use glam::Vec3;
 use solver::GroupTransform;
 
 use super::{EditorApp, Shading, Tool, View};
+use crate::editor::camera::OrbitCamera;
 use crate::editor::persist::{Persist, Snapshot};
 use crate::editor::solver_thread::{MethodSettings, Slot, SolvedFrame, SolverCommand, SolverState};
 use crate::editor::undo::{EditState, Kept};
@@ -169,6 +170,21 @@ impl EditorApp {
     /// The positions viewport `slot` draws (as last displayed).
     pub fn drawn_positions(&self, slot: usize) -> Option<&Arc<Vec<[f32; 3]>>> {
         self.display.viewports.get(slot)?.positions()
+    }
+
+    /// Viewport `slot`'s rectangle in points (as last laid out).
+    pub fn viewport_rect(&self, slot: usize) -> Option<Rect> {
+        self.display.viewport_rects.get(slot).copied()
+    }
+
+    /// The viewports' camera.
+    pub fn camera(&self) -> &OrbitCamera {
+        &self.display.camera
+    }
+
+    /// Moves the viewports' camera (scripts and tests).
+    pub fn set_camera(&mut self, camera: OrbitCamera) {
+        self.display.camera = camera;
     }
 
     /// Where vertex `v` is drawn in viewport 0 (as last displayed), in points.

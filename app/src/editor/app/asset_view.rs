@@ -30,11 +30,12 @@ pub(super) struct FileView {
     pub(super) up_axis: UpAxis,
 }
 
-/// The ground grid under `scene`'s mesh for `up`: the plane across the up axis at the mesh's
-/// lowest point.
+/// The ground grid under `scene`'s mesh for `up`: the plane across the up axis just below the
+/// mesh's lowest point (a thousandth of its radius: at the point itself, a flat base and the
+/// grid fought for the same depth).
 fn ground_grid(scene: &LoadedFile, up: UpAxis) -> Vec<crate::editor::draw_data::Vertex> {
     let (lo, _) = scene.mesh.bounding_box();
-    let lo = to_f32_from(scene.origin, lo);
+    let lo = to_f32_from(scene.origin, lo).map(|x| x - 1e-3 * scene.radius);
     let c = scene.center;
     let extent = scene.radius * 1.5;
     match up {

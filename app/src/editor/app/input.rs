@@ -373,7 +373,17 @@ impl EditorApp {
         if !alt_orbit && self.tool_input(ui, slot, rect, response, modifiers) {
             return;
         }
-        let hover_pos = response.hover_pos().filter(|_| !alt_orbit);
+        // egui keeps a dragged widget hovered past its edge: a stroke carried out of the
+        // viewport (or into the other one, side by side) painted vertices clipped off screen.
+        let hover_pos = response.hover_pos().filter(|p| !alt_orbit && rect.contains(*p));
+        if response.is_pointer_button_down_on()
+            && ui.input(|i| i.pointer.primary_pressed())
+            && self.interaction.stroke.is_none()
+        {
+            // The footprint is kept while the pointer stays still (see `HoverKey`), also when
+            // the mesh moves under it; a press paints what is under the pointer now.
+            self.interaction.hover_key = None;
+        }
         if self.interaction.drag.is_none() {
             let before = self.display.color_version;
             self.update_hover(slot, rect, hover_pos);

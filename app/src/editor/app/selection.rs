@@ -224,6 +224,8 @@ impl EditorApp {
         let (down, pos, origin) = ui.input(|i| {
             (i.pointer.primary_down(), i.pointer.latest_pos(), i.pointer.press_origin())
         });
+        // A box or lasso ends at the viewport's edge: past it, it took vertices off screen.
+        let pos = pos.map(|p| rect.clamp(p));
         if self.selecting.region.is_none() && down && response.is_pointer_button_down_on() {
             let start = origin.or(pos).unwrap_or(rect.center());
             self.selecting.region =

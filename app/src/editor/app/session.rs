@@ -8,6 +8,7 @@ use std::sync::mpsc::TryRecvError;
 use eframe::egui::{self, Vec2};
 
 use super::{DialogKind, EditorApp, Shading, file_name};
+use crate::editor::camera::OrbitCamera;
 use crate::editor::document::{self, DocumentInput};
 use crate::editor::loader::{self, LoadedFile};
 use crate::editor::persist::Persist;
@@ -634,7 +635,7 @@ impl EditorApp {
                         self.session.settings = applied.settings;
                         self.session.playback.time = applied.time;
                         if let Some(c) = applied.camera {
-                            self.display.camera = c;
+                            self.display.camera = OrbitCamera { reach: scene.radius, ..c };
                             framed = false;
                         }
                         if let Some(n) = applied.notice {

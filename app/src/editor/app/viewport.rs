@@ -105,12 +105,16 @@ pub(super) struct ViewportCache {
     /// This viewport's vertex colors and the color version they were made for: kept while only
     /// the positions change (not in the Details view, whose colors follow the pose).
     pub(super) colors: Option<(u64, Arc<VertexData<[f32; 4]>>)>,
+    /// Whether this frame draws the mesh: not in a view that has no shape to show (the base
+    /// surface of ARAP, no frame yet), where the shape kept above is not on screen.
+    pub(super) shown: bool,
 }
 
 impl ViewportCache {
-    /// The positions drawn in this viewport (for picking).
+    /// The positions drawn in this viewport (for picking), while they are drawn: the brush
+    /// and box did not pick a mesh that was not on screen.
     pub(super) fn positions(&self) -> Option<&Arc<Vec<[f32; 3]>>> {
-        self.shape.as_ref().map(|(_, _, s)| &s.positions)
+        self.shape.as_ref().filter(|_| self.shown).map(|(_, _, s)| &s.positions)
     }
 }
 
@@ -259,6 +263,11 @@ impl EditorApp {
         let response =
             ui.interact(rect, ui.scope_id().with(("viewport", slot)), Sense::click_and_drag());
         let positions = self.slot_shape(slot);
+        self.display.viewports[slot].shown = positions.is_ok();
+        if positions.is_err() && self.interaction.hover.as_ref().is_some_and(|h| h.slot == slot) {
+            self.interaction.clear_hover();
+            self.display.color_version += 1; // the footprint's colours go
+        }
         if let Ok((pv, shape)) = &positions {
             let key = (*pv, self.display.color_version);
             if self.display.viewports[slot].key != Some(key) {
