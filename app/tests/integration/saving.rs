@@ -664,3 +664,28 @@ fn an_open_waiting_for_a_failed_save_asks_again() {
     assert_eq!(h.state().pending_open(), Some(scene.as_path()), "not asked again");
     assert!(!h.state().is_loading(), "read after the failed save");
 }
+
+/// A group posed still is saved as a one-key path; reopened, moving it is an unsaved change
+/// that the next save writes (it came back as a path, so a move was playback's: no question
+/// on quit, and Save wrote the old pose).
+#[test]
+fn a_still_pose_moved_after_reopening_is_saved() {
+    let (_dir, mut h, folder) = with_a_scene_folder("saving-still-pose");
+    pose(&mut h, 0.05);
+    let scene = folder.join("still.json");
+    h.state_mut().save_scene(&scene).unwrap();
+    let_saves_go(&mut h);
+    let ctx = h.ctx.clone();
+    h.state_mut().request_open(&ctx, scene.clone());
+    step_until(&mut h, "the scene", |a| settled(a) && a.document_path() == Some(scene.as_path()));
+    assert!(!h.state().has_unsaved_changes());
+    let mut moved = h.state().group_pose(1).unwrap();
+    assert!((moved.translation.y - 0.05).abs() < 1e-9, "{moved:?}");
+    moved.translation.y = 0.09;
+    assert!(h.state_mut().drag_group(1, moved));
+    h.step();
+    assert!(h.state().has_unsaved_changes(), "the move is not an unsaved change");
+    h.state_mut().save_scene(&scene).unwrap();
+    let_saves_go(&mut h);
+    assert!((saved_y(&scene) - 0.09).abs() < 1e-9, "saved at {}", saved_y(&scene));
+}
