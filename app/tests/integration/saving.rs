@@ -689,3 +689,27 @@ fn a_still_pose_moved_after_reopening_is_saved() {
     let_saves_go(&mut h);
     assert!((saved_y(&scene) - 0.09).abs() < 1e-9, "saved at {}", saved_y(&scene));
 }
+
+/// With no handle group painted, nothing can be kept for next time (a scene holds a handle
+/// set): the quit question says so instead of offering "Keep for next time", which quit and
+/// kept nothing.
+#[test]
+fn without_handles_the_quit_question_keeps_nothing_it_cannot() {
+    let dir = ScratchDir::new("saving-keep-without-handles");
+    let mut h = dialog_harness(config_with_in_app_dialog(&dir));
+    step_until(&mut h, "the default asset", settled);
+    let (mesh, _) = solver::geometry::shapes::bumpy_bar(1);
+    let bar = dir.join("bar.obj");
+    solver::io::write_obj(&bar, mesh.positions(), mesh.triangles()).unwrap();
+    support::drop_file(&mut h, bar.clone());
+    step_until(&mut h, "the bar", |a| !a.is_loading() && a.mesh_path() == Some(bar.as_path()));
+    assert!(!h.state().edit_state().has_handles());
+    h.state_mut().set_up_axis(solver::animation::export::UpAxis::Z);
+    assert!(h.state().has_unsaved_changes());
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Q);
+    h.step();
+    h.step();
+    assert!(h.state().quit_question_open());
+    assert!(h.query_by_label("Keep for next time").is_none());
+    h.get_by_label_contains("nothing can be kept for next time");
+}

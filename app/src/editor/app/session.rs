@@ -451,6 +451,13 @@ impl EditorApp {
                                     "(the last session's autosave is still offered: restore or \
                                      discard it to keep these changes for next time)",
                                 );
+                            } else if !self.session.edit.has_handles() {
+                                // A scene holds a handle set: without one, nothing is written
+                                // (the button quit and kept nothing).
+                                ui.label(
+                                    "(nothing can be kept for next time before a handle group \
+                                     is painted)",
+                                );
                             } else if ui
                                 .button("Keep for next time")
                                 .on_hover_text("quit; the next start offers the changes back")
