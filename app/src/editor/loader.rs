@@ -354,7 +354,13 @@ pub fn load_scene_file(
     let mut scene = prepare(&mesh_path, loaded.mesh, version, None)
         .with_context(|| format!("the scene's mesh {}", mesh_path.display()))?;
     scene.default_labels = Some(labels);
-    scene.selection_path = Some(path.to_path_buf());
+    // The selection file the scene names, if any (its labels may be inline): a Save as must
+    // not write over it, and may write the scene itself anywhere else (it took the scene for
+    // its selection, so a Save as back to it was refused and the handles file was not kept).
+    scene.selection_path =
+        loaded.scene.handles.file.as_deref().and_then(|f| {
+            solver::animation::scene::Scene::resolve_path(path, f).ok().map(|(p, _)| p)
+        });
     scene.document = Some((path.to_path_buf(), loaded.scene));
     Ok(scene)
 }

@@ -203,6 +203,27 @@ fn save_as_refuses_the_sphere_list_the_mesh_was_opened_with() {
     let error = h.state().error().unwrap_or_default();
     assert!(error.contains("is the handle selection"), "{error}");
     assert_eq!(std::fs::read_to_string(&list).unwrap(), spheres);
+
+    // A scene that names its handles file: Save as refuses that file (the scene was taken for
+    // the selection: the handles file was written over, and a Save as back to the scene
+    // opened was refused).
+    let scene = dir.join("pipe.json");
+    let text = r#"{"version": 2, "mesh": "pipe.obj", "handles": {"file": "pipe.handles.json"},
+                   "timeline": {"duration": 1.0, "fps": 10, "paths": []}, "method": "arap"}"#;
+    std::fs::write(&scene, text).unwrap();
+    let ctx = h.ctx.clone();
+    h.state_mut().request_open(&ctx, scene.clone());
+    step_until(&mut h, "the scene", |a| !a.is_loading() && a.document_path() == Some(&scene));
+    for (path, refused) in [(&list, true), (&dir.join("other.json"), false), (&scene, false)] {
+        let before = h.state().error().map(str::to_owned);
+        h.key_press_modifiers(Modifiers::COMMAND | Modifiers::SHIFT, Key::S);
+        choose_in_dialog(&mut h, path);
+        step_until(&mut h, "the save", |a| !a.is_saving());
+        let error = h.state().error().filter(|e| Some(*e) != before.as_deref()).unwrap_or("");
+        let said = error.contains("is the handle selection");
+        assert_eq!(said, refused, "{}: {error}", path.display());
+    }
+    assert_eq!(std::fs::read_to_string(&list).unwrap(), spheres);
 }
 
 /// A scene's method settings come back from a Save as they were, outside the method panel's
