@@ -15,7 +15,7 @@ use anyhow::Context;
 use app::editor::camera::OrbitCamera;
 use app::editor::capture::{self, Offscreen, Picture};
 use app::editor::document::apply_scene;
-use app::editor::loader::load_scene_file;
+use app::editor::loader::{ground_grid, load_scene_file};
 use app::editor::shape::Shape;
 use app::editor::solver_thread::MethodSettings;
 use app::outputs::{self, Input};
@@ -170,12 +170,26 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
         render.is_some(),
     );
     let aspect = settings.width as f32 / settings.height as f32;
-    let camera = applied.camera.unwrap_or_else(|| {
+    let mut camera = applied.camera.unwrap_or_else(|| {
         let mut c = OrbitCamera::default();
         c.frame(file.center, file.radius, aspect);
         c
     });
-    let grid = settings.overlays.then(|| file.grid.clone());
+    // The scene's up axis, as the editor shows it: the camera orbits about it (a saved yaw and
+    // pitch were read about +Y) and the grid lies across it.
+    let z_up = doc.up_axis == solver::animation::export::UpAxis::Z;
+    camera.up_z = z_up;
+    camera.reach = file.radius;
+    let grid = settings.overlays.then(|| match z_up {
+        false => file.grid.clone(),
+        true => {
+            let (lo, _) = mesh.bounding_box();
+            let lo = glam::Vec3::from(app::editor::shape::to_f32_from(file.origin, lo));
+            let vertices = ground_grid(lo, file.center, file.radius, doc.up_axis);
+            let version = file.grid.version + 1; // not the Y-up grid's
+            std::sync::Arc::new(app::editor::draw_data::VertexData { version, vertices })
+        }
+    });
 
     let t2 = Instant::now();
     let pb = bar(n_frames as u64, "rendering", a.json);

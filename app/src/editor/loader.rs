@@ -22,10 +22,11 @@ use glam::Vec3;
 use solver::geometry::normals::VertexFaces;
 use solver::{Handles, Mesh};
 
-use super::draw_data::{Topology, VertexData};
+use super::draw_data::{Topology, Vertex, VertexData};
 use super::render_layout::RenderLayout;
 use super::renderer::build_grid;
 use super::shape::{Shape, display_origin, to_f32_from};
+use solver::animation::export::UpAxis;
 use solver::geometry::bvh::Bvh;
 
 /// A mesh file's own layout ([`solver::io::Asset`]) and cleaning's map from its vertices to the
@@ -246,6 +247,28 @@ fn spawn_loader<T: Send + 'static>(
     LoadJob { path, since: Instant::now(), rx }
 }
 
+/// The ground grid under a mesh whose bounding box starts at `lo` (display coordinates), of
+/// centre `center` and radius `radius`, for `up`: the plane across the up axis just below the
+/// mesh's lowest point (a thousandth of its radius: at the point itself, a flat base and the
+/// grid fought for the same depth).
+pub fn ground_grid(lo: Vec3, center: Vec3, radius: f32, up: UpAxis) -> Vec<Vertex> {
+    let lo = lo - Vec3::splat(1e-3 * radius);
+    let (c, extent) = (center, radius * 1.5);
+    match up {
+        UpAxis::Y => build_grid(c, lo.y, extent),
+        // Built Y-up in the frame (x, z, −y), then turned back: (a, b, c) ↦ (a, −c, b).
+        UpAxis::Z => {
+            let mut grid = build_grid(Vec3::new(c.x, c.z, -c.y), lo.z, extent);
+            for v in &mut grid {
+                let [a, b, cc] = v.position;
+                v.position = [a, -cc, b];
+                v.normal = [0.0, 0.0, 1.0];
+            }
+            grid
+        }
+    }
+}
+
 /// Reads and prepares a mesh file, its references where `references` allows (runs on the
 /// loader thread).
 pub fn load_scene(
@@ -283,7 +306,8 @@ fn prepare(
     let (lo, hi) = (Vec3::from(to_f32_from(origin, lo)), Vec3::from(to_f32_from(origin, hi)));
     let center = (lo + hi) * 0.5;
     let radius = ((hi - lo).length() * 0.5).max(1e-6);
-    let grid = Arc::new(VertexData { version, vertices: build_grid(center, lo.y, radius * 1.5) });
+    let grid =
+        Arc::new(VertexData { version, vertices: ground_grid(lo, center, radius, UpAxis::Y) });
     // Without handles this is the union-find only (no anchor patches).
     let components = Arc::new(solver::list_components(&mesh, None, &solver::LooseParts::default()));
     let topology = Arc::new(Topology {

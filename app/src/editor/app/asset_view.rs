@@ -13,7 +13,6 @@ use solver::animation::export::UpAxis;
 use super::{DialogKind, EditorApp, Shading};
 use crate::editor::draw_data::VertexData;
 use crate::editor::loader::{self, FileLayout, LoadedFile, LoadedTexture};
-use crate::editor::renderer::build_grid;
 use crate::editor::shape::to_f32_from;
 
 /// The tooltip of the up-axis choice: what it changes, and the export rule.
@@ -30,27 +29,11 @@ pub(super) struct FileView {
     pub(super) up_axis: UpAxis,
 }
 
-/// The ground grid under `scene`'s mesh for `up`: the plane across the up axis just below the
-/// mesh's lowest point (a thousandth of its radius: at the point itself, a flat base and the
-/// grid fought for the same depth).
+/// The ground grid under `scene`'s mesh for `up` ([`loader::ground_grid`]).
 fn ground_grid(scene: &LoadedFile, up: UpAxis) -> Vec<crate::editor::draw_data::Vertex> {
     let (lo, _) = scene.mesh.bounding_box();
-    let lo = to_f32_from(scene.origin, lo).map(|x| x - 1e-3 * scene.radius);
-    let c = scene.center;
-    let extent = scene.radius * 1.5;
-    match up {
-        UpAxis::Y => build_grid(c, lo[1], extent),
-        // Built Y-up in the frame (x, z, −y), then turned back: (a, b, c) ↦ (a, −c, b).
-        UpAxis::Z => {
-            let mut grid = build_grid(Vec3::new(c.x, c.z, -c.y), lo[2], extent);
-            for v in &mut grid {
-                let [a, b, cc] = v.position;
-                v.position = [a, -cc, b];
-                v.normal = [0.0, 0.0, 1.0];
-            }
-            grid
-        }
-    }
+    let lo = Vec3::from(to_f32_from(scene.origin, lo));
+    loader::ground_grid(lo, scene.center, scene.radius, up)
 }
 
 impl EditorApp {
