@@ -415,23 +415,40 @@ fn the_scene_capture_object_sizes_screenshots_and_is_saved_back() {
     assert_eq!(img.dimensions(), (200, 100), "the scene's capture size");
     assert!(drawn_pixels(&img) > 200 * 100 / 20);
 
+    // A capture size chosen is an unsaved change (it was lost at quit, unasked).
+    assert!(!h.state().has_unsaved_changes());
+    h.state_mut().set_capture_settings(Some([200, 120]), false);
+    assert!(h.state().has_unsaved_changes(), "the capture size is not an unsaved change");
+    h.state_mut().set_capture_settings(Some([200, 100]), false);
+    assert!(!h.state().has_unsaved_changes());
+
     let saved = dir.join("saved.json");
     h.state_mut().save_scene(&saved).unwrap();
     let back = Scene::read(&saved).unwrap();
     let c = back.capture.expect("capture saved");
     assert_eq!((c.width, c.height, c.turntable), (200, 100, true), "{c:?}");
+
+    // A mesh opened next, without a scene, is captured at the viewport's size, not at the
+    // last scene's.
+    let ctx = h.ctx.clone();
+    h.state_mut().request_open(&ctx, default_mesh_path());
+    step_until(&mut h, "the default asset", |a| !a.is_loading() && a.document_path().is_none());
+    h.step();
+    let expected = h.state().viewport_pixels(&h.ctx).unwrap();
+    let img = png(&f12(&mut h));
+    assert_eq!([img.width(), img.height()], expected, "the last scene's capture size");
 }
 
 /// A scene of three frames in a new folder `name`, recorded in the editor with BS-ARAP,
 /// captures at 120 x 90 with overlays.
 fn recorded(name: &str) -> (ScratchDir, Harness<'static, EditorApp>) {
     let dir = ScratchDir::new(name);
-    let path = scene(&dir, Some(2.0), "");
+    let capture = r#", "capture": {"width": 120, "height": 90, "overlays": true}"#;
+    let path = scene(&dir, Some(2.0), capture);
     let text = std::fs::read_to_string(&path).unwrap().replace(r#""arap""#, r#""bsarap""#);
     std::fs::write(&path, text).unwrap();
     let mut h = harness_on(path, dir.join("config"));
     step_until(&mut h, "the scene", |a| !a.is_loading() && a.n_vertices() > 0);
-    h.state_mut().set_capture_settings(Some([120, 90]), true);
     let ctx = h.ctx.clone();
     h.state_mut().start_recording(&ctx);
     step_until(&mut h, "the recording", |a| !a.is_recording());

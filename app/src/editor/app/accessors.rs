@@ -97,7 +97,10 @@ impl EditorApp {
             Some(crate::editor::loader::spawn_loaded(path, loaded, version, move || {
                 c.request_repaint()
             }));
-        self.session.at_load = Some(Box::new(super::session::DocumentMark::of(&self.session)));
+        self.session.at_load = Some(Box::new(super::session::DocumentMark::of(
+            &self.session,
+            self.capture.to_scene(),
+        )));
     }
 
     pub fn set_tool(&mut self, tool: Tool) {

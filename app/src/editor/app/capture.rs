@@ -119,6 +119,7 @@ impl Capture {
     /// is chosen.
     pub(super) fn forget_scene(&mut self) {
         self.scene = None;
+        self.viewport_size = true; // the last scene's size is not this mesh's
     }
 
     /// The scene's `capture` object to save: the one loaded with the size and overlays set

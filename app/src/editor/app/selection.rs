@@ -1,16 +1,20 @@
 //! Selection tools for painting handle groups: box and lasso selection (through the mesh or
-//! of visible vertices only), and the region commands grow, shrink, invert, select connected
-//! and clear. The active group's vertices are the selection: a box or lasso adds the vertices
+//! of visible vertices only), the region commands grow, shrink, invert, select connected
+//! and clear, and selection files (`.dmat`, sphere lists) read on a loader thread. The active group's vertices are the selection: a box or lasso adds the vertices
 //! it encloses to the active group (Ctrl: removes them from it), the commands change the
 //! group by the topology operations of `solver::geometry::region`.
 //!
 //! Every change is one undoable edit (a snapshot pushed first) and sends the new handle set.
 
+use std::path::Path;
+
 use eframe::egui::{self, Color32, Key, Modifiers, Pos2, Rect, Stroke};
 use glam::Vec3;
 use solver::geometry::region;
 
-use super::EditorApp;
+use super::{EditorApp, file_name};
+use crate::editor::loader;
+use crate::editor::undo::EditState;
 
 /// How the paint tool's left drag selects.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -376,6 +380,68 @@ impl EditorApp {
 }
 
 /// For tests and scripts.
+impl EditorApp {
+    /// Starts reading the selection at `path` for the open mesh on a loader thread, in place of
+    /// one still being read; [`Self::poll_selection`] applies it.
+    pub(super) fn load_selection(&mut self, ctx: &egui::Context, path: &Path) {
+        let Some(scene) = &self.session.scene else { return };
+        if let Some(why) = self.jobs.replacing_mesh("selection", path) {
+            // it would be read for the mesh being replaced
+            self.error = Some(why);
+            return;
+        }
+        let c = ctx.clone();
+        let (mesh, layout) = (scene.mesh.clone(), scene.layout.clone());
+        let job =
+            loader::spawn_selection(path.to_path_buf(), mesh, layout, move || c.request_repaint());
+        self.jobs.selection = Some((scene.topology.version, job));
+    }
+
+    /// Applies the selection read in the background once it arrives, as the open mesh's new
+    /// selection (undoably), or shows why it could not be read; drops it, error included, when
+    /// the mesh it was read for is no longer the one open.
+    pub(super) fn poll_selection(&mut self) {
+        let open = self.session.scene.as_ref().map(|s| s.topology.version);
+        let Some((path, result)) = super::finished_for_open_mesh(&mut self.jobs.selection, open)
+        else {
+            return;
+        };
+        match result {
+            Ok(labels) => {
+                self.session.push_undo(self.session.edit.clone());
+                // Component numbers depend on the mesh only: the loose parts' modes stay.
+                let parts = self.session.edit.loose_parts.clone();
+                let (rigidity, symmetry) =
+                    (self.session.edit.rigidity.clone(), self.session.edit.symmetry);
+                // The timeline's length, rate and looping stay; its paths went with the groups
+                // they moved (a selection file numbers its own).
+                let mut timeline = self.session.edit.timeline.clone();
+                let dropped = std::mem::take(&mut timeline.paths).len();
+                self.session.edit = EditState {
+                    loose_parts: parts,
+                    rigidity,
+                    symmetry,
+                    timeline,
+                    ..EditState::from_labels(labels)
+                };
+                self.interaction.active_group = (!self.session.edit.groups.is_empty()).then_some(0);
+                self.end_gestures();
+                self.info = Some(match dropped {
+                    0 => format!("handles from {}", file_name(&path)),
+                    n => format!(
+                        "handles from {}; the old groups' {n} path(s) went with them (Ctrl+Z \
+                         brings them back)",
+                        file_name(&path)
+                    ),
+                });
+                self.display.color_version += 1;
+                self.send_scene();
+            }
+            Err(e) => self.error = Some(e),
+        }
+    }
+}
+
 impl EditorApp {
     pub fn select_mode(&self) -> SelectMode {
         self.selecting.mode

@@ -15,6 +15,7 @@ use crate::editor::persist::Persist;
 use crate::editor::solver_thread::MethodSettings;
 use crate::editor::timeline::{Playback, apply_paths, differ_beyond_playback};
 use crate::editor::undo::{EditState, History, Kept};
+use solver::animation::scene::CaptureSettings;
 
 /// The open document: what a scene file holds, plus the undo history.
 #[derive(Default)]
@@ -46,6 +47,8 @@ pub(super) struct Session {
     /// The texture the user loaded and the file's up axis, and as last opened or saved.
     pub(super) file_view: super::asset_view::FileView,
     pub(super) saved_file_view: super::asset_view::FileView,
+    /// The scene's `capture` object as last opened or saved (the settings are `Capture`'s).
+    pub(super) saved_capture: Option<CaptureSettings>,
     /// The status and error lines last written to stderr ([`EditorApp::log_status`]).
     pub(super) logged_status: (Option<String>, Option<String>),
     /// The document as it was when the load under way started: what changed since is work the
@@ -168,14 +171,17 @@ pub(super) struct DocumentMark {
     edit: EditState,
     settings: MethodSettings,
     file_view: super::asset_view::FileView,
+    capture: Option<CaptureSettings>,
 }
 
 impl DocumentMark {
-    pub(super) fn of(session: &Session) -> DocumentMark {
+    /// The document of `session` with the scene's `capture` object.
+    pub(super) fn of(session: &Session, capture: Option<CaptureSettings>) -> DocumentMark {
         DocumentMark {
             edit: session.edit.clone(),
             settings: session.settings,
             file_view: session.file_view.clone(),
+            capture,
         }
     }
 
@@ -184,13 +190,16 @@ impl DocumentMark {
         session.saved_edit = Some(self.edit);
         session.saved_settings = self.settings;
         session.saved_file_view = self.file_view;
+        session.saved_capture = self.capture;
     }
 
-    /// Whether `session` changed since (not by the playback time's poses).
-    pub(super) fn changed(&self, session: &Session) -> bool {
+    /// Whether `session` (with the `capture` object) changed since (not by the playback
+    /// time's poses).
+    pub(super) fn changed(&self, session: &Session, capture: &Option<CaptureSettings>) -> bool {
         differ_beyond_playback(&self.edit, &session.edit)
             || self.settings.saved_part() != session.settings.saved_part()
             || self.file_view != session.file_view
+            || self.capture != *capture
     }
 }
 
@@ -216,6 +225,7 @@ impl EditorApp {
         session.scene.is_some()
             && (session.saved_edit.as_ref().is_none_or(|s| differ_beyond_playback(s, edit))
                 || session.saved_file_view != session.file_view
+                || session.saved_capture != self.capture.to_scene()
                 || (settings && edit.has_handles()))
     }
 
@@ -497,7 +507,7 @@ impl EditorApp {
         self.offer_again();
         let version = self.next_version();
         self.jobs.wanted_load.store(version, std::sync::atomic::Ordering::Relaxed);
-        let mark = Box::new(DocumentMark::of(&self.session));
+        let mark = Box::new(DocumentMark::of(&self.session, self.capture.to_scene()));
         if self.writing_to(&path) {
             self.jobs.loading = None;
             self.info = Some(format!("opening {} once it is written", file_name(&path)));
@@ -559,8 +569,9 @@ impl EditorApp {
     /// Whether the document was changed since the load under way started, and has unsaved
     /// changes.
     fn edited_while_loading(&self) -> bool {
+        let capture = self.capture.to_scene();
         self.jobs.loading.is_some()
-            && self.session.at_load.as_ref().is_none_or(|m| m.changed(&self.session))
+            && self.session.at_load.as_ref().is_none_or(|m| m.changed(&self.session, &capture))
             && self.has_unsaved_changes()
     }
 
@@ -671,6 +682,7 @@ impl EditorApp {
                 }
                 self.session.saved_edit = (!restored).then(|| self.session.edit.clone());
                 self.session.saved_settings = self.session.settings;
+                self.session.saved_capture = self.capture.to_scene();
                 if let Some(j) = self.jobs.record.take() {
                     j.cancel();
                     let opened = file_name(&scene.path);
@@ -692,66 +704,6 @@ impl EditorApp {
                 self.display.color_version += 1;
                 self.send_scene();
             }
-        }
-    }
-
-    /// Starts reading the selection at `path` for the open mesh on a loader thread, in place of
-    /// one still being read; [`Self::poll_selection`] applies it.
-    pub(super) fn load_selection(&mut self, ctx: &egui::Context, path: &Path) {
-        let Some(scene) = &self.session.scene else { return };
-        if let Some(why) = self.jobs.replacing_mesh("selection", path) {
-            // it would be read for the mesh being replaced
-            self.error = Some(why);
-            return;
-        }
-        let c = ctx.clone();
-        let (mesh, layout) = (scene.mesh.clone(), scene.layout.clone());
-        let job =
-            loader::spawn_selection(path.to_path_buf(), mesh, layout, move || c.request_repaint());
-        self.jobs.selection = Some((scene.topology.version, job));
-    }
-
-    /// Applies the selection read in the background once it arrives, as the open mesh's new
-    /// selection (undoably), or shows why it could not be read; drops it, error included, when
-    /// the mesh it was read for is no longer the one open.
-    pub(super) fn poll_selection(&mut self) {
-        let open = self.session.scene.as_ref().map(|s| s.topology.version);
-        let Some((path, result)) = super::finished_for_open_mesh(&mut self.jobs.selection, open)
-        else {
-            return;
-        };
-        match result {
-            Ok(labels) => {
-                self.session.push_undo(self.session.edit.clone());
-                // Component numbers depend on the mesh only: the loose parts' modes stay.
-                let parts = self.session.edit.loose_parts.clone();
-                let (rigidity, symmetry) =
-                    (self.session.edit.rigidity.clone(), self.session.edit.symmetry);
-                // The timeline's length, rate and looping stay; its paths went with the groups
-                // they moved (a selection file numbers its own).
-                let mut timeline = self.session.edit.timeline.clone();
-                let dropped = std::mem::take(&mut timeline.paths).len();
-                self.session.edit = EditState {
-                    loose_parts: parts,
-                    rigidity,
-                    symmetry,
-                    timeline,
-                    ..EditState::from_labels(labels)
-                };
-                self.interaction.active_group = (!self.session.edit.groups.is_empty()).then_some(0);
-                self.end_gestures();
-                self.info = Some(match dropped {
-                    0 => format!("handles from {}", file_name(&path)),
-                    n => format!(
-                        "handles from {}; the old groups' {n} path(s) went with them (Ctrl+Z \
-                         brings them back)",
-                        file_name(&path)
-                    ),
-                });
-                self.display.color_version += 1;
-                self.send_scene();
-            }
-            Err(e) => self.error = Some(e),
         }
     }
 
