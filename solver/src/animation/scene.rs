@@ -617,7 +617,13 @@ pub fn relative_path(base: &Path, target: &Path) -> String {
     for c in &t[common..] {
         out.push(c.as_os_str());
     }
-    out.to_string_lossy().replace('\\', "/")
+    let text = out.to_string_lossy().replace('\\', "/");
+    // A first name with a `:` (`bunny:v2.obj`) reads back as a URI scheme or a drive letter,
+    // and was refused on open: `./` keeps it a relative path.
+    if text.split('/').next().is_some_and(|first| first.contains(':')) {
+        return format!("./{text}");
+    }
+    text
 }
 
 /// A scene's `capture` object: how `bsarap render` and the editor's screenshots picture it.
@@ -754,5 +760,13 @@ mod tests {
         assert_eq!(relative_path(Path::new("/a/b/scenes"), Path::new("/a/b/m.obj")), "../m.obj");
         assert_eq!(relative_path(Path::new("/a"), Path::new("/a/x/m.obj")), "x/m.obj");
         assert_eq!(relative_path(Path::new("a/s"), Path::new("a/s/m.obj")), "m.obj");
+        // a name that would read as a URI scheme or a drive letter, and reads back as itself
+        let dir = Path::new("/a/s");
+        for name in ["bunny:v2.obj", "c:m.obj"] {
+            let written = relative_path(dir, &dir.join(name));
+            assert_eq!(written, format!("./{name}"));
+            let (back, _) = Scene::resolve_path(&dir.join("scene.json"), &written).unwrap();
+            assert_eq!(back, dir.join(name));
+        }
     }
 }
