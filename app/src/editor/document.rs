@@ -31,6 +31,9 @@ pub struct DocumentInput<'a> {
     /// The texture the user loaded (saved relative to the scene), if any.
     pub texture: Option<&'a Path>,
     pub up_axis: solver::animation::export::UpAxis,
+    /// The mesh's [`solver::Mesh::topology_fingerprint`], kept so that an open can tell
+    /// when the mesh file changed under the scene (`None`: not kept).
+    pub mesh_topology: Option<u64>,
 }
 
 /// An absolute version of `p` (through the current directory; symlinks kept).
@@ -67,7 +70,12 @@ pub fn to_scene(scene_path: &Path, input: &DocumentInput) -> Result<Scene, Strin
         .collect();
     // The playback time within the timeline (a shortened timeline is clamped where it is drawn).
     let time = input.time.clamp(0.0, scene.timeline.duration.max(0.0));
-    scene.editor = Some(serde_json::json!({"groups": groups, "time": time}));
+    let mut editor = serde_json::json!({"groups": groups, "time": time});
+    if let Some(t) = input.mesh_topology {
+        // as text: a JSON number keeps 53 bits
+        editor["mesh_topology"] = serde_json::Value::from(format!("{t:016x}"));
+    }
+    scene.editor = Some(editor);
     // Groups after the last painted one do not come back (a reader makes the groups from the
     // labels): their falloffs are not saved (the reader would note them as unused).
     let reloaded = edit.labels.iter().flatten().map(|&k| k as usize + 1).max().unwrap_or(0);
@@ -114,6 +122,21 @@ pub struct Applied {
     pub time: f64,
     /// Something the user should know (a saved time that is not on the timeline).
     pub notice: Option<String>,
+}
+
+/// A notice when `mesh_topology`, the open mesh's [`solver::Mesh::topology_fingerprint`],
+/// is not the one the scene was saved with: its vertices are numbered otherwise, so the
+/// labels, rigidity and poses may sit on other vertices (the vertex count alone matched).
+pub fn mesh_changed(scene: &Scene, mesh_topology: u64) -> Option<String> {
+    let saved = scene.editor.as_ref()?.get("mesh_topology")?.as_str()?;
+    let saved = u64::from_str_radix(saved, 16).ok()?;
+    (saved != mesh_topology).then(|| {
+        format!(
+            "the mesh {} changed since this scene was saved (its vertices are numbered \
+             otherwise): the handles and the rig may sit on other vertices",
+            scene.mesh
+        )
+    })
 }
 
 /// The editor state of `scene` whose handles resolved to `labels`; `settings` are the current
@@ -220,6 +243,7 @@ mod tests {
             time: 0.5,
             texture: None,
             up_axis: Default::default(),
+            mesh_topology: Some(7),
         };
         let scene_path = dir.join("scenes/pose.json");
         let scene = to_scene(&scene_path, &input).unwrap();
@@ -247,6 +271,9 @@ mod tests {
             assert!((a.pose.translation - b.pose.translation).length() < 1e-12);
             assert!(a.pose.rotation.dot(b.pose.rotation).abs() > 1.0 - 1e-12);
         }
+        // The mesh it was saved with, and another one of as many vertices.
+        assert_eq!(mesh_changed(&loaded.scene, 7), None);
+        assert!(mesh_changed(&loaded.scene, 8).is_some_and(|n| n.contains("changed since")));
         // The static pose of group 1, saved as a one-key path, came back static.
         assert_eq!(back.edit.path(1), &AnimPath::Static);
 
@@ -271,6 +298,7 @@ mod tests {
             time: 0.0,
             texture: None,
             up_axis: Default::default(),
+            mesh_topology: None,
         }
     }
 

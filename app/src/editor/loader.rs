@@ -52,6 +52,8 @@ impl FileLayout {
 pub struct LoadedFile {
     pub path: PathBuf,
     pub mesh: Arc<Mesh>,
+    /// [`Mesh::topology_fingerprint`] (saved in scenes, checked when one is opened).
+    pub mesh_topology: u64,
     /// Cleaning notices to show in the status bar.
     pub notices: Vec<String>,
     /// The file's own layout: its vertices in order, attributes, parts, materials and
@@ -342,6 +344,7 @@ fn prepare(
         }
     }
     Ok(LoadedFile {
+        mesh_topology: mesh.topology_fingerprint(),
         path: path.to_path_buf(),
         mesh,
         notices,

@@ -734,3 +734,34 @@ fn without_handles_the_quit_question_keeps_nothing_it_cannot() {
     assert!(h.query_by_label("Keep for next time").is_none());
     h.get_by_label_contains("nothing can be kept for next time");
 }
+
+/// A scene whose mesh file was replaced by one of as many vertices, numbered otherwise, opens
+/// with a notice: its labels and rig then sit on other vertices (nothing told before).
+#[test]
+fn a_scene_whose_mesh_was_renumbered_says_so() {
+    let (_dir, mut h, folder) = with_a_scene_folder("saving-renumbered");
+    let (mesh, _) = solver::geometry::shapes::bumpy_bar(1);
+    let bar = folder.join("bar.obj");
+    solver::io::write_obj(&bar, mesh.positions(), mesh.triangles()).unwrap();
+    let rows: String = (0..mesh.n_vertices()).map(|v| if v < 4 { "0\n" } else { "-1\n" }).collect();
+    std::fs::write(folder.join("bar.dmat"), format!("1 {}\n{rows}", mesh.n_vertices())).unwrap();
+    support::drop_file(&mut h, bar.clone());
+    step_until(&mut h, "the bar", |a| !a.is_loading() && a.mesh_path() == Some(bar.as_path()));
+    let scene = folder.join("bar.json");
+    h.state_mut().save_scene(&scene).unwrap();
+    let_saves_go(&mut h);
+    let reopen = |h: &mut Harness<'static, EditorApp>| {
+        let ctx = h.ctx.clone();
+        h.state_mut().request_open(&ctx, scene.clone());
+        step_until(h, "the scene", |a| !a.is_loading() && a.document_path() == Some(&scene));
+        h.state().load_notices().join("\n")
+    };
+    assert!(!reopen(&mut h).contains("changed since"));
+    // The same vertices in reverse order.
+    let n = mesh.n_vertices() as u32;
+    let positions: Vec<[f64; 3]> = mesh.positions().iter().rev().copied().collect();
+    let triangles: Vec<[u32; 3]> = mesh.triangles().iter().map(|t| t.map(|v| n - 1 - v)).collect();
+    solver::io::write_obj(&bar, &positions, &triangles).unwrap();
+    let notices = reopen(&mut h);
+    assert!(notices.contains("changed since this scene was saved"), "{notices}");
+}

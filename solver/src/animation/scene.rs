@@ -247,7 +247,8 @@ pub struct Scene {
     /// Opaque to the solver: whatever the editor stores about its view.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub camera: Option<serde_json::Value>,
-    /// Opaque to the solver: other editor state (group names and colors, the current time).
+    /// Opaque to the solver: other editor state (group names and colors, the current time,
+    /// the mesh's topology fingerprint as hex text, which an open checks).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub editor: Option<serde_json::Value>,
     /// Picture settings for `bsarap render` and the editor's screenshots (optional; omitted

@@ -110,6 +110,21 @@ impl Mesh {
         })
     }
 
+    /// A 64-bit hash of the vertex count and the triangles only: whether per-vertex data
+    /// (a scene's handle labels, rigidity) still names the same vertices after the file
+    /// changed. Moved positions keep it; vertices renumbered or a different mesh do not.
+    pub fn topology_fingerprint(&self) -> u64 {
+        let mut h = xxhash_rust::xxh3::Xxh3::new();
+        h.update(&(self.n_vertices() as u64).to_le_bytes());
+        let mut buf = Vec::with_capacity(12 * 8192);
+        for chunk in self.triangles.chunks(8192) {
+            buf.clear();
+            chunk.iter().flatten().for_each(|v| buf.extend(v.to_le_bytes()));
+            h.update(&buf);
+        }
+        h.digest()
+    }
+
     /// The positions, triangles, fingerprint and bounding box (shared, not copied), without
     /// the adjacency and components found for this mesh (found again if the copy is asked for
     /// them): what a factorization made later on another thread needs, at no copying.

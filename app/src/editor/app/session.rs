@@ -549,6 +549,7 @@ impl EditorApp {
                 time: self.session.playback.time,
                 texture: self.session.file_view.texture.as_deref(),
                 up_axis: self.session.file_view.up_axis,
+                mesh_topology: Some(scene.mesh_topology),
             },
         )
         .map(|doc| solver::animation::scene::Scene { capture: self.capture.to_scene(), ..doc })
@@ -659,6 +660,7 @@ impl EditorApp {
                         if let Some(n) = applied.notice {
                             self.info = Some(n);
                         }
+                        scene.notices.extend(document::mesh_changed(&doc, scene.mesh_topology));
                         let autosave = self.store.persist.as_ref().map(Persist::autosave_path);
                         if autosave.as_deref() == Some(path.as_path()) {
                             // Restored: Save asks where (the autosave is not a document), and
