@@ -15,7 +15,7 @@ use anyhow::Context;
 use app::editor::camera::OrbitCamera;
 use app::editor::capture::{self, Offscreen, Picture};
 use app::editor::document::apply_scene;
-use app::editor::loader::{ground_grid, load_scene_file};
+use app::editor::loader::{ground_grid_of, load_scene_file};
 use app::editor::shape::Shape;
 use app::editor::solver_thread::MethodSettings;
 use app::outputs::{self, Input};
@@ -183,9 +183,7 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
     let grid = settings.overlays.then(|| match z_up {
         false => file.grid.clone(),
         true => {
-            let (lo, _) = mesh.bounding_box();
-            let lo = glam::Vec3::from(app::editor::shape::to_f32_from(file.origin, lo));
-            let vertices = ground_grid(lo, file.center, file.radius, doc.up_axis);
+            let vertices = ground_grid_of(&file, doc.up_axis);
             let version = file.grid.version + 1; // not the Y-up grid's
             std::sync::Arc::new(app::editor::draw_data::VertexData { version, vertices })
         }

@@ -177,8 +177,12 @@ pub fn apply_scene(
     // A still pose is saved as a one-key path (`effective_timeline`); it comes back still, with
     // its pose: kept as a path, a later move of the group was playback's (not an edit, not
     // saved), and a key at another time started an animation.
-    use solver::animation::timeline::Path as AnimPath;
-    edit.timeline.paths.retain(|p| !matches!(&p.path, AnimPath::Keyframed(k) if k.keys.len() == 1));
+    // Only that form (one key at 0 s, linear): a key set with K (at its time, smooth) stays.
+    use solver::animation::timeline::{Interpolation, Path as AnimPath};
+    edit.timeline.paths.retain(|p| {
+        !matches!(&p.path, AnimPath::Keyframed(k) if k.keys.len() == 1
+            && k.keys[0].time == 0.0 && k.interpolation == Interpolation::Linear)
+    });
     let mut s = *settings;
     // The main viewport runs any method, ARAP included. The scene reader checked the settings
     // (`ArapConfig::validate`): they are kept as they are, outside the method panel's slider
@@ -313,6 +317,26 @@ mod tests {
         solver::io::write_obj(&mesh_path, mesh.positions(), mesh.triangles()).unwrap();
         let edit = EditState::from_labels(handles.labels().to_vec());
         (dir, mesh_path, mesh.n_vertices(), edit)
+    }
+
+    /// A key set with K (at its time, smooth) is the user's one-key path and stays one; only
+    /// the form a still pose is saved in (one key at 0 s, linear) comes back still.
+    #[test]
+    fn a_single_key_set_with_k_stays_a_path() {
+        let (dir, mesh_path, _, mut edit) = bar_document("doc-one-key");
+        edit.groups[0].pose.translation.y = 0.1;
+        assert!(crate::editor::timeline::key_current_pose(&mut edit, 0, 0.5));
+        edit.groups[1].pose.translation.y = 0.2; // still: saved as one key at 0 s
+        let (settings, camera) = (MethodSettings::default(), OrbitCamera::default());
+        let scene_path = dir.join("keys.json");
+        let input = plain_input(&mesh_path, &edit, &settings, &camera);
+        to_scene(&scene_path, &input).unwrap().save(&scene_path).unwrap();
+        let loaded = solver::animation::scene::Scene::load(&scene_path).unwrap();
+        let labels = loaded.handles.labels().to_vec();
+        let back = apply_scene(&loaded.scene, labels, &settings, [0.0; 3]);
+        assert_eq!(back.edit.path(0), edit.path(0), "the key set with K was dropped");
+        assert_eq!(back.edit.path(1), &AnimPath::Static);
+        assert!((back.edit.groups[1].pose.translation.y - 0.2).abs() < 1e-12);
     }
 
     #[test]

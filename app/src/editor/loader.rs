@@ -271,6 +271,13 @@ pub fn ground_grid(lo: Vec3, center: Vec3, radius: f32, up: UpAxis) -> Vec<Verte
     }
 }
 
+/// [`ground_grid`] under `file`'s mesh for `up`: the editor's and `bsarap render`'s.
+pub fn ground_grid_of(file: &LoadedFile, up: UpAxis) -> Vec<Vertex> {
+    let (lo, _) = file.mesh.bounding_box();
+    let lo = Vec3::from(to_f32_from(file.origin, lo));
+    ground_grid(lo, file.center, file.radius, up)
+}
+
 /// Reads and prepares a mesh file, its references where `references` allows (runs on the
 /// loader thread).
 pub fn load_scene(

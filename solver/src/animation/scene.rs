@@ -620,8 +620,10 @@ pub fn relative_path(base: &Path, target: &Path) -> String {
     }
     let text = out.to_string_lossy().replace('\\', "/");
     // A first name with a `:` (`bunny:v2.obj`) reads back as a URI scheme or a drive letter,
-    // and was refused on open: `./` keeps it a relative path.
-    if text.split('/').next().is_some_and(|first| first.contains(':')) {
+    // and was refused on open: `./` keeps it a relative path (not a drive of its own, which
+    // `push` made the whole path).
+    let named = matches!(out.components().next(), Some(Component::Normal(n)) if n.to_string_lossy().contains(':'));
+    if named {
         return format!("./{text}");
     }
     text

@@ -101,7 +101,8 @@ pub struct Sampling {
 }
 
 impl Default for Sampling {
-    /// Linear, trilinear mipmapped, repeating: what a texture without a sampler gets.
+    /// Linear, trilinear mipmapped, repeating: what an OBJ's texture gets (a glTF texture
+    /// without a sampler keeps no filters: the viewer's choice).
     fn default() -> Sampling {
         Sampling { mag_filter: Some(9729), min_filter: Some(9987), wrap: [10497, 10497] }
     }

@@ -38,8 +38,8 @@
 //!
 //! **Bounded work**: the node hierarchy is walked once per node (a node reached twice, which
 //! glTF forbids, is read under its first parent, with a notice), and a scene of more than
-//! [`MAX_VERTICES`] vertices, instances counted, is refused, so that no small file asks for
-//! unbounded time or memory.
+//! [`MAX_VERTICES`] vertices or [`MAX_TRIANGLES`] triangles (index corners), instances
+//! counted, is refused, so that no small file asks for unbounded time or memory.
 //!
 //! `KHR_texture_transform` on a material's base colour texture is applied to the texture
 //! coordinates its primitives sample ([`UvTransform`]), so that they are stored as sampled.
@@ -67,6 +67,9 @@ use crate::geometry::mesh::in_range;
 /// mesh the solver poses (its largest tested has 1.5M), and below what would exhaust memory
 /// (a small file can instance one mesh from thousands of nodes).
 pub const MAX_VERTICES: usize = 100_000_000;
+
+/// The most triangles a file's scene may hold, instances counted (as [`MAX_VERTICES`]).
+pub const MAX_TRIANGLES: usize = 200_000_000;
 
 /// Extensions whose data this reader cannot decode, with what a user can do about each.
 const UNDECODABLE: [(&str, &str); 2] = [
@@ -508,6 +511,14 @@ fn append_primitive(
     let n = raw.positions.len() - base;
     let span = (base, n);
     read_layers(layers, &mut raw.notices, prim, span, world, source)?;
+    // Each instance's triangles are counted too: three positions indexed by millions of
+    // corners, instanced from many nodes, asked for unbounded memory under the vertex limit.
+    let corners_in = prim.indices().map_or(n, |acc| acc.count());
+    if raw.triangles.len().saturating_add(corners_in) > MAX_TRIANGLES {
+        return Err(ctx.unsupported(format!(
+            "the scene's meshes, with their instances, hold more than {MAX_TRIANGLES} triangles"
+        )));
+    }
     let mut indices = Vec::new();
     match prim.indices() {
         Some(acc) => {

@@ -42,6 +42,7 @@ use std::path::Path;
 
 pub use asset::{Asset, Attribute, Image, Material, Part};
 pub use error::LoadError;
+pub use gltf::{MAX_TRIANGLES as MAX_GLTF_TRIANGLES, MAX_VERTICES as MAX_GLTF_VERTICES};
 pub use image_check::{MAX_IMAGE_ALLOC, MAX_IMAGE_SIDE};
 pub use obj_write::{write_mtl_asset, write_obj_asset, write_obj_asset_with};
 pub use reference::ReferencePolicy;

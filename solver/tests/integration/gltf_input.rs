@@ -208,3 +208,14 @@ fn positions_without_min_and_max_are_read() {
     let m = load_mesh_from_bytes(&to_gltf(doc, &tet_bin()), Format::Gltf, "nominmax.gltf").unwrap();
     assert_eq!(m.mesh.n_vertices(), 4);
 }
+
+/// A scene's triangles are bounded as its vertices are: index corners beyond
+/// `MAX_TRIANGLES` are refused before they are read (three positions indexed by millions of
+/// corners, instanced from many nodes, asked for unbounded memory under the vertex limit).
+#[test]
+fn too_many_index_corners_are_refused_before_reading() {
+    let mut doc = tet_doc(&[[0.0; 3]]);
+    doc["accessors"][1]["count"] = json!(solver::io::MAX_GLTF_TRIANGLES + 3);
+    let e = load_mesh_from_bytes(&to_gltf(doc, &tet_bin()), Format::Gltf, "big.gltf").unwrap_err();
+    assert!(e.to_string().contains("triangles"), "{e}");
+}

@@ -7,13 +7,11 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use eframe::egui;
-use glam::Vec3;
 use solver::animation::export::UpAxis;
 
 use super::{DialogKind, EditorApp, Shading};
 use crate::editor::draw_data::VertexData;
-use crate::editor::loader::{self, FileLayout, LoadedFile, LoadedTexture};
-use crate::editor::shape::to_f32_from;
+use crate::editor::loader::{self, FileLayout, LoadedTexture};
 
 /// The tooltip of the up-axis choice: what it changes, and the export rule.
 pub const UP_AXIS_HINT: &str = "Which axis of the file points up. The camera orbits about it \
@@ -27,13 +25,6 @@ pub(super) struct FileView {
     /// The texture the user loaded (absolute path), if any.
     pub(super) texture: Option<PathBuf>,
     pub(super) up_axis: UpAxis,
-}
-
-/// The ground grid under `scene`'s mesh for `up` ([`loader::ground_grid`]).
-fn ground_grid(scene: &LoadedFile, up: UpAxis) -> Vec<crate::editor::draw_data::Vertex> {
-    let (lo, _) = scene.mesh.bounding_box();
-    let lo = Vec3::from(to_f32_from(scene.origin, lo));
-    loader::ground_grid(lo, scene.center, scene.radius, up)
 }
 
 impl EditorApp {
@@ -123,7 +114,8 @@ impl EditorApp {
         self.session.file_view.up_axis = up;
         self.display.camera.up_z = up == UpAxis::Z;
         if let Some(scene) = &mut self.session.scene {
-            scene.grid = Arc::new(VertexData { version, vertices: ground_grid(scene, up) });
+            scene.grid =
+                Arc::new(VertexData { version, vertices: loader::ground_grid_of(scene, up) });
         }
     }
 

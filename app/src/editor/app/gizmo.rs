@@ -228,12 +228,13 @@ impl EditorApp {
             self.session.press_step.cancel(); // the press dragging the gizmo does nothing more
             return;
         }
-        // K and Space while a transform runs: a key of a pose not confirmed (an Esc left it
-        // keyed) and an undo step inside the transform's, or playback moving the group under
-        // it. They wait for its end.
+        // K, Space and Home while a transform runs: a key of a pose not confirmed (an Esc left
+        // it keyed) and an undo step inside the transform's, or playback (or the start of the
+        // timeline) moving the group under it. They wait for its end.
         if self.gizmo.transform.is_some() {
             let k = consume(Modifiers::NONE, Key::K);
-            if consume(Modifiers::NONE, Key::Space) || k {
+            let home = consume(Modifiers::NONE, Key::Home);
+            if consume(Modifiers::NONE, Key::Space) || k || home {
                 self.info = Some(
                     "finish the move or turn first (Enter or release confirms, Esc cancels)".into(),
                 );

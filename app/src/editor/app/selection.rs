@@ -379,7 +379,6 @@ impl EditorApp {
     }
 }
 
-/// For tests and scripts.
 impl EditorApp {
     /// Starts reading the selection at `path` for the open mesh on a loader thread, in place of
     /// one still being read; [`Self::poll_selection`] applies it.
@@ -442,6 +441,7 @@ impl EditorApp {
     }
 }
 
+/// For tests and scripts.
 impl EditorApp {
     pub fn select_mode(&self) -> SelectMode {
         self.selecting.mode

@@ -216,8 +216,8 @@ pub(super) enum Pending {
 
 impl EditorApp {
     /// Whether the document differs from what was last opened or saved: its edit state other
-    /// than by the playback time's poses, its texture and up axis, or, once it has handles (a
-    /// scene to save), the method settings a scene holds.
+    /// than by the playback time's poses, its texture and up axis, its capture settings, or,
+    /// once it has handles (a scene to save), the method settings a scene holds.
     pub fn has_unsaved_changes(&self) -> bool {
         let session = &self.session;
         let edit = &session.edit;

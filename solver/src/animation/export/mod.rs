@@ -21,9 +21,11 @@
 //!   normals: the file's, else area-weighted), `TEXCOORD_0/1` and `COLOR_0` (f32) when the asset
 //!   has them; its vertices are the distinct attribute tuples of its corners in file order;
 //! - materials: `pbrMetallicRoughness` (base colour factor and texture with its `texCoord`,
-//!   metallic, roughness), `doubleSided`, `alphaMode`; texture $i$ shows image $i$ through one
-//!   linear/repeat sampler (a texture whose UV set the asset lacks is left out); images are
-//!   buffer views in `.glb` and `data:` URIs in `.gltf`;
+//!   metallic, roughness), `emissiveFactor`, `doubleSided`, `alphaMode` (and `alphaCutoff` for
+//!   `MASK`); texture $i$ shows image $i$ with the sampling of the first material using it, one
+//!   more texture per other sampling of an image, a sampler per sampling (a texture whose UV
+//!   set the asset lacks is left out); images are buffer views in `.glb` and `data:` URIs in
+//!   `.gltf`;
 //! - per primitive, one morph target per kept frame $i$ (every `every_k`-th frame and the last):
 //!   `POSITION` deltas $\Delta^{(i)}_v = p^{(i)}_v - \tilde p_v$ against the rest position as
 //!   stored in f32, and optionally `NORMAL` deltas $n^{(i)}_v - \tilde n_v$ (deformed normals:
