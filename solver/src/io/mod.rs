@@ -24,6 +24,7 @@
 pub mod asset;
 mod error;
 mod gltf;
+mod gltf_accessor;
 mod gltf_material;
 mod image_check;
 mod mtl;
