@@ -101,11 +101,7 @@ impl Mesh {
                 chunk.iter().flatten().for_each(|x| buf.extend(x.to_bits().to_le_bytes()));
                 h.update(&buf);
             }
-            for chunk in self.triangles.chunks(8192) {
-                buf.clear();
-                chunk.iter().flatten().for_each(|v| buf.extend(v.to_le_bytes()));
-                h.update(&buf);
-            }
+            hash_triangles(&mut h, &self.triangles, &mut buf);
             h.digest()
         })
     }
@@ -116,12 +112,7 @@ impl Mesh {
     pub fn topology_fingerprint(&self) -> u64 {
         let mut h = xxhash_rust::xxh3::Xxh3::new();
         h.update(&(self.n_vertices() as u64).to_le_bytes());
-        let mut buf = Vec::with_capacity(12 * 8192);
-        for chunk in self.triangles.chunks(8192) {
-            buf.clear();
-            chunk.iter().flatten().for_each(|v| buf.extend(v.to_le_bytes()));
-            h.update(&buf);
-        }
+        hash_triangles(&mut h, &self.triangles, &mut Vec::with_capacity(12 * 8192));
         h.digest()
     }
 
@@ -283,6 +274,15 @@ pub(crate) fn norm2(a: [f64; 3]) -> f64 {
 #[inline]
 pub(crate) fn norm(a: [f64; 3]) -> f64 {
     norm2(a).sqrt()
+}
+
+/// Feeds `triangles`' little-endian bytes to `h` through `buf` (the fingerprints' shared part).
+fn hash_triangles(h: &mut xxhash_rust::xxh3::Xxh3, triangles: &[[u32; 3]], buf: &mut Vec<u8>) {
+    for chunk in triangles.chunks(8192) {
+        buf.clear();
+        chunk.iter().flatten().for_each(|v| buf.extend(v.to_le_bytes()));
+        h.update(buf);
+    }
 }
 
 #[cfg(test)]

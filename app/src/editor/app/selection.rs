@@ -1,8 +1,9 @@
-//! Selection tools for painting handle groups: box and lasso selection (through the mesh or
-//! of visible vertices only), the region commands grow, shrink, invert, select connected
-//! and clear, and selection files (`.dmat`, sphere lists) read on a loader thread. The active group's vertices are the selection: a box or lasso adds the vertices
-//! it encloses to the active group (Ctrl: removes them from it), the commands change the
-//! group by the topology operations of `solver::geometry::region`.
+//! Selection tools for painting handle groups: box and lasso selection (through the mesh or of
+//! visible vertices only), the region commands grow, shrink, invert, select connected and clear,
+//! and selection files (`.dmat`, sphere lists) read on a loader thread. The active group's vertices
+//! are the selection: a box or lasso adds the vertices it encloses to the active group (Ctrl:
+//! removes them from it), the commands change the group by the topology operations of
+//! `solver::geometry::region`.
 //!
 //! Every change is one undoable edit (a snapshot pushed first) and sends the new handle set.
 
