@@ -3,7 +3,8 @@
 //!
 //! The folder is `$BSARAP_CONFIG_DIR`, else `$XDG_CONFIG_HOME/bsarap`, else
 //! `$HOME/.config/bsarap`. Every write is atomic (`solver::io::write_atomic`). The autosave is
-//! a scene file (absolute mesh path) written every [`AUTOSAVE_INTERVAL`] while it changes, and
+//! a scene file (absolute mesh path, and the scene file being edited in
+//! [`EDITED_DOCUMENT`]) written every [`AUTOSAVE_INTERVAL`] while it changes, and
 //! by the panic hook when the editor crashes; it is removed on a clean exit, so one found at
 //! start means the last session did not end cleanly, and the editor offers it back. A clean
 //! exit that keeps unsaved changes on purpose writes it with a marker beside it
@@ -33,6 +34,16 @@ pub const EXIT_WAIT: Duration = Duration::from_secs(2);
 pub const REMOVAL_WAIT: Duration = Duration::from_millis(100);
 /// How many recent files are kept.
 pub const MAX_RECENT: usize = 10;
+
+/// The key in an autosave's `editor` object naming the scene file being edited (absolute), if
+/// any: a restore saves back to it.
+pub const EDITED_DOCUMENT: &str = "document";
+
+/// The scene file `autosave` was edited from ([`EDITED_DOCUMENT`]), if it names one.
+pub fn edited_document(autosave: &Scene) -> Option<PathBuf> {
+    let path = autosave.editor.as_ref()?.get(EDITED_DOCUMENT)?.as_str()?;
+    Some(PathBuf::from(path)).filter(|p| p.is_absolute())
+}
 
 /// The configuration folder (see the module doc), `None` without a home.
 pub fn default_dir() -> Option<PathBuf> {

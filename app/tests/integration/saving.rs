@@ -1,8 +1,8 @@
 //! Saving and restoring in the editor: Save as refuses the files the document was read from
 //! and names without `.json`, a cancelled Save as forgets what waited for it, "Save first"
 //! with a dialog open keeps the question, a failed restore offers the autosave again and a
-//! restore over unsaved changes asks first, and a scene's method settings come back from a
-//! Save as they were.
+//! restore over unsaved changes asks first, a restored scene saves back to its file, and a
+//! scene's method settings come back from a Save as they were.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use crate::support;
@@ -152,6 +152,55 @@ fn restore_over_unsaved_changes_asks_first() {
     assert_eq!(h.state().mesh_path(), Some(bar.as_path()));
     assert_eq!(h.state().info(), Some("restored the autosaved session"));
     assert!(h.state().restore_offer().is_none());
+}
+
+/// An autosave of a scene file's work, restored, saves back to that scene file (Save asked
+/// where, as for a mesh without a scene), still counting as unsaved until then; the offer names
+/// the scene.
+#[test]
+fn a_restored_scene_saves_back_to_its_file() {
+    let dir = ScratchDir::new("saving-restore-scene");
+    let config = config_with_in_app_dialog(&dir);
+    let (mesh, _) = solver::geometry::shapes::bumpy_bar(1);
+    let bar = dir.join("bar.obj");
+    solver::io::write_obj(&bar, mesh.positions(), mesh.triangles()).unwrap();
+    let rows: String = (0..mesh.n_vertices()).map(|v| if v < 4 { "0\n" } else { "-1\n" }).collect();
+    std::fs::write(dir.join("bar.dmat"), format!("1 {}\n{rows}", mesh.n_vertices())).unwrap();
+    let scene = dir.join("bar-scene.json");
+    {
+        let mut h = dialog_harness(config.clone());
+        step_until(&mut h, "the default asset", settled);
+        support::drop_file(&mut h, bar.clone());
+        step_until(&mut h, "the bar", |a| !a.is_loading() && a.mesh_path() == Some(bar.as_path()));
+        h.state_mut().save_scene(&scene).unwrap();
+        let mut e = h.state().edit_state().clone();
+        e.groups[0].pose.translation.y = 0.25;
+        h.state_mut().set_edit_state(e);
+        h.state_mut().autosave_now().unwrap();
+    } // a crash: no clean exit
+    let saved = std::fs::read(&scene).unwrap();
+
+    let mut h = dialog_harness(config);
+    step_until(&mut h, "the default asset", |a| !a.is_loading() && a.n_vertices() > 0);
+    assert!(h.state().restore_offer().is_some());
+    h.get_by_label_contains("An autosave of bar-scene.json");
+    let ctx = h.ctx.clone();
+    h.state_mut().answer_restore(&ctx, true);
+    step_until(&mut h, "the restore", |a| !a.is_loading() && a.mesh_path() == Some(bar.as_path()));
+    assert_eq!(h.state().info(), Some("restored the autosaved bar-scene.json"));
+    assert_eq!(h.state().document_path(), Some(scene.as_path()));
+    assert!(h.state().has_unsaved_changes());
+    assert_eq!(std::fs::read(&scene).unwrap(), saved, "written before a Save");
+    h.key_press_modifiers(Modifiers::COMMAND, Key::S);
+    h.step();
+    step_until(&mut h, "the save", |a| !a.is_saving());
+    assert!(!h.state().file_dialog_open(), "Save asked where");
+    assert!(!h.state().has_unsaved_changes());
+    let written = solver::animation::scene::Scene::read(&scene).unwrap();
+    assert_eq!(written.mesh, "bar.obj", "the mesh path is relative to the scene again");
+    assert!(written.editor.unwrap().get("document").is_none(), "the autosave's key was saved");
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(&scene).unwrap()).unwrap();
+    assert!(json.to_string().contains("0.25"), "the restored pose was not saved");
 }
 
 /// "Save first" while a file dialog is open cannot ask where to save: the question stays and

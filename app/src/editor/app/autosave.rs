@@ -12,6 +12,7 @@ use super::EditorApp;
 use super::file_name;
 use super::session::Pending;
 use crate::editor::persist::{self, AUTOSAVE_INTERVAL, Persist, Snapshot};
+use solver::animation::scene::Scene;
 
 /// How often the crash snapshot is refreshed.
 const SNAPSHOT_INTERVAL: Duration = Duration::from_secs(5);
@@ -28,7 +29,7 @@ pub(super) struct Store {
     /// The autosave is written at the next snapshot, not after the interval: the one on disk
     /// is older than a save that just ended, and edits made while it was written are in neither.
     pub(super) autosave_due: bool,
-    pub(super) autosaved: Option<Arc<solver::animation::scene::Scene>>,
+    pub(super) autosaved: Option<Arc<Scene>>,
     /// An autosave from a session that did not end cleanly, offered back at start.
     pub(super) restore_offer: Option<RestoreOffer>,
     /// The offer whose autosave is loading after Restore: offered again if it fails.
@@ -63,8 +64,10 @@ impl Store {
             let kept = p.autosave_kept();
             store.restore_offer = p.pending_autosave().map(|(path, when)| RestoreOffer {
                 kept,
-                mesh: solver::animation::scene::Scene::read(&path)
-                    .map(|s| s.mesh)
+                what: Scene::read(&path)
+                    .map(|s| {
+                        persist::edited_document(&s).map_or(s.mesh, |d| d.display().to_string())
+                    })
                     .map_err(|e| e.to_string()),
                 path,
                 when,
@@ -75,24 +78,39 @@ impl Store {
 }
 
 /// An autosave found at start: where, when, whether a clean exit kept it on purpose (else the
-/// session crashed or was killed), and the mesh it names (or why it cannot be read).
+/// session crashed or was killed), and the scene file it was edited from, else the mesh it
+/// names (or why it cannot be read).
 #[derive(Debug, Clone)]
 pub(super) struct RestoreOffer {
     pub(super) path: PathBuf,
     when: SystemTime,
     pub(super) kept: bool,
-    mesh: Result<String, String>,
+    what: Result<String, String>,
 }
 
 impl EditorApp {
     /// Writes the autosave now (tests; the editor does it on a timer).
     pub fn autosave_now(&mut self) -> Result<PathBuf, String> {
         let persist = self.store.persist.clone().ok_or("no configuration folder")?;
-        let doc = self.document(&persist.autosave_path())?;
+        let doc = self.autosave_document(&persist)?;
         let path = persist.write_autosave(&doc)?;
         self.store.autosaved = Some(Arc::new(doc));
         self.store.last_autosave = Instant::now();
         Ok(path)
+    }
+
+    /// The scene the autosave holds: the document as it would be saved there, naming the scene
+    /// file being edited (absolute, in `editor.document`) so that a restore saves back to it.
+    fn autosave_document(&self, persist: &Persist) -> Result<Scene, String> {
+        let mut doc = self.document(&persist.autosave_path())?;
+        let edited =
+            self.session.document_path.as_deref().and_then(|p| std::path::absolute(p).ok());
+        if let (Some(editor), Some(path)) =
+            (doc.editor.as_mut(), edited.as_deref().and_then(Path::to_str))
+        {
+            editor[persist::EDITED_DOCUMENT] = serde_json::Value::from(path);
+        }
+        Ok(doc)
     }
 
     /// Refreshes the crash snapshot every few seconds and writes the autosave every
@@ -116,7 +134,7 @@ impl EditorApp {
         }
         // Shared, not copied, by the snapshot, the last autosave and its writer: a dense mesh's
         // labels and rigidity are tens of megabytes.
-        let Ok(doc) = self.document(&persist.autosave_path()).map(Arc::new) else { return };
+        let Ok(doc) = self.autosave_document(&persist).map(Arc::new) else { return };
         if let Ok(mut slot) = self.store.snapshot.try_lock() {
             *slot = Some(doc.clone());
         }
@@ -137,7 +155,7 @@ impl EditorApp {
     }
 
     pub(super) fn restore_window(&mut self, ctx: &egui::Context) {
-        let Some(RestoreOffer { when, kept, mesh, .. }) = self.store.restore_offer.clone() else {
+        let Some(RestoreOffer { when, kept, what, .. }) = self.store.restore_offer.clone() else {
             return;
         };
         if self.session.pending == Some(Pending::Restore) {
@@ -148,7 +166,7 @@ impl EditorApp {
             .resizable(false)
             .anchor(egui::Align2::CENTER_CENTER, Vec2::ZERO)
             .show(ctx, |ui| {
-                match &mesh {
+                match &what {
                     Ok(m) if kept => ui.label(format!(
                         "You quit the last session keeping unsaved changes to {} ({}).",
                         file_name(Path::new(m)),
@@ -162,7 +180,7 @@ impl EditorApp {
                     Err(e) => ui.label(format!("An autosave was found but cannot be read: {e}")),
                 };
                 ui.horizontal(|ui| {
-                    if mesh.is_ok() && ui.button("Restore").clicked() {
+                    if what.is_ok() && ui.button("Restore").clicked() {
                         self.answer_restore(ctx, true);
                     }
                     if ui.button("Discard").clicked() {
@@ -186,7 +204,7 @@ impl EditorApp {
         }
         if self.has_unsaved_changes()
             && !self.session.discard_on_exit
-            && let Ok(doc) = self.document(&persist.autosave_path())
+            && let Ok(doc) = self.autosave_document(&persist)
         {
             match persist.keep_autosave(&doc) {
                 Ok(_) => return true,

@@ -11,7 +11,7 @@ use super::{DialogKind, EditorApp, Shading, file_name};
 use crate::editor::camera::OrbitCamera;
 use crate::editor::document::{self, DocumentInput};
 use crate::editor::loader::{self, LoadedFile};
-use crate::editor::persist::Persist;
+use crate::editor::persist::{self, Persist};
 use crate::editor::solver_thread::MethodSettings;
 use crate::editor::timeline::{Playback, apply_paths, differ_beyond_playback};
 use crate::editor::undo::{EditState, History, Kept};
@@ -663,9 +663,14 @@ impl EditorApp {
                         scene.notices.extend(document::mesh_changed(&doc, scene.mesh_topology));
                         let autosave = self.store.persist.as_ref().map(Persist::autosave_path);
                         if autosave.as_deref() == Some(path.as_path()) {
-                            // Restored: Save asks where (the autosave is not a document), and
-                            // the restored work counts as unsaved.
-                            self.info = Some("restored the autosaved session".into());
+                            // Restored: Save writes to the scene file the work was edited from
+                            // (else it asks where: the autosave is not a document), and the
+                            // restored work counts as unsaved.
+                            self.session.document_path = persist::edited_document(&doc);
+                            self.info = Some(match &self.session.document_path {
+                                Some(d) => format!("restored the autosaved {}", file_name(d)),
+                                None => "restored the autosaved session".into(),
+                            });
                             restored = true;
                             // The autosave names the user's own files wherever they are.
                             let outside = solver::animation::scene::OUTSIDE_THE_FOLDER;
