@@ -7,7 +7,10 @@ The report (one JSON object on the last line of stdout, prefixed by "REPORT "):
 - "meshes": one entry per mesh object, sorted by name:
   - "name", "vertices", "faces", "uv_layers" (names);
   - "materials": [{"name", "image_texture": an Image Texture node has an image,
-    "image_size": [w, h] of the first such image in pixels (0, 0 when none or unreadable)}];
+    "image_size": [w, h] of the first such image in pixels (0, 0 when none or unreadable),
+    "images": how many Image Texture nodes have an image, "linked": the names of the node
+    inputs (any node's: the Principled BSDF's, the glTF output group's Occlusion) that a link
+    feeds, sorted, "normal_strength": the Normal Map node's strength (null when none)}];
   - "shape_keys": the number of shape keys besides the basis;
   - "action": name of the action animating the shape keys or the object (null when none);
   - "keyframes": frame numbers of the first animated channel's keys (shape-key channels first);
@@ -58,15 +61,29 @@ def channelbag_fcurves(anim_data):
 
 
 def material_report(mat):
-    entry = {"name": mat.name if mat else None, "image_texture": False, "image_size": [0, 0]}
+    entry = {
+        "name": mat.name if mat else None,
+        "image_texture": False,
+        "image_size": [0, 0],
+        "images": 0,
+        "linked": [],
+        "normal_strength": None,
+    }
     if mat is None or mat.node_tree is None:
         return entry
+    linked = set()
     for node in mat.node_tree.nodes:
         if node.type == "TEX_IMAGE" and node.image is not None:
-            w, h = node.image.size
-            entry["image_texture"] = True
-            entry["image_size"] = [w, h]
-            break
+            entry["images"] += 1
+            if not entry["image_texture"]:
+                w, h = node.image.size
+                entry["image_texture"] = True
+                entry["image_size"] = [w, h]
+        if node.type == "NORMAL_MAP":
+            entry["normal_strength"] = float(node.inputs["Strength"].default_value)
+        if node.type in ("BSDF_PRINCIPLED", "GROUP"):
+            linked.update(i.name for i in node.inputs if i.is_linked)
+    entry["linked"] = sorted(linked)
     return entry
 
 

@@ -8,7 +8,10 @@
 //
 // Report: { three: revision,
 //   meshes: [{ name, skinned, vertices, triangles, uv, morphTargets, morphTargetsRelative,
-//              materials: [{ name, type, map (has a base-colour texture), mapSize: [w, h] }] }],
+//              materials: [{ name, type, map (has a base-colour texture), mapSize: [w, h],
+//                            maps (the slots holding a decoded image: map, metalnessMap,
+//                            roughnessMap, normalMap, aoMap, emissiveMap), normalScale: [x, y],
+//                            aoMapIntensity }] }],
 //   animations: [{ name, duration, tracks: [{ name, keys }] }],
 //   times: the sampled times (default: every key time of the first animation),
 //   samples: per time, per mesh: { min, max (world-space bounding box), influences,

@@ -37,11 +37,16 @@ function worldPositions(mesh) {
 
 function materialReport(m) {
   const img = m.map ? m.map.image : null;
+  // Every texture slot that holds a decoded image of nonzero size.
+  const maps = ["map", "metalnessMap", "roughnessMap", "normalMap", "aoMap", "emissiveMap"];
   return {
     name: m.name,
     type: m.type,
     map: !!m.map,
     mapSize: img ? [img.width || 0, img.height || 0] : [0, 0],
+    maps: maps.filter((k) => m[k] && m[k].image && m[k].image.width > 0),
+    normalScale: m.normalScale ? [m.normalScale.x, m.normalScale.y] : null,
+    aoMapIntensity: m.aoMapIntensity ?? null,
   };
 }
 

@@ -126,9 +126,10 @@ impl RenderLayout {
         for (t, tri) in asset.triangles.iter().enumerate() {
             let Some(m) = mesh_triangle(tri, vertex_map, n_vertices) else { continue };
             let mat = material[t].map_or(&default_material, |i| &asset.materials[i]);
-            let uvs = mat.base_color_texture.filter(|&i| i < asset.images.len()).and_then(|img| {
-                let set = asset.uvs.get(mat.base_color_uv as usize)?;
-                Some((img, set, set.corners.get(t)?))
+            let texture = mat.base_color_texture.filter(|x| x.image < asset.images.len());
+            let uvs = texture.and_then(|x| {
+                let set = asset.uvs.get(x.uv as usize)?;
+                Some((x.image, set, set.corners.get(t)?))
             });
             let colors = asset.colors.as_ref().and_then(|c| Some((c, c.corners.get(t)?)));
             let mut out = [0u32; 3];
@@ -220,7 +221,7 @@ fn decode(bytes: &[u8]) -> Result<DecodedImage, image::ImageError> {
 #[allow(clippy::unwrap_used, clippy::expect_used)]
 mod tests {
     use super::*;
-    use solver::io::{Attribute, Image, Material, Part};
+    use solver::io::{Attribute, Image, Material, MaterialTexture, Part};
 
     /// A quad of two triangles over four file vertices whose UVs are split along the diagonal
     /// (each triangle has its own UV island), plus a fifth file vertex welded onto vertex 0.
@@ -244,7 +245,7 @@ mod tests {
             corners: vec![[0, 1, 2], [3, 4, 5], [6, 6, 6]],
         }];
         asset.materials = vec![Material {
-            base_color_texture: Some(0),
+            base_color_texture: Some(MaterialTexture::of_image(0)),
             base_color: [1.0, 0.5, 0.5, 1.0],
             ..Material::default()
         }];

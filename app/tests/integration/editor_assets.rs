@@ -38,7 +38,7 @@ fn red_png() -> Vec<u8> {
 /// (24 file vertices, welded to 8 by cleaning), with one material whose base-colour texture is
 /// `png`.
 fn textured_cube(png: Vec<u8>) -> solver::io::LoadedMesh {
-    use solver::io::{Asset, Attribute, Image, LoadedMesh, Material};
+    use solver::io::{Asset, Attribute, Image, LoadedMesh, Material, MaterialTexture};
     let (mut positions, mut triangles, mut uvs) = (Vec::new(), Vec::new(), Vec::new());
     for axis in 0..3 {
         for sign in [-1.0, 1.0] {
@@ -63,8 +63,11 @@ fn textured_cube(png: Vec<u8>) -> solver::io::LoadedMesh {
     }
     let mut asset = Asset::bare(positions.clone(), triangles.clone());
     asset.uvs = vec![Attribute::per_vertex(uvs, &triangles)];
-    asset.materials =
-        vec![Material { name: "red".into(), base_color_texture: Some(0), ..Material::default() }];
+    asset.materials = vec![Material {
+        name: "red".into(),
+        base_color_texture: Some(MaterialTexture::of_image(0)),
+        ..Material::default()
+    }];
     asset.images =
         vec![Image { name: "red.png".into(), mime_type: "image/png".into(), bytes: png }];
     asset.parts[0].material = Some(0);

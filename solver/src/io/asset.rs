@@ -72,21 +72,104 @@ pub struct Material {
     pub name: String,
     /// Linear RGBA factor (glTF `baseColorFactor`; OBJ/MTL `Kd` and `d`).
     pub base_color: [f32; 4],
-    /// Index into [`Asset::images`] of the base-colour texture (glTF `baseColorTexture`; MTL
-    /// `map_Kd`), sampled with UV set `base_color_uv` (0 or 1).
-    pub base_color_texture: Option<usize>,
-    pub base_color_uv: u32,
-    /// How the base-colour texture is sampled (glTF: its texture's sampler).
-    pub base_color_sampling: Sampling,
+    /// The base-colour texture (glTF `baseColorTexture`; MTL `map_Kd`): the one the editor
+    /// draws.
+    pub base_color_texture: Option<MaterialTexture>,
     pub metallic: f32,
     pub roughness: f32,
-    /// Linear RGB emitted light (glTF `emissiveFactor`).
+    /// Metalness in B, roughness in G (glTF `metallicRoughnessTexture`).
+    pub metallic_roughness_texture: Option<MaterialTexture>,
+    /// A tangent-space normal map (glTF `normalTexture`), its XY scaled by `normal_scale`.
+    pub normal_texture: Option<MaterialTexture>,
+    pub normal_scale: f32,
+    /// Ambient occlusion in R (glTF `occlusionTexture`), applied with `occlusion_strength`.
+    pub occlusion_texture: Option<MaterialTexture>,
+    pub occlusion_strength: f32,
+    /// Linear RGB emitted light (glTF `emissiveFactor`), times `emissive_texture` if any.
     pub emissive: [f32; 3],
+    pub emissive_texture: Option<MaterialTexture>,
     pub double_sided: bool,
     /// glTF `alphaMode` (`"OPAQUE"`, `"MASK"`, `"BLEND"`).
     pub alpha_mode: String,
     /// The alpha below which a `"MASK"` material is transparent (glTF `alphaCutoff`).
     pub alpha_cutoff: f32,
+}
+
+/// A texture a material samples: an image, the UV set it is sampled with (0 or 1), and how.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct MaterialTexture {
+    /// Index into [`Asset::images`].
+    pub image: usize,
+    pub uv: u32,
+    /// glTF: its texture's sampler.
+    pub sampling: Sampling,
+}
+
+impl MaterialTexture {
+    /// `image` sampled with UV set 0 and the default sampling (an OBJ's texture).
+    pub fn of_image(image: usize) -> MaterialTexture {
+        MaterialTexture { image, uv: 0, sampling: Sampling::default() }
+    }
+}
+
+/// The textures a material may hold, in the order glTF lists them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TextureSlot {
+    BaseColor,
+    MetallicRoughness,
+    Normal,
+    Occlusion,
+    Emissive,
+}
+
+impl TextureSlot {
+    pub const ALL: [TextureSlot; 5] = [
+        TextureSlot::BaseColor,
+        TextureSlot::MetallicRoughness,
+        TextureSlot::Normal,
+        TextureSlot::Occlusion,
+        TextureSlot::Emissive,
+    ];
+
+    /// Its glTF property name (`baseColorTexture`, …).
+    pub fn name(self) -> &'static str {
+        match self {
+            TextureSlot::BaseColor => "baseColorTexture",
+            TextureSlot::MetallicRoughness => "metallicRoughnessTexture",
+            TextureSlot::Normal => "normalTexture",
+            TextureSlot::Occlusion => "occlusionTexture",
+            TextureSlot::Emissive => "emissiveTexture",
+        }
+    }
+}
+
+impl Material {
+    /// The texture in `slot`.
+    pub fn texture(&self, slot: TextureSlot) -> Option<&MaterialTexture> {
+        match slot {
+            TextureSlot::BaseColor => self.base_color_texture.as_ref(),
+            TextureSlot::MetallicRoughness => self.metallic_roughness_texture.as_ref(),
+            TextureSlot::Normal => self.normal_texture.as_ref(),
+            TextureSlot::Occlusion => self.occlusion_texture.as_ref(),
+            TextureSlot::Emissive => self.emissive_texture.as_ref(),
+        }
+    }
+
+    /// The texture in `slot`, to set or clear.
+    pub fn texture_mut(&mut self, slot: TextureSlot) -> &mut Option<MaterialTexture> {
+        match slot {
+            TextureSlot::BaseColor => &mut self.base_color_texture,
+            TextureSlot::MetallicRoughness => &mut self.metallic_roughness_texture,
+            TextureSlot::Normal => &mut self.normal_texture,
+            TextureSlot::Occlusion => &mut self.occlusion_texture,
+            TextureSlot::Emissive => &mut self.emissive_texture,
+        }
+    }
+
+    /// Its textures with their slots, in [`TextureSlot::ALL`]'s order.
+    pub fn textures(&self) -> impl Iterator<Item = (TextureSlot, &MaterialTexture)> {
+        TextureSlot::ALL.into_iter().filter_map(|s| Some((s, self.texture(s)?)))
+    }
 }
 
 /// A texture's sampling, as glTF sampler codes (OpenGL enums: filters 9728 `NEAREST`, 9729
@@ -114,11 +197,15 @@ impl Default for Material {
             name: String::new(),
             base_color: [1.0; 4],
             base_color_texture: None,
-            base_color_uv: 0,
-            base_color_sampling: Sampling::default(),
             metallic: 0.0,
             roughness: 1.0,
+            metallic_roughness_texture: None,
+            normal_texture: None,
+            normal_scale: 1.0,
+            occlusion_texture: None,
+            occlusion_strength: 1.0,
             emissive: [0.0; 3],
+            emissive_texture: None,
             double_sided: false,
             alpha_mode: "OPAQUE".to_string(),
             alpha_cutoff: 0.5,
@@ -199,15 +286,15 @@ impl Asset {
         let mime = super::image_check::decoded_mime(&bytes, None)?;
         let image = self.images.len();
         self.images.push(Image { name: name.to_string(), mime_type: mime.into(), bytes });
+        let texture = MaterialTexture::of_image(image);
         for m in &mut self.materials {
-            m.base_color_texture = Some(image);
-            m.base_color_uv = 0;
+            m.base_color_texture = Some(texture);
         }
         if self.parts.iter().any(|p| p.material.is_none()) {
             let m = self.materials.len();
             self.materials.push(Material {
                 name: "texture".into(),
-                base_color_texture: Some(image),
+                base_color_texture: Some(texture),
                 ..Material::default()
             });
             for p in self.parts.iter_mut().filter(|p| p.material.is_none()) {
@@ -388,8 +475,12 @@ impl Asset {
             return Err(format!("parts cover {next} of {f} triangles"));
         }
         for (k, m) in self.materials.iter().enumerate() {
-            if m.base_color_texture.is_some_and(|i| i >= self.images.len()) {
-                return Err(format!("material {k}: image {:?} out of range", m.base_color_texture));
+            if let Some((slot, t)) = m.textures().find(|(_, t)| t.image >= self.images.len()) {
+                return Err(format!(
+                    "material {k}: {} image {} out of range",
+                    slot.name(),
+                    t.image
+                ));
             }
         }
         self.check_polygons()

@@ -41,8 +41,8 @@
 //! [`MAX_VERTICES`] vertices or [`MAX_TRIANGLES`] triangles (index corners), instances
 //! counted, is refused, so that no small file asks for unbounded time or memory.
 //!
-//! `KHR_texture_transform` on a material's base colour texture is applied to the texture
-//! coordinates its primitives sample ([`UvTransform`]), so that they are stored as sampled.
+//! `KHR_texture_transform` on a material's textures is applied to the texture coordinates its
+//! primitives sample (`gltf_uv`), so that they are stored as sampled.
 //!
 //! Known limitations: TEXCOORD_2 and above, COLOR_1 and above, tangents, skins and morph
 //! targets of the input are ignored (a notice names the skins, morph targets and animations).
@@ -62,6 +62,7 @@ use super::gltf_accessor::{
     COLOR_TYPES, NORMAL_TYPES, Spec, UV_TYPES, attribute, component, read_accessor,
 };
 use super::gltf_material;
+use super::gltf_uv::UvPlan;
 use super::reference::Folder;
 use super::uri::read_uri;
 use crate::geometry::mesh::in_range;
@@ -181,11 +182,7 @@ pub(crate) fn parse(bytes: &[u8], ctx: Ctx, folder: Option<Folder>) -> Result<As
             return Err(ctx.parse(None, format!("image {k} has neither a uri nor a bufferView")));
         }
     }
-    let uv_transforms: Vec<Option<UvTransform>> = json
-        .materials
-        .iter()
-        .map(|m| m.pbr_metallic_roughness.base_color_texture.as_ref().and_then(UvTransform::of))
-        .collect();
+    let uv_plans: Vec<UvPlan> = json.materials.iter().map(UvPlan::of).collect();
     let document = ::gltf::Document::from_json(json)
         .map_err(|e| ctx.parse(None, format!("not a valid glTF 2.0 file: {e}")))?;
     let gltf = ::gltf::Gltf { document, blob };
@@ -197,7 +194,7 @@ pub(crate) fn parse(bytes: &[u8], ctx: Ctx, folder: Option<Folder>) -> Result<As
         draco: used("KHR_draco_mesh_compression"),
         quantization: used("KHR_mesh_quantization"),
     };
-    let source = Source { buffers: &buffers, ctx, extensions, uv_transforms: &uv_transforms };
+    let source = Source { buffers: &buffers, ctx, extensions, uv_plans: &uv_plans };
 
     let mut raw = Asset::default();
     let mut layers = Layers::default();
@@ -251,10 +248,8 @@ pub(crate) fn parse(bytes: &[u8], ctx: Ctx, folder: Option<Folder>) -> Result<As
     }
     layers.finish(&mut raw);
     raw.materials = gltf_material::materials(&gltf.document);
-    for (m, t) in raw.materials.iter_mut().zip(&uv_transforms) {
-        if let Some(t) = t {
-            m.base_color_uv = t.set; // the UVs that set's transform was applied to
-        }
+    for (k, (m, plan)) in raw.materials.iter_mut().zip(&uv_plans).enumerate() {
+        plan.settle(k, m, &mut raw.notices);
     }
     let images = gltf_material::images(&gltf.document, &buffers, ctx, folder, &mut raw.notices)?;
     raw.images = gltf_material::keep(images, &mut raw.materials);
@@ -399,57 +394,14 @@ struct Extensions {
 }
 
 /// What every primitive of one file is read with: the file's buffers, its name for errors,
-/// the extensions it uses and each material's base colour texture transform.
+/// the extensions it uses and how each material's UV sets are read.
 #[derive(Clone, Copy)]
 struct Source<'a> {
     buffers: &'a [Arc<[u8]>],
     ctx: Ctx<'a>,
     extensions: Extensions,
-    uv_transforms: &'a [Option<UvTransform>],
-}
-
-/// `KHR_texture_transform` on a material's base colour texture, applied to the texture
-/// coordinates it samples: $uv' = T\,R\,S\,uv$ with $S$ the scale, $R$ the rotation by
-/// `rotation` radians ($u' = \cos r\,u + \sin r\,v$, $v' = -\sin r\,u + \cos r\,v$) and $T$
-/// the offset (the extension's specification). gltfpack writes quantized texture coordinates
-/// as integers with such a transform; read as stored, they tiled the texture thousands of
-/// times.
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct UvTransform {
-    offset: [f64; 2],
-    rotation: f64,
-    scale: [f64; 2],
-    /// The texture coordinate set it applies to (its `texCoord`, else the texture's).
-    set: u32,
-}
-
-impl UvTransform {
-    /// The transform `info` carries, if any (missing fields take their defaults; a
-    /// non-finite one leaves the coordinates as stored).
-    fn of(info: &::gltf::json::texture::Info) -> Option<UvTransform> {
-        let t = info.extensions.as_ref()?.others.get("KHR_texture_transform")?;
-        let pair = |key: &str, default: [f64; 2]| match t.get(key) {
-            None => Some(default),
-            Some(v) => match v.as_array()?.as_slice() {
-                [a, b] => Some([a.as_f64()?, b.as_f64()?]),
-                _ => None,
-            },
-        };
-        let transform = UvTransform {
-            offset: pair("offset", [0.0, 0.0])?,
-            rotation: t.get("rotation").map_or(Some(0.0), |r| r.as_f64())?,
-            scale: pair("scale", [1.0, 1.0])?,
-            set: t.get("texCoord").and_then(|c| c.as_u64()).map_or(info.tex_coord, |c| c as u32),
-        };
-        let finite = transform.offset.iter().chain(&transform.scale).all(|x| x.is_finite());
-        (finite && transform.rotation.is_finite()).then_some(transform)
-    }
-
-    fn apply(&self, uv: [f32; 2]) -> [f32; 2] {
-        let (s, c) = self.rotation.sin_cos();
-        let (u, v) = (f64::from(uv[0]) * self.scale[0], f64::from(uv[1]) * self.scale[1]);
-        [(c * u + s * v + self.offset[0]) as f32, (-s * u + c * v + self.offset[1]) as f32]
-    }
+    /// Per material, the transform each UV set is read with.
+    uv_plans: &'a [UvPlan],
 }
 
 /// Appends one primitive's transformed positions, its triangles, its vertex attributes and
@@ -652,11 +604,9 @@ fn read_layers(
             neutral: [0.0; 4],
         };
         let values = read(uv)?;
-        let transform = prim
-            .material()
-            .index()
-            .and_then(|m| source.uv_transforms.get(m).copied().flatten())
-            .filter(|t| t.set as usize == set);
+        let transform = (prim.material().index())
+            .and_then(|m| source.uv_plans.get(m))
+            .and_then(|p| p.sets[set]);
         let values = values.as_ref().map(|v| {
             v.iter().map(move |c| transform.map_or([c[0], c[1]], |t| t.apply([c[0], c[1]])))
         });

@@ -1,25 +1,25 @@
 //! glTF 2.0 materials and images, read into [`Material`] and [`Image`] (glTF 2.0 spec §3.9
 //! "Materials" and §3.8 "Textures/Images").
 //!
-//! A material keeps its metallic-roughness core: `baseColorFactor`, `baseColorTexture` (the
-//! texture's image index, its `texCoord` set and its sampler's filters and wraps),
-//! `metallicFactor`, `roughnessFactor`, `emissiveFactor`, `doubleSided`, `alphaMode` and
-//! `alphaCutoff`; its other textures (normal, occlusion, emissive, metallic-roughness) and
-//! extensions are not kept. `Asset::materials[i]` is the file's material `i`, so a primitive's
-//! material index is used as is. `texCoord` is kept as written, though only sets 0 and 1 are
-//! read. An image's name is its `name`, else its file name (URI percent-decoded), else
-//! `imageN`.
+//! A material keeps its metallic-roughness core: `baseColorFactor`, `metallicFactor`,
+//! `roughnessFactor`, `emissiveFactor`, `doubleSided`, `alphaMode`, `alphaCutoff`, and its
+//! five textures (base colour, metallic-roughness, normal with its `scale`, occlusion with its
+//! `strength`, emissive), each as its image index, its `texCoord` set and its sampler's
+//! filters and wraps; its extensions are not kept. `Asset::materials[i]` is the file's
+//! material `i`, so a primitive's material index is used as is. `texCoord` is kept as
+//! written, though only sets 0 and 1 are read. An image's name is its `name`, else its file
+//! name (URI percent-decoded), else `imageN`.
 //!
-//! An image a material's base colour uses keeps its encoded bytes (others are not read): from
-//! a GLB buffer view (bounds-checked), a base64 `data:` URI, or a file in the `.gltf`'s folder
-//! (a missing file, or a reference outside the folder, is dropped with a notice, see `uri`). Its bytes must decode
-//! as a PNG or JPEG within the size limits ([`super::image_check`]), of the type the file
-//! declares (`mimeType`, or the data URI's media type) when it declares one; an image that
-//! does not is dropped with a notice, and materials that used it lose their texture.
+//! An image a material uses keeps its encoded bytes (others are not read): from a GLB buffer
+//! view (bounds-checked), a base64 `data:` URI, or a file in the `.gltf`'s folder (a missing
+//! file, or a reference outside the folder, is dropped with a notice, see `uri`). Its bytes
+//! must decode as a PNG or JPEG within the size limits ([`super::image_check`]), of the type
+//! the file declares (`mimeType`, or the data URI's media type) when it declares one; an image
+//! that does not is dropped with a notice, and materials that used it lose that texture.
 
 use ::gltf::material::AlphaMode;
 
-use super::asset::{Image, Material, Sampling};
+use super::asset::{Image, Material, MaterialTexture, Sampling, TextureSlot};
 use super::error::{Ctx, LoadError};
 use super::image_check::decoded_mime;
 use super::reference::Folder;
@@ -29,30 +29,40 @@ use super::uri::{percent_decode, read_uri};
 /// and a small file can point many at one large buffer view.
 const MAX_IMAGE_BYTES: usize = 1 << 30;
 
+/// A texture reference read as a [`MaterialTexture`] (its UV set as written: `gltf_uv`
+/// settles it).
+fn material_texture(texture: ::gltf::Texture, tex_coord: u32) -> MaterialTexture {
+    let s = texture.sampler();
+    let sampling = Sampling {
+        mag_filter: s.mag_filter().map(|f| f.as_gl_enum()),
+        min_filter: s.min_filter().map(|f| f.as_gl_enum()),
+        wrap: [s.wrap_s().as_gl_enum(), s.wrap_t().as_gl_enum()],
+    };
+    MaterialTexture { image: texture.source().index(), uv: tex_coord, sampling }
+}
+
 /// The document's materials, in file order.
 pub(crate) fn materials(document: &::gltf::Document) -> Vec<Material> {
+    let info = |i: ::gltf::texture::Info| material_texture(i.texture(), i.tex_coord());
     document
         .materials()
         .map(|m| {
             let pbr = m.pbr_metallic_roughness();
-            let texture = pbr.base_color_texture();
-            let sampling = texture.as_ref().map_or_else(Sampling::default, |t| {
-                let s = t.texture().sampler();
-                Sampling {
-                    mag_filter: s.mag_filter().map(|f| f.as_gl_enum()),
-                    min_filter: s.min_filter().map(|f| f.as_gl_enum()),
-                    wrap: [s.wrap_s().as_gl_enum(), s.wrap_t().as_gl_enum()],
-                }
-            });
+            let normal = m.normal_texture();
+            let occlusion = m.occlusion_texture();
             Material {
                 name: m.name().unwrap_or_default().to_string(),
                 base_color: pbr.base_color_factor(),
-                base_color_texture: texture.as_ref().map(|t| t.texture().source().index()),
-                base_color_uv: texture.as_ref().map_or(0, |t| t.tex_coord()),
-                base_color_sampling: sampling,
+                base_color_texture: pbr.base_color_texture().map(info),
                 metallic: pbr.metallic_factor(),
                 roughness: pbr.roughness_factor(),
+                metallic_roughness_texture: pbr.metallic_roughness_texture().map(info),
+                normal_scale: normal.as_ref().map_or(1.0, |n| n.scale()),
+                normal_texture: normal.map(|n| material_texture(n.texture(), n.tex_coord())),
+                occlusion_strength: occlusion.as_ref().map_or(1.0, |o| o.strength()),
+                occlusion_texture: occlusion.map(|o| material_texture(o.texture(), o.tex_coord())),
                 emissive: m.emissive_factor(),
+                emissive_texture: m.emissive_texture().map(info),
                 double_sided: m.double_sided(),
                 alpha_cutoff: m.alpha_cutoff().unwrap_or(0.5),
                 alpha_mode: match m.alpha_mode() {
@@ -67,7 +77,7 @@ pub(crate) fn materials(document: &::gltf::Document) -> Vec<Material> {
 }
 
 /// The document's images, in file order, with their encoded bytes; `None` for an image no
-/// material's base colour uses (not read; an image's buffer view is still checked), and for
+/// material uses (not read; an image's buffer view is still checked), and for
 /// one that was refused (its reason pushed to
 /// `notices`: a file missing or unreadable, a reference outside the folder or with a scheme,
 /// an invalid data URI, bytes that are not a PNG or JPEG that decodes, more than
@@ -81,11 +91,10 @@ pub(crate) fn images(
     folder: Option<Folder>,
     notices: &mut Vec<String>,
 ) -> Result<Vec<Option<Image>>, LoadError> {
-    // Only base colour textures are kept: other images are not read at all.
-    let used: std::collections::HashSet<usize> = document
-        .materials()
-        .filter_map(|m| m.pbr_metallic_roughness().base_color_texture())
-        .map(|t| t.texture().source().index())
+    // Images no material uses are not read at all.
+    let used: std::collections::HashSet<usize> = materials(document)
+        .iter()
+        .flat_map(|m| m.textures().map(|(_, t)| t.image).collect::<Vec<_>>())
         .collect();
     let mut budget = MAX_IMAGE_BYTES;
     let mut out = Vec::new();
@@ -159,8 +168,8 @@ pub(crate) fn images(
     Ok(out)
 }
 
-/// The images that were kept, in order; `materials`' texture indices renumbered onto them,
-/// and cleared where their image was refused.
+/// The images that were kept, in order; `materials`' textures renumbered onto them, and
+/// cleared where their image was refused.
 pub(crate) fn keep(images: Vec<Option<Image>>, materials: &mut [Material]) -> Vec<Image> {
     let mut index = Vec::with_capacity(images.len());
     let mut kept = Vec::new();
@@ -169,7 +178,13 @@ pub(crate) fn keep(images: Vec<Option<Image>>, materials: &mut [Material]) -> Ve
         kept.extend(image);
     }
     for m in materials {
-        m.base_color_texture = m.base_color_texture.and_then(|i| index.get(i).copied().flatten());
+        for slot in TextureSlot::ALL {
+            let texture = m.texture_mut(slot);
+            *texture = texture.and_then(|t| {
+                let image = index.get(t.image).copied().flatten()?;
+                Some(MaterialTexture { image, ..t })
+            });
+        }
     }
     kept
 }
@@ -198,15 +213,22 @@ mod tests {
     fn refused_images_renumber_the_materials() {
         let image =
             |name: &str| Image { name: name.into(), mime_type: "image/png".into(), bytes: vec![] };
+        let texture = |i| Some(MaterialTexture::of_image(i));
         let mut materials = vec![
-            Material { base_color_texture: Some(0), ..Material::default() },
-            Material { base_color_texture: Some(1), ..Material::default() },
-            Material { base_color_texture: Some(2), ..Material::default() },
+            Material { base_color_texture: texture(0), ..Material::default() },
+            Material { base_color_texture: texture(1), ..Material::default() },
+            Material {
+                base_color_texture: texture(2),
+                normal_texture: texture(1),
+                ..Material::default()
+            },
             Material::default(),
         ];
         let kept = keep(vec![None, Some(image("b")), Some(image("c"))], &mut materials);
         assert_eq!(kept.iter().map(|i| i.name.as_str()).collect::<Vec<_>>(), ["b", "c"]);
-        let textures: Vec<_> = materials.iter().map(|m| m.base_color_texture).collect();
+        let textures: Vec<_> =
+            materials.iter().map(|m| m.base_color_texture.map(|t| t.image)).collect();
         assert_eq!(textures, [None, Some(0), Some(1), None]);
+        assert_eq!(materials[2].normal_texture.map(|t| t.image), Some(0));
     }
 }

@@ -26,6 +26,7 @@ mod error;
 mod gltf;
 mod gltf_accessor;
 mod gltf_material;
+mod gltf_uv;
 mod image_check;
 mod mtl;
 mod obj;
@@ -41,7 +42,7 @@ mod write_plain;
 
 use std::path::Path;
 
-pub use asset::{Asset, Attribute, Image, Material, Part};
+pub use asset::{Asset, Attribute, Image, Material, MaterialTexture, Part, TextureSlot};
 pub use error::LoadError;
 pub use gltf::{MAX_TRIANGLES as MAX_GLTF_TRIANGLES, MAX_VERTICES as MAX_GLTF_VERTICES};
 pub use image_check::{MAX_IMAGE_ALLOC, MAX_IMAGE_SIDE};

@@ -22,7 +22,7 @@
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
-use super::asset::{Asset, Image, Material};
+use super::asset::{Asset, Image, Material, MaterialTexture};
 use super::image_check::decoded_mime;
 use super::reference::{Folder, resolve};
 
@@ -101,8 +101,7 @@ pub(crate) fn attach(asset: &mut Asset, libs: &[String], folder: Option<Folder>)
                     ));
                 }
             }
-            target.base_color_texture = texture;
-            target.base_color_uv = 0;
+            target.base_color_texture = texture.map(MaterialTexture::of_image);
             if d < 1.0 {
                 target.alpha_mode = "BLEND".to_string();
             }
@@ -206,7 +205,8 @@ mod tests {
             (asset.images[1].name.as_str(), asset.images[1].mime_type.as_str()),
             ("u.PNG", "image/png")
         );
-        let textures: Vec<_> = asset.materials.iter().map(|m| m.base_color_texture).collect();
+        let textures: Vec<_> =
+            asset.materials.iter().map(|m| m.base_color_texture.map(|t| t.image)).collect();
         assert_eq!(textures, [Some(0), Some(0), None, Some(1), None]);
         assert_eq!(asset.notices.len(), 3, "{:?}", asset.notices);
         assert_eq!(asset.material_libraries, [dir.join("m.mtl")], "the one read");
@@ -233,7 +233,8 @@ mod tests {
         let libs = ["m.mtl".to_string(), "../outside.mtl".to_string()];
         attach(&mut asset, &libs, folder(&root));
         let texture = |name: &str| {
-            asset.materials.iter().find(|m| m.name == name).unwrap().base_color_texture
+            let m = asset.materials.iter().find(|m| m.name == name).unwrap();
+            m.base_color_texture.map(|t| t.image)
         };
         assert_eq!(texture("abs"), Some(0), "an absolute path to an image that decodes is read");
         assert_eq!(asset.images.len(), 1, "nothing else: {:?}", asset.notices);

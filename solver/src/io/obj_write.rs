@@ -23,9 +23,10 @@
 //! Every file goes through [`write_atomic`], textures first, then the MTL, then the OBJ, so the
 //! OBJ never refers to a file that is not there yet.
 //!
-//! Known limitations: OBJ has one UV set (set 1 and `base_color_uv = 1` are not written);
-//! vertex colours are not written (no standard OBJ form); glTF's texture samplers, emissive and
-//! normal maps are not part of [`Asset`].
+//! Known limitations: OBJ has one UV set (set 1, and a texture sampled with it, are not
+//! written); vertex colours are not written (no standard OBJ form); only the base colour
+//! texture is written (`map_Kd`), without its sampling: a glTF's metallic-roughness, normal,
+//! occlusion and emissive textures are not.
 
 use std::collections::HashSet;
 use std::fmt::Write as _;
@@ -84,7 +85,8 @@ pub fn write_mtl_asset(path: &Path, asset: &Asset) -> Result<Option<String>, Sav
     let mut text = String::new();
     let _ = writeln!(text, "# {} materials", asset.materials.len());
     for (m, name) in asset.materials.iter().zip(&names.materials) {
-        let texture = m.base_color_texture.and_then(|i| textures.get(i)).and_then(Option::as_ref);
+        let texture =
+            m.base_color_texture.and_then(|t| textures.get(t.image)).and_then(Option::as_ref);
         push_material(&mut text, name, m, texture.map(String::as_str));
     }
     if let Some(default) = &names.default {
@@ -186,7 +188,7 @@ fn texture_files(path: &Path, asset: &Asset, mtl: &str) -> Result<Vec<Option<Str
     let dir = path.parent().unwrap_or(Path::new(""));
     let mut wanted = vec![false; asset.images.len()];
     for (i, m) in asset.materials.iter().enumerate() {
-        if let Some(t) = m.base_color_texture {
+        if let Some(t) = m.base_color_texture.map(|t| t.image) {
             let Some(w) = wanted.get_mut(t) else {
                 return Err(SaveError::Inconsistent {
                     file: file.clone(),

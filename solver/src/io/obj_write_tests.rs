@@ -3,7 +3,7 @@
 #![allow(clippy::unwrap_used)]
 
 use super::*;
-use crate::io::asset::{Attribute, Image};
+use crate::io::asset::{Attribute, Image, MaterialTexture};
 use crate::io::load_mesh;
 use crate::testing::ScratchDir;
 
@@ -50,7 +50,7 @@ fn cube_asset() -> Asset {
         materials: vec![Material {
             name: "Red Paint".into(),
             base_color: [0.8, 0.1, 0.05, 0.5],
-            base_color_texture: Some(0),
+            base_color_texture: Some(MaterialTexture::of_image(0)),
             metallic: 0.25,
             roughness: 0.75,
             ..Material::default()
@@ -211,7 +211,7 @@ fn names_are_sanitized_and_unique() {
         .enumerate()
         .map(|(i, n)| Material {
             name: n.to_string(),
-            base_color_texture: Some(i),
+            base_color_texture: Some(MaterialTexture::of_image(i)),
             ..Material::default()
         })
         .collect();
@@ -263,7 +263,7 @@ fn bad_inputs_write_nothing() {
     check(write_obj_asset(&path, &asset, &nan, None), "vertex 3");
     check(write_obj_asset(&path, &asset, &asset.positions, Some(&normals[..8])), "8 normals");
     let mut bad = asset.clone();
-    bad.materials[0].base_color_texture = Some(5);
+    bad.materials[0].base_color_texture = Some(MaterialTexture::of_image(5));
     check(write_obj_asset(&path, &bad, &asset.positions, None), "texture 5");
     let mut bad = asset.clone();
     bad.parts[1].first = 11;

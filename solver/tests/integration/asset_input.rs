@@ -147,12 +147,12 @@ fn check_two_primitives(m: &LoadedMesh) {
     let skin = &a.materials[0];
     assert_eq!(skin.name, "skin");
     assert_eq!(skin.base_color, [1.0, 0.5, 0.25, 1.0]);
-    assert_eq!((skin.base_color_texture, skin.base_color_uv), (Some(0), 0));
+    assert_eq!(skin.base_color_texture.map(|t| (t.image, t.uv)), Some((0, 0)));
     assert_eq!((skin.metallic, skin.roughness), (0.25, 0.75));
     assert!(skin.double_sided);
     assert_eq!(skin.alpha_mode, "MASK");
     assert_eq!(a.materials[1].name, "plain");
-    assert_eq!(a.materials[1].base_color_texture, None);
+    assert_eq!(a.materials[1].base_color_texture.map(|t| t.image), None);
     assert_eq!(a.images.len(), 1);
     assert_eq!(a.images[0].bytes, tiny_png());
     assert_eq!(a.images[0].mime_type, "image/png");
@@ -327,9 +327,9 @@ fn obj_with_mtl_seams_hard_normals_and_two_materials() {
     assert_eq!(parts, vec![("cube", Some(0), 0, 6), ("cube", Some(1), 6, 6)]);
     assert_eq!(a.materials[0].name, "red");
     assert_eq!(a.materials[0].base_color, [1.0, 0.0, 0.0, 0.5]);
-    assert_eq!(a.materials[0].base_color_texture, Some(0));
+    assert_eq!(a.materials[0].base_color_texture.map(|t| t.image), Some(0));
     assert_eq!(a.materials[1].base_color, [0.0, 0.0, 1.0, 1.0]);
-    assert_eq!(a.materials[1].base_color_texture, None);
+    assert_eq!(a.materials[1].base_color_texture.map(|t| t.image), None);
     assert_eq!(a.images.len(), 1);
     assert_eq!(
         (a.images[0].name.as_str(), a.images[0].mime_type.as_str()),

@@ -17,7 +17,7 @@ use solver::animation::export::{
     export_asset, exported_size,
 };
 use solver::animation::recording::Recording;
-use solver::io::{Asset, Format, load_mesh_from_bytes};
+use solver::io::{Asset, Format, MaterialTexture, load_mesh_from_bytes};
 use solver::testing::ScratchDir;
 use solver::testing::gltf_decode::{json_of, parse, played_error, read};
 
@@ -612,10 +612,10 @@ fn emissive_cutoff_and_sampling_are_kept() {
     let nearest = Sampling { mag_filter: Some(9728), min_filter: Some(9728), wrap: [33071, 33648] };
     let m = &mut asset.materials[0];
     (m.emissive, m.alpha_mode, m.alpha_cutoff) = ([0.25, 0.5, 1.0], "MASK".into(), 0.25);
-    m.base_color_sampling = nearest;
+    m.base_color_texture.as_mut().unwrap().sampling = nearest;
     let again = solver::io::asset::Material {
         name: "smooth".into(),
-        base_color_texture: Some(0),
+        base_color_texture: Some(MaterialTexture::of_image(0)),
         ..Default::default()
     };
     asset.materials.push(again);
@@ -631,9 +631,11 @@ fn emissive_cutoff_and_sampling_are_kept() {
         (m.emissive, m.alpha_mode.as_str(), m.alpha_cutoff),
         ([0.25, 0.5, 1.0], "MASK", 0.25)
     );
-    assert_eq!(m.base_color_sampling, nearest);
-    assert_eq!(back.materials[2].base_color_sampling, Sampling::default());
-    assert_eq!(back.materials[2].base_color_texture, m.base_color_texture, "one image");
+    let sampling = |m: &solver::io::Material| m.base_color_texture.unwrap().sampling;
+    assert_eq!(sampling(m), nearest);
+    assert_eq!(sampling(&back.materials[2]), Sampling::default());
+    let image = |m: &solver::io::Material| m.base_color_texture.unwrap().image;
+    assert_eq!(image(&back.materials[2]), image(m), "one image");
     let doc = parse(&std::fs::read(&path).unwrap());
     assert_eq!((doc.gltf.textures().len(), doc.gltf.samplers().len()), (2, 2));
     let glass = doc.gltf.materials().nth(1).unwrap();

@@ -3,6 +3,7 @@
 //! winding. The malformed cases are in `malformed_input.rs`.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+use crate::support::export_fixture::tiny_png;
 use crate::support::gltf_files;
 
 use gltf_files::{TET_P, tet_bin, tet_doc, to_glb, to_gltf};
@@ -156,6 +157,23 @@ fn quantized_attributes_are_decoded() {
     let m = load_mesh_from_bytes(&to_glb(&doc, &bin), Format::Gltf, "r.glb").unwrap();
     let [u, v] = m.asset.uvs[0].values[1];
     assert!(u.abs() < 1e-6 && (v + 4.0).abs() < 1e-6, "{u} {v}");
+
+    // Every texture of a material is read with its transform: a normal map alone moves the
+    // coordinates as a base colour does (it was read untransformed); a texture that samples
+    // them with another transform (here none) is not kept, with a notice.
+    use base64::Engine as _;
+    let png = base64::engine::general_purpose::STANDARD.encode(tiny_png());
+    doc["images"] = json!([{"uri": format!("data:image/png;base64,{png}")}]);
+    let t = json!({"KHR_texture_transform": {"offset": [0.5, 0.25], "scale": [0.25, 0.125]}});
+    doc["materials"] = json!([{"normalTexture": {"index": 0, "scale": 0.5, "extensions": t},
+        "occlusionTexture": {"index": 0, "strength": 0.75}}]);
+    let m = load_mesh_from_bytes(&to_glb(&doc, &bin), Format::Gltf, "n.glb").unwrap();
+    assert_eq!(m.asset.uvs[0].values[3], [1.5, 0.75]);
+    let material = &m.asset.materials[0];
+    assert_eq!((material.normal_texture.map(|t| t.image), material.normal_scale), (Some(0), 0.5));
+    assert_eq!(material.occlusion_texture, None, "it samples transformed coordinates as raw");
+    let notice = m.asset.notices.iter().find(|n| n.contains("occlusionTexture"));
+    assert!(notice.is_some_and(|n| n.contains("normalTexture")), "{:?}", m.asset.notices);
 }
 
 /// A node hierarchy that is not a tree is read once per node, with a notice: one node shared

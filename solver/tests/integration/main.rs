@@ -14,6 +14,7 @@ mod coarse_base;
 mod deform;
 mod export;
 mod export_asset;
+mod export_materials;
 mod export_meshopt;
 mod fine_iterations;
 mod fuzz_regressions;

@@ -155,7 +155,7 @@ fn allowed_outside_images_must_still_decode() {
     let m = load_doc(&l.asset, &textured("../private/photo.png"), allow).unwrap();
     assert_eq!(m.asset.images.len(), 1);
     assert_eq!(m.asset.images[0].mime_type, "image/png");
-    assert_eq!(m.asset.materials[0].base_color_texture, Some(0));
+    assert_eq!(m.asset.materials[0].base_color_texture.map(|t| t.image), Some(0));
     for uri in ["../private/key", "/etc/passwd"] {
         let m = load_doc(&l.asset, &textured(uri), allow).unwrap();
         assert!(m.asset.images.is_empty() && !holds_secret(&m), "{uri}");

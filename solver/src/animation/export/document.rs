@@ -1,7 +1,7 @@
 //! Assembles the glTF JSON and its binary buffer in one walk, so that the size computed before
 //! writing and the bytes written come from the same code (the layout is in `mod.rs`'s doc).
 
-use crate::io::asset::Sampling;
+use crate::io::asset::{MaterialTexture, Sampling};
 use std::collections::BTreeMap;
 use std::ops::ControlFlow;
 
@@ -411,17 +411,19 @@ pub(super) fn push_materials(b: &mut Builder, asset: &Asset, format: GltfFormat)
             extras: None,
         });
     }
-    // Texture i shows image i with the sampling of the first material that uses it; another
-    // sampling of an image gets a texture of its own after those.
-    let used = |i: usize| asset.materials.iter().find(|m| m.base_color_texture == Some(i));
-    let mut textures: Vec<(usize, Sampling)> = (0..asset.images.len())
-        .map(|i| (i, used(i).map_or_else(Sampling::default, |m| m.base_color_sampling)))
-        .collect();
-    for m in &asset.materials {
-        if let Some(i) = m.base_color_texture.filter(|&i| i < asset.images.len())
-            && !textures.contains(&(i, m.base_color_sampling))
-        {
-            textures.push((i, m.base_color_sampling));
+    // Texture i shows image i with the sampling of its first use; another sampling of an
+    // image gets a texture of its own after those.
+    let uses = || {
+        let textures = asset.materials.iter().flat_map(|m| m.textures().map(|(_, t)| *t));
+        textures.filter(|t| t.image < asset.images.len())
+    };
+    let first =
+        |i: usize| uses().find(|t| t.image == i).map_or_else(Sampling::default, |t| t.sampling);
+    let mut textures: Vec<(usize, Sampling)> =
+        (0..asset.images.len()).map(|i| (i, first(i))).collect();
+    for t in uses() {
+        if !textures.contains(&(t.image, t.sampling)) {
+            textures.push((t.image, t.sampling));
         }
     }
     let mut samplers: Vec<Sampling> = Vec::new();
@@ -441,12 +443,21 @@ pub(super) fn push_materials(b: &mut Builder, asset: &Asset, format: GltfFormat)
             extras: None,
         });
     }
-    let texture_of = |m: &crate::io::asset::Material| {
-        let i = m.base_color_texture?;
-        textures.iter().position(|&t| t == (i, m.base_color_sampling))
+    // The texture `t` is written as; none when the asset lacks its UV set (it cannot be
+    // sampled: the material keeps its factors).
+    let texture_of = |t: &Option<MaterialTexture>| {
+        let t = t.filter(|t| (t.uv as usize) < asset.uvs.len())?;
+        let k = textures.iter().position(|&x| x == (t.image, t.sampling))?;
+        Some((json::Index::new(k as u32), t.uv))
     };
-    // A texture whose UV set the asset lacks cannot be sampled: the material keeps its factors.
-    let has_uv = |m: &crate::io::asset::Material| (m.base_color_uv as usize) < asset.uvs.len();
+    let info = |t: &Option<MaterialTexture>| {
+        texture_of(t).map(|(index, tex_coord)| json::texture::Info {
+            index,
+            tex_coord,
+            extensions: None,
+            extras: None,
+        })
+    };
     for m in &asset.materials {
         let mask = m.alpha_mode == "MASK";
         b.root.push(json::Material {
@@ -459,23 +470,32 @@ pub(super) fn push_materials(b: &mut Builder, asset: &Asset, format: GltfFormat)
                 base_color_factor: json::material::PbrBaseColorFactor(
                     m.base_color.map(|c| c.clamp(0.0, 1.0)),
                 ),
-                base_color_texture: texture_of(m).filter(|_| has_uv(m)).map(|t| {
-                    json::texture::Info {
-                        index: json::Index::new(t as u32),
-                        tex_coord: m.base_color_uv,
-                        extensions: None,
-                        extras: None,
-                    }
-                }),
+                base_color_texture: info(&m.base_color_texture),
                 metallic_factor: json::material::StrengthFactor(m.metallic.clamp(0.0, 1.0)),
                 roughness_factor: json::material::StrengthFactor(m.roughness.clamp(0.0, 1.0)),
-                metallic_roughness_texture: None,
+                metallic_roughness_texture: info(&m.metallic_roughness_texture),
                 extensions: None,
                 extras: None,
             },
-            normal_texture: None,
-            occlusion_texture: None,
-            emissive_texture: None,
+            normal_texture: texture_of(&m.normal_texture).map(|(index, tex_coord)| {
+                json::material::NormalTexture {
+                    index,
+                    scale: m.normal_scale,
+                    tex_coord,
+                    extensions: None,
+                    extras: None,
+                }
+            }),
+            occlusion_texture: texture_of(&m.occlusion_texture).map(|(index, tex_coord)| {
+                json::material::OcclusionTexture {
+                    index,
+                    strength: json::material::StrengthFactor(m.occlusion_strength.clamp(0.0, 1.0)),
+                    tex_coord,
+                    extensions: None,
+                    extras: None,
+                }
+            }),
+            emissive_texture: info(&m.emissive_texture),
             emissive_factor: json::material::EmissiveFactor(m.emissive.map(|c| c.clamp(0.0, 1.0))),
             extensions: None,
             extras: None,

@@ -131,10 +131,11 @@ pub(super) fn validate(asset: &Asset, vertex_map: &[Option<u32>]) -> Result<(), 
         }
     }
     for m in &asset.materials {
-        if m.base_color_texture.is_some_and(|t| t >= asset.images.len()) {
+        if m.textures().any(|(_, t)| t.image >= asset.images.len()) {
             return Err(bad(format!("material {:?} names a missing image", m.name)));
         }
-        let factors = m.base_color.iter().chain([&m.metallic, &m.roughness]);
+        let scalars = [&m.metallic, &m.roughness, &m.normal_scale, &m.occlusion_strength];
+        let factors = m.base_color.iter().chain(&m.emissive).chain(scalars);
         if factors.clone().any(|c| !c.is_finite()) {
             return Err(bad(format!("material {:?} has a non-finite factor", m.name)));
         }

@@ -2,7 +2,7 @@
 //! coloured leaf with a UV seam, two materials, a PNG made by hand, and a five-frame recording.
 
 use solver::animation::recording::Recording;
-use solver::io::{Asset, Attribute, Image, Material, Part};
+use solver::io::{Asset, Attribute, Image, Material, MaterialTexture, Part};
 
 // ---------------------------------------------------------------- a tiny PNG, by hand
 
@@ -149,8 +149,7 @@ pub fn asset() -> (Asset, Vec<Option<u32>>) {
             Material {
                 name: "painted".into(),
                 base_color: [0.9, 0.8, 0.7, 1.0],
-                base_color_texture: Some(0),
-                base_color_uv: 0,
+                base_color_texture: Some(MaterialTexture::of_image(0)),
                 metallic: 0.25,
                 roughness: 0.75,
                 double_sided: true,

@@ -1,0 +1,174 @@
+//! `KHR_texture_transform`: which transform each of a material's UV sets is read with, so that
+//! texture coordinates are stored as the material's textures sample them.
+//!
+//! A texture reference may carry the extension: $uv' = T\,R\,S\,uv$ with $S$ the scale, $R$ the
+//! rotation by `rotation` radians ($u' = \cos r\,u + \sin r\,v$, $v' = -\sin r\,u + \cos
+//! r\,v$) and $T$ the offset, sampling UV set `texCoord` (the extension's own, else the
+//! reference's); the extension's specification. gltfpack writes quantized texture
+//! coordinates as integers with such a transform on every texture of the material; read as
+//! stored, they tiled the texture thousands of times.
+//!
+//! An [`Asset`](super::Asset) stores one set of coordinates per UV set, so each set of a
+//! material's primitives is read with one transform ([`UvPlan::sets`]): that of the first
+//! texture that samples the set, in [`TextureSlot::ALL`]'s order (the base colour first). A
+//! texture whose own transform is another is not kept ([`UvPlan::settle`], with a notice):
+//! the stored coordinates would place it wrongly.
+
+use ::gltf::json;
+use serde_json::{Map, Value};
+
+use super::asset::{Material, TextureSlot};
+
+/// One texture reference's transform, applied to the coordinates of UV set `set`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct UvTransform {
+    offset: [f64; 2],
+    rotation: f64,
+    scale: [f64; 2],
+    /// The texture coordinate set it applies to (its `texCoord`, else the reference's).
+    pub(super) set: u32,
+}
+
+impl UvTransform {
+    /// The transform a texture reference with `extensions` and `tex_coord` carries, if any
+    /// (missing fields take their defaults; a non-finite one leaves the coordinates as
+    /// stored).
+    fn of(extensions: Option<&Map<String, Value>>, tex_coord: u32) -> Option<UvTransform> {
+        let t = extensions?.get("KHR_texture_transform")?;
+        let pair = |key: &str, default: [f64; 2]| match t.get(key) {
+            None => Some(default),
+            Some(v) => match v.as_array()?.as_slice() {
+                [a, b] => Some([a.as_f64()?, b.as_f64()?]),
+                _ => None,
+            },
+        };
+        let transform = UvTransform {
+            offset: pair("offset", [0.0, 0.0])?,
+            rotation: t.get("rotation").map_or(Some(0.0), |r| r.as_f64())?,
+            scale: pair("scale", [1.0, 1.0])?,
+            set: t.get("texCoord").and_then(|c| c.as_u64()).map_or(tex_coord, |c| c as u32),
+        };
+        let finite = transform.offset.iter().chain(&transform.scale).all(|x| x.is_finite());
+        (finite && transform.rotation.is_finite()).then_some(transform)
+    }
+
+    pub(super) fn apply(&self, uv: [f32; 2]) -> [f32; 2] {
+        let (s, c) = self.rotation.sin_cos();
+        let (u, v) = (f64::from(uv[0]) * self.scale[0], f64::from(uv[1]) * self.scale[1]);
+        [(c * u + s * v + self.offset[0]) as f32, (-s * u + c * v + self.offset[1]) as f32]
+    }
+}
+
+/// How one material's textures sample its UV sets.
+#[derive(Debug, Clone, Default)]
+pub(super) struct UvPlan {
+    /// Per [`TextureSlot::ALL`] entry with a texture: the set it samples and its transform.
+    slots: [Option<(u32, Option<UvTransform>)>; 5],
+    /// The transform UV sets 0 and 1 are read with.
+    pub(super) sets: [Option<UvTransform>; 2],
+}
+
+impl UvPlan {
+    /// The plan of a material as the file writes it.
+    pub(super) fn of(m: &json::Material) -> UvPlan {
+        let info = |i: &json::texture::Info| {
+            let extensions = i.extensions.as_ref().map(|e| &e.others);
+            (i.tex_coord, UvTransform::of(extensions, i.tex_coord))
+        };
+        let pbr = &m.pbr_metallic_roughness;
+        let slots = TextureSlot::ALL.map(|slot| match slot {
+            TextureSlot::BaseColor => pbr.base_color_texture.as_ref().map(info),
+            TextureSlot::MetallicRoughness => pbr.metallic_roughness_texture.as_ref().map(info),
+            TextureSlot::Normal => m.normal_texture.as_ref().map(|n| {
+                let extensions = n.extensions.as_ref().map(|e| &e.others);
+                (n.tex_coord, UvTransform::of(extensions, n.tex_coord))
+            }),
+            TextureSlot::Occlusion => m.occlusion_texture.as_ref().map(|o| {
+                let extensions = o.extensions.as_ref().map(|e| &e.others);
+                (o.tex_coord, UvTransform::of(extensions, o.tex_coord))
+            }),
+            TextureSlot::Emissive => m.emissive_texture.as_ref().map(info),
+        });
+        let slots = slots.map(|s| s.map(|(set, t)| (t.map_or(set, |t| t.set), t)));
+        let mut sets = [None; 2];
+        let mut decided = [false; 2];
+        for &(set, transform) in slots.iter().flatten() {
+            if let Some(d) = decided.get_mut(set as usize).filter(|d| !**d) {
+                *d = true;
+                sets[set as usize] = transform;
+            }
+        }
+        UvPlan { slots, sets }
+    }
+
+    /// Gives `material`'s textures the UV set the plan read for them, and drops (with a
+    /// notice in `notices`) each whose transform is not the one its set was read with.
+    pub(super) fn settle(&self, k: usize, material: &mut Material, notices: &mut Vec<String>) {
+        for (slot, planned) in TextureSlot::ALL.into_iter().zip(&self.slots) {
+            let (Some(texture), Some((set, own))) = (material.texture_mut(slot), planned) else {
+                continue;
+            };
+            texture.uv = *set;
+            let read_with = self.sets.get(*set as usize).copied().flatten();
+            if read_with != *own {
+                *material.texture_mut(slot) = None;
+                notices.push(format!(
+                    "material {k}: its {} has another KHR_texture_transform than the texture \
+                     coordinates were read with (the {}'s); loaded without it",
+                    slot.name(),
+                    self.first_on(*set).map_or("none", TextureSlot::name),
+                ));
+            }
+        }
+    }
+
+    /// The first slot that samples `set`: the one whose transform it was read with.
+    fn first_on(&self, set: u32) -> Option<TextureSlot> {
+        let first = self.slots.iter().position(|s| s.is_some_and(|(s, _)| s == set))?;
+        Some(TextureSlot::ALL[first])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn material(json: &str) -> json::Material {
+        serde_json::from_str(json).unwrap()
+    }
+
+    #[test]
+    fn the_base_colour_decides_and_a_disagreeing_texture_goes() {
+        let t = r#"{"KHR_texture_transform": {"scale": [2, 2]}}"#;
+        let m = material(&format!(
+            r#"{{"pbrMetallicRoughness": {{"baseColorTexture": {{"index": 0, "extensions": {t}}},
+                "metallicRoughnessTexture": {{"index": 1, "extensions": {t}}}}},
+               "normalTexture": {{"index": 2}},
+               "emissiveTexture": {{"index": 3, "texCoord": 1}}}}"#
+        ));
+        let plan = UvPlan::of(&m);
+        assert_eq!(plan.sets[0].map(|t| t.scale), Some([2.0, 2.0]));
+        assert_eq!(plan.sets[1], None);
+        let mut kept = Material::default();
+        for slot in [TextureSlot::BaseColor, TextureSlot::MetallicRoughness]
+            .into_iter()
+            .chain([TextureSlot::Normal, TextureSlot::Emissive])
+        {
+            *kept.texture_mut(slot) = Some(super::super::asset::MaterialTexture::of_image(0));
+        }
+        let mut notices = Vec::new();
+        plan.settle(3, &mut kept, &mut notices);
+        let left: Vec<_> = kept.textures().map(|(s, t)| (s, t.uv)).collect();
+        assert_eq!(
+            left,
+            [
+                (TextureSlot::BaseColor, 0),
+                (TextureSlot::MetallicRoughness, 0),
+                (TextureSlot::Emissive, 1)
+            ],
+            "the normal map samples transformed coordinates without the transform"
+        );
+        assert_eq!(notices.len(), 1, "{notices:?}");
+        assert!(notices[0].contains("normalTexture") && notices[0].contains("baseColorTexture"));
+    }
+}
