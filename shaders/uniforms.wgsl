@@ -8,7 +8,8 @@ struct Uniforms {
     eye: vec4<f32>,
     // xyz: unit direction towards the key light; w unused.
     light_dir: vec4<f32>,
-    // rgb: wireframe color; a: wireframe depth offset in NDC.
+    // rgb: wireframe color; a: the fraction of its distance to the eye by which the wireframe
+    // is drawn nearer it.
     wire: vec4<f32>,
 };
 

@@ -42,8 +42,13 @@ const SLOT: usize = 0;
 /// Vertex versions unique over the process: every picture uploads its vertices.
 static VERSION: AtomicU64 = AtomicU64::new(1);
 
-/// The viewport's uniforms for `camera` at `aspect` (width / height): the light follows the
-/// camera (up and to the right of the eye), as in the editor.
+/// How much nearer the eye the wireframe is drawn: this fraction of each vertex's distance to
+/// it (`wire.wgsl`). At 2 × 10⁻⁴ the edges of a part thicker than that fraction of the camera's
+/// distance stay hidden behind it.
+const WIRE_PULL: f32 = 2e-4;
+
+/// The viewport's uniforms for `camera` at `aspect` (width / height), in the editor and in
+/// captures: the light follows the camera (up and to the right of the eye).
 pub fn uniforms(camera: &OrbitCamera, aspect: f32) -> Uniforms {
     let (right, up) = camera.axes();
     let light = (camera.back() + right * 0.4 + up * 0.8).normalize();
@@ -52,7 +57,7 @@ pub fn uniforms(camera: &OrbitCamera, aspect: f32) -> Uniforms {
         view_proj: camera.view_proj(aspect).to_cols_array_2d(),
         eye: camera.eye().extend(0.0).to_array(),
         light_dir: light.extend(0.0).to_array(),
-        wire: [wire[0], wire[1], wire[2], 2e-4],
+        wire: [wire[0], wire[1], wire[2], WIRE_PULL],
     }
 }
 
@@ -379,6 +384,73 @@ mod tests {
         assert_ne!(images[0], images[1], "the poses must draw differently");
         let fresh = Offscreen::headless().unwrap().render(&picture(5)).unwrap();
         assert_eq!(images[5], fresh);
+    }
+
+    /// A thin slab's wireframe shows only its near side: a square of two triangles in front
+    /// of a smaller, finely divided one 1 % of the side behind it. The edges behind used to
+    /// show through: the wireframe was drawn nearer by a fixed depth, about 2 % of the camera's
+    /// distance, more than the slab's thickness.
+    #[test]
+    fn a_thin_slabs_far_side_does_not_show_through_its_wireframe() {
+        let mut offscreen = match Offscreen::headless() {
+            Ok(o) => o,
+            Err(e) => {
+                eprintln!("skipped: {e}");
+                return;
+            }
+        };
+        // An n × n grid of squares over [-h, h]² at height z, its triangles facing +z.
+        let sheet = |n: u32, h: f64, z: f64, first: u32| {
+            let corners = (0..=n).flat_map(|j| (0..=n).map(move |i| (i, j)));
+            let at = |k: u32| -h + 2.0 * h * f64::from(k) / f64::from(n);
+            let points: Vec<[f64; 3]> = corners.map(|(i, j)| [at(i), at(j), z]).collect();
+            let v = |i: u32, j: u32| first + j * (n + 1) + i;
+            let cells = (0..n).flat_map(|j| (0..n).map(move |i| (i, j)));
+            let triangles: Vec<[u32; 3]> = cells
+                .flat_map(|(i, j)| {
+                    [
+                        [v(i, j), v(i + 1, j), v(i + 1, j + 1)],
+                        [v(i, j), v(i + 1, j + 1), v(i, j + 1)],
+                    ]
+                })
+                .collect();
+            (points, triangles)
+        };
+        let picture = |with_back: bool| {
+            let (mut x, mut triangles) = sheet(1, 1.0, 0.01, 0);
+            if with_back {
+                let (p, t) = sheet(12, 0.8, -0.01, x.len() as u32);
+                x.extend(p);
+                triangles.extend(t);
+            }
+            let edges: Vec<u32> =
+                triangles.iter().flat_map(|t| [t[0], t[1], t[1], t[2], t[2], t[0]]).collect();
+            let topology = Arc::new(Topology {
+                version: 1 + u64::from(with_back),
+                triangles: triangles.iter().flatten().copied().collect(),
+                edges,
+                vertex_faces: None,
+            });
+            let mut camera = OrbitCamera::default();
+            camera.frame(glam::Vec3::ZERO, 1.5, 1.0); // from +z, 33° off the slab's normal
+            Picture {
+                size: [160, 160],
+                camera,
+                topology,
+                shape: Shape::new(&x, [0.0; 3], &triangles),
+                colors: vec![[0.8, 0.8, 0.8, 1.0]; x.len()],
+                render: None,
+                grid: None,
+                wireframe: true,
+            }
+        };
+        // The wireframe's colour (30, 30, 36); the background is (38, 40, 46), the mesh lighter.
+        let wire = |p: &&image::Rgba<u8>| p.0[0] <= 33 && p.0[1] <= 33 && p.0[2] <= 39;
+        let dark = |image: &image::RgbaImage| image.pixels().filter(wire).count();
+        let front = offscreen.render(&picture(false)).unwrap();
+        let both = offscreen.render(&picture(true)).unwrap();
+        assert!(dark(&front) > 200, "no wireframe drawn: {} dark pixels", dark(&front));
+        assert_eq!(dark(&both), dark(&front), "edges behind the near side show through");
     }
 
     #[test]

@@ -73,7 +73,8 @@ pub struct Uniforms {
     pub eye: [f32; 4],
     /// xyz: direction towards the key light; w: unused (0).
     pub light_dir: [f32; 4],
-    /// rgb: wireframe color (linear); a: wireframe depth offset in NDC.
+    /// rgb: wireframe color (linear); a: the fraction of its distance to the eye by which the
+    /// wireframe is drawn nearer it (`wire.wgsl`).
     pub wire: [f32; 4],
 }
 
@@ -214,13 +215,18 @@ fn vertex_layout() -> wgpu::VertexBufferLayout<'static> {
     }
 }
 
-fn depth_state(write: bool) -> Option<wgpu::DepthStencilState> {
+/// The shaded mesh's depth bias: its depth slope over one pixel, so that a wireframe edge
+/// on it passes the depth test at any angle (`wire.wgsl`).
+const SURFACE_BIAS: wgpu::DepthBiasState =
+    wgpu::DepthBiasState { constant: 0, slope_scale: 1.0, clamp: 0.0 };
+
+fn depth_state(write: bool, bias: wgpu::DepthBiasState) -> Option<wgpu::DepthStencilState> {
     Some(wgpu::DepthStencilState {
         format: DEPTH_FORMAT,
         depth_write_enabled: Some(write),
         depth_compare: Some(wgpu::CompareFunction::LessEqual),
         stencil: wgpu::StencilState::default(),
-        bias: wgpu::DepthBiasState::default(),
+        bias,
     })
 }
 
@@ -341,7 +347,7 @@ pub fn resources(
             layout: &scene_layout,
             topology: wgpu::PrimitiveTopology::TriangleList,
             buffers: &clay_buffers,
-            depth: depth_state(true),
+            depth: depth_state(true, SURFACE_BIAS),
             format: COLOR_FORMAT,
             constants: &[],
         },
@@ -354,7 +360,7 @@ pub fn resources(
             layout: &textured_layout,
             topology: wgpu::PrimitiveTopology::TriangleList,
             buffers: &[Some(textured_vertex_layout())],
-            depth: depth_state(true),
+            depth: depth_state(true, SURFACE_BIAS),
             format: COLOR_FORMAT,
             constants: &[],
         },
@@ -365,7 +371,7 @@ pub fn resources(
         layout: &scene_layout,
         topology: wgpu::PrimitiveTopology::LineList,
         buffers,
-        depth: depth_state(false),
+        depth: depth_state(false, wgpu::DepthBiasState::default()),
         format: COLOR_FORMAT,
         constants: &[],
     };
@@ -380,7 +386,7 @@ pub fn resources(
             layout: &scene_layout,
             topology: wgpu::PrimitiveTopology::LineList,
             buffers: &grid_buffers,
-            depth: depth_state(true),
+            depth: depth_state(true, wgpu::DepthBiasState::default()),
             format: COLOR_FORMAT,
             constants: &[],
         },

@@ -12,7 +12,7 @@ use crate::editor::camera::OrbitCamera;
 use crate::editor::draw_data::VertexData;
 use crate::editor::pose_solvers;
 use crate::editor::render_layout::RenderLayout;
-use crate::editor::renderer::{ClayDraw, TexturedDraw, Uniforms, ViewportCallback};
+use crate::editor::renderer::{ClayDraw, TexturedDraw, ViewportCallback};
 use crate::editor::shape::Shape;
 use crate::editor::solver_thread::{SolvedFrame, SolverState};
 use solver::deform::coarse::settle_rule;
@@ -298,17 +298,8 @@ impl EditorApp {
         if self.has_gpu {
             let ppp = ui.ctx().pixels_per_point();
             let aspect = rect.aspect_ratio();
-            let eye = self.display.camera.eye();
-            let (right, up) = self.display.camera.axes();
-            let light = (self.display.camera.back() + right * 0.4 + up * 0.8).normalize();
-            let wire = egui::Rgba::from(Color32::from_rgb(30, 30, 36)).to_array();
-            let uniforms = Uniforms {
-                view_proj: self.display.camera.view_proj(aspect).to_cols_array_2d(),
-                eye: eye.extend(0.0).to_array(),
-                light_dir: light.extend(0.0).to_array(),
-                wire: [wire[0], wire[1], wire[2], 2e-4],
-            };
-            let bg = egui::Rgba::from(Color32::from_rgb(38, 40, 46));
+            let uniforms = crate::editor::capture::uniforms(&self.display.camera, aspect);
+            let bg = egui::Rgba::from(crate::editor::capture::BACKGROUND);
             let draw_mesh = positions.is_ok();
             let drawn = self.display.viewports[slot]
                 .shape
