@@ -48,7 +48,7 @@ pub fn to_scene(scene_path: &Path, input: &DocumentInput) -> Result<Scene, Strin
         return Err("nothing to save yet: paint at least one handle group".into());
     }
     let dir = absolute(scene_path).parent().map(Path::to_path_buf).unwrap_or_default();
-    let mesh = relative_path(&dir, &absolute(input.mesh_path));
+    let mesh = relative_path(&dir, &absolute(input.mesh_path))?;
     let labels = edit.labels.iter().map(|l| l.map_or(-1, i64::from)).collect();
     let mut scene = Scene::new(mesh, HandlesSpec { labels: Some(labels), ..Default::default() });
     scene.timeline = effective_timeline(edit);
@@ -58,7 +58,7 @@ pub fn to_scene(scene_path: &Path, input: &DocumentInput) -> Result<Scene, Strin
     scene.arap = s.arap_config();
     scene.base = s.base_config();
     scene.camera = Some(input.camera.to_json(input.origin));
-    scene.texture = input.texture.map(|t| relative_path(&dir, &absolute(t)));
+    scene.texture = input.texture.map(|t| relative_path(&dir, &absolute(t))).transpose()?;
     scene.up_axis = input.up_axis;
     let groups: Vec<serde_json::Value> = edit
         .groups
@@ -284,6 +284,13 @@ mod tests {
         let empty = EditState::from_labels(vec![None; mesh.n_vertices()]);
         let err = to_scene(&scene_path, &DocumentInput { edit: &empty, ..input }).err().unwrap();
         assert!(err.contains("paint"), "{err}");
+        // A mesh whose name would not read back (here a `\`, read as a separator) is refused.
+        if cfg!(unix) {
+            let odd = mesh_path.with_file_name("a\\b.obj");
+            let err =
+                to_scene(&scene_path, &DocumentInput { mesh_path: &odd, ..input }).unwrap_err();
+            assert!(err.contains("rename it"), "{err}");
+        }
     }
 
     /// The document of `edit` on the mesh at `mesh_path`, at t = 0 with no texture.

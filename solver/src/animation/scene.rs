@@ -600,7 +600,26 @@ impl Scene {
 /// `target` expressed relative to the folder `base` when both are absolute or both relative
 /// (`../meshes/x.obj`); otherwise `target` as given. For storing a mesh path in a scene saved
 /// in `base`.
-pub fn relative_path(base: &Path, target: &Path) -> String {
+///
+/// Errors (a phrase naming the file) when `target` cannot be written so that it reads back:
+/// a name that is not valid UTF-8 (JSON holds text), or, outside Windows, a name with a `\`
+/// (a scene reads `\` as a folder separator, so that scenes written on Windows open).
+pub fn relative_path(base: &Path, target: &Path) -> Result<String, String> {
+    for c in target.components() {
+        let why = match c.as_os_str().to_str() {
+            None => "its path is not valid UTF-8",
+            Some(name) if cfg!(not(windows)) && name.contains('\\') => {
+                "its path has a `\\` in a name, which a scene reads as a folder separator"
+            }
+            Some(_) => continue,
+        };
+        return Err(format!("{} cannot be named in a scene: {why}; rename it", target.display()));
+    }
+    Ok(relative_text(base, target))
+}
+
+/// [`relative_path`] of a path that reads back.
+fn relative_text(base: &Path, target: &Path) -> String {
     use std::path::Component;
     if base.is_absolute() != target.is_absolute() {
         return target.display().to_string();
@@ -760,16 +779,31 @@ mod tests {
 
     #[test]
     fn relative_paths() {
-        assert_eq!(relative_path(Path::new("/a/b/scenes"), Path::new("/a/b/m.obj")), "../m.obj");
-        assert_eq!(relative_path(Path::new("/a"), Path::new("/a/x/m.obj")), "x/m.obj");
-        assert_eq!(relative_path(Path::new("a/s"), Path::new("a/s/m.obj")), "m.obj");
+        let relative = |b: &str, t: &str| relative_path(Path::new(b), Path::new(t)).unwrap();
+        assert_eq!(relative("/a/b/scenes", "/a/b/m.obj"), "../m.obj");
+        assert_eq!(relative("/a", "/a/x/m.obj"), "x/m.obj");
+        assert_eq!(relative("a/s", "a/s/m.obj"), "m.obj");
         // a name that would read as a URI scheme or a drive letter, and reads back as itself
         let dir = Path::new("/a/s");
         for name in ["bunny:v2.obj", "c:m.obj"] {
-            let written = relative_path(dir, &dir.join(name));
+            let written = relative_path(dir, &dir.join(name)).unwrap();
             assert_eq!(written, format!("./{name}"));
             let (back, _) = Scene::resolve_path(&dir.join("scene.json"), &written).unwrap();
             assert_eq!(back, dir.join(name));
         }
+    }
+
+    /// Names that would not read back are refused, naming the file: a `\` (read as a folder
+    /// separator; the name became `a/b.obj`) and bytes that are not UTF-8 (written as U+FFFD).
+    #[cfg(unix)]
+    #[test]
+    fn names_that_do_not_read_back_are_refused() {
+        use std::os::unix::ffi::OsStrExt;
+        let dir = Path::new("/a/s");
+        let e = relative_path(dir, &dir.join("a\\b.obj")).unwrap_err();
+        assert!(e.contains("a\\b.obj") && e.contains("rename it"), "{e}");
+        let latin1 = std::ffi::OsStr::from_bytes(b"caf\xe9.obj");
+        let e = relative_path(dir, &dir.join(latin1)).unwrap_err();
+        assert!(e.contains("UTF-8"), "{e}");
     }
 }
