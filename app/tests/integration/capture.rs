@@ -428,6 +428,23 @@ fn the_scene_capture_object_sizes_screenshots_and_is_saved_back() {
     let c = back.capture.expect("capture saved");
     assert_eq!((c.width, c.height, c.turntable), (200, 100, true), "{c:?}");
 
+    // "The viewport's size" chosen over the scene's is an unsaved change, and comes back
+    // after a save (it was saved as the object's fixed size); `bsarap render` keeps its size.
+    h.state_mut().set_capture_settings(None, false);
+    assert!(h.state().has_unsaved_changes(), "the viewport's size is not an unsaved change");
+    let viewport = dir.join("viewport.json");
+    h.state_mut().save_scene(&viewport).unwrap();
+    let c = Scene::read(&viewport).unwrap().capture.expect("capture saved");
+    assert_eq!((c.width, c.height), (200, 100), "{c:?}");
+    let ctx = h.ctx.clone();
+    h.state_mut().request_open(&ctx, viewport.clone());
+    step_until(&mut h, "the scene", |a| !a.is_loading() && a.document_path() == Some(&viewport));
+    h.step();
+    assert!(!h.state().has_unsaved_changes());
+    let expected = h.state().viewport_pixels(&h.ctx).unwrap();
+    let img = png(&f12(&mut h));
+    assert_eq!([img.width(), img.height()], expected, "the scene's size, not the viewport's");
+
     // A mesh opened next, without a scene, is captured at the viewport's size, not at the
     // last scene's.
     let ctx = h.ctx.clone();

@@ -97,10 +97,8 @@ impl EditorApp {
             Some(crate::editor::loader::spawn_loaded(path, loaded, version, move || {
                 c.request_repaint()
             }));
-        self.session.at_load = Some(Box::new(super::session::DocumentMark::of(
-            &self.session,
-            self.capture.to_scene(),
-        )));
+        self.session.at_load =
+            Some(Box::new(super::session::DocumentMark::of(&self.session, self.capture.saved())));
     }
 
     pub fn set_tool(&mut self, tool: Tool) {

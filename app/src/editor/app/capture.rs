@@ -104,10 +104,11 @@ impl Capture {
         dir.join(format!("{prefix}_{i:04}{ext}"))
     }
 
-    /// Takes a loaded scene's `capture` object (absent: the viewport's size).
-    pub(super) fn load(&mut self, s: Option<&CaptureSettings>) {
+    /// Takes a loaded scene's `capture` object (absent: the viewport's size) and whether its
+    /// editor captures at the viewport's size all the same (`editor.capture_viewport_size`).
+    pub(super) fn load(&mut self, s: Option<&CaptureSettings>, viewport_size: bool) {
         self.scene = s.cloned();
-        self.viewport_size = s.is_none();
+        self.viewport_size = s.is_none() || viewport_size;
         if let Some(s) = s {
             self.width = s.width;
             self.height = s.height;
@@ -122,19 +123,46 @@ impl Capture {
         self.viewport_size = true; // the last scene's size is not this mesh's
     }
 
-    /// The scene's `capture` object to save: the one loaded with the size and overlays set
-    /// here, or none while nothing was chosen (the viewport's size).
-    pub(super) fn to_scene(&self) -> Option<CaptureSettings> {
+    /// What a scene saves of these settings: its `capture` object (the one loaded, with the
+    /// size and overlays set here; none while nothing was chosen), and whether the editor
+    /// captures at the viewport's size all the same.
+    pub(super) fn saved(&self) -> SavedCapture {
         if self.viewport_size && self.scene.is_none() {
-            return None;
+            return SavedCapture { object: None, viewport_size: false };
         }
         let base = self.scene.clone().unwrap_or_default();
-        Some(CaptureSettings {
+        let object = CaptureSettings {
             width: self.width,
             height: self.height,
             overlays: self.overlays,
             ..base
-        })
+        };
+        SavedCapture { object: Some(object), viewport_size: self.viewport_size }
+    }
+}
+
+/// What a scene file holds of the capture settings ([`Capture::saved`]).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub(super) struct SavedCapture {
+    /// The scene's `capture` object (the size and overlays `bsarap render` uses).
+    pub(super) object: Option<CaptureSettings>,
+    /// The editor captures at the viewport's size, not the object's (`editor.
+    /// capture_viewport_size`; only with an object).
+    pub(super) viewport_size: bool,
+}
+
+impl SavedCapture {
+    /// The key in a scene's `editor` object for [`SavedCapture::viewport_size`].
+    pub(super) const VIEWPORT_SIZE: &str = "capture_viewport_size";
+
+    /// Writes itself into `scene`.
+    pub(super) fn write(self, scene: &mut solver::animation::scene::Scene) {
+        if self.viewport_size
+            && let Some(editor) = scene.editor.as_mut()
+        {
+            editor[Self::VIEWPORT_SIZE] = serde_json::Value::Bool(true);
+        }
+        scene.capture = self.object;
     }
 }
 

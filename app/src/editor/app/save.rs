@@ -128,7 +128,7 @@ impl EditorApp {
 
     /// Whether the saves of this mesh under way and asked for write every change there is.
     pub(super) fn saving_all_changes(&self) -> bool {
-        let capture = self.capture.to_scene();
+        let capture = self.capture.saved();
         self.newest_save_of_open_mesh().is_some_and(|(_, m)| !m.changed(&self.session, &capture))
     }
 
@@ -141,7 +141,7 @@ impl EditorApp {
         Ok(SaveOrder {
             path: path.to_path_buf(),
             doc: self.document(path)?,
-            mark: Box::new(DocumentMark::of(&self.session, self.capture.to_scene())),
+            mark: Box::new(DocumentMark::of(&self.session, self.capture.saved())),
             mesh: self.open_mesh(),
         })
     }

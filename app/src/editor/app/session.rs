@@ -7,6 +7,7 @@ use std::sync::mpsc::TryRecvError;
 
 use eframe::egui::{self, Vec2};
 
+use super::capture::SavedCapture;
 use super::{DialogKind, EditorApp, Shading, file_name};
 use crate::editor::camera::OrbitCamera;
 use crate::editor::document::{self, DocumentInput};
@@ -15,7 +16,6 @@ use crate::editor::persist::{self, Persist};
 use crate::editor::solver_thread::MethodSettings;
 use crate::editor::timeline::{Playback, apply_paths, differ_beyond_playback};
 use crate::editor::undo::{EditState, History, Kept};
-use solver::animation::scene::CaptureSettings;
 
 /// The open document: what a scene file holds, plus the undo history.
 #[derive(Default)]
@@ -47,8 +47,8 @@ pub(super) struct Session {
     /// The texture the user loaded and the file's up axis, and as last opened or saved.
     pub(super) file_view: super::asset_view::FileView,
     pub(super) saved_file_view: super::asset_view::FileView,
-    /// The scene's `capture` object as last opened or saved (the settings are `Capture`'s).
-    pub(super) saved_capture: Option<CaptureSettings>,
+    /// The capture settings as last opened or saved (the settings are `Capture`'s).
+    pub(super) saved_capture: SavedCapture,
     /// The status and error lines last written to stderr ([`EditorApp::log_status`]).
     pub(super) logged_status: (Option<String>, Option<String>),
     /// The document as it was when the load under way started: what changed since is work the
@@ -171,12 +171,12 @@ pub(super) struct DocumentMark {
     edit: EditState,
     settings: MethodSettings,
     file_view: super::asset_view::FileView,
-    capture: Option<CaptureSettings>,
+    capture: SavedCapture,
 }
 
 impl DocumentMark {
-    /// The document of `session` with the scene's `capture` object.
-    pub(super) fn of(session: &Session, capture: Option<CaptureSettings>) -> DocumentMark {
+    /// The document of `session` with the capture settings.
+    pub(super) fn of(session: &Session, capture: SavedCapture) -> DocumentMark {
         DocumentMark {
             edit: session.edit.clone(),
             settings: session.settings,
@@ -193,9 +193,9 @@ impl DocumentMark {
         session.saved_capture = self.capture;
     }
 
-    /// Whether `session` (with the `capture` object) changed since (not by the playback
+    /// Whether `session` (with the capture settings) changed since (not by the playback
     /// time's poses).
-    pub(super) fn changed(&self, session: &Session, capture: &Option<CaptureSettings>) -> bool {
+    pub(super) fn changed(&self, session: &Session, capture: &SavedCapture) -> bool {
         differ_beyond_playback(&self.edit, &session.edit)
             || self.settings.saved_part() != session.settings.saved_part()
             || self.file_view != session.file_view
@@ -225,7 +225,7 @@ impl EditorApp {
         session.scene.is_some()
             && (session.saved_edit.as_ref().is_none_or(|s| differ_beyond_playback(s, edit))
                 || session.saved_file_view != session.file_view
-                || session.saved_capture != self.capture.to_scene()
+                || session.saved_capture != self.capture.saved()
                 || (settings && edit.has_handles()))
     }
 
@@ -507,7 +507,7 @@ impl EditorApp {
         self.offer_again();
         let version = self.next_version();
         self.jobs.wanted_load.store(version, std::sync::atomic::Ordering::Relaxed);
-        let mark = Box::new(DocumentMark::of(&self.session, self.capture.to_scene()));
+        let mark = Box::new(DocumentMark::of(&self.session, self.capture.saved()));
         if self.writing_to(&path) {
             self.jobs.loading = None;
             self.info = Some(format!("opening {} once it is written", file_name(&path)));
@@ -552,7 +552,10 @@ impl EditorApp {
                 mesh_topology: Some(scene.mesh_topology),
             },
         )
-        .map(|doc| solver::animation::scene::Scene { capture: self.capture.to_scene(), ..doc })
+        .map(|mut doc| {
+            self.capture.saved().write(&mut doc);
+            doc
+        })
     }
 
     /// Adds `path` to the recent files.
@@ -570,7 +573,7 @@ impl EditorApp {
     /// Whether the document was changed since the load under way started, and has unsaved
     /// changes.
     fn edited_while_loading(&self) -> bool {
-        let capture = self.capture.to_scene();
+        let capture = self.capture.saved();
         self.jobs.loading.is_some()
             && self.session.at_load.as_ref().is_none_or(|m| m.changed(&self.session, &capture))
             && self.has_unsaved_changes()
@@ -649,7 +652,11 @@ impl EditorApp {
                         };
                         let settings = &self.session.settings;
                         let applied = document::apply_scene(&doc, labels, settings, scene.origin);
-                        self.capture.load(doc.capture.as_ref());
+                        let editor = doc.editor.as_ref();
+                        let viewport_size = editor
+                            .and_then(|e| e.get(SavedCapture::VIEWPORT_SIZE))
+                            .is_some_and(|v| v == true);
+                        self.capture.load(doc.capture.as_ref(), viewport_size);
                         self.session.edit = applied.edit;
                         self.session.settings = applied.settings;
                         self.session.playback.time = applied.time;
@@ -689,7 +696,7 @@ impl EditorApp {
                 }
                 self.session.saved_edit = (!restored).then(|| self.session.edit.clone());
                 self.session.saved_settings = self.session.settings;
-                self.session.saved_capture = self.capture.to_scene();
+                self.session.saved_capture = self.capture.saved();
                 if let Some(j) = self.jobs.record.take() {
                     j.cancel();
                     let opened = file_name(&scene.path);
