@@ -81,8 +81,9 @@ const UNDECODABLE: [(&str, &str); 2] = [
     ("EXT_meshopt_compression", "meshopt-compressed buffers"),
 ];
 
-/// Extensions that change nothing this reader uses (materials, lights...), and two it applies:
-/// `KHR_mesh_quantization` (decoded) and `KHR_texture_transform` (on the base colour's UVs).
+/// Extensions that change nothing this reader uses (materials, lights...), and three it
+/// applies: `KHR_mesh_quantization` (decoded), `KHR_texture_transform` (on the textures' UVs)
+/// and `KHR_materials_pbrSpecularGlossiness` (read as metallic-roughness, `gltf_material`).
 const HARMLESS: [&str; 13] = [
     "KHR_mesh_quantization",
     "KHR_materials_emissive_strength",
@@ -247,11 +248,13 @@ pub(crate) fn parse(bytes: &[u8], ctx: Ctx, folder: Option<Folder>) -> Result<As
         }
     }
     layers.finish(&mut raw);
-    raw.materials = gltf_material::materials(&gltf.document);
+    raw.materials = gltf_material::materials(&gltf.document, &mut raw.notices);
     for (k, (m, plan)) in raw.materials.iter_mut().zip(&uv_plans).enumerate() {
         plan.settle(k, m, &mut raw.notices);
     }
-    let images = gltf_material::images(&gltf.document, &buffers, ctx, folder, &mut raw.notices)?;
+    let (document, materials) = (&gltf.document, &raw.materials);
+    let images =
+        gltf_material::images(document, materials, &buffers, ctx, folder, &mut raw.notices)?;
     raw.images = gltf_material::keep(images, &mut raw.materials);
     raw.notices.extend(unread_motion(&gltf.document));
     Ok(raw)

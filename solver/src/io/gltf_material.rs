@@ -41,8 +41,15 @@ fn material_texture(texture: ::gltf::Texture, tex_coord: u32) -> MaterialTexture
     MaterialTexture { image: texture.source().index(), uv: tex_coord, sampling }
 }
 
-/// The document's materials, in file order.
-pub(crate) fn materials(document: &::gltf::Document) -> Vec<Material> {
+/// The document's materials, in file order; a notice in `notices` for each one read from
+/// `KHR_materials_pbrSpecularGlossiness`.
+///
+/// A specular-glossiness material (the extension takes precedence over the core model, as
+/// its specification says) is read as metallic-roughness the way Blender's importer reads it:
+/// its diffuse factor and texture as the base colour, metallic 0, roughness 1 − glossiness;
+/// its specular colour and specular-glossiness texture are not kept. Old Sketchfab and
+/// 3ds Max exports use it, and a file that requires it was drawn white.
+pub(crate) fn materials(document: &::gltf::Document, notices: &mut Vec<String>) -> Vec<Material> {
     let info = |i: ::gltf::texture::Info| material_texture(i.texture(), i.tex_coord());
     document
         .materials()
@@ -50,7 +57,7 @@ pub(crate) fn materials(document: &::gltf::Document) -> Vec<Material> {
             let pbr = m.pbr_metallic_roughness();
             let normal = m.normal_texture();
             let occlusion = m.occlusion_texture();
-            Material {
+            let mut material = Material {
                 name: m.name().unwrap_or_default().to_string(),
                 base_color: pbr.base_color_factor(),
                 base_color_texture: pbr.base_color_texture().map(info),
@@ -71,13 +78,27 @@ pub(crate) fn materials(document: &::gltf::Document) -> Vec<Material> {
                     AlphaMode::Blend => "BLEND",
                 }
                 .to_string(),
+            };
+            if let Some(sg) = m.pbr_specular_glossiness() {
+                material.base_color = sg.diffuse_factor();
+                material.base_color_texture = sg.diffuse_texture().map(info);
+                material.metallic = 0.0;
+                material.roughness = 1.0 - sg.glossiness_factor();
+                material.metallic_roughness_texture = None;
+                notices.push(format!(
+                    "material {} ({:?}) is specular-glossiness: read as metallic-roughness (its \
+                     diffuse as the base colour, roughness 1 - glossiness; its specular not kept)",
+                    m.index().unwrap_or_default(),
+                    material.name
+                ));
             }
+            material
         })
         .collect()
 }
 
-/// The document's images, in file order, with their encoded bytes; `None` for an image no
-/// material uses (not read; an image's buffer view is still checked), and for
+/// The document's images, in file order, with their encoded bytes; `None` for an image none
+/// of `materials` uses (not read; an image's buffer view is still checked), and for
 /// one that was refused (its reason pushed to
 /// `notices`: a file missing or unreadable, a reference outside the folder or with a scheme,
 /// an invalid data URI, bytes that are not a PNG or JPEG that decodes, more than
@@ -86,16 +107,15 @@ pub(crate) fn materials(document: &::gltf::Document) -> Vec<Material> {
 /// Errors: a buffer view past its buffer ([`LoadError::Truncated`]).
 pub(crate) fn images(
     document: &::gltf::Document,
+    materials: &[Material],
     buffers: &[std::sync::Arc<[u8]>],
     ctx: Ctx,
     folder: Option<Folder>,
     notices: &mut Vec<String>,
 ) -> Result<Vec<Option<Image>>, LoadError> {
     // Images no material uses are not read at all.
-    let used: std::collections::HashSet<usize> = materials(document)
-        .iter()
-        .flat_map(|m| m.textures().map(|(_, t)| t.image).collect::<Vec<_>>())
-        .collect();
+    let used: std::collections::HashSet<usize> =
+        materials.iter().flat_map(|m| m.textures().map(|(_, t)| t.image)).collect();
     let mut budget = MAX_IMAGE_BYTES;
     let mut out = Vec::new();
     for image in document.images() {

@@ -76,18 +76,24 @@ impl UvPlan {
             (i.tex_coord, UvTransform::of(extensions, i.tex_coord))
         };
         let pbr = &m.pbr_metallic_roughness;
-        let slots = TextureSlot::ALL.map(|slot| match slot {
-            TextureSlot::BaseColor => pbr.base_color_texture.as_ref().map(info),
-            TextureSlot::MetallicRoughness => pbr.metallic_roughness_texture.as_ref().map(info),
-            TextureSlot::Normal => m.normal_texture.as_ref().map(|n| {
+        // Specular-glossiness: its diffuse texture is the base colour (`gltf_material`).
+        let sg = m.extensions.as_ref().and_then(|e| e.pbr_specular_glossiness.as_ref());
+        let slots = TextureSlot::ALL.map(|slot| match (slot, sg) {
+            (TextureSlot::BaseColor, Some(sg)) => sg.diffuse_texture.as_ref().map(info),
+            (TextureSlot::MetallicRoughness, Some(_)) => None,
+            (TextureSlot::BaseColor, None) => pbr.base_color_texture.as_ref().map(info),
+            (TextureSlot::MetallicRoughness, None) => {
+                pbr.metallic_roughness_texture.as_ref().map(info)
+            }
+            (TextureSlot::Normal, _) => m.normal_texture.as_ref().map(|n| {
                 let extensions = n.extensions.as_ref().map(|e| &e.others);
                 (n.tex_coord, UvTransform::of(extensions, n.tex_coord))
             }),
-            TextureSlot::Occlusion => m.occlusion_texture.as_ref().map(|o| {
+            (TextureSlot::Occlusion, _) => m.occlusion_texture.as_ref().map(|o| {
                 let extensions = o.extensions.as_ref().map(|e| &e.others);
                 (o.tex_coord, UvTransform::of(extensions, o.tex_coord))
             }),
-            TextureSlot::Emissive => m.emissive_texture.as_ref().map(info),
+            (TextureSlot::Emissive, _) => m.emissive_texture.as_ref().map(info),
         });
         let slots = slots.map(|s| s.map(|(set, t)| (t.map_or(set, |t| t.set), t)));
         let mut sets = [None; 2];

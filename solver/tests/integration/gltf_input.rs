@@ -176,6 +176,34 @@ fn quantized_attributes_are_decoded() {
     assert!(notice.is_some_and(|n| n.contains("normalTexture")), "{:?}", m.asset.notices);
 }
 
+/// A specular-glossiness material (older Sketchfab and 3ds Max exports), here one the file
+/// requires, is read as metallic-roughness: its diffuse as the base colour, metallic 0,
+/// roughness 1 - glossiness, with a notice. It was drawn white.
+#[test]
+fn specular_glossiness_is_read_as_metallic_roughness() {
+    use base64::Engine as _;
+    let png = base64::engine::general_purpose::STANDARD.encode(tiny_png());
+    let mut doc = tet_doc(&[[0.0; 3]]);
+    doc["extensionsUsed"] = json!(["KHR_materials_pbrSpecularGlossiness"]);
+    doc["extensionsRequired"] = json!(["KHR_materials_pbrSpecularGlossiness"]);
+    doc["materials"] = json!([{"name": "old",
+        "pbrMetallicRoughness": {"baseColorFactor": [0.0, 0.0, 1.0, 1.0]},
+        "extensions": {"KHR_materials_pbrSpecularGlossiness": {
+            "diffuseFactor": [1.0, 0.5, 0.25, 1.0], "diffuseTexture": {"index": 0},
+            "glossinessFactor": 0.25, "specularFactor": [0.5, 0.5, 0.5]}}}]);
+    doc["textures"] = json!([{"source": 0}]);
+    doc["images"] = json!([{"uri": format!("data:image/png;base64,{png}")}]);
+    doc["meshes"][0]["primitives"][0]["material"] = json!(0);
+    let m = load_mesh_from_bytes(&to_gltf(doc, &tet_bin()), Format::Gltf, "sg.gltf").unwrap();
+    let material = &m.asset.materials[0];
+    assert_eq!(material.base_color, [1.0, 0.5, 0.25, 1.0], "the core model's fallback");
+    assert_eq!(material.base_color_texture.map(|t| t.image), Some(0));
+    assert_eq!((material.metallic, material.roughness), (0.0, 0.75));
+    assert_eq!(m.asset.images.len(), 1, "the diffuse image was not read");
+    let notice = m.asset.notices.iter().find(|n| n.contains("specular-glossiness"));
+    assert!(notice.is_some_and(|n| n.contains("\"old\"")), "{:?}", m.asset.notices);
+}
+
 /// A node hierarchy that is not a tree is read once per node, with a notice: one node shared
 /// by two parents at each of 40 levels (a 2 KB file) was visited 2^39 times, and a cycle is
 /// cut where it closes.
