@@ -10,7 +10,8 @@
 //   meshes: [{ name, skinned, vertices, triangles, uv, morphTargets, morphTargetsRelative,
 //              materials: [{ name, type, map (has a base-colour texture), mapSize: [w, h],
 //                            maps (the slots holding a decoded image: map, metalnessMap,
-//                            roughnessMap, normalMap, aoMap, emissiveMap), normalScale: [x, y],
+//                            roughnessMap, normalMap, aoMap, emissiveMap), channels (the UV
+//                            set of each: { map: 0, ... }), normalScale: [x, y],
 //                            aoMapIntensity }] }],
 //   animations: [{ name, duration, tracks: [{ name, keys }] }],
 //   times: the sampled times (default: every key time of the first animation),

@@ -45,6 +45,8 @@ function materialReport(m) {
     map: !!m.map,
     mapSize: img ? [img.width || 0, img.height || 0] : [0, 0],
     maps: maps.filter((k) => m[k] && m[k].image && m[k].image.width > 0),
+    // The UV set each of those samples.
+    channels: Object.fromEntries(maps.filter((k) => m[k]).map((k) => [k, m[k].channel ?? 0])),
     normalScale: m.normalScale ? [m.normalScale.x, m.normalScale.y] : null,
     aoMapIntensity: m.aoMapIntensity ?? null,
   };

@@ -52,6 +52,11 @@ impl UvTransform {
         (finite && transform.rotation.is_finite()).then_some(transform)
     }
 
+    /// Whether it leaves every coordinate where it is.
+    fn is_identity(&self) -> bool {
+        self.offset == [0.0; 2] && self.rotation == 0.0 && self.scale == [1.0; 2]
+    }
+
     pub(super) fn apply(&self, uv: [f32; 2]) -> [f32; 2] {
         let (s, c) = self.rotation.sin_cos();
         let (u, v) = (f64::from(uv[0]) * self.scale[0], f64::from(uv[1]) * self.scale[1]);
@@ -71,9 +76,13 @@ pub(super) struct UvPlan {
 impl UvPlan {
     /// The plan of a material as the file writes it.
     pub(super) fn of(m: &json::Material) -> UvPlan {
+        // The set a reference samples and its transform (none for one that changes nothing).
+        let sampled = |extensions: Option<&Map<String, Value>>, tex_coord: u32| {
+            let t = UvTransform::of(extensions, tex_coord);
+            (t.map_or(tex_coord, |t| t.set), t.filter(|t| !t.is_identity()))
+        };
         let info = |i: &json::texture::Info| {
-            let extensions = i.extensions.as_ref().map(|e| &e.others);
-            (i.tex_coord, UvTransform::of(extensions, i.tex_coord))
+            sampled(i.extensions.as_ref().map(|e| &e.others), i.tex_coord)
         };
         let pbr = &m.pbr_metallic_roughness;
         // Specular-glossiness: its diffuse texture is the base colour (`gltf_material`).
@@ -85,17 +94,12 @@ impl UvPlan {
             (TextureSlot::MetallicRoughness, None) => {
                 pbr.metallic_roughness_texture.as_ref().map(info)
             }
-            (TextureSlot::Normal, _) => m.normal_texture.as_ref().map(|n| {
-                let extensions = n.extensions.as_ref().map(|e| &e.others);
-                (n.tex_coord, UvTransform::of(extensions, n.tex_coord))
-            }),
-            (TextureSlot::Occlusion, _) => m.occlusion_texture.as_ref().map(|o| {
-                let extensions = o.extensions.as_ref().map(|e| &e.others);
-                (o.tex_coord, UvTransform::of(extensions, o.tex_coord))
-            }),
+            (TextureSlot::Normal, _) => (m.normal_texture.as_ref())
+                .map(|n| sampled(n.extensions.as_ref().map(|e| &e.others), n.tex_coord)),
+            (TextureSlot::Occlusion, _) => (m.occlusion_texture.as_ref())
+                .map(|o| sampled(o.extensions.as_ref().map(|e| &e.others), o.tex_coord)),
             (TextureSlot::Emissive, _) => m.emissive_texture.as_ref().map(info),
         });
-        let slots = slots.map(|s| s.map(|(set, t)| (t.map_or(set, |t| t.set), t)));
         let mut sets = [None; 2];
         let mut decided = [false; 2];
         for &(set, transform) in slots.iter().flatten() {
@@ -108,23 +112,25 @@ impl UvPlan {
     }
 
     /// Gives `material`'s textures the UV set the plan read for them, and drops (with a
-    /// notice in `notices`) each whose transform is not the one its set was read with.
+    /// notice in `notices`) each that samples a set not read (TEXCOORD_2 and above), or whose
+    /// transform is not the one its set was read with.
     pub(super) fn settle(&self, k: usize, material: &mut Material, notices: &mut Vec<String>) {
         for (slot, planned) in TextureSlot::ALL.into_iter().zip(&self.slots) {
             let (Some(texture), Some((set, own))) = (material.texture_mut(slot), planned) else {
                 continue;
             };
             texture.uv = *set;
-            let read_with = self.sets.get(*set as usize).copied().flatten();
-            if read_with != *own {
-                *material.texture_mut(slot) = None;
-                notices.push(format!(
-                    "material {k}: its {} has another KHR_texture_transform than the texture \
-                     coordinates were read with (the {}'s); loaded without it",
-                    slot.name(),
-                    self.first_on(*set).map_or("none", TextureSlot::name),
-                ));
-            }
+            let why = match self.sets.get(*set as usize) {
+                None => format!("samples TEXCOORD_{set}, which is not read"),
+                Some(read_with) if read_with != own => format!(
+                    "has another KHR_texture_transform than the texture coordinates were read \
+                     with (the {}'s)",
+                    self.first_on(*set).map_or("none", TextureSlot::name)
+                ),
+                Some(_) => continue,
+            };
+            *material.texture_mut(slot) = None;
+            notices.push(format!("material {k}: its {} {why}; loaded without it", slot.name()));
         }
     }
 
@@ -176,5 +182,35 @@ mod tests {
         );
         assert_eq!(notices.len(), 1, "{notices:?}");
         assert!(notices[0].contains("normalTexture") && notices[0].contains("baseColorTexture"));
+    }
+
+    /// A transform that changes nothing is none (a normal map with `{}` beside an untransformed
+    /// base colour was dropped); its `texCoord` still picks the set. A set past 1 is not read.
+    #[test]
+    fn identity_transforms_and_unread_sets() {
+        let m = material(
+            r#"{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}},
+               "normalTexture": {"index": 1, "extensions": {"KHR_texture_transform": {}}},
+               "occlusionTexture": {"index": 2,
+                   "extensions": {"KHR_texture_transform": {"texCoord": 1}}},
+               "emissiveTexture": {"index": 3, "texCoord": 2}}"#,
+        );
+        let plan = UvPlan::of(&m);
+        let mut kept = Material::default();
+        for slot in [TextureSlot::BaseColor, TextureSlot::Normal]
+            .into_iter()
+            .chain([TextureSlot::Occlusion, TextureSlot::Emissive])
+        {
+            *kept.texture_mut(slot) = Some(super::super::asset::MaterialTexture::of_image(0));
+        }
+        let mut notices = Vec::new();
+        plan.settle(0, &mut kept, &mut notices);
+        let left: Vec<_> = kept.textures().map(|(s, t)| (s, t.uv)).collect();
+        assert_eq!(
+            left,
+            [(TextureSlot::BaseColor, 0), (TextureSlot::Normal, 0), (TextureSlot::Occlusion, 1)]
+        );
+        assert_eq!(notices.len(), 1, "{notices:?}");
+        assert!(notices[0].contains("TEXCOORD_2"), "{notices:?}");
     }
 }

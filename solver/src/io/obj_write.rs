@@ -85,8 +85,7 @@ pub fn write_mtl_asset(path: &Path, asset: &Asset) -> Result<Option<String>, Sav
     let mut text = String::new();
     let _ = writeln!(text, "# {} materials", asset.materials.len());
     for (m, name) in asset.materials.iter().zip(&names.materials) {
-        let texture =
-            m.base_color_texture.and_then(|t| textures.get(t.image)).and_then(Option::as_ref);
+        let texture = obj_texture(m).and_then(|i| textures.get(i)).and_then(Option::as_ref);
         push_material(&mut text, name, m, texture.map(String::as_str));
     }
     if let Some(default) = &names.default {
@@ -177,6 +176,12 @@ fn holds(path: &Path, bytes: &[u8]) -> bool {
         && std::fs::read(path).is_ok_and(|b| b == bytes)
 }
 
+/// The image `m`'s base colour texture shows in an OBJ (`map_Kd`): one sampled with UV set 0,
+/// the only set an OBJ holds.
+fn obj_texture(m: &Material) -> Option<usize> {
+    m.base_color_texture.filter(|t| t.uv == 0).map(|t| t.image)
+}
+
 /// For each image, the file name it is written as when a material uses it (`None` otherwise):
 /// the last component of [`super::asset::Image::name`], characters other than ASCII letters,
 /// digits, `-`, `_` and `.` replaced by `_`, the extension of its MIME type added when missing,
@@ -188,7 +193,7 @@ fn texture_files(path: &Path, asset: &Asset, mtl: &str) -> Result<Vec<Option<Str
     let dir = path.parent().unwrap_or(Path::new(""));
     let mut wanted = vec![false; asset.images.len()];
     for (i, m) in asset.materials.iter().enumerate() {
-        if let Some(t) = m.base_color_texture.map(|t| t.image) {
+        if let Some(t) = obj_texture(m) {
             let Some(w) = wanted.get_mut(t) else {
                 return Err(SaveError::Inconsistent {
                     file: file.clone(),

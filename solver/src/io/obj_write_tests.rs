@@ -246,6 +246,19 @@ fn a_different_file_beside_is_never_replaced() {
     assert_eq!(lines(&std::fs::read_to_string(&path).unwrap(), "map_Kd"), ["skin_tone.png"]);
 }
 
+/// A base colour sampled with UV set 1 is not written: an OBJ holds set 0 only, and `map_Kd`
+/// placed it by set 0's coordinates.
+#[test]
+fn a_texture_on_the_second_uv_set_is_not_written() {
+    let dir = ScratchDir::new("obj-uv1");
+    let mut asset = cube_asset();
+    asset.materials[0].base_color_texture.as_mut().unwrap().uv = 1;
+    let path = dir.join("pose.mtl");
+    write_mtl_asset(&path, &asset).unwrap();
+    assert!(lines(&std::fs::read_to_string(&path).unwrap(), "map_Kd").is_empty());
+    assert!(!dir.join("skin_tone.png").exists(), "its image was written");
+}
+
 #[test]
 fn bad_inputs_write_nothing() {
     let dir = ScratchDir::new("obj-bad");

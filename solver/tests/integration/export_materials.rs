@@ -1,6 +1,7 @@
 //! A material's five textures through an export: base colour, metallic-roughness, normal (with
 //! its scale), occlusion (with its strength, sharing the metallic-roughness image as glTF's
-//! packed ORM maps do) and emissive, each with its image, UV set and sampling. Our reader gets
+//! packed ORM maps do) and emissive (on the second UV set), each with its image, UV set and
+//! sampling. Our reader gets
 //! them back from `.glb` and `.gltf`, the Khronos validator accepts both files, three.js loads
 //! each map, and Blender's importer links each to the material, where those clients are
 //! installed (skips as in clients.rs).
@@ -24,6 +25,10 @@ fn textured() -> (Asset, Vec<Option<u32>>) {
     asset.images =
         vec![image("base.png"), image("orm.png"), image("normal.png"), image("glow.png")];
     let nearest = Sampling { mag_filter: Some(9728), min_filter: Some(9728), wrap: [33071, 33071] };
+    // A second UV set, for the emissive texture.
+    let mut second = asset.uvs[0].clone();
+    second.values.iter_mut().for_each(|uv| *uv = [1.0 - uv[0], 0.5 * uv[1]]);
+    asset.uvs.push(second);
     let m = &mut asset.materials[0];
     m.base_color_texture = Some(MaterialTexture::of_image(0));
     m.metallic_roughness_texture =
@@ -32,7 +37,7 @@ fn textured() -> (Asset, Vec<Option<u32>>) {
     m.normal_scale = 0.5;
     m.occlusion_texture = Some(MaterialTexture::of_image(1));
     m.occlusion_strength = 0.75;
-    m.emissive_texture = Some(MaterialTexture::of_image(3));
+    m.emissive_texture = Some(MaterialTexture { uv: 1, ..MaterialTexture::of_image(3) });
     m.emissive = [1.0, 0.5, 0.25];
     (asset, map)
 }
@@ -90,6 +95,11 @@ fn every_texture_slot_survives_an_export() {
         );
         assert_eq!(painted["normalScale"][0].as_f64().map(f64::abs), Some(0.5), "{painted}");
         assert_eq!(painted["aoMapIntensity"].as_f64(), Some(0.75), "{painted}");
+        let channels = &painted["channels"];
+        assert_eq!(
+            (channels["map"].as_u64(), channels["emissiveMap"].as_u64()),
+            (Some(0), Some(1))
+        );
     }
     if let Some(python) = clients::blender_python() {
         let report = clients::run_blender(&python, "check_gltf.py", &[glb.as_path()], "REPORT ");
