@@ -5,7 +5,10 @@
 //! pose you see is the pose you load), the method and its settings, the loose parts' modes
 //! (`loose_parts`; a scene without them reads as every loose part following), the rig
 //! (`rig`: rigidity map, soft falloffs, symmetry settings; absent in version-1 scenes), the
-//! camera, and the group names and colors (`editor`). Reading and writing (atomic) are `solver::animation::scene`'s.
+//! camera, and in `editor` the group names and colors, the playback time, the mesh's
+//! topology fingerprint (`mesh_topology`), `capture_viewport_size` (the capture settings'
+//! choice) and, in the autosave only, the scene file being edited (`document`). Reading and
+//! writing (atomic) are `solver::animation::scene`'s.
 
 use std::path::{Path, PathBuf};
 

@@ -39,10 +39,11 @@ pub const MAX_RECENT: usize = 10;
 /// any: a restore saves back to it.
 pub const EDITED_DOCUMENT: &str = "document";
 
-/// The scene file `autosave` was edited from ([`EDITED_DOCUMENT`]), if it names one.
+/// The scene file `autosave` was edited from ([`EDITED_DOCUMENT`]), if it names one whose
+/// folder is there (a drive not mounted, a folder removed: Save asks where instead).
 pub fn edited_document(autosave: &Scene) -> Option<PathBuf> {
-    let path = autosave.editor.as_ref()?.get(EDITED_DOCUMENT)?.as_str()?;
-    Some(PathBuf::from(path)).filter(|p| p.is_absolute())
+    let path = PathBuf::from(autosave.editor.as_ref()?.get(EDITED_DOCUMENT)?.as_str()?);
+    (path.is_absolute() && path.parent().is_some_and(Path::is_dir)).then_some(path)
 }
 
 /// The configuration folder (see the module doc), `None` without a home.
@@ -299,6 +300,23 @@ mod tests {
         let scratch = solver::testing::ScratchDir::new(&format!("persist-{name}"));
         let d = scratch.join("config");
         (scratch, d)
+    }
+
+    /// The scene file an autosave names is kept only where its folder is (else Save failed, or
+    /// made the folder's file anew), and only as an absolute path.
+    #[test]
+    fn the_edited_document_needs_its_folder() {
+        let (scratch, _) = dir("edited");
+        let named = |p: &str| {
+            let mut s = Scene::new("m.obj", Default::default());
+            s.editor = Some(serde_json::json!({ EDITED_DOCUMENT: p }));
+            edited_document(&s)
+        };
+        let here = scratch.join("scene.json");
+        assert_eq!(named(here.to_str().unwrap()), Some(here.clone()));
+        let gone = scratch.join("gone/scene.json");
+        assert_eq!(named(gone.to_str().unwrap()), None);
+        assert_eq!(named("scene.json"), None);
     }
 
     #[test]

@@ -443,7 +443,7 @@ fn the_scene_capture_object_sizes_screenshots_and_is_saved_back() {
     assert!(!h.state().has_unsaved_changes());
     let expected = h.state().viewport_pixels(&h.ctx).unwrap();
     let img = png(&f12(&mut h));
-    assert_eq!([img.width(), img.height()], expected, "the scene's size, not the viewport's");
+    assert_eq!([img.width(), img.height()], expected, "not the viewport's size after a reopen");
 
     // A mesh opened next, without a scene, is captured at the viewport's size, not at the
     // last scene's.

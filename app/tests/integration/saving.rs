@@ -154,9 +154,9 @@ fn restore_over_unsaved_changes_asks_first() {
     assert!(h.state().restore_offer().is_none());
 }
 
-/// An autosave of a scene file's work, restored, saves back to that scene file (Save asked
-/// where, as for a mesh without a scene), still counting as unsaved until then; the offer names
-/// the scene.
+/// An autosave of a scene file's work, restored, saves back to that scene file without asking
+/// where (it used to ask, as for a mesh without a scene), still counting as unsaved until
+/// then; the offer names the scene, and the scene is a recent file again.
 #[test]
 fn a_restored_scene_saves_back_to_its_file() {
     let dir = ScratchDir::new("saving-restore-scene");
@@ -189,6 +189,7 @@ fn a_restored_scene_saves_back_to_its_file() {
     step_until(&mut h, "the restore", |a| !a.is_loading() && a.mesh_path() == Some(bar.as_path()));
     assert_eq!(h.state().info(), Some("restored the autosaved bar-scene.json"));
     assert_eq!(h.state().document_path(), Some(scene.as_path()));
+    assert_eq!(h.state().recent_files().first(), Some(&scene));
     assert!(h.state().has_unsaved_changes());
     assert_eq!(std::fs::read(&scene).unwrap(), saved, "written before a Save");
     h.key_press_modifiers(Modifiers::COMMAND, Key::S);

@@ -605,7 +605,9 @@ impl Scene {
 /// a name that is not valid UTF-8 (JSON holds text), or, outside Windows, a name with a `\`
 /// (a scene reads `\` as a folder separator, so that scenes written on Windows open).
 pub fn relative_path(base: &Path, target: &Path) -> Result<String, String> {
-    for c in target.components() {
+    let relative = relative_form(base, target);
+    // Only the names written: the folders shared with `base` need not read back.
+    for c in relative.as_deref().unwrap_or(target).components() {
         let why = match c.as_os_str().to_str() {
             None => "its path is not valid UTF-8",
             Some(name) if cfg!(not(windows)) && name.contains('\\') => {
@@ -615,20 +617,29 @@ pub fn relative_path(base: &Path, target: &Path) -> Result<String, String> {
         };
         return Err(format!("{} cannot be named in a scene: {why}; rename it", target.display()));
     }
-    Ok(relative_text(base, target))
+    let Some(out) = relative else { return Ok(target.display().to_string()) };
+    let text = out.to_string_lossy().replace('\\', "/");
+    // A first name with a `:` (`bunny:v2.obj`) reads back as a URI scheme or a drive letter,
+    // and was refused on open: `./` keeps it a relative path (not a drive of its own, which
+    // `push` made the whole path).
+    let named = matches!(out.components().next(), Some(std::path::Component::Normal(n)) if n.to_string_lossy().contains(':'));
+    if named {
+        return Ok(format!("./{text}"));
+    }
+    Ok(text)
 }
 
-/// [`relative_path`] of a path that reads back.
-fn relative_text(base: &Path, target: &Path) -> String {
+/// `target` relative to `base` (`None`: it is written as given, see [`relative_path`]).
+fn relative_form(base: &Path, target: &Path) -> Option<PathBuf> {
     use std::path::Component;
     if base.is_absolute() != target.is_absolute() {
-        return target.display().to_string();
+        return None;
     }
     let b: Vec<Component> = base.components().filter(|c| *c != Component::CurDir).collect();
     let t: Vec<Component> = target.components().filter(|c| *c != Component::CurDir).collect();
     let common = b.iter().zip(&t).take_while(|(x, y)| x == y).count();
     if b[common..].iter().any(|c| matches!(c, Component::ParentDir)) {
-        return target.display().to_string();
+        return None;
     }
     let mut out = PathBuf::new();
     for _ in common..b.len() {
@@ -637,15 +648,7 @@ fn relative_text(base: &Path, target: &Path) -> String {
     for c in &t[common..] {
         out.push(c.as_os_str());
     }
-    let text = out.to_string_lossy().replace('\\', "/");
-    // A first name with a `:` (`bunny:v2.obj`) reads back as a URI scheme or a drive letter,
-    // and was refused on open: `./` keeps it a relative path (not a drive of its own, which
-    // `push` made the whole path).
-    let named = matches!(out.components().next(), Some(Component::Normal(n)) if n.to_string_lossy().contains(':'));
-    if named {
-        return format!("./{text}");
-    }
-    text
+    Some(out)
 }
 
 /// A scene's `capture` object: how `bsarap render` and the editor's screenshots picture it.
@@ -802,8 +805,11 @@ mod tests {
         let dir = Path::new("/a/s");
         let e = relative_path(dir, &dir.join("a\\b.obj")).unwrap_err();
         assert!(e.contains("a\\b.obj") && e.contains("rename it"), "{e}");
-        let latin1 = std::ffi::OsStr::from_bytes(b"caf\xe9.obj");
-        let e = relative_path(dir, &dir.join(latin1)).unwrap_err();
+        let latin1 = std::ffi::OsStr::from_bytes(b"caf\xe9");
+        let e = relative_path(dir, &dir.join(latin1).with_extension("obj")).unwrap_err();
         assert!(e.contains("UTF-8"), "{e}");
+        // In a folder the scene shares, such names are not written: nothing to refuse.
+        let inside = Path::new("/a").join(latin1).join("x\\y");
+        assert_eq!(relative_path(&inside, &inside.join("m.obj")).unwrap(), "m.obj");
     }
 }

@@ -204,16 +204,17 @@ impl EditorApp {
         }
         if self.has_unsaved_changes()
             && !self.session.discard_on_exit
-            && let Ok(doc) = self.autosave_document(&persist)
+            && self.session.edit.has_handles()
         {
-            match persist.keep_autosave(&doc) {
-                Ok(_) => return true,
-                Err(e) => {
-                    // the last autosave, if any, stays rather than nothing
-                    eprintln!("editor: could not keep your unsaved changes: {e}");
-                    return persist.autosave_path().exists();
-                }
+            // Without handles there is nothing a scene could keep; with them, a scene that
+            // cannot be written (a mesh name no scene can hold) or stored leaves the last
+            // autosave, if any, rather than nothing.
+            let kept = self.autosave_document(&persist).and_then(|doc| persist.keep_autosave(&doc));
+            if let Err(e) = kept {
+                eprintln!("editor: could not keep your unsaved changes: {e}");
+                return persist.autosave_path().exists();
             }
+            return true;
         }
         let removed = persist.discard_autosave_within(persist::EXIT_WAIT);
         if !removed {

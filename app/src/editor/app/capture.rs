@@ -153,7 +153,13 @@ pub(super) struct SavedCapture {
 
 impl SavedCapture {
     /// The key in a scene's `editor` object for [`SavedCapture::viewport_size`].
-    pub(super) const VIEWPORT_SIZE: &str = "capture_viewport_size";
+    const VIEWPORT_SIZE: &str = "capture_viewport_size";
+
+    /// Whether `scene`'s editor captures at the viewport's size ([`SavedCapture::write`]).
+    pub(super) fn viewport_size_of(scene: &solver::animation::scene::Scene) -> bool {
+        let editor = scene.editor.as_ref();
+        editor.and_then(|e| e.get(Self::VIEWPORT_SIZE)).is_some_and(|v| v == true)
+    }
 
     /// Writes itself into `scene`.
     pub(super) fn write(self, scene: &mut solver::animation::scene::Scene) {

@@ -652,10 +652,7 @@ impl EditorApp {
                         };
                         let settings = &self.session.settings;
                         let applied = document::apply_scene(&doc, labels, settings, scene.origin);
-                        let editor = doc.editor.as_ref();
-                        let viewport_size = editor
-                            .and_then(|e| e.get(SavedCapture::VIEWPORT_SIZE))
-                            .is_some_and(|v| v == true);
+                        let viewport_size = SavedCapture::viewport_size_of(&doc);
                         self.capture.load(doc.capture.as_ref(), viewport_size);
                         self.session.edit = applied.edit;
                         self.session.settings = applied.settings;
@@ -674,8 +671,11 @@ impl EditorApp {
                             // (else it asks where: the autosave is not a document), and the
                             // restored work counts as unsaved.
                             self.session.document_path = persist::edited_document(&doc);
-                            self.info = Some(match &self.session.document_path {
-                                Some(d) => format!("restored the autosaved {}", file_name(d)),
+                            self.info = Some(match self.session.document_path.clone() {
+                                Some(d) => {
+                                    self.remember(&d);
+                                    format!("restored the autosaved {}", file_name(&d))
+                                }
                                 None => "restored the autosaved session".into(),
                             });
                             restored = true;
