@@ -149,6 +149,18 @@ mod tests {
         serde_json::from_str(json).unwrap()
     }
 
+    /// A material with a texture in each of `slots`, settled by `plan`: the textures left
+    /// with their UV sets, and the notices.
+    fn settled(plan: &UvPlan, slots: &[TextureSlot]) -> (Vec<(TextureSlot, u32)>, Vec<String>) {
+        let mut m = Material::default();
+        for &slot in slots {
+            *m.texture_mut(slot) = Some(super::super::asset::MaterialTexture::of_image(0));
+        }
+        let mut notices = Vec::new();
+        plan.settle(0, &mut m, &mut notices);
+        (m.textures().map(|(s, t)| (s, t.uv)).collect(), notices)
+    }
+
     #[test]
     fn the_base_colour_decides_and_a_disagreeing_texture_goes() {
         let t = r#"{"KHR_texture_transform": {"scale": [2, 2]}}"#;
@@ -161,16 +173,8 @@ mod tests {
         let plan = UvPlan::of(&m);
         assert_eq!(plan.sets[0].map(|t| t.scale), Some([2.0, 2.0]));
         assert_eq!(plan.sets[1], None);
-        let mut kept = Material::default();
-        for slot in [TextureSlot::BaseColor, TextureSlot::MetallicRoughness]
-            .into_iter()
-            .chain([TextureSlot::Normal, TextureSlot::Emissive])
-        {
-            *kept.texture_mut(slot) = Some(super::super::asset::MaterialTexture::of_image(0));
-        }
-        let mut notices = Vec::new();
-        plan.settle(3, &mut kept, &mut notices);
-        let left: Vec<_> = kept.textures().map(|(s, t)| (s, t.uv)).collect();
+        use TextureSlot::{BaseColor, Emissive, MetallicRoughness, Normal};
+        let (left, notices) = settled(&plan, &[BaseColor, MetallicRoughness, Normal, Emissive]);
         assert_eq!(
             left,
             [
@@ -196,16 +200,8 @@ mod tests {
                "emissiveTexture": {"index": 3, "texCoord": 2}}"#,
         );
         let plan = UvPlan::of(&m);
-        let mut kept = Material::default();
-        for slot in [TextureSlot::BaseColor, TextureSlot::Normal]
-            .into_iter()
-            .chain([TextureSlot::Occlusion, TextureSlot::Emissive])
-        {
-            *kept.texture_mut(slot) = Some(super::super::asset::MaterialTexture::of_image(0));
-        }
-        let mut notices = Vec::new();
-        plan.settle(0, &mut kept, &mut notices);
-        let left: Vec<_> = kept.textures().map(|(s, t)| (s, t.uv)).collect();
+        use TextureSlot::{BaseColor, Emissive, Normal, Occlusion};
+        let (left, notices) = settled(&plan, &[BaseColor, Normal, Occlusion, Emissive]);
         assert_eq!(
             left,
             [(TextureSlot::BaseColor, 0), (TextureSlot::Normal, 0), (TextureSlot::Occlusion, 1)]

@@ -12,6 +12,7 @@ use crate::support::export_fixture::{asset, recording, tiny_png};
 
 use std::ops::ControlFlow;
 
+use serde_json::Value;
 use solver::animation::export::{AssetExport, ExportSettings, export_asset};
 use solver::io::asset::Sampling;
 use solver::io::{Asset, Image, MaterialTexture, TextureSlot};
@@ -48,6 +49,21 @@ fn slots(asset: &Asset, k: usize) -> Vec<(TextureSlot, String, u32, Sampling)> {
     m.textures().map(|(s, t)| (s, asset.images[t.image].name.clone(), t.uv, t.sampling)).collect()
 }
 
+/// The material "painted" in a client's report (its meshes' materials), printed.
+fn painted(report: &Value, client: &str) -> Value {
+    let meshes = report["meshes"].as_array().unwrap();
+    let mut materials = meshes.iter().flat_map(|m| m["materials"].as_array().unwrap());
+    let painted = materials.find(|m| m["name"] == "painted");
+    let painted = painted.unwrap_or_else(|| panic!("{client}: no painted material: {report}"));
+    println!("{client}: {painted}");
+    painted.clone()
+}
+
+/// A JSON list of strings.
+fn names(list: &Value) -> Vec<&str> {
+    list.as_array().unwrap().iter().map(|m| m.as_str().unwrap()).collect()
+}
+
 #[test]
 fn every_texture_slot_survives_an_export() {
     let (asset, map) = textured();
@@ -78,16 +94,8 @@ fn every_texture_slot_survives_an_export() {
     }
     let glb = dir.join("m.glb");
     if let Some(report) = clients::threejs_check(&glb, &[]) {
-        let painted = report["meshes"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .flat_map(|m| m["materials"].as_array().unwrap())
-            .find(|m| m["name"] == "painted")
-            .expect("three.js: no painted material");
-        println!("three.js: {painted}");
-        let maps: Vec<&str> =
-            painted["maps"].as_array().unwrap().iter().map(|m| m.as_str().unwrap()).collect();
+        let painted = painted(&report, "three.js");
+        let maps = names(&painted["maps"]);
         assert_eq!(
             maps,
             ["map", "metalnessMap", "roughnessMap", "normalMap", "aoMap", "emissiveMap"],
@@ -103,16 +111,8 @@ fn every_texture_slot_survives_an_export() {
     }
     if let Some(python) = clients::blender_python() {
         let report = clients::run_blender(&python, "check_gltf.py", &[glb.as_path()], "REPORT ");
-        let painted = report["meshes"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .flat_map(|m| m["materials"].as_array().unwrap())
-            .find(|m| m["name"] == "painted")
-            .expect("Blender: no painted material");
-        println!("Blender: {painted}");
-        let linked: Vec<&str> =
-            painted["linked"].as_array().unwrap().iter().map(|m| m.as_str().unwrap()).collect();
+        let painted = painted(&report, "Blender");
+        let linked = names(&painted["linked"]);
         for input in
             ["Base Color", "Metallic", "Roughness", "Normal", "Emission Color", "Occlusion"]
         {
