@@ -332,6 +332,11 @@ pub fn turntable_yaw(start: f32, i: usize, n: usize) -> f32 {
 mod tests {
     use super::*;
 
+    /// An offscreen renderer; `None`, with a printed "skipped", without an adapter.
+    fn headless() -> Option<Offscreen> {
+        Offscreen::headless().map_err(|e| eprintln!("skipped: {e}")).ok()
+    }
+
     #[test]
     fn turntable_turns_once() {
         assert_eq!(turntable_yaw(0.5, 0, 4), 0.5);
@@ -342,13 +347,7 @@ mod tests {
     /// the memory of earlier uploads) give what a fresh viewport draws for the last of them.
     #[test]
     fn consecutive_poses_draw_what_a_fresh_viewport_draws() {
-        let mut reused = match Offscreen::headless() {
-            Ok(o) => o,
-            Err(e) => {
-                eprintln!("skipped: {e}");
-                return;
-            }
-        };
+        let Some(mut reused) = headless() else { return };
         let mesh = solver::geometry::shapes::icosphere(3);
         let triangles = mesh.triangles();
         let topology = Arc::new(Topology {
@@ -392,13 +391,7 @@ mod tests {
     /// distance, more than the slab's thickness.
     #[test]
     fn a_thin_slabs_far_side_does_not_show_through_its_wireframe() {
-        let mut offscreen = match Offscreen::headless() {
-            Ok(o) => o,
-            Err(e) => {
-                eprintln!("skipped: {e}");
-                return;
-            }
-        };
+        let Some(mut offscreen) = headless() else { return };
         // An n × n grid of squares over [-h, h]² at height z, its triangles facing +z.
         let sheet = |n: u32, h: f64, z: f64, first: u32| {
             let corners = (0..=n).flat_map(|j| (0..=n).map(move |i| (i, j)));
