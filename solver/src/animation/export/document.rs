@@ -390,7 +390,11 @@ fn sampler(s: Sampling) -> json::texture::Sampler {
 
 /// Images (buffer views in `.glb`, `data:` URIs in `.gltf`), a sampler per sampling the
 /// materials use, texture $i$ showing image $i$ (then one per further sampling of an image),
-/// and the asset's materials, in the asset's order.
+/// and the asset's materials, in the asset's order, with all five texture slots.
+///
+/// No TANGENT is written for a normal map: viewers derive tangents (glTF 2.0 says they
+/// should, with MikkTSpace), and tangents written at rest would be wrong in every recorded
+/// pose, since the morph targets hold no tangent deltas.
 pub(super) fn push_materials(b: &mut Builder, asset: &Asset, format: GltfFormat) {
     // Images, textures (texture i shows image i), materials.
     for image in &asset.images {
