@@ -204,6 +204,34 @@ fn a_restored_scene_saves_back_to_its_file() {
     assert!(json.to_string().contains("0.25"), "the restored pose was not saved");
 }
 
+/// Changes discarded by opening another file leave no autosave behind: it was offered after a
+/// later crash as that session's work, though the crash came while another file was open.
+#[test]
+fn work_discarded_for_another_file_is_not_offered_after_a_crash() {
+    let dir = ScratchDir::new("saving-discarded-autosave");
+    let config = config_with_in_app_dialog(&dir);
+    let mut h = dialog_harness(config.clone());
+    step_until(&mut h, "the default asset", settled);
+    let mut e = h.state().edit_state().clone();
+    e.groups[0].pose.translation.y = 0.3;
+    h.state_mut().set_edit_state(e);
+    let autosave = h.state_mut().autosave_now().unwrap();
+    let (mesh, _) = solver::geometry::shapes::bumpy_bar(1);
+    let bar = dir.join("bar.obj");
+    solver::io::write_obj(&bar, mesh.positions(), mesh.triangles()).unwrap();
+    let ctx = h.ctx.clone();
+    h.state_mut().request_open(&ctx, bar.clone());
+    h.step();
+    h.step();
+    h.get_by_label("Discard changes and open").click();
+    h.step();
+    step_until(&mut h, "the bar", |a| !a.is_loading() && a.mesh_path() == Some(bar.as_path()));
+    drop(h); // a crash
+    assert!(!autosave.exists(), "the discarded work's autosave stayed");
+    let h = dialog_harness(config);
+    assert!(h.state().restore_offer().is_none(), "discarded work offered back");
+}
+
 /// "Save first" while a file dialog is open cannot ask where to save: the question stays and
 /// the user is told (the quit was left waiting for a later save, which then quit).
 #[test]

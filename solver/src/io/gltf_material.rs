@@ -46,9 +46,11 @@ fn material_texture(texture: ::gltf::Texture, tex_coord: u32) -> MaterialTexture
 ///
 /// A specular-glossiness material (the extension takes precedence over the core model, as
 /// its specification says) is read as metallic-roughness the way Blender's importer reads it:
-/// its diffuse factor and texture as the base colour, metallic 0, roughness 1 − glossiness;
-/// its specular colour and specular-glossiness texture are not kept. Old Sketchfab and
-/// 3ds Max exports use it, and a file that requires it was drawn white.
+/// its diffuse factor and texture as the base colour, metallic 0, roughness 1 − glossiness
+/// (with a glossiness texture, which scales the factor and is not kept: the core model's
+/// roughness); its specular colour is not kept either. Old Sketchfab and 3ds Max exports use
+/// it, and a file that requires it was drawn white. Metallic and roughness are clamped to
+/// [0, 1].
 pub(crate) fn materials(document: &::gltf::Document, notices: &mut Vec<String>) -> Vec<Material> {
     let info = |i: ::gltf::texture::Info| material_texture(i.texture(), i.tex_coord());
     document
@@ -83,15 +85,28 @@ pub(crate) fn materials(document: &::gltf::Document, notices: &mut Vec<String>) 
                 material.base_color = sg.diffuse_factor();
                 material.base_color_texture = sg.diffuse_texture().map(info);
                 material.metallic = 0.0;
-                material.roughness = 1.0 - sg.glossiness_factor();
                 material.metallic_roughness_texture = None;
+                // A glossiness texture (not kept) scales the factor, which then is usually
+                // left at 1: read as 1 - 1, every such material came out mirror-smooth. The
+                // core model's roughness (the file's own fallback, else 1) stands in.
+                let textured = sg.specular_glossiness_texture().is_some();
+                material.roughness =
+                    if textured { pbr.roughness_factor() } else { 1.0 - sg.glossiness_factor() };
+                let roughness = if textured {
+                    "the core model's roughness"
+                } else {
+                    "roughness 1 - glossiness"
+                };
                 notices.push(format!(
                     "material {} ({:?}) is specular-glossiness: read as metallic-roughness (its \
-                     diffuse as the base colour, roughness 1 - glossiness; its specular not kept)",
+                     diffuse as the base colour, {roughness}; its specular not kept)",
                     m.index().unwrap_or_default(),
                     material.name
                 ));
             }
+            // glTF's range; a file may hold others (1.5 read as roughness -0.5).
+            material.metallic = material.metallic.clamp(0.0, 1.0);
+            material.roughness = material.roughness.clamp(0.0, 1.0);
             material
         })
         .collect()

@@ -194,14 +194,31 @@ fn specular_glossiness_is_read_as_metallic_roughness() {
     doc["textures"] = json!([{"source": 0}]);
     doc["images"] = json!([{"uri": format!("data:image/png;base64,{png}")}]);
     doc["meshes"][0]["primitives"][0]["material"] = json!(0);
-    let m = load_mesh_from_bytes(&to_gltf(doc, &tet_bin()), Format::Gltf, "sg.gltf").unwrap();
+    let m =
+        load_mesh_from_bytes(&to_gltf(doc.clone(), &tet_bin()), Format::Gltf, "sg.gltf").unwrap();
     let material = &m.asset.materials[0];
-    assert_eq!(material.base_color, [1.0, 0.5, 0.25, 1.0], "the core model's fallback");
+    assert_eq!(material.base_color, [1.0, 0.5, 0.25, 1.0], "read the core model's colour");
     assert_eq!(material.base_color_texture.map(|t| t.image), Some(0));
     assert_eq!((material.metallic, material.roughness), (0.0, 0.75));
     assert_eq!(m.asset.images.len(), 1, "the diffuse image was not read");
     let notice = m.asset.notices.iter().find(|n| n.contains("specular-glossiness"));
     assert!(notice.is_some_and(|n| n.contains("\"old\"")), "{:?}", m.asset.notices);
+
+    // With a glossiness texture (not kept), whose factor is usually left at 1, the core
+    // model's roughness stands in: 1 - 1 made every such material mirror-smooth.
+    let sg = &mut doc["materials"][0]["extensions"]["KHR_materials_pbrSpecularGlossiness"];
+    sg["specularGlossinessTexture"] = json!({"index": 0});
+    sg["glossinessFactor"] = json!(1.0);
+    doc["materials"][0]["pbrMetallicRoughness"]["roughnessFactor"] = json!(0.5);
+    let m =
+        load_mesh_from_bytes(&to_gltf(doc.clone(), &tet_bin()), Format::Gltf, "t.gltf").unwrap();
+    assert_eq!(m.asset.materials[0].roughness, 0.5);
+    // Out of glTF's range: clamped (1.5 read as roughness -0.5).
+    let sg = &mut doc["materials"][0]["extensions"]["KHR_materials_pbrSpecularGlossiness"];
+    sg.as_object_mut().unwrap().remove("specularGlossinessTexture");
+    sg["glossinessFactor"] = json!(1.5);
+    let m = load_mesh_from_bytes(&to_gltf(doc, &tet_bin()), Format::Gltf, "c.gltf").unwrap();
+    assert_eq!(m.asset.materials[0].roughness, 0.0);
 }
 
 /// A node hierarchy that is not a tree is read once per node, with a notice: one node shared

@@ -113,6 +113,22 @@ impl EditorApp {
         Ok(doc)
     }
 
+    /// The autosave and the crash snapshot hold nothing newer than the open document's file
+    /// (it was saved, or opened in place of the work they held): both go, unless the autosave
+    /// is an offer not answered yet. An autosave of discarded work was offered after a later
+    /// crash, or kept by a quit whose own autosave could not be written.
+    pub(super) fn drop_autosave(&mut self) {
+        if let Ok(mut slot) = self.store.snapshot.try_lock() {
+            *slot = None;
+        }
+        if let Some(persist) = &self.store.persist
+            && !self.store.offer_pending()
+        {
+            persist.discard_autosave();
+            self.store.autosaved = None;
+        }
+    }
+
     /// Refreshes the crash snapshot every few seconds and writes the autosave every
     /// [`AUTOSAVE_INTERVAL`] when the scene changed; the file is written on a worker thread.
     pub(super) fn autosave_tick(&mut self) {

@@ -280,16 +280,8 @@ impl EditorApp {
             return Ok(());
         }
         // Saved: a crash from now on has nothing newer to keep than the file, and an autosave
-        // left would be offered after one as newer work (an unanswered offer's stays).
-        if let Ok(mut slot) = self.store.snapshot.try_lock() {
-            *slot = None;
-        }
-        if let Some(persist) = &self.store.persist
-            && !self.store.offer_pending()
-        {
-            persist.discard_autosave();
-            self.store.autosaved = None;
-        }
+        // left would be offered after one as newer work.
+        self.drop_autosave();
         Ok(())
     }
 

@@ -671,13 +671,13 @@ impl EditorApp {
                             // (else it asks where: the autosave is not a document), and the
                             // restored work counts as unsaved.
                             self.session.document_path = persist::edited_document(&doc);
-                            self.info = Some(match self.session.document_path.clone() {
-                                Some(d) => {
-                                    self.remember(&d);
-                                    format!("restored the autosaved {}", file_name(&d))
-                                }
+                            self.info = Some(match &self.session.document_path {
+                                Some(d) => format!("restored the autosaved {}", file_name(d)),
                                 None => "restored the autosaved session".into(),
                             });
+                            if let Some(d) = self.session.document_path.clone() {
+                                self.remember(&d); // its error, if any, in place of the above
+                            }
                             restored = true;
                             // The autosave names the user's own files wherever they are.
                             let outside = solver::animation::scene::OUTSIDE_THE_FOLDER;
@@ -693,6 +693,9 @@ impl EditorApp {
                         let path = scene.path.clone();
                         self.remember(&path);
                     }
+                }
+                if !restored {
+                    self.drop_autosave(); // the work it held was saved or discarded
                 }
                 self.session.saved_edit = (!restored).then(|| self.session.edit.clone());
                 self.session.saved_settings = self.session.settings;
