@@ -19,6 +19,7 @@ mod gpu_prolong;
 mod method_panel;
 mod preferences;
 mod readme_pictures;
+mod restore;
 mod rigging;
 mod saving;
 mod selection_tools;

@@ -1,0 +1,173 @@
+//! Restoring the autosave in the editor: a failed restore offers the autosave again, a
+//! restore over unsaved changes asks first, a restored scene saves back to its file, and work
+//! discarded for another file is not offered after a crash.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use crate::support;
+
+use std::path::{Path, PathBuf};
+
+use eframe::egui::{Key, Modifiers};
+use egui_kittest::kittest::Queryable;
+use solver::testing::ScratchDir;
+use support::{config_with_in_app_dialog, dialog_harness, settled, step_until};
+
+/// A session with the configuration folder `config` that opened the bumpy bar (`dir/bar.obj`,
+/// a .dmat beside it), moved a group, autosaved and crashed: the bar's path and the autosave.
+fn crashed_with_an_edit_of_a_bar(dir: &ScratchDir, config: &Path) -> (PathBuf, PathBuf) {
+    let (mesh, _) = solver::geometry::shapes::bumpy_bar(1);
+    let bar = dir.join("bar.obj");
+    solver::io::write_obj(&bar, mesh.positions(), mesh.triangles()).unwrap();
+    let rows: String = (0..mesh.n_vertices()).map(|v| if v < 4 { "0\n" } else { "-1\n" }).collect();
+    std::fs::write(dir.join("bar.dmat"), format!("1 {}\n{rows}", mesh.n_vertices())).unwrap();
+    let mut h = dialog_harness(config.to_path_buf());
+    step_until(&mut h, "the default asset", settled);
+    support::drop_file(&mut h, bar.clone());
+    step_until(&mut h, "the bar", |a| !a.is_loading() && a.mesh_path() == Some(bar.as_path()));
+    let mut e = h.state().edit_state().clone();
+    e.groups[0].pose.translation.y = 0.1;
+    h.state_mut().set_edit_state(e);
+    let autosave = h.state_mut().autosave_now().unwrap();
+    drop(h); // a crash: no clean exit
+    (bar, autosave)
+}
+
+/// Restore of an autosave whose mesh cannot be opened (moved since) fails, says why and offers
+/// the autosave again; it was gone, and the next clean exit deleted the crashed session's work.
+#[test]
+fn a_failed_restore_offers_the_autosave_again() {
+    let dir = ScratchDir::new("first-hour-failed-restore");
+    let config = config_with_in_app_dialog(&dir);
+    let (bar, autosave) = crashed_with_an_edit_of_a_bar(&dir, &config);
+    std::fs::rename(&bar, dir.join("moved.obj")).unwrap();
+
+    let mut h = dialog_harness(config);
+    step_until(&mut h, "the default asset", |a| !a.is_loading() && a.n_vertices() > 0);
+    assert!(h.state().restore_offer().is_some());
+    let ctx = h.ctx.clone();
+    h.state_mut().answer_restore(&ctx, true);
+    step_until(&mut h, "the restore's end", |a| !a.is_loading());
+    assert!(h.state().error().is_some_and(|e| e.contains("bar.obj")), "{:?}", h.state().error());
+    assert_eq!(h.state().restore_offer(), Some(autosave.as_path()), "not offered again");
+    assert!(h.state_mut().exit_autosave() && autosave.exists(), "the autosave went");
+}
+
+/// Restore with unsaved changes asks first (it replaced them unasked), and "Discard changes
+/// and restore" restores; before it, quitting does not offer to keep the changes in the
+/// autosave the offer holds.
+#[test]
+fn restore_over_unsaved_changes_asks_first() {
+    let dir = ScratchDir::new("saving-restore-asks");
+    let config = config_with_in_app_dialog(&dir);
+    let (bar, _) = crashed_with_an_edit_of_a_bar(&dir, &config);
+
+    let mut h = dialog_harness(config);
+    step_until(&mut h, "the default asset", |a| !a.is_loading() && a.n_vertices() > 0);
+    assert!(h.state().restore_offer().is_some());
+    let mut e = h.state().edit_state().clone();
+    e.groups[0].pose.translation.x = 0.2;
+    h.state_mut().set_edit_state(e);
+    // While the offer is unanswered the autosave file is the last session's: quitting cannot
+    // keep these changes in it (it kept the old file and dropped them).
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Q);
+    h.step();
+    h.step();
+    assert!(h.state().quit_question_open());
+    assert!(h.query_by_label("Keep for next time").is_none());
+    h.get_by_label_contains("the last session's autosave is still offered");
+    h.get_by_label("Cancel").click();
+    h.step();
+    assert!(!h.state().quit_question_open());
+    let ctx = h.ctx.clone();
+    h.state_mut().answer_restore(&ctx, true);
+    h.step();
+    h.step();
+    // Not read, not restored: the edit stays until the question is answered.
+    assert!(!h.state().is_loading(), "reading the autosave unasked");
+    assert_ne!(h.state().mesh_path(), Some(bar.as_path()), "restored unasked");
+    assert_eq!(h.state().edit_state().groups[0].pose.translation.x, 0.2);
+    h.get_by_label("Discard changes and restore").click();
+    h.step();
+    step_until(&mut h, "the restore", |a| !a.is_loading());
+    assert_eq!(h.state().mesh_path(), Some(bar.as_path()));
+    assert_eq!(h.state().info(), Some("restored the autosaved session"));
+    assert!(h.state().restore_offer().is_none());
+}
+
+/// An autosave of a scene file's work, restored, saves back to that scene file without asking
+/// where (it used to ask, as for a mesh without a scene), still counting as unsaved until
+/// then; the offer names the scene, and the scene is a recent file again.
+#[test]
+fn a_restored_scene_saves_back_to_its_file() {
+    let dir = ScratchDir::new("saving-restore-scene");
+    let config = config_with_in_app_dialog(&dir);
+    let (mesh, _) = solver::geometry::shapes::bumpy_bar(1);
+    let bar = dir.join("bar.obj");
+    solver::io::write_obj(&bar, mesh.positions(), mesh.triangles()).unwrap();
+    let rows: String = (0..mesh.n_vertices()).map(|v| if v < 4 { "0\n" } else { "-1\n" }).collect();
+    std::fs::write(dir.join("bar.dmat"), format!("1 {}\n{rows}", mesh.n_vertices())).unwrap();
+    let scene = dir.join("bar-scene.json");
+    {
+        let mut h = dialog_harness(config.clone());
+        step_until(&mut h, "the default asset", settled);
+        support::drop_file(&mut h, bar.clone());
+        step_until(&mut h, "the bar", |a| !a.is_loading() && a.mesh_path() == Some(bar.as_path()));
+        h.state_mut().save_scene(&scene).unwrap();
+        let mut e = h.state().edit_state().clone();
+        e.groups[0].pose.translation.y = 0.25;
+        h.state_mut().set_edit_state(e);
+        h.state_mut().autosave_now().unwrap();
+    } // a crash: no clean exit
+    let saved = std::fs::read(&scene).unwrap();
+
+    let mut h = dialog_harness(config);
+    step_until(&mut h, "the default asset", |a| !a.is_loading() && a.n_vertices() > 0);
+    assert!(h.state().restore_offer().is_some());
+    h.get_by_label_contains("An autosave of bar-scene.json");
+    let ctx = h.ctx.clone();
+    h.state_mut().answer_restore(&ctx, true);
+    step_until(&mut h, "the restore", |a| !a.is_loading() && a.mesh_path() == Some(bar.as_path()));
+    assert_eq!(h.state().info(), Some("restored the autosaved bar-scene.json"));
+    assert_eq!(h.state().document_path(), Some(scene.as_path()));
+    assert_eq!(h.state().recent_files().first(), Some(&scene));
+    assert!(h.state().has_unsaved_changes());
+    assert_eq!(std::fs::read(&scene).unwrap(), saved, "written before a Save");
+    h.key_press_modifiers(Modifiers::COMMAND, Key::S);
+    h.step();
+    step_until(&mut h, "the save", |a| !a.is_saving());
+    assert!(!h.state().file_dialog_open(), "Save asked where");
+    assert!(!h.state().has_unsaved_changes());
+    let written = solver::animation::scene::Scene::read(&scene).unwrap();
+    assert_eq!(written.mesh, "bar.obj", "the mesh path is relative to the scene again");
+    assert!(written.editor.unwrap().get("document").is_none(), "the autosave's key was saved");
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(&scene).unwrap()).unwrap();
+    assert!(json.to_string().contains("0.25"), "the restored pose was not saved");
+}
+
+/// Changes discarded by opening another file leave no autosave behind: it was offered after a
+/// later crash as that session's work, though the crash came while another file was open.
+#[test]
+fn work_discarded_for_another_file_is_not_offered_after_a_crash() {
+    let dir = ScratchDir::new("saving-discarded-autosave");
+    let config = config_with_in_app_dialog(&dir);
+    let mut h = dialog_harness(config.clone());
+    step_until(&mut h, "the default asset", settled);
+    let mut e = h.state().edit_state().clone();
+    e.groups[0].pose.translation.y = 0.3;
+    h.state_mut().set_edit_state(e);
+    let autosave = h.state_mut().autosave_now().unwrap();
+    let (mesh, _) = solver::geometry::shapes::bumpy_bar(1);
+    let bar = dir.join("bar.obj");
+    solver::io::write_obj(&bar, mesh.positions(), mesh.triangles()).unwrap();
+    let ctx = h.ctx.clone();
+    h.state_mut().request_open(&ctx, bar.clone());
+    h.step();
+    h.step();
+    h.get_by_label("Discard changes and open").click();
+    h.step();
+    step_until(&mut h, "the bar", |a| !a.is_loading() && a.mesh_path() == Some(bar.as_path()));
+    drop(h); // a crash
+    assert!(!autosave.exists(), "the discarded work's autosave stayed");
+    let h = dialog_harness(config);
+    assert!(h.state().restore_offer().is_none(), "discarded work offered back");
+}
