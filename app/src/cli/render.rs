@@ -160,7 +160,7 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
     let solve_s = t1.elapsed().as_secs_f64();
 
     let labels = handles.labels().to_vec();
-    let applied = apply_scene(&doc, labels, &MethodSettings::default(), file.origin);
+    let applied = apply_scene(&doc, labels, &MethodSettings::default(), file.origin, file.radius);
     let group_colors: Vec<_> = applied.edit.groups.iter().map(|g| g.color).collect();
     let render = file.render.clone().filter(|r| r.has_texture_or_colors());
     let colors = capture::vertex_colors(
@@ -179,7 +179,6 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
     // pitch were read about +Y) and the grid lies across it.
     let z_up = doc.up_axis == solver::animation::export::UpAxis::Z;
     camera.up_z = z_up;
-    camera.reach = file.radius;
     let grid = settings.overlays.then(|| match z_up {
         false => file.grid.clone(),
         true => {

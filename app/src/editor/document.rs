@@ -143,12 +143,14 @@ pub fn mesh_changed(scene: &Scene, mesh_topology: u64) -> Option<String> {
 }
 
 /// The editor state of `scene` whose handles resolved to `labels`; `settings` are the current
-/// ones (kept where the scene says nothing); the camera in the display space of `origin`.
+/// ones (kept where the scene says nothing); the camera in the display space of `origin`,
+/// reaching past a mesh of `radius` ([`OrbitCamera::reach`]).
 pub fn apply_scene(
     scene: &Scene,
     labels: Vec<Option<u32>>,
     settings: &MethodSettings,
     origin: [f64; 3],
+    radius: f32,
 ) -> Applied {
     let mut edit = EditState::from_labels(labels);
     let extra = scene.editor.as_ref();
@@ -195,6 +197,7 @@ pub fn apply_scene(
     // Settling is the editor's own setting, not the scene's.
     s.base = solver::BaseConfig { settle_iterations: s.base.settle_iterations, ..scene.base };
     let camera = scene.camera.as_ref().and_then(|c| OrbitCamera::from_json(c, origin));
+    let camera = camera.map(|c| OrbitCamera { reach: radius, ..c });
     Applied { edit, settings: s, camera, time, notice }
 }
 
@@ -263,6 +266,7 @@ mod tests {
             loaded.handles.labels().to_vec(),
             &MethodSettings::default(),
             input.origin,
+            2.5,
         );
         assert_eq!(back.edit.labels, edit.labels);
         assert_eq!(back.edit.groups[0].name, "left cap");
@@ -273,7 +277,7 @@ mod tests {
         assert_eq!(settings.base.coarse_energy, solver::CoarseEnergy::Galerkin);
         assert_eq!(back.settings, MethodSettings { base: settings.base_config(), ..settings });
         assert_eq!(back.settings.base.coarse_energy, solver::CoarseEnergy::Decimated);
-        assert_eq!(back.camera, Some(camera));
+        assert_eq!(back.camera, Some(OrbitCamera { reach: 2.5, ..camera }), "reach: the radius");
         for (a, b) in back.edit.groups.iter().zip(&edit.groups) {
             assert!((a.pose.translation - b.pose.translation).length() < 1e-12);
             assert!(a.pose.rotation.dot(b.pose.rotation).abs() > 1.0 - 1e-12);
@@ -343,7 +347,7 @@ mod tests {
         to_scene(&scene_path, &input).unwrap().save(&scene_path).unwrap();
         let loaded = solver::animation::scene::Scene::load(&scene_path).unwrap();
         let labels = loaded.handles.labels().to_vec();
-        let back = apply_scene(&loaded.scene, labels, &settings, [0.0; 3]);
+        let back = apply_scene(&loaded.scene, labels, &settings, [0.0; 3], 0.0);
         assert_eq!(back.edit.path(0), edit.path(0), "the key set with K was dropped");
         assert_eq!(back.edit.path(1), &AnimPath::Static);
         assert!((back.edit.groups[1].pose.translation.y - 0.2).abs() < 1e-12);
@@ -367,7 +371,8 @@ mod tests {
 
         let loaded = solver::animation::scene::Scene::load(&scene_path).unwrap();
         let labels = loaded.handles.labels().to_vec();
-        let back = apply_scene(&loaded.scene, labels.clone(), &MethodSettings::default(), [0.0; 3]);
+        let back =
+            apply_scene(&loaded.scene, labels.clone(), &MethodSettings::default(), [0.0; 3], 0.0);
         assert_eq!(back.edit.loose_parts, edit.loose_parts);
         assert_eq!(back.edit.loose_parts.mode(2), ComponentMode::Pin);
         assert_eq!(back.edit.loose_parts.mode(1), ComponentMode::Follow);
@@ -378,7 +383,7 @@ mod tests {
         let old_path = dir.join("old.json");
         std::fs::write(&old_path, serde_json::to_string(&value).unwrap()).unwrap();
         let old = solver::animation::scene::Scene::load(&old_path).unwrap();
-        let back = apply_scene(&old.scene, labels, &MethodSettings::default(), [0.0; 3]);
+        let back = apply_scene(&old.scene, labels, &MethodSettings::default(), [0.0; 3], 0.0);
         assert_eq!(back.edit.loose_parts, LooseParts::default());
     }
 
@@ -405,7 +410,7 @@ mod tests {
         for name in ["creature-circle.json", "creature-keyframes.json", "creature-posed.json"] {
             let loaded = solver::animation::scene::Scene::load(&dir.join(name)).unwrap();
             let labels = loaded.handles.labels().to_vec();
-            let applied = apply_scene(&loaded.scene, labels, &before, [0.0; 3]);
+            let applied = apply_scene(&loaded.scene, labels, &before, [0.0; 3], 0.0);
             assert_eq!(applied.settings, defaults, "{name}");
             assert!(applied.notice.is_none(), "{name}: {:?}", applied.notice);
         }
@@ -441,7 +446,7 @@ mod tests {
 
         scene.editor = Some(serde_json::json!({"time": "abc"}));
         let labels = loaded.handles.labels().to_vec();
-        let back = apply_scene(&scene, labels, &MethodSettings::default(), [0.0; 3]);
+        let back = apply_scene(&scene, labels, &MethodSettings::default(), [0.0; 3], 0.0);
         assert_eq!(back.time, 0.0);
         let notice = back.notice.unwrap_or_default();
         assert!(notice.starts_with("the scene's saved time \"abc\" is not a time"), "{notice}");
@@ -471,7 +476,8 @@ mod tests {
         let loaded = solver::animation::scene::Scene::load(&scene_path).unwrap();
         assert_eq!(loaded.handles.rig().falloff(1).radius, 0.125);
         let labels = loaded.handles.labels().to_vec();
-        let back = apply_scene(&loaded.scene, labels.clone(), &MethodSettings::default(), [0.0; 3]);
+        let back =
+            apply_scene(&loaded.scene, labels.clone(), &MethodSettings::default(), [0.0; 3], 0.0);
         assert_eq!(back.edit.rigidity, edit.rigidity);
         assert_eq!(back.edit.groups[1].falloff, edit.groups[1].falloff);
         assert_eq!(back.edit.groups[0].falloff, Falloff::default());
@@ -486,7 +492,7 @@ mod tests {
         std::fs::write(&old_path, serde_json::to_string(&value).unwrap()).unwrap();
         let old = solver::animation::scene::Scene::load(&old_path).unwrap();
         assert!(old.handles.rig().is_plain());
-        let back = apply_scene(&old.scene, labels, &MethodSettings::default(), [0.0; 3]);
+        let back = apply_scene(&old.scene, labels, &MethodSettings::default(), [0.0; 3], 0.0);
         assert_eq!(back.edit.rigidity, None);
         assert_eq!(back.edit.symmetry, SymmetrySpec::default());
     }

@@ -3,7 +3,7 @@
 //!
 //! The folder is `$BSARAP_CONFIG_DIR`, else `$XDG_CONFIG_HOME/bsarap`, else
 //! `$HOME/.config/bsarap`. Every write is atomic (`solver::io::write_atomic`). The autosave is
-//! a scene file (absolute mesh path, and the scene file being edited in
+//! a scene file (its mesh path relative to this folder, and the scene file being edited in
 //! [`EDITED_DOCUMENT`]) written every [`AUTOSAVE_INTERVAL`] while it changes, and
 //! by the panic hook when the editor crashes; it is removed on a clean exit, so one found at
 //! start means the last session did not end cleanly, and the editor offers it back. A clean

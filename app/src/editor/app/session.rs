@@ -9,7 +9,6 @@ use eframe::egui::{self, Vec2};
 
 use super::capture::SavedCapture;
 use super::{DialogKind, EditorApp, Shading, file_name};
-use crate::editor::camera::OrbitCamera;
 use crate::editor::document::{self, DocumentInput};
 use crate::editor::loader::{self, LoadedFile};
 use crate::editor::persist::{self, Persist};
@@ -651,14 +650,20 @@ impl EditorApp {
                             up_axis: doc.up_axis,
                         };
                         let settings = &self.session.settings;
-                        let applied = document::apply_scene(&doc, labels, settings, scene.origin);
+                        let applied = document::apply_scene(
+                            &doc,
+                            labels,
+                            settings,
+                            scene.origin,
+                            scene.radius,
+                        );
                         let viewport_size = SavedCapture::viewport_size_of(&doc);
                         self.capture.load(doc.capture.as_ref(), viewport_size);
                         self.session.edit = applied.edit;
                         self.session.settings = applied.settings;
                         self.session.playback.time = applied.time;
                         if let Some(c) = applied.camera {
-                            self.display.camera = OrbitCamera { reach: scene.radius, ..c };
+                            self.display.camera = c;
                             framed = false;
                         }
                         if let Some(n) = applied.notice {
