@@ -15,15 +15,10 @@ use support::{config_with_in_app_dialog, dialog_harness, settled, step_until};
 /// A session with the configuration folder `config` that opened the bumpy bar (`dir/bar.obj`,
 /// a .dmat beside it), moved a group, autosaved and crashed: the bar's path and the autosave.
 fn crashed_with_an_edit_of_a_bar(dir: &ScratchDir, config: &Path) -> (PathBuf, PathBuf) {
-    let (mesh, _) = solver::geometry::shapes::bumpy_bar(1);
-    let bar = dir.join("bar.obj");
-    solver::io::write_obj(&bar, mesh.positions(), mesh.triangles()).unwrap();
-    let rows: String = (0..mesh.n_vertices()).map(|v| if v < 4 { "0\n" } else { "-1\n" }).collect();
-    std::fs::write(dir.join("bar.dmat"), format!("1 {}\n{rows}", mesh.n_vertices())).unwrap();
+    let (bar, _) = support::write_bar(dir, true);
     let mut h = dialog_harness(config.to_path_buf());
     step_until(&mut h, "the default asset", settled);
-    support::drop_file(&mut h, bar.clone());
-    step_until(&mut h, "the bar", |a| !a.is_loading() && a.mesh_path() == Some(bar.as_path()));
+    support::open_dropped(&mut h, &bar);
     let mut e = h.state().edit_state().clone();
     e.groups[0].pose.translation.y = 0.1;
     h.state_mut().set_edit_state(e);
@@ -101,17 +96,12 @@ fn restore_over_unsaved_changes_asks_first() {
 fn a_restored_scene_saves_back_to_its_file() {
     let dir = ScratchDir::new("saving-restore-scene");
     let config = config_with_in_app_dialog(&dir);
-    let (mesh, _) = solver::geometry::shapes::bumpy_bar(1);
-    let bar = dir.join("bar.obj");
-    solver::io::write_obj(&bar, mesh.positions(), mesh.triangles()).unwrap();
-    let rows: String = (0..mesh.n_vertices()).map(|v| if v < 4 { "0\n" } else { "-1\n" }).collect();
-    std::fs::write(dir.join("bar.dmat"), format!("1 {}\n{rows}", mesh.n_vertices())).unwrap();
+    let (bar, _) = support::write_bar(&dir, true);
     let scene = dir.join("bar-scene.json");
     {
         let mut h = dialog_harness(config.clone());
         step_until(&mut h, "the default asset", settled);
-        support::drop_file(&mut h, bar.clone());
-        step_until(&mut h, "the bar", |a| !a.is_loading() && a.mesh_path() == Some(bar.as_path()));
+        support::open_dropped(&mut h, &bar);
         h.state_mut().save_scene(&scene).unwrap();
         let mut e = h.state().edit_state().clone();
         e.groups[0].pose.translation.y = 0.25;
@@ -156,9 +146,7 @@ fn work_discarded_for_another_file_is_not_offered_after_a_crash() {
     e.groups[0].pose.translation.y = 0.3;
     h.state_mut().set_edit_state(e);
     let autosave = h.state_mut().autosave_now().unwrap();
-    let (mesh, _) = solver::geometry::shapes::bumpy_bar(1);
-    let bar = dir.join("bar.obj");
-    solver::io::write_obj(&bar, mesh.positions(), mesh.triangles()).unwrap();
+    let (bar, _) = support::write_bar(&dir, false);
     let ctx = h.ctx.clone();
     h.state_mut().request_open(&ctx, bar.clone());
     h.step();

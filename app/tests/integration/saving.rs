@@ -26,13 +26,8 @@ fn save_as_refuses_the_mesh_and_a_cancelled_save_first_is_forgotten() {
     let config = config_with_in_app_dialog(&dir);
     let mut h = dialog_harness(config.clone());
     step_until(&mut h, "the default asset", settled);
-    let (mesh, _) = solver::geometry::shapes::bumpy_bar(1);
-    let bar = dir.join("bar.obj");
-    solver::io::write_obj(&bar, mesh.positions(), mesh.triangles()).unwrap();
-    let rows: String = (0..mesh.n_vertices()).map(|v| if v < 4 { "0\n" } else { "-1\n" }).collect();
-    std::fs::write(dir.join("bar.dmat"), format!("1 {}\n{rows}", mesh.n_vertices())).unwrap();
-    support::drop_file(&mut h, bar.clone());
-    step_until(&mut h, "the bar", |a| !a.is_loading() && a.mesh_path() == Some(bar.as_path()));
+    let (bar, _) = support::write_bar(&dir, true);
+    support::open_dropped(&mut h, &bar);
     let original = std::fs::read(&bar).unwrap();
     let mut e = h.state().edit_state().clone();
     e.groups[0].pose.translation.y = 0.1;
@@ -636,11 +631,8 @@ fn without_handles_the_quit_question_keeps_nothing_it_cannot() {
     let dir = ScratchDir::new("saving-keep-without-handles");
     let mut h = dialog_harness(config_with_in_app_dialog(&dir));
     step_until(&mut h, "the default asset", settled);
-    let (mesh, _) = solver::geometry::shapes::bumpy_bar(1);
-    let bar = dir.join("bar.obj");
-    solver::io::write_obj(&bar, mesh.positions(), mesh.triangles()).unwrap();
-    support::drop_file(&mut h, bar.clone());
-    step_until(&mut h, "the bar", |a| !a.is_loading() && a.mesh_path() == Some(bar.as_path()));
+    let (bar, _) = support::write_bar(&dir, false);
+    support::open_dropped(&mut h, &bar);
     assert!(!h.state().edit_state().has_handles());
     h.state_mut().set_up_axis(solver::animation::export::UpAxis::Z);
     assert!(h.state().has_unsaved_changes());
@@ -657,13 +649,8 @@ fn without_handles_the_quit_question_keeps_nothing_it_cannot() {
 #[test]
 fn a_scene_whose_mesh_was_renumbered_says_so() {
     let (_dir, mut h, folder) = with_a_scene_folder("saving-renumbered");
-    let (mesh, _) = solver::geometry::shapes::bumpy_bar(1);
-    let bar = folder.join("bar.obj");
-    solver::io::write_obj(&bar, mesh.positions(), mesh.triangles()).unwrap();
-    let rows: String = (0..mesh.n_vertices()).map(|v| if v < 4 { "0\n" } else { "-1\n" }).collect();
-    std::fs::write(folder.join("bar.dmat"), format!("1 {}\n{rows}", mesh.n_vertices())).unwrap();
-    support::drop_file(&mut h, bar.clone());
-    step_until(&mut h, "the bar", |a| !a.is_loading() && a.mesh_path() == Some(bar.as_path()));
+    let (bar, mesh) = support::write_bar(&folder, true);
+    support::open_dropped(&mut h, &bar);
     let scene = folder.join("bar.json");
     h.state_mut().save_scene(&scene).unwrap();
     let_saves_go(&mut h);

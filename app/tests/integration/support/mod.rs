@@ -52,6 +52,28 @@ pub fn drop_file(h: &mut Harness<'_, EditorApp>, path: PathBuf) {
     h.step();
 }
 
+/// The bumpy bar written as `folder/bar.obj`, with `folder/bar.dmat` beside it when `handles`
+/// (group 0 on its first four vertices, which the editor loads with the mesh): its path and
+/// the mesh.
+pub fn write_bar(folder: &Path, handles: bool) -> (PathBuf, solver::Mesh) {
+    let (mesh, _) = solver::geometry::shapes::bumpy_bar(1);
+    let bar = folder.join("bar.obj");
+    solver::io::write_obj(&bar, mesh.positions(), mesh.triangles()).unwrap();
+    if handles {
+        let rows: String =
+            (0..mesh.n_vertices()).map(|v| if v < 4 { "0\n" } else { "-1\n" }).collect();
+        std::fs::write(folder.join("bar.dmat"), format!("1 {}\n{rows}", mesh.n_vertices()))
+            .unwrap();
+    }
+    (bar, mesh)
+}
+
+/// Drops `path` on the window and waits until it is the open mesh.
+pub fn open_dropped(h: &mut Harness<'_, EditorApp>, path: &Path) {
+    drop_file(h, path.to_path_buf());
+    step_until(h, "the dropped file", |a| !a.is_loading() && a.mesh_path() == Some(path));
+}
+
 /// An editor on `path`, keeping its files in `config_dir`.
 pub fn harness(path: PathBuf, config_dir: Option<PathBuf>) -> Harness<'static, EditorApp> {
     harness_sized(path, config_dir, SIZE)
