@@ -5,6 +5,7 @@
 //! mesh; number keys select view presets (1 front, 3 right, 7 top; with Ctrl the opposite).
 
 use glam::{Mat4, Vec3, Vec4};
+use solver::animation::export::UpAxis;
 
 use super::shape::to_f32_from;
 
@@ -64,8 +65,8 @@ impl OrbitCamera {
             self.pitch.sin(),
             self.pitch.cos() * self.yaw.cos(),
         );
-        // Z up: the Y-up frame (x, z, −y) turned back, (a, b, c) ↦ (a, −c, b).
-        if self.up_z { Vec3::new(a, -c, b) } else { Vec3::new(a, b, c) }
+        let up = if self.up_z { UpAxis::Z } else { UpAxis::Y };
+        Vec3::from(up.from_y_up([a, b, c]))
     }
 
     /// The world's up axis: +Y, or +Z with `up_z`.

@@ -256,19 +256,15 @@ fn spawn_loader<T: Send + 'static>(
 pub fn ground_grid(lo: Vec3, center: Vec3, radius: f32, up: UpAxis) -> Vec<Vertex> {
     let lo = lo - Vec3::splat(1e-3 * radius);
     let (c, extent) = (center, radius * 1.5);
-    match up {
-        UpAxis::Y => build_grid(c, lo.y, extent),
-        // Built Y-up in the frame (x, z, −y), then turned back: (a, b, c) ↦ (a, −c, b).
-        UpAxis::Z => {
-            let mut grid = build_grid(Vec3::new(c.x, c.z, -c.y), lo.z, extent);
-            for v in &mut grid {
-                let [a, b, cc] = v.position;
-                v.position = [a, -cc, b];
-                v.normal = [0.0, 0.0, 1.0];
-            }
-            grid
-        }
+    // Built Y-up in the frame (x, z, −y), then turned back.
+    let centre = Vec3::from(up.rotate(c.to_array().map(f64::from)));
+    let height = if up.is_y() { lo.y } else { lo.z };
+    let mut grid = build_grid(centre, height, extent);
+    for v in &mut grid {
+        v.position = up.from_y_up(v.position);
+        v.normal = up.from_y_up(v.normal);
     }
+    grid
 }
 
 /// [`ground_grid`] under `file`'s mesh for `up`: the editor's and `bsarap render`'s.

@@ -223,6 +223,15 @@ impl UpAxis {
             UpAxis::Z => [x, z, -y],
         }
     }
+
+    /// The inverse of [`UpAxis::rotate`]: `p`, given in the Y-up frame, in this axis's frame
+    /// ($(a, b, c) \mapsto (a, -c, b)$ for Z). The editor builds its camera and grid Y-up.
+    pub fn from_y_up(self, [a, b, c]: [f32; 3]) -> [f32; 3] {
+        match self {
+            UpAxis::Y => [a, b, c],
+            UpAxis::Z => [a, -c, b],
+        }
+    }
 }
 
 /// The settings a recording was solved with, recorded in the file's `asset.extras.bsarap`
