@@ -427,9 +427,7 @@ fn a_texture_is_read_off_the_ui_thread_for_the_mesh_it_was_read_for() {
     }
     assert!(h.state().is_loading_texture());
     // Not in the document yet: quitting asks.
-    h.key_press_modifiers(Modifiers::COMMAND, Key::Q);
-    h.step();
-    h.step(); // a new window is laid out invisibly in its first frame
+    support::ask_to_quit(&mut h);
     assert!(h.query_by_label_contains("Quitting stops a texture being read").is_some());
     h.get_by_label("Cancel").click();
     h.step();

@@ -113,12 +113,6 @@ fn pose_group1(h: &mut Harness<'_, EditorApp>, dy: f64) {
     assert!(h.state().has_unsaved_changes());
 }
 
-fn quit(h: &mut Harness<'_, EditorApp>) {
-    h.key_press_modifiers(Modifiers::COMMAND, Key::Q);
-    h.step();
-    h.step(); // a new window is laid out invisibly in its first frame
-}
-
 #[test]
 fn quitting_with_unsaved_changes_asks_and_a_kept_quit_is_not_called_a_crash() {
     let dir = ScratchDir::new("first-hour-quit");
@@ -128,12 +122,12 @@ fn quitting_with_unsaved_changes_asks_and_a_kept_quit_is_not_called_a_crash() {
     step_until(&mut h, "the default asset", settled);
 
     // Nothing unsaved: Ctrl+Q asks nothing.
-    quit(&mut h);
+    support::ask_to_quit(&mut h);
     assert!(!h.state().quit_question_open());
 
     // Unsaved: Ctrl+Q asks; Cancel keeps working.
     pose_group1(&mut h, 0.05);
-    quit(&mut h);
+    support::ask_to_quit(&mut h);
     assert!(h.state().quit_question_open());
     h.snapshot_options("quit_with_unsaved_changes", &support::snapshot_options());
     h.get_by_label("Cancel").click();
@@ -142,7 +136,7 @@ fn quitting_with_unsaved_changes_asks_and_a_kept_quit_is_not_called_a_crash() {
 
     // "Keep for next time": the exit keeps the changes, and the next start says so, not that
     // the session crashed.
-    quit(&mut h);
+    support::ask_to_quit(&mut h);
     h.get_by_label("Keep for next time").click();
     h.step();
     assert!(h.state_mut().exit_autosave(), "the changes are kept");
@@ -172,7 +166,7 @@ fn quitting_with_unsaved_changes_asks_and_a_kept_quit_is_not_called_a_crash() {
     });
 
     // "Quit without saving": the exit removes the autosave (the crash marker).
-    quit(&mut h);
+    support::ask_to_quit(&mut h);
     h.get_by_label("Quit without saving").click();
     h.step();
     assert!(!h.state_mut().exit_autosave(), "discarded on purpose");
@@ -184,7 +178,7 @@ fn quitting_with_unsaved_changes_asks_and_a_kept_quit_is_not_called_a_crash() {
     step_until(&mut h, "the default asset", settled);
     assert!(h.state().restore_offer().is_none(), "a clean exit leaves nothing to restore");
     pose_group1(&mut h, 0.03);
-    quit(&mut h);
+    support::ask_to_quit(&mut h);
     h.get_by_label("Save first").click();
     let saved = dir.join("kept.json");
     choose_in_dialog(&mut h, &saved);

@@ -64,9 +64,7 @@ fn restore_over_unsaved_changes_asks_first() {
     h.state_mut().set_edit_state(e);
     // While the offer is unanswered the autosave file is the last session's: quitting cannot
     // keep these changes in it (it kept the old file and dropped them).
-    h.key_press_modifiers(Modifiers::COMMAND, Key::Q);
-    h.step();
-    h.step();
+    support::ask_to_quit(&mut h);
     assert!(h.state().quit_question_open());
     assert!(h.query_by_label("Keep for next time").is_none());
     h.get_by_label_contains("the last session's autosave is still offered");

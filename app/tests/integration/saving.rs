@@ -80,9 +80,7 @@ fn save_first_with_a_dialog_open_keeps_the_question() {
     h.key_press_modifiers(Modifiers::COMMAND, Key::O);
     h.step();
     assert!(h.state().file_dialog_open());
-    h.key_press_modifiers(Modifiers::COMMAND, Key::Q);
-    h.step();
-    h.step();
+    support::ask_to_quit(&mut h);
     assert!(h.state().quit_question_open());
     h.get_by_label("Save first").click_accesskit();
     h.step();
@@ -552,9 +550,7 @@ fn cancelling_the_quit_question_cancels_the_waiting_quit() {
     let (_dir, mut h, folder) = with_a_scene_folder("save-quit-cancel-quit");
     quit_while_saving(&mut h, &folder);
     pose(&mut h, 0.09);
-    h.key_press_modifiers(Modifiers::COMMAND, Key::Q);
-    h.step();
-    h.step();
+    support::ask_to_quit(&mut h);
     assert!(h.state().quit_question_open());
     h.get_by_label("Cancel").click();
     h.step();
@@ -636,9 +632,7 @@ fn without_handles_the_quit_question_keeps_nothing_it_cannot() {
     assert!(!h.state().edit_state().has_handles());
     h.state_mut().set_up_axis(solver::animation::export::UpAxis::Z);
     assert!(h.state().has_unsaved_changes());
-    h.key_press_modifiers(Modifiers::COMMAND, Key::Q);
-    h.step();
-    h.step();
+    support::ask_to_quit(&mut h);
     assert!(h.state().quit_question_open());
     assert!(h.query_by_label("Keep for next time").is_none());
     h.get_by_label_contains("nothing can be kept for next time");

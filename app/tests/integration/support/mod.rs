@@ -68,6 +68,13 @@ pub fn write_bar(folder: &Path, handles: bool) -> (PathBuf, solver::Mesh) {
     (bar, mesh)
 }
 
+/// Presses Ctrl+Q and lays out the frames its question (if any) needs to be shown.
+pub fn ask_to_quit(h: &mut Harness<'_, EditorApp>) {
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Q);
+    h.step();
+    h.step(); // a new window is laid out invisibly in its first frame
+}
+
 /// Drops `path` on the window and waits until it is the open mesh.
 pub fn open_dropped(h: &mut Harness<'_, EditorApp>, path: &Path) {
     drop_file(h, path.to_path_buf());
