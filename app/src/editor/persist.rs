@@ -46,6 +46,13 @@ pub fn edited_document(autosave: &Scene) -> Option<PathBuf> {
     (path.is_absolute() && path.parent().is_some_and(Path::is_dir)).then_some(path)
 }
 
+/// Whether `document` was written after `autosave_written`, the time its autosave was: by
+/// another session or tool, or by a Save after the autosave was kept. A restore of the
+/// autosave then does not save back to it unasked: that would lose the newer file.
+pub fn changed_since(document: &Path, autosave_written: SystemTime) -> bool {
+    std::fs::metadata(document).and_then(|m| m.modified()).is_ok_and(|t| t > autosave_written)
+}
+
 /// The configuration folder (see the module doc), `None` without a home.
 pub fn default_dir() -> Option<PathBuf> {
     let var = |k: &str| std::env::var_os(k).filter(|v| !v.is_empty()).map(PathBuf::from);

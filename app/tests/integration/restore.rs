@@ -1,6 +1,7 @@
 //! Restoring the autosave in the editor: a failed restore offers the autosave again, a
-//! restore over unsaved changes asks first, a restored scene saves back to its file, and work
-//! discarded for another file is not offered after a crash.
+//! restore over unsaved changes asks first, a restored scene saves back to its file unless the
+//! file changed on disk since, work discarded for another file is not offered after a crash, and
+//! changes that cannot be autosaved say so.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use crate::support;
@@ -25,6 +26,23 @@ fn crashed_with_an_edit_of_a_bar(dir: &ScratchDir, config: &Path) -> (PathBuf, P
     let autosave = h.state_mut().autosave_now().unwrap();
     drop(h); // a crash: no clean exit
     (bar, autosave)
+}
+
+/// A session with the configuration folder `config` that saved the bumpy bar's scene
+/// (`dir/bar-scene.json`), moved a group, autosaved and crashed: the bar's path and the scene's.
+fn crashed_with_an_edit_of_a_scene(dir: &ScratchDir, config: &Path) -> (PathBuf, PathBuf) {
+    let (bar, _) = support::write_bar(dir, true);
+    let scene = dir.join("bar-scene.json");
+    let mut h = dialog_harness(config.to_path_buf());
+    step_until(&mut h, "the default asset", settled);
+    support::open_dropped(&mut h, &bar);
+    h.state_mut().save_scene(&scene).unwrap();
+    let mut e = h.state().edit_state().clone();
+    e.groups[0].pose.translation.y = 0.25;
+    h.state_mut().set_edit_state(e);
+    h.state_mut().autosave_now().unwrap();
+    drop(h); // a crash: no clean exit
+    (bar, scene)
 }
 
 /// Restore of an autosave whose mesh cannot be opened (moved since) fails, says why and offers
@@ -94,18 +112,7 @@ fn restore_over_unsaved_changes_asks_first() {
 fn a_restored_scene_saves_back_to_its_file() {
     let dir = ScratchDir::new("saving-restore-scene");
     let config = config_with_in_app_dialog(&dir);
-    let (bar, _) = support::write_bar(&dir, true);
-    let scene = dir.join("bar-scene.json");
-    {
-        let mut h = dialog_harness(config.clone());
-        step_until(&mut h, "the default asset", settled);
-        support::open_dropped(&mut h, &bar);
-        h.state_mut().save_scene(&scene).unwrap();
-        let mut e = h.state().edit_state().clone();
-        e.groups[0].pose.translation.y = 0.25;
-        h.state_mut().set_edit_state(e);
-        h.state_mut().autosave_now().unwrap();
-    } // a crash: no clean exit
+    let (bar, scene) = crashed_with_an_edit_of_a_scene(&dir, &config);
     let saved = std::fs::read(&scene).unwrap();
 
     let mut h = dialog_harness(config);
@@ -130,6 +137,60 @@ fn a_restored_scene_saves_back_to_its_file() {
     assert!(written.editor.unwrap().get("document").is_none(), "the autosave's key was saved");
     let json: serde_json::Value = serde_json::from_slice(&std::fs::read(&scene).unwrap()).unwrap();
     assert!(json.to_string().contains("0.25"), "the restored pose was not saved");
+}
+
+/// A scene file changed on disk after its autosave (another session saved it) is not saved
+/// over by the restored work unasked: the offer says so, and Save asks where.
+#[test]
+fn a_restore_does_not_save_over_a_scene_changed_since() {
+    let dir = ScratchDir::new("saving-restore-newer-scene");
+    let config = config_with_in_app_dialog(&dir);
+    let (bar, scene) = crashed_with_an_edit_of_a_scene(&dir, &config);
+    let newer = std::fs::read(&scene).unwrap();
+    let later = std::time::SystemTime::now() + std::time::Duration::from_secs(60);
+    std::fs::File::options().write(true).open(&scene).unwrap().set_modified(later).unwrap();
+
+    let mut h = dialog_harness(config);
+    step_until(&mut h, "the default asset", |a| !a.is_loading() && a.n_vertices() > 0);
+    h.get_by_label_contains("bar-scene.json changed on disk after the autosave");
+    let ctx = h.ctx.clone();
+    h.state_mut().answer_restore(&ctx, true);
+    step_until(&mut h, "the restore", |a| !a.is_loading() && a.mesh_path() == Some(bar.as_path()));
+    let info = h.state().info().unwrap_or_default().to_owned();
+    assert!(info.contains("changed on disk after the autosave"), "{info}");
+    assert_eq!(h.state().document_path(), None);
+    assert!(h.state().has_unsaved_changes());
+    h.key_press_modifiers(Modifiers::COMMAND, Key::S);
+    h.step();
+    h.step();
+    assert!(h.state().file_dialog_open(), "Save did not ask where");
+    assert_eq!(std::fs::read(&scene).unwrap(), newer, "the newer scene file was written over");
+}
+
+/// Unsaved changes that cannot be autosaved (the autosave, in the configuration folder, cannot
+/// name a mesh under a folder with `\` in its name) say so in the status bar, and stop saying
+/// so once saved; the failure was only printed on standard error.
+#[test]
+fn changes_that_cannot_be_autosaved_say_so() {
+    let dir = ScratchDir::new("saving-not-autosaved");
+    let config = config_with_in_app_dialog(&dir);
+    let folder = dir.join("back\\slash");
+    std::fs::create_dir(&folder).unwrap();
+    let (bar, _) = support::write_bar(&folder, true);
+    let mut h = dialog_harness(config);
+    step_until(&mut h, "the default asset", settled);
+    support::open_dropped(&mut h, &bar);
+    assert!(h.query_by_label("not autosaved").is_none());
+    let mut e = h.state().edit_state().clone();
+    e.groups[0].pose.translation.y = 0.1;
+    h.state_mut().set_edit_state(e);
+    step_until(&mut h, "the autosave timer", |a| a.autosave_failure().is_some());
+    let why = h.state().autosave_failure().unwrap();
+    assert!(why.contains("back\\slash"), "{why}");
+    h.get_by_label("not autosaved");
+    h.state_mut().save_scene(&folder.join("bar-scene.json")).unwrap();
+    step_until(&mut h, "the save", |a| !a.is_saving() && !a.has_unsaved_changes());
+    assert!(h.query_by_label("not autosaved").is_none(), "still warned after a Save");
 }
 
 /// Changes discarded by opening another file leave no autosave behind: it was offered after a

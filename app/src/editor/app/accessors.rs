@@ -283,6 +283,12 @@ impl EditorApp {
         &self.store.recent
     }
 
+    /// Why the unsaved changes are not autosaved, if they are not (the status bar's "not
+    /// autosaved").
+    pub fn autosave_failure(&self) -> Option<String> {
+        self.store.autosave_failure()
+    }
+
     /// The autosave offered back at start, if any.
     pub fn restore_offer(&self) -> Option<&Path> {
         self.store.restore_offer.as_ref().map(|o| o.path.as_path())

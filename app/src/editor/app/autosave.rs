@@ -3,7 +3,7 @@
 //! session that did not end cleanly (or kept on purpose).
 
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant, SystemTime};
 
 use eframe::egui::{self, Vec2};
@@ -34,6 +34,9 @@ pub(super) struct Store {
     pub(super) restore_offer: Option<RestoreOffer>,
     /// The offer whose autosave is loading after Restore: offered again if it fails.
     pub(super) restoring: Option<RestoreOffer>,
+    /// Why the unsaved changes are not autosaved (the status bar says so), until a write
+    /// succeeds or nothing is unsaved; set by the writer's thread too.
+    pub(super) autosave_failure: Arc<Mutex<Option<String>>>,
 }
 
 impl Store {
@@ -42,6 +45,19 @@ impl Store {
     pub(super) fn offer_pending(&self) -> bool {
         self.restore_offer.is_some() || self.restoring.is_some()
     }
+
+    /// Why the unsaved changes are not autosaved, if they are not.
+    pub(super) fn autosave_failure(&self) -> Option<String> {
+        self.autosave_failure.lock().unwrap_or_else(PoisonError::into_inner).clone()
+    }
+
+    fn set_autosave_failure(&self, failure: Option<String>) {
+        set_failure(&self.autosave_failure, failure);
+    }
+}
+
+fn set_failure(slot: &Mutex<Option<String>>, failure: Option<String>) {
+    *slot.lock().unwrap_or_else(PoisonError::into_inner) = failure;
 }
 
 impl Store {
@@ -58,19 +74,23 @@ impl Store {
             autosaved: None,
             restore_offer: None,
             restoring: None,
+            autosave_failure: Arc::default(),
         };
         if let Some(p) = &store.persist {
             store.recent = p.recent();
             let kept = p.autosave_kept();
-            store.restore_offer = p.pending_autosave().map(|(path, when)| RestoreOffer {
-                kept,
-                what: Scene::read(&path)
-                    .map(|s| {
-                        persist::edited_document(&s).map_or(s.mesh, |d| d.display().to_string())
-                    })
-                    .map_err(|e| e.to_string()),
-                path,
-                when,
+            store.restore_offer = p.pending_autosave().map(|(path, when)| {
+                let read = Scene::read(&path);
+                let document = read.as_ref().ok().and_then(persist::edited_document);
+                RestoreOffer {
+                    kept,
+                    newer: document.as_deref().is_some_and(|d| persist::changed_since(d, when)),
+                    what: read
+                        .map(|s| document.map_or(s.mesh, |d| d.display().to_string()))
+                        .map_err(|e| e.to_string()),
+                    path,
+                    when,
+                }
             });
         }
         store
@@ -79,21 +99,28 @@ impl Store {
 
 /// An autosave found at start: where, when, whether a clean exit kept it on purpose (else the
 /// session crashed or was killed), and the scene file it was edited from, else the mesh it
-/// names (or why it cannot be read).
+/// names (or why it cannot be read), and whether that scene file changed on disk after the
+/// autosave was written ([`persist::changed_since`]).
 #[derive(Debug, Clone)]
 pub(super) struct RestoreOffer {
     pub(super) path: PathBuf,
-    when: SystemTime,
+    pub(super) when: SystemTime,
     pub(super) kept: bool,
     what: Result<String, String>,
+    newer: bool,
 }
 
 impl EditorApp {
     /// Writes the autosave now (tests; the editor does it on a timer).
     pub fn autosave_now(&mut self) -> Result<PathBuf, String> {
         let persist = self.store.persist.clone().ok_or("no configuration folder")?;
-        let doc = self.autosave_document(&persist)?;
-        let path = persist.write_autosave(&doc)?;
+        let doc = self.autosave_document(&persist).inspect_err(|e| {
+            self.store.set_autosave_failure(Some(e.clone()));
+        })?;
+        let path = persist.write_autosave(&doc).inspect_err(|e| {
+            self.store.set_autosave_failure(Some(e.clone()));
+        })?;
+        self.store.set_autosave_failure(None);
         self.store.autosaved = Some(Arc::new(doc));
         self.store.last_autosave = Instant::now();
         Ok(path)
@@ -146,11 +173,19 @@ impl EditorApp {
             if let Ok(mut slot) = self.store.snapshot.try_lock() {
                 *slot = None;
             }
+            self.store.set_autosave_failure(None);
             return;
         }
         // Shared, not copied, by the snapshot, the last autosave and its writer: a dense mesh's
         // labels and rigidity are tens of megabytes.
-        let Ok(doc) = self.autosave_document(&persist).map(Arc::new) else { return };
+        let doc = match self.autosave_document(&persist) {
+            Ok(doc) => Arc::new(doc),
+            Err(e) => {
+                // a scene cannot hold the mesh's path (the status bar says so; Save still can)
+                self.store.set_autosave_failure(Some(e));
+                return;
+            }
+        };
         if let Ok(mut slot) = self.store.snapshot.try_lock() {
             *slot = Some(doc.clone());
         }
@@ -162,16 +197,23 @@ impl EditorApp {
             self.store.autosaved = Some(doc.clone());
             // asked for now: a Save or an exit carried out before the thread writes wins
             let ticket = persist.autosave_ticket();
+            let failure = Arc::clone(&self.store.autosave_failure);
             let _ = std::thread::Builder::new().name("autosave".into()).spawn(move || {
-                if let Err(e) = persist.write_autosave_in_turn(&doc, ticket) {
-                    eprintln!("editor: autosave failed: {e}");
+                match persist.write_autosave_in_turn(&doc, ticket) {
+                    Ok(Some(_)) => set_failure(&failure, None),
+                    Ok(None) => {} // overtaken by a newer write or a removal
+                    Err(e) => {
+                        eprintln!("editor: autosave failed: {e}");
+                        set_failure(&failure, Some(e));
+                    }
                 }
             });
         }
     }
 
     pub(super) fn restore_window(&mut self, ctx: &egui::Context) {
-        let Some(RestoreOffer { when, kept, what, .. }) = self.store.restore_offer.clone() else {
+        let Some(RestoreOffer { when, kept, what, newer, .. }) = self.store.restore_offer.clone()
+        else {
             return;
         };
         if self.session.pending == Some(Pending::Restore) {
@@ -195,6 +237,13 @@ impl EditorApp {
                     )),
                     Err(e) => ui.label(format!("An autosave was found but cannot be read: {e}")),
                 };
+                if let (Ok(m), true) = (&what, newer) {
+                    ui.label(format!(
+                        "{} changed on disk after the autosave: a restore does not save over it \
+                         unasked.",
+                        file_name(Path::new(m))
+                    ));
+                }
                 ui.horizontal(|ui| {
                     if what.is_ok() && ui.button("Restore").clicked() {
                         self.answer_restore(ctx, true);

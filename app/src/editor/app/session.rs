@@ -615,7 +615,7 @@ impl EditorApp {
             Ok(Ok(mut scene)) => {
                 self.jobs.loading = None;
                 self.session.at_load = None;
-                self.store.restoring = None; // a restore's load, if any, was this one
+                let restoring = self.store.restoring.take(); // a restore's load, if any
                 // an open or quit that waited for a save of the mesh this replaces is moot
                 let dropped = self.session.after_save.take();
                 // a selection or texture read for the mesh this replaces can no longer apply
@@ -675,11 +675,20 @@ impl EditorApp {
                             // Restored: Save writes to the scene file the work was edited from
                             // (else it asks where: the autosave is not a document), and the
                             // restored work counts as unsaved.
-                            self.session.document_path = persist::edited_document(&doc);
-                            self.info = Some(match &self.session.document_path {
+                            let edited = persist::edited_document(&doc);
+                            let written = restoring.as_ref().map(|o| o.when);
+                            let newer = edited.as_deref().zip(written);
+                            let newer = newer.is_some_and(|(d, w)| persist::changed_since(d, w));
+                            self.info = Some(match &edited {
+                                Some(d) if newer => format!(
+                                    "restored the autosaved {0}: {0} changed on disk after the \
+                                     autosave, so Save asks where to save",
+                                    file_name(d)
+                                ),
                                 Some(d) => format!("restored the autosaved {}", file_name(d)),
                                 None => "restored the autosaved session".into(),
                             });
+                            self.session.document_path = edited.filter(|_| !newer);
                             if let Some(d) = self.session.document_path.clone() {
                                 self.remember(&d); // its error, if any, in place of the above
                             }

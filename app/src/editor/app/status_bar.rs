@@ -1,5 +1,6 @@
 //! The status bar: one line under the viewports with the mesh, the solvers' states, the
-//! process's memory, the load notices and the last message.
+//! process's memory, whether unsaved changes fail to autosave, the load notices and the last
+//! message.
 
 use std::time::Instant;
 
@@ -85,6 +86,7 @@ impl EditorApp {
                 .flatten();
             let software = self.display.software_rendering.as_ref();
             let software = software.filter(|_| !self.options.deterministic_overlays);
+            let unsaved = self.store.autosave_failure().filter(|_| self.has_unsaved_changes());
             let tail = tail_job(ui, notices, self.info.as_deref());
             // On a line too short for all three the memory readout goes first: the software
             // warning and the message (elided) stay.
@@ -98,6 +100,7 @@ impl EditorApp {
             };
             let needed = width(memory.clone().map(Into::into))
                 + width(software.map(|_| SOFTWARE.into()))
+                + width(unsaved.as_ref().map(|_| NOT_AUTOSAVED.into()))
                 + width(tail.clone().map(Into::into));
             if let Some(text) = memory.filter(|_| needed <= ui.available_width()) {
                 ui.weak(text).on_hover_text("resident memory of the editor's process");
@@ -108,6 +111,12 @@ impl EditorApp {
                     "The window renders on {name}, on the CPU cores the solver needs: a dense \
                      mesh draws a few frames a second. A GPU driver (Vulkan, Metal, DirectX 12 \
                      or OpenGL) makes the viewport real-time."
+                ));
+                ui.separator();
+            }
+            if let Some(why) = unsaved {
+                ui.colored_label(Color32::YELLOW, NOT_AUTOSAVED).on_hover_text(format!(
+                    "Your unsaved changes cannot be autosaved: {why}. Save keeps them."
                 ));
                 ui.separator();
             }
@@ -128,6 +137,9 @@ fn memory_text(memory: &mut Option<(Instant, Option<crate::memory::Memory>)>) ->
     let m = (*memory)?.1?;
     Some(format!("memory {:.0} MiB (peak {:.0} MiB)", m.resident_mib, m.peak_mib))
 }
+
+/// The status bar's warning that the unsaved changes are not autosaved.
+const NOT_AUTOSAVED: &str = "not autosaved";
 
 /// The status bar's warning that the window renders on the CPU.
 const SOFTWARE: &str = "software rendering";
