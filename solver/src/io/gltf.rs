@@ -195,9 +195,22 @@ pub(crate) fn parse(bytes: &[u8], ctx: Ctx, folder: Option<Folder>) -> Result<As
         draco: used("KHR_draco_mesh_compression"),
         quantization: used("KHR_mesh_quantization"),
     };
+    // The images before the primitives: a texture whose image is refused must not decide
+    // how its UV set is read (`gltf_uv`).
+    let mut raw = Asset::default();
+    let materials = gltf_material::materials(&gltf.document, &mut raw.notices);
+    let document = &gltf.document;
+    let images =
+        gltf_material::images(document, &materials, &buffers, ctx, folder, &mut raw.notices)?;
+    let uv_plans: Vec<UvPlan> = (uv_plans.into_iter().zip(&materials))
+        .map(|(plan, m)| {
+            plan.without(|slot| {
+                m.texture(slot).is_some_and(|t| images.get(t.image).is_none_or(Option::is_none))
+            })
+        })
+        .collect();
     let source = Source { buffers: &buffers, ctx, extensions, uv_plans: &uv_plans };
 
-    let mut raw = Asset::default();
     let mut layers = Layers::default();
     let mut visit = |node: &str, mesh: ::gltf::Mesh, world: &Matrix4<f64>| {
         for prim in mesh.primitives() {
@@ -248,13 +261,10 @@ pub(crate) fn parse(bytes: &[u8], ctx: Ctx, folder: Option<Folder>) -> Result<As
         }
     }
     layers.finish(&mut raw);
-    raw.materials = gltf_material::materials(&gltf.document, &mut raw.notices);
+    raw.materials = materials;
     for (k, (m, plan)) in raw.materials.iter_mut().zip(&uv_plans).enumerate() {
         plan.settle(k, m, &mut raw.notices);
     }
-    let (document, materials) = (&gltf.document, &raw.materials);
-    let images =
-        gltf_material::images(document, materials, &buffers, ctx, folder, &mut raw.notices)?;
     raw.images = gltf_material::keep(images, &mut raw.materials);
     raw.notices.extend(unread_motion(&gltf.document));
     Ok(raw)

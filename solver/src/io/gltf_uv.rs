@@ -10,7 +10,8 @@
 //!
 //! An [`Asset`](super::Asset) stores one set of coordinates per UV set, so each set of a
 //! material's primitives is read with one transform ([`UvPlan::sets`]): that of the first
-//! texture that samples the set, in [`TextureSlot::ALL`]'s order (the base colour first). A
+//! texture that samples the set, in [`TextureSlot::ALL`]'s order (the base colour first),
+//! one whose image was refused only where no other samples the set ([`UvPlan::without`]). A
 //! texture whose own transform is another is not kept ([`UvPlan::settle`], with a notice):
 //! the stored coordinates would place it wrongly.
 
@@ -100,15 +101,25 @@ impl UvPlan {
                 .map(|o| sampled(o.extensions.as_ref().map(|e| &e.others), o.tex_coord)),
             (TextureSlot::Emissive, _) => m.emissive_texture.as_ref().map(info),
         });
-        let mut sets = [None; 2];
-        let mut decided = [false; 2];
-        for &(set, transform) in slots.iter().flatten() {
-            if let Some(d) = decided.get_mut(set as usize).filter(|d| !**d) {
-                *d = true;
-                sets[set as usize] = transform;
+        let sets = decide(slots.iter().flatten());
+        UvPlan { slots, sets }
+    }
+
+    /// The same plan without the textures of the slots where `refused` holds (their image
+    /// was refused: missing, outside the folder, not decodable): a set is read with the
+    /// transform of the first texture that stays, else (no texture left on it) of the first
+    /// refused one, as the file means the coordinates to be sampled.
+    pub(super) fn without(self, refused: impl Fn(TextureSlot) -> bool) -> UvPlan {
+        let (mut kept, mut gone) = (self.slots, self.slots);
+        for (slot, (k, g)) in TextureSlot::ALL.into_iter().zip(kept.iter_mut().zip(&mut gone)) {
+            if refused(slot) {
+                *k = None;
+            } else {
+                *g = None;
             }
         }
-        UvPlan { slots, sets }
+        let sets = decide(kept.iter().chain(&gone).flatten());
+        UvPlan { slots: kept, sets }
     }
 
     /// Gives `material`'s textures the UV set the plan read for them, and drops (with a
@@ -139,6 +150,21 @@ impl UvPlan {
         let first = self.slots.iter().position(|s| s.is_some_and(|(s, _)| s == set))?;
         Some(TextureSlot::ALL[first])
     }
+}
+
+/// Each UV set's transform: that of the first of `sampling` (a set and a transform) on it.
+fn decide<'a>(
+    sampling: impl Iterator<Item = &'a (u32, Option<UvTransform>)>,
+) -> [Option<UvTransform>; 2] {
+    let mut sets = [None; 2];
+    let mut decided = [false; 2];
+    for &(set, transform) in sampling {
+        if let Some(d) = decided.get_mut(set as usize).filter(|d| !**d) {
+            *d = true;
+            sets[set as usize] = transform;
+        }
+    }
+    sets
 }
 
 #[cfg(test)]
@@ -186,6 +212,27 @@ mod tests {
         );
         assert_eq!(notices.len(), 1, "{notices:?}");
         assert!(notices[0].contains("normalTexture") && notices[0].contains("baseColorTexture"));
+    }
+
+    /// A texture whose image was refused does not decide its set's transform: the normal map
+    /// after a missing base colour with another transform was dropped, and nothing was left.
+    #[test]
+    fn a_refused_texture_does_not_decide() {
+        let m = material(
+            r#"{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0,
+                   "extensions": {"KHR_texture_transform": {"scale": [2, 2]}}}},
+               "normalTexture": {"index": 1,
+                   "extensions": {"KHR_texture_transform": {"offset": [0.5, 0]}}}}"#,
+        );
+        let plan = UvPlan::of(&m).without(|slot| slot == TextureSlot::BaseColor);
+        assert_eq!(plan.sets[0].map(|t| t.offset), Some([0.5, 0.0]));
+        let (left, notices) = settled(&plan, &[TextureSlot::Normal]);
+        assert_eq!(left, [(TextureSlot::Normal, 0)]);
+        assert!(notices.is_empty(), "{notices:?}");
+        // With no texture left on the set, the refused one's transform reads it, as the file
+        // means (gltfpack's integer coordinates), for a texture the user gives it later.
+        let plan = UvPlan::of(&m).without(|_| true);
+        assert_eq!(plan.sets[0].map(|t| t.scale), Some([2.0, 2.0]));
     }
 
     /// A transform that changes nothing is none (a normal map with `{}` beside an untransformed

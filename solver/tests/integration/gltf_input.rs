@@ -174,6 +174,20 @@ fn quantized_attributes_are_decoded() {
     assert_eq!(material.occlusion_texture, None, "it samples transformed coordinates as raw");
     let notice = m.asset.notices.iter().find(|n| n.contains("occlusionTexture"));
     assert!(notice.is_some_and(|n| n.contains("normalTexture")), "{:?}", m.asset.notices);
+
+    // A base colour whose image is refused (missing) does not decide how the coordinates are
+    // read: its transform made the normal map, which has another, go, leaving no texture.
+    doc["images"] =
+        json!([{"uri": "missing.png"}, {"uri": format!("data:image/png;base64,{png}")}]);
+    doc["textures"] = json!([{"source": 0}, {"source": 1}]);
+    let scaled = json!({"KHR_texture_transform": {"scale": [2.0, 2.0]}});
+    doc["materials"] = json!([{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0,
+        "extensions": scaled}}, "normalTexture": {"index": 1, "extensions": t}}]);
+    let m = load_mesh_from_bytes(&to_glb(&doc, &bin), Format::Gltf, "m.glb").unwrap();
+    assert_eq!(m.asset.uvs[0].values[3], [1.5, 0.75], "read with the normal map's transform");
+    let material = &m.asset.materials[0];
+    assert_eq!(material.normal_texture.map(|t| t.image), Some(0), "{:?}", m.asset.notices);
+    assert_eq!(material.base_color_texture, None);
 }
 
 /// A specular-glossiness material (older Sketchfab and 3ds Max exports), here one the file
