@@ -143,7 +143,8 @@ fn editor_compare_live() {
 }
 
 /// The paper's knight in wireframe, ARAP beside BS-ARAP, its head (group 0) moved up by 0.1
-/// (as the README's `deform` example, `--move 0:0,0.1,0`), the shortcuts overlay open.
+/// (as the README's `deform` example, `--move 0:0,0.1,0`). Without the shortcuts window: it
+/// covers the left view (the first-hour tests show it).
 #[test]
 #[ignore = "writes docs/editor-knight-compare.png"]
 fn editor_knight_compare() {
@@ -161,7 +162,6 @@ fn editor_knight_compare() {
     e.groups[0].pose.translation[1] += 0.1;
     h.state_mut().set_edit_state(e);
     step_until(&mut h, "both methods converged on the pose", both_converged);
-    h.get_by_label("?").click();
     save(&mut h, "editor-knight-compare.png");
 }
 
