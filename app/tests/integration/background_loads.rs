@@ -491,7 +491,10 @@ fn switching_to_the_brush_mid_drag_ends_the_drag() {
     support::press(&h, p, false, Modifiers::NONE);
     h.step();
     assert_eq!(h.state().tool(), Tool::Paint);
-    let q = h.state().vertex_screen_pos(n / 2).expect("a vertex on screen");
+    // Still, so that the point stays on the surface: with frames still arriving (a loaded
+    // machine) vertex n/2 moved to the bar's silhouette and the pointer missed it.
+    step_until(&mut h, "the pose, settled", support::settled);
+    let q = support::middle_vertex_on_screen(h.state());
     h.event(Event::PointerMoved(q));
     h.run_steps(2);
     assert!(h.state().hover_footprint().is_some_and(|f| !f.is_empty()), "no brush");
