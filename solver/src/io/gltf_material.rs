@@ -10,7 +10,8 @@
 //! written, though only sets 0 and 1 are read. An image's name is its `name`, else its file
 //! name (URI percent-decoded), else `imageN`.
 //!
-//! An image a material uses keeps its encoded bytes (others are not read): from a GLB buffer
+//! An image a material uses keeps its encoded bytes (others are not read, and one whose
+//! textures were all dropped for their UV set, `gltf_uv`, is not kept): from a GLB buffer
 //! view (bounds-checked), a base64 `data:` URI, or a file in the `.gltf`'s folder (a missing
 //! file, or a reference outside the folder, is dropped with a notice, see `uri`). Its bytes
 //! must decode as a PNG or JPEG within the size limits ([`super::image_check`]), of the type
@@ -203,12 +204,16 @@ pub(crate) fn images(
     Ok(out)
 }
 
-/// The images that were kept, in order; `materials`' textures renumbered onto them, and
-/// cleared where their image was refused.
+/// The images that were kept and that a texture of `materials` still uses (not one whose only
+/// textures were dropped for their UV set), in order; `materials`' textures renumbered onto
+/// them, and cleared where their image was refused.
 pub(crate) fn keep(images: Vec<Option<Image>>, materials: &mut [Material]) -> Vec<Image> {
+    let used: std::collections::HashSet<usize> =
+        materials.iter().flat_map(|m| m.textures().map(|(_, t)| t.image)).collect();
     let mut index = Vec::with_capacity(images.len());
     let mut kept = Vec::new();
-    for image in images {
+    for (k, image) in images.into_iter().enumerate() {
+        let image = image.filter(|_| used.contains(&k));
         index.push(image.is_some().then_some(kept.len()));
         kept.extend(image);
     }

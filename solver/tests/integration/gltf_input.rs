@@ -188,6 +188,16 @@ fn quantized_attributes_are_decoded() {
     let material = &m.asset.materials[0];
     assert_eq!(material.normal_texture.map(|t| t.image), Some(0), "{:?}", m.asset.notices);
     assert_eq!(material.base_color_texture, None);
+    assert_eq!(m.asset.images.len(), 1);
+
+    // Both images there: the base colour decides, the normal map goes, and so does its image
+    // (read before the UV sets were settled, it was kept with nothing using it).
+    doc["images"][0] = doc["images"][1].clone();
+    let m = load_mesh_from_bytes(&to_glb(&doc, &bin), Format::Gltf, "k.glb").unwrap();
+    let material = &m.asset.materials[0];
+    assert_eq!(material.base_color_texture.map(|t| t.image), Some(0));
+    assert_eq!(material.normal_texture, None);
+    assert_eq!(m.asset.images.len(), 1, "an image no texture uses was kept");
 }
 
 /// A specular-glossiness material (older Sketchfab and 3ds Max exports), here one the file
