@@ -4,7 +4,8 @@
 //! The folder is `$BSARAP_CONFIG_DIR`, else `$XDG_CONFIG_HOME/bsarap`, else
 //! `$HOME/.config/bsarap`. Every write is atomic (`solver::io::write_atomic`). The autosave is
 //! a scene file (its mesh path relative to this folder, and the scene file being edited in
-//! [`EDITED_DOCUMENT`]) written every [`AUTOSAVE_INTERVAL`] while it changes, and
+//! [`EDITED_DOCUMENT`], with that file's modification time in [`EDITED_DOCUMENT_MODIFIED`])
+//! written every [`AUTOSAVE_INTERVAL`] while it changes, and
 //! by the panic hook when the editor crashes; it is removed on a clean exit, so one found at
 //! start means the last session did not end cleanly, and the editor offers it back. A clean
 //! exit that keeps unsaved changes on purpose writes it with a marker beside it
@@ -46,11 +47,25 @@ pub fn edited_document(autosave: &Scene) -> Option<PathBuf> {
     (path.is_absolute() && path.parent().is_some_and(Path::is_dir)).then_some(path)
 }
 
-/// Whether `document` was written after `autosave_written`, the time its autosave was: by
-/// another session or tool, or by a Save after the autosave was kept. A restore of the
-/// autosave then does not save back to it unasked: that would lose the newer file.
-pub fn changed_since(document: &Path, autosave_written: SystemTime) -> bool {
-    std::fs::metadata(document).and_then(|m| m.modified()).is_ok_and(|t| t > autosave_written)
+/// The key in an autosave's `editor` object holding the modification time of the scene file
+/// being edited when the autosave was made ([`modified_stamp`]), if it had one.
+pub const EDITED_DOCUMENT_MODIFIED: &str = "document_modified";
+
+/// `path`'s modification time as text (nanoseconds since the Unix epoch; a JSON number keeps
+/// 53 bits), `None` where the file or its time cannot be read.
+pub fn modified_stamp(path: &Path) -> Option<String> {
+    let modified = std::fs::metadata(path).and_then(|m| m.modified()).ok()?;
+    Some(modified.duration_since(SystemTime::UNIX_EPOCH).ok()?.as_nanos().to_string())
+}
+
+/// Whether the scene file `document` that `autosave` was edited from changed on disk after
+/// the autosave was made: its modification time is not the one the autosave holds (both read
+/// from the file, so that no two clocks are compared, and a Save made while an older autosave
+/// was still being written counts). Then a restore does not save back to it unasked: that
+/// would lose the newer file. False for an autosave that holds no time.
+pub fn document_changed(autosave: &Scene, document: &Path) -> bool {
+    let stored = autosave.editor.as_ref().and_then(|e| e.get(EDITED_DOCUMENT_MODIFIED));
+    stored.and_then(|s| s.as_str()).is_some_and(|s| modified_stamp(document).as_deref() != Some(s))
 }
 
 /// The configuration folder (see the module doc), `None` without a home.
@@ -324,6 +339,25 @@ mod tests {
         let gone = scratch.join("gone/scene.json");
         assert_eq!(named(gone.to_str().unwrap()), None);
         assert_eq!(named("scene.json"), None);
+    }
+
+    /// A scene file written after its autosave was made (the time it held then differs) has
+    /// changed; one the autosave holds no time for has not.
+    #[test]
+    fn a_document_changed_after_its_autosave() {
+        let (scratch, _) = dir("changed");
+        let doc = scratch.join("scene.json");
+        std::fs::write(&doc, "{}").unwrap();
+        let mut autosave = Scene::new("m.obj", Default::default());
+        assert!(!document_changed(&autosave, &doc), "no time held");
+        let stamp = modified_stamp(&doc).unwrap();
+        autosave.editor = Some(serde_json::json!({ EDITED_DOCUMENT_MODIFIED: stamp }));
+        assert!(!document_changed(&autosave, &doc));
+        let later = SystemTime::now() + Duration::from_secs(5);
+        std::fs::File::options().write(true).open(&doc).unwrap().set_modified(later).unwrap();
+        assert!(document_changed(&autosave, &doc));
+        std::fs::remove_file(&doc).unwrap();
+        assert!(document_changed(&autosave, &doc), "removed since");
     }
 
     #[test]

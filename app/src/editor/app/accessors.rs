@@ -286,7 +286,7 @@ impl EditorApp {
     /// Why the unsaved changes are not autosaved, if they are not (the status bar's "not
     /// autosaved").
     pub fn autosave_failure(&self) -> Option<String> {
-        self.store.autosave_failure()
+        self.store.autosave_failure().filter(|_| self.has_unsaved_changes())
     }
 
     /// The autosave offered back at start, if any.

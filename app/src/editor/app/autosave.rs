@@ -35,8 +35,27 @@ pub(super) struct Store {
     /// The offer whose autosave is loading after Restore: offered again if it fails.
     pub(super) restoring: Option<RestoreOffer>,
     /// Why the unsaved changes are not autosaved (the status bar says so), until a write
-    /// succeeds or nothing is unsaved; set by the writer's thread too.
-    pub(super) autosave_failure: Arc<Mutex<Option<String>>>,
+    /// succeeds, nothing is unsaved or the document is saved; set by the writer's thread too.
+    pub(super) autosave_failure: Arc<AutosaveFailure>,
+}
+
+/// Why the autosave failed, with the ticket ([`Persist::autosave_ticket`]) of the attempt that
+/// said so: the result of an attempt older than the last one recorded is not, so that a
+/// failed write that ends after a newer write succeeded does not bring the warning back.
+#[derive(Debug, Default)]
+pub(super) struct AutosaveFailure(Mutex<(u64, Option<String>)>);
+
+impl AutosaveFailure {
+    fn get(&self) -> Option<String> {
+        self.0.lock().unwrap_or_else(PoisonError::into_inner).1.clone()
+    }
+
+    fn set(&self, ticket: u64, failure: Option<String>) {
+        let mut slot = self.0.lock().unwrap_or_else(PoisonError::into_inner);
+        if ticket >= slot.0 {
+            *slot = (ticket, failure);
+        }
+    }
 }
 
 impl Store {
@@ -46,18 +65,17 @@ impl Store {
         self.restore_offer.is_some() || self.restoring.is_some()
     }
 
-    /// Why the unsaved changes are not autosaved, if they are not.
+    /// Why the last autosave failed, unless one succeeded since (whether anything is unsaved
+    /// or not).
     pub(super) fn autosave_failure(&self) -> Option<String> {
-        self.autosave_failure.lock().unwrap_or_else(PoisonError::into_inner).clone()
+        self.autosave_failure.get()
     }
 
+    /// Records the result of an autosave attempted now, after every one attempted before it.
     fn set_autosave_failure(&self, failure: Option<String>) {
-        set_failure(&self.autosave_failure, failure);
+        let ticket = self.persist.as_ref().map_or(0, Persist::autosave_ticket);
+        self.autosave_failure.set(ticket, failure);
     }
-}
-
-fn set_failure(slot: &Mutex<Option<String>>, failure: Option<String>) {
-    *slot.lock().unwrap_or_else(PoisonError::into_inner) = failure;
 }
 
 impl Store {
@@ -82,9 +100,11 @@ impl Store {
             store.restore_offer = p.pending_autosave().map(|(path, when)| {
                 let read = Scene::read(&path);
                 let document = read.as_ref().ok().and_then(persist::edited_document);
+                let changed =
+                    |d: &Path| read.as_ref().is_ok_and(|s| persist::document_changed(s, d));
                 RestoreOffer {
                     kept,
-                    newer: document.as_deref().is_some_and(|d| persist::changed_since(d, when)),
+                    newer: document.as_deref().is_some_and(changed),
                     what: read
                         .map(|s| document.map_or(s.mesh, |d| d.display().to_string()))
                         .map_err(|e| e.to_string()),
@@ -100,11 +120,11 @@ impl Store {
 /// An autosave found at start: where, when, whether a clean exit kept it on purpose (else the
 /// session crashed or was killed), and the scene file it was edited from, else the mesh it
 /// names (or why it cannot be read), and whether that scene file changed on disk after the
-/// autosave was written ([`persist::changed_since`]).
+/// autosave was made ([`persist::document_changed`]).
 #[derive(Debug, Clone)]
 pub(super) struct RestoreOffer {
     pub(super) path: PathBuf,
-    pub(super) when: SystemTime,
+    when: SystemTime,
     pub(super) kept: bool,
     what: Result<String, String>,
     newer: bool,
@@ -127,7 +147,9 @@ impl EditorApp {
     }
 
     /// The scene the autosave holds: the document as it would be saved there, naming the scene
-    /// file being edited (absolute, in `editor.document`) so that a restore saves back to it.
+    /// file being edited (absolute, in `editor.document`) so that a restore saves back to it,
+    /// with that file's modification time now (`editor.document_modified`), so that a restore
+    /// knows whether it changed since.
     fn autosave_document(&self, persist: &Persist) -> Result<Scene, String> {
         let mut doc = self.document(&persist.autosave_path())?;
         let edited =
@@ -136,6 +158,9 @@ impl EditorApp {
             (doc.editor.as_mut(), edited.as_deref().and_then(Path::to_str))
         {
             editor[persist::EDITED_DOCUMENT] = serde_json::Value::from(path);
+            if let Some(stamp) = persist::modified_stamp(Path::new(path)) {
+                editor[persist::EDITED_DOCUMENT_MODIFIED] = serde_json::Value::from(stamp);
+            }
         }
         Ok(doc)
     }
@@ -148,6 +173,7 @@ impl EditorApp {
         if let Ok(mut slot) = self.store.snapshot.try_lock() {
             *slot = None;
         }
+        self.store.set_autosave_failure(None); // about work that is saved or gone
         if let Some(persist) = &self.store.persist
             && !self.store.offer_pending()
         {
@@ -200,11 +226,11 @@ impl EditorApp {
             let failure = Arc::clone(&self.store.autosave_failure);
             let _ = std::thread::Builder::new().name("autosave".into()).spawn(move || {
                 match persist.write_autosave_in_turn(&doc, ticket) {
-                    Ok(Some(_)) => set_failure(&failure, None),
+                    Ok(Some(_)) => failure.set(ticket, None),
                     Ok(None) => {} // overtaken by a newer write or a removal
                     Err(e) => {
                         eprintln!("editor: autosave failed: {e}");
-                        set_failure(&failure, Some(e));
+                        failure.set(ticket, Some(e));
                     }
                 }
             });

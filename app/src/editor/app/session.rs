@@ -615,7 +615,7 @@ impl EditorApp {
             Ok(Ok(mut scene)) => {
                 self.jobs.loading = None;
                 self.session.at_load = None;
-                let restoring = self.store.restoring.take(); // a restore's load, if any
+                self.store.restoring = None; // a restore's load, if any, was this one
                 // an open or quit that waited for a save of the mesh this replaces is moot
                 let dropped = self.session.after_save.take();
                 // a selection or texture read for the mesh this replaces can no longer apply
@@ -676,9 +676,8 @@ impl EditorApp {
                             // (else it asks where: the autosave is not a document), and the
                             // restored work counts as unsaved.
                             let edited = persist::edited_document(&doc);
-                            let written = restoring.as_ref().map(|o| o.when);
-                            let newer = edited.as_deref().zip(written);
-                            let newer = newer.is_some_and(|(d, w)| persist::changed_since(d, w));
+                            let newer = edited.as_deref();
+                            let newer = newer.is_some_and(|d| persist::document_changed(&doc, d));
                             self.info = Some(match &edited {
                                 Some(d) if newer => format!(
                                     "restored the autosaved {0}: {0} changed on disk after the \

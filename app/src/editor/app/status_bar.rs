@@ -86,7 +86,7 @@ impl EditorApp {
                 .flatten();
             let software = self.display.software_rendering.as_ref();
             let software = software.filter(|_| !self.options.deterministic_overlays);
-            let unsaved = self.store.autosave_failure().filter(|_| self.has_unsaved_changes());
+            let unsaved = self.autosave_failure();
             let tail = tail_job(ui, notices, self.info.as_deref());
             // On a line too short for all three the memory readout goes first: the software
             // warning and the message (elided) stay.
