@@ -46,6 +46,8 @@ pub enum SolveError {
     Handles(#[from] HandlesError),
     #[error("the solve produced non-finite positions (at vertex {vertex})")]
     NonFiniteResult { vertex: usize },
+    #[error("the precomputation was cancelled")]
+    Cancelled,
 }
 
 /// The bending length a smooth-rotations solve accepts (a fraction of the diagonal): finite and

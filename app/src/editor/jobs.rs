@@ -195,6 +195,8 @@ pub struct Preparing {
 /// the pose solvers share, so that the first handle group waits only for its own part. A pose
 /// solver that needs the cache meanwhile waits for it (it then reuses the result). Runs on
 /// [`background_pool`]; a base built anew is written to its file after the cache is let go.
+/// [`Job::cancel`] stops it between the stages of a base being built (the mesh was given up:
+/// the next mesh's waits for the cache), with the error [`solver::SolveError::Cancelled`].
 pub fn spawn_prepare(
     cache: Arc<Mutex<MeshCache>>,
     mesh: Arc<Mesh>,
@@ -204,11 +206,12 @@ pub fn spawn_prepare(
 ) -> Preparing {
     let since = Instant::now();
     let m = mesh.clone();
-    let job = spawn("prepare", repaint, move |_| {
+    let job = spawn("prepare", repaint, move |progress| {
         let t = Instant::now();
         let mut cache = cache.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
         let inner: &mut MeshCache = &mut cache;
-        let mut build = || inner.prepare_unwritten(method, &m, &base);
+        let stop = || progress.cancel.load(Ordering::Relaxed);
+        let mut build = || inner.prepare_unwritten(method, &m, &base, &stop);
         let (built, unwritten) = match background_pool() {
             Some(pool) => pool.install(build),
             None => build(),
@@ -570,6 +573,26 @@ mod tests {
             assert!(start.elapsed() < Duration::from_secs(60), "job did not finish");
             std::thread::sleep(Duration::from_millis(5));
         }
+    }
+
+    /// A mesh precomputation cancelled while it waits for the mesh cache (its mesh given up
+    /// for one being read) stops with `Cancelled` between its stages and keeps nothing there;
+    /// one not cancelled builds the base.
+    #[test]
+    fn a_cancelled_prepare_stops_and_keeps_nothing() {
+        let cache = Arc::new(Mutex::new(MeshCache::default()));
+        let mesh = Arc::new(solver::geometry::shapes::bumpy_bar(3).0);
+        let (method, base) = (Method::BsArapCoarse, BaseConfig::default());
+        let held = cache.lock().unwrap();
+        let p = spawn_prepare(cache.clone(), mesh.clone(), method, base, || {});
+        p.job.cancel();
+        drop(held);
+        let e = wait(&p.job).unwrap_err();
+        assert_eq!(e, solver::SolveError::Cancelled.to_string());
+        assert!(cache.lock().unwrap().coarse_base().is_none(), "a stopped build was kept");
+        let p = spawn_prepare(cache.clone(), mesh, method, base, || {});
+        assert!(wait(&p.job).unwrap() > 0.0);
+        assert!(cache.lock().unwrap().coarse_base().is_some());
     }
 
     fn input(n_frames: usize) -> RecordInput {

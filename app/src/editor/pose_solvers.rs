@@ -64,7 +64,10 @@ pub fn build_deformer(
         if cancelled() {
             return Ok(None);
         }
-        let (_, unwritten) = shared.prepare_unwritten(options.method, mesh, &options.base)?;
+        // Not stopped with this handle set: the mesh's part serves the next one too.
+        let whole = &|| false;
+        let (_, unwritten) =
+            shared.prepare_unwritten(options.method, mesh, &options.base, whole)?;
         // the mesh's part, shared: the deformer finds it there without the lock
         own = Some(shared.clone());
         drop(shared);

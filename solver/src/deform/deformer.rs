@@ -173,7 +173,7 @@ impl MeshCache {
         mesh: &Mesh,
         base: &BaseConfig,
     ) -> Result<Option<Arc<CoarseBase>>, SolveError> {
-        let (c, unwritten) = self.prepare_unwritten(method, mesh, base)?;
+        let (c, unwritten) = self.prepare_unwritten(method, mesh, base, &|| false)?;
         if let Some(w) = unwritten
             && let Err(e) = w.write()
         {
@@ -184,12 +184,15 @@ impl MeshCache {
 
     /// [`MeshCache::prepare`] that leaves the writing of a base built anew to the caller
     /// ([`UnwrittenBase::write`]), so that a cache shared between threads need not be held
-    /// while the file is written (about 50 MiB at 1.5M vertices).
+    /// while the file is written (about 50 MiB at 1.5M vertices); a base being built stops
+    /// with [`SolveError::Cancelled`] between its stages once `stop` returns true
+    /// ([`CoarseBase::new_until`]), and nothing is kept.
     pub fn prepare_unwritten(
         &mut self,
         method: Method,
         mesh: &Mesh,
         base: &BaseConfig,
+        stop: &(dyn Fn() -> bool + Sync),
     ) -> Result<(Option<Arc<CoarseBase>>, Option<UnwrittenBase>), SolveError> {
         if method != Method::BsArapCoarse {
             return Ok((None, None));
@@ -209,7 +212,7 @@ impl MeshCache {
                         {
                             self.disk_note = Some(e.to_string());
                         }
-                        (in_pool(|| CoarseBase::new(mesh, base))?, true)
+                        (in_pool(|| CoarseBase::new_until(mesh, base, stop))?, true)
                     }
                 };
                 let c = Arc::new(c);

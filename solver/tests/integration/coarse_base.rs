@@ -197,14 +197,14 @@ fn an_unwritten_base_is_written_when_asked() {
     let files = || std::fs::read_dir(&dir).map_or(0, |d| d.count());
     let mut cache = MeshCache::on_disk(dir.clone());
     let (built, unwritten) =
-        cache.prepare_unwritten(Method::BsArapCoarse, &mesh, &settings).unwrap();
+        cache.prepare_unwritten(Method::BsArapCoarse, &mesh, &settings, &|| false).unwrap();
     let built = built.unwrap();
     assert!(Arc::ptr_eq(cache.coarse_base().unwrap(), &built));
     assert_eq!(files(), 0, "written before it was asked");
     unwritten.expect("a base to write").write().unwrap();
     assert_eq!(files(), 1);
     let (read, unwritten) = MeshCache::on_disk(dir.clone())
-        .prepare_unwritten(Method::BsArapCoarse, &mesh, &settings)
+        .prepare_unwritten(Method::BsArapCoarse, &mesh, &settings, &|| false)
         .unwrap();
     assert_eq!(read.unwrap().precompute_phases()[0].0, "read from the disk cache");
     assert!(unwritten.is_none());
@@ -222,7 +222,7 @@ fn the_galerkin_part_is_written_once_gathered() {
     let dir = scratch.to_path_buf();
     let open = |settings: &BaseConfig| {
         let (c, unwritten) = MeshCache::on_disk(dir.clone())
-            .prepare_unwritten(Method::BsArapCoarse, &mesh, settings)
+            .prepare_unwritten(Method::BsArapCoarse, &mesh, settings, &|| false)
             .unwrap();
         (c.unwrap().precompute_phases()[0].0, unwritten)
     };

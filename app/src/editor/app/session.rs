@@ -600,8 +600,9 @@ impl EditorApp {
                 // already (a quit, another file): it stays, and this file is not opened.
                 let path = self.jobs.loading.take().map(|j| j.path).unwrap_or_default();
                 self.session.at_load = None;
-                // its precomputation, started by the loader, is not adopted: let it go
-                self.jobs.early_prepare.lock().map(|mut p| p.take()).ok();
+                // its precomputation, started by the loader, is not adopted: it stops
+                let early = self.jobs.early_prepare.lock().ok().and_then(|mut p| p.take());
+                early.inspect(|p| p.job.cancel());
                 let restore = self.store.restoring.is_some();
                 self.offer_again();
                 if self.session.pending.is_some() {

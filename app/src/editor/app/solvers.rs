@@ -180,17 +180,22 @@ impl EditorApp {
     /// `version` to start as soon as it has read the mesh ([`loader::StartPrepare`]); it waits
     /// in `Jobs::early_prepare` for [`EditorApp::adopt_prepare`]. Not started when another load
     /// was asked for meanwhile: the mesh given up would hold the mesh cache (seconds at a
-    /// million vertices) from the one wanted, and take its place in the slot.
+    /// million vertices) from the one wanted, and take its place in the slot. When it starts,
+    /// the precomputations it makes moot stop ([`jobs::spawn_prepare`]): one a loader started
+    /// for a mesh given up, and the open mesh's, which the mesh read replaces.
     pub(super) fn start_prepare(&self, ctx: &egui::Context, version: u64) -> loader::StartPrepare {
         let cache = self.solvers.mesh_cache.clone();
         let settings = self.session.settings;
         let (slot, wanted) = (self.jobs.early_prepare.clone(), self.jobs.wanted_load.clone());
+        let current = self.jobs.prepare.as_ref().map(|p| p.job.progress.clone());
         let c = ctx.clone();
         Box::new(move |mesh| {
             let mut slot = slot.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
             if wanted.load(std::sync::atomic::Ordering::Relaxed) != version {
                 return;
             }
+            let moot = slot.take().map(|p| p.job.progress).into_iter().chain(current);
+            moot.for_each(|p| p.cancel.store(true, std::sync::atomic::Ordering::Relaxed));
             let repaint = move || c.request_repaint();
             let (method, base) = (settings.bs_variant, settings.base_config());
             *slot = Some(jobs::spawn_prepare(cache, mesh, method, base, repaint));
@@ -201,9 +206,13 @@ impl EditorApp {
     /// scene just loaded).
     pub(super) fn adopt_prepare(&mut self, mesh: &Arc<solver::Mesh>) {
         let early = self.jobs.early_prepare.lock().ok().and_then(|mut p| p.take());
-        if let Some(p) = early.filter(|p| Arc::ptr_eq(&p.mesh, mesh)) {
-            self.solvers.prepared_for = Some((Arc::as_ptr(mesh) as usize, p.method, p.base));
-            self.jobs.prepare = Some(p);
+        match early {
+            Some(p) if Arc::ptr_eq(&p.mesh, mesh) => {
+                self.solvers.prepared_for = Some((Arc::as_ptr(mesh) as usize, p.method, p.base));
+                self.jobs.prepare = Some(p);
+            }
+            Some(p) => p.job.cancel(), // another mesh's: given up
+            None => {}
         }
     }
 
@@ -220,6 +229,9 @@ impl EditorApp {
                     since.elapsed().as_secs_f64()
                 ),
                 Ok(_) => {}
+                // Stopped for a mesh being read in its place: if that one was not opened
+                // after all (changes made while it loaded), it starts again below.
+                Err(_) if job.cancelled() => self.solvers.prepared_for = None,
                 Err(e) => self.error = Some(format!("precomputing the mesh failed: {e}")),
             }
             self.jobs.prepare = None;

@@ -94,6 +94,18 @@ pub struct CoarseBase {
 impl CoarseBase {
     /// Fairs, decimates and embeds (module doc, steps 1–3).
     pub fn new(mesh: &Mesh, config: &BaseConfig) -> Result<CoarseBase, SolveError> {
+        CoarseBase::new_until(mesh, config, &|| false)
+    }
+
+    /// [`CoarseBase::new`], stopped with [`SolveError::Cancelled`] between its stages (after
+    /// the level's decimation, its fairing, the coarse decimation) once `stop` returns true:
+    /// an editor whose mesh was given up for another need not finish seconds of work at a
+    /// million vertices before the next mesh's can start.
+    pub fn new_until(
+        mesh: &Mesh,
+        config: &BaseConfig,
+        stop: &dyn Fn() -> bool,
+    ) -> Result<CoarseBase, SolveError> {
         let mut clock = Phases::default();
         let fingerprint = mesh.fingerprint();
         let diag = mesh.bbox_diagonal();
@@ -104,7 +116,7 @@ impl CoarseBase {
         let target_vertices = config.coarse_vertices_for(mesh.n_vertices());
         // On a level, the coarse level is decimated from it and its vertices embedded as soon
         // as it is faired, beside the fine vertices' embedding on the level.
-        let (faired, on_level) = faired_base_then(mesh, smoothing, level_edges, |level| {
+        let (faired, on_level) = faired_base_then(mesh, smoothing, level_edges, stop, |level| {
             coarse_from_level(level, target_vertices)
         })?;
         let fairing = faired.fairing();
@@ -141,6 +153,9 @@ impl CoarseBase {
                 (kept, representative, coarse_mesh, faces, weights)
             }
         };
+        if stop() {
+            return Err(SolveError::Cancelled);
+        }
         let weights: Vec<[f32; 2]> = weights.iter().map(|w| [w[0] as f32, w[1] as f32]).collect();
         let base_on_coarse = on_coarse(&coarse_mesh, &faces, &weights);
         let details =

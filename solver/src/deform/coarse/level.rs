@@ -90,7 +90,7 @@ pub fn faired_base(
     smoothing: Option<f64>,
     level_edges: f64,
 ) -> Result<FairedBase, SolveError> {
-    faired_base_then(mesh, smoothing, level_edges, |_| ()).map(|(base, _)| base)
+    faired_base_then(mesh, smoothing, level_edges, &|| false, |_| ()).map(|(base, _)| base)
 }
 
 /// What a level is before its fine vertices are embedded on it: enough for work that needs
@@ -108,10 +108,13 @@ pub struct LevelView<'a> {
 /// [`faired_base`], and `then` run on the faired level as soon as it is faired, beside the
 /// embedding of the fine vertices on it (its result `None` when the mesh was faired
 /// directly): the coarse base decimates the level there ([`crate::deform::coarse::base`]).
+/// Stops with [`SolveError::Cancelled`] after the level's decimation and after its fairing
+/// when `stop` returns true by then.
 pub fn faired_base_then<R: Send>(
     mesh: &Mesh,
     smoothing: Option<f64>,
     level_edges: f64,
+    stop: &dyn Fn() -> bool,
     then: impl FnOnce(LevelView) -> R + Send,
 ) -> Result<(FairedBase, Option<R>), SolveError> {
     let direct = || {
@@ -126,6 +129,9 @@ pub fn faired_base_then<R: Send>(
         return direct();
     }
     let Some((kept, level_mesh)) = decimated_level(mesh, level) else { return direct() };
+    if stop() {
+        return Err(SolveError::Cancelled);
+    }
     // The fairing (one sparse factorization) needs only the level, the embedding of the fine
     // vertices on it only the level's rest positions: side by side.
     let (level_base, embedded) = rayon::join(
@@ -146,6 +152,9 @@ pub fn faired_base_then<R: Send>(
     else {
         return direct();
     };
+    if stop() {
+        return Err(SolveError::Cancelled);
+    }
     let level_triangles = level_mesh.triangles();
     let mut base: Vec<[f64; 3]> = faces
         .iter()
