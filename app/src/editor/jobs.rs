@@ -196,7 +196,8 @@ pub struct Preparing {
 /// solver that needs the cache meanwhile waits for it (it then reuses the result). Runs on
 /// [`background_pool`]; a base built anew is written to its file after the cache is let go.
 /// [`Job::cancel`] stops it between the stages of a base being built (the mesh was given up:
-/// the next mesh's waits for the cache), with the error [`solver::SolveError::Cancelled`].
+/// the next mesh's waits for the cache), with the error [`solver::SolveError::Cancelled`]; a
+/// pose solver of that mesh waiting for the cache then builds the base itself.
 pub fn spawn_prepare(
     cache: Arc<Mutex<MeshCache>>,
     mesh: Arc<Mesh>,

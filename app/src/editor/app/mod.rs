@@ -205,7 +205,15 @@ struct Jobs {
     /// The mesh's own precomputation (`jobs::spawn_prepare`), started by the loader as soon
     /// as it has the mesh, or when the method's settings change.
     prepare: Option<Preparing>,
+    /// `prepare`'s mesh and progress as loaders see them: one that reads another mesh to
+    /// replace the open one stops it (`EditorApp::start_prepare`).
+    open_prepare: OpenPrepare,
 }
+
+/// The open mesh's precomputation, shared with loaders: its mesh and its job's progress.
+type OpenPrepare = std::sync::Arc<
+    std::sync::Mutex<Option<(std::sync::Arc<solver::Mesh>, std::sync::Arc<super::jobs::Progress>)>>,
+>;
 
 impl Jobs {
     /// The file being read in the background (a mesh or a scene, else a selection, else a

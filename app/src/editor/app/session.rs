@@ -587,12 +587,14 @@ impl EditorApp {
                 self.jobs.loading = None;
                 self.session.at_load = None;
                 self.offer_again();
+                self.load_not_adopted();
             }
             Ok(Err(e)) => {
                 self.error = Some(e);
                 self.jobs.loading = None;
                 self.session.at_load = None;
                 self.offer_again();
+                self.load_not_adopted();
             }
             Ok(Ok(_)) if self.edited_while_loading() => {
                 // Work done while the file loaded is not replaced unasked: the question comes
@@ -600,9 +602,7 @@ impl EditorApp {
                 // already (a quit, another file): it stays, and this file is not opened.
                 let path = self.jobs.loading.take().map(|j| j.path).unwrap_or_default();
                 self.session.at_load = None;
-                // its precomputation, started by the loader, is not adopted: it stops
-                let early = self.jobs.early_prepare.lock().ok().and_then(|mut p| p.take());
-                early.inspect(|p| p.job.cancel());
+                self.load_not_adopted();
                 let restore = self.store.restoring.is_some();
                 self.offer_again();
                 if self.session.pending.is_some() {

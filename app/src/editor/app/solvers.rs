@@ -181,21 +181,28 @@ impl EditorApp {
     /// in `Jobs::early_prepare` for [`EditorApp::adopt_prepare`]. Not started when another load
     /// was asked for meanwhile: the mesh given up would hold the mesh cache (seconds at a
     /// million vertices) from the one wanted, and take its place in the slot. When it starts,
-    /// the precomputations it makes moot stop ([`jobs::spawn_prepare`]): one a loader started
-    /// for a mesh given up, and the open mesh's, which the mesh read replaces.
+    /// the precomputations it makes moot stop between their stages ([`jobs::spawn_prepare`]):
+    /// one a loader started for a mesh given up, and the open mesh's, which the mesh read
+    /// replaces; not one of a mesh with the same vertices and triangles (the same file read
+    /// again), whose base this one takes over once built.
     pub(super) fn start_prepare(&self, ctx: &egui::Context, version: u64) -> loader::StartPrepare {
         let cache = self.solvers.mesh_cache.clone();
         let settings = self.session.settings;
         let (slot, wanted) = (self.jobs.early_prepare.clone(), self.jobs.wanted_load.clone());
-        let current = self.jobs.prepare.as_ref().map(|p| p.job.progress.clone());
+        let open = self.jobs.open_prepare.clone();
         let c = ctx.clone();
         Box::new(move |mesh| {
             let mut slot = slot.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
             if wanted.load(std::sync::atomic::Ordering::Relaxed) != version {
                 return;
             }
-            let moot = slot.take().map(|p| p.job.progress).into_iter().chain(current);
-            moot.for_each(|p| p.cancel.store(true, std::sync::atomic::Ordering::Relaxed));
+            let given_up = slot.take().map(|p| (p.mesh, p.job.progress));
+            let open = open.lock().ok().and_then(|o| o.clone());
+            for (other, progress) in given_up.into_iter().chain(open) {
+                if other.fingerprint() != mesh.fingerprint() {
+                    progress.cancel.store(true, std::sync::atomic::Ordering::Relaxed);
+                }
+            }
             let repaint = move || c.request_repaint();
             let (method, base) = (settings.bs_variant, settings.base_config());
             *slot = Some(jobs::spawn_prepare(cache, mesh, method, base, repaint));
@@ -209,11 +216,35 @@ impl EditorApp {
         match early {
             Some(p) if Arc::ptr_eq(&p.mesh, mesh) => {
                 self.solvers.prepared_for = Some((Arc::as_ptr(mesh) as usize, p.method, p.base));
-                self.jobs.prepare = Some(p);
+                // one started for the mesh this replaces after its loader looked: it stops
+                let replaced = self.jobs.prepare.as_ref().map(|r| &r.mesh);
+                if replaced.is_some_and(|r| r.fingerprint() != mesh.fingerprint()) {
+                    self.jobs.prepare.as_ref().inspect(|r| r.job.cancel());
+                }
+                self.set_prepare(Some(p));
             }
             Some(p) => p.job.cancel(), // another mesh's: given up
             None => {}
         }
+    }
+
+    /// A load that ended without opening its mesh: the precomputation its loader started
+    /// stops, and the open mesh's starts again (`poll_prepare`), since the loader may have
+    /// stopped it, or the other mesh's precomputation taken its base from the cache (found at
+    /// once where it is still there, or on disk).
+    pub(super) fn load_not_adopted(&mut self) {
+        let early = self.jobs.early_prepare.lock().ok().and_then(|mut p| p.take());
+        early.inspect(|p| p.job.cancel());
+        self.solvers.prepared_for = None;
+    }
+
+    /// Makes `prepare` the open mesh's precomputation, as loaders see it too
+    /// (`Jobs::open_prepare`).
+    fn set_prepare(&mut self, prepare: Option<jobs::Preparing>) {
+        if let Ok(mut open) = self.jobs.open_prepare.lock() {
+            *open = prepare.as_ref().map(|p| (p.mesh.clone(), p.job.progress.clone()));
+        }
+        self.jobs.prepare = prepare;
     }
 
     /// Starts the mesh's own precomputation (`jobs::spawn_prepare`) when a mesh is shown
@@ -229,12 +260,12 @@ impl EditorApp {
                     since.elapsed().as_secs_f64()
                 ),
                 Ok(_) => {}
-                // Stopped for a mesh being read in its place: if that one was not opened
-                // after all (changes made while it loaded), it starts again below.
-                Err(_) if job.cancelled() => self.solvers.prepared_for = None,
+                // Stopped for a mesh read in its place; if that one is not opened after all,
+                // `EditorApp::load_not_adopted` has it start again.
+                Err(_) if job.cancelled() => {}
                 Err(e) => self.error = Some(format!("precomputing the mesh failed: {e}")),
             }
-            self.jobs.prepare = None;
+            self.set_prepare(None);
         }
         let Some(scene) = &self.session.scene else { return };
         let settings = self.session.settings;
@@ -242,13 +273,14 @@ impl EditorApp {
         if self.jobs.prepare.is_none() && self.solvers.prepared_for != Some(key) {
             self.solvers.prepared_for = Some(key);
             let c = ctx.clone();
-            self.jobs.prepare = Some(jobs::spawn_prepare(
+            let prepare = jobs::spawn_prepare(
                 self.solvers.mesh_cache.clone(),
                 scene.mesh.clone(),
                 settings.bs_variant,
                 settings.base_config(),
                 move || c.request_repaint(),
-            ));
+            );
+            self.set_prepare(Some(prepare));
         }
     }
 

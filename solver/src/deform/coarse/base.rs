@@ -97,10 +97,12 @@ impl CoarseBase {
         CoarseBase::new_until(mesh, config, &|| false)
     }
 
-    /// [`CoarseBase::new`], stopped with [`SolveError::Cancelled`] between its stages (after
-    /// the level's decimation, its fairing, the coarse decimation) once `stop` returns true:
-    /// an editor whose mesh was given up for another need not finish seconds of work at a
-    /// million vertices before the next mesh's can start.
+    /// [`CoarseBase::new`], stopped with [`SolveError::Cancelled`] between its stages once
+    /// `stop` returns true: on a level, after the level's decimation, after its fairing (with
+    /// the coarse decimation beside it) and after the embedding on the coarse mesh; faired
+    /// directly, only after that embedding (most of the work). An editor whose mesh was given
+    /// up for another need not finish seconds of work at a million vertices before the next
+    /// mesh's can start.
     pub fn new_until(
         mesh: &Mesh,
         config: &BaseConfig,

@@ -109,7 +109,8 @@ pub struct LevelView<'a> {
 /// embedding of the fine vertices on it (its result `None` when the mesh was faired
 /// directly): the coarse base decimates the level there ([`crate::deform::coarse::base`]).
 /// Stops with [`SolveError::Cancelled`] after the level's decimation and after its fairing
-/// when `stop` returns true by then.
+/// (with `then`, beside the embedding) when `stop` returns true by then; never when faired
+/// directly.
 pub fn faired_base_then<R: Send>(
     mesh: &Mesh,
     smoothing: Option<f64>,

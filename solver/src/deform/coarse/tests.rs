@@ -452,7 +452,7 @@ fn a_base_build_stops_between_stages() {
         CoarseBase::new_until(&mesh, &config, &|| checks.fetch_add(1, Ordering::Relaxed) > 99);
     assert!(whole.unwrap().level.is_some(), "not faired on a level");
     let stages = checks.load(Ordering::Relaxed);
-    assert_eq!(stages, 3, "the level's decimation, its fairing, the coarse decimation");
+    assert_eq!(stages, 3, "the level's decimation, its fairing, the embedding on the coarse mesh");
     for stop_at in 0..stages {
         let seen = AtomicUsize::new(0);
         let stop = || seen.fetch_add(1, Ordering::Relaxed) == stop_at;
