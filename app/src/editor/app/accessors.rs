@@ -92,6 +92,8 @@ impl EditorApp {
         self.jobs.identifying = None;
         self.offer_again();
         let version = self.next_version();
+        self.jobs.wanted_load.store(version, std::sync::atomic::Ordering::Relaxed);
+        self.load_not_adopted();
         let c = ctx.clone();
         self.jobs.loading =
             Some(crate::editor::loader::spawn_loaded(path, loaded, version, move || {

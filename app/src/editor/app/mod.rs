@@ -205,14 +205,15 @@ struct Jobs {
     /// The mesh's own precomputation (`jobs::spawn_prepare`), started by the loader as soon
     /// as it has the mesh, or when the method's settings change.
     prepare: Option<Preparing>,
-    /// `prepare`'s mesh and progress as loaders see them: one that reads another mesh to
-    /// replace the open one stops it (`EditorApp::start_prepare`).
+    /// `prepare`'s mesh and progress as loaders see them, with those of earlier ones of the
+    /// same mesh that may still run: a loader that reads another mesh to replace the open one
+    /// stops them (`EditorApp::start_prepare`).
     open_prepare: OpenPrepare,
 }
 
-/// The open mesh's precomputation, shared with loaders: its mesh and its job's progress.
+/// The open mesh's precomputations, shared with loaders: each one's mesh and job's progress.
 type OpenPrepare = std::sync::Arc<
-    std::sync::Mutex<Option<(std::sync::Arc<solver::Mesh>, std::sync::Arc<super::jobs::Progress>)>>,
+    std::sync::Mutex<Vec<(std::sync::Arc<solver::Mesh>, std::sync::Arc<super::jobs::Progress>)>>,
 >;
 
 impl Jobs {

@@ -506,6 +506,7 @@ impl EditorApp {
         self.offer_again();
         let version = self.next_version();
         self.jobs.wanted_load.store(version, std::sync::atomic::Ordering::Relaxed);
+        self.load_not_adopted(); // a load this one replaces, if its mesh was read
         let mark = Box::new(DocumentMark::of(&self.session, self.capture.saved()));
         if self.writing_to(&path) {
             self.jobs.loading = None;

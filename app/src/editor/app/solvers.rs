@@ -197,12 +197,9 @@ impl EditorApp {
                 return;
             }
             let given_up = slot.take().map(|p| (p.mesh, p.job.progress));
-            let open = open.lock().ok().and_then(|o| o.clone());
-            for (other, progress) in given_up.into_iter().chain(open) {
-                if other.fingerprint() != mesh.fingerprint() {
-                    progress.cancel.store(true, std::sync::atomic::Ordering::Relaxed);
-                }
-            }
+            let mut open = open.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+            open.extend(given_up);
+            stop_unless_of(&mut open, &mesh);
             let repaint = move || c.request_repaint();
             let (method, base) = (settings.bs_variant, settings.base_config());
             *slot = Some(jobs::spawn_prepare(cache, mesh, method, base, repaint));
@@ -212,15 +209,15 @@ impl EditorApp {
     /// Takes over the precomputation a loader started, when it was started on `mesh` (the
     /// scene just loaded).
     pub(super) fn adopt_prepare(&mut self, mesh: &Arc<solver::Mesh>) {
+        // Those of the mesh this replaces stop: one started after its loader looked (a
+        // settings change), or any when no loader looked (a scene names the mesh).
+        if let Ok(mut open) = self.jobs.open_prepare.lock() {
+            stop_unless_of(&mut open, mesh);
+        }
         let early = self.jobs.early_prepare.lock().ok().and_then(|mut p| p.take());
         match early {
             Some(p) if Arc::ptr_eq(&p.mesh, mesh) => {
                 self.solvers.prepared_for = Some((Arc::as_ptr(mesh) as usize, p.method, p.base));
-                // one started for the mesh this replaces after its loader looked: it stops
-                let replaced = self.jobs.prepare.as_ref().map(|r| &r.mesh);
-                if replaced.is_some_and(|r| r.fingerprint() != mesh.fingerprint()) {
-                    self.jobs.prepare.as_ref().inspect(|r| r.job.cancel());
-                }
                 self.set_prepare(Some(p));
             }
             Some(p) => p.job.cancel(), // another mesh's: given up
@@ -228,21 +225,35 @@ impl EditorApp {
         }
     }
 
-    /// A load that ended without opening its mesh: the precomputation its loader started
-    /// stops, and the open mesh's starts again (`poll_prepare`), since the loader may have
-    /// stopped it, or the other mesh's precomputation taken its base from the cache (found at
-    /// once where it is still there, or on disk).
+    /// A load that ended without opening its mesh, or that another load replaced: the
+    /// precomputation its loader started, if it read its mesh, stops, and the open mesh's
+    /// starts again (`poll_prepare`), since that loader stopped it, or the other mesh's
+    /// precomputation took its base from the cache (found at once where it is still there, or
+    /// on disk).
     pub(super) fn load_not_adopted(&mut self) {
         let early = self.jobs.early_prepare.lock().ok().and_then(|mut p| p.take());
-        early.inspect(|p| p.job.cancel());
-        self.solvers.prepared_for = None;
+        if let Some(p) = early {
+            p.job.cancel();
+            self.solvers.prepared_for = None;
+        }
     }
 
     /// Makes `prepare` the open mesh's precomputation, as loaders see it too
     /// (`Jobs::open_prepare`).
+    /// Earlier ones of the same mesh stay listed (a job dropped is not stopped); `None` (the
+    /// job ended) takes the one that ended off the list.
     fn set_prepare(&mut self, prepare: Option<jobs::Preparing>) {
         if let Ok(mut open) = self.jobs.open_prepare.lock() {
-            *open = prepare.as_ref().map(|p| (p.mesh.clone(), p.job.progress.clone()));
+            match &prepare {
+                Some(p) => {
+                    stop_unless_of(&mut open, &p.mesh);
+                    open.push((p.mesh.clone(), p.job.progress.clone()));
+                }
+                None => {
+                    let ended = self.jobs.prepare.as_ref().map(|p| &p.job.progress);
+                    open.retain(|(_, p)| ended.is_none_or(|e| !Arc::ptr_eq(p, e)));
+                }
+            }
         }
         self.jobs.prepare = prepare;
     }
@@ -387,4 +398,22 @@ impl EditorApp {
         let key = (self.solvers.scene_generation, self.solvers.pose_generation);
         self.jobs.compared.as_ref().map(|(k, q)| (*q, *k == key))
     }
+}
+
+/// Stops the precomputations in `running` of meshes other than `mesh` (by their vertices and
+/// triangles: the same file read again is the same mesh) and keeps the others listed.
+fn stop_unless_of(
+    running: &mut Vec<(Arc<solver::Mesh>, Arc<jobs::Progress>)>,
+    mesh: &solver::Mesh,
+) {
+    running.retain(|(other, progress)| {
+        let same = std::ptr::eq(&**other, mesh)
+            || (other.n_vertices() == mesh.n_vertices()
+                && other.n_faces() == mesh.n_faces()
+                && other.fingerprint() == mesh.fingerprint());
+        if !same {
+            progress.cancel.store(true, std::sync::atomic::Ordering::Relaxed);
+        }
+        same
+    });
 }
