@@ -184,9 +184,10 @@ impl MeshCache {
 
     /// [`MeshCache::prepare`] that leaves the writing of a base built anew to the caller
     /// ([`UnwrittenBase::write`]), so that a cache shared between threads need not be held
-    /// while the file is written (about 50 MiB at 1.5M vertices); a base being built stops
-    /// with [`SolveError::Cancelled`] between its stages once `stop` returns true
-    /// ([`CoarseBase::new_until`]), and nothing is kept.
+    /// while the file is written (about 50 MiB at 1.5M vertices). Once `stop` returns true a
+    /// base not found in the cache is not read or built: [`SolveError::Cancelled`], before
+    /// the cached one is let go (asked already) or between the build's stages
+    /// ([`CoarseBase::new_until`]; nothing is kept).
     pub fn prepare_unwritten(
         &mut self,
         method: Method,
@@ -200,6 +201,9 @@ impl MeshCache {
         let path = self.disk.as_ref().map(|dir| coarse_cache::cache_path(dir, mesh, base));
         let (c, built) = match self.coarse.clone().filter(|c| c.fits(mesh, base)) {
             Some(c) => (c, false),
+            // Stopped before it began: the cached base (another mesh's, maybe the one wanted
+            // now) stays.
+            None if stop() => return Err(SolveError::Cancelled),
             None => {
                 self.coarse = None;
                 self.disk_note = None;

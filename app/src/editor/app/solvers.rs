@@ -2,7 +2,7 @@
 //! frames, and the side-by-side quality against converged ARAP.
 
 use std::collections::VecDeque;
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, PoisonError};
 use std::time::Instant;
 
 use eframe::egui;
@@ -211,13 +211,17 @@ impl EditorApp {
     pub(super) fn adopt_prepare(&mut self, mesh: &Arc<solver::Mesh>) {
         // Those of the mesh this replaces stop: one started after its loader looked (a
         // settings change), or any when no loader looked (a scene names the mesh).
-        if let Ok(mut open) = self.jobs.open_prepare.lock() {
-            stop_unless_of(&mut open, mesh);
-        }
-        let early = self.jobs.early_prepare.lock().ok().and_then(|mut p| p.take());
+        let mut open = self.jobs.open_prepare.lock().unwrap_or_else(PoisonError::into_inner);
+        // One stopped now may have taken the cache already and let this mesh's base go.
+        let stopped = stop_unless_of(&mut open, mesh);
+        drop(open);
+        let early = self.jobs.early_prepare.lock().unwrap_or_else(PoisonError::into_inner).take();
         match early {
             Some(p) if Arc::ptr_eq(&p.mesh, mesh) => {
-                self.solvers.prepared_for = Some((Arc::as_ptr(mesh) as usize, p.method, p.base));
+                // Prepared, unless a stopped one may have taken the base from the cache (the
+                // next `poll_prepare` then looks again: at once when it is still there).
+                let key = (Arc::as_ptr(mesh) as usize, p.method, p.base);
+                self.solvers.prepared_for = (!stopped).then_some(key);
                 self.set_prepare(Some(p));
             }
             Some(p) => p.job.cancel(), // another mesh's: given up
@@ -231,7 +235,7 @@ impl EditorApp {
     /// precomputation took its base from the cache (found at once where it is still there, or
     /// on disk).
     pub(super) fn load_not_adopted(&mut self) {
-        let early = self.jobs.early_prepare.lock().ok().and_then(|mut p| p.take());
+        let early = self.jobs.early_prepare.lock().unwrap_or_else(PoisonError::into_inner).take();
         if let Some(p) = early {
             p.job.cancel();
             self.solvers.prepared_for = None;
@@ -243,18 +247,18 @@ impl EditorApp {
     /// Earlier ones of the same mesh stay listed (a job dropped is not stopped); `None` (the
     /// job ended) takes the one that ended off the list.
     fn set_prepare(&mut self, prepare: Option<jobs::Preparing>) {
-        if let Ok(mut open) = self.jobs.open_prepare.lock() {
-            match &prepare {
-                Some(p) => {
-                    stop_unless_of(&mut open, &p.mesh);
-                    open.push((p.mesh.clone(), p.job.progress.clone()));
-                }
-                None => {
-                    let ended = self.jobs.prepare.as_ref().map(|p| &p.job.progress);
-                    open.retain(|(_, p)| ended.is_none_or(|e| !Arc::ptr_eq(p, e)));
-                }
+        let mut open = self.jobs.open_prepare.lock().unwrap_or_else(PoisonError::into_inner);
+        match &prepare {
+            Some(p) => {
+                stop_unless_of(&mut open, &p.mesh);
+                open.push((p.mesh.clone(), p.job.progress.clone()));
+            }
+            None => {
+                let ended = self.jobs.prepare.as_ref().map(|p| &p.job.progress);
+                open.retain(|(_, p)| ended.is_none_or(|e| !Arc::ptr_eq(p, e)));
             }
         }
+        drop(open);
         self.jobs.prepare = prepare;
     }
 
@@ -401,19 +405,26 @@ impl EditorApp {
 }
 
 /// Stops the precomputations in `running` of meshes other than `mesh` (by their vertices and
-/// triangles: the same file read again is the same mesh) and keeps the others listed.
+/// triangles: the same file read again is the same mesh) and keeps the others listed, except
+/// those that ended (nothing but the list holds their progress); whether it stopped any.
 fn stop_unless_of(
     running: &mut Vec<(Arc<solver::Mesh>, Arc<jobs::Progress>)>,
     mesh: &solver::Mesh,
-) {
+) -> bool {
+    let mut stopped = false;
     running.retain(|(other, progress)| {
+        if Arc::strong_count(progress) == 1 {
+            return false; // ended, and its job dropped: a mesh copy less held
+        }
         let same = std::ptr::eq(&**other, mesh)
             || (other.n_vertices() == mesh.n_vertices()
                 && other.n_faces() == mesh.n_faces()
                 && other.fingerprint() == mesh.fingerprint());
         if !same {
             progress.cancel.store(true, std::sync::atomic::Ordering::Relaxed);
+            stopped = true;
         }
         same
     });
+    stopped
 }

@@ -467,4 +467,10 @@ fn a_base_build_stops_between_stages() {
     assert!(cache.coarse_base().is_none(), "a stopped build was kept");
     let (built, _) = cache.prepare_unwritten(method, &mesh, &config, &|| false).unwrap();
     assert!(built.is_some_and(|b| b.fits(&mesh, &config)));
+    // Stopped before it began (a mesh given up, waiting for the cache), another mesh's
+    // prepare leaves the cached base alone: it let it go first, and the base wanted was lost.
+    let (other, _) = crate::geometry::shapes::bumpy_bar(2);
+    let e = cache.prepare_unwritten(method, &other, &config, &|| true).unwrap_err();
+    assert_eq!(e, SolveError::Cancelled);
+    assert!(cache.coarse_base().is_some_and(|b| b.fits(&mesh, &config)), "the base was let go");
 }
