@@ -14,35 +14,24 @@ use solver::testing::ScratchDir;
 use support::{config_with_in_app_dialog, dialog_harness, settled, step_until};
 
 /// A session with the configuration folder `config` that opened the bumpy bar (`dir/bar.obj`,
-/// a .dmat beside it), moved a group, autosaved and crashed: the bar's path and the autosave.
-fn crashed_with_an_edit_of_a_bar(dir: &ScratchDir, config: &Path) -> (PathBuf, PathBuf) {
+/// a .dmat beside it), saved its scene as `scene` if given, moved a group up by 0.25,
+/// autosaved and crashed: the bar's path and the autosave.
+fn crashed_with_an_edit(
+    dir: &ScratchDir,
+    config: &Path,
+    scene: Option<&Path>,
+) -> (PathBuf, PathBuf) {
     let (bar, _) = support::write_bar(dir, true);
     let mut h = dialog_harness(config.to_path_buf());
     step_until(&mut h, "the default asset", settled);
     support::open_dropped(&mut h, &bar);
-    let mut e = h.state().edit_state().clone();
-    e.groups[0].pose.translation.y = 0.1;
-    h.state_mut().set_edit_state(e);
+    if let Some(scene) = scene {
+        h.state_mut().save_scene(scene).unwrap();
+    }
+    support::move_group(&mut h, 0, glam::DVec3::new(0.0, 0.25, 0.0));
     let autosave = h.state_mut().autosave_now().unwrap();
     drop(h); // a crash: no clean exit
     (bar, autosave)
-}
-
-/// A session with the configuration folder `config` that saved the bumpy bar's scene
-/// (`dir/bar-scene.json`), moved a group, autosaved and crashed: the bar's path and the scene's.
-fn crashed_with_an_edit_of_a_scene(dir: &ScratchDir, config: &Path) -> (PathBuf, PathBuf) {
-    let (bar, _) = support::write_bar(dir, true);
-    let scene = dir.join("bar-scene.json");
-    let mut h = dialog_harness(config.to_path_buf());
-    step_until(&mut h, "the default asset", settled);
-    support::open_dropped(&mut h, &bar);
-    h.state_mut().save_scene(&scene).unwrap();
-    let mut e = h.state().edit_state().clone();
-    e.groups[0].pose.translation.y = 0.25;
-    h.state_mut().set_edit_state(e);
-    h.state_mut().autosave_now().unwrap();
-    drop(h); // a crash: no clean exit
-    (bar, scene)
 }
 
 /// Restore of an autosave whose mesh cannot be opened (moved since) fails, says why and offers
@@ -51,7 +40,7 @@ fn crashed_with_an_edit_of_a_scene(dir: &ScratchDir, config: &Path) -> (PathBuf,
 fn a_failed_restore_offers_the_autosave_again() {
     let dir = ScratchDir::new("first-hour-failed-restore");
     let config = config_with_in_app_dialog(&dir);
-    let (bar, autosave) = crashed_with_an_edit_of_a_bar(&dir, &config);
+    let (bar, autosave) = crashed_with_an_edit(&dir, &config, None);
     std::fs::rename(&bar, dir.join("moved.obj")).unwrap();
 
     let mut h = dialog_harness(config);
@@ -72,14 +61,12 @@ fn a_failed_restore_offers_the_autosave_again() {
 fn restore_over_unsaved_changes_asks_first() {
     let dir = ScratchDir::new("saving-restore-asks");
     let config = config_with_in_app_dialog(&dir);
-    let (bar, _) = crashed_with_an_edit_of_a_bar(&dir, &config);
+    let (bar, _) = crashed_with_an_edit(&dir, &config, None);
 
     let mut h = dialog_harness(config);
     step_until(&mut h, "the default asset", |a| !a.is_loading() && a.n_vertices() > 0);
     assert!(h.state().restore_offer().is_some());
-    let mut e = h.state().edit_state().clone();
-    e.groups[0].pose.translation.x = 0.2;
-    h.state_mut().set_edit_state(e);
+    support::move_group(&mut h, 0, glam::DVec3::new(0.2, 0.0, 0.0));
     // While the offer is unanswered the autosave file is the last session's: quitting cannot
     // keep these changes in it (it kept the old file and dropped them).
     support::ask_to_quit(&mut h);
@@ -112,7 +99,8 @@ fn restore_over_unsaved_changes_asks_first() {
 fn a_restored_scene_saves_back_to_its_file() {
     let dir = ScratchDir::new("saving-restore-scene");
     let config = config_with_in_app_dialog(&dir);
-    let (bar, scene) = crashed_with_an_edit_of_a_scene(&dir, &config);
+    let scene = dir.join("bar-scene.json");
+    let (bar, _) = crashed_with_an_edit(&dir, &config, Some(&scene));
     let saved = std::fs::read(&scene).unwrap();
 
     let mut h = dialog_harness(config);
@@ -145,7 +133,8 @@ fn a_restored_scene_saves_back_to_its_file() {
 fn a_restore_does_not_save_over_a_scene_changed_since() {
     let dir = ScratchDir::new("saving-restore-newer-scene");
     let config = config_with_in_app_dialog(&dir);
-    let (bar, scene) = crashed_with_an_edit_of_a_scene(&dir, &config);
+    let scene = dir.join("bar-scene.json");
+    let (bar, _) = crashed_with_an_edit(&dir, &config, Some(&scene));
     let newer = std::fs::read(&scene).unwrap();
     let later = std::time::SystemTime::now() + std::time::Duration::from_secs(60);
     std::fs::File::options().write(true).open(&scene).unwrap().set_modified(later).unwrap();
@@ -181,9 +170,7 @@ fn changes_that_cannot_be_autosaved_say_so() {
     step_until(&mut h, "the default asset", settled);
     support::open_dropped(&mut h, &bar);
     assert!(h.query_by_label("not autosaved").is_none());
-    let mut e = h.state().edit_state().clone();
-    e.groups[0].pose.translation.y = 0.1;
-    h.state_mut().set_edit_state(e);
+    support::move_group(&mut h, 0, glam::DVec3::new(0.0, 0.1, 0.0));
     step_until(&mut h, "the autosave timer", |a| a.autosave_failure().is_some());
     let why = h.state().autosave_failure().unwrap();
     assert!(why.contains("back\\slash"), "{why}");
@@ -201,9 +188,7 @@ fn work_discarded_for_another_file_is_not_offered_after_a_crash() {
     let config = config_with_in_app_dialog(&dir);
     let mut h = dialog_harness(config.clone());
     step_until(&mut h, "the default asset", settled);
-    let mut e = h.state().edit_state().clone();
-    e.groups[0].pose.translation.y = 0.3;
-    h.state_mut().set_edit_state(e);
+    support::move_group(&mut h, 0, glam::DVec3::new(0.0, 0.3, 0.0));
     let autosave = h.state_mut().autosave_now().unwrap();
     let (bar, _) = support::write_bar(&dir, false);
     let ctx = h.ctx.clone();

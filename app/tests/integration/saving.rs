@@ -29,9 +29,7 @@ fn save_as_refuses_the_mesh_and_a_cancelled_save_first_is_forgotten() {
     let (bar, _) = support::write_bar(&dir, true);
     support::open_dropped(&mut h, &bar);
     let original = std::fs::read(&bar).unwrap();
-    let mut e = h.state().edit_state().clone();
-    e.groups[0].pose.translation.y = 0.1;
-    h.state_mut().set_edit_state(e);
+    support::move_group(&mut h, 0, glam::DVec3::new(0.0, 0.1, 0.0));
     // what the status says after a Save as of `path`: the error, else the information
     let save_as = |h: &mut Harness<'static, EditorApp>, path: &Path| {
         let before = h.state().error().map(str::to_owned);
@@ -73,9 +71,7 @@ fn save_first_with_a_dialog_open_keeps_the_question() {
     let dir = ScratchDir::new("saving-dialog-open");
     let mut h = dialog_harness(config_with_in_app_dialog(&dir));
     step_until(&mut h, "the default asset", settled);
-    let mut e = h.state().edit_state().clone();
-    e.groups[0].pose.translation.y = 0.1;
-    h.state_mut().set_edit_state(e);
+    support::move_group(&mut h, 0, glam::DVec3::new(0.0, 0.1, 0.0));
     assert!(h.state().document_path().is_none(), "a mesh, no scene file: Save asks where");
     h.key_press_modifiers(Modifiers::COMMAND, Key::O);
     h.step();
@@ -200,9 +196,7 @@ fn a_scenes_method_settings_survive_the_panel_and_a_save() {
 
 /// Poses group 1 at `y` up, by hand.
 fn pose(h: &mut Harness<'static, EditorApp>, y: f64) {
-    let mut e = h.state().edit_state().clone();
-    e.groups[1].pose.translation = glam::DVec3::new(0.0, y, 0.0);
-    h.state_mut().set_edit_state(e);
+    support::move_group(h, 1, glam::DVec3::new(0.0, y, 0.0));
 }
 
 /// How far up group 1 is posed in the scene file at `path`.

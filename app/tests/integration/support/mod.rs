@@ -75,6 +75,13 @@ pub fn ask_to_quit(h: &mut Harness<'_, EditorApp>) {
     h.step(); // a new window is laid out invisibly in its first frame
 }
 
+/// Poses handle group `group` at `translation` (no rotation change), as a drag would.
+pub fn move_group(h: &mut Harness<'_, EditorApp>, group: usize, translation: glam::DVec3) {
+    let mut e = h.state().edit_state().clone();
+    e.groups[group].pose.translation = translation;
+    h.state_mut().set_edit_state(e);
+}
+
 /// Drops `path` on the window and waits until it is the open mesh.
 pub fn open_dropped(h: &mut Harness<'_, EditorApp>, path: &Path) {
     drop_file(h, path.to_path_buf());
