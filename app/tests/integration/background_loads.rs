@@ -34,7 +34,7 @@ fn bar_with_three_groups(dir: &ScratchDir) -> (Harness<'static, EditorApp>, Path
     let rows: String = (0..n).map(label).collect();
     std::fs::write(dir.join("bar.dmat"), format!("1 {n}\n{rows}")).unwrap();
     let mut h = support::harness(bar.clone(), None);
-    step_until(&mut h, "the bar", |a| !a.is_loading() && a.n_vertices() > 0);
+    step_until(&mut h, "the bar", support::loaded);
     assert_eq!(h.state().edit_state().groups.len(), 3);
     (h, bar, n)
 }

@@ -331,7 +331,7 @@ fn f12(h: &mut Harness<'_, EditorApp>) -> PathBuf {
 fn f12_saves_a_png_of_the_viewport_next_to_the_config() {
     let config = ScratchDir::new("capture-f12");
     let mut h = harness(config.to_path_buf());
-    step_until(&mut h, "the default asset", |a| !a.is_loading() && a.n_vertices() > 0);
+    step_until(&mut h, "the default asset", support::loaded);
     for _ in 0..3 {
         h.step();
     }
@@ -378,7 +378,7 @@ fn f12_saves_a_png_of_the_viewport_next_to_the_config() {
 fn f12_side_by_side_pictures_both_viewports() {
     let config = ScratchDir::new("capture-f12-compare");
     let mut h = harness(config.to_path_buf());
-    step_until(&mut h, "the default asset", |a| !a.is_loading() && a.n_vertices() > 0);
+    step_until(&mut h, "the default asset", support::loaded);
     h.get_by_label("Side by side").click();
     step_until(&mut h, "both viewports' frames", |a| {
         a.view() == View::Compare && a.latest_frame(Slot::Compare).is_some()
@@ -407,7 +407,7 @@ fn the_scene_capture_object_sizes_screenshots_and_is_saved_back() {
     let capture = r#", "capture": {"width": 200, "height": 100, "turntable": true}"#;
     let scene = scene(&dir, None, capture);
     let mut h = harness_on(scene, dir.join("config"));
-    step_until(&mut h, "the scene", |a| !a.is_loading() && a.n_vertices() > 0);
+    step_until(&mut h, "the scene", support::loaded);
     h.step();
     let shot = f12(&mut h);
     assert_eq!(shot, dir.join("config/screenshots/screenshot_0001.png"));
@@ -465,7 +465,7 @@ fn recorded(name: &str) -> (ScratchDir, Harness<'static, EditorApp>) {
     let text = std::fs::read_to_string(&path).unwrap().replace(r#""arap""#, r#""bsarap""#);
     std::fs::write(&path, text).unwrap();
     let mut h = harness_on(path, dir.join("config"));
-    step_until(&mut h, "the scene", |a| !a.is_loading() && a.n_vertices() > 0);
+    step_until(&mut h, "the scene", support::loaded);
     let ctx = h.ctx.clone();
     h.state_mut().start_recording(&ctx);
     step_until(&mut h, "the recording", |a| !a.is_recording());
@@ -584,7 +584,7 @@ fn render_of_a_z_up_scene_matches_the_editor() {
     let capture = r#", "capture": {"width": 120, "height": 90}"#;
     let scene = scene(&dir, None, capture);
     let mut h = harness_on(scene.clone(), dir.join("config"));
-    step_until(&mut h, "the scene", |a| !a.is_loading() && a.n_vertices() > 0);
+    step_until(&mut h, "the scene", support::loaded);
     h.state_mut().set_up_axis(solver::animation::export::UpAxis::Z);
     let mut camera = *h.state().camera();
     camera.orbit(60.0, 40.0);

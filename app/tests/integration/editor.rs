@@ -627,7 +627,7 @@ fn scenes_recent_files_rename_and_autosave_restore() {
     let mut h = support::harness(test_mesh(), Some(config.clone()));
     h.step();
     assert_eq!(h.state().restore_offer(), Some(autosave.as_path()));
-    step_until(&mut h, "the default asset", |a| !a.is_loading() && a.n_vertices() > 0);
+    step_until(&mut h, "the default asset", support::loaded);
     h.get_by_label("Restore").click();
     h.step();
     step_until(&mut h, "the restored scene", |a| {
@@ -725,7 +725,7 @@ fn the_status_bar_reports_memory() {
         let mesh_path = Some(test_mesh());
         EditorApp::new(cc, EditorOptions { mesh_path, ..Default::default() })
     });
-    step_until(&mut h, "the default asset", |a| !a.is_loading() && a.n_vertices() > 0);
+    step_until(&mut h, "the default asset", support::loaded);
     h.get_by_label_contains("MiB (peak");
     // The tests render on a software adapter where there is one (kittest prefers it): the
     // status bar says so, and names the adapter in its tooltip.

@@ -223,7 +223,7 @@ fn a_loose_part_follows_the_handles_and_can_be_pinned_from_the_parts_panel() {
     use solver::ComponentMode;
     let dir = temp_dir("parts");
     let mut h = harness(two_spheres(&dir));
-    step_until(&mut h, "the two spheres", |a| !a.is_loading() && a.n_vertices() > 0);
+    step_until(&mut h, "the two spheres", support::loaded);
     // The panel lists both pieces, and nothing is dirty yet.
     assert!(h.query_by_label_contains("Part 0:").is_some());
     assert!(h.query_by_label_contains("Part 1:").is_some());

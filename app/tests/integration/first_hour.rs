@@ -142,7 +142,7 @@ fn quitting_with_unsaved_changes_asks_and_a_kept_quit_is_not_called_a_crash() {
     assert!(h.state_mut().exit_autosave(), "the changes are kept");
     drop(h);
     let mut h = dialog_harness(config.clone());
-    step_until(&mut h, "the default asset", |a| !a.is_loading() && a.n_vertices() > 0);
+    step_until(&mut h, "the default asset", support::loaded);
     h.step();
     assert!(h.query_by_label_contains("You quit the last session keeping unsaved").is_some());
     assert!(h.query_by_label_contains("did not end cleanly").is_none());
@@ -156,7 +156,7 @@ fn quitting_with_unsaved_changes_asks_and_a_kept_quit_is_not_called_a_crash() {
     h.state_mut().autosave_now().unwrap();
     drop(h);
     let mut h = dialog_harness(config.clone());
-    step_until(&mut h, "the default asset", |a| !a.is_loading() && a.n_vertices() > 0);
+    step_until(&mut h, "the default asset", support::loaded);
     h.step();
     assert!(h.query_by_label_contains("did not end cleanly").is_some());
     h.get_by_label("Restore").click();
@@ -196,7 +196,7 @@ fn the_shortcut_window_scrolls_to_its_last_line_at_ui_scales_1_and_2() {
         std::fs::create_dir_all(&config).unwrap();
         std::fs::write(config.join(FILE_NAME), format!(r#"{{"ui_scale": {scale}}}"#)).unwrap();
         let mut h = support::harness_sized(test_mesh(), Some(config), WINDOW);
-        step_until(&mut h, "the default asset", |a| !a.is_loading() && a.n_vertices() > 0);
+        step_until(&mut h, "the default asset", support::loaded);
         h.event(Event::Text("?".into()));
         h.step();
         h.step();
@@ -407,7 +407,7 @@ fn open_with_dialog(mesh: &Path, config: std::path::PathBuf) -> Harness<'static,
             },
         )
     });
-    step_until(&mut h, "the mesh", |a| !a.is_loading() && a.n_vertices() > 0);
+    step_until(&mut h, "the mesh", support::loaded);
     h
 }
 
@@ -653,7 +653,7 @@ fn a_dropped_selection_is_the_open_meshs_new_selection() {
     let bar = dir.join("bar.obj");
     solver::io::write_obj(&bar, mesh.positions(), mesh.triangles()).unwrap();
     let mut h = support::harness(bar.clone(), None);
-    step_until(&mut h, "the bar", |a| !a.is_loading() && a.n_vertices() > 0);
+    step_until(&mut h, "the bar", support::loaded);
     let n = mesh.n_vertices();
     let dmat = dir.join("sel.dmat");
     let rows: String = (0..n).map(|v| if v < 4 { "0\n" } else { "-1\n" }).collect();

@@ -16,7 +16,7 @@ use support::{harness, step_until, test_mesh};
 fn preferences_are_saved_and_restored_by_the_next_session() {
     let dir = ScratchDir::new("editor-prefs");
     let mut h = harness(test_mesh(), Some(dir.to_path_buf()));
-    step_until(&mut h, "the default asset", |a| !a.is_loading() && a.n_vertices() > 0);
+    step_until(&mut h, "the default asset", support::loaded);
     assert_eq!(h.state().preferences(), Preferences::default());
     assert!(!dir.join(FILE_NAME).exists(), "nothing written before a change");
 
@@ -66,7 +66,7 @@ fn preferences_are_saved_and_restored_by_the_next_session() {
 
     // A new session on the same folder starts from them.
     let mut h = harness(test_mesh(), Some(dir.to_path_buf()));
-    step_until(&mut h, "the default asset", |a| !a.is_loading() && a.n_vertices() > 0);
+    step_until(&mut h, "the default asset", support::loaded);
     assert_eq!(h.state().preferences(), p);
     assert_eq!(h.state().brush_radius(), radius);
     assert_eq!(h.state().method_settings().bs_variant, solver::Method::Arap);
@@ -80,7 +80,7 @@ fn a_bad_preferences_file_gives_defaults_and_a_message() {
     let dir = ScratchDir::new("editor-prefs-bad");
     std::fs::write(dir.join(FILE_NAME), "{\"ui_scale\": \"huge\"").unwrap();
     let mut h = harness(test_mesh(), Some(dir.to_path_buf()));
-    step_until(&mut h, "the default asset", |a| !a.is_loading() && a.n_vertices() > 0);
+    step_until(&mut h, "the default asset", support::loaded);
     assert_eq!(h.state().preferences(), Preferences::default());
     let err = h.state().error().expect("a message about the file").to_string();
     assert!(err.contains(FILE_NAME) && err.contains("defaults used"), "{err}");

@@ -44,7 +44,7 @@ fn a_failed_restore_offers_the_autosave_again() {
     std::fs::rename(&bar, dir.join("moved.obj")).unwrap();
 
     let mut h = dialog_harness(config);
-    step_until(&mut h, "the default asset", |a| !a.is_loading() && a.n_vertices() > 0);
+    step_until(&mut h, "the default asset", support::loaded);
     assert!(h.state().restore_offer().is_some());
     let ctx = h.ctx.clone();
     h.state_mut().answer_restore(&ctx, true);
@@ -64,7 +64,7 @@ fn restore_over_unsaved_changes_asks_first() {
     let (bar, _) = crashed_with_an_edit(&dir, &config, None);
 
     let mut h = dialog_harness(config);
-    step_until(&mut h, "the default asset", |a| !a.is_loading() && a.n_vertices() > 0);
+    step_until(&mut h, "the default asset", support::loaded);
     assert!(h.state().restore_offer().is_some());
     support::move_group(&mut h, 0, glam::DVec3::new(0.2, 0.0, 0.0));
     // While the offer is unanswered the autosave file is the last session's: quitting cannot
@@ -104,7 +104,7 @@ fn a_restored_scene_saves_back_to_its_file() {
     let saved = std::fs::read(&scene).unwrap();
 
     let mut h = dialog_harness(config);
-    step_until(&mut h, "the default asset", |a| !a.is_loading() && a.n_vertices() > 0);
+    step_until(&mut h, "the default asset", support::loaded);
     assert!(h.state().restore_offer().is_some());
     h.get_by_label_contains("An autosave of bar-scene.json");
     let ctx = h.ctx.clone();
@@ -140,7 +140,7 @@ fn a_restore_does_not_save_over_a_scene_changed_since() {
     std::fs::File::options().write(true).open(&scene).unwrap().set_modified(later).unwrap();
 
     let mut h = dialog_harness(config);
-    step_until(&mut h, "the default asset", |a| !a.is_loading() && a.n_vertices() > 0);
+    step_until(&mut h, "the default asset", support::loaded);
     h.get_by_label_contains("bar-scene.json changed on disk after the autosave");
     let ctx = h.ctx.clone();
     h.state_mut().answer_restore(&ctx, true);

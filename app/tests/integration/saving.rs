@@ -155,7 +155,7 @@ fn a_scenes_method_settings_survive_the_panel_and_a_save() {
     let path = dir.join("bar.json");
     std::fs::write(&path, serde_json::to_string_pretty(&scene).unwrap()).unwrap();
     let mut h = support::harness(path.clone(), None);
-    step_until(&mut h, "the scene", |a| !a.is_loading() && a.n_vertices() > 0);
+    step_until(&mut h, "the scene", support::loaded);
     for _ in 0..3 {
         h.step(); // the method panel drawn
     }

@@ -130,8 +130,7 @@ pub(crate) fn images(
     notices: &mut Vec<String>,
 ) -> Result<Vec<Option<Image>>, LoadError> {
     // Images no material uses are not read at all.
-    let used: std::collections::HashSet<usize> =
-        materials.iter().flat_map(|m| m.textures().map(|(_, t)| t.image)).collect();
+    let used = used_images(materials);
     let mut budget = MAX_IMAGE_BYTES;
     let mut out = Vec::new();
     for image in document.images() {
@@ -208,8 +207,7 @@ pub(crate) fn images(
 /// textures were dropped for their UV set), in order; `materials`' textures renumbered onto
 /// them, and cleared where their image was refused.
 pub(crate) fn keep(images: Vec<Option<Image>>, materials: &mut [Material]) -> Vec<Image> {
-    let used: std::collections::HashSet<usize> =
-        materials.iter().flat_map(|m| m.textures().map(|(_, t)| t.image)).collect();
+    let used = used_images(materials);
     let mut index = Vec::with_capacity(images.len());
     let mut kept = Vec::new();
     for (k, image) in images.into_iter().enumerate() {
@@ -227,6 +225,11 @@ pub(crate) fn keep(images: Vec<Option<Image>>, materials: &mut [Material]) -> Ve
         }
     }
     kept
+}
+
+/// The images some texture of `materials` uses.
+fn used_images(materials: &[Material]) -> std::collections::HashSet<usize> {
+    materials.iter().flat_map(|m| m.textures().map(|(_, t)| t.image)).collect()
 }
 
 /// `image/png` from `data:image/png;base64,...`.

@@ -126,6 +126,11 @@ pub fn step_until(h: &mut Harness<'_, EditorApp>, what: &str, pred: impl Fn(&Edi
     h.step();
 }
 
+/// A mesh is open and no load is under way.
+pub fn loaded(app: &EditorApp) -> bool {
+    !app.is_loading() && app.n_vertices() > 0
+}
+
 /// Loaded, and the solver has delivered a converged frame for the current pose.
 pub fn settled(app: &EditorApp) -> bool {
     !app.is_loading()
