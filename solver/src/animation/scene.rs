@@ -122,11 +122,14 @@ impl RigSpec {
         *self == RigSpec::default()
     }
 
-    /// The solver's [`Rig`] (falloffs indexed by group id).
-    pub fn to_rig(&self) -> Rig {
-        let n = self.falloff.iter().map(|f| f.group + 1).max().unwrap_or(0);
+    /// The solver's [`Rig`] for the handle groups `0..groups` (falloffs indexed by group id).
+    /// The falloffs of later groups have no effect and are left out: a group number in a file
+    /// must not size a table (group 2³¹ asked for 32 GiB).
+    pub fn to_rig(&self, groups: usize) -> Rig {
+        let used = || self.falloff.iter().filter(|f| f.group < groups);
+        let n = used().map(|f| f.group + 1).max().unwrap_or(0);
         let mut falloff = vec![Falloff::default(); n];
-        for f in &self.falloff {
+        for f in used() {
             falloff[f.group] = Falloff { radius: f.radius, curve: f.curve };
         }
         Rig { rigidity: self.rigidity.clone(), falloff }
@@ -401,7 +404,7 @@ impl Scene {
     /// Reads and parses a scene file (mesh not loaded; see [`Scene::load`]).
     pub fn read(path: &Path) -> Result<Scene, SceneError> {
         let file = path.display().to_string();
-        let bytes = std::fs::read(path)
+        let bytes = crate::io::reference::read_file(path)
             .map_err(|e| SceneError::Io { file: file.clone(), message: e.to_string() })?;
         let text = std::str::from_utf8(&bytes).map_err(|_| SceneError::Io {
             file: file.clone(),
@@ -526,7 +529,7 @@ impl Scene {
         if size > crate::io::MAX_IMAGE_ALLOC {
             return Err(why(format!("{size} bytes is too large for a texture")));
         }
-        let bytes = std::fs::read(texture).map_err(|e| why(e.to_string()))?;
+        let bytes = crate::io::reference::read_file(texture).map_err(|e| why(e.to_string()))?;
         let name = texture.file_name().map(|n| n.to_string_lossy().into_owned());
         asset.set_base_color_texture(name.as_deref().unwrap_or("texture"), bytes).map_err(why)
     }
@@ -567,7 +570,8 @@ impl Scene {
                 ),
             });
         }
-        let handles = handles.with_rig(self.rig.to_rig());
+        let groups = handles.group_ids().max().map_or(0, |last| last + 1);
+        let handles = handles.with_rig(self.rig.to_rig(groups));
         if let Some(p) = self.timeline.paths.iter().find(|p| handles.group(p.group).is_err()) {
             return Err(SceneError::Invalid {
                 file,

@@ -42,7 +42,8 @@ fn versions_and_rig_round_trip() {
 
 /// Overrides of components the mesh lacks and falloffs of groups after the selection's
 /// last are kept in the file and noted when the scene loads; the others are not (group 1,
-/// empty but before group 2, keeps its falloff silently: a reload keeps the group).
+/// empty but before group 2, keeps its falloff silently: a reload keeps the group). The
+/// largest group number a scene may hold sizes no table (it asked for 32 GiB).
 #[test]
 fn unused_entries_are_noted() {
     let d = crate::testing::ScratchDir::new("scene-unused");
@@ -52,7 +53,7 @@ fn unused_entries_are_noted() {
     let parts = r#"{"overrides": [{"component": 0, "mode": "pin"},
                                    {"component": 4, "mode": "pin"}]}"#;
     scene.loose_parts = serde_json::from_str(parts).unwrap();
-    scene.rig.falloff = [0, 1, 3]
+    scene.rig.falloff = [0, 1, u32::MAX as usize / 2]
         .map(|group| GroupFalloff { group, radius: 0.1, curve: FalloffCurve::Linear })
         .to_vec();
     let path = d.join("s.json");
@@ -63,11 +64,13 @@ fn unused_entries_are_noted() {
         [
             "\"loose_parts\": the override for component 4 has no effect: the mesh has 1 \
              component (0 to 0)",
-            "\"rig\": the falloff of handle group 3 has no effect: the selection has \
-             groups 0, 2",
+            "\"rig\": the falloff of handle group 2147483647 has no effect: the selection \
+             has groups 0, 2",
         ],
     );
-    assert_eq!(Scene::load(&path).unwrap().scene, scene, "kept as they are");
+    let loaded = Scene::load(&path).unwrap();
+    assert_eq!(loaded.scene, scene, "kept as they are");
+    assert_eq!(loaded.handles.rig().falloff(1).radius, 0.1, "an empty group's falloff stays");
 }
 
 #[test]

@@ -24,7 +24,7 @@ use std::path::{Path, PathBuf};
 
 use super::asset::{Asset, Image, Material, MaterialTexture};
 use super::image_check::decoded_mime;
-use super::reference::{Folder, resolve};
+use super::reference::{Folder, read_file, resolve};
 
 /// Reads the MTL files `libs` (names as the OBJ's `mtllib` wrote them) from `folder` (the
 /// OBJ's) into `asset`.
@@ -48,13 +48,15 @@ pub(crate) fn attach(asset: &mut Asset, libs: &[String], folder: Option<Folder>)
                 ));
                 continue;
             }
+            // Each library once: a file may repeat `mtllib` (each read cost a parse).
+            Ok(r) if asset.material_libraries.contains(&r.path) => continue,
             Ok(r) => r.path,
             Err(why) => {
                 asset.notices.push(format!("material library {why}; loaded without it"));
                 continue;
             }
         };
-        let bytes = match std::fs::read(&path) {
+        let bytes = match read_file(&path) {
             Ok(b) => b,
             Err(e) => {
                 asset.notices.push(format!(
@@ -132,7 +134,7 @@ fn texture(
     if let Some(&i) = textures.get(&path) {
         return Some(i);
     }
-    let bytes = match std::fs::read(&path) {
+    let bytes = match read_file(&path) {
         Ok(b) => b,
         Err(e) => {
             asset.notices.push(format!(
@@ -196,7 +198,8 @@ mod tests {
             materials: vec![Material { name: "b".into(), ..Material::default() }],
             ..Asset::default()
         };
-        attach(&mut asset, &["m.mtl".to_string(), "none.mtl".to_string()], folder(&dir));
+        let libs = ["m.mtl", "none.mtl", "./m.mtl"].map(String::from);
+        attach(&mut asset, &libs, folder(&dir));
         let names: Vec<_> = asset.materials.iter().map(|m| m.name.as_str()).collect();
         assert_eq!(names, ["b", "a", "c", "d", "e"], "used first, then the MTL's others");
         assert_eq!(asset.images.len(), 2, "one image for the shared file");
@@ -209,7 +212,7 @@ mod tests {
             asset.materials.iter().map(|m| m.base_color_texture.map(|t| t.image)).collect();
         assert_eq!(textures, [Some(0), Some(0), None, Some(1), None]);
         assert_eq!(asset.notices.len(), 3, "{:?}", asset.notices);
-        assert_eq!(asset.material_libraries, [dir.join("m.mtl")], "the one read");
+        assert_eq!(asset.material_libraries, [dir.join("m.mtl")], "the one read, once");
         assert!(asset.notices[0].contains("t.tga"), "{:?}", asset.notices);
         assert!(asset.notices[1].contains("fake.png") && asset.notices[1].contains("decode"));
         assert!(asset.notices[2].contains("none.mtl"));

@@ -67,6 +67,24 @@ pub(crate) fn resolve(root: &Path, from: &Path, reference: &str) -> Result<Resol
     Ok(Resolved { path, outside })
 }
 
+/// The bytes of the regular file at `path`. Anything else is refused before it is opened: a
+/// named pipe blocks the open until a writer comes (forever), a device such as `/dev/zero`
+/// never ends (the read grows until memory runs out), and a folder is not a file. A
+/// downloaded archive can carry a pipe beside its mesh; a reference can name a device.
+pub(crate) fn read_file(path: &Path) -> std::io::Result<Vec<u8>> {
+    let meta = std::fs::metadata(path)?;
+    if meta.is_dir() {
+        return Err(std::io::Error::new(std::io::ErrorKind::IsADirectory, "is a folder"));
+    }
+    if !meta.is_file() {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "not a regular file (a pipe, a socket or a device)",
+        ));
+    }
+    std::fs::read(path)
+}
+
 /// The scheme of a URI (`file` of `file:///etc/passwd`): letters, digits, `+`, `-`, `.`
 /// after a first letter, then `:`. One letter is a Windows drive (`C:`), not a scheme.
 fn scheme(reference: &str) -> Option<&str> {

@@ -24,13 +24,14 @@ pub(crate) fn parse(bytes: &[u8], ctx: Ctx) -> Result<Asset, LoadError> {
         .map(|b| u64::from(u32::from_le_bytes(b)));
     let expected = claimed.map(|n| 84 + 50 * n);
     let len = bytes.len() as u64;
-    let looks_ascii = bytes.trim_ascii_start().starts_with(b"solid")
-        && as_text(bytes, ctx).is_ok_and(|t| t.contains("facet") || t.contains("endsolid"));
+    // After a UTF-8 byte order mark, if any. Text has no NUL byte (a binary STL's attribute
+    // words are zero), but need not be UTF-8: a solid named in Latin-1 (`W\xfcrfel`) is text.
+    let solid = text_start(bytes).starts_with(b"solid");
+    let has = |word: &[u8]| bytes.windows(word.len()).any(|w| w == word);
+    let looks_ascii = solid && !bytes.contains(&0) && (has(b"facet") || has(b"endsolid"));
     match (claimed, expected) {
         (Some(n), Some(size)) if size == len && !looks_ascii => binary(bytes, n, ctx),
-        _ if bytes.trim_ascii_start().starts_with(b"solid") && (looks_ascii || len < 84) => {
-            ascii(bytes, ctx)
-        }
+        _ if solid && (looks_ascii || len < 84) => ascii(bytes, ctx),
         (Some(n), Some(size)) if len < size => Err(ctx.truncated(
             None,
             format!("binary STL: the header announces {n} triangles ({size} bytes), the file has only {len} bytes"),
@@ -48,7 +49,16 @@ pub(crate) fn parse(bytes: &[u8], ctx: Ctx) -> Result<Asset, LoadError> {
     }
 }
 
+/// `bytes` without a UTF-8 byte order mark and leading whitespace.
+fn text_start(bytes: &[u8]) -> &[u8] {
+    bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes).trim_ascii_start()
+}
+
 fn binary(bytes: &[u8], n: u64, ctx: Ctx) -> Result<Asset, LoadError> {
+    // Vertex numbers are `u32`: three per triangle.
+    if n > u64::from(u32::MAX / 3) {
+        return Err(ctx.count(None, format!("binary STL: {n} triangles is more than is supported")));
+    }
     let records = bytes.get(84..).unwrap_or_default();
     let mut positions = Vec::with_capacity(3 * n as usize);
     let mut triangles = Vec::with_capacity(n as usize);
@@ -94,7 +104,17 @@ enum State {
 }
 
 fn ascii(bytes: &[u8], ctx: Ctx) -> Result<Asset, LoadError> {
-    let text = as_text(bytes, ctx)?;
+    // A name in a legacy encoding (CAD tools write Latin-1) is not UTF-8: read lossily, since
+    // only the keywords and numbers, all ASCII, matter.
+    let lossy;
+    let text = match as_text(bytes, ctx) {
+        Ok(t) => t,
+        Err(LoadError::NotText { .. }) if !bytes.contains(&0) => {
+            lossy = String::from_utf8_lossy(bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes));
+            &*lossy
+        }
+        Err(e) => return Err(e),
+    };
     if text.len() as u64 > u32::MAX as u64 * 8 {
         return Err(ctx.count(None, "ASCII STL too large"));
     }
@@ -205,6 +225,9 @@ mod tests {
         assert_eq!(raw.triangles, vec![[0, 1, 2], [3, 4, 5]]);
         let e = parse_bytes(&b[..b.len() - 10]).unwrap_err();
         assert!(matches!(e, LoadError::Truncated { .. }), "{e}");
+        // A header that says "facet" is still binary.
+        let b = binary_stl(&[tri, tri], b"solid part with 2 facets, endsolid");
+        assert_eq!(parse_bytes(&b).unwrap().positions.len(), 6);
         // An f32 coordinate beyond ±1e30 (finite, but its square is not) is refused.
         let far = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, -1e35]];
         let e = parse_bytes(&binary_stl(&[tri, far], b"far")).unwrap_err();
@@ -223,5 +246,11 @@ mod tests {
         assert!(matches!(e, LoadError::Parse { line: Some(3), .. }), "{e}");
         let e = parse_bytes(s.replace("endsolid x\n", "").as_bytes()).unwrap_err();
         assert!(matches!(e, LoadError::Truncated { .. }), "{e}");
+        // A byte order mark, and a name in Latin-1 (`Würfel`): read, not taken for binary.
+        let bom = [b"\xEF\xBB\xBF".as_slice(), s.as_bytes()].concat();
+        assert_eq!(parse_bytes(&bom).unwrap().triangles, vec![[0, 1, 2]]);
+        let latin1 = s.replace("solid x", "solid W?rfel").into_bytes();
+        let latin1: Vec<u8> = latin1.iter().map(|&b| if b == b'?' { 0xFC } else { b }).collect();
+        assert_eq!(parse_bytes(&latin1).unwrap().triangles, vec![[0, 1, 2]]);
     }
 }

@@ -44,7 +44,7 @@ pub(crate) fn read_uri(
              asset's folder are read only when allowed: --allow-outside-references)"
         )));
     }
-    std::fs::read(&resolved.path).map(Ok).map_err(|e| {
+    super::reference::read_file(&resolved.path).map(Ok).map_err(|e| {
         ctx.parse(None, format!("{what}: cannot read {}: {e}", resolved.path.display()))
     })
 }

@@ -234,3 +234,55 @@ fn obj_and_scene_references() {
     std::fs::write(&path, scene("../private/key.obj").to_string()).unwrap();
     assert!(Scene::load(&path).is_err());
 }
+
+/// A pipe or a device named by an asset is never opened: opening a pipe waits for a writer
+/// (the load hung for good), and `/dev/zero` never ends (memory ran out). Each load runs on a
+/// thread so that the old behaviour fails the test instead of hanging it. A scene naming a pipe
+/// as its mesh, and a pipe opened as the mesh itself, are clear errors.
+#[cfg(unix)]
+#[test]
+fn pipes_and_devices_are_not_read() {
+    use std::sync::mpsc;
+    use std::time::Duration;
+    let l = layout("untrusted-pipes");
+    let fifo = |name: &str| {
+        let path = l.asset.join(name);
+        let made = std::process::Command::new("mkfifo").arg(&path).status().unwrap();
+        assert!(made.success(), "mkfifo {}", path.display());
+    };
+    for name in ["m.mtl", "t.png", "buffer.bin", "pipe.obj"] {
+        fifo(name);
+    }
+    let in_time = |what: &str, load: Box<dyn FnOnce() -> String + Send>| {
+        let (tx, rx) = mpsc::channel();
+        std::thread::spawn(move || tx.send(load()).unwrap());
+        rx.recv_timeout(Duration::from_secs(30)).unwrap_or_else(|_| panic!("{what} hung"))
+    };
+    let tet = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 2 3 4\nf 3 1 4\n";
+    // An OBJ whose material library is a pipe; an MTL whose textures are a pipe and a device.
+    std::fs::write(l.asset.join("a.obj"), format!("mtllib m.mtl\n{tet}")).unwrap();
+    std::fs::write(l.asset.join("b.obj"), format!("mtllib b.mtl\nusemtl x\n{tet}")).unwrap();
+    std::fs::write(l.asset.join("b.mtl"), "newmtl x\nmap_Kd t.png\nnewmtl y\nmap_Kd /dev/zero\n")
+        .unwrap();
+    for obj in ["a.obj", "b.obj"] {
+        let path = l.asset.join(obj);
+        let notes = in_time(obj, Box::new(move || load_mesh(&path).unwrap().notices().join("\n")));
+        assert!(notes.contains("not a regular file"), "{obj}: {notes}");
+    }
+    // A glTF whose buffer is a pipe.
+    let doc = serde_json::to_vec(&external_buffer("buffer.bin")).unwrap();
+    std::fs::write(l.asset.join("c.gltf"), doc).unwrap();
+    let path = l.asset.join("c.gltf");
+    let e = in_time("gltf", Box::new(move || load_mesh(&path).unwrap_err().to_string()));
+    assert!(e.contains("buffer.bin") && e.contains("not a regular file"), "{e}");
+    // The mesh itself, and a scene's mesh.
+    let path = l.asset.join("pipe.obj");
+    let e = in_time("mesh", Box::new(move || load_mesh(&path).unwrap_err().to_string()));
+    assert!(e.contains("not a regular file"), "{e}");
+    let scene = json!({"version": 2, "mesh": "pipe.obj", "handles": {"labels": [0, -1, -1, 1]},
+                       "timeline": {"duration": 1.0, "fps": 24, "looping": false, "paths": []}});
+    std::fs::write(l.asset.join("s.json"), scene.to_string()).unwrap();
+    let path = l.asset.join("s.json");
+    let e = in_time("scene", Box::new(move || Scene::load(&path).unwrap_err().to_string()));
+    assert!(e.contains("not a regular file"), "{e}");
+}
