@@ -272,10 +272,9 @@ fn pose_mesh(a: &DeformArgs) -> anyhow::Result<Posed> {
         &outputs::pose_files(&a.output, &loaded.asset),
         &Input::libraries(&loaded.asset),
     )?;
-    if !a.json {
-        for n in loaded.notices() {
-            eprintln!("note: {n}");
-        }
+    // On standard error with `--json` too (standard output holds the JSON only), as `export`.
+    for n in loaded.notices() {
+        eprintln!("note: {n}");
     }
     let mesh = &loaded.mesh;
     let handles = load_handles(handles_path, &loaded)?;
@@ -348,10 +347,8 @@ fn pose_scene(a: &DeformArgs, given: &ArgMatches) -> anyhow::Result<Posed> {
     let mut inputs = Input::scene(&a.mesh, &loaded);
     inputs.extend(Input::libraries(&loaded.mesh.asset));
     outputs::check(&outputs::pose_files(&a.output, &loaded.mesh.asset), &inputs)?;
-    if !a.json {
-        for n in loaded.mesh.notices() {
-            eprintln!("note: {n}");
-        }
+    for n in loaded.mesh.notices() {
+        eprintln!("note: {n}");
     }
     let scene = &loaded.scene;
     let timeline = &scene.timeline;
@@ -360,7 +357,7 @@ fn pose_scene(a: &DeformArgs, given: &ArgMatches) -> anyhow::Result<Posed> {
         Some(time) => time,
         None => {
             let (time, notice) = app::editor::document::saved_time(scene);
-            if let Some(n) = notice.filter(|_| !a.json) {
+            if let Some(n) = notice {
                 eprintln!("note: {n}");
             }
             time
@@ -438,6 +435,9 @@ fn report(a: &DeformArgs, posed: &Posed) {
         solver::Solver::Coarse(_) => None,
     };
     let iterations = posed.fields.get("iterations").and_then(|i| i.as_u64()).unwrap_or(0);
+    if let Some(n) = deformer.notice() {
+        eprintln!("note: {n}");
+    }
     if a.json {
         let mut j = serde_json::json!({
             "mesh": a.mesh.display().to_string(),
@@ -462,9 +462,6 @@ fn report(a: &DeformArgs, posed: &Posed) {
         }
         println!("{j}");
     } else {
-        if let Some(n) = deformer.notice() {
-            eprintln!("note: {n}");
-        }
         println!("energy: {}", energy_summary(energy, fraction, mesh.bbox_diagonal()));
         println!(
             "{}: {}; wrote {}",

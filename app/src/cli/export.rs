@@ -52,11 +52,12 @@ pub struct ExportArgs {
     #[arg(short = 'o', long = "output")]
     pub output: PathArg,
     /// Number of frames, both ends included (default: the scene's duration·fps + 1; with
-    /// --mesh, 24).
+    /// --mesh, 25: one second at 24 fps).
     #[arg(long, value_parser = super::count::<usize>, allow_negative_numbers = true)]
     pub frames: Option<usize>,
     /// glTF: full-precision f32 morph targets instead of 16-bit quantized ones
-    /// (KHR_mesh_quantization, error at most 1/65534 of the largest move per frame).
+    /// (KHR_mesh_quantization: a step of 1/32767 of the frame's largest move, or of its
+    /// largest normal change when that is larger).
     #[arg(long)]
     pub float: bool,
     /// glTF: no normal deltas in the morph targets (a third of the size; viewers then keep the
@@ -192,16 +193,25 @@ fn describe(files: &[PathBuf]) -> String {
 
 pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
     let output = Output::of(&a.output)?;
-    anyhow::ensure!(
-        !a.meshopt || matches!(output, Output::Gltf(_)),
-        "--meshopt compresses glTF output; {} is not .glb or .gltf",
-        a.output.display()
-    );
-    anyhow::ensure!(
-        a.bones.is_none() || matches!(output, Output::Gltf(_)),
-        "--bones writes a glTF skin; {} is not .glb or .gltf",
-        a.output.display()
-    );
+    // The glTF options do nothing to a point cache or an OBJ sequence: said, not ignored.
+    let gltf_only = [
+        ("--meshopt compresses", a.meshopt),
+        ("--bones writes a skin in", a.bones.is_some()),
+        ("--float sets the morph targets of", a.float),
+        ("--no-normals leaves the normals out of", a.no_normals),
+        ("--every keeps every K-th frame of", a.every != 1),
+    ];
+    if let Some((flag, _)) = gltf_only.iter().find(|(_, used)| *used)
+        && !matches!(output, Output::Gltf(_))
+    {
+        anyhow::bail!("{flag} glTF output; {} is not .glb or .gltf", a.output.display());
+    }
+    anyhow::ensure!(a.every >= 1, "--every 0: give 1 or more (1 keeps every frame)");
+    // Before the recording, not after it.
+    let max = solver::animation::skinning::MAX_BONES;
+    if let Some(Some(bones)) = a.bones {
+        anyhow::ensure!((1..=max).contains(&bones), "--bones {bones}: give 1 to {max}");
+    }
     let (loaded, source, mut inputs) = match (&a.scene, &a.mesh, &a.handles) {
         (Some(path), _, _) => {
             let hint = format!(
@@ -248,6 +258,10 @@ pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
     let files = output_files(&a.output, &output, n_frames, !loaded.mesh.asset.materials.is_empty());
     inputs.extend(Input::libraries(&loaded.mesh.asset));
     outputs::check(&files, &inputs)?;
+    // Said now, not after hours of solving by the kernel's out-of-memory kill (as the editor).
+    let available = app::memory::available_mib();
+    app::editor::jobs::recording_fits(n_frames, mesh.n_vertices(), available)
+        .map_err(|e| anyhow::anyhow!("{source}: {e}"))?;
 
     let t0 = Instant::now();
     let options = scene.deformer_options();
@@ -305,7 +319,7 @@ pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
                     encoding: if a.float { Encoding::Float } else { Encoding::Quantized },
                     normals: !a.no_normals,
                     sparse: true,
-                    every_k: a.every.max(1),
+                    every_k: a.every,
                 },
             };
             let export = GltfExport::from_asset(&input, format)?
@@ -341,7 +355,9 @@ pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
                 }
             }
             let pb = bar(n_frames as u64, "writing", a.json);
-            let written = export.write(&a.output, &mut |done, _| {
+            let written = export.write(&a.output, &mut |done, total| {
+                // out of the frames kept (`--every`)
+                pb.set_length(total as u64);
                 pb.set_position(done as u64);
                 ControlFlow::Continue(())
             })?;

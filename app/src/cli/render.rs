@@ -96,7 +96,10 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
 
     let mesh = &file.mesh;
     let handles = doc.resolve_handles(&a.scene, mesh.positions(), Some(&file.layout.vertex_map))?;
-    let moving = !doc.timeline.paths.is_empty() && handles.n_groups() > 0;
+    // Posed: solved at the timeline's poses; moving: those poses change over time (a pose the
+    // editor saved without animation is a path of one key: posed, still).
+    let posed = !doc.timeline.paths.is_empty() && handles.n_groups() > 0;
+    let moving = posed && !doc.timeline.is_still();
     let max_frames = CaptureSettings::MAX_FRAMES;
     let n_frames = match (settings.frames, moving, settings.turntable) {
         (Some(n), ..) => n,
@@ -117,8 +120,12 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
         let frames: Vec<_> = (0..n_frames).map(|i| capture::frame_path(&a.output, i)).collect();
         outputs::check(&frames, &Input::scene_files(&a.scene, &file.path, &doc))?;
     }
-    capture::ensure_dir(&a.output)?;
-    // The device before the solve: no adapter fails at once.
+    if moving {
+        let available = app::memory::available_mib();
+        app::editor::jobs::recording_fits(n_frames, mesh.n_vertices(), available)
+            .map_err(|e| anyhow::anyhow!("{source}: {e}"))?;
+    }
+    // The device before the solve: no adapter fails at once (and makes no folder).
     let mut offscreen = Offscreen::headless()?;
     let max = offscreen.max_side();
     anyhow::ensure!(
@@ -128,21 +135,24 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
         settings.height,
         offscreen.adapter
     );
+    capture::ensure_dir(&a.output)?;
     let load_s = t0.elapsed().as_secs_f64();
 
     // Poses: the recording `bsarap export` writes, or the rest pose.
     let t1 = Instant::now();
-    let shapes: Vec<Shape> = if moving {
+    let shapes: Vec<Shape> = if posed {
         let options = doc.deformer_options();
         let mut deformer = Deformer::new(mesh, &handles, options)
             .with_context(|| format!("{source}: precomputing {}", doc.method.name()))?;
-        let pb = bar(n_frames as u64, "solving", a.json);
+        // A still pose is solved once; the frames (a turntable's) show it.
+        let poses = if moving { n_frames } else { 1 };
+        let pb = bar(poses as u64, "solving", a.json);
         let recording = record(
             &mut deformer,
             mesh,
             &handles,
             &doc.timeline,
-            n_frames,
+            poses,
             &doc.arap,
             &mut |done, _| {
                 pb.set_position(done as u64);
@@ -241,7 +251,8 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
             "height": settings.height,
             "turntable": settings.turntable,
             "overlays": settings.overlays,
-            "posed": moving,
+            "posed": posed,
+            "moving": moving,
             "adapter": offscreen.adapter,
             "load_seconds": load_s,
             "solve_seconds": solve_s,
@@ -255,7 +266,11 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
             settings.width,
             settings.height,
             if settings.turntable { ", turntable" } else { "" },
-            if moving { ", posed along the timeline" } else { ", at rest" },
+            match (moving, posed) {
+                (true, _) => ", posed along the timeline",
+                (false, true) => ", posed",
+                (false, false) => ", at rest",
+            },
             offscreen.adapter,
             render_s,
             solve_s,

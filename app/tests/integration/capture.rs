@@ -603,3 +603,34 @@ fn render_of_a_z_up_scene_matches_the_editor() {
     let d = differing_pixels(&shot, &rendered);
     assert!(d < 120 * 90 / 50, "{d} pixels differ between F12 and bsarap render");
 }
+
+/// A scene posed without animation (the editor saves such a pose as a path of one key) renders
+/// one frame of the pose by default, solved once; it rendered duration × fps + 1 identical
+/// frames (61 for the editor's default timeline) though the help says a still scene is one.
+#[test]
+fn render_of_a_still_posed_scene_is_one_frame_of_the_pose() {
+    let dir = ScratchDir::new("render-still-posed");
+    let path = scene(&dir, Some(30.0), "");
+    let mut j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    j["timeline"]["paths"] = serde_json::json!([{"group": 0, "path": {"type": "keyframed",
+        "keys": [{"time": 0.0, "translation": [0.0, 0.6, 0.0]}]}}]);
+    std::fs::write(&path, j.to_string()).unwrap();
+    let render = |out: &str, scene: &Path| {
+        let out = dir.join(out);
+        let args = ["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--json"];
+        let (code, stdout, stderr) =
+            bsarap(&[&args[..], &["--width", "96", "--height", "64"]].concat());
+        assert_eq!(code, 0, "{stderr}");
+        (serde_json::from_str::<serde_json::Value>(&stdout).unwrap(), pngs_in(&out))
+    };
+    let (j, files) = render("posed", &path);
+    assert_eq!((j["frames"].as_u64(), j["posed"].as_bool()), (Some(1), Some(true)), "{j}");
+    assert_eq!(j["moving"], false);
+    assert_eq!(files.len(), 1);
+    // The pose, not the rest mesh.
+    let rest = scene(&dir, None, "");
+    let (_, rest_files) = render("rest", &rest);
+    let d = differing_pixels(&png(&files[0]), &png(&rest_files[0]));
+    assert!(d > 50, "the posed frame differs from the rest in {d} pixels only");
+}

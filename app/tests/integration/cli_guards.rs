@@ -289,3 +289,44 @@ fn bench_fails_when_a_method_fails_and_refuses_galerkin_up_front() {
     let bench = ["bench", s(&mesh), "--handles", s(&sel), "--coarse-energy", "galerkin"];
     refused(&bench, &["--coarse-energy galerkin", "smooth-rotations"], &[]);
 }
+
+/// The glTF options are refused for a point cache or an OBJ sequence (`--every`, `--float` and
+/// `--no-normals` were ignored there), `--every 0` is refused (it ran as 1), and `--bones`
+/// out of range is refused before the recording (it was refused only after it).
+#[test]
+fn export_refuses_options_it_would_ignore() {
+    let d = ScratchDir::new("guards-export-options");
+    let sc = scene(&d, "grid.obj", 1, "1.0");
+    let pc2 = d.join("x.pc2");
+    for flag in [&["--every", "4"][..], &["--float"], &["--no-normals"]] {
+        let args = [&["export", s(&sc), "-o", s(&pc2)][..], flag].concat();
+        refused(&args, &[flag[0], "glTF output", "x.pc2"], &[]);
+    }
+    assert!(!pc2.exists());
+    let glb = d.join("x.glb");
+    refused(&["export", s(&sc), "-o", s(&glb), "--every", "0"], &["--every 0"], &[]);
+    for bones in ["0", "5000"] {
+        let stderr = refused(&["export", s(&sc), "-o", s(&glb), "--bones", bones], &[], &[]);
+        assert!(stderr.contains(&format!("--bones {bones}: give 1 to")), "{stderr}");
+        assert!(!stderr.contains("recording"), "{stderr}");
+    }
+    assert!(!glb.exists());
+}
+
+/// `deform --json` says what the reader left out on standard error, as `export` does (it
+/// said nothing), and its standard output stays one JSON object.
+#[test]
+fn deform_json_still_prints_the_notices() {
+    let d = ScratchDir::new("guards-deform-notices");
+    let (mesh, sel) = grid(&d, "grid.obj");
+    let text = std::fs::read_to_string(&mesh).unwrap();
+    std::fs::write(&mesh, format!("mtllib missing.mtl\n{text}")).unwrap();
+    let out = d.join("posed.obj");
+    let args = ["deform", s(&mesh), "--handles", s(&sel), "--move", "0:0,0,0.1", "--json"];
+    let args = [&args[..], &["--method", "arap"]].concat();
+    let (code, stdout, stderr) = bsarap(&[&args[..], &["-o", s(&out)]].concat());
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stderr.contains("note:") && stderr.contains("missing.mtl"), "{stderr}");
+    let j: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    assert!(j["iterations"].as_u64().is_some(), "{j}");
+}

@@ -425,6 +425,19 @@ impl Path {
         }
     }
 
+    /// Whether the transform is the same at every time: at rest, or keys that all hold one
+    /// pose (the editor saves a posed, unanimated group as one key).
+    pub fn is_constant(&self) -> bool {
+        match self {
+            Path::Static => true,
+            Path::Circular(_) => false,
+            Path::Keyframed(k) => k
+                .keys
+                .windows(2)
+                .all(|w| w[0].translation == w[1].translation && w[0].rotation == w[1].rotation),
+        }
+    }
+
     /// Checks finiteness and ranges; `group` is named in the error.
     pub fn validate(&self, group: usize) -> Result<(), AnimationError> {
         let bad = |message: String| AnimationError::BadPath { group, message };
@@ -516,6 +529,11 @@ impl Timeline {
         } else {
             t.clamp(0.0, self.duration.max(0.0))
         }
+    }
+
+    /// Whether every path holds one pose throughout ([`Path::is_constant`]).
+    pub fn is_still(&self) -> bool {
+        self.paths.iter().all(|p| p.path.is_constant())
     }
 
     /// `(group, transform)` of every path at playback time `t` (see [`Timeline::local_time`]),
@@ -642,5 +660,35 @@ mod tests {
         let m = a.slerp(b, 0.5);
         let e = quat_from_axis_angle([0.0, 0.0, 1.0], 0.5);
         assert!((m.dot(e).abs() - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn still_timelines_hold_one_pose() {
+        let key = |time: f64, y: f64| Key {
+            time,
+            translation: [0.0, y, 0.0],
+            rotation: AxisAngle { axis: [0.0, 0.0, 1.0], degrees: 0.0 },
+        };
+        let keyed = |keys: Vec<Key>| Path::Keyframed(KeyframedPath { keys, ..Default::default() });
+        let timeline = |paths: Vec<Path>| Timeline {
+            paths: paths
+                .into_iter()
+                .enumerate()
+                .map(|(group, path)| GroupPath { group, path })
+                .collect(),
+            ..Timeline::default()
+        };
+        assert!(timeline(vec![]).is_still());
+        let posed = vec![
+            Path::Static,
+            keyed(vec![key(0.0, 0.3)]),
+            keyed(vec![key(0.0, 1.0), key(1.0, 1.0)]),
+        ];
+        assert!(timeline(posed).is_still());
+        assert!(!timeline(vec![keyed(vec![key(0.0, 0.0), key(1.0, 0.3)])]).is_still());
+        assert!(
+            !timeline(vec![Path::Circular(CircularPath::new([0.0, 0.0, 1.0], 0.1, 1.0))])
+                .is_still()
+        );
     }
 }

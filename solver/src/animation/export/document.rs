@@ -26,7 +26,8 @@ fn json_bytes(root: &json::Root, uri: Option<String>) -> Result<Vec<u8>, ExportE
 }
 
 /// The exact size in bytes of the file [`file_bytes`] makes of `root` and a buffer of
-/// `bin_len` bytes.
+/// `bin_len` bytes. Errors as `file_bytes` would, before anything is encoded: a `.glb` past
+/// its 32-bit length field ([`ExportError::FileTooLarge`]).
 pub(super) fn file_size(
     root: &json::Root,
     format: GltfFormat,
@@ -35,7 +36,11 @@ pub(super) fn file_size(
     Ok(match format {
         GltfFormat::Glb => {
             let j = json_bytes(root, None)?.len().next_multiple_of(4);
-            (12 + 8 + j + 8 + bin_len) as u64
+            let total = (12 + 8 + j + 8 + bin_len) as u64;
+            if total > u64::from(u32::MAX) {
+                return Err(ExportError::FileTooLarge { bytes: total });
+            }
+            total
         }
         GltfFormat::Gltf => {
             let j = json_bytes(root, Some(String::new()))?.len();

@@ -689,4 +689,15 @@ mod tests {
             assert_eq!(s, expected);
         }
     }
+
+    /// A `.glb` past its 32-bit length is refused by its size, before any byte is encoded (it
+    /// was refused only once the whole file had been built); a `.gltf` has no such field.
+    #[test]
+    fn a_glb_too_large_is_refused_by_its_size() {
+        let root = document::new_root(None);
+        let size = |format, bin| document::file_size(&root, format, bin);
+        assert!(matches!(size(GltfFormat::Glb, 5 << 30), Err(ExportError::FileTooLarge { .. })));
+        assert!(size(GltfFormat::Glb, 1 << 20).is_ok());
+        assert!(size(GltfFormat::Gltf, 5 << 30).is_ok());
+    }
 }

@@ -81,8 +81,8 @@ impl<'a> SkinnedExport<'a> {
     /// skin was fitted on) animated by `skinning` at `times` (s, one per fitted frame).
     ///
     /// Errors: an inconsistent asset or map, times not finite and strictly increasing in f32,
-    /// a time count other than the skin's frame count, a mesh vertex without influences,
-    /// non-finite transforms, more than 65,535 joints.
+    /// a time count other than the skin's frame count, non-finite transforms, more than
+    /// 65,535 joints. A vertex whose weights are all zero is bound to its first bone.
     pub fn new(
         asset: &'a Asset,
         vertex_map: &'a [Option<u32>],
