@@ -128,7 +128,7 @@ fn a_restored_scene_saves_back_to_its_file() {
 }
 
 /// A scene file changed on disk after its autosave (another session saved it) is not saved
-/// over by the restored work unasked: the offer says so, and Save asks where.
+/// over by the restored work unasked: the offer says so, and Save asks where, proposing it.
 #[test]
 fn a_restore_does_not_save_over_a_scene_changed_since() {
     let dir = ScratchDir::new("saving-restore-newer-scene");
@@ -153,6 +153,8 @@ fn a_restore_does_not_save_over_a_scene_changed_since() {
     h.step();
     h.step();
     assert!(h.state().file_dialog_open(), "Save did not ask where");
+    // It proposes the scene's own name (it proposed `scene.json`): the user decides.
+    assert!(h.query_all_by_value("bar-scene.json").next().is_some(), "not the scene's name");
     assert_eq!(std::fs::read(&scene).unwrap(), newer, "the newer scene file was written over");
 }
 

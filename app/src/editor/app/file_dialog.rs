@@ -121,7 +121,7 @@ impl EditorApp {
         }
         let (tx, rx) = std::sync::mpsc::channel();
         let c = ctx.clone();
-        let start = self.dialog_folder();
+        let (start, name) = self.dialog_start(kind);
         let spawned = std::thread::Builder::new().name("file-dialog".into()).spawn(move || {
             let mut d = rfd::FileDialog::new().set_title(kind.title());
             if let Some(dir) = start {
@@ -130,7 +130,7 @@ impl EditorApp {
             for (name, exts) in kind.filters() {
                 d = d.add_filter(*name, exts);
             }
-            if let Some(n) = kind.default_name() {
+            if let Some(n) = name {
                 d = d.set_file_name(n);
             }
             let r = if kind.saves() { d.save_file() } else { d.pick_file() };
@@ -153,15 +153,21 @@ impl EditorApp {
         self.open_in_app_dialog(kind);
     }
 
-    /// Where a dialog starts: the scene's folder, else the mesh's, else the working folder.
-    fn dialog_folder(&self) -> Option<PathBuf> {
+    /// Where a dialog for `kind` starts, and the file name it proposes: the scene's folder,
+    /// else the mesh's, else the working folder. A Save of restored work whose scene file
+    /// changed on disk proposes that file (the user decides whether to write over it).
+    fn dialog_start(&self, kind: DialogKind) -> (Option<PathBuf>, Option<String>) {
         let doc = self.session.document_path.as_deref();
+        let elsewhere = self.session.changed_on_disk.as_deref().filter(|_| doc.is_none());
+        let elsewhere = elsewhere.filter(|_| kind == DialogKind::SaveScene);
         let mesh = self.session.scene.as_ref().map(|s| s.path.as_path());
-        doc.or(mesh)
+        let folder = (elsewhere.or(doc).or(mesh))
             .and_then(Path::parent)
             .filter(|d| d.is_dir())
             .map(Path::to_path_buf)
-            .or_else(|| std::env::current_dir().ok())
+            .or_else(|| std::env::current_dir().ok());
+        let own = elsewhere.and_then(Path::file_name).map(|n| n.to_string_lossy().into_owned());
+        (folder, own.or_else(|| kind.default_name().map(str::to_owned)))
     }
 
     fn open_in_app_dialog(&mut self, kind: DialogKind) {
@@ -175,10 +181,11 @@ impl EditorApp {
             .default_size([560.0, 420.0])
             .anchor(egui::Align2::CENTER_CENTER, egui::Vec2::ZERO)
             .show_files_filter(Box::new(move |p: &Path| kind.accepts(p)));
-        if let Some(dir) = self.dialog_folder() {
+        let (folder, name) = self.dialog_start(kind);
+        if let Some(dir) = folder {
             d = d.initial_path(dir);
         }
-        if let Some(n) = kind.default_name() {
+        if let Some(n) = name {
             d = d.default_filename(n);
         }
         d.open();

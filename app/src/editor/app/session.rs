@@ -26,6 +26,9 @@ pub(super) struct Session {
     pub(super) playback: Playback,
     /// The scene file Save writes to.
     pub(super) document_path: Option<PathBuf>,
+    /// A restored autosave's scene file that changed on disk after the autosave: Save asks
+    /// where, and its dialog proposes this file's folder and name.
+    pub(super) changed_on_disk: Option<PathBuf>,
     /// The edit state as last opened or saved (to know whether there are unsaved changes).
     pub(super) saved_edit: Option<EditState>,
     /// The method settings as last opened or saved ([`MethodSettings::saved_part`]).
@@ -638,6 +641,7 @@ impl EditorApp {
                 }
                 self.session.playback = Playback::default();
                 self.session.document_path = None;
+                self.session.changed_on_disk = None;
                 let mut restored = false;
                 let mut file_view = super::asset_view::FileView::default();
                 let mut framed = true;
@@ -689,7 +693,11 @@ impl EditorApp {
                                 Some(d) => format!("restored the autosaved {}", file_name(d)),
                                 None => "restored the autosaved session".into(),
                             });
-                            self.session.document_path = edited.filter(|_| !newer);
+                            if newer {
+                                self.session.changed_on_disk = edited;
+                            } else {
+                                self.session.document_path = edited;
+                            }
                             if let Some(d) = self.session.document_path.clone() {
                                 self.remember(&d); // its error, if any, in place of the above
                             }
