@@ -397,18 +397,14 @@ pub fn load_scene_file(
 
 /// Whether `path` is a handle selection rather than a mesh or a scene: a `.dmat`, or a `.json`
 /// whose first value is a list (the sphere format; a scene is an object). Reads at most the
-/// first 4 KiB of a `.json`, which may wait (a stalled network mount; a pipe is not opened):
-/// the UI asks [`spawn_identify`] for one.
+/// first 4 KiB of a `.json`, which may wait (a FIFO, a stalled network mount): the UI asks
+/// [`spawn_identify`] for one.
 pub fn is_selection_file(path: &Path) -> bool {
     use std::io::Read;
     let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
     match ext.as_deref() {
         Some("dmat") => true,
         Some("json") => {
-            // Not a pipe or a device: opening a pipe waits for a writer.
-            if !std::fs::metadata(path).is_ok_and(|m| m.is_file()) {
-                return false;
-            }
             let mut head = Vec::new();
             let read = std::fs::File::open(path).and_then(|f| f.take(4096).read_to_end(&mut head));
             read.is_ok() && head.iter().find(|b| !b.is_ascii_whitespace()) == Some(&b'[')

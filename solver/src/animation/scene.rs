@@ -404,7 +404,7 @@ impl Scene {
     /// Reads and parses a scene file (mesh not loaded; see [`Scene::load`]).
     pub fn read(path: &Path) -> Result<Scene, SceneError> {
         let file = path.display().to_string();
-        let bytes = crate::io::reference::read_file(path)
+        let bytes = std::fs::read(path)
             .map_err(|e| SceneError::Io { file: file.clone(), message: e.to_string() })?;
         let text = std::str::from_utf8(&bytes).map_err(|_| SceneError::Io {
             file: file.clone(),
@@ -427,15 +427,21 @@ impl Scene {
     /// `relative` resolved against the folder of the scene file `scene_path` (absolute paths
     /// unchanged, `..` resolved lexically), and whether it is outside that folder.
     ///
-    /// Errors: [`SceneError::Invalid`] for an empty path or a URI (`file:///...`).
+    /// Errors: [`SceneError::Invalid`] for an empty path, a URI (`file:///...`), or a file
+    /// that exists but is not a regular file or a folder (a pipe, a device: never opened,
+    /// `io::reference::not_regular`).
     pub fn resolve_path(scene_path: &Path, relative: &str) -> Result<(PathBuf, bool), SceneError> {
         let dir = scene_path.parent().unwrap_or(Path::new(""));
-        crate::io::reference::resolve(dir, dir, relative).map(|r| (r.path, r.outside)).map_err(
-            |why| SceneError::Invalid {
-                file: scene_path.display().to_string(),
-                message: format!("a path in the scene is {why}"),
-            },
-        )
+        let invalid = |message: String| SceneError::Invalid {
+            file: scene_path.display().to_string(),
+            message,
+        };
+        let r = crate::io::reference::resolve(dir, dir, relative)
+            .map_err(|why| invalid(format!("a path in the scene is {why}")))?;
+        if let Some(why) = crate::io::reference::not_regular(&r.path) {
+            return Err(invalid(format!("the scene names {}: {why}", r.path.display())));
+        }
+        Ok((r.path, r.outside))
     }
 
     /// Reads the scene at `path`, loads and cleans its mesh and resolves its handles.
@@ -529,7 +535,7 @@ impl Scene {
         if size > crate::io::MAX_IMAGE_ALLOC {
             return Err(why(format!("{size} bytes is too large for a texture")));
         }
-        let bytes = crate::io::reference::read_file(texture).map_err(|e| why(e.to_string()))?;
+        let bytes = std::fs::read(texture).map_err(|e| why(e.to_string()))?;
         let name = texture.file_name().map(|n| n.to_string_lossy().into_owned());
         asset.set_base_color_texture(name.as_deref().unwrap_or("texture"), bytes).map_err(why)
     }

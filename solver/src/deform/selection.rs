@@ -323,7 +323,7 @@ pub fn load_selection(
             message: "is a directory, not a selection file".into(),
         });
     }
-    let bytes = crate::io::reference::read_file(path).map_err(|e| SelectionError::Io {
+    let bytes = std::fs::read(path).map_err(|e| SelectionError::Io {
         file: file.clone(),
         message: format!("cannot read the file: {e}"),
     })?;

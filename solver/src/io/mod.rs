@@ -138,7 +138,7 @@ pub fn load_mesh_with(path: &Path, policy: ReferencePolicy) -> Result<LoadedMesh
     let Some(format) = Format::from_extension(&ext) else {
         return Err(LoadError::UnsupportedFormat { file, extension: ext });
     };
-    let bytes = reference::read_file(path).map_err(|e| io_error(e, "cannot read the file"))?;
+    let bytes = std::fs::read(path).map_err(|e| io_error(e, "cannot read the file"))?;
     let root = path.parent().unwrap_or(Path::new(""));
     parse_and_clean(&bytes, format, &file, Some(Folder { root, policy }))
 }

@@ -67,22 +67,25 @@ pub(crate) fn resolve(root: &Path, from: &Path, reference: &str) -> Result<Resol
     Ok(Resolved { path, outside })
 }
 
-/// The bytes of the regular file at `path`. Anything else is refused before it is opened: a
-/// named pipe blocks the open until a writer comes (forever), a device such as `/dev/zero`
-/// never ends (the read grows until memory runs out), and a folder is not a file. A
-/// downloaded archive can carry a pipe beside its mesh; a reference can name a device.
+/// Why the file a reference names at `path` is not read, when it exists and is neither a
+/// regular file nor a folder: a named pipe blocks the open until a writer comes (forever), and
+/// a device such as `/dev/zero` never ends (the read grows until memory runs out). A
+/// downloaded archive can carry a pipe beside its mesh; a reference can name a device. Only
+/// references are held to this: a file the user names is read as it is (a pipe there is the
+/// user's own, such as a shell's `<(...)`; the editor's tests hold loads open with them).
+pub(crate) fn not_regular(path: &Path) -> Option<&'static str> {
+    let meta = std::fs::metadata(path).ok()?;
+    (!meta.is_file() && !meta.is_dir())
+        .then_some("not a regular file (a pipe, a socket or a device)")
+}
+
+/// The bytes of the file a reference names at `path`, refused when it is not a regular file
+/// ([`not_regular`]).
 pub(crate) fn read_file(path: &Path) -> std::io::Result<Vec<u8>> {
-    let meta = std::fs::metadata(path)?;
-    if meta.is_dir() {
-        return Err(std::io::Error::new(std::io::ErrorKind::IsADirectory, "is a folder"));
+    match not_regular(path) {
+        Some(why) => Err(std::io::Error::new(std::io::ErrorKind::InvalidInput, why)),
+        None => std::fs::read(path),
     }
-    if !meta.is_file() {
-        return Err(std::io::Error::new(
-            std::io::ErrorKind::InvalidInput,
-            "not a regular file (a pipe, a socket or a device)",
-        ));
-    }
-    std::fs::read(path)
 }
 
 /// The scheme of a URI (`file` of `file:///etc/passwd`): letters, digits, `+`, `-`, `.`
