@@ -416,8 +416,8 @@ fn pose_scene(a: &DeformArgs, given: &ArgMatches) -> anyhow::Result<Posed> {
     Ok(Posed { loaded: loaded.mesh, deformer, solved, precompute_ms, fields, sentence })
 }
 
-/// Prints the report: one JSON object with `--json`, else the notice, the energy and the
-/// solve's sentence.
+/// Prints the report: the solver's notice on standard error, then one JSON object with
+/// `--json`, else the energy and the solve's sentence.
 fn report(a: &DeformArgs, posed: &Posed) {
     let mesh = &posed.loaded.mesh;
     let deformer = &posed.deformer;

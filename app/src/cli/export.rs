@@ -338,6 +338,8 @@ pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
                 export
             };
             let size = export.file_size()?;
+            // Before the file is built in memory (it failed only once it was).
+            format.check_size(size)?;
             if !a.json {
                 eprintln!(
                     "writing {} ({:.1} MB, {} morph targets)",

@@ -69,6 +69,7 @@ pub fn write(
         .with_up_axis(up)
         .with_solve_settings(&solved)?;
     let size = export.file_size()?;
+    format.check_size(size)?;
     eprintln!(
         "{} bones fitted in {fit_seconds:.1} s ({} alternations): error mean {:.3} %, max {:.3} % \
          of the rest diagonal",

@@ -43,7 +43,7 @@ pub struct RenderArgs {
     #[arg(long, value_parser = super::count::<u32>, allow_negative_numbers = true)]
     pub height: Option<u32>,
     /// Orbit the camera once around the mesh over the frames (posed along the timeline when
-    /// it moves, else at rest).
+    /// it moves, else in the scene's still pose).
     #[arg(long)]
     pub turntable: bool,
     /// Draw the ground grid and the handle groups' colours.

@@ -26,8 +26,7 @@ fn json_bytes(root: &json::Root, uri: Option<String>) -> Result<Vec<u8>, ExportE
 }
 
 /// The exact size in bytes of the file [`file_bytes`] makes of `root` and a buffer of
-/// `bin_len` bytes. Errors as `file_bytes` would, before anything is encoded: a `.glb` past
-/// its 32-bit length field ([`ExportError::FileTooLarge`]).
+/// `bin_len` bytes (whether it can be written: [`GltfFormat::check_size`]).
 pub(super) fn file_size(
     root: &json::Root,
     format: GltfFormat,
@@ -36,11 +35,7 @@ pub(super) fn file_size(
     Ok(match format {
         GltfFormat::Glb => {
             let j = json_bytes(root, None)?.len().next_multiple_of(4);
-            let total = (12 + 8 + j + 8 + bin_len) as u64;
-            if total > u64::from(u32::MAX) {
-                return Err(ExportError::FileTooLarge { bytes: total });
-            }
-            total
+            (12 + 8 + j + 8 + bin_len) as u64
         }
         GltfFormat::Gltf => {
             let j = json_bytes(root, Some(String::new()))?.len();
@@ -63,8 +58,8 @@ pub(super) fn file_bytes(
                 j.push(b' ');
             }
             let total = 12 + 8 + j.len() + 8 + bin.len();
-            let total32 = u32::try_from(total)
-                .map_err(|_| ExportError::FileTooLarge { bytes: total as u64 })?;
+            format.check_size(total as u64)?;
+            let total32 = total as u32;
             let mut out = Vec::with_capacity(total);
             out.extend_from_slice(&GLB_MAGIC.to_le_bytes());
             out.extend_from_slice(&2u32.to_le_bytes());

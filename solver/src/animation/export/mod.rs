@@ -155,6 +155,18 @@ pub enum GltfFormat {
 }
 
 impl GltfFormat {
+    /// Whether a file of `bytes` bytes can be written in this format: a `.glb` holds its
+    /// length in 32 bits ([`ExportError::FileTooLarge`] past it); a `.gltf` has no such field.
+    /// Callers that know the size first (`file_size`) ask before encoding the file.
+    pub fn check_size(self, bytes: u64) -> Result<(), ExportError> {
+        match self {
+            GltfFormat::Glb if bytes > u64::from(u32::MAX) => {
+                Err(ExportError::FileTooLarge { bytes })
+            }
+            _ => Ok(()),
+        }
+    }
+
     /// The format named by `path`'s extension (`.glb` or `.gltf`, case-insensitive).
     pub fn from_path(path: &FsPath) -> Result<GltfFormat, ExportError> {
         let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
@@ -690,14 +702,14 @@ mod tests {
         }
     }
 
-    /// A `.glb` past its 32-bit length is refused by its size, before any byte is encoded (it
-    /// was refused only once the whole file had been built); a `.gltf` has no such field.
+    /// A `.glb` past its 32-bit length is refused by its size, which is known before any byte
+    /// is encoded; the size itself is still told (the editor shows it beside a recording).
     #[test]
     fn a_glb_too_large_is_refused_by_its_size() {
         let root = document::new_root(None);
-        let size = |format, bin| document::file_size(&root, format, bin);
-        assert!(matches!(size(GltfFormat::Glb, 5 << 30), Err(ExportError::FileTooLarge { .. })));
-        assert!(size(GltfFormat::Glb, 1 << 20).is_ok());
-        assert!(size(GltfFormat::Gltf, 5 << 30).is_ok());
+        let size = document::file_size(&root, GltfFormat::Glb, 5 << 30).unwrap();
+        assert!(matches!(GltfFormat::Glb.check_size(size), Err(ExportError::FileTooLarge { .. })));
+        assert!(GltfFormat::Glb.check_size(u64::from(u32::MAX)).is_ok());
+        assert!(GltfFormat::Gltf.check_size(size).is_ok());
     }
 }
