@@ -495,3 +495,31 @@ fn a_press_on_a_panel_during_g_confirms_the_move_first() {
     assert_eq!(h.state().group_pose(0).unwrap().translation.to_array(), [0.0; 3]);
     assert!(!h.state().has_unsaved_changes());
 }
+
+/// Keys that record or restore a step wait while a move runs: M toggled mirrored painting as a
+/// step inside the move's (one Ctrl+Z then took back both, the next gave a pose never
+/// confirmed) and Ctrl+Y redid under it.
+#[test]
+fn keys_that_record_a_step_wait_for_the_move() {
+    let mut h = start();
+    let p0 = g_moved(&mut h);
+    h.key_press(Key::M);
+    h.step();
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Y);
+    h.step();
+    assert!(h.state().running_transform().is_some(), "the move ended");
+    assert!(!h.state().edit_state().symmetry.mirror_painting, "M toggled mid-move");
+    assert!(h.state().info().unwrap_or_default().contains("finish the move"));
+    move_pointer(&mut h, [p0 + Vec2::new(60.0, 10.0)]);
+    h.key_press(Key::Enter);
+    h.step();
+    let moved = h.state().group_pose(0).unwrap();
+    assert_ne!(moved, Default::default());
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    assert_eq!(h.state().group_pose(0).unwrap(), Default::default(), "one undo, the move");
+    assert!(!h.state().edit_state().symmetry.mirror_painting);
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Y);
+    h.step();
+    assert_eq!(h.state().group_pose(0).unwrap(), moved, "redo brings the move back");
+}

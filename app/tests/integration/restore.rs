@@ -128,7 +128,7 @@ fn a_restored_scene_saves_back_to_its_file() {
 }
 
 /// A scene file changed on disk after its autosave (another session saved it) is not saved
-/// over by the restored work unasked: the offer says so, and Save asks where, proposing it.
+/// over by the restored work unasked: the offer says so, and Save asks where, beside it.
 #[test]
 fn a_restore_does_not_save_over_a_scene_changed_since() {
     let dir = ScratchDir::new("saving-restore-newer-scene");
@@ -149,12 +149,15 @@ fn a_restore_does_not_save_over_a_scene_changed_since() {
     assert!(info.contains("changed on disk after the autosave"), "{info}");
     assert_eq!(h.state().document_path(), None);
     assert!(h.state().has_unsaved_changes());
+    std::fs::write(dir.join("bar-scene-restored.json"), "taken").unwrap();
     h.key_press_modifiers(Modifiers::COMMAND, Key::S);
     h.step();
     h.step();
     assert!(h.state().file_dialog_open(), "Save did not ask where");
-    // It proposes the scene's own name (it proposed `scene.json`): the user decides.
-    assert!(h.query_all_by_value("bar-scene.json").next().is_some(), "not the scene's name");
+    // It proposes a new name beside the scene (it proposed `scene.json`), not the scene's own
+    // (the in-app browser writes over a file on Enter without asking), nor one taken.
+    let proposed = h.query_all_by_value("bar-scene-restored-2.json").next().is_some();
+    assert!(proposed, "not a new name beside the scene");
     assert_eq!(std::fs::read(&scene).unwrap(), newer, "the newer scene file was written over");
 }
 

@@ -102,6 +102,18 @@ fn native_unavailable() -> Option<&'static str> {
     (!bus && !zenity).then_some("no D-Bus session for a desktop portal and no zenity")
 }
 
+/// A name beside the scene file `scene` for the restored work: `NAME-restored.json`, or
+/// `NAME-restored-2.json`, ... when taken. Not the scene's own name: the in-app browser saves
+/// on Enter without asking before writing over a file, and the scene is the newer work.
+fn restored_name(scene: &Path) -> String {
+    let stem = scene.file_stem().map_or("scene".into(), |s| s.to_string_lossy().into_owned());
+    let name = |i: u32| match i {
+        1 => format!("{stem}-restored.json"),
+        i => format!("{stem}-restored-{i}.json"),
+    };
+    (1..1000).map(name).find(|n| !scene.with_file_name(n).exists()).unwrap_or_else(|| name(1))
+}
+
 impl EditorApp {
     /// Asks for a file for `kind`: the system's dialog, or the in-app browser (see the module
     /// doc). Returns whether it was shown: not while another is open (the user is told).
@@ -155,7 +167,7 @@ impl EditorApp {
 
     /// Where a dialog for `kind` starts, and the file name it proposes: the scene's folder,
     /// else the mesh's, else the working folder. A Save of restored work whose scene file
-    /// changed on disk proposes that file (the user decides whether to write over it).
+    /// changed on disk starts beside that file with a new name ([`restored_name`]).
     fn dialog_start(&self, kind: DialogKind) -> (Option<PathBuf>, Option<String>) {
         let doc = self.session.document_path.as_deref();
         let elsewhere = self.session.changed_on_disk.as_deref().filter(|_| doc.is_none());
@@ -166,7 +178,7 @@ impl EditorApp {
             .filter(|d| d.is_dir())
             .map(Path::to_path_buf)
             .or_else(|| std::env::current_dir().ok());
-        let own = elsewhere.and_then(Path::file_name).map(|n| n.to_string_lossy().into_owned());
+        let own = elsewhere.map(restored_name);
         (folder, own.or_else(|| kind.default_name().map(str::to_owned)))
     }
 

@@ -222,23 +222,39 @@ impl EditorApp {
     /// Esc mean the transform's while one runs.
     pub(super) fn gizmo_keys(&mut self, ctx: &egui::Context) {
         let consume = |m: Modifiers, k: Key| ctx.input_mut(|i| i.consume_key(m, k));
+        // Keys that record a step or move the pose wait for the end of a gesture under way (a
+        // transform, a pose drag, a brush stroke): K would key a pose not confirmed (an Esc
+        // left it keyed), M and Shift+M and redo would record or restore a step inside the
+        // gesture's (one undo then took back both, the next a pose never confirmed), Space and
+        // Home would move the group under it. Matched logically: K and M take Shift+K and
+        // Shift+M too; the redo keys come before Ctrl+Z, which also matches Ctrl+Shift+Z.
+        let gesture = self.gizmo.transform.is_some()
+            || self.interaction.drag.is_some()
+            || self.interaction.stroke.is_some();
+        if gesture {
+            let cmd_shift = Modifiers::COMMAND | Modifiers::SHIFT;
+            let waiting = [
+                (Modifiers::NONE, Key::K),
+                (Modifiers::NONE, Key::M),
+                (Modifiers::NONE, Key::Home),
+                (Modifiers::NONE, Key::Space),
+                (cmd_shift, Key::Z),
+                (Modifiers::COMMAND, Key::Y),
+            ];
+            if waiting.into_iter().fold(false, |any, (m, k)| consume(m, k) || any) {
+                self.info = Some(match self.gizmo.transform {
+                    Some(_) => "finish the move or turn first (Enter or release confirms, Esc \
+                                cancels)"
+                        .into(),
+                    None => "finish the drag or stroke first".into(),
+                });
+            }
+        }
         // Undo while a transform runs: it cancels the transform (nothing else is undone).
         if self.gizmo.transform.is_some() && consume(Modifiers::COMMAND, Key::Z) {
             self.cancel_transform();
             self.session.press_step.cancel(); // the press dragging the gizmo does nothing more
             return;
-        }
-        // K, Space and Home while a transform runs: a key of a pose not confirmed (an Esc left
-        // it keyed) and an undo step inside the transform's, or playback (or the start of the
-        // timeline) moving the group under it. They wait for its end.
-        if self.gizmo.transform.is_some() {
-            let k = consume(Modifiers::NONE, Key::K);
-            let home = consume(Modifiers::NONE, Key::Home);
-            if consume(Modifiers::NONE, Key::Space) || k || home {
-                self.info = Some(
-                    "finish the move or turn first (Enter or release confirms, Esc cancels)".into(),
-                );
-            }
         }
         if self.gizmo.transform.as_ref().is_some_and(|t| t.modal) {
             for (k, a) in [(Key::X, 0), (Key::Y, 1), (Key::Z, 2)] {
