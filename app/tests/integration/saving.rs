@@ -123,7 +123,14 @@ fn save_as_refuses_the_sphere_list_the_mesh_was_opened_with() {
     for (path, refused) in [(&list, true), (&dir.join("other.json"), false), (&scene, false)] {
         let before = h.state().error().map(str::to_owned);
         h.key_press_modifiers(Modifiers::COMMAND | Modifiers::SHIFT, Key::S);
-        choose_in_dialog(&mut h, path);
+        if path == &scene {
+            // no longer the document (other.json is): replacing it is asked about
+            support::type_in_dialog(&mut h, path);
+            h.get_by_label("Replace").click();
+            h.step();
+        } else {
+            choose_in_dialog(&mut h, path);
+        }
         step_until(&mut h, "the save", |a| !a.is_saving());
         let error = h.state().error().filter(|e| Some(*e) != before.as_deref()).unwrap_or("");
         let said = error.contains("is the handle selection");
@@ -656,4 +663,29 @@ fn a_scene_whose_mesh_was_renumbered_says_so() {
     solver::io::write_obj(&bar, &positions, &triangles).unwrap();
     let notices = reopen(&mut h);
     assert!(notices.contains("changed since this scene was saved"), "{notices}");
+}
+
+/// The in-app browser saves on Enter without asking before writing over a file (the system's
+/// dialogs ask): the editor asks. Cancel keeps the file and saves nothing; Replace writes it.
+#[test]
+fn the_in_app_dialog_asks_before_replacing_a_file() {
+    let dir = ScratchDir::new("saving-replace");
+    let config = config_with_in_app_dialog(&dir);
+    let mut h = dialog_harness(config);
+    step_until(&mut h, "the default asset", settled);
+    support::move_group(&mut h, 1, glam::DVec3::new(0.0, 0.05, 0.0));
+    let target = dir.join("taken.json");
+    std::fs::write(&target, "the user's file").unwrap();
+    for answer in ["Cancel", "Replace"] {
+        h.key_press_modifiers(Modifiers::COMMAND, Key::S);
+        support::type_in_dialog(&mut h, &target);
+        h.get_by_label_contains("taken.json already exists");
+        assert_eq!(std::fs::read(&target).unwrap(), b"the user's file", "written unasked");
+        h.get_by_label(answer).click();
+        h.step();
+        step_until(&mut h, "the save", |a| !a.is_saving() && !a.file_dialog_open());
+    }
+    let saved = solver::animation::scene::Scene::read(&target).expect("replaced by the scene");
+    assert!(saved.mesh.ends_with("creature.obj"), "{}", saved.mesh);
+    assert_eq!(h.state().document_path(), Some(target.as_path()));
 }

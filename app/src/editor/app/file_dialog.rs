@@ -31,6 +31,9 @@ pub(super) struct Dialogs {
     /// The open mesh's version (`Topology::version`) when the dialog was asked for: a file
     /// chosen for that mesh does nothing to another opened meanwhile.
     for_mesh: Option<u64>,
+    /// A file the in-app browser chose to save over, asked about before it is written: the
+    /// browser saves on Enter without asking (the system's dialogs ask themselves).
+    replace: Option<(DialogKind, PathBuf)>,
 }
 
 impl DialogKind {
@@ -118,7 +121,7 @@ impl EditorApp {
     /// Asks for a file for `kind`: the system's dialog, or the in-app browser (see the module
     /// doc). Returns whether it was shown: not while another is open (the user is told).
     pub(super) fn start_dialog(&mut self, ctx: &egui::Context, kind: DialogKind) -> bool {
-        if self.jobs.dialogs.native.is_some() || self.jobs.dialogs.in_app.is_some() {
+        if self.file_dialog_open() {
             self.error = Some(format!("{}: a file dialog is open, finish it first", kind.title()));
             return false;
         }
@@ -204,9 +207,45 @@ impl EditorApp {
         self.jobs.dialogs.in_app = Some((kind, d));
     }
 
-    /// Whether a file dialog (either kind) is waiting for the user.
+    /// Whether a file dialog (either kind, or its question before replacing a file) is
+    /// waiting for the user.
     pub fn file_dialog_open(&self) -> bool {
-        self.jobs.dialogs.native.is_some() || self.jobs.dialogs.in_app.is_some()
+        let d = &self.jobs.dialogs;
+        d.native.is_some() || d.in_app.is_some() || d.replace.is_some()
+    }
+
+    /// Asks whether to write over the file the in-app browser chose; goes on with the save,
+    /// or cancels it.
+    fn replace_question(&mut self, ctx: &egui::Context) {
+        let Some((kind, path)) = self.jobs.dialogs.replace.clone() else { return };
+        let folder = path.parent().map(|d| d.display().to_string()).unwrap_or_default();
+        let mut answer = None;
+        egui::Window::new("Replace the file?")
+            .collapsible(false)
+            .resizable(false)
+            .anchor(egui::Align2::CENTER_CENTER, egui::Vec2::ZERO)
+            .show(ctx, |ui| {
+                ui.label(format!("{} already exists in {folder}. Replace it?", file_name(&path)));
+                ui.horizontal(|ui| {
+                    if ui.button("Replace").clicked() {
+                        answer = Some(true);
+                    }
+                    if ui.button("Cancel").clicked() {
+                        answer = Some(false);
+                    }
+                });
+            });
+        match answer {
+            Some(true) => {
+                self.jobs.dialogs.replace = None;
+                self.dialog_chosen(ctx, kind, path, false);
+            }
+            Some(false) => {
+                self.jobs.dialogs.replace = None;
+                self.dialog_cancelled(kind);
+            }
+            None => {}
+        }
     }
 
     /// Polls the system's dialog and draws the in-app one; acts on a chosen file.
@@ -230,12 +269,13 @@ impl EditorApp {
                 Some(Ok(r)) => {
                     self.jobs.dialogs.native = None;
                     match r {
-                        Some(path) => self.dialog_chosen(ctx, kind, path),
+                        Some(path) => self.dialog_chosen(ctx, kind, path, false),
                         None => self.dialog_cancelled(kind),
                     }
                 }
             }
         }
+        self.replace_question(ctx);
         let Some((kind, d)) = &mut self.jobs.dialogs.in_app else { return };
         let kind = *kind;
         d.show(ctx);
@@ -245,7 +285,7 @@ impl EditorApp {
                 let path = d.path().map(Path::to_path_buf);
                 self.jobs.dialogs.in_app = None;
                 if let Some(path) = path {
-                    self.dialog_chosen(ctx, kind, path);
+                    self.dialog_chosen(ctx, kind, path, true);
                 }
             }
             egui_file::State::Cancelled | egui_file::State::Closed => {
@@ -278,6 +318,19 @@ impl EditorApp {
         Ok(path)
     }
 
+    /// Whether to ask before writing over `path` (a save's file, as it will be written; an
+    /// error is said where the save is refused): when it exists, the question is set up. Not
+    /// for the scene being edited: writing it is what Save does.
+    fn ask_replace(&mut self, kind: DialogKind, path: Result<PathBuf, String>) -> bool {
+        let document = self.session.document_path.clone();
+        let existing = path.ok().filter(|p| p.is_file() && document.as_ref() != Some(p));
+        let asks = existing.is_some();
+        if let Some(p) = existing {
+            self.jobs.dialogs.replace = Some((kind, p));
+        }
+        asks
+    }
+
     /// A dialog closed with no file: an open or quit that waited for that Save as does not go
     /// on at a later save (one that waits for a save of this mesh being written stays).
     fn dialog_cancelled(&mut self, kind: DialogKind) {
@@ -288,7 +341,15 @@ impl EditorApp {
 
     /// Acts on the file chosen in a dialog of `kind`; not, when it acts on the open mesh and
     /// another mesh was opened while the dialog was open (a load that was under way, a drop).
-    fn dialog_chosen(&mut self, ctx: &egui::Context, kind: DialogKind, path: PathBuf) {
+    /// With `ask_replace` (the in-app browser's choice), a save whose file exists asks first
+    /// ([`Self::replace_question`]), once the name is known to be allowed.
+    fn dialog_chosen(
+        &mut self,
+        ctx: &egui::Context,
+        kind: DialogKind,
+        path: PathBuf,
+        ask_replace: bool,
+    ) {
         let open = self.session.scene.as_ref().map(|s| s.topology.version);
         if kind.acts_on_open_mesh() && open != self.jobs.dialogs.for_mesh {
             self.session.after_save = None;
@@ -306,6 +367,9 @@ impl EditorApp {
             DialogKind::LoadSelection => self.load_selection(ctx, &path),
             DialogKind::LoadTexture => self.load_texture(ctx, &path),
             DialogKind::SaveSelection => {
+                if ask_replace && self.ask_replace(kind, self.save_path(&path, "dmat")) {
+                    return;
+                }
                 let written = self.save_path(&path, "dmat").and_then(|path| {
                     loader::write_dmat(&path, &self.session.edit.labels)
                         .map_err(|e| format!("{e:#}"))
@@ -318,6 +382,9 @@ impl EditorApp {
             }
             DialogKind::SaveScene => {
                 // the open or quit that waited for the save goes on once it is written
+                if ask_replace && self.ask_replace(kind, self.save_path(&path, "json")) {
+                    return;
+                }
                 match self.save_path(&path, "json") {
                     Ok(path) => self.start_save(ctx, &path),
                     Err(e) => {
@@ -329,6 +396,11 @@ impl EditorApp {
             DialogKind::ExportGltf => {
                 let path =
                     if path.extension().is_none() { path.with_extension("glb") } else { path };
+                // An OBJ sequence writes NAME_0001.obj, ..., not the file named.
+                let sequence = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("obj"));
+                if ask_replace && !sequence && self.ask_replace(kind, Ok(path.clone())) {
+                    return;
+                }
                 self.export_gltf(ctx, path)
             }
         }

@@ -253,6 +253,15 @@ pub fn dialog_harness(config: std::path::PathBuf) -> Harness<'static, EditorApp>
 /// Types `path` into the open in-app dialog's file name field (the text field that does not
 /// hold the folder) and confirms it with Enter; waits for a save it starts.
 pub fn choose_in_dialog(h: &mut Harness<'_, EditorApp>, path: &Path) {
+    type_in_dialog(h, path);
+    assert!(!h.state().file_dialog_open(), "the dialog did not close");
+    // a scene chosen to save is written on a worker thread
+    step_until(h, "the save", |a| !a.is_saving());
+}
+
+/// Types `path` into the in-app file dialog just opened and presses Enter (a save over a file
+/// that exists then asks whether to replace it).
+pub fn type_in_dialog(h: &mut Harness<'_, EditorApp>, path: &Path) {
     h.step();
     h.step(); // a new window is laid out invisibly in its first frame
     assert!(h.state().file_dialog_open(), "no file dialog");
@@ -267,9 +276,6 @@ pub fn choose_in_dialog(h: &mut Harness<'_, EditorApp>, path: &Path) {
     h.key_press(Key::Enter);
     h.step();
     h.step();
-    assert!(!h.state().file_dialog_open(), "the dialog did not close");
-    // a scene chosen to save is written on a worker thread
-    step_until(h, "the save", |a| !a.is_saving());
 }
 
 /// A FIFO at `dir/name`: reading it waits until [`write_later`] writes it, so that a file
