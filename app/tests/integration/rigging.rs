@@ -248,3 +248,41 @@ fn the_rig_is_saved_in_the_scene_and_restored() {
     assert_eq!(h.state().symmetry(), symmetry);
     assert_eq!(h.state().solver_handles().unwrap().rig(), &rig, "the solver gets the same rig");
 }
+
+/// Esc during a move with mirrored posing gives the partner its own pose back: it was set to
+/// the mirror of the moved group's start, which differs when the pair was posed apart before
+/// mirrored posing was turned on (the partner stayed moved, with no undo step).
+#[test]
+fn esc_with_mirrored_posing_restores_the_partner() {
+    let mut h = harness(default_mesh_path());
+    step_until(&mut h, "the default asset", settled);
+    h.key_press_modifiers(Modifiers::SHIFT, Key::M);
+    h.step();
+    step_until(&mut h, "the mirror map", |a| a.mirror().is_some());
+    let map = h.state().mirror().unwrap().1.clone();
+    let partner = solver::deform::symmetry::partner_group(h.state().labels(), &map, 0)
+        .expect("group 0's pair") as usize;
+    // Posed apart: the partner alone (set directly, as mirrored posing is for the UI's moves).
+    let mut e = h.state().edit_state().clone();
+    e.groups[partner].pose.translation = glam::DVec3::new(0.0, 0.0, 0.01);
+    h.state_mut().set_edit_state(e);
+    let own = h.state().group_pose(partner).unwrap();
+    h.state_mut().set_tool(Tool::Pose);
+    h.state_mut().set_active_group(Some(0));
+    h.step();
+    let (c, _) = h.state().gizmo_screen().expect("group 0's gizmo");
+    let p0 = c + Vec2::new(30.0, 20.0);
+    h.event(Event::PointerMoved(p0));
+    h.step();
+    h.key_press(Key::G);
+    h.step();
+    for i in 1..=4 {
+        h.event(Event::PointerMoved(p0 + Vec2::new(10.0 * i as f32, 4.0 * i as f32)));
+        h.step();
+    }
+    assert_ne!(h.state().group_pose(partner).unwrap(), own, "the partner did not follow");
+    h.key_press(Key::Escape);
+    h.step();
+    assert_eq!(h.state().group_pose(0).unwrap(), Default::default());
+    assert_eq!(h.state().group_pose(partner).unwrap(), own, "the partner's pose was lost");
+}

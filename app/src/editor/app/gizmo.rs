@@ -179,16 +179,18 @@ impl EditorApp {
         }
     }
 
-    /// Ends the transform with its group's pose from before it (a switch between G and R
-    /// started another from the pose so far: that is undone too).
+    /// Ends the transform with the poses from before it (a switch between G and R started
+    /// another from the pose so far: that is undone too). Every group's, so that a partner
+    /// moved by mirrored posing gets its own pose back, not the mirror of the start (which
+    /// differs when the pair was posed apart before mirrored posing was turned on).
     pub(super) fn cancel_transform(&mut self) {
-        if let Some(t) = self.gizmo.transform.take()
-            && let Some(start) = t.before.groups.get(t.group).map(|g| g.pose)
-            && let Some(g) = self.session.edit.groups.get_mut(t.group)
-            && g.pose != start
-        {
-            g.pose = start;
-            self.mirror_pose(t.group);
+        let Some(t) = self.gizmo.transform.take() else { return };
+        let mut changed = false;
+        for (g, before) in self.session.edit.groups.iter_mut().zip(&t.before.groups) {
+            changed |= g.pose != before.pose;
+            g.pose = before.pose;
+        }
+        if changed {
             self.send_poses();
         }
     }
