@@ -30,6 +30,12 @@ shape keys back over it.
 Once the controls have rested ``REST_DELAY`` seconds, :func:`finish_step` takes the pose the
 rest of the way, as the editor does after a drag: the same targets solved again until a solve
 converges, then settle steps (``bsarap-coarse`` with settle iterations); not while a bake runs.
+
+The solver gets the mesh cleaned as the editor and the command line load one
+(``bsarap.clean``): vertices at the same place welded, so that a mesh split at its UV seams or
+sharp edges (Blender's glTF import, whose *Merge Vertices* is off by default) poses as one
+surface instead of tearing open along them; degenerate and repeated triangles dropped. The
+pose is written back on the mesh's own vertices (:meth:`SolverState.on_mesh`).
 """
 
 from __future__ import annotations
@@ -49,16 +55,20 @@ REST_DELAY = 0.15
 
 
 class SolverState:
-    """A built solver for one object and what it was built from."""
+    """A built solver for one object and what it was built from: ``rest`` and ``labels`` on
+    the mesh's vertices; the solver's on the cleaned mesh, ``vertex_map`` taking a mesh vertex
+    to its cleaned vertex (-1: in no triangle, left at rest)."""
 
-    def __init__(self, key, deformer, rest, labels, group_names):
+    def __init__(self, key, deformer, rest, labels, group_names, cleaned_rest, vertex_map):
         self.key = key
         self.deformer = deformer
         self.rest = rest
         self.labels = labels
         self.group_names = group_names
+        self.cleaned_rest = cleaned_rest
+        self.vertex_map = vertex_map
         self.handle_vertices = np.asarray(deformer.handle_vertices)
-        self.handle_labels = labels[self.handle_vertices]
+        self.handle_labels = cleaned_labels(labels, vertex_map, len(cleaned_rest))[self.handle_vertices]
         self.last_deltas = None  # the control motions of the last solve (re-entrancy guard)
         self.last_ms = None  # the last update's time in the handler: solve + shape key write
         self.solves = 0
@@ -71,7 +81,24 @@ class SolverState:
         self.ended = None
         self.baking = False  # a bake solves the frames: no live solve, finish_step waits
         # the rest bounding-box diagonal: the unit of the fractions (bending length, smoothing)
-        self.diagonal = diagonal(rest)
+        self.diagonal = diagonal(cleaned_rest)
+
+    def on_mesh(self, U: np.ndarray) -> np.ndarray:
+        """The solver's pose ``U`` (cleaned vertices) on the mesh's vertices: welded ones
+        together, one in no triangle at rest."""
+        kept = self.vertex_map >= 0
+        out = np.array(self.rest, dtype=np.float64, copy=True)
+        out[kept] = np.asarray(U)[self.vertex_map[kept]]
+        return out
+
+
+def cleaned_labels(labels: np.ndarray, vertex_map: np.ndarray, n: int) -> np.ndarray:
+    """The handle group of each of the ``n`` cleaned vertices: the largest of the mesh
+    vertices welded into it (-1, free, when none is in a group)."""
+    out = np.full(n, -1, dtype=np.int64)
+    kept = vertex_map >= 0
+    np.maximum.at(out, vertex_map[kept], np.asarray(labels, dtype=np.int64)[kept])
+    return out
 
 
 def diagonal(rest: np.ndarray) -> float:
@@ -272,15 +299,20 @@ def build(obj) -> SolverState:
     names = [g.name for g in obj.bsarap.groups]
     labels = handles.labels(obj, names)
     rest = handles.rest_positions(obj.data)
-    tri = handles.triangles(obj.data)
+    try:
+        V, tri, report = bsarap.clean(rest, handles.triangles(obj.data))
+    except bsarap.BsarapError as e:
+        raise HandleError(f"{obj.name}: {e}") from None
+    vertex_map = np.asarray(report["vertex_map"], dtype=np.int64)
     bad = non_manifold_edges(tri)
     if bad:
         raise HandleError(f"{obj.name}: the mesh is not manifold ({bad} edges with more than two faces)")
     try:
-        d = bsarap.Deformer(rest, tri, labels, **obj.bsarap.solver_settings())
+        welded = cleaned_labels(labels, vertex_map, len(V))
+        d = bsarap.Deformer(V, tri, welded, **obj.bsarap.solver_settings())
     except bsarap.BsarapError as e:
         raise HandleError(f"{obj.name}: {e}") from None
-    return SolverState(state_key(obj), d, rest, labels, names)
+    return SolverState(state_key(obj), d, rest, labels, names, V, vertex_map)
 
 
 def state(obj, *, rebuild=True) -> SolverState:
@@ -468,7 +500,7 @@ def control_deltas(obj, *, checked=False) -> np.ndarray:
 def targets(st: SolverState, deltas: np.ndarray) -> np.ndarray:
     """The handle vertices' targets ``(H, 3)`` (``Deformer.handle_vertices`` order)."""
     D = deltas[st.handle_labels]
-    p = st.rest[st.handle_vertices]
+    p = st.cleaned_rest[st.handle_vertices]
     return np.einsum("nij,nj->ni", D[:, :3, :3], p) + D[:, :3, 3]
 
 
@@ -484,7 +516,7 @@ def solve(obj, st: SolverState, deltas: np.ndarray) -> np.ndarray:
     st.last_deltas = deltas
     st.solves += 1
     st.converged = st.deformer.stats.converged
-    return U
+    return st.on_mesh(U)
 
 
 def ensure_pose_key(obj):
@@ -570,6 +602,7 @@ def finish_step(obj):
         if U is None:
             st.ended = "rest"
             return None
+        U = st.on_mesh(U)
     st.finish_steps += 1
     write_pose(obj, U)
     return 0.0

@@ -163,6 +163,50 @@ class SmoothRotations(unittest.TestCase):
             obj.bsarap.energy = "spokes-and-rims"
 
 
+class Seams(unittest.TestCase):
+    """A mesh split at a seam (vertices at the same place, as Blender's glTF import leaves
+    them at UV seams) poses as one surface: the solver gets it welded, and the pose key holds
+    the seam's copies together. Posed unwelded, the seam opened."""
+
+    def test_a_split_seam_stays_closed(self):
+        bpy.ops.wm.read_homefile(use_empty=True)
+        rings, around, radius, height = 16, 12, 0.5, 3.0
+        # around + 1 columns: the last repeats the first exactly (a UV seam)
+        angle = [2 * np.pi * (a % around) / around for a in range(around + 1)]
+        verts = [
+            (radius * np.cos(t), radius * np.sin(t), height * r / (rings - 1))
+            for r in range(rings) for t in angle
+        ]
+        cols = around + 1
+        faces = [
+            (r * cols + a, r * cols + a + 1, (r + 1) * cols + a + 1, (r + 1) * cols + a)
+            for r in range(rings - 1) for a in range(around)
+        ]
+        me = bpy.data.meshes.new("seamed")
+        me.from_pydata(verts, [], faces)
+        me.update()
+        obj = bpy.data.objects.new("seamed", me)
+        bpy.context.scene.collection.objects.link(obj)
+        obj.vertex_groups.new(name="bottom").add(list(range(2 * cols)), 1.0, "REPLACE")
+        top = list(range((rings - 2) * cols, rings * cols))
+        obj.vertex_groups.new(name="top").add(top, 1.0, "REPLACE")
+        make_controls(obj, ["bottom", "top"])
+        control = bpy.data.objects["top"]
+        control.location = Vector(control.location) + Vector((1.0, 0.3, -0.4))
+        control.rotation_euler = Euler((0.4, 0.6, 0.0))
+        bpy.context.view_layer.update()
+        ext.handlers.update_scene(bpy.context.scene)
+        pose = pose_of(obj)
+        st = ext.solve.state(obj)
+        first = pose[[r * cols for r in range(rings)]]
+        last = pose[[r * cols + around for r in range(rings)]]
+        gap = np.linalg.norm(first - last, axis=1).max()
+        self.assertLess(gap, 1e-6 * st.diagonal, "the seam opened")
+        self.assertEqual(len(st.cleaned_rest), rings * around, "the seam was not welded")
+        moved = np.linalg.norm(pose - st.rest, axis=1).max()
+        self.assertGreater(moved, 0.1 * st.diagonal, "nothing was posed")
+
+
 class PanelUnits(unittest.TestCase):
     """The Solver panel's bending length in the mesh's units."""
 
