@@ -213,11 +213,27 @@ class BSARAP_OT_remove_controls(_MeshOperator, bpy.types.Operator):
         keys = obj.data.shape_keys
         if not shared and keys is not None and keys.key_blocks.get(solve.POSE_KEY) is not None:
             obj.shape_key_remove(keys.key_blocks[solve.POSE_KEY])
+            _drop_lone_basis(obj)
         solve.forget(obj)
         claims.release_mesh(obj)
         if foreign:
             self.report({"INFO"}, f"{obj.name}: let go of another object's controls ({', '.join(foreign)}), kept")
         return {"FINISHED"}
+
+
+def _drop_lone_basis(obj) -> None:
+    """Removes the shape keys when only the basis is left (the pose key needs one, and
+    *Add Controls* made it): with any shape key Blender refuses to apply a modifier. The basis's
+    coordinates go into the mesh first, so nothing moves."""
+    keys = obj.data.shape_keys
+    if keys is None or len(keys.key_blocks) != 1:
+        return
+    basis = keys.key_blocks[0]
+    co = np.empty(len(basis.data) * 3, dtype=np.float32)
+    basis.data.foreach_get("co", co)
+    obj.shape_key_clear()
+    obj.data.vertices.foreach_set("co", co)
+    obj.data.update()
 
 
 class _BakeOperator(_MeshOperator):

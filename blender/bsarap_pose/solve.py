@@ -530,8 +530,34 @@ def ensure_pose_key(obj):
     return kb
 
 
+def baked_output(obj):
+    """What a bake left driving the mesh in place of the live pose, which it muted: its frame
+    shape keys or its Mesh Cache modifier, named for a message; ``None`` when neither is left."""
+    from . import bake  # it imports this module
+
+    keys = obj.data.shape_keys
+    if keys is not None and any(kb.name.startswith(bake.FRAME_KEY_PREFIX) for kb in keys.key_blocks):
+        return "the baked shape keys"
+    mod = obj.modifiers.get(modifiers.CACHE_MODIFIER)
+    if mod is not None and mod.type == "MESH_CACHE":
+        return "the point cache's Mesh Cache modifier"
+    return None
+
+
+def pose_muted_by_bake(obj):
+    """What plays in place of the live pose while a bake's output mutes it (``None``: the
+    live pose shows)."""
+    keys = obj.data.shape_keys
+    kb = keys.key_blocks.get(POSE_KEY) if keys is not None else None
+    return baked_output(obj) if kb is not None and kb.mute else None
+
+
 def write_pose(obj, U: np.ndarray) -> None:
     kb = ensure_pose_key(obj)
+    # A bake muted the key; once its output is gone, the live pose shows again (it stayed
+    # muted: posing did nothing visible, with Live on).
+    if kb.mute and baked_output(obj) is None:
+        kb.mute = False
     # ShapeKey.points (Blender 4.1+): the raw array; `data` goes point by point, 50x slower
     # (757k points: 2 ms against 108 ms).
     kb.points.foreach_set("co", np.ascontiguousarray(U, dtype=np.float32).ravel())
@@ -616,6 +642,9 @@ def status(obj):
         return None
     if st.baking:
         return "Baking: the bake solves the frames", "TIME"
+    what = pose_muted_by_bake(obj) if obj.bsarap.live else None
+    if what is not None:
+        return f"The live pose is muted: {what} play instead (delete them to pose live)", "ERROR"
     if st.ended == "cap":
         return f"Stopped after {st.finish_steps} steps (the cap), short of rest", "ERROR"
     if st.ended == "error":

@@ -248,6 +248,34 @@ class BakeStops(unittest.TestCase):
         assert_pose_follows(obj)
 
 
+class LiveAfterBake(unittest.TestCase):
+    """A bake mutes the live pose key (its frames replace it). With Live turned on again, the
+    panel says why posing shows nothing while the baked keys play, and once they are deleted
+    the live pose shows again: the key stayed muted, and posing did nothing visible."""
+
+    def test_live_posing_after_the_baked_keys_are_deleted(self):
+        obj = posed_tube("relive", top_x=0.5)
+        sc = bpy.context.scene
+        sc.frame_start, sc.frame_end = 1, 3
+        activate(obj)
+        self.assertEqual(bpy.ops.bsarap.bake_shape_keys(), {"FINISHED"})
+        kb = obj.data.shape_keys.key_blocks[ext.solve.POSE_KEY]
+        self.assertTrue(kb.mute)
+        obj.bsarap.live = True
+        ext.handlers.update_scene(sc)
+        text, icon = ext.solve.status(obj)
+        self.assertIn("muted: the baked shape keys play", text)
+        ext.bake.remove_frame_keys(obj)
+        top = bpy.data.objects["top"]
+        top.location.x += 0.3
+        bpy.context.view_layer.update()
+        ext.handlers.update_scene(sc)
+        self.assertFalse(kb.mute, "the live pose key stayed muted")
+        self.assertNotIn("muted", ext.solve.status(obj)[0])
+        np.testing.assert_allclose(evaluated_positions(obj), pose_of(obj), atol=1e-5)
+        assert_pose_follows(obj)
+
+
 class Errors(unittest.TestCase):
     def setUp(self):
         self.obj = posed_tube()
