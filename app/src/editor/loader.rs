@@ -335,6 +335,14 @@ fn prepare(
     let mut default_labels = None;
     let mut selection_path = None;
     for candidate in selection_candidates(path) {
+        // Found beside the mesh, not named by the user: a pipe there (an archive can carry
+        // one) would hold the load for good, a device never end.
+        if candidate.exists() && !std::fs::metadata(&candidate).is_ok_and(|m| m.is_file()) {
+            let name = candidate.display();
+            notices
+                .push(format!("ignored selection {name}: not a regular file (a pipe or device)"));
+            continue;
+        }
         if candidate.exists() {
             match load_selection(&candidate, mesh.positions(), &loaded.report.vertex_map) {
                 Ok(labels) => {

@@ -531,3 +531,20 @@ fn a_selection_keeps_the_timeline_but_its_old_paths() {
     let info = h.state().info().unwrap_or_default();
     assert!(info.contains("sel.dmat") && info.contains("1 path"), "{info}");
 }
+
+/// A pipe beside an opened mesh under a selection's name (`NAME.dmat`, looked for without the
+/// user naming it) is skipped with a notice: the mesh loader waited on it for good (an
+/// archive can carry one). The mesh opens with no handles.
+#[test]
+fn a_pipe_named_as_a_meshes_selection_is_skipped() {
+    let dir = ScratchDir::new("loads-pipe-selection");
+    let (mesh, _) = solver::geometry::shapes::bumpy_bar(1);
+    let bar = dir.join("bar.obj");
+    solver::io::write_obj(&bar, mesh.positions(), mesh.triangles()).unwrap();
+    let _pipe = fifo(&dir, "bar.dmat");
+    let mut h = support::harness(bar.clone(), None);
+    step_until(&mut h, "the bar", support::loaded);
+    assert_eq!(h.state().mesh_path(), Some(bar.as_path()));
+    let notes = h.state().load_notices().join("\n");
+    assert!(notes.contains("bar.dmat: not a regular file"), "{notes}");
+}

@@ -427,21 +427,28 @@ impl Scene {
     /// `relative` resolved against the folder of the scene file `scene_path` (absolute paths
     /// unchanged, `..` resolved lexically), and whether it is outside that folder.
     ///
-    /// Errors: [`SceneError::Invalid`] for an empty path, a URI (`file:///...`), or a file
-    /// that exists but is not a regular file or a folder (a pipe, a device: never opened,
-    /// `io::reference::not_regular`).
+    /// Errors: [`SceneError::Invalid`] for an empty path or a URI (`file:///...`).
     pub fn resolve_path(scene_path: &Path, relative: &str) -> Result<(PathBuf, bool), SceneError> {
         let dir = scene_path.parent().unwrap_or(Path::new(""));
-        let invalid = |message: String| SceneError::Invalid {
-            file: scene_path.display().to_string(),
-            message,
-        };
-        let r = crate::io::reference::resolve(dir, dir, relative)
-            .map_err(|why| invalid(format!("a path in the scene is {why}")))?;
-        if let Some(why) = crate::io::reference::not_regular(&r.path) {
-            return Err(invalid(format!("the scene names {}: {why}", r.path.display())));
+        crate::io::reference::resolve(dir, dir, relative).map(|r| (r.path, r.outside)).map_err(
+            |why| SceneError::Invalid {
+                file: scene_path.display().to_string(),
+                message: format!("a path in the scene is {why}"),
+            },
+        )
+    }
+
+    /// [`Scene::resolve_path`] for a file the scene reads: refused when it exists and is not a
+    /// regular file or a folder (a pipe, a device: never opened, `io::reference::not_regular`).
+    fn resolve_read(scene_path: &Path, relative: &str) -> Result<(PathBuf, bool), SceneError> {
+        let (path, outside) = Scene::resolve_path(scene_path, relative)?;
+        match crate::io::reference::not_regular(&path) {
+            Some(why) => Err(SceneError::Invalid {
+                file: scene_path.display().to_string(),
+                message: format!("the scene names {}: {why}", path.display()),
+            }),
+            None => Ok((path, outside)),
         }
-        Ok((r.path, r.outside))
     }
 
     /// Reads the scene at `path`, loads and cleans its mesh and resolves its handles.
@@ -469,7 +476,7 @@ impl Scene {
         policy: ReferencePolicy,
     ) -> Result<LoadedScene, SceneError> {
         let file = path.display().to_string();
-        let (mesh_path, outside) = Scene::resolve_path(path, &self.mesh)?;
+        let (mesh_path, outside) = Scene::resolve_read(path, &self.mesh)?;
         let mut mesh = load_mesh_with(&mesh_path, policy)
             .map_err(|source| SceneError::Mesh { file: file.clone(), source })?;
         let handles =
@@ -481,7 +488,11 @@ impl Scene {
         }
         if let Some(t) = &self.texture {
             let (texture_path, outside) = Scene::resolve_path(path, t)?;
-            if let Err(e) = Scene::apply_texture(&texture_path, &mut mesh.asset) {
+            let applied = match crate::io::reference::not_regular(&texture_path) {
+                Some(why) => Err(format!("texture {} not used: {why}", texture_path.display())),
+                None => Scene::apply_texture(&texture_path, &mut mesh.asset),
+            };
+            if let Err(e) = applied {
                 mesh.asset.notices.push(e);
             }
             named.push(("texture", texture_path, outside));
@@ -553,7 +564,7 @@ impl Scene {
         let file = path.display().to_string();
         let h = &self.handles;
         let handles = if let Some(f) = &h.file {
-            load_selection(&Scene::resolve_path(path, f)?.0, positions, vertex_map)
+            load_selection(&Scene::resolve_read(path, f)?.0, positions, vertex_map)
                 .map_err(|source| SceneError::Selection { file: file.clone(), source })?
         } else if let Some(labels) = &h.labels {
             Handles::from_labels(labels, positions.len())

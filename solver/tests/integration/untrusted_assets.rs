@@ -250,7 +250,7 @@ fn pipes_and_devices_are_not_read() {
         let made = std::process::Command::new("mkfifo").arg(&path).status().unwrap();
         assert!(made.success(), "mkfifo {}", path.display());
     };
-    for name in ["m.mtl", "t.png", "buffer.bin", "pipe.obj"] {
+    for name in ["m.mtl", "t.png", "buffer.bin", "pipe.obj", "h.dmat"] {
         fifo(name);
     }
     let in_time = |what: &str, load: Box<dyn FnOnce() -> String + Send>| {
@@ -282,4 +282,21 @@ fn pipes_and_devices_are_not_read() {
     let path = l.asset.join("s.json");
     let e = in_time("scene", Box::new(move || Scene::load(&path).unwrap_err().to_string()));
     assert!(e.contains("not a regular file"), "{e}");
+    // A scene's handle file (an error, as any unreadable one) and texture (a notice, as any
+    // texture that cannot be used).
+    std::fs::write(l.asset.join("tet.obj"), tet).unwrap();
+    let mut scene = scene;
+    scene["mesh"] = json!("tet.obj");
+    scene["handles"] = json!({"file": "h.dmat"});
+    std::fs::write(l.asset.join("s.json"), scene.to_string()).unwrap();
+    let path = l.asset.join("s.json");
+    let e = in_time("handles", Box::new(move || Scene::load(&path).unwrap_err().to_string()));
+    assert!(e.contains("h.dmat") && e.contains("not a regular file"), "{e}");
+    scene["handles"] = json!({"labels": [0, -1, -1, 1]});
+    scene["texture"] = json!("t.png");
+    std::fs::write(l.asset.join("s.json"), scene.to_string()).unwrap();
+    let path = l.asset.join("s.json");
+    let notes =
+        in_time("texture", Box::new(move || Scene::load(&path).unwrap().mesh.notices().join("\n")));
+    assert!(notes.contains("t.png not used: not a regular file"), "{notes}");
 }

@@ -398,7 +398,12 @@ impl EditorApp {
                     if path.extension().is_none() { path.with_extension("glb") } else { path };
                 // An OBJ sequence writes NAME_0001.obj, ..., not the file named.
                 let sequence = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("obj"));
-                if ask_replace && !sequence && self.ask_replace(kind, Ok(path.clone())) {
+                // Asked only of a file the export may write (not the open mesh, say).
+                let allowed =
+                    crate::outputs::check(std::slice::from_ref(&path), &self.read_files(true))
+                        .map(|()| path.clone())
+                        .map_err(|e| e.to_string());
+                if ask_replace && !sequence && self.ask_replace(kind, allowed) {
                     return;
                 }
                 self.export_gltf(ctx, path)

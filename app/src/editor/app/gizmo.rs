@@ -179,16 +179,21 @@ impl EditorApp {
         }
     }
 
-    /// Ends the transform with the poses from before it (a switch between G and R started
-    /// another from the pose so far: that is undone too). Every group's, so that a partner
-    /// moved by mirrored posing gets its own pose back, not the mirror of the start (which
-    /// differs when the pair was posed apart before mirrored posing was turned on).
+    /// Ends the transform with the poses from before it of its group and of the partner that
+    /// mirrored posing moves with it (a switch between G and R started another from the pose
+    /// so far: that is undone too). The partner gets its own pose back, not the mirror of the
+    /// start, which differs when the pair was posed apart before mirrored posing was turned
+    /// on. Other groups are left to playback, which may run meanwhile.
     pub(super) fn cancel_transform(&mut self) {
         let Some(t) = self.gizmo.transform.take() else { return };
         let mut changed = false;
-        for (g, before) in self.session.edit.groups.iter_mut().zip(&t.before.groups) {
-            changed |= g.pose != before.pose;
-            g.pose = before.pose;
+        for k in [Some(t.group), self.mirror_partner(t.group)].into_iter().flatten() {
+            if let (Some(g), Some(before)) =
+                (self.session.edit.groups.get_mut(k), t.before.groups.get(k))
+            {
+                changed |= g.pose != before.pose;
+                g.pose = before.pose;
+            }
         }
         if changed {
             self.send_poses();

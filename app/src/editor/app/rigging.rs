@@ -322,16 +322,22 @@ impl EditorApp {
 
     /// Mirrored posing: the partner of `group` takes its pose mirrored across the plane.
     pub(super) fn mirror_pose(&mut self, group: usize) {
-        if !self.session.edit.symmetry.mirror_posing {
-            return;
-        }
-        let Some((plane, map)) = self.mirror_shared() else { return };
-        let Some(p) = partner_group(&self.session.edit.labels, &map, group as u32) else { return };
+        let Some(p) = self.mirror_partner(group) else { return };
+        let Some((plane, _)) = self.mirror_shared() else { return };
         let Some(pose) = self.session.edit.groups.get(group).map(|g| g.pose) else { return };
         let mirrored = mirror_transform(&plane, &pose);
-        if let Some(g) = self.session.edit.groups.get_mut(p as usize) {
+        if let Some(g) = self.session.edit.groups.get_mut(p) {
             g.pose = mirrored;
         }
+    }
+
+    /// The group mirrored posing moves with `group`, while it is on.
+    pub(super) fn mirror_partner(&self, group: usize) -> Option<usize> {
+        if !self.session.edit.symmetry.mirror_posing {
+            return None;
+        }
+        let (_, map) = self.mirror_shared()?;
+        partner_group(&self.session.edit.labels, &map, group as u32).map(|p| p as usize)
     }
 
     /// Whether the rigidity map is drawn (the toggle, or the rigidity brush active).
