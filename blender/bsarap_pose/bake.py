@@ -120,7 +120,7 @@ def write_shape_keys(obj, frames, poses) -> None:
     frames (``frames`` evenly spaced), linear in between: a frame between two baked ones (a
     frame step above 1) blends them. The live pose key is muted (the bake replaces it)."""
     remove_frame_keys(obj)
-    solve.ensure_pose_key(obj).mute = True
+    solve.mute_for_bake(obj)
     step = frames[1] - frames[0] if len(frames) > 1 else 1
     for f, U in zip(frames, poses):
         kb = obj.shape_key_add(name=frame_key_name(f), from_mix=False)
@@ -178,8 +178,6 @@ def add_cache_modifier(obj, path: str, start_frame: int, step: int = 1):
     idx = list(obj.modifiers).index(mod)
     if idx != 0:
         obj.modifiers.move(idx, 0)
-    if obj.data.shape_keys is not None:
-        kb = obj.data.shape_keys.key_blocks.get(solve.POSE_KEY)
-        if kb is not None:
-            kb.mute = True
+    if obj.data.shape_keys is not None and solve.POSE_KEY in obj.data.shape_keys.key_blocks:
+        solve.mute_for_bake(obj)
     return mod

@@ -222,11 +222,11 @@ class BSARAP_OT_remove_controls(_MeshOperator, bpy.types.Operator):
 
 
 def _drop_lone_basis(obj) -> None:
-    """Removes the shape keys when only the basis is left (the pose key needs one, and
-    *Add Controls* made it): with any shape key Blender refuses to apply a modifier. The basis's
-    coordinates go into the mesh first, so nothing moves."""
+    """Removes the shape keys when only the Basis the pose key needed is left (made for it,
+    ``solve.MADE_BASIS``): with any shape key Blender refuses to apply a modifier. The basis's
+    coordinates go into the mesh first, so nothing moves. A Basis of the user's stays."""
     keys = obj.data.shape_keys
-    if keys is None or len(keys.key_blocks) != 1:
+    if keys is None or len(keys.key_blocks) != 1 or not keys.get(solve.MADE_BASIS):
         return
     basis = keys.key_blocks[0]
     co = np.empty(len(basis.data) * 3, dtype=np.float32)

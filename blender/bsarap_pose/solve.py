@@ -50,6 +50,10 @@ from .handles import HandleError
 
 #: The shape key the live pose goes into.
 POSE_KEY = "BS-ARAP pose"
+#: Custom properties of the mesh's shape keys (its ``Key``): the pose key was muted by a bake
+#: (not by the user), and the Basis was made for the pose key (*Remove Controls* drops it).
+BAKE_MUTED = "bsarap_bake_muted"
+MADE_BASIS = "bsarap_made_basis"
 #: Seconds the controls rest before :func:`finish_step` goes on (the editor's settle delay).
 REST_DELAY = 0.15
 
@@ -523,6 +527,7 @@ def ensure_pose_key(obj):
     """The object's pose shape key (created with a Basis when missing), value 1."""
     if obj.data.shape_keys is None:
         obj.shape_key_add(name="Basis", from_mix=False)
+        obj.data.shape_keys[MADE_BASIS] = True
     kb = obj.data.shape_keys.key_blocks.get(POSE_KEY)
     if kb is None:
         kb = obj.shape_key_add(name=POSE_KEY, from_mix=False)
@@ -544,20 +549,30 @@ def baked_output(obj):
     return None
 
 
+def mute_for_bake(obj) -> None:
+    """Mutes the pose key for a bake's output, which replaces it (:func:`write_pose` unmutes
+    it once that output is gone)."""
+    ensure_pose_key(obj).mute = True
+    obj.data.shape_keys[BAKE_MUTED] = True
+
+
 def pose_muted_by_bake(obj):
     """What plays in place of the live pose while a bake's output mutes it (``None``: the
-    live pose shows)."""
+    live pose shows, or the user muted it)."""
     keys = obj.data.shape_keys
     kb = keys.key_blocks.get(POSE_KEY) if keys is not None else None
-    return baked_output(obj) if kb is not None and kb.mute else None
+    muted = kb is not None and kb.mute and bool(keys.get(BAKE_MUTED))
+    return baked_output(obj) if muted else None
 
 
 def write_pose(obj, U: np.ndarray) -> None:
     kb = ensure_pose_key(obj)
     # A bake muted the key; once its output is gone, the live pose shows again (it stayed
-    # muted: posing did nothing visible, with Live on).
-    if kb.mute and baked_output(obj) is None:
+    # muted: posing did nothing visible, with Live on). A key the user muted stays muted.
+    keys = obj.data.shape_keys
+    if kb.mute and keys.get(BAKE_MUTED) and baked_output(obj) is None:
         kb.mute = False
+        del keys[BAKE_MUTED]
     # ShapeKey.points (Blender 4.1+): the raw array; `data` goes point by point, 50x slower
     # (757k points: 2 ms against 108 ms).
     kb.points.foreach_set("co", np.ascontiguousarray(U, dtype=np.float32).ravel())

@@ -442,6 +442,11 @@ class Controls(unittest.TestCase):
         # the Basis that Add Controls made goes too: with a shape key, no modifier can be applied
         self.assertIsNone(obj.data.shape_keys)
         np.testing.assert_allclose(np.array([v.co for v in obj.data.vertices]), rest, atol=1e-6)
+        # a Basis the mesh had before stays
+        obj.shape_key_add(name="Basis", from_mix=False)
+        self.assertEqual(bpy.ops.bsarap.add_controls(), {"FINISHED"})  # the groups are kept
+        self.assertEqual(bpy.ops.bsarap.remove_controls(), {"FINISHED"})
+        self.assertEqual([kb.name for kb in obj.data.shape_keys.key_blocks], ["Basis"])
         bpy.context.view_layer.update()
         # no controls: the live handler leaves the object alone (no solver, no message)
         self.assertIsNone(ext.solve.built(obj))

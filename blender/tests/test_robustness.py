@@ -274,6 +274,12 @@ class LiveAfterBake(unittest.TestCase):
         self.assertNotIn("muted", ext.solve.status(obj)[0])
         np.testing.assert_allclose(evaluated_positions(obj), pose_of(obj), atol=1e-5)
         assert_pose_follows(obj)
+        # a key the user mutes stays muted
+        kb.mute = True
+        top.location.x += 0.2
+        bpy.context.view_layer.update()
+        ext.handlers.update_scene(sc)
+        self.assertTrue(kb.mute, "the user's mute was undone")
 
 
 class Errors(unittest.TestCase):
