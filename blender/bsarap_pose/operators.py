@@ -213,6 +213,7 @@ class BSARAP_OT_remove_controls(_MeshOperator, bpy.types.Operator):
         keys = obj.data.shape_keys
         if not shared and keys is not None and keys.key_blocks.get(solve.POSE_KEY) is not None:
             obj.shape_key_remove(keys.key_blocks[solve.POSE_KEY])
+            keys.pop(solve.BAKE_MUTED, None)  # of the key just removed
             _drop_lone_basis(obj)
         solve.forget(obj)
         claims.release_mesh(obj)

@@ -551,9 +551,11 @@ def baked_output(obj):
 
 def mute_for_bake(obj) -> None:
     """Mutes the pose key for a bake's output, which replaces it (:func:`write_pose` unmutes
-    it once that output is gone)."""
-    ensure_pose_key(obj).mute = True
-    obj.data.shape_keys[BAKE_MUTED] = True
+    it once that output is gone). A key the user muted before stays the user's."""
+    kb = ensure_pose_key(obj)
+    if not kb.mute:
+        kb.mute = True
+        obj.data.shape_keys[BAKE_MUTED] = True
 
 
 def pose_muted_by_bake(obj):
@@ -570,7 +572,8 @@ def write_pose(obj, U: np.ndarray) -> None:
     # A bake muted the key; once its output is gone, the live pose shows again (it stayed
     # muted: posing did nothing visible, with Live on). A key the user muted stays muted.
     keys = obj.data.shape_keys
-    if kb.mute and keys.get(BAKE_MUTED) and baked_output(obj) is None:
+    if keys.get(BAKE_MUTED) and (not kb.mute or baked_output(obj) is None):
+        # unmuted by the user meanwhile, or the output gone: the mark has done its part
         kb.mute = False
         del keys[BAKE_MUTED]
     # ShapeKey.points (Blender 4.1+): the raw array; `data` goes point by point, 50x slower

@@ -274,12 +274,19 @@ class LiveAfterBake(unittest.TestCase):
         self.assertNotIn("muted", ext.solve.status(obj)[0])
         np.testing.assert_allclose(evaluated_positions(obj), pose_of(obj), atol=1e-5)
         assert_pose_follows(obj)
-        # a key the user mutes stays muted
+        # a key the user mutes stays muted, also through a bake and the deletion of its keys
         kb.mute = True
         top.location.x += 0.2
         bpy.context.view_layer.update()
         ext.handlers.update_scene(sc)
         self.assertTrue(kb.mute, "the user's mute was undone")
+        self.assertEqual(bpy.ops.bsarap.bake_shape_keys(), {"FINISHED"})
+        ext.bake.remove_frame_keys(obj)
+        obj.bsarap.live = True
+        top.location.x += 0.2
+        bpy.context.view_layer.update()
+        ext.handlers.update_scene(sc)
+        self.assertTrue(kb.mute, "a bake took over the user's mute")
 
 
 class Errors(unittest.TestCase):

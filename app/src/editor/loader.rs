@@ -339,8 +339,7 @@ fn prepare(
         // one) would hold the load for good, a device never end.
         if candidate.exists() && !std::fs::metadata(&candidate).is_ok_and(|m| m.is_file()) {
             let name = candidate.display();
-            notices
-                .push(format!("ignored selection {name}: not a regular file (a pipe or device)"));
+            notices.push(format!("ignored selection {name}: not a regular file"));
             continue;
         }
         if candidate.exists() {
