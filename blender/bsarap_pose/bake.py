@@ -35,6 +35,10 @@ class Baker:
         self.name = obj.name
         solve.check_controls(obj)  # a copy's controls pose its original: no bake
         self.st = solve.state(obj)
+        if self.st.baking:
+            # Two at once: the first to end restored the frame and let live posing go on
+            # while the other still solved.
+            raise HandleError(f"{obj.name}: a bake is under way; wait for it to end (Esc stops it)")
         self.st.baking = True  # until restore_frame: the live pose's finishing steps wait
         self.poses = []
         self.frame_before = scene.frame_current

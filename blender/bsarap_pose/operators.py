@@ -309,6 +309,13 @@ class _BakeOperator(_MeshOperator):
             finally:
                 self._baker.restore_frame()
 
+    def cancel(self, context):
+        """Blender ends the modal bake itself (its window closed, a file loaded): the bake's
+        state ends too, else live posing stayed stopped and the next bake refused."""
+        baker = getattr(self, "_baker", None)
+        if baker is not None and baker.st.baking:
+            self._stop(context)
+
     def modal(self, context, event):
         if event.type == "ESC":
             self._stop(context)

@@ -222,6 +222,21 @@ class BakeStops(unittest.TestCase):
         bpy.context.view_layer.update()
         self.assertEqual(st.solves, solves + 1)
 
+    def test_a_second_bake_is_refused_and_a_cancelled_one_ends(self):
+        """A second bake while one runs is refused (the first to end let live posing go on
+        under the other); Blender ending the modal bake itself (its window closed) ends it."""
+        Op = ext.operators.BSARAP_OT_bake_shape_keys
+        op, ctx, calls = fake_modal_bake(self.obj, Op, range(1, 6))
+        self.assertEqual(Op.modal(op, ctx, self.TIMER), {"RUNNING_MODAL"})
+        with self.assertRaises(RuntimeError) as cm:
+            bpy.ops.bsarap.bake_shape_keys()
+        self.assertIn("a bake is under way", str(cm.exception))
+        Op.cancel(op, ctx)
+        self.assertEqual(calls, ["timer removed", "progress end"])
+        self.assertFalse(ext.solve.built(bpy.data.objects["m"]).baking)
+        self.assertEqual(bpy.context.scene.frame_current, 3)
+        self.assertEqual(bpy.ops.bsarap.bake_shape_keys(), {"FINISHED"})
+
     def test_unexpected_error_in_one_go(self):
         self.obj.bsarap.pc2_path = os.path.join(tempfile.mkdtemp(), "m.pc2")
         with mock.patch.object(ext.solve, "solve", side_effect=ValueError("boom")):
