@@ -60,19 +60,23 @@ REST_DELAY = 0.15
 
 class SolverState:
     """A built solver for one object and what it was built from: ``rest`` and ``labels`` on
-    the mesh's vertices; the solver's on the cleaned mesh, ``vertex_map`` taking a mesh vertex
-    to its cleaned vertex (-1: in no triangle, left at rest)."""
+    the mesh's vertices; ``cleaned``, the solver's positions and labels on the cleaned mesh;
+    ``vertex_map`` taking a mesh vertex to its cleaned vertex (-1: in no triangle, at rest)."""
 
-    def __init__(self, key, deformer, rest, labels, group_names, cleaned_rest, vertex_map):
+    def __init__(self, key, deformer, rest, labels, group_names, cleaned, vertex_map):
         self.key = key
         self.deformer = deformer
         self.rest = rest
         self.labels = labels
         self.group_names = group_names
-        self.cleaned_rest = cleaned_rest
+        self.cleaned_rest, welded = cleaned
         self.vertex_map = vertex_map
+        # nothing welded or dropped: the solver's pose is the mesh's as it is
+        self.identity = len(vertex_map) == len(self.cleaned_rest) and bool(
+            np.array_equal(vertex_map, np.arange(len(vertex_map)))
+        )
         self.handle_vertices = np.asarray(deformer.handle_vertices)
-        self.handle_labels = cleaned_labels(labels, vertex_map, len(cleaned_rest))[self.handle_vertices]
+        self.handle_labels = welded[self.handle_vertices]
         self.last_deltas = None  # the control motions of the last solve (re-entrancy guard)
         self.last_ms = None  # the last update's time in the handler: solve + shape key write
         self.solves = 0
@@ -85,11 +89,13 @@ class SolverState:
         self.ended = None
         self.baking = False  # a bake solves the frames: no live solve, finish_step waits
         # the rest bounding-box diagonal: the unit of the fractions (bending length, smoothing)
-        self.diagonal = diagonal(cleaned_rest)
+        self.diagonal = diagonal(self.cleaned_rest)
 
     def on_mesh(self, U: np.ndarray) -> np.ndarray:
         """The solver's pose ``U`` (cleaned vertices) on the mesh's vertices: welded ones
         together, one in no triangle at rest."""
+        if self.identity:
+            return U
         kept = self.vertex_map >= 0
         out = np.array(self.rest, dtype=np.float64, copy=True)
         out[kept] = np.asarray(U)[self.vertex_map[kept]]
@@ -316,7 +322,7 @@ def build(obj) -> SolverState:
         d = bsarap.Deformer(V, tri, welded, **obj.bsarap.solver_settings())
     except bsarap.BsarapError as e:
         raise HandleError(f"{obj.name}: {e}") from None
-    return SolverState(state_key(obj), d, rest, labels, names, V, vertex_map)
+    return SolverState(state_key(obj), d, rest, labels, names, (V, welded), vertex_map)
 
 
 def state(obj, *, rebuild=True) -> SolverState:

@@ -258,10 +258,7 @@ pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
     let files = output_files(&a.output, &output, n_frames, !loaded.mesh.asset.materials.is_empty());
     inputs.extend(Input::libraries(&loaded.mesh.asset));
     outputs::check(&files, &inputs)?;
-    // Said now, not after hours of solving by the kernel's out-of-memory kill (as the editor).
-    let available = app::memory::available_mib();
-    app::editor::jobs::recording_fits(n_frames, mesh.n_vertices(), available)
-        .map_err(|e| anyhow::anyhow!("{source}: {e}"))?;
+    super::recording_fits(&source, n_frames, mesh.n_vertices())?;
 
     let t0 = Instant::now();
     let options = scene.deformer_options();

@@ -216,6 +216,15 @@ pub fn check_config(config: &solver::ArapConfig) -> anyhow::Result<()> {
 
 pub type PathArg = PathBuf;
 
+/// Refuses a recording of `frames` frames of `vertices` vertices that would not fit in the
+/// available memory, with the editor's rule (`jobs::recording_fits`), before it is solved:
+/// the kernel's out-of-memory kill came after hours, with no error line.
+pub fn recording_fits(source: &str, frames: usize, vertices: usize) -> anyhow::Result<()> {
+    let available = app::memory::available_mib();
+    app::editor::jobs::recording_fits(frames, vertices, available)
+        .map_err(|e| anyhow::anyhow!("{source}: {e}"))
+}
+
 /// The value parser of the flags that count (frames, iterations, vertices, pixels): a whole
 /// number ≥ 0. With `allow_negative_numbers` on the flag, `-1` reaches it (instead of being
 /// taken for a flag) and is refused by this message, not by the integer parser's "invalid

@@ -121,9 +121,7 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
         outputs::check(&frames, &Input::scene_files(&a.scene, &file.path, &doc))?;
     }
     if moving {
-        let available = app::memory::available_mib();
-        app::editor::jobs::recording_fits(n_frames, mesh.n_vertices(), available)
-            .map_err(|e| anyhow::anyhow!("{source}: {e}"))?;
+        super::recording_fits(&source, n_frames, mesh.n_vertices())?;
     }
     // The device before the solve: no adapter fails at once (and makes no folder).
     let mut offscreen = Offscreen::headless()?;

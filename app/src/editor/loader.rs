@@ -337,9 +337,8 @@ fn prepare(
     for candidate in selection_candidates(path) {
         // Found beside the mesh, not named by the user: a pipe there (an archive can carry
         // one) would hold the load for good, a device never end.
-        if candidate.exists() && !std::fs::metadata(&candidate).is_ok_and(|m| m.is_file()) {
-            let name = candidate.display();
-            notices.push(format!("ignored selection {name}: not a regular file"));
+        if let Some(why) = solver::io::not_regular(&candidate) {
+            notices.push(format!("ignored selection {}: {why}", candidate.display()));
             continue;
         }
         if candidate.exists() {

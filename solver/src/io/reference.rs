@@ -73,7 +73,7 @@ pub(crate) fn resolve(root: &Path, from: &Path, reference: &str) -> Result<Resol
 /// downloaded archive can carry a pipe beside its mesh; a reference can name a device. Only
 /// references are held to this: a file the user names is read as it is (a pipe there is the
 /// user's own, such as a shell's `<(...)`; the editor's tests hold loads open with them).
-pub(crate) fn not_regular(path: &Path) -> Option<&'static str> {
+pub fn not_regular(path: &Path) -> Option<&'static str> {
     let meta = std::fs::metadata(path).ok()?;
     (!meta.is_file() && !meta.is_dir())
         .then_some("not a regular file (a pipe, a socket or a device)")

@@ -13,7 +13,7 @@
 
 use super::asset::Asset;
 use super::error::{Ctx, LoadError};
-use super::text::{as_text, coord, token_lines};
+use super::text::{as_text, coord, token_lines, without_bom};
 use crate::geometry::mesh::in_range;
 
 /// Parses STL bytes into soup positions (`3·#F×3`) and triangles (`#F×3`).
@@ -26,7 +26,7 @@ pub(crate) fn parse(bytes: &[u8], ctx: Ctx) -> Result<Asset, LoadError> {
     let len = bytes.len() as u64;
     // After a UTF-8 byte order mark, if any. Text has no NUL byte (a binary STL's attribute
     // words are zero), but need not be UTF-8: a solid named in Latin-1 (`W\xfcrfel`) is text.
-    let solid = text_start(bytes).starts_with(b"solid");
+    let solid = without_bom(bytes).trim_ascii_start().starts_with(b"solid");
     let has = |word: &[u8]| bytes.windows(word.len()).any(|w| w == word);
     let looks_ascii = solid && !bytes.contains(&0) && (has(b"facet") || has(b"endsolid"));
     match (claimed, expected) {
@@ -47,11 +47,6 @@ pub(crate) fn parse(bytes: &[u8], ctx: Ctx) -> Result<Asset, LoadError> {
             format!("not an STL file: {len} bytes is shorter than a binary STL header (84) and the text does not start with 'solid'"),
         )),
     }
-}
-
-/// `bytes` without a UTF-8 byte order mark and leading whitespace.
-fn text_start(bytes: &[u8]) -> &[u8] {
-    bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes).trim_ascii_start()
 }
 
 fn binary(bytes: &[u8], n: u64, ctx: Ctx) -> Result<Asset, LoadError> {
@@ -110,7 +105,7 @@ fn ascii(bytes: &[u8], ctx: Ctx) -> Result<Asset, LoadError> {
     let text = match as_text(bytes, ctx) {
         Ok(t) => t,
         Err(LoadError::NotText { .. }) if !bytes.contains(&0) => {
-            lossy = String::from_utf8_lossy(bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes));
+            lossy = String::from_utf8_lossy(without_bom(bytes));
             &*lossy
         }
         Err(e) => return Err(e),

@@ -59,11 +59,16 @@ impl Replaced {
     }
 }
 
+/// `bytes` without a UTF-8 byte-order mark.
+pub(crate) fn without_bom(bytes: &[u8]) -> &[u8] {
+    bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes)
+}
+
 /// The bytes as text, without a UTF-8 byte-order mark.
 ///
 /// Errors: [`LoadError::NotText`] naming the line of the first invalid UTF-8 sequence or NUL byte.
 pub(crate) fn as_text<'a>(bytes: &'a [u8], ctx: Ctx) -> Result<&'a str, LoadError> {
-    let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
+    let bytes = without_bom(bytes);
     let not_text = |at: usize| LoadError::NotText {
         file: ctx.file.to_string(),
         line: line_of_offset(bytes, at),

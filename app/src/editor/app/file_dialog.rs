@@ -321,12 +321,11 @@ impl EditorApp {
     /// Whether to ask before writing over `path` (a save's file, as it will be written; an
     /// error is said where the save is refused): when it exists, the question is set up. Not
     /// for the scene being edited: writing it is what Save does.
-    fn ask_replace(&mut self, kind: DialogKind, path: Result<PathBuf, String>) -> bool {
-        let document = self.session.document_path.clone();
-        let existing = path.ok().filter(|p| p.is_file() && document.as_ref() != Some(p));
-        let asks = existing.is_some();
-        if let Some(p) = existing {
-            self.jobs.dialogs.replace = Some((kind, p));
+    fn ask_replace(&mut self, kind: DialogKind, path: &Result<PathBuf, String>) -> bool {
+        let Ok(path) = path else { return false };
+        let asks = path.is_file() && self.session.document_path.as_ref() != Some(path);
+        if asks {
+            self.jobs.dialogs.replace = Some((kind, path.clone()));
         }
         asks
     }
@@ -367,10 +366,11 @@ impl EditorApp {
             DialogKind::LoadSelection => self.load_selection(ctx, &path),
             DialogKind::LoadTexture => self.load_texture(ctx, &path),
             DialogKind::SaveSelection => {
-                if ask_replace && self.ask_replace(kind, self.save_path(&path, "dmat")) {
+                let target = self.save_path(&path, "dmat");
+                if ask_replace && self.ask_replace(kind, &target) {
                     return;
                 }
-                let written = self.save_path(&path, "dmat").and_then(|path| {
+                let written = target.and_then(|path| {
                     loader::write_dmat(&path, &self.session.edit.labels)
                         .map_err(|e| format!("{e:#}"))
                         .map(|()| path)
@@ -382,10 +382,11 @@ impl EditorApp {
             }
             DialogKind::SaveScene => {
                 // the open or quit that waited for the save goes on once it is written
-                if ask_replace && self.ask_replace(kind, self.save_path(&path, "json")) {
+                let target = self.save_path(&path, "json");
+                if ask_replace && self.ask_replace(kind, &target) {
                     return;
                 }
-                match self.save_path(&path, "json") {
+                match target {
                     Ok(path) => self.start_save(ctx, &path),
                     Err(e) => {
                         self.save_not_started();
@@ -398,13 +399,15 @@ impl EditorApp {
                     if path.extension().is_none() { path.with_extension("glb") } else { path };
                 // An OBJ sequence writes NAME_0001.obj, ..., not the file named.
                 let sequence = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("obj"));
-                // Asked only of a file the export may write (not the open mesh, say).
-                let allowed =
-                    crate::outputs::check(std::slice::from_ref(&path), &self.read_files(true))
+                if ask_replace && !sequence {
+                    // Asked only of a file the export may write (not the open mesh, say).
+                    let inputs = self.read_files(true);
+                    let allowed = crate::outputs::check(std::slice::from_ref(&path), &inputs)
                         .map(|()| path.clone())
                         .map_err(|e| e.to_string());
-                if ask_replace && !sequence && self.ask_replace(kind, allowed) {
-                    return;
+                    if self.ask_replace(kind, &allowed) {
+                        return;
+                    }
                 }
                 self.export_gltf(ctx, path)
             }
