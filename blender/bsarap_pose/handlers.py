@@ -14,6 +14,10 @@ data during a render can crash Blender, so an animation is baked before it is re
 is kept as the object's message (the panel shows it) and printed once, never a traceback per
 update.
 
+Undo and redo bring back an undo step's pose keys, maybe a pose that had not settled: each
+solver's last motion is forgotten (``solve.undone``), so the update that follows solves the pose
+again and the timer settles it; the panel never calls the undone pose at rest.
+
 Each update first drops what is kept for objects deleted since (``solve.prune``): when the objects
 in the scenes changed, by their session uids (an object deleted and another added in one update
 leave the counts as they were), and tends the claims (``claims.tend_claims``). A loaded file
@@ -182,6 +186,13 @@ def on_load(_filepath=None, _unused=None):
 
 
 @persistent
+def on_undo(_scene=None, _unused=None):
+    """Undo or redo: the pose keys are the undo step's, perhaps short of the rest the solvers
+    reached since (``solve.undone``); the depsgraph update that follows solves them again."""
+    solve.undone()
+
+
+@persistent
 def on_render_start(_scene=None, _unused=None):
     global rendering
     rendering = True
@@ -197,6 +208,8 @@ _handlers = (
     ("depsgraph_update_post", on_depsgraph_update),
     ("frame_change_post", on_frame_change),
     ("load_post", on_load),
+    ("undo_post", on_undo),
+    ("redo_post", on_undo),
     ("render_init", on_render_start),
     ("render_pre", on_render_start),
     ("render_complete", on_render_end),

@@ -5,11 +5,12 @@ added, in the mesh object's space ``O``: ``D_k = (O^-1 E_k) (O^-1 E_k)_rest^-1``
 are the group's rest vertices moved by it, ``t_i = D_k p_i``; ``Deformer.solve_targets`` gives
 the pose, which goes into the shape key ``POSE_KEY`` (value 1) so the base mesh is never
 overwritten. The state is kept under the object's ``session_uid`` (:func:`uid`) and built for
-a key (:class:`StateKey`): its topology counts, a checksum of its rest coordinates, its handle
-groups, the settings and the modifiers that block posing; a change of any of them rebuilds the
-solver (with a message) instead of failing, while a rename keeps it. A build that failed is not
-tried again until its key changes (or *Add Controls*): the depsgraph updates that follow get its
-message at once. What is kept for an object no longer in any scene is dropped (:func:`prune`).
+a key (:class:`StateKey`): its topology (counts and a checksum of the faces' connectivity), a
+checksum of its rest coordinates, its handle groups, the settings and the modifiers that block
+posing; a change of any of them rebuilds the solver (with a message) instead of failing, while
+a rename keeps it. A build that failed is not tried again until its key changes (or *Add
+Controls*): the depsgraph updates that follow get its message at once. What is kept for an
+object no longer in any scene is dropped (:func:`prune`).
 
 Each control Empty poses one object, and so does each mesh: the first object posed claims them,
 and another that uses them is refused with a message (:func:`check_controls`; the claims
@@ -193,7 +194,7 @@ def _drop_message(k, *kept) -> None:
 def rest_diagonal(obj) -> float:
     """The rest bounding-box diagonal of ``obj``'s mesh in object space (the solver's unit of
     length): the built solver's while its rest mesh is the mesh's, else measured once per rest
-    mesh (the panel draws it often; the checksum costs about 1 ms per 100k vertices)."""
+    mesh (the panel draws it often; the checksums cost about 2 ms per 100k vertices)."""
     k = uid(obj)
     st = _states.get(k)
     fp = (handles.topology_fingerprint(obj.data), handles.rest_fingerprint(obj.data))
@@ -276,6 +277,7 @@ class StateKey(NamedTuple):
     (the entries are under its session uid: a rename keeps the solver), nor the modifiers that
     keep the vertices in place (they act after the pose)."""
 
+    #: the element counts and the connectivity's checksum (``handles.topology_fingerprint``)
     topology: tuple
     #: the basis edited (its vertices moved): the rest shape changed
     rest: int
@@ -351,10 +353,8 @@ def state(obj, *, rebuild=True) -> SolverState:
     _failures.pop(k, None)
     if st is not None:
         if st.key.topology != key.topology:
-            messages[k] = (
-                f"{obj.name}: the topology changed ({st.key.topology[0]} -> {key.topology[0]} "
-                "vertices); solver rebuilt"
-            )
+            change = _topology_change(st.key, key)
+            messages[k] = f"{obj.name}: the topology changed ({change}); solver rebuilt"
         elif st.key.rest != key.rest:
             messages[k] = f"{obj.name}: the rest mesh (basis) changed; solver rebuilt"
         elif st.key.weights != key.weights:
@@ -363,6 +363,14 @@ def state(obj, *, rebuild=True) -> SolverState:
             messages[k] = f"{obj.name}: settings or groups changed; solver rebuilt"
     _states[k] = new
     return new
+
+
+def _topology_change(old: StateKey, new: StateKey) -> str:
+    """How the topology changed between two keys, for the rebuild's message: the vertex counts,
+    or, where the counts stayed, that the faces were reconnected (Rotate Edge, faces sorted)."""
+    if old.topology[:4] != new.topology[:4]:
+        return f"{old.topology[0]} -> {new.topology[0]} vertices"
+    return f"faces reconnected, {new.topology[0]} vertices"
 
 
 def _renamed(failed, name) -> HandleError:
@@ -439,6 +447,17 @@ def editing(obj) -> bool:
     if before in WEIGHT_MODES and mode != before:
         weights_edited(obj)
     return False
+
+
+def undone() -> None:
+    """Blender's undo or redo brought back an undo step's data, the pose keys as they were then:
+    maybe a pose short of rest (the finishing steps push no undo step), while each solver still
+    holds where its pose ended since, "rest" perhaps, for controls back where they were. Forget
+    every solver's last motion, as on leaving Edit Mode (:func:`editing`): the panel claims no
+    state of the undone pose, and the next update (the undo's own) solves it again, and the
+    finishing steps settle it."""
+    for st in _states.values():
+        st.last_deltas = None
 
 
 def weights_edited(obj) -> None:

@@ -1,7 +1,7 @@
 """Tests of the Blender extension's robustness in bpy, headless: bakes with a frame step, the
 point cache's path, deleted controls, Edit Mode, a bake stopped by an error or an undo, failed
-builds, a singular object transform, an edited basis, non-uniform scale, rendering, renamed and
-deleted objects, and copies of a posed object.
+builds, a singular object transform, an edited basis, faces reconnected with the counts kept,
+non-uniform scale, rendering, renamed and deleted objects, and copies of a posed object.
 
 Run with Blender's Python (bpy from PyPI):
     tools/blender/.venv/bin/python blender/tests/test_robustness.py [-v] [Class.test_name]
@@ -26,6 +26,9 @@ from common import (  # noqa: E402  (sets BLENDER_USER_RESOURCES before bpy)
     evaluated_positions, expected_handles, ext, fake_modal_bake, key_co, link_rig, make_controls,
     np, pose_of, posed_tube, setUpModule, tube
 )
+
+if SKIP is None:
+    import bmesh
 
 
 def key_top(frames_x):
@@ -413,6 +416,90 @@ class Errors(unittest.TestCase):
         bpy.context.view_layer.update()
         labels = draw_panel(ext.panel.BSARAP_PT_pose, obj).labels
         self.assertTrue(any("apply scale first" in t for t in labels), labels)
+
+
+class Reconnected(unittest.TestCase):
+    """An edit of the faces that keeps the element counts (Rotate Edge on a triangle mesh, faces
+    sorted) rebuilds the solver, which else went on solving on the old connectivity: the
+    topology's fingerprint checks the connectivity, not only the counts."""
+
+    def setUp(self):
+        bpy.ops.wm.read_homefile(use_empty=True)
+        self.obj = tube()
+        self.edit(lambda bm: bmesh.ops.triangulate(bm, faces=bm.faces[:]))
+        make_controls(self.obj, ["bottom", "top"])
+
+    def edit(self, change):
+        """``change(bm)`` on the mesh through bmesh (its shape keys and vertex groups kept)."""
+        me = self.obj.data
+        bm = bmesh.new()
+        bm.from_mesh(me)
+        change(bm)
+        bm.to_mesh(me)
+        bm.free()
+        me.update()
+
+    def assert_rebuilt(self, change):
+        """``change`` keeps the counts, yet the next update rebuilds the solver, says so, and
+        poses with the mesh's triangles now: the pose of a Deformer built from them."""
+        obj = self.obj
+        counts = ext.handles.topology_fingerprint(obj.data)[:4]
+        triangles = ext.handles.triangles(obj.data)
+        st = ext.solve.state(obj)
+        self.edit(change)
+        self.assertEqual(ext.handles.topology_fingerprint(obj.data)[:4], counts)
+        self.assertFalse(np.array_equal(ext.handles.triangles(obj.data), triangles))
+        bpy.data.objects["top"].location.x += 0.4
+        bpy.context.view_layer.update()  # the live update
+        new = ext.solve.state(obj)
+        self.assertIsNot(new, st, "solved on the old connectivity")
+        self.assertIn("topology changed (faces reconnected", ext.solve.message(obj))
+        ref = bsarap.Deformer(
+            new.rest, ext.handles.triangles(obj.data), new.labels, **obj.bsarap.solver_settings()
+        )
+        want = ref.solve_targets(ext.solve.targets(new, ext.solve.control_deltas(obj)))
+        np.testing.assert_allclose(pose_of(obj), want, atol=1e-5)
+        assert_pose_follows(obj)
+
+    def test_rotate_edge(self):
+        def rotate(bm):
+            # an edge between two triangles halfway up the tube, turned to the other diagonal
+            edge = next(
+                e for e in bm.edges
+                if len(e.link_faces) == 2 and all(abs(v.co.z - 2.0) < 0.5 for v in e.verts)
+                and abs(e.verts[0].co.z - e.verts[1].co.z) > 1e-3
+            )
+            self.assertEqual(len(bmesh.ops.rotate_edges(bm, edges=[edge])["edges"]), 1)
+
+        self.assert_rebuilt(rotate)
+
+    def test_faces_sorted(self):
+        self.assert_rebuilt(lambda bm: bm.faces.sort(key=lambda f: -f.index))
+
+    def test_faces_split_another_way(self):
+        """The same corners cut into faces another way (a quad and a triangle, or a triangle and
+        a quad): the counts and each corner's vertex stay, the closing edges change."""
+        verts = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (2, 0, 0), (3, 0, 0), (2, 1, 0)]
+        meshes = []
+        for faces in ([(0, 1, 2, 3), (4, 5, 6)], [(0, 1, 2), (3, 4, 5, 6)]):
+            me = bpy.data.meshes.new("split")
+            me.from_pydata(verts, [], faces)
+            me.update()
+            meshes.append(me)
+        a, b = (ext.handles.topology_fingerprint(me) for me in meshes)
+        self.assertEqual(a[:4], b[:4])
+        self.assertNotEqual(a, b)
+
+    def test_fingerprint_without_the_internal_attributes(self):
+        """Where Blender has no internal connectivity attributes, the same numbers are read
+        through the mesh's loops and edges: the same fingerprint."""
+        me = self.obj.data
+        plain = types.SimpleNamespace(
+            attributes={}, vertices=me.vertices, edges=me.edges, loops=me.loops,
+            polygons=me.polygons,
+        )
+        fingerprint = ext.handles.topology_fingerprint
+        self.assertEqual(fingerprint(plain), fingerprint(me))
 
 
 class SessionKeys(unittest.TestCase):

@@ -1,6 +1,6 @@
 """Tests of the Blender extension's solving in bpy, headless: the smooth-rotations energy and
 its bending length against the Python API's Deformer, and the finishing steps that take the
-live pose to its rest once the controls stop.
+live pose to its rest once the controls stop (again after an undo or redo).
 
 Run with Blender's Python (bpy from PyPI):
     tools/blender/.venv/bin/python blender/tests/test_solving.py [-v] [Class.test_name]
@@ -397,6 +397,64 @@ class Finishing(unittest.TestCase):
         baker.restore_frame()
         self.assertEqual(ext.solve.finish_step(obj), 0.0)
         self.assertEqual(st.solves, solves + 1)
+
+
+class UndoSettling(unittest.TestCase):
+    """Undo and redo bring back an undo step's pose key: pushed right after a move, it holds a
+    pose short of rest (the finishing steps push no undo step), while the solver settled since
+    for the same controls. The panel does not call that pose at rest: it is solved again and
+    settled. (The undo's own depsgraph update solves; the test calls the timer as Blender
+    would.)"""
+
+    def settle(self, obj):
+        """The finishing steps run to the end at once (the controls rested long enough); the
+        settled pose."""
+        st = ext.solve.state(obj)
+        st.moved_at -= 1.0
+        calls = 0
+        while ext.handlers.finish_timer() is not None:
+            calls += 1
+            self.assertLess(calls, 5000)
+        self.assertEqual(st.ended, "rest")
+        self.assertTrue(ext.solve.status(obj)[0].startswith("At rest"))
+        return pose_of(obj)
+
+    def assert_settles_again(self, what, unsettled, settled):
+        """After ``what`` (an undo or a redo) to a step holding the pose ``unsettled``: not said
+        to be at rest until the finishing steps took the pose back to ``settled``."""
+        obj = bpy.data.objects["tube"]  # the undo step's object
+        bpy.context.view_layer.update()
+        status = ext.solve.status(obj)
+        self.assertFalse(
+            status is not None and status[0].startswith("At rest"),
+            f"after {what}: '{status[0] if status else None}' with the step's pose short of rest",
+        )
+        self.assertEqual(status, ("Live: settles once the controls rest", "TIME"), what)
+        self.assertGreater(np.abs(pose_of(obj) - unsettled).max(), 0.0, f"{what}: not solved again")
+        again = self.settle(obj)
+        np.testing.assert_allclose(again, settled, atol=1e-4, err_msg=what)
+
+    def test_undo_and_redo_to_an_unsettled_pose(self):
+        bpy.ops.wm.read_homefile(use_empty=True)
+        obj = tube()
+        obj.bsarap.max_iters = 3  # the live solve stops short of converged
+        make_controls(obj, ["bottom", "top"])
+        top = bpy.data.objects["top"]
+        top.location = Vector(top.location) + Vector((1.0, 0.0, -0.5))
+        bpy.context.view_layer.update()  # the live solve
+        self.assertFalse(ext.solve.state(obj).converged)
+        unsettled = pose_of(obj)
+        # two steps pushed before the pose settled (a move, then a change the pose ignores)
+        bpy.ops.ed.undo_push(message="moved")
+        obj.bsarap.live = True
+        bpy.ops.ed.undo_push(message="unrelated")
+        settled = self.settle(obj)
+        self.assertGreater(np.abs(settled - unsettled).max(), 0.05, "the live solve was at rest")
+
+        bpy.ops.ed.undo()  # to "moved": the controls where they are, the pose key short of rest
+        self.assert_settles_again("undo", unsettled, settled)
+        bpy.ops.ed.redo()  # to "unrelated": the same again
+        self.assert_settles_again("redo", unsettled, settled)
 
 
 if __name__ == "__main__":
