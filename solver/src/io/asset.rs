@@ -27,7 +27,10 @@
 //! $n$ in [`Asset::polygon_sizes`]. The fan gives the corners back in the file's order:
 //! $c_0, c_1$ from the first triangle, then the last corner of each
 //! ([`Asset::polygon_corners`]); writers that hold polygons (OBJ, PLY, OFF) write each face
-//! with the corners the file had. Parts start and end at polygon boundaries.
+//! with the corners the file had. Where the fan from $c_0$ would fold (a non-convex quad) or
+//! leave a triangle without area, the loader fans the polygon from another corner
+//! (`polygon::root_fans`) and [`Asset::polygon_starts`] records where $c_0$ went, so the file's
+//! corners still come back in the file's order. Parts start and end at polygon boundaries.
 //!
 //! Cleaning never edits the asset: a polygon some of whose triangles cleaning dropped (zero
 //! area, or a duplicate of an earlier triangle) is still written as the file had it, its
@@ -240,6 +243,10 @@ pub struct Asset {
     /// being the fan of the next $n_k - 2$ entries of `triangles` (see the module doc).
     /// Empty: every triangle is a face of its own (glTF, STL, files of triangles only).
     pub polygon_sizes: Vec<u32>,
+    /// For each polygon of `polygon_sizes`, the place of the file's first corner in its fan's
+    /// corner order ([`Asset::polygon_corners`]): $s$ where the fan starts at corner
+    /// $c_{(n-s) \bmod n}$. Empty: every fan starts at the file's first corner.
+    pub polygon_starts: Vec<u32>,
     /// Covers `triangles` in order; one part when the file has no grouping.
     pub parts: Vec<Part>,
     pub materials: Vec<Material>,
@@ -336,18 +343,29 @@ impl Asset {
             .fuse()
     }
 
-    /// The corners of a polygon in the file's order from its fan `fan` (its triangles in
-    /// [`Asset::triangles`], or the same range of an [`Attribute`]'s corners):
-    /// $c_0, c_1$ of the first triangle, then the last corner of each triangle.
-    pub fn polygon_corners(fan: &[[u32; 3]]) -> impl Iterator<Item = u32> + '_ {
+    /// The place of polygon `k`'s first corner in its fan's corner order (see
+    /// [`Asset::polygon_starts`]); 0 when the fan starts there.
+    pub fn polygon_start(&self, k: usize) -> usize {
+        self.polygon_starts.get(k).map_or(0, |&s| s as usize)
+    }
+
+    /// The corners of a polygon from its fan `fan` (its triangles in [`Asset::triangles`], or
+    /// the same range of an [`Attribute`]'s corners): the fan's corner order is $c_0, c_1$ of
+    /// the first triangle, then the last corner of each triangle; the corners are given from
+    /// place `start` of that order on, cyclically, so [`Asset::polygon_start`] gives the file's
+    /// order back.
+    pub fn polygon_corners(fan: &[[u32; 3]], start: usize) -> impl Iterator<Item = u32> + '_ {
         let head = fan.first().map(|t| [t[0], t[1]]).into_iter().flatten();
-        head.chain(fan.iter().map(|t| t[2]))
+        let order = head.chain(fan.iter().map(|t| t[2]));
+        let n = fan.len() + 2;
+        order.clone().skip(start % n).chain(order.take(start % n))
     }
 
     /// Checks [`Asset::polygon_sizes`] against the triangles: each size at least 3, the sizes'
     /// fans ($\sum_k (n_k - 2)$ triangles) cover `triangles` exactly, each fan shares its
     /// first corner and chains its edges ($t_j = (c_0, c_j, c_{j+1})$) in the positions and in
-    /// every attribute's corners, and every part starts at a polygon's first triangle.
+    /// every attribute's corners, [`Asset::polygon_starts`] is empty or has a place within
+    /// each polygon, and every part starts at a polygon's first triangle.
     pub fn check_polygons(&self) -> Result<(), String> {
         if self.polygon_sizes.is_empty() {
             return Ok(());
@@ -377,6 +395,21 @@ impl Asset {
                     return Err(format!("{what}: polygon {k}'s triangles are not one fan"));
                 }
             }
+        }
+        let fan_starts = &self.polygon_starts;
+        if !fan_starts.is_empty() && fan_starts.len() != self.polygon_sizes.len() {
+            return Err(format!(
+                "{} fan starts for {} polygons",
+                fan_starts.len(),
+                self.polygon_sizes.len()
+            ));
+        }
+        if let Some(k) = (0..fan_starts.len()).find(|&k| fan_starts[k] >= self.polygon_sizes[k]) {
+            let n = self.polygon_sizes[k];
+            return Err(format!(
+                "polygon {k}'s fan starts at place {}, past its {n} corners",
+                fan_starts[k]
+            ));
         }
         if let Some(k) = self.parts.iter().position(|p| !starts.get(p.first).is_some_and(|&s| s)) {
             return Err(format!("part {k} starts inside a polygon"));

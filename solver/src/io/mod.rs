@@ -3,7 +3,7 @@
 //!
 //! [`load_mesh`] picks the parser from the file extension (case-insensitive), parses the file
 //! into positions (`#V×3 f64`, file order) and triangles (`#F×3 u32`, polygons fan-triangulated
-//! as `(v0, v_k, v_k+1)`), then runs [`crate::geometry::cleanup::clean`] (weld, drop degenerate, duplicated
+//! from a corner where the fan does not fold, `polygon`), then runs [`crate::geometry::cleanup::clean`] (weld, drop degenerate, duplicated
 //! and unreferenced elements) and returns the mesh with the [`CleanReport`].
 //!
 //! Besides the mesh, every reader fills the file's [`Asset`]: its own vertex layout, and the
@@ -33,6 +33,7 @@ mod obj;
 mod obj_write;
 mod off;
 mod ply;
+mod polygon;
 pub(crate) mod reference;
 mod stl;
 mod text;
@@ -189,6 +190,7 @@ fn parse_and_clean(
     if raw.parts.is_empty() {
         raw.parts = vec![Part { count: raw.triangles.len(), ..Part::default() }];
     }
+    polygon::root_fans(&mut raw);
     let (mesh, report) = clean(&raw.positions, &raw.triangles).map_err(|e| match e {
         CleanError::NoTriangles { .. } => ctx.no_triangles(e.to_string()),
         CleanError::NonFinite { vertex, value } => ctx.non_finite(None, vertex, value),

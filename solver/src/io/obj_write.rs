@@ -319,7 +319,7 @@ fn obj_text(
     for v in normals.unwrap_or(&[]) {
         let _ = writeln!(text, "vn {} {} {}", v[0] as f32, v[1] as f32, v[2] as f32);
     }
-    let mut polygons = asset.polygons().peekable();
+    let mut polygons = asset.polygons().enumerate().peekable();
     let mut object = "";
     for part in parts.iter() {
         let name = if part.name.is_empty() { &part.node } else { &part.name };
@@ -339,9 +339,12 @@ fn obj_text(
             }
         }
         // Parts start at polygon boundaries (checked above).
-        while let Some(fan) = polygons.next_if(|fan| fan.start < part.first + part.count) {
+        while let Some((k, fan)) = polygons.next_if(|(_, fan)| fan.start < part.first + part.count)
+        {
             text.push('f');
-            let corners = |k: &'_ [[u32; 3]]| Asset::polygon_corners(&k[fan.clone()]).collect();
+            let start = asset.polygon_start(k);
+            let corners =
+                |c: &'_ [[u32; 3]]| Asset::polygon_corners(&c[fan.clone()], start).collect();
             let v: Vec<u32> = corners(&asset.triangles);
             let vt: Option<Vec<u32>> = uvs.map(|a| corners(&a.corners));
             let vn: Option<Vec<u32>> = normal_corners.map(corners);

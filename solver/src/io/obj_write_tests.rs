@@ -64,6 +64,7 @@ fn cube_asset() -> Asset {
             Image { name: "unused".into(), mime_type: "image/jpeg".into(), bytes: vec![1, 2] },
         ],
         polygon_sizes: Vec::new(),
+        polygon_starts: Vec::new(),
         notices: Vec::new(),
         material_libraries: Vec::new(),
     }
@@ -289,9 +290,10 @@ fn bad_inputs_write_nothing() {
 /// A 4×4 grid (0.25 apart) with its centre cell left open (a hole) and open outer edges:
 /// a hexagon over two cells, a pentagon with a vertex added on the bottom edge, quads, two
 /// triangles, and a quad with a repeated corner (vertex 18 welds onto vertex 5: one of its
-/// fan's triangles has no area and cleaning drops it; so do the hexagon's and pentagon's
-/// first triangles, over three collinear corners). One `vt` per `v` (so PLY can hold
-/// them), one `vn`, two `usemtl` runs.
+/// fan's triangles has no area and cleaning drops it; the hexagon's and pentagon's fans from
+/// their first corners would have triangles without area over three collinear corners, so
+/// they fan from another corner). One `vt` per `v` (so PLY can hold them), one `vn`, two
+/// `usemtl` runs.
 fn polygon_obj() -> (String, Vec<usize>) {
     let mut text = String::from("o grid\n");
     for j in 0..4 {
@@ -339,10 +341,13 @@ fn polygons_and_holes_round_trip_through_obj_ply_and_off() {
     assert_eq!(asset.polygon_sizes, sizes);
     assert_eq!(asset.face_count(), 8);
     assert_eq!(asset.triangles.len(), 17, "the solver's fan: sum of n - 2");
-    // Cleaning welds the repeated corner and drops three fan triangles without area (the
-    // quad's, and the hexagon's and pentagon's over collinear corners); the faces stay.
+    // The hexagon and the pentagon fan from a corner on a straight side, so that every corner
+    // is joined to its polygon's triangles; their file's first corners stay first in writing.
+    assert_eq!(asset.polygon_starts, [5, 4, 0, 0, 0, 0, 0, 0]);
+    // Cleaning welds the repeated corner and drops the quad's triangle without area; the
+    // faces stay.
     assert!(loaded.report.changed());
-    assert_eq!(loaded.mesh.triangles().len(), 14);
+    assert_eq!(loaded.mesh.triangles().len(), 16);
 
     // A pose of the mesh, on the file's layout, with its deformed normals.
     let x: Vec<[f64; 3]> =
@@ -392,6 +397,11 @@ fn polygons_that_do_not_fit_the_triangles_are_refused() {
     bad.polygon_sizes[0] = 5;
     assert!(bad.check().unwrap_err().contains("cover 16 of 17"));
     check(write_obj_asset(&path, &bad, &asset.positions, None), "cover 16 of 17");
+    let mut bad = asset.clone();
+    bad.polygon_starts[0] = 6;
+    check(write_obj_asset(&path, &bad, &asset.positions, None), "place 6, past its 6 corners");
+    bad.polygon_starts.pop();
+    check(write_obj_asset(&path, &bad, &asset.positions, None), "7 fan starts for 8 polygons");
     let mut bad = asset.clone();
     bad.polygon_sizes.swap(0, 1);
     check(write_obj_asset(&path, &bad, &asset.positions, None), "not one fan");

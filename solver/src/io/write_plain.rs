@@ -195,7 +195,10 @@ fn checked_faces(
     asset.check_polygons().map_err(inconsistent)?;
     Ok(asset
         .polygons()
-        .map(|fan| Asset::polygon_corners(&asset.triangles[fan]).collect())
+        .enumerate()
+        .map(|(k, fan)| {
+            Asset::polygon_corners(&asset.triangles[fan], asset.polygon_start(k)).collect()
+        })
         .collect())
 }
 

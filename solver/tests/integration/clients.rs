@@ -280,8 +280,12 @@ fn blender_keeps_the_obj_polygons() {
     // numbering).
     let ours: Vec<Vec<u64>> = asset
         .polygons()
-        .map(|fan| {
-            solver::io::Asset::polygon_corners(&asset.triangles[fan]).map(u64::from).collect()
+        .enumerate()
+        .map(|(k, fan)| {
+            let start = asset.polygon_start(k);
+            solver::io::Asset::polygon_corners(&asset.triangles[fan], start)
+                .map(u64::from)
+                .collect()
         })
         .collect();
     let theirs: Vec<Vec<u64>> = o["loops"]

@@ -171,6 +171,7 @@ pub fn asset() -> (Asset, Vec<Option<u32>>) {
         positions,
         triangles,
         polygon_sizes: Vec::new(),
+        polygon_starts: Vec::new(),
         notices: Vec::new(),
         material_libraries: Vec::new(),
     };
