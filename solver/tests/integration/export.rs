@@ -258,6 +258,38 @@ fn too_many_frames_for_morph_targets_are_refused_up_front() {
     assert!(!path.exists());
 }
 
+/// Two meshes: with `Float` encoding they share one weights output, so 25,000 frames (2.3 GiB
+/// of weights) fit; `Quantized` writes one output per mesh (4.7 GiB) and is refused.
+#[test]
+fn float_meshes_share_their_weights_in_the_frame_limit() {
+    use solver::animation::export::{AssetExport, Encoding, ExportSettings};
+    use solver::io::{Asset, Part};
+    let rest = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    let mut asset = Asset::bare(rest.clone(), vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]);
+    asset.parts = ["a", "b"]
+        .iter()
+        .enumerate()
+        .map(|(k, name)| Part { name: name.to_string(), first: 2 * k, count: 2, ..Part::default() })
+        .collect();
+    let n = 25_000;
+    let rec = Recording {
+        times: (0..n).map(|i| i as f64 / 30.0).collect(),
+        frames: vec![rest; n],
+        stats: vec![Default::default(); n],
+    };
+    let vertex_map: Vec<Option<u32>> = (0..4).map(Some).collect();
+    let export = |encoding| {
+        let settings = ExportSettings { encoding, ..ExportSettings::default() };
+        let input =
+            AssetExport { asset: &asset, vertex_map: &vertex_map, recording: &rec, settings };
+        GltfExport::from_asset(&input, GltfFormat::Glb).map(|_| ())
+    };
+    export(Encoding::Float).unwrap();
+    let err = export(Encoding::Quantized).unwrap_err();
+    assert!(matches!(err, ExportError::TooManyFrames { frames: 25_000, .. }), "{err}");
+    assert!(err.to_string().contains("4.7 GiB"), "{err}");
+}
+
 #[test]
 fn nothing_non_finite_is_written() {
     let (mesh, mut rec) = recording(Method::Arap, 3);

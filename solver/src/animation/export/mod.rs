@@ -539,9 +539,15 @@ impl<'a> GltfExport<'a> {
             asset.positions.iter().map(|&p| to_f32_from(origin, p)).collect();
         let rest_normals = layout.rest_normals(&asset);
         let kept = kept_frames(n, settings.every_k);
-        // One weight per target per key and mesh: the animation grows with the square of the
-        // frames kept, and must fit the container before anything is built.
-        let weights = (kept.len() as u64).pow(2) * 4 * layout.meshes.len() as u64;
+        // One weight per target per key, in one output per mesh (`Quantized`: each mesh's
+        // weights are its scales) or one shared by all (`Float`: every weight is 1): the
+        // animation grows with the square of the frames kept, and must fit the container
+        // before anything is built.
+        let outputs = match settings.encoding {
+            Encoding::Float => 1,
+            Encoding::Quantized => layout.meshes.len() as u64,
+        };
+        let weights = (kept.len() as u64).pow(2) * 4 * outputs;
         if weights > u64::from(u32::MAX) {
             return Err(ExportError::TooManyFrames { frames: kept.len(), bytes: weights });
         }
