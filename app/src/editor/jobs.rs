@@ -40,8 +40,9 @@ pub struct Recorded {
     pub recording: Arc<Recording>,
     /// Each frame with its normals, for display.
     pub shapes: Vec<Shape>,
-    /// Size of the `.glb` an export would write.
-    pub glb_bytes: u64,
+    /// Size of the `.glb` an export would write, or why a `.glb` of morph targets cannot hold
+    /// the recording (too many frames): a point cache or bones still can.
+    pub glb_bytes: Result<u64, String>,
     /// The mesh it was recorded on.
     pub mesh: Arc<Mesh>,
     /// The file's layout the mesh came from: exports write onto its vertices.
@@ -417,11 +418,13 @@ pub fn spawn_record(
                 coarse_energy: base.coarse_energy,
                 diagonal: mesh.bbox_diagonal(),
             };
+            // A recording a .glb of morph targets cannot hold is kept: a point cache and a
+            // bake to bones can write it.
             let glb_bytes =
                 GltfExport::from_asset(&asset_export(&layout, &recording), GltfFormat::Glb)
                     .and_then(|e| e.with_solve_settings(&solved))
                     .and_then(|e| e.file_size())
-                    .map_err(|e| format!("recording: {e}"))?;
+                    .map_err(|e| e.to_string());
             if stop() {
                 return cancelled();
             }
@@ -654,6 +657,18 @@ mod tests {
         assert!(other.lock().unwrap().coarse_base().is_none(), "built after its cancel");
     }
 
+    /// 33,001 frames are more than a .glb of morph targets holds (4 GiB of weights): the
+    /// recording is kept, with the reason, for a point cache or a bake to bones.
+    #[test]
+    fn a_recording_too_long_for_morph_targets_is_kept() {
+        let mut long = input(33_001);
+        long.timeline = Timeline { duration: 137.5, fps: 240.0, paths: vec![], ..long.timeline };
+        let rec = wait(&spawn_record(long, || {})).unwrap();
+        assert_eq!(rec.recording.frames.len(), 33_001);
+        let why = rec.glb_bytes.unwrap_err();
+        assert!(why.contains("33001 frames as morph targets"), "{why}");
+    }
+
     #[test]
     fn a_recording_must_fit_in_memory() {
         // 1000 frames of 100k vertices: 4.47 GiB.
@@ -684,7 +699,7 @@ mod tests {
         };
         let (path, bytes) = export(&out, vec![]).unwrap();
         assert_eq!(path, out);
-        assert_eq!(bytes, rec.glb_bytes, "the size shown before writing is the size written");
+        assert_eq!(Ok(bytes), rec.glb_bytes, "the size shown before writing is the size written");
         assert_eq!(std::fs::metadata(&out).unwrap().len(), bytes);
         // A point cache of the same frames, at the timeline's rate.
         let pc2 = dir.join("anim.pc2");

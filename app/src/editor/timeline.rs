@@ -143,9 +143,10 @@ pub fn frame_count(timeline: &Timeline) -> usize {
 pub enum TimelineAction {
     /// The time was scrubbed or played: re-evaluate the paths.
     TimeChanged,
-    /// The timeline or a path was edited; `before` is the state to push on the undo stack.
+    /// The timeline or a path was edited; `before` is the timeline before it (the undo step
+    /// is the state with it, copied only when a step is pushed: once per drag).
     Edited {
-        before: Box<EditState>,
+        before: Box<Timeline>,
     },
     Record,
     CancelRecord,
@@ -167,8 +168,9 @@ pub enum TimelineAction {
 pub struct RecordingView {
     /// `(done, total)` while recording; `total` is 0 while precomputing.
     pub progress: Option<(usize, usize)>,
-    /// Frames, seconds of animation and `.glb` size in bytes of the kept recording.
-    pub kept: Option<(usize, f64, u64)>,
+    /// Frames, seconds of animation and `.glb` size in bytes of the kept recording (or why a
+    /// `.glb` of morph targets cannot hold it).
+    pub kept: Option<(usize, f64, Result<u64, String>)>,
     pub showing: bool,
     /// Whether the view shows a recording (the result and the details views do; the base
     /// surface and side by side show the solvers).
@@ -301,7 +303,7 @@ pub fn panel(
                 }
             }
         }
-        if let Some((frames, seconds, _)) = recording.kept {
+        if let Some((frames, seconds, _)) = &recording.kept {
             ui.separator();
             ui.label(format!("recorded {frames} frames ({seconds:.2} s)"));
             let mut showing = recording.showing;
@@ -313,7 +315,7 @@ pub fn panel(
         }
         // A bake or an export runs on, with its Cancel, after its recording went (another
         // mesh opened).
-        match (&recording.baking, recording.exporting, recording.kept) {
+        match (&recording.baking, recording.exporting, &recording.kept) {
             (Some(b), _, _) => {
                 let frac = if b.steps == 0 { 0.0 } else { b.step as f32 / b.steps as f32 };
                 let frac = if b.stage == "writing" { 1.0 } else { frac };
@@ -349,16 +351,19 @@ pub fn panel(
                 if bake != recording.bake {
                     actions.push(TimelineAction::SetBake(bake));
                 }
-                let (text, hint) = if recording.bake.on {
-                    (
+                let (text, hint) = match bytes {
+                    _ if recording.bake.on => (
                         format!("Export glTF… ({} bones)", recording.bake.bones),
-                        "a skin of rigid bones; size and fit error once written",
-                    )
-                } else {
-                    (
-                        format!("Export glTF… ({:.1} MB)", bytes as f64 / 1e6),
-                        "one morph target per frame; size of the .glb",
-                    )
+                        "a skin of rigid bones; size and fit error once written".to_string(),
+                    ),
+                    Ok(bytes) => (
+                        format!("Export glTF… ({:.1} MB)", *bytes as f64 / 1e6),
+                        "one morph target per frame; size of the .glb".to_string(),
+                    ),
+                    Err(why) => (
+                        "Export… (.pc2, or bake to bones)".to_string(),
+                        format!("{why}\n\nA point cache (.pc2) or a bake to bones holds it."),
+                    ),
                 };
                 if ui.button(text).on_hover_text(hint).clicked() {
                     actions.push(TimelineAction::ExportGltf);
@@ -375,8 +380,7 @@ pub fn panel(
     if edited && edit.timeline != timeline_before {
         match edit.validate() {
             Ok(()) => {
-                let before = EditState { timeline: timeline_before, ..edit.clone() };
-                actions.push(TimelineAction::Edited { before: Box::new(before) });
+                actions.push(TimelineAction::Edited { before: Box::new(timeline_before) });
                 actions.push(TimelineAction::TimeChanged);
             }
             Err(e) => {

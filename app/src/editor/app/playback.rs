@@ -5,9 +5,11 @@ use std::path::PathBuf;
 
 use eframe::egui;
 
+use super::session::Session;
 use super::{DialogKind, EditorApp};
 use crate::editor::jobs::{self, Job, RecordInput};
 use crate::editor::timeline::{self, RecordingView, TimelineAction, apply_paths};
+use crate::editor::undo::EditState;
 use crate::outputs::Input;
 
 impl EditorApp {
@@ -207,7 +209,7 @@ impl EditorApp {
                 (
                     r.recording.frames.len(),
                     r.recording.times.last().copied().unwrap_or(0.0),
-                    r.glb_bytes,
+                    r.glb_bytes.clone(),
                 )
             }),
             showing: self.display.show_recording,
@@ -230,10 +232,12 @@ impl EditorApp {
                     // One undo step per drag of a number, not one a frame; none after an undo
                     // cancelled the drag.
                     if self.session.press_step.cancelled() {
-                        self.session.edit = *before;
+                        self.session.edit.timeline = *before;
                     } else {
                         let settings = self.session.settings;
-                        self.session.push_for_drag(|_| *before, settings);
+                        let before =
+                            |s: &Session| EditState { timeline: *before, ..s.edit.clone() };
+                        self.session.push_for_drag(before, settings);
                     }
                     self.display.color_version += 1;
                 }
