@@ -5,9 +5,10 @@
 //! pose you see is the pose you load), the method and its settings, the loose parts' modes
 //! (`loose_parts`; a scene without them reads as every loose part following), the rig
 //! (`rig`: rigidity map, soft falloffs, symmetry settings; absent in version-1 scenes), the
-//! camera, and in `editor` the group names and colors, the playback time, the mesh's
-//! topology fingerprint (`mesh_topology`), `capture_viewport_size` (the capture settings'
-//! choice) and, in the autosave only, the scene file being edited (`document`). Reading and
+//! camera, and in `editor` the group names and colors, the playback time, the groups whose
+//! one-key path is a still pose (`still_poses`), the mesh's topology fingerprint
+//! (`mesh_topology`), `capture_viewport_size` (the capture settings' choice) and, in the
+//! autosave only, the scene file being edited (`document`). Reading and
 //! writing (atomic) are `solver::animation::scene`'s.
 
 use std::path::{Path, PathBuf};
@@ -73,7 +74,11 @@ pub fn to_scene(scene_path: &Path, input: &DocumentInput) -> Result<Scene, Strin
         .collect();
     // The playback time within the timeline (a shortened timeline is clamped where it is drawn).
     let time = input.time.clamp(0.0, scene.timeline.duration.max(0.0));
-    let mut editor = serde_json::json!({"groups": groups, "time": time});
+    // The one-key paths that are still poses, not keys the user set (they read back still).
+    let still: Vec<usize> = (scene.timeline.paths.iter().map(|p| p.group))
+        .filter(|&g| !edit.timeline.paths.iter().any(|p| p.group == g))
+        .collect();
+    let mut editor = serde_json::json!({"groups": groups, "time": time, "still_poses": still});
     if let Some(t) = input.mesh_topology {
         // as text: a JSON number keeps 53 bits
         editor["mesh_topology"] = serde_json::Value::from(format!("{t:016x}"));
@@ -157,7 +162,7 @@ pub fn apply_scene(
     if let Some(groups) = extra.and_then(|e| e.get("groups")).and_then(|g| g.as_array()) {
         for (g, v) in edit.groups.iter_mut().zip(groups) {
             if let Some(name) = v.get("name").and_then(|n| n.as_str()) {
-                g.name = name.chars().take(64).collect();
+                g.name = name.chars().take(super::undo::GROUP_NAME_CHARS).collect();
             }
             if let Some(c) = v.get("color").and_then(|c| c.as_array())
                 && let [r, gr, b] = c.as_slice()
@@ -181,12 +186,15 @@ pub fn apply_scene(
     apply_paths(&mut edit, time);
     // A still pose is saved as a one-key path (`effective_timeline`); it comes back still, with
     // its pose: kept as a path, a later move of the group was playback's (not an edit, not
-    // saved), and a key at another time started an animation.
-    // Only that form (one key at 0 s, linear): a key set with K (at its time, smooth) stays.
+    // saved), and a key at another time started an animation. The editor names those groups
+    // (`still_poses`); a scene without that list (written elsewhere, or before it existed)
+    // has them in that path's form, one key at 0 s, linear (a key set with K is smooth).
     use solver::animation::timeline::{Interpolation, Path as AnimPath};
-    edit.timeline.paths.retain(|p| {
-        !matches!(&p.path, AnimPath::Keyframed(k) if k.keys.len() == 1
-            && k.keys[0].time == 0.0 && k.interpolation == Interpolation::Linear)
+    let listed = scene.editor.as_ref().and_then(|e| e.get("still_poses")?.as_array().cloned());
+    edit.timeline.paths.retain(|p| match &listed {
+        Some(still) => !still.iter().any(|g| g.as_u64() == Some(p.group as u64)),
+        None => !matches!(&p.path, AnimPath::Keyframed(k) if k.keys.len() == 1
+            && k.keys[0].time == 0.0 && k.interpolation == Interpolation::Linear),
     });
     let mut s = *settings;
     // The main viewport runs any method, ARAP included. The scene reader checked the settings
@@ -351,6 +359,32 @@ mod tests {
         assert_eq!(back.edit.path(0), edit.path(0), "the key set with K was dropped");
         assert_eq!(back.edit.path(1), &AnimPath::Static);
         assert!((back.edit.groups[1].pose.translation.y - 0.2).abs() < 1e-12);
+    }
+
+    /// A key set with K at 0 s and made linear has a still pose's form; it stays a path (the
+    /// editor lists its still poses), while a scene without the list reads that form still.
+    #[test]
+    fn a_linear_key_at_zero_stays_a_path() {
+        use solver::animation::timeline::Interpolation;
+        let (dir, mesh_path, _, mut edit) = bar_document("doc-linear-key");
+        edit.groups[0].pose.translation.y = 0.1;
+        assert!(crate::editor::timeline::key_current_pose(&mut edit, 0, 0.0));
+        if let AnimPath::Keyframed(k) = &mut edit.timeline.paths[0].path {
+            k.interpolation = Interpolation::Linear;
+        }
+        edit.groups[1].pose.translation.y = 0.2; // still: saved as one key at 0 s
+        let (settings, camera) = (MethodSettings::default(), OrbitCamera::default());
+        let scene_path = dir.join("linear.json");
+        let input = plain_input(&mesh_path, &edit, &settings, &camera);
+        let mut scene = to_scene(&scene_path, &input).unwrap();
+        let labels = || edit.labels.clone();
+        let back = apply_scene(&scene, labels(), &settings, [0.0; 3], 0.0);
+        assert_eq!(back.edit.path(0), edit.path(0), "the linear key at 0 s was dropped");
+        assert_eq!(back.edit.path(1), &AnimPath::Static);
+        scene.editor.as_mut().unwrap().as_object_mut().unwrap().remove("still_poses");
+        let back = apply_scene(&scene, labels(), &settings, [0.0; 3], 0.0);
+        assert_eq!(back.edit.path(0), &AnimPath::Static, "without the list: the form decides");
+        assert_eq!(back.edit.path(1), &AnimPath::Static);
     }
 
     #[test]
