@@ -413,7 +413,8 @@ pub fn is_selection_file(path: &Path) -> bool {
         Some("json") => {
             let mut head = Vec::new();
             let read = std::fs::File::open(path).and_then(|f| f.take(4096).read_to_end(&mut head));
-            read.is_ok() && head.iter().find(|b| !b.is_ascii_whitespace()) == Some(&b'[')
+            let text = head.strip_prefix("\u{feff}".as_bytes()).unwrap_or(&head);
+            read.is_ok() && text.iter().find(|b| !b.is_ascii_whitespace()) == Some(&b'[')
         }
         _ => false,
     }
@@ -452,6 +453,18 @@ pub fn write_dmat(path: &Path, labels: &[Option<u32>]) -> anyhow::Result<()> {
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
+
+    /// A sphere list is told from a scene by its first value, also after a byte order mark.
+    #[test]
+    fn a_sphere_list_with_a_byte_order_mark_is_a_selection() {
+        let dir = solver::testing::ScratchDir::new("loader-bom");
+        let (list, scene) = (dir.join("spheres.json"), dir.join("scene.json"));
+        std::fs::write(&list, "\u{feff} [{\"group\": 0, \"center\": [0, 0, 0], \"radius\": 1}]")
+            .unwrap();
+        std::fs::write(&scene, "\u{feff}{\"version\": 2}").unwrap();
+        assert!(is_selection_file(&list));
+        assert!(!is_selection_file(&scene));
+    }
 
     /// The selection found next to a mesh, written for the file as read (before cleaning welds
     /// duplicated vertices), arrives in the editor on the cleaned mesh's vertices.

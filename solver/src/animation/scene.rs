@@ -334,8 +334,10 @@ impl Scene {
 
     /// Parses scene text; `file` names it in errors. Checks the version first (a missing or
     /// unknown version is its own error, before any other field is looked at), then the fields
-    /// (errors carry line and column), then the timeline and the handles spec.
+    /// (errors carry line and column), then the timeline and the handles spec. A leading byte
+    /// order mark (Windows editors write one) is skipped.
     pub fn from_json(text: &str, file: &str) -> Result<Scene, SceneError> {
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         let value: serde_json::Value =
             serde_json::from_str(text).map_err(|e| parse_error(file, &e))?;
         let Some(version) = value.get("version") else {

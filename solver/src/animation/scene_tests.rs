@@ -40,6 +40,21 @@ fn versions_and_rig_round_trip() {
     assert!(matches!(Scene::from_json(&v3, "v3.json"), Err(SceneError::UnsupportedVersion { .. })));
 }
 
+/// A scene or a sphere list saved with a byte order mark (Windows PowerShell's and older
+/// Notepad's UTF-8) reads as without it.
+#[test]
+fn a_byte_order_mark_is_skipped() {
+    let with = format!("\u{feff}{V1}");
+    assert_eq!(
+        Scene::from_json(&with, "bom.json").unwrap(),
+        Scene::from_json(V1, "v1.json").unwrap()
+    );
+    let p = [[0.0; 3], [1.0, 0.0, 0.0]];
+    let spheres = "\u{feff}[{\"group\": 0, \"center\": [0, 0, 0], \"radius\": 0.5}]";
+    let h = crate::deform::selection::parse_spheres(spheres, &p).unwrap();
+    assert_eq!(h.labels(), [Some(0), None]);
+}
+
 /// Overrides of components the mesh lacks and falloffs of groups after the selection's
 /// last are kept in the file and noted when the scene loads; the others are not (group 1,
 /// empty but before group 2, keeps its falloff silently: a reload keeps the group). The

@@ -213,8 +213,9 @@ struct Sphere {
 /// in the list that claims a vertex wins. Errors: malformed JSON (with line), a negative or
 /// non-finite radius or center, a group id far beyond `#V`, a sphere that selects no vertex
 /// (none inside, or all claimed by earlier spheres), an empty list. Errors name the file
-/// `<json>`; [`load_selection`] names the path.
+/// `<json>`; [`load_selection`] names the path. A leading byte order mark is skipped.
 pub fn parse_spheres(text: &str, positions: &[[f64; 3]]) -> Result<Handles, SelectionError> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let spheres: Vec<Sphere> = serde_json::from_str(text).map_err(|e| SelectionError::Parse {
         file: JSON.to_string(),
         line: Some(e.line()),
