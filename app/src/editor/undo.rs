@@ -14,9 +14,13 @@ use solver::animation::timeline::{Path, Timeline};
 use solver::deform::rig::Falloff;
 use solver::{GroupTransform, LooseParts};
 
+/// The longest group name, in characters.
+pub const GROUP_NAME_CHARS: usize = 64;
+
 /// One handle group as the UI knows it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Group {
+    /// At most [`GROUP_NAME_CHARS`] characters (the rename field's and the scene reader's cap).
     pub name: String,
     pub color: Color32,
     pub pose: GroupTransform,

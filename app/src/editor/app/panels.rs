@@ -81,7 +81,7 @@ impl EditorApp {
                             egui::TextEdit::singleline(text)
                                 .id(egui::Id::unique(("rename", k)))
                                 .desired_width(110.0)
-                                .char_limit(64),
+                                .char_limit(crate::editor::undo::GROUP_NAME_CHARS),
                         );
                         if resp.lost_focus() {
                             let cancel = ui.input(|i| i.key_pressed(Key::Escape));

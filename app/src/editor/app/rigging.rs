@@ -16,7 +16,7 @@ use solver::deform::symmetry::{
 };
 
 use super::{EditorApp, Tool};
-use crate::editor::undo::EditState;
+use crate::editor::undo::{EditState, GROUP_NAME_CHARS};
 
 /// Which plane the mirror map is for.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -233,7 +233,7 @@ impl EditorApp {
     fn new_partner(&mut self, g: u32) -> u32 {
         let edit = &mut self.session.edit;
         let (name, falloff) =
-            (format!("{} mirror", edit.groups[g as usize].name), edit.groups[g as usize].falloff);
+            (partner_name(&edit.groups[g as usize].name), edit.groups[g as usize].falloff);
         let k = edit.add_group();
         edit.groups[k].name = name;
         edit.groups[k].falloff = falloff;
@@ -521,6 +521,12 @@ impl EditorApp {
 
 /// The mirror partners of `region` that are not in it (each once), and how many of the
 /// region's partners are in it.
+/// The name of a group made as `name`'s mirror pair: "`name` mirror", cut to a group name's
+/// length ([`GROUP_NAME_CHARS`]) as the rename field and the scene reader cut names.
+fn partner_name(name: &str) -> String {
+    format!("{name} mirror").chars().take(GROUP_NAME_CHARS).collect()
+}
+
 fn partners_outside(map: &MirrorMap, region: &[u32]) -> (Vec<u32>, usize) {
     let set: std::collections::HashSet<u32> = region.iter().copied().collect();
     let mut inside = 0;
@@ -540,6 +546,13 @@ fn partners_outside(map: &MirrorMap, region: &[u32]) -> (Vec<u32>, usize) {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn a_pair_is_named_after_its_group_within_the_name_length() {
+        assert_eq!(super::partner_name("Left arm"), "Left arm mirror");
+        let long = "é".repeat(super::GROUP_NAME_CHARS);
+        assert_eq!(super::partner_name(&long), long, "cut by characters, not bytes");
+    }
+
     #[test]
     fn colours_run_from_soft_to_stiff() {
         let close = |a: [f32; 4], b: [f32; 4]| a.iter().zip(&b).all(|(x, y)| (x - y).abs() < 1e-6);
