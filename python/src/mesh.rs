@@ -99,9 +99,12 @@ pub fn load_selection<'py>(
     Ok(PyArray1::from_vec(py, labels))
 }
 
-/// The rotation by `degrees` about `axis` (3×3, row-major), as the CLI's `--rotate`.
+/// The rotation by `degrees` about `axis` (3 numbers; 3×3, row-major), as the CLI's `--rotate`.
 #[pyfunction]
-pub fn rotation(axis: [f64; 3], degrees: f64) -> PyResult<[[f64; 3]; 3]> {
+pub fn rotation(axis: Vec<f64>, degrees: f64) -> PyResult<[[f64; 3]; 3]> {
+    let Ok(axis) = <[f64; 3]>::try_from(axis.as_slice()) else {
+        return Err(err(format!("rotation: the axis needs 3 numbers, got {}", axis.len())));
+    };
     if !axis.iter().chain([&degrees]).all(|c| c.is_finite()) {
         return Err(err("rotation: axis and degrees must be finite"));
     }

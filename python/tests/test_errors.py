@@ -128,6 +128,8 @@ def test_deformer_errors():
         d.solve_targets(np.zeros((2, 3)))
     with pytest.raises(BsarapError, match="axis"):
         bsarap.rotation([0, 0, 0], 10)
+    with pytest.raises(BsarapError, match="axis needs 3 numbers, got 2"):
+        bsarap.rotation([1, 0], 30)
     with pytest.raises(BsarapError, match="max_iters"):
         d.set_stopping(1e-4, 0)
 
