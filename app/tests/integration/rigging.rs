@@ -286,3 +286,36 @@ fn esc_with_mirrored_posing_restores_the_partner() {
     assert_eq!(h.state().group_pose(0).unwrap(), Default::default());
     assert_eq!(h.state().group_pose(partner).unwrap(), own, "the partner's pose was lost");
 }
+
+/// Mirrored painting with the brush on the midline: the first dab is centred on the plane, so
+/// the far side's partners join the painted group itself (as a box or lasso across the plane
+/// does); no "… mirror" group is made.
+#[test]
+fn a_mirrored_brush_stroke_on_the_plane_paints_one_group() {
+    let mut h = harness(default_mesh_path());
+    step_until(&mut h, "the default asset", settled);
+    h.key_press(Key::M);
+    h.step();
+    step_until(&mut h, "the mirror map", |a| a.mirror().is_some());
+    let plane = h.state().mirror().unwrap().0;
+    let rest = h.state().rest_positions().unwrap().to_vec();
+    let labels = h.state().labels().to_vec();
+    let near = 2e-3 * h.state().diagonal();
+    let keep = |v: usize| labels[v].is_none() && plane.distance(rest[v]) < near;
+    let (v, pos) = visible_vertex(h.state(), Pos2::new(SIZE.x * 0.55, SIZE.y * 0.4), keep);
+    let n_groups = h.state().edit_state().groups.len();
+    h.get_by_label("Add group").click();
+    h.step();
+    h.state_mut().set_tool(Tool::Paint);
+    h.state_mut().set_active_group(Some(n_groups));
+    drag(&mut h, pos, Vec2::new(1.0, 0.0), Modifiers::NONE);
+    let labels = h.state().labels().to_vec();
+    assert_eq!(labels[v], Some(n_groups as u32), "vertex {v} not painted");
+    assert_eq!(h.state().edit_state().groups.len(), n_groups + 1, "a pair was made");
+    let a = plane.axis.index();
+    let sides: Vec<f64> = (0..labels.len())
+        .filter(|&u| labels[u] == Some(n_groups as u32))
+        .map(|u| rest[u][a] - plane.offset)
+        .collect();
+    assert!(sides.iter().any(|&s| s < 0.0) && sides.iter().any(|&s| s > 0.0), "one side only");
+}

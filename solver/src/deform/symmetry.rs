@@ -77,6 +77,11 @@ impl SymmetryPlane {
         v[self.axis.index()] = -v[self.axis.index()];
         v
     }
+
+    /// $|x_{\text{axis}} - \text{offset}|$: how far `x` is from the plane.
+    pub fn distance(&self, x: [f64; 3]) -> f64 {
+        (x[self.axis.index()] - self.offset).abs()
+    }
 }
 
 /// The mirror vertex map and how far the reflections land from their partners.

@@ -14,6 +14,7 @@ use solver::deform::symmetry::{
     Axis, MirrorMap, SymmetryPlane, fit_plane, fit_plane_on, mirror_map, mirror_transform,
     partner_group,
 };
+use solver::geometry::embedding::{blend, closest_point_on_triangle};
 
 use super::{EditorApp, Tool};
 use crate::editor::undo::{EditState, GROUP_NAME_CHARS};
@@ -201,20 +202,29 @@ impl EditorApp {
     }
 
     /// Mirrored painting of a handle group: the footprint's mirror partners (outside the
-    /// footprint) get the partner group, created as a pair on the stroke's first paint.
+    /// footprint) get the partner group, created as a pair on the stroke's first paint. A
+    /// stroke whose first dab is centred on the plane (nearer to it than half the brush's
+    /// radius, on the rest mesh) paints a group on the midline: the partners join the group
+    /// itself, as they do for a box or lasso across the plane.
     pub(super) fn mirror_labels(&mut self, footprint: &[u32], group: Option<u32>) {
         if !self.session.edit.symmetry.mirror_painting {
             return;
         }
-        let Some((_, map)) = self.mirror_shared() else { return };
+        let Some((plane, map)) = self.mirror_shared() else { return };
         let (partners, _) = partners_outside(&map, footprint);
         if partners.is_empty() {
             return;
         }
+        let radius = f64::from(self.brush_world_radius());
+        let on_plane = || self.dab_rest_center().is_some_and(|c| plane.distance(c) <= radius / 2.0);
         let target = match group {
             None => None,
             Some(g) => Some(match self.rigging.stroke_partner {
                 Some(p) => p,
+                None if on_plane() => {
+                    self.rigging.stroke_partner = Some(g);
+                    g
+                }
                 None => {
                     let found = partner_group(&self.session.edit.labels, &map, g);
                     let p = found.unwrap_or_else(|| self.new_partner(g));
@@ -227,6 +237,19 @@ impl EditorApp {
             self.session.edit.labels[v as usize] = target;
         }
         self.display.color_version += 1;
+    }
+
+    /// The centre of the brush's dab under the pointer on the rest mesh: the hit's barycentric
+    /// weights on its displayed triangle, applied to the same triangle at rest.
+    fn dab_rest_center(&self) -> Option<[f64; 3]> {
+        let hover = self.interaction.hover.as_ref()?;
+        let scene = self.session.scene.as_ref()?;
+        let shown = self.display.viewports.get(hover.slot)?.positions()?;
+        let tri = *scene.mesh.triangles().get(hover.hit.triangle as usize)?;
+        let corner = |v: u32| shown.get(v as usize).map(|p| p.map(f64::from));
+        let corners = [corner(tri[0])?, corner(tri[1])?, corner(tri[2])?];
+        let (_, w) = closest_point_on_triangle(hover.hit.point.as_dvec3().to_array(), corners);
+        Some(blend(scene.mesh.positions(), &tri, &w))
     }
 
     /// A new group paired with group `g`: named after it, with its falloff.
@@ -440,7 +463,8 @@ impl EditorApp {
             let mut paint = s.mirror_painting;
             let mut pose = s.mirror_posing;
             let hint = "brush strokes, boxes and lassos paint the mirrored vertices too, into \
-                        the group's pair (the group itself where they cross the plane); Grow, \
+                        the group's pair (the group itself for a stroke begun on the plane or a \
+                        box or lasso across it); Grow, \
                         Shrink, Connected and Clear reshape the pair (Invert does not)";
             if ui.checkbox(&mut paint, "Mirror painting (M)").on_hover_text(hint).changed() {
                 self.toggle_symmetry(|s| s.mirror_painting = paint);
