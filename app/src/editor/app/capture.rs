@@ -107,27 +107,38 @@ impl Capture {
     /// Takes a loaded scene's `capture` object (absent: the viewport's size) and whether its
     /// editor captures at the viewport's size all the same (`editor.capture_viewport_size`).
     pub(super) fn load(&mut self, s: Option<&CaptureSettings>, viewport_size: bool) {
+        match s {
+            Some(s) => {
+                self.width = s.width;
+                self.height = s.height;
+                self.overlays = s.overlays;
+            }
+            None => self.forget_choices(),
+        }
         self.scene = s.cloned();
         self.viewport_size = s.is_none() || viewport_size;
-        if let Some(s) = s {
-            self.width = s.width;
-            self.height = s.height;
-            self.overlays = s.overlays;
-        }
     }
 
     /// A mesh without a scene was opened: its scene gets a `capture` object only when a size
-    /// is chosen.
+    /// or no overlays is chosen.
     pub(super) fn forget_scene(&mut self) {
         self.scene = None;
-        self.viewport_size = true; // the last scene's size is not this mesh's
+        self.forget_choices();
+    }
+
+    /// The size and overlays as a new session has them: the last scene's are not the next
+    /// file's.
+    fn forget_choices(&mut self) {
+        let new = Capture::new(None);
+        (self.viewport_size, self.width, self.height) = (new.viewport_size, new.width, new.height);
+        self.overlays = new.overlays;
     }
 
     /// What a scene saves of these settings: its `capture` object (the one loaded, with the
-    /// size and overlays set here; none while nothing was chosen), and whether the editor
-    /// captures at the viewport's size all the same.
+    /// size and overlays set here; none while nothing was chosen: the viewport's size with
+    /// overlays), and whether the editor captures at the viewport's size all the same.
     pub(super) fn saved(&self) -> SavedCapture {
-        if self.viewport_size && self.scene.is_none() {
+        if self.viewport_size && self.scene.is_none() && self.overlays {
             return SavedCapture { object: None, viewport_size: false };
         }
         let base = self.scene.clone().unwrap_or_default();
@@ -498,6 +509,39 @@ impl EditorApp {
         }
         if sequence {
             self.render_recording(ctx, frame);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Overlays turned off at the viewport's size are saved (an object at that size), and a
+    /// file opened next, scene without `capture` or mesh, starts from a new session's
+    /// choices, not the last scene's.
+    #[test]
+    fn overlays_are_saved_and_the_next_file_starts_afresh() {
+        let mut c = Capture::new(None);
+        assert_eq!(c.saved(), SavedCapture::default(), "nothing chosen, nothing saved");
+        c.overlays = false;
+        let saved = c.saved();
+        assert!(saved.viewport_size);
+        assert!(!saved.object.as_ref().expect("an object for the overlays").overlays);
+        let mut back = Capture::new(None);
+        back.load(saved.object.as_ref(), saved.viewport_size);
+        assert!(back.viewport_size && !back.overlays);
+
+        let sized = CaptureSettings { width: 200, height: 100, ..CaptureSettings::default() };
+        c.load(Some(&sized), false);
+        assert_eq!((c.viewport_size, c.width, c.overlays), (false, 200, false));
+        let fresh = Capture::new(None);
+        for open_next in [|c: &mut Capture| c.load(None, false), Capture::forget_scene] {
+            let mut next = Capture::new(None);
+            next.load(Some(&sized), false);
+            open_next(&mut next);
+            let now = (next.viewport_size, next.width, next.height, next.overlays);
+            assert_eq!(now, (true, fresh.width, fresh.height, true));
         }
     }
 }
