@@ -186,8 +186,9 @@ impl MeshCache {
     /// ([`UnwrittenBase::write`]), so that a cache shared between threads need not be held
     /// while the file is written (about 50 MiB at 1.5M vertices). Once `stop` returns true a
     /// base not found in the cache is not read or built: [`SolveError::Cancelled`], before
-    /// the cached one is let go (asked already) or between the build's stages
-    /// ([`CoarseBase::new_until`]; nothing is kept).
+    /// the cached one is let go (asked already), between the build's stages
+    /// ([`CoarseBase::new_until`]; nothing is kept), or before the Galerkin part is gathered
+    /// (the base is kept, without it).
     pub fn prepare_unwritten(
         &mut self,
         method: Method,
@@ -225,7 +226,7 @@ impl MeshCache {
             }
         };
         // Written when built anew, or when it gained its Galerkin part now.
-        let gathered = gather_galerkin(&c, mesh, base)?;
+        let gathered = gather_galerkin(&c, mesh, base, stop)?;
         let path = path.filter(|_| built || gathered);
         let unwritten = path.map(|path| UnwrittenBase { base: c.clone(), path });
         Ok((Some(c), unwritten))
@@ -239,15 +240,20 @@ impl MeshCache {
 
 /// Gathers the Galerkin coarse energy's mesh part of `coarse` when `base` asks for that
 /// energy ([`galerkin_mesh`]; nothing when gathered already, or read from the
-/// disk cache). Whether it gathered it now.
+/// disk cache). Whether it gathered it now; [`SolveError::Cancelled`] when `stop` says so
+/// before it begins.
 fn gather_galerkin(
     coarse: &CoarseBase,
     mesh: &Mesh,
     base: &BaseConfig,
+    stop: &(dyn Fn() -> bool + Sync),
 ) -> Result<bool, SolveError> {
     let wanted = base.coarse_energy == crate::CoarseEnergy::Galerkin;
     if !wanted || coarse.galerkin.get().is_some() {
         return Ok(false);
+    }
+    if stop() {
+        return Err(SolveError::Cancelled);
     }
     in_pool(|| galerkin_mesh(coarse, mesh))?;
     Ok(true)

@@ -473,4 +473,9 @@ fn a_base_build_stops_between_stages() {
     let e = cache.prepare_unwritten(method, &other, &config, &|| true).unwrap_err();
     assert_eq!(e, SolveError::Cancelled);
     assert!(cache.coarse_base().is_some_and(|b| b.fits(&mesh, &config)), "the base was let go");
+    // Stopped with the base cached but its Galerkin part not gathered: nothing is gathered.
+    let galerkin = BaseConfig { coarse_energy: crate::CoarseEnergy::Galerkin, ..config };
+    let e = cache.prepare_unwritten(method, &mesh, &galerkin, &|| true).unwrap_err();
+    assert_eq!(e, SolveError::Cancelled);
+    assert!(cache.coarse_base().unwrap().galerkin.get().is_none(), "gathered after the stop");
 }
