@@ -714,6 +714,20 @@ fn a_solver_panic_is_reported_and_the_solver_restarts() {
 /// The status bar reports the process's resident memory and its peak (where the kernel says
 /// them) and whether the window renders on a software adapter; snapshot tests, with
 /// deterministic overlays, leave both out.
+/// With every handle group removed nothing is solved: the mesh is drawn at rest, not in the
+/// last solved pose.
+#[test]
+fn without_handles_the_mesh_is_drawn_at_rest() {
+    let mut h = harness(app::editor::default_mesh_path());
+    step_until(&mut h, "the default asset", settled);
+    assert!(h.state().latest_frame(Slot::Main).is_some());
+    let mut e = h.state().edit_state().clone();
+    e.labels.iter_mut().for_each(|l| *l = None);
+    h.state_mut().set_edit_state(e);
+    h.run_steps(3);
+    assert!(h.state().latest_frame(Slot::Main).is_none(), "the last pose is still drawn");
+}
+
 #[test]
 fn the_status_bar_reports_memory() {
     if !std::path::Path::new("/proc/self/status").exists() {

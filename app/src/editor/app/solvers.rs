@@ -132,6 +132,13 @@ impl EditorApp {
         }
         self.solvers.scene_generation += 1;
         let Some(scene) = self.new_scene() else { return };
+        if scene.handles.is_none() {
+            // Nothing is solved without handles: the mesh is drawn at rest, not in the last
+            // solved pose (the frames of the scenes before are dropped when they come).
+            for view in &mut self.solvers.views {
+                view.frame = None;
+            }
+        }
         for s in self.solvers.iter() {
             s.send(SolverCommand::SetScene(Box::new(scene.clone())));
         }

@@ -134,7 +134,12 @@ fn frames_follow_poses_and_survive_a_panic() {
         std::thread::sleep(Duration::from_millis(2));
     }
     assert!(matches!(h.try_status().unwrap().state, SolverState::Panicked(_)));
-    // The restarted worker serves a new scene.
+    // The restarted worker serves the scene it had, at the next poses sent alone (a drag
+    // after the panic), and a new scene.
+    let back = GroupTransform::from_translation(glam::DVec3::new(0.0, 0.0, 3.0));
+    h.send(SolverCommand::SetPoses { pose_generation: 6, poses: vec![back] });
+    let f = wait_frame(&h, |f| f.pose_generation == 6);
+    assert_eq!((f.scene_generation, f.positions[2]), (1, drawn([0.0, 1.0, 3.0])));
     h.send(scene(2, vec![moved]));
     let f = wait_frame(&h, |f| f.scene_generation == 2);
     assert_eq!(f.positions[0], drawn([0.0, 0.0, 2.0]));

@@ -66,6 +66,30 @@ fn set_settle_waiting(status: &Mutex<SolverStatus>, since: Option<Instant>) {
     status.lock().unwrap_or_else(|poisoned| poisoned.into_inner()).settle_waiting_since = since;
 }
 
+/// What outlives a worker's panic: the scene it served, with the poses and loose parts sent
+/// since, so that the next pose or loose-parts command rebuilds it (the UI sends poses alone
+/// while the handles stay), unless building it was what panicked (then only a new scene does).
+#[derive(Default)]
+struct Recovery {
+    scene: Option<NewScene>,
+    /// A panic came while `scene` was being built.
+    building: bool,
+}
+
+impl Recovery {
+    fn poses(&mut self, generation: u64, poses: &[GroupTransform]) {
+        if let Some(s) = &mut self.scene {
+            (s.pose_generation, s.poses) = (generation, poses.to_vec());
+        }
+    }
+
+    fn loose_parts(&mut self, generation: u64, parts: &LooseParts) {
+        if let Some(s) = &mut self.scene {
+            (s.pose_generation, s.loose_parts) = (generation, parts.clone());
+        }
+    }
+}
+
 /// Runs the worker, restarting it after a panic.
 pub(super) fn supervise(
     slot: Slot,
@@ -73,8 +97,10 @@ pub(super) fn supervise(
     rx: Receiver<SolverCommand>,
     shared: Shared,
 ) {
+    let mut recovery = Recovery::default();
     loop {
-        let result = catch_unwind(AssertUnwindSafe(|| worker_loop(slot, &factory, &rx, &shared)));
+        let run = || worker_loop(slot, &factory, &rx, &shared, &mut recovery);
+        let result = catch_unwind(AssertUnwindSafe(run));
         match result {
             Ok(()) => return,
             Err(payload) => {
@@ -233,7 +259,9 @@ impl Active {
         let interval = now.duration_since(self.poses_changed);
         let decayed = self.pose_cadence.mul_f64(0.9);
         self.pose_cadence = if interval < DRAG_GAP { interval.max(decayed) } else { decayed };
-        self.pose_generation = generation;
+        // One drain applies poses before loose parts whatever order they came in: the
+        // generation is the newest of the two.
+        self.pose_generation = self.pose_generation.max(generation);
         self.poses = poses;
         self.dirty = true;
         self.settling = false;
@@ -253,7 +281,7 @@ impl Active {
     /// New loose parts' modes: the pose solver moves them in the current pose, which is
     /// published at once unless a solve is due anyway.
     fn set_loose_parts(&mut self, generation: u64, parts: &LooseParts) -> Result<(), String> {
-        self.pose_generation = generation;
+        self.pose_generation = self.pose_generation.max(generation);
         self.pose_solver.set_loose_parts(&self.frames.mesh, &self.handles, parts)?;
         self.frames.components = Arc::new(self.pose_solver.components());
         Ok(())
@@ -526,21 +554,45 @@ fn publish(a: &mut Active, stats: FrameStats, pose_generation: u64, shared: &Sha
     (shared.repaint)();
 }
 
-/// Returns when told to shut down or when the UI side is gone.
+/// Returns when told to shut down or when the UI side is gone. `recovery` keeps the scene
+/// served, for a worker started again after a panic.
 fn worker_loop(
     slot: Slot,
     factory: &PoseSolverFactory,
     rx: &Receiver<SolverCommand>,
     shared: &Shared,
+    recovery: &mut Recovery,
 ) {
     let mut active: Option<Active> = None;
     loop {
         let floor = shared.min_settle_delay();
         let Some(inbox) = drain_commands(rx, wait_time(active.as_ref(), floor)) else { return };
-        if let Some(scene) = inbox.scene {
+        let mut build = inbox.scene.inspect(|scene| {
+            recovery.scene = Some(scene.clone());
+            recovery.building = false;
+        });
+        if let Some((generation, poses)) = &inbox.poses {
+            recovery.poses(*generation, poses);
+        }
+        if let Some((generation, parts)) = &inbox.loose_parts {
+            recovery.loose_parts(*generation, parts);
+        }
+        // Started again after a panic: the scene it served, at the poses sent since.
+        let moved = inbox.poses.is_some() || inbox.loose_parts.is_some();
+        let recovered = build.is_none() && active.is_none() && moved && !recovery.building;
+        if recovered {
+            build = recovery.scene.clone();
+        }
+        if let Some(scene) = build {
             // Free the old factorization before building the new one.
             drop(active.take());
+            recovery.building = true;
             active = rebuild(slot, factory, scene, shared);
+            recovery.building = false;
+            if recovered && active.is_some() {
+                // Built at the newest poses and parts: nothing more to apply.
+                continue;
+            }
         }
         let Some(a) = active.as_mut() else { continue };
         if let Some((generation, poses)) = inbox.poses {
