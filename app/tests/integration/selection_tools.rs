@@ -138,6 +138,28 @@ fn box_and_lasso_select_into_the_active_group_and_undo_restores() {
     assert_eq!(h.state().select_mode(), SelectMode::Brush);
 }
 
+/// Alt+left drag orbits the camera: with the brush or the box it paints nothing, from the
+/// press to the release (egui calls it a drag only once the pointer has moved).
+#[test]
+fn an_alt_drag_orbits_and_paints_nothing() {
+    let (mut h, _) = start();
+    let labels = h.state().labels().to_vec();
+    let centre = Pos2::new(SIZE.x * 0.35, SIZE.y * 0.5);
+    let points = path(&[centre, centre + Vec2::new(60.0, 20.0)], 10.0, false);
+    for mode in [SelectMode::Brush, SelectMode::Box] {
+        if h.state().select_mode() != mode {
+            h.key_press(Key::Q);
+            h.step();
+        }
+        assert_eq!(h.state().select_mode(), mode);
+        let (view, groups) = (*h.state().camera(), h.state().edit_state().groups.len());
+        drag(&mut h, &points, Modifiers::ALT);
+        assert_eq!(h.state().labels(), &labels[..], "{mode:?}: the Alt drag painted");
+        assert_eq!(h.state().edit_state().groups.len(), groups, "{mode:?}: a group was made");
+        assert_ne!(h.state().camera(), &view, "{mode:?}: the camera did not orbit");
+    }
+}
+
 #[test]
 fn grow_shrink_invert_connected_and_clear_edit_the_active_group() {
     let (mut h, g) = start();

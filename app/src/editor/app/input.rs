@@ -24,6 +24,10 @@ pub(super) struct Interaction {
     pub(super) drag: Option<PoseDrag>,
     /// Group being renamed, with the name typed so far.
     pub(super) renaming: Option<(usize, String)>,
+    /// The primary button went down with Alt held: until it is released the press orbits the
+    /// camera and no tool sees it (egui reports a drag only once the pointer has moved, so
+    /// its press and release frames would paint a dab, or start and apply a box).
+    pub(super) alt_press: bool,
 }
 
 impl Default for Interaction {
@@ -37,6 +41,7 @@ impl Default for Interaction {
             stroke: None,
             drag: None,
             renaming: None,
+            alt_press: false,
         }
     }
 }
@@ -343,7 +348,15 @@ impl EditorApp {
         let (modifiers, delta, scroll) =
             ui.input(|i| (i.modifiers, i.pointer.delta(), i.smooth_scroll_delta.y));
         // Camera: middle = orbit, Shift+middle = pan, Alt+left = orbit, wheel = zoom.
-        let alt_orbit = response.dragged_by(PointerButton::Primary) && modifiers.alt;
+        let (pressed, down) = ui.input(|i| (i.pointer.primary_pressed(), i.pointer.primary_down()));
+        if pressed && modifiers.alt && response.is_pointer_button_down_on() {
+            self.interaction.alt_press = true;
+        }
+        let alt_orbit = self.interaction.alt_press
+            || (response.dragged_by(PointerButton::Primary) && modifiers.alt);
+        if !down {
+            self.interaction.alt_press = false; // this frame's release is still the orbit's
+        }
         if response.dragged_by(PointerButton::Middle) || alt_orbit {
             if modifiers.shift && !alt_orbit {
                 self.display.camera.pan(delta.x, delta.y, rect.height());
