@@ -278,6 +278,24 @@ fn begin_stroke(h: &mut Harness<'static, EditorApp>) -> Pos2 {
     p
 }
 
+/// A group command (here Grow, `+`) pressed during a brush stroke waits: it would record its
+/// own undo step inside the stroke's, and one undo then took back the grow and half the stroke.
+#[test]
+fn a_group_command_waits_for_the_stroke() {
+    let (mut h, g) = start();
+    let before = h.state().labels().to_vec();
+    let p = begin_stroke(&mut h);
+    let stroked = in_group(h.state(), g);
+    h.key_press(Key::Plus);
+    h.step();
+    assert_eq!(in_group(h.state(), g), stroked, "the group grew mid-stroke");
+    support::press(&h, p + Vec2::new(4.0, 0.0), false, Modifiers::NONE);
+    h.step();
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    assert_eq!(h.state().labels(), &before[..], "one undo takes back the stroke");
+}
+
 /// Q (or G, R) pressed during a brush stroke ends the stroke: its labels reach the solver at
 /// once (they waited for the brush to come back, and a press then went on with the old stroke,
 /// without an undo entry of its own).
