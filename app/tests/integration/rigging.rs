@@ -318,4 +318,22 @@ fn a_mirrored_brush_stroke_on_the_plane_paints_one_group() {
         .map(|u| rest[u][a] - plane.offset)
         .collect();
     assert!(sides.iter().any(|&s| s < 0.0) && sides.iter().any(|&s| s > 0.0), "one side only");
+
+    // A touch-up stroke off the plane, at the group's edge: the group is its own mirror image,
+    // so the far side's partners join it too (it made a "… mirror" group, which took the
+    // group's own vertices there). Seen from the front (+z), the group's vertex farthest on
+    // that side is in plain view.
+    let group: Vec<usize> =
+        (0..labels.len()).filter(|&u| labels[u] == Some(n_groups as u32)).collect();
+    h.key_press(Key::Num1);
+    h.step();
+    let side = |u: &usize| rest[*u][a] - plane.offset;
+    let far = *group.iter().max_by(|x, y| side(x).total_cmp(&side(y))).unwrap();
+    let radius = f64::from(h.state().brush_radius()) * h.state().diagonal();
+    assert!(side(&far) > 0.6 * radius, "the group reaches {} radii", side(&far) / radius);
+    let pos = h.state().vertex_screen_pos(far).unwrap();
+    drag(&mut h, pos, Vec2::new(1.0, 0.0), Modifiers::NONE);
+    assert_eq!(h.state().edit_state().groups.len(), n_groups + 1, "a pair was made");
+    let after = h.state().labels();
+    assert!(group.iter().all(|&u| after[u] == Some(n_groups as u32)), "the group lost vertices");
 }

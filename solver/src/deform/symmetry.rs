@@ -158,6 +158,13 @@ pub fn fit_plane(positions: &[[f64; 3]]) -> (SymmetryPlane, f64) {
 /// The partner of handle group `group` under `map`: the group most of its vertices' mirror
 /// images belong to, when that is another group holding at least half of them.
 pub fn partner_group(labels: &[Option<u32>], map: &MirrorMap, group: u32) -> Option<u32> {
+    mirror_image(labels, map, group).filter(|&g| g != group)
+}
+
+/// The group most of handle group `group`'s vertices' mirror images belong to, when it holds at
+/// least half of them: another group (its pair, [`partner_group`]), or `group` itself (a group
+/// on the midline, its own mirror image).
+pub fn mirror_image(labels: &[Option<u32>], map: &MirrorMap, group: u32) -> Option<u32> {
     let mut counts = std::collections::BTreeMap::new();
     let mut total = 0usize;
     for (v, l) in labels.iter().enumerate() {
@@ -169,7 +176,7 @@ pub fn partner_group(labels: &[Option<u32>], map: &MirrorMap, group: u32) -> Opt
         }
     }
     let (g, c) = counts.into_iter().max_by_key(|&(g, c)| (c, std::cmp::Reverse(g)))?;
-    (g != group && 2 * c >= total).then_some(g)
+    (2 * c >= total).then_some(g)
 }
 
 /// `t` mirrored across `plane`: the pose of the partner group (module doc).
@@ -235,6 +242,15 @@ mod tests {
         assert_eq!(partner_group(&labels, &map, 0), Some(3));
         assert_eq!(partner_group(&labels, &map, 3), Some(0));
         assert_eq!(partner_group(&labels, &map, 1), None);
+        // A group that is its own mirror image has no partner.
+        let mut midline = vec![None; p.len()];
+        for v in 0..4 {
+            midline[v] = Some(2);
+            midline[map.partner[v] as usize] = Some(2);
+        }
+        assert_eq!(mirror_image(&midline, &map, 2), Some(2));
+        assert_eq!(partner_group(&midline, &map, 2), None);
+        assert_eq!(mirror_image(&labels, &map, 0), Some(3));
     }
 
     /// Mirroring a posed group's points equals posing the mirrored points with the mirrored

@@ -11,8 +11,8 @@ use std::sync::mpsc::{Receiver, channel};
 use eframe::egui::{self, Key, Modifiers};
 use solver::deform::rig::{Falloff, FalloffCurve, Rig};
 use solver::deform::symmetry::{
-    Axis, MirrorMap, SymmetryPlane, fit_plane, fit_plane_on, mirror_map, mirror_transform,
-    partner_group,
+    Axis, MirrorMap, SymmetryPlane, fit_plane, fit_plane_on, mirror_image, mirror_map,
+    mirror_transform, partner_group,
 };
 use solver::geometry::embedding::{blend, closest_point_on_triangle};
 
@@ -204,8 +204,9 @@ impl EditorApp {
     /// Mirrored painting of a handle group: the footprint's mirror partners (outside the
     /// footprint) get the partner group, created as a pair on the stroke's first paint. A
     /// stroke whose first dab is centred on the plane (nearer to it than half the brush's
-    /// radius, on the rest mesh) paints a group on the midline: the partners join the group
-    /// itself, as they do for a box or lasso across the plane.
+    /// radius, on the rest mesh), or that paints a group which is its own mirror image, paints
+    /// a group on the midline: the partners join the group itself, as they do for a box or
+    /// lasso across the plane.
     pub(super) fn mirror_labels(&mut self, footprint: &[u32], group: Option<u32>) {
         if !self.session.edit.symmetry.mirror_painting {
             return;
@@ -226,7 +227,8 @@ impl EditorApp {
                     g
                 }
                 None => {
-                    let found = partner_group(&self.session.edit.labels, &map, g);
+                    // the pair, or the group itself where it is its own mirror image
+                    let found = mirror_image(&self.session.edit.labels, &map, g);
                     let p = found.unwrap_or_else(|| self.new_partner(g));
                     self.rigging.stroke_partner = Some(p);
                     p
@@ -266,8 +268,9 @@ impl EditorApp {
     /// What mirrored painting does with a box or lasso `region` about to be added to group `g`
     /// (`remove`: taken out of it), decided before it is: the region's partners outside it,
     /// and the group they join (or leave). That is `g` itself where the region crosses the
-    /// plane (most of its partners inside it), else `g`'s partner group; a region added with
-    /// no partner group yet makes one (`None` here, [`Self::mirror_region`] creates it).
+    /// plane (most of its partners inside it) or `g` is its own mirror image (a group on the
+    /// midline), else `g`'s partner group; a region added with no partner group yet makes one
+    /// (`None` here, [`Self::mirror_region`] creates it).
     pub(super) fn plan_mirror_region(
         &self,
         region: &[u32],
@@ -284,7 +287,7 @@ impl EditorApp {
         let target = if 2 * inside >= region.len() {
             Some(g)
         } else {
-            partner_group(&self.session.edit.labels, &map, g)
+            mirror_image(&self.session.edit.labels, &map, g)
         };
         Some((partners, target))
     }
