@@ -159,6 +159,15 @@ fn opens_the_default_asset_and_views_change_the_image() {
     step_until(&mut h, "both solvers rebuilt and converged with the share", |a| {
         rebuilt(a) && posed(a)
     });
+
+    // Another mesh opened: the last one's quality is not shown as this one's.
+    assert!(h.state().side_by_side_quality().is_some());
+    let ctx = h.ctx.clone();
+    h.state_mut().open(&ctx, test_mesh());
+    step_until(&mut h, "the other mesh", |a| {
+        !a.is_loading() && a.mesh_path() == Some(test_mesh().as_path())
+    });
+    assert!(h.state().side_by_side_quality().is_none(), "the last mesh's quality is shown");
 }
 
 /// The brush's footprint is found when the pointer, the camera, the brush or the tool

@@ -738,6 +738,9 @@ impl EditorApp {
                 self.session.scene = Some(scene);
                 self.adopt_file_view(file_view, framed);
                 self.solvers.views = Default::default();
+                // the last mesh's side-by-side quality, computed or under way, is not this one's
+                self.jobs.compare = None;
+                self.jobs.compared = None;
                 self.display.viewports = Default::default();
                 self.display.bvh_fit = None;
                 self.interaction.clear_hover();
