@@ -516,6 +516,8 @@ pub struct QualityInput {
     pub handles: Handles,
     pub poses: Vec<GroupTransform>,
     pub energy: solver::deform::quality::ReferenceEnergy,
+    /// The loose parts' modes the results were solved with: the reference moves them alike.
+    pub loose_parts: LooseParts,
     /// The two side-by-side results (left, right), as drawn: in the mesh's display space
     /// (`crate::editor::shape`).
     pub results: [Arc<Vec<[f32; 3]>>; 2],
@@ -542,11 +544,13 @@ pub fn spawn_quality(
     repaint: impl Fn() + Send + 'static,
 ) -> Job<SideBySideQuality> {
     spawn("quality", repaint, move |_| {
-        let QualityInput { mesh, handles, poses, energy, results } = input;
+        let QualityInput { mesh, handles, poses, energy, loose_parts, results } = input;
         let targets = handle_targets(&mesh, &handles, &poses)?;
+        let riders = solver::deform::riders::Riders::new(&mesh, Some(&handles), &loose_parts);
         let mut reference =
             solver::deform::quality::Reference::new(&mesh, &handles, &targets, energy)
-                .map_err(|e| format!("quality reference: {e}"))?;
+                .map_err(|e| format!("quality reference: {e}"))?
+                .with_riders(&riders);
         let origin = display_origin(&mesh);
         let f64s = |x: &[[f32; 3]]| -> Vec<[f64; 3]> {
             x.iter().map(|p| [0, 1, 2].map(|k| f64::from(p[k]) + origin[k])).collect()
@@ -655,6 +659,59 @@ mod tests {
         let err = wait(&job).err().unwrap();
         assert!(err.contains("cancelled"), "{err}");
         assert!(other.lock().unwrap().coarse_base().is_none(), "built after its cancel");
+    }
+
+    /// A small sphere resting on a big one, handles on the big one only: a result whose small
+    /// sphere follows the big one's top (the default) is measured against a reference whose
+    /// small sphere follows alike, not one that left it at rest.
+    #[test]
+    fn the_quality_reference_moves_loose_parts_as_the_results() {
+        let (big, small) =
+            (solver::geometry::shapes::icosphere(1), solver::geometry::shapes::icosphere(0));
+        let mut p = big.positions().to_vec();
+        let n = p.len() as u32;
+        p.extend(small.positions().iter().map(|q| [0.2 * q[0], 1.2 + 0.2 * q[1], 0.2 * q[2]]));
+        let mut t = big.triangles().to_vec();
+        t.extend(small.triangles().iter().map(|f| f.map(|v| v + n)));
+        let mesh = Arc::new(Mesh::new(p.clone(), t).unwrap());
+        let labels: Vec<Option<u32>> = (0..p.len())
+            .map(|v| match p[v][1] {
+                _ if v >= n as usize => None,
+                y if y < -0.5 => Some(0),
+                y if y > 0.5 => Some(1),
+                _ => None,
+            })
+            .collect();
+        let handles = Handles::from_options(labels).unwrap();
+        let moved = GroupTransform::from_translation(glam::DVec3::new(0.3, 0.2, 0.0));
+        let poses = vec![GroupTransform::default(), moved];
+        let parts = LooseParts::default();
+        let config = ArapConfig { tolerance: 1e-10, max_iterations: 2000, ..ArapConfig::default() };
+        let options = DeformerOptions {
+            method: Method::Arap,
+            config,
+            base: BaseConfig::default(),
+            loose_parts: Some(&parts),
+            cache: None,
+        };
+        let mut d = solver::Deformer::new(&mesh, &handles, options).unwrap();
+        d.solve_groups(&[(0, poses[0]), (1, moved)]).unwrap();
+        let origin = display_origin(&mesh);
+        let drawn: Vec<[f32; 3]> =
+            d.positions().iter().map(|x| [0, 1, 2].map(|k| (x[k] - origin[k]) as f32)).collect();
+        assert!(d.positions()[n as usize][0] - p[n as usize][0] > 0.1, "the small sphere stayed");
+        let input = QualityInput {
+            mesh: mesh.clone(),
+            handles,
+            poses,
+            energy: config.energy.into(),
+            loose_parts: parts,
+            results: [Arc::new(drawn.clone()), Arc::new(drawn)],
+        };
+        let q = wait(&spawn_quality(input, || {})).unwrap();
+        for r in q.results {
+            assert!(r.max_distance < 1e-4, "{r:?}");
+        }
     }
 
     /// 33,001 frames are more than a .glb of morph targets holds (4 GiB of weights): the

@@ -15,6 +15,7 @@
 
 use crate::deform::arap::{Acceleration, Arap, ArapConfig, Energy, SolveStats};
 use crate::deform::handles::Handles;
+use crate::deform::riders::Riders;
 use crate::error::SolveError;
 use crate::geometry::mesh::Mesh;
 
@@ -142,6 +143,16 @@ impl Reference {
         r.stats.iterations = iterations;
         r.positions = r.arap.positions().to_vec();
         Ok(r)
+    }
+
+    /// Moves the reference's loose parts as `riders` move a solver's result ([`Riders::apply`],
+    /// from the reference's own handled surface): its solve holds every handle-free component
+    /// at rest, while a result has the following ones moved with the surface they sit on, so a
+    /// result measured against it differs there by the parts' motion alone.
+    pub fn with_riders(mut self, riders: &Riders) -> Reference {
+        let motions = riders.motions(&self.positions);
+        riders.apply(&motions, &mut self.positions);
+        self
     }
 
     /// The converged positions, `#V×3`.

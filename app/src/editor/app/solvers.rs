@@ -397,6 +397,7 @@ impl EditorApp {
             handles,
             poses: self.poses(),
             energy: self.session.settings.reference_energy(),
+            loose_parts: self.session.edit.loose_parts.clone(),
             results: [left, right],
         };
         let c = ctx.clone();
