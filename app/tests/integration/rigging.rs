@@ -337,3 +337,29 @@ fn a_mirrored_brush_stroke_on_the_plane_paints_one_group() {
     let after = h.state().labels();
     assert!(group.iter().all(|&u| after[u] == Some(n_groups as u32)), "the group lost vertices");
 }
+
+/// K with mirrored posing on keys the active group and its partner, in one undo step: keyed
+/// alone, playback moved one side and left the other in its mirrored pose.
+#[test]
+fn k_with_mirrored_posing_keys_the_pair() {
+    use solver::animation::timeline::Path;
+    let mut h = harness(default_mesh_path());
+    step_until(&mut h, "the default asset", settled);
+    h.key_press_modifiers(Modifiers::SHIFT, Key::M);
+    h.step();
+    step_until(&mut h, "the mirror map", |a| a.mirror().is_some());
+    let map = h.state().mirror().unwrap().1.clone();
+    let partner = solver::deform::symmetry::partner_group(h.state().labels(), &map, 0)
+        .expect("group 0's pair") as usize;
+    let keyed = |h: &Harness<'_, EditorApp>, g: usize| {
+        matches!(h.state().edit_state().path(g), Path::Keyframed(_))
+    };
+    assert!(!keyed(&h, 0) && !keyed(&h, partner));
+    h.state_mut().set_active_group(Some(0));
+    h.key_press(Key::K);
+    h.step();
+    assert!(keyed(&h, 0) && keyed(&h, partner), "{:?}", h.state().info());
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    assert!(!keyed(&h, 0) && !keyed(&h, partner), "one undo takes back both keys");
+}

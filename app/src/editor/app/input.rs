@@ -103,16 +103,26 @@ pub(super) struct Hover {
 }
 
 impl EditorApp {
-    /// K: keys the active group's pose at the current time, or says why not.
+    /// K: keys the active group's pose at the current time, or says why not. With mirrored
+    /// posing on, its partner (which took the mirrored pose) is keyed too, in the same undo
+    /// step: keyed alone, playback moved one side only.
     fn key_active_group(&mut self) {
         let Some(k) = self.interaction.active_group else {
             self.info = Some("no key set: select a handle group first".into());
             return;
         };
         let (time, before) = (self.session.playback.time, self.session.edit.clone());
-        if timeline::key_current_pose(&mut self.session.edit, k, time) {
+        let partner = self.mirror_partner(k);
+        let keyed = timeline::key_current_pose(&mut self.session.edit, k, time);
+        let paired =
+            partner.is_some_and(|p| timeline::key_current_pose(&mut self.session.edit, p, time));
+        if keyed || paired {
             self.session.push_undo(before);
-            self.info = Some(format!("key set at {time:.3} s"));
+            let pair = partner.filter(|_| paired).and_then(|p| self.session.edit.groups.get(p));
+            self.info = Some(match pair {
+                Some(g) => format!("key set at {time:.3} s, also on {}", g.name),
+                None => format!("key set at {time:.3} s"),
+            });
         } else if matches!(
             self.session.edit.path(k),
             solver::animation::timeline::Path::Circular(_)
