@@ -148,6 +148,8 @@ pub enum TimelineAction {
     Edited {
         before: Box<Timeline>,
     },
+    /// Key the active group's pose at the current time (the Set key button: as K).
+    SetKey,
     Record,
     CancelRecord,
     ExportGltf,
@@ -373,7 +375,7 @@ pub fn panel(
         }
     });
     if let Some(k) = active.filter(|&k| k < edit.groups.len()) {
-        edited |= path_editor(ui, edit, k, playback.time, mesh_scale);
+        edited |= path_editor(ui, edit, k, playback.time, mesh_scale, &mut actions);
     } else {
         ui.weak("Select a handle group to give it a path.");
     }
@@ -400,7 +402,14 @@ enum Kind {
 }
 
 /// The path editor of group `k`; returns whether anything changed.
-fn path_editor(ui: &mut egui::Ui, edit: &mut EditState, k: usize, time: f64, scale: f64) -> bool {
+fn path_editor(
+    ui: &mut egui::Ui,
+    edit: &mut EditState,
+    k: usize,
+    time: f64,
+    scale: f64,
+    actions: &mut Vec<TimelineAction>,
+) -> bool {
     let mut path = edit.path(k).clone();
     let duration = edit.timeline.duration;
     let kind = match path {
@@ -496,8 +505,8 @@ fn path_editor(ui: &mut egui::Ui, edit: &mut EditState, k: usize, time: f64, sca
                     .on_hover_text("key the current pose at this time")
                     .clicked()
                 {
-                    kp.set_key(Key::from_transform(time, &edit.groups[k].pose));
-                    changed = true;
+                    // as K does (the mirror partner too under mirrored posing, one undo step)
+                    actions.push(TimelineAction::SetKey);
                 }
                 ui.label("interpolation");
                 changed |= ui

@@ -359,7 +359,19 @@ fn k_with_mirrored_posing_keys_the_pair() {
     h.key_press(Key::K);
     h.step();
     assert!(keyed(&h, 0) && keyed(&h, partner), "{:?}", h.state().info());
+    // The timeline's Set key button does as K does.
+    h.state_mut().set_playback_time(0.5);
+    h.step();
+    h.get_by_label("Set key (K)").click();
+    h.step();
+    let keys = |h: &Harness<'_, EditorApp>, g: usize| match h.state().edit_state().path(g) {
+        Path::Keyframed(k) => k.keys.len(),
+        _ => 0,
+    };
+    assert_eq!((keys(&h, 0), keys(&h, partner)), (2, 2), "{:?}", h.state().info());
     h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
     h.step();
-    assert!(!keyed(&h, 0) && !keyed(&h, partner), "one undo takes back both keys");
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    assert!(!keyed(&h, 0) && !keyed(&h, partner), "an undo a key takes back both");
 }

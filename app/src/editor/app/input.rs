@@ -106,7 +106,7 @@ impl EditorApp {
     /// K: keys the active group's pose at the current time, or says why not. With mirrored
     /// posing on, its partner (which took the mirrored pose) is keyed too, in the same undo
     /// step: keyed alone, playback moved one side only.
-    fn key_active_group(&mut self) {
+    pub(super) fn key_active_group(&mut self) {
         let Some(k) = self.interaction.active_group else {
             self.info = Some("no key set: select a handle group first".into());
             return;

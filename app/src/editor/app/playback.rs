@@ -241,6 +241,7 @@ impl EditorApp {
                     }
                     self.display.color_version += 1;
                 }
+                TimelineAction::SetKey => self.key_active_group(),
                 TimelineAction::Record => self.start_recording(ctx),
                 TimelineAction::CancelRecord => self.cancel_recording(),
                 TimelineAction::ExportGltf => {
