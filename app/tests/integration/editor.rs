@@ -453,6 +453,19 @@ fn painting_then_dragging_a_group_deforms_the_mesh() {
     );
 }
 
+/// A selection named on the command line (`bsarap edit creature.dmat`) says to open its mesh
+/// first, as a dropped one does (it failed as an unsupported mesh format).
+#[test]
+fn a_selection_given_at_start_says_to_open_its_mesh_first() {
+    let dir = temp_dir("start-dmat");
+    let dmat = dir.join("creature.dmat");
+    std::fs::write(&dmat, "1 3\n0\n-1\n0\n").unwrap();
+    let mut h = harness(dmat);
+    h.step();
+    let err = h.state().error().expect("an error").to_owned();
+    assert!(err.contains("is a handle selection: open its mesh first"), "{err}");
+}
+
 #[test]
 fn a_bad_file_shows_an_error_and_keeps_the_mesh() {
     let mut h = harness(test_mesh());

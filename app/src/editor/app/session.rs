@@ -260,7 +260,7 @@ impl EditorApp {
     }
 
     /// [`Self::request_open`] once it is known whether `path` is a `selection`.
-    fn open_as(&mut self, ctx: &egui::Context, path: PathBuf, selection: bool) {
+    pub(super) fn open_as(&mut self, ctx: &egui::Context, path: PathBuf, selection: bool) {
         if selection {
             match self.session.scene {
                 Some(_) => self.load_selection(ctx, &path),
