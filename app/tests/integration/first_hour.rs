@@ -273,6 +273,24 @@ fn tools_that_cannot_act_say_why() {
     h.step();
     let info = h.state().info().unwrap_or_default().to_string();
     assert!(info.contains("no vertices to pose"), "{info:?}");
+
+    // The details view of ARAP, and of a mesh without handles, is grey: the overlay says why.
+    h.state_mut().set_view(app::editor::View::Details);
+    let settings = h.state().method_settings();
+    h.state_mut().set_method_settings(app::editor::solver_thread::MethodSettings {
+        bs_variant: solver::Method::Arap,
+        ..settings
+    });
+    step_until(&mut h, "an ARAP frame", settled);
+    let says = |h: &Harness<'_, EditorApp>, what: &str| {
+        h.state().overlay_lines(0).iter().any(|l| l.contains(what))
+    };
+    assert!(says(&h, "ARAP has no details"), "{:?}", h.state().overlay_lines(0));
+    let mut cleared = h.state().edit_state().clone();
+    cleared.labels.iter_mut().for_each(|l| *l = None);
+    h.state_mut().set_edit_state(cleared);
+    h.step();
+    assert!(says(&h, "no details without handles"), "{:?}", h.state().overlay_lines(0));
 }
 
 /// Every handle vertex of the example scenes stays above the mesh's lowest point (the ground)

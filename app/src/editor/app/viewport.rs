@@ -387,6 +387,22 @@ impl EditorApp {
                 _ => "",
             }
         ));
+        if self.display.view == View::Details {
+            // the mesh is drawn grey then: say why, as the base view does
+            let frame = self.solvers.views[0].frame.as_ref();
+            let why = match frame.map(|f| f.detail_magnitudes.is_some()) {
+                Some(true) => None,
+                None if !self.session.edit.has_handles() => {
+                    Some("no details without handles: paint a handle group")
+                }
+                None => Some("no solved frame yet"),
+                Some(false) if method == solver::Method::Arap => {
+                    Some("ARAP has no details: choose a BS-ARAP method to see them")
+                }
+                Some(false) => Some("no details in this frame yet"),
+            };
+            lines.extend(why.map(String::from));
+        }
         if let Some(f) = &self.solvers.views[view_index].frame {
             let s = f.stats;
             if self.options.deterministic_overlays {
