@@ -477,6 +477,31 @@ fn a_setting_changed_while_a_mesh_loads_is_asked_about_and_an_open_question_stay
     assert!(info.contains("again.obj was not opened"), "{info}");
 }
 
+/// A file dropped while one opened through the unsaved-changes question loads was asked
+/// about too (the old document's changes were still shown); once the first file is open
+/// nothing is unsaved, so it opens instead of asking on about changes that are gone.
+#[test]
+fn an_open_question_whose_changes_went_opens_the_file() {
+    let dir = ScratchDir::new("question-outlived");
+    let (mut h, bar, _) = bar_with_three_groups(&dir);
+    let text = std::fs::read_to_string(&bar).unwrap();
+    unsaved(&mut h);
+    let first = fifo(&dir, "first.obj");
+    support::drop_file(&mut h, first.clone());
+    assert_eq!(h.state().pending_open(), Some(first.as_path()));
+    h.step();
+    h.get_by_label("Discard changes and open").click();
+    h.step();
+    assert!(h.state().is_loading());
+    std::fs::write(dir.join("second.obj"), &text).unwrap();
+    support::drop_file(&mut h, dir.join("second.obj"));
+    write_later(first.clone(), text).join().unwrap();
+    step_until(&mut h, "the second mesh", |a| {
+        !a.is_loading() && a.mesh_path() == Some(dir.join("second.obj").as_path())
+    });
+    assert_eq!(h.state().pending_open(), None);
+}
+
 /// B pressed during a pose drag ends the drag: the brush shows again under the pointer (the
 /// drag stayed under way in the paint tool, hiding the brush until the pose tool came back),
 /// and the drag is one undo step.

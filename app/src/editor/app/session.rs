@@ -382,6 +382,21 @@ impl EditorApp {
     pub(super) fn unsaved_window(&mut self, ctx: &egui::Context) {
         let Some(pending) = self.session.pending.clone() else { return };
         let unsaved = self.has_unsaved_changes();
+        // Asked while the changes were there, and they went since (a file opened through an
+        // earlier question finished loading, or the document was saved): nothing to ask.
+        if !unsaved && self.jobs.loading.is_none() {
+            match pending {
+                Pending::Open(path) => {
+                    self.session.pending = None;
+                    return self.open(ctx, path);
+                }
+                Pending::Restore => {
+                    self.session.pending = None;
+                    return self.restore(ctx);
+                }
+                Pending::Quit => {}
+            }
+        }
         let question = match &pending {
             Pending::Open(path) => {
                 format!("The current scene has unsaved changes. Open {} anyway?", file_name(path))
