@@ -54,6 +54,10 @@ pub struct LoadedFile {
     pub mesh: Arc<Mesh>,
     /// [`Mesh::topology_fingerprint`] (saved in scenes, checked when one is opened).
     pub mesh_topology: u64,
+    /// The fingerprint versions that fanned every polygon from its first corner saved for
+    /// this file, where some polygon now fans from another ([`solver::io::first_corner_triangles`]):
+    /// a scene they saved names the same vertices.
+    pub earlier_topology: Option<u64>,
     /// Cleaning notices to show in the status bar.
     pub notices: Vec<String>,
     /// The file's own layout: its vertices in order, attributes, parts, materials and
@@ -352,8 +356,12 @@ fn prepare(
             }
         }
     }
+    let earlier_topology = solver::io::first_corner_triangles(&loaded.asset)
+        .and_then(|t| solver::geometry::cleanup::clean(&loaded.asset.positions, &t).ok())
+        .map(|(m, _)| m.topology_fingerprint());
     Ok(LoadedFile {
         mesh_topology: mesh.topology_fingerprint(),
+        earlier_topology,
         path: path.to_path_buf(),
         mesh,
         notices,
@@ -453,6 +461,23 @@ pub fn write_dmat(path: &Path, labels: &[Option<u32>]) -> anyhow::Result<()> {
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
+
+    /// A mesh whose polygon now fans from another corner (a dart quad) also carries the
+    /// fingerprint earlier versions saved for it; a mesh of triangles does not.
+    #[test]
+    fn a_refanned_polygon_keeps_the_earlier_fingerprint() {
+        let dir = solver::testing::ScratchDir::new("loader-refan");
+        let obj = "v 0 0 0\nv 0.2 0.2 0\nv 1 0 0\nv 0.2 1 0\nf 1 2 3 4\n";
+        std::fs::write(dir.join("dart.obj"), obj).unwrap();
+        let scene = load_scene(&dir.join("dart.obj"), 1, Default::default(), None).unwrap();
+        let earlier = scene.earlier_topology.expect("an earlier fingerprint");
+        assert_ne!(earlier, scene.mesh_topology);
+        let first = solver::Mesh::new(scene.mesh.positions().to_vec(), vec![[0, 1, 2], [0, 2, 3]]);
+        assert_eq!(earlier, first.unwrap().topology_fingerprint());
+        std::fs::write(dir.join("tri.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+        let scene = load_scene(&dir.join("tri.obj"), 1, Default::default(), None).unwrap();
+        assert_eq!(scene.earlier_topology, None);
+    }
 
     /// A sphere list is told from a scene by its first value, also after a byte order mark.
     #[test]

@@ -48,6 +48,7 @@ pub use error::LoadError;
 pub use gltf::{MAX_TRIANGLES as MAX_GLTF_TRIANGLES, MAX_VERTICES as MAX_GLTF_VERTICES};
 pub use image_check::{MAX_IMAGE_ALLOC, MAX_IMAGE_SIDE};
 pub use obj_write::{write_mtl_asset, write_obj_asset, write_obj_asset_with};
+pub use polygon::first_corner_triangles;
 pub use reference::{ReferencePolicy, not_regular};
 pub use write::{SaveError, write_atomic, write_obj};
 pub use write_plain::{write_off, write_off_asset, write_ply, write_ply_asset};

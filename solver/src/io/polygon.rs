@@ -84,6 +84,23 @@ pub(crate) fn root_fans(asset: &mut Asset) {
     }
 }
 
+/// The asset's triangles with every polygon fanned from its file's first corner, as a reader
+/// fanned them before [`root_fans`] (what versions before it saw, for comparing a mesh
+/// fingerprint they saved); `None` when every polygon fans from its first corner already.
+pub fn first_corner_triangles(asset: &Asset) -> Option<Vec<[u32; 3]>> {
+    if asset.polygon_starts.iter().all(|&s| s == 0) {
+        return None;
+    }
+    let mut triangles = asset.triangles.clone();
+    for (k, range) in asset.polygons().enumerate() {
+        let start = asset.polygon_start(k);
+        if start != 0 {
+            refan(&mut triangles[range], start);
+        }
+    }
+    Some(triangles)
+}
+
 /// The apex $a$ whose fan has the fewest folded triangles, then the fewest without area, and
 /// its score (folded, flat); $a = 0$ unless another corner does strictly better.
 fn best_apex(points: &[DVec3]) -> (usize, (usize, usize)) {
@@ -199,6 +216,8 @@ mod tests {
             assert!((b - a).cross(c - a).z > 0.0, "triangle {t:?} folds");
         }
         assert_eq!(loaded.asset.polygon_starts, [3, 0]);
+        let first = first_corner_triangles(&loaded.asset).unwrap();
+        assert_eq!(first[..2], [[0, 1, 2], [0, 2, 3]], "the file's own fan");
         loaded.asset.check().unwrap();
         let dir = crate::testing::ScratchDir::new("dart");
         let path = dir.join("dart.obj");
