@@ -145,6 +145,33 @@ fn frames_follow_poses_and_survive_a_panic() {
     assert_eq!(f.positions[0], drawn([0.0, 0.0, 2.0]));
 }
 
+/// A build that fails (no panic) waits for a new scene: poses sent after it do not build the
+/// same scene again (on a dense mesh each try is a factorization).
+#[test]
+fn a_failed_build_is_not_retried_by_poses() {
+    let builds = Arc::new(AtomicUsize::new(0));
+    let counted = builds.clone();
+    let failing: PoseSolverFactory = Arc::new(move |_, _: &Mesh, _: &Handles, _: &_, _: &_| {
+        counted.fetch_add(1, Ordering::SeqCst);
+        Err("no factorization".to_string())
+    });
+    let h = SolverHandle::spawn(Slot::Compare, failing, Arc::new(|| {})).unwrap();
+    h.send(scene(1, vec![GroupTransform::default()]));
+    let start = Instant::now();
+    while !h.try_status().is_some_and(|s| matches!(s.state, SolverState::Failed(_))) {
+        assert!(start.elapsed() < Duration::from_secs(10), "no failure reported");
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    for g in 2..5 {
+        h.send(SolverCommand::SetPoses {
+            pose_generation: g,
+            poses: vec![GroupTransform::default()],
+        });
+    }
+    std::thread::sleep(Duration::from_millis(200));
+    assert_eq!(builds.load(Ordering::SeqCst), 1, "the failed scene was built again");
+}
+
 /// Solves like [`Shift`], then refines: each settle step moves vertex 1 by 0.5 along x and
 /// the third says converged.
 struct Settles {

@@ -72,6 +72,9 @@ fn set_settle_waiting(status: &Mutex<SolverStatus>, since: Option<Instant>) {
 #[derive(Default)]
 struct Recovery {
     scene: Option<NewScene>,
+    /// The worker was started again after a panic and has not rebuilt `scene` since (a build
+    /// that failed without a panic waits for a new scene, as before).
+    restarted: bool,
     /// A panic came while `scene` was being built.
     building: bool,
 }
@@ -79,13 +82,14 @@ struct Recovery {
 impl Recovery {
     fn poses(&mut self, generation: u64, poses: &[GroupTransform]) {
         if let Some(s) = &mut self.scene {
-            (s.pose_generation, s.poses) = (generation, poses.to_vec());
+            (s.pose_generation, s.poses) = (s.pose_generation.max(generation), poses.to_vec());
         }
     }
 
     fn loose_parts(&mut self, generation: u64, parts: &LooseParts) {
         if let Some(s) = &mut self.scene {
-            (s.pose_generation, s.loose_parts) = (generation, parts.clone());
+            s.pose_generation = s.pose_generation.max(generation);
+            s.loose_parts = parts.clone();
         }
     }
 }
@@ -104,6 +108,7 @@ pub(super) fn supervise(
         match result {
             Ok(()) => return,
             Err(payload) => {
+                recovery.restarted = true;
                 let msg = panic_message(payload.as_ref());
                 match shared.status.lock() {
                     Ok(mut s) => {
@@ -579,9 +584,16 @@ fn worker_loop(
         }
         // Started again after a panic: the scene it served, at the poses sent since.
         let moved = inbox.poses.is_some() || inbox.loose_parts.is_some();
-        let recovered = build.is_none() && active.is_none() && moved && !recovery.building;
+        let recovered = build.is_none()
+            && active.is_none()
+            && moved
+            && recovery.restarted
+            && !recovery.building;
         if recovered {
             build = recovery.scene.clone();
+        }
+        if build.is_some() {
+            recovery.restarted = false;
         }
         if let Some(scene) = build {
             // Free the old factorization before building the new one.
