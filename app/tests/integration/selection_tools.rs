@@ -158,6 +158,18 @@ fn an_alt_drag_orbits_and_paints_nothing() {
         assert_eq!(h.state().edit_state().groups.len(), groups, "{mode:?}: a group was made");
         assert_ne!(h.state().camera(), &view, "{mode:?}: the camera did not orbit");
     }
+    // Side by side, the two viewports share the camera: the drag orbits it once, not twice.
+    let yaw_by = |h: &mut Harness<'static, EditorApp>| {
+        let before = h.state().camera().yaw;
+        drag(h, &points, Modifiers::ALT);
+        h.state().camera().yaw - before
+    };
+    let single = yaw_by(&mut h);
+    h.state_mut().set_view(app::editor::View::Compare);
+    h.run_steps(3);
+    let side_by_side = yaw_by(&mut h);
+    assert!((side_by_side - single).abs() < 1e-4, "{side_by_side} vs {single}");
+    assert_eq!(h.state().labels(), &labels[..]);
 }
 
 #[test]

@@ -24,10 +24,11 @@ pub(super) struct Interaction {
     pub(super) drag: Option<PoseDrag>,
     /// Group being renamed, with the name typed so far.
     pub(super) renaming: Option<(usize, String)>,
-    /// The primary button went down with Alt held: until it is released the press orbits the
-    /// camera and no tool sees it (egui reports a drag only once the pointer has moved, so
-    /// its press and release frames would paint a dab, or start and apply a box).
-    pub(super) alt_press: bool,
+    /// The viewport where the primary button went down with Alt held: until it is released
+    /// the press orbits the camera there and no tool sees it (egui reports a drag only once
+    /// the pointer has moved, so its press and release frames would paint a dab, or start
+    /// and apply a box).
+    pub(super) alt_press: Option<usize>,
 }
 
 impl Default for Interaction {
@@ -41,7 +42,7 @@ impl Default for Interaction {
             stroke: None,
             drag: None,
             renaming: None,
-            alt_press: false,
+            alt_press: None,
         }
     }
 }
@@ -119,9 +120,14 @@ impl EditorApp {
         if keyed || paired {
             self.session.push_undo(before);
             let pair = partner.filter(|_| paired).and_then(|p| self.session.edit.groups.get(p));
-            self.info = Some(match pair {
-                Some(g) => format!("key set at {time:.3} s, also on {}", g.name),
-                None => format!("key set at {time:.3} s"),
+            self.info = Some(match (keyed, pair) {
+                (true, Some(g)) => format!("key set at {time:.3} s, also on {}", g.name),
+                (false, Some(g)) => format!(
+                    "key set at {time:.3} s on {} only (the active group's path is circular or \
+                     holds this pose)",
+                    g.name
+                ),
+                _ => format!("key set at {time:.3} s"),
             });
         } else if matches!(
             self.session.edit.path(k),
@@ -360,12 +366,13 @@ impl EditorApp {
         // Camera: middle = orbit, Shift+middle = pan, Alt+left = orbit, wheel = zoom.
         let (pressed, down) = ui.input(|i| (i.pointer.primary_pressed(), i.pointer.primary_down()));
         if pressed && modifiers.alt && response.is_pointer_button_down_on() {
-            self.interaction.alt_press = true;
+            self.interaction.alt_press = Some(slot);
         }
-        let alt_orbit = self.interaction.alt_press
+        // each viewport runs this; the camera they share orbits once, in the pressed one
+        let alt_orbit = self.interaction.alt_press == Some(slot)
             || (response.dragged_by(PointerButton::Primary) && modifiers.alt);
-        if !down {
-            self.interaction.alt_press = false; // this frame's release is still the orbit's
+        if !down && self.interaction.alt_press == Some(slot) {
+            self.interaction.alt_press = None; // this frame's release is still the orbit's
         }
         if response.dragged_by(PointerButton::Middle) || alt_orbit {
             if modifiers.shift && !alt_orbit {

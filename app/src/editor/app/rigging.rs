@@ -546,14 +546,14 @@ impl EditorApp {
     }
 }
 
-/// The mirror partners of `region` that are not in it (each once), and how many of the
-/// region's partners are in it.
 /// The name of a group made as `name`'s mirror pair: "`name` mirror", cut to a group name's
 /// length ([`GROUP_NAME_CHARS`]) as the rename field and the scene reader cut names.
 fn partner_name(name: &str) -> String {
     format!("{name} mirror").chars().take(GROUP_NAME_CHARS).collect()
 }
 
+/// The mirror partners of `region` that are not in it (each once), and how many of the
+/// region's partners are in it.
 fn partners_outside(map: &MirrorMap, region: &[u32]) -> (Vec<u32>, usize) {
     let set: std::collections::HashSet<u32> = region.iter().copied().collect();
     let mut inside = 0;
