@@ -666,23 +666,8 @@ mod tests {
     /// small sphere follows alike, not one that left it at rest.
     #[test]
     fn the_quality_reference_moves_loose_parts_as_the_results() {
-        let (big, small) =
-            (solver::geometry::shapes::icosphere(1), solver::geometry::shapes::icosphere(0));
-        let mut p = big.positions().to_vec();
-        let n = p.len() as u32;
-        p.extend(small.positions().iter().map(|q| [0.2 * q[0], 1.2 + 0.2 * q[1], 0.2 * q[2]]));
-        let mut t = big.triangles().to_vec();
-        t.extend(small.triangles().iter().map(|f| f.map(|v| v + n)));
-        let mesh = Arc::new(Mesh::new(p.clone(), t).unwrap());
-        let labels: Vec<Option<u32>> = (0..p.len())
-            .map(|v| match p[v][1] {
-                _ if v >= n as usize => None,
-                y if y < -0.5 => Some(0),
-                y if y > 0.5 => Some(1),
-                _ => None,
-            })
-            .collect();
-        let handles = Handles::from_options(labels).unwrap();
+        let (mesh, handles, n) = solver::testing::sphere_with_rider();
+        let mesh = Arc::new(mesh);
         let moved = GroupTransform::from_translation(glam::DVec3::new(0.3, 0.2, 0.0));
         let poses = vec![GroupTransform::default(), moved];
         let parts = LooseParts::default();
@@ -699,7 +684,7 @@ mod tests {
         let origin = display_origin(&mesh);
         let drawn: Vec<[f32; 3]> =
             d.positions().iter().map(|x| [0, 1, 2].map(|k| (x[k] - origin[k]) as f32)).collect();
-        assert!(d.positions()[n as usize][0] - p[n as usize][0] > 0.1, "the small sphere stayed");
+        assert!(d.positions()[n][0] - mesh.positions()[n][0] > 0.1, "the small sphere stayed");
         let input = QualityInput {
             mesh: mesh.clone(),
             handles,

@@ -249,11 +249,9 @@ fn the_rig_is_saved_in_the_scene_and_restored() {
     assert_eq!(h.state().solver_handles().unwrap().rig(), &rig, "the solver gets the same rig");
 }
 
-/// Esc during a move with mirrored posing gives the partner its own pose back: it was set to
-/// the mirror of the moved group's start, which differs when the pair was posed apart before
-/// mirrored posing was turned on (the partner stayed moved, with no undo step).
-#[test]
-fn esc_with_mirrored_posing_restores_the_partner() {
+/// The default asset with mirrored posing on (Shift+M) and its mirror map ready; group 0's
+/// partner group.
+fn mirrored_posing_of_group_0() -> (Harness<'static, EditorApp>, usize) {
     let mut h = harness(default_mesh_path());
     step_until(&mut h, "the default asset", settled);
     h.key_press_modifiers(Modifiers::SHIFT, Key::M);
@@ -262,6 +260,15 @@ fn esc_with_mirrored_posing_restores_the_partner() {
     let map = h.state().mirror().unwrap().1.clone();
     let partner = solver::deform::symmetry::partner_group(h.state().labels(), &map, 0)
         .expect("group 0's pair") as usize;
+    (h, partner)
+}
+
+/// Esc during a move with mirrored posing gives the partner its own pose back: it was set to
+/// the mirror of the moved group's start, which differs when the pair was posed apart before
+/// mirrored posing was turned on (the partner stayed moved, with no undo step).
+#[test]
+fn esc_with_mirrored_posing_restores_the_partner() {
+    let (mut h, partner) = mirrored_posing_of_group_0();
     // Posed apart: the partner alone (set directly, as mirrored posing is for the UI's moves).
     let mut e = h.state().edit_state().clone();
     e.groups[partner].pose.translation = glam::DVec3::new(0.0, 0.0, 0.01);
@@ -343,14 +350,7 @@ fn a_mirrored_brush_stroke_on_the_plane_paints_one_group() {
 #[test]
 fn k_with_mirrored_posing_keys_the_pair() {
     use solver::animation::timeline::Path;
-    let mut h = harness(default_mesh_path());
-    step_until(&mut h, "the default asset", settled);
-    h.key_press_modifiers(Modifiers::SHIFT, Key::M);
-    h.step();
-    step_until(&mut h, "the mirror map", |a| a.mirror().is_some());
-    let map = h.state().mirror().unwrap().1.clone();
-    let partner = solver::deform::symmetry::partner_group(h.state().labels(), &map, 0)
-        .expect("group 0's pair") as usize;
+    let (mut h, partner) = mirrored_posing_of_group_0();
     let keyed = |h: &Harness<'_, EditorApp>, g: usize| {
         matches!(h.state().edit_state().path(g), Path::Keyframed(_))
     };

@@ -114,6 +114,35 @@ pub fn sphere_with_caps() -> (crate::geometry::mesh::Mesh, crate::deform::handle
     capped_sphere(2, 0, 0.8, None)
 }
 
+/// A unit icosphere (level 1) with a small one (radius 0.2, level 0) resting on its top: a
+/// loose part. Handle group 0 is the big sphere's bottom (`y < -0.5`), group 1 its top
+/// (`y > 0.5`); the small sphere's vertices come after the big one's, from the returned index.
+pub fn sphere_with_rider() -> (crate::geometry::mesh::Mesh, crate::deform::handles::Handles, usize)
+{
+    let big = crate::geometry::shapes::icosphere(1);
+    let small = crate::geometry::shapes::icosphere(0);
+    let mut p = big.positions().to_vec();
+    let n = p.len();
+    p.extend(small.positions().iter().map(|q| [0.2 * q[0], 1.2 + 0.2 * q[1], 0.2 * q[2]]));
+    let mut t = big.triangles().to_vec();
+    t.extend(small.triangles().iter().map(|f| f.map(|v| v + n as u32)));
+    let labels = (0..p.len())
+        .map(|v| match p[v][1] {
+            _ if v >= n => None,
+            y if y < -0.5 => Some(0),
+            y if y > 0.5 => Some(1),
+            _ => None,
+        })
+        .collect();
+    let (Ok(mesh), Ok(handles)) = (
+        crate::geometry::mesh::Mesh::new(p, t),
+        crate::deform::handles::Handles::from_options(labels),
+    ) else {
+        panic!("sphere-with-rider fixture");
+    };
+    (mesh, handles, n)
+}
+
 /// A timeline of `n_frames` frames over one second in which group 0 circles about +z with
 /// radius `radius`, turning with its path, and the other groups stay.
 pub fn circling_timeline(radius: f64, n_frames: usize) -> crate::animation::timeline::Timeline {

@@ -476,23 +476,10 @@ fn mailbox_keeps_only_the_newest() {
 fn loose_parts_change_without_a_rebuild() {
     use solver::{ComponentMode, LooseParts};
     // A unit sphere and a small one resting on its top; handles on the big one only.
-    let big = solver::geometry::shapes::icosphere(1);
-    let small = solver::geometry::shapes::icosphere(0);
-    let mut p = big.positions().to_vec();
-    let n = p.len() as u32;
-    p.extend(small.positions().iter().map(|q| [0.2 * q[0], 1.2 + 0.2 * q[1], 0.2 * q[2]]));
-    let mut t = big.triangles().to_vec();
-    t.extend(small.triangles().iter().map(|f| f.map(|v| v + n)));
-    let mesh = Arc::new(Mesh::new(p.clone(), t).unwrap());
+    let (mesh, handles, n) = solver::testing::sphere_with_rider();
+    let p = mesh.positions().to_vec();
+    let mesh = Arc::new(mesh);
     let origin = display_origin(&mesh);
-    let labels = (0..p.len())
-        .map(|v| match p[v][1] {
-            _ if v >= n as usize => None,
-            y if y < -0.5 => Some(0),
-            y if y > 0.5 => Some(1),
-            _ => None,
-        })
-        .collect();
     let builds = Arc::new(Mutex::new(0usize));
     let counted = builds.clone();
     let inner = crate::editor::pose_solvers::factory(Default::default());
@@ -507,7 +494,7 @@ fn loose_parts_change_without_a_rebuild() {
         scene_generation: 1,
         vertex_faces: faces_of(&mesh),
         mesh,
-        handles: Some(Handles::from_options(labels).unwrap()),
+        handles: Some(handles),
         settings: MethodSettings {
             arap: solver::ArapConfig { max_iterations: 200, ..MethodSettings::default().arap },
             ..MethodSettings::default()
@@ -516,7 +503,7 @@ fn loose_parts_change_without_a_rebuild() {
         poses: vec![GroupTransform::default(), moved],
         pose_generation: 1,
     })));
-    let small_vertices = n as usize..p.len();
+    let small_vertices = n..p.len();
     let shift = |f: &SolvedFrame| {
         small_vertices
             .clone()
