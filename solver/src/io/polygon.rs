@@ -85,7 +85,7 @@ pub(crate) fn root_fans(asset: &mut Asset) {
 }
 
 /// The asset's triangles with every polygon fanned from its file's first corner, as a reader
-/// fanned them before [`root_fans`] (what versions before it saw, for comparing a mesh
+/// fanned them before `root_fans` (what versions before it saw, for comparing a mesh
 /// fingerprint they saved); `None` when every polygon fans from its first corner already.
 pub fn first_corner_triangles(asset: &Asset) -> Option<Vec<[u32; 3]>> {
     if asset.polygon_starts.iter().all(|&s| s == 0) {
