@@ -18,14 +18,14 @@ impl EditorApp {
     /// The file waiting for the user to save or discard their changes.
     pub fn pending_open(&self) -> Option<&Path> {
         match &self.session.pending {
-            Some(super::session::Pending::Open(p)) => Some(p),
+            Some(super::questions::Pending::Open(p)) => Some(p),
             _ => None,
         }
     }
 
     /// Whether the unsaved-changes question before quitting is open.
     pub fn quit_question_open(&self) -> bool {
-        self.session.pending == Some(super::session::Pending::Quit)
+        self.session.pending == Some(super::questions::Pending::Quit)
     }
 
     /// Whether a mesh or a scene is loading, or waits for a save to write it, or a `.json`

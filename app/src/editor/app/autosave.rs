@@ -10,7 +10,7 @@ use eframe::egui::{self, Vec2};
 
 use super::EditorApp;
 use super::file_name;
-use super::session::Pending;
+use super::questions::Pending;
 use crate::editor::persist::{self, AUTOSAVE_INTERVAL, Persist, Snapshot};
 use solver::animation::scene::Scene;
 

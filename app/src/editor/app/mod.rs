@@ -31,6 +31,7 @@ mod panels;
 mod parts;
 mod playback;
 mod prefs;
+mod questions;
 mod rigging;
 mod save;
 mod selection;

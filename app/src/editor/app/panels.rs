@@ -556,6 +556,7 @@ impl eframe::App for EditorApp {
         self.close_requested(&ctx);
         self.poll_jobs();
         self.poll_save(&ctx);
+        self.poll_question(&ctx);
         self.log_status();
         self.poll_compare(&ctx);
         if self.session.playback.tick(now, &self.session.edit.timeline) {

@@ -8,7 +8,8 @@ use std::path::{Path, PathBuf};
 
 use eframe::egui;
 
-use super::session::{DocumentMark, Pending};
+use super::questions::Pending;
+use super::session::DocumentMark;
 use super::{DialogKind, EditorApp, file_name};
 use crate::editor::jobs::{self, Job};
 
