@@ -54,6 +54,24 @@ fn free_vertex_on_the_body(app: &EditorApp) -> (usize, Pos2) {
     visible_vertex(app, Pos2::new(SIZE.x * 0.55, SIZE.y * 0.45), keep)
 }
 
+/// Adds a group and paints it with a short stroke at `pos`, over vertex `v`: the new group's
+/// index and the labels after the stroke.
+fn paint_new_group(
+    h: &mut Harness<'_, EditorApp>,
+    v: usize,
+    pos: Pos2,
+) -> (usize, Vec<Option<u32>>) {
+    let n_groups = h.state().edit_state().groups.len();
+    h.get_by_label("Add group").click();
+    h.step();
+    h.state_mut().set_tool(Tool::Paint);
+    h.state_mut().set_active_group(Some(n_groups));
+    drag(h, pos, Vec2::new(1.0, 0.0), Modifiers::NONE);
+    let labels = h.state().labels().to_vec();
+    assert_eq!(labels[v], Some(n_groups as u32), "vertex {v} not painted");
+    (n_groups, labels)
+}
+
 /// Selects group 5 (the snout) and drags its falloff slider to 30 % of its length.
 fn soft_falloff_on_group_5(h: &mut Harness<'_, EditorApp>) {
     h.state_mut().set_active_group(Some(5));
@@ -164,14 +182,7 @@ fn mirrored_painting_and_posing() {
     let labels = h.state().labels().to_vec();
     let keep = |v: usize| labels[v].is_none() && rest[v][2] > 0.15 && map.partner[v] as usize != v;
     let (v, pos) = visible_vertex(h.state(), Pos2::new(SIZE.x * 0.55, SIZE.y * 0.45), keep);
-    let n_groups = h.state().edit_state().groups.len();
-    h.get_by_label("Add group").click();
-    h.step();
-    h.state_mut().set_tool(Tool::Paint);
-    h.state_mut().set_active_group(Some(n_groups));
-    drag(&mut h, pos, Vec2::new(1.0, 0.0), Modifiers::NONE);
-    let labels = h.state().labels().to_vec();
-    assert_eq!(labels[v], Some(n_groups as u32), "vertex {v} not painted");
+    let (n_groups, labels) = paint_new_group(&mut h, v, pos);
     let partner = map.partner[v] as usize;
     assert_eq!(labels[partner], Some(n_groups as u32 + 1), "mirror vertex {partner} not painted");
     assert_eq!(h.state().edit_state().groups.len(), n_groups + 2, "no pair created");
@@ -310,14 +321,7 @@ fn a_mirrored_brush_stroke_on_the_plane_paints_one_group() {
     let near = 2e-3 * h.state().diagonal();
     let keep = |v: usize| labels[v].is_none() && plane.distance(rest[v]) < near;
     let (v, pos) = visible_vertex(h.state(), Pos2::new(SIZE.x * 0.55, SIZE.y * 0.4), keep);
-    let n_groups = h.state().edit_state().groups.len();
-    h.get_by_label("Add group").click();
-    h.step();
-    h.state_mut().set_tool(Tool::Paint);
-    h.state_mut().set_active_group(Some(n_groups));
-    drag(&mut h, pos, Vec2::new(1.0, 0.0), Modifiers::NONE);
-    let labels = h.state().labels().to_vec();
-    assert_eq!(labels[v], Some(n_groups as u32), "vertex {v} not painted");
+    let (n_groups, labels) = paint_new_group(&mut h, v, pos);
     assert_eq!(h.state().edit_state().groups.len(), n_groups + 1, "a pair was made");
     let a = plane.axis.index();
     let sides: Vec<f64> = (0..labels.len())

@@ -361,6 +361,18 @@ impl Asset {
         order.clone().skip(start % n).chain(order.take(start % n))
     }
 
+    /// Polygon `k`'s corners in the file's order, from its fan `fan` (a range of
+    /// [`Asset::polygons`]) of a corner layer: [`Asset::triangles`] or an [`Attribute`]'s
+    /// corners.
+    pub fn file_corners(
+        &self,
+        layer: &[[u32; 3]],
+        k: usize,
+        fan: std::ops::Range<usize>,
+    ) -> Vec<u32> {
+        Self::polygon_corners(&layer[fan], self.polygon_start(k)).collect()
+    }
+
     /// Checks [`Asset::polygon_sizes`] against the triangles: each size at least 3, the sizes'
     /// fans ($\sum_k (n_k - 2)$ triangles) cover `triangles` exactly, each fan shares its
     /// first corner and chains its edges ($t_j = (c_0, c_j, c_{j+1})$) in the positions and in

@@ -342,9 +342,7 @@ fn obj_text(
         while let Some((k, fan)) = polygons.next_if(|(_, fan)| fan.start < part.first + part.count)
         {
             text.push('f');
-            let start = asset.polygon_start(k);
-            let corners =
-                |c: &'_ [[u32; 3]]| Asset::polygon_corners(&c[fan.clone()], start).collect();
+            let corners = |c: &'_ [[u32; 3]]| asset.file_corners(c, k, fan.clone());
             let v: Vec<u32> = corners(&asset.triangles);
             let vt: Option<Vec<u32>> = uvs.map(|a| corners(&a.corners));
             let vn: Option<Vec<u32>> = normal_corners.map(corners);

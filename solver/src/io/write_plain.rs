@@ -196,9 +196,7 @@ fn checked_faces(
     Ok(asset
         .polygons()
         .enumerate()
-        .map(|(k, fan)| {
-            Asset::polygon_corners(&asset.triangles[fan], asset.polygon_start(k)).collect()
-        })
+        .map(|(k, fan)| asset.file_corners(&asset.triangles, k, fan))
         .collect())
 }
 

@@ -282,10 +282,7 @@ fn blender_keeps_the_obj_polygons() {
         .polygons()
         .enumerate()
         .map(|(k, fan)| {
-            let start = asset.polygon_start(k);
-            solver::io::Asset::polygon_corners(&asset.triangles[fan], start)
-                .map(u64::from)
-                .collect()
+            asset.file_corners(&asset.triangles, k, fan).into_iter().map(u64::from).collect()
         })
         .collect();
     let theirs: Vec<Vec<u64>> = o["loops"]

@@ -225,6 +225,14 @@ impl EditorApp {
         self.gizmo.swallow_press = true;
     }
 
+    /// Whether a gesture that records its undo step at its end is under way: a transform, a
+    /// pose drag or a brush stroke.
+    pub(super) fn gesture_under_way(&self) -> bool {
+        self.gizmo.transform.is_some()
+            || self.interaction.drag.is_some()
+            || self.interaction.stroke.is_some()
+    }
+
     /// Modal transform keys; run before the other shortcuts so that G, R, X, Y, Z, Enter and
     /// Esc mean the transform's while one runs.
     pub(super) fn gizmo_keys(&mut self, ctx: &egui::Context) {
@@ -235,10 +243,7 @@ impl EditorApp {
         // gesture's (one undo then took back both, the next a pose never confirmed), Space and
         // Home would move the group under it. Matched logically: K and M take Shift+K and
         // Shift+M too; the redo keys come before Ctrl+Z, which also matches Ctrl+Shift+Z.
-        let gesture = self.gizmo.transform.is_some()
-            || self.interaction.drag.is_some()
-            || self.interaction.stroke.is_some();
-        if gesture {
+        if self.gesture_under_way() {
             let cmd_shift = Modifiers::COMMAND | Modifiers::SHIFT;
             let waiting = [
                 (Modifiers::NONE, Key::K),

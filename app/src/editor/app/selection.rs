@@ -124,10 +124,7 @@ impl EditorApp {
         // A command records its own undo step: during a stroke, a pose drag, a transform or
         // a box it would split that gesture's (one undo then took back the command and half
         // the gesture). It waits, as K and M do.
-        let gesture = self.interaction.stroke.is_some()
-            || self.interaction.drag.is_some()
-            || self.gizmo.transform.is_some()
-            || self.selecting.region.is_some();
+        let gesture = self.gesture_under_way() || self.selecting.region.is_some();
         for (m, k, c) in commands {
             if consume(m, k) {
                 match gesture {
