@@ -164,12 +164,33 @@ impl Persist {
         list.into_iter().take(MAX_RECENT).map(PathBuf::from).collect()
     }
 
-    /// Puts `path` first in the recent files and saves the list; returns the new list.
+    /// Puts `path` first in the recent files and saves the list; returns the new list. The
+    /// path is kept as the file's canonical one (no `..`, links resolved) where it can be read,
+    /// so one file opened by two spellings is listed once.
     pub fn push_recent(&self, path: &Path) -> Result<Vec<PathBuf>, String> {
-        let path = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
+        let path = std::fs::canonicalize(path)
+            .or_else(|_| std::path::absolute(path))
+            .unwrap_or_else(|_| path.to_path_buf());
         let mut list = self.recent();
         list.retain(|p| *p != path);
         list.insert(0, path);
+        self.write_recent(list)
+    }
+
+    /// Takes `path` off the recent files (a file that is gone) and saves the list; returns the
+    /// new list.
+    pub fn forget_recent(&self, path: &Path) -> Result<Vec<PathBuf>, String> {
+        let mut list = self.recent();
+        list.retain(|p| p != path);
+        self.write_recent(list)
+    }
+
+    /// Empties the recent files.
+    pub fn clear_recent(&self) -> Result<(), String> {
+        self.write_recent(Vec::new()).map(drop)
+    }
+
+    fn write_recent(&self, mut list: Vec<PathBuf>) -> Result<Vec<PathBuf>, String> {
         list.truncate(MAX_RECENT);
         let strings: Vec<String> = list.iter().map(|p| p.display().to_string()).collect();
         let json = serde_json::to_string_pretty(&strings).map_err(|e| e.to_string())?;
@@ -376,6 +397,25 @@ mod tests {
         assert_eq!(r.iter().filter(|x| **x == d.join("m5.obj")).count(), 1);
         std::fs::write(d.join("recent.json"), "{broken").unwrap();
         assert!(p.recent().is_empty(), "a broken list is ignored, not fatal");
+    }
+
+    /// One file opened by two spellings (`sub/../m.obj`) is listed once; a file taken off the
+    /// list is gone from it and from the saved list.
+    #[test]
+    fn recent_files_are_listed_once_and_forgotten() {
+        let (_scratch, d) = dir("recent-spellings");
+        std::fs::create_dir_all(d.join("sub")).unwrap();
+        std::fs::write(d.join("m.obj"), "").unwrap();
+        let p = Persist::new(d.clone());
+        p.push_recent(&d.join("m.obj")).unwrap();
+        p.push_recent(&d.join("other.obj")).unwrap();
+        let r = p.push_recent(&d.join("sub").join("..").join("m.obj")).unwrap();
+        let canonical = std::fs::canonicalize(d.join("m.obj")).unwrap();
+        assert_eq!(r.len(), 2, "{r:?}");
+        assert_eq!(r[0], canonical);
+        let r = p.forget_recent(&canonical).unwrap();
+        assert_eq!(r, vec![d.join("other.obj")]);
+        assert_eq!(p.recent(), r);
     }
 
     #[test]

@@ -573,3 +573,46 @@ fn a_pipe_named_as_a_meshes_selection_is_skipped() {
     let notes = h.state().load_notices().join("\n");
     assert!(notes.contains("bar.dmat: not a regular file"), "{notes}");
 }
+
+/// A mesh and a selection dropped together both apply: the mesh opens, then the selection is
+/// read for it. A third file is named as not opened.
+#[test]
+fn a_mesh_and_its_selection_dropped_together_both_open() {
+    let dir = ScratchDir::new("drop-two");
+    let (mut h, _, n) = bar_with_three_groups(&dir);
+    let (mesh, _) = solver::geometry::shapes::bumpy_bar(1);
+    let other = dir.join("other.obj");
+    solver::io::write_obj(&other, mesh.positions(), mesh.triangles()).unwrap();
+    let handles = dir.join("pose.dmat");
+    std::fs::write(&handles, dmat(n, 6)).unwrap();
+    let extra = dir.join("extra.obj");
+    support::drop_files(&mut h, vec![handles, other.clone(), extra]);
+    assert!(h.state().info().is_some_and(|i| i.contains("extra.obj")), "{:?}", h.state().info());
+    step_until(&mut h, "the other mesh", |a| !a.is_loading());
+    step_until(&mut h, "the dropped selection", |a| !a.is_loading_selection());
+    h.step();
+    assert!(h.state().error().is_none(), "{:?}", h.state().error());
+    assert_eq!(h.state().mesh_path(), Some(other.as_path()));
+    let want: Vec<Option<u32>> = (0..n).map(|v| (v < 6).then_some(0)).collect();
+    assert_eq!(h.state().labels(), want.as_slice(), "the dropped selection did not apply");
+}
+
+/// A recent file that is gone (moved, deleted) is taken off the list when it fails to open.
+#[test]
+fn a_recent_file_that_is_gone_is_taken_off_the_list() {
+    let dir = ScratchDir::new("recent-gone");
+    let (mesh, _) = solver::geometry::shapes::bumpy_bar(1);
+    let bar = dir.join("gone.obj");
+    solver::io::write_obj(&bar, mesh.positions(), mesh.triangles()).unwrap();
+    let mut h = support::harness(bar.clone(), Some(dir.join("config")));
+    step_until(&mut h, "the bar", support::loaded);
+    let listed = h.state().recent_files().first().cloned().unwrap();
+    assert_eq!(listed, std::fs::canonicalize(&bar).unwrap());
+    std::fs::remove_file(&bar).unwrap();
+    let ctx = h.ctx.clone();
+    h.state_mut().request_open(&ctx, listed.clone());
+    step_until(&mut h, "the failed open", |a| !a.is_loading());
+    let error = h.state().error().unwrap_or_default().to_string();
+    assert!(error.contains("taken off the recent files"), "{error}");
+    assert!(!h.state().recent_files().contains(&listed), "{:?}", h.state().recent_files());
+}

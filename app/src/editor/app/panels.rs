@@ -566,11 +566,10 @@ impl eframe::App for EditorApp {
             ctx.request_repaint();
         }
         self.autosave_tick();
-        if let Some(path) =
-            ctx.input(|i| i.raw.dropped_files.first().map(|f| f.path().to_path_buf()))
-        {
-            self.request_open(&ctx, path);
-        }
+        let dropped: Vec<std::path::PathBuf> =
+            ctx.input(|i| i.raw.dropped_files.iter().map(|f| f.path().to_path_buf()).collect());
+        self.open_dropped(&ctx, dropped);
+        self.poll_dropped_selection(&ctx);
         self.handle_keys(&ctx);
         self.capture_tick(&ctx, frame);
 
@@ -591,6 +590,12 @@ impl eframe::App for EditorApp {
                         for p in self.store.recent.clone() {
                             if ui.button(p.display().to_string()).clicked() {
                                 self.request_open(&ctx, p);
+                            }
+                        }
+                        if !self.store.recent.is_empty() {
+                            ui.separator();
+                            if ui.button("Clear recent files").clicked() {
+                                self.clear_recent();
                             }
                         }
                     });

@@ -59,6 +59,9 @@ pub(super) struct Session {
     pub(super) at_load: Option<Box<DocumentMark>>,
     /// Which changes to panel widgets (a method slider, a timeline number) make one undo step.
     pub(super) press_step: PressStep,
+    /// A selection dropped with a mesh: (the mesh, the selection), read once that mesh is
+    /// open ([`EditorApp::poll_dropped_selection`]).
+    pub(super) dropped_selection: Option<(PathBuf, PathBuf)>,
 }
 
 impl Session {
@@ -283,6 +286,88 @@ impl EditorApp {
         }
     }
 
+    /// Opens what was dropped on the window: one mesh or scene, and one handle selection
+    /// (`.dmat`) read for it once it is open, so that a mesh and its handles dropped together
+    /// both apply. A drop of selections alone applies the first to the open mesh. The files
+    /// left over are named in the status line.
+    pub(super) fn open_dropped(&mut self, ctx: &egui::Context, paths: Vec<PathBuf>) {
+        if paths.is_empty() {
+            return;
+        }
+        let dmat = |p: &PathBuf| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("dmat"));
+        let (selections, files): (Vec<_>, Vec<_>) = paths.into_iter().partition(dmat);
+        let mut selections = selections.into_iter();
+        let mut files = files.into_iter();
+        let opened = files.next();
+        let selection = selections.next();
+        let left: Vec<String> = files.chain(selections).map(|p| file_name(&p)).collect();
+        self.session.dropped_selection = None;
+        match (opened, selection) {
+            (Some(file), selection) => {
+                if let Some(sel) = selection {
+                    self.session.dropped_selection = Some((file.clone(), sel));
+                }
+                self.request_open(ctx, file);
+            }
+            (None, Some(sel)) => self.request_open(ctx, sel),
+            (None, None) => {}
+        }
+        if !left.is_empty() {
+            self.info = Some(format!(
+                "not opened: {} (one mesh and one selection open from a drop)",
+                left.join(", ")
+            ));
+        }
+    }
+
+    /// Reads the selection dropped with a mesh ([`Self::open_dropped`]) once that mesh is the
+    /// open one; forgets it once another opened, or the open was given up.
+    pub(super) fn poll_dropped_selection(&mut self, ctx: &egui::Context) {
+        let Some((mesh, _)) = &self.session.dropped_selection else { return };
+        if self.jobs.loading.is_some() || self.jobs.identifying.is_some() {
+            return;
+        }
+        let open = |p: &Path| {
+            self.session.scene.as_ref().is_some_and(|s| s.path == p)
+                || self.session.document_path.as_deref() == Some(p)
+        };
+        if open(mesh) {
+            let Some((_, selection)) = self.session.dropped_selection.take() else { return };
+            self.load_selection(ctx, &selection);
+        } else if self.session.pending.is_none() && self.session.after_save.is_none() {
+            self.session.dropped_selection = None;
+        }
+    }
+
+    /// Empties the recent files (File ▸ Open recent ▸ Clear recent files).
+    pub fn clear_recent(&mut self) {
+        let Some(p) = &self.store.persist else { return };
+        match p.clear_recent() {
+            Ok(()) => self.store.recent.clear(),
+            Err(e) => self.error = Some(format!("recent files not cleared: {e}")),
+        }
+    }
+
+    /// Takes `path` off the recent files if it failed to open because it is gone (moved or
+    /// deleted since), saying so after the error.
+    fn forget_if_gone(&mut self, path: &Path) {
+        let gone = std::fs::symlink_metadata(path)
+            .is_err_and(|e| e.kind() == std::io::ErrorKind::NotFound);
+        let Some(p) = &self.store.persist else { return };
+        if !gone || !self.store.recent.iter().any(|r| r == path) {
+            return;
+        }
+        match p.forget_recent(path) {
+            Ok(list) => {
+                self.store.recent = list;
+                if let Some(e) = &mut self.error {
+                    e.push_str(" (taken off the recent files)");
+                }
+            }
+            Err(e) => self.info = Some(format!("recent files not saved: {e}")),
+        }
+    }
+
     /// Whether the document was changed since the load under way started, and has unsaved
     /// changes.
     fn edited_while_loading(&self) -> bool {
@@ -304,7 +389,9 @@ impl EditorApp {
                 self.load_not_adopted();
             }
             Ok(Err(e)) => {
+                let path = job.path.clone();
                 self.error = Some(e);
+                self.forget_if_gone(&path);
                 self.jobs.loading = None;
                 self.session.at_load = None;
                 self.offer_again();

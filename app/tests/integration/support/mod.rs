@@ -38,6 +38,11 @@ pub fn test_mesh() -> PathBuf {
 
 /// Drops the file at `path` on the editor's window, as a file manager does.
 pub fn drop_file(h: &mut Harness<'_, EditorApp>, path: PathBuf) {
+    drop_files(h, vec![path]);
+}
+
+/// Drops the files at `paths` on the editor's window at once.
+pub fn drop_files(h: &mut Harness<'_, EditorApp>, paths: Vec<PathBuf>) {
     #[derive(Debug)]
     struct Dropped(PathBuf);
     impl eframe::egui::DroppedFile for Dropped {
@@ -48,7 +53,9 @@ pub fn drop_file(h: &mut Harness<'_, EditorApp>, path: PathBuf) {
             std::fs::read(&self.0).map_err(|e| e.to_string())
         }
     }
-    h.input_mut().dropped_files.push(std::sync::Arc::new(Dropped(path)));
+    for path in paths {
+        h.input_mut().dropped_files.push(std::sync::Arc::new(Dropped(path)));
+    }
     h.step();
 }
 
