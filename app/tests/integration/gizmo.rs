@@ -437,6 +437,34 @@ fn deleting_the_group_of_a_modal_transform_ends_it() {
     assert_eq!(h.state().group_pose(0).unwrap().translation.to_array(), [0.0; 3]);
 }
 
+/// A selection dropped during a modal transform confirms the transform first, as a press
+/// does: undo brings back the moved pose with the old groups, then the pose before the move.
+/// The transform was dropped without its step, so no undo went back past the move.
+#[test]
+fn a_selection_dropped_during_g_confirms_the_move_first() {
+    let mut h = start();
+    let labels = h.state().labels().to_vec();
+    g_moved(&mut h);
+    let moved = h.state().group_pose(0).unwrap();
+    let dir = solver::testing::ScratchDir::new("selection-during-g");
+    let n = h.state().n_vertices();
+    let rows: String = (0..n).map(|v| if v < 10 { "0\n" } else { "-1\n" }).collect();
+    let dmat = dir.join("other.dmat");
+    std::fs::write(&dmat, format!("1 {n}\n{rows}")).unwrap();
+    support::drop_file(&mut h, dmat);
+    step_until(&mut h, "the selection", |a| !a.is_loading_selection());
+    h.step();
+    assert_eq!(h.state().running_transform(), None);
+    assert_eq!(h.state().labels()[0], Some(0), "{:?}", h.state().error());
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    assert_eq!(h.state().labels(), labels.as_slice(), "the selection undone");
+    assert_eq!(h.state().group_pose(0).unwrap(), moved, "the move is kept with the old groups");
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    assert_eq!(h.state().group_pose(0).unwrap().translation.to_array(), [0.0; 3]);
+}
+
 /// G, then R (the rotation starts from the pose moved so far), then Esc: the whole transform is
 /// cancelled, the move included (it stayed, with no undo entry of its own).
 #[test]

@@ -170,7 +170,7 @@ impl EditorApp {
         true
     }
 
-    fn confirm_transform(&mut self) {
+    pub(super) fn confirm_transform(&mut self) {
         if let Some(t) = self.gizmo.transform.take()
             && t.before != self.session.edit
         {

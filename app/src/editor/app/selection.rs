@@ -415,6 +415,9 @@ impl EditorApp {
         };
         match result {
             Ok(labels) => {
+                // A modal transform under way ends as a press would end it: confirmed, with
+                // its own step, before the selection's.
+                self.confirm_transform();
                 self.session.push_undo(self.session.edit.clone());
                 // Component numbers depend on the mesh only: the loose parts' modes stay.
                 let parts = self.session.edit.loose_parts.clone();
