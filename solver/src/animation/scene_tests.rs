@@ -55,6 +55,27 @@ fn a_byte_order_mark_is_skipped() {
     assert_eq!(h.labels(), [Some(0), None]);
 }
 
+/// A misspelt setting in `arap`, `base` or the symmetry plane is an error naming it, as at
+/// the top level (it was ignored, and the scene solved with the default). `base`'s
+/// interactive settings that earlier scenes held are known and read as their defaults.
+#[test]
+fn misspelt_nested_settings_are_errors() {
+    let with = |extra: &str| format!("{}, {extra}}}", V1.trim_end().strip_suffix('}').unwrap());
+    for (extra, field) in [
+        (r#""arap": {"tolerence": 1e-6}"#, "tolerence"),
+        (r#""base": {"smothing": 0.1}"#, "smothing"),
+        (r#""rig": {"symmetry": {"plane": {"axis": "x", "offset": 0, "ofset": 1}}}"#, "ofset"),
+    ] {
+        let text = with(extra);
+        let e = Scene::from_json(&text, "typo.json").unwrap_err().to_string();
+        assert!(e.contains(field) && e.contains("unknown field"), "{text}: {e}");
+    }
+    let legacy = with(r#""base": {"settle_iterations": 7, "level_fairing": false}"#);
+    let base = Scene::from_json(&legacy, "legacy.json").unwrap().base;
+    assert_eq!(base, crate::deform::config::BaseConfig::default());
+    assert!(!Scene::from_json(&legacy, "legacy.json").unwrap().to_json().contains("settle"));
+}
+
 /// Overrides of components the mesh lacks and falloffs of groups after the selection's
 /// last are kept in the file and noted when the scene loads; the others are not (group 1,
 /// empty but before group 2, keeps its falloff silently: a reload keeps the group). The

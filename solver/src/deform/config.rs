@@ -12,7 +12,7 @@ pub const COARSE_VERTICES: std::ops::RangeInclusive<usize> = 16..=10_000_000;
 /// ([`crate::deform::deformer::Method::BsArapFaired`]) and the coarse base ([`crate::deform::deformer::Method::BsArapCoarse`],
 /// [`crate::deform::coarse::CoarseBsArap`]).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct BaseConfig {
     /// Smoothing length of the faired base, as a fraction of the bounding-box diagonal.
     pub smoothing: f64,
@@ -25,13 +25,14 @@ pub struct BaseConfig {
     /// ARAP iterations on the full mesh per [`crate::deform::deformer::Deformer::settle`] step, the refinement
     /// of a pose whose handles have stopped (0: off). With `fine_iterations` also 0 the coarse
     /// variant factors no ARAP on the full mesh. An interactive setting: not saved in scenes
-    /// (read as 0).
-    #[serde(skip)]
+    /// (read as 0, whatever a scene of an earlier version holds).
+    #[serde(skip_serializing, deserialize_with = "read_as_zero")]
     pub settle_iterations: usize,
     /// Fair the base on a decimated level when the mesh is much denser than the smoothing length
     /// needs ([`crate::deform::coarse::level`]; the default). Off: always on the whole mesh, the
-    /// comparison `bsarap bench --direct-fairing` measures. Not saved in scenes (read as on).
-    #[serde(skip)]
+    /// comparison `bsarap bench --direct-fairing` measures. Not saved in scenes (read as on,
+    /// whatever a scene of an earlier version holds).
+    #[serde(skip_serializing, deserialize_with = "read_as_on")]
     pub level_fairing: bool,
     /// The coarse level's membrane share: the part of its ARAP energy in cells of single
     /// triangles, which resist no bending ([`crate::ArapConfig::membrane`]), in $[0, 1]$.
@@ -71,6 +72,17 @@ impl CoarseEnergy {
     pub fn from_name(name: &str) -> Option<CoarseEnergy> {
         CoarseEnergy::ALL.into_iter().find(|e| e.name() == name)
     }
+}
+
+/// Reads an interactive setting a scene of an earlier version saved as 0: the key is known
+/// (not a typo), its value is not used.
+fn read_as_zero<'de, D: serde::Deserializer<'de>>(d: D) -> Result<usize, D::Error> {
+    <serde::de::IgnoredAny as serde::Deserialize>::deserialize(d).map(|_| 0)
+}
+
+/// [`read_as_zero`] for a switch read as on.
+fn read_as_on<'de, D: serde::Deserializer<'de>>(d: D) -> Result<bool, D::Error> {
+    <serde::de::IgnoredAny as serde::Deserialize>::deserialize(d).map(|_| true)
 }
 
 impl Default for BaseConfig {

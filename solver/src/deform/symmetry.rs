@@ -59,6 +59,7 @@ impl Axis {
 
 /// The plane $x_{\text{axis}} = $ `offset` (mesh units).
 #[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct SymmetryPlane {
     pub axis: Axis,
     pub offset: f64,

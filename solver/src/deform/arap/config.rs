@@ -55,6 +55,7 @@ pub enum Acceleration {
 
 /// Settings of the local-global iteration.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct ArapConfig {
     /// Cell type of the energy. Default: spokes and rims.
     pub energy: Energy,
