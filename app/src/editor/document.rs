@@ -8,8 +8,9 @@
 //! camera, and in `editor` the group names and colors, the playback time, the groups whose
 //! one-key path is a still pose (`still_poses`), the mesh's topology fingerprint
 //! (`mesh_topology`), `capture_viewport_size` (the capture settings' choice) and, in the
-//! autosave only, the scene file being edited (`document`). Reading and
-//! writing (atomic) are `solver::animation::scene`'s.
+//! autosave only, the scene file being edited (`document`). Keys of `editor` and `camera` this
+//! version does not read (a newer version's) are kept from the opened scene and written back
+//! ([`ForeignKeys`]). Reading and writing (atomic) are `solver::animation::scene`'s.
 
 use std::path::{Path, PathBuf};
 
@@ -38,6 +39,58 @@ pub struct DocumentInput<'a> {
     /// The mesh's [`solver::Mesh::topology_fingerprint`], kept so that an open can tell
     /// when the mesh file changed under the scene (`None`: not kept).
     pub mesh_topology: Option<u64>,
+    /// What the opened scene held in `editor` and `camera` that this version does not read.
+    pub foreign: &'a ForeignKeys,
+}
+
+/// The keys of `editor` this version reads or writes (the module doc; `document` and
+/// `document_modified` are the autosave's, `crate::editor::persist`).
+const EDITOR_KEYS: [&str; 7] = [
+    "groups",
+    "time",
+    "still_poses",
+    "mesh_topology",
+    "capture_viewport_size",
+    "document",
+    "document_modified",
+];
+
+/// The keys of `camera` this version reads and writes ([`OrbitCamera::to_json`]).
+const CAMERA_KEYS: [&str; 5] = ["target", "yaw", "pitch", "distance", "fov_y"];
+
+/// What a scene's `editor` and `camera` objects hold that this version does not read (a newer
+/// version's settings, another tool's): kept from the scene opened and written back by a
+/// save, so that a round trip through this version loses none of it.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ForeignKeys {
+    editor: serde_json::Map<String, serde_json::Value>,
+    camera: serde_json::Map<String, serde_json::Value>,
+}
+
+impl ForeignKeys {
+    /// The keys of `scene`'s `editor` and `camera` objects other than this version's.
+    pub fn of(scene: &Scene) -> ForeignKeys {
+        let foreign = |v: Option<&serde_json::Value>, known: &[&str]| {
+            let object = v.and_then(serde_json::Value::as_object).cloned().unwrap_or_default();
+            object.into_iter().filter(|(k, _)| !known.contains(&k.as_str())).collect()
+        };
+        ForeignKeys {
+            editor: foreign(scene.editor.as_ref(), &EDITOR_KEYS),
+            camera: foreign(scene.camera.as_ref(), &CAMERA_KEYS),
+        }
+    }
+
+    /// Adds the keys to `scene`'s `editor` and `camera` objects (where those are objects).
+    fn write(&self, scene: &mut Scene) {
+        for (target, keys) in [(&mut scene.editor, &self.editor), (&mut scene.camera, &self.camera)]
+        {
+            if let Some(object) = target.as_mut().and_then(serde_json::Value::as_object_mut) {
+                for (k, v) in keys {
+                    object.entry(k.clone()).or_insert_with(|| v.clone());
+                }
+            }
+        }
+    }
 }
 
 /// An absolute version of `p` (through the current directory; symlinks kept).
@@ -84,6 +137,7 @@ pub fn to_scene(scene_path: &Path, input: &DocumentInput) -> Result<Scene, Strin
         editor["mesh_topology"] = serde_json::Value::from(format!("{t:016x}"));
     }
     scene.editor = Some(editor);
+    input.foreign.write(&mut scene);
     // Groups after the last painted one do not come back (a reader makes the groups from the
     // labels): their falloffs are not saved (the reader would note them as unused).
     let reloaded = edit.labels.iter().flatten().map(|&k| k as usize + 1).max().unwrap_or(0);
@@ -263,6 +317,7 @@ mod tests {
             texture: None,
             up_axis: Default::default(),
             mesh_topology: Some(7),
+            foreign: &ForeignKeys::default(),
         };
         let scene_path = dir.join("scenes/pose.json");
         let scene = to_scene(&scene_path, &input).unwrap();
@@ -311,6 +366,34 @@ mod tests {
         }
     }
 
+    /// Keys of `editor` and `camera` this version does not read (a newer version's) are
+    /// written back as the opened scene had them; this version's own keys are its own, and the
+    /// autosave's `document` is not carried into a scene.
+    #[test]
+    fn a_save_keeps_the_keys_of_a_newer_version() {
+        let (dir, mesh_path, _, edit) = bar_document("foreign");
+        let (settings, camera) = (MethodSettings::default(), OrbitCamera::default());
+        let mut opened =
+            to_scene(&dir.join("s.json"), &plain_input(&mesh_path, &edit, &settings, &camera))
+                .unwrap();
+        let editor = opened.editor.as_mut().unwrap();
+        editor["layers"] = serde_json::json!(["a", "b"]);
+        editor["time"] = serde_json::json!(99.0);
+        editor["document"] = serde_json::json!("/elsewhere/work.json");
+        opened.camera.as_mut().unwrap()["orthographic"] = serde_json::json!(true);
+        let foreign = ForeignKeys::of(&opened);
+        let input = DocumentInput {
+            foreign: &foreign,
+            ..plain_input(&mesh_path, &edit, &settings, &camera)
+        };
+        let saved = to_scene(&dir.join("s.json"), &input).unwrap();
+        let editor = saved.editor.unwrap();
+        assert_eq!(editor["layers"], serde_json::json!(["a", "b"]));
+        assert_eq!(editor["time"], serde_json::json!(0.0), "this version's own key");
+        assert!(editor.get("document").is_none(), "{editor}");
+        assert_eq!(saved.camera.unwrap()["orthographic"], serde_json::json!(true));
+    }
+
     /// The document of `edit` on the mesh at `mesh_path`, at t = 0 with no texture.
     fn plain_input<'a>(
         mesh_path: &'a std::path::Path,
@@ -328,6 +411,7 @@ mod tests {
             texture: None,
             up_axis: Default::default(),
             mesh_topology: None,
+            foreign: Box::leak(Box::default()),
         }
     }
 

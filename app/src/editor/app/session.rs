@@ -62,6 +62,9 @@ pub(super) struct Session {
     /// A selection dropped with a mesh: (the mesh, the selection), read once that mesh is
     /// open ([`EditorApp::poll_dropped_selection`]).
     pub(super) dropped_selection: Option<(PathBuf, PathBuf)>,
+    /// What the opened scene's `editor` and `camera` held that this version does not read:
+    /// written back by a save.
+    pub(super) foreign: document::ForeignKeys,
 }
 
 impl Session {
@@ -266,6 +269,7 @@ impl EditorApp {
                 texture: self.session.file_view.texture.as_deref(),
                 up_axis: self.session.file_view.up_axis,
                 mesh_topology: Some(scene.mesh_topology),
+                foreign: &self.session.foreign,
             },
         )
         .map(|mut doc| {
@@ -442,6 +446,8 @@ impl EditorApp {
                 let mut restored = false;
                 let mut file_view = super::asset_view::FileView::default();
                 let mut framed = true;
+                self.session.foreign = (scene.document.as_ref())
+                    .map_or_else(Default::default, |(_, doc)| document::ForeignKeys::of(doc));
                 match scene.document.take() {
                     Some((path, doc)) => {
                         file_view = super::asset_view::FileView {
