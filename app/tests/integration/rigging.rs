@@ -379,3 +379,25 @@ fn k_with_mirrored_posing_keys_the_pair() {
     h.step();
     assert!(!keyed(&h, 0) && !keyed(&h, partner), "an undo a key takes back both");
 }
+
+/// A mirror plane chosen by axis and undone before its fit arrives stays undone: the fit, taken
+/// later, once set the plane on the state the undo brought back.
+#[test]
+fn an_axis_undone_before_its_fit_arrives_stays_undone() {
+    let mut h = harness(default_mesh_path());
+    step_until(&mut h, "the default asset", settled);
+    h.key_press(Key::M);
+    h.step();
+    step_until(&mut h, "the mirror map", |a| a.mirror().is_some());
+    let before = h.state().symmetry();
+    let other = ["X", "Y"].into_iter().find(|a| Some(*a) != before.plane.map(|p| p.axis.name()));
+    h.get_by_label(other.unwrap()).click();
+    h.step();
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    for _ in 0..30 {
+        h.step();
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    assert_eq!(h.state().symmetry(), before, "the undone axis's fit was applied");
+}

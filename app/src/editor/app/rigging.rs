@@ -97,6 +97,12 @@ impl EditorApp {
             || falloffs(state) != falloffs(&self.session.edit)
     }
 
+    /// Forgets a mirror plane asked for by axis and not fitted yet: the state or the mesh it
+    /// was asked for is gone (an undo, another mesh), and its fit would land in the next.
+    pub(super) fn forget_axis_request(&mut self) {
+        self.rigging.fit_axis = None;
+    }
+
     fn mirror_request(&self) -> Request {
         match (self.rigging.fit_axis, self.session.edit.symmetry.plane) {
             (Some(a), _) => Request::Axis(a),

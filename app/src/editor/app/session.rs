@@ -428,6 +428,7 @@ impl EditorApp {
                 self.jobs.selection = None;
                 self.jobs.texture = None;
                 self.end_gestures();
+                self.forget_axis_request();
                 self.error = None;
                 self.adopt_prepare(&scene.mesh);
                 self.display.camera.frame(scene.center, scene.radius, self.viewport_aspect());
@@ -564,6 +565,7 @@ impl EditorApp {
         let settings_changed = settings != self.session.settings;
         let parts_changed = state.loose_parts != self.session.edit.loose_parts;
         self.end_gestures();
+        self.forget_axis_request();
         self.session.edit = state;
         self.session.settings = settings;
         // Kept at another time: a group with a path goes where its path is now (at the same
