@@ -47,7 +47,8 @@ pub struct Recorded {
     pub glb_bytes: Result<u64, String>,
     /// The mesh it was recorded on.
     pub mesh: Arc<Mesh>,
-    /// The file's layout the mesh came from: exports write onto its vertices.
+    /// The file's layout the mesh came from: exports write onto its vertices. After a texture
+    /// loaded since, the open file's, once `glb_bytes` was measured on it again.
     pub layout: Arc<FileLayout>,
     /// The timeline's frames per second (a point cache's sample rate).
     pub fps: f64,
@@ -422,11 +423,7 @@ pub fn spawn_record(
             };
             // A recording a .glb of morph targets cannot hold is kept: a point cache and a
             // bake to bones can write it.
-            let glb_bytes =
-                GltfExport::from_asset(&asset_export(&layout, &recording), GltfFormat::Glb)
-                    .and_then(|e| e.with_solve_settings(&solved))
-                    .and_then(|e| e.file_size())
-                    .map_err(|e| e.to_string());
+            let glb_bytes = glb_size(&layout, &recording, &solved);
             if stop() {
                 return cancelled();
             }
@@ -444,6 +441,38 @@ pub fn spawn_record(
             })
         },
     )
+}
+
+/// The size of the `.glb` of `recording` on `layout` an export writes, or why a `.glb` of
+/// morph targets cannot hold it.
+fn glb_size(
+    layout: &FileLayout,
+    recording: &Recording,
+    solved: &SolveSettings,
+) -> Result<u64, String> {
+    GltfExport::from_asset(&asset_export(layout, recording), GltfFormat::Glb)
+        .and_then(|e| e.with_solve_settings(solved))
+        .and_then(|e| e.file_size())
+        .map_err(|e| e.to_string())
+}
+
+/// A recording's `.glb` size being measured on another layout ([`spawn_glb_size`]).
+pub struct GlbSizing {
+    pub layout: Arc<FileLayout>,
+    pub job: Job<Result<u64, String>>,
+}
+
+/// [`Recorded::glb_bytes`] on another `layout` of the same mesh (a texture loaded since the
+/// recording: the export writes it), on a worker thread.
+pub fn spawn_glb_size(
+    recorded: &Recorded,
+    layout: Arc<FileLayout>,
+    repaint: impl Fn() + Send + 'static,
+) -> GlbSizing {
+    let (recording, solved) = (recorded.recording.clone(), recorded.solved);
+    let on = layout.clone();
+    let job = spawn("glb-size", repaint, move |_| Ok(glb_size(&on, &recording, &solved)));
+    GlbSizing { layout, job }
 }
 
 /// A recording on the file's layout with the default export settings (quantized, sparse where

@@ -542,6 +542,37 @@ fn a_mesh_with_uvs_and_no_material_gets_a_texture_saved_and_exported() {
     h.step();
 }
 
+/// The `.glb` size the recording panel announces is the size an export writes, also after a
+/// texture loaded since the recording (the export carries the image).
+#[test]
+fn the_announced_size_follows_a_texture_loaded_after_recording() {
+    let dir = ScratchDir::new("size-after-texture");
+    let (mesh, labels) = z_up_strip_with_uvs(&dir);
+    let mut h = open_with_dialog(&mesh, config_with_in_app_dialog(&dir));
+    h.state_mut().set_edit_state(EditState::from_labels(labels));
+    h.step();
+    record_three_frames(&mut h);
+    let untextured = h.state().recorded_glb_bytes().unwrap().unwrap();
+    let png = dir.join("noise.png");
+    image::RgbImage::from_fn(64, 64, |x, y| image::Rgb([(x * 37 ^ y * 11) as u8, 90, 200]))
+        .save(&png)
+        .unwrap();
+    h.get_by_label("Texture…").click();
+    choose_in_dialog(&mut h, &png);
+    step_until(&mut h, "the texture's read", |a| !a.is_loading_texture());
+    step_until(&mut h, "the size measured again", |a| {
+        a.recorded_glb_bytes().is_some_and(|b| b != Ok(untextured))
+    });
+    let announced = h.state().recorded_glb_bytes().unwrap().unwrap();
+    let out = dir.join("textured.glb");
+    let ctx = h.ctx.clone();
+    h.state_mut().export_gltf(&ctx, out.clone());
+    step_until(&mut h, "the export", |a| !a.is_exporting());
+    assert!(h.state().error().is_none(), "{:?}", h.state().error());
+    assert_eq!(std::fs::metadata(&out).unwrap().len(), announced);
+    assert!(announced > untextured + 1000, "{announced} vs {untextured}: no image");
+}
+
 /// A texture chosen in a dialog asked for one mesh does nothing to another opened while the
 /// dialog was open; a texture that arrives keeps an error about something else, and a shading
 /// chosen while it was read.

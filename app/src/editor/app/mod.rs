@@ -186,6 +186,9 @@ struct Jobs {
     record: Option<Job<Recorded>>,
     /// The kept recording.
     recorded: Option<Recorded>,
+    /// The kept recording's `.glb` size on the open file's layout, once that is another than
+    /// the recorded one (a texture loaded since), with that layout.
+    glb_size: Option<super::jobs::GlbSizing>,
     export: Option<Job<(PathBuf, u64)>>,
     /// The scene being written (`save`).
     save: Option<save::Saving>,

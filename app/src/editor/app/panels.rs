@@ -555,6 +555,7 @@ impl eframe::App for EditorApp {
         self.poll_solvers();
         self.close_requested(&ctx);
         self.poll_jobs();
+        self.poll_glb_size(&ctx);
         self.poll_save(&ctx);
         self.poll_question(&ctx);
         self.log_status();

@@ -2,6 +2,7 @@
 //! thread, and exporting the kept recording as glTF.
 
 use std::path::PathBuf;
+use std::sync::Arc;
 
 use eframe::egui;
 
@@ -198,6 +199,34 @@ impl EditorApp {
                 Ok(baked) => self.info = Some(baked.summary()),
                 Err(e) if cancelled => self.info = Some(e),
                 Err(e) => self.error = Some(e),
+            }
+        }
+    }
+
+    /// Keeps the kept recording's `.glb` size that of the file an export writes: after a
+    /// texture loaded since the recording, measured again on the open file's layout.
+    pub(super) fn poll_glb_size(&mut self, ctx: &egui::Context) {
+        let (Some(rec), Some(scene)) = (&mut self.jobs.recorded, &self.session.scene) else {
+            self.jobs.glb_size = None;
+            return;
+        };
+        let same_mesh = Arc::ptr_eq(&scene.mesh, &rec.mesh);
+        if !same_mesh || Arc::ptr_eq(&scene.layout, &rec.layout) {
+            self.jobs.glb_size = None;
+            return;
+        }
+        match &self.jobs.glb_size {
+            Some(sizing) if Arc::ptr_eq(&sizing.layout, &scene.layout) => {
+                if let Some(result) = sizing.job.try_finish() {
+                    rec.glb_bytes = result.and_then(|r| r);
+                    rec.layout = scene.layout.clone();
+                    self.jobs.glb_size = None;
+                }
+            }
+            _ => {
+                let c = ctx.clone();
+                let repaint = move || c.request_repaint();
+                self.jobs.glb_size = Some(jobs::spawn_glb_size(rec, scene.layout.clone(), repaint));
             }
         }
     }
