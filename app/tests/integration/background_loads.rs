@@ -616,3 +616,16 @@ fn a_recent_file_that_is_gone_is_taken_off_the_list() {
     assert!(error.contains("taken off the recent files"), "{error}");
     assert!(!h.state().recent_files().contains(&listed), "{:?}", h.state().recent_files());
 }
+
+/// A sphere list named at start is a selection, as a dropped one is: the editor says to open
+/// its mesh first, not that it is a broken scene.
+#[test]
+fn a_sphere_list_named_at_start_is_a_selection() {
+    let dir = ScratchDir::new("spheres-at-start");
+    let spheres = dir.join("hands.json");
+    std::fs::write(&spheres, r#"[{"group": 0, "center": [0, 0, 0], "radius": 0.5}]"#).unwrap();
+    let mut h = support::harness(spheres, None);
+    step_until(&mut h, "the list told apart", |a| a.error().is_some());
+    let error = h.state().error().unwrap().to_string();
+    assert!(error.contains("is a handle selection: open its mesh first"), "{error}");
+}

@@ -327,9 +327,9 @@ impl EditorApp {
         app.load_prefs();
         app.solvers.main = app.spawn_solver(&ctx, Slot::Main);
         if let Some(path) = options.mesh_path {
-            // a selection named on the command line says what to open first, as a dropped one
-            let dmat = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("dmat"));
-            app.open_as(&ctx, path, dmat);
+            // as a dropped file: a selection (a .dmat, or a .json sphere list told apart from
+            // a scene) says what to open first
+            app.request_open(&ctx, path);
         }
         app
     }
