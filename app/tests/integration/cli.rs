@@ -250,6 +250,34 @@ fn deform_loose_part_follows_or_is_pinned() {
     assert!(stayed.fold(0.0, f64::max) < 1e-6, "the pinned sphere moved");
 }
 
+/// `bench --quality` measures against a reference whose loose parts move as the methods move
+/// theirs: a small sphere resting on the moving top of a big one follows it in both, so a
+/// converged ARAP is at the reference (it was as far as the small sphere moved).
+#[test]
+fn bench_quality_moves_the_references_loose_parts_alike() {
+    let (mesh, handles, _) = solver::testing::sphere_with_rider();
+    let obj = tmp("rider.obj");
+    solver::io::write_obj(&obj, mesh.positions(), mesh.triangles()).unwrap();
+    // the top first: the bench moves the first group
+    let label = |l: Option<u32>| match l {
+        Some(1) => "0",
+        Some(_) => "1",
+        None => "-1",
+    };
+    let body: Vec<&str> = handles.labels().iter().map(|&l| label(l)).collect();
+    let sel = tmp("rider.dmat");
+    std::fs::write(&sel, format!("1 {}\n{}\n", body.len(), body.join("\n"))).unwrap();
+    let (o, s) = (obj.to_str().unwrap(), sel.to_str().unwrap());
+    let mut args = vec!["bench", o, "--handles", s, "--frames", "4", "--method", "arap"];
+    args.extend(["--quality", "--quality-frame", "2", "--tol", "1e-10", "--json"]);
+    args.extend(["--max-iters", "5000"]);
+    let (code, stdout, stderr) = bsarap(&args);
+    assert_eq!(code, 0, "{stderr}");
+    let j: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    let q = &j["methods"]["arap"]["quality"];
+    assert!(q["max_distance"].as_f64().unwrap() < 1e-4, "{q}");
+}
+
 /// `--repeat 3` runs each method three times: the three figures are reported, the reported
 /// seconds per frame is their median, the iteration counts are those of one run, and the
 /// quality is measured (in the last round).

@@ -256,7 +256,9 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
             a.frames
         );
     }
+    let riders = solver::deform::riders::Riders::new(mesh, Some(&handles), &Default::default());
     let setup = Setup {
+        riders: &riders,
         mesh,
         handles: &handles,
         config,
@@ -289,7 +291,7 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
     let mut reference = match shared {
         Some((f, r)) => {
             let r = r.context("solving the converged ARAP reference for --quality")?;
-            Some((f, r, t.elapsed().as_secs_f64()))
+            Some((f, r.with_riders(&riders), t.elapsed().as_secs_f64()))
         }
         None => None,
     };

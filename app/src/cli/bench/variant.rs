@@ -58,6 +58,9 @@ pub(super) struct Setup<'a> {
     pub(super) quality_frame: Option<usize>,
     /// Base settings of the BS-ARAP variants.
     pub(super) base: solver::BaseConfig,
+    /// How the methods move the loose parts (the default modes): the references move theirs
+    /// alike ([`Reference::with_riders`]).
+    pub(super) riders: &'a solver::deform::riders::Riders,
 }
 
 /// The group motion of frame `f` (1..=frames): group `g` on the circle
@@ -109,7 +112,7 @@ fn bench_variant(
     let precompute_mesh_ms =
         if mesh_part.is_some() { t0.elapsed().as_secs_f64() * 1e3 } else { 0.0 };
     let t0 = Instant::now();
-    let parts = solver::LooseParts::default();
+    let parts = solver::LooseParts::default(); // as `s.riders` were made
     let options = DeformerOptions {
         method: v.method,
         config,
@@ -264,7 +267,8 @@ pub(super) fn measure(
                     let t = Instant::now();
                     // A reference that fails is reported beside the method, not fatal.
                     match Reference::from_pose(setup.mesh, setup.handles, targets, x, energy) {
-                        Ok(mut own_ref) => {
+                        Ok(own_ref) => {
+                            let mut own_ref = own_ref.with_riders(setup.riders);
                             r.quality = Some(own_ref.measure(x));
                             let st = own_ref.stats();
                             r.quality_reference = Some(ReferenceSummary {
