@@ -458,6 +458,7 @@ fn glb_size(
 
 /// A recording's `.glb` size being measured on another layout ([`spawn_glb_size`]).
 pub struct GlbSizing {
+    pub recording: Arc<Recording>,
     pub layout: Arc<FileLayout>,
     pub job: Job<Result<u64, String>>,
 }
@@ -470,9 +471,9 @@ pub fn spawn_glb_size(
     repaint: impl Fn() + Send + 'static,
 ) -> GlbSizing {
     let (recording, solved) = (recorded.recording.clone(), recorded.solved);
-    let on = layout.clone();
-    let job = spawn("glb-size", repaint, move |_| Ok(glb_size(&on, &recording, &solved)));
-    GlbSizing { layout, job }
+    let (on, of) = (layout.clone(), recording.clone());
+    let job = spawn("glb-size", repaint, move |_| Ok(glb_size(&on, &of, &solved)));
+    GlbSizing { recording, layout, job }
 }
 
 /// A recording on the file's layout with the default export settings (quantized, sparse where

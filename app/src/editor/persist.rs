@@ -68,6 +68,16 @@ pub fn document_changed(autosave: &Scene, document: &Path) -> bool {
     stored.and_then(|s| s.as_str()).is_some_and(|s| modified_stamp(document).as_deref() != Some(s))
 }
 
+/// `path` in its folder's canonical spelling, with its own file name; as absolute as it can
+/// be made where the folder cannot be read.
+fn canonical_folder(path: &Path) -> PathBuf {
+    let absolute = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
+    match (absolute.parent().map(std::fs::canonicalize), absolute.file_name()) {
+        (Some(Ok(folder)), Some(name)) => folder.join(name),
+        _ => absolute,
+    }
+}
+
 /// The configuration folder (see the module doc), `None` without a home.
 pub fn default_dir() -> Option<PathBuf> {
     let var = |k: &str| std::env::var_os(k).filter(|v| !v.is_empty()).map(PathBuf::from);
@@ -165,14 +175,13 @@ impl Persist {
     }
 
     /// Puts `path` first in the recent files and saves the list; returns the new list. The
-    /// path is kept as the file's canonical one (no `..`, links resolved) where it can be read,
-    /// so one file opened by two spellings is listed once.
+    /// path is kept in its folder's canonical spelling (no `..`, the folder's links resolved)
+    /// with the file's own name (a link to a scene stays the link: its mesh is named relative
+    /// to it), so one file opened by two spellings is listed once.
     pub fn push_recent(&self, path: &Path) -> Result<Vec<PathBuf>, String> {
-        let path = std::fs::canonicalize(path)
-            .or_else(|_| std::path::absolute(path))
-            .unwrap_or_else(|_| path.to_path_buf());
+        let path = canonical_folder(path);
         let mut list = self.recent();
-        list.retain(|p| *p != path);
+        list.retain(|p| canonical_folder(p) != path);
         list.insert(0, path);
         self.write_recent(list)
     }
@@ -416,6 +425,14 @@ mod tests {
         let r = p.forget_recent(&canonical).unwrap();
         assert_eq!(r, vec![d.join("other.obj")]);
         assert_eq!(p.recent(), r);
+        // A link to a file is listed as the link: a scene's mesh is named relative to it.
+        #[cfg(unix)]
+        {
+            std::os::unix::fs::symlink(d.join("sub").join("real.json"), d.join("link.json"))
+                .unwrap();
+            let r = p.push_recent(&d.join("sub").join("..").join("link.json")).unwrap();
+            assert_eq!(r[0], canonical.with_file_name("link.json"));
+        }
     }
 
     #[test]

@@ -629,3 +629,36 @@ fn a_sphere_list_named_at_start_is_a_selection() {
     let error = h.state().error().unwrap().to_string();
     assert!(error.contains("is a handle selection: open its mesh first"), "{error}");
 }
+
+/// A selection dropped with the mesh already open, over unsaved changes, waits for the
+/// question: cancelled, nothing applies; "Discard changes and open", it applies to the mesh
+/// read again.
+#[test]
+fn a_selection_dropped_with_the_open_mesh_waits_for_the_question() {
+    let dir = ScratchDir::new("drop-open-mesh");
+    let (mut h, bar, n) = bar_with_three_groups(&dir);
+    unsaved(&mut h);
+    let labels = h.state().labels().to_vec();
+    let handles = dir.join("pose.dmat");
+    std::fs::write(&handles, dmat(n, 6)).unwrap();
+    support::drop_files(&mut h, vec![bar.clone(), handles.clone()]);
+    assert_eq!(h.state().pending_open(), Some(bar.as_path()));
+    for _ in 0..5 {
+        h.step();
+    }
+    assert_eq!(h.state().labels(), labels.as_slice(), "applied before the answer");
+    h.get_by_label("Cancel").click();
+    for _ in 0..5 {
+        h.step();
+    }
+    assert_eq!(h.state().labels(), labels.as_slice(), "applied though cancelled");
+
+    support::drop_files(&mut h, vec![handles, bar]);
+    h.get_by_label("Discard changes and open").click();
+    h.step();
+    step_until(&mut h, "the bar read again", |a| !a.is_loading());
+    step_until(&mut h, "the dropped selection", |a| !a.is_loading_selection());
+    h.step();
+    let want: Vec<Option<u32>> = (0..n).map(|v| (v < 6).then_some(0)).collect();
+    assert_eq!(h.state().labels(), want.as_slice(), "{:?}", h.state().error());
+}

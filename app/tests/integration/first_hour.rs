@@ -554,7 +554,7 @@ fn the_announced_size_follows_a_texture_loaded_after_recording() {
     record_three_frames(&mut h);
     let untextured = h.state().recorded_glb_bytes().unwrap().unwrap();
     let png = dir.join("noise.png");
-    image::RgbImage::from_fn(64, 64, |x, y| image::Rgb([(x * 37 ^ y * 11) as u8, 90, 200]))
+    image::RgbImage::from_fn(64, 64, |x, y| image::Rgb([((x * 37) ^ (y * 11)) as u8, 90, 200]))
         .save(&png)
         .unwrap();
     h.get_by_label("Texture…").click();

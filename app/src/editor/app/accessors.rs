@@ -243,12 +243,12 @@ impl EditorApp {
         self.jobs.record.as_ref().map(|j| j.progress.get())
     }
 
-    /// Frames of the kept recording.
     /// The kept recording's `.glb` size as the recording panel announces it.
     pub fn recorded_glb_bytes(&self) -> Option<Result<u64, String>> {
         self.jobs.recorded.as_ref().map(|r| r.glb_bytes.clone())
     }
 
+    /// Frames of the kept recording.
     pub fn recorded_frames(&self) -> Option<&solver::animation::recording::Recording> {
         self.jobs.recorded.as_ref().map(|r| r.recording.as_ref())
     }

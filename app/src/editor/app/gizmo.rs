@@ -225,8 +225,9 @@ impl EditorApp {
         self.gizmo.swallow_press = true;
     }
 
-    /// Whether a gesture that records its undo step at its end is under way: a transform, a
-    /// pose drag or a brush stroke.
+    /// Whether a gesture whose undo step spans it is under way: a transform (its step recorded
+    /// when it is confirmed), a pose drag or a brush stroke (theirs when they start, dropped if
+    /// they changed nothing).
     pub(super) fn gesture_under_way(&self) -> bool {
         self.gizmo.transform.is_some()
             || self.interaction.drag.is_some()

@@ -216,7 +216,10 @@ impl EditorApp {
             return;
         }
         match &self.jobs.glb_size {
-            Some(sizing) if Arc::ptr_eq(&sizing.layout, &scene.layout) => {
+            Some(sizing)
+                if Arc::ptr_eq(&sizing.layout, &scene.layout)
+                    && Arc::ptr_eq(&sizing.recording, &rec.recording) =>
+            {
                 if let Some(result) = sizing.job.try_finish() {
                     rec.glb_bytes = result.and_then(|r| r);
                     rec.layout = scene.layout.clone();

@@ -56,7 +56,7 @@ impl EditorApp {
         if std::mem::take(&mut self.prefs.apply_look) {
             apply_look(ctx, &self.prefs.current);
         }
-        if self.jobs.loading.is_none()
+        if !self.is_loading()
             && let Some(m) = self.prefs.message.take()
         {
             self.error = Some(m);

@@ -17,6 +17,15 @@ use crate::editor::solver_thread::MethodSettings;
 use crate::editor::timeline::{Playback, apply_paths, differ_beyond_playback};
 use crate::editor::undo::{EditState, History, Kept};
 
+/// A selection dropped with a mesh or scene file.
+pub(super) struct DroppedSelection {
+    /// The file opened with it.
+    opened: PathBuf,
+    selection: PathBuf,
+    /// The topology version open when it was dropped: the selection waits for a load after it.
+    before: Option<u64>,
+}
+
 /// The open document: what a scene file holds, plus the undo history.
 #[derive(Default)]
 pub(super) struct Session {
@@ -59,9 +68,9 @@ pub(super) struct Session {
     pub(super) at_load: Option<Box<DocumentMark>>,
     /// Which changes to panel widgets (a method slider, a timeline number) make one undo step.
     pub(super) press_step: PressStep,
-    /// A selection dropped with a mesh: (the mesh, the selection), read once that mesh is
-    /// open ([`EditorApp::poll_dropped_selection`]).
-    pub(super) dropped_selection: Option<(PathBuf, PathBuf)>,
+    /// A selection dropped with a mesh, read once that mesh is open
+    /// ([`EditorApp::poll_dropped_selection`]).
+    pub(super) dropped_selection: Option<DroppedSelection>,
     /// What the opened scene's `editor` and `camera` held that this version does not read:
     /// written back by a save.
     pub(super) foreign: document::ForeignKeys,
@@ -299,7 +308,9 @@ impl EditorApp {
             return;
         }
         let dmat = |p: &PathBuf| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("dmat"));
-        let (selections, files): (Vec<_>, Vec<_>) = paths.into_iter().partition(dmat);
+        let (selections, mut files): (Vec<_>, Vec<_>) = paths.into_iter().partition(dmat);
+        // a mesh before a .json, which may be a sphere list rather than a scene
+        files.sort_by_key(|p| loader::is_scene_file(p));
         let mut selections = selections.into_iter();
         let mut files = files.into_iter();
         let opened = files.next();
@@ -308,9 +319,12 @@ impl EditorApp {
         self.session.dropped_selection = None;
         match (opened, selection) {
             (Some(file), selection) => {
-                if let Some(sel) = selection {
-                    self.session.dropped_selection = Some((file.clone(), sel));
-                }
+                let before = self.session.scene.as_ref().map(|s| s.topology.version);
+                self.session.dropped_selection = selection.map(|selection| DroppedSelection {
+                    opened: file.clone(),
+                    selection,
+                    before,
+                });
                 self.request_open(ctx, file);
             }
             (None, Some(sel)) => self.request_open(ctx, sel),
@@ -324,22 +338,21 @@ impl EditorApp {
         }
     }
 
-    /// Reads the selection dropped with a mesh ([`Self::open_dropped`]) once that mesh is the
-    /// open one; forgets it once another opened, or the open was given up.
+    /// Reads the selection dropped with a mesh ([`Self::open_dropped`]) once that mesh is
+    /// opened (a load after the drop: not the document as it was, should the open be asked
+    /// about and cancelled); forgets it once another file opened, or the open was given up.
     pub(super) fn poll_dropped_selection(&mut self, ctx: &egui::Context) {
-        let Some((mesh, _)) = &self.session.dropped_selection else { return };
-        if self.jobs.loading.is_some() || self.jobs.identifying.is_some() {
+        let Some(dropped) = &self.session.dropped_selection else { return };
+        let session = &self.session;
+        if self.is_loading() || session.pending.is_some() || session.after_save.is_some() {
             return;
         }
-        let open = |p: &Path| {
-            self.session.scene.as_ref().is_some_and(|s| s.path == p)
-                || self.session.document_path.as_deref() == Some(p)
-        };
-        if open(mesh) {
-            let Some((_, selection)) = self.session.dropped_selection.take() else { return };
-            self.load_selection(ctx, &selection);
-        } else if self.session.pending.is_none() && self.session.after_save.is_none() {
-            self.session.dropped_selection = None;
+        let version = session.scene.as_ref().map(|s| s.topology.version);
+        let opened = session.scene.as_ref().is_some_and(|s| s.path == dropped.opened)
+            || session.document_path.as_ref() == Some(&dropped.opened);
+        let dropped = self.session.dropped_selection.take();
+        if let Some(d) = dropped.filter(|d| opened && version != d.before) {
+            self.load_selection(ctx, &d.selection);
         }
     }
 
