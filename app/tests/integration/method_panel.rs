@@ -294,3 +294,29 @@ fn a_pose_number_drag_is_one_undo_step() {
     h.step();
     assert_eq!(x(h.state()), start, "one undo takes back the whole drag");
 }
+
+/// A scene's method settings stay with it: a mesh opened after a scene starts from the
+/// defaults (it kept the scene's, unseen), while one opened after a plain mesh keeps the
+/// settings chosen for that.
+#[test]
+fn a_mesh_opened_after_a_scene_starts_from_the_default_settings() {
+    let dir = solver::testing::ScratchDir::new("settings-after-scene");
+    let (bar, _) = support::write_bar(&dir, true);
+    let other = dir.join("other.obj");
+    std::fs::copy(&bar, &other).unwrap();
+    let mut h = harness(bar.clone(), None);
+    step_until(&mut h, "the bar", support::loaded);
+    let defaults = h.state().method_settings();
+    let mut custom = defaults;
+    custom.arap.max_iterations = 42;
+    h.state_mut().set_method_settings(custom);
+    let ctx = h.ctx.clone();
+    h.state_mut().request_open(&ctx, other.clone());
+    step_until(&mut h, "the other mesh", support::loaded);
+    assert_eq!(h.state().method_settings(), custom, "a mesh after a mesh keeps them");
+
+    h.state_mut().save_scene(&dir.join("custom.json")).unwrap();
+    h.state_mut().request_open(&ctx, bar);
+    step_until(&mut h, "the bar again", support::loaded);
+    assert_eq!(h.state().method_settings(), defaults, "a mesh after a scene");
+}

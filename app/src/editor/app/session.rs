@@ -437,6 +437,7 @@ impl EditorApp {
                 self.store.restoring = None; // a restore's load, if any, was this one
                 // an open or quit that waited for a save of the mesh this replaces is moot
                 let dropped = self.session.after_save.take();
+                let after_scene = self.session.document_path.is_some();
                 // a selection or texture read for the mesh this replaces can no longer apply
                 self.jobs.selection = None;
                 self.jobs.texture = None;
@@ -532,6 +533,15 @@ impl EditorApp {
                         }
                     }
                     None => {
+                        // A scene's method settings stay with it: a mesh opened after one
+                        // starts from the defaults, as at start; after a mesh, the settings
+                        // chosen for it stay.
+                        if after_scene {
+                            self.session.settings = MethodSettings {
+                                bs_variant: self.prefs.current.default_method,
+                                ..MethodSettings::default()
+                            };
+                        }
                         self.session.edit = EditState::from_labels(labels);
                         self.capture.forget_scene();
                         let path = scene.path.clone();
