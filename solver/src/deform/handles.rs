@@ -19,6 +19,12 @@ pub enum HandlesError {
     BadLabel { vertex: usize, label: i64 },
     #[error("handle group {group} does not exist (the selection has groups {available})")]
     UnknownGroup { group: usize, available: String },
+    #[error(
+        "handle group {group}'s move {value:e} is not finite or beyond the coordinate limit \
+         ±{limit:e}",
+        limit = crate::geometry::mesh::MAX_COORDINATE
+    )]
+    MoveOutOfRange { group: usize, value: f64 },
 }
 
 /// Handle groups of a mesh with `#V` vertices.

@@ -214,6 +214,12 @@ impl GroupRest {
         let mut per_group: Vec<Option<Moved>> = vec![None; self.n_groups()];
         for &(k, t) in transforms {
             let c = self.centroid_or_err(k)?;
+            // Targets beyond the limit would give a pose no mesh reader takes back.
+            let limit = crate::geometry::mesh::MAX_COORDINATE;
+            let out_of_range = |v: &&f64| !v.is_finite() || v.abs() > limit;
+            if let Some(&value) = t.translation.to_array().iter().find(out_of_range) {
+                return Err(HandlesError::MoveOutOfRange { group: k, value });
+            }
             per_group[k] = t.moving_rotation().map(|r| (r, c, t.translation.to_array()));
         }
         out.clear();
@@ -246,6 +252,20 @@ pub fn handle_targets(
 mod tests {
     use super::*;
     use crate::linalg::rotation::axis_angle;
+
+    /// A move beyond the coordinate limit is refused, naming the group: its pose could not be
+    /// written to a file any reader takes back.
+    #[test]
+    fn a_move_beyond_the_coordinate_limit_is_an_error() {
+        let rest = [[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+        let handles = Handles::from_labels(&[0, -1, 1], 3).unwrap();
+        let far = GroupTransform::from_translation(DVec3::new(0.0, 1e100, 0.0));
+        let e = handle_targets(&rest, &handles, &[(1, far)]).unwrap_err();
+        assert!(matches!(e, HandlesError::MoveOutOfRange { group: 1, .. }), "{e}");
+        assert!(e.to_string().contains("1e100"), "{e}");
+        let near = GroupTransform::from_translation(DVec3::new(0.0, 1e29, 0.0));
+        assert!(handle_targets(&rest, &handles, &[(1, near)]).is_ok());
+    }
 
     #[test]
     fn the_bench_circle_starts_and_ends_at_rest() {
