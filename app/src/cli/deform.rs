@@ -16,7 +16,7 @@ use clap::{ArgMatches, Args};
 use glam::{DQuat, DVec3};
 use solver::FrameStats;
 use solver::animation::export::{
-    AssetExport, Encoding, ExportSettings, GltfExport, GltfFormat, SolveSettings,
+    AssetExport, Encoding, ExportSettings, GltfExport, GltfFormat, SolveSettings, UpAxis,
 };
 use solver::animation::recording::Recording;
 use solver::animation::scene::Scene;
@@ -117,6 +117,11 @@ pub fn parse_transforms(
     };
     for m in moves {
         let (g, v) = parse_group_values(m, 3, "--move")?;
+        // beyond the coordinate limit, a pose no mesh reader takes back
+        let limit = solver::geometry::mesh::MAX_COORDINATE;
+        if v.iter().any(|x| x.abs() > limit) {
+            bail!("--move {m}: beyond the coordinate limit ±{limit:e}");
+        }
         let i = entry(g, &mut out);
         out[i].1.translation += DVec3::new(v[0], v[1], v[2]);
     }
@@ -126,7 +131,9 @@ pub fn parse_transforms(
             bail!("--rotate {r}: the axis must not be zero");
         }
         let i = entry(g, &mut out);
-        let axis = DVec3::new(v[0], v[1], v[2]).normalize();
+        // scaled first: a tiny or huge axis would underflow or overflow in the normalization
+        let axis = DVec3::new(v[0], v[1], v[2]);
+        let axis = (axis / axis.abs().max_element()).normalize();
         let rot = DQuat::from_axis_angle(axis, v[3].to_radians());
         out[i].1.rotation = (rot * out[i].1.rotation).normalize();
     }
@@ -137,12 +144,13 @@ pub fn parse_transforms(
 /// `path`'s extension asks: `.obj` with UVs, deformed normals (hard edges kept) and materials;
 /// `.glb`/`.gltf` as a one-frame glTF; `.ply`/`.off` the file's own polygons (PLY with its
 /// per-vertex UVs and colours). A glTF records `solved`, the settings of the solve, in its
-/// `asset.extras`.
+/// `asset.extras`, and stands upright by `up` (the file's up axis, as `bsarap export`).
 fn write_pose(
     path: &Path,
     loaded: &LoadedMesh,
     x: &[[f64; 3]],
     solved: &SolveSettings,
+    up: UpAxis,
 ) -> anyhow::Result<()> {
     let asset = &loaded.asset;
     let layout = asset.layout_positions(&loaded.report.vertex_map, x);
@@ -180,6 +188,7 @@ fn write_pose(
             };
             GltfExport::from_asset(&input, format)?
                 .with_solve_settings(solved)?
+                .with_up_axis(up)
                 .write(path, &mut |_, _| std::ops::ControlFlow::Continue(()))?;
         }
         _ => check_output(path)?,
@@ -221,6 +230,8 @@ fn scene_set_flag(given: &ArgMatches) -> Option<String> {
 /// A solved pose and what to say about it.
 struct Posed {
     loaded: LoadedMesh,
+    /// The file's up axis: a Z-up glTF's nodes are rotated upright (a scene's `up_axis`).
+    up: UpAxis,
     deformer: Deformer,
     solved: SolveSettings,
     precompute_ms: f64,
@@ -239,7 +250,7 @@ pub fn run(a: &DeformArgs, given: &ArgMatches) -> anyhow::Result<()> {
     }
     outputs::check(std::slice::from_ref(&a.output), &inputs)?;
     let posed = if is_scene { pose_scene(a, given)? } else { pose_mesh(a)? };
-    write_pose(&a.output, &posed.loaded, posed.deformer.positions(), &posed.solved)
+    write_pose(&a.output, &posed.loaded, posed.deformer.positions(), &posed.solved, posed.up)
         .with_context(|| format!("writing {}", a.output.display()))?;
     report(a, &posed);
     Ok(())
@@ -256,6 +267,7 @@ fn pose_mesh(a: &DeformArgs) -> anyhow::Result<Posed> {
     };
     let bending_length = bending_length(a.energy, a.bending_length)?;
     super::check_coarse_energy(a.energy, a.base.coarse_energy)?;
+    super::check_base_flags(&a.base, &[a.method.into()])?;
     let config = ArapConfig {
         energy: a.energy.into(),
         bending_length,
@@ -327,7 +339,7 @@ fn pose_mesh(a: &DeformArgs) -> anyhow::Result<Posed> {
         stats.energy(),
     );
     let fields = fields.as_object().cloned().unwrap_or_default();
-    Ok(Posed { loaded, deformer, solved, precompute_ms, fields, sentence })
+    Ok(Posed { loaded, up: UpAxis::Y, deformer, solved, precompute_ms, fields, sentence })
 }
 
 /// A scene's pose at `--time`: solved from rest at the group motions of that time until a
@@ -413,7 +425,8 @@ fn pose_scene(a: &DeformArgs, given: &ArgMatches) -> anyhow::Result<Posed> {
     );
     let solved = scene.solve_settings(mesh.bbox_diagonal());
     let fields = fields.as_object().cloned().unwrap_or_default();
-    Ok(Posed { loaded: loaded.mesh, deformer, solved, precompute_ms, fields, sentence })
+    let up = loaded.scene.up_axis;
+    Ok(Posed { loaded: loaded.mesh, up, deformer, solved, precompute_ms, fields, sentence })
 }
 
 /// Prints the report: the solver's notice on standard error, then one JSON object with

@@ -283,6 +283,30 @@ impl BaseArgs {
     }
 }
 
+/// Refuses a base-surface flag set to other than its default that none of `methods` uses
+/// (`--coarse-vertices` with `--method arap`): it would be ignored without a word, as other
+/// flags that do not apply are refused.
+pub fn check_base_flags(base: &BaseArgs, methods: &[solver::Method]) -> anyhow::Result<()> {
+    use solver::Method::{BsArapCoarse, BsArapFaired};
+    let default = solver::BaseConfig::default();
+    let energy = solver::CoarseEnergy::from(base.coarse_energy);
+    let flags = [
+        ("--smoothing", base.smoothing != default.smoothing, &[BsArapFaired, BsArapCoarse][..]),
+        ("--coarse-vertices", base.coarse_vertices.is_some(), &[BsArapCoarse]),
+        ("--fine-iterations", base.fine_iterations != default.fine_iterations, &[BsArapCoarse]),
+        ("--direct-fairing", base.direct_fairing, &[BsArapCoarse]),
+        ("--membrane", base.membrane != default.membrane, &[BsArapCoarse]),
+        ("--coarse-energy", energy != default.coarse_energy, &[BsArapCoarse]),
+    ];
+    for (flag, set, users) in flags {
+        if set && !methods.iter().any(|m| users.contains(m)) {
+            let names: Vec<&str> = users.iter().map(|m| m.name()).collect();
+            anyhow::bail!("{flag} applies to {} only: it would be ignored", names.join(" and "));
+        }
+    }
+    Ok(())
+}
+
 /// Refuses `--coarse-energy galerkin` without `--energy smooth-rotations` before anything is
 /// loaded, for deform and bench alike (the coarse solver refuses it only once built, and the
 /// other methods ignore it).

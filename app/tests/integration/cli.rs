@@ -96,6 +96,8 @@ fn errors_are_one_line_with_nonzero_exit() {
         (vec!["deform", o, "--handles", s, "--move", "0:0,x,0", "-o", t], "--move"),
         (vec!["deform", o, "--handles", s, "--move", "0:0,1", "-o", t], "--move"),
         (vec!["deform", o, "--handles", s, "--rotate", "0:0,0,0,30", "-o", t], "axis"),
+        (vec!["deform", o, "--handles", s, "--move", "0:1e100,0,0", "-o", t], "±1e30"),
+        (vec!["bench", o, "--handles", s, "--radius", "1e40"], "coordinate limit"),
         (vec!["deform", o, "--handles", s, "--tol", "-1", "-o", t], "--tol"),
         (vec!["deform", o, "--handles", s, "--anderson", "65", "-o", t], "--anderson"),
         (vec!["deform", o, "--handles", "/nope.dmat", "-o", t], "nope.dmat"),
@@ -104,9 +106,23 @@ fn errors_are_one_line_with_nonzero_exit() {
         (vec!["deform", o, "--handles", s, "--pin-component", "9", "-o", t], "--pin-component 9"),
         (vec!["bench", o, "--handles", s, "--frames", "0"], "--frames"),
         (vec!["bench", o, "--handles", s, "--anderson", "1000000"], "--anderson"),
-        (vec!["bench", o, "--handles", s, "--coarse-vertices", "3"], "--coarse-vertices"),
-        (vec!["bench", o, "--handles", s, "--smoothing", "nan"], "--smoothing"),
-        (vec!["bench", o, "--handles", s, "--fine-iterations", "5000"], "--fine-iterations"),
+        (
+            vec!["bench", o, "--handles", s, "--method", "all", "--coarse-vertices", "3"],
+            "between 16",
+        ),
+        (vec!["bench", o, "--handles", s, "--method", "all", "--smoothing", "nan"], "(0, 1]"),
+        (
+            vec!["bench", o, "--handles", s, "--method", "all", "--fine-iterations", "5000"],
+            "--fine-iterations",
+        ),
+        (
+            vec!["deform", o, "--handles", s, "--method", "arap", "--membrane", "0.5", "-o", t],
+            "--membrane applies to bsarap-coarse only",
+        ),
+        (
+            vec!["bench", o, "--handles", s, "--method", "arap,bsarap", "--smoothing", "0.2"],
+            "--smoothing applies to bsarap-faired and bsarap-coarse only",
+        ),
         (vec!["bench", o, "--handles", s, "--repeat", "0"], "--repeat"),
         (
             vec!["bench", o, "--handles", s, "--frames", "2", "--quality", "--quality-frame", "3"],
@@ -124,6 +140,31 @@ fn errors_are_one_line_with_nonzero_exit() {
         assert!(stderr.contains(needle), "{args:?}: {stderr:?} lacks {needle:?}");
         assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
         assert!(stdout.is_empty(), "{args:?}: {stdout}");
+    }
+}
+
+/// A rotation axis given huge or tiny is the same axis: it turned by nothing (its length
+/// overflowed) or failed with non-finite targets.
+#[test]
+fn deform_rotates_about_an_axis_of_any_length() {
+    let (obj, sel, _) = sphere();
+    let posed = |axis: &str| {
+        let out = tmp(&format!("rotated-{}.obj", axis.len()));
+        let (o, s, t) = (obj.to_str().unwrap(), sel.to_str().unwrap(), out.to_str().unwrap());
+        let rotate = format!("0:{axis},0,0,90");
+        let args = ["deform", o, "--handles", s, "--rotate", &rotate, "--method", "arap", "-o", t];
+        let (code, _, stderr) = bsarap(&args);
+        assert_eq!(code, 0, "{axis}: {stderr}");
+        solver::io::load_mesh(&out).unwrap().mesh.positions().to_vec()
+    };
+    let unit = posed("1");
+    let rest = solver::io::load_mesh(&obj).unwrap().mesh.positions().to_vec();
+    assert_ne!(unit, rest, "the rotation did nothing");
+    for axis in ["1e200", "1e-200"] {
+        let other = posed(axis);
+        let off =
+            unit.iter().zip(&other).map(|(a, b)| (0..3).map(|k| (a[k] - b[k]).abs()).sum::<f64>());
+        assert!(off.fold(0.0, f64::max) < 1e-9, "{axis}");
     }
 }
 

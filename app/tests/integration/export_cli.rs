@@ -225,6 +225,28 @@ fn export_bones_writes_a_skin_upright_for_the_scene_up_axis() {
     }
 }
 
+/// `deform SCENE -o pose.glb` stands a Z-up scene's pose upright as `export` does (−90° about
+/// x on the mesh node); a Y-up one is not rotated.
+#[test]
+fn deform_to_gltf_stands_a_z_up_scene_upright() {
+    let d = dir("deform-z-up");
+    let s = scene(&d, 1);
+    let mut z_scene: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&s).unwrap()).unwrap();
+    z_scene["up_axis"] = "z".into();
+    let z = d.join("scenes").join("ball-z.json");
+    std::fs::write(&z, serde_json::to_string(&z_scene).unwrap()).unwrap();
+    for (scene, rotated) in [(&s, false), (&z, true)] {
+        let out = d.join("pose.glb");
+        let (code, _, stderr) =
+            bsarap(&["deform", scene.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+        assert_eq!(code, 0, "{stderr}");
+        let j = json_of(&std::fs::read(&out).unwrap());
+        let node = j["nodes"].as_array().unwrap().iter().find(|n| n["mesh"].is_u64()).unwrap();
+        assert_eq!(node["rotation"].is_array(), rotated, "{node}");
+    }
+}
+
 /// The vertices of an OBJ (its `v` lines), as our reader keeps them in the file's order.
 fn obj_positions(path: &std::path::Path) -> Vec<[f64; 3]> {
     solver::io::load_mesh(path).unwrap().asset.positions

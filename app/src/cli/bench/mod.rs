@@ -227,6 +227,7 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
     };
     let bending_length = super::bending_length(a.energy, a.bending_length)?;
     super::check_coarse_energy(a.energy, a.base.coarse_energy)?;
+    super::check_base_flags(&a.base, &methods)?;
     let reference_energy = ReferenceEnergy { energy: a.energy.into(), bending_length };
     let config = ArapConfig {
         energy: a.energy.into(),
