@@ -76,12 +76,20 @@ pub struct ExportArgs {
     /// glTF: bake the recording to N rigid bones (4 influences per vertex; N defaults to 64,
     /// `SkinningConfig`'s default) and write a skinned mesh with one joint animation instead of
     /// morph targets: far smaller, within the fit's error (printed).
-    #[arg(long, value_name = "N", num_args = 0..=1, value_parser = super::count::<usize>, allow_negative_numbers = true,
+    #[arg(long, value_name = "N", num_args = 0..=1, value_parser = bone_count, allow_negative_numbers = true,
           conflicts_with_all = ["float", "no_normals", "every", "meshopt"])]
     pub bones: Option<Option<usize>>,
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
+}
+
+/// `--bones`' value parser: a count, and a hint when the value is the scene the flag took for
+/// its count (`export --bones scene.json`).
+fn bone_count(s: &str) -> Result<usize, String> {
+    super::count::<usize>(s).map_err(|e| {
+        format!("{e} (the bone count; give the scene before --bones, or write --bones=N)")
+    })
 }
 
 /// The morph targets every WebGL 2 viewer can hold: three.js keeps one layer of a 2D array

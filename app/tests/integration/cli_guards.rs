@@ -310,6 +310,10 @@ fn export_refuses_options_it_would_ignore() {
         assert!(stderr.contains(&format!("--bones {bones}: give 1 to")), "{stderr}");
         assert!(!stderr.contains("recording"), "{stderr}");
     }
+    // --bones before the scene takes the scene for its count: the error says how to write it.
+    let (code, _, stderr) = bsarap(&["export", "--bones", s(&sc), "-o", s(&glb)]);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("--bones=N"), "{stderr}");
     assert!(!glb.exists());
 }
 
