@@ -121,10 +121,12 @@ class Scene:
         """The scene's timeline."""
         return Timeline(self._native.timeline)
 
-    def deformer(self) -> Deformer:
+    def deformer(self, *, settle_iterations: int = 0) -> Deformer:
         """A :class:`Deformer` with the scene's mesh, handles, method, settings and loose
-        parts; its recordings export the whole asset (file layout, materials, textures)."""
-        return Deformer._wrap(self._native.deformer())
+        parts; its recordings export the whole asset (file layout, materials, textures).
+        ``settle_iterations`` (not a scene's: the editor sets it) is :class:`Deformer`'s; with 5,
+        :meth:`Deformer.solve_to_rest` gives the pose ``bsarap deform SCENE`` writes."""
+        return Deformer._wrap(self._native.deformer(_count(settle_iterations, "settle_iterations")))
 
 
 def load_scene(path: PathLike) -> Scene:

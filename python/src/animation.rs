@@ -7,17 +7,18 @@ use numpy::{PyArray1, PyArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use solver::animation::export::{
-    AssetExport, Encoding, ExportSettings, GltfExport, GltfFormat, SolveSettings,
+    AssetExport, Encoding, ExportSettings, GltfExport, GltfFormat, SolveSettings, UpAxis,
 };
 use solver::animation::recording::{RecordError, Recording};
 use solver::animation::scene::{LoadedScene, Scene};
 use solver::animation::timeline::Timeline;
 use solver::io::Asset;
 use solver::linalg::rotation::Mat3;
-use solver::{FrameStats, Mesh};
+use solver::deform::config::MAX_FINE_ITERATIONS;
+use solver::{BaseConfig, FrameStats, Mesh};
 
 use crate::convert::{array_triangles, array3};
-use crate::deformer::{Layout, NativeDeformer};
+use crate::deformer::{FileLayout, Layout, NativeDeformer};
 use crate::{Interrupt, borrow_mut, err};
 use solver::animation::recording::MAX_FRAMES;
 
@@ -105,18 +106,33 @@ impl NativeScene {
         NativeTimeline { timeline: self.scene.scene.timeline.clone() }
     }
 
-    /// A deformer with the scene's mesh, handles, method, settings and loose parts; its
-    /// recordings export the whole asset (the file's layout, materials, textures).
-    fn deformer(&self, py: Python<'_>) -> PyResult<NativeDeformer> {
+    /// A deformer with the scene's mesh, handles, method, settings and loose parts, settling
+    /// with `settle_iterations` (an interactive setting a scene does not hold); its recordings
+    /// export the whole asset (the file's layout, materials, textures).
+    #[pyo3(signature = (settle_iterations=0))]
+    fn deformer(&self, py: Python<'_>, settle_iterations: usize) -> PyResult<NativeDeformer> {
+        if settle_iterations > MAX_FINE_ITERATIONS {
+            return Err(err(format!(
+                "settle_iterations must be between 0 and {MAX_FINE_ITERATIONS} (got \
+                 {settle_iterations})"
+            )));
+        }
         let s = &self.scene;
-        let layout: Layout = Arc::new((s.mesh.asset.clone(), s.mesh.report.vertex_map.clone()));
+        let mut inputs = vec![s.path.clone(), s.mesh_path.clone()];
+        inputs.extend(s.mesh.asset.material_libraries.iter().cloned());
+        let layout: Layout = Arc::new(FileLayout {
+            asset: s.mesh.asset.clone(),
+            vertex_map: s.mesh.report.vertex_map.clone(),
+            up: s.scene.up_axis,
+            inputs,
+        });
         NativeDeformer::build(
             py,
             s.scene.method,
             s.mesh.mesh.clone(),
             s.handles.clone(),
             s.scene.arap,
-            s.scene.base,
+            BaseConfig { settle_iterations, ..s.scene.base },
             s.scene.loose_parts.clone(),
             Some(layout),
         )
@@ -311,6 +327,15 @@ pub fn record(
     })
 }
 
+/// Whether `a` and `b` name one file (one spelled through a link or `..`); by their spelling
+/// where either cannot be read.
+fn same_file(a: &std::path::Path, b: &std::path::Path) -> bool {
+    match (std::fs::canonicalize(a), std::fs::canonicalize(b)) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => a == b,
+    }
+}
+
 /// Writes a recording as glTF 2.0 morph targets (`.glb` or `.gltf` by extension), on the
 /// scene file's own layout for a scene's deformer, else on the mesh; returns the bytes written.
 /// Ctrl-C stops it between two frames ([`Interrupt`]), before anything is written (the file is
@@ -334,11 +359,20 @@ pub fn export_gltf(
         sparse: true,
         every_k: every,
     };
+    let inputs = recording.layout.as_ref().map_or(&[][..], |l| &l.inputs[..]);
+    if let Some(input) = inputs.iter().find(|i| same_file(i, &path)) {
+        return Err(err(format!(
+            "{} is an input of the recording's scene ({}): export to another file",
+            path.display(),
+            input.display()
+        )));
+    }
+    let up = recording.layout.as_ref().map_or(UpAxis::Y, |l| l.up);
     let mut interrupt = Interrupt::new();
     let written = py.allow_threads(|| {
         let bare;
         let (asset, map): (&Asset, &[Option<u32>]) = match &recording.layout {
-            Some(l) => (&l.0, &l.1),
+            Some(l) => (&l.asset, &l.vertex_map),
             None => {
                 let m = &recording.mesh;
                 let identity: Vec<Option<u32>> = (0..m.n_vertices() as u32).map(Some).collect();
@@ -351,6 +385,7 @@ pub fn export_gltf(
         let format = GltfFormat::from_path(&path).map_err(err)?;
         GltfExport::from_asset(&input, format)
             .and_then(|e| e.with_solve_settings(&recording.solved))
+            .map(|e| e.with_up_axis(up))
             .and_then(|e| e.write(&path, &mut |done, total| interrupt.progress(done, total)))
             .map_err(err)
     });

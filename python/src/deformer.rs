@@ -6,6 +6,7 @@ use std::sync::Arc;
 use numpy::{PyArray1, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use solver::animation::export::UpAxis;
 use solver::deform::config::MAX_FINE_ITERATIONS;
 use solver::glam::DVec3;
 use solver::io::Asset;
@@ -21,9 +22,21 @@ use crate::convert::{
 };
 use crate::{Interrupt, borrow, borrow_mut, err};
 
-/// The file layout a recording is exported on: the asset and cleaning's vertex map (a scene's
-/// mesh), shared with the recordings made from this deformer.
-pub type Layout = Arc<(Asset, Vec<Option<u32>>)>;
+/// The file a recording is exported on (a scene's mesh), shared with the recordings made from
+/// this deformer.
+pub struct FileLayout {
+    pub asset: Asset,
+    /// Cleaning's vertex map: file vertex → mesh vertex.
+    pub vertex_map: Vec<Option<u32>>,
+    /// The scene's up axis: a Z-up glTF's nodes are rotated upright.
+    pub up: UpAxis,
+    /// The files it was read from (the scene, its mesh, material libraries): an export does not
+    /// write over them.
+    pub inputs: Vec<std::path::PathBuf>,
+}
+
+/// A [`FileLayout`] shared between a deformer and its recordings.
+pub type Layout = Arc<FileLayout>;
 
 /// A precomputed deformer of one method, with the mesh and handle groups it was built for.
 #[pyclass(module = "bsarap._bsarap")]

@@ -186,6 +186,45 @@ def test_membrane_in_scene_settings(tmp_path):
     assert any("tube.off" in n and "outside the scene's folder" in n for n in notices), notices
 
 
+def test_scene_deformer_settles_and_exports_upright(tmp_path):
+    """A scene's deformer takes ``settle_iterations`` (the CLI's 5 gives its settled pose); its
+    glTF export stands a Z-up scene upright as ``bsarap export`` does, and refuses to write over
+    the scene's own files."""
+    V, F, labels = tube(16, 24)
+    bsarap.save_mesh(tmp_path / "tube.off", V, F)
+    path = tmp_path / "scene.json"
+    path.write_text(json.dumps({
+        "version": 2, "mesh": "tube.off", "handles": {"labels": labels.tolist()},
+        "timeline": {"duration": 1.0, "fps": 2, "paths": [{"group": 1, "path": {
+            "type": "circular", "axis": [0, 0, 1], "reference": [1, 0, 0], "radius": 0.2,
+            "period": 1.0, "phase": 0.0, "turn_with_path": False}}]},
+        "method": "bsarap-coarse", "base": {"coarse_vertices": 200}, "up_axis": "z"}))
+    scene = bsarap.load_scene(path)
+    pose = {1: ([0.3, 0.0, 0.2], bsarap.rotation([0, 0, 1], 30))}
+    plain = scene.deformer()
+    plain.solve_to_rest(pose)
+    settling = scene.deformer(settle_iterations=5)
+    settling.solve_to_rest(pose)
+    assert plain.at_rest.settle_steps == 0
+    assert settling.at_rest.settle_steps > 0
+    with pytest.raises(ValueError, match="settle_iterations"):
+        scene.deformer(settle_iterations=10**9)
+    rec = bsarap.record(scene.deformer(), scene.timeline, n_frames=2)
+    out = tmp_path / "upright.glb"
+    bsarap.export_gltf(out, rec)
+    data = out.read_bytes()
+    (json_len,) = struct.unpack("<I", data[12:16])
+    doc = json.loads(data[20:20 + json_len])
+    node = next(n for n in doc["nodes"] if "mesh" in n)
+    h = 0.5 ** 0.5
+    np.testing.assert_allclose(node["rotation"], [-h, 0, 0, h], atol=1e-6)
+    for own in (path, tmp_path / "tube.off"):
+        before = own.read_bytes()
+        with pytest.raises(bsarap.BsarapError, match="input"):
+            bsarap.export_gltf(own, rec)
+        assert own.read_bytes() == before
+
+
 def test_handles_from_file(tmp_path, small):
     V, F, labels = small
     sel = tmp_path / "sel.dmat"
