@@ -191,7 +191,9 @@ def export_gltf(
     per frame under a looping animation, atomically; returns the bytes written.
 
     A recording of a scene's deformer is written on the whole asset (the file's own vertices,
-    UVs, normals, materials, textures), as ``bsarap export``; otherwise on the bare mesh.
+    UVs, normals, materials, textures), as ``bsarap export``: a Z-up scene stands upright (a
+    node rotation), and the scene's own files are not written over (an error); otherwise on the
+    bare mesh.
     ``quantized``: 16-bit morph targets (``KHR_mesh_quantization``), else float32;
     ``normals``: include normal deltas; ``every``: keep every k-th frame (and the last).
     Ctrl-C (``KeyboardInterrupt``) stops it between two frames, before anything is written.

@@ -12,9 +12,9 @@ use solver::animation::export::{
 use solver::animation::recording::{RecordError, Recording};
 use solver::animation::scene::{LoadedScene, Scene};
 use solver::animation::timeline::Timeline;
+use solver::deform::config::MAX_FINE_ITERATIONS;
 use solver::io::Asset;
 use solver::linalg::rotation::Mat3;
-use solver::deform::config::MAX_FINE_ITERATIONS;
 use solver::{BaseConfig, FrameStats, Mesh};
 
 use crate::convert::{array_triangles, array3};
@@ -118,8 +118,11 @@ impl NativeScene {
             )));
         }
         let s = &self.scene;
+        // absolute: a later change of the working folder must not point them elsewhere
         let mut inputs = vec![s.path.clone(), s.mesh_path.clone()];
         inputs.extend(s.mesh.asset.material_libraries.iter().cloned());
+        let inputs = inputs.iter().map(|p| std::path::absolute(p).unwrap_or_else(|_| p.clone()));
+        let inputs = inputs.collect();
         let layout: Layout = Arc::new(FileLayout {
             asset: s.mesh.asset.clone(),
             vertex_map: s.mesh.report.vertex_map.clone(),

@@ -87,8 +87,9 @@ pub struct ExportArgs {
 /// `--bones`' value parser: a count, and a hint when the value is the scene the flag took for
 /// its count (`export --bones scene.json`).
 fn bone_count(s: &str) -> Result<usize, String> {
-    super::count::<usize>(s).map_err(|e| {
-        format!("{e} (the bone count; give the scene before --bones, or write --bones=N)")
+    super::count::<usize>(s).map_err(|e| match s.contains(['.', '/', '\\']) {
+        true => format!("{e} (the bone count; give the scene before --bones, or write --bones=N)"),
+        false => e,
     })
 }
 

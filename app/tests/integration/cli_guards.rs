@@ -240,13 +240,15 @@ fn scene_versions_and_meshes_given_as_scenes() {
     refused(&["render", s(&mesh), "-o", s(&d.join("frames"))], &["scene (.json)"], &parse);
 }
 
+/// A move so far that its solve once overflowed to non-finite positions is refused before
+/// anything is solved (the coordinate limit), and nothing is written.
 #[test]
-fn a_non_finite_solve_says_nothing_was_written() {
+fn a_move_beyond_the_coordinate_limit_writes_nothing() {
     let d = ScratchDir::new("guards-nonfinite");
     let (mesh, sel) = grid(&d, "grid.obj");
     let out = d.join("x.obj");
     let args = ["deform", s(&mesh), "--handles", s(&sel), "--move", "0:1e300,0,0", "-o", s(&out)];
-    refused(&args, &["non-finite", "nothing was written"], &["previous pose"]);
+    refused(&args, &["--move", "coordinate limit"], &["previous pose"]);
     assert!(!out.exists());
 }
 

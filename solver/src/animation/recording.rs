@@ -29,7 +29,8 @@ pub const MAX_FRAMES: usize = 100_000;
 pub enum RecordError {
     #[error("{0}")]
     Timeline(#[from] AnimationError),
-    #[error("the timeline animates a group the selection lacks: {0}")]
+    /// A path for a group the selection lacks, or a move beyond the coordinate limit.
+    #[error("the timeline: {0}")]
     Handles(#[from] HandlesError),
     #[error("frame {frame} (t = {time} s): {source}")]
     Solve {

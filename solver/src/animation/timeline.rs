@@ -20,7 +20,7 @@ use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use crate::deform::pose::GroupTransform;
-use crate::geometry::mesh::cross;
+use crate::geometry::mesh::{MAX_COORDINATE, cross};
 
 /// Why a timeline or a path cannot be evaluated. One line each.
 #[derive(Debug, Clone, PartialEq, Error)]
@@ -383,6 +383,11 @@ impl KeyframedPath {
             {
                 return Err(bad(format!("key {i} has a non-finite value")));
             }
+            if k.translation.iter().any(|c| beyond_limit(*c)) {
+                return Err(bad(format!(
+                    "key {i} moves beyond the coordinate limit ±{MAX_COORDINATE:e}"
+                )));
+            }
             if k.rotation.axis == [0.0; 3] && k.rotation.degrees != 0.0 {
                 return Err(bad(format!(
                     "key {i} turns {}° about a zero axis (give the axis, or 0°)",
@@ -447,8 +452,12 @@ impl Path {
                 if !(c.period.is_finite() && c.period > 0.0) {
                     return Err(bad(format!("period must be > 0 seconds (got {})", c.period)));
                 }
-                if !(c.radius.is_finite() && c.radius >= 0.0) {
-                    return Err(bad(format!("radius must be ≥ 0 (got {})", c.radius)));
+                if !(c.radius.is_finite() && c.radius >= 0.0) || beyond_limit(c.radius) {
+                    return Err(bad(format!(
+                        "radius must be ≥ 0 and within the coordinate limit {MAX_COORDINATE:e} \
+                         (got {})",
+                        c.radius
+                    )));
                 }
                 if !c.phase.is_finite() || c.axis.iter().chain(&c.reference).any(|x| !x.is_finite())
                 {
@@ -463,11 +472,22 @@ impl Path {
                 {
                     return Err(bad("the start pose must be finite".into()));
                 }
+                if c.start.is_some_and(|s| s.translation.iter().any(|x| beyond_limit(*x))) {
+                    return Err(bad(format!(
+                        "the start pose moves beyond the coordinate limit ±{MAX_COORDINATE:e}"
+                    )));
+                }
                 Ok(())
             }
             Path::Keyframed(k) => k.validate(group),
         }
     }
+}
+
+/// Whether a move or radius `x` is beyond the coordinate limit (a pose no mesh reader takes
+/// back; [`crate::deform::handles::HandlesError::MoveOutOfRange`]).
+fn beyond_limit(x: f64) -> bool {
+    x.abs() > MAX_COORDINATE
 }
 
 /// The path of one handle group.
@@ -577,6 +597,23 @@ impl Timeline {
 mod tests {
     use super::*;
     use crate::linalg::rotation::axis_angle;
+
+    /// A key, a circle's radius or its start pose beyond the coordinate limit is refused when
+    /// the timeline is read: a recording found it only at the frame that reached it.
+    #[test]
+    fn moves_beyond_the_coordinate_limit_are_refused() {
+        let text = |path: &str| {
+            format!(r#"{{"duration": 1, "fps": 2, "paths": [{{"group": 0, "path": {path}}}]}}"#)
+        };
+        let key = r#"{"type": "keyframed", "keys": [{"time": 0, "translation": [0, 0, 0]}, {"time": 1, "translation": [0, 1e31, 0]}]}"#;
+        let circle = r#"{"type": "circular", "axis": [0, 0, 1], "reference": [1, 0, 0], "radius": 1e31, "period": 1, "phase": 0, "turn_with_path": false}"#;
+        let start = r#"{"type": "circular", "axis": [0, 0, 1], "reference": [1, 0, 0], "radius": 1, "period": 1, "phase": 0, "turn_with_path": false, "start": {"translation": [1e31, 0, 0]}}"#;
+        for (path, needle) in [(key, "key 1 moves"), (circle, "radius"), (start, "start pose")] {
+            let t: Timeline = serde_json::from_str(&text(path)).unwrap();
+            let e = t.validate().unwrap_err().to_string();
+            assert!(e.contains(needle) && e.contains("coordinate limit"), "{e}");
+        }
+    }
 
     #[test]
     fn quaternion_matches_rodrigues() {

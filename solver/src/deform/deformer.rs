@@ -479,7 +479,9 @@ impl Deformer {
     /// The second half: `publish` gets the begun frame's pose (loose parts moved) as soon as it
     /// is there, and the group motions `next` begin beside it ([`CoarseBsArap::finish_beside`];
     /// their statistics returned). Without a begun frame, `publish` gets the current pose and
-    /// `next` begins ([`Deformer::begin_groups`]).
+    /// `next` begins ([`Deformer::begin_groups`]). Motions `next` that give no targets (an
+    /// unknown group, a move beyond the coordinate limit) are an error once the begun frame
+    /// is finished and published.
     pub fn finish_beside(
         &mut self,
         next: Option<&[(usize, GroupTransform)]>,
@@ -492,11 +494,13 @@ impl Deformer {
                 return next.map(|t| self.begin_groups(t)).transpose();
             }
         };
-        if let Some(t) = next {
-            self.group_rest.targets(t, &mut self.group_targets)?;
-            self.group_rest.motions(t, &mut self.group_motions)?;
-        }
-        let next = next.map(|_| (self.group_targets.as_slice(), self.group_motions.as_slice()));
+        let refused = next.and_then(|t| {
+            let targets = self.group_rest.targets(t, &mut self.group_targets);
+            targets.and_then(|()| self.group_rest.motions(t, &mut self.group_motions)).err()
+        });
+        let next = next
+            .filter(|_| refused.is_none())
+            .map(|_| (self.group_targets.as_slice(), self.group_motions.as_slice()));
         let (riders, positions) = (&self.riders, &mut self.positions);
         let mut rode = None;
         let mut ride_and_publish = |p: &[[f64; 3]]| {
@@ -511,7 +515,10 @@ impl Deformer {
         if let Some(motions) = rode {
             self.ride_base(&motions);
         }
-        result
+        match refused {
+            Some(e) => result.and(Err(e.into())),
+            None => result,
+        }
     }
 
     /// [`Deformer::settle`] at the targets of the group motions `transforms` (those of the

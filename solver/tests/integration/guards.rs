@@ -87,8 +87,14 @@ fn huge_targets_give_a_finite_pose_or_an_error_never_nan() {
             twin.solve(&good).unwrap();
             twin.solve(&good).unwrap();
             let before = snapshot(&d);
-            let tr = GroupTransform::from_translation(DVec3::new(scale, -scale, 0.0));
-            let targets = handle_targets(m.positions(), &h, &[(0, tr)]).unwrap();
+            // Raw targets (group motions this far are refused: `handle_targets`): group 0 moved.
+            let mut targets = handle_targets(m.positions(), &h, &[]).unwrap();
+            for (t, &v) in targets.iter_mut().zip(h.handle_vertices()) {
+                if h.labels()[v as usize] == Some(0) {
+                    t[0] += scale;
+                    t[1] -= scale;
+                }
+            }
             match d.solve(&targets) {
                 Ok(_) => {}
                 Err(SolveError::NonFiniteResult { .. } | SolveError::NonFiniteTarget { .. }) => {

@@ -534,12 +534,20 @@ impl EditorApp {
                     }
                     None => {
                         // A scene's method settings stay with it: a mesh opened after one
-                        // starts from the defaults, as at start; after a mesh, the settings
+                        // starts from the defaults, as at start, but for the editor's own
+                        // (settling, the side-by-side method); after a mesh, the settings
                         // chosen for it stay.
                         if after_scene {
+                            let now = self.session.settings;
+                            let defaults = MethodSettings::default();
                             self.session.settings = MethodSettings {
                                 bs_variant: self.prefs.current.default_method,
-                                ..MethodSettings::default()
+                                base: solver::BaseConfig {
+                                    settle_iterations: now.base.settle_iterations,
+                                    ..defaults.base
+                                },
+                                compare_variant: now.compare_variant,
+                                ..defaults
                             };
                         }
                         self.session.edit = EditState::from_labels(labels);
