@@ -185,6 +185,16 @@ fn deform_writes_the_pose_on_the_file_layout_by_extension() {
     assert!(stderr.contains("posed.fbx") && stderr.contains(".ply"), "{stderr}");
 }
 
+/// A copy of the scene at `s` with `"up_axis": "z"`, beside it as `ball-z.json`.
+fn z_up_copy(s: &std::path::Path) -> std::path::PathBuf {
+    let mut z_scene: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(s).unwrap()).unwrap();
+    z_scene["up_axis"] = "z".into();
+    let z = s.with_file_name("ball-z.json");
+    std::fs::write(&z, serde_json::to_string(&z_scene).unwrap()).unwrap();
+    z
+}
+
 /// `--bones N` writes a skin of N joints with one animation and the scene's solve settings in
 /// `asset.extras.bsarap`, as the morph export does; a Z-up scene's armature carries the morph
 /// export's upright rotation (−90° about x), a Y-up one none.
@@ -192,11 +202,7 @@ fn deform_writes_the_pose_on_the_file_layout_by_extension() {
 fn export_bones_writes_a_skin_upright_for_the_scene_up_axis() {
     let d = dir("bones");
     let s = scene(&d, 1);
-    let mut z_scene: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(&s).unwrap()).unwrap();
-    z_scene["up_axis"] = "z".into();
-    let z = d.join("scenes").join("ball-z.json");
-    std::fs::write(&z, serde_json::to_string(&z_scene).unwrap()).unwrap();
+    let z = z_up_copy(&s);
     for (scene, rotated) in [(&s, false), (&z, true)] {
         let out = d.join("bones.glb");
         let args = ["export", scene.to_str().unwrap(), "--bones", "4", "--frames", "3", "-o"];
@@ -231,11 +237,7 @@ fn export_bones_writes_a_skin_upright_for_the_scene_up_axis() {
 fn deform_to_gltf_stands_a_z_up_scene_upright() {
     let d = dir("deform-z-up");
     let s = scene(&d, 1);
-    let mut z_scene: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(&s).unwrap()).unwrap();
-    z_scene["up_axis"] = "z".into();
-    let z = d.join("scenes").join("ball-z.json");
-    std::fs::write(&z, serde_json::to_string(&z_scene).unwrap()).unwrap();
+    let z = z_up_copy(&s);
     for (scene, rotated) in [(&s, false), (&z, true)] {
         let out = d.join("pose.glb");
         let (code, _, stderr) =
