@@ -42,14 +42,18 @@ def save_mesh(path: PathLike, V: Any, F: Any) -> None:
     _bsarap.save_mesh(_path(path), _positions(V, "V"), _indices(F, "F", 2))
 
 
-def load_selection(path: PathLike, V: Any) -> np.ndarray:
+def load_selection(path: PathLike, V: Any, *, vertex_map: Any = None) -> np.ndarray:
     """Read a handle selection for a mesh with rest positions ``V``.
 
     ``path``: a libigl ``.dmat`` (one value per vertex: -1 free, k >= 0 group k) or a JSON list
     of spheres ``[{"group": 0, "center": [x, y, z], "radius": r}]``. Returns the per-vertex
-    labels, int64. ``np.nonzero(labels >= 0)[0]`` is libigl's ``b``.
+    labels, int64. ``np.nonzero(labels >= 0)[0]`` is libigl's ``b``. ``vertex_map``: the
+    cleaning's map of a mesh read with :func:`load_mesh` (``report["vertex_map"]``): a
+    ``.dmat`` written for the file's vertices (before welding and removal) is carried to ``V``
+    through it, as ``bsarap deform MESH --handles SEL`` does.
     """
-    return _bsarap.load_selection(_path(path), _positions(V, "V"))
+    m = None if vertex_map is None else _indices(vertex_map, "vertex_map", 1)
+    return _bsarap.load_selection(_path(path), _positions(V, "V"), m)
 
 
 def rotation(axis: Sequence[float], degrees: float) -> np.ndarray:

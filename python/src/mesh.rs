@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use numpy::{PyArray1, PyReadonlyArray2};
+use numpy::{PyArray1, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use solver::geometry::cleanup::CleanReport;
@@ -86,17 +86,38 @@ pub fn save_mesh(
 /// Reads a handle selection (libigl `.dmat` or a JSON list of spheres) for a mesh with rest
 /// positions `V`: one label per vertex (-1 free, k ≥ 0 group k), int64.
 #[pyfunction]
+#[pyo3(signature = (path, v, vertex_map=None))]
 pub fn load_selection<'py>(
     py: Python<'py>,
     path: PathBuf,
     v: PyReadonlyArray2<'py, f64>,
+    vertex_map: Option<PyReadonlyArray1<'py, i64>>,
 ) -> PyResult<Bound<'py, PyArray1<i64>>> {
     let positions = rows3(&v, "V")?;
+    let map = vertex_map.map(|m| cleaning_map(&m, positions.len())).transpose()?;
     let handles = py
-        .allow_threads(|| solver::deform::selection::load_selection(&path, &positions, None))
+        .allow_threads(|| {
+            solver::deform::selection::load_selection(&path, &positions, map.as_deref())
+        })
         .map_err(err)?;
     let labels: Vec<i64> = handles.labels().iter().map(|l| l.map_or(-1, i64::from)).collect();
     Ok(PyArray1::from_vec(py, labels))
+}
+
+/// A cleaning's vertex map as the report gives it (int64, file vertex → mesh vertex, -1 when
+/// removed), each entry checked against the `n_vertices` of the cleaned mesh.
+fn cleaning_map(m: &PyReadonlyArray1<'_, i64>, n_vertices: usize) -> PyResult<Vec<Option<u32>>> {
+    m.as_array()
+        .iter()
+        .enumerate()
+        .map(|(i, &k)| match k {
+            -1 => Ok(None),
+            k if (0..n_vertices as i64).contains(&k) => Ok(Some(k as u32)),
+            k => Err(err(format!(
+                "vertex_map[{i}] = {k}: expected -1 (removed) or a vertex of V (0..{n_vertices})"
+            ))),
+        })
+        .collect()
 }
 
 /// The rotation by `degrees` about `axis` (3 numbers; 3×3, row-major), as the CLI's `--rotate`.

@@ -35,6 +35,29 @@ def test_clean_welds_and_drops(small):
     assert len(V3) == len(V) and report["vertex_map"][len(V)] == 0
 
 
+def test_selection_through_the_cleaning_map(tmp_path, small):
+    """A .dmat written for a file's vertices reads on the cleaned mesh through the vertex map,
+    as ``bsarap deform`` reads it; without the map its count is refused."""
+    V, F, labels = small
+    V2 = np.vstack([V, V[:1]])  # a duplicate of vertex 0, used by a face: welded on load
+    F2 = F.copy()
+    F2[0, 0] = len(V)
+    path = tmp_path / "welded.obj"
+    path.write_text("".join(f"v {x} {y} {z}\n" for x, y, z in V2)
+                    + "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in F2))
+    V3, _, report = bsarap.load_mesh(path, with_report=True)
+    assert len(V3) == len(V) and report["vertices_welded"] == 1
+    file_labels = np.append(labels, labels[0])  # one label per vertex of the file
+    sel = tmp_path / "welded.dmat"
+    sel.write_text(f"1 {len(file_labels)}\n" + "\n".join(str(x) for x in file_labels) + "\n")
+    with pytest.raises(bsarap.BsarapError, match="vertices"):
+        bsarap.load_selection(sel, V3)
+    got = bsarap.load_selection(sel, V3, vertex_map=report["vertex_map"])
+    np.testing.assert_array_equal(got, labels)
+    with pytest.raises(bsarap.BsarapError, match="vertex_map"):
+        bsarap.load_selection(sel, V3, vertex_map=np.full(len(file_labels), len(V3)))
+
+
 def test_arap_libigl_shape(small):
     V, F, labels = small
     b = np.nonzero(labels >= 0)[0][::-1].copy()  # any order: bc follows b
