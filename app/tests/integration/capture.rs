@@ -528,6 +528,9 @@ fn a_png_sequence_shows_and_cancels_in_the_status_bar() {
     let frames = dir.join("config/screenshots/frames_0001");
     let written = if frames.exists() { pngs_in(&frames).len() } else { 0 };
     assert!(written < 3, "all {written} frames written after the cancel");
+    // said as cancelled, not saved
+    let info = h.state().info().unwrap_or_default().to_string();
+    assert!(info.contains("cancelled after") && info.contains("of 3 frames"), "{info}");
     h.state_mut().request_quit(&ctx);
     h.step();
     assert!(!h.state().quit_question_open(), "nothing under way: no question");

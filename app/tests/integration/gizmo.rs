@@ -296,6 +296,39 @@ fn typed_values_still_set_the_pose_after_a_gizmo_move() {
     assert_eq!(h.state().group_pose(0).unwrap().translation.to_array(), t);
 }
 
+/// An ry past 90° stays as typed in the pose panel: angles read back from the rotation keep ry
+/// within ±90° (95° reads as rx 180, ry 85, rz 180), so the next value typed or dragged
+/// combined with those made another rotation (and a drag of ry past 90° flipped).
+#[test]
+fn the_pose_panel_keeps_an_ry_past_ninety_degrees() {
+    let mut h = start();
+    type_value(&mut h, "ry", "95");
+    type_value(&mut h, "rx", "10");
+    let want =
+        glam::DQuat::from_euler(glam::EulerRot::XYZ, 10f64.to_radians(), 95f64.to_radians(), 0.0);
+    let got = h.state().group_pose(0).unwrap().rotation;
+    assert!(got.dot(want).abs() > 1.0 - 1e-9, "{got:?} is not rx 10, ry 95");
+}
+
+/// "Reset all" with every group at rest records nothing: an undo after it takes back the last
+/// real change (it took back an empty step).
+#[test]
+fn reset_all_at_rest_makes_no_undo_step() {
+    let mut h = start();
+    type_value(&mut h, "x", "0.25");
+    assert_eq!(h.state().group_pose(0).unwrap().translation.x, 0.25);
+    h.get_by_label("Reset all").scroll_to_me();
+    h.step();
+    h.get_by_label("Reset all").click_accesskit();
+    h.step();
+    assert_eq!(h.state().group_pose(0).unwrap().translation.x, 0.0);
+    h.get_by_label("Reset all").click_accesskit();
+    h.step();
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    assert_eq!(h.state().group_pose(0).unwrap().translation.x, 0.25, "undo met an empty step");
+}
+
 #[test]
 fn numbers_typed_during_g_or_r_set_the_distance_or_angle() {
     let mut h = start();

@@ -328,3 +328,34 @@ fn a_mesh_opened_after_a_scene_starts_from_the_default_settings() {
     want.compare_variant = solver::Method::BsArap;
     assert_eq!(h.state().method_settings(), want, "a mesh after a scene");
 }
+
+/// A value typed into a method slider's number box applies once, when the box is left: one
+/// undo step and one rebuild (every keystroke was one: 2, 25, then 250).
+#[test]
+fn a_typed_method_value_is_one_undo_step() {
+    use egui::{Event, Key, Modifiers};
+    let mut h = harness(test_mesh(), None);
+    step_until(&mut h, "the default asset", settled);
+    let cap = |a: &EditorApp| a.method_settings().arap.max_iterations;
+    let start = cap(h.state());
+    assert_ne!(start, 250);
+    let label = "iteration cap";
+    h.get_by_role_and_label(egui::accesskit::Role::SpinButton, label).scroll_to_me();
+    for _ in 0..3 {
+        h.step();
+    }
+    h.get_by_role_and_label(egui::accesskit::Role::SpinButton, label).click();
+    h.step();
+    h.key_press_modifiers(Modifiers::COMMAND, Key::A);
+    for c in ["2", "5", "0"] {
+        h.event(Event::Text(c.into()));
+        h.step();
+    }
+    h.key_press(Key::Enter);
+    h.step();
+    h.step();
+    assert_eq!(cap(h.state()), 250);
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    assert_eq!(cap(h.state()), start, "one undo takes back the typed value");
+}

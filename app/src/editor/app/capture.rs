@@ -259,7 +259,9 @@ impl EditorApp {
         let mut finished = Vec::new();
         self.capture.jobs.retain(|j| match j.rx.try_recv() {
             Ok(r) => {
-                finished.push((j.sequence, r));
+                let cancelled = j.cancel.load(Ordering::Relaxed);
+                let done = j.done.load(Ordering::Relaxed);
+                finished.push((j.sequence, r.map(|p| (p, cancelled.then_some((done, j.total))))));
                 false
             }
             Err(std::sync::mpsc::TryRecvError::Empty) => true,
@@ -270,11 +272,14 @@ impl EditorApp {
         });
         for (sequence, r) in finished {
             match r {
-                Ok(path) => {
-                    self.info = Some(if sequence {
-                        format!("PNG sequence saved in {}", path.display())
-                    } else {
-                        format!("screenshot saved: {}", path.display())
+                Ok((path, cancelled)) => {
+                    self.info = Some(match (sequence, cancelled) {
+                        (true, Some((done, total))) => format!(
+                            "PNG sequence cancelled after {done} of {total} frames (in {})",
+                            path.display()
+                        ),
+                        (true, None) => format!("PNG sequence saved in {}", path.display()),
+                        (false, _) => format!("screenshot saved: {}", path.display()),
                     });
                     self.capture.last = Some(path);
                 }

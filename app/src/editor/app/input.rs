@@ -24,6 +24,11 @@ pub(super) struct Interaction {
     pub(super) drag: Option<PoseDrag>,
     /// Group being renamed, with the name typed so far.
     pub(super) renaming: Option<(usize, String)>,
+    /// The pose panel's rotation angles (degrees) as last set there, with the group and the
+    /// rotation they made: shown while the group keeps that rotation. Angles read back from a
+    /// rotation keep ry within ±90° (turning the others by 180°), so a drag of ry past 90°
+    /// read back each frame flipped between two poses.
+    pub(super) euler_shown: Option<(usize, glam::DQuat, [f64; 3])>,
     /// The viewport where the primary button went down with Alt held: until it is released
     /// the press orbits the camera there and no tool sees it (egui reports a drag only once
     /// the pointer has moved, so its press and release frames would paint a dab, or start
@@ -42,6 +47,7 @@ impl Default for Interaction {
             stroke: None,
             drag: None,
             renaming: None,
+            euler_shown: None,
             alt_press: None,
         }
     }

@@ -30,7 +30,11 @@ fn method_slider<'a, N: egui::emath::Numeric>(
     value: &'a mut N,
     range: std::ops::RangeInclusive<N>,
 ) -> egui::Slider<'a> {
-    egui::Slider::new(value, range).clamping(egui::SliderClamping::Edits)
+    // A typed value applies when the field is left, not at every keystroke (each would be an
+    // undo step and a rebuild of the solvers, for sizes nobody asked for).
+    egui::Slider::new(value, range)
+        .clamping(egui::SliderClamping::Edits)
+        .update_while_editing(false)
 }
 
 /// The shortest bending length the method panel's slider offers (a fraction of the diagonal;
@@ -236,9 +240,14 @@ impl EditorApp {
                 changed |= r.labelled_by(l).changed();
             }
         });
-        let (ex, ey, ez) = pose.rotation.to_euler(EulerRot::XYZ);
-        // `+ 0.0` shows -0 as 0.
-        let mut e = [ex.to_degrees() + 0.0, ey.to_degrees() + 0.0, ez.to_degrees() + 0.0];
+        let mut e = match self.interaction.euler_shown {
+            Some((g, q, e)) if g == k && q == pose.rotation => e,
+            _ => {
+                let (ex, ey, ez) = pose.rotation.to_euler(EulerRot::XYZ);
+                // `+ 0.0` shows -0 as 0.
+                [ex.to_degrees() + 0.0, ey.to_degrees() + 0.0, ez.to_degrees() + 0.0]
+            }
+        };
         let mut rot_changed = false;
         ui.horizontal(|ui| {
             ui.label("rotate°");
@@ -258,6 +267,7 @@ impl EditorApp {
                 e[2].to_radians(),
             )
             .normalize();
+            self.interaction.euler_shown = Some((k, pose.rotation, e));
             changed = true;
         }
         ui.horizontal(|ui| {
@@ -265,7 +275,9 @@ impl EditorApp {
                 pose = GroupTransform::default();
                 changed = true;
             }
-            if ui.button("Reset all").clicked() {
+            let posed =
+                self.session.edit.groups.iter().any(|g| g.pose != GroupTransform::default());
+            if ui.button("Reset all").clicked() && posed {
                 self.session.push_undo(self.session.edit.clone());
                 for g in &mut self.session.edit.groups {
                     g.pose = GroupTransform::default();

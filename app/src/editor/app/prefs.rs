@@ -169,6 +169,9 @@ impl EditorApp {
 
 /// UI scale and theme.
 fn apply_look(ctx: &egui::Context, p: &Preferences) {
+    // The scale is the preference's: egui's own Ctrl+Plus / Ctrl+Minus zoom would change it
+    // unseen by the Preferences window, unsaved, and the next theme change would undo it.
+    ctx.options_mut(|o| o.zoom_with_keyboard = false);
     ctx.set_zoom_factor(p.ui_scale);
     ctx.set_theme(match p.theme {
         Theme::Dark => egui::Theme::Dark,
