@@ -359,3 +359,21 @@ fn a_typed_method_value_is_one_undo_step() {
     h.step();
     assert_eq!(cap(h.state()), start, "one undo takes back the typed value");
 }
+
+/// Anderson acceleration turned off and on again in the panel keeps its window (a scene's 8
+/// came back as the default 5).
+#[test]
+fn anderson_off_and_on_keeps_the_window() {
+    let mut h = harness(test_mesh(), None);
+    step_until(&mut h, "the default asset", settled);
+    let mut s = h.state().method_settings();
+    s.arap.acceleration = solver::Acceleration::Anderson { window: 8 };
+    h.state_mut().set_method_settings(s);
+    h.step();
+    for _ in 0..2 {
+        h.get_by_label("Anderson acceleration").click_accesskit();
+        h.step();
+    }
+    let a = h.state().method_settings().arap.acceleration;
+    assert_eq!(a, solver::Acceleration::Anderson { window: 8 });
+}

@@ -29,6 +29,9 @@ pub(super) struct Interaction {
     /// rotation keep ry within ±90° (turning the others by 180°), so a drag of ry past 90°
     /// read back each frame flipped between two poses.
     pub(super) euler_shown: Option<(usize, glam::DQuat, [f64; 3])>,
+    /// The Anderson window the method panel's checkbox turned off: turned on again, the same
+    /// window (a scene's 8 came back as the default 5, and the next Save wrote 5).
+    pub(super) anderson_off: Option<usize>,
     /// The viewport where the primary button went down with Alt held: until it is released
     /// the press orbits the camera there and no tool sees it (egui reports a drag only once
     /// the pointer has moved, so its press and release frames would paint a dab, or start
@@ -48,6 +51,7 @@ impl Default for Interaction {
             drag: None,
             renaming: None,
             euler_shown: None,
+            anderson_off: None,
             alt_press: None,
         }
     }

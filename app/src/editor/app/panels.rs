@@ -409,8 +409,10 @@ impl EditorApp {
             .changed()
         {
             self.session.settings.arap.acceleration = if anderson {
-                solver::Acceleration::Anderson { window: ANDERSON_WINDOW }
+                let window = self.interaction.anderson_off.take().unwrap_or(ANDERSON_WINDOW);
+                solver::Acceleration::Anderson { window }
             } else {
+                self.interaction.anderson_off = Some(window);
                 solver::Acceleration::None
             };
         }
