@@ -84,7 +84,9 @@ pub fn save_mesh(
 }
 
 /// Reads a handle selection (libigl `.dmat` or a JSON list of spheres) for a mesh with rest
-/// positions `V`: one label per vertex (-1 free, k ≥ 0 group k), int64.
+/// positions `V`: one label per vertex (-1 free, k ≥ 0 group k), int64. `vertex_map`: the
+/// cleaning's map of the file `V` was read from, through which a `.dmat` written for the
+/// file's vertices is carried (as the CLI reads it).
 #[pyfunction]
 #[pyo3(signature = (path, v, vertex_map=None))]
 pub fn load_selection<'py>(

@@ -310,6 +310,17 @@ fn the_pose_panel_keeps_an_ry_past_ninety_degrees() {
     assert!(got.dot(want).abs() > 1.0 - 1e-9, "{got:?} is not rx 10, ry 95");
 }
 
+/// A move typed beyond the coordinate limit is refused in the pose panel, as a non-finite one
+/// is: kept, a Save would fail on its one-key path and the autosave would not read back.
+#[test]
+fn a_move_beyond_the_coordinate_limit_is_refused_in_the_panel() {
+    let mut h = start();
+    type_value(&mut h, "x", "1e31");
+    assert_eq!(h.state().group_pose(0).unwrap().translation.x, 0.0);
+    let error = h.state().error().unwrap_or_default().to_string();
+    assert!(error.contains("±1e30"), "{error}");
+}
+
 /// "Reset all" with every group at rest records nothing: an undo after it takes back the last
 /// real change (it took back an empty step).
 #[test]

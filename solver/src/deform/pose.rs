@@ -98,6 +98,14 @@ impl GroupTransform {
         self.translation.is_finite() && self.rotation.is_finite()
     }
 
+    /// Whether the motion is finite and moves within the coordinate limit
+    /// (±[`crate::geometry::mesh::MAX_COORDINATE`]): a pose no mesh reader takes back, and no
+    /// scene holding it reads, otherwise ([`HandlesError::MoveOutOfRange`]).
+    pub fn in_range(&self) -> bool {
+        self.is_finite()
+            && self.translation.abs().max_element() <= crate::geometry::mesh::MAX_COORDINATE
+    }
+
     /// The motion $x \mapsto R x + (c - R c + t)$ this transform makes of a group with rest
     /// centroid `centroid`; the identity transform gives [`Motion::IDENTITY`] exactly.
     pub fn motion(&self, centroid: [f64; 3]) -> Motion {

@@ -117,11 +117,12 @@ fn frames_in_two_halves_are_the_frames_solved_whole() {
     }
 }
 
-/// A stream with targets too far to prolong or to solve in it: whichever half fails, the error
-/// comes back, the pose and the deformed base stay the last published frame's, nothing is left
-/// pending, and the stream goes on from there to finite poses near a whole solve's.
+/// A stream whose next motions are refused (beyond the coordinate limit) while a frame is
+/// begun: the begun frame is finished and published, the error comes back, nothing is left
+/// pending, and the stream goes on from there to finite poses near a whole solve's. (A solve
+/// failing on huge raw targets is `guards.rs`'s test.)
 #[test]
-fn a_failed_half_leaves_the_published_frame() {
+fn refused_next_motions_leave_the_published_frame() {
     let (mesh, handles) = capped_sphere(3, 0, 0.8, None);
     let diag = mesh.bbox_diagonal();
     let good = drag(2);

@@ -259,8 +259,8 @@ impl EditorApp {
         let mut finished = Vec::new();
         self.capture.jobs.retain(|j| match j.rx.try_recv() {
             Ok(r) => {
-                let cancelled = j.cancel.load(Ordering::Relaxed);
                 let done = j.done.load(Ordering::Relaxed);
+                let cancelled = j.cancel.load(Ordering::Relaxed) && done < j.total;
                 finished.push((j.sequence, r.map(|p| (p, cancelled.then_some((done, j.total))))));
                 false
             }

@@ -514,10 +514,11 @@ impl EditorApp {
     /// Moves handle group `group` to `pose` as one step of a drag does (the gizmo's; scripts
     /// that measure a drag): mirrored to its symmetric group and sent to the solver, with no
     /// undo entry (a drag pushes one when it ends) and no change of colours. False when the
-    /// group does not exist, the pose is not finite or is the group's already.
+    /// group does not exist, the pose is not finite or beyond the coordinate limit
+    /// ([`GroupTransform::in_range`]), or is the group's already.
     pub fn drag_group(&mut self, group: usize, pose: GroupTransform) -> bool {
         let Some(g) = self.session.edit.groups.get_mut(group) else { return false };
-        if !pose.is_finite() || g.pose == pose {
+        if !pose.in_range() || g.pose == pose {
             return false;
         }
         g.pose = pose;

@@ -285,9 +285,12 @@ impl EditorApp {
                 self.send_poses();
             }
         });
-        if changed && !pose.is_finite() {
-            self.error =
-                Some("value refused: move and rotate values must be finite numbers".into());
+        if changed && !pose.in_range() {
+            self.error = Some(
+                "value refused: move and rotate values must be finite numbers, moves within \
+                 ±1e30"
+                    .into(),
+            );
         } else if changed
             && pose != self.session.edit.groups[k].pose
             // one step per press: a drag on a number changes it every frame
