@@ -124,8 +124,8 @@ class Scene:
     def deformer(self, *, settle_iterations: int = 0) -> Deformer:
         """A :class:`Deformer` with the scene's mesh, handles, method, settings and loose
         parts; its recordings export the whole asset (file layout, materials, textures).
-        ``settle_iterations`` (not a scene's: the editor sets it) is :class:`Deformer`'s; with 5,
-        :meth:`Deformer.solve_to_rest` gives the pose ``bsarap deform SCENE`` writes."""
+        ``settle_iterations`` (not a scene's: the editor sets it) is :class:`Deformer`'s; the
+        editor and ``bsarap deform SCENE`` settle with 5."""
         return Deformer._wrap(self._native.deformer(_count(settle_iterations, "settle_iterations")))
 
 

@@ -12,13 +12,12 @@ use solver::animation::export::{
 use solver::animation::recording::{RecordError, Recording};
 use solver::animation::scene::{LoadedScene, Scene};
 use solver::animation::timeline::Timeline;
-use solver::deform::config::MAX_FINE_ITERATIONS;
 use solver::io::Asset;
 use solver::linalg::rotation::Mat3;
 use solver::{BaseConfig, FrameStats, Mesh};
 
 use crate::convert::{array_triangles, array3};
-use crate::deformer::{FileLayout, Layout, NativeDeformer};
+use crate::deformer::{FileLayout, Layout, NativeDeformer, check_settle_iterations};
 use crate::{Interrupt, borrow_mut, err};
 use solver::animation::recording::MAX_FRAMES;
 
@@ -111,12 +110,7 @@ impl NativeScene {
     /// export the whole asset (the file's layout, materials, textures).
     #[pyo3(signature = (settle_iterations=0))]
     fn deformer(&self, py: Python<'_>, settle_iterations: usize) -> PyResult<NativeDeformer> {
-        if settle_iterations > MAX_FINE_ITERATIONS {
-            return Err(err(format!(
-                "settle_iterations must be between 0 and {MAX_FINE_ITERATIONS} (got \
-                 {settle_iterations})"
-            )));
-        }
+        check_settle_iterations(settle_iterations)?;
         let s = &self.scene;
         // absolute: a later change of the working folder must not point them elsewhere
         let mut inputs = vec![s.path.clone(), s.mesh_path.clone()];

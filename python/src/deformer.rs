@@ -35,6 +35,18 @@ pub struct FileLayout {
     pub inputs: Vec<std::path::PathBuf>,
 }
 
+/// Refuses a settle step longer than a fine step may be (`BaseConfig::validate` leaves
+/// `settle_iterations`, an interactive setting, to its callers).
+pub fn check_settle_iterations(settle_iterations: usize) -> PyResult<()> {
+    if settle_iterations > MAX_FINE_ITERATIONS {
+        return Err(err(format!(
+            "settle_iterations must be between 0 and {MAX_FINE_ITERATIONS} (got \
+             {settle_iterations})"
+        )));
+    }
+    Ok(())
+}
+
 /// A [`FileLayout`] shared between a deformer and its recordings.
 pub type Layout = Arc<FileLayout>;
 
@@ -165,12 +177,7 @@ impl NativeDeformer {
             ..BaseConfig::default()
         };
         base.validate().map_err(err)?;
-        if settle_iterations > MAX_FINE_ITERATIONS {
-            return Err(err(format!(
-                "settle_iterations must be between 0 and {MAX_FINE_ITERATIONS} (got \
-                 {settle_iterations})"
-            )));
-        }
+        check_settle_iterations(settle_iterations)?;
         let positions = rows3(&v, "V")?;
         let tris = triangles(&f, positions.len())?;
         let mesh = Mesh::new(positions, tris).map_err(err)?;

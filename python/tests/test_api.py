@@ -210,9 +210,9 @@ def test_membrane_in_scene_settings(tmp_path):
 
 
 def test_scene_deformer_settles_and_exports_upright(tmp_path):
-    """A scene's deformer takes ``settle_iterations`` (the CLI's 5 gives its settled pose); its
+    """A scene's deformer takes ``settle_iterations`` (a scene holds none: it settled never); its
     glTF export stands a Z-up scene upright as ``bsarap export`` does, and refuses to write over
-    the scene's own files."""
+    the scene's own mesh."""
     V, F, labels = tube(16, 24)
     bsarap.save_mesh(tmp_path / "tube.off", V, F)
     path = tmp_path / "scene.json"
@@ -241,11 +241,18 @@ def test_scene_deformer_settles_and_exports_upright(tmp_path):
     node = next(n for n in doc["nodes"] if "mesh" in n)
     h = 0.5 ** 0.5
     np.testing.assert_allclose(node["rotation"], [-h, 0, 0, h], atol=1e-6)
-    for own in (path, tmp_path / "tube.off"):
-        before = own.read_bytes()
-        with pytest.raises(bsarap.BsarapError, match="input"):
-            bsarap.export_gltf(own, rec)
-        assert own.read_bytes() == before
+    # The input an export could write over: a scene's mesh that is a glTF file.
+    mesh_glb = tmp_path / "tube.glb"
+    bare = bsarap.Deformer(V, F, labels, method="arap")
+    bsarap.export_gltf(mesh_glb, bsarap.record(bare, scene.timeline, n_frames=2))
+    on_glb = tmp_path / "on-glb.json"
+    on_glb.write_text(path.read_text().replace('"tube.off"', '"tube.glb"'))
+    glb_scene = bsarap.load_scene(on_glb)
+    rec = bsarap.record(glb_scene.deformer(), glb_scene.timeline, n_frames=2)
+    before = mesh_glb.read_bytes()
+    with pytest.raises(bsarap.BsarapError, match="input"):
+        bsarap.export_gltf(tmp_path / "." / "tube.glb", rec)
+    assert mesh_glb.read_bytes() == before
 
 
 def test_handles_from_file(tmp_path, small):

@@ -118,8 +118,8 @@ pub fn parse_transforms(
     for m in moves {
         let (g, v) = parse_group_values(m, 3, "--move")?;
         // beyond the coordinate limit, a pose no mesh reader takes back
-        let limit = solver::geometry::mesh::MAX_COORDINATE;
-        if v.iter().any(|x| x.abs() > limit) {
+        if !v.iter().all(|&x| solver::geometry::mesh::in_range(x)) {
+            let limit = solver::geometry::mesh::MAX_COORDINATE;
             bail!("--move {m}: beyond the coordinate limit ±{limit:e}");
         }
         let i = entry(g, &mut out);

@@ -43,16 +43,16 @@ pub struct DocumentInput<'a> {
     pub foreign: &'a ForeignKeys,
 }
 
-/// The keys of `editor` this version reads or writes (the module doc; `document` and
-/// `document_modified` are the autosave's, `crate::editor::persist`).
+/// The keys of `editor` this version reads or writes (the module doc; the last two are the
+/// autosave's, `crate::editor::persist`).
 const EDITOR_KEYS: [&str; 7] = [
     "groups",
     "time",
     "still_poses",
     "mesh_topology",
     "capture_viewport_size",
-    "document",
-    "document_modified",
+    super::persist::EDITED_DOCUMENT,
+    super::persist::EDITED_DOCUMENT_MODIFIED,
 ];
 
 /// The keys of `camera` this version reads and writes ([`OrbitCamera::to_json`]).

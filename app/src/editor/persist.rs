@@ -177,11 +177,12 @@ impl Persist {
     /// Puts `path` first in the recent files and saves the list; returns the new list. The
     /// path is kept in its folder's canonical spelling (no `..`, the folder's links resolved)
     /// with the file's own name (a link to a scene stays the link: its mesh is named relative
-    /// to it), so one file opened by two spellings is listed once.
+    /// to it), so one file opened by two spellings is listed once (the entries are kept so:
+    /// they are compared as they are, without reading the drive again).
     pub fn push_recent(&self, path: &Path) -> Result<Vec<PathBuf>, String> {
         let path = canonical_folder(path);
         let mut list = self.recent();
-        list.retain(|p| canonical_folder(p) != path);
+        list.retain(|p| *p != path);
         list.insert(0, path);
         self.write_recent(list)
     }

@@ -733,9 +733,6 @@ fn a_solver_panic_is_reported_and_the_solver_restarts() {
     step_until(&mut h, "a frame after the restart", settled);
 }
 
-/// The status bar reports the process's resident memory and its peak (where the kernel says
-/// them) and whether the window renders on a software adapter; snapshot tests, with
-/// deterministic overlays, leave both out.
 /// With every handle group removed nothing is solved: the mesh is drawn at rest, not in the
 /// last solved pose.
 #[test]
@@ -750,6 +747,9 @@ fn without_handles_the_mesh_is_drawn_at_rest() {
     assert!(h.state().latest_frame(Slot::Main).is_none(), "the last pose is still drawn");
 }
 
+/// The status bar reports the process's resident memory and its peak (where the kernel says
+/// them) and whether the window renders on a software adapter; snapshot tests, with
+/// deterministic overlays, leave both out.
 #[test]
 fn the_status_bar_reports_memory() {
     if !std::path::Path::new("/proc/self/status").exists() {

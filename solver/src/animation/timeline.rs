@@ -20,7 +20,7 @@ use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use crate::deform::pose::GroupTransform;
-use crate::geometry::mesh::{MAX_COORDINATE, cross};
+use crate::geometry::mesh::{MAX_COORDINATE, cross, in_range};
 
 /// Why a timeline or a path cannot be evaluated. One line each.
 #[derive(Debug, Clone, PartialEq, Error)]
@@ -383,7 +383,7 @@ impl KeyframedPath {
             {
                 return Err(bad(format!("key {i} has a non-finite value")));
             }
-            if k.translation.iter().any(|c| beyond_limit(*c)) {
+            if k.translation.iter().any(|c| !in_range(*c)) {
                 return Err(bad(format!(
                     "key {i} moves beyond the coordinate limit ±{MAX_COORDINATE:e}"
                 )));
@@ -452,7 +452,7 @@ impl Path {
                 if !(c.period.is_finite() && c.period > 0.0) {
                     return Err(bad(format!("period must be > 0 seconds (got {})", c.period)));
                 }
-                if !(c.radius.is_finite() && c.radius >= 0.0) || beyond_limit(c.radius) {
+                if !(c.radius >= 0.0 && in_range(c.radius)) {
                     return Err(bad(format!(
                         "radius must be ≥ 0 and within the coordinate limit {MAX_COORDINATE:e} \
                          (got {})",
@@ -472,7 +472,7 @@ impl Path {
                 {
                     return Err(bad("the start pose must be finite".into()));
                 }
-                if c.start.is_some_and(|s| s.translation.iter().any(|x| beyond_limit(*x))) {
+                if c.start.is_some_and(|s| s.translation.iter().any(|x| !in_range(*x))) {
                     return Err(bad(format!(
                         "the start pose moves beyond the coordinate limit ±{MAX_COORDINATE:e}"
                     )));
@@ -482,12 +482,6 @@ impl Path {
             Path::Keyframed(k) => k.validate(group),
         }
     }
-}
-
-/// Whether a move or radius `x` is beyond the coordinate limit (a pose no mesh reader takes
-/// back; [`crate::deform::handles::HandlesError::MoveOutOfRange`]).
-fn beyond_limit(x: f64) -> bool {
-    x.abs() > MAX_COORDINATE
 }
 
 /// The path of one handle group.

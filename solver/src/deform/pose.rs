@@ -18,6 +18,7 @@
 use glam::{DQuat, DVec3};
 
 use crate::deform::handles::{Handles, HandlesError};
+use crate::geometry::mesh::in_range;
 use crate::linalg::rigid::Motion;
 use crate::linalg::rotation::{IDENTITY, Mat3, mat3_of, mul_vec, quat_of};
 
@@ -102,8 +103,7 @@ impl GroupTransform {
     /// (±[`crate::geometry::mesh::MAX_COORDINATE`]): a pose no mesh reader takes back, and no
     /// scene holding it reads, otherwise ([`HandlesError::MoveOutOfRange`]).
     pub fn in_range(&self) -> bool {
-        self.is_finite()
-            && self.translation.abs().max_element() <= crate::geometry::mesh::MAX_COORDINATE
+        self.rotation.is_finite() && self.translation.to_array().into_iter().all(in_range)
     }
 
     /// The motion $x \mapsto R x + (c - R c + t)$ this transform makes of a group with rest
@@ -223,8 +223,7 @@ impl GroupRest {
         for &(k, t) in transforms {
             let c = self.centroid_or_err(k)?;
             // Targets beyond the limit would give a pose no mesh reader takes back.
-            let limit = crate::geometry::mesh::MAX_COORDINATE;
-            let out_of_range = |v: &&f64| !v.is_finite() || v.abs() > limit;
+            let out_of_range = |v: &&f64| !in_range(**v);
             if let Some(&value) = t.translation.to_array().iter().find(out_of_range) {
                 return Err(HandlesError::MoveOutOfRange { group: k, value });
             }

@@ -286,11 +286,11 @@ impl EditorApp {
             }
         });
         if changed && !pose.in_range() {
-            self.error = Some(
+            self.error = Some(format!(
                 "value refused: move and rotate values must be finite numbers, moves within \
-                 ±1e30"
-                    .into(),
-            );
+                 ±{:e}",
+                solver::geometry::mesh::MAX_COORDINATE
+            ));
         } else if changed
             && pose != self.session.edit.groups[k].pose
             // one step per press: a drag on a number changes it every frame

@@ -36,7 +36,8 @@ impl EditorApp {
                 || (settings && edit.has_handles()))
     }
 
-    /// Opens `path` from the UI (menu, recent files, drop): with unsaved changes, asks first.
+    /// Opens `path` from the UI (menu, recent files, drop) or the command line: with unsaved
+    /// changes, asks first.
     /// A handle selection (a `.dmat`, a list of spheres) is the open mesh's new selection, as
     /// *Load .dmat…* makes it (undoable), not a file to open in its place. A `.json` is read
     /// on a loader thread first to tell which it is (`poll_identify` goes on).
@@ -187,7 +188,9 @@ impl EditorApp {
     /// they went (a file opened through an earlier question finished loading, or the
     /// document was saved): nothing is left to ask.
     pub(super) fn poll_question(&mut self, ctx: &egui::Context) {
-        if self.has_unsaved_changes() || self.jobs.loading.is_some() {
+        // asked first: the unsaved-changes check compares every vertex's label
+        let opens = matches!(self.session.pending, Some(Pending::Open(_) | Pending::Restore));
+        if !opens || self.jobs.loading.is_some() || self.has_unsaved_changes() {
             return;
         }
         match self.session.pending.take() {

@@ -368,10 +368,13 @@ impl EditorApp {
     /// Takes `path` off the recent files if it failed to open because it is gone (moved or
     /// deleted since), saying so after the error.
     fn forget_if_gone(&mut self, path: &Path) {
+        let Some(p) = &self.store.persist else { return };
+        if !self.store.recent.iter().any(|r| r == path) {
+            return;
+        }
         let gone = std::fs::symlink_metadata(path)
             .is_err_and(|e| e.kind() == std::io::ErrorKind::NotFound);
-        let Some(p) = &self.store.persist else { return };
-        if !gone || !self.store.recent.iter().any(|r| r == path) {
+        if !gone {
             return;
         }
         match p.forget_recent(path) {
@@ -443,6 +446,7 @@ impl EditorApp {
                 self.jobs.texture = None;
                 self.end_gestures();
                 self.forget_axis_request();
+                self.interaction.anderson_off = None; // the last file's window
                 self.error = None;
                 self.adopt_prepare(&scene.mesh);
                 self.display.camera.frame(scene.center, scene.radius, self.viewport_aspect());
