@@ -25,18 +25,9 @@ pub fn factory(cache: Arc<Mutex<MeshCache>>) -> PoseSolverFactory {
               handles: &Handles,
               settings: &MethodSettings,
               parts: &LooseParts| {
-            let config = settings.arap_config();
-            let m = match slot {
-                Slot::Compare => settings.compare_variant,
-                Slot::Main => settings.bs_variant,
-            };
-            let options = DeformerOptions {
-                method: m,
-                config,
-                base: settings.base_config(),
-                loose_parts: Some(parts),
-                cache: None,
-            };
+            let (method, config, base) = settings.slot_part(slot);
+            let options =
+                DeformerOptions { method, config, base, loose_parts: Some(parts), cache: None };
             let d = build_deformer(&cache, mesh, handles, options, &|| false)
                 .map_err(|e| e.to_string())?
                 .ok_or("the solver's build was cancelled")?;

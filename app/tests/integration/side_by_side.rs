@@ -78,3 +78,53 @@ fn leaving_side_by_side_ends_a_transform_in_the_right_viewport() {
     move_pointer(&mut h, [p0 + Vec2::new(-60.0, 0.0)]);
     assert_eq!(h.state().group_pose(0).unwrap(), confirmed);
 }
+
+/// The method panel shows the settings of the methods that run: the left viewport's method's
+/// too while side by side (the coarse level's under a coarse left method), and not the faired
+/// base's smoothing when only ARAP runs.
+#[test]
+fn the_method_panel_shows_the_settings_of_both_methods_side_by_side() {
+    let mut h = side_by_side();
+    let settings = h.state().method_settings();
+    h.state_mut().set_method_settings(app::editor::solver_thread::MethodSettings {
+        bs_variant: solver::Method::Arap,
+        compare_variant: solver::Method::BsArapCoarse,
+        ..settings
+    });
+    step_until(&mut h, "both viewports' frames", |a| {
+        a.latest_frame(Slot::Compare).is_some_and(|f| f.scene_generation == a.scene_generation())
+            && settled(a)
+    });
+    assert!(
+        h.query_all_by_label("coarse vertices").next().is_some(),
+        "the left method's coarse level"
+    );
+    assert!(h.query_all_by_label("base smoothing (of diagonal)").next().is_some());
+    h.state_mut().set_view(View::Result);
+    h.step();
+    h.step();
+    assert!(h.query_all_by_label("coarse vertices").next().is_none(), "only ARAP runs");
+    assert!(
+        h.query_all_by_label("base smoothing (of diagonal)").next().is_none(),
+        "only ARAP runs"
+    );
+}
+
+/// A viewport's numbers are its method's: after a method change, the frame of the method
+/// before is still drawn until the new one's first frame, without its iterations and energy.
+#[test]
+fn a_new_method_does_not_show_the_numbers_of_the_one_before() {
+    let mut h = side_by_side();
+    let iterations = |a: &EditorApp| a.overlay_lines(1).iter().any(|l| l.contains("iterations"));
+    assert!(iterations(h.state()), "{:?}", h.state().overlay_lines(1));
+    let settings = h.state().method_settings();
+    h.state_mut().set_method_settings(app::editor::solver_thread::MethodSettings {
+        bs_variant: solver::Method::BsArapFaired,
+        ..settings
+    });
+    let lines = h.state().overlay_lines(1);
+    assert!(lines[0].starts_with("BS-ARAP faired"), "{lines:?}");
+    assert!(!iterations(h.state()), "the coarse method's numbers: {lines:?}");
+    step_until(&mut h, "the faired method's frame", settled);
+    assert!(iterations(h.state()), "{:?}", h.state().overlay_lines(1));
+}

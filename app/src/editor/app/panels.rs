@@ -419,7 +419,12 @@ impl EditorApp {
                 solver::Acceleration::None
             };
         }
-        if self.session.settings.bs_variant != solver::Method::BsArap {
+        // The settings of the methods that run: the main one, and the left one side by side.
+        let settings = &self.session.settings;
+        let side_by_side = self.display.view == View::Compare;
+        let running = [Some(settings.bs_variant), side_by_side.then_some(settings.compare_variant)];
+        let runs = |m: solver::Method| running.contains(&Some(m));
+        if runs(solver::Method::BsArapFaired) || runs(solver::Method::BsArapCoarse) {
             ui.add(
                 method_slider(&mut self.session.settings.base.smoothing, 0.002..=0.2)
                     .logarithmic(true)
@@ -428,7 +433,7 @@ impl EditorApp {
             )
             .on_hover_text("smoothing length of the faired base, as a fraction of the diagonal");
         }
-        if self.session.settings.bs_variant == solver::Method::BsArapCoarse {
+        if runs(solver::Method::BsArapCoarse) {
             let vertices = self.session.scene.as_ref().map_or(100_000, |s| s.mesh.n_vertices());
             // The size the solver uses; the manual slider starts from it, within its range.
             let auto = solver::BaseConfig::auto_coarse_vertices(vertices);

@@ -21,6 +21,7 @@ pub(super) const PLOT_SECONDS: f64 = 10.0;
 #[derive(Default)]
 pub(super) struct SolverView {
     pub(super) frame: Option<SolvedFrame>,
+    /// Frames of earlier scenes that came since the current scene was sent.
     pub(super) dropped: usize,
     /// `[seconds since start, solver fps, energy]` of the last frames, for the plot.
     pub(super) history: VecDeque<[f64; 3]>,
@@ -131,6 +132,10 @@ impl EditorApp {
             return;
         }
         self.solvers.scene_generation += 1;
+        // The count of frames dropped is the current scene's (those of the one before).
+        for view in &mut self.solvers.views {
+            view.dropped = 0;
+        }
         let Some(scene) = self.new_scene() else { return };
         if scene.handles.is_none() {
             // Nothing is solved without handles: the mesh is drawn at rest, not in the last

@@ -403,7 +403,11 @@ impl EditorApp {
             };
             lines.extend(why.map(String::from));
         }
-        if let Some(f) = &self.solvers.views[view_index].frame {
+        // A frame of an earlier scene (another method, before the rebuild's first frame) is
+        // still drawn, but its numbers are not this method's.
+        let generation = self.solvers.scene_generation;
+        let frame = self.solvers.views[view_index].frame.as_ref();
+        if let Some(f) = frame.filter(|f| f.scene_generation == generation) {
             let s = f.stats;
             if self.options.deterministic_overlays {
                 lines.push(format!("iterations/frame {}", s.iterations));

@@ -80,6 +80,20 @@ impl MethodSettings {
         base
     }
 
+    /// What the pose solver of `slot` is built from: the slot's method, the ARAP and the base
+    /// configurations. The other slot's method is not part of it, so changing that one does
+    /// not rebuild this slot's solver (the solver thread keeps it, see `worker::Active::serves`).
+    pub fn slot_part(
+        &self,
+        slot: Slot,
+    ) -> (solver::Method, solver::ArapConfig, solver::BaseConfig) {
+        let method = match slot {
+            Slot::Compare => self.compare_variant,
+            Slot::Main => self.bs_variant,
+        };
+        (method, self.arap_config(), self.base_config())
+    }
+
     /// What a saved scene holds of these settings (`editor::document::to_scene`): the method,
     /// the ARAP and the base configurations, but not settling or the side-by-side method,
     /// which are the editor's own.
@@ -233,8 +247,9 @@ pub struct NewScene {
 
 /// The closed set of messages the UI sends to a solver thread.
 pub enum SolverCommand {
-    /// A new mesh and/or handle set / method settings: rebuild the pose solver (boxed: the
-    /// other messages are small).
+    /// A new mesh and/or handle set / method settings: rebuild the pose solver, unless what it
+    /// is built from is unchanged for this slot (then the scene's generation and poses are
+    /// taken and the current pose published again). Boxed: the other messages are small.
     SetScene(Box<NewScene>),
     /// New modes of the loose parts (no refactorization); the frame that shows them carries
     /// `pose_generation`.

@@ -690,3 +690,52 @@ fn split_frames_publish_each_pose_with_its_own_generation() {
     assert_eq!(beside, 4, "{log:?}");
     assert_eq!(log.last(), Some(&"finish"));
 }
+
+/// A scene that changes only what another slot is built from (the side-by-side method for the
+/// main slot) keeps the pose solver: its generation's frame comes without a rebuild, and new
+/// poses in it are solved. A change of this slot's own method rebuilds.
+#[test]
+fn a_scene_changing_only_the_other_slot_keeps_the_solver() {
+    let builds = Arc::new(AtomicUsize::new(0));
+    let counted = builds.clone();
+    let inner = factory();
+    let counting: PoseSolverFactory =
+        Arc::new(move |slot, mesh: &Mesh, handles: &Handles, s: &_, l: &_| {
+            counted.fetch_add(1, Ordering::SeqCst);
+            inner(slot, mesh, handles, s, l)
+        });
+    let h = SolverHandle::spawn(Slot::Main, counting, Arc::new(|| {})).unwrap();
+    let mesh = tri();
+    let scene = |generation: u64, settings: MethodSettings, poses: Vec<GroupTransform>| {
+        SolverCommand::SetScene(Box::new(NewScene {
+            scene_generation: generation,
+            vertex_faces: faces_of(&mesh),
+            mesh: mesh.clone(),
+            handles: Some(Handles::from_options(vec![Some(0), None, None]).unwrap()),
+            settings,
+            loose_parts: Default::default(),
+            poses,
+            pose_generation: generation,
+        }))
+    };
+    let settings = MethodSettings::default();
+    let rest = vec![GroupTransform::default()];
+    h.send(scene(1, settings, rest.clone()));
+    wait_frame(&h, |f| f.scene_generation == 1 && f.stats.done);
+    assert_eq!(builds.load(Ordering::SeqCst), 1);
+
+    let other = MethodSettings { compare_variant: solver::Method::BsArapFaired, ..settings };
+    h.send(scene(2, other, rest.clone()));
+    let f = wait_frame(&h, |f| f.scene_generation == 2);
+    assert_eq!(f.positions[1], drawn([1.0, 0.0, 0.0]), "the pose it had");
+    let moved = vec![GroupTransform::from_translation(glam::DVec3::new(0.0, 0.0, 2.0))];
+    h.send(scene(3, other, moved.clone()));
+    let f = wait_frame(&h, |f| f.scene_generation == 3 && f.pose_generation == 3);
+    assert_eq!(f.positions[2], drawn([0.0, 1.0, 2.0]), "the new poses are solved");
+    assert_eq!(builds.load(Ordering::SeqCst), 1, "the main slot's solver was kept");
+
+    let own = MethodSettings { bs_variant: solver::Method::Arap, ..other };
+    h.send(scene(4, own, moved));
+    wait_frame(&h, |f| f.scene_generation == 4);
+    assert_eq!(builds.load(Ordering::SeqCst), 2, "its own method rebuilds it");
+}

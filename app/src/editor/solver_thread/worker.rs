@@ -18,8 +18,8 @@ use solver::{FrameStats, GroupTransform, Handles, LooseParts, MAX_SETTLE_STEPS, 
 
 use super::mailbox::Mailbox;
 use super::protocol::{
-    NewScene, PoseSolver, PoseSolverFactory, Slot, SolvedFrame, SolverCommand, SolverState,
-    SolverStatus,
+    MethodSettings, NewScene, PoseSolver, PoseSolverFactory, Slot, SolvedFrame, SolverCommand,
+    SolverState, SolverStatus,
 };
 use crate::editor::shape::{ShapePool, display_origin};
 
@@ -142,6 +142,10 @@ fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
 struct Active {
     pose_generation: u64,
     handles: Handles,
+    /// The settings and loose parts' modes the pose solver was built with (the modes as
+    /// changed since).
+    settings: MethodSettings,
+    loose_parts: LooseParts,
     poses: Vec<GroupTransform>,
     pose_solver: Box<dyn PoseSolver>,
     /// What the frames are made with.
@@ -289,7 +293,32 @@ impl Active {
         self.pose_generation = self.pose_generation.max(generation);
         self.pose_solver.set_loose_parts(&self.frames.mesh, &self.handles, parts)?;
         self.frames.components = Arc::new(self.pose_solver.components());
+        self.loose_parts = parts.clone();
         Ok(())
+    }
+
+    /// Whether `scene` asks `slot` for the pose solver this one runs: the same mesh, handle
+    /// set and loose parts' modes, and the same settings for this slot
+    /// ([`MethodSettings::slot_part`]): e.g. only the other slot's method changed.
+    fn serves(&self, slot: Slot, scene: &NewScene) -> bool {
+        Arc::ptr_eq(&self.frames.mesh, &scene.mesh)
+            && scene.handles.as_ref() == Some(&self.handles)
+            && scene.loose_parts == self.loose_parts
+            && scene.settings.slot_part(slot) == self.settings.slot_part(slot)
+    }
+
+    /// Serves `scene` ([`Active::serves`]) without a rebuild: the next frames carry its
+    /// generation. Returns whether its poses differ (they are solved then; otherwise the
+    /// current pose is to be published again under the new generation).
+    fn take_scene(&mut self, scene: NewScene) -> bool {
+        self.frames.scene_generation = scene.scene_generation;
+        let moved = scene.poses != self.poses;
+        if moved {
+            self.set_poses(scene.pose_generation, scene.poses);
+        } else {
+            self.pose_generation = self.pose_generation.max(scene.pose_generation);
+        }
+        moved
     }
 
     /// After a step (`solving`: a solve, else a settle step) that returned `stats`: updates the
@@ -455,6 +484,8 @@ fn rebuild(
                 },
                 pose_generation,
                 handles,
+                settings,
+                loose_parts,
                 poses,
                 pose_solver,
                 dirty: true,
@@ -595,6 +626,16 @@ fn worker_loop(
         if build.is_some() {
             recovery.restarted = false;
         }
+        let mut republish = inbox.republish;
+        if let Some(scene) = build.take_if(|s| active.as_ref().is_some_and(|a| a.serves(slot, s)))
+            && let Some(a) = active.as_mut()
+        {
+            if a.take_scene(scene) {
+                set_status(&shared.status, SolverState::Solving);
+            } else {
+                republish = true;
+            }
+        }
         if let Some(scene) = build {
             // Free the old factorization before building the new one.
             drop(active.take());
@@ -640,7 +681,7 @@ fn worker_loop(
             (shared.repaint)();
         }
         if !a.dirty && !settle_due {
-            if inbox.republish && a.last_frame_published {
+            if republish && a.last_frame_published {
                 let (base, normals) = (shared.show_base(), shared.normals_on_gpu());
                 shared.mailbox.put(a.frame(a.last_stats, a.pose_generation, base, normals));
                 (shared.repaint)();
