@@ -68,6 +68,9 @@ class Deformer:
         V, F: the mesh (``(#V, 3)``, ``(#F, 3)``; see :func:`load_mesh` / :func:`clean`).
         handles: per-vertex labels ``(#V,)`` (-1 free, k >= 0 group k), or the path of a
             ``.dmat`` / sphere ``.json`` selection (read with :func:`load_selection`).
+        vertex_map: with a selection file, the cleaning's map of the mesh file ``V`` was read
+            from (``report["vertex_map"]`` of :func:`load_mesh`): a ``.dmat`` written for the
+            file's vertices is read through it, as :func:`load_selection` does.
         method: ``"arap"``, ``"bsarap"`` (the paper), ``"bsarap-faired"`` or
             ``"bsarap-coarse"`` (default, the editor's).
 
@@ -122,10 +125,16 @@ class Deformer:
         membrane: float = DEFAULT_MEMBRANE,
         coarse_energy: str = "decimated",
         pinned_components: Sequence[int] = (),
+        vertex_map: Any = None,
     ) -> None:
         V = _positions(V, "V")
         if isinstance(handles, (str, bytes, os.PathLike)):
-            labels = load_selection(handles, V)
+            labels = load_selection(handles, V, vertex_map=vertex_map)
+        elif vertex_map is not None:
+            raise BsarapError(
+                "vertex_map reads a selection file through a cleaning; labels given as an "
+                "array are already one per vertex of V"
+            )
         else:
             labels = _indices(handles, "handles", 1)
         self._native = _bsarap.NativeDeformer(

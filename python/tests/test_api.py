@@ -56,6 +56,14 @@ def test_selection_through_the_cleaning_map(tmp_path, small):
     np.testing.assert_array_equal(got, labels)
     with pytest.raises(bsarap.BsarapError, match="vertex_map"):
         bsarap.load_selection(sel, V3, vertex_map=np.full(len(file_labels), len(V3)))
+    # The deformer reads the file as load_selection does, through the same map.
+    F3 = bsarap.load_mesh(path)[1]
+    with pytest.raises(bsarap.BsarapError, match="vertices"):
+        bsarap.Deformer(V3, F3, sel, "arap")
+    d = bsarap.Deformer(V3, F3, sel, "arap", vertex_map=report["vertex_map"])
+    np.testing.assert_array_equal(d.labels, labels)
+    with pytest.raises(bsarap.BsarapError, match="vertex_map"):
+        bsarap.Deformer(V3, F3, labels, "arap", vertex_map=report["vertex_map"])
 
 
 def test_arap_libigl_shape(small):
