@@ -187,13 +187,18 @@ pub struct Applied {
 }
 
 /// A notice when `mesh_topology`, the open mesh's [`solver::Mesh::topology_fingerprint`],
-/// is not the one the scene was saved with (nor `earlier`, the one versions that fanned
-/// polygons from their first corner saw): its vertices are numbered otherwise, so the labels,
-/// rigidity and poses may sit on other vertices (the vertex count alone matched).
-pub fn mesh_changed(scene: &Scene, mesh_topology: u64, earlier: Option<u64>) -> Option<String> {
+/// is not the one the scene was saved with (nor `earlier()`, the one versions that fanned
+/// polygons from their first corner saw, asked for only then): its vertices are numbered
+/// otherwise, so the labels, rigidity and poses may sit on other vertices (the vertex count
+/// alone matched).
+pub fn mesh_changed(
+    scene: &Scene,
+    mesh_topology: u64,
+    earlier: impl FnOnce() -> Option<u64>,
+) -> Option<String> {
     let saved = scene.editor.as_ref()?.get("mesh_topology")?.as_str()?;
     let saved = u64::from_str_radix(saved, 16).ok()?;
-    (saved != mesh_topology && Some(saved) != earlier).then(|| {
+    (saved != mesh_topology && Some(saved) != earlier()).then(|| {
         format!(
             "the mesh {} changed since this scene was saved (its vertices are numbered \
              otherwise): the handles and the rig may sit on other vertices",
@@ -347,10 +352,12 @@ mod tests {
             assert!(a.pose.rotation.dot(b.pose.rotation).abs() > 1.0 - 1e-12);
         }
         // The mesh it was saved with, and another one of as many vertices.
-        assert_eq!(mesh_changed(&loaded.scene, 7, None), None);
-        assert!(mesh_changed(&loaded.scene, 8, None).is_some_and(|n| n.contains("changed since")));
+        assert_eq!(mesh_changed(&loaded.scene, 7, || unreachable!()), None);
+        assert!(
+            mesh_changed(&loaded.scene, 8, || None).is_some_and(|n| n.contains("changed since"))
+        );
         // saved by a version that fanned the mesh's polygons from their first corners
-        assert_eq!(mesh_changed(&loaded.scene, 8, Some(7)), None);
+        assert_eq!(mesh_changed(&loaded.scene, 8, || Some(7)), None);
         // The static pose of group 1, saved as a one-key path, came back static.
         assert_eq!(back.edit.path(1), &AnimPath::Static);
 

@@ -54,10 +54,6 @@ pub struct LoadedFile {
     pub mesh: Arc<Mesh>,
     /// [`Mesh::topology_fingerprint`] (saved in scenes, checked when one is opened).
     pub mesh_topology: u64,
-    /// The fingerprint versions that fanned every polygon from its first corner saved for
-    /// this file, where some polygon now fans from another ([`solver::io::first_corner_triangles`]):
-    /// a scene they saved names the same vertices.
-    pub earlier_topology: Option<u64>,
     /// Cleaning notices to show in the status bar.
     pub notices: Vec<String>,
     /// The file's own layout: its vertices in order, attributes, parts, materials and
@@ -356,12 +352,8 @@ fn prepare(
             }
         }
     }
-    let earlier_topology = solver::io::first_corner_triangles(&loaded.asset)
-        .and_then(|t| solver::geometry::cleanup::clean(&loaded.asset.positions, &t).ok())
-        .map(|(m, _)| m.topology_fingerprint());
     Ok(LoadedFile {
         mesh_topology: mesh.topology_fingerprint(),
-        earlier_topology,
         path: path.to_path_buf(),
         mesh,
         notices,
@@ -398,6 +390,11 @@ pub fn load_scene_file(
     let mut scene = prepare(&mesh_path, loaded.mesh, version, None)
         .with_context(|| format!("the scene's mesh {}", mesh_path.display()))?;
     scene.default_labels = Some(labels);
+    let asset = &scene.layout.asset;
+    let notice = crate::editor::document::mesh_changed(&loaded.scene, scene.mesh_topology, || {
+        earlier_topology(asset)
+    });
+    scene.notices.extend(notice);
     // The selection file the scene names, if any (its labels may be inline): a Save as must
     // not write over it, and may write the scene itself anywhere else (it took the scene for
     // its selection, so a Save as back to it was refused and the handles file was not kept).
@@ -407,6 +404,17 @@ pub fn load_scene_file(
         });
     scene.document = Some((path.to_path_buf(), loaded.scene));
     Ok(scene)
+}
+
+/// The fingerprint that versions fanning every polygon from its first corner saved for the
+/// file of `asset`, where some polygon now fans from another
+/// ([`solver::io::first_corner_triangles`]): a scene they saved names the same vertices. A
+/// second cleaning of the whole mesh: asked for only when a scene's saved fingerprint is not
+/// the mesh's.
+fn earlier_topology(asset: &solver::io::Asset) -> Option<u64> {
+    solver::io::first_corner_triangles(asset)
+        .and_then(|t| solver::geometry::cleanup::clean(&asset.positions, &t).ok())
+        .map(|(m, _)| m.topology_fingerprint())
 }
 
 /// Whether `path` is a handle selection rather than a mesh or a scene: a `.dmat`, or a `.json`
@@ -470,13 +478,13 @@ mod tests {
         let obj = "v 0 0 0\nv 0.2 0.2 0\nv 1 0 0\nv 0.2 1 0\nf 1 2 3 4\n";
         std::fs::write(dir.join("dart.obj"), obj).unwrap();
         let scene = load_scene(&dir.join("dart.obj"), 1, Default::default(), None).unwrap();
-        let earlier = scene.earlier_topology.expect("an earlier fingerprint");
+        let earlier = earlier_topology(&scene.layout.asset).expect("an earlier fingerprint");
         assert_ne!(earlier, scene.mesh_topology);
         let first = solver::Mesh::new(scene.mesh.positions().to_vec(), vec![[0, 1, 2], [0, 2, 3]]);
         assert_eq!(earlier, first.unwrap().topology_fingerprint());
         std::fs::write(dir.join("tri.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
         let scene = load_scene(&dir.join("tri.obj"), 1, Default::default(), None).unwrap();
-        assert_eq!(scene.earlier_topology, None);
+        assert_eq!(earlier_topology(&scene.layout.asset), None);
     }
 
     /// A sphere list is told from a scene by its first value, also after a byte order mark.

@@ -497,11 +497,6 @@ impl EditorApp {
                         if let Some(n) = applied.notice {
                             self.info = Some(n);
                         }
-                        scene.notices.extend(document::mesh_changed(
-                            &doc,
-                            scene.mesh_topology,
-                            scene.earlier_topology,
-                        ));
                         let autosave = self.store.persist.as_ref().map(Persist::autosave_path);
                         if autosave.as_deref() == Some(path.as_path()) {
                             // Restored: Save writes to the scene file the work was edited from
