@@ -256,14 +256,10 @@ pub fn apply_scene(
         None => !matches!(&p.path, AnimPath::Keyframed(k) if k.keys.len() == 1
             && k.keys[0].time == 0.0 && k.interpolation == Interpolation::Linear),
     });
-    let mut s = *settings;
     // The main viewport runs any method, ARAP included. The scene reader checked the settings
     // (`ArapConfig::validate`): they are kept as they are, outside the method panel's slider
     // ranges too (the sliders keep a value they did not set), so a Save writes them back.
-    s.bs_variant = scene.method;
-    s.arap = scene.arap;
-    // Settling is the editor's own setting, not the scene's.
-    s.base = solver::BaseConfig { settle_iterations: s.base.settle_iterations, ..scene.base };
+    let s = settings.with_saved_part((scene.method, scene.arap, scene.base));
     let camera = scene.camera.as_ref().and_then(|c| OrbitCamera::from_json(c, origin));
     let camera = camera.map(|c| OrbitCamera { reach: radius, ..c });
     Applied { edit, settings: s, camera, time, notice }

@@ -537,17 +537,12 @@ impl EditorApp {
                         // (settling, the side-by-side method); after a mesh, the settings
                         // chosen for it stay.
                         if after_scene {
-                            let now = self.session.settings;
-                            let defaults = MethodSettings::default();
-                            self.session.settings = MethodSettings {
+                            let defaults = MethodSettings {
                                 bs_variant: self.prefs.current.default_method,
-                                base: solver::BaseConfig {
-                                    settle_iterations: now.base.settle_iterations,
-                                    ..defaults.base
-                                },
-                                compare_variant: now.compare_variant,
-                                ..defaults
+                                ..MethodSettings::default()
                             };
+                            let settings = self.session.settings;
+                            self.session.settings = settings.with_saved_part(defaults.saved_part());
                         }
                         self.session.edit = EditState::from_labels(labels);
                         self.capture.forget_scene();

@@ -102,6 +102,16 @@ impl MethodSettings {
         (self.bs_variant, self.arap_config(), base)
     }
 
+    /// These settings with `part` (what a scene holds, [`MethodSettings::saved_part`]) in
+    /// place of theirs: the editor's own, settling and the side-by-side method, stay.
+    pub fn with_saved_part(
+        self,
+        (method, arap, base): (solver::Method, solver::ArapConfig, solver::BaseConfig),
+    ) -> MethodSettings {
+        let base = solver::BaseConfig { settle_iterations: self.base.settle_iterations, ..base };
+        MethodSettings { arap, bs_variant: method, base, compare_variant: self.compare_variant }
+    }
+
     /// A length given as a fraction of the rest bounding-box diagonal (the bending length), in
     /// world units for a mesh of diagonal `diagonal`.
     pub fn world_length(fraction: f64, diagonal: f64) -> f64 {
