@@ -111,17 +111,22 @@ fn the_method_panel_shows_the_settings_of_both_methods_side_by_side() {
 }
 
 /// A viewport's numbers are its method's: after a method change, the frame of the method
-/// before is still drawn until the new one's first frame, without its iterations and energy.
+/// before is still drawn until the new one's first frame, without its iterations and energy,
+/// and the plot starts again (the left method's stays: it did not change).
 #[test]
 fn a_new_method_does_not_show_the_numbers_of_the_one_before() {
     let mut h = side_by_side();
     let iterations = |a: &EditorApp| a.overlay_lines(1).iter().any(|l| l.contains("iterations"));
     assert!(iterations(h.state()), "{:?}", h.state().overlay_lines(1));
+    let plotted = h.state().plotted_frames(Slot::Compare);
+    assert!(plotted > 0 && h.state().plotted_frames(Slot::Main) > 0);
     let settings = h.state().method_settings();
     h.state_mut().set_method_settings(app::editor::solver_thread::MethodSettings {
         bs_variant: solver::Method::BsArapFaired,
         ..settings
     });
+    assert_eq!(h.state().plotted_frames(Slot::Main), 0, "the coarse method's plot");
+    assert_eq!(h.state().plotted_frames(Slot::Compare), plotted);
     let lines = h.state().overlay_lines(1);
     assert!(lines[0].starts_with("BS-ARAP faired"), "{lines:?}");
     assert!(!iterations(h.state()), "the coarse method's numbers: {lines:?}");

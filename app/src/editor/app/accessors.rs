@@ -131,6 +131,11 @@ impl EditorApp {
         self.solvers.view(slot).frame.as_ref()
     }
 
+    /// The frames of a solver slot in the side panel's plot.
+    pub fn plotted_frames(&self, slot: Slot) -> usize {
+        self.solvers.view(slot).history.len()
+    }
+
     pub fn pose_generation(&self) -> u64 {
         self.solvers.pose_generation
     }

@@ -25,6 +25,8 @@ pub(super) struct SolverView {
     pub(super) dropped: usize,
     /// `[seconds since start, solver fps, energy]` of the last frames, for the plot.
     pub(super) history: VecDeque<[f64; 3]>,
+    /// The method the history is of: a slot that runs another starts it again.
+    pub(super) method: Option<solver::Method>,
 }
 
 /// The solver slots, the generations sent to them, and what they last delivered.
@@ -132,9 +134,15 @@ impl EditorApp {
             return;
         }
         self.solvers.scene_generation += 1;
-        // The count of frames dropped is the current scene's (those of the one before).
-        for view in &mut self.solvers.views {
+        // The count of frames dropped is the current scene's (those of the one before); the
+        // plot is of the method a slot runs.
+        let settings = self.session.settings;
+        for (view, slot) in self.solvers.views.iter_mut().zip([Slot::Main, Slot::Compare]) {
             view.dropped = 0;
+            let method = settings.slot_part(slot).0;
+            if view.method.replace(method).is_some_and(|m| m != method) {
+                view.history.clear();
+            }
         }
         let Some(scene) = self.new_scene() else { return };
         if scene.handles.is_none() {
