@@ -285,9 +285,7 @@ pub struct Deformer {
 fn ride_pose(riders: &Riders, pose: &[[f64; 3]], out: &mut Vec<[f64; 3]>) -> Vec<Motion> {
     out.clear();
     out.extend_from_slice(pose);
-    let motions = riders.motions(out);
-    riders.apply(&motions, out);
-    motions
+    riders.ride(out)
 }
 
 /// How [`Deformer::new`] builds a deformer, besides the mesh and the handles. Every field

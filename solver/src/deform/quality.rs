@@ -150,8 +150,7 @@ impl Reference {
     /// at rest, while a result has the following ones moved with the surface they sit on, so a
     /// result measured against it differs there by the parts' motion alone.
     pub fn with_riders(mut self, riders: &Riders) -> Reference {
-        let motions = riders.motions(&self.positions);
-        riders.apply(&motions, &mut self.positions);
+        riders.ride(&mut self.positions);
         self
     }
 

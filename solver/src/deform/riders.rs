@@ -288,6 +288,14 @@ impl Riders {
         }
     }
 
+    /// Moves the following components of `x` (a solve's result, where they are at rest) with
+    /// their anchor patches ([`Riders::motions`], then [`Riders::apply`]); returns the motions.
+    pub fn ride(&self, x: &mut [[f64; 3]]) -> Vec<Motion> {
+        let motions = self.motions(x);
+        self.apply(&motions, x);
+        motions
+    }
+
     /// A sentence for the UI and the CLI about the components without handles, or `None`
     /// when every component has handles.
     pub fn notice(&self) -> Option<String> {

@@ -257,8 +257,10 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
             a.frames
         );
     }
-    let riders = solver::deform::riders::Riders::new(mesh, Some(&handles), &Default::default());
+    let loose_parts = solver::LooseParts::default();
+    let riders = solver::deform::riders::Riders::new(mesh, Some(&handles), &loose_parts);
     let setup = Setup {
+        loose_parts: &loose_parts,
         riders: &riders,
         mesh,
         handles: &handles,

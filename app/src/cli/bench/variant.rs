@@ -58,8 +58,10 @@ pub(super) struct Setup<'a> {
     pub(super) quality_frame: Option<usize>,
     /// Base settings of the BS-ARAP variants.
     pub(super) base: solver::BaseConfig,
-    /// How the methods move the loose parts (the default modes): the references move theirs
-    /// alike ([`Reference::with_riders`]).
+    /// The modes of the loose parts the methods run with (the defaults).
+    pub(super) loose_parts: &'a solver::LooseParts,
+    /// How the methods move the loose parts (made with `loose_parts`): the references move
+    /// theirs alike ([`Reference::with_riders`]).
     pub(super) riders: &'a solver::deform::riders::Riders,
 }
 
@@ -112,12 +114,11 @@ fn bench_variant(
     let precompute_mesh_ms =
         if mesh_part.is_some() { t0.elapsed().as_secs_f64() * 1e3 } else { 0.0 };
     let t0 = Instant::now();
-    let parts = solver::LooseParts::default(); // as `s.riders` were made
     let options = DeformerOptions {
         method: v.method,
         config,
         base: s.base,
-        loose_parts: Some(&parts),
+        loose_parts: Some(s.loose_parts),
         cache: Some(&mut cache),
     };
     let mut d = Deformer::new(s.mesh, s.handles, options)
