@@ -128,7 +128,8 @@ impl EditorApp {
         self.session.edit.groups.iter().map(|g| g.pose).collect()
     }
 
-    /// The handle set or method changed: every solver rebuilds (factorizes) on its thread.
+    /// The handle set or method changed: every solver rebuilds (factorizes) on its thread, but
+    /// for one whose own settings did not change (`worker::Active::serves`).
     pub(super) fn send_scene(&mut self) {
         if self.session.scene.is_none() {
             return;

@@ -738,4 +738,25 @@ fn a_scene_changing_only_the_other_slot_keeps_the_solver() {
     h.send(scene(4, own, moved));
     wait_frame(&h, |f| f.scene_generation == 4);
     assert_eq!(builds.load(Ordering::SeqCst), 2, "its own method rebuilds it");
+
+    // After a failed solve the pose it shows is not of its poses: a scene is not served by
+    // publishing it again, the solver is built again (and fails again here).
+    let far = vec![GroupTransform::from_translation(glam::DVec3::new(0.0, 0.0, 1e300))];
+    h.send(SolverCommand::SetPoses { pose_generation: 5, poses: far.clone() });
+    let failed = |h: &SolverHandle| {
+        h.try_status().is_some_and(|s| matches!(s.state, SolverState::Failed(_)))
+    };
+    let start = Instant::now();
+    while !failed(&h) {
+        assert!(start.elapsed() < Duration::from_secs(10), "no failure reported");
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    h.send(scene(6, MethodSettings { compare_variant: solver::Method::Arap, ..own }, far));
+    let start = Instant::now();
+    while builds.load(Ordering::SeqCst) < 3 {
+        assert!(start.elapsed() < Duration::from_secs(10), "the failed solver was kept");
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    std::thread::sleep(Duration::from_millis(100));
+    assert!(h.try_take_frame().is_none_or(|f| f.scene_generation != 6), "the old pose as new");
 }

@@ -169,6 +169,9 @@ struct Active {
     last_stats: FrameStats,
     /// A frame of this scene has been published (so there is a pose to republish).
     last_frame_published: bool,
+    /// The last solve, settle step or change of the loose parts failed, and nothing has been
+    /// tried since: the published pose is not of the current poses or parts.
+    failed: bool,
 }
 
 /// A begun solve: its statistics and the poses' generation it solves.
@@ -272,6 +275,7 @@ impl Active {
         // generation is the newest of the two.
         self.pose_generation = self.pose_generation.max(generation);
         self.poses = poses;
+        self.failed = false;
         self.dirty = true;
         self.settling = false;
         self.poses_changed = now;
@@ -291,17 +295,22 @@ impl Active {
     /// published at once unless a solve is due anyway.
     fn set_loose_parts(&mut self, generation: u64, parts: &LooseParts) -> Result<(), String> {
         self.pose_generation = self.pose_generation.max(generation);
+        self.failed = true; // until the parts are taken
         self.pose_solver.set_loose_parts(&self.frames.mesh, &self.handles, parts)?;
         self.frames.components = Arc::new(self.pose_solver.components());
         self.loose_parts = parts.clone();
+        self.failed = false;
         Ok(())
     }
 
     /// Whether `scene` asks `slot` for the pose solver this one runs: the same mesh, handle
     /// set and loose parts' modes, and the same settings for this slot
-    /// ([`MethodSettings::slot_part`]): e.g. only the other slot's method changed.
+    /// ([`MethodSettings::slot_part`]): e.g. only the other slot's method changed. Not after a
+    /// failure: its published pose is not of the poses it holds, and would be published again
+    /// as theirs (a rebuild tries them again, as before).
     fn serves(&self, slot: Slot, scene: &NewScene) -> bool {
-        Arc::ptr_eq(&self.frames.mesh, &scene.mesh)
+        !self.failed
+            && Arc::ptr_eq(&self.frames.mesh, &scene.mesh)
             && scene.handles.as_ref() == Some(&self.handles)
             && scene.loose_parts == self.loose_parts
             && scene.settings.slot_part(slot) == self.settings.slot_part(slot)
@@ -497,6 +506,7 @@ fn rebuild(
                 settle_waiting: None,
                 last_stats: FrameStats::default(),
                 last_frame_published: false,
+                failed: false,
             })
         }
         Err(e) => {
@@ -577,6 +587,7 @@ fn fail(a: &mut Active, e: String, shared: &Shared) {
     a.dirty = false;
     a.settling = false;
     a.begun = None;
+    a.failed = true;
     (shared.repaint)();
 }
 
