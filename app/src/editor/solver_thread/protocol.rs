@@ -80,9 +80,13 @@ impl MethodSettings {
         base
     }
 
-    /// What the pose solver of `slot` is built from: the slot's method, the ARAP and the base
-    /// configurations. The other slot's method is not part of it, so changing that one does
-    /// not rebuild this slot's solver (the solver thread keeps it, see `worker::Active::serves`).
+    /// What the pose solver of `slot` is built from: the slot's method, the ARAP configuration
+    /// and the part of the base configuration the method reads (`solver::DeformerOptions::base`:
+    /// none for ARAP and the paper's BS-ARAP, the smoothing for the faired variant; the rest
+    /// at its default). The other slot's method and settings its method does not read are not
+    /// part of it, so changing them does not rebuild this slot's solver (the solver thread
+    /// keeps it, see `worker::Active::serves`): the coarse level's settings side by side with
+    /// ARAP, e.g.
     pub fn slot_part(
         &self,
         slot: Slot,
@@ -91,7 +95,15 @@ impl MethodSettings {
             Slot::Compare => self.compare_variant,
             Slot::Main => self.bs_variant,
         };
-        (method, self.arap_config(), self.base_config())
+        let (all, default) = (self.base_config(), solver::BaseConfig::default());
+        let base = match method {
+            solver::Method::Arap | solver::Method::BsArap => default,
+            solver::Method::BsArapFaired => {
+                solver::BaseConfig { smoothing: all.smoothing, ..default }
+            }
+            solver::Method::BsArapCoarse => all,
+        };
+        (method, self.arap_config(), base)
     }
 
     /// What a saved scene holds of these settings (`editor::document::to_scene`): the method,

@@ -734,15 +734,24 @@ fn a_scene_changing_only_the_other_slot_keeps_the_solver() {
     assert_eq!(f.positions[2], drawn([0.0, 1.0, 2.0]), "the new poses are solved");
     assert_eq!(builds.load(Ordering::SeqCst), 1, "the main slot's solver was kept");
 
-    let own = MethodSettings { bs_variant: solver::Method::Arap, ..other };
-    h.send(scene(4, own, moved));
+    // Nor does a setting its method does not read (the faired one's smoothing under ARAP).
+    let arap = MethodSettings { bs_variant: solver::Method::Arap, ..other };
+    h.send(scene(4, arap, moved.clone()));
     wait_frame(&h, |f| f.scene_generation == 4);
     assert_eq!(builds.load(Ordering::SeqCst), 2, "its own method rebuilds it");
+    let smoother = solver::BaseConfig { smoothing: 0.05, ..arap.base };
+    h.send(scene(5, MethodSettings { base: smoother, ..arap }, moved.clone()));
+    wait_frame(&h, |f| f.scene_generation == 5);
+    assert_eq!(builds.load(Ordering::SeqCst), 2, "ARAP rebuilt for the faired base's smoothing");
+    let own = MethodSettings { bs_variant: solver::Method::BsArapFaired, ..arap };
+    h.send(scene(6, own, moved));
+    wait_frame(&h, |f| f.scene_generation == 6);
+    assert_eq!(builds.load(Ordering::SeqCst), 3);
 
     // After a failed solve the pose it shows is not of its poses: a scene is not served by
     // publishing it again, the solver is built again (and fails again here).
     let far = vec![GroupTransform::from_translation(glam::DVec3::new(0.0, 0.0, 1e300))];
-    h.send(SolverCommand::SetPoses { pose_generation: 5, poses: far.clone() });
+    h.send(SolverCommand::SetPoses { pose_generation: 7, poses: far.clone() });
     let failed = |h: &SolverHandle| {
         h.try_status().is_some_and(|s| matches!(s.state, SolverState::Failed(_)))
     };
@@ -751,12 +760,12 @@ fn a_scene_changing_only_the_other_slot_keeps_the_solver() {
         assert!(start.elapsed() < Duration::from_secs(10), "no failure reported");
         std::thread::sleep(Duration::from_millis(2));
     }
-    h.send(scene(6, MethodSettings { compare_variant: solver::Method::Arap, ..own }, far));
+    h.send(scene(8, MethodSettings { compare_variant: solver::Method::Arap, ..own }, far));
     let start = Instant::now();
-    while builds.load(Ordering::SeqCst) < 3 {
+    while builds.load(Ordering::SeqCst) < 4 {
         assert!(start.elapsed() < Duration::from_secs(10), "the failed solver was kept");
         std::thread::sleep(Duration::from_millis(2));
     }
     std::thread::sleep(Duration::from_millis(100));
-    assert!(h.try_take_frame().is_none_or(|f| f.scene_generation != 6), "the old pose as new");
+    assert!(h.try_take_frame().is_none_or(|f| f.scene_generation != 8), "the old pose as new");
 }
