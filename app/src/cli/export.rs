@@ -247,7 +247,7 @@ pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
     let mesh = &loaded.mesh.mesh;
     let n_frames = match a.frames {
         Some(n) => Ok(n),
-        None => super::timeline_frames(&scene.timeline, MAX_FRAMES).map_err(|count| {
+        None => scene.timeline.frame_count_within(MAX_FRAMES).map_err(|count| {
             anyhow::anyhow!(
                 "{source} (duration × fps + 1): {count}; the limit is 1 to {MAX_FRAMES}"
             )

@@ -350,21 +350,3 @@ pub fn load_scene(path: &Path, command: &str, hint: &str) -> anyhow::Result<Load
     solver::animation::scene::Scene::load_with(path, reference_policy())
         .map_err(|e| scene_error(e.into(), path, command))
 }
-
-/// The timeline's own frame count, duration × fps + 1 (both ends), when it is within
-/// `1..=limit`; else the count as a sentence ("more than 100000 frames (1.5e301)"), which
-/// [`solver::animation::timeline::Timeline::default_frame_count`] cannot give beyond `usize`.
-pub fn timeline_frames(
-    timeline: &solver::animation::timeline::Timeline,
-    limit: usize,
-) -> Result<usize, String> {
-    let n = (timeline.duration * timeline.fps).round() + 1.0;
-    if n.is_finite() && n <= limit as f64 {
-        return Ok(timeline.default_frame_count());
-    }
-    Err(if n.is_finite() && n < 1e15 {
-        format!("{n} frames")
-    } else {
-        format!("more than {limit} frames ({n:e})")
-    })
-}

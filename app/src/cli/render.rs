@@ -103,7 +103,7 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
     let max_frames = CaptureSettings::MAX_FRAMES;
     let n_frames = match (settings.frames, moving, settings.turntable) {
         (Some(n), ..) => n,
-        (None, true, _) => super::timeline_frames(&doc.timeline, max_frames).map_err(|count| {
+        (None, true, _) => doc.timeline.frame_count_within(max_frames).map_err(|count| {
             anyhow::anyhow!(
                 "{source} (duration × fps + 1): {count}; the limit is 1 to {max_frames}"
             )

@@ -133,9 +133,15 @@ pub fn effective_timeline(edit: &EditState) -> Timeline {
     t
 }
 
-/// Frames of a recording of `timeline` (both ends included), as `bsarap export` counts them.
-pub fn frame_count(timeline: &Timeline) -> usize {
-    timeline.default_frame_count().clamp(1, MAX_FRAMES)
+/// Frames of a recording of `timeline` (both ends included), as `bsarap export` counts them;
+/// past [`MAX_FRAMES`], why it cannot be recorded (as `bsarap export` refuses it).
+pub fn frame_count(timeline: &Timeline) -> Result<usize, String> {
+    timeline.frame_count_within(MAX_FRAMES).map_err(|count| {
+        format!(
+            "the timeline has {count} (duration × fps + 1); a recording has at most {MAX_FRAMES}: \
+             shorten it or lower the frame rate"
+        )
+    })
 }
 
 /// What the timeline panel asks the app to do.
@@ -292,13 +298,18 @@ pub fn panel(
                 }
             }
             None => {
-                let n = frame_count(&edit.timeline);
+                let count = frame_count(&edit.timeline);
+                let button = egui::Button::new(match &count {
+                    Ok(n) => format!("Record {n} frames"),
+                    Err(_) => "Record".to_string(),
+                });
                 if ui
-                    .button(format!("Record {n} frames"))
+                    .add_enabled(count.is_ok(), button)
                     .on_hover_text(
                         "Solve every frame of the timeline to the tolerance (deterministic, \
                          not real time), warm-started from the previous frame",
                     )
+                    .on_disabled_hover_text(count.as_ref().err().cloned().unwrap_or_default())
                     .clicked()
                 {
                     actions.push(TimelineAction::Record);

@@ -8,7 +8,10 @@ use crate::support;
 
 use app::editor::EditorApp;
 use eframe::egui::{Event, Key, Modifiers, Vec2};
-use egui_kittest::{Harness, kittest::Queryable};
+use egui_kittest::{
+    Harness,
+    kittest::{NodeT, Queryable},
+};
 use solver::animation::timeline::{CircularPath, Path as AnimPath};
 use support::{harness, settled, step_until, test_mesh};
 
@@ -181,10 +184,10 @@ fn an_export_onto_the_open_mesh_is_refused() {
 fn a_recording_larger_than_memory_is_refused() {
     let mut h = start();
     let mut e = h.state().edit_state().clone();
-    e.timeline.duration = 3600.0;
+    e.timeline.duration = 3000.0;
     e.timeline.fps = 30.0;
     h.state_mut().set_edit_state(e);
-    let frames = app::editor::timeline::MAX_FRAMES.min(3600 * 30);
+    let frames = 3000 * 30 + 1;
     let need = frames as f64 * h.state().n_vertices() as f64 * 48.0 / 1048576.0;
     match app::memory::available_mib() {
         Some(free) if need > 0.8 * free => {}
@@ -196,6 +199,27 @@ fn a_recording_larger_than_memory_is_refused() {
     assert!(!h.state().is_recording(), "started");
     let error = h.state().error().unwrap_or_default();
     assert!(error.contains(&format!("recording {frames} frames")), "{error}");
+}
+
+/// A timeline of more frames than a recording holds is refused with its count, as `bsarap
+/// export` refuses its scene; the editor used to record the first 100000 frames' worth, spaced
+/// wider than the frame rate asks.
+#[test]
+fn a_timeline_past_the_frame_limit_is_refused() {
+    let mut h = start();
+    let mut e = h.state().edit_state().clone();
+    e.timeline.duration = 600.0;
+    e.timeline.fps = 240.0;
+    h.state_mut().set_edit_state(e);
+    h.step();
+    let record = h.get_by_label("Record");
+    assert!(record.accesskit_node().is_disabled(), "the Record button is enabled");
+    let ctx = h.ctx.clone();
+    h.state_mut().start_recording(&ctx);
+    h.step();
+    assert!(!h.state().is_recording(), "started");
+    let error = h.state().error().unwrap_or_default();
+    assert!(error.contains("144001 frames") && error.contains("at most 100000"), "{error}");
 }
 
 /// Cancel pressed once the last frame is solved, before the editor took the recording: the

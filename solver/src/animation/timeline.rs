@@ -565,6 +565,21 @@ impl Timeline {
         if n >= 0.0 { (n as usize).saturating_add(1) } else { 1 }
     }
 
+    /// [`Timeline::default_frame_count`] when it is within `1..=limit`; else the count as a
+    /// sentence ("more than 100000 frames (1.5e301)"), which `default_frame_count` cannot give
+    /// beyond `usize`.
+    pub fn frame_count_within(&self, limit: usize) -> Result<usize, String> {
+        let n = (self.duration * self.fps).round() + 1.0;
+        if n.is_finite() && n <= limit as f64 {
+            return Ok(self.default_frame_count());
+        }
+        Err(if n.is_finite() && n < 1e15 {
+            format!("{n} frames")
+        } else {
+            format!("more than {limit} frames ({n:e})")
+        })
+    }
+
     /// `n_frames` evenly spaced times covering `[0, duration]`, both ends included:
     /// $t_i = i\cdot\mathrm{duration}/(n-1)$; one frame is `[0]`. For a looping timeline whose
     /// paths are periodic in `duration`, the last frame equals the first, so a player that loops

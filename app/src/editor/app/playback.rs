@@ -42,7 +42,13 @@ impl EditorApp {
             self.error = Some(format!("cannot record: {e}"));
             return;
         }
-        let n_frames = timeline::frame_count(&timeline);
+        let n_frames = match timeline::frame_count(&timeline) {
+            Ok(n) => n,
+            Err(e) => {
+                self.error = Some(format!("cannot record: {e}"));
+                return;
+            }
+        };
         let available = crate::memory::available_mib();
         if let Err(e) = jobs::recording_fits(n_frames, scene.mesh.n_vertices(), available) {
             self.error = Some(format!("cannot record: {e}"));
