@@ -16,6 +16,10 @@
 //! waits long for a write stuck on a hung drive: a removal goes on in the background after
 //! [`REMOVAL_WAIT`], and an exit's removal or write, or a crash's write, gives up after
 //! [`EXIT_WAIT`] (the autosave then stays and is offered at the next start).
+//!
+//! Editors running at once each hold an autosave slot of their own ([`Persist::claim`]: a
+//! lock on `autosave.lock`, `autosave-2.lock`, …, with `autosave.json` / `autosave-2.json`
+//! beside it), so one never offers, overwrites or removes the autosave of another that runs.
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -35,6 +39,8 @@ pub const EXIT_WAIT: Duration = Duration::from_secs(2);
 pub const REMOVAL_WAIT: Duration = Duration::from_millis(100);
 /// How many recent files are kept.
 pub const MAX_RECENT: usize = 10;
+/// How many editors can run at once, each with an autosave of its own.
+pub const AUTOSAVE_SLOTS: u32 = 16;
 
 /// The key in an autosave's `editor` object naming the scene file being edited (absolute), if
 /// any: a restore saves back to it.
@@ -62,10 +68,14 @@ pub fn modified_stamp(path: &Path) -> Option<String> {
 /// the autosave was made: its modification time is not the one the autosave holds (both read
 /// from the file, so that no two clocks are compared, and a Save made while an older autosave
 /// was still being written counts). Then a restore does not save back to it unasked: that
-/// would lose the newer file. False for an autosave that holds no time.
+/// would lose the newer file. An autosave that holds no time (the file was not there, or its
+/// time could not be read) counts a file there now as changed.
 pub fn document_changed(autosave: &Scene, document: &Path) -> bool {
     let stored = autosave.editor.as_ref().and_then(|e| e.get(EDITED_DOCUMENT_MODIFIED));
-    stored.and_then(|s| s.as_str()).is_some_and(|s| modified_stamp(document).as_deref() != Some(s))
+    match stored.and_then(|s| s.as_str()) {
+        Some(s) => modified_stamp(document).as_deref() != Some(s),
+        None => document.exists(),
+    }
 }
 
 /// `path` in its folder's canonical spelling, with its own file name; as absolute as it can
@@ -91,8 +101,15 @@ pub fn default_dir() -> Option<PathBuf> {
 #[derive(Debug, Clone)]
 pub struct Persist {
     dir: PathBuf,
+    /// The autosave slot (0: `autosave.json`, k: `autosave-{k+1}.json`).
+    slot: u32,
     tickets: Arc<Tickets>,
 }
+
+/// The lock on an autosave slot ([`Persist::claim`]), held until dropped (or the process
+/// ends, a crash included).
+#[derive(Debug)]
+pub struct SlotLock(#[allow(dead_code, reason = "held for its lock")] std::fs::File);
 
 /// What became of a write or removal asked for in turn ([`Persist::in_turn`]).
 #[derive(Debug, PartialEq, Eq)]
@@ -115,8 +132,50 @@ struct Tickets {
 }
 
 impl Persist {
+    /// The files in `dir`, in the first autosave slot, without claiming it ([`Persist::claim`]
+    /// does, for an editor).
     pub fn new(dir: PathBuf) -> Persist {
-        Persist { dir, tickets: Arc::default() }
+        Persist { dir, slot: 0, tickets: Arc::default() }
+    }
+
+    /// The files in `dir` with an autosave slot no running editor holds, locked: one whose
+    /// autosave is left to offer (a crash, or changes kept at exit), else the first free one.
+    /// Without a lock (the folder cannot be made, every slot is held), the first slot, as
+    /// before slots were kept.
+    pub fn claim(dir: PathBuf) -> (Persist, Option<SlotLock>) {
+        let unlocked = |dir| (Persist::new(dir), None);
+        if std::fs::create_dir_all(&dir).is_err() {
+            return unlocked(dir);
+        }
+        let mut free = None;
+        for slot in 0..AUTOSAVE_SLOTS {
+            let p = Persist { slot, ..Persist::new(dir.clone()) };
+            let mut lock = std::fs::File::options();
+            let Ok(file) =
+                lock.create(true).truncate(false).write(true).open(p.file("autosave", "lock"))
+            else {
+                continue;
+            };
+            if file.try_lock().is_err() {
+                continue; // another editor's
+            }
+            if p.autosave_path().exists() {
+                return (p, Some(SlotLock(file)));
+            }
+            free.get_or_insert((p, SlotLock(file)));
+        }
+        match free {
+            Some((p, lock)) => (p, Some(lock)),
+            None => unlocked(dir),
+        }
+    }
+
+    /// `STEM.EXT` of this slot: `STEM.EXT` in the first, `STEM-2.EXT` in the second, ….
+    fn file(&self, stem: &str, ext: &str) -> PathBuf {
+        match self.slot {
+            0 => self.dir.join(format!("{stem}.{ext}")),
+            k => self.dir.join(format!("{stem}-{}.{ext}", k + 1)),
+        }
     }
 
     /// A place in the order of the autosave's writes and removals, for a write asked for now
@@ -157,7 +216,7 @@ impl Persist {
     }
 
     pub fn autosave_path(&self) -> PathBuf {
-        self.dir.join("autosave.json")
+        self.file("autosave", "json")
     }
 
     fn write(&self, path: &Path, bytes: &[u8]) -> Result<(), String> {
@@ -209,7 +268,7 @@ impl Persist {
     }
 
     fn kept_path(&self) -> PathBuf {
-        self.dir.join("autosave.kept")
+        self.file("autosave", "kept")
     }
 
     /// Writes `scene` as the autosave (of a running session: not kept on purpose).
@@ -380,7 +439,8 @@ mod tests {
         let doc = scratch.join("scene.json");
         std::fs::write(&doc, "{}").unwrap();
         let mut autosave = Scene::new("m.obj", Default::default());
-        assert!(!document_changed(&autosave, &doc), "no time held");
+        assert!(document_changed(&autosave, &doc), "no time held, and a file there now");
+        assert!(!document_changed(&autosave, &scratch.join("gone.json")), "no time, no file");
         let stamp = modified_stamp(&doc).unwrap();
         autosave.editor = Some(serde_json::json!({ EDITED_DOCUMENT_MODIFIED: stamp }));
         assert!(!document_changed(&autosave, &doc));
@@ -389,6 +449,27 @@ mod tests {
         assert!(document_changed(&autosave, &doc));
         std::fs::remove_file(&doc).unwrap();
         assert!(document_changed(&autosave, &doc), "removed since");
+    }
+
+    /// Editors running at once claim autosave slots of their own; a slot let go with an
+    /// autosave in it (a crash) is the one the next editor claims, to offer it back.
+    #[test]
+    fn running_editors_claim_autosave_slots_of_their_own() {
+        let (_scratch, d) = dir("slots");
+        let (a, held_a) = Persist::claim(d.clone());
+        let (b, held_b) = Persist::claim(d.clone());
+        assert!(held_a.is_some() && held_b.is_some());
+        assert_eq!(a.autosave_path(), d.join("autosave.json"));
+        assert_eq!(b.autosave_path(), d.join("autosave-2.json"));
+        b.write_autosave(&Scene::new("m.obj", Default::default())).unwrap();
+        assert!(a.pending_autosave().is_none(), "the other editor's autosave is not this one's");
+        drop(held_b); // b crashed
+        let (c, held_c) = Persist::claim(d.clone());
+        assert_eq!(c.autosave_path(), d.join("autosave-2.json"), "the crashed editor's slot");
+        assert!(c.pending_autosave().is_some());
+        drop((held_a, held_c));
+        let (e, _held) = Persist::claim(d.clone());
+        assert_eq!(e.autosave_path(), d.join("autosave-2.json"), "the slot with an autosave");
     }
 
     #[test]

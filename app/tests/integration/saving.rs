@@ -639,6 +639,32 @@ fn without_handles_the_quit_question_keeps_nothing_it_cannot() {
     h.get_by_label_contains("nothing can be kept for next time");
 }
 
+/// "Keep for next time" keeps the changes before the window closes: where they cannot be
+/// written, it says so and the quit question stays (it quit and kept nothing, the failure
+/// printed on standard error only).
+#[test]
+fn keep_for_next_time_that_cannot_write_does_not_quit() {
+    let dir = ScratchDir::new("saving-keep-unwritable");
+    let config = config_with_in_app_dialog(&dir);
+    let mut h = dialog_harness(config.clone());
+    step_until(&mut h, "the default asset", settled);
+    support::move_group(&mut h, 0, glam::DVec3::new(0.0, 0.1, 0.0));
+    // A folder where the autosave goes: no file can be renamed onto it.
+    let blocker = config.join("autosave.json");
+    std::fs::create_dir_all(blocker.join("in the way")).unwrap();
+    support::ask_to_quit(&mut h);
+    h.get_by_label("Keep for next time").click();
+    h.step();
+    let error = h.state().error().unwrap_or_default().to_owned();
+    assert!(error.contains("could not keep the changes"), "{error}");
+    assert!(h.state().quit_question_open(), "quit, keeping nothing");
+    std::fs::remove_dir_all(&blocker).unwrap();
+    h.get_by_label("Keep for next time").click();
+    h.step();
+    assert!(blocker.is_file(), "kept once it can be written");
+    assert!(h.state_mut().exit_autosave());
+}
+
 /// A scene whose mesh file was replaced by one of as many vertices, numbered otherwise, opens
 /// with a notice: its labels and rig then sit on other vertices (nothing told before).
 #[test]

@@ -21,6 +21,8 @@ const SNAPSHOT_INTERVAL: Duration = Duration::from_secs(5);
 pub(super) struct Store {
     /// `None`: nothing is kept between sessions.
     pub(super) persist: Option<Persist>,
+    /// The lock on `persist`'s autosave slot ([`Persist::claim`]), held while the editor runs.
+    _slot: Option<persist::SlotLock>,
     pub(super) recent: Vec<PathBuf>,
     /// The newest scene, for the crash hook.
     pub(super) snapshot: Snapshot,
@@ -81,9 +83,10 @@ impl Store {
 impl Store {
     /// The store in `config_dir`, with its recent files and any autosave left to offer back.
     pub(super) fn new(config_dir: Option<PathBuf>) -> Store {
-        let persist = config_dir.map(Persist::new);
+        let (persist, slot) = config_dir.map(Persist::claim).unzip();
         let mut store = Store {
             persist,
+            _slot: slot.flatten(),
             recent: Vec::new(),
             snapshot: Snapshot::default(),
             last_snapshot: None,
@@ -144,6 +147,16 @@ impl EditorApp {
         self.store.autosaved = Some(Arc::new(doc));
         self.store.last_autosave = Instant::now();
         Ok(path)
+    }
+
+    /// Writes the unsaved changes as the autosave kept for the next start (the quit question's
+    /// "Keep for next time"), before the window closes.
+    pub(super) fn keep_for_next_time(&mut self) -> Result<(), String> {
+        let persist = self.store.persist.clone().ok_or("no configuration folder")?;
+        let doc = self.autosave_document(&persist)?;
+        persist.keep_autosave(&doc)?;
+        self.store.autosaved = Some(Arc::new(doc));
+        Ok(())
     }
 
     /// The scene the autosave holds: the document as it would be saved there, naming the scene
@@ -217,23 +230,29 @@ impl EditorApp {
         }
         let due = self.store.autosave_due
             || now.duration_since(self.store.last_autosave) >= AUTOSAVE_INTERVAL;
-        if due && self.store.autosaved.as_ref() != Some(&doc) {
+        // A failed write is tried again at the next interval, changed or not.
+        let failed = self.store.autosave_failure().is_some();
+        if due && (failed || self.store.autosaved.as_ref() != Some(&doc)) {
             self.store.last_autosave = now;
             self.store.autosave_due = false;
             self.store.autosaved = Some(doc.clone());
             // asked for now: a Save or an exit carried out before the thread writes wins
             let ticket = persist.autosave_ticket();
             let failure = Arc::clone(&self.store.autosave_failure);
-            let _ = std::thread::Builder::new().name("autosave".into()).spawn(move || {
+            let writer = Arc::clone(&failure);
+            let spawned = std::thread::Builder::new().name("autosave".into()).spawn(move || {
                 match persist.write_autosave_in_turn(&doc, ticket) {
-                    Ok(Some(_)) => failure.set(ticket, None),
+                    Ok(Some(_)) => writer.set(ticket, None),
                     Ok(None) => {} // overtaken by a newer write or a removal
                     Err(e) => {
                         eprintln!("editor: autosave failed: {e}");
-                        failure.set(ticket, Some(e));
+                        writer.set(ticket, Some(e));
                     }
                 }
             });
+            if let Err(e) = spawned {
+                failure.set(ticket, Some(format!("no thread to write it: {e}")));
+            }
         }
     }
 
@@ -292,6 +311,9 @@ impl EditorApp {
         let Some(persist) = self.store.persist.clone() else { return false };
         if self.store.offer_pending() {
             return true; // unanswered: keep it for next time
+        }
+        if self.session.keep_on_exit {
+            return true; // written when the quit question was answered
         }
         if self.has_unsaved_changes()
             && !self.session.discard_on_exit

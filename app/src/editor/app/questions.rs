@@ -292,15 +292,30 @@ impl EditorApp {
                                     "(nothing can be kept for next time before a handle group \
                                      is painted)",
                                 );
+                            } else if self.store.persist.is_none() {
+                                ui.label(
+                                    "(no configuration folder: nothing can be kept for next time)",
+                                );
                             } else if ui
                                 .button("Keep for next time")
                                 .on_hover_text("quit; the next start offers the changes back")
                                 .clicked()
                             {
-                                self.session.pending = None;
-                                self.session.stop_work_on_exit = true;
-                                self.session.keep_on_exit = true;
-                                self.close_window(ctx);
+                                // Kept before the window closes: a failure is said while the
+                                // work is still open (it quit and kept nothing).
+                                match self.keep_for_next_time() {
+                                    Ok(()) => {
+                                        self.session.pending = None;
+                                        self.session.stop_work_on_exit = true;
+                                        self.session.keep_on_exit = true;
+                                        self.close_window(ctx);
+                                    }
+                                    Err(e) => {
+                                        self.error = Some(format!(
+                                            "could not keep the changes for next time: {e}"
+                                        ))
+                                    }
+                                }
                             }
                         }
                     }
