@@ -422,8 +422,8 @@ fn play_at_an_end_between_milliseconds_plays_from_the_start() {
 }
 
 /// Deleting a group listed before the active one keeps the same group active (the index
-/// stayed, naming the next group: K and the path editor went to it); deleting the active
-/// group leaves none active.
+/// stayed, naming the next group: K and the path editor went to it), and so do its undo and
+/// redo; deleting the active group leaves none active.
 #[test]
 fn deleting_a_group_keeps_the_active_group() {
     let mut h = start();
@@ -433,12 +433,56 @@ fn deleting_a_group_keeps_the_active_group() {
     h.step();
     h.get_all_by_label("Delete").next().expect("group 0's Delete").click();
     h.step();
-    let active = h.state().active_group().map(|k| h.state().edit_state().groups[k].name.clone());
-    assert_eq!(active, Some(names[1].clone()), "another group became active");
+    let name = |h: &Harness<'static, EditorApp>| {
+        h.state().active_group().map(|k| h.state().edit_state().groups[k].name.clone())
+    };
+    assert_eq!(name(&h), Some(names[1].clone()), "another group became active");
+    // Undone, the same group stays active (the index stayed, naming group 0: K went to it).
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    assert_eq!(h.state().edit_state().groups.len(), names.len());
+    assert_eq!(name(&h), Some(names[1].clone()), "undo made another group active");
+    h.key_press_modifiers(Modifiers::COMMAND | Modifiers::SHIFT, Key::Z);
+    h.step();
+    assert_eq!(name(&h), Some(names[1].clone()), "redo made another group active");
     let k = h.state().active_group().unwrap();
     h.get_all_by_label("Delete").nth(k).unwrap().click();
     h.step();
     assert_eq!(h.state().active_group(), None, "a group still active after its delete");
+}
+
+/// A move begun while the timeline plays pauses it: the paths set the group's pose under the
+/// pointer every frame, and a move that changed nothing left an undo step (taking the redo).
+#[test]
+fn a_move_during_playback_pauses_it_and_an_empty_one_leaves_no_step() {
+    let mut h = start();
+    let mut e = h.state().edit_state().clone();
+    e.set_path(0, AnimPath::Circular(small_circle(h.state())));
+    e.timeline.looping = true;
+    h.state_mut().set_edit_state(e);
+    h.state_mut().set_tool(app::editor::Tool::Pose);
+    h.state_mut().set_active_group(Some(0));
+    h.step();
+    // A redo step to keep: an edit undone.
+    support::move_group(&mut h, 1, glam::DVec3::new(0.0, 0.05, 0.0));
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    let can_redo =
+        |h: &Harness<'static, EditorApp>| !h.get_by_label("Redo").accesskit_node().is_disabled();
+    assert!(can_redo(&h));
+    h.key_press(Key::Space);
+    h.step();
+    assert!(h.state().is_playing());
+    let (c, _) = h.state().gizmo_screen().unwrap();
+    support::move_pointer(&mut h, [c + Vec2::new(40.0, 30.0)]);
+    h.key_press(Key::G);
+    h.step();
+    h.step();
+    assert!(!h.state().is_playing(), "played on under the move");
+    assert!(h.state().info().is_some_and(|i| i.contains("playback paused")));
+    h.key_press(Key::Enter);
+    h.step();
+    assert!(can_redo(&h), "a move that changed nothing took the redo step");
 }
 
 /// K and Space during a G move wait for its end: K keyed the pose not yet confirmed (Esc then

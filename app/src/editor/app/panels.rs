@@ -582,6 +582,14 @@ impl eframe::App for EditorApp {
         self.poll_question(&ctx);
         self.log_status();
         self.poll_compare(&ctx);
+        // A gesture pauses playback: the paths set the poses under a drag or a transform every
+        // frame (the group flickered between its path and the pointer) and changed the state a
+        // gesture's undo step compares (a gesture that changed nothing left a step, and took
+        // the redo steps).
+        if self.session.playback.playing && self.gesture_under_way() {
+            self.session.playback.set_playing(false);
+            self.info = Some("playback paused for the drag or stroke".into());
+        }
         if self.session.playback.tick(now, &self.session.edit.timeline) {
             self.time_changed();
         }

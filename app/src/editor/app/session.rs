@@ -591,7 +591,18 @@ impl EditorApp {
         let parts_changed = state.loose_parts != self.session.edit.loose_parts;
         self.end_gestures();
         self.forget_axis_request();
+        // The active group stays the same group where its name and colour tell it (one group
+        // has them), not the same index: an undone delete shifts the groups after it.
+        let active = self.interaction.active_group.and_then(|g| self.session.edit.groups.get(g));
+        let active = active.map(|g| (g.name.clone(), g.color));
         self.session.edit = state;
+        if let Some((name, color)) = active {
+            let groups = self.session.edit.groups.iter().enumerate();
+            let mut same = groups.filter(|(_, g)| g.name == name && g.color == color);
+            if let (Some((k, _)), None) = (same.next(), same.next()) {
+                self.interaction.active_group = Some(k);
+            }
+        }
         self.session.settings = settings;
         // Kept at another time: a group with a path goes where its path is now (at the same
         // time its pose stays, as unkeyed posing left it).
