@@ -207,7 +207,7 @@ fn glb_parses_back_and_reproduces_every_frame() {
                 ControlFlow::Continue(())
             })
             .unwrap();
-        assert_eq!(calls, 9);
+        assert_eq!(calls, 10, "after each frame, and before the write");
         let bytes = std::fs::read(&path).unwrap();
         assert_eq!(bytes.len() as u64, written);
         assert_eq!(predicted, written, "file_size() must predict the size");
@@ -313,6 +313,25 @@ fn nothing_non_finite_is_written() {
     let (mesh, rec) = recording(Method::Arap, 3);
     let err = export_gltf(&path, &mesh, &rec, &mut |_, _| ControlFlow::Break(())).unwrap_err();
     assert!(matches!(err, ExportError::Cancelled { .. }));
+    assert!(!path.exists());
+    // So does a cancel once the last frame is encoded, while the file is put together (it
+    // was written all the same).
+    let mut calls = 0;
+    let mut late = |done: usize, total: usize| {
+        calls += 1;
+        if done == total && calls > total {
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
+        }
+    };
+    let err = export_gltf(&path, &mesh, &rec, &mut late).unwrap_err();
+    assert!(matches!(err, ExportError::Cancelled { done: 3, total: 3 }), "{err}");
+    assert!(!path.exists());
+    let mut at_last = |done: usize, total: usize| {
+        if done == total { ControlFlow::Break(()) } else { ControlFlow::Continue(()) }
+    };
+    assert!(export_gltf(&path, &mesh, &rec, &mut at_last).is_err(), "cancelled at the last frame");
     assert!(!path.exists());
 }
 

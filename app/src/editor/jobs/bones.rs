@@ -13,7 +13,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::Instant;
 
-use solver::animation::export::{GltfFormat, SkinnedExport, UpAxis};
+use solver::animation::export::{ExportError, GltfFormat, SkinnedExport, UpAxis};
 use solver::animation::skinning::{
     FitError, FitProgress, FitStage, SkinningConfig, SkinningError, fit_skinning,
 };
@@ -142,7 +142,13 @@ pub fn spawn_bake(
             .with_up_axis(up)
             .with_solve_settings(&solved)
             .map_err(|e| fail(&e))?;
-            let bytes = export.write(&path).map_err(|e| fail(&e))?;
+            let file = export.to_bytes().map_err(|e| fail(&e))?;
+            // A cancel while the file was put together writes nothing too.
+            if progress.cancel.load(Ordering::Relaxed) {
+                return Err(cancelled());
+            }
+            solver::io::write_atomic(&path, &file).map_err(|e| fail(&ExportError::from(e)))?;
+            let bytes = file.len() as u64;
             Ok(Baked { path, bytes, bones: skin.n_bones(), error: skin.error, seconds })
         },
     );

@@ -598,7 +598,7 @@ impl GltfExport<'_> {
                     }
                 }
             }
-            if keep && progress(done + 1, total).is_break() && done + 1 < total {
+            if keep && progress(done + 1, total).is_break() {
                 return Err(ExportError::Cancelled { done: done + 1, total });
             }
         }

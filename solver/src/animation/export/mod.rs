@@ -633,12 +633,22 @@ impl<'a> GltfExport<'a> {
     }
 
     /// Writes the file atomically ([`write_atomic`]); returns its size in bytes.
+    /// `progress(done, total)` after each kept frame, and once more with the last numbers
+    /// before the file is written (`Break` cancels, then too).
     pub fn write(
         &self,
         path: &FsPath,
         progress: &mut dyn FnMut(usize, usize) -> ControlFlow<()>,
     ) -> Result<u64, ExportError> {
-        let bytes = self.to_bytes(progress)?;
+        let mut last = (0, 0);
+        let bytes = self.to_bytes(&mut |done, total| {
+            last = (done, total);
+            progress(done, total)
+        })?;
+        // A cancel while the file was put together, after its last frame, writes nothing too.
+        if progress(last.0, last.1).is_break() {
+            return Err(ExportError::Cancelled { done: last.0, total: last.1 });
+        }
         write_atomic(path, &bytes)?;
         Ok(bytes.len() as u64)
     }
