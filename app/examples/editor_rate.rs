@@ -194,7 +194,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
         };
         let t = Instant::now();
-        let mut d = make(slot, &mesh, &handles, &settings, &solver::LooseParts::default())?;
+        let parts = solver::LooseParts::default();
+        let mut d = make(slot, &mesh, &handles, &settings, &parts, &|| false)?;
         let precompute = t.elapsed().as_secs_f64() * 1e3;
         let (mut times, mut iterations, mut at_cap, mut shape_ms) = (Vec::new(), 0, 0, 0.0);
         let (mut shapes, mut shown) = (ShapePool::default(), None);

@@ -24,11 +24,14 @@ pub fn factory(cache: Arc<Mutex<MeshCache>>) -> PoseSolverFactory {
               mesh: &Mesh,
               handles: &Handles,
               settings: &MethodSettings,
-              parts: &LooseParts| {
+              parts: &LooseParts,
+              moot: &dyn Fn() -> bool| {
             let (method, config, base) = settings.slot_part(slot);
             let options =
                 DeformerOptions { method, config, base, loose_parts: Some(parts), cache: None };
-            let d = build_deformer(&cache, mesh, handles, options, &|| false)
+            // Moot once the cache's lock is had (it waited for another mesh's precomputation,
+            // and would build this mesh's part, seconds, for a scene gone).
+            let d = build_deformer(&cache, mesh, handles, options, moot)
                 .map_err(|e| e.to_string())?
                 .ok_or("the solver's build was cancelled")?;
             Ok(Box::new(DeformerPoseSolver(d)) as Box<dyn PoseSolver>)
@@ -187,7 +190,7 @@ mod tests {
         let factory = factory(cache.clone());
         for handles in [caps, Handles::from_options(band).expect("a band")] {
             let parts = LooseParts::default();
-            let built_solver = factory(Slot::Main, &mesh, &handles, &settings, &parts);
+            let built_solver = factory(Slot::Main, &mesh, &handles, &settings, &parts, &|| false);
             assert!(built_solver.is_ok());
             let now = cache.lock().expect("lock").coarse_base().cloned().expect("kept");
             assert!(Arc::ptr_eq(&now, &built), "the handle set rebuilt the mesh's part");

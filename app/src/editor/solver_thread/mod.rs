@@ -42,6 +42,9 @@ pub struct SolverHandle {
     show_base: Arc<AtomicBool>,
     normals_on_gpu: Arc<AtomicBool>,
     min_settle_ms: Arc<AtomicU64>,
+    /// The generation of the newest scene sent ([`u64::MAX`] once shutting down): a build of
+    /// an older one is moot ([`PoseSolverFactory`]).
+    newest_scene: Arc<AtomicU64>,
     thread: Option<JoinHandle<()>>,
 }
 
@@ -62,7 +65,9 @@ impl SolverHandle {
         let show_base = Arc::new(AtomicBool::new(false));
         let normals_on_gpu = Arc::new(AtomicBool::new(false));
         let min_settle_ms = Arc::new(AtomicU64::new(worker::SETTLE_DELAY.as_millis() as u64));
+        let newest_scene = Arc::new(AtomicU64::new(0));
         let shared = Shared {
+            newest_scene: newest_scene.clone(),
             mailbox: mailbox.clone(),
             status: status.clone(),
             show_base: show_base.clone(),
@@ -81,6 +86,7 @@ impl SolverHandle {
             show_base,
             normals_on_gpu,
             min_settle_ms,
+            newest_scene,
             thread: Some(thread),
         })
     }
@@ -114,6 +120,9 @@ impl SolverHandle {
 
     /// Sends a command; never blocks. A dead thread is reported by the status.
     pub fn send(&self, command: SolverCommand) {
+        if let SolverCommand::SetScene(scene) = &command {
+            self.newest_scene.store(scene.scene_generation, Ordering::Relaxed);
+        }
         if self.tx.send(command).is_err() {
             set_status(&self.status, SolverState::Failed("the solver thread has exited".into()));
         }
@@ -131,6 +140,7 @@ impl SolverHandle {
 
 impl Drop for SolverHandle {
     fn drop(&mut self) {
+        self.newest_scene.store(u64::MAX, Ordering::Relaxed);
         let _ = self.tx.send(SolverCommand::Shutdown);
         // Do not join: a long factorization must not freeze the UI on exit.
         drop(self.thread.take());

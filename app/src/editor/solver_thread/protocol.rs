@@ -237,7 +237,9 @@ pub trait PoseSolver: Send {
 }
 
 /// Builds a pose solver for a slot, a mesh, a handle set and the loose parts' modes (the slow
-/// part: factorization).
+/// part: factorization). The last argument says whether the build is moot (a newer scene was
+/// sent, or the thread is shutting down): a factory may stop where it can and return an
+/// error, which the thread then drops unseen.
 pub type PoseSolverFactory = Arc<
     dyn Fn(
             Slot,
@@ -245,6 +247,7 @@ pub type PoseSolverFactory = Arc<
             &Handles,
             &MethodSettings,
             &LooseParts,
+            &dyn Fn() -> bool,
         ) -> Result<Box<dyn PoseSolver>, String>
         + Send
         + Sync,

@@ -71,9 +71,11 @@ impl PoseSolver for Shift {
 }
 
 fn factory() -> PoseSolverFactory {
-    Arc::new(|_, mesh: &Mesh, handles: &Handles, _: &MethodSettings, _: &_| {
-        Ok(Box::new(Shift::new(mesh, handles)) as Box<dyn PoseSolver>)
-    })
+    Arc::new(
+        |_, mesh: &Mesh, handles: &Handles, _: &MethodSettings, _: &_, _: &dyn Fn() -> bool| {
+            Ok(Box::new(Shift::new(mesh, handles)) as Box<dyn PoseSolver>)
+        },
+    )
 }
 
 fn tri() -> Arc<Mesh> {
@@ -151,10 +153,11 @@ fn frames_follow_poses_and_survive_a_panic() {
 fn a_failed_build_is_not_retried_by_poses() {
     let builds = Arc::new(AtomicUsize::new(0));
     let counted = builds.clone();
-    let failing: PoseSolverFactory = Arc::new(move |_, _: &Mesh, _: &Handles, _: &_, _: &_| {
-        counted.fetch_add(1, Ordering::SeqCst);
-        Err("no factorization".to_string())
-    });
+    let failing: PoseSolverFactory =
+        Arc::new(move |_, _: &Mesh, _: &Handles, _: &_, _: &_, _: &dyn Fn() -> bool| {
+            counted.fetch_add(1, Ordering::SeqCst);
+            Err("no factorization".to_string())
+        });
     let h = SolverHandle::spawn(Slot::Compare, failing, Arc::new(|| {})).unwrap();
     h.send(scene(1, vec![GroupTransform::default()]));
     let start = Instant::now();
@@ -209,10 +212,11 @@ impl PoseSolver for Settles {
 /// idles; new poses solve again (and settle again).
 #[test]
 fn converged_poses_are_settled_until_converged() {
-    let factory: PoseSolverFactory = Arc::new(|_, mesh: &Mesh, handles: &Handles, _: &_, _: &_| {
-        let shift = Shift::new(mesh, handles);
-        Ok(Box::new(Settles { shift, steps: 0 }) as Box<dyn PoseSolver>)
-    });
+    let factory: PoseSolverFactory =
+        Arc::new(|_, mesh: &Mesh, handles: &Handles, _: &_, _: &_, _: &dyn Fn() -> bool| {
+            let shift = Shift::new(mesh, handles);
+            Ok(Box::new(Settles { shift, steps: 0 }) as Box<dyn PoseSolver>)
+        });
     let h = SolverHandle::spawn(Slot::Main, factory, Arc::new(|| {})).unwrap();
     h.send(scene(1, vec![GroupTransform::default()]));
     let f = wait_frame(&h, |f| f.stats.fine_iterations == 3);
@@ -238,7 +242,7 @@ fn endless_settle_factory() -> (Arc<Mutex<SettleLog>>, PoseSolverFactory) {
     let log = Arc::new(Mutex::new(Vec::new()));
     let shared_log = log.clone();
     let factory: PoseSolverFactory =
-        Arc::new(move |_, mesh: &Mesh, handles: &Handles, _: &_, _: &_| {
+        Arc::new(move |_, mesh: &Mesh, handles: &Handles, _: &_, _: &_, _: &dyn Fn() -> bool| {
             let shift = Shift::new(mesh, handles);
             Ok(Box::new(EndlessSettle { shift, log: shared_log.clone() }) as Box<dyn PoseSolver>)
         });
@@ -368,7 +372,7 @@ fn settling_waits_for_its_preparation_without_holding_up_new_poses() {
     let asked = Arc::new(AtomicUsize::new(0));
     let (r, a) = (ready.clone(), asked.clone());
     let factory: PoseSolverFactory =
-        Arc::new(move |_, mesh: &Mesh, handles: &Handles, _: &_, _: &_| {
+        Arc::new(move |_, mesh: &Mesh, handles: &Handles, _: &_, _: &_, _: &dyn Fn() -> bool| {
             let shift = Shift::new(mesh, handles);
             let (ready, asked) = (r.clone(), a.clone());
             Ok(Box::new(SlowToSettle { shift, ready, asked, settled: false })
@@ -424,10 +428,11 @@ impl PoseSolver for WithBase {
 /// idle republishes the current pose with it.
 #[test]
 fn the_base_is_built_only_while_shown() {
-    let factory: PoseSolverFactory = Arc::new(|_, mesh: &Mesh, handles: &Handles, _: &_, _: &_| {
-        let shift = Shift::new(mesh, handles);
-        Ok(Box::new(WithBase(shift)) as Box<dyn PoseSolver>)
-    });
+    let factory: PoseSolverFactory =
+        Arc::new(|_, mesh: &Mesh, handles: &Handles, _: &_, _: &_, _: &dyn Fn() -> bool| {
+            let shift = Shift::new(mesh, handles);
+            Ok(Box::new(WithBase(shift)) as Box<dyn PoseSolver>)
+        });
     let h = SolverHandle::spawn(Slot::Main, factory, Arc::new(|| {})).unwrap();
     h.send(scene(1, vec![GroupTransform::default()]));
     let f = wait_frame(&h, |f| f.scene_generation == 1);
@@ -483,11 +488,12 @@ fn loose_parts_change_without_a_rebuild() {
     let builds = Arc::new(Mutex::new(0usize));
     let counted = builds.clone();
     let inner = crate::editor::pose_solvers::factory(Default::default());
-    let factory: PoseSolverFactory =
-        Arc::new(move |slot, mesh: &Mesh, handles: &Handles, s: &_, l: &_| {
+    let factory: PoseSolverFactory = Arc::new(
+        move |slot, mesh: &Mesh, handles: &Handles, s: &_, l: &_, c: &dyn Fn() -> bool| {
             *counted.lock().unwrap() += 1;
-            inner(slot, mesh, handles, s, l)
-        });
+            inner(slot, mesh, handles, s, l, c)
+        },
+    );
     let h = SolverHandle::spawn(Slot::Compare, factory, Arc::new(|| {})).unwrap();
     let moved = GroupTransform::from_translation(glam::DVec3::new(0.3, 0.0, 0.0));
     h.send(SolverCommand::SetScene(Box::new(NewScene {
@@ -656,7 +662,7 @@ fn split_frames_publish_each_pose_with_its_own_generation() {
     let gate = Arc::new(Gate::default());
     let (calls, g) = (log.clone(), gate.clone());
     let factory: PoseSolverFactory =
-        Arc::new(move |_, mesh: &Mesh, handles: &Handles, _: &_, _: &_| {
+        Arc::new(move |_, mesh: &Mesh, handles: &Handles, _: &_, _: &_, _: &dyn Fn() -> bool| {
             let shift = Shift::new(mesh, handles);
             let split = Split { shift, begun: None, gate: g.clone(), log: calls.clone() };
             Ok(Box::new(split) as Box<dyn PoseSolver>)
@@ -699,11 +705,12 @@ fn a_scene_changing_only_the_other_slot_keeps_the_solver() {
     let builds = Arc::new(AtomicUsize::new(0));
     let counted = builds.clone();
     let inner = factory();
-    let counting: PoseSolverFactory =
-        Arc::new(move |slot, mesh: &Mesh, handles: &Handles, s: &_, l: &_| {
+    let counting: PoseSolverFactory = Arc::new(
+        move |slot, mesh: &Mesh, handles: &Handles, s: &_, l: &_, c: &dyn Fn() -> bool| {
             counted.fetch_add(1, Ordering::SeqCst);
-            inner(slot, mesh, handles, s, l)
-        });
+            inner(slot, mesh, handles, s, l, c)
+        },
+    );
     let h = SolverHandle::spawn(Slot::Main, counting, Arc::new(|| {})).unwrap();
     let mesh = tri();
     let scene = |generation: u64, settings: MethodSettings, poses: Vec<GroupTransform>| {
@@ -768,4 +775,40 @@ fn a_scene_changing_only_the_other_slot_keeps_the_solver() {
     }
     std::thread::sleep(Duration::from_millis(100));
     assert!(h.try_take_frame().is_none_or(|f| f.scene_generation != 8), "the old pose as new");
+}
+
+/// A build made moot by a newer scene (another mesh opened while it waited for the mesh cache)
+/// is told so, and its error is dropped unseen: the newer scene is built next.
+#[test]
+fn a_build_made_moot_by_a_newer_scene_is_dropped_unseen() {
+    let builds = Arc::new(AtomicUsize::new(0));
+    let saw_moot = Arc::new(AtomicBool::new(false));
+    let (counted, seen) = (builds.clone(), saw_moot.clone());
+    let inner = factory();
+    let waiting: PoseSolverFactory = Arc::new(
+        move |slot, mesh: &Mesh, handles: &Handles, s: &_, l: &_, moot: &dyn Fn() -> bool| {
+            if counted.fetch_add(1, Ordering::SeqCst) == 0 {
+                // The first build waits (for a cache another precomputation holds) until moot.
+                let start = Instant::now();
+                while !moot() && start.elapsed() < Duration::from_secs(10) {
+                    std::thread::sleep(Duration::from_millis(2));
+                }
+                seen.store(moot(), Ordering::SeqCst);
+                return Err("stopped: moot".into());
+            }
+            inner(slot, mesh, handles, s, l, moot)
+        },
+    );
+    let h = SolverHandle::spawn(Slot::Main, waiting, Arc::new(|| {})).unwrap();
+    h.send(scene(1, vec![GroupTransform::default()]));
+    let start = Instant::now();
+    while builds.load(Ordering::SeqCst) == 0 {
+        assert!(start.elapsed() < Duration::from_secs(10), "no build began");
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    h.send(scene(2, vec![GroupTransform::default()]));
+    wait_frame(&h, |f| f.scene_generation == 2);
+    assert!(saw_moot.load(Ordering::SeqCst), "the first build was not told it is moot");
+    assert_eq!(builds.load(Ordering::SeqCst), 2);
+    assert!(!matches!(h.try_status().unwrap().state, SolverState::Failed(_)));
 }

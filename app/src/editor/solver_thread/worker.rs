@@ -35,6 +35,8 @@ pub(super) struct Shared {
     pub(super) normals_on_gpu: Arc<AtomicBool>,
     /// The shortest rest before settling, in milliseconds ([`super::SolverHandle::set_min_settle_delay`]).
     pub(super) min_settle_ms: Arc<AtomicU64>,
+    /// The generation of the newest scene sent ([`super::SolverHandle::send`]).
+    pub(super) newest_scene: Arc<AtomicU64>,
     pub(super) repaint: Arc<dyn Fn() + Send + Sync>,
 }
 
@@ -471,7 +473,9 @@ fn rebuild(
     };
     set_status(&shared.status, SolverState::Factorizing { since: Instant::now() });
     (shared.repaint)();
-    match factory(slot, &mesh, &handles, &settings, &loose_parts) {
+    // A newer scene is in the channel (or the thread shuts down): the next turn takes it.
+    let moot = || shared.newest_scene.load(Ordering::Relaxed) != scene_generation;
+    match factory(slot, &mesh, &handles, &settings, &loose_parts, &moot) {
         Ok(pose_solver) => {
             let details = pose_solver
                 .detail_magnitudes()
@@ -509,6 +513,7 @@ fn rebuild(
                 failed: false,
             })
         }
+        Err(_) if moot() => None,
         Err(e) => {
             set_status(&shared.status, SolverState::Failed(e));
             (shared.repaint)();
