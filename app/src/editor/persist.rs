@@ -143,31 +143,40 @@ impl Persist {
     /// Without a lock (the folder cannot be made, every slot is held), the first slot, as
     /// before slots were kept.
     pub fn claim(dir: PathBuf) -> (Persist, Option<SlotLock>) {
+        use std::fs::TryLockError;
         let unlocked = |dir| (Persist::new(dir), None);
         if std::fs::create_dir_all(&dir).is_err() {
             return unlocked(dir);
         }
-        let mut free = None;
-        for slot in 0..AUTOSAVE_SLOTS {
-            let p = Persist { slot, ..Persist::new(dir.clone()) };
-            let mut lock = std::fs::File::options();
-            let Ok(file) =
-                lock.create(true).truncate(false).write(true).open(p.file("autosave", "lock"))
+        let slots =
+            || (0..AUTOSAVE_SLOTS).map(|slot| Persist { slot, ..Persist::new(dir.clone()) });
+        // First a slot with an autosave to offer, then the first free one: a lock file is made
+        // only where one is tried.
+        let with_autosave = slots().filter(|p| p.autosave_path().exists());
+        for p in with_autosave.chain(slots()) {
+            let mut options = std::fs::File::options();
+            let Ok(file) = options.create(true).truncate(false).write(true).open(p.lock_path())
             else {
-                continue;
+                return unlocked(dir);
             };
-            if file.try_lock().is_err() {
-                continue; // another editor's
+            match file.try_lock() {
+                Ok(()) => return (p, Some(SlotLock(file))),
+                Err(TryLockError::WouldBlock) => {} // another editor's
+                // No locks on this file system: one slot for all, as before slots were kept.
+                Err(TryLockError::Error(_)) => return unlocked(dir),
             }
-            if p.autosave_path().exists() {
-                return (p, Some(SlotLock(file)));
-            }
-            free.get_or_insert((p, SlotLock(file)));
         }
-        match free {
-            Some((p, lock)) => (p, Some(lock)),
-            None => unlocked(dir),
-        }
+        unlocked(dir)
+    }
+
+    /// The autosave of every slot ([`Persist::claim`]), this one's among them: none is a file
+    /// to open as a document or to save over.
+    pub fn every_autosave_path(&self) -> impl Iterator<Item = PathBuf> + '_ {
+        (0..AUTOSAVE_SLOTS).map(|slot| Persist { slot, ..self.clone() }.autosave_path())
+    }
+
+    fn lock_path(&self) -> PathBuf {
+        self.file("autosave", "lock")
     }
 
     /// `STEM.EXT` of this slot: `STEM.EXT` in the first, `STEM-2.EXT` in the second, ….
@@ -470,6 +479,11 @@ mod tests {
         drop((held_a, held_c));
         let (e, _held) = Persist::claim(d.clone());
         assert_eq!(e.autosave_path(), d.join("autosave-2.json"), "the slot with an autosave");
+        let locks = std::fs::read_dir(&d).unwrap().flatten();
+        let locks = locks.filter(|f| f.file_name().to_string_lossy().ends_with(".lock")).count();
+        assert_eq!(locks, 2, "lock files for the slots tried only");
+        assert!(e.every_autosave_path().any(|p| p == d.join("autosave.json")));
+        assert_eq!(e.every_autosave_path().count(), AUTOSAVE_SLOTS as usize);
     }
 
     #[test]

@@ -73,7 +73,12 @@ impl EditState {
     }
 
     pub fn add_group(&mut self) -> usize {
-        self.groups.push(new_group(self.groups.len()));
+        // "Group k" (and its colour) for the first k from the count on that no group is named:
+        // after a delete, the count names a group still there (and undo tells groups apart by
+        // name and colour).
+        let taken = |k: &usize| self.groups.iter().any(|g| g.name == format!("Group {k}"));
+        let k = (self.groups.len()..).find(|k| !taken(k)).unwrap_or(self.groups.len());
+        self.groups.push(new_group(k));
         self.groups.len() - 1
     }
 
@@ -293,6 +298,18 @@ impl History {
 #[cfg(test)]
 #[allow(clippy::unwrap_used, clippy::expect_used)]
 mod tests {
+    /// A group added after a delete gets a name (and colour) no group has: the count named a
+    /// group still there, and undo tells groups apart by them.
+    #[test]
+    fn a_group_added_after_a_delete_gets_a_name_of_its_own() {
+        let mut e = EditState::from_labels(vec![Some(0), Some(1), Some(2)]);
+        e.delete_group(0);
+        let k = e.add_group();
+        let names: Vec<&str> = e.groups.iter().map(|g| g.name.as_str()).collect();
+        assert_eq!(names, ["Group 1", "Group 2", "Group 3"]);
+        assert_ne!(e.groups[k].color, e.groups[1].color);
+    }
+
     use super::*;
 
     #[test]

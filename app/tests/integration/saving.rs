@@ -42,6 +42,9 @@ fn save_as_refuses_the_mesh_and_a_cancelled_save_first_is_forgotten() {
     assert!(error.contains("must end in .json"), "{error}");
     let error = save_as(&mut h, &config.join("autosave.json"));
     assert!(error.contains("is the autosave"), "{error}");
+    // Another running editor's autosave too (its timer or its exit would take the scene).
+    let error = save_as(&mut h, &config.join("autosave-2.json"));
+    assert!(error.contains("is the autosave"), "{error}");
     assert_eq!(std::fs::read(&bar).unwrap(), original, "the mesh was written over");
     assert!(h.state().has_unsaved_changes());
 

@@ -150,7 +150,9 @@ impl EditorApp {
     }
 
     /// Writes the unsaved changes as the autosave kept for the next start (the quit question's
-    /// "Keep for next time"), before the window closes.
+    /// "Keep for next time"), before the window closes, so that a failure is said while the
+    /// work is open; the exit writes it again once a save under way has ended
+    /// ([`EditorApp::exit_autosave`]: the scene file it names may be that save's).
     pub(super) fn keep_for_next_time(&mut self) -> Result<(), String> {
         let persist = self.store.persist.clone().ok_or("no configuration folder")?;
         let doc = self.autosave_document(&persist)?;
@@ -311,9 +313,6 @@ impl EditorApp {
         let Some(persist) = self.store.persist.clone() else { return false };
         if self.store.offer_pending() {
             return true; // unanswered: keep it for next time
-        }
-        if self.session.keep_on_exit {
-            return true; // written when the quit question was answered
         }
         if self.has_unsaved_changes()
             && !self.session.discard_on_exit

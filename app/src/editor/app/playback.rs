@@ -135,7 +135,7 @@ impl EditorApp {
             files.push(Input::new("texture", p));
         }
         if let Some(p) = &self.store.persist {
-            files.push(Input::new("autosave", &p.autosave_path()));
+            files.extend(p.every_autosave_path().map(|a| Input::new("autosave", &a)));
         }
         files
     }

@@ -290,7 +290,7 @@ impl EditorApp {
     /// Adds `path` to the recent files.
     pub(super) fn remember(&mut self, path: &Path) {
         let Some(p) = &self.store.persist else { return };
-        if path == p.autosave_path() {
+        if p.every_autosave_path().any(|a| a == path) {
             return;
         }
         match p.push_recent(path) {
@@ -592,16 +592,22 @@ impl EditorApp {
         self.end_gestures();
         self.forget_axis_request();
         // The active group stays the same group where its name and colour tell it (one group
-        // has them), not the same index: an undone delete shifts the groups after it.
+        // has them, before and after), not the same index: an undone delete shifts the groups
+        // after it.
+        let unique = |groups: &[crate::editor::undo::Group], (name, color): &(String, _)| {
+            let mut same =
+                groups.iter().enumerate().filter(|(_, g)| g.name == *name && g.color == *color);
+            match (same.next(), same.next()) {
+                (Some((k, _)), None) => Some(k),
+                _ => None,
+            }
+        };
         let active = self.interaction.active_group.and_then(|g| self.session.edit.groups.get(g));
         let active = active.map(|g| (g.name.clone(), g.color));
+        let active = active.filter(|a| unique(&self.session.edit.groups, a).is_some());
         self.session.edit = state;
-        if let Some((name, color)) = active {
-            let groups = self.session.edit.groups.iter().enumerate();
-            let mut same = groups.filter(|(_, g)| g.name == name && g.color == color);
-            if let (Some((k, _)), None) = (same.next(), same.next()) {
-                self.interaction.active_group = Some(k);
-            }
+        if let Some(k) = active.and_then(|a| unique(&self.session.edit.groups, &a)) {
+            self.interaction.active_group = Some(k);
         }
         self.session.settings = settings;
         // Kept at another time: a group with a path goes where its path is now (at the same
