@@ -179,8 +179,11 @@ def on_frame_change(scene, _depsgraph=None):
 def on_load(_filepath=None, _unused=None):
     """Another file: its objects are not those the cached solvers were built for (the claims
     are in the file; one saved before they were gets them now)."""
-    global _pruned_at
+    global _pruned_at, rendering
     _pruned_at = None
+    # A render whose output failed to start ends without render_complete or render_cancel:
+    # another file at least poses again.
+    rendering = False
     solve.forget()
     claims.claim_unclaimed()
 

@@ -33,6 +33,11 @@ class _MeshOperator:
         if obj.mode == "EDIT" and not cls.in_edit_mode:
             cls.poll_message_set("BS-ARAP works in Object Mode: leave Edit Mode first")
             return False
+        # Pose Now or Add Controls mid-bake wrote a pose key and moved the bake's solver to
+        # another start; the bake's panel lets clicks through.
+        if solve.baking(obj):
+            cls.poll_message_set(f"{obj.name}: a bake is under way; wait for it to end (Esc stops it)")
+            return False
         return True
 
 

@@ -383,6 +383,12 @@ def _renamed(failed, name) -> HandleError:
     return HandleError(name + msg[len(old) :])
 
 
+def baking(obj) -> bool:
+    """Whether a bake is solving ``obj``'s frames (its solver is not built for the question)."""
+    st = _states.get(uid(obj))
+    return st is not None and st.baking
+
+
 def forget(obj=None) -> None:
     """Drop the solver and the messages of one object (or everything)."""
     if obj is None:

@@ -843,6 +843,26 @@ class Render(unittest.TestCase):
         h.update_scene(sc)  # the next depsgraph update
         self.assertEqual(st.solves, solves + 1)
         assert_pose_follows(obj)
+        # A render that ends without render_complete or render_cancel (its movie output failed
+        # to start) held posing off for the session: another file poses again.
+        h.on_render_start(sc)
+        h.on_load()
+        self.assertFalse(h.rendering)
+
+    def test_operators_wait_for_a_bake(self):
+        """Pose Now and Add Controls during a bake wrote a pose key and moved the bake's
+        solver; they are refused while it runs."""
+        obj = posed_tube()
+        activate(obj)
+        st = ext.solve.state(obj)
+        self.assertTrue(bpy.ops.bsarap.pose.poll())
+        st.baking = True
+        try:
+            self.assertFalse(bpy.ops.bsarap.pose.poll())
+            self.assertFalse(bpy.ops.bsarap.add_controls.poll())
+        finally:
+            st.baking = False
+        self.assertTrue(bpy.ops.bsarap.pose.poll())
 
 
 if __name__ == "__main__":
