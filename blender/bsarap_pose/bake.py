@@ -26,6 +26,11 @@ def frame_key_name(frame: int) -> str:
     return f"{FRAME_KEY_PREFIX}{frame:04d}"
 
 
+def under_way(obj) -> str:
+    """What refuses another bake, or an operator, while ``obj`` is being baked."""
+    return f"{obj.name}: a bake is under way; wait for it to end (Esc stops it)"
+
+
 class Baker:
     """Solves the frames ``frames`` of ``obj`` one :meth:`step` at a time (for the modal
     operator), warm-starting each frame from the previous one."""
@@ -38,7 +43,7 @@ class Baker:
         if self.st.baking:
             # Two at once: the first to end restored the frame and let live posing go on
             # while the other still solved.
-            raise HandleError(f"{obj.name}: a bake is under way; wait for it to end (Esc stops it)")
+            raise HandleError(under_way(obj))
         self.st.baking = True  # until restore_frame: the live pose's finishing steps wait
         self.poses = []
         self.frame_before = scene.frame_current

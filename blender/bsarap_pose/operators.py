@@ -36,7 +36,7 @@ class _MeshOperator:
         # Pose Now or Add Controls mid-bake wrote a pose key and moved the bake's solver to
         # another start; the bake's panel lets clicks through.
         if solve.baking(obj):
-            cls.poll_message_set(f"{obj.name}: a bake is under way; wait for it to end (Esc stops it)")
+            cls.poll_message_set(bake.under_way(obj))
             return False
         return True
 

@@ -232,7 +232,10 @@ class BakeStops(unittest.TestCase):
         op, ctx, calls = fake_modal_bake(self.obj, Op, range(1, 6))
         self.assertEqual(Op.modal(op, ctx, self.TIMER), {"RUNNING_MODAL"})
         with self.assertRaises(RuntimeError) as cm:
-            bpy.ops.bsarap.bake_shape_keys()
+            bpy.ops.bsarap.bake_shape_keys()  # refused by its poll
+        self.assertIn("a bake is under way", str(cm.exception))
+        with self.assertRaises(ext.handles.HandleError) as cm:
+            ext.bake.Baker(bpy.context.scene, self.obj, range(1, 3))  # and by the baker
         self.assertIn("a bake is under way", str(cm.exception))
         Op.cancel(op, ctx)
         self.assertEqual(calls, ["timer removed", "progress end"])

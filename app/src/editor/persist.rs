@@ -19,7 +19,9 @@
 //!
 //! Editors running at once each hold an autosave slot of their own ([`Persist::claim`]: a
 //! lock on `autosave.lock`, `autosave-2.lock`, …, with `autosave.json` / `autosave-2.json`
-//! beside it), so one never offers, overwrites or removes the autosave of another that runs.
+//! beside it), so one never offers, overwrites or removes the autosave of another that runs;
+//! where the file system has no locks, or past [`AUTOSAVE_SLOTS`] editors, they share the first
+//! slot, as before slots were kept.
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -169,8 +171,8 @@ impl Persist {
         unlocked(dir)
     }
 
-    /// The autosave of every slot ([`Persist::claim`]), this one's among them: none is a file
-    /// to open as a document or to save over.
+    /// The autosave of every slot ([`Persist::claim`]), this one's among them: none is saved
+    /// over (Save As refuses them) or listed as a recent file.
     pub fn every_autosave_path(&self) -> impl Iterator<Item = PathBuf> + '_ {
         (0..AUTOSAVE_SLOTS).map(|slot| Persist { slot, ..self.clone() }.autosave_path())
     }

@@ -423,10 +423,17 @@ fn play_at_an_end_between_milliseconds_plays_from_the_start() {
 
 /// Deleting a group listed before the active one keeps the same group active (the index
 /// stayed, naming the next group: K and the path editor went to it), and so do its undo and
-/// redo; deleting the active group leaves none active.
+/// redo; deleting the active group leaves none active, and so does undoing its adding.
 #[test]
 fn deleting_a_group_keeps_the_active_group() {
     let mut h = start();
+    // A group added (and made active), then undone: none is active, not the last one left.
+    h.get_by_label("Add group").click();
+    h.step();
+    assert_eq!(h.state().active_group(), Some(h.state().edit_state().groups.len() - 1));
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    assert_eq!(h.state().active_group(), None, "undone, another group became active");
     let names: Vec<String> = h.state().edit_state().groups.iter().map(|g| g.name.clone()).collect();
     assert!(names.len() >= 3);
     h.state_mut().set_active_group(Some(1));

@@ -12,7 +12,7 @@ use super::{DialogKind, EditorApp, Shading, Tool, View};
 use crate::editor::pose::group_centroid;
 use crate::editor::pose_solvers;
 use crate::editor::solver_thread::MethodSettings;
-use crate::editor::solver_thread::{ANDERSON_WINDOW, SolverState};
+use crate::editor::solver_thread::{ANDERSON_WINDOW, BaseRead, SolverState};
 use crate::editor::timeline;
 
 /// The energies the method panel offers, in its order.
@@ -423,8 +423,8 @@ impl EditorApp {
         let settings = &self.session.settings;
         let side_by_side = self.display.view == View::Compare;
         let running = [Some(settings.bs_variant), side_by_side.then_some(settings.compare_variant)];
-        let runs = |m: solver::Method| running.contains(&Some(m));
-        if runs(solver::Method::BsArapFaired) || runs(solver::Method::BsArapCoarse) {
+        let reads = running.into_iter().flatten().map(BaseRead::of).max();
+        if reads >= Some(BaseRead::Smoothing) {
             ui.add(
                 method_slider(&mut self.session.settings.base.smoothing, 0.002..=0.2)
                     .logarithmic(true)
@@ -433,7 +433,7 @@ impl EditorApp {
             )
             .on_hover_text("smoothing length of the faired base, as a fraction of the diagonal");
         }
-        if runs(solver::Method::BsArapCoarse) {
+        if reads == Some(BaseRead::All) {
             let vertices = self.session.scene.as_ref().map_or(100_000, |s| s.mesh.n_vertices());
             // The size the solver uses; the manual slider starts from it, within its range.
             let auto = solver::BaseConfig::auto_coarse_vertices(vertices);

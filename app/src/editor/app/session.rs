@@ -593,7 +593,8 @@ impl EditorApp {
         self.forget_axis_request();
         // The active group stays the same group where its name and colour tell it (one group
         // has them, before and after), not the same index: an undone delete shifts the groups
-        // after it.
+        // after it. Where groups came or went and it is not told apart, none stays active (its
+        // index named another group); with as many groups, the index stays (a rename undone).
         let unique = |groups: &[crate::editor::undo::Group], (name, color): &(String, _)| {
             let mut same =
                 groups.iter().enumerate().filter(|(_, g)| g.name == *name && g.color == *color);
@@ -605,9 +606,14 @@ impl EditorApp {
         let active = self.interaction.active_group.and_then(|g| self.session.edit.groups.get(g));
         let active = active.map(|g| (g.name.clone(), g.color));
         let active = active.filter(|a| unique(&self.session.edit.groups, a).is_some());
+        let counted = self.session.edit.groups.len();
         self.session.edit = state;
-        if let Some(k) = active.and_then(|a| unique(&self.session.edit.groups, &a)) {
-            self.interaction.active_group = Some(k);
+        match active.and_then(|a| unique(&self.session.edit.groups, &a)) {
+            Some(k) => self.interaction.active_group = Some(k),
+            None if self.session.edit.groups.len() != counted => {
+                self.interaction.active_group = None
+            }
+            None => {}
         }
         self.session.settings = settings;
         // Kept at another time: a group with a path goes where its path is now (at the same

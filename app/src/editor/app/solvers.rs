@@ -128,8 +128,9 @@ impl EditorApp {
         self.session.edit.groups.iter().map(|g| g.pose).collect()
     }
 
-    /// The handle set or method changed: every solver rebuilds (factorizes) on its thread, but
-    /// for one whose own settings did not change (`worker::Active::serves`).
+    /// The mesh, handle set, loose parts or method changed: every solver rebuilds (factorizes)
+    /// on its thread, but for one that nothing it is built from changed for, and whose last
+    /// solve did not fail (`worker::Active::serves`).
     pub(super) fn send_scene(&mut self) {
         if self.session.scene.is_none() {
             return;

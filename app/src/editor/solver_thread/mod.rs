@@ -28,8 +28,8 @@ use std::time::Duration;
 
 pub use mailbox::Mailbox;
 pub use protocol::{
-    ANDERSON_WINDOW, MethodSettings, NewScene, PoseSolver, PoseSolverFactory, Slot, SolvedFrame,
-    SolverCommand, SolverState, SolverStatus,
+    ANDERSON_WINDOW, BaseRead, MethodSettings, NewScene, PoseSolver, PoseSolverFactory, Slot,
+    SolvedFrame, SolverCommand, SolverState, SolverStatus,
 };
 use worker::{Shared, set_status, supervise};
 

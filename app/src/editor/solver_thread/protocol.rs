@@ -96,12 +96,10 @@ impl MethodSettings {
             Slot::Main => self.bs_variant,
         };
         let (all, default) = (self.base_config(), solver::BaseConfig::default());
-        let base = match method {
-            solver::Method::Arap | solver::Method::BsArap => default,
-            solver::Method::BsArapFaired => {
-                solver::BaseConfig { smoothing: all.smoothing, ..default }
-            }
-            solver::Method::BsArapCoarse => all,
+        let base = match BaseRead::of(method) {
+            BaseRead::Nothing => default,
+            BaseRead::Smoothing => solver::BaseConfig { smoothing: all.smoothing, ..default },
+            BaseRead::All => all,
         };
         (method, self.arap_config(), base)
     }
@@ -136,6 +134,29 @@ impl MethodSettings {
         solver::deform::quality::ReferenceEnergy {
             energy: self.arap.energy,
             bending_length: self.arap.bending_length,
+        }
+    }
+}
+
+/// Which of the base settings a method reads (`solver::DeformerOptions::base`), least first:
+/// what a slot's solver is built from ([`MethodSettings::slot_part`]) and what the method
+/// panel shows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub enum BaseRead {
+    /// ARAP and the paper's BS-ARAP.
+    Nothing,
+    /// The faired variant.
+    Smoothing,
+    /// The coarse variant: every one.
+    All,
+}
+
+impl BaseRead {
+    pub fn of(method: solver::Method) -> BaseRead {
+        match method {
+            solver::Method::Arap | solver::Method::BsArap => BaseRead::Nothing,
+            solver::Method::BsArapFaired => BaseRead::Smoothing,
+            solver::Method::BsArapCoarse => BaseRead::All,
         }
     }
 }

@@ -297,11 +297,12 @@ impl Active {
     /// published at once unless a solve is due anyway.
     fn set_loose_parts(&mut self, generation: u64, parts: &LooseParts) -> Result<(), String> {
         self.pose_generation = self.pose_generation.max(generation);
-        self.failed = true; // until the parts are taken
+        // Failed until the parts are taken; then as before (a failed solve's pose stays one).
+        let failed = std::mem::replace(&mut self.failed, true);
         self.pose_solver.set_loose_parts(&self.frames.mesh, &self.handles, parts)?;
         self.frames.components = Arc::new(self.pose_solver.components());
         self.loose_parts = parts.clone();
-        self.failed = false;
+        self.failed = failed;
         Ok(())
     }
 
