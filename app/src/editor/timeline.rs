@@ -300,6 +300,7 @@ pub fn panel(
             None => {
                 let count = frame_count(&edit.timeline);
                 let button = egui::Button::new(match &count {
+                    Ok(1) => "Record 1 frame".to_string(),
                     Ok(n) => format!("Record {n} frames"),
                     Err(_) => "Record".to_string(),
                 });

@@ -208,6 +208,10 @@ fn a_recording_larger_than_memory_is_refused() {
 fn a_timeline_past_the_frame_limit_is_refused() {
     let mut h = start();
     let mut e = h.state().edit_state().clone();
+    e.timeline.duration = 0.01; // one frame, counted in the singular
+    h.state_mut().set_edit_state(e.clone());
+    h.step();
+    h.get_by_label("Record 1 frame");
     e.timeline.duration = 600.0;
     e.timeline.fps = 240.0;
     h.state_mut().set_edit_state(e);
