@@ -321,8 +321,7 @@ impl EditorApp {
             // Without handles there is nothing a scene could keep; with them, a scene that
             // cannot be written (a mesh name no scene can hold) or stored leaves the last
             // autosave, if any, rather than nothing.
-            let kept = self.autosave_document(&persist).and_then(|doc| persist.keep_autosave(&doc));
-            if let Err(e) = kept {
+            if let Err(e) = self.keep_for_next_time() {
                 eprintln!("editor: could not keep your unsaved changes: {e}");
                 return persist.autosave_path().exists();
             }

@@ -141,7 +141,7 @@ impl EditorApp {
         let settings = self.session.settings;
         for (view, slot) in self.solvers.views.iter_mut().zip([Slot::Main, Slot::Compare]) {
             view.dropped = 0;
-            let method = settings.slot_part(slot).0;
+            let method = settings.method(slot);
             if view.method.replace(method).is_some_and(|m| m != method) {
                 view.history.clear();
             }

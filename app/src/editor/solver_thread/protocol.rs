@@ -80,6 +80,14 @@ impl MethodSettings {
         base
     }
 
+    /// The method `slot` runs.
+    pub fn method(&self, slot: Slot) -> solver::Method {
+        match slot {
+            Slot::Compare => self.compare_variant,
+            Slot::Main => self.bs_variant,
+        }
+    }
+
     /// What the pose solver of `slot` is built from: the slot's method, the ARAP configuration
     /// and the part of the base configuration the method reads (`solver::DeformerOptions::base`:
     /// none for ARAP and the paper's BS-ARAP, the smoothing for the faired variant; the rest
@@ -91,10 +99,7 @@ impl MethodSettings {
         &self,
         slot: Slot,
     ) -> (solver::Method, solver::ArapConfig, solver::BaseConfig) {
-        let method = match slot {
-            Slot::Compare => self.compare_variant,
-            Slot::Main => self.bs_variant,
-        };
+        let method = self.method(slot);
         let (all, default) = (self.base_config(), solver::BaseConfig::default());
         let base = match BaseRead::of(method) {
             BaseRead::Nothing => default,
