@@ -52,7 +52,7 @@ blender_py=tools/blender/.venv/bin/python
 if [ -x "$blender_py" ] && "$blender_py" -c "import bpy" >/dev/null 2>&1; then
   zip=$(ls -t "$ext"/bsarap_pose-*.zip | head -n 1)
   for t in blender/tests/test_bsarap_pose.py blender/tests/test_solving.py blender/tests/test_robustness.py \
-    blender/tests/test_claims.py; do
+    blender/tests/test_claims.py blender/tests/test_edits.py; do
     BSARAP_BLENDER_ZIP=$zip "$blender_py" "$t"
   done
 else

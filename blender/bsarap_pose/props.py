@@ -97,6 +97,9 @@ class BSARAP_MeshClaim(bpy.types.PropertyGroup):
 class BSARAP_ObjectSettings(bpy.types.PropertyGroup):
     groups: CollectionProperty(type=BSARAP_HandleGroup)
     active_group: IntProperty(default=0)
+    # The checksum of the basis (``handles.rest_fingerprint``) the groups' rest matrices are
+    # recorded against: an undo step brings back both (see ``solve.follow_applied_transform``).
+    rest_basis: StringProperty(default="", options={"HIDDEN"})
     live: BoolProperty(
         name="Live",
         description="Solve whenever a control moves or the frame changes",

@@ -8,7 +8,9 @@ overwritten. The state is kept under the object's ``session_uid`` (:func:`uid`) 
 a key (:class:`StateKey`): its topology (counts and a checksum of the faces' connectivity), a
 checksum of its rest coordinates, its handle groups, the settings and the modifiers that block
 posing; a change of any of them rebuilds the solver (with a message) instead of failing, while
-a rename keeps it. A build that failed is not tried again until its key changes (or *Add
+a rename keeps it. Apply Transform and Set Origin change the basis and the object's matrix
+together: the controls' rest matrices follow (:func:`follow_applied_transform`), so the pose
+stays. A build that failed is not tried again until its key changes (or *Add
 Controls*): the depsgraph updates that follow get its message at once. What is kept for an
 object no longer in any scene is dropped (:func:`prune`).
 
@@ -91,6 +93,8 @@ class SolverState:
         self.baking = False  # a bake solves the frames: no live solve, finish_step waits
         # the rest bounding-box diagonal: the unit of the fractions (bending length, smoothing)
         self.diagonal = diagonal(self.cleaned_rest)
+        # the object's matrix at the build and at each update since (follow_applied_transform)
+        self.matrix = None
 
     def on_mesh(self, U: np.ndarray) -> np.ndarray:
         """The solver's pose ``U`` (cleaned vertices) on the mesh's vertices: welded ones
@@ -351,10 +355,19 @@ def state(obj, *, rebuild=True) -> SolverState:
         _failures[k] = (key, e, obj.name)
         raise
     _failures.pop(k, None)
+    new.matrix = np.array(obj.matrix_world, dtype=np.float64)
+    followed = st is not None and follow_applied_transform(obj, st, new)
+    if obj.bsarap.rest_basis != str(key.rest):
+        obj.bsarap.rest_basis = str(key.rest)
     if st is not None:
         if st.key.topology != key.topology:
             change = _topology_change(st.key, key)
             messages[k] = f"{obj.name}: the topology changed ({change}); solver rebuilt"
+        elif followed:
+            messages[k] = (
+                f"{obj.name}: the object's transform went into its mesh (Apply or Set Origin); "
+                "the controls' rests followed, the pose is kept"
+            )
         elif st.key.rest != key.rest:
             messages[k] = f"{obj.name}: the rest mesh (basis) changed; solver rebuilt"
         elif st.key.weights != key.weights:
@@ -363,6 +376,37 @@ def state(obj, *, rebuild=True) -> SolverState:
             messages[k] = f"{obj.name}: settings or groups changed; solver rebuilt"
     _states[k] = new
     return new
+
+
+def follow_applied_transform(obj, old: SolverState, new: SolverState) -> bool:
+    """Apply Transform (Ctrl+A) and Set Origin move the mesh's vertices by an affine map ``A``
+    (``p' = A p``) and the object the other way (``O' = O A^-1``): nothing moves in the world,
+    but the object's space, in which the controls' rest matrices are recorded, changed under
+    them, and the pose would jump (targets at ``A D A p`` for a scale). Where the object's matrix
+    since the last update (``old.matrix``) and the new basis agree on one such ``A =
+    O'^-1 O``, every vertex of the old basis mapped by it onto the new one within float32
+    rounding, the rest matrices are mapped too (``R' = A R``) and the pose stays. An edit of the
+    basis alone, the object where it was, keeps them (``A = I``); so do rests recorded against
+    another basis than ``old``'s (an undo step brought back its own: ``rest_basis``). Returns
+    whether they were mapped. With Live off the object's matrix is known from the last Pose
+    Now: moved since and then applied, the rests stay as they were."""
+    s = obj.bsarap
+    if old.matrix is None or old.key.topology != new.key.topology or s.rest_basis != str(old.key.rest):
+        return False
+    try:
+        A = np.linalg.inv(new.matrix) @ old.matrix
+    except np.linalg.LinAlgError:
+        return False
+    if not np.isfinite(A).all() or np.allclose(A, np.eye(4), rtol=0.0, atol=1e-9):
+        return False
+    mapped = old.rest @ A[:3, :3].T + A[:3, 3]
+    scale = max(float(np.abs(new.rest).max(initial=0.0)), float(np.abs(mapped).max(initial=0.0)), 1e-12)
+    if float(np.abs(mapped - new.rest).max(initial=0.0)) > 1e-5 * scale:
+        return False
+    for g in s.groups:
+        R = np.array(g.rest_matrix, dtype=np.float64).reshape(4, 4)
+        g.rest_matrix = [float(x) for x in (A @ R).ravel()]
+    return True
 
 
 def _topology_change(old: StateKey, new: StateKey) -> str:
@@ -623,6 +667,7 @@ def update(obj, *, force=False) -> bool:
     t0 = time.perf_counter()
     check_controls(obj)  # before building: no solver for a copy that cannot use the controls
     st = state(obj)
+    st.matrix = np.array(obj.matrix_world, dtype=np.float64)
     if st.baking and not force:
         return False
     deltas = control_deltas(obj, checked=True)

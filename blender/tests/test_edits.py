@@ -1,0 +1,115 @@
+"""Tests of the Blender extension in bpy, headless: edits of a posed object that must keep its
+pose, its transform applied to its mesh (Apply, Set Origin) and undone.
+
+Run with Blender's Python (bpy from PyPI):
+    tools/blender/.venv/bin/python blender/tests/test_edits.py [-v] [Class.test_name]
+The extension zip is found as common.py says. Skips (with the reason) when bpy or the zip is
+missing.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import unittest
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from common import (  # noqa: E402  (sets BLENDER_USER_RESOURCES before bpy)
+    SKIP, activate, assert_pose_follows, bpy, ext, key_co, np, pose_of, posed_tube, setUpModule
+)
+
+
+def world_pose(obj):
+    """The live pose's vertices in world space."""
+    M = np.array(obj.matrix_world, dtype=np.float64)
+    return pose_of(obj) @ M[:3, :3].T + M[:3, 3]
+
+
+def rests(obj):
+    return [tuple(g.rest_matrix) for g in obj.bsarap.groups]
+
+
+class AppliedTransform(unittest.TestCase):
+    """The object's transform put into its mesh (Ctrl+A, Set Origin) moves nothing in the world:
+    the controls' rests follow, so the pose stays where it was."""
+
+    def setUp(self):
+        self.obj = posed_tube(top_x=0.8)
+        obj = self.obj
+        # converged solves: the pose rebuilt from scratch is the same minimum
+        obj.bsarap.method, obj.bsarap.tol, obj.bsarap.max_iters = "arap", 1e-9, 3000
+        obj.rotation_euler = (0.3, 0.0, 0.2)
+        obj.scale = (2.0, 2.0, 2.0)
+        bpy.context.view_layer.update()
+        self.handles = np.nonzero(ext.solve.state(obj).labels >= 0)[0]
+        self.before = world_pose(obj)
+        self.diag = ext.solve.state(obj).diagonal * 2.0
+
+    def assert_pose_kept(self):
+        obj = self.obj
+        after = world_pose(obj)
+        # the handles are where they were (the controls did not move), the rest of the mesh
+        # solved again to about the same pose
+        np.testing.assert_allclose(after[self.handles], self.before[self.handles], atol=1e-4 * self.diag)
+        self.assertLess(np.abs(after - self.before).max(), 1e-3 * self.diag)
+        assert_pose_follows(obj)
+
+    def apply(self, **what):
+        activate(self.obj)
+        self.assertEqual(bpy.ops.object.transform_apply(**what), {"FINISHED"})
+        bpy.context.view_layer.update()
+
+    def test_apply_scale(self):
+        self.apply(location=False, rotation=False, scale=True)
+        self.assertEqual(tuple(self.obj.scale), (1.0, 1.0, 1.0))
+        self.assert_pose_kept()
+        self.assertIn("Apply or Set Origin", ext.solve.message(self.obj))
+
+    def test_apply_all(self):
+        self.apply(location=True, rotation=True, scale=True)
+        self.assert_pose_kept()
+
+    def test_set_origin(self):
+        activate(self.obj)
+        self.assertEqual(bpy.ops.object.origin_set(type="ORIGIN_GEOMETRY", center="BOUNDS"), {"FINISHED"})
+        bpy.context.view_layer.update()
+        self.assertGreater(np.linalg.norm(self.obj.location - bpy.context.scene.cursor.location), 0.5)
+        self.assert_pose_kept()
+
+    def test_undo_and_redo(self):
+        """Undo brings back the rests recorded against the basis it brings back: they are not
+        mapped again. Redo brings back the applied basis with the rests of before, mapped then."""
+        obj = self.obj
+        bpy.ops.ed.undo_push(message="posed")
+        self.apply(location=False, rotation=False, scale=True)
+        bpy.ops.ed.undo_push(message="applied")
+        bpy.ops.ed.undo()
+        bpy.context.view_layer.update()
+        obj = self.obj = bpy.data.objects["tube"]
+        self.assertEqual(tuple(obj.scale), (2.0, 2.0, 2.0))
+        self.assert_pose_kept()
+        bpy.ops.ed.redo()
+        bpy.context.view_layer.update()
+        obj = self.obj = bpy.data.objects["tube"]
+        self.assertEqual(tuple(obj.scale), (1.0, 1.0, 1.0))
+        self.assert_pose_kept()
+
+    def test_basis_edit_keeps_the_rests(self):
+        """The basis scaled in place, the object where it was: a shape edit, not a transform
+        applied; the rests stay."""
+        obj = self.obj
+        kept = rests(obj)
+        basis = obj.data.shape_keys.reference_key
+        co = key_co(basis) * 1.5
+        basis.points.foreach_set("co", co.astype(np.float32).ravel())
+        obj.data.update()
+        bpy.context.view_layer.update()
+        self.assertIn("rest mesh (basis) changed", ext.solve.message(obj))
+        self.assertEqual(rests(obj), kept)
+
+
+if __name__ == "__main__":
+    if SKIP:
+        print(f"SKIPPED: {SKIP}")
+        sys.exit(0)
+    unittest.main()
