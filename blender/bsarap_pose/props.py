@@ -72,6 +72,9 @@ class BSARAP_HandleGroup(bpy.types.PropertyGroup):
     # The control's matrix relative to the mesh object when controls were added (row-major):
     # the pose is the control's motion from there.
     rest_matrix: FloatVectorProperty(size=16, default=IDENTITY, options={"HIDDEN"})
+    # The vertex group's index when last seen (-1: never): a rename is followed by it
+    # (``solve.follow_renamed_groups``).
+    vertex_group: IntProperty(default=-1, options={"HIDDEN"})
 
 
 class BSARAP_CacheClaim(bpy.types.PropertyGroup):
@@ -100,6 +103,8 @@ class BSARAP_ObjectSettings(bpy.types.PropertyGroup):
     # The checksum of the basis (``handles.rest_fingerprint``) the groups' rest matrices are
     # recorded against: an undo step brings back both (see ``solve.follow_applied_transform``).
     rest_basis: StringProperty(default="", options={"HIDDEN"})
+    # How many vertex groups the object had when the handle groups' indices were noted.
+    vertex_groups: IntProperty(default=-1, options={"HIDDEN"})
     live: BoolProperty(
         name="Live",
         description="Solve whenever a control moves or the frame changes",

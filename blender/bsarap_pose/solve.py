@@ -8,11 +8,12 @@ overwritten. The state is kept under the object's ``session_uid`` (:func:`uid`) 
 a key (:class:`StateKey`): its topology (counts and a checksum of the faces' connectivity), a
 checksum of its rest coordinates, its handle groups, the settings and the modifiers that block
 posing; a change of any of them rebuilds the solver (with a message) instead of failing, while
-a rename keeps it. Apply Transform and Set Origin change the basis and the object's matrix
-together: the controls' rest matrices follow (:func:`follow_applied_transform`), so the pose
-stays. A build that failed is not tried again until its key changes (or *Add
-Controls*): the depsgraph updates that follow get its message at once. What is kept for an
-object no longer in any scene is dropped (:func:`prune`).
+a rename keeps it: the object's, or a handle group's vertex group's, which the handle group
+follows (:func:`follow_renamed_groups`). Apply Transform and Set Origin change the basis and
+the object's matrix together: the controls' rest matrices follow
+(:func:`follow_applied_transform`), so the pose stays. A build that failed is not tried again
+until its key changes (or *Add Controls*): the depsgraph updates that follow get its message at
+once. What is kept for an object no longer in any scene is dropped (:func:`prune`).
 
 Each control Empty poses one object, and so does each mesh: the first object posed claims them,
 and another that uses them is refused with a message (:func:`check_controls`; the claims
@@ -286,7 +287,8 @@ class StateKey(NamedTuple):
     #: the basis edited (its vertices moved): the rest shape changed
     rest: int
     groups: tuple
-    #: a handle group's vertex group deleted or renamed: rebuild (and say so)
+    #: a handle group's vertex group deleted: rebuild (and say so); a rename is followed first
+    #: (:func:`follow_renamed_groups`)
     groups_exist: tuple
     settings: tuple
     #: the modifiers that block posing (added after the controls: refused until they go)
@@ -336,12 +338,23 @@ def state(obj, *, rebuild=True) -> SolverState:
     the built solver's key after a failed build (a blocking modifier removed again), the
     failure's message goes."""
     k = uid(obj)
+    renamed = follow_renamed_groups(obj)
     key = state_key(obj)
     st = _states.get(k)
+    if renamed and st is not None:
+        # the solver's groups are the same vertex groups under new names: kept
+        names = dict(renamed)
+        same = st.key._replace(
+            groups=tuple(names.get(n, n) for n in st.key.groups), groups_exist=key.groups_exist
+        )
+        if same == key:
+            st.key, st.group_names = key, list(key.groups)
+            _drop_failure(k, obj)
+        said = ", ".join(f"'{a}' to '{b}'" for a, b in renamed)
+        messages[k] = f"{obj.name}: vertex group renamed ({said}): its handle group follows"
     if st is not None and st.key == key:
-        failed = _failures.pop(k, None)
-        if failed is not None:
-            _drop_message(k, str(failed[1]), str(_renamed(failed, obj.name)))
+        _drop_failure(k, obj)
+        note_vertex_groups(obj)
         return st
     if not rebuild:
         raise HandleError(f"{obj.name}: the solver is not built")
@@ -355,6 +368,7 @@ def state(obj, *, rebuild=True) -> SolverState:
         _failures[k] = (key, e, obj.name)
         raise
     _failures.pop(k, None)
+    note_vertex_groups(obj)
     new.matrix = np.array(obj.matrix_world, dtype=np.float64)
     followed = st is not None and follow_applied_transform(obj, st, new)
     if obj.bsarap.rest_basis != str(key.rest):
@@ -376,6 +390,49 @@ def state(obj, *, rebuild=True) -> SolverState:
             messages[k] = f"{obj.name}: settings or groups changed; solver rebuilt"
     _states[k] = new
     return new
+
+
+def _drop_failure(k, obj) -> None:
+    """Back at the built solver's key: a failed build's message goes."""
+    failed = _failures.pop(k, None)
+    if failed is not None:
+        _drop_message(k, str(failed[1]), str(_renamed(failed, obj.name)))
+
+
+def note_vertex_groups(obj) -> None:
+    """Note each handle group's vertex group index and the number of vertex groups, for
+    :func:`follow_renamed_groups` (written only when they changed: a write is an update)."""
+    s = obj.bsarap
+    for g in s.groups:
+        vg = obj.vertex_groups.get(g.name)
+        if vg is not None and g.vertex_group != vg.index:
+            g.vertex_group = vg.index
+    if s.vertex_groups != len(obj.vertex_groups):
+        s.vertex_groups = len(obj.vertex_groups)
+
+
+def follow_renamed_groups(obj) -> list:
+    """A vertex group renamed in Blender (nothing tells of it) leaves its handle group naming a
+    group that is gone. Where there are as many vertex groups as when they were last noted
+    (:func:`note_vertex_groups`; a deletion shifts the indices) and the one at the handle group's
+    noted index is named by no handle group, it is that vertex group renamed: the handle group
+    takes its name. Returns the ``(old, new)`` names followed."""
+    s = obj.bsarap
+    vgs = obj.vertex_groups
+    if s.vertex_groups != len(vgs):
+        return []
+    names = {g.name for g in s.groups}
+    out = []
+    for g in s.groups:
+        if vgs.get(g.name) is not None or not 0 <= g.vertex_group < len(vgs):
+            continue
+        new = vgs[g.vertex_group].name
+        if new in names:
+            continue
+        out.append((g.name, new))
+        names.add(new)
+        g.name = new
+    return out
 
 
 def follow_applied_transform(obj, old: SolverState, new: SolverState) -> bool:

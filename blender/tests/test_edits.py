@@ -1,5 +1,6 @@
 """Tests of the Blender extension in bpy, headless: edits of a posed object that must keep its
-pose, its transform applied to its mesh (Apply, Set Origin) and undone.
+pose, its transform applied to its mesh (Apply, Set Origin) and undone, a handle group's vertex
+group renamed.
 
 Run with Blender's Python (bpy from PyPI):
     tools/blender/.venv/bin/python blender/tests/test_edits.py [-v] [Class.test_name]
@@ -106,6 +107,61 @@ class AppliedTransform(unittest.TestCase):
         bpy.context.view_layer.update()
         self.assertIn("rest mesh (basis) changed", ext.solve.message(obj))
         self.assertEqual(rests(obj), kept)
+
+
+class RenamedGroup(unittest.TestCase):
+    """A handle group's vertex group renamed: the handle group follows it, with its solver."""
+
+    def setUp(self):
+        self.obj = posed_tube(top_x=0.5)
+
+    def move_top(self):
+        bpy.data.objects["top"].location.x += 0.3
+        bpy.context.view_layer.update()
+
+    def test_rename_followed(self):
+        obj = self.obj
+        st = ext.solve.state(obj)
+        obj.vertex_groups["top"].name = "head"
+        self.move_top()
+        self.assertEqual([g.name for g in obj.bsarap.groups], ["bottom", "head"])
+        self.assertIs(ext.solve.state(obj), st)  # the same vertices: not built again
+        self.assertIn("'top' to 'head'", ext.solve.message(obj))
+        assert_pose_follows(obj)
+
+    def test_rename_with_live_off(self):
+        obj = self.obj
+        obj.bsarap.live = False
+        obj.vertex_groups["bottom"].name = "feet"
+        self.move_top()
+        self.assertEqual(obj.bsarap.groups[0].name, "bottom")  # nothing read it yet
+        activate(obj)
+        self.assertEqual(bpy.ops.bsarap.pose(), {"FINISHED"})
+        self.assertEqual(obj.bsarap.groups[0].name, "feet")
+        assert_pose_follows(obj)
+
+    def test_deleted_group_not_taken_for_a_rename(self):
+        """A vertex group added after the controls shifts into the deleted one's index: the
+        count tells a deletion from a rename."""
+        obj = self.obj
+        obj.vertex_groups.new(name="extra")
+        self.move_top()  # noted: three vertex groups
+        obj.vertex_groups.remove(obj.vertex_groups["top"])
+        self.move_top()
+        self.assertEqual(obj.vertex_groups[1].name, "extra")
+        self.assertEqual(obj.bsarap.groups[1].name, "top")
+        self.assertIn("'top' does not exist", ext.solve.message(obj))
+
+    def test_name_taken_by_another_handle_group_not_followed(self):
+        obj = self.obj
+        obj.vertex_groups.new(name="spare")
+        self.move_top()
+        # top renamed, then bottom given top's old name: "top" exists, "bottom" does not
+        obj.vertex_groups["top"].name = "head"
+        obj.vertex_groups["bottom"].name = "top"
+        self.move_top()
+        self.assertEqual([g.name for g in obj.bsarap.groups], ["bottom", "top"])
+        self.assertIn("'bottom' does not exist", ext.solve.message(obj))
 
 
 if __name__ == "__main__":
