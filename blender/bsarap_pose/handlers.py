@@ -16,7 +16,8 @@ update.
 
 Undo and redo bring back an undo step's pose keys, maybe a pose that had not settled: each
 solver's last motion is forgotten (``solve.undone``), so the update that follows solves the pose
-again and the timer settles it; the panel never calls the undone pose at rest.
+again and the timer settles it; the panel never calls the undone pose at rest. The undone step's
+vertex weights are read again (a paint undone in Object Mode).
 
 Each update first drops what is kept for objects deleted since (``solve.prune``): when the objects
 in the scenes changed, by their session uids (an object deleted and another added in one update
@@ -192,7 +193,7 @@ def on_load(_filepath=None, _unused=None):
 def on_undo(_scene=None, _unused=None):
     """Undo or redo: the pose keys are the undo step's, perhaps short of the rest the solvers
     reached since (``solve.undone``); the depsgraph update that follows solves them again."""
-    solve.undone()
+    solve.undone(o for o in bpy.data.objects if o.type == "MESH" and len(o.bsarap.groups))
 
 
 @persistent

@@ -556,15 +556,21 @@ def editing(obj) -> bool:
     return False
 
 
-def undone() -> None:
+def undone(objects) -> None:
     """Blender's undo or redo brought back an undo step's data, the pose keys as they were then:
     maybe a pose short of rest (the finishing steps push no undo step), while each solver still
     holds where its pose ended since, "rest" perhaps, for controls back where they were. Forget
     every solver's last motion, as on leaving Edit Mode (:func:`editing`): the panel claims no
     state of the undone pose, and the next update (the undo's own) solves it again, and the
-    finishing steps settle it."""
+    finishing steps settle it. The step's vertex weights may be others than the solver's (a
+    paint undone in Object Mode): those of ``objects`` with a solver, built or failed, are read
+    again (:func:`weights_edited`; a pass over the vertices in Python per posed object)."""
     for st in _states.values():
         st.last_deltas = None
+    for obj in objects:
+        k = uid(obj)
+        if (k in _states or k in _failures) and obj.mode not in WEIGHT_MODES:
+            weights_edited(obj)
 
 
 def weights_edited(obj) -> None:

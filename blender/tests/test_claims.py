@@ -620,6 +620,18 @@ class WeightEdits(unittest.TestCase):
         self.assertIsNot(ext.solve.built(self.obj), before)
         self.assertTrue((ext.solve.built(self.obj).labels[self.ring] == 1).all())
 
+    def test_undone_paint_read_again(self):
+        """Painted, back in Object Mode, then Ctrl+Z past the paint: the undo step's weights."""
+        bpy.ops.ed.undo_push(message="posed")
+        self.edit("WEIGHT_PAINT", {1.0: self.ring})
+        self.assertTrue((ext.solve.built(self.obj).labels[self.ring] == 1).all())
+        bpy.ops.ed.undo_push(message="painted")
+        bpy.ops.ed.undo()
+        bpy.context.view_layer.update()
+        obj = bpy.data.objects["tube"]
+        self.assertTrue((ext.solve.built(obj).labels[self.ring] == -1).all())
+        assert_pose_follows(obj)
+
     def test_failed_build_tried_again(self):
         top = [v.index for v in self.obj.data.vertices if any(g.group == self.top.index for g in v.groups)]
         self.edit("WEIGHT_PAINT", {0.3: top})
