@@ -38,6 +38,7 @@ class Baker:
     def __init__(self, scene, obj, frames):
         self.scene, self.obj, self.frames = scene, obj, list(frames)
         self.name = obj.name
+        self.uid = solve.uid(obj)  # an undo replaces obj's Python object, not its session uid
         solve.check_controls(obj)  # a copy's controls pose its original: no bake
         self.st = solve.state(obj)
         if self.st.baking:
@@ -91,6 +92,7 @@ class Baker:
         finally:
             handlers.suspended = False
             self.st.baking = False
+            solve.bake_ended(self.uid)
 
 
 def _fcurves(keys):

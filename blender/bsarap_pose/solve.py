@@ -370,6 +370,9 @@ def state(obj, *, rebuild=True) -> SolverState:
     _failures.pop(k, None)
     note_vertex_groups(obj)
     new.matrix = np.array(obj.matrix_world, dtype=np.float64)
+    # a setting changed while a bake solves the frames with the old solver: the new one waits
+    # for the bake too (its end clears the object's current state, bake.Baker.restore_frame)
+    new.baking = st is not None and st.baking
     followed = st is not None and follow_applied_transform(obj, st, new)
     if obj.bsarap.rest_basis != str(key.rest):
         obj.bsarap.rest_basis = str(key.rest)
@@ -488,6 +491,14 @@ def baking(obj) -> bool:
     """Whether a bake is solving ``obj``'s frames (its solver is not built for the question)."""
     st = _states.get(uid(obj))
     return st is not None and st.baking
+
+
+def bake_ended(k) -> None:
+    """The bake of the object under session uid ``k`` ended: its solver, also one rebuilt while
+    the bake ran (a setting changed, an undo), poses live again."""
+    st = _states.get(k)
+    if st is not None:
+        st.baking = False
 
 
 def forget(obj=None) -> None:

@@ -1,6 +1,6 @@
 """Tests of the Blender extension in bpy, headless: edits of a posed object that must keep its
 pose, its transform applied to its mesh (Apply, Set Origin) and undone, a handle group's vertex
-group renamed.
+group renamed, a solver setting changed while a bake runs.
 
 Run with Blender's Python (bpy from PyPI):
     tools/blender/.venv/bin/python blender/tests/test_edits.py [-v] [Class.test_name]
@@ -12,11 +12,13 @@ from __future__ import annotations
 
 import os
 import sys
+import types
 import unittest
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from common import (  # noqa: E402  (sets BLENDER_USER_RESOURCES before bpy)
-    SKIP, activate, assert_pose_follows, bpy, ext, key_co, np, pose_of, posed_tube, setUpModule
+    SKIP, activate, assert_pose_follows, bpy, ext, fake_modal_bake, key_co, np, pose_of, posed_tube,
+    setUpModule
 )
 
 
@@ -162,6 +164,30 @@ class RenamedGroup(unittest.TestCase):
         self.move_top()
         self.assertEqual([g.name for g in obj.bsarap.groups], ["bottom", "top"])
         self.assertIn("'bottom' does not exist", ext.solve.message(obj))
+
+
+class SettingChangedWhileBaking(unittest.TestCase):
+    """A solver setting changed while a bake runs rebuilds the live solver, which waits for the
+    bake as the old one did: no live solve writes the pose key between the bake's frames."""
+
+    def test_rebuilt_solver_waits(self):
+        obj = posed_tube(top_x=0.5)
+        Op = ext.operators.BSARAP_OT_bake_shape_keys
+        op, ctx, _calls = fake_modal_bake(obj, Op, range(1, 4))
+        timer = types.SimpleNamespace(type="TIMER")
+        self.assertEqual(Op.modal(op, ctx, timer), {"RUNNING_MODAL"})
+        obj.bsarap.max_iters = 50
+        bpy.data.objects["top"].location.x += 0.3
+        bpy.context.view_layer.update()
+        st = ext.solve.built(obj)
+        self.assertIsNot(st, op._baker.st)  # rebuilt for the new setting
+        self.assertTrue(ext.solve.baking(obj))
+        self.assertEqual(st.solves, 0)  # no live solve mid-bake
+        result = {"RUNNING_MODAL"}
+        while result == {"RUNNING_MODAL"}:
+            result = Op.modal(op, ctx, timer)
+        self.assertEqual(result, {"FINISHED"})
+        self.assertFalse(ext.solve.baking(obj))
 
 
 if __name__ == "__main__":
