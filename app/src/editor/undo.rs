@@ -159,12 +159,14 @@ fn new_group(k: usize) -> Group {
 const MAX_HISTORY: usize = 200;
 
 /// What an undo or redo brings back: the editable state and the method settings, with the
-/// playback time they were kept at.
+/// playback time they were kept at and the group then active (the editor's choice, which an
+/// undone delete or add would otherwise leave naming another group).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Kept {
     pub edit: EditState,
     pub settings: MethodSettings,
     pub time: f64,
+    pub active: Option<usize>,
 }
 
 /// Undo and redo stacks of whole states (the edit state and the method settings), each with
@@ -176,6 +178,8 @@ pub struct History {
     redo: Vec<Kept>,
     /// The playback time now, kept with what is pushed.
     time: f64,
+    /// The active group now, kept with what is pushed ([`Self::set_active`]).
+    active: Option<usize>,
     /// Changes with every push, undo, redo and clear: a gesture that pushed one step and goes
     /// on tells by it whether that step is still the last one.
     generation: u64,
@@ -209,7 +213,7 @@ impl History {
         if self.undo.last().is_some_and(|k| k.edit == before && k.settings == settings) {
             return None;
         }
-        self.undo.push(Kept { edit: before, settings, time });
+        self.undo.push(Kept { edit: before, settings, time, active: self.active });
         let evicted = (self.undo.len() > MAX_HISTORY).then(|| self.undo.remove(0));
         self.generation += 1;
         Some((std::mem::take(&mut self.redo), evicted))
@@ -252,7 +256,7 @@ impl History {
     pub fn undo(&mut self, edit: &EditState, settings: MethodSettings) -> Option<Kept> {
         let prev = self.undo.pop()?;
         self.taken = None;
-        self.redo.push(Kept { edit: edit.clone(), settings, time: self.time });
+        self.redo.push(Kept { edit: edit.clone(), settings, time: self.time, active: self.active });
         self.generation += 1;
         Some(prev)
     }
@@ -260,7 +264,7 @@ impl History {
     pub fn redo(&mut self, edit: &EditState, settings: MethodSettings) -> Option<Kept> {
         let next = self.redo.pop()?;
         self.taken = None;
-        self.undo.push(Kept { edit: edit.clone(), settings, time: self.time });
+        self.undo.push(Kept { edit: edit.clone(), settings, time: self.time, active: self.active });
         self.generation += 1;
         Some(next)
     }
@@ -275,6 +279,12 @@ impl History {
     /// The playback time moved to `t`.
     pub fn set_time(&mut self, t: f64) {
         self.time = t;
+    }
+
+    /// The active group is `group`: the editor says so before an edit can push (each frame,
+    /// and when an undo or redo changed it), and [`Self::push`], undo and redo keep it.
+    pub fn set_active(&mut self, group: Option<usize>) {
+        self.active = group;
     }
 
     /// The playback time now, as [`Self::push`] keeps it.
@@ -356,6 +366,22 @@ mod tests {
         assert_eq!((redone.edit, redone.time), (s, 0.0), "kept at time 0");
         let again = h.undo(&undone, MethodSettings::default()).unwrap();
         assert_eq!(again.time, 0.5, "kept again at 0.5 by the redo");
+    }
+
+    /// Each step keeps the group active when it was kept: the push the one before the edit,
+    /// the undo the one after it (for the redo).
+    #[test]
+    fn steps_keep_the_active_group() {
+        let mut s = EditState::from_labels(vec![Some(0), Some(1), Some(2)]);
+        let mut h = History::default();
+        h.set_active(Some(2));
+        h.push(s.clone(), MethodSettings::default());
+        s.delete_group(0);
+        h.set_active(Some(1)); // the same group, one place down
+        let undone = h.undo(&s, MethodSettings::default()).unwrap();
+        assert_eq!(undone.active, Some(2));
+        h.set_active(undone.active);
+        assert_eq!(h.redo(&undone.edit, MethodSettings::default()).unwrap().active, Some(1));
     }
 
     /// A gesture pushed when it ends keeps the time it started at, not the time it ended at.

@@ -427,17 +427,21 @@ fn play_at_an_end_between_milliseconds_plays_from_the_start() {
 
 /// Deleting a group listed before the active one keeps the same group active (the index
 /// stayed, naming the next group: K and the path editor went to it), and so do its undo and
-/// redo; deleting the active group leaves none active, and so does undoing its adding.
+/// redo (each step keeps the group active then); deleting the active group leaves none
+/// active, and its undo makes it active again; undoing a group's adding makes the group active
+/// before it active again.
 #[test]
 fn deleting_a_group_keeps_the_active_group() {
     let mut h = start();
-    // A group added (and made active), then undone: none is active, not the last one left.
+    let before = h.state().active_group();
+    assert!(before.is_some());
+    // A group added (and made active), then undone: the one active before is again.
     h.get_by_label("Add group").click();
     h.step();
     assert_eq!(h.state().active_group(), Some(h.state().edit_state().groups.len() - 1));
     h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
     h.step();
-    assert_eq!(h.state().active_group(), None, "undone, another group became active");
+    assert_eq!(h.state().active_group(), before, "undone, another group became active");
     let names: Vec<String> = h.state().edit_state().groups.iter().map(|g| g.name.clone()).collect();
     assert!(names.len() >= 3);
     h.state_mut().set_active_group(Some(1));
@@ -460,6 +464,10 @@ fn deleting_a_group_keeps_the_active_group() {
     h.get_all_by_label("Delete").nth(k).unwrap().click();
     h.step();
     assert_eq!(h.state().active_group(), None, "a group still active after its delete");
+    // Its delete undone, it is active again.
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    assert_eq!(name(&h), Some(names[1].clone()), "the undone delete's group is not active");
 }
 
 /// A move begun while the timeline plays pauses it: the paths set the group's pose under the

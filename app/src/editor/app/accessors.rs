@@ -109,6 +109,7 @@ impl EditorApp {
 
     pub fn set_active_group(&mut self, group: Option<usize>) {
         self.interaction.active_group = group;
+        self.session.history.set_active(group);
     }
 
     /// Bounding-box diagonal of the open mesh (0 without one).
@@ -222,7 +223,8 @@ impl EditorApp {
     pub fn set_edit_state(&mut self, state: EditState) {
         self.session.push_undo(self.session.edit.clone());
         let (settings, time) = (self.session.settings, self.session.playback.time);
-        self.apply_history(Some(Kept { edit: state, settings, time }));
+        let active = self.interaction.active_group;
+        self.apply_history(Some(Kept { edit: state, settings, time, active }));
     }
 
     pub fn playback_time(&self) -> f64 {

@@ -566,6 +566,8 @@ impl eframe::App for EditorApp {
             (i.pointer.button_pressed(egui::PointerButton::Primary), i.pointer.primary_down())
         });
         self.session.press_step.frame(pressed, down);
+        // what an edit in this frame keeps as active with its undo step
+        self.session.history.set_active(self.interaction.active_group);
         self.confirm_modal_on_press(&ctx);
 
         self.poll_loader();

@@ -585,44 +585,22 @@ impl EditorApp {
 
     /// Brings back a state kept in the history at playback time `kept` (undo, redo, scripts).
     pub(super) fn apply_history(&mut self, kept: Option<Kept>) {
-        let Some(Kept { edit: state, settings, time: kept }) = kept else { return };
+        let Some(Kept { edit: state, settings, time: kept, active }) = kept else { return };
         let labels_changed = state.labels != self.session.edit.labels || self.rig_differs(&state);
         let settings_changed = settings != self.session.settings;
         let parts_changed = state.loose_parts != self.session.edit.loose_parts;
         self.end_gestures();
         self.forget_axis_request();
-        // The active group stays the same group where its name and colour tell it (one group
-        // has them, before and after), not the same index: an undone delete shifts the groups
-        // after it. Where groups came or went and it is not told apart, none stays active (its
-        // index named another group); with as many groups, the index stays (a rename undone).
-        let unique = |groups: &[crate::editor::undo::Group], (name, color): &(String, _)| {
-            let mut same =
-                groups.iter().enumerate().filter(|(_, g)| g.name == *name && g.color == *color);
-            match (same.next(), same.next()) {
-                (Some((k, _)), None) => Some(k),
-                _ => None,
-            }
-        };
-        let active = self.interaction.active_group.and_then(|g| self.session.edit.groups.get(g));
-        let active = active.map(|g| (g.name.clone(), g.color));
-        let active = active.filter(|a| unique(&self.session.edit.groups, a).is_some());
-        let counted = self.session.edit.groups.len();
         self.session.edit = state;
-        match active.and_then(|a| unique(&self.session.edit.groups, &a)) {
-            Some(k) => self.interaction.active_group = Some(k),
-            None if self.session.edit.groups.len() != counted => {
-                self.interaction.active_group = None
-            }
-            None => {}
-        }
+        // The group active when the state was kept: an undone delete shifts the groups after
+        // it, so the index now would name another group.
+        self.interaction.active_group = active.filter(|&g| g < self.session.edit.groups.len());
+        self.session.history.set_active(self.interaction.active_group);
         self.session.settings = settings;
         // Kept at another time: a group with a path goes where its path is now (at the same
         // time its pose stays, as unkeyed posing left it).
         if kept != self.session.playback.time {
             apply_paths(&mut self.session.edit, self.session.playback.time);
-        }
-        if self.interaction.active_group.is_some_and(|g| g >= self.session.edit.groups.len()) {
-            self.interaction.active_group = self.session.edit.groups.len().checked_sub(1);
         }
         self.display.color_version += 1;
         if labels_changed || settings_changed {
