@@ -42,10 +42,11 @@ pub struct DeformArgs {
     /// With a scene: the time on its timeline in seconds (default: the time it was saved at).
     #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
     pub time: Option<f64>,
-    /// Translate group G by (dx,dy,dz); repeat once per group.
+    /// Translate group G by (dx,dy,dz); repeatable (one group's moves add up).
     #[arg(long = "move", value_name = "G:DX,DY,DZ", allow_hyphen_values = true)]
     pub moves: Vec<String>,
-    /// Rotate group G about its centroid by DEG degrees about axis (ax,ay,az); repeatable.
+    /// Rotate group G about its centroid by DEG degrees about axis (ax,ay,az); repeatable (one
+    /// group's rotations compose in order), |DEG| ≤ 1e6.
     #[arg(long = "rotate", value_name = "G:AX,AY,AZ,DEG", allow_hyphen_values = true)]
     pub rotates: Vec<String>,
     #[arg(long, value_enum, default_value = "bsarap-coarse")]
@@ -100,6 +101,9 @@ fn parse_group_values(s: &str, n: usize, flag: &str) -> anyhow::Result<(usize, V
     Ok((g, v))
 }
 
+/// `--rotate`'s largest angle in degrees.
+const MAX_DEGREES: f64 = 1e6;
+
 /// Per-group transforms from `--move` and `--rotate` (rotation first, about the centroid).
 pub fn parse_transforms(
     moves: &[String],
@@ -129,6 +133,10 @@ pub fn parse_transforms(
         let (g, v) = parse_group_values(r, 4, "--rotate")?;
         if v[0] == 0.0 && v[1] == 0.0 && v[2] == 0.0 {
             bail!("--rotate {r}: the axis must not be zero");
+        }
+        // past it the angle's digits below a turn are lost: a rotation nobody asked for
+        if v[3].abs() > MAX_DEGREES {
+            bail!("--rotate {r}: the angle must be within ±{MAX_DEGREES:e} degrees");
         }
         let i = entry(g, &mut out);
         // scaled first: a tiny or huge axis would underflow or overflow in the normalization
@@ -314,6 +322,9 @@ fn pose_mesh(a: &DeformArgs) -> anyhow::Result<Posed> {
     let t1 = Instant::now();
     let stats = deformer.solve_groups(&transforms)?;
     let solve_ms = t1.elapsed().as_secs_f64() * 1e3;
+    if transforms.is_empty() {
+        eprintln!("note: no --move or --rotate: every handle group stayed at rest");
+    }
     let solved = SolveSettings {
         method: a.method.into(),
         arap: config,

@@ -18,7 +18,9 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use solver::Deformer;
 use solver::animation::export::{AssetExport, Encoding, ExportSettings, GltfExport, GltfFormat};
-use solver::animation::pointcache::{Pc2, obj_sequence_files, write_obj_sequence, write_pc2};
+use solver::animation::pointcache::{
+    Pc2, later_obj_frames, obj_sequence_files, write_obj_sequence, write_pc2,
+};
 use solver::animation::recording::{MAX_FRAMES, record};
 use solver::animation::scene::{HandlesSpec, LoadedScene, Scene};
 use solver::animation::skinning::SkinningConfig;
@@ -247,20 +249,14 @@ pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
     let mesh = &loaded.mesh.mesh;
     let n_frames = match a.frames {
         Some(n) => Ok(n),
-        None => scene.timeline.frame_count_within(MAX_FRAMES).map_err(|count| {
-            anyhow::anyhow!(
-                "{source} (duration × fps + 1): {count}; the limit is 1 to {MAX_FRAMES}"
-            )
-        }),
+        None => scene
+            .timeline
+            .frame_count_within(MAX_FRAMES)
+            .map_err(|why| anyhow::anyhow!("{source}: the timeline has {why}")),
     }?;
     anyhow::ensure!(
         (1..=MAX_FRAMES).contains(&n_frames),
-        "{}: {n_frames} frames; the limit is 1 to {MAX_FRAMES}",
-        if a.frames.is_some() {
-            "--frames".to_string()
-        } else {
-            format!("{source} (duration × fps + 1)")
-        }
+        "--frames: {n_frames} frames; the limit is 1 to {MAX_FRAMES}"
     );
     // Every file to be written, checked before the solve: none is an input, a folder or in a
     // missing folder, so that an error cannot leave part of a sequence behind.
@@ -385,6 +381,24 @@ pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
         }
     };
 
+    // Not deleted: they are the user's files; said, since an importer would read them next.
+    let later = match output {
+        Output::ObjSequence => {
+            let (dir, stem) = sequence_name(&a.output);
+            let later = later_obj_frames(dir, &stem, n_frames);
+            if let Some(first) = later.first().filter(|_| !a.json) {
+                eprintln!(
+                    "note: {} later frame{} of an earlier export follow ({} on); they were not \
+                     written by this one",
+                    later.len(),
+                    if later.len() == 1 { "" } else { "s" },
+                    first.display()
+                );
+            }
+            later.len()
+        }
+        _ => 0,
+    };
     let iterations = recording.total_iterations();
     let at_cap = recording.stats.iter().filter(|s| !s.converged).count();
     if a.json {
@@ -403,6 +417,7 @@ pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
             "record_seconds": record_s,
             "iterations_per_frame": iterations as f64 / n_frames as f64,
             "frames_at_cap": at_cap,
+            "earlier_frames_left": later,
         });
         println!("{j}");
     } else {

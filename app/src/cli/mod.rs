@@ -47,7 +47,8 @@ pub enum Command {
     Deform(deform::DeformArgs),
     /// The paper's animation benchmark: the first handle group moves on a circle.
     Bench(bench::BenchArgs),
-    /// Play a scene's timeline headless and write glTF (.glb/.gltf) with one morph target per frame.
+    /// Play a scene's timeline headless (or a mesh's circle, --mesh) and write the recording:
+    /// glTF with morph targets or a skin (--bones), a PC2 point cache, or an OBJ sequence.
     Export(export::ExportArgs),
     /// A dense test mesh: 1-to-4 midpoint subdivision, written as OBJ, PLY or OFF.
     Subdivide(subdivide::SubdivideArgs),

@@ -5,7 +5,8 @@
 //! when there is one, else lavapipe.
 //!
 //! Settings come from the flags, then the scene's optional `capture` object, then the
-//! defaults (1280×720, no overlays, the timeline's frame count).
+//! defaults (1280×720, no overlays, the timeline's frame count); `--turntable` and
+//! `--overlays` turn their setting on, a scene's capture that has it on keeps it.
 
 use std::ops::ControlFlow;
 use std::time::Instant;
@@ -43,10 +44,11 @@ pub struct RenderArgs {
     #[arg(long, value_parser = super::count::<u32>, allow_negative_numbers = true)]
     pub height: Option<u32>,
     /// Orbit the camera once around the mesh over the frames (posed along the timeline when
-    /// it moves, else in the scene's still pose).
+    /// it moves, else in the scene's still pose); on also when the scene's capture says so.
     #[arg(long)]
     pub turntable: bool,
-    /// Draw the ground grid and the handle groups' colours.
+    /// Draw the ground grid and the handle groups' colours; on also when the scene's capture
+    /// says so.
     #[arg(long)]
     pub overlays: bool,
     /// Print one JSON object on stdout.
@@ -77,6 +79,11 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
     };
     flags.validate().map_err(|e| anyhow::anyhow!("--{e}"))?;
 
+    anyhow::ensure!(
+        !a.output.exists() || a.output.is_dir(),
+        "{}: a file; render writes its frames into a folder (-o DIR)",
+        a.output.display()
+    );
     let t0 = Instant::now();
     super::refuse_mesh_as_scene(&a.scene, "render", ", as the editor saves it")?;
     let file = load_scene_file(&a.scene, 1, super::reference_policy())
@@ -103,17 +110,17 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
     let max_frames = CaptureSettings::MAX_FRAMES;
     let n_frames = match (settings.frames, moving, settings.turntable) {
         (Some(n), ..) => n,
-        (None, true, _) => doc.timeline.frame_count_within(max_frames).map_err(|count| {
-            anyhow::anyhow!(
-                "{source} (duration × fps + 1): {count}; the limit is 1 to {max_frames}"
-            )
-        })?,
+        (None, true, _) => doc
+            .timeline
+            .frame_count_within(max_frames)
+            .map_err(|why| anyhow::anyhow!("{source}: the timeline has {why}"))?,
         (None, false, true) => STILL_TURNTABLE_FRAMES,
         (None, false, false) => 1,
     };
+    // (the flags' and the scene's counts were validated with the settings above)
     anyhow::ensure!(
         (1..=max_frames).contains(&n_frames),
-        "{source}: {n_frames} frames (duration × fps + 1); the limit is 1 to {max_frames}"
+        "{source}: {n_frames} frames; the limit is 1 to {max_frames}"
     );
     // Every frame's file, before any is rendered: none a folder or an input.
     if a.output.is_dir() {

@@ -247,11 +247,15 @@ pub fn beside(images: &[image::RgbaImage]) -> image::RgbaImage {
     out
 }
 
-/// Writes `image` as PNG to `path`, naming the file in the error.
+/// Writes `image` as PNG to `path`, naming the file in the error. Encoded first and written
+/// whole (`write_atomic`): a failed write (a full disk, the process killed) leaves a frame
+/// already there as it was, not truncated.
 pub fn write_png(path: &Path, image: &image::RgbaImage) -> anyhow::Result<()> {
+    let mut bytes = Vec::new();
     image
-        .save_with_format(path, image::ImageFormat::Png)
-        .with_context(|| format!("{}: cannot write the PNG", path.display()))
+        .write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)
+        .with_context(|| format!("{}: cannot encode the PNG", path.display()))?;
+    Ok(solver::io::write_atomic(path, &bytes)?)
 }
 
 /// Creates `dir` (and its parents) for a capture, with a clear error when it cannot.

@@ -136,12 +136,7 @@ pub fn effective_timeline(edit: &EditState) -> Timeline {
 /// Frames of a recording of `timeline` (both ends included), as `bsarap export` counts them;
 /// past [`MAX_FRAMES`], why it cannot be recorded (as `bsarap export` refuses it).
 pub fn frame_count(timeline: &Timeline) -> Result<usize, String> {
-    timeline.frame_count_within(MAX_FRAMES).map_err(|count| {
-        format!(
-            "the timeline has {count} (duration × fps + 1); a recording has at most {MAX_FRAMES}: \
-             shorten it or lower the frame rate"
-        )
-    })
+    timeline.frame_count_within(MAX_FRAMES).map_err(|why| format!("the timeline has {why}"))
 }
 
 /// What the timeline panel asks the app to do.

@@ -171,6 +171,24 @@ fn render_checks_its_frames_first_and_says_which_it_wrote() {
     }
 }
 
+/// `render -o` naming a file is refused before anything is loaded or rendered; `deform` with
+/// nothing to move says so.
+#[test]
+fn render_to_a_file_and_deform_without_moves() {
+    let d = ScratchDir::new("cli-guards-render-file");
+    let (mesh, sel) = grid(&d, "grid.obj");
+    let sc = scene(&d, "grid.obj", 1, "1.0");
+    let file = d.join("frames.txt");
+    std::fs::write(&file, "mine").unwrap();
+    refused(&["render", s(&sc), "-o", s(&file)], &["a file; render writes its frames"], &[]);
+    assert_eq!(std::fs::read_to_string(&file).unwrap(), "mine");
+    let out = d.join("rest.obj");
+    let (code, _, stderr) =
+        bsarap(&["deform", s(&mesh), "--handles", s(&sel), "--method", "arap", "-o", s(&out)]);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stderr.contains("no --move or --rotate"), "{stderr}");
+}
+
 #[test]
 fn a_huge_timeline_reports_its_frame_count() {
     let d = ScratchDir::new("guards-huge");

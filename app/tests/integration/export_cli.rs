@@ -141,6 +141,14 @@ fn export_without_a_scene_writes_point_caches_on_the_file_layout() {
         assert_eq!(text.lines().filter(|l| l.starts_with("v ")).count(), n_file, "{f}");
     }
     assert!(!d.join("seq").join("pose_0006.obj").exists());
+    // A shorter export over it says that the earlier one's later frames are still there.
+    let mut shorter = args.to_vec();
+    shorter[6] = "2"; // --frames
+    let (code, _, stderr) =
+        bsarap(&[&shorter[..], &["--circle", "1", "-o", seq.to_str().unwrap()]].concat());
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stderr.contains("3 later frames of an earlier export follow"), "{stderr}");
+    assert!(stderr.contains("pose_0003.obj on"), "{stderr}");
 
     // A group the selection lacks, and an output nobody reads, are one-line errors.
     let (code, _, stderr) =

@@ -223,7 +223,10 @@ fn a_timeline_past_the_frame_limit_is_refused() {
     h.step();
     assert!(!h.state().is_recording(), "started");
     let error = h.state().error().unwrap_or_default();
-    assert!(error.contains("144001 frames") && error.contains("at most 100000"), "{error}");
+    assert!(
+        error.contains("144001 frames") && error.contains("the limit is 1 to 100000"),
+        "{error}"
+    );
 }
 
 /// Cancel pressed once the last frame is solved, before the editor took the recording: the

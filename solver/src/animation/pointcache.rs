@@ -201,6 +201,18 @@ pub fn read_pc2(path: &Path) -> Result<Pc2, PointCacheError> {
     Pc2::from_bytes(&bytes, &file)
 }
 
+/// The frames of an earlier, longer sequence named `name` that follow the last of `n_frames`
+/// in `dir` (`NAME_{n+1}.obj`, … with the digits [`obj_sequence_files`] gives `n_frames`, while
+/// they exist): a shorter export leaves them, and an importer of the sequence reads them after
+/// it.
+pub fn later_obj_frames(dir: &Path, name: &str, n_frames: usize) -> Vec<PathBuf> {
+    let digits = n_frames.to_string().len().max(4);
+    (n_frames + 1..)
+        .map(|i| dir.join(format!("{name}_{i:0digits$}.obj")))
+        .take_while(|p| p.is_file())
+        .collect()
+}
+
 /// The files [`write_obj_sequence`] writes for `n_frames` frames named `name` in `dir`: the
 /// frames `NAME_0001.obj`, ... (at least four digits, as many as `n_frames` has), then
 /// `NAME.mtl` when the asset has `materials`.

@@ -165,6 +165,10 @@ fn obj_sequence_has_one_file_per_frame_in_the_file_order() {
         .collect();
     files.sort();
     assert_eq!(files, ["walk.mtl", "walk_0001.obj", "walk_0002.obj", "walk_0003.obj"]);
+    // a shorter sequence over it leaves the later frames: counted
+    assert!(later_obj_frames(&dir, "walk", 3).is_empty());
+    assert_eq!(later_obj_frames(&dir, "walk", 1), paths[1..]);
+    assert!(later_obj_frames(&dir, "run", 1).is_empty());
     for (s, path) in paths.iter().enumerate() {
         let text = std::fs::read_to_string(path).unwrap();
         assert!(text.lines().any(|l| l == "mtllib walk.mtl"));

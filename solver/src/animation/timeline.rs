@@ -565,19 +565,24 @@ impl Timeline {
         if n >= 0.0 { (n as usize).saturating_add(1) } else { 1 }
     }
 
-    /// [`Timeline::default_frame_count`] when it is within `1..=limit`; else the count as a
-    /// sentence ("more than 100000 frames (1.5e301)"), which `default_frame_count` cannot give
-    /// beyond `usize`.
+    /// [`Timeline::default_frame_count`] when it is within `1..=limit`; else why not, one
+    /// sentence for the editor and the command line ("250001 frames (duration × fps + 1); the
+    /// limit is 1 to 100000: shorten it or lower its frame rate"), with a count that
+    /// `default_frame_count` cannot give beyond `usize` ("more than 100000 frames (1.5e301)").
     pub fn frame_count_within(&self, limit: usize) -> Result<usize, String> {
         let n = (self.duration * self.fps).round() + 1.0;
         if n.is_finite() && n <= limit as f64 {
             return Ok(self.default_frame_count());
         }
-        Err(if n.is_finite() && n < 1e15 {
+        let count = if n.is_finite() && n < 1e15 {
             format!("{n} frames")
         } else {
             format!("more than {limit} frames ({n:e})")
-        })
+        };
+        Err(format!(
+            "{count} (duration × fps + 1); the limit is 1 to {limit}: shorten it or lower its \
+             frame rate"
+        ))
     }
 
     /// `n_frames` evenly spaced times covering `[0, duration]`, both ends included:

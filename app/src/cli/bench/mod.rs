@@ -74,6 +74,22 @@ pub struct ReferenceSummary {
     pub seconds: f64,
 }
 
+/// `--threshold`'s default.
+const DEFAULT_THRESHOLD: f64 = 0.01;
+
+impl BenchArgs {
+    /// The relative-decrease tolerance the stopping rule uses (`None`: not `--stop relative`).
+    pub fn tolerance(&self) -> Option<f64> {
+        (self.stop == StopRule::Relative)
+            .then(|| self.tol.unwrap_or(solver::deform::arap::DEFAULT_TOLERANCE))
+    }
+
+    /// The normalized-energy threshold the stopping rule uses (`None`: not `--stop threshold`).
+    pub fn energy_threshold(&self) -> Option<f64> {
+        (self.stop == StopRule::Threshold).then(|| self.threshold.unwrap_or(DEFAULT_THRESHOLD))
+    }
+}
+
 /// `--stop`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, serde::Serialize)]
 #[serde(rename_all = "kebab-case")]
@@ -100,12 +116,12 @@ pub struct BenchArgs {
     pub handles: PathArg,
     #[arg(long, default_value_t = 20, value_parser = super::count::<usize>, allow_negative_numbers = true)]
     pub frames: usize,
-    /// Relative-decrease tolerance (`--stop relative`).
-    #[arg(long, default_value_t = solver::deform::arap::DEFAULT_TOLERANCE, allow_negative_numbers = true)]
-    pub tol: f64,
-    /// Normalized-energy threshold in (0, 1) (`--stop threshold`).
-    #[arg(long, default_value_t = 0.01, allow_negative_numbers = true)]
-    pub threshold: f64,
+    /// Relative-decrease tolerance (`--stop relative` only; default 1e-4).
+    #[arg(long, allow_negative_numbers = true)]
+    pub tol: Option<f64>,
+    /// Normalized-energy threshold in (0, 1) (`--stop threshold` only; default 0.01).
+    #[arg(long, allow_negative_numbers = true)]
+    pub threshold: Option<f64>,
     #[arg(long, default_value_t = solver::deform::arap::DEFAULT_MAX_ITERATIONS,
           value_parser = super::count::<usize>, allow_negative_numbers = true)]
     pub max_iters: usize,
@@ -214,17 +230,24 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
         a.radius.is_finite() && a.radius >= 0.0,
         "--radius must be a finite number ≥ 0"
     );
+    // A value the stopping rule would not read is refused: the report would record it as used.
+    let stop = a.stop.to_possible_value();
+    let stop = stop.as_ref().map_or("?", |v| v.get_name());
     anyhow::ensure!(
-        a.threshold.is_finite() && a.threshold > 0.0 && a.threshold < 1.0,
-        "--threshold must be between 0 and 1 (got {})",
-        a.threshold
+        a.tol.is_none() || a.stop == StopRule::Relative,
+        "--tol is the tolerance of --stop relative; --stop {stop} does not read it"
+    );
+    anyhow::ensure!(
+        a.threshold.is_none() || a.stop == StopRule::Threshold,
+        "--threshold is the bound of --stop threshold; --stop {stop} does not read it"
+    );
+    let energy_threshold = a.energy_threshold().unwrap_or(0.0);
+    anyhow::ensure!(
+        a.stop != StopRule::Threshold || (energy_threshold > 0.0 && energy_threshold < 1.0),
+        "--threshold must be between 0 and 1 (got {energy_threshold})"
     );
     let methods = parse_methods(&a.method)?;
-    let (tolerance, energy_threshold) = match a.stop {
-        StopRule::Relative => (a.tol, 0.0),
-        StopRule::Threshold => (0.0, a.threshold),
-        StopRule::Fixed => (0.0, 0.0),
-    };
+    let tolerance = a.tolerance().unwrap_or(0.0);
     let bending_length = super::bending_length(a.energy, a.bending_length)?;
     super::check_coarse_energy(a.energy, a.base.coarse_energy)?;
     super::check_base_flags(&a.base, &methods)?;
@@ -237,9 +260,8 @@ pub fn run(a: &BenchArgs) -> anyhow::Result<()> {
         energy_threshold,
         ..Default::default()
     };
-    // Every flag is checked, also --tol and --anderson where the stopping rule or the variant
-    // list leaves them unused.
-    check_config(&ArapConfig { tolerance: a.tol, acceleration: anderson, ..config })?;
+    // Every flag is checked, also --anderson where the variant list leaves it unused.
+    check_config(&ArapConfig { acceleration: anderson, ..config })?;
     let loaded = load(&a.mesh)?;
     let mesh = &loaded.mesh;
     let handles = load_handles(&a.handles, &loaded)?;

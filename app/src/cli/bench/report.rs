@@ -58,7 +58,7 @@ impl Report<'_> {
             "frames": a.frames,
             "stop": a.stop,
             "start": a.start,
-            "tolerance": a.tol,
+            "tolerance": a.tolerance(),
             "energy": solver::Energy::from(a.energy),
             "bending_length": (a.energy == EnergyArg::SmoothRotations).then_some(bending_length),
             "bending_length_world": (a.energy == EnergyArg::SmoothRotations)
@@ -69,7 +69,7 @@ impl Report<'_> {
             "fine_iterations": a.base.fine_iterations,
             "membrane": a.base.membrane,
             "coarse_energy": setup.base.coarse_energy.name(),
-            "threshold": a.threshold,
+            "threshold": a.energy_threshold(),
             "max_iterations": a.max_iters,
             "radius": setup.radius,
             "threads": rayon::current_num_threads(),
@@ -107,10 +107,10 @@ impl Report<'_> {
         let (table, failures) = (&self.measured.table, &self.measured.failures);
         let (bending_length, reference_start) = (self.bending_length, self.reference_start);
         let ratios = ratios(table);
-        let rule = match a.stop {
-            StopRule::Relative => format!("relative decrease < {}", a.tol),
-            StopRule::Threshold => format!("E/E0 < {}", a.threshold),
-            StopRule::Fixed => "fixed count".to_string(),
+        let rule = match (a.tolerance(), a.energy_threshold()) {
+            (Some(tol), _) => format!("relative decrease < {tol}"),
+            (None, Some(e)) => format!("E/E0 < {e}"),
+            (None, None) => "fixed count".to_string(),
         };
         println!(
             "{} — {} vertices, {} faces, {} frames, stop: {rule}, cap {}, start: {:?}, {} threads",

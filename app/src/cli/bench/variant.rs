@@ -26,8 +26,10 @@ impl Variant {
 /// The methods `--method all` runs, in report order: every method of the solver.
 const ALL_METHODS: [Method; Method::ALL.len()] = Method::ALL;
 
+/// `--method`'s list; a method named twice is refused (the JSON report keys its runs by name,
+/// so one run would be dropped).
 pub(super) fn parse_methods(s: &str) -> anyhow::Result<Vec<Method>> {
-    Ok(match s {
+    let methods: Vec<Method> = match s {
         "both" => vec![Method::Arap, Method::BsArap],
         "all" => ALL_METHODS.to_vec(),
         list => list
@@ -42,7 +44,11 @@ pub(super) fn parse_methods(s: &str) -> anyhow::Result<Vec<Method>> {
                 })
             })
             .collect::<anyhow::Result<_>>()?,
-    })
+    };
+    for (k, m) in methods.iter().enumerate() {
+        anyhow::ensure!(!methods[..k].contains(m), "--method: {} is given twice", m.name());
+    }
+    Ok(methods)
 }
 
 /// What every variant runs: the mesh, its handles and the animation (see the module doc).
