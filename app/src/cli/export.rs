@@ -292,6 +292,7 @@ pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
     let asset = &loaded.mesh.asset;
     let vertex_map = &loaded.mesh.report.vertex_map;
     let solved = scene.solve_settings(mesh.bbox_diagonal());
+    let mut skin_fit = serde_json::Value::Null;
     let written = match output {
         Output::Gltf(format) if a.bones.is_some() => {
             let bones = a.bones.flatten().unwrap_or(SkinningConfig::default().bones);
@@ -310,6 +311,7 @@ pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
                 bones,
                 a.json,
             )?;
+            skin_fit = r.json;
             r.bytes
         }
         Output::Gltf(format) => {
@@ -418,6 +420,7 @@ pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
             "iterations_per_frame": iterations as f64 / n_frames as f64,
             "frames_at_cap": at_cap,
             "earlier_frames_left": later,
+            "skin": skin_fit,
         });
         println!("{j}");
     } else {

@@ -15,6 +15,9 @@ use solver::io::asset::Asset;
 /// What a bones export reports.
 pub struct BonesReport {
     pub bytes: u64,
+    /// What the fit gave, for `--json`: the bones, its alternations, its seconds, and the
+    /// error's mean and max as fractions of the rest diagonal.
+    pub json: serde_json::Value,
 }
 
 /// What is baked: a recording of the cleaned mesh and the file layout it is written on.
@@ -88,5 +91,12 @@ pub fn write(
         );
     }
     let bytes = export.write(path)?;
-    Ok(BonesReport { bytes })
+    let json = serde_json::json!({
+        "bones": skin.n_bones(),
+        "alternations": skin.iterations,
+        "fit_seconds": fit_seconds,
+        "error_mean": skin.error.mean,
+        "error_max": skin.error.max,
+    });
+    Ok(BonesReport { bytes, json })
 }

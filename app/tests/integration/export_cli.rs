@@ -237,6 +237,16 @@ fn export_bones_writes_a_skin_upright_for_the_scene_up_axis() {
             assert!(rotation.is_null(), "{rotation}");
         }
     }
+    // --json carries the fit's result, which the text says on stderr.
+    let out = d.join("bones.glb");
+    let args = ["export", s.to_str().unwrap(), "--bones", "4", "--frames", "3", "--json", "-o"];
+    let (code, stdout, stderr) = bsarap(&[&args[..], &[out.to_str().unwrap()]].concat());
+    assert_eq!(code, 0, "{stderr}");
+    let report: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
+    let skin = &report["skin"];
+    assert_eq!(skin["bones"], 4, "{report}");
+    let (mean, max) = (skin["error_mean"].as_f64().unwrap(), skin["error_max"].as_f64().unwrap());
+    assert!(mean > 0.0 && mean <= max, "{skin}");
 }
 
 /// `deform SCENE -o pose.glb` stands a Z-up scene's pose upright as `export` does (−90° about
