@@ -134,7 +134,10 @@ fn spawn<T: Send + 'static>(
     let what = name.to_string();
     let spawned = std::thread::Builder::new().name(name.into()).spawn(move || {
         let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| work(&p)))
-            .unwrap_or_else(|_| Err(format!("the {what} job crashed (a bug; please report it)")));
+            .unwrap_or_else(|panic| {
+                let why = panic_message(panic.as_ref());
+                Err(format!("the {what} job crashed: {why} (a bug; please report it)"))
+            });
         let _ = tx.send(result);
         repaint();
     });
@@ -542,6 +545,18 @@ pub fn spawn_export(
     )
 }
 
+/// What a caught panic said (its `&str` or `String` payload), for the message that reports
+/// it: a crash's reason is kept, not only that it crashed.
+pub(crate) fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
+    if let Some(s) = payload.downcast_ref::<&str>() {
+        (*s).to_owned()
+    } else if let Some(s) = payload.downcast_ref::<String>() {
+        s.clone()
+    } else {
+        "unknown panic".to_owned()
+    }
+}
+
 #[cfg(test)]
 #[allow(clippy::unwrap_used, clippy::expect_used)]
 mod tests {
@@ -558,6 +573,14 @@ mod tests {
             assert!(start.elapsed() < Duration::from_secs(60), "job did not finish");
             std::thread::sleep(Duration::from_millis(5));
         }
+    }
+
+    /// A job that panics ends in an error that keeps the panic's message.
+    #[test]
+    fn a_crashed_job_says_why() {
+        let job = spawn::<()>("test", || {}, |_| panic!("index 7 past 3"));
+        let e = wait(&job).unwrap_err();
+        assert!(e.contains("the test job crashed: index 7 past 3"), "{e}");
     }
 
     /// A mesh precomputation cancelled while it waits for the mesh cache (its mesh given up

@@ -236,7 +236,10 @@ fn spawn_loader<T: Send + 'static>(
     let spawned = std::thread::Builder::new().name(name.into()).spawn(move || {
         // Nothing the load touches outlives a panic: it is all dropped with the thread.
         let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| load(&p)))
-            .unwrap_or_else(|_| Err(anyhow!("the loader crashed while reading the file")))
+            .unwrap_or_else(|panic| {
+                let why = super::jobs::panic_message(panic.as_ref());
+                Err(anyhow!("the loader crashed while reading the file: {why}"))
+            })
             .map_err(|e| error(&p, &e));
         let _ = tx.send(result);
         repaint();

@@ -33,6 +33,12 @@ use super::draw_data::Topology;
 /// Textures larger than this (either side) are downscaled when decoded.
 pub const MAX_TEXTURE_SIZE: u32 = 4096;
 
+/// Most bytes the decoded textures of one asset take (RGBA8; each is kept in memory and on the
+/// GPU): past it every texture is decoded smaller by one factor, so that a file listing many
+/// large images cannot take the memory the editor needs (a process killed for memory saves no
+/// autosave).
+pub const TEXTURE_BUDGET: u64 = 1 << 30;
+
 /// Triangles `indices` (index-buffer positions) drawn with base-colour texture `image`
 /// (an index into [`RenderLayout::images`]; `None`: untextured).
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -174,16 +180,79 @@ impl RenderLayout {
     }
 
     /// Decodes the textures the draws use (PNG or JPEG, sRGB RGBA8, downscaled to fit
-    /// [`MAX_TEXTURE_SIZE`]); returns a notice for each image that could not be decoded.
+    /// [`MAX_TEXTURE_SIZE`], and all by one more factor where they would pass
+    /// [`TEXTURE_BUDGET`]); images with the same bytes are decoded once and share it. Returns a
+    /// notice for each image that could not be decoded, and one when the budget shrank them.
     pub fn decode_images(&mut self, asset: &Asset) -> Vec<String> {
+        self.decode_images_within(asset, TEXTURE_BUDGET)
+    }
+
+    /// [`Self::decode_images`] within `budget` bytes.
+    fn decode_images_within(&mut self, asset: &Asset, budget: u64) -> Vec<String> {
         let mut notices = Vec::new();
-        let used: Vec<usize> = self.draws.iter().filter_map(|d| d.image).collect();
+        let mut used: Vec<usize> = self.draws.iter().filter_map(|d| d.image).collect();
+        used.sort_unstable();
+        used.dedup();
+        // One entry per distinct image: the first index with those bytes, and its size once
+        // capped at MAX_TEXTURE_SIZE (read from the header, not decoded).
+        let mut distinct: Vec<(usize, (u32, u32))> = Vec::new();
+        let mut same_as: Vec<(usize, usize)> = Vec::new(); // (image, distinct entry)
+        let mut by_bytes: FxHashMap<u64, Vec<usize>> = FxHashMap::default();
         for i in used {
             let Some(img) = asset.images.get(i) else { continue };
-            match decode(&img.bytes) {
-                Ok(d) => self.images[i] = Some(Arc::new(d)),
+            let key = {
+                use std::hash::{Hash, Hasher};
+                let mut h = rustc_hash::FxHasher::default();
+                img.bytes.hash(&mut h);
+                h.finish()
+            };
+            let twins = by_bytes.entry(key).or_default();
+            if let Some(&d) =
+                twins.iter().find(|&&d| asset.images[distinct[d].0].bytes == img.bytes)
+            {
+                same_as.push((i, d));
+                continue;
+            }
+            match image::ImageReader::new(std::io::Cursor::new(&img.bytes))
+                .with_guessed_format()
+                .map_err(image::ImageError::IoError)
+                .and_then(|r| r.into_dimensions())
+            {
+                Ok(size) => {
+                    twins.push(distinct.len());
+                    same_as.push((i, distinct.len()));
+                    distinct.push((i, capped(size, MAX_TEXTURE_SIZE)));
+                }
                 Err(e) => notices.push(format!("texture {} not shown: {e}", img.name)),
             }
+        }
+        let total: u64 = distinct.iter().map(|(_, (w, h))| 4 * u64::from(*w) * u64::from(*h)).sum();
+        let shrink = if total > budget {
+            notices.push(format!(
+                "{} textures shown at reduced resolution: they take {} MiB decoded, more than \
+                 {} MiB",
+                distinct.len(),
+                total >> 20,
+                budget >> 20
+            ));
+            (budget as f64 / total as f64).sqrt()
+        } else {
+            1.0
+        };
+        let mut decoded: Vec<Option<Arc<DecodedImage>>> = Vec::with_capacity(distinct.len());
+        for &(i, (w, h)) in &distinct {
+            let side = ((f64::from(w.max(h)) * shrink) as u32).max(1);
+            let img = &asset.images[i];
+            match decode(&img.bytes, side) {
+                Ok(d) => decoded.push(Some(Arc::new(d))),
+                Err(e) => {
+                    notices.push(format!("texture {} not shown: {e}", img.name));
+                    decoded.push(None);
+                }
+            }
+        }
+        for (i, d) in same_as {
+            self.images[i] = decoded[d].clone();
         }
         notices
     }
@@ -204,13 +273,20 @@ fn mesh_triangle(tri: &[u32; 3], vertex_map: &[Option<u32>], n: usize) -> Option
     (a != b && b != c && a != c).then_some([a, b, c])
 }
 
-/// Decodes PNG or JPEG bytes to sRGB RGBA8, downscaled to fit [`MAX_TEXTURE_SIZE`].
-fn decode(bytes: &[u8]) -> Result<DecodedImage, image::ImageError> {
+/// `(w, h)` scaled down to fit `side` on its longer side (kept where it fits).
+fn capped((w, h): (u32, u32), side: u32) -> (u32, u32) {
+    if w <= side && h <= side {
+        return (w, h);
+    }
+    let s = f64::from(side) / f64::from(w.max(h));
+    (((f64::from(w) * s) as u32).max(1), ((f64::from(h) * s) as u32).max(1))
+}
+
+/// Decodes PNG or JPEG bytes to sRGB RGBA8, downscaled to fit `side` (on its longer side).
+fn decode(bytes: &[u8], side: u32) -> Result<DecodedImage, image::ImageError> {
     let mut img = image::load_from_memory(bytes)?.to_rgba8();
-    let (w, h) = img.dimensions();
-    if w > MAX_TEXTURE_SIZE || h > MAX_TEXTURE_SIZE {
-        let s = MAX_TEXTURE_SIZE as f64 / w.max(h) as f64;
-        let (nw, nh) = (((w as f64 * s) as u32).max(1), ((h as f64 * s) as u32).max(1));
+    let (nw, nh) = capped(img.dimensions(), side);
+    if (nw, nh) != img.dimensions() {
         img = image::imageops::resize(&img, nw, nh, image::imageops::FilterType::Triangle);
     }
     let (width, height) = img.dimensions();
@@ -258,10 +334,45 @@ mod tests {
     }
 
     fn red_png() -> Vec<u8> {
-        let img = image::RgbaImage::from_pixel(2, 2, image::Rgba([255, 0, 0, 255]));
+        png(2, [255, 0, 0, 255])
+    }
+
+    fn png(side: u32, rgba: [u8; 4]) -> Vec<u8> {
+        let img = image::RgbaImage::from_pixel(side, side, image::Rgba(rgba));
         let mut out = std::io::Cursor::new(Vec::new());
         img.write_to(&mut out, image::ImageFormat::Png).unwrap();
         out.into_inner()
+    }
+
+    /// Two images with the same bytes are decoded once; past the budget every texture is
+    /// decoded smaller by one factor, with a notice.
+    #[test]
+    fn same_images_decode_once_and_the_budget_shrinks_them_all() {
+        let (mut asset, map) = seam_quad();
+        let second = MaterialTexture::of_image(1);
+        asset.materials.push(Material { base_color_texture: Some(second), ..Material::default() });
+        asset.parts = vec![
+            Part { material: Some(0), count: 1, ..Part::default() },
+            Part { material: Some(1), first: 1, count: 2, ..Part::default() },
+        ];
+        let twin = Image { name: "twin.png".into(), ..asset.images[0].clone() };
+        asset.images.push(twin);
+        let mut layout = RenderLayout::build(&asset, &map, 4, &[], 1).unwrap();
+        assert_eq!(layout.draws.len(), 2);
+        assert!(layout.decode_images(&asset).is_empty());
+        let decoded = |l: &RenderLayout, i: usize| l.images[i].clone().expect("decoded");
+        assert!(Arc::ptr_eq(&decoded(&layout, 0), &decoded(&layout, 1)), "decoded twice");
+        // Two 8×8 images (256 bytes each decoded) within 128 bytes: both at 4×4.
+        asset.images[0].bytes = png(8, [255, 0, 0, 255]);
+        asset.images[1].bytes = png(8, [0, 0, 255, 255]);
+        let mut layout = RenderLayout::build(&asset, &map, 4, &[], 1).unwrap();
+        let notices = layout.decode_images_within(&asset, 128);
+        assert!(notices.len() == 1 && notices[0].contains("reduced resolution"), "{notices:?}");
+        for i in 0..2 {
+            let img = decoded(&layout, i);
+            assert_eq!((img.width, img.height, img.rgba.len()), (4, 4, 64));
+        }
+        assert_eq!(decoded(&layout, 1).rgba[..4], [0, 0, 255, 255]);
     }
 
     #[test]

@@ -69,12 +69,20 @@ impl AssetTextures {
             return;
         }
         let max = device.limits().max_texture_dimension_2d;
+        // Images sharing one decoded texture (the same bytes) share its upload too.
+        let mut uploaded: Vec<(*const DecodedImage, wgpu::BindGroup)> = Vec::new();
         let groups = layout
             .images
             .iter()
             .map(|img| {
-                let img = img.as_deref().filter(|i| i.width <= max && i.height <= max)?;
-                Some(upload(device, queue, &self.layout, &self.sampler, img))
+                let img = img.as_ref().filter(|i| i.width <= max && i.height <= max)?;
+                let key = std::sync::Arc::as_ptr(img);
+                if let Some((_, group)) = uploaded.iter().find(|(k, _)| std::ptr::eq(*k, key)) {
+                    return Some(group.clone());
+                }
+                let group = upload(device, queue, &self.layout, &self.sampler, img);
+                uploaded.push((key, group.clone()));
+                Some(group)
             })
             .collect();
         self.loaded = Some((version, groups));

@@ -31,15 +31,59 @@ use super::uri::{percent_decode, read_uri};
 const MAX_IMAGE_BYTES: usize = 1 << 30;
 
 /// A texture reference read as a [`MaterialTexture`] (its UV set as written: `gltf_uv`
-/// settles it).
-fn material_texture(texture: ::gltf::Texture, tex_coord: u32) -> MaterialTexture {
+/// settles it); `None` for a texture with no image of its own, whose only source is in an
+/// extension (`KHR_texture_basisu`'s KTX2, not decoded here).
+fn material_texture(texture: ::gltf::Texture, tex_coord: u32) -> Option<MaterialTexture> {
     let s = texture.sampler();
     let sampling = Sampling {
         mag_filter: s.mag_filter().map(|f| f.as_gl_enum()),
         min_filter: s.min_filter().map(|f| f.as_gl_enum()),
         wrap: [s.wrap_s().as_gl_enum(), s.wrap_t().as_gl_enum()],
     };
-    MaterialTexture { image: texture.source().index(), uv: tex_coord, sampling }
+    Some(MaterialTexture { image: texture.source()?.index(), uv: tex_coord, sampling })
+}
+
+/// Replaces the factors of `material` that are not finite (a JSON number past `f32`, 1e39, is
+/// read as infinite) by their defaults, each said in `notices`: every export of the mesh
+/// refused them later, and the renderer drew the material black or white.
+fn finite_factors(material: &mut Material, notices: &mut Vec<String>) {
+    let default = Material::default();
+    let mut fixed = Vec::new();
+    let mut check = |name: &str, ok: bool| {
+        if !ok {
+            fixed.push(name.to_string());
+        }
+        !ok
+    };
+    let finite = |v: &[f32]| v.iter().all(|x| x.is_finite());
+    if check("baseColorFactor", finite(&material.base_color)) {
+        material.base_color = default.base_color;
+    }
+    if check("emissiveFactor", finite(&material.emissive)) {
+        material.emissive = default.emissive;
+    }
+    if check("metallicFactor", material.metallic.is_finite()) {
+        material.metallic = default.metallic;
+    }
+    if check("roughnessFactor", material.roughness.is_finite()) {
+        material.roughness = default.roughness;
+    }
+    if check("normalTexture.scale", material.normal_scale.is_finite()) {
+        material.normal_scale = default.normal_scale;
+    }
+    if check("occlusionTexture.strength", material.occlusion_strength.is_finite()) {
+        material.occlusion_strength = default.occlusion_strength;
+    }
+    if check("alphaCutoff", material.alpha_cutoff.is_finite()) {
+        material.alpha_cutoff = default.alpha_cutoff;
+    }
+    if !fixed.is_empty() {
+        notices.push(format!(
+            "material {:?}: {} not finite; read as the default",
+            material.name,
+            fixed.join(", ")
+        ));
+    }
 }
 
 /// The document's materials, in file order; a notice in `notices` for each one read from
@@ -54,6 +98,13 @@ fn material_texture(texture: ::gltf::Texture, tex_coord: u32) -> MaterialTexture
 /// [0, 1].
 pub(crate) fn materials(document: &::gltf::Document, notices: &mut Vec<String>) -> Vec<Material> {
     let info = |i: ::gltf::texture::Info| material_texture(i.texture(), i.tex_coord());
+    let ktx2 = document.textures().filter(|t| t.source().is_none()).count();
+    if ktx2 > 0 {
+        notices.push(format!(
+            "{ktx2} texture(s) only in KTX2 (KHR_texture_basisu), which is not decoded; loaded \
+             without them"
+        ));
+    }
     document
         .materials()
         .map(|m| {
@@ -63,16 +114,17 @@ pub(crate) fn materials(document: &::gltf::Document, notices: &mut Vec<String>) 
             let mut material = Material {
                 name: m.name().unwrap_or_default().to_string(),
                 base_color: pbr.base_color_factor(),
-                base_color_texture: pbr.base_color_texture().map(info),
+                base_color_texture: pbr.base_color_texture().and_then(info),
                 metallic: pbr.metallic_factor(),
                 roughness: pbr.roughness_factor(),
-                metallic_roughness_texture: pbr.metallic_roughness_texture().map(info),
+                metallic_roughness_texture: pbr.metallic_roughness_texture().and_then(info),
                 normal_scale: normal.as_ref().map_or(1.0, |n| n.scale()),
-                normal_texture: normal.map(|n| material_texture(n.texture(), n.tex_coord())),
+                normal_texture: normal.and_then(|n| material_texture(n.texture(), n.tex_coord())),
                 occlusion_strength: occlusion.as_ref().map_or(1.0, |o| o.strength()),
-                occlusion_texture: occlusion.map(|o| material_texture(o.texture(), o.tex_coord())),
+                occlusion_texture: occlusion
+                    .and_then(|o| material_texture(o.texture(), o.tex_coord())),
                 emissive: m.emissive_factor(),
-                emissive_texture: m.emissive_texture().map(info),
+                emissive_texture: m.emissive_texture().and_then(info),
                 double_sided: m.double_sided(),
                 alpha_cutoff: m.alpha_cutoff().unwrap_or(0.5),
                 alpha_mode: match m.alpha_mode() {
@@ -84,7 +136,7 @@ pub(crate) fn materials(document: &::gltf::Document, notices: &mut Vec<String>) 
             };
             if let Some(sg) = m.pbr_specular_glossiness() {
                 material.base_color = sg.diffuse_factor();
-                material.base_color_texture = sg.diffuse_texture().map(info);
+                material.base_color_texture = sg.diffuse_texture().and_then(info);
                 material.metallic = 0.0;
                 material.metallic_roughness_texture = None;
                 // A glossiness texture (not kept) scales the factor, which then is usually
@@ -105,6 +157,7 @@ pub(crate) fn materials(document: &::gltf::Document, notices: &mut Vec<String>) 
                     material.name
                 ));
             }
+            finite_factors(&mut material, notices);
             // glTF's range; a file may hold others (1.5 read as roughness -0.5).
             material.metallic = material.metallic.clamp(0.0, 1.0);
             material.roughness = material.roughness.clamp(0.0, 1.0);
@@ -182,8 +235,19 @@ pub(crate) fn images(
             continue;
         }
         budget -= bytes.len();
-        let mime_type = match decoded_mime(&bytes, given.as_deref()) {
-            Ok(mime) => mime.to_string(),
+        // The same bytes as an image kept before (many images on one buffer view or file):
+        // decoded once (a large image takes a second to decode).
+        let twin = out.iter().flatten().find(|i: &&Image| i.bytes == bytes);
+        let checked = match twin {
+            Some(twin)
+                if given.as_deref().is_none_or(|g| g.eq_ignore_ascii_case(&twin.mime_type)) =>
+            {
+                Ok(twin.mime_type.clone())
+            }
+            _ => decoded_mime(&bytes, given.as_deref()).map(str::to_string),
+        };
+        let mime_type = match checked {
+            Ok(mime) => mime,
             Err(why) => {
                 let source = uri.filter(|u| !u.starts_with("data:")).unwrap_or("embedded");
                 notices.push(format!("{what} ({source}): {why}; loaded without this texture"));

@@ -20,6 +20,10 @@ use serde_json::{Map, Value};
 
 use super::asset::{Material, TextureSlot};
 
+/// The largest offset or scale of a texture transform read (a million repeats of the texture;
+/// past it the coordinates would leave `f32`'s range or its precision).
+const MAX_TRANSFORM: f64 = 1e6;
+
 /// One texture reference's transform, applied to the coordinates of UV set `set`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) struct UvTransform {
@@ -32,8 +36,8 @@ pub(super) struct UvTransform {
 
 impl UvTransform {
     /// The transform a texture reference with `extensions` and `tex_coord` carries, if any
-    /// (missing fields take their defaults; a non-finite one leaves the coordinates as
-    /// stored).
+    /// (missing fields take their defaults; one not finite, or an offset or scale past
+    /// [`MAX_TRANSFORM`], leaves the coordinates as stored).
     fn of(extensions: Option<&Map<String, Value>>, tex_coord: u32) -> Option<UvTransform> {
         let t = extensions?.get("KHR_texture_transform")?;
         let pair = |key: &str, default: [f64; 2]| match t.get(key) {
@@ -49,7 +53,8 @@ impl UvTransform {
             scale: pair("scale", [1.0, 1.0])?,
             set: t.get("texCoord").and_then(|c| c.as_u64()).map_or(tex_coord, |c| c as u32),
         };
-        let finite = transform.offset.iter().chain(&transform.scale).all(|x| x.is_finite());
+        let finite =
+            transform.offset.iter().chain(&transform.scale).all(|x| x.abs() <= MAX_TRANSFORM);
         (finite && transform.rotation.is_finite()).then_some(transform)
     }
 
@@ -58,10 +63,14 @@ impl UvTransform {
         self.offset == [0.0; 2] && self.rotation == 0.0 && self.scale == [1.0; 2]
     }
 
+    /// `uv` transformed; kept as stored where the result is past `f32` (every export of the
+    /// mesh would refuse it).
     pub(super) fn apply(&self, uv: [f32; 2]) -> [f32; 2] {
         let (s, c) = self.rotation.sin_cos();
         let (u, v) = (f64::from(uv[0]) * self.scale[0], f64::from(uv[1]) * self.scale[1]);
-        [(c * u + s * v + self.offset[0]) as f32, (-s * u + c * v + self.offset[1]) as f32]
+        let out =
+            [(c * u + s * v + self.offset[0]) as f32, (-s * u + c * v + self.offset[1]) as f32];
+        if out.iter().all(|x| x.is_finite()) { out } else { uv }
     }
 }
 
@@ -237,6 +246,21 @@ mod tests {
 
     /// A transform that changes nothing is none (a normal map with `{}` beside an untransformed
     /// base colour was dropped); its `texCoord` still picks the set. A set past 1 is not read.
+    /// A transform past a million repeats is not read, and one whose result leaves `f32`
+    /// keeps the coordinate as stored: an infinite coordinate made every export fail.
+    #[test]
+    fn transforms_past_f32_keep_the_coordinates() {
+        let ext = |offset: f64| {
+            let v = serde_json::json!({"KHR_texture_transform": {"offset": [offset, 0.0]}});
+            v.as_object().cloned()
+        };
+        assert!(UvTransform::of(ext(1e39).as_ref(), 0).is_none());
+        assert!(UvTransform::of(ext(1e6).as_ref(), 0).is_some());
+        let t = UvTransform { offset: [0.0; 2], rotation: 0.0, scale: [1e6, 1.0], set: 0 };
+        assert_eq!(t.apply([3e38, 0.5]), [3e38, 0.5]);
+        assert_eq!(t.apply([2.0, 0.5]), [2e6, 0.5]);
+    }
+
     #[test]
     fn identity_transforms_and_unread_sets() {
         let m = material(

@@ -5,14 +5,20 @@
 //! `d < 1` sets alpha mode `BLEND`), `map_Kd` as the base-colour texture (UV set 0), its file's bytes read into
 //! [`Asset::images`] (one image per distinct file) once they decode as a PNG or JPEG within the
 //! size limits (`image_check`; the MIME type is what they decoded as). Texture options
-//! (`-s 1 1 1 file.png`) are skipped: the last word is the file name (`\` read as `/`). Other
-//! MTL statements are ignored.
+//! (`-s 1 1 1 file.png`, `-bm 0.5`) are skipped; the rest of the line is the file name when
+//! such a file exists (Blender writes `map_Kd My Wood.png`), else its last word (`\` read as
+//! `/`). Other MTL statements are ignored.
 //!
-//! An MTL file or texture that is missing, unreadable, unparsable or not an image that decodes
-//! is not an error: the mesh loads without it and [`Asset::notices`] says what was skipped (one
-//! line each). MTL files are read relative to the OBJ's folder, textures relative to their MTL
-//! file's folder; an OBJ read from bytes has no folder, so its MTL files are skipped with a
-//! notice. Each word after `mtllib` is one file (names with spaces are not supported).
+//! Before `tobj` parses a library, lines it would fail on are mended or dropped
+//! ([`mended`]): a colour of one value (`Kd 0.8`, valid MTL: green and blue take red's value)
+//! is written out in full; a colour given as `spectral` or `xyz`, and a statement missing its
+//! value, are dropped with a notice naming the line; bytes that are not UTF-8 are read as
+//! U+FFFD. An MTL file or texture that is missing, unreadable, unparsable (the reason said) or
+//! not an image that decodes is not an error: the mesh loads without it and
+//! [`Asset::notices`] says what was skipped (one line each). MTL files are read relative to the
+//! OBJ's folder, textures relative to their MTL file's folder; an OBJ read from bytes has no
+//! folder, so its MTL files are skipped with a notice. Each word after `mtllib` is one file,
+//! unless the whole line names a file there (`mtllib My Model.mtl`).
 //!
 //! **References outside the OBJ's folder** (`reference` module): an `mtllib` outside it is
 //! skipped with a notice unless [`super::ReferencePolicy::allow_outside`] (exporters write the
@@ -39,6 +45,13 @@ pub(crate) fn attach(asset: &mut Asset, libs: &[String], folder: Option<Folder>)
     };
     let dir = folder.root;
     let mut textures: HashMap<PathBuf, usize> = HashMap::new();
+    let libs = libs.iter().flat_map(|line| {
+        if line.contains(char::is_whitespace) && dir.join(line.trim()).is_file() {
+            vec![line.trim()]
+        } else {
+            line.split_whitespace().collect()
+        }
+    });
     for lib in libs {
         let path = match resolve(dir, dir, lib) {
             Ok(r) if r.outside && !folder.policy.allow_outside => {
@@ -66,13 +79,24 @@ pub(crate) fn attach(asset: &mut Asset, libs: &[String], folder: Option<Folder>)
                 continue;
             }
         };
-        let parsed = std::panic::catch_unwind(|| tobj::load_mtl_buf(&mut bytes.as_slice()));
-        let Ok(Ok((materials, _))) = parsed else {
-            asset.notices.push(format!(
-                "{}: not a valid material library; loaded without it",
-                path.display()
-            ));
-            continue;
+        let text = mended(&String::from_utf8_lossy(&bytes), &path, &mut asset.notices);
+        let parsed = std::panic::catch_unwind(|| tobj::load_mtl_buf(&mut text.as_bytes()));
+        let materials = match parsed {
+            Ok(Ok((materials, _))) => materials,
+            Ok(Err(e)) => {
+                asset.notices.push(format!(
+                    "{}: not a valid material library ({e}); loaded without it",
+                    path.display()
+                ));
+                continue;
+            }
+            Err(_) => {
+                asset.notices.push(format!(
+                    "{}: not a valid material library (its parser failed); loaded without it",
+                    path.display()
+                ));
+                continue;
+            }
         };
         asset.material_libraries.push(path.clone());
         let from = path.parent().unwrap_or(dir);
@@ -111,6 +135,76 @@ pub(crate) fn attach(asset: &mut Asset, libs: &[String], folder: Option<Folder>)
     }
 }
 
+/// The colour statements, whose values `tobj` reads as exactly three numbers.
+const COLORS: [&str; 5] = ["Ka", "Kd", "Ks", "Ke", "Tf"];
+/// The statements `tobj` reads one value of.
+const SCALARS: [&str; 5] = ["d", "Tr", "Ns", "Ni", "illum"];
+
+/// The MTL `text` with the lines `tobj` would fail on mended or dropped, a notice for each
+/// (naming `path` and the line): a colour of one or two values written out in full (green and
+/// blue take red's value, as the format says), one given as `spectral` or `xyz` or with no
+/// value dropped, and a one-value statement without its value dropped.
+fn mended(text: &str, path: &Path, notices: &mut Vec<String>) -> String {
+    let mut out = String::with_capacity(text.len());
+    for (n, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        let keyword = words.next().unwrap_or("");
+        let values: Vec<&str> = words.collect();
+        let numbers: Option<Vec<f64>> = values.iter().map(|v| v.parse().ok()).collect();
+        let dropped = |why: &str| format!("{}:{}: {why}; line skipped", path.display(), n + 1);
+        if COLORS.contains(&keyword) {
+            match numbers.filter(|v| !v.is_empty()) {
+                Some(v) if v.len() < 3 => {
+                    let g = v.get(1).copied().unwrap_or(v[0]);
+                    out.push_str(&format!("{keyword} {} {g} {}\n", v[0], v[0]));
+                    continue;
+                }
+                Some(_) => {}
+                None => {
+                    notices.push(dropped(&format!("{keyword} is not given as r g b")));
+                    continue;
+                }
+            }
+        } else if SCALARS.contains(&keyword) && values.is_empty() {
+            notices.push(dropped(&format!("{keyword} has no value")));
+            continue;
+        }
+        out.push_str(line);
+        out.push('\n');
+    }
+    out
+}
+
+/// The file a `map_Kd` value `spec` names, read from folder `from`: what follows the texture
+/// options, spaces kept, when such a file exists there; else the last word.
+fn texture_file(from: &Path, spec: &str) -> String {
+    let mut rest = spec.trim();
+    // (option, its values): `-o`, `-s`, `-t` take one to three numbers
+    while let Some(option) = rest.strip_prefix('-') {
+        let name = option.split_whitespace().next().unwrap_or("");
+        let takes = match name {
+            "o" | "s" | "t" => 3,
+            "mm" => 2,
+            _ => 1,
+        };
+        let mut after = option[name.len()..].trim_start();
+        for k in 0..takes {
+            let word = after.split_whitespace().next().unwrap_or("");
+            let numeric = word.parse::<f64>().is_ok();
+            if word.is_empty() || (k > 0 && !numeric) || (takes == 3 && !numeric) {
+                break;
+            }
+            after = after[word.len()..].trim_start();
+        }
+        rest = after;
+    }
+    let whole = rest.replace('\\', "/");
+    if whole.contains(' ') && from.join(&whole).is_file() {
+        return whole;
+    }
+    spec.split_whitespace().last().unwrap_or("").replace('\\', "/")
+}
+
 /// The image index of texture `spec` (a `map_Kd` value) written in an MTL file in folder
 /// `from` for an OBJ in folder `root` (`(root, from)`), reading it on first use; `None` (and a
 /// notice) when it cannot be read or does not decode as a PNG or JPEG.
@@ -121,7 +215,7 @@ fn texture(
     spec: &str,
 ) -> Option<usize> {
     // Windows exporters write `textures\a.png`.
-    let file = spec.split_whitespace().last()?.replace('\\', "/");
+    let file = texture_file(from, spec);
     let file = file.as_str();
     let resolved = match resolve(root, from, file) {
         Ok(r) => r,
@@ -181,6 +275,36 @@ mod tests {
 
     fn folder(root: &Path) -> Option<Folder<'_>> {
         Some(Folder { root, policy: ReferencePolicy::default() })
+    }
+
+    /// Lines `tobj` fails on cost that line, not the library (they dropped every material and
+    /// texture of it, `Kd 0.8` with a panic); names with spaces are read whole.
+    #[test]
+    fn bad_lines_cost_themselves_and_names_keep_their_spaces() {
+        let dir = ScratchDir::new("mtl-lines");
+        let mut mtl = b"newmtl grey\nKd 0.8\nillum\nnewmtl wood\nKd spectral x.rfl\n".to_vec();
+        mtl.extend_from_slice(b"map_Kd -s 1 1 1 -bm 0.5 My Wood.png\nnewmtl caf\xe9\nd 0.5\n");
+        std::fs::write(dir.join("My Model.mtl"), mtl).unwrap();
+        std::fs::write(dir.join("My Wood.png"), encoded(image::ImageFormat::Png)).unwrap();
+        let mut asset = Asset::default();
+        attach(&mut asset, &["My Model.mtl".to_string()], folder(&dir));
+        let names: Vec<_> = asset.materials.iter().map(|m| m.name.as_str()).collect();
+        assert_eq!(names, ["grey", "wood", "caf\u{fffd}"], "{:?}", asset.notices);
+        assert_eq!(asset.materials[0].base_color, [0.8, 0.8, 0.8, 1.0]);
+        assert_eq!(asset.materials[1].base_color_texture.map(|t| t.image), Some(0));
+        assert_eq!(asset.images[0].name, "My Wood.png");
+        assert_eq!(asset.materials[2].base_color[3], 0.5);
+        let notices = asset.notices.join("\n");
+        assert!(notices.contains("My Model.mtl:3: illum has no value; line skipped"), "{notices}");
+        assert!(notices.contains("My Model.mtl:5: Kd is not given as r g b"), "{notices}");
+        assert_eq!(asset.notices.len(), 2, "{notices}");
+        // Two files on one line stay two files.
+        std::fs::write(dir.join("a.mtl"), "newmtl a\n").unwrap();
+        std::fs::write(dir.join("b.mtl"), "newmtl b\n").unwrap();
+        let mut asset = Asset::default();
+        attach(&mut asset, &["a.mtl b.mtl".to_string()], folder(&dir));
+        let names: Vec<_> = asset.materials.iter().map(|m| m.name.as_str()).collect();
+        assert_eq!(names, ["a", "b"], "{:?}", asset.notices);
     }
 
     #[test]

@@ -61,7 +61,7 @@ struct Checked {
     parts: Vec<Part>,
     /// Material names in order of first `usemtl`.
     materials: Vec<String>,
-    /// The `mtllib` file names, in file order.
+    /// The `mtllib` lines' file names, in file order.
     mtl_libs: Vec<String>,
     notices: Vec<String>,
 }
@@ -399,7 +399,8 @@ fn read_chunk(
                     material: Some(rest.join(" ")),
                 });
             }
-            "mtllib" => out.mtl_libs.extend(rest.iter().map(|s| s.to_string())),
+            // one entry per line: its words are files, or all of it one (`mtl::attach`)
+            "mtllib" => out.mtl_libs.push(rest.join(" ")),
             _ => {}
         }
     }

@@ -85,7 +85,7 @@ fn check(bytes: &[u8], s: ExportSettings) -> f64 {
     assert!(painted.double_sided());
     let info = pbr.base_color_texture().unwrap();
     assert_eq!(info.tex_coord(), 0);
-    let image = info.texture().source();
+    let image = info.texture().source().unwrap();
     assert_eq!(image.name(), Some("checker.png"));
     let image_bytes = match image.source() {
         gltf::image::Source::View { view, mime_type } => {

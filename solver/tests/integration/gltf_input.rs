@@ -306,3 +306,35 @@ fn too_many_index_corners_are_refused_before_reading() {
     let e = load_mesh_from_bytes(&to_gltf(doc, &tet_bin()), Format::Gltf, "big.gltf").unwrap_err();
     assert!(e.to_string().contains("triangles"), "{e}");
 }
+
+/// What a hostile or odd file's materials hold is read as far as it is usable: a texture whose
+/// only image is KTX2 (KHR_texture_basisu, gltfpack -tc) costs that texture, not the mesh (the
+/// file was refused, "textures[0].source: Missing data"); factors past f32 (read as infinite)
+/// take their defaults, with a notice (every export refused them).
+#[test]
+fn ktx2_textures_infinite_factors_and_huge_transforms() {
+    use base64::Engine as _;
+    let png = base64::engine::general_purpose::STANDARD.encode(tiny_png());
+    let mut doc = tet_doc(&[[0.0; 3]]);
+    doc["extensionsUsed"] = json!(["KHR_texture_basisu", "KHR_texture_transform"]);
+    doc["extensionsRequired"] = json!(["KHR_texture_basisu"]);
+    doc["materials"] = json!([
+        {"name": "ktx", "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}},
+        {"name": "inf", "pbrMetallicRoughness": {"baseColorFactor": [1e39, 1.0, 1.0, 1.0]},
+         "emissiveFactor": [0.0, 1e39, 0.0], "alphaCutoff": 1e39}
+    ]);
+    doc["textures"] = json!([{"extensions": {"KHR_texture_basisu": {"source": 0}}}]);
+    doc["images"] = json!([{"uri": format!("data:image/png;base64,{png}")}]);
+    doc["meshes"][0]["primitives"][0]["material"] = json!(0);
+    let m =
+        load_mesh_from_bytes(&to_gltf(doc.clone(), &tet_bin()), Format::Gltf, "k.gltf").unwrap();
+    assert_eq!(m.asset.materials[0].base_color_texture, None);
+    let notices = m.asset.notices.join("\n");
+    assert!(notices.contains("1 texture(s) only in KTX2"), "{notices}");
+    let inf = &m.asset.materials[1];
+    assert_eq!((inf.base_color, inf.emissive, inf.alpha_cutoff), ([1.0; 4], [0.0; 3], 0.5));
+    assert!(
+        notices.contains("baseColorFactor, emissiveFactor, alphaCutoff not finite"),
+        "{notices}"
+    );
+}

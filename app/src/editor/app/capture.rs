@@ -435,11 +435,12 @@ impl EditorApp {
                     });
                     match std::panic::catch_unwind(run) {
                         Ok(r) => r.map_err(|e| format!("{e:#}")),
-                        Err(_) => {
+                        Err(panic) => {
                             // the renderer may be half-way through a frame: the next capture
                             // makes a new one
                             *guard = None;
-                            Err("the capture crashed (a bug; please report it)".to_string())
+                            let why = crate::editor::jobs::panic_message(panic.as_ref());
+                            Err(format!("the capture crashed: {why} (a bug; please report it)"))
                         }
                     }
                 }

@@ -111,7 +111,7 @@ pub(super) fn supervise(
             Ok(()) => return,
             Err(payload) => {
                 recovery.restarted = true;
-                let msg = panic_message(payload.as_ref());
+                let msg = crate::editor::jobs::panic_message(payload.as_ref());
                 match shared.status.lock() {
                     Ok(mut s) => {
                         s.state = SolverState::Panicked(msg);
@@ -126,16 +126,6 @@ pub(super) fn supervise(
                 (shared.repaint)();
             }
         }
-    }
-}
-
-fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
-    if let Some(s) = payload.downcast_ref::<&str>() {
-        (*s).to_owned()
-    } else if let Some(s) = payload.downcast_ref::<String>() {
-        s.clone()
-    } else {
-        "unknown panic".to_owned()
     }
 }
 
