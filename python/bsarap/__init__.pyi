@@ -2,7 +2,7 @@
 the package imports it from: _common, _mesh, _arap, _deformer, _animation)."""
 
 import os
-from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union, overload, Literal
+from typing import Any, Dict, Iterable, List, Mapping, Optional, Tuple, Union, overload, Literal
 
 import numpy as np
 import numpy.typing as npt
@@ -16,8 +16,8 @@ EnergyName = Literal["spokes-and-rims", "spokes", "smooth-rotations"]
 CoarseEnergyName = Literal["decimated", "galerkin"]
 ArapEnergyName = Literal["spokes-and-rims", "spokes"]
 Transform = Union[
-    Sequence[float],
-    Tuple[Sequence[float], ArrayLike],
+    ArrayLike,
+    Tuple[ArrayLike, ArrayLike],
     Mapping[str, ArrayLike],
 ]
 
@@ -68,13 +68,22 @@ class AtRest:
 def load_mesh(path: PathLike, *, with_report: Literal[False] = ...) -> Tuple[F64, I64]: ...
 @overload
 def load_mesh(path: PathLike, *, with_report: Literal[True]) -> Tuple[F64, I64, Dict[str, Any]]: ...
+@overload
+def load_mesh(
+    path: PathLike, *, with_report: bool
+) -> Union[Tuple[F64, I64], Tuple[F64, I64, Dict[str, Any]]]: ...
 def clean(V: ArrayLike, F: ArrayLike) -> Tuple[F64, I64, Dict[str, Any]]: ...
 def save_mesh(path: PathLike, V: ArrayLike, F: ArrayLike) -> None: ...
 def load_selection(path: PathLike, V: ArrayLike, *, vertex_map: Optional[ArrayLike] = None) -> I64: ...
-def rotation(axis: Sequence[float], degrees: float) -> F64: ...
+def rotation(axis: ArrayLike, degrees: float) -> F64: ...
 
 class Arap:
-    """libigl-shaped ARAP: Arap(V, F, b).solve(bc, U0) -> U."""
+    """libigl-shaped ARAP: Arap(V, F, b).solve(bc, U0) -> U.
+
+    b: fixed vertex indices, integers or integral floats; no dim argument (igl's third). libigl's
+    defaults are solve(bc, U0, max_iters=10, tol=0). stats is None from the start of a solve
+    until it returns.
+    """
 
     n_vertices: int
     stats: Optional[SolveStats]
@@ -106,7 +115,12 @@ class Arap:
     def reset(self) -> None: ...
 
 class Deformer:
-    """Every method of the bsarap CLI: Deformer(V, F, handles, method).solve({group: transform})."""
+    """Every method of the bsarap CLI: Deformer(V, F, handles, method).solve({group: transform}).
+
+    handles: per-vertex labels, -1 free, 0 <= k < #V + 1024 group k (integers or integral
+    floats), or a selection file. stats and at_rest are None from the start of a solve until it
+    returns.
+    """
 
     stats: Optional[SolveStats]
     at_rest: Optional[AtRest]
@@ -128,10 +142,11 @@ class Deformer:
         settle_iterations: int = ...,
         membrane: float = ...,
         coarse_energy: CoarseEnergyName = ...,
-        pinned_components: Sequence[int] = ...,
+        pinned_components: Iterable[int] = ...,
         vertex_map: Optional[ArrayLike] = ...,
     ) -> None: ...
-    def solve(self, group_transforms: Mapping[int, Transform]) -> F64: ...
+    def solve(self, group_transforms: Mapping[int, Transform]) -> F64:
+        """Rotations must be orthonormal within 1e-6 (R.T @ R entrywise) with determinant +1."""
     def solve_targets(self, targets: ArrayLike) -> F64: ...
     def targets(self, group_transforms: Mapping[int, Transform]) -> F64: ...
     def settle(self) -> Optional[F64]: ...

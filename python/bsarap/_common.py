@@ -69,8 +69,11 @@ def _positions(a: Any, name: str) -> np.ndarray:
 
 
 def _indices(a: Any, name: str, ndim: int) -> np.ndarray:
-    """``a`` as a C-contiguous int64 array of ``ndim`` dimensions (integer dtypes only)."""
+    """``a`` as a C-contiguous int64 array of ``ndim`` dimensions (integer dtypes only; a single
+    number is not a 1-d array)."""
     arr = np.asarray(a)
+    if ndim == 1 and arr.ndim == 0:
+        raise BsarapError(f"{name} must be a 1-d array; got the single value {a!r}")
     if arr.size == 0 and arr.dtype.kind == "f":
         arr = arr.astype(np.int64)
     if arr.dtype.kind not in "iu":
@@ -86,6 +89,36 @@ def _indices(a: Any, name: str, ndim: int) -> np.ndarray:
         if arr.ndim != 1:
             raise BsarapError(f"{name} must be a 1-d array; got shape {arr.shape}")
     return arr
+
+
+def _labels(a: Any, name: str) -> np.ndarray:
+    """``a`` as a 1-d int64 array (:func:`_indices`), also from floats whose values are all
+    finite integers (``igl.read_dmat`` returns float64); a fractional or non-finite value is
+    refused, naming its index."""
+    arr = np.asarray(a)
+    if arr.dtype.kind == "f" and arr.size:
+        flat = arr.reshape(-1)
+        with np.errstate(invalid="ignore"):
+            bad = ~np.isfinite(flat) | (flat != np.round(flat)) | (np.abs(flat) >= 2.0**63)
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            raise BsarapError(
+                f"{name} must hold integers; got {float(flat[i])!r} at index {i} (floats are "
+                "taken when every value is a finite integer)"
+            )
+        arr = arr.astype(np.int64)
+    return _indices(arr, name, 1)
+
+
+def _items(x: Any, name: str, what: str) -> list:
+    """The items of a sequence, 1-d array or other iterable ``x``, as a list; a number, ``None``
+    or a string is refused (``what`` says what ``x`` should be)."""
+    if not isinstance(x, (str, bytes)):
+        try:
+            return list(x)
+        except TypeError:
+            pass
+    raise BsarapError(f"{name} must be {what} (got {x!r})")
 
 
 def _number(x: Any, name: str) -> float:

@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import os
-from typing import Any, Mapping, Optional, Sequence, Tuple, Union
+from typing import Any, Iterable, Mapping, Optional, Tuple, Union
 
 import numpy as np
+import numpy.typing as npt
 
 from . import _bsarap
 from ._bsarap import BsarapError
@@ -19,6 +20,8 @@ from ._common import (
     SolveStats,
     _count,
     _indices,
+    _items,
+    _labels,
     _number,
     _positions,
     _real,
@@ -26,7 +29,7 @@ from ._common import (
 from ._mesh import load_selection
 
 
-Transform = Union[Sequence[float], Tuple[Sequence[float], Any], Mapping[str, Any]]
+Transform = Union[npt.ArrayLike, Tuple[npt.ArrayLike, npt.ArrayLike], Mapping[str, npt.ArrayLike]]
 
 
 def _transforms(group_transforms: Mapping[int, Transform]):
@@ -57,6 +60,12 @@ def _transforms(group_transforms: Mapping[int, Transform]):
     return out
 
 
+def _pinned(pinned_components: Any) -> list:
+    """``pinned_components`` as a list of component indices (a sequence or 1-d array)."""
+    items = _items(pinned_components, "pinned_components", "a sequence of component indices")
+    return [_count(c, "pinned_components") for c in items]
+
+
 class Deformer:
     """Every deformation method of the ``bsarap`` CLI behind one interface.
 
@@ -66,8 +75,10 @@ class Deformer:
 
     Args:
         V, F: the mesh (``(#V, 3)``, ``(#F, 3)``; see :func:`load_mesh` / :func:`clean`).
-        handles: per-vertex labels ``(#V,)`` (-1 free, k >= 0 group k), or the path of a
-            ``.dmat`` / sphere ``.json`` selection (read with :func:`load_selection`).
+        handles: per-vertex labels ``(#V,)``: -1 free, ``0 <= k < #V + 1024`` group k (the
+            solver refuses larger ids); integers, or floats whose values are all integers (as
+            ``igl.read_dmat`` returns them). Or the path of a ``.dmat`` / sphere ``.json``
+            selection (read with :func:`load_selection`).
         vertex_map: with a selection file, the cleaning's map of the mesh file ``V`` was read
             from (``report["vertex_map"]`` of :func:`load_mesh`): a ``.dmat`` written for the
             file's vertices is read through it, as :func:`load_selection` does.
@@ -96,10 +107,14 @@ class Deformer:
             (default: ARAP on the decimated base) or ``"galerkin"`` (the full mesh's energy
             restricted to the coarse level, nearer the full mesh's minimum; needs
             ``energy="smooth-rotations"``).
-        pinned_components: components without handles kept at rest instead of following.
+        pinned_components: the indices of components without handles kept at rest instead of
+            following (a sequence or 1-d array; default none).
 
     ``positions``, ``base`` (the deformed base surface B') and ``details`` (D = M - B at rest)
-    are readable after each solve; ``base``/``details`` are ``None`` for ARAP.
+    are readable after each solve; ``base``/``details`` are ``None`` for ARAP. ``stats`` (the
+    last solve's :class:`SolveStats`) and ``at_rest`` (the last :meth:`solve_to_rest`'s
+    :class:`AtRest`) are set to ``None`` as each solve starts: after a solve that raised
+    (``BsarapError``, ``KeyboardInterrupt``) they are ``None``, never an older solve's.
 
     Solves release the GIL, and a deformer serves one thread at a time: any call on it while
     another thread solves with it raises :class:`BsarapError` ("busy"); give each thread its
@@ -124,7 +139,7 @@ class Deformer:
         settle_iterations: int = 0,
         membrane: float = DEFAULT_MEMBRANE,
         coarse_energy: str = "decimated",
-        pinned_components: Sequence[int] = (),
+        pinned_components: Iterable[int] = (),
         vertex_map: Any = None,
     ) -> None:
         V = _positions(V, "V")
@@ -136,13 +151,13 @@ class Deformer:
                 "array are already one per vertex of V"
             )
         else:
-            labels = _indices(handles, "handles", 1)
+            labels = _labels(handles, "handles")
         self._native = _bsarap.NativeDeformer(
             V, _indices(F, "F", 2), labels, str(method), str(energy), _number(tol, "tol"),
             _count(max_iters, "max_iters"), _count(anderson, "anderson"), _number(smoothing, "smoothing"),
             None if coarse_vertices is None else _count(coarse_vertices, "coarse_vertices"),
             _count(fine_iterations, "fine_iterations"), _count(settle_iterations, "settle_iterations"),
-            _number(membrane, "membrane"), [_count(c, "pinned_components") for c in pinned_components],
+            _number(membrane, "membrane"), _pinned(pinned_components),
             _number(bending_length, "bending_length"), str(coarse_energy),
         )
         self.stats: Optional[SolveStats] = None
@@ -163,16 +178,22 @@ class Deformer:
         a translation ``(dx, dy, dz)``; a pair ``(translation, R)`` with ``R`` a 3x3 rotation;
         or ``{"translate": (dx, dy, dz), "rotate": R}``. The rotation turns the group about its
         rest centroid, then the translation moves it (the CLI's ``--rotate`` then ``--move``;
-        :func:`rotation` builds ``R`` from an axis and degrees). Groups not listed stay at rest.
-        Returns the positions ``(#V, 3)``; statistics in ``self.stats``.
+        :func:`rotation` builds ``R`` from an axis and degrees). ``R`` must be orthonormal within
+        1e-6 (every entry of ``R.T @ R`` within 1e-6 of the identity's) with determinant +1; a
+        rotation further off is refused, the deviation named. Groups not listed stay at rest.
+        Returns the positions ``(#V, 3)``; statistics in ``self.stats``, which is ``None`` (as is
+        ``self.at_rest``) from the start of the call until it returns.
         """
+        self.stats = self.at_rest = None
         U, stats = self._native.solve(_transforms(group_transforms))
         self.stats = SolveStats._from(stats)
         return U
 
     def solve_targets(self, targets: Any) -> np.ndarray:
         """Solve for handle positions given directly, ``(#H, 3)`` in the order of
-        :attr:`handle_vertices`."""
+        :attr:`handle_vertices`. Statistics in ``self.stats``, ``None`` (as is ``self.at_rest``)
+        from the start of the call until it returns."""
+        self.stats = self.at_rest = None
         U, stats = self._native.solve_targets(_positions(targets, "targets"))
         self.stats = SolveStats._from(stats)
         return U
@@ -209,15 +230,11 @@ class Deformer:
         step) runs to its end. The deformer is then as after the last step that ran: its
         :attr:`positions`, its targets and :attr:`settle_pending`, from which :meth:`settle`,
         :meth:`solve` or another ``solve_to_rest`` carry on; ``stats`` and ``at_rest`` are
-        ``None``."""
-        try:
-            U, at_rest = self._native.solve_to_rest(
-                _transforms(group_transforms), _count(max_steps, "max_steps")
-            )
-        except KeyboardInterrupt:
-            self.stats = self.at_rest = None
-            raise
-        self.stats = None
+        ``None`` (from the start of the call, after any error too)."""
+        self.stats = self.at_rest = None
+        U, at_rest = self._native.solve_to_rest(
+            _transforms(group_transforms), _count(max_steps, "max_steps")
+        )
         self.at_rest = AtRest._from(at_rest)
         return U
 

@@ -3,12 +3,13 @@
 
 from __future__ import annotations
 
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from . import _bsarap
-from ._common import PathLike, _indices, _number, _path, _positions
+from ._common import PathLike, _indices, _items, _number, _path, _positions
 
 
 def load_mesh(path: PathLike, *, with_report: bool = False):
@@ -56,6 +57,8 @@ def load_selection(path: PathLike, V: Any, *, vertex_map: Any = None) -> np.ndar
     return _bsarap.load_selection(_path(path), _positions(V, "V"), m)
 
 
-def rotation(axis: Sequence[float], degrees: float) -> np.ndarray:
-    """The 3x3 rotation by ``degrees`` about ``axis`` (as the CLI's ``--rotate G:ax,ay,az,deg``)."""
-    return np.array(_bsarap.rotation([_number(c, "axis") for c in axis], _number(degrees, "degrees")))
+def rotation(axis: npt.ArrayLike, degrees: float) -> np.ndarray:
+    """The 3x3 rotation by ``degrees`` about ``axis`` (3 numbers, a sequence or array; as the
+    CLI's ``--rotate G:ax,ay,az,deg``)."""
+    axis = [_number(c, "axis") for c in _items(axis, "axis", "a sequence of 3 numbers")]
+    return np.array(_bsarap.rotation(axis, _number(degrees, "degrees")))

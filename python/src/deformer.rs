@@ -104,7 +104,11 @@ impl NativeDeformer {
     }
 }
 
-/// Checks that `r` is a proper rotation (orthonormal to 1e-6, determinant +1).
+/// How far each entry of `RᵀR` may be from the identity's for a rotation given to a solve.
+const ROTATION_TOLERANCE: f64 = 1e-6;
+
+/// Checks that `r` is a proper rotation (orthonormal within [`ROTATION_TOLERANCE`],
+/// determinant +1); the error names the deviation or the determinant found.
 fn check_rotation(group: usize, r: &Mat3) -> PyResult<()> {
     let finite = r.iter().flatten().all(|c| c.is_finite());
     let mut worst = 0.0f64;
@@ -117,13 +121,19 @@ fn check_rotation(group: usize, r: &Mat3) -> PyResult<()> {
     let det = r[0][0] * (r[1][1] * r[2][2] - r[1][2] * r[2][1])
         - r[0][1] * (r[1][0] * r[2][2] - r[1][2] * r[2][0])
         + r[0][2] * (r[1][0] * r[2][1] - r[1][1] * r[2][0]);
-    if !finite || worst > 1e-6 || det <= 0.0 {
-        return Err(err(format!(
-            "group {group}: the rotation must be a proper 3×3 rotation matrix (orthonormal, \
-             determinant +1)"
-        )));
-    }
-    Ok(())
+    let why = if !finite {
+        "it has a non-finite entry".to_string()
+    } else if worst > ROTATION_TOLERANCE {
+        format!("an entry of RᵀR is {worst:.1e} from the identity's")
+    } else if det <= 0.0 {
+        format!("its determinant is {det:.3} (a reflection)")
+    } else {
+        return Ok(());
+    };
+    Err(err(format!(
+        "group {group}: the rotation must be a proper 3×3 rotation matrix (orthonormal within \
+         {ROTATION_TOLERANCE:e}, determinant +1): {why}"
+    )))
 }
 
 #[pymethods]
