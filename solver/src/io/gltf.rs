@@ -67,13 +67,14 @@ use super::reference::Folder;
 use super::uri::read_uri;
 use crate::geometry::mesh::in_range;
 
-/// The most vertices a file's scene may hold, its meshes' instances counted: far above any
-/// mesh the solver poses (its largest tested has 1.5M), and below what would exhaust memory
-/// (a small file can instance one mesh from thousands of nodes).
-pub const MAX_VERTICES: usize = 100_000_000;
+/// The most vertices a file's scene may hold, its meshes' instances counted: 20 times the
+/// largest mesh the solver is measured posing (1.5M), and below what would exhaust a desktop's
+/// memory while reading (a small file can instance one mesh from thousands of nodes; each
+/// vertex costs about 100 bytes read, with its attributes' corner lists: about 3 GB here).
+pub const MAX_VERTICES: usize = 30_000_000;
 
 /// The most triangles a file's scene may hold, instances counted (as [`MAX_VERTICES`]).
-pub const MAX_TRIANGLES: usize = 200_000_000;
+pub const MAX_TRIANGLES: usize = 60_000_000;
 
 /// Extensions whose data this reader cannot decode, with what a user can do about each.
 const UNDECODABLE: [(&str, &str); 2] = [
@@ -372,10 +373,15 @@ fn load_buffers(
             ::gltf::buffer::Source::Uri(uri) => match read.get(uri) {
                 Some(data) => data.clone(),
                 None => {
-                    let data: Arc<[u8]> =
-                        read_uri(uri, ctx, folder, &format!("buffer {}", buffer.index()))?
-                            .map_err(|refused| ctx.unsupported(refused))?
-                            .into();
+                    // The bytes its buffers declare, of a file that may be larger.
+                    let same = gltf.document.buffers().filter(
+                        |b| matches!(b.source(), ::gltf::buffer::Source::Uri(u) if u == uri),
+                    );
+                    let limit = same.map(|b| b.length() as u64).max().unwrap_or(0);
+                    let what = format!("buffer {}", buffer.index());
+                    let data: Arc<[u8]> = read_uri(uri, ctx, folder, &what, limit)?
+                        .map_err(|refused| ctx.unsupported(refused))?
+                        .into();
                     read.insert(uri, data.clone());
                     data
                 }

@@ -209,7 +209,9 @@ pub(crate) fn images(
             ::gltf::image::Source::Uri { uri, mime_type } => {
                 // A texture that is missing or refused costs the texture, not the mesh (as
                 // an OBJ's missing texture, and as Blender and three.js read such a file).
-                let bytes = match read_uri(uri, ctx, folder, &what) {
+                // one byte past the budget tells a file too large for it
+                let limit = budget as u64 + 1;
+                let bytes = match read_uri(uri, ctx, folder, &what, limit) {
                     Ok(Ok(bytes)) => bytes,
                     Ok(Err(refused)) => {
                         notices.push(format!("{refused}; loaded without this texture"));

@@ -69,7 +69,15 @@ pub(crate) fn attach(asset: &mut Asset, libs: &[String], folder: Option<Folder>)
                 continue;
             }
         };
-        let bytes = match read_file(&path) {
+        let bytes = match read_file(&path, MAX_LIBRARY_BYTES + 1) {
+            Ok(b) if b.len() as u64 > MAX_LIBRARY_BYTES => {
+                asset.notices.push(format!(
+                    "{}: a material library past {} MiB; loaded without it",
+                    path.display(),
+                    MAX_LIBRARY_BYTES >> 20
+                ));
+                continue;
+            }
             Ok(b) => b,
             Err(e) => {
                 asset.notices.push(format!(
@@ -134,6 +142,9 @@ pub(crate) fn attach(asset: &mut Asset, libs: &[String], folder: Option<Folder>)
         }
     }
 }
+
+/// The largest material library read (a text of materials: real ones are kilobytes).
+const MAX_LIBRARY_BYTES: u64 = 64 << 20;
 
 /// The colour statements, whose values `tobj` reads as exactly three numbers.
 const COLORS: [&str; 5] = ["Ka", "Kd", "Ks", "Ke", "Tf"];
@@ -228,7 +239,16 @@ fn texture(
     if let Some(&i) = textures.get(&path) {
         return Some(i);
     }
-    let bytes = match read_file(&path) {
+    // An encoded image past the decoder's allocation limit does not decode: not read whole.
+    let bytes = match read_file(&path, super::MAX_IMAGE_ALLOC + 1) {
+        Ok(b) if b.len() as u64 > super::MAX_IMAGE_ALLOC => {
+            asset.notices.push(format!(
+                "{}: a texture file past {} MiB; loaded without it",
+                path.display(),
+                super::MAX_IMAGE_ALLOC >> 20
+            ));
+            return None;
+        }
         Ok(b) => b,
         Err(e) => {
             asset.notices.push(format!(

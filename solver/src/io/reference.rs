@@ -79,13 +79,18 @@ pub fn not_regular(path: &Path) -> Option<&'static str> {
         .then_some("not a regular file (a pipe, a socket or a device)")
 }
 
-/// The bytes of the file a reference names at `path`, refused when it is not a regular file
-/// ([`not_regular`]).
-pub(crate) fn read_file(path: &Path) -> std::io::Result<Vec<u8>> {
-    match not_regular(path) {
-        Some(why) => Err(std::io::Error::new(std::io::ErrorKind::InvalidInput, why)),
-        None => std::fs::read(path),
+/// The first `limit` bytes of the file a reference names at `path` (all of a shorter one),
+/// refused when it is not a regular file ([`not_regular`]). The limit is the most the reader
+/// can use (a buffer's declared length, what is left of the image budget): a reference to a
+/// huge file, or a sparse one that reads as terabytes, costs no more than that.
+pub(crate) fn read_file(path: &Path, limit: u64) -> std::io::Result<Vec<u8>> {
+    use std::io::Read;
+    if let Some(why) = not_regular(path) {
+        return Err(std::io::Error::new(std::io::ErrorKind::InvalidInput, why));
     }
+    let mut out = Vec::new();
+    std::fs::File::open(path)?.take(limit).read_to_end(&mut out)?;
+    Ok(out)
 }
 
 /// The scheme of a URI (`file` of `file:///etc/passwd`): letters, digits, `+`, `-`, `.`
@@ -172,6 +177,17 @@ mod tests {
         let sub = root.join("materials");
         assert!(!resolve(root, &sub, "../tex/a.png").unwrap().outside);
         assert!(resolve(root, &sub, "../../a.png").unwrap().outside);
+    }
+
+    /// At most the limit is read: a referenced file larger than the reader can use (a sparse
+    /// one reads as terabytes) costs no more.
+    #[test]
+    fn a_file_is_read_up_to_the_limit() {
+        let dir = crate::testing::ScratchDir::new("read-limit");
+        let path = dir.join("big.bin");
+        std::fs::write(&path, vec![7u8; 1000]).unwrap();
+        assert_eq!(read_file(&path, 10).unwrap(), vec![7u8; 10]);
+        assert_eq!(read_file(&path, 5000).unwrap().len(), 1000);
     }
 
     #[test]

@@ -12,12 +12,14 @@ use super::reference::{Folder, resolve};
 /// Output: `Ok(Ok(bytes))`; `Ok(Err(message))` when the reference is refused (a scheme, no
 /// folder to read from, outside the folder): the message names the URI, and the caller
 /// decides whether that fails the load (a buffer) or drops the reference (an image).
-/// Errors: an invalid data URI, a file that cannot be read.
+/// Errors: an invalid data URI, a file that cannot be read. Of a file, at most `limit` bytes are
+/// read ([`super::reference::read_file`]).
 pub(crate) fn read_uri(
     uri: &str,
     ctx: Ctx,
     folder: Option<Folder>,
     what: &str,
+    limit: u64,
 ) -> Result<Result<Vec<u8>, String>, LoadError> {
     use base64::Engine;
     if let Some(rest) = uri.strip_prefix("data:") {
@@ -44,7 +46,7 @@ pub(crate) fn read_uri(
              asset's folder are read only when allowed: --allow-outside-references)"
         )));
     }
-    super::reference::read_file(&resolved.path).map(Ok).map_err(|e| {
+    super::reference::read_file(&resolved.path, limit).map(Ok).map_err(|e| {
         ctx.parse(None, format!("{what}: cannot read {}: {e}", resolved.path.display()))
     })
 }
