@@ -85,7 +85,11 @@ class Deformer:
         method: ``"arap"``, ``"bsarap"`` (the paper), ``"bsarap-faired"`` or
             ``"bsarap-coarse"`` (default, the editor's).
 
-    Settings (keywords; the CLI's flags):
+    Settings (keywords; the CLI's flags). Unlike the CLI, which refuses a flag the method does
+    not read, a setting another method reads is accepted and has no effect (a caller can pass
+    one set of settings to every method): ``smoothing`` is read by ``bsarap-faired`` and
+    ``bsarap-coarse``; ``coarse_vertices``, ``fine_iterations``, ``settle_iterations``,
+    ``membrane`` and ``coarse_energy`` by ``bsarap-coarse`` only.
         energy: ``"spokes-and-rims"`` (default), ``"spokes"`` or ``"smooth-rotations"``
             (SR-ARAP: spokes plus a rotation-smoothness term whose minimum does not move with
             the mesh's resolution).
@@ -96,8 +100,10 @@ class Deformer:
         tol: relative energy decrease at which a solve stops (default 1e-4; 0: run max_iters).
         max_iters: iteration cap (default 100).
         anderson: Anderson acceleration window, 0 (default) to 64.
-        smoothing: smoothing length of the faired base, fraction of the diagonal (default 0.01).
-        coarse_vertices: vertices of the coarse base (default min(3000, 30 % of the mesh)).
+        smoothing: smoothing length of the faired base, fraction of the diagonal (default 0.01;
+            ``bsarap-faired``, ``bsarap-coarse``).
+        coarse_vertices: vertices of the coarse base (default min(3000, 30 % of the mesh);
+            ``bsarap-coarse``).
         fine_iterations: ARAP iterations on the full mesh after each coarse solve (default 0).
         settle_iterations: ARAP iterations per :meth:`settle` step (coarse; default 0: off).
         membrane: the coarse level's membrane share, in [0, 1]: the part of its ARAP energy in
