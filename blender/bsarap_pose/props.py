@@ -73,7 +73,7 @@ class BSARAP_HandleGroup(bpy.types.PropertyGroup):
     # the pose is the control's motion from there.
     rest_matrix: FloatVectorProperty(size=16, default=IDENTITY, options={"HIDDEN"})
     # The vertex group's index when last seen (-1: never): a rename is followed by it
-    # (``solve.follow_renamed_groups``).
+    # (``edits.follow_renamed_groups``).
     vertex_group: IntProperty(default=-1, options={"HIDDEN"})
 
 
@@ -101,7 +101,7 @@ class BSARAP_ObjectSettings(bpy.types.PropertyGroup):
     groups: CollectionProperty(type=BSARAP_HandleGroup)
     active_group: IntProperty(default=0)
     # The checksum of the basis (``handles.rest_fingerprint``) the groups' rest matrices are
-    # recorded against: an undo step brings back both (see ``solve.follow_applied_transform``).
+    # recorded against: an undo step brings back both (see ``edits.follow_applied_transform``).
     rest_basis: StringProperty(default="", options={"HIDDEN"})
     # How many vertex groups the object had when the handle groups' indices were noted.
     vertex_groups: IntProperty(default=-1, options={"HIDDEN"})

@@ -9,11 +9,11 @@ a key (:class:`StateKey`): its topology (counts and a checksum of the faces' con
 checksum of its rest coordinates, its handle groups, the settings and the modifiers that block
 posing; a change of any of them rebuilds the solver (with a message) instead of failing, while
 a rename keeps it: the object's, or a handle group's vertex group's, which the handle group
-follows (:func:`follow_renamed_groups`). Apply Transform and Set Origin change the basis and
-the object's matrix together: the controls' rest matrices follow
-(:func:`follow_applied_transform`), so the pose stays. A build that failed is not tried again
-until its key changes (or *Add Controls*): the depsgraph updates that follow get its message at
-once. What is kept for an object no longer in any scene is dropped (:func:`prune`).
+follows (:func:`.edits.follow_renamed_groups`). Apply Transform and Set Origin change the basis
+and the object's matrix together: the controls' rest matrices follow
+(:func:`.edits.follow_applied_transform`), so the pose stays. A build that failed is not tried
+again until its key changes (or *Add Controls*): the depsgraph updates that follow get its
+message at once. What is kept for an object no longer in any scene is dropped (:func:`prune`).
 
 Each control Empty poses one object, and so does each mesh: the first object posed claims them,
 and another that uses them is refused with a message (:func:`check_controls`; the claims
@@ -49,7 +49,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from . import claims, handles, modifiers
+from . import claims, edits, handles, modifiers
 from .handles import HandleError
 
 #: The shape key the live pose goes into.
@@ -94,7 +94,8 @@ class SolverState:
         self.baking = False  # a bake solves the frames: no live solve, finish_step waits
         # the rest bounding-box diagonal: the unit of the fractions (bending length, smoothing)
         self.diagonal = diagonal(self.cleaned_rest)
-        # the object's matrix at the build and at each update since (follow_applied_transform)
+        # the object's matrix at the build and at each update since
+        # (edits.follow_applied_transform)
         self.matrix = None
 
     def on_mesh(self, U: np.ndarray) -> np.ndarray:
@@ -288,7 +289,7 @@ class StateKey(NamedTuple):
     rest: int
     groups: tuple
     #: a handle group's vertex group deleted: rebuild (and say so); a rename is followed first
-    #: (:func:`follow_renamed_groups`)
+    #: (:func:`.edits.follow_renamed_groups`)
     groups_exist: tuple
     settings: tuple
     #: the modifiers that block posing (added after the controls: refused until they go)
@@ -338,7 +339,7 @@ def state(obj, *, rebuild=True) -> SolverState:
     the built solver's key after a failed build (a blocking modifier removed again), the
     failure's message goes."""
     k = uid(obj)
-    renamed = follow_renamed_groups(obj)
+    renamed = edits.follow_renamed_groups(obj)
     key = state_key(obj)
     st = _states.get(k)
     if renamed and st is not None:
@@ -354,7 +355,7 @@ def state(obj, *, rebuild=True) -> SolverState:
         messages[k] = f"{obj.name}: vertex group renamed ({said}): its handle group follows"
     if st is not None and st.key == key:
         _drop_failure(k, obj)
-        note_vertex_groups(obj)
+        edits.note_vertex_groups(obj)
         return st
     if not rebuild:
         raise HandleError(f"{obj.name}: the solver is not built")
@@ -368,12 +369,12 @@ def state(obj, *, rebuild=True) -> SolverState:
         _failures[k] = (key, e, obj.name)
         raise
     _failures.pop(k, None)
-    note_vertex_groups(obj)
+    edits.note_vertex_groups(obj)
     new.matrix = np.array(obj.matrix_world, dtype=np.float64)
     # a setting changed while a bake solves the frames with the old solver: the new one waits
     # for the bake too (its end clears the object's current state, bake.Baker.restore_frame)
     new.baking = st is not None and st.baking
-    followed = st is not None and follow_applied_transform(obj, st, new)
+    followed = st is not None and edits.follow_applied_transform(obj, st, new)
     if obj.bsarap.rest_basis != str(key.rest):
         obj.bsarap.rest_basis = str(key.rest)
     if st is not None:
@@ -400,73 +401,6 @@ def _drop_failure(k, obj) -> None:
     failed = _failures.pop(k, None)
     if failed is not None:
         _drop_message(k, str(failed[1]), str(_renamed(failed, obj.name)))
-
-
-def note_vertex_groups(obj) -> None:
-    """Note each handle group's vertex group index and the number of vertex groups, for
-    :func:`follow_renamed_groups` (written only when they changed: a write is an update)."""
-    s = obj.bsarap
-    for g in s.groups:
-        vg = obj.vertex_groups.get(g.name)
-        if vg is not None and g.vertex_group != vg.index:
-            g.vertex_group = vg.index
-    if s.vertex_groups != len(obj.vertex_groups):
-        s.vertex_groups = len(obj.vertex_groups)
-
-
-def follow_renamed_groups(obj) -> list:
-    """A vertex group renamed in Blender (nothing tells of it) leaves its handle group naming a
-    group that is gone. Where there are as many vertex groups as when they were last noted
-    (:func:`note_vertex_groups`; a deletion shifts the indices) and the one at the handle group's
-    noted index is named by no handle group, it is that vertex group renamed: the handle group
-    takes its name. Returns the ``(old, new)`` names followed."""
-    s = obj.bsarap
-    vgs = obj.vertex_groups
-    if s.vertex_groups != len(vgs):
-        return []
-    names = {g.name for g in s.groups}
-    out = []
-    for g in s.groups:
-        if vgs.get(g.name) is not None or not 0 <= g.vertex_group < len(vgs):
-            continue
-        new = vgs[g.vertex_group].name
-        if new in names:
-            continue
-        out.append((g.name, new))
-        names.add(new)
-        g.name = new
-    return out
-
-
-def follow_applied_transform(obj, old: SolverState, new: SolverState) -> bool:
-    """Apply Transform (Ctrl+A) and Set Origin move the mesh's vertices by an affine map ``A``
-    (``p' = A p``) and the object the other way (``O' = O A^-1``): nothing moves in the world,
-    but the object's space, in which the controls' rest matrices are recorded, changed under
-    them, and the pose would jump (targets at ``A D A p`` for a scale). Where the object's matrix
-    since the last update (``old.matrix``) and the new basis agree on one such ``A =
-    O'^-1 O``, every vertex of the old basis mapped by it onto the new one within float32
-    rounding, the rest matrices are mapped too (``R' = A R``) and the pose stays. An edit of the
-    basis alone, the object where it was, keeps them (``A = I``); so do rests recorded against
-    another basis than ``old``'s (an undo step brought back its own: ``rest_basis``). Returns
-    whether they were mapped. With Live off the object's matrix is known from the last Pose
-    Now: moved since and then applied, the rests stay as they were."""
-    s = obj.bsarap
-    if old.matrix is None or old.key.topology != new.key.topology or s.rest_basis != str(old.key.rest):
-        return False
-    try:
-        A = np.linalg.inv(new.matrix) @ old.matrix
-    except np.linalg.LinAlgError:
-        return False
-    if not np.isfinite(A).all() or np.allclose(A, np.eye(4), rtol=0.0, atol=1e-9):
-        return False
-    mapped = old.rest @ A[:3, :3].T + A[:3, 3]
-    scale = max(float(np.abs(new.rest).max(initial=0.0)), float(np.abs(mapped).max(initial=0.0)), 1e-12)
-    if float(np.abs(mapped - new.rest).max(initial=0.0)) > 1e-5 * scale:
-        return False
-    for g in s.groups:
-        R = np.array(g.rest_matrix, dtype=np.float64).reshape(4, 4)
-        g.rest_matrix = [float(x) for x in (A @ R).ravel()]
-    return True
 
 
 def _topology_change(old: StateKey, new: StateKey) -> str:
