@@ -109,7 +109,8 @@ impl Checked {
         let e = self.elements;
         let triangles = e.triangles;
         let uvs = corner_attribute(e.uv_values, e.uv_corners, [0.0; 2]);
-        let normals = corner_attribute(e.normal_values, e.normal_corners, [0.0; 3]);
+        let normals = corner_attribute(e.normal_values, e.normal_corners, [0.0; 3])
+            .map(|n| split_by_position(n, &triangles));
         let colors =
             (!self.colors.is_empty()).then(|| Attribute::per_vertex(self.colors, &triangles));
         let materials = self
@@ -150,6 +151,31 @@ fn corner_attribute<const N: usize>(
         corners.iter_mut().flatten().filter(|i| **i == NONE).for_each(|i| *i = at);
     }
     Some(Attribute { values, corners })
+}
+
+/// The normal attribute `a` of `triangles` with no value shared by corners at different
+/// positions: each (position, value) pair gets a value of its own, the same vector. A deformed
+/// normal is computed per value (`Asset::deformed_normals`), and Blender's OBJ exporter writes
+/// one `vn` for equal normals anywhere on the mesh (every vertex down a cylinder's column, a
+/// whole flat region; the corners without a `vn` share the appended neutral value too): shared,
+/// each such vertex of a pose got the average of all of them. Corners at one position that
+/// share a value stay smooth, and different values there stay a hard edge.
+fn split_by_position(a: Attribute<3>, triangles: &[[u32; 3]]) -> Attribute<3> {
+    let mut index: rustc_hash::FxHashMap<(u32, u32), u32> = rustc_hash::FxHashMap::default();
+    let mut values = Vec::with_capacity(a.values.len());
+    let corners = triangles
+        .iter()
+        .zip(&a.corners)
+        .map(|(t, c)| {
+            std::array::from_fn(|k| {
+                *index.entry((t[k], c[k])).or_insert_with(|| {
+                    values.push(a.values[c[k] as usize]);
+                    (values.len() - 1) as u32
+                })
+            })
+        })
+        .collect();
+    Attribute { values, corners }
 }
 
 /// Counts of the indexed element kinds in the whole file (OBJ allows forward references).
@@ -604,8 +630,10 @@ mod tests {
         assert_eq!(uv.values[4], [0.0, 0.0], "neutral value for the corners without vt");
         assert_eq!(uv.corners, vec![[0, 1, 2], [3, 2, 0], [4, 4, 4]]);
         let n = a.normals.as_ref().unwrap();
-        assert_eq!(n.values, vec![[0.0, 0.0, 1.0], [0.0, 0.0, -1.0], [0.0; 3]]);
-        assert_eq!(n.corners, vec![[0, 0, 0], [1, 1, 1], [2, 2, 2]]);
+        // One value per (position, vn): a deformed normal is computed per value.
+        let (up, down) = ([0.0, 0.0, 1.0], [0.0, 0.0, -1.0]);
+        assert_eq!(n.values, vec![up, up, up, down, down, down, [0.0; 3], [0.0; 3], [0.0; 3]]);
+        assert_eq!(n.corners, vec![[0, 1, 2], [3, 4, 5], [6, 7, 8]]);
         let c = a.colors.as_ref().unwrap();
         assert_eq!(c.values[3], [0.5, 0.25, 1.0, 1.0]);
         assert_eq!(c.values[0], [1.0; 4]);

@@ -12,7 +12,8 @@
 //! [`Asset::polygon_corners`]), or each of [`Asset::triangles`] for a file of triangles.
 //! Normals are either one per value of [`Asset::normals`] (faces use the
 //! file's normal corner indices, so hard edges stay hard; see
-//! [`Asset::deformed_normals`]) or, for a file without normals, one per position.
+//! [`Asset::deformed_normals`]) or, for a file without normals, one per position; equal vectors
+//! are written once.
 //!
 //! **MTL** ([`write_mtl_asset`]): per [`Material`] `newmtl`, `Kd r g b` and `d a` (the linear
 //! base colour factor), `Pm`/`Pr` (metallic, roughness: the PBR extension of MTL that Blender
@@ -316,8 +317,18 @@ fn obj_text(
     for [u, v] in uvs.map_or(&[][..], |a| &a.values[..]) {
         let _ = writeln!(text, "vt {} {}", u, 1.0 - f64::from(*v));
     }
+    // One `vn` per distinct vector (in f32, as written), as Blender writes them: values the
+    // reader split per position (`obj::split_by_position`) merge back where they are equal.
+    let mut vn_of = Vec::with_capacity(normals.map_or(0, <[_]>::len));
+    let mut distinct: rustc_hash::FxHashMap<[u32; 3], u32> = rustc_hash::FxHashMap::default();
     for v in normals.unwrap_or(&[]) {
-        let _ = writeln!(text, "vn {} {} {}", v[0] as f32, v[1] as f32, v[2] as f32);
+        let v = v.map(|c| c as f32);
+        let next = distinct.len() as u32;
+        let k = *distinct.entry(v.map(f32::to_bits)).or_insert_with(|| {
+            let _ = writeln!(text, "vn {} {} {}", v[0], v[1], v[2]);
+            next
+        });
+        vn_of.push(k);
     }
     let mut polygons = asset.polygons().enumerate().peekable();
     let mut object = "";
@@ -349,7 +360,7 @@ fn obj_text(
             for (c, v) in v.iter().enumerate() {
                 let _ = write!(text, " {}", v + 1);
                 let vt = vt.as_ref().map(|k| k[c] + 1);
-                let vn = vn.as_ref().map(|k| k[c] + 1);
+                let vn = vn.as_ref().map(|k| vn_of[k[c] as usize] + 1);
                 match (vt, vn) {
                     (Some(t), Some(n)) => _ = write!(text, "/{t}/{n}"),
                     (Some(t), None) => _ = write!(text, "/{t}"),

@@ -108,25 +108,31 @@ fn obj_on_the_layout_keeps_order_attributes_and_parts() {
         assert_eq!(read[0] as f32, *u);
         assert_eq!((1.0 - read[1]) as f32, *v, "v is flipped back to OBJ's v-up");
     }
-    let vn = lines(&text, "vn");
-    assert_eq!(vn.len(), 24);
-    let file_normals = &asset.normals.as_ref().unwrap().values;
-    for (line, axis) in vn.iter().zip(file_normals) {
-        let read = glam::DVec3::from_slice(&numbers(line));
-        let expected = rotation * glam::Vec3::from_array(*axis).as_dvec3();
-        assert!((read - expected).length() < 1e-6, "{read} instead of {expected}");
-    }
+    // The 24 split normals are the 6 face normals rotated: equal vectors written once, and
+    // each corner's `vn` is its own face's.
+    let vn: Vec<glam::DVec3> =
+        lines(&text, "vn").iter().map(|l| glam::DVec3::from_slice(&numbers(l))).collect();
+    assert_eq!(vn.len(), 6);
+    let file_normals = asset.normals.as_ref().unwrap();
     let f = lines(&text, "f");
     assert_eq!(f.len(), 12);
-    let n_corners = &asset.normals.as_ref().unwrap().corners;
+    for (line, corners) in f.iter().zip(&file_normals.corners) {
+        for (word, &k) in line.split_whitespace().zip(corners) {
+            let n: usize = word.rsplit('/').next().unwrap().parse().unwrap();
+            let axis = glam::Vec3::from_array(file_normals.values[k as usize]).as_dvec3();
+            let expected = rotation * axis;
+            assert!((vn[n - 1] - expected).length() < 1e-6, "{} instead of {expected}", vn[n - 1]);
+        }
+    }
+    // (each corner's `vn` checked above, by the vector it names)
     for (t, line) in f.iter().enumerate() {
         let expected: Vec<String> = (0..3)
-            .map(|c| {
-                let (p, u, n) = (asset.triangles[t][c], uv.corners[t][c], n_corners[t][c]);
-                format!("{}/{}/{}", p + 1, u + 1, n + 1)
-            })
+            .map(|c| format!("{}/{}/", asset.triangles[t][c] + 1, uv.corners[t][c] + 1))
             .collect();
-        assert_eq!(*line, expected.join(" "), "face {t}");
+        let written: Vec<&str> =
+            line.split_whitespace().map(|w| w.rsplit_once('/').unwrap().0).collect();
+        let expected: Vec<&str> = expected.iter().map(|e| e.trim_end_matches('/')).collect();
+        assert_eq!(written, expected, "face {t}");
     }
     // Parts: an object and a material each, in order, before their faces.
     let structure: Vec<&str> = text
@@ -357,7 +363,17 @@ fn polygons_and_holes_round_trip_through_obj_ply_and_off() {
     let path = dir.join("grid.obj");
     write_obj_asset(&path, asset, &pose, Some(&normals)).unwrap();
     let written = std::fs::read_to_string(&path).unwrap();
-    assert_eq!(lines(&written, "f"), lines(&text, "f"), "the file's faces, corners and order");
+    // The file's faces, corners and order; its one shared `vn` is now one per vertex (the
+    // pose is curved: each vertex has its own normal).
+    let without_vn = |faces: Vec<&str>| -> Vec<String> {
+        let corner = |w: &str| w.rsplit_once('/').map_or(w, |(vt, _)| vt).to_string();
+        faces
+            .iter()
+            .map(|f| f.split_whitespace().map(corner).collect::<Vec<_>>().join(" "))
+            .collect()
+    };
+    assert_eq!(without_vn(lines(&written, "f")), without_vn(lines(&text, "f")));
+    assert!(lines(&written, "vn").len() > 10, "the curved pose's normals merged");
     assert_eq!(lines(&written, "usemtl"), ["red", "blue"]);
     let back = load_mesh(&path).unwrap();
     assert_eq!(back.asset.polygon_sizes, asset.polygon_sizes);

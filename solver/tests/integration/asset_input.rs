@@ -305,7 +305,8 @@ fn obj_with_mtl_seams_hard_normals_and_two_materials() {
     assert_eq!(uv.corners[0], [0, 1, 2]);
     assert_eq!(uv.corners[1], [0, 2, 3]);
     let n = a.normals.as_ref().unwrap();
-    assert_eq!(n.values.len(), 6);
+    // One value per (position, vn) pair: the 6 face normals at each of the 8 corners' 3 faces.
+    assert_eq!(n.values.len(), 24);
     // Hard edges and a seam: position 3 (`v 0 1 0`) has three normal and three UV indices.
     let (mut normals_at_3, mut uvs_at_3) = (Vec::new(), Vec::new());
     for (f, t) in a.triangles.iter().enumerate() {
@@ -320,7 +321,10 @@ fn obj_with_mtl_seams_hard_normals_and_two_materials() {
         v.sort_unstable();
         v.dedup();
     }
-    assert_eq!(normals_at_3, vec![0, 3, 4]);
+    let mut at_3: Vec<[f32; 3]> = normals_at_3.iter().map(|&k| n.values[k as usize]).collect();
+    at_3.sort_by(|a, b| a.partial_cmp(b).unwrap());
+    at_3.dedup();
+    assert_eq!(at_3.len(), 3, "three faces, three normals: {at_3:?}");
     assert_eq!(uvs_at_3, vec![0, 1, 3]);
     let parts: Vec<_> =
         a.parts.iter().map(|p| (p.name.as_str(), p.material, p.first, p.count)).collect();
