@@ -570,7 +570,7 @@ fn a_press_on_a_panel_during_g_confirms_the_move_first() {
 
 /// Keys that record or restore a step wait while a move runs: M toggled mirrored painting as a
 /// step inside the move's (one Ctrl+Z then took back both, the next gave a pose never
-/// confirmed) and Ctrl+Y redid under it.
+/// confirmed) and Ctrl+Y redid under it; Ctrl+S saved a pose an Esc could still cancel.
 #[test]
 fn keys_that_record_a_step_wait_for_the_move() {
     let mut h = start();
@@ -579,6 +579,9 @@ fn keys_that_record_a_step_wait_for_the_move() {
     h.step();
     h.key_press_modifiers(Modifiers::COMMAND, Key::Y);
     h.step();
+    h.key_press_modifiers(Modifiers::COMMAND, Key::S);
+    h.step();
+    assert!(!h.state().file_dialog_open(), "Ctrl+S saved mid-move");
     assert!(h.state().running_transform().is_some(), "the move ended");
     assert!(!h.state().edit_state().symmetry.mirror_painting, "M toggled mid-move");
     assert!(h.state().info().unwrap_or_default().contains("finish the move"));
@@ -594,4 +597,25 @@ fn keys_that_record_a_step_wait_for_the_move() {
     h.key_press_modifiers(Modifiers::COMMAND, Key::Y);
     h.step();
     assert_eq!(h.state().group_pose(0).unwrap(), moved, "redo brings the move back");
+}
+
+/// G and R with no active group say why nothing moves, as K does; Q in the pose tool only
+/// switches back to painting (it also moved the brush on to the box).
+#[test]
+fn g_without_a_group_says_so_and_q_only_switches_tools() {
+    let mut h = start();
+    h.state_mut().set_active_group(None);
+    h.step();
+    h.key_press(Key::G);
+    h.step();
+    assert_eq!(h.state().running_transform(), None);
+    assert_eq!(h.state().info(), Some("select a handle group first"));
+    let mode = h.state().select_mode();
+    h.key_press(Key::Q);
+    h.step();
+    assert_eq!(h.state().tool(), Tool::Paint);
+    assert_eq!(h.state().select_mode(), mode, "Q from the pose tool changed the brush");
+    h.key_press(Key::Q);
+    h.step();
+    assert_ne!(h.state().select_mode(), mode, "Q in the paint tool cycles");
 }

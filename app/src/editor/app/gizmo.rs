@@ -247,6 +247,9 @@ impl EditorApp {
         if self.gesture_under_way() {
             let cmd_shift = Modifiers::COMMAND | Modifiers::SHIFT;
             let waiting = [
+                // a save would write a pose the gesture may still cancel
+                (cmd_shift, Key::S),
+                (Modifiers::COMMAND, Key::S),
                 (Modifiers::NONE, Key::K),
                 (Modifiers::NONE, Key::M),
                 (Modifiers::NONE, Key::Home),
@@ -309,7 +312,18 @@ impl EditorApp {
             }
             return;
         }
-        if self.session.scene.is_none() || self.active_gizmo_group().is_none() {
+        if self.session.scene.is_none() {
+            return;
+        }
+        if self.active_gizmo_group().is_none() {
+            // said, as K and the group commands say it, not ignored
+            let pose = self.interaction.tool == Tool::Pose;
+            let asked = ctx.input(|i| {
+                i.modifiers.is_none() && (i.key_pressed(Key::R) || (pose && i.key_pressed(Key::G)))
+            });
+            if asked {
+                self.info = Some("select a handle group first".into());
+            }
             return;
         }
         for (k, kind) in [(Key::G, TransformKind::Translate), (Key::R, TransformKind::Rotate)] {

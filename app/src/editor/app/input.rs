@@ -166,7 +166,13 @@ impl EditorApp {
     }
 
     pub(super) fn handle_keys(&mut self, ctx: &egui::Context) {
-        if ctx.text_edit_focused() {
+        // A rename's field has the focus before it is first drawn (after this runs), and
+        // `text_edit_focused` knows it only once drawn: its first key ("k" of "knee") also
+        // keyed the group.
+        let renaming = self.interaction.renaming.as_ref().is_some_and(|(k, _)| {
+            ctx.memory(|m| m.focused()) == Some(egui::Id::unique(("rename", *k)))
+        });
+        if ctx.text_edit_focused() || renaming {
             return;
         }
         self.tool_keys(ctx);

@@ -104,6 +104,7 @@ impl EditorApp {
                         if r.double_clicked() {
                             ui.memory_mut(|m| m.request_focus(egui::Id::unique(("rename", k))));
                             self.interaction.renaming = Some((k, g.name.clone()));
+                            ui.ctx().request_repaint(); // the field, drawn at once
                         }
                     }
                 }

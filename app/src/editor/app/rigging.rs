@@ -443,6 +443,9 @@ impl EditorApp {
             let slider = ui.add(
                 egui::Slider::new(&mut f.radius, 0.0..=0.5)
                     .clamping(egui::SliderClamping::Edits) // a scene's wider radius stays
+                    // a typed radius is one edit once entered: not a step and a rebuild of
+                    // the solvers per keystroke ("0" on the way made the handle hard)
+                    .update_while_editing(false)
                     .text("falloff radius")
                     .custom_formatter(
                         |r, _| if r == 0.0 { "hard".into() } else { format!("{r:.3}") },

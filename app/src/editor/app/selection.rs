@@ -107,7 +107,10 @@ impl EditorApp {
             self.selecting.visible_only = !self.selecting.visible_only;
         }
         if consume(Modifiers::NONE, Key::Q) {
-            self.selecting.mode = self.selecting.mode.next();
+            // One meaning per key, as G: outside the paint tool Q only switches to it.
+            if self.interaction.tool == super::Tool::Paint {
+                self.selecting.mode = self.selecting.mode.next();
+            }
             self.selecting.region = None;
             self.interaction.tool = super::Tool::Paint;
             self.interaction.clear_hover();

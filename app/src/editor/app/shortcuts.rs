@@ -16,7 +16,7 @@ pub const SHORTCUTS: &[(&str, &str)] = &[
     ("B", "paint tool"),
     ("Left drag (paint)", "paint the active group; Ctrl erases"),
     ("[ / ]", "brush radius"),
-    ("Q", "paint tool: cycle brush / box / lasso selection"),
+    ("Q", "paint tool: cycle brush / box / lasso selection (from another tool: paint)"),
     ("Left drag (box, lasso)", "add the enclosed vertices to the active group; Ctrl removes"),
     ("Alt+Z", "box and lasso: visible vertices only / through the mesh"),
     ("+ (or =) / -", "grow / shrink the active group by one ring"),
