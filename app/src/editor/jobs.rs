@@ -54,6 +54,9 @@ pub struct Recorded {
     pub fps: f64,
     /// The method and settings it was solved with (a glTF export records them).
     pub solved: SolveSettings,
+    /// The up axis `glb_bytes` was measured for (a Z-up scene's file stands its nodes
+    /// upright, which takes bytes): measured again when the document's changes.
+    pub up: solver::animation::export::UpAxis,
 }
 
 /// Progress shared between a job thread and the UI.
@@ -360,6 +363,8 @@ pub struct RecordInput {
     pub cache: Arc<Mutex<MeshCache>>,
     /// Each vertex's triangles, as the loader built them (for the frames' normals).
     pub vertex_faces: Arc<VertexFaces>,
+    /// The document's up axis, which an export writes (for the `.glb` size).
+    pub up: solver::animation::export::UpAxis,
 }
 
 /// Precomputes the method and records every frame of the timeline.
@@ -385,6 +390,7 @@ pub fn spawn_record(
                 loose_parts,
                 cache,
                 vertex_faces,
+                up,
             } = input;
             let options = DeformerOptions {
                 method,
@@ -426,7 +432,7 @@ pub fn spawn_record(
             };
             // A recording a .glb of morph targets cannot hold is kept: a point cache and a
             // bake to bones can write it.
-            let glb_bytes = glb_size(&layout, &recording, &solved);
+            let glb_bytes = glb_size(&layout, &recording, &solved, up);
             if stop() {
                 return cancelled();
             }
@@ -441,28 +447,32 @@ pub fn spawn_record(
                 layout,
                 fps,
                 solved,
+                up,
             })
         },
     )
 }
 
-/// The size of the `.glb` of `recording` on `layout` an export writes, or why a `.glb` of
-/// morph targets cannot hold it.
+/// The size of the `.glb` of `recording` on `layout` an export writes for up axis `up`, or why
+/// a `.glb` of morph targets cannot hold it.
 fn glb_size(
     layout: &FileLayout,
     recording: &Recording,
     solved: &SolveSettings,
+    up: solver::animation::export::UpAxis,
 ) -> Result<u64, String> {
     GltfExport::from_asset(&asset_export(layout, recording), GltfFormat::Glb)
+        .map(|e| e.with_up_axis(up))
         .and_then(|e| e.with_solve_settings(solved))
         .and_then(|e| e.file_size())
         .map_err(|e| e.to_string())
 }
 
-/// A recording's `.glb` size being measured on another layout ([`spawn_glb_size`]).
+/// A recording's `.glb` size being measured on another layout or up axis ([`spawn_glb_size`]).
 pub struct GlbSizing {
     pub recording: Arc<Recording>,
     pub layout: Arc<FileLayout>,
+    pub up: solver::animation::export::UpAxis,
     pub job: Job<Result<u64, String>>,
 }
 
@@ -471,12 +481,13 @@ pub struct GlbSizing {
 pub fn spawn_glb_size(
     recorded: &Recorded,
     layout: Arc<FileLayout>,
+    up: solver::animation::export::UpAxis,
     repaint: impl Fn() + Send + 'static,
 ) -> GlbSizing {
     let (recording, solved) = (recorded.recording.clone(), recorded.solved);
     let (on, of) = (layout.clone(), recording.clone());
-    let job = spawn("glb-size", repaint, move |_| Ok(glb_size(&on, &of, &solved)));
-    GlbSizing { recording, layout, job }
+    let job = spawn("glb-size", repaint, move |_| Ok(glb_size(&on, &of, &solved, up)));
+    GlbSizing { recording, layout, up, job }
 }
 
 /// A recording on the file's layout with the default export settings (quantized, sparse where
@@ -626,6 +637,7 @@ mod tests {
             loose_parts: LooseParts::default(),
             cache: Arc::default(),
             vertex_faces,
+            up: Default::default(),
         }
     }
 
@@ -705,6 +717,15 @@ mod tests {
         assert_eq!(path, out);
         assert_eq!(Ok(bytes), rec.glb_bytes, "the size shown before writing is the size written");
         assert_eq!(std::fs::metadata(&out).unwrap().len(), bytes);
+        // A Z-up document's file stands its nodes upright: measured for that axis, the size is
+        // that file's too.
+        let z = solver::animation::export::UpAxis::Z;
+        let sized = wait(&spawn_glb_size(&rec, rec.layout.clone(), z, || {}).job).unwrap();
+        let z_out = dir.join("z-up.glb");
+        let written = spawn_export(&rec, rec.layout.clone(), z, z_out, vec![], || {});
+        let (_, z_bytes) = wait(&written).unwrap();
+        assert_eq!(sized, Ok(z_bytes));
+        assert_ne!(z_bytes, bytes, "the rotation takes no bytes");
         // A point cache of the same frames, at the timeline's rate.
         let pc2 = dir.join("anim.pc2");
         export(&pc2, vec![]).unwrap();

@@ -507,6 +507,36 @@ fn a_move_during_playback_pauses_it_and_an_empty_one_leaves_no_step() {
     assert!(can_redo(&h), "a move that changed nothing took the redo step");
 }
 
+/// An edit in the Pose panel while the timeline plays pauses it, as a gesture does: the paths
+/// set the group's pose back every frame (the reset was gone at once).
+#[test]
+fn a_pose_panel_edit_during_playback_pauses_it() {
+    let mut h = start();
+    let mut e = h.state().edit_state().clone();
+    e.set_path(0, AnimPath::Circular(small_circle(h.state())));
+    e.timeline.looping = true;
+    h.state_mut().set_edit_state(e);
+    h.state_mut().set_tool(app::editor::Tool::Pose);
+    h.state_mut().set_active_group(Some(0));
+    h.key_press(Key::Space);
+    h.step();
+    h.step();
+    assert!(h.state().is_playing());
+    assert_ne!(h.state().group_pose(0).unwrap(), Default::default(), "on its path");
+    h.get_by_label("Reset group").scroll_to_me();
+    for _ in 0..3 {
+        h.step();
+    }
+    h.get_by_label("Reset group").click_accesskit();
+    h.step();
+    assert!(!h.state().is_playing(), "played on under the edit");
+    assert!(h.state().info().is_some_and(|i| i.contains("playback paused")));
+    for _ in 0..3 {
+        h.step();
+    }
+    assert_eq!(h.state().group_pose(0).unwrap(), Default::default(), "the path took it back");
+}
+
 /// K and Space during a G move wait for its end: K keyed the pose not yet confirmed (Esc then
 /// left the key), and Space played the paths under the move.
 #[test]

@@ -250,6 +250,7 @@ impl EditorApp {
             }
         };
         let mut rot_changed = false;
+        let mut reset_all = false;
         ui.horizontal(|ui| {
             ui.label("rotate°");
             for (c, axis) in e.iter_mut().zip(["rx", "ry", "rz"]) {
@@ -278,14 +279,21 @@ impl EditorApp {
             }
             let posed =
                 self.session.edit.groups.iter().any(|g| g.pose != GroupTransform::default());
-            if ui.button("Reset all").clicked() && posed {
-                self.session.push_undo(self.session.edit.clone());
-                for g in &mut self.session.edit.groups {
-                    g.pose = GroupTransform::default();
-                }
-                self.send_poses();
-            }
+            reset_all = ui.button("Reset all").clicked() && posed;
         });
+        if (changed || reset_all) && self.session.playback.playing {
+            // as a gesture does: the paths would set the group's pose back every frame, the
+            // edit gone and its undo step one that changes nothing
+            self.session.playback.set_playing(false);
+            self.info = Some("playback paused for the edit".into());
+        }
+        if reset_all {
+            self.session.push_undo(self.session.edit.clone());
+            for g in &mut self.session.edit.groups {
+                g.pose = GroupTransform::default();
+            }
+            self.send_poses();
+        }
         if changed && !pose.in_range() {
             self.error = Some(format!(
                 "value refused: move and rotate values must be finite numbers, moves within \

@@ -72,6 +72,7 @@ impl EditorApp {
             loose_parts: self.session.edit.loose_parts.clone(),
             cache: self.solvers.mesh_cache.clone(),
             vertex_faces: scene.vertex_faces.clone(),
+            up: self.session.file_view.up_axis,
         };
         let c = ctx.clone();
         self.session.playback.set_playing(false);
@@ -210,32 +211,37 @@ impl EditorApp {
     }
 
     /// Keeps the kept recording's `.glb` size that of the file an export writes: after a
-    /// texture loaded since the recording, measured again on the open file's layout.
+    /// texture loaded since the recording, measured again on the open file's layout, and after
+    /// the up axis changed, for the new one.
     pub(super) fn poll_glb_size(&mut self, ctx: &egui::Context) {
         let (Some(rec), Some(scene)) = (&mut self.jobs.recorded, &self.session.scene) else {
             self.jobs.glb_size = None;
             return;
         };
+        let up = self.session.file_view.up_axis;
         let same_mesh = Arc::ptr_eq(&scene.mesh, &rec.mesh);
-        if !same_mesh || Arc::ptr_eq(&scene.layout, &rec.layout) {
+        if !same_mesh || (Arc::ptr_eq(&scene.layout, &rec.layout) && rec.up == up) {
             self.jobs.glb_size = None;
             return;
         }
         match &self.jobs.glb_size {
             Some(sizing)
                 if Arc::ptr_eq(&sizing.layout, &scene.layout)
-                    && Arc::ptr_eq(&sizing.recording, &rec.recording) =>
+                    && Arc::ptr_eq(&sizing.recording, &rec.recording)
+                    && sizing.up == up =>
             {
                 if let Some(result) = sizing.job.try_finish() {
                     rec.glb_bytes = result.and_then(|r| r);
                     rec.layout = scene.layout.clone();
+                    rec.up = up;
                     self.jobs.glb_size = None;
                 }
             }
             _ => {
                 let c = ctx.clone();
                 let repaint = move || c.request_repaint();
-                self.jobs.glb_size = Some(jobs::spawn_glb_size(rec, scene.layout.clone(), repaint));
+                let layout = scene.layout.clone();
+                self.jobs.glb_size = Some(jobs::spawn_glb_size(rec, layout, up, repaint));
             }
         }
     }
