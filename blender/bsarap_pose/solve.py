@@ -367,6 +367,9 @@ def state(obj, *, rebuild=True) -> SolverState:
         new = build(obj)
     except HandleError as e:
         _failures[k] = (key, e, obj.name)
+        # a deleted vertex group fails the build: noted now, a group added later at its
+        # index is not taken for it renamed (edits.follow_renamed_groups)
+        edits.note_vertex_groups(obj)
         raise
     _failures.pop(k, None)
     edits.note_vertex_groups(obj)

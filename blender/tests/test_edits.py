@@ -153,6 +153,11 @@ class RenamedGroup(unittest.TestCase):
         self.assertEqual(obj.vertex_groups[1].name, "extra")
         self.assertEqual(obj.bsarap.groups[1].name, "top")
         self.assertIn("'top' does not exist", ext.solve.message(obj))
+        # another added since: as many groups as before the delete, still not a rename
+        obj.vertex_groups.new(name="later")
+        self.move_top()
+        self.assertEqual(obj.bsarap.groups[1].name, "top")
+        self.assertIn("'top' does not exist", ext.solve.message(obj))
 
     def test_name_taken_by_another_handle_group_not_followed(self):
         obj = self.obj

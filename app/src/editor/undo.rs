@@ -74,8 +74,7 @@ impl EditState {
 
     pub fn add_group(&mut self) -> usize {
         // "Group k" (and its colour) for the first k from the count on that no group is named:
-        // after a delete, the count names a group still there (and undo tells groups apart by
-        // name and colour).
+        // after a delete, the count names a group still there (two groups of one name).
         let taken = |k: &usize| self.groups.iter().any(|g| g.name == format!("Group {k}"));
         let k = (self.groups.len()..).find(|k| !taken(k)).unwrap_or(self.groups.len());
         self.groups.push(new_group(k));
@@ -309,7 +308,7 @@ impl History {
 #[allow(clippy::unwrap_used, clippy::expect_used)]
 mod tests {
     /// A group added after a delete gets a name (and colour) no group has: the count named a
-    /// group still there, and undo tells groups apart by them.
+    /// group still there.
     #[test]
     fn a_group_added_after_a_delete_gets_a_name_of_its_own() {
         let mut e = EditState::from_labels(vec![Some(0), Some(1), Some(2)]);

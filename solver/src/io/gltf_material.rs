@@ -101,8 +101,8 @@ pub(crate) fn materials(document: &::gltf::Document, notices: &mut Vec<String>) 
     let ktx2 = document.textures().filter(|t| t.source().is_none()).count();
     if ktx2 > 0 {
         notices.push(format!(
-            "{ktx2} texture(s) only in KTX2 (KHR_texture_basisu), which is not decoded; loaded \
-             without them"
+            "{ktx2} texture(s) without a PNG or JPEG image (a KTX2 one, KHR_texture_basisu, is not \
+             decoded); loaded without them"
         ));
     }
     document

@@ -244,8 +244,6 @@ mod tests {
         assert_eq!(plan.sets[0].map(|t| t.scale), Some([2.0, 2.0]));
     }
 
-    /// A transform that changes nothing is none (a normal map with `{}` beside an untransformed
-    /// base colour was dropped); its `texCoord` still picks the set. A set past 1 is not read.
     /// A transform past a million repeats is not read, and one whose result leaves `f32`
     /// keeps the coordinate as stored: an infinite coordinate made every export fail.
     #[test]
@@ -261,6 +259,8 @@ mod tests {
         assert_eq!(t.apply([2.0, 0.5]), [2e6, 0.5]);
     }
 
+    /// A transform that changes nothing is none (a normal map with `{}` beside an untransformed
+    /// base colour was dropped); its `texCoord` still picks the set. A set past 1 is not read.
     #[test]
     fn identity_transforms_and_unread_sets() {
         let m = material(

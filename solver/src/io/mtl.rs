@@ -147,7 +147,7 @@ pub(crate) fn attach(asset: &mut Asset, libs: &[String], folder: Option<Folder>)
 const MAX_LIBRARY_BYTES: u64 = 64 << 20;
 
 /// The colour statements, whose values `tobj` reads as exactly three numbers.
-const COLORS: [&str; 5] = ["Ka", "Kd", "Ks", "Ke", "Tf"];
+const COLORS: [&str; 4] = ["Ka", "Kd", "Ks", "Ke"];
 /// The statements `tobj` reads one value of.
 const SCALARS: [&str; 5] = ["d", "Tr", "Ns", "Ni", "illum"];
 
@@ -161,20 +161,21 @@ fn mended(text: &str, path: &Path, notices: &mut Vec<String>) -> String {
         let mut words = line.split_whitespace();
         let keyword = words.next().unwrap_or("");
         let values: Vec<&str> = words.collect();
-        let numbers: Option<Vec<f64>> = values.iter().map(|v| v.parse().ok()).collect();
+        // the leading numbers (a comment may follow them: `Kd 1 1 1 # white`)
+        let v: Vec<f64> = values.iter().map_while(|v| v.parse().ok()).collect();
         let dropped = |why: &str| format!("{}:{}: {why}; line skipped", path.display(), n + 1);
         if COLORS.contains(&keyword) {
-            match numbers.filter(|v| !v.is_empty()) {
-                Some(v) if v.len() < 3 => {
+            match v.len() {
+                0 => {
+                    notices.push(dropped(&format!("{keyword} is not given as r g b")));
+                    continue;
+                }
+                1 | 2 => {
                     let g = v.get(1).copied().unwrap_or(v[0]);
                     out.push_str(&format!("{keyword} {} {g} {}\n", v[0], v[0]));
                     continue;
                 }
-                Some(_) => {}
-                None => {
-                    notices.push(dropped(&format!("{keyword} is not given as r g b")));
-                    continue;
-                }
+                _ => {}
             }
         } else if SCALARS.contains(&keyword) && values.is_empty() {
             notices.push(dropped(&format!("{keyword} has no value")));
@@ -192,6 +193,8 @@ fn texture_file(from: &Path, spec: &str) -> String {
     let mut rest = spec.trim();
     // (option, its values): `-o`, `-s`, `-t` take one to three numbers
     while let Some(option) = rest.strip_prefix('-') {
+        // (a name after other whitespace than ASCII: slices below start at the name)
+        let option = option.trim_start();
         let name = option.split_whitespace().next().unwrap_or("");
         let takes = match name {
             "o" | "s" | "t" => 3,
@@ -304,12 +307,16 @@ mod tests {
         let dir = ScratchDir::new("mtl-lines");
         let mut mtl = b"newmtl grey\nKd 0.8\nillum\nnewmtl wood\nKd spectral x.rfl\n".to_vec();
         mtl.extend_from_slice(b"map_Kd -s 1 1 1 -bm 0.5 My Wood.png\nnewmtl caf\xe9\nd 0.5\n");
+        // an option name after a no-break space (the slice after it fell inside the character)
+        mtl.extend_from_slice(
+            "newmtl nbsp\nKd 1 1 1 # white\nmap_Kd -\u{a0}s 1 1 1 x.png\n".as_bytes(),
+        );
         std::fs::write(dir.join("My Model.mtl"), mtl).unwrap();
         std::fs::write(dir.join("My Wood.png"), encoded(image::ImageFormat::Png)).unwrap();
         let mut asset = Asset::default();
         attach(&mut asset, &["My Model.mtl".to_string()], folder(&dir));
         let names: Vec<_> = asset.materials.iter().map(|m| m.name.as_str()).collect();
-        assert_eq!(names, ["grey", "wood", "caf\u{fffd}"], "{:?}", asset.notices);
+        assert_eq!(names, ["grey", "wood", "caf\u{fffd}", "nbsp"], "{:?}", asset.notices);
         assert_eq!(asset.materials[0].base_color, [0.8, 0.8, 0.8, 1.0]);
         assert_eq!(asset.materials[1].base_color_texture.map(|t| t.image), Some(0));
         assert_eq!(asset.images[0].name, "My Wood.png");
@@ -317,7 +324,7 @@ mod tests {
         let notices = asset.notices.join("\n");
         assert!(notices.contains("My Model.mtl:3: illum has no value; line skipped"), "{notices}");
         assert!(notices.contains("My Model.mtl:5: Kd is not given as r g b"), "{notices}");
-        assert_eq!(asset.notices.len(), 2, "{notices}");
+        assert_eq!(asset.notices.len(), 3, "{notices}"); // and x.png, missing
         // Two files on one line stay two files.
         std::fs::write(dir.join("a.mtl"), "newmtl a\n").unwrap();
         std::fs::write(dir.join("b.mtl"), "newmtl b\n").unwrap();

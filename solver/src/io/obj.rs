@@ -12,7 +12,8 @@
 //! holds the `vt` lines (**stored in the glTF convention $v' = 1 - v$**, v down from the top;
 //! `w` dropped), `normals` the `vn` lines (as written, not renormalized; a line with `nan` or
 //! `inf` reads as the neutral value, with a notice), both with each
-//! triangle corner's `vt`/`vn` index. A corner without one in a file whose other corners have
+//! triangle corner's `vt`/`vn` index; the normals then have one value per (position, `vn`)
+//! pair (`split_by_position`: a deformed normal is computed per value). A corner without one in a file whose other corners have
 //! them points at an appended neutral value (`[0, 0]`, normal `[0, 0, 0]` meaning "none").
 //! Vertex colours are per position (corners = position indices), white where a `v` line has
 //! none, alpha 1, values as written (one not finite in `f32` reads as white, with a notice).

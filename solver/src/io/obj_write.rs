@@ -10,10 +10,10 @@
 //! 1-based corner indices: each polygon of [`Asset::polygon_sizes`] with the corners the
 //! file had, in its order (quads and n-gons stay quads and n-gons, see
 //! [`Asset::polygon_corners`]), or each of [`Asset::triangles`] for a file of triangles.
-//! Normals are either one per value of [`Asset::normals`] (faces use the
-//! file's normal corner indices, so hard edges stay hard; see
-//! [`Asset::deformed_normals`]) or, for a file without normals, one per position; equal vectors
-//! are written once.
+//! Normals are the given ones, one per value of [`Asset::normals`] (faces follow its corner
+//! indices, so hard edges stay hard; see [`Asset::deformed_normals`]) or, for a file without
+//! normals, one per position; each distinct vector is one `vn` line, the faces' indices
+//! renumbered onto them.
 //!
 //! **MTL** ([`write_mtl_asset`]): per [`Material`] `newmtl`, `Kd r g b` and `d a` (the linear
 //! base colour factor), `Pm`/`Pr` (metallic, roughness: the PBR extension of MTL that Blender
