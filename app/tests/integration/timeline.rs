@@ -473,10 +473,8 @@ fn deleting_a_group_keeps_the_active_group() {
     assert_eq!(name(&h), Some(names[1].clone()), "the undone delete's group is not active");
 }
 
-/// A move begun while the timeline plays pauses it: the paths set the group's pose under the
-/// pointer every frame, and a move that changed nothing left an undo step (taking the redo).
-#[test]
-fn a_move_during_playback_pauses_it_and_an_empty_one_leaves_no_step() {
+/// The default asset, group 0 on a looping circle, active in the pose tool.
+fn posing_on_a_loop() -> Harness<'static, EditorApp> {
     let mut h = start();
     let mut e = h.state().edit_state().clone();
     e.set_path(0, AnimPath::Circular(small_circle(h.state())));
@@ -484,6 +482,14 @@ fn a_move_during_playback_pauses_it_and_an_empty_one_leaves_no_step() {
     h.state_mut().set_edit_state(e);
     h.state_mut().set_tool(app::editor::Tool::Pose);
     h.state_mut().set_active_group(Some(0));
+    h
+}
+
+/// A move begun while the timeline plays pauses it: the paths set the group's pose under the
+/// pointer every frame, and a move that changed nothing left an undo step (taking the redo).
+#[test]
+fn a_move_during_playback_pauses_it_and_an_empty_one_leaves_no_step() {
+    let mut h = posing_on_a_loop();
     h.step();
     // A redo step to keep: an edit undone.
     support::move_group(&mut h, 1, glam::DVec3::new(0.0, 0.05, 0.0));
@@ -511,13 +517,7 @@ fn a_move_during_playback_pauses_it_and_an_empty_one_leaves_no_step() {
 /// set the group's pose back every frame (the reset was gone at once).
 #[test]
 fn a_pose_panel_edit_during_playback_pauses_it() {
-    let mut h = start();
-    let mut e = h.state().edit_state().clone();
-    e.set_path(0, AnimPath::Circular(small_circle(h.state())));
-    e.timeline.looping = true;
-    h.state_mut().set_edit_state(e);
-    h.state_mut().set_tool(app::editor::Tool::Pose);
-    h.state_mut().set_active_group(Some(0));
+    let mut h = posing_on_a_loop();
     h.key_press(Key::Space);
     h.step();
     h.step();
