@@ -250,6 +250,29 @@ impl History {
         self.generation += 1;
     }
 
+    /// The cancel of the gesture whose push made `generation` (Esc mid-stroke or mid-drag):
+    /// the state it started from, as an undo gives it, but its step goes instead of onto the
+    /// redo stack, and what its push took away (the redo steps, the oldest step) comes back.
+    /// `None` when its step is no longer the last (an undo or another push came meanwhile).
+    pub fn cancel_gesture(&mut self, generation: u64) -> Option<Kept> {
+        if self.generation != generation {
+            return None;
+        }
+        match self.taken.take().filter(|t| t.0 == generation) {
+            Some((_, redo, evicted)) => {
+                let kept = self.undo.pop()?;
+                self.redo = redo;
+                if let Some(oldest) = evicted {
+                    self.undo.insert(0, oldest);
+                }
+                self.generation += 1;
+                Some(kept)
+            }
+            // the push found its start already the last step and pushed nothing
+            None => self.undo.last().cloned(),
+        }
+    }
+
     /// The state before the last edit, with the playback time it was kept at; the current
     /// one (`edit`, `settings`) goes on the redo stack.
     pub fn undo(&mut self, edit: &EditState, settings: MethodSettings) -> Option<Kept> {
@@ -393,6 +416,28 @@ mod tests {
         h.set_time(0.75); // playback moved on during the drag
         h.push_at(s.clone(), MethodSettings::default(), start);
         assert_eq!(h.undo(&s, MethodSettings::default()).unwrap().time, 0.25);
+    }
+
+    /// A cancelled gesture whose push found its start already the last step (and pushed
+    /// nothing) gives that step back without taking it: the step is an earlier edit's.
+    #[test]
+    fn a_cancelled_gesture_keeps_the_step_it_did_not_push() {
+        let settings = MethodSettings::default();
+        let s = EditState::from_labels(vec![Some(0), None]);
+        let mut h = History::default();
+        h.push(s.clone(), settings);
+        let generation = h.push_gesture(s.clone(), settings);
+        assert_eq!(h.cancel_gesture(generation).unwrap().edit, s);
+        assert!(h.can_undo(), "the earlier step went with the cancel");
+        // a pushed one goes, and the redo steps its push took come back
+        let t = EditState::from_labels(vec![None, None]);
+        assert!(h.undo(&t, settings).is_some());
+        assert!(h.can_redo());
+        let generation = h.push_gesture(s.clone(), settings);
+        assert!(!h.can_redo());
+        assert_eq!(h.cancel_gesture(generation).unwrap().edit, s);
+        assert!(h.can_redo() && !h.can_undo());
+        assert!(h.cancel_gesture(generation).is_none(), "cancelled twice");
     }
 
     /// A settings change is an undo step of its own; the edit state's steps keep the settings

@@ -492,3 +492,143 @@ fn mirrored_painting_mirrors_boxes_and_group_commands() {
     assert!(want.len() > inside.len() + 50, "the box hardly crosses the plane");
     assert_eq!(in_group(h.state(), k), want, "the crossing box's mirror joins the group");
 }
+
+/// Esc during a brush stroke, the button still held, cancels the stroke and leaves no redo
+/// step: the redo steps its start took away come back (here a stroke undone before it), and the
+/// rest of the drag paints nothing.
+#[test]
+fn esc_during_a_stroke_cancels_it_without_a_redo_step() {
+    let (mut h, g) = start();
+    let before = h.state().labels().to_vec();
+    let p = begin_stroke(&mut h);
+    support::press(&h, p + Vec2::new(4.0, 0.0), false, Modifiers::NONE);
+    h.step();
+    let first = h.state().labels().to_vec();
+    assert!(!in_group(h.state(), g).is_empty(), "the stroke painted nothing");
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    assert_eq!(h.state().labels(), &before[..], "the first stroke not undone");
+    let q = p + Vec2::new(0.0, 30.0);
+    h.event(Event::PointerMoved(q));
+    h.step();
+    support::press(&h, q, true, Modifiers::NONE);
+    h.step();
+    h.event(Event::PointerMoved(q + Vec2::new(4.0, 0.0)));
+    h.step();
+    assert_ne!(h.state().labels(), &before[..], "the second stroke painted nothing");
+    h.key_press(Key::Escape);
+    h.step();
+    assert_eq!(h.state().labels(), &before[..], "Esc did not take the stroke back");
+    for i in 2..=6 {
+        h.event(Event::PointerMoved(q + Vec2::new(4.0 * i as f32, 0.0)));
+        h.step();
+        assert_eq!(h.state().labels(), &before[..], "the cancelled stroke painted on");
+    }
+    support::press(&h, q + Vec2::new(24.0, 0.0), false, Modifiers::NONE);
+    h.step();
+    assert_eq!(h.state().labels(), &before[..]);
+    h.key_press_modifiers(Modifiers::COMMAND | Modifiers::SHIFT, Key::Z);
+    h.step();
+    assert_eq!(h.state().labels(), &first[..], "the redo is the first stroke's");
+}
+
+/// Esc while a box is drawn drops the box: its release selects nothing.
+#[test]
+fn esc_while_a_box_is_drawn_drops_it() {
+    let (mut h, _) = start();
+    let before = h.state().labels().to_vec();
+    h.key_press(Key::Q);
+    h.step();
+    assert_eq!(h.state().select_mode(), SelectMode::Box);
+    let r = Rect::from_center_size(Pos2::new(SIZE.x * 0.35, SIZE.y * 0.5), Vec2::new(80.0, 60.0));
+    h.event(Event::PointerMoved(r.left_top()));
+    h.step();
+    support::press(&h, r.left_top(), true, Modifiers::NONE);
+    h.step();
+    h.event(Event::PointerMoved(r.center()));
+    h.step();
+    h.key_press(Key::Escape);
+    h.step();
+    h.event(Event::PointerMoved(r.right_bottom()));
+    h.step();
+    support::press(&h, r.right_bottom(), false, Modifiers::NONE);
+    h.step();
+    assert_eq!(h.state().labels(), &before[..], "the box selected after Esc");
+}
+
+/// Esc during a pose drag puts the group back where the drag started, and the rest of the drag
+/// moves nothing; the step before it (the stroke) is still the one Ctrl+Z takes back.
+#[test]
+fn esc_during_a_pose_drag_cancels_it() {
+    let (mut h, g) = start();
+    let before = h.state().labels().to_vec();
+    let p = begin_stroke(&mut h);
+    support::press(&h, p + Vec2::new(4.0, 0.0), false, Modifiers::NONE);
+    h.step();
+    let v = in_group(h.state(), g)[0];
+    h.key_press(Key::G);
+    h.step();
+    assert_eq!(h.state().tool(), Tool::Pose);
+    let start_pose = h.state().group_pose(g).expect("pose");
+    let s = h.state().vertex_screen_pos(v).expect("painted vertex on screen");
+    h.event(Event::PointerMoved(s));
+    h.step();
+    support::press(&h, s, true, Modifiers::NONE);
+    h.step();
+    for i in 1..=4 {
+        h.event(Event::PointerMoved(s + Vec2::new(10.0 * i as f32, 0.0)));
+        h.step();
+    }
+    assert_ne!(h.state().group_pose(g), Some(start_pose), "the drag moved nothing");
+    h.key_press(Key::Escape);
+    h.step();
+    assert_eq!(h.state().group_pose(g), Some(start_pose), "Esc did not put the group back");
+    h.event(Event::PointerMoved(s + Vec2::new(60.0, 0.0)));
+    h.step();
+    support::press(&h, s + Vec2::new(60.0, 0.0), false, Modifiers::NONE);
+    h.step();
+    assert_eq!(h.state().group_pose(g), Some(start_pose), "the cancelled drag moved on");
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    assert_eq!(h.state().labels(), &before[..], "Ctrl+Z did not take back the stroke");
+}
+
+/// Ctrl erases the active group only, with the brush as with the box: another group's
+/// vertices under the brush stay (the brush freed them, the box did not). With no group
+/// active, both free every group's vertices (the box did nothing).
+#[test]
+fn ctrl_erases_the_active_group_with_the_brush_and_the_box() {
+    let (mut h, a) = start();
+    let p = support::middle_vertex_on_screen(h.state());
+    let stroke = path(&[p, p + Vec2::new(12.0, 0.0)], 4.0, false);
+    drag(&mut h, &stroke, Modifiers::NONE);
+    let painted = in_group(h.state(), a);
+    assert!(!painted.is_empty(), "the stroke painted nothing");
+    h.get_by_label("Add group").click();
+    h.step();
+    let b = h.state().active_group().expect("the new group is active");
+    assert_ne!(a, b);
+    drag(&mut h, &stroke, Modifiers::COMMAND);
+    assert_eq!(in_group(h.state(), a), painted, "erasing group B freed group A's vertices");
+    h.state_mut().set_active_group(None);
+    drag(&mut h, &stroke, Modifiers::COMMAND);
+    let left: Vec<usize> =
+        painted.iter().copied().filter(|v| h.state().labels()[*v].is_some()).collect();
+    assert!(left.len() < painted.len(), "erasing with no group active freed nothing");
+
+    // The box: A painted again, B active, then none.
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    assert_eq!(in_group(h.state(), a), painted);
+    h.key_press(Key::Q);
+    h.step();
+    assert_eq!(h.state().select_mode(), SelectMode::Box);
+    let r = Rect::from_center_size(p, Vec2::new(60.0, 40.0));
+    let corners = path(&[r.left_top(), r.right_bottom()], 10.0, false);
+    h.state_mut().set_active_group(Some(b));
+    drag(&mut h, &corners, Modifiers::COMMAND);
+    assert_eq!(in_group(h.state(), a), painted, "removing from B freed A's vertices");
+    h.state_mut().set_active_group(None);
+    drag(&mut h, &corners, Modifiers::COMMAND);
+    assert!(in_group(h.state(), a).len() < painted.len(), "Ctrl+box with none active did nothing");
+}

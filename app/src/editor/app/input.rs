@@ -165,6 +165,23 @@ impl EditorApp {
         self.gizmo.transform = None;
     }
 
+    /// Esc during a pose drag, a brush stroke or a box or lasso: the gesture ends with what it
+    /// changed undone, leaving no redo step (an undo leaves one), and the rest of the press
+    /// does nothing, as after an undo during it.
+    pub(super) fn cancel_gesture(&mut self) {
+        let step =
+            self.interaction.drag.map(|d| d.step).or(self.interaction.stroke.map(|s| s.step));
+        self.interaction.stroke = None;
+        self.interaction.drag = None;
+        self.rigging.stroke_partner = None;
+        self.selecting.region = None;
+        if let Some(step) = step {
+            let kept = self.session.history.cancel_gesture(step);
+            self.apply_history(kept);
+        }
+        self.session.press_step.cancel();
+    }
+
     pub(super) fn handle_keys(&mut self, ctx: &egui::Context) {
         // A rename's field has the focus before it is first drawn (after this runs), and
         // `text_edit_focused` knows it only once drawn: its first key ("k" of "knee") also
@@ -346,19 +363,23 @@ impl EditorApp {
             return self.paint_rigidity(erase);
         }
         let Some(hover) = &self.interaction.hover else { return };
-        let group = match (erase, self.interaction.active_group) {
+        let active = self.interaction.active_group.map(|g| g as u32);
+        let group = match (erase, active) {
             (true, _) => None,
-            (false, Some(g)) => Some(g as u32),
+            (false, Some(g)) => Some(g),
             (false, None) => {
                 let g = self.session.edit.add_group();
                 self.interaction.active_group = Some(g);
                 Some(g as u32)
             }
         };
+        // Ctrl erases the active group, as it removes from it with the box and lasso (other
+        // groups' vertices under the brush stay); with no group active, every group.
+        let erased = active.filter(|_| erase);
         let mut changed = false;
         for &v in &hover.footprint {
             let l = &mut self.session.edit.labels[v as usize];
-            if *l != group {
+            if *l != group && erased.is_none_or(|g| *l == Some(g)) {
                 *l = group;
                 changed = true;
             }
@@ -367,7 +388,7 @@ impl EditorApp {
             self.display.color_version += 1;
         }
         let footprint = hover.footprint.clone();
-        self.mirror_labels(&footprint, group);
+        self.mirror_labels(&footprint, group, erased);
     }
 
     pub(super) fn viewport_input(

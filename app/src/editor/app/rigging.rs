@@ -212,8 +212,14 @@ impl EditorApp {
     /// stroke whose first dab is centred on the plane (nearer to it than half the brush's
     /// radius, on the rest mesh), or that paints a group which is its own mirror image, paints
     /// a group on the midline: the partners join the group itself, as they do for a box or
-    /// lasso across the plane.
-    pub(super) fn mirror_labels(&mut self, footprint: &[u32], group: Option<u32>) {
+    /// lasso across the plane. An erase of group `erased` frees the partners in it and in its
+    /// mirror image (with `erased` `None`, in every group).
+    pub(super) fn mirror_labels(
+        &mut self,
+        footprint: &[u32],
+        group: Option<u32>,
+        erased: Option<u32>,
+    ) {
         if !self.session.edit.symmetry.mirror_painting {
             return;
         }
@@ -241,8 +247,25 @@ impl EditorApp {
                 }
             }),
         };
+        let from = match (group, erased) {
+            (None, Some(g)) => {
+                let p = match self.rigging.stroke_partner {
+                    Some(p) => p,
+                    None => {
+                        let p = mirror_image(&self.session.edit.labels, &map, g).unwrap_or(g);
+                        self.rigging.stroke_partner = Some(p);
+                        p
+                    }
+                };
+                Some([g, p])
+            }
+            _ => None,
+        };
         for v in partners {
-            self.session.edit.labels[v as usize] = target;
+            let l = &mut self.session.edit.labels[v as usize];
+            if from.is_none_or(|from| l.is_some_and(|k| from.contains(&k))) {
+                *l = target;
+            }
         }
         self.display.color_version += 1;
     }
@@ -296,6 +319,16 @@ impl EditorApp {
             mirror_image(&self.session.edit.labels, &map, g)
         };
         Some((partners, target))
+    }
+
+    /// The mirror partners of `region` outside it when painting is mirrored (else none).
+    pub(super) fn mirrored_partners(&self, region: &[u32]) -> Vec<u32> {
+        match self.session.edit.symmetry.mirror_painting {
+            true => {
+                self.mirror_shared().map_or(Vec::new(), |(_, map)| partners_outside(&map, region).0)
+            }
+            false => Vec::new(),
+        }
     }
 
     /// Carries out [`Self::plan_mirror_region`]'s `plan` for group `g`; whether a label changed.

@@ -339,9 +339,12 @@ impl EditorApp {
         }
         let before_groups = self.session.edit.groups.len();
         let before = self.session.edit.clone();
-        let g = match self.interaction.active_group.filter(|&g| g < before_groups) {
+        let active = self.interaction.active_group.filter(|&g| g < before_groups);
+        let g = match active {
             Some(g) => g as u32,
-            None if remove || vertices.is_empty() => return,
+            // Ctrl with no group active frees every group's vertices, as the brush's erase
+            None if remove => return self.free_region(vertices, before),
+            None if vertices.is_empty() => return,
             None => {
                 let g = self.session.edit.add_group();
                 self.interaction.active_group = Some(g);
@@ -365,6 +368,22 @@ impl EditorApp {
         if let Some(plan) = mirror {
             changed |= self.mirror_region(plan, g, remove);
         }
+        self.region_applied(changed, before);
+    }
+
+    /// [`Self::apply_region`]'s removal with no group active: `vertices` (and, painting
+    /// mirrored, their partners) leave whatever group they are in.
+    fn free_region(&mut self, vertices: &[u32], before: EditState) {
+        let mut changed = false;
+        let partners = self.mirrored_partners(vertices);
+        for &v in vertices.iter().chain(&partners) {
+            changed |= self.session.edit.labels[v as usize].take().is_some();
+        }
+        self.region_applied(changed, before);
+    }
+
+    /// The end of a box or lasso: an undo step, the colours and the handle set when `changed`.
+    fn region_applied(&mut self, changed: bool, before: EditState) {
         if changed {
             self.session.push_undo(before);
             self.display.color_version += 1;

@@ -14,10 +14,13 @@ pub const SHORTCUTS: &[(&str, &str)] = &[
     ("F", "frame the mesh"),
     ("1 / 3 / 7 (Ctrl: opposite)", "front / right / top view"),
     ("B", "paint tool"),
-    ("Left drag (paint)", "paint the active group; Ctrl erases"),
+    ("Left drag (paint)", "paint the active group; Ctrl erases it (none active: every group)"),
     ("[ / ]", "brush radius"),
     ("Q", "paint tool: cycle brush / box / lasso selection (from another tool: paint)"),
-    ("Left drag (box, lasso)", "add the enclosed vertices to the active group; Ctrl removes"),
+    (
+        "Left drag (box, lasso)",
+        "add the enclosed vertices to the active group; Ctrl removes (none active: from every group)",
+    ),
     ("Alt+Z", "box and lasso: visible vertices only / through the mesh"),
     ("+ (or =) / -", "grow / shrink the active group by one ring"),
     ("Ctrl+I", "invert the active group (free vertices <-> group)"),
@@ -37,6 +40,7 @@ pub const SHORTCUTS: &[(&str, &str)] = &[
     ("Ctrl (moving, rotating)", "snap to grid cells / 15°"),
     ("Click / Enter", "confirm the move or rotation (a click anywhere)"),
     ("Esc / right click (in its view)", "cancel the move or rotation"),
+    ("Esc (dragging, painting, box, lasso)", "cancel the drag, stroke or region"),
     ("Ctrl+Z / Ctrl+Shift+Z or Ctrl+Y", "undo / redo"),
     ("W", "wireframe"),
     ("T", "texture / clay shading"),
@@ -69,6 +73,14 @@ impl EditorApp {
     pub(super) fn tool_keys(&mut self, ctx: &egui::Context) {
         self.gizmo_keys(ctx);
         if self.gizmo.transform.is_none() {
+            let pointer_gesture = self.interaction.drag.is_some()
+                || self.interaction.stroke.is_some()
+                || self.selecting.region.is_some();
+            if pointer_gesture
+                && ctx.input_mut(|i| i.consume_key(egui::Modifiers::NONE, egui::Key::Escape))
+            {
+                self.cancel_gesture();
+            }
             self.selection_keys(ctx);
         }
         self.prefs_keys(ctx);
