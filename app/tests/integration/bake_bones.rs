@@ -9,7 +9,7 @@ use crate::support;
 use std::path::{Path, PathBuf};
 
 use app::editor::timeline::BakeChoice;
-use egui_kittest::kittest::Queryable;
+use egui_kittest::kittest::{NodeT, Queryable};
 use solver::animation::export::UpAxis;
 use solver::testing::ScratchDir;
 use support::{settled, step_until};
@@ -62,10 +62,28 @@ fn bake_to_bones_writes_a_skin_and_cancel_writes_nothing() {
     assert_eq!(h.state().bake_choice().bones, 1);
     h.state_mut().set_bake_choice(BakeChoice { on: true, bones: 4 });
 
+    // The File menu open: during the bake its Export glTF… is disabled (it opened a dialog
+    // whose export was then refused).
+    h.get_by_label("File").click();
+    h.step();
+    h.step();
+    assert!(!h.get_by_label("Export glTF…").accesskit_node().is_disabled());
     let ctx = h.ctx.clone();
     let out = dir.join("bones.glb");
-    h.state_mut().export_gltf(&ctx, out.clone());
-    assert!(h.state().is_exporting());
+    // A frame polls the jobs before it draws the menu: one after which the bake is still under
+    // way drew it under way. A bake may end first on a busy machine: then it runs again.
+    let mut drawn_during = false;
+    for _ in 0..20 {
+        h.state_mut().export_gltf(&ctx, out.clone());
+        assert!(h.state().is_exporting());
+        h.step();
+        if h.state().is_exporting() {
+            assert!(h.get_by_label("Export glTF…").accesskit_node().is_disabled());
+            drawn_during = true;
+            break;
+        }
+    }
+    assert!(drawn_during, "every bake ended before a frame drew the menu");
     step_until(&mut h, "the bake", |a| !a.is_exporting());
     assert!(h.state().error().is_none(), "{:?}", h.state().error());
     let info = h.state().info().unwrap_or_default().to_string();

@@ -653,12 +653,15 @@ impl eframe::App for EditorApp {
                         self.prefs.show = true;
                     }
                     ui.separator();
+                    // one export at a time: the timeline panel cancels the one under way
+                    let why_not = match (&self.jobs.recorded, self.is_exporting()) {
+                        (None, _) => Some("record the timeline first"),
+                        (_, true) => Some("an export is under way (the timeline cancels it)"),
+                        _ => None,
+                    };
                     if ui
-                        .add_enabled(
-                            self.jobs.recorded.is_some(),
-                            egui::Button::new("Export glTF…"),
-                        )
-                        .on_disabled_hover_text("record the timeline first")
+                        .add_enabled(why_not.is_none(), egui::Button::new("Export glTF…"))
+                        .on_disabled_hover_text(why_not.unwrap_or_default())
                         .clicked()
                     {
                         self.start_dialog(&ctx, DialogKind::ExportGltf);
