@@ -34,7 +34,7 @@ use crate::outputs::{self, Input};
 
 mod bones;
 mod quality;
-pub use bones::{BakeView, Baked, Baking, spawn_bake};
+pub use bones::{BAKE_CANCELLED, BakeView, Baked, Baking, spawn_bake};
 pub use quality::{QualityInput, SideBySideQuality, spawn_quality};
 
 /// A finished recording with what the UI shows about it.

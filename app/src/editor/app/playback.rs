@@ -204,7 +204,7 @@ impl EditorApp {
             self.jobs.bake = None;
             match r {
                 Ok(baked) => self.info = Some(baked.summary()),
-                Err(e) if cancelled => self.info = Some(e),
+                Err(e) if cancelled && e == jobs::BAKE_CANCELLED => self.info = Some(e),
                 Err(e) => self.error = Some(e),
             }
         }

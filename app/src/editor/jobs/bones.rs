@@ -155,8 +155,12 @@ pub fn spawn_bake(
     Baking { job, status, bones }
 }
 
+/// What a bake that was cancelled ends with (an error that came before the cancel took effect
+/// is still an error).
+pub const BAKE_CANCELLED: &str = "bake to bones cancelled; nothing was written";
+
 fn cancelled() -> String {
-    "bake to bones cancelled; nothing was written".into()
+    BAKE_CANCELLED.into()
 }
 
 impl Baked {

@@ -626,6 +626,9 @@ impl<'a> GltfExport<'a> {
         &self,
         progress: &mut dyn FnMut(usize, usize) -> ControlFlow<()>,
     ) -> Result<Vec<u8>, ExportError> {
+        // Refused by its size before it is built: a .glb past 4 GiB built in memory twice over
+        // (the buffer, then the file) could take the machine's memory first.
+        self.format.check_size(self.file_size()?)?;
         let (root, bin, _) = self.assemble(true, progress)?;
         let bin = if self.meshopt { meshopt::compress(root, &bin)?.1 } else { bin };
         debug_assert_eq!(bin.len(), self.bin_len, "buffer layout and accessors disagree");
@@ -716,6 +719,28 @@ mod tests {
             base64_into(input.as_bytes(), &mut s);
             assert_eq!(s, expected);
         }
+    }
+
+    /// An export whose `.glb` would pass 4 GiB is refused before any frame is encoded (here
+    /// a small one told its buffer is 5 GiB: encoding it would have asserted the layout).
+    #[test]
+    fn a_glb_too_large_is_refused_before_it_is_built() {
+        let mesh = crate::geometry::shapes::icosphere(1);
+        let rest = mesh.positions().to_vec();
+        let recording = Recording {
+            times: vec![0.0, 1.0],
+            frames: vec![rest.clone(), rest.iter().map(|p| [p[0] + 0.1, p[1], p[2]]).collect()],
+            stats: vec![crate::FrameStats::default(); 2],
+        };
+        let mut export = GltfExport::new(&mesh, &recording, GltfFormat::Glb).unwrap();
+        export.bin_len = 5 << 30;
+        let mut frames = 0;
+        let result = export.to_bytes(&mut |_, _| {
+            frames += 1;
+            ControlFlow::Continue(())
+        });
+        assert!(matches!(result, Err(ExportError::FileTooLarge { .. })), "{result:?}");
+        assert_eq!(frames, 0, "frames were encoded");
     }
 
     /// A `.glb` past its 32-bit length is refused by its size, which is known before any byte
