@@ -159,12 +159,22 @@ struct Active {
     settle_steps: usize,
     /// The statistics of the last published frame.
     last_stats: FrameStats,
-    /// A frame of this scene has been published (so there is a pose to republish).
-    last_frame_published: bool,
+    /// The poses' generation of the last frame of this scene published (`None`: none yet, no
+    /// pose to republish).
+    published: Option<u64>,
     /// The last solve, settle step or change of the loose parts failed, and nothing has been
     /// tried since: the published pose is not of the current poses or parts.
     failed: bool,
+    /// The poses' generation of the solves begun so far at it, how many, and the last one's
+    /// energy ([`Active::begun`]).
+    resolves: (u64, usize, f64),
 }
+
+/// The most solves begun at unchanged poses: a pose solver that never says it is done (a
+/// tolerance of 0, or one its energy cannot reach) kept every core busy re-solving a pose
+/// nobody moved, and settling never started. At the editor's cap of 30 iterations a solve,
+/// 3,000 iterations.
+pub(super) const MAX_RESOLVES: usize = 100;
 
 /// A begun solve: its statistics and the poses' generation it solves.
 #[derive(Clone, Copy)]
@@ -251,10 +261,16 @@ impl Active {
     }
 
     /// A solve begun with `stats` at the current poses: they are solved again unless it
-    /// converged or ran no iteration.
+    /// converged, ran no iteration, did not lower the energy of the solve before it at these
+    /// poses, or is the [`MAX_RESOLVES`]th at them.
     fn begun(&mut self, stats: FrameStats) {
         self.begun = Some(Begun { stats, pose_generation: self.pose_generation });
-        self.dirty = !(stats.done || stats.iterations == 0);
+        let (generation, count, energy) = self.resolves;
+        let again = generation == self.pose_generation;
+        let stalled = again && stats.energy >= energy;
+        let count = if again { count + 1 } else { 1 };
+        self.resolves = (self.pose_generation, count, stats.energy);
+        self.dirty = !(stats.done || stats.iterations == 0 || stalled || count >= MAX_RESOLVES);
     }
 
     /// New poses: solve again, and settle again only once they have rested.
@@ -500,7 +516,8 @@ fn rebuild(
                 settle_steps: 0,
                 settle_waiting: None,
                 last_stats: FrameStats::default(),
-                last_frame_published: false,
+                published: None,
+                resolves: (0, 0, f64::INFINITY),
                 failed: false,
             })
         }
@@ -552,12 +569,11 @@ fn advance(a: &mut Active, beside: bool, shared: &Shared) {
     // The poses are solved again beside this frame: it is not the last at them.
     let stats = FrameStats { done: false, ..begun.stats };
     let normals_on_gpu = shared.normals_on_gpu();
-    let (frames, last_stats, published) =
-        (&mut a.frames, &mut a.last_stats, &mut a.last_frame_published);
+    let (frames, last_stats, published) = (&mut a.frames, &mut a.last_stats, &mut a.published);
     let mut put = |positions: &[[f64; 3]]| {
         frames.tick();
         *last_stats = stats;
-        *published = true;
+        *published = Some(begun.pose_generation);
         shared.mailbox.put(frames.make(
             positions,
             None,
@@ -588,13 +604,26 @@ fn fail(a: &mut Active, e: String, shared: &Shared) {
 }
 
 /// Puts the frame of the current pose (of the poses `pose_generation`) in the mailbox, updates
-/// the status and asks for a repaint.
+/// the status (a failure's stays) and asks for a repaint.
 fn publish(a: &mut Active, stats: FrameStats, pose_generation: u64, shared: &Shared) {
     let frame = a.frame(stats, pose_generation, shared.show_base(), shared.normals_on_gpu());
     shared.mailbox.put(frame);
-    a.last_frame_published = true;
-    set_status(&shared.status, a.state());
+    a.published = Some(pose_generation);
+    if !a.failed {
+        set_status(&shared.status, a.state());
+    }
     (shared.repaint)();
+}
+
+/// The poses' generation a frame of the pose the pose solver holds now is of: the current
+/// poses', or after a failed solve, that of the last frame published (the pose kept), which
+/// is not done.
+fn held(a: &Active) -> Option<(u64, FrameStats)> {
+    let published = a.published?;
+    Some(match a.failed {
+        true => (published, FrameStats { done: false, ..a.last_stats }),
+        false => (a.pose_generation, a.last_stats),
+    })
 }
 
 /// Returns when told to shut down or when the UI side is gone. `recovery` keeps the scene
@@ -664,8 +693,11 @@ fn worker_loop(
             advance(a, false, shared);
             match a.set_loose_parts(generation, &parts) {
                 // Nothing else to do at this pose: show the parts moved now.
-                Ok(()) if !a.dirty && a.last_frame_published => {
-                    publish(a, a.last_stats, a.pose_generation, shared)
+                Ok(())
+                    if !a.dirty
+                        && let Some((generation, stats)) = held(a) =>
+                {
+                    publish(a, stats, generation, shared)
                 }
                 Ok(()) => {}
                 Err(e) => {
@@ -688,9 +720,9 @@ fn worker_loop(
             (shared.repaint)();
         }
         if !a.dirty && !settle_due {
-            if republish && a.last_frame_published {
+            if republish && let Some((generation, stats)) = held(a) {
                 let (base, normals) = (shared.show_base(), shared.normals_on_gpu());
-                shared.mailbox.put(a.frame(a.last_stats, a.pose_generation, base, normals));
+                shared.mailbox.put(a.frame(stats, generation, base, normals));
                 (shared.repaint)();
             }
             continue;

@@ -179,6 +179,104 @@ fn a_failed_build_is_not_retried_by_poses() {
     assert_eq!(builds.load(Ordering::SeqCst), 1, "the failed scene was built again");
 }
 
+/// [`Shift`] that never says it is done, its energy falling by `factor` a solve (1: not at
+/// all), counting its solves.
+struct NeverDone(Shift, f64, Arc<AtomicUsize>);
+
+impl PoseSolver for NeverDone {
+    fn positions(&self) -> &[[f64; 3]] {
+        self.0.positions()
+    }
+
+    fn solve(&mut self, poses: &[(usize, GroupTransform)]) -> Result<FrameStats, String> {
+        let n = self.2.fetch_add(1, Ordering::SeqCst);
+        let stats = self.0.solve(poses)?;
+        let energy = self.1.powi(n as i32);
+        Ok(FrameStats { done: false, converged: false, energy, ..stats })
+    }
+}
+
+/// A pose solver that never says it is done (a tolerance of 0) is not run forever at poses
+/// nobody moves: it stops when a solve no longer lowers the energy, or after `MAX_RESOLVES`;
+/// the status then leaves Solving.
+#[test]
+fn a_solver_never_done_stops_at_unchanged_poses() {
+    for (factor, most) in [(1.0, 2), (0.5, worker::MAX_RESOLVES)] {
+        let solves = Arc::new(AtomicUsize::new(0));
+        let counted = solves.clone();
+        let factory: PoseSolverFactory = Arc::new(
+            move |_, mesh: &Mesh, handles: &Handles, _: &_, _: &_, _: &dyn Fn() -> bool| {
+                let shift = Shift::new(mesh, handles);
+                Ok(Box::new(NeverDone(shift, factor, counted.clone())) as Box<dyn PoseSolver>)
+            },
+        );
+        let h = SolverHandle::spawn(Slot::Compare, factory, Arc::new(|| {})).unwrap();
+        h.send(scene(1, vec![GroupTransform::default()]));
+        let start = Instant::now();
+        while h.try_status().is_none_or(|s| s.state != SolverState::Converged) {
+            assert!(
+                start.elapsed() < Duration::from_secs(10),
+                "still solving: {:?}",
+                h.try_status().map(|s| s.state)
+            );
+            std::thread::sleep(Duration::from_millis(2));
+        }
+        let n = solves.load(Ordering::SeqCst);
+        std::thread::sleep(Duration::from_millis(100));
+        assert_eq!(solves.load(Ordering::SeqCst), n, "solving went on");
+        assert_eq!(n, most, "energy falling by {factor}");
+    }
+}
+
+/// [`Shift`] that fails on a pose lifted past z = 10.
+struct FailsHigh(Shift);
+
+impl PoseSolver for FailsHigh {
+    fn positions(&self) -> &[[f64; 3]] {
+        self.0.positions()
+    }
+
+    fn solve(&mut self, poses: &[(usize, GroupTransform)]) -> Result<FrameStats, String> {
+        match poses.iter().any(|(_, t)| t.translation.z > 10.0) {
+            true => Err("out of reach".into()),
+            false => self.0.solve(poses),
+        }
+    }
+}
+
+/// After a failed solve, a change of the loose parts (and a republish) shows the pose kept:
+/// its frame is of the poses it was solved for, not done, and the status still says Failed
+/// (it said Converged, and the kept pose passed for the failed one).
+#[test]
+fn a_failed_solve_stays_failed_through_a_parts_change() {
+    let factory: PoseSolverFactory =
+        Arc::new(|_, mesh: &Mesh, handles: &Handles, _: &_, _: &_, _: &dyn Fn() -> bool| {
+            Ok(Box::new(FailsHigh(Shift::new(mesh, handles))) as Box<dyn PoseSolver>)
+        });
+    let h = SolverHandle::spawn(Slot::Main, factory, Arc::new(|| {})).unwrap();
+    h.send(scene(1, vec![GroupTransform::default()]));
+    wait_frame(&h, |f| f.scene_generation == 1 && f.stats.done);
+    let high = GroupTransform::from_translation(glam::DVec3::new(0.0, 0.0, 20.0));
+    h.send(SolverCommand::SetPoses { pose_generation: 2, poses: vec![high] });
+    let start = Instant::now();
+    while !h.try_status().is_some_and(|s| matches!(s.state, SolverState::Failed(_))) {
+        assert!(start.elapsed() < Duration::from_secs(10), "no failure reported");
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    h.send(SolverCommand::SetLooseParts { pose_generation: 3, loose_parts: Default::default() });
+    let f = wait_frame(&h, |_| true);
+    assert_eq!(
+        (f.pose_generation, f.stats.done),
+        (0, false),
+        "the kept pose passed for the failed one"
+    );
+    assert!(matches!(h.try_status().unwrap().state, SolverState::Failed(_)));
+    h.send(SolverCommand::Republish);
+    let f = wait_frame(&h, |f| !f.stats.done);
+    assert_eq!(f.pose_generation, 0);
+    assert!(matches!(h.try_status().unwrap().state, SolverState::Failed(_)));
+}
+
 /// [`Shift`] with a base: the rest shape lifted by one along y.
 struct WithBase(Shift);
 

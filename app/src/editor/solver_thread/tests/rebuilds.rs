@@ -83,7 +83,8 @@ fn a_scene_changing_only_the_other_slot_keeps_the_solver() {
     // New loose parts' modes taken since do not make the failed pose a pose of its poses.
     let parts = solver::LooseParts::default();
     h.send(SolverCommand::SetLooseParts { pose_generation: 8, loose_parts: parts });
-    wait_frame(&h, |f| f.pose_generation == 8); // the parts taken (the last pose shown again)
+    // the parts taken: the last pose shown again, of the poses it was solved for, not done
+    wait_frame(&h, |f| f.pose_generation == 6 && !f.stats.done);
     h.send(scene(9, MethodSettings { compare_variant: solver::Method::Arap, ..own }, far));
     let start = Instant::now();
     while builds.load(Ordering::SeqCst) < 4 {
