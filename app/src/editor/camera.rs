@@ -4,7 +4,7 @@
 //! Orbit: middle drag or Alt+left drag. Pan: Shift+middle drag. Zoom: wheel. `F` frames the
 //! mesh; number keys select view presets (1 front, 3 right, 7 top; with Ctrl the opposite).
 
-use glam::{Mat4, Vec3, Vec4};
+use glam::{Mat4, Vec3};
 use solver::animation::export::UpAxis;
 
 use super::shape::to_f32_from;
@@ -114,10 +114,19 @@ impl OrbitCamera {
         self.target += (-dx * right + dy * up) * s;
     }
 
-    /// Zoom by wheel `scroll` points (positive: closer).
+    /// Zoom by wheel `scroll` points (positive: closer), no nearer than [`Self::min_distance`].
     pub fn zoom(&mut self, scroll: f32) {
-        self.distance =
-            (self.distance * (-scroll * 0.002).exp()).clamp(*DISTANCE.start(), *DISTANCE.end());
+        let near = self.min_distance();
+        self.distance = (self.distance * (-scroll * 0.002).exp()).clamp(near, *DISTANCE.end());
+    }
+
+    /// The nearest the eye comes to the target by zooming: [`DISTANCE`]'s floor, or 1e-5 of
+    /// the target's coordinates and of the framed radius, where the eye's f32 coordinates still
+    /// differ from the target's (at the floor alone the eye became the target far from the
+    /// origin, and the view matrix NaN).
+    fn min_distance(&self) -> f32 {
+        let scale = self.target.abs().max_element().max(self.reach);
+        DISTANCE.start().max(1e-5 * scale)
     }
 
     /// World units per screen point at `depth` along the view axis.
@@ -149,14 +158,19 @@ impl OrbitCamera {
         self.pitch = pitch;
     }
 
-    /// World-space ray through `ndc` (x, y in [−1, 1], y up): origin and unit direction.
+    /// World-space ray through `ndc` (x, y in [−1, 1], y up): its origin on the near plane
+    /// and unit direction, from the camera's axes and field of view. (Unprojecting through the
+    /// inverse of [`Self::view_proj`] in f32 lost the far point to cancellation once far/near
+    /// passed about 1e7, zoomed in close: picking then took the view's centre or pointed
+    /// backwards.)
     pub fn ray(&self, ndc: [f32; 2], aspect: f32) -> (Vec3, Vec3) {
-        let inv = self.view_proj(aspect).inverse();
-        let near = inv * Vec4::new(ndc[0], ndc[1], 0.0, 1.0);
-        let far = inv * Vec4::new(ndc[0], ndc[1], 1.0, 1.0);
-        let near = near.truncate() / near.w;
-        let far = far.truncate() / far.w;
-        (near, (far - near).normalize_or(-self.back()))
+        let (right, up) = self.axes();
+        let tan = (self.fov_y * 0.5).tan();
+        let forward = -self.back();
+        let dir = (forward + right * (ndc[0] * tan * aspect.max(1e-3)) + up * (ndc[1] * tan))
+            .normalize_or(forward);
+        let near = (self.distance * 0.01).max(1e-9);
+        (self.eye() + dir * (near / dir.dot(forward)), dir)
     }
 
     /// The camera as scene-file JSON: `{"target": [x, y, z], "yaw", "pitch", "distance", "fov_y"}`,
@@ -230,6 +244,41 @@ mod tests {
         let (o, d) = cam.ray(ndc, 1.5);
         let closest = o + d * (p - o).dot(d);
         assert!((closest - p).length() < 1e-3);
+    }
+
+    /// Zoomed in close on a large mesh (far/near about 4e7) and on a small one, the ray through
+    /// a point's screen position still passes through it.
+    #[test]
+    fn rays_stay_true_zoomed_in_close() {
+        for (radius, distance) in [(5000.0, 0.05), (1e-3, 1e-5), (1.0, 1e-4)] {
+            let mut cam = OrbitCamera::default();
+            cam.frame(Vec3::new(0.5, 0.2, -0.1) * radius, radius, 1.5);
+            cam.distance = distance;
+            cam.orbit(30.0, -20.0);
+            let (right, up) = cam.axes();
+            let p = cam.target + right * (0.2 * distance) - up * (0.1 * distance);
+            // its screen position, from the camera's axes
+            let v = p - cam.eye();
+            let depth = v.dot(-cam.back());
+            let tan = (cam.fov_y * 0.5).tan();
+            let ndc = [v.dot(right) / (depth * tan * 1.5), v.dot(up) / (depth * tan)];
+            let (o, d) = cam.ray(ndc, 1.5);
+            let closest = o + d * (p - o).dot(d);
+            let off = (closest - p).length() / distance;
+            assert!(off < 1e-3, "radius {radius}, distance {distance}: {off} of the distance off");
+        }
+    }
+
+    /// Zooming in as far as the wheel goes, far from the origin, keeps the view defined.
+    #[test]
+    fn zooming_in_far_from_the_origin_keeps_the_view() {
+        let mut cam = OrbitCamera::default();
+        cam.frame(Vec3::new(3000.0, -200.0, 40.0), 1.0, 1.5);
+        for _ in 0..200 {
+            cam.zoom(500.0);
+        }
+        assert!(cam.eye() != cam.target, "the eye is the target");
+        assert!(cam.view_proj(1.5).is_finite(), "{:?}", cam.view_proj(1.5));
     }
 
     #[test]

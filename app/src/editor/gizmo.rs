@@ -14,10 +14,12 @@ pub const ROTATION_SNAP: f32 = std::f32::consts::PI / 12.0;
 /// The parameter `s` of the point `origin + s·axis` of the axis line nearest to the ray
 /// `ray_origin + t·ray_dir` (closest points of two lines):
 /// with $w = o_a - o_r$, $a = u·u$, $b = u·v$, $c = v·v$, $d = u·w$, $e = v·w$,
-/// $s = (b e - c d) / (a c - b^2)$.
+/// $s = (b e - c d) / (a c - b^2)$, $t = (a e - b d) / (a c - b^2)$.
 ///
-/// `None` when the ray is (nearly) parallel to the axis: the axis is seen end-on and a
-/// pointer move along it is undefined.
+/// `None` when the ray is (nearly) parallel to the axis (the axis is seen end-on and a
+/// pointer move along it is undefined), and when the nearest point is behind the ray's origin
+/// ($t \le 0$): the pointer is past the axis's vanishing point on the screen, where `s` ran
+/// off to infinity and came back from the other side.
 pub fn ray_axis_parameter(
     ray_origin: Vec3,
     ray_dir: Vec3,
@@ -33,7 +35,8 @@ pub fn ray_axis_parameter(
         return None;
     }
     let s = (b * e - c * d) / denom;
-    s.is_finite().then_some(s)
+    let t = (a * e - b * d) / denom;
+    (s.is_finite() && t > 0.0).then_some(s)
 }
 
 /// How far along the unit `axis` (through `origin`) the pointer has moved between two rays:
@@ -127,6 +130,25 @@ mod tests {
             ray_axis_parameter(Vec3::new(0.0, 0.0, 5.0), -Vec3::Z, Vec3::ZERO, Vec3::Z),
             None
         );
+        // A ray 5.7° off the axis, rising away from it: the lines are nearest 50 behind the
+        // ray's origin (the pointer past the axis's vanishing point): undefined.
+        assert_eq!(
+            ray_axis_parameter(
+                Vec3::new(0.0, 0.0, 5.0),
+                Vec3::new(1.0, 0.0, 0.1),
+                Vec3::ZERO,
+                Vec3::X
+            ),
+            None
+        );
+        // The same ray falling towards the axis meets it 50 ahead.
+        let s = ray_axis_parameter(
+            Vec3::new(0.0, 0.0, 5.0),
+            Vec3::new(1.0, 0.0, -0.1),
+            Vec3::ZERO,
+            Vec3::X,
+        );
+        assert!((s.unwrap() - 50.0).abs() < 1e-3);
         // Two rays 0.3 apart along X move 0.3 along X, nothing along an axis they cross at one point.
         let start = (Vec3::new(0.1, 5.0, 0.0), -Vec3::Y);
         let now = (Vec3::new(0.4, 5.0, 0.2), -Vec3::Y);

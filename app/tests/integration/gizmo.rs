@@ -619,3 +619,28 @@ fn g_without_a_group_says_so_and_q_only_switches_tools() {
     h.step();
     assert_ne!(h.state().select_mode(), mode, "Q in the paint tool cycles");
 }
+
+/// An orbit during a free R (middle drag) leaves the turn about the view axis it started
+/// with: the whole turn so far was re-aimed about the new view axis.
+#[test]
+fn an_orbit_during_r_keeps_the_axis_it_started_with() {
+    let mut h = start();
+    let (c, _) = h.state().gizmo_screen().unwrap();
+    let path = arc(c, 80.0, 40.0);
+    move_pointer(&mut h, [path[0]]);
+    let back = h.state().camera().back().as_dvec3();
+    h.key_press(Key::R);
+    h.step();
+    assert_eq!(h.state().running_transform(), Some((TransformKind::Rotate, None)));
+    move_pointer(&mut h, path[1..].iter().copied());
+    let mut orbited = *h.state().camera();
+    orbited.orbit(120.0, 40.0);
+    h.state_mut().set_camera(orbited);
+    move_pointer(&mut h, [*path.last().unwrap() + Vec2::new(0.0, 1.0)]);
+    let q = h.state().group_pose(0).unwrap().rotation;
+    let axis = glam::DVec3::new(q.x, q.y, q.z).normalize();
+    assert!(angle_degrees(q.to_array()) > 10.0, "no turn");
+    assert!(axis.dot(back).abs() > 1.0 - 1e-6, "turned about {axis} after the orbit, not {back}");
+    h.key_press(Key::Enter);
+    h.step();
+}

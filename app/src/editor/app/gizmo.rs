@@ -67,6 +67,11 @@ pub(super) struct Transform {
     last_pointer: Pos2,
     /// Screen turn accumulated frame by frame (so turns past ±180° keep counting), radians.
     turned: f32,
+    /// The camera's back, right and up axes at the start: the view axis a free turn turns
+    /// about, the side a ring is seen from, the view plane a free move moves in. An orbit
+    /// during the transform (middle drag) re-aimed the whole turn or move so far, and past a
+    /// ring's edge-on view flipped its sign.
+    view_axes: [Vec3; 3],
     /// A value typed during a modal transform (Blender's numeric input): a distance along
     /// the axis (X when free) or an angle in degrees; it overrides the pointer while it
     /// parses.
@@ -130,7 +135,7 @@ impl EditorApp {
     /// World length of `points` screen points at the depth of `p`.
     fn world_size(&self, rect: Rect, p: Vec3, points: f32) -> f32 {
         let cam = &self.display.camera;
-        let depth = (p - cam.eye()).dot(-cam.back()).max(1e-4);
+        let depth = (p - cam.eye()).dot(-cam.back()).max(1e-3 * cam.distance);
         cam.world_per_point(depth, rect.height()) * points
     }
 
@@ -164,6 +169,10 @@ impl EditorApp {
             start_pointer: pointer,
             last_pointer: pointer,
             turned: 0.0,
+            view_axes: {
+                let (right, up) = self.display.camera.axes();
+                [self.display.camera.back(), right, up]
+            },
             typed: String::new(),
         });
         self.interaction.drag = None;
@@ -471,7 +480,7 @@ impl EditorApp {
         }
         t.last_pointer = pointer;
         let radius = self.session.scene.as_ref().map_or(1.0, |s| s.radius);
-        let back = self.display.camera.back();
+        let [back, right, up] = t.view_axes;
         let mut pose = t.start_pose;
         let typed: Option<f64> = t.typed.parse().ok().filter(|v: &f64| v.is_finite());
         match (t.kind, typed) {
@@ -490,12 +499,18 @@ impl EditorApp {
                     Some(a) => {
                         let start = self.ray_at(rect, t.start_pointer);
                         let now = self.ray_at(rect, pointer);
-                        axis_displacement(start, now, t.center, AXES[a]).map_or(Vec3::ZERO, |s| {
-                            AXES[a] * if ctrl { snap(s, snap_step(radius)) } else { s }
-                        })
+                        match axis_displacement(start, now, t.center, AXES[a]) {
+                            Some(s) => AXES[a] * if ctrl { snap(s, snap_step(radius)) } else { s },
+                            // The axis end-on or the pointer past its vanishing point: the
+                            // group stays where the last defined move put it (it jumped back
+                            // to the start, or flew off behind the camera).
+                            None => {
+                                self.gizmo.transform = Some(t);
+                                return;
+                            }
+                        }
                     }
                     None => {
-                        let (right, up) = self.display.camera.axes();
                         let d = pointer - t.start_pointer;
                         let w = (right * d.x - up * d.y) * self.world_size(rect, t.center, 1.0);
                         if ctrl {

@@ -532,7 +532,9 @@ impl EditorApp {
                 self.interaction.active_group = Some(g);
                 let eye = self.display.camera.eye();
                 let anchor = hit.map_or(self.display.camera.target, |h| h.point);
-                let depth = (anchor - eye).dot(-self.display.camera.back()).max(1e-4);
+                let depth = (anchor - eye)
+                    .dot(-self.display.camera.back())
+                    .max(1e-3 * self.display.camera.distance);
                 let step = self.session.push_gesture_step(self.session.edit.clone());
                 self.interaction.drag = Some(PoseDrag {
                     group: g,
