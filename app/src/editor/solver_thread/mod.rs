@@ -22,7 +22,7 @@ mod tests;
 
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::mpsc::{Sender, channel};
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, PoisonError};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
@@ -45,6 +45,8 @@ pub struct SolverHandle {
     /// The generation of the newest scene sent ([`u64::MAX`] once shutting down): a build of
     /// an older one is moot ([`PoseSolverFactory`]).
     newest_scene: Arc<AtomicU64>,
+    /// The newest scene sent and not yet taken ([`SolverCommand::SceneWaiting`]).
+    waiting_scene: Arc<Mutex<Option<Box<NewScene>>>>,
     thread: Option<JoinHandle<()>>,
 }
 
@@ -66,8 +68,10 @@ impl SolverHandle {
         let normals_on_gpu = Arc::new(AtomicBool::new(false));
         let min_settle_ms = Arc::new(AtomicU64::new(worker::SETTLE_DELAY.as_millis() as u64));
         let newest_scene = Arc::new(AtomicU64::new(0));
+        let waiting_scene = Arc::new(Mutex::new(None));
         let shared = Shared {
             newest_scene: newest_scene.clone(),
+            waiting_scene: waiting_scene.clone(),
             mailbox: mailbox.clone(),
             status: status.clone(),
             show_base: show_base.clone(),
@@ -87,6 +91,7 @@ impl SolverHandle {
             normals_on_gpu,
             min_settle_ms,
             newest_scene,
+            waiting_scene,
             thread: Some(thread),
         })
     }
@@ -118,11 +123,19 @@ impl SolverHandle {
         }
     }
 
-    /// Sends a command; never blocks. A dead thread is reported by the status.
+    /// Sends a command; never blocks. A dead thread is reported by the status. A scene waits
+    /// in one slot, replacing one not taken yet ([`SolverCommand::SceneWaiting`]).
     pub fn send(&self, command: SolverCommand) {
-        if let SolverCommand::SetScene(scene) = &command {
-            self.newest_scene.store(scene.scene_generation, Ordering::Relaxed);
-        }
+        let command = match command {
+            SolverCommand::SetScene(scene) => {
+                let generation = scene.scene_generation;
+                self.newest_scene.store(generation, Ordering::Relaxed);
+                let mut slot = self.waiting_scene.lock().unwrap_or_else(PoisonError::into_inner);
+                *slot = Some(scene);
+                SolverCommand::SceneWaiting(generation)
+            }
+            other => other,
+        };
         if self.tx.send(command).is_err() {
             set_status(&self.status, SolverState::Failed("the solver thread has exited".into()));
         }

@@ -302,6 +302,11 @@ pub enum SolverCommand {
     /// is built from is unchanged for this slot (then the scene's generation and poses are
     /// taken and the current pose published again). Boxed: the other messages are small.
     SetScene(Box<NewScene>),
+    /// What [`super::SolverHandle::send`] sends for a [`Self::SetScene`]: the scene of this
+    /// generation waits in the handle's one slot, which a newer scene takes over (a method
+    /// slider dragged while a solver is built queued a copy of the handle set a frame, and
+    /// was given up only once the build ended).
+    SceneWaiting(u64),
     /// New modes of the loose parts (no refactorization); the frame that shows them carries
     /// `pose_generation`.
     SetLooseParts {

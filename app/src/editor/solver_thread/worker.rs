@@ -10,7 +10,7 @@
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::mpsc::{Receiver, RecvTimeoutError, TryRecvError};
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant};
 
 use solver::geometry::normals::VertexFaces;
@@ -37,6 +37,8 @@ pub(super) struct Shared {
     pub(super) min_settle_ms: Arc<AtomicU64>,
     /// The generation of the newest scene sent ([`super::SolverHandle::send`]).
     pub(super) newest_scene: Arc<AtomicU64>,
+    /// The newest scene sent and not yet taken ([`SolverCommand::SceneWaiting`]).
+    pub(super) waiting_scene: Arc<Mutex<Option<Box<NewScene>>>>,
     pub(super) repaint: Arc<dyn Fn() + Send + Sync>,
 }
 
@@ -415,7 +417,11 @@ fn wait_time(active: Option<&Active>, floor: Duration) -> Option<Duration> {
 
 /// Waits up to `wait` (`None`: until a command comes) and takes every pending command. `None`
 /// when told to shut down or when the UI side is gone.
-fn drain_commands(rx: &Receiver<SolverCommand>, wait: Option<Duration>) -> Option<Inbox> {
+fn drain_commands(
+    rx: &Receiver<SolverCommand>,
+    wait: Option<Duration>,
+    waiting_scene: &Mutex<Option<Box<NewScene>>>,
+) -> Option<Inbox> {
     let mut commands = Vec::new();
     match wait {
         None => commands.push(rx.recv().ok()?),
@@ -443,6 +449,16 @@ fn drain_commands(rx: &Receiver<SolverCommand>, wait: Option<Duration>) -> Optio
                 inbox.scene = Some(*scene);
                 inbox.poses = None;
                 inbox.loose_parts = None;
+            }
+            // Taken at its own notice: the poses sent before a newer scene's notice are still
+            // applied before that scene (which carries its own).
+            SolverCommand::SceneWaiting(generation) => {
+                let mut slot = waiting_scene.lock().unwrap_or_else(PoisonError::into_inner);
+                if slot.as_ref().is_some_and(|s| s.scene_generation == generation) {
+                    inbox.scene = slot.take().map(|s| *s);
+                    inbox.poses = None;
+                    inbox.loose_parts = None;
+                }
             }
             SolverCommand::SetLooseParts { pose_generation, loose_parts } => {
                 inbox.loose_parts = Some((pose_generation, loose_parts))
@@ -638,7 +654,11 @@ fn worker_loop(
     let mut active: Option<Active> = None;
     loop {
         let floor = shared.min_settle_delay();
-        let Some(inbox) = drain_commands(rx, wait_time(active.as_ref(), floor)) else { return };
+        let Some(inbox) =
+            drain_commands(rx, wait_time(active.as_ref(), floor), &shared.waiting_scene)
+        else {
+            return;
+        };
         let mut build = inbox.scene.inspect(|scene| {
             recovery.scene = Some(scene.clone());
             recovery.building = false;

@@ -141,3 +141,55 @@ fn a_build_made_moot_by_a_newer_scene_is_dropped_unseen() {
     let shown = shown.lock().unwrap();
     assert!(!shown.iter().any(|s| matches!(s, SolverState::Failed(_))), "{shown:?}");
 }
+
+/// Scenes sent while a build runs (a method slider dragged: one a frame) wait in one slot, not
+/// in the channel: each queued one held its own copy of the handle set until the build ended.
+/// Only the newest is taken next, with the poses sent after it.
+#[test]
+fn scenes_sent_during_a_build_wait_in_one_slot() {
+    let builds = Arc::new(AtomicUsize::new(0));
+    let release = Arc::new(AtomicBool::new(false));
+    let (counted, go) = (builds.clone(), release.clone());
+    let inner = factory();
+    let waiting: PoseSolverFactory = Arc::new(
+        move |slot, mesh: &Mesh, handles: &Handles, s: &_, l: &_, moot: &dyn Fn() -> bool| {
+            if counted.fetch_add(1, Ordering::SeqCst) == 0 {
+                let start = Instant::now();
+                while !go.load(Ordering::SeqCst) && start.elapsed() < Duration::from_secs(10) {
+                    std::thread::sleep(Duration::from_millis(2));
+                }
+            }
+            inner(slot, mesh, handles, s, l, moot)
+        },
+    );
+    let h = SolverHandle::spawn(Slot::Main, waiting, Arc::new(|| {})).unwrap();
+    let mesh = tri();
+    let scene = |generation: u64| {
+        SolverCommand::SetScene(Box::new(NewScene {
+            scene_generation: generation,
+            vertex_faces: faces_of(&mesh),
+            mesh: mesh.clone(),
+            handles: Some(Handles::from_options(vec![Some(0), None, None]).unwrap()),
+            settings: MethodSettings::default(),
+            loose_parts: Default::default(),
+            poses: vec![GroupTransform::default()],
+            pose_generation: generation,
+        }))
+    };
+    h.send(scene(1));
+    let start = Instant::now();
+    while builds.load(Ordering::SeqCst) == 0 {
+        assert!(start.elapsed() < Duration::from_secs(10), "no build began");
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    let before = Arc::strong_count(&mesh);
+    for g in 2..=50 {
+        h.send(scene(g));
+    }
+    assert!(Arc::strong_count(&mesh) <= before + 1, "{} scenes held", Arc::strong_count(&mesh));
+    let moved = GroupTransform::from_translation(glam::DVec3::new(0.0, 0.0, 2.0));
+    h.send(SolverCommand::SetPoses { pose_generation: 60, poses: vec![moved] });
+    release.store(true, Ordering::SeqCst);
+    let f = wait_frame(&h, |f| f.scene_generation == 50 && f.pose_generation == 60);
+    assert_eq!(f.positions[2], drawn([0.0, 1.0, 2.0]));
+}
