@@ -133,3 +133,24 @@ fn a_new_method_does_not_show_the_numbers_of_the_one_before() {
     step_until(&mut h, "the faired method's frame", settled);
     assert!(iterations(h.state()), "{:?}", h.state().overlay_lines(1));
 }
+
+/// Leaving side by side and coming back takes up the same comparison thread, its solver freed
+/// meanwhile: a new thread each time started another full-mesh factorization beside the one
+/// still running (not stoppable), and on a dense mesh two of them could take the memory. The
+/// view back shows the comparison's frames again.
+#[test]
+fn side_by_side_again_takes_up_the_same_solver_thread() {
+    let mut h = side_by_side();
+    let started = h.state().solver_threads_started();
+    for _ in 0..3 {
+        h.state_mut().set_view(View::Details);
+        h.step();
+        h.state_mut().set_view(View::Compare);
+        h.step();
+    }
+    let generation = h.state().scene_generation();
+    step_until(&mut h, "the comparison's frame again", |a| {
+        a.latest_frame(Slot::Compare).is_some_and(|f| f.scene_generation == generation)
+    });
+    assert_eq!(h.state().solver_threads_started(), started, "a new solver thread started");
+}

@@ -137,6 +137,11 @@ impl EditorApp {
         self.solvers.view(slot).history.len()
     }
 
+    /// Solver threads started so far, both slots (the side-by-side view's is started once).
+    pub fn solver_threads_started(&self) -> usize {
+        self.solvers.threads_started
+    }
+
     pub fn pose_generation(&self) -> u64 {
         self.solvers.pose_generation
     }

@@ -35,6 +35,12 @@ pub(super) struct Solvers {
     pub(super) main: Option<SolverHandle>,
     /// [`Slot::Compare`]: running while the side-by-side view shows.
     pub(super) compare: Option<SolverHandle>,
+    /// [`Slot::Compare`]'s thread while the view does not show: told to idle (its solver is
+    /// freed once a build under way ends) and taken up again when the view comes back. A new
+    /// thread each time started another full-mesh factorization beside one not stoppable.
+    idle_compare: Option<SolverHandle>,
+    /// Solver threads started so far (both slots).
+    pub(super) threads_started: usize,
     /// `views[0]`: the main slot's, `views[1]`: the compare slot's.
     pub(super) views: [SolverView; 2],
     pub(super) scene_generation: u64,
@@ -64,6 +70,8 @@ impl Default for Solvers {
         Solvers {
             main: None,
             compare: None,
+            idle_compare: None,
+            threads_started: 0,
             views: Default::default(),
             scene_generation: 0,
             pose_generation: 0,
@@ -103,6 +111,7 @@ impl EditorApp {
             Arc::new(move || c.request_repaint()),
         ) {
             Ok(h) => {
+                self.solvers.threads_started += 1;
                 // A software adapter renders a dense mesh a few frames a second: a drag's
                 // poses come that far apart, and must not each start settling.
                 if self.display.software_rendering.is_some() {
@@ -324,14 +333,20 @@ impl EditorApp {
     pub(super) fn ensure_compare_solver(&mut self, ctx: &egui::Context) {
         let want = self.display.view == View::Compare;
         if want && self.solvers.compare.is_none() {
-            self.solvers.compare = self.spawn_solver(ctx, Slot::Compare);
+            self.solvers.compare =
+                self.solvers.idle_compare.take().or_else(|| self.spawn_solver(ctx, Slot::Compare));
             self.solvers.views[1] = SolverView::default();
             if let (Some(scene), Some(arap)) = (self.new_scene(), &self.solvers.compare) {
                 arap.send(SolverCommand::SetScene(Box::new(scene)));
             }
-        } else if !want && self.solvers.compare.is_some() {
-            self.solvers.compare = None;
+        } else if !want && let Some(compare) = self.solvers.compare.take() {
             self.solvers.views[1] = SolverView::default();
+            // a scene without handles: nothing to solve, the pose solver goes
+            if let Some(scene) = self.new_scene() {
+                compare
+                    .send(SolverCommand::SetScene(Box::new(NewScene { handles: None, ..scene })));
+            }
+            self.solvers.idle_compare = Some(compare);
         }
     }
 
