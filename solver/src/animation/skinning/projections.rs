@@ -20,8 +20,12 @@ use rayon::prelude::*;
 
 use super::{Affine, Data};
 
-/// Rows per block of the product (a block of $P$ is `ROWS×3T` f64).
+/// Rows per block of the product.
 const ROWS: usize = 1024;
+/// Frames per block of the product: a block of $P$ is `ROWS×3·FRAMES` f64 (6 MB) and one of
+/// $W$ `3·FRAMES×4B`, whatever the recording's length (a block of every frame held a copy of
+/// the recording's f64 trajectories per thread, and $W$ 3.2 GB at 33k frames and 1,024 bones).
+const FRAMES: usize = 256;
 
 /// $Q_{jk} = \sum_t M^{t\top}_j M^t_k$, row-major `B×B` of 4×4 (symmetric: $Q_{kj} = Q_{jk}^\top$).
 pub(super) fn pair_products(m: &[Vec<Affine>]) -> Vec<[[f64; 4]; 4]> {
@@ -72,8 +76,6 @@ pub(super) fn projections(data: &Data, rows: Option<&[u32]>, m: &[Vec<Affine>]) 
     let n_t = data.n_frames();
     let nb = m.first().map_or(0, Vec::len);
     let n_rows = rows.map_or(data.n_vertices(), <[u32]>::len);
-    // W: 3T×4B, W[(3t+a), (4j+b)] = M^t_j[a][b].
-    let w = Mat::<f64>::from_fn(3 * n_t, 4 * nb, |i, k| m[i / 3][k / 4][i % 3][k % 4]);
     let mut h = vec![0.0; n_rows * nb];
     if nb == 0 {
         return h;
@@ -82,17 +84,24 @@ pub(super) fn projections(data: &Data, rows: Option<&[u32]>, m: &[Vec<Affine>]) 
         let first = c * ROWS;
         let count = out.len() / nb;
         let vertex = |i: usize| rows.map_or(first + i, |r| r[first + i] as usize);
-        let mut p = vec![0.0; count * 3 * n_t];
-        for i in 0..count {
-            let v = vertex(i);
-            let row = &mut p[i * 3 * n_t..(i + 1) * 3 * n_t];
-            for t in 0..n_t {
-                row[3 * t..3 * t + 3].copy_from_slice(&data.p(t, v));
-            }
-        }
-        let p = MatRef::from_row_major_slice(&p, count, 3 * n_t);
         let mut x = Mat::<f64>::zeros(count, 4 * nb);
-        faer::linalg::matmul::matmul(x.as_mut(), Accum::Replace, p, w.as_ref(), 1.0, Par::Seq);
+        let mut p = Vec::new();
+        for t0 in (0..n_t).step_by(FRAMES) {
+            let nt = FRAMES.min(n_t - t0);
+            p.clear();
+            p.resize(count * 3 * nt, 0.0);
+            for i in 0..count {
+                let v = vertex(i);
+                let row = &mut p[i * 3 * nt..(i + 1) * 3 * nt];
+                for t in 0..nt {
+                    row[3 * t..3 * t + 3].copy_from_slice(&data.p(t0 + t, v));
+                }
+            }
+            let pb = MatRef::from_row_major_slice(&p, count, 3 * nt);
+            // W's rows of these frames: W[(3t+a), (4j+b)] = M^t_j[a][b].
+            let w = Mat::<f64>::from_fn(3 * nt, 4 * nb, |i, k| m[t0 + i / 3][k / 4][i % 3][k % 4]);
+            faer::linalg::matmul::matmul(x.as_mut(), Accum::Add, pb, w.as_ref(), 1.0, Par::Seq);
+        }
         for i in 0..count {
             let r = data.rest_h(vertex(i));
             for j in 0..nb {
@@ -152,5 +161,33 @@ mod tests {
         }
         assert_eq!(&sub[..2], &h[10..12]);
         assert_eq!(&sub[2..], &h[4..6]);
+    }
+
+    /// Over more frames than a block of the product holds, the blocks add up to the sums.
+    #[test]
+    fn frame_blocks_add_up() {
+        let rest: Vec<[f64; 3]> = (0..5).map(|i| [i as f64, 1.0 - i as f64, 0.5]).collect();
+        let n_t = 2 * FRAMES + 37;
+        let frames: Vec<Vec<[f64; 3]>> = (0..n_t)
+            .map(|t| rest.iter().map(|r| [r[0] + (t as f64).sin(), r[1], r[2] * 0.99]).collect())
+            .collect();
+        let data = Data { rest, frames: &frames, center: [0.0; 3] };
+        let m: Vec<Vec<Affine>> = (0..n_t)
+            .map(|t| {
+                let s = (t as f64 * 0.01).cos();
+                vec![[[1.0, 0.0, 0.0, s], [0.0, s, 0.0, 0.0], [0.0, 0.0, 1.0, -s]]]
+            })
+            .collect();
+        let h = projections(&data, None, &m);
+        for (v, hv) in h.iter().enumerate() {
+            let r = data.rest_h(v);
+            let direct: f64 = (0..n_t)
+                .map(|t| {
+                    let (a, p) = (apply(&m[t][0], &r), data.p(t, v));
+                    a[0] * p[0] + a[1] * p[1] + a[2] * p[2]
+                })
+                .sum();
+            assert!((hv - direct).abs() < 1e-9 * direct.abs().max(1.0), "{v}: {hv} {direct}");
+        }
     }
 }

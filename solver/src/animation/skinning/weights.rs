@@ -32,8 +32,11 @@ use super::{Data, Influences, MAX_INFLUENCES};
 
 /// The weight step's inputs besides the data.
 pub(super) struct WeightInputs<'a> {
-    /// $h_{vj}$, `#V×B` (`projections.rs`).
+    /// $h_{vj}$ of the vertices `rows`, `#rows×B` (`projections.rs`).
     pub h: &'a [f64],
+    /// The vertices this pass updates (the weight step runs by blocks of them, so that `h`
+    /// stays bounded whatever the mesh and bone count).
+    pub rows: std::ops::Range<usize>,
     /// $Q_{jk}$, `B×B` of 4×4.
     pub q: &'a [[[f64; 4]; 4]],
     /// $\lVert b_v\rVert^2$ per vertex.
@@ -42,14 +45,17 @@ pub(super) struct WeightInputs<'a> {
     pub candidates: usize,
 }
 
-/// New influences of every vertex and the total squared error $\sum_v \lVert A_v w_v - b_v\rVert^2$.
+/// New influences of the vertices `input.rows` and their total squared error
+/// $\sum_v \lVert A_v w_v - b_v\rVert^2$.
 pub(super) fn update(data: &Data, input: &WeightInputs, current: &Influences) -> (Influences, f64) {
     let nb = input.q.len().isqrt();
     let k = input.max_influences.clamp(1, MAX_INFLUENCES).min(nb.max(1));
     let size =
         Size { bones: nb, influences: k, candidates: input.candidates.max(k).min(nb.max(1)) };
     let dim = size.candidates + MAX_INFLUENCES;
-    let results: Vec<([u32; MAX_INFLUENCES], [f64; MAX_INFLUENCES], f64)> = (0..data.n_vertices())
+    let results: Vec<([u32; MAX_INFLUENCES], [f64; MAX_INFLUENCES], f64)> = input
+        .rows
+        .clone()
         .into_par_iter()
         .map_init(|| Scratch::new(dim), |scratch, v| vertex(data, input, size, v, current, scratch))
         .collect();
@@ -112,7 +118,8 @@ fn vertex(
     let Size { bones: nb, influences: k, candidates: c } = size;
     let (bones, weights) = (&current.bones[v], &current.weights[v]);
     let r = data.rest_h(v);
-    let hv = &input.h[v * nb..(v + 1) * nb];
+    let i = v - input.rows.start;
+    let hv = &input.h[i * nb..(i + 1) * nb];
     let s = input.norms[v];
     let gjj = |j: usize| quadratic(&input.q[j * nb + j], &r);
     // Candidates: the best single bones, then the current ones.
