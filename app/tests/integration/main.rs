@@ -9,6 +9,7 @@ mod background_loads;
 mod bake_bones;
 mod capture;
 mod cli;
+mod cli_bench;
 mod cli_guards;
 mod editor;
 mod editor_assets;
