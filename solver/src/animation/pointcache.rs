@@ -201,16 +201,29 @@ pub fn read_pc2(path: &Path) -> Result<Pc2, PointCacheError> {
     Pc2::from_bytes(&bytes, &file)
 }
 
-/// The frames of an earlier, longer sequence named `name` that follow the last of `n_frames`
-/// in `dir` (`NAME_{n+1}.obj`, … with the digits [`obj_sequence_files`] gives `n_frames`, while
-/// they exist): a shorter export leaves them, and an importer of the sequence reads them after
-/// it.
+/// The frames of another sequence named `name` in `dir` that an export of `n_frames` frames
+/// does not write over ([`obj_sequence_files`]): `NAME_<digits>.obj` numbered past `n_frames`,
+/// or with another count of digits (an earlier sequence of 10,000 frames or more), in frame
+/// order. A shorter export leaves them, and an importer of the sequence reads them with it.
 pub fn later_obj_frames(dir: &Path, name: &str, n_frames: usize) -> Vec<PathBuf> {
     let digits = n_frames.to_string().len().max(4);
-    (n_frames + 1..)
-        .map(|i| dir.join(format!("{name}_{i:0digits$}.obj")))
-        .take_while(|p| p.is_file())
-        .collect()
+    let Ok(entries) = std::fs::read_dir(dir) else { return Vec::new() };
+    let mut found: Vec<(u128, String, PathBuf)> = entries
+        .filter_map(|e| {
+            let e = e.ok()?;
+            let file = e.file_name().into_string().ok()?;
+            let number = file.strip_prefix(name)?.strip_prefix('_')?.strip_suffix(".obj")?;
+            if number.is_empty() || !number.bytes().all(|b| b.is_ascii_digit()) {
+                return None;
+            }
+            let i: u128 = number.parse().ok()?;
+            let written = number.len() == digits && (1..=n_frames as u128).contains(&i);
+            let path = e.path();
+            (!written && path.is_file()).then_some((i, file, path))
+        })
+        .collect();
+    found.sort();
+    found.into_iter().map(|(_, _, p)| p).collect()
 }
 
 /// The files [`write_obj_sequence`] writes for `n_frames` frames named `name` in `dir`: the

@@ -169,6 +169,13 @@ fn obj_sequence_has_one_file_per_frame_in_the_file_order() {
     assert!(later_obj_frames(&dir, "walk", 3).is_empty());
     assert_eq!(later_obj_frames(&dir, "walk", 1), paths[1..]);
     assert!(later_obj_frames(&dir, "run", 1).is_empty());
+    // frames of a sequence of 10,000 frames or more have five digits: counted too, in order
+    // (not `walk_0002.obj`'s 4-digit neighbours, nor another name's)
+    for file in ["walk_00012.obj", "walk_00003.obj", "walk_x.obj", "walker_0009.obj"] {
+        std::fs::write(dir.join(file), "").unwrap();
+    }
+    let later = later_obj_frames(&dir, "walk", 3);
+    assert_eq!(later, [dir.join("walk_00003.obj"), dir.join("walk_00012.obj")]);
     for (s, path) in paths.iter().enumerate() {
         let text = std::fs::read_to_string(path).unwrap();
         assert!(text.lines().any(|l| l == "mtllib walk.mtl"));
