@@ -11,8 +11,9 @@
 //!
 //! Before `tobj` parses a library, lines it would fail on are mended or dropped
 //! ([`mended`]): a colour of one value (`Kd 0.8`, valid MTL: green and blue take red's value)
-//! is written out in full; a colour given as `spectral` or `xyz`, and a statement missing its
-//! value, are dropped with a notice naming the line; bytes that are not UTF-8 are read as
+//! is written out in full, `d -halo 0.5` read as `d 0.5`, a material without a name named
+//! `unnamed`; a colour given as `spectral` or `xyz`, a number that is not one, and a statement
+//! missing its value or file, are dropped with a notice naming the line; bytes that are not UTF-8 are read as
 //! U+FFFD. An MTL file or texture that is missing, unreadable, unparsable (the reason said) or
 //! not an image that decodes is not an error: the mesh loads without it and
 //! [`Asset::notices`] says what was skipped (one line each). MTL files are read relative to the
@@ -148,13 +149,20 @@ const MAX_LIBRARY_BYTES: u64 = 64 << 20;
 
 /// The colour statements, whose values `tobj` reads as exactly three numbers.
 const COLORS: [&str; 4] = ["Ka", "Kd", "Ks", "Ke"];
-/// The statements `tobj` reads one value of.
-const SCALARS: [&str; 5] = ["d", "Tr", "Ns", "Ni", "illum"];
+/// The statements `tobj` reads one number of (its first word).
+const NUMBERS: [&str; 3] = ["d", "Ns", "Ni"];
+/// The texture statements `tobj` fails on without a file.
+const TEXTURES: [&str; 10] = [
+    "map_Ka", "map_Kd", "map_Ks", "map_Bump", "map_bump", "map_Ns", "map_ns", "map_NS", "bump",
+    "map_d",
+];
 
 /// The MTL `text` with the lines `tobj` would fail on mended or dropped, a notice for each
 /// (naming `path` and the line): a colour of one or two values written out in full (green and
 /// blue take red's value, as the format says), one given as `spectral` or `xyz` or with no
-/// value dropped, and a one-value statement without its value dropped.
+/// value dropped; `d -halo F` read as `d F`; `d`, `Ns`, `Ni` not given as a number, `illum`
+/// not given as a whole number up to 255 and a texture statement naming no file dropped; a
+/// `newmtl` without a name named `unnamed`.
 fn mended(text: &str, path: &Path, notices: &mut Vec<String>) -> String {
     let mut out = String::with_capacity(text.len());
     for (n, line) in text.lines().enumerate() {
@@ -177,8 +185,40 @@ fn mended(text: &str, path: &Path, notices: &mut Vec<String>) -> String {
                 }
                 _ => {}
             }
-        } else if SCALARS.contains(&keyword) && values.is_empty() {
-            notices.push(dropped(&format!("{keyword} has no value")));
+        } else if NUMBERS.contains(&keyword) {
+            let halo = keyword == "d" && values.first() == Some(&"-halo");
+            let value = values.get(usize::from(halo)).filter(|v| v.parse::<f32>().is_ok());
+            match (value, halo) {
+                (None, _) if values.is_empty() => {
+                    notices.push(dropped(&format!("{keyword} has no value")));
+                    continue;
+                }
+                (None, _) => {
+                    notices.push(dropped(&format!("{keyword} is not given as a number")));
+                    continue;
+                }
+                (Some(v), true) => {
+                    let at = format!("{}:{}", path.display(), n + 1);
+                    notices.push(format!("{at}: d -halo read as d {v} (no halo)"));
+                    out.push_str(&format!("d {v}\n"));
+                    continue;
+                }
+                (Some(_), false) => {}
+            }
+        } else if keyword == "illum" && !values.first().is_some_and(|v| v.parse::<u8>().is_ok()) {
+            let why = match values.is_empty() {
+                true => "illum has no value",
+                false => "illum is not a whole number from 0 to 255",
+            };
+            notices.push(dropped(why));
+            continue;
+        } else if TEXTURES.contains(&keyword) && values.is_empty() {
+            notices.push(dropped(&format!("{keyword} names no file")));
+            continue;
+        } else if keyword == "newmtl" && values.is_empty() {
+            let at = format!("{}:{}", path.display(), n + 1);
+            notices.push(format!("{at}: a material without a name, read as unnamed"));
+            out.push_str("newmtl unnamed\n");
             continue;
         }
         out.push_str(line);
@@ -325,6 +365,28 @@ mod tests {
         assert!(notices.contains("My Model.mtl:3: illum has no value; line skipped"), "{notices}");
         assert!(notices.contains("My Model.mtl:5: Kd is not given as r g b"), "{notices}");
         assert_eq!(asset.notices.len(), 3, "{notices}"); // and x.png, missing
+        // More lines tobj fails on: each costs itself (and what it mends) only.
+        let mtl = "newmtl\nKd 1 0 0\nnewmtl h\nd -halo 0.25\nNs high\nillum 2.5\nmap_Kd\n\
+                   bump\nNi 1.5 # glass\n";
+        std::fs::write(dir.join("more.mtl"), mtl).unwrap();
+        let mut asset = Asset::default();
+        attach(&mut asset, &["more.mtl".to_string()], folder(&dir));
+        let names: Vec<_> = asset.materials.iter().map(|m| m.name.as_str()).collect();
+        assert_eq!(names, ["unnamed", "h"], "{:?}", asset.notices);
+        assert_eq!(asset.materials[0].base_color, [1.0, 0.0, 0.0, 1.0]);
+        assert_eq!(asset.materials[1].base_color[3], 0.25);
+        let notices = asset.notices.join("\n");
+        for said in [
+            "more.mtl:1: a material without a name",
+            "more.mtl:4: d -halo read as d 0.25",
+            "more.mtl:5: Ns is not given as a number; line skipped",
+            "more.mtl:6: illum is not a whole number",
+            "more.mtl:7: map_Kd names no file; line skipped",
+            "more.mtl:8: bump names no file; line skipped",
+        ] {
+            assert!(notices.contains(said), "{said}: {notices}");
+        }
+        assert_eq!(asset.notices.len(), 6, "{notices}");
         // Two files on one line stay two files.
         std::fs::write(dir.join("a.mtl"), "newmtl a\n").unwrap();
         std::fs::write(dir.join("b.mtl"), "newmtl b\n").unwrap();
