@@ -205,7 +205,7 @@ fn mended(text: &str, path: &Path, notices: &mut Vec<String>) -> String {
                 }
                 (Some(_), false) => {}
             }
-        } else if keyword == "illum" && !values.first().is_some_and(|v| v.parse::<u8>().is_ok()) {
+        } else if keyword == "illum" && values.first().is_none_or(|v| v.parse::<u8>().is_err()) {
             let why = match values.is_empty() {
                 true => "illum has no value",
                 false => "illum is not a whole number from 0 to 255",
