@@ -293,7 +293,11 @@ pub fn panel(
                 }
             }
             None => {
-                let count = frame_count(&edit.timeline);
+                // (a record without handles is refused: said before it is asked for)
+                let count = frame_count(&edit.timeline).and_then(|n| match edit.has_handles() {
+                    true => Ok(n),
+                    false => Err("paint a handle group before recording".to_string()),
+                });
                 let button = egui::Button::new(match &count {
                     Ok(1) => "Record 1 frame".to_string(),
                     Ok(n) => format!("Record {n} frames"),

@@ -11,7 +11,8 @@ use app::editor::prefs::FILE_NAME;
 use app::editor::undo::EditState;
 use app::editor::{EditorApp, Shading};
 use eframe::egui::{Event, Key, Modifiers, Vec2};
-use egui_kittest::{Harness, kittest::Queryable};
+use egui_kittest::Harness;
+use egui_kittest::kittest::{NodeT, Queryable};
 use solver::testing::ScratchDir;
 use support::{
     choose_in_dialog, config_with_in_app_dialog, dialog_harness, settled, step_until, test_mesh,
@@ -291,6 +292,45 @@ fn tools_that_cannot_act_say_why() {
     h.state_mut().set_edit_state(cleared);
     h.step();
     assert!(says(&h, "no details without handles"), "{:?}", h.state().overlay_lines(0));
+}
+
+/// With no handle group painted, a save says why before a file is chosen: Ctrl+S and
+/// Ctrl+Shift+S open no dialog (whose choice was then refused), the File menu's entries and
+/// Save .dmat… are disabled with the reason, the quit question offers no Save first (it ran
+/// into the refusal and the quit was lost), and Record is disabled.
+#[test]
+fn saving_without_handles_says_why_before_a_file_is_chosen() {
+    let dir = ScratchDir::new("first-hour-no-handles");
+    let mut h = dialog_harness(config_with_in_app_dialog(&dir));
+    step_until(&mut h, "the default asset", settled);
+    let mut cleared = h.state().edit_state().clone();
+    cleared.labels.iter_mut().for_each(|l| *l = None);
+    cleared.groups[0].name = "renamed".into(); // an unsaved change
+    h.state_mut().set_edit_state(cleared);
+    h.step();
+    for m in [Modifiers::COMMAND, Modifiers::COMMAND | Modifiers::SHIFT] {
+        h.key_press_modifiers(m, Key::S);
+        h.step();
+        h.step();
+        assert!(!h.state().file_dialog_open(), "a dialog opened");
+        let info = h.state().info().unwrap_or_default().to_string();
+        assert!(info.contains("nothing to save yet"), "{info:?}");
+    }
+    let disabled = |h: &Harness<'_, EditorApp>, label: &str| {
+        h.get_by_label(label).accesskit_node().is_disabled()
+    };
+    assert!(disabled(&h, "Save .dmat…"));
+    assert!(h.get_all_by_label_contains("Record").all(|n| n.accesskit_node().is_disabled()));
+    h.get_by_label("File").click();
+    h.step();
+    h.step();
+    assert!(disabled(&h, "Save scene  Ctrl+S") && disabled(&h, "Save scene as…  Ctrl+Shift+S"));
+    h.key_press(Key::Escape);
+    h.step();
+    support::ask_to_quit(&mut h);
+    assert!(h.state().quit_question_open());
+    assert!(h.query_by_label("Save first").is_none());
+    assert!(h.query_by_label_contains("cannot save: nothing to save yet").is_some());
 }
 
 /// Every handle vertex of the example scenes stays above the mesh's lowest point (the ground)

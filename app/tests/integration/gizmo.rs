@@ -296,6 +296,21 @@ fn typed_values_still_set_the_pose_after_a_gizmo_move() {
     assert_eq!(h.state().group_pose(0).unwrap().translation.to_array(), t);
 }
 
+/// A move typed into the pose panel for a group with no vertices is refused and said, as G
+/// says it (it was kept and moved nothing).
+#[test]
+fn a_typed_move_of_an_empty_group_says_it_has_no_vertices() {
+    let mut h = start();
+    let mut emptied = h.state().edit_state().clone();
+    emptied.labels.iter_mut().filter(|l| **l == Some(0)).for_each(|l| *l = None);
+    h.state_mut().set_edit_state(emptied);
+    h.step();
+    type_value(&mut h, "x", "0.25");
+    assert_eq!(h.state().group_pose(0).unwrap().translation.to_array(), [0.0; 3]);
+    let info = h.state().info().unwrap_or_default().to_string();
+    assert!(info.contains("no vertices to pose"), "{info:?}");
+}
+
 /// An ry past 90° stays as typed in the pose panel: angles read back from the rotation keep ry
 /// within ±90° (95° reads as rx 180, ry 85, rz 180), so the next value typed or dragged
 /// combined with those made another rotation (and a drag of ry past 90° flipped).

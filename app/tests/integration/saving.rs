@@ -85,7 +85,7 @@ fn save_first_with_a_dialog_open_keeps_the_question() {
     h.step();
     h.step();
     assert!(h.state().quit_question_open(), "the question went");
-    let error = h.state().error().unwrap_or_default();
+    let error = h.state().info().unwrap_or_default();
     assert!(error.contains("a file dialog is open, finish it first"), "{error}");
 }
 

@@ -85,11 +85,19 @@ impl Capture {
         self.config_dir.as_deref().unwrap_or(Path::new(".")).join("screenshots")
     }
 
+    /// The folder captures go to: the one typed, `~` read as the home folder and a relative
+    /// one made absolute (from the working folder, which a desktop launcher sets to `~` or
+    /// `/`: the status line then names where the files went), else [`Self::default_folder`].
     fn folder(&self) -> PathBuf {
-        match self.folder.trim() {
-            "" => self.default_folder(),
-            f => PathBuf::from(f),
-        }
+        let typed = match self.folder.trim() {
+            "" => return self.default_folder(),
+            "~" => std::env::home_dir().unwrap_or_default(),
+            f => match f.strip_prefix("~/").zip(std::env::home_dir()) {
+                Some((rest, home)) => home.join(rest),
+                None => PathBuf::from(f),
+            },
+        };
+        std::path::absolute(&typed).unwrap_or(typed)
     }
 
     /// The first `PREFIX_NNNN[EXT]` in the folder that does not exist and was not handed out
@@ -220,8 +228,8 @@ impl EditorApp {
     /// Each frame: F12, a menu request, finished captures and the settings window.
     pub(super) fn capture_tick(&mut self, ctx: &egui::Context, frame: &eframe::Frame) {
         self.poll_captures();
-        let f12 =
-            !ctx.text_edit_focused() && ctx.input_mut(|i| i.consume_key(Modifiers::NONE, Key::F12));
+        // (also while a field has the focus: F12 types nothing)
+        let f12 = ctx.input_mut(|i| i.consume_key(Modifiers::NONE, Key::F12));
         match (f12, self.capture.requested.take()) {
             (true, _) | (false, Some(Request::Screenshot)) => self.screenshot(ctx, frame),
             (false, Some(Request::Sequence)) => self.render_recording(ctx, frame),
@@ -490,7 +498,8 @@ impl EditorApp {
             ui.checkbox(&mut c.overlays, "overlays (grid, handle colours, wireframe)")
                 .on_hover_text("off: the mesh alone on the background");
             ui.horizontal(|ui| {
-                ui.label("folder");
+                ui.label("folder (this session)")
+                    .on_hover_text("not kept for the next session: empty is the default folder");
                 let hint = c.default_folder().display().to_string();
                 ui.add(egui::TextEdit::singleline(&mut c.folder).hint_text(hint));
             });
@@ -522,6 +531,25 @@ impl EditorApp {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A typed folder: `~` is the home folder, a relative one is made absolute (the status line
+    /// names the file: `./~/Pictures` looked like the home folder's), empty is the default.
+    #[test]
+    fn the_typed_folder_reads_home_and_is_absolute() {
+        let mut c = Capture::new(Some(PathBuf::from("/config")));
+        assert_eq!(c.folder(), Path::new("/config/screenshots"));
+        // (a machine without a home folder reads `~` as written)
+        if let Some(home) = std::env::home_dir() {
+            c.folder = "~/Pictures".into();
+            assert_eq!(c.folder(), home.join("Pictures"));
+            c.folder = " ~ ".into();
+            assert_eq!(c.folder(), home);
+        }
+        c.folder = "shots".into();
+        assert_eq!(c.folder(), std::env::current_dir().unwrap().join("shots"));
+        c.folder = "/tmp/x".into();
+        assert_eq!(c.folder(), Path::new("/tmp/x"));
+    }
 
     /// Overlays turned off at the viewport's size are saved (an object at that size), and a
     /// file opened next, scene without `capture` or mesh, starts from a new session's

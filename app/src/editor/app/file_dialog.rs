@@ -122,7 +122,8 @@ impl EditorApp {
     /// doc). Returns whether it was shown: not while another is open (the user is told).
     pub(super) fn start_dialog(&mut self, ctx: &egui::Context, kind: DialogKind) -> bool {
         if self.file_dialog_open() {
-            self.error = Some(format!("{}: a file dialog is open, finish it first", kind.title()));
+            // info: an error stayed after the dialog had closed
+            self.info = Some(format!("{}: a file dialog is open, finish it first", kind.title()));
             return false;
         }
         self.jobs.dialogs.for_mesh = self.session.scene.as_ref().map(|s| s.topology.version);

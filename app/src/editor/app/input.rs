@@ -232,7 +232,7 @@ impl EditorApp {
             self.start_dialog(ctx, DialogKind::OpenMesh);
         }
         if consume(cmd_shift, Key::S) {
-            self.start_dialog(ctx, DialogKind::SaveScene);
+            self.save_as(ctx);
         }
         if consume(Modifiers::COMMAND, Key::S) {
             self.save(ctx);

@@ -165,7 +165,9 @@ impl EditorApp {
             if ui.button("Load .dmat…").clicked() {
                 self.start_dialog(ctx, DialogKind::LoadSelection);
             }
-            if ui.button("Save .dmat…").clicked() {
+            let refused = self.save_refusal();
+            let save = ui.add_enabled(refused.is_none(), egui::Button::new("Save .dmat…"));
+            if save.on_disabled_hover_text(refused.unwrap_or_default()).clicked() {
                 self.start_dialog(ctx, DialogKind::SaveSelection);
             }
         });
@@ -302,6 +304,8 @@ impl EditorApp {
             ));
         } else if changed
             && pose != self.session.edit.groups[k].pose
+            // a group with no vertices: said, as G says it (the pose moved nothing)
+            && self.posable(k)
             // one step per press: a drag on a number changes it every frame
             && self.session.push_for_drag(|s| s.edit.clone(), self.session.settings)
         {
@@ -642,11 +646,16 @@ impl eframe::App for EditorApp {
                         }
                     });
                     ui.separator();
-                    if ui.button("Save scene  Ctrl+S").clicked() {
+                    let refused = self.save_refusal();
+                    let save = egui::Button::new("Save scene  Ctrl+S");
+                    let save = ui.add_enabled(refused.is_none(), save);
+                    if save.on_disabled_hover_text(refused.unwrap_or_default()).clicked() {
                         self.save(&ctx);
                     }
-                    if ui.button("Save scene as…  Ctrl+Shift+S").clicked() {
-                        self.start_dialog(&ctx, DialogKind::SaveScene);
+                    let save_as = egui::Button::new("Save scene as…  Ctrl+Shift+S");
+                    let save_as = ui.add_enabled(refused.is_none(), save_as);
+                    if save_as.on_disabled_hover_text(refused.unwrap_or_default()).clicked() {
+                        self.save_as(&ctx);
                     }
                     ui.separator();
                     if ui.button("Preferences…  Ctrl+,").clicked() {

@@ -238,6 +238,10 @@ impl EditorApp {
                             self.session.stop_work_on_exit = true;
                             self.close_window(ctx);
                         }
+                    } else if let Some(why) = self.save_refusal() {
+                        // it would open Save as and refuse the file chosen: the open or quit
+                        // never went on
+                        ui.label(format!("(cannot save: {why})"));
                     } else if ui.button("Save first").clicked() {
                         self.session.pending = None;
                         match self.save_target() {

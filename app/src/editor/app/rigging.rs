@@ -103,6 +103,14 @@ impl EditorApp {
         self.rigging.fit_axis = None;
     }
 
+    /// Another mesh opened: the mirror map and its job go. They are keyed by the mesh's
+    /// address, which a later mesh can be given once this one is freed: its partners would
+    /// index past that mesh's vertices.
+    pub(super) fn forget_mirror(&mut self) {
+        self.rigging.mirror = None;
+        self.rigging.job = None;
+    }
+
     fn mirror_request(&self) -> Request {
         match (self.rigging.fit_axis, self.session.edit.symmetry.plane) {
             (Some(a), _) => Request::Axis(a),

@@ -38,12 +38,39 @@ impl EditorApp {
     /// Saves to the current scene file (or the newest file a save of this mesh under way or
     /// waiting writes), or asks where.
     pub(super) fn save(&mut self, ctx: &egui::Context) {
+        if self.say_save_refused() {
+            return;
+        }
         match self.save_target() {
             Some(p) => self.start_save(ctx, &p),
             None => {
                 self.start_dialog(ctx, DialogKind::SaveScene);
             }
         }
+    }
+
+    /// Save as (the menu, Ctrl+Shift+S): a file dialog, unless the save would be refused.
+    pub(super) fn save_as(&mut self, ctx: &egui::Context) {
+        if !self.say_save_refused() {
+            self.start_dialog(ctx, DialogKind::SaveScene);
+        }
+    }
+
+    /// Why a scene (or a selection) cannot be saved now: a scene holds a handle set, and
+    /// there is none yet. The save entries are disabled with it, and Save first is not offered.
+    pub(super) fn save_refusal(&self) -> Option<&'static str> {
+        (!self.session.edit.has_handles())
+            .then_some("nothing to save yet: paint at least one handle group")
+    }
+
+    /// Says [`Self::save_refusal`] when there is one (a key asked for the save): it opened a
+    /// file dialog, whose choice was then refused.
+    fn say_save_refused(&mut self) -> bool {
+        let why = self.save_refusal();
+        if let Some(why) = why {
+            self.info = Some(format!("not saved: {why}"));
+        }
+        why.is_some()
     }
 
     /// Where Save writes: the file of the newest save of this mesh asked for (a Save as under

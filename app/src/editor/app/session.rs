@@ -446,6 +446,7 @@ impl EditorApp {
                 self.jobs.texture = None;
                 self.end_gestures();
                 self.forget_axis_request();
+                self.forget_mirror();
                 self.interaction.anderson_off = None; // the last file's window
                 self.error = None;
                 self.adopt_prepare(&scene.mesh);
