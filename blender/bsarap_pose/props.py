@@ -20,7 +20,7 @@ from bpy.props import (
 try:  # The solver's own defaults; the add-on still registers without the wheel.
     from bsarap import DEFAULT_BENDING_LENGTH, DEFAULT_MEMBRANE, MAX_BENDING_LENGTH
 except ImportError:  # pragma: no cover - reported by the operators
-    DEFAULT_BENDING_LENGTH, DEFAULT_MEMBRANE, MAX_BENDING_LENGTH = 0.02, 0.5, 1.0
+    DEFAULT_BENDING_LENGTH, DEFAULT_MEMBRANE, MAX_BENDING_LENGTH = 0.02, 0.0, 1.0
 
 #: The methods of ``bsarap.Deformer`` (the CLI's ``--method``), the editor's default first.
 METHOD_ITEMS = [

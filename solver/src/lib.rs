@@ -4,7 +4,7 @@
 //! - [`geometry`]: the [`Mesh`] type, its topology, cleaning, reordering,
 //!   decimation, procedural shapes, and the discrete operators on it (cotangent
 //!   Laplacian, mass matrix);
-//! - [`io`]: mesh files (OBJ, OFF, PLY, STL) in and out;
+//! - [`io`]: mesh files (OBJ, OFF, PLY, STL, glTF) in and out;
 //! - [`linalg`]: sparse factorizations, Anderson acceleration, the closest-rotation fit and the
 //!   four-lane arithmetic it runs on;
 //! - [`deform`]: handles, their selection files and constraints, and the deformation methods (ARAP, the bi-harmonic

@@ -13,7 +13,8 @@ use eframe::wgpu;
 
 use super::{Stage, WORKGROUP, compute_pipeline, storage, uniform};
 
-const SHADER: &str = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/../shaders/gather.wgsl"));
+pub(super) const SHADER: &str =
+    include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/../shaders/gather.wgsl"));
 
 /// Bytes per render vertex written (`TexturedVertex`).
 pub const BYTES_PER_RENDER_VERTEX: u64 = 64;

@@ -150,3 +150,33 @@ pub fn headless() -> anyhow::Result<Headless> {
     .map_err(|e| anyhow::anyhow!("{name}: cannot create a device: {e}"))?;
     Ok(Headless { device, queue, adapter: name })
 }
+
+#[cfg(test)]
+mod tests {
+    /// The compute passes' WGSL parses and validates without a GPU (the passes themselves run
+    /// only where an adapter is: their GPU tests say `skipped` elsewhere), each entry point a
+    /// compute one of [`super::WORKGROUP`] invocations.
+    #[test]
+    fn compute_shaders_validate() {
+        use eframe::wgpu::naga;
+        let shaders = [
+            ("gather", super::gather::SHADER),
+            ("normals", super::normals::SHADER),
+            ("prolong", super::prolong::SHADER),
+        ];
+        for (name, src) in shaders {
+            let module = naga::front::wgsl::parse_str(src)
+                .unwrap_or_else(|e| panic!("{name}.wgsl: {}", e.emit_to_string(src)));
+            let mut v = naga::valid::Validator::new(
+                naga::valid::ValidationFlags::all(),
+                naga::valid::Capabilities::all(),
+            );
+            v.validate(&module).unwrap_or_else(|e| panic!("{name}.wgsl: {e:?}"));
+            assert!(!module.entry_points.is_empty(), "{name}: no entry point");
+            for ep in &module.entry_points {
+                assert_eq!(ep.stage, naga::ShaderStage::Compute, "{name}: {}", ep.name);
+                assert_eq!(ep.workgroup_size, [super::WORKGROUP, 1, 1], "{name}: {}", ep.name);
+            }
+        }
+    }
+}

@@ -17,7 +17,8 @@ use solver::geometry::normals::VertexFaces;
 
 use super::{Stage, WORKGROUP, compute_pipeline, storage, uniform};
 
-const SHADER: &str = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/../shaders/normals.wgsl"));
+pub(super) const SHADER: &str =
+    include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/../shaders/normals.wgsl"));
 
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]

@@ -22,7 +22,8 @@ use solver::geometry::mesh::to_f32_from;
 use super::normals::{BYTES_PER_VERTEX, GpuNormals, NormalsBinding};
 use super::{Stage, WORKGROUP, compute_pipeline, storage, uniform};
 
-const SHADER: &str = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/../shaders/prolong.wgsl"));
+pub(super) const SHADER: &str =
+    include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/../shaders/prolong.wgsl"));
 
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]

@@ -12,6 +12,8 @@
 //!   "method": "bsarap",
 //!   "arap": {"energy": "smooth-rotations", "bending_length": 0.02, "tolerance": 1e-4,
 //!            "max_iterations": 100},
+//!   "base": {"smoothing": 0.01, "fine_iterations": 5, "coarse_energy": "galerkin"},
+//!   "capture": {"width": 1280, "height": 720, "turntable": false, "overlays": true},
 //!   "loose_parts": {"default": "follow", "overrides": [{"component": 1, "mode": "pin"}]},
 //!   "camera": {"any": "JSON the editor stores"},
 //!   "editor": {"groups": [{"name": "left foot", "color": [230, 25, 75]}]},

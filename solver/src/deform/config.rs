@@ -138,7 +138,7 @@ impl BaseConfig {
     /// the mesh: on Cheburashka (6669 vertices) 2223 coarse vertices were already too close to
     /// the full mesh's cost (9.2× against the target's 10×), and 3000 hold the mean distance
     /// to converged ARAP below 1 % of the diagonal on armadillo and the bunny with five fine
-    /// iterations (BENCHMARKS.md, "One setting for all three meshes").
+    /// iterations (BENCHMARKS.md, "Known gaps", "The coarse variant").
     pub fn auto_coarse_vertices(n: usize) -> usize {
         (3 * n / 10).clamp(16, 3000)
     }

@@ -248,7 +248,7 @@ fn gather_galerkin(
     base: &BaseConfig,
     stop: &(dyn Fn() -> bool + Sync),
 ) -> Result<bool, SolveError> {
-    let wanted = base.coarse_energy == crate::CoarseEnergy::Galerkin;
+    let wanted = base.coarse_energy == crate::deform::config::CoarseEnergy::Galerkin;
     if !wanted || coarse.galerkin.get().is_some() {
         return Ok(false);
     }

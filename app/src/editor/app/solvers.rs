@@ -99,7 +99,7 @@ impl Solvers {
 }
 
 /// The shortest rest before settling when the window renders on a software adapter: a few
-/// frames of a dense mesh there (BENCHMARKS.md, "The editor in a window").
+/// frames of a dense mesh there (BENCHMARKS.md, "In a window").
 const SOFTWARE_SETTLE_DELAY: std::time::Duration = std::time::Duration::from_secs(1);
 
 impl EditorApp {

@@ -62,7 +62,7 @@ impl Display {
     /// How often progress (loading, precomputing) repaints the window: every 100 ms on a GPU;
     /// every 2 s on a software adapter, where each frame of a dense mesh takes the cores the
     /// precomputation runs on (on the adapter's own threads, so eframe's frame time does not
-    /// show it; BENCHMARKS.md, "The editor in a window").
+    /// show it; BENCHMARKS.md, "In a window").
     pub(super) fn progress_repaint(&self) -> Duration {
         Duration::from_millis(if self.software_rendering.is_some() { 2000 } else { 100 })
     }

@@ -296,7 +296,7 @@ impl Active {
     /// [`MAX_SETTLE_DELAY`]). A window that renders a few frames a second (software rendering
     /// of a dense mesh) delivers a drag's poses that far apart; with a fixed 150 ms each
     /// would look like a rest and start the full mesh's factorization mid-drag (BENCHMARKS.md,
-    /// "The editor in a window").
+    /// "In a window").
     fn settle_delay(&self, floor: Duration) -> Duration {
         floor.max((3 * self.pose_cadence).min(MAX_SETTLE_DELAY))
     }

@@ -258,7 +258,7 @@ pub struct SolveSettings {
     pub method: crate::deform::deformer::Method,
     pub arap: crate::deform::arap::ArapConfig,
     /// The coarse variant's coarse energy ([`crate::BaseConfig::coarse_energy`]).
-    pub coarse_energy: crate::CoarseEnergy,
+    pub coarse_energy: crate::deform::config::CoarseEnergy,
     /// The rest bounding-box diagonal of the mesh solved on: the unit of the bending length.
     pub diagonal: f64,
 }
@@ -278,7 +278,7 @@ impl SolveSettings {
             "acceleration": a.acceleration,
             "energy_threshold": a.energy_threshold,
             "membrane": a.membrane,
-            "coarse_energy": (self.method == crate::Method::BsArapCoarse)
+            "coarse_energy": (self.method == crate::deform::deformer::Method::BsArapCoarse)
                 .then_some(self.coarse_energy.name()),
             "diagonal": self.diagonal,
         })
@@ -730,7 +730,7 @@ mod tests {
         let recording = Recording {
             times: vec![0.0, 1.0],
             frames: vec![rest.clone(), rest.iter().map(|p| [p[0] + 0.1, p[1], p[2]]).collect()],
-            stats: vec![crate::FrameStats::default(); 2],
+            stats: vec![crate::deform::arap::FrameStats::default(); 2],
         };
         let mut export = GltfExport::new(&mesh, &recording, GltfFormat::Glb).unwrap();
         export.bin_len = 5 << 30;

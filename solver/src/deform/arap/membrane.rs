@@ -32,7 +32,7 @@
 //! relative to its resistance to stretching. A coarse level made of vertex cells alone is thus
 //! far stiffer in bending than the mesh it stands for, and bends a wider region around a small
 //! handle less than ARAP on the mesh does; the membrane share takes part of that stiffness
-//! away (BENCHMARKS.md, "The membrane share on the coarse level").
+//! away (BENCHMARKS.md, "The membrane share").
 
 use super::Csr;
 use super::corner_edges;

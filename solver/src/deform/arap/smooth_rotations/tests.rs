@@ -13,7 +13,10 @@ pub(in crate::deform::arap) fn config(bending_length: f64) -> ArapConfig {
 
 /// Asserts that no iteration of `stats` raised the energy (beyond rounding); `what` names
 /// the run in the message.
-pub(in crate::deform::arap) fn assert_descends(stats: &crate::SolveStats, what: &str) {
+pub(in crate::deform::arap) fn assert_descends(
+    stats: &crate::deform::arap::SolveStats,
+    what: &str,
+) {
     let mut prev = stats.initial_energy;
     for (k, &e) in stats.energies.iter().enumerate() {
         assert!(e <= prev * (1.0 + 1e-12), "{what}: iteration {k}: {e} > {prev}");
