@@ -48,6 +48,10 @@ pub enum SolveError {
     NonFiniteResult { vertex: usize },
     #[error("the precomputation was cancelled")]
     Cancelled,
+    #[error("{0}")]
+    ArapConfig(#[from] crate::deform::arap::ArapConfigError),
+    #[error("{0}")]
+    BaseConfig(#[from] crate::deform::config::BaseConfigError),
 }
 
 /// The bending length a smooth-rotations solve accepts (a fraction of the diagonal): finite and

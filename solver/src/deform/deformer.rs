@@ -323,6 +323,11 @@ impl Deformer {
         options: DeformerOptions<'_>,
     ) -> Result<Deformer, SolveError> {
         let DeformerOptions { method, config, base, loose_parts, cache } = options;
+        // The settings as the command line, scenes and Python check them (an Anderson window of
+        // 2²⁰ took the memory, a coarse size of usize::MAX overflowed, a NaN smoothing faired
+        // nothing and blamed the geometry).
+        config.validate()?;
+        base.validate()?;
         let (config, base) = (&config, &base);
         let all_follow = LooseParts::default();
         let parts = loose_parts.unwrap_or(&all_follow);

@@ -17,6 +17,8 @@ pub enum HandlesError {
     WrongVertexCount { got: usize, expected: usize },
     #[error("label {label} of vertex {vertex} is invalid (use -1 for free, 0.. for a group)")]
     BadLabel { vertex: usize, label: i64 },
+    #[error("handle group {group}'s rotation is not a finite, non-zero quaternion")]
+    BadRotation { group: usize },
     #[error("handle group {group} does not exist (the selection has groups {available})")]
     UnknownGroup { group: usize, available: String },
     #[error(
@@ -62,8 +64,18 @@ impl Handles {
         Handles::from_options(out)
     }
 
-    /// Builds a selection from per-vertex `Option<group>` labels.
+    /// Builds a selection from per-vertex `Option<group>` labels. A group number past the
+    /// vertex count by more than 1024 is refused, as [`Self::from_labels`] refuses it (one
+    /// empty group is kept per number below the largest: `u32::MAX` asked for 2³² of them).
     pub fn from_options(labels: Vec<Option<u32>>) -> Result<Handles, HandlesError> {
+        let limit = labels.len() + 1024;
+        if let Some((vertex, &k)) = labels
+            .iter()
+            .enumerate()
+            .find_map(|(v, l)| l.as_ref().map(|k| (v, k)).filter(|(_, k)| **k as usize >= limit))
+        {
+            return Err(HandlesError::BadLabel { vertex, label: i64::from(k) });
+        }
         let n_groups = labels.iter().flatten().map(|&k| k as usize + 1).max().unwrap_or(0);
         if n_groups == 0 {
             return Err(HandlesError::Empty);
@@ -162,5 +174,9 @@ mod tests {
             Err(HandlesError::WrongVertexCount { got: 1, expected: 2 })
         ));
         assert!(matches!(Handles::from_labels(&[-3, 0], 2), Err(HandlesError::BadLabel { .. })));
+        // the same limit on labels given as options (u32::MAX asked for 2³² groups)
+        let huge = Handles::from_options(vec![None, Some(u32::MAX)]);
+        assert!(matches!(huge, Err(HandlesError::BadLabel { vertex: 1, .. })), "{huge:?}");
+        assert!(Handles::from_options(vec![None, Some(1025)]).is_ok());
     }
 }

@@ -227,6 +227,10 @@ impl GroupRest {
             if let Some(&value) = t.translation.to_array().iter().find(out_of_range) {
                 return Err(HandlesError::MoveOutOfRange { group: k, value });
             }
+            // (normalized, it made every target of the group NaN, reported by a vertex index)
+            if !(t.rotation.is_finite() && t.rotation.length_squared() > 0.0) {
+                return Err(HandlesError::BadRotation { group: k });
+            }
             per_group[k] = t.moving_rotation().map(|r| (r, c, t.translation.to_array()));
         }
         out.clear();
@@ -335,5 +339,13 @@ mod tests {
         assert_eq!(handle_targets(&rest, &h, &[(0, flipped)]).unwrap(), rest);
         assert!(!t.is_identity() && t.is_finite());
         assert!(!GroupTransform::from_translation(DVec3::new(0.0, f64::NAN, 0.0)).is_finite());
+        // a rotation that is not one is refused by its group, not by a target's vertex index
+        for rotation in
+            [DQuat::from_xyzw(f64::INFINITY, 0.0, 0.0, 1.0), DQuat::from_xyzw(0.0, 0.0, 0.0, 0.0)]
+        {
+            let bad = GroupTransform { rotation, ..GroupTransform::IDENTITY };
+            let e = handle_targets(&rest, &h, &[(0, bad)]).unwrap_err();
+            assert_eq!(e, HandlesError::BadRotation { group: 0 });
+        }
     }
 }

@@ -26,6 +26,8 @@ pub enum MeshError {
     NonFinite { vertex: usize, value: f64 },
     #[error("triangle {face} repeats a vertex ({a}, {b}, {c})")]
     RepeatedVertex { face: usize, a: u32, b: u32, c: u32 },
+    #[error("{got} positions given for a mesh of {expected} vertices")]
+    WrongVertexCount { got: usize, expected: usize },
 }
 
 /// A triangle mesh: positions (`#V×3 f64`) and triangles (`#F×3 u32`, counter-clockwise).
@@ -182,11 +184,8 @@ impl Mesh {
     /// e.g. a deformed pose.
     pub fn with_positions(&self, positions: Vec<[f64; 3]>) -> Result<Mesh, MeshError> {
         if positions.len() != self.positions.len() {
-            return Err(MeshError::IndexOutOfRange {
-                face: 0,
-                index: positions.len() as u32,
-                n_vertices: self.positions.len(),
-            });
+            let (got, expected) = (positions.len(), self.positions.len());
+            return Err(MeshError::WrongVertexCount { got, expected });
         }
         check_finite(&positions)?;
         Ok(Mesh::from_checked(positions.into(), Arc::clone(&self.triangles)))
@@ -355,6 +354,8 @@ mod tests {
         let mut bad = moved;
         bad[3][1] = f64::NAN;
         assert!(matches!(m.with_positions(bad), Err(MeshError::NonFinite { vertex: 3, .. })));
+        let short = m.with_positions(vec![[0.0; 3]; 2]);
+        assert!(matches!(short, Err(MeshError::WrongVertexCount { got: 2, .. })), "{short:?}");
     }
 
     #[test]

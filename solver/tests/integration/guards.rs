@@ -205,6 +205,32 @@ fn iteration_caps_hold_for_every_method() {
     }
 }
 
+/// Settings the command line, scenes and Python refuse are refused by `Deformer::new` too,
+/// naming the field: an Anderson window of 2²⁰ took the memory, a coarse size of `usize::MAX`
+/// overflowed, a NaN smoothing faired nothing and blamed the geometry.
+#[test]
+fn the_library_refuses_settings_out_of_range() {
+    use solver::Acceleration;
+    let (m, h) = sphere_with_caps();
+    let huge = ArapConfig {
+        acceleration: Acceleration::Anderson { window: 1 << 20 },
+        ..Default::default()
+    };
+    let bases = [
+        BaseConfig { coarse_vertices: Some(usize::MAX), ..Default::default() },
+        BaseConfig { smoothing: f64::NAN, ..Default::default() },
+    ];
+    let options =
+        DeformerOptions { method: Method::BsArapCoarse, config: huge, ..Default::default() };
+    let e = Deformer::new(&m, &h, options).err().expect("refused");
+    assert!(matches!(e, SolveError::ArapConfig(_)) && e.to_string().contains("anderson"), "{e}");
+    for base in bases {
+        let options = DeformerOptions { method: Method::BsArapCoarse, base, ..Default::default() };
+        let e = Deformer::new(&m, &h, options).err().expect("refused");
+        assert!(matches!(e, SolveError::BaseConfig(_)), "{e}");
+    }
+}
+
 /// A valid scene with `arap` replaced by `arap_json`.
 fn scene_with_arap(arap_json: &str) -> String {
     format!(
