@@ -505,8 +505,14 @@ fn path_editor(
                 });
             }
             if c.axis.iter().all(|&a| a == 0.0) {
-                ui.colored_label(egui::Color32::YELLOW, "the axis must not be zero; using z");
-                c.axis = [0.0, 0.0, 1.0];
+                // Refused, and said where errors are (a warning drawn for one frame while the
+                // axis went back to z looked as if the field had refused the value).
+                actions.push(TimelineAction::Rejected(
+                    "the circle's axis must not be zero: give the new axis its component \
+                     before zeroing the old one"
+                        .into(),
+                ));
+                return false;
             }
         }
         Path::Keyframed(kp) => {
@@ -684,6 +690,35 @@ mod tests {
             h.run();
             assert!(actions.borrow().contains(&want), "{:?}", actions.borrow());
         }
+    }
+
+    /// A circle's axis typed to zero is refused where errors are said, and the axis stays as
+    /// it was (it went to z with a warning drawn for one frame).
+    #[test]
+    fn a_zero_circle_axis_is_refused_and_said() {
+        use egui_kittest::kittest::Queryable;
+        let edit = std::cell::RefCell::new(state());
+        let start = CircularPath::new([0.0, 1.0, 0.0], 2.0, 2.0);
+        edit.borrow_mut().set_path(0, Path::Circular(start.clone()));
+        let actions = std::cell::RefCell::new(Vec::new());
+        let mut h = egui_kittest::Harness::new_ui(|ui| {
+            let mut playback = Playback::default();
+            let view = RecordingView::default();
+            let a = panel(ui, &mut edit.borrow_mut(), &mut playback, Some(0), &view, 1.0);
+            actions.borrow_mut().extend(a);
+        });
+        h.run();
+        h.get_by_label("y").click();
+        h.run();
+        h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::A);
+        h.event(egui::Event::Text("0".into()));
+        h.key_press(egui::Key::Enter);
+        h.run();
+        let said = actions.borrow().iter().any(
+            |a| matches!(a, TimelineAction::Rejected(e) if e.contains("axis must not be zero")),
+        );
+        assert!(said, "{:?}", actions.borrow());
+        assert_eq!(edit.borrow().path(0), &Path::Circular(start));
     }
 
     #[test]
