@@ -699,7 +699,7 @@ mod tests {
         use egui_kittest::kittest::Queryable;
         let edit = std::cell::RefCell::new(state());
         let start = CircularPath::new([0.0, 1.0, 0.0], 2.0, 2.0);
-        edit.borrow_mut().set_path(0, Path::Circular(start.clone()));
+        edit.borrow_mut().set_path(0, Path::Circular(start));
         let actions = std::cell::RefCell::new(Vec::new());
         let mut h = egui_kittest::Harness::new_ui(|ui| {
             let mut playback = Playback::default();
