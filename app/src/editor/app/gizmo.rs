@@ -104,14 +104,25 @@ pub fn snap_step(radius: f32) -> f32 {
 }
 
 impl EditorApp {
-    /// The active group's centre (rest centroid moved by its translation), with its pose.
+    /// The active group's centre (rest centroid moved by its translation), with its pose. The
+    /// rest centroid is the panel's kept one when it is of these labels and group
+    /// (`Display::group_stats`): a pass over every label, several times a frame per viewport,
+    /// cost milliseconds a frame on a dense mesh.
     fn group_center(&self, g: usize) -> Option<(Vec3, GroupTransform)> {
         let scene = self.session.scene.as_ref()?;
-        let group = self.session.edit.groups.get(g)?;
-        let verts: Vec<u32> = (0..self.session.edit.labels.len() as u32)
-            .filter(|&v| self.session.edit.labels[v as usize] == Some(g as u32))
-            .collect();
-        let c = group_centroid(scene.mesh.positions(), &verts)?;
+        let edit = &self.session.edit;
+        let group = edit.groups.get(g)?;
+        let key = (self.display.color_version, edit.labels.len(), edit.groups.len(), Some(g));
+        let kept = self.display.group_stats.as_ref().filter(|s| s.key == key);
+        let c = match kept {
+            Some(stats) => stats.centroid?,
+            None => {
+                let verts: Vec<u32> = (0..edit.labels.len() as u32)
+                    .filter(|&v| edit.labels[v as usize] == Some(g as u32))
+                    .collect();
+                group_centroid(scene.mesh.positions(), &verts)?
+            }
+        };
         let center = (c + group.pose.translation).to_array();
         Some((Vec3::from(to_f32_from(scene.origin, center)), group.pose))
     }
