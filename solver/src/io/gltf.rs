@@ -200,6 +200,24 @@ pub(crate) fn parse(bytes: &[u8], ctx: Ctx, folder: Option<Folder>) -> Result<As
     // how its UV set is read (`gltf_uv`).
     let mut raw = Asset::default();
     let materials = gltf_material::materials(&gltf.document, &mut raw.notices);
+    // What the materials and scene use that is not kept, said once: a viewer showed it, the
+    // editor and every export go without it.
+    let dropped: Vec<String> = gltf
+        .document
+        .extensions_used()
+        .filter(|e| e.starts_with("KHR_materials_") && *e != "KHR_materials_pbrSpecularGlossiness")
+        .map(|e| e.to_string())
+        .collect();
+    if !dropped.is_empty() {
+        raw.notices.push(format!(
+            "material extensions not kept ({}): the materials are read and exported in the core \
+             metallic-roughness model",
+            dropped.join(", ")
+        ));
+    }
+    if used("KHR_lights_punctual") {
+        raw.notices.push("the file's lights (KHR_lights_punctual) are not read".into());
+    }
     let document = &gltf.document;
     let images =
         gltf_material::images(document, &materials, &buffers, ctx, folder, &mut raw.notices)?;

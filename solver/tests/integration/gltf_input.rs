@@ -227,6 +227,25 @@ fn specular_glossiness_is_read_as_metallic_roughness() {
     assert_eq!(m.asset.images.len(), 1, "the diffuse image was not read");
     let notice = m.asset.notices.iter().find(|n| n.contains("specular-glossiness"));
     assert!(notice.is_some_and(|n| n.contains("\"old\"")), "{:?}", m.asset.notices);
+    assert!(!m.asset.notices.iter().any(|n| n.contains("not kept (")), "{:?}", m.asset.notices);
+
+    // Material extensions not kept, and lights, are said once (they were dropped unsaid).
+    let mut other = doc.clone();
+    other["extensionsUsed"] =
+        json!(["KHR_materials_unlit", "KHR_materials_emissive_strength", "KHR_lights_punctual"]);
+    other["extensionsRequired"] = json!([]);
+    other["materials"][0]["extensions"] = json!({"KHR_materials_unlit": {},
+        "KHR_materials_emissive_strength": {"emissiveStrength": 4.0}});
+    let m = load_mesh_from_bytes(&to_gltf(other, &tet_bin()), Format::Gltf, "u.gltf").unwrap();
+    let said = m.asset.notices.join("\n");
+    assert!(
+        said.contains(
+            "material extensions not kept (KHR_materials_unlit, \
+        KHR_materials_emissive_strength)"
+        ),
+        "{said}"
+    );
+    assert!(said.contains("lights (KHR_lights_punctual) are not read"), "{said}");
 
     // With a glossiness texture (not kept), whose factor is usually left at 1, the core
     // model's roughness stands in: 1 - 1 made every such material mirror-smooth.
