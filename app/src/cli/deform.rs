@@ -151,7 +151,7 @@ pub fn parse_transforms(
 /// Writes the pose `x` of the cleaned mesh onto the input file's own vertices, in its order, as
 /// `path`'s extension asks: `.obj` with UVs, deformed normals (hard edges kept) and materials;
 /// `.glb`/`.gltf` as a one-frame glTF; `.ply`/`.off` the file's own polygons (PLY with its
-/// per-vertex UVs and colours). A glTF records `solved`, the settings of the solve, in its
+/// per-vertex normals, deformed, UVs and colours). A glTF records `solved`, the settings of the solve, in its
 /// `asset.extras`, and stands upright by `up` (the file's up axis, as `bsarap export`).
 fn write_pose(
     path: &Path,
@@ -169,7 +169,12 @@ fn write_pose(
                 asset.normals.as_ref().map(|_| asset.deformed_normals(&layout)).transpose()?;
             solver::io::write_obj_asset(path, asset, &layout, normals.as_deref())?
         }
-        Some("ply") => solver::io::write_ply_asset(path, asset, &layout, None)?,
+        Some("ply") => {
+            // a file's own normals, deformed (they were dropped)
+            let normals =
+                asset.normals.as_ref().map(|_| asset.deformed_normals(&layout)).transpose()?;
+            solver::io::write_ply_asset(path, asset, &layout, normals.as_deref())?
+        }
         Some("off") => solver::io::write_off_asset(path, asset, &layout)?,
         Some("glb" | "gltf") => {
             let format = GltfFormat::from_path(path)?;

@@ -576,4 +576,42 @@ fn deform_writes_the_files_own_polygons_to_off_and_ply() {
         let top = back.mesh.positions()[4][2];
         assert!((top - 1.5).abs() < 1e-6, "{ext}: the moved group is at z = {top}");
     }
+    // A file with per-vertex normals (a glTF's) keeps them in the PLY, deformed (they were
+    // dropped).
+    let corners =
+        [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]];
+    let mut obj_text = String::new();
+    for c in corners {
+        obj_text.push_str(&format!("v {} {} {}\n", c[0], c[1], c[2]));
+    }
+    for c in corners {
+        let n = c.map(|x| (x as f64 - 0.5) / 0.75f64.sqrt());
+        obj_text.push_str(&format!("vn {} {} {}\n", n[0], n[1], n[2]));
+    }
+    for f in [[1, 4, 3, 2], [5, 6, 7, 8], [1, 2, 6, 5], [2, 3, 7, 6], [3, 4, 8, 7], [4, 1, 5, 8]] {
+        let corner = f.map(|i| format!("{i}//{i}"));
+        obj_text.push_str(&format!("f {}\n", corner.join(" ")));
+    }
+    let obj = tmp("normals-cube.obj");
+    std::fs::write(&obj, obj_text).unwrap();
+    // as glTF, whose normals are one per vertex
+    let input = tmp("normals-cube.glb");
+    let (o, s, i) = (obj.to_str().unwrap(), sel.to_str().unwrap(), input.to_str().unwrap());
+    let args = ["deform", o, "--handles", s, "--move", "1:0,0,0", "--method", "arap", "-o", i];
+    let (code, _, stderr) = bsarap(&args);
+    assert_eq!(code, 0, "{stderr}");
+    let out = tmp("normals-cube-posed.ply");
+    let (i, s, t) = (input.to_str().unwrap(), sel.to_str().unwrap(), out.to_str().unwrap());
+    let args = ["deform", i, "--handles", s, "--move", "1:0,0,0.5", "--method", "arap", "-o", t];
+    let (code, _, stderr) = bsarap(&args);
+    assert_eq!(code, 0, "{stderr}");
+    let bytes = std::fs::read(&out).unwrap();
+    let head = String::from_utf8_lossy(&bytes[..bytes.len().min(400)]).into_owned();
+    assert!(head.contains("property float nx\n"), "the normals were dropped: {head}");
+    // the top corner's normal (vertex 6; x, y, z doubles then nx, ny, nz floats)
+    let body = head.find("end_header\n").unwrap() + "end_header\n".len();
+    let at = body + 6 * 36 + 24;
+    let f = |k: usize| f32::from_le_bytes(bytes[at + 4 * k..at + 4 * k + 4].try_into().unwrap());
+    let up = [f(0), f(1), f(2)];
+    assert!(up[2] > 0.3 && up[0] > 0.0 && up[1] > 0.0, "the top corner's normal: {up:?}");
 }
