@@ -390,8 +390,8 @@ pub fn run(a: &ExportArgs) -> anyhow::Result<()> {
             let later = later_obj_frames(dir, &stem, n_frames);
             if let Some(first) = later.first().filter(|_| !a.json) {
                 eprintln!(
-                    "note: {} later frame{} of an earlier export follow ({} on); they were not \
-                     written by this one",
+                    "note: {} other frame{} named {stem}_<number>.obj, of an earlier export, lie \
+                     beside these ({} first); they were not written by this one",
                     later.len(),
                     if later.len() == 1 { "" } else { "s" },
                     first.display()

@@ -116,7 +116,8 @@ impl OrbitCamera {
 
     /// Zoom by wheel `scroll` points (positive: closer), no nearer than [`Self::min_distance`].
     pub fn zoom(&mut self, scroll: f32) {
-        let near = self.min_distance();
+        // (at most the far end: a mesh past 1e12 made the range empty, and clamp panics)
+        let near = self.min_distance().min(*DISTANCE.end());
         self.distance = (self.distance * (-scroll * 0.002).exp()).clamp(near, *DISTANCE.end());
     }
 
@@ -279,6 +280,10 @@ mod tests {
         }
         assert!(cam.eye() != cam.target, "the eye is the target");
         assert!(cam.view_proj(1.5).is_finite(), "{:?}", cam.view_proj(1.5));
+        // a mesh past 1e12 made the zoom's range empty (a panic)
+        cam.frame(Vec3::ZERO, 1e13, 1.5);
+        cam.zoom(500.0);
+        assert!(cam.distance <= 1e7);
     }
 
     #[test]

@@ -293,10 +293,10 @@ pub fn panel(
                 }
             }
             None => {
+                let count = frame_count(&edit.timeline);
                 // (a record without handles is refused: said before it is asked for)
-                let count = frame_count(&edit.timeline).and_then(|n| match edit.has_handles() {
-                    true => Ok(n),
-                    false => Err("paint a handle group before recording".to_string()),
+                let refused = count.as_ref().err().cloned().or_else(|| {
+                    (!edit.has_handles()).then(|| "paint a handle group before recording".into())
                 });
                 let button = egui::Button::new(match &count {
                     Ok(1) => "Record 1 frame".to_string(),
@@ -304,12 +304,12 @@ pub fn panel(
                     Err(_) => "Record".to_string(),
                 });
                 if ui
-                    .add_enabled(count.is_ok(), button)
+                    .add_enabled(refused.is_none(), button)
                     .on_hover_text(
                         "Solve every frame of the timeline to the tolerance (deterministic, \
                          not real time), warm-started from the previous frame",
                     )
-                    .on_disabled_hover_text(count.as_ref().err().cloned().unwrap_or_default())
+                    .on_disabled_hover_text(refused.unwrap_or_default())
                     .clicked()
                 {
                     actions.push(TimelineAction::Record);

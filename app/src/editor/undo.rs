@@ -208,10 +208,10 @@ impl History {
         settings: MethodSettings,
         time: f64,
     ) -> Option<(Vec<Kept>, Option<Kept>)> {
-        self.taken = None;
         if self.undo.last().is_some_and(|k| k.edit == before && k.settings == settings) {
-            return None;
+            return None; // (what a gesture's push took stays its own to give back)
         }
+        self.taken = None;
         self.undo.push(Kept { edit: before, settings, time, active: self.active });
         let evicted = (self.undo.len() > MAX_HISTORY).then(|| self.undo.remove(0));
         self.generation += 1;
@@ -268,8 +268,12 @@ impl History {
                 self.generation += 1;
                 Some(kept)
             }
-            // the push found its start already the last step and pushed nothing
-            None => self.undo.last().cloned(),
+            // The push found its start already the last step and pushed nothing: that step's
+            // edit, at the group active and the time now (its own are an earlier edit's).
+            None => {
+                let (active, time) = (self.active, self.time);
+                self.undo.last().map(|k| Kept { active, time, ..k.clone() })
+            }
         }
     }
 
@@ -438,6 +442,14 @@ mod tests {
         assert_eq!(h.cancel_gesture(generation).unwrap().edit, s);
         assert!(h.can_redo() && !h.can_undo());
         assert!(h.cancel_gesture(generation).is_none(), "cancelled twice");
+        // A push that pushes nothing during a gesture leaves it what its push took.
+        let mut h = History::default();
+        h.push(t.clone(), settings);
+        assert!(h.undo(&s, settings).is_some() && h.can_redo());
+        let generation = h.push_gesture(s.clone(), settings);
+        h.push(s.clone(), settings); // the same state again: nothing pushed
+        assert_eq!(h.cancel_gesture(generation).unwrap().edit, s);
+        assert!(h.can_redo(), "the redo steps were lost");
     }
 
     /// A settings change is an undo step of its own; the edit state's steps keep the settings

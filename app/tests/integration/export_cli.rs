@@ -147,8 +147,8 @@ fn export_without_a_scene_writes_point_caches_on_the_file_layout() {
     let (code, _, stderr) =
         bsarap(&[&shorter[..], &["--circle", "1", "-o", seq.to_str().unwrap()]].concat());
     assert_eq!(code, 0, "{stderr}");
-    assert!(stderr.contains("3 later frames of an earlier export follow"), "{stderr}");
-    assert!(stderr.contains("pose_0003.obj on"), "{stderr}");
+    assert!(stderr.contains("3 other frames named"), "{stderr}");
+    assert!(stderr.contains("pose_0003.obj first"), "{stderr}");
 
     // A group the selection lacks, and an output nobody reads, are one-line errors.
     let (code, _, stderr) =

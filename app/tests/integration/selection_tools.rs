@@ -532,6 +532,33 @@ fn esc_during_a_stroke_cancels_it_without_a_redo_step() {
     assert_eq!(h.state().labels(), &first[..], "the redo is the first stroke's");
 }
 
+/// Esc cancels a gesture held with Ctrl too (a Ctrl-erase stroke): a pattern without
+/// modifiers did not match Esc pressed with Ctrl down.
+#[test]
+fn esc_with_ctrl_held_cancels_a_ctrl_erase_stroke() {
+    let (mut h, g) = start();
+    let p = begin_stroke(&mut h);
+    support::press(&h, p + Vec2::new(4.0, 0.0), false, Modifiers::NONE);
+    h.step();
+    let painted = h.state().labels().to_vec();
+    assert!(!in_group(h.state(), g).is_empty(), "the stroke painted nothing");
+    h.event(Event::ModifiersChanged(Modifiers::COMMAND));
+    h.event(Event::PointerMoved(p));
+    h.step();
+    support::press(&h, p, true, Modifiers::COMMAND);
+    h.step();
+    h.event(Event::PointerMoved(p + Vec2::new(4.0, 0.0)));
+    h.step();
+    assert_ne!(h.state().labels(), &painted[..], "the Ctrl stroke erased nothing");
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Escape);
+    h.step();
+    assert_eq!(h.state().labels(), &painted[..], "Esc with Ctrl held did not cancel");
+    support::press(&h, p + Vec2::new(4.0, 0.0), false, Modifiers::COMMAND);
+    h.event(Event::ModifiersChanged(Modifiers::NONE));
+    h.step();
+    assert_eq!(h.state().labels(), &painted[..]);
+}
+
 /// Esc while a box is drawn drops the box: its release selects nothing.
 #[test]
 fn esc_while_a_box_is_drawn_drops_it() {

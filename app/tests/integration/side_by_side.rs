@@ -148,9 +148,14 @@ fn side_by_side_again_takes_up_the_same_solver_thread() {
         h.state_mut().set_view(View::Compare);
         h.step();
     }
-    let generation = h.state().scene_generation();
+    // a frame of poses set after the return: published by the thread taken up again
+    let mut moved = h.state().edit_state().clone();
+    moved.groups[0].pose.translation = glam::DVec3::new(0.0, 0.05, 0.0);
+    h.state_mut().set_edit_state(moved);
+    h.step();
+    let poses = h.state().pose_generation();
     step_until(&mut h, "the comparison's frame again", |a| {
-        a.latest_frame(Slot::Compare).is_some_and(|f| f.scene_generation == generation)
+        a.latest_frame(Slot::Compare).is_some_and(|f| f.pose_generation >= poses)
     });
     assert_eq!(h.state().solver_threads_started(), started, "a new solver thread started");
 }

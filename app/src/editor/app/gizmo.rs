@@ -321,13 +321,14 @@ impl EditorApp {
             if consume(Modifiers::NONE, Key::Enter) {
                 self.confirm_transform();
             }
-            if consume(Modifiers::NONE, Key::Escape) {
+            // (Ctrl may be held to snap)
+            if consume(Modifiers::NONE, Key::Escape) || consume(Modifiers::COMMAND, Key::Escape) {
                 self.cancel_transform();
             }
             return;
         }
         if self.gizmo.transform.is_some() {
-            if consume(Modifiers::NONE, Key::Escape) {
+            if consume(Modifiers::NONE, Key::Escape) || consume(Modifiers::COMMAND, Key::Escape) {
                 self.cancel_transform();
             }
             return;

@@ -76,9 +76,13 @@ impl EditorApp {
             let pointer_gesture = self.interaction.drag.is_some()
                 || self.interaction.stroke.is_some()
                 || self.selecting.region.is_some();
-            if pointer_gesture
-                && ctx.input_mut(|i| i.consume_key(egui::Modifiers::NONE, egui::Key::Escape))
-            {
+            // with Ctrl held too: the Ctrl-erase stroke, the Ctrl-rotate drag and the Ctrl box
+            // are held with it (a NONE pattern does not match Ctrl)
+            let esc = |i: &mut egui::InputState| {
+                i.consume_key(egui::Modifiers::NONE, egui::Key::Escape)
+                    || i.consume_key(egui::Modifiers::COMMAND, egui::Key::Escape)
+            };
+            if pointer_gesture && ctx.input_mut(esc) {
                 self.cancel_gesture();
             }
             self.selection_keys(ctx);

@@ -341,7 +341,11 @@ impl EditorApp {
             }
         } else if !want && let Some(compare) = self.solvers.compare.take() {
             self.solvers.views[1] = SolverView::default();
-            // a scene without handles: nothing to solve, the pose solver goes
+            // A new generation (the main slot keeps its solver: nothing it is built from
+            // changed) makes a build under way in the comparison thread moot where it can stop,
+            // and its frames from before stale; then a scene without handles: nothing to
+            // solve, the pose solver goes.
+            self.send_scene();
             if let Some(scene) = self.new_scene() {
                 compare
                     .send(SolverCommand::SetScene(Box::new(NewScene { handles: None, ..scene })));

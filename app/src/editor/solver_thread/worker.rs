@@ -167,9 +167,10 @@ struct Active {
     /// The last solve, settle step or change of the loose parts failed, and nothing has been
     /// tried since: the published pose is not of the current poses or parts.
     failed: bool,
-    /// The poses' generation of the solves begun so far at it, how many, and the last one's
-    /// energy ([`Active::begun`]).
-    resolves: (u64, usize, f64),
+    /// Solves begun since the poses or loose parts last changed, and the last one's energy on
+    /// the mesh ([`Active::begun`]; by change, not by generation: new poses can come under the
+    /// same generation).
+    resolves: (usize, f64),
 }
 
 /// The most solves begun at unchanged poses: a pose solver that never says it is done (a
@@ -267,12 +268,13 @@ impl Active {
     /// poses, or is the [`MAX_RESOLVES`]th at them.
     fn begun(&mut self, stats: FrameStats) {
         self.begun = Some(Begun { stats, pose_generation: self.pose_generation });
-        let (generation, count, energy) = self.resolves;
-        let again = generation == self.pose_generation;
-        let stalled = again && stats.energy >= energy;
-        let count = if again { count + 1 } else { 1 };
-        self.resolves = (self.pose_generation, count, stats.energy);
-        self.dirty = !(stats.done || stats.iterations == 0 || stalled || count >= MAX_RESOLVES);
+        // the mesh's energy where fine iterations ran (the coarse level's stays flat once it
+        // has converged while they still lower theirs)
+        let energy = stats.fine_energy.unwrap_or(stats.energy);
+        let (count, before) = self.resolves;
+        let stalled = count > 0 && energy >= before;
+        self.resolves = (count + 1, energy);
+        self.dirty = !(stats.done || stats.iterations == 0 || stalled || count + 1 >= MAX_RESOLVES);
     }
 
     /// New poses: solve again, and settle again only once they have rested.
@@ -285,6 +287,7 @@ impl Active {
         // generation is the newest of the two.
         self.pose_generation = self.pose_generation.max(generation);
         self.poses = poses;
+        self.resolves = (0, f64::INFINITY);
         self.failed = false;
         self.dirty = true;
         self.settling = false;
@@ -305,6 +308,7 @@ impl Active {
     /// published at once unless a solve is due anyway.
     fn set_loose_parts(&mut self, generation: u64, parts: &LooseParts) -> Result<(), String> {
         self.pose_generation = self.pose_generation.max(generation);
+        self.resolves = (0, f64::INFINITY);
         // Failed until the parts are taken; then as before (a failed solve's pose stays one).
         let failed = std::mem::replace(&mut self.failed, true);
         self.pose_solver.set_loose_parts(&self.frames.mesh, &self.handles, parts)?;
@@ -533,7 +537,7 @@ fn rebuild(
                 settle_waiting: None,
                 last_stats: FrameStats::default(),
                 published: None,
-                resolves: (0, 0, f64::INFINITY),
+                resolves: (0, f64::INFINITY),
                 failed: false,
             })
         }
@@ -660,7 +664,9 @@ fn worker_loop(
             return;
         };
         let mut build = inbox.scene.inspect(|scene| {
-            recovery.scene = Some(scene.clone());
+            // a scene without handles has nothing to recover, and would keep its mesh (the
+            // side-by-side thread idles on one while another mesh is open)
+            recovery.scene = scene.handles.is_some().then(|| scene.clone());
             recovery.building = false;
         });
         if let Some((generation, poses)) = &inbox.poses {

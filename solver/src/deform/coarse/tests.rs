@@ -402,7 +402,10 @@ fn a_failed_prolongation_beside_the_next_solve_rolls_both_back() {
     let base = BaseConfig::default();
     let rest = crate::deform::pose::GroupRest::new(mesh.positions(), &handles);
     let frame = |y: f64| {
-        let t = [(0, crate::GroupTransform::from_translation(glam::DVec3::new(0.0, y, 0.0)))];
+        let t = [(
+            0,
+            crate::deform::pose::GroupTransform::from_translation(glam::DVec3::new(0.0, y, 0.0)),
+        )];
         let (mut targets, mut motions) = (Vec::new(), Vec::new());
         rest.targets(&t, &mut targets).unwrap();
         rest.motions(&t, &mut motions).unwrap();
@@ -461,7 +464,7 @@ fn a_base_build_stops_between_stages() {
         assert_eq!(seen.load(Ordering::Relaxed), stop_at + 1, "went on after stopping");
     }
     let mut cache = MeshCache::default();
-    let method = crate::Method::BsArapCoarse;
+    let method = crate::deform::deformer::Method::BsArapCoarse;
     let e = cache.prepare_unwritten(method, &mesh, &config, &|| true).unwrap_err();
     assert_eq!(e, SolveError::Cancelled);
     assert!(cache.coarse_base().is_none(), "a stopped build was kept");
@@ -474,7 +477,8 @@ fn a_base_build_stops_between_stages() {
     assert_eq!(e, SolveError::Cancelled);
     assert!(cache.coarse_base().is_some_and(|b| b.fits(&mesh, &config)), "the base was let go");
     // Stopped with the base cached but its Galerkin part not gathered: nothing is gathered.
-    let galerkin = BaseConfig { coarse_energy: crate::CoarseEnergy::Galerkin, ..config };
+    let galerkin =
+        BaseConfig { coarse_energy: crate::deform::config::CoarseEnergy::Galerkin, ..config };
     let e = cache.prepare_unwritten(method, &mesh, &galerkin, &|| true).unwrap_err();
     assert_eq!(e, SolveError::Cancelled);
     assert!(cache.coarse_base().unwrap().galerkin.get().is_none(), "gathered after the stop");

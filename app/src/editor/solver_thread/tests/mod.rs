@@ -225,6 +225,15 @@ fn a_solver_never_done_stops_at_unchanged_poses() {
         std::thread::sleep(Duration::from_millis(100));
         assert_eq!(solves.load(Ordering::SeqCst), n, "solving went on");
         assert_eq!(n, most, "energy falling by {factor}");
+        // New poses under the same generation are solved afresh, not compared with the
+        // energy of the poses before (one solve, taken as stalled).
+        let moved = GroupTransform::from_translation(glam::DVec3::new(0.0, 0.0, 1.0));
+        h.send(SolverCommand::SetPoses { pose_generation: 0, poses: vec![moved] });
+        let start = Instant::now();
+        while solves.load(Ordering::SeqCst) < 2 * most {
+            assert!(start.elapsed() < Duration::from_secs(10), "not solved afresh");
+            std::thread::sleep(Duration::from_millis(2));
+        }
     }
 }
 
