@@ -330,6 +330,24 @@ fn switching_to_the_box_mid_stroke_ends_the_stroke() {
     assert_eq!(h.state().labels(), &before[..], "one undo takes back the stroke");
 }
 
+/// Moves the held pointer on from `from` by `step` five times, then releases it, the labels
+/// staying `labels` throughout: the rest of a cancelled stroke paints nothing.
+fn drag_on_painting_nothing(
+    h: &mut Harness<'static, EditorApp>,
+    from: Pos2,
+    step: Vec2,
+    labels: &[Option<u32>],
+) {
+    for i in 2..=6 {
+        h.event(Event::PointerMoved(from + step * i as f32));
+        h.step();
+        assert_eq!(h.state().labels(), labels, "the cancelled stroke painted on");
+    }
+    support::press(h, from + step * 6.0, false, Modifiers::NONE);
+    h.step();
+    assert_eq!(h.state().labels(), labels);
+}
+
 /// Ctrl+Z during a brush stroke, the button still held, cancels the stroke: the labels go
 /// back and the rest of the drag paints nothing (it went on painting with no undo step of its
 /// own); a redo brings back the stroke as far as it went.
@@ -343,14 +361,7 @@ fn undo_during_a_stroke_cancels_it() {
     h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
     h.step();
     assert_eq!(h.state().labels(), &before[..], "the undo took the stroke back");
-    for i in 2..=6 {
-        h.event(Event::PointerMoved(p + Vec2::new(4.0 * i as f32, 3.0 * i as f32)));
-        h.step();
-        assert_eq!(h.state().labels(), &before[..], "the cancelled stroke painted on");
-    }
-    support::press(&h, p + Vec2::new(24.0, 18.0), false, Modifiers::NONE);
-    h.step();
-    assert_eq!(h.state().labels(), &before[..]);
+    drag_on_painting_nothing(&mut h, p, Vec2::new(4.0, 3.0), &before);
     h.key_press_modifiers(Modifiers::COMMAND | Modifiers::SHIFT, Key::Z);
     h.step();
     assert_eq!(h.state().labels(), &painted[..], "the stroke as far as it went, redone");
@@ -519,14 +530,7 @@ fn esc_during_a_stroke_cancels_it_without_a_redo_step() {
     h.key_press(Key::Escape);
     h.step();
     assert_eq!(h.state().labels(), &before[..], "Esc did not take the stroke back");
-    for i in 2..=6 {
-        h.event(Event::PointerMoved(q + Vec2::new(4.0 * i as f32, 0.0)));
-        h.step();
-        assert_eq!(h.state().labels(), &before[..], "the cancelled stroke painted on");
-    }
-    support::press(&h, q + Vec2::new(24.0, 0.0), false, Modifiers::NONE);
-    h.step();
-    assert_eq!(h.state().labels(), &before[..]);
+    drag_on_painting_nothing(&mut h, q, Vec2::new(4.0, 0.0), &before);
     h.key_press_modifiers(Modifiers::COMMAND | Modifiers::SHIFT, Key::Z);
     h.step();
     assert_eq!(h.state().labels(), &first[..], "the redo is the first stroke's");
