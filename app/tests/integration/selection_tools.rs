@@ -663,3 +663,38 @@ fn ctrl_erases_the_active_group_with_the_brush_and_the_box() {
     drag(&mut h, &corners, Modifiers::COMMAND);
     assert!(in_group(h.state(), a).len() < painted.len(), "Ctrl+box with none active did nothing");
 }
+
+/// Under mirrored painting, a Ctrl stroke across the plane frees the active group and its
+/// mirror image alike, under the brush as at the partners: the pair stays symmetric (the brush
+/// freed the active group alone, its partners freed both).
+#[test]
+fn a_mirrored_erase_across_the_plane_keeps_the_pair_symmetric() {
+    let (mut h, g) = start();
+    h.key_press(Key::M);
+    h.step();
+    step_until(&mut h, "the mirror map", |a| a.mirror().is_some());
+    let map = h.state().mirror().map(|(_, m)| m.clone()).unwrap();
+    let rest = h.state().rest_positions().unwrap().to_vec();
+    // the group on the right side (z > 0), its mirror image on the left
+    let mut e = h.state().edit_state().clone();
+    let pair = e.add_group();
+    for (v, p) in rest.iter().enumerate() {
+        e.labels[v] = Some(if p[2] > 0.0 { g as u32 } else { pair as u32 });
+    }
+    h.state_mut().set_edit_state(e);
+    h.state_mut().set_active_group(Some(g));
+    h.step();
+    // the highest point of the spine (on the plane, seen from above)
+    let spine = (0..rest.len())
+        .filter(|&v| rest[v][2].abs() < 0.02 && h.state().vertex_screen_pos(v).is_some())
+        .max_by(|&a, &b| rest[a][1].total_cmp(&rest[b][1]))
+        .unwrap();
+    let p = h.state().vertex_screen_pos(spine).unwrap();
+    drag(&mut h, &path(&[p, p + Vec2::new(6.0, 0.0)], 3.0, false), Modifiers::COMMAND);
+    let labels = h.state().labels();
+    let freed: Vec<usize> = (0..rest.len()).filter(|&v| labels[v].is_none()).collect();
+    assert!(!freed.is_empty(), "the stroke freed nothing");
+    let lopsided: Vec<usize> =
+        freed.iter().copied().filter(|&v| labels[map.partner[v] as usize].is_some()).collect();
+    assert!(lopsided.is_empty(), "freed without their mirror image: {lopsided:?}");
+}

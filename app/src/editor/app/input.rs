@@ -362,7 +362,9 @@ impl EditorApp {
         if self.interaction.tool == Tool::Rigidity {
             return self.paint_rigidity(erase);
         }
-        let Some(hover) = &self.interaction.hover else { return };
+        if self.interaction.hover.is_none() {
+            return;
+        }
         let active = self.interaction.active_group.map(|g| g as u32);
         let group = match (erase, active) {
             (true, _) => None,
@@ -374,12 +376,15 @@ impl EditorApp {
             }
         };
         // Ctrl erases the active group, as it removes from it with the box and lasso (other
-        // groups' vertices under the brush stay); with no group active, every group.
+        // groups' vertices under the brush stay), and its mirror image too when painting is
+        // mirrored; with no group active, every group.
         let erased = active.filter(|_| erase);
+        let from = erased.map(|g| self.erased_groups(g).unwrap_or([g, g]));
+        let Some(hover) = &self.interaction.hover else { return };
         let mut changed = false;
         for &v in &hover.footprint {
             let l = &mut self.session.edit.labels[v as usize];
-            if *l != group && erased.is_none_or(|g| *l == Some(g)) {
+            if *l != group && from.is_none_or(|f| l.is_some_and(|k| f.contains(&k))) {
                 *l = group;
                 changed = true;
             }

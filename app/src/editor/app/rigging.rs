@@ -256,17 +256,7 @@ impl EditorApp {
             }),
         };
         let from = match (group, erased) {
-            (None, Some(g)) => {
-                let p = match self.rigging.stroke_partner {
-                    Some(p) => p,
-                    None => {
-                        let p = mirror_image(&self.session.edit.labels, &map, g).unwrap_or(g);
-                        self.rigging.stroke_partner = Some(p);
-                        p
-                    }
-                };
-                Some([g, p])
-            }
+            (None, Some(g)) => self.erased_groups(g),
             _ => None,
         };
         for v in partners {
@@ -276,6 +266,26 @@ impl EditorApp {
             }
         }
         self.display.color_version += 1;
+    }
+
+    /// What an erase of group `g` frees under mirrored painting: `g` and its mirror image (found
+    /// on the stroke's first dab and kept for the stroke), under the brush and at the partners
+    /// alike, so that a stroke across the plane leaves the pair symmetric. `None` without
+    /// mirrored painting or its map.
+    pub(super) fn erased_groups(&mut self, g: u32) -> Option<[u32; 2]> {
+        if !self.session.edit.symmetry.mirror_painting {
+            return None;
+        }
+        let (_, map) = self.mirror_shared()?;
+        let p = match self.rigging.stroke_partner {
+            Some(p) => p,
+            None => {
+                let p = mirror_image(&self.session.edit.labels, &map, g).unwrap_or(g);
+                self.rigging.stroke_partner = Some(p);
+                p
+            }
+        };
+        Some([g, p])
     }
 
     /// The centre of the brush's dab under the pointer on the rest mesh: the hit's barycentric
