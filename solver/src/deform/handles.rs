@@ -9,6 +9,10 @@ use crate::deform::rig::Rig;
 use thiserror::Error;
 
 /// Why a set of labels is not a usable handle selection.
+/// The first group number [`Handles::from_options`] refuses: 2²⁷ (3 GB of empty groups before
+/// it; the meshes read are capped at 30M vertices, [`Handles::from_labels`] at theirs + 1024).
+pub const MAX_GROUP_ID: usize = 1 << 27;
+
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum HandlesError {
     #[error("the selection is empty: no vertex belongs to a handle group")]
@@ -64,11 +68,13 @@ impl Handles {
         Handles::from_options(out)
     }
 
-    /// Builds a selection from per-vertex `Option<group>` labels. A group number past the
-    /// vertex count by more than 1024 is refused, as [`Self::from_labels`] refuses it (one
-    /// empty group is kept per number below the largest: `u32::MAX` asked for 2³² of them).
+    /// Builds a selection from per-vertex `Option<group>` labels. A group number of
+    /// [`MAX_GROUP_ID`] or more is refused (one empty group is kept per number below the
+    /// largest: `u32::MAX` asked for 2³² of them). It is not tied to the vertex count, as
+    /// [`Self::from_labels`]'s is: labels read for a file and mapped through its cleaning
+    /// (fewer vertices) keep the file's numbers.
     pub fn from_options(labels: Vec<Option<u32>>) -> Result<Handles, HandlesError> {
-        let limit = labels.len() + 1024;
+        let limit = MAX_GROUP_ID;
         if let Some((vertex, &k)) = labels
             .iter()
             .enumerate()
@@ -177,6 +183,6 @@ mod tests {
         // the same limit on labels given as options (u32::MAX asked for 2³² groups)
         let huge = Handles::from_options(vec![None, Some(u32::MAX)]);
         assert!(matches!(huge, Err(HandlesError::BadLabel { vertex: 1, .. })), "{huge:?}");
-        assert!(Handles::from_options(vec![None, Some(1025)]).is_ok());
+        assert!(Handles::from_options(vec![None, Some(5000)]).is_ok(), "a cleaned file's number");
     }
 }
