@@ -535,21 +535,6 @@ impl EditorApp {
             }
         }
     }
-
-    pub(super) fn shortcuts_window(&mut self, ctx: &egui::Context) {
-        let mut open = self.display.show_shortcuts;
-        // Scrolls when the list is taller than the window (1280×800 at UI scale 2).
-        let max_height = (ctx.content_rect().height() * 0.7).max(120.0);
-        egui::Window::new("Shortcuts").open(&mut open).collapsible(false).resizable(false).show(
-            ctx,
-            |ui| {
-                egui::ScrollArea::vertical().max_height(max_height).show(ui, |ui| {
-                    super::shortcuts::grid(ui, "shortcuts");
-                });
-            },
-        );
-        self.display.show_shortcuts = open;
-    }
 }
 
 impl eframe::App for EditorApp {

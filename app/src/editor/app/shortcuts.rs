@@ -68,6 +68,22 @@ pub(super) fn grid(ui: &mut egui::Ui, id: &str) {
 }
 
 impl EditorApp {
+    /// The `?` window: every shortcut.
+    pub(super) fn shortcuts_window(&mut self, ctx: &egui::Context) {
+        let mut open = self.display.show_shortcuts;
+        // Scrolls when the list is taller than the window (1280×800 at UI scale 2).
+        let max_height = (ctx.content_rect().height() * 0.7).max(120.0);
+        egui::Window::new("Shortcuts").open(&mut open).collapsible(false).resizable(false).show(
+            ctx,
+            |ui| {
+                egui::ScrollArea::vertical().max_height(max_height).show(ui, |ui| {
+                    grid(ui, "shortcuts");
+                });
+            },
+        );
+        self.display.show_shortcuts = open;
+    }
+
     /// Keys of the gizmo, the selection tools and the preferences; called first by
     /// `handle_keys` (a running modal transform owns G, R, X, Y, Z, Enter and Esc).
     pub(super) fn tool_keys(&mut self, ctx: &egui::Context) {
