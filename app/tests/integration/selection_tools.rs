@@ -330,8 +330,9 @@ fn switching_to_the_box_mid_stroke_ends_the_stroke() {
     assert_eq!(h.state().labels(), &before[..], "one undo takes back the stroke");
 }
 
-/// Moves the held pointer on from `from` by `step` five times, then releases it, the labels
-/// staying `labels` throughout: the rest of a cancelled stroke paints nothing.
+/// Moves the held pointer (at `from + step`) on to `from + 2·step`, …, `from + 6·step`, then
+/// releases it, the labels staying `labels` throughout: the rest of a cancelled stroke paints
+/// nothing.
 fn drag_on_painting_nothing(
     h: &mut Harness<'static, EditorApp>,
     from: Pos2,

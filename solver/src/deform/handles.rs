@@ -8,11 +8,11 @@
 use crate::deform::rig::Rig;
 use thiserror::Error;
 
-/// Why a set of labels is not a usable handle selection.
 /// The first group number [`Handles::from_options`] refuses: 2²⁷ (3 GB of empty groups before
 /// it; the meshes read are capped at 30M vertices, [`Handles::from_labels`] at theirs + 1024).
 pub const MAX_GROUP_ID: usize = 1 << 27;
 
+/// Why a set of labels is not a usable handle selection.
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum HandlesError {
     #[error("the selection is empty: no vertex belongs to a handle group")]

@@ -335,17 +335,18 @@ impl EditorApp {
         if want && self.solvers.compare.is_none() {
             self.solvers.compare =
                 self.solvers.idle_compare.take().or_else(|| self.spawn_solver(ctx, Slot::Compare));
+            // an idle thread's last frame, from before the view went, is not shown again
+            if let Some(c) = &self.solvers.compare {
+                while c.try_take_frame().is_some() {}
+            }
             self.solvers.views[1] = SolverView::default();
             if let (Some(scene), Some(arap)) = (self.new_scene(), &self.solvers.compare) {
                 arap.send(SolverCommand::SetScene(Box::new(scene)));
             }
         } else if !want && let Some(compare) = self.solvers.compare.take() {
             self.solvers.views[1] = SolverView::default();
-            // A new generation (the main slot keeps its solver: nothing it is built from
-            // changed) makes a build under way in the comparison thread moot where it can stop,
-            // and its frames from before stale; then a scene without handles: nothing to
-            // solve, the pose solver goes.
-            self.send_scene();
+            // a scene without handles: nothing to solve, the pose solver goes (once a build
+            // under way ends)
             if let Some(scene) = self.new_scene() {
                 compare
                     .send(SolverCommand::SetScene(Box::new(NewScene { handles: None, ..scene })));

@@ -167,10 +167,10 @@ struct Active {
     /// The last solve, settle step or change of the loose parts failed, and nothing has been
     /// tried since: the published pose is not of the current poses or parts.
     failed: bool,
-    /// Solves begun since the poses or loose parts last changed, and the last one's energy on
-    /// the mesh ([`Active::begun`]; by change, not by generation: new poses can come under the
-    /// same generation).
-    resolves: (usize, f64),
+    /// Solves begun since the poses or loose parts last changed, and the last one's energies,
+    /// its own and on the mesh where fine iterations ran ([`Active::begun`]; by change, not by
+    /// generation: new poses can come under the same generation).
+    resolves: (usize, f64, f64),
 }
 
 /// The most solves begun at unchanged poses: a pose solver that never says it is done (a
@@ -268,12 +268,13 @@ impl Active {
     /// poses, or is the [`MAX_RESOLVES`]th at them.
     fn begun(&mut self, stats: FrameStats) {
         self.begun = Some(Begun { stats, pose_generation: self.pose_generation });
-        // the mesh's energy where fine iterations ran (the coarse level's stays flat once it
-        // has converged while they still lower theirs)
-        let energy = stats.fine_energy.unwrap_or(stats.energy);
-        let (count, before) = self.resolves;
-        let stalled = count > 0 && energy >= before;
-        self.resolves = (count + 1, energy);
+        // Stalled when neither energy fell: the coarse level's stays flat once it has converged
+        // while the fine iterations still lower the mesh's, and the mesh's need not fall while
+        // the coarse pose still moves.
+        let fine = stats.fine_energy.unwrap_or(stats.energy);
+        let (count, coarse_before, fine_before) = self.resolves;
+        let stalled = count > 0 && stats.energy >= coarse_before && fine >= fine_before;
+        self.resolves = (count + 1, stats.energy, fine);
         self.dirty = !(stats.done || stats.iterations == 0 || stalled || count + 1 >= MAX_RESOLVES);
     }
 
@@ -287,7 +288,7 @@ impl Active {
         // generation is the newest of the two.
         self.pose_generation = self.pose_generation.max(generation);
         self.poses = poses;
-        self.resolves = (0, f64::INFINITY);
+        self.resolves = (0, f64::INFINITY, f64::INFINITY);
         self.failed = false;
         self.dirty = true;
         self.settling = false;
@@ -308,7 +309,7 @@ impl Active {
     /// published at once unless a solve is due anyway.
     fn set_loose_parts(&mut self, generation: u64, parts: &LooseParts) -> Result<(), String> {
         self.pose_generation = self.pose_generation.max(generation);
-        self.resolves = (0, f64::INFINITY);
+        self.resolves = (0, f64::INFINITY, f64::INFINITY);
         // Failed until the parts are taken; then as before (a failed solve's pose stays one).
         let failed = std::mem::replace(&mut self.failed, true);
         self.pose_solver.set_loose_parts(&self.frames.mesh, &self.handles, parts)?;
@@ -537,7 +538,7 @@ fn rebuild(
                 settle_waiting: None,
                 last_stats: FrameStats::default(),
                 published: None,
-                resolves: (0, f64::INFINITY),
+                resolves: (0, f64::INFINITY, f64::INFINITY),
                 failed: false,
             })
         }
