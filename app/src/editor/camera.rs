@@ -114,7 +114,7 @@ impl OrbitCamera {
         self.target += (-dx * right + dy * up) * s;
     }
 
-    /// Zoom by wheel `scroll` points (positive: closer), no nearer than [`Self::min_distance`].
+    /// Zoom by wheel `scroll` points (positive: closer), no nearer than `min_distance`.
     pub fn zoom(&mut self, scroll: f32) {
         // (at most the far end: a mesh past 1e12 made the range empty, and clamp panics)
         let near = self.min_distance().min(*DISTANCE.end());
