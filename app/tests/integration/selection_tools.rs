@@ -290,6 +290,14 @@ fn begin_stroke(h: &mut Harness<'static, EditorApp>) -> Pos2 {
     p
 }
 
+/// [`begin_stroke`], then the button released: a whole stroke. Where it was pressed.
+fn paint_stroke(h: &mut Harness<'static, EditorApp>) -> Pos2 {
+    let p = begin_stroke(h);
+    support::press(h, p + Vec2::new(4.0, 0.0), false, Modifiers::NONE);
+    h.step();
+    p
+}
+
 /// A group command (here Grow, `+`) pressed during a brush stroke waits: it would record its
 /// own undo step inside the stroke's, and one undo then took back the grow and half the stroke.
 #[test]
@@ -373,9 +381,7 @@ fn undo_during_a_stroke_cancels_it() {
 #[test]
 fn undo_while_a_box_is_drawn_cancels_only_the_box() {
     let (mut h, g) = start();
-    let p = begin_stroke(&mut h);
-    support::press(&h, p + Vec2::new(4.0, 0.0), false, Modifiers::NONE);
-    h.step();
+    paint_stroke(&mut h);
     let stroked = h.state().labels().to_vec();
     assert!(!in_group(h.state(), g).is_empty(), "the stroke painted nothing");
     h.key_press(Key::Q);
@@ -512,9 +518,7 @@ fn mirrored_painting_mirrors_boxes_and_group_commands() {
 fn esc_during_a_stroke_cancels_it_without_a_redo_step() {
     let (mut h, g) = start();
     let before = h.state().labels().to_vec();
-    let p = begin_stroke(&mut h);
-    support::press(&h, p + Vec2::new(4.0, 0.0), false, Modifiers::NONE);
-    h.step();
+    let p = paint_stroke(&mut h);
     let first = h.state().labels().to_vec();
     assert!(!in_group(h.state(), g).is_empty(), "the stroke painted nothing");
     h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
@@ -542,9 +546,7 @@ fn esc_during_a_stroke_cancels_it_without_a_redo_step() {
 #[test]
 fn esc_with_ctrl_held_cancels_a_ctrl_erase_stroke() {
     let (mut h, g) = start();
-    let p = begin_stroke(&mut h);
-    support::press(&h, p + Vec2::new(4.0, 0.0), false, Modifiers::NONE);
-    h.step();
+    let p = paint_stroke(&mut h);
     let painted = h.state().labels().to_vec();
     assert!(!in_group(h.state(), g).is_empty(), "the stroke painted nothing");
     h.event(Event::ModifiersChanged(Modifiers::COMMAND));
@@ -594,9 +596,7 @@ fn esc_while_a_box_is_drawn_drops_it() {
 fn esc_during_a_pose_drag_cancels_it() {
     let (mut h, g) = start();
     let before = h.state().labels().to_vec();
-    let p = begin_stroke(&mut h);
-    support::press(&h, p + Vec2::new(4.0, 0.0), false, Modifiers::NONE);
-    h.step();
+    let p = paint_stroke(&mut h);
     let v = in_group(h.state(), g)[0];
     h.key_press(Key::G);
     h.step();
