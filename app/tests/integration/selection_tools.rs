@@ -596,7 +596,7 @@ fn esc_while_a_box_is_drawn_drops_it() {
 fn esc_during_a_pose_drag_cancels_it() {
     let (mut h, g) = start();
     let before = h.state().labels().to_vec();
-    let p = paint_stroke(&mut h);
+    paint_stroke(&mut h);
     let v = in_group(h.state(), g)[0];
     h.key_press(Key::G);
     h.step();
