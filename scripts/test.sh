@@ -8,6 +8,9 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 cargo test --workspace
+# The paper tests of the Python package compare with the CLI this build made (in cargo's target
+# folder, which CARGO_TARGET_DIR may move); a named binary that is missing fails them.
+export BSARAP_BIN="${BSARAP_BIN:-${CARGO_TARGET_DIR:-target}/debug/bsarap}"
 
 # One release build of the Python package (python/) serves both its tests and the Blender
 # extension (blender/, issue 48): scripts/blender-extension.sh builds the abi3 wheel (pyo3's

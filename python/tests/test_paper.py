@@ -22,12 +22,15 @@ MESHES = ["knight", "decimated-max"]
 
 
 def cli():
-    """The bsarap binary, or a skip saying how to get one."""
-    candidates = [os.environ.get("BSARAP_BIN")] + [
-        str(REPO / "target" / p / "bsarap") for p in ("release", "debug")
-    ]
-    for c in candidates:
-        if c and Path(c).is_file() and os.access(c, os.X_OK):
+    """The bsarap binary: $BSARAP_BIN, which must be one (scripts/test.sh names the one its
+    build made), else target/release or target/debug, else a skip saying how to get one."""
+    named = os.environ.get("BSARAP_BIN")
+    if named:
+        if Path(named).is_file() and os.access(named, os.X_OK):
+            return named
+        pytest.fail(f"BSARAP_BIN={named} is not an executable file")
+    for c in (str(REPO / "target" / p / "bsarap") for p in ("release", "debug")):
+        if Path(c).is_file() and os.access(c, os.X_OK):
             return c
     pytest.skip("skipped: no bsarap binary (run `cargo build -p app` or set BSARAP_BIN)")
 
