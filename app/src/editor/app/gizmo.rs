@@ -321,14 +321,13 @@ impl EditorApp {
             if consume(Modifiers::NONE, Key::Enter) {
                 self.confirm_transform();
             }
-            // (Ctrl may be held to snap)
-            if consume(Modifiers::NONE, Key::Escape) || consume(Modifiers::COMMAND, Key::Escape) {
+            if ctx.input_mut(super::shortcuts::consume_escape) {
                 self.cancel_transform();
             }
             return;
         }
         if self.gizmo.transform.is_some() {
-            if consume(Modifiers::NONE, Key::Escape) || consume(Modifiers::COMMAND, Key::Escape) {
+            if ctx.input_mut(super::shortcuts::consume_escape) {
                 self.cancel_transform();
             }
             return;

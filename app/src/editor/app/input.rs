@@ -171,13 +171,14 @@ impl EditorApp {
     pub(super) fn cancel_gesture(&mut self) {
         let step =
             self.interaction.drag.map(|d| d.step).or(self.interaction.stroke.map(|s| s.step));
-        self.interaction.stroke = None;
-        self.interaction.drag = None;
-        self.rigging.stroke_partner = None;
-        self.selecting.region = None;
-        if let Some(step) = step {
-            let kept = self.session.history.cancel_gesture(step);
-            self.apply_history(kept);
+        match step {
+            // (applying what the history kept ends every gesture)
+            Some(step) => {
+                let kept = self.session.history.cancel_gesture(step);
+                self.apply_history(kept);
+            }
+            // a box or lasso, which has no step
+            None => self.selecting.region = None,
         }
         self.session.press_step.cancel();
     }

@@ -92,13 +92,7 @@ impl EditorApp {
             let pointer_gesture = self.interaction.drag.is_some()
                 || self.interaction.stroke.is_some()
                 || self.selecting.region.is_some();
-            // with Ctrl held too: the Ctrl-erase stroke, the Ctrl-rotate drag and the Ctrl box
-            // are held with it (a NONE pattern does not match Ctrl)
-            let esc = |i: &mut egui::InputState| {
-                i.consume_key(egui::Modifiers::NONE, egui::Key::Escape)
-                    || i.consume_key(egui::Modifiers::COMMAND, egui::Key::Escape)
-            };
-            if pointer_gesture && ctx.input_mut(esc) {
+            if pointer_gesture && ctx.input_mut(consume_escape) {
                 self.cancel_gesture();
             }
             self.selection_keys(ctx);
@@ -147,4 +141,12 @@ impl EditorApp {
         self.draw_region(painter, slot);
         self.draw_gizmo(painter, slot, rect);
     }
+}
+
+/// Takes an Esc press, alone or with Ctrl (Cmd) held: the Ctrl-erase stroke, the Ctrl-rotate
+/// drag, the Ctrl box and the gizmo's Ctrl snapping are held with it, and a `NONE` pattern does
+/// not match Ctrl.
+pub(super) fn consume_escape(i: &mut egui::InputState) -> bool {
+    i.consume_key(egui::Modifiers::NONE, egui::Key::Escape)
+        || i.consume_key(egui::Modifiers::COMMAND, egui::Key::Escape)
 }
