@@ -699,3 +699,46 @@ fn a_mirrored_erase_across_the_plane_keeps_the_pair_symmetric() {
         freed.iter().copied().filter(|&v| labels[map.partner[v] as usize].is_some()).collect();
     assert!(lopsided.is_empty(), "freed without their mirror image: {lopsided:?}");
 }
+
+/// Under mirrored painting, a Ctrl box across the plane frees the active group and its mirror
+/// image alike, in the box and at its partners, as the brush's erase does (the box freed the
+/// active group alone in the box, and its mirror image alone at the partners).
+#[test]
+fn a_mirrored_ctrl_box_across_the_plane_keeps_the_pair_symmetric() {
+    let (mut h, g) = start();
+    h.key_press(Key::M);
+    h.step();
+    step_until(&mut h, "the mirror map", |a| a.mirror().is_some());
+    let map = h.state().mirror().map(|(_, m)| m.clone()).unwrap();
+    let rest = h.state().rest_positions().unwrap().to_vec();
+    let mut e = h.state().edit_state().clone();
+    let pair = e.add_group();
+    for (v, p) in rest.iter().enumerate() {
+        e.labels[v] = Some(if p[2] > 0.0 { g as u32 } else { pair as u32 });
+    }
+    h.state_mut().set_edit_state(e);
+    h.state_mut().set_active_group(Some(g));
+    h.key_press(Key::Q);
+    h.step();
+    let spine = (0..rest.len())
+        .filter(|&v| rest[v][2].abs() < 0.02 && h.state().vertex_screen_pos(v).is_some())
+        .max_by(|&a, &b| rest[a][1].total_cmp(&rest[b][1]))
+        .unwrap();
+    let p = h.state().vertex_screen_pos(spine).unwrap();
+    // off the plane's middle, so that the box holds more of one side than of the other
+    let r = Rect::from_center_size(p + Vec2::new(8.0, 4.0), Vec2::new(40.0, 30.0));
+    drag(&mut h, &path(&[r.left_top(), r.right_bottom()], 10.0, false), Modifiers::COMMAND);
+    let labels = h.state().labels();
+    let freed: Vec<usize> = (0..rest.len()).filter(|&v| labels[v].is_none()).collect();
+    assert!(freed.len() > 5, "the box freed {} vertices", freed.len());
+    let lopsided: Vec<usize> =
+        freed.iter().copied().filter(|&v| labels[map.partner[v] as usize].is_some()).collect();
+    // (the nearest-vertex map is not one-to-one everywhere: a vertex freed as the partner of
+    // one in the box may have a third vertex as its own partner)
+    assert!(
+        lopsided.len() * 100 <= freed.len(),
+        "{} of {} freed without their mirror image: {lopsided:?}",
+        lopsided.len(),
+        freed.len()
+    );
+}

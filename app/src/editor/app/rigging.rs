@@ -273,19 +273,22 @@ impl EditorApp {
     /// alike, so that a stroke across the plane leaves the pair symmetric. `None` without
     /// mirrored painting or its map.
     pub(super) fn erased_groups(&mut self, g: u32) -> Option<[u32; 2]> {
+        if let Some(p) = self.rigging.stroke_partner {
+            return self.session.edit.symmetry.mirror_painting.then_some([g, p]);
+        }
+        let pair = self.mirror_pair(g)?;
+        self.rigging.stroke_partner = Some(pair[1]);
+        Some(pair)
+    }
+
+    /// `g` and its mirror image (`g` itself where it has none) under mirrored painting; `None`
+    /// without mirrored painting or its map.
+    pub(super) fn mirror_pair(&self, g: u32) -> Option<[u32; 2]> {
         if !self.session.edit.symmetry.mirror_painting {
             return None;
         }
         let (_, map) = self.mirror_shared()?;
-        let p = match self.rigging.stroke_partner {
-            Some(p) => p,
-            None => {
-                let p = mirror_image(&self.session.edit.labels, &map, g).unwrap_or(g);
-                self.rigging.stroke_partner = Some(p);
-                p
-            }
-        };
-        Some([g, p])
+        Some([g, mirror_image(&self.session.edit.labels, &map, g).unwrap_or(g)])
     }
 
     /// The centre of the brush's dab under the pointer on the rest mesh: the hit's barycentric
@@ -349,26 +352,28 @@ impl EditorApp {
         }
     }
 
-    /// Carries out [`Self::plan_mirror_region`]'s `plan` for group `g`; whether a label changed.
+    /// Carries out [`Self::plan_mirror_region`]'s `plan` for group `g`: the partners join the
+    /// plan's group, or, removing, leave the groups `freed` (`g` and its mirror image); whether a
+    /// label changed.
     pub(super) fn mirror_region(
         &mut self,
         plan: (Vec<u32>, Option<u32>),
         g: u32,
-        remove: bool,
+        remove: Option<[u32; 2]>,
     ) -> bool {
         let (partners, target) = plan;
         let target = match (target, remove) {
-            (Some(t), _) => t,
-            (None, true) => return false,
-            (None, false) => self.new_partner(g),
+            (_, Some(_)) => None,
+            (Some(t), None) => Some(t),
+            (None, None) => Some(self.new_partner(g)),
         };
         let mut changed = false;
         for v in partners {
             let l = &mut self.session.edit.labels[v as usize];
             let new = match remove {
-                true if *l == Some(target) => None,
-                true => *l,
-                false => Some(target),
+                Some(freed) if l.is_some_and(|k| freed.contains(&k)) => None,
+                Some(_) => *l,
+                None => target,
             };
             changed |= new != *l;
             *l = new;

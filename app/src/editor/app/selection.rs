@@ -352,13 +352,17 @@ impl EditorApp {
             }
         };
         let mirror = self.plan_mirror_region(vertices, g);
+        // Removing under mirrored painting frees the group and its mirror image alike, in the
+        // region and at its partners, as the brush's erase does: a box across the plane leaves
+        // the pair symmetric.
+        let freed = remove.then(|| self.mirror_pair(g).unwrap_or([g, g]));
         let mut changed = self.session.edit.groups.len() != before_groups;
         for &v in vertices {
             let l = &mut self.session.edit.labels[v as usize];
-            let new = match (remove, *l) {
-                (true, Some(k)) if k == g => None,
-                (true, other) => other,
-                (false, _) => Some(g),
+            let new = match freed {
+                Some(freed) if l.is_some_and(|k| freed.contains(&k)) => None,
+                Some(_) => *l,
+                None => Some(g),
             };
             if new != *l {
                 *l = new;
@@ -366,7 +370,7 @@ impl EditorApp {
             }
         }
         if let Some(plan) = mirror {
-            changed |= self.mirror_region(plan, g, remove);
+            changed |= self.mirror_region(plan, g, freed);
         }
         self.region_applied(changed, before);
     }
