@@ -1,7 +1,7 @@
 //! What the editor keeps between sessions, in its configuration folder: the recent files list
 //! and the autosaved scene.
 //!
-//! The folder is `$BSARAP_CONFIG_DIR`, else `$XDG_CONFIG_HOME/bsarap`, else
+//! The folder is `$BSARAP_CONFIG_DIR`, else `$XDG_CONFIG_HOME/bsarap` (when absolute), else
 //! `$HOME/.config/bsarap`. Every write is atomic (`solver::io::write_atomic`). The autosave is
 //! a scene file (its mesh path relative to this folder, and the scene file being edited in
 //! [`EDITED_DOCUMENT`], with that file's modification time in [`EDITED_DOCUMENT_MODIFIED`])
@@ -92,9 +92,16 @@ fn canonical_folder(path: &Path) -> PathBuf {
 
 /// The configuration folder (see the module doc), `None` without a home.
 pub fn default_dir() -> Option<PathBuf> {
-    let var = |k: &str| std::env::var_os(k).filter(|v| !v.is_empty()).map(PathBuf::from);
+    config_dir(|k| std::env::var_os(k))
+}
+
+/// [`default_dir`] from the environment `var` gives. A relative `XDG_CONFIG_HOME` is ignored,
+/// as the XDG spec says: the folder would move with the working folder (a launcher's and a
+/// terminal's preferences would differ).
+fn config_dir(var: impl Fn(&str) -> Option<std::ffi::OsString>) -> Option<PathBuf> {
+    let var = |k: &str| var(k).filter(|v| !v.is_empty()).map(PathBuf::from);
     var("BSARAP_CONFIG_DIR")
-        .or_else(|| var("XDG_CONFIG_HOME").map(|d| d.join("bsarap")))
+        .or_else(|| var("XDG_CONFIG_HOME").filter(|d| d.is_absolute()).map(|d| d.join("bsarap")))
         .or_else(|| var("HOME").map(|d| d.join(".config").join("bsarap")))
 }
 
@@ -417,6 +424,21 @@ pub fn ago(t: SystemTime) -> String {
 #[allow(clippy::unwrap_used, clippy::expect_used)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_relative_xdg_config_home_is_ignored() {
+        fn env(vars: &[(&str, &str)]) -> impl Fn(&str) -> Option<std::ffi::OsString> {
+            move |k| vars.iter().find(|(n, _)| *n == k).map(|(_, v)| v.into())
+        }
+        let home = [("HOME", "/home/u")];
+        assert_eq!(config_dir(env(&home)), Some(PathBuf::from("/home/u/.config/bsarap")));
+        let relative = [("HOME", "/home/u"), ("XDG_CONFIG_HOME", "conf")];
+        assert_eq!(config_dir(env(&relative)), Some(PathBuf::from("/home/u/.config/bsarap")));
+        let absolute = [("HOME", "/home/u"), ("XDG_CONFIG_HOME", "/c"), ("BSARAP_CONFIG_DIR", "")];
+        assert_eq!(config_dir(env(&absolute)), Some(PathBuf::from("/c/bsarap")));
+        assert_eq!(config_dir(env(&[("BSARAP_CONFIG_DIR", "b")])), Some(PathBuf::from("b")));
+        assert_eq!(config_dir(env(&[])), None);
+    }
 
     /// A configuration folder that does not exist yet, inside a scratch directory.
     fn dir(name: &str) -> (solver::testing::ScratchDir, PathBuf) {

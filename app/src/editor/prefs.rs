@@ -1,15 +1,20 @@
 //! User preferences kept between sessions: UI scale, theme, the method new documents start
 //! with, the brush radius, and whether file dialogs are always the editor's own. Stored as
-//! `prefs.json` in the editor's configuration folder ([`super::persist`]), written atomically
-//! whenever a preference changes, read at start.
+//! `prefs.json` in the editor's configuration folder ([`super::persist`]), read at start and
+//! written atomically shortly after a preference changes (and at exit).
 //!
-//! A missing file means the defaults. A file that cannot be read or parsed, or that holds an
-//! out-of-range value, also gives the defaults (for that value) and a one-line message that
-//! names the file, which the editor shows; it never panics.
+//! A missing file means the defaults. A file that cannot be read or parsed gives the defaults,
+//! and a value that cannot be read (a wrong type, a newer version's choice) or is out of range
+//! gives the default for that value alone; either way a one-line message names the file, which
+//! the editor shows; it never panics. A write changes only the values this editor changed
+//! since it read or wrote them: what it could not read, a newer version's keys and another
+//! editor window's changes to other values stay in the file.
 
 use std::path::{Path, PathBuf};
 
+use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
+use serde_json::{Map, Value};
 use solver::io::write_atomic;
 
 /// File name of the preferences in the configuration folder.
@@ -28,7 +33,8 @@ pub enum Theme {
     Light,
 }
 
-/// What persists. Missing fields in a file take their defaults; unknown fields are ignored.
+/// What persists. Missing fields in a file take their defaults; unknown fields are ignored
+/// (and kept in the file).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct Preferences {
@@ -75,10 +81,28 @@ impl Preferences {
         (self, msg)
     }
 
-    /// Parses the JSON of [`Preferences::to_json`] (see [`Preferences::sanitized`]).
+    /// Parses the JSON of [`Preferences::to_json`], value by value: one that cannot be read
+    /// takes its default and is named in the message, as an out-of-range one is
+    /// ([`Preferences::sanitized`]). An error when the text is not a JSON object.
     pub fn from_json(text: &str) -> Result<(Preferences, Option<String>), String> {
-        let p: Preferences = serde_json::from_str(text).map_err(|e| e.to_string())?;
-        Ok(p.sanitized())
+        let value: Value = serde_json::from_str(text).map_err(|e| e.to_string())?;
+        let Value::Object(file) = value else {
+            return Err("not a JSON object".into());
+        };
+        let mut p = Preferences::default();
+        let mut bad = Vec::new();
+        read_field(&file, "ui_scale", &mut p.ui_scale, &mut bad);
+        read_field(&file, "theme", &mut p.theme, &mut bad);
+        read_field(&file, "default_method", &mut p.default_method, &mut bad);
+        read_field(&file, "brush_radius", &mut p.brush_radius, &mut bad);
+        read_field(&file, "in_app_file_dialog", &mut p.in_app_file_dialog, &mut bad);
+        let (p, range) = p.sanitized();
+        let unread = (!bad.is_empty()).then(|| format!("default used: {}", bad.join(", ")));
+        let msg = match (unread, range) {
+            (Some(a), Some(b)) => Some(format!("{a}; {b}")),
+            (a, b) => a.or(b),
+        };
+        Ok((p, msg))
     }
 
     pub fn to_json(&self) -> String {
@@ -99,22 +123,64 @@ impl Preferences {
         };
         match Preferences::from_json(&text) {
             Ok((p, msg)) => (p, msg.map(|m| bad_file(&path, &m))),
-            Err(e) => (Preferences::default(), Some(bad_file(&path, &e))),
+            Err(e) => {
+                (Preferences::default(), Some(bad_file(&path, &format!("{e}; defaults used"))))
+            }
         }
     }
 
-    /// Writes `prefs.json` in `dir` (created when missing), atomically.
-    pub fn save(&self, dir: &Path) -> Result<PathBuf, String> {
+    /// Writes the values that differ from `since` (what this editor last read or wrote) into
+    /// `prefs.json` in `dir` (created when missing), atomically, keeping the file's other keys;
+    /// the whole preferences when the file is missing or not a JSON object.
+    pub fn save_changes(&self, since: &Preferences, dir: &Path) -> Result<PathBuf, String> {
         std::fs::create_dir_all(dir)
             .map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
         let path = dir.join(FILE_NAME);
-        write_atomic(&path, self.to_json().as_bytes()).map_err(|e| e.to_string())?;
+        let (Value::Object(new), Value::Object(old)) = (to_value(self), to_value(since)) else {
+            return Err("preferences are not a JSON object".into());
+        };
+        let on_disk =
+            std::fs::read_to_string(&path).ok().and_then(|t| serde_json::from_str(&t).ok());
+        let file = match on_disk {
+            Some(Value::Object(mut file)) => {
+                for (key, value) in new {
+                    if old.get(&key) != Some(&value) {
+                        file.insert(key, value);
+                    }
+                }
+                file
+            }
+            _ => new,
+        };
+        let text = serde_json::to_string_pretty(&Value::Object(file)).unwrap_or_default();
+        write_atomic(&path, text.as_bytes()).map_err(|e| e.to_string())?;
         Ok(path)
     }
 }
 
+/// Plain numbers, strings and enums: cannot fail.
+fn to_value(p: &Preferences) -> Value {
+    serde_json::to_value(p).unwrap_or(Value::Null)
+}
+
+/// Reads `file[name]` into `slot` when present; when it cannot be read, `slot` keeps its
+/// default and `bad` names the key and why.
+fn read_field<T: DeserializeOwned>(
+    file: &Map<String, Value>,
+    name: &str,
+    slot: &mut T,
+    bad: &mut Vec<String>,
+) {
+    if let Some(v) = file.get(name) {
+        match T::deserialize(v) {
+            Ok(x) => *slot = x,
+            Err(e) => bad.push(format!("{name} ({e})")),
+        }
+    }
+}
+
 fn bad_file(path: &Path, why: &str) -> String {
-    format!("preferences {}: {why}; defaults used", path.display())
+    format!("preferences {}: {why}", path.display())
 }
 
 #[cfg(test)]
@@ -134,7 +200,7 @@ mod tests {
             brush_radius: 0.1,
             in_app_file_dialog: true,
         };
-        p.save(&dir.join("sub")).unwrap();
+        p.save_changes(&Preferences::default(), &dir.join("sub")).unwrap();
         assert_eq!(Preferences::load(&dir.join("sub")), (p, None));
         assert!(p.to_json().contains("\"light\"") && p.to_json().contains("\"arap\""));
         assert!(p.to_json().contains("\"in_app_file_dialog\": true"));
@@ -148,8 +214,19 @@ mod tests {
         assert_eq!(p, Preferences::default());
         let msg = msg.unwrap();
         assert!(msg.contains(FILE_NAME) && msg.contains("defaults used"), "{msg}");
-        // A wrong type is an error too; a partial file keeps what it has.
-        assert!(Preferences::from_json(r#"{"theme": 3}"#).is_err());
+        // A value of a wrong type, or a newer version's choice, takes its default alone and is
+        // named; a partial file keeps what it has.
+        let (p, msg) = Preferences::from_json(
+            r#"{"theme": "system", "ui_scale": 1.5, "brush_radius": "big"}"#,
+        )
+        .unwrap();
+        assert_eq!((p.theme, p.ui_scale, p.brush_radius), (Theme::Dark, 1.5, 0.05));
+        let msg = msg.unwrap();
+        assert!(
+            msg.contains("theme (unknown variant `system`") && msg.contains("brush_radius"),
+            "{msg}"
+        );
+        assert!(Preferences::from_json("[1]").is_err());
         let (p, msg) = Preferences::from_json(r#"{"theme": "light", "extra": 1}"#).unwrap();
         assert_eq!((p.theme, p.ui_scale, msg), (Theme::Light, 1.0, None));
         // Out of range: that value is replaced and named.
@@ -162,5 +239,32 @@ mod tests {
         let (p, msg) = Preferences::load(&dir2);
         assert_eq!(p, Preferences::default());
         assert!(msg.is_some());
+    }
+
+    /// A write changes only what this editor changed: a value it could not read, a newer
+    /// version's key and another window's change to another value stay (the whole file was
+    /// written, so one brush resize reset them all).
+    #[test]
+    fn a_write_keeps_what_this_editor_did_not_change() {
+        let dir = ScratchDir::new("prefs-merge");
+        let file = dir.join(FILE_NAME);
+        std::fs::write(&file, r#"{"theme": "system", "grid_visible": false, "ui_scale": 1.5}"#)
+            .unwrap();
+        let (read, msg) = Preferences::load(&dir);
+        assert!(msg.is_some());
+        // another window sets the UI scale meanwhile
+        let text = std::fs::read_to_string(&file).unwrap().replace("1.5", "2.0");
+        std::fs::write(&file, text).unwrap();
+        let mine = Preferences { brush_radius: 0.1, ..read };
+        mine.save_changes(&read, &dir).unwrap();
+        let back: Value = serde_json::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
+        assert_eq!(back["theme"], "system");
+        assert_eq!(back["grid_visible"], false);
+        assert_eq!(back["ui_scale"], 2.0);
+        assert_eq!(back["brush_radius"].as_f64().unwrap() as f32, 0.1);
+        // a file that is not an object is replaced by every value
+        std::fs::write(&file, "{ not json").unwrap();
+        mine.save_changes(&read, &dir).unwrap();
+        assert_eq!(Preferences::load(&dir), (mine, None));
     }
 }

@@ -98,7 +98,9 @@ impl EditorApp {
         if self.prefs.current == self.prefs.saved {
             return;
         }
-        if let Err(e) = self.prefs.current.save(dir) {
+        if let Err(e) = self.prefs.current.save_changes(&self.prefs.saved, dir) {
+            // (also on the terminal: at exit no frame is left to show it)
+            eprintln!("editor: preferences not saved: {e}");
             self.error = Some(format!("preferences not saved: {e}"));
         }
         // A failed write is not retried every frame; the next change tries again.
