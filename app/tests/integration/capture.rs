@@ -459,10 +459,15 @@ fn the_scene_capture_object_sizes_screenshots_and_is_saved_back() {
 /// A scene of three frames in a new folder `name`, recorded in the editor with BS-ARAP,
 /// captures at 120 x 90 with overlays.
 fn recorded(name: &str) -> (ScratchDir, Harness<'static, EditorApp>) {
+    recorded_by(name, "bsarap")
+}
+
+/// [`recorded`] with the scene's method `method`.
+fn recorded_by(name: &str, method: &str) -> (ScratchDir, Harness<'static, EditorApp>) {
     let dir = ScratchDir::new(name);
     let capture = r#", "capture": {"width": 120, "height": 90, "overlays": true}"#;
     let path = scene(&dir, Some(2.0), capture);
-    let text = std::fs::read_to_string(&path).unwrap().replace(r#""arap""#, r#""bsarap""#);
+    let text = std::fs::read_to_string(&path).unwrap().replace(r#""arap""#, &format!("{method:?}"));
     std::fs::write(&path, text).unwrap();
     let mut h = harness_on(path, dir.join("config"));
     step_until(&mut h, "the scene", support::loaded);
@@ -495,6 +500,23 @@ fn the_recording_renders_to_a_png_sequence_from_the_file_menu() {
     assert!(imgs.iter().all(|i| i.dimensions() == (120, 90)));
     let d = differing_pixels(&imgs[0], &imgs[1]);
     assert!(d > 20, "recorded frames 0 and 1 differ in {d} pixels only");
+}
+
+/// The recording renders in the Base view too, with ARAP, which has no base surface to show
+/// (the picture's template was the viewport's shape: "ARAP has no base surface").
+#[test]
+fn the_recording_renders_from_the_base_view_of_arap() {
+    let (dir, mut h) = recorded_by("capture-sequence-base", "arap");
+    h.state_mut().set_view(View::Base);
+    h.run_steps(2);
+    h.get_by_label("File").click();
+    h.run_steps(2);
+    h.get_by_label("Render the recording to PNGs").click();
+    step_until(&mut h, "the PNG sequence", |a| {
+        !a.is_capturing() && a.last_capture().is_some() || a.error().is_some()
+    });
+    assert!(h.state().error().is_none(), "{:?}", h.state().error());
+    assert_eq!(pngs_in(&dir.join("config/screenshots/frames_0001")).len(), 3);
 }
 
 /// A PNG sequence started from the File menu shows its progress and its cancel in the status

@@ -16,6 +16,7 @@ use solver::animation::scene::CaptureSettings;
 
 use super::EditorApp;
 use crate::editor::capture::{self, Offscreen, Picture};
+use crate::editor::shape::Shape;
 
 /// The capture settings (window "Capture settings", File menu) and the running captures.
 pub(super) struct Capture {
@@ -298,8 +299,14 @@ impl EditorApp {
 
     /// The picture of viewport `slot` at `size`, as it shows now.
     fn viewport_picture(&self, slot: usize, size: [u32; 2]) -> Result<Picture, String> {
-        let scene = self.session.scene.as_ref().ok_or("open a mesh first")?;
+        self.session.scene.as_ref().ok_or("open a mesh first")?;
         let (_, shape) = self.slot_shape(slot)?;
+        self.picture_of(shape, size)
+    }
+
+    /// A picture of `shape` with the viewports' camera and the capture settings.
+    fn picture_of(&self, shape: Shape, size: [u32; 2]) -> Result<Picture, String> {
+        let scene = self.session.scene.as_ref().ok_or("open a mesh first")?;
         let n = shape.positions.len();
         let render = self.texture_layout(n).cloned();
         let overlays = self.capture.overlays;
@@ -384,17 +391,20 @@ impl EditorApp {
         };
         let shapes = rec.shapes.clone();
         let size = self.capture_size(ctx);
-        let base = match self.viewport_picture(0, size) {
+        let n_mesh = self.session.scene.as_ref().map(|s| s.rest.positions.len());
+        let Some(first) = shapes.first().filter(|s| Some(s.positions.len()) == n_mesh) else {
+            self.error = Some("render: the recording is of another mesh".into());
+            return;
+        };
+        // the recording's own first frame, whatever the view shows (the Base view of ARAP
+        // has nothing to show)
+        let base = match self.picture_of(first.clone(), size) {
             Ok(p) => p,
             Err(e) => {
                 self.error = Some(format!("render: {e}"));
                 return;
             }
         };
-        if shapes.first().is_none_or(|s| s.positions.len() != base.shape.positions.len()) {
-            self.error = Some("render: the recording is of another mesh".into());
-            return;
-        }
         let dir = self.capture.next_name("frames", "");
         let n = shapes.len();
         self.spawn_capture(ctx, frame, n, true, move |offscreen, done, cancel| {
