@@ -231,7 +231,12 @@ pub fn recording_fits(source: &str, frames: usize, vertices: usize) -> anyhow::R
 /// taken for a flag) and is refused by this message, not by the integer parser's "invalid
 /// digit found in string".
 pub fn count<T: std::str::FromStr>(s: &str) -> Result<T, String> {
-    s.trim().parse().map_err(|_| "expected a whole number ≥ 0".to_string())
+    let s = s.trim();
+    s.parse().map_err(|_| match s.bytes().all(|b| b.is_ascii_digit()) && !s.is_empty() {
+        // (a whole number past the type's limit: the integer parser's "number too large")
+        true => "too large a number".to_string(),
+        false => "expected a whole number ≥ 0".to_string(),
+    })
 }
 
 /// Base-surface options shared by deform and bench.

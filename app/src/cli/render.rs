@@ -124,7 +124,8 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
     );
     // Every frame's file, before any is rendered: none a folder or an input.
     if a.output.is_dir() {
-        let frames: Vec<_> = (0..n_frames).map(|i| capture::frame_path(&a.output, i)).collect();
+        let frames: Vec<_> =
+            (0..n_frames).map(|i| capture::frame_path(&a.output, i, n_frames)).collect();
         outputs::check(&frames, &Input::scene_files(&a.scene, &file.path, &doc))?;
     }
     if moving {
@@ -233,14 +234,14 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
     pb.finish_and_clear();
     let render_s = t2.elapsed().as_secs_f64();
     // Not deleted: they are the user's files; said, since a player would show them next.
-    let later = capture::later_frames(&a.output, written.len());
-    if later > 0 && !a.json {
+    let (later, first_later) = capture::later_frames(&a.output, written.len());
+    if let Some(first) = first_later.filter(|_| !a.json) {
         eprintln!(
             "note: {} still holds {later} later frame{} of an earlier render ({} on); they were \
              not written by this one",
             a.output.display(),
             if later == 1 { "" } else { "s" },
-            capture::frame_path(&a.output, written.len()).display()
+            first.display()
         );
     }
 
@@ -266,8 +267,9 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
         println!("{j}");
     } else {
         println!(
-            "{source}: {} frames of {}×{}{}{} on {} in {:.2} s (solve {:.2} s); wrote {}",
+            "{source}: {} frame{} of {}×{}{}{} on {} in {:.2} s (solve {:.2} s); wrote {}",
             written.len(),
+            if written.len() == 1 { "" } else { "s" },
             settings.width,
             settings.height,
             if settings.turntable { ", turntable" } else { "" },

@@ -157,7 +157,8 @@ impl Offscreen {
         self.device.limits().max_texture_dimension_2d
     }
 
-    /// Draws `picture` and reads it back: sRGB RGBA8, opaque, `picture.size` pixels.
+    /// Draws `picture` and reads it back: sRGB RGBA8, opaque, `picture.size` pixels. A GPU
+    /// error (out of memory for the targets, say) is an error here, not a panic.
     pub fn render(&mut self, picture: &Picture) -> anyhow::Result<image::RgbaImage> {
         let [w, h] = picture.size;
         let max = self.max_side();
@@ -166,6 +167,39 @@ impl Offscreen {
             "{w}×{h} pixels: each side must be between 1 and {max} on {}",
             self.adapter
         );
+        self.scoped(&format!("a {w}×{h} picture"), |o| o.draw_and_read(picture))
+    }
+
+    /// Runs `work` with the device's out-of-memory and validation errors caught: they are
+    /// `work`'s error (the headless device's default is a panic), and the targets are made
+    /// anew for the next picture (the failed ones may be invalid).
+    fn scoped<T>(
+        &mut self,
+        what: &str,
+        work: impl FnOnce(&mut Self) -> anyhow::Result<T>,
+    ) -> anyhow::Result<T> {
+        let memory = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let validation = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let result = work(self);
+        let invalid = pollster::block_on(validation.pop());
+        let out_of_memory = pollster::block_on(memory.pop());
+        let error = match (out_of_memory, invalid) {
+            (Some(e), _) => Some(format!("out of GPU memory for {what}: {e}")),
+            (None, Some(e)) => Some(format!("{what} could not be drawn: {e}")),
+            (None, None) => None,
+        };
+        match error {
+            Some(e) => {
+                let format = wgpu::TextureFormat::Rgba8UnormSrgb;
+                self.resources.insert(renderer::resources(&self.device, &self.queue, format));
+                anyhow::bail!("{}: {e}", self.adapter)
+            }
+            None => result,
+        }
+    }
+
+    fn draw_and_read(&mut self, picture: &Picture) -> anyhow::Result<image::RgbaImage> {
+        let [w, h] = picture.size;
         let callback = picture.callback(SLOT);
         let mut encoder = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("bsarap capture encoder"),
@@ -266,16 +300,23 @@ pub fn ensure_dir(dir: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// `dir/frame_0000.png`, `dir/frame_0001.png`, …
-pub fn frame_path(dir: &Path, i: usize) -> PathBuf {
-    dir.join(format!("frame_{i:04}.png"))
+/// Frame `i` of a sequence of `n`: `dir/frame_0000.png`, `dir/frame_0001.png`, …, with a
+/// fifth digit past 10,000 frames (all of them: the names sort in frame order).
+pub fn frame_path(dir: &Path, i: usize, n: usize) -> PathBuf {
+    let digits = n.saturating_sub(1).max(1).ilog10() as usize + 1;
+    dir.join(format!("frame_{i:0w$}.png", w = digits.max(4)))
 }
 
-/// How many frames of an earlier, longer sequence follow frame `n - 1` in `dir`
-/// (`frame_{n}.png`, `frame_{n+1}.png`, … while they exist): a sequence of `n` frames leaves
-/// them, and a player of `frame_%04d.png` would show them after it.
-pub fn later_frames(dir: &Path, n: usize) -> usize {
-    (n..).take_while(|&i| frame_path(dir, i).is_file()).count()
+/// The frames of an earlier, longer sequence after frame `n - 1` in `dir` (`frame_{n}.png`,
+/// `frame_{n+1}.png`, … while they exist, of four or five digits): a sequence of `n` frames
+/// leaves them, and a player of `frame_%04d.png` would show them after it. Their count and
+/// the first one's path.
+pub fn later_frames(dir: &Path, n: usize) -> (usize, Option<PathBuf>) {
+    let at = |i: usize| {
+        let names = [format!("frame_{i:04}.png"), format!("frame_{i:05}.png")];
+        names.into_iter().map(|name| dir.join(name)).find(|p| p.is_file())
+    };
+    ((n..).take_while(|&i| at(i).is_some()).count(), at(n))
 }
 
 /// Renders `n` pictures (`picture(i)` for i in 0..n) to `dir/frame_NNNN.png`; `progress(done)`
@@ -302,7 +343,7 @@ pub fn render_sequence(
     let mut written = Vec::with_capacity(n);
     let mut result = Ok(());
     for i in 0..n {
-        let path = frame_path(dir, i);
+        let path = frame_path(dir, i, n);
         match offscreen.render(&picture(i)) {
             Ok(image) => {
                 if tx.send((path.clone(), image)).is_err() {
@@ -339,6 +380,53 @@ mod tests {
     /// An offscreen renderer; `None`, with a printed "skipped", without an adapter.
     fn headless() -> Option<Offscreen> {
         Offscreen::headless().map_err(|e| eprintln!("skipped: {e}")).ok()
+    }
+
+    /// A GPU error in a picture's work is an error, not the default handler's panic, and the
+    /// next picture draws.
+    #[test]
+    fn a_gpu_error_is_an_error_and_the_next_picture_draws() {
+        let Some(mut o) = headless() else { return };
+        let invalid = wgpu::BufferDescriptor {
+            label: Some("mapped both ways"),
+            size: 16,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::MAP_WRITE,
+            mapped_at_creation: false,
+        };
+        let e = o.scoped("a test", |o| Ok(o.device.create_buffer(&invalid))).unwrap_err();
+        assert!(e.to_string().contains("a test could not be drawn"), "{e}");
+        let mesh = solver::geometry::shapes::icosphere(1);
+        let triangles = mesh.triangles();
+        let mut camera = OrbitCamera::default();
+        camera.frame(glam::Vec3::ZERO, 1.0, 1.0);
+        let p = Picture {
+            size: [32, 24],
+            camera,
+            topology: Arc::new(Topology {
+                version: 1,
+                triangles: triangles.iter().flatten().copied().collect(),
+                edges: Vec::new(),
+                vertex_faces: None,
+            }),
+            shape: Shape::new(mesh.positions(), [0.0; 3], triangles),
+            colors: vec![[0.8, 0.5, 0.3, 1.0]; mesh.n_vertices()],
+            render: None,
+            grid: None,
+            wireframe: false,
+        };
+        assert_eq!(o.render(&p).unwrap().dimensions(), (32, 24));
+    }
+
+    /// Past 10,000 frames every name has five digits: `frame_10000.png` sorted between
+    /// `frame_1000.png` and `frame_1001.png`.
+    #[test]
+    fn frame_names_sort_in_frame_order() {
+        let d = Path::new("out");
+        assert_eq!(frame_path(d, 7, 1), d.join("frame_0007.png"));
+        assert_eq!(frame_path(d, 9999, 10_000), d.join("frame_9999.png"));
+        assert_eq!(frame_path(d, 7, 10_001), d.join("frame_00007.png"));
+        let names: Vec<_> = (0..10_001).map(|i| frame_path(d, i, 10_001)).collect();
+        assert!(names.windows(2).all(|w| w[0] < w[1]));
     }
 
     #[test]

@@ -226,6 +226,11 @@ fn negative_numbers_reach_the_range_checks() {
     let (code, _, stderr) = bsarap(&["bench", s(&mesh), "--handles", s(&sel), "--frames", "-1"]);
     assert_eq!(code, 2, "{stderr}");
     assert!(stderr.contains("--frames") && stderr.contains("whole number"), "{stderr}");
+    // past the type's limit: said as too large, not as not a whole number
+    let (code, _, stderr) =
+        bsarap(&["bench", s(&mesh), "--handles", s(&sel), "--frames", "99999999999999999999999"]);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("--frames") && stderr.contains("too large a number"), "{stderr}");
 }
 
 #[test]

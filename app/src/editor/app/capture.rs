@@ -506,7 +506,11 @@ impl EditorApp {
                 });
             });
             ui.checkbox(&mut c.overlays, "overlays (grid, handle colours, wireframe)")
-                .on_hover_text("off: the mesh alone on the background");
+                .on_hover_text(
+                    "as the viewport shows them (the grid and the wireframe where they are on); \
+                     off: the mesh alone on the background. Saved with the scene, where \
+                     `bsarap render` draws the grid and the handle colours, no wireframe",
+                );
             ui.horizontal(|ui| {
                 ui.label("folder (this session)")
                     .on_hover_text("not kept for the next session: empty is the default folder");
