@@ -10,7 +10,8 @@
 //! (`mesh_topology`), `capture_viewport_size` (the capture settings' choice) and, in the
 //! autosave only, the scene file being edited (`document`). Keys of `editor` and `camera` this
 //! version does not read (a newer version's) are kept from the opened scene and written back
-//! ([`ForeignKeys`]). Reading and writing (atomic) are `solver::animation::scene`'s.
+//! ([`ForeignKeys`]); keys inside a group's entry of `editor.groups` other than its name and
+//! colour are not (groups are added, deleted and renumbered here). Reading and writing (atomic) are `solver::animation::scene`'s.
 
 use std::path::{Path, PathBuf};
 
@@ -60,7 +61,8 @@ const CAMERA_KEYS: [&str; 5] = ["target", "yaw", "pitch", "distance", "fov_y"];
 
 /// What a scene's `editor` and `camera` objects hold that this version does not read (a newer
 /// version's settings, another tool's): kept from the scene opened and written back by a
-/// save, so that a round trip through this version loses none of it.
+/// save, so that a round trip through this version loses none of these keys. Within
+/// `editor.groups`, a group's keys other than its name and colour are not kept.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct ForeignKeys {
     editor: serde_json::Map<String, serde_json::Value>,
@@ -98,6 +100,17 @@ fn absolute(p: &Path) -> PathBuf {
     std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf())
 }
 
+/// `target` relative to the folder `dir`, as spelled (symlinks kept); where a `..` in the
+/// spelling makes [`relative_path`] give up (an absolute path: the scene would break when its
+/// folder moves), as the file system resolves both.
+fn relative_in(dir: &Path, target: &Path) -> Result<String, String> {
+    let spelled = relative_path(dir, &absolute(target))?;
+    match (Path::new(&spelled).is_absolute(), dir.canonicalize(), target.canonicalize()) {
+        (true, Ok(dir), Ok(target)) => relative_path(&dir, &target),
+        _ => Ok(spelled),
+    }
+}
+
 /// The scene to write at `scene_path`. Errors when there is nothing to save (no handles).
 pub fn to_scene(scene_path: &Path, input: &DocumentInput) -> Result<Scene, String> {
     let edit = input.edit;
@@ -105,7 +118,7 @@ pub fn to_scene(scene_path: &Path, input: &DocumentInput) -> Result<Scene, Strin
         return Err("nothing to save yet: paint at least one handle group".into());
     }
     let dir = absolute(scene_path).parent().map(Path::to_path_buf).unwrap_or_default();
-    let mesh = relative_path(&dir, &absolute(input.mesh_path))?;
+    let mesh = relative_in(&dir, input.mesh_path)?;
     let labels = edit.labels.iter().map(|l| l.map_or(-1, i64::from)).collect();
     let mut scene = Scene::new(mesh, HandlesSpec { labels: Some(labels), ..Default::default() });
     scene.timeline = effective_timeline(edit);
@@ -115,7 +128,7 @@ pub fn to_scene(scene_path: &Path, input: &DocumentInput) -> Result<Scene, Strin
     scene.arap = s.arap_config();
     scene.base = s.base_config();
     scene.camera = Some(input.camera.to_json(input.origin));
-    scene.texture = input.texture.map(|t| relative_path(&dir, &absolute(t))).transpose()?;
+    scene.texture = input.texture.map(|t| relative_in(&dir, t)).transpose()?;
     scene.up_axis = input.up_axis;
     let groups: Vec<serde_json::Value> = edit
         .groups
@@ -155,6 +168,31 @@ pub fn to_scene(scene_path: &Path, input: &DocumentInput) -> Result<Scene, Strin
     };
     debug_assert_eq!(scene.version, SCENE_VERSION);
     Ok(scene)
+}
+
+/// What a scene of `edit` does not keep, for the user (`None`: everything): the keys of a
+/// group with no vertex painted (a selection file cannot name the group), and groups after
+/// the last painted one (a reader makes the groups from the labels).
+pub fn left_out(edit: &EditState) -> Option<String> {
+    let kept = effective_timeline(edit);
+    let keys: Vec<&str> = (edit.timeline.paths.iter())
+        .filter(|p| !kept.paths.iter().any(|k| k.group == p.group))
+        .filter_map(|p| edit.groups.get(p.group).map(|g| g.name.as_str()))
+        .collect();
+    let reloaded = edit.labels.iter().flatten().map(|&k| k as usize + 1).max().unwrap_or(0);
+    let groups: Vec<&str> = edit.groups.iter().skip(reloaded).map(|g| g.name.as_str()).collect();
+    let mut parts = Vec::new();
+    if !keys.is_empty() {
+        parts.push(format!("the keys of {} (no vertex painted)", keys.join(", ")));
+    }
+    if !groups.is_empty() {
+        parts.push(format!("the empty group{} {}", plural(groups.len()), groups.join(", ")));
+    }
+    (!parts.is_empty()).then(|| format!("not kept in the file: {}", parts.join("; ")))
+}
+
+fn plural(n: usize) -> &'static str {
+    if n == 1 { "" } else { "s" }
 }
 
 /// The time on `scene`'s timeline the editor saved it at (0 when it says none), within the
@@ -272,6 +310,31 @@ mod tests {
     use solver::animation::timeline::{CircularPath, Path as AnimPath};
 
     #[test]
+    fn what_a_scene_does_not_keep_is_named() {
+        let (_, handles) = solver::geometry::shapes::bumpy_bar(1);
+        let mut edit = EditState::from_labels(handles.labels().to_vec());
+        assert_eq!(left_out(&edit), None);
+        let circle = AnimPath::Circular(CircularPath::new([0.0, 1.0, 0.0], 0.2, 2.0));
+        edit.set_path(1, circle.clone());
+        assert_eq!(left_out(&edit), None, "a painted group's keys are kept");
+        // group 0 emptied, with keys; an empty group added after the last painted one
+        for l in &mut edit.labels {
+            if *l == Some(0) {
+                *l = None;
+            }
+        }
+        edit.set_path(0, circle);
+        edit.groups[0].name = "knee".into();
+        let k = edit.add_group();
+        edit.groups[k].name = "spare".into();
+        let said = left_out(&edit).unwrap();
+        assert!(
+            said.contains("the keys of knee") && said.contains("the empty group spare"),
+            "{said}"
+        );
+    }
+
+    #[test]
     fn a_saved_scene_loads_back_to_the_same_state() {
         let dir = solver::testing::ScratchDir::new("doc");
         std::fs::create_dir_all(dir.join("scenes")).unwrap();
@@ -323,6 +386,12 @@ mod tests {
         let scene_path = dir.join("scenes/pose.json");
         let scene = to_scene(&scene_path, &input).unwrap();
         assert_eq!(scene.mesh, "../bar.obj");
+        // a folder spelled with `..` (the default asset's `app/../assets`) is relative too:
+        // it was written absolute, and broke when the project folder moved
+        let spelled = dir.join("scenes/../scenes/pose.json");
+        assert_eq!(to_scene(&spelled, &input).unwrap().mesh, "../bar.obj");
+        let far = DocumentInput { mesh_path: &dir.join("scenes/../bar.obj"), ..input };
+        assert_eq!(to_scene(&spelled, &far).unwrap().mesh, "../bar.obj");
         scene.save(&scene_path).unwrap();
 
         let loaded = solver::animation::scene::Scene::load(&scene_path).unwrap();

@@ -23,6 +23,8 @@ pub(super) struct SaveOrder {
     doc: solver::animation::scene::Scene,
     mark: Box<DocumentMark>,
     mesh: Option<u64>,
+    /// What the file does not keep of the document (`document::left_out`), said once saved.
+    left_out: Option<String>,
 }
 
 /// A save under way.
@@ -31,6 +33,7 @@ pub(super) struct Saving {
     /// The state being written.
     mark: Box<DocumentMark>,
     mesh: Option<u64>,
+    left_out: Option<String>,
     job: Job<()>,
 }
 
@@ -171,26 +174,27 @@ impl EditorApp {
             doc: self.document(path)?,
             mark: Box::new(DocumentMark::of(&self.session, self.capture.saved())),
             mesh: self.open_mesh(),
+            left_out: crate::editor::document::left_out(&self.session.edit),
         })
     }
 
     /// Starts writing `order` on a worker thread (none may be under way).
     fn write(&mut self, order: SaveOrder, repaint: impl Fn() + Send + 'static) {
-        let SaveOrder { path, doc, mark, mesh } = order;
+        let SaveOrder { path, doc, mark, mesh, left_out } = order;
         let gate = self.jobs.save_gate.clone();
         let job = jobs::spawn_save(doc, path.clone(), gate, repaint);
         self.info = Some(format!("saving {}…", path.display()));
-        self.jobs.save = Some(Saving { path, mark, mesh, job });
+        self.jobs.save = Some(Saving { path, mark, mesh, left_out, job });
     }
 
     /// Waits for the save under way, if any (`save_scene`), and starts the next waiting.
     fn finish_save(&mut self) -> Result<(), String> {
-        let Some(Saving { path, mark, mesh, job }) = self.jobs.save.take() else {
+        let Some(Saving { path, mark, mesh, left_out, job }) = self.jobs.save.take() else {
             return Ok(());
         };
         let result = job.wait();
         self.write_next(|| {});
-        self.saved(path, *mark, mesh, result)
+        self.saved(path, *mark, mesh, left_out, result)
     }
 
     /// Starts the first save waiting, if any: written even after a failed one (it may be a
@@ -218,7 +222,9 @@ impl EditorApp {
                 return;
             };
             self.write_next(|| {});
-            if let Err(e) = self.saved(saving.path, *saving.mark, saving.mesh, result) {
+            let (path, mark, mesh, left_out) =
+                (saving.path, *saving.mark, saving.mesh, saving.left_out);
+            if let Err(e) = self.saved(path, mark, mesh, left_out, result) {
                 eprintln!("editor: scene not saved: {e}");
             }
         }
@@ -231,12 +237,14 @@ impl EditorApp {
         let Some(result) = self.jobs.save.as_ref().and_then(|s| s.job.try_finish()) else {
             return;
         };
-        let Some(Saving { path, mark, mesh, .. }) = self.jobs.save.take() else { return };
+        let Some(Saving { path, mark, mesh, left_out, .. }) = self.jobs.save.take() else {
+            return;
+        };
         let c = ctx.clone();
         self.write_next(move || c.request_repaint());
         let for_open_mesh = mesh == self.open_mesh();
         let written = path.clone();
-        match self.saved(path, *mark, mesh, result) {
+        match self.saved(path, *mark, mesh, left_out, result) {
             Err(e) => {
                 if for_open_mesh {
                     self.session.after_save = None;
@@ -290,10 +298,14 @@ impl EditorApp {
         path: PathBuf,
         mark: DocumentMark,
         mesh: Option<u64>,
+        left_out: Option<String>,
         result: Result<(), String>,
     ) -> Result<(), String> {
         result?;
-        self.info = Some(format!("saved {}", path.display()));
+        self.info = Some(match left_out {
+            Some(what) => format!("saved {}; {what}", path.display()),
+            None => format!("saved {}", path.display()),
+        });
         self.remember(&path);
         if self.session.scene.as_ref().map(|s| s.topology.version) != mesh {
             return Ok(());
