@@ -72,17 +72,28 @@ fn paint_new_group(
     (n_groups, labels)
 }
 
-/// Selects group 5 (the snout) and drags its falloff slider to 30 % of its length.
+/// Selects group 5 (the snout) and drags its falloff slider from its left end to a radius of
+/// 0.15 (the README's picture), half a point a frame.
 fn soft_falloff_on_group_5(h: &mut Harness<'_, EditorApp>) {
     h.state_mut().set_active_group(Some(5));
     h.step();
     let slider = h.get_all_by_label("falloff radius").next().expect("the falloff slider").rect();
-    drag(
-        h,
-        slider.left_center() + Vec2::new(2.0, 0.0),
-        Vec2::new(slider.width() * 0.3, 0.0),
-        Modifiers::NONE,
-    );
+    let radius = |h: &Harness<'_, EditorApp>| h.state().edit_state().groups[5].falloff.radius;
+    let mut at = slider.left_center() + Vec2::new(2.0, 0.0);
+    h.event(Event::PointerMoved(at));
+    h.step();
+    press(h, at, true, Modifiers::NONE);
+    h.step();
+    while radius(h) < 0.15 && at.x < slider.right() {
+        at.x += 0.5;
+        h.event(Event::PointerMoved(at));
+        h.step();
+    }
+    press(h, at, false, Modifiers::NONE);
+    h.step();
+    h.step();
+    let sent = h.state().solver_handles().unwrap().rig().falloff(5).radius;
+    assert_eq!(sent, 0.15, "the radius the slider sent");
 }
 
 /// Shift+R picks the rigidity brush; a stroke paints the brush value into the map the solver
@@ -96,6 +107,7 @@ fn the_rigidity_brush_paints_the_solvers_rigidity_map() {
     h.step();
     assert_eq!(h.state().tool(), Tool::Rigidity, "Shift+R did not pick the rigidity brush");
     h.state_mut().set_rigidity_value(0.25);
+    h.state_mut().set_rigidity_value(f64::NAN); // refused: the brush keeps 0.25
     let (v, pos) = free_vertex_on_the_body(h.state());
     // The tool's button is there too.
     assert!(h.get_by_label("Rigidity (Shift+R)").rect().width() > 0.0);
@@ -400,4 +412,84 @@ fn an_axis_undone_before_its_fit_arrives_stays_undone() {
         std::thread::sleep(std::time::Duration::from_millis(10));
     }
     assert_eq!(h.state().symmetry(), before, "the undone axis's fit was applied");
+}
+
+/// A falloff radius typed in the slider's field is taken up to 1, the largest a scene accepts
+/// (the slider stopped at 0.5: a scene's 0.8 showed and could not be typed again).
+#[test]
+fn a_typed_falloff_radius_goes_up_to_what_a_scene_accepts() {
+    use eframe::egui::accesskit::Role;
+    let mut h = harness(default_mesh_path());
+    step_until(&mut h, "the default asset", settled);
+    h.state_mut().set_active_group(Some(5));
+    h.step();
+    let radius = |h: &Harness<'_, EditorApp>| h.state().solver_handles().unwrap().rig().falloff(5);
+    let mut type_radius = |text: &str| {
+        h.get_by_role_and_label(Role::SpinButton, "falloff radius").scroll_to_me();
+        h.step();
+        h.get_by_role_and_label(Role::SpinButton, "falloff radius").click();
+        h.step();
+        h.key_press_modifiers(Modifiers::COMMAND, Key::A);
+        h.event(Event::Text(text.into()));
+        h.step();
+        h.key_press(Key::Enter);
+        h.step();
+        h.step();
+        radius(&h).radius
+    };
+    assert_eq!(type_radius("0.8"), 0.8);
+    assert_eq!(type_radius("1.7"), 1.0, "past what a scene accepts");
+}
+
+/// Mirrored posing keeps the partner group it found for a gesture only while the labels stay:
+/// a drag begun after the pair's vertices went to another group moves that group (mirrored),
+/// not the old one; a G move then does too.
+#[test]
+fn mirrored_posing_follows_a_pair_changed_between_drags() {
+    let (mut h, partner) = mirrored_posing_of_group_0();
+    h.state_mut().set_tool(Tool::Pose);
+    h.state_mut().set_active_group(Some(0));
+    step_until(&mut h, "a frame with mirrored posing", settled);
+    let rest = h.state().rest_positions().unwrap().to_vec();
+    let on_group_0 = |h: &Harness<'_, EditorApp>| {
+        let labels = h.state().labels();
+        let keep = |v: usize| labels[v] == Some(0) && rest[v][2] > 0.3;
+        visible_vertex(h.state(), Pos2::new(SIZE.x * 0.5, SIZE.y * 0.5), keep).1
+    };
+    let pose = |h: &Harness<'_, EditorApp>, g: usize| h.state().group_pose(g).unwrap();
+    let mirrored = |h: &Harness<'_, EditorApp>, g: usize| {
+        let (t, m) = (pose(h, 0).translation, pose(h, g).translation);
+        t != glam::DVec3::ZERO && [m.x, m.y, -m.z] == t.to_array()
+    };
+    let at = on_group_0(&h);
+    drag(&mut h, at, Vec2::new(40.0, -30.0), Modifiers::NONE);
+    assert!(mirrored(&h, partner), "group {partner} did not follow the first drag");
+    let left = pose(&h, partner);
+
+    // The pair's vertices go to a new group (a relabel with the brush would do the same).
+    let mut e = h.state().edit_state().clone();
+    let new = e.add_group();
+    for l in e.labels.iter_mut().filter(|l| **l == Some(partner as u32)) {
+        *l = Some(new as u32);
+    }
+    h.state_mut().set_edit_state(e);
+    step_until(&mut h, "a frame for the new pair", settled);
+    let at = on_group_0(&h);
+    drag(&mut h, at, Vec2::new(-30.0, 20.0), Modifiers::NONE);
+    assert!(mirrored(&h, new), "the new pair {new} did not follow the second drag");
+    assert_eq!(pose(&h, partner), left, "the old pair {partner} moved with the second drag");
+
+    // A G move (the gizmo's path) moves the new pair too.
+    let before = pose(&h, 0);
+    for k in [Key::G, Key::X] {
+        h.key_press(k);
+        h.step();
+    }
+    h.event(Event::Text("0.1".into()));
+    h.step();
+    h.key_press(Key::Enter);
+    h.step();
+    assert_ne!(pose(&h, 0), before, "G did not move group 0");
+    assert!(mirrored(&h, new), "the new pair {new} did not follow G");
+    assert_eq!(pose(&h, partner), left, "the old pair {partner} moved with G");
 }

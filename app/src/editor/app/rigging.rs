@@ -5,8 +5,9 @@
 //! thread and polled here. Every edit goes through the undo history ([`EditState`]) and the
 //! rig reaches the solver with the handles ([`EditorApp::rig`], `SolverCommand::SetScene`).
 
-use std::sync::Arc;
+use std::ops::RangeInclusive;
 use std::sync::mpsc::{Receiver, channel};
+use std::sync::{Arc, Weak};
 
 use eframe::egui::{self, Key, Modifiers};
 use solver::deform::rig::{Falloff, FalloffCurve, Rig};
@@ -30,12 +31,29 @@ enum Request {
     Exact(SymmetryPlane),
 }
 
+/// The falloff radii the panel takes (fractions of the bounding-box diagonal): those a scene
+/// accepts (`solver::animation::scene` refuses a radius outside [0, 1]), so that a scene's
+/// radius can be typed again (up to 0.5, a scene's 0.8 showed and could not be).
+const FALLOFF_RADII: RangeInclusive<f64> = 0.0..=1.0;
+
 /// A mirror map for one mesh (identified by its `Arc`) and request.
 struct Mirror {
     key: (usize, Request),
     plane: SymmetryPlane,
     error: f64,
     map: Arc<MirrorMap>,
+}
+
+/// Mirrored posing's partner of a group ([`EditorApp::mirror_partner`]), kept while the labels
+/// and the mirror map it was found from stay: finding it walks every label, too much for every
+/// frame of a pose drag (in the viewport, on the gizmo, on a pose panel number) on a dense mesh.
+struct PosePartner {
+    /// `color_version` (which every label change bumps), the labels' count and the group.
+    key: (u64, usize, usize),
+    /// The map it was found with; weak, so that a map replaced meanwhile is freed (its
+    /// allocation, which this holds, is not reused for another map while held).
+    map: Weak<MirrorMap>,
+    partner: Option<usize>,
 }
 
 /// The rigging tools' UI state (not undoable: brush value, view toggle, the mirror map).
@@ -48,6 +66,7 @@ pub(super) struct Rigging {
     fit_axis: Option<Axis>,
     mirror: Option<Mirror>,
     job: Option<((usize, Request), Receiver<Mirror>)>,
+    pose_partner: Option<PosePartner>,
     /// The partner group of the stroke in progress (mirrored painting of a handle group).
     pub(super) stroke_partner: Option<u32>,
     /// The falloff changed and the solvers have not been sent it yet (a slider drag rebuilds
@@ -65,6 +84,7 @@ impl Default for Rigging {
             fit_axis: None,
             mirror: None,
             job: None,
+            pose_partner: None,
             stroke_partner: None,
             falloff_unsent: false,
             shown: false,
@@ -419,13 +439,25 @@ impl EditorApp {
         }
     }
 
-    /// The group mirrored posing moves with `group`, while it is on.
-    pub(super) fn mirror_partner(&self, group: usize) -> Option<usize> {
+    /// The group mirrored posing moves with `group`, while it is on. Found again only when
+    /// the labels, the map or the group changed ([`PosePartner`]): once per pose drag, gizmo
+    /// transform or panel number drag, not once per frame of it.
+    pub(super) fn mirror_partner(&mut self, group: usize) -> Option<usize> {
         if !self.session.edit.symmetry.mirror_posing {
             return None;
         }
         let (_, map) = self.mirror_shared()?;
-        partner_group(&self.session.edit.labels, &map, group as u32).map(|p| p as usize)
+        let key = (self.display.color_version, self.session.edit.labels.len(), group);
+        if let Some(kept) = &self.rigging.pose_partner
+            && kept.key == key
+            && Weak::as_ptr(&kept.map) == Arc::as_ptr(&map)
+        {
+            return kept.partner;
+        }
+        let partner =
+            partner_group(&self.session.edit.labels, &map, group as u32).map(|p| p as usize);
+        self.rigging.pose_partner = Some(PosePartner { key, map: Arc::downgrade(&map), partner });
+        partner
     }
 
     /// Whether the rigidity map is drawn (the toggle, or the rigidity brush active).
@@ -497,8 +529,8 @@ impl EditorApp {
             let mut f: Falloff = self.session.edit.groups[k].falloff;
             ui.label(format!("Soft falloff of {}", self.session.edit.groups[k].name));
             let slider = ui.add(
-                egui::Slider::new(&mut f.radius, 0.0..=0.5)
-                    .clamping(egui::SliderClamping::Edits) // a scene's wider radius stays
+                egui::Slider::new(&mut f.radius, FALLOFF_RADII)
+                    .clamping(egui::SliderClamping::Edits) // (none outside: a scene's are in it)
                     // a typed radius is one edit once entered: not a step and a rebuild of
                     // the solvers per keystroke ("0" on the way made the handle hard)
                     .update_while_editing(false)
@@ -605,9 +637,11 @@ impl EditorApp {
         self.interaction.tool
     }
 
-    /// The rigidity the brush paints.
+    /// The rigidity the brush paints, clamped to [0, 1]; NaN is refused (the value stays).
     pub fn set_rigidity_value(&mut self, value: f64) {
-        self.rigging.value = value.clamp(0.0, 1.0);
+        if !value.is_nan() {
+            self.rigging.value = value.clamp(0.0, 1.0);
+        }
     }
 }
 
