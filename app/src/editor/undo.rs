@@ -103,9 +103,10 @@ impl EditState {
         }
     }
 
-    /// Labels only (what the solver's handle set depends on).
+    /// Labels only (what the solver's handle set depends on). Without a group, no label can
+    /// name one: the panels ask every frame, and a mesh with no group is not scanned.
     pub fn has_handles(&self) -> bool {
-        self.labels.iter().any(Option::is_some)
+        !self.groups.is_empty() && self.labels.iter().any(Option::is_some)
     }
 
     /// Checks what a user can type: every pose finite, the timeline valid (durations and
