@@ -152,18 +152,37 @@ fn spawn<T: Send + 'static>(
     Job { progress, rx }
 }
 
+/// What a save did ([`spawn_save`]).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Saved {
+    /// Written; the file's modification time now ([`super::persist::modified_stamp`]).
+    Written(Option<String>),
+    /// Not written: the file's modification time was not the one expected.
+    ChangedOnDisk,
+}
+
 /// Writes `scene` to `path` (atomically: `Scene::save`) on a worker thread: serializing and
 /// syncing a dense mesh's labels and rigidity takes long enough to stall frames. It waits
-/// while `gate` holds saves back.
+/// while `gate` holds saves back. With `unless_changed`, a file at `path` whose modification
+/// time is another is left as it is ([`Saved::ChangedOnDisk`]; the time is read here, not on
+/// the UI thread, which never waits on a drive).
 pub fn spawn_save(
     scene: solver::animation::scene::Scene,
     path: PathBuf,
+    unless_changed: Option<String>,
     gate: Arc<SaveGate>,
     repaint: impl Fn() + Send + 'static,
-) -> Job<()> {
+) -> Job<Saved> {
+    use super::persist::modified_stamp;
     spawn("save", repaint, move |_| {
         gate.pass();
-        scene.save(&path).map_err(|e| e.to_string())
+        if let Some(expected) = unless_changed
+            && modified_stamp(&path).is_some_and(|now| now != expected)
+        {
+            return Ok(Saved::ChangedOnDisk);
+        }
+        scene.save(&path).map_err(|e| e.to_string())?;
+        Ok(Saved::Written(modified_stamp(&path)))
     })
 }
 

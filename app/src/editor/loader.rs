@@ -84,6 +84,8 @@ pub struct LoadedFile {
     pub selection_path: Option<PathBuf>,
     /// The scene file this was opened from, and its contents.
     pub document: Option<(PathBuf, solver::animation::scene::Scene)>,
+    /// That file's modification time, read before it was ([`persist::modified_stamp`]).
+    pub document_stamp: Option<String>,
     /// The connected components (index, vertex count, first vertex), for the Parts panel;
     /// which have handles and what the loose ones ride on come from the solver's frames.
     pub components: Arc<Vec<solver::ComponentInfo>>,
@@ -374,6 +376,7 @@ fn prepare(
         default_labels,
         selection_path,
         document: None,
+        document_stamp: None,
         components,
     })
 }
@@ -387,6 +390,8 @@ pub fn load_scene_file(
     version: u64,
     policy: solver::io::ReferencePolicy,
 ) -> anyhow::Result<LoadedFile> {
+    // before the read: a change between the two is taken for a change after it
+    let stamp = crate::editor::persist::modified_stamp(path);
     let loaded = solver::animation::scene::Scene::load_with(path, policy)?;
     let labels = loaded.handles.labels().to_vec();
     let mesh_path = loaded.mesh_path;
@@ -406,6 +411,7 @@ pub fn load_scene_file(
             solver::animation::scene::Scene::resolve_path(path, f).ok().map(|(p, _)| p)
         });
     scene.document = Some((path.to_path_buf(), loaded.scene));
+    scene.document_stamp = stamp;
     Ok(scene)
 }
 

@@ -718,3 +718,52 @@ fn the_in_app_dialog_asks_before_replacing_a_file() {
     assert!(saved.mesh.ends_with("creature.obj"), "{}", saved.mesh);
     assert_eq!(h.state().document_path(), Some(target.as_path()));
 }
+
+/// Save does not write over a scene file changed on disk since it was opened or saved here
+/// (another editor's save, an edit by hand): it asks. Cancel leaves the other's file; "Write
+/// over it" writes; a save after that, with nothing changed outside, asks nothing.
+#[test]
+fn save_asks_before_writing_over_a_file_changed_on_disk() {
+    let dir = ScratchDir::new("saving-changed-on-disk");
+    let (bar, _) = support::write_bar(&dir, true);
+    let mut h = support::harness(bar, Some(dir.join("config")));
+    step_until(&mut h, "the bar", support::loaded);
+    support::move_group(&mut h, 0, glam::DVec3::new(0.0, 0.1, 0.0));
+    let scene = dir.join("pose.json");
+    h.state_mut().save_scene(&scene).unwrap();
+    // another editor's save: other contents, another modification time
+    let theirs = std::fs::read_to_string(&scene).unwrap().replace("\"time\"", "\"time\" ");
+    std::fs::write(&scene, &theirs).unwrap();
+    let hour_ago = std::time::SystemTime::now() - std::time::Duration::from_secs(3600);
+    std::fs::File::options().write(true).open(&scene).unwrap().set_modified(hour_ago).unwrap();
+    let ctrl_s = |h: &mut Harness<'static, EditorApp>| {
+        h.key_press_modifiers(Modifiers::COMMAND, Key::S);
+        h.step();
+        step_until(h, "the save", |a| !a.is_saving());
+        h.run_steps(2);
+    };
+
+    support::move_group(&mut h, 0, glam::DVec3::new(0.0, 0.2, 0.0));
+    ctrl_s(&mut h);
+    assert_eq!(std::fs::read_to_string(&scene).unwrap(), theirs, "written over");
+    h.get_by_label_contains("an edit by hand?). Write over it?");
+    assert!(h.state().has_unsaved_changes());
+    h.get_by_label("Cancel").click();
+    h.run_steps(2);
+    assert!(h.query_by_label_contains("Write over it?").is_none());
+    assert_eq!(std::fs::read_to_string(&scene).unwrap(), theirs);
+
+    ctrl_s(&mut h);
+    h.get_by_label("Write over it").click();
+    h.step();
+    step_until(&mut h, "the save", |a| !a.is_saving());
+    h.run_steps(2);
+    assert_ne!(std::fs::read_to_string(&scene).unwrap(), theirs, "not written");
+    assert!(!h.state().has_unsaved_changes());
+    assert!(h.query_by_label_contains("Write over it?").is_none());
+
+    support::move_group(&mut h, 0, glam::DVec3::new(0.0, 0.3, 0.0));
+    ctrl_s(&mut h);
+    assert!(h.query_by_label_contains("Write over it?").is_none(), "asked again");
+    assert!(!h.state().has_unsaved_changes(), "{:?}", h.state().error());
+}

@@ -770,6 +770,7 @@ impl eframe::App for EditorApp {
         self.prefs_frame(&ctx);
         self.restore_window(&ctx);
         self.unsaved_window(&ctx);
+        self.overwrite_window(&ctx);
         self.poll_dialog(&ctx);
         let spent = now.elapsed().as_secs_f32() * 1e3;
         self.display.ui_ms =

@@ -200,6 +200,39 @@ impl EditorApp {
         }
     }
 
+    /// The question after a save found its scene file changed on disk since it was opened or
+    /// saved here (`EditorApp::saved`): write over it, save elsewhere, or leave it. What
+    /// waited for the save (a "Save first") goes on after the save the answer makes.
+    pub(super) fn overwrite_window(&mut self, ctx: &egui::Context) {
+        let Some(path) = self.session.overwrite_question.clone() else { return };
+        egui::Window::new("Changed on disk")
+            .collapsible(false)
+            .resizable(false)
+            .anchor(egui::Align2::CENTER_CENTER, Vec2::ZERO)
+            .show(ctx, |ui| {
+                ui.label(format!(
+                    "{} changed on disk since it was opened or saved here (another editor's \
+                     save, an edit by hand?). Write over it?",
+                    file_name(&path)
+                ));
+                ui.horizontal_wrapped(|ui| {
+                    if ui.button("Write over it").clicked() {
+                        self.session.overwrite_question = None;
+                        self.start_save_over(ctx, &path, true);
+                    }
+                    if ui.button("Save as…").clicked()
+                        && self.start_dialog(ctx, DialogKind::SaveScene)
+                    {
+                        self.session.overwrite_question = None;
+                    }
+                    if ui.button("Cancel").clicked() {
+                        self.session.overwrite_question = None;
+                        self.save_not_started();
+                    }
+                });
+            });
+    }
+
     /// The unsaved-changes question, before opening another file or quitting.
     pub(super) fn unsaved_window(&mut self, ctx: &egui::Context) {
         let Some(pending) = self.session.pending.clone() else { return };

@@ -11,7 +11,7 @@ use eframe::egui;
 use super::questions::Pending;
 use super::session::DocumentMark;
 use super::{DialogKind, EditorApp, file_name};
-use crate::editor::jobs::{self, Job};
+use crate::editor::jobs::{self, Job, Saved};
 
 /// How long an exit waits for a save under way.
 const EXIT_SAVE_WAIT: std::time::Duration = std::time::Duration::from_secs(10);
@@ -25,6 +25,9 @@ pub(super) struct SaveOrder {
     mesh: Option<u64>,
     /// What the file does not keep of the document (`document::left_out`), said once saved.
     left_out: Option<String>,
+    /// The document file's time as opened or last written here: written only while it has it
+    /// (`jobs::spawn_save`).
+    unless_changed: Option<String>,
 }
 
 /// A save under way.
@@ -34,7 +37,7 @@ pub(super) struct Saving {
     mark: Box<DocumentMark>,
     mesh: Option<u64>,
     left_out: Option<String>,
-    job: Job<()>,
+    job: Job<Saved>,
 }
 
 impl EditorApp {
@@ -108,7 +111,20 @@ impl EditorApp {
     /// under way (the UI thread never waits for a write). An error (nothing to save yet) shows
     /// at once, and the open or quit that waited for the save does not go on.
     pub(super) fn start_save(&mut self, ctx: &egui::Context, path: &Path) {
-        match self.save_order(path) {
+        self.start_save_over(ctx, path, false);
+    }
+
+    /// [`Self::start_save`]; `over` writes over the document file even where it changed on
+    /// disk since it was opened or last saved here (the user said so), which a save else
+    /// leaves as it is and asks about (`overwrite_window`).
+    pub(super) fn start_save_over(&mut self, ctx: &egui::Context, path: &Path, over: bool) {
+        let order = self.save_order(path).map(|mut order| {
+            if over {
+                order.unless_changed = None;
+            }
+            order
+        });
+        match order {
             Err(e) => {
                 self.save_not_started();
                 self.error = Some(format!("scene not saved: {e}"));
@@ -167,9 +183,14 @@ impl EditorApp {
         self.session.scene.as_ref().map(|s| s.topology.version)
     }
 
-    /// The scene for `path` as the document is now.
+    /// The scene for `path` as the document is now. A save of the document file with nothing
+    /// under way is written only while the file has the time it was opened or last written
+    /// with here (a save waiting for another is not checked: that one changes the time).
     fn save_order(&self, path: &Path) -> Result<SaveOrder, String> {
+        let document = self.session.document_path.as_deref();
+        let checked = document.is_some_and(|d| same_file(d, path)) && !self.is_saving();
         Ok(SaveOrder {
+            unless_changed: self.session.document_stamp.clone().filter(|_| checked),
             path: path.to_path_buf(),
             doc: self.document(path)?,
             mark: Box::new(DocumentMark::of(&self.session, self.capture.saved())),
@@ -180,9 +201,9 @@ impl EditorApp {
 
     /// Starts writing `order` on a worker thread (none may be under way).
     fn write(&mut self, order: SaveOrder, repaint: impl Fn() + Send + 'static) {
-        let SaveOrder { path, doc, mark, mesh, left_out } = order;
+        let SaveOrder { path, doc, mark, mesh, left_out, unless_changed } = order;
         let gate = self.jobs.save_gate.clone();
-        let job = jobs::spawn_save(doc, path.clone(), gate, repaint);
+        let job = jobs::spawn_save(doc, path.clone(), unless_changed, gate, repaint);
         self.info = Some(format!("saving {}…", path.display()));
         self.jobs.save = Some(Saving { path, mark, mesh, left_out, job });
     }
@@ -246,7 +267,8 @@ impl EditorApp {
         let written = path.clone();
         match self.saved(path, *mark, mesh, left_out, result) {
             Err(e) => {
-                if for_open_mesh {
+                // (what waits goes on after a save the question's answer makes)
+                if for_open_mesh && self.session.overwrite_question.is_none() {
                     self.session.after_save = None;
                 }
                 self.error = Some(format!("scene not saved: {e}"));
@@ -293,24 +315,39 @@ impl EditorApp {
 
     /// A save's `result`: written, `mark` is the saved state and `path` the document's file,
     /// unless another mesh was opened meanwhile (its document is not that file).
+    /// A file changed on disk since it was opened or last written here was not written over:
+    /// the question asks whether to (`overwrite_window`).
     fn saved(
         &mut self,
         path: PathBuf,
         mark: DocumentMark,
         mesh: Option<u64>,
         left_out: Option<String>,
-        result: Result<(), String>,
+        result: Result<Saved, String>,
     ) -> Result<(), String> {
-        result?;
+        let for_open_mesh = self.session.scene.as_ref().map(|s| s.topology.version) == mesh;
+        let stamp = match result? {
+            Saved::Written(stamp) => stamp,
+            Saved::ChangedOnDisk => {
+                if for_open_mesh {
+                    self.session.overwrite_question = Some(path.clone());
+                }
+                return Err(format!(
+                    "{} changed on disk since it was opened or saved here; not written over",
+                    file_name(&path)
+                ));
+            }
+        };
         self.info = Some(match left_out {
             Some(what) => format!("saved {}; {what}", path.display()),
             None => format!("saved {}", path.display()),
         });
         self.remember(&path);
-        if self.session.scene.as_ref().map(|s| s.topology.version) != mesh {
+        if !for_open_mesh {
             return Ok(());
         }
         self.session.document_path = Some(path);
+        self.session.document_stamp = stamp;
         mark.set_saved(&mut self.session);
         if self.has_unsaved_changes() {
             // Edited while it was written: the autosave keeps the newer work, written now

@@ -36,6 +36,12 @@ pub(super) struct Session {
     pub(super) playback: Playback,
     /// The scene file Save writes to.
     pub(super) document_path: Option<PathBuf>,
+    /// Its modification time as this editor opened or last wrote it
+    /// ([`persist::modified_stamp`]): a save that finds another there asks before writing
+    /// over it (another editor's save, a hand edit, a `git pull`).
+    pub(super) document_stamp: Option<String>,
+    /// The scene file a save found changed on disk: the question whether to write over it.
+    pub(super) overwrite_question: Option<PathBuf>,
     /// A restored autosave's scene file that changed on disk after the autosave: Save asks
     /// where, and its dialog proposes this file's folder and name.
     pub(super) changed_on_disk: Option<PathBuf>,
@@ -462,6 +468,8 @@ impl EditorApp {
                 }
                 self.session.playback = Playback::default();
                 self.session.document_path = None;
+                self.session.document_stamp = None;
+                self.session.overwrite_question = None;
                 self.session.changed_on_disk = None;
                 let mut restored = false;
                 let mut file_view = super::asset_view::FileView::default();
@@ -519,6 +527,10 @@ impl EditorApp {
                                 self.session.changed_on_disk = edited;
                             } else {
                                 self.session.document_path = edited;
+                                // the time the autosave holds is the file's (not changed since)
+                                self.session.document_stamp = (doc.editor.as_ref())
+                                    .and_then(|e| e.get(persist::EDITED_DOCUMENT_MODIFIED))
+                                    .and_then(|s| s.as_str().map(str::to_owned));
                             }
                             if let Some(d) = self.session.document_path.clone() {
                                 self.remember(&d); // its error, if any, in place of the above
@@ -530,6 +542,7 @@ impl EditorApp {
                         } else {
                             self.remember(&path);
                             self.session.document_path = Some(path);
+                            self.session.document_stamp = scene.document_stamp.take();
                         }
                     }
                     None => {
