@@ -1,5 +1,5 @@
 //! cargo-fuzz target `gltf_folder`: a `.gltf` loaded from a folder with files inside and
-//! outside it; the body is `solver_fuzz::gltf_folder` (fuzz/src/lib.rs), which
+//! outside it; the body is `solver_fuzz::gltf_folder` (fuzz/src/folders.rs), which
 //! `cargo test -p solver-fuzz` also replays on stable.
 #![no_main]
 

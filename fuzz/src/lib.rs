@@ -8,8 +8,19 @@
 //! invariants, an accepted input must keep them (a panic here is a finding). Each body returns
 //! whether the reader accepted its input, which the replay test uses to check that its inputs
 //! reach both the accepting and the refusing paths.
+//!
+//! The targets that load through a path (`gltf_folder`, `obj_folder`, `scene_folder`, so that
+//! the readers follow references to other files) are in `folders`, the files they load beside
+//! and outside their input in [`fixtures`], all in one temporary folder per process
+//! (`scratch`), removed when it ends.
 
+pub mod fixtures;
+mod folders;
+mod scratch;
 pub mod seeds;
+
+pub use fixtures::{ReferenceFolder, SECRET, tet_bin};
+pub use folders::{SEPARATOR, gltf_folder, obj_folder, scene_folder};
 
 use std::ops::ControlFlow;
 use std::sync::OnceLock;
@@ -29,8 +40,9 @@ use solver::{
 };
 
 /// The fuzz targets, by the name of their `fuzz_targets/NAME.rs` file and cargo-fuzz binary.
-pub const TARGETS: [&str; 11] = [
+pub const TARGETS: [&str; 13] = [
     "obj",
+    "obj_folder",
     "off",
     "ply",
     "stl",
@@ -39,6 +51,7 @@ pub const TARGETS: [&str; 11] = [
     "dmat",
     "spheres",
     "scene",
+    "scene_folder",
     "deform",
     "export",
 ];
@@ -47,6 +60,7 @@ pub const TARGETS: [&str; 11] = [
 pub fn run(name: &str, bytes: &[u8]) -> Option<bool> {
     Some(match name {
         "obj" => obj(bytes),
+        "obj_folder" => obj_folder(bytes),
         "off" => off(bytes),
         "ply" => ply(bytes),
         "stl" => stl(bytes),
@@ -55,6 +69,7 @@ pub fn run(name: &str, bytes: &[u8]) -> Option<bool> {
         "dmat" => dmat(bytes),
         "spheres" => spheres(bytes),
         "scene" => scene(bytes),
+        "scene_folder" => scene_folder(bytes),
         "deform" => deform(bytes),
         "export" => export(bytes),
         _ => return None,
@@ -80,7 +95,8 @@ fn mesh(bytes: &[u8], format: Format) -> bool {
     true
 }
 
-/// The OBJ reader (MTL files are not reached: bytes in memory have no folder).
+/// The OBJ reader (MTL files are not reached: bytes in memory have no folder; see
+/// [`obj_folder`]).
 pub fn obj(bytes: &[u8]) -> bool {
     mesh(bytes, Format::Obj)
 }
@@ -104,103 +120,6 @@ pub fn stl(bytes: &[u8]) -> bool {
 /// bytes in memory).
 pub fn gltf(bytes: &[u8]) -> bool {
     mesh(bytes, Format::Gltf)
-}
-
-/// The glTF reader's external references ([`solver::io::ReferencePolicy`]): the input is
-/// written as a `.gltf` into a folder ([`ReferenceFolder`]) beside a valid buffer and image
-/// and links out of it, with a secret and a real image outside. Whatever the input names, an
-/// accepted file's images never hold the bytes of a file outside the folder, its positions
-/// never come from the buffer outside, and its asset keeps its invariants.
-pub fn gltf_folder(bytes: &[u8]) -> bool {
-    let folder = ReferenceFolder::get();
-    // One file per thread: the replay and libFuzzer may run bodies on several threads.
-    let path = folder.asset.join(format!("input-{:?}.gltf", std::thread::current().id()));
-    if std::fs::write(&path, bytes).is_err() {
-        return false;
-    }
-    let Ok(m) = solver::io::load_mesh(&path) else {
-        return false;
-    };
-    if let Err(e) = m.asset.check() {
-        panic!("an accepted glTF gives an inconsistent asset: {e}");
-    }
-    for image in &m.asset.images {
-        let holds = |outside: &[u8]| image.bytes.windows(outside.len()).any(|w| w == outside);
-        assert!(!holds(SECRET), "an image holds the secret outside the folder");
-        assert!(image.bytes != folder.outside_png, "an image was read from outside the folder");
-    }
-    let far = m.asset.positions.iter().flatten().any(|c| c.abs() >= f64::from(OUTSIDE_SCALE) * 0.5);
-    assert!(!far, "the positions come from the buffer outside the folder");
-    true
-}
-
-/// Bytes of the file outside the folder that no image may hold.
-pub const SECRET: &[u8] = b"-----BEGIN OPENSSH PRIVATE KEY----- fuzz secret";
-
-/// The buffer outside the folder holds the tetrahedron scaled by this.
-const OUTSIDE_SCALE: f32 = 1000.0;
-
-/// The folder [`gltf_folder`] loads from, made once per process under the temporary folder:
-/// `asset/` holds `tet.bin` (a unit tetrahedron's positions and indices), `skin.png` (a real
-/// image), `link.png` (a link to the secret outside) and `outside/` (a link to `private/`);
-/// `private/` holds `secret.png` (not an image), `real.png` (a real image) and `tet.bin` (the
-/// tetrahedron scaled by 1000).
-pub struct ReferenceFolder {
-    pub asset: std::path::PathBuf,
-    /// The bytes of `private/real.png`.
-    pub outside_png: Vec<u8>,
-}
-
-impl ReferenceFolder {
-    pub fn get() -> &'static ReferenceFolder {
-        static FOLDER: OnceLock<ReferenceFolder> = OnceLock::new();
-        FOLDER.get_or_init(|| {
-            let root =
-                std::env::temp_dir().join(format!("bsarap-fuzz-references-{}", std::process::id()));
-            let (asset, private) = (root.join("asset"), root.join("private"));
-            let made = (|| -> std::io::Result<Vec<u8>> {
-                std::fs::create_dir_all(&asset)?;
-                std::fs::create_dir_all(&private)?;
-                std::fs::write(asset.join("tet.bin"), tet_bin(1.0))?;
-                std::fs::write(private.join("tet.bin"), tet_bin(OUTSIDE_SCALE))?;
-                std::fs::write(asset.join("skin.png"), png(1))?;
-                let outside_png = png(2);
-                std::fs::write(private.join("real.png"), &outside_png)?;
-                std::fs::write(private.join("secret.png"), SECRET)?;
-                #[cfg(unix)]
-                {
-                    let link = |target: &std::path::Path, name: &str| {
-                        let at = asset.join(name);
-                        let _ = std::fs::remove_file(&at);
-                        std::os::unix::fs::symlink(target, at)
-                    };
-                    link(&private.join("secret.png"), "link.png")?;
-                    link(&private, "outside")?;
-                }
-                Ok(outside_png)
-            })();
-            let outside_png = made.unwrap_or_else(|e| panic!("{}: {e}", root.display()));
-            ReferenceFolder { asset, outside_png }
-        })
-    }
-}
-
-/// A tetrahedron's buffer: 4 positions (f32, times `scale`) then 12 indices (u32).
-pub fn tet_bin(scale: f32) -> Vec<u8> {
-    let p: [[f32; 3]; 4] = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
-    let t: [u32; 12] = [0, 2, 1, 0, 1, 3, 1, 2, 3, 2, 0, 3];
-    let mut out: Vec<u8> = p.iter().flatten().flat_map(|c| (c * scale).to_le_bytes()).collect();
-    out.extend(t.iter().flat_map(|i| i.to_le_bytes()));
-    out
-}
-
-/// A real `w`×1 PNG.
-fn png(w: u32) -> Vec<u8> {
-    let img = image::RgbImage::from_pixel(w, 1, image::Rgb([200, 30, 90]));
-    let mut out = std::io::Cursor::new(Vec::new());
-    // Encoding into memory cannot fail; an empty file would only make `skin.png` refused.
-    let _ = img.write_to(&mut out, image::ImageFormat::Png);
-    out.into_inner()
 }
 
 /// The `.dmat` selection reader. The first two bytes give the mesh's vertex count

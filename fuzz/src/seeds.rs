@@ -16,7 +16,8 @@ use solver::geometry::shapes::icosphere;
 use solver::io::{Format, load_mesh_from_bytes};
 use solver::{FrameStats, Mesh};
 
-use crate::{TARGETS, sphere_positions};
+use crate::fixtures::png;
+use crate::{SEPARATOR, TARGETS, sphere_positions};
 
 /// Writes every target's seeds as `ROOT/NAME/seed-I` (cargo-fuzz's corpus layout), making the
 /// folders as needed; returns how many files it wrote.
@@ -38,6 +39,7 @@ pub fn write_corpus(root: &Path) -> io::Result<usize> {
 pub fn seeds(name: &str) -> Vec<Vec<u8>> {
     match name {
         "obj" => vec![CUBE_OBJ.into(), FAN_OBJ.into()],
+        "obj_folder" => obj_folder_seeds(),
         "off" => vec![CUBE_OFF.into(), off(&icosphere(0))],
         "ply" => vec![
             PLY_ASCII.into(),
@@ -70,6 +72,7 @@ pub fn seeds(name: &str) -> Vec<Vec<u8>> {
             }
             scenes
         }
+        "scene_folder" => scene_folder_seeds(),
         "deform" => {
             // A sphere, a cube of quads, and a small cube above a sphere's middle (a part
             // without handles): every method and energy on each.
@@ -250,8 +253,6 @@ fn dmat(n: u16, column: bool) -> Vec<u8> {
     out
 }
 
-/// glTF and GLB files from the solver's exporter: an icosphere with two morph-target frames
-/// (a bare mesh), and the cube OBJ with its attributes and materials.
 /// `.gltf` files of the tetrahedron in `solver_fuzz::ReferenceFolder`, its buffer `tet.bin`
 /// beside them, textured with an image at each kind of URI: beside, outside by `..`, by a link,
 /// through a linked folder, percent-encoded, Windows-style, absolute, `file:`, a data URI.
@@ -285,6 +286,8 @@ fn gltf_folder_seeds() -> Vec<Vec<u8>> {
         .collect()
 }
 
+/// glTF and GLB files from the solver's exporter: an icosphere with two morph-target frames
+/// (a bare mesh), and the cube OBJ with its attributes and materials.
 fn gltf_seeds() -> Vec<Vec<u8>> {
     let sphere = icosphere(1);
     let lifted = |m: &[[f64; 3]]| -> Vec<[f64; 3]> {
@@ -317,5 +320,108 @@ fn gltf_seeds() -> Vec<Vec<u8>> {
             out.push(export.to_bytes(&mut |_, _| ControlFlow::Continue(())).expect("glTF seed"));
         }
     }
+    out
+}
+
+/// `files` joined by [`SEPARATOR`]: one input of a folder target.
+fn joined(files: &[&[u8]]) -> Vec<u8> {
+    files.join(SEPARATOR)
+}
+
+/// The files outside `obj-N/` and `scene-N/` and the links out of them, named each way a
+/// reference can be written (see `solver_fuzz::fixtures`): beside, by `..`, by a link to a
+/// file or through a linked folder, Windows-style, absolute.
+const REFERENCES: [&str; 8] = [
+    "skin.png",
+    "../private/real.png",
+    "link.png",
+    "outside/real.png",
+    "outside/secret.png",
+    "..\\private\\secret.png",
+    "/etc/passwd",
+    "C:\\Users\\me\\wood.png",
+];
+
+/// Inputs of `obj_folder` (`input.obj`, `input.mtl`, `input.png`): the cube OBJ with its two
+/// materials, the red one textured from each of [`REFERENCES`] and from `input.png` and
+/// `file:`; `mtllib` naming libraries beside, outside, through a link and absolute; an MTL
+/// with the lines the reader mends; the fan without a library.
+fn obj_folder_seeds() -> Vec<Vec<u8>> {
+    let obj = |libs: &str| format!("mtllib {libs}\n{CUBE_OBJ}");
+    let mtl = |texture: &str| {
+        format!(
+            "newmtl red\nKd 1 0 0\nmap_Kd {texture}\n\
+             newmtl blue\nKd 0 0 1\nd 0.5\nmap_Kd -s 1 1 1 -bm 0.5 skin.png\n"
+        )
+    };
+    let texture = png(3);
+    let input = |obj: &str, mtl: &str| joined(&[obj.as_bytes(), mtl.as_bytes(), &texture]);
+    let mut out: Vec<Vec<u8>> = ["input.png", "file:///etc/passwd"]
+        .iter()
+        .chain(&REFERENCES)
+        .map(|t| input(&obj("input.mtl"), &mtl(t)))
+        .collect();
+    for libs in [
+        "input.mtl skin.mtl",
+        "../private/outside.mtl input.mtl",
+        "outside/outside.mtl",
+        "/etc/passwd",
+        "link.png",
+    ] {
+        out.push(input(&obj(libs), &mtl("input.png")));
+    }
+    let mended = "newmtl red\nKd 0.8\nd -halo 0.5\nillum\nNs high\nmap_Kd\nnewmtl\n\
+                  newmtl blue\nKd spectral x.rfl\nmap_Kd .\\input.png\n";
+    out.push(input(&obj("input.mtl"), mended));
+    out.push(input(FAN_OBJ, ""));
+    out
+}
+
+/// Inputs of `scene_folder` (`scene.json`, `mesh.obj`, a selection as `sel.dmat` and
+/// `sel.json`): the cube OBJ (with and without a library) by a `.dmat`, by spheres and by
+/// labels, textured from each of [`REFERENCES`]; the tetrahedron beside and outside
+/// (`private/far.off` with `private/far.dmat`, by `..` and through the linked folder); a
+/// scene with a rig, loose parts and an up axis.
+fn scene_folder_seeds() -> Vec<Vec<u8>> {
+    let scene = |mesh: &str, handles: &str, rest: &str| {
+        format!(
+            r#"{{"version": 2, "mesh": "{mesh}", "handles": {handles},
+ "timeline": {{"duration": 1.0, "fps": 10, "looping": true, "paths": [{{"group": 0,
+   "path": {{"type": "circular", "axis": [0, 0, 1], "radius": 0.25, "period": 1.0}}}}]}},
+ "method": "arap", "arap": {{"energy": "spokes-and-rims", "tolerance": 1e-4,
+ "max_iterations": 20}}{rest}}}"#
+        )
+    };
+    let input = |scene: &str, mesh: &str, selection: &str| {
+        joined(&[scene.as_bytes(), mesh.as_bytes(), selection.as_bytes()])
+    };
+    let dmat = "8 1\n0\n0\n0\n0\n1\n1\n1\n1\n";
+    let spheres = r#"[{"group": 0, "center": [0, 0, 0], "radius": 0.5},
+ {"group": 1, "center": [1, 1, 1], "radius": 0.5}]"#;
+    let by_dmat = r#"{"file": "sel.dmat"}"#;
+    let mut out: Vec<Vec<u8>> = REFERENCES
+        .iter()
+        .map(|t| {
+            // (JSON escapes a `\`)
+            let texture = format!(r#", "texture": "{}""#, t.replace('\\', "\\\\"));
+            input(&scene("mesh.obj", by_dmat, &texture), CUBE_OBJ, dmat)
+        })
+        .collect();
+    let libs = format!("mtllib skin.mtl outside/outside.mtl\n{CUBE_OBJ}");
+    out.push(input(&scene("mesh.obj", by_dmat, ""), &libs, dmat));
+    out.push(input(&scene("mesh.obj", r#"{"file": "sel.json"}"#, ""), CUBE_OBJ, spheres));
+    let labels = r#"{"labels": [0, 0, -1, -1, 1, -1]}"#;
+    out.push(input(&scene("mesh.obj", labels, ""), FAN_OBJ, ""));
+    let tet_labels = r#"{"labels": [0, -1, -1, 1]}"#;
+    out.push(input(&scene("tet.off", tet_labels, ""), "", ""));
+    for folder in ["../private", "outside"] {
+        let far = format!(r#"{{"file": "{folder}/far.dmat"}}"#);
+        out.push(input(&scene(&format!("{folder}/far.off"), &far, ""), "", ""));
+    }
+    let rig = r#", "up_axis": "z",
+ "loose_parts": {"default": "follow", "overrides": [{"component": 2, "mode": "pin"}]},
+ "rig": {"rigidity": [1, 1, 1, 1, 0.5, 0.5, 0.5, 0.5],
+         "falloff": [{"group": 1, "radius": 0.1, "curve": "smooth"}, {"group": 4, "radius": 0.2, "curve": "smooth"}]}"#;
+    out.push(input(&scene("mesh.obj", by_dmat, rig), CUBE_OBJ, dmat));
     out
 }

@@ -1,0 +1,10 @@
+//! cargo-fuzz target `scene_folder`: a scene, its mesh and a selection opened by path from a
+//! folder with files inside and outside it; the body is `solver_fuzz::scene_folder`
+//! (fuzz/src/folders.rs), which `cargo test -p solver-fuzz` also replays on stable.
+#![no_main]
+
+use libfuzzer_sys::fuzz_target;
+
+fuzz_target!(|bytes: &[u8]| {
+    solver_fuzz::scene_folder(bytes);
+});
