@@ -545,14 +545,7 @@ impl Scene {
     /// decode as a PNG or JPEG). Errors: one line naming the file, for a notice (the mesh is
     /// shown and exported without it).
     pub fn apply_texture(texture: &Path, asset: &mut crate::io::Asset) -> Result<(), String> {
-        let why = |e: String| format!("texture {} not used: {e}", texture.display());
-        let size = std::fs::metadata(texture).map_err(|e| why(e.to_string()))?.len();
-        if size > crate::io::MAX_IMAGE_ALLOC {
-            return Err(why(format!("{size} bytes is too large for a texture")));
-        }
-        let bytes = std::fs::read(texture).map_err(|e| why(e.to_string()))?;
-        let name = texture.file_name().map(|n| n.to_string_lossy().into_owned());
-        asset.set_base_color_texture(name.as_deref().unwrap_or("texture"), bytes).map_err(why)
+        apply_texture_within(texture, asset, crate::io::MAX_IMAGE_ALLOC)
     }
 
     /// The scene's handle groups for a mesh with rest `positions`, read from wherever
@@ -652,6 +645,28 @@ pub fn relative_path(base: &Path, target: &Path) -> Result<String, String> {
         return Ok(format!("./{text}"));
     }
     Ok(text)
+}
+
+/// [`Scene::apply_texture`] of a file of at most `max` bytes.
+fn apply_texture_within(
+    texture: &Path,
+    asset: &mut crate::io::Asset,
+    max: u64,
+) -> Result<(), String> {
+    let why = |e: String| format!("texture {} not used: {e}", texture.display());
+    let size = std::fs::metadata(texture).map_err(|e| why(e.to_string()))?.len();
+    if size > max {
+        return Err(why(format!("{size} bytes is too large for a texture")));
+    }
+    // Read to the limit, not to the end: a file can say 0 bytes and read as hundreds of
+    // gigabytes (`/proc/self/pagemap`), or grow while it is read.
+    let bytes =
+        crate::io::reference::read_file(texture, max + 1).map_err(|e| why(e.to_string()))?;
+    if bytes.len() as u64 > max {
+        return Err(why(format!("more than {max} bytes is too large for a texture")));
+    }
+    let name = texture.file_name().map(|n| n.to_string_lossy().into_owned());
+    asset.set_base_color_texture(name.as_deref().unwrap_or("texture"), bytes).map_err(why)
 }
 
 /// `target` relative to `base` (`None`: it is written as given, see [`relative_path`]).

@@ -141,3 +141,18 @@ fn names_that_do_not_read_back_are_refused() {
     let inside = Path::new("/a").join(latin1).join("x\\y");
     assert_eq!(relative_path(&inside, &inside.join("m.obj")).unwrap(), "m.obj");
 }
+
+/// A texture file that says 0 bytes and reads on (`/proc/self/pagemap` reads as hundreds of
+/// GB; `/proc/self/smaps` here, some kilobytes) is read to the limit and refused, not read to
+/// its end.
+#[cfg(target_os = "linux")]
+#[test]
+fn a_texture_that_reads_past_its_size_is_read_to_the_limit() {
+    let smaps = Path::new("/proc/self/smaps");
+    if std::fs::metadata(smaps).map_or(true, |m| m.len() != 0) {
+        return eprintln!("skipped: no /proc/self/smaps of size 0 here");
+    }
+    let mut asset = crate::io::Asset::bare(vec![[0.0; 3]; 3], vec![[0, 1, 2]]);
+    let e = apply_texture_within(smaps, &mut asset, 64).unwrap_err();
+    assert!(e.contains("more than 64 bytes is too large"), "{e}");
+}
