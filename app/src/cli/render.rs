@@ -34,7 +34,8 @@ pub struct RenderArgs {
     #[arg(short = 'o', long = "output")]
     pub output: PathArg,
     /// Number of frames (default: the scene's capture.frames, else its duration·fps + 1 when
-    /// the timeline moves; a still scene: 1, its turntable 36).
+    /// the timeline moves, duration·fps when it loops too; a still scene: 1, its turntable
+    /// 36). A looping timeline's frames end one step before its end, which is its start again.
     #[arg(long, value_parser = super::count::<usize>, allow_negative_numbers = true)]
     pub frames: Option<usize>,
     /// Image width in pixels (default: the scene's capture.width, else 1280).
@@ -107,13 +108,16 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
     // editor saved without animation is a path of one key: posed, still).
     let posed = !doc.timeline.paths.is_empty() && handles.n_groups() > 0;
     let moving = posed && !doc.timeline.is_still();
+    // A looping timeline's last pose is its first again: a sequence played in a loop would show
+    // it twice (a frame's hitch), so its frames end one step before (a turntable's too).
+    let looped = usize::from(moving && doc.timeline.looping);
     let max_frames = CaptureSettings::MAX_FRAMES;
     let n_frames = match (settings.frames, moving, settings.turntable) {
         (Some(n), ..) => n,
-        (None, true, _) => doc
-            .timeline
-            .frame_count_within(max_frames)
-            .map_err(|why| anyhow::anyhow!("{source}: the timeline has {why}"))?,
+        (None, true, _) => (doc.timeline.frame_count_within(max_frames))
+            .map_err(|why| anyhow::anyhow!("{source}: the timeline has {why}"))?
+            .saturating_sub(looped)
+            .max(1),
         (None, false, true) => STILL_TURNTABLE_FRAMES,
         (None, false, false) => 1,
     };
@@ -128,8 +132,10 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
             (0..n_frames).map(|i| capture::frame_path(&a.output, i, n_frames)).collect();
         outputs::check(&frames, &Input::scene_files(&a.scene, &file.path, &doc))?;
     }
+    // the poses solved: a looping timeline's one more, its end
+    let n_poses = if moving { n_frames + looped } else { 1 };
     if moving {
-        super::recording_fits(&source, n_frames, mesh.n_vertices())?;
+        super::recording_fits(&source, n_poses, mesh.n_vertices())?;
     }
     // The device before the solve: no adapter fails at once (and makes no folder).
     let mut offscreen = Offscreen::headless()?;
@@ -151,7 +157,7 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
         let mut deformer = Deformer::new(mesh, &handles, options)
             .with_context(|| format!("{source}: precomputing {}", doc.method.name()))?;
         // A still pose is solved once; the frames (a turntable's) show it.
-        let poses = if moving { n_frames } else { 1 };
+        let poses = n_poses;
         let pb = bar(poses as u64, "solving", a.json);
         let recording = record(
             &mut deformer,

@@ -52,6 +52,9 @@ pub struct Recorded {
     pub layout: Arc<FileLayout>,
     /// The timeline's frames per second (a point cache's sample rate).
     pub fps: f64,
+    /// Whether the timeline loops: its last frame is then its first again, which a PNG
+    /// sequence (played in a loop) leaves out.
+    pub looping: bool,
     /// The method and settings it was solved with (a glTF export records them).
     pub solved: SolveSettings,
     /// The up axis `glb_bytes` was measured for (a Z-up scene's file stands its nodes
@@ -422,7 +425,7 @@ pub fn spawn_record(
             let mut deformer = build_deformer(&cache, &mesh, &handles, options, &stop)
                 .map_err(|e| format!("recording: precomputing {}: {e}", method.name()))?
                 .ok_or("recording cancelled while it waited for the mesh's precomputation")?;
-            let fps = timeline.fps;
+            let (fps, looping) = (timeline.fps, timeline.looping);
             let recording = record(
                 &mut deformer,
                 &mesh,
@@ -465,6 +468,7 @@ pub fn spawn_record(
                 mesh,
                 layout,
                 fps,
+                looping,
                 solved,
                 up,
             })

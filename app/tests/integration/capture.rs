@@ -95,7 +95,8 @@ fn render_writes_one_png_per_frame_of_the_moving_timeline() {
         let drawn = drawn_pixels(img);
         assert!(drawn > 160 * 120 / 20, "{}: only {drawn} mesh pixels", f.display());
     }
-    // t = 0 and t = 0.5 s: the cap is half a turn apart on its circle.
+    // t = 0 and t = 1/3 s (the looping timeline's frames end before its end, its start again):
+    // the cap is a third of a turn apart on its circle.
     let d = differing_pixels(&imgs[0], &imgs[1]);
     assert!(d > 100, "frames 0 and 1 of a moving timeline differ in {d} pixels only");
     assert_eq!(j["earlier_frames_left"], 0);
@@ -106,6 +107,16 @@ fn render_writes_one_png_per_frame_of_the_moving_timeline() {
     assert_eq!(code, 0, "{stderr}");
     assert!(stderr.contains("still holds 1 later frame of an earlier render"), "{stderr}");
     assert_eq!(pngs_in(&out).len(), 3);
+    // By default, duration × fps frames of the looping timeline (1 s at 2 fps: t = 0, 0.5),
+    // not its last, which is its first again: a sequence played in a loop showed it twice.
+    let fresh = dir.join("default");
+    let f = fresh.to_str().unwrap();
+    let args = ["render", scene.to_str().unwrap(), "-o", f, "--width", "32", "--height", "24"];
+    let (code, _, stderr) = bsarap(&args);
+    assert_eq!(code, 0, "{stderr}");
+    let imgs: Vec<_> = pngs_in(&fresh).iter().map(|f| png(f)).collect();
+    assert_eq!(imgs.len(), 2);
+    assert!(differing_pixels(&imgs[0], &imgs[1]) > 20, "the two frames are one pose");
 }
 
 /// A mesh five million units from the world's origin (a georeferenced scan) draws as it does
@@ -484,6 +495,7 @@ fn the_recording_renders_to_a_png_sequence_from_the_file_menu() {
     assert!(h.state().error().is_none(), "{:?}", h.state().error());
     let n = h.state().recorded_frames().expect("a recording").frames.len();
     assert_eq!(n, 3);
+    // the timeline loops: its last frame, its first again, is left out of the sequence
 
     h.get_by_label("File").click();
     h.run_steps(2);
@@ -495,7 +507,7 @@ fn the_recording_renders_to_a_png_sequence_from_the_file_menu() {
     let out = h.state().last_capture().unwrap().to_path_buf();
     assert_eq!(out, dir.join("config/screenshots/frames_0001"));
     let files = pngs_in(&out);
-    assert_eq!(files.len(), 3, "{files:?}");
+    assert_eq!(files.len(), 2, "{files:?}");
     let imgs: Vec<_> = files.iter().map(|f| png(f)).collect();
     assert!(imgs.iter().all(|i| i.dimensions() == (120, 90)));
     let d = differing_pixels(&imgs[0], &imgs[1]);
@@ -516,7 +528,7 @@ fn the_recording_renders_from_the_base_view_of_arap() {
         !a.is_capturing() && a.last_capture().is_some() || a.error().is_some()
     });
     assert!(h.state().error().is_none(), "{:?}", h.state().error());
-    assert_eq!(pngs_in(&dir.join("config/screenshots/frames_0001")).len(), 3);
+    assert_eq!(pngs_in(&dir.join("config/screenshots/frames_0001")).len(), 2);
 }
 
 /// A PNG sequence started from the File menu shows its progress and its cancel in the status
@@ -533,7 +545,7 @@ fn a_png_sequence_shows_and_cancels_in_the_status_bar() {
     h.run_steps(2);
     assert!(h.state().is_capturing());
     assert!(h.query_by_label("Capture settings").is_none(), "the window is open");
-    h.get_by_label("rendering 0/3");
+    h.get_by_label("rendering 0/2");
     // Quitting now asks first: it would stop the capture (there is nothing to save).
     h.state_mut().request_quit(&ctx);
     h.run_steps(2);
@@ -549,10 +561,10 @@ fn a_png_sequence_shows_and_cancels_in_the_status_bar() {
     step_until(&mut h, "the cancelled sequence", |a| !a.is_capturing());
     let frames = dir.join("config/screenshots/frames_0001");
     let written = if frames.exists() { pngs_in(&frames).len() } else { 0 };
-    assert!(written < 3, "all {written} frames written after the cancel");
+    assert!(written < 2, "all {written} frames written after the cancel");
     // said as cancelled, not saved
     let info = h.state().info().unwrap_or_default().to_string();
-    assert!(info.contains("cancelled after") && info.contains("of 3 frames"), "{info}");
+    assert!(info.contains("cancelled after") && info.contains("of 2 frames"), "{info}");
     h.state_mut().request_quit(&ctx);
     h.step();
     assert!(!h.state().quit_question_open(), "nothing under way: no question");

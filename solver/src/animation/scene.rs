@@ -703,7 +703,8 @@ pub struct CaptureSettings {
     pub height: u32,
     /// Draw the ground grid and the handle groups' colours (default false: the mesh alone).
     pub overlays: bool,
-    /// Number of frames (default: the timeline's duration × fps + 1).
+    /// Number of frames (default: the timeline's duration × fps + 1, duration × fps when it
+    /// loops: the last frame would be the first again).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub frames: Option<usize>,
     /// Orbit the camera once around the mesh over the frames (default false).

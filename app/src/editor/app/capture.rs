@@ -383,13 +383,14 @@ impl EditorApp {
     }
 
     /// Renders the kept recording, frame by frame with the current camera and capture
-    /// settings, to `FOLDER/frames_NNNN/frame_0000.png`, … (`bsarap render`'s code).
+    /// settings, to `FOLDER/frames_NNNN/frame_0000.png`, … (`bsarap render`'s code); of a
+    /// looping timeline, all but the last frame (the first again).
     pub fn render_recording(&mut self, ctx: &egui::Context, frame: &eframe::Frame) {
         let Some(rec) = &self.jobs.recorded else {
             self.error = Some("record the timeline before rendering it".into());
             return;
         };
-        let shapes = rec.shapes.clone();
+        let (shapes, looping) = (rec.shapes.clone(), rec.looping);
         let size = self.capture_size(ctx);
         let n_mesh = self.session.scene.as_ref().map(|s| s.rest.positions.len());
         let Some(first) = shapes.first().filter(|s| Some(s.positions.len()) == n_mesh) else {
@@ -406,7 +407,9 @@ impl EditorApp {
             }
         };
         let dir = self.capture.next_name("frames", "");
-        let n = shapes.len();
+        // A looping timeline's last frame is its first again: a sequence played in a loop would
+        // show it twice, one frame's hitch.
+        let n = shapes.len() - usize::from(looping && shapes.len() > 1);
         self.spawn_capture(ctx, frame, n, true, move |offscreen, done, cancel| {
             capture::render_sequence(
                 offscreen,
