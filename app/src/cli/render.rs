@@ -147,7 +147,8 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
         settings.height,
         offscreen.adapter
     );
-    capture::ensure_dir(&a.output)?;
+    // made once there is something to write in it: a failed solve leaves no empty folder
+    capture::check_dir(&a.output)?;
     let load_s = t0.elapsed().as_secs_f64();
 
     // Poses: the recording `bsarap export` writes, or the rest pose.

@@ -292,6 +292,20 @@ pub fn write_png(path: &Path, image: &image::RgbaImage) -> anyhow::Result<()> {
     Ok(solver::io::write_atomic(path, &bytes)?)
 }
 
+/// Whether [`ensure_dir`] could make `dir`, without making it: it is a folder, or its nearest
+/// existing ancestor is (a file in the way is the error `ensure_dir` would give).
+pub fn check_dir(dir: &Path) -> anyhow::Result<()> {
+    let absolute = std::path::absolute(dir).unwrap_or_else(|_| dir.to_path_buf());
+    match absolute.ancestors().find(|a| a.exists()) {
+        Some(a) if !a.is_dir() => anyhow::bail!(
+            "{}: cannot create the output folder: {} is not a folder",
+            dir.display(),
+            a.display()
+        ),
+        _ => Ok(()),
+    }
+}
+
 /// Creates `dir` (and its parents) for a capture, with a clear error when it cannot.
 pub fn ensure_dir(dir: &Path) -> anyhow::Result<()> {
     std::fs::create_dir_all(dir)

@@ -359,3 +359,29 @@ fn deform_json_still_prints_the_notices() {
     let j: serde_json::Value = serde_json::from_str(&stdout).unwrap();
     assert!(j["iterations"].as_u64().is_some(), "{j}");
 }
+
+/// A render whose solve fails leaves no empty output folder (it was made before the solve).
+#[test]
+fn a_render_whose_solve_fails_makes_no_folder() {
+    let d = ScratchDir::new("guards-render-folder");
+    grid(&d, "grid.obj");
+    // Two single-vertex groups: the paper's bi-harmonic base collapses.
+    let mut labels = vec![-1; 121];
+    (labels[0], labels[120]) = (0, 1);
+    let scene = d.join("two.json");
+    std::fs::write(
+        &scene,
+        format!(
+            r#"{{"version": 1, "mesh": "grid.obj", "handles": {{"labels": {labels:?}}},
+                "timeline": {{"duration": 1.0, "fps": 2, "looping": false, "paths": [{{"group": 0,
+                "path": {{"type": "circular", "axis": [0, 0, 1], "radius": 0.2, "period": 1.0}}}}]}},
+                "method": "bsarap"}}"#
+        ),
+    )
+    .unwrap();
+    let out = d.join("frames");
+    let (code, _, stderr) = bsarap(&["render", s(&scene), "-o", s(&out), "--width", "16"]);
+    assert_eq!(code, 1, "{stderr}");
+    assert!(stderr.contains("precomputing"), "{stderr}");
+    assert!(!out.exists(), "an empty folder was left");
+}
