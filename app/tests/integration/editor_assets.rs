@@ -386,3 +386,31 @@ fn the_editor_follows_the_outside_references_flag() {
     assert!(allowed.state().error().is_none(), "{:?}", allowed.state().error());
     assert_eq!(allowed.state().n_vertices(), 4);
 }
+
+/// When the solver fails on the handle set (the paper's base collapses on single-vertex
+/// groups), the Parts panel still offers Pin and Follow: it showed "…" for good.
+#[test]
+fn the_parts_panel_offers_its_modes_after_the_solver_failed() {
+    use app::editor::solver_thread::{MethodSettings, SolverState};
+    let dir = temp_dir("parts-failed");
+    let mut h = harness(two_spheres(&dir));
+    step_until(&mut h, "the two spheres", support::loaded);
+    h.state_mut().set_method_settings(MethodSettings {
+        bs_variant: solver::Method::BsArap,
+        ..MethodSettings::default()
+    });
+    let rest = h.state().rest_positions().unwrap().to_vec();
+    let lowest = (0..rest.len()).min_by(|&a, &b| rest[a][1].total_cmp(&rest[b][1])).unwrap();
+    let mut labels = vec![None; rest.len()];
+    labels[lowest] = Some(0);
+    labels[0] = Some(1);
+    h.state_mut().set_edit_state(app::editor::undo::EditState::from_labels(labels));
+    step_until(&mut h, "the failed solver", |a| {
+        matches!(a.solver_state(), Some(SolverState::Failed(_)))
+    });
+    h.run_steps(2);
+    assert!(h.query_by_label("…").is_none(), "the part waits for a frame that never comes");
+    h.get_all_by_label("Pin").nth(1).expect("part 1's Pin").click();
+    h.step();
+    assert_eq!(h.state().edit_state().loose_parts.mode(1), solver::ComponentMode::Pin);
+}

@@ -10,6 +10,7 @@ use eframe::egui;
 use solver::{ComponentInfo, ComponentMode};
 
 use super::EditorApp;
+use crate::editor::solver_thread::SolverState;
 
 /// At most this many components are listed (a mesh of many small pieces lists the first ones
 /// and a count of the rest).
@@ -53,7 +54,9 @@ impl EditorApp {
 
     /// The Parts section; nothing for a mesh of one piece.
     pub(super) fn parts_panel(&mut self, ui: &mut egui::Ui) {
-        let Some(listed) = self.session.scene.as_ref().map(|s| s.components.clone()) else {
+        let Some((listed, layout)) =
+            self.session.scene.as_ref().map(|s| (s.components.clone(), s.layout.clone()))
+        else {
             return;
         };
         if listed.len() <= 1 {
@@ -62,6 +65,10 @@ impl EditorApp {
         ui.separator();
         ui.heading("Parts");
         let solved = self.solved_components();
+        // The main solver failed on this handle set: no frame will say which parts hold
+        // handles; the modes can still be set (they showed "…" for good, with no buttons).
+        let failed = (self.solvers.main.as_ref().and_then(|h| h.try_status()))
+            .is_some_and(|s| matches!(s.state, SolverState::Failed(_)));
         let any_handles = self.session.edit.has_handles();
         let mut chosen = None;
         for c in listed.iter().take(MAX_ROWS) {
@@ -69,15 +76,22 @@ impl EditorApp {
             let mode = self.session.edit.loose_parts.mode(c.index);
             let state = match info {
                 Some(i) if i.has_handles => PartState::Handles,
-                _ if any_handles && info.is_none() => PartState::Pending,
+                _ if any_handles && !failed && info.is_none() => PartState::Pending,
                 _ if mode == ComponentMode::Pin => PartState::Pinned,
                 // A follow reported for another mode is stale (the new modes are on their way).
                 Some(i) if i.mode == Some(ComponentMode::Follow) => PartState::Follows(i.follows),
                 _ => PartState::Follows(None),
             };
             ui.horizontal(|ui| {
-                ui.label(format!("Part {}: {} v", c.index, c.vertices))
-                    .on_hover_text(format!("first vertex {}", c.first_vertex));
+                // the file's numbering, as other tools show it (the mesh's is after welding and
+                // dropping unused vertices); looked up while hovered only
+                ui.label(format!("Part {}: {} v", c.index, c.vertices)).on_hover_ui(|ui| {
+                    let first = Some(c.first_vertex);
+                    match layout.vertex_map.iter().position(|&m| m == first) {
+                        Some(v) => ui.label(format!("first vertex {v} of the file")),
+                        None => ui.label(format!("first vertex {}", c.first_vertex)),
+                    };
+                });
                 ui.label(state.text());
                 if matches!(state, PartState::Handles | PartState::Pending) {
                     return;
