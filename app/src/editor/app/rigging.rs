@@ -579,12 +579,19 @@ impl EditorApp {
                 self.rigging.fit_axis.or(self.session.edit.symmetry.plane.map(|p| p.axis));
             if ui.selectable_label(current.is_none(), "Auto").clicked() && current.is_some() {
                 self.rigging.fit_axis = None;
-                self.toggle_symmetry(|s| s.plane = None);
+                // (an axis clicked, its fit not in yet: no plane to take away, no step)
+                if self.session.edit.symmetry.plane.is_some() {
+                    self.toggle_symmetry(|s| s.plane = None);
+                }
             }
             for a in Axis::ALL {
                 if ui.selectable_label(current == Some(a), a.name()).clicked() && current != Some(a)
                 {
-                    self.session.push_undo(self.session.edit.clone());
+                    // one step for the plane the fit will set, not one per axis clicked
+                    // before it is in
+                    if self.rigging.fit_axis.is_none() {
+                        self.session.push_undo(self.session.edit.clone());
+                    }
                     self.rigging.fit_axis = Some(a);
                 }
             }
