@@ -107,7 +107,10 @@ impl EditorApp {
         self.interaction.tool = tool;
     }
 
+    /// Makes `group` the active one; a group that does not exist makes none active (a brush
+    /// dab would label vertices with it, or panic making its mirror pair).
     pub fn set_active_group(&mut self, group: Option<usize>) {
+        let group = group.filter(|&g| g < self.session.edit.groups.len());
         self.interaction.active_group = group;
         self.session.history.set_active(group);
     }
