@@ -653,15 +653,26 @@ fn apply_texture_within(
     asset: &mut crate::io::Asset,
     max: u64,
 ) -> Result<(), String> {
+    use std::io::Read;
     let why = |e: String| format!("texture {} not used: {e}", texture.display());
-    let size = std::fs::metadata(texture).map_err(|e| why(e.to_string()))?.len();
-    if size > max {
-        return Err(why(format!("{size} bytes is too large for a texture")));
+    let meta = std::fs::metadata(texture).map_err(|e| why(e.to_string()))?;
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        let t = meta.file_type();
+        if t.is_char_device() || t.is_block_device() || t.is_socket() {
+            return Err(why("not a file (a device or a socket)".into()));
+        }
+    }
+    if meta.len() > max {
+        return Err(why(format!("{} bytes is too large for a texture", meta.len())));
     }
     // Read to the limit, not to the end: a file can say 0 bytes and read as hundreds of
-    // gigabytes (`/proc/self/pagemap`), or grow while it is read.
-    let bytes =
-        crate::io::reference::read_file(texture, max + 1).map_err(|e| why(e.to_string()))?;
+    // gigabytes (`/proc/self/pagemap`), or grow while it is read (a pipe, as a file chosen by
+    // the user may be, is read as the mesh files are).
+    let mut bytes = Vec::new();
+    (std::fs::File::open(texture).and_then(|f| f.take(max + 1).read_to_end(&mut bytes)))
+        .map_err(|e| why(e.to_string()))?;
     if bytes.len() as u64 > max {
         return Err(why(format!("more than {max} bytes is too large for a texture")));
     }

@@ -155,4 +155,7 @@ fn a_texture_that_reads_past_its_size_is_read_to_the_limit() {
     let mut asset = crate::io::Asset::bare(vec![[0.0; 3]; 3], vec![[0, 1, 2]]);
     let e = apply_texture_within(smaps, &mut asset, 64).unwrap_err();
     assert!(e.contains("more than 64 bytes is too large"), "{e}");
+    // a device is refused before it is read (`/dev/zero` reads on for ever)
+    let e = apply_texture_within(Path::new("/dev/zero"), &mut asset, 64).unwrap_err();
+    assert!(e.contains("not a file (a device or a socket)"), "{e}");
 }
