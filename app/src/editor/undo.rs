@@ -3,8 +3,10 @@
 //! keeps the method settings too.
 //!
 //! Every user edit (a brush stroke, a drag, a numeric change, a group added or deleted) first
-//! pushes a snapshot of the state it starts from. Snapshots are whole copies: a label array is
-//! `#V` bytes-ish and the history is capped, so this stays small and obviously correct.
+//! pushes a snapshot of the state it starts from. Snapshots are whole copies, obviously
+//! correct: 8 bytes a vertex for the labels and 8 more for a rigidity map, 12 to 24 MB a step
+//! at 1.5M vertices, so the history is capped by bytes ([`MAX_HISTORY_BYTES`]) as well as by
+//! steps.
 
 use eframe::egui::Color32;
 
@@ -156,7 +158,18 @@ fn new_group(k: usize) -> Group {
     }
 }
 
+/// The most undo steps kept.
 const MAX_HISTORY: usize = 200;
+/// The most bytes the undo steps' label arrays and rigidity maps take together (the oldest
+/// steps go first; the last step stays whatever its size): at 1.5M vertices, 42 steps of
+/// labels, 21 with a rigidity map (200 steps held 2.4 to 4.8 GB).
+pub const MAX_HISTORY_BYTES: usize = 512 << 20;
+
+/// What a kept step's per-vertex arrays take.
+fn step_bytes(k: &Kept) -> usize {
+    let labels = k.edit.labels.len() * std::mem::size_of::<Option<u32>>();
+    labels + k.edit.rigidity.as_ref().map_or(0, |r| r.len() * std::mem::size_of::<f64>())
+}
 
 /// What an undo or redo brings back: the editable state and the method settings, with the
 /// playback time they were kept at and the group then active (the editor's choice, which an
@@ -184,11 +197,18 @@ pub struct History {
     /// on tells by it whether that step is still the last one.
     generation: u64,
     /// What the push of the gesture under way took away, with the generation it made: the
-    /// redo steps, and the oldest step when the history was full ([`Self::end_gesture`]).
-    taken: Option<(u64, Vec<Kept>, Option<Kept>)>,
+    /// redo steps, and the oldest steps when the history was full ([`Self::end_gesture`]).
+    taken: Option<(u64, Vec<Kept>, Vec<Kept>)>,
+    /// The byte cap when not [`MAX_HISTORY_BYTES`] (tests).
+    max_bytes: Option<usize>,
 }
 
 impl History {
+    /// A history that keeps steps of at most `max_bytes` in all ([`MAX_HISTORY_BYTES`]).
+    pub fn with_max_bytes(max_bytes: usize) -> History {
+        History { max_bytes: Some(max_bytes), ..History::default() }
+    }
+
     /// Records `before` and `settings`, the state an edit starts from, now.
     pub fn push(&mut self, before: EditState, settings: MethodSettings) {
         self.push_at(before, settings, self.time);
@@ -202,19 +222,28 @@ impl History {
     }
 
     /// [`Self::push_at`], returning what the push took away: the redo steps, and the oldest
-    /// step when the history was full (`None`: nothing pushed, the last step is `before`).
+    /// steps when the history was full (`None`: nothing pushed, the last step is `before`).
     fn push_taking(
         &mut self,
         before: EditState,
         settings: MethodSettings,
         time: f64,
-    ) -> Option<(Vec<Kept>, Option<Kept>)> {
+    ) -> Option<(Vec<Kept>, Vec<Kept>)> {
         if self.undo.last().is_some_and(|k| k.edit == before && k.settings == settings) {
             return None; // (what a gesture's push took stays its own to give back)
         }
         self.taken = None;
         self.undo.push(Kept { edit: before, settings, time, active: self.active });
-        let evicted = (self.undo.len() > MAX_HISTORY).then(|| self.undo.remove(0));
+        let max_bytes = self.max_bytes.unwrap_or(MAX_HISTORY_BYTES);
+        let mut bytes: usize = self.undo.iter().map(step_bytes).sum();
+        let mut over = 0;
+        while self.undo.len() - over > 1
+            && (self.undo.len() - over > MAX_HISTORY || bytes > max_bytes)
+        {
+            bytes -= step_bytes(&self.undo[over]);
+            over += 1;
+        }
+        let evicted = self.undo.drain(..over).collect();
         self.generation += 1;
         Some((std::mem::take(&mut self.redo), evicted))
     }
@@ -234,7 +263,11 @@ impl History {
     /// brush stroke over vertices already in its group would leave a step whose undo seems
     /// to do nothing.
     pub fn end_gesture(&mut self, generation: u64, edit: &EditState, settings: MethodSettings) {
-        let taken = self.taken.take().filter(|t| t.0 == generation);
+        // A gesture whose push found its start already the last step pushed nothing: that
+        // step is another edit's (a mirror axis clicked before its plane came in), not its own.
+        let Some((_, redo, evicted)) = self.taken.take().filter(|t| t.0 == generation) else {
+            return;
+        };
         let last = self.undo.last();
         if self.generation != generation
             || !last.is_some_and(|k| k.edit == *edit && k.settings == settings)
@@ -242,12 +275,8 @@ impl History {
             return;
         }
         self.undo.pop();
-        if let Some((_, redo, evicted)) = taken {
-            self.redo = redo;
-            if let Some(oldest) = evicted {
-                self.undo.insert(0, oldest);
-            }
-        }
+        self.redo = redo;
+        self.undo.splice(0..0, evicted);
         self.generation += 1;
     }
 
@@ -263,9 +292,7 @@ impl History {
             Some((_, redo, evicted)) => {
                 let kept = self.undo.pop()?;
                 self.redo = redo;
-                if let Some(oldest) = evicted {
-                    self.undo.insert(0, oldest);
-                }
+                self.undo.splice(0..0, evicted);
                 self.generation += 1;
                 Some(kept)
             }
@@ -503,5 +530,48 @@ mod tests {
         h.end_gesture(g, &a, settings);
         assert!(h.can_redo(), "the no-op gesture took the redo away");
         assert_eq!(h.redo(&a, settings).map(|k| k.edit), Some(b));
+    }
+
+    /// The steps are capped by bytes too: at 1.5M vertices 200 whole copies of the labels and
+    /// a rigidity map held 4.8 GB. The oldest go first; a gesture that changed nothing gives
+    /// back every step its push evicted.
+    #[test]
+    fn the_history_is_capped_by_bytes() {
+        let settings = MethodSettings::default();
+        let state = |k: u32| EditState::from_labels(vec![Some(k); 100]); // 800 bytes a step
+        let mut h = History::with_max_bytes(2_000);
+        for k in 0..5 {
+            h.push(state(k), settings);
+        }
+        let mut kept = Vec::new();
+        while let Some(k) = h.undo(&state(9), settings) {
+            kept.push(k.edit);
+        }
+        assert_eq!(kept, [state(4), state(3)], "two steps of 800 bytes within 2,000");
+        let mut h = History::with_max_bytes(2_000);
+        h.push(state(0), settings);
+        h.push(state(1), settings);
+        let g = h.push_gesture(state(2), settings); // evicts state(0)
+        h.end_gesture(g, &state(2), settings); // changed nothing: state(0) comes back
+        assert_eq!(h.undo(&state(2), settings).map(|k| k.edit), Some(state(1)));
+        assert_eq!(h.undo(&state(1), settings).map(|k| k.edit), Some(state(0)));
+        // one step larger than the cap stays
+        let mut h = History::with_max_bytes(10);
+        h.push(state(0), settings);
+        assert!(h.can_undo());
+    }
+
+    /// A gesture whose start was already the last step pushed nothing, and leaves that step:
+    /// it was another edit's (a mirror axis clicked, its plane not in yet), which a gesture
+    /// that changed nothing took away.
+    #[test]
+    fn a_gesture_that_pushed_nothing_leaves_the_last_step() {
+        let settings = MethodSettings::default();
+        let s = EditState::from_labels(vec![Some(0), None]);
+        let mut h = History::default();
+        h.push(s.clone(), settings); // the axis click's step; the state is not changed yet
+        let g = h.push_gesture(s.clone(), settings);
+        h.end_gesture(g, &s, settings);
+        assert!(h.can_undo(), "the axis click's step went with the gesture");
     }
 }
