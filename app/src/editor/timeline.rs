@@ -318,7 +318,8 @@ pub fn panel(
         }
         if let Some((frames, seconds, _)) = &recording.kept {
             ui.separator();
-            ui.label(format!("recorded {frames} frames ({seconds:.2} s)"));
+            let s = if *frames == 1 { "" } else { "s" };
+            ui.label(format!("recorded {frames} frame{s} ({seconds:.2} s)"));
             let mut showing = recording.showing;
             let show = egui::Checkbox::new(&mut showing, "show recording");
             let why = "the result and details views show the recording";

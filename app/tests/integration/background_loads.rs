@@ -662,3 +662,22 @@ fn a_selection_dropped_with_the_open_mesh_waits_for_the_question() {
     let want: Vec<Option<u32>> = (0..n).map(|v| (v < 6).then_some(0)).collect();
     assert_eq!(h.state().labels(), want.as_slice(), "{:?}", h.state().error());
 }
+
+/// Before the first mesh is in, Load .dmat… is disabled and says why (it opened a dialog whose
+/// choice then did nothing), as the shading buttons do.
+#[test]
+fn without_a_mesh_the_selection_and_shading_buttons_say_why() {
+    use egui_kittest::kittest::NodeT;
+    let dir = ScratchDir::new("no-mesh-yet");
+    let (bar, _) = support::write_bar(&dir, false);
+    let slow = fifo(&dir, "slow.obj");
+    let mut h = support::harness(slow.clone(), Some(dir.join("config")));
+    h.run_steps(3);
+    assert!(h.state().is_loading());
+    let load = h.get_by_label("Load .dmat…");
+    assert!(load.accesskit_node().is_disabled(), "Load .dmat… is enabled without a mesh");
+    assert!(h.get_by_label("Clay").accesskit_node().is_disabled());
+    write_later(slow, std::fs::read_to_string(&bar).unwrap()).join().unwrap();
+    step_until(&mut h, "the mesh", |a| !a.is_loading());
+    assert!(!h.get_by_label("Load .dmat…").accesskit_node().is_disabled());
+}

@@ -132,7 +132,9 @@ impl EditorApp {
 
     /// Why the mesh shows no texture, where it shows none.
     pub(super) fn no_texture_reason(&self) -> Option<&'static str> {
-        let scene = self.session.scene.as_ref()?;
+        let Some(scene) = self.session.scene.as_ref() else {
+            return Some("open a mesh first");
+        };
         if self.has_texture_shading() {
             return None;
         }

@@ -278,10 +278,14 @@ impl EditorApp {
                 (Modifiers::COMMAND, Key::Y),
             ];
             if waiting.into_iter().fold(false, |any, (m, k)| consume(m, k) || any) {
-                self.info = Some(match self.gizmo.transform {
-                    Some(_) => "finish the move or turn first (Enter or release confirms, Esc \
-                                cancels)"
-                        .into(),
+                self.info = Some(match &self.gizmo.transform {
+                    Some(t) if t.modal => {
+                        "finish the move or turn first (a click or Enter confirms, Esc cancels)"
+                            .into()
+                    }
+                    Some(_) => {
+                        "finish the move or turn first (release confirms, Esc cancels)".into()
+                    }
                     None => "finish the drag or stroke first".into(),
                 });
             }
@@ -679,10 +683,15 @@ impl EditorApp {
             };
             let axis = t.axis.map_or("", |a| ["  along X", "  along Y", "  along Z"][a]);
             let text = if t.typed.is_empty() { text } else { format!("{text}  [{}]", t.typed) };
+            // what the keys do: a handle's drag takes no axis keys, and its release confirms
+            let keys = match t.modal {
+                true => "X/Y/Z axis, Ctrl snap, click/Enter confirm, Esc cancel",
+                false => "Ctrl snap, release to confirm, Esc cancel",
+            };
             painter.text(
                 rect.left_bottom() + egui::vec2(10.0, -10.0),
                 egui::Align2::LEFT_BOTTOM,
-                format!("{text}{axis}   (X/Y/Z axis, Ctrl snap, click/Enter confirm, Esc cancel)"),
+                format!("{text}{axis}   ({keys})"),
                 egui::FontId::monospace(12.0),
                 Color32::WHITE,
             );

@@ -162,7 +162,10 @@ impl EditorApp {
             self.send_scene();
         }
         ui.horizontal(|ui| {
-            if ui.button("Load .dmat…").clicked() {
+            // (a selection is of the open mesh's vertices: without one, nothing to load onto)
+            let mesh = self.session.scene.is_some();
+            let load = ui.add_enabled(mesh, egui::Button::new("Load .dmat…"));
+            if load.on_disabled_hover_text("open a mesh first").clicked() {
                 self.start_dialog(ctx, DialogKind::LoadSelection);
             }
             let refused = self.save_refusal();

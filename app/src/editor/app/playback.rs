@@ -173,7 +173,8 @@ impl EditorApp {
                     let n = rec.recording.frames.len();
                     let at_cap = rec.recording.stats.iter().filter(|s| !s.converged).count();
                     self.info = Some(format!(
-                        "recorded {n} frames, {:.1} iterations/frame{}",
+                        "recorded {n} frame{}, {:.1} iterations/frame{}",
+                        if n == 1 { "" } else { "s" },
                         rec.recording.total_iterations() as f64 / n.max(1) as f64,
                         if at_cap > 0 {
                             format!(", {at_cap} at the iteration cap")

@@ -512,7 +512,9 @@ impl EditorApp {
         );
         ui.add(egui::Slider::new(&mut self.rigging.value, 0.0..=1.0).text("rigidity"));
         ui.label("Left drag paints the rigidity (1 = plain ARAP, 0 = soft); Ctrl resets to 1.");
-        if ui.button("Clear rigidity").clicked() && self.session.edit.rigidity.is_some() {
+        let painted = self.session.edit.rigidity.is_some();
+        let clear = ui.add_enabled(painted, egui::Button::new("Clear rigidity"));
+        if clear.on_disabled_hover_text("no rigidity painted: 1 everywhere").clicked() {
             self.session.push_undo(self.session.edit.clone());
             self.session.edit.rigidity = None;
             self.display.color_version += 1;

@@ -267,6 +267,7 @@ impl EditorApp {
         let written = path.clone();
         match self.saved(path, *mark, mesh, left_out, result) {
             Err(e) => {
+                self.info = None; // ("saving …", which it is no longer)
                 // (what waits goes on after a save the question's answer makes)
                 if for_open_mesh && self.session.overwrite_question.is_none() {
                     self.session.after_save = None;

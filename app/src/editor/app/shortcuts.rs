@@ -37,7 +37,10 @@ pub const SHORTCUTS: &[(&str, &str)] = &[
         "G or R, then a number",
         "move by that distance (along the axis, X when free) / turn by degrees; Backspace edits",
     ),
-    ("Ctrl (moving, rotating)", "snap to grid cells / 15°"),
+    (
+        "Ctrl (moving, rotating)",
+        "snap to grid cells / 15° (held at the press on the gizmo: rotate instead)",
+    ),
     ("Click / Enter", "confirm the move or rotation (a click anywhere)"),
     ("Esc / right click (in its view)", "cancel the move or rotation"),
     ("Esc (dragging, painting, box, lasso)", "cancel the drag, stroke or region"),
@@ -54,6 +57,8 @@ pub const SHORTCUTS: &[(&str, &str)] = &[
     ("F3", "render FPS overlay"),
     ("F12", "screenshot (size and folder: File, Capture settings...)"),
     ("?", "this overlay"),
+    ("(while typing in a field)", "no shortcut but F12: Enter or a click elsewhere ends the field"),
+    ("(macOS)", "Cmd where Ctrl is written"),
 ];
 
 /// The shortcuts as a two-column grid.

@@ -78,7 +78,8 @@ impl EditorApp {
             }
             let dropped: usize = self.solvers.views.iter().map(|v| v.dropped).sum();
             if dropped > 0 {
-                ui.weak(format!("{dropped} stale frames dropped"));
+                let s = if dropped == 1 { "" } else { "s" };
+                ui.weak(format!("{dropped} stale frame{s} dropped"));
                 ui.separator();
             }
             let memory = (!self.options.deterministic_overlays)
