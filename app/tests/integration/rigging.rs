@@ -493,3 +493,38 @@ fn mirrored_posing_follows_a_pair_changed_between_drags() {
     assert!(mirrored(&h, new), "the new pair {new} did not follow G");
     assert_eq!(pose(&h, partner), left, "the old pair {partner} moved with G");
 }
+
+/// A held M toggles mirrored painting once, one undo step (its key repeats flipped it at the
+/// repeat rate, an undo step each time).
+#[test]
+fn a_held_toggle_key_toggles_once() {
+    let mut h = harness(default_mesh_path());
+    step_until(&mut h, "the default asset", settled);
+    let key = |key: Key, repeat: bool| Event::Key {
+        key,
+        physical_key: None,
+        pressed: true,
+        repeat,
+        modifiers: Modifiers::NONE,
+    };
+    let before = h.state().edit_state().symmetry.mirror_painting;
+    h.event(key(Key::M, false));
+    h.step();
+    for _ in 0..5 {
+        h.event(key(Key::M, true));
+        h.step();
+    }
+    h.event(Event::Key {
+        key: Key::M,
+        physical_key: None,
+        pressed: false,
+        repeat: false,
+        modifiers: Modifiers::NONE,
+    });
+    h.step();
+    assert_ne!(h.state().edit_state().symmetry.mirror_painting, before, "not toggled once");
+    // one undo step: a Ctrl+Z brings the state back
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
+    h.step();
+    assert_eq!(h.state().edit_state().symmetry.mirror_painting, before);
+}

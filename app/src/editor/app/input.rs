@@ -113,6 +113,24 @@ pub(super) struct Hover {
     pub(super) footprint: Vec<u32>,
 }
 
+/// The keys a held press takes once: toggles, tools, keying, play (their repeats are dropped).
+const ONCE_KEYS: [Key; 14] = [
+    Key::M,
+    Key::W,
+    Key::T,
+    Key::Q,
+    Key::B,
+    Key::G,
+    Key::R,
+    Key::K,
+    Key::Space,
+    Key::F3,
+    Key::Enter,
+    Key::Home,
+    Key::A,
+    Key::Escape,
+];
+
 impl EditorApp {
     /// K: keys the active group's pose at the current time, or says why not. With mirrored
     /// posing on, its partner (which took the mirrored pose) is keyed too, in the same undo
@@ -193,6 +211,14 @@ impl EditorApp {
         if ctx.text_edit_focused() || renaming {
             return;
         }
+        // A held key repeats its press: a toggle flipped at the repeat rate (M, with an undo
+        // step each time), a key set a pose per repeat. The keys meant to repeat (undo, redo,
+        // grow and shrink, the views) keep theirs.
+        ctx.input_mut(|i| {
+            i.events.retain(
+                |e| !matches!(e, egui::Event::Key { key, repeat: true, .. } if ONCE_KEYS.contains(key)),
+            )
+        });
         self.tool_keys(ctx);
         let events = ctx.input(|i| i.events.clone());
         for e in events {
