@@ -659,3 +659,24 @@ fn an_orbit_during_r_keeps_the_axis_it_started_with() {
     h.key_press(Key::Enter);
     h.step();
 }
+
+/// During G, Alt+Z and Shift+R are not Z and R: egui's plain pattern matched them with Alt or
+/// Shift held, so Alt+Z (visible only) set the Z axis and Shift+R (the rigidity brush) turned
+/// the move into a rotation.
+#[test]
+fn alt_and_shift_keys_are_not_the_modal_keys() {
+    let mut h = start();
+    let (c, _) = h.state().gizmo_screen().unwrap();
+    move_pointer(&mut h, [c + Vec2::new(40.0, 0.0)]);
+    h.key_press(Key::G);
+    h.step();
+    assert_eq!(h.state().running_transform(), Some((TransformKind::Translate, None)));
+    h.key_press_modifiers(Modifiers::ALT, Key::Z);
+    h.step();
+    h.key_press_modifiers(Modifiers::SHIFT, Key::R);
+    h.step();
+    assert_eq!(h.state().running_transform(), Some((TransformKind::Translate, None)));
+    h.key_press(Key::Z);
+    h.step();
+    assert_eq!(h.state().running_transform(), Some((TransformKind::Translate, Some(2))));
+}

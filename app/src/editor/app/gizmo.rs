@@ -297,6 +297,11 @@ impl EditorApp {
             return;
         }
         if self.gizmo.transform.as_ref().is_some_and(|t| t.modal) {
+            // the plain keys alone: egui's NONE pattern matches with Shift or Alt held too, and
+            // Alt+Z (visible only) or Shift+R (the rigidity brush) set an axis or switched
+            let consume = |m: Modifiers, k: Key| {
+                ctx.input_mut(|i| !i.modifiers.alt && !i.modifiers.shift && i.consume_key(m, k))
+            };
             for (k, a) in [(Key::X, 0), (Key::Y, 1), (Key::Z, 2)] {
                 if consume(Modifiers::NONE, k)
                     && let Some(t) = &mut self.gizmo.transform
