@@ -66,6 +66,9 @@ pub(super) struct Rigging {
     fit_axis: Option<Axis>,
     mirror: Option<Mirror>,
     job: Option<((usize, Request), Receiver<Mirror>)>,
+    /// The mesh and request whose fit failed (its thread ended without a map): not tried
+    /// again until either changes.
+    failed: Option<(usize, Request)>,
     pose_partner: Option<PosePartner>,
     /// The partner group of the stroke in progress (mirrored painting of a handle group).
     pub(super) stroke_partner: Option<u32>,
@@ -84,6 +87,7 @@ impl Default for Rigging {
             fit_axis: None,
             mirror: None,
             job: None,
+            failed: None,
             pose_partner: None,
             stroke_partner: None,
             falloff_unsent: false,
@@ -129,6 +133,7 @@ impl EditorApp {
     pub(super) fn forget_mirror(&mut self) {
         self.rigging.mirror = None;
         self.rigging.job = None;
+        self.rigging.failed = None;
     }
 
     fn mirror_request(&self) -> Request {
@@ -153,10 +158,16 @@ impl EditorApp {
         }
         let Some(scene) = &self.session.scene else { return };
         let key = (Arc::as_ptr(&scene.mesh) as usize, self.mirror_request());
-        if let Some((k, rx)) = &self.rigging.job
-            && let Ok(m) = rx.try_recv()
-        {
-            let done = *k;
+        let received = self.rigging.job.as_ref().map(|(k, rx)| (*k, rx.try_recv()));
+        if let Some((k, Err(std::sync::mpsc::TryRecvError::Disconnected))) = received {
+            // the thread ended without a map (it panicked): said, and not started again for
+            // this mesh and plane (it said "fitting the plane…" for good)
+            self.rigging.failed = Some(k);
+            self.rigging.job = None;
+            self.error =
+                Some("the mirror plane could not be fitted (a bug: please report it)".into());
+        }
+        if let Some((done, Ok(m))) = received {
             self.rigging.job = None;
             if done == key {
                 if let Request::Axis(_) = done.1 {
@@ -171,7 +182,7 @@ impl EditorApp {
         }
         let have = self.rigging.mirror.as_ref().is_some_and(|m| m.key == key);
         let running = self.rigging.job.as_ref().is_some_and(|(k, _)| *k == key);
-        if have || running || !self.mirror_wanted() {
+        if have || running || !self.mirror_wanted() || self.rigging.failed == Some(key) {
             return;
         }
         let positions = scene.mesh.positions().to_vec();
