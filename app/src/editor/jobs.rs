@@ -422,9 +422,9 @@ pub fn spawn_record(
                 cache: None,
             };
             let stop = || progress.cancel.load(Ordering::Relaxed);
-            let mut deformer = build_deformer(&cache, &mesh, &handles, options, &stop)
+            let mut deformer = build_deformer(&cache, &mesh, &handles, options, &stop, Some(&stop))
                 .map_err(|e| format!("recording: precomputing {}: {e}", method.name()))?
-                .ok_or("recording cancelled while it waited for the mesh's precomputation")?;
+                .ok_or("recording cancelled while it precomputed")?;
             let (fps, looping) = (timeline.fps, timeline.looping);
             let recording = record(
                 &mut deformer,

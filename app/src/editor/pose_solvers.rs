@@ -31,7 +31,7 @@ pub fn factory(cache: Arc<Mutex<MeshCache>>) -> PoseSolverFactory {
                 DeformerOptions { method, config, base, loose_parts: Some(parts), cache: None };
             // Moot once the cache's lock is had (it waited for another mesh's precomputation,
             // and would build this mesh's part, seconds, for a scene gone).
-            let d = build_deformer(&cache, mesh, handles, options, moot)
+            let d = build_deformer(&cache, mesh, handles, options, moot, None)
                 .map_err(|e| e.to_string())?
                 .ok_or("the solver's build was cancelled")?;
             Ok(Box::new(DeformerPoseSolver(d)) as Box<dyn PoseSolver>)
@@ -44,13 +44,16 @@ pub fn factory(cache: Arc<Mutex<MeshCache>>) -> PoseSolverFactory {
 /// has such a part), and the handle set's own part outside the lock: a recording and the live solvers build theirs side by
 /// side, and a new mesh's precomputation does not wait for them. `None` when `cancelled` says
 /// so once the lock is had (a recording cancelled while it waited would otherwise replace the
-/// new mesh's part in the cache with its old mesh's).
+/// new mesh's part in the cache with its old mesh's), or when `stops_base` says so while the
+/// mesh's part is built (a recording's Cancel; a pose solver's build goes on: the mesh's part
+/// serves the next handle set too).
 pub fn build_deformer(
     cache: &Mutex<MeshCache>,
     mesh: &Mesh,
     handles: &Handles,
     options: DeformerOptions<'_>,
     cancelled: &dyn Fn() -> bool,
+    stops_base: Option<&(dyn Fn() -> bool + Sync)>,
 ) -> Result<Option<Deformer>, solver::SolveError> {
     let mut own = None;
     if options.method == solver::Method::BsArapCoarse {
@@ -58,10 +61,12 @@ pub fn build_deformer(
         if cancelled() {
             return Ok(None);
         }
-        // Not stopped with this handle set: the mesh's part serves the next one too.
-        let whole = &|| false;
+        let whole = stops_base.unwrap_or(&|| false);
         let (_, unwritten) =
-            shared.prepare_unwritten(options.method, mesh, &options.base, whole)?;
+            match shared.prepare_unwritten(options.method, mesh, &options.base, whole) {
+                Err(solver::SolveError::Cancelled) if stops_base.is_some() => return Ok(None),
+                other => other?,
+            };
         // the mesh's part, shared: the deformer finds it there without the lock
         own = Some(shared.clone());
         drop(shared);
@@ -160,6 +165,29 @@ impl PoseSolver for DeformerPoseSolver {
 mod tests {
     use super::*;
     use crate::editor::jobs;
+
+    /// A recording's Cancel stops the mesh's part while it is built (it was built to the end,
+    /// 42 s at 1.5M vertices, the Cancel button doing nothing meanwhile), and nothing is kept; a
+    /// pose solver's build (no `stops_base`) builds it.
+    #[test]
+    fn a_recordings_cancel_stops_the_mesh_part() {
+        let (mesh, caps) = solver::geometry::shapes::bumpy_bar(3);
+        let cache: Mutex<MeshCache> = Mutex::default();
+        let settings = MethodSettings::default();
+        let options = || DeformerOptions {
+            method: solver::Method::BsArapCoarse,
+            config: settings.arap_config(),
+            base: settings.base_config(),
+            loose_parts: None,
+            cache: None,
+        };
+        let built = build_deformer(&cache, &mesh, &caps, options(), &|| false, Some(&|| true));
+        assert!(built.unwrap().is_none(), "built through the cancel");
+        assert!(cache.lock().unwrap().coarse_base().is_none(), "a stopped base was kept");
+        let built = build_deformer(&cache, &mesh, &caps, options(), &|| false, None);
+        assert!(built.unwrap().is_some());
+        assert!(cache.lock().unwrap().coarse_base().is_some());
+    }
 
     /// The editor's pose solvers take the mesh's own part from the cache the loading-time job
     /// filled: two handle sets of one mesh share one coarse base, built once.
