@@ -102,13 +102,33 @@ fn absolute(p: &Path) -> PathBuf {
 
 /// `target` relative to the folder `dir`, as spelled (symlinks kept); where a `..` in the
 /// spelling makes [`relative_path`] give up (an absolute path: the scene would break when its
-/// folder moves), as the file system resolves both.
+/// folder moves), with each `..` taking away the name before it. That is the file system's
+/// reading unless the name is a symlink; it asks nothing of the disk (this runs on the UI
+/// thread, which never waits on a drive).
 fn relative_in(dir: &Path, target: &Path) -> Result<String, String> {
     let spelled = relative_path(dir, &absolute(target))?;
-    match (Path::new(&spelled).is_absolute(), dir.canonicalize(), target.canonicalize()) {
-        (true, Ok(dir), Ok(target)) => relative_path(&dir, &target),
-        _ => Ok(spelled),
+    if !Path::new(&spelled).is_absolute() {
+        return Ok(spelled);
     }
+    relative_path(&lexical(dir), &lexical(&absolute(target)))
+}
+
+/// `p` with every `.` gone and every `..` taking away the name before it.
+fn lexical(p: &Path) -> PathBuf {
+    use std::path::Component;
+    let mut out = PathBuf::new();
+    for c in p.components() {
+        match c {
+            Component::CurDir => {}
+            Component::ParentDir
+                if matches!(out.components().next_back(), Some(Component::Normal(_))) =>
+            {
+                out.pop();
+            }
+            other => out.push(other.as_os_str()),
+        }
+    }
+    out
 }
 
 /// The scene to write at `scene_path`. Errors when there is nothing to save (no handles).

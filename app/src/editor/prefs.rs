@@ -8,7 +8,8 @@
 //! gives the default for that value alone; either way a one-line message names the file, which
 //! the editor shows; it never panics. A write changes only the values this editor changed
 //! since it read or wrote them: what it could not read, a newer version's keys and another
-//! editor window's changes to other values stay in the file.
+//! editor window's changes to other values stay in the file (a file that is not a JSON object
+//! is replaced whole).
 
 use std::path::{Path, PathBuf};
 
@@ -119,7 +120,10 @@ impl Preferences {
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
                 return (Preferences::default(), None);
             }
-            Err(e) => return (Preferences::default(), Some(bad_file(&path, &e.to_string()))),
+            Err(e) => {
+                let why = format!("{e}; defaults used");
+                return (Preferences::default(), Some(bad_file(&path, &why)));
+            }
         };
         match Preferences::from_json(&text) {
             Ok((p, msg)) => (p, msg.map(|m| bad_file(&path, &m))),

@@ -161,8 +161,8 @@ fn new_group(k: usize) -> Group {
 /// The most undo steps kept.
 const MAX_HISTORY: usize = 200;
 /// The most bytes the undo steps' label arrays and rigidity maps take together (the oldest
-/// steps go first; the last step stays whatever its size): at 1.5M vertices, 42 steps of
-/// labels, 21 with a rigidity map (200 steps held 2.4 to 4.8 GB).
+/// steps go first; the last step stays whatever its size): at 1.5M vertices, 44 steps of
+/// labels, 22 with a rigidity map (200 steps held 2.4 to 4.8 GB).
 pub const MAX_HISTORY_BYTES: usize = 512 << 20;
 
 /// What a kept step's per-vertex arrays take.
@@ -302,6 +302,17 @@ impl History {
                 let (active, time) = (self.active, self.time);
                 self.undo.last().map(|k| Kept { active, time, ..k.clone() })
             }
+        }
+    }
+
+    /// Drops the last step when it holds the state now (`edit`, `settings`): an edit pushed
+    /// for a change to come that did not (a mirror axis clicked, then Auto before its plane
+    /// came in) leaves no step whose undo does nothing.
+    pub fn drop_unchanged(&mut self, edit: &EditState, settings: MethodSettings) {
+        if self.undo.last().is_some_and(|k| k.edit == *edit && k.settings == settings) {
+            self.undo.pop();
+            self.taken = None;
+            self.generation += 1;
         }
     }
 
@@ -573,5 +584,20 @@ mod tests {
         let g = h.push_gesture(s.clone(), settings);
         h.end_gesture(g, &s, settings);
         assert!(h.can_undo(), "the axis click's step went with the gesture");
+    }
+
+    /// A step that holds the state now is dropped (a mirror axis clicked, then Auto before its
+    /// plane came in); one that holds another state stays.
+    #[test]
+    fn a_step_of_the_state_now_can_be_dropped() {
+        let settings = MethodSettings::default();
+        let a = EditState::from_labels(vec![Some(0), None]);
+        let b = EditState::from_labels(vec![None, None]);
+        let mut h = History::default();
+        h.push(a.clone(), settings);
+        h.drop_unchanged(&b, settings);
+        assert!(h.can_undo(), "a step of another state went");
+        h.drop_unchanged(&a, settings);
+        assert!(!h.can_undo());
     }
 }

@@ -736,6 +736,13 @@ fn save_asks_before_writing_over_a_file_changed_on_disk() {
     std::fs::write(&scene, &theirs).unwrap();
     let hour_ago = std::time::SystemTime::now() - std::time::Duration::from_secs(3600);
     std::fs::File::options().write(true).open(&scene).unwrap().set_modified(hour_ago).unwrap();
+    // An autosave made now holds the file's time as this editor wrote it, not the other's: a
+    // restore of it must see the change (it held the time on disk, and Save wrote over it).
+    let autosave = h.state_mut().autosave_now().unwrap();
+    let held: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&autosave).unwrap()).unwrap();
+    let on_disk = app::editor::persist::modified_stamp(&scene).unwrap();
+    assert_ne!(held["editor"]["document_modified"], serde_json::Value::from(on_disk));
     let ctrl_s = |h: &mut Harness<'static, EditorApp>| {
         h.key_press_modifiers(Modifiers::COMMAND, Key::S);
         h.step();

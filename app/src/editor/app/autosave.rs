@@ -163,8 +163,9 @@ impl EditorApp {
 
     /// The scene the autosave holds: the document as it would be saved there, naming the scene
     /// file being edited (absolute, in `editor.document`) so that a restore saves back to it,
-    /// with that file's modification time now (`editor.document_modified`), so that a restore
-    /// knows whether it changed since.
+    /// with that file's modification time as this editor opened or last wrote it
+    /// (`editor.document_modified`; read now where it has none), so that a restore knows
+    /// whether it changed since: another editor's save meanwhile counts.
     fn autosave_document(&self, persist: &Persist) -> Result<Scene, String> {
         let mut doc = self.document(&persist.autosave_path())?;
         let edited =
@@ -173,7 +174,9 @@ impl EditorApp {
             (doc.editor.as_mut(), edited.as_deref().and_then(Path::to_str))
         {
             editor[persist::EDITED_DOCUMENT] = serde_json::Value::from(path);
-            if let Some(stamp) = persist::modified_stamp(Path::new(path)) {
+            let stamp = (self.session.document_stamp.clone())
+                .or_else(|| persist::modified_stamp(Path::new(path)));
+            if let Some(stamp) = stamp {
                 editor[persist::EDITED_DOCUMENT_MODIFIED] = serde_json::Value::from(stamp);
             }
         }

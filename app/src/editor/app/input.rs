@@ -191,10 +191,11 @@ impl EditorApp {
             self.interaction.drag.map(|d| d.step).or(self.interaction.stroke.map(|s| s.step));
         match step {
             // (applying what the history kept ends every gesture)
-            Some(step) => {
-                let kept = self.session.history.cancel_gesture(step);
-                self.apply_history(kept);
-            }
+            Some(step) => match self.session.history.cancel_gesture(step) {
+                kept @ Some(_) => self.apply_history(kept),
+                // its step is gone (an undo came meanwhile): the gesture ends all the same
+                None => self.end_gestures(),
+            },
             // a box or lasso, which has no step
             None => self.selecting.region = None,
         }

@@ -24,6 +24,9 @@ pub(super) struct PrefsState {
     saved: Preferences,
     /// Changed preferences not written yet, and since when they are as they are.
     unsaved_since: Option<(Preferences, Instant)>,
+    /// Preferences whose write failed: not tried again every frame; a change tries again,
+    /// with every value the file still lacks.
+    failed: Option<Preferences>,
     pub(super) show: bool,
     /// A bad file's message, shown once the first mesh has loaded (a load clears errors).
     message: Option<String>,
@@ -76,7 +79,7 @@ impl EditorApp {
             self.interaction.brush_radius = now.brush_radius;
         }
         let current = self.prefs.current;
-        if current == self.prefs.saved {
+        if current == self.prefs.saved || self.prefs.failed == Some(current) {
             self.prefs.unsaved_since = None;
             return;
         }
@@ -98,13 +101,20 @@ impl EditorApp {
         if self.prefs.current == self.prefs.saved {
             return;
         }
-        if let Err(e) = self.prefs.current.save_changes(&self.prefs.saved, dir) {
-            // (also on the terminal: at exit no frame is left to show it)
-            eprintln!("editor: preferences not saved: {e}");
-            self.error = Some(format!("preferences not saved: {e}"));
+        match self.prefs.current.save_changes(&self.prefs.saved, dir) {
+            Ok(_) => {
+                self.prefs.saved = self.prefs.current;
+                self.prefs.failed = None;
+            }
+            Err(e) => {
+                // (also on the terminal: at exit no frame is left to show it)
+                eprintln!("editor: preferences not saved: {e}");
+                self.error = Some(format!("preferences not saved: {e}"));
+                // not retried every frame; `saved` stays what the file holds, so that the
+                // next write, after a change, takes this one's values too
+                self.prefs.failed = Some(self.prefs.current);
+            }
         }
-        // A failed write is not retried every frame; the next change tries again.
-        self.prefs.saved = self.prefs.current;
     }
 
     fn prefs_ui(&mut self, ui: &mut egui::Ui) {

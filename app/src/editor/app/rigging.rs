@@ -164,8 +164,10 @@ impl EditorApp {
             // this mesh and plane (it said "fitting the plane…" for good)
             self.rigging.failed = Some(k);
             self.rigging.job = None;
-            self.error =
-                Some("the mirror plane could not be fitted (a bug: please report it)".into());
+            if k == key {
+                self.error =
+                    Some("the mirror plane could not be fitted (a bug: please report it)".into());
+            }
         }
         if let Some((done, Ok(m))) = received {
             self.rigging.job = None;
@@ -592,9 +594,12 @@ impl EditorApp {
                 self.rigging.fit_axis.or(self.session.edit.symmetry.plane.map(|p| p.axis));
             if ui.selectable_label(current.is_none(), "Auto").clicked() && current.is_some() {
                 self.rigging.fit_axis = None;
-                // (an axis clicked, its fit not in yet: no plane to take away, no step)
                 if self.session.edit.symmetry.plane.is_some() {
                     self.toggle_symmetry(|s| s.plane = None);
+                } else {
+                    // an axis clicked, its fit not in yet: its step would undo nothing
+                    let (edit, settings) = (&self.session.edit, self.session.settings);
+                    self.session.history.drop_unchanged(edit, settings);
                 }
             }
             for a in Axis::ALL {

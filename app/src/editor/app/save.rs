@@ -25,9 +25,11 @@ pub(super) struct SaveOrder {
     mesh: Option<u64>,
     /// What the file does not keep of the document (`document::left_out`), said once saved.
     left_out: Option<String>,
-    /// The document file's time as opened or last written here: written only while it has it
-    /// (`jobs::spawn_save`).
-    unless_changed: Option<String>,
+    /// A save of the document file not confirmed over a change on disk: written only while
+    /// the file has the time it was opened or last written with here, as that time is when
+    /// the write starts (`jobs::spawn_save`; a save waiting for another of the same file takes
+    /// the time that one wrote).
+    checked: bool,
 }
 
 /// A save under way.
@@ -119,9 +121,7 @@ impl EditorApp {
     /// leaves as it is and asks about (`overwrite_window`).
     pub(super) fn start_save_over(&mut self, ctx: &egui::Context, path: &Path, over: bool) {
         let order = self.save_order(path).map(|mut order| {
-            if over {
-                order.unless_changed = None;
-            }
+            order.checked &= !over;
             order
         });
         match order {
@@ -183,14 +183,12 @@ impl EditorApp {
         self.session.scene.as_ref().map(|s| s.topology.version)
     }
 
-    /// The scene for `path` as the document is now. A save of the document file with nothing
-    /// under way is written only while the file has the time it was opened or last written
-    /// with here (a save waiting for another is not checked: that one changes the time).
+    /// The scene for `path` as the document is now; a save of the document file is checked
+    /// ([`SaveOrder::checked`]).
     fn save_order(&self, path: &Path) -> Result<SaveOrder, String> {
         let document = self.session.document_path.as_deref();
-        let checked = document.is_some_and(|d| same_file(d, path)) && !self.is_saving();
         Ok(SaveOrder {
-            unless_changed: self.session.document_stamp.clone().filter(|_| checked),
+            checked: document.is_some_and(|d| same_file(d, path)),
             path: path.to_path_buf(),
             doc: self.document(path)?,
             mark: Box::new(DocumentMark::of(&self.session, self.capture.saved())),
@@ -201,7 +199,11 @@ impl EditorApp {
 
     /// Starts writing `order` on a worker thread (none may be under way).
     fn write(&mut self, order: SaveOrder, repaint: impl Fn() + Send + 'static) {
-        let SaveOrder { path, doc, mark, mesh, left_out, unless_changed } = order;
+        let SaveOrder { path, doc, mark, mesh, left_out, checked } = order;
+        let document = self.session.document_path.as_deref();
+        let checked =
+            checked && mesh == self.open_mesh() && document.is_some_and(|d| same_file(d, &path));
+        let unless_changed = self.session.document_stamp.clone().filter(|_| checked);
         let gate = self.jobs.save_gate.clone();
         let job = jobs::spawn_save(doc, path.clone(), unless_changed, gate, repaint);
         self.info = Some(format!("saving {}…", path.display()));
@@ -214,8 +216,21 @@ impl EditorApp {
             return Ok(());
         };
         let result = job.wait();
+        self.note_written(&path, mesh, &result);
         self.write_next(|| {});
         self.saved(path, *mark, mesh, left_out, result)
+    }
+
+    /// A finished save's time of the document file, before the next save starts: one of the
+    /// same file waiting behind it is checked against the time this one wrote.
+    fn note_written(&mut self, path: &Path, mesh: Option<u64>, result: &Result<Saved, String>) {
+        let document = self.session.document_path.as_deref();
+        if let Ok(Saved::Written(stamp)) = result
+            && mesh == self.open_mesh()
+            && document.is_some_and(|d| same_file(d, path))
+        {
+            self.session.document_stamp = stamp.clone();
+        }
     }
 
     /// Starts the first save waiting, if any: written even after a failed one (it may be a
@@ -242,6 +257,7 @@ impl EditorApp {
                 }
                 return;
             };
+            self.note_written(&saving.path, saving.mesh, &result);
             self.write_next(|| {});
             let (path, mark, mesh, left_out) =
                 (saving.path, *saving.mark, saving.mesh, saving.left_out);
@@ -261,6 +277,7 @@ impl EditorApp {
         let Some(Saving { path, mark, mesh, left_out, .. }) = self.jobs.save.take() else {
             return;
         };
+        self.note_written(&path, mesh, &result);
         let c = ctx.clone();
         self.write_next(move || c.request_repaint());
         let for_open_mesh = mesh == self.open_mesh();
