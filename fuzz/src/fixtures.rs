@@ -1,6 +1,6 @@
 //! The files the folder targets (`gltf_folder`, `obj_folder`, `scene_folder`) load beside
 //! their input and the files outside that no input may carry: all in this process's temporary
-//! folder ([`crate::scratch`]), made once.
+//! folder (`scratch`), made once.
 //!
 //! ```text
 //! ROOT/private/   secret.png  (SECRET: not an image)    real.png  (a real 2×1 image)

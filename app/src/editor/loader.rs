@@ -84,7 +84,7 @@ pub struct LoadedFile {
     pub selection_path: Option<PathBuf>,
     /// The scene file this was opened from, and its contents.
     pub document: Option<(PathBuf, solver::animation::scene::Scene)>,
-    /// That file's modification time, read before it was ([`persist::modified_stamp`]).
+    /// That file's modification time, read before it was ([`crate::editor::persist::modified_stamp`]).
     pub document_stamp: Option<String>,
     /// The connected components (index, vertex count, first vertex), for the Parts panel;
     /// which have handles and what the loose ones ride on come from the solver's frames.
