@@ -489,6 +489,17 @@ fn recorded_by(name: &str, method: &str) -> (ScratchDir, Harness<'static, Editor
     (dir, h)
 }
 
+/// File → Render the recording to PNGs, waited for; no error.
+fn render_recording_from_the_menu(h: &mut Harness<'static, EditorApp>) {
+    h.get_by_label("File").click();
+    h.run_steps(2);
+    h.get_by_label("Render the recording to PNGs").click();
+    step_until(h, "the PNG sequence", |a| {
+        !a.is_capturing() && a.last_capture().is_some() || a.error().is_some()
+    });
+    assert!(h.state().error().is_none(), "{:?}", h.state().error());
+}
+
 #[test]
 fn the_recording_renders_to_a_png_sequence_from_the_file_menu() {
     let (dir, mut h) = recorded("capture-sequence-editor");
@@ -497,13 +508,7 @@ fn the_recording_renders_to_a_png_sequence_from_the_file_menu() {
     assert_eq!(n, 3);
     // the timeline loops: its last frame, its first again, is left out of the sequence
 
-    h.get_by_label("File").click();
-    h.run_steps(2);
-    h.get_by_label("Render the recording to PNGs").click();
-    step_until(&mut h, "the PNG sequence", |a| {
-        !a.is_capturing() && a.last_capture().is_some() || a.error().is_some()
-    });
-    assert!(h.state().error().is_none(), "{:?}", h.state().error());
+    render_recording_from_the_menu(&mut h);
     let out = h.state().last_capture().unwrap().to_path_buf();
     assert_eq!(out, dir.join("config/screenshots/frames_0001"));
     let files = pngs_in(&out);
@@ -521,13 +526,7 @@ fn the_recording_renders_from_the_base_view_of_arap() {
     let (dir, mut h) = recorded_by("capture-sequence-base", "arap");
     h.state_mut().set_view(View::Base);
     h.run_steps(2);
-    h.get_by_label("File").click();
-    h.run_steps(2);
-    h.get_by_label("Render the recording to PNGs").click();
-    step_until(&mut h, "the PNG sequence", |a| {
-        !a.is_capturing() && a.last_capture().is_some() || a.error().is_some()
-    });
-    assert!(h.state().error().is_none(), "{:?}", h.state().error());
+    render_recording_from_the_menu(&mut h);
     assert_eq!(pngs_in(&dir.join("config/screenshots/frames_0001")).len(), 2);
 }
 

@@ -255,12 +255,7 @@ fn dragging_a_ring_turns_the_group_about_its_axis() {
 fn type_value(h: &mut Harness<'_, EditorApp>, label: &str, text: &str) {
     h.get_by_label(label).click();
     h.step();
-    h.key_press_modifiers(Modifiers::COMMAND, Key::A);
-    h.event(Event::Text(text.into()));
-    h.step();
-    h.key_press(Key::Enter);
-    h.step();
-    h.step();
+    support::type_into_focused(h, text);
 }
 
 #[test]

@@ -429,12 +429,7 @@ fn a_typed_falloff_radius_goes_up_to_what_a_scene_accepts() {
         h.step();
         h.get_by_role_and_label(Role::SpinButton, "falloff radius").click();
         h.step();
-        h.key_press_modifiers(Modifiers::COMMAND, Key::A);
-        h.event(Event::Text(text.into()));
-        h.step();
-        h.key_press(Key::Enter);
-        h.step();
-        h.step();
+        support::type_into_focused(&mut h, text);
         radius(&h).radius
     };
     assert_eq!(type_radius("0.8"), 0.8);

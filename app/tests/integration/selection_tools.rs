@@ -386,20 +386,7 @@ fn undo_while_a_box_is_drawn_cancels_only_the_box() {
     assert!(!in_group(h.state(), g).is_empty(), "the stroke painted nothing");
     h.key_press(Key::Q);
     h.step();
-    let centre = Pos2::new(SIZE.x * 0.35, SIZE.y * 0.5);
-    let r = Rect::from_center_size(centre, Vec2::new(80.0, 60.0));
-    h.event(Event::PointerMoved(r.left_top()));
-    h.step();
-    support::press(&h, r.left_top(), true, Modifiers::NONE);
-    h.step();
-    h.event(Event::PointerMoved(r.center()));
-    h.step();
-    h.key_press_modifiers(Modifiers::COMMAND, Key::Z);
-    h.step();
-    h.event(Event::PointerMoved(r.right_bottom()));
-    h.step();
-    support::press(&h, r.right_bottom(), false, Modifiers::NONE);
-    h.step();
+    box_with_a_key_midway(&mut h, Modifiers::COMMAND, Key::Z);
     assert_eq!(h.state().labels(), &stroked[..], "the box selected, or the stroke was undone");
 }
 
@@ -574,19 +561,7 @@ fn esc_while_a_box_is_drawn_drops_it() {
     h.key_press(Key::Q);
     h.step();
     assert_eq!(h.state().select_mode(), SelectMode::Box);
-    let r = Rect::from_center_size(Pos2::new(SIZE.x * 0.35, SIZE.y * 0.5), Vec2::new(80.0, 60.0));
-    h.event(Event::PointerMoved(r.left_top()));
-    h.step();
-    support::press(&h, r.left_top(), true, Modifiers::NONE);
-    h.step();
-    h.event(Event::PointerMoved(r.center()));
-    h.step();
-    h.key_press(Key::Escape);
-    h.step();
-    h.event(Event::PointerMoved(r.right_bottom()));
-    h.step();
-    support::press(&h, r.right_bottom(), false, Modifiers::NONE);
-    h.step();
+    box_with_a_key_midway(&mut h, Modifiers::NONE, Key::Escape);
     assert_eq!(h.state().labels(), &before[..], "the box selected after Esc");
 }
 
@@ -663,6 +638,25 @@ fn ctrl_erases_the_active_group_with_the_brush_and_the_box() {
     h.state_mut().set_active_group(None);
     drag(&mut h, &corners, Modifiers::COMMAND);
     assert!(in_group(h.state(), a).len() < painted.len(), "Ctrl+box with none active did nothing");
+}
+
+/// Draws a box (80 × 60 points, left of the middle) with the box tool, pressing `key` with
+/// `modifiers` halfway, then releases it.
+fn box_with_a_key_midway(h: &mut Harness<'static, EditorApp>, modifiers: Modifiers, key: Key) {
+    let centre = Pos2::new(SIZE.x * 0.35, SIZE.y * 0.5);
+    let r = Rect::from_center_size(centre, Vec2::new(80.0, 60.0));
+    h.event(Event::PointerMoved(r.left_top()));
+    h.step();
+    support::press(h, r.left_top(), true, Modifiers::NONE);
+    h.step();
+    h.event(Event::PointerMoved(r.center()));
+    h.step();
+    h.key_press_modifiers(modifiers, key);
+    h.step();
+    h.event(Event::PointerMoved(r.right_bottom()));
+    h.step();
+    support::press(h, r.right_bottom(), false, Modifiers::NONE);
+    h.step();
 }
 
 /// Mirrored painting on, the active group on the right side of the creature (z > 0) and its

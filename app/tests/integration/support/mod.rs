@@ -328,3 +328,14 @@ pub fn write_later(path: PathBuf, text: String) -> std::thread::JoinHandle<()> {
         file.write_all(text.as_bytes()).unwrap();
     })
 }
+
+/// Replaces the text of the field that has the focus (a clicked number) with `text`, and
+/// confirms it with Enter.
+pub fn type_into_focused(h: &mut Harness<'_, EditorApp>, text: &str) {
+    h.key_press_modifiers(Modifiers::COMMAND, Key::A);
+    h.event(Event::Text(text.into()));
+    h.step();
+    h.key_press(Key::Enter);
+    h.step();
+    h.step();
+}
